@@ -1,0 +1,61 @@
+//! Scattering functions. A [`Bsdf`] lives in a local shading frame (+Z = shading
+//! normal) and offers `eval`, `pdf` and `sample` on local directions; both directions
+//! point away from the surface. Closed set of lobes: an enum, no dynamic dispatch.
+
+pub mod microfacet;
+pub mod pbr;
+
+use crate::math::Rgb;
+use glam::{Vec2, Vec3};
+pub use pbr::PbrBsdf;
+
+/// A sampled direction with the BSDF value and the density that chose it.
+#[derive(Clone, Copy, Debug)]
+pub struct BsdfSample {
+    /// Incident direction, local frame.
+    pub wi: Vec3,
+    /// BSDF value f(wo, wi) (not multiplied by the cosine).
+    pub f: Rgb,
+    /// Solid-angle density of `wi`.
+    pub pdf: f32,
+}
+
+/// The scattering function at a surface point.
+#[derive(Clone, Copy, Debug)]
+pub enum Bsdf {
+    /// glTF 2.0 metallic-roughness (Appendix B of the spec).
+    Pbr(PbrBsdf),
+}
+
+impl Bsdf {
+    /// f(wo, wi).
+    #[inline]
+    pub fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
+        match self {
+            Bsdf::Pbr(b) => b.eval(wo, wi),
+        }
+    }
+
+    /// Density with which `sample` returns `wi` given `wo`.
+    #[inline]
+    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        match self {
+            Bsdf::Pbr(b) => b.pdf(wo, wi),
+        }
+    }
+
+    /// Samples an incident direction; `uc` picks the lobe, `u` the direction.
+    #[inline]
+    pub fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
+        match self {
+            Bsdf::Pbr(b) => b.sample(wo, uc, u),
+        }
+    }
+
+    /// Colour for the "Denoising Albedo" pass.
+    pub fn albedo(&self) -> Rgb {
+        match self {
+            Bsdf::Pbr(b) => b.albedo(),
+        }
+    }
+}

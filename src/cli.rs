@@ -1,0 +1,547 @@
+//! The `caustic` commands: argument types, settings resolution (flag > scene >
+//! default, every default in one place), and the render and info pipelines.
+
+use crate::accel::Accel;
+use crate::error::{Error, Result};
+use crate::film::Filter;
+use crate::integrator::path::PathIntegrator;
+use crate::integrator::{Integrator, SceneContext};
+use crate::output;
+use crate::progress::{ProgressMode, Reporter};
+use crate::render::{self, RenderJob};
+use crate::scene::camera::CameraRays;
+use crate::scene::{self, Scene};
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use serde_json::json;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+/// Default output width when neither the flag nor the scene gives a resolution.
+pub const DEFAULT_WIDTH: u32 = 640;
+/// Default output height when the camera gives no aspect ratio either.
+pub const DEFAULT_HEIGHT: u32 = 480;
+/// Default samples per pixel.
+pub const DEFAULT_SPP: u32 = 64;
+/// Largest accepted image side.
+pub const MAX_SIDE: u32 = 32_768;
+/// Largest accepted pixel count (the film holds ~60 bytes per pixel).
+pub const MAX_PIXELS: u64 = 1 << 28;
+/// Largest accepted samples per pixel.
+pub const MAX_SPP: u32 = 1 << 24;
+/// Largest accepted path depth.
+pub const MAX_DEPTH: u32 = 1024;
+
+/// Caustic: a physically based renderer for glTF scenes.
+#[derive(Parser, Debug)]
+#[command(name = "caustic", version, about)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// Subcommands.
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Render a glTF scene to an OpenEXR image.
+    Render(RenderArgs),
+    /// Describe what Caustic loads from a scene, with every warning.
+    Info(InfoArgs),
+}
+
+/// Light-transport algorithm.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum IntegratorKind {
+    /// Path tracing with next-event estimation and MIS.
+    Path,
+}
+
+/// Pixel filter.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum FilterKind {
+    /// Blackman-Harris (Blender's default).
+    BlackmanHarris,
+    /// Box.
+    Box,
+}
+
+/// `caustic render`.
+#[derive(Args, Debug)]
+pub struct RenderArgs {
+    /// Scene file (.gltf or .glb).
+    pub scene: PathBuf,
+    /// Output OpenEXR file.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Samples per pixel [default: the scene's, else 64; unlimited with --time-limit alone].
+    #[arg(long)]
+    pub spp: Option<u32>,
+    /// Image size WxH [default: the scene's, else 640 wide in the camera's aspect ratio, else 640x480].
+    #[arg(long, value_parser = parse_resolution)]
+    pub resolution: Option<(u32, u32)>,
+    /// Maximum scattering events per path (1 = direct light only) [default: 13 = Blender's 12 bounces].
+    #[arg(long)]
+    pub max_depth: Option<u32>,
+    /// Random seed [default: 0].
+    #[arg(long)]
+    pub seed: Option<u32>,
+    /// Worker threads [default: all cores].
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Stop rendering after this many seconds and write the image.
+    #[arg(long)]
+    pub time_limit: Option<f64>,
+    /// Camera by name or index [default: the scene's, else the first].
+    #[arg(long)]
+    pub camera: Option<String>,
+    /// Render only the pixel window X0,Y0,X1,Y1 of the full frame (top-left origin, end exclusive).
+    #[arg(long, value_parser = parse_crop)]
+    pub crop: Option<[u32; 4]>,
+    /// Write half floats instead of 32-bit floats (Depth stays 32-bit).
+    #[arg(long)]
+    pub half: bool,
+    /// Progress display [default: bar on a terminal, else none].
+    #[arg(long, value_enum)]
+    pub progress: Option<ProgressMode>,
+    /// Light-transport algorithm.
+    #[arg(long, value_enum, default_value = "path")]
+    pub integrator: IntegratorKind,
+    /// Rewrite the output every SECONDS while rendering.
+    #[arg(long, value_name = "SECONDS")]
+    pub interim: Option<f64>,
+    /// Pixel filter [default: the scene's, else blackman-harris].
+    #[arg(long, value_enum)]
+    pub filter: Option<FilterKind>,
+    /// Filter width in pixels [default: the scene's, else 1.5].
+    #[arg(long)]
+    pub filter_width: Option<f32>,
+}
+
+/// `caustic info`.
+#[derive(Args, Debug)]
+pub struct InfoArgs {
+    /// Scene file (.gltf or .glb).
+    pub scene: PathBuf,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+fn parse_resolution(s: &str) -> std::result::Result<(u32, u32), String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("'{s}' is not WxH"))?;
+    let w: u32 = w
+        .trim()
+        .parse()
+        .map_err(|_| format!("bad width in '{s}'"))?;
+    let h: u32 = h
+        .trim()
+        .parse()
+        .map_err(|_| format!("bad height in '{s}'"))?;
+    Ok((w, h))
+}
+
+fn parse_crop(s: &str) -> std::result::Result<[u32; 4], String> {
+    let v: Vec<u32> = s
+        .split(',')
+        .map(|p| {
+            p.trim()
+                .parse::<u32>()
+                .map_err(|_| format!("'{s}' is not X0,Y0,X1,Y1"))
+        })
+        .collect::<std::result::Result<_, _>>()?;
+    <[u32; 4]>::try_from(v).map_err(|_| format!("'{s}' is not X0,Y0,X1,Y1"))
+}
+
+/// Settings after resolving flags, scene settings and defaults.
+#[derive(Debug)]
+pub struct Resolved {
+    /// Full frame width and height.
+    pub resolution: (u32, u32),
+    /// Window rendered.
+    pub window: [u32; 4],
+    /// Samples per pixel (None = until the time limit).
+    pub spp: Option<u32>,
+    /// Time limit.
+    pub time_limit: Option<Duration>,
+    /// Camera index.
+    pub camera: usize,
+    /// Worker threads.
+    pub threads: usize,
+    /// The render job.
+    pub job_seed: u32,
+    /// Max depth.
+    pub max_depth: u32,
+    /// Filter.
+    pub filter: Filter,
+}
+
+/// Chooses the camera by flag or scene setting.
+fn pick_camera(scene: &Scene, wanted: Option<&str>) -> Result<usize> {
+    let Some(w) = wanted else { return Ok(0) };
+    if let Some(i) = scene.cameras.iter().position(|c| c.name == w) {
+        return Ok(i);
+    }
+    if let Ok(i) = w.parse::<usize>() {
+        if i < scene.cameras.len() {
+            return Ok(i);
+        }
+    }
+    let names: Vec<String> = scene
+        .cameras
+        .iter()
+        .enumerate()
+        .map(|(i, c)| format!("{i}: '{}'", c.name))
+        .collect();
+    Err(Error::Usage(format!(
+        "unknown camera '{w}' (the scene has {})",
+        names.join(", ")
+    )))
+}
+
+/// Resolves every setting; each default lives here.
+pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
+    let st = &scene.settings;
+    let camera = pick_camera(scene, args.camera.as_deref().or(st.camera.as_deref()))?;
+    let resolution = match args.resolution.or(st.resolution.map(|r| (r[0], r[1]))) {
+        Some(r) => r,
+        None => match scene.cameras[camera].aspect() {
+            Some(a) => (
+                DEFAULT_WIDTH,
+                ((DEFAULT_WIDTH as f32 / a).round() as u32).max(1),
+            ),
+            None => (DEFAULT_WIDTH, DEFAULT_HEIGHT),
+        },
+    };
+    let (w, h) = resolution;
+    if w == 0 || h == 0 || w > MAX_SIDE || h > MAX_SIDE || (w as u64) * (h as u64) > MAX_PIXELS {
+        return Err(Error::Usage(format!(
+            "resolution {w}x{h} is out of range (each side 1..={MAX_SIDE}, at most {MAX_PIXELS} pixels)"
+        )));
+    }
+    let window = match args.crop {
+        None => [0, 0, w, h],
+        Some([x0, y0, x1, y1]) => {
+            if !(x0 < x1 && y0 < y1 && x1 <= w && y1 <= h) {
+                return Err(Error::Usage(format!(
+                    "crop {x0},{y0},{x1},{y1} is not a non-empty window inside the {w}x{h} frame"
+                )));
+            }
+            [x0, y0, x1, y1]
+        }
+    };
+    let time_limit = match args.time_limit.or(st.time_limit) {
+        None => None,
+        Some(t) if t > 0.0 && t.is_finite() && t < 1e7 => Some(Duration::from_secs_f64(t)),
+        Some(t) => {
+            return Err(Error::Usage(format!(
+                "time limit {t} s must be a positive number of seconds"
+            )));
+        }
+    };
+    let spp = match args.spp.or(st.spp) {
+        Some(0) => return Err(Error::Usage("--spp must be at least 1".into())),
+        Some(s) if s > MAX_SPP => {
+            return Err(Error::Usage(format!(
+                "--spp {s} is absurd (at most {MAX_SPP})"
+            )));
+        }
+        Some(s) => Some(s),
+        None if time_limit.is_some() => None,
+        None => Some(DEFAULT_SPP),
+    };
+    let max_depth = args
+        .max_depth
+        .or(st.max_depth)
+        .unwrap_or(PathIntegrator::default().max_depth);
+    if max_depth > MAX_DEPTH {
+        return Err(Error::Usage(format!(
+            "--max-depth {max_depth} is absurd (at most {MAX_DEPTH})"
+        )));
+    }
+    let cores = std::thread::available_parallelism()
+        .map(|n| n.get())
+        .unwrap_or(1);
+    let threads = match args.threads.or(st.threads) {
+        None => cores,
+        Some(0) => return Err(Error::Usage("--threads must be at least 1".into())),
+        Some(t) if t > 4096 => return Err(Error::Usage(format!("--threads {t} is absurd"))),
+        Some(t) => t,
+    };
+    let filter_kind = match (args.filter, st.filter.as_deref()) {
+        (Some(f), _) => f,
+        (None, None) | (None, Some("blackman-harris")) => FilterKind::BlackmanHarris,
+        (None, Some("box")) => FilterKind::Box,
+        (None, Some(other)) => {
+            return Err(Error::Usage(format!(
+                "unknown filter '{other}' in the scene settings"
+            )));
+        }
+    };
+    let filter_width = args
+        .filter_width
+        .or(st.filter_width)
+        .unwrap_or(match filter_kind {
+            FilterKind::BlackmanHarris => 1.5,
+            FilterKind::Box => 1.0,
+        });
+    if !(filter_width > 0.0 && filter_width <= 16.0) {
+        return Err(Error::Usage(format!(
+            "filter width {filter_width} must be in (0, 16] pixels"
+        )));
+    }
+    let filter = match filter_kind {
+        FilterKind::BlackmanHarris => Filter::blackman_harris(filter_width),
+        FilterKind::Box => Filter::box_filter(filter_width),
+    };
+    if let Some(i) = args.interim {
+        if !(i > 0.0 && i.is_finite()) {
+            return Err(Error::Usage(format!(
+                "--interim {i} must be a positive number of seconds"
+            )));
+        }
+    }
+    if let Some(name) = &st.integrator {
+        if name != "path" && args.integrator == IntegratorKind::Path {
+            return Err(Error::Usage(format!(
+                "the scene asks for integrator '{name}', which this build does not have"
+            )));
+        }
+    }
+    Ok(Resolved {
+        resolution,
+        window,
+        spp,
+        time_limit,
+        camera,
+        threads,
+        job_seed: args.seed.or(st.seed).unwrap_or(0),
+        max_depth,
+        filter,
+    })
+}
+
+/// Outcome of a finished render command.
+pub struct Outcome {
+    /// Stopped by a signal (the partial image was written).
+    pub interrupted: bool,
+}
+
+/// `caustic render`.
+pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> Result<Outcome> {
+    let t0 = Instant::now();
+    reporter.phase("loading", 0.0);
+    output::clean_stale_temps(&args.output);
+    output::check_writable(&args.output)?;
+    let scene = scene::gltf::load(&args.scene)?;
+    for w in &scene.warnings {
+        reporter.warning(w);
+    }
+    let res = resolve(args, &scene)?;
+    if stop.load(Ordering::Relaxed) {
+        return Err(Error::InterruptedEmpty);
+    }
+
+    reporter.phase("bvh", t0.elapsed().as_secs_f64());
+    let tris: Vec<[glam::Vec3; 3]> = scene
+        .mesh
+        .triangles
+        .iter()
+        .map(|t| t.map(|i| scene.mesh.positions[i as usize]))
+        .collect();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(res.threads)
+        .build()
+        .map_err(|e| Error::Internal(format!("cannot start worker threads: {e}")))?;
+    let accel = pool.install(|| Accel::build(&tris));
+    drop(tris);
+    if stop.load(Ordering::Relaxed) {
+        return Err(Error::InterruptedEmpty);
+    }
+    let ctx = SceneContext::new(&scene, &accel);
+    let camera = CameraRays::new(
+        &scene.cameras[res.camera],
+        res.resolution.0,
+        res.resolution.1,
+    );
+    let integrator = Integrator::Path(PathIntegrator {
+        max_depth: res.max_depth,
+        ..Default::default()
+    });
+    let job = RenderJob {
+        width: res.resolution.0,
+        height: res.resolution.1,
+        window: res.window,
+        spp: res.spp,
+        time_limit: res.time_limit,
+        seed: res.job_seed,
+        filter: res.filter.clone(),
+        integrator: integrator.clone(),
+    };
+
+    reporter.phase("rendering", t0.elapsed().as_secs_f64());
+    let out_str = args.output.display().to_string();
+    let mut last_interim = Instant::now();
+    let interim = args.interim.map(Duration::from_secs_f64);
+    let mut interim_error = None;
+    let result = pool.install(|| {
+        render::render(
+            &ctx,
+            &camera,
+            &job,
+            stop,
+            &|p| {
+                reporter.progress(
+                    p.fraction,
+                    p.samples_done,
+                    p.samples_total,
+                    p.elapsed,
+                    p.eta,
+                    p.rays_per_sec,
+                )
+            },
+            &mut |film, spp| {
+                if let Some(every) = interim {
+                    if last_interim.elapsed() >= every && Some(spp) != job.spp {
+                        match output::write_exr(&args.output, &film.image(), args.half) {
+                            Ok(()) => reporter.image(&out_str, spp, false),
+                            Err(e) => interim_error = Some(e),
+                        }
+                        last_interim = Instant::now();
+                    }
+                }
+            },
+        )
+    });
+    if let Some(e) = interim_error {
+        return Err(e);
+    }
+    if result.spp_max == 0 {
+        return Err(Error::InterruptedEmpty);
+    }
+
+    reporter.phase("writing", t0.elapsed().as_secs_f64());
+    output::write_exr(&args.output, &result.image, args.half)?;
+    reporter.image(&out_str, result.spp_min, true);
+
+    let mut warnings = scene.warnings.clone();
+    if result.nan_samples > 0 {
+        let w = format!(
+            "{} sample(s) were NaN or infinite and were dropped",
+            result.nan_samples
+        );
+        reporter.warning(&w);
+        warnings.push(w);
+    }
+    let black = result
+        .image
+        .combined
+        .iter()
+        .all(|p| p[0] == 0.0 && p[1] == 0.0 && p[2] == 0.0);
+    if black {
+        let w = "the image is black: no light reached the camera".to_string();
+        reporter.warning(&w);
+        warnings.push(w);
+    }
+    let secs = result.elapsed.as_secs_f64().max(1e-9);
+    let pixels = ((res.window[2] - res.window[0]) * (res.window[3] - res.window[1])) as f64;
+    let total_samples: f64 = result.image.samples.iter().map(|&s| s as f64).sum();
+    reporter.summary(json!({
+        "output": out_str,
+        "width": res.window[2] - res.window[0],
+        "height": res.window[3] - res.window[1],
+        "spp": result.spp_min,
+        "spp_max": result.spp_max,
+        "elapsed": t0.elapsed().as_secs_f64(),
+        "interrupted": result.interrupted,
+        "nan_samples": result.nan_samples,
+        "black": black,
+        "warnings": warnings,
+        "integrator": integrator.describe(),
+        "stats": {
+            "bvh_build_seconds": accel.build_time.as_secs_f64(),
+            "render_seconds": secs,
+            "samples_per_sec": total_samples / secs,
+            "pixels": pixels,
+            "rays": result.rays,
+            "rays_per_sec": result.rays.total() as f64 / secs,
+            "camera_rays_per_sec": result.rays.camera as f64 / secs,
+            "bounce_rays_per_sec": result.rays.bounce as f64 / secs,
+            "shadow_rays_per_sec": result.rays.shadow as f64 / secs,
+            "threads": res.threads,
+        }
+    }));
+    Ok(Outcome {
+        interrupted: result.interrupted,
+    })
+}
+
+/// `caustic info`.
+pub fn run_info(args: &InfoArgs) -> Result<()> {
+    let scene = scene::gltf::load(&args.scene)?;
+    let r = &scene.report;
+    if args.json {
+        let v = json!({
+            "file": r.file,
+            "triangles": r.triangles,
+            "meshes": r.meshes,
+            "instances": r.instances,
+            "degenerate_triangles": r.degenerate_triangles,
+            "emissive_triangles": scene.lights.iter().filter(|l| matches!(l, crate::light::Light::Triangle { .. })).count(),
+            "punctual_lights": scene.lights.iter().filter(|l| !matches!(l, crate::light::Light::Triangle { .. } | crate::light::Light::Area(_))).count(),
+            "area_lights": scene.lights.iter().filter(|l| matches!(l, crate::light::Light::Area(_))).count(),
+            "materials": r.materials,
+            "lights": r.lights,
+            "cameras": r.cameras,
+            "bounds": r.bounds,
+            "extensions_used": r.extensions_used,
+            "settings": scene.settings,
+            "warnings": scene.warnings,
+        });
+        println!("{}", serde_json::to_string_pretty(&v).unwrap_or_default());
+        return Ok(());
+    }
+    println!("{}", r.file);
+    println!(
+        "  triangles: {} ({} meshes, {} instances, {} degenerate dropped)",
+        r.triangles, r.meshes, r.instances, r.degenerate_triangles
+    );
+    println!("  bounds: {:?} .. {:?}", r.bounds[0], r.bounds[1]);
+    if !r.extensions_used.is_empty() {
+        println!("  extensions used: {}", r.extensions_used.join(", "));
+    }
+    println!("  materials:");
+    for m in &r.materials {
+        println!(
+            "    {}: {}",
+            m.name,
+            if m.features.is_empty() {
+                "factors only".into()
+            } else {
+                m.features.join(", ")
+            }
+        );
+    }
+    println!("  lights:");
+    for l in &r.lights {
+        let tri = if l.kind == "emissive" {
+            format!(" ({} triangles)", l.triangles)
+        } else {
+            String::new()
+        };
+        println!("    {} '{}': {:.4} W{}", l.kind, l.name, l.power, tri);
+    }
+    println!("  cameras:");
+    for c in &r.cameras {
+        println!("    {} ({})", c.name, c.kind);
+    }
+    if !scene.warnings.is_empty() {
+        println!("  warnings:");
+        for w in &scene.warnings {
+            println!("    {w}");
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,506 @@
+//! Light transport. [`SceneContext`] is the narrow view of the scene that every
+//! integrator uses: closest hit, transmittance of a shadow segment, the material at a
+//! hit, light sampling and the light pdf for MIS. Integrators compute one camera
+//! sample at a time; the tile loop, film and progress are shared (`render.rs`).
+
+pub mod path;
+
+use crate::accel::{Accel, Hit};
+use crate::bsdf::{Bsdf, PbrBsdf};
+use crate::light::{
+    AreaLight, EmitterTriangle, Light, LightSample, LightSampler, area_to_solid_angle,
+    sample_triangle, spot_falloff,
+};
+use crate::math::{Frame, Rgb, offset_ray_origin};
+use crate::scene::{AlphaMode, Scene};
+use glam::{Vec2, Vec3};
+
+/// Ray counts by kind, kept per tile and summed (no shared counters in the hot loop).
+#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
+pub struct RayStats {
+    /// Primary rays from the camera.
+    pub camera: u64,
+    /// Rays continuing a path after scattering or passing through a transparent surface.
+    pub bounce: u64,
+    /// Shadow rays for next-event estimation.
+    pub shadow: u64,
+}
+
+impl RayStats {
+    /// Adds another tile's counts.
+    pub fn add(&mut self, o: &RayStats) {
+        self.camera += o.camera;
+        self.bounce += o.bounce;
+        self.shadow += o.shadow;
+    }
+
+    /// All rays.
+    pub fn total(&self) -> u64 {
+        self.camera + self.bounce + self.shadow
+    }
+}
+
+/// A surface point found by a ray.
+#[derive(Clone, Copy, Debug)]
+pub struct SurfaceHit {
+    /// Position.
+    pub p: Vec3,
+    /// Unit geometric normal on the side the ray came from.
+    pub ng: Vec3,
+    /// Unit interpolated shading normal (before normal mapping), on the same side as `ng`.
+    pub ns: Vec3,
+    /// Interpolated tangent (xyz) and bitangent sign (w), zero when absent.
+    pub tangent: glam::Vec4,
+    /// Texture coordinates (sets 0 and 1).
+    pub uv: [Vec2; 2],
+    /// Vertex colour.
+    pub color: glam::Vec4,
+    /// Material index.
+    pub material: u32,
+    /// Triangle index.
+    pub tri: u32,
+    /// True when the ray hit the front (counter-clockwise) face.
+    pub front: bool,
+    /// Hit distance.
+    pub t: f32,
+}
+
+/// What the material gives at a hit.
+pub struct ShadingPoint {
+    /// Scattering function.
+    pub bsdf: Bsdf,
+    /// Shading frame (normal-mapped), normal on the side of `ng`.
+    pub frame: Frame,
+    /// Emitted radiance toward the ray's origin.
+    pub emitted: Rgb,
+}
+
+/// Everything an integrator may ask of the scene.
+pub struct SceneContext<'a> {
+    /// The scene description.
+    pub scene: &'a Scene,
+    /// Triangle BVH.
+    pub accel: &'a Accel,
+    /// Light selection.
+    pub lights: LightSampler,
+    /// Triangles whose material has an alpha mask (tested during traversal).
+    masked: Vec<bool>,
+    /// Triangles that shadow rays may pass through (MASK or BLEND).
+    transparent: Vec<bool>,
+    /// Area lights with their light index (intersected by camera and BSDF rays).
+    area_lights: Vec<(AreaLight, usize)>,
+}
+
+/// Power heuristic (β = 2) of Veach; 0 when the weights are not finite.
+#[inline]
+pub fn power_heuristic(pdf_a: f32, pdf_b: f32) -> f32 {
+    let (a, b) = (pdf_a * pdf_a, pdf_b * pdf_b);
+    let w = a / (a + b);
+    if w.is_finite() {
+        w
+    } else if pdf_a > 0.0 && pdf_b == 0.0 {
+        1.0
+    } else {
+        0.0
+    }
+}
+
+impl<'a> SceneContext<'a> {
+    /// Prepares the per-triangle flags and the light sampler.
+    pub fn new(scene: &'a Scene, accel: &'a Accel) -> Self {
+        let mut tri_to_light = vec![u32::MAX; scene.mesh.triangles.len()];
+        let mut area_lights = Vec::new();
+        for (i, l) in scene.lights.iter().enumerate() {
+            match l {
+                Light::Triangle { tri } => tri_to_light[*tri as usize] = i as u32,
+                Light::Area(a) => area_lights.push((*a, i)),
+                _ => {}
+            }
+        }
+        let mode = |t: usize| scene.materials[scene.mesh.tri_material[t] as usize].alpha_mode;
+        let n = scene.mesh.triangles.len();
+        SceneContext {
+            scene,
+            accel,
+            lights: LightSampler::new(&scene.light_power, tri_to_light),
+            masked: (0..n)
+                .map(|t| matches!(mode(t), AlphaMode::Mask(_)))
+                .collect(),
+            transparent: (0..n).map(|t| mode(t) != AlphaMode::Opaque).collect(),
+            area_lights,
+        }
+    }
+
+    /// Texture coordinates and vertex attributes interpolated at barycentrics.
+    #[inline]
+    fn attributes(&self, tri: u32, b1: f32, b2: f32) -> ([Vec2; 2], glam::Vec4) {
+        let m = &self.scene.mesh;
+        let [i0, i1, i2] = m.triangles[tri as usize].map(|i| i as usize);
+        let b0 = 1.0 - b1 - b2;
+        let uv0 = m.uv0[i0] * b0 + m.uv0[i1] * b1 + m.uv0[i2] * b2;
+        let uv1 = m.uv1[i0] * b0 + m.uv1[i1] * b1 + m.uv1[i2] * b2;
+        let c = m.colors[i0] * b0 + m.colors[i1] * b1 + m.colors[i2] * b2;
+        ([uv0, uv1], c)
+    }
+
+    /// Alpha (coverage) of a triangle's material at barycentrics.
+    #[inline]
+    pub fn alpha(&self, tri: u32, b1: f32, b2: f32) -> f32 {
+        let mat = &self.scene.materials[self.scene.mesh.tri_material[tri as usize] as usize];
+        let (uv, color) = self.attributes(tri, b1, b2);
+        let mut a = mat.base_color.w * color.w;
+        if let Some(t) = mat.base_color_tex {
+            a *= self.scene.textures[t.texture as usize]
+                .lookup(t.uv(uv[t.tex_coord as usize]))
+                .w;
+        }
+        a
+    }
+
+    /// Closest surface hit (alpha masks applied).
+    #[inline]
+    pub fn intersect(&self, org: Vec3, dir: Vec3, tmax: f32) -> Option<Hit> {
+        self.accel
+            .intersect(org, dir, tmax, &self.masked, |tri, b1, b2| {
+                match self.scene.materials[self.scene.mesh.tri_material[tri as usize] as usize]
+                    .alpha_mode
+                {
+                    AlphaMode::Mask(cutoff) => self.alpha(tri, b1, b2) >= cutoff,
+                    _ => true,
+                }
+            })
+    }
+
+    /// Fraction of light passing from `org` along `dir` for distance `tmax`.
+    #[inline]
+    pub fn transmittance(&self, org: Vec3, dir: Vec3, tmax: f32) -> f32 {
+        self.accel
+            .transmittance(org, dir, tmax, &self.transparent, |tri, b1, b2| match self
+                .scene
+                .materials[self.scene.mesh.tri_material[tri as usize] as usize]
+                .alpha_mode
+            {
+                AlphaMode::Mask(cutoff) => {
+                    if self.alpha(tri, b1, b2) >= cutoff {
+                        0.0
+                    } else {
+                        1.0
+                    }
+                }
+                AlphaMode::Blend => (1.0 - self.alpha(tri, b1, b2)).clamp(0.0, 1.0),
+                AlphaMode::Opaque => 0.0,
+            })
+    }
+
+    /// The closest area light along a ray before `tmax`: (distance, light, light index).
+    #[inline]
+    pub fn intersect_area_lights(
+        &self,
+        org: Vec3,
+        dir: Vec3,
+        tmax: f32,
+    ) -> Option<(f32, &AreaLight, usize)> {
+        let mut best: Option<(f32, &AreaLight, usize)> = None;
+        for (a, i) in &self.area_lights {
+            let limit = best.map_or(tmax, |b| b.0);
+            if let Some(t) = a.intersect(org, dir, limit) {
+                best = Some((t, a, *i));
+            }
+        }
+        best
+    }
+
+    /// Geometry of a hit as seen from direction `wo` (pointing back along the ray).
+    #[inline]
+    pub fn surface(&self, hit: &Hit, org: Vec3, dir: Vec3) -> SurfaceHit {
+        let m = &self.scene.mesh;
+        let [i0, i1, i2] = m.triangles[hit.tri as usize].map(|i| i as usize);
+        let (b1, b2) = (hit.b1, hit.b2);
+        let b0 = 1.0 - b1 - b2;
+        let (p0, p1, p2) = (m.positions[i0], m.positions[i1], m.positions[i2]);
+        let mut p = p0 * b0 + p1 * b1 + p2 * b2;
+        if !p.is_finite() {
+            p = org + dir * hit.t;
+        }
+        let ng_front = (p1 - p0).cross(p2 - p0).normalize();
+        let front = ng_front.dot(dir) < 0.0;
+        let side = if front { 1.0 } else { -1.0 };
+        let ng = ng_front * side;
+        let n_interp = m.normals[i0] * b0 + m.normals[i1] * b1 + m.normals[i2] * b2;
+        let ns = match n_interp.try_normalize() {
+            Some(n) => n * side,
+            None => ng,
+        };
+        let tangent = m.tangents[i0] * b0 + m.tangents[i1] * b1 + m.tangents[i2] * b2;
+        let (uv, color) = self.attributes(hit.tri, b1, b2);
+        SurfaceHit {
+            p,
+            ng,
+            ns,
+            tangent,
+            uv,
+            color,
+            material: m.tri_material[hit.tri as usize],
+            tri: hit.tri,
+            front,
+            t: hit.t,
+        }
+    }
+
+    /// Evaluates the material at a hit: BSDF, shading frame and emission.
+    #[inline]
+    pub fn shade(&self, s: &SurfaceHit, wo: Vec3) -> ShadingPoint {
+        let mat = &self.scene.materials[s.material as usize];
+        let tex = &self.scene.textures;
+        let lookup = |t: &crate::scene::TexRef| {
+            tex[t.texture as usize].lookup(t.uv(s.uv[t.tex_coord as usize]))
+        };
+        let mut base = mat.base_color.truncate() * s.color.truncate();
+        if let Some(t) = &mat.base_color_tex {
+            base *= lookup(t).truncate();
+        }
+        let (mut metallic, mut roughness) = (mat.metallic, mat.roughness);
+        if let Some(t) = &mat.metallic_roughness_tex {
+            let v = lookup(t);
+            roughness *= v.y;
+            metallic *= v.z;
+        }
+        let mut n = s.ns;
+        let mut tangent_hint = None;
+        if let Some(t) = &mat.normal_tex {
+            let tan = s.tangent.truncate();
+            if tan.length_squared() > 0.0 {
+                let v = lookup(t);
+                let local = Vec3::new(
+                    (2.0 * v.x - 1.0) * mat.normal_scale,
+                    (2.0 * v.y - 1.0) * mat.normal_scale,
+                    2.0 * v.z - 1.0,
+                );
+                // The tangent frame belongs to the front face: undo the side flip.
+                let side = if s.front { 1.0 } else { -1.0 };
+                let nf = s.ns * side;
+                let tf = (tan - nf * nf.dot(tan)).normalize_or_zero();
+                let bf = nf.cross(tf) * if s.tangent.w < 0.0 { -1.0 } else { 1.0 };
+                if let Some(mapped) = (tf * local.x + bf * local.y + nf * local.z).try_normalize() {
+                    n = mapped * side;
+                    tangent_hint = Some(tf);
+                }
+            }
+        }
+        // A shading normal that faces away from the viewer makes the BRDF see the
+        // viewer from below: bend it back toward the geometric normal just enough.
+        let cos_o = n.dot(wo);
+        if cos_o < 1e-3 {
+            n = (n + wo * (1e-3 - cos_o)).normalize_or(s.ng);
+            if n.dot(wo) <= 0.0 {
+                n = s.ng;
+            }
+        }
+        let frame = match tangent_hint {
+            Some(t) => Frame::from_normal_tangent(n, t),
+            None => Frame::from_normal(n),
+        };
+        let emitted = if mat.is_emissive() && (s.front || mat.double_sided) {
+            mat.emission(tex, s.uv)
+        } else {
+            Rgb::ZERO
+        };
+        ShadingPoint {
+            bsdf: Bsdf::Pbr(PbrBsdf::new(base, metallic, roughness)),
+            frame,
+            emitted,
+        }
+    }
+
+    /// Samples light `index` from point `p`.
+    #[inline]
+    pub fn sample_light(&self, index: usize, p: Vec3, u: Vec2) -> Option<LightSample> {
+        match &self.scene.lights[index] {
+            Light::Point {
+                position,
+                intensity,
+            } => {
+                let d = *position - p;
+                let dist2 = d.length_squared();
+                let dist = dist2.sqrt();
+                (dist > 0.0).then(|| LightSample {
+                    wi: d / dist,
+                    dist,
+                    li: *intensity / dist2,
+                    pdf: 1.0,
+                    delta: true,
+                    point: *position,
+                    normal: Vec3::ZERO,
+                })
+            }
+            Light::Spot {
+                position,
+                direction,
+                intensity,
+                cos_inner,
+                cos_outer,
+            } => {
+                let d = *position - p;
+                let dist2 = d.length_squared();
+                let dist = dist2.sqrt();
+                if dist <= 0.0 {
+                    return None;
+                }
+                let wi = d / dist;
+                let falloff = spot_falloff((-wi).dot(*direction), *cos_inner, *cos_outer);
+                (falloff > 0.0).then(|| LightSample {
+                    wi,
+                    dist,
+                    li: *intensity * (falloff / dist2),
+                    pdf: 1.0,
+                    delta: true,
+                    point: *position,
+                    normal: Vec3::ZERO,
+                })
+            }
+            Light::Directional {
+                direction,
+                irradiance,
+            } => Some(LightSample {
+                wi: -*direction,
+                dist: f32::INFINITY,
+                li: *irradiance,
+                pdf: 1.0,
+                delta: true,
+                point: p - *direction,
+                normal: Vec3::ZERO,
+            }),
+            Light::Area(a) => {
+                let q = a.sample_point(u);
+                let d = q - p;
+                let dist = d.length();
+                if dist <= 0.0 {
+                    return None;
+                }
+                let wi = d / dist;
+                let cos_l = (-wi).dot(a.normal);
+                let pdf = area_to_solid_angle(1.0 / a.area, dist, cos_l);
+                (pdf > 0.0).then(|| LightSample {
+                    wi,
+                    dist,
+                    li: a.radiance,
+                    pdf,
+                    delta: false,
+                    point: q,
+                    normal: a.normal,
+                })
+            }
+            Light::Triangle { tri } => {
+                let m = &self.scene.mesh;
+                let idx = m.triangles[*tri as usize];
+                let mat = &self.scene.materials[m.tri_material[*tri as usize] as usize];
+                let et = EmitterTriangle {
+                    p: idx.map(|i| m.positions[i as usize]),
+                    two_sided: mat.double_sided,
+                };
+                let (q, n, b, area) = sample_triangle(&et, u);
+                let d = q - p;
+                let dist = d.length();
+                if dist <= 0.0 {
+                    return None;
+                }
+                let wi = d / dist;
+                let cos_signed = (-wi).dot(n);
+                let cos_l = if et.two_sided {
+                    cos_signed.abs()
+                } else {
+                    cos_signed
+                };
+                let pdf = area_to_solid_angle(1.0 / area, dist, cos_l);
+                if !(pdf > 0.0) {
+                    return None;
+                }
+                let (uv, _) = self.attributes(*tri, b.x, b.y);
+                let normal = if cos_signed >= 0.0 { n } else { -n };
+                Some(LightSample {
+                    wi,
+                    dist,
+                    li: mat.emission(&self.scene.textures, uv),
+                    pdf,
+                    delta: false,
+                    point: q,
+                    normal,
+                })
+            }
+        }
+    }
+
+    /// Solid-angle density with which `sample_light` (including the light choice) would
+    /// pick the point `q` with normal `n_light` of light `index`, from `p`.
+    #[inline]
+    pub fn light_pdf(&self, index: usize, p: Vec3, q: Vec3, n_light: Vec3) -> f32 {
+        let area = match &self.scene.lights[index] {
+            Light::Area(a) => a.area,
+            Light::Triangle { tri } => {
+                let m = &self.scene.mesh;
+                let [a, b, c] = m.triangles[*tri as usize].map(|i| m.positions[i as usize]);
+                0.5 * (b - a).cross(c - a).length()
+            }
+            _ => return 0.0,
+        };
+        let d = q - p;
+        let dist = d.length();
+        let cos_l = n_light.dot(-d / dist).abs();
+        self.lights.pmf(index) * area_to_solid_angle(1.0 / area, dist, cos_l)
+    }
+
+    /// Unoccluded fraction between a surface point (offset along `ng`) and a light sample.
+    #[inline]
+    pub fn visibility(&self, p: Vec3, ng: Vec3, ls: &LightSample) -> f32 {
+        let side = if ls.wi.dot(ng) >= 0.0 { ng } else { -ng };
+        let org = offset_ray_origin(p, side);
+        if ls.dist.is_infinite() {
+            return self.transmittance(org, ls.wi, f32::INFINITY);
+        }
+        let target = if ls.normal != Vec3::ZERO {
+            offset_ray_origin(ls.point, ls.normal)
+        } else {
+            ls.point
+        };
+        let d = target - org;
+        let dist = d.length();
+        if !(dist > 0.0) {
+            return 0.0;
+        }
+        self.transmittance(org, d / dist, dist * (1.0 - 1e-4))
+    }
+}
+
+/// One camera sample's contributions to the film.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct CameraSample {
+    /// Radiance.
+    pub radiance: Rgb,
+    /// 1 when the path hit geometry (coverage), else 0.
+    pub alpha: f32,
+    /// Camera-space depth of the first hit (infinite when none).
+    pub depth: f32,
+    /// World-space shading normal of the first hit.
+    pub normal: Vec3,
+    /// Albedo of the first hit.
+    pub albedo: Rgb,
+}
+
+/// The light-transport algorithms; one per file.
+#[derive(Clone, Debug)]
+pub enum Integrator {
+    /// Unidirectional path tracing with NEE and MIS.
+    Path(path::PathIntegrator),
+}
+
+impl Integrator {
+    /// Human-readable description with parameters, for logs and `info`.
+    pub fn describe(&self) -> String {
+        match self {
+            Integrator::Path(p) => format!(
+                "path (max depth {}, russian roulette from depth {})",
+                p.max_depth, p.rr_depth
+            ),
+        }
+    }
+}

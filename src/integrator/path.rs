@@ -1,0 +1,191 @@
+//! Unidirectional path tracing with next-event estimation, multiple importance
+//! sampling (power heuristic) between light and BSDF sampling, and Russian roulette.
+//!
+//! Parameters: `max_depth` (scattering events; 1 = direct light only; default 13,
+//! i.e. Blender's default 12 bounces), Russian roulette from `rr_depth` (default 3),
+//! with survival probability min(0.95, max(throughput)).
+//!
+//! Each bounce draws a fixed block of sample dimensions (light choice, light point,
+//! lobe, direction, roulette, transparency) so that Sobol dimensions line up across
+//! paths. Area lights do not block rays (as in Cycles): they add their emission where a
+//! ray crosses them and the path goes on. Not handled: participating media, delta
+//! BSDFs (the materials and media issues), the world (the lights/world issue).
+
+use super::{CameraSample, RayStats, SceneContext, power_heuristic};
+use crate::math::{Rgb, offset_ray_origin};
+use crate::sampling::PixelSampler;
+use crate::scene::AlphaMode;
+use glam::Vec3;
+
+/// The path tracer's parameters.
+#[derive(Clone, Debug)]
+pub struct PathIntegrator {
+    /// Maximum number of scattering events.
+    pub max_depth: u32,
+    /// Depth from which Russian roulette may end paths.
+    pub rr_depth: u32,
+}
+
+impl Default for PathIntegrator {
+    fn default() -> Self {
+        PathIntegrator {
+            max_depth: 13,
+            rr_depth: 3,
+        }
+    }
+}
+
+/// Limit on pass-throughs of transparent surfaces per path, so that a stack of
+/// thousands of transparent layers cannot loop forever.
+const MAX_TRANSPARENT_HITS: u32 = 128;
+
+impl PathIntegrator {
+    /// Radiance arriving at the camera along a ray.
+    pub fn li(
+        &self,
+        ctx: &SceneContext,
+        mut org: Vec3,
+        mut dir: Vec3,
+        sampler: &mut PixelSampler,
+        depth_of: impl Fn(Vec3) -> f32,
+        stats: &mut RayStats,
+    ) -> CameraSample {
+        let mut out = CameraSample {
+            depth: f32::INFINITY,
+            ..Default::default()
+        };
+        let mut radiance = Rgb::ZERO;
+        let mut beta = Rgb::ONE;
+        let mut depth = 0u32;
+        let mut transparent_hits = 0u32;
+        // Density of the BSDF sample that produced `dir` (0 for camera rays: no MIS).
+        let mut prev_bsdf_pdf = 0.0f32;
+        let mut prev_p = org;
+        stats.camera += 1;
+        loop {
+            // Bounce dimensions, drawn up front so that their positions are fixed.
+            let u_light = sampler.next_1d();
+            let u_light_pt = sampler.next_2d();
+            let u_lobe = sampler.next_1d();
+            let u_dir = sampler.next_2d();
+            let u_rr = sampler.next_1d();
+            let u_alpha = sampler.next_1d();
+
+            let hit = ctx.intersect(org, dir, f32::INFINITY);
+            let t_surface = hit.map_or(f32::INFINITY, |h| h.t);
+
+            // Area lights crossed before the surface add their emission (front side).
+            if let Some((t, light, index)) = ctx.intersect_area_lights(org, dir, t_surface) {
+                if (-dir).dot(light.normal) > 0.0 {
+                    let w = if prev_bsdf_pdf == 0.0 {
+                        1.0
+                    } else {
+                        let q = org + dir * t;
+                        power_heuristic(
+                            prev_bsdf_pdf,
+                            ctx.light_pdf(index, prev_p, q, light.normal),
+                        )
+                    };
+                    radiance += beta * light.radiance * w;
+                    if depth == 0 {
+                        out.alpha = 1.0;
+                    }
+                }
+            }
+
+            let Some(hit) = hit else { break };
+            let s = ctx.surface(&hit, org, dir);
+            let wo = -dir;
+
+            // Stochastic transparency: pass straight through with probability 1 - alpha.
+            if ctx.scene.materials[s.material as usize].alpha_mode == AlphaMode::Blend {
+                let alpha = ctx.alpha(hit.tri, hit.b1, hit.b2);
+                if u_alpha >= alpha && transparent_hits < MAX_TRANSPARENT_HITS {
+                    transparent_hits += 1;
+                    org = offset_ray_origin(s.p, -s.ng);
+                    stats.bounce += 1;
+                    continue;
+                }
+            }
+
+            let sp = ctx.shade(&s, wo);
+            if depth == 0 {
+                out.alpha = 1.0;
+                out.depth = depth_of(s.p);
+                out.normal = sp.frame.n;
+                out.albedo = sp.bsdf.albedo();
+            }
+
+            // Emission found by the path, weighted against light sampling.
+            if sp.emitted != Rgb::ZERO {
+                let w = match (prev_bsdf_pdf > 0.0, ctx.lights.light_of_triangle(hit.tri)) {
+                    (true, Some(index)) => {
+                        power_heuristic(prev_bsdf_pdf, ctx.light_pdf(index, prev_p, s.p, s.ng))
+                    }
+                    _ => 1.0,
+                };
+                radiance += beta * sp.emitted * w;
+            }
+
+            if depth >= self.max_depth {
+                break;
+            }
+
+            let wo_local = sp.frame.to_local(wo);
+
+            // Next-event estimation: one light, chosen by power.
+            if let Some((index, pmf)) = ctx.lights.sample(u_light) {
+                if let Some(ls) = ctx.sample_light(index, s.p, u_light_pt) {
+                    let wi_local = sp.frame.to_local(ls.wi);
+                    let f = sp.bsdf.eval(wo_local, wi_local) * wi_local.z.abs();
+                    // Light arriving from below the geometric surface cannot reach a
+                    // reflection-only BSDF on this side.
+                    if f != Rgb::ZERO && ls.li != Rgb::ZERO && ls.wi.dot(s.ng) > 0.0 {
+                        stats.shadow += 1;
+                        let vis = ctx.visibility(s.p, s.ng, &ls);
+                        if vis > 0.0 {
+                            let w = if ls.delta {
+                                1.0
+                            } else {
+                                power_heuristic(ls.pdf * pmf, sp.bsdf.pdf(wo_local, wi_local))
+                            };
+                            radiance += beta * f * ls.li * (vis * w / (ls.pdf * pmf));
+                        }
+                    }
+                }
+            }
+
+            // Sample the BSDF for the next direction.
+            let Some(bs) = sp.bsdf.sample(wo_local, u_lobe, u_dir) else {
+                break;
+            };
+            let wi = sp.frame.to_world(bs.wi);
+            if wi.dot(s.ng) <= 0.0 {
+                // The shading normal let the sample through the geometric surface.
+                break;
+            }
+            beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
+            if !beta.is_finite() || beta == Rgb::ZERO {
+                break;
+            }
+            prev_bsdf_pdf = bs.pdf;
+            prev_p = s.p;
+            depth += 1;
+
+            // Russian roulette.
+            if depth >= self.rr_depth {
+                let survive = beta.max_element().min(0.95);
+                if u_rr >= survive {
+                    break;
+                }
+                beta /= survive;
+            }
+
+            org = offset_ray_origin(s.p, s.ng);
+            dir = wi;
+            stats.bounce += 1;
+        }
+        out.radiance = radiance;
+        out
+    }
+}

@@ -1,0 +1,18 @@
+//! Caustic: a physically based offline renderer for glTF 2.0 scenes.
+//!
+//! Data flows one way: `scene` (glTF loader) → `accel` (BVH) → `integrator` →
+//! `film` → `output` (EXR). `cli` wires them into the `caustic` commands.
+
+pub mod accel;
+pub mod bsdf;
+pub mod cli;
+pub mod error;
+pub mod film;
+pub mod integrator;
+pub mod light;
+pub mod math;
+pub mod output;
+pub mod progress;
+pub mod render;
+pub mod sampling;
+pub mod scene;

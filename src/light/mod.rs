@@ -1,0 +1,217 @@
+//! Light sources: punctual lights of `KHR_lights_punctual`, Blender's area lights
+//! (`CAUSTIC_lights_area`) and emissive triangles. Each can be sampled from a
+//! shading point (`sample_li`), and the non-delta ones report the density with which
+//! a direction would have been chosen (`pdf_li`) for multiple importance sampling.
+//!
+//! Units are radiometric, as Cycles': point and spot intensity in W/sr, directional
+//! irradiance in W/m², area radiance in W/(m² sr). The loader converts glTF's
+//! photometric units (cd, lux) by Blender's exporter convention (683 lm/W).
+
+pub mod sampler;
+
+use crate::math::Rgb;
+use crate::sampling::warp::{concentric_disk, uniform_triangle};
+use glam::{Vec2, Vec3};
+use std::f32::consts::PI;
+
+pub use sampler::LightSampler;
+
+/// Shape of an area light.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AreaShape {
+    /// Parallelogram spanned by ±ax, ±ay (a rectangle before any shear).
+    Rectangle,
+    /// Ellipse with semi-axes ax, ay (a disk when they are equal).
+    Ellipse,
+}
+
+/// A planar one-sided area light (Blender's area lamp), already in world space.
+#[derive(Clone, Copy, Debug)]
+pub struct AreaLight {
+    /// Shape.
+    pub shape: AreaShape,
+    /// Centre.
+    pub center: Vec3,
+    /// Half extent (rectangle) or semi-axis (ellipse) along the light's local X.
+    pub ax: Vec3,
+    /// Same along local Y.
+    pub ay: Vec3,
+    /// Unit normal on the emitting side.
+    pub normal: Vec3,
+    /// Dual basis: (p - center)·dx = local x in [-1, 1].
+    pub dx: Vec3,
+    /// Dual basis for local y.
+    pub dy: Vec3,
+    /// World-space area.
+    pub area: f32,
+    /// Emitted radiance.
+    pub radiance: Rgb,
+}
+
+impl AreaLight {
+    /// Builds the light from its world-space frame; None when the area is zero.
+    pub fn new(
+        shape: AreaShape,
+        center: Vec3,
+        ax: Vec3,
+        ay: Vec3,
+        emit_dir: Vec3,
+        power: Rgb,
+    ) -> Option<Self> {
+        let cross = ax.cross(ay);
+        let scale = match shape {
+            AreaShape::Rectangle => 4.0,
+            AreaShape::Ellipse => PI,
+        };
+        let area = cross.length() * scale;
+        if !(area > 1e-12) || !area.is_finite() {
+            return None;
+        }
+        let mut normal = cross.normalize();
+        if normal.dot(emit_dir) < 0.0 {
+            normal = -normal;
+        }
+        let (g00, g01, g11) = (ax.dot(ax), ax.dot(ay), ay.dot(ay));
+        let det = g00 * g11 - g01 * g01;
+        let dx = (ax * g11 - ay * g01) / det;
+        let dy = (ay * g00 - ax * g01) / det;
+        Some(AreaLight {
+            shape,
+            center,
+            ax,
+            ay,
+            normal,
+            dx,
+            dy,
+            area,
+            radiance: power / (PI * area),
+        })
+    }
+
+    /// Ray hit distance, if the ray hits the emitting region (either side).
+    #[inline]
+    pub fn intersect(&self, o: Vec3, d: Vec3, tmax: f32) -> Option<f32> {
+        let denom = self.normal.dot(d);
+        if denom.abs() < 1e-12 {
+            return None;
+        }
+        let t = self.normal.dot(self.center - o) / denom;
+        if !(t > 0.0 && t < tmax) {
+            return None;
+        }
+        let q = o + d * t - self.center;
+        let (x, y) = (q.dot(self.dx), q.dot(self.dy));
+        let inside = match self.shape {
+            AreaShape::Rectangle => x.abs() <= 1.0 && y.abs() <= 1.0,
+            AreaShape::Ellipse => x * x + y * y <= 1.0,
+        };
+        inside.then_some(t)
+    }
+
+    /// Uniform point on the light.
+    #[inline]
+    pub fn sample_point(&self, u: Vec2) -> Vec3 {
+        let l = match self.shape {
+            AreaShape::Rectangle => 2.0 * u - Vec2::ONE,
+            AreaShape::Ellipse => concentric_disk(u),
+        };
+        self.center + self.ax * l.x + self.ay * l.y
+    }
+}
+
+/// One light of the scene.
+#[derive(Clone, Copy, Debug)]
+pub enum Light {
+    /// Isotropic point light.
+    Point {
+        /// Position.
+        position: Vec3,
+        /// Radiant intensity (W/sr).
+        intensity: Rgb,
+    },
+    /// Spot light with glTF's smooth cone falloff.
+    Spot {
+        /// Position.
+        position: Vec3,
+        /// Unit direction the spot points to.
+        direction: Vec3,
+        /// Radiant intensity on the axis (W/sr).
+        intensity: Rgb,
+        /// cos of the inner cone angle (full intensity inside).
+        cos_inner: f32,
+        /// cos of the outer cone angle (zero outside).
+        cos_outer: f32,
+    },
+    /// Sun-like light from one direction.
+    Directional {
+        /// Unit direction the light travels in.
+        direction: Vec3,
+        /// Irradiance on a surface facing the light (W/m²).
+        irradiance: Rgb,
+    },
+    /// Planar area light.
+    Area(AreaLight),
+    /// Emissive triangle `tri` of the scene mesh.
+    Triangle {
+        /// Triangle index.
+        tri: u32,
+    },
+}
+
+/// A point sampled on a light, as seen from a shading point.
+#[derive(Clone, Copy, Debug)]
+pub struct LightSample {
+    /// Unit direction from the shading point to the light.
+    pub wi: Vec3,
+    /// Distance to the light point (infinite for directional lights).
+    pub dist: f32,
+    /// Incident radiance (area lights) or irradiance-like value for delta lights,
+    /// so that `li * f * cos / pdf` is the estimate in both cases.
+    pub li: Rgb,
+    /// Solid-angle density (1 for delta lights).
+    pub pdf: f32,
+    /// True for point, spot and directional lights (no MIS with BSDF sampling).
+    pub delta: bool,
+    /// Point on the light (for shadow rays).
+    pub point: Vec3,
+    /// Light surface normal at `point` (zero for delta lights).
+    pub normal: Vec3,
+}
+
+/// Geometry of an emissive triangle with its emission, for light sampling.
+#[derive(Clone, Copy, Debug)]
+pub struct EmitterTriangle {
+    /// Vertices.
+    pub p: [Vec3; 3],
+    /// Emitting on both sides.
+    pub two_sided: bool,
+}
+
+/// glTF's spot attenuation: a smooth quadratic ramp between the cones.
+#[inline]
+pub fn spot_falloff(cos_theta: f32, cos_inner: f32, cos_outer: f32) -> f32 {
+    let scale = 1.0 / (cos_inner - cos_outer).max(1e-3);
+    let t = ((cos_theta - cos_outer) * scale).clamp(0.0, 1.0);
+    t * t
+}
+
+/// Converts an area density at a light point into a solid-angle density.
+#[inline]
+pub fn area_to_solid_angle(pdf_area: f32, dist: f32, cos_light: f32) -> f32 {
+    if cos_light <= 0.0 {
+        0.0
+    } else {
+        pdf_area * dist * dist / cos_light
+    }
+}
+
+/// Samples a point on an emissive triangle uniformly by area.
+/// Returns (point, geometric normal, barycentrics (b1, b2), area).
+#[inline]
+pub fn sample_triangle(t: &EmitterTriangle, u: Vec2) -> (Vec3, Vec3, Vec2, f32) {
+    let b = uniform_triangle(u);
+    let p = t.p[0] * (1.0 - b.x - b.y) + t.p[1] * b.x + t.p[2] * b.y;
+    let c = (t.p[1] - t.p[0]).cross(t.p[2] - t.p[0]);
+    let len = c.length();
+    (p, c / len, b, 0.5 * len)
+}

@@ -1,0 +1,173 @@
+//! Progress reporting: JSON lines on stderr for hosts (the Blender add-on), an
+//! indicatif bar for people, or nothing. Warnings and errors are always reported.
+
+use indicatif::{ProgressBar, ProgressStyle};
+use serde_json::{Value, json};
+use std::io::Write;
+use std::sync::Mutex;
+
+/// How progress is shown.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum ProgressMode {
+    /// One JSON object per line on stderr.
+    Json,
+    /// A progress bar on stderr.
+    Bar,
+    /// Only warnings, errors and the summary.
+    None,
+}
+
+/// The reporter shared by the render driver and its progress thread.
+pub struct Reporter {
+    mode: ProgressMode,
+    bar: Mutex<Option<ProgressBar>>,
+}
+
+impl Reporter {
+    /// A reporter in the given mode.
+    pub fn new(mode: ProgressMode) -> Self {
+        Reporter {
+            mode,
+            bar: Mutex::new(None),
+        }
+    }
+
+    /// The mode.
+    pub fn mode(&self) -> ProgressMode {
+        self.mode
+    }
+
+    fn json_line(&self, v: Value) {
+        let mut err = std::io::stderr().lock();
+        let _ = writeln!(err, "{v}");
+        let _ = err.flush();
+    }
+
+    fn text_line(&self, s: &str) {
+        if let Some(bar) = self.bar.lock().unwrap().as_ref() {
+            bar.println(s);
+            return;
+        }
+        eprintln!("{s}");
+    }
+
+    /// A phase starts: loading, bvh, rendering, writing.
+    pub fn phase(&self, phase: &str, elapsed: f64) {
+        match self.mode {
+            ProgressMode::Json => {
+                self.json_line(json!({"type": "phase", "phase": phase, "elapsed": elapsed}))
+            }
+            ProgressMode::Bar => {
+                let mut bar = self.bar.lock().unwrap();
+                if phase == "rendering" && bar.is_none() {
+                    let b = ProgressBar::new(1000);
+                    b.set_style(
+                        ProgressStyle::with_template(
+                            "{spinner} {msg} [{bar:40}] {percent}% ETA {eta}",
+                        )
+                        .unwrap_or_else(|_| ProgressStyle::default_bar()),
+                    );
+                    *bar = Some(b);
+                } else if phase != "rendering" {
+                    if let Some(b) = bar.take() {
+                        b.finish_and_clear();
+                    }
+                    drop(bar);
+                    eprintln!("{phase}…");
+                }
+            }
+            ProgressMode::None => {}
+        }
+    }
+
+    /// Rendering progress.
+    #[allow(clippy::too_many_arguments)]
+    pub fn progress(
+        &self,
+        fraction: f64,
+        samples_done: u32,
+        samples_total: Option<u32>,
+        elapsed: f64,
+        eta: Option<f64>,
+        rays_per_sec: f64,
+    ) {
+        match self.mode {
+            ProgressMode::Json => self.json_line(json!({
+                "type": "progress", "phase": "rendering", "fraction": fraction, "samples_done": samples_done,
+                "samples_total": samples_total, "elapsed": elapsed, "eta": eta, "rays_per_sec": rays_per_sec
+            })),
+            ProgressMode::Bar => {
+                if let Some(b) = self.bar.lock().unwrap().as_ref() {
+                    b.set_position((fraction.clamp(0.0, 1.0) * 1000.0) as u64);
+                    let total = samples_total.map(|t| t.to_string()).unwrap_or_else(|| "∞".into());
+                    b.set_message(format!("{samples_done}/{total} spp, {:.1} Mrays/s", rays_per_sec / 1e6));
+                }
+            }
+            ProgressMode::None => {}
+        }
+    }
+
+    /// A warning.
+    pub fn warning(&self, message: &str) {
+        match self.mode {
+            ProgressMode::Json => self.json_line(json!({"type": "warning", "message": message})),
+            _ => self.text_line(&format!("warning: {message}")),
+        }
+    }
+
+    /// An image was written.
+    pub fn image(&self, path: &str, samples: u32, is_final: bool) {
+        if self.mode == ProgressMode::Json {
+            self.json_line(
+                json!({"type": "image", "path": path, "samples": samples, "final": is_final}),
+            );
+        }
+    }
+
+    /// The final summary.
+    pub fn summary(&self, summary: Value) {
+        match self.mode {
+            ProgressMode::Json => {
+                let mut s = summary;
+                s["type"] = json!("summary");
+                self.json_line(s);
+            }
+            _ => {
+                if let Some(b) = self.bar.lock().unwrap().take() {
+                    b.finish_and_clear();
+                }
+                let rays = &summary["stats"]["rays"];
+                eprintln!(
+                    "wrote {} ({}×{}, {} spp{}) in {:.2} s, {:.2} Mrays/s (camera {}, bounce {}, shadow {})",
+                    summary["output"].as_str().unwrap_or(""),
+                    summary["width"],
+                    summary["height"],
+                    summary["spp"],
+                    if summary["interrupted"].as_bool() == Some(true) {
+                        ", interrupted"
+                    } else {
+                        ""
+                    },
+                    summary["elapsed"].as_f64().unwrap_or(0.0),
+                    summary["stats"]["rays_per_sec"].as_f64().unwrap_or(0.0) / 1e6,
+                    rays["camera"],
+                    rays["bounce"],
+                    rays["shadow"]
+                );
+            }
+        }
+    }
+
+    /// A fatal error.
+    pub fn error(&self, code: i32, message: &str) {
+        if let Some(b) = self.bar.lock().unwrap().take() {
+            b.finish_and_clear();
+        }
+        match self.mode {
+            ProgressMode::Json => {
+                self.json_line(json!({"type": "error", "code": code, "message": message}))
+            }
+            _ => eprintln!("error: {message}"),
+        }
+    }
+}

@@ -1,0 +1,123 @@
+//! Cameras: glTF perspective and orthographic projections, placed by their node.
+
+use glam::{Mat4, Vec2, Vec3};
+
+/// Projection of a camera.
+#[derive(Clone, Copy, Debug)]
+pub enum Projection {
+    /// Pinhole camera.
+    Perspective {
+        /// Vertical field of view in radians.
+        yfov: f32,
+        /// Aspect ratio stored in the file, if any.
+        aspect: Option<f32>,
+    },
+    /// Parallel projection.
+    Orthographic {
+        /// Half width of the view.
+        xmag: f32,
+        /// Half height of the view.
+        ymag: f32,
+    },
+}
+
+/// A camera; it looks down its local -Z with +Y up, as glTF cameras do.
+#[derive(Clone, Debug)]
+pub struct Camera {
+    /// Node or camera name.
+    pub name: String,
+    /// Position.
+    pub position: Vec3,
+    /// Unit right, up, and backward (local +X, +Y, +Z) axes in world space.
+    pub right: Vec3,
+    /// Local +Y.
+    pub up: Vec3,
+    /// Local +Z (the camera looks down -back).
+    pub back: Vec3,
+    /// Projection.
+    pub projection: Projection,
+}
+
+impl Camera {
+    /// A camera from a node's world matrix (scale is removed).
+    pub fn from_matrix(name: String, m: &Mat4, projection: Projection) -> Self {
+        let right = m.transform_vector3(Vec3::X).normalize_or(Vec3::X);
+        let up0 = m.transform_vector3(Vec3::Y);
+        let back = right.cross(up0).normalize_or(Vec3::Z);
+        let up = back.cross(right);
+        Camera {
+            name,
+            position: m.transform_point3(Vec3::ZERO),
+            right,
+            up,
+            back,
+            projection,
+        }
+    }
+
+    /// Aspect ratio that the camera wants, if it says.
+    pub fn aspect(&self) -> Option<f32> {
+        match self.projection {
+            Projection::Perspective { aspect, .. } => aspect,
+            Projection::Orthographic { xmag, ymag } => Some(xmag / ymag),
+        }
+    }
+}
+
+/// A camera prepared for an image size: maps film positions to rays.
+#[derive(Clone, Debug)]
+pub struct CameraRays {
+    cam: Camera,
+    /// Half extents of the image plane at distance 1 (perspective) or in world units.
+    half: Vec2,
+    width: f32,
+    height: f32,
+    ortho: bool,
+}
+
+impl CameraRays {
+    /// Prepares `cam` for a full frame of `width` × `height` pixels. The vertical field
+    /// of view (or ymag) is kept; the horizontal extent follows the image's aspect.
+    pub fn new(cam: &Camera, width: u32, height: u32) -> Self {
+        let aspect = width as f32 / height as f32;
+        let (half, ortho) = match cam.projection {
+            Projection::Perspective { yfov, .. } => {
+                let h = (0.5 * yfov).tan();
+                (Vec2::new(h * aspect, h), false)
+            }
+            Projection::Orthographic { ymag, .. } => (Vec2::new(ymag * aspect, ymag), true),
+        };
+        CameraRays {
+            cam: cam.clone(),
+            half,
+            width: width as f32,
+            height: height as f32,
+            ortho,
+        }
+    }
+
+    /// Ray through film position (x, y) in pixels from the top-left corner of the full
+    /// frame: (origin, unit direction).
+    #[inline]
+    pub fn ray(&self, x: f32, y: f32) -> (Vec3, Vec3) {
+        let sx = (2.0 * x / self.width - 1.0) * self.half.x;
+        let sy = (1.0 - 2.0 * y / self.height) * self.half.y;
+        let c = &self.cam;
+        if self.ortho {
+            (c.position + c.right * sx + c.up * sy, -c.back)
+        } else {
+            (c.position, (c.right * sx + c.up * sy - c.back).normalize())
+        }
+    }
+
+    /// Camera-space depth (distance along the viewing axis) of a world point.
+    #[inline]
+    pub fn depth(&self, p: Vec3) -> f32 {
+        (self.cam.position - p).dot(self.cam.back)
+    }
+
+    /// The camera.
+    pub fn camera(&self) -> &Camera {
+        &self.cam
+    }
+}

@@ -1,0 +1,1306 @@
+//! The glTF 2.0 loader: the only module that touches the `gltf` crate.
+//!
+//! Reads .gltf (external or data-URI buffers and images) and .glb, flattens the node
+//! hierarchy into world-space triangles, and converts materials, cameras, lights and
+//! the `CAUSTIC_*` extensions into the renderer's own types. Every defect of the input
+//! becomes an [`Error::Scene`] naming the file and the offending object; every guess
+//! or dropped feature becomes a warning in [`Scene::warnings`].
+
+use super::texture::{Texture, Wrap, texture_transform};
+use super::{
+    AlphaMode, Camera, CameraReport, LightReport, LoadReport, Material, MaterialReport, Mesh,
+    Projection, Scene, SceneSettings, TexRef,
+};
+use crate::error::{Error, Result};
+use crate::light::{AreaLight, AreaShape, Light};
+use crate::math::luminance;
+use base64::Engine;
+use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
+use gltf::json;
+use serde::Deserialize;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+/// Extensions that Caustic renders, and so accepts in `extensionsRequired`.
+pub const SUPPORTED_REQUIRED: &[&str] = &[
+    "KHR_lights_punctual",
+    "KHR_materials_emissive_strength",
+    "KHR_texture_transform",
+];
+
+/// Material extensions that Caustic reads.
+const HANDLED_MATERIAL_EXTENSIONS: &[&str] = &["KHR_materials_emissive_strength"];
+
+/// glTF's photometric units to Blender's radiometric ones: Blender's exporter writes
+/// W × 683 lm/W (its PBR_WATTS_TO_LUMENS), so dividing gives Blender's watts back.
+pub const LUMENS_PER_WATT: f32 = 683.0;
+
+/// Largest texture accepted (per side), to refuse absurd image headers before decoding.
+const MAX_TEXTURE_SIDE: u32 = 16_384;
+
+/// Instances beyond this are refused: a DAG of shared nodes can explode exponentially.
+const MAX_INSTANCES: usize = 1_000_000;
+
+/// Loads a scene from a .gltf or .glb file.
+pub fn load(path: &Path) -> Result<Scene> {
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    load_bytes(&bytes, &base, &path.display().to_string())
+}
+
+/// Loads a scene from bytes; external files are resolved relative to `base_dir`.
+/// Panics inside the parser are turned into errors: a malformed file must never
+/// take the process down.
+pub fn load_bytes(bytes: &[u8], base_dir: &Path, file: &str) -> Result<Scene> {
+    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        Loader::new(file, base_dir).load(bytes)
+    }));
+    match result {
+        Ok(r) => r,
+        Err(panic) => {
+            let what = panic
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| panic.downcast_ref::<String>().cloned())
+                .unwrap_or_else(|| "unknown".into());
+            Err(Error::Scene {
+                file: file.into(),
+                message: format!("malformed glTF (parser failed: {what})"),
+            })
+        }
+    }
+}
+
+/// `CAUSTIC_lights_area` on a node.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct AreaLightExt {
+    shape: String,
+    size: Vec<f32>,
+    power: f32,
+    #[serde(default = "white")]
+    color: [f32; 3],
+}
+
+fn white() -> [f32; 3] {
+    [1.0; 3]
+}
+
+/// Key of a decoded texture: (image, sRGB, sampler).
+type TexKey = (usize, bool, Option<usize>);
+
+struct Loader<'a> {
+    file: &'a str,
+    base_dir: &'a Path,
+    warnings: Vec<String>,
+    textures: Vec<Texture>,
+    texture_cache: HashMap<TexKey, u32>,
+    images: HashMap<usize, (u32, u32, std::sync::Arc<Vec<[u8; 4]>>)>,
+}
+
+impl<'a> Loader<'a> {
+    fn new(file: &'a str, base_dir: &'a Path) -> Self {
+        Loader {
+            file,
+            base_dir,
+            warnings: Vec::new(),
+            textures: Vec::new(),
+            texture_cache: HashMap::new(),
+            images: HashMap::new(),
+        }
+    }
+
+    fn err(&self, message: impl Into<String>) -> Error {
+        Error::Scene {
+            file: self.file.to_string(),
+            message: message.into(),
+        }
+    }
+
+    fn warn(&mut self, message: impl Into<String>) {
+        let m = message.into();
+        if !self.warnings.contains(&m) {
+            self.warnings.push(m);
+        }
+    }
+
+    fn load(mut self, bytes: &[u8]) -> Result<Scene> {
+        // 1. Container: GLB or JSON.
+        let (json_bytes, bin): (Vec<u8>, Option<Vec<u8>>) = if bytes.starts_with(b"glTF") {
+            let glb = gltf::binary::Glb::from_slice(bytes).map_err(|e| {
+                self.err(format!(
+                    "malformed GLB container: {e} (truncated or corrupt file?)"
+                ))
+            })?;
+            (glb.json.into_owned(), glb.bin.map(|b| b.into_owned()))
+        } else if bytes.len() >= 4
+            && &bytes[..4] != b"glTF"
+            && bytes.iter().take(16).any(|&b| b == 0)
+        {
+            return Err(self.err("not a glTF file: binary data without the 'glTF' magic"));
+        } else {
+            (bytes.to_vec(), None)
+        };
+
+        // 2. JSON, with its position on error.
+        let value: serde_json::Value = serde_json::from_slice(&json_bytes)
+            .map_err(|e| self.err(format!("invalid JSON: {e}")))?;
+        if !value.is_object() {
+            return Err(self.err("invalid glTF: the JSON root is not an object"));
+        }
+        let version = value
+            .pointer("/asset/version")
+            .and_then(|v| v.as_str())
+            .unwrap_or("");
+        if !version.starts_with("2.") {
+            return Err(self.err(format!(
+                "unsupported glTF version '{version}' (asset.version must be 2.x; is this a glTF 2.0 file?)"
+            )));
+        }
+        // 3. Required extensions we cannot honour are refused by name.
+        if let Some(req) = value.get("extensionsRequired").and_then(|v| v.as_array()) {
+            let unsupported: Vec<&str> = req
+                .iter()
+                .filter_map(|v| v.as_str())
+                .filter(|name| !SUPPORTED_REQUIRED.contains(name))
+                .collect();
+            if !unsupported.is_empty() {
+                return Err(self.err(format!(
+                    "the file requires unsupported extension(s): {} (Caustic supports {})",
+                    unsupported.join(", "),
+                    SUPPORTED_REQUIRED.join(", ")
+                )));
+            }
+        }
+        let settings = self.parse_settings(&value)?;
+
+        // 4. Typed document with the crate's index validation.
+        let root: json::Root = serde_json::from_value(value.clone())
+            .map_err(|e| self.err(format!("invalid glTF: {e}")))?;
+        let doc = gltf::Document::from_json(root)
+            .map_err(|e| self.err(format!("invalid glTF: {}", describe_validation(&e))))?;
+
+        // 5. Buffers.
+        let buffers = self.load_buffers(&doc, bin)?;
+        self.check_views_and_accessors(&doc, &buffers)?;
+
+        // 6. Materials (textures decoded on first use).
+        let mut materials = Vec::new();
+        let mut material_reports = Vec::new();
+        for m in doc.materials() {
+            let (mat, rep) = self.material(&doc, &m, &buffers)?;
+            materials.push(mat);
+            material_reports.push(rep);
+        }
+        let default_material = materials.len() as u32;
+        materials.push(Material::default());
+
+        // 7. Node graph to instances.
+        let instances = self.instances(&doc, &value)?;
+
+        let mut mesh = Mesh::default();
+        let mut cameras = Vec::new();
+        let mut lights = Vec::new();
+        let mut light_reports = Vec::new();
+        let mut used_meshes = std::collections::HashSet::new();
+        let mut instance_count = 0;
+        let mut degenerate = 0;
+        let mut area_lights = Vec::new();
+        for (node_index, world) in &instances {
+            let node = doc.nodes().nth(*node_index).expect("validated index");
+            let node_name = node
+                .name()
+                .map(str::to_string)
+                .unwrap_or_else(|| format!("node {node_index}"));
+            if !world.is_finite() {
+                return Err(self.err(format!(
+                    "node {node_index} ('{node_name}'): transform is not finite"
+                )));
+            }
+            if let Some(m) = node.mesh() {
+                used_meshes.insert(m.index());
+                instance_count += 1;
+                degenerate +=
+                    self.append_mesh(&m, world, &buffers, &materials, default_material, &mut mesh)?;
+            }
+            if let Some(c) = node.camera() {
+                cameras.push(self.camera(&c, &node_name, world)?);
+            }
+            if let Some(l) = node.light() {
+                let (light, rep) = self.punctual_light(&l, &node_name, world)?;
+                lights.push(light);
+                light_reports.push(rep);
+            }
+            if let Some(ext) = node.extension_value("CAUSTIC_lights_area") {
+                area_lights.push((ext.clone(), node_name.clone(), *world));
+            }
+        }
+        if mesh.triangles.is_empty() {
+            return Err(self.err(
+                "nothing to render: the scene has no triangles (no mesh, or only points/lines)",
+            ));
+        }
+
+        // Bounds.
+        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        for t in &mesh.triangles {
+            for &i in t {
+                lo = lo.min(mesh.positions[i as usize]);
+                hi = hi.max(mesh.positions[i as usize]);
+            }
+        }
+        let scene_radius = ((hi - lo).length() * 0.5).max(1e-3);
+
+        for (ext, name, world) in area_lights {
+            if let Some((light, rep)) = self.area_light(&ext, &name, &world)? {
+                lights.push(light);
+                light_reports.push(rep);
+            }
+        }
+        let mut light_power: Vec<f32> = lights
+            .iter()
+            .map(|l| punctual_power(l, scene_radius))
+            .collect();
+        for (rep, p) in light_reports.iter_mut().zip(&light_power) {
+            rep.power = *p;
+        }
+
+        // Emissive triangles are lights, one each, grouped by material in the report.
+        let mut emissive_by_material: HashMap<u32, (usize, f32)> = HashMap::new();
+        for (ti, tri) in mesh.triangles.iter().enumerate() {
+            let mi = mesh.tri_material[ti];
+            let mat = &materials[mi as usize];
+            if !mat.is_emissive() {
+                continue;
+            }
+            let mean_tex = mat
+                .emissive_tex
+                .map(|t| self.textures[t.texture as usize].mean_rgb())
+                .unwrap_or(Vec3::ONE);
+            let p = tri.map(|i| mesh.positions[i as usize]);
+            let area = 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length();
+            let sides = if mat.double_sided { 2.0 } else { 1.0 };
+            let power = luminance(mat.emissive * mean_tex) * area * std::f32::consts::PI * sides;
+            if power <= 0.0 {
+                continue;
+            }
+            lights.push(Light::Triangle { tri: ti as u32 });
+            light_power.push(power);
+            let e = emissive_by_material.entry(mi).or_default();
+            e.0 += 1;
+            e.1 += power;
+        }
+        let mut emissive: Vec<_> = emissive_by_material.into_iter().collect();
+        emissive.sort_by_key(|(mi, _)| *mi);
+        for (mi, (count, power)) in emissive {
+            light_reports.push(LightReport {
+                kind: "emissive".into(),
+                name: materials[mi as usize].name.clone(),
+                power,
+                triangles: count,
+            });
+        }
+
+        if cameras.is_empty() {
+            self.warn(
+                "no camera in the file: framing the scene's bounds from +Z with a 40° camera",
+            );
+            cameras.push(frame_bounds(lo, hi));
+        }
+        if lights.is_empty() {
+            self.warn("the scene has no lights and no emissive materials: the image will be black");
+        }
+        if degenerate > 0 {
+            self.warn(format!(
+                "{degenerate} degenerate (zero-area) triangle(s) were dropped"
+            ));
+        }
+
+        let report = LoadReport {
+            file: self.file.to_string(),
+            triangles: mesh.triangles.len(),
+            meshes: used_meshes.len(),
+            instances: instance_count,
+            degenerate_triangles: degenerate,
+            extensions_used: doc.extensions_used().map(str::to_string).collect(),
+            materials: material_reports,
+            lights: light_reports,
+            cameras: cameras
+                .iter()
+                .map(|c| CameraReport {
+                    name: c.name.clone(),
+                    kind: match c.projection {
+                        Projection::Perspective { .. } => "perspective".into(),
+                        Projection::Orthographic { .. } => "orthographic".into(),
+                    },
+                })
+                .collect(),
+            bounds: [lo.to_array(), hi.to_array()],
+        };
+        Ok(Scene {
+            mesh,
+            materials,
+            textures: self.textures,
+            lights,
+            light_power,
+            cameras,
+            settings,
+            warnings: self.warnings,
+            report,
+            bounds: (lo, hi),
+        })
+    }
+
+    fn parse_settings(&self, value: &serde_json::Value) -> Result<SceneSettings> {
+        let scene_index = value.get("scene").and_then(|s| s.as_u64()).unwrap_or(0) as usize;
+        let Some(extras) = value.pointer(&format!("/scenes/{scene_index}/extras/caustic")) else {
+            return Ok(SceneSettings::default());
+        };
+        serde_json::from_value(extras.clone()).map_err(|e| {
+            self.err(format!(
+                "scene extras 'caustic' (render settings) are malformed: {e}"
+            ))
+        })
+    }
+
+    fn resolve_uri(&self, uri: &str, what: &str) -> Result<Vec<u8>> {
+        if let Some(rest) = uri.strip_prefix("data:") {
+            let Some((_, payload)) = rest.split_once(";base64,") else {
+                return Err(self.err(format!("{what}: data URI is not base64-encoded")));
+            };
+            return base64::engine::general_purpose::STANDARD
+                .decode(payload.trim())
+                .map_err(|e| self.err(format!("{what}: data URI has invalid base64: {e}")));
+        }
+        if uri.contains("://") {
+            return Err(self.err(format!(
+                "{what}: remote URI '{uri}' is not supported (only relative files and data URIs)"
+            )));
+        }
+        let decoded = percent_encoding::percent_decode_str(uri)
+            .decode_utf8_lossy()
+            .to_string();
+        let path: PathBuf = self.base_dir.join(&decoded);
+        std::fs::read(&path)
+            .map_err(|e| self.err(format!("{what}: cannot read '{}': {e}", path.display())))
+    }
+
+    fn load_buffers(&self, doc: &gltf::Document, mut bin: Option<Vec<u8>>) -> Result<Vec<Vec<u8>>> {
+        let mut out = Vec::new();
+        for b in doc.buffers() {
+            let what = format!("buffer {}", b.index());
+            let data = match b.source() {
+                gltf::buffer::Source::Bin => bin.take().ok_or_else(|| {
+                    self.err(format!(
+                        "{what} refers to the GLB binary chunk, which is missing"
+                    ))
+                })?,
+                gltf::buffer::Source::Uri(uri) => self.resolve_uri(uri, &what)?,
+            };
+            if data.len() < b.length() {
+                return Err(self.err(format!(
+                    "{what} is shorter than its byteLength ({} < {} bytes): truncated file?",
+                    data.len(),
+                    b.length()
+                )));
+            }
+            out.push(data);
+        }
+        Ok(out)
+    }
+
+    /// Bounds checks the crate leaves to us: views inside buffers, accessors inside views.
+    fn check_views_and_accessors(&self, doc: &gltf::Document, buffers: &[Vec<u8>]) -> Result<()> {
+        for v in doc.views() {
+            let end = v.offset().checked_add(v.length());
+            let buf_len = v.buffer().length();
+            if end.is_none_or(|e| e > buf_len) {
+                return Err(self.err(format!(
+                    "bufferView {} (offset {} + length {}) lies outside buffer {} ({} bytes)",
+                    v.index(),
+                    v.offset(),
+                    v.length(),
+                    v.buffer().index(),
+                    buf_len
+                )));
+            }
+            debug_assert!(buffers[v.buffer().index()].len() >= buf_len);
+        }
+        for a in doc.accessors() {
+            let elem = a.size();
+            if let Some(v) = a.view() {
+                let stride = v.stride().unwrap_or(elem);
+                if stride < elem {
+                    return Err(self.err(format!(
+                        "accessor {}: byteStride {} is smaller than its element size {}",
+                        a.index(),
+                        stride,
+                        elem
+                    )));
+                }
+                let need = if a.count() == 0 {
+                    Some(0)
+                } else {
+                    stride
+                        .checked_mul(a.count() - 1)
+                        .and_then(|x| x.checked_add(elem))
+                        .and_then(|x| x.checked_add(a.offset()))
+                };
+                if need.is_none_or(|n| n > v.length()) {
+                    return Err(self.err(format!(
+                        "accessor {} ({} elements of {} bytes at offset {}) runs past the end of bufferView {} ({} bytes)",
+                        a.index(),
+                        a.count(),
+                        elem,
+                        a.offset(),
+                        v.index(),
+                        v.length()
+                    )));
+                }
+            }
+            if let Some(sparse) = a.sparse() {
+                let idx_view = sparse.indices().view();
+                let val_view = sparse.values().view();
+                let idx_need = sparse.indices().offset()
+                    + sparse.count() * sparse.indices().index_type().size();
+                let val_need = sparse.values().offset() + sparse.count() * elem;
+                if idx_need > idx_view.length() || val_need > val_view.length() {
+                    return Err(self.err(format!(
+                        "accessor {}: sparse data runs past its bufferView",
+                        a.index()
+                    )));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn image(
+        &mut self,
+        doc: &gltf::Document,
+        index: usize,
+        buffers: &[Vec<u8>],
+    ) -> Result<(u32, u32, std::sync::Arc<Vec<[u8; 4]>>)> {
+        if let Some(img) = self.images.get(&index) {
+            return Ok(img.clone());
+        }
+        let image = doc.images().nth(index).expect("validated index");
+        let name = image
+            .name()
+            .map(|n| format!("image {index} ('{n}')"))
+            .unwrap_or_else(|| format!("image {index}"));
+        let (bytes, label) = match image.source() {
+            gltf::image::Source::View { view, .. } => {
+                let b = &buffers[view.buffer().index()];
+                (
+                    b[view.offset()..view.offset() + view.length()].to_vec(),
+                    name.clone(),
+                )
+            }
+            gltf::image::Source::Uri { uri, .. } => {
+                let label = if uri.starts_with("data:") {
+                    name.clone()
+                } else {
+                    format!("{name} '{uri}'")
+                };
+                (self.resolve_uri(uri, &format!("texture {label}"))?, label)
+            }
+        };
+        let reader = image::ImageReader::new(std::io::Cursor::new(&bytes))
+            .with_guessed_format()
+            .map_err(|e| self.err(format!("texture {label}: {e}")))?;
+        if reader.format().is_none() {
+            return Err(self.err(format!(
+                "texture {label}: unknown image format (Caustic reads PNG and JPEG)"
+            )));
+        }
+        let (w, h) = reader.into_dimensions().map_err(|e| {
+            self.err(format!(
+                "texture {label}: cannot read the image header: {e}"
+            ))
+        })?;
+        if w == 0 || h == 0 || w > MAX_TEXTURE_SIDE || h > MAX_TEXTURE_SIDE {
+            return Err(self.err(format!(
+                "texture {label}: image size {w}×{h} is outside 1..={MAX_TEXTURE_SIDE} per side"
+            )));
+        }
+        let decoded = image::ImageReader::new(std::io::Cursor::new(&bytes))
+            .with_guessed_format()
+            .map_err(|e| self.err(format!("texture {label}: {e}")))?
+            .decode()
+            .map_err(|e| self.err(format!("texture {label}: cannot decode: {e}")))?
+            .to_rgba8();
+        let texels: Vec<[u8; 4]> = decoded.pixels().map(|p| p.0).collect();
+        let entry = (w, h, std::sync::Arc::new(texels));
+        self.images.insert(index, entry.clone());
+        Ok(entry)
+    }
+
+    fn texture(
+        &mut self,
+        doc: &gltf::Document,
+        texture: gltf::Texture,
+        tex_coord: u32,
+        transform: Mat3,
+        srgb: bool,
+        buffers: &[Vec<u8>],
+    ) -> Result<TexRef> {
+        let image_index = texture.source().index();
+        let sampler = texture.sampler();
+        let key = (image_index, srgb, sampler.index());
+        let index = if let Some(&i) = self.texture_cache.get(&key) {
+            i
+        } else {
+            let (w, h, texels) = self.image(doc, image_index, buffers)?;
+            let wrap = |m: gltf::texture::WrappingMode| match m {
+                gltf::texture::WrappingMode::Repeat => Wrap::Repeat,
+                gltf::texture::WrappingMode::MirroredRepeat => Wrap::Mirror,
+                gltf::texture::WrappingMode::ClampToEdge => Wrap::Clamp,
+            };
+            let nearest = matches!(
+                sampler.mag_filter(),
+                Some(gltf::texture::MagFilter::Nearest)
+            );
+            self.textures.push(Texture {
+                name: texture.source().name().unwrap_or("").to_string(),
+                width: w,
+                height: h,
+                texels: (*texels).clone(),
+                srgb,
+                wrap_s: wrap(sampler.wrap_s()),
+                wrap_t: wrap(sampler.wrap_t()),
+                nearest,
+            });
+            let i = (self.textures.len() - 1) as u32;
+            self.texture_cache.insert(key, i);
+            i
+        };
+        if tex_coord > 1 {
+            self.warn(format!("a texture uses TEXCOORD_{tex_coord}; Caustic reads TEXCOORD_0 and _1 only (using 0)"));
+        }
+        Ok(TexRef {
+            texture: index,
+            tex_coord: tex_coord.min(1),
+            transform,
+        })
+    }
+
+    fn info_texture(
+        &mut self,
+        doc: &gltf::Document,
+        info: Option<gltf::texture::Info>,
+        srgb: bool,
+        buffers: &[Vec<u8>],
+        features: &mut Vec<String>,
+        label: &str,
+    ) -> Result<Option<TexRef>> {
+        let Some(info) = info else { return Ok(None) };
+        let mut tex_coord = info.tex_coord();
+        let mut transform = Mat3::IDENTITY;
+        if let Some(t) = info.texture_transform() {
+            transform = texture_transform(t.offset(), t.rotation(), t.scale());
+            if let Some(tc) = t.tex_coord() {
+                tex_coord = tc;
+            }
+            push_unique(features, "KHR_texture_transform");
+        }
+        push_unique(features, label);
+        self.texture(doc, info.texture(), tex_coord, transform, srgb, buffers)
+            .map(Some)
+    }
+
+    fn material(
+        &mut self,
+        doc: &gltf::Document,
+        m: &gltf::Material,
+        buffers: &[Vec<u8>],
+    ) -> Result<(Material, MaterialReport)> {
+        let index = m.index().unwrap_or(0);
+        let name = m
+            .name()
+            .map(str::to_string)
+            .unwrap_or_else(|| format!("material {index}"));
+        let mut features = Vec::new();
+        let pbr = m.pbr_metallic_roughness();
+        let check = |v: f32, what: &str| -> Result<f32> {
+            if v.is_finite() {
+                Ok(v)
+            } else {
+                Err(self.err(format!("material '{name}': {what} is not a finite number")))
+            }
+        };
+        let bc = pbr.base_color_factor();
+        let base_color = Vec4::new(
+            check(bc[0], "baseColorFactor")?,
+            check(bc[1], "baseColorFactor")?,
+            check(bc[2], "baseColorFactor")?,
+            check(bc[3], "baseColorFactor")?,
+        );
+        let metallic = check(pbr.metallic_factor(), "metallicFactor")?;
+        let roughness = check(pbr.roughness_factor(), "roughnessFactor")?;
+        let em = m.emissive_factor();
+        let strength = m.emissive_strength().unwrap_or(1.0);
+        let emissive = Vec3::new(
+            check(em[0], "emissiveFactor")?,
+            check(em[1], "emissiveFactor")?,
+            check(em[2], "emissiveFactor")?,
+        ) * check(strength, "emissive strength")?;
+        let clamped = |v: Vec4| v.clamp(Vec4::ZERO, Vec4::ONE);
+        if clamped(base_color) != base_color
+            || !(0.0..=1.0).contains(&metallic)
+            || !(0.0..=1.0).contains(&roughness)
+        {
+            self.warn(format!(
+                "material '{name}': factors outside [0, 1] were clamped"
+            ));
+        }
+        if emissive.min_element() < 0.0 {
+            self.warn(format!(
+                "material '{name}': negative emission was clamped to 0"
+            ));
+        }
+        if m.emissive_strength().is_some() {
+            features.push("KHR_materials_emissive_strength".into());
+        }
+        let base_color_tex = self.info_texture(
+            doc,
+            pbr.base_color_texture(),
+            true,
+            buffers,
+            &mut features,
+            "baseColorTexture",
+        )?;
+        let metallic_roughness_tex = self.info_texture(
+            doc,
+            pbr.metallic_roughness_texture(),
+            false,
+            buffers,
+            &mut features,
+            "metallicRoughnessTexture",
+        )?;
+        let emissive_tex = self.info_texture(
+            doc,
+            m.emissive_texture(),
+            true,
+            buffers,
+            &mut features,
+            "emissiveTexture",
+        )?;
+        let (normal_tex, normal_scale) = match m.normal_texture() {
+            Some(n) => {
+                let mut transform = Mat3::IDENTITY;
+                let mut tex_coord = n.tex_coord();
+                if let Some(t) = n.extension_value("KHR_texture_transform") {
+                    let f = |k: &str, d: f32, i: usize| {
+                        t.get(k)
+                            .and_then(|v| v.get(i).or(Some(v)))
+                            .and_then(|v| v.as_f64())
+                            .map(|v| v as f32)
+                            .unwrap_or(d)
+                    };
+                    transform = texture_transform(
+                        [f("offset", 0.0, 0), f("offset", 0.0, 1)],
+                        f("rotation", 0.0, 0),
+                        [f("scale", 1.0, 0), f("scale", 1.0, 1)],
+                    );
+                    if let Some(tc) = t.get("texCoord").and_then(|v| v.as_u64()) {
+                        tex_coord = tc as u32;
+                    }
+                    push_unique(&mut features, "KHR_texture_transform");
+                }
+                features.push("normalTexture".into());
+                (
+                    Some(self.texture(doc, n.texture(), tex_coord, transform, false, buffers)?),
+                    n.scale(),
+                )
+            }
+            None => (None, 1.0),
+        };
+        if m.occlusion_texture().is_some() {
+            features.push("occlusionTexture (ignored: path tracing computes occlusion)".into());
+        }
+        let alpha_mode = match m.alpha_mode() {
+            gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
+            gltf::material::AlphaMode::Mask => {
+                features.push("alphaMode MASK".into());
+                AlphaMode::Mask(m.alpha_cutoff().unwrap_or(0.5))
+            }
+            gltf::material::AlphaMode::Blend => {
+                features.push("alphaMode BLEND (stochastic transparency)".into());
+                AlphaMode::Blend
+            }
+        };
+        if m.double_sided() {
+            features.push("doubleSided".into());
+        }
+        if let Some(exts) = m.extensions() {
+            for key in exts.keys() {
+                if HANDLED_MATERIAL_EXTENSIONS.contains(&key.as_str()) {
+                    continue;
+                }
+                features.push(format!("{key} (ignored)"));
+                self.warn(format!(
+                    "material '{name}': {key} is not rendered yet and was ignored"
+                ));
+            }
+        }
+        let mat = Material {
+            name: name.clone(),
+            base_color: clamped(base_color),
+            base_color_tex,
+            metallic: metallic.clamp(0.0, 1.0),
+            roughness: roughness.clamp(0.0, 1.0),
+            metallic_roughness_tex,
+            normal_tex,
+            normal_scale,
+            emissive: emissive.max(Vec3::ZERO),
+            emissive_tex,
+            alpha_mode,
+            double_sided: m.double_sided(),
+        };
+        Ok((mat, MaterialReport { name, features }))
+    }
+
+    /// Walks the scene's node trees; returns (node, world matrix) for every node
+    /// reached, refusing cycles.
+    fn instances(
+        &mut self,
+        doc: &gltf::Document,
+        value: &serde_json::Value,
+    ) -> Result<Vec<(usize, Mat4)>> {
+        let n = doc.nodes().count();
+        // Cycle check over the children graph (iterative three-colour DFS).
+        let children: Vec<Vec<usize>> = doc
+            .nodes()
+            .map(|nd| nd.children().map(|c| c.index()).collect())
+            .collect();
+        let mut colour = vec![0u8; n];
+        for start in 0..n {
+            if colour[start] != 0 {
+                continue;
+            }
+            let mut stack = vec![(start, 0usize)];
+            colour[start] = 1;
+            while let Some(&mut (node, ref mut next)) = stack.last_mut() {
+                if *next < children[node].len() {
+                    let c = children[node][*next];
+                    *next += 1;
+                    match colour[c] {
+                        0 => {
+                            colour[c] = 1;
+                            stack.push((c, 0));
+                        }
+                        1 => {
+                            return Err(self
+                                .err(format!("the node hierarchy has a cycle through node {c}")));
+                        }
+                        _ => {}
+                    }
+                } else {
+                    colour[node] = 2;
+                    stack.pop();
+                }
+            }
+        }
+        let roots: Vec<usize> =
+            if let Some(scene) = doc.default_scene().or_else(|| doc.scenes().next()) {
+                if value.get("scene").is_none() && doc.scenes().count() > 1 {
+                    self.warn("the file has several scenes and no default: rendering scene 0");
+                }
+                scene.nodes().map(|n| n.index()).collect()
+            } else {
+                let mut is_child = vec![false; n];
+                for c in children.iter().flatten() {
+                    is_child[*c] = true;
+                }
+                if n > 0 {
+                    self.warn("the file has no scene: rendering every root node");
+                }
+                (0..n).filter(|&i| !is_child[i]).collect()
+            };
+        let mut out = Vec::new();
+        let mut stack: Vec<(usize, Mat4)> = roots
+            .into_iter()
+            .rev()
+            .map(|r| (r, Mat4::IDENTITY))
+            .collect();
+        while let Some((node, parent)) = stack.pop() {
+            let nd = doc.nodes().nth(node).expect("validated index");
+            let local = Mat4::from_cols_array_2d(&nd.transform().matrix());
+            let world = parent * local;
+            out.push((node, world));
+            if out.len() > MAX_INSTANCES {
+                return Err(self.err(format!(
+                    "more than {MAX_INSTANCES} node instances: shared subtrees explode"
+                )));
+            }
+            for c in children[node].iter().rev() {
+                stack.push((*c, world));
+            }
+        }
+        Ok(out)
+    }
+
+    /// Appends every triangle primitive of `m` under `world`; returns the number of
+    /// degenerate triangles dropped.
+    #[allow(clippy::too_many_arguments)]
+    fn append_mesh(
+        &mut self,
+        m: &gltf::Mesh,
+        world: &Mat4,
+        buffers: &[Vec<u8>],
+        materials: &[Material],
+        default_material: u32,
+        out: &mut Mesh,
+    ) -> Result<usize> {
+        let mesh_name = m
+            .name()
+            .map(|n| format!("mesh {} ('{n}')", m.index()))
+            .unwrap_or_else(|| format!("mesh {}", m.index()));
+        let normal_matrix = Mat3::from_mat4(*world).inverse().transpose();
+        let det = Mat3::from_mat4(*world).determinant();
+        if det == 0.0 || !det.is_finite() {
+            self.warn(format!(
+                "{mesh_name}: an instance has a singular transform (zero scale) and was skipped"
+            ));
+            return Ok(0);
+        }
+        let flip = det < 0.0;
+        let mut degenerate = 0;
+        for prim in m.primitives() {
+            let what = format!("{mesh_name} primitive {}", prim.index());
+            use gltf::mesh::Mode;
+            let mode = prim.mode();
+            if matches!(
+                mode,
+                Mode::Points | Mode::Lines | Mode::LineLoop | Mode::LineStrip
+            ) {
+                self.warn(format!(
+                    "{what}: {mode:?} primitives (points/lines) are not rendered and were skipped"
+                ));
+                continue;
+            }
+            let reader = prim.reader(|b| buffers.get(b.index()).map(|v| v.as_slice()));
+            let pos_acc = prim
+                .get(&gltf::Semantic::Positions)
+                .ok_or_else(|| self.err(format!("{what}: no POSITION attribute")))?;
+            if pos_acc.data_type() != gltf::accessor::DataType::F32
+                || pos_acc.dimensions() != gltf::accessor::Dimensions::Vec3
+            {
+                return Err(self.err(format!(
+                    "{what}: POSITION must be float VEC3 (quantized positions, KHR_mesh_quantization, are not supported)"
+                )));
+            }
+            let positions: Vec<Vec3> = reader
+                .read_positions()
+                .ok_or_else(|| self.err(format!("{what}: cannot read POSITION")))?
+                .map(Vec3::from)
+                .collect();
+            if positions.len() != pos_acc.count() {
+                return Err(self.err(format!(
+                    "{what}: POSITION data is shorter than its accessor count"
+                )));
+            }
+            if let Some(bad) = positions.iter().position(|p| !p.is_finite()) {
+                return Err(self.err(format!(
+                    "{what}: vertex {bad} has a NaN or infinite position"
+                )));
+            }
+            let nv = positions.len();
+            let read_exact = |v: Option<Vec<Vec3>>, name: &str| -> Result<Option<Vec<Vec3>>> {
+                match v {
+                    Some(v) if v.len() != nv => Err(self.err(format!(
+                        "{what}: {name} has {} entries for {nv} vertices",
+                        v.len()
+                    ))),
+                    other => Ok(other),
+                }
+            };
+            let normals = read_exact(
+                reader.read_normals().map(|it| it.map(Vec3::from).collect()),
+                "NORMAL",
+            )?;
+            let tangents: Option<Vec<Vec4>> = reader
+                .read_tangents()
+                .map(|it| it.map(Vec4::from).collect());
+            let uv0: Option<Vec<Vec2>> = reader
+                .read_tex_coords(0)
+                .map(|t| t.into_f32().map(Vec2::from).collect());
+            let uv1: Option<Vec<Vec2>> = reader
+                .read_tex_coords(1)
+                .map(|t| t.into_f32().map(Vec2::from).collect());
+            let colors: Option<Vec<Vec4>> = reader
+                .read_colors(0)
+                .map(|c| c.into_rgba_f32().map(Vec4::from).collect());
+            for (len, name) in [
+                (tangents.as_ref().map(Vec::len), "TANGENT"),
+                (uv0.as_ref().map(Vec::len), "TEXCOORD_0"),
+                (uv1.as_ref().map(Vec::len), "TEXCOORD_1"),
+                (colors.as_ref().map(Vec::len), "COLOR_0"),
+            ] {
+                if let Some(l) = len {
+                    if l != nv {
+                        return Err(
+                            self.err(format!("{what}: {name} has {l} entries for {nv} vertices"))
+                        );
+                    }
+                }
+            }
+            let raw_indices: Vec<u32> = match reader.read_indices() {
+                Some(ix) => ix.into_u32().collect(),
+                None => (0..nv as u32).collect(),
+            };
+            if let Some(&bad) = raw_indices.iter().find(|&&i| i as usize >= nv) {
+                return Err(self.err(format!(
+                    "{what}: index {bad} is out of range (the primitive has {nv} vertices)"
+                )));
+            }
+            let tris: Vec<[u32; 3]> = match mode {
+                Mode::Triangles => raw_indices
+                    .chunks_exact(3)
+                    .map(|c| [c[0], c[1], c[2]])
+                    .collect(),
+                Mode::TriangleStrip => (0..raw_indices.len().saturating_sub(2))
+                    .map(|i| {
+                        let (a, b, c) = (raw_indices[i], raw_indices[i + 1], raw_indices[i + 2]);
+                        if i % 2 == 0 { [a, b, c] } else { [b, a, c] }
+                    })
+                    .collect(),
+                Mode::TriangleFan => (1..raw_indices.len().saturating_sub(1))
+                    .map(|i| [raw_indices[0], raw_indices[i], raw_indices[i + 1]])
+                    .collect(),
+                _ => unreachable!("points and lines skipped above"),
+            };
+            let material_index = prim
+                .material()
+                .index()
+                .map(|i| i as u32)
+                .unwrap_or(default_material);
+            let material = &materials[material_index as usize];
+
+            // Tangents for normal maps: given, or generated with MikkTSpace.
+            let mut tangents = tangents;
+            if let Some(nt) = material.normal_tex {
+                if tangents.is_none() {
+                    let uv = if nt.tex_coord == 0 { &uv0 } else { &uv1 };
+                    match (uv, &normals) {
+                        (Some(uv), Some(n)) => {
+                            tangents = Some(mikktspace_tangents(&positions, n, uv, &tris))
+                        }
+                        _ => self.warn(format!(
+                            "{what}: a normal map without UVs or normals cannot be applied; ignored"
+                        )),
+                    }
+                }
+            }
+
+            // Append transformed vertices.
+            let base = out.positions.len() as u32;
+            for i in 0..nv {
+                out.positions.push(world.transform_point3(positions[i]));
+                // A zero normal marks "use the geometric normal" (glTF: flat shading
+                // when normals are absent).
+                let n = normals
+                    .as_ref()
+                    .map(|n| (normal_matrix * n[i]).normalize_or_zero())
+                    .unwrap_or(Vec3::ZERO);
+                out.normals.push(n);
+                let t = tangents
+                    .as_ref()
+                    .map(|t| {
+                        let v = world.transform_vector3(t[i].truncate()).normalize_or_zero();
+                        v.extend(if flip { -t[i].w } else { t[i].w })
+                    })
+                    .unwrap_or(Vec4::ZERO);
+                out.tangents.push(t);
+                out.uv0
+                    .push(uv0.as_ref().map(|u| u[i]).unwrap_or(Vec2::ZERO));
+                out.uv1
+                    .push(uv1.as_ref().map(|u| u[i]).unwrap_or(Vec2::ZERO));
+                out.colors
+                    .push(colors.as_ref().map(|c| c[i]).unwrap_or(Vec4::ONE));
+            }
+            for t in tris {
+                let p = t.map(|i| out.positions[(base + i) as usize]);
+                let area2 = (p[1] - p[0]).cross(p[2] - p[0]).length();
+                if !(area2 > 0.0) || !area2.is_finite() {
+                    degenerate += 1;
+                    continue;
+                }
+                let t = if flip { [t[0], t[2], t[1]] } else { t };
+                out.triangles.push(t.map(|i| base + i));
+                out.tri_material.push(material_index);
+            }
+        }
+        Ok(degenerate)
+    }
+
+    fn camera(&mut self, c: &gltf::Camera, node_name: &str, world: &Mat4) -> Result<Camera> {
+        let name = c
+            .name()
+            .map(str::to_string)
+            .unwrap_or_else(|| node_name.to_string());
+        let projection = match c.projection() {
+            gltf::camera::Projection::Perspective(p) => {
+                let yfov = p.yfov();
+                if !(yfov > 0.0 && yfov < std::f32::consts::PI) {
+                    return Err(self.err(format!(
+                        "camera '{name}': yfov {yfov} must be in (0, π) radians"
+                    )));
+                }
+                let aspect = match p.aspect_ratio() {
+                    Some(a) if a > 0.0 && a.is_finite() => Some(a),
+                    Some(a) => {
+                        self.warn(format!(
+                            "camera '{name}': aspectRatio {a} is invalid and was ignored"
+                        ));
+                        None
+                    }
+                    None => None,
+                };
+                Projection::Perspective { yfov, aspect }
+            }
+            gltf::camera::Projection::Orthographic(o) => {
+                let (xmag, ymag) = (o.xmag().abs(), o.ymag().abs());
+                if !(xmag > 0.0 && ymag > 0.0 && xmag.is_finite() && ymag.is_finite()) {
+                    return Err(self.err(format!(
+                        "camera '{name}': xmag/ymag must be non-zero and finite"
+                    )));
+                }
+                Projection::Orthographic { xmag, ymag }
+            }
+        };
+        Ok(Camera::from_matrix(name, world, projection))
+    }
+
+    fn punctual_light(
+        &mut self,
+        l: &gltf::khr_lights_punctual::Light,
+        node_name: &str,
+        world: &Mat4,
+    ) -> Result<(Light, LightReport)> {
+        let name = l
+            .name()
+            .map(str::to_string)
+            .unwrap_or_else(|| node_name.to_string());
+        let intensity = l.intensity();
+        let color = Vec3::from(l.color());
+        if !(intensity >= 0.0 && intensity.is_finite())
+            || !color.is_finite()
+            || color.min_element() < 0.0
+        {
+            return Err(self.err(format!(
+                "light '{name}': intensity and color must be finite and non-negative"
+            )));
+        }
+        if l.range().is_some() {
+            self.warn(format!("light '{name}': 'range' is ignored (Caustic's lights fall off physically, as Cycles')"));
+        }
+        let position = world.transform_point3(Vec3::ZERO);
+        let forward = world.transform_vector3(-Vec3::Z).normalize_or(-Vec3::Z);
+        let radiometric = color * (intensity / LUMENS_PER_WATT);
+        use gltf::khr_lights_punctual::Kind;
+        let (light, kind) = match l.kind() {
+            Kind::Point => (
+                Light::Point {
+                    position,
+                    intensity: radiometric,
+                },
+                "point",
+            ),
+            Kind::Directional => (
+                Light::Directional {
+                    direction: forward,
+                    irradiance: radiometric,
+                },
+                "directional",
+            ),
+            Kind::Spot {
+                inner_cone_angle,
+                outer_cone_angle,
+            } => {
+                let outer = outer_cone_angle.clamp(1e-4, std::f32::consts::FRAC_PI_2);
+                let inner = inner_cone_angle.clamp(0.0, outer);
+                if outer != outer_cone_angle || inner != inner_cone_angle {
+                    self.warn(format!(
+                        "light '{name}': spot cone angles were clamped to 0 ≤ inner ≤ outer ≤ π/2"
+                    ));
+                }
+                (
+                    Light::Spot {
+                        position,
+                        direction: forward,
+                        intensity: radiometric,
+                        cos_inner: inner.cos(),
+                        cos_outer: outer.cos(),
+                    },
+                    "spot",
+                )
+            }
+        };
+        Ok((
+            light,
+            LightReport {
+                kind: kind.into(),
+                name,
+                power: 0.0,
+                triangles: 0,
+            },
+        ))
+    }
+
+    fn area_light(
+        &mut self,
+        ext: &serde_json::Value,
+        name: &str,
+        world: &Mat4,
+    ) -> Result<Option<(Light, LightReport)>> {
+        let a: AreaLightExt = serde_json::from_value(ext.clone()).map_err(|e| {
+            self.err(format!(
+                "node '{name}': CAUSTIC_lights_area is malformed: {e}"
+            ))
+        })?;
+        let shape = match a.shape.as_str() {
+            "rectangle" | "square" => AreaShape::Rectangle,
+            "disk" | "ellipse" => AreaShape::Ellipse,
+            other => {
+                return Err(self.err(format!(
+                    "node '{name}': CAUSTIC_lights_area shape '{other}' is unknown (rectangle, square, disk, ellipse)"
+                )));
+            }
+        };
+        let sx = *a
+            .size
+            .first()
+            .ok_or_else(|| self.err(format!("node '{name}': CAUSTIC_lights_area has no size")))?;
+        let sy = if matches!(a.shape.as_str(), "square" | "disk") {
+            sx
+        } else {
+            a.size.get(1).copied().unwrap_or(sx)
+        };
+        let color = Vec3::from(a.color);
+        if !(a.power >= 0.0 && a.power.is_finite())
+            || !color.is_finite()
+            || color.min_element() < 0.0
+            || !(sx.is_finite() && sy.is_finite())
+        {
+            return Err(self.err(format!("node '{name}': CAUSTIC_lights_area power, color and size must be finite and non-negative")));
+        }
+        let center = world.transform_point3(Vec3::ZERO);
+        let ax = world.transform_vector3(Vec3::X * (0.5 * sx));
+        let ay = world.transform_vector3(Vec3::Y * (0.5 * sy));
+        let emit = world.transform_vector3(-Vec3::Z);
+        match AreaLight::new(shape, center, ax, ay, emit, color * a.power) {
+            Some(l) => Ok(Some((
+                Light::Area(l),
+                LightReport {
+                    kind: "area".into(),
+                    name: name.into(),
+                    power: 0.0,
+                    triangles: 0,
+                },
+            ))),
+            None => {
+                self.warn(format!("area light '{name}' has zero area and was skipped"));
+                Ok(None)
+            }
+        }
+    }
+}
+
+/// Power used for light selection and reported by `info` (luminance, W).
+fn punctual_power(l: &Light, scene_radius: f32) -> f32 {
+    use std::f32::consts::PI;
+    match l {
+        Light::Point { intensity, .. } => 4.0 * PI * luminance(*intensity),
+        // A spot's power is bounded by its cone; Blender's spots have a point's
+        // intensity, so use the cone's solid angle.
+        Light::Spot {
+            intensity,
+            cos_outer,
+            ..
+        } => 2.0 * PI * (1.0 - cos_outer) * luminance(*intensity),
+        Light::Directional { irradiance, .. } => {
+            PI * scene_radius * scene_radius * luminance(*irradiance)
+        }
+        Light::Area(a) => luminance(a.radiance) * a.area * PI,
+        Light::Triangle { .. } => 0.0,
+    }
+}
+
+fn push_unique(v: &mut Vec<String>, s: &str) {
+    if !v.iter().any(|x| x == s) {
+        v.push(s.to_string());
+    }
+}
+
+fn describe_validation(e: &gltf::Error) -> String {
+    match e {
+        gltf::Error::Validation(errs) => errs
+            .iter()
+            .take(5)
+            .map(|(path, err)| format!("{}: {err}", path.as_str()))
+            .collect::<Vec<_>>()
+            .join("; "),
+        other => other.to_string(),
+    }
+}
+
+/// A camera looking at the bounds from +Z, far enough to see them all.
+fn frame_bounds(lo: Vec3, hi: Vec3) -> Camera {
+    let c = (lo + hi) * 0.5;
+    let r = ((hi - lo).length() * 0.5).max(1e-3);
+    let yfov = 40f32.to_radians();
+    let dist = r / (0.5 * yfov).sin();
+    let m = Mat4::from_translation(c + Vec3::Z * dist);
+    Camera::from_matrix(
+        "auto".into(),
+        &m,
+        Projection::Perspective { yfov, aspect: None },
+    )
+}
+
+/// MikkTSpace tangents for an indexed triangle list, per vertex.
+fn mikktspace_tangents(
+    positions: &[Vec3],
+    normals: &[Vec3],
+    uvs: &[Vec2],
+    tris: &[[u32; 3]],
+) -> Vec<Vec4> {
+    struct Geo<'a> {
+        p: &'a [Vec3],
+        n: &'a [Vec3],
+        uv: &'a [Vec2],
+        tris: &'a [[u32; 3]],
+        out: Vec<Vec4>,
+    }
+    impl mikktspace::Geometry for Geo<'_> {
+        fn num_faces(&self) -> usize {
+            self.tris.len()
+        }
+        fn num_vertices_of_face(&self, _face: usize) -> usize {
+            3
+        }
+        fn position(&self, face: usize, vert: usize) -> [f32; 3] {
+            self.p[self.tris[face][vert] as usize].to_array()
+        }
+        fn normal(&self, face: usize, vert: usize) -> [f32; 3] {
+            self.n[self.tris[face][vert] as usize].to_array()
+        }
+        fn tex_coord(&self, face: usize, vert: usize) -> [f32; 2] {
+            self.uv[self.tris[face][vert] as usize].to_array()
+        }
+        fn set_tangent_encoded(&mut self, tangent: [f32; 4], face: usize, vert: usize) {
+            self.out[self.tris[face][vert] as usize] = Vec4::from(tangent);
+        }
+    }
+    let mut g = Geo {
+        p: positions,
+        n: normals,
+        uv: uvs,
+        tris,
+        out: vec![Vec4::ZERO; positions.len()],
+    };
+    mikktspace::generate_tangents(&mut g);
+    g.out
+}

@@ -1,0 +1,87 @@
+//! Materials as the renderer sees them: glTF metallic-roughness factors and textures.
+
+use super::texture::{TexRef, Texture};
+use crate::math::Rgb;
+use glam::{Vec2, Vec4};
+
+/// How a material's alpha is used.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum AlphaMode {
+    /// Alpha ignored.
+    Opaque,
+    /// Surface present where alpha ≥ cutoff.
+    Mask(f32),
+    /// Alpha is coverage: rays pass with probability 1 - alpha (stochastic transparency).
+    Blend,
+}
+
+/// A glTF material.
+#[derive(Clone, Debug)]
+pub struct Material {
+    /// Name for messages.
+    pub name: String,
+    /// Base colour factor (linear RGBA).
+    pub base_color: Vec4,
+    /// Base colour texture (sRGB).
+    pub base_color_tex: Option<TexRef>,
+    /// Metallic factor.
+    pub metallic: f32,
+    /// Roughness factor.
+    pub roughness: f32,
+    /// Metallic (B) and roughness (G) texture.
+    pub metallic_roughness_tex: Option<TexRef>,
+    /// Tangent-space normal map.
+    pub normal_tex: Option<TexRef>,
+    /// Normal map scale.
+    pub normal_scale: f32,
+    /// Emitted radiance factor (emissiveFactor × emissive strength).
+    pub emissive: Rgb,
+    /// Emissive texture (sRGB).
+    pub emissive_tex: Option<TexRef>,
+    /// Alpha mode.
+    pub alpha_mode: AlphaMode,
+    /// Emits from both sides (glTF `doubleSided`). Shading is always two-sided, as in Cycles.
+    pub double_sided: bool,
+}
+
+impl Default for Material {
+    /// glTF's default material: white, fully rough dielectric... except that the
+    /// spec's default metallic is 1; we keep the spec.
+    fn default() -> Self {
+        Material {
+            name: "default".into(),
+            base_color: Vec4::ONE,
+            base_color_tex: None,
+            metallic: 1.0,
+            roughness: 1.0,
+            metallic_roughness_tex: None,
+            normal_tex: None,
+            normal_scale: 1.0,
+            emissive: Rgb::ZERO,
+            emissive_tex: None,
+            alpha_mode: AlphaMode::Opaque,
+            double_sided: false,
+        }
+    }
+}
+
+impl Material {
+    /// True when the material emits light.
+    pub fn is_emissive(&self) -> bool {
+        self.emissive.max_element() > 0.0
+    }
+}
+
+impl Material {
+    /// Emitted radiance at a point with texture coordinates `uv` (sets 0 and 1).
+    #[inline]
+    pub fn emission(&self, textures: &[Texture], uv: [Vec2; 2]) -> Rgb {
+        let mut e = self.emissive;
+        if let Some(t) = self.emissive_tex {
+            e *= textures[t.texture as usize]
+                .lookup(t.uv(uv[t.tex_coord as usize]))
+                .truncate();
+        }
+        e
+    }
+}

@@ -1,0 +1,156 @@
+//! The renderer's own scene description. Everything downstream of the loader sees
+//! these types only; `gltf.rs` is the one module that reads glTF.
+
+pub mod camera;
+pub mod gltf;
+pub mod material;
+pub mod texture;
+
+use crate::light::Light;
+use glam::{Vec2, Vec3, Vec4};
+use serde::Serialize;
+
+pub use camera::{Camera, Projection};
+pub use material::{AlphaMode, Material};
+pub use texture::{TexRef, Texture};
+
+/// All triangles of the scene, instanced and transformed to world space, with
+/// per-vertex attributes (absent attributes are filled with defaults).
+#[derive(Clone, Debug, Default)]
+pub struct Mesh {
+    /// World-space positions.
+    pub positions: Vec<Vec3>,
+    /// World-space unit shading normals.
+    pub normals: Vec<Vec3>,
+    /// World-space tangents with the bitangent sign in w (zero when not needed).
+    pub tangents: Vec<Vec4>,
+    /// TEXCOORD_0.
+    pub uv0: Vec<Vec2>,
+    /// TEXCOORD_1.
+    pub uv1: Vec<Vec2>,
+    /// COLOR_0 (white when absent).
+    pub colors: Vec<Vec4>,
+    /// Vertex indices, counter-clockwise seen from the front.
+    pub triangles: Vec<[u32; 3]>,
+    /// Material of each triangle.
+    pub tri_material: Vec<u32>,
+}
+
+/// Render settings stored in the scene (`scenes[i].extras.caustic`), all optional;
+/// command-line flags override them.
+#[derive(Clone, Debug, Default, Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneSettings {
+    /// Output size in pixels.
+    pub resolution: Option<[u32; 2]>,
+    /// Samples per pixel.
+    pub spp: Option<u32>,
+    /// Seconds to render for.
+    pub time_limit: Option<f64>,
+    /// Maximum scattering events per path.
+    pub max_depth: Option<u32>,
+    /// Random seed.
+    pub seed: Option<u32>,
+    /// Worker threads.
+    pub threads: Option<usize>,
+    /// Integrator name.
+    pub integrator: Option<String>,
+    /// Pixel filter: "blackman-harris" or "box".
+    pub filter: Option<String>,
+    /// Filter width in pixels.
+    pub filter_width: Option<f32>,
+    /// Camera name.
+    pub camera: Option<String>,
+}
+
+/// Counts and per-material features for `caustic info`.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct LoadReport {
+    /// Source file.
+    pub file: String,
+    /// Triangles after instancing and after dropping degenerate ones.
+    pub triangles: usize,
+    /// Distinct glTF meshes used.
+    pub meshes: usize,
+    /// Mesh instances (nodes with a mesh).
+    pub instances: usize,
+    /// Degenerate (zero-area) triangles dropped.
+    pub degenerate_triangles: usize,
+    /// `extensionsUsed` of the file.
+    pub extensions_used: Vec<String>,
+    /// One entry per material.
+    pub materials: Vec<MaterialReport>,
+    /// One entry per light.
+    pub lights: Vec<LightReport>,
+    /// Cameras by name.
+    pub cameras: Vec<CameraReport>,
+    /// Scene bounds (min, max).
+    pub bounds: [[f32; 3]; 2],
+}
+
+/// A material in the report.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct MaterialReport {
+    /// Name.
+    pub name: String,
+    /// glTF features and extensions it uses.
+    pub features: Vec<String>,
+}
+
+/// A light in the report.
+#[derive(Clone, Debug, Serialize)]
+pub struct LightReport {
+    /// "point", "spot", "directional", "area", "emissive".
+    pub kind: String,
+    /// Name (node or mesh).
+    pub name: String,
+    /// Emitted power in W (luminance-weighted; directional: through the scene's disk).
+    pub power: f32,
+    /// Number of emissive triangles (for "emissive" entries).
+    pub triangles: usize,
+}
+
+/// A camera in the report.
+#[derive(Clone, Debug, Serialize)]
+pub struct CameraReport {
+    /// Name.
+    pub name: String,
+    /// "perspective" or "orthographic".
+    pub kind: String,
+}
+
+/// A loaded scene.
+#[derive(Clone, Debug, Default)]
+pub struct Scene {
+    /// Geometry.
+    pub mesh: Mesh,
+    /// Materials; triangles index into this.
+    pub materials: Vec<Material>,
+    /// Textures; materials index into this.
+    pub textures: Vec<Texture>,
+    /// Lights (emissive triangles are one light each).
+    pub lights: Vec<Light>,
+    /// Power (luminance, W) of each light, for light selection.
+    pub light_power: Vec<f32>,
+    /// Cameras in node order.
+    pub cameras: Vec<Camera>,
+    /// Render settings from the file.
+    pub settings: SceneSettings,
+    /// Everything the loader dropped, clamped or guessed.
+    pub warnings: Vec<String>,
+    /// Counts for `caustic info`.
+    pub report: LoadReport,
+    /// World bounds (min, max).
+    pub bounds: (Vec3, Vec3),
+}
+
+impl Scene {
+    /// Centre and radius of a sphere bounding the scene.
+    pub fn bounding_sphere(&self) -> (Vec3, f32) {
+        let c = (self.bounds.0 + self.bounds.1) * 0.5;
+        (
+            c,
+            ((self.bounds.1 - self.bounds.0).length() * 0.5).max(1e-3),
+        )
+    }
+}

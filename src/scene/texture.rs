@@ -1,0 +1,182 @@
+//! Decoded textures and their lookup: wrap modes, bilinear or nearest filtering,
+//! sRGB decoding, `KHR_texture_transform`.
+
+use glam::{Mat3, Vec2, Vec3, Vec4};
+
+/// glTF sampler wrap mode.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Wrap {
+    /// REPEAT.
+    Repeat,
+    /// MIRRORED_REPEAT.
+    Mirror,
+    /// CLAMP_TO_EDGE.
+    Clamp,
+}
+
+/// An 8-bit RGBA image with its sampler state. 8 bits per channel keeps large scenes
+/// in memory (a 4k texture is 64 MiB); 16-bit PNGs are reduced to 8 bits on load.
+#[derive(Clone, Debug)]
+pub struct Texture {
+    /// Name for messages.
+    pub name: String,
+    /// Width in texels.
+    pub width: u32,
+    /// Height in texels.
+    pub height: u32,
+    /// Row-major RGBA texels, top row first (glTF's UV origin is the top-left).
+    pub texels: Vec<[u8; 4]>,
+    /// RGB are sRGB-encoded (base colour, emissive); alpha is always linear.
+    pub srgb: bool,
+    /// Horizontal wrap.
+    pub wrap_s: Wrap,
+    /// Vertical wrap.
+    pub wrap_t: Wrap,
+    /// Nearest-texel lookup (glTF magFilter NEAREST) instead of bilinear.
+    pub nearest: bool,
+}
+
+/// sRGB → linear table for 8-bit values.
+fn srgb_table() -> &'static [f32; 256] {
+    static TABLE: std::sync::OnceLock<[f32; 256]> = std::sync::OnceLock::new();
+    TABLE.get_or_init(|| {
+        let mut t = [0.0; 256];
+        for (i, v) in t.iter_mut().enumerate() {
+            let c = i as f32 / 255.0;
+            *v = if c <= 0.04045 {
+                c / 12.92
+            } else {
+                ((c + 0.055) / 1.055).powf(2.4)
+            };
+        }
+        t
+    })
+}
+
+#[inline]
+fn wrap(i: i64, n: u32, mode: Wrap) -> u32 {
+    let n = n as i64;
+    let j = match mode {
+        Wrap::Repeat => i.rem_euclid(n),
+        Wrap::Clamp => i.clamp(0, n - 1),
+        Wrap::Mirror => {
+            let period = 2 * n;
+            let k = i.rem_euclid(period);
+            if k < n { k } else { period - 1 - k }
+        }
+    };
+    j as u32
+}
+
+impl Texture {
+    #[inline]
+    fn texel(&self, x: i64, y: i64) -> Vec4 {
+        let x = wrap(x, self.width, self.wrap_s);
+        let y = wrap(y, self.height, self.wrap_t);
+        let t = self.texels[(y * self.width + x) as usize];
+        if self.srgb {
+            let table = srgb_table();
+            Vec4::new(
+                table[t[0] as usize],
+                table[t[1] as usize],
+                table[t[2] as usize],
+                t[3] as f32 / 255.0,
+            )
+        } else {
+            Vec4::new(t[0] as f32, t[1] as f32, t[2] as f32, t[3] as f32) / 255.0
+        }
+    }
+
+    /// Filtered linear RGBA at texture coordinate `uv`.
+    #[inline]
+    pub fn lookup(&self, uv: Vec2) -> Vec4 {
+        if !uv.is_finite() {
+            return self.texel(0, 0);
+        }
+        let x = uv.x * self.width as f32 - 0.5;
+        let y = uv.y * self.height as f32 - 0.5;
+        if self.nearest {
+            return self.texel(x.round() as i64, y.round() as i64);
+        }
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let (x0, y0) = (x0 as i64, y0 as i64);
+        let a = self.texel(x0, y0).lerp(self.texel(x0 + 1, y0), fx);
+        let b = self.texel(x0, y0 + 1).lerp(self.texel(x0 + 1, y0 + 1), fx);
+        a.lerp(b, fy)
+    }
+
+    /// Mean linear RGB over the image (for light power estimates).
+    pub fn mean_rgb(&self) -> Vec3 {
+        let mut sum = glam::DVec3::ZERO;
+        for y in 0..self.height as i64 {
+            for x in 0..self.width as i64 {
+                sum += self.texel(x, y).truncate().as_dvec3();
+            }
+        }
+        (sum / (self.width as f64 * self.height as f64).max(1.0)).as_vec3()
+    }
+}
+
+/// A material's reference to a texture.
+#[derive(Clone, Copy, Debug)]
+pub struct TexRef {
+    /// Index into `Scene::textures`.
+    pub texture: u32,
+    /// Which UV set (0 or 1).
+    pub tex_coord: u32,
+    /// `KHR_texture_transform` as a 2D affine matrix (identity when absent).
+    pub transform: Mat3,
+}
+
+impl TexRef {
+    /// Applies the texture transform.
+    #[inline]
+    pub fn uv(&self, uv: Vec2) -> Vec2 {
+        self.transform.transform_point2(uv)
+    }
+}
+
+/// Builds the `KHR_texture_transform` matrix: T * R * S, as the extension specifies.
+pub fn texture_transform(offset: [f32; 2], rotation: f32, scale: [f32; 2]) -> Mat3 {
+    let t = Mat3::from_cols(Vec3::X, Vec3::Y, Vec3::new(offset[0], offset[1], 1.0));
+    let (s, c) = rotation.sin_cos();
+    let r = Mat3::from_cols(Vec3::new(c, -s, 0.0), Vec3::new(s, c, 0.0), Vec3::Z);
+    let sc = Mat3::from_diagonal(Vec3::new(scale[0], scale[1], 1.0));
+    t * r * sc
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tex(wrap_mode: Wrap) -> Texture {
+        Texture {
+            name: "t".into(),
+            width: 2,
+            height: 1,
+            texels: vec![[0, 0, 0, 255], [255, 255, 255, 255]],
+            srgb: false,
+            wrap_s: wrap_mode,
+            wrap_t: Wrap::Clamp,
+            nearest: true,
+        }
+    }
+
+    #[test]
+    fn wrap_modes() {
+        assert_eq!(tex(Wrap::Repeat).lookup(Vec2::new(1.25, 0.5)).x, 0.0);
+        assert_eq!(tex(Wrap::Clamp).lookup(Vec2::new(1.25, 0.5)).x, 1.0);
+        assert_eq!(tex(Wrap::Mirror).lookup(Vec2::new(1.25, 0.5)).x, 1.0);
+        assert_eq!(tex(Wrap::Mirror).lookup(Vec2::new(1.75, 0.5)).x, 0.0);
+    }
+
+    #[test]
+    fn transform_rotates_then_offsets() {
+        // The extension's example: rotation by 90° maps (1, 0) to (0, -1) (its matrix
+        // is [c s; -s c] in column order), then offset.
+        let m = texture_transform([0.5, 0.0], std::f32::consts::FRAC_PI_2, [1.0, 1.0]);
+        let p = m.transform_point2(Vec2::new(1.0, 0.0));
+        assert!((p - Vec2::new(0.5, -1.0)).length() < 1e-5, "{p}");
+    }
+}
