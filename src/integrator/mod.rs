@@ -417,10 +417,17 @@ impl<'a> SceneContext<'a> {
                 }
                 let (uv, _) = self.attributes(*tri, b.x, b.y);
                 let normal = if cos_signed >= 0.0 { n } else { -n };
+                // A partly transparent emitter emits in proportion to its coverage, as
+                // a path that hits it counts its emission only when it does not pass.
+                let coverage = match mat.alpha_mode {
+                    AlphaMode::Opaque => 1.0,
+                    AlphaMode::Blend => self.alpha(*tri, b.x, b.y).clamp(0.0, 1.0),
+                    AlphaMode::Mask(cutoff) => (self.alpha(*tri, b.x, b.y) >= cutoff) as u8 as f32,
+                };
                 Some(LightSample {
                     wi,
                     dist,
-                    li: mat.emission(&self.scene.textures, uv),
+                    li: mat.emission(&self.scene.textures, uv) * coverage,
                     pdf,
                     delta: false,
                     point: q,

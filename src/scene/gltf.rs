@@ -52,9 +52,14 @@ pub fn load(path: &Path) -> Result<Scene> {
 /// Panics inside the parser are turned into errors: a malformed file must never
 /// take the process down.
 pub fn load_bytes(bytes: &[u8], base_dir: &Path, file: &str) -> Result<Scene> {
+    // The parser's panics are reported as errors below; keep their default message
+    // (and backtrace) off stderr, where a host reads JSON lines.
+    let previous_hook = std::panic::take_hook();
+    std::panic::set_hook(Box::new(|_| {}));
     let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         Loader::new(file, base_dir).load(bytes)
     }));
+    std::panic::set_hook(previous_hook);
     match result {
         Ok(r) => r,
         Err(panic) => {
@@ -301,6 +306,7 @@ impl<'a> Loader<'a> {
             });
         }
 
+        let file_cameras = cameras.len();
         if cameras.is_empty() {
             self.warn(
                 "no camera in the file: framing the scene's bounds from +Z with a 40° camera",
@@ -327,7 +333,9 @@ impl<'a> Loader<'a> {
             lights: light_reports,
             cameras: cameras
                 .iter()
-                .map(|c| CameraReport {
+                .enumerate()
+                .map(|(i, c)| CameraReport {
+                    generated: i >= file_cameras,
                     name: c.name.clone(),
                     kind: match c.projection {
                         Projection::Perspective { .. } => "perspective".into(),

@@ -117,6 +117,8 @@ pub struct CameraReport {
     pub name: String,
     /// "perspective" or "orthographic".
     pub kind: String,
+    /// Made by the loader because the file has no camera.
+    pub generated: bool,
 }
 
 /// A loaded scene.

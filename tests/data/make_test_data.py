@@ -800,7 +800,10 @@ def make_lights_punctual():
                    "inner_cone_angle": 0.3, "outer_cone_angle": 0.6},
                   {"type": "directional", "name": "sun", "direction": [0.0, -s, -s],
                    "intensity": 3.0}]},
-              render_checks=[{"region": [0, 0, 8, 8], "rgb_min": [0.01, 0.01, 0.01],
+              # Caustic reads cd as W/sr x 683 (Blender's exporter convention), so the
+              # 100 cd point light is 0.146 W/sr: the floor below it has radiance ~0.009
+              # and the image mean is ~0.005. The check only asks for a lit floor.
+              render_checks=[{"region": [0, 0, 8, 8], "rgb_min": [0.002, 0.002, 0.002],
                               "what": "the floor is lit"}])
 
 
