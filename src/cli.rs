@@ -48,6 +48,28 @@ pub enum Command {
     Render(RenderArgs),
     /// Describe what Caustic loads from a scene, with every warning.
     Info(InfoArgs),
+    /// Measure rendering speed on a scene (default: the bundled Cornell box).
+    Bench(BenchArgs),
+}
+
+/// `caustic bench`.
+#[derive(Args, Debug)]
+pub struct BenchArgs {
+    /// Scene file [default: scenes/cornell_box.gltf].
+    #[arg(default_value = "scenes/cornell_box.gltf")]
+    pub scene: PathBuf,
+    /// Samples per pixel.
+    #[arg(long, default_value_t = 64)]
+    pub spp: u32,
+    /// Image size WxH.
+    #[arg(long, value_parser = parse_resolution, default_value = "512x512")]
+    pub resolution: (u32, u32),
+    /// Worker threads [default: all cores].
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Print the figures as JSON.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// Light-transport algorithm.
@@ -327,6 +349,8 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
 pub struct Outcome {
     /// Stopped by a signal (the partial image was written).
     pub interrupted: bool,
+    /// The summary object that was reported.
+    pub summary: serde_json::Value,
 }
 
 /// `caustic render`.
@@ -448,7 +472,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     let secs = result.elapsed.as_secs_f64().max(1e-9);
     let pixels = ((res.window[2] - res.window[0]) * (res.window[3] - res.window[1])) as f64;
     let total_samples: f64 = result.image.samples.iter().map(|&s| s as f64).sum();
-    reporter.summary(json!({
+    let summary = json!({
         "output": out_str,
         "width": res.window[2] - res.window[0],
         "height": res.window[3] - res.window[1],
@@ -472,9 +496,11 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
             "shadow_rays_per_sec": result.rays.shadow as f64 / secs,
             "threads": res.threads,
         }
-    }));
+    });
+    reporter.summary(summary.clone());
     Ok(Outcome {
         interrupted: result.interrupted,
+        summary,
     })
 }
 
@@ -543,5 +569,97 @@ pub fn run_info(args: &InfoArgs) -> Result<()> {
             println!("    {w}");
         }
     }
+    Ok(())
+}
+
+/// `caustic bench`: renders the scene once to a temporary file and prints the figures.
+pub fn run_bench(args: &BenchArgs, stop: &AtomicBool) -> Result<()> {
+    let dir = std::env::temp_dir().join(format!("caustic-bench-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+    let render_args = RenderArgs {
+        scene: args.scene.clone(),
+        output: dir.join("bench.exr"),
+        spp: Some(args.spp),
+        resolution: Some(args.resolution),
+        max_depth: None,
+        seed: None,
+        threads: args.threads,
+        time_limit: None,
+        camera: None,
+        crop: None,
+        half: false,
+        progress: Some(ProgressMode::None),
+        integrator: IntegratorKind::Path,
+        interim: None,
+        filter: None,
+        filter_width: None,
+    };
+    let reporter = Reporter::silent();
+    let outcome = run_render(&render_args, &reporter, stop);
+    let _ = std::fs::remove_dir_all(&dir);
+    let s = outcome?.summary;
+    let st = &s["stats"];
+    let f = |v: &serde_json::Value| v.as_f64().unwrap_or(f64::NAN);
+    let figures = json!({
+        "scene": args.scene.display().to_string(),
+        "resolution": format!("{}x{}", args.resolution.0, args.resolution.1),
+        "spp": args.spp,
+        "threads": st["threads"],
+        "wall_seconds": f(&s["elapsed"]),
+        "render_seconds": f(&st["render_seconds"]),
+        "bvh_build_seconds": f(&st["bvh_build_seconds"]),
+        "samples_per_sec": f(&st["samples_per_sec"]),
+        "rays_per_sec": f(&st["rays_per_sec"]),
+        "camera_rays_per_sec": f(&st["camera_rays_per_sec"]),
+        "bounce_rays_per_sec": f(&st["bounce_rays_per_sec"]),
+        "shadow_rays_per_sec": f(&st["shadow_rays_per_sec"]),
+        "rays": st["rays"],
+    });
+    if args.json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&figures).unwrap_or_default()
+        );
+        return Ok(());
+    }
+    println!(
+        "scene             {}",
+        figures["scene"].as_str().unwrap_or("")
+    );
+    println!(
+        "image             {} at {} spp, {} threads",
+        figures["resolution"].as_str().unwrap_or(""),
+        args.spp,
+        st["threads"]
+    );
+    println!(
+        "wall time         {:.3} s (render {:.3} s)",
+        f(&figures["wall_seconds"]),
+        f(&figures["render_seconds"])
+    );
+    println!(
+        "BVH build         {:.4} s",
+        f(&figures["bvh_build_seconds"])
+    );
+    println!(
+        "samples/s         {:.3} M",
+        f(&figures["samples_per_sec"]) / 1e6
+    );
+    println!(
+        "rays/s            {:.3} M",
+        f(&figures["rays_per_sec"]) / 1e6
+    );
+    println!(
+        "  camera rays/s   {:.3} M",
+        f(&figures["camera_rays_per_sec"]) / 1e6
+    );
+    println!(
+        "  bounce rays/s   {:.3} M",
+        f(&figures["bounce_rays_per_sec"]) / 1e6
+    );
+    println!(
+        "  shadow rays/s   {:.3} M",
+        f(&figures["shadow_rays_per_sec"]) / 1e6
+    );
     Ok(())
 }

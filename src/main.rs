@@ -47,6 +47,16 @@ fn main() {
                 e.exit_code()
             }
         },
+        Command::Bench(args) => {
+            let stop = AtomicBool::new(false);
+            match caustic::cli::run_bench(&args, &stop) {
+                Ok(()) => exit_code::OK,
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    e.exit_code()
+                }
+            }
+        }
         Command::Render(args) => {
             let mode = args.progress.unwrap_or(if std::io::stderr().is_terminal() {
                 ProgressMode::Bar

@@ -21,6 +21,7 @@ pub enum ProgressMode {
 pub struct Reporter {
     mode: ProgressMode,
     bar: Mutex<Option<ProgressBar>>,
+    silent: bool,
 }
 
 impl Reporter {
@@ -29,6 +30,16 @@ impl Reporter {
         Reporter {
             mode,
             bar: Mutex::new(None),
+            silent: false,
+        }
+    }
+
+    /// A reporter that prints nothing at all (for `caustic bench`, which prints its own).
+    pub fn silent() -> Self {
+        Reporter {
+            mode: ProgressMode::None,
+            bar: Mutex::new(None),
+            silent: true,
         }
     }
 
@@ -109,6 +120,9 @@ impl Reporter {
 
     /// A warning.
     pub fn warning(&self, message: &str) {
+        if self.silent {
+            return;
+        }
         match self.mode {
             ProgressMode::Json => self.json_line(json!({"type": "warning", "message": message})),
             _ => self.text_line(&format!("warning: {message}")),
@@ -126,6 +140,9 @@ impl Reporter {
 
     /// The final summary.
     pub fn summary(&self, summary: Value) {
+        if self.silent {
+            return;
+        }
         match self.mode {
             ProgressMode::Json => {
                 let mut s = summary;

@@ -15,7 +15,7 @@ use super::{CameraSample, RayStats, SceneContext, power_heuristic};
 use crate::math::{Rgb, offset_ray_origin};
 use crate::sampling::PixelSampler;
 use crate::scene::AlphaMode;
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 /// The path tracer's parameters.
 #[derive(Clone, Debug)]
@@ -64,12 +64,9 @@ impl PathIntegrator {
         stats.camera += 1;
         loop {
             // Bounce dimensions, drawn up front so that their positions are fixed.
-            let u_light = sampler.next_1d();
-            let u_light_pt = sampler.next_2d();
-            let u_lobe = sampler.next_1d();
-            let u_dir = sampler.next_2d();
-            let u_rr = sampler.next_1d();
-            let u_alpha = sampler.next_1d();
+            let [u_light, u_lx, u_ly, u_lobe] = sampler.next_4d();
+            let [u_dx, u_dy, u_rr, u_alpha] = sampler.next_4d();
+            let (u_light_pt, u_dir) = (Vec2::new(u_lx, u_ly), Vec2::new(u_dx, u_dy));
 
             let hit = ctx.intersect(org, dir, f32::INFINITY);
             let t_surface = hit.map_or(f32::INFINITY, |h| h.t);

@@ -7,12 +7,13 @@
 use crate::math::hash_combine;
 use glam::Vec2;
 
-/// The Sobol stream of one pixel sample; each call takes the next dimension.
+/// The Sobol stream of one pixel sample; dimensions are drawn four at a time
+/// (`sobol_burley::sample_4d` computes a set of four with SIMD).
 #[derive(Clone, Debug)]
 pub struct PixelSampler {
     pixel_seed: u32,
     index: u32,
-    dimension: u32,
+    set: u32,
 }
 
 impl PixelSampler {
@@ -22,32 +23,36 @@ impl PixelSampler {
         PixelSampler {
             pixel_seed: hash_combine(&[seed, x, y]),
             index,
-            dimension: 0,
+            set: 0,
         }
     }
 
-    /// Next sample dimension in [0, 1).
+    /// Next four dimensions in [0, 1).
     #[inline]
-    pub fn next_1d(&mut self) -> f32 {
-        let d = self.dimension;
-        self.dimension += 1;
-        // sobol_burley has 256 dimensions and 2^16 samples; beyond either, a fresh
-        // scramble seed keeps the points well distributed (they lose cross-block
-        // stratification, nothing else).
-        let block = (d / sobol_burley::NUM_DIMENSIONS) ^ ((self.index >> 16) << 8);
+    pub fn next_4d(&mut self) -> [f32; 4] {
+        let d = self.set;
+        self.set += 1;
+        // sobol_burley has 64 sets of 4 dimensions and 2^16 samples; beyond either, a
+        // fresh scramble seed keeps the points well distributed (they lose the
+        // stratification across blocks, nothing else).
+        let block = (d / sobol_burley::NUM_DIMENSION_SETS_4D) ^ ((self.index >> 16) << 8);
         let seed = if block == 0 {
             self.pixel_seed
         } else {
             hash_combine(&[self.pixel_seed, block])
         };
-        sobol_burley::sample(self.index & 0xffff, d % sobol_burley::NUM_DIMENSIONS, seed)
+        sobol_burley::sample_4d(
+            self.index & 0xffff,
+            d % sobol_burley::NUM_DIMENSION_SETS_4D,
+            seed,
+        )
     }
 
-    /// Next two dimensions.
+    /// Two dimensions (a set of four, of which two are left unused).
     #[inline]
     pub fn next_2d(&mut self) -> Vec2 {
-        let a = self.next_1d();
-        Vec2::new(a, self.next_1d())
+        let v = self.next_4d();
+        Vec2::new(v[0], v[1])
     }
 }
 
@@ -59,10 +64,10 @@ mod tests {
     fn deterministic_and_in_range() {
         let mut a = PixelSampler::new(7, 3, 4, 11);
         let mut b = PixelSampler::new(7, 3, 4, 11);
-        for _ in 0..600 {
-            let x = a.next_1d();
-            assert_eq!(x, b.next_1d());
-            assert!((0.0..1.0).contains(&x));
+        for _ in 0..150 {
+            let x = a.next_4d();
+            assert_eq!(x, b.next_4d());
+            assert!(x.iter().all(|v| (0.0..1.0).contains(v)));
         }
     }
 
@@ -71,7 +76,7 @@ mod tests {
         // 64 samples of an Owen-scrambled Sobol sequence fall one per 1/64 stratum.
         let mut hits = [false; 64];
         for i in 0..64 {
-            let u = PixelSampler::new(1, 5, 9, i).next_1d();
+            let u = PixelSampler::new(1, 5, 9, i).next_4d()[0];
             hits[(u * 64.0) as usize] = true;
         }
         assert!(hits.iter().all(|&h| h));
