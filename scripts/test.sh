@@ -1,0 +1,16 @@
+#!/usr/bin/env bash
+# Sets up and runs every test: the Rust suite (release build), then the Blender
+# add-on suite with real bpy in a project-local virtual environment.
+# Usage: bash scripts/test.sh
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+echo "== Rust: build and test (release) =="
+cargo build --release --locked
+cargo test --release --locked
+
+echo "== Python: bpy 5.0.1 + pytest in .venv =="
+bash scripts/setup_python.sh
+
+echo "== Blender add-on tests (real bpy) =="
+CAUSTIC_BINARY="$PWD/target/release/caustic" .venv/bin/python -m pytest -q tests/blender
