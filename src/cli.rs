@@ -198,12 +198,21 @@ pub struct Resolved {
     pub max_depth: u32,
     /// Filter.
     pub filter: Filter,
+    /// Transparent background.
+    pub transparent: bool,
 }
 
 /// Chooses the camera by flag or scene setting.
 fn pick_camera(scene: &Scene, wanted: Option<&str>) -> Result<usize> {
     let Some(w) = wanted else { return Ok(0) };
     if let Some(i) = scene.cameras.iter().position(|c| c.name == w) {
+        return Ok(i);
+    }
+    if let Some(i) = scene
+        .cameras
+        .iter()
+        .position(|c| c.data_name.as_deref() == Some(w))
+    {
         return Ok(i);
     }
     if let Ok(i) = w.parse::<usize>() {
@@ -342,6 +351,7 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
         job_seed: args.seed.or(st.seed).unwrap_or(0),
         max_depth,
         filter,
+        transparent: st.transparent.unwrap_or(true),
     })
 }
 
@@ -429,7 +439,11 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
             &mut |film, spp| {
                 if let Some(every) = interim {
                     if last_interim.elapsed() >= every && Some(spp) != job.spp {
-                        match output::write_exr(&args.output, &film.image(), args.half) {
+                        let mut img = film.image();
+                        if !res.transparent {
+                            img.make_opaque();
+                        }
+                        match output::write_exr(&args.output, &img, args.half) {
                             Ok(()) => reporter.image(&out_str, spp, false),
                             Err(e) => interim_error = Some(e),
                         }
@@ -444,6 +458,10 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     }
     if result.spp_max == 0 {
         return Err(Error::InterruptedEmpty);
+    }
+    let mut result = result;
+    if !res.transparent {
+        result.image.make_opaque();
     }
 
     reporter.phase("writing", t0.elapsed().as_secs_f64());

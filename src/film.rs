@@ -136,6 +136,17 @@ pub struct FilmImage {
     pub samples: Vec<u32>,
 }
 
+impl FilmImage {
+    /// Alpha 1 wherever a sample was taken (Blender's Film → Transparent off).
+    pub fn make_opaque(&mut self) {
+        for (p, &n) in self.combined.iter_mut().zip(&self.samples) {
+            if n > 0 {
+                p[3] = 1.0;
+            }
+        }
+    }
+}
+
 /// Depth written where no geometry was hit (Cycles' value).
 pub const DEPTH_BACKGROUND: f32 = 1e10;
 

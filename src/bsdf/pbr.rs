@@ -41,17 +41,25 @@ pub struct PbrBsdf {
     pub metallic: f32,
     /// Perceptual roughness in [0, 1] (for the albedo table).
     pub roughness: f32,
+    /// Weight of the dielectric specular layer (`KHR_materials_specular` specularFactor).
+    pub specular: f32,
     /// Microfacet distribution.
     pub ggx: Ggx,
 }
 
 impl PbrBsdf {
-    /// A BRDF from glTF factors (already multiplied by their textures).
+    /// A BRDF from glTF factors (already multiplied by their textures), specular weight 1.
     pub fn new(base: Rgb, metallic: f32, roughness: f32) -> Self {
+        Self::with_specular(base, metallic, roughness, 1.0)
+    }
+
+    /// A BRDF with a specular layer weight (`KHR_materials_specular` specularFactor).
+    pub fn with_specular(base: Rgb, metallic: f32, roughness: f32, specular: f32) -> Self {
         PbrBsdf {
             base: base.clamp(Vec3::ZERO, Vec3::ONE),
             metallic: metallic.clamp(0.0, 1.0),
             roughness: roughness.clamp(0.0, 1.0),
+            specular: specular.clamp(0.0, 1.0),
             ggx: Ggx::from_roughness(roughness.clamp(0.0, 1.0)),
         }
     }
@@ -59,7 +67,7 @@ impl PbrBsdf {
     /// Probability of sampling the specular lobe for `wo` (local, wo.z > 0).
     #[inline]
     fn specular_probability(&self, wo: Vec3) -> f32 {
-        let e = specular_albedo().e(wo.z, self.roughness);
+        let e = self.specular * specular_albedo().e(wo.z, self.roughness);
         let f_metal = luminance(self.base + (Vec3::ONE - self.base) * schlick_weight(wo.z));
         let spec = (1.0 - self.metallic) * e + self.metallic * f_metal;
         let diff = (1.0 - self.metallic) * (1.0 - e) * luminance(self.base);
@@ -81,10 +89,16 @@ impl PbrBsdf {
         let voh = wo.dot(h).max(0.0);
         let fw = schlick_weight(voh);
         let spec = self.ggx.d(h) * self.ggx.g2(wo, wi) / (4.0 * wo.z * wi.z);
-        let f_dielectric = F0_DIELECTRIC + (1.0 - F0_DIELECTRIC) * fw;
+        // The specular weight scales the whole layer (F0 and F90), so its albedo is
+        // weight × E and the albedo scaling stays exact.
+        let f_dielectric = self.specular * (F0_DIELECTRIC + (1.0 - F0_DIELECTRIC) * fw);
         let table = specular_albedo();
-        let (eo, ei) = (table.e(wo.z, self.roughness), table.e(wi.z, self.roughness));
-        let diffuse_weight = (1.0 - eo) * (1.0 - ei) / (1.0 - table.e_avg(self.roughness));
+        let sw = self.specular;
+        let (eo, ei) = (
+            sw * table.e(wo.z, self.roughness),
+            sw * table.e(wi.z, self.roughness),
+        );
+        let diffuse_weight = (1.0 - eo) * (1.0 - ei) / (1.0 - sw * table.e_avg(self.roughness));
         let dielectric =
             self.base * (FRAC_1_PI * diffuse_weight) + Vec3::splat(f_dielectric * spec);
         let f_metal = self.base + (Vec3::ONE - self.base) * fw;
@@ -145,7 +159,8 @@ impl PbrBsdf {
 
     /// Albedo for the denoiser: the colour a white light would reflect, roughly.
     pub fn albedo(&self) -> Rgb {
-        let dielectric = self.base * (1.0 - F0_DIELECTRIC) + Vec3::splat(F0_DIELECTRIC);
+        let f0 = F0_DIELECTRIC * self.specular;
+        let dielectric = self.base * (1.0 - f0) + Vec3::splat(f0);
         dielectric * (1.0 - self.metallic) + self.base * self.metallic
     }
 }
@@ -267,6 +282,12 @@ mod tests {
                 v.push((
                     format!("r={roughness} m={metallic}"),
                     PbrBsdf::new(Vec3::new(0.8, 0.4, 0.1), metallic, roughness),
+                ));
+            }
+            for specular in [0.0f32, 0.5] {
+                v.push((
+                    format!("r={roughness} specular={specular}"),
+                    PbrBsdf::with_specular(Vec3::new(0.8, 0.4, 0.1), 0.0, roughness, specular),
                 ));
             }
         }

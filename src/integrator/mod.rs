@@ -306,7 +306,12 @@ impl<'a> SceneContext<'a> {
             Rgb::ZERO
         };
         ShadingPoint {
-            bsdf: Bsdf::Pbr(PbrBsdf::new(base, metallic, roughness)),
+            bsdf: Bsdf::Pbr(PbrBsdf::with_specular(
+                base,
+                metallic,
+                roughness,
+                mat.specular,
+            )),
             frame,
             emitted,
         }

@@ -24,8 +24,10 @@ pub enum Projection {
 /// A camera; it looks down its local -Z with +Y up, as glTF cameras do.
 #[derive(Clone, Debug)]
 pub struct Camera {
-    /// Node or camera name.
+    /// Node name (Blender's object name), else "node N".
     pub name: String,
+    /// The glTF camera's own name (Blender's camera data name), if any.
+    pub data_name: Option<String>,
     /// Position.
     pub position: Vec3,
     /// Unit right, up, and backward (local +X, +Y, +Z) axes in world space.
@@ -47,6 +49,7 @@ impl Camera {
         let up = back.cross(right);
         Camera {
             name,
+            data_name: None,
             position: m.transform_point3(Vec3::ZERO),
             right,
             up,
@@ -77,15 +80,17 @@ pub struct CameraRays {
 
 impl CameraRays {
     /// Prepares `cam` for a full frame of `width` × `height` pixels. The vertical field
-    /// of view (or ymag) is kept; the horizontal extent follows the image's aspect.
+    /// of view (or ymag) is kept; the horizontal extent follows the camera's aspect ratio
+    /// when the file gives one (glTF's definition; Blender's exporter folds the pixel
+    /// aspect into it), else the image's.
     pub fn new(cam: &Camera, width: u32, height: u32) -> Self {
-        let aspect = width as f32 / height as f32;
+        let image_aspect = width as f32 / height as f32;
         let (half, ortho) = match cam.projection {
-            Projection::Perspective { yfov, .. } => {
+            Projection::Perspective { yfov, aspect } => {
                 let h = (0.5 * yfov).tan();
-                (Vec2::new(h * aspect, h), false)
+                (Vec2::new(h * aspect.unwrap_or(image_aspect), h), false)
             }
-            Projection::Orthographic { ymag, .. } => (Vec2::new(ymag * aspect, ymag), true),
+            Projection::Orthographic { xmag, ymag } => (Vec2::new(xmag, ymag), true),
         };
         CameraRays {
             cam: cam.clone(),

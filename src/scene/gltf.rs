@@ -29,7 +29,8 @@ pub const SUPPORTED_REQUIRED: &[&str] = &[
 ];
 
 /// Material extensions that Caustic reads.
-const HANDLED_MATERIAL_EXTENSIONS: &[&str] = &["KHR_materials_emissive_strength"];
+const HANDLED_MATERIAL_EXTENSIONS: &[&str] =
+    &["KHR_materials_emissive_strength", "KHR_materials_specular"];
 
 /// glTF's photometric units to Blender's radiometric ones: Blender's exporter writes
 /// W × 683 lm/W (its PBR_WATTS_TO_LUMENS), so dividing gives Blender's watts back.
@@ -741,6 +742,37 @@ impl<'a> Loader<'a> {
         if m.double_sided() {
             features.push("doubleSided".into());
         }
+        let mut specular = 1.0;
+        if let Some(spec) = m.extension_value("KHR_materials_specular") {
+            features.push("KHR_materials_specular".into());
+            let factor = spec
+                .get("specularFactor")
+                .and_then(|v| v.as_f64())
+                .unwrap_or(1.0) as f32;
+            if !factor.is_finite() {
+                return Err(self.err(format!(
+                    "material '{name}': specularFactor is not a finite number"
+                )));
+            }
+            specular = factor.clamp(0.0, 1.0);
+            if specular != factor {
+                self.warn(format!(
+                    "material '{name}': specularFactor {factor} was clamped to [0, 1]"
+                ));
+            }
+            let color_is_white = spec
+                .get("specularColorFactor")
+                .and_then(|v| v.as_array())
+                .is_none_or(|c| c.iter().all(|x| x.as_f64() == Some(1.0)));
+            if !color_is_white
+                || spec.get("specularTexture").is_some()
+                || spec.get("specularColorTexture").is_some()
+            {
+                self.warn(format!(
+                    "material '{name}': KHR_materials_specular colour and textures are not rendered yet (only specularFactor)"
+                ));
+            }
+        }
         if let Some(exts) = m.extensions() {
             for key in exts.keys() {
                 if HANDLED_MATERIAL_EXTENSIONS.contains(&key.as_str()) {
@@ -763,6 +795,7 @@ impl<'a> Loader<'a> {
             normal_scale,
             emissive: emissive.max(Vec3::ZERO),
             emissive_tex,
+            specular,
             alpha_mode,
             double_sided: m.double_sided(),
         };
@@ -1044,10 +1077,8 @@ impl<'a> Loader<'a> {
     }
 
     fn camera(&mut self, c: &gltf::Camera, node_name: &str, world: &Mat4) -> Result<Camera> {
-        let name = c
-            .name()
-            .map(str::to_string)
-            .unwrap_or_else(|| node_name.to_string());
+        // The node's name is the Blender object's name, which is what users pick by.
+        let name = node_name.to_string();
         let projection = match c.projection() {
             gltf::camera::Projection::Perspective(p) => {
                 let yfov = p.yfov();
@@ -1078,7 +1109,9 @@ impl<'a> Loader<'a> {
                 Projection::Orthographic { xmag, ymag }
             }
         };
-        Ok(Camera::from_matrix(name, world, projection))
+        let mut cam = Camera::from_matrix(name, world, projection);
+        cam.data_name = c.name().map(str::to_string);
+        Ok(cam)
     }
 
     fn punctual_light(

@@ -38,6 +38,8 @@ pub struct Material {
     pub emissive: Rgb,
     /// Emissive texture (sRGB).
     pub emissive_tex: Option<TexRef>,
+    /// `KHR_materials_specular` specularFactor: weight of the dielectric specular layer.
+    pub specular: f32,
     /// Alpha mode.
     pub alpha_mode: AlphaMode,
     /// Emits from both sides (glTF `doubleSided`). Shading is always two-sided, as in Cycles.
@@ -59,6 +61,7 @@ impl Default for Material {
             normal_scale: 1.0,
             emissive: Rgb::ZERO,
             emissive_tex: None,
+            specular: 1.0,
             alpha_mode: AlphaMode::Opaque,
             double_sided: false,
         }

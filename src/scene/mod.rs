@@ -61,6 +61,9 @@ pub struct SceneSettings {
     pub filter_width: Option<f32>,
     /// Camera name.
     pub camera: Option<String>,
+    /// Transparent background (alpha = coverage); false gives alpha 1 everywhere, as
+    /// Blender's Film → Transparent off. Default true.
+    pub transparent: Option<bool>,
 }
 
 /// Counts and per-material features for `caustic info`.
