@@ -1,0 +1,55 @@
+"""The RenderEngine Blender sees; it only delegates (final.py renders, result.py declares passes)."""
+
+import traceback
+
+import bpy
+
+from . import final, result
+from .errors import CausticError
+
+
+class CausticRenderEngine(bpy.types.RenderEngine):
+    """Caustic in Blender's Render Engine menu: final renders through the external binary."""
+
+    bl_idname = "CAUSTIC"
+    bl_label = "Caustic"
+    # Material/light previews would start the binary for every thumbnail: not yet.
+    bl_use_preview = False
+    # The viewport's Material Preview and Rendered modes fall back to EEVEE (no view_draw yet).
+    bl_use_eevee_viewport = True
+    # Materials are Blender's own shader nodes, converted by the glTF exporter.
+    bl_use_shading_nodes_custom = False
+    # Compositing and sequencer work on Caustic's passes like on any engine's.
+    bl_use_postprocess = True
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._caustic_session = None
+
+    def render(self, depsgraph):
+        """Render one frame of one view layer; failures become reports, never tracebacks."""
+        try:
+            final.render_frame(self, depsgraph)
+        except CausticError as err:
+            self.report({"ERROR"}, str(err) if str(err).startswith("Caustic") else f"Caustic: {err}")
+        except Exception as err:  # a bug in the add-on: say so, keep the details in the console
+            traceback.print_exc()
+            self.report({"ERROR"}, f"Caustic add-on internal error: {err!r} (details in the console)")
+
+    def should_stop(self):
+        """Whether the user cancelled; the one break check the render loop polls."""
+        return self.test_break()
+
+    def update_render_passes(self, scene=None, renderlayer=None):
+        """Declare the passes Caustic writes (Blender calls this to build the pass list)."""
+        result.register_passes(self, scene, renderlayer)
+
+
+def register():
+    """Register the render engine."""
+    bpy.utils.register_class(CausticRenderEngine)
+
+
+def unregister():
+    """Unregister the render engine."""
+    bpy.utils.unregister_class(CausticRenderEngine)

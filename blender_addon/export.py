@@ -1,0 +1,267 @@
+"""Scene export: Blender's own glTF exporter, plus Caustic's data through its user-extension hooks.
+
+What the exporter leaves out and Caustic needs (docs/contract.md):
+* area lights ("Unsupported light source AREA"): `CAUSTIC_lights_area` on the light's node;
+* the render settings: `scenes[i].extras.caustic`.
+
+Facts this module relies on (io_scene_gltf2 5.0.21, shipped with Blender/bpy 5.0.1):
+* the exporter instantiates `glTF2ExportUserExtension` from `sys.modules[name]` for every
+  `name` in `bpy.context.preferences.addons`; the package's `__init__` re-exports the class and
+  `_hooks_enabled` makes sure the package is listed while Caustic exports;
+* hook exceptions are logged and swallowed by the exporter, so the hooks record their own
+  failures in `_ExportState.errors` and `export_scene` raises them afterwards;
+* an area light's node gets the exporter's -90° X light correction and the Y-up axis swap, and
+  the two cancel: the node's local frame *is* the Blender light's local frame (light in local
+  XY, emitting towards local -Z, object scale in the node's scale). No compensation is needed;
+* the exporter evaluates meshes with `bpy.context.evaluated_depsgraph_get()`, the viewport
+  depsgraph. `_render_depsgraph` points it at the render depsgraph for the duration of the export
+  so that render-level modifiers and render visibility are used.
+"""
+
+import math
+import os
+import sys
+from contextlib import contextmanager
+
+import bpy
+
+from .errors import CausticError
+
+AREA_LIGHT_EXTENSION = "CAUSTIC_lights_area"
+
+# Blender's area light shapes -> the contract's names.
+_AREA_SHAPES = {"SQUARE": "square", "RECTANGLE": "rectangle", "DISK": "disk", "ELLIPSE": "ellipse"}
+
+# The one export in progress; the hooks are no-ops outside a Caustic export, so that a user's
+# ordinary glTF export is not changed by having Caustic enabled.
+_current = None
+
+
+class _ExportState:
+    """What one Caustic export hands to the hooks and what the hooks hand back."""
+
+    def __init__(self, settings):
+        self.settings = settings
+        self.area_lights = []  # names of the nodes that got CAUSTIC_lights_area
+        self.scenes = 0  # scenes that got extras.caustic
+        self.warnings = []
+        self.errors = []
+
+
+def render_settings(scene, resolution, camera_name):
+    """The `extras.caustic` object for a scene: the Caustic panel's values in contract keys."""
+    props = scene.caustic
+    settings = {
+        "resolution": [int(resolution[0]), int(resolution[1])],
+        "spp": int(props.samples),
+        # Blender counts bounces, the renderer counts scattering events (contract).
+        "max_depth": int(props.max_bounces) + 1,
+        "seed": int(props.seed),
+        "integrator": props.integrator,
+        # Film → Transparent off means an opaque background (alpha 1), as in Cycles.
+        "transparent": bool(scene.render.film_transparent),
+        # Blender's pixel filter width (Blackman-Harris, as Cycles' default).
+        "filter": "blackman-harris",
+        "filter_width": float(scene.render.filter_size),
+    }
+    if props.time_limit > 0.0:
+        settings["time_limit"] = float(props.time_limit)
+    if props.threads > 0:
+        settings["threads"] = int(props.threads)
+    if camera_name:
+        settings["camera"] = camera_name
+    return settings
+
+
+def area_light_extension(blender_object):
+    """The `CAUSTIC_lights_area` value for an area light object, and warnings about what it drops."""
+    light = blender_object.data
+    warnings = []
+    shape = _AREA_SHAPES[light.shape]
+    if light.shape in {"SQUARE", "DISK"}:
+        size = [light.size, light.size]
+    else:
+        size = [light.size, light.size_y]
+
+    color = list(light.color)
+    if light.use_temperature:
+        color = [c * t for c, t in zip(color, light.temperature_color)]
+
+    # Same power as Cycles: exposure is a power of two; without "normalize" the power is per
+    # unit area, the area taken in world space (object scale included).
+    power = light.energy * 2.0 ** light.exposure
+    if not light.normalize:
+        power *= light.area(matrix_world=blender_object.matrix_world)
+
+    if light.spread < math.pi - 1e-4:
+        warnings.append(f"area light '{blender_object.name}': spread "
+                        f"{math.degrees(light.spread):.0f}° is not supported, rendered as 180°")
+    if light.use_nodes:
+        warnings.append(f"light '{blender_object.name}': light node trees are ignored")
+    value = {"shape": shape, "size": [float(s) for s in size], "power": float(power),
+             "color": [float(c) for c in color]}
+    return value, warnings
+
+
+class glTF2ExportUserExtension:
+    """Hooks the glTF exporter calls; they add Caustic's data while a Caustic render exports."""
+
+    def __init__(self):
+        # Imported here: the exporter add-on may be loaded after Caustic.
+        from io_scene_gltf2.io.com.gltf2_io_extensions import Extension
+        self._extension = Extension
+
+    def gather_node_hook(self, gltf2_node, blender_object, export_settings):
+        """Attach CAUSTIC_lights_area to the node of an area light."""
+        state = _current
+        if state is None or blender_object is None:
+            return
+        try:
+            if blender_object.type != "LIGHT" or blender_object.data.type != "AREA":
+                return
+            value, warnings = area_light_extension(blender_object)
+            if gltf2_node.extensions is None:
+                gltf2_node.extensions = {}
+            gltf2_node.extensions[AREA_LIGHT_EXTENSION] = self._extension(
+                name=AREA_LIGHT_EXTENSION, extension=value, required=False)
+            state.area_lights.append(gltf2_node.name)
+            state.warnings.extend(warnings)
+        except Exception as err:  # the exporter would swallow it: keep it for export_scene
+            state.errors.append(f"area light '{blender_object.name}': {err!r}")
+
+    def gather_scene_hook(self, gltf2_scene, blender_scene, export_settings):
+        """Store the render settings in the scene's extras.caustic."""
+        state = _current
+        if state is None:
+            return
+        try:
+            extras = gltf2_scene.extras if isinstance(gltf2_scene.extras, dict) else {}
+            extras["caustic"] = dict(state.settings)
+            gltf2_scene.extras = extras
+            state.scenes += 1
+        except Exception as err:
+            state.errors.append(f"scene settings: {err!r}")
+
+
+@contextmanager
+def _hooks_enabled():
+    """Make sure the exporter finds this package's hooks, however the add-on was enabled.
+
+    Installed and enabled from Preferences, the package is already in `preferences.addons`.
+    When only `register()` was called (scripts, tests) it is not, and the exporter would skip the
+    hooks silently: list the package for the duration of the export, then remove it again.
+    """
+    addons = bpy.context.preferences.addons
+    added = None
+    if __package__ not in addons:
+        added = addons.new()
+        added.module = __package__
+    try:
+        yield
+    finally:
+        if added is not None:
+            addons.remove(added)
+
+
+class _ContextProxy:
+    """bpy.context, except that evaluated_depsgraph_get() returns the render depsgraph."""
+
+    def __init__(self, depsgraph):
+        object.__setattr__(self, "_depsgraph", depsgraph)
+
+    def evaluated_depsgraph_get(self):
+        return self._depsgraph
+
+    def __getattr__(self, name):
+        return getattr(bpy.context, name)
+
+    def __setattr__(self, name, value):
+        setattr(bpy.context, name, value)
+
+
+class _BpyProxy:
+    """The bpy module as seen by the exporter during a Caustic export."""
+
+    def __init__(self, depsgraph):
+        self.context = _ContextProxy(depsgraph)
+
+    def __getattr__(self, name):
+        return getattr(bpy, name)
+
+
+@contextmanager
+def _render_depsgraph(depsgraph):
+    """Let the exporter's modules see `depsgraph` as the context's evaluated depsgraph."""
+    proxy = _BpyProxy(depsgraph)
+    patched = []
+    for name, module in list(sys.modules.items()):
+        if name.startswith("io_scene_gltf2.blender.exp") and getattr(module, "bpy", None) is bpy:
+            module.bpy = proxy
+            patched.append(module)
+    try:
+        yield
+    finally:
+        for module in patched:
+            module.bpy = bpy
+
+
+def _exporter_options(filepath):
+    """Exporter settings for a renderer: the current frame's state, everything renderable."""
+    return dict(
+        filepath=filepath,
+        check_existing=False,
+        export_format="GLTF_SEPARATE",
+        export_image_format="AUTO",
+        use_selection=False,
+        use_visible=False,
+        use_renderable=True,
+        use_active_scene=True,
+        use_active_collection=False,
+        export_cameras=True,
+        export_lights=True,
+        export_import_convert_lighting_mode="SPEC",
+        export_apply=True,  # modifiers, from the render depsgraph (see _render_depsgraph)
+        export_yup=True,
+        export_extras=False,
+        export_animations=False,
+        export_current_frame=True,  # else the exporter jumps to frame 0 and back
+        export_skins=False,  # deformation comes baked in the evaluated mesh
+        export_morph=False,
+        export_gn_mesh=True,
+        export_gpu_instances=False,
+        export_draco_mesh_compression_enable=False,
+        export_materials="EXPORT",
+        will_save_settings=False,
+    )
+
+
+def export_scene(depsgraph, folder, settings):
+    """Write the render depsgraph's scene to `folder`/scene.gltf; return (path, export state).
+
+    Raises CausticError when the exporter fails or one of Caustic's hooks failed.
+    """
+    global _current
+    filepath = os.path.join(folder, "scene.gltf")
+    scene = depsgraph.scene  # the original scene (scene_eval is the evaluated copy)
+    view_layer = depsgraph.view_layer
+    state = _ExportState(settings)
+    # The exporter takes object transforms from the original objects, which only the viewport
+    # depsgraph updates; during an animation render it still holds the previous frame.
+    scene_eval = depsgraph.scene_eval
+    scene.frame_set(scene_eval.frame_current, subframe=scene_eval.frame_subframe)
+    _current = state
+    try:
+        with bpy.context.temp_override(scene=scene, view_layer=view_layer), \
+                _hooks_enabled(), _render_depsgraph(depsgraph):
+            bpy.ops.export_scene.gltf(**_exporter_options(filepath))
+    except RuntimeError as err:
+        # The operator's error carries the exporter's whole traceback; its last line says why.
+        lines = [line.strip() for line in str(err).splitlines() if line.strip()]
+        raise CausticError(f"glTF export failed: {lines[-1] if lines else err}") from None
+    finally:
+        _current = None
+    if state.errors:
+        raise CausticError("export failed: " + "; ".join(state.errors))
+    if not os.path.isfile(filepath):
+        raise CausticError("glTF export wrote no file")
+    return filepath, state

@@ -1,0 +1,178 @@
+"""A final (F12 / `bpy.ops.render.render`) render of one frame and one view layer.
+
+Export the render depsgraph to a temporary folder, run the binary on it, show its progress and
+interim images, load the image it wrote, and remove the folder. Animation renders call this once
+per frame (Blender drives the frame loop).
+"""
+
+import os
+import shutil
+import struct
+import tempfile
+
+from . import export, result, runner
+from .errors import CausticError
+
+INTERIM_SECONDS = 1
+# Set to keep each render's temporary folder (scene.gltf, out.exr, log) for debugging.
+KEEP_TEMP_ENV = "CAUSTIC_KEEP_TEMP"
+
+
+def _f32(x):
+    return struct.unpack("f", struct.pack("f", x))[0]
+
+
+class FrameWindow:
+    """The full frame size and the pixel window Blender wants rendered (the border, if any)."""
+
+    def __init__(self, render):
+        # Blender's own integer arithmetic: size = resolution * percentage / 100, truncated.
+        self.width = render.resolution_x * render.resolution_percentage // 100
+        self.height = render.resolution_y * render.resolution_percentage // 100
+        # Blender's border rectangle, bottom-left origin, from float32 products truncated to
+        # int as Blender computes it, so that the result size matches to the pixel.
+        if render.use_border:
+            self.xmin = int(_f32(_f32(render.border_min_x) * self.width))
+            self.xmax = int(_f32(_f32(render.border_max_x) * self.width))
+            self.ymin = int(_f32(_f32(render.border_min_y) * self.height))
+            self.ymax = int(_f32(_f32(render.border_max_y) * self.height))
+        else:
+            self.xmin, self.ymin, self.xmax, self.ymax = 0, 0, self.width, self.height
+
+    @property
+    def is_border(self):
+        """True when only part of the frame is rendered."""
+        return (self.xmin, self.ymin, self.xmax, self.ymax) != (0, 0, self.width, self.height)
+
+    @property
+    def size(self):
+        """Width and height of the rendered window (the render result's size)."""
+        return self.xmax - self.xmin, self.ymax - self.ymin
+
+    def crop_argument(self):
+        """The window as the contract's `--crop X0,Y0,X1,Y1`: top-left origin, exclusive ends."""
+        y0 = self.height - self.ymax
+        y1 = self.height - self.ymin
+        return f"{self.xmin},{y0},{self.xmax},{y1}"
+
+
+def command_line(binary, gltf_path, out_path, settings, window):
+    """The binary's argv for one frame (flags repeat extras.caustic so that flags win)."""
+    argv = [binary, "render", gltf_path, "-o", out_path, "--progress", "json",
+            "--interim", str(INTERIM_SECONDS),
+            "--resolution", f"{window.width}x{window.height}",
+            "--spp", str(settings["spp"]),
+            "--max-depth", str(settings["max_depth"]),
+            "--seed", str(settings["seed"]),
+            "--integrator", settings["integrator"]]
+    if "time_limit" in settings:
+        argv += ["--time-limit", repr(settings["time_limit"])]
+    if "threads" in settings:
+        argv += ["--threads", str(settings["threads"])]
+    if "camera" in settings:
+        argv += ["--camera", settings["camera"]]
+    if window.is_border:
+        argv += ["--crop", window.crop_argument()]
+    return argv
+
+
+def _stats_text(message):
+    done, total = message.get("samples_done"), message.get("samples_total")
+    parts = [f"Sample {done}/{total}" if total else f"Sample {done}"]
+    if message.get("elapsed") is not None:
+        parts.append(f"{message['elapsed']:.1f} s")
+    if message.get("eta") is not None:
+        parts.append(f"{message['eta']:.1f} s left")
+    if message.get("rays_per_sec"):
+        parts.append(f"{message['rays_per_sec'] / 1e6:.1f} Mrays/s")
+    return "Caustic | " + " | ".join(parts)
+
+
+class _Session:
+    """One frame's render: the engine, its render result and what the binary reported."""
+
+    def __init__(self, engine, render_result, out_path):
+        self.engine = engine
+        self.render_result = render_result
+        self.out_path = out_path
+        self.progress_seen = False
+
+    def on_message(self, message):
+        kind = message.get("type")
+        engine = self.engine
+        if kind == "phase":
+            engine.update_stats("", f"Caustic | {message.get('phase', '')}")
+        elif kind == "progress":
+            self.progress_seen = True
+            fraction = message.get("fraction")
+            if isinstance(fraction, (int, float)):
+                engine.update_progress(min(max(float(fraction), 0.0), 1.0))
+            engine.update_stats("", _stats_text(message))
+        elif kind == "warning":
+            engine.report({"WARNING"}, f"Caustic: {message.get('message', '')}")
+        elif kind == "image" and not message.get("final"):
+            self._show_interim(message.get("path") or self.out_path)
+
+    def _show_interim(self, path):
+        # The binary replaces the file atomically; a failed interim load only delays the picture.
+        try:
+            result.load(self.render_result, path)
+        except CausticError as err:
+            print(f"Caustic: interim image not shown: {err}")
+            return
+        self.engine.update_result(self.render_result)
+
+
+def render_frame(engine, depsgraph):
+    """Render the depsgraph's frame and view layer into a new render result of `engine`."""
+    scene = depsgraph.scene
+    window = FrameWindow(scene.render)
+    binary = runner.find_binary()
+
+    camera = engine.camera_override or scene.camera
+    settings = export.render_settings(scene, (window.width, window.height),
+                                      camera.name if camera else None)
+    folder = tempfile.mkdtemp(prefix="caustic-")
+    try:
+        engine.update_stats("", "Caustic | exporting scene")
+        gltf_path, state = export.export_scene(depsgraph, folder, settings)
+        for warning in state.warnings:
+            engine.report({"WARNING"}, f"Caustic: {warning}")
+        if engine.should_stop():
+            return
+        out_path = os.path.join(folder, "out.exr")
+        argv = command_line(binary, gltf_path, out_path, settings, window)
+        width, height = window.size
+        render_result = engine.begin_result(0, 0, width, height, layer=depsgraph.view_layer.name)
+        failed = True
+        try:
+            session = _Session(engine, render_result, out_path)
+            engine._caustic_session = session  # lets tests see the progress state
+            outcome = runner.run(argv, session.on_message, engine.should_stop,
+                                 log_path=os.path.join(folder, "stdout.log"))
+            message = outcome.error_message()
+            if message:
+                raise CausticError(message)
+            if outcome.has_image:
+                result.load(render_result, out_path)
+            if outcome.summary:
+                _report_summary(engine, outcome.summary)
+            failed = False
+        finally:
+            engine.end_result(render_result, cancel=failed)
+    finally:
+        if os.environ.get(KEEP_TEMP_ENV):
+            print(f"Caustic: kept {folder}")
+        else:
+            shutil.rmtree(folder, ignore_errors=True)
+
+
+def _report_summary(engine, summary):
+    nan = summary.get("nan_samples") or 0
+    if nan:
+        engine.report({"WARNING"}, f"Caustic: {nan} samples were NaN or infinite and dropped")
+    spp = summary.get("spp")
+    elapsed = summary.get("elapsed")
+    if spp is not None and elapsed is not None:
+        state = "interrupted" if summary.get("interrupted") else "done"
+        engine.update_stats("", f"Caustic | {state}: {spp} samples in {elapsed:.1f} s")

@@ -1,0 +1,103 @@
+"""Caustic's settings: per scene (render settings) and per installation (add-on preferences).
+
+Only settings the renderer implements today live here; each maps to one command-line flag or
+one key of `scenes[i].extras.caustic` (docs/contract.md).
+"""
+
+import bpy
+from bpy.props import EnumProperty, FloatProperty, IntProperty, PointerProperty, StringProperty
+
+# (identifier, UI name, description); the identifier is the renderer's integrator name.
+INTEGRATORS = [
+    ("path", "Path Tracing", "Unidirectional path tracing with next-event estimation and MIS"),
+]
+
+
+class CausticRenderSettings(bpy.types.PropertyGroup):
+    """Render settings stored on the scene (`scene.caustic`)."""
+
+    integrator: EnumProperty(
+        name="Integrator",
+        description="Light transport algorithm",
+        items=INTEGRATORS,
+        default="path",
+    )
+    samples: IntProperty(
+        name="Samples",
+        description="Samples per pixel",
+        default=64,
+        min=1,
+        soft_max=4096,
+    )
+    time_limit: FloatProperty(
+        name="Time Limit",
+        description="Stop rendering after this many seconds, even if not all samples are done "
+        "(0 = no limit)",
+        default=0.0,
+        min=0.0,
+        subtype="TIME_ABSOLUTE",
+        unit="TIME_ABSOLUTE",
+    )
+    max_bounces: IntProperty(
+        name="Max Bounces",
+        description="Maximum number of bounces (0 = direct light only, as in Cycles)",
+        default=12,
+        min=0,
+        max=1024,
+    )
+    seed: IntProperty(
+        name="Seed",
+        description="Seed of the sample pattern",
+        default=0,
+        min=0,
+    )
+    threads: IntProperty(
+        name="Threads",
+        description="Number of render threads (0 = all cores)",
+        default=0,
+        min=0,
+        max=1024,
+    )
+
+
+class CausticPreferences(bpy.types.AddonPreferences):
+    """Per-installation settings: where the renderer binary lives."""
+
+    bl_idname = __package__
+
+    binary_path: StringProperty(
+        name="Caustic Binary",
+        description="Path to the caustic executable. Leave empty to use the binary shipped "
+        "with the extension, or `caustic` on PATH",
+        subtype="FILE_PATH",
+        default="",
+    )
+
+    def draw(self, context):
+        """Show the binary path and which binary will actually be used."""
+        from . import runner
+
+        layout = self.layout
+        layout.prop(self, "binary_path")
+        try:
+            found = runner.find_binary()
+            layout.label(text=f"Using: {found}", icon="CHECKMARK")
+        except runner.CausticError as err:
+            layout.label(text=str(err), icon="ERROR")
+
+
+classes = (CausticRenderSettings, CausticPreferences)
+
+
+def register():
+    """Register the property groups and attach the scene settings."""
+    for cls in classes:
+        bpy.utils.register_class(cls)
+    bpy.types.Scene.caustic = PointerProperty(type=CausticRenderSettings)
+
+
+def unregister():
+    """Detach the scene settings and unregister the property groups."""
+    del bpy.types.Scene.caustic
+    for cls in reversed(classes):
+        bpy.utils.unregister_class(cls)

@@ -1,0 +1,254 @@
+"""What the add-on writes for the renderer: the glTF of a render, read back and checked value by value.
+
+The glTF is captured from a real F12-style render (`bpy.ops.render.render`) with the contract's
+stand-in binary (fake_caustic.py), so the export runs exactly as in production: from inside
+RenderEngine.render(), with the render depsgraph. The exporter swallows hook exceptions, so only
+the written file proves that the hooks ran.
+"""
+
+import json
+import math
+
+import bpy
+import pytest
+from mathutils import Matrix, Quaternion
+
+import scenes
+
+WATTS_TO_LUMENS = 683.0
+
+
+@pytest.fixture
+def captured(fake_binary, tmp_path, monkeypatch):
+    """A function rendering the current scene and returning the glTF the binary received."""
+    folder = tmp_path / "scenes"
+    monkeypatch.setenv("FAKE_CAUSTIC_SCENE_DIR", str(folder))
+
+    def render(animation=False):
+        bpy.ops.render.render(animation=animation)
+        files = sorted(folder.glob("*.gltf"))
+        return [json.loads(f.read_text()) for f in files]
+
+    return render
+
+
+def node_by_name(gltf, name):
+    return next(n for n in gltf["nodes"] if n.get("name") == name)
+
+
+def node_matrix(node):
+    x, y, z, w = node.get("rotation", [0, 0, 0, 1])
+    t = Matrix.Translation(node.get("translation", [0, 0, 0]))
+    r = Quaternion((w, x, y, z)).to_matrix().to_4x4()
+    s = Matrix.Diagonal([*node.get("scale", [1, 1, 1]), 1.0])
+    return t @ r @ s
+
+
+# Blender (Z up) to glTF (Y up) world axes: (x, y, z) -> (x, z, -y).
+BLENDER_TO_GLTF = Matrix(((1, 0, 0, 0), (0, 0, 1, 0), (0, -1, 0, 0), (0, 0, 0, 1)))
+
+AREA_LIGHTS = [
+    # name, shape, size, size_y, energy, color, expected size
+    ("AreaRect", "RECTANGLE", 2.0, 0.5, 100.0, (1.0, 0.5, 0.25), [2.0, 0.5]),
+    ("AreaSquare", "SQUARE", 1.5, 9.0, 40.0, (0.2, 1.0, 0.2), [1.5, 1.5]),
+    ("AreaDisk", "DISK", 0.75, 9.0, 25.0, (1.0, 1.0, 1.0), [0.75, 0.75]),
+    ("AreaEllipse", "ELLIPSE", 1.25, 0.4, 60.0, (0.3, 0.6, 0.9), [1.25, 0.4]),
+]
+
+
+@pytest.fixture
+def light_scene(empty_scene):
+    scene = empty_scene
+    scenes.small_render_settings(scene, 16, 12, samples=2)
+    scenes.plane(scene, "Floor", 4.0, material=scenes.diffuse_material("Grey", 0.5))
+    scenes.camera(scene, (0, -4, 3), (60, 0, 0))
+    for i, (name, shape, size, size_y, energy, color, _) in enumerate(AREA_LIGHTS):
+        scenes.light(scene, name, "AREA", location=(i, 1.0, 2.0 + i), rotation_deg=(20 * i, 10, 5 * i),
+                     shape=shape, size=size, size_y=size_y, energy=energy, color=color)
+    scenes.light(scene, "Point", "POINT", location=(1, 2, 3), energy=150.0, color=(1, 0.9, 0.8),
+                 shadow_soft_size=0.0)
+    scenes.light(scene, "Spot", "SPOT", location=(0, 0, 4), energy=300.0, spot_size=math.radians(50),
+                 spot_blend=0.2, shadow_soft_size=0.0)
+    scenes.light(scene, "Sun", "SUN", rotation_deg=(30, 0, 0), energy=3.0, angle=0.0)
+    scene.caustic.samples = 7
+    scene.caustic.max_bounces = 5
+    scene.caustic.seed = 42
+    scene.caustic.threads = 2
+    scene.caustic.time_limit = 12.5
+    return scene
+
+
+def test_area_lights_get_caustic_extension(light_scene, captured):
+    (gltf,) = captured()
+    assert "CAUSTIC_lights_area" in gltf["extensionsUsed"]
+    assert "CAUSTIC_lights_area" not in gltf.get("extensionsRequired", [])
+    for name, shape, _, _, energy, color, size in AREA_LIGHTS:
+        ext = node_by_name(gltf, name)["extensions"]["CAUSTIC_lights_area"]
+        assert ext["shape"] == shape.lower()
+        assert ext["size"] == pytest.approx(size)
+        assert ext["power"] == pytest.approx(energy)
+        assert ext["color"] == pytest.approx(list(color))
+
+
+def test_area_light_node_frame_is_the_blender_light_frame(light_scene, captured):
+    """Contract: light in the node's local XY plane, emitting towards local -Z, scale applies.
+
+    The exporter gives light nodes a -90° X correction and converts to Y up; for the contract
+    to hold without compensation, node world matrix == axis change @ Blender world matrix.
+    """
+    obj = bpy.data.objects["AreaEllipse"]
+    obj.scale = (1.0, 2.0, 3.0)
+    (gltf,) = captured()
+    node = node_by_name(gltf, "AreaEllipse")
+    expected = BLENDER_TO_GLTF @ obj.matrix_world
+    got = node_matrix(node)
+    for i in range(4):
+        assert list(got[i]) == pytest.approx(list(expected[i]), abs=1e-5)
+    assert node["scale"] == pytest.approx([1.0, 2.0, 3.0], abs=1e-5)
+
+
+def test_area_light_power_includes_exposure_temperature_and_unnormalized_area(light_scene, captured):
+    data = bpy.data.lights["AreaRect"]
+    data.exposure = 1.0
+    data.normalize = False
+    data.use_temperature = True
+    data.temperature = 3000.0
+    obj = bpy.data.objects["AreaRect"]
+    obj.scale = (2.0, 1.0, 1.0)
+    (gltf,) = captured()
+    ext = node_by_name(gltf, "AreaRect")["extensions"]["CAUSTIC_lights_area"]
+    world_area = (2.0 * 2.0) * 0.5
+    assert ext["power"] == pytest.approx(100.0 * 2.0 * world_area, rel=1e-5)
+    tint = [c * t for c, t in zip((1.0, 0.5, 0.25), data.temperature_color)]
+    assert ext["color"] == pytest.approx(tint, rel=1e-5)
+
+
+def test_punctual_light_units(light_scene, captured):
+    """The exporter's 'SPEC' lighting mode: point/spot W/(4π)·683 cd, sun W/m²·683 lux."""
+    (gltf,) = captured()
+    lights = gltf["extensions"]["KHR_lights_punctual"]["lights"]
+
+    def light_of(node_name):
+        return lights[node_by_name(gltf, node_name)["extensions"]["KHR_lights_punctual"]["light"]]
+
+    assert light_of("Point")["intensity"] == pytest.approx(150.0 / (4 * math.pi) * WATTS_TO_LUMENS)
+    spot = light_of("Spot")
+    assert spot["intensity"] == pytest.approx(300.0 / (4 * math.pi) * WATTS_TO_LUMENS)
+    assert spot["spot"]["outerConeAngle"] == pytest.approx(math.radians(25))
+    assert spot["spot"]["innerConeAngle"] == pytest.approx(math.radians(25) * (1 - 0.2), rel=1e-5)
+    assert light_of("Sun")["intensity"] == pytest.approx(3.0 * WATTS_TO_LUMENS)
+    assert light_of("Sun")["type"] == "directional"
+
+
+def test_scene_extras_carry_render_settings(light_scene, captured):
+    light_scene.render.resolution_percentage = 50
+    (gltf,) = captured()
+    settings = gltf["scenes"][gltf.get("scene", 0)]["extras"]["caustic"]
+    assert settings == {
+        "resolution": [8, 6],
+        "spp": 7,
+        "max_depth": 6,
+        "seed": 42,
+        "integrator": "path",
+        "time_limit": 12.5,
+        "threads": 2,
+        "camera": "Camera",
+        "transparent": bool(light_scene.render.film_transparent),
+        "filter": "blackman-harris",
+        "filter_width": light_scene.render.filter_size,
+    }
+
+
+def test_film_transparent_and_filter_reach_the_renderer(light_scene, captured):
+    light_scene.render.film_transparent = True
+    light_scene.render.filter_size = 2.25
+    (gltf,) = captured()
+    settings = gltf["scenes"][gltf.get("scene", 0)]["extras"]["caustic"]
+    assert settings["transparent"] is True
+    assert settings["filter_width"] == 2.25
+
+
+def test_command_line_repeats_settings(light_scene, captured, fake_binary):
+    captured()
+    argv = json.loads(fake_binary.read_text())
+    assert argv[0] == "render" and argv[2] == "-o"
+    pairs = dict(zip(argv[4::2], argv[5::2]))
+    assert pairs["--progress"] == "json"
+    assert pairs["--resolution"] == "16x12"
+    assert pairs["--spp"] == "7"
+    assert pairs["--max-depth"] == "6"
+    assert pairs["--seed"] == "42"
+    assert pairs["--threads"] == "2"
+    assert float(pairs["--time-limit"]) == 12.5
+    assert pairs["--camera"] == "Camera"
+    assert "--crop" not in pairs
+
+
+def test_render_visibility_and_render_level_modifiers(empty_scene, captured):
+    scene = empty_scene
+    scenes.small_render_settings(scene, 8, 6, samples=1)
+    scenes.camera(scene, (0, -4, 3), (60, 0, 0))
+    scenes.light(scene, "Sun", "SUN", energy=1.0)
+    smooth = scenes.cube(scene, "Smooth", 1.0, (0, 0, 0))
+    sub = smooth.modifiers.new("Subdivision", "SUBSURF")
+    sub.levels, sub.render_levels = 0, 2
+    only_render = scenes.cube(scene, "OnlyRender", 1.0, (2, 0, 0))
+    only_render.modifiers.new("Tri", "TRIANGULATE").show_viewport = False
+    bevel = only_render.modifiers.new("Bevel", "BEVEL")
+    bevel.show_viewport, bevel.show_render = False, True
+    hidden = scenes.cube(scene, "NotRendered", 1.0, (-2, 0, 0))
+    hidden.hide_render = True
+    viewport_off = scenes.cube(scene, "ViewportDisabled", 1.0, (0, 2, 0))
+    viewport_off.hide_viewport = True
+
+    (gltf,) = captured()
+    names = {n.get("name") for n in gltf["nodes"]}
+    assert "NotRendered" not in names
+    assert "ViewportDisabled" in names
+
+    def triangles(node_name):
+        mesh = gltf["meshes"][node_by_name(gltf, node_name)["mesh"]]
+        return sum(gltf["accessors"][p["indices"]]["count"] // 3 for p in mesh["primitives"])
+
+    assert triangles("Smooth") == 6 * 16 * 2  # render level 2: each quad -> 16 quads
+    assert triangles("OnlyRender") > 12  # bevel applied although hidden in the viewport
+    assert triangles("ViewportDisabled") == 12
+
+
+def test_animation_exports_each_frame(empty_scene, captured, tmp_path):
+    scene = empty_scene
+    scenes.small_render_settings(scene, 8, 6, samples=1)
+    scenes.camera(scene, (0, -4, 3), (60, 0, 0))
+    scenes.light(scene, "Sun", "SUN", energy=1.0)
+    box = scenes.cube(scene, "Box", 1.0, (0, 0, 0))
+    for frame, x in ((1, 0.0), (2, 1.5)):
+        box.location.x = x
+        box.keyframe_insert("location", frame=frame)
+    scene.frame_start, scene.frame_end = 1, 2
+    scene.render.filepath = str(tmp_path / "frame_")
+    first, second = captured(animation=True)
+    assert node_by_name(first, "Box").get("translation", [0, 0, 0])[0] == pytest.approx(0.0)
+    assert node_by_name(second, "Box")["translation"][0] == pytest.approx(1.5)
+
+
+def test_plain_gltf_export_is_left_alone(light_scene, tmp_path):
+    """With Caustic enabled, a user's own glTF export gets no Caustic data."""
+    path = tmp_path / "plain.gltf"
+    bpy.ops.export_scene.gltf(filepath=str(path), export_format="GLTF_SEPARATE", export_lights=True)
+    gltf = json.loads(path.read_text())
+    assert "CAUSTIC_lights_area" not in gltf.get("extensionsUsed", [])
+    assert "caustic" not in gltf["scenes"][0].get("extras", {})
+
+
+def test_hooks_work_when_the_addon_is_registered_but_not_in_preferences(light_scene, captured, addon):
+    """Scripts may call register() without enabling the add-on in Preferences; the exporter only
+    looks at `preferences.addons`, so the add-on lists itself during its own export."""
+    addons = bpy.context.preferences.addons
+    addons.remove(addons[addon.__name__])
+    try:
+        (gltf,) = captured()
+        assert addon.__name__ not in addons  # listed only for the duration of the export
+    finally:
+        addons.new().module = addon.__name__
+    assert "CAUSTIC_lights_area" in node_by_name(gltf, "AreaDisk")["extensions"]
+    assert "caustic" in gltf["scenes"][0]["extras"]
