@@ -44,6 +44,7 @@ class _ExportState:
         self.settings = settings
         self.area_lights = []  # names of the nodes that got CAUSTIC_lights_area
         self.scenes = 0  # scenes that got extras.caustic
+        self.solid_materials = []  # transmissive materials marked as solids
         self.warnings = []
         self.errors = []
 
@@ -128,6 +129,26 @@ class glTF2ExportUserExtension:
             state.warnings.extend(warnings)
         except Exception as err:  # the exporter would swallow it: keep it for export_scene
             state.errors.append(f"area light '{blender_object.name}': {err!r}")
+
+    def gather_material_hook(self, gltf2_material, blender_material, export_settings):
+        """Mark transmissive materials as solids (KHR_materials_volume, thickness 1).
+
+        Without KHR_materials_volume glTF calls a transmissive surface thin-walled (no
+        refraction), but Cycles always refracts at a glass surface: a glass sphere from
+        Blender must render as a solid sphere.
+        """
+        state = _current
+        if state is None or gltf2_material is None:
+            return
+        try:
+            extensions = gltf2_material.extensions or {}
+            if "KHR_materials_transmission" in extensions and "KHR_materials_volume" not in extensions:
+                extensions["KHR_materials_volume"] = self._extension(
+                    name="KHR_materials_volume", extension={"thicknessFactor": 1.0}, required=False)
+                gltf2_material.extensions = extensions
+                state.solid_materials.append(blender_material.name if blender_material else "?")
+        except Exception as err:
+            state.errors.append(f"material '{getattr(blender_material, 'name', '?')}': {err!r}")
 
     def gather_scene_hook(self, gltf2_scene, blender_scene, export_settings):
         """Store the render settings in the scene's extras.caustic."""

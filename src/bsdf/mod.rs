@@ -2,6 +2,7 @@
 //! normal) and offers `eval`, `pdf` and `sample` on local directions; both directions
 //! point away from the surface. Closed set of lobes: an enum, no dynamic dispatch.
 
+pub mod dielectric;
 pub mod microfacet;
 pub mod pbr;
 
@@ -16,8 +17,10 @@ pub struct BsdfSample {
     pub wi: Vec3,
     /// BSDF value f(wo, wi) (not multiplied by the cosine).
     pub f: Rgb,
-    /// Solid-angle density of `wi`.
+    /// Solid-angle density of `wi` (for a delta lobe: the probability of choosing it).
     pub pdf: f32,
+    /// Chosen from a delta lobe (perfect mirror or refraction): no MIS, no NEE.
+    pub delta: bool,
 }
 
 /// The scattering function at a surface point.
@@ -49,6 +52,14 @@ impl Bsdf {
     pub fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
         match self {
             Bsdf::Pbr(b) => b.sample(wo, uc, u),
+        }
+    }
+
+    /// True when every lobe is a delta lobe (light sampling cannot help).
+    #[inline]
+    pub fn is_delta(&self) -> bool {
+        match self {
+            Bsdf::Pbr(b) => b.is_delta(),
         }
     }
 

@@ -23,16 +23,64 @@
 //! compensates with multiscatter GGX: rough metals are slightly darker in Caustic).
 
 use super::BsdfSample;
+use super::dielectric::DielectricBsdf;
 use super::microfacet::{Ggx, reflect, schlick_weight};
 use crate::math::{Rgb, luminance};
 use crate::sampling::warp::{cosine_hemisphere, cosine_hemisphere_pdf};
 use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
 
-/// Normal-incidence reflectance of the dielectric layer (IOR 1.5).
-const F0_DIELECTRIC: f32 = 0.04;
+/// Normal-incidence reflectance of the default dielectric layer (IOR 1.5).
+pub const F0_DIELECTRIC: f32 = 0.04;
 
-/// glTF metallic-roughness BRDF, reflection only, two-sided.
+/// Normal-incidence reflectance of a dielectric of index `ior` in air.
+#[inline]
+pub fn f0_from_ior(ior: f32) -> f32 {
+    let r = (ior - 1.0) / (ior + 1.0);
+    r * r
+}
+
+/// The glTF material's factors at a shading point (textures already applied).
+#[derive(Clone, Copy, Debug)]
+pub struct PbrParams {
+    /// Base colour.
+    pub base: Rgb,
+    /// Metalness.
+    pub metallic: f32,
+    /// Perceptual roughness.
+    pub roughness: f32,
+    /// `KHR_materials_specular` specularFactor (weight of the dielectric reflection).
+    pub specular: f32,
+    /// `KHR_materials_ior` (1.5 by default).
+    pub ior: f32,
+    /// `KHR_materials_transmission` transmissionFactor.
+    pub transmission: f32,
+    /// Thin-walled (no `KHR_materials_volume`, or thickness 0).
+    pub thin: bool,
+    /// Relative IOR across the surface for the transmission lobe: `ior` when entering,
+    /// `1 / ior` when leaving (decided by the caller from the geometric normal).
+    pub eta: f32,
+}
+
+impl PbrParams {
+    /// An opaque dielectric/metal without the extensions.
+    pub fn opaque(base: Rgb, metallic: f32, roughness: f32) -> Self {
+        PbrParams {
+            base,
+            metallic,
+            roughness,
+            specular: 1.0,
+            ior: 1.5,
+            transmission: 0.0,
+            thin: true,
+            eta: 1.5,
+        }
+    }
+}
+
+/// The glTF material BSDF: a metal, an opaque dielectric (specular over diffuse) and a
+/// transmissive dielectric (glass), mixed by metallic and transmission as the glTF
+/// spec and Blender's Principled BSDF mix them.
 #[derive(Clone, Copy, Debug)]
 pub struct PbrBsdf {
     /// Base colour (linear).
@@ -43,109 +91,190 @@ pub struct PbrBsdf {
     pub roughness: f32,
     /// Weight of the dielectric specular layer (`KHR_materials_specular` specularFactor).
     pub specular: f32,
-    /// Microfacet distribution.
+    /// Normal-incidence reflectance of the opaque dielectric's layer (from the IOR).
+    pub f0: f32,
+    /// Weight of the glass part within the dielectric part.
+    pub transmission: f32,
+    /// The glass part.
+    pub glass: DielectricBsdf,
+    /// Microfacet distribution of the reflection lobes.
     pub ggx: Ggx,
 }
 
+/// Probabilities of the lobes for one `wo`: metal, dielectric specular, diffuse, glass.
+#[derive(Clone, Copy)]
+struct LobeChoice {
+    metal: f32,
+    spec: f32,
+    diffuse: f32,
+    glass: f32,
+}
+
 impl PbrBsdf {
-    /// A BRDF from glTF factors (already multiplied by their textures), specular weight 1.
+    /// An opaque BRDF from glTF factors, specular weight 1, IOR 1.5.
     pub fn new(base: Rgb, metallic: f32, roughness: f32) -> Self {
-        Self::with_specular(base, metallic, roughness, 1.0)
+        Self::from_params(&PbrParams::opaque(base, metallic, roughness))
     }
 
-    /// A BRDF with a specular layer weight (`KHR_materials_specular` specularFactor).
+    /// An opaque BRDF with a specular layer weight (`KHR_materials_specular` specularFactor).
     pub fn with_specular(base: Rgb, metallic: f32, roughness: f32, specular: f32) -> Self {
+        Self::from_params(&PbrParams {
+            specular,
+            ..PbrParams::opaque(base, metallic, roughness)
+        })
+    }
+
+    /// The full material from its parameters (clamped to their valid ranges).
+    pub fn from_params(p: &PbrParams) -> Self {
+        let base = p.base.clamp(Vec3::ZERO, Vec3::ONE);
+        let roughness = p.roughness.clamp(0.0, 1.0);
         PbrBsdf {
-            base: base.clamp(Vec3::ZERO, Vec3::ONE),
-            metallic: metallic.clamp(0.0, 1.0),
-            roughness: roughness.clamp(0.0, 1.0),
-            specular: specular.clamp(0.0, 1.0),
-            ggx: Ggx::from_roughness(roughness.clamp(0.0, 1.0)),
+            base,
+            metallic: p.metallic.clamp(0.0, 1.0),
+            roughness,
+            specular: p.specular.clamp(0.0, 1.0),
+            f0: f0_from_ior(if p.ior.is_finite() && p.ior >= 1.0 {
+                p.ior
+            } else {
+                1.5
+            })
+            .min(1.0),
+            transmission: p.transmission.clamp(0.0, 1.0),
+            glass: DielectricBsdf::new(p.eta, roughness, p.thin, base),
+            ggx: Ggx::from_roughness(roughness),
         }
     }
 
-    /// Probability of sampling the specular lobe for `wo` (local, wo.z > 0).
+    /// Directional albedo of the opaque dielectric's specular layer at μ.
     #[inline]
-    fn specular_probability(&self, wo: Vec3) -> f32 {
-        let e = self.specular * specular_albedo().e(wo.z, self.roughness);
-        let f_metal = luminance(self.base + (Vec3::ONE - self.base) * schlick_weight(wo.z));
-        let spec = (1.0 - self.metallic) * e + self.metallic * f_metal;
-        let diff = (1.0 - self.metallic) * (1.0 - e) * luminance(self.base);
-        if spec + diff > 0.0 {
-            spec / (spec + diff)
+    fn layer_albedo(&self, mu: f32) -> f32 {
+        self.specular * specular_albedo().e(mu, self.roughness, self.f0)
+    }
+
+    #[inline]
+    fn lobes(&self, wo: Vec3) -> LobeChoice {
+        let e = self.layer_albedo(wo.z);
+        let dielectric = 1.0 - self.metallic;
+        let opaque = dielectric * (1.0 - self.transmission);
+        let metal =
+            self.metallic * luminance(self.base + (Vec3::ONE - self.base) * schlick_weight(wo.z));
+        let spec = opaque * e;
+        let diffuse = opaque * (1.0 - e) * luminance(self.base);
+        let glass = if self.transmission > 0.0 {
+            let r = self.glass.reflect_probability(wo);
+            dielectric * self.transmission * (r + (1.0 - r) * luminance(self.base)).max(1e-3)
         } else {
-            1.0
+            0.0
+        };
+        let total = metal + spec + diffuse + glass;
+        if total > 0.0 {
+            LobeChoice {
+                metal: metal / total,
+                spec: spec / total,
+                diffuse: diffuse / total,
+                glass: glass / total,
+            }
+        } else {
+            LobeChoice {
+                metal: 0.0,
+                spec: 1.0,
+                diffuse: 0.0,
+                glass: 0.0,
+            }
         }
     }
 
-    /// f(wo, wi); directions in the local frame, either side (two-sided).
+    /// True when every lobe is a delta lobe (smooth clear glass): no light sampling helps.
+    pub fn is_delta(&self) -> bool {
+        self.metallic == 0.0 && self.transmission == 1.0 && self.glass.smooth
+    }
+
+    /// f(wo, wi) of the non-delta lobes; directions in the local frame. Reflection is
+    /// two-sided; transmission goes to the other side of wo.
     #[inline]
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
         let (wo, wi) = flip_to_upper(wo, wi);
-        if wo.z <= 0.0 || wi.z <= 0.0 {
+        if wo.z <= 0.0 || wi.z == 0.0 {
             return Vec3::ZERO;
         }
+        let dielectric = 1.0 - self.metallic;
+        let mut f = Rgb::ZERO;
+        if self.transmission > 0.0 {
+            f += self.glass.eval(wo, wi) * (dielectric * self.transmission);
+        }
+        if wi.z < 0.0 {
+            return f;
+        }
         let h = (wo + wi).normalize();
-        let voh = wo.dot(h).max(0.0);
-        let fw = schlick_weight(voh);
+        let fw = schlick_weight(wo.dot(h).max(0.0));
         let spec = self.ggx.d(h) * self.ggx.g2(wo, wi) / (4.0 * wo.z * wi.z);
-        // The specular weight scales the whole layer (F0 and F90), so its albedo is
-        // weight × E and the albedo scaling stays exact.
-        let f_dielectric = self.specular * (F0_DIELECTRIC + (1.0 - F0_DIELECTRIC) * fw);
-        let table = specular_albedo();
-        let sw = self.specular;
-        let (eo, ei) = (
-            sw * table.e(wo.z, self.roughness),
-            sw * table.e(wi.z, self.roughness),
-        );
-        let diffuse_weight = (1.0 - eo) * (1.0 - ei) / (1.0 - sw * table.e_avg(self.roughness));
-        let dielectric =
-            self.base * (FRAC_1_PI * diffuse_weight) + Vec3::splat(f_dielectric * spec);
-        let f_metal = self.base + (Vec3::ONE - self.base) * fw;
-        let metal = f_metal * spec;
-        dielectric * (1.0 - self.metallic) + metal * self.metallic
+        let opaque = dielectric * (1.0 - self.transmission);
+        if opaque > 0.0 {
+            // The specular weight scales the whole layer (F0 and F90), so its albedo is
+            // weight × E and the albedo scaling stays exact.
+            let f_layer = self.specular * (self.f0 + (1.0 - self.f0) * fw);
+            let (eo, ei) = (self.layer_albedo(wo.z), self.layer_albedo(wi.z));
+            let e_avg = self.specular * specular_albedo().e_avg(self.roughness, self.f0);
+            let diffuse_weight = (1.0 - eo) * (1.0 - ei) / (1.0 - e_avg);
+            f += (self.base * (FRAC_1_PI * diffuse_weight) + Vec3::splat(f_layer * spec)) * opaque;
+        }
+        if self.metallic > 0.0 {
+            f += (self.base + (Vec3::ONE - self.base) * fw) * (spec * self.metallic);
+        }
+        f
     }
 
-    /// Density of [`sample`](Self::sample).
+    /// Density of [`sample`](Self::sample) for the non-delta lobes.
     #[inline]
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         let (wo, wi) = flip_to_upper(wo, wi);
-        if wo.z <= 0.0 || wi.z <= 0.0 {
+        if wo.z <= 0.0 || wi.z == 0.0 {
             return 0.0;
         }
-        let ps = self.specular_probability(wo);
-        let h = (wo + wi).normalize();
-        let pdf_spec = self.ggx.pdf_visible_normal(wo, h) / (4.0 * wo.dot(h).max(1e-8));
-        ps * pdf_spec + (1.0 - ps) * cosine_hemisphere_pdf(wi.z)
+        let c = self.lobes(wo);
+        let mut pdf = 0.0;
+        if c.glass > 0.0 {
+            pdf += c.glass * self.glass.pdf(wo, wi);
+        }
+        if wi.z > 0.0 {
+            let h = (wo + wi).normalize();
+            let pdf_spec = self.ggx.pdf_visible_normal(wo, h) / (4.0 * wo.dot(h).max(1e-8));
+            pdf += (c.metal + c.spec) * pdf_spec + c.diffuse * cosine_hemisphere_pdf(wi.z);
+        }
+        pdf
     }
 
-    /// Samples wi for wo.
+    /// Samples wi for wo; `uc` picks the lobe (and is reused within the glass lobe).
     #[inline]
     pub fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
         let flip = wo.z < 0.0;
-        let wo_up = if flip {
-            Vec3::new(wo.x, wo.y, -wo.z)
-        } else {
-            wo
-        };
+        let mirror = |w: Vec3| if flip { Vec3::new(w.x, w.y, -w.z) } else { w };
+        let wo_up = mirror(wo);
         if wo_up.z <= 0.0 {
             return None;
         }
-        let ps = self.specular_probability(wo_up);
-        let wi_up = if uc < ps {
-            let m = self.ggx.sample_visible_normal(wo_up, u);
-            reflect(wo_up, m)
+        let c = self.lobes(wo_up);
+        let wi_up = if uc < c.glass {
+            let s = self.glass.sample(wo_up, uc / c.glass, u)?;
+            if s.delta {
+                let weight = (1.0 - self.metallic) * self.transmission;
+                return Some(BsdfSample {
+                    wi: mirror(s.wi),
+                    f: s.f * weight,
+                    pdf: s.pdf * c.glass,
+                    delta: true,
+                });
+            }
+            s.wi
+        } else if uc < c.glass + c.metal + c.spec {
+            reflect(wo_up, self.ggx.sample_visible_normal(wo_up, u))
         } else {
             cosine_hemisphere(u)
         };
-        if wi_up.z <= 0.0 {
+        if wi_up.z == 0.0 || (uc >= c.glass && wi_up.z < 0.0) {
             return None;
         }
-        let wi = if flip {
-            Vec3::new(wi_up.x, wi_up.y, -wi_up.z)
-        } else {
-            wi_up
-        };
+        let wi = mirror(wi_up);
         let pdf = self.pdf(wo, wi);
         if !(pdf > 0.0) {
             return None;
@@ -154,12 +283,13 @@ impl PbrBsdf {
             wi,
             f: self.eval(wo, wi),
             pdf,
+            delta: false,
         })
     }
 
     /// Albedo for the denoiser: the colour a white light would reflect, roughly.
     pub fn albedo(&self) -> Rgb {
-        let f0 = F0_DIELECTRIC * self.specular;
+        let f0 = self.f0 * self.specular;
         let dielectric = self.base * (1.0 - f0) + Vec3::splat(f0);
         dielectric * (1.0 - self.metallic) + self.base * self.metallic
     }
@@ -168,12 +298,15 @@ impl PbrBsdf {
 /// Resolution of the albedo table along cos θ and roughness.
 const TABLE_N: usize = 32;
 
-/// Directional albedo E(μ, roughness) of the dielectric GGX layer (F0 = 0.04) and its
-/// cosine-weighted average, computed once by stratified quadrature of the VNDF
-/// estimator F · G2 / G1 (deterministic: no random numbers).
+/// Directional albedo of a GGX reflection layer with Schlick's Fresnel, as the split
+/// E(μ, roughness, F0) = F0 · A(μ, roughness) + B(μ, roughness) (Schlick's Fresnel is
+/// linear in F0), with the cosine-weighted averages of A and B. Computed once by
+/// stratified quadrature of the VNDF estimator F · G2 / G1 (deterministic).
 pub struct SpecularAlbedo {
-    e: Vec<f32>,
-    avg: Vec<f32>,
+    a: Vec<f32>,
+    b: Vec<f32>,
+    avg_a: Vec<f32>,
+    avg_b: Vec<f32>,
 }
 
 /// Stratified samples per table entry (per axis).
@@ -181,27 +314,33 @@ const TABLE_STRATA: usize = 48;
 
 impl SpecularAlbedo {
     fn compute() -> Self {
-        let mut e = vec![0.0f32; TABLE_N * TABLE_N];
+        let mut a = vec![0.0f32; TABLE_N * TABLE_N];
+        let mut b = vec![0.0f32; TABLE_N * TABLE_N];
         for ri in 0..TABLE_N {
             let roughness = ri as f32 / (TABLE_N - 1) as f32;
             for mi in 0..TABLE_N {
-                e[ri * TABLE_N + mi] = directional_albedo(Self::mu(mi), roughness, TABLE_STRATA);
+                let (ea, eb) = directional_albedo_split(Self::mu(mi), roughness, TABLE_STRATA);
+                a[ri * TABLE_N + mi] = ea;
+                b[ri * TABLE_N + mi] = eb;
             }
         }
-        // E_avg = 2 ∫ E(μ) μ dμ by the trapezoid rule on the table's nodes.
-        let avg = (0..TABLE_N)
-            .map(|ri| {
-                let mut sum = 0.0f32;
-                for mi in 0..TABLE_N - 1 {
-                    let (m0, m1) = (Self::mu(mi), Self::mu(mi + 1));
-                    sum += 0.5
-                        * (e[ri * TABLE_N + mi] * m0 + e[ri * TABLE_N + mi + 1] * m1)
-                        * (m1 - m0);
-                }
-                2.0 * sum
-            })
-            .collect();
-        SpecularAlbedo { e, avg }
+        // Averages 2 ∫ E(μ) μ dμ by the trapezoid rule on the table's nodes.
+        let avg = |t: &[f32]| -> Vec<f32> {
+            (0..TABLE_N)
+                .map(|ri| {
+                    let mut sum = 0.0f32;
+                    for mi in 0..TABLE_N - 1 {
+                        let (m0, m1) = (Self::mu(mi), Self::mu(mi + 1));
+                        sum += 0.5
+                            * (t[ri * TABLE_N + mi] * m0 + t[ri * TABLE_N + mi + 1] * m1)
+                            * (m1 - m0);
+                    }
+                    2.0 * sum
+                })
+                .collect()
+        };
+        let (avg_a, avg_b) = (avg(&a), avg(&b));
+        SpecularAlbedo { a, b, avg_a, avg_b }
     }
 
     /// Node i of the μ axis; nodes are spaced in √μ because E changes fastest at grazing angles.
@@ -210,34 +349,41 @@ impl SpecularAlbedo {
         (x * x).max(1e-3)
     }
 
-    /// E(μ, roughness), bilinear in the table.
     #[inline]
-    pub fn e(&self, mu: f32, roughness: f32) -> f32 {
+    fn bilinear(t: &[f32], mu: f32, roughness: f32) -> f32 {
         let x = mu.clamp(0.0, 1.0).sqrt() * (TABLE_N - 1) as f32;
         let y = roughness.clamp(0.0, 1.0) * (TABLE_N - 1) as f32;
         let (x0, y0) = ((x as usize).min(TABLE_N - 2), (y as usize).min(TABLE_N - 2));
         let (fx, fy) = (x - x0 as f32, y - y0 as f32);
-        let at = |i: usize, j: usize| self.e[j * TABLE_N + i];
+        let at = |i: usize, j: usize| t[j * TABLE_N + i];
         let a = at(x0, y0) * (1.0 - fx) + at(x0 + 1, y0) * fx;
         let b = at(x0, y0 + 1) * (1.0 - fx) + at(x0 + 1, y0 + 1) * fx;
         a * (1.0 - fy) + b * fy
     }
 
+    /// E(μ, roughness, F0), bilinear in the tables.
+    #[inline]
+    pub fn e(&self, mu: f32, roughness: f32, f0: f32) -> f32 {
+        f0 * Self::bilinear(&self.a, mu, roughness) + Self::bilinear(&self.b, mu, roughness)
+    }
+
     /// Cosine-weighted average of E over the hemisphere.
     #[inline]
-    pub fn e_avg(&self, roughness: f32) -> f32 {
+    pub fn e_avg(&self, roughness: f32, f0: f32) -> f32 {
         let y = roughness.clamp(0.0, 1.0) * (TABLE_N - 1) as f32;
         let y0 = (y as usize).min(TABLE_N - 2);
         let fy = y - y0 as f32;
-        self.avg[y0] * (1.0 - fy) + self.avg[y0 + 1] * fy
+        let lerp = |t: &[f32]| t[y0] * (1.0 - fy) + t[y0 + 1] * fy;
+        f0 * lerp(&self.avg_a) + lerp(&self.avg_b)
     }
 }
 
-/// ∫ f_spec cos dωi for the dielectric GGX layer at μ = cos θo, by `n`×`n` stratified VNDF samples.
-pub fn directional_albedo(mu: f32, roughness: f32, n: usize) -> f32 {
+/// (A, B) of ∫ f_spec cos dωi = F0·A + B for the GGX layer at μ = cos θo, by `n`×`n`
+/// stratified VNDF samples.
+pub fn directional_albedo_split(mu: f32, roughness: f32, n: usize) -> (f32, f32) {
     let ggx = Ggx::from_roughness(roughness);
     let wo = Vec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu);
-    let mut sum = 0.0f64;
+    let (mut sa, mut sb) = (0.0f64, 0.0f64);
     for i in 0..n {
         for j in 0..n {
             let u = Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
@@ -246,11 +392,20 @@ pub fn directional_albedo(mu: f32, roughness: f32, n: usize) -> f32 {
             if wi.z <= 0.0 {
                 continue;
             }
-            let f = F0_DIELECTRIC + (1.0 - F0_DIELECTRIC) * schlick_weight(wo.dot(m));
-            sum += (f * ggx.g2(wo, wi) / ggx.g1(wo)) as f64;
+            let w = schlick_weight(wo.dot(m));
+            let g = (ggx.g2(wo, wi) / ggx.g1(wo)) as f64;
+            sa += (1.0 - w) as f64 * g;
+            sb += w as f64 * g;
         }
     }
-    (sum / (n * n) as f64) as f32
+    let k = (n * n) as f64;
+    ((sa / k) as f32, (sb / k) as f32)
+}
+
+/// ∫ f_spec cos dωi of the default (F0 = 0.04) layer.
+pub fn directional_albedo(mu: f32, roughness: f32, n: usize) -> f32 {
+    let (a, b) = directional_albedo_split(mu, roughness, n);
+    F0_DIELECTRIC * a + b
 }
 
 /// The shared table.
@@ -275,23 +430,55 @@ mod tests {
     use super::*;
     use crate::sampling::chi2::{ChiSquareTest, Pcg32, assert_chi2};
 
-    fn materials() -> Vec<(String, PbrBsdf)> {
+    fn materials_with(base: Vec3) -> Vec<(String, PbrBsdf)> {
         let mut v = Vec::new();
         for roughness in [0.15f32, 0.5, 1.0] {
             for metallic in [0.0f32, 0.5, 1.0] {
                 v.push((
                     format!("r={roughness} m={metallic}"),
-                    PbrBsdf::new(Vec3::new(0.8, 0.4, 0.1), metallic, roughness),
+                    PbrBsdf::new(base, metallic, roughness),
                 ));
             }
             for specular in [0.0f32, 0.5] {
                 v.push((
                     format!("r={roughness} specular={specular}"),
-                    PbrBsdf::with_specular(Vec3::new(0.8, 0.4, 0.1), 0.0, roughness, specular),
+                    PbrBsdf::with_specular(base, 0.0, roughness, specular),
+                ));
+            }
+        }
+        // Transmissive (rough: the chi-square needs densities), entering and leaving,
+        // solid and thin, partly metallic, another IOR.
+        for (transmission, eta, thin, metallic, ior) in [
+            (1.0f32, 1.5f32, false, 0.0f32, 1.5f32),
+            (1.0, 1.0 / 1.5, false, 0.0, 1.5),
+            (0.5, 1.5, false, 0.0, 1.5),
+            (1.0, 1.5, true, 0.0, 1.5),
+            (0.7, 2.4, false, 0.3, 2.4),
+        ] {
+            for roughness in [0.3f32, 0.8] {
+                let p = PbrParams {
+                    base,
+                    metallic,
+                    roughness,
+                    specular: 1.0,
+                    ior,
+                    transmission,
+                    thin,
+                    eta,
+                };
+                v.push((
+                    format!(
+                        "r={roughness} transmission={transmission} η={eta} thin={thin} m={metallic}"
+                    ),
+                    PbrBsdf::from_params(&p),
                 ));
             }
         }
         v
+    }
+
+    fn materials() -> Vec<(String, PbrBsdf)> {
+        materials_with(Vec3::new(0.8, 0.4, 0.1))
     }
 
     #[test]
@@ -340,11 +527,11 @@ mod tests {
             (0.5, 0.05),
         ] {
             let fine = directional_albedo(mu, r, 4 * TABLE_STRATA) as f64;
-            let err = (t.e(mu, r) as f64 - fine).abs();
+            let err = (t.e(mu, r, F0_DIELECTRIC) as f64 - fine).abs();
             assert!(
                 err < TABLE_ERROR,
                 "E({mu}, {r}): table {} vs {fine}",
-                t.e(mu, r)
+                t.e(mu, r, F0_DIELECTRIC)
             );
         }
     }
@@ -355,11 +542,7 @@ mod tests {
     #[test]
     fn albedo_at_most_one() {
         let n = 200_000;
-        for (name, b) in materials() {
-            let b = PbrBsdf {
-                base: Vec3::ONE,
-                ..b
-            };
+        for (name, b) in materials_with(Vec3::ONE) {
             for theta in [0.0f32, 0.5, 1.0, 1.5] {
                 let wo = Vec3::new(theta.sin(), 0.0, theta.cos());
                 let mut rng = Pcg32::new(1);
@@ -368,7 +551,15 @@ mod tests {
                     let u = Vec2::new(rng.next_f32(), rng.next_f32());
                     let v = b
                         .sample(wo, rng.next_f32(), u)
-                        .map(|s| (s.f.max_element() * s.wi.z / s.pdf) as f64)
+                        .map(|s| {
+                            // Undo the 1/η² radiance scaling of refracted samples.
+                            let scale = if s.wi.z < 0.0 && !b.glass.thin {
+                                b.glass.eta * b.glass.eta
+                            } else {
+                                1.0
+                            };
+                            (s.f.max_element() * s.wi.z.abs() / s.pdf * scale) as f64
+                        })
                         .unwrap_or(0.0);
                     sum += v;
                     sum2 += v * v;

@@ -6,6 +6,7 @@
 pub mod path;
 
 use crate::accel::{Accel, Hit};
+use crate::bsdf::pbr::PbrParams;
 use crate::bsdf::{Bsdf, PbrBsdf};
 use crate::light::{
     AreaLight, EmitterTriangle, Light, LightSample, LightSampler, area_to_solid_angle,
@@ -305,13 +306,30 @@ impl<'a> SceneContext<'a> {
         } else {
             Rgb::ZERO
         };
+        let mut transmission = mat.transmission;
+        if let Some(t) = &mat.transmission_tex {
+            transmission *= lookup(t).x;
+        }
+        let thin = mat.volume.is_none();
+        // Entering or leaving is decided by the geometric normal; a thin sheet is the
+        // same from both sides.
+        let eta = if thin || s.front {
+            mat.ior
+        } else {
+            1.0 / mat.ior
+        };
+        let params = PbrParams {
+            base,
+            metallic,
+            roughness,
+            specular: mat.specular,
+            ior: mat.ior,
+            transmission,
+            thin,
+            eta,
+        };
         ShadingPoint {
-            bsdf: Bsdf::Pbr(PbrBsdf::with_specular(
-                base,
-                metallic,
-                roughness,
-                mat.specular,
-            )),
+            bsdf: Bsdf::Pbr(PbrBsdf::from_params(&params)),
             frame,
             emitted,
         }

@@ -61,6 +61,11 @@ impl PathIntegrator {
         // Density of the BSDF sample that produced `dir` (0 for camera rays: no MIS).
         let mut prev_bsdf_pdf = 0.0f32;
         let mut prev_p = org;
+        // Absorption coefficient of the medium the path is in (KHR_materials_volume).
+        let mut medium: Option<Rgb> = None;
+        // Product of η² over refractions, undone in Russian roulette so that the
+        // 1/η² radiance scaling inside glass does not end paths early (pbrt's etaScale).
+        let mut eta_scale = 1.0f32;
         stats.camera += 1;
         loop {
             // Bounce dimensions, drawn up front so that their positions are fixed.
@@ -70,6 +75,10 @@ impl PathIntegrator {
 
             let hit = ctx.intersect(org, dir, f32::INFINITY);
             let t_surface = hit.map_or(f32::INFINITY, |h| h.t);
+            let absorb = |t: f32| match medium {
+                Some(sigma) => (-sigma * t).exp(),
+                None => Rgb::ONE,
+            };
 
             // Area lights crossed before the surface add their emission (front side).
             if let Some((t, light, index)) = ctx.intersect_area_lights(org, dir, t_surface) {
@@ -83,7 +92,7 @@ impl PathIntegrator {
                             ctx.light_pdf(index, prev_p, q, light.normal),
                         )
                     };
-                    radiance += beta * light.radiance * w;
+                    radiance += beta * absorb(t) * light.radiance * w;
                     if depth == 0 {
                         out.alpha = 1.0;
                     }
@@ -91,6 +100,9 @@ impl PathIntegrator {
             }
 
             let Some(hit) = hit else { break };
+            if medium.is_some() {
+                beta *= absorb(hit.t);
+            }
             let s = ctx.surface(&hit, org, dir);
             let wo = -dir;
 
@@ -130,15 +142,34 @@ impl PathIntegrator {
 
             let wo_local = sp.frame.to_local(wo);
 
-            // Next-event estimation: one light, chosen by power.
-            if let Some((index, pmf)) = ctx.lights.sample(u_light) {
+            // Next-event estimation: one light, chosen by power (useless for pure
+            // delta BSDFs such as clear glass).
+            let nee = if sp.bsdf.is_delta() {
+                None
+            } else {
+                ctx.lights.sample(u_light)
+            };
+            if let Some((index, pmf)) = nee {
                 if let Some(ls) = ctx.sample_light(index, s.p, u_light_pt) {
                     let wi_local = sp.frame.to_local(ls.wi);
                     let f = sp.bsdf.eval(wo_local, wi_local) * wi_local.z.abs();
-                    // Light arriving from below the geometric surface cannot reach a
-                    // reflection-only BSDF on this side.
-                    if f != Rgb::ZERO && ls.li != Rgb::ZERO && ls.wi.dot(s.ng) > 0.0 {
+                    // Shading and geometric normals must agree on reflection versus
+                    // transmission, or light would leak through the surface.
+                    let consistent = (wi_local.z > 0.0) == (ls.wi.dot(s.ng) > 0.0);
+                    if f != Rgb::ZERO && ls.li != Rgb::ZERO && consistent {
                         stats.shadow += 1;
+                        // An unoccluded shadow segment stays in one medium (boundaries
+                        // block shadow rays): the current one, or the one across this
+                        // surface when the light is on the other side.
+                        let mat = &ctx.scene.materials[s.material as usize];
+                        let segment_medium = match (ls.wi.dot(s.ng) < 0.0, mat.volume) {
+                            (true, Some(sigma)) => s.front.then_some(sigma),
+                            _ => medium,
+                        };
+                        let tr = match segment_medium {
+                            Some(sigma) if ls.dist.is_finite() => (-sigma * ls.dist).exp(),
+                            _ => Rgb::ONE,
+                        };
                         let vis = ctx.visibility(s.p, s.ng, &ls);
                         if vis > 0.0 {
                             let w = if ls.delta {
@@ -146,7 +177,7 @@ impl PathIntegrator {
                             } else {
                                 power_heuristic(ls.pdf * pmf, sp.bsdf.pdf(wo_local, wi_local))
                             };
-                            radiance += beta * f * ls.li * (vis * w / (ls.pdf * pmf));
+                            radiance += beta * f * tr * ls.li * (vis * w / (ls.pdf * pmf));
                         }
                     }
                 }
@@ -157,28 +188,40 @@ impl PathIntegrator {
                 break;
             };
             let wi = sp.frame.to_world(bs.wi);
-            if wi.dot(s.ng) <= 0.0 {
-                // The shading normal let the sample through the geometric surface.
+            let transmitted = bs.wi.z < 0.0;
+            if transmitted != (wi.dot(s.ng) < 0.0) {
+                // The shading normal disagrees with the geometry about the side.
                 break;
             }
             beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
             if !beta.is_finite() || beta == Rgb::ZERO {
                 break;
             }
-            prev_bsdf_pdf = bs.pdf;
+            // After a delta lobe, emission found next is not MIS-weighted (0 = "specular").
+            prev_bsdf_pdf = if bs.delta { 0.0 } else { bs.pdf };
             prev_p = s.p;
             depth += 1;
 
+            // Crossing an interface of a solid changes the medium and the η scale.
+            if transmitted {
+                let mat = &ctx.scene.materials[s.material as usize];
+                if let Some(sigma) = mat.volume {
+                    medium = if s.front { Some(sigma) } else { None };
+                    let eta = if s.front { mat.ior } else { 1.0 / mat.ior };
+                    eta_scale *= eta * eta;
+                }
+            }
+
             // Russian roulette.
             if depth >= self.rr_depth {
-                let survive = beta.max_element().min(0.95);
+                let survive = (beta.max_element() * eta_scale).min(0.95);
                 if u_rr >= survive {
                     break;
                 }
                 beta /= survive;
             }
 
-            org = offset_ray_origin(s.p, s.ng);
+            org = offset_ray_origin(s.p, if transmitted { -s.ng } else { s.ng });
             dir = wi;
             stats.bounce += 1;
         }

@@ -29,8 +29,19 @@ pub const SUPPORTED_REQUIRED: &[&str] = &[
 ];
 
 /// Material extensions that Caustic reads.
-const HANDLED_MATERIAL_EXTENSIONS: &[&str] =
-    &["KHR_materials_emissive_strength", "KHR_materials_specular"];
+const HANDLED_MATERIAL_EXTENSIONS: &[&str] = &[
+    "KHR_materials_emissive_strength",
+    "KHR_materials_specular",
+    "KHR_materials_transmission",
+    "KHR_materials_ior",
+    "KHR_materials_volume",
+    // Warned about by name where they are read:
+    "KHR_materials_clearcoat",
+    "KHR_materials_sheen",
+    "KHR_materials_dispersion",
+    "KHR_materials_iridescence",
+    "KHR_materials_anisotropy",
+];
 
 /// glTF's photometric units to Blender's radiometric ones: Blender's exporter writes
 /// W × 683 lm/W (its PBR_WATTS_TO_LUMENS), so dividing gives Blender's watts back.
@@ -618,6 +629,48 @@ impl<'a> Loader<'a> {
             .map(Some)
     }
 
+    /// A textureInfo given as raw extension JSON (`{"index": i, "texCoord": n, "extensions": ...}`).
+    fn raw_texture(
+        &mut self,
+        doc: &gltf::Document,
+        info: &serde_json::Value,
+        srgb: bool,
+        buffers: &[Vec<u8>],
+        material: &str,
+    ) -> Result<Option<TexRef>> {
+        let index = info.get("index").and_then(|v| v.as_u64()).ok_or_else(|| {
+            self.err(format!(
+                "material '{material}': a texture reference has no index"
+            ))
+        })?;
+        let texture = doc.textures().nth(index as usize).ok_or_else(|| {
+            self.err(format!(
+                "material '{material}': texture {index} does not exist"
+            ))
+        })?;
+        let mut tex_coord = info.get("texCoord").and_then(|v| v.as_u64()).unwrap_or(0) as u32;
+        let mut transform = Mat3::IDENTITY;
+        if let Some(t) = info.pointer("/extensions/KHR_texture_transform") {
+            let f = |k: &str, d: f32, i: usize| {
+                t.get(k)
+                    .and_then(|v| v.get(i).or(Some(v)))
+                    .and_then(|v| v.as_f64())
+                    .map(|v| v as f32)
+                    .unwrap_or(d)
+            };
+            transform = texture_transform(
+                [f("offset", 0.0, 0), f("offset", 0.0, 1)],
+                f("rotation", 0.0, 0),
+                [f("scale", 1.0, 0), f("scale", 1.0, 1)],
+            );
+            if let Some(tc) = t.get("texCoord").and_then(|v| v.as_u64()) {
+                tex_coord = tc as u32;
+            }
+        }
+        self.texture(doc, texture, tex_coord, transform, srgb, buffers)
+            .map(Some)
+    }
+
     fn material(
         &mut self,
         doc: &gltf::Document,
@@ -742,6 +795,95 @@ impl<'a> Loader<'a> {
         if m.double_sided() {
             features.push("doubleSided".into());
         }
+        let file = self.file.to_string();
+        let num = |v: &serde_json::Value, key: &str, default: f32| -> Result<f32> {
+            match v.get(key) {
+                None => Ok(default),
+                Some(x) => x
+                    .as_f64()
+                    .map(|f| f as f32)
+                    .filter(|f| f.is_finite())
+                    .ok_or_else(|| Error::Scene {
+                        file: file.clone(),
+                        message: format!("material '{name}': {key} is not a finite number"),
+                    }),
+            }
+        };
+        let mut transmission = 0.0;
+        let mut transmission_tex = None;
+        if let Some(t) = m.extension_value("KHR_materials_transmission").cloned() {
+            features.push("KHR_materials_transmission".into());
+            let factor = num(&t, "transmissionFactor", 0.0)?;
+            transmission = factor.clamp(0.0, 1.0);
+            if transmission != factor {
+                self.warn(format!(
+                    "material '{name}': transmissionFactor {factor} was clamped to [0, 1]"
+                ));
+            }
+            if let Some(tex) = t.get("transmissionTexture") {
+                transmission_tex = self.raw_texture(doc, tex, false, buffers, &name)?;
+            }
+        }
+        let mut ior = 1.5;
+        if let Some(i) = m.extension_value("KHR_materials_ior").cloned() {
+            features.push("KHR_materials_ior".into());
+            let v = num(&i, "ior", 1.5)?;
+            // glTF allows 0 to mean "no Fresnel"; Caustic needs a physical index.
+            if v < 1.0 {
+                self.warn(format!(
+                    "material '{name}': ior {v} is below 1 and was set to 1"
+                ));
+            }
+            ior = v.clamp(1.0, 10.0);
+        }
+        let mut volume = None;
+        if let Some(v) = m.extension_value("KHR_materials_volume").cloned() {
+            features.push("KHR_materials_volume".into());
+            let thickness = num(&v, "thicknessFactor", 0.0)?;
+            let distance = num(&v, "attenuationDistance", f32::INFINITY)?;
+            let color = v
+                .get("attenuationColor")
+                .and_then(|c| c.as_array())
+                .map(|c| {
+                    c.iter()
+                        .map(|x| x.as_f64().unwrap_or(1.0) as f32)
+                        .collect::<Vec<f32>>()
+                })
+                .unwrap_or_else(|| vec![1.0; 3]);
+            if color.len() != 3 || color.iter().any(|c| !c.is_finite()) || !(distance > 0.0) {
+                return Err(self.err(format!(
+                    "material '{name}': KHR_materials_volume needs 3 finite attenuationColor values and attenuationDistance > 0"
+                )));
+            }
+            // Beer-Lambert: after attenuationDistance, light keeps attenuationColor.
+            let sigma = Vec3::new(color[0], color[1], color[2]).clamp(Vec3::splat(1e-6), Vec3::ONE);
+            let sigma_a = if distance.is_finite() {
+                -Vec3::new(sigma.x.ln(), sigma.y.ln(), sigma.z.ln()) / distance
+            } else {
+                Vec3::ZERO
+            };
+            if thickness > 0.0 {
+                volume = Some(sigma_a);
+            }
+            if v.get("thicknessTexture").is_some() {
+                features
+                    .push("thicknessTexture (ignored: Caustic traces the real geometry)".into());
+            }
+        }
+        for ext in [
+            "KHR_materials_clearcoat",
+            "KHR_materials_sheen",
+            "KHR_materials_dispersion",
+            "KHR_materials_iridescence",
+            "KHR_materials_anisotropy",
+        ] {
+            if m.extension_value(ext).is_some() {
+                features.push(format!("{ext} (ignored)"));
+                self.warn(format!(
+                    "material '{name}': {ext} is not rendered yet and was ignored"
+                ));
+            }
+        }
         let mut specular = 1.0;
         if let Some(spec) = m.extension_value("KHR_materials_specular") {
             features.push("KHR_materials_specular".into());
@@ -796,6 +938,10 @@ impl<'a> Loader<'a> {
             emissive: emissive.max(Vec3::ZERO),
             emissive_tex,
             specular,
+            ior,
+            transmission,
+            transmission_tex,
+            volume,
             alpha_mode,
             double_sided: m.double_sided(),
         };

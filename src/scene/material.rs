@@ -40,6 +40,15 @@ pub struct Material {
     pub emissive_tex: Option<TexRef>,
     /// `KHR_materials_specular` specularFactor: weight of the dielectric specular layer.
     pub specular: f32,
+    /// `KHR_materials_ior` (1.5 when absent, as glTF and Blender's exporter assume).
+    pub ior: f32,
+    /// `KHR_materials_transmission` transmissionFactor.
+    pub transmission: f32,
+    /// Transmission texture (R channel).
+    pub transmission_tex: Option<TexRef>,
+    /// Absorption coefficient σa (per scene unit) of the volume inside, from
+    /// `KHR_materials_volume` attenuation; None when the surface is thin-walled.
+    pub volume: Option<Rgb>,
     /// Alpha mode.
     pub alpha_mode: AlphaMode,
     /// Emits from both sides (glTF `doubleSided`). Shading is always two-sided, as in Cycles.
@@ -62,6 +71,10 @@ impl Default for Material {
             emissive: Rgb::ZERO,
             emissive_tex: None,
             specular: 1.0,
+            ior: 1.5,
+            transmission: 0.0,
+            transmission_tex: None,
+            volume: None,
             alpha_mode: AlphaMode::Opaque,
             double_sided: false,
         }

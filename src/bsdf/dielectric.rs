@@ -1,0 +1,344 @@
+//! A dielectric interface (glass, water): Fresnel-weighted reflection and refraction,
+//! smooth (delta) or rough (GGX microfacets, Walter et al. 2007, sampled through the
+//! visible normals), optionally thin-walled.
+//!
+//! Conventions: local frame with `wo.z > 0` (the caller orients the frame toward the
+//! viewer); `eta` is the relative index of refraction n(other side) / n(wo's side),
+//! decided by the caller from the geometric normal (entering or leaving). Radiance is
+//! transported: a refracted ray's value is divided by η², which cancels over a closed
+//! object. Transmission is tinted by `tint` (glTF: the base colour).
+//!
+//! Thin-walled (glTF's default without `KHR_materials_volume`): light passes straight
+//! through (smooth) or through the mirror image of the reflection lobe (rough), with
+//! the interreflections of the two faces summed: R' = 2R / (1 + R), T' = 1 - R'.
+//!
+//! Not handled: dispersion (one IOR for all wavelengths), absorption inside (the
+//! integrator applies `KHR_materials_volume` along the path), multiple scattering
+//! between microfacets (rough glass loses a little energy, as in Cycles' single-scatter mode).
+
+use super::BsdfSample;
+use super::microfacet::{Ggx, reflect};
+use crate::math::Rgb;
+use glam::{Vec2, Vec3};
+
+/// Roughness below which the interface is treated as perfectly smooth (delta).
+pub const SMOOTH_ROUGHNESS: f32 = 0.02;
+
+/// Unpolarised Fresnel reflectance of a dielectric interface for cosine `cos_i` of the
+/// incident direction and relative index `eta` (transmitted over incident). 1 under
+/// total internal reflection.
+#[inline]
+pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
+    let cos_i = cos_i.clamp(0.0, 1.0);
+    let sin2_t = (1.0 - cos_i * cos_i) / (eta * eta);
+    if sin2_t >= 1.0 {
+        return 1.0;
+    }
+    let cos_t = (1.0 - sin2_t).sqrt();
+    let r_parl = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+    let r_perp = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+    0.5 * (r_parl * r_parl + r_perp * r_perp)
+}
+
+/// Refracts `w` (pointing away from the surface, on the side of `n`) through the
+/// interface with relative index `eta`; None under total internal reflection.
+#[inline]
+pub fn refract(w: Vec3, n: Vec3, eta: f32) -> Option<Vec3> {
+    let cos_i = n.dot(w);
+    let sin2_t = (1.0 - cos_i * cos_i).max(0.0) / (eta * eta);
+    if sin2_t >= 1.0 {
+        return None;
+    }
+    let cos_t = (1.0 - sin2_t).sqrt();
+    Some(-w / eta + n * (cos_i / eta - cos_t))
+}
+
+/// The dielectric interface.
+#[derive(Clone, Copy, Debug)]
+pub struct DielectricBsdf {
+    /// Relative index of refraction (other side over wo's side).
+    pub eta: f32,
+    /// Microfacets (ignored when smooth).
+    pub ggx: Ggx,
+    /// Perfectly smooth: reflection and refraction are delta lobes.
+    pub smooth: bool,
+    /// Thin-walled sheet (no refraction bending).
+    pub thin: bool,
+    /// Colour of transmitted light.
+    pub tint: Rgb,
+}
+
+impl DielectricBsdf {
+    /// An interface from glTF parameters.
+    pub fn new(eta: f32, roughness: f32, thin: bool, tint: Rgb) -> Self {
+        DielectricBsdf {
+            eta: if eta.is_finite() && eta > 0.0 {
+                eta
+            } else {
+                1.0
+            },
+            ggx: Ggx::from_roughness(roughness),
+            smooth: roughness < SMOOTH_ROUGHNESS,
+            thin,
+            tint,
+        }
+    }
+
+    /// Reflectance at normal incidence... and at `cos`, with the thin-wall sum.
+    #[inline]
+    fn reflectance(&self, cos: f32) -> f32 {
+        let r = fresnel_dielectric(cos, self.eta);
+        if self.thin { 2.0 * r / (1.0 + r) } else { r }
+    }
+
+    /// Fraction reflected at `wo` for sampling decisions (exact when smooth).
+    pub fn reflect_probability(&self, wo: Vec3) -> f32 {
+        self.reflectance(wo.z)
+    }
+
+    /// f(wo, wi) of the non-delta part (zero when smooth).
+    #[inline]
+    pub fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
+        if self.smooth || wo.z <= 0.0 || wi.z == 0.0 {
+            return Rgb::ZERO;
+        }
+        if wi.z > 0.0 || self.thin {
+            // Reflection, or thin transmission through the mirrored reflection lobe.
+            let wr = Vec3::new(wi.x, wi.y, wi.z.abs());
+            let m = (wo + wr).normalize();
+            let f = self.reflectance(wo.dot(m));
+            let spec = self.ggx.d(m) * self.ggx.g2(wo, wr) / (4.0 * wo.z * wr.z);
+            return if wi.z > 0.0 {
+                Rgb::splat(f * spec)
+            } else {
+                self.tint * ((1.0 - f) * spec)
+            };
+        }
+        let Some(m) = self.half_vector_transmission(wo, wi) else {
+            return Rgb::ZERO;
+        };
+        let (dot_o, dot_i) = (wo.dot(m), wi.dot(m));
+        let f = fresnel_dielectric(dot_o, self.eta);
+        let denom = dot_i + dot_o / self.eta;
+        let value = self.ggx.d(m)
+            * (1.0 - f)
+            * self.ggx.g2(wo, Vec3::new(wi.x, wi.y, -wi.z))
+            * (dot_i * dot_o).abs()
+            / (denom * denom * wi.z.abs() * wo.z);
+        self.tint * (value / (self.eta * self.eta))
+    }
+
+    /// Generalised half vector of a refraction pair, oriented to +Z; None for pairs that
+    /// no microfacet can produce.
+    #[inline]
+    fn half_vector_transmission(&self, wo: Vec3, wi: Vec3) -> Option<Vec3> {
+        let m = wi * self.eta + wo;
+        if m.length_squared() == 0.0 {
+            return None;
+        }
+        let mut m = m.normalize();
+        if m.z < 0.0 {
+            m = -m;
+        }
+        // The microfacet must face wo and face away from wi.
+        if wo.dot(m) <= 0.0 || wi.dot(m) >= 0.0 {
+            return None;
+        }
+        Some(m)
+    }
+
+    /// Density of `sample` for the non-delta part.
+    #[inline]
+    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        if self.smooth || wo.z <= 0.0 || wi.z == 0.0 {
+            return 0.0;
+        }
+        if wi.z > 0.0 || self.thin {
+            let wr = Vec3::new(wi.x, wi.y, wi.z.abs());
+            let m = (wo + wr).normalize();
+            let r = self.reflectance(wo.dot(m));
+            let p = if wi.z > 0.0 { r } else { 1.0 - r };
+            return p * self.ggx.pdf_visible_normal(wo, m) / (4.0 * wo.dot(m).max(1e-8));
+        }
+        let Some(m) = self.half_vector_transmission(wo, wi) else {
+            return 0.0;
+        };
+        let (dot_o, dot_i) = (wo.dot(m), wi.dot(m));
+        let t = 1.0 - fresnel_dielectric(dot_o, self.eta);
+        let denom = dot_i + dot_o / self.eta;
+        t * self.ggx.pdf_visible_normal(wo, m) * dot_i.abs() / (denom * denom)
+    }
+
+    /// Samples reflection or transmission; `uc` chooses, `u` picks the microfacet.
+    #[inline]
+    pub fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
+        if wo.z <= 0.0 {
+            return None;
+        }
+        if self.smooth {
+            let r = self.reflectance(wo.z);
+            if uc < r {
+                let wi = Vec3::new(-wo.x, -wo.y, wo.z);
+                return Some(BsdfSample {
+                    wi,
+                    f: Rgb::splat(r / wi.z),
+                    pdf: r,
+                    delta: true,
+                });
+            }
+            let t = 1.0 - r;
+            if self.thin {
+                let wi = -wo;
+                return Some(BsdfSample {
+                    wi,
+                    f: self.tint * (t / wi.z.abs()),
+                    pdf: t,
+                    delta: true,
+                });
+            }
+            let wi = refract(wo, Vec3::Z, self.eta)?;
+            let f = self.tint * (t / (self.eta * self.eta) / wi.z.abs());
+            return Some(BsdfSample {
+                wi,
+                f,
+                pdf: t,
+                delta: true,
+            });
+        }
+        let m = self.ggx.sample_visible_normal(wo, u);
+        let r = self.reflectance(wo.dot(m));
+        let wi = if uc < r {
+            reflect(wo, m)
+        } else if self.thin {
+            let w = reflect(wo, m);
+            Vec3::new(w.x, w.y, -w.z)
+        } else {
+            refract(wo, m, self.eta)?
+        };
+        // A reflection must stay above, a refraction go below.
+        if (uc < r) != (wi.z > 0.0) {
+            return None;
+        }
+        let pdf = self.pdf(wo, wi);
+        if !(pdf > 0.0) {
+            return None;
+        }
+        Some(BsdfSample {
+            wi,
+            f: self.eval(wo, wi),
+            pdf,
+            delta: false,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::chi2::{ChiSquareTest, Pcg32, assert_chi2};
+
+    #[test]
+    fn chi2_rough_dielectric() {
+        for &eta in &[1.33f32, 1.5, 2.4, 1.0 / 1.5] {
+            for &roughness in &[0.3f32, 0.6, 1.0] {
+                for &thin in &[false, true] {
+                    for &theta in &[0.2f32, 0.9, 1.3] {
+                        let b = DielectricBsdf::new(eta, roughness, thin, Rgb::ONE);
+                        let wo = Vec3::new(theta.sin(), 0.0, theta.cos());
+                        let mut rng = Pcg32::new(11);
+                        let t = ChiSquareTest::new(&format!(
+                            "dielectric η={eta} r={roughness} thin={thin} θ={theta}"
+                        ));
+                        assert_chi2(t.run_with_pdf(
+                            |u| b.sample(wo, rng.next_f32(), u).map(|s| (s.wi, s.pdf)),
+                            |wi| b.pdf(wo, wi),
+                        ));
+                    }
+                }
+            }
+        }
+    }
+
+    /// A smooth interface: R + T = 1 for every angle (the sampled weights sum to one),
+    /// the refracted direction obeys Snell's law, and beyond the critical angle all
+    /// light is reflected.
+    #[test]
+    fn smooth_energy_snell_and_tir() {
+        for &eta in &[1.33f32, 1.5, 2.4] {
+            let b = DielectricBsdf::new(eta, 0.0, false, Rgb::ONE);
+            for i in 1..20 {
+                let theta = i as f32 / 20.0 * 1.5;
+                let wo = Vec3::new(theta.sin(), 0.0, theta.cos());
+                let r = b.sample(wo, 0.0, Vec2::ZERO).unwrap();
+                let t = b.sample(wo, 0.999_999, Vec2::ZERO).unwrap();
+                // Weight of each choice = f |cos| / pdf · P(choice); radiance scaling aside.
+                let r_part = r.f.x * r.wi.z.abs();
+                let t_part = t.f.x * t.wi.z.abs() * eta * eta;
+                assert!(
+                    (r_part + t_part - 1.0).abs() < 1e-5,
+                    "η={eta} θ={theta}: R+T = {}",
+                    r_part + t_part
+                );
+                // Snell: sin θo = η sin θt.
+                let sin_t = (t.wi.x * t.wi.x + t.wi.y * t.wi.y).sqrt();
+                assert!((theta.sin() - eta * sin_t).abs() < 1e-5);
+                assert!(
+                    t.wi.z < 0.0 && t.wi.x < 0.0,
+                    "refracted ray continues forward"
+                );
+            }
+        }
+        // From inside glass (η = 1/1.5) the critical angle is asin(1/1.5) ≈ 41.8°.
+        let inside = DielectricBsdf::new(1.0 / 1.5, 0.0, false, Rgb::ONE);
+        let beyond = 45f32.to_radians();
+        let wo = Vec3::new(beyond.sin(), 0.0, beyond.cos());
+        assert_eq!(inside.reflect_probability(wo), 1.0);
+        let s = inside.sample(wo, 0.999, Vec2::ZERO).unwrap();
+        assert!(s.wi.z > 0.0, "total internal reflection");
+        let before = 40f32.to_radians();
+        assert!(inside.reflect_probability(Vec3::new(before.sin(), 0.0, before.cos())) < 1.0);
+    }
+
+    /// Normal-incidence Fresnel is ((η-1)/(η+1))² and symmetric in η ↔ 1/η.
+    #[test]
+    fn fresnel_normal_incidence() {
+        assert!((fresnel_dielectric(1.0, 1.5) - 0.04).abs() < 1e-6);
+        assert!((fresnel_dielectric(1.0, 1.0 / 1.5) - 0.04).abs() < 1e-6);
+        assert_eq!(fresnel_dielectric(1.0, 1.0), 0.0);
+    }
+
+    /// The rough interface's albedo (reflection + transmission, without the 1/η²
+    /// radiance scaling) is at most 1, within 5 standard errors.
+    #[test]
+    fn rough_albedo_at_most_one() {
+        let n = 100_000;
+        for &eta in &[1.5f32, 1.0 / 1.5] {
+            for &roughness in &[0.3f32, 1.0] {
+                for &theta in &[0.1f32, 1.0, 1.45] {
+                    let b = DielectricBsdf::new(eta, roughness, false, Rgb::ONE);
+                    let wo = Vec3::new(theta.sin(), 0.0, theta.cos());
+                    let mut rng = Pcg32::new(5);
+                    let (mut sum, mut sum2) = (0f64, 0f64);
+                    for _ in 0..n {
+                        let u = Vec2::new(rng.next_f32(), rng.next_f32());
+                        let v = b
+                            .sample(wo, rng.next_f32(), u)
+                            .map(|s| {
+                                let scale = if s.wi.z < 0.0 { eta * eta } else { 1.0 };
+                                (s.f.x * s.wi.z.abs() / s.pdf * scale) as f64
+                            })
+                            .unwrap_or(0.0);
+                        sum += v;
+                        sum2 += v * v;
+                    }
+                    let mean = sum / n as f64;
+                    let se = ((sum2 / n as f64 - mean * mean).max(0.0) / n as f64).sqrt();
+                    assert!(
+                        mean <= 1.0 + 5.0 * se,
+                        "η={eta} r={roughness} θ={theta}: {mean} ± {se}"
+                    );
+                }
+            }
+        }
+    }
+}
