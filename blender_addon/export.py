@@ -104,6 +104,85 @@ def area_light_extension(blender_object):
     return value, warnings
 
 
+WORLD_EXTENSION = "CAUSTIC_world"
+
+_IMAGE_EXTENSIONS = {"HDR": ".hdr", "OPEN_EXR": ".exr", "OPEN_EXR_MULTILAYER": ".exr", "PNG": ".png",
+                     "JPEG": ".jpg"}
+
+
+def _linked_node(socket):
+    return socket.links[0].from_node if socket.is_linked else None
+
+
+def world_extension(scene, folder):
+    """The `CAUSTIC_world` value for the scene's world, and warnings about what it drops.
+
+    Supported: a Background node (colour × strength) on the active World Output, whose colour
+    may come from an Environment Texture (equirectangular) optionally rotated about Z by a
+    Mapping node. The image file (or the packed image's bytes) is copied next to the glTF.
+    """
+    world = scene.world
+    if world is None:
+        return None, []
+    warnings = []
+    tree = world.node_tree if getattr(world, "use_nodes", True) else None
+    if tree is None:
+        c = world.color
+        return {"color": [float(c[0]), float(c[1]), float(c[2])], "strength": 1.0}, warnings
+    outputs = [n for n in tree.nodes if n.type == "OUTPUT_WORLD"]
+    output = next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
+    if output is None or not output.inputs["Surface"].is_linked:
+        return None, warnings
+    node = _linked_node(output.inputs["Surface"])
+    if node.type != "BACKGROUND":
+        warnings.append(f"world '{world.name}': the {node.bl_label} node is not supported; the world is black")
+        return None, warnings
+    if node.inputs["Strength"].is_linked:
+        warnings.append(f"world '{world.name}': a linked Strength is not supported; using its value")
+    strength = float(node.inputs["Strength"].default_value)
+    value = {"color": [1.0, 1.0, 1.0], "strength": strength}
+    color_in = node.inputs["Color"]
+    source = _linked_node(color_in)
+    if source is None:
+        value["color"] = [float(c) for c in color_in.default_value[:3]]
+        return value, warnings
+    if source.type != "TEX_ENVIRONMENT" or source.image is None:
+        warnings.append(f"world '{world.name}': colour from a {source.bl_label} node is not supported; "
+                        "using the Background colour")
+        value["color"] = [float(c) for c in color_in.default_value[:3]]
+        return value, warnings
+    if source.projection != "EQUIRECTANGULAR":
+        warnings.append(f"world '{world.name}': {source.projection} projection is not supported; "
+                        "read as equirectangular")
+    mapping = _linked_node(source.inputs["Vector"])
+    if mapping is not None:
+        if mapping.type == "MAPPING":
+            rotation = mapping.inputs["Rotation"].default_value
+            value["rotation"] = float(rotation[2])
+            if abs(rotation[0]) > 1e-6 or abs(rotation[1]) > 1e-6:
+                warnings.append(f"world '{world.name}': Mapping rotation about X/Y is not supported")
+        elif mapping.type != "TEX_COORD":
+            warnings.append(f"world '{world.name}': the {mapping.bl_label} node before the "
+                            "Environment Texture is not supported")
+    image = source.image
+    suffix = _IMAGE_EXTENSIONS.get(image.file_format, os.path.splitext(image.filepath)[1].lower() or ".png")
+    target = os.path.join(folder, "world" + suffix)
+    if image.packed_file is not None:
+        with open(target, "wb") as f:
+            f.write(image.packed_file.data)
+    else:
+        src = bpy.path.abspath(image.filepath, library=image.library)
+        if not os.path.isfile(src):
+            warnings.append(f"world '{world.name}': image '{image.name}' has no file ({src}); "
+                            "using the Background colour")
+            value["color"] = [float(c) for c in color_in.default_value[:3]]
+            return value, warnings
+        with open(src, "rb") as fin, open(target, "wb") as fout:
+            fout.write(fin.read())
+    value["image"] = os.path.basename(target)
+    return value, warnings
+
+
 class glTF2ExportUserExtension:
     """Hooks the glTF exporter calls; they add Caustic's data while a Caustic render exports."""
 
@@ -162,6 +241,16 @@ class glTF2ExportUserExtension:
             state.scenes += 1
         except Exception as err:
             state.errors.append(f"scene settings: {err!r}")
+        try:
+            value, warnings = world_extension(blender_scene, export_settings["gltf_filedirectory"])
+            state.warnings.extend(warnings)
+            if value is not None:
+                if gltf2_scene.extensions is None:
+                    gltf2_scene.extensions = {}
+                gltf2_scene.extensions[WORLD_EXTENSION] = self._extension(
+                    name=WORLD_EXTENSION, extension=value, required=False)
+        except Exception as err:
+            state.errors.append(f"world: {err!r}")
 
 
 @contextmanager

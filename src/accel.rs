@@ -48,11 +48,7 @@ impl RayTransform {
         if dir[kz] < 0.0 {
             std::mem::swap(&mut kx, &mut ky);
         }
-        RayTransform {
-            org,
-            k: [kx, ky, kz],
-            s: [dir[kx] / dir[kz], dir[ky] / dir[kz], 1.0 / dir[kz]],
-        }
+        RayTransform { org, k: [kx, ky, kz], s: [dir[kx] / dir[kz], dir[ky] / dir[kz], 1.0 / dir[kz]] }
     }
 
     /// Watertight intersection; returns (t, b1, b2) for tmin < t < tmax.
@@ -72,9 +68,7 @@ impl RayTransform {
         // On an edge, redo the edge functions in double precision so that the two
         // triangles sharing it agree on which one is hit.
         if u == 0.0 || vv == 0.0 || w == 0.0 {
-            let (ax, ay, bx, by, cx, cy) = (
-                ax as f64, ay as f64, bx as f64, by as f64, cx as f64, cy as f64,
-            );
+            let (ax, ay, bx, by, cx, cy) = (ax as f64, ay as f64, bx as f64, by as f64, cx as f64, cy as f64);
             u = (cx * by - cy * bx) as f32;
             vv = (ax * cy - ay * cx) as f32;
             w = (bx * ay - by * ax) as f32;
@@ -120,37 +114,16 @@ impl Accel {
         let start = Instant::now();
         let prims: Vec<obvhs::triangle::Triangle> = triangles
             .iter()
-            .map(|t| obvhs::triangle::Triangle {
-                v0: t[0].into(),
-                v1: t[1].into(),
-                v2: t[2].into(),
-            })
+            .map(|t| obvhs::triangle::Triangle { v0: t[0].into(), v1: t[1].into(), v2: t[2].into() })
             .collect();
         // Spatial pre-splits are off: with them a triangle can sit in several leaves,
         // which would double-count it in transmittance queries.
-        let params = BvhBuildParams {
-            pre_split: false,
-            ..BvhBuildParams::medium_build()
-        };
+        let params = BvhBuildParams { pre_split: false, ..BvhBuildParams::medium_build() };
         let mut core = Duration::ZERO;
         let bvh = obvhs::cwbvh::builder::build_cwbvh_from_tris(&prims, params, &mut core);
         let ids = bvh.primitive_indices.clone();
-        let tris = ids
-            .iter()
-            .map(|&i| {
-                [
-                    prims[i as usize].v0,
-                    prims[i as usize].v1,
-                    prims[i as usize].v2,
-                ]
-            })
-            .collect();
-        Accel {
-            bvh,
-            tris,
-            ids,
-            build_time: start.elapsed(),
-        }
+        let tris = ids.iter().map(|&i| [prims[i as usize].v0, prims[i as usize].v1, prims[i as usize].v2]).collect();
+        Accel { bvh, tris, ids, build_time: start.elapsed() }
     }
 
     /// Closest hit along a unit-direction ray in (0, tmax); `accept(tri, b1, b2)`
@@ -179,12 +152,7 @@ impl Accel {
             best = (tri, b1, b2);
             t
         });
-        (hit.t < tmax).then(|| Hit {
-            tri: best.0,
-            t: hit.t,
-            b1: best.1,
-            b2: best.2,
-        })
+        (hit.t < tmax).then(|| Hit { tri: best.0, t: hit.t, b1: best.1, b2: best.2 })
     }
 
     /// Fraction of light that passes along the segment (0, tmax): 0 at the first
@@ -251,87 +219,22 @@ mod tests {
 
     #[test]
     fn barycentrics_and_distance() {
-        let tri = [
-            Vec3::new(0.0, 0.0, -2.0),
-            Vec3::new(1.0, 0.0, -2.0),
-            Vec3::new(0.0, 1.0, -2.0),
-        ];
+        let tri = [Vec3::new(0.0, 0.0, -2.0), Vec3::new(1.0, 0.0, -2.0), Vec3::new(0.0, 1.0, -2.0)];
         let accel = Accel::build(&[tri]);
-        let h = accel
-            .intersect(
-                Vec3::new(0.25, 0.5, 0.0),
-                -Vec3::Z,
-                f32::INFINITY,
-                &[false],
-                |_, _, _| true,
-            )
-            .unwrap();
-        assert!(
-            (h.t - 2.0).abs() < 1e-5 && (h.b1 - 0.25).abs() < 1e-5 && (h.b2 - 0.5).abs() < 1e-5
-        );
-        assert!(
-            accel
-                .intersect(
-                    Vec3::new(0.25, 0.5, 0.0),
-                    -Vec3::Z,
-                    1.5,
-                    &[false],
-                    |_, _, _| true
-                )
-                .is_none()
-        );
-        assert_eq!(
-            accel.transmittance(
-                Vec3::new(0.25, 0.5, 0.0),
-                -Vec3::Z,
-                3.0,
-                &[false],
-                |_, _, _| 1.0
-            ),
-            0.0
-        );
-        assert_eq!(
-            accel.transmittance(
-                Vec3::new(0.25, 0.5, 0.0),
-                -Vec3::Z,
-                3.0,
-                &[true],
-                |_, _, _| 0.25
-            ),
-            0.25
-        );
-        assert_eq!(
-            accel.transmittance(
-                Vec3::new(0.25, 0.5, 0.0),
-                Vec3::Z,
-                3.0,
-                &[false],
-                |_, _, _| 1.0
-            ),
-            1.0
-        );
+        let h = accel.intersect(Vec3::new(0.25, 0.5, 0.0), -Vec3::Z, f32::INFINITY, &[false], |_, _, _| true).unwrap();
+        assert!((h.t - 2.0).abs() < 1e-5 && (h.b1 - 0.25).abs() < 1e-5 && (h.b2 - 0.5).abs() < 1e-5);
+        assert!(accel.intersect(Vec3::new(0.25, 0.5, 0.0), -Vec3::Z, 1.5, &[false], |_, _, _| true).is_none());
+        assert_eq!(accel.transmittance(Vec3::new(0.25, 0.5, 0.0), -Vec3::Z, 3.0, &[false], |_, _, _| 1.0), 0.0);
+        assert_eq!(accel.transmittance(Vec3::new(0.25, 0.5, 0.0), -Vec3::Z, 3.0, &[true], |_, _, _| 0.25), 0.25);
+        assert_eq!(accel.transmittance(Vec3::new(0.25, 0.5, 0.0), Vec3::Z, 3.0, &[false], |_, _, _| 1.0), 1.0);
     }
 
     /// Axis-aligned rays whose other components are -0.0 (e.g. `-Vec3::Z`) must hit.
     #[test]
     fn negative_zero_direction_hits() {
-        let tri = [
-            Vec3::new(0.0, 0.0, -2.0),
-            Vec3::new(1.0, 0.0, -2.1),
-            Vec3::new(0.0, 1.0, -2.0),
-        ];
+        let tri = [Vec3::new(0.0, 0.0, -2.0), Vec3::new(1.0, 0.0, -2.1), Vec3::new(0.0, 1.0, -2.0)];
         let accel = Accel::build(&[tri]);
         let d = Vec3::new(-0.0, -0.0, -1.0);
-        assert!(
-            accel
-                .intersect(
-                    Vec3::new(0.25, 0.5, 0.0),
-                    d,
-                    f32::INFINITY,
-                    &[false],
-                    |_, _, _| true
-                )
-                .is_some()
-        );
+        assert!(accel.intersect(Vec3::new(0.25, 0.5, 0.0), d, f32::INFINITY, &[false], |_, _, _| true).is_some());
     }
 }

@@ -151,28 +151,16 @@ pub struct InfoArgs {
 }
 
 fn parse_resolution(s: &str) -> std::result::Result<(u32, u32), String> {
-    let (w, h) = s
-        .split_once(['x', 'X'])
-        .ok_or_else(|| format!("'{s}' is not WxH"))?;
-    let w: u32 = w
-        .trim()
-        .parse()
-        .map_err(|_| format!("bad width in '{s}'"))?;
-    let h: u32 = h
-        .trim()
-        .parse()
-        .map_err(|_| format!("bad height in '{s}'"))?;
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(|| format!("'{s}' is not WxH"))?;
+    let w: u32 = w.trim().parse().map_err(|_| format!("bad width in '{s}'"))?;
+    let h: u32 = h.trim().parse().map_err(|_| format!("bad height in '{s}'"))?;
     Ok((w, h))
 }
 
 fn parse_crop(s: &str) -> std::result::Result<[u32; 4], String> {
     let v: Vec<u32> = s
         .split(',')
-        .map(|p| {
-            p.trim()
-                .parse::<u32>()
-                .map_err(|_| format!("'{s}' is not X0,Y0,X1,Y1"))
-        })
+        .map(|p| p.trim().parse::<u32>().map_err(|_| format!("'{s}' is not X0,Y0,X1,Y1")))
         .collect::<std::result::Result<_, _>>()?;
     <[u32; 4]>::try_from(v).map_err(|_| format!("'{s}' is not X0,Y0,X1,Y1"))
 }
@@ -208,11 +196,7 @@ fn pick_camera(scene: &Scene, wanted: Option<&str>) -> Result<usize> {
     if let Some(i) = scene.cameras.iter().position(|c| c.name == w) {
         return Ok(i);
     }
-    if let Some(i) = scene
-        .cameras
-        .iter()
-        .position(|c| c.data_name.as_deref() == Some(w))
-    {
+    if let Some(i) = scene.cameras.iter().position(|c| c.data_name.as_deref() == Some(w)) {
         return Ok(i);
     }
     if let Ok(i) = w.parse::<usize>() {
@@ -220,16 +204,8 @@ fn pick_camera(scene: &Scene, wanted: Option<&str>) -> Result<usize> {
             return Ok(i);
         }
     }
-    let names: Vec<String> = scene
-        .cameras
-        .iter()
-        .enumerate()
-        .map(|(i, c)| format!("{i}: '{}'", c.name))
-        .collect();
-    Err(Error::Usage(format!(
-        "unknown camera '{w}' (the scene has {})",
-        names.join(", ")
-    )))
+    let names: Vec<String> = scene.cameras.iter().enumerate().map(|(i, c)| format!("{i}: '{}'", c.name)).collect();
+    Err(Error::Usage(format!("unknown camera '{w}' (the scene has {})", names.join(", "))))
 }
 
 /// Resolves every setting; each default lives here.
@@ -239,10 +215,7 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
     let resolution = match args.resolution.or(st.resolution.map(|r| (r[0], r[1]))) {
         Some(r) => r,
         None => match scene.cameras[camera].aspect() {
-            Some(a) => (
-                DEFAULT_WIDTH,
-                ((DEFAULT_WIDTH as f32 / a).round() as u32).max(1),
-            ),
+            Some(a) => (DEFAULT_WIDTH, ((DEFAULT_WIDTH as f32 / a).round() as u32).max(1)),
             None => (DEFAULT_WIDTH, DEFAULT_HEIGHT),
         },
     };
@@ -267,34 +240,23 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
         None => None,
         Some(t) if t > 0.0 && t.is_finite() && t < 1e7 => Some(Duration::from_secs_f64(t)),
         Some(t) => {
-            return Err(Error::Usage(format!(
-                "time limit {t} s must be a positive number of seconds"
-            )));
+            return Err(Error::Usage(format!("time limit {t} s must be a positive number of seconds")));
         }
     };
     let spp = match args.spp.or(st.spp) {
         Some(0) => return Err(Error::Usage("--spp must be at least 1".into())),
         Some(s) if s > MAX_SPP => {
-            return Err(Error::Usage(format!(
-                "--spp {s} is absurd (at most {MAX_SPP})"
-            )));
+            return Err(Error::Usage(format!("--spp {s} is absurd (at most {MAX_SPP})")));
         }
         Some(s) => Some(s),
         None if time_limit.is_some() => None,
         None => Some(DEFAULT_SPP),
     };
-    let max_depth = args
-        .max_depth
-        .or(st.max_depth)
-        .unwrap_or(PathIntegrator::default().max_depth);
+    let max_depth = args.max_depth.or(st.max_depth).unwrap_or(PathIntegrator::default().max_depth);
     if max_depth > MAX_DEPTH {
-        return Err(Error::Usage(format!(
-            "--max-depth {max_depth} is absurd (at most {MAX_DEPTH})"
-        )));
+        return Err(Error::Usage(format!("--max-depth {max_depth} is absurd (at most {MAX_DEPTH})")));
     }
-    let cores = std::thread::available_parallelism()
-        .map(|n| n.get())
-        .unwrap_or(1);
+    let cores = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
     let threads = match args.threads.or(st.threads) {
         None => cores,
         Some(0) => return Err(Error::Usage("--threads must be at least 1".into())),
@@ -306,22 +268,15 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
         (None, None) | (None, Some("blackman-harris")) => FilterKind::BlackmanHarris,
         (None, Some("box")) => FilterKind::Box,
         (None, Some(other)) => {
-            return Err(Error::Usage(format!(
-                "unknown filter '{other}' in the scene settings"
-            )));
+            return Err(Error::Usage(format!("unknown filter '{other}' in the scene settings")));
         }
     };
-    let filter_width = args
-        .filter_width
-        .or(st.filter_width)
-        .unwrap_or(match filter_kind {
-            FilterKind::BlackmanHarris => 1.5,
-            FilterKind::Box => 1.0,
-        });
+    let filter_width = args.filter_width.or(st.filter_width).unwrap_or(match filter_kind {
+        FilterKind::BlackmanHarris => 1.5,
+        FilterKind::Box => 1.0,
+    });
     if !(filter_width > 0.0 && filter_width <= 16.0) {
-        return Err(Error::Usage(format!(
-            "filter width {filter_width} must be in (0, 16] pixels"
-        )));
+        return Err(Error::Usage(format!("filter width {filter_width} must be in (0, 16] pixels")));
     }
     let filter = match filter_kind {
         FilterKind::BlackmanHarris => Filter::blackman_harris(filter_width),
@@ -329,9 +284,7 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
     };
     if let Some(i) = args.interim {
         if !(i > 0.0 && i.is_finite()) {
-            return Err(Error::Usage(format!(
-                "--interim {i} must be a positive number of seconds"
-            )));
+            return Err(Error::Usage(format!("--interim {i} must be a positive number of seconds")));
         }
     }
     if let Some(name) = &st.integrator {
@@ -379,12 +332,8 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     }
 
     reporter.phase("bvh", t0.elapsed().as_secs_f64());
-    let tris: Vec<[glam::Vec3; 3]> = scene
-        .mesh
-        .triangles
-        .iter()
-        .map(|t| t.map(|i| scene.mesh.positions[i as usize]))
-        .collect();
+    let tris: Vec<[glam::Vec3; 3]> =
+        scene.mesh.triangles.iter().map(|t| t.map(|i| scene.mesh.positions[i as usize])).collect();
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(res.threads)
         .build()
@@ -395,13 +344,10 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         return Err(Error::InterruptedEmpty);
     }
     let ctx = SceneContext::new(&scene, &accel);
-    let camera = CameraRays::new(
-        &scene.cameras[res.camera],
-        res.resolution.0,
-        res.resolution.1,
-    );
+    let camera = CameraRays::new(&scene.cameras[res.camera], res.resolution.0, res.resolution.1);
     let integrator = Integrator::Path(PathIntegrator {
         max_depth: res.max_depth,
+        transparent_background: res.transparent,
         ..Default::default()
     });
     let job = RenderJob {
@@ -426,16 +372,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
             &camera,
             &job,
             stop,
-            &|p| {
-                reporter.progress(
-                    p.fraction,
-                    p.samples_done,
-                    p.samples_total,
-                    p.elapsed,
-                    p.eta,
-                    p.rays_per_sec,
-                )
-            },
+            &|p| reporter.progress(p.fraction, p.samples_done, p.samples_total, p.elapsed, p.eta, p.rays_per_sec),
             &mut |film, spp| {
                 if let Some(every) = interim {
                     if last_interim.elapsed() >= every && Some(spp) != job.spp {
@@ -470,18 +407,11 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
 
     let mut warnings = scene.warnings.clone();
     if result.nan_samples > 0 {
-        let w = format!(
-            "{} sample(s) were NaN or infinite and were dropped",
-            result.nan_samples
-        );
+        let w = format!("{} sample(s) were NaN or infinite and were dropped", result.nan_samples);
         reporter.warning(&w);
         warnings.push(w);
     }
-    let black = result
-        .image
-        .combined
-        .iter()
-        .all(|p| p[0] == 0.0 && p[1] == 0.0 && p[2] == 0.0);
+    let black = result.image.combined.iter().all(|p| p[0] == 0.0 && p[1] == 0.0 && p[2] == 0.0);
     if black {
         let w = "the image is black: no light reached the camera".to_string();
         reporter.warning(&w);
@@ -516,10 +446,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         }
     });
     reporter.summary(summary.clone());
-    Ok(Outcome {
-        interrupted: result.interrupted,
-        summary,
-    })
+    Ok(Outcome { interrupted: result.interrupted, summary })
 }
 
 /// `caustic info`.
@@ -561,20 +488,12 @@ pub fn run_info(args: &InfoArgs) -> Result<()> {
         println!(
             "    {}: {}",
             m.name,
-            if m.features.is_empty() {
-                "factors only".into()
-            } else {
-                m.features.join(", ")
-            }
+            if m.features.is_empty() { "factors only".into() } else { m.features.join(", ") }
         );
     }
     println!("  lights:");
     for l in &r.lights {
-        let tri = if l.kind == "emissive" {
-            format!(" ({} triangles)", l.triangles)
-        } else {
-            String::new()
-        };
+        let tri = if l.kind == "emissive" { format!(" ({} triangles)", l.triangles) } else { String::new() };
         println!("    {} '{}': {:.4} W{}", l.kind, l.name, l.power, tri);
     }
     println!("  cameras:");
@@ -634,50 +553,22 @@ pub fn run_bench(args: &BenchArgs, stop: &AtomicBool) -> Result<()> {
         "rays": st["rays"],
     });
     if args.json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&figures).unwrap_or_default()
-        );
+        println!("{}", serde_json::to_string_pretty(&figures).unwrap_or_default());
         return Ok(());
     }
-    println!(
-        "scene             {}",
-        figures["scene"].as_str().unwrap_or("")
-    );
+    println!("scene             {}", figures["scene"].as_str().unwrap_or(""));
     println!(
         "image             {} at {} spp, {} threads",
         figures["resolution"].as_str().unwrap_or(""),
         args.spp,
         st["threads"]
     );
-    println!(
-        "wall time         {:.3} s (render {:.3} s)",
-        f(&figures["wall_seconds"]),
-        f(&figures["render_seconds"])
-    );
-    println!(
-        "BVH build         {:.4} s",
-        f(&figures["bvh_build_seconds"])
-    );
-    println!(
-        "samples/s         {:.3} M",
-        f(&figures["samples_per_sec"]) / 1e6
-    );
-    println!(
-        "rays/s            {:.3} M",
-        f(&figures["rays_per_sec"]) / 1e6
-    );
-    println!(
-        "  camera rays/s   {:.3} M",
-        f(&figures["camera_rays_per_sec"]) / 1e6
-    );
-    println!(
-        "  bounce rays/s   {:.3} M",
-        f(&figures["bounce_rays_per_sec"]) / 1e6
-    );
-    println!(
-        "  shadow rays/s   {:.3} M",
-        f(&figures["shadow_rays_per_sec"]) / 1e6
-    );
+    println!("wall time         {:.3} s (render {:.3} s)", f(&figures["wall_seconds"]), f(&figures["render_seconds"]));
+    println!("BVH build         {:.4} s", f(&figures["bvh_build_seconds"]));
+    println!("samples/s         {:.3} M", f(&figures["samples_per_sec"]) / 1e6);
+    println!("rays/s            {:.3} M", f(&figures["rays_per_sec"]) / 1e6);
+    println!("  camera rays/s   {:.3} M", f(&figures["camera_rays_per_sec"]) / 1e6);
+    println!("  bounce rays/s   {:.3} M", f(&figures["bounce_rays_per_sec"]) / 1e6);
+    println!("  shadow rays/s   {:.3} M", f(&figures["shadow_rays_per_sec"]) / 1e6);
     Ok(())
 }

@@ -54,10 +54,7 @@ impl Error {
 
     /// Shorthand for an I/O error on a path.
     pub fn io(path: impl AsRef<std::path::Path>, e: impl std::fmt::Display) -> Self {
-        Error::Io {
-            path: path.as_ref().display().to_string(),
-            message: e.to_string(),
-        }
+        Error::Io { path: path.as_ref().display().to_string(), message: e.to_string() }
     }
 }
 

@@ -32,15 +32,10 @@ impl Filter {
             .map(|i| {
                 let x = (i as f32 + 0.5) / FILTER_TABLE as f32; // in (0, 1) over the support
                 let v = std::f32::consts::TAU * x;
-                (0.35875 - 0.48829 * v.cos() + 0.14128 * (2.0 * v).cos()
-                    - 0.01168 * (3.0 * v).cos())
-                .max(0.0)
+                (0.35875 - 0.48829 * v.cos() + 0.14128 * (2.0 * v).cos() - 0.01168 * (3.0 * v).cos()).max(0.0)
             })
             .collect();
-        Filter {
-            width,
-            table: Some(Distribution1D::new(&weights)),
-        }
+        Filter { width, table: Some(Distribution1D::new(&weights)) }
     }
 
     /// Offset from the pixel centre for uniform numbers `u`.
@@ -78,14 +73,7 @@ pub struct PixelAccum {
 
 impl Default for PixelAccum {
     fn default() -> Self {
-        PixelAccum {
-            rgb: DVec3::ZERO,
-            alpha: 0.0,
-            depth: f32::INFINITY,
-            normal: Vec3::ZERO,
-            albedo: Vec3::ZERO,
-            n: 0,
-        }
+        PixelAccum { rgb: DVec3::ZERO, alpha: 0.0, depth: f32::INFINITY, normal: Vec3::ZERO, albedo: Vec3::ZERO, n: 0 }
     }
 }
 
@@ -168,20 +156,10 @@ impl Film {
         for y0 in (0..height).step_by(tile as usize) {
             for x0 in (0..width).step_by(tile as usize) {
                 let (w, h) = (tile.min(width - x0), tile.min(height - y0));
-                tiles.push(Tile {
-                    x0,
-                    y0,
-                    w,
-                    h,
-                    pixels: vec![PixelAccum::default(); (w * h) as usize],
-                });
+                tiles.push(Tile { x0, y0, w, h, pixels: vec![PixelAccum::default(); (w * h) as usize] });
             }
         }
-        Film {
-            width,
-            height,
-            tiles,
-        }
+        Film { width, height, tiles }
     }
 
     /// Normalises every pixel by its own sample count.
@@ -243,11 +221,7 @@ mod tests {
             0.35875 - 0.48829 * v.cos() + 0.14128 * (2.0 * v).cos() - 0.01168 * (3.0 * v).cos()
         };
         // Expected mass of a bin: the profile integrated over it (midpoint rule, fine).
-        let mass = |b: usize| {
-            (0..100)
-                .map(|k| bh((b as f32 + (k as f32 + 0.5) / 100.0) / 15.0))
-                .sum::<f32>()
-        };
+        let mass = |b: usize| (0..100).map(|k| bh((b as f32 + (k as f32 + 0.5) / 100.0) / 15.0)).sum::<f32>();
         let ratio = hist[7] as f32 / hist[2] as f32;
         let expect = mass(7) / mass(2);
         // The sampled density is the profile tabulated in 256 steps: 1% is its error.

@@ -13,16 +13,10 @@ fn main() {
     let cli = match Cli::try_parse() {
         Ok(c) => c,
         Err(e) => {
-            let code = if e.use_stderr() {
-                exit_code::USAGE
-            } else {
-                exit_code::OK
-            };
+            let code = if e.use_stderr() { exit_code::USAGE } else { exit_code::OK };
             // A host that asked for JSON gets the error as JSON too.
             let args: Vec<String> = std::env::args().collect();
-            let json = args
-                .windows(2)
-                .any(|w| w[0] == "--progress" && w[1] == "json")
+            let json = args.windows(2).any(|w| w[0] == "--progress" && w[1] == "json")
                 || args.iter().any(|a| a == "--progress=json");
             if json && code != exit_code::OK {
                 let msg = e

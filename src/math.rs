@@ -45,11 +45,7 @@ impl Frame {
             return Frame::from_normal(n);
         }
         let s = s / len2.sqrt();
-        Frame {
-            s,
-            t: n.cross(s),
-            n,
-        }
+        Frame { s, t: n.cross(s), n }
     }
 
     /// World to local.
@@ -73,36 +69,16 @@ pub fn offset_ray_origin(p: Vec3, n: Vec3) -> Vec3 {
     const ORIGIN: f32 = 1.0 / 32.0;
     const FLOAT_SCALE: f32 = 1.0 / 65536.0;
     const INT_SCALE: f32 = 256.0;
-    let of_i = [
-        (INT_SCALE * n.x) as i32,
-        (INT_SCALE * n.y) as i32,
-        (INT_SCALE * n.z) as i32,
-    ];
+    let of_i = [(INT_SCALE * n.x) as i32, (INT_SCALE * n.y) as i32, (INT_SCALE * n.z) as i32];
     let shift = |v: f32, o: i32| -> f32 {
         let bits = v.to_bits() as i32;
         f32::from_bits((bits + if v < 0.0 { -o } else { o }) as u32)
     };
-    let p_i = Vec3::new(
-        shift(p.x, of_i[0]),
-        shift(p.y, of_i[1]),
-        shift(p.z, of_i[2]),
-    );
+    let p_i = Vec3::new(shift(p.x, of_i[0]), shift(p.y, of_i[1]), shift(p.z, of_i[2]));
     Vec3::new(
-        if p.x.abs() < ORIGIN {
-            p.x + FLOAT_SCALE * n.x
-        } else {
-            p_i.x
-        },
-        if p.y.abs() < ORIGIN {
-            p.y + FLOAT_SCALE * n.y
-        } else {
-            p_i.y
-        },
-        if p.z.abs() < ORIGIN {
-            p.z + FLOAT_SCALE * n.z
-        } else {
-            p_i.z
-        },
+        if p.x.abs() < ORIGIN { p.x + FLOAT_SCALE * n.x } else { p_i.x },
+        if p.y.abs() < ORIGIN { p.y + FLOAT_SCALE * n.y } else { p_i.y },
+        if p.z.abs() < ORIGIN { p.z + FLOAT_SCALE * n.z } else { p_i.z },
     )
 }
 
@@ -123,12 +99,7 @@ pub fn hash_u32(mut x: u32) -> u32 {
 pub fn hash_combine(values: &[u32]) -> u32 {
     let mut h = 0x9e37_79b9u32;
     for &v in values {
-        h = hash_u32(
-            h ^ v
-                .wrapping_add(0x9e37_79b9)
-                .wrapping_add(h << 6)
-                .wrapping_add(h >> 2),
-        );
+        h = hash_u32(h ^ v.wrapping_add(0x9e37_79b9).wrapping_add(h << 6).wrapping_add(h >> 2));
     }
     h
 }
@@ -139,16 +110,9 @@ mod tests {
 
     #[test]
     fn frame_is_orthonormal() {
-        for n in [
-            Vec3::Z,
-            -Vec3::Z,
-            Vec3::X,
-            Vec3::new(0.3, -0.5, 0.8).normalize(),
-        ] {
+        for n in [Vec3::Z, -Vec3::Z, Vec3::X, Vec3::new(0.3, -0.5, 0.8).normalize()] {
             let f = Frame::from_normal(n);
-            assert!(
-                f.s.dot(f.t).abs() < 1e-5 && f.s.dot(f.n).abs() < 1e-5 && f.t.dot(f.n).abs() < 1e-5
-            );
+            assert!(f.s.dot(f.t).abs() < 1e-5 && f.s.dot(f.n).abs() < 1e-5 && f.t.dot(f.n).abs() < 1e-5);
             assert!((f.s.cross(f.t) - f.n).length() < 1e-5, "right-handed");
             let v = Vec3::new(0.2, 0.4, -0.7);
             assert!((f.to_world(f.to_local(v)) - v).length() < 1e-5);

@@ -12,10 +12,7 @@ use std::path::{Path, PathBuf};
 
 /// The temporary file an output is written to before it is renamed into place.
 pub fn temp_path(out: &Path) -> PathBuf {
-    let name = out
-        .file_name()
-        .map(|n| n.to_string_lossy().to_string())
-        .unwrap_or_else(|| "out.exr".into());
+    let name = out.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_else(|| "out.exr".into());
     out.with_file_name(format!(".{name}.caustic-tmp-{}", std::process::id()))
 }
 
@@ -53,48 +50,24 @@ pub fn check_writable(out: &Path) -> Result<()> {
 pub fn write_exr(out: &Path, img: &FilmImage, half: bool) -> Result<()> {
     let (w, h) = (img.width as usize, img.height as usize);
     let make = |data: Vec<f32>| -> FlatSamples {
-        if half {
-            FlatSamples::F16(data.into_iter().map(f16::from_f32).collect())
-        } else {
-            FlatSamples::F32(data)
-        }
+        if half { FlatSamples::F16(data.into_iter().map(f16::from_f32).collect()) } else { FlatSamples::F32(data) }
     };
     let col4 = |c: usize| img.combined.iter().map(|p| p[c]).collect::<Vec<f32>>();
     let col3 = |v: &Vec<[f32; 3]>, c: usize| v.iter().map(|p| p[c]).collect::<Vec<f32>>();
     let mut list: SmallVec<[AnyChannel<FlatSamples>; 4]> = SmallVec::new();
     for (i, ch) in ["R", "G", "B", "A"].iter().enumerate() {
-        list.push(AnyChannel::new(
-            format!("Combined.{ch}").as_str(),
-            make(col4(i)),
-        ));
+        list.push(AnyChannel::new(format!("Combined.{ch}").as_str(), make(col4(i))));
     }
     // Depth stays float even in half mode: 1e10 does not fit in a half.
-    list.push(AnyChannel::new(
-        "Depth.Z",
-        FlatSamples::F32(img.depth.clone()),
-    ));
+    list.push(AnyChannel::new("Depth.Z", FlatSamples::F32(img.depth.clone())));
     for (i, ch) in ["X", "Y", "Z"].iter().enumerate() {
-        list.push(AnyChannel::new(
-            format!("Normal.{ch}").as_str(),
-            make(col3(&img.normal, i)),
-        ));
-        list.push(AnyChannel::new(
-            format!("Denoising Normal.{ch}").as_str(),
-            make(col3(&img.normal, i)),
-        ));
+        list.push(AnyChannel::new(format!("Normal.{ch}").as_str(), make(col3(&img.normal, i))));
+        list.push(AnyChannel::new(format!("Denoising Normal.{ch}").as_str(), make(col3(&img.normal, i))));
     }
     for (i, ch) in ["R", "G", "B"].iter().enumerate() {
-        list.push(AnyChannel::new(
-            format!("Denoising Albedo.{ch}").as_str(),
-            make(col3(&img.albedo, i)),
-        ));
+        list.push(AnyChannel::new(format!("Denoising Albedo.{ch}").as_str(), make(col3(&img.albedo, i))));
     }
-    let layer = Layer::new(
-        (w, h),
-        LayerAttributes::default(),
-        Encoding::FAST_LOSSLESS,
-        AnyChannels::sort(list),
-    );
+    let layer = Layer::new((w, h), LayerAttributes::default(), Encoding::FAST_LOSSLESS, AnyChannels::sort(list));
     let image = Image::from_layer(layer);
     let tmp = temp_path(out);
     let result = image.write().to_file(&tmp);
@@ -104,20 +77,14 @@ pub fn write_exr(out: &Path, img: &FilmImage, half: bool) -> Result<()> {
     }
     std::fs::rename(&tmp, out).map_err(|e| {
         let _ = std::fs::remove_file(&tmp);
-        Error::io(
-            out,
-            format!("cannot move the finished file into place: {e}"),
-        )
+        Error::io(out, format!("cannot move the finished file into place: {e}"))
     })
 }
 
 /// Reads back the Combined RGBA of an EXR written by [`write_exr`] (for tests and tools).
 pub fn read_combined(path: &Path) -> Result<(usize, usize, Vec<[f32; 4]>)> {
     let image = read_all_flat_layers_from_file(path).map_err(|e| Error::io(path, e))?;
-    let layer = image
-        .layer_data
-        .first()
-        .ok_or_else(|| Error::io(path, "no layer"))?;
+    let layer = image.layer_data.first().ok_or_else(|| Error::io(path, "no layer"))?;
     let (w, h) = (layer.size.width(), layer.size.height());
     let find = |name: &str| -> Result<Vec<f32>> {
         let ch = layer
@@ -128,11 +95,6 @@ pub fn read_combined(path: &Path) -> Result<(usize, usize, Vec<[f32; 4]>)> {
             .ok_or_else(|| Error::io(path, format!("no channel {name}")))?;
         Ok(ch.sample_data.values_as_f32().collect())
     };
-    let (r, g, b, a) = (
-        find("Combined.R")?,
-        find("Combined.G")?,
-        find("Combined.B")?,
-        find("Combined.A")?,
-    );
+    let (r, g, b, a) = (find("Combined.R")?, find("Combined.G")?, find("Combined.B")?, find("Combined.A")?);
     Ok((w, h, (0..w * h).map(|i| [r[i], g[i], b[i], a[i]]).collect()))
 }

@@ -27,20 +27,12 @@ pub struct Reporter {
 impl Reporter {
     /// A reporter in the given mode.
     pub fn new(mode: ProgressMode) -> Self {
-        Reporter {
-            mode,
-            bar: Mutex::new(None),
-            silent: false,
-        }
+        Reporter { mode, bar: Mutex::new(None), silent: false }
     }
 
     /// A reporter that prints nothing at all (for `caustic bench`, which prints its own).
     pub fn silent() -> Self {
-        Reporter {
-            mode: ProgressMode::None,
-            bar: Mutex::new(None),
-            silent: true,
-        }
+        Reporter { mode: ProgressMode::None, bar: Mutex::new(None), silent: true }
     }
 
     /// The mode.
@@ -65,18 +57,14 @@ impl Reporter {
     /// A phase starts: loading, bvh, rendering, writing.
     pub fn phase(&self, phase: &str, elapsed: f64) {
         match self.mode {
-            ProgressMode::Json => {
-                self.json_line(json!({"type": "phase", "phase": phase, "elapsed": elapsed}))
-            }
+            ProgressMode::Json => self.json_line(json!({"type": "phase", "phase": phase, "elapsed": elapsed})),
             ProgressMode::Bar => {
                 let mut bar = self.bar.lock().unwrap();
                 if phase == "rendering" && bar.is_none() {
                     let b = ProgressBar::new(1000);
                     b.set_style(
-                        ProgressStyle::with_template(
-                            "{spinner} {msg} [{bar:40}] {percent}% ETA {eta}",
-                        )
-                        .unwrap_or_else(|_| ProgressStyle::default_bar()),
+                        ProgressStyle::with_template("{spinner} {msg} [{bar:40}] {percent}% ETA {eta}")
+                            .unwrap_or_else(|_| ProgressStyle::default_bar()),
                     );
                     *bar = Some(b);
                 } else if phase != "rendering" {
@@ -132,9 +120,7 @@ impl Reporter {
     /// An image was written.
     pub fn image(&self, path: &str, samples: u32, is_final: bool) {
         if self.mode == ProgressMode::Json {
-            self.json_line(
-                json!({"type": "image", "path": path, "samples": samples, "final": is_final}),
-            );
+            self.json_line(json!({"type": "image", "path": path, "samples": samples, "final": is_final}));
         }
     }
 
@@ -160,11 +146,7 @@ impl Reporter {
                     summary["width"],
                     summary["height"],
                     summary["spp"],
-                    if summary["interrupted"].as_bool() == Some(true) {
-                        ", interrupted"
-                    } else {
-                        ""
-                    },
+                    if summary["interrupted"].as_bool() == Some(true) { ", interrupted" } else { "" },
                     summary["elapsed"].as_f64().unwrap_or(0.0),
                     summary["stats"]["rays_per_sec"].as_f64().unwrap_or(0.0) / 1e6,
                     rays["camera"],
@@ -181,9 +163,7 @@ impl Reporter {
             b.finish_and_clear();
         }
         match self.mode {
-            ProgressMode::Json => {
-                self.json_line(json!({"type": "error", "code": code, "message": message}))
-            }
+            ProgressMode::Json => self.json_line(json!({"type": "error", "code": code, "message": message})),
             _ => eprintln!("error: {message}"),
         }
     }

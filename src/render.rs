@@ -139,10 +139,7 @@ pub fn render(
         });
 
         let mut pass = 1u32;
-        while spp_done < target
-            && !stop.load(Ordering::Relaxed)
-            && !timed_out.load(Ordering::Relaxed)
-        {
+        while spp_done < target && !stop.load(Ordering::Relaxed) && !timed_out.load(Ordering::Relaxed) {
             let n = pass.min(target - spp_done);
             let first = spp_done;
             let tile_stats: Vec<TileStats> = film
@@ -167,17 +164,11 @@ pub fn render(
                             for i in first..first + n {
                                 let mut sampler = PixelSampler::new(job.seed, px, py, i);
                                 let off = job.filter.sample(sampler.next_2d());
-                                let (org, dir) =
-                                    camera.ray(px as f32 + 0.5 + off.x, py as f32 + 0.5 + off.y);
+                                let (org, dir) = camera.ray(px as f32 + 0.5 + off.x, py as f32 + 0.5 + off.y);
                                 let s = match &job.integrator {
-                                    Integrator::Path(p) => p.li(
-                                        ctx,
-                                        org,
-                                        dir,
-                                        &mut sampler,
-                                        |q| camera.depth(q),
-                                        &mut ts.rays,
-                                    ),
+                                    Integrator::Path(p) => {
+                                        p.li(ctx, org, dir, &mut sampler, |q| camera.depth(q), &mut ts.rays)
+                                    }
                                 };
                                 if s.radiance.is_finite() {
                                     acc.add(&s);

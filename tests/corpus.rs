@@ -19,11 +19,7 @@ fn check_ok(entry: &Value, path: &str, failures: &mut Vec<String>) {
     let file = entry["file"].as_str().unwrap();
     let info = run(&["info", path, "--json"], LIMIT);
     if info.code != Some(0) {
-        failures.push(format!(
-            "{file}: info exited {:?}: {}",
-            info.code,
-            info.stderr.trim()
-        ));
+        failures.push(format!("{file}: info exited {:?}: {}", info.code, info.stderr.trim()));
         return;
     }
     let v: Value = match serde_json::from_str(&info.stdout) {
@@ -39,20 +35,10 @@ fn check_ok(entry: &Value, path: &str, failures: &mut Vec<String>) {
         }
     };
     expect_eq("triangles", &v["triangles"], &entry["triangles"]);
-    expect_eq(
-        "punctual lights",
-        &v["punctual_lights"],
-        &entry["lights"]["punctual"],
-    );
-    expect_eq(
-        "emissive triangles",
-        &v["emissive_triangles"],
-        &entry["lights"]["emissive_triangles"],
-    );
-    let file_cameras = v["cameras"]
-        .as_array()
-        .map(|c| c.iter().filter(|c| c["generated"] == false).count())
-        .unwrap_or(0);
+    expect_eq("punctual lights", &v["punctual_lights"], &entry["lights"]["punctual"]);
+    expect_eq("emissive triangles", &v["emissive_triangles"], &entry["lights"]["emissive_triangles"]);
+    let file_cameras =
+        v["cameras"].as_array().map(|c| c.iter().filter(|c| c["generated"] == false).count()).unwrap_or(0);
     expect_eq("cameras", &Value::from(file_cameras), &entry["cameras"]);
     if let Some(b) = entry.get("bounds") {
         for (k, key) in [(0usize, "min"), (1, "max")] {
@@ -60,54 +46,28 @@ fn check_ok(entry: &Value, path: &str, failures: &mut Vec<String>) {
                 let want = b[key][axis].as_f64().unwrap();
                 let got = v["bounds"][k][axis].as_f64().unwrap_or(f64::NAN);
                 if !((got - want).abs() <= 1e-4 * (1.0 + want.abs())) {
-                    failures.push(format!(
-                        "{file}: bounds {key}[{axis}] = {got}, expected {want}"
-                    ));
+                    failures.push(format!("{file}: bounds {key}[{axis}] = {got}, expected {want}"));
                 }
             }
         }
     }
     let warnings: Vec<String> = v["warnings"]
         .as_array()
-        .map(|w| {
-            w.iter()
-                .filter_map(|s| s.as_str().map(str::to_string))
-                .collect()
-        })
+        .map(|w| w.iter().filter_map(|s| s.as_str().map(str::to_string)).collect())
         .unwrap_or_default();
     for w in entry["warnings_contain"].as_array().into_iter().flatten() {
         let w = w.as_str().unwrap();
         if !warnings.iter().any(|x| lower_contains(x, w)) {
-            failures.push(format!(
-                "{file}: no warning containing '{w}' (warnings: {warnings:?})"
-            ));
+            failures.push(format!("{file}: no warning containing '{w}' (warnings: {warnings:?})"));
         }
     }
 
     let dir = temp_dir();
     let out = dir.path().join("out.exr");
     let out_s = out.to_str().unwrap();
-    let r = run(
-        &[
-            "render",
-            path,
-            "-o",
-            out_s,
-            "--resolution",
-            "8x8",
-            "--spp",
-            "1",
-            "--progress",
-            "json",
-        ],
-        LIMIT,
-    );
+    let r = run(&["render", path, "-o", out_s, "--resolution", "8x8", "--spp", "1", "--progress", "json"], LIMIT);
     if r.code != Some(0) {
-        failures.push(format!(
-            "{file}: render exited {:?}: {}",
-            r.code,
-            r.stderr.trim()
-        ));
+        failures.push(format!("{file}: render exited {:?}: {}", r.code, r.stderr.trim()));
         return;
     }
     if r.stderr.contains("panicked") {
@@ -119,12 +79,8 @@ fn check_ok(entry: &Value, path: &str, failures: &mut Vec<String>) {
     };
     assert_eq!((w, h), (8, 8));
     for check in entry["render_checks"].as_array().into_iter().flatten() {
-        let reg: Vec<usize> = check["region"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|x| x.as_u64().unwrap() as usize)
-            .collect();
+        let reg: Vec<usize> =
+            check["region"].as_array().unwrap().iter().map(|x| x.as_u64().unwrap() as usize).collect();
         let mut mean = [0f64; 4];
         let mut n = 0.0;
         for y in reg[1]..reg[3] {
@@ -142,18 +98,12 @@ fn check_ok(entry: &Value, path: &str, failures: &mut Vec<String>) {
         for c in 0..3 {
             if let Some(lo) = check["rgb_min"].get(c).and_then(Value::as_f64) {
                 if mean[c] < lo {
-                    failures.push(format!(
-                        "{file}: {what}: channel {c} mean {} < {lo}",
-                        mean[c]
-                    ));
+                    failures.push(format!("{file}: {what}: channel {c} mean {} < {lo}", mean[c]));
                 }
             }
             if let Some(hi) = check["rgb_max"].get(c).and_then(Value::as_f64) {
                 if mean[c] > hi {
-                    failures.push(format!(
-                        "{file}: {what}: channel {c} mean {} > {hi}",
-                        mean[c]
-                    ));
+                    failures.push(format!("{file}: {what}: channel {c} mean {} > {hi}", mean[c]));
                 }
             }
         }
@@ -176,36 +126,16 @@ fn check_error(entry: &Value, path: &str, failures: &mut Vec<String>) {
     let dir = temp_dir();
     let out = dir.path().join("out.exr");
     let r = run(
-        &[
-            "render",
-            path,
-            "-o",
-            out.to_str().unwrap(),
-            "--resolution",
-            "8x8",
-            "--spp",
-            "1",
-            "--progress",
-            "json",
-        ],
+        &["render", path, "-o", out.to_str().unwrap(), "--resolution", "8x8", "--spp", "1", "--progress", "json"],
         LIMIT,
     );
     if r.code != Some(want_code) {
-        failures.push(format!(
-            "{file}: exit {:?}, expected {want_code}: {}",
-            r.code,
-            r.stderr.trim()
-        ));
+        failures.push(format!("{file}: exit {:?}, expected {want_code}: {}", r.code, r.stderr.trim()));
     }
     if r.stderr.contains("panicked") {
         failures.push(format!("{file}: panicked: {}", r.stderr.trim()));
     }
-    if out.exists()
-        || std::fs::read_dir(dir.path())
-            .map(|d| d.count())
-            .unwrap_or(0)
-            > 0
-    {
+    if out.exists() || std::fs::read_dir(dir.path()).map(|d| d.count()).unwrap_or(0) > 0 {
         failures.push(format!("{file}: left a file behind after an error"));
     }
     let Some(msg) = r.error_message() else {
@@ -219,29 +149,21 @@ fn check_error(entry: &Value, path: &str, failures: &mut Vec<String>) {
         }
     }
     if let Some(any) = entry["message_contains_any"].as_array() {
-        if !any.is_empty()
-            && !any
-                .iter()
-                .any(|s| lower_contains(&msg, s.as_str().unwrap()))
-        {
+        if !any.is_empty() && !any.iter().any(|s| lower_contains(&msg, s.as_str().unwrap())) {
             failures.push(format!("{file}: message '{msg}' contains none of {any:?}"));
         }
     }
     // `info` must refuse the file the same way.
     let i = run(&["info", path], LIMIT);
     if i.code != Some(want_code) {
-        failures.push(format!(
-            "{file}: info exit {:?}, expected {want_code}",
-            i.code
-        ));
+        failures.push(format!("{file}: info exit {:?}, expected {want_code}", i.code));
     }
 }
 
 #[test]
 fn manifest_corpus() {
     let data = root().join("tests/data");
-    let manifest: Vec<Value> =
-        serde_json::from_slice(&std::fs::read(data.join("manifest.json")).unwrap()).unwrap();
+    let manifest: Vec<Value> = serde_json::from_slice(&std::fs::read(data.join("manifest.json")).unwrap()).unwrap();
     assert!(manifest.len() >= 40, "the corpus shrank");
     let mut failures = Vec::new();
     for entry in &manifest {
@@ -253,10 +175,5 @@ fn manifest_corpus() {
             other => panic!("unknown expectation {other}"),
         }
     }
-    assert!(
-        failures.is_empty(),
-        "{} problem(s):\n{}",
-        failures.len(),
-        failures.join("\n")
-    );
+    assert!(failures.is_empty(), "{} problem(s):\n{}", failures.len(), failures.join("\n"));
 }

@@ -22,14 +22,7 @@ use std::time::Duration;
 const LIMIT: Duration = Duration::from_secs(120);
 
 fn render(scene: &Path, out: &Path, extra: &[&str]) -> Vec<[f32; 4]> {
-    let mut args = vec![
-        "render",
-        scene.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--progress",
-        "json",
-    ];
+    let mut args = vec!["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--progress", "json"];
     args.extend_from_slice(extra);
     let r = run(&args, LIMIT);
     assert_eq!(r.code, Some(0), "render failed: {}", r.stderr);
@@ -68,35 +61,17 @@ fn furnace_albedo_one() {
         let px = render(
             &scene,
             &dir.path().join("f.exr"),
-            &[
-                "--resolution",
-                "24x24",
-                "--spp",
-                "32",
-                "--max-depth",
-                &depth.to_string(),
-            ],
+            &["--resolution", "24x24", "--spp", "32", "--max-depth", &depth.to_string()],
         );
-        let v: Vec<f64> = px
-            .iter()
-            .map(|p| (p[0] + p[1] + p[2]) as f64 / 3.0)
-            .collect();
+        let v: Vec<f64> = px.iter().map(|p| (p[0] + p[1] + p[2]) as f64 / 3.0).collect();
         let (mean, se) = mean_se(&v);
         let expect = (depth + 1) as f64 * le as f64;
         // Each bounce's albedo may be off by the table error: Σ k ε Le over k ≤ D.
         let systematic = le as f64 * ALBEDO_TABLE_ERROR * (depth * (depth + 1) / 2) as f64;
         let bound = 5.0 * se + systematic;
-        eprintln!(
-            "furnace r={roughness}: mean {mean:.5} ± {se:.5}, expected {expect}, bound {bound:.5}"
-        );
-        assert!(
-            (mean - expect).abs() <= bound,
-            "furnace r={roughness}: {mean} vs {expect} (bound {bound})"
-        );
-        assert!(
-            px.iter().all(|p| p[3] == 1.0),
-            "inside a closed box every pixel is covered"
-        );
+        eprintln!("furnace r={roughness}: mean {mean:.5} ± {se:.5}, expected {expect}, bound {bound:.5}");
+        assert!((mean - expect).abs() <= bound, "furnace r={roughness}: {mean} vs {expect} (bound {bound})");
+        assert!(px.iter().all(|p| p[3] == 1.0), "inside a closed box every pixel is covered");
     }
 }
 
@@ -115,22 +90,11 @@ fn furnace_partial_coverage() {
     g.cube([-1.0, -1.0, -1.0], [1.0, 1.0, 1.0], m);
     g.camera([0.0, 0.0, 0.0], look_rotation([0.2, 0.1, -1.0]), 1.2);
     let scene = g.write(dir.path(), "furnace_alpha.gltf");
-    let px = render(
-        &scene,
-        &dir.path().join("f.exr"),
-        &["--resolution", "24x24", "--spp", "64"],
-    );
-    let v: Vec<f64> = px
-        .iter()
-        .map(|p| (p[0] + p[1] + p[2]) as f64 / 3.0)
-        .collect();
+    let px = render(&scene, &dir.path().join("f.exr"), &["--resolution", "24x24", "--spp", "64"]);
+    let v: Vec<f64> = px.iter().map(|p| (p[0] + p[1] + p[2]) as f64 / 3.0).collect();
     let (mean, se) = mean_se(&v);
     let expect = a * le * (1.0 - a.powi(depth as i32 + 1)) / (1.0 - a);
-    let systematic = le
-        * ALBEDO_TABLE_ERROR
-        * (1..=depth)
-            .map(|k| k as f64 * a.powi(k as i32 + 1))
-            .sum::<f64>();
+    let systematic = le * ALBEDO_TABLE_ERROR * (1..=depth).map(|k| k as f64 * a.powi(k as i32 + 1)).sum::<f64>();
     let bound = 5.0 * se + systematic;
     eprintln!("coverage furnace: mean {mean:.5} ± {se:.5}, expected {expect:.5}, bound {bound:.5}");
     assert!((mean - expect).abs() <= bound, "{mean} vs {expect}");
@@ -149,16 +113,7 @@ fn plane_under_light(
     let mut g = GltfBuilder::new();
     let base = 0.8f32;
     let m = g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [base, base, base, 1], "metallicFactor": 0.0, "roughnessFactor": 1.0}}));
-    g.mesh(
-        &[
-            [-20.0, 0.0, -20.0],
-            [20.0, 0.0, -20.0],
-            [20.0, 0.0, 20.0],
-            [-20.0, 0.0, 20.0],
-        ],
-        &[0, 2, 1, 0, 3, 2],
-        m,
-    );
+    g.mesh(&[[-20.0, 0.0, -20.0], [20.0, 0.0, -20.0], [20.0, 0.0, 20.0], [-20.0, 0.0, 20.0]], &[0, 2, 1, 0, 3, 2], m);
     g.camera([0.0, 3.0, 3.0], look_rotation([0.0, -1.0, -1.0]), 1.0);
     g.punctual(light, light_pos, light_rot);
     let path = g.write(dir.path(), "plane.gltf");
@@ -187,11 +142,7 @@ fn plane_under_light(
     for y in 0..h {
         for x in 0..w {
             let (o, d) = cam.ray(x as f32 + 0.5, y as f32 + 0.5);
-            let got = Vec3::new(
-                px[(y * w + x) as usize][0],
-                px[(y * w + x) as usize][1],
-                px[(y * w + x) as usize][2],
-            );
+            let got = Vec3::new(px[(y * w + x) as usize][0], px[(y * w + x) as usize][1], px[(y * w + x) as usize][2]);
             if d.y >= 0.0 {
                 continue;
             }
@@ -203,10 +154,7 @@ fn plane_under_light(
             let f = bsdf.eval(frame.to_local(-d), frame.to_local(wi));
             let expect = f * e;
             let err = (got - expect).abs().max_element();
-            assert!(
-                err <= 2e-3 * expect.max_element() + 1e-7,
-                "pixel ({x},{y}): {got} vs {expect}"
-            );
+            assert!(err <= 2e-3 * expect.max_element() + 1e-7, "pixel ({x},{y}): {got} vs {expect}");
             checked += 1;
         }
     }
@@ -218,17 +166,12 @@ fn plane_under_light(
 #[test]
 fn point_light_over_plane() {
     let lp = Vec3::new(0.3, 1.0, -0.2);
-    plane_under_light(
-        json!({"type": "point", "intensity": 683.0}),
-        lp.to_array(),
-        [0.0, 0.0, 0.0, 1.0],
-        |_, p| {
-            let d = lp - p;
-            let r2 = d.length_squared();
-            let wi = d.normalize();
-            (wi, wi.y / r2)
-        },
-    );
+    plane_under_light(json!({"type": "point", "intensity": 683.0}), lp.to_array(), [0.0, 0.0, 0.0, 1.0], |_, p| {
+        let d = lp - p;
+        let r2 = d.length_squared();
+        let wi = d.normalize();
+        (wi, wi.y / r2)
+    });
 }
 
 /// Directional light of 683 lux = 1 W/m² arriving at 45°: E = cos 45°.
@@ -257,12 +200,7 @@ fn spot_light_over_plane() {
             let wi = d.normalize();
             // The axis as the loader computed it from the node's rotation: the falloff is
             // steep, so rounding in a separately computed axis would show.
-            let caustic::light::Light::Spot {
-                direction: axis, ..
-            } = scene.lights[0]
-            else {
-                panic!("not a spot")
-            };
+            let caustic::light::Light::Spot { direction: axis, .. } = scene.lights[0] else { panic!("not a spot") };
             let falloff = caustic::light::spot_falloff((-wi).dot(axis), inner.cos(), outer.cos());
             (wi, falloff * wi.y / d.length_squared())
         },
@@ -279,28 +217,12 @@ fn emissive_quad_seen_directly() {
         "pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1]},
         "emissiveFactor": [1.0, 0.5, 0.25], "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 3.0}}
     }));
-    g.mesh(
-        &[
-            [-5.0, -5.0, -2.0],
-            [5.0, -5.0, -2.0],
-            [5.0, 5.0, -2.0],
-            [-5.0, 5.0, -2.0],
-        ],
-        &[0, 1, 2, 0, 2, 3],
-        m,
-    );
+    g.mesh(&[[-5.0, -5.0, -2.0], [5.0, -5.0, -2.0], [5.0, 5.0, -2.0], [-5.0, 5.0, -2.0]], &[0, 1, 2, 0, 2, 3], m);
     g.camera([0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0], 0.8);
     let path = g.write(dir.path(), "quad.gltf");
-    let px = render(
-        &path,
-        &dir.path().join("q.exr"),
-        &["--resolution", "16x16", "--spp", "4"],
-    );
+    let px = render(&path, &dir.path().join("q.exr"), &["--resolution", "16x16", "--spp", "4"]);
     for p in &px {
-        assert!(
-            (p[0] - 3.0).abs() < 1e-5 && (p[1] - 1.5).abs() < 1e-5 && (p[2] - 0.75).abs() < 1e-5,
-            "{p:?}"
-        );
+        assert!((p[0] - 3.0).abs() < 1e-5 && (p[1] - 1.5).abs() < 1e-5 && (p[2] - 0.75).abs() < 1e-5, "{p:?}");
         assert_eq!(p[3], 1.0);
     }
 }
@@ -316,16 +238,7 @@ fn disk_area_light_over_plane() {
     let mut g = GltfBuilder::new();
     let base = 0.8f32;
     let m = g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [base, base, base, 1], "metallicFactor": 0.0, "roughnessFactor": 1.0}}));
-    g.mesh(
-        &[
-            [-20.0, 0.0, -20.0],
-            [20.0, 0.0, -20.0],
-            [20.0, 0.0, 20.0],
-            [-20.0, 0.0, 20.0],
-        ],
-        &[0, 2, 1, 0, 3, 2],
-        m,
-    );
+    g.mesh(&[[-20.0, 0.0, -20.0], [20.0, 0.0, -20.0], [20.0, 0.0, 20.0], [-20.0, 0.0, 20.0]], &[0, 2, 1, 0, 3, 2], m);
     g.camera([0.0, 3.0, 3.0], look_rotation([0.0, -1.0, -1.0]), 1.0);
     g.use_ext("CAUSTIC_lights_area");
     // Local -Z points down: rotate +90° about X.
@@ -389,14 +302,9 @@ fn disk_area_light_over_plane() {
     }
     let (mean, se) = mean_se(&residuals);
     let expected_mean = expected_sum / residuals.len() as f64;
-    eprintln!(
-        "disk light: mean residual {mean:.2e} ± {se:.2e} (expected mean pixel {expected_mean:.4})"
-    );
+    eprintln!("disk light: mean residual {mean:.2e} ± {se:.2e} (expected mean pixel {expected_mean:.4})");
     assert!(expected_mean > 0.01, "the test scene must be lit");
-    assert!(
-        mean.abs() <= 5.0 * se + 1e-4 * expected_mean,
-        "residual {mean} ± {se}"
-    );
+    assert!(mean.abs() <= 5.0 * se + 1e-4 * expected_mean, "residual {mean} ± {se}");
 }
 
 fn cornell() -> std::path::PathBuf {
@@ -406,38 +314,18 @@ fn cornell() -> std::path::PathBuf {
 #[test]
 fn identical_for_any_thread_count() {
     let dir = temp_dir();
-    let a = render(
-        &cornell(),
-        &dir.path().join("a.exr"),
-        &["--resolution", "40x40", "--spp", "8", "--threads", "1"],
-    );
-    let b = render(
-        &cornell(),
-        &dir.path().join("b.exr"),
-        &["--resolution", "40x40", "--spp", "8", "--threads", "2"],
-    );
-    let c = render(
-        &cornell(),
-        &dir.path().join("c.exr"),
-        &["--resolution", "40x40", "--spp", "8", "--threads", "3"],
-    );
+    let a = render(&cornell(), &dir.path().join("a.exr"), &["--resolution", "40x40", "--spp", "8", "--threads", "1"]);
+    let b = render(&cornell(), &dir.path().join("b.exr"), &["--resolution", "40x40", "--spp", "8", "--threads", "2"]);
+    let c = render(&cornell(), &dir.path().join("c.exr"), &["--resolution", "40x40", "--spp", "8", "--threads", "3"]);
     assert!(a == b && b == c, "images differ between thread counts");
-    let d = render(
-        &cornell(),
-        &dir.path().join("d.exr"),
-        &["--resolution", "40x40", "--spp", "8", "--seed", "7"],
-    );
+    let d = render(&cornell(), &dir.path().join("d.exr"), &["--resolution", "40x40", "--spp", "8", "--seed", "7"]);
     assert!(a != d, "the seed must change the noise");
 }
 
 #[test]
 fn crop_equals_window_of_full_frame() {
     let dir = temp_dir();
-    let full = render(
-        &cornell(),
-        &dir.path().join("full.exr"),
-        &["--resolution", "48x40", "--spp", "4"],
-    );
+    let full = render(&cornell(), &dir.path().join("full.exr"), &["--resolution", "48x40", "--spp", "4"]);
     let crop = [7u32, 5, 31, 29];
     let part = render(
         &cornell(),
@@ -474,41 +362,17 @@ fn settings_errors_are_usage_errors() {
         (&["--resolution", "banana"], 2, "banana"),
     ];
     for (extra, code, word) in cases {
-        let mut args = vec![
-            "render",
-            scene.to_str().unwrap(),
-            "-o",
-            out.to_str().unwrap(),
-            "--progress",
-            "json",
-        ];
+        let mut args = vec!["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--progress", "json"];
         args.extend_from_slice(extra);
         let r = run(&args, LIMIT);
         assert_eq!(r.code, Some(*code), "{extra:?}: {}", r.stderr);
         let msg = r.error_message().unwrap_or_default();
-        assert!(
-            msg.to_lowercase().contains(word),
-            "{extra:?}: message '{msg}' should name '{word}'"
-        );
+        assert!(msg.to_lowercase().contains(word), "{extra:?}: message '{msg}' should name '{word}'");
         assert!(!out.exists(), "{extra:?} left an output file");
     }
-    let r = run(
-        &[
-            "render",
-            scene.to_str().unwrap(),
-            "-o",
-            "/nonexistent-dir/x.exr",
-            "--progress",
-            "json",
-        ],
-        LIMIT,
-    );
+    let r = run(&["render", scene.to_str().unwrap(), "-o", "/nonexistent-dir/x.exr", "--progress", "json"], LIMIT);
     assert_eq!(r.code, Some(4), "unwritable output: {}", r.stderr);
-    assert!(
-        r.error_message()
-            .unwrap_or_default()
-            .contains("nonexistent-dir")
-    );
+    assert!(r.error_message().unwrap_or_default().contains("nonexistent-dir"));
 }
 
 #[test]
@@ -537,32 +401,20 @@ fn sigterm_writes_partial_image() {
     let mut all = Vec::new();
     for line in lines.by_ref() {
         let line = line.unwrap();
-        let is_progress = line.contains("\"progress\"")
-            && line.contains("\"samples_done\"")
-            && !line.contains("\"samples_done\":0,");
+        let is_progress =
+            line.contains("\"progress\"") && line.contains("\"samples_done\"") && !line.contains("\"samples_done\":0,");
         all.push(line);
         if is_progress {
             break;
         }
     }
-    let kill = std::process::Command::new("kill")
-        .args(["-TERM", &child.id().to_string()])
-        .status()
-        .unwrap();
+    let kill = std::process::Command::new("kill").args(["-TERM", &child.id().to_string()]).status().unwrap();
     assert!(kill.success());
     let start = std::time::Instant::now();
     all.extend(lines.map_while(Result::ok));
     let status = child.wait().unwrap();
-    assert!(
-        start.elapsed() < Duration::from_secs(10),
-        "took too long to stop"
-    );
-    assert_eq!(
-        status.code(),
-        Some(5),
-        "exit code after SIGTERM; stderr:\n{}",
-        all.join("\n")
-    );
+    assert!(start.elapsed() < Duration::from_secs(10), "took too long to stop");
+    assert_eq!(status.code(), Some(5), "exit code after SIGTERM; stderr:\n{}", all.join("\n"));
     let summary: serde_json::Value = all
         .iter()
         .filter_map(|l| serde_json::from_str(l).ok())
@@ -572,10 +424,7 @@ fn sigterm_writes_partial_image() {
     let (_, _, px) = caustic::output::read_combined(&out).unwrap();
     assert!(px.iter().all(|p| p.iter().all(|c| c.is_finite())));
     let mean: f32 = px.iter().map(|p| p[0]).sum::<f32>() / px.len() as f32;
-    assert!(
-        mean > 0.01,
-        "the partial image must hold the samples rendered so far"
-    );
+    assert!(mean > 0.01, "the partial image must hold the samples rendered so far");
 }
 
 #[test]
@@ -601,17 +450,8 @@ fn time_limit_and_interim_images() {
     );
     assert_eq!(r.code, Some(0), "{}", r.stderr);
     let lines = r.json_lines();
-    assert!(
-        lines
-            .iter()
-            .any(|v| v["type"] == "image" && v["final"] == false),
-        "no interim image line"
-    );
-    assert!(
-        lines
-            .iter()
-            .any(|v| v["type"] == "image" && v["final"] == true)
-    );
+    assert!(lines.iter().any(|v| v["type"] == "image" && v["final"] == false), "no interim image line");
+    assert!(lines.iter().any(|v| v["type"] == "image" && v["final"] == true));
     assert!(lines.iter().any(|v| v["type"] == "progress"));
     let s = r.summary().unwrap();
     assert!(s["spp"].as_u64().unwrap() >= 1);
@@ -647,10 +487,7 @@ fn unlit_scene_warns_about_black_image() {
     let s = r.summary().unwrap();
     assert_eq!(s["black"], true);
     let warnings = s["warnings"].to_string();
-    assert!(
-        warnings.contains("no lights") && warnings.contains("black"),
-        "{warnings}"
-    );
+    assert!(warnings.contains("no lights") && warnings.contains("black"), "{warnings}");
 }
 
 /// An emitter of radiance Le seen at normal incidence through a smooth glass slab of
@@ -662,8 +499,7 @@ fn glass_slab_transmittance() {
     let ior = 1.5f64;
     let f = ((ior - 1.0) / (ior + 1.0)).powi(2);
     let thickness = 0.2f64;
-    for (attenuation_color, attenuation_distance) in [(None, 0.0), (Some([0.5f64, 0.8, 0.25]), 0.4)]
-    {
+    for (attenuation_color, attenuation_distance) in [(None, 0.0), (Some([0.5f64, 0.8, 0.25]), 0.4)] {
         let dir = temp_dir();
         let mut g = GltfBuilder::new();
         g.use_ext("KHR_materials_transmission");
@@ -680,27 +516,20 @@ fn glass_slab_transmittance() {
         let h = (thickness / 2.0) as f32;
         g.cube([-3.0, -3.0, -h], [3.0, 3.0, h], glass);
         let le = 2.0f64;
-        let light = g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1]}, "emissiveFactor": [1, 1, 1],
+        let light = g
+            .material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1]}, "emissiveFactor": [1, 1, 1],
             "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": le}}}));
         g.use_ext("KHR_materials_emissive_strength");
         g.mesh(
-            &[
-                [-9.0, -9.0, -1.0],
-                [9.0, -9.0, -1.0],
-                [9.0, 9.0, -1.0],
-                [-9.0, 9.0, -1.0],
-            ],
+            &[[-9.0, -9.0, -1.0], [9.0, -9.0, -1.0], [9.0, 9.0, -1.0], [-9.0, 9.0, -1.0]],
             &[0, 1, 2, 0, 2, 3],
             light,
         );
         // A narrow view along -Z: incidence within 0.03 rad of normal (F changes < 1e-5).
         g.camera([0.0, 0.0, 2.0], [0.0, 0.0, 0.0, 1.0], 0.05);
         let path = g.write(dir.path(), "slab.gltf");
-        let px = render(
-            &path,
-            &dir.path().join("s.exr"),
-            &["--resolution", "16x16", "--spp", "64", "--max-depth", "64"],
-        );
+        let px =
+            render(&path, &dir.path().join("s.exr"), &["--resolution", "16x16", "--spp", "64", "--max-depth", "64"]);
         for c in 0..3 {
             let tau = match attenuation_color {
                 None => 1.0,
@@ -710,10 +539,64 @@ fn glass_slab_transmittance() {
             let v: Vec<f64> = px.iter().map(|p| p[c] as f64).collect();
             let (mean, se) = mean_se(&v);
             eprintln!("slab channel {c}: {mean:.5} ± {se:.5}, expected {expect:.5}");
-            assert!(
-                (mean - expect).abs() <= 5.0 * se + 1e-6 * expect,
-                "channel {c}: {mean} vs {expect}"
-            );
+            assert!((mean - expect).abs() <= 5.0 * se + 1e-6 * expect, "channel {c}: {mean} vs {expect}");
         }
+    }
+}
+
+/// White furnace: an object of albedo 1 in a uniform world of radiance L reflects
+/// exactly L in every direction, at any depth; with an opaque background every pixel,
+/// object or sky, is L. Run with a constant colour and with a constant image (which
+/// goes through the image's importance sampling and lookup).
+#[test]
+fn white_furnace_in_uniform_world() {
+    let l = 0.7f64;
+    let dir = temp_dir();
+    // A constant 8x4 float image.
+    let img_path = dir.path().join("const.exr");
+    exr::prelude::write_rgb_file(&img_path, 8, 4, |_, _| (1.0f32, 1.0f32, 1.0f32)).unwrap();
+    for world in
+        [json!({"color": [l, l, l]}), json!({"color": [1, 1, 1], "strength": l, "image": "const.exr", "rotation": 0.4})]
+    {
+        let mut g = GltfBuilder::new();
+        let white = g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 1], "metallicFactor": 0.0, "roughnessFactor": 0.5}, "doubleSided": true}));
+        g.cube([-0.5, -0.5, -2.5], [0.5, 0.5, -1.5], white);
+        g.cube([-2.0, -1.5, -4.0], [2.0, -1.0, -1.0], white);
+        g.camera([0.0, 0.5, 1.0], look_rotation([0.0, -0.3, -1.0]), 1.0);
+        g.world(world.clone());
+        g.settings(json!({"transparent": false}));
+        let path = g.write(dir.path(), "furnace_world.gltf");
+        let depth = 64u32;
+        let out = dir.path().join("w.exr");
+        let r = run(
+            &[
+                "render",
+                path.to_str().unwrap(),
+                "-o",
+                out.to_str().unwrap(),
+                "--progress",
+                "json",
+                "--resolution",
+                "24x24",
+                "--spp",
+                "32",
+                "--max-depth",
+                &depth.to_string(),
+            ],
+            LIMIT,
+        );
+        assert_eq!(r.code, Some(0), "{}", r.stderr);
+        let px = caustic::output::read_combined(&out).unwrap().2;
+        let v: Vec<f64> = px.iter().map(|p| (p[0] + p[1] + p[2]) as f64 / 3.0).collect();
+        let (mean, se) = mean_se(&v);
+        // Each bounce's albedo may be off by the table error ε, so the expected value is
+        // off by at most L ε E[k], E[k] the mean number of bounces per path, which the
+        // summary gives as bounce rays per camera ray.
+        let rays = &r.summary().unwrap()["stats"]["rays"];
+        let mean_bounces = rays["bounce"].as_f64().unwrap() / rays["camera"].as_f64().unwrap();
+        let systematic = l * ALBEDO_TABLE_ERROR * mean_bounces;
+        eprintln!("world furnace {world}: mean {mean:.5} ± {se:.5}, expected {l}");
+        assert!((mean - l).abs() <= 5.0 * se + systematic, "{world}: {mean} vs {l}");
+        assert!(px.iter().all(|p| p[3] == 1.0), "opaque background: alpha 1 everywhere");
     }
 }

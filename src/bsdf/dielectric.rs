@@ -72,11 +72,7 @@ impl DielectricBsdf {
     /// An interface from glTF parameters.
     pub fn new(eta: f32, roughness: f32, thin: bool, tint: Rgb) -> Self {
         DielectricBsdf {
-            eta: if eta.is_finite() && eta > 0.0 {
-                eta
-            } else {
-                1.0
-            },
+            eta: if eta.is_finite() && eta > 0.0 { eta } else { 1.0 },
             ggx: Ggx::from_roughness(roughness),
             smooth: roughness < SMOOTH_ROUGHNESS,
             thin,
@@ -108,11 +104,7 @@ impl DielectricBsdf {
             let m = (wo + wr).normalize();
             let f = self.reflectance(wo.dot(m));
             let spec = self.ggx.d(m) * self.ggx.g2(wo, wr) / (4.0 * wo.z * wr.z);
-            return if wi.z > 0.0 {
-                Rgb::splat(f * spec)
-            } else {
-                self.tint * ((1.0 - f) * spec)
-            };
+            return if wi.z > 0.0 { Rgb::splat(f * spec) } else { self.tint * ((1.0 - f) * spec) };
         }
         let Some(m) = self.half_vector_transmission(wo, wi) else {
             return Rgb::ZERO;
@@ -120,10 +112,7 @@ impl DielectricBsdf {
         let (dot_o, dot_i) = (wo.dot(m), wi.dot(m));
         let f = fresnel_dielectric(dot_o, self.eta);
         let denom = dot_i + dot_o / self.eta;
-        let value = self.ggx.d(m)
-            * (1.0 - f)
-            * self.ggx.g2(wo, Vec3::new(wi.x, wi.y, -wi.z))
-            * (dot_i * dot_o).abs()
+        let value = self.ggx.d(m) * (1.0 - f) * self.ggx.g2(wo, Vec3::new(wi.x, wi.y, -wi.z)) * (dot_i * dot_o).abs()
             / (denom * denom * wi.z.abs() * wo.z);
         self.tint * (value / (self.eta * self.eta))
     }
@@ -179,31 +168,16 @@ impl DielectricBsdf {
             let r = self.reflectance(wo.z);
             if uc < r {
                 let wi = Vec3::new(-wo.x, -wo.y, wo.z);
-                return Some(BsdfSample {
-                    wi,
-                    f: Rgb::splat(r / wi.z),
-                    pdf: r,
-                    delta: true,
-                });
+                return Some(BsdfSample { wi, f: Rgb::splat(r / wi.z), pdf: r, delta: true });
             }
             let t = 1.0 - r;
             if self.thin {
                 let wi = -wo;
-                return Some(BsdfSample {
-                    wi,
-                    f: self.tint * (t / wi.z.abs()),
-                    pdf: t,
-                    delta: true,
-                });
+                return Some(BsdfSample { wi, f: self.tint * (t / wi.z.abs()), pdf: t, delta: true });
             }
             let wi = refract(wo, Vec3::Z, self.eta)?;
             let f = self.tint * (t / (self.eta * self.eta) / wi.z.abs());
-            return Some(BsdfSample {
-                wi,
-                f,
-                pdf: t,
-                delta: true,
-            });
+            return Some(BsdfSample { wi, f, pdf: t, delta: true });
         }
         let m = self.ggx.sample_visible_normal(wo, u);
         let r = self.reflectance(wo.dot(m));
@@ -223,12 +197,7 @@ impl DielectricBsdf {
         if !(pdf > 0.0) {
             return None;
         }
-        Some(BsdfSample {
-            wi,
-            f: self.eval(wo, wi),
-            pdf,
-            delta: false,
-        })
+        Some(BsdfSample { wi, f: self.eval(wo, wi), pdf, delta: false })
     }
 }
 
@@ -246,9 +215,7 @@ mod tests {
                         let b = DielectricBsdf::new(eta, roughness, thin, Rgb::ONE);
                         let wo = Vec3::new(theta.sin(), 0.0, theta.cos());
                         let mut rng = Pcg32::new(11);
-                        let t = ChiSquareTest::new(&format!(
-                            "dielectric η={eta} r={roughness} thin={thin} θ={theta}"
-                        ));
+                        let t = ChiSquareTest::new(&format!("dielectric η={eta} r={roughness} thin={thin} θ={theta}"));
                         assert_chi2(t.run_with_pdf(
                             |u| b.sample(wo, rng.next_f32(), u).map(|s| (s.wi, s.pdf)),
                             |wi| b.pdf(wo, wi),
@@ -274,18 +241,11 @@ mod tests {
                 // Weight of each choice = f |cos| / pdf · P(choice); radiance scaling aside.
                 let r_part = r.f.x * r.wi.z.abs();
                 let t_part = t.f.x * t.wi.z.abs() * eta * eta;
-                assert!(
-                    (r_part + t_part - 1.0).abs() < 1e-5,
-                    "η={eta} θ={theta}: R+T = {}",
-                    r_part + t_part
-                );
+                assert!((r_part + t_part - 1.0).abs() < 1e-5, "η={eta} θ={theta}: R+T = {}", r_part + t_part);
                 // Snell: sin θo = η sin θt.
                 let sin_t = (t.wi.x * t.wi.x + t.wi.y * t.wi.y).sqrt();
                 assert!((theta.sin() - eta * sin_t).abs() < 1e-5);
-                assert!(
-                    t.wi.z < 0.0 && t.wi.x < 0.0,
-                    "refracted ray continues forward"
-                );
+                assert!(t.wi.z < 0.0 && t.wi.x < 0.0, "refracted ray continues forward");
             }
         }
         // From inside glass (η = 1/1.5) the critical angle is asin(1/1.5) ≈ 41.8°.
@@ -333,10 +293,7 @@ mod tests {
                     }
                     let mean = sum / n as f64;
                     let se = ((sum2 / n as f64 - mean * mean).max(0.0) / n as f64).sqrt();
-                    assert!(
-                        mean <= 1.0 + 5.0 * se,
-                        "η={eta} r={roughness} θ={theta}: {mean} ± {se}"
-                    );
+                    assert!(mean <= 1.0 + 5.0 * se, "η={eta} r={roughness} θ={theta}: {mean} ± {se}");
                 }
             }
         }

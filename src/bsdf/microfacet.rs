@@ -18,9 +18,7 @@ pub struct Ggx {
 impl Ggx {
     /// The distribution for a glTF/Blender perceptual roughness in [0, 1].
     pub fn from_roughness(roughness: f32) -> Self {
-        Ggx {
-            alpha: (roughness * roughness).max(MIN_ALPHA),
-        }
+        Ggx { alpha: (roughness * roughness).max(MIN_ALPHA) }
     }
 
     /// Normal distribution D(m), local frame.
@@ -73,11 +71,7 @@ impl Ggx {
         // Stretch the view so the distribution becomes the hemisphere of radius 1.
         let vh = Vec3::new(a * wo.x, a * wo.y, wo.z).normalize();
         let len2 = vh.x * vh.x + vh.y * vh.y;
-        let t1 = if len2 > 0.0 {
-            Vec3::new(-vh.y, vh.x, 0.0) / len2.sqrt()
-        } else {
-            Vec3::X
-        };
+        let t1 = if len2 > 0.0 { Vec3::new(-vh.y, vh.x, 0.0) / len2.sqrt() } else { Vec3::X };
         let t2 = vh.cross(t1);
         // Uniform point on the projected disk, warped toward the visible half.
         let r = u.x.sqrt();
@@ -117,10 +111,7 @@ mod tests {
                 let ggx = Ggx::from_roughness(roughness);
                 let wo = Vec3::new(theta.sin(), 0.0, theta.cos());
                 let t = ChiSquareTest::new(&format!("GGX visible normals r={roughness} θ={theta}"));
-                assert_chi2(t.run(
-                    |u| Some(ggx.sample_visible_normal(wo, u)),
-                    |m| ggx.pdf_visible_normal(wo, m),
-                ));
+                assert_chi2(t.run(|u| Some(ggx.sample_visible_normal(wo, u)), |m| ggx.pdf_visible_normal(wo, m)));
             }
         }
     }

@@ -65,16 +65,7 @@ pub struct PbrParams {
 impl PbrParams {
     /// An opaque dielectric/metal without the extensions.
     pub fn opaque(base: Rgb, metallic: f32, roughness: f32) -> Self {
-        PbrParams {
-            base,
-            metallic,
-            roughness,
-            specular: 1.0,
-            ior: 1.5,
-            transmission: 0.0,
-            thin: true,
-            eta: 1.5,
-        }
+        PbrParams { base, metallic, roughness, specular: 1.0, ior: 1.5, transmission: 0.0, thin: true, eta: 1.5 }
     }
 }
 
@@ -118,10 +109,7 @@ impl PbrBsdf {
 
     /// An opaque BRDF with a specular layer weight (`KHR_materials_specular` specularFactor).
     pub fn with_specular(base: Rgb, metallic: f32, roughness: f32, specular: f32) -> Self {
-        Self::from_params(&PbrParams {
-            specular,
-            ..PbrParams::opaque(base, metallic, roughness)
-        })
+        Self::from_params(&PbrParams { specular, ..PbrParams::opaque(base, metallic, roughness) })
     }
 
     /// The full material from its parameters (clamped to their valid ranges).
@@ -133,12 +121,7 @@ impl PbrBsdf {
             metallic: p.metallic.clamp(0.0, 1.0),
             roughness,
             specular: p.specular.clamp(0.0, 1.0),
-            f0: f0_from_ior(if p.ior.is_finite() && p.ior >= 1.0 {
-                p.ior
-            } else {
-                1.5
-            })
-            .min(1.0),
+            f0: f0_from_ior(if p.ior.is_finite() && p.ior >= 1.0 { p.ior } else { 1.5 }).min(1.0),
             transmission: p.transmission.clamp(0.0, 1.0),
             glass: DielectricBsdf::new(p.eta, roughness, p.thin, base),
             ggx: Ggx::from_roughness(roughness),
@@ -156,8 +139,7 @@ impl PbrBsdf {
         let e = self.layer_albedo(wo.z);
         let dielectric = 1.0 - self.metallic;
         let opaque = dielectric * (1.0 - self.transmission);
-        let metal =
-            self.metallic * luminance(self.base + (Vec3::ONE - self.base) * schlick_weight(wo.z));
+        let metal = self.metallic * luminance(self.base + (Vec3::ONE - self.base) * schlick_weight(wo.z));
         let spec = opaque * e;
         let diffuse = opaque * (1.0 - e) * luminance(self.base);
         let glass = if self.transmission > 0.0 {
@@ -168,19 +150,9 @@ impl PbrBsdf {
         };
         let total = metal + spec + diffuse + glass;
         if total > 0.0 {
-            LobeChoice {
-                metal: metal / total,
-                spec: spec / total,
-                diffuse: diffuse / total,
-                glass: glass / total,
-            }
+            LobeChoice { metal: metal / total, spec: spec / total, diffuse: diffuse / total, glass: glass / total }
         } else {
-            LobeChoice {
-                metal: 0.0,
-                spec: 1.0,
-                diffuse: 0.0,
-                glass: 0.0,
-            }
+            LobeChoice { metal: 0.0, spec: 1.0, diffuse: 0.0, glass: 0.0 }
         }
     }
 
@@ -258,12 +230,7 @@ impl PbrBsdf {
             let s = self.glass.sample(wo_up, uc / c.glass, u)?;
             if s.delta {
                 let weight = (1.0 - self.metallic) * self.transmission;
-                return Some(BsdfSample {
-                    wi: mirror(s.wi),
-                    f: s.f * weight,
-                    pdf: s.pdf * c.glass,
-                    delta: true,
-                });
+                return Some(BsdfSample { wi: mirror(s.wi), f: s.f * weight, pdf: s.pdf * c.glass, delta: true });
             }
             s.wi
         } else if uc < c.glass + c.metal + c.spec {
@@ -279,12 +246,7 @@ impl PbrBsdf {
         if !(pdf > 0.0) {
             return None;
         }
-        Some(BsdfSample {
-            wi,
-            f: self.eval(wo, wi),
-            pdf,
-            delta: false,
-        })
+        Some(BsdfSample { wi, f: self.eval(wo, wi), pdf, delta: false })
     }
 
     /// Albedo for the denoiser: the colour a white light would reflect, roughly.
@@ -331,9 +293,7 @@ impl SpecularAlbedo {
                     let mut sum = 0.0f32;
                     for mi in 0..TABLE_N - 1 {
                         let (m0, m1) = (Self::mu(mi), Self::mu(mi + 1));
-                        sum += 0.5
-                            * (t[ri * TABLE_N + mi] * m0 + t[ri * TABLE_N + mi + 1] * m1)
-                            * (m1 - m0);
+                        sum += 0.5 * (t[ri * TABLE_N + mi] * m0 + t[ri * TABLE_N + mi + 1] * m1) * (m1 - m0);
                     }
                     2.0 * sum
                 })
@@ -418,11 +378,7 @@ pub fn specular_albedo() -> &'static SpecularAlbedo {
 /// the BRDF two-sided; `wi` on the other side of the surface than `wo` stays rejected.
 #[inline]
 fn flip_to_upper(wo: Vec3, wi: Vec3) -> (Vec3, Vec3) {
-    if wo.z < 0.0 {
-        (Vec3::new(wo.x, wo.y, -wo.z), Vec3::new(wi.x, wi.y, -wi.z))
-    } else {
-        (wo, wi)
-    }
+    if wo.z < 0.0 { (Vec3::new(wo.x, wo.y, -wo.z), Vec3::new(wi.x, wi.y, -wi.z)) } else { (wo, wi) }
 }
 
 #[cfg(test)]
@@ -434,10 +390,7 @@ mod tests {
         let mut v = Vec::new();
         for roughness in [0.15f32, 0.5, 1.0] {
             for metallic in [0.0f32, 0.5, 1.0] {
-                v.push((
-                    format!("r={roughness} m={metallic}"),
-                    PbrBsdf::new(base, metallic, roughness),
-                ));
+                v.push((format!("r={roughness} m={metallic}"), PbrBsdf::new(base, metallic, roughness)));
             }
             for specular in [0.0f32, 0.5] {
                 v.push((
@@ -456,20 +409,9 @@ mod tests {
             (0.7, 2.4, false, 0.3, 2.4),
         ] {
             for roughness in [0.3f32, 0.8] {
-                let p = PbrParams {
-                    base,
-                    metallic,
-                    roughness,
-                    specular: 1.0,
-                    ior,
-                    transmission,
-                    thin,
-                    eta,
-                };
+                let p = PbrParams { base, metallic, roughness, specular: 1.0, ior, transmission, thin, eta };
                 v.push((
-                    format!(
-                        "r={roughness} transmission={transmission} η={eta} thin={thin} m={metallic}"
-                    ),
+                    format!("r={roughness} transmission={transmission} η={eta} thin={thin} m={metallic}"),
                     PbrBsdf::from_params(&p),
                 ));
             }
@@ -488,10 +430,9 @@ mod tests {
                 let wo = Vec3::new(theta.sin(), 0.0, theta.cos());
                 let mut rng = Pcg32::new(3);
                 let t = ChiSquareTest::new(&format!("glTF PBR {name} θ={theta}"));
-                assert_chi2(t.run_with_pdf(
-                    |u| b.sample(wo, rng.next_f32(), u).map(|s| (s.wi, s.pdf)),
-                    |wi| b.pdf(wo, wi),
-                ));
+                assert_chi2(
+                    t.run_with_pdf(|u| b.sample(wo, rng.next_f32(), u).map(|s| (s.wi, s.pdf)), |wi| b.pdf(wo, wi)),
+                );
             }
         }
     }
@@ -519,20 +460,10 @@ mod tests {
     #[test]
     fn albedo_table_accuracy() {
         let t = specular_albedo();
-        for &(mu, r) in &[
-            (0.05f32, 0.1f32),
-            (0.3, 0.5),
-            (0.77, 0.23),
-            (1.0, 1.0),
-            (0.5, 0.05),
-        ] {
+        for &(mu, r) in &[(0.05f32, 0.1f32), (0.3, 0.5), (0.77, 0.23), (1.0, 1.0), (0.5, 0.05)] {
             let fine = directional_albedo(mu, r, 4 * TABLE_STRATA) as f64;
             let err = (t.e(mu, r, F0_DIELECTRIC) as f64 - fine).abs();
-            assert!(
-                err < TABLE_ERROR,
-                "E({mu}, {r}): table {} vs {fine}",
-                t.e(mu, r, F0_DIELECTRIC)
-            );
+            assert!(err < TABLE_ERROR, "E({mu}, {r}): table {} vs {fine}", t.e(mu, r, F0_DIELECTRIC));
         }
     }
 
@@ -553,11 +484,7 @@ mod tests {
                         .sample(wo, rng.next_f32(), u)
                         .map(|s| {
                             // Undo the 1/η² radiance scaling of refracted samples.
-                            let scale = if s.wi.z < 0.0 && !b.glass.thin {
-                                b.glass.eta * b.glass.eta
-                            } else {
-                                1.0
-                            };
+                            let scale = if s.wi.z < 0.0 && !b.glass.thin { b.glass.eta * b.glass.eta } else { 1.0 };
                             (s.f.max_element() * s.wi.z.abs() / s.pdf * scale) as f64
                         })
                         .unwrap_or(0.0);
@@ -566,10 +493,7 @@ mod tests {
                 }
                 let mean = sum / n as f64;
                 let se = ((sum2 / n as f64 - mean * mean).max(0.0) / n as f64).sqrt();
-                assert!(
-                    mean <= 1.0 + 5.0 * se + TABLE_ERROR,
-                    "{name} θ={theta}: albedo {mean} ± {se}"
-                );
+                assert!(mean <= 1.0 + 5.0 * se + TABLE_ERROR, "{name} θ={theta}: albedo {mean} ± {se}");
             }
         }
     }

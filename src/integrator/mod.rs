@@ -9,8 +9,7 @@ use crate::accel::{Accel, Hit};
 use crate::bsdf::pbr::PbrParams;
 use crate::bsdf::{Bsdf, PbrBsdf};
 use crate::light::{
-    AreaLight, EmitterTriangle, Light, LightSample, LightSampler, area_to_solid_angle,
-    sample_triangle, spot_falloff,
+    AreaLight, EmitterTriangle, Light, LightSample, LightSampler, area_to_solid_angle, sample_triangle, spot_falloff,
 };
 use crate::math::{Frame, Rgb, offset_ray_origin};
 use crate::scene::{AlphaMode, Scene};
@@ -90,6 +89,8 @@ pub struct SceneContext<'a> {
     transparent: Vec<bool>,
     /// Area lights with their light index (intersected by camera and BSDF rays).
     area_lights: Vec<(AreaLight, usize)>,
+    /// Light index of the world, if it is a light.
+    world_light: Option<usize>,
 }
 
 /// Power heuristic (β = 2) of Veach; 0 when the weights are not finite.
@@ -111,10 +112,12 @@ impl<'a> SceneContext<'a> {
     pub fn new(scene: &'a Scene, accel: &'a Accel) -> Self {
         let mut tri_to_light = vec![u32::MAX; scene.mesh.triangles.len()];
         let mut area_lights = Vec::new();
+        let mut world_light = None;
         for (i, l) in scene.lights.iter().enumerate() {
             match l {
                 Light::Triangle { tri } => tri_to_light[*tri as usize] = i as u32,
                 Light::Area(a) => area_lights.push((*a, i)),
+                Light::World => world_light = Some(i),
                 _ => {}
             }
         }
@@ -124,11 +127,25 @@ impl<'a> SceneContext<'a> {
             scene,
             accel,
             lights: LightSampler::new(&scene.light_power, tri_to_light),
-            masked: (0..n)
-                .map(|t| matches!(mode(t), AlphaMode::Mask(_)))
-                .collect(),
+            masked: (0..n).map(|t| matches!(mode(t), AlphaMode::Mask(_))).collect(),
             transparent: (0..n).map(|t| mode(t) != AlphaMode::Opaque).collect(),
             area_lights,
+            world_light,
+        }
+    }
+
+    /// Radiance of the world seen along direction `d` (zero without a world).
+    #[inline]
+    pub fn world_radiance(&self, d: Vec3) -> Rgb {
+        self.scene.world.as_ref().map_or(Rgb::ZERO, |w| w.radiance(d))
+    }
+
+    /// Density with which light sampling (world choice included) picks direction `d`.
+    #[inline]
+    pub fn world_pdf(&self, d: Vec3) -> f32 {
+        match (self.world_light, &self.scene.world) {
+            (Some(i), Some(w)) => self.lights.pmf(i) * w.pdf(d),
+            _ => 0.0,
         }
     }
 
@@ -151,9 +168,7 @@ impl<'a> SceneContext<'a> {
         let (uv, color) = self.attributes(tri, b1, b2);
         let mut a = mat.base_color.w * color.w;
         if let Some(t) = mat.base_color_tex {
-            a *= self.scene.textures[t.texture as usize]
-                .lookup(t.uv(uv[t.tex_coord as usize]))
-                .w;
+            a *= self.scene.textures[t.texture as usize].lookup(t.uv(uv[t.tex_coord as usize])).w;
         }
         a
     }
@@ -161,26 +176,19 @@ impl<'a> SceneContext<'a> {
     /// Closest surface hit (alpha masks applied).
     #[inline]
     pub fn intersect(&self, org: Vec3, dir: Vec3, tmax: f32) -> Option<Hit> {
-        self.accel
-            .intersect(org, dir, tmax, &self.masked, |tri, b1, b2| {
-                match self.scene.materials[self.scene.mesh.tri_material[tri as usize] as usize]
-                    .alpha_mode
-                {
-                    AlphaMode::Mask(cutoff) => self.alpha(tri, b1, b2) >= cutoff,
-                    _ => true,
-                }
-            })
+        self.accel.intersect(org, dir, tmax, &self.masked, |tri, b1, b2| {
+            match self.scene.materials[self.scene.mesh.tri_material[tri as usize] as usize].alpha_mode {
+                AlphaMode::Mask(cutoff) => self.alpha(tri, b1, b2) >= cutoff,
+                _ => true,
+            }
+        })
     }
 
     /// Fraction of light passing from `org` along `dir` for distance `tmax`.
     #[inline]
     pub fn transmittance(&self, org: Vec3, dir: Vec3, tmax: f32) -> f32 {
-        self.accel
-            .transmittance(org, dir, tmax, &self.transparent, |tri, b1, b2| match self
-                .scene
-                .materials[self.scene.mesh.tri_material[tri as usize] as usize]
-                .alpha_mode
-            {
+        self.accel.transmittance(org, dir, tmax, &self.transparent, |tri, b1, b2| {
+            match self.scene.materials[self.scene.mesh.tri_material[tri as usize] as usize].alpha_mode {
                 AlphaMode::Mask(cutoff) => {
                     if self.alpha(tri, b1, b2) >= cutoff {
                         0.0
@@ -190,17 +198,13 @@ impl<'a> SceneContext<'a> {
                 }
                 AlphaMode::Blend => (1.0 - self.alpha(tri, b1, b2)).clamp(0.0, 1.0),
                 AlphaMode::Opaque => 0.0,
-            })
+            }
+        })
     }
 
     /// The closest area light along a ray before `tmax`: (distance, light, light index).
     #[inline]
-    pub fn intersect_area_lights(
-        &self,
-        org: Vec3,
-        dir: Vec3,
-        tmax: f32,
-    ) -> Option<(f32, &AreaLight, usize)> {
+    pub fn intersect_area_lights(&self, org: Vec3, dir: Vec3, tmax: f32) -> Option<(f32, &AreaLight, usize)> {
         let mut best: Option<(f32, &AreaLight, usize)> = None;
         for (a, i) in &self.area_lights {
             let limit = best.map_or(tmax, |b| b.0);
@@ -253,9 +257,7 @@ impl<'a> SceneContext<'a> {
     pub fn shade(&self, s: &SurfaceHit, wo: Vec3) -> ShadingPoint {
         let mat = &self.scene.materials[s.material as usize];
         let tex = &self.scene.textures;
-        let lookup = |t: &crate::scene::TexRef| {
-            tex[t.texture as usize].lookup(t.uv(s.uv[t.tex_coord as usize]))
-        };
+        let lookup = |t: &crate::scene::TexRef| tex[t.texture as usize].lookup(t.uv(s.uv[t.tex_coord as usize]));
         let mut base = mat.base_color.truncate() * s.color.truncate();
         if let Some(t) = &mat.base_color_tex {
             base *= lookup(t).truncate();
@@ -301,11 +303,8 @@ impl<'a> SceneContext<'a> {
             Some(t) => Frame::from_normal_tangent(n, t),
             None => Frame::from_normal(n),
         };
-        let emitted = if mat.is_emissive() && (s.front || mat.double_sided) {
-            mat.emission(tex, s.uv)
-        } else {
-            Rgb::ZERO
-        };
+        let emitted =
+            if mat.is_emissive() && (s.front || mat.double_sided) { mat.emission(tex, s.uv) } else { Rgb::ZERO };
         let mut transmission = mat.transmission;
         if let Some(t) = &mat.transmission_tex {
             transmission *= lookup(t).x;
@@ -313,36 +312,17 @@ impl<'a> SceneContext<'a> {
         let thin = mat.volume.is_none();
         // Entering or leaving is decided by the geometric normal; a thin sheet is the
         // same from both sides.
-        let eta = if thin || s.front {
-            mat.ior
-        } else {
-            1.0 / mat.ior
-        };
-        let params = PbrParams {
-            base,
-            metallic,
-            roughness,
-            specular: mat.specular,
-            ior: mat.ior,
-            transmission,
-            thin,
-            eta,
-        };
-        ShadingPoint {
-            bsdf: Bsdf::Pbr(PbrBsdf::from_params(&params)),
-            frame,
-            emitted,
-        }
+        let eta = if thin || s.front { mat.ior } else { 1.0 / mat.ior };
+        let params =
+            PbrParams { base, metallic, roughness, specular: mat.specular, ior: mat.ior, transmission, thin, eta };
+        ShadingPoint { bsdf: Bsdf::Pbr(PbrBsdf::from_params(&params)), frame, emitted }
     }
 
     /// Samples light `index` from point `p`.
     #[inline]
     pub fn sample_light(&self, index: usize, p: Vec3, u: Vec2) -> Option<LightSample> {
         match &self.scene.lights[index] {
-            Light::Point {
-                position,
-                intensity,
-            } => {
+            Light::Point { position, intensity } => {
                 let d = *position - p;
                 let dist2 = d.length_squared();
                 let dist = dist2.sqrt();
@@ -356,13 +336,7 @@ impl<'a> SceneContext<'a> {
                     normal: Vec3::ZERO,
                 })
             }
-            Light::Spot {
-                position,
-                direction,
-                intensity,
-                cos_inner,
-                cos_outer,
-            } => {
+            Light::Spot { position, direction, intensity, cos_inner, cos_outer } => {
                 let d = *position - p;
                 let dist2 = d.length_squared();
                 let dist = dist2.sqrt();
@@ -381,10 +355,7 @@ impl<'a> SceneContext<'a> {
                     normal: Vec3::ZERO,
                 })
             }
-            Light::Directional {
-                direction,
-                irradiance,
-            } => Some(LightSample {
+            Light::Directional { direction, irradiance } => Some(LightSample {
                 wi: -*direction,
                 dist: f32::INFINITY,
                 li: *irradiance,
@@ -413,14 +384,16 @@ impl<'a> SceneContext<'a> {
                     normal: a.normal,
                 })
             }
+            Light::World => {
+                let env = self.scene.world.as_ref()?;
+                let (wi, li, pdf) = env.sample(u)?;
+                Some(LightSample { wi, dist: f32::INFINITY, li, pdf, delta: false, point: p + wi, normal: Vec3::ZERO })
+            }
             Light::Triangle { tri } => {
                 let m = &self.scene.mesh;
                 let idx = m.triangles[*tri as usize];
                 let mat = &self.scene.materials[m.tri_material[*tri as usize] as usize];
-                let et = EmitterTriangle {
-                    p: idx.map(|i| m.positions[i as usize]),
-                    two_sided: mat.double_sided,
-                };
+                let et = EmitterTriangle { p: idx.map(|i| m.positions[i as usize]), two_sided: mat.double_sided };
                 let (q, n, b, area) = sample_triangle(&et, u);
                 let d = q - p;
                 let dist = d.length();
@@ -429,11 +402,7 @@ impl<'a> SceneContext<'a> {
                 }
                 let wi = d / dist;
                 let cos_signed = (-wi).dot(n);
-                let cos_l = if et.two_sided {
-                    cos_signed.abs()
-                } else {
-                    cos_signed
-                };
+                let cos_l = if et.two_sided { cos_signed.abs() } else { cos_signed };
                 let pdf = area_to_solid_angle(1.0 / area, dist, cos_l);
                 if !(pdf > 0.0) {
                     return None;
@@ -487,11 +456,7 @@ impl<'a> SceneContext<'a> {
         if ls.dist.is_infinite() {
             return self.transmittance(org, ls.wi, f32::INFINITY);
         }
-        let target = if ls.normal != Vec3::ZERO {
-            offset_ray_origin(ls.point, ls.normal)
-        } else {
-            ls.point
-        };
+        let target = if ls.normal != Vec3::ZERO { offset_ray_origin(ls.point, ls.normal) } else { ls.point };
         let d = target - org;
         let dist = d.length();
         if !(dist > 0.0) {
@@ -527,10 +492,9 @@ impl Integrator {
     /// Human-readable description with parameters, for logs and `info`.
     pub fn describe(&self) -> String {
         match self {
-            Integrator::Path(p) => format!(
-                "path (max depth {}, russian roulette from depth {})",
-                p.max_depth, p.rr_depth
-            ),
+            Integrator::Path(p) => {
+                format!("path (max depth {}, russian roulette from depth {})", p.max_depth, p.rr_depth)
+            }
         }
     }
 }

@@ -24,14 +24,14 @@ pub struct PathIntegrator {
     pub max_depth: u32,
     /// Depth from which Russian roulette may end paths.
     pub rr_depth: u32,
+    /// Camera rays that miss show nothing (alpha 0) instead of the world, as Blender's
+    /// Film → Transparent; the world still lights the scene.
+    pub transparent_background: bool,
 }
 
 impl Default for PathIntegrator {
     fn default() -> Self {
-        PathIntegrator {
-            max_depth: 13,
-            rr_depth: 3,
-        }
+        PathIntegrator { max_depth: 13, rr_depth: 3, transparent_background: true }
     }
 }
 
@@ -50,10 +50,7 @@ impl PathIntegrator {
         depth_of: impl Fn(Vec3) -> f32,
         stats: &mut RayStats,
     ) -> CameraSample {
-        let mut out = CameraSample {
-            depth: f32::INFINITY,
-            ..Default::default()
-        };
+        let mut out = CameraSample { depth: f32::INFINITY, ..Default::default() };
         let mut radiance = Rgb::ZERO;
         let mut beta = Rgb::ONE;
         let mut depth = 0u32;
@@ -87,10 +84,7 @@ impl PathIntegrator {
                         1.0
                     } else {
                         let q = org + dir * t;
-                        power_heuristic(
-                            prev_bsdf_pdf,
-                            ctx.light_pdf(index, prev_p, q, light.normal),
-                        )
+                        power_heuristic(prev_bsdf_pdf, ctx.light_pdf(index, prev_p, q, light.normal))
                     };
                     radiance += beta * absorb(t) * light.radiance * w;
                     if depth == 0 {
@@ -99,7 +93,25 @@ impl PathIntegrator {
                 }
             }
 
-            let Some(hit) = hit else { break };
+            let Some(hit) = hit else {
+                // Escaped: the world, weighted against light sampling.
+                let seen_directly = depth == 0;
+                if !(seen_directly && self.transparent_background) {
+                    let le = ctx.world_radiance(dir);
+                    if le != Rgb::ZERO {
+                        let w =
+                            if prev_bsdf_pdf == 0.0 { 1.0 } else { power_heuristic(prev_bsdf_pdf, ctx.world_pdf(dir)) };
+                        // Escaping from inside a medium means its mesh is open: the
+                        // light would have crossed infinitely much of it.
+                        let tr = if medium.is_some_and(|sigma| sigma.max_element() > 0.0) { 0.0 } else { 1.0 };
+                        radiance += beta * le * (w * tr);
+                        if seen_directly {
+                            out.alpha = 1.0;
+                        }
+                    }
+                }
+                break;
+            };
             if medium.is_some() {
                 beta *= absorb(hit.t);
             }
@@ -128,9 +140,7 @@ impl PathIntegrator {
             // Emission found by the path, weighted against light sampling.
             if sp.emitted != Rgb::ZERO {
                 let w = match (prev_bsdf_pdf > 0.0, ctx.lights.light_of_triangle(hit.tri)) {
-                    (true, Some(index)) => {
-                        power_heuristic(prev_bsdf_pdf, ctx.light_pdf(index, prev_p, s.p, s.ng))
-                    }
+                    (true, Some(index)) => power_heuristic(prev_bsdf_pdf, ctx.light_pdf(index, prev_p, s.p, s.ng)),
                     _ => 1.0,
                 };
                 radiance += beta * sp.emitted * w;
@@ -144,11 +154,7 @@ impl PathIntegrator {
 
             // Next-event estimation: one light, chosen by power (useless for pure
             // delta BSDFs such as clear glass).
-            let nee = if sp.bsdf.is_delta() {
-                None
-            } else {
-                ctx.lights.sample(u_light)
-            };
+            let nee = if sp.bsdf.is_delta() { None } else { ctx.lights.sample(u_light) };
             if let Some((index, pmf)) = nee {
                 if let Some(ls) = ctx.sample_light(index, s.p, u_light_pt) {
                     let wi_local = sp.frame.to_local(ls.wi);

@@ -7,6 +7,7 @@
 //! irradiance in W/m², area radiance in W/(m² sr). The loader converts glTF's
 //! photometric units (cd, lux) by Blender's exporter convention (683 lm/W).
 
+pub mod environment;
 pub mod sampler;
 
 use crate::math::Rgb;
@@ -14,6 +15,7 @@ use crate::sampling::warp::{concentric_disk, uniform_triangle};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
+pub use environment::Environment;
 pub use sampler::LightSampler;
 
 /// Shape of an area light.
@@ -50,14 +52,7 @@ pub struct AreaLight {
 
 impl AreaLight {
     /// Builds the light from its world-space frame; None when the area is zero.
-    pub fn new(
-        shape: AreaShape,
-        center: Vec3,
-        ax: Vec3,
-        ay: Vec3,
-        emit_dir: Vec3,
-        power: Rgb,
-    ) -> Option<Self> {
+    pub fn new(shape: AreaShape, center: Vec3, ax: Vec3, ay: Vec3, emit_dir: Vec3, power: Rgb) -> Option<Self> {
         let cross = ax.cross(ay);
         let scale = match shape {
             AreaShape::Rectangle => 4.0,
@@ -75,17 +70,7 @@ impl AreaLight {
         let det = g00 * g11 - g01 * g01;
         let dx = (ax * g11 - ay * g01) / det;
         let dy = (ay * g00 - ax * g01) / det;
-        Some(AreaLight {
-            shape,
-            center,
-            ax,
-            ay,
-            normal,
-            dx,
-            dy,
-            area,
-            radiance: power / (PI * area),
-        })
+        Some(AreaLight { shape, center, ax, ay, normal, dx, dy, area, radiance: power / (PI * area) })
     }
 
     /// Ray hit distance, if the ray hits the emitting region (either side).
@@ -156,6 +141,8 @@ pub enum Light {
         /// Triangle index.
         tri: u32,
     },
+    /// The world (`Scene::world`): light from infinitely far away.
+    World,
 }
 
 /// A point sampled on a light, as seen from a shading point.
@@ -198,11 +185,7 @@ pub fn spot_falloff(cos_theta: f32, cos_inner: f32, cos_outer: f32) -> f32 {
 /// Converts an area density at a light point into a solid-angle density.
 #[inline]
 pub fn area_to_solid_angle(pdf_area: f32, dist: f32, cos_light: f32) -> f32 {
-    if cos_light <= 0.0 {
-        0.0
-    } else {
-        pdf_area * dist * dist / cos_light
-    }
+    if cos_light <= 0.0 { 0.0 } else { pdf_area * dist * dist / cos_light }
 }
 
 /// Samples a point on an emissive triangle uniformly by area.

@@ -13,10 +13,7 @@ pub struct LightSampler {
 impl LightSampler {
     /// A sampler from each light's power (luminance of W) and the triangle→light map.
     pub fn new(powers: &[f32], tri_to_light: Vec<u32>) -> Self {
-        LightSampler {
-            dist: Distribution1D::new(powers),
-            tri_to_light,
-        }
+        LightSampler { dist: Distribution1D::new(powers), tri_to_light }
     }
 
     /// True when the scene has no light.

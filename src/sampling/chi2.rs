@@ -14,19 +14,14 @@ pub struct Pcg32(u64);
 impl Pcg32 {
     /// A generator from a seed.
     pub fn new(seed: u64) -> Self {
-        let mut r = Pcg32(
-            seed.wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407),
-        );
+        let mut r = Pcg32(seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407));
         r.next_u32();
         r
     }
     /// Next 32 random bits.
     pub fn next_u32(&mut self) -> u32 {
         let old = self.0;
-        self.0 = old
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
+        self.0 = old.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
         let xorshifted = (((old >> 18) ^ old) >> 27) as u32;
         let rot = (old >> 59) as u32;
         xorshifted.rotate_right(rot)
@@ -81,11 +76,7 @@ impl ChiSquareTest {
     }
 
     /// Runs the test on a sampler (None = failed sample) and the matching pdf.
-    pub fn run(
-        &self,
-        mut sample: impl FnMut(Vec2) -> Option<Vec3>,
-        pdf: impl Fn(Vec3) -> f32,
-    ) -> ChiSquareResult {
+    pub fn run(&self, mut sample: impl FnMut(Vec2) -> Option<Vec3>, pdf: impl Fn(Vec3) -> f32) -> ChiSquareResult {
         self.run_with_pdf(|u| sample(u).map(|w| (w, f32::NAN)), pdf)
     }
 
@@ -130,15 +121,11 @@ impl ChiSquareTest {
         for ic in 0..nc {
             for ip in 0..np {
                 let (t0, t1) = (PI * ic as f64 / nc as f64, PI * (ic + 1) as f64 / nc as f64);
-                let (p0, p1) = (
-                    2.0 * PI * ip as f64 / np as f64,
-                    2.0 * PI * (ip + 1) as f64 / np as f64,
-                );
+                let (p0, p1) = (2.0 * PI * ip as f64 / np as f64, 2.0 * PI * (ip + 1) as f64 / np as f64);
                 let f_theta = |theta: f64| {
                     let (st, ct) = theta.sin_cos();
                     let f_phi = |phi: f64| {
-                        let w =
-                            Vec3::new((st * phi.cos()) as f32, (st * phi.sin()) as f32, ct as f32);
+                        let w = Vec3::new((st * phi.cos()) as f32, (st * phi.sin()) as f32, ct as f32);
                         pdf(w) as f64
                     };
                     adaptive_simpson(&f_phi, p0, p1, 1e-7, 7) * st
@@ -176,11 +163,7 @@ impl ChiSquareTest {
             chi2 = f64::INFINITY;
         }
         let dof = dof.saturating_sub(1).max(1);
-        let p_value = if chi2.is_finite() {
-            1.0 - ChiSquared::new(dof as f64).unwrap().cdf(chi2)
-        } else {
-            0.0
-        };
+        let p_value = if chi2.is_finite() { 1.0 - ChiSquared::new(dof as f64).unwrap().cdf(chi2) } else { 0.0 };
         let threshold = 1.0 - (1.0 - self.significance).powf(1.0 / self.tests_in_suite as f64);
         ChiSquareResult {
             name: self.name.clone(),
@@ -208,38 +191,12 @@ impl ChiSquareTest {
 pub fn assert_chi2(r: ChiSquareResult) {
     eprintln!(
         "{}: p = {:.4} (threshold {:.2e}), ∫pdf = {:.4}, failed = {:.4}, out of support = {}, pdf mismatch = {:.2e}",
-        r.name,
-        r.p_value,
-        r.threshold,
-        r.pdf_integral,
-        r.failed_fraction,
-        r.out_of_support,
-        r.max_pdf_mismatch
+        r.name, r.p_value, r.threshold, r.pdf_integral, r.failed_fraction, r.out_of_support, r.max_pdf_mismatch
     );
-    assert!(
-        r.out_of_support == 0,
-        "{}: {} samples where pdf = 0",
-        r.name,
-        r.out_of_support
-    );
-    assert!(
-        r.max_pdf_mismatch < 1e-2,
-        "{}: sampled pdf differs from pdf() by {:.3}",
-        r.name,
-        r.max_pdf_mismatch
-    );
-    assert!(
-        r.pdf_integral <= 1.0 + 2e-3,
-        "{}: pdf integrates to {}",
-        r.name,
-        r.pdf_integral
-    );
-    assert!(
-        r.p_value > r.threshold,
-        "{}: chi-square rejects the sampler (p = {:.3e})",
-        r.name,
-        r.p_value
-    );
+    assert!(r.out_of_support == 0, "{}: {} samples where pdf = 0", r.name, r.out_of_support);
+    assert!(r.max_pdf_mismatch < 1e-2, "{}: sampled pdf differs from pdf() by {:.3}", r.name, r.max_pdf_mismatch);
+    assert!(r.pdf_integral <= 1.0 + 2e-3, "{}: pdf integrates to {}", r.name, r.pdf_integral);
+    assert!(r.p_value > r.threshold, "{}: chi-square rejects the sampler (p = {:.3e})", r.name, r.p_value);
 }
 
 /// Adaptive Simpson quadrature of `f` over [a, b] to absolute tolerance `eps`.

@@ -13,10 +13,7 @@ impl Distribution1D {
     /// Builds the distribution; negative or non-finite weights count as zero.
     /// When every weight is zero the distribution is uniform.
     pub fn new(weights: &[f32]) -> Self {
-        let weights: Vec<f32> = weights
-            .iter()
-            .map(|&w| if w.is_finite() && w > 0.0 { w } else { 0.0 })
-            .collect();
+        let weights: Vec<f32> = weights.iter().map(|&w| if w.is_finite() && w > 0.0 { w } else { 0.0 }).collect();
         let mut total = weights.iter().map(|&w| w as f64).sum::<f64>();
         let uniform = total <= 0.0;
         if uniform {
@@ -32,16 +29,8 @@ impl Distribution1D {
         if let Some(last) = cdf.last_mut() {
             *last = 1.0;
         }
-        let weights = if uniform {
-            vec![1.0; weights.len()]
-        } else {
-            weights
-        };
-        Distribution1D {
-            weights,
-            cdf,
-            total: total as f32,
-        }
+        let weights = if uniform { vec![1.0; weights.len()] } else { weights };
+        Distribution1D { weights, cdf, total: total as f32 }
     }
 
     /// Number of items.
@@ -67,26 +56,15 @@ impl Distribution1D {
         // partition_point finds the first cdf entry > u; the item is the one before.
         let i = self.cdf.partition_point(|&c| c <= u).clamp(1, n) - 1;
         // Skip zero-weight items that a rounding u could land on.
-        let i = if self.weights[i] > 0.0 {
-            i
-        } else {
-            self.next_nonzero(i)
-        };
+        let i = if self.weights[i] > 0.0 { i } else { self.next_nonzero(i) };
         let lo = self.cdf[i];
         let width = self.cdf[i + 1] - lo;
-        let u_remapped = if width > 0.0 {
-            ((u - lo) / width).clamp(0.0, 0.999_999_94)
-        } else {
-            0.5
-        };
+        let u_remapped = if width > 0.0 { ((u - lo) / width).clamp(0.0, 0.999_999_94) } else { 0.5 };
         (i, self.pmf(i), u_remapped)
     }
 
     fn next_nonzero(&self, i: usize) -> usize {
-        (i..self.weights.len())
-            .chain((0..i).rev())
-            .find(|&j| self.weights[j] > 0.0)
-            .unwrap_or(i)
+        (i..self.weights.len()).chain((0..i).rev()).find(|&j| self.weights[j] > 0.0).unwrap_or(i)
     }
 
     /// Probability of picking item `i`.

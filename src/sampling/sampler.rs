@@ -20,11 +20,7 @@ impl PixelSampler {
     /// The stream for sample `index` of pixel (`x`, `y`) under the render seed.
     #[inline]
     pub fn new(seed: u32, x: u32, y: u32, index: u32) -> Self {
-        PixelSampler {
-            pixel_seed: hash_combine(&[seed, x, y]),
-            index,
-            set: 0,
-        }
+        PixelSampler { pixel_seed: hash_combine(&[seed, x, y]), index, set: 0 }
     }
 
     /// Next four dimensions in [0, 1).
@@ -36,16 +32,8 @@ impl PixelSampler {
         // fresh scramble seed keeps the points well distributed (they lose the
         // stratification across blocks, nothing else).
         let block = (d / sobol_burley::NUM_DIMENSION_SETS_4D) ^ ((self.index >> 16) << 8);
-        let seed = if block == 0 {
-            self.pixel_seed
-        } else {
-            hash_combine(&[self.pixel_seed, block])
-        };
-        sobol_burley::sample_4d(
-            self.index & 0xffff,
-            d % sobol_burley::NUM_DIMENSION_SETS_4D,
-            seed,
-        )
+        let seed = if block == 0 { self.pixel_seed } else { hash_combine(&[self.pixel_seed, block]) };
+        sobol_burley::sample_4d(self.index & 0xffff, d % sobol_burley::NUM_DIMENSION_SETS_4D, seed)
     }
 
     /// Two dimensions (a set of four, of which two are left unused).

@@ -12,11 +12,8 @@ pub fn concentric_disk(u: Vec2) -> Vec2 {
     if o.x == 0.0 && o.y == 0.0 {
         return Vec2::ZERO;
     }
-    let (r, theta) = if o.x.abs() > o.y.abs() {
-        (o.x, FRAC_PI_4 * (o.y / o.x))
-    } else {
-        (o.y, FRAC_PI_2 - FRAC_PI_4 * (o.x / o.y))
-    };
+    let (r, theta) =
+        if o.x.abs() > o.y.abs() { (o.x, FRAC_PI_4 * (o.y / o.x)) } else { (o.y, FRAC_PI_2 - FRAC_PI_4 * (o.x / o.y)) };
     r * Vec2::new(theta.cos(), theta.sin())
 }
 
@@ -31,11 +28,7 @@ pub fn cosine_hemisphere(u: Vec2) -> Vec3 {
 /// Density of [`cosine_hemisphere`] per unit solid angle.
 #[inline]
 pub fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {
-    if cos_theta > 0.0 {
-        cos_theta * FRAC_1_PI
-    } else {
-        0.0
-    }
+    if cos_theta > 0.0 { cos_theta * FRAC_1_PI } else { 0.0 }
 }
 
 /// Uniform direction on the unit sphere.
@@ -92,10 +85,7 @@ mod tests {
     #[test]
     fn chi2_cosine_hemisphere() {
         let t = ChiSquareTest::new("cosine hemisphere");
-        assert_chi2(t.run(
-            |u| Some(cosine_hemisphere(u)),
-            |w| cosine_hemisphere_pdf(w.z),
-        ));
+        assert_chi2(t.run(|u| Some(cosine_hemisphere(u)), |w| cosine_hemisphere_pdf(w.z)));
     }
 
     #[test]
@@ -111,11 +101,7 @@ mod tests {
             assert_chi2(t.run(
                 |u| Some(uniform_cone(u, cos_max)),
                 |w| {
-                    if w.z >= cos_max {
-                        uniform_cone_pdf(cos_max)
-                    } else {
-                        0.0
-                    }
+                    if w.z >= cos_max { uniform_cone_pdf(cos_max) } else { 0.0 }
                 },
             ));
         }
@@ -125,11 +111,7 @@ mod tests {
     /// the area density is converted to solid angle, so the same harness applies.
     #[test]
     fn chi2_uniform_triangle() {
-        let p = [
-            Vec3::new(-1.0, -0.5, 1.0),
-            Vec3::new(1.5, -0.2, 0.7),
-            Vec3::new(0.2, 1.0, 1.4),
-        ];
+        let p = [Vec3::new(-1.0, -0.5, 1.0), Vec3::new(1.5, -0.2, 0.7), Vec3::new(0.2, 1.0, 1.4)];
         let n = (p[1] - p[0]).cross(p[2] - p[0]);
         let area = 0.5 * n.length();
         let n = n.normalize();

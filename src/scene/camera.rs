@@ -47,15 +47,7 @@ impl Camera {
         let up0 = m.transform_vector3(Vec3::Y);
         let back = right.cross(up0).normalize_or(Vec3::Z);
         let up = back.cross(right);
-        Camera {
-            name,
-            data_name: None,
-            position: m.transform_point3(Vec3::ZERO),
-            right,
-            up,
-            back,
-            projection,
-        }
+        Camera { name, data_name: None, position: m.transform_point3(Vec3::ZERO), right, up, back, projection }
     }
 
     /// Aspect ratio that the camera wants, if it says.
@@ -92,13 +84,7 @@ impl CameraRays {
             }
             Projection::Orthographic { xmag, ymag } => (Vec2::new(xmag, ymag), true),
         };
-        CameraRays {
-            cam: cam.clone(),
-            half,
-            width: width as f32,
-            height: height as f32,
-            ortho,
-        }
+        CameraRays { cam: cam.clone(), half, width: width as f32, height: height as f32, ortho }
     }
 
     /// Ray through film position (x, y) in pixels from the top-left corner of the full

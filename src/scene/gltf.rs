@@ -8,8 +8,8 @@
 
 use super::texture::{Texture, Wrap, texture_transform};
 use super::{
-    AlphaMode, Camera, CameraReport, LightReport, LoadReport, Material, MaterialReport, Mesh,
-    Projection, Scene, SceneSettings, TexRef,
+    AlphaMode, Camera, CameraReport, LightReport, LoadReport, Material, MaterialReport, Mesh, Projection, Scene,
+    SceneSettings, TexRef,
 };
 use crate::error::{Error, Result};
 use crate::light::{AreaLight, AreaShape, Light};
@@ -22,11 +22,8 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 /// Extensions that Caustic renders, and so accepts in `extensionsRequired`.
-pub const SUPPORTED_REQUIRED: &[&str] = &[
-    "KHR_lights_punctual",
-    "KHR_materials_emissive_strength",
-    "KHR_texture_transform",
-];
+pub const SUPPORTED_REQUIRED: &[&str] =
+    &["KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_texture_transform"];
 
 /// Material extensions that Caustic reads.
 const HANDLED_MATERIAL_EXTENSIONS: &[&str] = &[
@@ -68,9 +65,7 @@ pub fn load_bytes(bytes: &[u8], base_dir: &Path, file: &str) -> Result<Scene> {
     // (and backtrace) off stderr, where a host reads JSON lines.
     let previous_hook = std::panic::take_hook();
     std::panic::set_hook(Box::new(|_| {}));
-    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        Loader::new(file, base_dir).load(bytes)
-    }));
+    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| Loader::new(file, base_dir).load(bytes)));
     std::panic::set_hook(previous_hook);
     match result {
         Ok(r) => r,
@@ -80,10 +75,7 @@ pub fn load_bytes(bytes: &[u8], base_dir: &Path, file: &str) -> Result<Scene> {
                 .map(|s| s.to_string())
                 .or_else(|| panic.downcast_ref::<String>().cloned())
                 .unwrap_or_else(|| "unknown".into());
-            Err(Error::Scene {
-                file: file.into(),
-                message: format!("malformed glTF (parser failed: {what})"),
-            })
+            Err(Error::Scene { file: file.into(), message: format!("malformed glTF (parser failed: {what})") })
         }
     }
 }
@@ -128,10 +120,7 @@ impl<'a> Loader<'a> {
     }
 
     fn err(&self, message: impl Into<String>) -> Error {
-        Error::Scene {
-            file: self.file.to_string(),
-            message: message.into(),
-        }
+        Error::Scene { file: self.file.to_string(), message: message.into() }
     }
 
     fn warn(&mut self, message: impl Into<String>) {
@@ -144,31 +133,22 @@ impl<'a> Loader<'a> {
     fn load(mut self, bytes: &[u8]) -> Result<Scene> {
         // 1. Container: GLB or JSON.
         let (json_bytes, bin): (Vec<u8>, Option<Vec<u8>>) = if bytes.starts_with(b"glTF") {
-            let glb = gltf::binary::Glb::from_slice(bytes).map_err(|e| {
-                self.err(format!(
-                    "malformed GLB container: {e} (truncated or corrupt file?)"
-                ))
-            })?;
+            let glb = gltf::binary::Glb::from_slice(bytes)
+                .map_err(|e| self.err(format!("malformed GLB container: {e} (truncated or corrupt file?)")))?;
             (glb.json.into_owned(), glb.bin.map(|b| b.into_owned()))
-        } else if bytes.len() >= 4
-            && &bytes[..4] != b"glTF"
-            && bytes.iter().take(16).any(|&b| b == 0)
-        {
+        } else if bytes.len() >= 4 && &bytes[..4] != b"glTF" && bytes.iter().take(16).any(|&b| b == 0) {
             return Err(self.err("not a glTF file: binary data without the 'glTF' magic"));
         } else {
             (bytes.to_vec(), None)
         };
 
         // 2. JSON, with its position on error.
-        let value: serde_json::Value = serde_json::from_slice(&json_bytes)
-            .map_err(|e| self.err(format!("invalid JSON: {e}")))?;
+        let value: serde_json::Value =
+            serde_json::from_slice(&json_bytes).map_err(|e| self.err(format!("invalid JSON: {e}")))?;
         if !value.is_object() {
             return Err(self.err("invalid glTF: the JSON root is not an object"));
         }
-        let version = value
-            .pointer("/asset/version")
-            .and_then(|v| v.as_str())
-            .unwrap_or("");
+        let version = value.pointer("/asset/version").and_then(|v| v.as_str()).unwrap_or("");
         if !version.starts_with("2.") {
             return Err(self.err(format!(
                 "unsupported glTF version '{version}' (asset.version must be 2.x; is this a glTF 2.0 file?)"
@@ -176,11 +156,8 @@ impl<'a> Loader<'a> {
         }
         // 3. Required extensions we cannot honour are refused by name.
         if let Some(req) = value.get("extensionsRequired").and_then(|v| v.as_array()) {
-            let unsupported: Vec<&str> = req
-                .iter()
-                .filter_map(|v| v.as_str())
-                .filter(|name| !SUPPORTED_REQUIRED.contains(name))
-                .collect();
+            let unsupported: Vec<&str> =
+                req.iter().filter_map(|v| v.as_str()).filter(|name| !SUPPORTED_REQUIRED.contains(name)).collect();
             if !unsupported.is_empty() {
                 return Err(self.err(format!(
                     "the file requires unsupported extension(s): {} (Caustic supports {})",
@@ -192,8 +169,8 @@ impl<'a> Loader<'a> {
         let settings = self.parse_settings(&value)?;
 
         // 4. Typed document with the crate's index validation.
-        let root: json::Root = serde_json::from_value(value.clone())
-            .map_err(|e| self.err(format!("invalid glTF: {e}")))?;
+        let root: json::Root =
+            serde_json::from_value(value.clone()).map_err(|e| self.err(format!("invalid glTF: {e}")))?;
         let doc = gltf::Document::from_json(root)
             .map_err(|e| self.err(format!("invalid glTF: {}", describe_validation(&e))))?;
 
@@ -225,20 +202,14 @@ impl<'a> Loader<'a> {
         let mut area_lights = Vec::new();
         for (node_index, world) in &instances {
             let node = doc.nodes().nth(*node_index).expect("validated index");
-            let node_name = node
-                .name()
-                .map(str::to_string)
-                .unwrap_or_else(|| format!("node {node_index}"));
+            let node_name = node.name().map(str::to_string).unwrap_or_else(|| format!("node {node_index}"));
             if !world.is_finite() {
-                return Err(self.err(format!(
-                    "node {node_index} ('{node_name}'): transform is not finite"
-                )));
+                return Err(self.err(format!("node {node_index} ('{node_name}'): transform is not finite")));
             }
             if let Some(m) = node.mesh() {
                 used_meshes.insert(m.index());
                 instance_count += 1;
-                degenerate +=
-                    self.append_mesh(&m, world, &buffers, &materials, default_material, &mut mesh)?;
+                degenerate += self.append_mesh(&m, world, &buffers, &materials, default_material, &mut mesh)?;
             }
             if let Some(c) = node.camera() {
                 cameras.push(self.camera(&c, &node_name, world)?);
@@ -253,9 +224,7 @@ impl<'a> Loader<'a> {
             }
         }
         if mesh.triangles.is_empty() {
-            return Err(self.err(
-                "nothing to render: the scene has no triangles (no mesh, or only points/lines)",
-            ));
+            return Err(self.err("nothing to render: the scene has no triangles (no mesh, or only points/lines)"));
         }
 
         // Bounds.
@@ -274,10 +243,21 @@ impl<'a> Loader<'a> {
                 light_reports.push(rep);
             }
         }
-        let mut light_power: Vec<f32> = lights
-            .iter()
-            .map(|l| punctual_power(l, scene_radius))
-            .collect();
+        let world = self.world(&value, &doc, &buffers)?;
+        let world_power = world.as_ref().map(|w| {
+            // Power through the scene's bounding disk: irradiance π L over π R².
+            std::f32::consts::PI * w.mean_luminance() * std::f32::consts::PI * scene_radius * scene_radius
+        });
+        let mut light_power: Vec<f32> = lights.iter().map(|l| punctual_power(l, scene_radius)).collect();
+        if let Some(power) = world_power {
+            if power > 0.0 {
+                lights.push(Light::World);
+                light_power.push(power);
+                light_reports.push(LightReport { kind: "world".into(), name: "world".into(), power, triangles: 0 });
+            } else {
+                self.warn("the world is black: it lights nothing");
+            }
+        }
         for (rep, p) in light_reports.iter_mut().zip(&light_power) {
             rep.power = *p;
         }
@@ -290,10 +270,7 @@ impl<'a> Loader<'a> {
             if !mat.is_emissive() {
                 continue;
             }
-            let mean_tex = mat
-                .emissive_tex
-                .map(|t| self.textures[t.texture as usize].mean_rgb())
-                .unwrap_or(Vec3::ONE);
+            let mean_tex = mat.emissive_tex.map(|t| self.textures[t.texture as usize].mean_rgb()).unwrap_or(Vec3::ONE);
             let p = tri.map(|i| mesh.positions[i as usize]);
             let area = 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length();
             let sides = if mat.double_sided { 2.0 } else { 1.0 };
@@ -320,18 +297,14 @@ impl<'a> Loader<'a> {
 
         let file_cameras = cameras.len();
         if cameras.is_empty() {
-            self.warn(
-                "no camera in the file: framing the scene's bounds from +Z with a 40° camera",
-            );
+            self.warn("no camera in the file: framing the scene's bounds from +Z with a 40° camera");
             cameras.push(frame_bounds(lo, hi));
         }
         if lights.is_empty() {
             self.warn("the scene has no lights and no emissive materials: the image will be black");
         }
         if degenerate > 0 {
-            self.warn(format!(
-                "{degenerate} degenerate (zero-area) triangle(s) were dropped"
-            ));
+            self.warn(format!("{degenerate} degenerate (zero-area) triangle(s) were dropped"));
         }
 
         let report = LoadReport {
@@ -364,6 +337,7 @@ impl<'a> Loader<'a> {
             lights,
             light_power,
             cameras,
+            world,
             settings,
             warnings: self.warnings,
             report,
@@ -371,16 +345,90 @@ impl<'a> Loader<'a> {
         })
     }
 
+    /// `scenes[i].extensions.CAUSTIC_world`: a colour × strength, or an equirectangular
+    /// image (.hdr, .exr, .png, .jpg) × colour × strength, rotated about the up axis.
+    fn world(
+        &mut self,
+        value: &serde_json::Value,
+        doc: &gltf::Document,
+        buffers: &[Vec<u8>],
+    ) -> Result<Option<crate::light::Environment>> {
+        let scene_index = value.get("scene").and_then(|s| s.as_u64()).unwrap_or(0) as usize;
+        let Some(ext) = value.pointer(&format!("/scenes/{scene_index}/extensions/CAUSTIC_world")) else {
+            return Ok(None);
+        };
+        #[derive(Deserialize)]
+        #[serde(deny_unknown_fields)]
+        struct WorldExt {
+            #[serde(default = "white")]
+            color: [f32; 3],
+            #[serde(default = "one")]
+            strength: f32,
+            image: Option<String>,
+            #[serde(default)]
+            rotation: f32,
+        }
+        fn one() -> f32 {
+            1.0
+        }
+        let w: WorldExt =
+            serde_json::from_value(ext.clone()).map_err(|e| self.err(format!("CAUSTIC_world is malformed: {e}")))?;
+        let color = Vec3::from(w.color) * w.strength;
+        if !color.is_finite() || color.min_element() < 0.0 || !w.rotation.is_finite() {
+            return Err(self.err("CAUSTIC_world: color, strength and rotation must be finite and non-negative"));
+        }
+        let _ = (doc, buffers);
+        let image = match &w.image {
+            None => None,
+            Some(uri) => {
+                let label =
+                    if uri.starts_with("data:") { "world image".to_string() } else { format!("world image '{uri}'") };
+                let bytes = self.resolve_uri(uri, &label)?;
+                let reader = image::ImageReader::new(std::io::Cursor::new(&bytes))
+                    .with_guessed_format()
+                    .map_err(|e| self.err(format!("{label}: {e}")))?;
+                let (width, height) = reader
+                    .into_dimensions()
+                    .map_err(|e| self.err(format!("{label}: cannot read the image header: {e}")))?;
+                if width == 0 || height == 0 || width > MAX_TEXTURE_SIDE || height > MAX_TEXTURE_SIDE {
+                    return Err(self.err(format!(
+                        "{label}: image size {width}×{height} is outside 1..={MAX_TEXTURE_SIDE} per side"
+                    )));
+                }
+                let decoded = image::ImageReader::new(std::io::Cursor::new(&bytes))
+                    .with_guessed_format()
+                    .map_err(|e| self.err(format!("{label}: {e}")))?
+                    .decode()
+                    .map_err(|e| self.err(format!("{label}: cannot decode: {e}")))?;
+                // 8-bit images are sRGB-encoded (as Blender reads them); float images linear.
+                let srgb = matches!(
+                    decoded.color(),
+                    image::ColorType::Rgb8 | image::ColorType::Rgba8 | image::ColorType::L8 | image::ColorType::La8
+                );
+                let rgb = decoded.to_rgb32f();
+                let decode = |c: f32| {
+                    if srgb { if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) } } else { c }
+                };
+                let texels: Vec<Vec3> = rgb
+                    .pixels()
+                    .map(|p| Vec3::new(decode(p.0[0]), decode(p.0[1]), decode(p.0[2])).max(Vec3::ZERO))
+                    .collect();
+                Some(
+                    crate::light::environment::EnvImage::new(width as usize, height as usize, texels)
+                        .ok_or_else(|| self.err(format!("{label}: the image has non-finite pixels")))?,
+                )
+            }
+        };
+        Ok(Some(crate::light::Environment { color, image, rotation: w.rotation }))
+    }
+
     fn parse_settings(&self, value: &serde_json::Value) -> Result<SceneSettings> {
         let scene_index = value.get("scene").and_then(|s| s.as_u64()).unwrap_or(0) as usize;
         let Some(extras) = value.pointer(&format!("/scenes/{scene_index}/extras/caustic")) else {
             return Ok(SceneSettings::default());
         };
-        serde_json::from_value(extras.clone()).map_err(|e| {
-            self.err(format!(
-                "scene extras 'caustic' (render settings) are malformed: {e}"
-            ))
-        })
+        serde_json::from_value(extras.clone())
+            .map_err(|e| self.err(format!("scene extras 'caustic' (render settings) are malformed: {e}")))
     }
 
     fn resolve_uri(&self, uri: &str, what: &str) -> Result<Vec<u8>> {
@@ -393,16 +441,13 @@ impl<'a> Loader<'a> {
                 .map_err(|e| self.err(format!("{what}: data URI has invalid base64: {e}")));
         }
         if uri.contains("://") {
-            return Err(self.err(format!(
-                "{what}: remote URI '{uri}' is not supported (only relative files and data URIs)"
-            )));
+            return Err(
+                self.err(format!("{what}: remote URI '{uri}' is not supported (only relative files and data URIs)"))
+            );
         }
-        let decoded = percent_encoding::percent_decode_str(uri)
-            .decode_utf8_lossy()
-            .to_string();
+        let decoded = percent_encoding::percent_decode_str(uri).decode_utf8_lossy().to_string();
         let path: PathBuf = self.base_dir.join(&decoded);
-        std::fs::read(&path)
-            .map_err(|e| self.err(format!("{what}: cannot read '{}': {e}", path.display())))
+        std::fs::read(&path).map_err(|e| self.err(format!("{what}: cannot read '{}': {e}", path.display())))
     }
 
     fn load_buffers(&self, doc: &gltf::Document, mut bin: Option<Vec<u8>>) -> Result<Vec<Vec<u8>>> {
@@ -410,11 +455,9 @@ impl<'a> Loader<'a> {
         for b in doc.buffers() {
             let what = format!("buffer {}", b.index());
             let data = match b.source() {
-                gltf::buffer::Source::Bin => bin.take().ok_or_else(|| {
-                    self.err(format!(
-                        "{what} refers to the GLB binary chunk, which is missing"
-                    ))
-                })?,
+                gltf::buffer::Source::Bin => bin
+                    .take()
+                    .ok_or_else(|| self.err(format!("{what} refers to the GLB binary chunk, which is missing")))?,
                 gltf::buffer::Source::Uri(uri) => self.resolve_uri(uri, &what)?,
             };
             if data.len() < b.length() {
@@ -481,14 +524,10 @@ impl<'a> Loader<'a> {
             if let Some(sparse) = a.sparse() {
                 let idx_view = sparse.indices().view();
                 let val_view = sparse.values().view();
-                let idx_need = sparse.indices().offset()
-                    + sparse.count() * sparse.indices().index_type().size();
+                let idx_need = sparse.indices().offset() + sparse.count() * sparse.indices().index_type().size();
                 let val_need = sparse.values().offset() + sparse.count() * elem;
                 if idx_need > idx_view.length() || val_need > val_view.length() {
-                    return Err(self.err(format!(
-                        "accessor {}: sparse data runs past its bufferView",
-                        a.index()
-                    )));
+                    return Err(self.err(format!("accessor {}: sparse data runs past its bufferView", a.index())));
                 }
             }
         }
@@ -505,24 +544,14 @@ impl<'a> Loader<'a> {
             return Ok(img.clone());
         }
         let image = doc.images().nth(index).expect("validated index");
-        let name = image
-            .name()
-            .map(|n| format!("image {index} ('{n}')"))
-            .unwrap_or_else(|| format!("image {index}"));
+        let name = image.name().map(|n| format!("image {index} ('{n}')")).unwrap_or_else(|| format!("image {index}"));
         let (bytes, label) = match image.source() {
             gltf::image::Source::View { view, .. } => {
                 let b = &buffers[view.buffer().index()];
-                (
-                    b[view.offset()..view.offset() + view.length()].to_vec(),
-                    name.clone(),
-                )
+                (b[view.offset()..view.offset() + view.length()].to_vec(), name.clone())
             }
             gltf::image::Source::Uri { uri, .. } => {
-                let label = if uri.starts_with("data:") {
-                    name.clone()
-                } else {
-                    format!("{name} '{uri}'")
-                };
+                let label = if uri.starts_with("data:") { name.clone() } else { format!("{name} '{uri}'") };
                 (self.resolve_uri(uri, &format!("texture {label}"))?, label)
             }
         };
@@ -530,19 +559,15 @@ impl<'a> Loader<'a> {
             .with_guessed_format()
             .map_err(|e| self.err(format!("texture {label}: {e}")))?;
         if reader.format().is_none() {
-            return Err(self.err(format!(
-                "texture {label}: unknown image format (Caustic reads PNG and JPEG)"
-            )));
+            return Err(self.err(format!("texture {label}: unknown image format (Caustic reads PNG and JPEG)")));
         }
-        let (w, h) = reader.into_dimensions().map_err(|e| {
-            self.err(format!(
-                "texture {label}: cannot read the image header: {e}"
-            ))
-        })?;
+        let (w, h) = reader
+            .into_dimensions()
+            .map_err(|e| self.err(format!("texture {label}: cannot read the image header: {e}")))?;
         if w == 0 || h == 0 || w > MAX_TEXTURE_SIDE || h > MAX_TEXTURE_SIDE {
-            return Err(self.err(format!(
-                "texture {label}: image size {w}×{h} is outside 1..={MAX_TEXTURE_SIDE} per side"
-            )));
+            return Err(
+                self.err(format!("texture {label}: image size {w}×{h} is outside 1..={MAX_TEXTURE_SIDE} per side"))
+            );
         }
         let decoded = image::ImageReader::new(std::io::Cursor::new(&bytes))
             .with_guessed_format()
@@ -577,10 +602,7 @@ impl<'a> Loader<'a> {
                 gltf::texture::WrappingMode::MirroredRepeat => Wrap::Mirror,
                 gltf::texture::WrappingMode::ClampToEdge => Wrap::Clamp,
             };
-            let nearest = matches!(
-                sampler.mag_filter(),
-                Some(gltf::texture::MagFilter::Nearest)
-            );
+            let nearest = matches!(sampler.mag_filter(), Some(gltf::texture::MagFilter::Nearest));
             self.textures.push(Texture {
                 name: texture.source().name().unwrap_or("").to_string(),
                 width: w,
@@ -598,11 +620,7 @@ impl<'a> Loader<'a> {
         if tex_coord > 1 {
             self.warn(format!("a texture uses TEXCOORD_{tex_coord}; Caustic reads TEXCOORD_0 and _1 only (using 0)"));
         }
-        Ok(TexRef {
-            texture: index,
-            tex_coord: tex_coord.min(1),
-            transform,
-        })
+        Ok(TexRef { texture: index, tex_coord: tex_coord.min(1), transform })
     }
 
     fn info_texture(
@@ -625,8 +643,7 @@ impl<'a> Loader<'a> {
             push_unique(features, "KHR_texture_transform");
         }
         push_unique(features, label);
-        self.texture(doc, info.texture(), tex_coord, transform, srgb, buffers)
-            .map(Some)
+        self.texture(doc, info.texture(), tex_coord, transform, srgb, buffers).map(Some)
     }
 
     /// A textureInfo given as raw extension JSON (`{"index": i, "texCoord": n, "extensions": ...}`).
@@ -638,25 +655,19 @@ impl<'a> Loader<'a> {
         buffers: &[Vec<u8>],
         material: &str,
     ) -> Result<Option<TexRef>> {
-        let index = info.get("index").and_then(|v| v.as_u64()).ok_or_else(|| {
-            self.err(format!(
-                "material '{material}': a texture reference has no index"
-            ))
-        })?;
-        let texture = doc.textures().nth(index as usize).ok_or_else(|| {
-            self.err(format!(
-                "material '{material}': texture {index} does not exist"
-            ))
-        })?;
+        let index = info
+            .get("index")
+            .and_then(|v| v.as_u64())
+            .ok_or_else(|| self.err(format!("material '{material}': a texture reference has no index")))?;
+        let texture = doc
+            .textures()
+            .nth(index as usize)
+            .ok_or_else(|| self.err(format!("material '{material}': texture {index} does not exist")))?;
         let mut tex_coord = info.get("texCoord").and_then(|v| v.as_u64()).unwrap_or(0) as u32;
         let mut transform = Mat3::IDENTITY;
         if let Some(t) = info.pointer("/extensions/KHR_texture_transform") {
             let f = |k: &str, d: f32, i: usize| {
-                t.get(k)
-                    .and_then(|v| v.get(i).or(Some(v)))
-                    .and_then(|v| v.as_f64())
-                    .map(|v| v as f32)
-                    .unwrap_or(d)
+                t.get(k).and_then(|v| v.get(i).or(Some(v))).and_then(|v| v.as_f64()).map(|v| v as f32).unwrap_or(d)
             };
             transform = texture_transform(
                 [f("offset", 0.0, 0), f("offset", 0.0, 1)],
@@ -667,8 +678,7 @@ impl<'a> Loader<'a> {
                 tex_coord = tc as u32;
             }
         }
-        self.texture(doc, texture, tex_coord, transform, srgb, buffers)
-            .map(Some)
+        self.texture(doc, texture, tex_coord, transform, srgb, buffers).map(Some)
     }
 
     fn material(
@@ -678,10 +688,7 @@ impl<'a> Loader<'a> {
         buffers: &[Vec<u8>],
     ) -> Result<(Material, MaterialReport)> {
         let index = m.index().unwrap_or(0);
-        let name = m
-            .name()
-            .map(str::to_string)
-            .unwrap_or_else(|| format!("material {index}"));
+        let name = m.name().map(str::to_string).unwrap_or_else(|| format!("material {index}"));
         let mut features = Vec::new();
         let pbr = m.pbr_metallic_roughness();
         let check = |v: f32, what: &str| -> Result<f32> {
@@ -708,30 +715,17 @@ impl<'a> Loader<'a> {
             check(em[2], "emissiveFactor")?,
         ) * check(strength, "emissive strength")?;
         let clamped = |v: Vec4| v.clamp(Vec4::ZERO, Vec4::ONE);
-        if clamped(base_color) != base_color
-            || !(0.0..=1.0).contains(&metallic)
-            || !(0.0..=1.0).contains(&roughness)
-        {
-            self.warn(format!(
-                "material '{name}': factors outside [0, 1] were clamped"
-            ));
+        if clamped(base_color) != base_color || !(0.0..=1.0).contains(&metallic) || !(0.0..=1.0).contains(&roughness) {
+            self.warn(format!("material '{name}': factors outside [0, 1] were clamped"));
         }
         if emissive.min_element() < 0.0 {
-            self.warn(format!(
-                "material '{name}': negative emission was clamped to 0"
-            ));
+            self.warn(format!("material '{name}': negative emission was clamped to 0"));
         }
         if m.emissive_strength().is_some() {
             features.push("KHR_materials_emissive_strength".into());
         }
-        let base_color_tex = self.info_texture(
-            doc,
-            pbr.base_color_texture(),
-            true,
-            buffers,
-            &mut features,
-            "baseColorTexture",
-        )?;
+        let base_color_tex =
+            self.info_texture(doc, pbr.base_color_texture(), true, buffers, &mut features, "baseColorTexture")?;
         let metallic_roughness_tex = self.info_texture(
             doc,
             pbr.metallic_roughness_texture(),
@@ -740,14 +734,8 @@ impl<'a> Loader<'a> {
             &mut features,
             "metallicRoughnessTexture",
         )?;
-        let emissive_tex = self.info_texture(
-            doc,
-            m.emissive_texture(),
-            true,
-            buffers,
-            &mut features,
-            "emissiveTexture",
-        )?;
+        let emissive_tex =
+            self.info_texture(doc, m.emissive_texture(), true, buffers, &mut features, "emissiveTexture")?;
         let (normal_tex, normal_scale) = match m.normal_texture() {
             Some(n) => {
                 let mut transform = Mat3::IDENTITY;
@@ -771,10 +759,7 @@ impl<'a> Loader<'a> {
                     push_unique(&mut features, "KHR_texture_transform");
                 }
                 features.push("normalTexture".into());
-                (
-                    Some(self.texture(doc, n.texture(), tex_coord, transform, false, buffers)?),
-                    n.scale(),
-                )
+                (Some(self.texture(doc, n.texture(), tex_coord, transform, false, buffers)?), n.scale())
             }
             None => (None, 1.0),
         };
@@ -799,14 +784,10 @@ impl<'a> Loader<'a> {
         let num = |v: &serde_json::Value, key: &str, default: f32| -> Result<f32> {
             match v.get(key) {
                 None => Ok(default),
-                Some(x) => x
-                    .as_f64()
-                    .map(|f| f as f32)
-                    .filter(|f| f.is_finite())
-                    .ok_or_else(|| Error::Scene {
-                        file: file.clone(),
-                        message: format!("material '{name}': {key} is not a finite number"),
-                    }),
+                Some(x) => x.as_f64().map(|f| f as f32).filter(|f| f.is_finite()).ok_or_else(|| Error::Scene {
+                    file: file.clone(),
+                    message: format!("material '{name}': {key} is not a finite number"),
+                }),
             }
         };
         let mut transmission = 0.0;
@@ -816,9 +797,7 @@ impl<'a> Loader<'a> {
             let factor = num(&t, "transmissionFactor", 0.0)?;
             transmission = factor.clamp(0.0, 1.0);
             if transmission != factor {
-                self.warn(format!(
-                    "material '{name}': transmissionFactor {factor} was clamped to [0, 1]"
-                ));
+                self.warn(format!("material '{name}': transmissionFactor {factor} was clamped to [0, 1]"));
             }
             if let Some(tex) = t.get("transmissionTexture") {
                 transmission_tex = self.raw_texture(doc, tex, false, buffers, &name)?;
@@ -830,9 +809,7 @@ impl<'a> Loader<'a> {
             let v = num(&i, "ior", 1.5)?;
             // glTF allows 0 to mean "no Fresnel"; Caustic needs a physical index.
             if v < 1.0 {
-                self.warn(format!(
-                    "material '{name}': ior {v} is below 1 and was set to 1"
-                ));
+                self.warn(format!("material '{name}': ior {v} is below 1 and was set to 1"));
             }
             ior = v.clamp(1.0, 10.0);
         }
@@ -844,11 +821,7 @@ impl<'a> Loader<'a> {
             let color = v
                 .get("attenuationColor")
                 .and_then(|c| c.as_array())
-                .map(|c| {
-                    c.iter()
-                        .map(|x| x.as_f64().unwrap_or(1.0) as f32)
-                        .collect::<Vec<f32>>()
-                })
+                .map(|c| c.iter().map(|x| x.as_f64().unwrap_or(1.0) as f32).collect::<Vec<f32>>())
                 .unwrap_or_else(|| vec![1.0; 3]);
             if color.len() != 3 || color.iter().any(|c| !c.is_finite()) || !(distance > 0.0) {
                 return Err(self.err(format!(
@@ -866,8 +839,7 @@ impl<'a> Loader<'a> {
                 volume = Some(sigma_a);
             }
             if v.get("thicknessTexture").is_some() {
-                features
-                    .push("thicknessTexture (ignored: Caustic traces the real geometry)".into());
+                features.push("thicknessTexture (ignored: Caustic traces the real geometry)".into());
             }
         }
         for ext in [
@@ -879,37 +851,25 @@ impl<'a> Loader<'a> {
         ] {
             if m.extension_value(ext).is_some() {
                 features.push(format!("{ext} (ignored)"));
-                self.warn(format!(
-                    "material '{name}': {ext} is not rendered yet and was ignored"
-                ));
+                self.warn(format!("material '{name}': {ext} is not rendered yet and was ignored"));
             }
         }
         let mut specular = 1.0;
         if let Some(spec) = m.extension_value("KHR_materials_specular") {
             features.push("KHR_materials_specular".into());
-            let factor = spec
-                .get("specularFactor")
-                .and_then(|v| v.as_f64())
-                .unwrap_or(1.0) as f32;
+            let factor = spec.get("specularFactor").and_then(|v| v.as_f64()).unwrap_or(1.0) as f32;
             if !factor.is_finite() {
-                return Err(self.err(format!(
-                    "material '{name}': specularFactor is not a finite number"
-                )));
+                return Err(self.err(format!("material '{name}': specularFactor is not a finite number")));
             }
             specular = factor.clamp(0.0, 1.0);
             if specular != factor {
-                self.warn(format!(
-                    "material '{name}': specularFactor {factor} was clamped to [0, 1]"
-                ));
+                self.warn(format!("material '{name}': specularFactor {factor} was clamped to [0, 1]"));
             }
             let color_is_white = spec
                 .get("specularColorFactor")
                 .and_then(|v| v.as_array())
                 .is_none_or(|c| c.iter().all(|x| x.as_f64() == Some(1.0)));
-            if !color_is_white
-                || spec.get("specularTexture").is_some()
-                || spec.get("specularColorTexture").is_some()
-            {
+            if !color_is_white || spec.get("specularTexture").is_some() || spec.get("specularColorTexture").is_some() {
                 self.warn(format!(
                     "material '{name}': KHR_materials_specular colour and textures are not rendered yet (only specularFactor)"
                 ));
@@ -921,9 +881,7 @@ impl<'a> Loader<'a> {
                     continue;
                 }
                 features.push(format!("{key} (ignored)"));
-                self.warn(format!(
-                    "material '{name}': {key} is not rendered yet and was ignored"
-                ));
+                self.warn(format!("material '{name}': {key} is not rendered yet and was ignored"));
             }
         }
         let mat = Material {
@@ -950,17 +908,10 @@ impl<'a> Loader<'a> {
 
     /// Walks the scene's node trees; returns (node, world matrix) for every node
     /// reached, refusing cycles.
-    fn instances(
-        &mut self,
-        doc: &gltf::Document,
-        value: &serde_json::Value,
-    ) -> Result<Vec<(usize, Mat4)>> {
+    fn instances(&mut self, doc: &gltf::Document, value: &serde_json::Value) -> Result<Vec<(usize, Mat4)>> {
         let n = doc.nodes().count();
         // Cycle check over the children graph (iterative three-colour DFS).
-        let children: Vec<Vec<usize>> = doc
-            .nodes()
-            .map(|nd| nd.children().map(|c| c.index()).collect())
-            .collect();
+        let children: Vec<Vec<usize>> = doc.nodes().map(|nd| nd.children().map(|c| c.index()).collect()).collect();
         let mut colour = vec![0u8; n];
         for start in 0..n {
             if colour[start] != 0 {
@@ -978,8 +929,7 @@ impl<'a> Loader<'a> {
                             stack.push((c, 0));
                         }
                         1 => {
-                            return Err(self
-                                .err(format!("the node hierarchy has a cycle through node {c}")));
+                            return Err(self.err(format!("the node hierarchy has a cycle through node {c}")));
                         }
                         _ => {}
                     }
@@ -989,37 +939,30 @@ impl<'a> Loader<'a> {
                 }
             }
         }
-        let roots: Vec<usize> =
-            if let Some(scene) = doc.default_scene().or_else(|| doc.scenes().next()) {
-                if value.get("scene").is_none() && doc.scenes().count() > 1 {
-                    self.warn("the file has several scenes and no default: rendering scene 0");
-                }
-                scene.nodes().map(|n| n.index()).collect()
-            } else {
-                let mut is_child = vec![false; n];
-                for c in children.iter().flatten() {
-                    is_child[*c] = true;
-                }
-                if n > 0 {
-                    self.warn("the file has no scene: rendering every root node");
-                }
-                (0..n).filter(|&i| !is_child[i]).collect()
-            };
+        let roots: Vec<usize> = if let Some(scene) = doc.default_scene().or_else(|| doc.scenes().next()) {
+            if value.get("scene").is_none() && doc.scenes().count() > 1 {
+                self.warn("the file has several scenes and no default: rendering scene 0");
+            }
+            scene.nodes().map(|n| n.index()).collect()
+        } else {
+            let mut is_child = vec![false; n];
+            for c in children.iter().flatten() {
+                is_child[*c] = true;
+            }
+            if n > 0 {
+                self.warn("the file has no scene: rendering every root node");
+            }
+            (0..n).filter(|&i| !is_child[i]).collect()
+        };
         let mut out = Vec::new();
-        let mut stack: Vec<(usize, Mat4)> = roots
-            .into_iter()
-            .rev()
-            .map(|r| (r, Mat4::IDENTITY))
-            .collect();
+        let mut stack: Vec<(usize, Mat4)> = roots.into_iter().rev().map(|r| (r, Mat4::IDENTITY)).collect();
         while let Some((node, parent)) = stack.pop() {
             let nd = doc.nodes().nth(node).expect("validated index");
             let local = Mat4::from_cols_array_2d(&nd.transform().matrix());
             let world = parent * local;
             out.push((node, world));
             if out.len() > MAX_INSTANCES {
-                return Err(self.err(format!(
-                    "more than {MAX_INSTANCES} node instances: shared subtrees explode"
-                )));
+                return Err(self.err(format!("more than {MAX_INSTANCES} node instances: shared subtrees explode")));
             }
             for c in children[node].iter().rev() {
                 stack.push((*c, world));
@@ -1040,16 +983,12 @@ impl<'a> Loader<'a> {
         default_material: u32,
         out: &mut Mesh,
     ) -> Result<usize> {
-        let mesh_name = m
-            .name()
-            .map(|n| format!("mesh {} ('{n}')", m.index()))
-            .unwrap_or_else(|| format!("mesh {}", m.index()));
+        let mesh_name =
+            m.name().map(|n| format!("mesh {} ('{n}')", m.index())).unwrap_or_else(|| format!("mesh {}", m.index()));
         let normal_matrix = Mat3::from_mat4(*world).inverse().transpose();
         let det = Mat3::from_mat4(*world).determinant();
         if det == 0.0 || !det.is_finite() {
-            self.warn(format!(
-                "{mesh_name}: an instance has a singular transform (zero scale) and was skipped"
-            ));
+            self.warn(format!("{mesh_name}: an instance has a singular transform (zero scale) and was skipped"));
             return Ok(0);
         }
         let flip = det < 0.0;
@@ -1058,13 +997,8 @@ impl<'a> Loader<'a> {
             let what = format!("{mesh_name} primitive {}", prim.index());
             use gltf::mesh::Mode;
             let mode = prim.mode();
-            if matches!(
-                mode,
-                Mode::Points | Mode::Lines | Mode::LineLoop | Mode::LineStrip
-            ) {
-                self.warn(format!(
-                    "{what}: {mode:?} primitives (points/lines) are not rendered and were skipped"
-                ));
+            if matches!(mode, Mode::Points | Mode::Lines | Mode::LineLoop | Mode::LineStrip) {
+                self.warn(format!("{what}: {mode:?} primitives (points/lines) are not rendered and were skipped"));
                 continue;
             }
             let reader = prim.reader(|b| buffers.get(b.index()).map(|v| v.as_slice()));
@@ -1084,41 +1018,25 @@ impl<'a> Loader<'a> {
                 .map(Vec3::from)
                 .collect();
             if positions.len() != pos_acc.count() {
-                return Err(self.err(format!(
-                    "{what}: POSITION data is shorter than its accessor count"
-                )));
+                return Err(self.err(format!("{what}: POSITION data is shorter than its accessor count")));
             }
             if let Some(bad) = positions.iter().position(|p| !p.is_finite()) {
-                return Err(self.err(format!(
-                    "{what}: vertex {bad} has a NaN or infinite position"
-                )));
+                return Err(self.err(format!("{what}: vertex {bad} has a NaN or infinite position")));
             }
             let nv = positions.len();
             let read_exact = |v: Option<Vec<Vec3>>, name: &str| -> Result<Option<Vec<Vec3>>> {
                 match v {
-                    Some(v) if v.len() != nv => Err(self.err(format!(
-                        "{what}: {name} has {} entries for {nv} vertices",
-                        v.len()
-                    ))),
+                    Some(v) if v.len() != nv => {
+                        Err(self.err(format!("{what}: {name} has {} entries for {nv} vertices", v.len())))
+                    }
                     other => Ok(other),
                 }
             };
-            let normals = read_exact(
-                reader.read_normals().map(|it| it.map(Vec3::from).collect()),
-                "NORMAL",
-            )?;
-            let tangents: Option<Vec<Vec4>> = reader
-                .read_tangents()
-                .map(|it| it.map(Vec4::from).collect());
-            let uv0: Option<Vec<Vec2>> = reader
-                .read_tex_coords(0)
-                .map(|t| t.into_f32().map(Vec2::from).collect());
-            let uv1: Option<Vec<Vec2>> = reader
-                .read_tex_coords(1)
-                .map(|t| t.into_f32().map(Vec2::from).collect());
-            let colors: Option<Vec<Vec4>> = reader
-                .read_colors(0)
-                .map(|c| c.into_rgba_f32().map(Vec4::from).collect());
+            let normals = read_exact(reader.read_normals().map(|it| it.map(Vec3::from).collect()), "NORMAL")?;
+            let tangents: Option<Vec<Vec4>> = reader.read_tangents().map(|it| it.map(Vec4::from).collect());
+            let uv0: Option<Vec<Vec2>> = reader.read_tex_coords(0).map(|t| t.into_f32().map(Vec2::from).collect());
+            let uv1: Option<Vec<Vec2>> = reader.read_tex_coords(1).map(|t| t.into_f32().map(Vec2::from).collect());
+            let colors: Option<Vec<Vec4>> = reader.read_colors(0).map(|c| c.into_rgba_f32().map(Vec4::from).collect());
             for (len, name) in [
                 (tangents.as_ref().map(Vec::len), "TANGENT"),
                 (uv0.as_ref().map(Vec::len), "TEXCOORD_0"),
@@ -1127,9 +1045,7 @@ impl<'a> Loader<'a> {
             ] {
                 if let Some(l) = len {
                     if l != nv {
-                        return Err(
-                            self.err(format!("{what}: {name} has {l} entries for {nv} vertices"))
-                        );
+                        return Err(self.err(format!("{what}: {name} has {l} entries for {nv} vertices")));
                     }
                 }
             }
@@ -1138,15 +1054,10 @@ impl<'a> Loader<'a> {
                 None => (0..nv as u32).collect(),
             };
             if let Some(&bad) = raw_indices.iter().find(|&&i| i as usize >= nv) {
-                return Err(self.err(format!(
-                    "{what}: index {bad} is out of range (the primitive has {nv} vertices)"
-                )));
+                return Err(self.err(format!("{what}: index {bad} is out of range (the primitive has {nv} vertices)")));
             }
             let tris: Vec<[u32; 3]> = match mode {
-                Mode::Triangles => raw_indices
-                    .chunks_exact(3)
-                    .map(|c| [c[0], c[1], c[2]])
-                    .collect(),
+                Mode::Triangles => raw_indices.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
                 Mode::TriangleStrip => (0..raw_indices.len().saturating_sub(2))
                     .map(|i| {
                         let (a, b, c) = (raw_indices[i], raw_indices[i + 1], raw_indices[i + 2]);
@@ -1158,11 +1069,7 @@ impl<'a> Loader<'a> {
                     .collect(),
                 _ => unreachable!("points and lines skipped above"),
             };
-            let material_index = prim
-                .material()
-                .index()
-                .map(|i| i as u32)
-                .unwrap_or(default_material);
+            let material_index = prim.material().index().map(|i| i as u32).unwrap_or(default_material);
             let material = &materials[material_index as usize];
 
             // Tangents for normal maps: given, or generated with MikkTSpace.
@@ -1171,12 +1078,10 @@ impl<'a> Loader<'a> {
                 if tangents.is_none() {
                     let uv = if nt.tex_coord == 0 { &uv0 } else { &uv1 };
                     match (uv, &normals) {
-                        (Some(uv), Some(n)) => {
-                            tangents = Some(mikktspace_tangents(&positions, n, uv, &tris))
+                        (Some(uv), Some(n)) => tangents = Some(mikktspace_tangents(&positions, n, uv, &tris)),
+                        _ => {
+                            self.warn(format!("{what}: a normal map without UVs or normals cannot be applied; ignored"))
                         }
-                        _ => self.warn(format!(
-                            "{what}: a normal map without UVs or normals cannot be applied; ignored"
-                        )),
                     }
                 }
             }
@@ -1187,10 +1092,7 @@ impl<'a> Loader<'a> {
                 out.positions.push(world.transform_point3(positions[i]));
                 // A zero normal marks "use the geometric normal" (glTF: flat shading
                 // when normals are absent).
-                let n = normals
-                    .as_ref()
-                    .map(|n| (normal_matrix * n[i]).normalize_or_zero())
-                    .unwrap_or(Vec3::ZERO);
+                let n = normals.as_ref().map(|n| (normal_matrix * n[i]).normalize_or_zero()).unwrap_or(Vec3::ZERO);
                 out.normals.push(n);
                 let t = tangents
                     .as_ref()
@@ -1200,12 +1102,9 @@ impl<'a> Loader<'a> {
                     })
                     .unwrap_or(Vec4::ZERO);
                 out.tangents.push(t);
-                out.uv0
-                    .push(uv0.as_ref().map(|u| u[i]).unwrap_or(Vec2::ZERO));
-                out.uv1
-                    .push(uv1.as_ref().map(|u| u[i]).unwrap_or(Vec2::ZERO));
-                out.colors
-                    .push(colors.as_ref().map(|c| c[i]).unwrap_or(Vec4::ONE));
+                out.uv0.push(uv0.as_ref().map(|u| u[i]).unwrap_or(Vec2::ZERO));
+                out.uv1.push(uv1.as_ref().map(|u| u[i]).unwrap_or(Vec2::ZERO));
+                out.colors.push(colors.as_ref().map(|c| c[i]).unwrap_or(Vec4::ONE));
             }
             for t in tris {
                 let p = t.map(|i| out.positions[(base + i) as usize]);
@@ -1229,16 +1128,12 @@ impl<'a> Loader<'a> {
             gltf::camera::Projection::Perspective(p) => {
                 let yfov = p.yfov();
                 if !(yfov > 0.0 && yfov < std::f32::consts::PI) {
-                    return Err(self.err(format!(
-                        "camera '{name}': yfov {yfov} must be in (0, π) radians"
-                    )));
+                    return Err(self.err(format!("camera '{name}': yfov {yfov} must be in (0, π) radians")));
                 }
                 let aspect = match p.aspect_ratio() {
                     Some(a) if a > 0.0 && a.is_finite() => Some(a),
                     Some(a) => {
-                        self.warn(format!(
-                            "camera '{name}': aspectRatio {a} is invalid and was ignored"
-                        ));
+                        self.warn(format!("camera '{name}': aspectRatio {a} is invalid and was ignored"));
                         None
                     }
                     None => None,
@@ -1248,9 +1143,7 @@ impl<'a> Loader<'a> {
             gltf::camera::Projection::Orthographic(o) => {
                 let (xmag, ymag) = (o.xmag().abs(), o.ymag().abs());
                 if !(xmag > 0.0 && ymag > 0.0 && xmag.is_finite() && ymag.is_finite()) {
-                    return Err(self.err(format!(
-                        "camera '{name}': xmag/ymag must be non-zero and finite"
-                    )));
+                    return Err(self.err(format!("camera '{name}': xmag/ymag must be non-zero and finite")));
                 }
                 Projection::Orthographic { xmag, ymag }
             }
@@ -1266,19 +1159,11 @@ impl<'a> Loader<'a> {
         node_name: &str,
         world: &Mat4,
     ) -> Result<(Light, LightReport)> {
-        let name = l
-            .name()
-            .map(str::to_string)
-            .unwrap_or_else(|| node_name.to_string());
+        let name = l.name().map(str::to_string).unwrap_or_else(|| node_name.to_string());
         let intensity = l.intensity();
         let color = Vec3::from(l.color());
-        if !(intensity >= 0.0 && intensity.is_finite())
-            || !color.is_finite()
-            || color.min_element() < 0.0
-        {
-            return Err(self.err(format!(
-                "light '{name}': intensity and color must be finite and non-negative"
-            )));
+        if !(intensity >= 0.0 && intensity.is_finite()) || !color.is_finite() || color.min_element() < 0.0 {
+            return Err(self.err(format!("light '{name}': intensity and color must be finite and non-negative")));
         }
         if l.range().is_some() {
             self.warn(format!("light '{name}': 'range' is ignored (Caustic's lights fall off physically, as Cycles')"));
@@ -1288,30 +1173,13 @@ impl<'a> Loader<'a> {
         let radiometric = color * (intensity / LUMENS_PER_WATT);
         use gltf::khr_lights_punctual::Kind;
         let (light, kind) = match l.kind() {
-            Kind::Point => (
-                Light::Point {
-                    position,
-                    intensity: radiometric,
-                },
-                "point",
-            ),
-            Kind::Directional => (
-                Light::Directional {
-                    direction: forward,
-                    irradiance: radiometric,
-                },
-                "directional",
-            ),
-            Kind::Spot {
-                inner_cone_angle,
-                outer_cone_angle,
-            } => {
+            Kind::Point => (Light::Point { position, intensity: radiometric }, "point"),
+            Kind::Directional => (Light::Directional { direction: forward, irradiance: radiometric }, "directional"),
+            Kind::Spot { inner_cone_angle, outer_cone_angle } => {
                 let outer = outer_cone_angle.clamp(1e-4, std::f32::consts::FRAC_PI_2);
                 let inner = inner_cone_angle.clamp(0.0, outer);
                 if outer != outer_cone_angle || inner != inner_cone_angle {
-                    self.warn(format!(
-                        "light '{name}': spot cone angles were clamped to 0 ≤ inner ≤ outer ≤ π/2"
-                    ));
+                    self.warn(format!("light '{name}': spot cone angles were clamped to 0 ≤ inner ≤ outer ≤ π/2"));
                 }
                 (
                     Light::Spot {
@@ -1325,15 +1193,7 @@ impl<'a> Loader<'a> {
                 )
             }
         };
-        Ok((
-            light,
-            LightReport {
-                kind: kind.into(),
-                name,
-                power: 0.0,
-                triangles: 0,
-            },
-        ))
+        Ok((light, LightReport { kind: kind.into(), name, power: 0.0, triangles: 0 }))
     }
 
     fn area_light(
@@ -1342,11 +1202,8 @@ impl<'a> Loader<'a> {
         name: &str,
         world: &Mat4,
     ) -> Result<Option<(Light, LightReport)>> {
-        let a: AreaLightExt = serde_json::from_value(ext.clone()).map_err(|e| {
-            self.err(format!(
-                "node '{name}': CAUSTIC_lights_area is malformed: {e}"
-            ))
-        })?;
+        let a: AreaLightExt = serde_json::from_value(ext.clone())
+            .map_err(|e| self.err(format!("node '{name}': CAUSTIC_lights_area is malformed: {e}")))?;
         let shape = match a.shape.as_str() {
             "rectangle" | "square" => AreaShape::Rectangle,
             "disk" | "ellipse" => AreaShape::Ellipse,
@@ -1356,22 +1213,17 @@ impl<'a> Loader<'a> {
                 )));
             }
         };
-        let sx = *a
-            .size
-            .first()
-            .ok_or_else(|| self.err(format!("node '{name}': CAUSTIC_lights_area has no size")))?;
-        let sy = if matches!(a.shape.as_str(), "square" | "disk") {
-            sx
-        } else {
-            a.size.get(1).copied().unwrap_or(sx)
-        };
+        let sx = *a.size.first().ok_or_else(|| self.err(format!("node '{name}': CAUSTIC_lights_area has no size")))?;
+        let sy = if matches!(a.shape.as_str(), "square" | "disk") { sx } else { a.size.get(1).copied().unwrap_or(sx) };
         let color = Vec3::from(a.color);
         if !(a.power >= 0.0 && a.power.is_finite())
             || !color.is_finite()
             || color.min_element() < 0.0
             || !(sx.is_finite() && sy.is_finite())
         {
-            return Err(self.err(format!("node '{name}': CAUSTIC_lights_area power, color and size must be finite and non-negative")));
+            return Err(self.err(format!(
+                "node '{name}': CAUSTIC_lights_area power, color and size must be finite and non-negative"
+            )));
         }
         let center = world.transform_point3(Vec3::ZERO);
         let ax = world.transform_vector3(Vec3::X * (0.5 * sx));
@@ -1380,12 +1232,7 @@ impl<'a> Loader<'a> {
         match AreaLight::new(shape, center, ax, ay, emit, color * a.power) {
             Some(l) => Ok(Some((
                 Light::Area(l),
-                LightReport {
-                    kind: "area".into(),
-                    name: name.into(),
-                    power: 0.0,
-                    triangles: 0,
-                },
+                LightReport { kind: "area".into(), name: name.into(), power: 0.0, triangles: 0 },
             ))),
             None => {
                 self.warn(format!("area light '{name}' has zero area and was skipped"));
@@ -1402,16 +1249,10 @@ fn punctual_power(l: &Light, scene_radius: f32) -> f32 {
         Light::Point { intensity, .. } => 4.0 * PI * luminance(*intensity),
         // A spot's power is bounded by its cone; Blender's spots have a point's
         // intensity, so use the cone's solid angle.
-        Light::Spot {
-            intensity,
-            cos_outer,
-            ..
-        } => 2.0 * PI * (1.0 - cos_outer) * luminance(*intensity),
-        Light::Directional { irradiance, .. } => {
-            PI * scene_radius * scene_radius * luminance(*irradiance)
-        }
+        Light::Spot { intensity, cos_outer, .. } => 2.0 * PI * (1.0 - cos_outer) * luminance(*intensity),
+        Light::Directional { irradiance, .. } => PI * scene_radius * scene_radius * luminance(*irradiance),
         Light::Area(a) => luminance(a.radiance) * a.area * PI,
-        Light::Triangle { .. } => 0.0,
+        Light::Triangle { .. } | Light::World => 0.0,
     }
 }
 
@@ -1423,12 +1264,9 @@ fn push_unique(v: &mut Vec<String>, s: &str) {
 
 fn describe_validation(e: &gltf::Error) -> String {
     match e {
-        gltf::Error::Validation(errs) => errs
-            .iter()
-            .take(5)
-            .map(|(path, err)| format!("{}: {err}", path.as_str()))
-            .collect::<Vec<_>>()
-            .join("; "),
+        gltf::Error::Validation(errs) => {
+            errs.iter().take(5).map(|(path, err)| format!("{}: {err}", path.as_str())).collect::<Vec<_>>().join("; ")
+        }
         other => other.to_string(),
     }
 }
@@ -1440,20 +1278,11 @@ fn frame_bounds(lo: Vec3, hi: Vec3) -> Camera {
     let yfov = 40f32.to_radians();
     let dist = r / (0.5 * yfov).sin();
     let m = Mat4::from_translation(c + Vec3::Z * dist);
-    Camera::from_matrix(
-        "auto".into(),
-        &m,
-        Projection::Perspective { yfov, aspect: None },
-    )
+    Camera::from_matrix("auto".into(), &m, Projection::Perspective { yfov, aspect: None })
 }
 
 /// MikkTSpace tangents for an indexed triangle list, per vertex.
-fn mikktspace_tangents(
-    positions: &[Vec3],
-    normals: &[Vec3],
-    uvs: &[Vec2],
-    tris: &[[u32; 3]],
-) -> Vec<Vec4> {
+fn mikktspace_tangents(positions: &[Vec3], normals: &[Vec3], uvs: &[Vec2], tris: &[[u32; 3]]) -> Vec<Vec4> {
     struct Geo<'a> {
         p: &'a [Vec3],
         n: &'a [Vec3],
@@ -1481,13 +1310,7 @@ fn mikktspace_tangents(
             self.out[self.tris[face][vert] as usize] = Vec4::from(tangent);
         }
     }
-    let mut g = Geo {
-        p: positions,
-        n: normals,
-        uv: uvs,
-        tris,
-        out: vec![Vec4::ZERO; positions.len()],
-    };
+    let mut g = Geo { p: positions, n: normals, uv: uvs, tris, out: vec![Vec4::ZERO; positions.len()] };
     mikktspace::generate_tangents(&mut g);
     g.out
 }

@@ -94,9 +94,7 @@ impl Material {
     pub fn emission(&self, textures: &[Texture], uv: [Vec2; 2]) -> Rgb {
         let mut e = self.emissive;
         if let Some(t) = self.emissive_tex {
-            e *= textures[t.texture as usize]
-                .lookup(t.uv(uv[t.tex_coord as usize]))
-                .truncate();
+            e *= textures[t.texture as usize].lookup(t.uv(uv[t.tex_coord as usize])).truncate();
         }
         e
     }

@@ -139,6 +139,8 @@ pub struct Scene {
     pub light_power: Vec<f32>,
     /// Cameras in node order.
     pub cameras: Vec<Camera>,
+    /// The world light (`CAUSTIC_world`), if any.
+    pub world: Option<crate::light::Environment>,
     /// Render settings from the file.
     pub settings: SceneSettings,
     /// Everything the loader dropped, clamped or guessed.
@@ -153,9 +155,6 @@ impl Scene {
     /// Centre and radius of a sphere bounding the scene.
     pub fn bounding_sphere(&self) -> (Vec3, f32) {
         let c = (self.bounds.0 + self.bounds.1) * 0.5;
-        (
-            c,
-            ((self.bounds.1 - self.bounds.0).length() * 0.5).max(1e-3),
-        )
+        (c, ((self.bounds.1 - self.bounds.0).length() * 0.5).max(1e-3))
     }
 }

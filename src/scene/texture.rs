@@ -43,11 +43,7 @@ fn srgb_table() -> &'static [f32; 256] {
         let mut t = [0.0; 256];
         for (i, v) in t.iter_mut().enumerate() {
             let c = i as f32 / 255.0;
-            *v = if c <= 0.04045 {
-                c / 12.92
-            } else {
-                ((c + 0.055) / 1.055).powf(2.4)
-            };
+            *v = if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) };
         }
         t
     })
@@ -76,12 +72,7 @@ impl Texture {
         let t = self.texels[(y * self.width + x) as usize];
         if self.srgb {
             let table = srgb_table();
-            Vec4::new(
-                table[t[0] as usize],
-                table[t[1] as usize],
-                table[t[2] as usize],
-                t[3] as f32 / 255.0,
-            )
+            Vec4::new(table[t[0] as usize], table[t[1] as usize], table[t[2] as usize], t[3] as f32 / 255.0)
         } else {
             Vec4::new(t[0] as f32, t[1] as f32, t[2] as f32, t[3] as f32) / 255.0
         }

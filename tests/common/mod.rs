@@ -23,10 +23,7 @@ pub struct Run {
 impl Run {
     /// JSON objects from `--progress json` stderr lines.
     pub fn json_lines(&self) -> Vec<Value> {
-        self.stderr
-            .lines()
-            .filter_map(|l| serde_json::from_str(l).ok())
-            .collect()
+        self.stderr.lines().filter_map(|l| serde_json::from_str(l).ok()).collect()
     }
 
     /// The error object's message, if any.
@@ -39,9 +36,7 @@ impl Run {
 
     /// The summary object, if any.
     pub fn summary(&self) -> Option<Value> {
-        self.json_lines()
-            .into_iter()
-            .find(|v| v["type"] == "summary")
+        self.json_lines().into_iter().find(|v| v["type"] == "summary")
     }
 }
 
@@ -79,19 +74,11 @@ pub fn run(args: &[&str], limit: Duration) -> Run {
         }
         if start.elapsed() > limit {
             let _ = child.kill();
-            panic!(
-                "caustic {:?} did not finish within {:?} (hang)",
-                args, limit
-            );
+            panic!("caustic {:?} did not finish within {:?} (hang)", args, limit);
         }
         std::thread::sleep(Duration::from_millis(5));
     };
-    Run {
-        code: status.code(),
-        stdout: t_out.join().unwrap(),
-        stderr: t_err.join().unwrap(),
-        elapsed: start.elapsed(),
-    }
+    Run { code: status.code(), stdout: t_out.join().unwrap(), stderr: t_err.join().unwrap(), elapsed: start.elapsed() }
 }
 
 /// A fresh temporary directory for one test.
@@ -139,9 +126,7 @@ impl GltfBuilder {
         let offset = self.buffer.len();
         self.buffer.extend_from_slice(bytes);
         let views = self.doc["bufferViews"].as_array_mut().unwrap();
-        views.push(
-            json!({"buffer": 0, "byteOffset": offset, "byteLength": bytes.len(), "target": target}),
-        );
+        views.push(json!({"buffer": 0, "byteOffset": offset, "byteLength": bytes.len(), "target": target}));
         views.len() - 1
     }
 
@@ -149,10 +134,7 @@ impl GltfBuilder {
         let nodes = self.doc["nodes"].as_array_mut().unwrap();
         nodes.push(node);
         let i = nodes.len() - 1;
-        self.doc["scenes"][0]["nodes"]
-            .as_array_mut()
-            .unwrap()
-            .push(json!(i));
+        self.doc["scenes"][0]["nodes"].as_array_mut().unwrap().push(json!(i));
         i
     }
 
@@ -165,10 +147,7 @@ impl GltfBuilder {
 
     /// Adds a triangle mesh with flat shading (no normals) on a node.
     pub fn mesh(&mut self, positions: &[[f32; 3]], indices: &[u32], material: usize) -> usize {
-        let pos_bytes: Vec<u8> = positions
-            .iter()
-            .flat_map(|p| p.iter().flat_map(|c| c.to_le_bytes()))
-            .collect();
+        let pos_bytes: Vec<u8> = positions.iter().flat_map(|p| p.iter().flat_map(|c| c.to_le_bytes())).collect();
         let idx_bytes: Vec<u8> = indices.iter().flat_map(|i| i.to_le_bytes()).collect();
         let pv = self.push_view(&pos_bytes, 34962);
         let iv = self.push_view(&idx_bytes, 34963);
@@ -200,30 +179,17 @@ impl GltfBuilder {
             ]
         };
         let positions: Vec<[f32; 3]> = (0..8).map(c).collect();
-        let faces: [[u32; 4]; 6] = [
-            [0, 2, 3, 1],
-            [4, 5, 7, 6],
-            [0, 1, 5, 4],
-            [2, 6, 7, 3],
-            [0, 4, 6, 2],
-            [1, 3, 7, 5],
-        ];
-        let indices: Vec<u32> = faces
-            .iter()
-            .flat_map(|f| [f[0], f[1], f[2], f[0], f[2], f[3]])
-            .collect();
+        let faces: [[u32; 4]; 6] = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
+        let indices: Vec<u32> = faces.iter().flat_map(|f| [f[0], f[1], f[2], f[0], f[2], f[3]]).collect();
         self.mesh(&positions, &indices, material)
     }
 
     /// Adds a camera node at `pos` looking along `dir` (perspective, vertical fov in radians).
     pub fn camera(&mut self, pos: [f32; 3], rotation: [f32; 4], yfov: f32) -> usize {
-        let cams = self
-            .doc
-            .as_object_mut()
+        let cams = self.doc.as_object_mut().unwrap().entry("cameras").or_insert(json!([]));
+        cams.as_array_mut()
             .unwrap()
-            .entry("cameras")
-            .or_insert(json!([]));
-        cams.as_array_mut().unwrap().push(json!({"type": "perspective", "perspective": {"yfov": yfov, "znear": 0.01, "aspectRatio": 1.0}}));
+            .push(json!({"type": "perspective", "perspective": {"yfov": yfov, "znear": 0.01, "aspectRatio": 1.0}}));
         let ci = cams.as_array().unwrap().len() - 1;
         self.add_node(json!({"camera": ci, "translation": pos, "rotation": rotation}))
     }
@@ -233,11 +199,7 @@ impl GltfBuilder {
         self.use_ext("KHR_lights_punctual");
         let root = self.doc.as_object_mut().unwrap();
         let exts = root.entry("extensions").or_insert(json!({}));
-        let lights = exts
-            .as_object_mut()
-            .unwrap()
-            .entry("KHR_lights_punctual")
-            .or_insert(json!({"lights": []}));
+        let lights = exts.as_object_mut().unwrap().entry("KHR_lights_punctual").or_insert(json!({"lights": []}));
         let arr = lights["lights"].as_array_mut().unwrap();
         arr.push(light);
         let li = arr.len() - 1;
@@ -257,6 +219,12 @@ impl GltfBuilder {
         }
     }
 
+    /// Sets the world (`CAUSTIC_world` on the scene).
+    pub fn world(&mut self, w: Value) {
+        self.use_ext("CAUSTIC_world");
+        self.doc["scenes"][0]["extensions"] = json!({ "CAUSTIC_world": w });
+    }
+
     /// Sets scene render settings (extras.caustic).
     pub fn settings(&mut self, s: Value) {
         self.doc["scenes"][0]["extras"] = json!({ "caustic": s });
@@ -265,7 +233,8 @@ impl GltfBuilder {
     /// Writes the document to `dir/name` and returns its path.
     pub fn write(mut self, dir: &Path, name: &str) -> PathBuf {
         let b64 = base64::engine::general_purpose::STANDARD.encode(&self.buffer);
-        self.doc["buffers"] = json!([{"byteLength": self.buffer.len(), "uri": format!("data:application/octet-stream;base64,{b64}")}]);
+        self.doc["buffers"] =
+            json!([{"byteLength": self.buffer.len(), "uri": format!("data:application/octet-stream;base64,{b64}")}]);
         let path = dir.join(name);
         std::fs::write(&path, serde_json::to_vec_pretty(&self.doc).unwrap()).unwrap();
         path
