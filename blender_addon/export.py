@@ -105,6 +105,28 @@ def area_light_extension(blender_object):
 
 
 WORLD_EXTENSION = "CAUSTIC_world"
+PUNCTUAL_EXTENSION = "CAUSTIC_lights_punctual"
+
+
+def punctual_light_extension(blender_object):
+    """Blender's light shape parameters that KHR_lights_punctual cannot say, or None.
+
+    radius: a point light's `shadow_soft_size` (a sphere light in Cycles, or with soft falloff a
+    disk facing the shading point); angle: a sun's
+    angular diameter; spot_blend: applied with Cycles' smoothstep instead of glTF's ramp.
+    """
+    light = blender_object.data
+    value = {}
+    if light.type == "POINT" and light.shadow_soft_size > 0.0:
+        value["radius"] = float(light.shadow_soft_size)
+        value["soft_falloff"] = bool(getattr(light, "use_soft_falloff", False))
+    elif light.type == "SPOT":
+        value["spot_blend"] = float(light.spot_blend)
+        if light.shadow_soft_size > 0.0:
+            value["radius"] = float(light.shadow_soft_size)
+    elif light.type == "SUN" and light.angle > 0.0:
+        value["angle"] = float(light.angle)
+    return value or None
 
 _IMAGE_EXTENSIONS = {"HDR": ".hdr", "OPEN_EXR": ".exr", "OPEN_EXR_MULTILAYER": ".exr", "PNG": ".png",
                      "JPEG": ".jpg"}
@@ -192,12 +214,20 @@ class glTF2ExportUserExtension:
         self._extension = Extension
 
     def gather_node_hook(self, gltf2_node, blender_object, export_settings):
-        """Attach CAUSTIC_lights_area to the node of an area light."""
+        """Attach CAUSTIC_lights_area to an area light's node, CAUSTIC_lights_punctual to the others."""
         state = _current
         if state is None or blender_object is None:
             return
         try:
-            if blender_object.type != "LIGHT" or blender_object.data.type != "AREA":
+            if blender_object.type != "LIGHT":
+                return
+            if blender_object.data.type != "AREA":
+                value = punctual_light_extension(blender_object)
+                if value:
+                    if gltf2_node.extensions is None:
+                        gltf2_node.extensions = {}
+                    gltf2_node.extensions[PUNCTUAL_EXTENSION] = self._extension(
+                        name=PUNCTUAL_EXTENSION, extension=value, required=False)
                 return
             value, warnings = area_light_extension(blender_object)
             if gltf2_node.extensions is None:

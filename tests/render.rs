@@ -241,8 +241,9 @@ fn disk_area_light_over_plane() {
     g.mesh(&[[-20.0, 0.0, -20.0], [20.0, 0.0, -20.0], [20.0, 0.0, 20.0], [-20.0, 0.0, 20.0]], &[0, 2, 1, 0, 3, 2], m);
     g.camera([0.0, 3.0, 3.0], look_rotation([0.0, -1.0, -1.0]), 1.0);
     g.use_ext("CAUSTIC_lights_area");
-    // Local -Z points down: rotate +90° about X.
-    let q = glam::Quat::from_rotation_x(std::f32::consts::FRAC_PI_2);
+    // Local -Z must point down: a rotation of -90° about X maps (0, 0, -1) to (0, -1, 0).
+    let q = glam::Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2);
+    assert!((q * Vec3::NEG_Z - Vec3::NEG_Y).length() < 1e-6);
     g.node(json!({"translation": [0.0, h, 0.0], "rotation": [q.x, q.y, q.z, q.w],
         "extensions": {"CAUSTIC_lights_area": {"shape": "disk", "size": [2.0 * radius, 2.0 * radius], "power": power, "color": [1, 1, 1]}}}));
     let path = g.write(dir.path(), "disk.gltf");
@@ -304,6 +305,7 @@ fn disk_area_light_over_plane() {
     let expected_mean = expected_sum / residuals.len() as f64;
     eprintln!("disk light: mean residual {mean:.2e} ± {se:.2e} (expected mean pixel {expected_mean:.4})");
     assert!(expected_mean > 0.01, "the test scene must be lit");
+    assert!(se < 0.01 * expected_mean, "too noisy to test anything: SE {se} for a mean of {expected_mean}");
     assert!(mean.abs() <= 5.0 * se + 1e-4 * expected_mean, "residual {mean} ± {se}");
 }
 
@@ -599,4 +601,119 @@ fn white_furnace_in_uniform_world() {
         assert!((mean - l).abs() <= 5.0 * se + systematic, "{world}: {mean} vs {l}");
         assert!(px.iter().all(|p| p[3] == 1.0), "opaque background: alpha 1 everywhere");
     }
+}
+
+/// Renders a rough plane lit by a light seen as a cone of uniform radiance L from each
+/// shading point (a sphere light: half angle asin(r/d); a sun with an angular diameter),
+/// point-sampled pixels in a crop, and compares each pixel with ∫cone f(wo, wi) L cos θi dω
+/// by a fine polar quadrature; the mean residual must be within 5 standard errors.
+fn cone_light_over_plane(
+    light: serde_json::Value,
+    pos: [f32; 3],
+    rot: [f32; 4],
+    exts: serde_json::Value,
+    cone: impl Fn(Vec3) -> (Vec3, f32, f32),
+) {
+    let dir = temp_dir();
+    let mut g = GltfBuilder::new();
+    let base = 0.8f32;
+    let m = g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [base, base, base, 1], "metallicFactor": 0.0, "roughnessFactor": 0.7}}));
+    g.mesh(&[[-20.0, 0.0, -20.0], [20.0, 0.0, -20.0], [20.0, 0.0, 20.0], [-20.0, 0.0, 20.0]], &[0, 2, 1, 0, 3, 2], m);
+    g.camera([0.0, 3.0, 3.0], look_rotation([0.0, -1.0, -1.0]), 1.0);
+    g.punctual_with(light, pos, rot, exts);
+    let path = g.write(dir.path(), "cone.gltf");
+    let (w, h) = (24u32, 24u32);
+    let crop = [6u32, 6, 18, 18];
+    let px = render(
+        &path,
+        &dir.path().join("c.exr"),
+        &[
+            "--resolution",
+            &format!("{w}x{h}"),
+            "--spp",
+            "256",
+            "--max-depth",
+            "1",
+            "--filter",
+            "box",
+            "--filter-width",
+            "0.00001",
+            "--crop",
+            &format!("{},{},{},{}", crop[0], crop[1], crop[2], crop[3]),
+        ],
+    );
+    let scene = caustic::scene::gltf::load(&path).unwrap();
+    let cam = CameraRays::new(&scene.cameras[0], w, h);
+    let bsdf = PbrBsdf::new(Vec3::splat(base), 0.0, 0.7);
+    let frame = Frame::from_normal(Vec3::Y);
+    let mut residuals = Vec::new();
+    let mut expected_sum = 0.0;
+    for y in crop[1]..crop[3] {
+        for x in crop[0]..crop[2] {
+            let (o, d) = cam.ray(x as f32 + 0.5, y as f32 + 0.5);
+            let p = o + d * (-o.y / d.y);
+            let wo = frame.to_local(-d);
+            let (axis, cos_max, radiance) = cone(p);
+            let cone_frame = Frame::from_normal(axis);
+            let (nt, np) = (200, 200);
+            let mut e = 0.0f64;
+            for i in 0..nt {
+                // Uniform in cos θ over [cos_max, 1]: dω = d(cos θ) dφ.
+                let c = 1.0 - (1.0 - cos_max) * (i as f32 + 0.5) / nt as f32;
+                let sn = (1.0 - c * c).max(0.0).sqrt();
+                for j in 0..np {
+                    let phi = std::f32::consts::TAU * (j as f32 + 0.5) / np as f32;
+                    let wi = cone_frame.to_world(Vec3::new(sn * phi.cos(), sn * phi.sin(), c));
+                    if wi.y <= 0.0 {
+                        continue;
+                    }
+                    let dw = (1.0 - cos_max) / nt as f32 * std::f32::consts::TAU / np as f32;
+                    e += (bsdf.eval(wo, frame.to_local(wi)).x * radiance * wi.y * dw) as f64;
+                }
+            }
+            let i = ((y - crop[1]) * (crop[2] - crop[0]) + (x - crop[0])) as usize;
+            residuals.push(px[i][0] as f64 - e);
+            expected_sum += e;
+        }
+    }
+    let (mean, se) = mean_se(&residuals);
+    let expected_mean = expected_sum / residuals.len() as f64;
+    eprintln!("cone light: mean residual {mean:.2e} ± {se:.2e} (expected mean pixel {expected_mean:.4})");
+    assert!(expected_mean > 0.01, "the test scene must be lit");
+    assert!(se < 0.01 * expected_mean, "too noisy to test anything: SE {se} for a mean of {expected_mean}");
+    assert!(mean.abs() <= 5.0 * se + 1e-4 * expected_mean, "residual {mean} ± {se}");
+}
+
+/// Blender's point light with a radius is a sphere of radiance I / (π r²) (I = P / 4π).
+#[test]
+fn sphere_light_over_plane() {
+    // Beside the crop's view (24° off the axis; the crop spans ±14°): pixels see the floor only.
+    let (c, r) = (Vec3::new(1.2, 1.0, 1.2), 0.35f32);
+    let intensity = 3.0f32; // W/sr
+    cone_light_over_plane(
+        json!({"type": "point", "intensity": intensity * 683.0}),
+        c.to_array(),
+        [0.0, 0.0, 0.0, 1.0],
+        json!({"CAUSTIC_lights_punctual": {"radius": r}}),
+        |p| {
+            let d = c - p;
+            let dist = d.length();
+            ((d / dist), (1.0 - (r / dist).powi(2)).sqrt(), intensity / (std::f32::consts::PI * r * r))
+        },
+    );
+}
+
+/// A sun of angular diameter 2α and irradiance E: a cone of radiance E / (π sin²α).
+#[test]
+fn sun_with_angle_over_plane() {
+    let travel = Vec3::new(0.3, -1.0, -0.6).normalize();
+    let half = 8f32.to_radians();
+    let e = 2.0f32;
+    cone_light_over_plane(
+        json!({"type": "directional", "intensity": e * 683.0}),
+        [0.0, 5.0, 0.0],
+        look_rotation(travel.to_array()),
+        json!({"CAUSTIC_lights_punctual": {"angle": 2.0 * half}}),
+        |_| (-travel, half.cos(), e / (std::f32::consts::PI * half.sin().powi(2))),
+    );
 }

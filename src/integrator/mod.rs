@@ -9,11 +9,23 @@ use crate::accel::{Accel, Hit};
 use crate::bsdf::pbr::PbrParams;
 use crate::bsdf::{Bsdf, PbrBsdf};
 use crate::light::{
-    AreaLight, EmitterTriangle, Light, LightSample, LightSampler, area_to_solid_angle, sample_triangle, spot_falloff,
+    AreaLight, EmitterTriangle, Light, LightSample, LightSampler, area_to_solid_angle, intersect_sphere,
+    sample_triangle, sphere_cos_max, spot_attenuation,
 };
 use crate::math::{Frame, Rgb, offset_ray_origin};
+use crate::sampling::warp::{concentric_disk, uniform_cone, uniform_cone_pdf};
 use crate::scene::{AlphaMode, Scene};
 use glam::{Vec2, Vec3};
+
+/// A sun whose half angle has a cosine at least this is a delta light.
+const DELTA_SUN_COS: f32 = 1.0 - 1e-7;
+
+/// Radiance of a sun disk of half-angle cosine `cos_half` giving irradiance `e` at normal
+/// incidence: E = L π sin²α (the projected solid angle of a spherical cap).
+#[inline]
+pub fn sun_radiance(e: Rgb, cos_half: f32) -> Rgb {
+    e / (std::f32::consts::PI * (1.0 - cos_half * cos_half))
+}
 
 /// Ray counts by kind, kept per tile and summed (no shared counters in the hot loop).
 #[derive(Clone, Copy, Debug, Default, serde::Serialize)]
@@ -91,6 +103,10 @@ pub struct SceneContext<'a> {
     area_lights: Vec<(AreaLight, usize)>,
     /// Light index of the world, if it is a light.
     world_light: Option<usize>,
+    /// Sphere lights: (centre, radius, radiance, soft, light index), hit by rays like area lights.
+    spheres: Vec<(Vec3, f32, Rgb, bool, usize)>,
+    /// Suns with a size: (unit direction toward the sun, cos half angle, radiance, light index).
+    suns: Vec<(Vec3, f32, Rgb, usize)>,
 }
 
 /// Power heuristic (β = 2) of Veach; 0 when the weights are not finite.
@@ -113,11 +129,18 @@ impl<'a> SceneContext<'a> {
         let mut tri_to_light = vec![u32::MAX; scene.mesh.triangles.len()];
         let mut area_lights = Vec::new();
         let mut world_light = None;
+        let (mut spheres, mut suns) = (Vec::new(), Vec::new());
         for (i, l) in scene.lights.iter().enumerate() {
             match l {
                 Light::Triangle { tri } => tri_to_light[*tri as usize] = i as u32,
                 Light::Area(a) => area_lights.push((*a, i)),
                 Light::World => world_light = Some(i),
+                Light::Sphere { center, radius, radiance, soft } => {
+                    spheres.push((*center, *radius, *radiance, *soft, i))
+                }
+                Light::Directional { direction, irradiance, cos_half } if *cos_half < DELTA_SUN_COS => {
+                    suns.push((-*direction, *cos_half, sun_radiance(*irradiance, *cos_half), i))
+                }
                 _ => {}
             }
         }
@@ -131,7 +154,84 @@ impl<'a> SceneContext<'a> {
             transparent: (0..n).map(|t| mode(t) != AlphaMode::Opaque).collect(),
             area_lights,
             world_light,
+            spheres,
+            suns,
         }
+    }
+
+    /// Emission of lights that are not scene geometry (area and sphere lights) crossed by
+    /// a ray before `tmax`, each weighted by MIS against light sampling from `prev_p`
+    /// (`prev_pdf` = 0: no MIS). Returns the radiance and whether anything was crossed.
+    #[inline]
+    pub fn crossed_emission(&self, org: Vec3, dir: Vec3, tmax: f32, prev_p: Vec3, prev_pdf: f32) -> (Rgb, bool) {
+        let mut sum = Rgb::ZERO;
+        let mut any = false;
+        for (a, index) in &self.area_lights {
+            if let Some(t) = a.intersect(org, dir, tmax) {
+                if (-dir).dot(a.normal) > 0.0 {
+                    let w = if prev_pdf == 0.0 {
+                        1.0
+                    } else {
+                        power_heuristic(prev_pdf, self.light_pdf(*index, prev_p, org + dir * t, a.normal))
+                    };
+                    sum += a.radiance * w;
+                    any = true;
+                }
+            }
+        }
+        for &(center, radius, radiance, soft, index) in &self.spheres {
+            if soft {
+                // The disk faces the ray's origin (the previous vertex).
+                let n = (prev_p - center).normalize_or(Vec3::Y);
+                let denom = n.dot(dir);
+                if denom >= 0.0 {
+                    continue;
+                }
+                let t = n.dot(center - org) / denom;
+                let q = org + dir * t;
+                if !(t > 0.0 && t < tmax) || (q - center).length_squared() > radius * radius {
+                    continue;
+                }
+                let w = if prev_pdf == 0.0 {
+                    1.0
+                } else {
+                    let dist = (q - prev_p).length();
+                    let light_pdf = self.lights.pmf(index)
+                        * area_to_solid_angle(1.0 / (std::f32::consts::PI * radius * radius), dist, -denom);
+                    power_heuristic(prev_pdf, light_pdf)
+                };
+                sum += radiance * w;
+                any = true;
+            } else if intersect_sphere(org, dir, center, radius, tmax).is_some() {
+                let w = if prev_pdf == 0.0 {
+                    1.0
+                } else {
+                    let light_pdf = sphere_cos_max((center - prev_p).length(), radius)
+                        .map_or(0.0, |c| self.lights.pmf(index) * uniform_cone_pdf(c));
+                    power_heuristic(prev_pdf, light_pdf)
+                };
+                sum += radiance * w;
+                any = true;
+            }
+        }
+        (sum, any)
+    }
+
+    /// Radiance of sun disks seen along an escaping ray, MIS-weighted as `crossed_emission`.
+    #[inline]
+    pub fn sun_emission(&self, dir: Vec3, prev_pdf: f32) -> Rgb {
+        let mut sum = Rgb::ZERO;
+        for &(to_sun, cos_half, radiance, index) in &self.suns {
+            if dir.dot(to_sun) >= cos_half {
+                let w = if prev_pdf == 0.0 {
+                    1.0
+                } else {
+                    power_heuristic(prev_pdf, self.lights.pmf(index) * uniform_cone_pdf(cos_half))
+                };
+                sum += radiance * w;
+            }
+        }
+        sum
     }
 
     /// Radiance of the world seen along direction `d` (zero without a world).
@@ -200,19 +300,6 @@ impl<'a> SceneContext<'a> {
                 AlphaMode::Opaque => 0.0,
             }
         })
-    }
-
-    /// The closest area light along a ray before `tmax`: (distance, light, light index).
-    #[inline]
-    pub fn intersect_area_lights(&self, org: Vec3, dir: Vec3, tmax: f32) -> Option<(f32, &AreaLight, usize)> {
-        let mut best: Option<(f32, &AreaLight, usize)> = None;
-        for (a, i) in &self.area_lights {
-            let limit = best.map_or(tmax, |b| b.0);
-            if let Some(t) = a.intersect(org, dir, limit) {
-                best = Some((t, a, *i));
-            }
-        }
-        best
     }
 
     /// Geometry of a hit as seen from direction `wo` (pointing back along the ray).
@@ -336,7 +423,7 @@ impl<'a> SceneContext<'a> {
                     normal: Vec3::ZERO,
                 })
             }
-            Light::Spot { position, direction, intensity, cos_inner, cos_outer } => {
+            Light::Spot { position, direction, intensity, cos_inner, cos_outer, smooth } => {
                 let d = *position - p;
                 let dist2 = d.length_squared();
                 let dist = dist2.sqrt();
@@ -344,7 +431,7 @@ impl<'a> SceneContext<'a> {
                     return None;
                 }
                 let wi = d / dist;
-                let falloff = spot_falloff((-wi).dot(*direction), *cos_inner, *cos_outer);
+                let falloff = spot_attenuation((-wi).dot(*direction), *cos_inner, *cos_outer, *smooth);
                 (falloff > 0.0).then(|| LightSample {
                     wi,
                     dist,
@@ -355,15 +442,62 @@ impl<'a> SceneContext<'a> {
                     normal: Vec3::ZERO,
                 })
             }
-            Light::Directional { direction, irradiance } => Some(LightSample {
-                wi: -*direction,
-                dist: f32::INFINITY,
-                li: *irradiance,
-                pdf: 1.0,
-                delta: true,
-                point: p - *direction,
-                normal: Vec3::ZERO,
-            }),
+            Light::Directional { direction, irradiance, cos_half } => {
+                if *cos_half >= DELTA_SUN_COS {
+                    return Some(LightSample {
+                        wi: -*direction,
+                        dist: f32::INFINITY,
+                        li: *irradiance,
+                        pdf: 1.0,
+                        delta: true,
+                        point: p - *direction,
+                        normal: Vec3::ZERO,
+                    });
+                }
+                let wi = Frame::from_normal(-*direction).to_world(uniform_cone(u, *cos_half));
+                Some(LightSample {
+                    wi,
+                    dist: f32::INFINITY,
+                    li: sun_radiance(*irradiance, *cos_half),
+                    pdf: uniform_cone_pdf(*cos_half),
+                    delta: false,
+                    point: p + wi,
+                    normal: Vec3::ZERO,
+                })
+            }
+            Light::Sphere { center, radius, radiance, soft: true } => {
+                // A disk of the sphere's radius facing the shading point.
+                let n = (p - *center).normalize_or(Vec3::Y);
+                let d2 = concentric_disk(u) * *radius;
+                let f = Frame::from_normal(n);
+                let q = *center + f.s * d2.x + f.t * d2.y;
+                let d = q - p;
+                let dist = d.length();
+                if dist <= 0.0 {
+                    return None;
+                }
+                let wi = d / dist;
+                let pdf = area_to_solid_angle(1.0 / (std::f32::consts::PI * radius * radius), dist, (-wi).dot(n));
+                (pdf > 0.0).then(|| LightSample { wi, dist, li: *radiance, pdf, delta: false, point: q, normal: n })
+            }
+            Light::Sphere { center, radius, radiance, soft: false } => {
+                let to_c = *center - p;
+                let dist = to_c.length();
+                let cos_max = sphere_cos_max(dist, *radius)?;
+                let wi = Frame::from_normal(to_c / dist).to_world(uniform_cone(u, cos_max));
+                // Rounding can make a ray at the cone's edge miss: use the tangent point.
+                let t = intersect_sphere(p, wi, *center, *radius, f32::INFINITY).unwrap_or(dist * cos_max);
+                let q = p + wi * t;
+                Some(LightSample {
+                    wi,
+                    dist: t,
+                    li: *radiance,
+                    pdf: uniform_cone_pdf(cos_max),
+                    delta: false,
+                    point: q,
+                    normal: (q - *center).normalize_or(-wi),
+                })
+            }
             Light::Area(a) => {
                 let q = a.sample_point(u);
                 let d = q - p;

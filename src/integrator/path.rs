@@ -77,19 +77,13 @@ impl PathIntegrator {
                 None => Rgb::ONE,
             };
 
-            // Area lights crossed before the surface add their emission (front side).
-            if let Some((t, light, index)) = ctx.intersect_area_lights(org, dir, t_surface) {
-                if (-dir).dot(light.normal) > 0.0 {
-                    let w = if prev_bsdf_pdf == 0.0 {
-                        1.0
-                    } else {
-                        let q = org + dir * t;
-                        power_heuristic(prev_bsdf_pdf, ctx.light_pdf(index, prev_p, q, light.normal))
-                    };
-                    radiance += beta * absorb(t) * light.radiance * w;
-                    if depth == 0 {
-                        out.alpha = 1.0;
-                    }
+            // Area and sphere lights crossed before the surface add their emission; they
+            // do not block (as in Cycles) and the path goes on.
+            let (crossed, any) = ctx.crossed_emission(org, dir, t_surface, prev_p, prev_bsdf_pdf);
+            if any {
+                radiance += beta * absorb(t_surface.min(1e30)) * crossed;
+                if depth == 0 {
+                    out.alpha = 1.0;
                 }
             }
 
@@ -98,13 +92,14 @@ impl PathIntegrator {
                 let seen_directly = depth == 0;
                 if !(seen_directly && self.transparent_background) {
                     let le = ctx.world_radiance(dir);
-                    if le != Rgb::ZERO {
+                    let sun = ctx.sun_emission(dir, prev_bsdf_pdf);
+                    if le != Rgb::ZERO || sun != Rgb::ZERO {
                         let w =
                             if prev_bsdf_pdf == 0.0 { 1.0 } else { power_heuristic(prev_bsdf_pdf, ctx.world_pdf(dir)) };
                         // Escaping from inside a medium means its mesh is open: the
                         // light would have crossed infinitely much of it.
                         let tr = if medium.is_some_and(|sigma| sigma.max_element() > 0.0) { 0.0 } else { 1.0 };
-                        radiance += beta * le * (w * tr);
+                        radiance += beta * (le * w + sun) * tr;
                         if seen_directly {
                             out.alpha = 1.0;
                         }

@@ -126,17 +126,24 @@ impl Environment {
                 // Continuous position within the texel; v = 1 is the top row.
                 let uv = Vec2::new((col as f32 + ux) / img.width as f32, 1.0 - (row as f32 + uy) / img.height as f32);
                 let d = self.uv_to_dir(uv);
-                let pdf = self.pdf_uv_texel(img, row, col, uv.y);
-                (pdf > 0.0).then(|| (d, self.radiance(d), pdf))
+                // The density from the direction itself, exactly as `pdf` computes it (a
+                // sample on a texel edge may round into the neighbour: measure zero).
+                let pdf = self.pdf(d);
+                (pdf > 0.0 && pdf.is_finite()).then(|| (d, self.radiance(d), pdf))
             }
         }
     }
 
+    /// Solid-angle density of direction `d` lying in texel (row, col): the texel's
+    /// probability spread over its (u, v) area, divided by the Jacobian 2π² cos(latitude).
     #[inline]
-    fn pdf_uv_texel(&self, img: &EnvImage, row: usize, col: usize, v: f32) -> f32 {
+    fn pdf_uv_texel(&self, img: &EnvImage, row: usize, col: usize, d: Vec3) -> f32 {
         let p = img.marginal.pmf(row) * img.rows[row].pmf(col) * (img.width * img.height) as f32;
-        let cos_lat = ((v - 0.5) * PI).cos();
-        if cos_lat <= 0.0 { 0.0 } else { p / (2.0 * PI * PI * cos_lat) }
+        // cos(latitude) is the length of the direction's horizontal part (up is glTF Y).
+        // The density grows as 1/cos(latitude) toward the poles (integrably); directions
+        // within 1e-6 rad of a pole (a set of measure ~1e-12) are given 0.
+        let cos_lat = (d.x * d.x + d.z * d.z).sqrt();
+        if cos_lat < 1e-6 { 0.0 } else { p / (2.0 * PI * PI * cos_lat) }
     }
 
     /// Solid-angle density of `sample` choosing direction `d`.
@@ -148,7 +155,7 @@ impl Environment {
                 let uv = self.dir_to_uv(d);
                 let col = ((uv.x * img.width as f32) as usize).min(img.width - 1);
                 let row = (((1.0 - uv.y) * img.height as f32) as usize).min(img.height - 1);
-                self.pdf_uv_texel(img, row, col, uv.y)
+                self.pdf_uv_texel(img, row, col, d)
             }
         }
     }

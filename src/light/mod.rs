@@ -114,7 +114,7 @@ pub enum Light {
         /// Radiant intensity (W/sr).
         intensity: Rgb,
     },
-    /// Spot light with glTF's smooth cone falloff.
+    /// Spot light with glTF's smooth cone falloff, or Blender's when `smooth` is set.
     Spot {
         /// Position.
         position: Vec3,
@@ -126,13 +126,31 @@ pub enum Light {
         cos_inner: f32,
         /// cos of the outer cone angle (zero outside).
         cos_outer: f32,
+        /// Blender's spot blend as Cycles applies it: smoothstep((cos θ - cos_outer) × smooth),
+        /// smooth = 1 / ((1 - cos_outer) blend); None for glTF's falloff.
+        smooth: Option<f32>,
     },
-    /// Sun-like light from one direction.
+    /// Sun-like light from one direction, or from a cone of directions (Blender's sun angle).
     Directional {
-        /// Unit direction the light travels in.
+        /// Unit direction the light travels in (the cone's axis).
         direction: Vec3,
         /// Irradiance on a surface facing the light (W/m²).
         irradiance: Rgb,
+        /// cos of the cone's half angle; 1 for a delta light.
+        cos_half: f32,
+    },
+    /// Blender's point light with a radius: a sphere of radiance power / (4π² r²), or with
+    /// Blender's "soft falloff" (its default) a disk of the same radius and radiance that
+    /// always faces the shading point, as Cycles renders it (irradiance I / (d² + r²)).
+    Sphere {
+        /// Centre.
+        center: Vec3,
+        /// Radius.
+        radius: f32,
+        /// Emitted radiance.
+        radiance: Rgb,
+        /// The disk-facing-the-point model of Blender's soft falloff.
+        soft: bool,
     },
     /// Planar area light.
     Area(AreaLight),
@@ -174,12 +192,47 @@ pub struct EmitterTriangle {
     pub two_sided: bool,
 }
 
+/// A spot's attenuation: Blender's smoothstep when `smooth` is set, else glTF's.
+#[inline]
+pub fn spot_attenuation(cos_theta: f32, cos_inner: f32, cos_outer: f32, smooth: Option<f32>) -> f32 {
+    match smooth {
+        None => spot_falloff(cos_theta, cos_inner, cos_outer),
+        Some(k) => {
+            if cos_theta <= cos_outer {
+                return 0.0;
+            }
+            let t = ((cos_theta - cos_outer) * k).clamp(0.0, 1.0);
+            t * t * (3.0 - 2.0 * t)
+        }
+    }
+}
+
 /// glTF's spot attenuation: a smooth quadratic ramp between the cones.
 #[inline]
 pub fn spot_falloff(cos_theta: f32, cos_inner: f32, cos_outer: f32) -> f32 {
     let scale = 1.0 / (cos_inner - cos_outer).max(1e-3);
     let t = ((cos_theta - cos_outer) * scale).clamp(0.0, 1.0);
     t * t
+}
+
+/// Distance along unit `d` from `o` to a sphere, if the ray hits it from outside.
+#[inline]
+pub fn intersect_sphere(o: Vec3, d: Vec3, center: Vec3, radius: f32, tmax: f32) -> Option<f32> {
+    let oc = o - center;
+    let b = oc.dot(d);
+    let c = oc.length_squared() - radius * radius;
+    let disc = b * b - c;
+    if disc < 0.0 {
+        return None;
+    }
+    let t = -b - disc.sqrt();
+    (t > 0.0 && t < tmax).then_some(t)
+}
+
+/// Cosine of the half angle a sphere subtends from a point at distance `dist` (None inside).
+#[inline]
+pub fn sphere_cos_max(dist: f32, radius: f32) -> Option<f32> {
+    (dist > radius).then(|| (1.0 - (radius / dist).powi(2)).max(0.0).sqrt())
 }
 
 /// Converts an area density at a light point into a solid-angle density.

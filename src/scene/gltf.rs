@@ -215,7 +215,8 @@ impl<'a> Loader<'a> {
                 cameras.push(self.camera(&c, &node_name, world)?);
             }
             if let Some(l) = node.light() {
-                let (light, rep) = self.punctual_light(&l, &node_name, world)?;
+                let blender = node.extension_value("CAUSTIC_lights_punctual").cloned();
+                let (light, rep) = self.punctual_light(&l, &node_name, world, blender)?;
                 lights.push(light);
                 light_reports.push(rep);
             }
@@ -1158,6 +1159,7 @@ impl<'a> Loader<'a> {
         l: &gltf::khr_lights_punctual::Light,
         node_name: &str,
         world: &Mat4,
+        blender: Option<serde_json::Value>,
     ) -> Result<(Light, LightReport)> {
         let name = l.name().map(str::to_string).unwrap_or_else(|| node_name.to_string());
         let intensity = l.intensity();
@@ -1171,10 +1173,47 @@ impl<'a> Loader<'a> {
         let position = world.transform_point3(Vec3::ZERO);
         let forward = world.transform_vector3(-Vec3::Z).normalize_or(-Vec3::Z);
         let radiometric = color * (intensity / LUMENS_PER_WATT);
+        // Blender's light shape parameters (`CAUSTIC_lights_punctual`, written by the add-on).
+        #[derive(Deserialize, Default)]
+        #[serde(deny_unknown_fields)]
+        struct BlenderLight {
+            #[serde(default)]
+            radius: f32,
+            #[serde(default)]
+            angle: f32,
+            spot_blend: Option<f32>,
+            #[serde(default)]
+            soft_falloff: bool,
+        }
+        let bl: BlenderLight = match blender {
+            None => BlenderLight::default(),
+            Some(v) => serde_json::from_value(v)
+                .map_err(|e| self.err(format!("light '{name}': CAUSTIC_lights_punctual is malformed: {e}")))?,
+        };
+        if !(bl.radius.is_finite() && bl.radius >= 0.0 && bl.angle.is_finite() && bl.angle >= 0.0)
+            || bl.spot_blend.is_some_and(|b| !(b.is_finite() && b >= 0.0))
+        {
+            return Err(self.err(format!("light '{name}': CAUSTIC_lights_punctual values must be finite and ≥ 0")));
+        }
         use gltf::khr_lights_punctual::Kind;
+        if bl.radius > 0.0 && matches!(l.kind(), Kind::Spot { .. }) {
+            self.warn(format!("light '{name}': a spot's radius is not supported; rendered as a point spot"));
+        }
         let (light, kind) = match l.kind() {
+            Kind::Point if bl.radius > 0.0 => {
+                // The sphere radiates the point's power: L = P / (4π² r²), P = 4π I.
+                let r = bl.radius;
+                let radiance = radiometric / (std::f32::consts::PI * r * r);
+                (Light::Sphere { center: position, radius: r, radiance, soft: bl.soft_falloff }, "point")
+            }
             Kind::Point => (Light::Point { position, intensity: radiometric }, "point"),
-            Kind::Directional => (Light::Directional { direction: forward, irradiance: radiometric }, "directional"),
+            Kind::Directional => {
+                let half = (0.5 * bl.angle).min(std::f32::consts::FRAC_PI_2);
+                (
+                    Light::Directional { direction: forward, irradiance: radiometric, cos_half: half.cos() },
+                    "directional",
+                )
+            }
             Kind::Spot { inner_cone_angle, outer_cone_angle } => {
                 let outer = outer_cone_angle.clamp(1e-4, std::f32::consts::FRAC_PI_2);
                 let inner = inner_cone_angle.clamp(0.0, outer);
@@ -1188,6 +1227,7 @@ impl<'a> Loader<'a> {
                         intensity: radiometric,
                         cos_inner: inner.cos(),
                         cos_outer: outer.cos(),
+                        smooth: bl.spot_blend.map(|b| 1.0 / ((1.0 - outer.cos()) * b).max(1e-12)),
                     },
                     "spot",
                 )
@@ -1250,6 +1290,7 @@ fn punctual_power(l: &Light, scene_radius: f32) -> f32 {
         // A spot's power is bounded by its cone; Blender's spots have a point's
         // intensity, so use the cone's solid angle.
         Light::Spot { intensity, cos_outer, .. } => 2.0 * PI * (1.0 - cos_outer) * luminance(*intensity),
+        Light::Sphere { radius, radiance, .. } => 4.0 * PI * PI * radius * radius * luminance(*radiance),
         Light::Directional { irradiance, .. } => PI * scene_radius * scene_radius * luminance(*irradiance),
         Light::Area(a) => luminance(a.radiance) * a.area * PI,
         Light::Triangle { .. } | Light::World => 0.0,

@@ -83,8 +83,31 @@ def add_emitter(scene):
                        [(0, 1, 2, 3)], scenes.emission_material("Glow", (1.0, 0.9, 0.8), 60.0))
 
 
+def add_point_radius(scene):
+    scenes.light(scene, "PointR", "POINT", location=(0.4, -0.3, LIGHT_HEIGHT), energy=400.0,
+                 shadow_soft_size=0.4)
+
+
+def add_point_radius_hard(scene):
+    scenes.light(scene, "PointS", "POINT", location=(0.4, -0.3, LIGHT_HEIGHT), energy=400.0,
+                 shadow_soft_size=0.4, use_soft_falloff=False)
+
+
+def add_spot_blend(scene):
+    scenes.light(scene, "SpotB", "SPOT", location=(0.2, 0.1, LIGHT_HEIGHT), energy=800.0,
+                 spot_size=math.radians(60.0), spot_blend=0.4, shadow_soft_size=0.0)
+
+
+def add_sun_angle(scene):
+    scenes.light(scene, "SunA", "SUN", rotation_deg=(25.0, 10.0, 0.0), energy=2.0, angle=math.radians(12.0))
+
+
 LIGHTS = {
     "point": add_point,
+    "point_radius": add_point_radius,
+    "point_radius_hard": add_point_radius_hard,
+    "spot_blend": add_spot_blend,
+    "sun_angle": add_sun_angle,
     "spot": add_spot,
     "sun": add_sun,
     "area_rectangle": add_rectangle,

@@ -196,6 +196,17 @@ impl GltfBuilder {
 
     /// Adds a KHR_lights_punctual light on a node.
     pub fn punctual(&mut self, light: Value, translation: [f32; 3], rotation: [f32; 4]) -> usize {
+        self.punctual_with(light, translation, rotation, json!({}))
+    }
+
+    /// Adds a KHR_lights_punctual light on a node that has further node extensions.
+    pub fn punctual_with(
+        &mut self,
+        light: Value,
+        translation: [f32; 3],
+        rotation: [f32; 4],
+        node_exts: Value,
+    ) -> usize {
         self.use_ext("KHR_lights_punctual");
         let root = self.doc.as_object_mut().unwrap();
         let exts = root.entry("extensions").or_insert(json!({}));
@@ -203,7 +214,9 @@ impl GltfBuilder {
         let arr = lights["lights"].as_array_mut().unwrap();
         arr.push(light);
         let li = arr.len() - 1;
-        self.add_node(json!({"translation": translation, "rotation": rotation, "extensions": {"KHR_lights_punctual": {"light": li}}}))
+        let mut exts = node_exts;
+        exts["KHR_lights_punctual"] = json!({ "light": li });
+        self.add_node(json!({"translation": translation, "rotation": rotation, "extensions": exts}))
     }
 
     /// Adds a node with arbitrary JSON (e.g. a CAUSTIC_lights_area extension).
