@@ -152,7 +152,7 @@ impl Accel {
             best = (tri, b1, b2);
             t
         });
-        (hit.t < tmax).then(|| Hit { tri: best.0, t: hit.t, b1: best.1, b2: best.2 })
+        (hit.t < tmax).then_some(Hit { tri: best.0, t: hit.t, b1: best.1, b2: best.2 })
     }
 
     /// Fraction of light that passes along the segment (0, tmax): 0 at the first
@@ -194,6 +194,7 @@ mod tests {
     /// A fan of triangles sharing a vertex and edges: rays aimed exactly at the shared
     /// edges and vertex must hit (no leak) — the property the watertight test buys.
     #[test]
+    #[allow(clippy::needless_range_loop)]
     fn shared_edges_do_not_leak() {
         let n = 7;
         let c = Vec3::new(0.1, 0.2, 0.0);

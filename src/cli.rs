@@ -199,10 +199,10 @@ fn pick_camera(scene: &Scene, wanted: Option<&str>) -> Result<usize> {
     if let Some(i) = scene.cameras.iter().position(|c| c.data_name.as_deref() == Some(w)) {
         return Ok(i);
     }
-    if let Ok(i) = w.parse::<usize>() {
-        if i < scene.cameras.len() {
-            return Ok(i);
-        }
+    if let Ok(i) = w.parse::<usize>()
+        && i < scene.cameras.len()
+    {
+        return Ok(i);
     }
     let names: Vec<String> = scene.cameras.iter().enumerate().map(|(i, c)| format!("{i}: '{}'", c.name)).collect();
     Err(Error::Usage(format!("unknown camera '{w}' (the scene has {})", names.join(", "))))
@@ -282,17 +282,16 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
         FilterKind::BlackmanHarris => Filter::blackman_harris(filter_width),
         FilterKind::Box => Filter::box_filter(filter_width),
     };
-    if let Some(i) = args.interim {
-        if !(i > 0.0 && i.is_finite()) {
-            return Err(Error::Usage(format!("--interim {i} must be a positive number of seconds")));
-        }
+    if let Some(i) = args.interim
+        && !(i > 0.0 && i.is_finite())
+    {
+        return Err(Error::Usage(format!("--interim {i} must be a positive number of seconds")));
     }
-    if let Some(name) = &st.integrator {
-        if name != "path" && args.integrator == IntegratorKind::Path {
-            return Err(Error::Usage(format!(
-                "the scene asks for integrator '{name}', which this build does not have"
-            )));
-        }
+    if let Some(name) = &st.integrator
+        && name != "path"
+        && args.integrator == IntegratorKind::Path
+    {
+        return Err(Error::Usage(format!("the scene asks for integrator '{name}', which this build does not have")));
     }
     Ok(Resolved {
         resolution,
@@ -374,18 +373,19 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
             stop,
             &|p| reporter.progress(p.fraction, p.samples_done, p.samples_total, p.elapsed, p.eta, p.rays_per_sec),
             &mut |film, spp| {
-                if let Some(every) = interim {
-                    if last_interim.elapsed() >= every && Some(spp) != job.spp {
-                        let mut img = film.image();
-                        if !res.transparent {
-                            img.make_opaque();
-                        }
-                        match output::write_exr(&args.output, &img, args.half) {
-                            Ok(()) => reporter.image(&out_str, spp, false),
-                            Err(e) => interim_error = Some(e),
-                        }
-                        last_interim = Instant::now();
+                if let Some(every) = interim
+                    && last_interim.elapsed() >= every
+                    && Some(spp) != job.spp
+                {
+                    let mut img = film.image();
+                    if !res.transparent {
+                        img.make_opaque();
                     }
+                    match output::write_exr(&args.output, &img, args.half) {
+                        Ok(()) => reporter.image(&out_str, spp, false),
+                        Err(e) => interim_error = Some(e),
+                    }
+                    last_interim = Instant::now();
                 }
             },
         )

@@ -3,6 +3,9 @@
 //! Data flows one way: `scene` (glTF loader) → `accel` (BVH) → `integrator` →
 //! `film` → `output` (EXR). `cli` wires them into the `caustic` commands.
 
+// `!(x > 0.0)` is used on purpose throughout: it is true for NaN, which `x <= 0.0` is not.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod accel;
 pub mod bsdf;
 pub mod cli;

@@ -152,11 +152,11 @@ pub fn render(
                             if stop.load(Ordering::Relaxed) || timed_out.load(Ordering::Relaxed) {
                                 return ts;
                             }
-                            if let Some(d) = deadline {
-                                if Instant::now() >= d {
-                                    timed_out.store(true, Ordering::Relaxed);
-                                    return ts;
-                                }
+                            if let Some(d) = deadline
+                                && Instant::now() >= d
+                            {
+                                timed_out.store(true, Ordering::Relaxed);
+                                return ts;
                             }
                             let (px, py) = (x0 + tile.x0 + tx, y0 + tile.y0 + ty);
                             let acc = &mut tile.pixels[(ty * tile.w + tx) as usize];

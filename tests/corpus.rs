@@ -2,6 +2,7 @@
 //! `tests/data/make_test_data.py`) is loaded with `caustic info --json` and rendered at
 //! 8×8, 1 spp; good files must give the stated counts, bounds, warnings and pixel
 //! checks, bad files a clear error with the stated exit code, no output and no panic.
+#![allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
 
 mod common;
 
@@ -96,26 +97,26 @@ fn check_ok(entry: &Value, path: &str, failures: &mut Vec<String>) {
         }
         let what = check["what"].as_str().unwrap_or("");
         for c in 0..3 {
-            if let Some(lo) = check["rgb_min"].get(c).and_then(Value::as_f64) {
-                if mean[c] < lo {
-                    failures.push(format!("{file}: {what}: channel {c} mean {} < {lo}", mean[c]));
-                }
+            if let Some(lo) = check["rgb_min"].get(c).and_then(Value::as_f64)
+                && mean[c] < lo
+            {
+                failures.push(format!("{file}: {what}: channel {c} mean {} < {lo}", mean[c]));
             }
-            if let Some(hi) = check["rgb_max"].get(c).and_then(Value::as_f64) {
-                if mean[c] > hi {
-                    failures.push(format!("{file}: {what}: channel {c} mean {} > {hi}", mean[c]));
-                }
-            }
-        }
-        if let Some(a) = check["alpha_min"].as_f64() {
-            if mean[3] < a {
-                failures.push(format!("{file}: {what}: alpha {} < {a}", mean[3]));
+            if let Some(hi) = check["rgb_max"].get(c).and_then(Value::as_f64)
+                && mean[c] > hi
+            {
+                failures.push(format!("{file}: {what}: channel {c} mean {} > {hi}", mean[c]));
             }
         }
-        if let Some(a) = check["alpha_max"].as_f64() {
-            if mean[3] > a {
-                failures.push(format!("{file}: {what}: alpha {} > {a}", mean[3]));
-            }
+        if let Some(a) = check["alpha_min"].as_f64()
+            && mean[3] < a
+        {
+            failures.push(format!("{file}: {what}: alpha {} < {a}", mean[3]));
+        }
+        if let Some(a) = check["alpha_max"].as_f64()
+            && mean[3] > a
+        {
+            failures.push(format!("{file}: {what}: alpha {} > {a}", mean[3]));
         }
     }
 }
@@ -148,10 +149,11 @@ fn check_error(entry: &Value, path: &str, failures: &mut Vec<String>) {
             failures.push(format!("{file}: message '{msg}' lacks '{s}'"));
         }
     }
-    if let Some(any) = entry["message_contains_any"].as_array() {
-        if !any.is_empty() && !any.iter().any(|s| lower_contains(&msg, s.as_str().unwrap())) {
-            failures.push(format!("{file}: message '{msg}' contains none of {any:?}"));
-        }
+    if let Some(any) = entry["message_contains_any"].as_array()
+        && !any.is_empty()
+        && !any.iter().any(|s| lower_contains(&msg, s.as_str().unwrap()))
+    {
+        failures.push(format!("{file}: message '{msg}' contains none of {any:?}"));
     }
     // `info` must refuse the file the same way.
     let i = run(&["info", path], LIMIT);

@@ -167,16 +167,16 @@ impl<'a> SceneContext<'a> {
         let mut sum = Rgb::ZERO;
         let mut any = false;
         for (a, index) in &self.area_lights {
-            if let Some(t) = a.intersect(org, dir, tmax) {
-                if (-dir).dot(a.normal) > 0.0 {
-                    let w = if prev_pdf == 0.0 {
-                        1.0
-                    } else {
-                        power_heuristic(prev_pdf, self.light_pdf(*index, prev_p, org + dir * t, a.normal))
-                    };
-                    sum += a.radiance * w;
-                    any = true;
-                }
+            if let Some(t) = a.intersect(org, dir, tmax)
+                && (-dir).dot(a.normal) > 0.0
+            {
+                let w = if prev_pdf == 0.0 {
+                    1.0
+                } else {
+                    power_heuristic(prev_pdf, self.light_pdf(*index, prev_p, org + dir * t, a.normal))
+                };
+                sum += a.radiance * w;
+                any = true;
             }
         }
         for &(center, radius, radiance, soft, index) in &self.spheres {
@@ -478,7 +478,7 @@ impl<'a> SceneContext<'a> {
                 }
                 let wi = d / dist;
                 let pdf = area_to_solid_angle(1.0 / (std::f32::consts::PI * radius * radius), dist, (-wi).dot(n));
-                (pdf > 0.0).then(|| LightSample { wi, dist, li: *radiance, pdf, delta: false, point: q, normal: n })
+                (pdf > 0.0).then_some(LightSample { wi, dist, li: *radiance, pdf, delta: false, point: q, normal: n })
             }
             Light::Sphere { center, radius, radiance, soft: false } => {
                 let to_c = *center - p;
@@ -508,7 +508,7 @@ impl<'a> SceneContext<'a> {
                 let wi = d / dist;
                 let cos_l = (-wi).dot(a.normal);
                 let pdf = area_to_solid_angle(1.0 / a.area, dist, cos_l);
-                (pdf > 0.0).then(|| LightSample {
+                (pdf > 0.0).then_some(LightSample {
                     wi,
                     dist,
                     li: a.radiance,

@@ -150,36 +150,33 @@ impl PathIntegrator {
             // Next-event estimation: one light, chosen by power (useless for pure
             // delta BSDFs such as clear glass).
             let nee = if sp.bsdf.is_delta() { None } else { ctx.lights.sample(u_light) };
-            if let Some((index, pmf)) = nee {
-                if let Some(ls) = ctx.sample_light(index, s.p, u_light_pt) {
-                    let wi_local = sp.frame.to_local(ls.wi);
-                    let f = sp.bsdf.eval(wo_local, wi_local) * wi_local.z.abs();
-                    // Shading and geometric normals must agree on reflection versus
-                    // transmission, or light would leak through the surface.
-                    let consistent = (wi_local.z > 0.0) == (ls.wi.dot(s.ng) > 0.0);
-                    if f != Rgb::ZERO && ls.li != Rgb::ZERO && consistent {
-                        stats.shadow += 1;
-                        // An unoccluded shadow segment stays in one medium (boundaries
-                        // block shadow rays): the current one, or the one across this
-                        // surface when the light is on the other side.
-                        let mat = &ctx.scene.materials[s.material as usize];
-                        let segment_medium = match (ls.wi.dot(s.ng) < 0.0, mat.volume) {
-                            (true, Some(sigma)) => s.front.then_some(sigma),
-                            _ => medium,
-                        };
-                        let tr = match segment_medium {
-                            Some(sigma) if ls.dist.is_finite() => (-sigma * ls.dist).exp(),
-                            _ => Rgb::ONE,
-                        };
-                        let vis = ctx.visibility(s.p, s.ng, &ls);
-                        if vis > 0.0 {
-                            let w = if ls.delta {
-                                1.0
-                            } else {
-                                power_heuristic(ls.pdf * pmf, sp.bsdf.pdf(wo_local, wi_local))
-                            };
-                            radiance += beta * f * tr * ls.li * (vis * w / (ls.pdf * pmf));
-                        }
+            if let Some((index, pmf)) = nee
+                && let Some(ls) = ctx.sample_light(index, s.p, u_light_pt)
+            {
+                let wi_local = sp.frame.to_local(ls.wi);
+                let f = sp.bsdf.eval(wo_local, wi_local) * wi_local.z.abs();
+                // Shading and geometric normals must agree on reflection versus
+                // transmission, or light would leak through the surface.
+                let consistent = (wi_local.z > 0.0) == (ls.wi.dot(s.ng) > 0.0);
+                if f != Rgb::ZERO && ls.li != Rgb::ZERO && consistent {
+                    stats.shadow += 1;
+                    // An unoccluded shadow segment stays in one medium (boundaries
+                    // block shadow rays): the current one, or the one across this
+                    // surface when the light is on the other side.
+                    let mat = &ctx.scene.materials[s.material as usize];
+                    let segment_medium = match (ls.wi.dot(s.ng) < 0.0, mat.volume) {
+                        (true, Some(sigma)) => s.front.then_some(sigma),
+                        _ => medium,
+                    };
+                    let tr = match segment_medium {
+                        Some(sigma) if ls.dist.is_finite() => (-sigma * ls.dist).exp(),
+                        _ => Rgb::ONE,
+                    };
+                    let vis = ctx.visibility(s.p, s.ng, &ls);
+                    if vis > 0.0 {
+                        let w =
+                            if ls.delta { 1.0 } else { power_heuristic(ls.pdf * pmf, sp.bsdf.pdf(wo_local, wi_local)) };
+                        radiance += beta * f * tr * ls.li * (vis * w / (ls.pdf * pmf));
                     }
                 }
             }

@@ -95,6 +95,9 @@ fn white() -> [f32; 3] {
     [1.0; 3]
 }
 
+/// A decoded image: width, height, RGBA8 texels (shared by the textures that use it).
+type DecodedImage = (u32, u32, std::sync::Arc<Vec<[u8; 4]>>);
+
 /// Key of a decoded texture: (image, sRGB, sampler).
 type TexKey = (usize, bool, Option<usize>);
 
@@ -104,7 +107,7 @@ struct Loader<'a> {
     warnings: Vec<String>,
     textures: Vec<Texture>,
     texture_cache: HashMap<TexKey, u32>,
-    images: HashMap<usize, (u32, u32, std::sync::Arc<Vec<[u8; 4]>>)>,
+    images: HashMap<usize, DecodedImage>,
 }
 
 impl<'a> Loader<'a> {
@@ -535,12 +538,7 @@ impl<'a> Loader<'a> {
         Ok(())
     }
 
-    fn image(
-        &mut self,
-        doc: &gltf::Document,
-        index: usize,
-        buffers: &[Vec<u8>],
-    ) -> Result<(u32, u32, std::sync::Arc<Vec<[u8; 4]>>)> {
+    fn image(&mut self, doc: &gltf::Document, index: usize, buffers: &[Vec<u8>]) -> Result<DecodedImage> {
         if let Some(img) = self.images.get(&index) {
             return Ok(img.clone());
         }
@@ -1044,10 +1042,10 @@ impl<'a> Loader<'a> {
                 (uv1.as_ref().map(Vec::len), "TEXCOORD_1"),
                 (colors.as_ref().map(Vec::len), "COLOR_0"),
             ] {
-                if let Some(l) = len {
-                    if l != nv {
-                        return Err(self.err(format!("{what}: {name} has {l} entries for {nv} vertices")));
-                    }
+                if let Some(l) = len
+                    && l != nv
+                {
+                    return Err(self.err(format!("{what}: {name} has {l} entries for {nv} vertices")));
                 }
             }
             let raw_indices: Vec<u32> = match reader.read_indices() {
@@ -1075,15 +1073,13 @@ impl<'a> Loader<'a> {
 
             // Tangents for normal maps: given, or generated with MikkTSpace.
             let mut tangents = tangents;
-            if let Some(nt) = material.normal_tex {
-                if tangents.is_none() {
-                    let uv = if nt.tex_coord == 0 { &uv0 } else { &uv1 };
-                    match (uv, &normals) {
-                        (Some(uv), Some(n)) => tangents = Some(mikktspace_tangents(&positions, n, uv, &tris)),
-                        _ => {
-                            self.warn(format!("{what}: a normal map without UVs or normals cannot be applied; ignored"))
-                        }
-                    }
+            if let Some(nt) = material.normal_tex
+                && tangents.is_none()
+            {
+                let uv = if nt.tex_coord == 0 { &uv0 } else { &uv1 };
+                match (uv, &normals) {
+                    (Some(uv), Some(n)) => tangents = Some(mikktspace_tangents(&positions, n, uv, &tris)),
+                    _ => self.warn(format!("{what}: a normal map without UVs or normals cannot be applied; ignored")),
                 }
             }
 
@@ -1164,7 +1160,7 @@ impl<'a> Loader<'a> {
         let name = l.name().map(str::to_string).unwrap_or_else(|| node_name.to_string());
         let intensity = l.intensity();
         let color = Vec3::from(l.color());
-        if !(intensity >= 0.0 && intensity.is_finite()) || !color.is_finite() || color.min_element() < 0.0 {
+        if !(intensity >= 0.0 && intensity.is_finite() && color.is_finite()) || color.min_element() < 0.0 {
             return Err(self.err(format!("light '{name}': intensity and color must be finite and non-negative")));
         }
         if l.range().is_some() {
@@ -1256,10 +1252,8 @@ impl<'a> Loader<'a> {
         let sx = *a.size.first().ok_or_else(|| self.err(format!("node '{name}': CAUSTIC_lights_area has no size")))?;
         let sy = if matches!(a.shape.as_str(), "square" | "disk") { sx } else { a.size.get(1).copied().unwrap_or(sx) };
         let color = Vec3::from(a.color);
-        if !(a.power >= 0.0 && a.power.is_finite())
-            || !color.is_finite()
+        if !(a.power >= 0.0 && a.power.is_finite() && color.is_finite() && sx.is_finite() && sy.is_finite())
             || color.min_element() < 0.0
-            || !(sx.is_finite() && sy.is_finite())
         {
             return Err(self.err(format!(
                 "node '{name}': CAUSTIC_lights_area power, color and size must be finite and non-negative"
