@@ -60,12 +60,27 @@ pub struct PbrParams {
     /// Relative IOR across the surface for the transmission lobe: `ior` when entering,
     /// `1 / ior` when leaving (decided by the caller from the geometric normal).
     pub eta: f32,
+    /// `KHR_materials_clearcoat` clearcoatFactor (weight of the coat layer).
+    pub coat: f32,
+    /// clearcoatRoughness.
+    pub coat_roughness: f32,
 }
 
 impl PbrParams {
     /// An opaque dielectric/metal without the extensions.
     pub fn opaque(base: Rgb, metallic: f32, roughness: f32) -> Self {
-        PbrParams { base, metallic, roughness, specular: 1.0, ior: 1.5, transmission: 0.0, thin: true, eta: 1.5 }
+        PbrParams {
+            base,
+            metallic,
+            roughness,
+            specular: 1.0,
+            ior: 1.5,
+            transmission: 0.0,
+            thin: true,
+            eta: 1.5,
+            coat: 0.0,
+            coat_roughness: 0.0,
+        }
     }
 }
 
@@ -90,6 +105,12 @@ pub struct PbrBsdf {
     pub glass: DielectricBsdf,
     /// Microfacet distribution of the reflection lobes.
     pub ggx: Ggx,
+    /// Weight of the clear coat (a GGX dielectric layer of IOR 1.5 over everything).
+    pub coat: f32,
+    /// Roughness of the coat (for its albedo table).
+    pub coat_roughness: f32,
+    /// Microfacets of the coat.
+    pub coat_ggx: Ggx,
 }
 
 /// Probabilities of the lobes for one `wo`: metal, dielectric specular, diffuse, glass.
@@ -99,6 +120,7 @@ struct LobeChoice {
     spec: f32,
     diffuse: f32,
     glass: f32,
+    coat: f32,
 }
 
 impl PbrBsdf {
@@ -125,7 +147,16 @@ impl PbrBsdf {
             transmission: p.transmission.clamp(0.0, 1.0),
             glass: DielectricBsdf::new(p.eta, roughness, p.thin, base),
             ggx: Ggx::from_roughness(roughness),
+            coat: p.coat.clamp(0.0, 1.0),
+            coat_roughness: p.coat_roughness.clamp(0.0, 1.0),
+            coat_ggx: Ggx::from_roughness(p.coat_roughness.clamp(0.0, 1.0)),
         }
+    }
+
+    /// Directional albedo of the coat at μ (weight included).
+    #[inline]
+    fn coat_albedo(&self, mu: f32) -> f32 {
+        if self.coat > 0.0 { self.coat * specular_albedo().e(mu, self.coat_roughness, F0_DIELECTRIC) } else { 0.0 }
     }
 
     /// Directional albedo of the opaque dielectric's specular layer at μ.
@@ -137,28 +168,37 @@ impl PbrBsdf {
     #[inline]
     fn lobes(&self, wo: Vec3) -> LobeChoice {
         let e = self.layer_albedo(wo.z);
+        let ec = self.coat_albedo(wo.z);
+        let under = 1.0 - ec;
         let dielectric = 1.0 - self.metallic;
         let opaque = dielectric * (1.0 - self.transmission);
-        let metal = self.metallic * luminance(self.base + (Vec3::ONE - self.base) * schlick_weight(wo.z));
-        let spec = opaque * e;
-        let diffuse = opaque * (1.0 - e) * luminance(self.base);
+        let metal = under * self.metallic * luminance(self.base + (Vec3::ONE - self.base) * schlick_weight(wo.z));
+        let spec = under * opaque * e;
+        let diffuse = under * opaque * (1.0 - e) * luminance(self.base);
         let glass = if self.transmission > 0.0 {
             let r = self.glass.reflect_probability(wo);
-            dielectric * self.transmission * (r + (1.0 - r) * luminance(self.base)).max(1e-3)
+            under * dielectric * self.transmission * (r + (1.0 - r) * luminance(self.base)).max(1e-3)
         } else {
             0.0
         };
-        let total = metal + spec + diffuse + glass;
+        let coat = ec;
+        let total = metal + spec + diffuse + glass + coat;
         if total > 0.0 {
-            LobeChoice { metal: metal / total, spec: spec / total, diffuse: diffuse / total, glass: glass / total }
+            LobeChoice {
+                metal: metal / total,
+                spec: spec / total,
+                diffuse: diffuse / total,
+                glass: glass / total,
+                coat: coat / total,
+            }
         } else {
-            LobeChoice { metal: 0.0, spec: 1.0, diffuse: 0.0, glass: 0.0 }
+            LobeChoice { metal: 0.0, spec: 1.0, diffuse: 0.0, glass: 0.0, coat: 0.0 }
         }
     }
 
     /// True when every lobe is a delta lobe (smooth clear glass): no light sampling helps.
     pub fn is_delta(&self) -> bool {
-        self.metallic == 0.0 && self.transmission == 1.0 && self.glass.smooth
+        self.metallic == 0.0 && self.transmission == 1.0 && self.glass.smooth && self.coat == 0.0
     }
 
     /// f(wo, wi) of the non-delta lobes; directions in the local frame. Reflection is
@@ -170,12 +210,15 @@ impl PbrBsdf {
             return Vec3::ZERO;
         }
         let dielectric = 1.0 - self.metallic;
+        // The coat reflects E_c(μo) of the light and leaves the rest to the layers below
+        // (albedo scaling by the outgoing direction, as Cycles layers its coat).
+        let under = 1.0 - self.coat_albedo(wo.z);
         let mut f = Rgb::ZERO;
         if self.transmission > 0.0 {
             f += self.glass.eval(wo, wi) * (dielectric * self.transmission);
         }
         if wi.z < 0.0 {
-            return f;
+            return f * under;
         }
         let h = (wo + wi).normalize();
         let fw = schlick_weight(wo.dot(h).max(0.0));
@@ -192,6 +235,12 @@ impl PbrBsdf {
         }
         if self.metallic > 0.0 {
             f += (self.base + (Vec3::ONE - self.base) * fw) * (spec * self.metallic);
+        }
+        f *= under;
+        if self.coat > 0.0 {
+            let f_coat = F0_DIELECTRIC + (1.0 - F0_DIELECTRIC) * fw;
+            let coat_spec = self.coat_ggx.d(h) * self.coat_ggx.g2(wo, wi) / (4.0 * wo.z * wi.z);
+            f += Rgb::splat(self.coat * f_coat * coat_spec);
         }
         f
     }
@@ -212,6 +261,9 @@ impl PbrBsdf {
             let h = (wo + wi).normalize();
             let pdf_spec = self.ggx.pdf_visible_normal(wo, h) / (4.0 * wo.dot(h).max(1e-8));
             pdf += (c.metal + c.spec) * pdf_spec + c.diffuse * cosine_hemisphere_pdf(wi.z);
+            if c.coat > 0.0 {
+                pdf += c.coat * self.coat_ggx.pdf_visible_normal(wo, h) / (4.0 * wo.dot(h).max(1e-8));
+            }
         }
         pdf
     }
@@ -229,14 +281,16 @@ impl PbrBsdf {
         let wi_up = if uc < c.glass {
             let s = self.glass.sample(wo_up, uc / c.glass, u)?;
             if s.delta {
-                let weight = (1.0 - self.metallic) * self.transmission;
+                let weight = (1.0 - self.metallic) * self.transmission * (1.0 - self.coat_albedo(wo_up.z));
                 return Some(BsdfSample { wi: mirror(s.wi), f: s.f * weight, pdf: s.pdf * c.glass, delta: true });
             }
             s.wi
         } else if uc < c.glass + c.metal + c.spec {
             reflect(wo_up, self.ggx.sample_visible_normal(wo_up, u))
-        } else {
+        } else if uc < c.glass + c.metal + c.spec + c.diffuse {
             cosine_hemisphere(u)
+        } else {
+            reflect(wo_up, self.coat_ggx.sample_visible_normal(wo_up, u))
         };
         if wi_up.z == 0.0 || (uc >= c.glass && wi_up.z < 0.0) {
             return None;
@@ -253,7 +307,8 @@ impl PbrBsdf {
     pub fn albedo(&self) -> Rgb {
         let f0 = self.f0 * self.specular;
         let dielectric = self.base * (1.0 - f0) + Vec3::splat(f0);
-        dielectric * (1.0 - self.metallic) + self.base * self.metallic
+        let below = dielectric * (1.0 - self.metallic) + self.base * self.metallic;
+        below * (1.0 - self.coat * F0_DIELECTRIC) + Vec3::splat(self.coat * F0_DIELECTRIC)
     }
 }
 
@@ -409,12 +464,30 @@ mod tests {
             (0.7, 2.4, false, 0.3, 2.4),
         ] {
             for roughness in [0.3f32, 0.8] {
-                let p = PbrParams { base, metallic, roughness, specular: 1.0, ior, transmission, thin, eta };
+                let p = PbrParams {
+                    specular: 1.0,
+                    ior,
+                    transmission,
+                    thin,
+                    eta,
+                    ..PbrParams::opaque(base, metallic, roughness)
+                };
                 v.push((
                     format!("r={roughness} transmission={transmission} η={eta} thin={thin} m={metallic}"),
                     PbrBsdf::from_params(&p),
                 ));
             }
+        }
+        // Coated: over a diffuse base, a metal and glass; the coat breaks reciprocity
+        // (albedo scaling by wo), so the reciprocity test skips these.
+        for (coat, coat_roughness, metallic, transmission) in
+            [(1.0f32, 0.1f32, 0.0f32, 0.0f32), (0.5, 0.4, 1.0, 0.0), (1.0, 0.3, 0.0, 1.0)]
+        {
+            let p = PbrParams { coat, coat_roughness, transmission, ..PbrParams::opaque(base, metallic, 0.6) };
+            v.push((
+                format!("coat={coat} cr={coat_roughness} m={metallic} t={transmission}"),
+                PbrBsdf::from_params(&p),
+            ));
         }
         v
     }
@@ -442,7 +515,7 @@ mod tests {
     #[test]
     fn reciprocity() {
         let mut rng = Pcg32::new(9);
-        for (_, b) in materials() {
+        for (_, b) in materials().into_iter().filter(|(_, b)| b.coat == 0.0) {
             for _ in 0..200 {
                 let a = cosine_hemisphere(Vec2::new(rng.next_f32(), rng.next_f32()));
                 let c = cosine_hemisphere(Vec2::new(rng.next_f32(), rng.next_f32()));

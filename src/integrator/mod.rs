@@ -400,8 +400,26 @@ impl<'a> SceneContext<'a> {
         // Entering or leaving is decided by the geometric normal; a thin sheet is the
         // same from both sides.
         let eta = if thin || s.front { mat.ior } else { 1.0 / mat.ior };
-        let params =
-            PbrParams { base, metallic, roughness, specular: mat.specular, ior: mat.ior, transmission, thin, eta };
+        let mut coat = mat.coat;
+        if let Some(t) = &mat.coat_tex {
+            coat *= lookup(t).x;
+        }
+        let mut coat_roughness = mat.coat_roughness;
+        if let Some(t) = &mat.coat_roughness_tex {
+            coat_roughness *= lookup(t).y;
+        }
+        let params = PbrParams {
+            base,
+            metallic,
+            roughness,
+            specular: mat.specular,
+            ior: mat.ior,
+            transmission,
+            thin,
+            eta,
+            coat,
+            coat_roughness,
+        };
         ShadingPoint { bsdf: Bsdf::Pbr(PbrBsdf::from_params(&params)), frame, emitted }
     }
 

@@ -32,8 +32,8 @@ const HANDLED_MATERIAL_EXTENSIONS: &[&str] = &[
     "KHR_materials_transmission",
     "KHR_materials_ior",
     "KHR_materials_volume",
-    // Warned about by name where they are read:
     "KHR_materials_clearcoat",
+    // Warned about by name where they are read:
     "KHR_materials_sheen",
     "KHR_materials_dispersion",
     "KHR_materials_iridescence",
@@ -841,13 +841,26 @@ impl<'a> Loader<'a> {
                 features.push("thicknessTexture (ignored: Caustic traces the real geometry)".into());
             }
         }
-        for ext in [
-            "KHR_materials_clearcoat",
-            "KHR_materials_sheen",
-            "KHR_materials_dispersion",
-            "KHR_materials_iridescence",
-            "KHR_materials_anisotropy",
-        ] {
+        let (mut coat, mut coat_tex, mut coat_roughness, mut coat_roughness_tex) = (0.0, None, 0.0, None);
+        if let Some(c) = m.extension_value("KHR_materials_clearcoat").cloned() {
+            features.push("KHR_materials_clearcoat".into());
+            coat = num(&c, "clearcoatFactor", 0.0)?.clamp(0.0, 1.0);
+            coat_roughness = num(&c, "clearcoatRoughnessFactor", 0.0)?.clamp(0.0, 1.0);
+            if let Some(t) = c.get("clearcoatTexture") {
+                coat_tex = self.raw_texture(doc, t, false, buffers, &name)?;
+            }
+            if let Some(t) = c.get("clearcoatRoughnessTexture") {
+                coat_roughness_tex = self.raw_texture(doc, t, false, buffers, &name)?;
+            }
+            if c.get("clearcoatNormalTexture").is_some() {
+                self.warn(format!(
+                    "material '{name}': clearcoatNormalTexture is not supported; the coat uses the base normal"
+                ));
+            }
+        }
+        for ext in
+            ["KHR_materials_sheen", "KHR_materials_dispersion", "KHR_materials_iridescence", "KHR_materials_anisotropy"]
+        {
             if m.extension_value(ext).is_some() {
                 features.push(format!("{ext} (ignored)"));
                 self.warn(format!("material '{name}': {ext} is not rendered yet and was ignored"));
@@ -899,6 +912,10 @@ impl<'a> Loader<'a> {
             transmission,
             transmission_tex,
             volume,
+            coat,
+            coat_tex,
+            coat_roughness,
+            coat_roughness_tex,
             alpha_mode,
             double_sided: m.double_sided(),
         };

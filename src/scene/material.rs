@@ -46,6 +46,14 @@ pub struct Material {
     pub transmission: f32,
     /// Transmission texture (R channel).
     pub transmission_tex: Option<TexRef>,
+    /// `KHR_materials_clearcoat` clearcoatFactor.
+    pub coat: f32,
+    /// clearcoatTexture (R).
+    pub coat_tex: Option<TexRef>,
+    /// clearcoatRoughnessFactor.
+    pub coat_roughness: f32,
+    /// clearcoatRoughnessTexture (G).
+    pub coat_roughness_tex: Option<TexRef>,
     /// Absorption coefficient σa (per scene unit) of the volume inside, from
     /// `KHR_materials_volume` attenuation; None when the surface is thin-walled.
     pub volume: Option<Rgb>,
@@ -75,6 +83,10 @@ impl Default for Material {
             transmission: 0.0,
             transmission_tex: None,
             volume: None,
+            coat: 0.0,
+            coat_tex: None,
+            coat_roughness: 0.0,
+            coat_roughness_tex: None,
             alpha_mode: AlphaMode::Opaque,
             double_sided: false,
         }

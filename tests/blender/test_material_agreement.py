@@ -1,4 +1,4 @@
-"""Caustic and Cycles agree on materials: a glass sphere, rough glass and a rough metal.
+"""Caustic and Cycles agree on materials: a glass sphere, rough glass, a rough metal, a coated plastic.
 
 Scene: a grey Lambertian floor, a sphere with the material under test, a disk area light
 above, the camera looking down at the sphere. Both renderers: 64x48, 8 bounces, no clamping,
@@ -10,6 +10,8 @@ allowance. The allowance is per material, with the measured reason:
 * glass (smooth and rough): 2 % — both renderers use exact dielectric Fresnel and GGX
   (single scattering for Caustic; Cycles' Principled glass is multiscatter GGX, which keeps
   the energy single scattering loses at roughness > 0.3);
+* coated plastic: 3 % — Caustic's coat uses Schlick's Fresnel (F0 0.04) with albedo scaling;
+  Cycles' the exact dielectric Fresnel of the coat IOR (1.5) and its own layering;
 * rough metal: 4 % — Cycles' Principled metal uses the F82-tint Fresnel and multiscatter GGX,
   Caustic glTF's Schlick Fresnel and single scattering: at roughness 0.5 the multiple
   scattering Caustic leaves out is a few per cent of the reflected light (Kulla & Conty
@@ -60,6 +62,8 @@ MATERIALS = {
                                                         "Transmission Weight": 1.0, "IOR": 1.5}), 0.02),
     "rough_metal": (lambda: principled("Metal", **{"Base Color": (0.9, 0.6, 0.3, 1), "Roughness": 0.5,
                                                    "Metallic": 1.0}), 0.04),
+    "coated_plastic": (lambda: principled("Coated", **{"Base Color": (0.8, 0.15, 0.1, 1), "Roughness": 0.6,
+                                                       "Coat Weight": 1.0, "Coat Roughness": 0.1}), 0.03),
 }
 
 
