@@ -955,6 +955,19 @@ impl<'a> Loader<'a> {
                 }
             }
         }
+        // glTF's nodes form strict trees: one parent at most, and a root is no one's
+        // child and listed once. Shared subtrees could multiply instances exponentially.
+        let mut parent = vec![None; n];
+        for (p, cs) in children.iter().enumerate() {
+            for &c in cs {
+                if let Some(q) = parent[c] {
+                    return Err(
+                        self.err(format!("node {c} has two parents (nodes {q} and {p}); glTF nodes form trees"))
+                    );
+                }
+                parent[c] = Some(p);
+            }
+        }
         let roots: Vec<usize> = if let Some(scene) = doc.default_scene().or_else(|| doc.scenes().next()) {
             if value.get("scene").is_none() && doc.scenes().count() > 1 {
                 self.warn("the file has several scenes and no default: rendering scene 0");
@@ -970,6 +983,16 @@ impl<'a> Loader<'a> {
             }
             (0..n).filter(|&i| !is_child[i]).collect()
         };
+        let mut seen_root = vec![false; n];
+        for &r in &roots {
+            if seen_root[r] {
+                return Err(self.err(format!("node {r} is listed twice as a root of the scene")));
+            }
+            seen_root[r] = true;
+            if let Some(p) = parent[r] {
+                return Err(self.err(format!("node {r} is a root of the scene and also a child of node {p}")));
+            }
+        }
         let mut out = Vec::new();
         let mut stack: Vec<(usize, Mat4)> = roots.into_iter().rev().map(|r| (r, Mat4::IDENTITY)).collect();
         while let Some((node, parent)) = stack.pop() {
@@ -1003,7 +1026,10 @@ impl<'a> Loader<'a> {
             m.name().map(|n| format!("mesh {} ('{n}')", m.index())).unwrap_or_else(|| format!("mesh {}", m.index()));
         let normal_matrix = Mat3::from_mat4(*world).inverse().transpose();
         let det = Mat3::from_mat4(*world).determinant();
-        if det == 0.0 || !det.is_finite() {
+        if !det.is_finite() {
+            return Err(self.err(format!("{mesh_name}: an instance's transform is not finite (scale too large?)")));
+        }
+        if det == 0.0 {
             self.warn(format!("{mesh_name}: an instance has a singular transform (zero scale) and was skipped"));
             return Ok(0);
         }
@@ -1103,7 +1129,13 @@ impl<'a> Loader<'a> {
             // Append transformed vertices.
             let base = out.positions.len() as u32;
             for i in 0..nv {
-                out.positions.push(world.transform_point3(positions[i]));
+                let p = world.transform_point3(positions[i]);
+                if !p.is_finite() {
+                    return Err(self.err(format!(
+                        "{what}: vertex {i} is not finite after its node transform (position or scale too large)"
+                    )));
+                }
+                out.positions.push(p);
                 // A zero normal marks "use the geometric normal" (glTF: flat shading
                 // when normals are absent).
                 let n = normals.as_ref().map(|n| (normal_matrix * n[i]).normalize_or_zero()).unwrap_or(Vec3::ZERO);
@@ -1147,8 +1179,7 @@ impl<'a> Loader<'a> {
                 let aspect = match p.aspect_ratio() {
                     Some(a) if a > 0.0 && a.is_finite() => Some(a),
                     Some(a) => {
-                        self.warn(format!("camera '{name}': aspectRatio {a} is invalid and was ignored"));
-                        None
+                        return Err(self.err(format!("camera '{name}': aspectRatio {a} must be a positive number")));
                     }
                     None => None,
                 };

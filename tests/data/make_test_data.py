@@ -1280,6 +1280,217 @@ def cornell_box_entry():
                               "what": "the middle is covered"}])
 
 
+
+# =============================================================================================
+# Hostile files (the reliability issue): JSON that parses but lies, absurd values, bad vendor
+# extensions. Each is the one-triangle scene with one defect.
+# =============================================================================================
+def mutant(rel_path, mutate):
+    """The one-triangle scene (camera, sun) written as a data-URI .gltf, then `mutate(root)`."""
+    b = triangle_builder()
+    root = b.write_gltf(rel_path, "datauri")
+    mutate(root)
+    write_text(rel_path, to_json(root) + "\n")
+
+
+def tri_ok(rel_path, description, warnings, mutate, punctual=1, cameras=1):
+    mutant(rel_path, mutate)
+    return ok(rel_path, description, 1, punctual=punctual, cameras=cameras, warnings=warnings)
+
+
+def tri_bad(rel_path, description, mutate, any_of, exit_code=3):
+    mutant(rel_path, mutate)
+    return bad(rel_path, description, exit_code=exit_code, any_of=any_of)
+
+
+def setter(path, value):
+    """A mutation that sets root[path...] = value (path: list of keys / indices)."""
+    def mutate(root):
+        obj = root
+        for k in path[:-1]:
+            obj = obj[k]
+        obj[path[-1]] = value
+    return mutate
+
+
+def first_material(root):
+    root.setdefault("materials", []).append({"name": "m", "pbrMetallicRoughness": {}})
+    root["meshes"][0]["primitives"][0]["material"] = len(root["materials"]) - 1
+    return root["materials"][-1]
+
+
+def with_material(fields):
+    def mutate(root):
+        first_material(root).update(fields)
+    return mutate
+
+
+def with_ext(kind, name, value):
+    """Adds a vendor/KHR extension on the triangle's node ('node'), material or scene."""
+    def mutate(root):
+        root.setdefault("extensionsUsed", []).append(name)
+        if kind == "node":
+            target = root["nodes"][0]
+        elif kind == "material":
+            target = first_material(root)
+        else:
+            target = root["scenes"][root.get("scene", 0)]
+        target.setdefault("extensions", {})[name] = value
+    return mutate
+
+
+def hostile_makers():
+    makers = []
+
+    def add(fn):
+        makers.append(fn)
+        return fn
+
+    add(lambda: tri_bad("bad/stride_smaller_than_element.gltf", "POSITION view byteStride 8 < 12",
+                        setter(["bufferViews", 0, "byteStride"], 8), ["stride"]))
+    add(lambda: tri_bad("bad/node_twice_as_root.gltf", "the scene lists node 0 twice",
+                        lambda r: r["scenes"][0]["nodes"].append(0), ["node 0", "twice", "parent"]))
+
+    def two_parents(root):
+        root["nodes"].append({"name": "a", "children": [0]})
+        root["nodes"].append({"name": "b", "children": [0]})
+        root["scenes"][0]["nodes"] = [len(root["nodes"]) - 2, len(root["nodes"]) - 1] + root["scenes"][0]["nodes"][1:]
+    add(lambda: tri_bad("bad/node_two_parents.gltf", "node 0 is the child of two nodes", two_parents,
+                        ["parent", "node 0"]))
+
+    def dag_explosion(root):
+        # 40 levels, each node listing the next twice: 2^40 instances if walked naively.
+        n0 = len(root["nodes"])
+        for i in range(40):
+            root["nodes"].append({"name": "level%d" % i, "children": [n0 + i + 1, n0 + i + 1] if i < 39 else [0]})
+        root["scenes"][0]["nodes"] = [n0] + root["scenes"][0]["nodes"][1:]
+    add(lambda: tri_bad("bad/node_dag_explosion.gltf", "a 40-level DAG of shared children (2^40 paths)",
+                        dag_explosion, ["parent", "twice", "instances"]))
+    add(lambda: tri_bad("bad/huge_scale.gltf", "node scale 1e38 makes world positions infinite",
+                        setter(["nodes", 0, "scale"], [1e38, 1e38, 1e38]), ["finite", "infinite"]))
+    add(lambda: tri_bad("bad/camera_zero_fov.gltf", "yfov 0",
+                        setter(["cameras", 0, "perspective", "yfov"], 0.0), ["yfov", "fov"]))
+    add(lambda: tri_bad("bad/camera_negative_fov.gltf", "yfov -1",
+                        setter(["cameras", 0, "perspective", "yfov"], -1.0), ["yfov", "fov"]))
+    add(lambda: tri_bad("bad/camera_fov_too_wide.gltf", "yfov 4 rad (> pi)",
+                        setter(["cameras", 0, "perspective", "yfov"], 4.0), ["yfov", "fov"]))
+    add(lambda: tri_bad("bad/camera_zero_aspect.gltf", "aspectRatio 0",
+                        setter(["cameras", 0, "perspective", "aspectRatio"], 0.0), ["aspect"]))
+    add(lambda: tri_bad("bad/light_negative_intensity.gltf", "a sun of intensity -3",
+                        setter(["extensions", "KHR_lights_punctual", "lights", 0, "intensity"], -3.0),
+                        ["intensity"]))
+    add(lambda: tri_bad("bad/light_negative_color.gltf", "a sun of colour (1, -1, 1)",
+                        setter(["extensions", "KHR_lights_punctual", "lights", 0, "color"], [1.0, -1.0, 1.0]),
+                        ["color", "colour"]))
+    add(lambda: tri_bad("bad/light_index_out_of_range.gltf", "a node refers to light 7",
+                        setter(["nodes", 2, "extensions", "KHR_lights_punctual", "light"], 7),
+                        ["light", "index", "range"]))
+    add(lambda: tri_bad("bad/mesh_index_out_of_range.gltf", "node 0 refers to mesh 9",
+                        setter(["nodes", 0, "mesh"], 9), ["mesh", "index", "range"]))
+    add(lambda: tri_bad("bad/scene_node_out_of_range.gltf", "the scene lists node 42",
+                        lambda r: r["scenes"][0]["nodes"].append(42), ["node", "index", "range"]))
+    add(lambda: tri_bad("bad/material_index_out_of_range.gltf", "the primitive uses material 5",
+                        setter(["meshes", 0, "primitives", 0, "material"], 5), ["material", "index", "range"]))
+    add(lambda: tri_bad("bad/json_empty_object.gltf", "the JSON root is an empty object",
+                        lambda r: (r.clear()), ["version", "object", "asset"]))
+
+    def array_root():
+        write_text("bad/json_array_root.gltf", "[1, 2, 3]\n")
+        return bad("bad/json_array_root.gltf", "the JSON root is an array", any_of=["object", "json"])
+    add(array_root)
+    add(lambda: tri_bad("bad/asset_version_1.gltf", "asset.version 1.0",
+                        setter(["asset", "version"], "1.0"), ["version"]))
+    add(lambda: tri_bad("bad/no_asset.gltf", "no asset object",
+                        lambda r: r.pop("asset"), ["version", "asset"]))
+    add(lambda: tri_bad("bad/remote_buffer_uri.gltf", "buffer uri https://...",
+                        setter(["buffers", 0, "uri"], "https://example.com/triangle.bin"), ["remote", "https"]))
+    add(lambda: tri_bad("bad/data_uri_not_base64.gltf", "a data URI without ;base64",
+                        setter(["buffers", 0, "uri"], "data:application/octet-stream,abcd"), ["base64", "data uri"]))
+
+    def position_vec2(root):
+        root["accessors"][0]["type"] = "VEC2"
+        root["accessors"][0]["min"] = [-1.0, -1.0]
+        root["accessors"][0]["max"] = [1.0, 1.0]
+    add(lambda: tri_bad("bad/position_vec2.gltf", "POSITION declared as VEC2", position_vec2,
+                        ["position", "vec3", "invalid"]))
+
+    def position_quantized(root):
+        root["accessors"][0]["componentType"] = 5122  # SHORT
+        root["accessors"][0]["normalized"] = True
+        root["accessors"][0]["count"] = 3
+    add(lambda: tri_bad("bad/position_quantized.gltf", "POSITION as normalized SHORT (mesh quantization)",
+                        position_quantized, ["position", "quantiz", "invalid"]))
+    add(lambda: tri_bad("bad/settings_unknown_key.gltf", "extras.caustic with a misspelt key 'spps'",
+                        setter(["scenes", 0, "extras"], {"caustic": {"spps": 4}}), ["spps", "settings"]))
+    add(lambda: tri_bad("bad/settings_wrong_type.gltf", "extras.caustic spp is a string",
+                        setter(["scenes", 0, "extras"], {"caustic": {"spp": "many"}}), ["spp", "settings"]))
+    add(lambda: tri_bad("bad/area_light_unknown_shape.gltf", "CAUSTIC_lights_area shape 'triangle'",
+                        with_ext("node", "CAUSTIC_lights_area", {"shape": "triangle", "size": [1, 1], "power": 10}),
+                        ["shape", "triangle"]))
+    add(lambda: tri_bad("bad/area_light_negative_power.gltf", "CAUSTIC_lights_area power -10",
+                        with_ext("node", "CAUSTIC_lights_area", {"shape": "square", "size": [1], "power": -10}),
+                        ["power"]))
+    add(lambda: tri_bad("bad/area_light_no_size.gltf", "CAUSTIC_lights_area with an empty size",
+                        with_ext("node", "CAUSTIC_lights_area", {"shape": "square", "size": [], "power": 10}),
+                        ["size"]))
+    add(lambda: tri_bad("bad/world_missing_image.gltf", "CAUSTIC_world image 'no_such_sky.hdr'",
+                        with_ext("scene", "CAUSTIC_world", {"image": "no_such_sky.hdr"}), ["no_such_sky.hdr"]))
+    add(lambda: tri_bad("bad/world_negative_strength.gltf", "CAUSTIC_world strength -2",
+                        with_ext("scene", "CAUSTIC_world", {"strength": -2.0}), ["world", "strength"]))
+    add(lambda: tri_bad("bad/punctual_ext_negative_radius.gltf", "CAUSTIC_lights_punctual radius -1 on the sun",
+                        lambda r: r["nodes"][2].setdefault("extensions", {}).update(
+                            {"CAUSTIC_lights_punctual": {"radius": -1.0}}), ["radius", "lights_punctual"]))
+    add(lambda: tri_bad("bad/volume_bad_attenuation.gltf", "KHR_materials_volume attenuationDistance 0",
+                        with_ext("material", "KHR_materials_volume", {"thicknessFactor": 1, "attenuationDistance": 0}),
+                        ["volume", "attenuation"]))
+    add(lambda: tri_bad("bad/texture_index_out_of_range.gltf", "baseColorTexture index 5 (no textures)",
+                        with_material({"pbrMetallicRoughness": {"baseColorTexture": {"index": 5}}}),
+                        ["texture", "index", "range"]))
+
+    def absurd_png(root):
+        # A PNG whose IHDR declares 100000 x 100000 pixels.
+        data = bytearray(checker_png())
+        data[16:24] = struct.pack(">II", 100000, 100000)
+        crc = zlib.crc32(bytes(data[12:29])) & 0xFFFFFFFF
+        data[29:33] = struct.pack(">I", crc)
+        root["images"] = [{"uri": "data:image/png;base64," + base64.b64encode(bytes(data)).decode()}]
+        root["textures"] = [{"source": 0}]
+        first_material(root)["pbrMetallicRoughness"] = {"baseColorTexture": {"index": 0}}
+    add(lambda: tri_bad("bad/absurd_png_size.gltf", "a PNG header declaring 100000 x 100000 pixels",
+                        absurd_png, ["size", "100000", "image"]))
+
+    def unknown_image(root):
+        root["images"] = [{"uri": "data:image/x-made-up;base64," + base64.b64encode(b"MADEUPIMG" * 10).decode()}]
+        root["textures"] = [{"source": 0}]
+        first_material(root)["pbrMetallicRoughness"] = {"baseColorTexture": {"index": 0}}
+    add(lambda: tri_bad("bad/unknown_image_format.gltf", "an image of an unknown format (MIME image/x-made-up)",
+                        unknown_image, ["format", "image", "texture"]))
+
+    # Out-of-range factors: clamped with a warning naming the material, and rendered.
+    add(lambda: tri_ok("bad/negative_roughness.gltf", "roughnessFactor -0.5: clamped with a warning", ["clamped"],
+                       with_material({"pbrMetallicRoughness": {"roughnessFactor": -0.5, "metallicFactor": 0.0}})))
+    add(lambda: tri_ok("bad/ior_zero.gltf", "KHR_materials_ior 0: set to 1 with a warning", ["ior"],
+                       with_ext("material", "KHR_materials_ior", {"ior": 0.0})))
+    add(lambda: tri_ok("bad/transmission_above_one.gltf", "transmissionFactor 3: clamped with a warning",
+                       ["clamped"], with_ext("material", "KHR_materials_transmission", {"transmissionFactor": 3.0})))
+    add(lambda: tri_ok("bad/spot_cone_too_wide.gltf", "a spot with outerConeAngle 3 rad: clamped with a warning",
+                       ["clamped"], lambda r: r["extensions"]["KHR_lights_punctual"]["lights"].__setitem__(
+                           0, {"type": "spot", "intensity": 100.0, "spot": {"innerConeAngle": 0.1, "outerConeAngle": 3.0}})))
+    add(lambda: tri_ok("bad/area_light_zero_size.gltf", "a CAUSTIC_lights_area of size 0: skipped with a warning",
+                       ["zero area"], with_ext("node", "CAUSTIC_lights_area", {"shape": "square", "size": [0.0], "power": 10})))
+
+    def deep_chain(root):
+        n0 = len(root["nodes"])
+        for i in range(600):
+            root["nodes"].append({"name": "link%d" % i, "children": [n0 + i + 1] if i < 599 else [0]})
+        root["scenes"][0]["nodes"] = [n0] + root["scenes"][0]["nodes"][1:]
+    add(lambda: tri_ok("bad/deep_hierarchy.gltf", "a chain of 600 nested nodes above the mesh (no recursion limit)",
+                       [], deep_chain))
+    return makers
+
+
+HOSTILE_MAKERS = hostile_makers()
+
 MAKERS = [
     make_triangle_gltf_external, make_triangle_datauri, make_triangle_glb, make_no_indices,
     make_no_normals, make_strip_fan, make_points_lines, make_hierarchy_trs, make_negative_scale,
@@ -1298,7 +1509,7 @@ MAKERS = [
     make_bad_base64, make_bad_cyclic_nodes, make_bad_empty_scene, make_bad_dangling_accessor,
     make_bad_missing_position, make_bad_accessor_past_view, make_bad_percent_encoding,
     make_bad_not_gltf, make_bad_does_not_exist,
-]
+] + HOSTILE_MAKERS
 
 
 # =============================================================================================
@@ -1408,7 +1619,7 @@ def analyse(path):
     identity = [[1 if r == c else 0 for c in range(4)] for r in range(4)]
 
     def visit(ni, parent, depth):
-        assert depth < 64
+        assert depth < 900
         node = root["nodes"][ni]
         m = mat_mul(parent, node_matrix(node))
         if "camera" in node:
