@@ -178,6 +178,14 @@ pub fn render(
                                         |q| camera.depth(q),
                                         &mut ts.rays,
                                     ),
+                                    Integrator::Photon(p) => p.li(
+                                        ctx,
+                                        org,
+                                        dir,
+                                        &mut sampler,
+                                        |q| camera.depth(q),
+                                        &mut ts.rays,
+                                    ),
                                 };
                                 if s.radiance.is_finite() {
                                     acc.add(&s);

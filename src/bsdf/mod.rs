@@ -52,6 +52,15 @@ impl Bsdf {
         }
     }
 
+    /// True for a delta (perfectly specular) BSDF, which photon mapping treats as
+    /// specular: photons are not stored on it and paths continue through it.
+    #[inline]
+    pub fn is_delta(&self) -> bool {
+        match self {
+            Bsdf::Pbr(_) => false,
+        }
+    }
+
     /// Colour for the "Denoising Albedo" pass.
     pub fn albedo(&self) -> Rgb {
         match self {
