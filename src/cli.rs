@@ -93,7 +93,7 @@ pub struct PhotonArgs {
     /// Photons emitted for the caustic map (photon integrator) [default: 100000].
     #[arg(long)]
     pub caustic_photons: Option<u64>,
-    /// Neighbours per radiance estimate (1..=1024) [default: 50].
+    /// Neighbours per radiance estimate (1..=256) [default: 50].
     #[arg(long)]
     pub k: Option<usize>,
     /// Maximum photon search radius in scene units [default: 0.1 × the scene's bounding radius].

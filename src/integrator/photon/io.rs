@@ -287,7 +287,7 @@ mod tests {
         let bytes = std::fs::read(&path).unwrap();
         std::fs::write(&path, &bytes[..bytes.len() - 5]).unwrap();
         assert!(PhotonMaps::load(&path, 0xabcdef).is_err());
-        std::fs::write(&path, b"not a map at all, just text, long enough for a header....").unwrap();
+        std::fs::write(&path, b"not a photon map at all: plain text, comfortably longer than the 60-byte header.").unwrap();
         assert!(PhotonMaps::load(&path, 0xabcdef).unwrap_err().to_string().contains("magic"));
         let _ = std::fs::remove_dir_all(&dir);
     }

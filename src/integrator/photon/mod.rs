@@ -163,7 +163,7 @@ fn oct_decode(code: u32, bits: u32) -> Vec3 {
 }
 
 /// Largest k accepted (the k-NN heap lives on the stack).
-pub const MAX_K: usize = 1024;
+pub const MAX_K: usize = 256;
 
 /// Every photon-mapping parameter with its default, in one place.
 #[derive(Clone, Debug, PartialEq)]
