@@ -22,7 +22,7 @@ use crate::integrator::{RayStats, SceneContext, ShadingPoint, SurfaceHit, power_
 use crate::math::{Frame, Rgb};
 use glam::{Vec2, Vec3};
 
-/// Photons whose normal is within 60° of the query's count.
+/// Photons whose normal is within 60° of the query's count (`Photon::normal_within_60`).
 pub const NORMAL_COS: f32 = 0.5;
 
 /// Cone-filtered density estimate of Σ weight(p) Φp per unit area at `q` on a surface
@@ -41,7 +41,7 @@ pub fn estimate(
         return (Rgb::ZERO, max_r2);
     }
     let mut res = KnnResult::new(k);
-    map.knn(q, max_r2, |p| p.normal().dot(n) > NORMAL_COS && filter(p), &mut res);
+    map.knn(q, max_r2, |p| p.normal_within_60(n) && filter(p), &mut res);
     let r2 = if res.full() { res.max_d2() } else { max_r2 };
     if !(r2 > 0.0) {
         return (Rgb::ZERO, max_r2);

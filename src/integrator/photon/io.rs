@@ -12,7 +12,8 @@
 //! seed       u32
 //! emitted    u64 × 2  photons emitted for the global and the caustic map
 //! count      u64 × 2  photons stored in each
-//! photons    32 bytes each, global then caustic, in kd-tree order:
+//! photons    32 bytes each, global then caustic, in kd-tree order (leaves of ≤ 8
+//!            photons; a change of that layout needs a new version):
 //!            position f32×3, power f32×3, direction word u32, meta word u32
 //! ```
 //! A map made for another scene file (different bytes) is refused with a clear error.

@@ -86,6 +86,15 @@ impl Photon {
         oct_decode(self.meta & 0xf_ffff, 10)
     }
 
+    /// True when the photon's surface normal is within 60° of unit `n` (cos > 0.5),
+    /// without normalising the decoded normal.
+    #[inline]
+    pub fn normal_within_60(&self, n: Vec3) -> bool {
+        let v = oct_decode_raw(self.meta & 0xf_ffff, 10);
+        let d = v.dot(n);
+        d > 0.0 && d * d > 0.25 * v.length_squared()
+    }
+
     /// Hit index: 1 for the first surface the photon hit (direct light).
     #[inline]
     pub fn depth(&self) -> u32 {
@@ -148,18 +157,23 @@ fn oct_encode(v: Vec3, bits: u32) -> u32 {
 /// Inverse of [`oct_encode`].
 #[inline]
 fn oct_decode(code: u32, bits: u32) -> Vec3 {
+    oct_decode_raw(code, bits).normalize_or(Vec3::Z)
+}
+
+/// The octahedral map's point before normalisation.
+#[inline]
+fn oct_decode_raw(code: u32, bits: u32) -> Vec3 {
     let mask = (1u32 << bits) - 1;
     let max = mask as f32;
     let x = (code & mask) as f32 / max * 2.0 - 1.0;
     let y = ((code >> bits) & mask) as f32 / max * 2.0 - 1.0;
     let z = 1.0 - x.abs() - y.abs();
     let t = (-z).max(0.0);
-    let v = Vec3::new(
+    Vec3::new(
         x + if x >= 0.0 { -t } else { t },
         y + if y >= 0.0 { -t } else { t },
         z,
-    );
-    v.normalize_or(Vec3::Z)
+    )
 }
 
 /// Largest k accepted (the k-NN heap lives on the stack).

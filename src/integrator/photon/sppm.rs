@@ -27,7 +27,7 @@
 //! other than those of the first hit.
 
 use super::emit::Emitters;
-use super::estimate::{NORMAL_COS, direct_light};
+use super::estimate::direct_light;
 use super::trace::{MapKind, TraceJob, trace_photons};
 use super::{PhotonMap, PhotonSettings};
 use crate::bsdf::Bsdf;
@@ -192,7 +192,7 @@ pub fn render(
                     let mut phi = Rgb::ZERO;
                     let mut m = 0u32;
                     map.for_each_within(vp.p, r2, |ph, _| {
-                        if ph.depth() <= jmax && ph.normal().dot(vp.ng) > NORMAL_COS {
+                        if ph.depth() <= jmax && ph.normal_within_60(vp.ng) {
                             let wi = vp.frame.to_local(ph.wi());
                             phi += vp.bsdf.eval(vp.wo_local, wi) * ph.power();
                             m += 1;
