@@ -482,3 +482,45 @@ fn photon_map_reuse_and_determinism() {
     assert!(r.error_message().unwrap_or_default().contains("different scene"));
     assert!(!out.exists());
 }
+
+/// The photon settings are read from `extras.caustic` (flags override them), are
+/// validated, and bad values are usage errors (exit 2).
+#[test]
+fn photon_settings_from_scene_and_flags() {
+    let dir = temp_dir();
+    let mut g = GltfBuilder::new();
+    let m = g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1], "metallicFactor": 0.0}}));
+    g.cube([-1.0, -1.0, -3.0], [1.0, 1.0, -2.0], m);
+    g.punctual(json!({"type": "point", "intensity": 683.0}), [0.0, 2.0, 0.0], [0.0, 0.0, 0.0, 1.0]);
+    g.camera([0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0], 0.8);
+    g.settings(json!({"integrator": "sppm", "sppm_iterations": 3, "sppm_radius": 0.05, "photons": 1000,
+        "caustic_photons": 10, "k": 20, "max_radius": 0.1, "gather_rays": 2, "diffuse_bounces": 1, "sppm_photons": 500}));
+    let path = g.write(dir.path(), "s.gltf");
+    let out = dir.path().join("s.exr");
+    let args = |extra: &[&str]| {
+        let mut a = vec!["render", path.to_str().unwrap(), "-o", out.to_str().unwrap(), "--resolution", "8x8", "--progress", "json"];
+        a.extend_from_slice(extra);
+        run(&a, LIMIT)
+    };
+    let r = args(&[]);
+    assert_eq!(r.code, Some(0), "{}", r.stderr);
+    let s = r.summary().unwrap();
+    assert!(s["integrator"].as_str().unwrap().starts_with("sppm (3 iterations, 500 photons"), "{}", s["integrator"]);
+    assert_eq!(s["spp"], 3);
+    let r = args(&["--integrator", "photon", "--spp", "1"]);
+    assert_eq!(r.code, Some(0), "{}", r.stderr);
+    let d = r.summary().unwrap()["integrator"].as_str().unwrap().to_string();
+    assert!(d.contains("global 1000 photons") && d.contains("k 20") && d.contains("2 gather rays"), "{d}");
+    for (bad, word) in [
+        (vec!["--k", "0"], "k"),
+        (vec!["--k", "100000"], "k"),
+        (vec!["--gather-rays", "0"], "gather"),
+        (vec!["--max-radius=-1"], "radius"),
+        (vec!["--sppm-iterations", "0"], "iterations"),
+        (vec!["--integrator", "path", "--photon-map", "x.pm"], "photon-map"),
+    ] {
+        let r = args(&bad);
+        assert_eq!(r.code, Some(2), "{bad:?}: {}", r.stderr);
+        assert!(r.error_message().unwrap_or_default().contains(word), "{bad:?}: {:?}", r.error_message());
+    }
+}

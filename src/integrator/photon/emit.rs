@@ -63,6 +63,23 @@ pub fn spot_power_factor(cos_inner: f32, cos_outer: f32) -> (f32, f32, f32, f32)
     (a_ramp, a_flat, c1, w)
 }
 
+/// A direction around +Z with density ∝ glTF's spot falloff (exactly): cos θ is drawn
+/// from the ramp's cubic inverse CDF or uniformly on the flat part, by their masses.
+#[inline]
+pub fn spot_direction(u: Vec2, cos_inner: f32, cos_outer: f32) -> Vec3 {
+    let (a_ramp, a_flat, c1, _) = spot_power_factor(cos_inner, cos_outer);
+    let p_ramp = a_ramp / (a_ramp + a_flat);
+    let c = if u.x < p_ramp {
+        cos_outer + (c1 - cos_outer) * (u.x / p_ramp).cbrt()
+    } else {
+        c1 + (1.0 - c1) * ((u.x - p_ramp) / (1.0 - p_ramp))
+    };
+    let c = c.clamp(-1.0, 1.0);
+    let s = (1.0 - c * c).max(0.0).sqrt();
+    let ph = 2.0 * PI * u.y;
+    Vec3::new(s * ph.cos(), s * ph.sin(), c)
+}
+
 impl Emitters {
     /// Computes each light's exact power and the selection distribution.
     pub fn new(scene: &Scene) -> Self {
@@ -158,20 +175,7 @@ impl Emitters {
                 cos_outer,
                 ..
             } => {
-                let (a_ramp, a_flat, c1, _) = spot_power_factor(*cos_inner, *cos_outer);
-                // cos θ with density ∝ falloff(cos θ) on [cos_outer, 1].
-                let p_ramp = a_ramp / (a_ramp + a_flat);
-                let c = if u_dir.x < p_ramp {
-                    let u = u_dir.x / p_ramp;
-                    cos_outer + (c1 - cos_outer) * u.cbrt()
-                } else {
-                    let u = (u_dir.x - p_ramp) / (1.0 - p_ramp);
-                    c1 + (1.0 - c1) * u
-                };
-                let c = c.clamp(-1.0, 1.0);
-                let s = (1.0 - c * c).max(0.0).sqrt();
-                let ph = 2.0 * PI * u_dir.y;
-                let local = Vec3::new(s * ph.cos(), s * ph.sin(), c);
+                let local = spot_direction(u_dir, *cos_inner, *cos_outer);
                 Some(EmittedPhoton {
                     org: *position,
                     dir: Frame::from_normal(*direction).to_world(local),
@@ -250,6 +254,20 @@ fn ratio(a: f32, b: f32) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Spot photon directions follow falloff(cos θ) / (2π (a_ramp + a_flat)) (χ² test).
+    #[test]
+    fn chi2_spot_directions() {
+        use crate::sampling::chi2::{ChiSquareTest, assert_chi2};
+        for (ci, co) in [(0.9f32, 0.5f32), (0.99, 0.9), (0.3, 0.0)] {
+            let (a, b, _, _) = spot_power_factor(ci, co);
+            let t = ChiSquareTest::new(&format!("spot photons {ci} {co}"));
+            assert_chi2(t.run(
+                |u| Some(spot_direction(u, ci, co)),
+                |w| crate::light::spot_falloff(w.z, ci, co) / (2.0 * PI * (a + b)),
+            ));
+        }
+    }
 
     /// The spot's falloff integrated numerically equals the closed form.
     #[test]
