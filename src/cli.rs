@@ -5,8 +5,8 @@ use crate::accel::Accel;
 use crate::error::{Error, Result};
 use crate::film::Filter;
 use crate::integrator::path::PathIntegrator;
-use crate::integrator::photon::io::PhotonMaps;
 use crate::integrator::photon;
+use crate::integrator::photon::io::PhotonMaps;
 use crate::integrator::photon::jensen::JensenIntegrator;
 use crate::integrator::photon::{MAX_K, PhotonSettings, default_max_radius};
 use crate::integrator::{Integrator, SceneContext};
@@ -335,13 +335,16 @@ pub fn resolve_photon(a: &PhotonArgs, st: &scene::SceneSettings) -> Result<Photo
     if !(1..=MAX_K).contains(&p.k) {
         return Err(Error::Usage(format!("--k {} must be in 1..={MAX_K}", p.k)));
     }
-    for (name, v) in [("--max-radius", p.max_radius), ("--sppm-radius", p.sppm_radius)] {
-        if let Some(r) = v {
-            if !(r > 0.0 && r.is_finite()) {
-                return Err(Error::Usage(format!(
-                    "{name} {r} must be a positive radius"
-                )));
-            }
+    for (name, v) in [
+        ("--max-radius", p.max_radius),
+        ("--sppm-radius", p.sppm_radius),
+    ] {
+        if let Some(r) = v
+            && !(r > 0.0 && r.is_finite())
+        {
+            return Err(Error::Usage(format!(
+                "{name} {r} must be a positive radius"
+            )));
         }
     }
     if p.gather_rays == 0 || p.gather_rays > 65_536 {
@@ -614,7 +617,15 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
                 None => {
                     let hash = photon::io::scene_hash(&args.scene)?;
                     let (maps, st) = pool.install(|| {
-                        trace_maps(&ctx, &res.photon, res.job_seed, res.max_depth, hash, reporter, stop)
+                        trace_maps(
+                            &ctx,
+                            &res.photon,
+                            res.job_seed,
+                            res.max_depth,
+                            hash,
+                            reporter,
+                            stop,
+                        )
                     });
                     photon_stats = map_stats_json(&maps, &st);
                     maps
@@ -687,38 +698,38 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         r
     } else {
         pool.install(|| {
-        render::render(
-            &ctx,
-            &camera,
-            &job,
-            stop,
-            &|p| {
-                reporter.progress(
-                    p.fraction,
-                    p.samples_done,
-                    p.samples_total,
-                    p.elapsed,
-                    p.eta,
-                    p.rays_per_sec,
-                )
-            },
-            &mut |film, spp| {
-                if let Some(every) = interim {
-                    if last_interim.elapsed() >= every && Some(spp) != job.spp {
-                        let mut img = film.image();
-                        if !res.transparent {
-                            img.make_opaque();
+            render::render(
+                &ctx,
+                &camera,
+                &job,
+                stop,
+                &|p| {
+                    reporter.progress(
+                        p.fraction,
+                        p.samples_done,
+                        p.samples_total,
+                        p.elapsed,
+                        p.eta,
+                        p.rays_per_sec,
+                    )
+                },
+                &mut |film, spp| {
+                    if let Some(every) = interim {
+                        if last_interim.elapsed() >= every && Some(spp) != job.spp {
+                            let mut img = film.image();
+                            if !res.transparent {
+                                img.make_opaque();
+                            }
+                            match output::write_exr(&args.output, &img, args.half) {
+                                Ok(()) => reporter.image(&out_str, spp, false),
+                                Err(e) => interim_error = Some(e),
+                            }
+                            last_interim = Instant::now();
                         }
-                        match output::write_exr(&args.output, &img, args.half) {
-                            Ok(()) => reporter.image(&out_str, spp, false),
-                            Err(e) => interim_error = Some(e),
-                        }
-                        last_interim = Instant::now();
                     }
-                }
-            },
-        )
-    })
+                },
+            )
+        })
     };
     if let Some(e) = interim_error {
         return Err(e);
@@ -1100,7 +1111,10 @@ pub fn run_bench(args: &BenchArgs, stop: &AtomicBool) -> Result<()> {
     );
     let p = &figures["photons"];
     if !p.is_null() {
-        println!("integrator        {}", s["integrator"].as_str().unwrap_or(""));
+        println!(
+            "integrator        {}",
+            s["integrator"].as_str().unwrap_or("")
+        );
         println!(
             "photons traced/s  {:.3} M ({} emitted, {} rays)",
             f(&p["photons_traced_per_sec"]) / 1e6,

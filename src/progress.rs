@@ -119,7 +119,14 @@ impl Reporter {
     }
 
     /// Photon-tracing progress (the "photons" phase).
-    pub fn photon_progress(&self, fraction: f64, photons_done: u64, photons_total: u64, elapsed: f64, photons_per_sec: f64) {
+    pub fn photon_progress(
+        &self,
+        fraction: f64,
+        photons_done: u64,
+        photons_total: u64,
+        elapsed: f64,
+        photons_per_sec: f64,
+    ) {
         match self.mode {
             ProgressMode::Json => self.json_line(json!({
                 "type": "progress", "phase": "photons", "fraction": fraction, "photons_done": photons_done,

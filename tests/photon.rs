@@ -20,10 +20,10 @@ mod common;
 
 use caustic::accel::Accel;
 use caustic::integrator::SceneContext;
+use caustic::integrator::photon::PhotonMap;
 use caustic::integrator::photon::emit::Emitters;
 use caustic::integrator::photon::estimate::estimate;
 use caustic::integrator::photon::trace::{MapKind, TraceJob, trace_photons};
-use caustic::integrator::photon::PhotonMap;
 use common::{GltfBuilder, look_rotation, root, run, temp_dir};
 use glam::{DVec3, Vec2, Vec3};
 use serde_json::json;
@@ -130,11 +130,16 @@ fn edge_bias(r: f64, perimeter: f64, area: f64) -> f64 {
 fn emitted_power_sums_to_light_power() {
     let dir = temp_dir();
     let q = glam::Quat::from_rotation_x(std::f32::consts::FRAC_PI_2);
-    let lights: Vec<(&str, Box<dyn Fn(&mut GltfBuilder)>)> = vec![
+    type AddLight = Box<dyn Fn(&mut GltfBuilder)>;
+    let lights: Vec<(&str, AddLight)> = vec![
         (
             "point",
             Box::new(|g: &mut GltfBuilder| {
-                g.punctual(json!({"type": "point", "intensity": 683.0, "color": [1.0, 0.5, 0.25]}), [0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]);
+                g.punctual(
+                    json!({"type": "point", "intensity": 683.0, "color": [1.0, 0.5, 0.25]}),
+                    [0.0, 1.0, 0.0],
+                    [0.0, 0.0, 0.0, 1.0],
+                );
             }),
         ),
         (
@@ -146,7 +151,11 @@ fn emitted_power_sums_to_light_power() {
         (
             "directional",
             Box::new(|g: &mut GltfBuilder| {
-                g.punctual(json!({"type": "directional", "intensity": 500.0}), [0.0, 3.0, 0.0], look_rotation([0.3, -1.0, 0.1]));
+                g.punctual(
+                    json!({"type": "directional", "intensity": 500.0}),
+                    [0.0, 3.0, 0.0],
+                    look_rotation([0.3, -1.0, 0.1]),
+                );
             }),
         ),
         (
@@ -161,22 +170,45 @@ fn emitted_power_sums_to_light_power() {
             "emissive one-sided",
             Box::new(|g: &mut GltfBuilder| {
                 let m = g.material(json!({"emissiveFactor": [1.0, 0.2, 0.4]}));
-                g.mesh(&[[0.0, 1.0, 0.0], [0.3, 1.0, 0.0], [0.0, 1.0, 0.4]], &[0, 1, 2], m);
+                g.mesh(
+                    &[[0.0, 1.0, 0.0], [0.3, 1.0, 0.0], [0.0, 1.0, 0.4]],
+                    &[0, 1, 2],
+                    m,
+                );
             }),
         ),
         (
             "emissive two-sided",
             Box::new(|g: &mut GltfBuilder| {
                 let m = g.material(json!({"emissiveFactor": [0.3, 0.9, 0.4], "doubleSided": true}));
-                g.mesh(&[[0.0, 1.2, 0.0], [0.5, 1.2, 0.0], [0.0, 1.3, 0.4], [0.6, 1.3, 0.5]], &[0, 1, 2, 1, 3, 2], m);
+                g.mesh(
+                    &[
+                        [0.0, 1.2, 0.0],
+                        [0.5, 1.2, 0.0],
+                        [0.0, 1.3, 0.4],
+                        [0.6, 1.3, 0.5],
+                    ],
+                    &[0, 1, 2, 1, 3, 2],
+                    m,
+                );
             }),
         ),
     ];
     let n = 1u64 << 14;
     let check = |name: &str, builders: &[&dyn Fn(&mut GltfBuilder)]| {
         let mut g = GltfBuilder::new();
-        let floor = g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1]}}));
-        g.mesh(&[[-2.0, 0.0, -2.0], [2.0, 0.0, -2.0], [2.0, 0.0, 2.0], [-2.0, 0.0, 2.0]], &[0, 2, 1, 0, 3, 2], floor);
+        let floor =
+            g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1]}}));
+        g.mesh(
+            &[
+                [-2.0, 0.0, -2.0],
+                [2.0, 0.0, -2.0],
+                [2.0, 0.0, 2.0],
+                [-2.0, 0.0, 2.0],
+            ],
+            &[0, 2, 1, 0, 3, 2],
+            floor,
+        );
         for b in builders {
             b(&mut g);
         }
@@ -240,8 +272,21 @@ fn point_light_irradiance_converges() {
     let (h, intensity) = (1.0f64, 1.0f64);
     let mut g = GltfBuilder::new();
     let m = g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0.0, 0.0, 0.0, 1], "metallicFactor": 0.0, "roughnessFactor": 1.0}}));
-    g.mesh(&[[-50.0, 0.0, -50.0], [50.0, 0.0, -50.0], [50.0, 0.0, 50.0], [-50.0, 0.0, 50.0]], &[0, 2, 1, 0, 3, 2], m);
-    g.punctual(json!({"type": "point", "intensity": 683.0 * intensity}), [0.0, h as f32, 0.0], [0.0, 0.0, 0.0, 1.0]);
+    g.mesh(
+        &[
+            [-50.0, 0.0, -50.0],
+            [50.0, 0.0, -50.0],
+            [50.0, 0.0, 50.0],
+            [-50.0, 0.0, 50.0],
+        ],
+        &[0, 2, 1, 0, 3, 2],
+        m,
+    );
+    g.punctual(
+        json!({"type": "point", "intensity": 683.0 * intensity}),
+        [0.0, h as f32, 0.0],
+        [0.0, 0.0, 0.0, 1.0],
+    );
     let path = g.write(dir.path(), "plane.gltf");
     let (scene, accel) = load(&path);
     let ctx = SceneContext::new(&scene, &accel);
@@ -253,7 +298,14 @@ fn point_light_irradiance_converges() {
     let measure = |n: u64, r2: f32| -> (f64, f64) {
         let mut errs = Vec::with_capacity(runs as usize);
         for seed in 0..runs {
-            let job = TraceJob { kind: MapKind::Global, count: n, seed, pass: 0, max_depth: 1, skip_direct: false };
+            let job = TraceJob {
+                kind: MapKind::Global,
+                count: n,
+                seed,
+                pass: 0,
+                max_depth: 1,
+                skip_direct: false,
+            };
             let (ph, _) = trace_photons(&ctx, &em, &job, &stop, &|_| {});
             let map = PhotonMap::build(ph);
             let mut found = 0;
@@ -284,7 +336,11 @@ fn point_light_irradiance_converges() {
     let (b4, se4) = measure(4 * n0, r2_0 / 2.0);
     let (p1, p4) = (predicted(r2_0 as f64), predicted(r2_0 as f64 / 2.0));
     eprintln!("N={n0}, r²={r2_0}: bias {b1:.5} ± {se1:.5} (predicted {p1:.5})");
-    eprintln!("N={}, r²={}: bias {b4:.5} ± {se4:.5} (predicted {p4:.5})", 4 * n0, r2_0 / 2.0);
+    eprintln!(
+        "N={}, r²={}: bias {b4:.5} ± {se4:.5} (predicted {p4:.5})",
+        4 * n0,
+        r2_0 / 2.0
+    );
     assert!((b1 - p1).abs() <= 5.0 * se1, "N: {b1} vs {p1}");
     assert!((b4 - p4).abs() <= 5.0 * se4, "4N: {b4} vs {p4}");
     assert!(b4.abs() < b1.abs(), "the bias must fall: {b1} -> {b4}");
@@ -323,11 +379,33 @@ fn cornell_photon_matches_path_tracing() {
     };
     let pt_a = r("pt_a.exr", &["--spp", "1024", "--seed", "1"]);
     let pt_b = r("pt_b.exr", &["--spp", "1024", "--seed", "2"]);
-    let d_a = r("d_a.exr", &["--spp", "256", "--seed", "1", "--max-depth", "1"]);
-    let d_b = r("d_b.exr", &["--spp", "256", "--seed", "2", "--max-depth", "1"]);
+    let d_a = r(
+        "d_a.exr",
+        &["--spp", "256", "--seed", "1", "--max-depth", "1"],
+    );
+    let d_b = r(
+        "d_b.exr",
+        &["--spp", "256", "--seed", "2", "--max-depth", "1"],
+    );
     let max_radius = 0.02f64;
     let pm = |name: &str, seed: &str| {
-        r(name, &["--integrator", "photon", "--spp", "64", "--gather-rays", "4", "--photons", "200000", "--max-radius", "0.02", "--seed", seed])
+        r(
+            name,
+            &[
+                "--integrator",
+                "photon",
+                "--spp",
+                "64",
+                "--gather-rays",
+                "4",
+                "--photons",
+                "200000",
+                "--max-radius",
+                "0.02",
+                "--seed",
+                seed,
+            ],
+        )
     };
     let pm_a = pm("pm_a.exr", "1");
     let pm_b = pm("pm_b.exr", "2");
@@ -345,7 +423,10 @@ fn cornell_photon_matches_path_tracing() {
             "{name}: PT {pt:.5} ± {se_pt:.5}, PM {pm:.5} ± {se_pm:.5}, diff {:.5}, bound {bound:.5} (indirect {indirect:.4})",
             pm - pt
         );
-        assert!((pm - pt).abs() <= bound, "{name}: PM {pm} vs PT {pt}, bound {bound}");
+        assert!(
+            (pm - pt).abs() <= bound,
+            "{name}: PM {pm} vs PT {pt}, bound {bound}"
+        );
     }
 }
 
@@ -383,8 +464,28 @@ fn cornell_sppm_error_falls_with_iterations() {
     let mut e4 = 0.0;
     let mut e32 = 0.0;
     for seed in ["1", "2", "3"] {
-        let a = r("s4.exr", &["--integrator", "sppm", "--sppm-iterations", "4", "--seed", seed]);
-        let b = r("s32.exr", &["--integrator", "sppm", "--sppm-iterations", "32", "--seed", seed]);
+        let a = r(
+            "s4.exr",
+            &[
+                "--integrator",
+                "sppm",
+                "--sppm-iterations",
+                "4",
+                "--seed",
+                seed,
+            ],
+        );
+        let b = r(
+            "s32.exr",
+            &[
+                "--integrator",
+                "sppm",
+                "--sppm-iterations",
+                "32",
+                "--seed",
+                seed,
+            ],
+        );
         let (ea, eb) = (mse(&a, &ref_a, &ref_b), mse(&b, &ref_a, &ref_b));
         eprintln!("seed {seed}: MSE after 4 iterations {ea:.3e}, after 32 {eb:.3e}");
         e4 += ea;
@@ -419,15 +520,50 @@ fn furnace_photon_and_sppm() {
     let d = depth.to_string();
     let radius = 0.05f64;
     for (label, extra) in [
-        ("photon", vec!["--integrator", "photon", "--spp", "8", "--photons", "100000", "--gather-rays", "4", "--max-radius", "0.05"]),
-        ("sppm", vec!["--integrator", "sppm", "--sppm-iterations", "16", "--sppm-radius", "0.05"]),
+        (
+            "photon",
+            vec![
+                "--integrator",
+                "photon",
+                "--spp",
+                "8",
+                "--photons",
+                "100000",
+                "--gather-rays",
+                "4",
+                "--max-radius",
+                "0.05",
+            ],
+        ),
+        (
+            "sppm",
+            vec![
+                "--integrator",
+                "sppm",
+                "--sppm-iterations",
+                "16",
+                "--sppm-radius",
+                "0.05",
+            ],
+        ),
     ] {
         let mut means = Vec::new();
         let mut imgs = Vec::new();
         for seed in ["1", "2"] {
-            let mut a = vec!["--resolution", "24x24", "--max-depth", d.as_str(), "--seed", seed];
+            let mut a = vec![
+                "--resolution",
+                "24x24",
+                "--max-depth",
+                d.as_str(),
+                "--seed",
+                seed,
+            ];
             a.extend_from_slice(&extra);
-            let px = render(&scene_path, &dir.path().join(format!("{label}{seed}.exr")), &a);
+            let px = render(
+                &scene_path,
+                &dir.path().join(format!("{label}{seed}.exr")),
+                &a,
+            );
             means.push(px.iter().map(lum).sum::<f64>() / px.len() as f64);
             imgs.push(px);
         }
@@ -435,8 +571,13 @@ fn furnace_photon_and_sppm() {
         let (mean, se) = region_stats(&imgs[0], &imgs[1], &idx);
         let bias = edge_bias(radius, perimeter, area) * (depth - 1) as f64 * le;
         let bound = 5.0 * se + systematic + bias;
-        eprintln!("{label}: mean {mean:.5} ± {se:.5}, expected {expect}, bound {bound:.5} (edge bias ≤ {bias:.5})");
-        assert!((mean - expect).abs() <= bound, "{label}: {mean} vs {expect} (bound {bound})");
+        eprintln!(
+            "{label}: mean {mean:.5} ± {se:.5}, expected {expect}, bound {bound:.5} (edge bias ≤ {bias:.5})"
+        );
+        assert!(
+            (mean - expect).abs() <= bound,
+            "{label}: {mean} vs {expect} (bound {bound})"
+        );
     }
 }
 
@@ -448,12 +589,38 @@ fn photon_map_reuse_and_determinism() {
     let dir = temp_dir();
     let map = dir.path().join("cornell.pm");
     let r = run(
-        &["photons", cornell().to_str().unwrap(), "-o", map.to_str().unwrap(), "--photons", "50000", "--caustic-photons", "1000", "--progress", "json"],
+        &[
+            "photons",
+            cornell().to_str().unwrap(),
+            "-o",
+            map.to_str().unwrap(),
+            "--photons",
+            "50000",
+            "--caustic-photons",
+            "1000",
+            "--progress",
+            "json",
+        ],
         LIMIT,
     );
     assert_eq!(r.code, Some(0), "{}", r.stderr);
-    assert!(r.json_lines().iter().any(|v| v["type"] == "progress" && v["phase"] == "photons"));
-    let common = ["--resolution", "24x24", "--spp", "2", "--integrator", "photon", "--photons", "50000", "--caustic-photons", "1000"];
+    assert!(
+        r.json_lines()
+            .iter()
+            .any(|v| v["type"] == "progress" && v["phase"] == "photons")
+    );
+    let common = [
+        "--resolution",
+        "24x24",
+        "--spp",
+        "2",
+        "--integrator",
+        "photon",
+        "--photons",
+        "50000",
+        "--caustic-photons",
+        "1000",
+    ];
     let with = |name: &str, extra: &[&str]| {
         let mut a = common.to_vec();
         a.extend_from_slice(extra);
@@ -461,25 +628,76 @@ fn photon_map_reuse_and_determinism() {
     };
     let traced1 = with("t1.exr", &["--threads", "1"]);
     let traced2 = with("t2.exr", &["--threads", "2"]);
-    assert!(traced1 == traced2, "photon mapping must not depend on the thread count");
+    assert!(
+        traced1 == traced2,
+        "photon mapping must not depend on the thread count"
+    );
     let loaded = with("l.exr", &["--photon-map", map.to_str().unwrap()]);
-    assert!(loaded == traced1, "a loaded map must render as the traced one");
-    let s1 = render(&cornell(), &dir.path().join("s1.exr"), &["--resolution", "24x24", "--integrator", "sppm", "--sppm-iterations", "3", "--threads", "1"]);
-    let s2 = render(&cornell(), &dir.path().join("s2.exr"), &["--resolution", "24x24", "--integrator", "sppm", "--sppm-iterations", "3", "--threads", "2"]);
+    assert!(
+        loaded == traced1,
+        "a loaded map must render as the traced one"
+    );
+    let s1 = render(
+        &cornell(),
+        &dir.path().join("s1.exr"),
+        &[
+            "--resolution",
+            "24x24",
+            "--integrator",
+            "sppm",
+            "--sppm-iterations",
+            "3",
+            "--threads",
+            "1",
+        ],
+    );
+    let s2 = render(
+        &cornell(),
+        &dir.path().join("s2.exr"),
+        &[
+            "--resolution",
+            "24x24",
+            "--integrator",
+            "sppm",
+            "--sppm-iterations",
+            "3",
+            "--threads",
+            "2",
+        ],
+    );
     assert!(s1 == s2, "SPPM must not depend on the thread count");
     // Another scene file: a copy with one byte changed (a trailing space).
     let other = dir.path().join("other.gltf");
-    std::fs::copy(root().join("scenes/cornell_box.bin"), dir.path().join("cornell_box.bin")).unwrap();
+    std::fs::copy(
+        root().join("scenes/cornell_box.bin"),
+        dir.path().join("cornell_box.bin"),
+    )
+    .unwrap();
     let mut bytes = std::fs::read(cornell()).unwrap();
     bytes.push(b' ');
     std::fs::write(&other, bytes).unwrap();
     let out = dir.path().join("x.exr");
     let r = run(
-        &["render", other.to_str().unwrap(), "-o", out.to_str().unwrap(), "--integrator", "photon", "--photon-map", map.to_str().unwrap(), "--progress", "json"],
+        &[
+            "render",
+            other.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--integrator",
+            "photon",
+            "--photon-map",
+            map.to_str().unwrap(),
+            "--progress",
+            "json",
+        ],
         LIMIT,
     );
     assert_eq!(r.code, Some(2), "{}", r.stderr);
-    assert!(r.error_message().unwrap_or_default().contains("different scene"));
+    assert!(
+        r.error_message()
+            .unwrap_or_default()
+            .contains("different scene")
+    );
     assert!(!out.exists());
 }
 
@@ -491,36 +709,69 @@ fn photon_settings_from_scene_and_flags() {
     let mut g = GltfBuilder::new();
     let m = g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1], "metallicFactor": 0.0}}));
     g.cube([-1.0, -1.0, -3.0], [1.0, 1.0, -2.0], m);
-    g.punctual(json!({"type": "point", "intensity": 683.0}), [0.0, 2.0, 0.0], [0.0, 0.0, 0.0, 1.0]);
+    g.punctual(
+        json!({"type": "point", "intensity": 683.0}),
+        [0.0, 2.0, 0.0],
+        [0.0, 0.0, 0.0, 1.0],
+    );
     g.camera([0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0], 0.8);
     g.settings(json!({"integrator": "sppm", "sppm_iterations": 3, "sppm_radius": 0.05, "photons": 1000,
         "caustic_photons": 10, "k": 20, "max_radius": 0.1, "gather_rays": 2, "diffuse_bounces": 1, "sppm_photons": 500}));
     let path = g.write(dir.path(), "s.gltf");
     let out = dir.path().join("s.exr");
     let args = |extra: &[&str]| {
-        let mut a = vec!["render", path.to_str().unwrap(), "-o", out.to_str().unwrap(), "--resolution", "8x8", "--progress", "json"];
+        let mut a = vec![
+            "render",
+            path.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--resolution",
+            "8x8",
+            "--progress",
+            "json",
+        ];
         a.extend_from_slice(extra);
         run(&a, LIMIT)
     };
     let r = args(&[]);
     assert_eq!(r.code, Some(0), "{}", r.stderr);
     let s = r.summary().unwrap();
-    assert!(s["integrator"].as_str().unwrap().starts_with("sppm (3 iterations, 500 photons"), "{}", s["integrator"]);
+    assert!(
+        s["integrator"]
+            .as_str()
+            .unwrap()
+            .starts_with("sppm (3 iterations, 500 photons"),
+        "{}",
+        s["integrator"]
+    );
     assert_eq!(s["spp"], 3);
     let r = args(&["--integrator", "photon", "--spp", "1"]);
     assert_eq!(r.code, Some(0), "{}", r.stderr);
-    let d = r.summary().unwrap()["integrator"].as_str().unwrap().to_string();
-    assert!(d.contains("global 1000 photons") && d.contains("k 20") && d.contains("2 gather rays"), "{d}");
+    let d = r.summary().unwrap()["integrator"]
+        .as_str()
+        .unwrap()
+        .to_string();
+    assert!(
+        d.contains("global 1000 photons") && d.contains("k 20") && d.contains("2 gather rays"),
+        "{d}"
+    );
     for (bad, word) in [
         (vec!["--k", "0"], "k"),
         (vec!["--k", "100000"], "k"),
         (vec!["--gather-rays", "0"], "gather"),
         (vec!["--max-radius=-1"], "radius"),
         (vec!["--sppm-iterations", "0"], "iterations"),
-        (vec!["--integrator", "path", "--photon-map", "x.pm"], "photon-map"),
+        (
+            vec!["--integrator", "path", "--photon-map", "x.pm"],
+            "photon-map",
+        ),
     ] {
         let r = args(&bad);
         assert_eq!(r.code, Some(2), "{bad:?}: {}", r.stderr);
-        assert!(r.error_message().unwrap_or_default().contains(word), "{bad:?}: {:?}", r.error_message());
+        assert!(
+            r.error_message().unwrap_or_default().contains(word),
+            "{bad:?}: {:?}",
+            r.error_message()
+        );
     }
 }

@@ -282,14 +282,26 @@ mod tests {
         let back = PhotonMaps::load(&path, 0xabcdef).unwrap();
         assert_eq!(back.global.photons(), maps.global.photons());
         assert_eq!(back.caustic.photons(), maps.caustic.photons());
-        assert_eq!((back.emitted, back.max_depth, back.seed), ([1000, 70], 9, 3));
+        assert_eq!(
+            (back.emitted, back.max_depth, back.seed),
+            ([1000, 70], 9, 3)
+        );
         let e = PhotonMaps::load(&path, 1).unwrap_err().to_string();
         assert!(e.contains("different scene"), "{e}");
         let bytes = std::fs::read(&path).unwrap();
         std::fs::write(&path, &bytes[..bytes.len() - 5]).unwrap();
         assert!(PhotonMaps::load(&path, 0xabcdef).is_err());
-        std::fs::write(&path, b"not a photon map at all: plain text, comfortably longer than the 60-byte header.").unwrap();
-        assert!(PhotonMaps::load(&path, 0xabcdef).unwrap_err().to_string().contains("magic"));
+        std::fs::write(
+            &path,
+            b"not a photon map at all: plain text, comfortably longer than the 60-byte header.",
+        )
+        .unwrap();
+        assert!(
+            PhotonMaps::load(&path, 0xabcdef)
+                .unwrap_err()
+                .to_string()
+                .contains("magic")
+        );
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -60,7 +60,10 @@ fn next_hit(
     dir: Vec3,
     sampler: &mut PixelSampler,
     stats: &mut RayStats,
-) -> (Option<(crate::accel::Hit, crate::integrator::SurfaceHit)>, f32) {
+) -> (
+    Option<(crate::accel::Hit, crate::integrator::SurfaceHit)>,
+    f32,
+) {
     let mut passes = 0;
     let mut first = None;
     loop {
@@ -125,12 +128,12 @@ impl JensenIntegrator {
             let org0 = org;
             let (found, first) = next_hit(ctx, &mut org, dir, sampler, stats);
             // Area lights crossed: every earlier vertex was specular (no MIS).
-            if let Some((_, light, _)) = ctx.intersect_area_lights(org0, dir, first) {
-                if (-dir).dot(light.normal) > 0.0 {
-                    radiance += beta * light.radiance;
-                    if depth == 0 {
-                        out.alpha = 1.0;
-                    }
+            if let Some((_, light, _)) = ctx.intersect_area_lights(org0, dir, first)
+                && (-dir).dot(light.normal) > 0.0
+            {
+                radiance += beta * light.radiance;
+                if depth == 0 {
+                    out.alpha = 1.0;
                 }
             }
             let Some((_, s)) = found else {
@@ -286,20 +289,19 @@ impl JensenIntegrator {
             let caustic = delta_only && bounced;
             let org0 = org;
             let (found, first) = next_hit(ctx, &mut org, dir, sampler, stats);
-            if !caustic {
-                if let Some((t, light, index)) = ctx.intersect_area_lights(org0, dir, first) {
-                    if (-dir).dot(light.normal) > 0.0 {
-                        let w = if prev_pdf == 0.0 {
-                            1.0
-                        } else {
-                            power_heuristic(
-                                prev_pdf,
-                                ctx.light_pdf(index, prev_p, org0 + dir * t, light.normal),
-                            )
-                        };
-                        l += beta * light.radiance * w;
-                    }
-                }
+            if !caustic
+                && let Some((t, light, index)) = ctx.intersect_area_lights(org0, dir, first)
+                && (-dir).dot(light.normal) > 0.0
+            {
+                let w = if prev_pdf == 0.0 {
+                    1.0
+                } else {
+                    power_heuristic(
+                        prev_pdf,
+                        ctx.light_pdf(index, prev_p, org0 + dir * t, light.normal),
+                    )
+                };
+                l += beta * light.radiance * w;
             }
             let Some((hit, s)) = found else {
                 break;

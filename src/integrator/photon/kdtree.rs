@@ -231,17 +231,13 @@ impl PhotonMap {
             let a = ph.axis();
             let diff = q[a] - ph.p[a];
             // Left subtree holds coordinates <= the median's, right >= it.
-            if diff <= 0.0 || diff * diff < r2 {
-                if lo < m && sp < STACK {
-                    stack[sp] = (lo as u32, m as u32);
-                    sp += 1;
-                }
+            if (diff <= 0.0 || diff * diff < r2) && lo < m && sp < STACK {
+                stack[sp] = (lo as u32, m as u32);
+                sp += 1;
             }
-            if diff >= 0.0 || diff * diff < r2 {
-                if m + 1 < hi && sp < STACK {
-                    stack[sp] = ((m + 1) as u32, hi as u32);
-                    sp += 1;
-                }
+            if (diff >= 0.0 || diff * diff < r2) && m + 1 < hi && sp < STACK {
+                stack[sp] = ((m + 1) as u32, hi as u32);
+                sp += 1;
             }
         }
     }
@@ -314,7 +310,14 @@ mod tests {
                 } else {
                     Vec3::new(rnd(seed, 3 * i), rnd(seed, 3 * i + 1), rnd(seed, 3 * i + 2))
                 };
-                pts.push(Photon::new(p, Vec3::splat(i as f32), Vec3::Z, Vec3::Z, 1 + i % 3, false));
+                pts.push(Photon::new(
+                    p,
+                    Vec3::splat(i as f32),
+                    Vec3::Z,
+                    Vec3::Z,
+                    1 + i % 3,
+                    false,
+                ));
             }
             let map = PhotonMap::build(pts.clone());
             assert_eq!(map.len(), n);
@@ -340,14 +343,12 @@ mod tests {
                     .collect();
                 want.sort_by(f32::total_cmp);
                 want.truncate(k);
-                // Same squared distances as computed by the tree (same formula).
-                let want: Vec<f32> = want
-                    .iter()
-                    .map(|&d| d)
-                    .collect();
                 assert_eq!(got.len(), want.len(), "seed {seed} query {qi} k {k}");
                 for (a, b) in got.iter().zip(&want) {
-                    assert!((a - b).abs() <= 1e-6 * b.max(1e-6), "seed {seed}: {a} vs {b}");
+                    assert!(
+                        (a - b).abs() <= 1e-6 * b.max(1e-6),
+                        "seed {seed}: {a} vs {b}"
+                    );
                 }
                 // The reported indices point at photons at those distances.
                 for &(d2, i) in res.items() {
@@ -380,4 +381,3 @@ mod tests {
         assert!(res.items().is_empty());
     }
 }
-

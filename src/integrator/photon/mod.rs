@@ -18,6 +18,9 @@
 //! the photon's hit index (1 = first surface hit after leaving the light, i.e. direct
 //! light), a flag for caustic paths (L S+ D) and the kd-tree split axis.
 
+// `!(x > 0.0)` is deliberate throughout: it is also true for NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod emit;
 pub mod estimate;
 pub mod io;

@@ -131,8 +131,16 @@ pub fn render(
                     let off = job.filter.sample(sampler.next_2d());
                     let (fx, fy) = (px as f32 + 0.5 + off.x, py as f32 + 0.5 + off.y);
                     let (org, dir) = camera.ray(fx, fy);
-                    let (ld, point, first_t) =
-                        camera_path(ctx, org, dir, &mut sampler, max_depth, state, camera, &mut rs);
+                    let (ld, point, first_t) = camera_path(
+                        ctx,
+                        org,
+                        dir,
+                        &mut sampler,
+                        max_depth,
+                        state,
+                        camera,
+                        &mut rs,
+                    );
                     if ld.is_finite() {
                         state.ld += ld.as_dvec3();
                     } else {
@@ -296,12 +304,12 @@ fn camera_path(
         let [u_dx, u_dy, _, u_alpha] = sampler.next_4d();
         let hit = ctx.intersect(org, dir, f32::INFINITY);
         let t_surface = hit.map_or(f32::INFINITY, |h| h.t);
-        if let Some((_, light, _)) = ctx.intersect_area_lights(org, dir, t_surface) {
-            if (-dir).dot(light.normal) > 0.0 {
-                l += beta * light.radiance;
-                if depth == 0 {
-                    state.alpha += 1.0;
-                }
+        if let Some((_, light, _)) = ctx.intersect_area_lights(org, dir, t_surface)
+            && (-dir).dot(light.normal) > 0.0
+        {
+            l += beta * light.radiance;
+            if depth == 0 {
+                state.alpha += 1.0;
             }
         }
         let Some(hit) = hit else { break };
@@ -336,7 +344,16 @@ fn camera_path(
         let wo_local = sp.frame.to_local(wo);
         if !sp.bsdf.is_delta() {
             l += beta
-                * direct_light(ctx, &s, &sp, wo_local, u_light, Vec2::new(u_lx, u_ly), 0.0, stats);
+                * direct_light(
+                    ctx,
+                    &s,
+                    &sp,
+                    wo_local,
+                    u_light,
+                    Vec2::new(u_lx, u_ly),
+                    0.0,
+                    stats,
+                );
             return (
                 l,
                 Some(VisiblePoint {

@@ -138,7 +138,12 @@ pub fn trace_one(
     out: &mut Vec<Photon>,
     st: &mut TraceStats,
 ) {
-    let mut s = PixelSampler::new(job.seed, salt(job.kind), job.pass ^ ((i >> 32) as u32), i as u32);
+    let mut s = PixelSampler::new(
+        job.seed,
+        salt(job.kind),
+        job.pass ^ ((i >> 32) as u32),
+        i as u32,
+    );
     let [u_light, u_side, u_px, u_py] = s.next_4d();
     let [u_dx, u_dy, _, _] = s.next_4d();
     st.emitted += 1;
