@@ -163,8 +163,10 @@ pub fn render(
             rays.add(r);
             nan += b;
         }
-        // 2. Photons.
+        // 2. Photons. An iteration, once started, is finished (the stop flag is checked
+        // between iterations), so that every pixel has the same number of iterations.
         let t_ph = Instant::now();
+        let never = AtomicBool::new(false);
         let (photons, ts) = trace_photons(
             ctx,
             &emitters,
@@ -176,15 +178,12 @@ pub fn render(
                 max_depth,
                 skip_direct: true,
             },
-            stop,
+            &never,
             &|_| {},
         );
         let map = PhotonMap::build(photons);
         st.photon_seconds += t_ph.elapsed().as_secs_f64();
         st.photons += ts.emitted;
-        if stop.load(Ordering::Relaxed) {
-            break;
-        }
         // 3. Gather and update.
         states
             .par_chunks_mut(w as usize)
