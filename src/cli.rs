@@ -93,13 +93,13 @@ pub struct PhotonArgs {
     /// Photons emitted for the caustic map (photon integrator) [default: 100000].
     #[arg(long)]
     pub caustic_photons: Option<u64>,
-    /// Neighbours per radiance estimate (1..=256) [default: 50].
+    /// Neighbours per radiance estimate (1..=256) [default: 20].
     #[arg(long)]
     pub k: Option<usize>,
     /// Maximum photon search radius in scene units [default: 0.1 × the scene's bounding radius].
     #[arg(long)]
     pub max_radius: Option<f32>,
-    /// Final-gather rays per camera sample [default: 8].
+    /// Final-gather rays per camera sample [default: 1].
     #[arg(long)]
     pub gather_rays: Option<u32>,
     /// Non-specular bounces before the global map is read; 0 = no final gather [default: 1].

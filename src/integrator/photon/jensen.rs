@@ -17,8 +17,8 @@
 //! makes a path of (j - 1) + n events; only those within `max_depth` are counted, so
 //! the result converges to the path tracer's at the same maximum depth.
 //!
-//! Parameters (defaults in `PhotonSettings`): k = 50 neighbours, maximum radius a tenth
-//! of the scene radius, 8 gather rays, 1 diffuse bounce (final gather), maximum depth
+//! Parameters (defaults in `PhotonSettings`): k = 20 neighbours, maximum radius a tenth
+//! of the scene radius, 1 gather ray per camera sample, 1 diffuse bounce (final gather), maximum depth
 //! as the path tracer's. Not handled: participating media, shadow photons (not
 //! measured to pay off), photon-map irradiance caching, the world light.
 
