@@ -698,37 +698,21 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         r
     } else {
         pool.install(|| {
-            render::render(
-                &ctx,
-                &camera,
-                &job,
-                stop,
-                &|p| {
-                    reporter.progress(
-                        p.fraction,
-                        p.samples_done,
-                        p.samples_total,
-                        p.elapsed,
-                        p.eta,
-                        p.rays_per_sec,
-                    )
-                },
-                &mut |film, spp| {
-                    if let Some(every) = interim {
-                        if last_interim.elapsed() >= every && Some(spp) != job.spp {
-                            let mut img = film.image();
-                            if !res.transparent {
-                                img.make_opaque();
-                            }
-                            match output::write_exr(&args.output, &img, args.half) {
-                                Ok(()) => reporter.image(&out_str, spp, false),
-                                Err(e) => interim_error = Some(e),
-                            }
-                            last_interim = Instant::now();
+            render::render(&ctx, &camera, &job, stop, &on_progress, &mut |film, spp| {
+                if let Some(every) = interim {
+                    if last_interim.elapsed() >= every && Some(spp) != job.spp {
+                        let mut img = film.image();
+                        if !res.transparent {
+                            img.make_opaque();
                         }
+                        match output::write_exr(&args.output, &img, args.half) {
+                            Ok(()) => reporter.image(&out_str, spp, false),
+                            Err(e) => interim_error = Some(e),
+                        }
+                        last_interim = Instant::now();
                     }
-                },
-            )
+                }
+            })
         })
     };
     if let Some(e) = interim_error {
