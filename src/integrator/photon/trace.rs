@@ -104,7 +104,10 @@ pub fn trace_photons(
         .map(|c| {
             let lo = c * CHUNK;
             let hi = (lo + CHUNK).min(job.count);
-            let mut out = Vec::with_capacity(((hi - lo) * 2) as usize);
+            // Room for up to 4 stored hits per photon: the per-photon loop then pushes
+            // without reallocating unless the chunk's photons average more than 4 hits.
+            let mut out =
+                Vec::with_capacity(((hi - lo) * job.max_depth.clamp(1, 4) as u64) as usize);
             let mut st = TraceStats::default();
             if stop.load(Ordering::Relaxed) {
                 return (out, st);
