@@ -5,6 +5,10 @@ use crate::accel::Accel;
 use crate::error::{Error, Result};
 use crate::film::Filter;
 use crate::integrator::path::PathIntegrator;
+use crate::integrator::photon;
+use crate::integrator::photon::io::PhotonMaps;
+use crate::integrator::photon::jensen::JensenIntegrator;
+use crate::integrator::photon::{MAX_K, PhotonSettings, default_max_radius};
 use crate::integrator::{Integrator, SceneContext};
 use crate::output;
 use crate::progress::{ProgressMode, Reporter};
@@ -50,6 +54,66 @@ pub enum Command {
     Info(InfoArgs),
     /// Measure rendering speed on a scene (default: the bundled Cornell box).
     Bench(BenchArgs),
+    /// Trace a scene's photon maps and write them for `render --photon-map`.
+    Photons(PhotonsArgs),
+}
+
+/// `caustic photons`.
+#[derive(Args, Debug)]
+pub struct PhotonsArgs {
+    /// Scene file (.gltf or .glb).
+    pub scene: PathBuf,
+    /// Output photon-map file.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Maximum scattering events per path the map will serve [default: 13].
+    #[arg(long)]
+    pub max_depth: Option<u32>,
+    /// Random seed [default: 0].
+    #[arg(long)]
+    pub seed: Option<u32>,
+    /// Worker threads [default: all cores].
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Progress display [default: bar on a terminal, else none].
+    #[arg(long, value_enum)]
+    pub progress: Option<ProgressMode>,
+    /// Photon-mapping settings.
+    #[command(flatten)]
+    pub photon: PhotonArgs,
+}
+
+/// Photon-mapping flags (shared by `render` and `photons`); defaults in
+/// `integrator::photon::PhotonSettings` and [`resolve_photon`].
+#[derive(Args, Debug, Default, Clone)]
+pub struct PhotonArgs {
+    /// Photons emitted for the global map (photon integrator) [default: 200000].
+    #[arg(long)]
+    pub photons: Option<u64>,
+    /// Photons emitted for the caustic map (photon integrator) [default: 100000].
+    #[arg(long)]
+    pub caustic_photons: Option<u64>,
+    /// Neighbours per radiance estimate (1..=256) [default: 20].
+    #[arg(long)]
+    pub k: Option<usize>,
+    /// Maximum photon search radius in scene units [default: 0.1 × the scene's bounding radius].
+    #[arg(long)]
+    pub max_radius: Option<f32>,
+    /// Final-gather rays per camera sample [default: 1].
+    #[arg(long)]
+    pub gather_rays: Option<u32>,
+    /// Non-specular bounces before the global map is read; 0 = no final gather [default: 1].
+    #[arg(long)]
+    pub diffuse_bounces: Option<u32>,
+    /// SPPM iterations (one camera sample per pixel each) [default: 64].
+    #[arg(long)]
+    pub sppm_iterations: Option<u32>,
+    /// SPPM photons per iteration [default: the rendered window's pixel count].
+    #[arg(long)]
+    pub sppm_photons: Option<u64>,
+    /// SPPM initial radius in scene units [default: per pixel, 2 pixel footprints at the visible point, clamped to 1e-4..0.05 × the scene radius].
+    #[arg(long)]
+    pub sppm_radius: Option<f32>,
 }
 
 /// `caustic bench`.
@@ -70,6 +134,12 @@ pub struct BenchArgs {
     /// Print the figures as JSON.
     #[arg(long)]
     pub json: bool,
+    /// Light-transport algorithm to measure.
+    #[arg(long, value_enum, default_value = "path")]
+    pub integrator: IntegratorKind,
+    /// Photon-mapping settings.
+    #[command(flatten)]
+    pub photon: PhotonArgs,
 }
 
 /// Light-transport algorithm.
@@ -77,6 +147,21 @@ pub struct BenchArgs {
 pub enum IntegratorKind {
     /// Path tracing with next-event estimation and MIS.
     Path,
+    /// Jensen's photon mapping: caustic map, final gather on the global map.
+    Photon,
+    /// Stochastic progressive photon mapping (consistent).
+    Sppm,
+}
+
+impl IntegratorKind {
+    /// The name used on the command line and in the scene settings.
+    pub fn name(self) -> &'static str {
+        match self {
+            IntegratorKind::Path => "path",
+            IntegratorKind::Photon => "photon",
+            IntegratorKind::Sppm => "sppm",
+        }
+    }
 }
 
 /// Pixel filter.
@@ -126,9 +211,15 @@ pub struct RenderArgs {
     /// Progress display [default: bar on a terminal, else none].
     #[arg(long, value_enum)]
     pub progress: Option<ProgressMode>,
-    /// Light-transport algorithm.
-    #[arg(long, value_enum, default_value = "path")]
-    pub integrator: IntegratorKind,
+    /// Light-transport algorithm [default: the scene's, else path].
+    #[arg(long, value_enum)]
+    pub integrator: Option<IntegratorKind>,
+    /// Photon maps written by `caustic photons` for this scene (photon integrator).
+    #[arg(long)]
+    pub photon_map: Option<PathBuf>,
+    /// Photon-mapping settings.
+    #[command(flatten)]
+    pub photon: PhotonArgs,
     /// Rewrite the output every SECONDS while rendering.
     #[arg(long, value_name = "SECONDS")]
     pub interim: Option<f64>,
@@ -188,6 +279,57 @@ pub struct Resolved {
     pub filter: Filter,
     /// Transparent background.
     pub transparent: bool,
+    /// Algorithm.
+    pub integrator: IntegratorKind,
+    /// Photon-mapping settings.
+    pub photon: PhotonSettings,
+}
+
+/// Resolves the photon-mapping settings (flag > scene > default) and checks them.
+pub fn resolve_photon(a: &PhotonArgs, st: &scene::SceneSettings) -> Result<PhotonSettings> {
+    let d = PhotonSettings::default();
+    let p = PhotonSettings {
+        photons: a.photons.or(st.photons).unwrap_or(d.photons),
+        caustic_photons: a.caustic_photons.or(st.caustic_photons).unwrap_or(d.caustic_photons),
+        k: a.k.or(st.k).unwrap_or(d.k),
+        max_radius: a.max_radius.or(st.max_radius).or(d.max_radius),
+        gather_rays: a.gather_rays.or(st.gather_rays).unwrap_or(d.gather_rays),
+        diffuse_bounces: a.diffuse_bounces.or(st.diffuse_bounces).unwrap_or(d.diffuse_bounces),
+        sppm_iterations: a.sppm_iterations.or(st.sppm_iterations).unwrap_or(d.sppm_iterations),
+        sppm_photons: a.sppm_photons.or(st.sppm_photons).or(d.sppm_photons),
+        sppm_radius: a.sppm_radius.or(st.sppm_radius).or(d.sppm_radius),
+        sppm_alpha: d.sppm_alpha,
+    };
+    const MAX_PHOTONS: u64 = 1 << 32;
+    if p.photons > MAX_PHOTONS || p.caustic_photons > MAX_PHOTONS {
+        return Err(Error::Usage(format!("photon counts must be at most {MAX_PHOTONS}")));
+    }
+    if p.photons == 0 && p.caustic_photons == 0 {
+        return Err(Error::Usage("--photons and --caustic-photons cannot both be 0".into()));
+    }
+    if !(1..=MAX_K).contains(&p.k) {
+        return Err(Error::Usage(format!("--k {} must be in 1..={MAX_K}", p.k)));
+    }
+    for (name, v) in [("--max-radius", p.max_radius), ("--sppm-radius", p.sppm_radius)] {
+        if let Some(r) = v
+            && !(r > 0.0 && r.is_finite())
+        {
+            return Err(Error::Usage(format!("{name} {r} must be a positive radius")));
+        }
+    }
+    if p.gather_rays == 0 || p.gather_rays > 65_536 {
+        return Err(Error::Usage(format!("--gather-rays {} must be in 1..=65536", p.gather_rays)));
+    }
+    if p.diffuse_bounces > MAX_DEPTH {
+        return Err(Error::Usage(format!("--diffuse-bounces {} is absurd", p.diffuse_bounces)));
+    }
+    if p.sppm_iterations == 0 || p.sppm_iterations > MAX_SPP {
+        return Err(Error::Usage(format!("--sppm-iterations {} must be in 1..={MAX_SPP}", p.sppm_iterations)));
+    }
+    if matches!(p.sppm_photons, Some(0)) || p.sppm_photons.is_some_and(|n| n > MAX_PHOTONS) {
+        return Err(Error::Usage(format!("--sppm-photons must be in 1..={MAX_PHOTONS}")));
+    }
+    Ok(p)
 }
 
 /// Chooses the camera by flag or scene setting.
@@ -287,11 +429,24 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
     {
         return Err(Error::Usage(format!("--interim {i} must be a positive number of seconds")));
     }
-    if let Some(name) = &st.integrator
-        && name != "path"
-        && args.integrator == IntegratorKind::Path
-    {
-        return Err(Error::Usage(format!("the scene asks for integrator '{name}', which this build does not have")));
+    let integrator = match (args.integrator, st.integrator.as_deref()) {
+        (Some(i), _) => i,
+        (None, None) => IntegratorKind::Path,
+        (None, Some(name)) => IntegratorKind::from_str(name, true).map_err(|_| {
+            Error::Usage(format!(
+                "the scene asks for integrator '{name}', which this build does not have (path, photon, sppm)"
+            ))
+        })?,
+    };
+    let photon = resolve_photon(&args.photon, st)?;
+    if integrator != IntegratorKind::Path && max_depth > photon::MAX_PHOTON_DEPTH {
+        return Err(Error::Usage(format!(
+            "--max-depth {max_depth} is too deep for photon mapping (at most {})",
+            photon::MAX_PHOTON_DEPTH
+        )));
+    }
+    if args.photon_map.is_some() && integrator != IntegratorKind::Photon {
+        return Err(Error::Usage("--photon-map needs --integrator photon".into()));
     }
     Ok(Resolved {
         resolution,
@@ -304,6 +459,8 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
         max_depth,
         filter,
         transparent: st.transparent.unwrap_or(true),
+        integrator,
+        photon,
     })
 }
 
@@ -344,11 +501,58 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     }
     let ctx = SceneContext::new(&scene, &accel);
     let camera = CameraRays::new(&scene.cameras[res.camera], res.resolution.0, res.resolution.1);
-    let integrator = Integrator::Path(PathIntegrator {
-        max_depth: res.max_depth,
-        transparent_background: res.transparent,
-        ..Default::default()
-    });
+    let mut photon_stats = serde_json::Value::Null;
+    let integrator = match res.integrator {
+        IntegratorKind::Path | IntegratorKind::Sppm => Integrator::Path(PathIntegrator {
+            max_depth: res.max_depth,
+            transparent_background: res.transparent,
+            ..Default::default()
+        }),
+        IntegratorKind::Photon => {
+            reporter.phase("photons", t0.elapsed().as_secs_f64());
+            let maps = match &args.photon_map {
+                Some(path) => {
+                    let maps = PhotonMaps::load(path, photon::io::scene_hash(&args.scene)?)?;
+                    if maps.max_depth < res.max_depth {
+                        return Err(Error::Usage(format!(
+                            "the photon map '{}' serves paths of at most {} scattering events; render with --max-depth {} or less, or make the map with --max-depth {}",
+                            path.display(),
+                            maps.max_depth,
+                            maps.max_depth,
+                            res.max_depth
+                        )));
+                    }
+                    photon_stats = json!({
+                        "loaded": path.display().to_string(),
+                        "global_stored": maps.global.len(),
+                        "caustic_stored": maps.caustic.len(),
+                    });
+                    maps
+                }
+                None => {
+                    let hash = photon::io::scene_hash(&args.scene)?;
+                    let (maps, st) = pool
+                        .install(|| trace_maps(&ctx, &res.photon, res.job_seed, res.max_depth, hash, reporter, stop));
+                    photon_stats = map_stats_json(&maps, &st);
+                    maps
+                }
+            };
+            if stop.load(Ordering::Relaxed) {
+                return Err(Error::InterruptedEmpty);
+            }
+            let (_, scene_r) = scene.bounding_sphere();
+            Integrator::Photon(JensenIntegrator {
+                maps: std::sync::Arc::new(maps),
+                max_depth: res.max_depth,
+                rr_depth: PathIntegrator::default().rr_depth,
+                k: res.photon.k,
+                max_radius: res.photon.max_radius.unwrap_or_else(|| default_max_radius(scene_r)),
+                gather_rays: res.photon.gather_rays,
+                diffuse_bounces: res.photon.diffuse_bounces,
+                transparent_background: res.transparent,
+            })
+        }
+    };
     let job = RenderJob {
         width: res.resolution.0,
         height: res.resolution.1,
@@ -358,6 +562,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         seed: res.job_seed,
         filter: res.filter.clone(),
         integrator: integrator.clone(),
+        transparent_background: res.transparent,
     };
 
     reporter.phase("rendering", t0.elapsed().as_secs_f64());
@@ -365,31 +570,40 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     let mut last_interim = Instant::now();
     let interim = args.interim.map(Duration::from_secs_f64);
     let mut interim_error = None;
-    let result = pool.install(|| {
-        render::render(
-            &ctx,
-            &camera,
-            &job,
-            stop,
-            &|p| reporter.progress(p.fraction, p.samples_done, p.samples_total, p.elapsed, p.eta, p.rays_per_sec),
-            &mut |film, spp| {
-                if let Some(every) = interim
-                    && last_interim.elapsed() >= every
-                    && Some(spp) != job.spp
-                {
-                    let mut img = film.image();
-                    if !res.transparent {
-                        img.make_opaque();
+    let mut sppm_result = None;
+    let on_progress = |p: &render::Progress| {
+        reporter.progress(p.fraction, p.samples_done, p.samples_total, p.elapsed, p.eta, p.rays_per_sec)
+    };
+    if res.integrator == IntegratorKind::Sppm {
+        let (r, st) =
+            pool.install(|| photon::sppm::render(&ctx, &camera, &job, res.max_depth, &res.photon, stop, &on_progress));
+        photon_stats = json!({
+            "sppm": st,
+            "photons_per_sec": st.photons as f64 / st.photon_seconds.max(1e-9),
+        });
+        sppm_result = Some(r);
+    }
+    let result = if let Some(r) = sppm_result {
+        r
+    } else {
+        pool.install(|| {
+            render::render(&ctx, &camera, &job, stop, &on_progress, &mut |film, spp| {
+                if let Some(every) = interim {
+                    if last_interim.elapsed() >= every && Some(spp) != job.spp {
+                        let mut img = film.image();
+                        if !res.transparent {
+                            img.make_opaque();
+                        }
+                        match output::write_exr(&args.output, &img, args.half) {
+                            Ok(()) => reporter.image(&out_str, spp, false),
+                            Err(e) => interim_error = Some(e),
+                        }
+                        last_interim = Instant::now();
                     }
-                    match output::write_exr(&args.output, &img, args.half) {
-                        Ok(()) => reporter.image(&out_str, spp, false),
-                        Err(e) => interim_error = Some(e),
-                    }
-                    last_interim = Instant::now();
                 }
-            },
-        )
-    });
+            })
+        })
+    };
     if let Some(e) = interim_error {
         return Err(e);
     }
@@ -431,7 +645,10 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         "nan_samples": result.nan_samples,
         "black": black,
         "warnings": warnings,
-        "integrator": integrator.describe(),
+        "integrator": match res.integrator {
+            IntegratorKind::Sppm => describe_sppm(&res.photon, res.max_depth),
+            _ => integrator.describe(),
+        },
         "stats": {
             "bvh_build_seconds": accel.build_time.as_secs_f64(),
             "render_seconds": secs,
@@ -443,10 +660,130 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
             "bounce_rays_per_sec": result.rays.bounce as f64 / secs,
             "shadow_rays_per_sec": result.rays.shadow as f64 / secs,
             "threads": res.threads,
+            "photons": photon_stats,
         }
     });
     reporter.summary(summary.clone());
     Ok(Outcome { interrupted: result.interrupted, summary })
+}
+
+/// SPPM's parameters, for the summary.
+fn describe_sppm(p: &PhotonSettings, max_depth: u32) -> String {
+    format!(
+        "sppm ({} iterations, {} photons per iteration, initial radius {}, alpha {:.3}, max depth {max_depth})",
+        p.sppm_iterations,
+        p.sppm_photons.map_or("one per pixel".to_string(), |n| n.to_string()),
+        p.sppm_radius.map_or("2 pixel footprints".to_string(), |r| r.to_string()),
+        p.sppm_alpha
+    )
+}
+
+/// Traces the global and caustic maps, reporting the "photons" phase's progress at
+/// most about twice a second.
+fn trace_maps(
+    ctx: &SceneContext,
+    p: &PhotonSettings,
+    seed: u32,
+    max_depth: u32,
+    hash: u64,
+    reporter: &Reporter,
+    stop: &AtomicBool,
+) -> (PhotonMaps, photon::io::MapStats) {
+    let last = std::sync::atomic::AtomicU64::new(0);
+    PhotonMaps::trace(ctx, p.photons, p.caustic_photons, seed, max_depth, hash, stop, &|done, total, elapsed| {
+        let ms = (elapsed * 1000.0) as u64;
+        let prev = last.load(Ordering::Relaxed);
+        if (ms >= prev + 500 || done == total)
+            && last.compare_exchange(prev, ms.max(prev + 1), Ordering::Relaxed, Ordering::Relaxed).is_ok()
+        {
+            reporter.photon_progress(
+                done as f64 / total.max(1) as f64,
+                done,
+                total,
+                elapsed,
+                done as f64 / elapsed.max(1e-9),
+            );
+        }
+    })
+}
+
+/// Figures of a map build, for the summary and `bench`.
+fn map_stats_json(maps: &PhotonMaps, st: &photon::io::MapStats) -> serde_json::Value {
+    let emitted = st.global.emitted + st.caustic.emitted;
+    let stored = st.global.stored + st.caustic.stored;
+    json!({
+        "global_emitted": st.global.emitted,
+        "global_stored": st.global.stored,
+        "caustic_emitted": st.caustic.emitted,
+        "caustic_stored": st.caustic.stored,
+        "photon_rays": st.global.rays + st.caustic.rays,
+        "trace_seconds": st.trace_seconds,
+        "photons_traced_per_sec": emitted as f64 / st.trace_seconds.max(1e-9),
+        "photons_stored_per_sec": stored as f64 / st.trace_seconds.max(1e-9),
+        "kdtree_build_seconds": st.build_seconds,
+        "bytes_per_photon": std::mem::size_of::<photon::Photon>(),
+        "map_bytes": maps.global.bytes() + maps.caustic.bytes(),
+    })
+}
+
+/// `caustic photons`: traces the maps of a scene and writes them.
+pub fn run_photons(args: &PhotonsArgs, reporter: &Reporter, stop: &AtomicBool) -> Result<()> {
+    let t0 = Instant::now();
+    reporter.phase("loading", 0.0);
+    let scene = scene::gltf::load(&args.scene)?;
+    for w in &scene.warnings {
+        reporter.warning(w);
+    }
+    let st = &scene.settings;
+    let p = resolve_photon(&args.photon, st)?;
+    let max_depth = args.max_depth.or(st.max_depth).unwrap_or(PathIntegrator::default().max_depth);
+    if max_depth == 0 || max_depth > photon::MAX_PHOTON_DEPTH {
+        return Err(Error::Usage(format!(
+            "--max-depth {max_depth} must be in 1..={} for a photon map",
+            photon::MAX_PHOTON_DEPTH
+        )));
+    }
+    let seed = args.seed.or(st.seed).unwrap_or(0);
+    let threads = match args.threads.or(st.threads) {
+        None => std::thread::available_parallelism().map_or(1, |n| n.get()),
+        Some(0) => return Err(Error::Usage("--threads must be at least 1".into())),
+        Some(t) => t.min(4096),
+    };
+    let hash = photon::io::scene_hash(&args.scene)?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| Error::Internal(format!("cannot start worker threads: {e}")))?;
+    reporter.phase("bvh", t0.elapsed().as_secs_f64());
+    let tris: Vec<[glam::Vec3; 3]> =
+        scene.mesh.triangles.iter().map(|t| t.map(|i| scene.mesh.positions[i as usize])).collect();
+    let accel = pool.install(|| Accel::build(&tris));
+    let ctx = SceneContext::new(&scene, &accel);
+    reporter.phase("photons", t0.elapsed().as_secs_f64());
+    let (maps, ms) = pool.install(|| trace_maps(&ctx, &p, seed, max_depth, hash, reporter, stop));
+    if stop.load(Ordering::Relaxed) {
+        return Err(Error::InterruptedEmpty);
+    }
+    reporter.phase("writing", t0.elapsed().as_secs_f64());
+    maps.save(&args.output)?;
+    let mut summary = map_stats_json(&maps, &ms);
+    summary["output"] = json!(args.output.display().to_string());
+    summary["elapsed"] = json!(t0.elapsed().as_secs_f64());
+    summary["max_depth"] = json!(max_depth);
+    summary["seed"] = json!(seed);
+    if reporter.mode() == ProgressMode::Json {
+        reporter.summary(summary);
+    } else {
+        eprintln!(
+            "wrote {} ({} global + {} caustic photons stored, {:.2} M photons/s) in {:.2} s",
+            args.output.display(),
+            ms.global.stored,
+            ms.caustic.stored,
+            summary["photons_traced_per_sec"].as_f64().unwrap_or(0.0) / 1e6,
+            t0.elapsed().as_secs_f64()
+        );
+    }
+    Ok(())
 }
 
 /// `caustic info`.
@@ -526,7 +863,9 @@ pub fn run_bench(args: &BenchArgs, stop: &AtomicBool) -> Result<()> {
         crop: None,
         half: false,
         progress: Some(ProgressMode::None),
-        integrator: IntegratorKind::Path,
+        integrator: Some(args.integrator),
+        photon_map: None,
+        photon: args.photon.clone(),
         interim: None,
         filter: None,
         filter_width: None,
@@ -535,6 +874,8 @@ pub fn run_bench(args: &BenchArgs, stop: &AtomicBool) -> Result<()> {
     let outcome = run_render(&render_args, &reporter, stop);
     let _ = std::fs::remove_dir_all(&dir);
     let s = outcome?.summary;
+    let photon_figures =
+        if args.integrator == IntegratorKind::Path { serde_json::Value::Null } else { bench_photon_maps(args, stop)? };
     let st = &s["stats"];
     let f = |v: &serde_json::Value| v.as_f64().unwrap_or(f64::NAN);
     let figures = json!({
@@ -551,6 +892,8 @@ pub fn run_bench(args: &BenchArgs, stop: &AtomicBool) -> Result<()> {
         "bounce_rays_per_sec": f(&st["bounce_rays_per_sec"]),
         "shadow_rays_per_sec": f(&st["shadow_rays_per_sec"]),
         "rays": st["rays"],
+        "integrator": s["integrator"],
+        "photons": photon_figures,
     });
     if args.json {
         println!("{}", serde_json::to_string_pretty(&figures).unwrap_or_default());
@@ -570,5 +913,67 @@ pub fn run_bench(args: &BenchArgs, stop: &AtomicBool) -> Result<()> {
     println!("  camera rays/s   {:.3} M", f(&figures["camera_rays_per_sec"]) / 1e6);
     println!("  bounce rays/s   {:.3} M", f(&figures["bounce_rays_per_sec"]) / 1e6);
     println!("  shadow rays/s   {:.3} M", f(&figures["shadow_rays_per_sec"]) / 1e6);
+    let p = &figures["photons"];
+    if !p.is_null() {
+        println!("integrator        {}", s["integrator"].as_str().unwrap_or(""));
+        println!(
+            "photons traced/s  {:.3} M ({} emitted, {} rays)",
+            f(&p["photons_traced_per_sec"]) / 1e6,
+            p["global_emitted"].as_u64().unwrap_or(0) + p["caustic_emitted"].as_u64().unwrap_or(0),
+            p["photon_rays"]
+        );
+        println!(
+            "photons stored/s  {:.3} M ({} global, {} caustic)",
+            f(&p["photons_stored_per_sec"]) / 1e6,
+            p["global_stored"],
+            p["caustic_stored"]
+        );
+        println!("kd-tree build     {:.4} s", f(&p["kdtree_build_seconds"]));
+        println!(
+            "k-NN queries/s    {:.3} M (k = {}, {} queries)",
+            f(&p["knn_queries_per_sec"]) / 1e6,
+            p["k"],
+            p["knn_queries"]
+        );
+        println!("bytes per photon  {}", p["bytes_per_photon"]);
+    }
     Ok(())
+}
+
+/// Photon-map figures for `bench`: traces the maps of the bench scene (same settings
+/// as the render), then times k-NN radiance-estimate queries at stored photon
+/// positions (single thread, so the figure is per core).
+fn bench_photon_maps(args: &BenchArgs, stop: &AtomicBool) -> Result<serde_json::Value> {
+    let scene = scene::gltf::load(&args.scene)?;
+    let p = resolve_photon(&args.photon, &scene.settings)?;
+    let max_depth = scene.settings.max_depth.unwrap_or(PathIntegrator::default().max_depth);
+    let tris: Vec<[glam::Vec3; 3]> =
+        scene.mesh.triangles.iter().map(|t| t.map(|i| scene.mesh.positions[i as usize])).collect();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(args.threads.unwrap_or(0))
+        .build()
+        .map_err(|e| Error::Internal(format!("cannot start worker threads: {e}")))?;
+    let accel = pool.install(|| Accel::build(&tris));
+    let ctx = SceneContext::new(&scene, &accel);
+    let reporter = Reporter::silent();
+    let (maps, ms) = pool.install(|| trace_maps(&ctx, &p, 0, max_depth, 0, &reporter, stop));
+    let mut v = map_stats_json(&maps, &ms);
+    let (_, scene_r) = scene.bounding_sphere();
+    let r = p.max_radius.unwrap_or_else(|| default_max_radius(scene_r));
+    let ph = maps.global.photons();
+    let queries = if ph.is_empty() { 0 } else { 200_000usize };
+    let t = Instant::now();
+    let mut sink = glam::Vec3::ZERO;
+    for i in 0..queries {
+        let q = &ph[(crate::math::hash_u32(i as u32) as usize) % ph.len()];
+        let (e, _) =
+            photon::estimate::estimate(&maps.global, q.pos(), q.normal(), p.k, r * r, |_| true, |_| glam::Vec3::ONE);
+        sink += e;
+    }
+    let secs = t.elapsed().as_secs_f64();
+    v["knn_queries"] = json!(queries);
+    v["k"] = json!(p.k);
+    v["knn_queries_per_sec"] = json!(queries as f64 / secs.max(1e-9));
+    v["knn_checksum"] = json!(sink.x);
+    Ok(v)
 }

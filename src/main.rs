@@ -51,6 +51,24 @@ fn main() {
                 }
             }
         }
+        Command::Photons(args) => {
+            let mode = args.progress.unwrap_or(ProgressMode::None);
+            let reporter = Reporter::new(mode);
+            let stop = Arc::new(AtomicBool::new(false));
+            let handler_stop = stop.clone();
+            let _ = ctrlc::set_handler(move || {
+                if handler_stop.swap(true, Ordering::SeqCst) {
+                    std::process::exit(exit_code::INTERRUPTED_EMPTY);
+                }
+            });
+            match caustic::cli::run_photons(&args, &reporter, &stop) {
+                Ok(()) => exit_code::OK,
+                Err(e) => {
+                    reporter.error(e.exit_code(), &e.to_string());
+                    e.exit_code()
+                }
+            }
+        }
         Command::Render(args) => {
             let mode = args.progress.unwrap_or(if std::io::stderr().is_terminal() {
                 ProgressMode::Bar

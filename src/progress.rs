@@ -60,14 +60,14 @@ impl Reporter {
             ProgressMode::Json => self.json_line(json!({"type": "phase", "phase": phase, "elapsed": elapsed})),
             ProgressMode::Bar => {
                 let mut bar = self.bar.lock().unwrap();
-                if phase == "rendering" && bar.is_none() {
+                if (phase == "rendering" || phase == "photons") && bar.is_none() {
                     let b = ProgressBar::new(1000);
                     b.set_style(
                         ProgressStyle::with_template("{spinner} {msg} [{bar:40}] {percent}% ETA {eta}")
                             .unwrap_or_else(|_| ProgressStyle::default_bar()),
                     );
                     *bar = Some(b);
-                } else if phase != "rendering" {
+                } else if phase != "rendering" && phase != "photons" {
                     if let Some(b) = bar.take() {
                         b.finish_and_clear();
                     }
@@ -100,6 +100,30 @@ impl Reporter {
                     b.set_position((fraction.clamp(0.0, 1.0) * 1000.0) as u64);
                     let total = samples_total.map(|t| t.to_string()).unwrap_or_else(|| "∞".into());
                     b.set_message(format!("{samples_done}/{total} spp, {:.1} Mrays/s", rays_per_sec / 1e6));
+                }
+            }
+            ProgressMode::None => {}
+        }
+    }
+
+    /// Photon-tracing progress (the "photons" phase).
+    pub fn photon_progress(
+        &self,
+        fraction: f64,
+        photons_done: u64,
+        photons_total: u64,
+        elapsed: f64,
+        photons_per_sec: f64,
+    ) {
+        match self.mode {
+            ProgressMode::Json => self.json_line(json!({
+                "type": "progress", "phase": "photons", "fraction": fraction, "photons_done": photons_done,
+                "photons_total": photons_total, "elapsed": elapsed, "photons_per_sec": photons_per_sec
+            })),
+            ProgressMode::Bar => {
+                if let Some(b) = self.bar.lock().unwrap().as_ref() {
+                    b.set_position((fraction.clamp(0.0, 1.0) * 1000.0) as u64);
+                    b.set_message(format!("photons {photons_done}/{photons_total}, {:.2} M/s", photons_per_sec / 1e6));
                 }
             }
             ProgressMode::None => {}

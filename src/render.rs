@@ -38,6 +38,8 @@ pub struct RenderJob {
     pub filter: Filter,
     /// Algorithm.
     pub integrator: Integrator,
+    /// Camera rays that miss show nothing (alpha 0) rather than the world.
+    pub transparent_background: bool,
 }
 
 /// What came out.
@@ -167,6 +169,9 @@ pub fn render(
                                 let (org, dir) = camera.ray(px as f32 + 0.5 + off.x, py as f32 + 0.5 + off.y);
                                 let s = match &job.integrator {
                                     Integrator::Path(p) => {
+                                        p.li(ctx, org, dir, &mut sampler, |q| camera.depth(q), &mut ts.rays)
+                                    }
+                                    Integrator::Photon(p) => {
                                         p.li(ctx, org, dir, &mut sampler, |q| camera.depth(q), &mut ts.rays)
                                     }
                                 };

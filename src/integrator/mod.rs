@@ -4,6 +4,7 @@
 //! sample at a time; the tile loop, film and progress are shared (`render.rs`).
 
 pub mod path;
+pub mod photon;
 
 use crate::accel::{Accel, Hit};
 use crate::bsdf::pbr::PbrParams;
@@ -638,6 +639,8 @@ pub struct CameraSample {
 pub enum Integrator {
     /// Unidirectional path tracing with NEE and MIS.
     Path(path::PathIntegrator),
+    /// Jensen's photon mapping (rendering pass; the maps are built before).
+    Photon(photon::jensen::JensenIntegrator),
 }
 
 impl Integrator {
@@ -647,6 +650,7 @@ impl Integrator {
             Integrator::Path(p) => {
                 format!("path (max depth {}, russian roulette from depth {})", p.max_depth, p.rr_depth)
             }
+            Integrator::Photon(p) => p.describe(),
         }
     }
 }

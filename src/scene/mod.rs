@@ -64,6 +64,26 @@ pub struct SceneSettings {
     /// Transparent background (alpha = coverage); false gives alpha 1 everywhere, as
     /// Blender's Film → Transparent off. Default true.
     pub transparent: Option<bool>,
+    // Photon mapping ("photon" and "sppm" integrators); defaults in
+    // `integrator::photon::PhotonSettings`, meanings as the CLI flags of the same name.
+    /// Photons emitted for the global map.
+    pub photons: Option<u64>,
+    /// Photons emitted for the caustic map.
+    pub caustic_photons: Option<u64>,
+    /// Neighbours per radiance estimate.
+    pub k: Option<usize>,
+    /// Maximum photon search radius (scene units).
+    pub max_radius: Option<f32>,
+    /// Final-gather rays.
+    pub gather_rays: Option<u32>,
+    /// Non-specular bounces before the global map is read (0: no final gather).
+    pub diffuse_bounces: Option<u32>,
+    /// SPPM iterations.
+    pub sppm_iterations: Option<u32>,
+    /// SPPM photons per iteration.
+    pub sppm_photons: Option<u64>,
+    /// SPPM initial radius (scene units).
+    pub sppm_radius: Option<f32>,
 }
 
 /// Counts and per-material features for `caustic info`.

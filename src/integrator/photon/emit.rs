@@ -1,0 +1,299 @@
+//! Photon emission: picks a light in proportion to its exact emitted power (RGB
+//! luminance), then a point and a direction on it, and gives the photon the power that
+//! makes the sum over all photons equal the lights' power:
+//!
+//! | light | position | direction | power of one photon |
+//! |---|---|---|---|
+//! | point | the light | uniform sphere | 4π I / (p_l N) |
+//! | spot | the light | exactly ∝ glTF's falloff inside the outer cone | Φ_spot / (p_l N) |
+//! | directional | uniform on a disk of the scene's bounding-sphere radius, outside it | the light's | π R² E / (p_l N) |
+//! | area (CAUSTIC) | uniform | cosine-weighted, one-sided | π A L / (p_l N) |
+//! | emissive triangle | uniform | cosine-weighted, both sides when double-sided | π A L(x) s / (p_l N), s = sides |
+//!
+//! with p_l the light's selection probability (luminance of its power over the total)
+//! and N the photons emitted. With every photon carrying Φ_l / (p_l N) and p_l ∝ Φ_l
+//! exactly, each photon carries the same luminance, Φ_total / N, so the sum over N
+//! photons is the total power up to rounding, for every light type. The only
+//! exception: textured or partly transparent emitters, whose photons carry the local
+//! emission (unbiased, not exact).
+//!
+//! A spot's power is 2π I [(1 - c₁) + (c₁ - c_o)³ / (3 w²)] with c_o the outer cone's
+//! cosine, w = max(c_i - c_o, 10⁻³) and c₁ = min(c_o + w, 1) (glTF's smooth ramp as
+//! `light::spot_falloff` computes it); directions are drawn with exactly that density.
+//! Not handled: the world / environment light (none exists yet).
+
+use crate::light::{Light, sample_triangle};
+use crate::math::{Frame, Rgb, luminance};
+use crate::sampling::Distribution1D;
+use crate::sampling::warp::{concentric_disk, cosine_hemisphere, uniform_sphere};
+use crate::scene::{AlphaMode, Scene};
+use glam::{Vec2, Vec3};
+use std::f32::consts::PI;
+
+use crate::integrator::SceneContext;
+
+/// A photon leaving a light.
+#[derive(Clone, Copy, Debug)]
+pub struct EmittedPhoton {
+    /// Origin (already offset off an emitting surface).
+    pub org: Vec3,
+    /// Unit direction of travel.
+    pub dir: Vec3,
+    /// Power (W).
+    pub power: Rgb,
+}
+
+/// The lights as photon sources.
+#[derive(Clone, Debug)]
+pub struct Emitters {
+    /// Exact emitted power of each scene light (RGB, W).
+    pub power: Vec<Rgb>,
+    dist: Distribution1D,
+    total_lum: f32,
+    center: Vec3,
+    radius: f32,
+}
+
+/// Exact RGB power of a spot: 2π I ∫ falloff(c) dc over c in [cos_outer, 1].
+pub fn spot_power_factor(cos_inner: f32, cos_outer: f32) -> (f32, f32, f32, f32) {
+    let w = (cos_inner - cos_outer).max(1e-3);
+    let c1 = (cos_outer + w).min(1.0);
+    let a_ramp = (c1 - cos_outer).powi(3) / (3.0 * w * w);
+    let a_flat = 1.0 - c1;
+    (a_ramp, a_flat, c1, w)
+}
+
+/// A direction around +Z with density ∝ glTF's spot falloff (exactly): cos θ is drawn
+/// from the ramp's cubic inverse CDF or uniformly on the flat part, by their masses.
+#[inline]
+pub fn spot_direction(u: Vec2, cos_inner: f32, cos_outer: f32) -> Vec3 {
+    let (a_ramp, a_flat, c1, _) = spot_power_factor(cos_inner, cos_outer);
+    let p_ramp = a_ramp / (a_ramp + a_flat);
+    let c = if u.x < p_ramp {
+        cos_outer + (c1 - cos_outer) * (u.x / p_ramp).cbrt()
+    } else {
+        c1 + (1.0 - c1) * ((u.x - p_ramp) / (1.0 - p_ramp))
+    };
+    let c = c.clamp(-1.0, 1.0);
+    let s = (1.0 - c * c).max(0.0).sqrt();
+    let ph = 2.0 * PI * u.y;
+    Vec3::new(s * ph.cos(), s * ph.sin(), c)
+}
+
+impl Emitters {
+    /// Computes each light's exact power and the selection distribution.
+    pub fn new(scene: &Scene) -> Self {
+        let (center, radius) = scene.bounding_sphere();
+        let power: Vec<Rgb> = scene
+            .lights
+            .iter()
+            .map(|l| match l {
+                Light::Point { intensity, .. } => *intensity * (4.0 * PI),
+                Light::Spot { intensity, cos_outer, smooth: Some(k), .. } => {
+                    // ∫ smoothstep over the ramp is half its width: Ω (1 - blend / 2).
+                    let ramp = (1.0 / (k * (1.0 - cos_outer))).min(1.0);
+                    *intensity * (2.0 * PI * (1.0 - cos_outer) * (1.0 - 0.5 * ramp))
+                }
+                Light::Spot { intensity, cos_inner, cos_outer, .. } => {
+                    let (a, b, _, _) = spot_power_factor(*cos_inner, *cos_outer);
+                    *intensity * (2.0 * PI * (a + b))
+                }
+                Light::Sphere { radius, radiance, .. } => *radiance * (4.0 * PI * PI * radius * radius),
+                Light::World => match &scene.world {
+                    Some(w) => Rgb::splat(w.mean_luminance() * PI * PI * radius * radius),
+                    None => Rgb::ZERO,
+                },
+                Light::Directional { irradiance, .. } => *irradiance * (PI * radius * radius),
+                Light::Area(a) => a.radiance * (PI * a.area),
+                Light::Triangle { tri } => {
+                    let m = &scene.mesh;
+                    let mat = &scene.materials[m.tri_material[*tri as usize] as usize];
+                    let p = m.triangles[*tri as usize].map(|i| m.positions[i as usize]);
+                    let area = 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length();
+                    let tex =
+                        mat.emissive_tex.map(|t| scene.textures[t.texture as usize].mean_rgb()).unwrap_or(Vec3::ONE);
+                    let sides = if mat.double_sided { 2.0 } else { 1.0 };
+                    mat.emissive * tex * (PI * area * sides)
+                }
+            })
+            .collect();
+        let lum: Vec<f32> = power.iter().map(|p| luminance(*p)).collect();
+        let total_lum = lum.iter().map(|&x| x as f64).sum::<f64>() as f32;
+        Emitters { power, dist: Distribution1D::new(&lum), total_lum, center, radius }
+    }
+
+    /// Sum of the lights' power (RGB).
+    pub fn total_power(&self) -> Rgb {
+        self.power.iter().fold(Rgb::ZERO, |a, b| a + *b)
+    }
+
+    /// True when nothing emits.
+    pub fn is_empty(&self) -> bool {
+        !(self.total_lum > 0.0)
+    }
+
+    /// Probability of picking light `i`.
+    pub fn pmf(&self, i: usize) -> f32 {
+        self.dist.pmf(i)
+    }
+
+    /// Emits one of `n` photons: `u_light` picks the light, `u_side` the side of a
+    /// double-sided emitter, `u_pos` the point and `u_dir` the direction.
+    #[inline]
+    pub fn emit(
+        &self,
+        ctx: &SceneContext,
+        u_light: f32,
+        u_side: f32,
+        u_pos: Vec2,
+        u_dir: Vec2,
+        n: u64,
+    ) -> Option<EmittedPhoton> {
+        if self.is_empty() {
+            return None;
+        }
+        let (index, pmf, _) = self.dist.sample(u_light);
+        if !(pmf > 0.0) {
+            return None;
+        }
+        let scale = 1.0 / (pmf * n as f32);
+        let phi = self.power[index] * scale;
+        let scene = ctx.scene;
+        match &scene.lights[index] {
+            Light::Point { position, .. } => {
+                Some(EmittedPhoton { org: *position, dir: uniform_sphere(u_dir), power: phi })
+            }
+            Light::Spot { position, direction, intensity, cos_inner, cos_outer, smooth: Some(k) } => {
+                // Blender's smoothstep: uniform in the outer cone, weighted by the falloff.
+                let local = crate::sampling::warp::uniform_cone(u_dir, *cos_outer);
+                let atten = crate::light::spot_attenuation(local.z, *cos_inner, *cos_outer, Some(*k));
+                let omega = 2.0 * PI * (1.0 - cos_outer);
+                Some(EmittedPhoton {
+                    org: *position,
+                    dir: Frame::from_normal(*direction).to_world(local),
+                    power: *intensity * (atten * omega / (pmf * n as f32)),
+                })
+            }
+            Light::Sphere { center, radius, soft, .. } => {
+                if *soft {
+                    // Blender's soft falloff has no fixed shape; far away it is a point.
+                    return Some(EmittedPhoton { org: *center, dir: uniform_sphere(u_dir), power: phi });
+                }
+                let nrm = uniform_sphere(u_pos);
+                let dir = Frame::from_normal(nrm).to_world(cosine_hemisphere(u_dir));
+                Some(EmittedPhoton { org: *center + nrm * (*radius * 1.0001), dir, power: phi })
+            }
+            Light::World => {
+                // Toward the scene from a disk beyond its bounds, perpendicular to a
+                // direction drawn from the world's own distribution.
+                let env = scene.world.as_ref()?;
+                let (to_world, le, pdf) = env.sample(u_dir)?;
+                let f = Frame::from_normal(to_world);
+                let d = concentric_disk(u_pos) * self.radius;
+                Some(EmittedPhoton {
+                    org: self.center + to_world * (self.radius * 1.01) + f.s * d.x + f.t * d.y,
+                    dir: -to_world,
+                    power: le * (PI * self.radius * self.radius / (pdf * pmf * n as f32)),
+                })
+            }
+            Light::Spot { position, direction, cos_inner, cos_outer, .. } => {
+                let local = spot_direction(u_dir, *cos_inner, *cos_outer);
+                Some(EmittedPhoton { org: *position, dir: Frame::from_normal(*direction).to_world(local), power: phi })
+            }
+            Light::Directional { direction, cos_half, .. } => {
+                let f = Frame::from_normal(*direction);
+                let d = concentric_disk(u_pos) * self.radius;
+                // A sun with a size sends each photon from a direction within its cone.
+                let dir = if *cos_half < 1.0 {
+                    f.to_world(crate::sampling::warp::uniform_cone(u_dir, *cos_half).normalize())
+                } else {
+                    *direction
+                };
+                Some(EmittedPhoton {
+                    org: self.center - *direction * (self.radius * 1.01) + f.s * d.x + f.t * d.y,
+                    dir,
+                    power: phi,
+                })
+            }
+            Light::Area(a) => {
+                let q = a.sample_point(u_pos);
+                let dir = Frame::from_normal(a.normal).to_world(cosine_hemisphere(u_dir));
+                Some(EmittedPhoton { org: q, dir, power: phi })
+            }
+            Light::Triangle { tri } => {
+                let m = &scene.mesh;
+                let mat = &scene.materials[m.tri_material[*tri as usize] as usize];
+                let et = crate::light::EmitterTriangle {
+                    p: m.triangles[*tri as usize].map(|i| m.positions[i as usize]),
+                    two_sided: mat.double_sided,
+                };
+                let (q, mut n, b, _) = sample_triangle(&et, u_pos);
+                if et.two_sided && u_side >= 0.5 {
+                    n = -n;
+                }
+                // Local emission relative to the mean the power was computed with.
+                let uv = {
+                    let [i0, i1, i2] = m.triangles[*tri as usize].map(|i| i as usize);
+                    let b0 = 1.0 - b.x - b.y;
+                    [
+                        m.uv0[i0] * b0 + m.uv0[i1] * b.x + m.uv0[i2] * b.y,
+                        m.uv1[i0] * b0 + m.uv1[i1] * b.x + m.uv1[i2] * b.y,
+                    ]
+                };
+                let mut factor = Rgb::ONE;
+                if let Some(t) = mat.emissive_tex {
+                    let mean = scene.textures[t.texture as usize].mean_rgb();
+                    let local = mat.emission(&scene.textures, uv) / mat.emissive;
+                    factor = Rgb::new(ratio(local.x, mean.x), ratio(local.y, mean.y), ratio(local.z, mean.z));
+                }
+                let coverage = match mat.alpha_mode {
+                    AlphaMode::Opaque => 1.0,
+                    AlphaMode::Blend => ctx.alpha(*tri, b.x, b.y).clamp(0.0, 1.0),
+                    AlphaMode::Mask(cutoff) => (ctx.alpha(*tri, b.x, b.y) >= cutoff) as u8 as f32,
+                };
+                let dir = Frame::from_normal(n).to_world(cosine_hemisphere(u_dir));
+                Some(EmittedPhoton { org: crate::math::offset_ray_origin(q, n), dir, power: phi * factor * coverage })
+            }
+        }
+    }
+}
+
+#[inline]
+fn ratio(a: f32, b: f32) -> f32 {
+    if b > 0.0 && a.is_finite() { a / b } else { 0.0 }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Spot photon directions follow falloff(cos θ) / (2π (a_ramp + a_flat)) (χ² test).
+    #[test]
+    fn chi2_spot_directions() {
+        use crate::sampling::chi2::{ChiSquareTest, assert_chi2};
+        for (ci, co) in [(0.9f32, 0.5f32), (0.99, 0.9), (0.3, 0.0)] {
+            let (a, b, _, _) = spot_power_factor(ci, co);
+            let t = ChiSquareTest::new(&format!("spot photons {ci} {co}"));
+            assert_chi2(t.run(
+                |u| Some(spot_direction(u, ci, co)),
+                |w| crate::light::spot_falloff(w.z, ci, co) / (2.0 * PI * (a + b)),
+            ));
+        }
+    }
+
+    /// The spot's falloff integrated numerically equals the closed form.
+    #[test]
+    fn spot_power_closed_form() {
+        for (ci, co) in [(0.95f32, 0.8f32), (0.9, 0.9), (0.5, 0.0), (0.99, 0.2)] {
+            let (a, b, _, _) = spot_power_factor(ci, co);
+            let n = 200_000;
+            let mut s = 0.0f64;
+            for i in 0..n {
+                let c = co + (1.0 - co) * (i as f32 + 0.5) / n as f32;
+                s += crate::light::spot_falloff(c, ci, co) as f64;
+            }
+            let num = s * (1.0 - co) as f64 / n as f64;
+            assert!((num - (a + b) as f64).abs() < 1e-4 * (a + b) as f64 + 1e-7, "{ci} {co}: {num} vs {}", a + b);
+        }
+    }
+}

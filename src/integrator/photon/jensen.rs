@@ -1,0 +1,339 @@
+//! Jensen's two-pass photon mapping, the rendering pass (the photon pass is
+//! `trace.rs`, the maps `io.rs`). At the first non-specular hit x₁ of a camera path:
+//!
+//! ```text
+//! L(x₁) = Le + direct (NEE, MIS against the gather rays)
+//!       + caustics (caustic map, radiance estimate)
+//!       + indirect: diffuse_bounces = 0: global map at x₁ (photons after ≥ 1 bounce,
+//!                                         not on L S+ D paths: those are the caustics)
+//!                   diffuse_bounces = b ≥ 1: N gather rays (BSDF-sampled); each follows
+//!                   specular bounces, path-traces b - 1 non-specular bounces (NEE + MIS),
+//!                   then reads the global map (all photons) where it lands.
+//! ```
+//! Specular (delta) surfaces before x₁ are followed as a path tracer does; glossy lobes
+//! at x₁ are integrated by the gather rays, which sample the full BSDF. Emission reached
+//! from x₁ through specular bounces only is skipped: it is in the caustic map.
+//! Depth: a photon with hit index j read at the camera path's n-th scattering event
+//! makes a path of (j - 1) + n events; only those within `max_depth` are counted, so
+//! the result converges to the path tracer's at the same maximum depth.
+//!
+//! Parameters (defaults in `PhotonSettings`): k = 20 neighbours, maximum radius a tenth
+//! of the scene radius, 1 gather ray per camera sample, 1 diffuse bounce (final gather), maximum depth
+//! as the path tracer's. Not handled: participating media, shadow photons (not
+//! measured to pay off), photon-map irradiance caching, the world light.
+
+use super::estimate::{direct_light, radiance};
+use super::io::PhotonMaps;
+use crate::integrator::{CameraSample, RayStats, SceneContext, power_heuristic};
+use crate::math::{Rgb, offset_ray_origin};
+use crate::sampling::PixelSampler;
+use crate::scene::AlphaMode;
+use glam::{Vec2, Vec3};
+use std::sync::Arc;
+
+/// The rendering pass's parameters and its photon maps.
+#[derive(Clone, Debug)]
+pub struct JensenIntegrator {
+    /// Global and caustic maps.
+    pub maps: Arc<PhotonMaps>,
+    /// Maximum scattering events per path.
+    pub max_depth: u32,
+    /// Russian roulette from this depth on gather paths.
+    pub rr_depth: u32,
+    /// Neighbours per estimate.
+    pub k: usize,
+    /// Maximum search radius.
+    pub max_radius: f32,
+    /// Gather rays at the first diffuse hit.
+    pub gather_rays: u32,
+    /// Non-specular bounces before reading the global map (0: at x₁).
+    pub diffuse_bounces: u32,
+    /// Camera rays that miss show nothing (Film → Transparent), as in the path tracer.
+    pub transparent_background: bool,
+}
+
+const MAX_TRANSPARENT_HITS: u32 = 128;
+
+/// Where a continuation ray lands: the hit, passing transparent surfaces stochastically.
+#[inline]
+fn next_hit(
+    ctx: &SceneContext,
+    org: &mut Vec3,
+    dir: Vec3,
+    sampler: &mut PixelSampler,
+    stats: &mut RayStats,
+) -> (Option<(crate::accel::Hit, crate::integrator::SurfaceHit)>, f32) {
+    let mut passes = 0;
+    let mut first = None;
+    loop {
+        let Some(hit) = ctx.intersect(*org, dir, f32::INFINITY) else {
+            return (None, first.unwrap_or(f32::INFINITY));
+        };
+        first.get_or_insert(hit.t);
+        let s = ctx.surface(&hit, *org, dir);
+        if ctx.scene.materials[s.material as usize].alpha_mode == AlphaMode::Blend && passes < MAX_TRANSPARENT_HITS {
+            let alpha = ctx.alpha(hit.tri, hit.b1, hit.b2);
+            if sampler.next_4d()[0] >= alpha {
+                passes += 1;
+                *org = offset_ray_origin(s.p, -s.ng);
+                stats.bounce += 1;
+                continue;
+            }
+        }
+        return (Some((hit, s)), first.unwrap_or(f32::INFINITY));
+    }
+}
+
+impl JensenIntegrator {
+    /// Parameters, for logs and the summary.
+    pub fn describe(&self) -> String {
+        format!(
+            "photon (global {} photons emitted / {} stored, caustic {} / {}, k {}, max radius {:.4}, {} gather rays, {} diffuse bounce(s), max depth {})",
+            self.maps.emitted[0],
+            self.maps.global.len(),
+            self.maps.emitted[1],
+            self.maps.caustic.len(),
+            self.k,
+            self.max_radius,
+            self.gather_rays,
+            self.diffuse_bounces,
+            self.max_depth
+        )
+    }
+
+    /// Radiance arriving at the camera along a ray.
+    pub fn li(
+        &self,
+        ctx: &SceneContext,
+        mut org: Vec3,
+        mut dir: Vec3,
+        sampler: &mut PixelSampler,
+        depth_of: impl Fn(Vec3) -> f32,
+        stats: &mut RayStats,
+    ) -> CameraSample {
+        let mut out = CameraSample { depth: f32::INFINITY, ..Default::default() };
+        let mut radiance = Rgb::ZERO;
+        let mut beta = Rgb::ONE;
+        let mut depth = 0u32;
+        stats.camera += 1;
+        loop {
+            let [u_light, u_lx, u_ly, u_lobe] = sampler.next_4d();
+            let [u_dx, u_dy, _, _] = sampler.next_4d();
+            let org0 = org;
+            let (found, first) = next_hit(ctx, &mut org, dir, sampler, stats);
+            // Area lights crossed: every earlier vertex was specular (no MIS).
+            let (crossed, any) = ctx.crossed_emission(org0, dir, first, org0, 0.0);
+            if any {
+                radiance += beta * crossed;
+                if depth == 0 {
+                    out.alpha = 1.0;
+                }
+            }
+            let Some((_, s)) = found else {
+                // Escaped: the world and sun disks (every earlier vertex was specular).
+                if !(depth == 0 && self.transparent_background) {
+                    let le = ctx.world_radiance(dir) + ctx.sun_emission(dir, 0.0);
+                    if le != Rgb::ZERO {
+                        radiance += beta * le;
+                        if depth == 0 {
+                            out.alpha = 1.0;
+                        }
+                    }
+                }
+                break;
+            };
+            let wo = -dir;
+            let sp = ctx.shade(&s, wo);
+            if depth == 0 {
+                out.alpha = 1.0;
+                out.depth = depth_of(s.p);
+                out.normal = sp.frame.n;
+                out.albedo = sp.bsdf.albedo();
+            }
+            radiance += beta * sp.emitted;
+            if depth >= self.max_depth {
+                break;
+            }
+            let wo_local = sp.frame.to_local(wo);
+            if !sp.bsdf.is_delta() {
+                // x₁: the first non-specular hit, scattering event depth + 1.
+                radiance += beta
+                    * self.shade_first_diffuse(
+                        ctx,
+                        &s,
+                        &sp,
+                        wo_local,
+                        depth + 1,
+                        u_light,
+                        Vec2::new(u_lx, u_ly),
+                        sampler,
+                        stats,
+                    );
+                break;
+            }
+            // Specular: continue the path.
+            let Some(bs) = sp.bsdf.sample(wo_local, u_lobe, Vec2::new(u_dx, u_dy)) else {
+                break;
+            };
+            let wi = sp.frame.to_world(bs.wi);
+            beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
+            if !beta.is_finite() || beta == Rgb::ZERO {
+                break;
+            }
+            depth += 1;
+            org = offset_ray_origin(s.p, if wi.dot(s.ng) > 0.0 { s.ng } else { -s.ng });
+            dir = wi;
+            stats.bounce += 1;
+        }
+        out.radiance = radiance;
+        out
+    }
+
+    /// Reflected radiance at x₁ (scattering event `d`), without its emission.
+    #[allow(clippy::too_many_arguments)]
+    fn shade_first_diffuse(
+        &self,
+        ctx: &SceneContext,
+        s: &crate::integrator::SurfaceHit,
+        sp: &crate::integrator::ShadingPoint,
+        wo_local: Vec3,
+        d: u32,
+        u_light: f32,
+        u_pt: Vec2,
+        sampler: &mut PixelSampler,
+        stats: &mut RayStats,
+    ) -> Rgb {
+        let gather = if self.diffuse_bounces == 0 || d >= self.max_depth { 0 } else { self.gather_rays };
+        let max_r2 = self.max_radius * self.max_radius;
+        // Direct light.
+        let mut l = direct_light(ctx, s, sp, wo_local, u_light, u_pt, gather as f32, stats);
+        // Caustics: photons with hit index j make paths of j - 1 + d events.
+        let jmax = self.max_depth + 1 - d;
+        l += radiance(&self.maps.caustic, s.p, s.ng, &sp.frame, &sp.bsdf, wo_local, self.k, max_r2, |p| {
+            p.depth() <= jmax
+        });
+        if self.diffuse_bounces == 0 {
+            l += radiance(&self.maps.global, s.p, s.ng, &sp.frame, &sp.bsdf, wo_local, self.k, max_r2, |p| {
+                p.depth() >= 2 && !p.caustic() && p.depth() <= jmax
+            });
+            return l;
+        }
+        // Final gather.
+        let wo = sp.frame.to_world(wo_local);
+        let mut gathered = Rgb::ZERO;
+        for _ in 0..gather {
+            let [u_lobe, u_x, u_y, _] = sampler.next_4d();
+            let Some(bs) = sp.bsdf.sample(wo_local, u_lobe, Vec2::new(u_x, u_y)) else {
+                continue;
+            };
+            let wi = sp.frame.to_world(bs.wi);
+            let (co, ci) = (wo.dot(s.ng), wi.dot(s.ng));
+            if (bs.wi.z * wo_local.z > 0.0) != (co * ci > 0.0) || ci == 0.0 {
+                continue;
+            }
+            // Russian roulette sees the per-ray weight; the 1/N comes at the end.
+            let beta = bs.f * (bs.wi.z.abs() / bs.pdf);
+            let mis_pdf = if sp.bsdf.is_delta() { 0.0 } else { bs.pdf * gather as f32 };
+            let org = offset_ray_origin(s.p, if ci > 0.0 { s.ng } else { -s.ng });
+            gathered += self.gather_path(ctx, org, wi, beta, mis_pdf, s.p, d, sampler, stats);
+        }
+        l + gathered / gather.max(1) as f32
+    }
+
+    /// One gather ray from x₁ (scattering event `d`): radiance it brings, times `beta`.
+    #[allow(clippy::too_many_arguments)]
+    fn gather_path(
+        &self,
+        ctx: &SceneContext,
+        mut org: Vec3,
+        mut dir: Vec3,
+        mut beta: Rgb,
+        mut prev_pdf: f32,
+        mut prev_p: Vec3,
+        d: u32,
+        sampler: &mut PixelSampler,
+        stats: &mut RayStats,
+    ) -> Rgb {
+        let max_r2 = self.max_radius * self.max_radius;
+        let mut l = Rgb::ZERO;
+        let mut depth = d;
+        // Only specular bounces since x₁, and at least one: emission is a caustic.
+        let mut delta_only = true;
+        let mut bounced = false;
+        let mut nondelta = 0u32;
+        stats.bounce += 1;
+        loop {
+            let [u_light, u_lx, u_ly, u_lobe] = sampler.next_4d();
+            let [u_dx, u_dy, u_rr, _] = sampler.next_4d();
+            let caustic = delta_only && bounced;
+            let org0 = org;
+            let (found, first) = next_hit(ctx, &mut org, dir, sampler, stats);
+            if !caustic {
+                let (crossed, _) = ctx.crossed_emission(org0, dir, first, prev_p, prev_pdf);
+                l += beta * crossed;
+            }
+            let Some((hit, s)) = found else {
+                if !caustic {
+                    let w = if prev_pdf == 0.0 { 1.0 } else { power_heuristic(prev_pdf, ctx.world_pdf(dir)) };
+                    l += beta * (ctx.world_radiance(dir) * w + ctx.sun_emission(dir, prev_pdf));
+                }
+                break;
+            };
+            let wo = -dir;
+            let sp = ctx.shade(&s, wo);
+            if sp.emitted != Rgb::ZERO && !caustic {
+                let w = match (prev_pdf > 0.0, ctx.lights.light_of_triangle(hit.tri)) {
+                    (true, Some(index)) => power_heuristic(prev_pdf, ctx.light_pdf(index, prev_p, s.p, s.ng)),
+                    _ => 1.0,
+                };
+                l += beta * sp.emitted * w;
+            }
+            if depth >= self.max_depth {
+                break;
+            }
+            let wo_local = sp.frame.to_local(wo);
+            let delta = sp.bsdf.is_delta();
+            if !delta {
+                nondelta += 1;
+                delta_only = false;
+                if nondelta >= self.diffuse_bounces {
+                    // Read the global map: this is event depth + 1.
+                    let jmax = self.max_depth - depth;
+                    l += beta
+                        * radiance(&self.maps.global, s.p, s.ng, &sp.frame, &sp.bsdf, wo_local, self.k, max_r2, |p| {
+                            p.depth() <= jmax
+                        });
+                    break;
+                }
+                l += beta * direct_light(ctx, &s, &sp, wo_local, u_light, Vec2::new(u_lx, u_ly), 1.0, stats);
+            }
+            let Some(bs) = sp.bsdf.sample(wo_local, u_lobe, Vec2::new(u_dx, u_dy)) else {
+                break;
+            };
+            let wi = sp.frame.to_world(bs.wi);
+            let (co, ci) = (wo.dot(s.ng), wi.dot(s.ng));
+            if (bs.wi.z * wo_local.z > 0.0) != (co * ci > 0.0) || ci == 0.0 {
+                break;
+            }
+            beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
+            if !beta.is_finite() || beta == Rgb::ZERO {
+                break;
+            }
+            prev_pdf = if delta { 0.0 } else { bs.pdf };
+            prev_p = s.p;
+            bounced = true;
+            depth += 1;
+            if depth >= self.rr_depth {
+                let survive = beta.max_element().min(0.95);
+                if u_rr >= survive {
+                    break;
+                }
+                beta /= survive;
+            }
+            org = offset_ray_origin(s.p, if ci > 0.0 { s.ng } else { -s.ng });
+            dir = wi;
+            stats.bounce += 1;
+        }
+        l
+    }
+}

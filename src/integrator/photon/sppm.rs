@@ -1,0 +1,377 @@
+//! Stochastic progressive photon mapping (Hachisuka & Jensen 2009), with its own
+//! iteration driver. Each iteration:
+//!
+//! 1. **Visible points**: one camera sample per pixel (Owen-scrambled Sobol, sample index
+//!    = iteration) follows specular bounces to the first non-specular hit; emission on
+//!    the way and direct light there (NEE, as pbrt-v4's SPPM does) are accumulated.
+//! 2. **Photon pass**: `photons per iteration` photons are traced (first hits are not
+//!    stored: direct light came from NEE) and put in a kd-tree.
+//! 3. **Gather**: each pixel sums f(wo, wp) Φp over the photons within its radius r
+//!    (normal within 60°, path length within the maximum depth), M photons, and updates
+//!    N' = N + αM, r' = r √(N'/(N + M)), τ' = (τ + β Σ f Φ) r'²/r².
+//!
+//! Pixel value: L = mean(direct) + τ / (I π r²) after I iterations (photon powers are
+//! already divided by the photons per iteration). r → 0 and N → ∞ as iterations grow,
+//! so the estimate is consistent: error → 0 with iterations.
+//!
+//! Memory: per-pixel state (~160 bytes) plus one iteration's photons (32 bytes each;
+//! one per pixel by default), so it is bounded by the image, never by the total
+//! photon count.
+//!
+//! Parameters (defaults in `PhotonSettings`): iterations 64; photons per iteration = the
+//! window's pixel count; α = 2/3; initial radius per pixel = 2 pixel footprints at the
+//! visible point (the distance between adjacent pixels' camera rays there), clamped to
+//! [10⁻⁴, 5·10⁻²] × the scene's bounding radius, or `--sppm-radius` for every pixel.
+//! Not handled: participating media, the world light, the pixel filter (one sample at
+//! a filter-distributed offset per pixel and iteration, so the filter is applied), AOVs
+//! other than those of the first hit.
+
+use super::emit::Emitters;
+use super::estimate::direct_light;
+use super::trace::{MapKind, TraceJob, trace_photons};
+use super::{PhotonMap, PhotonSettings};
+use crate::bsdf::Bsdf;
+use crate::film::{DEPTH_BACKGROUND, FilmImage};
+use crate::integrator::{RayStats, SceneContext};
+use crate::math::{Frame, Rgb, offset_ray_origin};
+use crate::render::{Progress, RenderJob, RenderResult};
+use crate::sampling::PixelSampler;
+use crate::scene::AlphaMode;
+use crate::scene::camera::CameraRays;
+use glam::{DVec3, Vec2, Vec3};
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::time::Instant;
+
+/// Per-pixel progressive state.
+#[derive(Clone, Copy, Debug, Default)]
+struct PixelState {
+    /// Σ over iterations of emission + direct light.
+    ld: DVec3,
+    /// Accumulated, radius-scaled photon flux.
+    tau: DVec3,
+    /// Accumulated photon count N.
+    n: f64,
+    /// Current radius (0: not yet set).
+    r: f32,
+    alpha: f64,
+    depth: f32,
+    normal: Vec3,
+    albedo: Vec3,
+}
+
+/// This iteration's visible point.
+#[derive(Clone, Copy, Debug)]
+struct VisiblePoint {
+    p: Vec3,
+    ng: Vec3,
+    frame: Frame,
+    bsdf: Bsdf,
+    wo_local: Vec3,
+    beta: Rgb,
+    /// Scattering event index of the visible point on the camera path.
+    d: u32,
+}
+
+/// Counters of an SPPM render.
+#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
+pub struct SppmStats {
+    /// Iterations completed.
+    pub iterations: u32,
+    /// Photons emitted in all.
+    pub photons: u64,
+    /// Seconds spent tracing photons and building trees.
+    pub photon_seconds: f64,
+}
+
+/// Renders the job's window with SPPM. `job.spp` is ignored: the iteration count comes
+/// from `settings` (one camera sample per pixel per iteration).
+#[allow(clippy::too_many_arguments)]
+pub fn render(
+    ctx: &SceneContext,
+    camera: &CameraRays,
+    job: &RenderJob,
+    max_depth: u32,
+    settings: &PhotonSettings,
+    stop: &AtomicBool,
+    on_progress: &(dyn Fn(&Progress) + Sync),
+) -> (RenderResult, SppmStats) {
+    let [x0, y0, x1, y1] = job.window;
+    let (w, h) = (x1 - x0, y1 - y0);
+    let npix = (w * h) as usize;
+    let start = Instant::now();
+    let deadline = job.time_limit.map(|t| start + t);
+    let iterations = settings.sppm_iterations.max(1);
+    let per_iter = settings.sppm_photons.unwrap_or(npix as u64).max(1);
+    let (_, scene_r) = ctx.scene.bounding_sphere();
+    let emitters = Emitters::new(ctx.scene);
+    let mut states = vec![PixelState::default(); npix];
+    let mut vps: Vec<Option<VisiblePoint>> = vec![None; npix];
+    let mut rays = RayStats::default();
+    let mut st = SppmStats::default();
+    let rays_done = AtomicU64::new(0);
+    let mut nan = 0u64;
+    let alpha = settings.sppm_alpha;
+    for it in 0..iterations {
+        if stop.load(Ordering::Relaxed) || deadline.is_some_and(|d| Instant::now() >= d) {
+            break;
+        }
+        // 1. Visible points and direct light.
+        let row_stats: Vec<(RayStats, u64)> = states
+            .par_chunks_mut(w as usize)
+            .zip(vps.par_chunks_mut(w as usize))
+            .enumerate()
+            .map(|(row, (srow, vrow))| {
+                let mut rs = RayStats::default();
+                let mut bad = 0u64;
+                let py = y0 + row as u32;
+                for (i, (state, vp)) in srow.iter_mut().zip(vrow.iter_mut()).enumerate() {
+                    let px = x0 + i as u32;
+                    let mut sampler = PixelSampler::new(job.seed, px, py, it);
+                    let off = job.filter.sample(sampler.next_2d());
+                    let (fx, fy) = (px as f32 + 0.5 + off.x, py as f32 + 0.5 + off.y);
+                    let (org, dir) = camera.ray(fx, fy);
+                    let (ld, point, first_t) = camera_path(
+                        ctx,
+                        org,
+                        dir,
+                        &mut sampler,
+                        max_depth,
+                        state,
+                        camera,
+                        &mut rs,
+                        job.transparent_background,
+                    );
+                    if ld.is_finite() {
+                        state.ld += ld.as_dvec3();
+                    } else {
+                        bad += 1;
+                    }
+                    *vp = point;
+                    if state.r == 0.0 && first_t.is_finite() {
+                        state.r = settings.sppm_radius.unwrap_or_else(|| {
+                            // Two pixel footprints at the visible point.
+                            let (o2, d2) = camera.ray(fx + 1.0, fy);
+                            let fp = ((o2 + d2 * first_t) - (org + dir * first_t)).length();
+                            (2.0 * fp).clamp(1e-4 * scene_r, 5e-2 * scene_r)
+                        });
+                    }
+                }
+                (rs, bad)
+            })
+            .collect();
+        for (r, b) in &row_stats {
+            rays.add(r);
+            nan += b;
+        }
+        // 2. Photons. An iteration, once started, is finished (the stop flag is checked
+        // between iterations), so that every pixel has the same number of iterations.
+        let t_ph = Instant::now();
+        let never = AtomicBool::new(false);
+        let (photons, ts) = trace_photons(
+            ctx,
+            &emitters,
+            &TraceJob {
+                kind: MapKind::Global,
+                count: per_iter,
+                seed: job.seed,
+                pass: it + 1,
+                max_depth,
+                skip_direct: true,
+            },
+            &never,
+            &|_| {},
+        );
+        let map = PhotonMap::build(photons);
+        st.photon_seconds += t_ph.elapsed().as_secs_f64();
+        st.photons += ts.emitted;
+        // 3. Gather and update.
+        states.par_chunks_mut(w as usize).zip(vps.par_chunks(w as usize)).for_each(|(srow, vrow)| {
+            for (state, vp) in srow.iter_mut().zip(vrow) {
+                let Some(vp) = vp else { continue };
+                if !(state.r > 0.0) {
+                    continue;
+                }
+                let r2 = state.r * state.r;
+                let jmax = max_depth + 1 - vp.d;
+                let mut phi = Rgb::ZERO;
+                let mut m = 0u32;
+                map.for_each_within(vp.p, r2, |ph, _| {
+                    if ph.depth() <= jmax && ph.normal_within_60(vp.ng) {
+                        let wi = vp.frame.to_local(ph.wi());
+                        phi += vp.bsdf.eval(vp.wo_local, wi) * ph.power();
+                        m += 1;
+                    }
+                });
+                if m == 0 {
+                    continue;
+                }
+                let contrib = vp.beta * phi;
+                if !contrib.is_finite() {
+                    continue;
+                }
+                let n_new = state.n + alpha as f64 * m as f64;
+                let ratio = n_new / (state.n + m as f64);
+                let r_new = state.r * (ratio as f32).sqrt();
+                state.tau = (state.tau + contrib.as_dvec3()) * ratio;
+                state.n = n_new;
+                state.r = r_new;
+            }
+        });
+        st.iterations = it + 1;
+        rays_done.store(rays.total(), Ordering::Relaxed);
+        let elapsed = start.elapsed().as_secs_f64();
+        let fraction = (it + 1) as f64 / iterations as f64;
+        on_progress(&Progress {
+            fraction,
+            samples_done: it + 1,
+            samples_total: Some(iterations),
+            elapsed,
+            eta: Some(elapsed * (1.0 - fraction) / fraction),
+            rays_per_sec: rays.total() as f64 / elapsed.max(1e-6),
+        });
+    }
+    let image = image(&states, w, h, st.iterations);
+    (
+        RenderResult {
+            image,
+            rays,
+            nan_samples: nan,
+            spp_min: st.iterations,
+            spp_max: st.iterations,
+            interrupted: stop.load(Ordering::Relaxed),
+            elapsed: start.elapsed(),
+        },
+        st,
+    )
+}
+
+/// The image after `iters` iterations.
+fn image(states: &[PixelState], w: u32, h: u32, iters: u32) -> FilmImage {
+    let n = states.len();
+    let mut img = FilmImage {
+        width: w,
+        height: h,
+        combined: vec![[0.0; 4]; n],
+        depth: vec![DEPTH_BACKGROUND; n],
+        normal: vec![[0.0; 3]; n],
+        albedo: vec![[0.0; 3]; n],
+        samples: vec![iters; n],
+    };
+    if iters == 0 {
+        return img;
+    }
+    let inv = 1.0 / iters as f64;
+    for (i, s) in states.iter().enumerate() {
+        let mut c = s.ld * inv;
+        if s.r > 0.0 {
+            c += s.tau * inv / (std::f64::consts::PI * (s.r as f64) * (s.r as f64));
+        }
+        img.combined[i] = [c.x as f32, c.y as f32, c.z as f32, (s.alpha * inv) as f32];
+        if s.depth.is_finite() && s.depth > 0.0 {
+            img.depth[i] = s.depth;
+        }
+        img.normal[i] = (s.normal * inv as f32).to_array();
+        img.albedo[i] = (s.albedo * inv as f32).to_array();
+    }
+    img
+}
+
+/// Follows a camera ray through specular bounces to its visible point. Returns the
+/// emission and direct light collected, the visible point, and the first hit distance.
+#[allow(clippy::too_many_arguments)]
+fn camera_path(
+    ctx: &SceneContext,
+    mut org: Vec3,
+    mut dir: Vec3,
+    sampler: &mut PixelSampler,
+    max_depth: u32,
+    state: &mut PixelState,
+    camera: &CameraRays,
+    stats: &mut RayStats,
+    transparent_background: bool,
+) -> (Rgb, Option<VisiblePoint>, f32) {
+    let mut l = Rgb::ZERO;
+    let mut beta = Rgb::ONE;
+    let mut depth = 0u32;
+    let mut first_t = f32::INFINITY;
+    let mut transparent = 0u32;
+    stats.camera += 1;
+    loop {
+        let [u_light, u_lx, u_ly, u_lobe] = sampler.next_4d();
+        let [u_dx, u_dy, _, u_alpha] = sampler.next_4d();
+        let hit = ctx.intersect(org, dir, f32::INFINITY);
+        let t_surface = hit.map_or(f32::INFINITY, |h| h.t);
+        // Lights crossed and the world are found by specular paths only (no MIS): the
+        // visible point's NEE covers the rest.
+        let (crossed, any) = ctx.crossed_emission(org, dir, t_surface, org, 0.0);
+        if any {
+            l += beta * crossed;
+            if depth == 0 {
+                state.alpha += 1.0;
+            }
+        }
+        let Some(hit) = hit else {
+            if !(depth == 0 && transparent_background) {
+                let le = ctx.world_radiance(dir) + ctx.sun_emission(dir, 0.0);
+                if le != Rgb::ZERO {
+                    l += beta * le;
+                    if depth == 0 {
+                        state.alpha += 1.0;
+                    }
+                }
+            }
+            break;
+        };
+        let s = ctx.surface(&hit, org, dir);
+        if ctx.scene.materials[s.material as usize].alpha_mode == AlphaMode::Blend
+            && transparent < 128
+            && u_alpha >= ctx.alpha(hit.tri, hit.b1, hit.b2)
+        {
+            transparent += 1;
+            org = offset_ray_origin(s.p, -s.ng);
+            stats.bounce += 1;
+            continue;
+        }
+        let wo = -dir;
+        let sp = ctx.shade(&s, wo);
+        if depth == 0 {
+            first_t = s.t;
+            state.alpha += 1.0;
+            let z = camera.depth(s.p);
+            if state.depth == 0.0 || z < state.depth {
+                state.depth = z;
+            }
+            state.normal += sp.frame.n;
+            state.albedo += sp.bsdf.albedo();
+        } else if first_t.is_infinite() {
+            first_t = s.t;
+        }
+        l += beta * sp.emitted;
+        if depth >= max_depth {
+            break;
+        }
+        let wo_local = sp.frame.to_local(wo);
+        if !sp.bsdf.is_delta() {
+            l += beta * direct_light(ctx, &s, &sp, wo_local, u_light, Vec2::new(u_lx, u_ly), 0.0, stats);
+            return (
+                l,
+                Some(VisiblePoint { p: s.p, ng: s.ng, frame: sp.frame, bsdf: sp.bsdf, wo_local, beta, d: depth + 1 }),
+                first_t,
+            );
+        }
+        let Some(bs) = sp.bsdf.sample(wo_local, u_lobe, Vec2::new(u_dx, u_dy)) else {
+            break;
+        };
+        let wi = sp.frame.to_world(bs.wi);
+        beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
+        if !beta.is_finite() || beta == Rgb::ZERO {
+            break;
+        }
+        depth += 1;
+        org = offset_ray_origin(s.p, if wi.dot(s.ng) > 0.0 { s.ng } else { -s.ng });
+        dir = wi;
+        stats.bounce += 1;
+    }
+    (l, None, first_t)
+}

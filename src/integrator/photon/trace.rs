@@ -1,0 +1,229 @@
+//! Photon tracing: follows photons from the lights through the scene and stores them
+//! at every non-specular hit.
+//!
+//! At each hit the BSDF is sampled (`Bsdf::sample`, with the photon's arrival
+//! direction as `wo`); the scattering weight is w = f |cos| / pdf times the adjoint
+//! shading-normal correction |wo·ns| |wi·ng| / (|wo·ng| |wi·ns|) (Veach's thesis, §5.3),
+//! and the photon continues with probability q = min(1, max component of w), its power
+//! becoming power · w / q. For an energy-conserving BSDF max(w) ≤ 1 on average, so the
+//! photon's largest power component never grows: no power blow-up, and every stored
+//! photon has at most its light's per-photon power.
+//!
+//! Two maps, as in Jensen's notes:
+//! - `Global`: every non-specular hit of every photon (paths L {S|D}* D), with its hit
+//!   index (1 = direct light) and a flag for L S+ D paths;
+//! - `Caustic`: only hits reached through specular (delta) scattering alone (L S+ D);
+//!   the photon is dropped at its first non-specular hit. Not implemented: aiming
+//!   caustic photons at specular objects (projection maps); caustic photons are emitted
+//!   as the global ones are, only more of them.
+//!
+//! "Specular" is `Bsdf::is_delta()`: delta BSDFs only. Glossy lobes, however smooth,
+//! are stored as non-specular (a photon estimate of a very smooth glossy lobe is noisy
+//! rather than wrong; treating it as specular would need a roughness threshold with no
+//! principled value).
+//!
+//! Random numbers: photon i of pass `pass` draws from the Owen-scrambled Sobol stream
+//! (seed, salt, pass, i), so the maps depend on (seed, i) only, never on threads; the
+//! photons are traced in fixed chunks in parallel and concatenated in chunk order.
+//! Stochastic transparency (BLEND) lets photons pass as camera rays do.
+
+use super::Photon;
+use super::emit::Emitters;
+use crate::integrator::SceneContext;
+use crate::math::offset_ray_origin;
+use crate::sampling::PixelSampler;
+use crate::scene::AlphaMode;
+use glam::Vec2;
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+
+/// Which map a tracing pass fills.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MapKind {
+    /// Every non-specular hit.
+    Global,
+    /// Only L S+ D hits.
+    Caustic,
+}
+
+/// Photons per parallel work item.
+pub const CHUNK: u64 = 4096;
+
+/// Limit on transparent pass-throughs per photon.
+const MAX_TRANSPARENT_HITS: u32 = 128;
+
+/// Counters of a tracing pass.
+#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
+pub struct TraceStats {
+    /// Photons emitted.
+    pub emitted: u64,
+    /// Photons stored.
+    pub stored: u64,
+    /// Rays cast.
+    pub rays: u64,
+}
+
+/// What to trace.
+#[derive(Clone, Copy, Debug)]
+pub struct TraceJob {
+    /// Map kind.
+    pub kind: MapKind,
+    /// Photons to emit.
+    pub count: u64,
+    /// Seed.
+    pub seed: u32,
+    /// Pass number (SPPM iteration; 0 for Jensen's maps).
+    pub pass: u32,
+    /// Largest hit index stored (the render's maximum depth).
+    pub max_depth: u32,
+    /// Do not store first hits (direct light), for SPPM, which computes it by NEE.
+    pub skip_direct: bool,
+}
+
+/// Salts that keep the global, caustic and SPPM streams apart from the pixels'.
+fn salt(kind: MapKind) -> u32 {
+    match kind {
+        MapKind::Global => 0xF07_0001,
+        MapKind::Caustic => 0xF07_0002,
+    }
+}
+
+/// Traces `job.count` photons in parallel; `progress` receives the number of photons
+/// done after each chunk. Returns the stored photons (not yet a tree) and counters.
+pub fn trace_photons(
+    ctx: &SceneContext,
+    emitters: &Emitters,
+    job: &TraceJob,
+    stop: &AtomicBool,
+    progress: &(dyn Fn(u64) + Sync),
+) -> (Vec<Photon>, TraceStats) {
+    let chunks = job.count.div_ceil(CHUNK);
+    let done = AtomicU64::new(0);
+    let parts: Vec<(Vec<Photon>, TraceStats)> = (0..chunks)
+        .into_par_iter()
+        .map(|c| {
+            let lo = c * CHUNK;
+            let hi = (lo + CHUNK).min(job.count);
+            // Room for up to 4 stored hits per photon: the per-photon loop then pushes
+            // without reallocating unless the chunk's photons average more than 4 hits.
+            let mut out = Vec::with_capacity(((hi - lo) * job.max_depth.clamp(1, 4) as u64) as usize);
+            let mut st = TraceStats::default();
+            if stop.load(Ordering::Relaxed) {
+                return (out, st);
+            }
+            for i in lo..hi {
+                trace_one(ctx, emitters, job, i, &mut out, &mut st);
+            }
+            progress(done.fetch_add(hi - lo, Ordering::Relaxed) + hi - lo);
+            (out, st)
+        })
+        .collect();
+    let total: usize = parts.iter().map(|p| p.0.len()).sum();
+    let mut photons = Vec::with_capacity(total);
+    let mut stats = TraceStats::default();
+    for (p, s) in parts {
+        photons.extend_from_slice(&p);
+        stats.emitted += s.emitted;
+        stats.stored += s.stored;
+        stats.rays += s.rays;
+    }
+    (photons, stats)
+}
+
+/// Traces photon `i` of the job, appending what it stores to `out`.
+#[inline]
+pub fn trace_one(
+    ctx: &SceneContext,
+    emitters: &Emitters,
+    job: &TraceJob,
+    i: u64,
+    out: &mut Vec<Photon>,
+    st: &mut TraceStats,
+) {
+    let mut s = PixelSampler::new(job.seed, salt(job.kind), job.pass ^ ((i >> 32) as u32), i as u32);
+    let [u_light, u_side, u_px, u_py] = s.next_4d();
+    let [u_dx, u_dy, _, _] = s.next_4d();
+    st.emitted += 1;
+    let Some(e) = emitters.emit(ctx, u_light, u_side, Vec2::new(u_px, u_py), Vec2::new(u_dx, u_dy), job.count) else {
+        return;
+    };
+    let (mut org, mut dir, mut power) = (e.org, e.dir, e.power);
+    let mut specular_only = true;
+    let mut depth = 0u32;
+    let mut transparent = 0u32;
+    // Absorption coefficient of the medium the photon is in (KHR_materials_volume).
+    let mut medium: Option<crate::math::Rgb> = None;
+    loop {
+        let [u_lobe, u_x, u_y, u_rr] = s.next_4d();
+        st.rays += 1;
+        let Some(hit) = ctx.intersect(org, dir, f32::INFINITY) else {
+            return;
+        };
+        if let Some(sigma) = medium {
+            power *= (-sigma * hit.t).exp();
+        }
+        let sh = ctx.surface(&hit, org, dir);
+        if ctx.scene.materials[sh.material as usize].alpha_mode == AlphaMode::Blend
+            && transparent < MAX_TRANSPARENT_HITS
+        {
+            let a = ctx.alpha(hit.tri, hit.b1, hit.b2);
+            if s.next_4d()[0] >= a {
+                transparent += 1;
+                org = offset_ray_origin(sh.p, -sh.ng);
+                continue;
+            }
+        }
+        depth += 1;
+        let wo = -dir;
+        let sp = ctx.shade(&sh, wo);
+        let delta = sp.bsdf.is_delta();
+        if !delta {
+            let caustic = specular_only && depth > 1;
+            match job.kind {
+                MapKind::Global if job.skip_direct && depth == 1 => {}
+                MapKind::Global => {
+                    out.push(Photon::new(sh.p, power, wo, sh.ng, depth, caustic));
+                    st.stored += 1;
+                }
+                MapKind::Caustic => {
+                    if caustic {
+                        out.push(Photon::new(sh.p, power, wo, sh.ng, depth, true));
+                        st.stored += 1;
+                    }
+                    return;
+                }
+            }
+        }
+        if depth >= job.max_depth {
+            return;
+        }
+        specular_only &= delta;
+        // Scatter.
+        let wo_local = sp.frame.to_local(wo);
+        let Some(bs) = sp.bsdf.sample(wo_local, u_lobe, Vec2::new(u_x, u_y)) else {
+            return;
+        };
+        let wi = sp.frame.to_world(bs.wi);
+        let (cos_o_g, cos_i_g) = (wo.dot(sh.ng), wi.dot(sh.ng));
+        // Reflection in the shading frame must be reflection geometrically (and the
+        // same for transmission), or light leaks through the surface.
+        if (bs.wi.z * wo_local.z > 0.0) != (cos_i_g * cos_o_g > 0.0) || cos_i_g == 0.0 {
+            return;
+        }
+        let correction = (wo_local.z * cos_i_g / (cos_o_g * bs.wi.z)).abs();
+        let w = bs.f * (bs.wi.z.abs() / bs.pdf) * correction;
+        let q = w.max_element().min(1.0);
+        if !(q > 0.0) || u_rr >= q || !w.is_finite() {
+            return;
+        }
+        power *= w / q;
+        if cos_i_g < 0.0 {
+            let mat = &ctx.scene.materials[sh.material as usize];
+            if let Some(sigma) = mat.volume {
+                medium = if sh.front { Some(sigma) } else { None };
+            }
+        }
+        org = offset_ray_origin(sh.p, if cos_i_g > 0.0 { sh.ng } else { -sh.ng });
+        dir = wi;
+    }
+}
