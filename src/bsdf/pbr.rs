@@ -23,7 +23,7 @@
 //! compensates with multiscatter GGX: rough metals are slightly darker in Caustic).
 
 use super::BsdfSample;
-use super::dielectric::DielectricBsdf;
+use super::dielectric::{DielectricBsdf, SMOOTH_ROUGHNESS};
 use super::microfacet::{Ggx, reflect, schlick_weight};
 use crate::math::{Rgb, luminance};
 use crate::sampling::warp::{cosine_hemisphere, cosine_hemisphere_pdf};
@@ -111,6 +111,10 @@ pub struct PbrBsdf {
     pub coat_roughness: f32,
     /// Microfacets of the coat.
     pub coat_ggx: Ggx,
+    /// The reflection lobes are perfect mirrors (roughness below `SMOOTH_ROUGHNESS`).
+    pub smooth: bool,
+    /// The coat is a perfect mirror.
+    pub smooth_coat: bool,
 }
 
 /// Probabilities of the lobes for one `wo`: metal, dielectric specular, diffuse, glass.
@@ -150,6 +154,8 @@ impl PbrBsdf {
             coat: p.coat.clamp(0.0, 1.0),
             coat_roughness: p.coat_roughness.clamp(0.0, 1.0),
             coat_ggx: Ggx::from_roughness(p.coat_roughness.clamp(0.0, 1.0)),
+            smooth: roughness < SMOOTH_ROUGHNESS,
+            smooth_coat: p.coat_roughness < SMOOTH_ROUGHNESS,
         }
     }
 
@@ -198,7 +204,13 @@ impl PbrBsdf {
 
     /// True when every lobe is a delta lobe (smooth clear glass): no light sampling helps.
     pub fn is_delta(&self) -> bool {
-        self.metallic == 0.0 && self.transmission == 1.0 && self.glass.smooth && self.coat == 0.0
+        let dielectric = 1.0 - self.metallic;
+        let opaque = dielectric * (1.0 - self.transmission);
+        let rough = (opaque > 0.0 && luminance(self.base) > 0.0)
+            || (!self.smooth && (self.metallic > 0.0 || (opaque > 0.0 && self.specular > 0.0)))
+            || (self.transmission > 0.0 && dielectric > 0.0 && !self.glass.smooth)
+            || (self.coat > 0.0 && !self.smooth_coat);
+        !rough
     }
 
     /// f(wo, wi) of the non-delta lobes; directions in the local frame. Reflection is
@@ -222,7 +234,8 @@ impl PbrBsdf {
         }
         let h = (wo + wi).normalize();
         let fw = schlick_weight(wo.dot(h).max(0.0));
-        let spec = self.ggx.d(h) * self.ggx.g2(wo, wi) / (4.0 * wo.z * wi.z);
+        // Smooth reflection is a delta lobe: sampled only, never evaluated.
+        let spec = if self.smooth { 0.0 } else { self.ggx.d(h) * self.ggx.g2(wo, wi) / (4.0 * wo.z * wi.z) };
         let opaque = dielectric * (1.0 - self.transmission);
         if opaque > 0.0 {
             // The specular weight scales the whole layer (F0 and F90), so its albedo is
@@ -237,7 +250,7 @@ impl PbrBsdf {
             f += (self.base + (Vec3::ONE - self.base) * fw) * (spec * self.metallic);
         }
         f *= under;
-        if self.coat > 0.0 {
+        if self.coat > 0.0 && !self.smooth_coat {
             let f_coat = F0_DIELECTRIC + (1.0 - F0_DIELECTRIC) * fw;
             let coat_spec = self.coat_ggx.d(h) * self.coat_ggx.g2(wo, wi) / (4.0 * wo.z * wi.z);
             f += Rgb::splat(self.coat * f_coat * coat_spec);
@@ -259,9 +272,12 @@ impl PbrBsdf {
         }
         if wi.z > 0.0 {
             let h = (wo + wi).normalize();
-            let pdf_spec = self.ggx.pdf_visible_normal(wo, h) / (4.0 * wo.dot(h).max(1e-8));
-            pdf += (c.metal + c.spec) * pdf_spec + c.diffuse * cosine_hemisphere_pdf(wi.z);
-            if c.coat > 0.0 {
+            if !self.smooth {
+                let pdf_spec = self.ggx.pdf_visible_normal(wo, h) / (4.0 * wo.dot(h).max(1e-8));
+                pdf += (c.metal + c.spec) * pdf_spec;
+            }
+            pdf += c.diffuse * cosine_hemisphere_pdf(wi.z);
+            if c.coat > 0.0 && !self.smooth_coat {
                 pdf += c.coat * self.coat_ggx.pdf_visible_normal(wo, h) / (4.0 * wo.dot(h).max(1e-8));
             }
         }
@@ -286,10 +302,30 @@ impl PbrBsdf {
             }
             s.wi
         } else if uc < c.glass + c.metal + c.spec {
+            if self.smooth {
+                // Perfect mirror: the metal's and the dielectric layer's reflectance.
+                let mu = wo_up.z;
+                let under = 1.0 - self.coat_albedo(mu);
+                let opaque = (1.0 - self.metallic) * (1.0 - self.transmission);
+                let metal = (self.base + (Vec3::ONE - self.base) * schlick_weight(mu)) * self.metallic;
+                let refl = (metal + Vec3::splat(opaque * self.layer_albedo(mu))) * under;
+                let wi = Vec3::new(-wo_up.x, -wo_up.y, wo_up.z);
+                return Some(BsdfSample { wi: mirror(wi), f: refl / mu, pdf: c.metal + c.spec, delta: true });
+            }
             reflect(wo_up, self.ggx.sample_visible_normal(wo_up, u))
         } else if uc < c.glass + c.metal + c.spec + c.diffuse {
             cosine_hemisphere(u)
         } else {
+            if self.smooth_coat {
+                let mu = wo_up.z;
+                let wi = Vec3::new(-wo_up.x, -wo_up.y, wo_up.z);
+                return Some(BsdfSample {
+                    wi: mirror(wi),
+                    f: Rgb::splat(self.coat_albedo(mu) / mu),
+                    pdf: c.coat,
+                    delta: true,
+                });
+            }
             reflect(wo_up, self.coat_ggx.sample_visible_normal(wo_up, u))
         };
         if wi_up.z == 0.0 || (uc >= c.glass && wi_up.z < 0.0) {
@@ -524,6 +560,24 @@ mod tests {
                 assert!((f1 - f2).abs().max_element() <= 1e-4 * f1.max_element().max(1.0));
             }
         }
+    }
+
+    /// A perfectly smooth metal is a delta mirror whose sampled weight is Schlick's
+    /// Fresnel; a smooth dielectric over black is one too, weighted by its layer albedo.
+    #[test]
+    fn smooth_reflection_is_a_delta_mirror() {
+        let metal = PbrBsdf::new(Vec3::new(0.9, 0.6, 0.3), 1.0, 0.0);
+        assert!(metal.is_delta());
+        let wo = Vec3::new(0.6, 0.0, 0.8);
+        let s = metal.sample(wo, 0.5, Vec2::new(0.3, 0.7)).unwrap();
+        assert!(s.delta && (s.wi - Vec3::new(-0.6, 0.0, 0.8)).length() < 1e-6);
+        let weight = s.f * s.wi.z / s.pdf;
+        let expect = metal.base + (Vec3::ONE - metal.base) * schlick_weight(0.8);
+        assert!((weight - expect).abs().max_element() < 1e-5, "{weight} vs {expect}");
+        assert_eq!(metal.eval(wo, s.wi), Vec3::ZERO);
+        // A smooth dielectric with a diffuse base is not a pure delta BSDF.
+        assert!(!PbrBsdf::new(Vec3::splat(0.5), 0.0, 0.0).is_delta());
+        assert!(PbrBsdf::new(Vec3::ZERO, 0.0, 0.0).is_delta());
     }
 
     /// The albedo table agrees with a 4× finer quadrature within TABLE_ERROR, which the

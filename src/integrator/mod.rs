@@ -235,6 +235,20 @@ impl<'a> SceneContext<'a> {
         sum
     }
 
+    /// The medium (absorption coefficient) a path is in after leaving surface `s` in
+    /// direction `wi`: crossing a solid's boundary enters or leaves its
+    /// `KHR_materials_volume`; reflection and thin surfaces keep the current one.
+    #[inline]
+    pub fn medium_after(&self, s: &SurfaceHit, wi: Vec3, current: Option<Rgb>) -> Option<Rgb> {
+        if wi.dot(s.ng) >= 0.0 {
+            return current;
+        }
+        match self.scene.materials[s.material as usize].volume {
+            Some(sigma) => s.front.then_some(sigma),
+            None => current,
+        }
+    }
+
     /// Radiance of the world seen along direction `d` (zero without a world).
     #[inline]
     pub fn world_radiance(&self, d: Vec3) -> Rgb {

@@ -115,12 +115,17 @@ impl JensenIntegrator {
         let mut radiance = Rgb::ZERO;
         let mut beta = Rgb::ONE;
         let mut depth = 0u32;
+        // Absorbing medium the specular camera path is in (KHR_materials_volume).
+        let mut medium: Option<Rgb> = None;
         stats.camera += 1;
         loop {
             let [u_light, u_lx, u_ly, u_lobe] = sampler.next_4d();
             let [u_dx, u_dy, _, _] = sampler.next_4d();
             let org0 = org;
             let (found, first) = next_hit(ctx, &mut org, dir, sampler, stats);
+            if let (Some(sigma), true) = (medium, first.is_finite()) {
+                beta *= (-sigma * first).exp();
+            }
             // Area lights crossed: every earlier vertex was specular (no MIS).
             let (crossed, any) = ctx.crossed_emission(org0, dir, first, org0, 0.0);
             if any {
@@ -181,6 +186,7 @@ impl JensenIntegrator {
                 break;
             }
             depth += 1;
+            medium = ctx.medium_after(&s, wi, medium);
             org = offset_ray_origin(s.p, if wi.dot(s.ng) > 0.0 { s.ng } else { -s.ng });
             dir = wi;
             stats.bounce += 1;

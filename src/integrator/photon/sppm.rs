@@ -297,11 +297,16 @@ fn camera_path(
     let mut first_t = f32::INFINITY;
     let mut transparent = 0u32;
     stats.camera += 1;
+    // Absorbing medium the specular camera path is in (KHR_materials_volume).
+    let mut medium: Option<Rgb> = None;
     loop {
         let [u_light, u_lx, u_ly, u_lobe] = sampler.next_4d();
         let [u_dx, u_dy, _, u_alpha] = sampler.next_4d();
         let hit = ctx.intersect(org, dir, f32::INFINITY);
         let t_surface = hit.map_or(f32::INFINITY, |h| h.t);
+        if let (Some(sigma), true) = (medium, t_surface.is_finite()) {
+            beta *= (-sigma * t_surface).exp();
+        }
         // Lights crossed and the world are found by specular paths only (no MIS): the
         // visible point's NEE covers the rest.
         let (crossed, any) = ctx.crossed_emission(org, dir, t_surface, org, 0.0);
@@ -369,6 +374,7 @@ fn camera_path(
             break;
         }
         depth += 1;
+        medium = ctx.medium_after(&s, wi, medium);
         org = offset_ray_origin(s.p, if wi.dot(s.ng) > 0.0 { s.ng } else { -s.ng });
         dir = wi;
         stats.bounce += 1;
