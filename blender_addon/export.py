@@ -65,6 +65,13 @@ def render_settings(scene, resolution, camera_name):
         "filter": "blackman-harris",
         "filter_width": float(scene.render.filter_size),
     }
+    if props.integrator == "sppm":
+        settings["sppm_iterations"] = int(props.samples)
+    if props.integrator == "photon":
+        if props.photons > 0:
+            settings["photons"] = int(props.photons)
+        if props.caustic_photons > 0:
+            settings["caustic_photons"] = int(props.caustic_photons)
     if props.time_limit > 0.0:
         settings["time_limit"] = float(props.time_limit)
     if props.threads > 0:

@@ -10,6 +10,10 @@ from bpy.props import EnumProperty, FloatProperty, IntProperty, PointerProperty,
 # (identifier, UI name, description); the identifier is the renderer's integrator name.
 INTEGRATORS = [
     ("path", "Path Tracing", "Unidirectional path tracing with next-event estimation and MIS"),
+    ("photon", "Photon Mapping", "Jensen's photon mapping: caustic and global photon maps, final gather "
+     "(fast, smooth caustics; slightly biased)"),
+    ("sppm", "Progressive Photon Mapping", "Stochastic progressive photon mapping: consistent, converges "
+     "to the path-traced image; Samples sets the number of iterations"),
 ]
 
 
@@ -21,6 +25,20 @@ class CausticRenderSettings(bpy.types.PropertyGroup):
         description="Light transport algorithm",
         items=INTEGRATORS,
         default="path",
+    )
+    photons: IntProperty(
+        name="Photons",
+        description="Photons in the global map (Photon Mapping; 0 = the renderer's default)",
+        default=0,
+        min=0,
+        soft_max=10_000_000,
+    )
+    caustic_photons: IntProperty(
+        name="Caustic Photons",
+        description="Photons in the caustic map (Photon Mapping; 0 = the renderer's default)",
+        default=0,
+        min=0,
+        soft_max=10_000_000,
     )
     samples: IntProperty(
         name="Samples",

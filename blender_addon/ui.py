@@ -75,6 +75,9 @@ class CAUSTIC_PT_render(CausticButtonsPanel, bpy.types.Panel):
         settings = context.scene.caustic
 
         layout.prop(settings, "integrator")
+        if settings.integrator == "photon":
+            layout.prop(settings, "photons")
+            layout.prop(settings, "caustic_photons")
         col = layout.column(align=True)
         col.prop(settings, "samples")
         col.prop(settings, "time_limit")
