@@ -113,6 +113,9 @@ pub struct PbrBsdf {
     pub coat_ggx: Ggx,
     /// The reflection lobes are perfect mirrors (roughness below `SMOOTH_ROUGHNESS`).
     pub smooth: bool,
+    /// Cosine-weighted mean albedo of the dielectric layer (specular weight included).
+    layer_avg: f32,
+
     /// The coat is a perfect mirror.
     pub smooth_coat: bool,
 }
@@ -156,7 +159,14 @@ impl PbrBsdf {
             coat_ggx: Ggx::from_roughness(p.coat_roughness.clamp(0.0, 1.0)),
             smooth: roughness < SMOOTH_ROUGHNESS,
             smooth_coat: p.coat_roughness < SMOOTH_ROUGHNESS,
+            layer_avg: 0.0,
         }
+        .with_layer_avg()
+    }
+
+    fn with_layer_avg(mut self) -> Self {
+        self.layer_avg = self.specular * specular_albedo().e_avg(self.roughness, self.f0);
+        self
     }
 
     /// Directional albedo of the coat at μ (weight included).
@@ -242,8 +252,7 @@ impl PbrBsdf {
             // weight × E and the albedo scaling stays exact.
             let f_layer = self.specular * (self.f0 + (1.0 - self.f0) * fw);
             let (eo, ei) = (self.layer_albedo(wo.z), self.layer_albedo(wi.z));
-            let e_avg = self.specular * specular_albedo().e_avg(self.roughness, self.f0);
-            let diffuse_weight = (1.0 - eo) * (1.0 - ei) / (1.0 - e_avg);
+            let diffuse_weight = (1.0 - eo) * (1.0 - ei) / (1.0 - self.layer_avg);
             f += (self.base * (FRAC_1_PI * diffuse_weight) + Vec3::splat(f_layer * spec)) * opaque;
         }
         if self.metallic > 0.0 {
@@ -400,22 +409,17 @@ impl SpecularAlbedo {
         (x * x).max(1e-3)
     }
 
+    /// E(μ, roughness, F0), bilinear in the tables (one set of weights for both).
     #[inline]
-    fn bilinear(t: &[f32], mu: f32, roughness: f32) -> f32 {
+    pub fn e(&self, mu: f32, roughness: f32, f0: f32) -> f32 {
         let x = mu.clamp(0.0, 1.0).sqrt() * (TABLE_N - 1) as f32;
         let y = roughness.clamp(0.0, 1.0) * (TABLE_N - 1) as f32;
         let (x0, y0) = ((x as usize).min(TABLE_N - 2), (y as usize).min(TABLE_N - 2));
         let (fx, fy) = (x - x0 as f32, y - y0 as f32);
-        let at = |i: usize, j: usize| t[j * TABLE_N + i];
-        let a = at(x0, y0) * (1.0 - fx) + at(x0 + 1, y0) * fx;
-        let b = at(x0, y0 + 1) * (1.0 - fx) + at(x0 + 1, y0 + 1) * fx;
-        a * (1.0 - fy) + b * fy
-    }
-
-    /// E(μ, roughness, F0), bilinear in the tables.
-    #[inline]
-    pub fn e(&self, mu: f32, roughness: f32, f0: f32) -> f32 {
-        f0 * Self::bilinear(&self.a, mu, roughness) + Self::bilinear(&self.b, mu, roughness)
+        let (i00, i01) = (y0 * TABLE_N + x0, (y0 + 1) * TABLE_N + x0);
+        let w = [(1.0 - fx) * (1.0 - fy), fx * (1.0 - fy), (1.0 - fx) * fy, fx * fy];
+        let at = |t: &[f32]| w[0] * t[i00] + w[1] * t[i00 + 1] + w[2] * t[i01] + w[3] * t[i01 + 1];
+        f0 * at(&self.a) + at(&self.b)
     }
 
     /// Cosine-weighted average of E over the hemisphere.
