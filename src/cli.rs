@@ -588,18 +588,19 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     } else {
         pool.install(|| {
             render::render(&ctx, &camera, &job, stop, &on_progress, &mut |film, spp| {
-                if let Some(every) = interim {
-                    if last_interim.elapsed() >= every && Some(spp) != job.spp {
-                        let mut img = film.image();
-                        if !res.transparent {
-                            img.make_opaque();
-                        }
-                        match output::write_exr(&args.output, &img, args.half) {
-                            Ok(()) => reporter.image(&out_str, spp, false),
-                            Err(e) => interim_error = Some(e),
-                        }
-                        last_interim = Instant::now();
+                if let Some(every) = interim
+                    && last_interim.elapsed() >= every
+                    && Some(spp) != job.spp
+                {
+                    let mut img = film.image();
+                    if !res.transparent {
+                        img.make_opaque();
                     }
+                    match output::write_exr(&args.output, &img, args.half) {
+                        Ok(()) => reporter.image(&out_str, spp, false),
+                        Err(e) => interim_error = Some(e),
+                    }
+                    last_interim = Instant::now();
                 }
             })
         })

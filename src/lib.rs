@@ -11,6 +11,7 @@ pub mod bsdf;
 pub mod cli;
 pub mod error;
 pub mod film;
+pub mod fuzz;
 pub mod integrator;
 pub mod light;
 pub mod math;

@@ -170,6 +170,9 @@ impl<'a> Loader<'a> {
             }
         }
         let settings = self.parse_settings(&value)?;
+        // The crate's own validation indexes arrays with the file's indices unchecked
+        // (a dangling accessor index panics inside it): check every reference first.
+        check_references(&value).map_err(|e| self.err(e))?;
 
         // 4. Typed document with the crate's index validation.
         let root: json::Root =
@@ -1396,4 +1399,123 @@ fn mikktspace_tangents(positions: &[Vec3], normals: &[Vec3], uvs: &[Vec2], tris:
     let mut g = Geo { p: positions, n: normals, uv: uvs, tris, out: vec![Vec4::ZERO; positions.len()] };
     mikktspace::generate_tangents(&mut g);
     g.out
+}
+
+/// Checks that every index in the document points into its array, with a message naming
+/// the JSON path of the first one that does not.
+fn check_references(v: &serde_json::Value) -> std::result::Result<(), String> {
+    use serde_json::Value;
+    let len = |key: &str| v.get(key).and_then(Value::as_array).map_or(0, Vec::len);
+    let check = |value: Option<&Value>, target: &str, path: &str| -> std::result::Result<(), String> {
+        let Some(value) = value else { return Ok(()) };
+        let n = len(target);
+        match value.as_u64() {
+            Some(i) if (i as usize) < n => Ok(()),
+            _ => Err(format!("{path} = {value} is not a valid index into {target} (the file has {n})")),
+        }
+    };
+    let items = |key: &str| v.get(key).and_then(Value::as_array).cloned().unwrap_or_default();
+    check(v.get("scene"), "scenes", "scene")?;
+    for (i, sc) in items("scenes").iter().enumerate() {
+        for (j, n) in sc.get("nodes").and_then(Value::as_array).into_iter().flatten().enumerate() {
+            check(Some(n), "nodes", &format!("scenes[{i}].nodes[{j}]"))?;
+        }
+    }
+    let light_count = v.pointer("/extensions/KHR_lights_punctual/lights").and_then(Value::as_array).map_or(0, Vec::len);
+    for (i, node) in items("nodes").iter().enumerate() {
+        for (j, c) in node.get("children").and_then(Value::as_array).into_iter().flatten().enumerate() {
+            check(Some(c), "nodes", &format!("nodes[{i}].children[{j}]"))?;
+        }
+        check(node.get("mesh"), "meshes", &format!("nodes[{i}].mesh"))?;
+        check(node.get("camera"), "cameras", &format!("nodes[{i}].camera"))?;
+        check(node.get("skin"), "skins", &format!("nodes[{i}].skin"))?;
+        if let Some(l) = node.pointer("/extensions/KHR_lights_punctual/light")
+            && l.as_u64().is_none_or(|l| l as usize >= light_count)
+        {
+            return Err(format!("nodes[{i}] refers to light {l}, but the file has {light_count} lights"));
+        }
+    }
+    for (i, mesh) in items("meshes").iter().enumerate() {
+        for (j, prim) in mesh.get("primitives").and_then(Value::as_array).into_iter().flatten().enumerate() {
+            let path = format!("meshes[{i}].primitives[{j}]");
+            for (name, a) in prim.get("attributes").and_then(Value::as_object).into_iter().flatten() {
+                check(Some(a), "accessors", &format!("{path}.attributes.{name}"))?;
+            }
+            check(prim.get("indices"), "accessors", &format!("{path}.indices"))?;
+            check(prim.get("material"), "materials", &format!("{path}.material"))?;
+            for (k, t) in prim.get("targets").and_then(Value::as_array).into_iter().flatten().enumerate() {
+                for (name, a) in t.as_object().into_iter().flatten() {
+                    check(Some(a), "accessors", &format!("{path}.targets[{k}].{name}"))?;
+                }
+            }
+        }
+    }
+    for (i, a) in items("accessors").iter().enumerate() {
+        check(a.get("bufferView"), "bufferViews", &format!("accessors[{i}].bufferView"))?;
+        check(a.pointer("/sparse/indices/bufferView"), "bufferViews", &format!("accessors[{i}].sparse.indices"))?;
+        check(a.pointer("/sparse/values/bufferView"), "bufferViews", &format!("accessors[{i}].sparse.values"))?;
+    }
+    for (i, bv) in items("bufferViews").iter().enumerate() {
+        check(bv.get("buffer").or(Some(&Value::Null)), "buffers", &format!("bufferViews[{i}].buffer"))?;
+    }
+    for (i, t) in items("textures").iter().enumerate() {
+        check(t.get("source"), "images", &format!("textures[{i}].source"))?;
+        check(t.get("sampler"), "samplers", &format!("textures[{i}].sampler"))?;
+    }
+    for (i, im) in items("images").iter().enumerate() {
+        check(im.get("bufferView"), "bufferViews", &format!("images[{i}].bufferView"))?;
+    }
+    // Texture references anywhere in a material (core slots and extensions): "index" keys.
+    fn texture_indices(v: &Value, path: String, out: &mut Vec<(String, Value)>) {
+        match v {
+            Value::Object(m) => {
+                for (k, x) in m {
+                    if k == "index" {
+                        out.push((format!("{path}.index"), x.clone()));
+                    } else {
+                        texture_indices(x, format!("{path}.{k}"), out);
+                    }
+                }
+            }
+            Value::Array(a) => {
+                for (i, x) in a.iter().enumerate() {
+                    texture_indices(x, format!("{path}[{i}]"), out);
+                }
+            }
+            _ => {}
+        }
+    }
+    for (i, m) in items("materials").iter().enumerate() {
+        let mut refs = Vec::new();
+        texture_indices(m, format!("materials[{i}]"), &mut refs);
+        for (path, r) in refs {
+            check(Some(&r), "textures", &path)?;
+        }
+    }
+    for (i, skin) in items("skins").iter().enumerate() {
+        check(skin.get("inverseBindMatrices"), "accessors", &format!("skins[{i}].inverseBindMatrices"))?;
+        check(skin.get("skeleton"), "nodes", &format!("skins[{i}].skeleton"))?;
+        for (j, n) in skin.get("joints").and_then(Value::as_array).into_iter().flatten().enumerate() {
+            check(Some(n), "nodes", &format!("skins[{i}].joints[{j}]"))?;
+        }
+    }
+    for (i, anim) in items("animations").iter().enumerate() {
+        let samplers = anim.get("samplers").and_then(Value::as_array).cloned().unwrap_or_default();
+        for (j, s) in samplers.iter().enumerate() {
+            check(s.get("input"), "accessors", &format!("animations[{i}].samplers[{j}].input"))?;
+            check(s.get("output"), "accessors", &format!("animations[{i}].samplers[{j}].output"))?;
+        }
+        for (j, c) in anim.get("channels").and_then(Value::as_array).into_iter().flatten().enumerate() {
+            check(c.pointer("/target/node"), "nodes", &format!("animations[{i}].channels[{j}].target.node"))?;
+            match c.get("sampler").and_then(Value::as_u64) {
+                Some(s) if (s as usize) < samplers.len() => {}
+                other => {
+                    return Err(format!(
+                        "animations[{i}].channels[{j}].sampler = {other:?} is not a valid sampler index"
+                    ));
+                }
+            }
+        }
+    }
+    Ok(())
 }
