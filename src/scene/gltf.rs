@@ -47,6 +47,9 @@ pub const LUMENS_PER_WATT: f32 = 683.0;
 /// Largest texture accepted (per side), to refuse absurd image headers before decoding.
 const MAX_TEXTURE_SIDE: u32 = 16_384;
 
+/// Largest accepted world coordinate: the BVH's box arithmetic needs headroom in f32.
+const MAX_COORDINATE: f32 = 1e15;
+
 /// Instances beyond this are refused: a DAG of shared nodes can explode exponentially.
 const MAX_INSTANCES: usize = 1_000_000;
 
@@ -1136,6 +1139,12 @@ impl<'a> Loader<'a> {
                 if !p.is_finite() {
                     return Err(self.err(format!(
                         "{what}: vertex {i} is not finite after its node transform (position or scale too large)"
+                    )));
+                }
+                // Beyond this, bounding-box arithmetic in the BVH build overflows f32.
+                if p.abs().max_element() > MAX_COORDINATE {
+                    return Err(self.err(format!(
+                        "{what}: vertex {i} lies at {p}, beyond ±{MAX_COORDINATE:e} scene units (not supported)"
                     )));
                 }
                 out.positions.push(p);

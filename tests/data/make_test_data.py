@@ -1346,6 +1346,12 @@ def hostile_makers():
         makers.append(fn)
         return fn
 
+    def extreme_coordinate():
+        # Found by the fuzzer: a finite 3e38 coordinate overflowed the BVH build.
+        bad_position_file("bad/extreme_coordinate.gltf", 3.0e38)
+        return bad("bad/extreme_coordinate.gltf", "a vertex at y = 3e38 (finite, but no room for box arithmetic)",
+                   any_of=["beyond", "finite"])
+    add(extreme_coordinate)
     add(lambda: tri_bad("bad/stride_smaller_than_element.gltf", "POSITION view byteStride 8 < 12",
                         setter(["bufferViews", 0, "byteStride"], 8), ["stride"]))
     add(lambda: tri_bad("bad/node_twice_as_root.gltf", "the scene lists node 0 twice",
