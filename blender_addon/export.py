@@ -61,9 +61,10 @@ def render_settings(scene, resolution, camera_name):
         "integrator": props.integrator,
         # Film → Transparent off means an opaque background (alpha 1), as in Cycles.
         "transparent": bool(scene.render.film_transparent),
-        # Blender's pixel filter width (Blackman-Harris, as Cycles' default).
+        # Blender's pixel filter (Blackman-Harris, as Cycles' default). Cycles spreads the
+        # window over twice the filter size (film.cpp: width *= 2 for Blackman-Harris).
         "filter": "blackman-harris",
-        "filter_width": float(scene.render.filter_size),
+        "filter_width": 2.0 * float(scene.render.filter_size),
     }
     if props.integrator == "sppm":
         settings["sppm_iterations"] = int(props.samples)
@@ -107,7 +108,9 @@ def area_light_extension(blender_object):
     if light.use_nodes:
         warnings.append(f"light '{blender_object.name}': light node trees are ignored")
     value = {"shape": shape, "size": [float(s) for s in size], "power": float(power),
-             "color": [float(c) for c in color]}
+             "color": [float(c) for c in color],
+             # Ray Visibility > Camera (Blender hides lights from the camera by default).
+             "camera_visible": bool(blender_object.visible_camera)}
     return value, warnings
 
 
@@ -126,6 +129,7 @@ def punctual_light_extension(blender_object):
     value = {}
     if light.type == "POINT" and light.shadow_soft_size > 0.0:
         value["radius"] = float(light.shadow_soft_size)
+        value["camera_visible"] = bool(blender_object.visible_camera)
         value["soft_falloff"] = bool(getattr(light, "use_soft_falloff", False))
     elif light.type == "SPOT":
         value["spot_blend"] = float(light.spot_blend)

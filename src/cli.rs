@@ -226,7 +226,7 @@ pub struct RenderArgs {
     /// Pixel filter [default: the scene's, else blackman-harris].
     #[arg(long, value_enum)]
     pub filter: Option<FilterKind>,
-    /// Filter width in pixels [default: the scene's, else 1.5].
+    /// Filter window in pixels [default: the scene's, else 3 for Blackman-Harris (Blender's 1.5 px filter size, which Cycles spans twice as wide), 1 for box].
     #[arg(long)]
     pub filter_width: Option<f32>,
 }
@@ -414,7 +414,9 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
         }
     };
     let filter_width = args.filter_width.or(st.filter_width).unwrap_or(match filter_kind {
-        FilterKind::BlackmanHarris => 1.5,
+        // Blender's default filter size is 1.5 px, over which Cycles spreads its
+        // Blackman-Harris window twice as wide (film.cpp: width *= 2): a 3 px window.
+        FilterKind::BlackmanHarris => 3.0,
         FilterKind::Box => 1.0,
     });
     if !(filter_width > 0.0 && filter_width <= 16.0) {

@@ -25,7 +25,7 @@ impl Filter {
         Filter { width, table: None }
     }
 
-    /// Blackman-Harris of the given width (Blender's default filter, width 1.5 px),
+    /// Blackman-Harris over a window of the given width (Cycles uses twice Blender's filter size: 3 px by default),
     /// separable, as Cycles tabulates it.
     pub fn blackman_harris(width: f32) -> Self {
         let weights: Vec<f32> = (0..FILTER_TABLE)

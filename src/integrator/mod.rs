@@ -104,8 +104,8 @@ pub struct SceneContext<'a> {
     area_lights: Vec<(AreaLight, usize)>,
     /// Light index of the world, if it is a light.
     world_light: Option<usize>,
-    /// Sphere lights: (centre, radius, radiance, soft, light index), hit by rays like area lights.
-    spheres: Vec<(Vec3, f32, Rgb, bool, usize)>,
+    /// Sphere lights: (centre, radius, radiance, soft, camera-visible, light index).
+    spheres: Vec<(Vec3, f32, Rgb, bool, bool, usize)>,
     /// Suns with a size: (unit direction toward the sun, cos half angle, radiance, light index).
     suns: Vec<(Vec3, f32, Rgb, usize)>,
 }
@@ -136,8 +136,8 @@ impl<'a> SceneContext<'a> {
                 Light::Triangle { tri } => tri_to_light[*tri as usize] = i as u32,
                 Light::Area(a) => area_lights.push((*a, i)),
                 Light::World => world_light = Some(i),
-                Light::Sphere { center, radius, radiance, soft } => {
-                    spheres.push((*center, *radius, *radiance, *soft, i))
+                Light::Sphere { center, radius, radiance, soft, camera_visible } => {
+                    spheres.push((*center, *radius, *radiance, *soft, *camera_visible, i))
                 }
                 Light::Directional { direction, irradiance, cos_half } if *cos_half < DELTA_SUN_COS => {
                     suns.push((-*direction, *cos_half, sun_radiance(*irradiance, *cos_half), i))
@@ -162,12 +162,24 @@ impl<'a> SceneContext<'a> {
 
     /// Emission of lights that are not scene geometry (area and sphere lights) crossed by
     /// a ray before `tmax`, each weighted by MIS against light sampling from `prev_p`
-    /// (`prev_pdf` = 0: no MIS). Returns the radiance and whether anything was crossed.
+    /// (`prev_pdf` = 0: no MIS); lights hidden from the camera are skipped for camera
+    /// rays. Returns the radiance and whether anything was crossed.
     #[inline]
-    pub fn crossed_emission(&self, org: Vec3, dir: Vec3, tmax: f32, prev_p: Vec3, prev_pdf: f32) -> (Rgb, bool) {
+    pub fn crossed_emission(
+        &self,
+        org: Vec3,
+        dir: Vec3,
+        tmax: f32,
+        prev_p: Vec3,
+        prev_pdf: f32,
+        camera_ray: bool,
+    ) -> (Rgb, bool) {
         let mut sum = Rgb::ZERO;
         let mut any = false;
         for (a, index) in &self.area_lights {
+            if camera_ray && !a.camera_visible {
+                continue;
+            }
             if let Some(t) = a.intersect(org, dir, tmax)
                 && (-dir).dot(a.normal) > 0.0
             {
@@ -180,7 +192,10 @@ impl<'a> SceneContext<'a> {
                 any = true;
             }
         }
-        for &(center, radius, radiance, soft, index) in &self.spheres {
+        for &(center, radius, radiance, soft, camera_visible, index) in &self.spheres {
+            if camera_ray && !camera_visible {
+                continue;
+            }
             if soft {
                 // The disk faces the ray's origin (the previous vertex).
                 let n = (prev_p - center).normalize_or(Vec3::Y);
@@ -498,7 +513,7 @@ impl<'a> SceneContext<'a> {
                     normal: Vec3::ZERO,
                 })
             }
-            Light::Sphere { center, radius, radiance, soft: true } => {
+            Light::Sphere { center, radius, radiance, soft: true, .. } => {
                 // A disk of the sphere's radius facing the shading point.
                 let n = (p - *center).normalize_or(Vec3::Y);
                 let d2 = concentric_disk(u) * *radius;
@@ -513,7 +528,7 @@ impl<'a> SceneContext<'a> {
                 let pdf = area_to_solid_angle(1.0 / (std::f32::consts::PI * radius * radius), dist, (-wi).dot(n));
                 (pdf > 0.0).then_some(LightSample { wi, dist, li: *radiance, pdf, delta: false, point: q, normal: n })
             }
-            Light::Sphere { center, radius, radiance, soft: false } => {
+            Light::Sphere { center, radius, radiance, soft: false, .. } => {
                 let to_c = *center - p;
                 let dist = to_c.length();
                 let cos_max = sphere_cos_max(dist, *radius)?;

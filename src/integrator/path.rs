@@ -79,7 +79,7 @@ impl PathIntegrator {
 
             // Area and sphere lights crossed before the surface add their emission; they
             // do not block (as in Cycles) and the path goes on.
-            let (crossed, any) = ctx.crossed_emission(org, dir, t_surface, prev_p, prev_bsdf_pdf);
+            let (crossed, any) = ctx.crossed_emission(org, dir, t_surface, prev_p, prev_bsdf_pdf, depth == 0);
             if any {
                 radiance += beta * absorb(t_surface.min(1e30)) * crossed;
                 if depth == 0 {

@@ -48,6 +48,8 @@ pub struct AreaLight {
     pub area: f32,
     /// Emitted radiance.
     pub radiance: Rgb,
+    /// Seen by camera rays (Blender's Ray Visibility > Camera; off by default for lights).
+    pub camera_visible: bool,
 }
 
 impl AreaLight {
@@ -70,7 +72,18 @@ impl AreaLight {
         let det = g00 * g11 - g01 * g01;
         let dx = (ax * g11 - ay * g01) / det;
         let dy = (ay * g00 - ax * g01) / det;
-        Some(AreaLight { shape, center, ax, ay, normal, dx, dy, area, radiance: power / (PI * area) })
+        Some(AreaLight {
+            shape,
+            center,
+            ax,
+            ay,
+            normal,
+            dx,
+            dy,
+            area,
+            radiance: power / (PI * area),
+            camera_visible: true,
+        })
     }
 
     /// Ray hit distance, if the ray hits the emitting region (either side).
@@ -151,6 +164,8 @@ pub enum Light {
         radiance: Rgb,
         /// The disk-facing-the-point model of Blender's soft falloff.
         soft: bool,
+        /// Seen by camera rays.
+        camera_visible: bool,
     },
     /// Planar area light.
     Area(AreaLight),

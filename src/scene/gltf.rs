@@ -92,6 +92,12 @@ struct AreaLightExt {
     power: f32,
     #[serde(default = "white")]
     color: [f32; 3],
+    #[serde(default = "yes")]
+    camera_visible: bool,
+}
+
+fn yes() -> bool {
+    true
 }
 
 fn white() -> [f32; 3] {
@@ -1230,7 +1236,7 @@ impl<'a> Loader<'a> {
         let forward = world.transform_vector3(-Vec3::Z).normalize_or(-Vec3::Z);
         let radiometric = color * (intensity / LUMENS_PER_WATT);
         // Blender's light shape parameters (`CAUSTIC_lights_punctual`, written by the add-on).
-        #[derive(Deserialize, Default)]
+        #[derive(Deserialize)]
         #[serde(deny_unknown_fields)]
         struct BlenderLight {
             #[serde(default)]
@@ -1240,6 +1246,13 @@ impl<'a> Loader<'a> {
             spot_blend: Option<f32>,
             #[serde(default)]
             soft_falloff: bool,
+            #[serde(default = "yes")]
+            camera_visible: bool,
+        }
+        impl Default for BlenderLight {
+            fn default() -> Self {
+                BlenderLight { radius: 0.0, angle: 0.0, spot_blend: None, soft_falloff: false, camera_visible: true }
+            }
         }
         let bl: BlenderLight = match blender {
             None => BlenderLight::default(),
@@ -1260,7 +1273,16 @@ impl<'a> Loader<'a> {
                 // The sphere radiates the point's power: L = P / (4π² r²), P = 4π I.
                 let r = bl.radius;
                 let radiance = radiometric / (std::f32::consts::PI * r * r);
-                (Light::Sphere { center: position, radius: r, radiance, soft: bl.soft_falloff }, "point")
+                (
+                    Light::Sphere {
+                        center: position,
+                        radius: r,
+                        radiance,
+                        soft: bl.soft_falloff,
+                        camera_visible: bl.camera_visible,
+                    },
+                    "point",
+                )
             }
             Kind::Point => (Light::Point { position, intensity: radiometric }, "point"),
             Kind::Directional => {
@@ -1323,7 +1345,9 @@ impl<'a> Loader<'a> {
         let ax = world.transform_vector3(Vec3::X * (0.5 * sx));
         let ay = world.transform_vector3(Vec3::Y * (0.5 * sy));
         let emit = world.transform_vector3(-Vec3::Z);
-        match AreaLight::new(shape, center, ax, ay, emit, color * a.power) {
+        match AreaLight::new(shape, center, ax, ay, emit, color * a.power)
+            .map(|l| AreaLight { camera_visible: a.camera_visible, ..l })
+        {
             Some(l) => Ok(Some((
                 Light::Area(l),
                 LightReport { kind: "area".into(), name: name.into(), power: 0.0, triangles: 0 },

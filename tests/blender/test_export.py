@@ -155,7 +155,7 @@ def test_scene_extras_carry_render_settings(light_scene, captured):
         "camera": "Camera",
         "transparent": bool(light_scene.render.film_transparent),
         "filter": "blackman-harris",
-        "filter_width": light_scene.render.filter_size,
+        "filter_width": 2.0 * light_scene.render.filter_size,
     }
 
 
@@ -165,7 +165,7 @@ def test_film_transparent_and_filter_reach_the_renderer(light_scene, captured):
     (gltf,) = captured()
     settings = gltf["scenes"][gltf.get("scene", 0)]["extras"]["caustic"]
     assert settings["transparent"] is True
-    assert settings["filter_width"] == 2.25
+    assert settings["filter_width"] == 4.5  # Cycles' window is twice the filter size
 
 
 def test_command_line_repeats_settings(light_scene, captured, fake_binary):

@@ -127,7 +127,7 @@ impl JensenIntegrator {
                 beta *= (-sigma * first).exp();
             }
             // Area lights crossed: every earlier vertex was specular (no MIS).
-            let (crossed, any) = ctx.crossed_emission(org0, dir, first, org0, 0.0);
+            let (crossed, any) = ctx.crossed_emission(org0, dir, first, org0, 0.0, depth == 0);
             if any {
                 radiance += beta * crossed;
                 if depth == 0 {
@@ -275,7 +275,7 @@ impl JensenIntegrator {
             let org0 = org;
             let (found, first) = next_hit(ctx, &mut org, dir, sampler, stats);
             if !caustic {
-                let (crossed, _) = ctx.crossed_emission(org0, dir, first, prev_p, prev_pdf);
+                let (crossed, _) = ctx.crossed_emission(org0, dir, first, prev_p, prev_pdf, false);
                 l += beta * crossed;
             }
             let Some((hit, s)) = found else {
