@@ -51,6 +51,7 @@ import math
 import os
 import platform
 import re
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -66,7 +67,7 @@ CYCLES_MAX_SPP = 1 << 24
 
 MODES = {
     "quick": dict(
-        resolution=(24, 24), bounces=4, budgets=[0.25, 0.5], ref_seconds=0.5, same_spp=4,
+        resolution=(24, 24), bounces=4, budgets=[0.2, 0.4], ref_seconds=0.3, same_spp=4,
         repeats=1, bench_spp=4, scale_resolutions=[16, 32], scale_levels=[0, 2],
         scale_spp=4, threads_list=[1, 2],
     ),
@@ -698,11 +699,23 @@ def target_report(records, ratios, integrators):
         lines.append(f"- {text}: {'; '.join(parts)} -> {verdict}")
     spp_rows = records["same_spp"]
     if spp_rows:
-        parts = [f"{r['scene']} {r['wall_ratio']:.2f}" for r in spp_rows]
-        worst = max(r["wall_ratio"] for r in spp_rows)
-        verdict = "MET" if worst <= 1.0 else f"MISSED by x{worst:.2f} (worst scene)"
-        lines.append("- same-spp wall time Caustic PT / Cycles <= 1.0: " + ", ".join(parts)
-                     + f" -> {verdict}")
+        agree = {r["scene"] for r in records["references"]
+                 if r["b"] == "caustic-path" and r["a"] == "cycles" and r["agree"]}
+        same = [r for r in spp_rows if r["scene"] in agree]
+        other = [r for r in spp_rows if r["scene"] not in agree]
+        parts = [f"{r['scene']} {r['wall_ratio']:.2f}" for r in same]
+        if same:
+            worst = max(same, key=lambda r: r["wall_ratio"])
+            verdict = ("MET" if worst["wall_ratio"] <= 1.0
+                       else f"MISSED by x{worst['wall_ratio']:.2f} ({worst['scene']})")
+        else:
+            verdict = "NOT MEASURED (no scene where both renderers make the same image)"
+        line = ("- same-spp wall time Caustic PT / Cycles <= 1.0, on the scenes where both render "
+                "the same image (references agree): " + (", ".join(parts) or "none") + f" -> {verdict}")
+        if other:
+            line += ("; not comparable (Caustic renders a different, cheaper or empty image): "
+                     + ", ".join(f"{r['scene']} {r['wall_ratio']:.2f}" for r in other))
+        lines.append(line)
     return lines
 
 
@@ -796,19 +809,21 @@ def build_table(bench, ratios, targets):
         L.append(f"Scaling of Caustic (caustic bench, {cfg['scale_spp']} spp), relative to the first "
                  "row of each axis")
         L.append(f"  {'axis':9s} {'value':>8s} {'wall s':>8s} {'render s':>9s} {'rel':>6s} "
-                 f"{'per unit':>9s} {'bvh ms':>8s} {'rss MiB':>8s}")
+                 f"{'per unit':>9s} {'Mrays/s':>8s} {'bvh ms':>8s} {'rss MiB':>8s}")
         first = {}
         for r in rec["scaling"]:
             f0 = first.setdefault(r["axis"], r)
             rel = r["render_seconds"] / f0["render_seconds"]
             per = rel / (r["value"] / f0["value"]) if r["axis"] == "pixels" else float("nan")
             if r["axis"] == "threads":
-                per = rel * r["value"] / f0["value"]  # 1 = perfect scaling
+                per = (1.0 / rel) / (r["value"] / f0["value"])  # speed-up / threads; 1 = perfect
             L.append(f"  {r['axis']:9s} {str(r['value']):>8s} {r['wall_seconds']:8.3f} "
                      f"{r['render_seconds']:9.3f} {rel:6.2f} {fmt(per, '.2f'):>9s} "
+                     f"{fmt((r.get('rays_per_sec') or float('nan')) / 1e6, '.2f'):>8s} "
                      f"{r['bvh_build_seconds'] * 1e3:8.2f} {r['peak_rss_mib']:8.0f}")
-        L.append("  (pixels: 'per unit' = time per pixel relative to the first row; threads: "
-                 "'per unit' = efficiency, 1 = perfect)")
+        L.append("  (pixels: 'per unit' = render time per pixel relative to the first row; threads: "
+                 "'per unit' = parallel efficiency, 1 = perfect; render s includes the one-time "
+                 "set-up inside the render phase)")
     L.append(f"Photon-count scaling: {rec.get('photon_scaling', {}).get('status', '-')}")
     L.append("")
     L.append("Targets (issue 10), ratios measured in this run")
@@ -933,6 +948,8 @@ def main(argv=None):
     parser.add_argument("--budgets", help="override the mode's time budgets, e.g. 1,2,4")
     parser.add_argument("--ref-seconds", type=float, help="override the reference time per half")
     parser.add_argument("--no-scaling", action="store_true", help="skip the scaling runs")
+    parser.add_argument("--keep-work", action="store_true",
+                        help="keep the temporary folder with the exported glTF scenes and logs")
     args = parser.parse_args(argv)
     mode = "full" if args.full else "quick"
     cfg = dict(MODES[mode])
@@ -971,7 +988,12 @@ def main(argv=None):
     bench.bpy = bpy
     bench.addon = conftest.enable_dev_addon()
     bench.integrators = caustic_integrators(binary)
-    bpy.app.handlers.render_stats.append(lambda s: bench._stats.append(s))
+    # Persistent: read_homefile (a new scene per benchmark scene) drops ordinary handlers.
+    @bpy.app.handlers.persistent
+    def on_render_stats(stats):
+        bench._stats.append(stats)
+
+    bpy.app.handlers.render_stats.append(on_render_stats)
     print(f"bench ({mode}): binary {binary}, integrators {bench.integrators}, results in {out}",
           flush=True)
     bench.run()
@@ -1009,6 +1031,10 @@ def main(argv=None):
               "seconds": time.perf_counter() - t_start}
     with open(os.path.join(out, "results.json"), "w") as f:
         json.dump(json_safe(result), f, indent=1)
+    if args.keep_work:
+        print(f"bench: kept the exported scenes and logs in {bench.work}")
+    else:
+        shutil.rmtree(bench.work, ignore_errors=True)
     print(f"\nbench: {time.perf_counter() - t_start:.0f} s; results in {out}", flush=True)
     return 1 if bench.failures else 0
 
