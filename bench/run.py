@@ -594,12 +594,13 @@ def parse_clock(text):
 
 
 def last_cycles_sample(stats):
-    """The last 'Sample N/M' Cycles reported during a render (its sample count at the end)."""
+    """The highest 'Sample N/M' Cycles reported during a render (about its final sample count;
+    Cycles reports 'Sample 0/M' again as it finishes, so the last one is not it)."""
     best = None
     for s in stats:
         m = re.search(r"Sample (\d+)/", s)
         if m:
-            best = int(m.group(1))
+            best = max(best or 0, int(m.group(1)))
     return best
 
 
@@ -872,6 +873,7 @@ def plots(bench, out):
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    import matplotlib.ticker
     import numpy as np
 
     rows = bench.records["equal_time"]
@@ -895,6 +897,9 @@ def plots(bench, out):
             if floor and floor[0] > 0:
                 ax.axhline(floor[0], color="grey", ls=":", lw=1, label="ref. noise")
             ax.set_title(f"{scene}\nvs {ref} reference", fontsize=9)
+            ax.xaxis.set_major_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
+            ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
+            ax.set_xticks(sorted(set(bench.cfg["budgets"])))
             ax.set_xlabel("wall time [s]", fontsize=8)
             if j == 0:
                 ax.set_ylabel("relMSE", fontsize=8)
