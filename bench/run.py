@@ -416,6 +416,9 @@ class Bench:
                                "spp": sum((h[1].get("spp") or 0) for h in halves),
                                "mean": float(np.mean(0.5 * (a + b)))}
                     self.images[(name, f"ref-{r}")] = refs[r]["image"]
+                    if r != "cycles" and refs[r]["mean"] == 0.0:
+                        meta["note"] = (meta["note"] + " " if meta["note"] else "") + (
+                            f"Caustic ({r}) renders this scene black.")
             self.compare_references(name, refs)
 
             # Equal time, interleaved so that machine load hits every renderer alike.

@@ -250,5 +250,5 @@ SUITE = {
     "subsurface": (subsurface, "Blender's glTF exporter writes no subsurface, so Caustic renders "
                    "this material without it (and without a warning)"),
     "many_lights": (many_lights, ""),
-    "hdri": (hdri, "Caustic does not render the world yet (dropped by the glTF exporter)"),
+    "hdri": (hdri, ""),
 }
