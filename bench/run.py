@@ -28,7 +28,9 @@ What it does, in one bpy process:
      floor = mean((a - b)^2 / 4 / (ref^2 + 0.01)), and `relmse_debiased` = relMSE - floor.
      Ratios Caustic/Cycles are taken on the debiased values (the raw ones are in the CSV too).
    * Where the references disagree: relMSE of one reference against the other, compared with
-     the sum of their floors (what pure noise would give), and the ratio of their means.
+     the sum of their floors (what pure noise would give), and the ratio of their means; the
+     same after a 3x3 median of both (which removes fireflies, whose heavy tail the two-halves
+     noise estimate underrates); and the 16x16 block where they differ most.
 3. Same spp: wall time of one render of `same_spp` samples per pixel, Caustic's path tracer vs
    Cycles (the best of `repeats` runs each, interleaved).
 4. Throughput: `caustic bench --json` on each exported scene (rays/s by kind, BVH build time) and
