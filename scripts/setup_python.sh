@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Create the project's Python environment for the Blender add-on tests: .venv/ at the repository
-# root with bpy 5.0.1 (Blender as a Python module, needs CPython 3.11), pytest and numpy from PyPI.
+# root with bpy 5.0.1 (Blender as a Python module, needs CPython 3.11), pytest and numpy from PyPI,
+# and matplotlib for the benchmark's plots (bench/run.py).
 # Idempotent: an existing .venv that already has these versions is left as it is.
 #
 # Usage: scripts/setup_python.sh        (PYTHON=python3.11 to choose the interpreter)
@@ -38,16 +39,17 @@ if "$VENV/bin/python" - "$BPY_VERSION" <<'EOF'
 import sys
 from importlib.metadata import PackageNotFoundError, version
 try:
-    ok = version("bpy") == sys.argv[1] and version("pytest") and version("numpy")
+    ok = (version("bpy") == sys.argv[1] and version("pytest") and version("numpy")
+          and version("matplotlib"))
 except PackageNotFoundError:
     ok = False
 sys.exit(0 if ok else 1)
 EOF
 then
-    echo "setup_python.sh: $VENV already has bpy $BPY_VERSION, pytest and numpy"
+    echo "setup_python.sh: $VENV already has bpy $BPY_VERSION, pytest, numpy and matplotlib"
     exit 0
 fi
 
 "$VENV/bin/python" -m pip install --upgrade pip
-"$VENV/bin/python" -m pip install "bpy==$BPY_VERSION" pytest numpy
+"$VENV/bin/python" -m pip install "bpy==$BPY_VERSION" pytest numpy matplotlib
 echo "setup_python.sh: ready: $VENV/bin/python -m pytest tests/blender"
