@@ -37,11 +37,27 @@ impl EnvImage {
         }
         let mut rows = Vec::with_capacity(height);
         let mut row_weights = Vec::with_capacity(height);
+        // The lookup is bilinear, so a bright texel lights half of each neighbour: weigh
+        // every texel by the brightest of its 3×3 neighbourhood, or samples landing beside
+        // a small sun see its radiance with a sky texel's tiny pdf (fireflies; found by the
+        // benchmark's HDRI scene, 50× Cycles' error).
+        let lum: Vec<f32> = texels.iter().map(|t| luminance(t.max(Rgb::ZERO))).collect();
+        let near_max = |x: usize, y: usize| -> f32 {
+            let mut m = 0.0f32;
+            for dy in [-1i64, 0, 1] {
+                let yy = (y as i64 + dy).clamp(0, height as i64 - 1) as usize;
+                for dx in [-1i64, 0, 1] {
+                    let xx = (x as i64 + dx).rem_euclid(width as i64) as usize;
+                    m = m.max(lum[yy * width + xx]);
+                }
+            }
+            m
+        };
         for y in 0..height {
             // sin θ of the row centre: rows near the poles cover less solid angle.
             let theta = PI * (y as f32 + 0.5) / height as f32;
             let s = theta.sin();
-            let w: Vec<f32> = (0..width).map(|x| luminance(texels[y * width + x].max(Rgb::ZERO)) * s).collect();
+            let w: Vec<f32> = (0..width).map(|x| near_max(x, y) * s).collect();
             row_weights.push(w.iter().map(|&v| v as f64).sum::<f64>() as f32);
             rows.push(Distribution1D::new(&w));
         }
