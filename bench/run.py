@@ -218,6 +218,7 @@ class Bench:
         self.work = tempfile.mkdtemp(prefix="caustic-bench-")
         self.failures = []
         self._stats = []
+        self.scene_refs = {}  # scene -> (exported glTF, Cycles reference), for photon_scaling
         self.records = {"equal_time": [], "references": [], "same_spp": [], "throughput": [],
                         "scaling": [], "scenes": {}}
         self.images = {}  # (scene, label) -> linear RGB array (rows top to bottom)
@@ -315,7 +316,7 @@ class Bench:
     # -- binary side ---------------------------------------------------------------------------
 
     def caustic(self, gltf, tag, integrator, seed, time_limit=None, spp=None, resolution=None,
-                threads=None):
+                threads=None, extra=()):
         import exr_tiled
 
         out = os.path.join(self.work, f"{tag}.exr")
@@ -328,6 +329,7 @@ class Bench:
                 "--spp", str(spp if spp else CAUSTIC_MAX_SPP)]
         if time_limit:
             argv += ["--time-limit", repr(float(time_limit))]
+        argv += list(extra)
         code, wall, rss, _ = run_with_rusage(argv, out + ".log")
         summary, error, warnings = parse_progress(out + ".log")
         rec = {"renderer": f"caustic-{integrator}", "seed": seed, "time_limit": time_limit,
@@ -432,6 +434,7 @@ class Bench:
                         meta["note"] = (meta["note"] + " " if meta["note"] else "") + (
                             f"Caustic ({r}) renders this scene black.")
             self.compare_references(name, refs)
+            self.scene_refs[name] = (gltf, refs.get("cycles"))
 
             # Equal time, interleaved so that machine load hits every renderer alike.
             for budget in cfg["budgets"]:
@@ -569,21 +572,33 @@ class Bench:
                   f"rss {row['peak_rss_mib']:.0f} MiB", flush=True)
 
     def photon_scaling(self):
-        """HOOK: photon-count scaling. Runs when the binary has a photon integrator.
+        """Photon-count scaling: the photon integrator on the glass caustic scene.
 
-        Waiting for the photon integrators (photon/sppm/...): when `caustic render --help` lists
-        one of PHOTON_INTEGRATORS and a `--photons N` flag, this renders the glass caustic scene
-        at a few photon counts with a fixed spp and records wall time and relMSE against the
-        Cycles reference. Until then it records why it was skipped.
+        Runs when `caustic render --help` lists the `photon` integrator and its `--photons` flag:
+        renders glass_caustic at `same_spp` spp with 1/4, 1 and 4 times the default photon counts
+        (`--photons` global map, `--caustic-photons` caustic map) and records wall time, render
+        time, peak memory and relMSE against the Cycles reference. Otherwise records why not.
         """
-        PHOTON_INTEGRATORS = ("photon", "sppm", "ppm", "pm", "vcm")
-        found = [i for i in self.integrators if i in PHOTON_INTEGRATORS]
-        if not found:
+        if "photon" not in self.integrators:
             return {"status": "skipped: the binary has no photon integrator yet"}
         if not render_help_has(self.binary, "--photons"):
-            return {"status": f"skipped: integrators {found} exist but no --photons flag was found"}
-        # TODO(photon integrators): implement once the flag's meaning is in docs/contract.md.
-        return {"status": f"not implemented yet for {found} (hook in bench/run.py)"}
+            return {"status": "skipped: the photon integrator has no --photons flag"}
+        if "glass_caustic" not in self.scene_refs or self.scene_refs["glass_caustic"][1] is None:
+            return {"status": "skipped: glass_caustic was not run"}
+        gltf, ref = self.scene_refs["glass_caustic"]
+        rows = []
+        for scale in (0.25, 1.0, 4.0):
+            photons, caustic_photons = int(200000 * scale), int(100000 * scale)
+            rec = self.caustic(gltf, f"photons-{scale}", "photon", TEST_SEED, spp=self.cfg["same_spp"],
+                               extra=["--photons", str(photons), "--caustic-photons", str(caustic_photons)])
+            img = self.keep("glass_caustic", f"photon-scaling-{scale}", rec)
+            rows.append({"photons": photons, "caustic_photons": caustic_photons,
+                         "wall": rec.get("wall"), "render_seconds": rec.get("render_seconds"),
+                         "peak_rss_mib": rec.get("peak_rss_mib"),
+                         "relmse_vs_cycles": rel_mse(img, ref["image"]) if img is not None else None,
+                         "error": rec.get("error", "")})
+        return {"status": "measured (glass_caustic, photon integrator, "
+                          f"{self.cfg['same_spp']} spp)", "rows": rows}
 
 
 def scaling_row(axis, value, d, scene):
@@ -862,7 +877,13 @@ def build_table(bench, ratios, targets):
         L.append("  (pixels: 'per unit' = render time per pixel relative to the first row; threads: "
                  "'per unit' = parallel efficiency, 1 = perfect; render s includes the one-time "
                  "set-up inside the render phase)")
-    L.append(f"Photon-count scaling: {rec.get('photon_scaling', {}).get('status', '-')}")
+    ps = rec.get("photon_scaling", {})
+    L.append(f"Photon-count scaling: {ps.get('status', '-')}")
+    for r in ps.get("rows", []):
+        L.append(f"  global {r['photons']:>8d} caustic {r['caustic_photons']:>8d}  wall "
+                 f"{fmt(r['wall'], '.2f')} s  render {fmt(r['render_seconds'], '.2f')} s  rss "
+                 f"{fmt(r['peak_rss_mib'], '.0f')} MiB  relMSE vs cycles {fmt(r['relmse_vs_cycles'])}"
+                 + (f"  ERROR {r['error']}" if r["error"] else ""))
     L.append("")
     L.append("Targets (issue 10), ratios measured in this run")
     L.extend("  " + t for t in targets)
