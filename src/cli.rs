@@ -21,6 +21,14 @@ use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
+/// Prints a line to stdout, ignoring a closed pipe (`caustic info --json | head`).
+macro_rules! outln {
+    ($($arg:tt)*) => {{
+        use std::io::Write;
+        let _ = writeln!(std::io::stdout().lock(), $($arg)*);
+    }};
+}
+
 /// Default output width when neither the flag nor the scene gives a resolution.
 pub const DEFAULT_WIDTH: u32 = 640;
 /// Default output height when the camera gives no aspect ratio either.
@@ -821,39 +829,38 @@ pub fn run_info(args: &InfoArgs) -> Result<()> {
             "settings": scene.settings,
             "warnings": scene.warnings,
         });
-        println!("{}", serde_json::to_string_pretty(&v).unwrap_or_default());
+        outln!("{}", serde_json::to_string_pretty(&v).unwrap_or_default());
         return Ok(());
     }
-    println!("{}", r.file);
-    println!(
+    outln!("{}", r.file);
+    outln!(
         "  triangles: {} ({} meshes, {} instances, {} degenerate dropped)",
-        r.triangles, r.meshes, r.instances, r.degenerate_triangles
+        r.triangles,
+        r.meshes,
+        r.instances,
+        r.degenerate_triangles
     );
-    println!("  bounds: {:?} .. {:?}", r.bounds[0], r.bounds[1]);
+    outln!("  bounds: {:?} .. {:?}", r.bounds[0], r.bounds[1]);
     if !r.extensions_used.is_empty() {
-        println!("  extensions used: {}", r.extensions_used.join(", "));
+        outln!("  extensions used: {}", r.extensions_used.join(", "));
     }
-    println!("  materials:");
+    outln!("  materials:");
     for m in &r.materials {
-        println!(
-            "    {}: {}",
-            m.name,
-            if m.features.is_empty() { "factors only".into() } else { m.features.join(", ") }
-        );
+        outln!("    {}: {}", m.name, if m.features.is_empty() { "factors only".into() } else { m.features.join(", ") });
     }
-    println!("  lights:");
+    outln!("  lights:");
     for l in &r.lights {
         let tri = if l.kind == "emissive" { format!(" ({} triangles)", l.triangles) } else { String::new() };
-        println!("    {} '{}': {:.4} W{}", l.kind, l.name, l.power, tri);
+        outln!("    {} '{}': {:.4} W{}", l.kind, l.name, l.power, tri);
     }
-    println!("  cameras:");
+    outln!("  cameras:");
     for c in &r.cameras {
-        println!("    {} ({})", c.name, c.kind);
+        outln!("    {} ({})", c.name, c.kind);
     }
     if !scene.warnings.is_empty() {
-        println!("  warnings:");
+        outln!("  warnings:");
         for w in &scene.warnings {
-            println!("    {w}");
+            outln!("    {w}");
         }
     }
     Ok(())
@@ -909,46 +916,46 @@ pub fn run_bench(args: &BenchArgs, stop: &AtomicBool) -> Result<()> {
         "photons": photon_figures,
     });
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&figures).unwrap_or_default());
+        outln!("{}", serde_json::to_string_pretty(&figures).unwrap_or_default());
         return Ok(());
     }
-    println!("scene             {}", figures["scene"].as_str().unwrap_or(""));
-    println!(
+    outln!("scene             {}", figures["scene"].as_str().unwrap_or(""));
+    outln!(
         "image             {} at {} spp, {} threads",
         figures["resolution"].as_str().unwrap_or(""),
         args.spp,
         st["threads"]
     );
-    println!("wall time         {:.3} s (render {:.3} s)", f(&figures["wall_seconds"]), f(&figures["render_seconds"]));
-    println!("BVH build         {:.4} s", f(&figures["bvh_build_seconds"]));
-    println!("samples/s         {:.3} M", f(&figures["samples_per_sec"]) / 1e6);
-    println!("rays/s            {:.3} M", f(&figures["rays_per_sec"]) / 1e6);
-    println!("  camera rays/s   {:.3} M", f(&figures["camera_rays_per_sec"]) / 1e6);
-    println!("  bounce rays/s   {:.3} M", f(&figures["bounce_rays_per_sec"]) / 1e6);
-    println!("  shadow rays/s   {:.3} M", f(&figures["shadow_rays_per_sec"]) / 1e6);
+    outln!("wall time         {:.3} s (render {:.3} s)", f(&figures["wall_seconds"]), f(&figures["render_seconds"]));
+    outln!("BVH build         {:.4} s", f(&figures["bvh_build_seconds"]));
+    outln!("samples/s         {:.3} M", f(&figures["samples_per_sec"]) / 1e6);
+    outln!("rays/s            {:.3} M", f(&figures["rays_per_sec"]) / 1e6);
+    outln!("  camera rays/s   {:.3} M", f(&figures["camera_rays_per_sec"]) / 1e6);
+    outln!("  bounce rays/s   {:.3} M", f(&figures["bounce_rays_per_sec"]) / 1e6);
+    outln!("  shadow rays/s   {:.3} M", f(&figures["shadow_rays_per_sec"]) / 1e6);
     let p = &figures["photons"];
     if !p.is_null() {
-        println!("integrator        {}", s["integrator"].as_str().unwrap_or(""));
-        println!(
+        outln!("integrator        {}", s["integrator"].as_str().unwrap_or(""));
+        outln!(
             "photons traced/s  {:.3} M ({} emitted, {} rays)",
             f(&p["photons_traced_per_sec"]) / 1e6,
             p["global_emitted"].as_u64().unwrap_or(0) + p["caustic_emitted"].as_u64().unwrap_or(0),
             p["photon_rays"]
         );
-        println!(
+        outln!(
             "photons stored/s  {:.3} M ({} global, {} caustic)",
             f(&p["photons_stored_per_sec"]) / 1e6,
             p["global_stored"],
             p["caustic_stored"]
         );
-        println!("kd-tree build     {:.4} s", f(&p["kdtree_build_seconds"]));
-        println!(
+        outln!("kd-tree build     {:.4} s", f(&p["kdtree_build_seconds"]));
+        outln!(
             "k-NN queries/s    {:.3} M (k = {}, {} queries)",
             f(&p["knn_queries_per_sec"]) / 1e6,
             p["k"],
             p["knn_queries"]
         );
-        println!("bytes per photon  {}", p["bytes_per_photon"]);
+        outln!("bytes per photon  {}", p["bytes_per_photon"]);
     }
     Ok(())
 }
