@@ -448,7 +448,15 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
             ))
         })?,
     };
-    let photon = resolve_photon(&args.photon, st)?;
+    let mut photon = resolve_photon(&args.photon, st)?;
+    // SPPM with a time limit and no iteration count iterates until the time is up, as the
+    // path tracer samples until then without --spp.
+    if integrator == IntegratorKind::Sppm
+        && time_limit.is_some()
+        && args.photon.sppm_iterations.or(st.sppm_iterations).is_none()
+    {
+        photon.sppm_iterations = MAX_SPP;
+    }
     if integrator != IntegratorKind::Path && max_depth > photon::MAX_PHOTON_DEPTH {
         return Err(Error::Usage(format!(
             "--max-depth {max_depth} is too deep for photon mapping (at most {})",
