@@ -163,12 +163,7 @@ impl PathIntegrator {
                     // An unoccluded shadow segment stays in one medium (boundaries
                     // block shadow rays): the current one, or the one across this
                     // surface when the light is on the other side.
-                    let mat = &ctx.scene.materials[s.material as usize];
-                    let segment_medium = match (ls.wi.dot(s.ng) < 0.0, mat.volume) {
-                        (true, Some(sigma)) => s.front.then_some(sigma),
-                        _ => medium,
-                    };
-                    let tr = match segment_medium {
+                    let tr = match ctx.medium_after(&s, ls.wi, medium) {
                         Some(sigma) if ls.dist.is_finite() => (-sigma * ls.dist).exp(),
                         _ => Rgb::ONE,
                     };
@@ -201,10 +196,10 @@ impl PathIntegrator {
             depth += 1;
 
             // Crossing an interface of a solid changes the medium and the η scale.
+            medium = ctx.medium_after(&s, wi, medium);
             if transmitted {
                 let mat = &ctx.scene.materials[s.material as usize];
-                if let Some(sigma) = mat.volume {
-                    medium = if s.front { Some(sigma) } else { None };
+                if mat.volume.is_some() {
                     let eta = if s.front { mat.ior } else { 1.0 / mat.ior };
                     eta_scale *= eta * eta;
                 }
