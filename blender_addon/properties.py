@@ -10,6 +10,8 @@ from bpy.props import EnumProperty, FloatProperty, IntProperty, PointerProperty,
 # (identifier, UI name, description); the identifier is the renderer's integrator name.
 INTEGRATORS = [
     ("path", "Path Tracing", "Unidirectional path tracing with next-event estimation and MIS"),
+    ("bdpt", "Bidirectional Path Tracing", "Camera and light subpaths joined by every strategy with MIS "
+     "(unbiased; finds caustics and light through small openings that path tracing misses)"),
     ("photon", "Photon Mapping", "Jensen's photon mapping: caustic and global photon maps, final gather "
      "(fast, smooth caustics; slightly biased)"),
     ("sppm", "Progressive Photon Mapping", "Stochastic progressive photon mapping: consistent, converges "

@@ -159,6 +159,8 @@ pub enum IntegratorKind {
     Photon,
     /// Stochastic progressive photon mapping (consistent).
     Sppm,
+    /// Bidirectional path tracing with MIS over all strategies.
+    Bdpt,
 }
 
 impl IntegratorKind {
@@ -168,6 +170,7 @@ impl IntegratorKind {
             IntegratorKind::Path => "path",
             IntegratorKind::Photon => "photon",
             IntegratorKind::Sppm => "sppm",
+            IntegratorKind::Bdpt => "bdpt",
         }
     }
 }
@@ -228,6 +231,10 @@ pub struct RenderArgs {
     /// Photon-mapping settings.
     #[command(flatten)]
     pub photon: PhotonArgs,
+    /// Debugging (bdpt): render only strategy S,T (S light vertices, T camera vertices,
+    /// the camera included), MIS-weighted, or unweighted with S,T,unweighted.
+    #[arg(long, value_name = "S,T[,unweighted]", value_parser = parse_strategy)]
+    pub bdpt_strategy: Option<crate::integrator::bdpt::Strategy>,
     /// Rewrite the output every SECONDS while rendering.
     #[arg(long, value_name = "SECONDS")]
     pub interim: Option<f64>,
@@ -291,6 +298,27 @@ pub struct Resolved {
     pub integrator: IntegratorKind,
     /// Photon-mapping settings.
     pub photon: PhotonSettings,
+}
+
+/// Parses `S,T` or `S,T,unweighted` for `--bdpt-strategy`.
+fn parse_strategy(v: &str) -> std::result::Result<crate::integrator::bdpt::Strategy, String> {
+    let parts: Vec<&str> = v.split(',').map(str::trim).collect();
+    let num = |x: &str, what: &str| -> std::result::Result<u32, String> {
+        x.parse::<u32>().map_err(|_| format!("{what} '{x}' is not a whole number (expected S,T or S,T,unweighted)"))
+    };
+    let (s, t, weighted) = match parts.as_slice() {
+        [s, t] => (num(s, "S")?, num(t, "T")?, true),
+        [s, t, "unweighted"] => (num(s, "S")?, num(t, "T")?, false),
+        [s, t, "weighted"] => (num(s, "S")?, num(t, "T")?, true),
+        _ => return Err(format!("'{v}' is not S,T or S,T,unweighted")),
+    };
+    if t == 0 {
+        return Err("T must be at least 1 (the camera is a vertex of every path)".into());
+    }
+    if s + t < 2 {
+        return Err("a path needs at least two vertices (S + T >= 2)".into());
+    }
+    Ok(crate::integrator::bdpt::Strategy { s, t, weighted })
 }
 
 /// Resolves the photon-mapping settings (flag > scene > default) and checks them.
@@ -444,7 +472,7 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
         (None, None) => IntegratorKind::Path,
         (None, Some(name)) => IntegratorKind::from_str(name, true).map_err(|_| {
             Error::Usage(format!(
-                "the scene asks for integrator '{name}', which this build does not have (path, photon, sppm)"
+                "the scene asks for integrator '{name}', which this build does not have (path, bdpt, photon, sppm)"
             ))
         })?,
     };
@@ -462,6 +490,15 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
             "--max-depth {max_depth} is too deep for photon mapping (at most {})",
             photon::MAX_PHOTON_DEPTH
         )));
+    }
+    if integrator == IntegratorKind::Bdpt && max_depth > crate::integrator::bdpt::MAX_BDPT_DEPTH {
+        return Err(Error::Usage(format!(
+            "--max-depth {max_depth} is too deep for bidirectional path tracing (at most {})",
+            crate::integrator::bdpt::MAX_BDPT_DEPTH
+        )));
+    }
+    if args.bdpt_strategy.is_some() && integrator != IntegratorKind::Bdpt {
+        return Err(Error::Usage("--bdpt-strategy needs --integrator bdpt".into()));
     }
     if args.photon_map.is_some() && integrator != IntegratorKind::Photon {
         return Err(Error::Usage("--photon-map needs --integrator photon".into()));
@@ -530,6 +567,13 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
             max_depth: res.max_depth,
             transparent_background: res.transparent,
             ..Default::default()
+        }),
+        IntegratorKind::Bdpt => Integrator::Bdpt(crate::integrator::bdpt::BdptIntegrator {
+            max_depth: res.max_depth,
+            rr_depth: PathIntegrator::default().rr_depth,
+            transparent_background: res.transparent,
+            strategy: args.bdpt_strategy,
+            lights: std::sync::Arc::new(crate::integrator::bdpt::lights::BdptLights::new(&scene)),
         }),
         IntegratorKind::Photon => {
             reporter.phase("photons", t0.elapsed().as_secs_f64());
@@ -894,6 +938,7 @@ pub fn run_bench(args: &BenchArgs, stop: &AtomicBool) -> Result<()> {
         integrator: Some(args.integrator),
         photon_map: None,
         photon: args.photon.clone(),
+        bdpt_strategy: None,
         interim: None,
         filter: None,
         filter_width: None,
@@ -902,8 +947,11 @@ pub fn run_bench(args: &BenchArgs, stop: &AtomicBool) -> Result<()> {
     let outcome = run_render(&render_args, &reporter, stop);
     let _ = std::fs::remove_dir_all(&dir);
     let s = outcome?.summary;
-    let photon_figures =
-        if args.integrator == IntegratorKind::Path { serde_json::Value::Null } else { bench_photon_maps(args, stop)? };
+    let photon_figures = if matches!(args.integrator, IntegratorKind::Path | IntegratorKind::Bdpt) {
+        serde_json::Value::Null
+    } else {
+        bench_photon_maps(args, stop)?
+    };
     let st = &s["stats"];
     let f = |v: &serde_json::Value| v.as_f64().unwrap_or(f64::NAN);
     let figures = json!({

@@ -38,6 +38,25 @@ impl Filter {
         Filter { width, table: Some(Distribution1D::new(&weights)) }
     }
 
+    /// Density of `sample`'s offsets per unit pixel area (separable; zero outside the
+    /// support), used to spread light-tracing splats with the same filter.
+    #[inline]
+    pub fn eval(&self, off: Vec2) -> f32 {
+        let axis = |x: f32| -> f32 {
+            let v = x / self.width + 0.5;
+            if !(0.0..1.0).contains(&v) {
+                return 0.0;
+            }
+            match &self.table {
+                None => 1.0 / self.width,
+                Some(t) => {
+                    t.pmf(((v * FILTER_TABLE as f32) as usize).min(FILTER_TABLE - 1)) * FILTER_TABLE as f32 / self.width
+                }
+            }
+        };
+        axis(off.x) * axis(off.y)
+    }
+
     /// Offset from the pixel centre for uniform numbers `u`.
     #[inline]
     pub fn sample(&self, u: Vec2) -> Vec2 {
@@ -147,6 +166,100 @@ pub struct Film {
     pub height: u32,
     /// Tiles in scanline order of tiles.
     pub tiles: Vec<Tile>,
+    /// Σ of light-tracing splats per pixel (bidirectional integrators), row-major.
+    pub splat: Vec<DVec3>,
+    /// Light paths traced: the splat sums' denominator (each light path estimates every pixel).
+    pub light_paths: u64,
+}
+
+/// A whole-window buffer of light-tracing splats owned by one worker at a time.
+#[derive(Clone, Debug)]
+pub struct SplatBuffer {
+    /// Full-frame x of the window's left column.
+    pub x0: u32,
+    /// Full-frame y of the window's top row.
+    pub y0: u32,
+    /// Window width.
+    pub w: u32,
+    /// Window height.
+    pub h: u32,
+    /// Row-major sums.
+    pub data: Vec<DVec3>,
+    /// Splats added (for statistics).
+    pub count: u64,
+}
+
+impl SplatBuffer {
+    /// Adds `value` spread by the pixel filter around full-frame film position `pos`
+    /// (pixels, from the top-left corner): each pixel gets value × filter(pos - centre).
+    #[inline]
+    pub fn add(&mut self, filter: &Filter, pos: Vec2, value: Vec3) {
+        let r = 0.5 * filter.width;
+        let lo_x = (pos.x - r - 0.5).floor().max(self.x0 as f32) as i64;
+        let hi_x = ((pos.x + r - 0.5).ceil() as i64).min(self.x0 as i64 + self.w as i64 - 1);
+        let lo_y = (pos.y - r - 0.5).floor().max(self.y0 as f32) as i64;
+        let hi_y = ((pos.y + r - 0.5).ceil() as i64).min(self.y0 as i64 + self.h as i64 - 1);
+        for py in lo_y..=hi_y {
+            for px in lo_x..=hi_x {
+                let f = filter.eval(pos - Vec2::new(px as f32 + 0.5, py as f32 + 0.5));
+                if f > 0.0 {
+                    let i = (py - self.y0 as i64) as usize * self.w as usize + (px - self.x0 as i64) as usize;
+                    self.data[i] += (value * f).as_dvec3();
+                }
+            }
+        }
+        self.count += 1;
+    }
+}
+
+/// Splat buffers handed to workers one per tile: a lock per tile, none per splat.
+#[derive(Debug)]
+pub struct SplatPool {
+    free: std::sync::Mutex<Vec<SplatBuffer>>,
+    window: [u32; 4],
+}
+
+impl SplatPool {
+    /// A pool for the pixel window (x0, y0, x1, y1) of the full frame.
+    pub fn new(window: [u32; 4]) -> Self {
+        SplatPool { free: std::sync::Mutex::new(Vec::new()), window }
+    }
+
+    /// A buffer for one tile's work (a new one when all are in use).
+    pub fn take(&self) -> SplatBuffer {
+        let [x0, y0, x1, y1] = self.window;
+        self.free.lock().map(|mut v| v.pop()).ok().flatten().unwrap_or_else(|| SplatBuffer {
+            x0,
+            y0,
+            w: x1 - x0,
+            h: y1 - y0,
+            data: vec![DVec3::ZERO; ((x1 - x0) * (y1 - y0)) as usize],
+            count: 0,
+        })
+    }
+
+    /// Returns a buffer after a tile.
+    pub fn give(&self, b: SplatBuffer) {
+        if let Ok(mut v) = self.free.lock() {
+            v.push(b);
+        }
+    }
+
+    /// Adds every buffer's sums to the film and clears them; returns the splats added.
+    pub fn drain_into(&self, film: &mut Film) -> u64 {
+        let mut count = 0;
+        if let Ok(mut v) = self.free.lock() {
+            for b in v.iter_mut() {
+                for (acc, d) in film.splat.iter_mut().zip(b.data.iter_mut()) {
+                    *acc += *d;
+                    *d = DVec3::ZERO;
+                }
+                count += b.count;
+                b.count = 0;
+            }
+        }
+        count
+    }
 }
 
 impl Film {
@@ -159,7 +272,7 @@ impl Film {
                 tiles.push(Tile { x0, y0, w, h, pixels: vec![PixelAccum::default(); (w * h) as usize] });
             }
         }
-        Film { width, height, tiles }
+        Film { width, height, tiles, splat: vec![DVec3::ZERO; (width * height) as usize], light_paths: 0 }
     }
 
     /// Normalises every pixel by its own sample count.
@@ -184,7 +297,10 @@ impl Film {
                         continue;
                     }
                     let inv = 1.0 / p.n as f64;
-                    let c = p.rgb * inv;
+                    let mut c = p.rgb * inv;
+                    if self.light_paths > 0 {
+                        c += self.splat[i] / self.light_paths as f64;
+                    }
                     img.combined[i] = [c.x as f32, c.y as f32, c.z as f32, (p.alpha * inv) as f32];
                     if p.depth.is_finite() {
                         img.depth[i] = p.depth;

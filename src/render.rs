@@ -5,7 +5,8 @@
 //! once and later passes amortise the scheduling. Within a pass every tile renders the
 //! same sample indices, so the result never depends on which thread took which tile.
 
-use crate::film::{Film, FilmImage, Filter};
+use crate::film::{Film, FilmImage, Filter, SplatPool};
+use crate::integrator::bdpt::{BdptScratch, FilmTarget};
 use crate::integrator::{Integrator, RayStats, SceneContext};
 use crate::sampling::PixelSampler;
 use crate::scene::camera::CameraRays;
@@ -81,6 +82,8 @@ pub struct Progress {
 struct TileStats {
     rays: RayStats,
     nan: u64,
+    /// Light subpaths traced (bidirectional integrators: one per camera sample).
+    light_paths: u64,
 }
 
 /// Renders `job` with the context; `stop` is polled per pixel. `on_progress` is
@@ -106,6 +109,7 @@ pub fn render(
     let mut stats = TileStats::default();
     let mut spp_done = 0u32;
     let target = job.spp.unwrap_or(u32::MAX);
+    let splats = SplatPool::new(job.window);
 
     std::thread::scope(|scope| {
         // Reporter thread: reads the counters, never touches the film.
@@ -149,16 +153,21 @@ pub fn render(
                 .par_iter_mut()
                 .map(|tile| {
                     let mut ts = TileStats::default();
+                    // Bidirectional: a splat buffer and vertex scratch for this tile.
+                    let mut bd = match &job.integrator {
+                        Integrator::Bdpt(b) => Some((splats.take(), BdptScratch::new(b.max_depth))),
+                        _ => None,
+                    };
                     for ty in 0..tile.h {
                         for tx in 0..tile.w {
                             if stop.load(Ordering::Relaxed) || timed_out.load(Ordering::Relaxed) {
-                                return ts;
+                                break;
                             }
                             if let Some(d) = deadline
                                 && Instant::now() >= d
                             {
                                 timed_out.store(true, Ordering::Relaxed);
-                                return ts;
+                                break;
                             }
                             let (px, py) = (x0 + tile.x0 + tx, y0 + tile.y0 + ty);
                             let acc = &mut tile.pixels[(ty * tile.w + tx) as usize];
@@ -174,6 +183,21 @@ pub fn render(
                                     Integrator::Photon(p) => {
                                         p.li(ctx, org, dir, &mut sampler, |q| camera.depth(q), &mut ts.rays)
                                     }
+                                    Integrator::Bdpt(b) => {
+                                        let Some((buf, scratch)) = bd.as_mut() else { unreachable!() };
+                                        let mut target = FilmTarget { camera, filter: &job.filter, splats: buf };
+                                        ts.light_paths += 1;
+                                        b.li(
+                                            ctx,
+                                            org,
+                                            dir,
+                                            &mut sampler,
+                                            (job.seed, px, py, i),
+                                            &mut target,
+                                            scratch,
+                                            &mut ts.rays,
+                                        )
+                                    }
                                 };
                                 if s.radiance.is_finite() {
                                     acc.add(&s);
@@ -185,13 +209,18 @@ pub fn render(
                             rays_done.fetch_add(ts.rays.total() - rays_before, Ordering::Relaxed);
                         }
                     }
+                    if let Some((buf, _)) = bd {
+                        splats.give(buf);
+                    }
                     ts
                 })
                 .collect();
             for t in &tile_stats {
                 stats.rays.add(&t.rays);
                 stats.nan += t.nan;
+                film.light_paths += t.light_paths;
             }
+            splats.drain_into(&mut film);
             if stop.load(Ordering::Relaxed) || timed_out.load(Ordering::Relaxed) {
                 break;
             }

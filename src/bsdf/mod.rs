@@ -63,6 +63,30 @@ impl Bsdf {
         }
     }
 
+    /// The adjoint BSDF f*(wo, wi) = f(wi, wo) that carries importance along light paths:
+    /// the same as `eval` with the arguments swapped for reflection; for refraction across
+    /// a solid's interface `eval` divides radiance by η² and importance is not divided,
+    /// so the value is `eval(wo, wi)` times η².
+    #[inline]
+    pub fn eval_adjoint(&self, wo: Vec3, wi: Vec3) -> Rgb {
+        if wo.z * wi.z >= 0.0 { self.eval(wi, wo) } else { self.eval(wo, wi) * self.refraction_eta2() }
+    }
+
+    /// η² of the refracting part (1 for thin sheets): the ratio between a transmitted
+    /// sample's adjoint value and its radiance value.
+    #[inline]
+    pub fn refraction_eta2(&self) -> f32 {
+        match self {
+            Bsdf::Pbr(b) => {
+                if b.glass.thin {
+                    1.0
+                } else {
+                    b.glass.eta * b.glass.eta
+                }
+            }
+        }
+    }
+
     /// Colour for the "Denoising Albedo" pass.
     pub fn albedo(&self) -> Rgb {
         match self {

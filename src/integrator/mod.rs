@@ -3,6 +3,7 @@
 //! hit, light sampling and the light pdf for MIS. Integrators compute one camera
 //! sample at a time; the tile loop, film and progress are shared (`render.rs`).
 
+pub mod bdpt;
 pub mod path;
 pub mod photon;
 
@@ -670,6 +671,8 @@ pub enum Integrator {
     Path(path::PathIntegrator),
     /// Jensen's photon mapping (rendering pass; the maps are built before).
     Photon(photon::jensen::JensenIntegrator),
+    /// Bidirectional path tracing with MIS over all strategies.
+    Bdpt(bdpt::BdptIntegrator),
 }
 
 impl Integrator {
@@ -680,6 +683,7 @@ impl Integrator {
                 format!("path (max depth {}, russian roulette from depth {})", p.max_depth, p.rr_depth)
             }
             Integrator::Photon(p) => p.describe(),
+            Integrator::Bdpt(b) => b.describe(),
         }
     }
 }

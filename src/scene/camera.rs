@@ -107,6 +107,51 @@ impl CameraRays {
         (self.cam.position - p).dot(self.cam.back)
     }
 
+    /// True for an orthographic camera (a delta in direction: light tracing cannot reach it).
+    pub fn is_orthographic(&self) -> bool {
+        self.ortho
+    }
+
+    /// Where a world point appears on a perspective camera's film: (film position in
+    /// pixels from the top-left corner of the full frame, cos θ to the viewing axis,
+    /// distance), or None behind the camera, more than `margin` pixels outside the frame
+    /// (a pixel filter reaches that far), or for an orthographic camera.
+    #[inline]
+    pub fn project(&self, p: Vec3, margin: f32) -> Option<(Vec2, f32, f32)> {
+        if self.ortho {
+            return None;
+        }
+        let c = &self.cam;
+        let d = p - c.position;
+        let dist = d.length();
+        let w = d / dist;
+        let z = -w.dot(c.back);
+        if !(z > 0.0) || !(dist > 0.0) {
+            return None;
+        }
+        let (sx, sy) = (w.dot(c.right) / z, w.dot(c.up) / z);
+        let x = (sx / self.half.x + 1.0) * 0.5 * self.width;
+        let y = (1.0 - sy / self.half.y) * 0.5 * self.height;
+        let inside = (-margin..self.width + margin).contains(&x) && (-margin..self.height + margin).contains(&y);
+        inside.then_some((Vec2::new(x, y), z, dist))
+    }
+
+    /// Area of one pixel on the image plane at distance 1 (perspective).
+    #[inline]
+    pub fn pixel_area(&self) -> f32 {
+        4.0 * self.half.x * self.half.y / (self.width * self.height)
+    }
+
+    /// Solid-angle density of a camera ray's direction at cos θ from the axis when film
+    /// positions are uniform over the whole frame (the density bidirectional MIS uses).
+    #[inline]
+    pub fn pdf_dir(&self, cos_theta: f32) -> f32 {
+        if self.ortho || !(cos_theta > 0.0) {
+            return 0.0;
+        }
+        1.0 / (4.0 * self.half.x * self.half.y * cos_theta * cos_theta * cos_theta)
+    }
+
     /// The camera.
     pub fn camera(&self) -> &Camera {
         &self.cam

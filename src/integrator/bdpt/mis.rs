@@ -1,0 +1,136 @@
+//! Multiple importance sampling weights over all strategies of a path, power heuristic,
+//! in the ratio form of Veach's thesis §10.2 (as pbrt and SmallVCM compute it): linear in
+//! the path length.
+//!
+//! A path z₀ … z_k runs from the light (z₀) to the camera (z_k). Strategy j takes
+//! z₀ … z_{j-1} from a light subpath and z_j … z_k from a camera subpath, so its density is
+//! p_j = Π_{i<j} a_i · Π_{i≥j} b_i, with a_i the area density of z_i generated from the light
+//! side and b_i from the camera side. Then p_j / p_{j+1} = b_j / a_j, and the weight of
+//! strategy s is p_s² / Σ_j p_j², summed over the strategies that can make the path.
+//!
+//! Vertices reached through a delta lobe store densities of 0, counted as 1 in the
+//! ratios (their delta factor is common to every strategy that can sample them), and
+//! no strategy may connect at them. Any choice of densities gives weights that sum to 1
+//! over the strategies as long as every strategy evaluates the same function of the
+//! path, which is what makes the estimator unbiased; the densities only decide how well
+//! the strategies are combined.
+
+/// Most vertices a path may have (subpath lengths are bounded accordingly).
+pub const MAX_PATH_VERTICES: usize = 130;
+
+/// The densities of one full path, light end first.
+#[derive(Clone, Debug)]
+pub struct PathDensities {
+    /// Area density of each vertex generated from the light side.
+    pub a: [f32; MAX_PATH_VERTICES],
+    /// Area density of each vertex generated from the camera side.
+    pub b: [f32; MAX_PATH_VERTICES],
+    /// The vertex can be an end of a connection (not a delta scattering, and for the
+    /// camera: a camera that light paths can reach).
+    pub connectible: [bool; MAX_PATH_VERTICES],
+    /// Vertices in the path.
+    pub n: usize,
+    /// A camera path can hit z₀ (false for point and spot lights).
+    pub light_hittable: bool,
+}
+
+impl Default for PathDensities {
+    fn default() -> Self {
+        PathDensities {
+            a: [0.0; MAX_PATH_VERTICES],
+            b: [0.0; MAX_PATH_VERTICES],
+            connectible: [false; MAX_PATH_VERTICES],
+            n: 0,
+            light_hittable: true,
+        }
+    }
+}
+
+#[inline]
+fn remap0(x: f32) -> f32 {
+    if x != 0.0 { x } else { 1.0 }
+}
+
+impl PathDensities {
+    /// Whether strategy `j` (j light vertices) can produce the path.
+    #[inline]
+    pub fn valid(&self, j: usize) -> bool {
+        let k = self.n - 1;
+        if j > k {
+            return false; // t = 0: the camera cannot be hit
+        }
+        let light_end = if j == 0 { self.light_hittable } else { self.connectible[j - 1] };
+        light_end && self.connectible[j]
+    }
+
+    /// Power-heuristic weight of strategy `s`.
+    #[inline]
+    pub fn weight(&self, s: usize) -> f32 {
+        let k = self.n - 1;
+        let mut sum = 1.0f64;
+        let mut r = 1.0f64;
+        for j in (0..s).rev() {
+            r *= remap0(self.b[j]) as f64 / remap0(self.a[j]) as f64;
+            if self.valid(j) {
+                sum += r * r;
+            }
+        }
+        r = 1.0;
+        for j in s + 1..=k {
+            r *= remap0(self.a[j - 1]) as f64 / remap0(self.b[j - 1]) as f64;
+            if self.valid(j) {
+                sum += r * r;
+            }
+        }
+        let w = (1.0 / sum) as f32;
+        if w.is_finite() { w } else { 0.0 }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// For random densities and delta flags, the weights of the valid strategies of one
+    /// path sum to 1 (to rounding), for every path length.
+    #[test]
+    fn weights_sum_to_one() {
+        let mut state = 0x1234_5678u64;
+        let mut rnd = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((state >> 40) as f32 + 0.5) / (1u64 << 24) as f32
+        };
+        for trial in 0..2000 {
+            let n = 2 + trial % 20;
+            let mut d = PathDensities { n, light_hittable: rnd() < 0.7, ..Default::default() };
+            for i in 0..n {
+                // Densities over many orders of magnitude, some delta (0).
+                let delta = i > 0 && i < n - 1 && rnd() < 0.2;
+                d.a[i] = if delta { 0.0 } else { (rnd() * 20.0 - 10.0).exp() };
+                d.b[i] = if delta { 0.0 } else { (rnd() * 20.0 - 10.0).exp() };
+                d.connectible[i] = !delta;
+            }
+            d.connectible[n - 1] = rnd() < 0.8;
+            let valid: Vec<usize> = (0..n).filter(|&j| d.valid(j)).collect();
+            if valid.is_empty() {
+                continue;
+            }
+            let sum: f64 = valid.iter().map(|&j| d.weight(j) as f64).sum();
+            assert!((sum - 1.0).abs() < 1e-4, "trial {trial}: n {n}, Σw = {sum}");
+        }
+    }
+
+    /// Two strategies with equal densities share the path equally; a strategy whose
+    /// density dominates gets nearly all of it.
+    #[test]
+    fn weights_follow_densities() {
+        let mut d = PathDensities { n: 2, ..Default::default() };
+        d.a = [1.0; MAX_PATH_VERTICES];
+        d.b = [1.0; MAX_PATH_VERTICES];
+        d.connectible[0] = true;
+        d.connectible[1] = true;
+        assert!((d.weight(0) - 0.5).abs() < 1e-6 && (d.weight(1) - 0.5).abs() < 1e-6);
+        d.b[0] = 100.0; // the camera side finds z₀ 100× more often
+        assert!((d.weight(0) - 1e4 / (1e4 + 1.0)).abs() < 1e-6);
+    }
+}

@@ -1,0 +1,329 @@
+//! Bidirectional path tracing end to end: every strategy alone converges to the same
+//! image, BDPT agrees with the path tracer on the Cornell box, the glass caustic scene and
+//! scenes with every light type, the emissive furnace is exact, and the settings are checked.
+//!
+//! How the bounds are derived: light tracing splats one light path onto many pixels, so
+//! pixels of one render are correlated and a per-pixel standard error would understate
+//! the noise. Each estimate is therefore rendered with K independent seeds; the standard
+//! error of a region's mean comes from the spread of its K means, and two estimates agree
+//! when their difference is within a Student-t quantile (Welch's degrees of freedom) at a
+//! false-alarm rate of 10⁻³ per test, split over the comparisons of the test (Šidák).
+
+mod common;
+
+use common::{GltfBuilder, look_rotation, root, run, temp_dir};
+use serde_json::json;
+use statrs::distribution::{ContinuousCDF, StudentsT};
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+const LIMIT: Duration = Duration::from_secs(300);
+
+fn render(scene: &Path, out: &Path, extra: &[&str]) -> Vec<[f32; 4]> {
+    let mut args = vec!["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--progress", "json"];
+    args.extend_from_slice(extra);
+    let r = run(&args, LIMIT);
+    assert_eq!(r.code, Some(0), "render failed: {}", r.stderr);
+    caustic::output::read_combined(out).unwrap().2
+}
+
+/// Mean luminance-like value (channel mean) of each region, for K seeds.
+fn region_means(
+    scene: &Path,
+    dir: &Path,
+    extra: &[&str],
+    seeds: u32,
+    regions: &[(String, Vec<usize>)],
+) -> Vec<Vec<f64>> {
+    let mut out = vec![Vec::new(); regions.len()];
+    for seed in 0..seeds {
+        let mut args: Vec<&str> = extra.to_vec();
+        let s = (seed * 7919 + 13).to_string();
+        args.extend_from_slice(&["--seed", &s]);
+        let px = render(scene, &dir.join("r.exr"), &args);
+        for (k, (_, idx)) in regions.iter().enumerate() {
+            let m = idx.iter().map(|&i| (px[i][0] + px[i][1] + px[i][2]) as f64 / 3.0).sum::<f64>() / idx.len() as f64;
+            out[k].push(m);
+        }
+    }
+    out
+}
+
+fn mean_var(v: &[f64]) -> (f64, f64) {
+    let n = v.len() as f64;
+    let m = v.iter().sum::<f64>() / n;
+    (m, v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0))
+}
+
+/// Welch's test: |mean(a) - mean(b)| within the t quantile at two-sided level `alpha`.
+fn agree(name: &str, a: &[f64], b: &[f64], alpha: f64) -> bool {
+    let (ma, va) = mean_var(a);
+    let (mb, vb) = mean_var(b);
+    let (sa, sb) = (va / a.len() as f64, vb / b.len() as f64);
+    let se = (sa + sb).sqrt();
+    let dof = (sa + sb).powi(2) / (sa * sa / (a.len() as f64 - 1.0) + sb * sb / (b.len() as f64 - 1.0));
+    let t = StudentsT::new(0.0, 1.0, dof.max(1.0)).unwrap().inverse_cdf(1.0 - alpha / 2.0);
+    let ok = (ma - mb).abs() <= t * se;
+    eprintln!(
+        "{name}: {ma:.5} vs {mb:.5} (ratio {:.4}), diff {:.2e}, bound {:.2e} (t {t:.2}, dof {dof:.1})",
+        ma / mb,
+        (ma - mb).abs(),
+        t * se
+    );
+    ok
+}
+
+/// Per-comparison level for a test making `n` comparisons at overall level 10⁻³.
+fn sidak(n: usize) -> f64 {
+    1.0 - (1.0 - 1e-3f64).powf(1.0 / n as f64)
+}
+
+/// Whole image and quadrants of a w×h image.
+fn regions(w: usize, h: usize) -> Vec<(String, Vec<usize>)> {
+    let mut out = vec![("whole".to_string(), (0..w * h).collect::<Vec<_>>())];
+    for (qy, qx) in [(0, 0), (0, 1), (1, 0), (1, 1)] {
+        let idx = (0..w * h).filter(|i| (i / w) * 2 / h == qy && (i % w) * 2 / w == qx).collect();
+        out.push((format!("quadrant {qy}{qx}"), idx));
+    }
+    out
+}
+
+fn cornell() -> PathBuf {
+    root().join("scenes/cornell_box.gltf")
+}
+
+/// Compares BDPT with the path tracer on a scene, region by region.
+/// `scenes` is the number of scenes the calling test compares (for the Šidák split).
+fn bdpt_matches_path(
+    name: &str,
+    scene: &Path,
+    res: (usize, usize),
+    (spp_bdpt, spp_path): (u32, u32),
+    seeds: u32,
+    scenes: usize,
+) {
+    let dir = temp_dir();
+    let regs = regions(res.0, res.1);
+    let r = format!("{}x{}", res.0, res.1);
+    let (sb, sp) = (spp_bdpt.to_string(), spp_path.to_string());
+    let b = region_means(scene, dir.path(), &["--integrator", "bdpt", "--resolution", &r, "--spp", &sb], seeds, &regs);
+    let p = region_means(scene, dir.path(), &["--integrator", "path", "--resolution", &r, "--spp", &sp], seeds, &regs);
+    let alpha = sidak(regs.len() * scenes);
+    let mut failed = Vec::new();
+    for (k, (rn, _)) in regs.iter().enumerate() {
+        if !agree(&format!("{name} {rn}"), &b[k], &p[k], alpha) {
+            failed.push(rn.clone());
+        }
+    }
+    assert!(failed.is_empty(), "{name}: BDPT and path tracing disagree in {failed:?}");
+}
+
+/// BDPT and the path tracer converge to the same Cornell box, region by region.
+#[test]
+fn cornell_bdpt_matches_path_tracing() {
+    bdpt_matches_path("cornell", &cornell(), (48, 48), (8, 32), 8, 1);
+}
+
+/// The same on the glass caustic scene (delta BSDFs, caustics, absorbing glass).
+#[test]
+fn glass_caustic_bdpt_matches_path_tracing() {
+    bdpt_matches_path("glass", &root().join("scenes/glass_caustic.gltf"), (48, 36), (8, 64), 8, 1);
+}
+
+/// A room with every light type: point, spot, area (rectangle and disk), a sphere light
+/// without soft falloff, a double-sided emissive quad, and (camera side only) a sun with
+/// an angle, a soft point light and a world colour.
+fn light_zoo(dir: &Path, only: Option<usize>) -> PathBuf {
+    let on = |i: usize| only.is_none_or(|o| o == i);
+    let mut g = GltfBuilder::new();
+    let white = g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1], "metallicFactor": 0.0, "roughnessFactor": 0.8}}));
+    let red = g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.2, 0.1, 1], "metallicFactor": 0.0, "roughnessFactor": 0.4}}));
+    let metal = g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0.9, 0.8, 0.6, 1], "metallicFactor": 1.0, "roughnessFactor": 0.3}}));
+    g.use_ext("KHR_materials_emissive_strength");
+    let emit = g.material(json!({
+        "pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1], "metallicFactor": 0.0},
+        "emissiveFactor": [1, 0.9, 0.7], "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 3.0}},
+        "doubleSided": true
+    }));
+    // Floor and back wall, a box and a metal block.
+    g.mesh(&[[-4.0, 0.0, -4.0], [4.0, 0.0, -4.0], [4.0, 0.0, 4.0], [-4.0, 0.0, 4.0]], &[0, 2, 1, 0, 3, 2], white);
+    g.mesh(&[[-4.0, 0.0, -2.0], [4.0, 0.0, -2.0], [4.0, 4.0, -2.0], [-4.0, 4.0, -2.0]], &[0, 1, 2, 0, 2, 3], red);
+    g.cube([-1.2, 0.0, -1.0], [-0.4, 0.8, -0.2], white);
+    g.cube([0.5, 0.0, -1.2], [1.1, 0.5, -0.6], metal);
+    // A double-sided emissive quad standing up.
+    let emit = if on(0) { emit } else { white };
+    g.mesh(&[[1.5, 0.2, 0.0], [1.9, 0.2, -0.3], [1.9, 1.0, -0.3], [1.5, 1.0, 0.0]], &[0, 1, 2, 0, 2, 3], emit);
+    g.camera([0.0, 1.6, 3.0], look_rotation([0.0, -0.4, -1.0]), 1.0);
+    if on(1) {
+        g.punctual(
+            json!({"type": "point", "intensity": 2.0 * 683.0, "color": [1, 0.8, 0.6]}),
+            [-1.5, 2.0, 0.5],
+            [0.0, 0.0, 0.0, 1.0],
+        );
+    }
+    if on(2) {
+        g.punctual(
+            json!({"type": "spot", "intensity": 6.0 * 683.0, "spot": {"innerConeAngle": 0.3, "outerConeAngle": 0.6}}),
+            [0.8, 2.5, 0.5],
+            look_rotation([0.0, -1.0, -0.3]),
+        );
+    }
+    if on(3) {
+        g.punctual_with(
+            json!({"type": "point", "intensity": 1.5 * 683.0}),
+            [0.0, 2.2, -1.0],
+            [0.0, 0.0, 0.0, 1.0],
+            json!({"CAUSTIC_lights_punctual": {"radius": 0.15, "soft_falloff": false}}),
+        );
+    }
+    if on(4) {
+        g.punctual_with(
+            json!({"type": "point", "intensity": 1.0 * 683.0, "color": [0.6, 0.7, 1.0]}),
+            [2.5, 1.5, 1.0],
+            [0.0, 0.0, 0.0, 1.0],
+            json!({"CAUSTIC_lights_punctual": {"radius": 0.2, "soft_falloff": true}}),
+        );
+    }
+    if on(5) {
+        g.punctual_with(
+            json!({"type": "directional", "intensity": 0.5 * 683.0}),
+            [0.0, 5.0, 0.0],
+            look_rotation([0.4, -1.0, -0.5]),
+            json!({"CAUSTIC_lights_punctual": {"angle": 0.1}}),
+        );
+    }
+    g.use_ext("CAUSTIC_lights_area");
+    if on(6) {
+        g.node(json!({"translation": [-0.5, 3.0, 0.5], "rotation": look_rotation([0.0, -1.0, 0.0001]),
+        "extensions": {"CAUSTIC_lights_area": {"shape": "rectangle", "size": [0.8, 0.4], "power": 20.0, "color": [1, 1, 0.9]}}}));
+    }
+    if on(7) {
+        g.node(json!({"translation": [2.0, 2.0, -1.0], "rotation": look_rotation([-0.5, -1.0, 0.2]),
+        "extensions": {"CAUSTIC_lights_area": {"shape": "disk", "size": [0.5, 0.5], "power": 10.0, "color": [0.8, 1, 0.8], "camera_visible": true}}}));
+    }
+    if on(8) {
+        g.world(json!({"color": [0.05, 0.07, 0.1]}));
+    }
+    g.settings(json!({"transparent": false}));
+    g.write(dir, "zoo.gltf")
+}
+
+/// Every light type gives the same image with BDPT as with the path tracer.
+#[test]
+fn every_light_type_bdpt_matches_path_tracing() {
+    let dir = temp_dir();
+    let names = ["emissive quad", "point", "spot", "sphere", "soft sphere", "sun", "rectangle", "disk", "world"];
+    for (i, name) in names.iter().enumerate() {
+        let scene = light_zoo(dir.path(), Some(i));
+        bdpt_matches_path(name, &scene, (24, 24), (8, 32), 8, names.len() + 1);
+    }
+    let scene = light_zoo(dir.path(), None);
+    bdpt_matches_path("all lights", &scene, (40, 40), (8, 32), 8, names.len() + 1);
+}
+
+/// Each strategy alone, unweighted, is an unbiased estimate of the paths of its length:
+/// for paths of 1 and 2 scattering events on the Cornell box, every (s, t) with
+/// s + t = k + 1 gives the same image mean (this catches wrong subpath densities and
+/// throughputs, which MIS would partly hide).
+#[test]
+fn each_strategy_alone_converges_to_the_same_image() {
+    let dir = temp_dir();
+    let scene = cornell();
+    let regs = vec![("whole".to_string(), (0..32 * 32).collect::<Vec<_>>())];
+    for strategies in [vec![(0, 3), (1, 2), (2, 1)], vec![(0, 4), (1, 3), (2, 2), (3, 1)]] {
+        let means: Vec<(String, Vec<f64>)> = strategies
+            .iter()
+            .map(|(s, t)| {
+                let st = format!("{s},{t},unweighted");
+                let m = region_means(
+                    &scene,
+                    dir.path(),
+                    &["--integrator", "bdpt", "--resolution", "32x32", "--spp", "16", "--bdpt-strategy", &st],
+                    10,
+                    &regs,
+                );
+                (st, m[0].clone())
+            })
+            .collect();
+        let alpha = sidak(means.len() - 1);
+        // The camera-side strategy s = 1 (light sampling) is the reference.
+        let reference = &means[1];
+        for (name, m) in &means {
+            if name != &reference.0 {
+                assert!(agree(&format!("strategy {name} vs {}", reference.0), m, &reference.1, alpha), "{name}");
+            }
+        }
+        assert!(reference.1.iter().all(|&v| v > 1e-4), "paths of this length must carry light");
+    }
+}
+
+/// A closed box of albedo 1 emitting Le from every (double-sided) wall: with at most D
+/// scattering events L = (D + 1) Le exactly; every wall triangle is a light, so light
+/// subpaths start everywhere.
+#[test]
+fn emissive_furnace_is_exact() {
+    let dir = temp_dir();
+    let le = 0.5f64;
+    let depth = 4u32;
+    let mut g = GltfBuilder::new();
+    g.use_ext("KHR_materials_emissive_strength");
+    let m = g.material(json!({
+        "pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 1], "metallicFactor": 0.0, "roughnessFactor": 1.0},
+        "emissiveFactor": [1, 1, 1], "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": le}},
+        "doubleSided": true
+    }));
+    g.cube([-1.0, -1.0, -1.0], [1.0, 1.0, 1.0], m);
+    g.camera([0.1, 0.2, 0.3], look_rotation([0.3, -0.2, -1.0]), 1.2);
+    let scene = g.write(dir.path(), "furnace.gltf");
+    let regs = vec![("whole".to_string(), (0..16 * 16).collect::<Vec<_>>())];
+    let d = depth.to_string();
+    let m = region_means(
+        &scene,
+        dir.path(),
+        &["--integrator", "bdpt", "--resolution", "16x16", "--spp", "8", "--max-depth", &d],
+        8,
+        &regs,
+    );
+    let (mean, var) = mean_var(&m[0]);
+    let se = (var / m[0].len() as f64).sqrt();
+    let expect = (depth + 1) as f64 * le;
+    // Each bounce's albedo may be off by the albedo table's tested error (2·10⁻³).
+    let systematic = le * 2e-3 * (depth * (depth + 1) / 2) as f64;
+    let t = StudentsT::new(0.0, 1.0, 7.0).unwrap().inverse_cdf(1.0 - 1e-3 / 2.0);
+    eprintln!("bdpt furnace: {mean:.5} ± {se:.5}, expected {expect}");
+    assert!((mean - expect).abs() <= t * se + systematic, "{mean} vs {expect}");
+}
+
+/// Bad settings are usage errors that name the problem.
+#[test]
+fn bdpt_settings_errors() {
+    let dir = temp_dir();
+    let out = dir.path().join("x.exr");
+    let scene = cornell();
+    let (s, o) = (scene.to_str().unwrap(), out.to_str().unwrap());
+    for (args, needle) in [
+        (vec!["--bdpt-strategy", "1,2"], "needs --integrator bdpt"),
+        (vec!["--integrator", "bdpt", "--max-depth", "100"], "too deep"),
+        (vec!["--integrator", "bdpt", "--bdpt-strategy", "1,0"], "at least 1"),
+        (vec!["--integrator", "bdpt", "--bdpt-strategy", "x,2"], "not a whole number"),
+    ] {
+        let mut a = vec!["render", s, "-o", o, "--resolution", "8x8", "--spp", "1"];
+        a.extend_from_slice(&args);
+        let r = run(&a, LIMIT);
+        assert_eq!(r.code, Some(2), "{args:?}: {}", r.stderr);
+        assert!(r.stderr.contains(needle), "{args:?}: {}", r.stderr);
+        assert!(!out.exists(), "no output on a usage error");
+    }
+}
+
+/// Writes the light-zoo scenes to $CAUSTIC_ZOO_DIR for looking at them by hand.
+#[test]
+#[ignore]
+fn write_light_zoo() {
+    let dir = PathBuf::from(std::env::var("CAUSTIC_ZOO_DIR").unwrap_or("/tmp".into()));
+    for i in 0..9 {
+        let p = light_zoo(&dir, Some(i));
+        std::fs::rename(&p, dir.join(format!("zoo_{i}.gltf"))).unwrap();
+    }
+    light_zoo(&dir, None);
+}
