@@ -350,7 +350,11 @@ impl<'a> SceneContext<'a> {
         let side = if front { 1.0 } else { -1.0 };
         let ng = ng_front * side;
         let n_interp = m.normals[i0] * b0 + m.normals[i1] * b1 + m.normals[i2] * b2;
+        // Vertex normals that point against the winding (an authoring slip some exporters
+        // make) would put the shading hemisphere below the surface and end most paths:
+        // they are turned to the geometric normal's side first, as pbrt does.
         let ns = match n_interp.try_normalize() {
+            Some(n) if n.dot(ng_front) < 0.0 => -n * side,
             Some(n) => n * side,
             None => ng,
         };
