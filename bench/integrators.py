@@ -1,0 +1,97 @@
+"""Equal-time error of Caustic's integrators against each other, without Blender.
+
+Usage (numpy from the project's venv; the binary from `cargo build --release`):
+
+    .venv/bin/python bench/integrators.py [--scenes cornell_box,glass_caustic,door_ajar]
+        [--integrators path,bdpt] [--resolution 160x120] [--seconds 20] [--ref-seconds 300]
+        [--threads 2] [--binary target/release/caustic] [--out results/integrators]
+
+For each scene of scenes/: a reference made of two independent renders (seeds 1001, 1002) of
+`--ref-seconds` each with the reference integrator (bdpt: unbiased and the fastest to converge
+on these scenes; pass --ref-integrator to change it), then one render per integrator with
+`--time-limit SECONDS` (seed 1). Error metric, as in bench/run.py: relMSE = mean over pixels
+and R,G,B of (x - ref)^2 / (ref^2 + 0.01), minus the reference's own noise estimated from its
+halves (floor = mean((a - b)^2 / 4 / (ref^2 + 0.01))). Prints a table of relMSE and of each
+integrator's relMSE over the path tracer's, and writes results.json. Quote the ratios measured
+in one run; absolute seconds depend on the machine and its load.
+"""
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+sys.path.insert(0, HERE)
+sys.path.insert(0, os.path.join(ROOT, "tests", "blender"))
+import exr_tiled  # noqa: E402
+
+
+def load(path):
+    d = exr_tiled.read_exr(path)
+    if isinstance(d, tuple):
+        d = next(x for x in d if isinstance(x, dict))
+    return np.stack([d["Combined.R"], d["Combined.G"], d["Combined.B"]], -1).astype(np.float64)
+
+
+def render(binary, scene, out, integrator, seed, seconds, resolution, threads):
+    argv = [binary, "render", scene, "-o", out, "--integrator", integrator, "--seed", str(seed),
+            "--time-limit", str(seconds), "--resolution", resolution, "--threads", str(threads),
+            "--progress", "none"]
+    r = subprocess.run(argv, capture_output=True, text=True)
+    if r.returncode != 0:
+        raise SystemExit(f"render failed ({' '.join(argv)}):\n{r.stderr}")
+    return load(out)
+
+
+def rel_mse(x, ref):
+    return float(np.mean((x - ref) ** 2 / (ref ** 2 + 0.01)))
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--scenes", default="cornell_box,glass_caustic,door_ajar")
+    ap.add_argument("--integrators", default="path,bdpt")
+    ap.add_argument("--ref-integrator", default="bdpt")
+    ap.add_argument("--resolution", default="160x120")
+    ap.add_argument("--seconds", type=float, default=20.0)
+    ap.add_argument("--ref-seconds", type=float, default=300.0)
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--binary", default=os.environ.get("CAUSTIC_BINARY", os.path.join(ROOT, "target/release/caustic")))
+    ap.add_argument("--out", default=os.path.join(ROOT, "results", "integrators"))
+    a = ap.parse_args()
+    os.makedirs(a.out, exist_ok=True)
+    integrators = a.integrators.split(",")
+    results = {}
+    print(f"equal time {a.seconds:g} s, reference 2 x {a.ref_seconds:g} s of {a.ref_integrator}, "
+          f"{a.resolution}, {a.threads} threads")
+    print(f"{'scene':<15}" + "".join(f"{i + ' relMSE':>16}" for i in integrators)
+          + "".join(f"{i + '/path':>12}" for i in integrators if i != "path"))
+    for name in a.scenes.split(","):
+        scene = os.path.join(ROOT, "scenes", name + ".gltf")
+        halves = [render(a.binary, scene, os.path.join(a.out, f"{name}_ref{s}.exr"), a.ref_integrator, s,
+                         a.ref_seconds, a.resolution, a.threads) for s in (1001, 1002)]
+        ref = 0.5 * (halves[0] + halves[1])
+        floor = float(np.mean((halves[0] - halves[1]) ** 2 / 4 / (ref ** 2 + 0.01)))
+        row = {"floor": floor}
+        for integ in integrators:
+            img = render(a.binary, scene, os.path.join(a.out, f"{name}_{integ}.exr"), integ, 1, a.seconds,
+                         a.resolution, a.threads)
+            raw = rel_mse(img, ref)
+            row[integ] = {"relmse": raw, "relmse_debiased": raw - floor, "mean_ratio": float(img.mean() / ref.mean())}
+        results[name] = row
+        line = f"{name:<15}" + "".join(f"{row[i]['relmse_debiased']:>16.4g}" for i in integrators)
+        if "path" in row:
+            line += "".join(f"{row[i]['relmse_debiased'] / row['path']['relmse_debiased']:>12.3f}"
+                            for i in integrators if i != "path")
+        print(line + f"   (reference noise {floor:.2g})", flush=True)
+    with open(os.path.join(a.out, "results.json"), "w") as f:
+        json.dump({"args": vars(a), "results": results}, f, indent=1)
+
+
+if __name__ == "__main__":
+    main()
