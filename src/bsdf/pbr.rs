@@ -18,14 +18,20 @@
 //! E the directional albedo of the specular layer, tabulated once. It conserves energy
 //! exactly and stays reciprocal.
 //!
-//! Not handled here: transmission, clearcoat, sheen, specular tint (the materials
-//! issue), and the energy lost by single-scattering GGX at high roughness (Cycles
+//! The glTF extensions layer on top by albedo scaling, as the glTF spec's layering rules
+//! say: `KHR_materials_specular` colour tints the dielectric layer's F0 per channel (F90
+//! stays the specular weight), `KHR_materials_sheen` is a Charlie-distribution sheen
+//! (Estevez & Kulla 2017, Ashikhmin visibility) over everything below it with the
+//! reciprocal scaling min(1 - s·E(μo), 1 - s·E(μi)), s = max(sheen colour), and
+//! `KHR_materials_clearcoat` is a GGX layer of IOR 1.5 on top, with its own normal.
+//!
+//! Not handled: the energy lost by single-scattering GGX at high roughness (Cycles
 //! compensates with multiscatter GGX: rough metals are slightly darker in Caustic).
 
 use super::BsdfSample;
 use super::dielectric::{DielectricBsdf, SMOOTH_ROUGHNESS};
 use super::microfacet::{Ggx, reflect, schlick_weight};
-use crate::math::{Rgb, luminance};
+use crate::math::{Frame, Rgb, luminance};
 use crate::sampling::warp::{cosine_hemisphere, cosine_hemisphere_pdf};
 use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
@@ -64,6 +70,16 @@ pub struct PbrParams {
     pub coat: f32,
     /// clearcoatRoughness.
     pub coat_roughness: f32,
+    /// The coat's own normal in the shading frame (clearcoatNormalTexture), if it differs.
+    pub coat_normal: Option<Vec3>,
+    /// `KHR_materials_specular` specularColorFactor (tints the dielectric layer's F0).
+    pub specular_color: Rgb,
+    /// `KHR_materials_sheen` sheenColorFactor (black: no sheen).
+    pub sheen_color: Rgb,
+    /// sheenRoughnessFactor.
+    pub sheen_roughness: f32,
+    /// `KHR_materials_dispersion` (20 / Abbe number; 0: none).
+    pub dispersion: f32,
 }
 
 impl PbrParams {
@@ -80,6 +96,11 @@ impl PbrParams {
             eta: 1.5,
             coat: 0.0,
             coat_roughness: 0.0,
+            coat_normal: None,
+            specular_color: Rgb::ONE,
+            sheen_color: Rgb::ZERO,
+            sheen_roughness: 0.0,
+            dispersion: 0.0,
         }
     }
 }
@@ -99,6 +120,8 @@ pub struct PbrBsdf {
     pub specular: f32,
     /// Normal-incidence reflectance of the opaque dielectric's layer (from the IOR).
     pub f0: f32,
+    /// Per-channel F0 of that layer: min(f0 × specular colour, 1).
+    pub f0_rgb: Rgb,
     /// Weight of the glass part within the dielectric part.
     pub transmission: f32,
     /// The glass part.
@@ -113,11 +136,19 @@ pub struct PbrBsdf {
     pub coat_ggx: Ggx,
     /// The reflection lobes are perfect mirrors (roughness below `SMOOTH_ROUGHNESS`).
     pub smooth: bool,
-    /// Cosine-weighted mean albedo of the dielectric layer (specular weight included).
-    layer_avg: f32,
+    /// Cosine-weighted mean albedo of the dielectric layer per channel (specular weight included).
+    layer_avg: Rgb,
 
     /// The coat is a perfect mirror.
     pub smooth_coat: bool,
+    /// The coat's frame within the shading frame, when its normal differs.
+    pub coat_frame: Option<Frame>,
+    /// Sheen colour (zero: no sheen).
+    pub sheen_color: Rgb,
+    /// Sheen roughness.
+    pub sheen_roughness: f32,
+    /// max(sheen colour): the sheen's albedo is this times the table's E.
+    sheen_max: f32,
 }
 
 /// Probabilities of the lobes for one `wo`: metal, dielectric specular, diffuse, glass.
@@ -128,6 +159,7 @@ struct LobeChoice {
     diffuse: f32,
     glass: f32,
     coat: f32,
+    sheen: f32,
 }
 
 impl PbrBsdf {
@@ -145,61 +177,116 @@ impl PbrBsdf {
     pub fn from_params(p: &PbrParams) -> Self {
         let base = p.base.clamp(Vec3::ZERO, Vec3::ONE);
         let roughness = p.roughness.clamp(0.0, 1.0);
+        let ior = if p.ior.is_finite() && p.ior >= 1.0 { p.ior } else { 1.5 };
+        let f0 = f0_from_ior(ior).min(1.0);
+        let spec_color = if p.specular_color.is_finite() { p.specular_color.max(Vec3::ZERO) } else { Vec3::ONE };
+        let sheen_color =
+            if p.sheen_color.is_finite() { p.sheen_color.clamp(Vec3::ZERO, Vec3::ONE) } else { Vec3::ZERO };
+        let coat_frame = p.coat_normal.filter(|n| n.is_finite() && n.z > 1e-3).and_then(|n| {
+            let n = n.normalize();
+            (n.z < 1.0 - 1e-6).then(|| Frame::from_normal(n))
+        });
+        let mut glass = DielectricBsdf::new(p.eta, roughness, p.thin, base);
+        if p.dispersion > 0.0 && p.dispersion.is_finite() && !p.thin {
+            glass = glass.with_dispersion(ior, p.dispersion);
+        }
         PbrBsdf {
             base,
             metallic: p.metallic.clamp(0.0, 1.0),
             roughness,
             specular: p.specular.clamp(0.0, 1.0),
-            f0: f0_from_ior(if p.ior.is_finite() && p.ior >= 1.0 { p.ior } else { 1.5 }).min(1.0),
+            f0,
+            f0_rgb: (spec_color * f0).min(Vec3::ONE),
             transmission: p.transmission.clamp(0.0, 1.0),
-            glass: DielectricBsdf::new(p.eta, roughness, p.thin, base),
+            glass,
             ggx: Ggx::from_roughness(roughness),
             coat: p.coat.clamp(0.0, 1.0),
             coat_roughness: p.coat_roughness.clamp(0.0, 1.0),
             coat_ggx: Ggx::from_roughness(p.coat_roughness.clamp(0.0, 1.0)),
             smooth: roughness < SMOOTH_ROUGHNESS,
             smooth_coat: p.coat_roughness < SMOOTH_ROUGHNESS,
-            layer_avg: 0.0,
+            layer_avg: Rgb::ZERO,
+            coat_frame,
+            sheen_color,
+            sheen_roughness: p.sheen_roughness.clamp(0.0, 1.0),
+            sheen_max: sheen_color.max_element(),
         }
         .with_layer_avg()
     }
 
     fn with_layer_avg(mut self) -> Self {
-        self.layer_avg = self.specular * specular_albedo().e_avg(self.roughness, self.f0);
+        let (a, b) = specular_albedo().ab_avg(self.roughness);
+        self.layer_avg = (self.f0_rgb * a + Vec3::splat(b)) * self.specular;
         self
     }
 
-    /// Directional albedo of the coat at μ (weight included).
+    /// cos θ of `w` to the coat's normal.
     #[inline]
-    fn coat_albedo(&self, mu: f32) -> f32 {
-        if self.coat > 0.0 { self.coat * specular_albedo().e(mu, self.coat_roughness, F0_DIELECTRIC) } else { 0.0 }
+    fn coat_mu(&self, w: Vec3) -> f32 {
+        match &self.coat_frame {
+            Some(f) => w.dot(f.n),
+            None => w.z,
+        }
     }
 
-    /// Directional albedo of the opaque dielectric's specular layer at μ.
+    /// Directional albedo of the coat seen from `wo` (weight included).
     #[inline]
-    fn layer_albedo(&self, mu: f32) -> f32 {
+    fn coat_albedo(&self, wo: Vec3) -> f32 {
+        if self.coat > 0.0 {
+            let mu = self.coat_mu(wo);
+            if mu <= 0.0 {
+                return 0.0;
+            }
+            self.coat * specular_albedo().e(mu, self.coat_roughness, F0_DIELECTRIC)
+        } else {
+            0.0
+        }
+    }
+
+    /// Directional albedo of the opaque dielectric's specular layer at μ, per channel.
+    #[inline]
+    fn layer_albedo(&self, mu: f32) -> Rgb {
         // Blender's Specular IOR Level 0 (a pure Lambertian) needs no table lookup.
-        if self.specular == 0.0 { 0.0 } else { self.specular * specular_albedo().e(mu, self.roughness, self.f0) }
+        if self.specular == 0.0 {
+            return Rgb::ZERO;
+        }
+        let (a, b) = specular_albedo().ab(mu, self.roughness);
+        (self.f0_rgb * a + Vec3::splat(b)) * self.specular
+    }
+
+    /// The sheen's directional albedo at μ: max(sheen colour) × E_sheen.
+    #[inline]
+    fn sheen_albedo(&self, mu: f32) -> f32 {
+        if self.sheen_max > 0.0 { self.sheen_max * sheen_albedo_table().e(mu, self.sheen_roughness) } else { 0.0 }
+    }
+
+    /// The sheen's reciprocal albedo scaling of everything below it.
+    #[inline]
+    fn sheen_scaling(&self, mu_o: f32, mu_i: f32) -> f32 {
+        if self.sheen_max > 0.0 { (1.0 - self.sheen_albedo(mu_o)).min(1.0 - self.sheen_albedo(mu_i)) } else { 1.0 }
     }
 
     #[inline]
     fn lobes(&self, wo: Vec3) -> LobeChoice {
-        let e = self.layer_albedo(wo.z);
-        let ec = self.coat_albedo(wo.z);
+        let e = luminance(self.layer_albedo(wo.z));
+        let ec = self.coat_albedo(wo);
+        let es = self.sheen_albedo(wo.z);
         let under = 1.0 - ec;
+        let below = under * (1.0 - es);
         let dielectric = 1.0 - self.metallic;
         let opaque = dielectric * (1.0 - self.transmission);
-        let metal = under * self.metallic * luminance(self.base + (Vec3::ONE - self.base) * schlick_weight(wo.z));
-        let spec = under * opaque * e;
-        let diffuse = under * opaque * (1.0 - e) * luminance(self.base);
+        let metal = below * self.metallic * luminance(self.base + (Vec3::ONE - self.base) * schlick_weight(wo.z));
+        let spec = below * opaque * e;
+        let diffuse = below * opaque * (1.0 - e) * luminance(self.base);
         let glass = if self.transmission > 0.0 {
             let r = self.glass.reflect_probability(wo);
-            under * dielectric * self.transmission * (r + (1.0 - r) * luminance(self.base)).max(1e-3)
+            below * dielectric * self.transmission * (r + (1.0 - r) * luminance(self.base)).max(1e-3)
         } else {
             0.0
         };
         let coat = ec;
-        let total = metal + spec + diffuse + glass + coat;
+        let sheen = under * es;
+        let total = metal + spec + diffuse + glass + coat + sheen;
         if total > 0.0 {
             LobeChoice {
                 metal: metal / total,
@@ -207,10 +294,56 @@ impl PbrBsdf {
                 diffuse: diffuse / total,
                 glass: glass / total,
                 coat: coat / total,
+                sheen: sheen / total,
             }
         } else {
-            LobeChoice { metal: 0.0, spec: 1.0, diffuse: 0.0, glass: 0.0, coat: 0.0 }
+            LobeChoice { metal: 0.0, spec: 1.0, diffuse: 0.0, glass: 0.0, coat: 0.0, sheen: 0.0 }
         }
+    }
+
+    /// The coat's GGX reflection f(wo, wi) (weight and Fresnel included), in its own frame.
+    /// With its own normal, the value is rescaled by cos θi(coat) / cos θi(shading), so that
+    /// the integrator's cosine to the shading normal gives the coat's own cosine, as Cycles
+    /// takes each closure's cosine to its own normal: the coat then reflects exactly its
+    /// albedo E_c(μo) around the coat normal.
+    #[inline]
+    fn coat_eval(&self, wo: Vec3, wi: Vec3) -> f32 {
+        let cos_base = wi.z;
+        let (wo, wi) = match &self.coat_frame {
+            Some(f) => (f.to_local(wo), f.to_local(wi)),
+            None => (wo, wi),
+        };
+        if wo.z <= 0.0 || wi.z <= 0.0 || cos_base <= 0.0 {
+            return 0.0;
+        }
+        let h = (wo + wi).normalize();
+        let f_coat = F0_DIELECTRIC + (1.0 - F0_DIELECTRIC) * schlick_weight(wo.dot(h).max(0.0));
+        let f = self.coat * f_coat * self.coat_ggx.d(h) * self.coat_ggx.g2(wo, wi) / (4.0 * wo.z * wi.z);
+        if self.coat_frame.is_some() { f * wi.z / cos_base } else { f }
+    }
+
+    /// Density of the coat lobe's samples (visible normals, in its frame).
+    #[inline]
+    fn coat_pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        let (wo, wi) = match &self.coat_frame {
+            Some(f) => (f.to_local(wo), f.to_local(wi)),
+            None => (wo, wi),
+        };
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return 0.0;
+        }
+        let h = (wo + wi).normalize();
+        self.coat_ggx.pdf_visible_normal(wo, h) / (4.0 * wo.dot(h).max(1e-8))
+    }
+
+    /// The Charlie sheen lobe's f(wo, wi) (colour included).
+    #[inline]
+    fn sheen_eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
+        if self.sheen_max <= 0.0 || wo.z <= 0.0 || wi.z <= 0.0 {
+            return Rgb::ZERO;
+        }
+        let h = (wo + wi).normalize();
+        self.sheen_color * charlie_brdf(h.z, wo.z, wi.z, self.sheen_roughness)
     }
 
     /// True when every lobe is a delta lobe (smooth clear glass): no light sampling helps.
@@ -220,7 +353,8 @@ impl PbrBsdf {
         let rough = (opaque > 0.0 && luminance(self.base) > 0.0)
             || (!self.smooth && (self.metallic > 0.0 || (opaque > 0.0 && self.specular > 0.0)))
             || (self.transmission > 0.0 && dielectric > 0.0 && !self.glass.smooth)
-            || (self.coat > 0.0 && !self.smooth_coat);
+            || (self.coat > 0.0 && !self.smooth_coat)
+            || self.sheen_max > 0.0;
         !rough
     }
 
@@ -235,13 +369,14 @@ impl PbrBsdf {
         let dielectric = 1.0 - self.metallic;
         // The coat reflects E_c(μo) of the light and leaves the rest to the layers below
         // (albedo scaling by the outgoing direction, as Cycles layers its coat).
-        let under = 1.0 - self.coat_albedo(wo.z);
+        let under = 1.0 - self.coat_albedo(wo);
+        let scaling = self.sheen_scaling(wo.z, wi.z.abs());
         let mut f = Rgb::ZERO;
         if self.transmission > 0.0 {
             f += self.glass.eval(wo, wi) * (dielectric * self.transmission);
         }
         if wi.z < 0.0 {
-            return f * under;
+            return f * (under * scaling);
         }
         let h = (wo + wi).normalize();
         let fw = schlick_weight(wo.dot(h).max(0.0));
@@ -250,20 +385,19 @@ impl PbrBsdf {
         let opaque = dielectric * (1.0 - self.transmission);
         if opaque > 0.0 {
             // The specular weight scales the whole layer (F0 and F90), so its albedo is
-            // weight × E and the albedo scaling stays exact.
-            let f_layer = self.specular * (self.f0 + (1.0 - self.f0) * fw);
+            // weight × E and the albedo scaling stays exact, channel by channel.
+            let f_layer = (self.f0_rgb + (Vec3::ONE - self.f0_rgb) * fw) * self.specular;
             let (eo, ei) = (self.layer_albedo(wo.z), self.layer_albedo(wi.z));
-            let diffuse_weight = (1.0 - eo) * (1.0 - ei) / (1.0 - self.layer_avg);
-            f += (self.base * (FRAC_1_PI * diffuse_weight) + Vec3::splat(f_layer * spec)) * opaque;
+            let diffuse_weight =
+                (Vec3::ONE - eo) * (Vec3::ONE - ei) / (Vec3::ONE - self.layer_avg).max(Vec3::splat(1e-6));
+            f += (self.base * diffuse_weight * FRAC_1_PI + f_layer * spec) * opaque;
         }
         if self.metallic > 0.0 {
             f += (self.base + (Vec3::ONE - self.base) * fw) * (spec * self.metallic);
         }
-        f *= under;
+        f = (f * scaling + self.sheen_eval(wo, wi)) * under;
         if self.coat > 0.0 && !self.smooth_coat {
-            let f_coat = F0_DIELECTRIC + (1.0 - F0_DIELECTRIC) * fw;
-            let coat_spec = self.coat_ggx.d(h) * self.coat_ggx.g2(wo, wi) / (4.0 * wo.z * wi.z);
-            f += Rgb::splat(self.coat * f_coat * coat_spec);
+            f += Rgb::splat(self.coat_eval(wo, wi));
         }
         f
     }
@@ -286,9 +420,9 @@ impl PbrBsdf {
                 let pdf_spec = self.ggx.pdf_visible_normal(wo, h) / (4.0 * wo.dot(h).max(1e-8));
                 pdf += (c.metal + c.spec) * pdf_spec;
             }
-            pdf += c.diffuse * cosine_hemisphere_pdf(wi.z);
+            pdf += (c.diffuse + c.sheen) * cosine_hemisphere_pdf(wi.z);
             if c.coat > 0.0 && !self.smooth_coat {
-                pdf += c.coat * self.coat_ggx.pdf_visible_normal(wo, h) / (4.0 * wo.dot(h).max(1e-8));
+                pdf += c.coat * self.coat_pdf(wo, wi);
             }
         }
         pdf
@@ -307,7 +441,10 @@ impl PbrBsdf {
         let wi_up = if uc < c.glass {
             let s = self.glass.sample(wo_up, uc / c.glass, u)?;
             if s.delta {
-                let weight = (1.0 - self.metallic) * self.transmission * (1.0 - self.coat_albedo(wo_up.z));
+                let weight = (1.0 - self.metallic)
+                    * self.transmission
+                    * (1.0 - self.coat_albedo(wo_up))
+                    * self.sheen_scaling(wo_up.z, s.wi.z.abs());
                 return Some(BsdfSample { wi: mirror(s.wi), f: s.f * weight, pdf: s.pdf * c.glass, delta: true });
             }
             s.wi
@@ -315,28 +452,35 @@ impl PbrBsdf {
             if self.smooth {
                 // Perfect mirror: the metal's and the dielectric layer's reflectance.
                 let mu = wo_up.z;
-                let under = 1.0 - self.coat_albedo(mu);
+                let under = (1.0 - self.coat_albedo(wo_up)) * self.sheen_scaling(mu, mu);
                 let opaque = (1.0 - self.metallic) * (1.0 - self.transmission);
                 let metal = (self.base + (Vec3::ONE - self.base) * schlick_weight(mu)) * self.metallic;
-                let refl = (metal + Vec3::splat(opaque * self.layer_albedo(mu))) * under;
+                let refl = (metal + self.layer_albedo(mu) * opaque) * under;
                 let wi = Vec3::new(-wo_up.x, -wo_up.y, wo_up.z);
                 return Some(BsdfSample { wi: mirror(wi), f: refl / mu, pdf: c.metal + c.spec, delta: true });
             }
             reflect(wo_up, self.ggx.sample_visible_normal(wo_up, u))
-        } else if uc < c.glass + c.metal + c.spec + c.diffuse {
+        } else if uc < c.glass + c.metal + c.spec + c.diffuse + c.sheen {
             cosine_hemisphere(u)
         } else {
+            let cf = self.coat_frame.unwrap_or(Frame { s: Vec3::X, t: Vec3::Y, n: Vec3::Z });
+            let wo_c = cf.to_local(wo_up);
+            if wo_c.z <= 0.0 {
+                return None;
+            }
             if self.smooth_coat {
-                let mu = wo_up.z;
-                let wi = Vec3::new(-wo_up.x, -wo_up.y, wo_up.z);
+                let wi = cf.to_world(Vec3::new(-wo_c.x, -wo_c.y, wo_c.z));
+                if wi.z <= 0.0 {
+                    return None;
+                }
                 return Some(BsdfSample {
                     wi: mirror(wi),
-                    f: Rgb::splat(self.coat_albedo(mu) / mu),
+                    f: Rgb::splat(self.coat_albedo(wo_up) / wi.z),
                     pdf: c.coat,
                     delta: true,
                 });
             }
-            reflect(wo_up, self.coat_ggx.sample_visible_normal(wo_up, u))
+            cf.to_world(reflect(wo_c, self.coat_ggx.sample_visible_normal(wo_c, u)))
         };
         if wi_up.z == 0.0 || (uc >= c.glass && wi_up.z < 0.0) {
             return None;
@@ -354,6 +498,7 @@ impl PbrBsdf {
         let f0 = self.f0 * self.specular;
         let dielectric = self.base * (1.0 - f0) + Vec3::splat(f0);
         let below = dielectric * (1.0 - self.metallic) + self.base * self.metallic;
+        let below = below * (1.0 - self.sheen_max * 0.5) + self.sheen_color * 0.5;
         below * (1.0 - self.coat * F0_DIELECTRIC) + Vec3::splat(self.coat * F0_DIELECTRIC)
     }
 }
@@ -415,6 +560,13 @@ impl SpecularAlbedo {
     /// E(μ, roughness, F0), bilinear in the tables (one set of weights for both).
     #[inline]
     pub fn e(&self, mu: f32, roughness: f32, f0: f32) -> f32 {
+        let (a, b) = self.ab(mu, roughness);
+        f0 * a + b
+    }
+
+    /// (A, B) with E = F0·A + B, bilinear in the tables.
+    #[inline]
+    pub fn ab(&self, mu: f32, roughness: f32) -> (f32, f32) {
         let x = mu.clamp(0.0, 1.0).sqrt() * (TABLE_N - 1) as f32;
         let y = roughness.clamp(0.0, 1.0) * (TABLE_N - 1) as f32;
         let (x0, y0) = ((x as usize).min(TABLE_N - 2), (y as usize).min(TABLE_N - 2));
@@ -422,17 +574,24 @@ impl SpecularAlbedo {
         let (i00, i01) = (y0 * TABLE_N + x0, (y0 + 1) * TABLE_N + x0);
         let w = [(1.0 - fx) * (1.0 - fy), fx * (1.0 - fy), (1.0 - fx) * fy, fx * fy];
         let at = |t: &[f32]| w[0] * t[i00] + w[1] * t[i00 + 1] + w[2] * t[i01] + w[3] * t[i01 + 1];
-        f0 * at(&self.a) + at(&self.b)
+        (at(&self.a), at(&self.b))
     }
 
     /// Cosine-weighted average of E over the hemisphere.
     #[inline]
     pub fn e_avg(&self, roughness: f32, f0: f32) -> f32 {
+        let (a, b) = self.ab_avg(roughness);
+        f0 * a + b
+    }
+
+    /// (A, B) of the cosine-weighted averages.
+    #[inline]
+    pub fn ab_avg(&self, roughness: f32) -> (f32, f32) {
         let y = roughness.clamp(0.0, 1.0) * (TABLE_N - 1) as f32;
         let y0 = (y as usize).min(TABLE_N - 2);
         let fy = y - y0 as f32;
         let lerp = |t: &[f32]| t[y0] * (1.0 - fy) + t[y0 + 1] * fy;
-        f0 * lerp(&self.avg_a) + lerp(&self.avg_b)
+        (lerp(&self.avg_a), lerp(&self.avg_b))
     }
 }
 
@@ -470,6 +629,113 @@ pub fn directional_albedo(mu: f32, roughness: f32, n: usize) -> f32 {
 pub fn specular_albedo() -> &'static SpecularAlbedo {
     static TABLE: std::sync::OnceLock<SpecularAlbedo> = std::sync::OnceLock::new();
     TABLE.get_or_init(SpecularAlbedo::compute)
+}
+
+/// The Charlie sheen BRDF of Estevez & Kulla 2017 ("Production Friendly Microfacet Sheen
+/// BRDF"), one of the two visibilities the glTF sheen extension allows: the normalised
+/// distribution D(h) = (2 + 1/α) sin^(1/α)θh / 2π, α = roughness² (kept above 10⁻³ so the
+/// exponent stays finite), with the paper's fitted Smith Λ, f = D / ((1 + Λo + Λi) 4 μo μi).
+/// A single-scattering microfacet model with a proper masking term reflects at most what
+/// it receives, which Ashikhmin's simpler visibility does not (its albedo passes 1 at
+/// grazing angles; the energy test caught it).
+#[inline]
+pub fn charlie_brdf(cos_h: f32, mu_o: f32, mu_i: f32, roughness: f32) -> f32 {
+    let alpha = (roughness * roughness).max(1e-3);
+    let inv = 1.0 / alpha;
+    let sin2 = (1.0 - cos_h * cos_h).max(0.0);
+    let d = (2.0 + inv) * sin2.powf(0.5 * inv) / (2.0 * std::f32::consts::PI);
+    let denom = (1.0 + charlie_lambda(mu_o, alpha) + charlie_lambda(mu_i, alpha)) * 4.0 * mu_o * mu_i;
+    if denom > 0.0 { d / denom } else { 0.0 }
+}
+
+/// Estevez & Kulla's fit of the Charlie distribution's Smith Λ: exp(L(μ)) below μ = 1/2 and
+/// its mirror exp(2 L(1/2) - L(1 - μ)) above, with L(x) = a / (1 + b x^c) + d x + e and
+/// (a..e) interpolated between the paper's two fitted rows by (1 - α)².
+#[inline]
+fn charlie_lambda(mu: f32, alpha: f32) -> f32 {
+    let t = (1.0 - alpha) * (1.0 - alpha);
+    let lerp = |x: f32, y: f32| x + (y - x) * t;
+    let (a, b, c, d, e) = (
+        lerp(21.5473, 25.3245),
+        lerp(3.82987, 3.32435),
+        lerp(0.19823, 0.16801),
+        lerp(-1.97760, -1.27393),
+        lerp(-4.32054, -4.85967),
+    );
+    let l = |x: f32| a / (1.0 + b * x.max(0.0).powf(c)) + d * x + e;
+    let mu = mu.abs();
+    if mu < 0.5 { l(mu).exp() } else { (2.0 * l(0.5) - l(1.0 - mu)).exp() }
+}
+
+/// Stratified samples per axis for the sheen table.
+const SHEEN_STRATA: usize = 48;
+
+/// Directional albedo E(μ, roughness) of the Charlie sheen (white), tabulated once by
+/// stratified cosine-weighted quadrature.
+pub struct SheenAlbedo {
+    e: Vec<f32>,
+}
+
+impl SheenAlbedo {
+    fn compute() -> Self {
+        use rayon::prelude::*;
+        let e = (0..TABLE_N * TABLE_N)
+            .into_par_iter()
+            .map(|i| {
+                let (ri, mi) = (i / TABLE_N, i % TABLE_N);
+                sheen_directional_albedo(SpecularAlbedo::mu(mi), ri as f32 / (TABLE_N - 1) as f32, SHEEN_STRATA)
+            })
+            .collect();
+        SheenAlbedo { e }
+    }
+
+    /// E(μ, roughness), bilinear.
+    #[inline]
+    pub fn e(&self, mu: f32, roughness: f32) -> f32 {
+        let x = mu.clamp(0.0, 1.0).sqrt() * (TABLE_N - 1) as f32;
+        let y = roughness.clamp(0.0, 1.0) * (TABLE_N - 1) as f32;
+        let (x0, y0) = ((x as usize).min(TABLE_N - 2), (y as usize).min(TABLE_N - 2));
+        let (fx, fy) = (x - x0 as f32, y - y0 as f32);
+        let (i00, i01) = (y0 * TABLE_N + x0, (y0 + 1) * TABLE_N + x0);
+        let t = &self.e;
+        (1.0 - fx) * (1.0 - fy) * t[i00]
+            + fx * (1.0 - fy) * t[i00 + 1]
+            + (1.0 - fx) * fy * t[i01]
+            + fx * fy * t[i01 + 1]
+    }
+}
+
+/// ∫ f_sheen cos dωi at μ = cos θo for white sheen, by `n`×`n` stratified samples of the
+/// half vector from D(h) cos θh (sin θh = ξ^(α / (2α + 1)) inverts its CDF), for which the
+/// estimator f μi / p = |wo·h| / ((1 + Λo + Λi) μo cos θh) is smooth: cosine-weighted
+/// strata miss the lobe at grazing angles and low roughness.
+pub fn sheen_directional_albedo(mu: f32, roughness: f32, n: usize) -> f32 {
+    let alpha = (roughness * roughness).max(1e-3);
+    let wo = Vec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu);
+    let lo = charlie_lambda(mu, alpha);
+    let mut sum = 0.0f64;
+    for i in 0..n {
+        for j in 0..n {
+            let (x1, x2) = ((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
+            let sin_h = x1.powf(alpha / (2.0 * alpha + 1.0));
+            let cos_h = (1.0 - sin_h * sin_h).max(0.0).sqrt();
+            let phi = std::f32::consts::TAU * x2;
+            let h = Vec3::new(sin_h * phi.cos(), sin_h * phi.sin(), cos_h);
+            let wi = reflect(wo, h);
+            if wi.z <= 0.0 || cos_h <= 0.0 {
+                continue;
+            }
+            let li = charlie_lambda(wi.z, alpha);
+            sum += (wo.dot(h).abs() / ((1.0 + lo + li) * mu * cos_h)) as f64;
+        }
+    }
+    (sum / (n * n) as f64).min(1.0) as f32
+}
+
+/// The shared sheen table.
+pub fn sheen_albedo_table() -> &'static SheenAlbedo {
+    static TABLE: std::sync::OnceLock<SheenAlbedo> = std::sync::OnceLock::new();
+    TABLE.get_or_init(SheenAlbedo::compute)
 }
 
 /// Mirrors both directions to the upper hemisphere when `wo` is below it, which makes
@@ -521,6 +787,26 @@ mod tests {
                 ));
             }
         }
+        // Sheen over a diffuse base, a metal and glass; a tinted specular layer.
+        for (sheen, sr, metallic, transmission) in
+            [(1.0f32, 0.3f32, 0.0f32, 0.0f32), (0.6, 0.8, 1.0, 0.0), (0.8, 0.5, 0.0, 1.0)]
+        {
+            let p = PbrParams {
+                sheen_color: Vec3::new(sheen, sheen * 0.7, sheen * 0.4),
+                sheen_roughness: sr,
+                transmission,
+                ..PbrParams::opaque(base, metallic, 0.5)
+            };
+            v.push((format!("sheen={sheen} sr={sr} m={metallic} t={transmission}"), PbrBsdf::from_params(&p)));
+        }
+        for roughness in [0.2f32, 0.6] {
+            let p = PbrParams {
+                specular_color: Vec3::new(3.0, 1.0, 0.2),
+                ior: 1.8,
+                ..PbrParams::opaque(base, 0.0, roughness)
+            };
+            v.push((format!("specular colour r={roughness}"), PbrBsdf::from_params(&p)));
+        }
         // Coated: over a diffuse base, a metal and glass; the coat breaks reciprocity
         // (albedo scaling by wo), so the reciprocity test skips these.
         for (coat, coat_roughness, metallic, transmission) in
@@ -531,6 +817,16 @@ mod tests {
                 format!("coat={coat} cr={coat_roughness} m={metallic} t={transmission}"),
                 PbrBsdf::from_params(&p),
             ));
+        }
+        // A coat with its own normal (clearcoatNormalTexture), rough and smooth.
+        for coat_roughness in [0.3f32, 0.1] {
+            let p = PbrParams {
+                coat: 1.0,
+                coat_roughness,
+                coat_normal: Some(Vec3::new(0.3, -0.2, 0.93)),
+                ..PbrParams::opaque(base, 0.0, 0.5)
+            };
+            v.push((format!("coat normal cr={coat_roughness}"), PbrBsdf::from_params(&p)));
         }
         v
     }
@@ -611,7 +907,9 @@ mod tests {
             for theta in [0.0f32, 0.5, 1.0, 1.5] {
                 let wo = Vec3::new(theta.sin(), 0.0, theta.cos());
                 let mut rng = Pcg32::new(1);
-                let (mut sum, mut sum2) = (0f64, 0f64);
+                // Per channel: a tinted layer has coloured weights, and the mean of the
+                // largest channel would overstate every channel's albedo.
+                let (mut sum, mut sum2) = (glam::DVec3::ZERO, glam::DVec3::ZERO);
                 for _ in 0..n {
                     let u = Vec2::new(rng.next_f32(), rng.next_f32());
                     let v = b
@@ -619,17 +917,48 @@ mod tests {
                         .map(|s| {
                             // Undo the 1/η² radiance scaling of refracted samples.
                             let scale = if s.wi.z < 0.0 && !b.glass.thin { b.glass.eta * b.glass.eta } else { 1.0 };
-                            (s.f.max_element() * s.wi.z.abs() / s.pdf * scale) as f64
+                            (s.f * (s.wi.z.abs() / s.pdf * scale)).as_dvec3()
                         })
-                        .unwrap_or(0.0);
+                        .unwrap_or(glam::DVec3::ZERO);
                     sum += v;
                     sum2 += v * v;
                 }
                 let mean = sum / n as f64;
-                let se = ((sum2 / n as f64 - mean * mean).max(0.0) / n as f64).sqrt();
-                assert!(mean <= 1.0 + 5.0 * se + TABLE_ERROR, "{name} θ={theta}: albedo {mean} ± {se}");
+                let se = ((sum2 / n as f64 - mean * mean).max(glam::DVec3::ZERO) / n as f64).powf(0.5);
+                for c in 0..3 {
+                    assert!(
+                        mean[c] <= 1.0 + 5.0 * se[c] + TABLE_ERROR,
+                        "{name} θ={theta} channel {c}: albedo {} ± {}",
+                        mean[c],
+                        se[c]
+                    );
+                }
             }
         }
+    }
+
+    /// The sheen table agrees with a 4× finer quadrature (the albedo test allows its error).
+    #[test]
+    fn sheen_table_accuracy() {
+        let t = sheen_albedo_table();
+        for &(mu, r) in &[(0.05f32, 0.2f32), (0.3, 0.5), (0.77, 0.9), (1.0, 1.0), (0.5, 0.05)] {
+            let fine = sheen_directional_albedo(mu, r, 4 * SHEEN_STRATA) as f64;
+            let err = (t.e(mu, r) as f64 - fine).abs();
+            assert!(err < TABLE_ERROR, "E_sheen({mu}, {r}): table {} vs {fine}", t.e(mu, r));
+        }
+    }
+
+    /// A tinted specular layer reflects its tint: at normal incidence over a black base the
+    /// sampled weight per channel follows F0 = min(F0(ior) × colour, 1).
+    #[test]
+    fn specular_colour_tints_f0() {
+        let p = PbrParams { specular_color: Vec3::new(2.0, 1.0, 0.0), ..PbrParams::opaque(Vec3::ZERO, 0.0, 0.0) };
+        let b = PbrBsdf::from_params(&p);
+        let s = b.sample(Vec3::Z, 0.0, Vec2::splat(0.5)).unwrap();
+        let w = s.f * s.wi.z / s.pdf;
+        let f0 = f0_from_ior(1.5);
+        // The delta mirror's weight is the layer albedo, which at μ = 1 is about F0.
+        assert!((w.x / w.y - 2.0).abs() < 0.05 && w.z < 0.2 * w.y, "{w} for F0 {f0}");
     }
 
     /// A white Lambertian (metallic 0, rough) reflects 1 - F: its albedo is close to,

@@ -390,27 +390,28 @@ impl<'a> SceneContext<'a> {
             roughness *= v.y;
             metallic *= v.z;
         }
+        // A tangent-space normal map applied to the interpolated normal: (normal, tangent).
+        let map_normal = |t: &crate::scene::TexRef, scale: f32| -> Option<(Vec3, Vec3)> {
+            let tan = s.tangent.truncate();
+            if tan.length_squared() <= 0.0 {
+                return None;
+            }
+            let v = lookup(t);
+            let local = Vec3::new((2.0 * v.x - 1.0) * scale, (2.0 * v.y - 1.0) * scale, 2.0 * v.z - 1.0);
+            // The tangent frame belongs to the front face: undo the side flip.
+            let side = if s.front { 1.0 } else { -1.0 };
+            let nf = s.ns * side;
+            let tf = (tan - nf * nf.dot(tan)).normalize_or_zero();
+            let bf = nf.cross(tf) * if s.tangent.w < 0.0 { -1.0 } else { 1.0 };
+            (tf * local.x + bf * local.y + nf * local.z).try_normalize().map(|m| (m * side, tf))
+        };
         let mut n = s.ns;
         let mut tangent_hint = None;
-        if let Some(t) = &mat.normal_tex {
-            let tan = s.tangent.truncate();
-            if tan.length_squared() > 0.0 {
-                let v = lookup(t);
-                let local = Vec3::new(
-                    (2.0 * v.x - 1.0) * mat.normal_scale,
-                    (2.0 * v.y - 1.0) * mat.normal_scale,
-                    2.0 * v.z - 1.0,
-                );
-                // The tangent frame belongs to the front face: undo the side flip.
-                let side = if s.front { 1.0 } else { -1.0 };
-                let nf = s.ns * side;
-                let tf = (tan - nf * nf.dot(tan)).normalize_or_zero();
-                let bf = nf.cross(tf) * if s.tangent.w < 0.0 { -1.0 } else { 1.0 };
-                if let Some(mapped) = (tf * local.x + bf * local.y + nf * local.z).try_normalize() {
-                    n = mapped * side;
-                    tangent_hint = Some(tf);
-                }
-            }
+        if let Some(t) = &mat.normal_tex
+            && let Some((mapped, tf)) = map_normal(t, mat.normal_scale)
+        {
+            n = mapped;
+            tangent_hint = Some(tf);
         }
         // A shading normal that faces away from the viewer makes the BRDF see the
         // viewer from below: bend it back toward the geometric normal just enough.
@@ -443,17 +444,43 @@ impl<'a> SceneContext<'a> {
         if let Some(t) = &mat.coat_roughness_tex {
             coat_roughness *= lookup(t).y;
         }
+        let mut specular = mat.specular;
+        if let Some(t) = &mat.specular_tex {
+            specular *= lookup(t).w;
+        }
+        let mut specular_color = mat.specular_color;
+        if let Some(t) = &mat.specular_color_tex {
+            specular_color *= lookup(t).truncate();
+        }
+        let mut sheen_color = mat.sheen_color;
+        if let Some(t) = &mat.sheen_color_tex {
+            sheen_color *= lookup(t).truncate();
+        }
+        let mut sheen_roughness = mat.sheen_roughness;
+        if let Some(t) = &mat.sheen_roughness_tex {
+            sheen_roughness *= lookup(t).w;
+        }
+        // The coat's own normal map, in the shading frame (the coat lobe uses it).
+        let coat_normal = match &mat.coat_normal_tex {
+            Some(t) if coat > 0.0 => map_normal(t, mat.coat_normal_scale).map(|(m, _)| frame.to_local(m)),
+            _ => None,
+        };
         let params = PbrParams {
             base,
             metallic,
             roughness,
-            specular: mat.specular,
+            specular,
             ior: mat.ior,
             transmission,
             thin,
             eta,
             coat,
             coat_roughness,
+            coat_normal,
+            specular_color,
+            sheen_color,
+            sheen_roughness,
+            dispersion: mat.dispersion,
         };
         ShadingPoint { bsdf: Bsdf::Pbr(PbrBsdf::from_params(&params)), frame, emitted }
     }

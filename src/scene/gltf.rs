@@ -33,9 +33,9 @@ const HANDLED_MATERIAL_EXTENSIONS: &[&str] = &[
     "KHR_materials_ior",
     "KHR_materials_volume",
     "KHR_materials_clearcoat",
-    // Warned about by name where they are read:
     "KHR_materials_sheen",
     "KHR_materials_dispersion",
+    // Warned about by name where they are read:
     "KHR_materials_iridescence",
     "KHR_materials_anisotropy",
 ];
@@ -854,6 +854,7 @@ impl<'a> Loader<'a> {
             }
         }
         let (mut coat, mut coat_tex, mut coat_roughness, mut coat_roughness_tex) = (0.0, None, 0.0, None);
+        let (mut coat_normal_tex, mut coat_normal_scale) = (None, 1.0);
         if let Some(c) = m.extension_value("KHR_materials_clearcoat").cloned() {
             features.push("KHR_materials_clearcoat".into());
             coat = num(&c, "clearcoatFactor", 0.0)?.clamp(0.0, 1.0);
@@ -864,22 +865,69 @@ impl<'a> Loader<'a> {
             if let Some(t) = c.get("clearcoatRoughnessTexture") {
                 coat_roughness_tex = self.raw_texture(doc, t, false, buffers, &name)?;
             }
-            if c.get("clearcoatNormalTexture").is_some() {
+            if let Some(t) = c.get("clearcoatNormalTexture") {
+                coat_normal_tex = self.raw_texture(doc, t, false, buffers, &name)?;
+                coat_normal_scale = num(t, "scale", 1.0)?;
+            }
+        }
+        // A colour factor: 3 finite numbers, clamped to be non-negative.
+        let color3 = |v: &serde_json::Value, key: &str, default: Vec3| -> Result<Vec3> {
+            match v.get(key) {
+                None => Ok(default),
+                Some(c) => c
+                    .as_array()
+                    .filter(|a| a.len() == 3)
+                    .and_then(|a| {
+                        let f: Vec<f32> = a.iter().filter_map(|x| x.as_f64().map(|f| f as f32)).collect();
+                        (f.len() == 3 && f.iter().all(|x| x.is_finite())).then(|| Vec3::new(f[0], f[1], f[2]))
+                    })
+                    .map(|c| c.max(Vec3::ZERO))
+                    .ok_or_else(|| Error::Scene {
+                        file: self.file.to_string(),
+                        message: format!("material '{name}': {key} must be 3 finite numbers"),
+                    }),
+            }
+        };
+        let (mut sheen_color, mut sheen_color_tex, mut sheen_roughness, mut sheen_roughness_tex) =
+            (Vec3::ZERO, None, 0.0, None);
+        if let Some(sh) = m.extension_value("KHR_materials_sheen").cloned() {
+            features.push("KHR_materials_sheen".into());
+            sheen_color = color3(&sh, "sheenColorFactor", Vec3::ZERO)?;
+            if sheen_color.max_element() > 1.0 {
+                self.warn(format!("material '{name}': sheenColorFactor {sheen_color} was clamped to [0, 1]"));
+                sheen_color = sheen_color.min(Vec3::ONE);
+            }
+            sheen_roughness = num(&sh, "sheenRoughnessFactor", 0.0)?.clamp(0.0, 1.0);
+            if let Some(t) = sh.get("sheenColorTexture") {
+                sheen_color_tex = self.raw_texture(doc, t, true, buffers, &name)?;
+            }
+            if let Some(t) = sh.get("sheenRoughnessTexture") {
+                sheen_roughness_tex = self.raw_texture(doc, t, false, buffers, &name)?;
+            }
+        }
+        let mut dispersion = 0.0;
+        if let Some(d) = m.extension_value("KHR_materials_dispersion").cloned() {
+            features.push("KHR_materials_dispersion".into());
+            let v = num(&d, "dispersion", 0.0)?;
+            if v < 0.0 {
+                self.warn(format!("material '{name}': dispersion {v} is negative and was set to 0"));
+            }
+            dispersion = v.clamp(0.0, 20.0);
+            if dispersion > 0.0 && roughness >= crate::bsdf::dielectric::SMOOTH_ROUGHNESS {
                 self.warn(format!(
-                    "material '{name}': clearcoatNormalTexture is not supported; the coat uses the base normal"
+                    "material '{name}': dispersion is rendered on smooth glass only; this rough glass uses its mean index"
                 ));
             }
         }
-        for ext in
-            ["KHR_materials_sheen", "KHR_materials_dispersion", "KHR_materials_iridescence", "KHR_materials_anisotropy"]
-        {
+        for ext in ["KHR_materials_iridescence", "KHR_materials_anisotropy"] {
             if m.extension_value(ext).is_some() {
                 features.push(format!("{ext} (ignored)"));
                 self.warn(format!("material '{name}': {ext} is not rendered yet and was ignored"));
             }
         }
         let mut specular = 1.0;
-        if let Some(spec) = m.extension_value("KHR_materials_specular") {
+        let (mut specular_color, mut specular_tex, mut specular_color_tex) = (Vec3::ONE, None, None);
+        if let Some(spec) = m.extension_value("KHR_materials_specular").cloned() {
             features.push("KHR_materials_specular".into());
             let factor = spec.get("specularFactor").and_then(|v| v.as_f64()).unwrap_or(1.0) as f32;
             if !factor.is_finite() {
@@ -889,14 +937,12 @@ impl<'a> Loader<'a> {
             if specular != factor {
                 self.warn(format!("material '{name}': specularFactor {factor} was clamped to [0, 1]"));
             }
-            let color_is_white = spec
-                .get("specularColorFactor")
-                .and_then(|v| v.as_array())
-                .is_none_or(|c| c.iter().all(|x| x.as_f64() == Some(1.0)));
-            if !color_is_white || spec.get("specularTexture").is_some() || spec.get("specularColorTexture").is_some() {
-                self.warn(format!(
-                    "material '{name}': KHR_materials_specular colour and textures are not rendered yet (only specularFactor)"
-                ));
+            specular_color = color3(&spec, "specularColorFactor", Vec3::ONE)?;
+            if let Some(t) = spec.get("specularTexture") {
+                specular_tex = self.raw_texture(doc, t, false, buffers, &name)?;
+            }
+            if let Some(t) = spec.get("specularColorTexture") {
+                specular_color_tex = self.raw_texture(doc, t, true, buffers, &name)?;
             }
         }
         if let Some(exts) = m.extensions() {
@@ -920,6 +966,9 @@ impl<'a> Loader<'a> {
             emissive: emissive.max(Vec3::ZERO),
             emissive_tex,
             specular,
+            specular_tex,
+            specular_color,
+            specular_color_tex,
             ior,
             transmission,
             transmission_tex,
@@ -928,6 +977,13 @@ impl<'a> Loader<'a> {
             coat_tex,
             coat_roughness,
             coat_roughness_tex,
+            coat_normal_tex,
+            coat_normal_scale,
+            sheen_color,
+            sheen_color_tex,
+            sheen_roughness,
+            sheen_roughness_tex,
+            dispersion,
             alpha_mode,
             double_sided: m.double_sided(),
         };

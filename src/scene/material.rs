@@ -40,6 +40,12 @@ pub struct Material {
     pub emissive_tex: Option<TexRef>,
     /// `KHR_materials_specular` specularFactor: weight of the dielectric specular layer.
     pub specular: f32,
+    /// specularTexture (A): multiplies `specular`.
+    pub specular_tex: Option<TexRef>,
+    /// specularColorFactor: tints the dielectric layer's F0.
+    pub specular_color: Rgb,
+    /// specularColorTexture (sRGB).
+    pub specular_color_tex: Option<TexRef>,
     /// `KHR_materials_ior` (1.5 when absent, as glTF and Blender's exporter assume).
     pub ior: f32,
     /// `KHR_materials_transmission` transmissionFactor.
@@ -54,6 +60,20 @@ pub struct Material {
     pub coat_roughness: f32,
     /// clearcoatRoughnessTexture (G).
     pub coat_roughness_tex: Option<TexRef>,
+    /// clearcoatNormalTexture: the coat's own normal map.
+    pub coat_normal_tex: Option<TexRef>,
+    /// Its scale.
+    pub coat_normal_scale: f32,
+    /// `KHR_materials_sheen` sheenColorFactor (black: no sheen).
+    pub sheen_color: Rgb,
+    /// sheenColorTexture (sRGB).
+    pub sheen_color_tex: Option<TexRef>,
+    /// sheenRoughnessFactor.
+    pub sheen_roughness: f32,
+    /// sheenRoughnessTexture (A).
+    pub sheen_roughness_tex: Option<TexRef>,
+    /// `KHR_materials_dispersion` (20 / Abbe number).
+    pub dispersion: f32,
     /// Absorption coefficient σa (per scene unit) of the volume inside, from
     /// `KHR_materials_volume` attenuation; None when the surface is thin-walled.
     pub volume: Option<Rgb>,
@@ -79,6 +99,9 @@ impl Default for Material {
             emissive: Rgb::ZERO,
             emissive_tex: None,
             specular: 1.0,
+            specular_tex: None,
+            specular_color: Rgb::ONE,
+            specular_color_tex: None,
             ior: 1.5,
             transmission: 0.0,
             transmission_tex: None,
@@ -87,6 +110,13 @@ impl Default for Material {
             coat_tex: None,
             coat_roughness: 0.0,
             coat_roughness_tex: None,
+            coat_normal_tex: None,
+            coat_normal_scale: 1.0,
+            sheen_color: Rgb::ZERO,
+            sheen_color_tex: None,
+            sheen_roughness: 0.0,
+            sheen_roughness_tex: None,
+            dispersion: 0.0,
             alpha_mode: AlphaMode::Opaque,
             double_sided: false,
         }
