@@ -143,6 +143,55 @@ _IMAGE_EXTENSIONS = {"HDR": ".hdr", "OPEN_EXR": ".exr", "OPEN_EXR_MULTILAYER": "
                      "JPEG": ".jpg"}
 
 
+COAT_EXTENSION = "CAUSTIC_materials_coat"
+
+
+def _principled(blender_material):
+    """The material's Principled BSDF node, if its output uses one directly."""
+    tree = getattr(blender_material, "node_tree", None)
+    if tree is None:
+        return None
+    for node in tree.nodes:
+        if node.type == "OUTPUT_MATERIAL" and node.is_active_output:
+            link = node.inputs["Surface"].links[0] if node.inputs["Surface"].is_linked else None
+            if link is not None and link.from_node.type == "BSDF_PRINCIPLED":
+                return link.from_node
+    return None
+
+
+def principled_extras(blender_material):
+    """What Blender's glTF exporter drops from a Principled BSDF that Caustic renders
+    (`CAUSTIC_materials_coat`: coat IOR and tint), and warnings naming what neither renders."""
+    node = _principled(blender_material)
+    if node is None:
+        return None, []
+    name = blender_material.name
+    warnings = []
+    coat = None
+    inputs = node.inputs
+
+    def value(socket_name, default):
+        socket = inputs.get(socket_name)
+        if socket is None:
+            return default
+        if socket.is_linked:
+            warnings.append(f"material '{name}': a linked {socket_name} is not supported; using its value")
+        return socket.default_value
+
+    if value("Coat Weight", 0.0) > 0.0:
+        ior = float(value("Coat IOR", 1.5))
+        tint = [float(c) for c in value("Coat Tint", (1, 1, 1, 1))[:3]]
+        if abs(ior - 1.5) > 1e-6 or any(abs(c - 1.0) > 1e-6 for c in tint):
+            coat = {"ior": ior, "tint": tint}
+    if value("Thin Film Thickness", 0.0) > 0.0:
+        warnings.append(f"material '{name}': thin film (iridescence) is not rendered by Caustic")
+    if value("Diffuse Roughness", 0.0) > 0.0:
+        warnings.append(f"material '{name}': Diffuse Roughness is not rendered (Caustic's diffuse is Lambertian)")
+    if value("Anisotropic", 0.0) > 0.0:
+        warnings.append(f"material '{name}': anisotropic reflection is rendered isotropic")
+    return coat, warnings
+
+
 def _linked_node(socket):
     return socket.links[0].from_node if socket.is_linked else None
 
@@ -262,6 +311,11 @@ class glTF2ExportUserExtension:
             return
         try:
             extensions = gltf2_material.extensions or {}
+            coat, warnings = principled_extras(blender_material)
+            state.warnings.extend(warnings)
+            if coat is not None:
+                extensions[COAT_EXTENSION] = self._extension(name=COAT_EXTENSION, extension=coat, required=False)
+                gltf2_material.extensions = extensions
             if "KHR_materials_transmission" in extensions and "KHR_materials_volume" not in extensions:
                 extensions["KHR_materials_volume"] = self._extension(
                     name="KHR_materials_volume", extension={"thicknessFactor": 1.0}, required=False)

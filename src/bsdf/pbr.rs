@@ -72,6 +72,10 @@ pub struct PbrParams {
     pub coat_roughness: f32,
     /// The coat's own normal in the shading frame (clearcoatNormalTexture), if it differs.
     pub coat_normal: Option<Vec3>,
+    /// Index of refraction of the coat (Blender's Coat IOR; glTF's is 1.5).
+    pub coat_ior: f32,
+    /// Colour of the coat's absorption at normal incidence (Blender's Coat Tint).
+    pub coat_tint: Rgb,
     /// `KHR_materials_specular` specularColorFactor (tints the dielectric layer's F0).
     pub specular_color: Rgb,
     /// `KHR_materials_sheen` sheenColorFactor (black: no sheen).
@@ -97,6 +101,8 @@ impl PbrParams {
             coat: 0.0,
             coat_roughness: 0.0,
             coat_normal: None,
+            coat_ior: 1.5,
+            coat_tint: Rgb::ONE,
             specular_color: Rgb::ONE,
             sheen_color: Rgb::ZERO,
             sheen_roughness: 0.0,
@@ -143,6 +149,12 @@ pub struct PbrBsdf {
     pub smooth_coat: bool,
     /// The coat's frame within the shading frame, when its normal differs.
     pub coat_frame: Option<Frame>,
+    /// Normal-incidence reflectance of the coat (from its IOR).
+    pub coat_f0: f32,
+    /// Coat IOR (for the refracted path length through a tinted coat).
+    pub coat_ior: f32,
+    /// Coat tint (white: none).
+    pub coat_tint: Rgb,
     /// Sheen colour (zero: no sheen).
     pub sheen_color: Rgb,
     /// Sheen roughness.
@@ -207,6 +219,9 @@ impl PbrBsdf {
             smooth_coat: p.coat_roughness < SMOOTH_ROUGHNESS,
             layer_avg: Rgb::ZERO,
             coat_frame,
+            coat_f0: f0_from_ior(if p.coat_ior.is_finite() && p.coat_ior >= 1.0 { p.coat_ior } else { 1.5 }).min(1.0),
+            coat_ior: if p.coat_ior.is_finite() && p.coat_ior >= 1.0 { p.coat_ior } else { 1.5 },
+            coat_tint: if p.coat_tint.is_finite() { p.coat_tint.clamp(Vec3::ZERO, Vec3::ONE) } else { Vec3::ONE },
             sheen_color,
             sheen_roughness: p.sheen_roughness.clamp(0.0, 1.0),
             sheen_max: sheen_color.max_element(),
@@ -237,10 +252,24 @@ impl PbrBsdf {
             if mu <= 0.0 {
                 return 0.0;
             }
-            self.coat * specular_albedo().e(mu, self.coat_roughness, F0_DIELECTRIC)
+            self.coat * specular_albedo().e(mu, self.coat_roughness, self.coat_f0)
         } else {
             0.0
         }
+    }
+
+    /// What a tinted coat lets through to the layers below, seen from `wo`: Cycles' model,
+    /// tint^(1/cos θt) with θt the refracted angle in the coat (Beer's law over a unit-thickness
+    /// coat whose tint is its normal-incidence transmittance), mixed in by the coat weight.
+    #[inline]
+    fn coat_transmittance(&self, wo: Vec3) -> Rgb {
+        if self.coat <= 0.0 || self.coat_tint == Rgb::ONE {
+            return Rgb::ONE;
+        }
+        let mu = self.coat_mu(wo).clamp(0.0, 1.0);
+        let cos_t = (1.0 - (1.0 - mu * mu) / (self.coat_ior * self.coat_ior)).max(1e-4).sqrt();
+        let t = self.coat_tint.powf(1.0 / cos_t);
+        Rgb::ONE + (t - Rgb::ONE) * self.coat
     }
 
     /// Directional albedo of the opaque dielectric's specular layer at μ, per channel.
@@ -271,7 +300,7 @@ impl PbrBsdf {
         let e = luminance(self.layer_albedo(wo.z));
         let ec = self.coat_albedo(wo);
         let es = self.sheen_albedo(wo.z);
-        let under = 1.0 - ec;
+        let under = (1.0 - ec) * luminance(self.coat_transmittance(wo));
         let below = under * (1.0 - es);
         let dielectric = 1.0 - self.metallic;
         let opaque = dielectric * (1.0 - self.transmission);
@@ -317,7 +346,7 @@ impl PbrBsdf {
             return 0.0;
         }
         let h = (wo + wi).normalize();
-        let f_coat = F0_DIELECTRIC + (1.0 - F0_DIELECTRIC) * schlick_weight(wo.dot(h).max(0.0));
+        let f_coat = self.coat_f0 + (1.0 - self.coat_f0) * schlick_weight(wo.dot(h).max(0.0));
         let f = self.coat * f_coat * self.coat_ggx.d(h) * self.coat_ggx.g2(wo, wi) / (4.0 * wo.z * wi.z);
         if self.coat_frame.is_some() { f * wi.z / cos_base } else { f }
     }
@@ -369,7 +398,7 @@ impl PbrBsdf {
         let dielectric = 1.0 - self.metallic;
         // The coat reflects E_c(μo) of the light and leaves the rest to the layers below
         // (albedo scaling by the outgoing direction, as Cycles layers its coat).
-        let under = 1.0 - self.coat_albedo(wo);
+        let under = self.coat_transmittance(wo) * (1.0 - self.coat_albedo(wo));
         let scaling = self.sheen_scaling(wo.z, wi.z.abs());
         let mut f = Rgb::ZERO;
         if self.transmission > 0.0 {
@@ -441,7 +470,8 @@ impl PbrBsdf {
         let wi_up = if uc < c.glass {
             let s = self.glass.sample(wo_up, uc / c.glass, u)?;
             if s.delta {
-                let weight = (1.0 - self.metallic)
+                let weight = self.coat_transmittance(wo_up)
+                    * (1.0 - self.metallic)
                     * self.transmission
                     * (1.0 - self.coat_albedo(wo_up))
                     * self.sheen_scaling(wo_up.z, s.wi.z.abs());
@@ -452,7 +482,8 @@ impl PbrBsdf {
             if self.smooth {
                 // Perfect mirror: the metal's and the dielectric layer's reflectance.
                 let mu = wo_up.z;
-                let under = (1.0 - self.coat_albedo(wo_up)) * self.sheen_scaling(mu, mu);
+                let under =
+                    self.coat_transmittance(wo_up) * (1.0 - self.coat_albedo(wo_up)) * self.sheen_scaling(mu, mu);
                 let opaque = (1.0 - self.metallic) * (1.0 - self.transmission);
                 let metal = (self.base + (Vec3::ONE - self.base) * schlick_weight(mu)) * self.metallic;
                 let refl = (metal + self.layer_albedo(mu) * opaque) * under;
@@ -499,7 +530,8 @@ impl PbrBsdf {
         let dielectric = self.base * (1.0 - f0) + Vec3::splat(f0);
         let below = dielectric * (1.0 - self.metallic) + self.base * self.metallic;
         let below = below * (1.0 - self.sheen_max * 0.5) + self.sheen_color * 0.5;
-        below * (1.0 - self.coat * F0_DIELECTRIC) + Vec3::splat(self.coat * F0_DIELECTRIC)
+        below * self.coat_transmittance(Vec3::Z) * (1.0 - self.coat * self.coat_f0)
+            + Vec3::splat(self.coat * self.coat_f0)
     }
 }
 
@@ -818,6 +850,15 @@ mod tests {
                 PbrBsdf::from_params(&p),
             ));
         }
+        // Blender's coat IOR and tint (CAUSTIC_materials_coat).
+        let p = PbrParams {
+            coat: 1.0,
+            coat_roughness: 0.3,
+            coat_ior: 1.8,
+            coat_tint: Vec3::new(0.8, 0.5, 0.3),
+            ..PbrParams::opaque(base, 0.0, 0.5)
+        };
+        v.push(("coat ior 1.8 tinted".into(), PbrBsdf::from_params(&p)));
         // A coat with its own normal (clearcoatNormalTexture), rough and smooth.
         for coat_roughness in [0.3f32, 0.1] {
             let p = PbrParams {

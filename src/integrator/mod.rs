@@ -477,6 +477,8 @@ impl<'a> SceneContext<'a> {
             coat,
             coat_roughness,
             coat_normal,
+            coat_ior: mat.coat_ior,
+            coat_tint: mat.coat_tint,
             specular_color,
             sheen_color,
             sheen_roughness,

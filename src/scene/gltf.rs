@@ -35,6 +35,7 @@ const HANDLED_MATERIAL_EXTENSIONS: &[&str] = &[
     "KHR_materials_clearcoat",
     "KHR_materials_sheen",
     "KHR_materials_dispersion",
+    "CAUSTIC_materials_coat",
     // Warned about by name where they are read:
     "KHR_materials_iridescence",
     "KHR_materials_anisotropy",
@@ -888,6 +889,25 @@ impl<'a> Loader<'a> {
                     }),
             }
         };
+        let (mut coat_ior, mut coat_tint) = (1.5, Vec3::ONE);
+        if let Some(c) = m.extension_value("CAUSTIC_materials_coat").cloned() {
+            features.push("CAUSTIC_materials_coat".into());
+            let v = num(&c, "ior", 1.5)?;
+            if !(1.0..=10.0).contains(&v) {
+                self.warn(format!("material '{name}': coat ior {v} was clamped to [1, 10]"));
+            }
+            coat_ior = v.clamp(1.0, 10.0);
+            coat_tint = color3(&c, "tint", Vec3::ONE)?;
+            if coat_tint.max_element() > 1.0 {
+                self.warn(format!("material '{name}': coat tint {coat_tint} was clamped to [0, 1]"));
+                coat_tint = coat_tint.min(Vec3::ONE);
+            }
+            if coat == 0.0 {
+                self.warn(format!(
+                    "material '{name}': CAUSTIC_materials_coat without a coat (KHR_materials_clearcoat) does nothing"
+                ));
+            }
+        }
         let (mut sheen_color, mut sheen_color_tex, mut sheen_roughness, mut sheen_roughness_tex) =
             (Vec3::ZERO, None, 0.0, None);
         if let Some(sh) = m.extension_value("KHR_materials_sheen").cloned() {
@@ -977,6 +997,8 @@ impl<'a> Loader<'a> {
             coat_tex,
             coat_roughness,
             coat_roughness_tex,
+            coat_ior,
+            coat_tint,
             coat_normal_tex,
             coat_normal_scale,
             sheen_color,

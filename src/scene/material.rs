@@ -60,6 +60,10 @@ pub struct Material {
     pub coat_roughness: f32,
     /// clearcoatRoughnessTexture (G).
     pub coat_roughness_tex: Option<TexRef>,
+    /// Coat IOR (`CAUSTIC_materials_coat`; glTF's coat is 1.5).
+    pub coat_ior: f32,
+    /// Coat tint (`CAUSTIC_materials_coat`).
+    pub coat_tint: Rgb,
     /// clearcoatNormalTexture: the coat's own normal map.
     pub coat_normal_tex: Option<TexRef>,
     /// Its scale.
@@ -110,6 +114,8 @@ impl Default for Material {
             coat_tex: None,
             coat_roughness: 0.0,
             coat_roughness_tex: None,
+            coat_ior: 1.5,
+            coat_tint: Rgb::ONE,
             coat_normal_tex: None,
             coat_normal_scale: 1.0,
             sheen_color: Rgb::ZERO,
