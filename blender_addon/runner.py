@@ -30,6 +30,7 @@ _EXIT_MEANING = {
     3: "invalid or unsupported scene",
     4: "I/O error",
     6: "interrupted before any sample was rendered",
+    7: "the scene or settings need more memory than the renderer's memory limit",
 }
 
 POLL_SECONDS = 0.1
