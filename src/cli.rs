@@ -93,6 +93,9 @@ pub struct PhotonsArgs {
     /// Memory budget: a size (8G, 512M), a share of the available memory (50%), or none [default: 90% of the available memory].
     #[arg(long, value_name = "SIZE")]
     pub memory_limit: Option<String>,
+    /// Test hook: sleep SECONDS, uninterruptibly, when PHASE starts (docs/contract.md).
+    #[arg(long, value_name = "PHASE=SECONDS", hide = true)]
+    pub debug_delay: Vec<String>,
 }
 
 /// Photon-mapping flags (shared by `render` and `photons`); defaults in
@@ -244,6 +247,9 @@ pub struct RenderArgs {
     /// Memory budget: a size (8G, 512M), a share of the available memory (50%), or none [default: 90% of the available memory].
     #[arg(long, value_name = "SIZE")]
     pub memory_limit: Option<String>,
+    /// Test hook: sleep SECONDS, uninterruptibly, when PHASE starts (docs/contract.md).
+    #[arg(long, value_name = "PHASE=SECONDS", hide = true)]
+    pub debug_delay: Vec<String>,
 }
 
 /// `caustic info`.
@@ -914,6 +920,7 @@ pub fn run_bench(args: &BenchArgs, stop: &AtomicBool) -> Result<()> {
         filter: None,
         filter_width: None,
         memory_limit: None,
+        debug_delay: Vec::new(),
     };
     let reporter = Reporter::silent();
     let outcome = run_render(&render_args, &reporter, stop);
