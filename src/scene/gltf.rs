@@ -202,6 +202,7 @@ impl<'a> Loader<'a> {
         // 5. Buffers.
         let buffers = self.load_buffers(&doc, bin)?;
         self.check_views_and_accessors(&doc, &buffers)?;
+        self.check_accessor_types(&doc)?;
 
         // 6. Materials (textures decoded on first use).
         let mut materials = Vec::new();
@@ -505,6 +506,63 @@ impl<'a> Loader<'a> {
     }
 
     /// Bounds checks the crate leaves to us: views inside buffers, accessors inside views.
+    /// Checks every primitive's attribute and index accessors and image sources against
+    /// the types glTF allows: the crate's readers and `Image::source`
+    /// reach `unreachable!()` or unwrap `None` on anything else (found by the fuzzer).
+    fn check_accessor_types(&self, doc: &gltf::Document) -> Result<()> {
+        use gltf::Semantic;
+        use gltf::accessor::{DataType as T, Dimensions as D};
+        for m in doc.meshes() {
+            for prim in m.primitives() {
+                let what = format!("mesh {} primitive {}", m.index(), prim.index());
+                if let Some(idx) = prim.indices()
+                    && !(idx.dimensions() == D::Scalar && matches!(idx.data_type(), T::U8 | T::U16 | T::U32))
+                {
+                    return Err(self.err(format!(
+                        "{what}: indices accessor {} is {:?} {:?}; indices must be unsigned-integer SCALAR",
+                        idx.index(),
+                        idx.data_type(),
+                        idx.dimensions()
+                    )));
+                }
+                for (semantic, acc) in prim.attributes() {
+                    let (t, d) = (acc.data_type(), acc.dimensions());
+                    let ok = match &semantic {
+                        Semantic::Positions | Semantic::Normals => (t, d) == (T::F32, D::Vec3),
+                        Semantic::Tangents => (t, d) == (T::F32, D::Vec4),
+                        Semantic::TexCoords(_) => d == D::Vec2 && matches!(t, T::F32 | T::U8 | T::U16),
+                        Semantic::Colors(_) => {
+                            matches!(d, D::Vec3 | D::Vec4) && matches!(t, T::F32 | T::U8 | T::U16)
+                        }
+                        Semantic::Joints(_) => d == D::Vec4 && matches!(t, T::U8 | T::U16),
+                        Semantic::Weights(_) => d == D::Vec4 && matches!(t, T::F32 | T::U8 | T::U16),
+                        #[allow(unreachable_patterns)]
+                        _ => true,
+                    };
+                    if !ok {
+                        return Err(self.err(format!(
+                            "{what}: attribute {} uses accessor {} of type {t:?} {d:?}, which glTF does not allow for it",
+                            semantic.to_string(),
+                            acc.index()
+                        )));
+                    }
+                }
+            }
+        }
+        for image in doc.images() {
+            let json = image.index();
+            let raw = &doc.as_json().images[json];
+            match (&raw.buffer_view, &raw.uri, &raw.mime_type) {
+                (Some(_), _, None) => {
+                    return Err(self.err(format!("image {json}: a bufferView image needs a mimeType")));
+                }
+                (None, None, _) => return Err(self.err(format!("image {json}: has neither a uri nor a bufferView"))),
+                _ => {}
+            }
+        }
+        Ok(())
+    }
+
     fn check_views_and_accessors(&self, doc: &gltf::Document, buffers: &[Vec<u8>]) -> Result<()> {
         for v in doc.views() {
             let end = v.offset().checked_add(v.length());
