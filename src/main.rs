@@ -27,9 +27,8 @@ fn abandon(reporter: &Reporter, temps: &[PathBuf], why: &str) -> ! {
     let phase = reporter.current_phase();
     let phase = if phase.is_empty() { "start-up".to_string() } else { phase };
     if reporter.images_written() > 0 {
-        reporter.warning(&format!(
-            "interrupted during the {phase} phase ({why}); the output holds the last interim image"
-        ));
+        reporter
+            .warning(&format!("interrupted during the {phase} phase ({why}); the output holds the last interim image"));
         std::process::exit(exit_code::INTERRUPTED_PARTIAL);
     }
     reporter.error(

@@ -68,7 +68,9 @@ impl MemoryBudget {
                 source: LimitSource::Available { share, available, from },
                 charges: Mutex::new(Vec::new()),
             },
-            None => MemoryBudget { limit: FALLBACK_BYTES, source: LimitSource::Fallback, charges: Mutex::new(Vec::new()) },
+            None => {
+                MemoryBudget { limit: FALLBACK_BYTES, source: LimitSource::Fallback, charges: Mutex::new(Vec::new()) }
+            }
         }
     }
 
@@ -110,7 +112,7 @@ impl MemoryBudget {
         if total > self.limit {
             let mut items: Vec<(String, u64)> = charges.clone();
             items.push((what.clone(), bytes));
-            items.sort_by(|a, b| b.1.cmp(&a.1));
+            items.sort_by_key(|item| std::cmp::Reverse(item.1));
             let list: Vec<String> = items.iter().take(4).map(|(w, b)| format!("{w}: {}", human(*b))).collect();
             return Err(Error::Memory(format!(
                 "{what} would need an estimated {}, bringing the total to {}, over the memory limit of {} ({}); largest items: {}. Lower the setting, simplify the scene, or raise --memory-limit",

@@ -32,9 +32,9 @@ pub fn clean_stale_temps(out: &Path) {
         for e in entries.flatten() {
             let file_name = e.file_name().to_string_lossy().to_string();
             let Some(pid) = file_name.strip_prefix(&prefix) else { continue };
-            let alive = pid.parse::<u32>().is_ok_and(|p| {
-                p != std::process::id() && Path::new("/proc").join(p.to_string()).is_dir()
-            });
+            let alive = pid
+                .parse::<u32>()
+                .is_ok_and(|p| p != std::process::id() && Path::new("/proc").join(p.to_string()).is_dir());
             if !alive {
                 let _ = std::fs::remove_file(e.path());
             }

@@ -265,10 +265,7 @@ fn sigkill_leaves_at_most_a_temp_file_and_the_next_run_removes_it() {
     let live = dir.path().join(format!("{prefix}{}", std::process::id()));
     std::fs::write(&stale, b"half an EXR").unwrap();
     std::fs::write(&live, b"someone else's").unwrap();
-    let r = common::run(
-        &["render", &c, "-o", out_s, "--resolution", "16x16", "--spp", "1"],
-        Duration::from_secs(60),
-    );
+    let r = common::run(&["render", &c, "-o", out_s, "--resolution", "16x16", "--spp", "1"], Duration::from_secs(60));
     assert_eq!(r.code, Some(0), "{}", r.stderr);
     let left = files_in(dir.path());
     assert!(!left.iter().any(|f| f.starts_with(prefix) && f != &live.file_name().unwrap().to_string_lossy()));

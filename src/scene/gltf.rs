@@ -76,7 +76,8 @@ pub fn load_bytes(bytes: &[u8], base_dir: &Path, file: &str, budget: &MemoryBudg
     // (and backtrace) off stderr, where a host reads JSON lines.
     let previous_hook = std::panic::take_hook();
     std::panic::set_hook(Box::new(|_| {}));
-    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| Loader::new(file, base_dir, budget).load(bytes)));
+    let result =
+        std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| Loader::new(file, base_dir, budget).load(bytes)));
     std::panic::set_hook(previous_hook);
     match result {
         Ok(r) => r,
@@ -531,9 +532,7 @@ impl<'a> Loader<'a> {
                         Semantic::Positions | Semantic::Normals => (t, d) == (T::F32, D::Vec3),
                         Semantic::Tangents => (t, d) == (T::F32, D::Vec4),
                         Semantic::TexCoords(_) => d == D::Vec2 && matches!(t, T::F32 | T::U8 | T::U16),
-                        Semantic::Colors(_) => {
-                            matches!(d, D::Vec3 | D::Vec4) && matches!(t, T::F32 | T::U8 | T::U16)
-                        }
+                        Semantic::Colors(_) => matches!(d, D::Vec3 | D::Vec4) && matches!(t, T::F32 | T::U8 | T::U16),
                         Semantic::Joints(_) => d == D::Vec4 && matches!(t, T::U8 | T::U16),
                         Semantic::Weights(_) => d == D::Vec4 && matches!(t, T::F32 | T::U8 | T::U16),
                         #[allow(unreachable_patterns)]
@@ -1134,8 +1133,7 @@ impl<'a> Loader<'a> {
         let bytes = vertices
             .saturating_mul(memory::MESH_BYTES_PER_VERTEX)
             .saturating_add(triangles.saturating_mul(memory::MESH_BYTES_PER_TRIANGLE));
-        self.budget
-            .charge(format!("the mesh ({triangles} triangles and {vertices} vertices after instancing)"), bytes)
+        self.budget.charge(format!("the mesh ({triangles} triangles and {vertices} vertices after instancing)"), bytes)
     }
 
     fn append_mesh(
