@@ -12,10 +12,15 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 /// After the first SIGINT/SIGTERM the pipeline has this long to reach its next stop
-/// check (per pixel while rendering, per photon chunk, between phases); a phase that
-/// cannot poll (decoding a texture, building the BVH or a kd-tree, writing) is then
-/// abandoned, so that the process always ends within about two seconds.
+/// check (per photon chunk, between phases); a phase before rendering that cannot poll
+/// (decoding a texture, building the BVH or a kd-tree) is then abandoned, so that the
+/// process ends within about two seconds. Rendering and writing are never abandoned:
+/// rendering stops within a pixel's work and then writes the partial image, and cutting
+/// that write short would lose the evening's work (a 4K EXR takes seconds to write).
 const STOP_GRACE: Duration = Duration::from_millis(1500);
+
+/// Phases in which the pipeline, once stopped, is delivering its image.
+const DELIVERING: [&str; 2] = ["rendering", "writing"];
 
 /// Ends the process at once after a signal: removes this process's temporary files, and
 /// exits 5 if this run already put an image at the output (an interim one, which was
@@ -48,7 +53,9 @@ fn handle_signals(stop: Arc<AtomicBool>, reporter: Arc<Reporter>, temps: Vec<Pat
         let (reporter, temps) = (reporter.clone(), temps.clone());
         std::thread::spawn(move || {
             std::thread::sleep(STOP_GRACE);
-            abandon(&reporter, &temps, "the phase could not stop in time");
+            if !DELIVERING.contains(&reporter.current_phase().as_str()) {
+                abandon(&reporter, &temps, "the phase could not stop in time");
+            }
         });
     });
 }
