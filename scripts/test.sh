@@ -17,4 +17,4 @@ echo "== Khronos glTF validator (npm gltf-validator) in .tools =="
 bash scripts/setup_validator.sh
 
 echo "== Blender add-on tests (real bpy) =="
-CAUSTIC_BINARY="$PWD/target/release/caustic" .venv/bin/python -m pytest -q tests/blender
+CAUSTIC_BINARY="${CARGO_TARGET_DIR:-$PWD/target}/release/caustic" .venv/bin/python -m pytest -q tests/blender
