@@ -43,7 +43,12 @@ fn signal(child: &Child, sig: &str) {
 
 /// Reads JSON lines until `ready` accepts one, sends SIGTERM, and returns the exit
 /// code, the time from the signal to the exit and every line.
-fn term_when(mut child: Child, ready: impl Fn(&Value) -> bool) -> (Option<i32>, Duration, Vec<Value>) {
+fn term_when(child: Child, ready: impl Fn(&Value) -> bool) -> (Option<i32>, Duration, Vec<Value>) {
+    signal_when(child, "-TERM", ready)
+}
+
+/// [`term_when`] with another signal (`-INT`).
+fn signal_when(mut child: Child, sig: &str, ready: impl Fn(&Value) -> bool) -> (Option<i32>, Duration, Vec<Value>) {
     let mut lines = std::io::BufReader::new(child.stderr.take().unwrap()).lines();
     let mut seen = Vec::new();
     for line in lines.by_ref() {
@@ -55,7 +60,7 @@ fn term_when(mut child: Child, ready: impl Fn(&Value) -> bool) -> (Option<i32>, 
         }
     }
     assert!(seen.last().is_some_and(&ready), "the awaited line never came: {seen:?}");
-    signal(&child, "-TERM");
+    signal(&child, sig);
     let t = Instant::now();
     // The pipe closes when the process exits; a watchdog kill keeps a broken build from hanging.
     let rest: Vec<Value> = lines.map_while(Result::ok).filter_map(|l| serde_json::from_str(&l).ok()).collect();
@@ -117,12 +122,13 @@ fn render_args<'a>(out: &'a str, cornell: &'a str, extra: &[&'a str]) -> Vec<&'a
 #[test]
 fn sigterm_while_loading_or_building_the_bvh_writes_nothing() {
     let c = cornell();
-    for phase in ["loading", "bvh"] {
+    // SIGINT (Ctrl-C) is handled as SIGTERM: one of each.
+    for (phase, sig) in [("loading", "-TERM"), ("bvh", "-INT")] {
         let dir = temp_dir();
         let out = dir.path().join("out.exr");
         let delay = format!("{phase}=60");
         let child = spawn(&render_args(out.to_str().unwrap(), &c, &["--debug-delay", &delay]));
-        let r = term_when(child, |v| is_phase(v, phase));
+        let r = signal_when(child, sig, |v| is_phase(v, phase));
         assert_nothing_rendered(r, dir.path(), phase);
     }
 }
