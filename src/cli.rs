@@ -1064,7 +1064,6 @@ fn charge_render(budget: &MemoryBudget, args: &RenderArgs, res: &Resolved, scene
         pixels.saturating_mul(memory::film_bytes_per_pixel()),
     )?;
     match res.integrator {
-        IntegratorKind::Path => Ok(()),
         IntegratorKind::Photon => match &args.photon_map {
             // A map file holds 32 bytes per photon, as the loaded map does.
             Some(path) => {
@@ -1084,5 +1083,8 @@ fn charge_render(budget: &MemoryBudget, args: &RenderArgs, res: &Resolved, scene
                 memory::photon_map_bytes(per_iter, res.max_depth),
             )
         }
+        // The path tracer keeps nothing per pixel beyond the film; an integrator with its
+        // own large buffers (per-worker splat films, say) charges them in an arm above.
+        _ => Ok(()),
     }
 }
