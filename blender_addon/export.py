@@ -4,6 +4,13 @@ What the exporter leaves out and Caustic needs (docs/contract.md):
 * area lights ("Unsupported light source AREA"): `CAUSTIC_lights_area` on the light's node;
 * the render settings: `scenes[i].extras.caustic`.
 
+And what it writes that the glTF validator calls an error (tests/blender/test_gltf_validity.py):
+* a spot with blend 0 gets innerConeAngle == outerConeAngle (glTF wants inner < outer): the
+  inner angle is moved down to the next double (Caustic uses `spot_blend` instead anyway);
+* a textured material on a mesh without a UV map keeps its texture bindings with no TEXCOORD
+  attribute: the hook adds the missing TEXCOORD_n, every vertex at Blender's UV (0, 0) (glTF
+  (0, 1)), which is what Cycles looks up for a mesh without UVs, and warns.
+
 Facts this module relies on (io_scene_gltf2 5.0.21, shipped with Blender/bpy 5.0.1):
 * the exporter instantiates `glTF2ExportUserExtension` from `sys.modules[name]` for every
   `name` in `bpy.context.preferences.addons`; the package's `__init__` re-exports the class and
@@ -282,6 +289,7 @@ class glTF2ExportUserExtension:
             if blender_object.type != "LIGHT":
                 return
             if blender_object.data.type != "AREA":
+                _separate_spot_angles(gltf2_node)
                 value = punctual_light_extension(blender_object)
                 if value:
                     if gltf2_node.extensions is None:
@@ -298,6 +306,30 @@ class glTF2ExportUserExtension:
             state.warnings.extend(warnings)
         except Exception as err:  # the exporter would swallow it: keep it for export_scene
             state.errors.append(f"area light '{blender_object.name}': {err!r}")
+
+    def gather_mesh_hook(self, gltf2_mesh, blender_mesh, blender_object, vertex_groups, modifiers, materials,
+                         export_settings):
+        """Give primitives the TEXCOORD_n their material's textures read (see the module doc)."""
+        state = _current
+        if state is None or gltf2_mesh is None:
+            return
+        try:
+            for prim in gltf2_mesh.primitives or []:
+                needed = _texcoords_used(prim.material)
+                attributes = prim.attributes or {}
+                position = attributes.get("POSITION")
+                missing = [n for n in needed if f"TEXCOORD_{n}" not in attributes]
+                if not missing or position is None:
+                    continue
+                for n in range(max(missing) + 1):
+                    if f"TEXCOORD_{n}" not in attributes:
+                        attributes[f"TEXCOORD_{n}"] = _constant_uv_accessor(position.count)
+                prim.attributes = attributes
+                state.warnings.append(
+                    f"mesh '{getattr(blender_mesh, 'name', '?')}' has no UV map for its material's textures: "
+                    "they are read at UV (0, 0), as Blender does")
+        except Exception as err:
+            state.errors.append(f"mesh '{getattr(blender_mesh, 'name', '?')}': {err!r}")
 
     def gather_material_hook(self, gltf2_material, blender_material, export_settings):
         """Mark transmissive materials as solids (KHR_materials_volume, thickness 1).
@@ -346,6 +378,51 @@ class glTF2ExportUserExtension:
                     name=WORLD_EXTENSION, extension=value, required=False)
         except Exception as err:
             state.errors.append(f"world: {err!r}")
+
+
+def _separate_spot_angles(gltf2_node):
+    """Make a spot's innerConeAngle strictly smaller than its outerConeAngle (glTF's rule)."""
+    ext = (gltf2_node.extensions or {}).get("KHR_lights_punctual")
+    child = ext.extension.get("light") if ext is not None and isinstance(ext.extension, dict) else None
+    light = getattr(child, "extension", None)
+    spot = light.get("spot") if isinstance(light, dict) else None
+    if isinstance(spot, dict):
+        inner, outer = spot.get("innerConeAngle"), spot.get("outerConeAngle")
+        if isinstance(inner, float) and isinstance(outer, float) and inner >= outer > 0.0:
+            spot["innerConeAngle"] = math.nextafter(outer, 0.0)
+
+
+def _texcoords_used(material):
+    """The texCoord sets (0, 1, ...) that a glTF material object's texture bindings read."""
+    used, seen, todo = set(), set(), [material]
+    while todo:
+        obj = todo.pop()
+        if obj is None or isinstance(obj, (str, bytes, int, float, bool)) or id(obj) in seen:
+            continue
+        seen.add(id(obj))
+        if isinstance(obj, dict):
+            todo.extend(obj.values())
+            continue
+        if isinstance(obj, (list, tuple)):
+            todo.extend(obj)
+            continue
+        if hasattr(obj, "tex_coord") and hasattr(obj, "index"):  # TextureInfo and its kin
+            used.add(obj.tex_coord or 0)
+        todo.extend(vars(obj).values() if hasattr(obj, "__dict__") else ())
+    return sorted(used)
+
+
+def _constant_uv_accessor(count):
+    """A VEC2 float accessor of `count` vertices, all at glTF UV (0, 1) = Blender's (0, 0)."""
+    from io_scene_gltf2.io.com import gltf2_io
+    from io_scene_gltf2.io.com.constants import BufferViewTarget, ComponentType, DataType
+    from io_scene_gltf2.io.exp.binary_data import BinaryData
+    import struct
+    data = struct.pack("<2f", 0.0, 1.0) * count
+    return gltf2_io.Accessor(
+        buffer_view=BinaryData(data, bufferViewTarget=BufferViewTarget.ARRAY_BUFFER), byte_offset=None,
+        component_type=ComponentType.Float, count=count, extensions=None, extras=None, max=None, min=None,
+        name=None, normalized=None, sparse=None, type=DataType.Vec2)
 
 
 @contextmanager

@@ -76,15 +76,25 @@ def command_line(binary, gltf_path, out_path, settings, window):
     return argv
 
 
+def _number(message, key):
+    """The finite number at `key`, or None: a line from a broken binary must not raise here."""
+    value = message.get(key)
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or value != value:
+        return None
+    return value if abs(value) != float("inf") else None
+
+
 def _stats_text(message):
-    done, total = message.get("samples_done"), message.get("samples_total")
-    parts = [f"Sample {done}/{total}" if total else f"Sample {done}"]
-    if message.get("elapsed") is not None:
-        parts.append(f"{message['elapsed']:.1f} s")
-    if message.get("eta") is not None:
-        parts.append(f"{message['eta']:.1f} s left")
-    if message.get("rays_per_sec"):
-        parts.append(f"{message['rays_per_sec'] / 1e6:.1f} Mrays/s")
+    done, total = _number(message, "samples_done"), _number(message, "samples_total")
+    done = int(done) if done is not None else "?"
+    parts = [f"Sample {done}/{int(total)}" if total else f"Sample {done}"]
+    elapsed, eta, rays = _number(message, "elapsed"), _number(message, "eta"), _number(message, "rays_per_sec")
+    if elapsed is not None:
+        parts.append(f"{elapsed:.1f} s")
+    if eta is not None:
+        parts.append(f"{eta:.1f} s left")
+    if rays:
+        parts.append(f"{rays / 1e6:.1f} Mrays/s")
     return "Caustic | " + " | ".join(parts)
 
 
@@ -96,22 +106,25 @@ class _Session:
         self.render_result = render_result
         self.out_path = out_path
         self.progress_seen = False
+        self.last_phase = None  # the binary's phase, for the stats line and tests
 
     def on_message(self, message):
         kind = message.get("type")
         engine = self.engine
         if kind == "phase":
-            engine.update_stats("", f"Caustic | {message.get('phase', '')}")
+            self.last_phase = str(message.get("phase", ""))
+            engine.update_stats("", f"Caustic | {self.last_phase}")
         elif kind == "progress":
             self.progress_seen = True
-            fraction = message.get("fraction")
-            if isinstance(fraction, (int, float)):
+            fraction = _number(message, "fraction")
+            if fraction is not None:
                 engine.update_progress(min(max(float(fraction), 0.0), 1.0))
             engine.update_stats("", _stats_text(message))
         elif kind == "warning":
             engine.report({"WARNING"}, f"Caustic: {message.get('message', '')}")
-        elif kind == "image" and not message.get("final"):
-            self._show_interim(message.get("path") or self.out_path)
+        elif kind == "image" and message.get("final") is False:
+            # The contract's image path is the output path; only that file is ever read.
+            self._show_interim(self.out_path)
 
     def _show_interim(self, path):
         # The binary replaces the file atomically; a failed interim load only delays the picture.
@@ -168,11 +181,11 @@ def render_frame(engine, depsgraph):
 
 
 def _report_summary(engine, summary):
-    nan = summary.get("nan_samples") or 0
+    nan = _number(summary, "nan_samples") or 0
     if nan:
-        engine.report({"WARNING"}, f"Caustic: {nan} samples were NaN or infinite and dropped")
-    spp = summary.get("spp")
-    elapsed = summary.get("elapsed")
+        engine.report({"WARNING"}, f"Caustic: {int(nan)} samples were NaN or infinite and dropped")
+    spp = _number(summary, "spp")
+    elapsed = _number(summary, "elapsed")
     if spp is not None and elapsed is not None:
         state = "interrupted" if summary.get("interrupted") else "done"
         engine.update_stats("", f"Caustic | {state}: {spp} samples in {elapsed:.1f} s")

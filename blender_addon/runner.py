@@ -30,6 +30,7 @@ _EXIT_MEANING = {
     3: "invalid or unsupported scene",
     4: "I/O error",
     6: "interrupted before any sample was rendered",
+    7: "the scene or settings need more memory than the renderer's memory limit",
 }
 
 POLL_SECONDS = 0.1
@@ -102,15 +103,21 @@ class RunResult:
         """A one-line message for a failed run (None when the run succeeded or was interrupted)."""
         if self.code in (EXIT_OK, EXIT_INTERRUPTED):
             return None
-        if self.code == EXIT_INTERRUPTED_EMPTY and self.cancelled:
-            return None
+        if self.cancelled and (self.code == EXIT_INTERRUPTED_EMPTY or (self.code is not None and self.code < 0)):
+            return None  # the user cancelled; a renderer that had to be killed has nothing to show either
         if self.error and self.error.get("message"):
             return f"Caustic: {self.error['message']}"
         meaning = _EXIT_MEANING.get(self.code, "the renderer stopped unexpectedly")
         if self.code is not None and self.code < 0:
             meaning = f"the renderer was killed by signal {-self.code}"
-        tail = " | ".join(line for line in self.log[-3:] if line.strip())
+        tail = " | ".join(_printable(line) for line in self.log[-3:] if _printable(line))
         return f"Caustic: {meaning} (exit code {self.code})" + (f": {tail}" if tail else "")
+
+
+def _printable(line, limit=200):
+    """A stray output line fit for a one-line report: control characters dropped, shortened."""
+    text = "".join(c for c in line if c.isprintable()).strip()
+    return text if len(text) <= limit else text[:limit] + "…"
 
 
 def _drain(stream, lines):

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Sets up and runs every test: the Rust suite (release build), then the Blender
-# add-on suite with real bpy in a project-local virtual environment.
+# add-on suite with real bpy in a project-local virtual environment (and the Khronos glTF
+# validator from npm in .tools/, for the export-validity tests).
 # Usage: bash scripts/test.sh
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -12,5 +13,8 @@ cargo test --release --locked
 echo "== Python: bpy 5.0.1 + pytest in .venv =="
 bash scripts/setup_python.sh
 
+echo "== Khronos glTF validator (npm gltf-validator) in .tools =="
+bash scripts/setup_validator.sh
+
 echo "== Blender add-on tests (real bpy) =="
-CAUSTIC_BINARY="$PWD/target/release/caustic" .venv/bin/python -m pytest -q tests/blender
+CAUSTIC_BINARY="${CARGO_TARGET_DIR:-$PWD/target}/release/caustic" .venv/bin/python -m pytest -q tests/blender

@@ -10,6 +10,7 @@ use crate::integrator::photon::io::PhotonMaps;
 use crate::integrator::photon::jensen::JensenIntegrator;
 use crate::integrator::photon::{MAX_K, PhotonSettings, default_max_radius};
 use crate::integrator::{Integrator, SceneContext};
+use crate::memory::{self, MemoryBudget, human};
 use crate::output;
 use crate::progress::{ProgressMode, Reporter};
 use crate::render::{self, RenderJob};
@@ -89,6 +90,12 @@ pub struct PhotonsArgs {
     /// Photon-mapping settings.
     #[command(flatten)]
     pub photon: PhotonArgs,
+    /// Memory budget: a size (8G, 512M), a share of the available memory (50%), or none [default: 90% of the available memory].
+    #[arg(long, value_name = "SIZE")]
+    pub memory_limit: Option<String>,
+    /// Test hook: sleep SECONDS, uninterruptibly, when PHASE starts (docs/contract.md).
+    #[arg(long, value_name = "PHASE=SECONDS", hide = true)]
+    pub debug_delay: Vec<String>,
 }
 
 /// Photon-mapping flags (shared by `render` and `photons`); defaults in
@@ -244,6 +251,12 @@ pub struct RenderArgs {
     /// Filter window in pixels [default: the scene's, else 3 for Blackman-Harris (Blender's 1.5 px filter size, which Cycles spans twice as wide), 1 for box].
     #[arg(long)]
     pub filter_width: Option<f32>,
+    /// Memory budget: a size (8G, 512M), a share of the available memory (50%), or none [default: 90% of the available memory].
+    #[arg(long, value_name = "SIZE")]
+    pub memory_limit: Option<String>,
+    /// Test hook: sleep SECONDS, uninterruptibly, when PHASE starts (docs/contract.md).
+    #[arg(long, value_name = "PHASE=SECONDS", hide = true)]
+    pub debug_delay: Vec<String>,
 }
 
 /// `caustic info`.
@@ -254,6 +267,9 @@ pub struct InfoArgs {
     /// Print JSON instead of text.
     #[arg(long)]
     pub json: bool,
+    /// Memory budget: a size (8G, 512M), a share of the available memory (50%), or none [default: 90% of the available memory].
+    #[arg(long, value_name = "SIZE")]
+    pub memory_limit: Option<String>,
 }
 
 fn parse_resolution(s: &str) -> std::result::Result<(u32, u32), String> {
@@ -533,11 +549,13 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     reporter.phase("loading", 0.0);
     output::clean_stale_temps(&args.output);
     output::check_writable(&args.output)?;
-    let scene = scene::gltf::load(&args.scene)?;
+    let budget = MemoryBudget::from_flag(args.memory_limit.as_deref())?;
+    let scene = scene::gltf::load_within(&args.scene, &budget)?;
     for w in &scene.warnings {
         reporter.warning(w);
     }
     let res = resolve(args, &scene)?;
+    charge_render(&budget, args, &res, &scene)?;
     if stop.load(Ordering::Relaxed) {
         return Err(Error::InterruptedEmpty);
     }
@@ -798,7 +816,8 @@ fn map_stats_json(maps: &PhotonMaps, st: &photon::io::MapStats) -> serde_json::V
 pub fn run_photons(args: &PhotonsArgs, reporter: &Reporter, stop: &AtomicBool) -> Result<()> {
     let t0 = Instant::now();
     reporter.phase("loading", 0.0);
-    let scene = scene::gltf::load(&args.scene)?;
+    let budget = MemoryBudget::from_flag(args.memory_limit.as_deref())?;
+    let scene = scene::gltf::load_within(&args.scene, &budget)?;
     for w in &scene.warnings {
         reporter.warning(w);
     }
@@ -811,6 +830,8 @@ pub fn run_photons(args: &PhotonsArgs, reporter: &Reporter, stop: &AtomicBool) -
             photon::MAX_PHOTON_DEPTH
         )));
     }
+    charge_bvh(&budget, &scene)?;
+    charge_photon_maps(&budget, &p, max_depth)?;
     let seed = args.seed.or(st.seed).unwrap_or(0);
     let threads = match args.threads.or(st.threads) {
         None => std::thread::available_parallelism().map_or(1, |n| n.get()),
@@ -861,7 +882,8 @@ pub fn run_photons(args: &PhotonsArgs, reporter: &Reporter, stop: &AtomicBool) -
 
 /// `caustic info`.
 pub fn run_info(args: &InfoArgs) -> Result<()> {
-    let scene = scene::gltf::load(&args.scene)?;
+    let budget = MemoryBudget::from_flag(args.memory_limit.as_deref())?;
+    let scene = scene::gltf::load_within(&args.scene, &budget)?;
     let r = &scene.report;
     if args.json {
         let v = json!({
@@ -942,6 +964,8 @@ pub fn run_bench(args: &BenchArgs, stop: &AtomicBool) -> Result<()> {
         interim: None,
         filter: None,
         filter_width: None,
+        memory_limit: None,
+        debug_delay: Vec::new(),
     };
     let reporter = Reporter::silent();
     let outcome = run_render(&render_args, &reporter, stop);
@@ -1057,4 +1081,58 @@ fn bench_photon_maps(args: &BenchArgs, stop: &AtomicBool) -> Result<serde_json::
     v["knn_queries_per_sec"] = json!(queries as f64 / secs.max(1e-9));
     v["knn_checksum"] = json!(sink.x);
     Ok(v)
+}
+
+// ---- Memory budget of the commands (issue 11): estimates charged before allocating. ----
+
+/// Charges the BVH build of the scene's triangles.
+fn charge_bvh(budget: &MemoryBudget, scene: &Scene) -> Result<()> {
+    let n = scene.mesh.triangles.len() as u64;
+    budget.charge(format!("the BVH over {n} triangles"), n.saturating_mul(memory::BVH_BYTES_PER_TRIANGLE))
+}
+
+/// Charges the photon maps traced with settings `p` (global and caustic).
+fn charge_photon_maps(budget: &MemoryBudget, p: &PhotonSettings, max_depth: u32) -> Result<()> {
+    let emitted = p.photons.saturating_add(p.caustic_photons);
+    budget.charge(
+        format!("photon maps for {} + {} photons", p.photons, p.caustic_photons),
+        memory::photon_map_bytes(emitted, max_depth),
+    )
+}
+
+/// Charges everything `run_render` allocates after loading: the BVH, the film and
+/// output buffers of the rendered window, and the integrator's own state (photon maps,
+/// SPPM's per-pixel state and per-iteration maps).
+fn charge_render(budget: &MemoryBudget, args: &RenderArgs, res: &Resolved, scene: &Scene) -> Result<()> {
+    charge_bvh(budget, scene)?;
+    let [x0, y0, x1, y1] = res.window;
+    let pixels = (x1 - x0) as u64 * (y1 - y0) as u64;
+    budget.charge(
+        format!("the film for {}x{} pixels", x1 - x0, y1 - y0),
+        pixels.saturating_mul(memory::film_bytes_per_pixel()),
+    )?;
+    match res.integrator {
+        IntegratorKind::Photon => match &args.photon_map {
+            // A map file holds 32 bytes per photon, as the loaded map does.
+            Some(path) => {
+                let len = std::fs::metadata(path).map_err(|e| Error::io(path, e))?.len();
+                budget.charge(format!("the photon map file {} ({})", path.display(), human(len)), len)
+            }
+            None => charge_photon_maps(budget, &res.photon, res.max_depth),
+        },
+        IntegratorKind::Sppm => {
+            budget.charge(
+                format!("SPPM's per-pixel state for {pixels} pixels"),
+                pixels.saturating_mul(photon::sppm::bytes_per_pixel()),
+            )?;
+            let per_iter = res.photon.sppm_photons.unwrap_or(pixels);
+            budget.charge(
+                format!("SPPM's photon map of {per_iter} photons per iteration"),
+                memory::photon_map_bytes(per_iter, res.max_depth),
+            )
+        }
+        // The path tracer keeps nothing per pixel beyond the film; an integrator with its
+        // own large buffers (per-worker splat films, say) charges them in an arm above.
+        _ => Ok(()),
+    }
 }

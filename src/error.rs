@@ -18,6 +18,8 @@ pub mod exit_code {
     pub const INTERRUPTED_PARTIAL: i32 = 5;
     /// Interrupted before any sample was rendered; nothing written.
     pub const INTERRUPTED_EMPTY: i32 = 6;
+    /// The scene or settings would need more memory than `--memory-limit` allows; nothing written.
+    pub const MEMORY: i32 = 7;
 }
 
 /// Everything that can make a command fail.
@@ -35,6 +37,9 @@ pub enum Error {
     /// The render was interrupted before any sample reached the film.
     #[error("interrupted before any sample was rendered; nothing written")]
     InterruptedEmpty,
+    /// The estimated memory of the scene or settings exceeds the budget.
+    #[error("not enough memory: {0}")]
+    Memory(String),
     /// A bug.
     #[error("internal error: {0}")]
     Internal(String),
@@ -48,6 +53,7 @@ impl Error {
             Error::Io { .. } => exit_code::IO,
             Error::Usage(_) => exit_code::USAGE,
             Error::InterruptedEmpty => exit_code::INTERRUPTED_EMPTY,
+            Error::Memory(_) => exit_code::MEMORY,
             Error::Internal(_) => exit_code::INTERNAL,
         }
     }

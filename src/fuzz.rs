@@ -40,6 +40,9 @@ impl Rng {
 const EXTREMES: &[&str] =
     &["0", "-1", "1e38", "-1e38", "4294967295", "2147483648", "1e-45", "0.0", "99999999999", "3.4e38", "-0"];
 
+/// Memory budget of one mutant's load: far above what the seed files need (< 1 MiB).
+const FUZZ_MEMORY_LIMIT: u64 = 1 << 30;
+
 /// One mutant of `input`.
 pub fn mutate(input: &[u8], rng: &mut Rng) -> Vec<u8> {
     let mut v = input.to_vec();
@@ -107,7 +110,10 @@ pub enum Outcome {
 
 /// Runs one input through load, BVH and a tiny render.
 pub fn run_one(bytes: &[u8], base_dir: &Path) -> Outcome {
-    let scene = match crate::scene::gltf::load_bytes(bytes, base_dir, "fuzz") {
+    // A mutant may declare a mesh or texture far larger than its bytes (a sparse
+    // accessor's count, shared subtrees): the budget must refuse it, as for users.
+    let budget = crate::memory::MemoryBudget::bytes(FUZZ_MEMORY_LIMIT);
+    let scene = match crate::scene::gltf::load_bytes(bytes, base_dir, "fuzz", &budget) {
         Ok(s) => s,
         Err(e) => {
             let msg = e.to_string();

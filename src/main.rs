@@ -6,8 +6,70 @@ use caustic::error::exit_code;
 use caustic::progress::{ProgressMode, Reporter};
 use clap::Parser;
 use std::io::IsTerminal;
+use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
+
+/// After the first SIGINT/SIGTERM the pipeline has this long to reach its next stop
+/// check (per photon chunk, between phases); a phase before rendering that cannot poll
+/// (decoding a texture, building the BVH or a kd-tree) is then abandoned, so that the
+/// process ends within about two seconds. Rendering and writing are never abandoned:
+/// rendering stops within a pixel's work and then writes the partial image, and cutting
+/// that write short would lose the evening's work (a 4K EXR takes seconds to write).
+const STOP_GRACE: Duration = Duration::from_millis(1500);
+
+/// Phases in which the pipeline, once stopped, is delivering its image.
+const DELIVERING: [&str; 2] = ["rendering", "writing"];
+
+/// Ends the process at once after a signal: removes this process's temporary files, and
+/// exits 5 if this run already put an image at the output (an interim one, which was
+/// renamed into place whole), else 6 with an error line saying nothing was written.
+fn abandon(reporter: &Reporter, temps: &[PathBuf], why: &str) -> ! {
+    for t in temps {
+        let _ = std::fs::remove_file(t);
+    }
+    let phase = reporter.current_phase();
+    let phase = if phase.is_empty() { "start-up".to_string() } else { phase };
+    if reporter.images_written() > 0 {
+        reporter
+            .warning(&format!("interrupted during the {phase} phase ({why}); the output holds the last interim image"));
+        std::process::exit(exit_code::INTERRUPTED_PARTIAL);
+    }
+    reporter.error(
+        exit_code::INTERRUPTED_EMPTY,
+        &format!("interrupted during the {phase} phase ({why}); nothing rendered yet, nothing written"),
+    );
+    std::process::exit(exit_code::INTERRUPTED_EMPTY);
+}
+
+/// First signal: set `stop` and start the watchdog that abandons the run after
+/// [`STOP_GRACE`]. Second signal: abandon at once.
+fn handle_signals(stop: Arc<AtomicBool>, reporter: Arc<Reporter>, temps: Vec<PathBuf>) {
+    let _ = ctrlc::set_handler(move || {
+        if stop.swap(true, Ordering::SeqCst) {
+            abandon(&reporter, &temps, "second signal");
+        }
+        let (reporter, temps) = (reporter.clone(), temps.clone());
+        std::thread::spawn(move || {
+            std::thread::sleep(STOP_GRACE);
+            if !DELIVERING.contains(&reporter.current_phase().as_str()) {
+                abandon(&reporter, &temps, "the phase could not stop in time");
+            }
+        });
+    });
+}
+
+/// The reporter with the hidden `--debug-delay` hooks, or the usage error they cause.
+fn reporter_with_delays(mode: ProgressMode, delays: &[String]) -> Arc<Reporter> {
+    match Reporter::new(mode).with_debug_delays(delays) {
+        Ok(r) => Arc::new(r),
+        Err(msg) => {
+            Reporter::new(mode).error(exit_code::USAGE, &msg);
+            std::process::exit(exit_code::USAGE);
+        }
+    }
+}
 
 fn main() {
     let cli = match Cli::try_parse() {
@@ -53,14 +115,10 @@ fn main() {
         }
         Command::Photons(args) => {
             let mode = args.progress.unwrap_or(ProgressMode::None);
-            let reporter = Reporter::new(mode);
+            let reporter = reporter_with_delays(mode, &args.debug_delay);
             let stop = Arc::new(AtomicBool::new(false));
-            let handler_stop = stop.clone();
-            let _ = ctrlc::set_handler(move || {
-                if handler_stop.swap(true, Ordering::SeqCst) {
-                    std::process::exit(exit_code::INTERRUPTED_EMPTY);
-                }
-            });
+            let temps = vec![caustic::integrator::photon::io::PhotonMaps::temp_path(&args.output)];
+            handle_signals(stop.clone(), reporter.clone(), temps);
             match caustic::cli::run_photons(&args, &reporter, &stop) {
                 Ok(()) => exit_code::OK,
                 Err(e) => {
@@ -75,15 +133,11 @@ fn main() {
             } else {
                 ProgressMode::None
             });
-            let reporter = Reporter::new(mode);
+            let reporter = reporter_with_delays(mode, &args.debug_delay);
             let stop = Arc::new(AtomicBool::new(false));
-            let handler_stop = stop.clone();
-            // First signal: stop and write what we have. Second: leave at once.
-            let _ = ctrlc::set_handler(move || {
-                if handler_stop.swap(true, Ordering::SeqCst) {
-                    std::process::exit(exit_code::INTERRUPTED_EMPTY);
-                }
-            });
+            // First signal: stop and write what we have. Second, or a phase that cannot
+            // stop within the grace time: leave at once.
+            handle_signals(stop.clone(), reporter.clone(), vec![caustic::output::temp_path(&args.output)]);
             match caustic::cli::run_render(&args, &reporter, &stop) {
                 Ok(o) if o.interrupted => exit_code::INTERRUPTED_PARTIAL,
                 Ok(_) => exit_code::OK,

@@ -16,7 +16,9 @@ pub fn temp_path(out: &Path) -> PathBuf {
     out.with_file_name(format!(".{name}.caustic-tmp-{}", std::process::id()))
 }
 
-/// Removes temporary files that a killed earlier run left beside `out`.
+/// Removes temporary files that a killed earlier run left beside `out`. A temp file
+/// whose process is still running (another render to the same output, on Linux, where
+/// `/proc/PID` tells) is left alone.
 pub fn clean_stale_temps(out: &Path) {
     let Some(name) = out.file_name().map(|n| n.to_string_lossy().to_string()) else {
         return;
@@ -28,7 +30,12 @@ pub fn clean_stale_temps(out: &Path) {
     let prefix = format!(".{name}.caustic-tmp-");
     if let Ok(entries) = std::fs::read_dir(&dir) {
         for e in entries.flatten() {
-            if e.file_name().to_string_lossy().starts_with(&prefix) {
+            let file_name = e.file_name().to_string_lossy().to_string();
+            let Some(pid) = file_name.strip_prefix(&prefix) else { continue };
+            let alive = pid
+                .parse::<u32>()
+                .is_ok_and(|p| p != std::process::id() && Path::new("/proc").join(p.to_string()).is_dir());
+            if !alive {
                 let _ = std::fs::remove_file(e.path());
             }
         }

@@ -5,6 +5,8 @@ use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::{Value, json};
 use std::io::Write;
 use std::sync::Mutex;
+use std::sync::atomic::{AtomicU32, Ordering};
+use std::time::Duration;
 
 /// How progress is shown.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -22,17 +24,55 @@ pub struct Reporter {
     mode: ProgressMode,
     bar: Mutex<Option<ProgressBar>>,
     silent: bool,
+    /// The phase announced last ("" before the first), read by the signal watchdog.
+    current: Mutex<String>,
+    /// Images (interim or final) written so far, read by the signal watchdog.
+    images: AtomicU32,
+    /// Test hook (`--debug-delay PHASE=SECONDS`): an uninterruptible sleep at the start
+    /// of a phase, standing in for slow work that cannot poll the stop flag.
+    delays: Vec<(String, Duration)>,
 }
 
 impl Reporter {
     /// A reporter in the given mode.
     pub fn new(mode: ProgressMode) -> Self {
-        Reporter { mode, bar: Mutex::new(None), silent: false }
+        Reporter {
+            mode,
+            bar: Mutex::new(None),
+            silent: false,
+            current: Mutex::new(String::new()),
+            images: AtomicU32::new(0),
+            delays: Vec::new(),
+        }
+    }
+
+    /// Adds the `--debug-delay PHASE=SECONDS` sleeps (a hidden flag for the signal tests).
+    pub fn with_debug_delays(mut self, specs: &[String]) -> Result<Self, String> {
+        for spec in specs {
+            let (phase, secs) =
+                spec.split_once('=').ok_or_else(|| format!("--debug-delay '{spec}' is not PHASE=SECONDS"))?;
+            let secs: f64 = secs.parse().map_err(|_| format!("--debug-delay '{spec}': bad seconds"))?;
+            if !(0.0..=3600.0).contains(&secs) {
+                return Err(format!("--debug-delay '{spec}': seconds must be in 0..=3600"));
+            }
+            self.delays.push((phase.to_string(), Duration::from_secs_f64(secs)));
+        }
+        Ok(self)
+    }
+
+    /// The phase announced last ("" before the first).
+    pub fn current_phase(&self) -> String {
+        self.current.lock().map(|p| p.clone()).unwrap_or_default()
+    }
+
+    /// Images written so far (interim and final).
+    pub fn images_written(&self) -> u32 {
+        self.images.load(Ordering::SeqCst)
     }
 
     /// A reporter that prints nothing at all (for `caustic bench`, which prints its own).
     pub fn silent() -> Self {
-        Reporter { mode: ProgressMode::None, bar: Mutex::new(None), silent: true }
+        Reporter { silent: true, ..Reporter::new(ProgressMode::None) }
     }
 
     /// The mode.
@@ -56,6 +96,18 @@ impl Reporter {
 
     /// A phase starts: loading, bvh, rendering, writing.
     pub fn phase(&self, phase: &str, elapsed: f64) {
+        if let Ok(mut p) = self.current.lock() {
+            *p = phase.to_string();
+        }
+        self.phase_line(phase, elapsed);
+        for (p, d) in &self.delays {
+            if p == phase {
+                std::thread::sleep(*d);
+            }
+        }
+    }
+
+    fn phase_line(&self, phase: &str, elapsed: f64) {
         match self.mode {
             ProgressMode::Json => self.json_line(json!({"type": "phase", "phase": phase, "elapsed": elapsed})),
             ProgressMode::Bar => {
@@ -143,6 +195,7 @@ impl Reporter {
 
     /// An image was written.
     pub fn image(&self, path: &str, samples: u32, is_final: bool) {
+        self.images.fetch_add(1, Ordering::SeqCst);
         if self.mode == ProgressMode::Json {
             self.json_line(json!({"type": "image", "path": path, "samples": samples, "final": is_final}));
         }

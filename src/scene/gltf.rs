@@ -14,6 +14,7 @@ use super::{
 use crate::error::{Error, Result};
 use crate::light::{AreaLight, AreaShape, Light};
 use crate::math::luminance;
+use crate::memory::{self, MemoryBudget};
 use base64::Engine;
 use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 use gltf::json;
@@ -54,22 +55,30 @@ const MAX_COORDINATE: f32 = 1e15;
 /// Instances beyond this are refused: a DAG of shared nodes can explode exponentially.
 const MAX_INSTANCES: usize = 1_000_000;
 
-/// Loads a scene from a .gltf or .glb file.
+/// Loads a scene from a .gltf or .glb file with no memory limit (tests and tools; the
+/// commands use [`load_within`]).
 pub fn load(path: &Path) -> Result<Scene> {
+    load_within(path, &MemoryBudget::unlimited())
+}
+
+/// Loads a scene, charging the decoded textures and the flattened mesh to `budget`
+/// before allocating them.
+pub fn load_within(path: &Path, budget: &MemoryBudget) -> Result<Scene> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
     let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    load_bytes(&bytes, &base, &path.display().to_string())
+    load_bytes(&bytes, &base, &path.display().to_string(), budget)
 }
 
 /// Loads a scene from bytes; external files are resolved relative to `base_dir`.
 /// Panics inside the parser are turned into errors: a malformed file must never
 /// take the process down.
-pub fn load_bytes(bytes: &[u8], base_dir: &Path, file: &str) -> Result<Scene> {
+pub fn load_bytes(bytes: &[u8], base_dir: &Path, file: &str, budget: &MemoryBudget) -> Result<Scene> {
     // The parser's panics are reported as errors below; keep their default message
     // (and backtrace) off stderr, where a host reads JSON lines.
     let previous_hook = std::panic::take_hook();
     std::panic::set_hook(Box::new(|_| {}));
-    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| Loader::new(file, base_dir).load(bytes)));
+    let result =
+        std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| Loader::new(file, base_dir, budget).load(bytes)));
     std::panic::set_hook(previous_hook);
     match result {
         Ok(r) => r,
@@ -114,6 +123,7 @@ type TexKey = (usize, bool, Option<usize>);
 struct Loader<'a> {
     file: &'a str,
     base_dir: &'a Path,
+    budget: &'a MemoryBudget,
     warnings: Vec<String>,
     textures: Vec<Texture>,
     texture_cache: HashMap<TexKey, u32>,
@@ -121,10 +131,11 @@ struct Loader<'a> {
 }
 
 impl<'a> Loader<'a> {
-    fn new(file: &'a str, base_dir: &'a Path) -> Self {
+    fn new(file: &'a str, base_dir: &'a Path, budget: &'a MemoryBudget) -> Self {
         Loader {
             file,
             base_dir,
+            budget,
             warnings: Vec::new(),
             textures: Vec::new(),
             texture_cache: HashMap::new(),
@@ -193,6 +204,7 @@ impl<'a> Loader<'a> {
         // 5. Buffers.
         let buffers = self.load_buffers(&doc, bin)?;
         self.check_views_and_accessors(&doc, &buffers)?;
+        self.check_accessor_types(&doc)?;
 
         // 6. Materials (textures decoded on first use).
         let mut materials = Vec::new();
@@ -207,6 +219,7 @@ impl<'a> Loader<'a> {
 
         // 7. Node graph to instances.
         let instances = self.instances(&doc, &value)?;
+        self.charge_mesh(&doc, &instances)?;
 
         let mut mesh = Mesh::default();
         let mut cameras = Vec::new();
@@ -412,6 +425,11 @@ impl<'a> Loader<'a> {
                         "{label}: image size {width}×{height} is outside 1..={MAX_TEXTURE_SIDE} per side"
                     )));
                 }
+                // Kept: linear RGB (12 B) and the importance distribution (≈ 8 B) per
+                // texel; transient: the decoder's image and its f32 RGB copy (16 + 12 B).
+                let texels = width as u64 * height as u64;
+                self.budget.charge(format!("{label} ({width}×{height})"), texels * 20)?;
+                self.budget.check_peak(format!("decoding {label}"), texels * 28)?;
                 let decoded = image::ImageReader::new(std::io::Cursor::new(&bytes))
                     .with_guessed_format()
                     .map_err(|e| self.err(format!("{label}: {e}")))?
@@ -490,6 +508,61 @@ impl<'a> Loader<'a> {
     }
 
     /// Bounds checks the crate leaves to us: views inside buffers, accessors inside views.
+    /// Checks every primitive's attribute and index accessors and image sources against
+    /// the types glTF allows: the crate's readers and `Image::source`
+    /// reach `unreachable!()` or unwrap `None` on anything else (found by the fuzzer).
+    fn check_accessor_types(&self, doc: &gltf::Document) -> Result<()> {
+        use gltf::Semantic;
+        use gltf::accessor::{DataType as T, Dimensions as D};
+        for m in doc.meshes() {
+            for prim in m.primitives() {
+                let what = format!("mesh {} primitive {}", m.index(), prim.index());
+                if let Some(idx) = prim.indices()
+                    && !(idx.dimensions() == D::Scalar && matches!(idx.data_type(), T::U8 | T::U16 | T::U32))
+                {
+                    return Err(self.err(format!(
+                        "{what}: indices accessor {} is {:?} {:?}; indices must be unsigned-integer SCALAR",
+                        idx.index(),
+                        idx.data_type(),
+                        idx.dimensions()
+                    )));
+                }
+                for (semantic, acc) in prim.attributes() {
+                    let (t, d) = (acc.data_type(), acc.dimensions());
+                    let ok = match &semantic {
+                        Semantic::Positions | Semantic::Normals => (t, d) == (T::F32, D::Vec3),
+                        Semantic::Tangents => (t, d) == (T::F32, D::Vec4),
+                        Semantic::TexCoords(_) => d == D::Vec2 && matches!(t, T::F32 | T::U8 | T::U16),
+                        Semantic::Colors(_) => matches!(d, D::Vec3 | D::Vec4) && matches!(t, T::F32 | T::U8 | T::U16),
+                        Semantic::Joints(_) => d == D::Vec4 && matches!(t, T::U8 | T::U16),
+                        Semantic::Weights(_) => d == D::Vec4 && matches!(t, T::F32 | T::U8 | T::U16),
+                        #[allow(unreachable_patterns)]
+                        _ => true,
+                    };
+                    if !ok {
+                        return Err(self.err(format!(
+                            "{what}: attribute {} uses accessor {} of type {t:?} {d:?}, which glTF does not allow for it",
+                            semantic.to_string(),
+                            acc.index()
+                        )));
+                    }
+                }
+            }
+        }
+        for image in doc.images() {
+            let json = image.index();
+            let raw = &doc.as_json().images[json];
+            match (&raw.buffer_view, &raw.uri, &raw.mime_type) {
+                (Some(_), _, None) => {
+                    return Err(self.err(format!("image {json}: a bufferView image needs a mimeType")));
+                }
+                (None, None, _) => return Err(self.err(format!("image {json}: has neither a uri nor a bufferView"))),
+                _ => {}
+            }
+        }
+        Ok(())
+    }
+
     fn check_views_and_accessors(&self, doc: &gltf::Document, buffers: &[Vec<u8>]) -> Result<()> {
         for v in doc.views() {
             let end = v.offset().checked_add(v.length());
@@ -581,6 +654,11 @@ impl<'a> Loader<'a> {
                 self.err(format!("texture {label}: image size {w}×{h} is outside 1..={MAX_TEXTURE_SIDE} per side"))
             );
         }
+        // Kept: RGBA8 texels; transient: the decoded image (at most 16-bit RGBA) and
+        // its 8-bit conversion.
+        let texels = w as u64 * h as u64;
+        self.budget.charge(format!("texture {label} ({w}×{h})"), texels * 4)?;
+        self.budget.check_peak(format!("decoding texture {label}"), texels * 12)?;
         let decoded = image::ImageReader::new(std::io::Cursor::new(&bytes))
             .with_guessed_format()
             .map_err(|e| self.err(format!("texture {label}: {e}")))?
@@ -1103,6 +1181,39 @@ impl<'a> Loader<'a> {
     /// Appends every triangle primitive of `m` under `world`; returns the number of
     /// degenerate triangles dropped.
     #[allow(clippy::too_many_arguments)]
+    /// Charges the world-space mesh that flattening `instances` will build (each
+    /// instance copies its mesh's vertices and triangles), before any of it is read:
+    /// accessor counts are known from the JSON alone, and a sparse accessor or a shared
+    /// subtree can declare far more than the file holds.
+    fn charge_mesh(&self, doc: &gltf::Document, instances: &[(usize, Mat4)]) -> Result<()> {
+        use gltf::mesh::Mode;
+        let mut per_mesh: HashMap<usize, (u64, u64)> = HashMap::new();
+        let (mut vertices, mut triangles) = (0u64, 0u64);
+        for (node_index, _) in instances {
+            let Some(m) = doc.nodes().nth(*node_index).and_then(|n| n.mesh()) else { continue };
+            let (v, t) = *per_mesh.entry(m.index()).or_insert_with(|| {
+                let (mut v, mut t) = (0u64, 0u64);
+                for prim in m.primitives() {
+                    let n = prim.get(&gltf::Semantic::Positions).map_or(0, |a| a.count() as u64);
+                    let idx = prim.indices().map_or(n, |a| a.count() as u64);
+                    v += n;
+                    t += match prim.mode() {
+                        Mode::Triangles => idx / 3,
+                        Mode::TriangleStrip | Mode::TriangleFan => idx.saturating_sub(2),
+                        _ => 0,
+                    };
+                }
+                (v, t)
+            });
+            vertices = vertices.saturating_add(v);
+            triangles = triangles.saturating_add(t);
+        }
+        let bytes = vertices
+            .saturating_mul(memory::MESH_BYTES_PER_VERTEX)
+            .saturating_add(triangles.saturating_mul(memory::MESH_BYTES_PER_TRIANGLE));
+        self.budget.charge(format!("the mesh ({triangles} triangles and {vertices} vertices after instancing)"), bytes)
+    }
+
     fn append_mesh(
         &mut self,
         m: &gltf::Mesh,

@@ -5,7 +5,10 @@ position (R = (x+0.5)/W, G = (y+0.5)/H with y from the top), and talks JSON on s
 the add-on's half of the contract (crop placement, interim images, cancel, errors) exactly,
 independent of the renderer's progress. Behaviour switches through FAKE_CAUSTIC_MODE:
 "ok" (default), "slow" (renders until SIGTERM), "error" (a scene error, exit 3),
-"crash" (dies with a message that is not JSON). With FAKE_CAUSTIC_SCENE_DIR set, each glTF it
+"crash" (dies with a message that is not JSON), "segfault" (killed by SIGSEGV mid-render),
+"garbage" (binary junk and malformed or ill-typed JSON on stdout and stderr, then a normal
+render), "no-image" (claims success but writes nothing), "wrong-size" (writes an image of
+the wrong size), "ignore-term" (renders until SIGKILL, ignoring SIGTERM). With FAKE_CAUSTIC_SCENE_DIR set, each glTF it
 is given is copied there as scene_000.gltf, scene_001.gltf, ... for the export tests.
 """
 
@@ -25,6 +28,26 @@ from exr_io import write_exr  # noqa: E402
 
 def emit(**obj):
     sys.stderr.write(json.dumps(obj) + "\n")
+    sys.stderr.flush()
+
+
+def junk():
+    """What a broken or foreign binary might print: raw bytes, cut JSON, JSON of the wrong shape."""
+    for stream in (sys.stdout.buffer, sys.stderr.buffer):
+        stream.write(b"\x00\xff\xfe garbage \x1b[31m\x80\x81\n")
+        stream.write(b'{"type": "progress", "fraction": 0.5\n')
+        stream.write(b"[1, 2, 3]\n")
+        stream.write(b"{\"no_type\": 1}\n")
+        stream.write(b"\xff" * 5000 + b"\n")
+        stream.flush()
+    for obj in ({"type": "progress", "fraction": "half", "samples_done": "many", "samples_total": [],
+                 "elapsed": "soon", "eta": {}, "rays_per_sec": "fast"},
+                {"type": "progress", "fraction": float("nan"), "elapsed": float("inf")},
+                {"type": "phase"}, {"type": 5}, {"type": "warning", "message": ["not", "text"]},
+                {"type": "image", "path": 123, "final": "no"},
+                {"type": "image", "path": "/etc/passwd", "final": False},
+                {"type": "summary", "spp": "x", "elapsed": None, "nan_samples": "y"}):
+        sys.stderr.write(json.dumps(obj) + "\n")
     sys.stderr.flush()
 
 
@@ -82,7 +105,12 @@ def main():
         json.dump(sys.argv[1:], log)
 
     stop = {"flag": False}
-    signal.signal(signal.SIGTERM, lambda *_: stop.update(flag=True))
+    if mode == "ignore-term":
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    else:
+        signal.signal(signal.SIGTERM, lambda *_: stop.update(flag=True))
+    if mode == "garbage":
+        junk()
 
     emit(type="phase", phase="loading", elapsed=0.0)
     try:
@@ -106,9 +134,11 @@ def main():
     width, height = (int(v) for v in args.resolution.split("x"))
     if "resolution" in gltf["scenes"][0].get("extras", {}).get("caustic", {}):
         assert gltf["scenes"][0]["extras"]["caustic"]["resolution"] == [width, height]
+    if mode == "wrong-size":
+        width, height = width + 3, height + 1
     crop = tuple(int(v) for v in args.crop.split(",")) if args.crop else (0, 0, width, height)
     emit(type="phase", phase="rendering", elapsed=0.0)
-    total = None if mode == "slow" else args.spp
+    total = None if mode in ("slow", "ignore-term") else args.spp
     done = 0
     last_interim = time.monotonic()
     started = time.monotonic()
@@ -118,6 +148,10 @@ def main():
             sys.exit(1)
         time.sleep(0.05)
         done += 1
+        if mode == "segfault" and done == 3:
+            os.kill(os.getpid(), signal.SIGSEGV)
+        if mode == "garbage" and done == 2:
+            junk()
         emit(type="progress", phase="rendering", fraction=(done / total) if total else 0.0,
              samples_done=done, samples_total=total, elapsed=done * 0.05, eta=None,
              rays_per_sec=1.0e6)
@@ -127,7 +161,8 @@ def main():
             last_interim = time.monotonic()
     interrupted = stop["flag"]
     emit(type="phase", phase="writing", elapsed=done * 0.05)
-    write_atomic(args.out, image(width, height, crop, 1.0))
+    if mode != "no-image":
+        write_atomic(args.out, image(width, height, crop, 1.0))
     emit(type="image", path=args.out, samples=done, final=True)
     emit(type="summary", output=args.out, width=crop[2] - crop[0], height=crop[3] - crop[1],
          spp=done, elapsed=done * 0.05, interrupted=interrupted, nan_samples=0, warnings=[],

@@ -1492,6 +1492,44 @@ def hostile_makers():
         root["scenes"][0]["nodes"] = [n0] + root["scenes"][0]["nodes"][1:]
     add(lambda: tri_ok("bad/deep_hierarchy.gltf", "a chain of 600 nested nodes above the mesh (no recursion limit)",
                        [], deep_chain))
+
+    # Found by the fuzzer (src/fuzz.rs, seeds 11-12): the glTF crate's readers reach
+    # unreachable!() or unwrap None on these; the loader must refuse them by name first.
+    add(lambda: tri_bad("bad/indices_float_accessor.gltf", "indices point at the float VEC3 POSITION accessor (fuzzer)",
+                        setter(["meshes", 0, "primitives", 0, "indices"], 0), ["indices"]))
+    add(lambda: tri_bad("bad/indices_signed_short.gltf", "an indices accessor of signed SHORTs (fuzzer)",
+                        setter(["accessors", 2, "componentType"], 5122), ["indices"]))
+    add(lambda: tri_bad("bad/texcoord_scalar.gltf", "TEXCOORD_0 is a SCALAR accessor",
+                        setter(["meshes", 0, "primitives", 0, "attributes", "TEXCOORD_0"], 2), ["texcoord_0"]))
+
+    def image_without_source(root):
+        root["images"] = [{"name": "nothing"}]
+        root["textures"] = [{"source": 0}]
+        first_material(root)["pbrMetallicRoughness"] = {"baseColorTexture": {"index": 0}}
+    add(lambda: tri_bad("bad/image_without_source.gltf", "an image with neither uri nor bufferView (fuzzer)",
+                        image_without_source, ["uri", "bufferview"]))
+
+    def image_view_without_mime(root):
+        root["images"] = [{"bufferView": 2}]
+        root["textures"] = [{"source": 0}]
+        first_material(root)["pbrMetallicRoughness"] = {"baseColorTexture": {"index": 0}}
+    add(lambda: tri_bad("bad/image_view_without_mime.gltf", "a bufferView image without mimeType",
+                        image_view_without_mime, ["mimetype"]))
+
+    def sparse_float_indices(root):
+        root["accessors"][0]["sparse"] = {"count": 1, "indices": {"bufferView": 2, "componentType": 5126},
+                                          "values": {"bufferView": 0}}
+    add(lambda: tri_bad("bad/sparse_float_indices.gltf", "sparse indices of componentType FLOAT",
+                        sparse_float_indices, ["sparse"]))
+
+    def billion_vertices(root):
+        # A sparse accessor needs no base data: a few bytes declare 2e9 vertices (144 GB once
+        # flattened), which the memory budget refuses before anything is read (exit 7).
+        root["accessors"][0].update({"count": 2000000000, "sparse": {
+            "count": 1, "indices": {"bufferView": 2, "componentType": 5123}, "values": {"bufferView": 0}}})
+        root["accessors"][0].pop("bufferView")
+    add(lambda: tri_bad("bad/sparse_billion_vertices.gltf", "a sparse POSITION accessor of 2e9 vertices: over the "
+                        "memory budget", billion_vertices, ["memory limit"], exit_code=7))
     return makers
 
 

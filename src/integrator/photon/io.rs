@@ -113,9 +113,14 @@ impl PhotonMaps {
         )
     }
 
+    /// The temporary file [`PhotonMaps::save`] writes before renaming it to `path`.
+    pub fn temp_path(path: &Path) -> std::path::PathBuf {
+        path.with_extension("tmp-photons")
+    }
+
     /// Writes the maps (atomically: temp file, then rename).
     pub fn save(&self, path: &Path) -> Result<()> {
-        let tmp = path.with_extension("tmp-photons");
+        let tmp = Self::temp_path(path);
         let write = || -> std::io::Result<()> {
             let f = std::fs::File::create(&tmp)?;
             let mut w = std::io::BufWriter::new(f);

@@ -73,6 +73,12 @@ struct VisiblePoint {
     d: u32,
 }
 
+/// Bytes of SPPM's per-pixel state (progressive sums and this iteration's visible
+/// point), for the memory budget.
+pub fn bytes_per_pixel() -> u64 {
+    (std::mem::size_of::<PixelState>() + std::mem::size_of::<Option<VisiblePoint>>()) as u64
+}
+
 /// Counters of an SPPM render.
 #[derive(Clone, Copy, Debug, Default, serde::Serialize)]
 pub struct SppmStats {
