@@ -1131,8 +1131,13 @@ fn charge_render(budget: &MemoryBudget, args: &RenderArgs, res: &Resolved, scene
                 memory::photon_map_bytes(per_iter, res.max_depth),
             )
         }
-        // The path tracer keeps nothing per pixel beyond the film; an integrator with its
-        // own large buffers (per-worker splat films, say) charges them in an arm above.
-        _ => Ok(()),
+        // Light-tracing splats: the film's sum plus one buffer per worker (f64 RGB each;
+        // the pool holds one per concurrently running tile, at most one per thread).
+        IntegratorKind::Bdpt => budget.charge(
+            format!("bidirectional splat buffers ({} threads + 1) for {pixels} pixels", res.threads),
+            pixels.saturating_mul(24).saturating_mul(res.threads as u64 + 1),
+        ),
+        // The path tracer keeps nothing per pixel beyond the film.
+        IntegratorKind::Path => Ok(()),
     }
 }
