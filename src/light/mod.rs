@@ -9,6 +9,7 @@
 
 pub mod environment;
 pub mod sampler;
+pub mod tree;
 
 use crate::math::Rgb;
 use crate::sampling::warp::{concentric_disk, uniform_triangle};
@@ -16,7 +17,7 @@ use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
 pub use environment::Environment;
-pub use sampler::LightSampler;
+pub use sampler::{LightSampler, LightSamplerKind};
 
 /// Shape of an area light.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
