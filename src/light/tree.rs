@@ -350,6 +350,31 @@ impl LightTree {
         pmf
     }
 
+    /// Probability that `sample(p, n, ·)` finds no light: it reached a node whose
+    /// children both have zero importance (the union of their bounds is looser than
+    /// either), or no light reaches the point. The lights' pmfs sum to 1 minus this.
+    pub fn failure_probability(&self, p: Vec3, n: Vec3) -> f32 {
+        fn walk(t: &LightTree, node: usize, p: Vec3, n: Vec3) -> f64 {
+            if t.nodes[node].leaf {
+                return 0.0;
+            }
+            let (a, b, ia, ib) = t.child_importance(node, p, n);
+            let total = ia + ib;
+            if !(total > 0.0) {
+                return 1.0;
+            }
+            let pa = ia / total;
+            let fa = if pa > 0.0 { pa as f64 * walk(t, a, p, n) } else { 0.0 };
+            let fb = if pa < 1.0 { (1.0 - pa) as f64 * walk(t, b, p, n) } else { 0.0 };
+            fa + fb
+        }
+        match self.nodes.first() {
+            None => 1.0,
+            Some(r) if r.leaf => (r.bounds.importance(p, n) <= 0.0) as u8 as f32,
+            Some(_) => walk(self, 0, p, n) as f32,
+        }
+    }
+
     /// Depth of the deepest leaf (for tests and reports).
     pub fn depth(&self) -> usize {
         self.trail.iter().flatten().map(|&(_, d)| d as usize).max().unwrap_or(0)
