@@ -59,6 +59,7 @@ def render_settings(scene, resolution, camera_name):
         "max_depth": int(props.max_bounces) + 1,
         "seed": int(props.seed),
         "integrator": props.integrator,
+        "light_sampler": props.light_sampler,
         # Film → Transparent off means an opaque background (alpha 1), as in Cycles.
         "transparent": bool(scene.render.film_transparent),
         # Blender's pixel filter (Blackman-Harris, as Cycles' default). Cycles spreads the

@@ -93,3 +93,28 @@ fn tree_and_power_sampling_agree_and_tree_is_less_noisy() {
     // known to a few percent, so this cannot pass by chance nor fail by noise.
     assert!(vt < 0.5 * vp, "the tree is not clearly less noisy: variance ratio {}", vt / vp);
 }
+
+/// The scene's `light_sampler` setting is used and reported; an unknown name is a usage
+/// error naming it.
+#[test]
+fn light_sampler_setting_from_the_scene() {
+    let dir = temp_dir();
+    let src = root().join("scenes");
+    std::fs::copy(src.join("many_lights.bin"), dir.path().join("many_lights.bin")).unwrap();
+    let mut gltf: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(src.join("many_lights.gltf")).unwrap()).unwrap();
+    for (name, code) in [("power", 0), ("bogus", 2)] {
+        gltf["scenes"][0]["extras"]["caustic"]["light_sampler"] = serde_json::json!(name);
+        let scene = dir.path().join("s.gltf");
+        std::fs::write(&scene, gltf.to_string()).unwrap();
+        let out = dir.path().join("x.exr");
+        let args = ["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--progress", "json"];
+        let r = run(&[&args[..], &["--resolution", "16x9", "--spp", "1"]].concat(), Duration::from_secs(60));
+        assert_eq!(r.code, Some(code), "{name}: {}", r.stderr);
+        if code == 0 {
+            assert_eq!(r.summary().unwrap()["light_sampler"], "power");
+        } else {
+            assert!(r.error_message().unwrap_or_default().contains("bogus"));
+        }
+    }
+}
