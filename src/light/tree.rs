@@ -103,12 +103,47 @@ impl LightBounds {
     /// Zero only where no light of the set can reach `p` (or reach it from above `n`).
     #[inline]
     pub fn importance(&self, p: Vec3, n: Vec3) -> f32 {
-        let pc = self.centroid();
-        let d = p - pc;
-        let half_diag = (self.max - self.min).length() * 0.5;
+        NodeBounds::from(self).importance(p, n)
+    }
+}
+
+/// [`LightBounds`] as the tree stores them, with what importance needs precomputed.
+#[derive(Clone, Copy, Debug)]
+struct NodeBounds {
+    center: Vec3,
+    /// Radius of the box's bounding sphere.
+    radius: f32,
+    w: Vec3,
+    phi: f32,
+    cos_o: f32,
+    sin_o: f32,
+    cos_e: f32,
+    two_sided: bool,
+}
+
+impl From<&LightBounds> for NodeBounds {
+    fn from(b: &LightBounds) -> Self {
+        NodeBounds {
+            center: b.centroid(),
+            radius: (b.max - b.min).length() * 0.5,
+            w: b.w,
+            phi: b.phi,
+            cos_o: b.cos_o,
+            sin_o: safe_sqrt(1.0 - b.cos_o * b.cos_o),
+            cos_e: b.cos_e,
+            two_sided: b.two_sided,
+        }
+    }
+}
+
+impl NodeBounds {
+    #[inline]
+    fn importance(&self, p: Vec3, n: Vec3) -> f32 {
+        let d = p - self.center;
+        let len2 = d.length_squared();
+        let len = len2.sqrt();
         // Inside or near the box the distance is no guide: clamp to the box's size.
-        let d2 = d.length_squared().max(half_diag * half_diag).max(1e-12);
-        let len = d.length();
+        let d2 = len2.max(self.radius * self.radius).max(1e-12);
         let wi = if len > 0.0 { d / len } else { self.w };
 
         let mut cos_w = self.w.dot(wi);
@@ -117,17 +152,16 @@ impl LightBounds {
         }
         let sin_w = safe_sqrt(1.0 - cos_w * cos_w);
         // Angle the box subtends from p (its bounding sphere): the whole sphere inside.
-        let (sin_b, cos_b) = if len > half_diag {
-            let sin_b = half_diag / len;
+        let (sin_b, cos_b) = if len > self.radius {
+            let sin_b = self.radius / len;
             (sin_b, safe_sqrt(1.0 - sin_b * sin_b))
         } else {
             (1.0, -1.0)
         };
         // θ' = max(θw - θo - θb, 0): the smallest angle between an emission normal and
         // the direction from any point of the box to p.
-        let sin_o = safe_sqrt(1.0 - self.cos_o * self.cos_o);
-        let cos_x = cos_sub_clamped(sin_w, cos_w, sin_o, self.cos_o);
-        let sin_x = sin_sub_clamped(sin_w, cos_w, sin_o, self.cos_o);
+        let cos_x = cos_sub_clamped(sin_w, cos_w, self.sin_o, self.cos_o);
+        let sin_x = sin_sub_clamped(sin_w, cos_w, self.sin_o, self.cos_o);
         let cos_p = cos_sub_clamped(sin_x, cos_x, sin_b, cos_b);
         if cos_p <= self.cos_e - ANGLE_MARGIN {
             return 0.0;
@@ -214,7 +248,7 @@ fn cone_union(wa: Vec3, cos_a: f32, wb: Vec3, cos_b: f32) -> (Vec3, f32) {
 /// `index`; leaves name their light in `index`.
 #[derive(Clone, Copy, Debug)]
 struct Node {
-    bounds: LightBounds,
+    bounds: NodeBounds,
     index: u32,
     leaf: bool,
 }
@@ -264,19 +298,19 @@ impl LightTree {
         assert!(depth < MAX_DEPTH, "light tree deeper than its trail");
         if items.len() == 1 {
             let (b, light) = items[0];
-            self.nodes.push(Node { bounds: b, index: light, leaf: true });
+            self.nodes.push(Node { bounds: (&b).into(), index: light, leaf: true });
             self.trail[light as usize] = Some((trail, depth as u8));
             return b;
         }
         let mid = if depth >= BALANCED_FROM { split_by_count(items) } else { split_by_cost(items) };
         let me = self.nodes.len();
-        self.nodes.push(Node { bounds: items[0].0, index: 0, leaf: false });
+        self.nodes.push(Node { bounds: (&items[0].0).into(), index: 0, leaf: false });
         let (left, right) = items.split_at_mut(mid);
         let lb = self.build_node(left, depth + 1, trail);
         let second = self.nodes.len() as u32;
         let rb = self.build_node(right, depth + 1, trail | (1u64 << depth));
         let b = lb.union(&rb);
-        self.nodes[me] = Node { bounds: b, index: second, leaf: false };
+        self.nodes[me] = Node { bounds: (&b).into(), index: second, leaf: false };
         b
     }
 
