@@ -203,7 +203,7 @@ impl<'a> SceneContext<'a> {
                 } else {
                     power_heuristic(prev_pdf, self.light_pdf(*index, prev_p, prev_n, org + dir * t, a.normal))
                 };
-                sum += a.radiance * w;
+                sum += a.radiance * (w * a.spread_attenuation((-dir).dot(a.normal)));
                 any = true;
             }
         }
@@ -562,7 +562,7 @@ impl<'a> SceneContext<'a> {
                 })
             }
             Light::Area(a) => {
-                let q = a.sample_point(u);
+                let (q, pdf_area) = a.sample_from(p, u)?;
                 let d = q - p;
                 let dist = d.length();
                 if dist <= 0.0 {
@@ -570,11 +570,11 @@ impl<'a> SceneContext<'a> {
                 }
                 let wi = d / dist;
                 let cos_l = (-wi).dot(a.normal);
-                let pdf = area_to_solid_angle(1.0 / a.area, dist, cos_l);
+                let pdf = area_to_solid_angle(pdf_area, dist, cos_l);
                 (pdf > 0.0).then_some(LightSample {
                     wi,
                     dist,
-                    li: a.radiance,
+                    li: a.radiance * a.spread_attenuation(cos_l),
                     pdf,
                     delta: false,
                     point: q,
@@ -631,19 +631,19 @@ impl<'a> SceneContext<'a> {
     /// light `index`, from `p`.
     #[inline]
     pub fn light_pdf(&self, index: usize, p: Vec3, n: Vec3, q: Vec3, n_light: Vec3) -> f32 {
-        let area = match &self.scene.lights[index] {
-            Light::Area(a) => a.area,
+        let pdf_area = match &self.scene.lights[index] {
+            Light::Area(a) => a.pdf_area_from(p, q),
             Light::Triangle { tri } => {
                 let m = &self.scene.mesh;
                 let [a, b, c] = m.triangles[*tri as usize].map(|i| m.positions[i as usize]);
-                0.5 * (b - a).cross(c - a).length()
+                1.0 / (0.5 * (b - a).cross(c - a).length())
             }
             _ => return 0.0,
         };
         let d = q - p;
         let dist = d.length();
         let cos_l = n_light.dot(-d / dist).abs();
-        self.lights.pmf(p, n, index) * area_to_solid_angle(1.0 / area, dist, cos_l)
+        self.lights.pmf(p, n, index) * area_to_solid_angle(pdf_area, dist, cos_l)
     }
 
     /// Unoccluded fraction between a surface point (offset along `ng`) and a light sample.

@@ -205,7 +205,8 @@ pub fn scene_light_bounds(scene: &Scene) -> Vec<Option<LightBounds>> {
             Light::Area(a) => {
                 let corners = [a.ax + a.ay, a.ax - a.ay, -a.ax + a.ay, -a.ax - a.ay].map(|c| a.center + c);
                 let (lo, hi) = corners.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), c| (lo.min(*c), hi.max(*c)));
-                Some(LightBounds::new(lo, hi, a.normal, phi, 0.0, half_pi, false))
+                // Nothing is emitted beyond half the spread.
+                Some(LightBounds::new(lo, hi, a.normal, phi, 0.0, a.half_spread(), false))
             }
             Light::Triangle { tri } => {
                 let m = &scene.mesh;
