@@ -137,7 +137,9 @@ impl PathIntegrator {
             // Emission found by the path, weighted against light sampling.
             if sp.emitted != Rgb::ZERO {
                 let w = match (prev_bsdf_pdf > 0.0, ctx.lights.light_of_triangle(hit.tri)) {
-                    (true, Some(index)) => power_heuristic(prev_bsdf_pdf, ctx.light_pdf(index, prev_p, prev_n, s.p, s.ng)),
+                    (true, Some(index)) => {
+                        power_heuristic(prev_bsdf_pdf, ctx.light_pdf(index, prev_p, prev_n, s.p, s.ng))
+                    }
                     _ => 1.0,
                 };
                 radiance += beta * sp.emitted * w;

@@ -414,9 +414,12 @@ mod tests {
     #[test]
     fn chi2_area_light_with_spread() {
         let p = Vec3::ZERO;
-        for (shape, deg) in
-            [(AreaShape::Rectangle, 120.0), (AreaShape::Ellipse, 90.0), (AreaShape::Rectangle, 40.0), (AreaShape::Ellipse, 180.0)]
-        {
+        for (shape, deg) in [
+            (AreaShape::Rectangle, 120.0),
+            (AreaShape::Ellipse, 90.0),
+            (AreaShape::Rectangle, 40.0),
+            (AreaShape::Ellipse, 180.0),
+        ] {
             let l = light(shape, deg);
             let to_solid = |q: Vec3, pdf_area: f32| {
                 let d = q - p;

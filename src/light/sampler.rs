@@ -74,11 +74,8 @@ impl LightSampler {
         // As `Distribution1D`, a scene whose lights all have zero power picks uniformly.
         let all_zero = !powers.iter().any(|&p| p > 0.0 && p.is_finite());
         let weight = |i: usize| if all_zero { 1.0 } else { powers[i] };
-        let bounds: Vec<Option<LightBounds>> = bounds
-            .iter()
-            .enumerate()
-            .map(|(i, b)| b.map(|b| LightBounds { phi: weight(i), ..b }))
-            .collect();
+        let bounds: Vec<Option<LightBounds>> =
+            bounds.iter().enumerate().map(|(i, b)| b.map(|b| LightBounds { phi: weight(i), ..b })).collect();
         let tree = LightTree::build(&bounds);
         let infinite: Vec<u32> = (0..bounds.len()).filter(|&i| bounds[i].is_none()).map(|i| i as u32).collect();
         let inf_w: Vec<f32> = infinite.iter().map(|&i| weight(i as usize)).collect();
@@ -91,7 +88,13 @@ impl LightSampler {
         let p_infinite = if total > 0.0 { p_inf_power / total } else { 0.0 };
         LightSampler {
             power,
-            tree: Some(TreeSampler { tree, infinite, infinite_dist: Distribution1D::new(&inf_w), infinite_slot, p_infinite }),
+            tree: Some(TreeSampler {
+                tree,
+                infinite,
+                infinite_dist: Distribution1D::new(&inf_w),
+                infinite_slot,
+                p_infinite,
+            }),
             tri_to_light,
         }
     }
@@ -212,7 +215,15 @@ mod tests {
                     let two_sided = i % 5 == 1;
                     tris.push((i, v, two_sided));
                     let nrm = (v[1] - v[0]).cross(v[2] - v[0]);
-                    LightBounds::new(v[0].min(v[1]).min(v[2]), v[0].max(v[1]).max(v[2]), nrm, phi, 0.0, PI / 2.0, two_sided)
+                    LightBounds::new(
+                        v[0].min(v[1]).min(v[2]),
+                        v[0].max(v[1]).max(v[2]),
+                        nrm,
+                        phi,
+                        0.0,
+                        PI / 2.0,
+                        two_sided,
+                    )
                 }
                 2 => LightBounds::new(c, c, Vec3::Z, phi, PI, PI / 2.0, false),
                 3 => LightBounds::new(c, c, unit(rng), phi, 0.2 + rng.next_f32(), 0.0, false),
@@ -245,8 +256,8 @@ mod tests {
         for k in 0..500 {
             let p = in_box(&mut rng, 7.0);
             let n = if k % 3 == 0 { Vec3::ZERO } else { unit(&mut rng) };
-            let sum: f64 = (0..powers.len()).map(|i| s.pmf(p, n, i) as f64).sum::<f64>()
-                + s.failure_probability(p, n) as f64;
+            let sum: f64 =
+                (0..powers.len()).map(|i| s.pmf(p, n, i) as f64).sum::<f64>() + s.failure_probability(p, n) as f64;
             // The probabilities are products of at most depth + 1 factors, each with a
             // relative rounding error of a few ulps: 1e-4 is far above that and far
             // below any real error (a missed subtree weighs at least ~1e-6 here, but a

@@ -192,7 +192,9 @@ pub fn scene_light_bounds(scene: &Scene) -> Vec<Option<LightBounds>> {
         .iter()
         .zip(&scene.light_power)
         .map(|(l, &phi)| match l {
-            Light::Point { position, .. } => Some(LightBounds::new(*position, *position, Vec3::Z, phi, PI, half_pi, false)),
+            Light::Point { position, .. } => {
+                Some(LightBounds::new(*position, *position, Vec3::Z, phi, PI, half_pi, false))
+            }
             Light::Spot { position, direction, cos_outer, .. } => {
                 // Zero beyond the outer cone for glTF's falloff and Blender's smoothstep alike.
                 let theta = cos_outer.clamp(-1.0, 1.0).acos();
@@ -204,7 +206,8 @@ pub fn scene_light_bounds(scene: &Scene) -> Vec<Option<LightBounds>> {
             }
             Light::Area(a) => {
                 let corners = [a.ax + a.ay, a.ax - a.ay, -a.ax + a.ay, -a.ax - a.ay].map(|c| a.center + c);
-                let (lo, hi) = corners.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), c| (lo.min(*c), hi.max(*c)));
+                let (lo, hi) =
+                    corners.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), c| (lo.min(*c), hi.max(*c)));
                 // Nothing is emitted beyond half the spread.
                 Some(LightBounds::new(lo, hi, a.normal, phi, 0.0, a.half_spread(), false))
             }
@@ -213,7 +216,15 @@ pub fn scene_light_bounds(scene: &Scene) -> Vec<Option<LightBounds>> {
                 let p = m.triangles[*tri as usize].map(|i| m.positions[i as usize]);
                 let two_sided = scene.materials[m.tri_material[*tri as usize] as usize].double_sided;
                 let n = (p[1] - p[0]).cross(p[2] - p[0]);
-                Some(LightBounds::new(p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2]), n, phi, 0.0, half_pi, two_sided))
+                Some(LightBounds::new(
+                    p[0].min(p[1]).min(p[2]),
+                    p[0].max(p[1]).max(p[2]),
+                    n,
+                    phi,
+                    0.0,
+                    half_pi,
+                    two_sided,
+                ))
             }
             Light::Directional { .. } | Light::World => None,
         })

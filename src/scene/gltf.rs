@@ -1349,10 +1349,9 @@ impl<'a> Loader<'a> {
             )));
         }
         if !(a.spread > 0.0 && a.spread <= std::f32::consts::PI + 1e-4) {
-            return Err(self.err(format!(
-                "node '{name}': CAUSTIC_lights_area spread {} must be in (0, π] radians",
-                a.spread
-            )));
+            return Err(
+                self.err(format!("node '{name}': CAUSTIC_lights_area spread {} must be in (0, π] radians", a.spread))
+            );
         }
         if a.spread < crate::light::MIN_SPREAD {
             self.warn(format!(
