@@ -118,3 +118,25 @@ fn light_sampler_setting_from_the_scene() {
         }
     }
 }
+
+/// The two bundled lighting scenes load without warnings and have the lights their
+/// scripts describe: 2016 emissive triangles on the street, only the sky image's world
+/// on the other.
+#[test]
+fn bundled_light_scenes_load_cleanly() {
+    let info = |name: &str| {
+        let scene = root().join("scenes").join(name);
+        let r = run(&["info", scene.to_str().unwrap(), "--json"], Duration::from_secs(60));
+        assert_eq!(r.code, Some(0), "{name}: {}", r.stderr);
+        let v: serde_json::Value = serde_json::from_str(&r.stdout).unwrap();
+        assert_eq!(v["warnings"], serde_json::json!([]), "{name} warns");
+        v
+    };
+    let street = info("many_lights.gltf");
+    assert_eq!(street["emissive_triangles"], 2016);
+    let sky = info("hdri_sky.gltf");
+    let lights = sky["lights"].as_array().unwrap();
+    assert_eq!(lights.len(), 1);
+    assert_eq!(lights[0]["kind"], "world");
+    assert!(lights[0]["power"].as_f64().unwrap() > 0.0);
+}
