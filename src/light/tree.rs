@@ -118,6 +118,8 @@ struct NodeBounds {
     cos_o: f32,
     sin_o: f32,
     cos_e: f32,
+    /// cos(θe - θo), or 2 when θe < θo (no direction is lit by every normal).
+    cos_e_minus_o: f32,
     two_sided: bool,
 }
 
@@ -131,19 +133,36 @@ impl From<&LightBounds> for NodeBounds {
             cos_o: b.cos_o,
             sin_o: safe_sqrt(1.0 - b.cos_o * b.cos_o),
             cos_e: b.cos_e,
+            cos_e_minus_o: if b.cos_e <= b.cos_o {
+                b.cos_e * b.cos_o + safe_sqrt(1.0 - b.cos_e * b.cos_e) * safe_sqrt(1.0 - b.cos_o * b.cos_o)
+            } else {
+                2.0
+            },
             two_sided: b.two_sided,
         }
     }
 }
 
 impl NodeBounds {
+    /// The conservative importance (see `LightBounds::importance`).
     #[inline]
     fn importance(&self, p: Vec3, n: Vec3) -> f32 {
+        self.importance_pair(p, n)[0]
+    }
+
+    /// [conservative, pessimistic] importance at (p, n). The conservative one takes the
+    /// best cosines any point of the box could have, the pessimistic one the worst (zero
+    /// unless every normal of the cone lights p), as Cycles does; choosing children by the
+    /// mean of the two normalised measures follows the nearby, well-facing lights better
+    /// than the conservative measure alone. The pessimistic one is zero wherever the
+    /// conservative one is.
+    #[inline]
+    fn importance_pair(&self, p: Vec3, n: Vec3) -> [f32; 2] {
         let d = p - self.center;
         let len2 = d.length_squared();
         let len = len2.sqrt();
         // Inside or near the box the distance is no guide: clamp to the box's size.
-        let d2 = len2.max(self.radius * self.radius).max(1e-12);
+        let d2 = len2.max(0.25 * self.radius * self.radius).max(1e-12);
         let wi = if len > 0.0 { d / len } else { self.w };
 
         let mut cos_w = self.w.dot(wi);
@@ -164,22 +183,35 @@ impl NodeBounds {
         let sin_x = sin_sub_clamped(sin_w, cos_w, self.sin_o, self.cos_o);
         let cos_p = cos_sub_clamped(sin_x, cos_x, sin_b, cos_b);
         if cos_p <= self.cos_e - ANGLE_MARGIN {
-            return 0.0;
+            return [0.0; 2];
         }
         // Past the test the set may contribute: keep the estimate positive at grazing angles.
         let mut importance = self.phi * cos_p.max(1e-3) / d2;
+        // Pessimistic: θw + θb + θo must stay within θe for every normal to light p.
+        let cos_wb = cos_w * cos_b - sin_w * sin_b;
+        let mut pessimistic = if cos_w < 0.0 || cos_b < 0.0 || cos_wb < self.cos_e_minus_o {
+            0.0
+        } else {
+            let sin_wb = sin_w * cos_b + cos_w * sin_b;
+            self.phi * (cos_wb * self.cos_o - sin_wb * self.sin_o).max(0.0) / d2
+        };
         if n != Vec3::ZERO {
             // θi' = max(θi - θb, 0) with θi the angle between n and the centre's direction.
             let cos_i = n.dot(-wi);
             let sin_i = safe_sqrt(1.0 - cos_i * cos_i);
             let cos_pi = cos_sub_clamped(sin_i, cos_i, sin_b, cos_b);
             if cos_pi < -ANGLE_MARGIN {
-                return 0.0;
+                return [0.0; 2];
             }
             // A light grazing the horizon still contributes a little: keep it positive.
             importance *= cos_pi.max(1e-3);
+            pessimistic *= (cos_i * cos_b - sin_i * sin_b).max(0.0);
         }
-        if importance.is_finite() { importance.max(0.0) } else { 0.0 }
+        if importance.is_finite() && importance > 0.0 {
+            [importance, if pessimistic.is_finite() { pessimistic.clamp(0.0, importance) } else { 0.0 }]
+        } else {
+            [0.0; 2]
+        }
     }
 }
 
@@ -326,11 +358,24 @@ impl LightTree {
         b
     }
 
-    /// The two children's importances at (p, n).
+    /// The two children and the probabilities of choosing each at (p, n) (both 0 when
+    /// neither can light the point).
     #[inline]
     fn child_importance(&self, node: usize, p: Vec3, n: Vec3) -> (usize, usize, f32, f32) {
         let (a, b) = (node + 1, self.nodes[node].index as usize);
-        (a, b, self.nodes[a].bounds.importance(p, n), self.nodes[b].bounds.importance(p, n))
+        let ([ia, ma], [ib, mb]) =
+            (self.nodes[a].bounds.importance_pair(p, n), self.nodes[b].bounds.importance_pair(p, n));
+        let total = ia + ib;
+        if !(total > 0.0) {
+            return (a, b, 0.0, 0.0);
+        }
+        // Mean of the two normalised measures; a child of zero conservative importance
+        // has zero pessimistic importance too, so it is never chosen.
+        let p_max = ia / total;
+        let m = ma + mb;
+        let p_min = if m > 0.0 { ma / m } else { p_max };
+        let pa = 0.5 * (p_max + p_min);
+        (a, b, pa, 1.0 - pa)
     }
 
     /// Picks a light for the shading point `p` with normal `n` (zero: none): its index
