@@ -66,6 +66,7 @@ def render_settings(scene, resolution, camera_name):
         "max_depth": int(props.max_bounces) + 1,
         "seed": int(props.seed),
         "integrator": props.integrator,
+        "light_sampler": props.light_sampler,
         # Film → Transparent off means an opaque background (alpha 1), as in Cycles.
         "transparent": bool(scene.render.film_transparent),
         # Blender's pixel filter (Blackman-Harris, as Cycles' default). Cycles spreads the
@@ -109,15 +110,15 @@ def area_light_extension(blender_object):
     if not light.normalize:
         power *= light.area(matrix_world=blender_object.matrix_world)
 
-    if light.spread < math.pi - 1e-4:
-        warnings.append(f"area light '{blender_object.name}': spread "
-                        f"{math.degrees(light.spread):.0f}° is not supported, rendered as 180°")
     if light.use_nodes:
         warnings.append(f"light '{blender_object.name}': light node trees are ignored")
     value = {"shape": shape, "size": [float(s) for s in size], "power": float(power),
              "color": [float(c) for c in color],
              # Ray Visibility > Camera (Blender hides lights from the camera by default).
              "camera_visible": bool(blender_object.visible_camera)}
+    # Spread (full angle, radians); 180° is Blender's default and no narrowing.
+    if light.spread < math.pi - 1e-4:
+        value["spread"] = float(light.spread)
     return value, warnings
 
 

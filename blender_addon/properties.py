@@ -19,6 +19,14 @@ INTEGRATORS = [
 ]
 
 
+# (identifier, UI name, description); the identifier is the renderer's light sampler name.
+LIGHT_SAMPLERS = [
+    ("tree", "Light Tree", "Prefer the lights near and facing each shading point (as Cycles' light "
+     "tree); best with many lights"),
+    ("power", "Power", "Choose lights in proportion to their power, wherever the shading point is"),
+]
+
+
 class CausticRenderSettings(bpy.types.PropertyGroup):
     """Render settings stored on the scene (`scene.caustic`)."""
 
@@ -27,6 +35,12 @@ class CausticRenderSettings(bpy.types.PropertyGroup):
         description="Light transport algorithm",
         items=INTEGRATORS,
         default="path",
+    )
+    light_sampler: EnumProperty(
+        name="Light Sampling",
+        description="How next-event estimation chooses the light to sample",
+        items=LIGHT_SAMPLERS,
+        default="tree",
     )
     photons: IntProperty(
         name="Photons",

@@ -63,7 +63,7 @@ class CausticButtonsPanel:
 
 
 class CAUSTIC_PT_render(CausticButtonsPanel, bpy.types.Panel):
-    """Render settings: integrator, samples, time limit, bounces, seed, threads."""
+    """Render settings: integrator, samples, time limit, bounces, light sampling, seed, threads."""
 
     bl_label = "Caustic"
     bl_context = "render"
@@ -82,6 +82,7 @@ class CAUSTIC_PT_render(CausticButtonsPanel, bpy.types.Panel):
         col.prop(settings, "samples")
         col.prop(settings, "time_limit")
         layout.prop(settings, "max_bounces")
+        layout.prop(settings, "light_sampler")
         layout.prop(settings, "seed")
         layout.prop(settings, "threads")
 

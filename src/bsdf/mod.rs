@@ -87,6 +87,14 @@ impl Bsdf {
         }
     }
 
+    /// True when some light may pass through to the other side.
+    #[inline]
+    pub fn transmits(&self) -> bool {
+        match self {
+            Bsdf::Pbr(b) => b.transmits(),
+        }
+    }
+
     /// Colour for the "Denoising Albedo" pass.
     pub fn albedo(&self) -> Rgb {
         match self {

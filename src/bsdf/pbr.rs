@@ -375,6 +375,11 @@ impl PbrBsdf {
         self.sheen_color * charlie_brdf(h.z, wo.z, wi.z, self.sheen_roughness)
     }
 
+    /// True when some light may pass through to the other side (a transmission lobe).
+    pub fn transmits(&self) -> bool {
+        self.transmission > 0.0 && self.metallic < 1.0
+    }
+
     /// True when every lobe is a delta lobe (smooth clear glass): no light sampling helps.
     pub fn is_delta(&self) -> bool {
         let dielectric = 1.0 - self.metallic;

@@ -11,8 +11,8 @@ use crate::accel::{Accel, Hit};
 use crate::bsdf::pbr::PbrParams;
 use crate::bsdf::{Bsdf, PbrBsdf};
 use crate::light::{
-    AreaLight, EmitterTriangle, Light, LightSample, LightSampler, area_to_solid_angle, intersect_sphere,
-    sample_triangle, sphere_cos_max, spot_attenuation,
+    AreaLight, EmitterTriangle, Light, LightSample, LightSampler, LightSamplerKind, area_to_solid_angle,
+    intersect_sphere, sample_triangle, sphere_cos_max, spot_attenuation,
 };
 use crate::math::{Frame, Rgb, offset_ray_origin};
 use crate::sampling::warp::{concentric_disk, uniform_cone, uniform_cone_pdf};
@@ -126,8 +126,13 @@ pub fn power_heuristic(pdf_a: f32, pdf_b: f32) -> f32 {
 }
 
 impl<'a> SceneContext<'a> {
-    /// Prepares the per-triangle flags and the light sampler.
+    /// Prepares the per-triangle flags and the default light sampler.
     pub fn new(scene: &'a Scene, accel: &'a Accel) -> Self {
+        Self::with_light_sampler(scene, accel, LightSamplerKind::default())
+    }
+
+    /// Prepares the per-triangle flags and the light sampler of the given kind.
+    pub fn with_light_sampler(scene: &'a Scene, accel: &'a Accel, kind: LightSamplerKind) -> Self {
         let mut tri_to_light = vec![u32::MAX; scene.mesh.triangles.len()];
         let mut area_lights = Vec::new();
         let mut world_light = None;
@@ -151,7 +156,14 @@ impl<'a> SceneContext<'a> {
         SceneContext {
             scene,
             accel,
-            lights: LightSampler::new(&scene.light_power, tri_to_light),
+            lights: match kind {
+                LightSamplerKind::Power => LightSampler::new(&scene.light_power, tri_to_light),
+                LightSamplerKind::Tree => LightSampler::with_tree(
+                    &scene.light_power,
+                    &crate::light::tree::scene_light_bounds(scene),
+                    tri_to_light,
+                ),
+            },
             masked: (0..n).map(|t| matches!(mode(t), AlphaMode::Mask(_))).collect(),
             transparent: (0..n).map(|t| mode(t) != AlphaMode::Opaque).collect(),
             area_lights,
@@ -163,15 +175,18 @@ impl<'a> SceneContext<'a> {
 
     /// Emission of lights that are not scene geometry (area and sphere lights) crossed by
     /// a ray before `tmax`, each weighted by MIS against light sampling from `prev_p`
-    /// (`prev_pdf` = 0: no MIS); lights hidden from the camera are skipped for camera
-    /// rays. Returns the radiance and whether anything was crossed.
+    /// with the normal `prev_n` that light selection was given there (`prev_pdf` = 0: no
+    /// MIS); lights hidden from the camera are skipped for camera rays. Returns the
+    /// radiance and whether anything was crossed.
     #[inline]
+    #[allow(clippy::too_many_arguments)]
     pub fn crossed_emission(
         &self,
         org: Vec3,
         dir: Vec3,
         tmax: f32,
         prev_p: Vec3,
+        prev_n: Vec3,
         prev_pdf: f32,
         camera_ray: bool,
     ) -> (Rgb, bool) {
@@ -187,9 +202,9 @@ impl<'a> SceneContext<'a> {
                 let w = if prev_pdf == 0.0 {
                     1.0
                 } else {
-                    power_heuristic(prev_pdf, self.light_pdf(*index, prev_p, org + dir * t, a.normal))
+                    power_heuristic(prev_pdf, self.light_pdf(*index, prev_p, prev_n, org + dir * t, a.normal))
                 };
-                sum += a.radiance * w;
+                sum += a.radiance * (w * a.spread_attenuation((-dir).dot(a.normal)));
                 any = true;
             }
         }
@@ -213,7 +228,7 @@ impl<'a> SceneContext<'a> {
                     1.0
                 } else {
                     let dist = (q - prev_p).length();
-                    let light_pdf = self.lights.pmf(index)
+                    let light_pdf = self.lights.pmf(prev_p, prev_n, index)
                         * area_to_solid_angle(1.0 / (std::f32::consts::PI * radius * radius), dist, -denom);
                     power_heuristic(prev_pdf, light_pdf)
                 };
@@ -224,7 +239,7 @@ impl<'a> SceneContext<'a> {
                     1.0
                 } else {
                     let light_pdf = sphere_cos_max((center - prev_p).length(), radius)
-                        .map_or(0.0, |c| self.lights.pmf(index) * uniform_cone_pdf(c));
+                        .map_or(0.0, |c| self.lights.pmf(prev_p, prev_n, index) * uniform_cone_pdf(c));
                     power_heuristic(prev_pdf, light_pdf)
                 };
                 sum += radiance * w;
@@ -243,7 +258,7 @@ impl<'a> SceneContext<'a> {
                 let w = if prev_pdf == 0.0 {
                     1.0
                 } else {
-                    power_heuristic(prev_pdf, self.lights.pmf(index) * uniform_cone_pdf(cos_half))
+                    power_heuristic(prev_pdf, self.lights.infinite_pmf(index) * uniform_cone_pdf(cos_half))
                 };
                 sum += radiance * w;
             }
@@ -275,7 +290,7 @@ impl<'a> SceneContext<'a> {
     #[inline]
     pub fn world_pdf(&self, d: Vec3) -> f32 {
         match (self.world_light, &self.scene.world) {
-            (Some(i), Some(w)) => self.lights.pmf(i) * w.pdf(d),
+            (Some(i), Some(w)) => self.lights.infinite_pmf(i) * w.pdf(d),
             _ => 0.0,
         }
     }
@@ -581,7 +596,7 @@ impl<'a> SceneContext<'a> {
                 })
             }
             Light::Area(a) => {
-                let q = a.sample_point(u);
+                let (q, pdf_area) = a.sample_from(p, u)?;
                 let d = q - p;
                 let dist = d.length();
                 if dist <= 0.0 {
@@ -589,11 +604,11 @@ impl<'a> SceneContext<'a> {
                 }
                 let wi = d / dist;
                 let cos_l = (-wi).dot(a.normal);
-                let pdf = area_to_solid_angle(1.0 / a.area, dist, cos_l);
+                let pdf = area_to_solid_angle(pdf_area, dist, cos_l);
                 (pdf > 0.0).then_some(LightSample {
                     wi,
                     dist,
-                    li: a.radiance,
+                    li: a.radiance * a.spread_attenuation(cos_l),
                     pdf,
                     delta: false,
                     point: q,
@@ -645,23 +660,24 @@ impl<'a> SceneContext<'a> {
         }
     }
 
-    /// Solid-angle density with which `sample_light` (including the light choice) would
-    /// pick the point `q` with normal `n_light` of light `index`, from `p`.
+    /// Solid-angle density with which `sample_light` (including the light choice, made
+    /// with the receiver normal `n`) would pick the point `q` with normal `n_light` of
+    /// light `index`, from `p`.
     #[inline]
-    pub fn light_pdf(&self, index: usize, p: Vec3, q: Vec3, n_light: Vec3) -> f32 {
-        let area = match &self.scene.lights[index] {
-            Light::Area(a) => a.area,
+    pub fn light_pdf(&self, index: usize, p: Vec3, n: Vec3, q: Vec3, n_light: Vec3) -> f32 {
+        let pdf_area = match &self.scene.lights[index] {
+            Light::Area(a) => a.pdf_area_from(p, q),
             Light::Triangle { tri } => {
                 let m = &self.scene.mesh;
                 let [a, b, c] = m.triangles[*tri as usize].map(|i| m.positions[i as usize]);
-                0.5 * (b - a).cross(c - a).length()
+                1.0 / (0.5 * (b - a).cross(c - a).length())
             }
             _ => return 0.0,
         };
         let d = q - p;
         let dist = d.length();
         let cos_l = n_light.dot(-d / dist).abs();
-        self.lights.pmf(index) * area_to_solid_angle(1.0 / area, dist, cos_l)
+        self.lights.pmf(p, n, index) * area_to_solid_angle(pdf_area, dist, cos_l)
     }
 
     /// Unoccluded fraction between a surface point (offset along `ng`) and a light sample.

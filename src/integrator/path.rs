@@ -58,6 +58,8 @@ impl PathIntegrator {
         // Density of the BSDF sample that produced `dir` (0 for camera rays: no MIS).
         let mut prev_bsdf_pdf = 0.0f32;
         let mut prev_p = org;
+        // Receiver normal light selection was given at `prev_p` (zero: none), for MIS.
+        let mut prev_n = Vec3::ZERO;
         // Absorption coefficient of the medium the path is in (KHR_materials_volume).
         let mut medium: Option<Rgb> = None;
         // Product of η² over refractions, undone in Russian roulette so that the
@@ -79,7 +81,7 @@ impl PathIntegrator {
 
             // Area and sphere lights crossed before the surface add their emission; they
             // do not block (as in Cycles) and the path goes on.
-            let (crossed, any) = ctx.crossed_emission(org, dir, t_surface, prev_p, prev_bsdf_pdf, depth == 0);
+            let (crossed, any) = ctx.crossed_emission(org, dir, t_surface, prev_p, prev_n, prev_bsdf_pdf, depth == 0);
             if any {
                 radiance += beta * absorb(t_surface.min(1e30)) * crossed;
                 if depth == 0 {
@@ -135,7 +137,9 @@ impl PathIntegrator {
             // Emission found by the path, weighted against light sampling.
             if sp.emitted != Rgb::ZERO {
                 let w = match (prev_bsdf_pdf > 0.0, ctx.lights.light_of_triangle(hit.tri)) {
-                    (true, Some(index)) => power_heuristic(prev_bsdf_pdf, ctx.light_pdf(index, prev_p, s.p, s.ng)),
+                    (true, Some(index)) => {
+                        power_heuristic(prev_bsdf_pdf, ctx.light_pdf(index, prev_p, prev_n, s.p, s.ng))
+                    }
                     _ => 1.0,
                 };
                 radiance += beta * sp.emitted * w;
@@ -147,9 +151,11 @@ impl PathIntegrator {
 
             let wo_local = sp.frame.to_local(wo);
 
-            // Next-event estimation: one light, chosen by power (useless for pure
-            // delta BSDFs such as clear glass).
-            let nee = if sp.bsdf.is_delta() { None } else { ctx.lights.sample(u_light) };
+            // Next-event estimation: one light (useless for pure delta BSDFs such as
+            // clear glass). Without transmission no light below the surface can count,
+            // which the light tree uses.
+            let n_select = if sp.bsdf.transmits() { Vec3::ZERO } else { s.ng };
+            let nee = if sp.bsdf.is_delta() { None } else { ctx.lights.sample(s.p, n_select, u_light) };
             if let Some((index, pmf)) = nee
                 && let Some(ls) = ctx.sample_light(index, s.p, u_light_pt)
             {
@@ -193,6 +199,7 @@ impl PathIntegrator {
             // After a delta lobe, emission found next is not MIS-weighted (0 = "specular").
             prev_bsdf_pdf = if bs.delta { 0.0 } else { bs.pdf };
             prev_p = s.p;
+            prev_n = n_select;
             depth += 1;
 
             // Crossing an interface of a solid changes the medium and the η scale.

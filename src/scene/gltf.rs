@@ -104,6 +104,13 @@ struct AreaLightExt {
     color: [f32; 3],
     #[serde(default = "yes")]
     camera_visible: bool,
+    /// Blender's Spread: full angle in radians, π = no narrowing.
+    #[serde(default = "half_turn")]
+    spread: f32,
+}
+
+fn half_turn() -> f32 {
+    std::f32::consts::PI
 }
 
 fn yes() -> bool {
@@ -1530,12 +1537,24 @@ impl<'a> Loader<'a> {
                 "node '{name}': CAUSTIC_lights_area power, color and size must be finite and non-negative"
             )));
         }
+        if !(a.spread > 0.0 && a.spread <= std::f32::consts::PI + 1e-4) {
+            return Err(
+                self.err(format!("node '{name}': CAUSTIC_lights_area spread {} must be in (0, π] radians", a.spread))
+            );
+        }
+        if a.spread < crate::light::MIN_SPREAD {
+            self.warn(format!(
+                "area light '{name}': spread {:.2e} rad is rendered as {:.0e} rad (a collimated beam is not supported)",
+                a.spread,
+                crate::light::MIN_SPREAD
+            ));
+        }
         let center = world.transform_point3(Vec3::ZERO);
         let ax = world.transform_vector3(Vec3::X * (0.5 * sx));
         let ay = world.transform_vector3(Vec3::Y * (0.5 * sy));
         let emit = world.transform_vector3(-Vec3::Z);
         match AreaLight::new(shape, center, ax, ay, emit, color * a.power)
-            .map(|l| AreaLight { camera_visible: a.camera_visible, ..l })
+            .map(|l| AreaLight { camera_visible: a.camera_visible, ..l }.with_spread(a.spread))
         {
             Some(l) => Ok(Some((
                 Light::Area(l),

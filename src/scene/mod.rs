@@ -84,6 +84,8 @@ pub struct SceneSettings {
     pub sppm_photons: Option<u64>,
     /// SPPM initial radius (scene units).
     pub sppm_radius: Option<f32>,
+    /// Light selection for next-event estimation: "tree" or "power".
+    pub light_sampler: Option<String>,
 }
 
 /// Counts and per-material features for `caustic info`.

@@ -98,6 +98,17 @@ def add_spot_blend(scene):
                  spot_size=math.radians(60.0), spot_blend=0.4, shadow_soft_size=0.0)
 
 
+def add_rectangle_spread(scene):
+    # Tilted so that the spread's falloff and its cut-off both cross the floor in view.
+    scenes.light(scene, "RectS", "AREA", location=(0.3, -0.2, LIGHT_HEIGHT), rotation_deg=(20, 0, 0),
+                 shape="RECTANGLE", size=1.5, size_y=0.75, energy=300.0, spread=math.radians(60.0))
+
+
+def add_disk_spread(scene):
+    scenes.light(scene, "DiskS", "AREA", location=(-0.2, 0.3, LIGHT_HEIGHT), rotation_deg=(0, -15, 0),
+                 shape="DISK", size=1.2, energy=300.0, spread=math.radians(30.0))
+
+
 def add_sun_angle(scene):
     scenes.light(scene, "SunA", "SUN", rotation_deg=(25.0, 10.0, 0.0), energy=2.0, angle=math.radians(12.0))
 
@@ -112,6 +123,8 @@ LIGHTS = {
     "sun": add_sun,
     "area_rectangle": add_rectangle,
     "area_disk": add_disk,
+    "area_rectangle_spread": add_rectangle_spread,
+    "area_disk_spread": add_disk_spread,
     "emissive_mesh": add_emitter,
 }
 

@@ -150,6 +150,7 @@ def test_scene_extras_carry_render_settings(light_scene, captured):
         "max_depth": 6,
         "seed": 42,
         "integrator": "path",
+        "light_sampler": "tree",
         "time_limit": 12.5,
         "threads": 2,
         "camera": "Camera",

@@ -217,8 +217,11 @@ impl Emitters {
             }
             Light::Area(a) => {
                 let q = a.sample_point(u_pos);
-                let dir = Frame::from_normal(a.normal).to_world(cosine_hemisphere(u_dir));
-                Some(EmittedPhoton { org: q, dir, power: phi })
+                let local = cosine_hemisphere(u_dir);
+                let dir = Frame::from_normal(a.normal).to_world(local);
+                // Blender's spread reshapes the emission but keeps its power: the falloff
+                // averages 1 over cosine-distributed directions, so it weights the photon.
+                Some(EmittedPhoton { org: q, dir, power: phi * a.spread_attenuation(local.z) })
             }
             Light::Triangle { tri } => {
                 let m = &scene.mesh;

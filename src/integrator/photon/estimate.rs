@@ -81,7 +81,8 @@ pub fn radiance(
     estimate(map, q, ng, k, max_r2, filter, |p| bsdf.eval(wo_local, frame.to_local(p.wi()))).0
 }
 
-/// Next-event estimation at a shading point: one light chosen by power, weighted by
+/// Next-event estimation at a shading point: one light chosen by the light sampler
+/// (with the geometric normal as receiver normal), weighted by
 /// the power heuristic against `bsdf_rays` BSDF-sampled rays from the same point that
 /// may find the same light (0: no MIS, weight 1).
 #[inline]
@@ -96,7 +97,8 @@ pub fn direct_light(
     bsdf_rays: f32,
     stats: &mut RayStats,
 ) -> Rgb {
-    let Some((index, pmf)) = ctx.lights.sample(u_light) else {
+    // Only light above the geometric normal counts here (below), so the tree may cull by it.
+    let Some((index, pmf)) = ctx.lights.sample(s.p, s.ng, u_light) else {
         return Rgb::ZERO;
     };
     let Some(ls) = ctx.sample_light(index, s.p, u_pt) else {

@@ -127,7 +127,7 @@ impl JensenIntegrator {
                 beta *= (-sigma * first).exp();
             }
             // Area lights crossed: every earlier vertex was specular (no MIS).
-            let (crossed, any) = ctx.crossed_emission(org0, dir, first, org0, 0.0, depth == 0);
+            let (crossed, any) = ctx.crossed_emission(org0, dir, first, org0, Vec3::ZERO, 0.0, depth == 0);
             if any {
                 radiance += beta * crossed;
                 if depth == 0 {
@@ -241,7 +241,7 @@ impl JensenIntegrator {
             let beta = bs.f * (bs.wi.z.abs() / bs.pdf);
             let mis_pdf = if sp.bsdf.is_delta() { 0.0 } else { bs.pdf * gather as f32 };
             let org = offset_ray_origin(s.p, if ci > 0.0 { s.ng } else { -s.ng });
-            gathered += self.gather_path(ctx, org, wi, beta, mis_pdf, s.p, d, sampler, stats);
+            gathered += self.gather_path(ctx, org, wi, beta, mis_pdf, s.p, s.ng, d, sampler, stats);
         }
         l + gathered / gather.max(1) as f32
     }
@@ -256,6 +256,7 @@ impl JensenIntegrator {
         mut beta: Rgb,
         mut prev_pdf: f32,
         mut prev_p: Vec3,
+        mut prev_n: Vec3,
         d: u32,
         sampler: &mut PixelSampler,
         stats: &mut RayStats,
@@ -275,7 +276,7 @@ impl JensenIntegrator {
             let org0 = org;
             let (found, first) = next_hit(ctx, &mut org, dir, sampler, stats);
             if !caustic {
-                let (crossed, _) = ctx.crossed_emission(org0, dir, first, prev_p, prev_pdf, false);
+                let (crossed, _) = ctx.crossed_emission(org0, dir, first, prev_p, prev_n, prev_pdf, false);
                 l += beta * crossed;
             }
             let Some((hit, s)) = found else {
@@ -289,7 +290,7 @@ impl JensenIntegrator {
             let sp = ctx.shade(&s, wo);
             if sp.emitted != Rgb::ZERO && !caustic {
                 let w = match (prev_pdf > 0.0, ctx.lights.light_of_triangle(hit.tri)) {
-                    (true, Some(index)) => power_heuristic(prev_pdf, ctx.light_pdf(index, prev_p, s.p, s.ng)),
+                    (true, Some(index)) => power_heuristic(prev_pdf, ctx.light_pdf(index, prev_p, prev_n, s.p, s.ng)),
                     _ => 1.0,
                 };
                 l += beta * sp.emitted * w;
@@ -327,6 +328,8 @@ impl JensenIntegrator {
             }
             prev_pdf = if delta { 0.0 } else { bs.pdf };
             prev_p = s.p;
+            // `direct_light` selects lights with the geometric normal.
+            prev_n = s.ng;
             bounced = true;
             depth += 1;
             if depth >= self.rr_depth {

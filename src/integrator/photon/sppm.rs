@@ -315,7 +315,7 @@ fn camera_path(
         }
         // Lights crossed and the world are found by specular paths only (no MIS): the
         // visible point's NEE covers the rest.
-        let (crossed, any) = ctx.crossed_emission(org, dir, t_surface, org, 0.0, depth == 0);
+        let (crossed, any) = ctx.crossed_emission(org, dir, t_surface, org, Vec3::ZERO, 0.0, depth == 0);
         if any {
             l += beta * crossed;
             if depth == 0 {
