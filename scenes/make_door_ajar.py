@@ -1,7 +1,7 @@
 """Writes scenes/door_ajar.gltf (+ door_ajar.bin): two rooms joined by a door left ajar.
 
 The camera's room is lit only through the narrow wedge between the door's edge and its frame:
-the lamp (a small emissive panel on the ceiling) is in the other room. Nearly all light that
+the lamp (a small emissive panel facing the door) is in the other room. Nearly all light that
 reaches the camera has passed the gap, which path tracing finds only by chance (light
 sampling from the camera's room is almost always blocked) and bidirectional path tracing finds
 by tracing light through the gap and connecting it to the camera's paths: Veach's classic
@@ -120,7 +120,7 @@ def main():
     lamp = g.material({"name": "lamp", "pbrMetallicRoughness": {
         "baseColorFactor": [0, 0, 0, 1], "metallicFactor": 0.0},
         "emissiveFactor": [1.0, 0.85, 0.65],
-        "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 1500.0}}})
+        "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 400.0}}})
 
     height = 2.5
     # Both rooms share the floor, ceiling and side walls: x in [-2, 2], z in [-4, 4].
@@ -153,10 +153,12 @@ def main():
     ]
     for i, (corners, normal) in enumerate(box):
         g.mesh(f"brass_{i}", *quad(corners, normal), brass)
-    # The lamp: a 0.4 m square panel just under the lamp room's ceiling, facing down.
-    h, y = 0.2, height - 0.01
-    g.mesh("lamp", *quad([(-h, y, -h), (h, y, -h), (h, y, h), (-h, y, h)], (0, -1, 0)), lamp,
-           translation=(0.8, 0.0, -2.5))
+    # The lamp: a 0.4 m square panel in the lamp room facing the door, so that part of its
+    # light falls straight through the gap (Veach's arrangement) and the rest lights the
+    # camera's room after bouncing in the lamp room.
+    h, z = 0.2, -1.5
+    g.mesh("lamp", *quad([(-h, 1.0 - h, z), (h, 1.0 - h, z), (h, 1.0 + h, z), (-h, 1.0 + h, z)], (0, 0, 1)),
+           lamp, translation=(0.4, 0.0, 0.0))
 
     g.doc["cameras"].append({"name": "camera", "type": "perspective", "perspective": {
         "yfov": math.radians(50.0), "aspectRatio": 320 / 240, "znear": 0.01}})
