@@ -64,6 +64,9 @@ pub struct PbrParams {
     pub coat: f32,
     /// clearcoatRoughness.
     pub coat_roughness: f32,
+    /// Subsurface weight: the part of the diffuse base that scatters below the
+    /// surface instead (sampled by the integrator's random walk, not by this BSDF).
+    pub subsurface: f32,
 }
 
 impl PbrParams {
@@ -80,6 +83,7 @@ impl PbrParams {
             eta: 1.5,
             coat: 0.0,
             coat_roughness: 0.0,
+            subsurface: 0.0,
         }
     }
 }
@@ -118,6 +122,8 @@ pub struct PbrBsdf {
 
     /// The coat is a perfect mirror.
     pub smooth_coat: bool,
+    /// Fraction of the diffuse base left to subsurface scattering (not in this BSDF).
+    pub subsurface: f32,
 }
 
 /// Probabilities of the lobes for one `wo`: metal, dielectric specular, diffuse, glass.
@@ -160,6 +166,7 @@ impl PbrBsdf {
             smooth: roughness < SMOOTH_ROUGHNESS,
             smooth_coat: p.coat_roughness < SMOOTH_ROUGHNESS,
             layer_avg: 0.0,
+            subsurface: p.subsurface.clamp(0.0, 1.0),
         }
         .with_layer_avg()
     }
@@ -191,7 +198,7 @@ impl PbrBsdf {
         let opaque = dielectric * (1.0 - self.transmission);
         let metal = under * self.metallic * luminance(self.base + (Vec3::ONE - self.base) * schlick_weight(wo.z));
         let spec = under * opaque * e;
-        let diffuse = under * opaque * (1.0 - e) * luminance(self.base);
+        let diffuse = under * opaque * (1.0 - e) * luminance(self.base) * (1.0 - self.subsurface);
         let glass = if self.transmission > 0.0 {
             let r = self.glass.reflect_probability(wo);
             under * dielectric * self.transmission * (r + (1.0 - r) * luminance(self.base)).max(1e-3)
@@ -217,7 +224,7 @@ impl PbrBsdf {
     pub fn is_delta(&self) -> bool {
         let dielectric = 1.0 - self.metallic;
         let opaque = dielectric * (1.0 - self.transmission);
-        let rough = (opaque > 0.0 && luminance(self.base) > 0.0)
+        let rough = (opaque > 0.0 && luminance(self.base) > 0.0 && self.subsurface < 1.0)
             || (!self.smooth && (self.metallic > 0.0 || (opaque > 0.0 && self.specular > 0.0)))
             || (self.transmission > 0.0 && dielectric > 0.0 && !self.glass.smooth)
             || (self.coat > 0.0 && !self.smooth_coat);
@@ -253,7 +260,7 @@ impl PbrBsdf {
             // weight × E and the albedo scaling stays exact.
             let f_layer = self.specular * (self.f0 + (1.0 - self.f0) * fw);
             let (eo, ei) = (self.layer_albedo(wo.z), self.layer_albedo(wi.z));
-            let diffuse_weight = (1.0 - eo) * (1.0 - ei) / (1.0 - self.layer_avg);
+            let diffuse_weight = (1.0 - eo) * (1.0 - ei) / (1.0 - self.layer_avg) * (1.0 - self.subsurface);
             f += (self.base * (FRAC_1_PI * diffuse_weight) + Vec3::splat(f_layer * spec)) * opaque;
         }
         if self.metallic > 0.0 {
@@ -347,6 +354,19 @@ impl PbrBsdf {
             return None;
         }
         Some(BsdfSample { wi, f: self.eval(wo, wi), pdf, delta: false })
+    }
+
+    /// Weight of the subsurface part seen from `wo` (local, either side), relative to
+    /// the base colour: what the layers above (coat, specular) and the metal and glass
+    /// mixes leave to the diffuse base, times the subsurface weight. Cycles weights
+    /// its subsurface closure the same way (albedo scaling by the outgoing direction).
+    pub fn subsurface_weight(&self, wo: Vec3) -> f32 {
+        if self.subsurface == 0.0 {
+            return 0.0;
+        }
+        let mu = wo.z.abs();
+        let opaque = (1.0 - self.metallic) * (1.0 - self.transmission);
+        (1.0 - self.coat_albedo(mu)) * opaque * (1.0 - self.layer_albedo(mu)) * self.subsurface
     }
 
     /// Albedo for the denoiser: the colour a white light would reflect, roughly.

@@ -115,15 +115,15 @@ impl JensenIntegrator {
         let mut radiance = Rgb::ZERO;
         let mut beta = Rgb::ONE;
         let mut depth = 0u32;
-        // Absorbing medium the specular camera path is in (KHR_materials_volume).
-        let mut medium: Option<Rgb> = None;
+        // Media the specular camera path is in (absorbing only here: see `SceneContext::extinction`).
+        let mut medium = crate::medium::MediumStack::default();
         stats.camera += 1;
         loop {
             let [u_light, u_lx, u_ly, u_lobe] = sampler.next_4d();
             let [u_dx, u_dy, _, _] = sampler.next_4d();
             let org0 = org;
             let (found, first) = next_hit(ctx, &mut org, dir, sampler, stats);
-            if let (Some(sigma), true) = (medium, first.is_finite()) {
+            if let (Some(sigma), true) = (ctx.extinction(&medium), first.is_finite()) {
                 beta *= (-sigma * first).exp();
             }
             // Area lights crossed: every earlier vertex was specular (no MIS).

@@ -297,14 +297,14 @@ fn camera_path(
     let mut first_t = f32::INFINITY;
     let mut transparent = 0u32;
     stats.camera += 1;
-    // Absorbing medium the specular camera path is in (KHR_materials_volume).
-    let mut medium: Option<Rgb> = None;
+    // Media the specular camera path is in (absorbing only here: see `SceneContext::extinction`).
+    let mut medium = crate::medium::MediumStack::default();
     loop {
         let [u_light, u_lx, u_ly, u_lobe] = sampler.next_4d();
         let [u_dx, u_dy, _, u_alpha] = sampler.next_4d();
         let hit = ctx.intersect(org, dir, f32::INFINITY);
         let t_surface = hit.map_or(f32::INFINITY, |h| h.t);
-        if let (Some(sigma), true) = (medium, t_surface.is_finite()) {
+        if let (Some(sigma), true) = (ctx.extinction(&medium), t_surface.is_finite()) {
             beta *= (-sigma * t_surface).exp();
         }
         // Lights crossed and the world are found by specular paths only (no MIS): the

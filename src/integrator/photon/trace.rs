@@ -151,15 +151,15 @@ pub fn trace_one(
     let mut specular_only = true;
     let mut depth = 0u32;
     let mut transparent = 0u32;
-    // Absorption coefficient of the medium the photon is in (KHR_materials_volume).
-    let mut medium: Option<crate::math::Rgb> = None;
+    // Media the photon is in (absorbing only here: see `SceneContext::extinction`).
+    let mut medium = crate::medium::MediumStack::default();
     loop {
         let [u_lobe, u_x, u_y, u_rr] = s.next_4d();
         st.rays += 1;
         let Some(hit) = ctx.intersect(org, dir, f32::INFINITY) else {
             return;
         };
-        if let Some(sigma) = medium {
+        if let Some(sigma) = ctx.extinction(&medium) {
             power *= (-sigma * hit.t).exp();
         }
         let sh = ctx.surface(&hit, org, dir);
@@ -217,12 +217,7 @@ pub fn trace_one(
             return;
         }
         power *= w / q;
-        if cos_i_g < 0.0 {
-            let mat = &ctx.scene.materials[sh.material as usize];
-            if let Some(sigma) = mat.volume {
-                medium = if sh.front { Some(sigma) } else { None };
-            }
-        }
+        medium = ctx.medium_after(&sh, wi, medium);
         org = offset_ray_origin(sh.p, if cos_i_g > 0.0 { sh.ng } else { -sh.ng });
         dir = wi;
     }
