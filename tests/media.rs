@@ -320,3 +320,45 @@ fn bad_media_are_refused() {
     }
 }
 
+
+/// The photon integrators do not scatter in media yet: they say so, naming the material.
+#[test]
+fn photon_integrators_warn_about_media() {
+    for integrator in ["photon", "sppm"] {
+        let dir = temp_dir();
+        let mut g = GltfBuilder::new();
+        let m = medium_material(&mut g, [1.0, 1.0, 1.0], [0.0; 3], false);
+        g.doc_material_name(m, "fog");
+        g.cube([-1.0, -1.0, -3.0], [1.0, 1.0, -1.0], m);
+        g.camera([0.0, 0.0, 1.0], look_rotation([0.0, 0.0, -1.0]), 0.9);
+        g.world(json!({"color": [1, 1, 1]}));
+        let path = g.write(dir.path(), "fog.gltf");
+        let out = dir.path().join("o.exr");
+        let r = run(
+            &[
+                "render",
+                path.to_str().unwrap(),
+                "-o",
+                out.to_str().unwrap(),
+                "--progress",
+                "json",
+                "--integrator",
+                integrator,
+                "--resolution",
+                "8x8",
+                "--spp",
+                "2",
+                "--photons",
+                "1000",
+                "--sppm-iterations",
+                "2",
+                "--sppm-photons",
+                "1000",
+            ],
+            LIMIT,
+        );
+        assert_eq!(r.code, Some(0), "{}", r.stderr);
+        let w = r.summary().unwrap()["warnings"].to_string();
+        assert!(w.contains("photon integrators") && w.contains("fog"), "{integrator}: {w}");
+    }
+}

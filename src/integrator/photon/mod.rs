@@ -13,6 +13,11 @@
 //!
 //! Every parameter's default lives in [`PhotonSettings`] (`Default`), read by `cli.rs`.
 //!
+//! Media: photons and the specular camera paths treat a medium as absorbing only (its
+//! extinction σt absorbs, nothing scatters), a volume boundary without a surface as the
+//! material's surface, and a subsurface material as its BSDF without the subsurface
+//! part; [`media_warning`] says so when a scene has any of them.
+//!
 //! A stored photon is 32 bytes: position and RGB power as f32, the incident direction as
 //! a 16:16 octahedral code, and one word holding the surface normal (10:10 octahedral),
 //! the photon's hit index (1 = first surface hit after leaving the light, i.e. direct
@@ -32,6 +37,25 @@ pub mod trace;
 use glam::{Vec2, Vec3};
 
 pub use kdtree::PhotonMap;
+
+/// A warning naming the materials whose media or subsurface scattering the photon
+/// integrators do not render (see the module notes), or None.
+pub fn media_warning(scene: &crate::scene::Scene) -> Option<String> {
+    let names: Vec<&str> = scene
+        .materials
+        .iter()
+        .filter(|m| m.subsurface.is_some() || m.null_surface || m.medium.is_some_and(|md| md.scatters()))
+        .map(|m| m.name.as_str())
+        .collect();
+    (!names.is_empty()).then(|| {
+        format!(
+            "the photon integrators do not scatter in media or below surfaces yet: material(s) {} render with \
+             their media as absorption only, volume boundaries as surfaces and no subsurface part; use the \
+             path integrator for them",
+            names.join(", ")
+        )
+    })
+}
 
 /// A photon stored at a surface hit.
 #[repr(C)]
