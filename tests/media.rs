@@ -362,3 +362,33 @@ fn photon_integrators_warn_about_media() {
         assert!(w.contains("photon integrators") && w.contains("fog"), "{integrator}: {w}");
     }
 }
+
+/// The bundled media scene renders at a tiny size: finite, not black, no dropped samples.
+#[test]
+fn subsurface_scene_renders() {
+    let dir = temp_dir();
+    let scene = common::root().join("scenes/subsurface.gltf");
+    let out = dir.path().join("s.exr");
+    let r = run(
+        &[
+            "render",
+            scene.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--progress",
+            "json",
+            "--resolution",
+            "32x24",
+            "--spp",
+            "4",
+        ],
+        LIMIT,
+    );
+    assert_eq!(r.code, Some(0), "{}", r.stderr);
+    let s = r.summary().unwrap();
+    assert_eq!(s["nan_samples"], 0, "{s}");
+    let px = caustic::output::read_combined(&out).unwrap().2;
+    assert!(px.iter().all(|p| p.iter().all(|c| c.is_finite())));
+    let mean = px.iter().map(|p| (p[0] + p[1] + p[2]) as f64).sum::<f64>() / px.len() as f64;
+    assert!(mean > 0.01, "black image: {mean}");
+}
