@@ -61,7 +61,11 @@ fn slab_transmittance_on_shadow_rays() {
     for with_slab in [false, true] {
         let mut g = GltfBuilder::new();
         let white = g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1], "metallicFactor": 0.0, "roughnessFactor": 1.0}}));
-        g.mesh(&[[-20.0, 0.0, -20.0], [20.0, 0.0, -20.0], [20.0, 0.0, 20.0], [-20.0, 0.0, 20.0]], &[0, 2, 1, 0, 3, 2], white);
+        g.mesh(
+            &[[-20.0, 0.0, -20.0], [20.0, 0.0, -20.0], [20.0, 0.0, 20.0], [-20.0, 0.0, 20.0]],
+            &[0, 2, 1, 0, 3, 2],
+            white,
+        );
         if with_slab {
             let m = medium_material(&mut g, sigma_s, sigma_a, false);
             g.cube([-10.0, 1.0, -10.0], [10.0, 1.0 + d, 10.0], m);
@@ -72,7 +76,18 @@ fn slab_transmittance_on_shadow_rays() {
         images.push(render(
             &path,
             &dir.path().join("s.exr"),
-            &["--resolution", "16x16", "--spp", "1", "--max-depth", "1", "--filter", "box", "--filter-width", "0.00001"],
+            &[
+                "--resolution",
+                "16x16",
+                "--spp",
+                "1",
+                "--max-depth",
+                "1",
+                "--filter",
+                "box",
+                "--filter-width",
+                "0.00001",
+            ],
         ));
     }
     for (a, b) in images[0].iter().zip(&images[1]) {
@@ -109,7 +124,8 @@ fn scattering_furnace() {
         g.world(json!({"color": [l, l, l]}));
         g.settings(json!({"transparent": false}));
         let path = g.write(dir.path(), "furnace.gltf");
-        let px = render(&path, &dir.path().join("f.exr"), &["--resolution", "16x16", "--spp", "64", "--max-depth", "1024"]);
+        let px =
+            render(&path, &dir.path().join("f.exr"), &["--resolution", "16x16", "--spp", "64", "--max-depth", "1024"]);
         for c in 0..3 {
             let v: Vec<f64> = px.iter().map(|p| p[c] as f64).collect();
             let (mean, se) = mean_se(&v);
@@ -196,7 +212,18 @@ fn semi_infinite_view(g: GltfBuilder, elevation: f32, spp: &str) -> Vec<([f32; 4
     let px = render(
         &path,
         &dir.path().join("s.exr"),
-        &["--resolution", &format!("{w}x{h}"), "--spp", spp, "--max-depth", "1024", "--filter", "box", "--filter-width", "0.00001"],
+        &[
+            "--resolution",
+            &format!("{w}x{h}"),
+            "--spp",
+            spp,
+            "--max-depth",
+            "1024",
+            "--filter",
+            "box",
+            "--filter-width",
+            "0.00001",
+        ],
     );
     let scene = caustic::scene::gltf::load(&path).unwrap();
     let cam = CameraRays::new(&scene.cameras[0], w, h);
@@ -319,7 +346,6 @@ fn bad_media_are_refused() {
         assert!(msg.contains("bad") && msg.contains(ext), "{msg}");
     }
 }
-
 
 /// The photon integrators do not scatter in media yet: they say so, naming the material.
 #[test]

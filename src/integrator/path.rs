@@ -269,8 +269,7 @@ impl PathIntegrator {
                 && let Some(ss) = mat.subsurface
             {
                 // Subsurface: enter, walk, leave through a Lambertian exit.
-                let Some(exit) = self.subsurface(ctx, &s, &sp, wo, &ss, pbr, beta, [u_dx, u_dy, u_lobe, u_walk])
-                else {
+                let Some(exit) = self.subsurface(ctx, &s, &sp, wo, &ss, pbr, beta, [u_dx, u_dy, u_lobe, u_walk]) else {
                     break;
                 };
                 // Chosen with probability q = its weight: the weight over q is 1, and the

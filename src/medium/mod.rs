@@ -72,12 +72,7 @@ pub fn sample_channel(weights: Rgb, u: f32) -> (usize, Rgb) {
 impl HomogeneousMedium {
     /// A purely absorbing medium (glTF `KHR_materials_volume`, Beer-Lambert).
     pub fn absorbing(sigma_a: Rgb) -> Self {
-        HomogeneousMedium {
-            sigma_a,
-            sigma_s: Rgb::ZERO,
-            phase: HenyeyGreenstein::new(0.0),
-            emission: Rgb::ZERO,
-        }
+        HomogeneousMedium { sigma_a, sigma_s: Rgb::ZERO, phase: HenyeyGreenstein::new(0.0), emission: Rgb::ZERO }
     }
 
     /// Extinction σt = σa + σs.
@@ -247,46 +242,65 @@ impl WalkRng {
 /// anisotropy by a degree-7 fit in g of each of its six coefficients; these are the
 /// coefficients Cycles uses (`subsurface_random_walk_remap`), so the same colour gives
 /// the same medium as in Blender.
+// The fit's coefficients as published, all their digits.
+#[allow(clippy::excessive_precision, clippy::unreadable_literal)]
 pub fn single_scattering_albedo(a: f32, g: f32) -> f32 {
     // Polynomial in g, lowest degree first.
     let poly = |c: &[f32; 8]| c.iter().rev().fold(0.0f32, |acc, &k| acc * g + k);
     const A: [f32; 8] = [
-        1.826_052_4,
-        -1.284_510_6,
-        -1.799_046_3,
-        9.193_933,
-        -22.821_558,
-        32.023_487,
-        -23.626_48,
-        7.210_67,
+        1.8260523782,
+        -1.28451056436,
+        -1.79904629312,
+        9.19393289202,
+        -22.8215585862,
+        32.0234874259,
+        -23.6264803333,
+        7.21067002658,
     ];
-    const B_EXP: [f32; 8] =
-        [0.0, 31.149_158, -201.847_02, 841.576, -2018.092_9, 2731.715_6, -1935.414_2, 559.009_05];
+    const B_EXP: [f32; 8] = [
+        0.0,
+        31.1491581433,
+        -201.847017512,
+        841.576016723,
+        -2018.09288505,
+        2731.71560286,
+        -1935.41424244,
+        559.009054474,
+    ];
     const C: [f32; 8] = [
-        1.096_861,
-        -0.394_704_06,
-        1.052_581_2,
-        -8.839_637,
-        28.864_323,
-        -46.880_29,
-        38.540_283,
-        -12.718_104,
+        1.09686102424,
+        -0.394704063468,
+        1.05258115941,
+        -8.83963712726,
+        28.8643230661,
+        -46.8802913581,
+        38.5402837518,
+        -12.7181042538,
     ];
-    const D: [f32; 8] =
-        [0.496_310_2, 0.360_146_58, -2.151_393_1, 17.889_69, -55.298_4, 82.065_98, -58.510_6, 15.847_83];
-    const E_EXP: [f32; 8] = [0.0, 76.731_63, -594.356_8, 2448.883_5, -5576.685, 7116.602, -4763.544_9, 1303.531_8];
+    const D: [f32; 8] = [
+        0.496310210422,
+        0.360146581622,
+        -2.15139309747,
+        17.8896899217,
+        -55.2984010333,
+        82.065982243,
+        -58.5106008578,
+        15.8478295021,
+    ];
+    const E_EXP: [f32; 8] =
+        [0.0, 76.7316253952, -594.356773233, 2448.8834203, -5576.68528998, 7116.60171912, -4763.54467887, 1303.5318055];
     const F: [f32; 8] = [
-        2.406_03,
-        -2.518_148_4,
-        9.184_949,
-        -79.219_17,
-        259.082_87,
-        -403.613_8,
-        302.857_12,
-        -87.437_05,
+        2.40602999408,
+        -2.51814844609,
+        9.18494908356,
+        -79.2191708682,
+        259.082868209,
+        -403.613804597,
+        302.85712436,
+        -87.4370473567,
     ];
-    let b = 4.985_112 + 0.127_355_96 * poly(&B_EXP).exp();
-    let e = 4.231_903 + 0.003_106_039_5 * poly(&E_EXP).exp();
+    let b = 4.98511194385 + 0.127355959438 * poly(&B_EXP).exp();
+    let e = 4.23190299701 + 0.00310603949088 * poly(&E_EXP).exp();
     let blend = a.max(0.0).powf(0.25);
     let alpha =
         (1.0 - blend) * poly(&A) * (b * a).atan().powf(poly(&C)) + blend * poly(&D) * (e * a).atan().powf(poly(&F));

@@ -70,8 +70,8 @@ mod tests {
         let dir = Vec3::new(0.3, -0.4, 0.87).normalize();
         for g in [-0.7f32, 0.0, 0.3, 0.9] {
             let p = HenyeyGreenstein::new(g);
-            let r = ChiSquareTest::new(&format!("hg g={g}"))
-                .run_with_pdf(|u| Some(p.sample(dir, u)), |w| p.eval(dir, w));
+            let r =
+                ChiSquareTest::new(&format!("hg g={g}")).run_with_pdf(|u| Some(p.sample(dir, u)), |w| p.eval(dir, w));
             assert_chi2(r);
         }
     }

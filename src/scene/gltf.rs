@@ -6,8 +6,8 @@
 //! becomes an [`Error::Scene`] naming the file and the offending object; every guess
 //! or dropped feature becomes a warning in [`Scene::warnings`].
 
-use super::texture::{Texture, Wrap, texture_transform};
 use super::material::{Subsurface, SubsurfaceMethod};
+use super::texture::{Texture, Wrap, texture_transform};
 use super::{
     AlphaMode, Camera, CameraReport, LightReport, LoadReport, Material, MaterialReport, Mesh, Projection, Scene,
     SceneSettings, TexRef,
