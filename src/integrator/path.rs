@@ -32,7 +32,7 @@ use crate::bsdf::microfacet::Ggx;
 use crate::bsdf::{Bsdf, PbrBsdf};
 use crate::light::LightSample;
 use crate::math::{Frame, Rgb, offset_ray_origin};
-use crate::medium::{FreeFlight, MediumStack, WalkMedium, WalkRng, skin_mean_free_path};
+use crate::medium::{FreeFlight, HenyeyGreenstein, MediumStack, WalkMedium, WalkRng, skin_mean_free_path};
 use crate::sampling::PixelSampler;
 use crate::sampling::warp::{cosine_hemisphere, cosine_hemisphere_pdf};
 use crate::scene::AlphaMode;
@@ -61,31 +61,144 @@ impl Default for PathIntegrator {
 /// thousands of transparent layers cannot loop forever.
 const MAX_TRANSPARENT_HITS: u32 = 128;
 
+/// Where a path stands between two bounces: what [`PathIntegrator::continue_path`]
+/// needs to go on from a vertex found by another integrator.
+#[derive(Clone, Copy, Debug)]
+pub struct PathState {
+    /// Origin of the next ray.
+    pub org: Vec3,
+    /// Direction of the next ray.
+    pub dir: Vec3,
+    /// Throughput.
+    pub beta: Rgb,
+    /// Scattering events so far.
+    pub depth: u32,
+    /// Density of the sample that chose `dir`, for MIS (0: none, e.g. after a delta lobe).
+    pub prev_pdf: f32,
+    /// The vertex that chose `dir`.
+    pub prev_p: Vec3,
+    /// The media the path is in.
+    pub media: MediumStack,
+}
+
 impl PathIntegrator {
     /// Radiance arriving at the camera along a ray.
     pub fn li(
         &self,
         ctx: &SceneContext,
-        mut org: Vec3,
-        mut dir: Vec3,
+        org: Vec3,
+        dir: Vec3,
         sampler: &mut PixelSampler,
         depth_of: impl Fn(Vec3) -> f32,
         stats: &mut RayStats,
     ) -> CameraSample {
         let mut out = CameraSample { depth: f32::INFINITY, ..Default::default() };
+        stats.camera += 1;
+        // Camera rays start in vacuum, with no MIS for what they hit first.
+        let st = PathState {
+            org,
+            dir,
+            beta: Rgb::ONE,
+            depth: 0,
+            prev_pdf: 0.0,
+            prev_p: org,
+            media: MediumStack::default(),
+        };
+        out.radiance = self.trace(ctx, st, sampler, depth_of, stats, &mut out);
+        out
+    }
+
+    /// Radiance brought back by a path continued from `st` (depth ≥ 1), times its
+    /// throughput: how the photon integrators path-trace what they do not map (media).
+    pub fn continue_path(
+        &self,
+        ctx: &SceneContext,
+        st: PathState,
+        sampler: &mut PixelSampler,
+        stats: &mut RayStats,
+    ) -> Rgb {
+        let mut out = CameraSample::default();
+        self.trace(ctx, st, sampler, |_| 0.0, stats, &mut out)
+    }
+
+    /// Radiance scattered at a point `p` in a medium of phase function `phase` toward a
+    /// path arriving along `dir` with throughput `beta` after `depth` events: NEE there,
+    /// then the path continued by phase sampling.
+    #[allow(clippy::too_many_arguments)]
+    pub fn scatter_in_medium(
+        &self,
+        ctx: &SceneContext,
+        p: Vec3,
+        dir: Vec3,
+        phase: HenyeyGreenstein,
+        media: MediumStack,
+        beta: Rgb,
+        depth: u32,
+        sampler: &mut PixelSampler,
+        stats: &mut RayStats,
+    ) -> Rgb {
+        let [u_light, u_lx, u_ly, _] = sampler.next_4d();
+        let [u_dx, u_dy, u_rr, _] = sampler.next_4d();
+        let mut radiance = beta * self.medium_nee(ctx, p, dir, phase, media, u_light, Vec2::new(u_lx, u_ly), stats);
+        let (wi, pdf) = phase.sample(dir, Vec2::new(u_dx, u_dy));
+        let mut beta = beta;
+        let depth = depth + 1;
+        if depth < self.max_depth && self.survives(&mut beta, 1.0, depth, u_rr) {
+            stats.bounce += 1;
+            let st = PathState { org: p, dir: wi, beta, depth, prev_pdf: pdf, prev_p: p, media };
+            radiance += self.continue_path(ctx, st, sampler, stats);
+        }
+        radiance
+    }
+
+    /// Light arriving at medium point `p` by NEE, times the phase function (MIS against
+    /// phase sampling), for a path travelling along `dir`.
+    #[allow(clippy::too_many_arguments)]
+    fn medium_nee(
+        &self,
+        ctx: &SceneContext,
+        p: Vec3,
+        dir: Vec3,
+        phase: HenyeyGreenstein,
+        media: MediumStack,
+        u_light: f32,
+        u_light_pt: Vec2,
+        stats: &mut RayStats,
+    ) -> Rgb {
+        if let Some((index, pmf)) = ctx.lights.sample(u_light)
+            && let Some(ls) = ctx.sample_light(index, p, u_light_pt)
+        {
+            let f = phase.eval(dir, ls.wi);
+            if f > 0.0 && ls.li != Rgb::ZERO {
+                stats.shadow += 1;
+                let tr = media::light_transmittance(ctx, p, None, &ls, media);
+                if tr != Rgb::ZERO {
+                    let w = if ls.delta { 1.0 } else { power_heuristic(ls.pdf * pmf, f) };
+                    return tr * ls.li * (f * w / (ls.pdf * pmf));
+                }
+            }
+        }
+        Rgb::ZERO
+    }
+
+    /// The path loop from state `st`; AOVs of the first hit go to `out`.
+    fn trace(
+        &self,
+        ctx: &SceneContext,
+        st: PathState,
+        sampler: &mut PixelSampler,
+        depth_of: impl Fn(Vec3) -> f32,
+        stats: &mut RayStats,
+        out: &mut CameraSample,
+    ) -> Rgb {
+        let PathState { mut org, mut dir, mut beta, mut depth, prev_pdf, mut prev_p, mut media } = st;
         let mut radiance = Rgb::ZERO;
-        let mut beta = Rgb::ONE;
-        let mut depth = 0u32;
         let mut transparent_hits = 0u32;
         // Density of the BSDF sample that produced `dir` (0 for camera rays: no MIS).
-        let mut prev_bsdf_pdf = 0.0f32;
-        let mut prev_p = org;
-        // The media the path is in (camera rays start in vacuum).
-        let mut media = MediumStack::default();
+        let mut prev_bsdf_pdf = prev_pdf;
         // Product of η² over refractions, undone in Russian roulette so that the
         // 1/η² radiance scaling inside glass does not end paths early (pbrt's etaScale).
         let mut eta_scale = 1.0f32;
-        stats.camera += 1;
         loop {
             // Bounce dimensions, drawn up front so that their positions are fixed.
             let [u_light, u_lx, u_ly, u_lobe] = sampler.next_4d();
@@ -140,19 +253,7 @@ impl PathIntegrator {
                 if depth >= self.max_depth {
                     break;
                 }
-                if let Some((index, pmf)) = ctx.lights.sample(u_light)
-                    && let Some(ls) = ctx.sample_light(index, p, u_light_pt)
-                {
-                    let f = phase.eval(dir, ls.wi);
-                    if f > 0.0 && ls.li != Rgb::ZERO {
-                        stats.shadow += 1;
-                        let tr = media::light_transmittance(ctx, p, None, &ls, media);
-                        if tr != Rgb::ZERO {
-                            let w = if ls.delta { 1.0 } else { power_heuristic(ls.pdf * pmf, f) };
-                            radiance += beta * tr * ls.li * (f * w / (ls.pdf * pmf));
-                        }
-                    }
-                }
+                radiance += beta * self.medium_nee(ctx, p, dir, phase, media, u_light, u_light_pt, stats);
                 // The phase function is its own density: the throughput is unchanged.
                 let (wi, pdf) = phase.sample(dir, u_dir);
                 prev_bsdf_pdf = pdf;
@@ -354,8 +455,7 @@ impl PathIntegrator {
             dir = wi;
             stats.bounce += 1;
         }
-        out.radiance = radiance;
-        out
+        radiance
     }
 
     /// Russian roulette from `rr_depth`: false when the path ends; survivors are reweighted.
