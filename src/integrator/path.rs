@@ -95,15 +95,8 @@ impl PathIntegrator {
         let mut out = CameraSample { depth: f32::INFINITY, ..Default::default() };
         stats.camera += 1;
         // Camera rays start in vacuum, with no MIS for what they hit first.
-        let st = PathState {
-            org,
-            dir,
-            beta: Rgb::ONE,
-            depth: 0,
-            prev_pdf: 0.0,
-            prev_p: org,
-            media: MediumStack::default(),
-        };
+        let st =
+            PathState { org, dir, beta: Rgb::ONE, depth: 0, prev_pdf: 0.0, prev_p: org, media: MediumStack::default() };
         out.radiance = self.trace(ctx, st, sampler, depth_of, stats, &mut out);
         out
     }

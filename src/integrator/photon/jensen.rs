@@ -26,6 +26,7 @@ use super::estimate::{direct_light, radiance};
 use super::io::PhotonMaps;
 use crate::integrator::{CameraSample, RayStats, SceneContext, power_heuristic};
 use crate::math::{Rgb, offset_ray_origin};
+use crate::medium::MediumStack;
 use crate::sampling::PixelSampler;
 use crate::scene::AlphaMode;
 use glam::{Vec2, Vec3};
@@ -212,7 +213,7 @@ impl JensenIntegrator {
         let gather = if self.diffuse_bounces == 0 || d >= self.max_depth { 0 } else { self.gather_rays };
         let max_r2 = self.max_radius * self.max_radius;
         // Direct light.
-        let mut l = direct_light(ctx, s, sp, wo_local, u_light, u_pt, gather as f32, stats);
+        let mut l = direct_light(ctx, s, sp, wo_local, u_light, u_pt, gather as f32, MediumStack::default(), stats);
         // Caustics: photons with hit index j make paths of j - 1 + d events.
         let jmax = self.max_depth + 1 - d;
         l += radiance(&self.maps.caustic, s.p, s.ng, &sp.frame, &sp.bsdf, wo_local, self.k, max_r2, |p| {
@@ -311,7 +312,18 @@ impl JensenIntegrator {
                         });
                     break;
                 }
-                l += beta * direct_light(ctx, &s, &sp, wo_local, u_light, Vec2::new(u_lx, u_ly), 1.0, stats);
+                l += beta
+                    * direct_light(
+                        ctx,
+                        &s,
+                        &sp,
+                        wo_local,
+                        u_light,
+                        Vec2::new(u_lx, u_ly),
+                        1.0,
+                        MediumStack::default(),
+                        stats,
+                    );
             }
             let Some(bs) = sp.bsdf.sample(wo_local, u_lobe, Vec2::new(u_dx, u_dy)) else {
                 break;

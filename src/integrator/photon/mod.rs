@@ -13,10 +13,11 @@
 //!
 //! Every parameter's default lives in [`PhotonSettings`] (`Default`), read by `cli.rs`.
 //!
-//! Media: photons and the specular camera paths treat a medium as absorbing only (its
-//! extinction σt absorbs, nothing scatters), a volume boundary without a surface as the
-//! material's surface, and a subsurface material as its BSDF without the subsurface
-//! part; [`media_warning`] says so when a scene has any of them.
+//! Media: photons scatter in media and cross volume boundaries (`trace.rs`); SPPM's
+//! camera paths path-trace from a scattering event in a medium (`sppm.rs`). Jensen's
+//! rendering pass treats media as absorbing only (σt absorbs) and volume boundaries as
+//! surfaces; neither renders the subsurface part of a material. [`media_warning`] says
+//! so when a scene has any of them.
 //!
 //! A stored photon is 32 bytes: position and RGB power as f32, the incident direction as
 //! a 16:16 octahedral code, and one word holding the surface normal (10:10 octahedral),
@@ -38,22 +39,25 @@ use glam::{Vec2, Vec3};
 
 pub use kdtree::PhotonMap;
 
-/// A warning naming the materials whose media or subsurface scattering the photon
-/// integrators do not render (see the module notes), or None.
-pub fn media_warning(scene: &crate::scene::Scene) -> Option<String> {
+/// A warning naming the materials whose media or subsurface scattering the chosen photon
+/// integrator does not render (see the module notes), or None. SPPM renders media (it
+/// path-traces camera paths that scatter in them) but not subsurface scattering;
+/// Jensen's rendering pass renders neither.
+pub fn media_warning(scene: &crate::scene::Scene, sppm: bool) -> Option<String> {
     let names: Vec<&str> = scene
         .materials
         .iter()
-        .filter(|m| m.subsurface.is_some() || m.null_surface || m.medium.is_some_and(|md| md.scatters()))
+        .filter(|m| m.subsurface.is_some() || (!sppm && (m.null_surface || m.medium.is_some_and(|md| md.scatters()))))
         .map(|m| m.name.as_str())
         .collect();
     (!names.is_empty()).then(|| {
-        format!(
-            "the photon integrators do not scatter in media or below surfaces yet: material(s) {} render with \
-             their media as absorption only, volume boundaries as surfaces and no subsurface part; use the \
-             path integrator for them",
-            names.join(", ")
-        )
+        let what = if sppm {
+            "SPPM does not render subsurface scattering yet: material(s) {} render without their subsurface part"
+        } else {
+            "the photon integrator does not scatter in media or below surfaces yet: material(s) {} render with \
+             their media as absorption only, volume boundaries as surfaces and no subsurface part"
+        };
+        format!("{}; use the path or sppm integrator for them", what.replace("{}", &names.join(", ")))
     })
 }
 

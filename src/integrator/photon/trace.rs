@@ -31,6 +31,7 @@ use super::Photon;
 use super::emit::Emitters;
 use crate::integrator::SceneContext;
 use crate::math::offset_ray_origin;
+use crate::medium::FreeFlight;
 use crate::sampling::PixelSampler;
 use crate::scene::AlphaMode;
 use glam::Vec2;
@@ -151,18 +152,48 @@ pub fn trace_one(
     let mut specular_only = true;
     let mut depth = 0u32;
     let mut transparent = 0u32;
-    // Media the photon is in (absorbing only here: see `SceneContext::extinction`).
+    // Media the photon is in; photons scatter in them (free flights as the path
+    // tracer's, with the photon's power as the channel weights) but are stored only on
+    // surfaces.
     let mut medium = crate::medium::MediumStack::default();
     loop {
         let [u_lobe, u_x, u_y, u_rr] = s.next_4d();
+        let [u_channel, u_dist, u_px, u_py] = if ctx.has_media { s.next_4d() } else { [0.0; 4] };
         st.rays += 1;
-        let Some(hit) = ctx.intersect(org, dir, f32::INFINITY) else {
+        let hit = ctx.intersect(org, dir, f32::INFINITY);
+        if let Some(m) = ctx.medium(&medium).copied() {
+            match m.sample_free_flight(hit.map_or(f32::INFINITY, |h| h.t), power, u_channel, u_dist) {
+                FreeFlight::Scatter { t, weight } => {
+                    // Russian roulette on the event's weight (the single-scattering
+                    // albedo for a grey medium), as on surfaces.
+                    let q = weight.max_element().min(1.0);
+                    if !(q > 0.0) || u_rr >= q || !weight.is_finite() {
+                        return;
+                    }
+                    power *= weight / q;
+                    depth += 1;
+                    specular_only = false;
+                    if depth >= job.max_depth {
+                        return;
+                    }
+                    org += dir * t;
+                    dir = m.phase.sample(dir, Vec2::new(u_px, u_py)).0;
+                    continue;
+                }
+                FreeFlight::Pass { weight } => power *= weight,
+            }
+        }
+        let Some(hit) = hit else {
             return;
         };
-        if let Some(sigma) = ctx.extinction(&medium) {
-            power *= (-sigma * hit.t).exp();
-        }
         let sh = ctx.surface(&hit, org, dir);
+        if ctx.scene.materials[sh.material as usize].null_surface && transparent < MAX_TRANSPARENT_HITS {
+            // A volume boundary without a surface: only the medium changes.
+            transparent += 1;
+            medium = ctx.medium_after(&sh, dir, medium);
+            org = offset_ray_origin(sh.p, -sh.ng);
+            continue;
+        }
         if ctx.scene.materials[sh.material as usize].alpha_mode == AlphaMode::Blend
             && transparent < MAX_TRANSPARENT_HITS
         {
