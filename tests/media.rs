@@ -484,3 +484,37 @@ fn subsurface_scene_renders() {
     let mean = px.iter().map(|p| (p[0] + p[1] + p[2]) as f64).sum::<f64>() / px.len() as f64;
     assert!(mean > 0.01, "black image: {mean}");
 }
+
+/// A medium in an open mesh is rendered (a defined behaviour) with a warning naming it.
+#[test]
+fn open_medium_mesh_warns() {
+    let dir = temp_dir();
+    let mut g = GltfBuilder::new();
+    let m = medium_material(&mut g, [1.0, 1.0, 1.0], [0.0; 3], false);
+    g.doc_material_name(m, "leaky");
+    // A box without its top: two triangles fewer.
+    g.mesh(
+        &[
+            [-1.0, -1.0, -3.0],
+            [1.0, -1.0, -3.0],
+            [1.0, 1.0, -3.0],
+            [-1.0, 1.0, -3.0],
+            [-1.0, -1.0, -1.0],
+            [1.0, -1.0, -1.0],
+            [1.0, 1.0, -1.0],
+            [-1.0, 1.0, -1.0],
+        ],
+        &[0, 2, 1, 0, 3, 2, 0, 1, 5, 0, 5, 4, 1, 2, 6, 1, 6, 5, 2, 3, 7, 2, 7, 6, 3, 0, 4, 3, 4, 7],
+        m,
+    );
+    let closed = medium_material(&mut g, [1.0, 1.0, 1.0], [0.0; 3], false);
+    g.doc_material_name(closed, "tight");
+    g.cube([2.0, -1.0, -3.0], [3.0, 1.0, -1.0], closed);
+    g.camera([0.0, 0.0, 1.0], look_rotation([0.0, 0.0, -1.0]), 0.9);
+    g.world(json!({"color": [1, 1, 1]}));
+    let path = g.write(dir.path(), "open.gltf");
+    let scene = caustic::scene::gltf::load(&path).unwrap();
+    let w = scene.warnings.join("\n");
+    assert!(w.contains("leaky") && w.contains("not closed") && w.contains("4 open edges"), "{w}");
+    assert!(!w.contains("tight"), "{w}");
+}

@@ -1293,6 +1293,7 @@ impl<'a> Loader<'a> {
                 out.uv1.push(uv1.as_ref().map(|u| u[i]).unwrap_or(Vec2::ZERO));
                 out.colors.push(colors.as_ref().map(|c| c[i]).unwrap_or(Vec4::ONE));
             }
+            let first_tri = out.triangles.len();
             for t in tris {
                 let p = t.map(|i| out.positions[(base + i) as usize]);
                 let area2 = (p[1] - p[0]).cross(p[2] - p[0]).length();
@@ -1303,6 +1304,18 @@ impl<'a> Loader<'a> {
                 let t = if flip { [t[0], t[2], t[1]] } else { t };
                 out.triangles.push(t.map(|i| base + i));
                 out.tri_material.push(material_index);
+            }
+            let material = &materials[material_index as usize];
+            if material.medium.is_some() || material.subsurface.is_some() {
+                let open = open_edges(&out.positions, &out.triangles[first_tri..]);
+                if open > 0 {
+                    self.warn(format!(
+                        "{what}: material '{}' has a volume or subsurface scattering but the primitive is not closed \
+                         ({open} open edges): paths that leave through a hole lose the light the medium would have \
+                         scattered (a path escaping to the sky from inside is black)",
+                        material.name
+                    ));
+                }
             }
         }
         Ok(degenerate)
@@ -1496,6 +1509,32 @@ fn punctual_power(l: &Light, scene_radius: f32) -> f32 {
         Light::Area(a) => luminance(a.radiance) * a.area * PI,
         Light::Triangle { .. } | Light::World => 0.0,
     }
+}
+
+/// Edges used by an odd number of the triangles: 0 for a closed surface. Vertices are
+/// joined by position rounded to 10⁻⁶ of the primitive's size, so that vertices split
+/// for UV seams or hard edges, or computed twice with rounding (a sphere's seam and
+/// poles), still join.
+fn open_edges(positions: &[Vec3], tris: &[[u32; 3]]) -> usize {
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    for t in tris {
+        for &i in t {
+            lo = lo.min(positions[i as usize]);
+            hi = hi.max(positions[i as usize]);
+        }
+    }
+    let scale = 1e6 / (hi - lo).max_element().max(1e-30);
+    let key = |i: u32| (positions[i as usize] * scale).round().to_array().map(|c| c as i64);
+    let mut count: HashMap<([i64; 3], [i64; 3]), u32> = HashMap::new();
+    for t in tris {
+        for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
+            let (ka, kb) = (key(a), key(b));
+            if ka != kb {
+                *count.entry(if ka < kb { (ka, kb) } else { (kb, ka) }).or_default() += 1;
+            }
+        }
+    }
+    count.values().filter(|&&c| c % 2 == 1).count()
 }
 
 fn push_unique(v: &mut Vec<String>, s: &str) {
