@@ -502,7 +502,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     }
     let res = resolve(args, &scene)?;
     if res.integrator != IntegratorKind::Path
-        && let Some(w) = photon::media_warning(&scene, res.integrator == IntegratorKind::Sppm)
+        && let Some(w) = photon::media_warning(&scene)
     {
         reporter.warning(&w);
         scene.warnings.push(w);
@@ -764,7 +764,7 @@ pub fn run_photons(args: &PhotonsArgs, reporter: &Reporter, stop: &AtomicBool) -
     for w in &scene.warnings {
         reporter.warning(w);
     }
-    if let Some(w) = photon::media_warning(&scene, false) {
+    if let Some(w) = photon::media_warning(&scene) {
         reporter.warning(&w);
     }
     let st = &scene.settings;

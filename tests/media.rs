@@ -347,11 +347,11 @@ fn bad_media_are_refused() {
     }
 }
 
-/// What the photon integrators do not render they name: Jensen's rendering pass does
-/// not scatter in media, SPPM has no subsurface.
+/// The photon integrators name the subsurface materials they render without their
+/// subsurface part, and do not warn about media, which they render.
 #[test]
-fn photon_integrators_warn_about_media() {
-    for (integrator, subsurface) in [("photon", false), ("sppm", true)] {
+fn photon_integrators_warn_about_subsurface() {
+    for (integrator, subsurface) in [("photon", true), ("sppm", true), ("photon", false), ("sppm", false)] {
         let dir = temp_dir();
         let mut g = GltfBuilder::new();
         let m = if subsurface {
@@ -391,7 +391,7 @@ fn photon_integrators_warn_about_media() {
         );
         assert_eq!(r.code, Some(0), "{}", r.stderr);
         let w = r.summary().unwrap()["warnings"].to_string();
-        assert!(w.contains("fog") && w.contains("does not"), "{integrator}: {w}");
+        assert_eq!(w.contains("fog") && w.contains("subsurface"), subsurface, "{integrator}: {w}");
     }
 }
 
@@ -405,7 +405,7 @@ fn two_seed_stats(a: &[[f32; 4]], b: &[[f32; 4]]) -> (f64, f64) {
     (mean, (d2 / (2.0 * n * n) / 2.0).sqrt())
 }
 
-/// SPPM converges to the path tracer with a chromatic, forward-scattering fog slab
+/// SPPM and Jensen's photon mapping converge to the path tracer with a chromatic, forward-scattering fog slab
 /// between a point light and a floor: seen from below the slab (the floor's light came
 /// through the fog: NEE through it, photons scattered in it) and from above (camera
 /// paths scatter in the fog and are path traced from there). Bound: 5σ of the two
@@ -413,7 +413,7 @@ fn two_seed_stats(a: &[[f32; 4]], b: &[[f32; 4]]) -> (f64, f64) {
 /// edge bias (tests/photon.rs) is zero and its curvature term, O(r²/h²) < 10⁻³ with
 /// r ≤ 0.05 and the light 3 above, is folded into the 5σ as there.
 #[test]
-fn sppm_matches_path_tracing_through_fog() {
+fn photon_mapping_matches_path_tracing_through_fog() {
     let dir = temp_dir();
     for (label, eye, look) in
         [("below", [0.0f32, 0.6, 1.5], [0.0f32, -0.6, -1.5]), ("above", [0.0, 2.5, 2.0], [0.0, -2.5, -2.0])]
@@ -440,18 +440,24 @@ fn sppm_matches_path_tracing_through_fog() {
         };
         let pt_a = r("pt_a.exr", &["--spp", "256", "--seed", "1"]);
         let pt_b = r("pt_b.exr", &["--spp", "256", "--seed", "2"]);
-        let sp = |name: &str, seed: &str| {
-            r(name, &["--integrator", "sppm", "--sppm-iterations", "256", "--sppm-radius", "0.05", "--seed", seed])
-        };
-        let (sp_a, sp_b) = (sp("sp_a.exr", "1"), sp("sp_b.exr", "2"));
         let (pt, se_pt) = two_seed_stats(&pt_a, &pt_b);
-        let (sppm, se_sp) = two_seed_stats(&sp_a, &sp_b);
-        let bound = 5.0 * (se_pt * se_pt + se_sp * se_sp).sqrt();
-        eprintln!(
-            "fog {label}: PT {pt:.5} ± {se_pt:.5}, SPPM {sppm:.5} ± {se_sp:.5}, ratio {:.4}, bound {bound:.5}",
-            sppm / pt
-        );
-        assert!((sppm - pt).abs() <= bound, "{label}: SPPM {sppm} vs PT {pt} (bound {bound})");
+        let sppm = ["--integrator", "sppm", "--sppm-iterations", "256", "--sppm-radius", "0.05"];
+        let jensen = ["--integrator", "photon", "--spp", "64", "--photons", "100000", "--max-radius", "0.05"];
+        for (name, args) in [("SPPM", &sppm[..]), ("PM", &jensen[..])] {
+            let run_seed = |seed: &str| {
+                let mut a = args.to_vec();
+                a.extend_from_slice(&["--seed", seed]);
+                r(&format!("{name}{seed}.exr"), &a)
+            };
+            let (a, b) = (run_seed("1"), run_seed("2"));
+            let (m, se) = two_seed_stats(&a, &b);
+            let bound = 5.0 * (se_pt * se_pt + se * se).sqrt();
+            eprintln!(
+                "fog {label}: PT {pt:.5} ± {se_pt:.5}, {name} {m:.5} ± {se:.5}, ratio {:.4}, bound {bound:.5}",
+                m / pt
+            );
+            assert!((m - pt).abs() <= bound, "{label}: {name} {m} vs PT {pt} (bound {bound})");
+        }
     }
 }
 

@@ -13,11 +13,11 @@
 //!
 //! Every parameter's default lives in [`PhotonSettings`] (`Default`), read by `cli.rs`.
 //!
-//! Media: photons scatter in media and cross volume boundaries (`trace.rs`); SPPM's
-//! camera paths path-trace from a scattering event in a medium (`sppm.rs`). Jensen's
-//! rendering pass treats media as absorbing only (σt absorbs) and volume boundaries as
-//! surfaces; neither renders the subsurface part of a material. [`media_warning`] says
-//! so when a scene has any of them.
+//! Media: photons scatter in media and cross volume boundaries (`trace.rs`), and are
+//! stored on surfaces only (no volume photon map); camera paths and Jensen's gather
+//! rays that scatter in a medium are path traced from that vertex on (`jensen.rs`,
+//! `sppm.rs`). Neither integrator renders the subsurface part of a material;
+//! [`media_warning`] says so.
 //!
 //! A stored photon is 32 bytes: position and RGB power as f32, the incident direction as
 //! a 16:16 octahedral code, and one word holding the surface normal (10:10 octahedral),
@@ -39,25 +39,16 @@ use glam::{Vec2, Vec3};
 
 pub use kdtree::PhotonMap;
 
-/// A warning naming the materials whose media or subsurface scattering the chosen photon
-/// integrator does not render (see the module notes), or None. SPPM renders media (it
-/// path-traces camera paths that scatter in them) but not subsurface scattering;
-/// Jensen's rendering pass renders neither.
-pub fn media_warning(scene: &crate::scene::Scene, sppm: bool) -> Option<String> {
-    let names: Vec<&str> = scene
-        .materials
-        .iter()
-        .filter(|m| m.subsurface.is_some() || (!sppm && (m.null_surface || m.medium.is_some_and(|md| md.scatters()))))
-        .map(|m| m.name.as_str())
-        .collect();
+/// A warning naming the materials whose subsurface scattering the photon integrators do
+/// not render (see the module notes), or None.
+pub fn media_warning(scene: &crate::scene::Scene) -> Option<String> {
+    let names: Vec<&str> = scene.materials.iter().filter(|m| m.subsurface.is_some()).map(|m| m.name.as_str()).collect();
     (!names.is_empty()).then(|| {
-        let what = if sppm {
-            "SPPM does not render subsurface scattering yet: material(s) {} render without their subsurface part"
-        } else {
-            "the photon integrator does not scatter in media or below surfaces yet: material(s) {} render with \
-             their media as absorption only, volume boundaries as surfaces and no subsurface part"
-        };
-        format!("{}; use the path or sppm integrator for them", what.replace("{}", &names.join(", ")))
+        format!(
+            "the photon integrators do not render subsurface scattering yet: material(s) {} render without \
+             their subsurface part; use the path integrator for them",
+            names.join(", ")
+        )
     })
 }
 
