@@ -496,17 +496,11 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     reporter.phase("loading", 0.0);
     output::clean_stale_temps(&args.output);
     output::check_writable(&args.output)?;
-    let mut scene = scene::gltf::load(&args.scene)?;
+    let scene = scene::gltf::load(&args.scene)?;
     for w in &scene.warnings {
         reporter.warning(w);
     }
     let res = resolve(args, &scene)?;
-    if res.integrator != IntegratorKind::Path
-        && let Some(w) = photon::media_warning(&scene)
-    {
-        reporter.warning(&w);
-        scene.warnings.push(w);
-    }
     if stop.load(Ordering::Relaxed) {
         return Err(Error::InterruptedEmpty);
     }
@@ -763,9 +757,6 @@ pub fn run_photons(args: &PhotonsArgs, reporter: &Reporter, stop: &AtomicBool) -
     let scene = scene::gltf::load(&args.scene)?;
     for w in &scene.warnings {
         reporter.warning(w);
-    }
-    if let Some(w) = photon::media_warning(&scene) {
-        reporter.warning(&w);
     }
     let st = &scene.settings;
     let p = resolve_photon(&args.photon, st)?;

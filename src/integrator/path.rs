@@ -378,24 +378,7 @@ impl PathIntegrator {
                 }
                 let [v_light, v_lx, v_ly, _] = sampler.next_4d();
                 let [v_dx, v_dy, _, _] = sampler.next_4d();
-                if let Some((index, pmf)) = ctx.lights.sample(v_light)
-                    && let Some(ls) = ctx.sample_light(index, se.p, Vec2::new(v_lx, v_ly))
-                {
-                    let cos = ls.wi.dot(n_s);
-                    if cos > 0.0 && ls.wi.dot(n_g) > 0.0 && ls.li != Rgb::ZERO {
-                        stats.shadow += 1;
-                        let tr = if ctx.has_media {
-                            media::light_transmittance(ctx, se.p, Some(n_g), &ls, media)
-                        } else {
-                            Rgb::splat(ctx.visibility(se.p, n_g, &ls))
-                        };
-                        if tr != Rgb::ZERO {
-                            let f = cos * std::f32::consts::FRAC_1_PI;
-                            let w = if ls.delta { 1.0 } else { power_heuristic(ls.pdf * pmf, f) };
-                            radiance += beta * tr * ls.li * (f * w / (ls.pdf * pmf));
-                        }
-                    }
-                }
+                radiance += beta * exit_nee(ctx, &se, n_g, n_s, media, v_light, Vec2::new(v_lx, v_ly), stats);
                 let local = cosine_hemisphere(Vec2::new(v_dx, v_dy));
                 let wi = Frame::from_normal(n_s).to_world(local);
                 if wi.dot(n_g) <= 0.0 {
@@ -451,6 +434,60 @@ impl PathIntegrator {
         radiance
     }
 
+    /// Radiance of the subsurface part of the material at `s` seen along `wo`, per unit
+    /// of its weight (`PbrBsdf::subsurface_weight`): enter, walk, leave through the
+    /// Lambertian exit and path trace on. For integrators that handle the rest of the
+    /// material otherwise (the photon integrators); `depth` counts the events before `s`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn subsurface_from(
+        &self,
+        ctx: &SceneContext,
+        s: &SurfaceHit,
+        sp: &ShadingPoint,
+        wo: Vec3,
+        media: MediumStack,
+        beta: Rgb,
+        depth: u32,
+        sampler: &mut PixelSampler,
+        stats: &mut RayStats,
+    ) -> Rgb {
+        let mat = &ctx.scene.materials[s.material as usize];
+        let (Some(ss), Bsdf::Pbr(pbr)) = (mat.subsurface, &sp.bsdf) else {
+            return Rgb::ZERO;
+        };
+        let u = sampler.next_4d();
+        let Some(exit) = self.subsurface(ctx, s, sp, wo, &ss, pbr, beta, u) else {
+            return Rgb::ZERO;
+        };
+        let mut beta = beta * exit.weight;
+        let depth = depth + 1;
+        if depth >= self.max_depth || !beta.is_finite() || beta == Rgb::ZERO {
+            return Rgb::ZERO;
+        }
+        let se = ctx.surface(&exit.hit, exit.org, exit.dir);
+        let (n_g, n_s) = (-se.ng, -se.ns);
+        let [v_light, v_lx, v_ly, v_rr] = sampler.next_4d();
+        let [v_dx, v_dy, _, _] = sampler.next_4d();
+        let radiance = beta * exit_nee(ctx, &se, n_g, n_s, media, v_light, Vec2::new(v_lx, v_ly), stats);
+        let local = cosine_hemisphere(Vec2::new(v_dx, v_dy));
+        let wi = Frame::from_normal(n_s).to_world(local);
+        let depth = depth + 1;
+        if wi.dot(n_g) <= 0.0 || !self.survives(&mut beta, 1.0, depth, v_rr) {
+            return radiance;
+        }
+        stats.bounce += 1;
+        let st = PathState {
+            org: offset_ray_origin(se.p, n_g),
+            dir: wi,
+            beta,
+            depth,
+            prev_pdf: cosine_hemisphere_pdf(local.z),
+            prev_p: se.p,
+            media,
+        };
+        radiance + self.continue_path(ctx, st, sampler, stats)
+    }
+
     /// Russian roulette from `rr_depth`: false when the path ends; survivors are reweighted.
     #[inline]
     fn survives(&self, beta: &mut Rgb, eta_scale: f32, depth: u32, u_rr: f32) -> bool {
@@ -480,7 +517,7 @@ impl PathIntegrator {
     /// Enters a subsurface material at `s` (seen along `wo`) and walks inside; None when
     /// the entry fails (Cycles then ends the path too) or the walk is abandoned.
     #[allow(clippy::too_many_arguments)]
-    fn subsurface(
+    pub fn subsurface(
         &self,
         ctx: &SceneContext,
         s: &SurfaceHit,
@@ -527,4 +564,38 @@ impl PathIntegrator {
         let mut rng = WalkRng::new(u[3], s.tri);
         media::random_walk(ctx, offset_ray_origin(s.p, -s.ng), entry, &walk, beta, &mut rng)
     }
+}
+
+/// NEE at a subsurface exit point: a Lambertian of albedo 1 about `n_s` on the outside
+/// (`n_g` the outward geometric normal), MIS against cosine sampling.
+#[allow(clippy::too_many_arguments)]
+fn exit_nee(
+    ctx: &SceneContext,
+    se: &SurfaceHit,
+    n_g: Vec3,
+    n_s: Vec3,
+    media: MediumStack,
+    u_light: f32,
+    u_pt: Vec2,
+    stats: &mut RayStats,
+) -> Rgb {
+    if let Some((index, pmf)) = ctx.lights.sample(u_light)
+        && let Some(ls) = ctx.sample_light(index, se.p, u_pt)
+    {
+        let cos = ls.wi.dot(n_s);
+        if cos > 0.0 && ls.wi.dot(n_g) > 0.0 && ls.li != Rgb::ZERO {
+            stats.shadow += 1;
+            let tr = if ctx.has_media {
+                media::light_transmittance(ctx, se.p, Some(n_g), &ls, media)
+            } else {
+                Rgb::splat(ctx.visibility(se.p, n_g, &ls))
+            };
+            if tr != Rgb::ZERO {
+                let f = cos * std::f32::consts::FRAC_1_PI;
+                let w = if ls.delta { 1.0 } else { power_heuristic(ls.pdf * pmf, f) };
+                return tr * ls.li * (f * w / (ls.pdf * pmf));
+            }
+        }
+    }
+    Rgb::ZERO
 }

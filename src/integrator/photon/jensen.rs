@@ -21,7 +21,8 @@
 //! of the scene radius, 1 gather ray per camera sample, 1 diffuse bounce (final gather), maximum depth
 //! as the path tracer's. Media: a camera path or gather ray that scatters in a medium is
 //! path traced from there (media have no photon map); crossing media, paths carry
-//! their transmittance. Not handled: subsurface scattering (warning), shadow photons (not
+//! their transmittance; the subsurface part of a material is path traced, its BSDF part
+//! reads the maps. Not handled: shadow photons (not
 //! measured to pay off), photon-map irradiance caching, the world light.
 
 use super::estimate::{direct_light, radiance};
@@ -121,6 +122,33 @@ impl JensenIntegrator {
             max_depth: self.max_depth,
             rr_depth: self.rr_depth,
             transparent_background: self.transparent_background,
+        }
+    }
+
+    /// The subsurface part of the material at `s` (no photon map: path traced), times `beta`.
+    #[allow(clippy::too_many_arguments)]
+    fn subsurface_part(
+        &self,
+        ctx: &SceneContext,
+        s: &crate::integrator::SurfaceHit,
+        sp: &crate::integrator::ShadingPoint,
+        wo: Vec3,
+        wo_local: Vec3,
+        media: MediumStack,
+        beta: Rgb,
+        depth: u32,
+        sampler: &mut PixelSampler,
+        stats: &mut RayStats,
+    ) -> Rgb {
+        let crate::bsdf::Bsdf::Pbr(pbr) = &sp.bsdf;
+        if ctx.scene.materials[s.material as usize].subsurface.is_none() {
+            return Rgb::ZERO;
+        }
+        let q = pbr.subsurface_weight(wo_local);
+        if q > 0.0 {
+            self.continuation().subsurface_from(ctx, s, sp, wo, media, beta * q, depth, sampler, stats)
+        } else {
+            Rgb::ZERO
         }
     }
 
@@ -224,6 +252,7 @@ impl JensenIntegrator {
                 break;
             }
             let wo_local = sp.frame.to_local(wo);
+            radiance += self.subsurface_part(ctx, &s, &sp, wo, wo_local, medium, beta, depth, sampler, stats);
             if !sp.bsdf.is_delta() {
                 // x₁: the first non-specular hit, scattering event depth + 1.
                 radiance += beta
@@ -387,6 +416,7 @@ impl JensenIntegrator {
                 break;
             }
             let wo_local = sp.frame.to_local(wo);
+            l += self.subsurface_part(ctx, &s, &sp, wo, wo_local, media, beta, depth, sampler, stats);
             let delta = sp.bsdf.is_delta();
             if !delta {
                 nondelta += 1;

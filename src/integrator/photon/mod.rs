@@ -13,11 +13,12 @@
 //!
 //! Every parameter's default lives in [`PhotonSettings`] (`Default`), read by `cli.rs`.
 //!
-//! Media: photons scatter in media and cross volume boundaries (`trace.rs`), and are
-//! stored on surfaces only (no volume photon map); camera paths and Jensen's gather
-//! rays that scatter in a medium are path traced from that vertex on (`jensen.rs`,
-//! `sppm.rs`). Neither integrator renders the subsurface part of a material;
-//! [`media_warning`] says so.
+//! Media and subsurface scattering: photons scatter in media, cross volume boundaries and
+//! walk through subsurface materials (`trace.rs`), and are stored on surfaces only (no
+//! volume photon map). Camera paths and Jensen's gather rays that scatter in a medium are
+//! path traced from that vertex on, and the subsurface part of a material at a camera or
+//! gather vertex is path traced (`PathIntegrator::subsurface_from`) while its BSDF part
+//! reads the maps (`jensen.rs`, `sppm.rs`).
 //!
 //! A stored photon is 32 bytes: position and RGB power as f32, the incident direction as
 //! a 16:16 octahedral code, and one word holding the surface normal (10:10 octahedral),
@@ -38,19 +39,6 @@ pub mod trace;
 use glam::{Vec2, Vec3};
 
 pub use kdtree::PhotonMap;
-
-/// A warning naming the materials whose subsurface scattering the photon integrators do
-/// not render (see the module notes), or None.
-pub fn media_warning(scene: &crate::scene::Scene) -> Option<String> {
-    let names: Vec<&str> = scene.materials.iter().filter(|m| m.subsurface.is_some()).map(|m| m.name.as_str()).collect();
-    (!names.is_empty()).then(|| {
-        format!(
-            "the photon integrators do not render subsurface scattering yet: material(s) {} render without \
-             their subsurface part; use the path integrator for them",
-            names.join(", ")
-        )
-    })
-}
 
 /// A photon stored at a surface hit.
 #[repr(C)]

@@ -24,8 +24,8 @@
 //! [10⁻⁴, 5·10⁻²] × the scene's bounding radius, or `--sppm-radius` for every pixel.
 //! Media: photons scatter in media (`trace.rs`); a camera path that scatters in a
 //! medium is path traced from there (no volume photon map), one that passes through
-//! media to a surface carries their transmittance. Subsurface scattering is not
-//! handled (warning). Not handled: the world light, the pixel filter (one sample at
+//! media to a surface carries their transmittance. The subsurface part of a visible
+//! point's material is path traced; its BSDF part reads the photons. Not handled: the world light, the pixel filter (one sample at
 //! a filter-distributed offset per pixel and iteration, so the filter is applied), AOVs
 //! other than those of the first hit.
 
@@ -398,6 +398,14 @@ fn camera_path(
             break;
         }
         let wo_local = sp.frame.to_local(wo);
+        // The subsurface part has no photon map: path traced (the BSDF part is mapped).
+        let Bsdf::Pbr(pbr) = &sp.bsdf;
+        if ctx.scene.materials[s.material as usize].subsurface.is_some() {
+            let q = pbr.subsurface_weight(wo_local);
+            if q > 0.0 {
+                l += continuation.subsurface_from(ctx, &s, &sp, wo, medium, beta * q, depth, sampler, stats);
+            }
+        }
         if !sp.bsdf.is_delta() {
             l += beta * direct_light(ctx, &s, &sp, wo_local, u_light, Vec2::new(u_lx, u_ly), 0.0, medium, stats);
             return (

@@ -30,9 +30,11 @@
 use super::Photon;
 use super::emit::Emitters;
 use crate::integrator::SceneContext;
+use crate::integrator::path::PathIntegrator;
 use crate::math::offset_ray_origin;
 use crate::medium::FreeFlight;
 use crate::sampling::PixelSampler;
+use crate::sampling::warp::cosine_hemisphere;
 use crate::scene::AlphaMode;
 use glam::Vec2;
 use rayon::prelude::*;
@@ -231,6 +233,43 @@ pub fn trace_one(
         specular_only &= delta;
         // Scatter.
         let wo_local = sp.frame.to_local(wo);
+        // The subsurface part, chosen with probability its weight (as the path tracer):
+        // enter, walk, leave through the Lambertian exit. (Photons are not stored in the walk.)
+        let crate::bsdf::Bsdf::Pbr(pbr) = &sp.bsdf;
+        let mat = &ctx.scene.materials[sh.material as usize];
+        let q_sss = if mat.subsurface.is_some() { pbr.subsurface_weight(wo_local) } else { 0.0 };
+        if let Some(ss) = mat.subsurface
+            && q_sss > 0.0
+        {
+            let u = s.next_4d();
+            let [v_dx, v_dy, v_rr, _] = s.next_4d();
+            if u[0] < q_sss {
+                let walker = PathIntegrator::default();
+                let entry_u = [u[1], u[2], (u[0] / q_sss).min(0.999_999), u[3]];
+                let Some(exit) = walker.subsurface(ctx, &sh, &sp, wo, &ss, pbr, power, entry_u) else {
+                    return;
+                };
+                let q = exit.weight.max_element().min(1.0);
+                if !(q > 0.0) || v_rr >= q || !exit.weight.is_finite() {
+                    return;
+                }
+                power *= exit.weight / q;
+                depth += 1;
+                specular_only = false;
+                if depth >= job.max_depth {
+                    return;
+                }
+                let se = ctx.surface(&exit.hit, exit.org, exit.dir);
+                let (n_g, n_s) = (-se.ng, -se.ns);
+                let wi = crate::math::Frame::from_normal(n_s).to_world(cosine_hemisphere(Vec2::new(v_dx, v_dy)));
+                if wi.dot(n_g) <= 0.0 {
+                    return;
+                }
+                org = offset_ray_origin(se.p, n_g);
+                dir = wi;
+                continue;
+            }
+        }
         let Some(bs) = sp.bsdf.sample(wo_local, u_lobe, Vec2::new(u_x, u_y)) else {
             return;
         };
@@ -242,7 +281,7 @@ pub fn trace_one(
             return;
         }
         let correction = (wo_local.z * cos_i_g / (cos_o_g * bs.wi.z)).abs();
-        let w = bs.f * (bs.wi.z.abs() / bs.pdf) * correction;
+        let w = bs.f * (bs.wi.z.abs() / (bs.pdf * (1.0 - q_sss))) * correction;
         let q = w.max_element().min(1.0);
         if !(q > 0.0) || u_rr >= q || !w.is_finite() {
             return;
