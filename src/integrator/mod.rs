@@ -277,13 +277,6 @@ impl<'a> SceneContext<'a> {
         stack.current().and_then(|m| self.scene.materials[m as usize].medium.as_ref())
     }
 
-    /// Extinction σt of the medium in effect, for integrators that treat media as
-    /// absorbing only (the photon integrators; they warn about scattering media).
-    #[inline]
-    pub fn extinction(&self, stack: &MediumStack) -> Option<Rgb> {
-        self.medium(stack).map(HomogeneousMedium::sigma_t)
-    }
-
     /// Radiance of the world seen along direction `d` (zero without a world).
     #[inline]
     pub fn world_radiance(&self, d: Vec3) -> Rgb {
