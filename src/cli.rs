@@ -10,8 +10,8 @@ use crate::integrator::photon::io::PhotonMaps;
 use crate::integrator::photon::jensen::JensenIntegrator;
 use crate::integrator::photon::{MAX_K, PhotonSettings, default_max_radius};
 use crate::integrator::{Integrator, SceneContext};
-use crate::memory::{self, MemoryBudget, human};
 use crate::light::LightSamplerKind;
+use crate::memory::{self, MemoryBudget, human};
 use crate::output;
 use crate::progress::{ProgressMode, Reporter};
 use crate::render::{self, RenderJob};
@@ -617,6 +617,15 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     let ctx = SceneContext::with_light_sampler(&scene, &accel, res.light_sampler);
     let camera = CameraRays::new(&scene.cameras[res.camera], res.resolution.0, res.resolution.1);
     let mut photon_stats = serde_json::Value::Null;
+    if res.integrator == IntegratorKind::Bdpt {
+        let unsupported = crate::integrator::bdpt::unsupported_materials(&scene);
+        if !unsupported.is_empty() {
+            return Err(Error::Usage(format!(
+                "bidirectional path tracing does not render {} yet; render this scene with --integrator path or sppm",
+                unsupported.join(", ")
+            )));
+        }
+    }
     let integrator = match res.integrator {
         IntegratorKind::Path | IntegratorKind::Sppm => Integrator::Path(PathIntegrator {
             max_depth: res.max_depth,

@@ -15,6 +15,7 @@ pub mod fuzz;
 pub mod integrator;
 pub mod light;
 pub mod math;
+pub mod medium;
 pub mod memory;
 pub mod output;
 pub mod progress;

@@ -84,6 +84,9 @@ pub struct PbrParams {
     pub sheen_roughness: f32,
     /// `KHR_materials_dispersion` (20 / Abbe number; 0: none).
     pub dispersion: f32,
+    /// Subsurface weight: the part of the diffuse base that scatters below the
+    /// surface instead (sampled by the integrator's random walk, not by this BSDF).
+    pub subsurface: f32,
 }
 
 impl PbrParams {
@@ -107,6 +110,7 @@ impl PbrParams {
             sheen_color: Rgb::ZERO,
             sheen_roughness: 0.0,
             dispersion: 0.0,
+            subsurface: 0.0,
         }
     }
 }
@@ -161,6 +165,8 @@ pub struct PbrBsdf {
     pub sheen_roughness: f32,
     /// max(sheen colour): the sheen's albedo is this times the table's E.
     sheen_max: f32,
+    /// Fraction of the diffuse base left to subsurface scattering (not in this BSDF).
+    pub subsurface: f32,
 }
 
 /// Probabilities of the lobes for one `wo`: metal, dielectric specular, diffuse, glass.
@@ -225,6 +231,7 @@ impl PbrBsdf {
             sheen_color,
             sheen_roughness: p.sheen_roughness.clamp(0.0, 1.0),
             sheen_max: sheen_color.max_element(),
+            subsurface: p.subsurface.clamp(0.0, 1.0),
         }
         .with_layer_avg()
     }
@@ -306,7 +313,7 @@ impl PbrBsdf {
         let opaque = dielectric * (1.0 - self.transmission);
         let metal = below * self.metallic * luminance(self.base + (Vec3::ONE - self.base) * schlick_weight(wo.z));
         let spec = below * opaque * e;
-        let diffuse = below * opaque * (1.0 - e) * luminance(self.base);
+        let diffuse = below * opaque * (1.0 - e) * luminance(self.base) * (1.0 - self.subsurface);
         let glass = if self.transmission > 0.0 {
             let r = self.glass.reflect_probability(wo);
             below * dielectric * self.transmission * (r + (1.0 - r) * luminance(self.base)).max(1e-3)
@@ -384,7 +391,7 @@ impl PbrBsdf {
     pub fn is_delta(&self) -> bool {
         let dielectric = 1.0 - self.metallic;
         let opaque = dielectric * (1.0 - self.transmission);
-        let rough = (opaque > 0.0 && luminance(self.base) > 0.0)
+        let rough = (opaque > 0.0 && luminance(self.base) > 0.0 && self.subsurface < 1.0)
             || (!self.smooth && (self.metallic > 0.0 || (opaque > 0.0 && self.specular > 0.0)))
             || (self.transmission > 0.0 && dielectric > 0.0 && !self.glass.smooth)
             || (self.coat > 0.0 && !self.smooth_coat)
@@ -422,8 +429,9 @@ impl PbrBsdf {
             // weight × E and the albedo scaling stays exact, channel by channel.
             let f_layer = (self.f0_rgb + (Vec3::ONE - self.f0_rgb) * fw) * self.specular;
             let (eo, ei) = (self.layer_albedo(wo.z), self.layer_albedo(wi.z));
-            let diffuse_weight =
-                (Vec3::ONE - eo) * (Vec3::ONE - ei) / (Vec3::ONE - self.layer_avg).max(Vec3::splat(1e-6));
+            let diffuse_weight = (Vec3::ONE - eo) * (Vec3::ONE - ei)
+                / (Vec3::ONE - self.layer_avg).max(Vec3::splat(1e-6))
+                * (1.0 - self.subsurface);
             f += (self.base * diffuse_weight * FRAC_1_PI + f_layer * spec) * opaque;
         }
         if self.metallic > 0.0 {
@@ -527,6 +535,23 @@ impl PbrBsdf {
             return None;
         }
         Some(BsdfSample { wi, f: self.eval(wo, wi), pdf, delta: false })
+    }
+
+    /// Weight of the subsurface part seen from `wo` (local, either side), relative to
+    /// the base colour: what the layers above (coat, specular) and the metal and glass
+    /// mixes leave to the diffuse base, times the subsurface weight. Cycles weights
+    /// its subsurface closure the same way (albedo scaling by the outgoing direction).
+    pub fn subsurface_weight(&self, wo: Vec3) -> f32 {
+        if self.subsurface == 0.0 {
+            return 0.0;
+        }
+        let up = Vec3::new(wo.x, wo.y, wo.z.abs());
+        let mu = up.z;
+        let opaque = (1.0 - self.metallic) * (1.0 - self.transmission);
+        // Coloured layers (a tinted coat or specular layer) are reduced to their luminance:
+        // the random walk carries one weight for the whole spectrum of its entry.
+        let above = luminance(self.coat_transmittance(up)) * (1.0 - self.coat_albedo(up)) * self.sheen_scaling(mu, mu);
+        above * opaque * (1.0 - luminance(self.layer_albedo(mu))) * self.subsurface
     }
 
     /// Albedo for the denoiser: the colour a white light would reflect, roughly.

@@ -4,6 +4,7 @@
 //! sample at a time; the tile loop, film and progress are shared (`render.rs`).
 
 pub mod bdpt;
+pub mod media;
 pub mod path;
 pub mod photon;
 
@@ -15,6 +16,7 @@ use crate::light::{
     intersect_sphere, sample_triangle, sphere_cos_max, spot_attenuation,
 };
 use crate::math::{Frame, Rgb, offset_ray_origin};
+use crate::medium::{HomogeneousMedium, MediumStack};
 use crate::sampling::warp::{concentric_disk, uniform_cone, uniform_cone_pdf};
 use crate::scene::{AlphaMode, Scene};
 use glam::{Vec2, Vec3};
@@ -109,6 +111,9 @@ pub struct SceneContext<'a> {
     spheres: Vec<(Vec3, f32, Rgb, bool, bool, usize)>,
     /// Suns with a size: (unit direction toward the sun, cos half angle, radiance, light index).
     suns: Vec<(Vec3, f32, Rgb, usize)>,
+    /// Some material has a medium or subsurface scattering (paths then track media and
+    /// shadow rays step through volume boundaries).
+    pub has_media: bool,
 }
 
 /// Power heuristic (β = 2) of Veach; 0 when the weights are not finite.
@@ -170,6 +175,7 @@ impl<'a> SceneContext<'a> {
             world_light,
             spheres,
             suns,
+            has_media: scene.materials.iter().any(|m| m.medium.is_some() || m.subsurface.is_some()),
         }
     }
 
@@ -266,18 +272,25 @@ impl<'a> SceneContext<'a> {
         sum
     }
 
-    /// The medium (absorption coefficient) a path is in after leaving surface `s` in
-    /// direction `wi`: crossing a solid's boundary enters or leaves its
-    /// `KHR_materials_volume`; reflection and thin surfaces keep the current one.
+    /// The media a path is in after leaving surface `s` in direction `wi`: crossing the
+    /// boundary of a solid with a medium enters or leaves it (the nesting rule is
+    /// `MediumStack`'s); reflection and thin surfaces keep the current media.
     #[inline]
-    pub fn medium_after(&self, s: &SurfaceHit, wi: Vec3, current: Option<Rgb>) -> Option<Rgb> {
-        if wi.dot(s.ng) >= 0.0 {
-            return current;
+    pub fn medium_after(&self, s: &SurfaceHit, wi: Vec3, mut stack: MediumStack) -> MediumStack {
+        if wi.dot(s.ng) < 0.0 && self.scene.materials[s.material as usize].medium.is_some() {
+            if s.front {
+                stack.enter(s.material);
+            } else {
+                stack.leave(s.material);
+            }
         }
-        match self.scene.materials[s.material as usize].volume {
-            Some(sigma) => s.front.then_some(sigma),
-            None => current,
-        }
+        stack
+    }
+
+    /// The medium in effect for a stack of media.
+    #[inline]
+    pub fn medium(&self, stack: &MediumStack) -> Option<&HomogeneousMedium> {
+        stack.current().and_then(|m| self.scene.materials[m as usize].medium.as_ref())
     }
 
     /// Radiance of the world seen along direction `d` (zero without a world).
@@ -447,7 +460,7 @@ impl<'a> SceneContext<'a> {
         if let Some(t) = &mat.transmission_tex {
             transmission *= lookup(t).x;
         }
-        let thin = mat.volume.is_none();
+        let thin = mat.medium.is_none();
         // Entering or leaving is decided by the geometric normal; a thin sheet is the
         // same from both sides.
         let eta = if thin || s.front { mat.ior } else { 1.0 / mat.ior };
@@ -498,6 +511,7 @@ impl<'a> SceneContext<'a> {
             sheen_color,
             sheen_roughness,
             dispersion: mat.dispersion,
+            subsurface: mat.subsurface.map_or(0.0, |s| s.weight),
         };
         ShadingPoint { bsdf: Bsdf::Pbr(PbrBsdf::from_params(&params)), frame, emitted }
     }

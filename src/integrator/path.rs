@@ -8,13 +8,35 @@
 //! Each bounce draws a fixed block of sample dimensions (light choice, light point,
 //! lobe, direction, roulette, transparency) so that Sobol dimensions line up across
 //! paths. Area lights do not block rays (as in Cycles): they add their emission where a
-//! ray crosses them and the path goes on. Not handled: participating media, delta
-//! BSDFs (the materials and media issues), the world (the lights/world issue).
+//! ray crosses them and the path goes on.
+//!
+//! Media (scenes with `SceneContext::has_media`, which draw one more block of four
+//! dimensions per bounce): inside a medium the path samples a free flight
+//! (`HomogeneousMedium::sample_free_flight`); at a scattering event it does NEE with
+//! the phase function (MIS against phase sampling) and shadow rays that cross volume
+//! boundaries and attenuate through media (`media::light_transmittance`), then samples
+//! the phase function. Medium emission along a segment is added analytically. Volume
+//! boundaries without a surface only change the medium stack. Area lights crossed
+//! inside a scattering medium are weighted by the pass weight at the segment's end,
+//! which is exact for grey media and approximate for chromatic ones.
+//!
+//! Subsurface (Principled "Random Walk"): at a subsurface material the path chooses the
+//! subsurface part with probability equal to its weight, enters (refraction through
+//! the rough interface, or half diffuse for the skin method, as Cycles), walks inside
+//! (`media::random_walk`) with the base colour's throughput divided out as Cycles does,
+//! and leaves through a Lambertian exit (NEE at the exit point, cosine sampling out).
 
-use super::{CameraSample, RayStats, SceneContext, power_heuristic};
-use crate::math::{Rgb, offset_ray_origin};
+use super::{CameraSample, RayStats, SceneContext, ShadingPoint, SurfaceHit, media, power_heuristic};
+use crate::bsdf::dielectric::refract;
+use crate::bsdf::microfacet::Ggx;
+use crate::bsdf::{Bsdf, PbrBsdf};
+use crate::light::LightSample;
+use crate::math::{Frame, Rgb, offset_ray_origin};
+use crate::medium::{FreeFlight, HenyeyGreenstein, MediumStack, WalkMedium, WalkRng, skin_mean_free_path};
 use crate::sampling::PixelSampler;
+use crate::sampling::warp::{cosine_hemisphere, cosine_hemisphere_pdf};
 use crate::scene::AlphaMode;
+use crate::scene::material::{Subsurface, SubsurfaceMethod};
 use glam::{Vec2, Vec3};
 
 /// The path tracer's parameters.
@@ -39,58 +61,221 @@ impl Default for PathIntegrator {
 /// thousands of transparent layers cannot loop forever.
 const MAX_TRANSPARENT_HITS: u32 = 128;
 
+/// Where a path stands between two bounces: what [`PathIntegrator::continue_path`]
+/// needs to go on from a vertex found by another integrator.
+#[derive(Clone, Copy, Debug)]
+pub struct PathState {
+    /// Origin of the next ray.
+    pub org: Vec3,
+    /// Direction of the next ray.
+    pub dir: Vec3,
+    /// Throughput.
+    pub beta: Rgb,
+    /// Scattering events so far.
+    pub depth: u32,
+    /// Density of the sample that chose `dir`, for MIS (0: none, e.g. after a delta lobe).
+    pub prev_pdf: f32,
+    /// The vertex that chose `dir`.
+    pub prev_p: Vec3,
+    /// The receiver normal light selection was given at `prev_p` (zero in a medium).
+    pub prev_n: Vec3,
+    /// The media the path is in.
+    pub media: MediumStack,
+}
+
 impl PathIntegrator {
     /// Radiance arriving at the camera along a ray.
     pub fn li(
         &self,
         ctx: &SceneContext,
-        mut org: Vec3,
-        mut dir: Vec3,
+        org: Vec3,
+        dir: Vec3,
         sampler: &mut PixelSampler,
         depth_of: impl Fn(Vec3) -> f32,
         stats: &mut RayStats,
     ) -> CameraSample {
         let mut out = CameraSample { depth: f32::INFINITY, ..Default::default() };
+        stats.camera += 1;
+        // Camera rays start in vacuum, with no MIS for what they hit first.
+        let st = PathState {
+            org,
+            dir,
+            beta: Rgb::ONE,
+            depth: 0,
+            prev_pdf: 0.0,
+            prev_p: org,
+            prev_n: Vec3::ZERO,
+            media: MediumStack::default(),
+        };
+        out.radiance = self.trace(ctx, st, sampler, depth_of, stats, &mut out);
+        out
+    }
+
+    /// Radiance brought back by a path continued from `st` (depth ≥ 1), times its
+    /// throughput: how the photon integrators path-trace what they do not map (media).
+    pub fn continue_path(
+        &self,
+        ctx: &SceneContext,
+        st: PathState,
+        sampler: &mut PixelSampler,
+        stats: &mut RayStats,
+    ) -> Rgb {
+        let mut out = CameraSample::default();
+        self.trace(ctx, st, sampler, |_| 0.0, stats, &mut out)
+    }
+
+    /// Radiance scattered at a point `p` in a medium of phase function `phase` toward a
+    /// path arriving along `dir` with throughput `beta` after `depth` events: NEE there,
+    /// then the path continued by phase sampling.
+    #[allow(clippy::too_many_arguments)]
+    pub fn scatter_in_medium(
+        &self,
+        ctx: &SceneContext,
+        p: Vec3,
+        dir: Vec3,
+        phase: HenyeyGreenstein,
+        media: MediumStack,
+        beta: Rgb,
+        depth: u32,
+        sampler: &mut PixelSampler,
+        stats: &mut RayStats,
+    ) -> Rgb {
+        let [u_light, u_lx, u_ly, _] = sampler.next_4d();
+        let [u_dx, u_dy, u_rr, _] = sampler.next_4d();
+        let mut radiance = beta * self.medium_nee(ctx, p, dir, phase, media, u_light, Vec2::new(u_lx, u_ly), stats);
+        let (wi, pdf) = phase.sample(dir, Vec2::new(u_dx, u_dy));
+        let mut beta = beta;
+        let depth = depth + 1;
+        if depth < self.max_depth && self.survives(&mut beta, 1.0, depth, u_rr) {
+            stats.bounce += 1;
+            let st = PathState { org: p, dir: wi, beta, depth, prev_pdf: pdf, prev_p: p, prev_n: Vec3::ZERO, media };
+            radiance += self.continue_path(ctx, st, sampler, stats);
+        }
+        radiance
+    }
+
+    /// Light arriving at medium point `p` by NEE, times the phase function (MIS against
+    /// phase sampling), for a path travelling along `dir`.
+    #[allow(clippy::too_many_arguments)]
+    fn medium_nee(
+        &self,
+        ctx: &SceneContext,
+        p: Vec3,
+        dir: Vec3,
+        phase: HenyeyGreenstein,
+        media: MediumStack,
+        u_light: f32,
+        u_light_pt: Vec2,
+        stats: &mut RayStats,
+    ) -> Rgb {
+        if let Some((index, pmf)) = ctx.lights.sample(p, Vec3::ZERO, u_light)
+            && let Some(ls) = ctx.sample_light(index, p, u_light_pt)
+        {
+            let f = phase.eval(dir, ls.wi);
+            if f > 0.0 && ls.li != Rgb::ZERO {
+                stats.shadow += 1;
+                let tr = media::light_transmittance(ctx, p, None, &ls, media);
+                if tr != Rgb::ZERO {
+                    let w = if ls.delta { 1.0 } else { power_heuristic(ls.pdf * pmf, f) };
+                    return tr * ls.li * (f * w / (ls.pdf * pmf));
+                }
+            }
+        }
+        Rgb::ZERO
+    }
+
+    /// The path loop from state `st`; AOVs of the first hit go to `out`.
+    fn trace(
+        &self,
+        ctx: &SceneContext,
+        st: PathState,
+        sampler: &mut PixelSampler,
+        depth_of: impl Fn(Vec3) -> f32,
+        stats: &mut RayStats,
+        out: &mut CameraSample,
+    ) -> Rgb {
+        let PathState { mut org, mut dir, mut beta, mut depth, prev_pdf, mut prev_p, mut prev_n, mut media } = st;
         let mut radiance = Rgb::ZERO;
-        let mut beta = Rgb::ONE;
-        let mut depth = 0u32;
         let mut transparent_hits = 0u32;
         // Density of the BSDF sample that produced `dir` (0 for camera rays: no MIS).
-        let mut prev_bsdf_pdf = 0.0f32;
-        let mut prev_p = org;
-        // Receiver normal light selection was given at `prev_p` (zero: none), for MIS.
-        let mut prev_n = Vec3::ZERO;
-        // Absorption coefficient of the medium the path is in (KHR_materials_volume).
-        let mut medium: Option<Rgb> = None;
+        let mut prev_bsdf_pdf = prev_pdf;
         // Product of η² over refractions, undone in Russian roulette so that the
         // 1/η² radiance scaling inside glass does not end paths early (pbrt's etaScale).
         let mut eta_scale = 1.0f32;
-        stats.camera += 1;
         loop {
             // Bounce dimensions, drawn up front so that their positions are fixed.
             let [u_light, u_lx, u_ly, u_lobe] = sampler.next_4d();
             let [u_dx, u_dy, u_rr, u_alpha] = sampler.next_4d();
+            let [u_channel, u_dist, u_sss, u_walk] = if ctx.has_media { sampler.next_4d() } else { [0.0; 4] };
             let (u_light_pt, u_dir) = (Vec2::new(u_lx, u_ly), Vec2::new(u_dx, u_dy));
 
             let hit = ctx.intersect(org, dir, f32::INFINITY);
             let t_surface = hit.map_or(f32::INFINITY, |h| h.t);
-            let absorb = |t: f32| match medium {
-                Some(sigma) => (-sigma * t).exp(),
-                None => Rgb::ONE,
-            };
 
-            // Area and sphere lights crossed before the surface add their emission; they
+            // The medium along this segment: emission, then where the next event is.
+            let medium = ctx.medium(&media).copied();
+            let mut scatter_at = None;
+            let mut segment_weight = Rgb::ONE;
+            if let Some(m) = medium {
+                if t_surface.is_finite() {
+                    radiance += beta * m.emitted(t_surface);
+                }
+                match m.sample_free_flight(t_surface, beta, u_channel, u_dist) {
+                    FreeFlight::Scatter { t, weight } => {
+                        scatter_at = Some(t);
+                        segment_weight = weight;
+                    }
+                    FreeFlight::Pass { weight } => segment_weight = weight,
+                }
+            }
+            let t_event = scatter_at.unwrap_or(t_surface);
+
+            // Area and sphere lights crossed before the event add their emission; they
             // do not block (as in Cycles) and the path goes on.
-            let (crossed, any) = ctx.crossed_emission(org, dir, t_surface, prev_p, prev_n, prev_bsdf_pdf, depth == 0);
+            let (crossed, any) = ctx.crossed_emission(org, dir, t_event, prev_p, prev_n, prev_bsdf_pdf, depth == 0);
             if any {
-                radiance += beta * absorb(t_surface.min(1e30)) * crossed;
+                let tr = medium.map_or(Rgb::ONE, |m| m.pass_weight(t_event.min(1e30), beta));
+                radiance += beta * tr * crossed;
                 if depth == 0 {
                     out.alpha = 1.0;
                 }
             }
+            beta *= segment_weight;
+
+            if let Some(t) = scatter_at {
+                // A scattering event in the medium.
+                if !beta.is_finite() || beta == Rgb::ZERO {
+                    break;
+                }
+                let p = org + dir * t;
+                let phase = medium.map(|m| m.phase).unwrap_or_default();
+                if depth == 0 {
+                    out.alpha = 1.0;
+                    out.depth = depth_of(p);
+                }
+                if depth >= self.max_depth {
+                    break;
+                }
+                radiance += beta * self.medium_nee(ctx, p, dir, phase, media, u_light, u_light_pt, stats);
+                // The phase function is its own density: the throughput is unchanged.
+                let (wi, pdf) = phase.sample(dir, u_dir);
+                prev_bsdf_pdf = pdf;
+                prev_p = p;
+                prev_n = Vec3::ZERO;
+                depth += 1;
+                if !self.survives(&mut beta, eta_scale, depth, u_rr) {
+                    break;
+                }
+                org = p;
+                dir = wi;
+                stats.bounce += 1;
+                continue;
+            }
 
             let Some(hit) = hit else {
-                // Escaped: the world, weighted against light sampling.
+                // Escaped: the world, weighted against light sampling. (Leaving from
+                // inside a medium means its mesh is open: the segment's weight is then
+                // zero in every channel the medium attenuates.)
                 let seen_directly = depth == 0;
                 if !(seen_directly && self.transparent_background) {
                     let le = ctx.world_radiance(dir);
@@ -98,10 +283,7 @@ impl PathIntegrator {
                     if le != Rgb::ZERO || sun != Rgb::ZERO {
                         let w =
                             if prev_bsdf_pdf == 0.0 { 1.0 } else { power_heuristic(prev_bsdf_pdf, ctx.world_pdf(dir)) };
-                        // Escaping from inside a medium means its mesh is open: the
-                        // light would have crossed infinitely much of it.
-                        let tr = if medium.is_some_and(|sigma| sigma.max_element() > 0.0) { 0.0 } else { 1.0 };
-                        radiance += beta * (le * w + sun) * tr;
+                        radiance += beta * (le * w + sun);
                         if seen_directly {
                             out.alpha = 1.0;
                         }
@@ -109,14 +291,27 @@ impl PathIntegrator {
                 }
                 break;
             };
-            if medium.is_some() {
-                beta *= absorb(hit.t);
+            if !beta.is_finite() || beta == Rgb::ZERO {
+                break;
             }
             let s = ctx.surface(&hit, org, dir);
             let wo = -dir;
+            let mat = &ctx.scene.materials[s.material as usize];
+
+            // A volume boundary without a surface: only the medium changes.
+            if mat.null_surface {
+                if transparent_hits >= MAX_TRANSPARENT_HITS {
+                    break;
+                }
+                transparent_hits += 1;
+                media = ctx.medium_after(&s, dir, media);
+                org = offset_ray_origin(s.p, -s.ng);
+                stats.bounce += 1;
+                continue;
+            }
 
             // Stochastic transparency: pass straight through with probability 1 - alpha.
-            if ctx.scene.materials[s.material as usize].alpha_mode == AlphaMode::Blend {
+            if mat.alpha_mode == AlphaMode::Blend {
                 let alpha = ctx.alpha(hit.tri, hit.b1, hit.b2);
                 if u_alpha >= alpha && transparent_hits < MAX_TRANSPARENT_HITS {
                     transparent_hits += 1;
@@ -150,6 +345,10 @@ impl PathIntegrator {
             }
 
             let wo_local = sp.frame.to_local(wo);
+            // Probability of the subsurface part (its weight: what the layers above leave
+            // to the diffuse base, times Subsurface Weight); the BSDF has the rest.
+            let Bsdf::Pbr(pbr) = &sp.bsdf;
+            let q_sss = if mat.subsurface.is_some() { pbr.subsurface_weight(wo_local) } else { 0.0 };
 
             // Next-event estimation: one light (useless for pure delta BSDFs such as
             // clear glass). Without transmission no light below the surface can count,
@@ -166,20 +365,51 @@ impl PathIntegrator {
                 let consistent = (wi_local.z > 0.0) == (ls.wi.dot(s.ng) > 0.0);
                 if f != Rgb::ZERO && ls.li != Rgb::ZERO && consistent {
                     stats.shadow += 1;
-                    // An unoccluded shadow segment stays in one medium (boundaries
-                    // block shadow rays): the current one, or the one across this
-                    // surface when the light is on the other side.
-                    let tr = match ctx.medium_after(&s, ls.wi, medium) {
-                        Some(sigma) if ls.dist.is_finite() => (-sigma * ls.dist).exp(),
-                        _ => Rgb::ONE,
-                    };
-                    let vis = ctx.visibility(s.p, s.ng, &ls);
-                    if vis > 0.0 {
-                        let w =
-                            if ls.delta { 1.0 } else { power_heuristic(ls.pdf * pmf, sp.bsdf.pdf(wo_local, wi_local)) };
-                        radiance += beta * f * tr * ls.li * (vis * w / (ls.pdf * pmf));
+                    let tr = self.shadow(ctx, &s, &ls, media);
+                    if tr != Rgb::ZERO {
+                        let bsdf_pdf = sp.bsdf.pdf(wo_local, wi_local) * (1.0 - q_sss);
+                        let w = if ls.delta { 1.0 } else { power_heuristic(ls.pdf * pmf, bsdf_pdf) };
+                        radiance += beta * f * tr * ls.li * (w / (ls.pdf * pmf));
                     }
                 }
+            }
+
+            if u_sss < q_sss
+                && let Some(ss) = mat.subsurface
+            {
+                // Subsurface: enter, walk, leave through a Lambertian exit.
+                let Some(exit) = self.subsurface(ctx, &s, &sp, wo, &ss, pbr, beta, [u_dx, u_dy, u_lobe, u_walk]) else {
+                    break;
+                };
+                // Chosen with probability q = its weight: the weight over q is 1, and the
+                // base colour is the walk's to give (Cycles divides it out the same way).
+                beta *= exit.weight;
+                depth += 1;
+                let se = ctx.surface(&exit.hit, exit.org, exit.dir);
+                // The exit's normals on the outside (the walk came from the inside).
+                let (n_g, n_s) = (-se.ng, -se.ns);
+                if depth >= self.max_depth || !beta.is_finite() || beta == Rgb::ZERO {
+                    break;
+                }
+                let [v_light, v_lx, v_ly, _] = sampler.next_4d();
+                let [v_dx, v_dy, _, _] = sampler.next_4d();
+                radiance += beta * exit_nee(ctx, &se, n_g, n_s, media, v_light, Vec2::new(v_lx, v_ly), stats);
+                let local = cosine_hemisphere(Vec2::new(v_dx, v_dy));
+                let wi = Frame::from_normal(n_s).to_world(local);
+                if wi.dot(n_g) <= 0.0 {
+                    break;
+                }
+                prev_bsdf_pdf = cosine_hemisphere_pdf(local.z);
+                prev_p = se.p;
+                prev_n = n_g;
+                depth += 1;
+                if !self.survives(&mut beta, eta_scale, depth, u_rr) {
+                    break;
+                }
+                org = offset_ray_origin(se.p, n_g);
+                dir = wi;
+                stats.bounce += 1;
+                continue;
             }
 
             // Sample the BSDF for the next direction.
@@ -192,40 +422,198 @@ impl PathIntegrator {
                 // The shading normal disagrees with the geometry about the side.
                 break;
             }
-            beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
+            let pdf = bs.pdf * (1.0 - q_sss);
+            beta *= bs.f * (bs.wi.z.abs() / pdf);
             if !beta.is_finite() || beta == Rgb::ZERO {
                 break;
             }
             // After a delta lobe, emission found next is not MIS-weighted (0 = "specular").
-            prev_bsdf_pdf = if bs.delta { 0.0 } else { bs.pdf };
+            prev_bsdf_pdf = if bs.delta { 0.0 } else { pdf };
             prev_p = s.p;
             prev_n = n_select;
             depth += 1;
 
             // Crossing an interface of a solid changes the medium and the η scale.
-            medium = ctx.medium_after(&s, wi, medium);
-            if transmitted {
-                let mat = &ctx.scene.materials[s.material as usize];
-                if mat.volume.is_some() {
-                    let eta = if s.front { mat.ior } else { 1.0 / mat.ior };
-                    eta_scale *= eta * eta;
-                }
+            media = ctx.medium_after(&s, wi, media);
+            if transmitted && mat.medium.is_some() {
+                let eta = if s.front { mat.ior } else { 1.0 / mat.ior };
+                eta_scale *= eta * eta;
             }
 
-            // Russian roulette.
-            if depth >= self.rr_depth {
-                let survive = (beta.max_element() * eta_scale).min(0.95);
-                if u_rr >= survive {
-                    break;
-                }
-                beta /= survive;
+            if !self.survives(&mut beta, eta_scale, depth, u_rr) {
+                break;
             }
 
             org = offset_ray_origin(s.p, if transmitted { -s.ng } else { s.ng });
             dir = wi;
             stats.bounce += 1;
         }
-        out.radiance = radiance;
-        out
+        radiance
     }
+
+    /// Radiance of the subsurface part of the material at `s` seen along `wo`, per unit
+    /// of its weight (`PbrBsdf::subsurface_weight`): enter, walk, leave through the
+    /// Lambertian exit and path trace on. For integrators that handle the rest of the
+    /// material otherwise (the photon integrators); `depth` counts the events before `s`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn subsurface_from(
+        &self,
+        ctx: &SceneContext,
+        s: &SurfaceHit,
+        sp: &ShadingPoint,
+        wo: Vec3,
+        media: MediumStack,
+        beta: Rgb,
+        depth: u32,
+        sampler: &mut PixelSampler,
+        stats: &mut RayStats,
+    ) -> Rgb {
+        let mat = &ctx.scene.materials[s.material as usize];
+        let (Some(ss), Bsdf::Pbr(pbr)) = (mat.subsurface, &sp.bsdf) else {
+            return Rgb::ZERO;
+        };
+        let u = sampler.next_4d();
+        let Some(exit) = self.subsurface(ctx, s, sp, wo, &ss, pbr, beta, u) else {
+            return Rgb::ZERO;
+        };
+        let mut beta = beta * exit.weight;
+        let depth = depth + 1;
+        if depth >= self.max_depth || !beta.is_finite() || beta == Rgb::ZERO {
+            return Rgb::ZERO;
+        }
+        let se = ctx.surface(&exit.hit, exit.org, exit.dir);
+        let (n_g, n_s) = (-se.ng, -se.ns);
+        let [v_light, v_lx, v_ly, v_rr] = sampler.next_4d();
+        let [v_dx, v_dy, _, _] = sampler.next_4d();
+        let radiance = beta * exit_nee(ctx, &se, n_g, n_s, media, v_light, Vec2::new(v_lx, v_ly), stats);
+        let local = cosine_hemisphere(Vec2::new(v_dx, v_dy));
+        let wi = Frame::from_normal(n_s).to_world(local);
+        let depth = depth + 1;
+        if wi.dot(n_g) <= 0.0 || !self.survives(&mut beta, 1.0, depth, v_rr) {
+            return radiance;
+        }
+        stats.bounce += 1;
+        let st = PathState {
+            org: offset_ray_origin(se.p, n_g),
+            dir: wi,
+            beta,
+            depth,
+            prev_pdf: cosine_hemisphere_pdf(local.z),
+            prev_p: se.p,
+            prev_n: n_g,
+            media,
+        };
+        radiance + self.continue_path(ctx, st, sampler, stats)
+    }
+
+    /// Russian roulette from `rr_depth`: false when the path ends; survivors are reweighted.
+    #[inline]
+    fn survives(&self, beta: &mut Rgb, eta_scale: f32, depth: u32, u_rr: f32) -> bool {
+        if depth < self.rr_depth {
+            return true;
+        }
+        let survive = (beta.max_element() * eta_scale).min(0.95);
+        if u_rr >= survive {
+            return false;
+        }
+        *beta /= survive;
+        true
+    }
+
+    /// Transmittance of a shadow ray from surface `s` to a light sample: through media
+    /// and volume boundaries when the scene has any, else plain visibility (with the
+    /// old one-medium rule being a special case of the stack).
+    #[inline]
+    fn shadow(&self, ctx: &SceneContext, s: &SurfaceHit, ls: &LightSample, media: MediumStack) -> Rgb {
+        if ctx.has_media {
+            media::light_transmittance(ctx, s.p, Some(s.ng), ls, ctx.medium_after(s, ls.wi, media))
+        } else {
+            Rgb::splat(ctx.visibility(s.p, s.ng, ls))
+        }
+    }
+
+    /// Enters a subsurface material at `s` (seen along `wo`) and walks inside; None when
+    /// the entry fails (Cycles then ends the path too) or the walk is abandoned.
+    #[allow(clippy::too_many_arguments)]
+    pub fn subsurface(
+        &self,
+        ctx: &SceneContext,
+        s: &SurfaceHit,
+        sp: &ShadingPoint,
+        wo: Vec3,
+        ss: &Subsurface,
+        pbr: &PbrBsdf,
+        beta: Rgb,
+        u: [f32; 4],
+    ) -> Option<media::WalkExit> {
+        let mat = &ctx.scene.materials[s.material as usize];
+        let n = sp.frame.n;
+        let albedo = pbr.base;
+        let (mfp, diffuse_entry, roughness, ior) = match ss.method {
+            SubsurfaceMethod::RandomWalk => {
+                (ss.radius * (0.25 * std::f32::consts::FRAC_1_PI), false, pbr.roughness, mat.ior.clamp(1.01, 3.8))
+            }
+            SubsurfaceMethod::RandomWalkSkin => {
+                let r = Rgb::new(
+                    skin_mean_free_path(ss.radius.x, albedo.x, ss.ior),
+                    skin_mean_free_path(ss.radius.y, albedo.y, ss.ior),
+                    skin_mean_free_path(ss.radius.z, albedo.z, ss.ior),
+                );
+                (r, u[2] < 0.5, 1.0, ss.ior)
+            }
+        };
+        let entry = if diffuse_entry {
+            Frame::from_normal(-n).to_world(cosine_hemisphere(Vec2::new(u[0], u[1])))
+        } else {
+            // Refraction about a visible microfacet normal; like Cycles, only the
+            // direction is taken from the interface (no Fresnel or masking weight).
+            let frame = Frame::from_normal(n);
+            let wo_local = frame.to_local(wo);
+            if wo_local.z <= 0.0 {
+                return None;
+            }
+            let m = Ggx::from_roughness(roughness).sample_visible_normal(wo_local, Vec2::new(u[0], u[1]));
+            frame.to_world(refract(wo_local, m, ior)?)
+        };
+        if entry.dot(s.ng) >= 0.0 {
+            return None;
+        }
+        let walk = WalkMedium::new(albedo, mfp, ss.anisotropy);
+        let mut rng = WalkRng::new(u[3], s.tri);
+        media::random_walk(ctx, offset_ray_origin(s.p, -s.ng), entry, &walk, beta, &mut rng)
+    }
+}
+
+/// NEE at a subsurface exit point: a Lambertian of albedo 1 about `n_s` on the outside
+/// (`n_g` the outward geometric normal), MIS against cosine sampling.
+#[allow(clippy::too_many_arguments)]
+fn exit_nee(
+    ctx: &SceneContext,
+    se: &SurfaceHit,
+    n_g: Vec3,
+    n_s: Vec3,
+    media: MediumStack,
+    u_light: f32,
+    u_pt: Vec2,
+    stats: &mut RayStats,
+) -> Rgb {
+    if let Some((index, pmf)) = ctx.lights.sample(se.p, n_g, u_light)
+        && let Some(ls) = ctx.sample_light(index, se.p, u_pt)
+    {
+        let cos = ls.wi.dot(n_s);
+        if cos > 0.0 && ls.wi.dot(n_g) > 0.0 && ls.li != Rgb::ZERO {
+            stats.shadow += 1;
+            let tr = if ctx.has_media {
+                media::light_transmittance(ctx, se.p, Some(n_g), &ls, media)
+            } else {
+                Rgb::splat(ctx.visibility(se.p, n_g, &ls))
+            };
+            if tr != Rgb::ZERO {
+                let f = cos * std::f32::consts::FRAC_1_PI;
+                let w = if ls.delta { 1.0 } else { power_heuristic(ls.pdf * pmf, f) };
+                return tr * ls.li * (f * w / (ls.pdf * pmf));
+            }
+        }
+    }
+    Rgb::ZERO
 }

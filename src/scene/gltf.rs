@@ -6,6 +6,7 @@
 //! becomes an [`Error::Scene`] naming the file and the offending object; every guess
 //! or dropped feature becomes a warning in [`Scene::warnings`].
 
+use super::material::{Subsurface, SubsurfaceMethod};
 use super::texture::{Texture, Wrap, texture_transform};
 use super::{
     AlphaMode, Camera, CameraReport, LightReport, LoadReport, Material, MaterialReport, Mesh, Projection, Scene,
@@ -14,6 +15,7 @@ use super::{
 use crate::error::{Error, Result};
 use crate::light::{AreaLight, AreaShape, Light};
 use crate::math::luminance;
+use crate::medium::{HenyeyGreenstein, HomogeneousMedium};
 use crate::memory::{self, MemoryBudget};
 use base64::Engine;
 use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
@@ -34,6 +36,8 @@ const HANDLED_MATERIAL_EXTENSIONS: &[&str] = &[
     "KHR_materials_ior",
     "KHR_materials_volume",
     "KHR_materials_clearcoat",
+    "CAUSTIC_materials_medium",
+    "CAUSTIC_materials_subsurface",
     "KHR_materials_sheen",
     "KHR_materials_dispersion",
     "CAUSTIC_materials_coat",
@@ -111,6 +115,55 @@ struct AreaLightExt {
 
 fn half_turn() -> f32 {
     std::f32::consts::PI
+}
+
+/// `CAUSTIC_materials_medium` on a material (docs/contract.md).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MediumExt {
+    #[serde(default = "one_f32")]
+    density: f32,
+    #[serde(default = "white")]
+    scatter_color: [f32; 3],
+    #[serde(default = "black")]
+    absorption_color: [f32; 3],
+    #[serde(default)]
+    anisotropy: f32,
+    #[serde(default = "black")]
+    emission: [f32; 3],
+    #[serde(default = "yes")]
+    surface: bool,
+}
+
+/// `CAUSTIC_materials_subsurface` on a material (docs/contract.md).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SubsurfaceExt {
+    #[serde(default = "one_f32")]
+    weight: f32,
+    radius: [f32; 3],
+    #[serde(default)]
+    anisotropy: f32,
+    #[serde(default = "skin_ior")]
+    ior: f32,
+    #[serde(default = "random_walk")]
+    method: String,
+}
+
+fn one_f32() -> f32 {
+    1.0
+}
+
+fn black() -> [f32; 3] {
+    [0.0; 3]
+}
+
+fn skin_ior() -> f32 {
+    1.4
+}
+
+fn random_walk() -> String {
+    "random_walk".into()
 }
 
 fn yes() -> bool {
@@ -910,7 +963,7 @@ impl<'a> Loader<'a> {
             }
             ior = v.clamp(1.0, 10.0);
         }
-        let mut volume = None;
+        let mut medium = None;
         if let Some(v) = m.extension_value("KHR_materials_volume").cloned() {
             features.push("KHR_materials_volume".into());
             let thickness = num(&v, "thicknessFactor", 0.0)?;
@@ -933,10 +986,78 @@ impl<'a> Loader<'a> {
                 Vec3::ZERO
             };
             if thickness > 0.0 {
-                volume = Some(sigma_a);
+                medium = Some(HomogeneousMedium::absorbing(sigma_a));
             }
             if v.get("thicknessTexture").is_some() {
                 features.push("thicknessTexture (ignored: Caustic traces the real geometry)".into());
+            }
+        }
+        let mut null_surface = false;
+        if let Some(v) = m.extension_value("CAUSTIC_materials_medium").cloned() {
+            features.push("CAUSTIC_materials_medium".into());
+            let ext: MediumExt = serde_json::from_value(v)
+                .map_err(|e| self.err(format!("material '{name}': CAUSTIC_materials_medium is malformed: {e}")))?;
+            let colours = [ext.scatter_color, ext.absorption_color, ext.emission];
+            let finite = ext.density.is_finite()
+                && ext.anisotropy.is_finite()
+                && colours.iter().all(|c| c.iter().all(|x| x.is_finite()));
+            if !finite || ext.density < 0.0 || colours.iter().any(|c| c.iter().any(|&x| x < 0.0)) {
+                return Err(self.err(format!(
+                    "material '{name}': CAUSTIC_materials_medium needs finite, non-negative density and colours"
+                )));
+            }
+            if !(-1.0..=1.0).contains(&ext.anisotropy) {
+                return Err(self.err(format!(
+                    "material '{name}': CAUSTIC_materials_medium anisotropy {} is outside [-1, 1]",
+                    ext.anisotropy
+                )));
+            }
+            if medium.is_some() {
+                self.warn(format!(
+                    "material '{name}': CAUSTIC_materials_medium replaces the KHR_materials_volume attenuation"
+                ));
+            }
+            medium = Some(HomogeneousMedium {
+                sigma_a: Vec3::from(ext.absorption_color) * ext.density,
+                sigma_s: Vec3::from(ext.scatter_color) * ext.density,
+                phase: HenyeyGreenstein::new(ext.anisotropy),
+                emission: Vec3::from(ext.emission),
+            });
+            null_surface = !ext.surface;
+        }
+        let mut subsurface = None;
+        if let Some(v) = m.extension_value("CAUSTIC_materials_subsurface").cloned() {
+            features.push("CAUSTIC_materials_subsurface".into());
+            let ext: SubsurfaceExt = serde_json::from_value(v)
+                .map_err(|e| self.err(format!("material '{name}': CAUSTIC_materials_subsurface is malformed: {e}")))?;
+            let finite = [ext.weight, ext.anisotropy, ext.ior].iter().chain(ext.radius.iter()).all(|x| x.is_finite());
+            if !finite || ext.weight < 0.0 || ext.radius.iter().any(|&r| r < 0.0) || ext.ior < 1.0 {
+                return Err(self.err(format!(
+                    "material '{name}': CAUSTIC_materials_subsurface needs finite values, weight and radius >= 0, ior >= 1"
+                )));
+            }
+            let method = match ext.method.as_str() {
+                "random_walk" => SubsurfaceMethod::RandomWalk,
+                "random_walk_skin" => SubsurfaceMethod::RandomWalkSkin,
+                other => {
+                    return Err(self.err(format!(
+                        "material '{name}': CAUSTIC_materials_subsurface method '{other}' is unknown (random_walk, random_walk_skin)"
+                    )));
+                }
+            };
+            if ext.weight > 1.0 || !(0.0..=0.9).contains(&ext.anisotropy) {
+                self.warn(format!(
+                    "material '{name}': subsurface weight was clamped to [0, 1] and anisotropy to [0, 0.9] (as Cycles)"
+                ));
+            }
+            if ext.weight > 0.0 && ext.radius.iter().any(|&r| r > 0.0) {
+                subsurface = Some(Subsurface {
+                    weight: ext.weight.min(1.0),
+                    radius: Vec3::from(ext.radius),
+                    anisotropy: ext.anisotropy.clamp(0.0, 0.9),
+                    ior: ext.ior.clamp(1.01, 3.8),
+                    method,
+                });
             }
         }
         let (mut coat, mut coat_tex, mut coat_roughness, mut coat_roughness_tex) = (0.0, None, 0.0, None);
@@ -1077,7 +1198,9 @@ impl<'a> Loader<'a> {
             ior,
             transmission,
             transmission_tex,
-            volume,
+            medium,
+            null_surface,
+            subsurface,
             coat,
             coat_tex,
             coat_roughness,
@@ -1366,6 +1489,7 @@ impl<'a> Loader<'a> {
                 out.uv1.push(uv1.as_ref().map(|u| u[i]).unwrap_or(Vec2::ZERO));
                 out.colors.push(colors.as_ref().map(|c| c[i]).unwrap_or(Vec4::ONE));
             }
+            let first_tri = out.triangles.len();
             for t in tris {
                 let p = t.map(|i| out.positions[(base + i) as usize]);
                 let area2 = (p[1] - p[0]).cross(p[2] - p[0]).length();
@@ -1376,6 +1500,18 @@ impl<'a> Loader<'a> {
                 let t = if flip { [t[0], t[2], t[1]] } else { t };
                 out.triangles.push(t.map(|i| base + i));
                 out.tri_material.push(material_index);
+            }
+            let material = &materials[material_index as usize];
+            if material.medium.is_some() || material.subsurface.is_some() {
+                let open = open_edges(&out.positions, &out.triangles[first_tri..]);
+                if open > 0 {
+                    self.warn(format!(
+                        "{what}: material '{}' has a volume or subsurface scattering but the primitive is not closed \
+                         ({open} open edges): paths that leave through a hole lose the light the medium would have \
+                         scattered (a path escaping to the sky from inside is black)",
+                        material.name
+                    ));
+                }
             }
         }
         Ok(degenerate)
@@ -1581,6 +1717,32 @@ fn punctual_power(l: &Light, scene_radius: f32) -> f32 {
         Light::Area(a) => luminance(a.radiance) * a.area * PI,
         Light::Triangle { .. } | Light::World => 0.0,
     }
+}
+
+/// Edges used by an odd number of the triangles: 0 for a closed surface. Vertices are
+/// joined by position rounded to 10⁻⁶ of the primitive's size, so that vertices split
+/// for UV seams or hard edges, or computed twice with rounding (a sphere's seam and
+/// poles), still join.
+fn open_edges(positions: &[Vec3], tris: &[[u32; 3]]) -> usize {
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    for t in tris {
+        for &i in t {
+            lo = lo.min(positions[i as usize]);
+            hi = hi.max(positions[i as usize]);
+        }
+    }
+    let scale = 1e6 / (hi - lo).max_element().max(1e-30);
+    let key = |i: u32| (positions[i as usize] * scale).round().to_array().map(|c| c as i64);
+    let mut count: HashMap<([i64; 3], [i64; 3]), u32> = HashMap::new();
+    for t in tris {
+        for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
+            let (ka, kb) = (key(a), key(b));
+            if ka != kb {
+                *count.entry(if ka < kb { (ka, kb) } else { (kb, ka) }).or_default() += 1;
+            }
+        }
+    }
+    count.values().filter(|&&c| c % 2 == 1).count()
 }
 
 fn push_unique(v: &mut Vec<String>, s: &str) {

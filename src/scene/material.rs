@@ -2,6 +2,7 @@
 
 use super::texture::{TexRef, Texture};
 use crate::math::Rgb;
+use crate::medium::HomogeneousMedium;
 use glam::{Vec2, Vec4};
 
 /// How a material's alpha is used.
@@ -78,9 +79,14 @@ pub struct Material {
     pub sheen_roughness_tex: Option<TexRef>,
     /// `KHR_materials_dispersion` (20 / Abbe number).
     pub dispersion: f32,
-    /// Absorption coefficient σa (per scene unit) of the volume inside, from
-    /// `KHR_materials_volume` attenuation; None when the surface is thin-walled.
-    pub volume: Option<Rgb>,
+    /// The medium inside the mesh: `CAUSTIC_materials_medium`, or the absorption of
+    /// `KHR_materials_volume` (σa only); None when the surface is thin-walled.
+    pub medium: Option<HomogeneousMedium>,
+    /// The boundary has no surface (a volume-only material, as Blender's with nothing
+    /// on the Surface output): rays cross it unchanged and only the medium changes.
+    pub null_surface: bool,
+    /// `CAUSTIC_materials_subsurface`: Principled BSDF random-walk subsurface scattering.
+    pub subsurface: Option<Subsurface>,
     /// Alpha mode.
     pub alpha_mode: AlphaMode,
     /// Emits from both sides (glTF `doubleSided`). Shading is always two-sided, as in Cycles.
@@ -109,7 +115,9 @@ impl Default for Material {
             ior: 1.5,
             transmission: 0.0,
             transmission_tex: None,
-            volume: None,
+            medium: None,
+            null_surface: false,
+            subsurface: None,
             coat: 0.0,
             coat_tex: None,
             coat_roughness: 0.0,
@@ -127,6 +135,33 @@ impl Default for Material {
             double_sided: false,
         }
     }
+}
+
+/// Blender's subsurface methods that Caustic renders.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SubsurfaceMethod {
+    /// "Random Walk": mean free path = radius / 4π, entry refracted through the
+    /// material's rough interface (its roughness and IOR).
+    RandomWalk,
+    /// "Random Walk (Skin)": mean free path from the radius and colour (dipole fit),
+    /// entry half diffuse, half refracted through a fully rough interface of the
+    /// subsurface IOR.
+    RandomWalkSkin,
+}
+
+/// Principled BSDF subsurface parameters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Subsurface {
+    /// Subsurface Weight: the fraction of the diffuse base that scatters below the surface.
+    pub weight: f32,
+    /// Radius × Scale per channel (scene units).
+    pub radius: Rgb,
+    /// Subsurface Anisotropy (Henyey-Greenstein g).
+    pub anisotropy: f32,
+    /// Subsurface IOR (used by the skin method).
+    pub ior: f32,
+    /// Method.
+    pub method: SubsurfaceMethod,
 }
 
 impl Material {

@@ -253,3 +253,100 @@ def test_hooks_work_when_the_addon_is_registered_but_not_in_preferences(light_sc
         addons.new().module = addon.__name__
     assert "CAUSTIC_lights_area" in node_by_name(gltf, "AreaDisk")["extensions"]
     assert "caustic" in gltf["scenes"][0]["extras"]
+
+
+def _principled(name):
+    mat = bpy.data.materials.new(name)
+    if mat.node_tree is None:  # Blender < 5.0 creates materials without nodes
+        mat.use_nodes = True
+    return mat, mat.node_tree.nodes["Principled BSDF"], mat.node_tree.nodes["Material Output"]
+
+
+def _volume_only(name, node_type):
+    mat = bpy.data.materials.new(name)
+    if mat.node_tree is None:  # Blender < 5.0 creates materials without nodes
+        mat.use_nodes = True
+    tree = mat.node_tree
+    tree.nodes.remove(tree.nodes["Principled BSDF"])
+    node = tree.nodes.new(node_type)
+    tree.links.new(node.outputs[0], tree.nodes["Material Output"].inputs["Volume"])
+    return mat, node
+
+
+def test_subsurface_and_volume_materials(empty_scene, captured, addon):
+    scene = empty_scene
+    scenes.small_render_settings(scene, 16, 12, samples=2)
+    scenes.camera(scene, (0, -6, 3), (60, 0, 0))
+    skin, bsdf, _ = _principled("Skin")
+    bsdf.inputs["Base Color"].default_value = (0.8, 0.5, 0.4, 1.0)
+    bsdf.inputs["Subsurface Weight"].default_value = 0.7
+    bsdf.inputs["Subsurface Radius"].default_value = (1.0, 0.5, 0.25)
+    bsdf.inputs["Subsurface Scale"].default_value = 0.1
+    bsdf.inputs["Subsurface Anisotropy"].default_value = 0.2
+    bsdf.subsurface_method = "RANDOM_WALK_SKIN"
+    next(i for i in bsdf.inputs if i.name == "Subsurface IOR").default_value = 1.35
+    scenes.cube(scene, "SkinCube", 1.0, (-3, 0, 0), material=skin)
+
+    smoke, pv = _volume_only("Smoke", "ShaderNodeVolumePrincipled")
+    pv.inputs["Color"].default_value = (0.8, 0.4, 0.2, 1.0)
+    pv.inputs["Density"].default_value = 3.0
+    pv.inputs["Absorption Color"].default_value = (0.25, 0.25, 0.25, 1.0)
+    pv.inputs["Anisotropy"].default_value = 0.3
+    pv.inputs["Emission Strength"].default_value = 2.0
+    pv.inputs["Emission Color"].default_value = (1.0, 0.5, 0.0, 1.0)
+    scenes.cube(scene, "SmokeCube", 1.0, (-1, 0, 0), material=smoke)
+
+    fog, scatter = _volume_only("Fog", "ShaderNodeVolumeScatter")
+    scatter.inputs["Color"].default_value = (0.9, 0.9, 1.0, 1.0)
+    scatter.inputs["Density"].default_value = 0.5
+    scatter.inputs["Anisotropy"].default_value = -0.2
+    # Fog behind glass: a surface and a volume.
+    glass = fog.node_tree.nodes.new("ShaderNodeBsdfGlass")
+    fog.node_tree.links.new(glass.outputs[0], fog.node_tree.nodes["Material Output"].inputs["Surface"])
+    scenes.cube(scene, "FogCube", 1.0, (1, 0, 0), material=fog)
+
+    ink, absorb = _volume_only("Ink", "ShaderNodeVolumeAbsorption")
+    absorb.inputs["Color"].default_value = (0.2, 0.6, 1.0, 1.0)
+    absorb.inputs["Density"].default_value = 4.0
+    scenes.cube(scene, "InkCube", 1.0, (3, 0, 0), material=ink)
+
+    (gltf,) = captured()
+    mats = {m["name"]: m.get("extensions", {}) for m in gltf["materials"]}
+    s = mats["Skin"]["CAUSTIC_materials_subsurface"]
+    assert s["weight"] == pytest.approx(0.7)
+    assert s["radius"] == pytest.approx([0.1, 0.05, 0.025])
+    assert s["anisotropy"] == pytest.approx(0.2)
+    assert s["ior"] == pytest.approx(1.35)
+    assert s["method"] == "random_walk_skin"
+    m = mats["Smoke"]["CAUSTIC_materials_medium"]
+    assert m["surface"] is False
+    assert m["density"] == pytest.approx(3.0)
+    assert m["scatter_color"] == pytest.approx([0.8, 0.4, 0.2])
+    # Cycles: σa = density × max(1 - colour, 0) × max(1 - √absorption colour, 0).
+    assert m["absorption_color"] == pytest.approx([0.2 * 0.5, 0.6 * 0.5, 0.8 * 0.5])
+    assert m["anisotropy"] == pytest.approx(0.3)
+    assert m["emission"] == pytest.approx([2.0, 1.0, 0.0])
+    f = mats["Fog"]["CAUSTIC_materials_medium"]
+    assert f["surface"] is True and f["density"] == pytest.approx(0.5)
+    assert f["scatter_color"] == pytest.approx([0.9, 0.9, 1.0]) and f["absorption_color"] == [0.0, 0.0, 0.0]
+    assert f["anisotropy"] == pytest.approx(-0.2)
+    i = mats["Ink"]["CAUSTIC_materials_medium"]
+    assert i["scatter_color"] == [0.0, 0.0, 0.0]
+    assert i["absorption_color"] == pytest.approx([0.8, 0.4, 0.0])
+    assert "CAUSTIC_materials_medium" in gltf["extensionsUsed"]
+    assert "CAUSTIC_materials_subsurface" in gltf["extensionsUsed"]
+
+
+def test_unsupported_volume_node_is_named(empty_scene, addon):
+    import importlib
+    export = importlib.import_module(addon.__name__ + ".export")
+    mat, node = _volume_only("Glow", "ShaderNodeEmission")
+    value, warnings = export.medium_extension(mat)
+    assert value is None
+    assert any("Glow" in w and node.name in w for w in warnings), warnings
+    smoke, pv = _volume_only("Textured", "ShaderNodeVolumePrincipled")
+    noise = smoke.node_tree.nodes.new("ShaderNodeTexNoise")
+    smoke.node_tree.links.new(noise.outputs[0], pv.inputs["Density"])
+    value, warnings = export.medium_extension(smoke)
+    assert value is not None
+    assert any("Density" in w and "linked" in w for w in warnings), warnings

@@ -145,6 +145,11 @@ impl GltfBuilder {
         mats.len() - 1
     }
 
+    /// Names material `m`.
+    pub fn doc_material_name(&mut self, m: usize, name: &str) {
+        self.doc["materials"][m]["name"] = json!(name);
+    }
+
     /// Adds a triangle mesh with flat shading (no normals) on a node.
     pub fn mesh(&mut self, positions: &[[f32; 3]], indices: &[u32], material: usize) -> usize {
         let pos_bytes: Vec<u8> = positions.iter().flat_map(|p| p.iter().flat_map(|c| c.to_le_bytes())).collect();

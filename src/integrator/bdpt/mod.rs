@@ -18,8 +18,10 @@
 //! Light subpaths carry importance: refraction does not scale it by 1/η², and shading
 //! normals get Veach's correction |wo·ns| |wi·ng| / (|wo·ng| |wi·ns|).
 //!
-//! Media: `KHR_materials_volume` absorption along every segment, as in the path tracer.
-//! Scattering media are not handled by this integrator.
+//! Media: absorbing media (`KHR_materials_volume`, or a `CAUSTIC_materials_medium` that does
+//! not scatter or emit) attenuate every segment, as in the path tracer. Scattering and
+//! emitting media, subsurface scattering and volume-only boundaries are refused with an
+//! error naming the materials (`unsupported_materials`): vertices in media are not built yet.
 
 pub mod lights;
 pub mod mis;
@@ -29,6 +31,7 @@ use crate::bsdf::Bsdf;
 use crate::film::{Filter, SplatBuffer};
 use crate::light::{Light, area_to_solid_angle, intersect_sphere};
 use crate::math::{Frame, Rgb, hash_combine, offset_ray_origin};
+use crate::medium::MediumStack;
 use crate::sampling::PixelSampler;
 use crate::sampling::warp::uniform_cone_pdf;
 use crate::scene::AlphaMode;
@@ -68,6 +71,26 @@ pub struct BdptIntegrator {
     pub strategy: Option<Strategy>,
     /// The lights as subpath origins.
     pub lights: Arc<BdptLights>,
+}
+
+/// Materials this integrator cannot render yet, with the reason, for the error message.
+pub fn unsupported_materials(scene: &crate::scene::Scene) -> Vec<String> {
+    scene
+        .materials
+        .iter()
+        .filter_map(|m| {
+            let why = if m.null_surface {
+                "a volume-only boundary"
+            } else if m.subsurface.is_some() {
+                "subsurface scattering"
+            } else if m.medium.is_some_and(|md| md.scatters() || md.emission != Rgb::ZERO) {
+                "a scattering or emitting medium"
+            } else {
+                return None;
+            };
+            Some(format!("'{}' ({why})", m.name))
+        })
+        .collect()
 }
 
 impl BdptIntegrator {
@@ -133,8 +156,8 @@ struct Vertex {
     pdf_rev: f32,
     /// Its outgoing direction was sampled from a delta lobe.
     delta: bool,
-    /// Absorption coefficient of the medium the arriving segment crossed.
-    medium: Option<Rgb>,
+    /// The media the arriving segment crossed (absorbing only in this integrator).
+    medium: MediumStack,
     /// Light vertices: the light point (index, emission, densities).
     light: Option<LightPoint>,
     /// Emission of a surface toward `wo` (emissive triangles).
@@ -155,7 +178,7 @@ impl Vertex {
             pdf_fwd: 0.0,
             pdf_rev: 0.0,
             delta: false,
-            medium: None,
+            medium: MediumStack::default(),
             light: None,
             emitted: Rgb::ZERO,
         }
@@ -227,12 +250,13 @@ fn segment_visibility(ctx: &SceneContext, a: &Vertex, b: &Vertex) -> f32 {
     ctx.transmittance(org, dd / dist, dist * (1.0 - 1e-4))
 }
 
-/// Beer-Lambert transmittance of a segment of length `d` in medium `m`.
+/// Beer-Lambert transmittance of a segment of length `d` in the medium in effect (the
+/// integrator accepts absorbing media only; `cli` refuses scattering ones).
 #[inline]
-fn absorb(m: Option<Rgb>, d: f32) -> Rgb {
-    match m {
-        Some(sigma) if d.is_finite() => (-sigma * d).exp(),
-        Some(sigma) if sigma.max_element() > 0.0 => Rgb::ZERO,
+fn absorb(ctx: &SceneContext, media: &MediumStack, d: f32) -> Rgb {
+    match ctx.medium(media) {
+        Some(m) if d.is_finite() => m.transmittance(d),
+        Some(m) if m.attenuates() => Rgb::ZERO,
         _ => Rgb::ONE,
     }
 }
@@ -287,7 +311,7 @@ impl BdptIntegrator {
         // Solid-angle density of the direction just sampled (0 after a delta lobe).
         let mut pdf_sa = if camera.is_orthographic() { 1.0 } else { camera.pdf_dir((-camera.camera().back).dot(dir)) };
         let mut prev_delta = false;
-        let mut medium: Option<Rgb> = None;
+        let mut medium = MediumStack::default();
         let mut eta_scale = 1.0f32;
         let mut transparent_hits = 0u32;
         stats.camera += 1;
@@ -305,7 +329,7 @@ impl BdptIntegrator {
                     cam,
                     &mut scratch.dens,
                     (org, dir, t_surface),
-                    beta * if medium.is_some() { absorb(medium, t_surface.min(1e30)) } else { Rgb::ONE },
+                    beta * absorb(ctx, &medium, t_surface.min(1e30)),
                     (pdf_sa, prev_delta),
                     camera,
                 );
@@ -339,7 +363,7 @@ impl BdptIntegrator {
                         }
                     }
                     if sum != Rgb::ZERO {
-                        *radiance += beta * absorb(medium, f32::INFINITY) * sum;
+                        *radiance += beta * absorb(ctx, &medium, f32::INFINITY) * sum;
                         if i == 0 {
                             out.alpha = 1.0;
                         }
@@ -347,7 +371,7 @@ impl BdptIntegrator {
                 }
                 break;
             };
-            beta *= absorb(medium, hit.t);
+            beta *= absorb(ctx, &medium, hit.t);
             let s = ctx.surface(&hit, org, dir);
             let wo = -dir;
             if ctx.scene.materials[s.material as usize].alpha_mode == AlphaMode::Blend {
@@ -417,7 +441,7 @@ impl BdptIntegrator {
             medium = ctx.medium_after(&s, wi, medium);
             if transmitted {
                 let mat = &ctx.scene.materials[s.material as usize];
-                if mat.volume.is_some() {
+                if mat.medium.is_some() {
                     let eta = if s.front { mat.ior } else { 1.0 / mat.ior };
                     eta_scale *= eta * eta;
                 }
@@ -634,7 +658,7 @@ impl BdptIntegrator {
             lp.p
         };
         let mut dir = dir;
-        let mut medium: Option<Rgb> = None;
+        let mut medium = MediumStack::default();
         let mut transparent_hits = 0u32;
         loop {
             let [u_lobe, u_x, u_y, u_rr] = ls.next_4d();
@@ -642,7 +666,7 @@ impl BdptIntegrator {
             let Some(hit) = ctx.intersect(org, dir, f32::INFINITY) else {
                 break;
             };
-            beta *= absorb(medium, hit.t);
+            beta *= absorb(ctx, &medium, hit.t);
             let s = ctx.surface(&hit, org, dir);
             let wo = -dir;
             if ctx.scene.materials[s.material as usize].alpha_mode == AlphaMode::Blend {
@@ -802,9 +826,9 @@ impl BdptIntegrator {
         }
         let medium = match y.hit {
             Some(h) => ctx.medium_after(&h, w, y.medium),
-            None => None,
+            None => MediumStack::default(),
         };
-        c *= absorb(medium, dist) * vis;
+        c *= absorb(ctx, &medium, dist) * vis;
         // MIS: the path light[..s] + camera.
         let dens = &mut scratch.dens;
         self.fill_path(ctx, &scratch.cam[..1], &scratch.light, s, camera, dens);
@@ -862,7 +886,7 @@ impl BdptIntegrator {
             if vis <= 0.0 {
                 return Rgb::ZERO;
             }
-            let tr = absorb(ctx.medium_after(&hit, ls.wi, x.medium), ls.dist);
+            let tr = absorb(ctx, &ctx.medium_after(&hit, ls.wi, x.medium), ls.dist);
             let p_light = pmf * ls.pdf;
             let w = if ls.delta { 1.0 } else { power_heuristic(p_light, bsdf.pdf(wo_l, wi_l)) };
             return x.beta * f * tr * ls.li * (vis * self.mis(w) / p_light);
@@ -903,7 +927,7 @@ impl BdptIntegrator {
         if vis <= 0.0 {
             return Rgb::ZERO;
         }
-        let tr = absorb(ctx.medium_after(&hit, wi, x.medium), dist);
+        let tr = absorb(ctx, &ctx.medium_after(&hit, wi, x.medium), dist);
         // MIS with the light-origin density of light subpaths.
         y.pdf_fwd = self.lights.pmf_finite(index) * lp.pdf_pos;
         let dens = &mut scratch.dens;
@@ -968,7 +992,7 @@ impl BdptIntegrator {
         if vis <= 0.0 {
             return Rgb::ZERO;
         }
-        let tr = absorb(ctx.medium_after(&hx, w, x.medium), dist);
+        let tr = absorb(ctx, &ctx.medium_after(&hx, w, x.medium), dist);
         let dens = &mut scratch.dens;
         self.fill_path(ctx, &scratch.cam[..t], &scratch.light, s, camera, dens);
         dens.connectible[s - 1] = true;

@@ -26,6 +26,7 @@ use super::{Photon, PhotonMap};
 use crate::bsdf::Bsdf;
 use crate::integrator::{RayStats, SceneContext, ShadingPoint, SurfaceHit, power_heuristic};
 use crate::math::{Frame, Rgb};
+use crate::medium::MediumStack;
 use glam::{Vec2, Vec3};
 
 /// Photons whose normal is within 60° of the query's count (`Photon::normal_within_60`).
@@ -84,7 +85,7 @@ pub fn radiance(
 /// Next-event estimation at a shading point: one light chosen by the light sampler
 /// (with the geometric normal as receiver normal), weighted by
 /// the power heuristic against `bsdf_rays` BSDF-sampled rays from the same point that
-/// may find the same light (0: no MIS, weight 1).
+/// may find the same light (0: no MIS, weight 1). `media`: the media the point is in.
 #[inline]
 #[allow(clippy::too_many_arguments)]
 pub fn direct_light(
@@ -95,6 +96,7 @@ pub fn direct_light(
     u_light: f32,
     u_pt: Vec2,
     bsdf_rays: f32,
+    media: MediumStack,
     stats: &mut RayStats,
 ) -> Rgb {
     // Only light above the geometric normal counts here (below), so the tree may cull by it.
@@ -110,8 +112,13 @@ pub fn direct_light(
         return Rgb::ZERO;
     }
     stats.shadow += 1;
-    let vis = ctx.visibility(s.p, s.ng, &ls);
-    if !(vis > 0.0) {
+    // Through media and volume boundaries when the scene has any.
+    let vis = if ctx.has_media {
+        crate::integrator::media::light_transmittance(ctx, s.p, Some(s.ng), &ls, ctx.medium_after(s, ls.wi, media))
+    } else {
+        Rgb::splat(ctx.visibility(s.p, s.ng, &ls))
+    };
+    if vis == Rgb::ZERO {
         return Rgb::ZERO;
     }
     let w = if ls.delta || bsdf_rays == 0.0 {
@@ -119,5 +126,5 @@ pub fn direct_light(
     } else {
         power_heuristic(ls.pdf * pmf, bsdf_rays * sp.bsdf.pdf(wo_local, wi_local))
     };
-    f * ls.li * (vis * w / (ls.pdf * pmf))
+    f * ls.li * vis * (w / (ls.pdf * pmf))
 }

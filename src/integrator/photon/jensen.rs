@@ -19,13 +19,18 @@
 //!
 //! Parameters (defaults in `PhotonSettings`): k = 20 neighbours, maximum radius a tenth
 //! of the scene radius, 1 gather ray per camera sample, 1 diffuse bounce (final gather), maximum depth
-//! as the path tracer's. Not handled: participating media, shadow photons (not
+//! as the path tracer's. Media: a camera path or gather ray that scatters in a medium is
+//! path traced from there (media have no photon map); crossing media, paths carry
+//! their transmittance; the subsurface part of a material is path traced, its BSDF part
+//! reads the maps. Not handled: shadow photons (not
 //! measured to pay off), photon-map irradiance caching, the world light.
 
 use super::estimate::{direct_light, radiance};
 use super::io::PhotonMaps;
+use crate::integrator::path::PathIntegrator;
 use crate::integrator::{CameraSample, RayStats, SceneContext, power_heuristic};
 use crate::math::{Rgb, offset_ray_origin};
+use crate::medium::{FreeFlight, HenyeyGreenstein, MediumStack};
 use crate::sampling::PixelSampler;
 use crate::scene::AlphaMode;
 use glam::{Vec2, Vec3};
@@ -84,7 +89,69 @@ fn next_hit(
     }
 }
 
+/// One ray segment through the media `media`, up to `t_surface`: adds the medium's
+/// emission along it to `l` (times `beta`) and samples a free flight. Returns the
+/// scattering event (distance, phase function) if any, the weight of emitters crossed
+/// before the event, and the segment's throughput factor.
+#[inline]
+fn medium_segment(
+    ctx: &SceneContext,
+    media: &MediumStack,
+    t_surface: f32,
+    beta: Rgb,
+    u: [f32; 2],
+    l: &mut Rgb,
+) -> (Option<(f32, HenyeyGreenstein)>, Rgb, Rgb) {
+    let Some(m) = ctx.medium(media) else {
+        return (None, Rgb::ONE, Rgb::ONE);
+    };
+    if t_surface.is_finite() {
+        *l += beta * m.emitted(t_surface);
+    }
+    match m.sample_free_flight(t_surface, beta, u[0], u[1]) {
+        FreeFlight::Scatter { t, weight } => (Some((t, m.phase)), m.pass_weight(t, beta), weight),
+        FreeFlight::Pass { weight } => (None, m.pass_weight(t_surface.min(1e30), beta), weight),
+    }
+}
+
 impl JensenIntegrator {
+    /// The path tracer that takes over where a path scatters in a medium (media have no
+    /// photon map).
+    fn continuation(&self) -> PathIntegrator {
+        PathIntegrator {
+            max_depth: self.max_depth,
+            rr_depth: self.rr_depth,
+            transparent_background: self.transparent_background,
+        }
+    }
+
+    /// The subsurface part of the material at `s` (no photon map: path traced), times `beta`.
+    #[allow(clippy::too_many_arguments)]
+    fn subsurface_part(
+        &self,
+        ctx: &SceneContext,
+        s: &crate::integrator::SurfaceHit,
+        sp: &crate::integrator::ShadingPoint,
+        wo: Vec3,
+        wo_local: Vec3,
+        media: MediumStack,
+        beta: Rgb,
+        depth: u32,
+        sampler: &mut PixelSampler,
+        stats: &mut RayStats,
+    ) -> Rgb {
+        let crate::bsdf::Bsdf::Pbr(pbr) = &sp.bsdf;
+        if ctx.scene.materials[s.material as usize].subsurface.is_none() {
+            return Rgb::ZERO;
+        }
+        let q = pbr.subsurface_weight(wo_local);
+        if q > 0.0 {
+            self.continuation().subsurface_from(ctx, s, sp, wo, media, beta * q, depth, sampler, stats)
+        } else {
+            Rgb::ZERO
+        }
+    }
+
     /// Parameters, for logs and the summary.
     pub fn describe(&self) -> String {
         format!(
@@ -115,24 +182,39 @@ impl JensenIntegrator {
         let mut radiance = Rgb::ZERO;
         let mut beta = Rgb::ONE;
         let mut depth = 0u32;
-        // Absorbing medium the specular camera path is in (KHR_materials_volume).
-        let mut medium: Option<Rgb> = None;
+        let mut transparent = 0u32;
+        // Media the camera path is in; a scattering event there is path traced from
+        // that vertex on.
+        let mut medium = MediumStack::default();
         stats.camera += 1;
         loop {
             let [u_light, u_lx, u_ly, u_lobe] = sampler.next_4d();
-            let [u_dx, u_dy, _, _] = sampler.next_4d();
+            let [u_dx, u_dy, u_channel, u_dist] = sampler.next_4d();
             let org0 = org;
             let (found, first) = next_hit(ctx, &mut org, dir, sampler, stats);
-            if let (Some(sigma), true) = (medium, first.is_finite()) {
-                beta *= (-sigma * first).exp();
-            }
+            let (scatter, crossed_w, segment_w) =
+                medium_segment(ctx, &medium, first, beta, [u_channel, u_dist], &mut radiance);
+            let t_event = scatter.map_or(first, |(t, _)| t);
             // Area lights crossed: every earlier vertex was specular (no MIS).
-            let (crossed, any) = ctx.crossed_emission(org0, dir, first, org0, Vec3::ZERO, 0.0, depth == 0);
+            let (crossed, any) = ctx.crossed_emission(org0, dir, t_event, org0, Vec3::ZERO, 0.0, depth == 0);
             if any {
-                radiance += beta * crossed;
+                radiance += beta * crossed_w * crossed;
                 if depth == 0 {
                     out.alpha = 1.0;
                 }
+            }
+            beta *= segment_w;
+            if let Some((t, phase)) = scatter {
+                let p = org0 + dir * t;
+                if depth == 0 {
+                    out.alpha = 1.0;
+                    out.depth = depth_of(p);
+                }
+                if depth < self.max_depth && beta.is_finite() && beta != Rgb::ZERO {
+                    radiance +=
+                        self.continuation().scatter_in_medium(ctx, p, dir, phase, medium, beta, depth, sampler, stats);
+                }
+                break;
             }
             let Some((_, s)) = found else {
                 // Escaped: the world and sun disks (every earlier vertex was specular).
@@ -147,6 +229,16 @@ impl JensenIntegrator {
                 }
                 break;
             };
+            if ctx.scene.materials[s.material as usize].null_surface {
+                // A volume boundary without a surface: only the medium changes.
+                if transparent >= MAX_TRANSPARENT_HITS {
+                    break;
+                }
+                transparent += 1;
+                medium = ctx.medium_after(&s, dir, medium);
+                org = offset_ray_origin(s.p, -s.ng);
+                continue;
+            }
             let wo = -dir;
             let sp = ctx.shade(&s, wo);
             if depth == 0 {
@@ -160,6 +252,7 @@ impl JensenIntegrator {
                 break;
             }
             let wo_local = sp.frame.to_local(wo);
+            radiance += self.subsurface_part(ctx, &s, &sp, wo, wo_local, medium, beta, depth, sampler, stats);
             if !sp.bsdf.is_delta() {
                 // x₁: the first non-specular hit, scattering event depth + 1.
                 radiance += beta
@@ -171,6 +264,7 @@ impl JensenIntegrator {
                         depth + 1,
                         u_light,
                         Vec2::new(u_lx, u_ly),
+                        medium,
                         sampler,
                         stats,
                     );
@@ -206,13 +300,14 @@ impl JensenIntegrator {
         d: u32,
         u_light: f32,
         u_pt: Vec2,
+        media: MediumStack,
         sampler: &mut PixelSampler,
         stats: &mut RayStats,
     ) -> Rgb {
         let gather = if self.diffuse_bounces == 0 || d >= self.max_depth { 0 } else { self.gather_rays };
         let max_r2 = self.max_radius * self.max_radius;
         // Direct light.
-        let mut l = direct_light(ctx, s, sp, wo_local, u_light, u_pt, gather as f32, stats);
+        let mut l = direct_light(ctx, s, sp, wo_local, u_light, u_pt, gather as f32, media, stats);
         // Caustics: photons with hit index j make paths of j - 1 + d events.
         let jmax = self.max_depth + 1 - d;
         l += radiance(&self.maps.caustic, s.p, s.ng, &sp.frame, &sp.bsdf, wo_local, self.k, max_r2, |p| {
@@ -241,7 +336,8 @@ impl JensenIntegrator {
             let beta = bs.f * (bs.wi.z.abs() / bs.pdf);
             let mis_pdf = if sp.bsdf.is_delta() { 0.0 } else { bs.pdf * gather as f32 };
             let org = offset_ray_origin(s.p, if ci > 0.0 { s.ng } else { -s.ng });
-            gathered += self.gather_path(ctx, org, wi, beta, mis_pdf, s.p, s.ng, d, sampler, stats);
+            let gather_media = ctx.medium_after(s, wi, media);
+            gathered += self.gather_path(ctx, org, wi, beta, mis_pdf, s.p, s.ng, d, gather_media, sampler, stats);
         }
         l + gathered / gather.max(1) as f32
     }
@@ -258,10 +354,12 @@ impl JensenIntegrator {
         mut prev_p: Vec3,
         mut prev_n: Vec3,
         d: u32,
+        mut media: MediumStack,
         sampler: &mut PixelSampler,
         stats: &mut RayStats,
     ) -> Rgb {
         let max_r2 = self.max_radius * self.max_radius;
+        let mut transparent = 0u32;
         let mut l = Rgb::ZERO;
         let mut depth = d;
         // Only specular bounces since x₁, and at least one: emission is a caustic.
@@ -271,13 +369,24 @@ impl JensenIntegrator {
         stats.bounce += 1;
         loop {
             let [u_light, u_lx, u_ly, u_lobe] = sampler.next_4d();
-            let [u_dx, u_dy, u_rr, _] = sampler.next_4d();
+            let [u_dx, u_dy, u_rr, u_channel] = sampler.next_4d();
+            let u_dist = if ctx.has_media { sampler.next_4d()[0] } else { 0.0 };
             let caustic = delta_only && bounced;
             let org0 = org;
             let (found, first) = next_hit(ctx, &mut org, dir, sampler, stats);
+            let (scatter, crossed_w, segment_w) = medium_segment(ctx, &media, first, beta, [u_channel, u_dist], &mut l);
+            let t_event = scatter.map_or(first, |(t, _)| t);
             if !caustic {
-                let (crossed, _) = ctx.crossed_emission(org0, dir, first, prev_p, prev_n, prev_pdf, false);
-                l += beta * crossed;
+                let (crossed, _) = ctx.crossed_emission(org0, dir, t_event, prev_p, prev_n, prev_pdf, false);
+                l += beta * crossed_w * crossed;
+            }
+            beta *= segment_w;
+            if let Some((t, phase)) = scatter {
+                if depth < self.max_depth && beta.is_finite() && beta != Rgb::ZERO {
+                    let p = org0 + dir * t;
+                    l += self.continuation().scatter_in_medium(ctx, p, dir, phase, media, beta, depth, sampler, stats);
+                }
+                break;
             }
             let Some((hit, s)) = found else {
                 if !caustic {
@@ -286,6 +395,15 @@ impl JensenIntegrator {
                 }
                 break;
             };
+            if ctx.scene.materials[s.material as usize].null_surface {
+                if transparent >= MAX_TRANSPARENT_HITS {
+                    break;
+                }
+                transparent += 1;
+                media = ctx.medium_after(&s, dir, media);
+                org = offset_ray_origin(s.p, -s.ng);
+                continue;
+            }
             let wo = -dir;
             let sp = ctx.shade(&s, wo);
             if sp.emitted != Rgb::ZERO && !caustic {
@@ -299,6 +417,7 @@ impl JensenIntegrator {
                 break;
             }
             let wo_local = sp.frame.to_local(wo);
+            l += self.subsurface_part(ctx, &s, &sp, wo, wo_local, media, beta, depth, sampler, stats);
             let delta = sp.bsdf.is_delta();
             if !delta {
                 nondelta += 1;
@@ -312,7 +431,18 @@ impl JensenIntegrator {
                         });
                     break;
                 }
-                l += beta * direct_light(ctx, &s, &sp, wo_local, u_light, Vec2::new(u_lx, u_ly), 1.0, stats);
+                l += beta
+                    * direct_light(
+                        ctx,
+                        &s,
+                        &sp,
+                        wo_local,
+                        u_light,
+                        Vec2::new(u_lx, u_ly),
+                        1.0,
+                        MediumStack::default(),
+                        stats,
+                    );
             }
             let Some(bs) = sp.bsdf.sample(wo_local, u_lobe, Vec2::new(u_dx, u_dy)) else {
                 break;
@@ -339,6 +469,7 @@ impl JensenIntegrator {
                 }
                 beta /= survive;
             }
+            media = ctx.medium_after(&s, wi, media);
             org = offset_ray_origin(s.p, if ci > 0.0 { s.ng } else { -s.ng });
             dir = wi;
             stats.bounce += 1;

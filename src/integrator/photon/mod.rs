@@ -13,6 +13,13 @@
 //!
 //! Every parameter's default lives in [`PhotonSettings`] (`Default`), read by `cli.rs`.
 //!
+//! Media and subsurface scattering: photons scatter in media, cross volume boundaries and
+//! walk through subsurface materials (`trace.rs`), and are stored on surfaces only (no
+//! volume photon map). Camera paths and Jensen's gather rays that scatter in a medium are
+//! path traced from that vertex on, and the subsurface part of a material at a camera or
+//! gather vertex is path traced (`PathIntegrator::subsurface_from`) while its BSDF part
+//! reads the maps (`jensen.rs`, `sppm.rs`).
+//!
 //! A stored photon is 32 bytes: position and RGB power as f32, the incident direction as
 //! a 16:16 octahedral code, and one word holding the surface normal (10:10 octahedral),
 //! the photon's hit index (1 = first surface hit after leaving the light, i.e. direct

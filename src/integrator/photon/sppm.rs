@@ -22,7 +22,10 @@
 //! window's pixel count; α = 2/3; initial radius per pixel = 2 pixel footprints at the
 //! visible point (the distance between adjacent pixels' camera rays there), clamped to
 //! [10⁻⁴, 5·10⁻²] × the scene's bounding radius, or `--sppm-radius` for every pixel.
-//! Not handled: participating media, the world light, the pixel filter (one sample at
+//! Media: photons scatter in media (`trace.rs`); a camera path that scatters in a
+//! medium is path traced from there (no volume photon map), one that passes through
+//! media to a surface carries their transmittance. The subsurface part of a visible
+//! point's material is path traced; its BSDF part reads the photons. Not handled: the world light, the pixel filter (one sample at
 //! a filter-distributed offset per pixel and iteration, so the filter is applied), AOVs
 //! other than those of the first hit.
 
@@ -32,8 +35,10 @@ use super::trace::{MapKind, TraceJob, trace_photons};
 use super::{PhotonMap, PhotonSettings};
 use crate::bsdf::Bsdf;
 use crate::film::{DEPTH_BACKGROUND, FilmImage};
+use crate::integrator::path::PathIntegrator;
 use crate::integrator::{RayStats, SceneContext};
 use crate::math::{Frame, Rgb, offset_ray_origin};
+use crate::medium::FreeFlight;
 use crate::render::{Progress, RenderJob, RenderResult};
 use crate::sampling::PixelSampler;
 use crate::scene::AlphaMode;
@@ -303,24 +308,52 @@ fn camera_path(
     let mut first_t = f32::INFINITY;
     let mut transparent = 0u32;
     stats.camera += 1;
-    // Absorbing medium the specular camera path is in (KHR_materials_volume).
-    let mut medium: Option<Rgb> = None;
+    // Media the camera path is in. A scattering event there is path traced from that
+    // vertex on (media have no photon map): NEE plus a continued path.
+    let mut medium = crate::medium::MediumStack::default();
+    let continuation = PathIntegrator { max_depth, transparent_background, ..Default::default() };
     loop {
         let [u_light, u_lx, u_ly, u_lobe] = sampler.next_4d();
         let [u_dx, u_dy, _, u_alpha] = sampler.next_4d();
+        let [u_channel, u_dist, _, _] = if ctx.has_media { sampler.next_4d() } else { [0.0; 4] };
         let hit = ctx.intersect(org, dir, f32::INFINITY);
         let t_surface = hit.map_or(f32::INFINITY, |h| h.t);
-        if let (Some(sigma), true) = (medium, t_surface.is_finite()) {
-            beta *= (-sigma * t_surface).exp();
+        let m = ctx.medium(&medium).copied();
+        let mut scatter_at = None;
+        let mut segment_weight = Rgb::ONE;
+        if let Some(m) = m {
+            if t_surface.is_finite() {
+                l += beta * m.emitted(t_surface);
+            }
+            match m.sample_free_flight(t_surface, beta, u_channel, u_dist) {
+                FreeFlight::Scatter { t, weight } => {
+                    scatter_at = Some(t);
+                    segment_weight = weight;
+                }
+                FreeFlight::Pass { weight } => segment_weight = weight,
+            }
         }
+        let t_event = scatter_at.unwrap_or(t_surface);
         // Lights crossed and the world are found by specular paths only (no MIS): the
         // visible point's NEE covers the rest.
-        let (crossed, any) = ctx.crossed_emission(org, dir, t_surface, org, Vec3::ZERO, 0.0, depth == 0);
+        let (crossed, any) = ctx.crossed_emission(org, dir, t_event, org, Vec3::ZERO, 0.0, depth == 0);
         if any {
-            l += beta * crossed;
+            let tr = m.map_or(Rgb::ONE, |m| m.pass_weight(t_event.min(1e30), beta));
+            l += beta * tr * crossed;
             if depth == 0 {
                 state.alpha += 1.0;
             }
+        }
+        beta *= segment_weight;
+        if let (Some(t), Some(m)) = (scatter_at, m) {
+            if depth == 0 {
+                state.alpha += 1.0;
+            }
+            if depth < max_depth && beta.is_finite() && beta != Rgb::ZERO {
+                let p = org + dir * t;
+                l += continuation.scatter_in_medium(ctx, p, dir, m.phase, medium, beta, depth, sampler, stats);
+            }
+            return (l, None, first_t);
         }
         let Some(hit) = hit else {
             if !(depth == 0 && transparent_background) {
@@ -335,6 +368,14 @@ fn camera_path(
             break;
         };
         let s = ctx.surface(&hit, org, dir);
+        if ctx.scene.materials[s.material as usize].null_surface && transparent < 128 {
+            // A volume boundary without a surface: only the medium changes.
+            transparent += 1;
+            medium = ctx.medium_after(&s, dir, medium);
+            org = offset_ray_origin(s.p, -s.ng);
+            stats.bounce += 1;
+            continue;
+        }
         if ctx.scene.materials[s.material as usize].alpha_mode == AlphaMode::Blend
             && transparent < 128
             && u_alpha >= ctx.alpha(hit.tri, hit.b1, hit.b2)
@@ -363,8 +404,16 @@ fn camera_path(
             break;
         }
         let wo_local = sp.frame.to_local(wo);
+        // The subsurface part has no photon map: path traced (the BSDF part is mapped).
+        let Bsdf::Pbr(pbr) = &sp.bsdf;
+        if ctx.scene.materials[s.material as usize].subsurface.is_some() {
+            let q = pbr.subsurface_weight(wo_local);
+            if q > 0.0 {
+                l += continuation.subsurface_from(ctx, &s, &sp, wo, medium, beta * q, depth, sampler, stats);
+            }
+        }
         if !sp.bsdf.is_delta() {
-            l += beta * direct_light(ctx, &s, &sp, wo_local, u_light, Vec2::new(u_lx, u_ly), 0.0, stats);
+            l += beta * direct_light(ctx, &s, &sp, wo_local, u_light, Vec2::new(u_lx, u_ly), 0.0, medium, stats);
             return (
                 l,
                 Some(VisiblePoint { p: s.p, ng: s.ng, frame: sp.frame, bsdf: sp.bsdf, wo_local, beta, d: depth + 1 }),

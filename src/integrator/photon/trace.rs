@@ -30,8 +30,11 @@
 use super::Photon;
 use super::emit::Emitters;
 use crate::integrator::SceneContext;
+use crate::integrator::path::PathIntegrator;
 use crate::math::offset_ray_origin;
+use crate::medium::FreeFlight;
 use crate::sampling::PixelSampler;
+use crate::sampling::warp::cosine_hemisphere;
 use crate::scene::AlphaMode;
 use glam::Vec2;
 use rayon::prelude::*;
@@ -151,18 +154,48 @@ pub fn trace_one(
     let mut specular_only = true;
     let mut depth = 0u32;
     let mut transparent = 0u32;
-    // Absorption coefficient of the medium the photon is in (KHR_materials_volume).
-    let mut medium: Option<crate::math::Rgb> = None;
+    // Media the photon is in; photons scatter in them (free flights as the path
+    // tracer's, with the photon's power as the channel weights) but are stored only on
+    // surfaces.
+    let mut medium = crate::medium::MediumStack::default();
     loop {
         let [u_lobe, u_x, u_y, u_rr] = s.next_4d();
+        let [u_channel, u_dist, u_px, u_py] = if ctx.has_media { s.next_4d() } else { [0.0; 4] };
         st.rays += 1;
-        let Some(hit) = ctx.intersect(org, dir, f32::INFINITY) else {
+        let hit = ctx.intersect(org, dir, f32::INFINITY);
+        if let Some(m) = ctx.medium(&medium).copied() {
+            match m.sample_free_flight(hit.map_or(f32::INFINITY, |h| h.t), power, u_channel, u_dist) {
+                FreeFlight::Scatter { t, weight } => {
+                    // Russian roulette on the event's weight (the single-scattering
+                    // albedo for a grey medium), as on surfaces.
+                    let q = weight.max_element().min(1.0);
+                    if !(q > 0.0) || u_rr >= q || !weight.is_finite() {
+                        return;
+                    }
+                    power *= weight / q;
+                    depth += 1;
+                    specular_only = false;
+                    if depth >= job.max_depth {
+                        return;
+                    }
+                    org += dir * t;
+                    dir = m.phase.sample(dir, Vec2::new(u_px, u_py)).0;
+                    continue;
+                }
+                FreeFlight::Pass { weight } => power *= weight,
+            }
+        }
+        let Some(hit) = hit else {
             return;
         };
-        if let Some(sigma) = medium {
-            power *= (-sigma * hit.t).exp();
-        }
         let sh = ctx.surface(&hit, org, dir);
+        if ctx.scene.materials[sh.material as usize].null_surface && transparent < MAX_TRANSPARENT_HITS {
+            // A volume boundary without a surface: only the medium changes.
+            transparent += 1;
+            medium = ctx.medium_after(&sh, dir, medium);
+            org = offset_ray_origin(sh.p, -sh.ng);
+            continue;
+        }
         if ctx.scene.materials[sh.material as usize].alpha_mode == AlphaMode::Blend
             && transparent < MAX_TRANSPARENT_HITS
         {
@@ -200,6 +233,43 @@ pub fn trace_one(
         specular_only &= delta;
         // Scatter.
         let wo_local = sp.frame.to_local(wo);
+        // The subsurface part, chosen with probability its weight (as the path tracer):
+        // enter, walk, leave through the Lambertian exit. (Photons are not stored in the walk.)
+        let crate::bsdf::Bsdf::Pbr(pbr) = &sp.bsdf;
+        let mat = &ctx.scene.materials[sh.material as usize];
+        let q_sss = if mat.subsurface.is_some() { pbr.subsurface_weight(wo_local) } else { 0.0 };
+        if let Some(ss) = mat.subsurface
+            && q_sss > 0.0
+        {
+            let u = s.next_4d();
+            let [v_dx, v_dy, v_rr, _] = s.next_4d();
+            if u[0] < q_sss {
+                let walker = PathIntegrator::default();
+                let entry_u = [u[1], u[2], (u[0] / q_sss).min(0.999_999), u[3]];
+                let Some(exit) = walker.subsurface(ctx, &sh, &sp, wo, &ss, pbr, power, entry_u) else {
+                    return;
+                };
+                let q = exit.weight.max_element().min(1.0);
+                if !(q > 0.0) || v_rr >= q || !exit.weight.is_finite() {
+                    return;
+                }
+                power *= exit.weight / q;
+                depth += 1;
+                specular_only = false;
+                if depth >= job.max_depth {
+                    return;
+                }
+                let se = ctx.surface(&exit.hit, exit.org, exit.dir);
+                let (n_g, n_s) = (-se.ng, -se.ns);
+                let wi = crate::math::Frame::from_normal(n_s).to_world(cosine_hemisphere(Vec2::new(v_dx, v_dy)));
+                if wi.dot(n_g) <= 0.0 {
+                    return;
+                }
+                org = offset_ray_origin(se.p, n_g);
+                dir = wi;
+                continue;
+            }
+        }
         let Some(bs) = sp.bsdf.sample(wo_local, u_lobe, Vec2::new(u_x, u_y)) else {
             return;
         };
@@ -211,18 +281,13 @@ pub fn trace_one(
             return;
         }
         let correction = (wo_local.z * cos_i_g / (cos_o_g * bs.wi.z)).abs();
-        let w = bs.f * (bs.wi.z.abs() / bs.pdf) * correction;
+        let w = bs.f * (bs.wi.z.abs() / (bs.pdf * (1.0 - q_sss))) * correction;
         let q = w.max_element().min(1.0);
         if !(q > 0.0) || u_rr >= q || !w.is_finite() {
             return;
         }
         power *= w / q;
-        if cos_i_g < 0.0 {
-            let mat = &ctx.scene.materials[sh.material as usize];
-            if let Some(sigma) = mat.volume {
-                medium = if sh.front { Some(sigma) } else { None };
-            }
-        }
+        medium = ctx.medium_after(&sh, wi, medium);
         org = offset_ray_origin(sh.p, if cos_i_g > 0.0 { sh.ng } else { -sh.ng });
         dir = wi;
     }
