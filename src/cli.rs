@@ -617,15 +617,6 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     let ctx = SceneContext::with_light_sampler(&scene, &accel, res.light_sampler);
     let camera = CameraRays::new(&scene.cameras[res.camera], res.resolution.0, res.resolution.1);
     let mut photon_stats = serde_json::Value::Null;
-    if res.integrator == IntegratorKind::Bdpt {
-        let unsupported = crate::integrator::bdpt::unsupported_materials(&scene);
-        if !unsupported.is_empty() {
-            return Err(Error::Usage(format!(
-                "bidirectional path tracing does not render {} yet; render this scene with --integrator path or sppm",
-                unsupported.join(", ")
-            )));
-        }
-    }
     let integrator = match res.integrator {
         IntegratorKind::Path | IntegratorKind::Sppm => Integrator::Path(PathIntegrator {
             max_depth: res.max_depth,

@@ -130,6 +130,14 @@ fn glass_caustic_bdpt_matches_path_tracing() {
     bdpt_matches_path("glass", &root().join("scenes/glass_caustic.gltf"), (48, 36), (8, 64), 8, 1);
 }
 
+/// Media and subsurface scattering (scenes/subsurface.gltf: a random-walk marble blob and
+/// scattering smoke inside absorbing glass): the paths with a medium vertex are path traced
+/// from the camera side, the rest by all strategies; the sum agrees with the path tracer.
+#[test]
+fn media_and_subsurface_bdpt_matches_path_tracing() {
+    bdpt_matches_path("subsurface", &root().join("scenes/subsurface.gltf"), (48, 36), (8, 16), 8, 1);
+}
+
 /// A room with every light type: point, spot, area (rectangle and disk), a sphere light
 /// without soft falloff, a double-sided emissive quad, and (camera side only) a sun with
 /// an angle, a soft point light and a world colour.

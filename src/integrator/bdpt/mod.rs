@@ -18,10 +18,14 @@
 //! Light subpaths carry importance: refraction does not scale it by 1/η², and shading
 //! normals get Veach's correction |wo·ns| |wi·ng| / (|wo·ng| |wi·ns|).
 //!
-//! Media: absorbing media (`KHR_materials_volume`, or a `CAUSTIC_materials_medium` that does
-//! not scatter or emit) attenuate every segment, as in the path tracer. Scattering and
-//! emitting media, subsurface scattering and volume-only boundaries are refused with an
-//! error naming the materials (`unsupported_materials`): vertices in media are not built yet.
+//! Media and subsurface scattering: the strategies above carry the paths without a vertex in
+//! a medium, attenuated by extinction along every segment (light subpaths, connections and
+//! camera segments alike; volume-only boundaries are crossed). Paths with a medium vertex are
+//! made by the camera subpath alone: where free-flight sampling puts a scattering event on
+//! it, the path tracer takes over from that vertex (NEE and phase sampling), and the
+//! subsurface part of a material at a camera vertex is path traced from it. The two sets of
+//! paths are disjoint, so the sum is unbiased; what BDPT does not yet offer is light
+//! subpaths scattering in media (a volumetric caustic seen in fog is path traced).
 
 pub mod lights;
 pub mod mis;
@@ -29,9 +33,9 @@ pub mod mis;
 use super::{CameraSample, RayStats, SceneContext, SurfaceHit, power_heuristic};
 use crate::bsdf::Bsdf;
 use crate::film::{Filter, SplatBuffer};
-use crate::light::{Light, area_to_solid_angle, intersect_sphere};
+use crate::light::{Light, LightSample, area_to_solid_angle, intersect_sphere};
 use crate::math::{Frame, Rgb, hash_combine, offset_ray_origin};
-use crate::medium::MediumStack;
+use crate::medium::{FreeFlight, MediumStack};
 use crate::sampling::PixelSampler;
 use crate::sampling::warp::uniform_cone_pdf;
 use crate::scene::AlphaMode;
@@ -73,26 +77,6 @@ pub struct BdptIntegrator {
     pub lights: Arc<BdptLights>,
 }
 
-/// Materials this integrator cannot render yet, with the reason, for the error message.
-pub fn unsupported_materials(scene: &crate::scene::Scene) -> Vec<String> {
-    scene
-        .materials
-        .iter()
-        .filter_map(|m| {
-            let why = if m.null_surface {
-                "a volume-only boundary"
-            } else if m.subsurface.is_some() {
-                "subsurface scattering"
-            } else if m.medium.is_some_and(|md| md.scatters() || md.emission != Rgb::ZERO) {
-                "a scattering or emitting medium"
-            } else {
-                return None;
-            };
-            Some(format!("'{}' ({why})", m.name))
-        })
-        .collect()
-}
-
 impl BdptIntegrator {
     /// Human-readable description.
     pub fn describe(&self) -> String {
@@ -106,6 +90,16 @@ impl BdptIntegrator {
             );
         }
         s
+    }
+
+    /// The path tracer that continues camera paths at vertices in media and into
+    /// subsurface scattering.
+    fn continuation(&self) -> crate::integrator::path::PathIntegrator {
+        crate::integrator::path::PathIntegrator {
+            max_depth: self.max_depth,
+            rr_depth: self.rr_depth,
+            transparent_background: self.transparent_background,
+        }
     }
 
     #[inline]
@@ -234,30 +228,38 @@ fn light_sampler(seed: u32, px: u32, py: u32, index: u32) -> PixelSampler {
     PixelSampler::new(hash_combine(&[seed, 0x4c49_4748]), px, py, index)
 }
 
-/// Unoccluded fraction of the segment between two vertices (offset off their surfaces).
+/// Fraction of light carried from vertex `a` to vertex `b` through the media `stack` the
+/// segment starts in: volume-only boundaries are crossed (changing the medium), BLEND
+/// surfaces pass 1 - alpha, media attenuate by their extinction (light subpaths and
+/// connections carry the paths without a medium vertex; those with one are path traced
+/// from the camera side), any other surface blocks.
 #[inline]
-fn segment_visibility(ctx: &SceneContext, a: &Vertex, b: &Vertex) -> f32 {
+fn segment_transmittance(ctx: &SceneContext, a: &Vertex, b: &Vertex, stack: MediumStack) -> Rgb {
     let d = b.p - a.p;
-    let org =
-        if a.ng == Vec3::ZERO { a.p } else { offset_ray_origin(a.p, if d.dot(a.ng) >= 0.0 { a.ng } else { -a.ng }) };
-    let target =
-        if b.ng == Vec3::ZERO { b.p } else { offset_ray_origin(b.p, if d.dot(b.ng) <= 0.0 { b.ng } else { -b.ng }) };
-    let dd = target - org;
-    let dist = dd.length();
+    let dist = d.length();
     if !(dist > 0.0) {
-        return 0.0;
+        return Rgb::ZERO;
     }
-    ctx.transmittance(org, dd / dist, dist * (1.0 - 1e-4))
+    let wi = d / dist;
+    // The target's normal on the side facing `a` (the shadow ray stops just short of it).
+    let normal = if b.ng == Vec3::ZERO {
+        Vec3::ZERO
+    } else if b.ng.dot(wi) <= 0.0 {
+        b.ng
+    } else {
+        -b.ng
+    };
+    let target = LightSample { wi, dist, li: Rgb::ZERO, pdf: 0.0, delta: false, point: b.p, normal };
+    let ng = (a.ng != Vec3::ZERO).then_some(a.ng);
+    super::media::light_transmittance(ctx, a.p, ng, &target, stack)
 }
 
-/// Beer-Lambert transmittance of a segment of length `d` in the medium in effect (the
-/// integrator accepts absorbing media only; `cli` refuses scattering ones).
+/// The media a segment leaving vertex `v` in direction `w` is in.
 #[inline]
-fn absorb(ctx: &SceneContext, media: &MediumStack, d: f32) -> Rgb {
-    match ctx.medium(media) {
-        Some(m) if d.is_finite() => m.transmittance(d),
-        Some(m) if m.attenuates() => Rgb::ZERO,
-        _ => Rgb::ONE,
+fn media_leaving(ctx: &SceneContext, v: &Vertex, w: Vec3) -> MediumStack {
+    match v.hit {
+        Some(h) => ctx.medium_after(&h, w, v.medium),
+        None => v.medium,
     }
 }
 
@@ -317,10 +319,29 @@ impl BdptIntegrator {
         stats.camera += 1;
         loop {
             let [u_lobe, u_dx, u_dy, u_rr] = sampler.next_4d();
-            let [u_alpha, _, _, _] = sampler.next_4d();
+            let [u_alpha, u_channel, u_dist, _] = sampler.next_4d();
             let i = cam.len() - 1; // the vertex the ray leaves from
             let hit = ctx.intersect(org, dir, f32::INFINITY);
             let t_surface = hit.map_or(f32::INFINITY, |h| h.t);
+
+            // The medium along this segment: its emission, then where the next event is
+            // (as the path tracer samples it).
+            let in_medium = ctx.medium(&medium).copied();
+            let mut scatter_at = None;
+            let mut segment_weight = Rgb::ONE;
+            if let Some(m) = in_medium {
+                if t_surface.is_finite() && self.strategy.is_none() {
+                    *radiance += beta * m.emitted(t_surface);
+                }
+                match m.sample_free_flight(t_surface, beta, u_channel, u_dist) {
+                    FreeFlight::Scatter { t, weight } => {
+                        scatter_at = Some(t);
+                        segment_weight = weight;
+                    }
+                    FreeFlight::Pass { weight } => segment_weight = weight,
+                }
+            }
+            let t_event = scatter_at.unwrap_or(t_surface);
 
             // Emitters crossed on the way (area and sphere lights do not block).
             if self.allowed(0, i + 2) {
@@ -328,8 +349,8 @@ impl BdptIntegrator {
                     ctx,
                     cam,
                     &mut scratch.dens,
-                    (org, dir, t_surface),
-                    beta * absorb(ctx, &medium, t_surface.min(1e30)),
+                    (org, dir, t_event),
+                    beta * in_medium.map_or(Rgb::ONE, |m| m.pass_weight(t_event.min(1e30), beta)),
                     (pdf_sa, prev_delta),
                     camera,
                 );
@@ -341,6 +362,23 @@ impl BdptIntegrator {
                 }
             }
 
+            beta *= segment_weight;
+            if let Some(t) = scatter_at {
+                // A vertex in a medium: the rest of the path is traced by the path tracer
+                // (BDPT's strategies carry the paths without medium vertices).
+                let p = org + dir * t;
+                if i == 0 {
+                    out.alpha = 1.0;
+                    out.depth = camera.depth(p);
+                }
+                if self.strategy.is_none() && (i as u32) < self.max_depth && beta.is_finite() && beta != Rgb::ZERO {
+                    let phase = in_medium.map(|m| m.phase).unwrap_or_default();
+                    *radiance += self
+                        .continuation()
+                        .scatter_in_medium(ctx, p, dir, phase, medium, beta, i as u32, sampler, stats);
+                }
+                break;
+            }
             let Some(hit) = hit else {
                 if self.allowed(0, i + 2) && !(i == 0 && self.transparent_background) {
                     let le = ctx.world_radiance(dir);
@@ -363,7 +401,7 @@ impl BdptIntegrator {
                         }
                     }
                     if sum != Rgb::ZERO {
-                        *radiance += beta * absorb(ctx, &medium, f32::INFINITY) * sum;
+                        *radiance += beta * sum;
                         if i == 0 {
                             out.alpha = 1.0;
                         }
@@ -371,19 +409,42 @@ impl BdptIntegrator {
                 }
                 break;
             };
-            beta *= absorb(ctx, &medium, hit.t);
             let s = ctx.surface(&hit, org, dir);
             let wo = -dir;
-            if ctx.scene.materials[s.material as usize].alpha_mode == AlphaMode::Blend {
-                let alpha = ctx.alpha(hit.tri, hit.b1, hit.b2);
-                if u_alpha >= alpha && transparent_hits < MAX_TRANSPARENT_HITS {
-                    transparent_hits += 1;
-                    org = offset_ray_origin(s.p, -s.ng);
-                    stats.bounce += 1;
-                    continue;
-                }
+            let mat = &ctx.scene.materials[s.material as usize];
+            let pass = if mat.null_surface {
+                // A volume boundary without a surface: only the medium changes.
+                medium = ctx.medium_after(&s, dir, medium);
+                true
+            } else {
+                mat.alpha_mode == AlphaMode::Blend && u_alpha >= ctx.alpha(hit.tri, hit.b1, hit.b2)
+            };
+            if pass && transparent_hits < MAX_TRANSPARENT_HITS {
+                transparent_hits += 1;
+                org = offset_ray_origin(s.p, -s.ng);
+                stats.bounce += 1;
+                continue;
             }
             let sp = ctx.shade(&s, wo);
+            // Subsurface scattering is path traced from here (the BSDF holds the rest of
+            // the material: its diffuse base is already reduced by the subsurface weight).
+            if mat.subsurface.is_some() && self.strategy.is_none() && (i as u32) < self.max_depth {
+                let crate::bsdf::Bsdf::Pbr(pbr) = &sp.bsdf;
+                let q = pbr.subsurface_weight(sp.frame.to_local(wo));
+                if q > 0.0 {
+                    *radiance += self.continuation().subsurface_from(
+                        ctx,
+                        &s,
+                        &sp,
+                        wo,
+                        medium,
+                        beta * q,
+                        i as u32,
+                        sampler,
+                        stats,
+                    );
+                }
+            }
             if i == 0 {
                 out.alpha = 1.0;
                 out.depth = camera.depth(s.p);
@@ -666,17 +727,24 @@ impl BdptIntegrator {
             let Some(hit) = ctx.intersect(org, dir, f32::INFINITY) else {
                 break;
             };
-            beta *= absorb(ctx, &medium, hit.t);
+            // Light subpaths carry the paths without medium vertices: extinction only.
+            if let Some(m) = ctx.medium(&medium) {
+                beta *= m.transmittance(hit.t);
+            }
             let s = ctx.surface(&hit, org, dir);
             let wo = -dir;
-            if ctx.scene.materials[s.material as usize].alpha_mode == AlphaMode::Blend {
-                let alpha = ctx.alpha(hit.tri, hit.b1, hit.b2);
-                if u_alpha >= alpha && transparent_hits < MAX_TRANSPARENT_HITS {
-                    transparent_hits += 1;
-                    org = offset_ray_origin(s.p, -s.ng);
-                    stats.bounce += 1;
-                    continue;
-                }
+            let mat = &ctx.scene.materials[s.material as usize];
+            let pass = if mat.null_surface {
+                medium = ctx.medium_after(&s, dir, medium);
+                true
+            } else {
+                mat.alpha_mode == AlphaMode::Blend && u_alpha >= ctx.alpha(hit.tri, hit.b1, hit.b2)
+            };
+            if pass && transparent_hits < MAX_TRANSPARENT_HITS {
+                transparent_hits += 1;
+                org = offset_ray_origin(s.p, -s.ng);
+                stats.bounce += 1;
+                continue;
             }
             let sp = ctx.shade(&s, wo);
             let i = light.len() - 1;
@@ -820,15 +888,11 @@ impl BdptIntegrator {
         }
         stats.shadow += 1;
         let cam_vertex = scratch.cam[0];
-        let vis = segment_visibility(ctx, &y, &cam_vertex);
-        if vis <= 0.0 {
+        let tr = segment_transmittance(ctx, &y, &cam_vertex, media_leaving(ctx, &y, w));
+        if tr == Rgb::ZERO {
             return;
         }
-        let medium = match y.hit {
-            Some(h) => ctx.medium_after(&h, w, y.medium),
-            None => MediumStack::default(),
-        };
-        c *= absorb(ctx, &medium, dist) * vis;
+        c *= tr;
         // MIS: the path light[..s] + camera.
         let dens = &mut scratch.dens;
         self.fill_path(ctx, &scratch.cam[..1], &scratch.light, s, camera, dens);
@@ -882,14 +946,13 @@ impl BdptIntegrator {
                 return Rgb::ZERO;
             }
             stats.shadow += 1;
-            let vis = ctx.visibility(x.p, hit.ng, &ls);
-            if vis <= 0.0 {
+            let tr = super::media::light_transmittance(ctx, x.p, Some(hit.ng), &ls, media_leaving(ctx, &x, ls.wi));
+            if tr == Rgb::ZERO {
                 return Rgb::ZERO;
             }
-            let tr = absorb(ctx, &ctx.medium_after(&hit, ls.wi, x.medium), ls.dist);
             let p_light = pmf * ls.pdf;
             let w = if ls.delta { 1.0 } else { power_heuristic(p_light, bsdf.pdf(wo_l, wi_l)) };
-            return x.beta * f * tr * ls.li * (vis * self.mis(w) / p_light);
+            return x.beta * f * tr * ls.li * (self.mis(w) / p_light);
         }
         let Some(lp) = lights::sample_point(ctx, index, Vec2::new(u[1], u[2])) else {
             return Rgb::ZERO;
@@ -923,11 +986,10 @@ impl BdptIntegrator {
             return Rgb::ZERO;
         }
         stats.shadow += 1;
-        let vis = segment_visibility(ctx, &x, &y);
-        if vis <= 0.0 {
+        let tr = segment_transmittance(ctx, &x, &y, media_leaving(ctx, &x, wi));
+        if tr == Rgb::ZERO {
             return Rgb::ZERO;
         }
-        let tr = absorb(ctx, &ctx.medium_after(&hit, wi, x.medium), dist);
         // MIS with the light-origin density of light subpaths.
         y.pdf_fwd = self.lights.pmf_finite(index) * lp.pdf_pos;
         let dens = &mut scratch.dens;
@@ -948,7 +1010,7 @@ impl BdptIntegrator {
             dens.a[2] = prev.area_density(pdf, x.p);
         }
         let w = self.mis(dens.weight(1));
-        contribution * tr * (vis * w)
+        contribution * tr * w
     }
 
     /// s, t ≥ 2: light vertex `light[s-1]` joined to camera vertex `cam[t-1]`.
@@ -988,11 +1050,10 @@ impl BdptIntegrator {
             return Rgb::ZERO;
         }
         stats.shadow += 1;
-        let vis = segment_visibility(ctx, &x, &y);
-        if vis <= 0.0 {
+        let tr = segment_transmittance(ctx, &x, &y, media_leaving(ctx, &x, w));
+        if tr == Rgb::ZERO {
             return Rgb::ZERO;
         }
-        let tr = absorb(ctx, &ctx.medium_after(&hx, w, x.medium), dist);
         let dens = &mut scratch.dens;
         self.fill_path(ctx, &scratch.cam[..t], &scratch.light, s, camera, dens);
         dens.connectible[s - 1] = true;
@@ -1010,7 +1071,7 @@ impl BdptIntegrator {
             xp.area_density(bx.pdf(wi_x, x.frame.to_local((xp.p - x.p).normalize_or_zero())), x.p)
         };
         let wgt = self.mis(dens.weight(s));
-        c * tr * (vis * wgt)
+        c * tr * wgt
     }
 }
 
