@@ -778,6 +778,8 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
             "render_seconds": secs,
             "samples_per_sec": total_samples / secs,
             "pixels": pixels,
+            "light_paths": result.light_paths,
+            "splats": result.splats,
             "rays": result.rays,
             "rays_per_sec": result.rays.total() as f64 / secs,
             "camera_rays_per_sec": result.rays.camera as f64 / secs,

@@ -59,6 +59,10 @@ pub struct RenderResult {
     pub interrupted: bool,
     /// Rendering time.
     pub elapsed: Duration,
+    /// Light subpaths traced (bidirectional: one per camera sample; 0 otherwise).
+    pub light_paths: u64,
+    /// Light-tracing splats added to the film (each spread over the pixel filter).
+    pub splats: u64,
 }
 
 /// Progress callback data.
@@ -110,6 +114,7 @@ pub fn render(
     let mut spp_done = 0u32;
     let target = job.spp.unwrap_or(u32::MAX);
     let splats = SplatPool::new(job.window);
+    let mut splat_count = 0u64;
 
     std::thread::scope(|scope| {
         // Reporter thread: reads the counters, never touches the film.
@@ -220,7 +225,7 @@ pub fn render(
                 stats.nan += t.nan;
                 film.light_paths += t.light_paths;
             }
-            splats.drain_into(&mut film);
+            splat_count += splats.drain_into(&mut film);
             if stop.load(Ordering::Relaxed) || timed_out.load(Ordering::Relaxed) {
                 break;
             }
@@ -244,6 +249,8 @@ pub fn render(
         spp_min,
         spp_max,
         interrupted: stop.load(Ordering::Relaxed),
+        light_paths: film.light_paths,
+        splats: splat_count,
         elapsed: start.elapsed(),
     }
 }

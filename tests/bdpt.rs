@@ -302,6 +302,36 @@ fn emissive_furnace_is_exact() {
     assert!((mean - expect).abs() <= t * se + systematic, "{mean} vs {expect}");
 }
 
+/// The summary reports light paths and splats separately from camera samples: one light
+/// path per camera sample, and light tracing splats something on a lit scene.
+#[test]
+fn summary_reports_splats_and_light_paths() {
+    let dir = temp_dir();
+    let out = dir.path().join("s.exr");
+    let scene = cornell();
+    let r = run(
+        &[
+            "render",
+            scene.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--integrator",
+            "bdpt",
+            "--resolution",
+            "16x16",
+            "--spp",
+            "4",
+            "--progress",
+            "json",
+        ],
+        LIMIT,
+    );
+    assert_eq!(r.code, Some(0), "{}", r.stderr);
+    let st = &r.summary().unwrap()["stats"];
+    assert_eq!(st["light_paths"].as_u64(), Some(16 * 16 * 4));
+    assert!(st["splats"].as_u64().unwrap() > 0, "{st}");
+}
+
 /// Bad settings are usage errors that name the problem.
 #[test]
 fn bdpt_settings_errors() {

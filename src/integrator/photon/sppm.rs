@@ -252,6 +252,8 @@ pub fn render(
             spp_max: st.iterations,
             interrupted: stop.load(Ordering::Relaxed),
             elapsed: start.elapsed(),
+            light_paths: 0,
+            splats: 0,
         },
         st,
     )
