@@ -525,4 +525,50 @@ mod tests {
         }
         assert!(failures.is_empty(), "{failures:?}");
     }
+
+    /// Subsurface random walks (mean free path 0.008, isotropic) inside the 20-unit box
+    /// of tests/media.rs, entering at its top face: no step may leave the box without
+    /// the accel reporting the face it crosses (the f64 reference decides).
+    #[test]
+    fn random_walks_in_a_box_do_not_step_out() {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut rnd = move || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((state >> 40) as f32 + 0.5) / (1u64 << 24) as f32
+        };
+        let identity = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+        let tris = box_tris([0.0, -1.0, 0.0], [10.0, 1.0, 10.0], identity);
+        let accel = Accel::build(&tris);
+        let flags = vec![false; tris.len()];
+        let inside = |p: Vec3| p.x.abs() < 10.0 && p.z.abs() < 10.0 && p.y < 0.0 && p.y > -2.0;
+        let (mut lost, mut rounded_out, mut exits, mut steps) = (0u32, 0u32, 0u32, 0u64);
+        for _ in 0..20_000 {
+            let mut org = Vec3::new(rnd() * 16.0 - 8.0, 0.0, rnd() * 16.0 - 8.0);
+            let mut dir = Vec3::new(0.3, -1.0, 0.2).normalize();
+            for _ in 0..2_000 {
+                steps += 1;
+                let t = -(1.0 - rnd()).ln() * 0.008;
+                if accel.intersect(org, dir, t, &flags, |_, _, _| true).is_some() {
+                    exits += 1;
+                    break;
+                }
+                // The reference is taken before moving: did the step truly cross the box?
+                let crossed = reference_hit(&tris, org, dir).is_some_and(|(t_ref, _)| t_ref < t as f64);
+                org += dir * t;
+                if crossed {
+                    lost += 1;
+                    break;
+                }
+                if !inside(org) {
+                    rounded_out += 1;
+                    break;
+                }
+                let (z, phi) = (2.0 * rnd() - 1.0, rnd() * std::f32::consts::TAU);
+                let r = (1.0 - z * z).sqrt();
+                dir = Vec3::new(r * phi.cos(), r * phi.sin(), z);
+            }
+        }
+        eprintln!("{exits} walks exited in {steps} steps; {lost} stepped out unseen, {rounded_out} rounded out");
+        assert_eq!(lost, 0, "walks that stepped out of the box without a hit");
+    }
 }
