@@ -105,7 +105,7 @@ impl RayTransform {
         } else if t + delta_t <= tmin || t - delta_t >= tmax {
             return None;
         } else {
-            self.distance_f64(v, u, vv, w)
+            self.distance_f64(v)
         };
         if !(t > tmin && t < tmax) {
             return None;
@@ -119,7 +119,7 @@ impl RayTransform {
     /// as its neighbours' do: this keeps the test watertight.
     #[cold]
     #[inline(never)]
-    fn distance_f64(&self, v: &[Vec3A; 3], u: f32, vv: f32, w: f32) -> f32 {
+    fn distance_f64(&self, v: &[Vec3A; 3]) -> f32 {
         let [kx, ky, kz] = self.k;
         let [sx, sy, sz] = self.s.map(f64::from);
         let rel = |p: Vec3A| [0, 1, 2].map(|i| p[i] as f64 - self.org[i] as f64);
@@ -128,7 +128,7 @@ impl RayTransform {
         let ((ax, ay), (bx, by), (cx, cy)) = (shear(a), shear(b), shear(c));
         let (eu, ev, ew) = (cx * by - cy * bx, ax * cy - ay * cx, bx * ay - by * ax);
         let det = eu + ev + ew;
-        if det == 0.0 || !(u + vv + w != 0.0) {
+        if det == 0.0 {
             return f32::NAN;
         }
         ((eu * a[kz] + ev * b[kz] + ew * c[kz]) * sz / det) as f32
