@@ -95,11 +95,11 @@ impl RayTransform {
         let max_z = az.abs().max(bz.abs()).max(cz.abs());
         let max_x = ax.abs().max(bx.abs()).max(cx.abs());
         let max_y = ay.abs().max(by.abs()).max(cy.abs());
-        let max_e = u.abs().max(vv.abs()).max(w.abs());
         let delta_x = gamma(5) * (max_x + max_z);
         let delta_y = gamma(5) * (max_y + max_z);
         let delta_e = 2.0 * (gamma(2) * max_x * max_y + delta_y * max_x + delta_x * max_y);
-        let delta_t = 3.0 * (gamma(3) * max_e * max_z + delta_e * max_z + gamma(3) * max_z * max_e) * inv.abs();
+        // pbrt's max|e|·|1/det| is at most 1 here: u, v, w share a sign, so |det| is their sum.
+        let delta_t = 3.0 * (2.0 * gamma(3) * max_z + delta_e * max_z * inv.abs());
         let t = if t - delta_t > tmin && t + delta_t < tmax {
             t
         } else if t + delta_t <= tmin || t - delta_t >= tmax {
