@@ -167,7 +167,7 @@ impl NodeRay {
 /// obvhs' `traverse!`. Unlike obvhs' test it keeps boxes that end within 1e-4 of the
 /// origin and widens each slab by its rounding error: the child plane is p + q·e (e a
 /// power of two, q < 256), and t = q·(e/d) + (p - o)/d is off by at most ~4ε of
-/// (|p - o| + 255 e)/|d| (the subtraction, two products, the sum, and the builder's
+/// (|p - o| + 255 e)/|d| (the subtraction, two products, two sums, and the builder's
 /// f32 quantisation); 8ε is used.
 #[inline(always)]
 fn node_hits(node: &CwBvhNode, ray: &NodeRay, tmax: f32, oct_inv4: u32) -> u32 {
@@ -176,6 +176,8 @@ fn node_hits(node: &CwBvhNode, ray: &NodeRay, tmax: f32, oct_inv4: u32) -> u32 {
     let scale = ext * ray.inv;
     let offset = rel * ray.inv;
     let err = (rel.abs() + ext * 255.0) * ray.inv.abs() * (8.0 * f32::EPSILON);
+    // Entries are moved earlier and exits later by the bound.
+    let (offset_near, offset_far) = (offset - err, offset + err);
     let (child_bits8, bit_index8) = node.get_child_and_index_bits(oct_inv4);
     let mut hits = 0u32;
     let mut add = |mask: u32, base: usize| {
@@ -204,9 +206,9 @@ fn node_hits(node: &CwBvhNode, ray: &NodeRay, tmax: f32, oct_inv4: u32) -> u32 {
                 let mut far = _mm_set1_ps(tmax);
                 for (k, (lo, hi)) in axes.iter().enumerate() {
                     let (n, f) = if ray.neg[k] { (q(hi, i), q(lo, i)) } else { (q(lo, i), q(hi, i)) };
-                    let (s, o, e) = (_mm_set1_ps(scale[k]), _mm_set1_ps(offset[k]), _mm_set1_ps(err[k]));
-                    near = _mm_max_ps(near, _mm_sub_ps(_mm_add_ps(_mm_mul_ps(n, s), o), e));
-                    far = _mm_min_ps(far, _mm_add_ps(_mm_add_ps(_mm_mul_ps(f, s), o), e));
+                    let s = _mm_set1_ps(scale[k]);
+                    near = _mm_max_ps(near, _mm_add_ps(_mm_mul_ps(n, s), _mm_set1_ps(offset_near[k])));
+                    far = _mm_min_ps(far, _mm_add_ps(_mm_mul_ps(f, s), _mm_set1_ps(offset_far[k])));
                 }
                 add(_mm_movemask_ps(_mm_cmple_ps(near, far)) as u32, i * 4);
             }
@@ -226,8 +228,8 @@ fn node_hits(node: &CwBvhNode, ray: &NodeRay, tmax: f32, oct_inv4: u32) -> u32 {
                 for (k, (lo, hi)) in axes.iter().enumerate() {
                     let (n, f) =
                         if ray.neg[k] { (hi[i * 4 + j], lo[i * 4 + j]) } else { (lo[i * 4 + j], hi[i * 4 + j]) };
-                    near = near.max(n as f32 * scale[k] + offset[k] - err[k]);
-                    far = far.min(f as f32 * scale[k] + offset[k] + err[k]);
+                    near = near.max(n as f32 * scale[k] + offset_near[k]);
+                    far = far.min(f as f32 * scale[k] + offset_far[k]);
                 }
                 mask |= ((near <= far) as u32) << j;
             }
