@@ -4,11 +4,16 @@
 //!
 //! Triangles are copied into BVH order at build time so that the leaf test reads
 //! memory sequentially instead of going through `primitive_indices`.
+//!
+//! Short rays must not lose surfaces (a subsurface random walk's steps start within
+//! 1e-6 of them): the node test is our own, because obvhs' culls every child box that
+//! ends within 1e-4 of the origin and its error is not bounded, and the triangle test
+//! settles the sign of a distance that its f32 rounding cannot decide in f64.
 
-use glam::{Vec3, Vec3A};
+use glam::{UVec2, Vec3, Vec3A};
 use obvhs::BvhBuildParams;
 use obvhs::cwbvh::CwBvh;
-use obvhs::ray::{Ray, RayHit};
+use obvhs::cwbvh::node::{CwBvhNode, extract_byte64};
 use std::time::{Duration, Instant};
 
 /// A ray/triangle hit.
@@ -80,14 +85,158 @@ impl RayTransform {
         if det == 0.0 {
             return None;
         }
-        let t_scaled = u * (sz * a[kz]) + vv * (sz * b[kz]) + w * (sz * c[kz]);
+        let (az, bz, cz) = (sz * a[kz], sz * b[kz], sz * c[kz]);
+        let t_scaled = u * az + vv * bz + w * cz;
         let inv = 1.0 / det;
         let t = t_scaled * inv;
+        // The error bound of t (pbrt-v4, Triangle::Intersect): near the origin it is
+        // ~ε × the triangle's size, far above the distance of a ray that starts next to
+        // a large triangle, so t's sign (and its order against tmax) is then settled in f64.
+        let max_z = az.abs().max(bz.abs()).max(cz.abs());
+        let max_x = ax.abs().max(bx.abs()).max(cx.abs());
+        let max_y = ay.abs().max(by.abs()).max(cy.abs());
+        let delta_x = gamma(5) * (max_x + max_z);
+        let delta_y = gamma(5) * (max_y + max_z);
+        let delta_e = 2.0 * (gamma(2) * max_x * max_y + delta_y * max_x + delta_x * max_y);
+        // pbrt's max|e|·|1/det| is at most 1 here: u, v, w share a sign, so |det| is their sum.
+        let delta_t = 3.0 * (2.0 * gamma(3) * max_z + delta_e * max_z * inv.abs());
+        let t = if t - delta_t > tmin && t + delta_t < tmax {
+            t
+        } else if t + delta_t <= tmin || t - delta_t >= tmax {
+            return None;
+        } else {
+            self.distance_f64(v)
+        };
         if !(t > tmin && t < tmax) {
             return None;
         }
         Some((t, vv * inv, w * inv))
     }
+
+    /// The distance to the plane of `v` computed in f64 from the f32 inputs (whose
+    /// differences are exact there), so its sign is right to ~1e-16 of the triangle's
+    /// size. The f32 edge functions' signs still decide whether the triangle is hit,
+    /// as its neighbours' do: this keeps the test watertight.
+    #[cold]
+    #[inline(never)]
+    fn distance_f64(&self, v: &[Vec3A; 3]) -> f32 {
+        let [kx, ky, kz] = self.k;
+        let [sx, sy, sz] = self.s.map(f64::from);
+        let rel = |p: Vec3A| [0, 1, 2].map(|i| p[i] as f64 - self.org[i] as f64);
+        let (a, b, c) = (rel(v[0]), rel(v[1]), rel(v[2]));
+        let shear = |p: [f64; 3]| (p[kx] - sx * p[kz], p[ky] - sy * p[kz]);
+        let ((ax, ay), (bx, by), (cx, cy)) = (shear(a), shear(b), shear(c));
+        let (eu, ev, ew) = (cx * by - cy * bx, ax * cy - ay * cx, bx * ay - by * ax);
+        let det = eu + ev + ew;
+        if det == 0.0 {
+            return f32::NAN;
+        }
+        ((eu * a[kz] + ev * b[kz] + ew * c[kz]) * sz / det) as f32
+    }
+}
+
+/// Bound on the relative rounding error of n f32 operations (pbrt's γ).
+#[inline(always)]
+fn gamma(n: i32) -> f32 {
+    let e = f32::EPSILON * 0.5 * n as f32;
+    e / (1.0 - e)
+}
+
+/// Per-ray constants of the node test.
+struct NodeRay {
+    org: Vec3A,
+    inv: Vec3A,
+    neg: [bool; 3],
+}
+
+impl NodeRay {
+    #[inline]
+    fn new(org: Vec3, dir: Vec3A) -> Self {
+        // Not obvhs' safe_inverse, which clamps 1/d to 1/ε = 8.4e6 and so shortens the
+        // box exits of rays nearly parallel to an axis.
+        let inv = |d: f32| if d.abs() >= 1e-20 { 1.0 / d } else { 1e20f32.copysign(d) };
+        NodeRay {
+            org: org.into(),
+            inv: Vec3A::new(inv(dir.x), inv(dir.y), inv(dir.z)),
+            neg: [dir.x < 0.0, dir.y < 0.0, dir.z < 0.0],
+        }
+    }
+}
+
+/// Which children of `node` the ray's segment (0, tmax) touches, as the hitmask of
+/// obvhs' `traverse!`. Unlike obvhs' test it keeps boxes that end within 1e-4 of the
+/// origin and widens each slab by its rounding error: the child plane is p + q·e (e a
+/// power of two, q < 256), and t = q·(e/d) + (p - o)/d is off by at most ~4ε of
+/// (|p - o| + 255 e)/|d| (the subtraction, two products, two sums, and the builder's
+/// f32 quantisation); 8ε is used.
+#[inline(always)]
+fn node_hits(node: &CwBvhNode, ray: &NodeRay, tmax: f32, oct_inv4: u32) -> u32 {
+    let ext = node.compute_extent();
+    let rel = Vec3A::from(node.p) - ray.org;
+    let scale = ext * ray.inv;
+    let offset = rel * ray.inv;
+    let err = (rel.abs() + ext * 255.0) * ray.inv.abs() * (8.0 * f32::EPSILON);
+    // Entries are moved earlier and exits later by the bound.
+    let (offset_near, offset_far) = (offset - err, offset + err);
+    let (child_bits8, bit_index8) = node.get_child_and_index_bits(oct_inv4);
+    let mut hits = 0u32;
+    let mut add = |mask: u32, base: usize| {
+        for j in 0..4 {
+            if mask & (1 << j) != 0 {
+                hits |= extract_byte64(child_bits8, base + j) << extract_byte64(bit_index8, base + j);
+            }
+        }
+    };
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::*;
+        let q = |v: &[u8; 8], i: usize| -> __m128 {
+            // SAFETY: SSE2 is part of x86_64; the loads stay inside the array.
+            unsafe { _mm_set_ps(v[i * 4 + 3] as f32, v[i * 4 + 2] as f32, v[i * 4 + 1] as f32, v[i * 4] as f32) }
+        };
+        // SAFETY: SSE2 intrinsics, always available on x86_64.
+        unsafe {
+            let axes = [
+                (&node.child_min_x, &node.child_max_x),
+                (&node.child_min_y, &node.child_max_y),
+                (&node.child_min_z, &node.child_max_z),
+            ];
+            for i in 0..2 {
+                let mut near = _mm_setzero_ps();
+                let mut far = _mm_set1_ps(tmax);
+                for (k, (lo, hi)) in axes.iter().enumerate() {
+                    let (n, f) = if ray.neg[k] { (q(hi, i), q(lo, i)) } else { (q(lo, i), q(hi, i)) };
+                    let s = _mm_set1_ps(scale[k]);
+                    near = _mm_max_ps(near, _mm_add_ps(_mm_mul_ps(n, s), _mm_set1_ps(offset_near[k])));
+                    far = _mm_min_ps(far, _mm_add_ps(_mm_mul_ps(f, s), _mm_set1_ps(offset_far[k])));
+                }
+                add(_mm_movemask_ps(_mm_cmple_ps(near, far)) as u32, i * 4);
+            }
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let axes = [
+            (&node.child_min_x, &node.child_max_x),
+            (&node.child_min_y, &node.child_max_y),
+            (&node.child_min_z, &node.child_max_z),
+        ];
+        for i in 0..2 {
+            let mut mask = 0u32;
+            for j in 0..4 {
+                let (mut near, mut far) = (0.0f32, tmax);
+                for (k, (lo, hi)) in axes.iter().enumerate() {
+                    let (n, f) =
+                        if ray.neg[k] { (hi[i * 4 + j], lo[i * 4 + j]) } else { (lo[i * 4 + j], hi[i * 4 + j]) };
+                    near = near.max(n as f32 * scale[k] + offset_near[k]);
+                    far = far.min(f as f32 * scale[k] + offset_far[k]);
+                }
+                mask |= ((near <= far) as u32) << j;
+            }
+            add(mask, i * 4);
+        }
+    }
+    hits
 }
 
 /// obvhs picks a node's near plane from the direction's comparison with zero but
@@ -138,21 +287,23 @@ impl Accel {
         accept: impl Fn(u32, f32, f32) -> bool,
     ) -> Option<Hit> {
         let rt = RayTransform::new(org, dir);
-        let ray = Ray::new(org.into(), obvhs_direction(dir), 0.0, tmax);
-        let mut hit = RayHit::none();
-        let mut best = (0u32, 0f32, 0f32);
-        self.bvh.ray_traverse(ray, &mut hit, |r, id| {
-            let Some((t, b1, b2)) = rt.intersect(&self.tris[id], 0.0, r.tmax) else {
-                return f32::INFINITY;
-            };
-            let tri = self.ids[id];
-            if maybe_masked[tri as usize] && !accept(tri, b1, b2) {
-                return f32::INFINITY;
+        let dir_a = obvhs_direction(dir);
+        let ray = NodeRay::new(org, dir_a);
+        let mut best: Option<Hit> = None;
+        let mut best_t = tmax;
+        let mut state = self.bvh.new_traversal(dir_a);
+        let mut node;
+        obvhs::traverse!(self.bvh, node, state, node_hits(node, &ray, best_t, state.oct_inv4), {
+            let id = state.primitive_id as usize;
+            if let Some((t, b1, b2)) = rt.intersect(&self.tris[id], 0.0, best_t) {
+                let tri = self.ids[id];
+                if !maybe_masked[tri as usize] || accept(tri, b1, b2) {
+                    best_t = t;
+                    best = Some(Hit { tri, t, b1, b2 });
+                }
             }
-            best = (tri, b1, b2);
-            t
         });
-        (hit.t < tmax).then_some(Hit { tri: best.0, t: hit.t, b1: best.1, b2: best.2 })
+        best
     }
 
     /// Fraction of light that passes along the segment (0, tmax): 0 at the first
@@ -168,22 +319,25 @@ impl Accel {
         transparency: impl Fn(u32, f32, f32) -> f32,
     ) -> f32 {
         let rt = RayTransform::new(org, dir);
-        let ray = Ray::new(org.into(), obvhs_direction(dir), 0.0, tmax);
+        let dir_a = obvhs_direction(dir);
+        let ray = NodeRay::new(org, dir_a);
         let mut tr = 1.0f32;
-        let miss = self.bvh.ray_traverse_miss(ray, |r, id| {
-            let Some((t, b1, b2)) = rt.intersect(&self.tris[id], 0.0, r.tmax) else {
-                return f32::INFINITY;
-            };
-            let tri = self.ids[id];
-            if maybe_transparent[tri as usize] {
-                tr *= transparency(tri, b1, b2);
-                if tr > 0.0 {
-                    return f32::INFINITY;
+        let mut state = self.bvh.new_traversal(dir_a);
+        let mut node;
+        'traversal: {
+            obvhs::traverse!(self.bvh, node, state, node_hits(node, &ray, tmax, state.oct_inv4), {
+                let id = state.primitive_id as usize;
+                if let Some((_, b1, b2)) = rt.intersect(&self.tris[id], 0.0, tmax) {
+                    let tri = self.ids[id];
+                    tr = if maybe_transparent[tri as usize] { tr * transparency(tri, b1, b2) } else { 0.0 };
+                    if !(tr > 0.0) {
+                        tr = 0.0;
+                        break 'traversal;
+                    }
                 }
-            }
-            t
-        });
-        if miss { tr } else { 0.0 }
+            });
+        }
+        tr
     }
 }
 
@@ -237,5 +391,186 @@ mod tests {
         let accel = Accel::build(&[tri]);
         let d = Vec3::new(-0.0, -0.0, -1.0);
         assert!(accel.intersect(Vec3::new(0.25, 0.5, 0.0), d, f32::INFINITY, &[false], |_, _, _| true).is_some());
+    }
+
+    /// A closed box (12 triangles) with centre `c`, half-extents `h` and rotation
+    /// `rot` (orthonormal columns), built from f32-rounded corners.
+    fn box_tris(c: [f64; 3], h: [f64; 3], rot: [[f64; 3]; 3]) -> Vec<[Vec3; 3]> {
+        let corner = |i: usize| {
+            let l = [0, 1, 2].map(|k| if i >> k & 1 == 1 { h[k] } else { -h[k] });
+            let w = [0, 1, 2].map(|r| c[r] + rot[0][r] * l[0] + rot[1][r] * l[1] + rot[2][r] * l[2]);
+            Vec3::new(w[0] as f32, w[1] as f32, w[2] as f32)
+        };
+        // Quads as corner bit patterns, wound outward.
+        let quads = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
+        quads
+            .iter()
+            .flat_map(|q| [[corner(q[0]), corner(q[1]), corner(q[2])], [corner(q[0]), corner(q[2]), corner(q[3])]])
+            .collect()
+    }
+
+    /// Closest hit in f64 (Möller-Trumbore on the same f32 vertices): the reference
+    /// distance and the cosine between the ray and the hit triangle's normal.
+    fn reference_hit(tris: &[[Vec3; 3]], o: Vec3, d: Vec3) -> Option<(f64, f64)> {
+        let v = |p: Vec3| [p.x as f64, p.y as f64, p.z as f64];
+        let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+        let cross = |a: [f64; 3], b: [f64; 3]| {
+            [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+        };
+        let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+        let (o, d) = (v(o), v(d));
+        let mut best: Option<(f64, f64)> = None;
+        for t in tris {
+            let (p0, e1, e2) = (v(t[0]), sub(v(t[1]), v(t[0])), sub(v(t[2]), v(t[0])));
+            let pv = cross(d, e2);
+            let det = dot(e1, pv);
+            if det == 0.0 {
+                continue;
+            }
+            let s = sub(o, p0);
+            let b1 = dot(s, pv) / det;
+            let qv = cross(s, e1);
+            let b2 = dot(d, qv) / det;
+            let tt = dot(e2, qv) / det;
+            if b1 < 0.0 || b2 < 0.0 || b1 + b2 > 1.0 || tt <= 0.0 || best.is_some_and(|b| b.0 <= tt) {
+                continue;
+            }
+            let n = cross(e1, e2);
+            best = Some((tt, dot(n, d).abs() / dot(n, n).sqrt()));
+        }
+        best
+    }
+
+    /// Rays from points 1e-6..1e-3 inside a closed box of large triangles (20 and 100
+    /// units), aimed at the near face as a subsurface random walk's steps are, must hit
+    /// the box at the f64 reference distance: a miss loses the walk.
+    #[test]
+    fn short_rays_inside_a_box_hit_it() {
+        let mut state = 0x853c_49e6_748f_ea9bu64;
+        let mut rnd = move || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((state >> 40) as f64 + 0.5) / (1u64 << 24) as f64
+        };
+        let (c, s) = (0.6f64.cos(), 0.6f64.sin());
+        let tilted = [[c, s * 0.6, s * 0.8], [-s, c * 0.6, c * 0.8], [0.0, -0.8, 0.6]];
+        let identity = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+        let boxes = [
+            ("20-unit axis-aligned", [0.0, -1.0, 0.0], [10.0, 1.0, 10.0], identity),
+            ("100-unit tilted", [13.0, -11.0, 38.0], [50.0, 50.0, 50.0], tilted),
+        ];
+        let mut failures = Vec::new();
+        for (name, centre, half, rot) in boxes {
+            let tris = box_tris(centre, half, rot);
+            let accel = Accel::build(&tris);
+            let flags = vec![false; tris.len()];
+            // Coordinates of magnitude `scale` carry f32 spacing ~ε·scale; the hit
+            // point's error along the normal is a few such spacings (pbrt-v4's δt bound
+            // is ~10 ε·scale for these shapes), so the distance may be off by 32 ε·scale / cos.
+            let scale = tris.iter().flatten().map(|p| p.abs().max_element()).fold(0.0f32, f32::max) as f64;
+            let (mut misses, mut wrong, mut unblocked, mut rays) = ([0u32; 3], [0u32; 3], [0u32; 3], [0u32; 3]);
+            for _ in 0..30_000 {
+                let axis = (rnd() * 3.0) as usize % 3;
+                let side = if rnd() < 0.5 { -1.0 } else { 1.0 };
+                let decade = (rnd() * 3.0) as usize % 3;
+                let dist = 10f64.powf(-6.0 + decade as f64 + rnd());
+                let mut local = [0.0; 3];
+                for k in 0..3 {
+                    local[k] = if k == axis { side * (half[k] - dist) } else { (2.0 * rnd() - 1.0) * 0.99 * half[k] };
+                }
+                let world = |l: [f64; 3], with_centre: bool| {
+                    let w = [0, 1, 2].map(|r| rot[0][r] * l[0] + rot[1][r] * l[1] + rot[2][r] * l[2]);
+                    let c = if with_centre { centre } else { [0.0; 3] };
+                    Vec3::new((c[0] + w[0]) as f32, (c[1] + w[1]) as f32, (c[2] + w[2]) as f32)
+                };
+                let org = world(local, true);
+                // A uniform direction in the hemisphere toward the face.
+                let z = rnd();
+                let phi = rnd() * std::f64::consts::TAU;
+                let r = (1.0 - z * z).sqrt();
+                let mut l = [0.0; 3];
+                l[axis] = side * z;
+                l[(axis + 1) % 3] = r * phi.cos();
+                l[(axis + 2) % 3] = r * phi.sin();
+                let dir = world(l, false).normalize();
+                // Points that rounded onto the surface have no defined answer.
+                let Some((t_ref, cos)) = reference_hit(&tris, org, dir) else { continue };
+                if t_ref < 1e-12 {
+                    continue;
+                }
+                rays[decade] += 1;
+                match accel.intersect(org, dir, f32::INFINITY, &flags, |_, _, _| true) {
+                    None => misses[decade] += 1,
+                    Some(h) if (h.t as f64 - t_ref).abs() > 32.0 * f32::EPSILON as f64 * scale / cos => {
+                        wrong[decade] += 1
+                    }
+                    Some(_) => {}
+                }
+                if accel.transmittance(org, dir, f32::INFINITY, &flags, |_, _, _| 1.0) != 0.0 {
+                    unblocked[decade] += 1;
+                }
+            }
+            for k in 0..3 {
+                eprintln!(
+                    "{name}: distance 1e{}..1e{}: {} of {} rays missed, {} at a wrong distance, {} unblocked",
+                    k as i32 - 6,
+                    k as i32 - 5,
+                    misses[k],
+                    rays[k],
+                    wrong[k],
+                    unblocked[k]
+                );
+                if misses[k] + wrong[k] + unblocked[k] > 0 {
+                    let (m, w, u) = (misses[k], wrong[k], unblocked[k]);
+                    failures.push(format!("{name} 1e{}: {m} missed, {w} wrong, {u} unblocked", k as i32 - 6));
+                }
+            }
+        }
+        assert!(failures.is_empty(), "{failures:?}");
+    }
+
+    /// Subsurface random walks (mean free path 0.008, isotropic) inside the 20-unit box
+    /// of tests/media.rs, entering at its top face: no step may leave the box without
+    /// the accel reporting the face it crosses (the f64 reference decides).
+    #[test]
+    fn random_walks_in_a_box_do_not_step_out() {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut rnd = move || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((state >> 40) as f32 + 0.5) / (1u64 << 24) as f32
+        };
+        let identity = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+        let tris = box_tris([0.0, -1.0, 0.0], [10.0, 1.0, 10.0], identity);
+        let accel = Accel::build(&tris);
+        let flags = vec![false; tris.len()];
+        let inside = |p: Vec3| p.x.abs() < 10.0 && p.z.abs() < 10.0 && p.y < 0.0 && p.y > -2.0;
+        let (mut lost, mut rounded_out, mut exits, mut steps) = (0u32, 0u32, 0u32, 0u64);
+        for _ in 0..20_000 {
+            let mut org = Vec3::new(rnd() * 16.0 - 8.0, 0.0, rnd() * 16.0 - 8.0);
+            let mut dir = Vec3::new(0.3, -1.0, 0.2).normalize();
+            for _ in 0..2_000 {
+                steps += 1;
+                let t = -(1.0 - rnd()).ln() * 0.008;
+                if accel.intersect(org, dir, t, &flags, |_, _, _| true).is_some() {
+                    exits += 1;
+                    break;
+                }
+                // The reference is taken before moving: did the step truly cross the box?
+                let crossed = reference_hit(&tris, org, dir).is_some_and(|(t_ref, _)| t_ref < t as f64);
+                org += dir * t;
+                if crossed {
+                    lost += 1;
+                    break;
+                }
+                if !inside(org) {
+                    rounded_out += 1;
+                    break;
+                }
+                let (z, phi) = (2.0 * rnd() - 1.0, rnd() * std::f32::consts::TAU);
+                let r = (1.0 - z * z).sqrt();
+                dir = Vec3::new(r * phi.cos(), r * phi.sin(), z);
+            }
+        }
+        eprintln!("{exits} walks exited in {steps} steps; {lost} stepped out unseen, {rounded_out} rounded out");
+        assert_eq!(lost, 0, "walks that stepped out of the box without a hit");
     }
 }
