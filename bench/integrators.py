@@ -42,10 +42,16 @@ def load(path):
     return np.stack([d["Combined.R"], d["Combined.G"], d["Combined.B"]], -1).astype(np.float64)
 
 
+# The binary's --spp ceiling: "unlimited" next to --time-limit. Without it a scene's own
+# spp (64 in scenes/*.gltf) ends the render before the time is up, and the comparison is at
+# equal spp instead (SPPM alone, which iterates until the time limit, got the full time).
+UNLIMITED_SPP = 16777216
+
+
 def render(binary, scene, out, integrator, seed, seconds, resolution, threads, extra=()):
     argv = [binary, "render", scene, "-o", out, "--integrator", integrator, "--seed", str(seed),
             "--time-limit", str(seconds), "--resolution", resolution, "--threads", str(threads),
-            "--progress", "none", *extra]
+            "--progress", "none", "--spp", str(UNLIMITED_SPP), *extra]
     r = subprocess.run(argv, capture_output=True, text=True)
     if r.returncode != 0:
         raise SystemExit(f"render failed ({' '.join(argv)}):\n{r.stderr}")
