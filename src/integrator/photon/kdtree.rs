@@ -203,8 +203,7 @@ impl PhotonMap {
             let plane = self.planes[node as usize];
             let diff = q[plane.axis as usize] - plane.value;
             let (l, r) = (2 * node + 1, 2 * node + 2);
-            let (near, far) =
-                if diff < 0.0 { ((l, lo, m), (r, m, hi)) } else { ((r, m, hi), (l, lo, m)) };
+            let (near, far) = if diff < 0.0 { ((l, lo, m), (r, m, hi)) } else { ((r, m, hi), (l, lo, m)) };
             // Far first on the stack, so the near side is searched first.
             if sp + 2 <= STACK {
                 stack[sp] = (far.0, far.1 as u32, far.2 as u32, diff * diff);
