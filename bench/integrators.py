@@ -5,6 +5,10 @@ Usage (numpy from the project's venv; the binary from `cargo build --release`):
     .venv/bin/python bench/integrators.py [--scenes cornell_box,glass_caustic,door_ajar]
         [--integrators path,bdpt] [--resolution 160x120] [--seconds 20] [--ref-seconds 300]
         [--threads 2] [--binary target/release/caustic] [--out results/integrators]
+        [--variant 'LABEL=INTEGRATOR FLAGS...'] [--reuse-ref]
+
+`--variant` adds a column rendered with extra flags (e.g. `--variant 'pm_k10=photon --k 10'`),
+`--reuse-ref` takes the reference halves already in `--out`, so several runs share one reference.
 
 For each scene of scenes/: a reference made of two independent renders (seeds 1001, 1002) of
 `--ref-seconds` each with the reference integrator (bdpt: unbiased and the fastest to converge
@@ -38,10 +42,16 @@ def load(path):
     return np.stack([d["Combined.R"], d["Combined.G"], d["Combined.B"]], -1).astype(np.float64)
 
 
-def render(binary, scene, out, integrator, seed, seconds, resolution, threads):
+# The binary's --spp ceiling: "unlimited" next to --time-limit. Without it a scene's own
+# spp (64 in scenes/*.gltf) ends the render before the time is up, and the comparison is at
+# equal spp instead (SPPM alone, which iterates until the time limit, got the full time).
+UNLIMITED_SPP = 16777216
+
+
+def render(binary, scene, out, integrator, seed, seconds, resolution, threads, extra=()):
     argv = [binary, "render", scene, "-o", out, "--integrator", integrator, "--seed", str(seed),
             "--time-limit", str(seconds), "--resolution", resolution, "--threads", str(threads),
-            "--progress", "none"]
+            "--progress", "none", "--spp", str(UNLIMITED_SPP), *extra]
     r = subprocess.run(argv, capture_output=True, text=True)
     if r.returncode != 0:
         raise SystemExit(f"render failed ({' '.join(argv)}):\n{r.stderr}")
@@ -63,9 +73,20 @@ def main():
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--binary", default=os.environ.get("CAUSTIC_BINARY", os.path.join(ROOT, "target/release/caustic")))
     ap.add_argument("--out", default=os.path.join(ROOT, "results", "integrators"))
+    ap.add_argument("--variant", action="append", default=[], metavar="LABEL=INTEGRATOR ARGS",
+                    help="an extra column: INTEGRATOR with extra render flags, e.g. 'pm_k10=photon --k 10'")
+    ap.add_argument("--reuse-ref", action="store_true",
+                    help="use the reference halves already in --out (same scene, resolution, integrator)")
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
     integrators = a.integrators.split(",")
+    # label -> (integrator, extra flags)
+    runs = {i: (i, []) for i in integrators}
+    for v in a.variant:
+        label, spec = v.split("=", 1)
+        integ, *extra = spec.split()
+        runs[label] = (integ, extra)
+        integrators.append(label)
     results = {}
     print(f"equal time {a.seconds:g} s, reference 2 x {a.ref_seconds:g} s of {a.ref_integrator}, "
           f"{a.resolution}, {a.threads} threads")
@@ -73,14 +94,21 @@ def main():
           + "".join(f"{i + '/path':>12}" for i in integrators if i != "path"))
     for name in a.scenes.split(","):
         scene = os.path.join(ROOT, "scenes", name + ".gltf")
-        halves = [render(a.binary, scene, os.path.join(a.out, f"{name}_ref{s}.exr"), a.ref_integrator, s,
-                         a.ref_seconds, a.resolution, a.threads) for s in (1001, 1002)]
+        halves = []
+        for s in (1001, 1002):
+            path = os.path.join(a.out, f"{name}_ref{s}.exr")
+            if a.reuse_ref and os.path.exists(path):
+                halves.append(load(path))
+            else:
+                halves.append(render(a.binary, scene, path, a.ref_integrator, s, a.ref_seconds, a.resolution,
+                                     a.threads))
         ref = 0.5 * (halves[0] + halves[1])
         floor = float(np.mean((halves[0] - halves[1]) ** 2 / 4 / (ref ** 2 + 0.01)))
         row = {"floor": floor}
         for integ in integrators:
-            img = render(a.binary, scene, os.path.join(a.out, f"{name}_{integ}.exr"), integ, 1, a.seconds,
-                         a.resolution, a.threads)
+            kind, extra = runs[integ]
+            img = render(a.binary, scene, os.path.join(a.out, f"{name}_{integ}.exr"), kind, 1, a.seconds,
+                         a.resolution, a.threads, extra)
             raw = rel_mse(img, ref)
             row[integ] = {"relmse": raw, "relmse_debiased": raw - floor, "mean_ratio": float(img.mean() / ref.mean())}
         results[name] = row

@@ -124,7 +124,7 @@ pub struct PhotonArgs {
     /// SPPM iterations (one camera sample per pixel each) [default: 64].
     #[arg(long)]
     pub sppm_iterations: Option<u32>,
-    /// SPPM photons per iteration [default: the rendered window's pixel count].
+    /// SPPM photons per iteration [default: 2 × the rendered window's pixel count].
     #[arg(long)]
     pub sppm_photons: Option<u64>,
     /// SPPM initial radius in scene units [default: per pixel, 2 pixel footprints at the visible point, clamped to 1e-4..0.05 × the scene radius].
@@ -798,7 +798,7 @@ fn describe_sppm(p: &PhotonSettings, max_depth: u32) -> String {
     format!(
         "sppm ({} iterations, {} photons per iteration, initial radius {}, alpha {:.3}, max depth {max_depth})",
         p.sppm_iterations,
-        p.sppm_photons.map_or("one per pixel".to_string(), |n| n.to_string()),
+        p.sppm_photons.map_or(format!("{} per pixel", photon::SPPM_PHOTONS_PER_PIXEL), |n| n.to_string()),
         p.sppm_radius.map_or("2 pixel footprints".to_string(), |r| r.to_string()),
         p.sppm_alpha
     )
@@ -1166,7 +1166,7 @@ fn charge_render(budget: &MemoryBudget, args: &RenderArgs, res: &Resolved, scene
                 format!("SPPM's per-pixel state for {pixels} pixels"),
                 pixels.saturating_mul(photon::sppm::bytes_per_pixel()),
             )?;
-            let per_iter = res.photon.sppm_photons.unwrap_or(pixels);
+            let per_iter = res.photon.sppm_photons.unwrap_or_else(|| photon::default_sppm_photons(pixels));
             budget.charge(
                 format!("SPPM's photon map of {per_iter} photons per iteration"),
                 memory::photon_map_bytes(per_iter, res.max_depth),

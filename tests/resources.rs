@@ -74,7 +74,7 @@ fn absurd_photon_counts_are_refused() {
 
 #[test]
 fn sppm_state_counts_against_the_budget() {
-    // 1024² pixels: film 168 MiB + SPPM state + one photon per pixel per iteration;
+    // 1024² pixels: film 168 MiB + SPPM state + two photons per pixel per iteration;
     // a 64 MiB budget refuses it, naming the film (the first item over).
     let (r, dir) = render(&cornell(), &["--integrator", "sppm", "--resolution", "1024x1024", "--memory-limit", "64M"]);
     assert_refused(&r, dir.path(), &["film", "set by --memory-limit"]);

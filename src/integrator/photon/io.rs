@@ -2,18 +2,19 @@
 //! static scene be rendered from any camera without tracing photons again
 //! (`caustic photons SCENE -o MAP`, `caustic render SCENE --photon-map MAP`).
 //!
-//! File format (little-endian), version 1:
+//! File format (little-endian), version 2:
 //!
 //! ```text
 //! magic      8 bytes  "CAUSTPM\0"
-//! version    u32      1
+//! version    u32      2
 //! scene_hash u64      FNV-1a 64 of the scene file's bytes
 //! max_depth  u32      largest hit index stored
 //! seed       u32
 //! emitted    u64 × 2  photons emitted for the global and the caustic map
 //! count      u64 × 2  photons stored in each
-//! photons    32 bytes each, global then caustic, in kd-tree order (leaves of ≤ 8
-//!            photons; a change of that layout needs a new version):
+//! photons    32 bytes each, global then caustic, in kd-tree order (`kdtree.rs`: leaves of ≤ 16
+//!            photons, the median opens the right half; a change of that layout
+//!            needs a new version; version 1 had leaves of ≤ 8 and medians in no half):
 //!            position f32×3, power f32×3, direction word u32, meta word u32
 //! ```
 //! A map made for another scene file (different bytes) is refused with a clear error.
@@ -31,7 +32,7 @@ use std::time::{Duration, Instant};
 
 const MAGIC: &[u8; 8] = b"CAUSTPM\0";
 /// Current file version.
-pub const VERSION: u32 = 1;
+pub const VERSION: u32 = 2;
 
 /// The global and caustic maps of a scene.
 #[derive(Clone, Debug, Default)]

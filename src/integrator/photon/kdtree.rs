@@ -1,8 +1,17 @@
-//! A balanced kd-tree over photons, stored implicitly in the photon array (Jensen's
-//! layout): the node of a range [lo, hi) is its median m, with the left subtree in
-//! [lo, m) and the right one in [m + 1, hi); the split axis (that of the largest extent
-//! of the range's bounds) is kept in two spare bits of the photon. No pointers, no
-//! extra memory: 32 bytes per photon in all.
+//! A balanced kd-tree over photons. The photons are reordered so that every node's
+//! range [lo, hi) is contiguous: its median m = (lo + hi) / 2 splits it into [lo, m)
+//! (coordinates ≤ the median's) and [m, hi) (≥ it), the split axis being that of the
+//! largest extent of the range's bounds. Ranges of at most `LEAF` (16) photons are
+//! leaves. All photons live in leaves; the internal
+//! nodes are a separate array of split planes (8 bytes each) in heap order (children of
+//! node i: 2i + 1, 2i + 2), so a traversal reads only that small array (~0.5 byte per
+//! photon) until it reaches a leaf.
+//!
+//! Why the planes apart: a profile of Jensen PM on the Cornell box (perf, 1 thread)
+//! showed the k-NN query as ~60 % of the render, a third of it on one line, the load of
+//! the median photon at each internal node of Jensen's layout (photons at internal
+//! nodes, 32 bytes each, spread over the 12 MB map: a cache miss per level). The
+//! planes' array fits in the L2 cache; see `docs/benchmarks.md` for the figures.
 //!
 //! Queries: k nearest neighbours within a maximum radius, with a filter (e.g. normal
 //! and depth), into a fixed-size max-heap on the stack; and "every photon within r".
@@ -10,10 +19,12 @@
 //!
 //! Build: median selection per level (`select_nth_unstable_by`), O(n log n), the two
 //! halves built in parallel with `rayon::join` above 16 384 photons; the result depends
-//! only on the input order, so it is the same for any thread count.
+//! only on the input order, so it is the same for any thread count. The planes are read
+//! back from the ordered photons (O(nodes)), which is also how a map file's tree order
+//! is turned back into a tree.
 //!
 //! Why not the `kiddo` crate: its trees store points and items apart (more bytes per
-//! photon) and it is not in the project's dependency set; this tree is ~150 lines and
+//! photon) and it is not in the project's dependency set; this tree is ~200 lines and
 //! measured by `caustic bench --integrator photon`.
 
 use super::{MAX_K, Photon};
@@ -23,13 +34,25 @@ use glam::Vec3;
 const STACK: usize = 64;
 
 /// Ranges of at most this many photons are leaves, scanned linearly: they are
-/// contiguous in memory (256 bytes), which saves the cache misses of the last levels.
-const LEAF: usize = 8;
+/// contiguous in memory, which saves the cache misses of the last levels. k-NN
+/// queries per second (k = 20, Cornell box, `caustic bench`, 1 thread) with leaves of
+/// 8 / 16 / 32 / 64: 0.200 / 0.288 / 0.281 / 0.290 M.
+pub(crate) const LEAF: usize = 16;
 
-/// Photons in kd-tree order.
+/// Photons in kd-tree order, and the internal nodes' split planes.
 #[derive(Clone, Debug, Default)]
 pub struct PhotonMap {
     photons: Vec<Photon>,
+    /// Split plane of internal node i (heap order); unused slots (children of leaves)
+    /// are never read.
+    planes: Vec<Plane>,
+}
+
+/// An internal node's split plane.
+#[derive(Clone, Copy, Debug, Default)]
+struct Plane {
+    value: f32,
+    axis: u32,
 }
 
 /// The k nearest photons found by [`PhotonMap::knn`]: (squared distance, index) in
@@ -106,12 +129,22 @@ impl PhotonMap {
     /// Builds the tree, reordering the photons.
     pub fn build(mut photons: Vec<Photon>) -> Self {
         build_range(&mut photons);
-        PhotonMap { photons }
+        Self::from_tree_order(photons)
     }
 
-    /// Wraps photons that are already in tree order (from a map file).
+    /// Wraps photons that are already in tree order (from a map file): reads the
+    /// split planes back from them.
     pub(crate) fn from_tree_order(photons: Vec<Photon>) -> Self {
-        PhotonMap { photons }
+        // Heap slots for the deepest level: the largest range halves (rounding up)
+        // until it is a leaf.
+        let (mut size, mut levels) = (photons.len(), 0u32);
+        while size > LEAF {
+            size = size.div_ceil(2);
+            levels += 1;
+        }
+        let mut planes = vec![Plane::default(); (1usize << levels) - 1];
+        fill_planes(&photons, &mut planes, 0, 0, photons.len());
+        PhotonMap { photons, planes }
     }
 
     /// The photons in tree order.
@@ -129,9 +162,9 @@ impl PhotonMap {
         self.photons.is_empty()
     }
 
-    /// Bytes used by the photons (the tree adds nothing).
+    /// Bytes used by the photons and the split planes.
     pub fn bytes(&self) -> usize {
-        self.photons.len() * std::mem::size_of::<Photon>()
+        self.photons.len() * std::mem::size_of::<Photon>() + self.planes.len() * std::mem::size_of::<Plane>()
     }
 
     /// The (at most) `out.k` photons nearest to `q` within squared radius `max_d2`
@@ -143,14 +176,14 @@ impl PhotonMap {
             return;
         }
         let q = q.to_array();
-        // (lo, hi, squared distance of q to the range's splitting plane)
-        let mut stack = [(0u32, 0u32, 0f32); STACK];
+        // (node, lo, hi, squared distance of q to the range's splitting plane)
+        let mut stack = [(0u32, 0u32, 0u32, 0f32); STACK];
         let mut sp = 0;
-        stack[sp] = (0, self.photons.len() as u32, 0.0);
+        stack[sp] = (0, 0, self.photons.len() as u32, 0.0);
         sp += 1;
         while sp > 0 {
             sp -= 1;
-            let (lo, hi, plane_d2) = stack[sp];
+            let (node, lo, hi, plane_d2) = stack[sp];
             let bound = if out.full() { out.max_d2() } else { max_d2 };
             if plane_d2 >= bound {
                 continue;
@@ -167,22 +200,15 @@ impl PhotonMap {
                 continue;
             }
             let m = (lo + hi) / 2;
-            let ph = &self.photons[m];
-            let d2 = dist2(ph.p, q);
-            if d2 < bound && accept(ph) {
-                out.push(d2, m as u32);
-            }
-            let a = ph.axis();
-            let diff = q[a] - ph.p[a];
-            let (near, far) = if diff < 0.0 { ((lo, m), (m + 1, hi)) } else { ((m + 1, hi), (lo, m)) };
+            let plane = self.planes[node as usize];
+            let diff = q[plane.axis as usize] - plane.value;
+            let (l, r) = (2 * node + 1, 2 * node + 2);
+            let (near, far) = if diff < 0.0 { ((l, lo, m), (r, m, hi)) } else { ((r, m, hi), (l, lo, m)) };
             // Far first on the stack, so the near side is searched first.
-            if far.0 < far.1 && sp < STACK {
-                stack[sp] = (far.0 as u32, far.1 as u32, diff * diff);
-                sp += 1;
-            }
-            if near.0 < near.1 && sp < STACK {
-                stack[sp] = (near.0 as u32, near.1 as u32, plane_d2.min(0.0));
-                sp += 1;
+            if sp + 2 <= STACK {
+                stack[sp] = (far.0, far.1 as u32, far.2 as u32, diff * diff);
+                stack[sp + 1] = (near.0, near.1 as u32, near.2 as u32, plane_d2.min(0.0));
+                sp += 2;
             }
         }
     }
@@ -194,13 +220,14 @@ impl PhotonMap {
             return;
         }
         let q = q.to_array();
-        let mut stack = [(0u32, 0u32); STACK];
+        let mut stack = [(0u32, 0u32, 0u32); STACK];
         let mut sp = 0;
-        stack[sp] = (0, self.photons.len() as u32);
+        stack[sp] = (0, 0, self.photons.len() as u32);
         sp += 1;
         while sp > 0 {
             sp -= 1;
-            let (lo, hi) = (stack[sp].0 as usize, stack[sp].1 as usize);
+            let (node, lo, hi) = stack[sp];
+            let (lo, hi) = (lo as usize, hi as usize);
             if hi - lo <= LEAF {
                 for ph in &self.photons[lo..hi] {
                     let d2 = dist2(ph.p, q);
@@ -211,20 +238,15 @@ impl PhotonMap {
                 continue;
             }
             let m = (lo + hi) / 2;
-            let ph = &self.photons[m];
-            let d2 = dist2(ph.p, q);
-            if d2 < r2 {
-                f(ph, d2);
-            }
-            let a = ph.axis();
-            let diff = q[a] - ph.p[a];
-            // Left subtree holds coordinates <= the median's, right >= it.
-            if (diff <= 0.0 || diff * diff < r2) && lo < m && sp < STACK {
-                stack[sp] = (lo as u32, m as u32);
+            let plane = self.planes[node as usize];
+            let diff = q[plane.axis as usize] - plane.value;
+            // Left subtree holds coordinates <= the plane's, right >= it.
+            if (diff <= 0.0 || diff * diff < r2) && sp < STACK {
+                stack[sp] = (2 * node + 1, lo as u32, m as u32);
                 sp += 1;
             }
-            if (diff >= 0.0 || diff * diff < r2) && m + 1 < hi && sp < STACK {
-                stack[sp] = ((m + 1) as u32, hi as u32);
+            if (diff >= 0.0 || diff * diff < r2) && sp < STACK {
+                stack[sp] = (2 * node + 2, m as u32, hi as u32);
                 sp += 1;
             }
         }
@@ -244,29 +266,48 @@ fn build_range(ph: &mut [Photon]) {
     if ph.len() <= LEAF {
         return;
     }
-    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-    for p in ph.iter() {
-        lo = lo.min(p.pos());
-        hi = hi.max(p.pos());
-    }
-    let ext = hi - lo;
-    let axis = if ext.x >= ext.y && ext.x >= ext.z {
-        0
-    } else if ext.y >= ext.z {
-        1
-    } else {
-        2
-    };
+    let axis = split_axis(ph);
     let m = ph.len() / 2;
     ph.select_nth_unstable_by(m, |a, b| a.p[axis].total_cmp(&b.p[axis]));
-    ph[m].set_axis(axis);
-    let (left, rest) = ph.split_at_mut(m);
-    let right = &mut rest[1..];
+    let (left, right) = ph.split_at_mut(m);
     if left.len() + right.len() > PARALLEL_BUILD {
         rayon::join(|| build_range(left), || build_range(right));
     } else {
         build_range(left);
         build_range(right);
+    }
+}
+
+/// Reads node `node`'s plane (range [lo, hi)) and its descendants' from photons in tree
+/// order: the axis is the build's (largest extent of the range's bounds, a property of the
+/// set, not of its order), the value the largest coordinate of the left half, which
+/// separates it from the right half as the build's median did.
+fn fill_planes(ph: &[Photon], planes: &mut [Plane], node: usize, lo: usize, hi: usize) {
+    if hi - lo <= LEAF {
+        return;
+    }
+    let axis = split_axis(&ph[lo..hi]);
+    let m = (lo + hi) / 2;
+    let value = ph[lo..m].iter().fold(f32::NEG_INFINITY, |v, p| v.max(p.p[axis]));
+    planes[node] = Plane { value, axis: axis as u32 };
+    fill_planes(ph, planes, 2 * node + 1, lo, m);
+    fill_planes(ph, planes, 2 * node + 2, m, hi);
+}
+
+/// The axis of the largest extent of the photons' bounds.
+fn split_axis(ph: &[Photon]) -> usize {
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    for p in ph {
+        lo = lo.min(p.pos());
+        hi = hi.max(p.pos());
+    }
+    let ext = hi - lo;
+    if ext.x >= ext.y && ext.x >= ext.z {
+        0
+    } else if ext.y >= ext.z {
+        1
+    } else {
+        2
     }
 }
 

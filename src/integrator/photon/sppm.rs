@@ -15,11 +15,11 @@
 //! so the estimate is consistent: error → 0 with iterations.
 //!
 //! Memory: per-pixel state (~160 bytes) plus one iteration's photons (32 bytes each;
-//! one per pixel by default), so it is bounded by the image, never by the total
+//! two per pixel by default), so it is bounded by the image, never by the total
 //! photon count.
 //!
 //! Parameters (defaults in `PhotonSettings`): iterations 64; photons per iteration = the
-//! window's pixel count; α = 2/3; initial radius per pixel = 2 pixel footprints at the
+//! window's pixel count × `SPPM_PHOTONS_PER_PIXEL` (2); α = 2/3; initial radius per pixel = 2 pixel footprints at the
 //! visible point (the distance between adjacent pixels' camera rays there), clamped to
 //! [10⁻⁴, 5·10⁻²] × the scene's bounding radius, or `--sppm-radius` for every pixel.
 //! Media: photons scatter in media (`trace.rs`); a camera path that scatters in a
@@ -32,7 +32,7 @@
 use super::emit::Emitters;
 use super::estimate::direct_light;
 use super::trace::{MapKind, TraceJob, trace_photons};
-use super::{PhotonMap, PhotonSettings};
+use super::{PhotonMap, PhotonSettings, default_sppm_photons};
 use crate::bsdf::Bsdf;
 use crate::film::{DEPTH_BACKGROUND, FilmImage};
 use crate::integrator::path::PathIntegrator;
@@ -113,7 +113,7 @@ pub fn render(
     let start = Instant::now();
     let deadline = job.time_limit.map(|t| start + t);
     let iterations = settings.sppm_iterations.max(1);
-    let per_iter = settings.sppm_photons.unwrap_or(npix as u64).max(1);
+    let per_iter = settings.sppm_photons.unwrap_or_else(|| default_sppm_photons(npix as u64)).max(1);
     let (_, scene_r) = ctx.scene.bounding_sphere();
     let emitters = Emitters::new(ctx.scene);
     let mut states = vec![PixelState::default(); npix];

@@ -15,7 +15,8 @@
 //! - `Caustic`: only hits reached through specular (delta) scattering alone (L S+ D);
 //!   the photon is dropped at its first non-specular hit. Not implemented: aiming
 //!   caustic photons at specular objects (projection maps); caustic photons are emitted
-//!   as the global ones are, only more of them.
+//!   as the global ones are, only more of them (on the glass caustic scene 10.7 % are
+//!   stored, and 10x as many changed PM's error by 6 %: docs/benchmarks.md).
 //!
 //! "Specular" is `Bsdf::is_delta()`: delta BSDFs only. Glossy lobes, however smooth,
 //! are stored as non-specular (a photon estimate of a very smooth glossy lobe is noisy
