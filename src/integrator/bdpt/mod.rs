@@ -178,6 +178,20 @@ impl Vertex {
         }
     }
 
+    /// A surface vertex reached from direction `wo` with throughput `beta` through `medium`.
+    fn surface(s: &SurfaceHit, sp: &super::ShadingPoint, wo: Vec3, beta: Rgb, medium: MediumStack) -> Self {
+        Vertex {
+            ng: s.ng,
+            frame: sp.frame,
+            bsdf: Some(sp.bsdf),
+            hit: Some(*s),
+            wo,
+            beta,
+            medium,
+            ..Vertex::new(Kind::Surface, s.p)
+        }
+    }
+
     /// |cos| between the vertex's normal and `w` (1 for points and the camera).
     #[inline]
     fn abs_cos_geo(&self, w: Vec3) -> f32 {
@@ -252,6 +266,25 @@ fn segment_transmittance(ctx: &SceneContext, a: &Vertex, b: &Vertex, stack: Medi
     let target = LightSample { wi, dist, li: Rgb::ZERO, pdf: 0.0, delta: false, point: b.p, normal };
     let ng = (a.ng != Vec3::ZERO).then_some(a.ng);
     super::media::light_transmittance(ctx, a.p, ng, &target, stack)
+}
+
+/// Whether a subpath goes straight on through the surface it hit: a volume-only boundary
+/// (which changes the medium) or, with probability 1 - alpha, a BLEND surface.
+#[inline]
+fn passes_through(
+    ctx: &SceneContext,
+    s: &SurfaceHit,
+    hit: &crate::accel::Hit,
+    dir: Vec3,
+    u_alpha: f32,
+    medium: &mut MediumStack,
+) -> bool {
+    let mat = &ctx.scene.materials[s.material as usize];
+    if mat.null_surface {
+        *medium = ctx.medium_after(s, dir, *medium);
+        return true;
+    }
+    mat.alpha_mode == AlphaMode::Blend && u_alpha >= ctx.alpha(hit.tri, hit.b1, hit.b2)
 }
 
 /// The media a segment leaving vertex `v` in direction `w` is in.
@@ -412,14 +445,7 @@ impl BdptIntegrator {
             let s = ctx.surface(&hit, org, dir);
             let wo = -dir;
             let mat = &ctx.scene.materials[s.material as usize];
-            let pass = if mat.null_surface {
-                // A volume boundary without a surface: only the medium changes.
-                medium = ctx.medium_after(&s, dir, medium);
-                true
-            } else {
-                mat.alpha_mode == AlphaMode::Blend && u_alpha >= ctx.alpha(hit.tri, hit.b1, hit.b2)
-            };
-            if pass && transparent_hits < MAX_TRANSPARENT_HITS {
+            if passes_through(ctx, &s, &hit, dir, u_alpha, &mut medium) && transparent_hits < MAX_TRANSPARENT_HITS {
                 transparent_hits += 1;
                 org = offset_ray_origin(s.p, -s.ng);
                 stats.bounce += 1;
@@ -451,14 +477,7 @@ impl BdptIntegrator {
                 out.normal = sp.frame.n;
                 out.albedo = sp.bsdf.albedo();
             }
-            let mut v = Vertex::new(Kind::Surface, s.p);
-            v.ng = s.ng;
-            v.frame = sp.frame;
-            v.bsdf = Some(sp.bsdf);
-            v.hit = Some(s);
-            v.wo = wo;
-            v.beta = beta;
-            v.medium = medium;
+            let mut v = Vertex::surface(&s, &sp, wo, beta, medium);
             v.emitted = sp.emitted;
             v.pdf_fwd = if prev_delta { 0.0 } else { v.area_density(pdf_sa, cam[i].p) };
             cam.push(v);
@@ -733,14 +752,7 @@ impl BdptIntegrator {
             }
             let s = ctx.surface(&hit, org, dir);
             let wo = -dir;
-            let mat = &ctx.scene.materials[s.material as usize];
-            let pass = if mat.null_surface {
-                medium = ctx.medium_after(&s, dir, medium);
-                true
-            } else {
-                mat.alpha_mode == AlphaMode::Blend && u_alpha >= ctx.alpha(hit.tri, hit.b1, hit.b2)
-            };
-            if pass && transparent_hits < MAX_TRANSPARENT_HITS {
+            if passes_through(ctx, &s, &hit, dir, u_alpha, &mut medium) && transparent_hits < MAX_TRANSPARENT_HITS {
                 transparent_hits += 1;
                 org = offset_ray_origin(s.p, -s.ng);
                 stats.bounce += 1;
@@ -748,14 +760,7 @@ impl BdptIntegrator {
             }
             let sp = ctx.shade(&s, wo);
             let i = light.len() - 1;
-            let mut v = Vertex::new(Kind::Surface, s.p);
-            v.ng = s.ng;
-            v.frame = sp.frame;
-            v.bsdf = Some(sp.bsdf);
-            v.hit = Some(s);
-            v.wo = wo;
-            v.beta = beta;
-            v.medium = medium;
+            let mut v = Vertex::surface(&s, &sp, wo, beta, medium);
             v.pdf_fwd = if prev_delta { 0.0 } else { v.area_density(pdf_sa, light[i].p) };
             light.push(v);
             // s light vertices give paths of s - 1 + (t - 1) scattering events, t ≥ 1.
