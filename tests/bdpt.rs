@@ -353,15 +353,3 @@ fn bdpt_settings_errors() {
         assert!(!out.exists(), "no output on a usage error");
     }
 }
-
-/// Writes the light-zoo scenes to $CAUSTIC_ZOO_DIR for looking at them by hand.
-#[test]
-#[ignore]
-fn write_light_zoo() {
-    let dir = PathBuf::from(std::env::var("CAUSTIC_ZOO_DIR").unwrap_or("/tmp".into()));
-    for i in 0..9 {
-        let p = light_zoo(&dir, Some(i));
-        std::fs::rename(&p, dir.join(format!("zoo_{i}.gltf"))).unwrap();
-    }
-    light_zoo(&dir, None);
-}
