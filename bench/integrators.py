@@ -5,18 +5,24 @@ Usage (numpy from the project's venv; the binary from `cargo build --release`):
     .venv/bin/python bench/integrators.py [--scenes cornell_box,glass_caustic,door_ajar]
         [--integrators path,bdpt] [--resolution 160x120] [--seconds 20] [--ref-seconds 300]
         [--threads 2] [--binary target/release/caustic] [--out results/integrators]
-        [--variant 'LABEL=INTEGRATOR FLAGS...'] [--reuse-ref]
+        [--variant 'LABEL=INTEGRATOR FLAGS...'] [--reuse-ref] [--repeats N]
 
-`--variant` adds a column rendered with extra flags (e.g. `--variant 'pm_k10=photon --k 10'`),
+`--variant` adds a column rendered with extra flags (e.g. `--variant 'pm_k10=photon --k 10'`), or
+with another build of the renderer (`--variant 'old=/tmp/caustic-old::sppm'`, before/after),
 `--reuse-ref` takes the reference halves already in `--out`, so several runs share one reference.
+`--repeats N` renders every column N times (seeds 1..N, interleaved so that a change in the
+machine's load hits every column alike) and reports the mean relMSE; on this 2-core VM one
+15-second render's relMSE varies by about 30 % from seed to seed (path tracing on the Cornell
+box: 3.0e-4 and 3.9e-4 in two runs), so a single-seed ratio is good to roughly ±40 %.
 
 For each scene of scenes/: a reference made of two independent renders (seeds 1001, 1002) of
 `--ref-seconds` each with the reference integrator (bdpt: unbiased and the fastest to converge
 on these scenes; pass --ref-integrator to change it), then one render per integrator with
-`--time-limit SECONDS` (seed 1). Error metric, as in bench/run.py: relMSE = mean over pixels
+`--time-limit SECONDS` (seeds 1..N). Error metric, as in bench/run.py: relMSE = mean over pixels
 and R,G,B of (x - ref)^2 / (ref^2 + 0.01), minus the reference's own noise estimated from its
-halves (floor = mean((a - b)^2 / 4 / (ref^2 + 0.01))). Prints a table of relMSE and of each
-integrator's relMSE over the path tracer's, and writes results.json. Quote the ratios measured
+halves (floor = mean((a - b)^2 / 4 / (ref^2 + 0.01))). Prints a table of mean relMSE and of each
+integrator's mean relMSE over the path tracer's with its standard error (from the spread over
+seeds, first order in both means), and writes results.json (every seed's figure). Quote the ratios measured
 in one run; absolute seconds depend on the machine and its load.
 """
 
@@ -75,17 +81,19 @@ def main():
     ap.add_argument("--out", default=os.path.join(ROOT, "results", "integrators"))
     ap.add_argument("--variant", action="append", default=[], metavar="LABEL=INTEGRATOR ARGS",
                     help="an extra column: INTEGRATOR with extra render flags, e.g. 'pm_k10=photon --k 10'")
+    ap.add_argument("--repeats", type=int, default=1, help="renders per column (seeds 1..N); the table shows means")
     ap.add_argument("--reuse-ref", action="store_true",
                     help="use the reference halves already in --out (same scene, resolution, integrator)")
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
     integrators = a.integrators.split(",")
-    # label -> (integrator, extra flags)
-    runs = {i: (i, []) for i in integrators}
+    # label -> (binary, integrator, extra flags)
+    runs = {i: (a.binary, i, []) for i in integrators}
     for v in a.variant:
         label, spec = v.split("=", 1)
         integ, *extra = spec.split()
-        runs[label] = (integ, extra)
+        binary, _, integ = integ.rpartition("::")
+        runs[label] = (binary or a.binary, integ, extra)
         integrators.append(label)
     results = {}
     print(f"equal time {a.seconds:g} s, reference 2 x {a.ref_seconds:g} s of {a.ref_integrator}, "
@@ -105,18 +113,36 @@ def main():
         ref = 0.5 * (halves[0] + halves[1])
         floor = float(np.mean((halves[0] - halves[1]) ** 2 / 4 / (ref ** 2 + 0.01)))
         row = {"floor": floor}
+        per_seed = {i: [] for i in integrators}
+        means = {i: [] for i in integrators}
+        for seed in range(1, a.repeats + 1):
+            for integ in integrators:
+                binary, kind, extra = runs[integ]
+                img = render(binary, scene, os.path.join(a.out, f"{name}_{integ}_s{seed}.exr"), kind, seed,
+                             a.seconds, a.resolution, a.threads, extra)
+                per_seed[integ].append(rel_mse(img, ref) - floor)
+                means[integ].append(float(img.mean() / ref.mean()))
         for integ in integrators:
-            kind, extra = runs[integ]
-            img = render(a.binary, scene, os.path.join(a.out, f"{name}_{integ}.exr"), kind, 1, a.seconds,
-                         a.resolution, a.threads, extra)
-            raw = rel_mse(img, ref)
-            row[integ] = {"relmse": raw, "relmse_debiased": raw - floor, "mean_ratio": float(img.mean() / ref.mean())}
+            v = np.array(per_seed[integ])
+            row[integ] = {"relmse_debiased": float(v.mean()), "per_seed": v.tolist(),
+                          "stderr": float(v.std(ddof=1) / np.sqrt(len(v))) if len(v) > 1 else None,
+                          "mean_ratio": float(np.mean(means[integ]))}
         results[name] = row
         line = f"{name:<15}" + "".join(f"{row[i]['relmse_debiased']:>16.4g}" for i in integrators)
         if "path" in row:
-            line += "".join(f"{row[i]['relmse_debiased'] / row['path']['relmse_debiased']:>12.3f}"
-                            for i in integrators if i != "path")
-        print(line + f"   (reference noise {floor:.2g})", flush=True)
+            p = row["path"]
+            for i in integrators:
+                if i == "path":
+                    continue
+                ratio = row[i]["relmse_debiased"] / p["relmse_debiased"]
+                row[i]["ratio_to_path"] = ratio
+                if a.repeats > 1:
+                    rel = np.hypot(row[i]["stderr"] / row[i]["relmse_debiased"], p["stderr"] / p["relmse_debiased"])
+                    row[i]["ratio_stderr"] = float(ratio * rel)
+                    line += f"{ratio:>7.3f}±{ratio * rel:<5.2f}"
+                else:
+                    line += f"{ratio:>12.3f}"
+        print(line + f"   (reference noise {floor:.2g}, {a.repeats} seed(s))", flush=True)
     with open(os.path.join(a.out, "results.json"), "w") as f:
         json.dump({"args": vars(a), "results": results}, f, indent=1)
 

@@ -109,9 +109,12 @@ pub struct PhotonArgs {
     /// Photons emitted for the caustic map (photon integrator) [default: 100000].
     #[arg(long)]
     pub caustic_photons: Option<u64>,
-    /// Neighbours per radiance estimate (1..=256) [default: 20].
+    /// Neighbours per global-map radiance estimate (1..=256) [default: 20].
     #[arg(long)]
     pub k: Option<usize>,
+    /// Neighbours per caustic-map radiance estimate (1..=256) [default: 10].
+    #[arg(long)]
+    pub caustic_k: Option<usize>,
     /// Maximum photon search radius in scene units [default: 0.1 × the scene's bounding radius].
     #[arg(long)]
     pub max_radius: Option<f32>,
@@ -127,7 +130,7 @@ pub struct PhotonArgs {
     /// SPPM photons per iteration [default: 2 × the rendered window's pixel count].
     #[arg(long)]
     pub sppm_photons: Option<u64>,
-    /// SPPM initial radius in scene units [default: per pixel, 2 pixel footprints at the visible point, clamped to 1e-4..0.05 × the scene radius].
+    /// SPPM initial radius in scene units [default: per pixel, 3 pixel footprints at the visible point, clamped to 1e-4..0.05 × the scene radius].
     #[arg(long)]
     pub sppm_radius: Option<f32>,
 }
@@ -371,6 +374,7 @@ pub fn resolve_photon(a: &PhotonArgs, st: &scene::SceneSettings) -> Result<Photo
         photons: a.photons.or(st.photons).unwrap_or(d.photons),
         caustic_photons: a.caustic_photons.or(st.caustic_photons).unwrap_or(d.caustic_photons),
         k: a.k.or(st.k).unwrap_or(d.k),
+        caustic_k: a.caustic_k.or(st.caustic_k).unwrap_or(d.caustic_k),
         max_radius: a.max_radius.or(st.max_radius).or(d.max_radius),
         gather_rays: a.gather_rays.or(st.gather_rays).unwrap_or(d.gather_rays),
         diffuse_bounces: a.diffuse_bounces.or(st.diffuse_bounces).unwrap_or(d.diffuse_bounces),
@@ -386,8 +390,10 @@ pub fn resolve_photon(a: &PhotonArgs, st: &scene::SceneSettings) -> Result<Photo
     if p.photons == 0 && p.caustic_photons == 0 {
         return Err(Error::Usage("--photons and --caustic-photons cannot both be 0".into()));
     }
-    if !(1..=MAX_K).contains(&p.k) {
-        return Err(Error::Usage(format!("--k {} must be in 1..={MAX_K}", p.k)));
+    for (name, k) in [("--k", p.k), ("--caustic-k", p.caustic_k)] {
+        if !(1..=MAX_K).contains(&k) {
+            return Err(Error::Usage(format!("{name} {k} must be in 1..={MAX_K}")));
+        }
     }
     for (name, v) in [("--max-radius", p.max_radius), ("--sppm-radius", p.sppm_radius)] {
         if let Some(r) = v
@@ -668,6 +674,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
                 max_depth: res.max_depth,
                 rr_depth: PathIntegrator::default().rr_depth,
                 k: res.photon.k,
+                caustic_k: res.photon.caustic_k,
                 max_radius: res.photon.max_radius.unwrap_or_else(|| default_max_radius(scene_r)),
                 gather_rays: res.photon.gather_rays,
                 diffuse_bounces: res.photon.diffuse_bounces,
@@ -799,7 +806,7 @@ fn describe_sppm(p: &PhotonSettings, max_depth: u32) -> String {
         "sppm ({} iterations, {} photons per iteration, initial radius {}, alpha {:.3}, max depth {max_depth})",
         p.sppm_iterations,
         p.sppm_photons.map_or(format!("{} per pixel", photon::SPPM_PHOTONS_PER_PIXEL), |n| n.to_string()),
-        p.sppm_radius.map_or("2 pixel footprints".to_string(), |r| r.to_string()),
+        p.sppm_radius.map_or("3 pixel footprints".to_string(), |r| r.to_string()),
         p.sppm_alpha
     )
 }

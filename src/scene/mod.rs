@@ -70,8 +70,10 @@ pub struct SceneSettings {
     pub photons: Option<u64>,
     /// Photons emitted for the caustic map.
     pub caustic_photons: Option<u64>,
-    /// Neighbours per radiance estimate.
+    /// Neighbours per global-map radiance estimate.
     pub k: Option<usize>,
+    /// Neighbours per caustic-map radiance estimate.
+    pub caustic_k: Option<usize>,
     /// Maximum photon search radius (scene units).
     pub max_radius: Option<f32>,
     /// Final-gather rays.

@@ -17,7 +17,7 @@
 //! makes a path of (j - 1) + n events; only those within `max_depth` are counted, so
 //! the result converges to the path tracer's at the same maximum depth.
 //!
-//! Parameters (defaults in `PhotonSettings`): k = 20 neighbours, maximum radius a tenth
+//! Parameters (defaults in `PhotonSettings`): k = 20 neighbours (10 in the caustic map), maximum radius a tenth
 //! of the scene radius, 1 gather ray per camera sample, 1 diffuse bounce (final gather), maximum depth
 //! as the path tracer's. Media: a camera path or gather ray that scatters in a medium is
 //! path traced from there (media have no photon map); crossing media, paths carry
@@ -46,8 +46,10 @@ pub struct JensenIntegrator {
     pub max_depth: u32,
     /// Russian roulette from this depth on gather paths.
     pub rr_depth: u32,
-    /// Neighbours per estimate.
+    /// Neighbours per global-map estimate.
     pub k: usize,
+    /// Neighbours per caustic-map estimate.
+    pub caustic_k: usize,
     /// Maximum search radius.
     pub max_radius: f32,
     /// Gather rays at the first diffuse hit.
@@ -156,12 +158,13 @@ impl JensenIntegrator {
     /// Parameters, for logs and the summary.
     pub fn describe(&self) -> String {
         format!(
-            "photon (global {} photons emitted / {} stored, caustic {} / {}, k {}, max radius {:.4}, {} gather rays, {} diffuse bounce(s), max depth {})",
+            "photon (global {} photons emitted / {} stored, caustic {} / {}, k {} (caustic {}), max radius {:.4}, {} gather rays, {} diffuse bounce(s), max depth {})",
             self.maps.emitted[0],
             self.maps.global.len(),
             self.maps.emitted[1],
             self.maps.caustic.len(),
             self.k,
+            self.caustic_k,
             self.max_radius,
             self.gather_rays,
             self.diffuse_bounces,
@@ -311,7 +314,7 @@ impl JensenIntegrator {
         let mut l = direct_light(ctx, s, sp, wo_local, u_light, u_pt, gather as f32, media, stats);
         // Caustics: photons with hit index j make paths of j - 1 + d events.
         let jmax = self.max_depth + 1 - d;
-        l += radiance(&self.maps.caustic, s.p, s.ng, &sp.frame, &sp.bsdf, wo_local, self.k, max_r2, |p| {
+        l += radiance(&self.maps.caustic, s.p, s.ng, &sp.frame, &sp.bsdf, wo_local, self.caustic_k, max_r2, |p| {
             p.depth() <= jmax
         });
         if self.diffuse_bounces == 0 {

@@ -170,10 +170,14 @@ pub struct PhotonSettings {
     pub photons: u64,
     /// Photons emitted for the caustic map (Jensen).
     pub caustic_photons: u64,
-    /// Neighbours in a radiance estimate. 20, not Jensen's 50-100: with final gather
-    /// the lookups' noise is averaged by the gather rays, and on the Cornell box at
+    /// Neighbours in a global-map radiance estimate. 20, not Jensen's 50-100: with final
+    /// gather the lookups' noise is averaged by the gather rays, and on the Cornell box at
     /// equal time k = 20 gave 0.64× the relative MSE of k = 50.
     pub k: usize,
+    /// Neighbours in a caustic-map radiance estimate. Fewer than the global map's: the
+    /// caustic estimate is seen directly, so its blur shows as soft caustic edges, while a
+    /// global estimate is seen through a gather bounce that hides blur but not noise.
+    pub caustic_k: usize,
     /// Largest search radius; None: a tenth of the scene's bounding-sphere radius.
     pub max_radius: Option<f32>,
     /// Final-gather rays per camera sample at the first diffuse hit. 1: the gather
@@ -201,6 +205,7 @@ impl Default for PhotonSettings {
             photons: 200_000,
             caustic_photons: 100_000,
             k: 20,
+            caustic_k: 10,
             max_radius: None,
             gather_rays: 1,
             diffuse_bounces: 1,
