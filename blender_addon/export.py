@@ -51,6 +51,7 @@ class _ExportState:
 
     def __init__(self, settings):
         self.settings = settings
+        self.pixel_aspect = (1.0, 1.0)  # the scene's, for the camera's sensor fit
         self.area_lights = []  # names of the nodes that got CAUSTIC_lights_area
         self.scenes = 0  # scenes that got extras.caustic
         self.solid_materials = []  # transmissive materials marked as solids
@@ -125,6 +126,58 @@ def area_light_extension(blender_object):
 
 
 WORLD_EXTENSION = "CAUSTIC_world"
+CAMERA_EXTENSION = "CAUSTIC_camera"
+
+
+def camera_extension(blender_object, resolution, pixel_aspect=(1.0, 1.0)):
+    """Blender's lens shift and depth of field for a camera object (`CAUSTIC_camera`), and warnings.
+
+    The glTF exporter drops both. Shift goes out as fractions of the frame's width and height:
+    Blender measures it in units of the sensor-fitted dimension (Cycles' viewplane: dx = 2 *
+    aspect * shift_x with the fitted side spanning 2 * aspect). Depth of field as Cycles reads it:
+    aperture radius = focal length / (2 f-stop) (focal length in mm, scene units in metres;
+    1 / (2 f-stop) for an orthographic camera), focus distance along the viewing axis (to the
+    focus object's origin when there is one).
+    Returns (value or None, warnings).
+    """
+    cam = blender_object.data
+    warnings = []
+    xr = float(resolution[0]) * float(pixel_aspect[0])
+    yr = float(resolution[1]) * float(pixel_aspect[1])
+    fit = cam.sensor_fit
+    horizontal = xr > yr if fit == "AUTO" else fit == "HORIZONTAL"
+    if horizontal:
+        shift = [cam.shift_x, cam.shift_y * xr / yr]
+    else:
+        shift = [cam.shift_x * yr / xr, cam.shift_y]
+    value = {}
+    if cam.shift_x != 0.0 or cam.shift_y != 0.0:
+        value["shift"] = [float(s) for s in shift]
+    if cam.type == "PANO":
+        warnings.append(f"camera '{blender_object.name}': panoramic cameras are not supported; "
+                        "rendered as the exporter's perspective camera")
+    dof = cam.dof
+    if dof.use_dof:
+        fstop = max(float(dof.aperture_fstop), 1e-5)
+        radius = 1.0 / (2.0 * fstop) if cam.type == "ORTHO" else cam.lens * 1e-3 / (2.0 * fstop)
+        if dof.focus_object is not None:
+            m = blender_object.matrix_world
+            view_dir = m.col[2].xyz.normalized()
+            dof_dir = m.translation - dof.focus_object.matrix_world.translation
+            focus = abs(view_dir.dot(dof_dir))
+            if getattr(dof, "focus_subtarget", ""):
+                warnings.append(f"camera '{blender_object.name}': the focus bone is ignored; "
+                                "focusing on the object's origin")
+        else:
+            focus = float(dof.focus_distance)
+        value["aperture_radius"] = float(radius)
+        value["focus_distance"] = float(max(focus, 1e-6))
+        if dof.aperture_blades >= 3:
+            value["blades"] = int(dof.aperture_blades)
+            value["blade_rotation"] = float(dof.aperture_rotation)
+        if dof.aperture_ratio != 1.0:
+            value["aperture_ratio"] = float(dof.aperture_ratio)
+    return (value or None), warnings
 PUNCTUAL_EXTENSION = "CAUSTIC_lights_punctual"
 
 
@@ -411,6 +464,16 @@ class glTF2ExportUserExtension:
         if state is None or blender_object is None:
             return
         try:
+            if blender_object.type == "CAMERA":
+                value, warnings = camera_extension(blender_object, state.settings["resolution"],
+                                                   state.pixel_aspect)
+                state.warnings.extend(warnings)
+                if value:
+                    if gltf2_node.extensions is None:
+                        gltf2_node.extensions = {}
+                    gltf2_node.extensions[CAMERA_EXTENSION] = self._extension(
+                        name=CAMERA_EXTENSION, extension=value, required=False)
+                return
             if blender_object.type != "LIGHT":
                 return
             if blender_object.data.type != "AREA":
@@ -659,6 +722,7 @@ def export_scene(depsgraph, folder, settings):
     scene = depsgraph.scene  # the original scene (scene_eval is the evaluated copy)
     view_layer = depsgraph.view_layer
     state = _ExportState(settings)
+    state.pixel_aspect = (scene.render.pixel_aspect_x, scene.render.pixel_aspect_y)
     # The exporter takes object transforms from the original objects, which only the viewport
     # depsgraph updates; during an animation render it still holds the previous frame.
     scene_eval = depsgraph.scene_eval

@@ -180,7 +180,9 @@ pub fn render(
                             for i in first..first + n {
                                 let mut sampler = PixelSampler::new(job.seed, px, py, i);
                                 let off = job.filter.sample(sampler.next_2d());
-                                let (org, dir) = camera.ray(px as f32 + 0.5 + off.x, py as f32 + 0.5 + off.y);
+                                let u_lens = if camera.has_lens() { sampler.next_2d() } else { glam::Vec2::ZERO };
+                                let (org, dir) =
+                                    camera.sample_ray(px as f32 + 0.5 + off.x, py as f32 + 0.5 + off.y, u_lens);
                                 let s = match &job.integrator {
                                     Integrator::Path(p) => {
                                         p.li(ctx, org, dir, &mut sampler, |q| camera.depth(q), &mut ts.rays)

@@ -124,6 +124,25 @@ fn cornell_bdpt_matches_path_tracing() {
     bdpt_matches_path("cornell", &cornell(), (48, 48), (8, 32), 8, 1);
 }
 
+/// Through a thin lens (depth of field focused in front of the back wall): light tracing
+/// connects to the camera subpath's aperture point and splats where the ray through it
+/// crosses the plane in focus; the image agrees with the path tracer's.
+#[test]
+fn cornell_with_depth_of_field_bdpt_matches_path_tracing() {
+    let dir = temp_dir();
+    let mut doc: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(cornell()).unwrap()).unwrap();
+    let cam_node = doc["nodes"].as_array().unwrap().iter().position(|n| n.get("camera").is_some()).unwrap();
+    doc["nodes"][cam_node]["extensions"] = json!({"CAUSTIC_camera": {"aperture_radius": 0.03, "focus_distance": 0.6, "blades": 5, "shift": [0.05, -0.03]}});
+    doc["extensionsUsed"] = json!(["CAUSTIC_camera"]);
+    for b in doc["buffers"].as_array().unwrap() {
+        let uri = b["uri"].as_str().unwrap();
+        std::fs::copy(root().join("scenes").join(uri), dir.path().join(uri)).unwrap();
+    }
+    let scene = dir.path().join("cornell_dof.gltf");
+    std::fs::write(&scene, serde_json::to_vec(&doc).unwrap()).unwrap();
+    bdpt_matches_path("cornell dof", &scene, (48, 48), (8, 32), 8, 1);
+}
+
 /// The same on the glass caustic scene (delta BSDFs, caustics, absorbing glass).
 #[test]
 fn glass_caustic_bdpt_matches_path_tracing() {

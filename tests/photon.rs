@@ -577,10 +577,7 @@ fn photon_settings_from_scene_and_flags() {
     let r = args(&["--integrator", "photon", "--spp", "1"]);
     assert_eq!(r.code, Some(0), "{}", r.stderr);
     let d = r.summary().unwrap()["integrator"].as_str().unwrap().to_string();
-    assert!(
-        d.contains("global 1000 photons") && d.contains("k 20 (caustic 10)") && d.contains("2 gather rays"),
-        "{d}"
-    );
+    assert!(d.contains("global 1000 photons") && d.contains("k 20 (caustic 10)") && d.contains("2 gather rays"), "{d}");
     for (bad, word) in [
         (vec!["--k", "0"], "k"),
         (vec!["--k", "100000"], "k"),

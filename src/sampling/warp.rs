@@ -58,6 +58,30 @@ pub fn uniform_cone_pdf(cos_max: f32) -> f32 {
     1.0 / (2.0 * PI * (1.0 - cos_max))
 }
 
+/// Uniform point in a regular polygon with `blades` corners (at least 3) inscribed in the
+/// unit circle, the first corner at angle `rotation`: a camera's polygonal aperture, as
+/// Cycles' blade count and rotation. One of the equal triangles (centre, corner i, corner
+/// i + 1) is chosen by `u.x`, whose remainder is reused within it.
+#[inline]
+pub fn regular_polygon(u: Vec2, blades: u32, rotation: f32) -> Vec2 {
+    let n = blades.max(3) as f32;
+    let scaled = u.x * n;
+    let i = scaled.floor().min(n - 1.0);
+    let ux = (scaled - i).clamp(0.0, 1.0);
+    let step = 2.0 * PI / n;
+    let a0 = rotation + i * step;
+    let (c0, c1) = (Vec2::new(a0.cos(), a0.sin()), Vec2::new((a0 + step).cos(), (a0 + step).sin()));
+    let b = uniform_triangle(Vec2::new(ux, u.y));
+    c0 * b.x + c1 * b.y
+}
+
+/// Area of [`regular_polygon`]'s polygon.
+#[inline]
+pub fn regular_polygon_area(blades: u32) -> f32 {
+    let n = blades.max(3) as f32;
+    0.5 * n * (2.0 * PI / n).sin()
+}
+
 /// Uniform barycentric coordinates (b1, b2) on a triangle; the point is
 /// `(1-b1-b2) p0 + b1 p1 + b2 p2`. Uses Heitz's low-distortion map (2019), which keeps
 /// the stratification of the input.
@@ -103,6 +127,29 @@ mod tests {
                 |w| {
                     if w.z >= cos_max { uniform_cone_pdf(cos_max) } else { 0.0 }
                 },
+            ));
+        }
+    }
+
+    /// Aperture sampling is tested as a direction: the polygon lies in the unit disk, which
+    /// is lifted onto the +Z hemisphere, where the area density 1/A becomes cos θ / A.
+    #[test]
+    fn chi2_regular_polygon() {
+        for (blades, rotation) in [(3u32, 0.0f32), (5, 0.4), (6, -1.0), (9, 2.0)] {
+            let area = regular_polygon_area(blades);
+            let step = 2.0 * PI / blades as f32;
+            let inside = |p: Vec2| {
+                let phi = (p.y.atan2(p.x) - rotation).rem_euclid(2.0 * PI);
+                let mid = rotation + ((phi / step).floor() + 0.5) * step;
+                p.dot(Vec2::new(mid.cos(), mid.sin())) <= (0.5 * step).cos()
+            };
+            let t = ChiSquareTest::new(&format!("regular polygon {blades} blades"));
+            assert_chi2(t.run(
+                |u| {
+                    let p = regular_polygon(u, blades, rotation);
+                    Some(Vec3::new(p.x, p.y, (1.0 - p.length_squared()).max(0.0).sqrt()))
+                },
+                |w| if w.z > 0.0 && inside(Vec2::new(w.x, w.y)) { w.z / area } else { 0.0 },
             ));
         }
     }

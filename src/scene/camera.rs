@@ -1,6 +1,34 @@
-//! Cameras: glTF perspective and orthographic projections, placed by their node.
+//! Cameras: glTF perspective and orthographic projections, placed by their node, with
+//! Blender's lens shift and a thin lens for depth of field (`CAUSTIC_camera`).
 
+use crate::sampling::warp::{concentric_disk, regular_polygon};
 use glam::{Mat4, Vec2, Vec3};
+
+/// A thin lens: depth of field as Cycles renders it. Rays leave from a point on the
+/// aperture (in the plane through the camera position, perpendicular to the viewing
+/// axis) toward the point where the pinhole ray meets the plane in focus.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lens {
+    /// Aperture radius in scene units (Cycles: focal length / (2 f-stop)).
+    pub radius: f32,
+    /// Distance of the plane in focus along the viewing axis.
+    pub focus_distance: f32,
+    /// Aperture blades: 0 is a round aperture, 3 or more a regular polygon.
+    pub blades: u32,
+    /// Rotation of the polygon (radians).
+    pub rotation: f32,
+    /// Anamorphic ratio: the aperture's width is divided by it (Cycles' aperture ratio).
+    pub ratio: f32,
+}
+
+impl Lens {
+    /// A point on the aperture in camera units (right, up) for a uniform sample `u`.
+    #[inline]
+    pub fn sample(&self, u: Vec2) -> Vec2 {
+        let p = if self.blades >= 3 { regular_polygon(u, self.blades, self.rotation) } else { concentric_disk(u) };
+        Vec2::new(p.x / self.ratio, p.y) * self.radius
+    }
+}
 
 /// Projection of a camera.
 #[derive(Clone, Copy, Debug)]
@@ -38,6 +66,11 @@ pub struct Camera {
     pub back: Vec3,
     /// Projection.
     pub projection: Projection,
+    /// Lens shift as fractions of the frame's width and height (Blender's Shift X/Y,
+    /// converted by the add-on from units of the sensor-fitted dimension).
+    pub shift: Vec2,
+    /// Thin lens for depth of field; None: a pinhole.
+    pub lens: Option<Lens>,
 }
 
 impl Camera {
@@ -47,7 +80,17 @@ impl Camera {
         let up0 = m.transform_vector3(Vec3::Y);
         let back = right.cross(up0).normalize_or(Vec3::Z);
         let up = back.cross(right);
-        Camera { name, data_name: None, position: m.transform_point3(Vec3::ZERO), right, up, back, projection }
+        Camera {
+            name,
+            data_name: None,
+            position: m.transform_point3(Vec3::ZERO),
+            right,
+            up,
+            back,
+            projection,
+            shift: Vec2::ZERO,
+            lens: None,
+        }
     }
 
     /// Aspect ratio that the camera wants, if it says.
@@ -65,6 +108,8 @@ pub struct CameraRays {
     cam: Camera,
     /// Half extents of the image plane at distance 1 (perspective) or in world units.
     half: Vec2,
+    /// Centre of the frame on that plane (the lens shift).
+    center: Vec2,
     width: f32,
     height: f32,
     ortho: bool,
@@ -84,20 +129,56 @@ impl CameraRays {
             }
             Projection::Orthographic { xmag, ymag } => (Vec2::new(xmag, ymag), true),
         };
-        CameraRays { cam: cam.clone(), half, width: width as f32, height: height as f32, ortho }
+        let center = cam.shift * 2.0 * half;
+        CameraRays { cam: cam.clone(), half, center, width: width as f32, height: height as f32, ortho }
+    }
+
+    /// True when rays need an aperture sample (depth of field).
+    #[inline]
+    pub fn has_lens(&self) -> bool {
+        self.cam.lens.is_some()
+    }
+
+    /// Where film position (x, y) lies on the image plane (distance 1, or world units for
+    /// an orthographic camera), in camera coordinates (right, up).
+    #[inline]
+    fn plane(&self, x: f32, y: f32) -> Vec2 {
+        Vec2::new((2.0 * x / self.width - 1.0) * self.half.x, (1.0 - 2.0 * y / self.height) * self.half.y) + self.center
     }
 
     /// Ray through film position (x, y) in pixels from the top-left corner of the full
-    /// frame: (origin, unit direction).
+    /// frame, through the centre of the lens: (origin, unit direction). Rendering uses
+    /// [`sample_ray`](Self::sample_ray); this is the pinhole ray (footprints, tests).
     #[inline]
     pub fn ray(&self, x: f32, y: f32) -> (Vec3, Vec3) {
-        let sx = (2.0 * x / self.width - 1.0) * self.half.x;
-        let sy = (1.0 - 2.0 * y / self.height) * self.half.y;
+        let s = self.plane(x, y);
         let c = &self.cam;
         if self.ortho {
-            (c.position + c.right * sx + c.up * sy, -c.back)
+            (c.position + c.right * s.x + c.up * s.y, -c.back)
         } else {
-            (c.position, (c.right * sx + c.up * sy - c.back).normalize())
+            (c.position, (c.right * s.x + c.up * s.y - c.back).normalize())
+        }
+    }
+
+    /// Ray through film position (x, y) from the aperture point chosen by `u_lens`
+    /// (ignored without a lens): it meets the pinhole ray on the plane in focus.
+    #[inline]
+    pub fn sample_ray(&self, x: f32, y: f32, u_lens: Vec2) -> (Vec3, Vec3) {
+        let Some(lens) = &self.cam.lens else {
+            return self.ray(x, y);
+        };
+        let s = self.plane(x, y);
+        let c = &self.cam;
+        let a = lens.sample(u_lens);
+        let offset = c.right * a.x + c.up * a.y;
+        let fd = lens.focus_distance;
+        if self.ortho {
+            // Cycles: the aperture offsets the ray's origin, which aims at the point in focus.
+            let org = c.position + c.right * s.x + c.up * s.y;
+            (org + offset, (-c.back * fd - offset).normalize())
+        } else {
+            let focus = (c.right * s.x + c.up * s.y - c.back) * fd;
+            (c.position + offset, (focus - offset).normalize())
         }
     }
 
@@ -112,26 +193,37 @@ impl CameraRays {
         self.ortho
     }
 
-    /// Where a world point appears on a perspective camera's film: (film position in
-    /// pixels from the top-left corner of the full frame, cos θ to the viewing axis,
-    /// distance), or None behind the camera, more than `margin` pixels outside the frame
-    /// (a pixel filter reaches that far), or for an orthographic camera.
+    /// Where a world point appears on a perspective camera's film when seen from the
+    /// point `eye` on the aperture (the camera position for a pinhole): (film position in
+    /// pixels from the top-left corner of the full frame, cos θ to the viewing axis at
+    /// `eye`, distance from `eye`), or None behind the camera, more than `margin` pixels
+    /// outside the frame (a pixel filter reaches that far), or for an orthographic camera.
+    /// Through a thin lens the film position is where the ray eye → p crosses the plane
+    /// in focus, projected from the lens centre, which inverts [`sample_ray`](Self::sample_ray).
     #[inline]
-    pub fn project(&self, p: Vec3, margin: f32) -> Option<(Vec2, f32, f32)> {
+    pub fn project(&self, p: Vec3, eye: Vec3, margin: f32) -> Option<(Vec2, f32, f32)> {
         if self.ortho {
             return None;
         }
         let c = &self.cam;
-        let d = p - c.position;
+        let d = p - eye;
         let dist = d.length();
         let w = d / dist;
         let z = -w.dot(c.back);
         if !(z > 0.0) || !(dist > 0.0) {
             return None;
         }
-        let (sx, sy) = (w.dot(c.right) / z, w.dot(c.up) / z);
-        let x = (sx / self.half.x + 1.0) * 0.5 * self.width;
-        let y = (1.0 - sy / self.half.y) * 0.5 * self.height;
+        let (mut sx, mut sy) = (w.dot(c.right) / z, w.dot(c.up) / z);
+        if let Some(lens) = &c.lens {
+            // The ray eye + t w meets the plane in focus at depth fd; seen from the centre.
+            let a = eye - c.position;
+            let fd = lens.focus_distance;
+            sx += a.dot(c.right) / fd;
+            sy += a.dot(c.up) / fd;
+        }
+        let s = Vec2::new(sx, sy) - self.center;
+        let x = (s.x / self.half.x + 1.0) * 0.5 * self.width;
+        let y = (1.0 - s.y / self.half.y) * 0.5 * self.height;
         let inside = (-margin..self.width + margin).contains(&x) && (-margin..self.height + margin).contains(&y);
         inside.then_some((Vec2::new(x, y), z, dist))
     }
@@ -155,5 +247,56 @@ impl CameraRays {
     /// The camera.
     pub fn camera(&self) -> &Camera {
         &self.cam
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::chi2::Pcg32;
+
+    /// `project` from a ray's aperture point returns the film position the ray was made
+    /// for, with and without shift and lens; its cosine and distance describe that ray.
+    #[test]
+    fn project_inverts_sample_ray() {
+        let m = Mat4::from_rotation_translation(
+            glam::Quat::from_euler(glam::EulerRot::XYZ, 0.3, -0.7, 0.2),
+            Vec3::new(1.0, 2.0, -3.0),
+        );
+        let mut rng = Pcg32::new(7);
+        for (shift, lens) in [
+            (Vec2::ZERO, None),
+            (Vec2::new(0.3, -0.2), None),
+            (Vec2::ZERO, Some(Lens { radius: 0.2, focus_distance: 3.0, blades: 0, rotation: 0.0, ratio: 1.0 })),
+            (
+                Vec2::new(-0.1, 0.4),
+                Some(Lens { radius: 0.1, focus_distance: 7.0, blades: 5, rotation: 0.5, ratio: 1.5 }),
+            ),
+        ] {
+            let mut cam = Camera::from_matrix("c".into(), &m, Projection::Perspective { yfov: 0.8, aspect: None });
+            cam.shift = shift;
+            cam.lens = lens;
+            let rays = CameraRays::new(&cam, 64, 48);
+            for _ in 0..200 {
+                let (x, y) = (rng.next_f32() * 64.0, rng.next_f32() * 48.0);
+                let u = Vec2::new(rng.next_f32(), rng.next_f32());
+                let (org, dir) = rays.sample_ray(x, y, u);
+                let t = 0.5 + 20.0 * rng.next_f32();
+                let (pos, cos, dist) = rays.project(org + dir * t, org, 0.0).expect("in frame");
+                assert!((pos - Vec2::new(x, y)).length() < 2e-3, "{shift} {lens:?}: {pos} vs ({x}, {y})");
+                assert!((cos - dir.dot(-cam.back)).abs() < 1e-5 && (dist - t).abs() < 1e-4 * t);
+            }
+        }
+    }
+
+    /// The aperture's samples stay inside its polygon's circle, scaled by radius and ratio.
+    #[test]
+    fn lens_samples_stay_on_the_aperture() {
+        let lens = Lens { radius: 0.5, focus_distance: 1.0, blades: 6, rotation: 0.1, ratio: 2.0 };
+        let mut rng = Pcg32::new(3);
+        for _ in 0..1000 {
+            let p = lens.sample(Vec2::new(rng.next_f32(), rng.next_f32()));
+            assert!((p.x * 2.0).hypot(p.y) <= 0.5 + 1e-5, "{p}");
+        }
     }
 }

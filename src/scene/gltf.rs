@@ -9,7 +9,7 @@
 use super::material::{Subsurface, SubsurfaceMethod};
 use super::texture::{Texture, Wrap, texture_transform};
 use super::{
-    AlphaMode, Camera, CameraReport, LightReport, LoadReport, Material, MaterialReport, Mesh, Projection, Scene,
+    AlphaMode, Camera, CameraReport, Lens, LightReport, LoadReport, Material, MaterialReport, Mesh, Projection, Scene,
     SceneSettings, TexRef,
 };
 use crate::error::{Error, Result};
@@ -301,7 +301,8 @@ impl<'a> Loader<'a> {
                 degenerate += self.append_mesh(&m, world, &buffers, &materials, default_material, &mut mesh)?;
             }
             if let Some(c) = node.camera() {
-                cameras.push(self.camera(&c, &node_name, world)?);
+                let blender = node.extension_value("CAUSTIC_camera").cloned();
+                cameras.push(self.camera(&c, &node_name, world, blender)?);
             }
             if let Some(l) = node.light() {
                 let blender = node.extension_value("CAUSTIC_lights_punctual").cloned();
@@ -1517,7 +1518,13 @@ impl<'a> Loader<'a> {
         Ok(degenerate)
     }
 
-    fn camera(&mut self, c: &gltf::Camera, node_name: &str, world: &Mat4) -> Result<Camera> {
+    fn camera(
+        &mut self,
+        c: &gltf::Camera,
+        node_name: &str,
+        world: &Mat4,
+        blender: Option<serde_json::Value>,
+    ) -> Result<Camera> {
         // The node's name is the Blender object's name, which is what users pick by.
         let name = node_name.to_string();
         let projection = match c.projection() {
@@ -1545,7 +1552,65 @@ impl<'a> Loader<'a> {
         };
         let mut cam = Camera::from_matrix(name, world, projection);
         cam.data_name = c.name().map(str::to_string);
+        if let Some(v) = blender {
+            self.camera_extension(&mut cam, v)?;
+        }
         Ok(cam)
+    }
+
+    /// `CAUSTIC_camera` on a camera's node: Blender's lens shift and depth of field, which
+    /// glTF cannot say (docs/contract.md).
+    fn camera_extension(&mut self, cam: &mut Camera, v: serde_json::Value) -> Result<()> {
+        #[derive(Deserialize)]
+        #[serde(deny_unknown_fields)]
+        struct CameraExt {
+            #[serde(default)]
+            shift: [f32; 2],
+            aperture_radius: Option<f32>,
+            focus_distance: Option<f32>,
+            #[serde(default)]
+            blades: u32,
+            #[serde(default)]
+            blade_rotation: f32,
+            aperture_ratio: Option<f32>,
+        }
+        let name = cam.name.clone();
+        let e: CameraExt = serde_json::from_value(v)
+            .map_err(|e| self.err(format!("camera '{name}': CAUSTIC_camera is malformed: {e}")))?;
+        if !(e.shift[0].is_finite() && e.shift[1].is_finite() && e.shift[0].abs() <= 100.0 && e.shift[1].abs() <= 100.0)
+        {
+            return Err(self.err(format!("camera '{name}': shift {:?} must be finite (at most 100 frames)", e.shift)));
+        }
+        cam.shift = Vec2::from(e.shift);
+        let Some(radius) = e.aperture_radius else {
+            if e.focus_distance.is_some() || e.aperture_ratio.is_some() || e.blades != 0 {
+                return Err(self
+                    .err(format!("camera '{name}': CAUSTIC_camera gives aperture settings without aperture_radius")));
+            }
+            return Ok(());
+        };
+        if !(radius.is_finite() && radius >= 0.0) {
+            return Err(self.err(format!("camera '{name}': aperture_radius {radius} must be finite and >= 0")));
+        }
+        let focus_distance = e.focus_distance.unwrap_or(10.0);
+        if !(focus_distance.is_finite() && focus_distance > 0.0) {
+            return Err(self.err(format!("camera '{name}': focus_distance {focus_distance} must be positive")));
+        }
+        let ratio = e.aperture_ratio.unwrap_or(1.0);
+        if !(ratio.is_finite() && ratio > 0.0) {
+            return Err(self.err(format!("camera '{name}': aperture_ratio {ratio} must be positive")));
+        }
+        if !e.blade_rotation.is_finite() {
+            return Err(self.err(format!("camera '{name}': blade_rotation must be finite")));
+        }
+        if e.blades == 1 || e.blades == 2 || e.blades > 1000 {
+            return Err(self.err(format!("camera '{name}': {} blades: use 0 (round) or 3..=1000", e.blades)));
+        }
+        // Radius 0 is Blender's depth of field at an infinite f-stop: a pinhole.
+        if radius > 0.0 {
+            cam.lens = Some(Lens { radius, focus_distance, blades: e.blades, rotation: e.blade_rotation, ratio });
+        }
+        Ok(())
     }
 
     fn punctual_light(

@@ -10,7 +10,7 @@ use crate::light::Light;
 use glam::{Vec2, Vec3, Vec4};
 use serde::Serialize;
 
-pub use camera::{Camera, Projection};
+pub use camera::{Camera, Lens, Projection};
 pub use material::{AlphaMode, Material};
 pub use texture::{TexRef, Texture};
 

@@ -229,6 +229,12 @@ impl GltfBuilder {
         self.add_node(node)
     }
 
+    /// Puts a `CAUSTIC_camera` extension (shift, depth of field) on camera node `node`.
+    pub fn camera_ext(&mut self, node: usize, ext: Value) {
+        self.use_ext("CAUSTIC_camera");
+        self.doc["nodes"][node]["extensions"] = json!({ "CAUSTIC_camera": ext });
+    }
+
     /// Declares an extension as used.
     pub fn use_ext(&mut self, name: &str) {
         let used = self.doc["extensionsUsed"].as_array_mut().unwrap();

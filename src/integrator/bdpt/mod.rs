@@ -855,10 +855,12 @@ impl BdptIntegrator {
         let camera = film.camera;
         let y = scratch.light[s - 1];
         // Border pixels' filters reach outside the frame, where their camera samples go too.
-        let Some((pos, cos_cam, dist)) = camera.project(y.p, 0.5 * film.filter.width) else {
+        // The camera subpath's aperture point is a uniform lens sample independent of this
+        // light subpath: connecting to it is the t = 1 strategy through a thin lens.
+        let cam_p = scratch.cam[0].p;
+        let Some((pos, cos_cam, dist)) = camera.project(y.p, cam_p, 0.5 * film.filter.width) else {
             return;
         };
-        let cam_p = scratch.cam[0].p;
         let w = (cam_p - y.p) / dist;
         // What the light vertex sends toward the camera (times the cosine at it).
         let f = match (y.kind, y.light) {

@@ -149,7 +149,8 @@ pub fn render(
                     let mut sampler = PixelSampler::new(job.seed, px, py, it);
                     let off = job.filter.sample(sampler.next_2d());
                     let (fx, fy) = (px as f32 + 0.5 + off.x, py as f32 + 0.5 + off.y);
-                    let (org, dir) = camera.ray(fx, fy);
+                    let u_lens = if camera.has_lens() { sampler.next_2d() } else { Vec2::ZERO };
+                    let (org, dir) = camera.sample_ray(fx, fy, u_lens);
                     let (ld, point, first_t) = camera_path(
                         ctx,
                         org,
@@ -169,8 +170,7 @@ pub fn render(
                     *vp = point;
                     if state.r == 0.0 && first_t.is_finite() {
                         state.r = settings.sppm_radius.unwrap_or_else(|| {
-                            // Two pixel footprints at the visible point.
-                            let (o2, d2) = camera.ray(fx + 1.0, fy);
+                            let (o2, d2) = camera.sample_ray(fx + 1.0, fy, u_lens);
                             let fp = ((o2 + d2 * first_t) - (org + dir * first_t)).length();
                             (SPPM_RADIUS_FOOTPRINTS * fp).clamp(1e-4 * scene_r, 5e-2 * scene_r)
                         });
