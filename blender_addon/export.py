@@ -255,6 +255,87 @@ def principled_extras(blender_material):
     return coat, warnings
 
 
+def _surface_node(blender_material):
+    """The node linked to the active Material Output's Surface, or None."""
+    tree = getattr(blender_material, "node_tree", None)
+    if tree is None:
+        return None
+    for node in tree.nodes:
+        if node.type == "OUTPUT_MATERIAL" and node.is_active_output:
+            surface = node.inputs.get("Surface")
+            if surface is not None and surface.is_linked:
+                return surface.links[0].from_node
+    return None
+
+
+# Shaders Blender's glTF exporter does not read (it reads the Principled BSDF and Emission): it
+# writes no pbrMetallicRoughness for them, which glTF reads as a white, rough *metal*. Caustic
+# writes the glTF material that renders like Cycles' node (docs/contract.md, "Materials").
+_BSDF_NODES = {"BSDF_DIFFUSE", "BSDF_GLOSSY", "BSDF_METALLIC", "BSDF_GLASS", "BSDF_REFRACTION"}
+
+
+def shader_node_material(blender_material):
+    """The glTF parameters for a material whose surface is a single Diffuse, Glossy, Metallic,
+    Glass or Refraction BSDF (None for any other surface), and warnings.
+
+    Returns (params, color_socket, warnings): params has base (RGB), metallic, roughness and
+    optionally specular (0: no dielectric layer), transmission and ior; color_socket is the
+    colour input when it is linked (a texture for the hook to export), else None. Mappings:
+    Diffuse -> Lambertian (specular 0); Glossy and Metallic -> metal with F0 = colour (Schlick);
+    Glass -> transmission 1 with the node's IOR; Refraction -> the same (with a warning: glTF
+    glass also reflects). Other shaders (Mix, Add, Translucent, Transparent, Toon, ...) get a
+    warning and a grey Lambertian, Blender's default surface, instead of the white metal.
+    """
+    node = _surface_node(blender_material)
+    if node is None or node.type in {"BSDF_PRINCIPLED", "EMISSION"}:
+        return None, None, []
+    name = blender_material.name
+    warnings = []
+    if node.type not in _BSDF_NODES:
+        warnings.append(f"material '{name}': the {node.bl_label} node is not supported as a surface; "
+                        "rendered as a grey diffuse surface (only Principled BSDF, Diffuse, Glossy, Metallic, "
+                        "Glass, Refraction and Emission shaders are translated)")
+        return {"base": [0.8, 0.8, 0.8], "metallic": 0.0, "roughness": 1.0, "specular": 0.0}, None, warnings
+    what = f"material '{name}'"
+    color_name = "Base Color" if node.type == "BSDF_METALLIC" else "Color"
+    color_socket = node.inputs[color_name]
+    linked_color = color_socket if color_socket.is_linked else None
+    base = [float(c) for c in color_socket.default_value[:3]] if linked_color is None else [1.0, 1.0, 1.0]
+    roughness = float(_value(node, "Roughness", what, warnings, 0.5)) if "Roughness" in node.inputs else 1.0
+    for socket_name in ("Normal", "Anisotropy"):
+        socket = node.inputs.get(socket_name)
+        if socket is not None and (socket.is_linked or (socket_name == "Anisotropy" and socket.default_value != 0.0)):
+            warnings.append(f"{what}: the {node.bl_label}'s {socket_name} is not rendered")
+    if node.type == "BSDF_DIFFUSE":
+        if roughness > 0.0:
+            warnings.append(f"{what}: Diffuse BSDF roughness (Oren-Nayar) is not rendered; Lambertian instead")
+        return {"base": base, "metallic": 0.0, "roughness": 1.0, "specular": 0.0}, linked_color, warnings
+    if node.type in {"BSDF_GLOSSY", "BSDF_METALLIC"}:
+        if node.type == "BSDF_METALLIC" and getattr(node, "fresnel_type", "F82") != "F82":
+            warnings.append(f"{what}: Metallic BSDF's physical conductor (IOR, extinction) is rendered "
+                            "with its Base Color as the reflectance at normal incidence")
+        return {"base": base, "metallic": 1.0, "roughness": roughness}, linked_color, warnings
+    ior = float(_value(node, "IOR", what, warnings, 1.5))
+    if node.type == "BSDF_REFRACTION":
+        warnings.append(f"{what}: Refraction BSDF is rendered as glass (it also reflects, by Fresnel)")
+    return ({"base": base, "metallic": 0.0, "roughness": roughness, "transmission": 1.0, "ior": ior},
+            linked_color, warnings)
+
+
+def _color_texture(socket, export_settings):
+    """A glTF TextureInfo for an image linked to `socket`, made by Blender's exporter, or None.
+
+    Uses the exporter's own texture gathering (its internal API; on a version where that
+    fails the caller warns and keeps the constant colour)."""
+    from io_scene_gltf2.blender.exp.material.search_node_tree import NodeSocket, has_image_node_from_socket
+    from io_scene_gltf2.blender.exp.material.texture_info import gather_texture_info
+    nav = NodeSocket(socket, [socket.id_data])  # the group path starts at the material's tree
+    if not has_image_node_from_socket(nav, export_settings):
+        return None
+    tex, _uvmap_info, _udim_info, _factor = gather_texture_info(nav, (nav,), export_settings)
+    return tex
+
+
 def _linked_node(socket):
     return socket.links[0].from_node if socket.is_linked else None
 
@@ -532,6 +613,8 @@ class glTF2ExportUserExtension:
             return
         try:
             extensions = gltf2_material.extensions or {}
+            self._translate_shader_node(gltf2_material, blender_material, export_settings, state)
+            extensions = gltf2_material.extensions or {}
             coat, warnings = principled_extras(blender_material)
             state.warnings.extend(warnings)
             if coat is not None:
@@ -550,6 +633,43 @@ class glTF2ExportUserExtension:
                     gltf2_material.extensions = extensions
         except Exception as err:
             state.errors.append(f"material '{getattr(blender_material, 'name', '?')}': {err!r}")
+
+    def _translate_shader_node(self, gltf2_material, blender_material, export_settings, state):
+        """Write the glTF material of a Diffuse/Glossy/Metallic/Glass/Refraction surface."""
+        params, color_socket, warnings = shader_node_material(blender_material)
+        state.warnings.extend(warnings)
+        if params is None:
+            return
+        from io_scene_gltf2.io.com.gltf2_io import MaterialPBRMetallicRoughness
+        texture = None
+        if color_socket is not None:
+            try:
+                texture = _color_texture(color_socket, export_settings)
+            except Exception as err:  # the exporter's internal API changed
+                texture = None
+                print(f"Caustic: texture of material '{blender_material.name}' not exported: {err!r}")
+            if texture is None:
+                state.warnings.append(f"material '{blender_material.name}': its colour comes from nodes other "
+                                      "than an image texture; rendered white")
+        pbr = gltf2_material.pbr_metallic_roughness or MaterialPBRMetallicRoughness(
+            None, None, None, None, None, None, None)
+        pbr.base_color_factor = [*params["base"], 1.0]
+        pbr.base_color_texture = texture
+        pbr.metallic_factor = params["metallic"]
+        pbr.roughness_factor = params["roughness"]
+        pbr.metallic_roughness_texture = None
+        gltf2_material.pbr_metallic_roughness = pbr
+        extensions = gltf2_material.extensions or {}
+        if "specular" in params:
+            extensions["KHR_materials_specular"] = self._extension(
+                name="KHR_materials_specular", extension={"specularFactor": params["specular"]}, required=False)
+        if "transmission" in params:
+            extensions["KHR_materials_transmission"] = self._extension(
+                name="KHR_materials_transmission", extension={"transmissionFactor": params["transmission"]},
+                required=False)
+            extensions["KHR_materials_ior"] = self._extension(
+                name="KHR_materials_ior", extension={"ior": params["ior"]}, required=False)
+        gltf2_material.extensions = extensions or None
 
     def gather_scene_hook(self, gltf2_scene, blender_scene, export_settings):
         """Store the render settings in the scene's extras.caustic."""

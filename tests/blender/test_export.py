@@ -350,3 +350,45 @@ def test_unsupported_volume_node_is_named(empty_scene, addon):
     value, warnings = export.medium_extension(smoke)
     assert value is not None
     assert any("Density" in w and "linked" in w for w in warnings), warnings
+
+
+def test_shader_nodes_become_gltf_materials(empty_scene, captured, addon):
+    """Blender's exporter writes no pbrMetallicRoughness for Diffuse/Glossy/Glass/Mix surfaces (glTF
+    then reads a white rough metal); the add-on writes what Cycles renders, or warns and writes
+    a grey diffuse."""
+    import importlib
+    export = importlib.import_module(addon.__name__ + ".export")
+    scene = empty_scene
+    scenes.small_render_settings(scene, 16, 12, samples=2)
+    scenes.camera(scene, (0, -6, 3), (60, 0, 0))
+    made = {}
+    for i, (name, kind, inputs) in enumerate([
+        ("Dif", "ShaderNodeBsdfDiffuse", {"Color": (0.7, 0.3, 0.2, 1)}),
+        ("Glo", "ShaderNodeBsdfAnisotropic", {"Color": (0.9, 0.6, 0.3, 1), "Roughness": 0.25}),
+        ("Gla", "ShaderNodeBsdfGlass", {"IOR": 1.33, "Roughness": 0.1}),
+        ("Mix", "ShaderNodeMixShader", {}),
+    ]):
+        mat = bpy.data.materials.new(name)
+        if mat.node_tree is None:
+            mat.use_nodes = True
+        tree = mat.node_tree
+        tree.nodes.remove(tree.nodes["Principled BSDF"])
+        node = tree.nodes.new(kind)
+        for k, v in inputs.items():
+            node.inputs[k].default_value = v
+        tree.links.new(node.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
+        made[name] = mat
+        scenes.cube(scene, name + "Cube", 0.5, (i - 1.5, 0, 0), material=mat)
+    gltf = captured()[0]
+    mats = {m["name"]: m for m in gltf["materials"]}
+    pbr = {k: m["pbrMetallicRoughness"] for k, m in mats.items()}
+    assert pbr["Dif"]["metallicFactor"] == 0 and mats["Dif"]["extensions"]["KHR_materials_specular"] == {
+        "specularFactor": 0.0}
+    assert pbr["Dif"]["baseColorFactor"][:3] == pytest.approx([0.7, 0.3, 0.2])
+    assert pbr["Glo"]["metallicFactor"] == 1 and pbr["Glo"]["roughnessFactor"] == pytest.approx(0.25)
+    assert mats["Gla"]["extensions"]["KHR_materials_transmission"]["transmissionFactor"] == 1.0
+    assert mats["Gla"]["extensions"]["KHR_materials_ior"]["ior"] == pytest.approx(1.33)
+    assert "KHR_materials_volume" in mats["Gla"]["extensions"]  # a solid, as Cycles refracts
+    assert pbr["Mix"]["baseColorFactor"][:3] == pytest.approx([0.8, 0.8, 0.8])
+    _, _, warnings = export.shader_node_material(made["Mix"])
+    assert any("Mix" in w and "Mix Shader" in w for w in warnings), warnings
