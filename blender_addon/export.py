@@ -283,14 +283,22 @@ def shader_node_material(blender_material):
     colour input when it is linked (a texture for the hook to export), else None. Mappings:
     Diffuse -> Lambertian (specular 0); Glossy and Metallic -> metal with F0 = colour (Schlick);
     Glass -> transmission 1 with the node's IOR; Refraction -> the same (with a warning: glTF
-    glass also reflects). Other shaders (Mix, Add, Translucent, Transparent, Toon, ...) get a
-    warning and a grey Lambertian, Blender's default surface, instead of the white metal.
+    glass also reflects). A Mix or Add Shader is rendered as the first shader in it that is
+    one of these or a Principled BSDF (which the exporter writes), with a warning naming the
+    mix. Other shaders (Translucent, Transparent, Toon, ...) get a warning and a grey
+    Lambertian, Blender's default surface, instead of the white metal.
     """
     node = _surface_node(blender_material)
-    if node is None or node.type in {"BSDF_PRINCIPLED", "EMISSION"}:
-        return None, None, []
     name = blender_material.name
     warnings = []
+    if node is not None and node.type in {"MIX_SHADER", "ADD_SHADER"}:
+        inner = _first_translatable(node)
+        if inner is not None:
+            warnings.append(f"material '{name}': the {node.bl_label}'s weights are not rendered: Caustic "
+                            f"renders its {inner.bl_label} at full weight (and the light of any Emission in it)")
+            node = inner
+    if node is None or node.type in {"BSDF_PRINCIPLED", "EMISSION"}:
+        return None, None, warnings
     if node.type not in _BSDF_NODES:
         warnings.append(f"material '{name}': the {node.bl_label} node is not supported as a surface; "
                         "rendered as a grey diffuse surface (only Principled BSDF, Diffuse, Glossy, Metallic, "
@@ -320,6 +328,34 @@ def shader_node_material(blender_material):
         warnings.append(f"{what}: Refraction BSDF is rendered as glass (it also reflects, by Fresnel)")
     return ({"base": base, "metallic": 0.0, "roughness": roughness, "transmission": 1.0, "ior": ior},
             linked_color, warnings)
+
+
+def _shaders_in(node, depth=0):
+    """Depth-first, the shader nodes mixed or added by a Mix/Add Shader (nested ones opened)."""
+    found = []
+    if depth > 16:
+        return found
+    for socket in node.inputs:
+        if socket.type != "SHADER" or not socket.is_linked:
+            continue
+        inner = socket.links[0].from_node
+        if inner.type in {"MIX_SHADER", "ADD_SHADER"}:
+            found += _shaders_in(inner, depth + 1)
+        else:
+            found.append(inner)
+    return found
+
+
+def _first_translatable(node):
+    """The first Principled or translatable BSDF in a Mix/Add Shader, else its first Emission.
+
+    A BSDF comes first: the exporter writes an Emission's light whichever node is chosen, and a
+    material with emission only would be read as a white metal that also emits."""
+    shaders = _shaders_in(node)
+    for inner in shaders:
+        if inner.type in _BSDF_NODES or inner.type == "BSDF_PRINCIPLED":
+            return inner
+    return next((inner for inner in shaders if inner.type == "EMISSION"), None)
 
 
 def _color_texture(socket, export_settings):

@@ -379,6 +379,19 @@ def test_shader_nodes_become_gltf_materials(empty_scene, captured, addon):
         tree.links.new(node.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
         made[name] = mat
         scenes.cube(scene, name + "Cube", 0.5, (i - 1.5, 0, 0), material=mat)
+    # A Mix Shader of a Diffuse and a Glossy BSDF renders as its Diffuse, with a warning.
+    mixed = bpy.data.materials.new("DifGlo")
+    if mixed.node_tree is None:
+        mixed.use_nodes = True
+    tree = mixed.node_tree
+    tree.nodes.remove(tree.nodes["Principled BSDF"])
+    mix = tree.nodes.new("ShaderNodeMixShader")
+    dif, glo = tree.nodes.new("ShaderNodeBsdfDiffuse"), tree.nodes.new("ShaderNodeBsdfAnisotropic")
+    dif.inputs["Color"].default_value = (0.1, 0.6, 0.2, 1)
+    tree.links.new(dif.outputs[0], mix.inputs[1])
+    tree.links.new(glo.outputs[0], mix.inputs[2])
+    tree.links.new(mix.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
+    scenes.cube(scene, "DifGloCube", 0.5, (3, 0, 0), material=mixed)
     gltf = captured()[0]
     mats = {m["name"]: m for m in gltf["materials"]}
     pbr = {k: m["pbrMetallicRoughness"] for k, m in mats.items()}
@@ -392,3 +405,6 @@ def test_shader_nodes_become_gltf_materials(empty_scene, captured, addon):
     assert pbr["Mix"]["baseColorFactor"][:3] == pytest.approx([0.8, 0.8, 0.8])
     _, _, warnings = export.shader_node_material(made["Mix"])
     assert any("Mix" in w and "Mix Shader" in w for w in warnings), warnings
+    assert mats["DifGlo"]["pbrMetallicRoughness"]["baseColorFactor"][:3] == pytest.approx([0.1, 0.6, 0.2])
+    _, _, warnings = export.shader_node_material(mixed)
+    assert any("DifGlo" in w and "Diffuse BSDF at full weight" in w for w in warnings), warnings
