@@ -177,6 +177,26 @@ fn sigterm_while_rendering_writes_the_partial_image() {
     }
 }
 
+/// SPPM stops within an iteration: here the first iteration's photon pass (50 M photons,
+/// tens of seconds on 2 cores) is cut short a second into it, and the abandoned iteration
+/// leaves nothing behind (exit 6). Before, the whole iteration ran to its end.
+#[test]
+fn sigterm_inside_an_sppm_iteration_stops_promptly() {
+    let c = cornell();
+    let dir = temp_dir();
+    let out = dir.path().join("out.exr");
+    let extra = ["--integrator", "sppm", "--sppm-photons", "50000000", "--sppm-iterations", "4"];
+    let child = spawn(&render_args(out.to_str().unwrap(), &c, &extra));
+    let r = term_when(child, |v| {
+        let hit = is_phase(v, "rendering");
+        if hit {
+            std::thread::sleep(Duration::from_secs(1));
+        }
+        hit
+    });
+    assert_nothing_rendered(r, dir.path(), "an SPPM photon pass");
+}
+
 #[test]
 fn sigterm_while_writing_lets_the_write_finish() {
     // The render is complete and being written (a 2 s stand-in for a slow write): the

@@ -73,6 +73,42 @@ struct PixelState {
     albedo: Vec3,
 }
 
+/// What this iteration's camera pass adds to a pixel's state; applied only when the whole
+/// iteration (camera pass, photon pass) finished, so an interrupted iteration leaves no trace.
+#[derive(Clone, Copy, Debug, Default)]
+struct Pending {
+    /// Emission and direct light of this camera sample.
+    ld: Vec3,
+    /// Coverage of this sample (0 or 1, plus crossed emitters as in `PixelState::alpha`).
+    alpha: f32,
+    /// Camera depth of the first hit (0: none).
+    depth: f32,
+    normal: Vec3,
+    albedo: Vec3,
+    /// The initial radius, when this is the pixel's first visible point (0: none).
+    r_init: f32,
+    /// The sample's radiance was not finite (counted, not added).
+    bad: bool,
+}
+
+impl Pending {
+    /// Adds this sample to the pixel's progressive state.
+    fn apply(&self, state: &mut PixelState) {
+        if !self.bad {
+            state.ld += self.ld.as_dvec3();
+        }
+        state.alpha += self.alpha as f64;
+        if self.depth > 0.0 && (state.depth == 0.0 || self.depth < state.depth) {
+            state.depth = self.depth;
+        }
+        state.normal += self.normal;
+        state.albedo += self.albedo;
+        if state.r == 0.0 && self.r_init > 0.0 {
+            state.r = self.r_init;
+        }
+    }
+}
+
 /// This iteration's visible point.
 #[derive(Clone, Copy, Debug)]
 struct VisiblePoint {
@@ -89,7 +125,8 @@ struct VisiblePoint {
 /// Bytes of SPPM's per-pixel state (progressive sums and this iteration's visible
 /// point), for the memory budget.
 pub fn bytes_per_pixel() -> u64 {
-    (std::mem::size_of::<PixelState>() + std::mem::size_of::<Option<VisiblePoint>>()) as u64
+    (std::mem::size_of::<PixelState>() + std::mem::size_of::<Option<VisiblePoint>>() + std::mem::size_of::<Pending>())
+        as u64
 }
 
 /// Counters of an SPPM render.
@@ -126,50 +163,69 @@ pub fn render(
     let emitters = Emitters::new(ctx.scene);
     let mut states = vec![PixelState::default(); npix];
     let mut vps: Vec<Option<VisiblePoint>> = vec![None; npix];
+    let mut pending = vec![Pending::default(); npix];
     let mut rays = RayStats::default();
     let mut st = SppmStats::default();
     let rays_done = AtomicU64::new(0);
     let mut nan = 0u64;
     let alpha = settings.sppm_alpha;
+    // An iteration stops early on a signal, or when the time limit passes during any but the
+    // first iteration (so a time limit always gives an image); it is then discarded whole,
+    // so every pixel keeps the same number of complete iterations. Without this a large image
+    // overran a time limit or a cancel by a whole iteration (8 s at 1920x1080 on 2 cores for
+    // the Cornell box, beyond the add-on's 15 s grace at 4K).
+    let abort = AtomicBool::new(false);
+    let should_stop = |it: u32| {
+        let s = stop.load(Ordering::Relaxed) || (it > 0 && deadline.is_some_and(|d| Instant::now() >= d));
+        if s {
+            abort.store(true, Ordering::Relaxed);
+        }
+        s
+    };
     for it in 0..iterations {
         if stop.load(Ordering::Relaxed) || deadline.is_some_and(|d| Instant::now() >= d) {
             break;
         }
         // 1. Visible points and direct light.
         let row_stats: Vec<(RayStats, u64)> = states
-            .par_chunks_mut(w as usize)
+            .par_chunks(w as usize)
             .zip(vps.par_chunks_mut(w as usize))
+            .zip(pending.par_chunks_mut(w as usize))
             .enumerate()
-            .map(|(row, (srow, vrow))| {
+            .map(|(row, ((srow, vrow), prow))| {
                 let mut rs = RayStats::default();
                 let mut bad = 0u64;
+                if should_stop(it) {
+                    return (rs, bad);
+                }
                 let py = y0 + row as u32;
-                for (i, (state, vp)) in srow.iter_mut().zip(vrow.iter_mut()).enumerate() {
+                for (i, ((state, vp), pend)) in srow.iter().zip(vrow.iter_mut()).zip(prow.iter_mut()).enumerate() {
                     let px = x0 + i as u32;
                     let mut sampler = PixelSampler::new(job.seed, px, py, it);
                     let off = job.filter.sample(sampler.next_2d());
                     let (fx, fy) = (px as f32 + 0.5 + off.x, py as f32 + 0.5 + off.y);
                     let u_lens = if camera.has_lens() { sampler.next_2d() } else { Vec2::ZERO };
                     let (org, dir) = camera.sample_ray(fx, fy, u_lens);
+                    *pend = Pending::default();
                     let (ld, point, first_t) = camera_path(
                         ctx,
                         org,
                         dir,
                         &mut sampler,
                         max_depth,
-                        state,
+                        pend,
                         camera,
                         &mut rs,
                         job.transparent_background,
                     );
-                    if ld.is_finite() {
-                        state.ld += ld.as_dvec3();
-                    } else {
+                    pend.ld = ld;
+                    if !ld.is_finite() {
+                        pend.bad = true;
                         bad += 1;
                     }
                     *vp = point;
                     if state.r == 0.0 && first_t.is_finite() {
-                        state.r = settings.sppm_radius.unwrap_or_else(|| {
+                        pend.r_init = settings.sppm_radius.unwrap_or_else(|| {
                             let (o2, d2) = camera.sample_ray(fx + 1.0, fy, u_lens);
                             let fp = ((o2 + d2 * first_t) - (org + dir * first_t)).length();
                             (SPPM_RADIUS_FOOTPRINTS * fp).clamp(1e-4 * scene_r, 5e-2 * scene_r)
@@ -179,14 +235,16 @@ pub fn render(
                 (rs, bad)
             })
             .collect();
+        let mut nan_here = 0;
         for (r, b) in &row_stats {
             rays.add(r);
-            nan += b;
+            nan_here += b;
         }
-        // 2. Photons. An iteration, once started, is finished (the stop flag is checked
-        // between iterations), so that every pixel has the same number of iterations.
+        if abort.load(Ordering::Relaxed) {
+            break;
+        }
+        // 2. Photons (the same rule: a signal or the deadline abandons the iteration).
         let t_ph = Instant::now();
-        let never = AtomicBool::new(false);
         let (photons, ts) = trace_photons(
             ctx,
             &emitters,
@@ -198,45 +256,56 @@ pub fn render(
                 max_depth,
                 skip_direct: true,
             },
-            &never,
-            &|_| {},
+            &abort,
+            &|_| {
+                should_stop(it);
+            },
         );
+        if should_stop(it) {
+            st.photon_seconds += t_ph.elapsed().as_secs_f64();
+            break;
+        }
         let map = PhotonMap::build(photons);
         st.photon_seconds += t_ph.elapsed().as_secs_f64();
         st.photons += ts.emitted;
+        nan += nan_here;
         // 3. Gather and update.
-        states.par_chunks_mut(w as usize).zip(vps.par_chunks(w as usize)).for_each(|(srow, vrow)| {
-            for (state, vp) in srow.iter_mut().zip(vrow) {
-                let Some(vp) = vp else { continue };
-                if !(state.r > 0.0) {
-                    continue;
-                }
-                let r2 = state.r * state.r;
-                let jmax = max_depth + 1 - vp.d;
-                let mut phi = Rgb::ZERO;
-                let mut m = 0u32;
-                map.for_each_within(vp.p, r2, |ph, _| {
-                    if ph.depth() <= jmax && ph.normal_within_60(vp.ng) {
-                        let wi = vp.frame.to_local(ph.wi());
-                        phi += vp.bsdf.eval(vp.wo_local, wi) * ph.power();
-                        m += 1;
+        // Not interruptible: from here on the iteration counts, for every pixel.
+        states.par_chunks_mut(w as usize).zip(vps.par_chunks(w as usize)).zip(pending.par_chunks(w as usize)).for_each(
+            |((srow, vrow), prow)| {
+                for ((state, vp), pend) in srow.iter_mut().zip(vrow).zip(prow) {
+                    pend.apply(state);
+                    let Some(vp) = vp else { continue };
+                    if !(state.r > 0.0) {
+                        continue;
                     }
-                });
-                if m == 0 {
-                    continue;
+                    let r2 = state.r * state.r;
+                    let jmax = max_depth + 1 - vp.d;
+                    let mut phi = Rgb::ZERO;
+                    let mut m = 0u32;
+                    map.for_each_within(vp.p, r2, |ph, _| {
+                        if ph.depth() <= jmax && ph.normal_within_60(vp.ng) {
+                            let wi = vp.frame.to_local(ph.wi());
+                            phi += vp.bsdf.eval(vp.wo_local, wi) * ph.power();
+                            m += 1;
+                        }
+                    });
+                    if m == 0 {
+                        continue;
+                    }
+                    let contrib = vp.beta * phi;
+                    if !contrib.is_finite() {
+                        continue;
+                    }
+                    let n_new = state.n + alpha as f64 * m as f64;
+                    let ratio = n_new / (state.n + m as f64);
+                    let r_new = state.r * (ratio as f32).sqrt();
+                    state.tau = (state.tau + contrib.as_dvec3()) * ratio;
+                    state.n = n_new;
+                    state.r = r_new;
                 }
-                let contrib = vp.beta * phi;
-                if !contrib.is_finite() {
-                    continue;
-                }
-                let n_new = state.n + alpha as f64 * m as f64;
-                let ratio = n_new / (state.n + m as f64);
-                let r_new = state.r * (ratio as f32).sqrt();
-                state.tau = (state.tau + contrib.as_dvec3()) * ratio;
-                state.n = n_new;
-                state.r = r_new;
-            }
-        });
+            },
+        );
         st.iterations = it + 1;
         rays_done.store(rays.total(), Ordering::Relaxed);
         let elapsed = start.elapsed().as_secs_f64();
@@ -299,7 +368,8 @@ fn image(states: &[PixelState], w: u32, h: u32, iters: u32) -> FilmImage {
 }
 
 /// Follows a camera ray through specular bounces to its visible point. Returns the
-/// emission and direct light collected, the visible point, and the first hit distance.
+/// emission and direct light collected, the visible point, and the first hit distance; the
+/// sample's coverage and first-hit passes go to `pend`.
 #[allow(clippy::too_many_arguments)]
 fn camera_path(
     ctx: &SceneContext,
@@ -307,7 +377,7 @@ fn camera_path(
     mut dir: Vec3,
     sampler: &mut PixelSampler,
     max_depth: u32,
-    state: &mut PixelState,
+    pend: &mut Pending,
     camera: &CameraRays,
     stats: &mut RayStats,
     transparent_background: bool,
@@ -351,13 +421,13 @@ fn camera_path(
             let tr = m.map_or(Rgb::ONE, |m| m.pass_weight(t_event.min(1e30), beta));
             l += beta * tr * crossed;
             if depth == 0 {
-                state.alpha += 1.0;
+                pend.alpha += 1.0;
             }
         }
         beta *= segment_weight;
         if let (Some(t), Some(m)) = (scatter_at, m) {
             if depth == 0 {
-                state.alpha += 1.0;
+                pend.alpha += 1.0;
             }
             if depth < max_depth && beta.is_finite() && beta != Rgb::ZERO {
                 let p = org + dir * t;
@@ -371,7 +441,7 @@ fn camera_path(
                 if le != Rgb::ZERO {
                     l += beta * le;
                     if depth == 0 {
-                        state.alpha += 1.0;
+                        pend.alpha += 1.0;
                     }
                 }
             }
@@ -399,13 +469,11 @@ fn camera_path(
         let sp = ctx.shade(&s, wo);
         if depth == 0 {
             first_t = s.t;
-            state.alpha += 1.0;
+            pend.alpha += 1.0;
             let z = camera.depth(s.p);
-            if state.depth == 0.0 || z < state.depth {
-                state.depth = z;
-            }
-            state.normal += sp.frame.n;
-            state.albedo += sp.bsdf.albedo();
+            pend.depth = z;
+            pend.normal = sp.frame.n;
+            pend.albedo = sp.bsdf.albedo();
         } else if first_t.is_infinite() {
             first_t = s.t;
         }
