@@ -241,6 +241,12 @@ def principled_extras(blender_material):
             warnings.append(f"material '{name}': a linked {socket_name} is not supported; using its value")
         return socket.default_value
 
+    for socket in inputs:
+        source = _procedural_source(socket) if socket.is_linked and socket.type != "SHADER" else None
+        if source is not None:
+            warnings.append(f"material '{name}': {socket.name} comes from a {source.bl_label} node, which glTF "
+                            "cannot carry (only image textures and constants are exported); Caustic renders "
+                            "the exporter's fallback, not the pattern")
     if value("Coat Weight", 0.0) > 0.0:
         ior = float(value("Coat IOR", 1.5))
         tint = [float(c) for c in value("Coat Tint", (1, 1, 1, 1))[:3]]
@@ -370,6 +376,27 @@ def _color_texture(socket, export_settings):
         return None
     tex, _uvmap_info, _udim_info, _factor = gather_texture_info(nav, (nav,), export_settings)
     return tex
+
+
+def _procedural_source(socket, depth=0, seen=None):
+    """The first procedural texture node (Noise, Voronoi, Wave, ...) upstream of `socket`, or None.
+
+    Blender's glTF exporter carries image textures and constants; a procedural texture on
+    a Principled input is dropped without a word, and the input takes glTF's default."""
+    seen = set() if seen is None else seen
+    if depth > 32 or not socket.is_linked:
+        return None
+    node = socket.links[0].from_node
+    if node.as_pointer() in seen:
+        return None
+    seen.add(node.as_pointer())
+    if node.type.startswith("TEX_") and node.type not in {"TEX_IMAGE", "TEX_ENVIRONMENT", "TEX_COORD"}:
+        return node
+    for upstream in node.inputs:
+        found = _procedural_source(upstream, depth + 1, seen)
+        if found is not None:
+            return found
+    return None
 
 
 def _linked_node(socket):

@@ -408,3 +408,22 @@ def test_shader_nodes_become_gltf_materials(empty_scene, captured, addon):
     assert mats["DifGlo"]["pbrMetallicRoughness"]["baseColorFactor"][:3] == pytest.approx([0.1, 0.6, 0.2])
     _, _, warnings = export.shader_node_material(mixed)
     assert any("DifGlo" in w and "Diffuse BSDF at full weight" in w for w in warnings), warnings
+
+
+def test_procedural_texture_on_a_principled_input_is_named(empty_scene, addon):
+    """The exporter drops procedural textures silently; the add-on names the input and node."""
+    import importlib
+    export = importlib.import_module(addon.__name__ + ".export")
+    mat, bsdf, _ = _principled("Marble")
+    tree = mat.node_tree
+    noise = tree.nodes.new("ShaderNodeTexNoise")
+    ramp = tree.nodes.new("ShaderNodeValToRGB")
+    tree.links.new(noise.outputs[0], ramp.inputs[0])
+    tree.links.new(ramp.outputs[0], bsdf.inputs["Base Color"])
+    _, warnings = export.principled_extras(mat)
+    assert any("Marble" in w and "Base Color" in w and "Noise Texture" in w for w in warnings), warnings
+    image_mat, image_bsdf, _ = _principled("Photo")
+    tex = image_mat.node_tree.nodes.new("ShaderNodeTexImage")
+    image_mat.node_tree.links.new(tex.outputs[0], image_bsdf.inputs["Base Color"])
+    _, warnings = export.principled_extras(image_mat)
+    assert not any("cannot carry" in w for w in warnings), warnings
