@@ -8,7 +8,7 @@ pub mod pbr;
 
 use crate::math::Rgb;
 use glam::{Vec2, Vec3};
-pub use pbr::PbrBsdf;
+pub use pbr::{PbrAt, PbrBsdf};
 
 /// A sampled direction with the BSDF value and the density that chose it.
 #[derive(Clone, Copy, Debug)]
@@ -36,6 +36,14 @@ impl Bsdf {
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
         match self {
             Bsdf::Pbr(b) => b.eval(wo, wi),
+        }
+    }
+
+    /// The BSDF seen from `wo`, for evaluating many `wi` (photon gathers).
+    #[inline]
+    pub fn at(&self, wo: Vec3) -> BsdfAt<'_> {
+        match self {
+            Bsdf::Pbr(b) => BsdfAt::Pbr(b.at(wo)),
         }
     }
 
@@ -99,6 +107,23 @@ impl Bsdf {
     pub fn albedo(&self) -> Rgb {
         match self {
             Bsdf::Pbr(b) => b.albedo(),
+        }
+    }
+}
+
+/// A [`Bsdf`] seen from one outgoing direction ([`Bsdf::at`]).
+#[derive(Clone, Copy, Debug)]
+pub enum BsdfAt<'a> {
+    /// glTF metallic-roughness.
+    Pbr(PbrAt<'a>),
+}
+
+impl BsdfAt<'_> {
+    /// f(wo, wi), as [`Bsdf::eval`].
+    #[inline]
+    pub fn eval(&self, wi: Vec3) -> Rgb {
+        match self {
+            BsdfAt::Pbr(b) => b.eval(wi),
         }
     }
 }

@@ -79,7 +79,8 @@ pub fn radiance(
     max_r2: f32,
     filter: impl Fn(&Photon) -> bool,
 ) -> Rgb {
-    estimate(map, q, ng, k, max_r2, filter, |p| bsdf.eval(wo_local, frame.to_local(p.wi()))).0
+    let at = bsdf.at(wo_local);
+    estimate(map, q, ng, k, max_r2, filter, |p| at.eval(frame.to_local(p.wi()))).0
 }
 
 /// Next-event estimation at a shading point: one light chosen by the light sampler

@@ -283,10 +283,11 @@ pub fn render(
                     let jmax = max_depth + 1 - vp.d;
                     let mut phi = Rgb::ZERO;
                     let mut m = 0u32;
+                    let at = vp.bsdf.at(vp.wo_local);
                     map.for_each_within(vp.p, r2, |ph, _| {
                         if ph.depth() <= jmax && ph.normal_within_60(vp.ng) {
                             let wi = vp.frame.to_local(ph.wi());
-                            phi += vp.bsdf.eval(vp.wo_local, wi) * ph.power();
+                            phi += at.eval(wi) * ph.power();
                             m += 1;
                         }
                     });
