@@ -976,7 +976,14 @@ pub fn run_info(args: &InfoArgs) -> Result<()> {
     }
     outln!("  cameras:");
     for c in &r.cameras {
-        outln!("    {} ({})", c.name, c.kind);
+        let mut extra = String::new();
+        if let Some([x, y]) = c.shift {
+            extra += &format!(", shift {x} x {y} frames");
+        }
+        if let Some(d) = &c.depth_of_field {
+            extra += &format!(", depth of field: {d}");
+        }
+        outln!("    {} ({}{extra})", c.name, c.kind);
     }
     if !scene.warnings.is_empty() {
         outln!("  warnings:");

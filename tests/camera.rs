@@ -218,3 +218,18 @@ fn camera_extension_errors() {
         assert!(!out.exists(), "{ext}: an output was written");
     }
 }
+
+/// `caustic info` says what the camera extension set.
+#[test]
+fn info_reports_shift_and_depth_of_field() {
+    let dir = temp_dir();
+    let ext = json!({"shift": [0.25, 0.0], "aperture_radius": 0.02, "focus_distance": 3.5, "blades": 6});
+    let scene = point_source(dir.path(), "info.gltf", 3.0, 0.1, Some(ext));
+    let r = run(&["info", scene.to_str().unwrap()], LIMIT);
+    assert_eq!(r.code, Some(0), "{}", r.stderr);
+    let text = format!("{}{}", r.stdout, r.stderr);
+    assert!(
+        text.contains("shift 0.25 x 0 frames") && text.contains("aperture radius 0.02, focus 3.5, 6 blades"),
+        "{text}"
+    );
+}

@@ -425,7 +425,6 @@ impl PbrBsdf {
         PbrAt { b: self, wo, flip, under, eo, sheen_o }
     }
 
-
     /// Density of [`sample`](Self::sample) for the non-delta lobes.
     #[inline]
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {

@@ -417,6 +417,12 @@ impl<'a> Loader<'a> {
                         Projection::Perspective { .. } => "perspective".into(),
                         Projection::Orthographic { .. } => "orthographic".into(),
                     },
+                    shift: (c.shift != Vec2::ZERO).then(|| c.shift.to_array()),
+                    depth_of_field: c.lens.map(|l| {
+                        let shape = if l.blades >= 3 { format!(", {} blades", l.blades) } else { String::new() };
+                        let ratio = if l.ratio != 1.0 { format!(", ratio {}", l.ratio) } else { String::new() };
+                        format!("aperture radius {}, focus {}{shape}{ratio}", l.radius, l.focus_distance)
+                    }),
                 })
                 .collect(),
             bounds: [lo.to_array(), hi.to_array()],

@@ -146,6 +146,12 @@ pub struct CameraReport {
     pub kind: String,
     /// Made by the loader because the file has no camera.
     pub generated: bool,
+    /// Lens shift (frame widths, heights), when not zero.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub shift: Option<[f32; 2]>,
+    /// Depth of field, e.g. "aperture radius 0.025, focus 6, 6 blades", when the camera has a lens.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub depth_of_field: Option<String>,
 }
 
 /// A loaded scene.
