@@ -211,15 +211,8 @@ COAT_EXTENSION = "CAUSTIC_materials_coat"
 
 def _principled(blender_material):
     """The material's Principled BSDF node, if its output uses one directly."""
-    tree = getattr(blender_material, "node_tree", None)
-    if tree is None:
-        return None
-    for node in tree.nodes:
-        if node.type == "OUTPUT_MATERIAL" and node.is_active_output:
-            link = node.inputs["Surface"].links[0] if node.inputs["Surface"].is_linked else None
-            if link is not None and link.from_node.type == "BSDF_PRINCIPLED":
-                return link.from_node
-    return None
+    node = _surface_node(blender_material)
+    return node if node is not None and node.type == "BSDF_PRINCIPLED" else None
 
 
 def principled_extras(blender_material):
@@ -602,6 +595,12 @@ class glTF2ExportUserExtension:
         from io_scene_gltf2.io.com.gltf2_io_extensions import Extension
         self._extension = Extension
 
+    def _attach(self, gltf2_object, name, value):
+        """Put extension `name` with `value` (not required by readers) on a glTF object."""
+        if gltf2_object.extensions is None:
+            gltf2_object.extensions = {}
+        gltf2_object.extensions[name] = self._extension(name=name, extension=value, required=False)
+
     def gather_node_hook(self, gltf2_node, blender_object, export_settings):
         """Attach CAUSTIC_lights_area to an area light's node, CAUSTIC_lights_punctual to the others."""
         state = _current
@@ -613,10 +612,7 @@ class glTF2ExportUserExtension:
                                                    state.pixel_aspect)
                 state.warnings.extend(warnings)
                 if value:
-                    if gltf2_node.extensions is None:
-                        gltf2_node.extensions = {}
-                    gltf2_node.extensions[CAMERA_EXTENSION] = self._extension(
-                        name=CAMERA_EXTENSION, extension=value, required=False)
+                    self._attach(gltf2_node, CAMERA_EXTENSION, value)
                 return
             if blender_object.type != "LIGHT":
                 return
@@ -624,16 +620,10 @@ class glTF2ExportUserExtension:
                 _separate_spot_angles(gltf2_node)
                 value = punctual_light_extension(blender_object)
                 if value:
-                    if gltf2_node.extensions is None:
-                        gltf2_node.extensions = {}
-                    gltf2_node.extensions[PUNCTUAL_EXTENSION] = self._extension(
-                        name=PUNCTUAL_EXTENSION, extension=value, required=False)
+                    self._attach(gltf2_node, PUNCTUAL_EXTENSION, value)
                 return
             value, warnings = area_light_extension(blender_object)
-            if gltf2_node.extensions is None:
-                gltf2_node.extensions = {}
-            gltf2_node.extensions[AREA_LIGHT_EXTENSION] = self._extension(
-                name=AREA_LIGHT_EXTENSION, extension=value, required=False)
+            self._attach(gltf2_node, AREA_LIGHT_EXTENSION, value)
             state.area_lights.append(gltf2_node.name)
             state.warnings.extend(warnings)
         except Exception as err:  # the exporter would swallow it: keep it for export_scene

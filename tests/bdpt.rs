@@ -11,7 +11,7 @@
 
 mod common;
 
-use common::{GltfBuilder, look_rotation, root, run, temp_dir};
+use common::{GltfBuilder, look_rotation, render_image, root, run, temp_dir};
 use serde_json::json;
 use statrs::distribution::{ContinuousCDF, StudentsT};
 use std::path::{Path, PathBuf};
@@ -20,11 +20,7 @@ use std::time::Duration;
 const LIMIT: Duration = Duration::from_secs(300);
 
 fn render(scene: &Path, out: &Path, extra: &[&str]) -> Vec<[f32; 4]> {
-    let mut args = vec!["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--progress", "json"];
-    args.extend_from_slice(extra);
-    let r = run(&args, LIMIT);
-    assert_eq!(r.code, Some(0), "render failed: {}", r.stderr);
-    caustic::output::read_combined(out).unwrap().2
+    render_image(scene, out, extra, LIMIT)
 }
 
 /// Mean luminance-like value (channel mean) of each region, for K seeds.

@@ -9,7 +9,7 @@
 
 mod common;
 
-use common::{GltfBuilder, run, temp_dir};
+use common::{GltfBuilder, render_image, run, temp_dir};
 use serde_json::{Value, json};
 use std::path::Path;
 use std::time::Duration;
@@ -19,11 +19,7 @@ const W: usize = 96;
 const YFOV: f32 = 0.5;
 
 fn render(scene: &Path, out: &Path, extra: &[&str]) -> Vec<[f32; 4]> {
-    let mut args = vec!["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--progress", "none"];
-    args.extend_from_slice(extra);
-    let r = run(&args, LIMIT);
-    assert_eq!(r.code, Some(0), "render failed: {}", r.stderr);
-    caustic::output::read_combined(out).unwrap().2
+    render_image(scene, out, extra, LIMIT)
 }
 
 /// A small emissive square (side `side`, radiance 1) at depth `z` on the axis of a camera

@@ -10,7 +10,7 @@
 
 mod common;
 
-use common::{root, run, temp_dir};
+use common::{mean_se, root, run, temp_dir};
 use std::time::Duration;
 
 const SEEDS: u32 = 8;
@@ -54,13 +54,6 @@ fn renders(sampler: &str) -> (Vec<f64>, Vec<Vec<f64>>) {
         images.push(img);
     }
     (means, images)
-}
-
-fn mean_se(v: &[f64]) -> (f64, f64) {
-    let n = v.len() as f64;
-    let m = v.iter().sum::<f64>() / n;
-    let var = v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (n - 1.0);
-    (m, (var / n).sqrt())
 }
 
 /// Per-pixel variance across renders, averaged over the image.

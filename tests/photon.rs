@@ -24,7 +24,7 @@ use caustic::integrator::photon::PhotonMap;
 use caustic::integrator::photon::emit::Emitters;
 use caustic::integrator::photon::estimate::estimate;
 use caustic::integrator::photon::trace::{MapKind, TraceJob, trace_photons};
-use common::{GltfBuilder, look_rotation, root, run, temp_dir};
+use common::{GltfBuilder, look_rotation, render_image, root, run, temp_dir};
 use glam::{DVec3, Vec2, Vec3};
 use serde_json::json;
 use std::path::Path;
@@ -34,11 +34,7 @@ use std::time::Duration;
 const LIMIT: Duration = Duration::from_secs(300);
 
 fn render(scene: &Path, out: &Path, extra: &[&str]) -> Vec<[f32; 4]> {
-    let mut args = vec!["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--progress", "json"];
-    args.extend_from_slice(extra);
-    let r = run(&args, LIMIT);
-    assert_eq!(r.code, Some(0), "render failed: {}", r.stderr);
-    caustic::output::read_combined(out).unwrap().2
+    render_image(scene, out, extra, LIMIT)
 }
 
 fn lum(p: &[f32; 4]) -> f64 {

@@ -13,7 +13,7 @@ mod common;
 use caustic::bsdf::PbrBsdf;
 use caustic::math::Frame;
 use caustic::scene::camera::CameraRays;
-use common::{GltfBuilder, look_rotation, root, run, temp_dir};
+use common::{GltfBuilder, look_rotation, mean_se, render_image, root, run, temp_dir};
 use glam::Vec3;
 use serde_json::json;
 use std::path::Path;
@@ -22,19 +22,7 @@ use std::time::Duration;
 const LIMIT: Duration = Duration::from_secs(120);
 
 fn render(scene: &Path, out: &Path, extra: &[&str]) -> Vec<[f32; 4]> {
-    let mut args = vec!["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--progress", "json"];
-    args.extend_from_slice(extra);
-    let r = run(&args, LIMIT);
-    assert_eq!(r.code, Some(0), "render failed: {}", r.stderr);
-    caustic::output::read_combined(out).unwrap().2
-}
-
-/// Mean and standard error of a set of independent estimates.
-fn mean_se(v: &[f64]) -> (f64, f64) {
-    let n = v.len() as f64;
-    let mean = v.iter().sum::<f64>() / n;
-    let var = v.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / (n - 1.0);
-    (mean, (var / n).sqrt())
+    render_image(scene, out, extra, LIMIT)
 }
 
 /// Error bound of the albedo table, as asserted by `bsdf::pbr::tests::albedo_table_accuracy`.

@@ -108,6 +108,55 @@ def plane_and_cube_scene(scene):
     camera(scene, (0.0, -3.0, 5.0), (30.0, 0.0, 0.0), lens=30.0)
 
 
+def match_cycles(scene, samples, bounces):
+    """Render settings under which Cycles and Caustic compute the same image: `bounces` for
+    every kind of bounce in both (Caustic's Max Bounces), no denoising, adaptive sampling,
+    clamping or light threshold, caustics on, Filter Glossy 0, Blackman-Harris 1.5 px, CPU."""
+    scene.caustic.max_bounces = bounces
+    c = scene.cycles
+    c.device = "CPU"
+    c.samples = samples
+    c.use_adaptive_sampling = False
+    c.use_denoising = False
+    c.max_bounces = c.diffuse_bounces = c.glossy_bounces = bounces
+    c.transmission_bounces = c.volume_bounces = c.transparent_max_bounces = bounces
+    c.sample_clamp_direct = c.sample_clamp_indirect = 0.0
+    c.light_sampling_threshold = 0.0
+    c.caustics_reflective = c.caustics_refractive = True
+    c.blur_glossy = 0.0
+    c.pixel_filter_type = "BLACKMAN_HARRIS"
+    scene.render.filter_size = 1.5
+
+
+def render_rgb(scene, engine, seed, path):
+    """Render `scene` with `engine` ("CYCLES" or "CAUSTIC") and seed `seed` to `path`; the
+    linear RGB image as a (height, width, 3) float64 array."""
+    scene.render.engine = engine
+    if engine == "CYCLES":
+        scene.cycles.seed = seed
+    else:
+        scene.caustic.seed = seed
+    scene.render.filepath = path
+    bpy.ops.render.render(write_still=True)
+    return load_pixels(path)[..., :3].astype(np.float64)
+
+
+def shader_node_material(name, kind, **inputs):
+    """A material whose surface is one shader node of type `kind` (not a Principled BSDF)."""
+    mat = bpy.data.materials.new(name)
+    if mat.node_tree is None:  # Blender < 5.0 creates materials without nodes
+        mat.use_nodes = True
+    tree = mat.node_tree
+    for node in list(tree.nodes):
+        if node.type != "OUTPUT_MATERIAL":
+            tree.nodes.remove(node)
+    node = tree.nodes.new(kind)
+    for key, value in inputs.items():
+        node.inputs[key].default_value = value
+    tree.links.new(node.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
+    return mat
+
+
 def load_pixels(path):
     """An image file as a (height, width, 4) float array, rows bottom to top (Blender's order)."""
     image = bpy.data.images.load(path, check_existing=False)

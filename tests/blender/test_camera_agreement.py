@@ -44,15 +44,7 @@ def build(scene, width, height):
     ]:
         scenes.cube(scene, name, size, center, material=scenes.emission_material(name, color, 4.0))
     cam = scenes.camera(scene, (0.0, 0.0, 6.0), (0.0, 0.0, 0.0), lens=100.0)
-    scene.caustic.max_bounces = 1
-    c = scene.cycles
-    c.device = "CPU"
-    c.samples = SAMPLES
-    c.use_adaptive_sampling = False
-    c.use_denoising = False
-    c.max_bounces = 1
-    c.pixel_filter_type = "BLACKMAN_HARRIS"
-    scene.render.filter_size = 1.5
+    scenes.match_cycles(scene, SAMPLES, 1)
     return cam
 
 
@@ -107,17 +99,6 @@ CASES = {
 }
 
 
-def render(scene, engine, seed, path):
-    scene.render.engine = engine
-    if engine == "CYCLES":
-        scene.cycles.seed = seed
-    else:
-        scene.caustic.seed = seed
-    scene.render.filepath = path
-    bpy.ops.render.render(write_still=True)
-    return scenes.load_pixels(path)[..., :3].astype(np.float64)
-
-
 def statistics(img):
     """Mean, centroid (x, y) and second central moments (xx, yy), in pixels, of one channel."""
     h, w = img.shape
@@ -137,7 +118,7 @@ def test_camera_matches_cycles(empty_scene, tmp_path, case):
     setup(cam, scene)
     images = {}
     for engine in ("CYCLES", "CAUSTIC"):
-        images[engine] = [render(scene, engine, s, str(tmp_path / f"{engine}_{s}.exr")) for s in SEEDS]
+        images[engine] = [scenes.render_rgb(scene, engine, s, str(tmp_path / f"{engine}_{s}.exr")) for s in SEEDS]
     failures = []
     for channel, cube in enumerate(("near", "mid", "far")):
         stats = {}

@@ -135,32 +135,13 @@ def build(scene, add_light):
     scenes.cube(scene, "Box", 1.0, (0.3, -0.2, 0.5), material=scenes.diffuse_material("Light", 0.8))
     scenes.camera(scene, (0.0, 0.0, 2.8), (0.0, 0.0, 0.0), lens=24.0)
     add_light(scene)
-    scene.caustic.max_bounces = BOUNCES
     scene.caustic.threads = 0
-    c = scene.cycles
-    c.device = "CPU"
-    c.samples = SAMPLES
-    c.use_adaptive_sampling = False
-    c.use_denoising = False
-    c.max_bounces = c.diffuse_bounces = c.glossy_bounces = BOUNCES
-    c.transmission_bounces = c.volume_bounces = BOUNCES
-    c.sample_clamp_direct = c.sample_clamp_indirect = 0.0
-    c.light_sampling_threshold = 0.0
-    c.caustics_reflective = c.caustics_refractive = True
-    c.blur_glossy = 0.0
-    c.pixel_filter_type = "BLACKMAN_HARRIS"
-    scene.render.filter_size = 1.5
+    scenes.match_cycles(scene, SAMPLES, BOUNCES)
 
 
 def render(scene, engine, seed, path):
-    scene.render.engine = engine
-    if engine == "CYCLES":
-        scene.cycles.seed = seed
-    else:
-        scene.caustic.seed = seed
-    scene.render.filepath = path
-    bpy.ops.render.render(write_still=True)
-    return scenes.load_pixels(path)[..., :3].mean(axis=2).astype(np.float64)
+    """The rendered image's channel mean (height, width)."""
+    return scenes.render_rgb(scene, engine, seed, path).mean(axis=2)
 
 
 def mean_and_variance(a, b):

@@ -368,29 +368,17 @@ def test_shader_nodes_become_gltf_materials(empty_scene, captured, addon):
         ("Gla", "ShaderNodeBsdfGlass", {"IOR": 1.33, "Roughness": 0.1}),
         ("Mix", "ShaderNodeMixShader", {}),
     ]):
-        mat = bpy.data.materials.new(name)
-        if mat.node_tree is None:
-            mat.use_nodes = True
-        tree = mat.node_tree
-        tree.nodes.remove(tree.nodes["Principled BSDF"])
-        node = tree.nodes.new(kind)
-        for k, v in inputs.items():
-            node.inputs[k].default_value = v
-        tree.links.new(node.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
+        mat = scenes.shader_node_material(name, kind, **inputs)
         made[name] = mat
         scenes.cube(scene, name + "Cube", 0.5, (i - 1.5, 0, 0), material=mat)
     # A Mix Shader of a Diffuse and a Glossy BSDF renders as its Diffuse, with a warning.
-    mixed = bpy.data.materials.new("DifGlo")
-    if mixed.node_tree is None:
-        mixed.use_nodes = True
+    mixed = scenes.shader_node_material("DifGlo", "ShaderNodeMixShader")
     tree = mixed.node_tree
-    tree.nodes.remove(tree.nodes["Principled BSDF"])
-    mix = tree.nodes.new("ShaderNodeMixShader")
+    mix = next(n for n in tree.nodes if n.type == "MIX_SHADER")
     dif, glo = tree.nodes.new("ShaderNodeBsdfDiffuse"), tree.nodes.new("ShaderNodeBsdfAnisotropic")
     dif.inputs["Color"].default_value = (0.1, 0.6, 0.2, 1)
     tree.links.new(dif.outputs[0], mix.inputs[1])
     tree.links.new(glo.outputs[0], mix.inputs[2])
-    tree.links.new(mix.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
     scenes.cube(scene, "DifGloCube", 0.5, (3, 0, 0), material=mixed)
     gltf = captured()[0]
     mats = {m["name"]: m for m in gltf["materials"]}

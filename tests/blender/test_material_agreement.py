@@ -60,20 +60,7 @@ def principled(name, **inputs):
     return mat
 
 
-def shader_node(name, kind, **inputs):
-    """A material whose surface is one shader node of type `kind` (not a Principled BSDF)."""
-    mat = bpy.data.materials.new(name)
-    if mat.node_tree is None:
-        mat.use_nodes = True
-    tree = mat.node_tree
-    for node in list(tree.nodes):
-        if node.type != "OUTPUT_MATERIAL":
-            tree.nodes.remove(node)
-    node = tree.nodes.new(kind)
-    for key, value in inputs.items():
-        node.inputs[key].default_value = value
-    tree.links.new(node.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
-    return mat
+shader_node = scenes.shader_node_material
 
 
 def textured_diffuse(name):
@@ -142,21 +129,8 @@ def build(scene, material):
     uv_sphere(scene, "Ball", 0.6, (0.0, 0.0, 0.6), material)
     scenes.light(scene, "Disk", "AREA", location=(0.8, -0.5, 3.0), shape="DISK", size=0.8, energy=400.0)
     scenes.camera(scene, (0.0, -2.2, 3.2), (35.0, 0.0, 0.0), lens=30.0)
-    scene.caustic.max_bounces = BOUNCES
     scene.caustic.threads = 0
-    c = scene.cycles
-    c.device = "CPU"
-    c.samples = SAMPLES
-    c.use_adaptive_sampling = False
-    c.use_denoising = False
-    c.max_bounces = c.diffuse_bounces = c.glossy_bounces = BOUNCES
-    c.transmission_bounces = c.volume_bounces = c.transparent_max_bounces = BOUNCES
-    c.sample_clamp_direct = c.sample_clamp_indirect = 0.0
-    c.light_sampling_threshold = 0.0
-    c.caustics_reflective = c.caustics_refractive = True
-    c.blur_glossy = 0.0
-    c.pixel_filter_type = "BLACKMAN_HARRIS"
-    scene.render.filter_size = 1.5
+    scenes.match_cycles(scene, SAMPLES, BOUNCES)
 
 
 @pytest.mark.parametrize("material", list(MATERIALS))

@@ -272,3 +272,20 @@ pub fn look_rotation(dir: [f32; 3]) -> [f32; 4] {
     let q = glam::Quat::from_rotation_arc(from, to);
     [q.x, q.y, q.z, q.w]
 }
+
+/// Renders `scene` to `out` with `extra` flags, asserts success, and returns the Combined pixels.
+pub fn render_image(scene: &Path, out: &Path, extra: &[&str], limit: Duration) -> Vec<[f32; 4]> {
+    let mut args = vec!["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--progress", "json"];
+    args.extend_from_slice(extra);
+    let r = run(&args, limit);
+    assert_eq!(r.code, Some(0), "render failed: {}", r.stderr);
+    caustic::output::read_combined(out).unwrap().2
+}
+
+/// Mean and standard error of a set of independent estimates.
+pub fn mean_se(v: &[f64]) -> (f64, f64) {
+    let n = v.len() as f64;
+    let mean = v.iter().sum::<f64>() / n;
+    let var = v.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / (n - 1.0);
+    (mean, (var / n).sqrt())
+}
