@@ -2,7 +2,9 @@
 //! at every non-specular hit.
 //!
 //! At each hit the BSDF is sampled (`Bsdf::sample`, with the photon's arrival
-//! direction as `wo`); the scattering weight is w = f |cos| / pdf times the adjoint
+//! direction as `wo`); the scattering weight is w = f* |cos| / pdf, f* the adjoint BSDF
+//! f(wi, wo) for a non-delta reflection (the coat's albedo scaling by the eye-side
+//! direction is not reciprocal), times the adjoint
 //! shading-normal correction |wo·ns| |wi·ng| / (|wo·ng| |wi·ns|) (Veach's thesis, §5.3),
 //! and the photon continues with probability q = min(1, max component of w), its power
 //! becoming power · w / q. For an energy-conserving BSDF max(w) ≤ 1 on average, so the
@@ -282,7 +284,12 @@ pub fn trace_one(
             return;
         }
         let correction = (wo_local.z * cos_i_g / (cos_o_g * bs.wi.z)).abs();
-        let w = bs.f * (bs.wi.z.abs() / (bs.pdf * (1.0 - q_sss))) * correction;
+        // Photons carry flux, which scatters by the adjoint BSDF f(wi, wo): it differs from
+        // f(wo, wi) where a clear coat scales the layers below by its albedo seen from the
+        // eye's side (as Cycles), which is not reciprocal. Transmission keeps f(wo, wi): photons inside a refractive object keep
+        // the 1/η² radiance scaling, which cancels for closed objects (module doc).
+        let f = if !bs.delta && bs.wi.z * wo_local.z > 0.0 { sp.bsdf.eval_adjoint(wo_local, bs.wi) } else { bs.f };
+        let w = f * (bs.wi.z.abs() / (bs.pdf * (1.0 - q_sss))) * correction;
         let q = w.max_element().min(1.0);
         if !(q > 0.0) || u_rr >= q || !w.is_finite() {
             return;
