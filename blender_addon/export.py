@@ -302,7 +302,10 @@ def shader_node_material(blender_material):
         warnings.append(f"material '{name}': the {node.bl_label} node is not supported as a surface; "
                         "rendered as a grey diffuse surface (only Principled BSDF, Diffuse, Glossy, Metallic, "
                         "Glass, Refraction and Emission shaders are translated)")
-        return {"base": [0.8, 0.8, 0.8], "metallic": 0.0, "roughness": 1.0, "specular": 0.0}, None, warnings
+        # "fallback": the hook keeps what the exporter wrote if it found a Principled BSDF
+        # (inside a node group, say) and uses this only where it wrote nothing.
+        return ({"base": [0.8, 0.8, 0.8], "metallic": 0.0, "roughness": 1.0, "specular": 0.0, "fallback": True},
+                None, warnings)
     what = f"material '{name}'"
     color_name = "Base Color" if node.type == "BSDF_METALLIC" else "Color"
     color_socket = node.inputs[color_name]
@@ -690,6 +693,12 @@ class glTF2ExportUserExtension:
     def _translate_shader_node(self, gltf2_material, blender_material, export_settings, state):
         """Write the glTF material of a Diffuse/Glossy/Metallic/Glass/Refraction surface."""
         params, color_socket, warnings = shader_node_material(blender_material)
+        pbr = gltf2_material.pbr_metallic_roughness
+        wrote = pbr is not None and any(getattr(pbr, k, None) is not None for k in (
+            "base_color_factor", "base_color_texture", "metallic_factor", "roughness_factor",
+            "metallic_roughness_texture"))
+        if params is not None and params.get("fallback") and wrote:
+            return  # the exporter found a Principled BSDF in the surface (e.g. in a node group)
         state.warnings.extend(warnings)
         if params is None:
             return

@@ -415,3 +415,25 @@ def test_procedural_texture_on_a_principled_input_is_named(empty_scene, addon):
     image_mat.node_tree.links.new(tex.outputs[0], image_bsdf.inputs["Base Color"])
     _, warnings = export.principled_extras(image_mat)
     assert not any("cannot carry" in w for w in warnings), warnings
+
+
+def test_principled_inside_a_node_group_is_left_to_the_exporter(empty_scene, captured):
+    """The exporter finds a Principled BSDF inside a node group; the add-on must not replace it."""
+    scene = empty_scene
+    scenes.small_render_settings(scene, 16, 12, samples=2)
+    scenes.camera(scene, (0, -6, 3), (60, 0, 0))
+    mat = scenes.shader_node_material("Grouped", "ShaderNodeMixShader")
+    tree = mat.node_tree
+    tree.nodes.remove(next(n for n in tree.nodes if n.type == "MIX_SHADER"))
+    group = bpy.data.node_groups.new("WrappedPrincipled", "ShaderNodeTree")
+    group.interface.new_socket("BSDF", in_out="OUTPUT", socket_type="NodeSocketShader")
+    inner = group.nodes.new("ShaderNodeBsdfPrincipled")
+    inner.inputs["Base Color"].default_value = (0.1, 0.7, 0.2, 1)
+    group.links.new(inner.outputs[0], group.nodes.new("NodeGroupOutput").inputs[0])
+    node = tree.nodes.new("ShaderNodeGroup")
+    node.node_tree = group
+    tree.links.new(node.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
+    scenes.cube(scene, "GroupedCube", 0.5, (0, 0, 0), material=mat)
+    gltf = captured()[0]
+    pbr = next(m for m in gltf["materials"] if m["name"] == "Grouped")["pbrMetallicRoughness"]
+    assert pbr["baseColorFactor"][:3] == pytest.approx([0.1, 0.7, 0.2])

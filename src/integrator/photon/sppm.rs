@@ -122,8 +122,8 @@ struct VisiblePoint {
     d: u32,
 }
 
-/// Bytes of SPPM's per-pixel state (progressive sums and this iteration's visible
-/// point), for the memory budget.
+/// Bytes of SPPM's per-pixel state (progressive sums, this iteration's visible point and
+/// its pending camera sample), for the memory budget.
 pub fn bytes_per_pixel() -> u64 {
     (std::mem::size_of::<PixelState>() + std::mem::size_of::<Option<VisiblePoint>>() + std::mem::size_of::<Pending>())
         as u64
