@@ -33,21 +33,17 @@ allowance. The allowance is per material, with the measured reason:
 Measured ratios are printed (pytest -s) for the issue's closing note.
 """
 
-import math
-
 import bpy
 import pytest
 
 import scenes
-from test_cycles_agreement import mean_and_variance, render
+from test_cycles_agreement import assert_mean_matches_cycles
 
 pytestmark = pytest.mark.needs_binary
 
 W, H = 64, 48
 SAMPLES = 256
 BOUNCES = 8
-SEEDS = (1, 2)
-SIGMAS = 5.0
 
 
 def principled(name, **inputs):
@@ -138,20 +134,7 @@ def test_material_mean_matches_cycles(empty_scene, tmp_path, material):
     scene = empty_scene
     make, allowance = MATERIALS[material]
     build(scene, make())
-    results = {}
-    for engine in ("CYCLES", "CAUSTIC"):
-        a, b = (render(scene, engine, s, str(tmp_path / f"{engine}_{s}.exr")) for s in SEEDS)
-        results[engine] = mean_and_variance(a, b)
-    (m_caustic, v_caustic), (m_cycles, v_cycles) = results["CAUSTIC"], results["CYCLES"]
-    sigma = math.sqrt(v_caustic + v_cycles)
-    bound = SIGMAS * sigma + allowance * m_cycles
-    ratio = m_caustic / m_cycles
-    print(f"\n[caustic/cycles] {material:12s} ratio {ratio:.4f}  caustic {m_caustic:.5f}  "
-          f"cycles {m_cycles:.5f}  sigma {sigma:.2e}  bound {bound:.2e}")
-    assert m_cycles > 1e-3, "the Cycles reference is black: the scene is broken"
-    assert abs(m_caustic - m_cycles) <= bound, (
-        f"{material}: Caustic/Cycles = {ratio:.4f}, difference {m_caustic - m_cycles:.3e} exceeds "
-        f"{SIGMAS} sigma ({sigma:.2e}) + {allowance:.0%} model allowance")
+    assert_mean_matches_cycles(scene, tmp_path, material, allowance)
 
 
 def test_transmissive_material_exported_as_solid(empty_scene, tmp_path, monkeypatch, fake_binary):

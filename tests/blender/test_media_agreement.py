@@ -26,8 +26,8 @@ import math
 import bpy
 import pytest
 
-from test_cycles_agreement import mean_and_variance, render
-from test_material_agreement import SEEDS, SIGMAS, build, principled
+from test_cycles_agreement import assert_mean_matches_cycles
+from test_material_agreement import build, principled
 
 pytestmark = pytest.mark.needs_binary
 
@@ -76,17 +76,4 @@ def test_medium_mean_matches_cycles(empty_scene, tmp_path, medium):
     scene = empty_scene
     make, allowance = MEDIA[medium]
     build_backlit(scene, make())
-    results = {}
-    for engine in ("CYCLES", "CAUSTIC"):
-        a, b = (render(scene, engine, s, str(tmp_path / f"{engine}_{s}.exr")) for s in SEEDS)
-        results[engine] = mean_and_variance(a, b)
-    (m_caustic, v_caustic), (m_cycles, v_cycles) = results["CAUSTIC"], results["CYCLES"]
-    sigma = math.sqrt(v_caustic + v_cycles)
-    bound = SIGMAS * sigma + allowance * m_cycles
-    ratio = m_caustic / m_cycles
-    print(f"\n[caustic/cycles] {medium:14s} ratio {ratio:.4f}  caustic {m_caustic:.5f}  "
-          f"cycles {m_cycles:.5f}  sigma {sigma:.2e}  bound {bound:.2e}")
-    assert m_cycles > 1e-3, "the Cycles reference is black: the scene is broken"
-    assert abs(m_caustic - m_cycles) <= bound, (
-        f"{medium}: Caustic/Cycles = {ratio:.4f}, difference {m_caustic - m_cycles:.3e} exceeds "
-        f"{SIGMAS} sigma ({sigma:.2e}) + {allowance:.0%} model allowance")
+    assert_mean_matches_cycles(scene, tmp_path, medium, allowance)
