@@ -6,7 +6,7 @@ use super::SceneContext;
 use crate::accel::Hit;
 use crate::light::LightSample;
 use crate::math::{Rgb, offset_ray_origin};
-use crate::medium::{MediumStack, WalkMedium, WalkRng, sample_channel, transmittance};
+use crate::medium::{FreeFlight, HenyeyGreenstein, MediumStack, WalkMedium, WalkRng, sample_channel, transmittance};
 use crate::scene::AlphaMode;
 use glam::{Vec2, Vec3};
 
@@ -26,6 +26,31 @@ const SIMILARITY_STEP: u32 = 9;
 
 /// A walk whose throughput falls below this ends (Cycles' VOLUME_THROUGHPUT_EPSILON).
 const WALK_THROUGHPUT_EPSILON: f32 = 1e-6;
+
+/// One ray segment through the media `media`, up to `t_surface`: adds the medium's
+/// emission along it to `l` (times `beta`) and samples a free flight. Returns the
+/// scattering event (distance, phase function) if any, the weight of emitters crossed
+/// before the event, and the segment's throughput factor.
+#[inline]
+pub fn medium_segment(
+    ctx: &SceneContext,
+    media: &MediumStack,
+    t_surface: f32,
+    beta: Rgb,
+    u: [f32; 2],
+    l: &mut Rgb,
+) -> (Option<(f32, HenyeyGreenstein)>, Rgb, Rgb) {
+    let Some(m) = ctx.medium(media) else {
+        return (None, Rgb::ONE, Rgb::ONE);
+    };
+    if t_surface.is_finite() {
+        *l += beta * m.emitted(t_surface);
+    }
+    match m.sample_free_flight(t_surface, beta, u[0], u[1]) {
+        FreeFlight::Scatter { t, weight } => (Some((t, m.phase)), m.pass_weight(t, beta), weight),
+        FreeFlight::Pass { weight } => (None, m.pass_weight(t_surface.min(1e30), beta), weight),
+    }
+}
 
 /// Fraction of light from a light sample reaching point `p` (a surface point offset
 /// along `ng`, or a point in a medium when `ng` is None) through the media of `stack`:

@@ -30,9 +30,10 @@ use super::{CameraSample, RayStats, SceneContext, ShadingPoint, SurfaceHit, medi
 use crate::bsdf::dielectric::refract;
 use crate::bsdf::microfacet::Ggx;
 use crate::bsdf::{Bsdf, PbrBsdf};
+use crate::integrator::media::medium_segment;
 use crate::light::LightSample;
 use crate::math::{Frame, Rgb, offset_ray_origin};
-use crate::medium::{FreeFlight, HenyeyGreenstein, MediumStack, WalkMedium, WalkRng, skin_mean_free_path};
+use crate::medium::{HenyeyGreenstein, MediumStack, WalkMedium, WalkRng, skin_mean_free_path};
 use crate::sampling::PixelSampler;
 use crate::sampling::warp::{cosine_hemisphere, cosine_hemisphere_pdf};
 use crate::scene::AlphaMode;
@@ -213,42 +214,27 @@ impl PathIntegrator {
             let t_surface = hit.map_or(f32::INFINITY, |h| h.t);
 
             // The medium along this segment: emission, then where the next event is.
-            let medium = ctx.medium(&media).copied();
-            let mut scatter_at = None;
-            let mut segment_weight = Rgb::ONE;
-            if let Some(m) = medium {
-                if t_surface.is_finite() {
-                    radiance += beta * m.emitted(t_surface);
-                }
-                match m.sample_free_flight(t_surface, beta, u_channel, u_dist) {
-                    FreeFlight::Scatter { t, weight } => {
-                        scatter_at = Some(t);
-                        segment_weight = weight;
-                    }
-                    FreeFlight::Pass { weight } => segment_weight = weight,
-                }
-            }
-            let t_event = scatter_at.unwrap_or(t_surface);
+            let (scatter, crossed_w, segment_weight) =
+                medium_segment(ctx, &media, t_surface, beta, [u_channel, u_dist], &mut radiance);
+            let t_event = scatter.map_or(t_surface, |(t, _)| t);
 
             // Area and sphere lights crossed before the event add their emission; they
             // do not block (as in Cycles) and the path goes on.
             let (crossed, any) = ctx.crossed_emission(org, dir, t_event, prev_p, prev_n, prev_bsdf_pdf, depth == 0);
             if any {
-                let tr = medium.map_or(Rgb::ONE, |m| m.pass_weight(t_event.min(1e30), beta));
-                radiance += beta * tr * crossed;
+                radiance += beta * crossed_w * crossed;
                 if depth == 0 {
                     out.alpha = 1.0;
                 }
             }
             beta *= segment_weight;
 
-            if let Some(t) = scatter_at {
+            if let Some((t, phase)) = scatter {
                 // A scattering event in the medium.
                 if !beta.is_finite() || beta == Rgb::ZERO {
                     break;
                 }
                 let p = org + dir * t;
-                let phase = medium.map(|m| m.phase).unwrap_or_default();
                 if depth == 0 {
                     out.alpha = 1.0;
                     out.depth = depth_of(p);

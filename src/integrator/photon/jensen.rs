@@ -28,10 +28,11 @@
 
 use super::estimate::{direct_light, radiance};
 use super::io::PhotonMaps;
+use crate::integrator::media::medium_segment;
 use crate::integrator::path::PathIntegrator;
 use crate::integrator::{CameraSample, RayStats, SceneContext, power_heuristic};
 use crate::math::{Rgb, offset_ray_origin};
-use crate::medium::{FreeFlight, HenyeyGreenstein, MediumStack};
+use crate::medium::MediumStack;
 use crate::sampling::PixelSampler;
 use crate::scene::AlphaMode;
 use glam::{Vec2, Vec3};
@@ -89,31 +90,6 @@ fn next_hit(
             }
         }
         return (Some((hit, s)), first.unwrap_or(f32::INFINITY));
-    }
-}
-
-/// One ray segment through the media `media`, up to `t_surface`: adds the medium's
-/// emission along it to `l` (times `beta`) and samples a free flight. Returns the
-/// scattering event (distance, phase function) if any, the weight of emitters crossed
-/// before the event, and the segment's throughput factor.
-#[inline]
-fn medium_segment(
-    ctx: &SceneContext,
-    media: &MediumStack,
-    t_surface: f32,
-    beta: Rgb,
-    u: [f32; 2],
-    l: &mut Rgb,
-) -> (Option<(f32, HenyeyGreenstein)>, Rgb, Rgb) {
-    let Some(m) = ctx.medium(media) else {
-        return (None, Rgb::ONE, Rgb::ONE);
-    };
-    if t_surface.is_finite() {
-        *l += beta * m.emitted(t_surface);
-    }
-    match m.sample_free_flight(t_surface, beta, u[0], u[1]) {
-        FreeFlight::Scatter { t, weight } => (Some((t, m.phase)), m.pass_weight(t, beta), weight),
-        FreeFlight::Pass { weight } => (None, m.pass_weight(t_surface.min(1e30), beta), weight),
     }
 }
 

@@ -35,10 +35,10 @@ use super::trace::{MapKind, TraceJob, trace_photons};
 use super::{PhotonMap, PhotonSettings, default_sppm_photons};
 use crate::bsdf::Bsdf;
 use crate::film::{DEPTH_BACKGROUND, FilmImage};
+use crate::integrator::media::medium_segment;
 use crate::integrator::path::PathIntegrator;
 use crate::integrator::{RayStats, SceneContext};
 use crate::math::{Frame, Rgb, offset_ray_origin};
-use crate::medium::FreeFlight;
 use crate::render::{Progress, RenderJob, RenderResult};
 use crate::sampling::PixelSampler;
 use crate::scene::AlphaMode;
@@ -399,40 +399,26 @@ fn camera_path(
         let [u_channel, u_dist, _, _] = if ctx.has_media { sampler.next_4d() } else { [0.0; 4] };
         let hit = ctx.intersect(org, dir, f32::INFINITY);
         let t_surface = hit.map_or(f32::INFINITY, |h| h.t);
-        let m = ctx.medium(&medium).copied();
-        let mut scatter_at = None;
-        let mut segment_weight = Rgb::ONE;
-        if let Some(m) = m {
-            if t_surface.is_finite() {
-                l += beta * m.emitted(t_surface);
-            }
-            match m.sample_free_flight(t_surface, beta, u_channel, u_dist) {
-                FreeFlight::Scatter { t, weight } => {
-                    scatter_at = Some(t);
-                    segment_weight = weight;
-                }
-                FreeFlight::Pass { weight } => segment_weight = weight,
-            }
-        }
-        let t_event = scatter_at.unwrap_or(t_surface);
+        let (scatter, crossed_w, segment_weight) =
+            medium_segment(ctx, &medium, t_surface, beta, [u_channel, u_dist], &mut l);
+        let t_event = scatter.map_or(t_surface, |(t, _)| t);
         // Lights crossed and the world are found by specular paths only (no MIS): the
         // visible point's NEE covers the rest.
         let (crossed, any) = ctx.crossed_emission(org, dir, t_event, org, Vec3::ZERO, 0.0, depth == 0);
         if any {
-            let tr = m.map_or(Rgb::ONE, |m| m.pass_weight(t_event.min(1e30), beta));
-            l += beta * tr * crossed;
+            l += beta * crossed_w * crossed;
             if depth == 0 {
                 pend.alpha += 1.0;
             }
         }
         beta *= segment_weight;
-        if let (Some(t), Some(m)) = (scatter_at, m) {
+        if let Some((t, phase)) = scatter {
             if depth == 0 {
                 pend.alpha += 1.0;
             }
             if depth < max_depth && beta.is_finite() && beta != Rgb::ZERO {
                 let p = org + dir * t;
-                l += continuation.scatter_in_medium(ctx, p, dir, m.phase, medium, beta, depth, sampler, stats);
+                l += continuation.scatter_in_medium(ctx, p, dir, phase, medium, beta, depth, sampler, stats);
             }
             return (l, None, first_t);
         }
