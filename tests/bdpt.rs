@@ -11,7 +11,7 @@
 
 mod common;
 
-use common::{GltfBuilder, look_rotation, render_image, root, run, temp_dir};
+use common::{GltfBuilder, emissive_furnace, look_rotation, render_image, root, run, temp_dir};
 use serde_json::json;
 use statrs::distribution::{ContinuousCDF, StudentsT};
 use std::path::{Path, PathBuf};
@@ -288,16 +288,7 @@ fn emissive_furnace_is_exact() {
     let dir = temp_dir();
     let le = 0.5f64;
     let depth = 4u32;
-    let mut g = GltfBuilder::new();
-    g.use_ext("KHR_materials_emissive_strength");
-    let m = g.material(json!({
-        "pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 1], "metallicFactor": 0.0, "roughnessFactor": 1.0},
-        "emissiveFactor": [1, 1, 1], "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": le}},
-        "doubleSided": true
-    }));
-    g.cube([-1.0, -1.0, -1.0], [1.0, 1.0, 1.0], m);
-    g.camera([0.1, 0.2, 0.3], look_rotation([0.3, -0.2, -1.0]), 1.2);
-    let scene = g.write(dir.path(), "furnace.gltf");
+    let scene = emissive_furnace(dir.path(), "furnace.gltf", le, 1.0);
     let regs = vec![("whole".to_string(), (0..16 * 16).collect::<Vec<_>>())];
     let d = depth.to_string();
     let m = region_means(

@@ -24,7 +24,7 @@ use caustic::integrator::photon::PhotonMap;
 use caustic::integrator::photon::emit::Emitters;
 use caustic::integrator::photon::estimate::estimate;
 use caustic::integrator::photon::trace::{MapKind, TraceJob, trace_photons};
-use common::{GltfBuilder, look_rotation, render_image, root, run, temp_dir};
+use common::{GltfBuilder, emissive_furnace, look_rotation, render_image, root, run, temp_dir};
 use glam::{DVec3, Vec2, Vec3};
 use serde_json::json;
 use std::path::Path;
@@ -401,16 +401,7 @@ fn furnace_photon_and_sppm() {
     let dir = temp_dir();
     let le = 0.5f64;
     let depth = 4u32;
-    let mut g = GltfBuilder::new();
-    g.use_ext("KHR_materials_emissive_strength");
-    let m = g.material(json!({
-        "pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 1], "metallicFactor": 0.0, "roughnessFactor": 1.0},
-        "emissiveFactor": [1, 1, 1], "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": le}},
-        "doubleSided": true
-    }));
-    g.cube([-1.0, -1.0, -1.0], [1.0, 1.0, 1.0], m);
-    g.camera([0.1, 0.2, 0.3], look_rotation([0.3, -0.2, -1.0]), 1.2);
-    let scene_path = g.write(dir.path(), "furnace.gltf");
+    let scene_path = emissive_furnace(dir.path(), "furnace.gltf", le, 1.0);
     let (scene, _) = load(&scene_path);
     let (perimeter, area) = edge_length_and_area(&scene);
     let expect = (depth + 1) as f64 * le;

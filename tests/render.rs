@@ -13,7 +13,7 @@ mod common;
 use caustic::bsdf::PbrBsdf;
 use caustic::math::Frame;
 use caustic::scene::camera::CameraRays;
-use common::{GltfBuilder, look_rotation, mean_se, render_image, root, run, temp_dir};
+use common::{GltfBuilder, emissive_furnace, look_rotation, mean_se, render_image, root, run, temp_dir};
 use glam::Vec3;
 use serde_json::json;
 use std::path::Path;
@@ -36,16 +36,7 @@ fn furnace_albedo_one() {
     let le = 0.5f32;
     let depth = 4u32;
     for roughness in [1.0f32, 0.3] {
-        let mut g = GltfBuilder::new();
-        g.use_ext("KHR_materials_emissive_strength");
-        let m = g.material(json!({
-            "pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 1], "metallicFactor": 0.0, "roughnessFactor": roughness},
-            "emissiveFactor": [1, 1, 1], "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": le}},
-            "doubleSided": true
-        }));
-        g.cube([-1.0, -1.0, -1.0], [1.0, 1.0, 1.0], m);
-        g.camera([0.1, 0.2, 0.3], look_rotation([0.3, -0.2, -1.0]), 1.2);
-        let scene = g.write(dir.path(), "furnace.gltf");
+        let scene = emissive_furnace(dir.path(), "furnace.gltf", le as f64, roughness);
         let px = render(
             &scene,
             &dir.path().join("f.exr"),

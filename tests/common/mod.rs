@@ -289,3 +289,19 @@ pub fn mean_se(v: &[f64]) -> (f64, f64) {
     let var = v.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / (n - 1.0);
     (mean, (var / n).sqrt())
 }
+
+/// The emissive furnace: a closed cube [-1, 1]³ of white, double-sided walls of the given
+/// roughness that each emit `le`, seen from inside; written to `dir/name`. With albedo 1 and
+/// at most D scattering events, every pixel sees exactly (D + 1) Le.
+pub fn emissive_furnace(dir: &Path, name: &str, le: f64, roughness: f32) -> PathBuf {
+    let mut g = GltfBuilder::new();
+    g.use_ext("KHR_materials_emissive_strength");
+    let m = g.material(json!({
+        "pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 1], "metallicFactor": 0.0, "roughnessFactor": roughness},
+        "emissiveFactor": [1, 1, 1], "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": le}},
+        "doubleSided": true
+    }));
+    g.cube([-1.0, -1.0, -1.0], [1.0, 1.0, 1.0], m);
+    g.camera([0.1, 0.2, 0.3], look_rotation([0.3, -0.2, -1.0]), 1.2);
+    g.write(dir, name)
+}
