@@ -4,10 +4,12 @@
 use crate::accel::Accel;
 use crate::error::{Error, Result};
 use crate::film::Filter;
+use crate::integrator::bdpt::BdptIntegrator;
 use crate::integrator::path::PathIntegrator;
 use crate::integrator::photon;
 use crate::integrator::photon::io::PhotonMaps;
 use crate::integrator::photon::jensen::JensenIntegrator;
+use crate::integrator::photon::sppm::SppmIntegrator;
 use crate::integrator::photon::{MAX_K, PhotonSettings, default_max_radius};
 use crate::integrator::{Integrator, SceneContext};
 use crate::light::LightSamplerKind;
@@ -624,18 +626,13 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     let camera = CameraRays::new(&scene.cameras[res.camera], res.resolution.0, res.resolution.1);
     let mut photon_stats = serde_json::Value::Null;
     let integrator = match res.integrator {
-        IntegratorKind::Path | IntegratorKind::Sppm => Integrator::Path(PathIntegrator {
-            max_depth: res.max_depth,
-            transparent_background: res.transparent,
-            ..Default::default()
-        }),
-        IntegratorKind::Bdpt => Integrator::Bdpt(crate::integrator::bdpt::BdptIntegrator {
-            max_depth: res.max_depth,
-            rr_depth: PathIntegrator::default().rr_depth,
-            transparent_background: res.transparent,
-            strategy: args.bdpt_strategy,
-            lights: std::sync::Arc::new(crate::integrator::bdpt::lights::BdptLights::new(&scene)),
-        }),
+        IntegratorKind::Path => Integrator::Path(PathIntegrator::new(res.max_depth, res.transparent)),
+        IntegratorKind::Sppm => {
+            Integrator::Sppm(SppmIntegrator::new(res.max_depth, res.photon.clone(), res.transparent))
+        }
+        IntegratorKind::Bdpt => {
+            Integrator::Bdpt(BdptIntegrator::new(&scene, res.max_depth, res.transparent, args.bdpt_strategy))
+        }
         IntegratorKind::Photon => {
             reporter.phase("photons", t0.elapsed().as_secs_f64());
             let maps = match &args.photon_map {
@@ -669,17 +666,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
                 return Err(Error::InterruptedEmpty);
             }
             let (_, scene_r) = scene.bounding_sphere();
-            Integrator::Photon(JensenIntegrator {
-                maps: std::sync::Arc::new(maps),
-                max_depth: res.max_depth,
-                rr_depth: PathIntegrator::default().rr_depth,
-                k: res.photon.k,
-                caustic_k: res.photon.caustic_k,
-                max_radius: res.photon.max_radius.unwrap_or_else(|| default_max_radius(scene_r)),
-                gather_rays: res.photon.gather_rays,
-                diffuse_bounces: res.photon.diffuse_bounces,
-                transparent_background: res.transparent,
-            })
+            Integrator::Photon(JensenIntegrator::new(maps, &res.photon, scene_r, res.max_depth, res.transparent))
         }
     };
     let job = RenderJob {
@@ -690,8 +677,6 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         time_limit: res.time_limit,
         seed: res.job_seed,
         filter: res.filter.clone(),
-        integrator: integrator.clone(),
-        transparent_background: res.transparent,
     };
 
     reporter.phase("rendering", t0.elapsed().as_secs_f64());
@@ -699,41 +684,30 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     let mut last_interim = Instant::now();
     let interim = args.interim.map(Duration::from_secs_f64);
     let mut interim_error = None;
-    let mut sppm_result = None;
     let on_progress = |p: &render::Progress| {
         reporter.progress(p.fraction, p.samples_done, p.samples_total, p.elapsed, p.eta, p.rays_per_sec)
     };
-    if res.integrator == IntegratorKind::Sppm {
-        let (r, st) =
-            pool.install(|| photon::sppm::render(&ctx, &camera, &job, res.max_depth, &res.photon, stop, &on_progress));
-        photon_stats = json!({
-            "sppm": st,
-            "photons_per_sec": st.photons as f64 / st.photon_seconds.max(1e-9),
-        });
-        sppm_result = Some(r);
-    }
-    let result = if let Some(r) = sppm_result {
-        r
-    } else {
-        pool.install(|| {
-            render::render(&ctx, &camera, &job, stop, &on_progress, &mut |film, spp| {
-                if let Some(every) = interim
-                    && last_interim.elapsed() >= every
-                    && Some(spp) != job.spp
-                {
-                    let mut img = film.image();
-                    if !res.transparent {
-                        img.make_opaque();
-                    }
-                    match output::write_exr(&args.output, &img, args.half) {
-                        Ok(()) => reporter.image(&out_str, spp, false),
-                        Err(e) => interim_error = Some(e),
-                    }
-                    last_interim = Instant::now();
+    let result = pool.install(|| {
+        render::render(&ctx, &camera, &integrator, &job, stop, &on_progress, &mut |film, spp| {
+            if let Some(every) = interim
+                && last_interim.elapsed() >= every
+                && Some(spp) != job.spp
+            {
+                let mut img = film.image();
+                if !res.transparent {
+                    img.make_opaque();
                 }
-            })
+                match output::write_exr(&args.output, &img, args.half) {
+                    Ok(()) => reporter.image(&out_str, spp, false),
+                    Err(e) => interim_error = Some(e),
+                }
+                last_interim = Instant::now();
+            }
         })
-    };
+    });
+    if let Some(st) = &result.integrator_stats {
+        photon_stats = st.clone();
+    }
     if let Some(e) = interim_error {
         return Err(e);
     }
@@ -776,10 +750,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         "black": black,
         "warnings": warnings,
         "light_sampler": res.light_sampler.name(),
-        "integrator": match res.integrator {
-            IntegratorKind::Sppm => describe_sppm(&res.photon, res.max_depth),
-            _ => integrator.describe(),
-        },
+        "integrator": integrator.describe(),
         "stats": {
             "bvh_build_seconds": accel.build_time.as_secs_f64(),
             "render_seconds": secs,
@@ -798,17 +769,6 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     });
     reporter.summary(summary.clone());
     Ok(Outcome { interrupted: result.interrupted, summary })
-}
-
-/// SPPM's parameters, for the summary.
-fn describe_sppm(p: &PhotonSettings, max_depth: u32) -> String {
-    format!(
-        "sppm ({} iterations, {} photons per iteration, initial radius {}, alpha {:.3}, max depth {max_depth})",
-        p.sppm_iterations,
-        p.sppm_photons.map_or(format!("{} per pixel", photon::SPPM_PHOTONS_PER_PIXEL), |n| n.to_string()),
-        p.sppm_radius.map_or("3 pixel footprints".to_string(), |r| r.to_string()),
-        p.sppm_alpha
-    )
 }
 
 /// Traces the global and caustic maps, reporting the "photons" phase's progress at

@@ -4,9 +4,24 @@
 //! lands in one pixel with weight 1, so pixels are independent of each other — which
 //! makes images identical for any thread count and crops equal to full-frame windows.
 
-use crate::integrator::CameraSample;
+use crate::math::Rgb;
 use crate::sampling::Distribution1D;
 use glam::{DVec3, Vec2, Vec3};
+
+/// One camera sample's contributions to the film.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct CameraSample {
+    /// Radiance.
+    pub radiance: Rgb,
+    /// 1 when the path hit geometry (coverage), else 0.
+    pub alpha: f32,
+    /// Camera-space depth of the first hit (infinite when none).
+    pub depth: f32,
+    /// World-space shading normal of the first hit.
+    pub normal: Vec3,
+    /// Albedo of the first hit.
+    pub albedo: Rgb,
+}
 
 /// Pixel filter.
 #[derive(Clone, Debug)]

@@ -134,11 +134,10 @@ pub fn run_one(bytes: &[u8], base_dir: &Path) -> Outcome {
             time_limit: None,
             seed: 0,
             filter: Filter::box_filter(1.0),
-            integrator: Integrator::Path(PathIntegrator { max_depth: 4, ..Default::default() }),
-            transparent_background: true,
         };
+        let integrator = Integrator::Path(PathIntegrator::new(4, true));
         let stop = AtomicBool::new(false);
-        render(&ctx, &camera, &job, &stop, &|_| {}, &mut |_, _| {})
+        render(&ctx, &camera, &integrator, &job, &stop, &|_| {}, &mut |_, _| {})
     }));
     match result {
         Err(_) => Outcome::Finding("panic while rendering a loaded scene".into()),

@@ -11,13 +11,17 @@ pub mod photon;
 use crate::accel::{Accel, Hit};
 use crate::bsdf::pbr::PbrParams;
 use crate::bsdf::{Bsdf, PbrBsdf};
+use crate::film::{CameraSample, Filter, SplatBuffer, SplatPool};
 use crate::light::{
     AreaLight, EmitterTriangle, Light, LightSample, LightSampler, LightSamplerKind, area_to_solid_angle,
     intersect_sphere, sample_triangle, sphere_cos_max, spot_attenuation,
 };
 use crate::math::{Frame, Rgb, offset_ray_origin};
 use crate::medium::{HomogeneousMedium, MediumStack};
+use crate::render::job::RayStats;
+use crate::sampling::PixelSampler;
 use crate::sampling::warp::{concentric_disk, uniform_cone, uniform_cone_pdf};
+use crate::scene::camera::CameraRays;
 use crate::scene::{AlphaMode, Scene};
 use glam::{Vec2, Vec3};
 
@@ -29,31 +33,6 @@ const DELTA_SUN_COS: f32 = 1.0 - 1e-7;
 #[inline]
 pub fn sun_radiance(e: Rgb, cos_half: f32) -> Rgb {
     e / (std::f32::consts::PI * (1.0 - cos_half * cos_half))
-}
-
-/// Ray counts by kind, kept per tile and summed (no shared counters in the hot loop).
-#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
-pub struct RayStats {
-    /// Primary rays from the camera.
-    pub camera: u64,
-    /// Rays continuing a path after scattering or passing through a transparent surface.
-    pub bounce: u64,
-    /// Shadow rays for next-event estimation.
-    pub shadow: u64,
-}
-
-impl RayStats {
-    /// Adds another tile's counts.
-    pub fn add(&mut self, o: &RayStats) {
-        self.camera += o.camera;
-        self.bounce += o.bounce;
-        self.shadow += o.shadow;
-    }
-
-    /// All rays.
-    pub fn total(&self) -> u64 {
-        self.camera + self.bounce + self.shadow
-    }
 }
 
 /// A surface point found by a ray.
@@ -712,21 +691,6 @@ impl<'a> SceneContext<'a> {
     }
 }
 
-/// One camera sample's contributions to the film.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct CameraSample {
-    /// Radiance.
-    pub radiance: Rgb,
-    /// 1 when the path hit geometry (coverage), else 0.
-    pub alpha: f32,
-    /// Camera-space depth of the first hit (infinite when none).
-    pub depth: f32,
-    /// World-space shading normal of the first hit.
-    pub normal: Vec3,
-    /// Albedo of the first hit.
-    pub albedo: Rgb,
-}
-
 /// The light-transport algorithms; one per file.
 #[derive(Clone, Debug)]
 pub enum Integrator {
@@ -736,17 +700,75 @@ pub enum Integrator {
     Photon(photon::jensen::JensenIntegrator),
     /// Bidirectional path tracing with MIS over all strategies.
     Bdpt(bdpt::BdptIntegrator),
+    /// Stochastic progressive photon mapping (drives its own iterations).
+    Sppm(photon::sppm::SppmIntegrator),
+}
+
+/// Per-tile working memory of an integrator, taken before a tile and released after it.
+pub enum TileScratch {
+    /// Nothing to keep.
+    None,
+    /// Bidirectional: this tile's light-tracing splats and subpath vertices.
+    Bdpt(SplatBuffer, bdpt::BdptScratch),
+}
+
+impl TileScratch {
+    /// Hands the splat buffer back to the pool it came from.
+    pub fn release(self, pool: &SplatPool) {
+        if let TileScratch::Bdpt(buf, _) = self {
+            pool.give(buf);
+        }
+    }
 }
 
 impl Integrator {
     /// Human-readable description with parameters, for logs and `info`.
     pub fn describe(&self) -> String {
         match self {
-            Integrator::Path(p) => {
-                format!("path (max depth {}, russian roulette from depth {})", p.max_depth, p.rr_depth)
-            }
+            Integrator::Path(p) => p.describe(),
             Integrator::Photon(p) => p.describe(),
             Integrator::Bdpt(b) => b.describe(),
+            Integrator::Sppm(s) => s.describe(),
+        }
+    }
+
+    /// Working memory for one tile of the progressive loop.
+    pub fn tile_scratch(&self, splats: &SplatPool) -> TileScratch {
+        match self {
+            Integrator::Bdpt(b) => TileScratch::Bdpt(splats.take(), bdpt::BdptScratch::new(b.max_depth)),
+            _ => TileScratch::None,
+        }
+    }
+
+    /// Light subpaths traced per camera sample (bidirectional: one), for the summary.
+    pub fn light_paths_per_sample(&self) -> u64 {
+        matches!(self, Integrator::Bdpt(_)) as u64
+    }
+
+    /// One camera sample along `ray` of pixel sample `(seed, px, py, index)`.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    pub fn sample(
+        &self,
+        ctx: &SceneContext,
+        camera: &CameraRays,
+        filter: &Filter,
+        scratch: &mut TileScratch,
+        (org, dir): (Vec3, Vec3),
+        sampler: &mut PixelSampler,
+        pixel_sample: (u32, u32, u32, u32),
+        stats: &mut RayStats,
+    ) -> CameraSample {
+        match (self, scratch) {
+            (Integrator::Path(p), _) => p.li(ctx, org, dir, sampler, |q| camera.depth(q), stats),
+            (Integrator::Photon(p), _) => p.li(ctx, org, dir, sampler, |q| camera.depth(q), stats),
+            (Integrator::Bdpt(b), TileScratch::Bdpt(buf, vertices)) => {
+                let mut target = bdpt::FilmTarget { camera, filter, splats: buf };
+                b.li(ctx, org, dir, sampler, pixel_sample, &mut target, vertices, stats)
+            }
+            // SPPM renders whole iterations (`render::render` never asks it for samples);
+            // BDPT always has its scratch (`tile_scratch`).
+            (Integrator::Sppm(_) | Integrator::Bdpt(_), _) => CameraSample::default(),
         }
     }
 }

@@ -26,14 +26,16 @@
 //! (`media::random_walk`) with the base colour's throughput divided out as Cycles does,
 //! and leaves through a Lambertian exit (NEE at the exit point, cosine sampling out).
 
-use super::{CameraSample, RayStats, SceneContext, ShadingPoint, SurfaceHit, media, power_heuristic};
+use super::{SceneContext, ShadingPoint, SurfaceHit, media, power_heuristic};
 use crate::bsdf::dielectric::refract;
 use crate::bsdf::microfacet::Ggx;
 use crate::bsdf::{Bsdf, PbrBsdf};
+use crate::film::CameraSample;
 use crate::integrator::media::medium_segment;
 use crate::light::LightSample;
 use crate::math::{Frame, Rgb, offset_ray_origin};
 use crate::medium::{HenyeyGreenstein, MediumStack, WalkMedium, WalkRng, skin_mean_free_path};
+use crate::render::job::RayStats;
 use crate::sampling::PixelSampler;
 use crate::sampling::warp::{cosine_hemisphere, cosine_hemisphere_pdf};
 use crate::scene::AlphaMode;
@@ -85,6 +87,16 @@ pub struct PathState {
 }
 
 impl PathIntegrator {
+    /// A path tracer of at most `max_depth` scattering events (Russian roulette at its default depth).
+    pub fn new(max_depth: u32, transparent_background: bool) -> Self {
+        PathIntegrator { max_depth, transparent_background, ..Default::default() }
+    }
+
+    /// Parameters, for logs and the summary.
+    pub fn describe(&self) -> String {
+        format!("path (max depth {}, russian roulette from depth {})", self.max_depth, self.rr_depth)
+    }
+
     /// Radiance arriving at the camera along a ray.
     pub fn li(
         &self,

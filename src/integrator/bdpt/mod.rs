@@ -30,12 +30,14 @@
 pub mod lights;
 pub mod mis;
 
-use super::{CameraSample, RayStats, SceneContext, SurfaceHit, power_heuristic};
+use super::{SceneContext, SurfaceHit, power_heuristic};
 use crate::bsdf::Bsdf;
+use crate::film::CameraSample;
 use crate::film::{Filter, SplatBuffer};
 use crate::light::{Light, LightSample, area_to_solid_angle, intersect_sphere};
 use crate::math::{Frame, Rgb, hash_combine, offset_ray_origin};
 use crate::medium::{FreeFlight, MediumStack};
+use crate::render::job::RayStats;
 use crate::sampling::PixelSampler;
 use crate::sampling::warp::uniform_cone_pdf;
 use crate::scene::AlphaMode;
@@ -78,6 +80,23 @@ pub struct BdptIntegrator {
 }
 
 impl BdptIntegrator {
+    /// BDPT over the scene's lights (Russian roulette at the path tracer's depth);
+    /// `strategy` renders one strategy alone (debugging).
+    pub fn new(
+        scene: &crate::scene::Scene,
+        max_depth: u32,
+        transparent_background: bool,
+        strategy: Option<Strategy>,
+    ) -> Self {
+        BdptIntegrator {
+            max_depth,
+            rr_depth: super::path::PathIntegrator::default().rr_depth,
+            transparent_background,
+            strategy,
+            lights: Arc::new(BdptLights::new(scene)),
+        }
+    }
+
     /// Human-readable description.
     pub fn describe(&self) -> String {
         let mut s = format!("bdpt (max depth {}, russian roulette from depth {})", self.max_depth, self.rr_depth);

@@ -24,9 +24,10 @@
 use super::kdtree::KnnResult;
 use super::{Photon, PhotonMap};
 use crate::bsdf::Bsdf;
-use crate::integrator::{RayStats, SceneContext, ShadingPoint, SurfaceHit, power_heuristic};
+use crate::integrator::{SceneContext, ShadingPoint, SurfaceHit, power_heuristic};
 use crate::math::{Frame, Rgb};
 use crate::medium::MediumStack;
+use crate::render::job::RayStats;
 use glam::{Vec2, Vec3};
 
 /// Photons whose normal is within 60° of the query's count (`Photon::normal_within_60`).

@@ -28,11 +28,13 @@
 
 use super::estimate::{direct_light, radiance};
 use super::io::PhotonMaps;
+use crate::film::CameraSample;
 use crate::integrator::media::medium_segment;
 use crate::integrator::path::PathIntegrator;
-use crate::integrator::{CameraSample, RayStats, SceneContext, power_heuristic};
+use crate::integrator::{SceneContext, power_heuristic};
 use crate::math::{Rgb, offset_ray_origin};
 use crate::medium::MediumStack;
+use crate::render::job::RayStats;
 use crate::sampling::PixelSampler;
 use crate::scene::AlphaMode;
 use glam::{Vec2, Vec3};
@@ -94,6 +96,28 @@ fn next_hit(
 }
 
 impl JensenIntegrator {
+    /// The rendering pass over `maps` with the settings' k, radius and gather; the
+    /// maximum radius defaults to a tenth of the scene's radius `scene_radius`.
+    pub fn new(
+        maps: PhotonMaps,
+        settings: &super::PhotonSettings,
+        scene_radius: f32,
+        max_depth: u32,
+        transparent_background: bool,
+    ) -> Self {
+        JensenIntegrator {
+            maps: Arc::new(maps),
+            max_depth,
+            rr_depth: super::super::path::PathIntegrator::default().rr_depth,
+            k: settings.k,
+            caustic_k: settings.caustic_k,
+            max_radius: settings.max_radius.unwrap_or_else(|| super::default_max_radius(scene_radius)),
+            gather_rays: settings.gather_rays,
+            diffuse_bounces: settings.diffuse_bounces,
+            transparent_background,
+        }
+    }
+
     /// The path tracer that takes over where a path scatters in a medium (media have no
     /// photon map).
     fn continuation(&self) -> PathIntegrator {

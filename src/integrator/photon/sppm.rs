@@ -35,11 +35,12 @@ use super::trace::{MapKind, TraceJob, trace_photons};
 use super::{PhotonMap, PhotonSettings, default_sppm_photons};
 use crate::bsdf::Bsdf;
 use crate::film::{DEPTH_BACKGROUND, FilmImage};
+use crate::integrator::SceneContext;
 use crate::integrator::media::medium_segment;
 use crate::integrator::path::PathIntegrator;
-use crate::integrator::{RayStats, SceneContext};
 use crate::math::{Frame, Rgb, offset_ray_origin};
-use crate::render::{Progress, RenderJob, RenderResult};
+use crate::render::job::RayStats;
+use crate::render::job::{Progress, RenderJob, RenderResult};
 use crate::sampling::PixelSampler;
 use crate::scene::AlphaMode;
 use crate::scene::camera::CameraRays;
@@ -140,15 +141,66 @@ pub struct SppmStats {
     pub photon_seconds: f64,
 }
 
-/// Renders the job's window with SPPM. `job.spp` is ignored: the iteration count comes
-/// from `settings` (one camera sample per pixel per iteration).
+/// SPPM's parameters.
+#[derive(Clone, Debug)]
+pub struct SppmIntegrator {
+    /// Maximum scattering events per path.
+    pub max_depth: u32,
+    /// Photon-mapping settings (iterations, photons per iteration, radius, α).
+    pub settings: PhotonSettings,
+    /// Camera rays that miss show nothing (Film → Transparent), as in the path tracer.
+    pub transparent_background: bool,
+}
+
+impl SppmIntegrator {
+    /// SPPM with the given settings.
+    pub fn new(max_depth: u32, settings: PhotonSettings, transparent_background: bool) -> Self {
+        SppmIntegrator { max_depth, settings, transparent_background }
+    }
+
+    /// Parameters, for logs and the summary.
+    pub fn describe(&self) -> String {
+        let p = &self.settings;
+        format!(
+            "sppm ({} iterations, {} photons per iteration, initial radius {}, alpha {:.3}, max depth {})",
+            p.sppm_iterations,
+            p.sppm_photons.map_or(format!("{} per pixel", super::SPPM_PHOTONS_PER_PIXEL), |n| n.to_string()),
+            p.sppm_radius.map_or("3 pixel footprints".to_string(), |r| r.to_string()),
+            p.sppm_alpha,
+            self.max_depth
+        )
+    }
+
+    /// Renders the job's window. `job.spp` is ignored: the iteration count comes from the
+    /// settings (one camera sample per pixel per iteration). The result's
+    /// `integrator_stats` holds SPPM's counters.
+    pub fn render(
+        &self,
+        ctx: &SceneContext,
+        camera: &CameraRays,
+        job: &RenderJob,
+        stop: &AtomicBool,
+        on_progress: &(dyn Fn(&Progress) + Sync),
+    ) -> RenderResult {
+        let (mut r, st) =
+            render(ctx, camera, job, self.max_depth, &self.settings, self.transparent_background, stop, on_progress);
+        r.integrator_stats = Some(serde_json::json!({
+            "sppm": st,
+            "photons_per_sec": st.photons as f64 / st.photon_seconds.max(1e-9),
+        }));
+        r
+    }
+}
+
+/// Renders the job's window with SPPM (see [`SppmIntegrator::render`]).
 #[allow(clippy::too_many_arguments)]
-pub fn render(
+fn render(
     ctx: &SceneContext,
     camera: &CameraRays,
     job: &RenderJob,
     max_depth: u32,
     settings: &PhotonSettings,
+    transparent_background: bool,
     stop: &AtomicBool,
     on_progress: &(dyn Fn(&Progress) + Sync),
 ) -> (RenderResult, SppmStats) {
@@ -216,7 +268,7 @@ pub fn render(
                         pend,
                         camera,
                         &mut rs,
-                        job.transparent_background,
+                        transparent_background,
                     );
                     pend.ld = ld;
                     if !ld.is_finite() {
@@ -332,6 +384,7 @@ pub fn render(
             elapsed: start.elapsed(),
             light_paths: 0,
             splats: 0,
+            integrator_stats: None,
         },
         st,
     )

@@ -5,9 +5,12 @@
 //! once and later passes amortise the scheduling. Within a pass every tile renders the
 //! same sample indices, so the result never depends on which thread took which tile.
 
-use crate::film::{Film, FilmImage, Filter, SplatPool};
-use crate::integrator::bdpt::{BdptScratch, FilmTarget};
-use crate::integrator::{Integrator, RayStats, SceneContext};
+pub mod job;
+
+pub use job::{Progress, RayStats, RenderJob, RenderResult};
+
+use crate::film::{Film, SplatPool};
+use crate::integrator::{Integrator, SceneContext};
 use crate::sampling::PixelSampler;
 use crate::scene::camera::CameraRays;
 use rayon::prelude::*;
@@ -20,67 +23,6 @@ pub const TILE_SIZE: u32 = 32;
 /// Largest pass, in samples per pixel.
 const MAX_PASS: u32 = 16;
 
-/// What to render.
-#[derive(Clone, Debug)]
-pub struct RenderJob {
-    /// Full frame width.
-    pub width: u32,
-    /// Full frame height.
-    pub height: u32,
-    /// Pixel window (x0, y0, x1, y1) of the full frame to render.
-    pub window: [u32; 4],
-    /// Samples per pixel (None: until the time limit).
-    pub spp: Option<u32>,
-    /// Wall-clock limit for the rendering phase.
-    pub time_limit: Option<Duration>,
-    /// Seed.
-    pub seed: u32,
-    /// Pixel filter.
-    pub filter: Filter,
-    /// Algorithm.
-    pub integrator: Integrator,
-    /// Camera rays that miss show nothing (alpha 0) rather than the world.
-    pub transparent_background: bool,
-}
-
-/// What came out.
-pub struct RenderResult {
-    /// The normalised image.
-    pub image: FilmImage,
-    /// Ray counts.
-    pub rays: RayStats,
-    /// Samples that were NaN or infinite and were dropped.
-    pub nan_samples: u64,
-    /// Fewest samples any pixel got.
-    pub spp_min: u32,
-    /// Most samples any pixel got.
-    pub spp_max: u32,
-    /// Stopped by a signal.
-    pub interrupted: bool,
-    /// Rendering time.
-    pub elapsed: Duration,
-    /// Light subpaths traced (bidirectional: one per camera sample; 0 otherwise).
-    pub light_paths: u64,
-    /// Light-tracing splats added to the film (each spread over the pixel filter).
-    pub splats: u64,
-}
-
-/// Progress callback data.
-pub struct Progress {
-    /// Fraction done in [0, 1].
-    pub fraction: f64,
-    /// Complete passes' samples per pixel.
-    pub samples_done: u32,
-    /// Target samples per pixel.
-    pub samples_total: Option<u32>,
-    /// Seconds since rendering started.
-    pub elapsed: f64,
-    /// Estimated seconds left.
-    pub eta: Option<f64>,
-    /// Rays per second so far.
-    pub rays_per_sec: f64,
-}
-
 /// Per-tile counters, summed after each pass.
 #[derive(Default, Clone, Copy)]
 struct TileStats {
@@ -90,12 +32,31 @@ struct TileStats {
     light_paths: u64,
 }
 
-/// Renders `job` with the context; `stop` is polled per pixel. `on_progress` is
-/// called from a reporter thread about twice a second; `on_pass` after each pass
-/// with the film (for interim images).
+/// Renders `job` with `integrator`: SPPM drives its own iterations, every other
+/// integrator computes camera samples in the progressive tile loop. `stop` is polled per
+/// pixel. `on_progress` is called about twice a second; `on_pass` after each pass with
+/// the film (for interim images; not called by SPPM).
 pub fn render(
     ctx: &SceneContext,
     camera: &CameraRays,
+    integrator: &Integrator,
+    job: &RenderJob,
+    stop: &AtomicBool,
+    on_progress: &(dyn Fn(&Progress) + Sync),
+    on_pass: &mut dyn FnMut(&Film, u32),
+) -> RenderResult {
+    match integrator {
+        Integrator::Sppm(s) => s.render(ctx, camera, job, stop, on_progress),
+        _ => progressive(ctx, camera, integrator, job, stop, on_progress, on_pass),
+    }
+}
+
+/// The progressive tile loop: passes of camera samples until the sample count, the
+/// time limit or a signal.
+fn progressive(
+    ctx: &SceneContext,
+    camera: &CameraRays,
+    integrator: &Integrator,
     job: &RenderJob,
     stop: &AtomicBool,
     on_progress: &(dyn Fn(&Progress) + Sync),
@@ -158,11 +119,8 @@ pub fn render(
                 .par_iter_mut()
                 .map(|tile| {
                     let mut ts = TileStats::default();
-                    // Bidirectional: a splat buffer and vertex scratch for this tile.
-                    let mut bd = match &job.integrator {
-                        Integrator::Bdpt(b) => Some((splats.take(), BdptScratch::new(b.max_depth))),
-                        _ => None,
-                    };
+                    // Per-tile working memory (bidirectional: splat buffer, subpath vertices).
+                    let mut scratch = integrator.tile_scratch(&splats);
                     for ty in 0..tile.h {
                         for tx in 0..tile.w {
                             if stop.load(Ordering::Relaxed) || timed_out.load(Ordering::Relaxed) {
@@ -183,29 +141,17 @@ pub fn render(
                                 let u_lens = if camera.has_lens() { sampler.next_2d() } else { glam::Vec2::ZERO };
                                 let (org, dir) =
                                     camera.sample_ray(px as f32 + 0.5 + off.x, py as f32 + 0.5 + off.y, u_lens);
-                                let s = match &job.integrator {
-                                    Integrator::Path(p) => {
-                                        p.li(ctx, org, dir, &mut sampler, |q| camera.depth(q), &mut ts.rays)
-                                    }
-                                    Integrator::Photon(p) => {
-                                        p.li(ctx, org, dir, &mut sampler, |q| camera.depth(q), &mut ts.rays)
-                                    }
-                                    Integrator::Bdpt(b) => {
-                                        let Some((buf, scratch)) = bd.as_mut() else { unreachable!() };
-                                        let mut target = FilmTarget { camera, filter: &job.filter, splats: buf };
-                                        ts.light_paths += 1;
-                                        b.li(
-                                            ctx,
-                                            org,
-                                            dir,
-                                            &mut sampler,
-                                            (job.seed, px, py, i),
-                                            &mut target,
-                                            scratch,
-                                            &mut ts.rays,
-                                        )
-                                    }
-                                };
+                                let s = integrator.sample(
+                                    ctx,
+                                    camera,
+                                    &job.filter,
+                                    &mut scratch,
+                                    (org, dir),
+                                    &mut sampler,
+                                    (job.seed, px, py, i),
+                                    &mut ts.rays,
+                                );
+                                ts.light_paths += integrator.light_paths_per_sample();
                                 if s.radiance.is_finite() {
                                     acc.add(&s);
                                 } else {
@@ -216,9 +162,7 @@ pub fn render(
                             rays_done.fetch_add(ts.rays.total() - rays_before, Ordering::Relaxed);
                         }
                     }
-                    if let Some((buf, _)) = bd {
-                        splats.give(buf);
-                    }
+                    scratch.release(&splats);
                     ts
                 })
                 .collect();
@@ -254,5 +198,6 @@ pub fn render(
         light_paths: film.light_paths,
         splats: splat_count,
         elapsed: start.elapsed(),
+        integrator_stats: None,
     }
 }

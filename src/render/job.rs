@@ -1,0 +1,90 @@
+//! What a render is asked to do and what it gives back: the job, the result, progress
+//! reports and ray counters. Shared by the driver and the integrators that drive
+//! themselves (SPPM), so that neither imports the other's internals.
+
+use crate::film::{FilmImage, Filter};
+use std::time::Duration;
+
+/// What to render.
+#[derive(Clone, Debug)]
+pub struct RenderJob {
+    /// Full frame width.
+    pub width: u32,
+    /// Full frame height.
+    pub height: u32,
+    /// Pixel window (x0, y0, x1, y1) of the full frame to render.
+    pub window: [u32; 4],
+    /// Samples per pixel (None: until the time limit).
+    pub spp: Option<u32>,
+    /// Wall-clock limit for the rendering phase.
+    pub time_limit: Option<Duration>,
+    /// Seed.
+    pub seed: u32,
+    /// Pixel filter.
+    pub filter: Filter,
+}
+
+/// What came out.
+pub struct RenderResult {
+    /// The normalised image.
+    pub image: FilmImage,
+    /// Ray counts.
+    pub rays: RayStats,
+    /// Samples that were NaN or infinite and were dropped.
+    pub nan_samples: u64,
+    /// Fewest samples any pixel got.
+    pub spp_min: u32,
+    /// Most samples any pixel got.
+    pub spp_max: u32,
+    /// Stopped by a signal.
+    pub interrupted: bool,
+    /// Rendering time.
+    pub elapsed: Duration,
+    /// Light subpaths traced (bidirectional: one per camera sample; 0 otherwise).
+    pub light_paths: u64,
+    /// Light-tracing splats added to the film (each spread over the pixel filter).
+    pub splats: u64,
+    /// The integrator's own counters for the summary (SPPM's iterations and photons), if any.
+    pub integrator_stats: Option<serde_json::Value>,
+}
+
+/// Progress callback data.
+pub struct Progress {
+    /// Fraction done in [0, 1].
+    pub fraction: f64,
+    /// Complete passes' samples per pixel.
+    pub samples_done: u32,
+    /// Target samples per pixel.
+    pub samples_total: Option<u32>,
+    /// Seconds since rendering started.
+    pub elapsed: f64,
+    /// Estimated seconds left.
+    pub eta: Option<f64>,
+    /// Rays per second so far.
+    pub rays_per_sec: f64,
+}
+
+/// Ray counts by kind, kept per tile and summed (no shared counters in the hot loop).
+#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
+pub struct RayStats {
+    /// Primary rays from the camera.
+    pub camera: u64,
+    /// Rays continuing a path after scattering or passing through a transparent surface.
+    pub bounce: u64,
+    /// Shadow rays for next-event estimation.
+    pub shadow: u64,
+}
+
+impl RayStats {
+    /// Adds another tile's counts.
+    pub fn add(&mut self, o: &RayStats) {
+        self.camera += o.camera;
+        self.bounce += o.bounce;
+        self.shadow += o.shadow;
+    }
+
+    /// All rays.
+    pub fn total(&self) -> u64 {
+        self.camera + self.bounce + self.shadow
+    }
+}
