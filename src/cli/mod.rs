@@ -1,0 +1,24 @@
+//! The `caustic` commands: argument types (`args`), settings resolution (`settings`:
+//! flag > scene > default, every default in one place), and one module per command.
+
+/// Prints a line to stdout, ignoring a closed pipe (`caustic info --json | head`).
+macro_rules! outln {
+    ($($arg:tt)*) => {{
+        use std::io::Write;
+        let _ = writeln!(std::io::stdout().lock(), $($arg)*);
+    }};
+}
+
+pub mod args;
+mod bench;
+mod info;
+mod photons;
+mod render;
+pub mod settings;
+
+pub use args::*;
+pub use bench::run_bench;
+pub use info::run_info;
+pub use photons::run_photons;
+pub use render::{Outcome, run_render};
+pub use settings::{Resolved, resolve, resolve_photon};

@@ -1,0 +1,322 @@
+//! `caustic render`: load, build, trace photon maps where the integrator needs them,
+//! render, write; and the memory budget charged before each allocation.
+
+use super::args::*;
+use super::settings::{Resolved, resolve};
+use crate::accel::Accel;
+use crate::error::{Error, Result};
+use crate::integrator::bdpt::BdptIntegrator;
+use crate::integrator::path::PathIntegrator;
+use crate::integrator::photon;
+use crate::integrator::photon::PhotonSettings;
+use crate::integrator::photon::io::PhotonMaps;
+use crate::integrator::photon::jensen::JensenIntegrator;
+use crate::integrator::photon::sppm::SppmIntegrator;
+use crate::integrator::{Integrator, SceneContext};
+use crate::memory::{self, MemoryBudget, human};
+use crate::output;
+use crate::progress::Reporter;
+use crate::render::{self, RenderJob};
+use crate::scene::camera::CameraRays;
+use crate::scene::{self, Scene};
+use serde_json::json;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+/// Outcome of a finished render command.
+pub struct Outcome {
+    /// Stopped by a signal (the partial image was written).
+    pub interrupted: bool,
+    /// The summary object that was reported.
+    pub summary: serde_json::Value,
+}
+
+/// `caustic render`.
+pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> Result<Outcome> {
+    let t0 = Instant::now();
+    reporter.phase("loading", 0.0);
+    output::clean_stale_temps(&args.output);
+    output::check_writable(&args.output)?;
+    let budget = MemoryBudget::from_flag(args.memory_limit.as_deref())?;
+    let scene = scene::gltf::load_within(&args.scene, &budget)?;
+    for w in &scene.warnings {
+        reporter.warning(w);
+    }
+    let res = resolve(args, &scene)?;
+    charge_render(&budget, args, &res, &scene)?;
+    if stop.load(Ordering::Relaxed) {
+        return Err(Error::InterruptedEmpty);
+    }
+
+    reporter.phase("bvh", t0.elapsed().as_secs_f64());
+    let tris: Vec<[glam::Vec3; 3]> =
+        scene.mesh.triangles.iter().map(|t| t.map(|i| scene.mesh.positions[i as usize])).collect();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(res.threads)
+        .build()
+        .map_err(|e| Error::Internal(format!("cannot start worker threads: {e}")))?;
+    let accel = pool.install(|| {
+        // The BSDF's albedo table is built here, in parallel, rather than by the first
+        // shading point inside the timed rendering phase.
+        crate::bsdf::pbr::specular_albedo();
+        Accel::build(&tris)
+    });
+    drop(tris);
+    if stop.load(Ordering::Relaxed) {
+        return Err(Error::InterruptedEmpty);
+    }
+    let ctx = SceneContext::with_light_sampler(&scene, &accel, res.light_sampler);
+    let camera = CameraRays::new(&scene.cameras[res.camera], res.resolution.0, res.resolution.1);
+    let mut photon_stats = serde_json::Value::Null;
+    let integrator = match res.integrator {
+        IntegratorKind::Path => Integrator::Path(PathIntegrator::new(res.max_depth, res.transparent)),
+        IntegratorKind::Sppm => {
+            Integrator::Sppm(SppmIntegrator::new(res.max_depth, res.photon.clone(), res.transparent))
+        }
+        IntegratorKind::Bdpt => {
+            Integrator::Bdpt(BdptIntegrator::new(&scene, res.max_depth, res.transparent, args.bdpt_strategy))
+        }
+        IntegratorKind::Photon => {
+            reporter.phase("photons", t0.elapsed().as_secs_f64());
+            let maps = match &args.photon_map {
+                Some(path) => {
+                    let maps = PhotonMaps::load(path, photon::io::scene_hash(&args.scene)?)?;
+                    if maps.max_depth < res.max_depth {
+                        return Err(Error::Usage(format!(
+                            "the photon map '{}' serves paths of at most {} scattering events; render with --max-depth {} or less, or make the map with --max-depth {}",
+                            path.display(),
+                            maps.max_depth,
+                            maps.max_depth,
+                            res.max_depth
+                        )));
+                    }
+                    photon_stats = json!({
+                        "loaded": path.display().to_string(),
+                        "global_stored": maps.global.len(),
+                        "caustic_stored": maps.caustic.len(),
+                    });
+                    maps
+                }
+                None => {
+                    let hash = photon::io::scene_hash(&args.scene)?;
+                    let (maps, st) = pool
+                        .install(|| trace_maps(&ctx, &res.photon, res.job_seed, res.max_depth, hash, reporter, stop));
+                    photon_stats = map_stats_json(&maps, &st);
+                    maps
+                }
+            };
+            if stop.load(Ordering::Relaxed) {
+                return Err(Error::InterruptedEmpty);
+            }
+            let (_, scene_r) = scene.bounding_sphere();
+            Integrator::Photon(JensenIntegrator::new(maps, &res.photon, scene_r, res.max_depth, res.transparent))
+        }
+    };
+    let job = RenderJob {
+        width: res.resolution.0,
+        height: res.resolution.1,
+        window: res.window,
+        spp: res.spp,
+        time_limit: res.time_limit,
+        seed: res.job_seed,
+        filter: res.filter.clone(),
+    };
+
+    reporter.phase("rendering", t0.elapsed().as_secs_f64());
+    let out_str = args.output.display().to_string();
+    let mut last_interim = Instant::now();
+    let interim = args.interim.map(Duration::from_secs_f64);
+    let mut interim_error = None;
+    let on_progress = |p: &render::Progress| {
+        reporter.progress(p.fraction, p.samples_done, p.samples_total, p.elapsed, p.eta, p.rays_per_sec)
+    };
+    let result = pool.install(|| {
+        render::render(&ctx, &camera, &integrator, &job, stop, &on_progress, &mut |film, spp| {
+            if let Some(every) = interim
+                && last_interim.elapsed() >= every
+                && Some(spp) != job.spp
+            {
+                let mut img = film.image();
+                if !res.transparent {
+                    img.make_opaque();
+                }
+                match output::write_exr(&args.output, &img, args.half) {
+                    Ok(()) => reporter.image(&out_str, spp, false),
+                    Err(e) => interim_error = Some(e),
+                }
+                last_interim = Instant::now();
+            }
+        })
+    });
+    if let Some(st) = &result.integrator_stats {
+        photon_stats = st.clone();
+    }
+    if let Some(e) = interim_error {
+        return Err(e);
+    }
+    if result.spp_max == 0 {
+        return Err(Error::InterruptedEmpty);
+    }
+    let mut result = result;
+    if !res.transparent {
+        result.image.make_opaque();
+    }
+
+    reporter.phase("writing", t0.elapsed().as_secs_f64());
+    output::write_exr(&args.output, &result.image, args.half)?;
+    reporter.image(&out_str, result.spp_min, true);
+
+    let mut warnings = scene.warnings.clone();
+    if result.nan_samples > 0 {
+        let w = format!("{} sample(s) were NaN or infinite and were dropped", result.nan_samples);
+        reporter.warning(&w);
+        warnings.push(w);
+    }
+    let black = result.image.combined.iter().all(|p| p[0] == 0.0 && p[1] == 0.0 && p[2] == 0.0);
+    if black {
+        let w = "the image is black: no light reached the camera".to_string();
+        reporter.warning(&w);
+        warnings.push(w);
+    }
+    let secs = result.elapsed.as_secs_f64().max(1e-9);
+    let pixels = ((res.window[2] - res.window[0]) * (res.window[3] - res.window[1])) as f64;
+    let total_samples: f64 = result.image.samples.iter().map(|&s| s as f64).sum();
+    let summary = json!({
+        "output": out_str,
+        "width": res.window[2] - res.window[0],
+        "height": res.window[3] - res.window[1],
+        "spp": result.spp_min,
+        "spp_max": result.spp_max,
+        "elapsed": t0.elapsed().as_secs_f64(),
+        "interrupted": result.interrupted,
+        "nan_samples": result.nan_samples,
+        "black": black,
+        "warnings": warnings,
+        "light_sampler": res.light_sampler.name(),
+        "integrator": integrator.describe(),
+        "stats": {
+            "bvh_build_seconds": accel.build_time.as_secs_f64(),
+            "render_seconds": secs,
+            "samples_per_sec": total_samples / secs,
+            "pixels": pixels,
+            "light_paths": result.light_paths,
+            "splats": result.splats,
+            "rays": result.rays,
+            "rays_per_sec": result.rays.total() as f64 / secs,
+            "camera_rays_per_sec": result.rays.camera as f64 / secs,
+            "bounce_rays_per_sec": result.rays.bounce as f64 / secs,
+            "shadow_rays_per_sec": result.rays.shadow as f64 / secs,
+            "threads": res.threads,
+            "photons": photon_stats,
+        }
+    });
+    reporter.summary(summary.clone());
+    Ok(Outcome { interrupted: result.interrupted, summary })
+}
+
+/// Traces the global and caustic maps, reporting the "photons" phase's progress at
+/// most about twice a second.
+pub(super) fn trace_maps(
+    ctx: &SceneContext,
+    p: &PhotonSettings,
+    seed: u32,
+    max_depth: u32,
+    hash: u64,
+    reporter: &Reporter,
+    stop: &AtomicBool,
+) -> (PhotonMaps, photon::io::MapStats) {
+    let last = std::sync::atomic::AtomicU64::new(0);
+    PhotonMaps::trace(ctx, p.photons, p.caustic_photons, seed, max_depth, hash, stop, &|done, total, elapsed| {
+        let ms = (elapsed * 1000.0) as u64;
+        let prev = last.load(Ordering::Relaxed);
+        if (ms >= prev + 500 || done == total)
+            && last.compare_exchange(prev, ms.max(prev + 1), Ordering::Relaxed, Ordering::Relaxed).is_ok()
+        {
+            reporter.photon_progress(
+                done as f64 / total.max(1) as f64,
+                done,
+                total,
+                elapsed,
+                done as f64 / elapsed.max(1e-9),
+            );
+        }
+    })
+}
+
+/// Figures of a map build, for the summary and `bench`.
+pub(super) fn map_stats_json(maps: &PhotonMaps, st: &photon::io::MapStats) -> serde_json::Value {
+    let emitted = st.global.emitted + st.caustic.emitted;
+    let stored = st.global.stored + st.caustic.stored;
+    json!({
+        "global_emitted": st.global.emitted,
+        "global_stored": st.global.stored,
+        "caustic_emitted": st.caustic.emitted,
+        "caustic_stored": st.caustic.stored,
+        "photon_rays": st.global.rays + st.caustic.rays,
+        "trace_seconds": st.trace_seconds,
+        "photons_traced_per_sec": emitted as f64 / st.trace_seconds.max(1e-9),
+        "photons_stored_per_sec": stored as f64 / st.trace_seconds.max(1e-9),
+        "kdtree_build_seconds": st.build_seconds,
+        "bytes_per_photon": std::mem::size_of::<photon::Photon>(),
+        "map_bytes": maps.global.bytes() + maps.caustic.bytes(),
+    })
+}
+
+// ---- Memory budget of the commands (issue 11): estimates charged before allocating. ----
+
+/// Charges the BVH build of the scene's triangles.
+pub(super) fn charge_bvh(budget: &MemoryBudget, scene: &Scene) -> Result<()> {
+    let n = scene.mesh.triangles.len() as u64;
+    budget.charge(format!("the BVH over {n} triangles"), n.saturating_mul(memory::BVH_BYTES_PER_TRIANGLE))
+}
+
+/// Charges the photon maps traced with settings `p` (global and caustic).
+pub(super) fn charge_photon_maps(budget: &MemoryBudget, p: &PhotonSettings, max_depth: u32) -> Result<()> {
+    let emitted = p.photons.saturating_add(p.caustic_photons);
+    budget.charge(
+        format!("photon maps for {} + {} photons", p.photons, p.caustic_photons),
+        memory::photon_map_bytes(emitted, max_depth),
+    )
+}
+
+/// Charges everything `run_render` allocates after loading: the BVH, the film and
+/// output buffers of the rendered window, and the integrator's own state (photon maps,
+/// SPPM's per-pixel state and per-iteration maps).
+fn charge_render(budget: &MemoryBudget, args: &RenderArgs, res: &Resolved, scene: &Scene) -> Result<()> {
+    charge_bvh(budget, scene)?;
+    let [x0, y0, x1, y1] = res.window;
+    let pixels = (x1 - x0) as u64 * (y1 - y0) as u64;
+    budget.charge(
+        format!("the film for {}x{} pixels", x1 - x0, y1 - y0),
+        pixels.saturating_mul(memory::film_bytes_per_pixel()),
+    )?;
+    match res.integrator {
+        IntegratorKind::Photon => match &args.photon_map {
+            // A map file holds 32 bytes per photon, as the loaded map does.
+            Some(path) => {
+                let len = std::fs::metadata(path).map_err(|e| Error::io(path, e))?.len();
+                budget.charge(format!("the photon map file {} ({})", path.display(), human(len)), len)
+            }
+            None => charge_photon_maps(budget, &res.photon, res.max_depth),
+        },
+        IntegratorKind::Sppm => {
+            budget.charge(
+                format!("SPPM's per-pixel state for {pixels} pixels"),
+                pixels.saturating_mul(photon::sppm::bytes_per_pixel()),
+            )?;
+            let per_iter = res.photon.sppm_photons.unwrap_or_else(|| photon::default_sppm_photons(pixels));
+            budget.charge(
+                format!("SPPM's photon map of {per_iter} photons per iteration"),
+                memory::photon_map_bytes(per_iter, res.max_depth),
+            )
+        }
+        // Light-tracing splats: the film's sum plus one buffer per worker (f64 RGB each;
+        // the pool holds one per concurrently running tile, at most one per thread).
+        IntegratorKind::Bdpt => budget.charge(
+            format!("bidirectional splat buffers ({} threads + 1) for {pixels} pixels", res.threads),
+            pixels.saturating_mul(24).saturating_mul(res.threads as u64 + 1),
+        ),
+        // The path tracer keeps nothing per pixel beyond the film.
+        IntegratorKind::Path => Ok(()),
+    }
+}

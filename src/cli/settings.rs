@@ -1,0 +1,254 @@
+//! Settings resolution: flag > scene setting > default, every default and every
+//! range check in one place.
+
+use super::args::*;
+use crate::error::{Error, Result};
+use crate::film::Filter;
+use crate::integrator::path::PathIntegrator;
+use crate::integrator::photon::{self, MAX_K, PhotonSettings};
+use crate::light::LightSamplerKind;
+use crate::scene::{self, Scene};
+use clap::ValueEnum;
+use std::time::Duration;
+
+/// Settings after resolving flags, scene settings and defaults.
+#[derive(Debug)]
+pub struct Resolved {
+    /// Full frame width and height.
+    pub resolution: (u32, u32),
+    /// Window rendered.
+    pub window: [u32; 4],
+    /// Samples per pixel (None = until the time limit).
+    pub spp: Option<u32>,
+    /// Time limit.
+    pub time_limit: Option<Duration>,
+    /// Camera index.
+    pub camera: usize,
+    /// Worker threads.
+    pub threads: usize,
+    /// The render job.
+    pub job_seed: u32,
+    /// Max depth.
+    pub max_depth: u32,
+    /// Filter.
+    pub filter: Filter,
+    /// Transparent background.
+    pub transparent: bool,
+    /// Algorithm.
+    pub integrator: IntegratorKind,
+    /// Photon-mapping settings.
+    pub photon: PhotonSettings,
+    /// Light selection.
+    pub light_sampler: LightSamplerKind,
+}
+
+/// Resolves the photon-mapping settings (flag > scene > default) and checks them.
+pub fn resolve_photon(a: &PhotonArgs, st: &scene::SceneSettings) -> Result<PhotonSettings> {
+    let d = PhotonSettings::default();
+    let p = PhotonSettings {
+        photons: a.photons.or(st.photons).unwrap_or(d.photons),
+        caustic_photons: a.caustic_photons.or(st.caustic_photons).unwrap_or(d.caustic_photons),
+        k: a.k.or(st.k).unwrap_or(d.k),
+        caustic_k: a.caustic_k.or(st.caustic_k).unwrap_or(d.caustic_k),
+        max_radius: a.max_radius.or(st.max_radius).or(d.max_radius),
+        gather_rays: a.gather_rays.or(st.gather_rays).unwrap_or(d.gather_rays),
+        diffuse_bounces: a.diffuse_bounces.or(st.diffuse_bounces).unwrap_or(d.diffuse_bounces),
+        sppm_iterations: a.sppm_iterations.or(st.sppm_iterations).unwrap_or(d.sppm_iterations),
+        sppm_photons: a.sppm_photons.or(st.sppm_photons).or(d.sppm_photons),
+        sppm_radius: a.sppm_radius.or(st.sppm_radius).or(d.sppm_radius),
+        sppm_alpha: d.sppm_alpha,
+    };
+    const MAX_PHOTONS: u64 = 1 << 32;
+    if p.photons > MAX_PHOTONS || p.caustic_photons > MAX_PHOTONS {
+        return Err(Error::Usage(format!("photon counts must be at most {MAX_PHOTONS}")));
+    }
+    if p.photons == 0 && p.caustic_photons == 0 {
+        return Err(Error::Usage("--photons and --caustic-photons cannot both be 0".into()));
+    }
+    for (name, k) in [("--k", p.k), ("--caustic-k", p.caustic_k)] {
+        if !(1..=MAX_K).contains(&k) {
+            return Err(Error::Usage(format!("{name} {k} must be in 1..={MAX_K}")));
+        }
+    }
+    for (name, v) in [("--max-radius", p.max_radius), ("--sppm-radius", p.sppm_radius)] {
+        if let Some(r) = v
+            && !(r > 0.0 && r.is_finite())
+        {
+            return Err(Error::Usage(format!("{name} {r} must be a positive radius")));
+        }
+    }
+    if p.gather_rays == 0 || p.gather_rays > 65_536 {
+        return Err(Error::Usage(format!("--gather-rays {} must be in 1..=65536", p.gather_rays)));
+    }
+    if p.diffuse_bounces > MAX_DEPTH {
+        return Err(Error::Usage(format!("--diffuse-bounces {} is absurd", p.diffuse_bounces)));
+    }
+    if p.sppm_iterations == 0 || p.sppm_iterations > MAX_SPP {
+        return Err(Error::Usage(format!("--sppm-iterations {} must be in 1..={MAX_SPP}", p.sppm_iterations)));
+    }
+    if matches!(p.sppm_photons, Some(0)) || p.sppm_photons.is_some_and(|n| n > MAX_PHOTONS) {
+        return Err(Error::Usage(format!("--sppm-photons must be in 1..={MAX_PHOTONS}")));
+    }
+    Ok(p)
+}
+
+/// Chooses the camera by flag or scene setting.
+fn pick_camera(scene: &Scene, wanted: Option<&str>) -> Result<usize> {
+    let Some(w) = wanted else { return Ok(0) };
+    if let Some(i) = scene.cameras.iter().position(|c| c.name == w) {
+        return Ok(i);
+    }
+    if let Some(i) = scene.cameras.iter().position(|c| c.data_name.as_deref() == Some(w)) {
+        return Ok(i);
+    }
+    if let Ok(i) = w.parse::<usize>()
+        && i < scene.cameras.len()
+    {
+        return Ok(i);
+    }
+    let names: Vec<String> = scene.cameras.iter().enumerate().map(|(i, c)| format!("{i}: '{}'", c.name)).collect();
+    Err(Error::Usage(format!("unknown camera '{w}' (the scene has {})", names.join(", "))))
+}
+
+/// Resolves every setting; each default lives here.
+pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
+    let st = &scene.settings;
+    let camera = pick_camera(scene, args.camera.as_deref().or(st.camera.as_deref()))?;
+    let resolution = match args.resolution.or(st.resolution.map(|r| (r[0], r[1]))) {
+        Some(r) => r,
+        None => match scene.cameras[camera].aspect() {
+            Some(a) => (DEFAULT_WIDTH, ((DEFAULT_WIDTH as f32 / a).round() as u32).max(1)),
+            None => (DEFAULT_WIDTH, DEFAULT_HEIGHT),
+        },
+    };
+    let (w, h) = resolution;
+    if w == 0 || h == 0 || w > MAX_SIDE || h > MAX_SIDE || (w as u64) * (h as u64) > MAX_PIXELS {
+        return Err(Error::Usage(format!(
+            "resolution {w}x{h} is out of range (each side 1..={MAX_SIDE}, at most {MAX_PIXELS} pixels)"
+        )));
+    }
+    let window = match args.crop {
+        None => [0, 0, w, h],
+        Some([x0, y0, x1, y1]) => {
+            if !(x0 < x1 && y0 < y1 && x1 <= w && y1 <= h) {
+                return Err(Error::Usage(format!(
+                    "crop {x0},{y0},{x1},{y1} is not a non-empty window inside the {w}x{h} frame"
+                )));
+            }
+            [x0, y0, x1, y1]
+        }
+    };
+    let time_limit = match args.time_limit.or(st.time_limit) {
+        None => None,
+        Some(t) if t > 0.0 && t.is_finite() && t < 1e7 => Some(Duration::from_secs_f64(t)),
+        Some(t) => {
+            return Err(Error::Usage(format!("time limit {t} s must be a positive number of seconds")));
+        }
+    };
+    let spp = match args.spp.or(st.spp) {
+        Some(0) => return Err(Error::Usage("--spp must be at least 1".into())),
+        Some(s) if s > MAX_SPP => {
+            return Err(Error::Usage(format!("--spp {s} is absurd (at most {MAX_SPP})")));
+        }
+        Some(s) => Some(s),
+        None if time_limit.is_some() => None,
+        None => Some(DEFAULT_SPP),
+    };
+    let max_depth = args.max_depth.or(st.max_depth).unwrap_or(PathIntegrator::default().max_depth);
+    if max_depth > MAX_DEPTH {
+        return Err(Error::Usage(format!("--max-depth {max_depth} is absurd (at most {MAX_DEPTH})")));
+    }
+    let cores = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
+    let threads = match args.threads.or(st.threads) {
+        None => cores,
+        Some(0) => return Err(Error::Usage("--threads must be at least 1".into())),
+        Some(t) if t > 4096 => return Err(Error::Usage(format!("--threads {t} is absurd"))),
+        Some(t) => t,
+    };
+    let filter_kind = match (args.filter, st.filter.as_deref()) {
+        (Some(f), _) => f,
+        (None, None) | (None, Some("blackman-harris")) => FilterKind::BlackmanHarris,
+        (None, Some("box")) => FilterKind::Box,
+        (None, Some(other)) => {
+            return Err(Error::Usage(format!("unknown filter '{other}' in the scene settings")));
+        }
+    };
+    let filter_width = args.filter_width.or(st.filter_width).unwrap_or(match filter_kind {
+        // Blender's default filter size is 1.5 px, over which Cycles spreads its
+        // Blackman-Harris window twice as wide (film.cpp: width *= 2): a 3 px window.
+        FilterKind::BlackmanHarris => 3.0,
+        FilterKind::Box => 1.0,
+    });
+    if !(filter_width > 0.0 && filter_width <= 16.0) {
+        return Err(Error::Usage(format!("filter width {filter_width} must be in (0, 16] pixels")));
+    }
+    let filter = match filter_kind {
+        FilterKind::BlackmanHarris => Filter::blackman_harris(filter_width),
+        FilterKind::Box => Filter::box_filter(filter_width),
+    };
+    if let Some(i) = args.interim
+        && !(i > 0.0 && i.is_finite())
+    {
+        return Err(Error::Usage(format!("--interim {i} must be a positive number of seconds")));
+    }
+    let integrator = match (args.integrator, st.integrator.as_deref()) {
+        (Some(i), _) => i,
+        (None, None) => IntegratorKind::Path,
+        (None, Some(name)) => IntegratorKind::from_str(name, true).map_err(|_| {
+            Error::Usage(format!(
+                "the scene asks for integrator '{name}', which this build does not have (path, bdpt, photon, sppm)"
+            ))
+        })?,
+    };
+    // The tree is the default: on the many-lights scene it reaches the same mean with a
+    // fraction of the error at equal time (docs/benchmarks.md, "Light selection").
+    let light_sampler = match (args.light_sampler, st.light_sampler.as_deref()) {
+        (Some(k), _) => k.into(),
+        (None, None) => LightSamplerKind::default(),
+        (None, Some(name)) => LightSamplerKind::from_name(name).ok_or_else(|| {
+            Error::Usage(format!("the scene asks for light sampler '{name}', which does not exist (tree, power)"))
+        })?,
+    };
+    let mut photon = resolve_photon(&args.photon, st)?;
+    // SPPM with a time limit and no iteration count iterates until the time is up, as the
+    // path tracer samples until then without --spp.
+    if integrator == IntegratorKind::Sppm
+        && time_limit.is_some()
+        && args.photon.sppm_iterations.or(st.sppm_iterations).is_none()
+    {
+        photon.sppm_iterations = MAX_SPP;
+    }
+    if integrator != IntegratorKind::Path && max_depth > photon::MAX_PHOTON_DEPTH {
+        return Err(Error::Usage(format!(
+            "--max-depth {max_depth} is too deep for photon mapping (at most {})",
+            photon::MAX_PHOTON_DEPTH
+        )));
+    }
+    if integrator == IntegratorKind::Bdpt && max_depth > crate::integrator::bdpt::MAX_BDPT_DEPTH {
+        return Err(Error::Usage(format!(
+            "--max-depth {max_depth} is too deep for bidirectional path tracing (at most {})",
+            crate::integrator::bdpt::MAX_BDPT_DEPTH
+        )));
+    }
+    if args.bdpt_strategy.is_some() && integrator != IntegratorKind::Bdpt {
+        return Err(Error::Usage("--bdpt-strategy needs --integrator bdpt".into()));
+    }
+    if args.photon_map.is_some() && integrator != IntegratorKind::Photon {
+        return Err(Error::Usage("--photon-map needs --integrator photon".into()));
+    }
+    Ok(Resolved {
+        resolution,
+        window,
+        spp,
+        time_limit,
+        camera,
+        threads,
+        job_seed: args.seed.or(st.seed).unwrap_or(0),
+        max_depth,
+        filter,
+        transparent: st.transparent.unwrap_or(true),
+        integrator,
+        photon,
+        light_sampler,
+    })
+}
