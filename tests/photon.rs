@@ -21,9 +21,9 @@ mod common;
 use caustic::accel::Accel;
 use caustic::integrator::SceneContext;
 use caustic::integrator::photon::PhotonMap;
-use caustic::integrator::photon::emit::Emitters;
 use caustic::integrator::photon::estimate::estimate;
 use caustic::integrator::photon::trace::{MapKind, TraceJob, trace_photons};
+use caustic::light::emit::Emitters;
 use common::{GltfBuilder, emissive_furnace, look_rotation, render_image, root, run, temp_dir};
 use glam::{DVec3, Vec2, Vec3};
 use serde_json::json;
@@ -174,7 +174,7 @@ fn emitted_power_sums_to_light_power() {
             let mut s = caustic::sampling::PixelSampler::new(3, 0xF07_0001, 0, i);
             let [ul, us, px, py] = s.next_4d();
             let [dx, dy, _, _] = s.next_4d();
-            if let Some(e) = em.emit(&ctx, ul, us, Vec2::new(px, py), Vec2::new(dx, dy), n) {
+            if let Some(e) = em.emit(ctx.scene, ul, us, Vec2::new(px, py), Vec2::new(dx, dy), n) {
                 assert!(e.dir.is_normalized() && e.power.is_finite());
                 sum += e.power.as_dvec3();
             }

@@ -92,11 +92,11 @@ pub fn light_transmittance(
             return tr;
         };
         let mat = &ctx.scene.materials[ctx.scene.mesh.tri_material[h.tri as usize] as usize];
-        let s = ctx.surface(&h, org, dir);
+        let s = ctx.scene.surface(&h, org, dir);
         if mat.null_surface {
             stack = ctx.medium_after(&s, dir, stack);
         } else if mat.alpha_mode == AlphaMode::Blend {
-            tr *= (1.0 - ctx.alpha(h.tri, h.b1, h.b2)).clamp(0.0, 1.0);
+            tr *= (1.0 - ctx.scene.alpha(h.tri, h.b1, h.b2)).clamp(0.0, 1.0);
         } else {
             return Rgb::ZERO;
         }

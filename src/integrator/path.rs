@@ -26,7 +26,7 @@
 //! (`media::random_walk`) with the base colour's throughput divided out as Cycles does,
 //! and leaves through a Lambertian exit (NEE at the exit point, cosine sampling out).
 
-use super::{SceneContext, ShadingPoint, SurfaceHit, media, power_heuristic};
+use super::{SceneContext, media, power_heuristic};
 use crate::bsdf::dielectric::refract;
 use crate::bsdf::microfacet::Ggx;
 use crate::bsdf::{Bsdf, PbrBsdf};
@@ -40,6 +40,7 @@ use crate::sampling::PixelSampler;
 use crate::sampling::warp::{cosine_hemisphere, cosine_hemisphere_pdf};
 use crate::scene::AlphaMode;
 use crate::scene::material::{Subsurface, SubsurfaceMethod};
+use crate::scene::shading::{ShadingPoint, SurfaceHit};
 use glam::{Vec2, Vec3};
 
 /// The path tracer's parameters.
@@ -292,7 +293,7 @@ impl PathIntegrator {
             if !beta.is_finite() || beta == Rgb::ZERO {
                 break;
             }
-            let s = ctx.surface(&hit, org, dir);
+            let s = ctx.scene.surface(&hit, org, dir);
             let wo = -dir;
             let mat = &ctx.scene.materials[s.material as usize];
 
@@ -310,7 +311,7 @@ impl PathIntegrator {
 
             // Stochastic transparency: pass straight through with probability 1 - alpha.
             if mat.alpha_mode == AlphaMode::Blend {
-                let alpha = ctx.alpha(hit.tri, hit.b1, hit.b2);
+                let alpha = ctx.scene.alpha(hit.tri, hit.b1, hit.b2);
                 if u_alpha >= alpha && transparent_hits < MAX_TRANSPARENT_HITS {
                     transparent_hits += 1;
                     org = offset_ray_origin(s.p, -s.ng);
@@ -319,7 +320,7 @@ impl PathIntegrator {
                 }
             }
 
-            let sp = ctx.shade(&s, wo);
+            let sp = ctx.scene.shade(&s, wo);
             if depth == 0 {
                 out.alpha = 1.0;
                 out.depth = depth_of(s.p);
@@ -383,7 +384,7 @@ impl PathIntegrator {
                 // base colour is the walk's to give (Cycles divides it out the same way).
                 beta *= exit.weight;
                 depth += 1;
-                let se = ctx.surface(&exit.hit, exit.org, exit.dir);
+                let se = ctx.scene.surface(&exit.hit, exit.org, exit.dir);
                 // The exit's normals on the outside (the walk came from the inside).
                 let (n_g, n_s) = (-se.ng, -se.ns);
                 if depth >= self.max_depth || !beta.is_finite() || beta == Rgb::ZERO {
@@ -479,7 +480,7 @@ impl PathIntegrator {
         if depth >= self.max_depth || !beta.is_finite() || beta == Rgb::ZERO {
             return Rgb::ZERO;
         }
-        let se = ctx.surface(&exit.hit, exit.org, exit.dir);
+        let se = ctx.scene.surface(&exit.hit, exit.org, exit.dir);
         let (n_g, n_s) = (-se.ng, -se.ns);
         let [v_light, v_lx, v_ly, v_rr] = sampler.next_4d();
         let [v_dx, v_dy, _, _] = sampler.next_4d();

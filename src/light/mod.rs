@@ -7,7 +7,10 @@
 //! irradiance in W/m², area radiance in W/(m² sr). The loader converts glTF's
 //! photometric units (cd, lux) by Blender's exporter convention (683 lm/W).
 
+pub mod emit;
 pub mod environment;
+pub mod origin;
+pub mod sample;
 pub mod sampler;
 pub mod tree;
 
@@ -18,6 +21,16 @@ use std::f32::consts::PI;
 
 pub use environment::Environment;
 pub use sampler::{LightSampler, LightSamplerKind};
+
+/// A sun whose half angle has a cosine at least this is a delta light.
+pub const DELTA_SUN_COS: f32 = 1.0 - 1e-7;
+
+/// Radiance of a sun disk of half-angle cosine `cos_half` giving irradiance `e` at normal
+/// incidence: E = L π sin²α (the projected solid angle of a spherical cap).
+#[inline]
+pub fn sun_radiance(e: Rgb, cos_half: f32) -> Rgb {
+    e / (std::f32::consts::PI * (1.0 - cos_half * cos_half))
+}
 
 /// Shape of an area light.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

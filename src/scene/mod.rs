@@ -4,6 +4,7 @@
 pub mod camera;
 pub mod gltf;
 pub mod material;
+pub mod shading;
 pub mod texture;
 
 use crate::light::Light;

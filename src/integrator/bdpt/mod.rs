@@ -27,13 +27,13 @@
 //! paths are disjoint, so the sum is unbiased; what BDPT does not yet offer is light
 //! subpaths scattering in media (a volumetric caustic seen in fog is path traced).
 
-pub mod lights;
 pub mod mis;
 
-use super::{SceneContext, SurfaceHit, power_heuristic};
+use super::{SceneContext, power_heuristic};
 use crate::bsdf::Bsdf;
 use crate::film::CameraSample;
 use crate::film::{Filter, SplatBuffer};
+use crate::light::origin::{self as lights, BdptLights, LightPoint};
 use crate::light::{Light, LightSample, area_to_solid_angle, intersect_sphere};
 use crate::math::{Frame, Rgb, hash_combine, offset_ray_origin};
 use crate::medium::{FreeFlight, MediumStack};
@@ -42,8 +42,8 @@ use crate::sampling::PixelSampler;
 use crate::sampling::warp::uniform_cone_pdf;
 use crate::scene::AlphaMode;
 use crate::scene::camera::CameraRays;
+use crate::scene::shading::SurfaceHit;
 use glam::{Vec2, Vec3};
-use lights::{BdptLights, LightPoint};
 use mis::PathDensities;
 use std::sync::Arc;
 
@@ -198,7 +198,13 @@ impl Vertex {
     }
 
     /// A surface vertex reached from direction `wo` with throughput `beta` through `medium`.
-    fn surface(s: &SurfaceHit, sp: &super::ShadingPoint, wo: Vec3, beta: Rgb, medium: MediumStack) -> Self {
+    fn surface(
+        s: &SurfaceHit,
+        sp: &crate::scene::shading::ShadingPoint,
+        wo: Vec3,
+        beta: Rgb,
+        medium: MediumStack,
+    ) -> Self {
         Vertex {
             ng: s.ng,
             frame: sp.frame,
@@ -303,7 +309,7 @@ fn passes_through(
         *medium = ctx.medium_after(s, dir, *medium);
         return true;
     }
-    mat.alpha_mode == AlphaMode::Blend && u_alpha >= ctx.alpha(hit.tri, hit.b1, hit.b2)
+    mat.alpha_mode == AlphaMode::Blend && u_alpha >= ctx.scene.alpha(hit.tri, hit.b1, hit.b2)
 }
 
 /// The media a segment leaving vertex `v` in direction `w` is in.
@@ -448,7 +454,7 @@ impl BdptIntegrator {
                             && dir.dot(-*direction) >= *cos_half
                         {
                             let p_light = self.lights.pmf_any(index) * uniform_cone_pdf(*cos_half);
-                            sum += super::sun_radiance(*irradiance, *cos_half)
+                            sum += crate::light::sun_radiance(*irradiance, *cos_half)
                                 * self.camera_only_weight(i, prev_delta, pdf_sa, p_light);
                         }
                     }
@@ -461,7 +467,7 @@ impl BdptIntegrator {
                 }
                 break;
             };
-            let s = ctx.surface(&hit, org, dir);
+            let s = ctx.scene.surface(&hit, org, dir);
             let wo = -dir;
             let mat = &ctx.scene.materials[s.material as usize];
             if passes_through(ctx, &s, &hit, dir, u_alpha, &mut medium) && transparent_hits < MAX_TRANSPARENT_HITS {
@@ -470,7 +476,7 @@ impl BdptIntegrator {
                 stats.bounce += 1;
                 continue;
             }
-            let sp = ctx.shade(&s, wo);
+            let sp = ctx.scene.shade(&s, wo);
             // Subsurface scattering is path traced from here (the BSDF holds the rest of
             // the material: its diffuse base is already reduced by the subsurface weight).
             if mat.subsurface.is_some() && self.strategy.is_none() && (i as u32) < self.max_depth {
@@ -730,7 +736,7 @@ impl BdptIntegrator {
         let Some((index, pmf)) = self.lights.pick_finite(u_pick) else {
             return;
         };
-        let Some(lp) = lights::sample_point(ctx, index, Vec2::new(u_px, u_py)) else {
+        let Some(lp) = lights::sample_point(ctx.scene, index, Vec2::new(u_px, u_py)) else {
             return;
         };
         let dir = lights::sample_direction(ctx.scene, &lp, u_side, Vec2::new(u_dx, u_dy));
@@ -769,7 +775,7 @@ impl BdptIntegrator {
             if let Some(m) = ctx.medium(&medium) {
                 beta *= m.transmittance(hit.t);
             }
-            let s = ctx.surface(&hit, org, dir);
+            let s = ctx.scene.surface(&hit, org, dir);
             let wo = -dir;
             if passes_through(ctx, &s, &hit, dir, u_alpha, &mut medium) && transparent_hits < MAX_TRANSPARENT_HITS {
                 transparent_hits += 1;
@@ -777,7 +783,7 @@ impl BdptIntegrator {
                 stats.bounce += 1;
                 continue;
             }
-            let sp = ctx.shade(&s, wo);
+            let sp = ctx.scene.shade(&s, wo);
             let i = light.len() - 1;
             let mut v = Vertex::surface(&s, &sp, wo, beta, medium);
             v.pdf_fwd = if prev_delta { 0.0 } else { v.area_density(pdf_sa, light[i].p) };
@@ -980,7 +986,7 @@ impl BdptIntegrator {
             let w = if ls.delta { 1.0 } else { power_heuristic(p_light, bsdf.pdf(wo_l, wi_l)) };
             return x.beta * f * tr * ls.li * (self.mis(w) / p_light);
         }
-        let Some(lp) = lights::sample_point(ctx, index, Vec2::new(u[1], u[2])) else {
+        let Some(lp) = lights::sample_point(ctx.scene, index, Vec2::new(u[1], u[2])) else {
             return Rgb::ZERO;
         };
         let d = lp.p - x.p;

@@ -24,10 +24,11 @@
 use super::kdtree::KnnResult;
 use super::{Photon, PhotonMap};
 use crate::bsdf::Bsdf;
-use crate::integrator::{SceneContext, ShadingPoint, SurfaceHit, power_heuristic};
+use crate::integrator::{SceneContext, power_heuristic};
 use crate::math::{Frame, Rgb};
 use crate::medium::MediumStack;
 use crate::render::job::RayStats;
+use crate::scene::shading::{ShadingPoint, SurfaceHit};
 use glam::{Vec2, Vec3};
 
 /// Photons whose normal is within 60° of the query's count (`Photon::normal_within_60`).

@@ -20,11 +20,11 @@
 //! A map made for another scene file (different bytes) is refused with a clear error.
 //! The hash covers the .gltf/.glb file itself, not external buffers or textures.
 
-use super::emit::Emitters;
 use super::trace::{MapKind, TraceJob, TraceStats, trace_photons};
 use super::{Photon, PhotonMap};
 use crate::error::{Error, Result};
 use crate::integrator::SceneContext;
+use crate::light::emit::Emitters;
 use std::io::{Read, Write};
 use std::path::Path;
 use std::sync::atomic::AtomicBool;

@@ -73,7 +73,7 @@ fn next_hit(
     dir: Vec3,
     sampler: &mut PixelSampler,
     stats: &mut RayStats,
-) -> (Option<(crate::accel::Hit, crate::integrator::SurfaceHit)>, f32) {
+) -> (Option<(crate::accel::Hit, crate::scene::shading::SurfaceHit)>, f32) {
     let mut passes = 0;
     let mut first = None;
     loop {
@@ -81,9 +81,9 @@ fn next_hit(
             return (None, first.unwrap_or(f32::INFINITY));
         };
         first.get_or_insert(hit.t);
-        let s = ctx.surface(&hit, *org, dir);
+        let s = ctx.scene.surface(&hit, *org, dir);
         if ctx.scene.materials[s.material as usize].alpha_mode == AlphaMode::Blend && passes < MAX_TRANSPARENT_HITS {
-            let alpha = ctx.alpha(hit.tri, hit.b1, hit.b2);
+            let alpha = ctx.scene.alpha(hit.tri, hit.b1, hit.b2);
             if sampler.next_4d()[0] >= alpha {
                 passes += 1;
                 *org = offset_ray_origin(s.p, -s.ng);
@@ -133,8 +133,8 @@ impl JensenIntegrator {
     fn subsurface_part(
         &self,
         ctx: &SceneContext,
-        s: &crate::integrator::SurfaceHit,
-        sp: &crate::integrator::ShadingPoint,
+        s: &crate::scene::shading::SurfaceHit,
+        sp: &crate::scene::shading::ShadingPoint,
         wo: Vec3,
         wo_local: Vec3,
         media: MediumStack,
@@ -244,7 +244,7 @@ impl JensenIntegrator {
                 continue;
             }
             let wo = -dir;
-            let sp = ctx.shade(&s, wo);
+            let sp = ctx.scene.shade(&s, wo);
             if depth == 0 {
                 out.alpha = 1.0;
                 out.depth = depth_of(s.p);
@@ -298,8 +298,8 @@ impl JensenIntegrator {
     fn shade_first_diffuse(
         &self,
         ctx: &SceneContext,
-        s: &crate::integrator::SurfaceHit,
-        sp: &crate::integrator::ShadingPoint,
+        s: &crate::scene::shading::SurfaceHit,
+        sp: &crate::scene::shading::ShadingPoint,
         wo_local: Vec3,
         d: u32,
         u_light: f32,
@@ -409,7 +409,7 @@ impl JensenIntegrator {
                 continue;
             }
             let wo = -dir;
-            let sp = ctx.shade(&s, wo);
+            let sp = ctx.scene.shade(&s, wo);
             if sp.emitted != Rgb::ZERO && !caustic {
                 let w = match (prev_pdf > 0.0, ctx.lights.light_of_triangle(hit.tri)) {
                     (true, Some(index)) => power_heuristic(prev_pdf, ctx.light_pdf(index, prev_p, prev_n, s.p, s.ng)),

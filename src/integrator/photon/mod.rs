@@ -29,7 +29,6 @@
 // `!(x > 0.0)` is deliberate throughout: it is also true for NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-pub mod emit;
 pub mod estimate;
 pub mod io;
 pub mod jensen;

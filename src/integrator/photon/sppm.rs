@@ -29,7 +29,6 @@
 //! a filter-distributed offset per pixel and iteration, so the filter is applied), AOVs
 //! other than those of the first hit.
 
-use super::emit::Emitters;
 use super::estimate::direct_light;
 use super::trace::{MapKind, TraceJob, trace_photons};
 use super::{PhotonMap, PhotonSettings, default_sppm_photons};
@@ -38,6 +37,7 @@ use crate::film::{DEPTH_BACKGROUND, FilmImage};
 use crate::integrator::SceneContext;
 use crate::integrator::media::medium_segment;
 use crate::integrator::path::PathIntegrator;
+use crate::light::emit::Emitters;
 use crate::math::{Frame, Rgb, offset_ray_origin};
 use crate::render::job::RayStats;
 use crate::render::job::{Progress, RenderJob, RenderResult};
@@ -487,7 +487,7 @@ fn camera_path(
             }
             break;
         };
-        let s = ctx.surface(&hit, org, dir);
+        let s = ctx.scene.surface(&hit, org, dir);
         if ctx.scene.materials[s.material as usize].null_surface && transparent < 128 {
             // A volume boundary without a surface: only the medium changes.
             transparent += 1;
@@ -498,7 +498,7 @@ fn camera_path(
         }
         if ctx.scene.materials[s.material as usize].alpha_mode == AlphaMode::Blend
             && transparent < 128
-            && u_alpha >= ctx.alpha(hit.tri, hit.b1, hit.b2)
+            && u_alpha >= ctx.scene.alpha(hit.tri, hit.b1, hit.b2)
         {
             transparent += 1;
             org = offset_ray_origin(s.p, -s.ng);
@@ -506,7 +506,7 @@ fn camera_path(
             continue;
         }
         let wo = -dir;
-        let sp = ctx.shade(&s, wo);
+        let sp = ctx.scene.shade(&s, wo);
         if depth == 0 {
             first_t = s.t;
             pend.alpha += 1.0;

@@ -31,9 +31,9 @@
 //! Stochastic transparency (BLEND) lets photons pass as camera rays do.
 
 use super::Photon;
-use super::emit::Emitters;
 use crate::integrator::SceneContext;
 use crate::integrator::path::PathIntegrator;
+use crate::light::emit::Emitters;
 use crate::math::offset_ray_origin;
 use crate::medium::FreeFlight;
 use crate::sampling::PixelSampler;
@@ -150,7 +150,8 @@ pub fn trace_one(
     let [u_light, u_side, u_px, u_py] = s.next_4d();
     let [u_dx, u_dy, _, _] = s.next_4d();
     st.emitted += 1;
-    let Some(e) = emitters.emit(ctx, u_light, u_side, Vec2::new(u_px, u_py), Vec2::new(u_dx, u_dy), job.count) else {
+    let Some(e) = emitters.emit(ctx.scene, u_light, u_side, Vec2::new(u_px, u_py), Vec2::new(u_dx, u_dy), job.count)
+    else {
         return;
     };
     let (mut org, mut dir, mut power) = (e.org, e.dir, e.power);
@@ -191,7 +192,7 @@ pub fn trace_one(
         let Some(hit) = hit else {
             return;
         };
-        let sh = ctx.surface(&hit, org, dir);
+        let sh = ctx.scene.surface(&hit, org, dir);
         if ctx.scene.materials[sh.material as usize].null_surface && transparent < MAX_TRANSPARENT_HITS {
             // A volume boundary without a surface: only the medium changes.
             transparent += 1;
@@ -202,7 +203,7 @@ pub fn trace_one(
         if ctx.scene.materials[sh.material as usize].alpha_mode == AlphaMode::Blend
             && transparent < MAX_TRANSPARENT_HITS
         {
-            let a = ctx.alpha(hit.tri, hit.b1, hit.b2);
+            let a = ctx.scene.alpha(hit.tri, hit.b1, hit.b2);
             if s.next_4d()[0] >= a {
                 transparent += 1;
                 org = offset_ray_origin(sh.p, -sh.ng);
@@ -211,7 +212,7 @@ pub fn trace_one(
         }
         depth += 1;
         let wo = -dir;
-        let sp = ctx.shade(&sh, wo);
+        let sp = ctx.scene.shade(&sh, wo);
         let delta = sp.bsdf.is_delta();
         if !delta {
             let caustic = specular_only && depth > 1;
@@ -262,7 +263,7 @@ pub fn trace_one(
                 if depth >= job.max_depth {
                     return;
                 }
-                let se = ctx.surface(&exit.hit, exit.org, exit.dir);
+                let se = ctx.scene.surface(&exit.hit, exit.org, exit.dir);
                 let (n_g, n_s) = (-se.ng, -se.ns);
                 let wi = crate::math::Frame::from_normal(n_s).to_world(cosine_hemisphere(Vec2::new(v_dx, v_dy)));
                 if wi.dot(n_g) <= 0.0 {

@@ -30,8 +30,6 @@ use crate::scene::{AlphaMode, Scene};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
-use crate::integrator::SceneContext;
-
 /// A photon leaving a light.
 #[derive(Clone, Copy, Debug)]
 pub struct EmittedPhoton {
@@ -142,7 +140,7 @@ impl Emitters {
     #[inline]
     pub fn emit(
         &self,
-        ctx: &SceneContext,
+        scene: &Scene,
         u_light: f32,
         u_side: f32,
         u_pos: Vec2,
@@ -158,7 +156,6 @@ impl Emitters {
         }
         let scale = 1.0 / (pmf * n as f32);
         let phi = self.power[index] * scale;
-        let scene = ctx.scene;
         match &scene.lights[index] {
             Light::Point { position, .. } => {
                 Some(EmittedPhoton { org: *position, dir: uniform_sphere(u_dir), power: phi })
@@ -251,8 +248,8 @@ impl Emitters {
                 }
                 let coverage = match mat.alpha_mode {
                     AlphaMode::Opaque => 1.0,
-                    AlphaMode::Blend => ctx.alpha(*tri, b.x, b.y).clamp(0.0, 1.0),
-                    AlphaMode::Mask(cutoff) => (ctx.alpha(*tri, b.x, b.y) >= cutoff) as u8 as f32,
+                    AlphaMode::Blend => scene.alpha(*tri, b.x, b.y).clamp(0.0, 1.0),
+                    AlphaMode::Mask(cutoff) => (scene.alpha(*tri, b.x, b.y) >= cutoff) as u8 as f32,
                 };
                 let dir = Frame::from_normal(n).to_world(cosine_hemisphere(u_dir));
                 Some(EmittedPhoton { org: crate::math::offset_ray_origin(q, n), dir, power: phi * factor * coverage })

@@ -10,8 +10,7 @@
 //! them (s = 0) and by light sampling at a camera vertex (s = 1), weighted between
 //! those two strategies exactly as the path tracer weights them.
 
-use crate::integrator::SceneContext;
-use crate::integrator::photon::emit::Emitters;
+use super::emit::Emitters;
 use crate::light::{Light, spot_attenuation};
 use crate::math::{Frame, Rgb, luminance};
 use crate::sampling::Distribution1D;
@@ -114,8 +113,7 @@ impl BdptLights {
 
 /// Samples a point on finite light `index` uniformly by area (or its position).
 #[inline]
-pub fn sample_point(ctx: &SceneContext, index: usize, u: Vec2) -> Option<LightPoint> {
-    let scene = ctx.scene;
+pub fn sample_point(scene: &Scene, index: usize, u: Vec2) -> Option<LightPoint> {
     let light = index as u32;
     match &scene.lights[index] {
         Light::Point { position, intensity } => {
@@ -164,8 +162,8 @@ pub fn sample_point(ctx: &SceneContext, index: usize, u: Vec2) -> Option<LightPo
             // path tracer's light sampling does.
             let coverage = match mat.alpha_mode {
                 AlphaMode::Opaque => 1.0,
-                AlphaMode::Blend => ctx.alpha(*tri, b.x, b.y).clamp(0.0, 1.0),
-                AlphaMode::Mask(cutoff) => (ctx.alpha(*tri, b.x, b.y) >= cutoff) as u8 as f32,
+                AlphaMode::Blend => scene.alpha(*tri, b.x, b.y).clamp(0.0, 1.0),
+                AlphaMode::Mask(cutoff) => (scene.alpha(*tri, b.x, b.y) >= cutoff) as u8 as f32,
             };
             Some(LightPoint {
                 light,
