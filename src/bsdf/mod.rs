@@ -31,6 +31,25 @@ pub enum Bsdf {
 }
 
 impl Bsdf {
+    /// Probability that a path at this material takes its subsurface part, seen from
+    /// `wo` (what the layers above leave to the diffuse base, times the subsurface
+    /// weight; 0 without subsurface). The BSDF holds the rest.
+    #[inline]
+    pub fn subsurface_weight(&self, wo: Vec3) -> f32 {
+        match self {
+            Bsdf::Pbr(b) => b.subsurface_weight(wo),
+        }
+    }
+
+    /// Colour and roughness of the diffuse base, which a subsurface walk takes as its
+    /// albedo and entry roughness.
+    #[inline]
+    pub fn subsurface_base(&self) -> (Rgb, f32) {
+        match self {
+            Bsdf::Pbr(b) => (b.base, b.roughness),
+        }
+    }
+
     /// f(wo, wi).
     #[inline]
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {

@@ -5,8 +5,10 @@
 
 pub mod bdpt;
 pub mod media;
+pub mod nee;
 pub mod path;
 pub mod photon;
+pub mod walk;
 
 use crate::accel::{Accel, Hit};
 use crate::film::{CameraSample, Filter, SplatBuffer, SplatPool};

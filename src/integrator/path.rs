@@ -26,19 +26,17 @@
 //! (`media::random_walk`) with the base colour's throughput divided out as Cycles does,
 //! and leaves through a Lambertian exit (NEE at the exit point, cosine sampling out).
 
-use super::{SceneContext, media, power_heuristic};
+use super::nee::{exit_nee, medium_nee, surface_nee};
+use super::walk::{PathState, Step};
+use super::{SceneContext, media};
 use crate::bsdf::dielectric::refract;
 use crate::bsdf::microfacet::Ggx;
-use crate::bsdf::{Bsdf, PbrBsdf};
 use crate::film::CameraSample;
-use crate::integrator::media::medium_segment;
-use crate::light::LightSample;
 use crate::math::{Frame, Rgb, offset_ray_origin};
 use crate::medium::{HenyeyGreenstein, MediumStack, WalkMedium, WalkRng, skin_mean_free_path};
 use crate::render::job::RayStats;
 use crate::sampling::PixelSampler;
 use crate::sampling::warp::{cosine_hemisphere, cosine_hemisphere_pdf};
-use crate::scene::AlphaMode;
 use crate::scene::material::{Subsurface, SubsurfaceMethod};
 use crate::scene::shading::{ShadingPoint, SurfaceHit};
 use glam::{Vec2, Vec3};
@@ -59,32 +57,6 @@ impl Default for PathIntegrator {
     fn default() -> Self {
         PathIntegrator { max_depth: 13, rr_depth: 3, transparent_background: true }
     }
-}
-
-/// Limit on pass-throughs of transparent surfaces per path, so that a stack of
-/// thousands of transparent layers cannot loop forever.
-const MAX_TRANSPARENT_HITS: u32 = 128;
-
-/// Where a path stands between two bounces: what [`PathIntegrator::continue_path`]
-/// needs to go on from a vertex found by another integrator.
-#[derive(Clone, Copy, Debug)]
-pub struct PathState {
-    /// Origin of the next ray.
-    pub org: Vec3,
-    /// Direction of the next ray.
-    pub dir: Vec3,
-    /// Throughput.
-    pub beta: Rgb,
-    /// Scattering events so far.
-    pub depth: u32,
-    /// Density of the sample that chose `dir`, for MIS (0: none, e.g. after a delta lobe).
-    pub prev_pdf: f32,
-    /// The vertex that chose `dir`.
-    pub prev_p: Vec3,
-    /// The receiver normal light selection was given at `prev_p` (zero in a medium).
-    pub prev_n: Vec3,
-    /// The media the path is in.
-    pub media: MediumStack,
 }
 
 impl PathIntegrator {
@@ -111,16 +83,7 @@ impl PathIntegrator {
         let mut out = CameraSample { depth: f32::INFINITY, ..Default::default() };
         stats.camera += 1;
         // Camera rays start in vacuum, with no MIS for what they hit first.
-        let st = PathState {
-            org,
-            dir,
-            beta: Rgb::ONE,
-            depth: 0,
-            prev_pdf: 0.0,
-            prev_p: org,
-            prev_n: Vec3::ZERO,
-            media: MediumStack::default(),
-        };
+        let st = PathState::camera(org, dir);
         out.radiance = self.trace(ctx, st, sampler, depth_of, stats, &mut out);
         out
     }
@@ -156,66 +119,40 @@ impl PathIntegrator {
     ) -> Rgb {
         let [u_light, u_lx, u_ly, _] = sampler.next_4d();
         let [u_dx, u_dy, u_rr, _] = sampler.next_4d();
-        let mut radiance = beta * self.medium_nee(ctx, p, dir, phase, media, u_light, Vec2::new(u_lx, u_ly), stats);
+        let mut radiance = beta * medium_nee(ctx, p, dir, phase, media, u_light, Vec2::new(u_lx, u_ly), stats);
         let (wi, pdf) = phase.sample(dir, Vec2::new(u_dx, u_dy));
         let mut beta = beta;
         let depth = depth + 1;
         if depth < self.max_depth && self.survives(&mut beta, 1.0, depth, u_rr) {
             stats.bounce += 1;
-            let st = PathState { org: p, dir: wi, beta, depth, prev_pdf: pdf, prev_p: p, prev_n: Vec3::ZERO, media };
+            let st = PathState {
+                org: p,
+                dir: wi,
+                beta,
+                depth,
+                prev_pdf: pdf,
+                prev_p: p,
+                prev_n: Vec3::ZERO,
+                media,
+                eta_scale: 1.0,
+                transparent_hits: 0,
+            };
             radiance += self.continue_path(ctx, st, sampler, stats);
         }
         radiance
-    }
-
-    /// Light arriving at medium point `p` by NEE, times the phase function (MIS against
-    /// phase sampling), for a path travelling along `dir`.
-    #[allow(clippy::too_many_arguments)]
-    fn medium_nee(
-        &self,
-        ctx: &SceneContext,
-        p: Vec3,
-        dir: Vec3,
-        phase: HenyeyGreenstein,
-        media: MediumStack,
-        u_light: f32,
-        u_light_pt: Vec2,
-        stats: &mut RayStats,
-    ) -> Rgb {
-        if let Some((index, pmf)) = ctx.lights.sample(p, Vec3::ZERO, u_light)
-            && let Some(ls) = ctx.sample_light(index, p, u_light_pt)
-        {
-            let f = phase.eval(dir, ls.wi);
-            if f > 0.0 && ls.li != Rgb::ZERO {
-                stats.shadow += 1;
-                let tr = media::light_transmittance(ctx, p, None, &ls, media);
-                if tr != Rgb::ZERO {
-                    let w = if ls.delta { 1.0 } else { power_heuristic(ls.pdf * pmf, f) };
-                    return tr * ls.li * (f * w / (ls.pdf * pmf));
-                }
-            }
-        }
-        Rgb::ZERO
     }
 
     /// The path loop from state `st`; AOVs of the first hit go to `out`.
     fn trace(
         &self,
         ctx: &SceneContext,
-        st: PathState,
+        mut st: PathState,
         sampler: &mut PixelSampler,
         depth_of: impl Fn(Vec3) -> f32,
         stats: &mut RayStats,
         out: &mut CameraSample,
     ) -> Rgb {
-        let PathState { mut org, mut dir, mut beta, mut depth, prev_pdf, mut prev_p, mut prev_n, mut media } = st;
         let mut radiance = Rgb::ZERO;
-        let mut transparent_hits = 0u32;
-        // Density of the BSDF sample that produced `dir` (0 for camera rays: no MIS).
-        let mut prev_bsdf_pdf = prev_pdf;
-        // Product of η² over refractions, undone in Russian roulette so that the
-        // 1/η² radiance scaling inside glass does not end paths early (pbrt's etaScale).
-        let mut eta_scale = 1.0f32;
         loop {
             // Bounce dimensions, drawn up front so that their positions are fixed.
             let [u_light, u_lx, u_ly, u_lobe] = sampler.next_4d();
@@ -223,105 +160,61 @@ impl PathIntegrator {
             let [u_channel, u_dist, u_sss, u_walk] = if ctx.has_media { sampler.next_4d() } else { [0.0; 4] };
             let (u_light_pt, u_dir) = (Vec2::new(u_lx, u_ly), Vec2::new(u_dx, u_dy));
 
-            let hit = ctx.intersect(org, dir, f32::INFINITY);
-            let t_surface = hit.map_or(f32::INFINITY, |h| h.t);
-
-            // The medium along this segment: emission, then where the next event is.
-            let (scatter, crossed_w, segment_weight) =
-                medium_segment(ctx, &media, t_surface, beta, [u_channel, u_dist], &mut radiance);
-            let t_event = scatter.map_or(t_surface, |(t, _)| t);
-
-            // Area and sphere lights crossed before the event add their emission; they
-            // do not block (as in Cycles) and the path goes on.
-            let (crossed, any) = ctx.crossed_emission(org, dir, t_event, prev_p, prev_n, prev_bsdf_pdf, depth == 0);
-            if any {
-                radiance += beta * crossed_w * crossed;
-                if depth == 0 {
-                    out.alpha = 1.0;
-                }
+            // Along the ray: medium, crossed lights, pass-through surfaces.
+            let (step, crossed) = st.advance(ctx, [u_channel, u_dist], u_alpha, &mut radiance, stats);
+            if crossed && st.depth == 0 {
+                out.alpha = 1.0;
             }
-            beta *= segment_weight;
-
-            if let Some((t, phase)) = scatter {
-                // A scattering event in the medium.
-                if !beta.is_finite() || beta == Rgb::ZERO {
-                    break;
+            let (hit, s) = match step {
+                Step::End => break,
+                Step::Passed => continue,
+                Step::Medium { p, phase } => {
+                    if !st.beta.is_finite() || st.beta == Rgb::ZERO {
+                        break;
+                    }
+                    if st.depth == 0 {
+                        out.alpha = 1.0;
+                        out.depth = depth_of(p);
+                    }
+                    if st.depth >= self.max_depth {
+                        break;
+                    }
+                    radiance += st.beta * medium_nee(ctx, p, st.dir, phase, st.media, u_light, u_light_pt, stats);
+                    // The phase function is its own density: the throughput is unchanged.
+                    let (wi, pdf) = phase.sample(st.dir, u_dir);
+                    st.prev_pdf = pdf;
+                    st.prev_p = p;
+                    st.prev_n = Vec3::ZERO;
+                    st.depth += 1;
+                    if !st.survives(self.rr_depth, u_rr) {
+                        break;
+                    }
+                    st.org = p;
+                    st.dir = wi;
+                    stats.bounce += 1;
+                    continue;
                 }
-                let p = org + dir * t;
-                if depth == 0 {
-                    out.alpha = 1.0;
-                    out.depth = depth_of(p);
-                }
-                if depth >= self.max_depth {
-                    break;
-                }
-                radiance += beta * self.medium_nee(ctx, p, dir, phase, media, u_light, u_light_pt, stats);
-                // The phase function is its own density: the throughput is unchanged.
-                let (wi, pdf) = phase.sample(dir, u_dir);
-                prev_bsdf_pdf = pdf;
-                prev_p = p;
-                prev_n = Vec3::ZERO;
-                depth += 1;
-                if !self.survives(&mut beta, eta_scale, depth, u_rr) {
-                    break;
-                }
-                org = p;
-                dir = wi;
-                stats.bounce += 1;
-                continue;
-            }
-
-            let Some(hit) = hit else {
-                // Escaped: the world, weighted against light sampling. (Leaving from
-                // inside a medium means its mesh is open: the segment's weight is then
-                // zero in every channel the medium attenuates.)
-                let seen_directly = depth == 0;
-                if !(seen_directly && self.transparent_background) {
-                    let le = ctx.world_radiance(dir);
-                    let sun = ctx.sun_emission(dir, prev_bsdf_pdf);
-                    if le != Rgb::ZERO || sun != Rgb::ZERO {
-                        let w =
-                            if prev_bsdf_pdf == 0.0 { 1.0 } else { power_heuristic(prev_bsdf_pdf, ctx.world_pdf(dir)) };
-                        radiance += beta * (le * w + sun);
+                Step::Escaped => {
+                    // The world, weighted against light sampling. (Leaving from inside a
+                    // medium means its mesh is open: the segment's weight is then zero in
+                    // every channel the medium attenuates.)
+                    let seen_directly = st.depth == 0;
+                    if !(seen_directly && self.transparent_background)
+                        && let Some(le) = st.escaped_radiance(ctx)
+                    {
+                        radiance += st.beta * le;
                         if seen_directly {
                             out.alpha = 1.0;
                         }
                     }
-                }
-                break;
-            };
-            if !beta.is_finite() || beta == Rgb::ZERO {
-                break;
-            }
-            let s = ctx.scene.surface(&hit, org, dir);
-            let wo = -dir;
-            let mat = &ctx.scene.materials[s.material as usize];
-
-            // A volume boundary without a surface: only the medium changes.
-            if mat.null_surface {
-                if transparent_hits >= MAX_TRANSPARENT_HITS {
                     break;
                 }
-                transparent_hits += 1;
-                media = ctx.medium_after(&s, dir, media);
-                org = offset_ray_origin(s.p, -s.ng);
-                stats.bounce += 1;
-                continue;
-            }
-
-            // Stochastic transparency: pass straight through with probability 1 - alpha.
-            if mat.alpha_mode == AlphaMode::Blend {
-                let alpha = ctx.scene.alpha(hit.tri, hit.b1, hit.b2);
-                if u_alpha >= alpha && transparent_hits < MAX_TRANSPARENT_HITS {
-                    transparent_hits += 1;
-                    org = offset_ray_origin(s.p, -s.ng);
-                    stats.bounce += 1;
-                    continue;
-                }
-            }
-
+                Step::Surface { hit, s } => (hit, s),
+            };
+            let wo = -st.dir;
+            let mat = &ctx.scene.materials[s.material as usize];
             let sp = ctx.scene.shade(&s, wo);
-            if depth == 0 {
+            if st.depth == 0 {
                 out.alpha = 1.0;
                 out.depth = depth_of(s.p);
                 out.normal = sp.frame.n;
@@ -330,83 +223,72 @@ impl PathIntegrator {
 
             // Emission found by the path, weighted against light sampling.
             if sp.emitted != Rgb::ZERO {
-                let w = match (prev_bsdf_pdf > 0.0, ctx.lights.light_of_triangle(hit.tri)) {
-                    (true, Some(index)) => {
-                        power_heuristic(prev_bsdf_pdf, ctx.light_pdf(index, prev_p, prev_n, s.p, s.ng))
-                    }
-                    _ => 1.0,
-                };
-                radiance += beta * sp.emitted * w;
+                radiance += st.surface_emission(ctx, &hit, &s, &sp);
             }
 
-            if depth >= self.max_depth {
+            if st.depth >= self.max_depth {
                 break;
             }
 
             let wo_local = sp.frame.to_local(wo);
             // Probability of the subsurface part (its weight: what the layers above leave
             // to the diffuse base, times Subsurface Weight); the BSDF has the rest.
-            let Bsdf::Pbr(pbr) = &sp.bsdf;
-            let q_sss = if mat.subsurface.is_some() { pbr.subsurface_weight(wo_local) } else { 0.0 };
+            let q_sss = if mat.subsurface.is_some() { sp.bsdf.subsurface_weight(wo_local) } else { 0.0 };
 
             // Next-event estimation: one light (useless for pure delta BSDFs such as
             // clear glass). Without transmission no light below the surface can count,
             // which the light tree uses.
             let n_select = if sp.bsdf.transmits() { Vec3::ZERO } else { s.ng };
-            let nee = if sp.bsdf.is_delta() { None } else { ctx.lights.sample(s.p, n_select, u_light) };
-            if let Some((index, pmf)) = nee
-                && let Some(ls) = ctx.sample_light(index, s.p, u_light_pt)
-            {
-                let wi_local = sp.frame.to_local(ls.wi);
-                let f = sp.bsdf.eval(wo_local, wi_local) * wi_local.z.abs();
-                // Shading and geometric normals must agree on reflection versus
-                // transmission, or light would leak through the surface.
-                let consistent = (wi_local.z > 0.0) == (ls.wi.dot(s.ng) > 0.0);
-                if f != Rgb::ZERO && ls.li != Rgb::ZERO && consistent {
-                    stats.shadow += 1;
-                    let tr = self.shadow(ctx, &s, &ls, media);
-                    if tr != Rgb::ZERO {
-                        let bsdf_pdf = sp.bsdf.pdf(wo_local, wi_local) * (1.0 - q_sss);
-                        let w = if ls.delta { 1.0 } else { power_heuristic(ls.pdf * pmf, bsdf_pdf) };
-                        radiance += beta * f * tr * ls.li * (w / (ls.pdf * pmf));
-                    }
-                }
+            if !sp.bsdf.is_delta() {
+                radiance += surface_nee(
+                    ctx,
+                    &s,
+                    &sp,
+                    wo_local,
+                    n_select,
+                    1.0 - q_sss,
+                    st.beta,
+                    st.media,
+                    u_light,
+                    u_light_pt,
+                    stats,
+                );
             }
 
             if u_sss < q_sss
                 && let Some(ss) = mat.subsurface
             {
                 // Subsurface: enter, walk, leave through a Lambertian exit.
-                let Some(exit) = self.subsurface(ctx, &s, &sp, wo, &ss, pbr, beta, [u_dx, u_dy, u_lobe, u_walk]) else {
+                let Some(exit) = self.subsurface(ctx, &s, &sp, wo, &ss, st.beta, [u_dx, u_dy, u_lobe, u_walk]) else {
                     break;
                 };
                 // Chosen with probability q = its weight: the weight over q is 1, and the
                 // base colour is the walk's to give (Cycles divides it out the same way).
-                beta *= exit.weight;
-                depth += 1;
+                st.beta *= exit.weight;
+                st.depth += 1;
                 let se = ctx.scene.surface(&exit.hit, exit.org, exit.dir);
                 // The exit's normals on the outside (the walk came from the inside).
                 let (n_g, n_s) = (-se.ng, -se.ns);
-                if depth >= self.max_depth || !beta.is_finite() || beta == Rgb::ZERO {
+                if st.depth >= self.max_depth || !st.beta.is_finite() || st.beta == Rgb::ZERO {
                     break;
                 }
                 let [v_light, v_lx, v_ly, _] = sampler.next_4d();
                 let [v_dx, v_dy, _, _] = sampler.next_4d();
-                radiance += beta * exit_nee(ctx, &se, n_g, n_s, media, v_light, Vec2::new(v_lx, v_ly), stats);
+                radiance += st.beta * exit_nee(ctx, &se, n_g, n_s, st.media, v_light, Vec2::new(v_lx, v_ly), stats);
                 let local = cosine_hemisphere(Vec2::new(v_dx, v_dy));
                 let wi = Frame::from_normal(n_s).to_world(local);
                 if wi.dot(n_g) <= 0.0 {
                     break;
                 }
-                prev_bsdf_pdf = cosine_hemisphere_pdf(local.z);
-                prev_p = se.p;
-                prev_n = n_g;
-                depth += 1;
-                if !self.survives(&mut beta, eta_scale, depth, u_rr) {
+                st.prev_pdf = cosine_hemisphere_pdf(local.z);
+                st.prev_p = se.p;
+                st.prev_n = n_g;
+                st.depth += 1;
+                if !st.survives(self.rr_depth, u_rr) {
                     break;
                 }
-                org = offset_ray_origin(se.p, n_g);
-                dir = wi;
+                st.org = offset_ray_origin(se.p, n_g);
+                st.dir = wi;
                 stats.bounce += 1;
                 continue;
             }
@@ -422,29 +304,28 @@ impl PathIntegrator {
                 break;
             }
             let pdf = bs.pdf * (1.0 - q_sss);
-            beta *= bs.f * (bs.wi.z.abs() / pdf);
-            if !beta.is_finite() || beta == Rgb::ZERO {
+            st.beta *= bs.f * (bs.wi.z.abs() / pdf);
+            if !st.beta.is_finite() || st.beta == Rgb::ZERO {
                 break;
             }
             // After a delta lobe, emission found next is not MIS-weighted (0 = "specular").
-            prev_bsdf_pdf = if bs.delta { 0.0 } else { pdf };
-            prev_p = s.p;
-            prev_n = n_select;
-            depth += 1;
+            st.prev_pdf = if bs.delta { 0.0 } else { pdf };
+            st.prev_p = s.p;
+            st.prev_n = n_select;
+            st.depth += 1;
 
             // Crossing an interface of a solid changes the medium and the η scale.
-            media = ctx.medium_after(&s, wi, media);
+            st.media = ctx.medium_after(&s, wi, st.media);
             if transmitted && mat.medium.is_some() {
-                let eta = if s.front { mat.ior } else { 1.0 / mat.ior };
-                eta_scale *= eta * eta;
+                st.refracted(&s, mat.ior);
             }
 
-            if !self.survives(&mut beta, eta_scale, depth, u_rr) {
+            if !st.survives(self.rr_depth, u_rr) {
                 break;
             }
 
-            org = offset_ray_origin(s.p, if transmitted { -s.ng } else { s.ng });
-            dir = wi;
+            st.org = offset_ray_origin(s.p, if transmitted { -s.ng } else { s.ng });
+            st.dir = wi;
             stats.bounce += 1;
         }
         radiance
@@ -468,11 +349,11 @@ impl PathIntegrator {
         stats: &mut RayStats,
     ) -> Rgb {
         let mat = &ctx.scene.materials[s.material as usize];
-        let (Some(ss), Bsdf::Pbr(pbr)) = (mat.subsurface, &sp.bsdf) else {
+        let Some(ss) = mat.subsurface else {
             return Rgb::ZERO;
         };
         let u = sampler.next_4d();
-        let Some(exit) = self.subsurface(ctx, s, sp, wo, &ss, pbr, beta, u) else {
+        let Some(exit) = self.subsurface(ctx, s, sp, wo, &ss, beta, u) else {
             return Rgb::ZERO;
         };
         let mut beta = beta * exit.weight;
@@ -501,6 +382,8 @@ impl PathIntegrator {
             prev_p: se.p,
             prev_n: n_g,
             media,
+            eta_scale: 1.0,
+            transparent_hits: 0,
         };
         radiance + self.continue_path(ctx, st, sampler, stats)
     }
@@ -519,18 +402,6 @@ impl PathIntegrator {
         true
     }
 
-    /// Transmittance of a shadow ray from surface `s` to a light sample: through media
-    /// and volume boundaries when the scene has any, else plain visibility (with the
-    /// old one-medium rule being a special case of the stack).
-    #[inline]
-    fn shadow(&self, ctx: &SceneContext, s: &SurfaceHit, ls: &LightSample, media: MediumStack) -> Rgb {
-        if ctx.has_media {
-            media::light_transmittance(ctx, s.p, Some(s.ng), ls, ctx.medium_after(s, ls.wi, media))
-        } else {
-            Rgb::splat(ctx.visibility(s.p, s.ng, ls))
-        }
-    }
-
     /// Enters a subsurface material at `s` (seen along `wo`) and walks inside; None when
     /// the entry fails (Cycles then ends the path too) or the walk is abandoned.
     #[allow(clippy::too_many_arguments)]
@@ -541,16 +412,15 @@ impl PathIntegrator {
         sp: &ShadingPoint,
         wo: Vec3,
         ss: &Subsurface,
-        pbr: &PbrBsdf,
         beta: Rgb,
         u: [f32; 4],
     ) -> Option<media::WalkExit> {
         let mat = &ctx.scene.materials[s.material as usize];
         let n = sp.frame.n;
-        let albedo = pbr.base;
+        let (albedo, base_roughness) = sp.bsdf.subsurface_base();
         let (mfp, diffuse_entry, roughness, ior) = match ss.method {
             SubsurfaceMethod::RandomWalk => {
-                (ss.radius * (0.25 * std::f32::consts::FRAC_1_PI), false, pbr.roughness, mat.ior.clamp(1.01, 3.8))
+                (ss.radius * (0.25 * std::f32::consts::FRAC_1_PI), false, base_roughness, mat.ior.clamp(1.01, 3.8))
             }
             SubsurfaceMethod::RandomWalkSkin => {
                 let r = Rgb::new(
@@ -581,38 +451,4 @@ impl PathIntegrator {
         let mut rng = WalkRng::new(u[3], s.tri);
         media::random_walk(ctx, offset_ray_origin(s.p, -s.ng), entry, &walk, beta, &mut rng)
     }
-}
-
-/// NEE at a subsurface exit point: a Lambertian of albedo 1 about `n_s` on the outside
-/// (`n_g` the outward geometric normal), MIS against cosine sampling.
-#[allow(clippy::too_many_arguments)]
-fn exit_nee(
-    ctx: &SceneContext,
-    se: &SurfaceHit,
-    n_g: Vec3,
-    n_s: Vec3,
-    media: MediumStack,
-    u_light: f32,
-    u_pt: Vec2,
-    stats: &mut RayStats,
-) -> Rgb {
-    if let Some((index, pmf)) = ctx.lights.sample(se.p, n_g, u_light)
-        && let Some(ls) = ctx.sample_light(index, se.p, u_pt)
-    {
-        let cos = ls.wi.dot(n_s);
-        if cos > 0.0 && ls.wi.dot(n_g) > 0.0 && ls.li != Rgb::ZERO {
-            stats.shadow += 1;
-            let tr = if ctx.has_media {
-                media::light_transmittance(ctx, se.p, Some(n_g), &ls, media)
-            } else {
-                Rgb::splat(ctx.visibility(se.p, n_g, &ls))
-            };
-            if tr != Rgb::ZERO {
-                let f = cos * std::f32::consts::FRAC_1_PI;
-                let w = if ls.delta { 1.0 } else { power_heuristic(ls.pdf * pmf, f) };
-                return tr * ls.li * (f * w / (ls.pdf * pmf));
-            }
-        }
-    }
-    Rgb::ZERO
 }

@@ -480,8 +480,7 @@ impl BdptIntegrator {
             // Subsurface scattering is path traced from here (the BSDF holds the rest of
             // the material: its diffuse base is already reduced by the subsurface weight).
             if mat.subsurface.is_some() && self.strategy.is_none() && (i as u32) < self.max_depth {
-                let crate::bsdf::Bsdf::Pbr(pbr) = &sp.bsdf;
-                let q = pbr.subsurface_weight(sp.frame.to_local(wo));
+                let q = sp.bsdf.subsurface_weight(sp.frame.to_local(wo));
                 if q > 0.0 {
                     *radiance += self.continuation().subsurface_from(
                         ctx,

@@ -143,11 +143,10 @@ impl JensenIntegrator {
         sampler: &mut PixelSampler,
         stats: &mut RayStats,
     ) -> Rgb {
-        let crate::bsdf::Bsdf::Pbr(pbr) = &sp.bsdf;
         if ctx.scene.materials[s.material as usize].subsurface.is_none() {
             return Rgb::ZERO;
         }
-        let q = pbr.subsurface_weight(wo_local);
+        let q = sp.bsdf.subsurface_weight(wo_local);
         if q > 0.0 {
             self.continuation().subsurface_from(ctx, s, sp, wo, media, beta * q, depth, sampler, stats)
         } else {

@@ -523,9 +523,8 @@ fn camera_path(
         }
         let wo_local = sp.frame.to_local(wo);
         // The subsurface part has no photon map: path traced (the BSDF part is mapped).
-        let Bsdf::Pbr(pbr) = &sp.bsdf;
         if ctx.scene.materials[s.material as usize].subsurface.is_some() {
-            let q = pbr.subsurface_weight(wo_local);
+            let q = sp.bsdf.subsurface_weight(wo_local);
             if q > 0.0 {
                 l += continuation.subsurface_from(ctx, &s, &sp, wo, medium, beta * q, depth, sampler, stats);
             }

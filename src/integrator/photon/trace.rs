@@ -239,9 +239,8 @@ pub fn trace_one(
         let wo_local = sp.frame.to_local(wo);
         // The subsurface part, chosen with probability its weight (as the path tracer):
         // enter, walk, leave through the Lambertian exit. (Photons are not stored in the walk.)
-        let crate::bsdf::Bsdf::Pbr(pbr) = &sp.bsdf;
         let mat = &ctx.scene.materials[sh.material as usize];
-        let q_sss = if mat.subsurface.is_some() { pbr.subsurface_weight(wo_local) } else { 0.0 };
+        let q_sss = if mat.subsurface.is_some() { sp.bsdf.subsurface_weight(wo_local) } else { 0.0 };
         if let Some(ss) = mat.subsurface
             && q_sss > 0.0
         {
@@ -250,7 +249,7 @@ pub fn trace_one(
             if u[0] < q_sss {
                 let walker = PathIntegrator::default();
                 let entry_u = [u[1], u[2], (u[0] / q_sss).min(0.999_999), u[3]];
-                let Some(exit) = walker.subsurface(ctx, &sh, &sp, wo, &ss, pbr, power, entry_u) else {
+                let Some(exit) = walker.subsurface(ctx, &sh, &sp, wo, &ss, power, entry_u) else {
                     return;
                 };
                 let q = exit.weight.max_element().min(1.0);

@@ -1,0 +1,129 @@
+//! Next-event estimation, once for every walker: at a surface (BSDF times light, MIS
+//! against BSDF sampling), at a scattering event in a medium (phase function), and at
+//! the Lambertian exit of a subsurface walk; and the shadow ray's transmittance through
+//! media and volume boundaries.
+
+use super::{SceneContext, media, power_heuristic};
+use crate::light::LightSample;
+use crate::math::Rgb;
+use crate::medium::{HenyeyGreenstein, MediumStack};
+use crate::render::job::RayStats;
+use crate::scene::shading::{ShadingPoint, SurfaceHit};
+use glam::{Vec2, Vec3};
+
+/// Light reaching surface `s` from one light sample, times the BSDF and the throughput
+/// `beta`, MIS-weighted against BSDF sampling whose density is scaled by `bsdf_pdf_scale`
+/// (the probability of the BSDF part of the material). `n_select` is the receiver normal
+/// given to light selection (zero when the BSDF transmits: lights below count too).
+/// Shading and geometric normals must agree on reflection versus transmission, or light
+/// would leak through the surface.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub fn surface_nee(
+    ctx: &SceneContext,
+    s: &SurfaceHit,
+    sp: &ShadingPoint,
+    wo_local: Vec3,
+    n_select: Vec3,
+    bsdf_pdf_scale: f32,
+    beta: Rgb,
+    media: MediumStack,
+    u_light: f32,
+    u_light_pt: Vec2,
+    stats: &mut RayStats,
+) -> Rgb {
+    let Some((index, pmf)) = ctx.lights.sample(s.p, n_select, u_light) else {
+        return Rgb::ZERO;
+    };
+    let Some(ls) = ctx.sample_light(index, s.p, u_light_pt) else {
+        return Rgb::ZERO;
+    };
+    let wi_local = sp.frame.to_local(ls.wi);
+    let f = sp.bsdf.eval(wo_local, wi_local) * wi_local.z.abs();
+    let consistent = (wi_local.z > 0.0) == (ls.wi.dot(s.ng) > 0.0);
+    if f == Rgb::ZERO || ls.li == Rgb::ZERO || !consistent {
+        return Rgb::ZERO;
+    }
+    stats.shadow += 1;
+    let tr = shadow_transmittance(ctx, s, &ls, media);
+    if tr == Rgb::ZERO {
+        return Rgb::ZERO;
+    }
+    let bsdf_pdf = sp.bsdf.pdf(wo_local, wi_local) * bsdf_pdf_scale;
+    let w = if ls.delta { 1.0 } else { power_heuristic(ls.pdf * pmf, bsdf_pdf) };
+    beta * f * tr * ls.li * (w / (ls.pdf * pmf))
+}
+
+/// Transmittance of a shadow ray from surface `s` to a light sample: through media and
+/// volume boundaries when the scene has any, else plain visibility.
+#[inline]
+pub fn shadow_transmittance(ctx: &SceneContext, s: &SurfaceHit, ls: &LightSample, media: MediumStack) -> Rgb {
+    if ctx.has_media {
+        media::light_transmittance(ctx, s.p, Some(s.ng), ls, ctx.medium_after(s, ls.wi, media))
+    } else {
+        Rgb::splat(ctx.visibility(s.p, s.ng, ls))
+    }
+}
+
+/// Light arriving at medium point `p` by NEE, times the phase function (MIS against
+/// phase sampling), for a path travelling along `dir`.
+#[allow(clippy::too_many_arguments)]
+pub fn medium_nee(
+    ctx: &SceneContext,
+    p: Vec3,
+    dir: Vec3,
+    phase: HenyeyGreenstein,
+    media: MediumStack,
+    u_light: f32,
+    u_light_pt: Vec2,
+    stats: &mut RayStats,
+) -> Rgb {
+    if let Some((index, pmf)) = ctx.lights.sample(p, Vec3::ZERO, u_light)
+        && let Some(ls) = ctx.sample_light(index, p, u_light_pt)
+    {
+        let f = phase.eval(dir, ls.wi);
+        if f > 0.0 && ls.li != Rgb::ZERO {
+            stats.shadow += 1;
+            let tr = media::light_transmittance(ctx, p, None, &ls, media);
+            if tr != Rgb::ZERO {
+                let w = if ls.delta { 1.0 } else { power_heuristic(ls.pdf * pmf, f) };
+                return tr * ls.li * (f * w / (ls.pdf * pmf));
+            }
+        }
+    }
+    Rgb::ZERO
+}
+
+/// NEE at a subsurface exit point: a Lambertian of albedo 1 about `n_s` on the outside
+/// (`n_g` the outward geometric normal), MIS against cosine sampling.
+#[allow(clippy::too_many_arguments)]
+pub fn exit_nee(
+    ctx: &SceneContext,
+    se: &SurfaceHit,
+    n_g: Vec3,
+    n_s: Vec3,
+    media: MediumStack,
+    u_light: f32,
+    u_pt: Vec2,
+    stats: &mut RayStats,
+) -> Rgb {
+    if let Some((index, pmf)) = ctx.lights.sample(se.p, n_g, u_light)
+        && let Some(ls) = ctx.sample_light(index, se.p, u_pt)
+    {
+        let cos = ls.wi.dot(n_s);
+        if cos > 0.0 && ls.wi.dot(n_g) > 0.0 && ls.li != Rgb::ZERO {
+            stats.shadow += 1;
+            let tr = if ctx.has_media {
+                media::light_transmittance(ctx, se.p, Some(n_g), &ls, media)
+            } else {
+                Rgb::splat(ctx.visibility(se.p, n_g, &ls))
+            };
+            if tr != Rgb::ZERO {
+                let f = cos * std::f32::consts::FRAC_1_PI;
+                let w = if ls.delta { 1.0 } else { power_heuristic(ls.pdf * pmf, f) };
+                return tr * ls.li * (f * w / (ls.pdf * pmf));
+            }
+        }
+    }
+    Rgb::ZERO
+}

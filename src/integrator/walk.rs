@@ -1,0 +1,213 @@
+//! The steps every unidirectional path walker shares: the path's state between two
+//! bounces, one `advance` along the ray (medium segment, crossed emitters, surfaces that
+//! only bound a medium or are transparent), emission found by the path with its MIS
+//! weight, and Russian roulette. The path tracer, SPPM's camera paths and Jensen's
+//! camera and gather paths walk with these; each keeps its own sample-dimension layout
+//! (the random numbers come in as arguments) and its own policy of what to do at the
+//! event `advance` returns.
+
+use super::SceneContext;
+use super::media::medium_segment;
+use crate::accel::Hit;
+use crate::math::{Rgb, offset_ray_origin};
+use crate::medium::{HenyeyGreenstein, MediumStack};
+use crate::render::job::RayStats;
+use crate::scene::AlphaMode;
+use crate::scene::shading::{ShadingPoint, SurfaceHit};
+use glam::Vec3;
+
+use super::power_heuristic;
+
+/// Limit on pass-throughs of transparent surfaces and volume boundaries per path, so
+/// that a stack of thousands of transparent layers cannot loop forever. One rule for
+/// every walker (SPPM used to shade the 129th boundary as a surface).
+pub const MAX_TRANSPARENT_HITS: u32 = 128;
+
+/// Where a path stands between two bounces.
+#[derive(Clone, Copy, Debug)]
+pub struct PathState {
+    /// Origin of the next ray.
+    pub org: Vec3,
+    /// Direction of the next ray.
+    pub dir: Vec3,
+    /// Throughput.
+    pub beta: Rgb,
+    /// Scattering events so far.
+    pub depth: u32,
+    /// Density of the sample that chose `dir`, for MIS (0: none, e.g. after a delta lobe).
+    pub prev_pdf: f32,
+    /// The vertex that chose `dir`.
+    pub prev_p: Vec3,
+    /// The receiver normal light selection was given at `prev_p` (zero in a medium).
+    pub prev_n: Vec3,
+    /// The media the path is in.
+    pub media: MediumStack,
+    /// Product of η² over refractions into and out of solids, undone in Russian roulette
+    /// so that the 1/η² radiance scaling inside glass does not end paths early (pbrt's
+    /// etaScale).
+    pub eta_scale: f32,
+    /// Transparent surfaces and volume boundaries passed so far.
+    pub transparent_hits: u32,
+}
+
+/// What `PathState::advance` found along the ray.
+pub enum Step {
+    /// The path ends: too many pass-throughs, or a throughput that is zero or not finite
+    /// on arrival at a surface.
+    End,
+    /// The ray left the scene (the state's `dir` is the escape direction).
+    Escaped,
+    /// A scattering event in a medium at `p` (the throughput already carries the
+    /// segment's weight; it may be zero).
+    Medium {
+        /// Position of the event.
+        p: Vec3,
+        /// The medium's phase function.
+        phase: HenyeyGreenstein,
+    },
+    /// A volume boundary without a surface or a transparent surface was passed: the
+    /// state now starts beyond it; the walker goes on with fresh sample dimensions.
+    Passed,
+    /// A surface to shade.
+    Surface {
+        /// The hit.
+        hit: Hit,
+        /// Its geometry as seen along the ray.
+        s: SurfaceHit,
+    },
+}
+
+impl PathState {
+    /// A camera ray: vacuum, no MIS for what it hits first.
+    pub fn camera(org: Vec3, dir: Vec3) -> Self {
+        PathState {
+            org,
+            dir,
+            beta: Rgb::ONE,
+            depth: 0,
+            prev_pdf: 0.0,
+            prev_p: org,
+            prev_n: Vec3::ZERO,
+            media: MediumStack::default(),
+            eta_scale: 1.0,
+            transparent_hits: 0,
+        }
+    }
+
+    /// Follows the ray to its next event: the medium segment's emission is added to
+    /// `radiance` and its weight to the throughput, area and sphere lights crossed before
+    /// the event add their emission (MIS-weighted against light sampling from `prev_p`;
+    /// they do not block, as in Cycles), and surfaces that only bound a medium or that a
+    /// BLEND alpha lets through (`u_alpha` ≥ alpha) are passed. Returns the event and
+    /// whether any light was crossed.
+    #[inline]
+    pub fn advance(
+        &mut self,
+        ctx: &SceneContext,
+        u_medium: [f32; 2],
+        u_alpha: f32,
+        radiance: &mut Rgb,
+        stats: &mut RayStats,
+    ) -> (Step, bool) {
+        let hit = ctx.intersect(self.org, self.dir, f32::INFINITY);
+        let t_surface = hit.map_or(f32::INFINITY, |h| h.t);
+
+        // The medium along this segment: emission, then where the next event is.
+        let (scatter, crossed_w, segment_weight) =
+            medium_segment(ctx, &self.media, t_surface, self.beta, u_medium, radiance);
+        let t_event = scatter.map_or(t_surface, |(t, _)| t);
+        let (crossed, any) =
+            ctx.crossed_emission(self.org, self.dir, t_event, self.prev_p, self.prev_n, self.prev_pdf, self.depth == 0);
+        if any {
+            *radiance += self.beta * crossed_w * crossed;
+        }
+        self.beta *= segment_weight;
+
+        if let Some((t, phase)) = scatter {
+            return (Step::Medium { p: self.org + self.dir * t, phase }, any);
+        }
+        let Some(hit) = hit else {
+            return (Step::Escaped, any);
+        };
+        if !self.beta.is_finite() || self.beta == Rgb::ZERO {
+            return (Step::End, any);
+        }
+        let s = ctx.scene.surface(&hit, self.org, self.dir);
+        let mat = &ctx.scene.materials[s.material as usize];
+        // A volume boundary without a surface: only the medium changes.
+        if mat.null_surface {
+            if self.transparent_hits >= MAX_TRANSPARENT_HITS {
+                return (Step::End, any);
+            }
+            self.transparent_hits += 1;
+            self.media = ctx.medium_after(&s, self.dir, self.media);
+            self.org = offset_ray_origin(s.p, -s.ng);
+            stats.bounce += 1;
+            return (Step::Passed, any);
+        }
+        // Stochastic transparency: pass straight through with probability 1 - alpha.
+        if mat.alpha_mode == AlphaMode::Blend
+            && u_alpha >= ctx.scene.alpha(hit.tri, hit.b1, hit.b2)
+            && self.transparent_hits < MAX_TRANSPARENT_HITS
+        {
+            self.transparent_hits += 1;
+            self.org = offset_ray_origin(s.p, -s.ng);
+            stats.bounce += 1;
+            return (Step::Passed, any);
+        }
+        (Step::Surface { hit, s }, any)
+    }
+
+    /// Radiance of the world and sun disks along the escape direction, MIS-weighted
+    /// against light sampling (not yet times the throughput); None when there is none.
+    #[inline]
+    pub fn escaped_radiance(&self, ctx: &SceneContext) -> Option<Rgb> {
+        let le = ctx.world_radiance(self.dir);
+        let sun = ctx.sun_emission(self.dir, self.prev_pdf);
+        if le == Rgb::ZERO && sun == Rgb::ZERO {
+            return None;
+        }
+        let w = if self.prev_pdf == 0.0 { 1.0 } else { power_heuristic(self.prev_pdf, ctx.world_pdf(self.dir)) };
+        Some(le * w + sun)
+    }
+
+    /// Emission of the shaded surface `s` toward the path, MIS-weighted against light
+    /// sampling from the previous vertex, times the throughput.
+    #[inline]
+    pub fn surface_emission(&self, ctx: &SceneContext, hit: &Hit, s: &SurfaceHit, sp: &ShadingPoint) -> Rgb {
+        if sp.emitted == Rgb::ZERO {
+            return Rgb::ZERO;
+        }
+        let w = match (self.prev_pdf > 0.0, ctx.lights.light_of_triangle(hit.tri)) {
+            (true, Some(index)) => {
+                power_heuristic(self.prev_pdf, ctx.light_pdf(index, self.prev_p, self.prev_n, s.p, s.ng))
+            }
+            _ => 1.0,
+        };
+        self.beta * sp.emitted * w
+    }
+
+    /// Russian roulette from `rr_depth` on: false when the path ends; survivors are
+    /// reweighted. The survival probability is the throughput's largest channel times
+    /// the η scale, at most 0.95.
+    #[inline]
+    pub fn survives(&mut self, rr_depth: u32, u_rr: f32) -> bool {
+        if self.depth < rr_depth {
+            return true;
+        }
+        let survive = (self.beta.max_element() * self.eta_scale).min(0.95);
+        if u_rr >= survive {
+            return false;
+        }
+        self.beta /= survive;
+        true
+    }
+
+    /// After a refraction through the surface of a solid with index `ior`: the η scale
+    /// (entering from the front multiplies by η², leaving divides).
+    #[inline]
+    pub fn refracted(&mut self, s: &SurfaceHit, ior: f32) {
+        let eta = if s.front { ior } else { 1.0 / ior };
+        self.eta_scale *= eta * eta;
+    }
+}
