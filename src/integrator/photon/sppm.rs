@@ -35,14 +35,13 @@ use super::{PhotonMap, PhotonSettings, default_sppm_photons};
 use crate::bsdf::Bsdf;
 use crate::film::{DEPTH_BACKGROUND, FilmImage};
 use crate::integrator::SceneContext;
-use crate::integrator::media::medium_segment;
 use crate::integrator::path::PathIntegrator;
+use crate::integrator::walk::{PathState, Step};
 use crate::light::emit::Emitters;
 use crate::math::{Frame, Rgb, offset_ray_origin};
 use crate::render::job::RayStats;
 use crate::render::job::{Progress, RenderJob, RenderResult};
 use crate::sampling::PixelSampler;
-use crate::scene::AlphaMode;
 use crate::scene::camera::CameraRays;
 use glam::{DVec3, Vec2, Vec3};
 use rayon::prelude::*;
@@ -427,8 +426,8 @@ fn image(states: &[PixelState], w: u32, h: u32, iters: u32) -> FilmImage {
 #[allow(clippy::too_many_arguments)]
 fn camera_path(
     ctx: &SceneContext,
-    mut org: Vec3,
-    mut dir: Vec3,
+    org: Vec3,
+    dir: Vec3,
     sampler: &mut PixelSampler,
     max_depth: u32,
     pend: &mut Pending,
@@ -437,77 +436,53 @@ fn camera_path(
     transparent_background: bool,
 ) -> (Rgb, Option<VisiblePoint>, f32) {
     let mut l = Rgb::ZERO;
-    let mut beta = Rgb::ONE;
-    let mut depth = 0u32;
     let mut first_t = f32::INFINITY;
-    let mut transparent = 0u32;
     stats.camera += 1;
-    // Media the camera path is in. A scattering event there is path traced from that
-    // vertex on (media have no photon map): NEE plus a continued path.
-    let mut medium = crate::medium::MediumStack::default();
+    // A scattering event in a medium is path traced from that vertex on (media have no
+    // photon map): NEE plus a continued path.
+    let mut st = PathState::camera(org, dir);
     let continuation = PathIntegrator { max_depth, transparent_background, ..Default::default() };
     loop {
         let [u_light, u_lx, u_ly, u_lobe] = sampler.next_4d();
         let [u_dx, u_dy, _, u_alpha] = sampler.next_4d();
         let [u_channel, u_dist, _, _] = if ctx.has_media { sampler.next_4d() } else { [0.0; 4] };
-        let hit = ctx.intersect(org, dir, f32::INFINITY);
-        let t_surface = hit.map_or(f32::INFINITY, |h| h.t);
-        let (scatter, crossed_w, segment_weight) =
-            medium_segment(ctx, &medium, t_surface, beta, [u_channel, u_dist], &mut l);
-        let t_event = scatter.map_or(t_surface, |(t, _)| t);
-        // Lights crossed and the world are found by specular paths only (no MIS): the
-        // visible point's NEE covers the rest.
-        let (crossed, any) = ctx.crossed_emission(org, dir, t_event, org, Vec3::ZERO, 0.0, depth == 0);
-        if any {
-            l += beta * crossed_w * crossed;
-            if depth == 0 {
-                pend.alpha += 1.0;
-            }
+        // Lights crossed and the world are found by specular paths only (no MIS: the
+        // state's pdf stays 0): the visible point's NEE covers the rest. Soft sphere
+        // lights face the ray's origin.
+        st.prev_p = st.org;
+        let (step, crossed) = st.advance(ctx, [u_channel, u_dist], u_alpha, &mut l, stats);
+        if crossed && st.depth == 0 {
+            pend.alpha += 1.0;
         }
-        beta *= segment_weight;
-        if let Some((t, phase)) = scatter {
-            if depth == 0 {
-                pend.alpha += 1.0;
+        let (hit, s) = match step {
+            Step::End => break,
+            Step::Passed => continue,
+            Step::Medium { p, phase } => {
+                if st.depth == 0 {
+                    pend.alpha += 1.0;
+                }
+                if st.depth < max_depth && st.beta.is_finite() && st.beta != Rgb::ZERO {
+                    l += continuation
+                        .scatter_in_medium(ctx, p, st.dir, phase, st.media, st.beta, st.depth, sampler, stats);
+                }
+                return (l, None, first_t);
             }
-            if depth < max_depth && beta.is_finite() && beta != Rgb::ZERO {
-                let p = org + dir * t;
-                l += continuation.scatter_in_medium(ctx, p, dir, phase, medium, beta, depth, sampler, stats);
-            }
-            return (l, None, first_t);
-        }
-        let Some(hit) = hit else {
-            if !(depth == 0 && transparent_background) {
-                let le = ctx.world_radiance(dir) + ctx.sun_emission(dir, 0.0);
-                if le != Rgb::ZERO {
-                    l += beta * le;
-                    if depth == 0 {
+            Step::Escaped => {
+                if !(st.depth == 0 && transparent_background)
+                    && let Some(le) = st.escaped_radiance(ctx)
+                {
+                    l += st.beta * le;
+                    if st.depth == 0 {
                         pend.alpha += 1.0;
                     }
                 }
+                break;
             }
-            break;
+            Step::Surface { hit, s } => (hit, s),
         };
-        let s = ctx.scene.surface(&hit, org, dir);
-        if ctx.scene.materials[s.material as usize].null_surface && transparent < 128 {
-            // A volume boundary without a surface: only the medium changes.
-            transparent += 1;
-            medium = ctx.medium_after(&s, dir, medium);
-            org = offset_ray_origin(s.p, -s.ng);
-            stats.bounce += 1;
-            continue;
-        }
-        if ctx.scene.materials[s.material as usize].alpha_mode == AlphaMode::Blend
-            && transparent < 128
-            && u_alpha >= ctx.scene.alpha(hit.tri, hit.b1, hit.b2)
-        {
-            transparent += 1;
-            org = offset_ray_origin(s.p, -s.ng);
-            stats.bounce += 1;
-            continue;
-        }
-        let wo = -dir;
+        let wo = -st.dir;
         let sp = ctx.scene.shade(&s, wo);
-        if depth == 0 {
+        if st.depth == 0 {
             first_t = s.t;
             pend.alpha += 1.0;
             let z = camera.depth(s.p);
@@ -517,8 +492,8 @@ fn camera_path(
         } else if first_t.is_infinite() {
             first_t = s.t;
         }
-        l += beta * sp.emitted;
-        if depth >= max_depth {
+        l += st.surface_emission(ctx, &hit, &s, &sp);
+        if st.depth >= max_depth {
             break;
         }
         let wo_local = sp.frame.to_local(wo);
@@ -526,14 +501,22 @@ fn camera_path(
         if ctx.scene.materials[s.material as usize].subsurface.is_some() {
             let q = sp.bsdf.subsurface_weight(wo_local);
             if q > 0.0 {
-                l += continuation.subsurface_from(ctx, &s, &sp, wo, medium, beta * q, depth, sampler, stats);
+                l += continuation.subsurface_from(ctx, &s, &sp, wo, st.media, st.beta * q, st.depth, sampler, stats);
             }
         }
         if !sp.bsdf.is_delta() {
-            l += beta * direct_light(ctx, &s, &sp, wo_local, u_light, Vec2::new(u_lx, u_ly), 0.0, medium, stats);
+            l += st.beta * direct_light(ctx, &s, &sp, wo_local, u_light, Vec2::new(u_lx, u_ly), 0.0, st.media, stats);
             return (
                 l,
-                Some(VisiblePoint { p: s.p, ng: s.ng, frame: sp.frame, bsdf: sp.bsdf, wo_local, beta, d: depth + 1 }),
+                Some(VisiblePoint {
+                    p: s.p,
+                    ng: s.ng,
+                    frame: sp.frame,
+                    bsdf: sp.bsdf,
+                    wo_local,
+                    beta: st.beta,
+                    d: st.depth + 1,
+                }),
                 first_t,
             );
         }
@@ -541,14 +524,14 @@ fn camera_path(
             break;
         };
         let wi = sp.frame.to_world(bs.wi);
-        beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
-        if !beta.is_finite() || beta == Rgb::ZERO {
+        st.beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
+        if !st.beta.is_finite() || st.beta == Rgb::ZERO {
             break;
         }
-        depth += 1;
-        medium = ctx.medium_after(&s, wi, medium);
-        org = offset_ray_origin(s.p, if wi.dot(s.ng) > 0.0 { s.ng } else { -s.ng });
-        dir = wi;
+        st.depth += 1;
+        st.media = ctx.medium_after(&s, wi, st.media);
+        st.org = offset_ray_origin(s.p, if wi.dot(s.ng) > 0.0 { s.ng } else { -s.ng });
+        st.dir = wi;
         stats.bounce += 1;
     }
     (l, None, first_t)
