@@ -161,7 +161,7 @@ impl PathIntegrator {
             let (u_light_pt, u_dir) = (Vec2::new(u_lx, u_ly), Vec2::new(u_dx, u_dy));
 
             // Along the ray: medium, crossed lights, pass-through surfaces.
-            let (step, crossed) = st.advance(ctx, [u_channel, u_dist], u_alpha, &mut radiance, stats);
+            let (step, crossed) = st.advance(ctx, [u_channel, u_dist], || u_alpha, true, &mut radiance, stats);
             if crossed && st.depth == 0 {
                 out.alpha = 1.0;
             }

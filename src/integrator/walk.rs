@@ -96,16 +96,17 @@ impl PathState {
 
     /// Follows the ray to its next event: the medium segment's emission is added to
     /// `radiance` and its weight to the throughput, area and sphere lights crossed before
-    /// the event add their emission (MIS-weighted against light sampling from `prev_p`;
-    /// they do not block, as in Cycles), and surfaces that only bound a medium or that a
-    /// BLEND alpha lets through (`u_alpha` ≥ alpha) are passed. Returns the event and
-    /// whether any light was crossed.
+    /// the event add their emission when `count_crossed` (MIS-weighted against light
+    /// sampling from `prev_p`; they do not block, as in Cycles), and surfaces that only
+    /// bound a medium or that a BLEND alpha lets through (`u_alpha()` ≥ alpha; drawn only
+    /// there) are passed. Returns the event and whether any light was crossed.
     #[inline]
     pub fn advance(
         &mut self,
         ctx: &SceneContext,
         u_medium: [f32; 2],
-        u_alpha: f32,
+        u_alpha: impl FnOnce() -> f32,
+        count_crossed: bool,
         radiance: &mut Rgb,
         stats: &mut RayStats,
     ) -> (Step, bool) {
@@ -116,8 +117,11 @@ impl PathState {
         let (scatter, crossed_w, segment_weight) =
             medium_segment(ctx, &self.media, t_surface, self.beta, u_medium, radiance);
         let t_event = scatter.map_or(t_surface, |(t, _)| t);
-        let (crossed, any) =
-            ctx.crossed_emission(self.org, self.dir, t_event, self.prev_p, self.prev_n, self.prev_pdf, self.depth == 0);
+        let (crossed, any) = if count_crossed {
+            ctx.crossed_emission(self.org, self.dir, t_event, self.prev_p, self.prev_n, self.prev_pdf, self.depth == 0)
+        } else {
+            (Rgb::ZERO, false)
+        };
         if any {
             *radiance += self.beta * crossed_w * crossed;
         }
@@ -147,8 +151,8 @@ impl PathState {
         }
         // Stochastic transparency: pass straight through with probability 1 - alpha.
         if mat.alpha_mode == AlphaMode::Blend
-            && u_alpha >= ctx.scene.alpha(hit.tri, hit.b1, hit.b2)
             && self.transparent_hits < MAX_TRANSPARENT_HITS
+            && u_alpha() >= ctx.scene.alpha(hit.tri, hit.b1, hit.b2)
         {
             self.transparent_hits += 1;
             self.org = offset_ray_origin(s.p, -s.ng);

@@ -29,14 +29,13 @@
 use super::estimate::{direct_light, radiance};
 use super::io::PhotonMaps;
 use crate::film::CameraSample;
-use crate::integrator::media::medium_segment;
+use crate::integrator::SceneContext;
 use crate::integrator::path::PathIntegrator;
-use crate::integrator::{SceneContext, power_heuristic};
+use crate::integrator::walk::{PathState, Step};
 use crate::math::{Rgb, offset_ray_origin};
 use crate::medium::MediumStack;
 use crate::render::job::RayStats;
 use crate::sampling::PixelSampler;
-use crate::scene::AlphaMode;
 use glam::{Vec2, Vec3};
 use std::sync::Arc;
 
@@ -61,38 +60,6 @@ pub struct JensenIntegrator {
     pub diffuse_bounces: u32,
     /// Camera rays that miss show nothing (Film → Transparent), as in the path tracer.
     pub transparent_background: bool,
-}
-
-const MAX_TRANSPARENT_HITS: u32 = 128;
-
-/// Where a continuation ray lands: the hit, passing transparent surfaces stochastically.
-#[inline]
-fn next_hit(
-    ctx: &SceneContext,
-    org: &mut Vec3,
-    dir: Vec3,
-    sampler: &mut PixelSampler,
-    stats: &mut RayStats,
-) -> (Option<(crate::accel::Hit, crate::scene::shading::SurfaceHit)>, f32) {
-    let mut passes = 0;
-    let mut first = None;
-    loop {
-        let Some(hit) = ctx.intersect(*org, dir, f32::INFINITY) else {
-            return (None, first.unwrap_or(f32::INFINITY));
-        };
-        first.get_or_insert(hit.t);
-        let s = ctx.scene.surface(&hit, *org, dir);
-        if ctx.scene.materials[s.material as usize].alpha_mode == AlphaMode::Blend && passes < MAX_TRANSPARENT_HITS {
-            let alpha = ctx.scene.alpha(hit.tri, hit.b1, hit.b2);
-            if sampler.next_4d()[0] >= alpha {
-                passes += 1;
-                *org = offset_ray_origin(s.p, -s.ng);
-                stats.bounce += 1;
-                continue;
-            }
-        }
-        return (Some((hit, s)), first.unwrap_or(f32::INFINITY));
-    }
 }
 
 impl JensenIntegrator {
@@ -175,99 +142,82 @@ impl JensenIntegrator {
     pub fn li(
         &self,
         ctx: &SceneContext,
-        mut org: Vec3,
-        mut dir: Vec3,
+        org: Vec3,
+        dir: Vec3,
         sampler: &mut PixelSampler,
         depth_of: impl Fn(Vec3) -> f32,
         stats: &mut RayStats,
     ) -> CameraSample {
         let mut out = CameraSample { depth: f32::INFINITY, ..Default::default() };
         let mut radiance = Rgb::ZERO;
-        let mut beta = Rgb::ONE;
-        let mut depth = 0u32;
-        let mut transparent = 0u32;
-        // Media the camera path is in; a scattering event there is path traced from
-        // that vertex on.
-        let mut medium = MediumStack::default();
+        // A scattering event in a medium is path traced from that vertex on.
+        let mut st = PathState::camera(org, dir);
         stats.camera += 1;
         loop {
             let [u_light, u_lx, u_ly, u_lobe] = sampler.next_4d();
             let [u_dx, u_dy, u_channel, u_dist] = sampler.next_4d();
-            let org0 = org;
-            let (found, first) = next_hit(ctx, &mut org, dir, sampler, stats);
-            let (scatter, crossed_w, segment_w) =
-                medium_segment(ctx, &medium, first, beta, [u_channel, u_dist], &mut radiance);
-            let t_event = scatter.map_or(first, |(t, _)| t);
             // Area lights crossed: every earlier vertex was specular (no MIS).
-            let (crossed, any) = ctx.crossed_emission(org0, dir, t_event, org0, Vec3::ZERO, 0.0, depth == 0);
-            if any {
-                radiance += beta * crossed_w * crossed;
-                if depth == 0 {
-                    out.alpha = 1.0;
-                }
+            st.prev_p = st.org;
+            let (step, crossed) =
+                st.advance(ctx, [u_channel, u_dist], || sampler.next_4d()[0], true, &mut radiance, stats);
+            if crossed && st.depth == 0 {
+                out.alpha = 1.0;
             }
-            beta *= segment_w;
-            if let Some((t, phase)) = scatter {
-                let p = org0 + dir * t;
-                if depth == 0 {
-                    out.alpha = 1.0;
-                    out.depth = depth_of(p);
+            let (hit, s) = match step {
+                Step::End => break,
+                Step::Passed => continue,
+                Step::Medium { p, phase } => {
+                    if st.depth == 0 {
+                        out.alpha = 1.0;
+                        out.depth = depth_of(p);
+                    }
+                    if st.depth < self.max_depth && st.beta.is_finite() && st.beta != Rgb::ZERO {
+                        radiance += self
+                            .continuation()
+                            .scatter_in_medium(ctx, p, st.dir, phase, st.media, st.beta, st.depth, sampler, stats);
+                    }
+                    break;
                 }
-                if depth < self.max_depth && beta.is_finite() && beta != Rgb::ZERO {
-                    radiance +=
-                        self.continuation().scatter_in_medium(ctx, p, dir, phase, medium, beta, depth, sampler, stats);
-                }
-                break;
-            }
-            let Some((_, s)) = found else {
-                // Escaped: the world and sun disks (every earlier vertex was specular).
-                if !(depth == 0 && self.transparent_background) {
-                    let le = ctx.world_radiance(dir) + ctx.sun_emission(dir, 0.0);
-                    if le != Rgb::ZERO {
-                        radiance += beta * le;
-                        if depth == 0 {
+                Step::Escaped => {
+                    // The world and sun disks (every earlier vertex was specular).
+                    if !(st.depth == 0 && self.transparent_background)
+                        && let Some(le) = st.escaped_radiance(ctx)
+                    {
+                        radiance += st.beta * le;
+                        if st.depth == 0 {
                             out.alpha = 1.0;
                         }
                     }
-                }
-                break;
-            };
-            if ctx.scene.materials[s.material as usize].null_surface {
-                // A volume boundary without a surface: only the medium changes.
-                if transparent >= MAX_TRANSPARENT_HITS {
                     break;
                 }
-                transparent += 1;
-                medium = ctx.medium_after(&s, dir, medium);
-                org = offset_ray_origin(s.p, -s.ng);
-                continue;
-            }
-            let wo = -dir;
+                Step::Surface { hit, s } => (hit, s),
+            };
+            let wo = -st.dir;
             let sp = ctx.scene.shade(&s, wo);
-            if depth == 0 {
+            if st.depth == 0 {
                 out.alpha = 1.0;
                 out.depth = depth_of(s.p);
                 out.normal = sp.frame.n;
                 out.albedo = sp.bsdf.albedo();
             }
-            radiance += beta * sp.emitted;
-            if depth >= self.max_depth {
+            radiance += st.surface_emission(ctx, &hit, &s, &sp);
+            if st.depth >= self.max_depth {
                 break;
             }
             let wo_local = sp.frame.to_local(wo);
-            radiance += self.subsurface_part(ctx, &s, &sp, wo, wo_local, medium, beta, depth, sampler, stats);
+            radiance += self.subsurface_part(ctx, &s, &sp, wo, wo_local, st.media, st.beta, st.depth, sampler, stats);
             if !sp.bsdf.is_delta() {
                 // x₁: the first non-specular hit, scattering event depth + 1.
-                radiance += beta
+                radiance += st.beta
                     * self.shade_first_diffuse(
                         ctx,
                         &s,
                         &sp,
                         wo_local,
-                        depth + 1,
+                        st.depth + 1,
                         u_light,
                         Vec2::new(u_lx, u_ly),
-                        medium,
+                        st.media,
                         sampler,
                         stats,
                     );
@@ -278,14 +228,14 @@ impl JensenIntegrator {
                 break;
             };
             let wi = sp.frame.to_world(bs.wi);
-            beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
-            if !beta.is_finite() || beta == Rgb::ZERO {
+            st.beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
+            if !st.beta.is_finite() || st.beta == Rgb::ZERO {
                 break;
             }
-            depth += 1;
-            medium = ctx.medium_after(&s, wi, medium);
-            org = offset_ray_origin(s.p, if wi.dot(s.ng) > 0.0 { s.ng } else { -s.ng });
-            dir = wi;
+            st.depth += 1;
+            st.media = ctx.medium_after(&s, wi, st.media);
+            st.org = offset_ray_origin(s.p, if wi.dot(s.ng) > 0.0 { s.ng } else { -s.ng });
+            st.dir = wi;
             stats.bounce += 1;
         }
         out.radiance = radiance;
@@ -340,31 +290,34 @@ impl JensenIntegrator {
             let mis_pdf = if sp.bsdf.is_delta() { 0.0 } else { bs.pdf * gather as f32 };
             let org = offset_ray_origin(s.p, if ci > 0.0 { s.ng } else { -s.ng });
             let gather_media = ctx.medium_after(s, wi, media);
-            gathered += self.gather_path(ctx, org, wi, beta, mis_pdf, s.p, s.ng, d, gather_media, sampler, stats);
+            let st = PathState {
+                org,
+                dir: wi,
+                beta,
+                depth: d,
+                prev_pdf: mis_pdf,
+                prev_p: s.p,
+                prev_n: s.ng,
+                media: gather_media,
+                eta_scale: 1.0,
+                transparent_hits: 0,
+            };
+            gathered += self.gather_path(ctx, st, sampler, stats);
         }
         l + gathered / gather.max(1) as f32
     }
 
-    /// One gather ray from x₁ (scattering event `d`): radiance it brings, times `beta`.
-    #[allow(clippy::too_many_arguments)]
+    /// One gather ray from x₁ (scattering event `d`): radiance it brings, times the
+    /// state's throughput.
     fn gather_path(
         &self,
         ctx: &SceneContext,
-        mut org: Vec3,
-        mut dir: Vec3,
-        mut beta: Rgb,
-        mut prev_pdf: f32,
-        mut prev_p: Vec3,
-        mut prev_n: Vec3,
-        d: u32,
-        mut media: MediumStack,
+        mut st: PathState,
         sampler: &mut PixelSampler,
         stats: &mut RayStats,
     ) -> Rgb {
         let max_r2 = self.max_radius * self.max_radius;
-        let mut transparent = 0u32;
         let mut l = Rgb::ZERO;
-        let mut depth = d;
         // Only specular bounces since x₁, and at least one: emission is a caustic.
         let mut delta_only = true;
         let mut bounced = false;
@@ -375,66 +328,50 @@ impl JensenIntegrator {
             let [u_dx, u_dy, u_rr, u_channel] = sampler.next_4d();
             let u_dist = if ctx.has_media { sampler.next_4d()[0] } else { 0.0 };
             let caustic = delta_only && bounced;
-            let org0 = org;
-            let (found, first) = next_hit(ctx, &mut org, dir, sampler, stats);
-            let (scatter, crossed_w, segment_w) = medium_segment(ctx, &media, first, beta, [u_channel, u_dist], &mut l);
-            let t_event = scatter.map_or(first, |(t, _)| t);
-            if !caustic {
-                let (crossed, _) = ctx.crossed_emission(org0, dir, t_event, prev_p, prev_n, prev_pdf, false);
-                l += beta * crossed_w * crossed;
-            }
-            beta *= segment_w;
-            if let Some((t, phase)) = scatter {
-                if depth < self.max_depth && beta.is_finite() && beta != Rgb::ZERO {
-                    let p = org0 + dir * t;
-                    l += self.continuation().scatter_in_medium(ctx, p, dir, phase, media, beta, depth, sampler, stats);
-                }
-                break;
-            }
-            let Some((hit, s)) = found else {
-                if !caustic {
-                    let w = if prev_pdf == 0.0 { 1.0 } else { power_heuristic(prev_pdf, ctx.world_pdf(dir)) };
-                    l += beta * (ctx.world_radiance(dir) * w + ctx.sun_emission(dir, prev_pdf));
-                }
-                break;
-            };
-            if ctx.scene.materials[s.material as usize].null_surface {
-                if transparent >= MAX_TRANSPARENT_HITS {
+            let (step, _) = st.advance(ctx, [u_channel, u_dist], || sampler.next_4d()[0], !caustic, &mut l, stats);
+            let (hit, s) = match step {
+                Step::End => break,
+                Step::Passed => continue,
+                Step::Medium { p, phase } => {
+                    if st.depth < self.max_depth && st.beta.is_finite() && st.beta != Rgb::ZERO {
+                        l += self
+                            .continuation()
+                            .scatter_in_medium(ctx, p, st.dir, phase, st.media, st.beta, st.depth, sampler, stats);
+                    }
                     break;
                 }
-                transparent += 1;
-                media = ctx.medium_after(&s, dir, media);
-                org = offset_ray_origin(s.p, -s.ng);
-                continue;
-            }
-            let wo = -dir;
+                Step::Escaped => {
+                    if !caustic && let Some(le) = st.escaped_radiance(ctx) {
+                        l += st.beta * le;
+                    }
+                    break;
+                }
+                Step::Surface { hit, s } => (hit, s),
+            };
+            let wo = -st.dir;
             let sp = ctx.scene.shade(&s, wo);
-            if sp.emitted != Rgb::ZERO && !caustic {
-                let w = match (prev_pdf > 0.0, ctx.lights.light_of_triangle(hit.tri)) {
-                    (true, Some(index)) => power_heuristic(prev_pdf, ctx.light_pdf(index, prev_p, prev_n, s.p, s.ng)),
-                    _ => 1.0,
-                };
-                l += beta * sp.emitted * w;
+            if !caustic {
+                l += st.surface_emission(ctx, &hit, &s, &sp);
             }
-            if depth >= self.max_depth {
+            if st.depth >= self.max_depth {
                 break;
             }
             let wo_local = sp.frame.to_local(wo);
-            l += self.subsurface_part(ctx, &s, &sp, wo, wo_local, media, beta, depth, sampler, stats);
+            l += self.subsurface_part(ctx, &s, &sp, wo, wo_local, st.media, st.beta, st.depth, sampler, stats);
             let delta = sp.bsdf.is_delta();
             if !delta {
                 nondelta += 1;
                 delta_only = false;
                 if nondelta >= self.diffuse_bounces {
                     // Read the global map: this is event depth + 1.
-                    let jmax = self.max_depth - depth;
-                    l += beta
+                    let jmax = self.max_depth - st.depth;
+                    l += st.beta
                         * radiance(&self.maps.global, s.p, s.ng, &sp.frame, &sp.bsdf, wo_local, self.k, max_r2, |p| {
                             p.depth() <= jmax
                         });
                     break;
                 }
-                l += beta
+                l += st.beta
                     * direct_light(
                         ctx,
                         &s,
@@ -455,26 +392,22 @@ impl JensenIntegrator {
             if (bs.wi.z * wo_local.z > 0.0) != (co * ci > 0.0) || ci == 0.0 {
                 break;
             }
-            beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
-            if !beta.is_finite() || beta == Rgb::ZERO {
+            st.beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
+            if !st.beta.is_finite() || st.beta == Rgb::ZERO {
                 break;
             }
-            prev_pdf = if delta { 0.0 } else { bs.pdf };
-            prev_p = s.p;
+            st.prev_pdf = if delta { 0.0 } else { bs.pdf };
+            st.prev_p = s.p;
             // `direct_light` selects lights with the geometric normal.
-            prev_n = s.ng;
+            st.prev_n = s.ng;
             bounced = true;
-            depth += 1;
-            if depth >= self.rr_depth {
-                let survive = beta.max_element().min(0.95);
-                if u_rr >= survive {
-                    break;
-                }
-                beta /= survive;
+            st.depth += 1;
+            if !st.survives(self.rr_depth, u_rr) {
+                break;
             }
-            media = ctx.medium_after(&s, wi, media);
-            org = offset_ray_origin(s.p, if ci > 0.0 { s.ng } else { -s.ng });
-            dir = wi;
+            st.media = ctx.medium_after(&s, wi, st.media);
+            st.org = offset_ray_origin(s.p, if ci > 0.0 { s.ng } else { -s.ng });
+            st.dir = wi;
             stats.bounce += 1;
         }
         l

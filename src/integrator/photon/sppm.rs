@@ -450,7 +450,7 @@ fn camera_path(
         // state's pdf stays 0): the visible point's NEE covers the rest. Soft sphere
         // lights face the ray's origin.
         st.prev_p = st.org;
-        let (step, crossed) = st.advance(ctx, [u_channel, u_dist], u_alpha, &mut l, stats);
+        let (step, crossed) = st.advance(ctx, [u_channel, u_dist], || u_alpha, true, &mut l, stats);
         if crossed && st.depth == 0 {
             pend.alpha += 1.0;
         }
