@@ -372,17 +372,7 @@ impl JensenIntegrator {
                     break;
                 }
                 l += st.beta
-                    * direct_light(
-                        ctx,
-                        &s,
-                        &sp,
-                        wo_local,
-                        u_light,
-                        Vec2::new(u_lx, u_ly),
-                        1.0,
-                        MediumStack::default(),
-                        stats,
-                    );
+                    * direct_light(ctx, &s, &sp, wo_local, u_light, Vec2::new(u_lx, u_ly), 1.0, st.media, stats);
             }
             let Some(bs) = sp.bsdf.sample(wo_local, u_lobe, Vec2::new(u_dx, u_dy)) else {
                 break;
