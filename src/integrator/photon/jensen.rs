@@ -387,6 +387,12 @@ impl JensenIntegrator {
                 break;
             }
             st.prev_pdf = if delta { 0.0 } else { bs.pdf };
+            // Refraction into or out of a solid scales radiance by 1/η²: Russian roulette
+            // undoes it, as the path tracer's does.
+            let mat = &ctx.scene.materials[s.material as usize];
+            if ci * co < 0.0 && mat.medium.is_some() {
+                st.refracted(&s, mat.ior);
+            }
             st.prev_p = s.p;
             // `direct_light` selects lights with the geometric normal.
             st.prev_n = s.ng;
