@@ -60,11 +60,13 @@ class glTF2ExportUserExtension:
 
     def gather_mesh_hook(self, gltf2_mesh, blender_mesh, blender_object, vertex_groups, modifiers, materials,
                          export_settings):
-        """Give primitives the TEXCOORD_n their material's textures read (meshes.py)."""
+        """Give primitives without a material Blender's default surface, and the TEXCOORD_n their
+        material's textures read (meshes.py)."""
         state = current()
         if state is None or gltf2_mesh is None:
             return
         try:
+            meshes.give_default_material(gltf2_mesh, state)
             meshes.add_missing_texcoords(gltf2_mesh, blender_mesh, state)
         except Exception as err:
             state.errors.append(f"mesh '{getattr(blender_mesh, 'name', '?')}': {err!r}")

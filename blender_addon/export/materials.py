@@ -7,9 +7,13 @@ Principled BSDF parameters it drops (contract, "Materials the exporter writes di
 * Transmissive materials: without KHR_materials_volume glTF calls a transmissive surface
   thin-walled (no refraction), but Cycles always refracts at a glass surface: a glass sphere
   from Blender must render as a solid sphere (`KHR_materials_volume`, thickness 1).
+* A Principled glass's base colour: glTF tints by it at every crossing, Cycles by its square
+  root; written as sqrt(base) where that is exact (`_principled_transmission_tint`).
 * Coat IOR and tint (`CAUSTIC_materials_coat`); subsurface and volume media (media.py).
 * Procedural textures and Principled inputs neither glTF nor Caustic render: warnings.
 """
+
+import math
 
 from .gltf_objects import optional_extension
 from .media import MEDIUM_EXTENSION, SUBSURFACE_EXTENSION, medium_extension, subsurface_extension
@@ -167,6 +171,40 @@ def _color_texture(socket, export_settings):
     return tex
 
 
+def _principled_transmission_tint(gltf2_material, blender_material):
+    """Write a Principled glass's base colour as the per-crossing tint glTF means; return warnings.
+
+    glTF (KHR_materials_transmission) tints light by the base colour at every crossing of the
+    surface; Cycles' Principled BSDF tints it by sqrt(base colour) (svm closure setup:
+    transmission_tint = sqrt(base)), so that light entering and leaving a solid is tinted by
+    the base colour once. With full transmission and no metal the base colour is used for
+    nothing else, so sqrt(base) in the glTF is exact; otherwise the diffuse or metal part needs
+    the colour itself, and the difference is named in a warning.
+    """
+    node = _principled(blender_material)
+    pbr = gltf2_material.pbr_metallic_roughness
+    if node is None or pbr is None or "KHR_materials_transmission" not in (gltf2_material.extensions or {}):
+        return []
+    inputs = node.inputs
+    base = inputs["Base Color"]
+    transmission, metallic = inputs["Transmission Weight"], inputs["Metallic"]
+    if base.is_linked or pbr.base_color_texture is not None:
+        white = False
+    else:
+        white = all(abs(c - 1.0) < 1e-6 for c in base.default_value[:3])
+    if white:
+        return []
+    exact = (not base.is_linked and not transmission.is_linked and not metallic.is_linked
+             and transmission.default_value >= 1.0 and metallic.default_value <= 0.0)
+    if exact:
+        factor = list(pbr.base_color_factor or [1.0, 1.0, 1.0, 1.0])
+        pbr.base_color_factor = [math.sqrt(max(float(c), 0.0)) for c in factor[:3]] + list(factor[3:])
+        return []
+    return [f"material '{blender_material.name}': transmitted light is tinted by the base colour at each "
+            "surface crossing (glTF); Cycles tints by its square root, which the glTF can only say for full "
+            "transmission, no metal and an untextured base colour"]
+
+
 def _set_extension(gltf2_material, name, value):
     """Add (or replace) the optional extension `name` on a glTF material."""
     extensions = gltf2_material.extensions or {}
@@ -181,6 +219,7 @@ def complete_material(gltf2_material, blender_material, export_settings, state):
     state.warnings.extend(warnings)
     if coat is not None:
         _set_extension(gltf2_material, COAT_EXTENSION, coat)
+    state.warnings.extend(_principled_transmission_tint(gltf2_material, blender_material))
     extensions = gltf2_material.extensions or {}
     if "KHR_materials_transmission" in extensions and "KHR_materials_volume" not in extensions:
         _set_extension(gltf2_material, "KHR_materials_volume", {"thicknessFactor": 1.0})

@@ -1,4 +1,11 @@
-"""Meshes: a textured material on a mesh without a UV map.
+"""Meshes: primitives without a material, and a textured material on a mesh without a UV map.
+
+A mesh whose material slots are empty (or that has none) is exported without a material,
+which glTF reads as a white metal of roughness 1; Cycles renders its default surface instead
+(`ShaderManager::add_default`: a Principled BSDF with the node's defaults, base colour 0.8,
+metallic 0, roughness 0.5, IOR 1.5, Specular IOR Level 0.5; checked on bpy 5.0.1, where a
+material-less sphere and one with a new material's default Principled BSDF render identically).
+Such primitives get one explicit glTF material of those values.
 
 The exporter keeps the material's texture bindings but writes no TEXCOORD attribute, which the
 glTF validator calls an error. The missing TEXCOORD_n are added with every vertex at Blender's
@@ -6,6 +13,31 @@ UV (0, 0) (glTF (0, 1)), which is what Cycles looks up for a mesh without UVs, w
 """
 
 from .gltf_objects import constant_uv_accessor
+
+DEFAULT_SURFACE_NAME = "Blender default surface"
+
+
+def give_default_material(gltf2_mesh, state):
+    """Give the mesh's primitives without a material Blender's default surface (module doc)."""
+    for prim in gltf2_mesh.primitives or []:
+        if prim.material is None:
+            if state.default_material is None:
+                state.default_material = _default_surface()
+            prim.material = state.default_material
+
+
+def _default_surface():
+    """A glTF material equal to Cycles' default surface: glTF's defaults for everything else
+    (IOR 1.5, specularFactor 1 = Specular IOR Level 0.5) are Blender's."""
+    from io_scene_gltf2.io.com import gltf2_io
+    pbr = gltf2_io.MaterialPBRMetallicRoughness(
+        base_color_factor=[0.8, 0.8, 0.8, 1.0], base_color_texture=None, extensions=None, extras=None,
+        metallic_factor=0.0, metallic_roughness_texture=None, roughness_factor=0.5)
+    # Double-sided as the exporter writes a Blender material without backface culling.
+    return gltf2_io.Material(
+        alpha_cutoff=None, alpha_mode=None, double_sided=True, emissive_factor=None, emissive_texture=None,
+        extensions=None, extras=None, name=DEFAULT_SURFACE_NAME, normal_texture=None, occlusion_texture=None,
+        pbr_metallic_roughness=pbr)
 
 
 def add_missing_texcoords(gltf2_mesh, blender_mesh, state):

@@ -18,6 +18,9 @@ class ExportState:
         self.area_lights = []  # names of the nodes that got CAUSTIC_lights_area
         self.scenes = 0  # scenes that got extras.caustic
         self.solid_materials = []  # transmissive materials marked as solids
+        # The one glTF material given to primitives without a material (meshes.py), shared so
+        # that the exporter writes it once.
+        self.default_material = None
         self.warnings = []
         # The exporter logs and swallows hook exceptions: the hooks record them here and
         # export_scene raises them afterwards.
