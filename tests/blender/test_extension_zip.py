@@ -26,6 +26,8 @@ def test_built_zip_installs_and_renders(tmp_path):
         names = set(zf.namelist())
         manifest = zf.read("blender_manifest.toml").decode()
     assert {"blender_manifest.toml", "__init__.py", "engine.py", "bin/caustic"} <= names
+    # Subpackages ship too (the exporter's hooks live in export/).
+    assert {"export/__init__.py", "export/gltf_hooks.py", "export/materials.py"} <= names
     assert not any("__pycache__" in n for n in names)
     assert "platforms = [" in manifest
 

@@ -1,0 +1,95 @@
+"""Scene export: Blender's own glTF exporter, plus Caustic's data through its user-extension hooks.
+
+`export_scene` is the entry point; one module per Blender concept holds what the exporter leaves
+out of it or writes differently from what Cycles renders (docs/contract.md):
+
+| module | job |
+|---|---|
+| `settings.py` | the render settings: `scenes[i].extras.caustic` |
+| `camera.py` | lens shift and depth of field: `CAUSTIC_camera` |
+| `lights.py` | area lights (`CAUSTIC_lights_area`), light shapes (`CAUSTIC_lights_punctual`), spot angles |
+| `world.py` | the world's Background and environment image: `CAUSTIC_world` |
+| `materials.py` | shader nodes the exporter cannot read, solid glass, coat, warnings |
+| `media.py` | subsurface and the Volume output: `CAUSTIC_materials_subsurface`, `CAUSTIC_materials_medium` |
+| `meshes.py` | TEXCOORD_n for textured meshes without a UV map |
+| `nodes.py` | reading shader node trees (shared) |
+| `gltf_objects.py` | building the exporter's glTF objects (extensions, accessors) |
+| `gltf_hooks.py` | the hook class the exporter calls, and making sure it finds it |
+| `depsgraph.py` | pointing the exporter at the render depsgraph |
+| `state.py` | the export in progress, shared with the hooks |
+"""
+
+import os
+
+import bpy
+
+from ..errors import CausticError
+from .camera import CAMERA_EXTENSION, camera_extension  # noqa: F401  (public names)
+from .depsgraph import render_depsgraph
+from .gltf_hooks import glTF2ExportUserExtension, hooks_enabled  # noqa: F401
+from .lights import (AREA_LIGHT_EXTENSION, PUNCTUAL_EXTENSION, area_light_extension,  # noqa: F401
+                     punctual_light_extension)
+from .materials import COAT_EXTENSION, principled_extras, shader_node_material  # noqa: F401
+from .media import MEDIUM_EXTENSION, SUBSURFACE_EXTENSION, medium_extension, subsurface_extension  # noqa: F401
+from .settings import render_settings  # noqa: F401
+from .state import ExportState, exporting
+from .world import WORLD_EXTENSION, world_extension  # noqa: F401
+
+
+def _exporter_options(filepath):
+    """Exporter settings for a renderer: the current frame's state, everything renderable."""
+    return dict(
+        filepath=filepath,
+        check_existing=False,
+        export_format="GLTF_SEPARATE",
+        export_image_format="AUTO",
+        use_selection=False,
+        use_visible=False,
+        use_renderable=True,
+        use_active_scene=True,
+        use_active_collection=False,
+        export_cameras=True,
+        export_lights=True,
+        export_import_convert_lighting_mode="SPEC",
+        export_apply=True,  # modifiers, from the render depsgraph (see depsgraph.py)
+        export_yup=True,
+        export_extras=False,
+        export_animations=False,
+        export_current_frame=True,  # else the exporter jumps to frame 0 and back
+        export_skins=False,  # deformation comes baked in the evaluated mesh
+        export_morph=False,
+        export_gn_mesh=True,
+        export_gpu_instances=False,
+        export_draco_mesh_compression_enable=False,
+        export_materials="EXPORT",
+        will_save_settings=False,
+    )
+
+
+def export_scene(depsgraph, folder, settings):
+    """Write the render depsgraph's scene to `folder`/scene.gltf; return (path, export state).
+
+    Raises CausticError when the exporter fails or one of Caustic's hooks failed.
+    """
+    filepath = os.path.join(folder, "scene.gltf")
+    scene = depsgraph.scene  # the original scene (scene_eval is the evaluated copy)
+    view_layer = depsgraph.view_layer
+    state = ExportState(settings)
+    state.pixel_aspect = (scene.render.pixel_aspect_x, scene.render.pixel_aspect_y)
+    # The exporter takes object transforms from the original objects, which only the viewport
+    # depsgraph updates; during an animation render it still holds the previous frame.
+    scene_eval = depsgraph.scene_eval
+    scene.frame_set(scene_eval.frame_current, subframe=scene_eval.frame_subframe)
+    try:
+        with exporting(state), bpy.context.temp_override(scene=scene, view_layer=view_layer), \
+                hooks_enabled(), render_depsgraph(depsgraph):
+            bpy.ops.export_scene.gltf(**_exporter_options(filepath))
+    except RuntimeError as err:
+        # The operator's error carries the exporter's whole traceback; its last line says why.
+        lines = [line.strip() for line in str(err).splitlines() if line.strip()]
+        raise CausticError(f"glTF export failed: {lines[-1] if lines else err}") from None
+    if state.errors:
+        raise CausticError("export failed: " + "; ".join(state.errors))
+    if not os.path.isfile(filepath):
+        raise CausticError("glTF export wrote no file")
+    return filepath, state

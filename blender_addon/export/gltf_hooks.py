@@ -1,0 +1,122 @@
+"""The glTF exporter's user-extension plumbing: the hook class and making the exporter find it.
+
+Facts relied on (io_scene_gltf2 5.0.21, shipped with Blender/bpy 5.0.1):
+* the exporter instantiates `glTF2ExportUserExtension` from `sys.modules[name]` for every
+  `name` in `bpy.context.preferences.addons`; the add-on's `__init__` re-exports the class and
+  `hooks_enabled` makes sure the add-on is listed while Caustic exports;
+* hook exceptions are logged and swallowed by the exporter, so the hooks record their own
+  failures in the export state's `errors` and `export_scene` raises them afterwards.
+
+Each hook is a no-op outside a Caustic export and delegates to the module of its Blender concept.
+"""
+
+from contextlib import contextmanager
+
+import bpy
+
+from . import materials, meshes
+from .camera import CAMERA_EXTENSION, camera_extension
+from .gltf_objects import attach_extension
+from .lights import (AREA_LIGHT_EXTENSION, PUNCTUAL_EXTENSION, area_light_extension,
+                     punctual_light_extension, separate_spot_angles)
+from .state import current
+from .world import WORLD_EXTENSION, world_extension
+
+# The add-on's package (this module lives in its `export` subpackage).
+ADDON_PACKAGE = __package__.rpartition(".")[0]
+
+
+class glTF2ExportUserExtension:
+    """Hooks the glTF exporter calls; they add Caustic's data while a Caustic render exports."""
+
+    def gather_node_hook(self, gltf2_node, blender_object, export_settings):
+        """Attach CAUSTIC_camera to a camera's node, CAUSTIC_lights_area to an area light's node,
+        CAUSTIC_lights_punctual to the other lights'."""
+        state = current()
+        if state is None or blender_object is None:
+            return
+        try:
+            if blender_object.type == "CAMERA":
+                value, warnings = camera_extension(blender_object, state.settings["resolution"],
+                                                   state.pixel_aspect)
+                state.warnings.extend(warnings)
+                if value:
+                    attach_extension(gltf2_node, CAMERA_EXTENSION, value)
+                return
+            if blender_object.type != "LIGHT":
+                return
+            if blender_object.data.type != "AREA":
+                separate_spot_angles(gltf2_node)
+                value = punctual_light_extension(blender_object)
+                if value:
+                    attach_extension(gltf2_node, PUNCTUAL_EXTENSION, value)
+                return
+            value, warnings = area_light_extension(blender_object)
+            attach_extension(gltf2_node, AREA_LIGHT_EXTENSION, value)
+            state.area_lights.append(gltf2_node.name)
+            state.warnings.extend(warnings)
+        except Exception as err:  # the exporter would swallow it: keep it for export_scene
+            state.errors.append(f"area light '{blender_object.name}': {err!r}")
+
+    def gather_mesh_hook(self, gltf2_mesh, blender_mesh, blender_object, vertex_groups, modifiers, materials,
+                         export_settings):
+        """Give primitives without a material Blender's default surface, and the TEXCOORD_n their
+        material's textures read (meshes.py)."""
+        state = current()
+        if state is None or gltf2_mesh is None:
+            return
+        try:
+            meshes.give_default_material(gltf2_mesh, state)
+            meshes.add_missing_texcoords(gltf2_mesh, blender_mesh, state)
+        except Exception as err:
+            state.errors.append(f"mesh '{getattr(blender_mesh, 'name', '?')}': {err!r}")
+
+    def gather_material_hook(self, gltf2_material, blender_material, export_settings):
+        """Translate what the exporter cannot read and add Caustic's material extensions (materials.py)."""
+        state = current()
+        if state is None or gltf2_material is None:
+            return
+        try:
+            materials.complete_material(gltf2_material, blender_material, export_settings, state)
+        except Exception as err:
+            state.errors.append(f"material '{getattr(blender_material, 'name', '?')}': {err!r}")
+
+    def gather_scene_hook(self, gltf2_scene, blender_scene, export_settings):
+        """Store the render settings in the scene's extras.caustic and the world in CAUSTIC_world."""
+        state = current()
+        if state is None:
+            return
+        try:
+            extras = gltf2_scene.extras if isinstance(gltf2_scene.extras, dict) else {}
+            extras["caustic"] = dict(state.settings)
+            gltf2_scene.extras = extras
+            state.scenes += 1
+        except Exception as err:
+            state.errors.append(f"scene settings: {err!r}")
+        try:
+            value, warnings = world_extension(blender_scene, export_settings["gltf_filedirectory"])
+            state.warnings.extend(warnings)
+            if value is not None:
+                attach_extension(gltf2_scene, WORLD_EXTENSION, value)
+        except Exception as err:
+            state.errors.append(f"world: {err!r}")
+
+
+@contextmanager
+def hooks_enabled():
+    """Make sure the exporter finds the add-on's hooks, however the add-on was enabled.
+
+    Installed and enabled from Preferences, the add-on is already in `preferences.addons`.
+    When only `register()` was called (scripts, tests) it is not, and the exporter would skip the
+    hooks silently: list the add-on for the duration of the export, then remove it again.
+    """
+    addons = bpy.context.preferences.addons
+    added = None
+    if ADDON_PACKAGE not in addons:
+        added = addons.new()
+        added.module = ADDON_PACKAGE
+    try:
+        yield
+    finally:
+        if added is not None:
+            addons.remove(added)

@@ -1,0 +1,273 @@
+"""Materials: what Blender's glTF exporter writes differently from what Cycles renders, and the
+Principled BSDF parameters it drops (contract, "Materials the exporter writes differently").
+
+* Shader nodes the exporter does not read (it reads the Principled BSDF and Emission): it
+  writes no pbrMetallicRoughness for them, which glTF reads as a white, rough *metal*. Caustic
+  writes the glTF material that renders like Cycles' node (`shader_node_material`).
+* Transmissive materials: without KHR_materials_volume glTF calls a transmissive surface
+  thin-walled (no refraction), but Cycles always refracts at a glass surface: a glass sphere
+  from Blender must render as a solid sphere (`KHR_materials_volume`, thickness 1).
+* A Principled glass's base colour: glTF tints by it at every crossing, Cycles by its square
+  root; written as sqrt(base) where that is exact (`_principled_transmission_tint`).
+* Coat IOR and tint (`CAUSTIC_materials_coat`); subsurface and volume media (media.py).
+* Procedural textures and Principled inputs neither glTF nor Caustic render: warnings.
+"""
+
+import math
+
+from .gltf_objects import optional_extension
+from .media import MEDIUM_EXTENSION, SUBSURFACE_EXTENSION, medium_extension, subsurface_extension
+from .nodes import procedural_source, surface_node, value as _value
+
+COAT_EXTENSION = "CAUSTIC_materials_coat"
+
+# Shaders the add-on translates; any other surface is a warning and a grey Lambertian.
+_BSDF_NODES = {"BSDF_DIFFUSE", "BSDF_GLOSSY", "BSDF_METALLIC", "BSDF_GLASS", "BSDF_REFRACTION"}
+
+
+def _principled(blender_material):
+    """The material's Principled BSDF node, if its output uses one directly."""
+    node = surface_node(blender_material)
+    return node if node is not None and node.type == "BSDF_PRINCIPLED" else None
+
+
+def principled_extras(blender_material):
+    """What Blender's glTF exporter drops from a Principled BSDF that Caustic renders
+    (`CAUSTIC_materials_coat`: coat IOR and tint), and warnings naming what neither renders."""
+    node = _principled(blender_material)
+    if node is None:
+        return None, []
+    name = blender_material.name
+    warnings = []
+    coat = None
+    inputs = node.inputs
+
+    def value(socket_name, default):
+        socket = inputs.get(socket_name)
+        if socket is None:
+            return default
+        if socket.is_linked:
+            warnings.append(f"material '{name}': a linked {socket_name} is not supported; using its value")
+        return socket.default_value
+
+    for socket in inputs:
+        source = procedural_source(socket) if socket.is_linked and socket.type != "SHADER" else None
+        if source is not None:
+            warnings.append(f"material '{name}': {socket.name} comes from a {source.bl_label} node, which glTF "
+                            "cannot carry (only image textures and constants are exported); Caustic renders "
+                            "the exporter's fallback, not the pattern")
+    if value("Coat Weight", 0.0) > 0.0:
+        ior = float(value("Coat IOR", 1.5))
+        tint = [float(c) for c in value("Coat Tint", (1, 1, 1, 1))[:3]]
+        if abs(ior - 1.5) > 1e-6 or any(abs(c - 1.0) > 1e-6 for c in tint):
+            coat = {"ior": ior, "tint": tint}
+    if value("Thin Film Thickness", 0.0) > 0.0:
+        warnings.append(f"material '{name}': thin film (iridescence) is not rendered by Caustic")
+    if value("Diffuse Roughness", 0.0) > 0.0:
+        warnings.append(f"material '{name}': Diffuse Roughness is not rendered (Caustic's diffuse is Lambertian)")
+    if value("Anisotropic", 0.0) > 0.0:
+        warnings.append(f"material '{name}': anisotropic reflection is rendered isotropic")
+    return coat, warnings
+
+
+def shader_node_material(blender_material):
+    """The glTF parameters for a material whose surface is a single Diffuse, Glossy, Metallic,
+    Glass or Refraction BSDF (None for any other surface), and warnings.
+
+    Returns (params, color_socket, warnings): params has base (RGB), metallic, roughness and
+    optionally specular (0: no dielectric layer), transmission and ior; color_socket is the
+    colour input when it is linked (a texture for the hook to export), else None. Mappings:
+    Diffuse -> Lambertian (specular 0); Glossy and Metallic -> metal with F0 = colour (Schlick);
+    Glass -> transmission 1 with the node's IOR; Refraction -> the same (with a warning: glTF
+    glass also reflects). A Mix or Add Shader is rendered as the first shader in it that is
+    one of these or a Principled BSDF (which the exporter writes), with a warning naming the
+    mix. Other shaders (Translucent, Transparent, Toon, ...) get a warning and a grey
+    Lambertian, Blender's default surface, instead of the white metal.
+    """
+    node = surface_node(blender_material)
+    name = blender_material.name
+    warnings = []
+    if node is not None and node.type in {"MIX_SHADER", "ADD_SHADER"}:
+        inner = _first_translatable(node)
+        if inner is not None:
+            warnings.append(f"material '{name}': the {node.bl_label}'s weights are not rendered: Caustic "
+                            f"renders its {inner.bl_label} at full weight (and the light of any Emission in it)")
+            node = inner
+    if node is None or node.type in {"BSDF_PRINCIPLED", "EMISSION"}:
+        return None, None, warnings
+    if node.type not in _BSDF_NODES:
+        warnings.append(f"material '{name}': the {node.bl_label} node is not supported as a surface; "
+                        "rendered as a grey diffuse surface (only Principled BSDF, Diffuse, Glossy, Metallic, "
+                        "Glass, Refraction and Emission shaders are translated)")
+        # "fallback": the hook keeps what the exporter wrote if it found a Principled BSDF
+        # (inside a node group, say) and uses this only where it wrote nothing.
+        return ({"base": [0.8, 0.8, 0.8], "metallic": 0.0, "roughness": 1.0, "specular": 0.0, "fallback": True},
+                None, warnings)
+    what = f"material '{name}'"
+    color_name = "Base Color" if node.type == "BSDF_METALLIC" else "Color"
+    color_socket = node.inputs[color_name]
+    linked_color = color_socket if color_socket.is_linked else None
+    base = [float(c) for c in color_socket.default_value[:3]] if linked_color is None else [1.0, 1.0, 1.0]
+    roughness = float(_value(node, "Roughness", what, warnings, 0.5)) if "Roughness" in node.inputs else 1.0
+    for socket_name in ("Normal", "Anisotropy"):
+        socket = node.inputs.get(socket_name)
+        if socket is not None and (socket.is_linked or (socket_name == "Anisotropy" and socket.default_value != 0.0)):
+            warnings.append(f"{what}: the {node.bl_label}'s {socket_name} is not rendered")
+    if node.type == "BSDF_DIFFUSE":
+        if roughness > 0.0:
+            warnings.append(f"{what}: Diffuse BSDF roughness (Oren-Nayar) is not rendered; Lambertian instead")
+        return {"base": base, "metallic": 0.0, "roughness": 1.0, "specular": 0.0}, linked_color, warnings
+    if node.type in {"BSDF_GLOSSY", "BSDF_METALLIC"}:
+        if node.type == "BSDF_METALLIC" and getattr(node, "fresnel_type", "F82") != "F82":
+            warnings.append(f"{what}: Metallic BSDF's physical conductor (IOR, extinction) is rendered "
+                            "with its Base Color as the reflectance at normal incidence")
+        return {"base": base, "metallic": 1.0, "roughness": roughness}, linked_color, warnings
+    ior = float(_value(node, "IOR", what, warnings, 1.5))
+    if node.type == "BSDF_REFRACTION":
+        warnings.append(f"{what}: Refraction BSDF is rendered as glass (it also reflects, by Fresnel)")
+    return ({"base": base, "metallic": 0.0, "roughness": roughness, "transmission": 1.0, "ior": ior},
+            linked_color, warnings)
+
+
+def _shaders_in(node, depth=0):
+    """Depth-first, the shader nodes mixed or added by a Mix/Add Shader (nested ones opened)."""
+    found = []
+    if depth > 16:
+        return found
+    for socket in node.inputs:
+        if socket.type != "SHADER" or not socket.is_linked:
+            continue
+        inner = socket.links[0].from_node
+        if inner.type in {"MIX_SHADER", "ADD_SHADER"}:
+            found += _shaders_in(inner, depth + 1)
+        else:
+            found.append(inner)
+    return found
+
+
+def _first_translatable(node):
+    """The first Principled or translatable BSDF in a Mix/Add Shader, else its first Emission.
+
+    A BSDF comes first: the exporter writes an Emission's light whichever node is chosen, and a
+    material with emission only would be read as a white metal that also emits."""
+    shaders = _shaders_in(node)
+    for inner in shaders:
+        if inner.type in _BSDF_NODES or inner.type == "BSDF_PRINCIPLED":
+            return inner
+    return next((inner for inner in shaders if inner.type == "EMISSION"), None)
+
+
+def _color_texture(socket, export_settings):
+    """A glTF TextureInfo for an image linked to `socket`, made by Blender's exporter, or None.
+
+    Uses the exporter's own texture gathering (its internal API; on a version where that
+    fails the caller warns and keeps the constant colour)."""
+    from io_scene_gltf2.blender.exp.material.search_node_tree import NodeSocket, has_image_node_from_socket
+    from io_scene_gltf2.blender.exp.material.texture_info import gather_texture_info
+    nav = NodeSocket(socket, [socket.id_data])  # the group path starts at the material's tree
+    if not has_image_node_from_socket(nav, export_settings):
+        return None
+    tex, _uvmap_info, _udim_info, _factor = gather_texture_info(nav, (nav,), export_settings)
+    return tex
+
+
+def _principled_transmission_tint(gltf2_material, blender_material):
+    """Write a Principled glass's base colour as the per-crossing tint glTF means; return warnings.
+
+    glTF (KHR_materials_transmission) tints light by the base colour at every crossing of the
+    surface; Cycles' Principled BSDF tints it by sqrt(base colour) (svm closure setup:
+    transmission_tint = sqrt(base)), so that light entering and leaving a solid is tinted by
+    the base colour once. With full transmission and no metal the base colour is used for
+    nothing else, so sqrt(base) in the glTF is exact; otherwise the diffuse or metal part needs
+    the colour itself, and the difference is named in a warning.
+    """
+    node = _principled(blender_material)
+    pbr = gltf2_material.pbr_metallic_roughness
+    if node is None or pbr is None or "KHR_materials_transmission" not in (gltf2_material.extensions or {}):
+        return []
+    inputs = node.inputs
+    base = inputs["Base Color"]
+    transmission, metallic = inputs["Transmission Weight"], inputs["Metallic"]
+    if base.is_linked or pbr.base_color_texture is not None:
+        white = False
+    else:
+        white = all(abs(c - 1.0) < 1e-6 for c in base.default_value[:3])
+    if white:
+        return []
+    exact = (not base.is_linked and not transmission.is_linked and not metallic.is_linked
+             and transmission.default_value >= 1.0 and metallic.default_value <= 0.0)
+    if exact:
+        factor = list(pbr.base_color_factor or [1.0, 1.0, 1.0, 1.0])
+        pbr.base_color_factor = [math.sqrt(max(float(c), 0.0)) for c in factor[:3]] + list(factor[3:])
+        return []
+    return [f"material '{blender_material.name}': transmitted light is tinted by the base colour at each "
+            "surface crossing (glTF); Cycles tints by its square root, which the glTF can only say for full "
+            "transmission, no metal and an untextured base colour"]
+
+
+def _set_extension(gltf2_material, name, value):
+    """Add (or replace) the optional extension `name` on a glTF material."""
+    extensions = gltf2_material.extensions or {}
+    extensions[name] = optional_extension(name, value)
+    gltf2_material.extensions = extensions
+
+
+def complete_material(gltf2_material, blender_material, export_settings, state):
+    """Everything Caustic adds to the exporter's glTF material (the material hook's work)."""
+    _translate_shader_node(gltf2_material, blender_material, export_settings, state)
+    coat, warnings = principled_extras(blender_material)
+    state.warnings.extend(warnings)
+    if coat is not None:
+        _set_extension(gltf2_material, COAT_EXTENSION, coat)
+    state.warnings.extend(_principled_transmission_tint(gltf2_material, blender_material))
+    extensions = gltf2_material.extensions or {}
+    if "KHR_materials_transmission" in extensions and "KHR_materials_volume" not in extensions:
+        _set_extension(gltf2_material, "KHR_materials_volume", {"thicknessFactor": 1.0})
+        state.solid_materials.append(blender_material.name if blender_material else "?")
+    for name, build in ((SUBSURFACE_EXTENSION, subsurface_extension), (MEDIUM_EXTENSION, medium_extension)):
+        value, warnings = build(blender_material)
+        state.warnings.extend(warnings)
+        if value is not None:
+            _set_extension(gltf2_material, name, value)
+
+
+def _translate_shader_node(gltf2_material, blender_material, export_settings, state):
+    """Write the glTF material of a Diffuse/Glossy/Metallic/Glass/Refraction surface."""
+    params, color_socket, warnings = shader_node_material(blender_material)
+    pbr = gltf2_material.pbr_metallic_roughness
+    wrote = pbr is not None and any(getattr(pbr, k, None) is not None for k in (
+        "base_color_factor", "base_color_texture", "metallic_factor", "roughness_factor",
+        "metallic_roughness_texture"))
+    if params is not None and params.get("fallback") and wrote:
+        return  # the exporter found a Principled BSDF in the surface (e.g. in a node group)
+    state.warnings.extend(warnings)
+    if params is None:
+        return
+    from io_scene_gltf2.io.com.gltf2_io import MaterialPBRMetallicRoughness
+    texture = None
+    if color_socket is not None:
+        try:
+            texture = _color_texture(color_socket, export_settings)
+        except Exception as err:  # the exporter's internal API changed
+            texture = None
+            print(f"Caustic: texture of material '{blender_material.name}' not exported: {err!r}")
+        if texture is None:
+            state.warnings.append(f"material '{blender_material.name}': its colour comes from nodes other "
+                                  "than an image texture; rendered white")
+    pbr = gltf2_material.pbr_metallic_roughness or MaterialPBRMetallicRoughness(
+        None, None, None, None, None, None, None)
+    pbr.base_color_factor = [*params["base"], 1.0]
+    pbr.base_color_texture = texture
+    pbr.metallic_factor = params["metallic"]
+    pbr.roughness_factor = params["roughness"]
+    pbr.metallic_roughness_texture = None
+    gltf2_material.pbr_metallic_roughness = pbr
+    extensions = gltf2_material.extensions or {}
+    if "specular" in params:
+        extensions["KHR_materials_specular"] = optional_extension(
+            "KHR_materials_specular", {"specularFactor": params["specular"]})
+    if "transmission" in params:
+        extensions["KHR_materials_transmission"] = optional_extension(
+            "KHR_materials_transmission", {"transmissionFactor": params["transmission"]})
+        extensions["KHR_materials_ior"] = optional_extension("KHR_materials_ior", {"ior": params["ior"]})
+    gltf2_material.extensions = extensions or None

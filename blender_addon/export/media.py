@@ -1,0 +1,96 @@
+"""Light inside a material: Principled subsurface (`CAUSTIC_materials_subsurface`) and the
+material's Volume output (`CAUSTIC_materials_medium`), which Blender's glTF exporter drops.
+Coefficients as Cycles builds them (contract)."""
+
+import math
+
+from .nodes import linked_node, material_output, value as _value
+
+SUBSURFACE_EXTENSION = "CAUSTIC_materials_subsurface"
+MEDIUM_EXTENSION = "CAUSTIC_materials_medium"
+
+# Blender's subsurface methods -> the contract's; Christensen-Burley has no random walk of
+# its own and is rendered as Random Walk (with a warning).
+_SUBSURFACE_METHODS = {"RANDOM_WALK": "random_walk", "RANDOM_WALK_SKIN": "random_walk_skin",
+                       "BURLEY": "random_walk"}
+
+
+def subsurface_extension(blender_material):
+    """The `CAUSTIC_materials_subsurface` value of a material (None without subsurface), and warnings."""
+    warnings = []
+    tree = getattr(blender_material, "node_tree", None)
+    if tree is None:
+        return None, warnings
+    output = material_output(tree)
+    if output is None or not output.inputs["Surface"].is_linked:
+        return None, warnings
+    node = linked_node(output.inputs["Surface"])
+    if node.type != "BSDF_PRINCIPLED":
+        return None, warnings
+    what = f"material '{blender_material.name}'"
+    weight = float(_value(node, "Subsurface Weight", what, warnings, 0.0))
+    if weight <= 0.0:
+        return None, []
+    radius = _value(node, "Subsurface Radius", what, warnings, (1.0, 0.2, 0.1))
+    scale = float(_value(node, "Subsurface Scale", what, warnings, 0.05))
+    method = getattr(node, "subsurface_method", "RANDOM_WALK")
+    if method == "BURLEY":
+        warnings.append(f"{what}: subsurface method Christensen-Burley is rendered as Random Walk")
+    value = {
+        "weight": weight,
+        "radius": [max(float(r), 0.0) * max(scale, 0.0) for r in radius[:3]],
+        "anisotropy": float(_value(node, "Subsurface Anisotropy", what, warnings, 0.0)),
+        "ior": float(_value(node, "Subsurface IOR", what, warnings, 1.4)),
+        "method": _SUBSURFACE_METHODS.get(method, "random_walk"),
+    }
+    return value, warnings
+
+
+def medium_extension(blender_material):
+    """The `CAUSTIC_materials_medium` value of a material's Volume output (None without one),
+    and warnings naming what cannot be exported. Coefficients as Cycles builds them (contract)."""
+    warnings = []
+    tree = getattr(blender_material, "node_tree", None)
+    if tree is None:
+        return None, warnings
+    output = material_output(tree)
+    if output is None or not output.inputs["Volume"].is_linked:
+        return None, warnings
+    node = linked_node(output.inputs["Volume"])
+    what = f"material '{blender_material.name}'"
+    value = {"surface": bool(output.inputs["Surface"].is_linked)}
+
+    def rgb(name, default):
+        return [float(c) for c in _value(node, name, what, warnings, default)[:3]]
+
+    if node.type == "PRINCIPLED_VOLUME":
+        color = rgb("Color", (0.5, 0.5, 0.5))
+        absorption = rgb("Absorption Color", (0.0, 0.0, 0.0))
+        value["density"] = max(float(_value(node, "Density", what, warnings, 1.0)), 0.0)
+        value["scatter_color"] = [max(c, 0.0) for c in color]
+        value["absorption_color"] = [max(1.0 - c, 0.0) * max(1.0 - math.sqrt(max(a, 0.0)), 0.0)
+                                     for c, a in zip(color, absorption)]
+        value["anisotropy"] = float(_value(node, "Anisotropy", what, warnings, 0.0))
+        strength = float(_value(node, "Emission Strength", what, warnings, 0.0))
+        value["emission"] = [max(c, 0.0) * max(strength, 0.0) for c in rgb("Emission Color", (1, 1, 1))]
+        if float(_value(node, "Blackbody Intensity", what, warnings, 0.0)) > 0.0:
+            warnings.append(f"{what}: the {node.name} node's blackbody emission is not exported")
+    elif node.type == "VOLUME_SCATTER":
+        value["density"] = max(float(_value(node, "Density", what, warnings, 1.0)), 0.0)
+        value["scatter_color"] = [max(c, 0.0) for c in rgb("Color", (0.8, 0.8, 0.8))]
+        value["absorption_color"] = [0.0, 0.0, 0.0]
+        value["anisotropy"] = float(_value(node, "Anisotropy", what, warnings, 0.0))
+        phase = getattr(node, "phase", "HENYEY_GREENSTEIN")
+        if phase != "HENYEY_GREENSTEIN":
+            warnings.append(f"{what}: the {node.name} node's {phase} phase function is rendered as "
+                            "Henyey-Greenstein")
+    elif node.type == "VOLUME_ABSORPTION":
+        value["density"] = max(float(_value(node, "Density", what, warnings, 1.0)), 0.0)
+        value["scatter_color"] = [0.0, 0.0, 0.0]
+        value["absorption_color"] = [max(1.0 - c, 0.0) for c in rgb("Color", (0.8, 0.8, 0.8))]
+    else:
+        warnings.append(f"{what}: the {node.name} node ({node.bl_label}) on the Volume output cannot be "
+                        "exported; the volume is left out")
+        return None, warnings
+    value["anisotropy"] = min(max(value.get("anisotropy", 0.0), -1.0), 1.0)
+    return value, warnings

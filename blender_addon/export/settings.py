@@ -1,0 +1,35 @@
+"""The render settings: the Caustic panel's values as `scenes[i].extras.caustic` (contract)."""
+
+
+def render_settings(scene, resolution, camera_name):
+    """The `extras.caustic` object for a scene: the Caustic panel's values in contract keys."""
+    props = scene.caustic
+    settings = {
+        "resolution": [int(resolution[0]), int(resolution[1])],
+        "spp": int(props.samples),
+        # Blender counts bounces, the renderer counts scattering events (contract).
+        "max_depth": int(props.max_bounces) + 1,
+        "seed": int(props.seed),
+        "integrator": props.integrator,
+        "light_sampler": props.light_sampler,
+        # Film → Transparent off means an opaque background (alpha 1), as in Cycles.
+        "transparent": bool(scene.render.film_transparent),
+        # Blender's pixel filter (Blackman-Harris, as Cycles' default). Cycles spreads the
+        # window over twice the filter size (film.cpp: width *= 2 for Blackman-Harris).
+        "filter": "blackman-harris",
+        "filter_width": 2.0 * float(scene.render.filter_size),
+    }
+    if props.integrator == "sppm":
+        settings["sppm_iterations"] = int(props.samples)
+    if props.integrator == "photon":
+        if props.photons > 0:
+            settings["photons"] = int(props.photons)
+        if props.caustic_photons > 0:
+            settings["caustic_photons"] = int(props.caustic_photons)
+    if props.time_limit > 0.0:
+        settings["time_limit"] = float(props.time_limit)
+    if props.threads > 0:
+        settings["threads"] = int(props.threads)
+    if camera_name:
+        settings["camera"] = camera_name
+    return settings

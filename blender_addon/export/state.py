@@ -1,0 +1,43 @@
+"""The one Caustic export in progress, shared between `export_scene` and the exporter's hooks.
+
+The hooks are no-ops outside a Caustic export (`current()` is None), so that a user's ordinary
+glTF export is not changed by having Caustic enabled.
+"""
+
+from contextlib import contextmanager
+
+_current = None
+
+
+class ExportState:
+    """What one Caustic export hands to the hooks and what the hooks hand back."""
+
+    def __init__(self, settings):
+        self.settings = settings
+        self.pixel_aspect = (1.0, 1.0)  # the scene's, for the camera's sensor fit
+        self.area_lights = []  # names of the nodes that got CAUSTIC_lights_area
+        self.scenes = 0  # scenes that got extras.caustic
+        self.solid_materials = []  # transmissive materials marked as solids
+        # The one glTF material given to primitives without a material (meshes.py), shared so
+        # that the exporter writes it once.
+        self.default_material = None
+        self.warnings = []
+        # The exporter logs and swallows hook exceptions: the hooks record them here and
+        # export_scene raises them afterwards.
+        self.errors = []
+
+
+def current():
+    """The state of the Caustic export in progress, or None."""
+    return _current
+
+
+@contextmanager
+def exporting(state):
+    """Make `state` the current export's for the duration of the block."""
+    global _current
+    _current = state
+    try:
+        yield state
+    finally:
+        _current = None
