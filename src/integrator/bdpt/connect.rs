@@ -1,0 +1,286 @@
+//! Joining the subpaths: every strategy (s, t), light tracing to the camera (t = 1), a
+//! fresh light sample (s = 1) and shadow rays between vertices.
+
+use super::vertex::*;
+use super::*;
+
+impl BdptIntegrator {
+    /// Every strategy with s ≥ 1; returns the camera-side sum, splats t = 1.
+    pub(super) fn connect_all(
+        &self,
+        ctx: &SceneContext,
+        sampler: &mut PixelSampler,
+        film: &mut FilmTarget,
+        scratch: &mut BdptScratch,
+        stats: &mut RayStats,
+    ) -> Rgb {
+        let mut sum = Rgb::ZERO;
+        let n_cam = scratch.cam.len();
+        let n_light = scratch.light.len();
+        // t = 1: light vertices seen by the camera.
+        for s in 1..=n_light {
+            if s - 1 > self.max_depth as usize || !self.allowed(s, 1) {
+                continue;
+            }
+            self.connect_to_camera(ctx, s, film, scratch, stats);
+        }
+        for t in 2..=n_cam {
+            // s = 1: a fresh light point sampled for this camera vertex.
+            let [u_pick, u_x, u_y, _] = sampler.next_4d();
+            if t - 1 <= self.max_depth as usize && self.allowed(1, t) {
+                sum += self.connect_light_sample(ctx, t, [u_pick, u_x, u_y], film.camera, scratch, stats);
+            }
+            for s in 2..=n_light {
+                if s + t - 2 > self.max_depth as usize || !self.allowed(s, t) {
+                    continue;
+                }
+                sum += self.connect_vertices(ctx, s, t, film.camera, scratch, stats);
+            }
+        }
+        sum
+    }
+
+    /// Light vertex `light[s-1]` connected to the camera and splatted.
+    pub(super) fn connect_to_camera(
+        &self,
+        ctx: &SceneContext,
+        s: usize,
+        film: &mut FilmTarget,
+        scratch: &mut BdptScratch,
+        stats: &mut RayStats,
+    ) {
+        let camera = film.camera;
+        let y = scratch.light[s - 1];
+        // Border pixels' filters reach outside the frame, where their camera samples go too.
+        // The camera subpath's aperture point is a uniform lens sample independent of this
+        // light subpath: connecting to it is the t = 1 strategy through a thin lens.
+        let cam_p = scratch.cam[0].p;
+        let Some((pos, cos_cam, dist)) = camera.project(y.p, cam_p, 0.5 * film.filter.width) else {
+            return;
+        };
+        let w = (cam_p - y.p) / dist;
+        // What the light vertex sends toward the camera (times the cosine at it).
+        let f = match (y.kind, y.light) {
+            (Kind::Light, Some(lp)) => {
+                // A light seen directly: hidden lights stay hidden.
+                let visible = match &ctx.scene.lights[lp.light as usize] {
+                    Light::Area(a) => a.camera_visible,
+                    Light::Sphere { camera_visible, .. } => *camera_visible,
+                    _ => true,
+                };
+                if !visible {
+                    return;
+                }
+                lights::emitted(ctx.scene, &lp, w) * y.abs_cos_geo(w)
+            }
+            _ => {
+                let (Some(bsdf), Some(hit)) = (y.bsdf, y.hit) else { return };
+                let (wo_l, wi_l) = (y.frame.to_local(y.wo), y.frame.to_local(w));
+                if (wi_l.z > 0.0) != (w.dot(hit.ng) > 0.0) {
+                    return;
+                }
+                bsdf.eval_adjoint(wo_l, wi_l) * wi_l.z.abs() * shading_correction(&hit, &y.frame, y.wo, w)
+            }
+        };
+        if f == Rgb::ZERO {
+            return;
+        }
+        let importance = 1.0 / (camera.pixel_area() * cos_cam * cos_cam * cos_cam);
+        let mut c = y.beta * f * (importance / (dist * dist));
+        if c == Rgb::ZERO {
+            return;
+        }
+        stats.shadow += 1;
+        let cam_vertex = scratch.cam[0];
+        let tr = segment_transmittance(ctx, &y, &cam_vertex, media_leaving(ctx, &y, w));
+        if tr == Rgb::ZERO {
+            return;
+        }
+        c *= tr;
+        // MIS: the path light[..s] + camera.
+        let dens = &mut scratch.dens;
+        self.fill_path(ctx, &scratch.cam[..1], &scratch.light, s, camera, dens);
+        let k = s; // index of the camera vertex
+        dens.connectible[s - 1] = true;
+        // b[s-1]: the camera generating y.
+        dens.b[s - 1] = y.area_density(camera.pdf_dir(cos_cam), cam_p);
+        if s >= 2
+            && let Some(bsdf) = y.bsdf
+        {
+            let prev = &scratch.light[s - 2];
+            let pdf = bsdf.pdf(y.frame.to_local(w), y.frame.to_local((prev.p - y.p).normalize_or_zero()));
+            dens.b[s - 2] = prev.area_density(pdf, y.p);
+        }
+        dens.a[k] = 0.0; // unused (t = 0 is not a strategy)
+        let wgt = self.mis(dens.weight(s));
+        film.splats.add(film.filter, pos, c * wgt);
+    }
+
+    /// s = 1: light sampling at camera vertex `cam[t-1]`.
+    pub(super) fn connect_light_sample(
+        &self,
+        ctx: &SceneContext,
+        t: usize,
+        u: [f32; 3],
+        camera: &CameraRays,
+        scratch: &mut BdptScratch,
+        stats: &mut RayStats,
+    ) -> Rgb {
+        let x = scratch.cam[t - 1];
+        let (Some(bsdf), Some(hit)) = (x.bsdf, x.hit) else {
+            return Rgb::ZERO;
+        };
+        if bsdf.is_delta() {
+            return Rgb::ZERO;
+        }
+        let Some((index, pmf)) = self.lights.pick_any(u[0]) else {
+            return Rgb::ZERO;
+        };
+        let wo_l = x.frame.to_local(x.wo);
+        if !self.lights.finite(index) {
+            // The world, a sun or a soft point light: light sampling as the path tracer
+            // does, weighted against BSDF sampling only.
+            let Some(ls) = ctx.sample_light(index, x.p, Vec2::new(u[1], u[2])) else {
+                return Rgb::ZERO;
+            };
+            let wi_l = x.frame.to_local(ls.wi);
+            let consistent = (wi_l.z > 0.0) == (ls.wi.dot(hit.ng) > 0.0);
+            let f = bsdf.eval(wo_l, wi_l) * wi_l.z.abs();
+            if f == Rgb::ZERO || ls.li == Rgb::ZERO || !consistent {
+                return Rgb::ZERO;
+            }
+            stats.shadow += 1;
+            let tr = crate::integrator::media::light_transmittance(
+                ctx,
+                x.p,
+                Some(hit.ng),
+                &ls,
+                media_leaving(ctx, &x, ls.wi),
+            );
+            if tr == Rgb::ZERO {
+                return Rgb::ZERO;
+            }
+            let p_light = pmf * ls.pdf;
+            let w = if ls.delta { 1.0 } else { power_heuristic(p_light, bsdf.pdf(wo_l, wi_l)) };
+            return x.beta * f * tr * ls.li * (self.mis(w) / p_light);
+        }
+        let Some(lp) = lights::sample_point(ctx.scene, index, Vec2::new(u[1], u[2])) else {
+            return Rgb::ZERO;
+        };
+        let d = lp.p - x.p;
+        let dist2 = d.length_squared();
+        if !(dist2 > 0.0) {
+            return Rgb::ZERO;
+        }
+        let dist = dist2.sqrt();
+        let wi = d / dist;
+        let le = lights::emitted(ctx.scene, &lp, -wi);
+        if le == Rgb::ZERO {
+            return Rgb::ZERO;
+        }
+        let wi_l = x.frame.to_local(wi);
+        if (wi_l.z > 0.0) != (wi.dot(hit.ng) > 0.0) {
+            return Rgb::ZERO;
+        }
+        let f = bsdf.eval(wo_l, wi_l) * wi_l.z.abs();
+        if f == Rgb::ZERO {
+            return Rgb::ZERO;
+        }
+        let mut y = Vertex::new(Kind::Light, lp.p);
+        y.ng = lp.n;
+        y.light = Some(lp);
+        let cos_y = y.abs_cos_geo(wi);
+        let g = cos_y / dist2;
+        let contribution = x.beta * f * le * (g / (pmf * lp.pdf_pos));
+        if contribution == Rgb::ZERO {
+            return Rgb::ZERO;
+        }
+        stats.shadow += 1;
+        let tr = segment_transmittance(ctx, &x, &y, media_leaving(ctx, &x, wi));
+        if tr == Rgb::ZERO {
+            return Rgb::ZERO;
+        }
+        // MIS with the light-origin density of light subpaths.
+        y.pdf_fwd = self.lights.pmf_finite(index) * lp.pdf_pos;
+        let dens = &mut scratch.dens;
+        self.fill_path(ctx, &scratch.cam[..t], std::slice::from_ref(&y), 1, camera, dens);
+        dens.connectible[0] = true;
+        dens.connectible[1] = true;
+        // b[0]: the camera vertex's BSDF generating the light point.
+        dens.b[0] = y.area_density(bsdf.pdf(wo_l, wi_l), x.p);
+        // a[1]: the light's emission generating x.
+        dens.a[1] = x.area_density(lights::pdf_direction(ctx.scene, &lp, -wi), lp.p);
+        if t >= 2 {
+            let prev = &scratch.cam[t - 2];
+            let pdf = if prev.kind == Kind::Camera {
+                0.0 // a[k] is never used
+            } else {
+                bsdf.pdf(wi_l, x.frame.to_local((prev.p - x.p).normalize_or_zero()))
+            };
+            dens.a[2] = prev.area_density(pdf, x.p);
+        }
+        let w = self.mis(dens.weight(1));
+        contribution * tr * w
+    }
+
+    /// s, t ≥ 2: light vertex `light[s-1]` joined to camera vertex `cam[t-1]`.
+    pub(super) fn connect_vertices(
+        &self,
+        ctx: &SceneContext,
+        s: usize,
+        t: usize,
+        camera: &CameraRays,
+        scratch: &mut BdptScratch,
+        stats: &mut RayStats,
+    ) -> Rgb {
+        let x = scratch.cam[t - 1];
+        let y = scratch.light[s - 1];
+        let (Some(bx), Some(hx), Some(by), Some(hy)) = (x.bsdf, x.hit, y.bsdf, y.hit) else {
+            return Rgb::ZERO;
+        };
+        if bx.is_delta() || by.is_delta() {
+            return Rgb::ZERO;
+        }
+        let d = y.p - x.p;
+        let dist2 = d.length_squared();
+        if !(dist2 > 0.0) {
+            return Rgb::ZERO;
+        }
+        let dist = dist2.sqrt();
+        let w = d / dist; // from x toward y
+        let (wo_x, wi_x) = (x.frame.to_local(x.wo), x.frame.to_local(w));
+        let (wo_y, wi_y) = (y.frame.to_local(y.wo), y.frame.to_local(-w));
+        if (wi_x.z > 0.0) != (w.dot(hx.ng) > 0.0) || (wi_y.z > 0.0) != ((-w).dot(hy.ng) > 0.0) {
+            return Rgb::ZERO;
+        }
+        let fx = bx.eval(wo_x, wi_x) * wi_x.z.abs();
+        let fy = by.eval_adjoint(wo_y, wi_y) * wi_y.z.abs() * shading_correction(&hy, &y.frame, y.wo, -w);
+        let c = x.beta * fx * fy * y.beta / dist2;
+        if c == Rgb::ZERO {
+            return Rgb::ZERO;
+        }
+        stats.shadow += 1;
+        let tr = segment_transmittance(ctx, &x, &y, media_leaving(ctx, &x, w));
+        if tr == Rgb::ZERO {
+            return Rgb::ZERO;
+        }
+        let dens = &mut scratch.dens;
+        self.fill_path(ctx, &scratch.cam[..t], &scratch.light, s, camera, dens);
+        dens.connectible[s - 1] = true;
+        dens.connectible[s] = true;
+        // b[s-1]: x generating y; a[s]: y generating x.
+        dens.b[s - 1] = y.area_density(bx.pdf(wo_x, wi_x), x.p);
+        dens.a[s] = x.area_density(by.pdf(wo_y, wi_y), y.p);
+        // b[s-2]: y generating its predecessor given x; a[s+1]: x generating its predecessor given y.
+        let yp = &scratch.light[s - 2];
+        dens.b[s - 2] = yp.area_density(by.pdf(wi_y, y.frame.to_local((yp.p - y.p).normalize_or_zero())), y.p);
+        let xp = &scratch.cam[t - 2];
+        dens.a[s + 1] = if xp.kind == Kind::Camera {
+            0.0
+        } else {
+            xp.area_density(bx.pdf(wi_x, x.frame.to_local((xp.p - x.p).normalize_or_zero())), x.p)
+        };
+        let wgt = self.mis(dens.weight(s));
+        c * tr * wgt
+    }
+}

@@ -1,0 +1,485 @@
+//! The two subpaths: the camera subpath (with the s = 0 strategy and crossed lights on
+//! the way) and the light subpath.
+
+use super::vertex::*;
+use super::*;
+use crate::integrator::media::medium_segment;
+
+impl BdptIntegrator {
+    /// Traces the camera subpath into `scratch.cam`, adding every s = 0 contribution
+    /// (emitters found by the path) to `radiance`.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn camera_subpath(
+        &self,
+        ctx: &SceneContext,
+        mut org: Vec3,
+        mut dir: Vec3,
+        sampler: &mut PixelSampler,
+        camera: &CameraRays,
+        scratch: &mut BdptScratch,
+        out: &mut CameraSample,
+        radiance: &mut Rgb,
+        stats: &mut RayStats,
+    ) {
+        let cam = &mut scratch.cam;
+        cam.clear();
+        let mut v0 = Vertex::new(Kind::Camera, org);
+        v0.pdf_fwd = 1.0;
+        cam.push(v0);
+        let mut beta = Rgb::ONE;
+        // Solid-angle density of the direction just sampled (0 after a delta lobe).
+        let mut pdf_sa = if camera.is_orthographic() { 1.0 } else { camera.pdf_dir((-camera.camera().back).dot(dir)) };
+        let mut prev_delta = false;
+        let mut medium = MediumStack::default();
+        let mut eta_scale = 1.0f32;
+        let mut transparent_hits = 0u32;
+        stats.camera += 1;
+        loop {
+            let [u_lobe, u_dx, u_dy, u_rr] = sampler.next_4d();
+            let [u_alpha, u_channel, u_dist, _] = sampler.next_4d();
+            let i = cam.len() - 1; // the vertex the ray leaves from
+            let hit = ctx.intersect(org, dir, f32::INFINITY);
+            let t_surface = hit.map_or(f32::INFINITY, |h| h.t);
+
+            // The medium along this segment: its emission, then where the next event is
+            // (the path tracer's segment).
+            let mut emitted = Rgb::ZERO;
+            let (scatter, crossed_w, segment_weight) =
+                medium_segment(ctx, &medium, t_surface, beta, [u_channel, u_dist], &mut emitted);
+            if self.strategy.is_none() {
+                *radiance += emitted;
+            }
+            let scatter_at = scatter.map(|(t, _)| t);
+            let phase = scatter.map(|(_, ph)| ph).unwrap_or_default();
+            let t_event = scatter_at.unwrap_or(t_surface);
+
+            // Emitters crossed on the way (area and sphere lights do not block).
+            if self.allowed(0, i + 2) {
+                let crossed = self.crossed_lights(
+                    ctx,
+                    cam,
+                    &mut scratch.dens,
+                    (org, dir, t_event),
+                    beta * crossed_w,
+                    (pdf_sa, prev_delta),
+                    camera,
+                );
+                if crossed != Rgb::ZERO {
+                    *radiance += crossed;
+                    if i == 0 {
+                        out.alpha = 1.0;
+                    }
+                }
+            }
+
+            beta *= segment_weight;
+            if let Some(t) = scatter_at {
+                // A vertex in a medium: the rest of the path is traced by the path tracer
+                // (BDPT's strategies carry the paths without medium vertices).
+                let p = org + dir * t;
+                if i == 0 {
+                    out.alpha = 1.0;
+                    out.depth = camera.depth(p);
+                }
+                if self.strategy.is_none() && (i as u32) < self.max_depth && beta.is_finite() && beta != Rgb::ZERO {
+                    *radiance += self
+                        .continuation()
+                        .scatter_in_medium(ctx, p, dir, phase, medium, beta, i as u32, sampler, stats);
+                }
+                break;
+            }
+            let Some(hit) = hit else {
+                if self.allowed(0, i + 2) && !(i == 0 && self.transparent_background) {
+                    let le = ctx.world_radiance(dir);
+                    let mut sum = Rgb::ZERO;
+                    if le != Rgb::ZERO {
+                        let p_light =
+                            ctx.scene.lights.iter().position(|l| matches!(l, Light::World)).map_or(0.0, |w| {
+                                self.lights.pmf_any(w) * ctx.scene.world.as_ref().map_or(0.0, |e| e.pdf(dir))
+                            });
+                        sum += le * self.camera_only_weight(i, prev_delta, pdf_sa, p_light);
+                    }
+                    for (index, l) in ctx.scene.lights.iter().enumerate() {
+                        if let Light::Directional { direction, irradiance, cos_half } = l
+                            && *cos_half < 1.0 - 1e-7
+                            && dir.dot(-*direction) >= *cos_half
+                        {
+                            let p_light = self.lights.pmf_any(index) * uniform_cone_pdf(*cos_half);
+                            sum += crate::light::sun_radiance(*irradiance, *cos_half)
+                                * self.camera_only_weight(i, prev_delta, pdf_sa, p_light);
+                        }
+                    }
+                    if sum != Rgb::ZERO {
+                        *radiance += beta * sum;
+                        if i == 0 {
+                            out.alpha = 1.0;
+                        }
+                    }
+                }
+                break;
+            };
+            let s = ctx.scene.surface(&hit, org, dir);
+            let wo = -dir;
+            let mat = &ctx.scene.materials[s.material as usize];
+            if passes_through(ctx, &s, &hit, dir, u_alpha, &mut medium) && transparent_hits < MAX_TRANSPARENT_HITS {
+                transparent_hits += 1;
+                org = offset_ray_origin(s.p, -s.ng);
+                stats.bounce += 1;
+                continue;
+            }
+            let sp = ctx.scene.shade(&s, wo);
+            // Subsurface scattering is path traced from here (the BSDF holds the rest of
+            // the material: its diffuse base is already reduced by the subsurface weight).
+            if mat.subsurface.is_some() && self.strategy.is_none() && (i as u32) < self.max_depth {
+                let q = sp.bsdf.subsurface_weight(sp.frame.to_local(wo));
+                if q > 0.0 {
+                    *radiance += self.continuation().subsurface_from(
+                        ctx,
+                        &s,
+                        &sp,
+                        wo,
+                        medium,
+                        beta * q,
+                        i as u32,
+                        sampler,
+                        stats,
+                    );
+                }
+            }
+            if i == 0 {
+                out.alpha = 1.0;
+                out.depth = camera.depth(s.p);
+                out.normal = sp.frame.n;
+                out.albedo = sp.bsdf.albedo();
+            }
+            let mut v = Vertex::surface(&s, &sp, wo, beta, medium);
+            v.emitted = sp.emitted;
+            v.pdf_fwd = if prev_delta { 0.0 } else { v.area_density(pdf_sa, cam[i].p) };
+            cam.push(v);
+            let t = cam.len();
+
+            // s = 0: this surface emits.
+            if sp.emitted != Rgb::ZERO
+                && self.allowed(0, t)
+                && let Some(index) = ctx.lights.light_of_triangle(hit.tri)
+            {
+                let w = self.weight_s0(ctx, cam, &mut scratch.dens, index, camera);
+                *radiance += beta * sp.emitted * self.mis(w);
+            }
+            // Scattering events so far: t - 2; a vertex at the depth limit only emits.
+            if t - 1 > self.max_depth as usize || t >= mis::MAX_PATH_VERTICES / 2 {
+                break;
+            }
+            let wo_local = sp.frame.to_local(wo);
+            let Some(bs) = sp.bsdf.sample(wo_local, u_lobe, Vec2::new(u_dx, u_dy)) else {
+                break;
+            };
+            let wi = sp.frame.to_world(bs.wi);
+            let transmitted = bs.wi.z < 0.0;
+            if transmitted != (wi.dot(s.ng) < 0.0) {
+                break;
+            }
+            let last = cam.len() - 1;
+            // The density of the previous vertex from this one (the reverse direction).
+            let pdf_rev_sa = if bs.delta { 0.0 } else { sp.bsdf.pdf(bs.wi, wo_local) };
+            if last >= 2 {
+                let prev_p = cam[last].p;
+                cam[last - 1].pdf_rev = cam[last - 1].area_density(pdf_rev_sa, prev_p);
+            }
+            cam[last].delta = bs.delta;
+            beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
+            if !beta.is_finite() || beta == Rgb::ZERO {
+                break;
+            }
+            pdf_sa = if bs.delta { 0.0 } else { bs.pdf };
+            prev_delta = bs.delta;
+            medium = ctx.medium_after(&s, wi, medium);
+            if transmitted {
+                let mat = &ctx.scene.materials[s.material as usize];
+                if mat.medium.is_some() {
+                    let eta = if s.front { mat.ior } else { 1.0 / mat.ior };
+                    eta_scale *= eta * eta;
+                }
+            }
+            if (t - 1) as u32 >= self.rr_depth {
+                let survive = (beta.max_element() * eta_scale).min(0.95);
+                if u_rr >= survive {
+                    break;
+                }
+                beta /= survive;
+            }
+            org = offset_ray_origin(s.p, if transmitted { -s.ng } else { s.ng });
+            dir = wi;
+            stats.bounce += 1;
+        }
+    }
+
+    /// The weight of an s = 0 or s = 1 contribution from a light that only the camera
+    /// side reaches: BSDF sampling (density `pdf_sa`) against light sampling (`p_light`).
+    #[inline]
+    pub(super) fn camera_only_weight(&self, i: usize, prev_delta: bool, pdf_sa: f32, p_light: f32) -> f32 {
+        if i == 0 || prev_delta { self.mis(1.0) } else { self.mis(power_heuristic(pdf_sa, p_light)) }
+    }
+
+    /// s = 0 contributions of area and sphere lights crossed by the segment from the last
+    /// camera vertex (they do not block: the path goes on, as in Cycles).
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn crossed_lights(
+        &self,
+        ctx: &SceneContext,
+        cam: &mut Vec<Vertex>,
+        dens: &mut PathDensities,
+        (org, dir, tmax): (Vec3, Vec3, f32),
+        beta: Rgb,
+        (pdf_sa, prev_delta): (f32, bool),
+        camera: &CameraRays,
+    ) -> Rgb {
+        let i = cam.len() - 1;
+        let mut sum = Rgb::ZERO;
+        for (index, l) in ctx.scene.lights.iter().enumerate() {
+            let (t, n, le) = match l {
+                Light::Area(a) => {
+                    if i == 0 && !a.camera_visible {
+                        continue;
+                    }
+                    match a.intersect(org, dir, tmax) {
+                        Some(t) if (-dir).dot(a.normal) > 0.0 => (t, a.normal, a.radiance),
+                        _ => continue,
+                    }
+                }
+                Light::Sphere { center, radius, radiance, soft: false, camera_visible } => {
+                    if i == 0 && !camera_visible {
+                        continue;
+                    }
+                    match intersect_sphere(org, dir, *center, *radius, tmax) {
+                        Some(t) => (t, ((org + dir * t) - *center).normalize_or(-dir), *radiance),
+                        None => continue,
+                    }
+                }
+                Light::Sphere { center, radius, radiance, soft: true, camera_visible } => {
+                    // Camera-side only: a disk facing the previous vertex.
+                    if i == 0 && !camera_visible {
+                        continue;
+                    }
+                    let prev_p = cam[i].p;
+                    let n = (prev_p - *center).normalize_or(Vec3::Y);
+                    let denom = n.dot(dir);
+                    if denom >= 0.0 {
+                        continue;
+                    }
+                    let t = n.dot(*center - org) / denom;
+                    let q = org + dir * t;
+                    if !(t > 0.0 && t < tmax) || (q - *center).length_squared() > radius * radius {
+                        continue;
+                    }
+                    let dist = (q - prev_p).length();
+                    let p_light = self.lights.pmf_any(index)
+                        * area_to_solid_angle(1.0 / (std::f32::consts::PI * radius * radius), dist, -denom);
+                    let w = self.camera_only_weight(i, prev_delta, pdf_sa, p_light);
+                    sum += beta * *radiance * w;
+                    continue;
+                }
+                _ => continue,
+            };
+            let q = org + dir * t;
+            let mut v = Vertex::new(Kind::Light, q);
+            v.ng = n;
+            v.wo = -dir;
+            v.pdf_fwd = if prev_delta { 0.0 } else { v.area_density(pdf_sa, cam[i].p) };
+            v.light = Some(LightPoint {
+                light: index as u32,
+                p: q,
+                n,
+                le,
+                pdf_pos: lights::pdf_point(ctx.scene, index),
+                two_sided: false,
+            });
+            cam.push(v);
+            let w = self.weight_s0(ctx, cam, dens, index, camera);
+            cam.pop();
+            sum += beta * le * self.mis(w);
+        }
+        sum
+    }
+
+    /// MIS weight of the s = 0 strategy for the camera subpath `cam` whose last vertex
+    /// lies on light `index`.
+    pub(super) fn weight_s0(
+        &self,
+        ctx: &SceneContext,
+        cam: &[Vertex],
+        dens: &mut PathDensities,
+        index: usize,
+        camera: &CameraRays,
+    ) -> f32 {
+        let t = cam.len();
+        if !self.lights.finite(index) {
+            return 1.0;
+        }
+        let z0 = &cam[t - 1];
+        let lp = LightPoint {
+            light: index as u32,
+            p: z0.p,
+            n: z0.ng,
+            le: Rgb::ONE,
+            pdf_pos: lights::pdf_point(ctx.scene, index),
+            two_sided: lights::two_sided(ctx.scene, index),
+        };
+        self.fill_path(ctx, cam, &[], 0, camera, dens);
+        // Light-side densities of the light point and of the next vertex.
+        dens.a[0] = self.lights.pmf_finite(index) * lp.pdf_pos;
+        if t >= 2 {
+            let z1 = &cam[t - 2];
+            let w = (z1.p - z0.p).normalize_or_zero();
+            // The sidedness of emission: measured on the side the path came from.
+            let lp_dir = LightPoint { n: if z0.ng.dot(w) >= 0.0 { z0.ng } else { -z0.ng }, ..lp };
+            dens.a[1] = z1.area_density(lights::pdf_direction(ctx.scene, &lp_dir, w), z0.p);
+        }
+        dens.connectible[0] = true;
+        dens.light_hittable = true;
+        dens.weight(0)
+    }
+
+    /// Fills `dens` with the path made of `light[..s]` and `cam[..t]` (t = cam.len()),
+    /// before the connection's own densities are set.
+    pub(super) fn fill_path(
+        &self,
+        ctx: &SceneContext,
+        cam: &[Vertex],
+        light: &[Vertex],
+        s: usize,
+        camera: &CameraRays,
+        dens: &mut PathDensities,
+    ) {
+        let t = cam.len();
+        dens.n = s + t;
+        for (j, v) in light[..s].iter().enumerate() {
+            dens.a[j] = v.pdf_fwd;
+            dens.b[j] = v.pdf_rev;
+            dens.connectible[j] = !v.delta;
+        }
+        for m in 0..t {
+            let v = &cam[t - 1 - m];
+            let j = s + m;
+            dens.a[j] = v.pdf_rev;
+            dens.b[j] = v.pdf_fwd;
+            dens.connectible[j] = if v.kind == Kind::Camera { !camera.is_orthographic() } else { !v.delta };
+        }
+        dens.light_hittable = match light.first() {
+            Some(v) => v.light.is_some_and(|lp| !lights::is_delta_position(ctx.scene, lp.light as usize)),
+            None => true,
+        };
+    }
+
+    /// Traces the light subpath into `scratch.light`.
+    pub(super) fn light_subpath(
+        &self,
+        ctx: &SceneContext,
+        ls: &mut PixelSampler,
+        scratch: &mut BdptScratch,
+        stats: &mut RayStats,
+    ) {
+        let light = &mut scratch.light;
+        light.clear();
+        let [u_pick, u_side, u_px, u_py] = ls.next_4d();
+        let [u_dx, u_dy, _, _] = ls.next_4d();
+        let Some((index, pmf)) = self.lights.pick_finite(u_pick) else {
+            return;
+        };
+        let Some(lp) = lights::sample_point(ctx.scene, index, Vec2::new(u_px, u_py)) else {
+            return;
+        };
+        let dir = lights::sample_direction(ctx.scene, &lp, u_side, Vec2::new(u_dx, u_dy));
+        let pdf_dir = lights::pdf_direction(ctx.scene, &lp, dir);
+        let le = lights::emitted(ctx.scene, &lp, dir);
+        let pdf_origin = pmf * lp.pdf_pos;
+        if !(pdf_dir > 0.0) || !(pdf_origin > 0.0) || le == Rgb::ZERO {
+            return;
+        }
+        let mut v0 = Vertex::new(Kind::Light, lp.p);
+        v0.ng = lp.n;
+        v0.beta = Rgb::splat(1.0 / pdf_origin);
+        v0.pdf_fwd = pdf_origin;
+        v0.light = Some(lp);
+        light.push(v0);
+        let cos0 = if lp.n == Vec3::ZERO { 1.0 } else { lp.n.dot(dir).abs() };
+        let mut beta = le * (cos0 / (pdf_origin * pdf_dir));
+        let beta_ref = beta.max_element();
+        let mut pdf_sa = pdf_dir;
+        let mut prev_delta = false;
+        let mut org = if matches!(ctx.scene.lights[index], Light::Triangle { .. }) {
+            offset_ray_origin(lp.p, if lp.n.dot(dir) >= 0.0 { lp.n } else { -lp.n })
+        } else {
+            lp.p
+        };
+        let mut dir = dir;
+        let mut medium = MediumStack::default();
+        let mut transparent_hits = 0u32;
+        loop {
+            let [u_lobe, u_x, u_y, u_rr] = ls.next_4d();
+            let [u_alpha, _, _, _] = ls.next_4d();
+            let Some(hit) = ctx.intersect(org, dir, f32::INFINITY) else {
+                break;
+            };
+            // Light subpaths carry the paths without medium vertices: extinction only.
+            if let Some(m) = ctx.medium(&medium) {
+                beta *= m.transmittance(hit.t);
+            }
+            let s = ctx.scene.surface(&hit, org, dir);
+            let wo = -dir;
+            if passes_through(ctx, &s, &hit, dir, u_alpha, &mut medium) && transparent_hits < MAX_TRANSPARENT_HITS {
+                transparent_hits += 1;
+                org = offset_ray_origin(s.p, -s.ng);
+                stats.bounce += 1;
+                continue;
+            }
+            let sp = ctx.scene.shade(&s, wo);
+            let i = light.len() - 1;
+            let mut v = Vertex::surface(&s, &sp, wo, beta, medium);
+            v.pdf_fwd = if prev_delta { 0.0 } else { v.area_density(pdf_sa, light[i].p) };
+            light.push(v);
+            // s light vertices give paths of s - 1 + (t - 1) scattering events, t ≥ 1.
+            if light.len() > self.max_depth as usize || light.len() >= mis::MAX_PATH_VERTICES / 2 {
+                break;
+            }
+            let wo_local = sp.frame.to_local(wo);
+            let Some(bs) = sp.bsdf.sample(wo_local, u_lobe, Vec2::new(u_x, u_y)) else {
+                break;
+            };
+            let wi = sp.frame.to_world(bs.wi);
+            let transmitted = bs.wi.z < 0.0;
+            if transmitted != (wi.dot(s.ng) < 0.0) {
+                break;
+            }
+            let f = if bs.delta {
+                if transmitted { bs.f * sp.bsdf.refraction_eta2() } else { bs.f }
+            } else {
+                sp.bsdf.eval_adjoint(wo_local, bs.wi)
+            };
+            let last = light.len() - 1;
+            let pdf_rev_sa = if bs.delta { 0.0 } else { sp.bsdf.pdf(bs.wi, wo_local) };
+            let prev_p = light[last].p;
+            light[last - 1].pdf_rev = light[last - 1].area_density(pdf_rev_sa, prev_p);
+            light[last].delta = bs.delta;
+            beta *= f * (bs.wi.z.abs() / bs.pdf) * shading_correction(&s, &sp.frame, wo, wi);
+            if !beta.is_finite() || beta == Rgb::ZERO {
+                break;
+            }
+            pdf_sa = if bs.delta { 0.0 } else { bs.pdf };
+            prev_delta = bs.delta;
+            medium = ctx.medium_after(&s, wi, medium);
+            if (light.len() - 1) as u32 >= self.rr_depth {
+                // Light throughput carries the light's power: survive in proportion to
+                // what is left of the first segment's.
+                let survive = (beta.max_element() / beta_ref).min(0.95);
+                if !(survive > 0.0) || u_rr >= survive {
+                    break;
+                }
+                beta /= survive;
+            }
+            org = offset_ray_origin(s.p, if transmitted { -s.ng } else { s.ng });
+            dir = wi;
+            stats.bounce += 1;
+        }
+    }
+}

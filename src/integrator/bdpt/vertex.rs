@@ -1,0 +1,164 @@
+//! Subpath vertices and the segments between them: kinds, densities, media, and
+//! Veach's shading-normal correction.
+
+use super::*;
+
+/// What a vertex is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Kind {
+    Camera,
+    /// The first vertex of a light subpath (or a light point connected to).
+    Light,
+    Surface,
+}
+
+/// A vertex of a subpath.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Vertex {
+    pub(super) kind: Kind,
+    pub(super) p: Vec3,
+    /// Geometric normal (surfaces: on the side the subpath arrived from; lights: the
+    /// emitting side; zero for points and the camera).
+    pub(super) ng: Vec3,
+    /// Shading frame and BSDF of surfaces.
+    pub(super) frame: Frame,
+    pub(super) bsdf: Option<Bsdf>,
+    pub(super) hit: Option<SurfaceHit>,
+    /// Unit direction toward the previous vertex of its own subpath.
+    pub(super) wo: Vec3,
+    /// Throughput up to this vertex divided by the densities (subpath measure).
+    pub(super) beta: Rgb,
+    /// Area density of this vertex from its own subpath's side.
+    pub(super) pdf_fwd: f32,
+    /// Area density of this vertex from the other side (set when the next vertex is sampled).
+    pub(super) pdf_rev: f32,
+    /// Its outgoing direction was sampled from a delta lobe.
+    pub(super) delta: bool,
+    /// The media the arriving segment crossed (absorbing only in this integrator).
+    pub(super) medium: MediumStack,
+    /// Light vertices: the light point (index, emission, densities).
+    pub(super) light: Option<LightPoint>,
+    /// Emission of a surface toward `wo` (emissive triangles).
+    pub(super) emitted: Rgb,
+}
+
+impl Vertex {
+    pub(super) fn new(kind: Kind, p: Vec3) -> Self {
+        Vertex {
+            kind,
+            p,
+            ng: Vec3::ZERO,
+            frame: Frame::from_normal(Vec3::Z),
+            bsdf: None,
+            hit: None,
+            wo: Vec3::ZERO,
+            beta: Rgb::ONE,
+            pdf_fwd: 0.0,
+            pdf_rev: 0.0,
+            delta: false,
+            medium: MediumStack::default(),
+            light: None,
+            emitted: Rgb::ZERO,
+        }
+    }
+
+    /// A surface vertex reached from direction `wo` with throughput `beta` through `medium`.
+    pub(super) fn surface(
+        s: &SurfaceHit,
+        sp: &crate::scene::shading::ShadingPoint,
+        wo: Vec3,
+        beta: Rgb,
+        medium: MediumStack,
+    ) -> Self {
+        Vertex {
+            ng: s.ng,
+            frame: sp.frame,
+            bsdf: Some(sp.bsdf),
+            hit: Some(*s),
+            wo,
+            beta,
+            medium,
+            ..Vertex::new(Kind::Surface, s.p)
+        }
+    }
+
+    /// |cos| between the vertex's normal and `w` (1 for points and the camera).
+    #[inline]
+    pub(super) fn abs_cos_geo(&self, w: Vec3) -> f32 {
+        if self.ng == Vec3::ZERO { 1.0 } else { self.ng.dot(w).abs() }
+    }
+
+    /// Converts a solid-angle density at `from` toward this vertex into an area density here.
+    #[inline]
+    pub(super) fn area_density(&self, pdf_sa: f32, from: Vec3) -> f32 {
+        let d = self.p - from;
+        let d2 = d.length_squared();
+        if !(d2 > 0.0) {
+            return 0.0;
+        }
+        pdf_sa * self.abs_cos_geo(d / d2.sqrt()) / d2
+    }
+}
+
+/// Fraction of light carried from vertex `a` to vertex `b` through the media `stack` the
+/// segment starts in: volume-only boundaries are crossed (changing the medium), BLEND
+/// surfaces pass 1 - alpha, media attenuate by their extinction (light subpaths and
+/// connections carry the paths without a medium vertex; those with one are path traced
+/// from the camera side), any other surface blocks.
+#[inline]
+pub(super) fn segment_transmittance(ctx: &SceneContext, a: &Vertex, b: &Vertex, stack: MediumStack) -> Rgb {
+    let d = b.p - a.p;
+    let dist = d.length();
+    if !(dist > 0.0) {
+        return Rgb::ZERO;
+    }
+    let wi = d / dist;
+    // The target's normal on the side facing `a` (the shadow ray stops just short of it).
+    let normal = if b.ng == Vec3::ZERO {
+        Vec3::ZERO
+    } else if b.ng.dot(wi) <= 0.0 {
+        b.ng
+    } else {
+        -b.ng
+    };
+    let target = LightSample { wi, dist, li: Rgb::ZERO, pdf: 0.0, delta: false, point: b.p, normal };
+    let ng = (a.ng != Vec3::ZERO).then_some(a.ng);
+    crate::integrator::media::light_transmittance(ctx, a.p, ng, &target, stack)
+}
+
+/// Whether a subpath goes straight on through the surface it hit: a volume-only boundary
+/// (which changes the medium) or, with probability 1 - alpha, a BLEND surface.
+#[inline]
+pub(super) fn passes_through(
+    ctx: &SceneContext,
+    s: &SurfaceHit,
+    hit: &crate::accel::Hit,
+    dir: Vec3,
+    u_alpha: f32,
+    medium: &mut MediumStack,
+) -> bool {
+    let mat = &ctx.scene.materials[s.material as usize];
+    if mat.null_surface {
+        *medium = ctx.medium_after(s, dir, *medium);
+        return true;
+    }
+    mat.alpha_mode == AlphaMode::Blend && u_alpha >= ctx.scene.alpha(hit.tri, hit.b1, hit.b2)
+}
+
+/// The media a segment leaving vertex `v` in direction `w` is in.
+#[inline]
+pub(super) fn media_leaving(ctx: &SceneContext, v: &Vertex, w: Vec3) -> MediumStack {
+    match v.hit {
+        Some(h) => ctx.medium_after(&h, w, v.medium),
+        None => v.medium,
+    }
+}
+
+/// Veach's correction for shading normals on light paths: |wo·ns| |wi·ng| / (|wo·ng| |wi·ns|),
+/// with `wo` toward the light side and `wi` the direction importance leaves in.
+#[inline]
+pub(super) fn shading_correction(s: &SurfaceHit, frame: &Frame, wo: Vec3, wi: Vec3) -> f32 {
+    let num = wo.dot(frame.n).abs() * wi.dot(s.ng).abs();
+    let den = wo.dot(s.ng).abs() * wi.dot(frame.n).abs();
+    if den > 0.0 && num.is_finite() { (num / den).min(10.0) } else { 0.0 }
+}
