@@ -121,7 +121,14 @@ impl BdptIntegrator {
             let s = ctx.scene.surface(&hit, org, dir);
             let wo = -dir;
             let mat = &ctx.scene.materials[s.material as usize];
-            if passes_through(ctx, &s, &hit, dir, u_alpha, &mut medium) && transparent_hits < MAX_TRANSPARENT_HITS {
+            if passes_through(ctx, &s, &hit, dir, u_alpha, &mut medium)
+                && (transparent_hits < MAX_TRANSPARENT_HITS || ctx.scene.materials[s.material as usize].null_surface)
+            {
+                // The shared rule (walk.rs): past the cap a volume boundary ends the
+                // path, a transparent surface is shaded.
+                if transparent_hits >= MAX_TRANSPARENT_HITS {
+                    break;
+                }
                 transparent_hits += 1;
                 org = offset_ray_origin(s.p, -s.ng);
                 stats.bounce += 1;
@@ -427,7 +434,14 @@ impl BdptIntegrator {
             }
             let s = ctx.scene.surface(&hit, org, dir);
             let wo = -dir;
-            if passes_through(ctx, &s, &hit, dir, u_alpha, &mut medium) && transparent_hits < MAX_TRANSPARENT_HITS {
+            if passes_through(ctx, &s, &hit, dir, u_alpha, &mut medium)
+                && (transparent_hits < MAX_TRANSPARENT_HITS || ctx.scene.materials[s.material as usize].null_surface)
+            {
+                // The shared rule (walk.rs): past the cap a volume boundary ends the
+                // path, a transparent surface is shaded.
+                if transparent_hits >= MAX_TRANSPARENT_HITS {
+                    break;
+                }
                 transparent_hits += 1;
                 org = offset_ray_origin(s.p, -s.ng);
                 stats.bounce += 1;

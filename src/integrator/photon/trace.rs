@@ -55,8 +55,7 @@ pub enum MapKind {
 /// Photons per parallel work item.
 pub const CHUNK: u64 = 4096;
 
-/// Limit on transparent pass-throughs per photon.
-const MAX_TRANSPARENT_HITS: u32 = 128;
+use crate::integrator::walk::MAX_TRANSPARENT_HITS;
 
 /// Counters of a tracing pass.
 #[derive(Clone, Copy, Debug, Default, serde::Serialize)]
@@ -193,8 +192,12 @@ pub fn trace_one(
             return;
         };
         let sh = ctx.scene.surface(&hit, org, dir);
-        if ctx.scene.materials[sh.material as usize].null_surface && transparent < MAX_TRANSPARENT_HITS {
-            // A volume boundary without a surface: only the medium changes.
+        if ctx.scene.materials[sh.material as usize].null_surface {
+            // A volume boundary without a surface: only the medium changes (past the
+            // shared cap the photon ends, as every path does).
+            if transparent >= MAX_TRANSPARENT_HITS {
+                return;
+            }
             transparent += 1;
             medium = ctx.medium_after(&sh, dir, medium);
             org = offset_ray_origin(sh.p, -sh.ng);
