@@ -14,7 +14,7 @@ use crate::medium::{HenyeyGreenstein, MediumStack};
 use crate::render::job::RayStats;
 use crate::scene::AlphaMode;
 use crate::scene::shading::{ShadingPoint, SurfaceHit};
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 use super::power_heuristic;
 
@@ -204,6 +204,38 @@ impl PathState {
             return false;
         }
         self.beta /= survive;
+        true
+    }
+
+    /// Follows the delta lobe of a specular surface (camera paths of the photon
+    /// integrators, which read their maps at the first non-specular hit): samples the
+    /// BSDF, updates throughput, depth and media and spawns the next ray. False when the
+    /// path ends.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    pub fn follow_specular(
+        &mut self,
+        ctx: &SceneContext,
+        s: &SurfaceHit,
+        sp: &ShadingPoint,
+        wo_local: Vec3,
+        u_lobe: f32,
+        u_dir: Vec2,
+        stats: &mut RayStats,
+    ) -> bool {
+        let Some(bs) = sp.bsdf.sample(wo_local, u_lobe, u_dir) else {
+            return false;
+        };
+        let wi = sp.frame.to_world(bs.wi);
+        self.beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
+        if !self.beta.is_finite() || self.beta == Rgb::ZERO {
+            return false;
+        }
+        self.depth += 1;
+        self.media = ctx.medium_after(s, wi, self.media);
+        self.org = offset_ray_origin(s.p, if wi.dot(s.ng) > 0.0 { s.ng } else { -s.ng });
+        self.dir = wi;
+        stats.bounce += 1;
         true
     }
 

@@ -38,7 +38,7 @@ use crate::integrator::SceneContext;
 use crate::integrator::path::PathIntegrator;
 use crate::integrator::walk::{PathState, Step};
 use crate::light::emit::Emitters;
-use crate::math::{Frame, Rgb, offset_ray_origin};
+use crate::math::{Frame, Rgb};
 use crate::render::job::RayStats;
 use crate::render::job::{Progress, RenderJob, RenderResult};
 use crate::sampling::PixelSampler;
@@ -520,19 +520,9 @@ fn camera_path(
                 first_t,
             );
         }
-        let Some(bs) = sp.bsdf.sample(wo_local, u_lobe, Vec2::new(u_dx, u_dy)) else {
-            break;
-        };
-        let wi = sp.frame.to_world(bs.wi);
-        st.beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
-        if !st.beta.is_finite() || st.beta == Rgb::ZERO {
+        if !st.follow_specular(ctx, &s, &sp, wo_local, u_lobe, Vec2::new(u_dx, u_dy), stats) {
             break;
         }
-        st.depth += 1;
-        st.media = ctx.medium_after(&s, wi, st.media);
-        st.org = offset_ray_origin(s.p, if wi.dot(s.ng) > 0.0 { s.ng } else { -s.ng });
-        st.dir = wi;
-        stats.bounce += 1;
     }
     (l, None, first_t)
 }
