@@ -18,7 +18,7 @@ use glam::{Vec2, Vec3};
 /// Shading and geometric normals must agree on reflection versus transmission, or light
 /// would leak through the surface.
 #[allow(clippy::too_many_arguments)]
-#[inline]
+#[inline(always)]
 pub fn surface_nee(
     ctx: &SceneContext,
     s: &SurfaceHit,
