@@ -26,7 +26,7 @@ use crate::light::{Light, sample_triangle};
 use crate::math::{Frame, Rgb, luminance};
 use crate::sampling::Distribution1D;
 use crate::sampling::warp::{concentric_disk, cosine_hemisphere, uniform_sphere};
-use crate::scene::{AlphaMode, Scene};
+use crate::scene::Scene;
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
@@ -246,11 +246,7 @@ impl Emitters {
                     let local = mat.emission(&scene.textures, uv) / mat.emissive;
                     factor = Rgb::new(ratio(local.x, mean.x), ratio(local.y, mean.y), ratio(local.z, mean.z));
                 }
-                let coverage = match mat.alpha_mode {
-                    AlphaMode::Opaque => 1.0,
-                    AlphaMode::Blend => scene.alpha(*tri, b.x, b.y).clamp(0.0, 1.0),
-                    AlphaMode::Mask(cutoff) => (scene.alpha(*tri, b.x, b.y) >= cutoff) as u8 as f32,
-                };
+                let coverage = scene.coverage(*tri, b.x, b.y);
                 let dir = Frame::from_normal(n).to_world(cosine_hemisphere(u_dir));
                 Some(EmittedPhoton { org: crate::math::offset_ray_origin(q, n), dir, power: phi * factor * coverage })
             }

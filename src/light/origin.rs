@@ -15,7 +15,7 @@ use crate::light::{Light, spot_attenuation};
 use crate::math::{Frame, Rgb, luminance};
 use crate::sampling::Distribution1D;
 use crate::sampling::warp::{cosine_hemisphere, uniform_cone, uniform_cone_pdf, uniform_sphere};
-use crate::scene::{AlphaMode, Scene};
+use crate::scene::Scene;
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
@@ -160,11 +160,7 @@ pub fn sample_point(scene: &Scene, index: usize, u: Vec2) -> Option<LightPoint> 
             ];
             // A partly transparent emitter emits in proportion to its coverage, as the
             // path tracer's light sampling does.
-            let coverage = match mat.alpha_mode {
-                AlphaMode::Opaque => 1.0,
-                AlphaMode::Blend => scene.alpha(*tri, b.x, b.y).clamp(0.0, 1.0),
-                AlphaMode::Mask(cutoff) => (scene.alpha(*tri, b.x, b.y) >= cutoff) as u8 as f32,
-            };
+            let coverage = scene.coverage(*tri, b.x, b.y);
             Some(LightPoint {
                 light,
                 p: q,

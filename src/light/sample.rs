@@ -8,7 +8,7 @@ use super::{
 };
 use crate::math::Frame;
 use crate::sampling::warp::{concentric_disk, uniform_cone, uniform_cone_pdf};
-use crate::scene::{AlphaMode, Scene};
+use crate::scene::Scene;
 use glam::{Vec2, Vec3};
 
 impl Light {
@@ -153,11 +153,7 @@ impl Light {
                 let normal = if cos_signed >= 0.0 { n } else { -n };
                 // A partly transparent emitter emits in proportion to its coverage, as
                 // a path that hits it counts its emission only when it does not pass.
-                let coverage = match mat.alpha_mode {
-                    AlphaMode::Opaque => 1.0,
-                    AlphaMode::Blend => scene.alpha(*tri, b.x, b.y).clamp(0.0, 1.0),
-                    AlphaMode::Mask(cutoff) => (scene.alpha(*tri, b.x, b.y) >= cutoff) as u8 as f32,
-                };
+                let coverage = scene.coverage(*tri, b.x, b.y);
                 Some(LightSample {
                     wi,
                     dist,

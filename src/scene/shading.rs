@@ -2,7 +2,7 @@
 //! attributes (`Scene::surface`), its alpha, and the material evaluated there — textures,
 //! normal mapping and the BSDF (`Scene::shade`).
 
-use super::Scene;
+use super::{AlphaMode, Scene};
 use crate::accel::Hit;
 use crate::bsdf::pbr::PbrParams;
 use crate::bsdf::{Bsdf, PbrBsdf};
@@ -67,6 +67,18 @@ impl Scene {
             a *= self.textures[t.texture as usize].lookup(t.uv(uv[t.tex_coord as usize])).w;
         }
         a
+    }
+
+    /// Coverage of a triangle at barycentrics, as a path that hits it counts it: 1 when
+    /// opaque, alpha for BLEND (stochastic pass-through), 0 or 1 for MASK. A partly
+    /// transparent emitter emits in proportion to it, in every light-sampling routine.
+    #[inline]
+    pub fn coverage(&self, tri: u32, b1: f32, b2: f32) -> f32 {
+        match self.materials[self.mesh.tri_material[tri as usize] as usize].alpha_mode {
+            AlphaMode::Opaque => 1.0,
+            AlphaMode::Blend => self.alpha(tri, b1, b2).clamp(0.0, 1.0),
+            AlphaMode::Mask(cutoff) => (self.alpha(tri, b1, b2) >= cutoff) as u8 as f32,
+        }
     }
 
     /// Geometry of a hit as seen from direction `wo` (pointing back along the ray).
