@@ -23,12 +23,12 @@
 //! Subsurface (Principled "Random Walk"): at a subsurface material the path chooses the
 //! subsurface part with probability equal to its weight, enters (refraction through
 //! the rough interface, or half diffuse for the skin method, as Cycles), walks inside
-//! (`media::random_walk`) with the base colour's throughput divided out as Cycles does,
+//! (`medium::walk::random_walk`) with the base colour's throughput divided out as Cycles does,
 //! and leaves through a Lambertian exit (NEE at the exit point, cosine sampling out).
 
 use super::nee::{exit_nee, medium_nee, surface_nee};
 use super::walk::{PathState, Step};
-use super::{SceneContext, media};
+use super::SceneContext;
 use crate::bsdf::dielectric::refract;
 use crate::bsdf::microfacet::Ggx;
 use crate::film::CameraSample;
@@ -414,7 +414,7 @@ impl PathIntegrator {
         ss: &Subsurface,
         beta: Rgb,
         u: [f32; 4],
-    ) -> Option<media::WalkExit> {
+    ) -> Option<crate::medium::walk::WalkExit> {
         let mat = &ctx.scene.materials[s.material as usize];
         let n = sp.frame.n;
         let (albedo, base_roughness) = sp.bsdf.subsurface_base();
@@ -449,6 +449,13 @@ impl PathIntegrator {
         }
         let walk = WalkMedium::new(albedo, mfp, ss.anisotropy);
         let mut rng = WalkRng::new(u[3], s.tri);
-        media::random_walk(ctx, offset_ray_origin(s.p, -s.ng), entry, &walk, beta, &mut rng)
+        crate::medium::walk::random_walk(
+            |o, d, t| ctx.intersect(o, d, t),
+            offset_ray_origin(s.p, -s.ng),
+            entry,
+            &walk,
+            beta,
+            &mut rng,
+        )
     }
 }

@@ -10,6 +10,7 @@
 //! medium whose extinction differs by channel has no fireflies.
 
 pub mod phase;
+pub mod walk;
 
 use crate::math::Rgb;
 pub use phase::HenyeyGreenstein;
