@@ -26,9 +26,9 @@
 //! (`medium::walk::random_walk`) with the base colour's throughput divided out as Cycles does,
 //! and leaves through a Lambertian exit (NEE at the exit point, cosine sampling out).
 
+use super::SceneContext;
 use super::nee::{exit_nee, medium_nee, surface_nee};
 use super::walk::{PathState, Step};
-use super::SceneContext;
 use crate::bsdf::dielectric::refract;
 use crate::bsdf::microfacet::Ggx;
 use crate::film::CameraSample;

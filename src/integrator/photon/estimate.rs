@@ -24,12 +24,8 @@
 use super::kdtree::KnnResult;
 use super::{Photon, PhotonMap};
 use crate::bsdf::Bsdf;
-use crate::integrator::{SceneContext, power_heuristic};
 use crate::math::{Frame, Rgb};
-use crate::medium::MediumStack;
-use crate::render::job::RayStats;
-use crate::scene::shading::{ShadingPoint, SurfaceHit};
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 
 /// Photons whose normal is within 60° of the query's count (`Photon::normal_within_60`).
 pub const NORMAL_COS: f32 = 0.5;
@@ -83,51 +79,4 @@ pub fn radiance(
 ) -> Rgb {
     let at = bsdf.at(wo_local);
     estimate(map, q, ng, k, max_r2, filter, |p| at.eval(frame.to_local(p.wi()))).0
-}
-
-/// Next-event estimation at a shading point: one light chosen by the light sampler
-/// (with the geometric normal as receiver normal), weighted by
-/// the power heuristic against `bsdf_rays` BSDF-sampled rays from the same point that
-/// may find the same light (0: no MIS, weight 1). `media`: the media the point is in.
-#[inline]
-#[allow(clippy::too_many_arguments)]
-pub fn direct_light(
-    ctx: &SceneContext,
-    s: &SurfaceHit,
-    sp: &ShadingPoint,
-    wo_local: Vec3,
-    u_light: f32,
-    u_pt: Vec2,
-    bsdf_rays: f32,
-    media: MediumStack,
-    stats: &mut RayStats,
-) -> Rgb {
-    // Only light above the geometric normal counts here (below), so the tree may cull by it.
-    let Some((index, pmf)) = ctx.lights.sample(s.p, s.ng, u_light) else {
-        return Rgb::ZERO;
-    };
-    let Some(ls) = ctx.sample_light(index, s.p, u_pt) else {
-        return Rgb::ZERO;
-    };
-    let wi_local = sp.frame.to_local(ls.wi);
-    let f = sp.bsdf.eval(wo_local, wi_local) * wi_local.z.abs();
-    if f == Rgb::ZERO || ls.li == Rgb::ZERO || ls.wi.dot(s.ng) <= 0.0 {
-        return Rgb::ZERO;
-    }
-    stats.shadow += 1;
-    // Through media and volume boundaries when the scene has any.
-    let vis = if ctx.has_media {
-        crate::integrator::media::light_transmittance(ctx, s.p, Some(s.ng), &ls, ctx.medium_after(s, ls.wi, media))
-    } else {
-        Rgb::splat(ctx.visibility(s.p, s.ng, &ls))
-    };
-    if vis == Rgb::ZERO {
-        return Rgb::ZERO;
-    }
-    let w = if ls.delta || bsdf_rays == 0.0 {
-        1.0
-    } else {
-        power_heuristic(ls.pdf * pmf, bsdf_rays * sp.bsdf.pdf(wo_local, wi_local))
-    };
-    f * ls.li * vis * (w / (ls.pdf * pmf))
 }

@@ -26,10 +26,11 @@
 //! pay off: shadow rays are ~2 % of the render, less than the lookups that would skip them;
 //! docs/benchmarks.md), photon-map irradiance caching, the world light.
 
-use super::estimate::{direct_light, radiance};
+use super::estimate::radiance;
 use super::io::PhotonMaps;
 use crate::film::CameraSample;
 use crate::integrator::SceneContext;
+use crate::integrator::nee::surface_nee;
 use crate::integrator::path::PathIntegrator;
 use crate::integrator::walk::{PathState, Step};
 use crate::math::{Rgb, offset_ray_origin};
@@ -249,8 +250,10 @@ impl JensenIntegrator {
     ) -> Rgb {
         let gather = if self.diffuse_bounces == 0 || d >= self.max_depth { 0 } else { self.gather_rays };
         let max_r2 = self.max_radius * self.max_radius;
-        // Direct light.
-        let mut l = direct_light(ctx, s, sp, wo_local, u_light, u_pt, gather as f32, media, stats);
+        // Direct light, MIS against the gather rays (lights below count when the BSDF
+        // transmits: photons are gathered on the camera's side only).
+        let n_select = if sp.bsdf.transmits() { Vec3::ZERO } else { s.ng };
+        let mut l = surface_nee(ctx, s, sp, wo_local, n_select, gather as f32, Rgb::ONE, media, u_light, u_pt, stats);
         // Caustics: photons with hit index j make paths of j - 1 + d events.
         let jmax = self.max_depth + 1 - d;
         l += radiance(&self.maps.caustic, s.p, s.ng, &sp.frame, &sp.bsdf, wo_local, self.caustic_k, max_r2, |p| {
@@ -287,7 +290,7 @@ impl JensenIntegrator {
                 depth: d,
                 prev_pdf: mis_pdf,
                 prev_p: s.p,
-                prev_n: s.ng,
+                prev_n: n_select,
                 media: gather_media,
                 eta_scale: 1.0,
                 transparent_hits: 0,
@@ -349,6 +352,7 @@ impl JensenIntegrator {
             let wo_local = sp.frame.to_local(wo);
             l += self.subsurface_part(ctx, &s, &sp, wo, wo_local, st.media, st.beta, st.depth, sampler, stats);
             let delta = sp.bsdf.is_delta();
+            let n_select = if sp.bsdf.transmits() { Vec3::ZERO } else { s.ng };
             if !delta {
                 nondelta += 1;
                 delta_only = false;
@@ -361,8 +365,19 @@ impl JensenIntegrator {
                         });
                     break;
                 }
-                l += st.beta
-                    * direct_light(ctx, &s, &sp, wo_local, u_light, Vec2::new(u_lx, u_ly), 1.0, st.media, stats);
+                l += surface_nee(
+                    ctx,
+                    &s,
+                    &sp,
+                    wo_local,
+                    n_select,
+                    1.0,
+                    st.beta,
+                    st.media,
+                    u_light,
+                    Vec2::new(u_lx, u_ly),
+                    stats,
+                );
             }
             let Some(bs) = sp.bsdf.sample(wo_local, u_lobe, Vec2::new(u_dx, u_dy)) else {
                 break;
@@ -384,8 +399,8 @@ impl JensenIntegrator {
                 st.refracted(&s, mat.ior);
             }
             st.prev_p = s.p;
-            // `direct_light` selects lights with the geometric normal.
-            st.prev_n = s.ng;
+            // The receiver normal NEE gave light selection here.
+            st.prev_n = n_select;
             bounced = true;
             st.depth += 1;
             if !st.survives(self.rr_depth, u_rr) {

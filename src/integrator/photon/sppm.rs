@@ -29,12 +29,12 @@
 //! a filter-distributed offset per pixel and iteration, so the filter is applied), AOVs
 //! other than those of the first hit.
 
-use super::estimate::direct_light;
 use super::trace::{MapKind, TraceJob, trace_photons};
 use super::{PhotonMap, PhotonSettings, default_sppm_photons};
 use crate::bsdf::Bsdf;
 use crate::film::{DEPTH_BACKGROUND, FilmImage};
 use crate::integrator::SceneContext;
+use crate::integrator::nee::surface_nee;
 use crate::integrator::path::PathIntegrator;
 use crate::integrator::walk::{PathState, Step};
 use crate::light::emit::Emitters;
@@ -505,7 +505,11 @@ fn camera_path(
             }
         }
         if !sp.bsdf.is_delta() {
-            l += st.beta * direct_light(ctx, &s, &sp, wo_local, u_light, Vec2::new(u_lx, u_ly), 0.0, st.media, stats);
+            // Direct light without MIS (no BSDF ray finds lights from here); lights below
+            // count when the BSDF transmits (photons are gathered on this side only).
+            let n_select = if sp.bsdf.transmits() { Vec3::ZERO } else { s.ng };
+            let u_pt = Vec2::new(u_lx, u_ly);
+            l += surface_nee(ctx, &s, &sp, wo_local, n_select, 0.0, st.beta, st.media, u_light, u_pt, stats);
             return (
                 l,
                 Some(VisiblePoint {
