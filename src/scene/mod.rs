@@ -1,5 +1,5 @@
 //! The renderer's own scene description. Everything downstream of the loader sees
-//! these types only; `gltf.rs` is the one module that reads glTF.
+//! these types only; `gltf/` is the one module that reads glTF.
 
 pub mod camera;
 pub mod gltf;

@@ -1,0 +1,399 @@
+//! The glTF 2.0 loader: the only module that touches the `gltf` crate.
+//!
+//! Reads .gltf (external or data-URI buffers and images) and .glb, flattens the node
+//! hierarchy into world-space triangles, and converts materials, cameras, lights and
+//! the `CAUSTIC_*` extensions into the renderer's own types. Every defect of the input
+//! becomes an [`Error::Scene`] naming the file and the offending object; every guess
+//! or dropped feature becomes a warning in [`Scene::warnings`].
+//!
+//! One file per loading step, all methods of one [`Loader`]: this file reads the
+//! container and orchestrates; `validate.rs` checks indices, views and accessor types
+//! before the `gltf` crate sees them; `textures.rs` decodes images; `materials.rs`
+//! converts materials; `nodes.rs` flattens the node trees; `mesh.rs` reads primitives
+//! and generates tangents; `cameras.rs`, `lights.rs` and `world.rs` the rest;
+//! `extensions.rs` holds the serde shapes of the `CAUSTIC_*` extensions.
+
+mod cameras;
+mod extensions;
+mod lights;
+mod materials;
+mod mesh;
+mod nodes;
+mod textures;
+mod validate;
+mod world;
+
+use super::texture::Texture;
+use super::{CameraReport, LightReport, LoadReport, Material, Mesh, Projection, Scene, SceneSettings};
+use crate::error::{Error, Result};
+use crate::light::Light;
+use crate::memory::MemoryBudget;
+use base64::Engine;
+use cameras::frame_bounds;
+use glam::{Vec2, Vec3};
+use gltf::json;
+use lights::punctual_power;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use validate::check_references;
+
+/// Extensions that Caustic renders, and so accepts in `extensionsRequired`.
+pub const SUPPORTED_REQUIRED: &[&str] =
+    &["KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_texture_transform"];
+
+/// glTF's photometric units to Blender's radiometric ones: Blender's exporter writes
+/// W × 683 lm/W (its PBR_WATTS_TO_LUMENS), so dividing gives Blender's watts back.
+pub const LUMENS_PER_WATT: f32 = 683.0;
+
+/// Largest texture accepted (per side), to refuse absurd image headers before decoding.
+const MAX_TEXTURE_SIDE: u32 = 16_384;
+
+/// Largest accepted world coordinate: the BVH's box arithmetic needs headroom in f32.
+const MAX_COORDINATE: f32 = 1e15;
+
+/// Instances beyond this are refused: a DAG of shared nodes can explode exponentially.
+const MAX_INSTANCES: usize = 1_000_000;
+
+/// Loads a scene from a .gltf or .glb file with no memory limit (tests and tools; the
+/// commands use [`load_within`]).
+pub fn load(path: &Path) -> Result<Scene> {
+    load_within(path, &MemoryBudget::unlimited())
+}
+
+/// Loads a scene, charging the decoded textures and the flattened mesh to `budget`
+/// before allocating them.
+pub fn load_within(path: &Path, budget: &MemoryBudget) -> Result<Scene> {
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    load_bytes(&bytes, &base, &path.display().to_string(), budget)
+}
+
+/// Loads a scene from bytes; external files are resolved relative to `base_dir`.
+/// Panics inside the parser are turned into errors: a malformed file must never
+/// take the process down.
+pub fn load_bytes(bytes: &[u8], base_dir: &Path, file: &str, budget: &MemoryBudget) -> Result<Scene> {
+    // The parser's panics are reported as errors below; keep their default message
+    // (and backtrace) off stderr, where a host reads JSON lines.
+    let previous_hook = std::panic::take_hook();
+    std::panic::set_hook(Box::new(|_| {}));
+    let result =
+        std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| Loader::new(file, base_dir, budget).load(bytes)));
+    std::panic::set_hook(previous_hook);
+    match result {
+        Ok(r) => r,
+        Err(panic) => {
+            let what = panic
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| panic.downcast_ref::<String>().cloned())
+                .unwrap_or_else(|| "unknown".into());
+            Err(Error::Scene { file: file.into(), message: format!("malformed glTF (parser failed: {what})") })
+        }
+    }
+}
+
+/// A decoded image: width, height, RGBA8 texels (shared by the textures that use it).
+type DecodedImage = (u32, u32, std::sync::Arc<Vec<[u8; 4]>>);
+
+/// Key of a decoded texture: (image, sRGB, sampler).
+type TexKey = (usize, bool, Option<usize>);
+
+/// The loader's state while one file is read: its name and folder, the memory budget,
+/// the warnings so far, and the textures decoded so far (each image decoded once).
+struct Loader<'a> {
+    file: &'a str,
+    base_dir: &'a Path,
+    budget: &'a MemoryBudget,
+    warnings: Vec<String>,
+    textures: Vec<Texture>,
+    texture_cache: HashMap<TexKey, u32>,
+    images: HashMap<usize, DecodedImage>,
+}
+
+impl<'a> Loader<'a> {
+    fn new(file: &'a str, base_dir: &'a Path, budget: &'a MemoryBudget) -> Self {
+        Loader {
+            file,
+            base_dir,
+            budget,
+            warnings: Vec::new(),
+            textures: Vec::new(),
+            texture_cache: HashMap::new(),
+            images: HashMap::new(),
+        }
+    }
+
+    fn err(&self, message: impl Into<String>) -> Error {
+        Error::Scene { file: self.file.to_string(), message: message.into() }
+    }
+
+    fn warn(&mut self, message: impl Into<String>) {
+        let m = message.into();
+        if !self.warnings.contains(&m) {
+            self.warnings.push(m);
+        }
+    }
+
+    fn load(mut self, bytes: &[u8]) -> Result<Scene> {
+        // 1. Container: GLB or JSON.
+        let (json_bytes, bin): (Vec<u8>, Option<Vec<u8>>) = if bytes.starts_with(b"glTF") {
+            let glb = gltf::binary::Glb::from_slice(bytes)
+                .map_err(|e| self.err(format!("malformed GLB container: {e} (truncated or corrupt file?)")))?;
+            (glb.json.into_owned(), glb.bin.map(|b| b.into_owned()))
+        } else if bytes.len() >= 4 && &bytes[..4] != b"glTF" && bytes.iter().take(16).any(|&b| b == 0) {
+            return Err(self.err("not a glTF file: binary data without the 'glTF' magic"));
+        } else {
+            (bytes.to_vec(), None)
+        };
+
+        // 2. JSON, with its position on error.
+        let value: serde_json::Value =
+            serde_json::from_slice(&json_bytes).map_err(|e| self.err(format!("invalid JSON: {e}")))?;
+        if !value.is_object() {
+            return Err(self.err("invalid glTF: the JSON root is not an object"));
+        }
+        let version = value.pointer("/asset/version").and_then(|v| v.as_str()).unwrap_or("");
+        if !version.starts_with("2.") {
+            return Err(self.err(format!(
+                "unsupported glTF version '{version}' (asset.version must be 2.x; is this a glTF 2.0 file?)"
+            )));
+        }
+        // 3. Required extensions we cannot honour are refused by name.
+        if let Some(req) = value.get("extensionsRequired").and_then(|v| v.as_array()) {
+            let unsupported: Vec<&str> =
+                req.iter().filter_map(|v| v.as_str()).filter(|name| !SUPPORTED_REQUIRED.contains(name)).collect();
+            if !unsupported.is_empty() {
+                return Err(self.err(format!(
+                    "the file requires unsupported extension(s): {} (Caustic supports {})",
+                    unsupported.join(", "),
+                    SUPPORTED_REQUIRED.join(", ")
+                )));
+            }
+        }
+        let settings = self.parse_settings(&value)?;
+        // The crate's own validation indexes arrays with the file's indices unchecked
+        // (a dangling accessor index panics inside it): check every reference first.
+        check_references(&value).map_err(|e| self.err(e))?;
+
+        // 4. Typed document with the crate's index validation.
+        let root: json::Root =
+            serde_json::from_value(value.clone()).map_err(|e| self.err(format!("invalid glTF: {e}")))?;
+        let doc = gltf::Document::from_json(root)
+            .map_err(|e| self.err(format!("invalid glTF: {}", describe_validation(&e))))?;
+
+        // 5. Buffers.
+        let buffers = self.load_buffers(&doc, bin)?;
+        self.check_views_and_accessors(&doc, &buffers)?;
+        self.check_accessor_types(&doc)?;
+
+        // 6. Materials (textures decoded on first use).
+        let mut materials = Vec::new();
+        let mut material_reports = Vec::new();
+        for m in doc.materials() {
+            let (mat, rep) = self.material(&doc, &m, &buffers)?;
+            materials.push(mat);
+            material_reports.push(rep);
+        }
+        let default_material = materials.len() as u32;
+        materials.push(Material::default());
+
+        // 7. Node graph to instances.
+        let instances = self.instances(&doc, &value)?;
+        self.charge_mesh(&doc, &instances)?;
+
+        let mut mesh = Mesh::default();
+        let mut cameras = Vec::new();
+        let mut lights = Vec::new();
+        let mut light_reports = Vec::new();
+        let mut used_meshes = std::collections::HashSet::new();
+        let mut instance_count = 0;
+        let mut degenerate = 0;
+        let mut area_lights = Vec::new();
+        for (node_index, world) in &instances {
+            let node = doc.nodes().nth(*node_index).expect("validated index");
+            let node_name = node.name().map(str::to_string).unwrap_or_else(|| format!("node {node_index}"));
+            if !world.is_finite() {
+                return Err(self.err(format!("node {node_index} ('{node_name}'): transform is not finite")));
+            }
+            if let Some(m) = node.mesh() {
+                used_meshes.insert(m.index());
+                instance_count += 1;
+                degenerate += self.append_mesh(&m, world, &buffers, &materials, default_material, &mut mesh)?;
+            }
+            if let Some(c) = node.camera() {
+                let blender = node.extension_value("CAUSTIC_camera").cloned();
+                cameras.push(self.camera(&c, &node_name, world, blender)?);
+            }
+            if let Some(l) = node.light() {
+                let blender = node.extension_value("CAUSTIC_lights_punctual").cloned();
+                let (light, rep) = self.punctual_light(&l, &node_name, world, blender)?;
+                lights.push(light);
+                light_reports.push(rep);
+            }
+            if let Some(ext) = node.extension_value("CAUSTIC_lights_area") {
+                area_lights.push((ext.clone(), node_name.clone(), *world));
+            }
+        }
+        if mesh.triangles.is_empty() {
+            return Err(self.err("nothing to render: the scene has no triangles (no mesh, or only points/lines)"));
+        }
+
+        // Bounds.
+        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        for t in &mesh.triangles {
+            for &i in t {
+                lo = lo.min(mesh.positions[i as usize]);
+                hi = hi.max(mesh.positions[i as usize]);
+            }
+        }
+        let scene_radius = ((hi - lo).length() * 0.5).max(1e-3);
+
+        for (ext, name, world) in area_lights {
+            if let Some((light, rep)) = self.area_light(&ext, &name, &world)? {
+                lights.push(light);
+                light_reports.push(rep);
+            }
+        }
+        let world = self.world(&value, &doc, &buffers)?;
+        let world_power = world.as_ref().map(|w| {
+            // Power through the scene's bounding disk: irradiance π L over π R².
+            std::f32::consts::PI * w.mean_luminance() * std::f32::consts::PI * scene_radius * scene_radius
+        });
+        let mut light_power: Vec<f32> = lights.iter().map(|l| punctual_power(l, scene_radius)).collect();
+        if let Some(power) = world_power {
+            if power > 0.0 {
+                lights.push(Light::World);
+                light_power.push(power);
+                light_reports.push(LightReport { kind: "world".into(), name: "world".into(), power, triangles: 0 });
+            } else {
+                self.warn("the world is black: it lights nothing");
+            }
+        }
+        for (rep, p) in light_reports.iter_mut().zip(&light_power) {
+            rep.power = *p;
+        }
+
+        // Emissive triangles are lights, one each, grouped by material in the report.
+        self.emissive_lights(&mesh, &materials, &mut lights, &mut light_power, &mut light_reports);
+
+        let file_cameras = cameras.len();
+        if cameras.is_empty() {
+            self.warn("no camera in the file: framing the scene's bounds from +Z with a 40° camera");
+            cameras.push(frame_bounds(lo, hi));
+        }
+        if lights.is_empty() {
+            self.warn("the scene has no lights and no emissive materials: the image will be black");
+        }
+        if degenerate > 0 {
+            self.warn(format!("{degenerate} degenerate (zero-area) triangle(s) were dropped"));
+        }
+
+        let report = LoadReport {
+            file: self.file.to_string(),
+            triangles: mesh.triangles.len(),
+            meshes: used_meshes.len(),
+            instances: instance_count,
+            degenerate_triangles: degenerate,
+            extensions_used: doc.extensions_used().map(str::to_string).collect(),
+            materials: material_reports,
+            lights: light_reports,
+            cameras: cameras
+                .iter()
+                .enumerate()
+                .map(|(i, c)| CameraReport {
+                    generated: i >= file_cameras,
+                    name: c.name.clone(),
+                    kind: match c.projection {
+                        Projection::Perspective { .. } => "perspective".into(),
+                        Projection::Orthographic { .. } => "orthographic".into(),
+                    },
+                    shift: (c.shift != Vec2::ZERO).then(|| c.shift.to_array()),
+                    depth_of_field: c.lens.map(|l| {
+                        let shape = if l.blades >= 3 { format!(", {} blades", l.blades) } else { String::new() };
+                        let ratio = if l.ratio != 1.0 { format!(", ratio {}", l.ratio) } else { String::new() };
+                        format!("aperture radius {}, focus {}{shape}{ratio}", l.radius, l.focus_distance)
+                    }),
+                })
+                .collect(),
+            bounds: [lo.to_array(), hi.to_array()],
+        };
+        Ok(Scene {
+            mesh,
+            materials,
+            textures: self.textures,
+            lights,
+            light_power,
+            cameras,
+            world,
+            settings,
+            warnings: self.warnings,
+            report,
+            bounds: (lo, hi),
+        })
+    }
+
+    fn parse_settings(&self, value: &serde_json::Value) -> Result<SceneSettings> {
+        let scene_index = value.get("scene").and_then(|s| s.as_u64()).unwrap_or(0) as usize;
+        let Some(extras) = value.pointer(&format!("/scenes/{scene_index}/extras/caustic")) else {
+            return Ok(SceneSettings::default());
+        };
+        serde_json::from_value(extras.clone())
+            .map_err(|e| self.err(format!("scene extras 'caustic' (render settings) are malformed: {e}")))
+    }
+
+    fn resolve_uri(&self, uri: &str, what: &str) -> Result<Vec<u8>> {
+        if let Some(rest) = uri.strip_prefix("data:") {
+            let Some((_, payload)) = rest.split_once(";base64,") else {
+                return Err(self.err(format!("{what}: data URI is not base64-encoded")));
+            };
+            return base64::engine::general_purpose::STANDARD
+                .decode(payload.trim())
+                .map_err(|e| self.err(format!("{what}: data URI has invalid base64: {e}")));
+        }
+        if uri.contains("://") {
+            return Err(
+                self.err(format!("{what}: remote URI '{uri}' is not supported (only relative files and data URIs)"))
+            );
+        }
+        let decoded = percent_encoding::percent_decode_str(uri).decode_utf8_lossy().to_string();
+        let path: PathBuf = self.base_dir.join(&decoded);
+        std::fs::read(&path).map_err(|e| self.err(format!("{what}: cannot read '{}': {e}", path.display())))
+    }
+
+    fn load_buffers(&self, doc: &gltf::Document, mut bin: Option<Vec<u8>>) -> Result<Vec<Vec<u8>>> {
+        let mut out = Vec::new();
+        for b in doc.buffers() {
+            let what = format!("buffer {}", b.index());
+            let data = match b.source() {
+                gltf::buffer::Source::Bin => bin
+                    .take()
+                    .ok_or_else(|| self.err(format!("{what} refers to the GLB binary chunk, which is missing")))?,
+                gltf::buffer::Source::Uri(uri) => self.resolve_uri(uri, &what)?,
+            };
+            if data.len() < b.length() {
+                return Err(self.err(format!(
+                    "{what} is shorter than its byteLength ({} < {} bytes): truncated file?",
+                    data.len(),
+                    b.length()
+                )));
+            }
+            out.push(data);
+        }
+        Ok(out)
+    }
+}
+
+fn push_unique(v: &mut Vec<String>, s: &str) {
+    if !v.iter().any(|x| x == s) {
+        v.push(s.to_string());
+    }
+}
+
+fn describe_validation(e: &gltf::Error) -> String {
+    match e {
+        gltf::Error::Validation(errs) => {
+            errs.iter().take(5).map(|(path, err)| format!("{}: {err}", path.as_str())).collect::<Vec<_>>().join("; ")
+        }
+        other => other.to_string(),
+    }
+}
