@@ -1,34 +1,14 @@
 //! glTF materials to [`Material`]: metallic-roughness factors and textures, normal maps,
-//! alpha, and the `KHR_materials_*` and `CAUSTIC_materials_*` extensions.
+//! alpha; the extensions are read in `material_ext.rs`.
 
-use super::extensions::{MediumExt, SubsurfaceExt};
 use super::{Loader, push_unique};
-use crate::error::{Error, Result};
-use crate::medium::{HenyeyGreenstein, HomogeneousMedium};
-use crate::scene::material::{Subsurface, SubsurfaceMethod};
+use crate::error::Result;
 use crate::scene::texture::texture_transform;
 use crate::scene::{AlphaMode, Material, MaterialReport};
 use glam::{Mat3, Vec3, Vec4};
 
-/// Material extensions that Caustic reads.
-const HANDLED_MATERIAL_EXTENSIONS: &[&str] = &[
-    "KHR_materials_emissive_strength",
-    "KHR_materials_specular",
-    "KHR_materials_transmission",
-    "KHR_materials_ior",
-    "KHR_materials_volume",
-    "KHR_materials_clearcoat",
-    "CAUSTIC_materials_medium",
-    "CAUSTIC_materials_subsurface",
-    "KHR_materials_sheen",
-    "KHR_materials_dispersion",
-    "CAUSTIC_materials_coat",
-    // Warned about by name where they are read:
-    "KHR_materials_iridescence",
-    "KHR_materials_anisotropy",
-];
-
 impl Loader<'_> {
+    /// Converts glTF material `m`, with the features it uses for the report.
     pub(super) fn material(
         &mut self,
         doc: &gltf::Document,
@@ -128,257 +108,7 @@ impl Loader<'_> {
         if m.double_sided() {
             features.push("doubleSided".into());
         }
-        let file = self.file.to_string();
-        let num = |v: &serde_json::Value, key: &str, default: f32| -> Result<f32> {
-            match v.get(key) {
-                None => Ok(default),
-                Some(x) => x.as_f64().map(|f| f as f32).filter(|f| f.is_finite()).ok_or_else(|| Error::Scene {
-                    file: file.clone(),
-                    message: format!("material '{name}': {key} is not a finite number"),
-                }),
-            }
-        };
-        let mut transmission = 0.0;
-        let mut transmission_tex = None;
-        if let Some(t) = m.extension_value("KHR_materials_transmission").cloned() {
-            features.push("KHR_materials_transmission".into());
-            let factor = num(&t, "transmissionFactor", 0.0)?;
-            transmission = factor.clamp(0.0, 1.0);
-            if transmission != factor {
-                self.warn(format!("material '{name}': transmissionFactor {factor} was clamped to [0, 1]"));
-            }
-            if let Some(tex) = t.get("transmissionTexture") {
-                transmission_tex = self.raw_texture(doc, tex, false, buffers, &name)?;
-            }
-        }
-        let mut ior = 1.5;
-        if let Some(i) = m.extension_value("KHR_materials_ior").cloned() {
-            features.push("KHR_materials_ior".into());
-            let v = num(&i, "ior", 1.5)?;
-            // glTF allows 0 to mean "no Fresnel"; Caustic needs a physical index.
-            if v < 1.0 {
-                self.warn(format!("material '{name}': ior {v} is below 1 and was set to 1"));
-            }
-            ior = v.clamp(1.0, 10.0);
-        }
-        let mut medium = None;
-        if let Some(v) = m.extension_value("KHR_materials_volume").cloned() {
-            features.push("KHR_materials_volume".into());
-            let thickness = num(&v, "thicknessFactor", 0.0)?;
-            let distance = num(&v, "attenuationDistance", f32::INFINITY)?;
-            let color = v
-                .get("attenuationColor")
-                .and_then(|c| c.as_array())
-                .map(|c| c.iter().map(|x| x.as_f64().unwrap_or(1.0) as f32).collect::<Vec<f32>>())
-                .unwrap_or_else(|| vec![1.0; 3]);
-            if color.len() != 3 || color.iter().any(|c| !c.is_finite()) || !(distance > 0.0) {
-                return Err(self.err(format!(
-                    "material '{name}': KHR_materials_volume needs 3 finite attenuationColor values and attenuationDistance > 0"
-                )));
-            }
-            // Beer-Lambert: after attenuationDistance, light keeps attenuationColor.
-            let sigma = Vec3::new(color[0], color[1], color[2]).clamp(Vec3::splat(1e-6), Vec3::ONE);
-            let sigma_a = if distance.is_finite() {
-                -Vec3::new(sigma.x.ln(), sigma.y.ln(), sigma.z.ln()) / distance
-            } else {
-                Vec3::ZERO
-            };
-            if thickness > 0.0 {
-                medium = Some(HomogeneousMedium::absorbing(sigma_a));
-            }
-            if v.get("thicknessTexture").is_some() {
-                features.push("thicknessTexture (ignored: Caustic traces the real geometry)".into());
-            }
-        }
-        let mut null_surface = false;
-        if let Some(v) = m.extension_value("CAUSTIC_materials_medium").cloned() {
-            features.push("CAUSTIC_materials_medium".into());
-            let ext: MediumExt = serde_json::from_value(v)
-                .map_err(|e| self.err(format!("material '{name}': CAUSTIC_materials_medium is malformed: {e}")))?;
-            let colours = [ext.scatter_color, ext.absorption_color, ext.emission];
-            let finite = ext.density.is_finite()
-                && ext.anisotropy.is_finite()
-                && colours.iter().all(|c| c.iter().all(|x| x.is_finite()));
-            if !finite || ext.density < 0.0 || colours.iter().any(|c| c.iter().any(|&x| x < 0.0)) {
-                return Err(self.err(format!(
-                    "material '{name}': CAUSTIC_materials_medium needs finite, non-negative density and colours"
-                )));
-            }
-            if !(-1.0..=1.0).contains(&ext.anisotropy) {
-                return Err(self.err(format!(
-                    "material '{name}': CAUSTIC_materials_medium anisotropy {} is outside [-1, 1]",
-                    ext.anisotropy
-                )));
-            }
-            if medium.is_some() {
-                self.warn(format!(
-                    "material '{name}': CAUSTIC_materials_medium replaces the KHR_materials_volume attenuation"
-                ));
-            }
-            medium = Some(HomogeneousMedium {
-                sigma_a: Vec3::from(ext.absorption_color) * ext.density,
-                sigma_s: Vec3::from(ext.scatter_color) * ext.density,
-                phase: HenyeyGreenstein::new(ext.anisotropy),
-                emission: Vec3::from(ext.emission),
-            });
-            null_surface = !ext.surface;
-        }
-        let mut subsurface = None;
-        if let Some(v) = m.extension_value("CAUSTIC_materials_subsurface").cloned() {
-            features.push("CAUSTIC_materials_subsurface".into());
-            let ext: SubsurfaceExt = serde_json::from_value(v)
-                .map_err(|e| self.err(format!("material '{name}': CAUSTIC_materials_subsurface is malformed: {e}")))?;
-            let finite = [ext.weight, ext.anisotropy, ext.ior].iter().chain(ext.radius.iter()).all(|x| x.is_finite());
-            if !finite || ext.weight < 0.0 || ext.radius.iter().any(|&r| r < 0.0) || ext.ior < 1.0 {
-                return Err(self.err(format!(
-                    "material '{name}': CAUSTIC_materials_subsurface needs finite values, weight and radius >= 0, ior >= 1"
-                )));
-            }
-            let method = match ext.method.as_str() {
-                "random_walk" => SubsurfaceMethod::RandomWalk,
-                "random_walk_skin" => SubsurfaceMethod::RandomWalkSkin,
-                other => {
-                    return Err(self.err(format!(
-                        "material '{name}': CAUSTIC_materials_subsurface method '{other}' is unknown (random_walk, random_walk_skin)"
-                    )));
-                }
-            };
-            if ext.weight > 1.0 || !(0.0..=0.9).contains(&ext.anisotropy) {
-                self.warn(format!(
-                    "material '{name}': subsurface weight was clamped to [0, 1] and anisotropy to [0, 0.9] (as Cycles)"
-                ));
-            }
-            if ext.weight > 0.0 && ext.radius.iter().any(|&r| r > 0.0) {
-                subsurface = Some(Subsurface {
-                    weight: ext.weight.min(1.0),
-                    radius: Vec3::from(ext.radius),
-                    anisotropy: ext.anisotropy.clamp(0.0, 0.9),
-                    ior: ext.ior.clamp(1.01, 3.8),
-                    method,
-                });
-            }
-        }
-        let (mut coat, mut coat_tex, mut coat_roughness, mut coat_roughness_tex) = (0.0, None, 0.0, None);
-        let (mut coat_normal_tex, mut coat_normal_scale) = (None, 1.0);
-        if let Some(c) = m.extension_value("KHR_materials_clearcoat").cloned() {
-            features.push("KHR_materials_clearcoat".into());
-            coat = num(&c, "clearcoatFactor", 0.0)?.clamp(0.0, 1.0);
-            coat_roughness = num(&c, "clearcoatRoughnessFactor", 0.0)?.clamp(0.0, 1.0);
-            if let Some(t) = c.get("clearcoatTexture") {
-                coat_tex = self.raw_texture(doc, t, false, buffers, &name)?;
-            }
-            if let Some(t) = c.get("clearcoatRoughnessTexture") {
-                coat_roughness_tex = self.raw_texture(doc, t, false, buffers, &name)?;
-            }
-            if let Some(t) = c.get("clearcoatNormalTexture") {
-                coat_normal_tex = self.raw_texture(doc, t, false, buffers, &name)?;
-                coat_normal_scale = num(t, "scale", 1.0)?;
-            }
-        }
-        // A colour factor: 3 finite numbers, clamped to be non-negative.
-        let color3 = |v: &serde_json::Value, key: &str, default: Vec3| -> Result<Vec3> {
-            match v.get(key) {
-                None => Ok(default),
-                Some(c) => c
-                    .as_array()
-                    .filter(|a| a.len() == 3)
-                    .and_then(|a| {
-                        let f: Vec<f32> = a.iter().filter_map(|x| x.as_f64().map(|f| f as f32)).collect();
-                        (f.len() == 3 && f.iter().all(|x| x.is_finite())).then(|| Vec3::new(f[0], f[1], f[2]))
-                    })
-                    .map(|c| c.max(Vec3::ZERO))
-                    .ok_or_else(|| Error::Scene {
-                        file: self.file.to_string(),
-                        message: format!("material '{name}': {key} must be 3 finite numbers"),
-                    }),
-            }
-        };
-        let (mut coat_ior, mut coat_tint) = (1.5, Vec3::ONE);
-        if let Some(c) = m.extension_value("CAUSTIC_materials_coat").cloned() {
-            features.push("CAUSTIC_materials_coat".into());
-            let v = num(&c, "ior", 1.5)?;
-            if !(1.0..=10.0).contains(&v) {
-                self.warn(format!("material '{name}': coat ior {v} was clamped to [1, 10]"));
-            }
-            coat_ior = v.clamp(1.0, 10.0);
-            coat_tint = color3(&c, "tint", Vec3::ONE)?;
-            if coat_tint.max_element() > 1.0 {
-                self.warn(format!("material '{name}': coat tint {coat_tint} was clamped to [0, 1]"));
-                coat_tint = coat_tint.min(Vec3::ONE);
-            }
-            if coat == 0.0 {
-                self.warn(format!(
-                    "material '{name}': CAUSTIC_materials_coat without a coat (KHR_materials_clearcoat) does nothing"
-                ));
-            }
-        }
-        let (mut sheen_color, mut sheen_color_tex, mut sheen_roughness, mut sheen_roughness_tex) =
-            (Vec3::ZERO, None, 0.0, None);
-        if let Some(sh) = m.extension_value("KHR_materials_sheen").cloned() {
-            features.push("KHR_materials_sheen".into());
-            sheen_color = color3(&sh, "sheenColorFactor", Vec3::ZERO)?;
-            if sheen_color.max_element() > 1.0 {
-                self.warn(format!("material '{name}': sheenColorFactor {sheen_color} was clamped to [0, 1]"));
-                sheen_color = sheen_color.min(Vec3::ONE);
-            }
-            sheen_roughness = num(&sh, "sheenRoughnessFactor", 0.0)?.clamp(0.0, 1.0);
-            if let Some(t) = sh.get("sheenColorTexture") {
-                sheen_color_tex = self.raw_texture(doc, t, true, buffers, &name)?;
-            }
-            if let Some(t) = sh.get("sheenRoughnessTexture") {
-                sheen_roughness_tex = self.raw_texture(doc, t, false, buffers, &name)?;
-            }
-        }
-        let mut dispersion = 0.0;
-        if let Some(d) = m.extension_value("KHR_materials_dispersion").cloned() {
-            features.push("KHR_materials_dispersion".into());
-            let v = num(&d, "dispersion", 0.0)?;
-            if v < 0.0 {
-                self.warn(format!("material '{name}': dispersion {v} is negative and was set to 0"));
-            }
-            dispersion = v.clamp(0.0, 20.0);
-            if dispersion > 0.0 && roughness >= crate::bsdf::dielectric::SMOOTH_ROUGHNESS {
-                self.warn(format!(
-                    "material '{name}': dispersion is rendered on smooth glass only; this rough glass uses its mean index"
-                ));
-            }
-        }
-        for ext in ["KHR_materials_iridescence", "KHR_materials_anisotropy"] {
-            if m.extension_value(ext).is_some() {
-                features.push(format!("{ext} (ignored)"));
-                self.warn(format!("material '{name}': {ext} is not rendered yet and was ignored"));
-            }
-        }
-        let mut specular = 1.0;
-        let (mut specular_color, mut specular_tex, mut specular_color_tex) = (Vec3::ONE, None, None);
-        if let Some(spec) = m.extension_value("KHR_materials_specular").cloned() {
-            features.push("KHR_materials_specular".into());
-            let factor = spec.get("specularFactor").and_then(|v| v.as_f64()).unwrap_or(1.0) as f32;
-            if !factor.is_finite() {
-                return Err(self.err(format!("material '{name}': specularFactor is not a finite number")));
-            }
-            specular = factor.clamp(0.0, 1.0);
-            if specular != factor {
-                self.warn(format!("material '{name}': specularFactor {factor} was clamped to [0, 1]"));
-            }
-            specular_color = color3(&spec, "specularColorFactor", Vec3::ONE)?;
-            if let Some(t) = spec.get("specularTexture") {
-                specular_tex = self.raw_texture(doc, t, false, buffers, &name)?;
-            }
-            if let Some(t) = spec.get("specularColorTexture") {
-                specular_color_tex = self.raw_texture(doc, t, true, buffers, &name)?;
-            }
-        }
-        if let Some(exts) = m.extensions() {
-            for key in exts.keys() {
-                if HANDLED_MATERIAL_EXTENSIONS.contains(&key.as_str()) {
-                    continue;
-                }
-                features.push(format!("{key} (ignored)"));
-                self.warn(format!("material '{name}': {key} is not rendered yet and was ignored"));
-            }
-        }
-        let mat = Material {
+        let mut mat = Material {
             name: name.clone(),
             base_color: clamped(base_color),
             base_color_tex,
@@ -389,32 +119,265 @@ impl Loader<'_> {
             normal_scale,
             emissive: emissive.max(Vec3::ZERO),
             emissive_tex,
-            specular,
-            specular_tex,
-            specular_color,
-            specular_color_tex,
-            ior,
-            transmission,
-            transmission_tex,
-            medium,
-            null_surface,
-            subsurface,
-            coat,
-            coat_tex,
-            coat_roughness,
-            coat_roughness_tex,
-            coat_ior,
-            coat_tint,
-            coat_normal_tex,
-            coat_normal_scale,
-            sheen_color,
-            sheen_color_tex,
-            sheen_roughness,
-            sheen_roughness_tex,
-            dispersion,
             alpha_mode,
             double_sided: m.double_sided(),
+            ..Material::default()
         };
+        self.material_extensions(doc, m, buffers, &mut mat, &mut features)?;
         Ok((mat, MaterialReport { name, features }))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    //! Material parsing from small glTF documents built in memory: one triangle whose
+    //! primitive uses the material under test, textures as PNG data URIs.
+
+    use crate::memory::MemoryBudget;
+    use crate::scene::{AlphaMode, Material, Scene};
+    use base64::Engine;
+    use glam::{Vec2, Vec3, Vec4};
+    use serde_json::{Value, json};
+
+    /// A 2×2 RGBA PNG as a data URI.
+    fn png_uri(rgba: [u8; 4]) -> String {
+        let img = image::RgbaImage::from_pixel(2, 2, image::Rgba(rgba));
+        let mut bytes = std::io::Cursor::new(Vec::new());
+        img.write_to(&mut bytes, image::ImageFormat::Png).unwrap();
+        format!("data:image/png;base64,{}", base64::engine::general_purpose::STANDARD.encode(bytes.get_ref()))
+    }
+
+    /// Loads a one-triangle scene whose triangle uses `material`; the file has
+    /// `textures` textures, each on its own 2×2 image (texture i's texels are all i+1).
+    fn load_with(material: Value, textures: usize) -> crate::error::Result<Scene> {
+        let positions: Vec<u8> = [0f32, 0., 0., 1., 0., 0., 0., 1., 0.].iter().flat_map(|f| f.to_le_bytes()).collect();
+        let uvs: Vec<u8> = [0f32, 0., 1., 0., 0., 1.].iter().flat_map(|f| f.to_le_bytes()).collect();
+        let normals: Vec<u8> = [0f32, 0., 1., 0., 0., 1., 0., 0., 1.].iter().flat_map(|f| f.to_le_bytes()).collect();
+        let data = [positions, uvs, normals].concat();
+        let uri =
+            format!("data:application/octet-stream;base64,{}", base64::engine::general_purpose::STANDARD.encode(&data));
+        let mut used: Vec<String> = Vec::new();
+        if let Some(exts) = material.get("extensions").and_then(Value::as_object) {
+            used.extend(exts.keys().cloned());
+        }
+        let doc = json!({
+            "asset": {"version": "2.0"},
+            "extensionsUsed": used,
+            "buffers": [{"uri": uri, "byteLength": data.len()}],
+            "bufferViews": [
+                {"buffer": 0, "byteOffset": 0, "byteLength": 36},
+                {"buffer": 0, "byteOffset": 36, "byteLength": 24},
+                {"buffer": 0, "byteOffset": 60, "byteLength": 36}
+            ],
+            "accessors": [
+                {"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                 "min": [0, 0, 0], "max": [1, 1, 0]},
+                {"bufferView": 1, "componentType": 5126, "count": 3, "type": "VEC2"},
+                {"bufferView": 2, "componentType": 5126, "count": 3, "type": "VEC3"}
+            ],
+            "images": (0..textures).map(|i| json!({"uri": png_uri([i as u8 + 1; 4])})).collect::<Vec<_>>(),
+            "textures": (0..textures).map(|i| json!({"source": i})).collect::<Vec<_>>(),
+            "materials": [material],
+            "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "TEXCOORD_0": 1, "NORMAL": 2}, "material": 0}]}],
+            "nodes": [{"mesh": 0}],
+            "scenes": [{"nodes": [0]}],
+            "scene": 0
+        });
+        let bytes = serde_json::to_vec(&doc).unwrap();
+        super::super::load_bytes(&bytes, std::path::Path::new("."), "test.gltf", &MemoryBudget::unlimited())
+    }
+
+    fn material(m: Value, textures: usize) -> (Material, Scene) {
+        let scene = load_with(m, textures).unwrap_or_else(|e| panic!("load failed: {e}"));
+        (scene.materials[0].clone(), scene)
+    }
+
+    /// The texture a reference points to, identified by its texel value (texture i is i+1).
+    fn texel_id(scene: &Scene, t: Option<crate::scene::TexRef>) -> u8 {
+        let t = t.expect("a texture");
+        scene.textures[t.texture as usize].texels[0][0] - 1
+    }
+
+    fn error(m: Value, textures: usize) -> String {
+        match load_with(m, textures) {
+            Ok(_) => panic!("expected an error"),
+            Err(e) => e.to_string(),
+        }
+    }
+
+    #[test]
+    fn an_empty_material_is_the_gltf_default() {
+        let (m, _) = material(json!({"name": "m"}), 0);
+        assert_eq!(m.base_color, Vec4::ONE);
+        assert_eq!((m.metallic, m.roughness, m.ior, m.specular, m.transmission), (1.0, 1.0, 1.5, 1.0, 0.0));
+        assert_eq!(m.alpha_mode, AlphaMode::Opaque);
+        assert!(m.medium.is_none() && !m.double_sided && m.emissive == Vec3::ZERO);
+    }
+
+    #[test]
+    fn core_factors_and_textures() {
+        let (m, scene) = material(
+            json!({"name": "m",
+                "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.25, 0.125, 0.75], "metallicFactor": 0.3,
+                    "roughnessFactor": 0.6, "baseColorTexture": {"index": 0},
+                    "metallicRoughnessTexture": {"index": 1, "texCoord": 1}},
+                "normalTexture": {"index": 2, "scale": 0.5},
+                "emissiveTexture": {"index": 3,
+                    "extensions": {"KHR_texture_transform": {"offset": [0.5, 0.0], "scale": [2.0, 2.0]}}},
+                "emissiveFactor": [1.0, 0.5, 0.0],
+                "alphaMode": "MASK", "alphaCutoff": 0.25, "doubleSided": true}),
+            4,
+        );
+        assert_eq!(m.base_color, Vec4::new(0.5, 0.25, 0.125, 0.75));
+        assert_eq!((m.metallic, m.roughness), (0.3, 0.6));
+        assert_eq!(m.emissive, Vec3::new(1.0, 0.5, 0.0));
+        assert_eq!(m.alpha_mode, AlphaMode::Mask(0.25));
+        assert!(m.double_sided);
+        assert_eq!(texel_id(&scene, m.base_color_tex), 0);
+        assert!(scene.textures[m.base_color_tex.unwrap().texture as usize].srgb, "base colour is sRGB");
+        assert_eq!(texel_id(&scene, m.metallic_roughness_tex), 1);
+        assert_eq!(m.metallic_roughness_tex.unwrap().tex_coord, 1);
+        assert!(!scene.textures[m.metallic_roughness_tex.unwrap().texture as usize].srgb, "data is linear");
+        assert_eq!(texel_id(&scene, m.normal_tex), 2);
+        assert_eq!(m.normal_scale, 0.5);
+        assert_eq!(texel_id(&scene, m.emissive_tex), 3);
+        // KHR_texture_transform: uv × scale + offset.
+        let uv = m.emissive_tex.unwrap().uv(Vec2::new(0.25, 0.5));
+        assert!((uv - Vec2::new(1.0, 1.0)).length() < 1e-6, "{uv}");
+    }
+
+    #[test]
+    fn emissive_strength_multiplies_the_factor() {
+        let (m, _) = material(
+            json!({"emissiveFactor": [1.0, 0.5, 0.25],
+                "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 4.0}}}),
+            0,
+        );
+        assert_eq!(m.emissive, Vec3::new(4.0, 2.0, 1.0));
+    }
+
+    #[test]
+    fn transmission_ior_and_volume() {
+        let (m, scene) = material(
+            json!({"extensions": {
+                "KHR_materials_transmission": {"transmissionFactor": 0.9, "transmissionTexture": {"index": 0}},
+                "KHR_materials_ior": {"ior": 1.33},
+                "KHR_materials_volume": {"thicknessFactor": 0.5, "attenuationColor": [0.5, 0.25, 1.0],
+                    "attenuationDistance": 2.0}}}),
+            1,
+        );
+        assert_eq!((m.transmission, m.ior), (0.9, 1.33));
+        assert_eq!(texel_id(&scene, m.transmission_tex), 0);
+        // Beer-Lambert: exp(-σa d) = attenuationColor at d = attenuationDistance.
+        let sigma_a = m.medium.expect("a volume with thickness bounds a medium").sigma_a;
+        let want = Vec3::new(0.5f32.ln(), 0.25f32.ln(), 0.0) / -2.0;
+        assert!((sigma_a - want).abs().max_element() < 1e-6, "{sigma_a} vs {want}");
+    }
+
+    #[test]
+    fn out_of_range_factors_are_clamped_with_a_warning_naming_the_material() {
+        let scene = load_with(
+            json!({"name": "glassy", "extensions": {"KHR_materials_transmission": {"transmissionFactor": 2.0},
+                "KHR_materials_ior": {"ior": 0.5}}}),
+            0,
+        )
+        .unwrap();
+        assert_eq!((scene.materials[0].transmission, scene.materials[0].ior), (1.0, 1.0));
+        assert!(scene.warnings.iter().any(|w| w.contains("'glassy'") && w.contains("transmissionFactor")));
+        assert!(scene.warnings.iter().any(|w| w.contains("'glassy'") && w.contains("ior 0.5")));
+    }
+
+    #[test]
+    fn clearcoat_and_caustic_coat() {
+        let (m, scene) = material(
+            json!({"extensions": {
+                "KHR_materials_clearcoat": {"clearcoatFactor": 0.8, "clearcoatRoughnessFactor": 0.2,
+                    "clearcoatTexture": {"index": 0}, "clearcoatRoughnessTexture": {"index": 1},
+                    "clearcoatNormalTexture": {"index": 2, "scale": 0.7}},
+                "CAUSTIC_materials_coat": {"ior": 1.6, "tint": [1.0, 0.5, 0.25]}}}),
+            3,
+        );
+        assert_eq!((m.coat, m.coat_roughness, m.coat_normal_scale, m.coat_ior), (0.8, 0.2, 0.7, 1.6));
+        assert_eq!(m.coat_tint, Vec3::new(1.0, 0.5, 0.25));
+        assert_eq!(
+            [texel_id(&scene, m.coat_tex), texel_id(&scene, m.coat_roughness_tex), texel_id(&scene, m.coat_normal_tex)],
+            [0, 1, 2]
+        );
+    }
+
+    #[test]
+    fn specular_sheen_and_dispersion() {
+        let (m, scene) = material(
+            json!({"extensions": {
+                "KHR_materials_specular": {"specularFactor": 0.4, "specularColorFactor": [1.0, 0.8, 0.6],
+                    "specularTexture": {"index": 0}, "specularColorTexture": {"index": 1}},
+                "KHR_materials_sheen": {"sheenColorFactor": [0.2, 0.3, 0.4], "sheenRoughnessFactor": 0.5,
+                    "sheenColorTexture": {"index": 2}, "sheenRoughnessTexture": {"index": 3}},
+                "KHR_materials_dispersion": {"dispersion": 0.5}}}),
+            4,
+        );
+        assert_eq!((m.specular, m.specular_color), (0.4, Vec3::new(1.0, 0.8, 0.6)));
+        assert_eq!((m.sheen_color, m.sheen_roughness, m.dispersion), (Vec3::new(0.2, 0.3, 0.4), 0.5, 0.5));
+        let ids = [m.specular_tex, m.specular_color_tex, m.sheen_color_tex, m.sheen_roughness_tex];
+        assert_eq!(ids.map(|t| texel_id(&scene, t)), [0, 1, 2, 3]);
+        // Colour textures are sRGB, the others linear.
+        let srgb = ids.map(|t| scene.textures[t.unwrap().texture as usize].srgb);
+        assert_eq!(srgb, [false, true, true, false]);
+    }
+
+    #[test]
+    fn caustic_medium_and_subsurface() {
+        let (m, _) = material(
+            json!({"extensions": {
+                "CAUSTIC_materials_medium": {"density": 2.0, "scatter_color": [0.5, 0.5, 1.0],
+                    "absorption_color": [0.1, 0.0, 0.0], "anisotropy": 0.3, "emission": [0.0, 1.0, 0.0],
+                    "surface": false},
+                "CAUSTIC_materials_subsurface": {"weight": 0.5, "radius": [1.0, 0.2, 0.1], "anisotropy": 0.1,
+                    "ior": 1.3, "method": "random_walk_skin"}}}),
+            0,
+        );
+        let med = m.medium.expect("medium");
+        assert_eq!(
+            (med.sigma_s, med.sigma_a, med.emission),
+            (Vec3::new(1.0, 1.0, 2.0), Vec3::new(0.2, 0.0, 0.0), Vec3::Y)
+        );
+        assert!(m.null_surface);
+        let s = m.subsurface.expect("subsurface");
+        assert_eq!((s.weight, s.radius, s.anisotropy, s.ior), (0.5, Vec3::new(1.0, 0.2, 0.1), 0.1, 1.3));
+        assert_eq!(s.method, crate::scene::material::SubsurfaceMethod::RandomWalkSkin);
+    }
+
+    #[test]
+    fn invalid_values_name_the_material_and_the_problem() {
+        let cases = [
+            (
+                json!({"KHR_materials_transmission": {"transmissionFactor": "x"}}),
+                "transmissionFactor is not a finite number",
+            ),
+            (json!({"KHR_materials_specular": {"specularFactor": "a"}}), "specularFactor is not a finite number"),
+            (json!({"KHR_materials_volume": {"attenuationColor": [1.0, "a", 1.0]}}), "3 finite attenuationColor"),
+            (
+                json!({"KHR_materials_volume": {"thicknessFactor": 1.0, "attenuationDistance": 0.0}}),
+                "attenuationDistance > 0",
+            ),
+            (
+                json!({"KHR_materials_sheen": {"sheenColorFactor": [1.0, 1.0]}}),
+                "sheenColorFactor must be 3 finite numbers",
+            ),
+            (json!({"CAUSTIC_materials_coat": {"tint": "red"}}), "tint must be 3 finite numbers"),
+            (json!({"CAUSTIC_materials_medium": {"anisotropy": 2.0}}), "anisotropy 2 is outside [-1, 1]"),
+            (json!({"CAUSTIC_materials_medium": {"densty": 2.0}}), "CAUSTIC_materials_medium is malformed"),
+            (json!({"CAUSTIC_materials_medium": {"density": -1.0}}), "finite, non-negative density"),
+            (
+                json!({"CAUSTIC_materials_subsurface": {"radius": [1.0, 1.0, 1.0], "method": "dipole"}}),
+                "method 'dipole' is unknown",
+            ),
+            (json!({"CAUSTIC_materials_subsurface": {"radius": [1.0, 1.0, 1.0], "ior": 0.5}}), "ior >= 1"),
+        ];
+        for (ext, want) in cases {
+            let msg = error(json!({"name": "bad", "extensions": ext}), 0);
+            assert!(msg.contains(want), "{ext}: {msg}");
+            assert!(msg.contains("material 'bad'"), "{ext}: {msg}");
+        }
     }
 }

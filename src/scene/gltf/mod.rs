@@ -16,6 +16,7 @@
 mod cameras;
 mod extensions;
 mod lights;
+mod material_ext;
 mod materials;
 mod mesh;
 mod nodes;
