@@ -245,7 +245,8 @@ pub(super) fn open_edges(positions: &[Vec3], tris: &[[u32; 3]]) -> usize {
     count.values().filter(|&&c| c % 2 == 1).count()
 }
 
-/// MikkTSpace tangents for an indexed triangle list, per vertex.
+/// MikkTSpace tangents for an indexed triangle list, per vertex, in glTF's convention
+/// (bitangent = cross(normal, xyz) · w points up the image, as Blender exports them).
 pub(super) fn mikktspace_tangents(positions: &[Vec3], normals: &[Vec3], uvs: &[Vec2], tris: &[[u32; 3]]) -> Vec<Vec4> {
     struct Geo<'a> {
         p: &'a [Vec3],
@@ -268,7 +269,12 @@ pub(super) fn mikktspace_tangents(positions: &[Vec3], normals: &[Vec3], uvs: &[V
             self.n[self.tris[face][vert] as usize].to_array()
         }
         fn tex_coord(&self, face: usize, vert: usize) -> [f32; 2] {
-            self.uv[self.tris[face][vert] as usize].to_array()
+            // MikkTSpace (as Blender, which computes the tangents its exporter writes)
+            // takes V up from a bottom-left origin; glTF's UV origin is the top-left with
+            // V down. Unflipped, every generated bitangent points down the image and the
+            // normal map's green axis is inverted.
+            let uv = self.uv[self.tris[face][vert] as usize];
+            [uv.x, 1.0 - uv.y]
         }
         fn set_tangent_encoded(&mut self, tangent: [f32; 4], face: usize, vert: usize) {
             self.out[self.tris[face][vert] as usize] = Vec4::from(tangent);
@@ -277,4 +283,54 @@ pub(super) fn mikktspace_tangents(positions: &[Vec3], normals: &[Vec3], uvs: &[V
     let mut g = Geo { p: positions, n: normals, uv: uvs, tris, out: vec![Vec4::ZERO; positions.len()] };
     mikktspace::generate_tangents(&mut g);
     g.out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::mikktspace_tangents;
+    use glam::{Vec2, Vec3, Vec4};
+
+    /// A unit quad in the XY plane facing +Z, with UVs as Blender's exporter writes them:
+    /// Blender's (x, y) become glTF's (x, 1 - y), so the image's top row (v = 0) lies at
+    /// y = 1. `mirror_u` mirrors the texture horizontally (u = 1 - x), as the mirrored
+    /// half of Khronos' NormalTangentMirrorTest does.
+    fn quad(mirror_u: bool) -> (Vec<Vec3>, Vec<Vec3>, Vec<Vec2>, Vec<[u32; 3]>) {
+        let p = vec![
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(1.0, 1.0, 0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+        ];
+        let uv = p.iter().map(|q| Vec2::new(if mirror_u { 1.0 - q.x } else { q.x }, 1.0 - q.y)).collect();
+        (p, vec![Vec3::Z; 4], uv, vec![[0, 1, 2], [0, 2, 3]])
+    }
+
+    /// The TANGENT a file carries for this geometry, by the glTF 2.0 spec: xyz = dP/du (the
+    /// normal texture's +X), and w such that bitangent = cross(normal, xyz) · w points to
+    /// the normal texture's +Y, which is "up" in the image: towards its top row, v = 0,
+    /// i.e. along -dP/dv in glTF's top-left UV origin (Blender's +V).
+    fn spec_tangent(p: &[Vec3], uv: &[Vec2], n: Vec3) -> Vec4 {
+        let (e1, e2) = (p[1] - p[0], p[2] - p[0]);
+        let (d1, d2) = (uv[1] - uv[0], uv[2] - uv[0]);
+        let det = d1.x * d2.y - d2.x * d1.y;
+        let dp_du = (e1 * d2.y - e2 * d1.y) / det;
+        let dp_dv = (e2 * d1.x - e1 * d2.x) / det;
+        let up = -dp_dv;
+        let w = if n.cross(dp_du).dot(up) > 0.0 { 1.0 } else { -1.0 };
+        dp_du.normalize().extend(w)
+    }
+
+    #[test]
+    fn generated_tangents_are_the_ones_a_file_would_carry() {
+        for mirror in [false, true] {
+            let (p, n, uv, tris) = quad(mirror);
+            let want = spec_tangent(&p, &uv, Vec3::Z);
+            // By hand: +X (or -X mirrored) with the bitangent +Y, the image's up.
+            assert_eq!(want, if mirror { Vec4::new(-1.0, 0.0, 0.0, -1.0) } else { Vec4::new(1.0, 0.0, 0.0, 1.0) });
+            for (i, t) in mikktspace_tangents(&p, &n, &uv, &tris).iter().enumerate() {
+                // MikkTSpace normalises in f32: a few ulps.
+                assert!((*t - want).abs().max_element() < 1e-6, "mirror {mirror}, vertex {i}: {t} vs {want}");
+            }
+        }
+    }
 }
