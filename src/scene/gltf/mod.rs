@@ -38,9 +38,27 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use validate::check_references;
 
-/// Extensions that Caustic renders, and so accepts in `extensionsRequired`.
-pub const SUPPORTED_REQUIRED: &[&str] =
-    &["KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_texture_transform"];
+/// Extensions that Caustic renders, and so accepts in `extensionsRequired`: every one the
+/// loader reads (not those it reads only to warn about, such as iridescence).
+pub const SUPPORTED_REQUIRED: &[&str] = &[
+    "KHR_lights_punctual",
+    "KHR_materials_emissive_strength",
+    "KHR_texture_transform",
+    "KHR_materials_transmission",
+    "KHR_materials_ior",
+    "KHR_materials_volume",
+    "KHR_materials_clearcoat",
+    "KHR_materials_specular",
+    "KHR_materials_sheen",
+    "KHR_materials_dispersion",
+    "CAUSTIC_lights_area",
+    "CAUSTIC_lights_punctual",
+    "CAUSTIC_camera",
+    "CAUSTIC_world",
+    "CAUSTIC_materials_medium",
+    "CAUSTIC_materials_subsurface",
+    "CAUSTIC_materials_coat",
+];
 
 /// glTF's photometric units to Blender's radiometric ones: Blender's exporter writes
 /// W × 683 lm/W (its PBR_WATTS_TO_LUMENS), so dividing gives Blender's watts back.
@@ -176,9 +194,14 @@ impl<'a> Loader<'a> {
         // (a dangling accessor index panics inside it): check every reference first.
         check_references(&value).map_err(|e| self.err(e))?;
 
-        // 4. Typed document with the crate's index validation.
-        let root: json::Root =
-            serde_json::from_value(value.clone()).map_err(|e| self.err(format!("invalid glTF: {e}")))?;
+        // 4. Typed document with the crate's index validation. The crate refuses every
+        // required extension outside its own few features, including those Caustic reads
+        // from the raw JSON: they were checked above, so it does not see the list.
+        let mut for_crate = value.clone();
+        if let Some(root) = for_crate.as_object_mut() {
+            root.remove("extensionsRequired");
+        }
+        let root: json::Root = serde_json::from_value(for_crate).map_err(|e| self.err(format!("invalid glTF: {e}")))?;
         let doc = gltf::Document::from_json(root)
             .map_err(|e| self.err(format!("invalid glTF: {}", describe_validation(&e))))?;
 
@@ -396,5 +419,81 @@ fn describe_validation(e: &gltf::Error) -> String {
             errs.iter().take(5).map(|(path, err)| format!("{}: {err}", path.as_str())).collect::<Vec<_>>().join("; ")
         }
         other => other.to_string(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{SUPPORTED_REQUIRED, load_bytes};
+    use crate::memory::MemoryBudget;
+    use base64::Engine;
+    use serde_json::json;
+
+    /// One triangle whose file lists `required` in extensionsRequired (and extensionsUsed).
+    fn load_requiring(required: &[&str]) -> crate::error::Result<crate::scene::Scene> {
+        let data: Vec<u8> = [0f32, 0., 0., 1., 0., 0., 0., 1., 0.].iter().flat_map(|f| f.to_le_bytes()).collect();
+        let uri =
+            format!("data:application/octet-stream;base64,{}", base64::engine::general_purpose::STANDARD.encode(&data));
+        let doc = json!({
+            "asset": {"version": "2.0"},
+            "extensionsUsed": required,
+            "extensionsRequired": required,
+            "buffers": [{"uri": uri, "byteLength": 36}],
+            "bufferViews": [{"buffer": 0, "byteLength": 36}],
+            "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                "min": [0, 0, 0], "max": [1, 1, 0]}],
+            "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+            "nodes": [{"mesh": 0}],
+            "scenes": [{"nodes": [0]}]
+        });
+        load_bytes(
+            &serde_json::to_vec(&doc).unwrap(),
+            std::path::Path::new("."),
+            "req.gltf",
+            &MemoryBudget::unlimited(),
+        )
+    }
+
+    #[test]
+    fn every_extension_caustic_renders_may_be_required() {
+        for name in [
+            "KHR_materials_clearcoat",
+            "KHR_materials_transmission",
+            "KHR_materials_volume",
+            "KHR_materials_ior",
+            "KHR_materials_specular",
+            "KHR_materials_sheen",
+            "KHR_materials_dispersion",
+            "KHR_materials_emissive_strength",
+            "KHR_texture_transform",
+            "KHR_lights_punctual",
+            "CAUSTIC_lights_area",
+            "CAUSTIC_lights_punctual",
+            "CAUSTIC_camera",
+            "CAUSTIC_world",
+            "CAUSTIC_materials_medium",
+            "CAUSTIC_materials_subsurface",
+            "CAUSTIC_materials_coat",
+        ] {
+            assert!(SUPPORTED_REQUIRED.contains(&name), "{name} is not in SUPPORTED_REQUIRED");
+            if let Err(e) = load_requiring(&[name]) {
+                panic!("a file requiring {name} was refused: {e}");
+            }
+        }
+        assert!(load_requiring(SUPPORTED_REQUIRED).is_ok(), "all of them at once");
+    }
+
+    #[test]
+    fn unknown_required_extensions_are_refused_by_name() {
+        for unknown in [
+            &["KHR_draco_mesh_compression"][..],
+            &["KHR_materials_clearcoat", "EXT_meshopt_compression", "KHR_materials_iridescence"],
+        ] {
+            let msg = load_requiring(unknown).err().expect("refused").to_string();
+            for name in unknown.iter().filter(|n| !SUPPORTED_REQUIRED.contains(n)) {
+                assert!(msg.contains(name), "{msg}");
+            }
+            assert!(msg.contains("requires unsupported extension"), "{msg}");
+        }
     }
 }
