@@ -153,7 +153,11 @@ impl Loader<'_> {
             {
                 let uv = if nt.tex_coord == 0 { &uv0 } else { &uv1 };
                 match (uv, &normals) {
-                    (Some(uv), Some(n)) => tangents = Some(mikktspace_tangents(&positions, n, uv, &tris)),
+                    (Some(uv), Some(n)) => {
+                        let t0 = std::time::Instant::now();
+                        tangents = Some(mikktspace_tangents(&positions, n, uv, &tris));
+                        self.profile.tangents += t0.elapsed().as_secs_f64();
+                    }
                     _ => self.warn(format!("{what}: a normal map without UVs or normals cannot be applied; ignored")),
                 }
             }

@@ -14,6 +14,7 @@
 //! `extensions.rs` holds the serde shapes of the `CAUSTIC_*` extensions.
 
 mod cameras;
+mod emission;
 mod extensions;
 mod lights;
 mod material_ext;
@@ -25,7 +26,7 @@ mod validate;
 mod world;
 
 use super::texture::Texture;
-use super::{CameraReport, LightReport, LoadReport, Material, Mesh, Projection, Scene, SceneSettings};
+use super::{CameraReport, LightReport, LoadProfile, LoadReport, Material, Mesh, Projection, Scene, SceneSettings};
 use crate::error::{Error, Result};
 use crate::light::Light;
 use crate::memory::MemoryBudget;
@@ -36,6 +37,7 @@ use gltf::json;
 use lights::punctual_power;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
+use std::time::Instant;
 use validate::check_references;
 
 /// Extensions that Caustic renders, and so accepts in `extensionsRequired`: every one the
@@ -127,6 +129,7 @@ struct Loader<'a> {
     textures: Vec<Texture>,
     texture_cache: HashMap<TexKey, u32>,
     images: HashMap<usize, DecodedImage>,
+    profile: LoadProfile,
 }
 
 impl<'a> Loader<'a> {
@@ -139,6 +142,7 @@ impl<'a> Loader<'a> {
             textures: Vec::new(),
             texture_cache: HashMap::new(),
             images: HashMap::new(),
+            profile: LoadProfile::default(),
         }
     }
 
@@ -154,6 +158,7 @@ impl<'a> Loader<'a> {
     }
 
     fn load(mut self, bytes: &[u8]) -> Result<Scene> {
+        let start = Instant::now();
         // 1. Container: GLB or JSON.
         let (json_bytes, bin): (Vec<u8>, Option<Vec<u8>>) = if bytes.starts_with(b"glTF") {
             let glb = gltf::binary::Glb::from_slice(bytes)
@@ -210,7 +215,10 @@ impl<'a> Loader<'a> {
         self.check_views_and_accessors(&doc, &buffers)?;
         self.check_accessor_types(&doc)?;
 
+        self.profile.parse = start.elapsed().as_secs_f64();
+
         // 6. Materials (textures decoded on first use).
+        let phase = Instant::now();
         let mut materials = Vec::new();
         let mut material_reports = Vec::new();
         for m in doc.materials() {
@@ -220,8 +228,10 @@ impl<'a> Loader<'a> {
         }
         let default_material = materials.len() as u32;
         materials.push(Material::default());
+        self.profile.materials = phase.elapsed().as_secs_f64() - self.profile.decode_textures;
 
         // 7. Node graph to instances.
+        let phase = Instant::now();
         let instances = self.instances(&doc, &value)?;
         self.charge_mesh(&doc, &instances)?;
 
@@ -278,6 +288,7 @@ impl<'a> Loader<'a> {
                 light_reports.push(rep);
             }
         }
+        self.profile.mesh = phase.elapsed().as_secs_f64() - self.profile.tangents;
         let world = self.world(&value, &doc, &buffers)?;
         let world_power = world.as_ref().map(|w| {
             // Power through the scene's bounding disk: irradiance π L over π R².
@@ -298,7 +309,9 @@ impl<'a> Loader<'a> {
         }
 
         // Emissive triangles are lights, one each, grouped by material in the report.
-        self.emissive_lights(&mesh, &materials, &mut lights, &mut light_power, &mut light_reports);
+        let phase = Instant::now();
+        self.emissive_lights(&mesh, &materials, &mut lights, &mut light_power, &mut light_reports)?;
+        self.profile.emitter_power = phase.elapsed().as_secs_f64();
 
         let file_cameras = cameras.len();
         if cameras.is_empty() {
@@ -312,6 +325,7 @@ impl<'a> Loader<'a> {
             self.warn(format!("{degenerate} degenerate (zero-area) triangle(s) were dropped"));
         }
 
+        self.profile.total = start.elapsed().as_secs_f64();
         let report = LoadReport {
             file: self.file.to_string(),
             triangles: mesh.triangles.len(),
@@ -340,6 +354,7 @@ impl<'a> Loader<'a> {
                 })
                 .collect(),
             bounds: [lo.to_array(), hi.to_array()],
+            profile: self.profile,
         };
         Ok(Scene {
             mesh,

@@ -44,6 +44,7 @@ impl Loader<'_> {
         let texels = w as u64 * h as u64;
         self.budget.charge(format!("texture {label} ({w}×{h})"), texels * 4)?;
         self.budget.check_peak(format!("decoding texture {label}"), texels * 12)?;
+        let decode_start = std::time::Instant::now();
         let decoded = image::ImageReader::new(std::io::Cursor::new(&bytes))
             .with_guessed_format()
             .map_err(|e| self.err(format!("texture {label}: {e}")))?
@@ -51,6 +52,7 @@ impl Loader<'_> {
             .map_err(|e| self.err(format!("texture {label}: cannot decode: {e}")))?
             .to_rgba8();
         let texels: Vec<[u8; 4]> = decoded.pixels().map(|p| p.0).collect();
+        self.profile.decode_textures += decode_start.elapsed().as_secs_f64();
         let entry = (w, h, std::sync::Arc::new(texels));
         self.images.insert(index, entry.clone());
         Ok(entry)
@@ -78,16 +80,20 @@ impl Loader<'_> {
                 gltf::texture::WrappingMode::ClampToEdge => Wrap::Clamp,
             };
             let nearest = matches!(sampler.mag_filter(), Some(gltf::texture::MagFilter::Nearest));
-            self.textures.push(Texture {
-                name: texture.source().name().unwrap_or("").to_string(),
-                width: w,
-                height: h,
-                texels: (*texels).clone(),
-                srgb,
-                wrap_s: wrap(sampler.wrap_s()),
-                wrap_t: wrap(sampler.wrap_t()),
-                nearest,
-            });
+            self.textures.push(
+                Texture {
+                    name: texture.source().name().unwrap_or("").to_string(),
+                    width: w,
+                    height: h,
+                    texels: (*texels).clone(),
+                    srgb,
+                    wrap_s: wrap(sampler.wrap_s()),
+                    wrap_t: wrap(sampler.wrap_t()),
+                    nearest,
+                    mean: glam::Vec3::ZERO,
+                }
+                .with_mean(),
+            );
             let i = (self.textures.len() - 1) as u32;
             self.texture_cache.insert(key, i);
             i

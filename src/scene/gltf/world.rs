@@ -47,6 +47,7 @@ impl Loader<'_> {
                 let texels = width as u64 * height as u64;
                 self.budget.charge(format!("{label} ({width}×{height})"), texels * 20)?;
                 self.budget.check_peak(format!("decoding {label}"), texels * 28)?;
+                let decode_start = std::time::Instant::now();
                 let decoded = image::ImageReader::new(std::io::Cursor::new(&bytes))
                     .with_guessed_format()
                     .map_err(|e| self.err(format!("{label}: {e}")))?
@@ -58,6 +59,7 @@ impl Loader<'_> {
                     image::ColorType::Rgb8 | image::ColorType::Rgba8 | image::ColorType::L8 | image::ColorType::La8
                 );
                 let rgb = decoded.to_rgb32f();
+                self.profile.decode_textures += decode_start.elapsed().as_secs_f64();
                 let decode = |c: f32| {
                     if srgb { if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) } } else { c }
                 };
