@@ -127,3 +127,11 @@ impl Default for BlenderLight {
         BlenderLight { radius: 0.0, angle: 0.0, spot_blend: None, soft_falloff: false, camera_visible: true }
     }
 }
+
+/// `CAUSTIC_default_material` on the document's root: the material of primitives that
+/// name none (docs/contract.md).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct DefaultMaterialExt {
+    pub(super) material: u32,
+}

@@ -60,6 +60,7 @@ pub const SUPPORTED_REQUIRED: &[&str] = &[
     "CAUSTIC_materials_medium",
     "CAUSTIC_materials_subsurface",
     "CAUSTIC_materials_coat",
+    "CAUSTIC_default_material",
 ];
 
 /// glTF's photometric units to Blender's radiometric ones: Blender's exporter writes
@@ -226,8 +227,7 @@ impl<'a> Loader<'a> {
             materials.push(mat);
             material_reports.push(rep);
         }
-        let default_material = materials.len() as u32;
-        materials.push(Material::default());
+        let default_material = self.default_material(&value, &mut materials)?;
         self.profile.materials = phase.elapsed().as_secs_f64() - self.profile.decode_textures;
 
         // 7. Node graph to instances.
@@ -371,6 +371,25 @@ impl<'a> Loader<'a> {
         })
     }
 
+    /// The material of primitives that name none: `CAUSTIC_default_material`'s (the add-on
+    /// names Blender's default surface there), else glTF's default, appended.
+    fn default_material(&self, value: &serde_json::Value, materials: &mut Vec<Material>) -> Result<u32> {
+        let Some(ext) = value.pointer("/extensions/CAUSTIC_default_material") else {
+            materials.push(Material::default());
+            return Ok(materials.len() as u32 - 1);
+        };
+        let e: extensions::DefaultMaterialExt = serde_json::from_value(ext.clone())
+            .map_err(|e| self.err(format!("CAUSTIC_default_material is malformed: {e}")))?;
+        if e.material as usize >= materials.len() {
+            return Err(self.err(format!(
+                "CAUSTIC_default_material: material {} does not exist (the file has {})",
+                e.material,
+                materials.len()
+            )));
+        }
+        Ok(e.material)
+    }
+
     fn parse_settings(&self, value: &serde_json::Value) -> Result<SceneSettings> {
         let scene_index = value.get("scene").and_then(|s| s.as_u64()).unwrap_or(0) as usize;
         let Some(extras) = value.pointer(&format!("/scenes/{scene_index}/extras/caustic")) else {
@@ -446,6 +465,12 @@ mod tests {
 
     /// One triangle whose file lists `required` in extensionsRequired (and extensionsUsed).
     fn load_requiring(required: &[&str]) -> crate::error::Result<crate::scene::Scene> {
+        load_triangle(required, json!({}))
+    }
+
+    /// One triangle without a material, `required` in extensionsRequired, `root`'s keys
+    /// set on the document's root.
+    fn load_triangle(required: &[&str], root: serde_json::Value) -> crate::error::Result<crate::scene::Scene> {
         let data: Vec<u8> = [0f32, 0., 0., 1., 0., 0., 0., 1., 0.].iter().flat_map(|f| f.to_le_bytes()).collect();
         let uri =
             format!("data:application/octet-stream;base64,{}", base64::engine::general_purpose::STANDARD.encode(&data));
@@ -461,6 +486,10 @@ mod tests {
             "nodes": [{"mesh": 0}],
             "scenes": [{"nodes": [0]}]
         });
+        let mut doc = doc;
+        for (k, v) in root.as_object().unwrap() {
+            doc[k] = v.clone();
+        }
         load_bytes(
             &serde_json::to_vec(&doc).unwrap(),
             std::path::Path::new("."),
@@ -509,6 +538,42 @@ mod tests {
                 assert!(msg.contains(name), "{msg}");
             }
             assert!(msg.contains("requires unsupported extension"), "{msg}");
+        }
+    }
+
+    #[test]
+    fn a_primitive_without_material_gets_gltfs_default_in_a_plain_file() {
+        let scene = load_triangle(&[], json!({})).unwrap();
+        let m = &scene.materials[scene.mesh.tri_material[0] as usize];
+        // glTF 2.0, materials: the default is base colour 1, metallic 1, roughness 1.
+        assert_eq!((m.base_color, m.metallic, m.roughness), (glam::Vec4::ONE, 1.0, 1.0));
+    }
+
+    #[test]
+    fn caustic_default_material_names_the_material_for_primitives_without_one() {
+        // Blender's default surface (Principled: base 0.8, metallic 0, roughness 0.5, IOR
+        // 1.5), written by the add-on as a material of the file.
+        let blender = json!({"name": "Blender default",
+            "pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.5}});
+        let root = json!({"materials": [blender], "extensionsUsed": ["CAUSTIC_default_material"],
+            "extensions": {"CAUSTIC_default_material": {"material": 0}}});
+        let scene = load_triangle(&[], root).unwrap();
+        let m = &scene.materials[scene.mesh.tri_material[0] as usize];
+        assert_eq!(m.name, "Blender default");
+        assert_eq!(
+            (m.base_color, m.metallic, m.roughness, m.ior),
+            (glam::Vec4::new(0.8, 0.8, 0.8, 1.0), 0.0, 0.5, 1.5)
+        );
+        let root = json!({"materials": [{}], "extensions": {"CAUSTIC_default_material": {"material": 0}}});
+        assert!(load_triangle(&["CAUSTIC_default_material"], root).is_ok(), "may be required");
+        for (bad, want) in [
+            (json!({"material": 3}), "material 3 does not exist (the file has 1)"),
+            (json!({"material": "grey"}), "CAUSTIC_default_material is malformed"),
+            (json!({"materia": 0}), "CAUSTIC_default_material is malformed"),
+        ] {
+            let root = json!({"materials": [{}], "extensions": {"CAUSTIC_default_material": bad}});
+            let msg = load_triangle(&[], root).err().expect("refused").to_string();
+            assert!(msg.contains(want), "{msg}");
         }
     }
 }
