@@ -50,7 +50,7 @@ impl Loader<'_> {
         m: &gltf::Mesh,
         world: &Mat4,
         buffers: &[Vec<u8>],
-        materials: &[Material],
+        materials: &mut Vec<Material>,
         default_material: u32,
         out: &mut Mesh,
     ) -> Result<usize> {
@@ -209,7 +209,30 @@ impl Loader<'_> {
             let material = &materials[material_index as usize];
             if material.medium.is_some() || material.subsurface.is_some() {
                 let open = open_edges(&out.positions, &out.triangles[first_tri..]);
-                if open > 0 {
+                if open > 0 && self.khr_volume_materials.contains(&material_index) && material.subsurface.is_none() {
+                    // KHR_materials_volume describes the inside of a closed mesh; on a sheet
+                    // (Blender's exporter and the add-on add it to every transmissive
+                    // material) it would make the sheet a one-way entry into glass. As a
+                    // volume of thickness 0, the spec's thin-walled case, it renders as Cycles
+                    // renders the sheet.
+                    let thin = match self.thin_variants.get(&material_index) {
+                        Some(&t) => t,
+                        None => {
+                            let name = material.name.clone();
+                            materials.push(Material { medium: None, ..material.clone() });
+                            let t = materials.len() as u32 - 1;
+                            self.thin_variants.insert(material_index, t);
+                            self.warn(format!(
+                                "material '{name}': KHR_materials_volume on an open surface ({what}, {open} open \
+                                 edges) is rendered thin-walled (no volume inside a sheet)"
+                            ));
+                            t
+                        }
+                    };
+                    for m in &mut out.tri_material[first_tri..] {
+                        *m = thin;
+                    }
+                } else if open > 0 {
                     self.warn(format!(
                         "{what}: material '{}' has a volume or subsurface scattering but the primitive is not closed \
                          ({open} open edges): paths that leave through a hole lose the light the medium would have \
@@ -336,5 +359,70 @@ mod tests {
                 assert!((*t - want).abs().max_element() < 1e-6, "mirror {mirror}, vertex {i}: {t} vs {want}");
             }
         }
+    }
+
+    /// A quad (an open sheet, 2 triangles) and a closed cube (12 triangles), both of one
+    /// glass material with KHR_materials_volume thickness 1, as Blender's exports are.
+    fn sheet_and_cube() -> crate::scene::Scene {
+        use base64::Engine;
+        let quad = [[-1f32, -1., 0.], [1., -1., 0.], [1., 1., 0.], [-1., 1., 0.]];
+        let cube: Vec<[f32; 3]> =
+            (0..8).map(|i| [(i & 1) as f32 + 3.0, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32]).collect();
+        let faces: [[u32; 4]; 6] = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
+        let cube_idx: Vec<u32> = faces.iter().flat_map(|f| [f[0], f[1], f[2], f[0], f[2], f[3]]).collect();
+        let f = |v: &[[f32; 3]]| v.iter().flatten().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
+        let u = |v: &[u32]| v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
+        let parts = [f(&quad), u(&[0, 1, 2, 0, 2, 3]), f(&cube), u(&cube_idx)];
+        let mut views = Vec::new();
+        let mut offset = 0;
+        for p in &parts {
+            views.push(serde_json::json!({"buffer": 0, "byteOffset": offset, "byteLength": p.len()}));
+            offset += p.len();
+        }
+        let data = parts.concat();
+        let doc = serde_json::json!({
+            "asset": {"version": "2.0"},
+            "buffers": [{"uri": format!("data:application/octet-stream;base64,{}",
+                base64::engine::general_purpose::STANDARD.encode(&data)), "byteLength": data.len()}],
+            "bufferViews": views,
+            "accessors": [
+                {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [-1, -1, 0], "max": [1, 1, 0]},
+                {"bufferView": 1, "componentType": 5125, "count": 6, "type": "SCALAR"},
+                {"bufferView": 2, "componentType": 5126, "count": 8, "type": "VEC3", "min": [3, 0, 0], "max": [4, 1, 1]},
+                {"bufferView": 3, "componentType": 5125, "count": 36, "type": "SCALAR"}
+            ],
+            "materials": [{"name": "glass", "extensions": {
+                "KHR_materials_transmission": {"transmissionFactor": 1.0},
+                "KHR_materials_volume": {"thicknessFactor": 1.0, "attenuationColor": [0.5, 0.5, 0.5], "attenuationDistance": 1.0}}}],
+            "meshes": [
+                {"primitives": [{"attributes": {"POSITION": 0}, "indices": 1, "material": 0}]},
+                {"primitives": [{"attributes": {"POSITION": 2}, "indices": 3, "material": 0}]}
+            ],
+            "nodes": [{"mesh": 0}, {"mesh": 1}],
+            "scenes": [{"nodes": [0, 1]}]
+        });
+        let bytes = serde_json::to_vec(&doc).unwrap();
+        let budget = crate::memory::MemoryBudget::unlimited();
+        crate::scene::gltf::load_bytes(&bytes, std::path::Path::new("."), "sheet.gltf", &budget).unwrap()
+    }
+
+    #[test]
+    fn a_volume_on_an_open_sheet_is_thin_walled_and_on_a_closed_mesh_a_volume() {
+        let scene = sheet_and_cube();
+        let m = &scene.mesh;
+        assert_eq!(m.triangles.len(), 14);
+        let material = |t: usize| &scene.materials[m.tri_material[t] as usize];
+        for t in 0..2 {
+            assert!(material(t).medium.is_none(), "the sheet's triangle {t} is thin-walled");
+            assert_eq!((material(t).name.as_str(), material(t).transmission), ("glass", 1.0));
+        }
+        for t in 2..14 {
+            assert!(material(t).medium.is_some(), "the cube's triangle {t} bounds a volume");
+        }
+        assert!(
+            scene.warnings.iter().any(|w| w.contains("'glass'") && w.contains("thin-walled")),
+            "{:?}",
+            scene.warnings
+        );
     }
 }

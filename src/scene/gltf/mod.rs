@@ -131,6 +131,10 @@ struct Loader<'a> {
     texture_cache: HashMap<TexKey, u32>,
     images: HashMap<usize, DecodedImage>,
     profile: LoadProfile,
+    /// Materials whose medium is KHR_materials_volume's attenuation (not a CAUSTIC medium).
+    khr_volume_materials: std::collections::HashSet<u32>,
+    /// Thin-walled copies of those materials, for open primitives: original → copy.
+    thin_variants: HashMap<u32, u32>,
 }
 
 impl<'a> Loader<'a> {
@@ -144,6 +148,8 @@ impl<'a> Loader<'a> {
             texture_cache: HashMap::new(),
             images: HashMap::new(),
             profile: LoadProfile::default(),
+            khr_volume_materials: Default::default(),
+            thin_variants: HashMap::new(),
         }
     }
 
@@ -228,6 +234,12 @@ impl<'a> Loader<'a> {
             material_reports.push(rep);
         }
         let default_material = self.default_material(&value, &mut materials)?;
+        for (i, (mat, rep)) in materials.iter().zip(&material_reports).enumerate() {
+            let has = |f: &str| rep.features.iter().any(|x| x == f);
+            if mat.medium.is_some() && has("KHR_materials_volume") && !has("CAUSTIC_materials_medium") {
+                self.khr_volume_materials.insert(i as u32);
+            }
+        }
         self.profile.materials = phase.elapsed().as_secs_f64() - self.profile.decode_textures;
 
         // 7. Node graph to instances.
@@ -252,7 +264,7 @@ impl<'a> Loader<'a> {
             if let Some(m) = node.mesh() {
                 used_meshes.insert(m.index());
                 instance_count += 1;
-                degenerate += self.append_mesh(&m, world, &buffers, &materials, default_material, &mut mesh)?;
+                degenerate += self.append_mesh(&m, world, &buffers, &mut materials, default_material, &mut mesh)?;
             }
             if let Some(c) = node.camera() {
                 let blender = node.extension_value("CAUSTIC_camera").cloned();
