@@ -136,12 +136,11 @@ fn a_normal_mapped_plane_is_lit_by_the_specs_tangent_frame() {
             // Tolerance: f32 rounding through the texel decode, normalisation, frame and
             // BSDF (some tens of operations at 6e-8 relative each) is below 1e-5; 1e-4
             // bounds it with room and is 1000 times finer than the convention error.
-            for c in 0..3 {
+            for (c, &v) in p.iter().take(3).enumerate() {
                 assert!(
-                    (p[c] as f64 - want).abs() <= 1e-4 * want,
-                    "tangents {}: pixel {i} channel {c} = {} (spec {want}; green flipped would be {flipped})",
+                    (v as f64 - want).abs() <= 1e-4 * want,
+                    "tangents {}: pixel {i} channel {c} = {v} (spec {want}; green flipped would be {flipped})",
                     if with_tangents { "from the file" } else { "generated" },
-                    p[c]
                 );
             }
         }

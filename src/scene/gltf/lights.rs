@@ -176,13 +176,13 @@ impl Loader<'_> {
                 None => (Vec3::ONE, Vec3::ZERO),
                 Some(t) => {
                     let tex = &self.textures[t.texture as usize];
-                    if !pyramids.contains_key(&t.texture) {
+                    if let std::collections::hash_map::Entry::Vacant(slot) = pyramids.entry(t.texture) {
                         // Transient: dropped when the powers are known.
                         self.budget.check_peak(
                             format!("the emission pyramid of texture '{}' ({}×{})", tex.name, tex.width, tex.height),
                             pyramid_bytes(tex.width, tex.height),
                         )?;
-                        pyramids.insert(t.texture, MeanPyramid::new(tex, &mut reads));
+                        slot.insert(MeanPyramid::new(tex, &mut reads));
                     }
                     let set = if t.tex_coord == 0 { &mesh.uv0 } else { &mesh.uv1 };
                     let uv = tri.map(|i| t.uv(set[i as usize]));

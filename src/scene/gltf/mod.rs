@@ -545,7 +545,7 @@ mod tests {
             &["KHR_draco_mesh_compression"][..],
             &["KHR_materials_clearcoat", "EXT_meshopt_compression", "KHR_materials_iridescence"],
         ] {
-            let msg = load_requiring(unknown).err().expect("refused").to_string();
+            let msg = load_requiring(unknown).expect_err("refused").to_string();
             for name in unknown.iter().filter(|n| !SUPPORTED_REQUIRED.contains(n)) {
                 assert!(msg.contains(name), "{msg}");
             }
@@ -584,7 +584,7 @@ mod tests {
             (json!({"materia": 0}), "CAUSTIC_default_material is malformed"),
         ] {
             let root = json!({"materials": [{}], "extensions": {"CAUSTIC_default_material": bad}});
-            let msg = load_triangle(&[], root).err().expect("refused").to_string();
+            let msg = load_triangle(&[], root).expect_err("refused").to_string();
             assert!(msg.contains(want), "{msg}");
         }
     }
