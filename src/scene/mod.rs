@@ -1,5 +1,5 @@
 //! The renderer's own scene description. Everything downstream of the loader sees
-//! these types only; `gltf.rs` is the one module that reads glTF.
+//! these types only; `gltf/` is the one module that reads glTF.
 
 pub mod camera;
 pub mod gltf;
@@ -114,6 +114,31 @@ pub struct LoadReport {
     pub cameras: Vec<CameraReport>,
     /// Scene bounds (min, max).
     pub bounds: [[f32; 3]; 2],
+    /// Time per loading phase and the emitter work.
+    pub profile: LoadProfile,
+}
+
+/// Where loading spent its time (seconds, wall clock), for `info --json` and
+/// `bench/load.py`. The BVH is built after loading and is not included.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct LoadProfile {
+    /// Reading the container and the JSON, validating, reading buffers.
+    pub parse: f64,
+    /// Decoding images (textures and the world image).
+    pub decode_textures: f64,
+    /// Converting materials, without decoding their textures.
+    pub materials: f64,
+    /// Flattening nodes and meshes into world-space triangles, without tangents.
+    pub mesh: f64,
+    /// Generating MikkTSpace tangents for normal maps.
+    pub tangents: f64,
+    /// Emissive triangles' powers: texture pyramids and per-triangle means.
+    pub emitter_power: f64,
+    /// The whole load.
+    pub total: f64,
+    /// Texels read for the emitters' powers (pyramids and triangles): linear in the
+    /// texture size plus the triangle count, not their product.
+    pub emitter_texel_reads: u64,
 }
 
 /// A material in the report.

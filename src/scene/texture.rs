@@ -34,6 +34,9 @@ pub struct Texture {
     pub wrap_t: Wrap,
     /// Nearest-texel lookup (glTF magFilter NEAREST) instead of bilinear.
     pub nearest: bool,
+    /// Mean linear RGB over the image, computed once by [`Texture::with_mean`] (emitters
+    /// ask for it per triangle and per photon).
+    pub mean: Vec3,
 }
 
 /// sRGB → linear table for 8-bit values.
@@ -49,8 +52,9 @@ fn srgb_table() -> &'static [f32; 256] {
     })
 }
 
+/// Texel index `i` of a row or column of `n` texels under wrap `mode`.
 #[inline]
-fn wrap(i: i64, n: u32, mode: Wrap) -> u32 {
+pub fn wrap(i: i64, n: u32, mode: Wrap) -> u32 {
     let n = n as i64;
     let j = match mode {
         Wrap::Repeat => i.rem_euclid(n),
@@ -65,8 +69,9 @@ fn wrap(i: i64, n: u32, mode: Wrap) -> u32 {
 }
 
 impl Texture {
+    /// Linear RGBA of texel (x, y), wrapped by the sampler's modes.
     #[inline]
-    fn texel(&self, x: i64, y: i64) -> Vec4 {
+    pub fn texel(&self, x: i64, y: i64) -> Vec4 {
         let x = wrap(x, self.width, self.wrap_s);
         let y = wrap(y, self.height, self.wrap_t);
         let t = self.texels[(y * self.width + x) as usize];
@@ -98,14 +103,22 @@ impl Texture {
     }
 
     /// Mean linear RGB over the image (for light power estimates).
+    #[inline]
     pub fn mean_rgb(&self) -> Vec3 {
+        self.mean
+    }
+
+    /// Sets [`Texture::mean`] from the texels: one pass, summed in f64 (so that a constant
+    /// image's mean is its texel value exactly).
+    pub fn with_mean(mut self) -> Self {
         let mut sum = glam::DVec3::ZERO;
         for y in 0..self.height as i64 {
             for x in 0..self.width as i64 {
                 sum += self.texel(x, y).truncate().as_dvec3();
             }
         }
-        (sum / (self.width as f64 * self.height as f64).max(1.0)).as_vec3()
+        self.mean = (sum / (self.width as f64 * self.height as f64).max(1.0)).as_vec3();
+        self
     }
 }
 
@@ -151,7 +164,9 @@ mod tests {
             wrap_s: wrap_mode,
             wrap_t: Wrap::Clamp,
             nearest: true,
+            mean: Vec3::ZERO,
         }
+        .with_mean()
     }
 
     #[test]

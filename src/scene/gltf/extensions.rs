@@ -1,0 +1,137 @@
+//! The serde shapes of the `CAUSTIC_*` extensions (docs/contract.md) and their defaults.
+
+use serde::Deserialize;
+
+/// `CAUSTIC_lights_area` on a node.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct AreaLightExt {
+    pub(super) shape: String,
+    pub(super) size: Vec<f32>,
+    pub(super) power: f32,
+    #[serde(default = "white")]
+    pub(super) color: [f32; 3],
+    #[serde(default = "yes")]
+    pub(super) camera_visible: bool,
+    /// Blender's Spread: full angle in radians, π = no narrowing.
+    #[serde(default = "half_turn")]
+    pub(super) spread: f32,
+}
+
+fn half_turn() -> f32 {
+    std::f32::consts::PI
+}
+
+/// `CAUSTIC_materials_medium` on a material (docs/contract.md).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct MediumExt {
+    #[serde(default = "one_f32")]
+    pub(super) density: f32,
+    #[serde(default = "white")]
+    pub(super) scatter_color: [f32; 3],
+    #[serde(default = "black")]
+    pub(super) absorption_color: [f32; 3],
+    #[serde(default)]
+    pub(super) anisotropy: f32,
+    #[serde(default = "black")]
+    pub(super) emission: [f32; 3],
+    #[serde(default = "yes")]
+    pub(super) surface: bool,
+}
+
+/// `CAUSTIC_materials_subsurface` on a material (docs/contract.md).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct SubsurfaceExt {
+    #[serde(default = "one_f32")]
+    pub(super) weight: f32,
+    pub(super) radius: [f32; 3],
+    #[serde(default)]
+    pub(super) anisotropy: f32,
+    #[serde(default = "skin_ior")]
+    pub(super) ior: f32,
+    #[serde(default = "random_walk")]
+    pub(super) method: String,
+}
+
+fn one_f32() -> f32 {
+    1.0
+}
+
+fn black() -> [f32; 3] {
+    [0.0; 3]
+}
+
+fn skin_ior() -> f32 {
+    1.4
+}
+
+fn random_walk() -> String {
+    "random_walk".into()
+}
+
+fn yes() -> bool {
+    true
+}
+
+fn white() -> [f32; 3] {
+    [1.0; 3]
+}
+
+/// `CAUSTIC_world` on the scene (docs/contract.md).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct WorldExt {
+    #[serde(default = "white")]
+    pub(super) color: [f32; 3],
+    #[serde(default = "one_f32")]
+    pub(super) strength: f32,
+    pub(super) image: Option<String>,
+    #[serde(default)]
+    pub(super) rotation: f32,
+}
+
+/// `CAUSTIC_camera` on a camera's node: Blender's lens shift and depth of field.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct CameraExt {
+    #[serde(default)]
+    pub(super) shift: [f32; 2],
+    pub(super) aperture_radius: Option<f32>,
+    pub(super) focus_distance: Option<f32>,
+    #[serde(default)]
+    pub(super) blades: u32,
+    #[serde(default)]
+    pub(super) blade_rotation: f32,
+    pub(super) aperture_ratio: Option<f32>,
+}
+
+/// `CAUSTIC_lights_punctual` on a light's node: Blender's light shape parameters.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct BlenderLight {
+    #[serde(default)]
+    pub(super) radius: f32,
+    #[serde(default)]
+    pub(super) angle: f32,
+    pub(super) spot_blend: Option<f32>,
+    #[serde(default)]
+    pub(super) soft_falloff: bool,
+    #[serde(default = "yes")]
+    pub(super) camera_visible: bool,
+}
+
+impl Default for BlenderLight {
+    fn default() -> Self {
+        BlenderLight { radius: 0.0, angle: 0.0, spot_blend: None, soft_falloff: false, camera_visible: true }
+    }
+}
+
+/// `CAUSTIC_default_material` on the document's root: the material of primitives that
+/// name none (docs/contract.md).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct DefaultMaterialExt {
+    pub(super) material: u32,
+}

@@ -1,0 +1,318 @@
+//! The material extensions: `KHR_materials_transmission`, `_ior`, `_volume`,
+//! `_clearcoat`, `_sheen`, `_dispersion`, `_specular`, and `CAUSTIC_materials_medium`,
+//! `_subsurface` and `_coat`. Every value is checked (a non-finite number is an error
+//! naming the material and key); values outside their range are clamped with a warning.
+
+use super::Loader;
+use super::extensions::{MediumExt, SubsurfaceExt};
+use crate::error::{Error, Result};
+use crate::medium::{HenyeyGreenstein, HomogeneousMedium};
+use crate::scene::Material;
+use crate::scene::material::{Subsurface, SubsurfaceMethod};
+use glam::Vec3;
+
+/// Material extensions that Caustic reads.
+pub(super) const HANDLED_MATERIAL_EXTENSIONS: &[&str] = &[
+    "KHR_materials_emissive_strength",
+    "KHR_materials_specular",
+    "KHR_materials_transmission",
+    "KHR_materials_ior",
+    "KHR_materials_volume",
+    "KHR_materials_clearcoat",
+    "CAUSTIC_materials_medium",
+    "CAUSTIC_materials_subsurface",
+    "KHR_materials_sheen",
+    "KHR_materials_dispersion",
+    "CAUSTIC_materials_coat",
+    // Warned about by name where they are read:
+    "KHR_materials_iridescence",
+    "KHR_materials_anisotropy",
+];
+
+impl Loader<'_> {
+    /// Reads the material extensions of `m` into `mat` (whose core glTF fields are set),
+    /// naming each one read in `features`.
+    pub(super) fn material_extensions(
+        &mut self,
+        doc: &gltf::Document,
+        m: &gltf::Material,
+        buffers: &[Vec<u8>],
+        mat: &mut Material,
+        features: &mut Vec<String>,
+    ) -> Result<()> {
+        let name = mat.name.clone();
+        let roughness = mat.roughness;
+        let file = self.file.to_string();
+        let num = |v: &serde_json::Value, key: &str, default: f32| -> Result<f32> {
+            match v.get(key) {
+                None => Ok(default),
+                Some(x) => x.as_f64().map(|f| f as f32).filter(|f| f.is_finite()).ok_or_else(|| Error::Scene {
+                    file: file.clone(),
+                    message: format!("material '{name}': {key} is not a finite number"),
+                }),
+            }
+        };
+        let mut transmission = 0.0;
+        let mut transmission_tex = None;
+        if let Some(t) = m.extension_value("KHR_materials_transmission").cloned() {
+            features.push("KHR_materials_transmission".into());
+            let factor = num(&t, "transmissionFactor", 0.0)?;
+            transmission = factor.clamp(0.0, 1.0);
+            if transmission != factor {
+                self.warn(format!("material '{name}': transmissionFactor {factor} was clamped to [0, 1]"));
+            }
+            if let Some(tex) = t.get("transmissionTexture") {
+                transmission_tex = self.raw_texture(doc, tex, false, buffers, &name)?;
+            }
+        }
+        let mut ior = 1.5;
+        if let Some(i) = m.extension_value("KHR_materials_ior").cloned() {
+            features.push("KHR_materials_ior".into());
+            let v = num(&i, "ior", 1.5)?;
+            // glTF allows 0 to mean "no Fresnel"; Caustic needs a physical index.
+            if v < 1.0 {
+                self.warn(format!("material '{name}': ior {v} is below 1 and was set to 1"));
+            }
+            ior = v.clamp(1.0, 10.0);
+        }
+        let mut medium = None;
+        if let Some(v) = m.extension_value("KHR_materials_volume").cloned() {
+            features.push("KHR_materials_volume".into());
+            let thickness = num(&v, "thicknessFactor", 0.0)?;
+            let distance = num(&v, "attenuationDistance", f32::INFINITY)?;
+            let color = v
+                .get("attenuationColor")
+                .and_then(|c| c.as_array())
+                // A value that is not a number becomes NaN, refused below (not silently 1).
+                .map(|c| c.iter().map(|x| x.as_f64().unwrap_or(f64::NAN) as f32).collect::<Vec<f32>>())
+                .unwrap_or_else(|| vec![1.0; 3]);
+            if color.len() != 3 || color.iter().any(|c| !c.is_finite()) || !(distance > 0.0) {
+                return Err(self.err(format!(
+                    "material '{name}': KHR_materials_volume needs 3 finite attenuationColor values and attenuationDistance > 0"
+                )));
+            }
+            // Beer-Lambert: after attenuationDistance, light keeps attenuationColor.
+            let sigma = Vec3::new(color[0], color[1], color[2]).clamp(Vec3::splat(1e-6), Vec3::ONE);
+            let sigma_a = if distance.is_finite() {
+                -Vec3::new(sigma.x.ln(), sigma.y.ln(), sigma.z.ln()) / distance
+            } else {
+                Vec3::ZERO
+            };
+            if thickness > 0.0 {
+                medium = Some(HomogeneousMedium::absorbing(sigma_a));
+            }
+            if v.get("thicknessTexture").is_some() {
+                features.push("thicknessTexture (ignored: Caustic traces the real geometry)".into());
+            }
+        }
+        let mut null_surface = false;
+        if let Some(v) = m.extension_value("CAUSTIC_materials_medium").cloned() {
+            features.push("CAUSTIC_materials_medium".into());
+            let ext: MediumExt = serde_json::from_value(v)
+                .map_err(|e| self.err(format!("material '{name}': CAUSTIC_materials_medium is malformed: {e}")))?;
+            let colours = [ext.scatter_color, ext.absorption_color, ext.emission];
+            let finite = ext.density.is_finite()
+                && ext.anisotropy.is_finite()
+                && colours.iter().all(|c| c.iter().all(|x| x.is_finite()));
+            if !finite || ext.density < 0.0 || colours.iter().any(|c| c.iter().any(|&x| x < 0.0)) {
+                return Err(self.err(format!(
+                    "material '{name}': CAUSTIC_materials_medium needs finite, non-negative density and colours"
+                )));
+            }
+            if !(-1.0..=1.0).contains(&ext.anisotropy) {
+                return Err(self.err(format!(
+                    "material '{name}': CAUSTIC_materials_medium anisotropy {} is outside [-1, 1]",
+                    ext.anisotropy
+                )));
+            }
+            if medium.is_some() {
+                self.warn(format!(
+                    "material '{name}': CAUSTIC_materials_medium replaces the KHR_materials_volume attenuation"
+                ));
+            }
+            medium = Some(HomogeneousMedium {
+                sigma_a: Vec3::from(ext.absorption_color) * ext.density,
+                sigma_s: Vec3::from(ext.scatter_color) * ext.density,
+                phase: HenyeyGreenstein::new(ext.anisotropy),
+                emission: Vec3::from(ext.emission),
+            });
+            null_surface = !ext.surface;
+        }
+        let mut subsurface = None;
+        if let Some(v) = m.extension_value("CAUSTIC_materials_subsurface").cloned() {
+            features.push("CAUSTIC_materials_subsurface".into());
+            let ext: SubsurfaceExt = serde_json::from_value(v)
+                .map_err(|e| self.err(format!("material '{name}': CAUSTIC_materials_subsurface is malformed: {e}")))?;
+            let finite = [ext.weight, ext.anisotropy, ext.ior].iter().chain(ext.radius.iter()).all(|x| x.is_finite());
+            if !finite || ext.weight < 0.0 || ext.radius.iter().any(|&r| r < 0.0) || ext.ior < 1.0 {
+                return Err(self.err(format!(
+                    "material '{name}': CAUSTIC_materials_subsurface needs finite values, weight and radius >= 0, ior >= 1"
+                )));
+            }
+            let method = match ext.method.as_str() {
+                "random_walk" => SubsurfaceMethod::RandomWalk,
+                "random_walk_skin" => SubsurfaceMethod::RandomWalkSkin,
+                other => {
+                    return Err(self.err(format!(
+                        "material '{name}': CAUSTIC_materials_subsurface method '{other}' is unknown (random_walk, random_walk_skin)"
+                    )));
+                }
+            };
+            if ext.weight > 1.0 || !(0.0..=0.9).contains(&ext.anisotropy) {
+                self.warn(format!(
+                    "material '{name}': subsurface weight was clamped to [0, 1] and anisotropy to [0, 0.9] (as Cycles)"
+                ));
+            }
+            if ext.weight > 0.0 && ext.radius.iter().any(|&r| r > 0.0) {
+                subsurface = Some(Subsurface {
+                    weight: ext.weight.min(1.0),
+                    radius: Vec3::from(ext.radius),
+                    anisotropy: ext.anisotropy.clamp(0.0, 0.9),
+                    ior: ext.ior.clamp(1.01, 3.8),
+                    method,
+                });
+            }
+        }
+        let (mut coat, mut coat_tex, mut coat_roughness, mut coat_roughness_tex) = (0.0, None, 0.0, None);
+        let (mut coat_normal_tex, mut coat_normal_scale) = (None, 1.0);
+        if let Some(c) = m.extension_value("KHR_materials_clearcoat").cloned() {
+            features.push("KHR_materials_clearcoat".into());
+            coat = num(&c, "clearcoatFactor", 0.0)?.clamp(0.0, 1.0);
+            coat_roughness = num(&c, "clearcoatRoughnessFactor", 0.0)?.clamp(0.0, 1.0);
+            if let Some(t) = c.get("clearcoatTexture") {
+                coat_tex = self.raw_texture(doc, t, false, buffers, &name)?;
+            }
+            if let Some(t) = c.get("clearcoatRoughnessTexture") {
+                coat_roughness_tex = self.raw_texture(doc, t, false, buffers, &name)?;
+            }
+            if let Some(t) = c.get("clearcoatNormalTexture") {
+                coat_normal_tex = self.raw_texture(doc, t, false, buffers, &name)?;
+                coat_normal_scale = num(t, "scale", 1.0)?;
+            }
+        }
+        // A colour factor: 3 finite numbers, clamped to be non-negative.
+        let color3 = |v: &serde_json::Value, key: &str, default: Vec3| -> Result<Vec3> {
+            match v.get(key) {
+                None => Ok(default),
+                Some(c) => c
+                    .as_array()
+                    .filter(|a| a.len() == 3)
+                    .and_then(|a| {
+                        let f: Vec<f32> = a.iter().filter_map(|x| x.as_f64().map(|f| f as f32)).collect();
+                        (f.len() == 3 && f.iter().all(|x| x.is_finite())).then(|| Vec3::new(f[0], f[1], f[2]))
+                    })
+                    .map(|c| c.max(Vec3::ZERO))
+                    .ok_or_else(|| Error::Scene {
+                        file: self.file.to_string(),
+                        message: format!("material '{name}': {key} must be 3 finite numbers"),
+                    }),
+            }
+        };
+        let (mut coat_ior, mut coat_tint) = (1.5, Vec3::ONE);
+        if let Some(c) = m.extension_value("CAUSTIC_materials_coat").cloned() {
+            features.push("CAUSTIC_materials_coat".into());
+            let v = num(&c, "ior", 1.5)?;
+            if !(1.0..=10.0).contains(&v) {
+                self.warn(format!("material '{name}': coat ior {v} was clamped to [1, 10]"));
+            }
+            coat_ior = v.clamp(1.0, 10.0);
+            coat_tint = color3(&c, "tint", Vec3::ONE)?;
+            if coat_tint.max_element() > 1.0 {
+                self.warn(format!("material '{name}': coat tint {coat_tint} was clamped to [0, 1]"));
+                coat_tint = coat_tint.min(Vec3::ONE);
+            }
+            if coat == 0.0 {
+                self.warn(format!(
+                    "material '{name}': CAUSTIC_materials_coat without a coat (KHR_materials_clearcoat) does nothing"
+                ));
+            }
+        }
+        let (mut sheen_color, mut sheen_color_tex, mut sheen_roughness, mut sheen_roughness_tex) =
+            (Vec3::ZERO, None, 0.0, None);
+        if let Some(sh) = m.extension_value("KHR_materials_sheen").cloned() {
+            features.push("KHR_materials_sheen".into());
+            sheen_color = color3(&sh, "sheenColorFactor", Vec3::ZERO)?;
+            if sheen_color.max_element() > 1.0 {
+                self.warn(format!("material '{name}': sheenColorFactor {sheen_color} was clamped to [0, 1]"));
+                sheen_color = sheen_color.min(Vec3::ONE);
+            }
+            sheen_roughness = num(&sh, "sheenRoughnessFactor", 0.0)?.clamp(0.0, 1.0);
+            if let Some(t) = sh.get("sheenColorTexture") {
+                sheen_color_tex = self.raw_texture(doc, t, true, buffers, &name)?;
+            }
+            if let Some(t) = sh.get("sheenRoughnessTexture") {
+                sheen_roughness_tex = self.raw_texture(doc, t, false, buffers, &name)?;
+            }
+        }
+        let mut dispersion = 0.0;
+        if let Some(d) = m.extension_value("KHR_materials_dispersion").cloned() {
+            features.push("KHR_materials_dispersion".into());
+            let v = num(&d, "dispersion", 0.0)?;
+            if v < 0.0 {
+                self.warn(format!("material '{name}': dispersion {v} is negative and was set to 0"));
+            }
+            dispersion = v.clamp(0.0, 20.0);
+            if dispersion > 0.0 && roughness >= crate::bsdf::dielectric::SMOOTH_ROUGHNESS {
+                self.warn(format!(
+                    "material '{name}': dispersion is rendered on smooth glass only; this rough glass uses its mean index"
+                ));
+            }
+        }
+        for ext in ["KHR_materials_iridescence", "KHR_materials_anisotropy"] {
+            if m.extension_value(ext).is_some() {
+                features.push(format!("{ext} (ignored)"));
+                self.warn(format!("material '{name}': {ext} is not rendered yet and was ignored"));
+            }
+        }
+        let mut specular = 1.0;
+        let (mut specular_color, mut specular_tex, mut specular_color_tex) = (Vec3::ONE, None, None);
+        if let Some(spec) = m.extension_value("KHR_materials_specular").cloned() {
+            features.push("KHR_materials_specular".into());
+            let factor = num(&spec, "specularFactor", 1.0)?;
+            specular = factor.clamp(0.0, 1.0);
+            if specular != factor {
+                self.warn(format!("material '{name}': specularFactor {factor} was clamped to [0, 1]"));
+            }
+            specular_color = color3(&spec, "specularColorFactor", Vec3::ONE)?;
+            if let Some(t) = spec.get("specularTexture") {
+                specular_tex = self.raw_texture(doc, t, false, buffers, &name)?;
+            }
+            if let Some(t) = spec.get("specularColorTexture") {
+                specular_color_tex = self.raw_texture(doc, t, true, buffers, &name)?;
+            }
+        }
+        if let Some(exts) = m.extensions() {
+            for key in exts.keys() {
+                if HANDLED_MATERIAL_EXTENSIONS.contains(&key.as_str()) {
+                    continue;
+                }
+                features.push(format!("{key} (ignored)"));
+                self.warn(format!("material '{name}': {key} is not rendered yet and was ignored"));
+            }
+        }
+        mat.specular = specular;
+        mat.specular_tex = specular_tex;
+        mat.specular_color = specular_color;
+        mat.specular_color_tex = specular_color_tex;
+        mat.ior = ior;
+        mat.transmission = transmission;
+        mat.transmission_tex = transmission_tex;
+        mat.medium = medium;
+        mat.null_surface = null_surface;
+        mat.subsurface = subsurface;
+        mat.coat = coat;
+        mat.coat_tex = coat_tex;
+        mat.coat_roughness = coat_roughness;
+        mat.coat_roughness_tex = coat_roughness_tex;
+        mat.coat_ior = coat_ior;
+        mat.coat_tint = coat_tint;
+        mat.coat_normal_tex = coat_normal_tex;
+        mat.coat_normal_scale = coat_normal_scale;
+        mat.sheen_color = sheen_color;
+        mat.sheen_color_tex = sheen_color_tex;
+        mat.sheen_roughness = sheen_roughness;
+        mat.sheen_roughness_tex = sheen_roughness_tex;
+        mat.dispersion = dispersion;
+        Ok(())
+    }
+}

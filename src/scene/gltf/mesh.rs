@@ -1,0 +1,428 @@
+//! Primitives to world-space triangles: attributes read and checked, strips and fans
+//! unrolled, degenerate triangles dropped, mirrored instances rewound, and MikkTSpace
+//! tangents generated for normal maps when the file has none.
+
+use super::{Loader, MAX_COORDINATE};
+use crate::error::Result;
+use crate::memory;
+use crate::scene::{Material, Mesh};
+use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
+use std::collections::HashMap;
+
+impl Loader<'_> {
+    /// Charges the world-space mesh that flattening `instances` will build (each
+    /// instance copies its mesh's vertices and triangles), before any of it is read:
+    /// accessor counts are known from the JSON alone, and a sparse accessor or a shared
+    /// subtree can declare far more than the file holds.
+    pub(super) fn charge_mesh(&self, doc: &gltf::Document, instances: &[(usize, Mat4)]) -> Result<()> {
+        use gltf::mesh::Mode;
+        let mut per_mesh: HashMap<usize, (u64, u64)> = HashMap::new();
+        let (mut vertices, mut triangles) = (0u64, 0u64);
+        for (node_index, _) in instances {
+            let Some(m) = doc.nodes().nth(*node_index).and_then(|n| n.mesh()) else { continue };
+            let (v, t) = *per_mesh.entry(m.index()).or_insert_with(|| {
+                let (mut v, mut t) = (0u64, 0u64);
+                for prim in m.primitives() {
+                    let n = prim.get(&gltf::Semantic::Positions).map_or(0, |a| a.count() as u64);
+                    let idx = prim.indices().map_or(n, |a| a.count() as u64);
+                    v += n;
+                    t += match prim.mode() {
+                        Mode::Triangles => idx / 3,
+                        Mode::TriangleStrip | Mode::TriangleFan => idx.saturating_sub(2),
+                        _ => 0,
+                    };
+                }
+                (v, t)
+            });
+            vertices = vertices.saturating_add(v);
+            triangles = triangles.saturating_add(t);
+        }
+        let bytes = vertices
+            .saturating_mul(memory::MESH_BYTES_PER_VERTEX)
+            .saturating_add(triangles.saturating_mul(memory::MESH_BYTES_PER_TRIANGLE));
+        self.budget.charge(format!("the mesh ({triangles} triangles and {vertices} vertices after instancing)"), bytes)
+    }
+
+    /// Appends every triangle primitive of `m` under `world`; returns the number of
+    /// degenerate triangles dropped.
+    pub(super) fn append_mesh(
+        &mut self,
+        m: &gltf::Mesh,
+        world: &Mat4,
+        buffers: &[Vec<u8>],
+        materials: &mut Vec<Material>,
+        default_material: u32,
+        out: &mut Mesh,
+    ) -> Result<usize> {
+        let mesh_name =
+            m.name().map(|n| format!("mesh {} ('{n}')", m.index())).unwrap_or_else(|| format!("mesh {}", m.index()));
+        let normal_matrix = Mat3::from_mat4(*world).inverse().transpose();
+        let det = Mat3::from_mat4(*world).determinant();
+        if !det.is_finite() {
+            return Err(self.err(format!("{mesh_name}: an instance's transform is not finite (scale too large?)")));
+        }
+        if det == 0.0 {
+            self.warn(format!("{mesh_name}: an instance has a singular transform (zero scale) and was skipped"));
+            return Ok(0);
+        }
+        let flip = det < 0.0;
+        let mut degenerate = 0;
+        for prim in m.primitives() {
+            let what = format!("{mesh_name} primitive {}", prim.index());
+            use gltf::mesh::Mode;
+            let mode = prim.mode();
+            if matches!(mode, Mode::Points | Mode::Lines | Mode::LineLoop | Mode::LineStrip) {
+                self.warn(format!("{what}: {mode:?} primitives (points/lines) are not rendered and were skipped"));
+                continue;
+            }
+            let reader = prim.reader(|b| buffers.get(b.index()).map(|v| v.as_slice()));
+            let pos_acc = prim
+                .get(&gltf::Semantic::Positions)
+                .ok_or_else(|| self.err(format!("{what}: no POSITION attribute")))?;
+            if pos_acc.data_type() != gltf::accessor::DataType::F32
+                || pos_acc.dimensions() != gltf::accessor::Dimensions::Vec3
+            {
+                return Err(self.err(format!(
+                    "{what}: POSITION must be float VEC3 (quantized positions, KHR_mesh_quantization, are not supported)"
+                )));
+            }
+            let positions: Vec<Vec3> = reader
+                .read_positions()
+                .ok_or_else(|| self.err(format!("{what}: cannot read POSITION")))?
+                .map(Vec3::from)
+                .collect();
+            if positions.len() != pos_acc.count() {
+                return Err(self.err(format!("{what}: POSITION data is shorter than its accessor count")));
+            }
+            if let Some(bad) = positions.iter().position(|p| !p.is_finite()) {
+                return Err(self.err(format!("{what}: vertex {bad} has a NaN or infinite position")));
+            }
+            let nv = positions.len();
+            let read_exact = |v: Option<Vec<Vec3>>, name: &str| -> Result<Option<Vec<Vec3>>> {
+                match v {
+                    Some(v) if v.len() != nv => {
+                        Err(self.err(format!("{what}: {name} has {} entries for {nv} vertices", v.len())))
+                    }
+                    other => Ok(other),
+                }
+            };
+            let normals = read_exact(reader.read_normals().map(|it| it.map(Vec3::from).collect()), "NORMAL")?;
+            let tangents: Option<Vec<Vec4>> = reader.read_tangents().map(|it| it.map(Vec4::from).collect());
+            let uv0: Option<Vec<Vec2>> = reader.read_tex_coords(0).map(|t| t.into_f32().map(Vec2::from).collect());
+            let uv1: Option<Vec<Vec2>> = reader.read_tex_coords(1).map(|t| t.into_f32().map(Vec2::from).collect());
+            let colors: Option<Vec<Vec4>> = reader.read_colors(0).map(|c| c.into_rgba_f32().map(Vec4::from).collect());
+            for (len, name) in [
+                (tangents.as_ref().map(Vec::len), "TANGENT"),
+                (uv0.as_ref().map(Vec::len), "TEXCOORD_0"),
+                (uv1.as_ref().map(Vec::len), "TEXCOORD_1"),
+                (colors.as_ref().map(Vec::len), "COLOR_0"),
+            ] {
+                if let Some(l) = len
+                    && l != nv
+                {
+                    return Err(self.err(format!("{what}: {name} has {l} entries for {nv} vertices")));
+                }
+            }
+            let raw_indices: Vec<u32> = match reader.read_indices() {
+                Some(ix) => ix.into_u32().collect(),
+                None => (0..nv as u32).collect(),
+            };
+            if let Some(&bad) = raw_indices.iter().find(|&&i| i as usize >= nv) {
+                return Err(self.err(format!("{what}: index {bad} is out of range (the primitive has {nv} vertices)")));
+            }
+            let tris: Vec<[u32; 3]> = match mode {
+                Mode::Triangles => raw_indices.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
+                Mode::TriangleStrip => (0..raw_indices.len().saturating_sub(2))
+                    .map(|i| {
+                        let (a, b, c) = (raw_indices[i], raw_indices[i + 1], raw_indices[i + 2]);
+                        if i % 2 == 0 { [a, b, c] } else { [b, a, c] }
+                    })
+                    .collect(),
+                Mode::TriangleFan => (1..raw_indices.len().saturating_sub(1))
+                    .map(|i| [raw_indices[0], raw_indices[i], raw_indices[i + 1]])
+                    .collect(),
+                _ => unreachable!("points and lines skipped above"),
+            };
+            let material_index = prim.material().index().map(|i| i as u32).unwrap_or(default_material);
+            let material = &materials[material_index as usize];
+
+            // Tangents for normal maps: given, or generated with MikkTSpace.
+            let mut tangents = tangents;
+            if let Some(nt) = material.normal_tex
+                && tangents.is_none()
+            {
+                let uv = if nt.tex_coord == 0 { &uv0 } else { &uv1 };
+                match (uv, &normals) {
+                    (Some(uv), Some(n)) => {
+                        let t0 = std::time::Instant::now();
+                        tangents = Some(mikktspace_tangents(&positions, n, uv, &tris));
+                        self.profile.tangents += t0.elapsed().as_secs_f64();
+                    }
+                    _ => self.warn(format!("{what}: a normal map without UVs or normals cannot be applied; ignored")),
+                }
+            }
+
+            // Append transformed vertices.
+            let base = out.positions.len() as u32;
+            for i in 0..nv {
+                let p = world.transform_point3(positions[i]);
+                if !p.is_finite() {
+                    return Err(self.err(format!(
+                        "{what}: vertex {i} is not finite after its node transform (position or scale too large)"
+                    )));
+                }
+                // Beyond this, bounding-box arithmetic in the BVH build overflows f32.
+                if p.abs().max_element() > MAX_COORDINATE {
+                    return Err(self.err(format!(
+                        "{what}: vertex {i} lies at {p}, beyond ±{MAX_COORDINATE:e} scene units (not supported)"
+                    )));
+                }
+                out.positions.push(p);
+                // A zero normal marks "use the geometric normal" (glTF: flat shading
+                // when normals are absent).
+                let n = normals.as_ref().map(|n| (normal_matrix * n[i]).normalize_or_zero()).unwrap_or(Vec3::ZERO);
+                out.normals.push(n);
+                let t = tangents
+                    .as_ref()
+                    .map(|t| {
+                        let v = world.transform_vector3(t[i].truncate()).normalize_or_zero();
+                        v.extend(if flip { -t[i].w } else { t[i].w })
+                    })
+                    .unwrap_or(Vec4::ZERO);
+                out.tangents.push(t);
+                out.uv0.push(uv0.as_ref().map(|u| u[i]).unwrap_or(Vec2::ZERO));
+                out.uv1.push(uv1.as_ref().map(|u| u[i]).unwrap_or(Vec2::ZERO));
+                out.colors.push(colors.as_ref().map(|c| c[i]).unwrap_or(Vec4::ONE));
+            }
+            let first_tri = out.triangles.len();
+            for t in tris {
+                let p = t.map(|i| out.positions[(base + i) as usize]);
+                let area2 = (p[1] - p[0]).cross(p[2] - p[0]).length();
+                if !(area2 > 0.0) || !area2.is_finite() {
+                    degenerate += 1;
+                    continue;
+                }
+                let t = if flip { [t[0], t[2], t[1]] } else { t };
+                out.triangles.push(t.map(|i| base + i));
+                out.tri_material.push(material_index);
+            }
+            let material = &materials[material_index as usize];
+            if material.medium.is_some() || material.subsurface.is_some() {
+                let open = open_edges(&out.positions, &out.triangles[first_tri..]);
+                if open > 0 && self.khr_volume_materials.contains(&material_index) && material.subsurface.is_none() {
+                    // KHR_materials_volume describes the inside of a closed mesh; on a sheet
+                    // (Blender's exporter and the add-on add it to every transmissive
+                    // material) it would make the sheet a one-way entry into glass. As a
+                    // volume of thickness 0, the spec's thin-walled case, it renders as Cycles
+                    // renders the sheet.
+                    let thin = match self.thin_variants.get(&material_index) {
+                        Some(&t) => t,
+                        None => {
+                            let name = material.name.clone();
+                            materials.push(Material { medium: None, ..material.clone() });
+                            let t = materials.len() as u32 - 1;
+                            self.thin_variants.insert(material_index, t);
+                            self.warn(format!(
+                                "material '{name}': KHR_materials_volume on an open surface ({what}, {open} open \
+                                 edges) is rendered thin-walled (no volume inside a sheet)"
+                            ));
+                            t
+                        }
+                    };
+                    for m in &mut out.tri_material[first_tri..] {
+                        *m = thin;
+                    }
+                } else if open > 0 {
+                    self.warn(format!(
+                        "{what}: material '{}' has a volume or subsurface scattering but the primitive is not closed \
+                         ({open} open edges): paths that leave through a hole lose the light the medium would have \
+                         scattered (a path escaping to the sky from inside is black)",
+                        material.name
+                    ));
+                }
+            }
+        }
+        Ok(degenerate)
+    }
+}
+
+/// Edges used by an odd number of the triangles: 0 for a closed surface. Vertices are
+/// joined by position rounded to 10⁻⁶ of the primitive's size, so that vertices split
+/// for UV seams or hard edges, or computed twice with rounding (a sphere's seam and
+/// poles), still join.
+pub(super) fn open_edges(positions: &[Vec3], tris: &[[u32; 3]]) -> usize {
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    for t in tris {
+        for &i in t {
+            lo = lo.min(positions[i as usize]);
+            hi = hi.max(positions[i as usize]);
+        }
+    }
+    let scale = 1e6 / (hi - lo).max_element().max(1e-30);
+    let key = |i: u32| (positions[i as usize] * scale).round().to_array().map(|c| c as i64);
+    let mut count: HashMap<([i64; 3], [i64; 3]), u32> = HashMap::new();
+    for t in tris {
+        for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
+            let (ka, kb) = (key(a), key(b));
+            if ka != kb {
+                *count.entry(if ka < kb { (ka, kb) } else { (kb, ka) }).or_default() += 1;
+            }
+        }
+    }
+    count.values().filter(|&&c| c % 2 == 1).count()
+}
+
+/// MikkTSpace tangents for an indexed triangle list, per vertex, in glTF's convention
+/// (bitangent = cross(normal, xyz) · w points up the image, as Blender exports them).
+pub(super) fn mikktspace_tangents(positions: &[Vec3], normals: &[Vec3], uvs: &[Vec2], tris: &[[u32; 3]]) -> Vec<Vec4> {
+    struct Geo<'a> {
+        p: &'a [Vec3],
+        n: &'a [Vec3],
+        uv: &'a [Vec2],
+        tris: &'a [[u32; 3]],
+        out: Vec<Vec4>,
+    }
+    impl mikktspace::Geometry for Geo<'_> {
+        fn num_faces(&self) -> usize {
+            self.tris.len()
+        }
+        fn num_vertices_of_face(&self, _face: usize) -> usize {
+            3
+        }
+        fn position(&self, face: usize, vert: usize) -> [f32; 3] {
+            self.p[self.tris[face][vert] as usize].to_array()
+        }
+        fn normal(&self, face: usize, vert: usize) -> [f32; 3] {
+            self.n[self.tris[face][vert] as usize].to_array()
+        }
+        fn tex_coord(&self, face: usize, vert: usize) -> [f32; 2] {
+            // MikkTSpace (as Blender, which computes the tangents its exporter writes)
+            // takes V up from a bottom-left origin; glTF's UV origin is the top-left with
+            // V down. Unflipped, every generated bitangent points down the image and the
+            // normal map's green axis is inverted.
+            let uv = self.uv[self.tris[face][vert] as usize];
+            [uv.x, 1.0 - uv.y]
+        }
+        fn set_tangent_encoded(&mut self, tangent: [f32; 4], face: usize, vert: usize) {
+            self.out[self.tris[face][vert] as usize] = Vec4::from(tangent);
+        }
+    }
+    let mut g = Geo { p: positions, n: normals, uv: uvs, tris, out: vec![Vec4::ZERO; positions.len()] };
+    mikktspace::generate_tangents(&mut g);
+    g.out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::mikktspace_tangents;
+    use glam::{Vec2, Vec3, Vec4};
+
+    /// A unit quad in the XY plane facing +Z, with UVs as Blender's exporter writes them:
+    /// Blender's (x, y) become glTF's (x, 1 - y), so the image's top row (v = 0) lies at
+    /// y = 1. `mirror_u` mirrors the texture horizontally (u = 1 - x), as the mirrored
+    /// half of Khronos' NormalTangentMirrorTest does.
+    fn quad(mirror_u: bool) -> (Vec<Vec3>, Vec<Vec3>, Vec<Vec2>, Vec<[u32; 3]>) {
+        let p = vec![
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(1.0, 1.0, 0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+        ];
+        let uv = p.iter().map(|q| Vec2::new(if mirror_u { 1.0 - q.x } else { q.x }, 1.0 - q.y)).collect();
+        (p, vec![Vec3::Z; 4], uv, vec![[0, 1, 2], [0, 2, 3]])
+    }
+
+    /// The TANGENT a file carries for this geometry, by the glTF 2.0 spec: xyz = dP/du (the
+    /// normal texture's +X), and w such that bitangent = cross(normal, xyz) · w points to
+    /// the normal texture's +Y, which is "up" in the image: towards its top row, v = 0,
+    /// i.e. along -dP/dv in glTF's top-left UV origin (Blender's +V).
+    fn spec_tangent(p: &[Vec3], uv: &[Vec2], n: Vec3) -> Vec4 {
+        let (e1, e2) = (p[1] - p[0], p[2] - p[0]);
+        let (d1, d2) = (uv[1] - uv[0], uv[2] - uv[0]);
+        let det = d1.x * d2.y - d2.x * d1.y;
+        let dp_du = (e1 * d2.y - e2 * d1.y) / det;
+        let dp_dv = (e2 * d1.x - e1 * d2.x) / det;
+        let up = -dp_dv;
+        let w = if n.cross(dp_du).dot(up) > 0.0 { 1.0 } else { -1.0 };
+        dp_du.normalize().extend(w)
+    }
+
+    #[test]
+    fn generated_tangents_are_the_ones_a_file_would_carry() {
+        for mirror in [false, true] {
+            let (p, n, uv, tris) = quad(mirror);
+            let want = spec_tangent(&p, &uv, Vec3::Z);
+            // By hand: +X (or -X mirrored) with the bitangent +Y, the image's up.
+            assert_eq!(want, if mirror { Vec4::new(-1.0, 0.0, 0.0, -1.0) } else { Vec4::new(1.0, 0.0, 0.0, 1.0) });
+            for (i, t) in mikktspace_tangents(&p, &n, &uv, &tris).iter().enumerate() {
+                // MikkTSpace normalises in f32: a few ulps.
+                assert!((*t - want).abs().max_element() < 1e-6, "mirror {mirror}, vertex {i}: {t} vs {want}");
+            }
+        }
+    }
+
+    /// A quad (an open sheet, 2 triangles) and a closed cube (12 triangles), both of one
+    /// glass material with KHR_materials_volume thickness 1, as Blender's exports are.
+    fn sheet_and_cube() -> crate::scene::Scene {
+        use base64::Engine;
+        let quad = [[-1f32, -1., 0.], [1., -1., 0.], [1., 1., 0.], [-1., 1., 0.]];
+        let cube: Vec<[f32; 3]> =
+            (0..8).map(|i| [(i & 1) as f32 + 3.0, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32]).collect();
+        let faces: [[u32; 4]; 6] = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
+        let cube_idx: Vec<u32> = faces.iter().flat_map(|f| [f[0], f[1], f[2], f[0], f[2], f[3]]).collect();
+        let f = |v: &[[f32; 3]]| v.iter().flatten().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
+        let u = |v: &[u32]| v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
+        let parts = [f(&quad), u(&[0, 1, 2, 0, 2, 3]), f(&cube), u(&cube_idx)];
+        let mut views = Vec::new();
+        let mut offset = 0;
+        for p in &parts {
+            views.push(serde_json::json!({"buffer": 0, "byteOffset": offset, "byteLength": p.len()}));
+            offset += p.len();
+        }
+        let data = parts.concat();
+        let doc = serde_json::json!({
+            "asset": {"version": "2.0"},
+            "buffers": [{"uri": format!("data:application/octet-stream;base64,{}",
+                base64::engine::general_purpose::STANDARD.encode(&data)), "byteLength": data.len()}],
+            "bufferViews": views,
+            "accessors": [
+                {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [-1, -1, 0], "max": [1, 1, 0]},
+                {"bufferView": 1, "componentType": 5125, "count": 6, "type": "SCALAR"},
+                {"bufferView": 2, "componentType": 5126, "count": 8, "type": "VEC3", "min": [3, 0, 0], "max": [4, 1, 1]},
+                {"bufferView": 3, "componentType": 5125, "count": 36, "type": "SCALAR"}
+            ],
+            "materials": [{"name": "glass", "extensions": {
+                "KHR_materials_transmission": {"transmissionFactor": 1.0},
+                "KHR_materials_volume": {"thicknessFactor": 1.0, "attenuationColor": [0.5, 0.5, 0.5], "attenuationDistance": 1.0}}}],
+            "meshes": [
+                {"primitives": [{"attributes": {"POSITION": 0}, "indices": 1, "material": 0}]},
+                {"primitives": [{"attributes": {"POSITION": 2}, "indices": 3, "material": 0}]}
+            ],
+            "nodes": [{"mesh": 0}, {"mesh": 1}],
+            "scenes": [{"nodes": [0, 1]}]
+        });
+        let bytes = serde_json::to_vec(&doc).unwrap();
+        let budget = crate::memory::MemoryBudget::unlimited();
+        crate::scene::gltf::load_bytes(&bytes, std::path::Path::new("."), "sheet.gltf", &budget).unwrap()
+    }
+
+    #[test]
+    fn a_volume_on_an_open_sheet_is_thin_walled_and_on_a_closed_mesh_a_volume() {
+        let scene = sheet_and_cube();
+        let m = &scene.mesh;
+        assert_eq!(m.triangles.len(), 14);
+        let material = |t: usize| &scene.materials[m.tri_material[t] as usize];
+        for t in 0..2 {
+            assert!(material(t).medium.is_none(), "the sheet's triangle {t} is thin-walled");
+            assert_eq!((material(t).name.as_str(), material(t).transmission), ("glass", 1.0));
+        }
+        for t in 2..14 {
+            assert!(material(t).medium.is_some(), "the cube's triangle {t} bounds a volume");
+        }
+        assert!(
+            scene.warnings.iter().any(|w| w.contains("'glass'") && w.contains("thin-walled")),
+            "{:?}",
+            scene.warnings
+        );
+    }
+}

@@ -1,0 +1,591 @@
+//! The glTF 2.0 loader: the only module that touches the `gltf` crate.
+//!
+//! Reads .gltf (external or data-URI buffers and images) and .glb, flattens the node
+//! hierarchy into world-space triangles, and converts materials, cameras, lights and
+//! the `CAUSTIC_*` extensions into the renderer's own types. Every defect of the input
+//! becomes an [`Error::Scene`] naming the file and the offending object; every guess
+//! or dropped feature becomes a warning in [`Scene::warnings`].
+//!
+//! One file per loading step, all methods of one [`Loader`]: this file reads the
+//! container and orchestrates; `validate.rs` checks indices, views and accessor types
+//! before the `gltf` crate sees them; `textures.rs` decodes images; `materials.rs`
+//! converts materials; `nodes.rs` flattens the node trees; `mesh.rs` reads primitives
+//! and generates tangents; `cameras.rs`, `lights.rs` and `world.rs` the rest;
+//! `extensions.rs` holds the serde shapes of the `CAUSTIC_*` extensions.
+
+mod cameras;
+mod emission;
+mod extensions;
+mod lights;
+mod material_ext;
+mod materials;
+mod mesh;
+mod nodes;
+mod textures;
+mod validate;
+mod world;
+
+use super::texture::Texture;
+use super::{CameraReport, LightReport, LoadProfile, LoadReport, Material, Mesh, Projection, Scene, SceneSettings};
+use crate::error::{Error, Result};
+use crate::light::Light;
+use crate::memory::MemoryBudget;
+use base64::Engine;
+use cameras::frame_bounds;
+use glam::{Vec2, Vec3};
+use gltf::json;
+use lights::punctual_power;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+use validate::check_references;
+
+/// Extensions that Caustic renders, and so accepts in `extensionsRequired`: every one the
+/// loader reads (not those it reads only to warn about, such as iridescence).
+pub const SUPPORTED_REQUIRED: &[&str] = &[
+    "KHR_lights_punctual",
+    "KHR_materials_emissive_strength",
+    "KHR_texture_transform",
+    "KHR_materials_transmission",
+    "KHR_materials_ior",
+    "KHR_materials_volume",
+    "KHR_materials_clearcoat",
+    "KHR_materials_specular",
+    "KHR_materials_sheen",
+    "KHR_materials_dispersion",
+    "CAUSTIC_lights_area",
+    "CAUSTIC_lights_punctual",
+    "CAUSTIC_camera",
+    "CAUSTIC_world",
+    "CAUSTIC_materials_medium",
+    "CAUSTIC_materials_subsurface",
+    "CAUSTIC_materials_coat",
+    "CAUSTIC_default_material",
+];
+
+/// glTF's photometric units to Blender's radiometric ones: Blender's exporter writes
+/// W × 683 lm/W (its PBR_WATTS_TO_LUMENS), so dividing gives Blender's watts back.
+pub const LUMENS_PER_WATT: f32 = 683.0;
+
+/// Largest texture accepted (per side), to refuse absurd image headers before decoding.
+const MAX_TEXTURE_SIDE: u32 = 16_384;
+
+/// Largest accepted world coordinate: the BVH's box arithmetic needs headroom in f32.
+const MAX_COORDINATE: f32 = 1e15;
+
+/// Instances beyond this are refused: a DAG of shared nodes can explode exponentially.
+const MAX_INSTANCES: usize = 1_000_000;
+
+/// Loads a scene from a .gltf or .glb file with no memory limit (tests and tools; the
+/// commands use [`load_within`]).
+pub fn load(path: &Path) -> Result<Scene> {
+    load_within(path, &MemoryBudget::unlimited())
+}
+
+/// Loads a scene, charging the decoded textures and the flattened mesh to `budget`
+/// before allocating them.
+pub fn load_within(path: &Path, budget: &MemoryBudget) -> Result<Scene> {
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    load_bytes(&bytes, &base, &path.display().to_string(), budget)
+}
+
+/// Loads a scene from bytes; external files are resolved relative to `base_dir`.
+/// Panics inside the parser are turned into errors: a malformed file must never
+/// take the process down.
+pub fn load_bytes(bytes: &[u8], base_dir: &Path, file: &str, budget: &MemoryBudget) -> Result<Scene> {
+    // The parser's panics are reported as errors below; keep their default message
+    // (and backtrace) off stderr, where a host reads JSON lines.
+    let previous_hook = std::panic::take_hook();
+    std::panic::set_hook(Box::new(|_| {}));
+    let result =
+        std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| Loader::new(file, base_dir, budget).load(bytes)));
+    std::panic::set_hook(previous_hook);
+    match result {
+        Ok(r) => r,
+        Err(panic) => {
+            let what = panic
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| panic.downcast_ref::<String>().cloned())
+                .unwrap_or_else(|| "unknown".into());
+            Err(Error::Scene { file: file.into(), message: format!("malformed glTF (parser failed: {what})") })
+        }
+    }
+}
+
+/// A decoded image: width, height, RGBA8 texels (shared by the textures that use it).
+type DecodedImage = (u32, u32, std::sync::Arc<Vec<[u8; 4]>>);
+
+/// Key of a decoded texture: (image, sRGB, sampler).
+type TexKey = (usize, bool, Option<usize>);
+
+/// The loader's state while one file is read: its name and folder, the memory budget,
+/// the warnings so far, and the textures decoded so far (each image decoded once).
+struct Loader<'a> {
+    file: &'a str,
+    base_dir: &'a Path,
+    budget: &'a MemoryBudget,
+    warnings: Vec<String>,
+    textures: Vec<Texture>,
+    texture_cache: HashMap<TexKey, u32>,
+    images: HashMap<usize, DecodedImage>,
+    profile: LoadProfile,
+    /// Materials whose medium is KHR_materials_volume's attenuation (not a CAUSTIC medium).
+    khr_volume_materials: std::collections::HashSet<u32>,
+    /// Thin-walled copies of those materials, for open primitives: original → copy.
+    thin_variants: HashMap<u32, u32>,
+}
+
+impl<'a> Loader<'a> {
+    fn new(file: &'a str, base_dir: &'a Path, budget: &'a MemoryBudget) -> Self {
+        Loader {
+            file,
+            base_dir,
+            budget,
+            warnings: Vec::new(),
+            textures: Vec::new(),
+            texture_cache: HashMap::new(),
+            images: HashMap::new(),
+            profile: LoadProfile::default(),
+            khr_volume_materials: Default::default(),
+            thin_variants: HashMap::new(),
+        }
+    }
+
+    fn err(&self, message: impl Into<String>) -> Error {
+        Error::Scene { file: self.file.to_string(), message: message.into() }
+    }
+
+    fn warn(&mut self, message: impl Into<String>) {
+        let m = message.into();
+        if !self.warnings.contains(&m) {
+            self.warnings.push(m);
+        }
+    }
+
+    fn load(mut self, bytes: &[u8]) -> Result<Scene> {
+        let start = Instant::now();
+        // 1. Container: GLB or JSON.
+        let (json_bytes, bin): (Vec<u8>, Option<Vec<u8>>) = if bytes.starts_with(b"glTF") {
+            let glb = gltf::binary::Glb::from_slice(bytes)
+                .map_err(|e| self.err(format!("malformed GLB container: {e} (truncated or corrupt file?)")))?;
+            (glb.json.into_owned(), glb.bin.map(|b| b.into_owned()))
+        } else if bytes.len() >= 4 && &bytes[..4] != b"glTF" && bytes.iter().take(16).any(|&b| b == 0) {
+            return Err(self.err("not a glTF file: binary data without the 'glTF' magic"));
+        } else {
+            (bytes.to_vec(), None)
+        };
+
+        // 2. JSON, with its position on error.
+        let value: serde_json::Value =
+            serde_json::from_slice(&json_bytes).map_err(|e| self.err(format!("invalid JSON: {e}")))?;
+        if !value.is_object() {
+            return Err(self.err("invalid glTF: the JSON root is not an object"));
+        }
+        let version = value.pointer("/asset/version").and_then(|v| v.as_str()).unwrap_or("");
+        if !version.starts_with("2.") {
+            return Err(self.err(format!(
+                "unsupported glTF version '{version}' (asset.version must be 2.x; is this a glTF 2.0 file?)"
+            )));
+        }
+        // 3. Required extensions we cannot honour are refused by name.
+        if let Some(req) = value.get("extensionsRequired").and_then(|v| v.as_array()) {
+            let unsupported: Vec<&str> =
+                req.iter().filter_map(|v| v.as_str()).filter(|name| !SUPPORTED_REQUIRED.contains(name)).collect();
+            if !unsupported.is_empty() {
+                return Err(self.err(format!(
+                    "the file requires unsupported extension(s): {} (Caustic supports {})",
+                    unsupported.join(", "),
+                    SUPPORTED_REQUIRED.join(", ")
+                )));
+            }
+        }
+        let settings = self.parse_settings(&value)?;
+        // The crate's own validation indexes arrays with the file's indices unchecked
+        // (a dangling accessor index panics inside it): check every reference first.
+        check_references(&value).map_err(|e| self.err(e))?;
+
+        // 4. Typed document with the crate's index validation. The crate refuses every
+        // required extension outside its own few features, including those Caustic reads
+        // from the raw JSON: they were checked above, so it does not see the list.
+        let mut for_crate = value.clone();
+        if let Some(root) = for_crate.as_object_mut() {
+            root.remove("extensionsRequired");
+        }
+        let root: json::Root = serde_json::from_value(for_crate).map_err(|e| self.err(format!("invalid glTF: {e}")))?;
+        let doc = gltf::Document::from_json(root)
+            .map_err(|e| self.err(format!("invalid glTF: {}", describe_validation(&e))))?;
+
+        // 5. Buffers.
+        let buffers = self.load_buffers(&doc, bin)?;
+        self.check_views_and_accessors(&doc, &buffers)?;
+        self.check_accessor_types(&doc)?;
+
+        self.profile.parse = start.elapsed().as_secs_f64();
+
+        // 6. Materials (textures decoded on first use).
+        let phase = Instant::now();
+        let mut materials = Vec::new();
+        let mut material_reports = Vec::new();
+        for m in doc.materials() {
+            let (mat, rep) = self.material(&doc, &m, &buffers)?;
+            materials.push(mat);
+            material_reports.push(rep);
+        }
+        let default_material = self.default_material(&value, &mut materials)?;
+        for (i, (mat, rep)) in materials.iter().zip(&material_reports).enumerate() {
+            let has = |f: &str| rep.features.iter().any(|x| x == f);
+            if mat.medium.is_some() && has("KHR_materials_volume") && !has("CAUSTIC_materials_medium") {
+                self.khr_volume_materials.insert(i as u32);
+            }
+        }
+        self.profile.materials = phase.elapsed().as_secs_f64() - self.profile.decode_textures;
+
+        // 7. Node graph to instances.
+        let phase = Instant::now();
+        let instances = self.instances(&doc, &value)?;
+        self.charge_mesh(&doc, &instances)?;
+
+        let mut mesh = Mesh::default();
+        let mut cameras = Vec::new();
+        let mut lights = Vec::new();
+        let mut light_reports = Vec::new();
+        let mut used_meshes = std::collections::HashSet::new();
+        let mut instance_count = 0;
+        let mut degenerate = 0;
+        let mut area_lights = Vec::new();
+        for (node_index, world) in &instances {
+            let node = doc.nodes().nth(*node_index).expect("validated index");
+            let node_name = node.name().map(str::to_string).unwrap_or_else(|| format!("node {node_index}"));
+            if !world.is_finite() {
+                return Err(self.err(format!("node {node_index} ('{node_name}'): transform is not finite")));
+            }
+            if let Some(m) = node.mesh() {
+                used_meshes.insert(m.index());
+                instance_count += 1;
+                degenerate += self.append_mesh(&m, world, &buffers, &mut materials, default_material, &mut mesh)?;
+            }
+            if let Some(c) = node.camera() {
+                let blender = node.extension_value("CAUSTIC_camera").cloned();
+                cameras.push(self.camera(&c, &node_name, world, blender)?);
+            }
+            if let Some(l) = node.light() {
+                let blender = node.extension_value("CAUSTIC_lights_punctual").cloned();
+                let (light, rep) = self.punctual_light(&l, &node_name, world, blender)?;
+                lights.push(light);
+                light_reports.push(rep);
+            }
+            if let Some(ext) = node.extension_value("CAUSTIC_lights_area") {
+                area_lights.push((ext.clone(), node_name.clone(), *world));
+            }
+        }
+        if mesh.triangles.is_empty() {
+            return Err(self.err("nothing to render: the scene has no triangles (no mesh, or only points/lines)"));
+        }
+
+        // Bounds.
+        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        for t in &mesh.triangles {
+            for &i in t {
+                lo = lo.min(mesh.positions[i as usize]);
+                hi = hi.max(mesh.positions[i as usize]);
+            }
+        }
+        let scene_radius = ((hi - lo).length() * 0.5).max(1e-3);
+
+        for (ext, name, world) in area_lights {
+            if let Some((light, rep)) = self.area_light(&ext, &name, &world)? {
+                lights.push(light);
+                light_reports.push(rep);
+            }
+        }
+        self.profile.mesh = phase.elapsed().as_secs_f64() - self.profile.tangents;
+        let world = self.world(&value, &doc, &buffers)?;
+        let world_power = world.as_ref().map(|w| {
+            // Power through the scene's bounding disk: irradiance π L over π R².
+            std::f32::consts::PI * w.mean_luminance() * std::f32::consts::PI * scene_radius * scene_radius
+        });
+        let mut light_power: Vec<f32> = lights.iter().map(|l| punctual_power(l, scene_radius)).collect();
+        if let Some(power) = world_power {
+            if power > 0.0 {
+                lights.push(Light::World);
+                light_power.push(power);
+                light_reports.push(LightReport { kind: "world".into(), name: "world".into(), power, triangles: 0 });
+            } else {
+                self.warn("the world is black: it lights nothing");
+            }
+        }
+        for (rep, p) in light_reports.iter_mut().zip(&light_power) {
+            rep.power = *p;
+        }
+
+        // Emissive triangles are lights, one each, grouped by material in the report.
+        let phase = Instant::now();
+        self.emissive_lights(&mesh, &materials, &mut lights, &mut light_power, &mut light_reports)?;
+        self.profile.emitter_power = phase.elapsed().as_secs_f64();
+
+        let file_cameras = cameras.len();
+        if cameras.is_empty() {
+            self.warn("no camera in the file: framing the scene's bounds from +Z with a 40° camera");
+            cameras.push(frame_bounds(lo, hi));
+        }
+        if lights.is_empty() {
+            self.warn("the scene has no lights and no emissive materials: the image will be black");
+        }
+        if degenerate > 0 {
+            self.warn(format!("{degenerate} degenerate (zero-area) triangle(s) were dropped"));
+        }
+
+        self.profile.total = start.elapsed().as_secs_f64();
+        let report = LoadReport {
+            file: self.file.to_string(),
+            triangles: mesh.triangles.len(),
+            meshes: used_meshes.len(),
+            instances: instance_count,
+            degenerate_triangles: degenerate,
+            extensions_used: doc.extensions_used().map(str::to_string).collect(),
+            materials: material_reports,
+            lights: light_reports,
+            cameras: cameras
+                .iter()
+                .enumerate()
+                .map(|(i, c)| CameraReport {
+                    generated: i >= file_cameras,
+                    name: c.name.clone(),
+                    kind: match c.projection {
+                        Projection::Perspective { .. } => "perspective".into(),
+                        Projection::Orthographic { .. } => "orthographic".into(),
+                    },
+                    shift: (c.shift != Vec2::ZERO).then(|| c.shift.to_array()),
+                    depth_of_field: c.lens.map(|l| {
+                        let shape = if l.blades >= 3 { format!(", {} blades", l.blades) } else { String::new() };
+                        let ratio = if l.ratio != 1.0 { format!(", ratio {}", l.ratio) } else { String::new() };
+                        format!("aperture radius {}, focus {}{shape}{ratio}", l.radius, l.focus_distance)
+                    }),
+                })
+                .collect(),
+            bounds: [lo.to_array(), hi.to_array()],
+            profile: self.profile,
+        };
+        Ok(Scene {
+            mesh,
+            materials,
+            textures: self.textures,
+            lights,
+            light_power,
+            cameras,
+            world,
+            settings,
+            warnings: self.warnings,
+            report,
+            bounds: (lo, hi),
+        })
+    }
+
+    /// The material of primitives that name none: `CAUSTIC_default_material`'s (the add-on
+    /// names Blender's default surface there), else glTF's default, appended.
+    fn default_material(&self, value: &serde_json::Value, materials: &mut Vec<Material>) -> Result<u32> {
+        let Some(ext) = value.pointer("/extensions/CAUSTIC_default_material") else {
+            materials.push(Material::default());
+            return Ok(materials.len() as u32 - 1);
+        };
+        let e: extensions::DefaultMaterialExt = serde_json::from_value(ext.clone())
+            .map_err(|e| self.err(format!("CAUSTIC_default_material is malformed: {e}")))?;
+        if e.material as usize >= materials.len() {
+            return Err(self.err(format!(
+                "CAUSTIC_default_material: material {} does not exist (the file has {})",
+                e.material,
+                materials.len()
+            )));
+        }
+        Ok(e.material)
+    }
+
+    fn parse_settings(&self, value: &serde_json::Value) -> Result<SceneSettings> {
+        let scene_index = value.get("scene").and_then(|s| s.as_u64()).unwrap_or(0) as usize;
+        let Some(extras) = value.pointer(&format!("/scenes/{scene_index}/extras/caustic")) else {
+            return Ok(SceneSettings::default());
+        };
+        serde_json::from_value(extras.clone())
+            .map_err(|e| self.err(format!("scene extras 'caustic' (render settings) are malformed: {e}")))
+    }
+
+    fn resolve_uri(&self, uri: &str, what: &str) -> Result<Vec<u8>> {
+        if let Some(rest) = uri.strip_prefix("data:") {
+            let Some((_, payload)) = rest.split_once(";base64,") else {
+                return Err(self.err(format!("{what}: data URI is not base64-encoded")));
+            };
+            return base64::engine::general_purpose::STANDARD
+                .decode(payload.trim())
+                .map_err(|e| self.err(format!("{what}: data URI has invalid base64: {e}")));
+        }
+        if uri.contains("://") {
+            return Err(
+                self.err(format!("{what}: remote URI '{uri}' is not supported (only relative files and data URIs)"))
+            );
+        }
+        let decoded = percent_encoding::percent_decode_str(uri).decode_utf8_lossy().to_string();
+        let path: PathBuf = self.base_dir.join(&decoded);
+        std::fs::read(&path).map_err(|e| self.err(format!("{what}: cannot read '{}': {e}", path.display())))
+    }
+
+    fn load_buffers(&self, doc: &gltf::Document, mut bin: Option<Vec<u8>>) -> Result<Vec<Vec<u8>>> {
+        let mut out = Vec::new();
+        for b in doc.buffers() {
+            let what = format!("buffer {}", b.index());
+            let data = match b.source() {
+                gltf::buffer::Source::Bin => bin
+                    .take()
+                    .ok_or_else(|| self.err(format!("{what} refers to the GLB binary chunk, which is missing")))?,
+                gltf::buffer::Source::Uri(uri) => self.resolve_uri(uri, &what)?,
+            };
+            if data.len() < b.length() {
+                return Err(self.err(format!(
+                    "{what} is shorter than its byteLength ({} < {} bytes): truncated file?",
+                    data.len(),
+                    b.length()
+                )));
+            }
+            out.push(data);
+        }
+        Ok(out)
+    }
+}
+
+fn push_unique(v: &mut Vec<String>, s: &str) {
+    if !v.iter().any(|x| x == s) {
+        v.push(s.to_string());
+    }
+}
+
+fn describe_validation(e: &gltf::Error) -> String {
+    match e {
+        gltf::Error::Validation(errs) => {
+            errs.iter().take(5).map(|(path, err)| format!("{}: {err}", path.as_str())).collect::<Vec<_>>().join("; ")
+        }
+        other => other.to_string(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{SUPPORTED_REQUIRED, load_bytes};
+    use crate::memory::MemoryBudget;
+    use base64::Engine;
+    use serde_json::json;
+
+    /// One triangle whose file lists `required` in extensionsRequired (and extensionsUsed).
+    fn load_requiring(required: &[&str]) -> crate::error::Result<crate::scene::Scene> {
+        load_triangle(required, json!({}))
+    }
+
+    /// One triangle without a material, `required` in extensionsRequired, `root`'s keys
+    /// set on the document's root.
+    fn load_triangle(required: &[&str], root: serde_json::Value) -> crate::error::Result<crate::scene::Scene> {
+        let data: Vec<u8> = [0f32, 0., 0., 1., 0., 0., 0., 1., 0.].iter().flat_map(|f| f.to_le_bytes()).collect();
+        let uri =
+            format!("data:application/octet-stream;base64,{}", base64::engine::general_purpose::STANDARD.encode(&data));
+        let doc = json!({
+            "asset": {"version": "2.0"},
+            "extensionsUsed": required,
+            "extensionsRequired": required,
+            "buffers": [{"uri": uri, "byteLength": 36}],
+            "bufferViews": [{"buffer": 0, "byteLength": 36}],
+            "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                "min": [0, 0, 0], "max": [1, 1, 0]}],
+            "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+            "nodes": [{"mesh": 0}],
+            "scenes": [{"nodes": [0]}]
+        });
+        let mut doc = doc;
+        for (k, v) in root.as_object().unwrap() {
+            doc[k] = v.clone();
+        }
+        load_bytes(
+            &serde_json::to_vec(&doc).unwrap(),
+            std::path::Path::new("."),
+            "req.gltf",
+            &MemoryBudget::unlimited(),
+        )
+    }
+
+    #[test]
+    fn every_extension_caustic_renders_may_be_required() {
+        for name in [
+            "KHR_materials_clearcoat",
+            "KHR_materials_transmission",
+            "KHR_materials_volume",
+            "KHR_materials_ior",
+            "KHR_materials_specular",
+            "KHR_materials_sheen",
+            "KHR_materials_dispersion",
+            "KHR_materials_emissive_strength",
+            "KHR_texture_transform",
+            "KHR_lights_punctual",
+            "CAUSTIC_lights_area",
+            "CAUSTIC_lights_punctual",
+            "CAUSTIC_camera",
+            "CAUSTIC_world",
+            "CAUSTIC_materials_medium",
+            "CAUSTIC_materials_subsurface",
+            "CAUSTIC_materials_coat",
+        ] {
+            assert!(SUPPORTED_REQUIRED.contains(&name), "{name} is not in SUPPORTED_REQUIRED");
+            if let Err(e) = load_requiring(&[name]) {
+                panic!("a file requiring {name} was refused: {e}");
+            }
+        }
+        assert!(load_requiring(SUPPORTED_REQUIRED).is_ok(), "all of them at once");
+    }
+
+    #[test]
+    fn unknown_required_extensions_are_refused_by_name() {
+        for unknown in [
+            &["KHR_draco_mesh_compression"][..],
+            &["KHR_materials_clearcoat", "EXT_meshopt_compression", "KHR_materials_iridescence"],
+        ] {
+            let msg = load_requiring(unknown).expect_err("refused").to_string();
+            for name in unknown.iter().filter(|n| !SUPPORTED_REQUIRED.contains(n)) {
+                assert!(msg.contains(name), "{msg}");
+            }
+            assert!(msg.contains("requires unsupported extension"), "{msg}");
+        }
+    }
+
+    #[test]
+    fn a_primitive_without_material_gets_gltfs_default_in_a_plain_file() {
+        let scene = load_triangle(&[], json!({})).unwrap();
+        let m = &scene.materials[scene.mesh.tri_material[0] as usize];
+        // glTF 2.0, materials: the default is base colour 1, metallic 1, roughness 1.
+        assert_eq!((m.base_color, m.metallic, m.roughness), (glam::Vec4::ONE, 1.0, 1.0));
+    }
+
+    #[test]
+    fn caustic_default_material_names_the_material_for_primitives_without_one() {
+        // Blender's default surface (Principled: base 0.8, metallic 0, roughness 0.5, IOR
+        // 1.5), written by the add-on as a material of the file.
+        let blender = json!({"name": "Blender default",
+            "pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.5}});
+        let root = json!({"materials": [blender], "extensionsUsed": ["CAUSTIC_default_material"],
+            "extensions": {"CAUSTIC_default_material": {"material": 0}}});
+        let scene = load_triangle(&[], root).unwrap();
+        let m = &scene.materials[scene.mesh.tri_material[0] as usize];
+        assert_eq!(m.name, "Blender default");
+        assert_eq!(
+            (m.base_color, m.metallic, m.roughness, m.ior),
+            (glam::Vec4::new(0.8, 0.8, 0.8, 1.0), 0.0, 0.5, 1.5)
+        );
+        let root = json!({"materials": [{}], "extensions": {"CAUSTIC_default_material": {"material": 0}}});
+        assert!(load_triangle(&["CAUSTIC_default_material"], root).is_ok(), "may be required");
+        for (bad, want) in [
+            (json!({"material": 3}), "material 3 does not exist (the file has 1)"),
+            (json!({"material": "grey"}), "CAUSTIC_default_material is malformed"),
+            (json!({"materia": 0}), "CAUSTIC_default_material is malformed"),
+        ] {
+            let root = json!({"materials": [{}], "extensions": {"CAUSTIC_default_material": bad}});
+            let msg = load_triangle(&[], root).expect_err("refused").to_string();
+            assert!(msg.contains(want), "{msg}");
+        }
+    }
+}

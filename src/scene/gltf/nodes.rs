@@ -1,0 +1,96 @@
+//! The node graph: cycles and shared subtrees refused, every node reached from the
+//! scene's roots with its world matrix.
+
+use super::{Loader, MAX_INSTANCES};
+use crate::error::Result;
+use glam::Mat4;
+
+impl Loader<'_> {
+    /// Walks the scene's node trees; returns (node, world matrix) for every node
+    /// reached, refusing cycles.
+    pub(super) fn instances(&mut self, doc: &gltf::Document, value: &serde_json::Value) -> Result<Vec<(usize, Mat4)>> {
+        let n = doc.nodes().count();
+        // Cycle check over the children graph (iterative three-colour DFS).
+        let children: Vec<Vec<usize>> = doc.nodes().map(|nd| nd.children().map(|c| c.index()).collect()).collect();
+        let mut colour = vec![0u8; n];
+        for start in 0..n {
+            if colour[start] != 0 {
+                continue;
+            }
+            let mut stack = vec![(start, 0usize)];
+            colour[start] = 1;
+            while let Some(&mut (node, ref mut next)) = stack.last_mut() {
+                if *next < children[node].len() {
+                    let c = children[node][*next];
+                    *next += 1;
+                    match colour[c] {
+                        0 => {
+                            colour[c] = 1;
+                            stack.push((c, 0));
+                        }
+                        1 => {
+                            return Err(self.err(format!("the node hierarchy has a cycle through node {c}")));
+                        }
+                        _ => {}
+                    }
+                } else {
+                    colour[node] = 2;
+                    stack.pop();
+                }
+            }
+        }
+        // glTF's nodes form strict trees: one parent at most, and a root is no one's
+        // child and listed once. Shared subtrees could multiply instances exponentially.
+        let mut parent = vec![None; n];
+        for (p, cs) in children.iter().enumerate() {
+            for &c in cs {
+                if let Some(q) = parent[c] {
+                    return Err(
+                        self.err(format!("node {c} has two parents (nodes {q} and {p}); glTF nodes form trees"))
+                    );
+                }
+                parent[c] = Some(p);
+            }
+        }
+        let roots: Vec<usize> = if let Some(scene) = doc.default_scene().or_else(|| doc.scenes().next()) {
+            if value.get("scene").is_none() && doc.scenes().count() > 1 {
+                self.warn("the file has several scenes and no default: rendering scene 0");
+            }
+            scene.nodes().map(|n| n.index()).collect()
+        } else {
+            let mut is_child = vec![false; n];
+            for c in children.iter().flatten() {
+                is_child[*c] = true;
+            }
+            if n > 0 {
+                self.warn("the file has no scene: rendering every root node");
+            }
+            (0..n).filter(|&i| !is_child[i]).collect()
+        };
+        let mut seen_root = vec![false; n];
+        for &r in &roots {
+            if seen_root[r] {
+                return Err(self.err(format!("node {r} is listed twice as a root of the scene")));
+            }
+            seen_root[r] = true;
+            if let Some(p) = parent[r] {
+                return Err(self.err(format!("node {r} is a root of the scene and also a child of node {p}")));
+            }
+        }
+        let mut out = Vec::new();
+        let mut stack: Vec<(usize, Mat4)> = roots.into_iter().rev().map(|r| (r, Mat4::IDENTITY)).collect();
+        while let Some((node, parent)) = stack.pop() {
+            let nd = doc.nodes().nth(node).expect("validated index");
+            let local = Mat4::from_cols_array_2d(&nd.transform().matrix());
+            let world = parent * local;
+            out.push((node, world));
+            if out.len() > MAX_INSTANCES {
+                return Err(self.err(format!("more than {MAX_INSTANCES} node instances: shared subtrees explode")));
+            }
+            for c in children[node].iter().rev() {
+                stack.push((*c, world));
+            }
+        }
+        Ok(out)
+    }
+}

@@ -1,0 +1,78 @@
+//! The world: `CAUSTIC_world`'s colour or equirectangular image.
+
+use super::extensions::WorldExt;
+use super::{Loader, MAX_TEXTURE_SIDE};
+use crate::error::Result;
+use glam::Vec3;
+
+impl Loader<'_> {
+    /// `scenes[i].extensions.CAUSTIC_world`: a colour × strength, or an equirectangular
+    /// image (.hdr, .exr, .png, .jpg) × colour × strength, rotated about the up axis.
+    pub(super) fn world(
+        &mut self,
+        value: &serde_json::Value,
+        doc: &gltf::Document,
+        buffers: &[Vec<u8>],
+    ) -> Result<Option<crate::light::Environment>> {
+        let scene_index = value.get("scene").and_then(|s| s.as_u64()).unwrap_or(0) as usize;
+        let Some(ext) = value.pointer(&format!("/scenes/{scene_index}/extensions/CAUSTIC_world")) else {
+            return Ok(None);
+        };
+        let w: WorldExt =
+            serde_json::from_value(ext.clone()).map_err(|e| self.err(format!("CAUSTIC_world is malformed: {e}")))?;
+        let color = Vec3::from(w.color) * w.strength;
+        if !color.is_finite() || color.min_element() < 0.0 || !w.rotation.is_finite() {
+            return Err(self.err("CAUSTIC_world: color, strength and rotation must be finite and non-negative"));
+        }
+        let _ = (doc, buffers);
+        let image = match &w.image {
+            None => None,
+            Some(uri) => {
+                let label =
+                    if uri.starts_with("data:") { "world image".to_string() } else { format!("world image '{uri}'") };
+                let bytes = self.resolve_uri(uri, &label)?;
+                let reader = image::ImageReader::new(std::io::Cursor::new(&bytes))
+                    .with_guessed_format()
+                    .map_err(|e| self.err(format!("{label}: {e}")))?;
+                let (width, height) = reader
+                    .into_dimensions()
+                    .map_err(|e| self.err(format!("{label}: cannot read the image header: {e}")))?;
+                if width == 0 || height == 0 || width > MAX_TEXTURE_SIDE || height > MAX_TEXTURE_SIDE {
+                    return Err(self.err(format!(
+                        "{label}: image size {width}×{height} is outside 1..={MAX_TEXTURE_SIDE} per side"
+                    )));
+                }
+                // Kept: linear RGB (12 B) and the importance distribution (≈ 8 B) per
+                // texel; transient: the decoder's image and its f32 RGB copy (16 + 12 B).
+                let texels = width as u64 * height as u64;
+                self.budget.charge(format!("{label} ({width}×{height})"), texels * 20)?;
+                self.budget.check_peak(format!("decoding {label}"), texels * 28)?;
+                let decode_start = std::time::Instant::now();
+                let decoded = image::ImageReader::new(std::io::Cursor::new(&bytes))
+                    .with_guessed_format()
+                    .map_err(|e| self.err(format!("{label}: {e}")))?
+                    .decode()
+                    .map_err(|e| self.err(format!("{label}: cannot decode: {e}")))?;
+                // 8-bit images are sRGB-encoded (as Blender reads them); float images linear.
+                let srgb = matches!(
+                    decoded.color(),
+                    image::ColorType::Rgb8 | image::ColorType::Rgba8 | image::ColorType::L8 | image::ColorType::La8
+                );
+                let rgb = decoded.to_rgb32f();
+                self.profile.decode_textures += decode_start.elapsed().as_secs_f64();
+                let decode = |c: f32| {
+                    if srgb { if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) } } else { c }
+                };
+                let texels: Vec<Vec3> = rgb
+                    .pixels()
+                    .map(|p| Vec3::new(decode(p.0[0]), decode(p.0[1]), decode(p.0[2])).max(Vec3::ZERO))
+                    .collect();
+                Some(
+                    crate::light::environment::EnvImage::new(width as usize, height as usize, texels)
+                        .ok_or_else(|| self.err(format!("{label}: the image has non-finite pixels")))?,
+                )
+            }
+        };
+        Ok(Some(crate::light::Environment { color, image, rotation: w.rotation }))
+    }
+}
