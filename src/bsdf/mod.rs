@@ -2,9 +2,11 @@
 //! normal) and offers `eval`, `pdf` and `sample` on local directions; both directions
 //! point away from the surface. Closed set of lobes: an enum, no dynamic dispatch.
 
+pub mod albedo;
 pub mod dielectric;
 pub mod microfacet;
 pub mod pbr;
+pub mod sheen;
 
 use crate::math::Rgb;
 use glam::{Vec2, Vec3};

@@ -1,0 +1,203 @@
+//! Tests of the glTF material BSDF: sampling against its density, reciprocity, energy.
+
+use super::*;
+use crate::bsdf::albedo::TABLE_ERROR;
+use crate::sampling::chi2::{ChiSquareTest, Pcg32, assert_chi2};
+
+fn materials_with(base: Vec3) -> Vec<(String, PbrBsdf)> {
+    let mut v = Vec::new();
+    for roughness in [0.15f32, 0.5, 1.0] {
+        for metallic in [0.0f32, 0.5, 1.0] {
+            v.push((format!("r={roughness} m={metallic}"), PbrBsdf::new(base, metallic, roughness)));
+        }
+        for specular in [0.0f32, 0.5] {
+            v.push((
+                format!("r={roughness} specular={specular}"),
+                PbrBsdf::with_specular(base, 0.0, roughness, specular),
+            ));
+        }
+    }
+    // Transmissive (rough: the chi-square needs densities), entering and leaving,
+    // solid and thin, partly metallic, another IOR.
+    for (transmission, eta, thin, metallic, ior) in [
+        (1.0f32, 1.5f32, false, 0.0f32, 1.5f32),
+        (1.0, 1.0 / 1.5, false, 0.0, 1.5),
+        (0.5, 1.5, false, 0.0, 1.5),
+        (1.0, 1.5, true, 0.0, 1.5),
+        (0.7, 2.4, false, 0.3, 2.4),
+    ] {
+        for roughness in [0.3f32, 0.8] {
+            let p = PbrParams {
+                specular: 1.0,
+                ior,
+                transmission,
+                thin,
+                eta,
+                ..PbrParams::opaque(base, metallic, roughness)
+            };
+            v.push((
+                format!("r={roughness} transmission={transmission} η={eta} thin={thin} m={metallic}"),
+                PbrBsdf::from_params(&p),
+            ));
+        }
+    }
+    // Sheen over a diffuse base, a metal and glass; a tinted specular layer.
+    for (sheen, sr, metallic, transmission) in
+        [(1.0f32, 0.3f32, 0.0f32, 0.0f32), (0.6, 0.8, 1.0, 0.0), (0.8, 0.5, 0.0, 1.0)]
+    {
+        let p = PbrParams {
+            sheen_color: Vec3::new(sheen, sheen * 0.7, sheen * 0.4),
+            sheen_roughness: sr,
+            transmission,
+            ..PbrParams::opaque(base, metallic, 0.5)
+        };
+        v.push((format!("sheen={sheen} sr={sr} m={metallic} t={transmission}"), PbrBsdf::from_params(&p)));
+    }
+    for roughness in [0.2f32, 0.6] {
+        let p =
+            PbrParams { specular_color: Vec3::new(3.0, 1.0, 0.2), ior: 1.8, ..PbrParams::opaque(base, 0.0, roughness) };
+        v.push((format!("specular colour r={roughness}"), PbrBsdf::from_params(&p)));
+    }
+    // Coated: over a diffuse base, a metal and glass; the coat breaks reciprocity
+    // (albedo scaling by wo), so the reciprocity test skips these.
+    for (coat, coat_roughness, metallic, transmission) in
+        [(1.0f32, 0.1f32, 0.0f32, 0.0f32), (0.5, 0.4, 1.0, 0.0), (1.0, 0.3, 0.0, 1.0)]
+    {
+        let p = PbrParams { coat, coat_roughness, transmission, ..PbrParams::opaque(base, metallic, 0.6) };
+        v.push((format!("coat={coat} cr={coat_roughness} m={metallic} t={transmission}"), PbrBsdf::from_params(&p)));
+    }
+    // Blender's coat IOR and tint (CAUSTIC_materials_coat).
+    let p = PbrParams {
+        coat: 1.0,
+        coat_roughness: 0.3,
+        coat_ior: 1.8,
+        coat_tint: Vec3::new(0.8, 0.5, 0.3),
+        ..PbrParams::opaque(base, 0.0, 0.5)
+    };
+    v.push(("coat ior 1.8 tinted".into(), PbrBsdf::from_params(&p)));
+    // A coat with its own normal (clearcoatNormalTexture), rough and smooth.
+    for coat_roughness in [0.3f32, 0.1] {
+        let p = PbrParams {
+            coat: 1.0,
+            coat_roughness,
+            coat_normal: Some(Vec3::new(0.3, -0.2, 0.93)),
+            ..PbrParams::opaque(base, 0.0, 0.5)
+        };
+        v.push((format!("coat normal cr={coat_roughness}"), PbrBsdf::from_params(&p)));
+    }
+    v
+}
+
+fn materials() -> Vec<(String, PbrBsdf)> {
+    materials_with(Vec3::new(0.8, 0.4, 0.1))
+}
+
+#[test]
+fn chi2_pbr_lobes() {
+    for (name, b) in materials() {
+        for theta in [0.1f32, 0.9, 1.45] {
+            let wo = Vec3::new(theta.sin(), 0.0, theta.cos());
+            let mut rng = Pcg32::new(3);
+            let t = ChiSquareTest::new(&format!("glTF PBR {name} θ={theta}"));
+            assert_chi2(t.run_with_pdf(|u| b.sample(wo, rng.next_f32(), u).map(|s| (s.wi, s.pdf)), |wi| b.pdf(wo, wi)));
+        }
+    }
+}
+
+/// Reciprocity: f(wo, wi) = f(wi, wo) for the whole BRDF (the Fresnel term uses the
+/// half vector, which is symmetric; the diffuse/specular split is too).
+#[test]
+fn reciprocity() {
+    let mut rng = Pcg32::new(9);
+    for (_, b) in materials().into_iter().filter(|(_, b)| b.coat == 0.0) {
+        for _ in 0..200 {
+            let a = cosine_hemisphere(Vec2::new(rng.next_f32(), rng.next_f32()));
+            let c = cosine_hemisphere(Vec2::new(rng.next_f32(), rng.next_f32()));
+            let f1 = b.eval(a, c);
+            let f2 = b.eval(c, a);
+            assert!((f1 - f2).abs().max_element() <= 1e-4 * f1.max_element().max(1.0));
+        }
+    }
+}
+
+/// A perfectly smooth metal is a delta mirror whose sampled weight is Schlick's
+/// Fresnel; a smooth dielectric over black is one too, weighted by its layer albedo.
+#[test]
+fn smooth_reflection_is_a_delta_mirror() {
+    let metal = PbrBsdf::new(Vec3::new(0.9, 0.6, 0.3), 1.0, 0.0);
+    assert!(metal.is_delta());
+    let wo = Vec3::new(0.6, 0.0, 0.8);
+    let s = metal.sample(wo, 0.5, Vec2::new(0.3, 0.7)).unwrap();
+    assert!(s.delta && (s.wi - Vec3::new(-0.6, 0.0, 0.8)).length() < 1e-6);
+    let weight = s.f * s.wi.z / s.pdf;
+    let expect = metal.base + (Vec3::ONE - metal.base) * schlick_weight(0.8);
+    assert!((weight - expect).abs().max_element() < 1e-5, "{weight} vs {expect}");
+    assert_eq!(metal.eval(wo, s.wi), Vec3::ZERO);
+    // A smooth dielectric with a diffuse base is not a pure delta BSDF.
+    assert!(!PbrBsdf::new(Vec3::splat(0.5), 0.0, 0.0).is_delta());
+    assert!(PbrBsdf::new(Vec3::ZERO, 0.0, 0.0).is_delta());
+}
+
+/// Energy: the directional albedo ∫ f cos dwi ≤ 1 at every angle, estimated by
+/// importance sampling with N samples; the bound allows 5 standard errors of the
+/// estimate (its sample standard deviation / √N) plus the albedo table's error.
+#[test]
+fn albedo_at_most_one() {
+    let n = 200_000;
+    for (name, b) in materials_with(Vec3::ONE) {
+        for theta in [0.0f32, 0.5, 1.0, 1.5] {
+            let wo = Vec3::new(theta.sin(), 0.0, theta.cos());
+            let mut rng = Pcg32::new(1);
+            // Per channel: a tinted layer has coloured weights, and the mean of the
+            // largest channel would overstate every channel's albedo.
+            let (mut sum, mut sum2) = (glam::DVec3::ZERO, glam::DVec3::ZERO);
+            for _ in 0..n {
+                let u = Vec2::new(rng.next_f32(), rng.next_f32());
+                let v = b
+                    .sample(wo, rng.next_f32(), u)
+                    .map(|s| {
+                        // Undo the 1/η² radiance scaling of refracted samples.
+                        let scale = if s.wi.z < 0.0 && !b.glass.thin { b.glass.eta * b.glass.eta } else { 1.0 };
+                        (s.f * (s.wi.z.abs() / s.pdf * scale)).as_dvec3()
+                    })
+                    .unwrap_or(glam::DVec3::ZERO);
+                sum += v;
+                sum2 += v * v;
+            }
+            let mean = sum / n as f64;
+            let se = ((sum2 / n as f64 - mean * mean).max(glam::DVec3::ZERO) / n as f64).powf(0.5);
+            for c in 0..3 {
+                assert!(
+                    mean[c] <= 1.0 + 5.0 * se[c] + TABLE_ERROR,
+                    "{name} θ={theta} channel {c}: albedo {} ± {}",
+                    mean[c],
+                    se[c]
+                );
+            }
+        }
+    }
+}
+
+/// A tinted specular layer reflects its tint: at normal incidence over a black base the
+/// sampled weight per channel follows F0 = min(F0(ior) × colour, 1).
+#[test]
+fn specular_colour_tints_f0() {
+    let p = PbrParams { specular_color: Vec3::new(2.0, 1.0, 0.0), ..PbrParams::opaque(Vec3::ZERO, 0.0, 0.0) };
+    let b = PbrBsdf::from_params(&p);
+    let s = b.sample(Vec3::Z, 0.0, Vec2::splat(0.5)).unwrap();
+    let w = s.f * s.wi.z / s.pdf;
+    let f0 = f0_from_ior(1.5);
+    // The delta mirror's weight is the layer albedo, which at μ = 1 is about F0.
+    assert!((w.x / w.y - 2.0).abs() < 0.05 && w.z < 0.2 * w.y, "{w} for F0 {f0}");
+}
+
+/// A white Lambertian (metallic 0, rough) reflects 1 - F: its albedo is close to,
+/// and below, 1 at normal incidence; a black dielectric reflects only the specular.
+#[test]
+fn diffuse_limit() {
+    let b = PbrBsdf::new(Vec3::ZERO, 0.0, 1.0);
+    let wo = Vec3::Z;
+    let wi = Vec3::new(0.6, 0.0, 0.8);
+    let f = b.eval(wo, wi);
+    assert!(f.x == f.y && f.y == f.z && f.x > 0.0 && f.x < 0.1);
+}
