@@ -88,6 +88,21 @@ impl SpecularAlbedo {
         (at(&self.a), at(&self.b))
     }
 
+    /// E of the GGX lobe without Fresnel (F = 1, Schlick's F0 = 1: A + B): the fraction a
+    /// single-scattering microfacet surface reflects at all, which multiscatter GGX restores.
+    #[inline]
+    pub fn e_white(&self, mu: f32, roughness: f32) -> f32 {
+        let (a, b) = self.ab(mu, roughness);
+        a + b
+    }
+
+    /// Cosine-weighted average of [`e_white`](Self::e_white).
+    #[inline]
+    pub fn e_avg_white(&self, roughness: f32) -> f32 {
+        let (a, b) = self.ab_avg(roughness);
+        a + b
+    }
+
     /// Cosine-weighted average of E over the hemisphere.
     #[inline]
     pub fn e_avg(&self, roughness: f32, f0: f32) -> f32 {

@@ -25,8 +25,16 @@
 //! reciprocal scaling min(1 - s·E(μo), 1 - s·E(μi)), s = max(sheen colour), and
 //! `KHR_materials_clearcoat` is a GGX layer of IOR 1.5 on top, with its own normal.
 //!
-//! Not handled: the energy lost by single-scattering GGX at high roughness (Cycles
-//! compensates with multiscatter GGX: rough metals are slightly darker in Caustic).
+//! Multiple scattering between microfacets, as Cycles' default Multiscatter GGX: the
+//! metal's GGX lobe keeps only E(μo) of the light (E of the white lobe, tabulated), so it
+//! is scaled by 1 + F_ms (1/E(μo) - 1), with Kulla & Conty's Fresnel-averaged colour
+//! F_ms = F_avg E_avg / (1 - F_avg (1 - E_avg)), F_avg = F0 + (1 - F0)/21 the cosine-weighted
+//! average of Schlick's Fresnel: a white metal keeps all of the light, a coloured one
+//! saturates as its interreflections do. The glass does the same with its own tables
+//! (`DielectricBsdf::with_multiscatter`). The factor depends on wo alone, which keeps the
+//! sampling exact and, as in Cycles, makes those lobes non-reciprocal (light paths use
+//! the adjoint, `Bsdf::eval_adjoint`). The opaque dielectric's specular layer and the coat
+//! stay single-scattering (their albedo scales the layers below them).
 
 use super::BsdfSample;
 use super::dielectric::{DielectricBsdf, SMOOTH_ROUGHNESS};
@@ -152,6 +160,8 @@ pub struct PbrBsdf {
     pub smooth: bool,
     /// Cosine-weighted mean albedo of the dielectric layer per channel (specular weight included).
     layer_avg: Rgb,
+    /// F_ms per channel of the metal's multiple-scattering compensation (zero: off).
+    metal_fms: Rgb,
 
     /// The coat is a perfect mirror.
     pub smooth_coat: bool,
@@ -212,6 +222,10 @@ impl PbrBsdf {
         if p.dispersion > 0.0 && p.dispersion.is_finite() && !p.thin {
             glass = glass.with_dispersion(ior, p.dispersion);
         }
+        // Only materials that show the glass pay for its table.
+        if p.transmission > 0.0 && p.metallic < 1.0 {
+            glass = glass.with_multiscatter();
+        }
         PbrBsdf {
             base,
             metallic: p.metallic.clamp(0.0, 1.0),
@@ -228,6 +242,7 @@ impl PbrBsdf {
             smooth: roughness < SMOOTH_ROUGHNESS,
             smooth_coat: p.coat_roughness < SMOOTH_ROUGHNESS,
             layer_avg: Rgb::ZERO,
+            metal_fms: Rgb::ZERO,
             coat_frame,
             coat_f0: f0_from_ior(if p.coat_ior.is_finite() && p.coat_ior >= 1.0 { p.coat_ior } else { 1.5 }).min(1.0),
             coat_ior: if p.coat_ior.is_finite() && p.coat_ior >= 1.0 { p.coat_ior } else { 1.5 },
@@ -243,7 +258,30 @@ impl PbrBsdf {
     fn with_layer_avg(mut self) -> Self {
         let (a, b) = specular_albedo().ab_avg(self.roughness);
         self.layer_avg = (self.f0_rgb * a + Vec3::splat(b)) * self.specular;
+        if self.metallic > 0.0 && !self.smooth {
+            let e_avg = specular_albedo().e_avg_white(self.roughness);
+            let f_avg = self.base + (Vec3::ONE - self.base) / 21.0;
+            self.metal_fms = f_avg * e_avg / (Vec3::ONE - f_avg * (1.0 - e_avg)).max(Vec3::splat(1e-6));
+        }
         self
+    }
+
+    /// The metal lobe's multiple-scattering factor seen from μo (1 when off).
+    #[inline]
+    fn metal_ms(&self, mu_o: f32) -> Rgb {
+        if self.metal_fms == Rgb::ZERO {
+            return Rgb::ONE;
+        }
+        // E of the white lobe is above 0.3 everywhere; the floor only guards the division.
+        let e = specular_albedo().e_white(mu_o, self.roughness).max(0.05);
+        Rgb::ONE + self.metal_fms * (1.0 / e - 1.0)
+    }
+
+    /// For a refracted pair (wo, wi), the adjoint f(wi, wo) over η² f(wo, wi): not 1 when
+    /// the glass compensates multiple scattering, which depends on the viewer's side.
+    #[inline]
+    pub fn refraction_adjoint_ratio(&self, wo: Vec3, wi: Vec3) -> Rgb {
+        self.glass.adjoint_ratio(wo, wi)
     }
 
     /// cos θ of `w` to the coat's normal.
@@ -315,12 +353,15 @@ impl PbrBsdf {
         let below = under * (1.0 - es);
         let dielectric = 1.0 - self.metallic;
         let opaque = dielectric * (1.0 - self.transmission);
-        let metal = below * self.metallic * luminance(self.base + (Vec3::ONE - self.base) * schlick_weight(wo.z));
+        let metal = below
+            * self.metallic
+            * luminance((self.base + (Vec3::ONE - self.base) * schlick_weight(wo.z)) * self.metal_ms(wo.z));
         let spec = below * opaque * e;
         let diffuse = below * opaque * (1.0 - e) * luminance(self.base) * (1.0 - self.subsurface);
         let glass = if self.transmission > 0.0 {
             let r = self.glass.reflect_probability(wo);
-            below * dielectric * self.transmission * (r + (1.0 - r) * luminance(self.base)).max(1e-3)
+            let ms = luminance(self.glass.multiscatter(wo));
+            below * dielectric * self.transmission * ((r + (1.0 - r) * luminance(self.base)) * ms).max(1e-3)
         } else {
             0.0
         };
@@ -418,7 +459,7 @@ impl PbrBsdf {
         let flip = wo.z < 0.0;
         let wo = if flip { Vec3::new(wo.x, wo.y, -wo.z) } else { wo };
         if wo.z <= 0.0 {
-            return PbrAt { b: self, wo, flip, under: Rgb::ZERO, eo: Rgb::ZERO, sheen_o: 0.0 };
+            return PbrAt { b: self, wo, flip, under: Rgb::ZERO, eo: Rgb::ZERO, sheen_o: 0.0, metal_ms: Rgb::ONE };
         }
         // The coat reflects E_c(μo) of the light and leaves the rest to the layers below
         // (albedo scaling by the outgoing direction, as Cycles layers its coat).
@@ -426,7 +467,8 @@ impl PbrBsdf {
         let opaque = (1.0 - self.metallic) * (1.0 - self.transmission);
         let eo = if opaque > 0.0 { self.layer_albedo(wo.z) } else { Rgb::ZERO };
         let sheen_o = if self.sheen_max > 0.0 { 1.0 - self.sheen_albedo(wo.z) } else { 1.0 };
-        PbrAt { b: self, wo, flip, under, eo, sheen_o }
+        let metal_ms = self.metal_ms(wo.z);
+        PbrAt { b: self, wo, flip, under, eo, sheen_o, metal_ms }
     }
 
     /// Density of [`sample`](Self::sample) for the non-delta lobes.
@@ -566,6 +608,8 @@ pub struct PbrAt<'a> {
     eo: Rgb,
     /// 1 - the sheen's albedo at wo (1 without sheen).
     sheen_o: f32,
+    /// The metal's multiple-scattering factor at wo.
+    metal_ms: Rgb,
 }
 
 impl PbrAt<'_> {
@@ -604,7 +648,7 @@ impl PbrAt<'_> {
             f += (b.base * diffuse_weight * FRAC_1_PI + f_layer * spec) * opaque;
         }
         if b.metallic > 0.0 {
-            f += (b.base + (Vec3::ONE - b.base) * fw) * (spec * b.metallic);
+            f += (b.base + (Vec3::ONE - b.base) * fw) * self.metal_ms * (spec * b.metallic);
         }
         f = (f * scaling + b.sheen_eval(wo, wi)) * under;
         if b.coat > 0.0 && !b.smooth_coat {
