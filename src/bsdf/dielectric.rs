@@ -35,6 +35,14 @@ use glam::{Vec2, Vec3};
 /// Roughness below which the interface is treated as perfectly smooth (delta).
 pub const SMOOTH_ROUGHNESS: f32 = 0.02;
 
+/// |η - 1| below which the interface is invisible, as Cycles treats IOR ≈ 1: light passes
+/// straight through (a smooth interface; it reflects ((η-1)/(η+1))² < 10⁻⁷). A rough one
+/// would be degenerate there (the half vector of a refraction with η = 1 is the zero
+/// vector, and near it f32 cancellation in wo + η wi leaves the half vector's direction
+/// wrong by ~10⁻⁷/|η - 1| rad); a microfacet tilted by θm bends a ray by about
+/// |η - 1| tan θm, under 10⁻³ rad here for all but the most grazing facets: invisible.
+pub const INVISIBLE_ETA: f32 = 1e-3;
+
 /// Unpolarised Fresnel reflectance of a dielectric interface for cosine `cos_i` of the
 /// incident direction and relative index `eta` (transmitted over incident). 1 under
 /// total internal reflection.
@@ -105,7 +113,7 @@ impl DielectricBsdf {
         DielectricBsdf {
             eta: if eta.is_finite() && eta > 0.0 { eta } else { 1.0 },
             ggx: Ggx::from_roughness(roughness),
-            smooth: roughness < SMOOTH_ROUGHNESS,
+            smooth: roughness < SMOOTH_ROUGHNESS || !((eta - 1.0).abs() >= INVISIBLE_ETA),
             thin,
             tint,
             eta_rgb: None,

@@ -357,3 +357,49 @@ fn white_furnace_metal_and_glass() {
     }
     assert!(failures.is_empty(), "albedo not within 1 % of 1:\n{}", failures.join("\n"));
 }
+
+/// Rough glass of IOR 1 is an invisible interface, as in Cycles: light passes straight
+/// through with all its energy (it rendered black: the half vector of a refraction with
+/// η = 1 is the zero vector). Every sample is finite, its weight is 1 up to the ~10⁻⁷
+/// reflected, and eval and pdf are finite everywhere.
+#[test]
+fn rough_glass_of_ior_one_passes_light_through() {
+    let mut rng = Pcg32::new(8);
+    for thin in [false, true] {
+        for eta in [1.0f32, 1.0 + 5e-4, 1.0 / (1.0 + 5e-4)] {
+            for r in 1..=10 {
+                let roughness = r as f32 / 10.0;
+                let p = PbrParams {
+                    transmission: 1.0,
+                    thin,
+                    ior: 1.0,
+                    eta,
+                    ..PbrParams::opaque(Vec3::ONE, 0.0, roughness)
+                };
+                let b = PbrBsdf::from_params(&p);
+                for theta in [0.0f32, 0.7, 1.2, 1.5] {
+                    let wo = Vec3::new(theta.sin(), 0.0, theta.cos());
+                    let n = 2000;
+                    let mut sum = 0.0f64;
+                    for _ in 0..n {
+                        let s = b.sample(wo, rng.next_f32(), Vec2::new(rng.next_f32(), rng.next_f32()));
+                        // The 1/η² radiance scaling of a refraction undone.
+                        let scale = |wi: Vec3| if wi.z < 0.0 && !thin { eta * eta } else { 1.0 };
+                        let w = s.map_or(Vec3::ZERO, |s| s.f * (s.wi.z.abs() / s.pdf * scale(s.wi)));
+                        assert!(w.is_finite(), "η={eta} thin={thin} r={roughness} θ={theta}: weight {w}");
+                        sum += w.x as f64;
+                    }
+                    let albedo = sum / n as f64;
+                    assert!(
+                        (albedo - 1.0).abs() < 1e-3,
+                        "η={eta} thin={thin} r={roughness} θ={theta}: albedo {albedo}"
+                    );
+                    let wi = cosine_hemisphere(Vec2::new(rng.next_f32(), rng.next_f32()));
+                    for wi in [wi, -wi, -wo] {
+                        assert!(b.eval(wo, wi).is_finite() && b.pdf(wo, wi).is_finite());
+                    }
+                }
+            }
+        }
+    }
+}
