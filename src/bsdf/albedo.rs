@@ -14,6 +14,20 @@ use glam::{Vec2, Vec3};
 /// energy tests of the layered BSDF allow for it.
 pub const TABLE_ERROR: f64 = 2e-3;
 
+/// The entries f(0..n) of a lazily built table, on all cores unless called from a rayon
+/// worker (a render tile): a worker waiting for its parallel jobs may steal other work, such
+/// as another tile that needs the very table being built, and re-entering the OnceLock's
+/// initialisation on the same thread deadlocks. Entries are independent, so both ways give
+/// the same table.
+pub(super) fn build_entries<T: Send>(n: usize, f: impl Fn(usize) -> T + Sync + Send) -> Vec<T> {
+    use rayon::prelude::*;
+    if rayon::current_thread_index().is_some() {
+        (0..n).map(f).collect()
+    } else {
+        (0..n).into_par_iter().map(f).collect()
+    }
+}
+
 /// Resolution of the albedo table along cos θ and roughness.
 pub(super) const TABLE_N: usize = 32;
 
@@ -35,14 +49,10 @@ impl SpecularAlbedo {
     fn compute() -> Self {
         // Entries are independent: build them on all cores (the benchmark found this
         // one-time table at 6-13% of short renders).
-        use rayon::prelude::*;
-        let entries: Vec<(f32, f32)> = (0..TABLE_N * TABLE_N)
-            .into_par_iter()
-            .map(|i| {
-                let (ri, mi) = (i / TABLE_N, i % TABLE_N);
-                directional_albedo_split(Self::mu(mi), ri as f32 / (TABLE_N - 1) as f32, TABLE_STRATA)
-            })
-            .collect();
+        let entries: Vec<(f32, f32)> = build_entries(TABLE_N * TABLE_N, |i| {
+            let (ri, mi) = (i / TABLE_N, i % TABLE_N);
+            directional_albedo_split(Self::mu(mi), ri as f32 / (TABLE_N - 1) as f32, TABLE_STRATA)
+        });
         let a: Vec<f32> = entries.iter().map(|e| e.0).collect();
         let b: Vec<f32> = entries.iter().map(|e| e.1).collect();
         // Averages 2 ∫ E(μ) μ dμ by the trapezoid rule on the table's nodes.

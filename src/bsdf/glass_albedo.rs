@@ -10,6 +10,7 @@
 //! whose albedo changes smoothly, and closed (z = 1 is ior → ∞, a perfect reflector).
 //! The μ axis is spaced in √μ (E changes fastest at grazing angles), roughness linearly.
 
+use super::albedo::build_entries;
 use super::dielectric::{fresnel_dielectric, refract};
 use super::microfacet::{Ggx, reflect};
 use glam::{Vec2, Vec3};
@@ -62,14 +63,12 @@ fn cell(x: f32, n: usize) -> (usize, f32) {
 
 impl GlassAlbedo {
     fn compute() -> Self {
-        use rayon::prelude::*;
         // One task per (roughness, μ): the visible normals and their reflection terms are
         // shared by every IOR, and only Fresnel and refraction change with it.
         let etas: Vec<f32> = (0..2 * Z_N).map(|i| eta_node(i % Z_N, i / Z_N)).collect();
-        let columns: Vec<Vec<f32>> = (0..R_N * MU_N)
-            .into_par_iter()
-            .map(|i| glass_albedos(mu_node(i % MU_N), (i / MU_N) as f32 / (R_N - 1) as f32, &etas, POINTS))
-            .collect();
+        let columns: Vec<Vec<f32>> = build_entries(R_N * MU_N, |i| {
+            glass_albedos(mu_node(i % MU_N), (i / MU_N) as f32 / (R_N - 1) as f32, &etas, POINTS)
+        });
         let mut e = vec![0.0f32; 2 * Z_N * R_N * MU_N];
         for (i, column) in columns.iter().enumerate() {
             for (k, &v) in column.iter().enumerate() {

@@ -1,7 +1,7 @@
 //! The Charlie sheen lobe of `KHR_materials_sheen` and the precomputed table of its
 //! directional albedo, which scales the layers below the sheen (built once, lazily).
 
-use super::albedo::{SpecularAlbedo, TABLE_N};
+use super::albedo::{SpecularAlbedo, TABLE_N, build_entries};
 use super::microfacet::reflect;
 use glam::Vec3;
 
@@ -52,14 +52,10 @@ pub struct SheenAlbedo {
 
 impl SheenAlbedo {
     fn compute() -> Self {
-        use rayon::prelude::*;
-        let e = (0..TABLE_N * TABLE_N)
-            .into_par_iter()
-            .map(|i| {
-                let (ri, mi) = (i / TABLE_N, i % TABLE_N);
-                sheen_directional_albedo(SpecularAlbedo::mu(mi), ri as f32 / (TABLE_N - 1) as f32, SHEEN_STRATA)
-            })
-            .collect();
+        let e = build_entries(TABLE_N * TABLE_N, |i| {
+            let (ri, mi) = (i / TABLE_N, i % TABLE_N);
+            sheen_directional_albedo(SpecularAlbedo::mu(mi), ri as f32 / (TABLE_N - 1) as f32, SHEEN_STRATA)
+        });
         SheenAlbedo { e }
     }
 
