@@ -25,7 +25,7 @@ fn render(scene: &Path, out: &Path, extra: &[&str]) -> Vec<[f32; 4]> {
     render_image(scene, out, extra, LIMIT)
 }
 
-/// Error bound of the albedo table, as asserted by `bsdf::pbr::tests::albedo_table_accuracy`.
+/// Error bound of the albedo table, as asserted by `bsdf::albedo::tests::albedo_table_accuracy`.
 const ALBEDO_TABLE_ERROR: f64 = 2e-3;
 
 /// A closed box of albedo 1 emitting Le everywhere: a path of at most D scattering

@@ -12,17 +12,36 @@
 //! through (smooth) or through the mirror image of the reflection lobe (rough), with
 //! the interreflections of the two faces summed: R' = 2R / (1 + R), T' = 1 - R'.
 //!
-//! Not handled: dispersion (one IOR for all wavelengths), absorption inside (the
-//! integrator applies `KHR_materials_volume` along the path), multiple scattering
-//! between microfacets (rough glass loses a little energy, as in Cycles' single-scatter mode).
+//! Multiple scattering between microfacets ([`DielectricBsdf::with_multiscatter`]), as
+//! Cycles' Multiscatter GGX: single-scattering GGX keeps only E(μo) of the light (E from
+//! `glass_albedo`, reflection plus refraction; thin sheets keep the reflection lobe's E),
+//! and both lobes are scaled by 1 + F_ms (1/E(μo) - 1), with Kulla & Conty's
+//! F_ms = F_ss E_avg / (1 - F_ss (1 - E_avg)) and F_ss the tint, as Cycles takes it for
+//! its glass. Clear glass (F_ss = 1) then keeps exactly all of the light; the sampling is
+//! unchanged (the factor depends on wo alone). The factor depends on the viewer's side,
+//! so the BTDF is no longer reciprocal: [`DielectricBsdf::adjoint_ratio`] corrects the
+//! generalised reciprocity that light paths rely on.
+//!
+//! Not handled: dispersion of rough glass (one IOR for all wavelengths), absorption
+//! inside (the integrator applies `KHR_materials_volume` along the path).
 
 use super::BsdfSample;
+use super::albedo::specular_albedo;
+use super::glass_albedo::glass_albedo;
 use super::microfacet::{Ggx, reflect};
 use crate::math::Rgb;
 use glam::{Vec2, Vec3};
 
 /// Roughness below which the interface is treated as perfectly smooth (delta).
 pub const SMOOTH_ROUGHNESS: f32 = 0.02;
+
+/// |η - 1| below which the interface is invisible, as Cycles treats IOR ≈ 1: light passes
+/// straight through (a smooth interface; it reflects ((η-1)/(η+1))² < 10⁻⁷). A rough one
+/// would be degenerate there (the half vector of a refraction with η = 1 is the zero
+/// vector, and near it f32 cancellation in wo + η wi leaves the half vector's direction
+/// wrong by ~10⁻⁷/|η - 1| rad); a microfacet tilted by θm bends a ray by about
+/// |η - 1| tan θm, under 10⁻³ rad here for all but the most grazing facets: invisible.
+pub const INVISIBLE_ETA: f32 = 1e-3;
 
 /// Unpolarised Fresnel reflectance of a dielectric interface for cosine `cos_i` of the
 /// incident direction and relative index `eta` (transmitted over incident). 1 under
@@ -68,6 +87,11 @@ pub struct DielectricBsdf {
     pub tint: Rgb,
     /// Relative index per RGB channel when the glass disperses (`KHR_materials_dispersion`).
     pub eta_rgb: Option<Vec3>,
+    /// Perceptual roughness (the albedo tables' axis).
+    roughness: f32,
+    /// Kulla & Conty's F_ms per channel of the multiple-scattering compensation; zero
+    /// when it is off (smooth, or not asked for).
+    ms_fms: Rgb,
 }
 
 /// Wavelengths (nm) that stand for the R, G and B channels in dispersion: the peaks of
@@ -89,11 +113,64 @@ impl DielectricBsdf {
         DielectricBsdf {
             eta: if eta.is_finite() && eta > 0.0 { eta } else { 1.0 },
             ggx: Ggx::from_roughness(roughness),
-            smooth: roughness < SMOOTH_ROUGHNESS,
+            smooth: roughness < SMOOTH_ROUGHNESS || !((eta - 1.0).abs() >= INVISIBLE_ETA),
             thin,
             tint,
             eta_rgb: None,
+            roughness,
+            ms_fms: Rgb::ZERO,
         }
+    }
+
+    /// The same interface with the energy that single-scattering GGX loses restored
+    /// (module doc); a smooth interface loses none.
+    pub fn with_multiscatter(mut self) -> Self {
+        if !self.smooth {
+            self.ms_fms = self.fms(self.eta);
+        }
+        self
+    }
+
+    /// F_ms for the tint on the side where the relative IOR is `eta`.
+    fn fms(&self, eta: f32) -> Rgb {
+        let e_avg = if self.thin {
+            specular_albedo().e_avg_white(self.roughness)
+        } else {
+            glass_albedo().e_avg(self.roughness, eta)
+        };
+        let fss = self.tint.clamp(Vec3::ZERO, Vec3::ONE);
+        fss * e_avg / (Vec3::ONE - fss * (1.0 - e_avg)).max(Vec3::splat(1e-6))
+    }
+
+    /// The compensation factor 1 + F_ms (1/E(μo) - 1) seen from μo on the side of `eta`.
+    #[inline]
+    fn ms_factor(&self, fms: Rgb, mu_o: f32, eta: f32) -> Rgb {
+        let e = if self.thin {
+            specular_albedo().e_white(mu_o, self.roughness)
+        } else {
+            glass_albedo().e(mu_o, self.roughness, eta)
+        };
+        // E is never below ~0.3 on the tables' domain; the floor only guards the division.
+        Rgb::ONE + fms * (1.0 / e.max(0.05) - 1.0)
+    }
+
+    /// The multiple-scattering factor of both lobes seen from `wo` (1 when off).
+    #[inline]
+    pub fn multiscatter(&self, wo: Vec3) -> Rgb {
+        if self.ms_fms == Rgb::ZERO { Rgb::ONE } else { self.ms_factor(self.ms_fms, wo.z.abs(), self.eta) }
+    }
+
+    /// For a refracted pair (wo, wi), f(wi, wo) / (η² f(wo, wi)): 1 for single scattering
+    /// (generalised reciprocity), else the compensation seen from wi (on the other side,
+    /// η → 1/η; the same η for a thin sheet) over that seen from wo.
+    #[inline]
+    pub fn adjoint_ratio(&self, wo: Vec3, wi: Vec3) -> Rgb {
+        if self.ms_fms == Rgb::ZERO {
+            return Rgb::ONE;
+        }
+        let eta_i = if self.thin { self.eta } else { 1.0 / self.eta };
+        let fms_i = if self.thin { self.ms_fms } else { self.fms(eta_i) };
+        self.ms_factor(fms_i, wi.z.abs(), eta_i) / self.multiscatter(wo)
     }
 
     /// The same interface with an index per channel from `dispersion` (only smooth solid
@@ -133,7 +210,8 @@ impl DielectricBsdf {
             let m = (wo + wr).normalize();
             let f = self.reflectance(wo.dot(m));
             let spec = self.ggx.d(m) * self.ggx.g2(wo, wr) / (4.0 * wo.z * wr.z);
-            return if wi.z > 0.0 { Rgb::splat(f * spec) } else { self.tint * ((1.0 - f) * spec) };
+            let value = if wi.z > 0.0 { Rgb::splat(f * spec) } else { self.tint * ((1.0 - f) * spec) };
+            return value * self.multiscatter(wo);
         }
         let Some(m) = self.half_vector_transmission(wo, wi) else {
             return Rgb::ZERO;
@@ -143,7 +221,7 @@ impl DielectricBsdf {
         let denom = dot_i + dot_o / self.eta;
         let value = self.ggx.d(m) * (1.0 - f) * self.ggx.g2(wo, Vec3::new(wi.x, wi.y, -wi.z)) * (dot_i * dot_o).abs()
             / (denom * denom * wi.z.abs() * wo.z);
-        self.tint * (value / (self.eta * self.eta))
+        self.tint * self.multiscatter(wo) * (value / (self.eta * self.eta))
     }
 
     /// Generalised half vector of a refraction pair, oriented to +Z; None for pairs that

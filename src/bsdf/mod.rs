@@ -2,9 +2,12 @@
 //! normal) and offers `eval`, `pdf` and `sample` on local directions; both directions
 //! point away from the surface. Closed set of lobes: an enum, no dynamic dispatch.
 
+pub mod albedo;
 pub mod dielectric;
+pub mod glass_albedo;
 pub mod microfacet;
 pub mod pbr;
+pub mod sheen;
 
 use crate::math::Rgb;
 use glam::{Vec2, Vec3};
@@ -93,10 +96,18 @@ impl Bsdf {
     /// The adjoint BSDF f*(wo, wi) = f(wi, wo) that carries importance along light paths:
     /// the same as `eval` with the arguments swapped for reflection; for refraction across
     /// a solid's interface `eval` divides radiance by η² and importance is not divided,
-    /// so the value is `eval(wo, wi)` times η².
+    /// so the value is `eval(wo, wi)` times η² (times the change of rough glass's
+    /// multiple-scattering compensation, which depends on the viewer's side).
     #[inline]
     pub fn eval_adjoint(&self, wo: Vec3, wi: Vec3) -> Rgb {
-        if wo.z * wi.z >= 0.0 { self.eval(wi, wo) } else { self.eval(wo, wi) * self.refraction_eta2() }
+        if wo.z * wi.z >= 0.0 {
+            self.eval(wi, wo)
+        } else {
+            let ratio = match self {
+                Bsdf::Pbr(b) => b.refraction_adjoint_ratio(wo, wi),
+            };
+            self.eval(wo, wi) * self.refraction_eta2() * ratio
+        }
     }
 
     /// η² of the refracting part (1 for thin sheets): the ratio between a transmitted

@@ -25,16 +25,28 @@
 //! reciprocal scaling min(1 - s·E(μo), 1 - s·E(μi)), s = max(sheen colour), and
 //! `KHR_materials_clearcoat` is a GGX layer of IOR 1.5 on top, with its own normal.
 //!
-//! Not handled: the energy lost by single-scattering GGX at high roughness (Cycles
-//! compensates with multiscatter GGX: rough metals are slightly darker in Caustic).
+//! Multiple scattering between microfacets, as Cycles' default Multiscatter GGX: the
+//! metal's GGX lobe keeps only E(μo) of the light (E of the white lobe, tabulated), so it
+//! is scaled by 1 + F_ms (1/E(μo) - 1), with Kulla & Conty's Fresnel-averaged colour
+//! F_ms = F_avg E_avg / (1 - F_avg (1 - E_avg)), F_avg = F0 + (1 - F0)/21 the cosine-weighted
+//! average of Schlick's Fresnel: a white metal keeps all of the light, a coloured one
+//! saturates as its interreflections do. The glass does the same with its own tables
+//! (`DielectricBsdf::with_multiscatter`). The factor depends on wo alone, which keeps the
+//! sampling exact and, as in Cycles, makes those lobes non-reciprocal (light paths use
+//! the adjoint, `Bsdf::eval_adjoint`). The opaque dielectric's specular layer and the coat
+//! stay single-scattering (their albedo scales the layers below them).
 
 use super::BsdfSample;
 use super::dielectric::{DielectricBsdf, SMOOTH_ROUGHNESS};
 use super::microfacet::{Ggx, reflect, schlick_weight};
+use super::sheen::{charlie_brdf, sheen_albedo_table};
 use crate::math::{Frame, Rgb, luminance};
 use crate::sampling::warp::{cosine_hemisphere, cosine_hemisphere_pdf};
 use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
+
+// The renderer warms the table up through this path before rendering.
+pub use super::albedo::specular_albedo;
 
 /// Normal-incidence reflectance of the default dielectric layer (IOR 1.5).
 pub const F0_DIELECTRIC: f32 = 0.04;
@@ -148,6 +160,8 @@ pub struct PbrBsdf {
     pub smooth: bool,
     /// Cosine-weighted mean albedo of the dielectric layer per channel (specular weight included).
     layer_avg: Rgb,
+    /// F_ms per channel of the metal's multiple-scattering compensation (zero: off).
+    metal_fms: Rgb,
 
     /// The coat is a perfect mirror.
     pub smooth_coat: bool,
@@ -208,6 +222,10 @@ impl PbrBsdf {
         if p.dispersion > 0.0 && p.dispersion.is_finite() && !p.thin {
             glass = glass.with_dispersion(ior, p.dispersion);
         }
+        // Only materials that show the glass pay for its table.
+        if p.transmission > 0.0 && p.metallic < 1.0 {
+            glass = glass.with_multiscatter();
+        }
         PbrBsdf {
             base,
             metallic: p.metallic.clamp(0.0, 1.0),
@@ -224,6 +242,7 @@ impl PbrBsdf {
             smooth: roughness < SMOOTH_ROUGHNESS,
             smooth_coat: p.coat_roughness < SMOOTH_ROUGHNESS,
             layer_avg: Rgb::ZERO,
+            metal_fms: Rgb::ZERO,
             coat_frame,
             coat_f0: f0_from_ior(if p.coat_ior.is_finite() && p.coat_ior >= 1.0 { p.coat_ior } else { 1.5 }).min(1.0),
             coat_ior: if p.coat_ior.is_finite() && p.coat_ior >= 1.0 { p.coat_ior } else { 1.5 },
@@ -239,7 +258,30 @@ impl PbrBsdf {
     fn with_layer_avg(mut self) -> Self {
         let (a, b) = specular_albedo().ab_avg(self.roughness);
         self.layer_avg = (self.f0_rgb * a + Vec3::splat(b)) * self.specular;
+        if self.metallic > 0.0 && !self.smooth {
+            let e_avg = specular_albedo().e_avg_white(self.roughness);
+            let f_avg = self.base + (Vec3::ONE - self.base) / 21.0;
+            self.metal_fms = f_avg * e_avg / (Vec3::ONE - f_avg * (1.0 - e_avg)).max(Vec3::splat(1e-6));
+        }
         self
+    }
+
+    /// The metal lobe's multiple-scattering factor seen from μo (1 when off).
+    #[inline]
+    fn metal_ms(&self, mu_o: f32) -> Rgb {
+        if self.metal_fms == Rgb::ZERO {
+            return Rgb::ONE;
+        }
+        // E of the white lobe is above 0.3 everywhere; the floor only guards the division.
+        let e = specular_albedo().e_white(mu_o, self.roughness).max(0.05);
+        Rgb::ONE + self.metal_fms * (1.0 / e - 1.0)
+    }
+
+    /// For a refracted pair (wo, wi), the adjoint f(wi, wo) over η² f(wo, wi): not 1 when
+    /// the glass compensates multiple scattering, which depends on the viewer's side.
+    #[inline]
+    pub fn refraction_adjoint_ratio(&self, wo: Vec3, wi: Vec3) -> Rgb {
+        self.glass.adjoint_ratio(wo, wi)
     }
 
     /// cos θ of `w` to the coat's normal.
@@ -311,12 +353,15 @@ impl PbrBsdf {
         let below = under * (1.0 - es);
         let dielectric = 1.0 - self.metallic;
         let opaque = dielectric * (1.0 - self.transmission);
-        let metal = below * self.metallic * luminance(self.base + (Vec3::ONE - self.base) * schlick_weight(wo.z));
+        let metal = below
+            * self.metallic
+            * luminance((self.base + (Vec3::ONE - self.base) * schlick_weight(wo.z)) * self.metal_ms(wo.z));
         let spec = below * opaque * e;
         let diffuse = below * opaque * (1.0 - e) * luminance(self.base) * (1.0 - self.subsurface);
         let glass = if self.transmission > 0.0 {
             let r = self.glass.reflect_probability(wo);
-            below * dielectric * self.transmission * (r + (1.0 - r) * luminance(self.base)).max(1e-3)
+            let ms = luminance(self.glass.multiscatter(wo));
+            below * dielectric * self.transmission * ((r + (1.0 - r) * luminance(self.base)) * ms).max(1e-3)
         } else {
             0.0
         };
@@ -414,7 +459,7 @@ impl PbrBsdf {
         let flip = wo.z < 0.0;
         let wo = if flip { Vec3::new(wo.x, wo.y, -wo.z) } else { wo };
         if wo.z <= 0.0 {
-            return PbrAt { b: self, wo, flip, under: Rgb::ZERO, eo: Rgb::ZERO, sheen_o: 0.0 };
+            return PbrAt { b: self, wo, flip, under: Rgb::ZERO, eo: Rgb::ZERO, sheen_o: 0.0, metal_ms: Rgb::ONE };
         }
         // The coat reflects E_c(μo) of the light and leaves the rest to the layers below
         // (albedo scaling by the outgoing direction, as Cycles layers its coat).
@@ -422,7 +467,8 @@ impl PbrBsdf {
         let opaque = (1.0 - self.metallic) * (1.0 - self.transmission);
         let eo = if opaque > 0.0 { self.layer_albedo(wo.z) } else { Rgb::ZERO };
         let sheen_o = if self.sheen_max > 0.0 { 1.0 - self.sheen_albedo(wo.z) } else { 1.0 };
-        PbrAt { b: self, wo, flip, under, eo, sheen_o }
+        let metal_ms = self.metal_ms(wo.z);
+        PbrAt { b: self, wo, flip, under, eo, sheen_o, metal_ms }
     }
 
     /// Density of [`sample`](Self::sample) for the non-delta lobes.
@@ -546,241 +592,6 @@ impl PbrBsdf {
     }
 }
 
-/// Resolution of the albedo table along cos θ and roughness.
-const TABLE_N: usize = 32;
-
-/// Directional albedo of a GGX reflection layer with Schlick's Fresnel, as the split
-/// E(μ, roughness, F0) = F0 · A(μ, roughness) + B(μ, roughness) (Schlick's Fresnel is
-/// linear in F0), with the cosine-weighted averages of A and B. Computed once by
-/// stratified quadrature of the VNDF estimator F · G2 / G1 (deterministic).
-pub struct SpecularAlbedo {
-    a: Vec<f32>,
-    b: Vec<f32>,
-    avg_a: Vec<f32>,
-    avg_b: Vec<f32>,
-}
-
-/// Stratified samples per table entry (per axis).
-const TABLE_STRATA: usize = 48;
-
-impl SpecularAlbedo {
-    fn compute() -> Self {
-        // Entries are independent: build them on all cores (the benchmark found this
-        // one-time table at 6-13% of short renders).
-        use rayon::prelude::*;
-        let entries: Vec<(f32, f32)> = (0..TABLE_N * TABLE_N)
-            .into_par_iter()
-            .map(|i| {
-                let (ri, mi) = (i / TABLE_N, i % TABLE_N);
-                directional_albedo_split(Self::mu(mi), ri as f32 / (TABLE_N - 1) as f32, TABLE_STRATA)
-            })
-            .collect();
-        let a: Vec<f32> = entries.iter().map(|e| e.0).collect();
-        let b: Vec<f32> = entries.iter().map(|e| e.1).collect();
-        // Averages 2 ∫ E(μ) μ dμ by the trapezoid rule on the table's nodes.
-        let avg = |t: &[f32]| -> Vec<f32> {
-            (0..TABLE_N)
-                .map(|ri| {
-                    let mut sum = 0.0f32;
-                    for mi in 0..TABLE_N - 1 {
-                        let (m0, m1) = (Self::mu(mi), Self::mu(mi + 1));
-                        sum += 0.5 * (t[ri * TABLE_N + mi] * m0 + t[ri * TABLE_N + mi + 1] * m1) * (m1 - m0);
-                    }
-                    2.0 * sum
-                })
-                .collect()
-        };
-        let (avg_a, avg_b) = (avg(&a), avg(&b));
-        SpecularAlbedo { a, b, avg_a, avg_b }
-    }
-
-    /// Node i of the μ axis; nodes are spaced in √μ because E changes fastest at grazing angles.
-    fn mu(i: usize) -> f32 {
-        let x = i as f32 / (TABLE_N - 1) as f32;
-        (x * x).max(1e-3)
-    }
-
-    /// E(μ, roughness, F0), bilinear in the tables (one set of weights for both).
-    #[inline]
-    pub fn e(&self, mu: f32, roughness: f32, f0: f32) -> f32 {
-        let (a, b) = self.ab(mu, roughness);
-        f0 * a + b
-    }
-
-    /// (A, B) with E = F0·A + B, bilinear in the tables.
-    #[inline]
-    pub fn ab(&self, mu: f32, roughness: f32) -> (f32, f32) {
-        let x = mu.clamp(0.0, 1.0).sqrt() * (TABLE_N - 1) as f32;
-        let y = roughness.clamp(0.0, 1.0) * (TABLE_N - 1) as f32;
-        let (x0, y0) = ((x as usize).min(TABLE_N - 2), (y as usize).min(TABLE_N - 2));
-        let (fx, fy) = (x - x0 as f32, y - y0 as f32);
-        let (i00, i01) = (y0 * TABLE_N + x0, (y0 + 1) * TABLE_N + x0);
-        let w = [(1.0 - fx) * (1.0 - fy), fx * (1.0 - fy), (1.0 - fx) * fy, fx * fy];
-        let at = |t: &[f32]| w[0] * t[i00] + w[1] * t[i00 + 1] + w[2] * t[i01] + w[3] * t[i01 + 1];
-        (at(&self.a), at(&self.b))
-    }
-
-    /// Cosine-weighted average of E over the hemisphere.
-    #[inline]
-    pub fn e_avg(&self, roughness: f32, f0: f32) -> f32 {
-        let (a, b) = self.ab_avg(roughness);
-        f0 * a + b
-    }
-
-    /// (A, B) of the cosine-weighted averages.
-    #[inline]
-    pub fn ab_avg(&self, roughness: f32) -> (f32, f32) {
-        let y = roughness.clamp(0.0, 1.0) * (TABLE_N - 1) as f32;
-        let y0 = (y as usize).min(TABLE_N - 2);
-        let fy = y - y0 as f32;
-        let lerp = |t: &[f32]| t[y0] * (1.0 - fy) + t[y0 + 1] * fy;
-        (lerp(&self.avg_a), lerp(&self.avg_b))
-    }
-}
-
-/// (A, B) of ∫ f_spec cos dωi = F0·A + B for the GGX layer at μ = cos θo, by `n`×`n`
-/// stratified VNDF samples.
-pub fn directional_albedo_split(mu: f32, roughness: f32, n: usize) -> (f32, f32) {
-    let ggx = Ggx::from_roughness(roughness);
-    let wo = Vec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu);
-    let (mut sa, mut sb) = (0.0f64, 0.0f64);
-    for i in 0..n {
-        for j in 0..n {
-            let u = Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
-            let m = ggx.sample_visible_normal(wo, u);
-            let wi = reflect(wo, m);
-            if wi.z <= 0.0 {
-                continue;
-            }
-            let w = schlick_weight(wo.dot(m));
-            let g = (ggx.g2(wo, wi) / ggx.g1(wo)) as f64;
-            sa += (1.0 - w) as f64 * g;
-            sb += w as f64 * g;
-        }
-    }
-    let k = (n * n) as f64;
-    ((sa / k) as f32, (sb / k) as f32)
-}
-
-/// ∫ f_spec cos dωi of the default (F0 = 0.04) layer.
-pub fn directional_albedo(mu: f32, roughness: f32, n: usize) -> f32 {
-    let (a, b) = directional_albedo_split(mu, roughness, n);
-    F0_DIELECTRIC * a + b
-}
-
-/// The shared table.
-pub fn specular_albedo() -> &'static SpecularAlbedo {
-    static TABLE: std::sync::OnceLock<SpecularAlbedo> = std::sync::OnceLock::new();
-    TABLE.get_or_init(SpecularAlbedo::compute)
-}
-
-/// The Charlie sheen BRDF of Estevez & Kulla 2017 ("Production Friendly Microfacet Sheen
-/// BRDF"), one of the two visibilities the glTF sheen extension allows: the normalised
-/// distribution D(h) = (2 + 1/α) sin^(1/α)θh / 2π, α = roughness² (kept above 10⁻³ so the
-/// exponent stays finite), with the paper's fitted Smith Λ, f = D / ((1 + Λo + Λi) 4 μo μi).
-/// A single-scattering microfacet model with a proper masking term reflects at most what
-/// it receives, which Ashikhmin's simpler visibility does not (its albedo passes 1 at
-/// grazing angles; the energy test caught it).
-#[inline]
-pub fn charlie_brdf(cos_h: f32, mu_o: f32, mu_i: f32, roughness: f32) -> f32 {
-    let alpha = (roughness * roughness).max(1e-3);
-    let inv = 1.0 / alpha;
-    let sin2 = (1.0 - cos_h * cos_h).max(0.0);
-    let d = (2.0 + inv) * sin2.powf(0.5 * inv) / (2.0 * std::f32::consts::PI);
-    let denom = (1.0 + charlie_lambda(mu_o, alpha) + charlie_lambda(mu_i, alpha)) * 4.0 * mu_o * mu_i;
-    if denom > 0.0 { d / denom } else { 0.0 }
-}
-
-/// Estevez & Kulla's fit of the Charlie distribution's Smith Λ: exp(L(μ)) below μ = 1/2 and
-/// its mirror exp(2 L(1/2) - L(1 - μ)) above, with L(x) = a / (1 + b x^c) + d x + e and
-/// (a..e) interpolated between the paper's two fitted rows by (1 - α)².
-#[inline]
-fn charlie_lambda(mu: f32, alpha: f32) -> f32 {
-    let t = (1.0 - alpha) * (1.0 - alpha);
-    let lerp = |x: f32, y: f32| x + (y - x) * t;
-    let (a, b, c, d, e) = (
-        lerp(21.5473, 25.3245),
-        lerp(3.82987, 3.32435),
-        lerp(0.19823, 0.16801),
-        lerp(-1.97760, -1.27393),
-        lerp(-4.32054, -4.85967),
-    );
-    let l = |x: f32| a / (1.0 + b * x.max(0.0).powf(c)) + d * x + e;
-    let mu = mu.abs();
-    if mu < 0.5 { l(mu).exp() } else { (2.0 * l(0.5) - l(1.0 - mu)).exp() }
-}
-
-/// Stratified samples per axis for the sheen table.
-const SHEEN_STRATA: usize = 48;
-
-/// Directional albedo E(μ, roughness) of the Charlie sheen (white), tabulated once by
-/// stratified cosine-weighted quadrature.
-pub struct SheenAlbedo {
-    e: Vec<f32>,
-}
-
-impl SheenAlbedo {
-    fn compute() -> Self {
-        use rayon::prelude::*;
-        let e = (0..TABLE_N * TABLE_N)
-            .into_par_iter()
-            .map(|i| {
-                let (ri, mi) = (i / TABLE_N, i % TABLE_N);
-                sheen_directional_albedo(SpecularAlbedo::mu(mi), ri as f32 / (TABLE_N - 1) as f32, SHEEN_STRATA)
-            })
-            .collect();
-        SheenAlbedo { e }
-    }
-
-    /// E(μ, roughness), bilinear.
-    #[inline]
-    pub fn e(&self, mu: f32, roughness: f32) -> f32 {
-        let x = mu.clamp(0.0, 1.0).sqrt() * (TABLE_N - 1) as f32;
-        let y = roughness.clamp(0.0, 1.0) * (TABLE_N - 1) as f32;
-        let (x0, y0) = ((x as usize).min(TABLE_N - 2), (y as usize).min(TABLE_N - 2));
-        let (fx, fy) = (x - x0 as f32, y - y0 as f32);
-        let (i00, i01) = (y0 * TABLE_N + x0, (y0 + 1) * TABLE_N + x0);
-        let t = &self.e;
-        (1.0 - fx) * (1.0 - fy) * t[i00]
-            + fx * (1.0 - fy) * t[i00 + 1]
-            + (1.0 - fx) * fy * t[i01]
-            + fx * fy * t[i01 + 1]
-    }
-}
-
-/// ∫ f_sheen cos dωi at μ = cos θo for white sheen, by `n`×`n` stratified samples of the
-/// half vector from D(h) cos θh (sin θh = ξ^(α / (2α + 1)) inverts its CDF), for which the
-/// estimator f μi / p = |wo·h| / ((1 + Λo + Λi) μo cos θh) is smooth: cosine-weighted
-/// strata miss the lobe at grazing angles and low roughness.
-pub fn sheen_directional_albedo(mu: f32, roughness: f32, n: usize) -> f32 {
-    let alpha = (roughness * roughness).max(1e-3);
-    let wo = Vec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu);
-    let lo = charlie_lambda(mu, alpha);
-    let mut sum = 0.0f64;
-    for i in 0..n {
-        for j in 0..n {
-            let (x1, x2) = ((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
-            let sin_h = x1.powf(alpha / (2.0 * alpha + 1.0));
-            let cos_h = (1.0 - sin_h * sin_h).max(0.0).sqrt();
-            let phi = std::f32::consts::TAU * x2;
-            let h = Vec3::new(sin_h * phi.cos(), sin_h * phi.sin(), cos_h);
-            let wi = reflect(wo, h);
-            if wi.z <= 0.0 || cos_h <= 0.0 {
-                continue;
-            }
-            let li = charlie_lambda(wi.z, alpha);
-            sum += (wo.dot(h).abs() / ((1.0 + lo + li) * mu * cos_h)) as f64;
-        }
-    }
-    (sum / (n * n) as f64).min(1.0) as f32
-}
-
-/// The shared sheen table.
-pub fn sheen_albedo_table() -> &'static SheenAlbedo {
-    static TABLE: std::sync::OnceLock<SheenAlbedo> = std::sync::OnceLock::new();
-    TABLE.get_or_init(SheenAlbedo::compute)
-}
-
 /// A [`PbrBsdf`] seen from one outgoing direction ([`PbrBsdf::at`]): evaluates f(wo, wi)
 /// for many wi with the wo-only terms (coat transmittance, layer and sheen albedos at wo)
 /// computed once. `PbrBsdf::eval` goes through it, so there is one copy of the formula.
@@ -797,6 +608,8 @@ pub struct PbrAt<'a> {
     eo: Rgb,
     /// 1 - the sheen's albedo at wo (1 without sheen).
     sheen_o: f32,
+    /// The metal's multiple-scattering factor at wo.
+    metal_ms: Rgb,
 }
 
 impl PbrAt<'_> {
@@ -835,7 +648,7 @@ impl PbrAt<'_> {
             f += (b.base * diffuse_weight * FRAC_1_PI + f_layer * spec) * opaque;
         }
         if b.metallic > 0.0 {
-            f += (b.base + (Vec3::ONE - b.base) * fw) * (spec * b.metallic);
+            f += (b.base + (Vec3::ONE - b.base) * fw) * self.metal_ms * (spec * b.metallic);
         }
         f = (f * scaling + b.sheen_eval(wo, wi)) * under;
         if b.coat > 0.0 && !b.smooth_coat {
@@ -853,238 +666,4 @@ fn flip_to_upper(wo: Vec3, wi: Vec3) -> (Vec3, Vec3) {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::sampling::chi2::{ChiSquareTest, Pcg32, assert_chi2};
-
-    fn materials_with(base: Vec3) -> Vec<(String, PbrBsdf)> {
-        let mut v = Vec::new();
-        for roughness in [0.15f32, 0.5, 1.0] {
-            for metallic in [0.0f32, 0.5, 1.0] {
-                v.push((format!("r={roughness} m={metallic}"), PbrBsdf::new(base, metallic, roughness)));
-            }
-            for specular in [0.0f32, 0.5] {
-                v.push((
-                    format!("r={roughness} specular={specular}"),
-                    PbrBsdf::with_specular(base, 0.0, roughness, specular),
-                ));
-            }
-        }
-        // Transmissive (rough: the chi-square needs densities), entering and leaving,
-        // solid and thin, partly metallic, another IOR.
-        for (transmission, eta, thin, metallic, ior) in [
-            (1.0f32, 1.5f32, false, 0.0f32, 1.5f32),
-            (1.0, 1.0 / 1.5, false, 0.0, 1.5),
-            (0.5, 1.5, false, 0.0, 1.5),
-            (1.0, 1.5, true, 0.0, 1.5),
-            (0.7, 2.4, false, 0.3, 2.4),
-        ] {
-            for roughness in [0.3f32, 0.8] {
-                let p = PbrParams {
-                    specular: 1.0,
-                    ior,
-                    transmission,
-                    thin,
-                    eta,
-                    ..PbrParams::opaque(base, metallic, roughness)
-                };
-                v.push((
-                    format!("r={roughness} transmission={transmission} η={eta} thin={thin} m={metallic}"),
-                    PbrBsdf::from_params(&p),
-                ));
-            }
-        }
-        // Sheen over a diffuse base, a metal and glass; a tinted specular layer.
-        for (sheen, sr, metallic, transmission) in
-            [(1.0f32, 0.3f32, 0.0f32, 0.0f32), (0.6, 0.8, 1.0, 0.0), (0.8, 0.5, 0.0, 1.0)]
-        {
-            let p = PbrParams {
-                sheen_color: Vec3::new(sheen, sheen * 0.7, sheen * 0.4),
-                sheen_roughness: sr,
-                transmission,
-                ..PbrParams::opaque(base, metallic, 0.5)
-            };
-            v.push((format!("sheen={sheen} sr={sr} m={metallic} t={transmission}"), PbrBsdf::from_params(&p)));
-        }
-        for roughness in [0.2f32, 0.6] {
-            let p = PbrParams {
-                specular_color: Vec3::new(3.0, 1.0, 0.2),
-                ior: 1.8,
-                ..PbrParams::opaque(base, 0.0, roughness)
-            };
-            v.push((format!("specular colour r={roughness}"), PbrBsdf::from_params(&p)));
-        }
-        // Coated: over a diffuse base, a metal and glass; the coat breaks reciprocity
-        // (albedo scaling by wo), so the reciprocity test skips these.
-        for (coat, coat_roughness, metallic, transmission) in
-            [(1.0f32, 0.1f32, 0.0f32, 0.0f32), (0.5, 0.4, 1.0, 0.0), (1.0, 0.3, 0.0, 1.0)]
-        {
-            let p = PbrParams { coat, coat_roughness, transmission, ..PbrParams::opaque(base, metallic, 0.6) };
-            v.push((
-                format!("coat={coat} cr={coat_roughness} m={metallic} t={transmission}"),
-                PbrBsdf::from_params(&p),
-            ));
-        }
-        // Blender's coat IOR and tint (CAUSTIC_materials_coat).
-        let p = PbrParams {
-            coat: 1.0,
-            coat_roughness: 0.3,
-            coat_ior: 1.8,
-            coat_tint: Vec3::new(0.8, 0.5, 0.3),
-            ..PbrParams::opaque(base, 0.0, 0.5)
-        };
-        v.push(("coat ior 1.8 tinted".into(), PbrBsdf::from_params(&p)));
-        // A coat with its own normal (clearcoatNormalTexture), rough and smooth.
-        for coat_roughness in [0.3f32, 0.1] {
-            let p = PbrParams {
-                coat: 1.0,
-                coat_roughness,
-                coat_normal: Some(Vec3::new(0.3, -0.2, 0.93)),
-                ..PbrParams::opaque(base, 0.0, 0.5)
-            };
-            v.push((format!("coat normal cr={coat_roughness}"), PbrBsdf::from_params(&p)));
-        }
-        v
-    }
-
-    fn materials() -> Vec<(String, PbrBsdf)> {
-        materials_with(Vec3::new(0.8, 0.4, 0.1))
-    }
-
-    #[test]
-    fn chi2_pbr_lobes() {
-        for (name, b) in materials() {
-            for theta in [0.1f32, 0.9, 1.45] {
-                let wo = Vec3::new(theta.sin(), 0.0, theta.cos());
-                let mut rng = Pcg32::new(3);
-                let t = ChiSquareTest::new(&format!("glTF PBR {name} θ={theta}"));
-                assert_chi2(
-                    t.run_with_pdf(|u| b.sample(wo, rng.next_f32(), u).map(|s| (s.wi, s.pdf)), |wi| b.pdf(wo, wi)),
-                );
-            }
-        }
-    }
-
-    /// Reciprocity: f(wo, wi) = f(wi, wo) for the whole BRDF (the Fresnel term uses the
-    /// half vector, which is symmetric; the diffuse/specular split is too).
-    #[test]
-    fn reciprocity() {
-        let mut rng = Pcg32::new(9);
-        for (_, b) in materials().into_iter().filter(|(_, b)| b.coat == 0.0) {
-            for _ in 0..200 {
-                let a = cosine_hemisphere(Vec2::new(rng.next_f32(), rng.next_f32()));
-                let c = cosine_hemisphere(Vec2::new(rng.next_f32(), rng.next_f32()));
-                let f1 = b.eval(a, c);
-                let f2 = b.eval(c, a);
-                assert!((f1 - f2).abs().max_element() <= 1e-4 * f1.max_element().max(1.0));
-            }
-        }
-    }
-
-    /// A perfectly smooth metal is a delta mirror whose sampled weight is Schlick's
-    /// Fresnel; a smooth dielectric over black is one too, weighted by its layer albedo.
-    #[test]
-    fn smooth_reflection_is_a_delta_mirror() {
-        let metal = PbrBsdf::new(Vec3::new(0.9, 0.6, 0.3), 1.0, 0.0);
-        assert!(metal.is_delta());
-        let wo = Vec3::new(0.6, 0.0, 0.8);
-        let s = metal.sample(wo, 0.5, Vec2::new(0.3, 0.7)).unwrap();
-        assert!(s.delta && (s.wi - Vec3::new(-0.6, 0.0, 0.8)).length() < 1e-6);
-        let weight = s.f * s.wi.z / s.pdf;
-        let expect = metal.base + (Vec3::ONE - metal.base) * schlick_weight(0.8);
-        assert!((weight - expect).abs().max_element() < 1e-5, "{weight} vs {expect}");
-        assert_eq!(metal.eval(wo, s.wi), Vec3::ZERO);
-        // A smooth dielectric with a diffuse base is not a pure delta BSDF.
-        assert!(!PbrBsdf::new(Vec3::splat(0.5), 0.0, 0.0).is_delta());
-        assert!(PbrBsdf::new(Vec3::ZERO, 0.0, 0.0).is_delta());
-    }
-
-    /// The albedo table agrees with a 4× finer quadrature within TABLE_ERROR, which the
-    /// energy test below then allows for.
-    const TABLE_ERROR: f64 = 2e-3;
-
-    #[test]
-    fn albedo_table_accuracy() {
-        let t = specular_albedo();
-        for &(mu, r) in &[(0.05f32, 0.1f32), (0.3, 0.5), (0.77, 0.23), (1.0, 1.0), (0.5, 0.05)] {
-            let fine = directional_albedo(mu, r, 4 * TABLE_STRATA) as f64;
-            let err = (t.e(mu, r, F0_DIELECTRIC) as f64 - fine).abs();
-            assert!(err < TABLE_ERROR, "E({mu}, {r}): table {} vs {fine}", t.e(mu, r, F0_DIELECTRIC));
-        }
-    }
-
-    /// Energy: the directional albedo ∫ f cos dwi ≤ 1 at every angle, estimated by
-    /// importance sampling with N samples; the bound allows 5 standard errors of the
-    /// estimate (its sample standard deviation / √N) plus the albedo table's error.
-    #[test]
-    fn albedo_at_most_one() {
-        let n = 200_000;
-        for (name, b) in materials_with(Vec3::ONE) {
-            for theta in [0.0f32, 0.5, 1.0, 1.5] {
-                let wo = Vec3::new(theta.sin(), 0.0, theta.cos());
-                let mut rng = Pcg32::new(1);
-                // Per channel: a tinted layer has coloured weights, and the mean of the
-                // largest channel would overstate every channel's albedo.
-                let (mut sum, mut sum2) = (glam::DVec3::ZERO, glam::DVec3::ZERO);
-                for _ in 0..n {
-                    let u = Vec2::new(rng.next_f32(), rng.next_f32());
-                    let v = b
-                        .sample(wo, rng.next_f32(), u)
-                        .map(|s| {
-                            // Undo the 1/η² radiance scaling of refracted samples.
-                            let scale = if s.wi.z < 0.0 && !b.glass.thin { b.glass.eta * b.glass.eta } else { 1.0 };
-                            (s.f * (s.wi.z.abs() / s.pdf * scale)).as_dvec3()
-                        })
-                        .unwrap_or(glam::DVec3::ZERO);
-                    sum += v;
-                    sum2 += v * v;
-                }
-                let mean = sum / n as f64;
-                let se = ((sum2 / n as f64 - mean * mean).max(glam::DVec3::ZERO) / n as f64).powf(0.5);
-                for c in 0..3 {
-                    assert!(
-                        mean[c] <= 1.0 + 5.0 * se[c] + TABLE_ERROR,
-                        "{name} θ={theta} channel {c}: albedo {} ± {}",
-                        mean[c],
-                        se[c]
-                    );
-                }
-            }
-        }
-    }
-
-    /// The sheen table agrees with a 4× finer quadrature (the albedo test allows its error).
-    #[test]
-    fn sheen_table_accuracy() {
-        let t = sheen_albedo_table();
-        for &(mu, r) in &[(0.05f32, 0.2f32), (0.3, 0.5), (0.77, 0.9), (1.0, 1.0), (0.5, 0.05)] {
-            let fine = sheen_directional_albedo(mu, r, 4 * SHEEN_STRATA) as f64;
-            let err = (t.e(mu, r) as f64 - fine).abs();
-            assert!(err < TABLE_ERROR, "E_sheen({mu}, {r}): table {} vs {fine}", t.e(mu, r));
-        }
-    }
-
-    /// A tinted specular layer reflects its tint: at normal incidence over a black base the
-    /// sampled weight per channel follows F0 = min(F0(ior) × colour, 1).
-    #[test]
-    fn specular_colour_tints_f0() {
-        let p = PbrParams { specular_color: Vec3::new(2.0, 1.0, 0.0), ..PbrParams::opaque(Vec3::ZERO, 0.0, 0.0) };
-        let b = PbrBsdf::from_params(&p);
-        let s = b.sample(Vec3::Z, 0.0, Vec2::splat(0.5)).unwrap();
-        let w = s.f * s.wi.z / s.pdf;
-        let f0 = f0_from_ior(1.5);
-        // The delta mirror's weight is the layer albedo, which at μ = 1 is about F0.
-        assert!((w.x / w.y - 2.0).abs() < 0.05 && w.z < 0.2 * w.y, "{w} for F0 {f0}");
-    }
-
-    /// A white Lambertian (metallic 0, rough) reflects 1 - F: its albedo is close to,
-    /// and below, 1 at normal incidence; a black dielectric reflects only the specular.
-    #[test]
-    fn diffuse_limit() {
-        let b = PbrBsdf::new(Vec3::ZERO, 0.0, 1.0);
-        let wo = Vec3::Z;
-        let wi = Vec3::new(0.6, 0.0, 0.8);
-        let f = b.eval(wo, wi);
-        assert!(f.x == f.y && f.y == f.z && f.x > 0.0 && f.x < 0.1);
-    }
-}
+mod tests;
