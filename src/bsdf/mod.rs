@@ -103,10 +103,16 @@ impl Bsdf {
         if wo.z * wi.z >= 0.0 {
             self.eval(wi, wo)
         } else {
-            let ratio = match self {
-                Bsdf::Pbr(b) => b.refraction_adjoint_ratio(wo, wi),
-            };
-            self.eval(wo, wi) * self.refraction_eta2() * ratio
+            self.eval(wo, wi) * self.refraction_eta2() * self.refraction_adjoint_ratio(wo, wi)
+        }
+    }
+
+    /// For a refracted pair (wo, wi), the adjoint f(wi, wo) over η² f(wo, wi): not 1 when
+    /// rough glass compensates multiple scattering, which depends on the viewer's side.
+    #[inline]
+    pub fn refraction_adjoint_ratio(&self, wo: Vec3, wi: Vec3) -> Rgb {
+        match self {
+            Bsdf::Pbr(b) => b.refraction_adjoint_ratio(wo, wi),
         }
     }
 

@@ -14,6 +14,7 @@ pub fn run_info(args: &InfoArgs) -> Result<()> {
     if args.json {
         let v = json!({
             "file": r.file,
+            "load_profile": r.profile,
             "triangles": r.triangles,
             "meshes": r.meshes,
             "instances": r.instances,

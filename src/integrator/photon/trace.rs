@@ -291,7 +291,15 @@ pub fn trace_one(
         // f(wo, wi) where a clear coat scales the layers below by its albedo seen from the
         // eye's side (as Cycles), which is not reciprocal. Transmission keeps f(wo, wi): photons inside a refractive object keep
         // the 1/η² radiance scaling, which cancels for closed objects (module doc).
-        let f = if !bs.delta && bs.wi.z * wo_local.z > 0.0 { sp.bsdf.eval_adjoint(wo_local, bs.wi) } else { bs.f };
+        // Rough transmission keeps the radiance value's η² but takes the adjoint's
+        // multiple-scattering compensation (seen from the photon's side).
+        let f = if bs.delta {
+            bs.f
+        } else if bs.wi.z * wo_local.z > 0.0 {
+            sp.bsdf.eval_adjoint(wo_local, bs.wi)
+        } else {
+            bs.f * sp.bsdf.refraction_adjoint_ratio(wo_local, bs.wi)
+        };
         let w = f * (bs.wi.z.abs() / (bs.pdf * (1.0 - q_sss))) * correction;
         let q = w.max_element().min(1.0);
         if !(q > 0.0) || u_rr >= q || !w.is_finite() {
