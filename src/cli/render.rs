@@ -195,6 +195,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         "light_sampler": res.light_sampler.name(),
         "integrator": integrator.describe(),
         "stats": {
+            "load_profile": scene.report.profile,
             "bvh_build_seconds": accel.build_time.as_secs_f64(),
             "render_seconds": secs,
             "samples_per_sec": total_samples / secs,

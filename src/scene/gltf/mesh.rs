@@ -209,12 +209,19 @@ impl Loader<'_> {
             let material = &materials[material_index as usize];
             if material.medium.is_some() || material.subsurface.is_some() {
                 let open = open_edges(&out.positions, &out.triangles[first_tri..]);
-                if open > 0 && self.khr_volume_materials.contains(&material_index) && material.subsurface.is_none() {
-                    // KHR_materials_volume describes the inside of a closed mesh; on a sheet
-                    // (Blender's exporter and the add-on add it to every transmissive
+                if open > 0
+                    && flat(&out.positions, &out.triangles[first_tri..])
+                    && self.khr_volume_materials.contains(&material_index)
+                    && material.subsurface.is_none()
+                {
+                    // KHR_materials_volume describes the inside of a closed mesh; on a flat
+                    // sheet (Blender's exporter and the add-on add it to every transmissive
                     // material) it would make the sheet a one-way entry into glass. As a
                     // volume of thickness 0, the spec's thin-walled case, it renders as Cycles
-                    // renders the sheet.
+                    // renders the sheet. An open mesh that is not flat (a subdivided Suzanne
+                    // with holes) keeps its volume: it is a solid with holes, entered and left
+                    // by the side of the geometric normal as in Cycles (thin-walled it came out
+                    // 16 % brighter than Cycles).
                     let thin = match self.thin_variants.get(&material_index) {
                         Some(&t) => t,
                         None => {
@@ -244,6 +251,19 @@ impl Loader<'_> {
         }
         Ok(degenerate)
     }
+}
+
+/// True when every triangle lies in one plane (normals parallel within 10⁻⁴ in cosine,
+/// about 0.8°): a flat sheet, which encloses no volume whatever its edges.
+pub(super) fn flat(positions: &[Vec3], tris: &[[u32; 3]]) -> bool {
+    let normal = |t: &[u32; 3]| {
+        let [a, b, c] = t.map(|i| positions[i as usize]);
+        (b - a).cross(c - a).normalize_or_zero()
+    };
+    let Some(n0) = tris.iter().map(normal).find(|n| *n != Vec3::ZERO) else {
+        return true;
+    };
+    tris.iter().map(normal).all(|n| n == Vec3::ZERO || n.dot(n0).abs() >= 1.0 - 1e-4)
 }
 
 /// Edges used by an odd number of the triangles: 0 for a closed surface. Vertices are
@@ -364,11 +384,17 @@ mod tests {
     /// A quad (an open sheet, 2 triangles) and a closed cube (12 triangles), both of one
     /// glass material with KHR_materials_volume thickness 1, as Blender's exports are.
     fn sheet_and_cube() -> crate::scene::Scene {
+        sheet_and_box(true)
+    }
+
+    /// The quad and a cube (closed) or an open box (the cube without its top face).
+    fn sheet_and_box(closed: bool) -> crate::scene::Scene {
         use base64::Engine;
         let quad = [[-1f32, -1., 0.], [1., -1., 0.], [1., 1., 0.], [-1., 1., 0.]];
         let cube: Vec<[f32; 3]> =
             (0..8).map(|i| [(i & 1) as f32 + 3.0, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32]).collect();
         let faces: [[u32; 4]; 6] = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
+        let faces = if closed { &faces[..] } else { &faces[..5] };
         let cube_idx: Vec<u32> = faces.iter().flat_map(|f| [f[0], f[1], f[2], f[0], f[2], f[3]]).collect();
         let f = |v: &[[f32; 3]]| v.iter().flatten().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
         let u = |v: &[u32]| v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
@@ -389,7 +415,7 @@ mod tests {
                 {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [-1, -1, 0], "max": [1, 1, 0]},
                 {"bufferView": 1, "componentType": 5125, "count": 6, "type": "SCALAR"},
                 {"bufferView": 2, "componentType": 5126, "count": 8, "type": "VEC3", "min": [3, 0, 0], "max": [4, 1, 1]},
-                {"bufferView": 3, "componentType": 5125, "count": 36, "type": "SCALAR"}
+                {"bufferView": 3, "componentType": 5125, "count": cube_idx.len(), "type": "SCALAR"}
             ],
             "materials": [{"name": "glass", "extensions": {
                 "KHR_materials_transmission": {"transmissionFactor": 1.0},
@@ -424,5 +450,16 @@ mod tests {
             "{:?}",
             scene.warnings
         );
+    }
+
+    #[test]
+    fn a_volume_on_an_open_mesh_that_is_not_flat_stays_a_volume() {
+        let scene = sheet_and_box(false);
+        let m = &scene.mesh;
+        assert_eq!(m.triangles.len(), 12);
+        for t in 2..12 {
+            assert!(scene.materials[m.tri_material[t] as usize].medium.is_some(), "the open box's triangle {t}");
+        }
+        assert!(scene.warnings.iter().any(|w| w.contains("not closed")), "{:?}", scene.warnings);
     }
 }
