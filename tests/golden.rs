@@ -13,8 +13,7 @@
 
 mod common;
 
-use common::{GltfBuilder, look_rotation, root, run, temp_dir};
-use serde_json::json;
+use common::{GltfBuilder, fog_layer, look_rotation, root, run, temp_dir};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -53,21 +52,8 @@ fn exr_hash(path: &Path) -> String {
 /// a point light: the medium segment, null surfaces and medium NEE in every integrator.
 fn fog_scene(dir: &Path) -> PathBuf {
     let mut g = GltfBuilder::new();
-    let white = g.material(
-        json!({"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1], "metallicFactor": 0.0, "roughnessFactor": 1.0}}),
-    );
-    g.mesh(
-        &[[-20.0, 0.0, -20.0], [20.0, 0.0, -20.0], [20.0, 0.0, 20.0], [-20.0, 0.0, 20.0]],
-        &[0, 2, 1, 0, 3, 2],
-        white,
-    );
-    g.use_ext("CAUSTIC_materials_medium");
-    let fog = g.material(json!({"extensions": {"CAUSTIC_materials_medium": {
-        "density": 1.5, "scatter_color": [1.0, 0.7, 0.4], "absorption_color": [0.2, 0.2, 0.2],
-        "anisotropy": 0.3, "surface": false}}}));
-    g.cube([-10.0, 1.0, -10.0], [10.0, 1.6, 10.0], fog);
+    fog_layer(&mut g);
     g.camera([0.0, 2.5, 2.0], look_rotation([0.0, -2.5, -2.0]), 0.6);
-    g.punctual(json!({"type": "point", "intensity": 2732.0}), [0.3, 3.0, -0.2], [0.0, 0.0, 0.0, 1.0]);
     g.write(dir, "fog.gltf")
 }
 

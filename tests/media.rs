@@ -9,7 +9,7 @@
 mod common;
 
 use caustic::scene::camera::CameraRays;
-use common::{GltfBuilder, look_rotation, mean_se, render_image, run, temp_dir};
+use common::{GltfBuilder, fog_layer, look_rotation, mean_se, render_image, run, temp_dir};
 use glam::Vec3;
 use serde_json::json;
 use std::path::Path;
@@ -372,21 +372,11 @@ fn photon_mapping_matches_path_tracing_in_media() {
                 "extensions": {"CAUSTIC_materials_subsurface": {"radius": [1.0, 0.7, 0.5]}}
             }));
             g.cube([-20.0, -2.0, -20.0], [20.0, 0.0, 20.0], m);
+            g.punctual(json!({"type": "point", "intensity": 2732.0}), [0.3, 3.0, -0.2], [0.0, 0.0, 0.0, 1.0]);
         } else {
-            let white = g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1], "metallicFactor": 0.0, "roughnessFactor": 1.0}}));
-            g.mesh(
-                &[[-20.0, 0.0, -20.0], [20.0, 0.0, -20.0], [20.0, 0.0, 20.0], [-20.0, 0.0, 20.0]],
-                &[0, 2, 1, 0, 3, 2],
-                white,
-            );
-            g.use_ext("CAUSTIC_materials_medium");
-            let fog = g.material(json!({"extensions": {"CAUSTIC_materials_medium": {
-                "density": 1.5, "scatter_color": [1.0, 0.7, 0.4], "absorption_color": [0.2, 0.2, 0.2],
-                "anisotropy": 0.3, "surface": false}}}));
-            g.cube([-10.0, 1.0, -10.0], [10.0, 1.6, 10.0], fog);
+            fog_layer(&mut g);
         }
         g.camera(eye, look_rotation(look), 0.6);
-        g.punctual(json!({"type": "point", "intensity": 2732.0}), [0.3, 3.0, -0.2], [0.0, 0.0, 0.0, 1.0]);
         let path = g.write(dir.path(), "fog.gltf");
         let r = |name: &str, extra: &[&str]| {
             let mut a = vec!["--resolution", "24x24"];

@@ -305,3 +305,21 @@ pub fn emissive_furnace(dir: &Path, name: &str, le: f64, roughness: f32) -> Path
     g.camera([0.1, 0.2, 0.3], look_rotation([0.3, -0.2, -1.0]), 1.2);
     g.write(dir, name)
 }
+
+/// A fog layer over a white floor lit by a point light above it (no camera): a chromatic,
+/// forward-scattering medium bounded by a box without a surface, y in [1, 1.6], the floor at
+/// y = 0, the light at y = 3.
+pub fn fog_layer(g: &mut GltfBuilder) {
+    let white = g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1], "metallicFactor": 0.0, "roughnessFactor": 1.0}}));
+    g.mesh(
+        &[[-20.0, 0.0, -20.0], [20.0, 0.0, -20.0], [20.0, 0.0, 20.0], [-20.0, 0.0, 20.0]],
+        &[0, 2, 1, 0, 3, 2],
+        white,
+    );
+    g.use_ext("CAUSTIC_materials_medium");
+    let fog = g.material(json!({"extensions": {"CAUSTIC_materials_medium": {
+        "density": 1.5, "scatter_color": [1.0, 0.7, 0.4], "absorption_color": [0.2, 0.2, 0.2],
+        "anisotropy": 0.3, "surface": false}}}));
+    g.cube([-10.0, 1.0, -10.0], [10.0, 1.6, 10.0], fog);
+    g.punctual(json!({"type": "point", "intensity": 2732.0}), [0.3, 3.0, -0.2], [0.0, 0.0, 0.0, 1.0]);
+}

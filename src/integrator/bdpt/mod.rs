@@ -50,7 +50,6 @@ use std::sync::Arc;
 /// Largest `max_depth` the bidirectional integrator accepts (its vertex arrays are fixed).
 pub const MAX_BDPT_DEPTH: u32 = 62;
 
-/// Limit on pass-throughs of transparent surfaces per subpath.
 use crate::integrator::walk::MAX_TRANSPARENT_HITS;
 
 /// One strategy to render alone (debugging and tests).

@@ -121,18 +121,14 @@ impl BdptIntegrator {
             let s = ctx.scene.surface(&hit, org, dir);
             let wo = -dir;
             let mat = &ctx.scene.materials[s.material as usize];
-            if passes_through(ctx, &s, &hit, dir, u_alpha, &mut medium)
-                && (transparent_hits < MAX_TRANSPARENT_HITS || ctx.scene.materials[s.material as usize].null_surface)
-            {
-                // The shared rule (walk.rs): past the cap a volume boundary ends the
-                // path, a transparent surface is shaded.
-                if transparent_hits >= MAX_TRANSPARENT_HITS {
-                    break;
+            match pass_through(ctx, &s, &hit, dir, u_alpha, &mut medium, &mut transparent_hits) {
+                Pass::End => break,
+                Pass::Through => {
+                    org = offset_ray_origin(s.p, -s.ng);
+                    stats.bounce += 1;
+                    continue;
                 }
-                transparent_hits += 1;
-                org = offset_ray_origin(s.p, -s.ng);
-                stats.bounce += 1;
-                continue;
+                Pass::Shade => {}
             }
             let sp = ctx.scene.shade(&s, wo);
             // Subsurface scattering is path traced from here (the BSDF holds the rest of
@@ -434,18 +430,14 @@ impl BdptIntegrator {
             }
             let s = ctx.scene.surface(&hit, org, dir);
             let wo = -dir;
-            if passes_through(ctx, &s, &hit, dir, u_alpha, &mut medium)
-                && (transparent_hits < MAX_TRANSPARENT_HITS || ctx.scene.materials[s.material as usize].null_surface)
-            {
-                // The shared rule (walk.rs): past the cap a volume boundary ends the
-                // path, a transparent surface is shaded.
-                if transparent_hits >= MAX_TRANSPARENT_HITS {
-                    break;
+            match pass_through(ctx, &s, &hit, dir, u_alpha, &mut medium, &mut transparent_hits) {
+                Pass::End => break,
+                Pass::Through => {
+                    org = offset_ray_origin(s.p, -s.ng);
+                    stats.bounce += 1;
+                    continue;
                 }
-                transparent_hits += 1;
-                org = offset_ray_origin(s.p, -s.ng);
-                stats.bounce += 1;
-                continue;
+                Pass::Shade => {}
             }
             let sp = ctx.scene.shade(&s, wo);
             let i = light.len() - 1;
