@@ -2,7 +2,7 @@
 //! integrators, photon-map figures).
 
 use super::args::*;
-use super::render::{map_stats_json, run_render, trace_maps};
+use super::render::{build_bsdf_tables, map_stats_json, run_render, trace_maps};
 use super::settings::resolve_photon;
 use crate::accel::Accel;
 use crate::error::{Error, Result};
@@ -131,9 +131,7 @@ fn bench_photon_maps(args: &BenchArgs, stop: &AtomicBool) -> Result<serde_json::
         .build()
         .map_err(|e| Error::Internal(format!("cannot start worker threads: {e}")))?;
     let accel = pool.install(|| {
-        // The BSDF's albedo table is built here, in parallel, rather than by the first
-        // shading point inside the timed rendering phase.
-        crate::bsdf::pbr::specular_albedo();
+        build_bsdf_tables(&scene);
         Accel::build(&tris)
     });
     let ctx = SceneContext::new(&scene, &accel);

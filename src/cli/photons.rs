@@ -1,7 +1,7 @@
 //! `caustic photons`: traces a scene's photon maps and writes them to a file.
 
 use super::args::*;
-use super::render::{charge_bvh, charge_photon_maps, map_stats_json, trace_maps};
+use super::render::{build_bsdf_tables, charge_bvh, charge_photon_maps, map_stats_json, trace_maps};
 use super::settings::resolve_photon;
 use crate::accel::Accel;
 use crate::error::{Error, Result};
@@ -50,9 +50,7 @@ pub fn run_photons(args: &PhotonsArgs, reporter: &Reporter, stop: &AtomicBool) -
     let tris: Vec<[glam::Vec3; 3]> =
         scene.mesh.triangles.iter().map(|t| t.map(|i| scene.mesh.positions[i as usize])).collect();
     let accel = pool.install(|| {
-        // The BSDF's albedo table is built here, in parallel, rather than by the first
-        // shading point inside the timed rendering phase.
-        crate::bsdf::pbr::specular_albedo();
+        build_bsdf_tables(&scene);
         Accel::build(&tris)
     });
     let ctx = SceneContext::new(&scene, &accel);

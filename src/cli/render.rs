@@ -23,6 +23,20 @@ use serde_json::json;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
+/// Builds the BSDF's albedo tables the scene's materials use, in parallel on the
+/// caller's pool, rather than by the first shading point inside the timed rendering phase
+/// (and, inside a render worker, on one thread).
+pub(super) fn build_bsdf_tables(scene: &Scene) {
+    crate::bsdf::albedo::specular_albedo();
+    let m = &scene.materials;
+    if m.iter().any(|m| m.transmission > 0.0 || m.transmission_tex.is_some()) {
+        crate::bsdf::glass_albedo::glass_albedo();
+    }
+    if m.iter().any(|m| m.sheen_color != crate::math::Rgb::ZERO || m.sheen_color_tex.is_some()) {
+        crate::bsdf::sheen::sheen_albedo_table();
+    }
+}
+
 /// Outcome of a finished render command.
 pub struct Outcome {
     /// Stopped by a signal (the partial image was written).
@@ -56,9 +70,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         .build()
         .map_err(|e| Error::Internal(format!("cannot start worker threads: {e}")))?;
     let accel = pool.install(|| {
-        // The BSDF's albedo table is built here, in parallel, rather than by the first
-        // shading point inside the timed rendering phase.
-        crate::bsdf::pbr::specular_albedo();
+        build_bsdf_tables(&scene);
         Accel::build(&tris)
     });
     drop(tris);
