@@ -121,22 +121,20 @@ impl PathIntegrator {
         let [u_dx, u_dy, u_rr, _] = sampler.next_4d();
         let mut radiance = beta * medium_nee(ctx, p, dir, phase, media, u_light, Vec2::new(u_lx, u_ly), stats);
         let (wi, pdf) = phase.sample(dir, Vec2::new(u_dx, u_dy));
-        let mut beta = beta;
-        let depth = depth + 1;
-        if depth < self.max_depth && self.survives(&mut beta, 1.0, depth, u_rr) {
+        let mut st = PathState {
+            org: p,
+            dir: wi,
+            beta,
+            depth: depth + 1,
+            prev_pdf: pdf,
+            prev_p: p,
+            prev_n: Vec3::ZERO,
+            media,
+            eta_scale: 1.0,
+            transparent_hits: 0,
+        };
+        if st.depth < self.max_depth && st.survives(self.rr_depth, u_rr) {
             stats.bounce += 1;
-            let st = PathState {
-                org: p,
-                dir: wi,
-                beta,
-                depth,
-                prev_pdf: pdf,
-                prev_p: p,
-                prev_n: Vec3::ZERO,
-                media,
-                eta_scale: 1.0,
-                transparent_hits: 0,
-            };
             radiance += self.continue_path(ctx, st, sampler, stats);
         }
         radiance
@@ -356,7 +354,7 @@ impl PathIntegrator {
         let Some(exit) = self.subsurface(ctx, s, sp, wo, &ss, beta, u) else {
             return Rgb::ZERO;
         };
-        let mut beta = beta * exit.weight;
+        let beta = beta * exit.weight;
         let depth = depth + 1;
         if depth >= self.max_depth || !beta.is_finite() || beta == Rgb::ZERO {
             return Rgb::ZERO;
@@ -368,16 +366,11 @@ impl PathIntegrator {
         let radiance = beta * exit_nee(ctx, &se, n_g, n_s, media, v_light, Vec2::new(v_lx, v_ly), stats);
         let local = cosine_hemisphere(Vec2::new(v_dx, v_dy));
         let wi = Frame::from_normal(n_s).to_world(local);
-        let depth = depth + 1;
-        if wi.dot(n_g) <= 0.0 || !self.survives(&mut beta, 1.0, depth, v_rr) {
-            return radiance;
-        }
-        stats.bounce += 1;
-        let st = PathState {
+        let mut st = PathState {
             org: offset_ray_origin(se.p, n_g),
             dir: wi,
             beta,
-            depth,
+            depth: depth + 1,
             prev_pdf: cosine_hemisphere_pdf(local.z),
             prev_p: se.p,
             prev_n: n_g,
@@ -385,21 +378,11 @@ impl PathIntegrator {
             eta_scale: 1.0,
             transparent_hits: 0,
         };
+        if wi.dot(n_g) <= 0.0 || !st.survives(self.rr_depth, v_rr) {
+            return radiance;
+        }
+        stats.bounce += 1;
         radiance + self.continue_path(ctx, st, sampler, stats)
-    }
-
-    /// Russian roulette from `rr_depth`: false when the path ends; survivors are reweighted.
-    #[inline]
-    fn survives(&self, beta: &mut Rgb, eta_scale: f32, depth: u32, u_rr: f32) -> bool {
-        if depth < self.rr_depth {
-            return true;
-        }
-        let survive = (beta.max_element() * eta_scale).min(0.95);
-        if u_rr >= survive {
-            return false;
-        }
-        *beta /= survive;
-        true
     }
 
     /// Enters a subsurface material at `s` (seen along `wo`) and walks inside; None when

@@ -223,10 +223,7 @@ impl Emitters {
             Light::Triangle { tri } => {
                 let m = &scene.mesh;
                 let mat = &scene.materials[m.tri_material[*tri as usize] as usize];
-                let et = crate::light::EmitterTriangle {
-                    p: m.triangles[*tri as usize].map(|i| m.positions[i as usize]),
-                    two_sided: mat.double_sided,
-                };
+                let et = crate::light::EmitterTriangle::of(scene, *tri);
                 let (q, mut n, b, _) = sample_triangle(&et, u_pos);
                 if et.two_sided && u_side >= 0.5 {
                     n = -n;

@@ -144,10 +144,7 @@ pub fn sample_point(scene: &Scene, index: usize, u: Vec2) -> Option<LightPoint> 
         Light::Triangle { tri } => {
             let m = &scene.mesh;
             let mat = &scene.materials[m.tri_material[*tri as usize] as usize];
-            let et = crate::light::EmitterTriangle {
-                p: m.triangles[*tri as usize].map(|i| m.positions[i as usize]),
-                two_sided: mat.double_sided,
-            };
+            let et = crate::light::EmitterTriangle::of(scene, *tri);
             let (q, n, b, area) = crate::light::sample_triangle(&et, u);
             if !(area > 0.0) {
                 return None;

@@ -133,9 +133,8 @@ impl Light {
             }
             Light::Triangle { tri } => {
                 let m = &scene.mesh;
-                let idx = m.triangles[*tri as usize];
                 let mat = &scene.materials[m.tri_material[*tri as usize] as usize];
-                let et = EmitterTriangle { p: idx.map(|i| m.positions[i as usize]), two_sided: mat.double_sided };
+                let et = EmitterTriangle::of(scene, *tri);
                 let (q, n, b, area) = sample_triangle(&et, u);
                 let d = q - p;
                 let dist = d.length();
