@@ -478,7 +478,16 @@ impl PbrBsdf {
         if wo.z <= 0.0 || wi.z == 0.0 {
             return 0.0;
         }
-        let c = self.lobes(wo);
+        self.pdf_with(&self.lobes(wo), wo, wi)
+    }
+
+    /// [`pdf`](Self::pdf) with the lobe choice at `wo` (upper hemisphere) already made:
+    /// `sample` chooses a lobe and then needs the whole density, from the same choice.
+    #[inline]
+    fn pdf_with(&self, c: &LobeChoice, wo: Vec3, wi: Vec3) -> f32 {
+        if wo.z <= 0.0 || wi.z == 0.0 {
+            return 0.0;
+        }
         let mut pdf = 0.0;
         if c.glass > 0.0 {
             pdf += c.glass * self.glass.pdf(wo, wi);
@@ -556,12 +565,15 @@ impl PbrBsdf {
         if wi_up.z == 0.0 || (uc >= c.glass && wi_up.z < 0.0) {
             return None;
         }
-        let wi = mirror(wi_up);
-        let pdf = self.pdf(wo, wi);
+        // The density and value from the lobe choice and wo-terms of this call (the same
+        // numbers `pdf` and `eval` would recompute: the profile had the albedo-table
+        // lookups at wo three times per sampled bounce).
+        let pdf = self.pdf_with(&c, wo_up, wi_up);
         if !(pdf > 0.0) {
             return None;
         }
-        Some(BsdfSample { wi, f: self.eval(wo, wi), pdf, delta: false })
+        let wi = mirror(wi_up);
+        Some(BsdfSample { wi, f: self.at(wo).eval(wi), pdf, delta: false })
     }
 
     /// Weight of the subsurface part seen from `wo` (local, either side), relative to
