@@ -266,17 +266,6 @@ impl PbrBsdf {
         self
     }
 
-    /// The metal lobe's multiple-scattering factor seen from μo (1 when off).
-    #[inline]
-    fn metal_ms(&self, mu_o: f32) -> Rgb {
-        if self.metal_fms == Rgb::ZERO {
-            return Rgb::ONE;
-        }
-        // E of the white lobe is above 0.3 everywhere; the floor only guards the division.
-        let e = specular_albedo().e_white(mu_o, self.roughness).max(0.05);
-        Rgb::ONE + self.metal_fms * (1.0 / e - 1.0)
-    }
-
     /// For a refracted pair (wo, wi), the adjoint f(wi, wo) over η² f(wo, wi): not 1 when
     /// the glass compensates multiple scattering, which depends on the viewer's side.
     #[inline]
@@ -344,18 +333,22 @@ impl PbrBsdf {
         if self.sheen_max > 0.0 { (1.0 - self.sheen_albedo(mu_o)).min(1.0 - self.sheen_albedo(mu_i)) } else { 1.0 }
     }
 
+    /// How `sample` chooses among the lobes at `at.wo` (upper hemisphere): by the energy each
+    /// reflects towards wo, from the view-side terms [`at`](Self::at) computed.
     #[inline]
-    fn lobes(&self, wo: Vec3) -> LobeChoice {
-        let e = luminance(self.layer_albedo(wo.z));
-        let ec = self.coat_albedo(wo);
-        let es = self.sheen_albedo(wo.z);
-        let under = (1.0 - ec) * luminance(self.coat_transmittance(wo));
+    fn lobes(&self, at: &PbrAt) -> LobeChoice {
+        let wo = at.wo;
+        // `at` leaves the layer albedo at 0 when nothing is opaque: every term that reads it
+        // is multiplied by `opaque` = 0 then.
+        let e = luminance(at.eo);
+        let (ec, es) = (at.ec, at.es);
+        let under = (1.0 - ec) * luminance(at.coat_t);
         let below = under * (1.0 - es);
         let dielectric = 1.0 - self.metallic;
         let opaque = dielectric * (1.0 - self.transmission);
         let metal = below
             * self.metallic
-            * luminance((self.base + (Vec3::ONE - self.base) * schlick_weight(wo.z)) * self.metal_ms(wo.z));
+            * luminance((self.base + (Vec3::ONE - self.base) * schlick_weight(wo.z)) * at.metal_ms);
         let spec = below * opaque * e;
         let diffuse = below * opaque * (1.0 - e) * luminance(self.base) * (1.0 - self.subsurface);
         let glass = if self.transmission > 0.0 {
@@ -459,16 +452,36 @@ impl PbrBsdf {
         let flip = wo.z < 0.0;
         let wo = if flip { Vec3::new(wo.x, wo.y, -wo.z) } else { wo };
         if wo.z <= 0.0 {
-            return PbrAt { b: self, wo, flip, under: Rgb::ZERO, eo: Rgb::ZERO, sheen_o: 0.0, metal_ms: Rgb::ONE };
+            return PbrAt {
+                b: self,
+                wo,
+                flip,
+                under: Rgb::ZERO,
+                eo: Rgb::ZERO,
+                sheen_o: 0.0,
+                metal_ms: Rgb::ONE,
+                ec: 0.0,
+                coat_t: Rgb::ONE,
+                es: 0.0,
+            };
         }
         // The coat reflects E_c(μo) of the light and leaves the rest to the layers below
         // (albedo scaling by the outgoing direction, as Cycles layers its coat).
-        let under = self.coat_transmittance(wo) * (1.0 - self.coat_albedo(wo));
+        let ec = self.coat_albedo(wo);
+        let coat_t = self.coat_transmittance(wo);
+        let under = coat_t * (1.0 - ec);
         let opaque = (1.0 - self.metallic) * (1.0 - self.transmission);
-        let eo = if opaque > 0.0 { self.layer_albedo(wo.z) } else { Rgb::ZERO };
-        let sheen_o = if self.sheen_max > 0.0 { 1.0 - self.sheen_albedo(wo.z) } else { 1.0 };
-        let metal_ms = self.metal_ms(wo.z);
-        PbrAt { b: self, wo, flip, under, eo, sheen_o, metal_ms }
+        // The dielectric layer and the metal read the same (μo, roughness) table entry.
+        let need_layer = opaque > 0.0 && self.specular != 0.0;
+        let need_metal = self.metal_fms != Rgb::ZERO;
+        let (a, b) = if need_layer || need_metal { specular_albedo().ab(wo.z, self.roughness) } else { (0.0, 0.0) };
+        let eo = if need_layer { (self.f0_rgb * a + Vec3::splat(b)) * self.specular } else { Rgb::ZERO };
+        let es = self.sheen_albedo(wo.z);
+        let sheen_o = if self.sheen_max > 0.0 { 1.0 - es } else { 1.0 };
+        // The metal's multiple-scattering factor 1 + F_ms (1/E − 1) with E the white lobe's
+        // albedo (above 0.3 everywhere; the floor only guards the division).
+        let metal_ms = if need_metal { Rgb::ONE + self.metal_fms * (1.0 / (a + b).max(0.05) - 1.0) } else { Rgb::ONE };
+        PbrAt { b: self, wo, flip, under, eo, sheen_o, metal_ms, ec, coat_t, es }
     }
 
     /// Density of [`sample`](Self::sample) for the non-delta lobes.
@@ -478,7 +491,7 @@ impl PbrBsdf {
         if wo.z <= 0.0 || wi.z == 0.0 {
             return 0.0;
         }
-        self.pdf_with(&self.lobes(wo), wo, wi)
+        self.pdf_with(&self.lobes(&self.at(wo)), wo, wi)
     }
 
     /// [`pdf`](Self::pdf) with the lobe choice at `wo` (upper hemisphere) already made:
@@ -509,58 +522,71 @@ impl PbrBsdf {
     /// Samples wi for wo; `uc` picks the lobe (and is reused within the glass lobe).
     #[inline]
     pub fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
-        let flip = wo.z < 0.0;
+        self.at(wo).sample(uc, u)
+    }
+}
+
+impl PbrAt<'_> {
+    /// Density of [`PbrBsdf::sample`] for wi, as [`PbrBsdf::pdf`].
+    #[inline]
+    pub fn pdf(&self, wi: Vec3) -> f32 {
+        let wi = if self.flip { Vec3::new(wi.x, wi.y, -wi.z) } else { wi };
+        if self.wo.z <= 0.0 || wi.z == 0.0 {
+            return 0.0;
+        }
+        self.b.pdf_with(&self.b.lobes(self), self.wo, wi)
+    }
+
+    /// [`PbrBsdf::sample`] from the view-side terms computed once.
+    #[inline]
+    pub fn sample(&self, uc: f32, u: Vec2) -> Option<BsdfSample> {
+        let flip = self.flip;
         let mirror = |w: Vec3| if flip { Vec3::new(w.x, w.y, -w.z) } else { w };
-        let wo_up = mirror(wo);
+        let wo_up = self.wo;
         if wo_up.z <= 0.0 {
             return None;
         }
-        let c = self.lobes(wo_up);
+        let this = self.b;
+        let c = this.lobes(self);
         let wi_up = if uc < c.glass {
-            let s = self.glass.sample(wo_up, uc / c.glass, u)?;
+            let s = this.glass.sample(wo_up, uc / c.glass, u)?;
             if s.delta {
-                let weight = self.coat_transmittance(wo_up)
-                    * (1.0 - self.metallic)
-                    * self.transmission
-                    * (1.0 - self.coat_albedo(wo_up))
-                    * self.sheen_scaling(wo_up.z, s.wi.z.abs());
+                let weight = self.coat_t
+                    * (1.0 - this.metallic)
+                    * this.transmission
+                    * (1.0 - self.ec)
+                    * this.sheen_scaling(wo_up.z, s.wi.z.abs());
                 return Some(BsdfSample { wi: mirror(s.wi), f: s.f * weight, pdf: s.pdf * c.glass, delta: true });
             }
             s.wi
         } else if uc < c.glass + c.metal + c.spec {
-            if self.smooth {
+            if this.smooth {
                 // Perfect mirror: the metal's and the dielectric layer's reflectance.
                 let mu = wo_up.z;
-                let under =
-                    self.coat_transmittance(wo_up) * (1.0 - self.coat_albedo(wo_up)) * self.sheen_scaling(mu, mu);
-                let opaque = (1.0 - self.metallic) * (1.0 - self.transmission);
-                let metal = (self.base + (Vec3::ONE - self.base) * schlick_weight(mu)) * self.metallic;
-                let refl = (metal + self.layer_albedo(mu) * opaque) * under;
+                let under = self.under * this.sheen_scaling(mu, mu);
+                let opaque = (1.0 - this.metallic) * (1.0 - this.transmission);
+                let metal = (this.base + (Vec3::ONE - this.base) * schlick_weight(mu)) * this.metallic;
+                let refl = (metal + self.eo * opaque) * under;
                 let wi = Vec3::new(-wo_up.x, -wo_up.y, wo_up.z);
                 return Some(BsdfSample { wi: mirror(wi), f: refl / mu, pdf: c.metal + c.spec, delta: true });
             }
-            reflect(wo_up, self.ggx.sample_visible_normal(wo_up, u))
+            reflect(wo_up, this.ggx.sample_visible_normal(wo_up, u))
         } else if uc < c.glass + c.metal + c.spec + c.diffuse + c.sheen {
             cosine_hemisphere(u)
         } else {
-            let cf = self.coat_frame.unwrap_or(Frame { s: Vec3::X, t: Vec3::Y, n: Vec3::Z });
+            let cf = this.coat_frame.unwrap_or(Frame { s: Vec3::X, t: Vec3::Y, n: Vec3::Z });
             let wo_c = cf.to_local(wo_up);
             if wo_c.z <= 0.0 {
                 return None;
             }
-            if self.smooth_coat {
+            if this.smooth_coat {
                 let wi = cf.to_world(Vec3::new(-wo_c.x, -wo_c.y, wo_c.z));
                 if wi.z <= 0.0 {
                     return None;
                 }
-                return Some(BsdfSample {
-                    wi: mirror(wi),
-                    f: Rgb::splat(self.coat_albedo(wo_up) / wi.z),
-                    pdf: c.coat,
-                    delta: true,
-                });
+                return Some(BsdfSample { wi: mirror(wi), f: Rgb::splat(self.ec / wi.z), pdf: c.coat, delta: true });
             }
-            cf.to_world(reflect(wo_c, self.coat_ggx.sample_visible_normal(wo_c, u)))
+            cf.to_world(reflect(wo_c, this.coat_ggx.sample_visible_normal(wo_c, u)))
         };
         if wi_up.z == 0.0 || (uc >= c.glass && wi_up.z < 0.0) {
             return None;
@@ -568,14 +594,16 @@ impl PbrBsdf {
         // The density and value from the lobe choice and wo-terms of this call (the same
         // numbers `pdf` and `eval` would recompute: the profile had the albedo-table
         // lookups at wo three times per sampled bounce).
-        let pdf = self.pdf_with(&c, wo_up, wi_up);
+        let pdf = this.pdf_with(&c, wo_up, wi_up);
         if !(pdf > 0.0) {
             return None;
         }
         let wi = mirror(wi_up);
-        Some(BsdfSample { wi, f: self.at(wo).eval(wi), pdf, delta: false })
+        Some(BsdfSample { wi, f: self.eval(wi), pdf, delta: false })
     }
+}
 
+impl PbrBsdf {
     /// Weight of the subsurface part seen from `wo` (local, either side), relative to
     /// the base colour: what the layers above (coat, specular) and the metal and glass
     /// mixes leave to the diffuse base, times the subsurface weight. Cycles weights
@@ -622,6 +650,12 @@ pub struct PbrAt<'a> {
     sheen_o: f32,
     /// The metal's multiple-scattering factor at wo.
     metal_ms: Rgb,
+    /// The coat's albedo at wo.
+    ec: f32,
+    /// What a tinted coat transmits, seen from wo.
+    coat_t: Rgb,
+    /// The sheen's albedo at wo (0 without sheen).
+    es: f32,
 }
 
 impl PbrAt<'_> {
