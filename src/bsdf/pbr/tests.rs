@@ -133,8 +133,8 @@ fn metal_multiscatter_is_a_factor_of_wo() {
         for _ in 0..200 {
             let a = cosine_hemisphere(Vec2::new(rng.next_f32(), rng.next_f32()));
             let c = cosine_hemisphere(Vec2::new(rng.next_f32(), rng.next_f32()));
-            let f1 = b.eval(a, c) / b.metal_ms(a.z);
-            let f2 = b.eval(c, a) / b.metal_ms(c.z);
+            let f1 = b.eval(a, c) / b.at(a).metal_ms;
+            let f2 = b.eval(c, a) / b.at(c).metal_ms;
             assert!((f1 - f2).abs().max_element() <= 1e-4 * f1.max_element().max(1.0), "{f1} vs {f2}");
         }
     }
