@@ -166,7 +166,7 @@ impl PathIntegrator {
             let (hit, s) = match step {
                 Step::End => break,
                 Step::Passed => continue,
-                Step::Medium { p, phase } => {
+                Step::Medium { p, phase, .. } => {
                     if !st.beta.is_finite() || st.beta == Rgb::ZERO {
                         break;
                     }

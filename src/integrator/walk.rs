@@ -1,8 +1,8 @@
 //! The steps every unidirectional path walker shares: the path's state between two
 //! bounces, one `advance` along the ray (medium segment, crossed emitters, surfaces that
 //! only bound a medium or are transparent), emission found by the path with its MIS
-//! weight, and Russian roulette. The path tracer, SPPM's camera paths and Jensen's
-//! camera and gather paths walk with these; each keeps its own sample-dimension layout
+//! weight, and Russian roulette. The path tracer, SPPM's camera paths, Jensen's
+//! camera and gather paths and photon tracing walk with these; each keeps its own sample-dimension layout
 //! (the random numbers come in as arguments) and its own policy of what to do at the
 //! event `advance` returns.
 
@@ -64,6 +64,9 @@ pub enum Step {
         p: Vec3,
         /// The medium's phase function.
         phase: HenyeyGreenstein,
+        /// The free flight's weight (already in the throughput): photon tracing's
+        /// Russian roulette is taken on it.
+        weight: Rgb,
     },
     /// A volume boundary without a surface or a transparent surface was passed: the
     /// state now starts beyond it; the walker goes on with fresh sample dimensions.
@@ -78,6 +81,11 @@ pub enum Step {
 }
 
 impl PathState {
+    /// A photon leaving a light with `power`, in vacuum.
+    pub fn photon(org: Vec3, dir: Vec3, power: Rgb) -> Self {
+        PathState { beta: power, ..Self::camera(org, dir) }
+    }
+
     /// A camera ray: vacuum, no MIS for what it hits first.
     pub fn camera(org: Vec3, dir: Vec3) -> Self {
         PathState {
@@ -128,7 +136,7 @@ impl PathState {
         self.beta *= segment_weight;
 
         if let Some((t, phase)) = scatter {
-            return (Step::Medium { p: self.org + self.dir * t, phase }, any);
+            return (Step::Medium { p: self.org + self.dir * t, phase, weight: segment_weight }, any);
         }
         let Some(hit) = hit else {
             return (Step::Escaped, any);

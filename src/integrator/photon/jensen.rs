@@ -167,7 +167,7 @@ impl JensenIntegrator {
             let (hit, s) = match step {
                 Step::End => break,
                 Step::Passed => continue,
-                Step::Medium { p, phase } => {
+                Step::Medium { p, phase, .. } => {
                     if st.depth == 0 {
                         out.alpha = 1.0;
                         out.depth = depth_of(p);
@@ -326,7 +326,7 @@ impl JensenIntegrator {
             let (hit, s) = match step {
                 Step::End => break,
                 Step::Passed => continue,
-                Step::Medium { p, phase } => {
+                Step::Medium { p, phase, .. } => {
                     if st.depth < self.max_depth && st.beta.is_finite() && st.beta != Rgb::ZERO {
                         l += self
                             .continuation()

@@ -457,7 +457,7 @@ fn camera_path(
         let (hit, s) = match step {
             Step::End => break,
             Step::Passed => continue,
-            Step::Medium { p, phase } => {
+            Step::Medium { p, phase, .. } => {
                 if st.depth == 0 {
                     pend.alpha += 1.0;
                 }
