@@ -104,7 +104,10 @@ fn plane_scene(path: &Path, with_tangents: bool, texel: [u8; 3], material: serde
 
 /// The radiance by the spec's convention: the mapped normal is the decoded texel
 /// (2·byte/255 − 1, as the renderer decodes it) in the frame (T, B, N) = (+X, +Y, +Z) of
-/// this plane, and a Lambertian of albedo 0.5 under irradiance π reflects 0.5 · cos.
+/// this plane, and a Lambertian of albedo 0.5 under irradiance π reflects 0.5 · cos, times
+/// the bump terminator's shadowing that Cycles applies to a normal-mapped diffuse surface:
+/// Smith's G1 of a GGX surface of α² = tan²θd / 8 (θd the mapped normal's tilt) at the
+/// sun's angle to the interpolated normal +Z.
 /// `flip` gives the image with the green axis inverted, to show the test can tell.
 fn expected(flip_green: bool) -> f64 {
     let d = |b: u8| 2.0 * (b as f64 / 255.0) - 1.0;
@@ -112,7 +115,11 @@ fn expected(flip_green: bool) -> f64 {
     if flip_green {
         n.y = -n.y;
     }
-    0.5 * n.dot(DVec3::from_array(TO_SUN).normalize()).max(0.0)
+    let to_sun = DVec3::from_array(TO_SUN).normalize();
+    let alpha2 = (1.0 / (n.z * n.z) - 1.0) / 8.0;
+    let tan2_sun = 1.0 / (to_sun.z * to_sun.z) - 1.0;
+    let shadowing = 2.0 / (1.0 + (1.0 + alpha2 * tan2_sun).sqrt());
+    0.5 * n.dot(to_sun).max(0.0) * shadowing
 }
 
 #[test]

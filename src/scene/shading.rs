@@ -164,7 +164,9 @@ impl Scene {
         }
         // A shading normal whose mirror image of the viewer points below the surface (or
         // that faces away from the viewer) is turned towards the geometric normal just
-        // enough for the specular reflection to stay valid, as Cycles does.
+        // enough for the specular reflection to stay valid, as Cycles does; the diffuse
+        // base keeps the unbent normal, as Cycles' diffuse closure does.
+        let unbent = n;
         n = valid_reflection_normal(s.ng, wo, n);
         let frame = match tangent_hint {
             Some(t) => Frame::from_normal_tangent(n, t),
@@ -229,6 +231,8 @@ impl Scene {
             sheen_roughness,
             dispersion: mat.dispersion,
             subsurface: mat.subsurface.map_or(0.0, |s| s.weight),
+            diffuse_normal: (n != unbent).then(|| frame.to_local(unbent)),
+            smooth_normal: (unbent != s.ns).then(|| frame.to_local(s.ns)),
         };
         ShadingPoint { bsdf: Bsdf::Pbr(PbrBsdf::from_params(&params)), frame, emitted }
     }
