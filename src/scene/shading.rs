@@ -173,7 +173,7 @@ impl Scene {
             None => Frame::from_normal(n),
         };
         let emitted =
-            if mat.is_emissive() && (s.front || mat.double_sided) { mat.emission(tex, s.uv) } else { Rgb::ZERO };
+            if mat.is_emissive() && (s.front || mat.double_sided) { mat.emission(tex, s.uv, s.color) } else { Rgb::ZERO };
         let mut transmission = mat.transmission;
         if let Some(t) = &mat.transmission_tex {
             transmission *= lookup(t).x;
@@ -234,6 +234,8 @@ impl Scene {
             diffuse_normal: (n != unbent).then(|| frame.to_local(unbent)),
             smooth_normal: (unbent != s.ns).then(|| frame.to_local(s.ns)),
         };
+        // An unlit surface only shows its colour (the emission above): it reflects nothing.
+        let params = if mat.unlit { PbrParams { specular: 0.0, ..PbrParams::opaque(Rgb::ZERO, 0.0, 1.0) } } else { params };
         ShadingPoint { bsdf: Bsdf::Pbr(PbrBsdf::from_params(&params)), frame, emitted }
     }
 }
