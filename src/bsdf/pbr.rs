@@ -35,6 +35,19 @@
 //! sampling exact and, as in Cycles, makes those lobes non-reciprocal (light paths use
 //! the adjoint, `Bsdf::eval_adjoint`). The opaque dielectric's specular layer and the coat
 //! stay single-scattering (their albedo scales the layers below them).
+//!
+//! The shading frame's normal is the one the specular lobes see, which the caller may have
+//! bent towards the geometric normal to keep mirror reflections above the surface (as
+//! Cycles does, `scene::bent_normal`). Cycles leaves its diffuse closure on the unbent
+//! normal; so does this BSDF: the diffuse base then has its own normal (`diffuse_normal`),
+//! its cosine taken to it as the coat's is to the coat normal.
+//!
+//! Under a normal map the diffuse base is shadowed as Cycles shadows its diffuse closures
+//! (the bump terminator: Estevez et al. 2019, "A Microfacet-Based Shadowing Function to Solve
+//! the Bump Terminator Problem"): the mapped normal's deviation θd from the interpolated
+//! normal Ns is read as the roughness of a GGX surface, α² = min(tan²θd / 8, 1), whose
+//! masking G1 at the light's angle to Ns scales the diffuse value; light on the other side
+//! of Ns than the mapped normal puts it is not reflected at all.
 
 use super::BsdfSample;
 use super::dielectric::{DielectricBsdf, SMOOTH_ROUGHNESS};
@@ -99,6 +112,12 @@ pub struct PbrParams {
     /// Subsurface weight: the part of the diffuse base that scatters below the
     /// surface instead (sampled by the integrator's random walk, not by this BSDF).
     pub subsurface: f32,
+    /// The diffuse base's own normal in the shading frame, when the frame's normal was
+    /// bent for the specular lobes and this one was not.
+    pub diffuse_normal: Option<Vec3>,
+    /// The interpolated normal before normal mapping, in the shading frame, when a normal
+    /// map changed it (the diffuse base's bump shadowing).
+    pub smooth_normal: Option<Vec3>,
 }
 
 impl PbrParams {
@@ -123,6 +142,8 @@ impl PbrParams {
             sheen_roughness: 0.0,
             dispersion: 0.0,
             subsurface: 0.0,
+            diffuse_normal: None,
+            smooth_normal: None,
         }
     }
 }
@@ -167,6 +188,11 @@ pub struct PbrBsdf {
     pub smooth_coat: bool,
     /// The coat's frame within the shading frame, when its normal differs.
     pub coat_frame: Option<Frame>,
+    /// The diffuse base's frame within the shading frame, when its normal differs.
+    pub diffuse_frame: Option<Frame>,
+    /// The interpolated normal before normal mapping and the GGX α² of the bump shadowing
+    /// (the diffuse base's), when a normal map moved the normal.
+    bump: Option<(Vec3, f32)>,
     /// Normal-incidence reflectance of the coat (from its IOR).
     pub coat_f0: f32,
     /// Coat IOR (for the refracted path length through a tinted coat).
@@ -218,6 +244,18 @@ impl PbrBsdf {
             let n = n.normalize();
             (n.z < 1.0 - 1e-6).then(|| Frame::from_normal(n))
         });
+        // A diffuse normal below the frame's horizon (a normal facing away from the
+        // viewer) still reflects light arriving above both: kept, whatever its height.
+        let diffuse_frame = p.diffuse_normal.filter(|n| n.is_finite()).and_then(|n| {
+            let n = n.try_normalize()?;
+            (n.z < 1.0 - 1e-6).then(|| Frame::from_normal(n))
+        });
+        let diffuse_n = diffuse_frame.map_or(Vec3::Z, |f| f.n);
+        let bump = p.smooth_normal.and_then(|ns| ns.try_normalize()).and_then(|ns| {
+            // The deviation of the normal the diffuse base uses from the interpolated one.
+            let cos_d = ns.dot(diffuse_n).abs().min(1.0);
+            (cos_d < 1.0 && cos_d > 0.0).then(|| (ns, (0.125 * (1.0 / (cos_d * cos_d) - 1.0)).min(1.0)))
+        });
         let mut glass = DielectricBsdf::new(p.eta, roughness, p.thin, base);
         if p.dispersion > 0.0 && p.dispersion.is_finite() && !p.thin {
             glass = glass.with_dispersion(ior, p.dispersion);
@@ -244,6 +282,8 @@ impl PbrBsdf {
             layer_avg: Rgb::ZERO,
             metal_fms: Rgb::ZERO,
             coat_frame,
+            diffuse_frame,
+            bump,
             coat_f0: f0_from_ior(if p.coat_ior.is_finite() && p.coat_ior >= 1.0 { p.coat_ior } else { 1.5 }).min(1.0),
             coat_ior: if p.coat_ior.is_finite() && p.coat_ior >= 1.0 { p.coat_ior } else { 1.5 },
             coat_tint: if p.coat_tint.is_finite() { p.coat_tint.clamp(Vec3::ZERO, Vec3::ONE) } else { Vec3::ONE },
@@ -410,6 +450,31 @@ impl PbrBsdf {
         self.coat_ggx.pdf_visible_normal(wo, h) / (4.0 * wo.dot(h).max(1e-8))
     }
 
+    /// Density of the diffuse lobe's cosine-weighted samples around its normal (wi in the
+    /// upper hemisphere of the shading frame).
+    #[inline]
+    fn diffuse_pdf(&self, wi: Vec3) -> f32 {
+        match &self.diffuse_frame {
+            Some(f) => cosine_hemisphere_pdf(wi.dot(f.n).max(0.0)),
+            None => cosine_hemisphere_pdf(wi.z),
+        }
+    }
+
+    /// The diffuse base's cosine over the shading frame's (the integrators multiply by the
+    /// latter, and the base reflects by its own normal's, 0 below its own horizon), times
+    /// its bump shadowing.
+    #[inline]
+    fn diffuse_cos_ratio(&self, wi: Vec3) -> f32 {
+        let (n, ratio) = match &self.diffuse_frame {
+            Some(f) => (f.n, wi.dot(f.n).max(0.0) / wi.z),
+            None => (Vec3::Z, 1.0),
+        };
+        match self.bump {
+            Some((ns, alpha2)) => ratio * bump_shadowing(ns, n, wi, alpha2),
+            None => ratio,
+        }
+    }
+
     /// The Charlie sheen lobe's f(wo, wi) (colour included).
     #[inline]
     fn sheen_eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
@@ -511,7 +576,7 @@ impl PbrBsdf {
                 let pdf_spec = self.ggx.pdf_visible_normal(wo, h) / (4.0 * wo.dot(h).max(1e-8));
                 pdf += (c.metal + c.spec) * pdf_spec;
             }
-            pdf += (c.diffuse + c.sheen) * cosine_hemisphere_pdf(wi.z);
+            pdf += c.diffuse * self.diffuse_pdf(wi) + c.sheen * cosine_hemisphere_pdf(wi.z);
             if c.coat > 0.0 && !self.smooth_coat {
                 pdf += c.coat * self.coat_pdf(wo, wi);
             }
@@ -571,6 +636,11 @@ impl PbrAt<'_> {
                 return Some(BsdfSample { wi: mirror(wi), f: refl / mu, pdf: c.metal + c.spec, delta: true });
             }
             reflect(wo_up, this.ggx.sample_visible_normal(wo_up, u))
+        } else if uc < c.glass + c.metal + c.spec + c.diffuse {
+            match &this.diffuse_frame {
+                Some(f) => f.to_world(cosine_hemisphere(u)),
+                None => cosine_hemisphere(u),
+            }
         } else if uc < c.glass + c.metal + c.spec + c.diffuse + c.sheen {
             cosine_hemisphere(u)
         } else {
@@ -691,7 +761,7 @@ impl PbrAt<'_> {
             let diffuse_weight = (Vec3::ONE - self.eo) * (Vec3::ONE - ei)
                 / (Vec3::ONE - b.layer_avg).max(Vec3::splat(1e-6))
                 * (1.0 - b.subsurface);
-            f += (b.base * diffuse_weight * FRAC_1_PI + f_layer * spec) * opaque;
+            f += (b.base * diffuse_weight * (FRAC_1_PI * b.diffuse_cos_ratio(wi)) + f_layer * spec) * opaque;
         }
         if b.metallic > 0.0 {
             f += (b.base + (Vec3::ONE - b.base) * fw) * self.metal_ms * (spec * b.metallic);
@@ -702,6 +772,24 @@ impl PbrAt<'_> {
         }
         f
     }
+}
+
+/// The bump terminator's shadowing of a diffuse lobe on normal `n` for light from `wi`, with
+/// `ns` the interpolated normal and α² the GGX roughness its deviation stands for: 0 for
+/// light on the other side of `ns` than `n` puts it, else Smith's G1 of that GGX surface at
+/// the light's angle to `ns` (1 at normal incidence, falling towards grazing light).
+#[inline]
+fn bump_shadowing(ns: Vec3, n: Vec3, wi: Vec3, alpha2: f32) -> f32 {
+    let cos_i = ns.dot(wi);
+    if cos_i * ns.dot(n) * n.dot(wi) < 0.0 {
+        return 0.0;
+    }
+    let cos_i = cos_i.abs().min(1.0);
+    if cos_i < 1e-6 {
+        return 0.0;
+    }
+    let tan2 = 1.0 / (cos_i * cos_i) - 1.0;
+    2.0 / (1.0 + (1.0 + alpha2 * tan2).sqrt())
 }
 
 /// Mirrors both directions to the upper hemisphere when `wo` is below it, which makes

@@ -148,7 +148,7 @@ impl Light {
                 if !(pdf > 0.0) {
                     return None;
                 }
-                let (uv, _) = scene.attributes(*tri, b.x, b.y);
+                let (uv, color) = scene.attributes(*tri, b.x, b.y);
                 let normal = if cos_signed >= 0.0 { n } else { -n };
                 // A partly transparent emitter emits in proportion to its coverage, as
                 // a path that hits it counts its emission only when it does not pass.
@@ -156,7 +156,7 @@ impl Light {
                 Some(LightSample {
                     wi,
                     dist,
-                    li: mat.emission(&scene.textures, uv) * coverage,
+                    li: mat.emission(&scene.textures, uv, color) * coverage,
                     pdf,
                     delta: false,
                     point: q,

@@ -1,6 +1,7 @@
 //! The renderer's own scene description. Everything downstream of the loader sees
 //! these types only; `gltf/` is the one module that reads glTF.
 
+pub mod bent_normal;
 pub mod camera;
 pub mod gltf;
 pub mod material;

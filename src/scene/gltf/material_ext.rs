@@ -24,6 +24,8 @@ pub(super) const HANDLED_MATERIAL_EXTENSIONS: &[&str] = &[
     "KHR_materials_sheen",
     "KHR_materials_dispersion",
     "CAUSTIC_materials_coat",
+    // Read in `materials.rs`:
+    "KHR_materials_unlit",
     // Warned about by name where they are read:
     "KHR_materials_iridescence",
     "KHR_materials_anisotropy",
