@@ -18,7 +18,7 @@ from . import materials, meshes
 from .camera import CAMERA_EXTENSION, camera_extension
 from .gltf_objects import attach_extension
 from .lights import (AREA_LIGHT_EXTENSION, PUNCTUAL_EXTENSION, area_light_extension,
-                     punctual_light_extension, separate_spot_angles)
+                     punctual_light_extension, scale_punctual_light, separate_spot_angles)
 from .state import current
 from .world import WORLD_EXTENSION, world_extension
 
@@ -47,6 +47,7 @@ class glTF2ExportUserExtension:
                 return
             if blender_object.data.type != "AREA":
                 separate_spot_angles(gltf2_node)
+                scale_punctual_light(gltf2_node, blender_object, state)
                 value = punctual_light_extension(blender_object)
                 if value:
                     attach_extension(gltf2_node, PUNCTUAL_EXTENSION, value)
@@ -60,14 +61,15 @@ class glTF2ExportUserExtension:
 
     def gather_mesh_hook(self, gltf2_mesh, blender_mesh, blender_object, vertex_groups, modifiers, materials,
                          export_settings):
-        """Give primitives without a material Blender's default surface, and the TEXCOORD_n their
-        material's textures read (meshes.py)."""
+        """Give primitives without a material Blender's default surface, the TEXCOORD_n their
+        material's textures read and the texture space their node graphs read (meshes.py)."""
         state = current()
         if state is None or gltf2_mesh is None:
             return
         try:
             meshes.give_default_material(gltf2_mesh, state)
             meshes.add_missing_texcoords(gltf2_mesh, blender_mesh, state)
+            meshes.add_texspace(gltf2_mesh, blender_mesh, blender_object, materials, state)
         except Exception as err:
             state.errors.append(f"mesh '{getattr(blender_mesh, 'name', '?')}': {err!r}")
 

@@ -10,9 +10,16 @@ Such primitives get one explicit glTF material of those values.
 The exporter keeps the material's texture bindings but writes no TEXCOORD attribute, which the
 glTF validator calls an error. The missing TEXCOORD_n are added with every vertex at Blender's
 UV (0, 0) (glTF (0, 1)), which is what Cycles looks up for a mesh without UVs, with a warning.
+
+A mesh whose materials' node graphs read Generated coordinates gets its texture space in
+`extras.CAUSTIC_texspace` (contract): the evaluated mesh's `texspace_location`/`texspace_size`,
+which Cycles reads from the same evaluated mesh (modifiers included).
 """
 
 from .gltf_objects import constant_uv_accessor
+from .materials import graph_of, uses_graph
+
+TEXSPACE_EXTRA = "CAUSTIC_texspace"
 
 DEFAULT_SURFACE_NAME = "Blender default surface"
 
@@ -76,3 +83,20 @@ def _texcoords_used(material):
             used.add(obj.tex_coord or 0)
         todo.extend(vars(obj).values() if hasattr(obj, "__dict__") else ())
     return sorted(used)
+
+
+def add_texspace(gltf2_mesh, blender_mesh, blender_object, materials, state):
+    """Put the mesh's texture space in its extras when a material's graph reads Generated
+    coordinates (module doc)."""
+    if not any(m is not None and uses_graph(m, state) and graph_of(m, state).uses_generated
+               for m in materials or ()):
+        return
+    mesh = blender_mesh
+    if blender_object is not None and state.depsgraph is not None:
+        evaluated = blender_object.evaluated_get(state.depsgraph)
+        if evaluated.type == "MESH":
+            mesh = evaluated.data
+    extras = gltf2_mesh.extras if isinstance(gltf2_mesh.extras, dict) else {}
+    extras[TEXSPACE_EXTRA] = {"location": [float(v) for v in mesh.texspace_location],
+                              "size": [float(v) for v in mesh.texspace_size]}
+    gltf2_mesh.extras = extras
