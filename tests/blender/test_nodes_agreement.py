@@ -9,7 +9,8 @@ two seeds per engine:
   only noise is the pixel filter's sampling of the pattern.
 * "sphere" scenes: the material on a sphere above a grey floor under a disk light (shaders
   mixing diffuse and glossy, translucency, transparency), 2 bounces.
-* a point light whose node tree's Emission Strength is 1/3 over the flat grey floor.
+* a point, a sun and an area light whose node tree's Emission Strength is 1/3 over the flat
+  grey plane (the exporter used to ignore it: 3x too bright).
 
 Two checks, both derived from the renders' own noise (nothing here is tuned on the results):
 1. Image mean (luminance): as test_cycles_agreement.py — the variance of one image's mean
@@ -326,19 +327,26 @@ CASES = {
 TRANSPARENT_BOUNCES = {"transparent": 16}
 
 
-def light_node_scene(scene, _material):
-    """The flat grey plane under a point light whose node tree's Emission Strength is 1/3."""
-    flat_scene(scene, scenes.diffuse_material("Grey", 0.5))
-    bpy.data.objects.remove(bpy.data.objects["Sun"])
-    point = scenes.light(scene, "Point", "POINT", location=(0.2, 0.1, 2.0), energy=300.0, shadow_soft_size=0.0,
-                         color=(1.0, 0.8, 0.6))
-    point.data.use_nodes = True
-    emission = next(n for n in point.data.node_tree.nodes if n.type == "EMISSION")
-    emission.inputs["Strength"].default_value = 1.0 / 3.0
-    emission.inputs["Color"].default_value = (0.6, 0.8, 1.0, 1.0)
+def light_node_scene(kind, **props):
+    """The flat grey plane lit only by a light of `kind` whose node tree's Emission Strength is
+    1/3 and Color (0.6, 0.8, 1) (the light's own colour is (1, 0.8, 0.6))."""
+    def build(scene, _material):
+        flat_scene(scene, scenes.diffuse_material("Grey", 0.5))
+        bpy.data.objects.remove(bpy.data.objects["Sun"])
+        light = scenes.light(scene, "Noded", kind, color=(1.0, 0.8, 0.6), **props)
+        light.data.use_nodes = True
+        emission = next(n for n in light.data.node_tree.nodes if n.type == "EMISSION")
+        emission.inputs["Strength"].default_value = 1.0 / 3.0
+        emission.inputs["Color"].default_value = (0.6, 0.8, 1.0, 1.0)
+    return build
 
 
-CASES["light_node_strength"] = (light_node_scene, lambda name: None, None)
+CASES["light_node_strength_point"] = (light_node_scene("POINT", location=(0.2, 0.1, 2.0), energy=300.0,
+                                                       shadow_soft_size=0.0), lambda name: None, None)
+CASES["light_node_strength_sun"] = (light_node_scene("SUN", rotation_deg=(20.0, 10.0, 0.0), energy=9.0, angle=0.0),
+                                    lambda name: None, None)
+CASES["light_node_strength_area"] = (light_node_scene("AREA", location=(0.2, 0.1, 2.0), energy=300.0,
+                                                      shape="DISK", size=0.5), lambda name: None, None)
 
 
 # --- comparison ---
