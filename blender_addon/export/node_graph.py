@@ -35,6 +35,10 @@ _LUMINANCE = (0.2126729, 0.7151522, 0.0721750)
 _Y_UP = ((1.0, 0.0, 0.0, 0.0), (0.0, 0.0, 1.0, 0.0), (0.0, -1.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))
 # Samples of ColorRamp and curve tables (contract: evaluated at i/255, i = 0..255).
 TABLE_SIZE = 256
+# Nodes that name a UV map (`uv_map`, empty: the active render map) and nodes that read the
+# active render map when their input is unlinked (Image Texture) or on an output (UV).
+_NAMED_UV_NODES = {"ShaderNodeUVMap", "ShaderNodeNormalMap", "ShaderNodeTangent"}
+_ACTIVE_UV_NODES = {"ShaderNodeTexImage", "ShaderNodeTexCoord"}
 # Procedural textures whose unlinked Vector input is Generated in Cycles
 # (SocketType::LINK_TEXTURE_GENERATED); Image Texture's is UV, Environment's the direction.
 _GENERATED_DEFAULT = {"TEX_NOISE", "TEX_VORONOI", "TEX_WAVE", "TEX_CHECKER", "TEX_GRADIENT", "TEX_MAGIC",
@@ -168,6 +172,17 @@ def _uv_index(name, meshes):
     return (min(found) if found else None), missing, len(found) > 1
 
 
+def _active_uv_index(meshes):
+    """The TEXCOORD_n of the meshes' active render UV maps (Cycles' default UV map), and whether
+    the meshes disagree; (None, False) when none has a UV map."""
+    found = set()
+    for mesh in meshes:
+        layers = list(mesh.uv_layers)
+        if layers:
+            found.add(next((i for i, layer in enumerate(layers) if layer.active_render), 0))
+    return (min(found) if found else None), len(found) > 1
+
+
 class _Builder:
     """One walk over one material's tree (see the module doc)."""
 
@@ -296,8 +311,7 @@ class _Builder:
                 props[key] = sorted(value) if prop.is_enum_flag else value
             else:
                 props[key] = plain(value)
-        if node.bl_idname in {"ShaderNodeUVMap", "ShaderNodeNormalMap"}:
-            self._tex_coord(node, name, props)
+        self._tex_coord(node, name, props)
         return props
 
     def _pointer_prop(self, node, name, key, value, props):
@@ -322,14 +336,28 @@ class _Builder:
             self.warn(name, f"its setting '{key}' ({type(value).__name__}) is not exported")
 
     def _tex_coord(self, node, name, props):
-        """`tex_coord`: the TEXCOORD_n of the node's UV map (absent: the active map)."""
-        uv_map = getattr(node, "uv_map", "")
-        if not uv_map or not self.context.meshes:
+        """`tex_coord`: the TEXCOORD_n of the UV map the node reads — a named map (UV Map, Normal
+        Map, Tangent, an Attribute naming a UV map), or the active render map that Cycles uses
+        for an unnamed one, an Image Texture's default and Texture Coordinate's UV."""
+        meshes = self.context.meshes
+        if not meshes:
             return
-        n, missing, ambiguous = _uv_index(uv_map, self.context.meshes)
-        if missing:
-            self.warn(name, f"UV map '{uv_map}' is missing on mesh(es) {', '.join(sorted(missing))}; "
-                      "they use their active map")
+        uv_map = getattr(node, "uv_map", None) if node.bl_idname in _NAMED_UV_NODES else None
+        if node.bl_idname == "ShaderNodeAttribute" and node.attribute_type == "GEOMETRY":
+            if any(mesh.uv_layers.find(node.attribute_name) >= 0 for mesh in meshes):
+                uv_map = node.attribute_name
+            else:
+                return  # a colour or other attribute, not a UV map
+        if uv_map:
+            n, missing, ambiguous = _uv_index(uv_map, meshes)
+            if missing:
+                self.warn(name, f"UV map '{uv_map}' is missing on mesh(es) {', '.join(sorted(missing))}; "
+                          "they use their active map")
+        elif uv_map is not None or node.bl_idname in _ACTIVE_UV_NODES:
+            uv_map = "(active render map)"
+            n, ambiguous = _active_uv_index(meshes)
+        else:
+            return
         if ambiguous:
             self.warn(name, f"UV map '{uv_map}' has different numbers on the material's meshes; "
                       f"TEXCOORD_{n} is used for all")
@@ -372,13 +400,15 @@ def build_graph(material, context):
 def needs_graph(material, graph):
     """Whether the glTF exporter cannot express `material`, whose graph is `graph` (contract):
     a node type it does not read, a group or muted node on the way (the graph is then not what
-    the exporter walks), a Displacement output, or a link it drops."""
+    the exporter walks), a Displacement output, a projected image, or a link it drops."""
     if graph is None:
         return False
     if graph.output["displacement"] is not None:
         return True
     if any(n["type"] not in _EXPRESSIBLE for n in graph.nodes):
         return True
+    if any(n["type"] == "ShaderNodeTexImage" and n["props"].get("projection", "FLAT") != "FLAT" for n in graph.nodes):
+        return True  # the exporter reads every image as UV-mapped
     if _raw_walk_has_group_or_mute(cycles_output(material)):
         return True
     for entry in graph.nodes:

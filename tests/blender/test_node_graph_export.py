@@ -265,7 +265,7 @@ def test_images_are_written_beside_the_gltf_and_referenced(addon, empty_scene, t
 
 def test_uv_map_numbers_object_matrix_and_texspace(addon, empty_scene, tmp_path):
     """A UV Map node naming the second UV map gets tex_coord 1 (the exporter writes every map in
-    order); a Texture Coordinate node's object gives its inverse world matrix in glTF's Y-up
+    order), as does a node reading the active render map when that is the second; a Texture Coordinate node's object gives its inverse world matrix in glTF's Y-up
     world; a mesh whose material reads Generated coordinates carries its texture space."""
     target = bpy.data.objects.new("Target", None)
     empty_scene.collection.objects.link(target)
@@ -288,7 +288,8 @@ def test_uv_map_numbers_object_matrix_and_texspace(addon, empty_scene, tmp_path)
     tree.links.new(noise.outputs["Color"], by_id(mix.inputs, "A_Color"))
     tree.links.new(checker.outputs["Color"], by_id(mix.inputs, "B_Color"))
     diffuse_from(mat, by_id(mix.outputs, "Result_Color"))
-    uv_plane(empty_scene, "TwoMaps", mat, uv_maps=("First", "Second"))
+    two_maps = uv_plane(empty_scene, "TwoMaps", mat, uv_maps=("First", "Second"))
+    two_maps.data.uv_layers["Second"].active_render = True  # Cycles' default UV map
 
     generated = new_material("Generated")
     diffuse_from(generated, generated.node_tree.nodes.new("ShaderNodeTexWave").outputs["Color"])
@@ -299,6 +300,8 @@ def test_uv_map_numbers_object_matrix_and_texspace(addon, empty_scene, tmp_path)
     nodes = by_name(graph_of(gltf, "Coords"))
     assert nodes["UV Map"][1]["props"]["uv_map"] == "Second"
     assert nodes["UV Map"][1]["props"]["tex_coord"] == 1
+    # The Texture Coordinate node's UV output is the active render map, the exporter's TEXCOORD_1.
+    assert nodes["Texture Coordinate"][1]["props"]["tex_coord"] == 1
     matrix = nodes["Texture Coordinate"][1]["props"]["object_matrix"]
     # glTF point of Blender's world origin offset: p_b -> p_g = (x, z, -y); the object-space
     # point in glTF axes is C M^-1 p_b.
