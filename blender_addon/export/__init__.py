@@ -7,7 +7,8 @@ out of it or writes differently from what Cycles renders (docs/contract.md):
 |---|---|
 | `settings.py` | the render settings: `scenes[i].extras.caustic` |
 | `camera.py` | lens shift and depth of field: `CAUSTIC_camera` |
-| `lights.py` | area lights (`CAUSTIC_lights_area`), light shapes (`CAUSTIC_lights_punctual`), spot angles, light node trees |
+| `lights.py` | area lights (`CAUSTIC_lights_area`), light shapes (`CAUSTIC_lights_punctual`), spot |
+|  | angles, light node trees' strength and colour |
 | `world.py` | the world's Background and environment image: `CAUSTIC_world` |
 | `materials.py` | shader nodes the exporter cannot read, solid glass, coat, warnings |
 | `node_graph.py` | a material's whole shader graph for the renderer: `CAUSTIC_materials_nodes` |

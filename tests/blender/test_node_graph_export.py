@@ -252,8 +252,9 @@ def test_images_are_written_beside_the_gltf_and_referenced(addon, empty_scene, t
     entries = {name: images[nodes[name][1]["props"]["image"]] for name in ("Image Texture", "Image Texture.001",
                                                                            "Image Texture.002")}
     assert entries["Image Texture"] == entries["Image Texture.002"]
-    assert entries["Image Texture"]["uri"].startswith("caustic_nodes/") and entries["Image Texture"]["uri"].endswith(".png")
-    assert entries["Image Texture"]["colorspace"] == "sRGB" and entries["Image Texture"]["alpha"] == "STRAIGHT"
+    png = entries["Image Texture"]
+    assert png["uri"].startswith("caustic_nodes/") and png["uri"].endswith(".png")
+    assert png["colorspace"] == "sRGB" and png["alpha"] == "STRAIGHT"
     assert entries["Image Texture.001"]["uri"].endswith(".exr")
     assert entries["Image Texture.001"]["colorspace"] == "Non-Color"
     assert nodes["Image Texture.002"][1]["props"]["interpolation"] == "Closest"
@@ -265,8 +266,9 @@ def test_images_are_written_beside_the_gltf_and_referenced(addon, empty_scene, t
 
 def test_uv_map_numbers_object_matrix_and_texspace(addon, empty_scene, tmp_path):
     """A UV Map node naming the second UV map gets tex_coord 1 (the exporter writes every map in
-    order), as does a node reading the active render map when that is the second; a Texture Coordinate node's object gives its inverse world matrix in glTF's Y-up
-    world; a mesh whose material reads Generated coordinates carries its texture space."""
+    order), as does a node reading the active render map when that is the second; a Texture
+    Coordinate node's object gives its inverse world matrix in glTF's Y-up world; a mesh whose
+    material reads Generated coordinates carries its texture space."""
     target = bpy.data.objects.new("Target", None)
     empty_scene.collection.objects.link(target)
     target.location = (1.0, 2.0, 3.0)
@@ -368,7 +370,8 @@ def test_light_node_tree_strength_and_colour_multiply_the_light(addon, empty_sce
     for node in gltf["nodes"]:
         ext = node.get("extensions", {})
         if "KHR_lights_punctual" in ext:
-            lights[node["name"]] = gltf["extensions"]["KHR_lights_punctual"]["lights"][ext["KHR_lights_punctual"]["light"]]
+            index = ext["KHR_lights_punctual"]["light"]
+            lights[node["name"]] = gltf["extensions"]["KHR_lights_punctual"]["lights"][index]
         if "CAUSTIC_lights_area" in ext:
             lights[node["name"]] = ext["CAUSTIC_lights_area"]
     assert lights["Noded"]["intensity"] == pytest.approx(lights["Plain"]["intensity"] / 3.0, rel=1e-6)

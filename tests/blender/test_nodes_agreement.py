@@ -391,7 +391,8 @@ def compare(scene, tmp_path, label):
                         f"{SIGMAS} sigma ({sigma:.2e}) + {MEAN_ALLOWANCE:.0%}")
     if (excess > 1.0).any():
         failures.append(f"{int((excess > 1).sum())} of {excess.size} 4x4 blocks exceed their bound, worst "
-                        f"{excess[worst]:.2f}x at {worst}: Caustic {b_caustic[worst]:.4f}, Cycles {b_cycles[worst]:.4f}")
+                        f"{excess[worst]:.2f}x at {worst}: Caustic {b_caustic[worst]:.4f}, "
+                        f"Cycles {b_cycles[worst]:.4f}")
     assert not failures, f"{label}: " + "; ".join(failures)
 
 
