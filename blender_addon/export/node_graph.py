@@ -238,12 +238,14 @@ class _Builder:
         return ("value", plain(sock.default_value), sock.type)
 
     def _muted(self, scope, node, out, depth):
+        """A muted node's output: what feeds the input its internal link passes through (that
+        input's own value when unlinked). An output without a pass-through is no source: as in
+        Cycles (its sync maps muted nodes' internal links only), the input it fed keeps its own
+        value."""
         for link in node.internal_links:
             if link.to_socket.identifier == out.identifier and link.from_socket is not None:
                 return self._value_or_link(scope, link.from_socket, depth)
-        if out.type == "SHADER" or not hasattr(out, "default_value"):
-            return None
-        return ("value", plain(out.default_value), out.type)
+        return None
 
     def _group_output(self, scope, node, out, depth):
         tree = node.node_tree

@@ -47,13 +47,13 @@ class ImageWriter:
         pixels = np.empty(width * height * channels, dtype=np.float32)
         image.pixels.foreach_get(pixels)
         pixels = pixels.reshape(height, width, channels)
-        rgba = np.ones((height, width, 4), dtype=np.float32)
-        if channels >= 3:
-            rgba[..., :3] = pixels[..., :3]
-        else:  # one (or two) channel images: grey
-            rgba[..., :3] = pixels[..., :1]
-        if channels in (2, 4):
-            rgba[..., 3] = pixels[..., channels - 1]
+        if channels == 4:
+            rgba = pixels  # the usual case: no second copy of a large image
+        else:
+            rgba = np.ones((height, width, 4), dtype=np.float32)
+            rgba[..., :3] = pixels[..., :3] if channels >= 3 else pixels[..., :1]  # 1-2 channels: grey
+            if channels == 2:
+                rgba[..., 3] = pixels[..., 1]
         is_float = bool(image.is_float)
         suffix = ".exr" if is_float else ".png"
         filename = self._unique(image.name, suffix)

@@ -139,7 +139,8 @@ def test_nested_groups_are_inlined_with_their_inputs_resolved(addon, empty_scene
 def test_reroutes_are_removed_and_muted_nodes_pass_through(addon, empty_scene, tmp_path):
     """Noise -> Reroute -> Reroute -> muted Invert -> muted Math -> Diffuse colour: the Diffuse's
     colour links straight to the Noise; a muted node without a pass-through for its output (a
-    muted Value node) gives its output's value; muted links and invalid links are absent."""
+    muted Value node) leaves the input it feeds with its own value, as Cycles does; a muted
+    link is absent."""
     mat = new_material("Muted")
     tree = mat.node_tree
     noise = tree.nodes.new("ShaderNodeTexNoise")
@@ -151,8 +152,9 @@ def test_reroutes_are_removed_and_muted_nodes_pass_through(addon, empty_scene, t
     tree.links.new(r2.outputs[0], invert.inputs["Color"])
     bsdf = diffuse_from(mat, invert.outputs["Color"])
     value = tree.nodes.new("ShaderNodeValue")
-    value.outputs[0].default_value = 0.7
+    value.outputs[0].default_value = 0.7  # not passed on: a muted Value node has no pass-through
     value.mute = True
+    bsdf.inputs["Roughness"].default_value = 0.35
     tree.links.new(value.outputs[0], bsdf.inputs["Roughness"])
     normal_src = tree.nodes.new("ShaderNodeTexCoord")
     muted_link = tree.links.new(normal_src.outputs["Normal"], bsdf.inputs["Normal"])
@@ -165,7 +167,7 @@ def test_reroutes_are_removed_and_muted_nodes_pass_through(addon, empty_scene, t
     assert {n["type"] for n in graph["nodes"]} == {"ShaderNodeTexNoise", "ShaderNodeBsdfDiffuse"}
     _, d = nodes["Diffuse BSDF"]
     assert d["inputs"]["Color"]["link"] == [nodes["Noise Texture"][0], "Color"]
-    assert d["inputs"]["Roughness"] == {"value": pytest.approx(0.7)}
+    assert d["inputs"]["Roughness"] == {"value": pytest.approx(bsdf.inputs["Roughness"].default_value)}
     assert "link" not in d["inputs"]["Normal"]
 
 
