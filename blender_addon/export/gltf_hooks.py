@@ -31,7 +31,8 @@ class glTF2ExportUserExtension:
 
     def gather_node_hook(self, gltf2_node, blender_object, export_settings):
         """Attach CAUSTIC_camera to a camera's node, CAUSTIC_lights_area to an area light's node,
-        CAUSTIC_lights_punctual to the other lights'."""
+        CAUSTIC_lights_punctual to the other lights', and CAUSTIC_texspace to a mesh whose
+        node graphs read Generated coordinates."""
         state = current()
         if state is None or blender_object is None:
             return
@@ -42,6 +43,9 @@ class glTF2ExportUserExtension:
                 state.warnings.extend(warnings)
                 if value:
                     attach_extension(gltf2_node, CAMERA_EXTENSION, value)
+                return
+            if blender_object.type == "MESH":
+                meshes.add_texspace(gltf2_node.mesh, blender_object, state)
                 return
             if blender_object.type != "LIGHT":
                 return
@@ -57,19 +61,18 @@ class glTF2ExportUserExtension:
             state.area_lights.append(gltf2_node.name)
             state.warnings.extend(warnings)
         except Exception as err:  # the exporter would swallow it: keep it for export_scene
-            state.errors.append(f"area light '{blender_object.name}': {err!r}")
+            state.errors.append(f"object '{blender_object.name}': {err!r}")
 
     def gather_mesh_hook(self, gltf2_mesh, blender_mesh, blender_object, vertex_groups, modifiers, materials,
                          export_settings):
-        """Give primitives without a material Blender's default surface, the TEXCOORD_n their
-        material's textures read and the texture space their node graphs read (meshes.py)."""
+        """Give primitives without a material Blender's default surface and the TEXCOORD_n their
+        material's textures read (meshes.py)."""
         state = current()
         if state is None or gltf2_mesh is None:
             return
         try:
             meshes.give_default_material(gltf2_mesh, state)
             meshes.add_missing_texcoords(gltf2_mesh, blender_mesh, state)
-            meshes.add_texspace(gltf2_mesh, blender_mesh, blender_object, materials, state)
         except Exception as err:
             state.errors.append(f"mesh '{getattr(blender_mesh, 'name', '?')}': {err!r}")
 

@@ -300,7 +300,8 @@ def test_uv_map_numbers_object_matrix_and_texspace(addon, empty_scene, tmp_path)
     cube = scenes.cube(empty_scene, "Box", 1.0, (3.0, 0.5, 0.2), material=generated)
     cube.modifiers.new("Bevel", "BEVEL")  # the texture space comes from the evaluated mesh
 
-    gltf, _, _ = export(addon, empty_scene, tmp_path)
+    gltf, state, _ = export(addon, empty_scene, tmp_path)
+    assert any("'Box'" in w and "Bevel" in w and "undeformed" in w for w in state.warnings), state.warnings
     nodes = by_name(graph_of(gltf, "Coords"))
     assert nodes["UV Map"][1]["props"]["uv_map"] == "Second"
     assert nodes["UV Map"][1]["props"]["tex_coord"] == 1
