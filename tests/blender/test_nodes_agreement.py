@@ -13,12 +13,13 @@ two seeds per engine:
   grey plane (the exporter used to ignore it: 3x too bright).
 
 Two checks, both derived from the renders' own noise (nothing here is tuned on the results):
-1. Image mean (luminance): as test_cycles_agreement.py — the variance of one image's mean
-   from 8x8-block sums of the two seeds' difference, sigma of the difference of the two
-   engines' two-seed means, bound |mean_caustic - mean_cycles| <= 5 sigma + 1 % of Cycles'
-   mean. 5 sigma keeps false alarms below ~1e-4 per case; 1 % is the model allowance of
-   test_material_fidelity.py for "same model in both renderers" (the 0.2 % residual the light
-   tests measure, with room).
+1. Image mean, red, green and blue one by one (a grey rendering of a tinted shader can match
+   in luminance): as test_cycles_agreement.py — the variance of one image's mean from
+   8x8-block sums of the two seeds' difference, sigma of the difference of the two engines'
+   two-seed means, bound |mean_caustic - mean_cycles| <= 5 sigma + 1 % of Cycles' mean per
+   channel. 5 sigma keeps false alarms below ~1e-4 per channel; 1 % is the model allowance
+   of test_material_fidelity.py for "same model in both renderers" (the 0.2 % residual the
+   light tests measure, with room).
 2. Per pixel of the 4x-downsampled luminance (12x9 blocks of 4x4 pixels): for block k, each
    engine's two seeds a, b give d_k = a_k - b_k with var(d_k) = 2 var_k. One difference is a
    single degree of freedom, so var_k is taken as max(d_k^2 / 2, the mean of d^2 / 2 over all
@@ -371,24 +372,27 @@ def block_estimate(a, b):
 
 
 def compare(scene, tmp_path, label):
-    images = {engine: [luminance(scenes.render_rgb(scene, engine, s, str(tmp_path / f"{engine}_{s}.exr")))
-                       for s in SEEDS] for engine in ("CYCLES", "CAUSTIC")}
-    (m_caustic, v_caustic), (m_cycles, v_cycles) = (mean_and_variance(*images[e]) for e in ("CAUSTIC", "CYCLES"))
-    sigma = math.sqrt(v_caustic + v_cycles)
-    mean_bound = SIGMAS * sigma + MEAN_ALLOWANCE * m_cycles
-    (b_caustic, bv_caustic), (b_cycles, bv_cycles) = (block_estimate(*images[e]) for e in ("CAUSTIC", "CYCLES"))
+    images = {engine: [scenes.render_rgb(scene, engine, s, str(tmp_path / f"{engine}_{s}.exr")) for s in SEEDS]
+              for engine in ("CYCLES", "CAUSTIC")}
+    failures, ratios = [], []
+    for channel, name in enumerate("RGB"):
+        (m_caustic, v_caustic), (m_cycles, v_cycles) = (
+            mean_and_variance(*(image[..., channel] for image in images[e])) for e in ("CAUSTIC", "CYCLES"))
+        sigma = math.sqrt(v_caustic + v_cycles)
+        bound = SIGMAS * sigma + MEAN_ALLOWANCE * m_cycles
+        ratios.append(m_caustic / m_cycles if m_cycles > 0 else float("nan"))
+        assert m_cycles > 1e-3, f"{label}: the Cycles reference is black in {name}: the scene is broken"
+        if abs(m_caustic - m_cycles) > bound:
+            failures.append(f"{name} mean Caustic/Cycles = {ratios[-1]:.4f}, difference {m_caustic - m_cycles:.3e} "
+                            f"exceeds {SIGMAS} sigma ({sigma:.2e}) + {MEAN_ALLOWANCE:.0%}")
+    lum = {e: [luminance(image) for image in images[e]] for e in images}
+    (b_caustic, bv_caustic), (b_cycles, bv_cycles) = (block_estimate(*lum[e]) for e in ("CAUSTIC", "CYCLES"))
     block_bound = SIGMAS * np.sqrt(bv_caustic + bv_cycles) + BLOCK_ALLOWANCE * np.abs(b_cycles)
     excess = np.abs(b_caustic - b_cycles) / block_bound
     worst = np.unravel_index(np.argmax(excess), excess.shape)
-    ratio = m_caustic / m_cycles if m_cycles > 0 else float("nan")
-    print(f"\n[nodes caustic/cycles] {label:24s} mean ratio {ratio:.4f} (bound {mean_bound / m_cycles:.2%})  "
+    print(f"\n[nodes caustic/cycles] {label:25s} mean ratio R/G/B {ratios[0]:.4f} {ratios[1]:.4f} {ratios[2]:.4f}  "
           f"worst block {excess[worst]:.2f}x its bound at {worst} (caustic {b_caustic[worst]:.4f}, "
           f"cycles {b_cycles[worst]:.4f}); blocks over: {int((excess > 1).sum())}/{excess.size}")
-    assert m_cycles > 1e-3, f"{label}: the Cycles reference is black: the scene is broken"
-    failures = []
-    if abs(m_caustic - m_cycles) > mean_bound:
-        failures.append(f"mean Caustic/Cycles = {ratio:.4f}, difference {m_caustic - m_cycles:.3e} exceeds "
-                        f"{SIGMAS} sigma ({sigma:.2e}) + {MEAN_ALLOWANCE:.0%}")
     if (excess > 1.0).any():
         failures.append(f"{int((excess > 1).sum())} of {excess.size} 4x4 blocks exceed their bound, worst "
                         f"{excess[worst]:.2f}x at {worst}: Caustic {b_caustic[worst]:.4f}, "
