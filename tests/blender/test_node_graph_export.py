@@ -434,3 +434,45 @@ def test_displacement_output_is_exported_and_unknown_settings_named(addon, empty
     assert any("Displaced" in w and "bump only" in w for w in state.warnings), state.warnings
     assert math.isclose(nodes["Displacement"][1]["inputs"]["Scale"]["value"], disp.inputs["Scale"].default_value,
                         rel_tol=1e-6)
+
+
+def test_file_images_are_rewritten_and_missing_ones_named(addon, empty_scene, tmp_path):
+    """An image loaded from a PNG file is written from its pixels like a packed one; an image
+    whose file is missing is named in a warning and its node has no image (the renderer warns)."""
+    source = tmp_path / "source"
+    source.mkdir()
+    pixels = np.zeros((4, 4, 4), dtype=np.float32)
+    pixels[..., 0] = np.arange(16).reshape(4, 4) / 15.0
+    pixels[..., 3] = 1.0
+    saved = bpy.data.images.new("OnDisk", 4, 4)
+    saved.pixels.foreach_set(pixels.ravel())
+    saved.filepath_raw = str(source / "on disk.png")
+    saved.file_format = "PNG"
+    saved.save()
+    bpy.data.images.remove(saved)
+    loaded = bpy.data.images.load(str(source / "on disk.png"))
+    missing = bpy.data.images.new("Missing", 4, 4)
+    missing.source = "FILE"
+    missing.filepath = str(source / "nowhere.png")
+
+    mat = new_material("Files")
+    tree = mat.node_tree
+    t1, t2 = tree.nodes.new("ShaderNodeTexImage"), tree.nodes.new("ShaderNodeTexImage")
+    t1.image, t2.image = loaded, missing
+    mix = tree.nodes.new("ShaderNodeMix")
+    mix.data_type = "RGBA"
+    tree.links.new(t1.outputs["Color"], by_id(mix.inputs, "A_Color"))
+    tree.links.new(t2.outputs["Color"], by_id(mix.inputs, "B_Color"))
+    diffuse_from(mat, by_id(mix.outputs, "Result_Color"))
+    uv_plane(empty_scene, "P", mat)
+
+    gltf, state, folder = export(addon, empty_scene, tmp_path / "out")
+    graph = graph_of(gltf, "Files")
+    nodes = by_name(graph)
+    assert len(graph["images"]) == 1
+    entry = graph["images"][nodes["Image Texture"][1]["props"]["image"]]
+    assert entry["uri"] == "caustic_nodes/on_disk.png"
+    written = scenes.load_pixels(os.path.join(folder, entry["uri"]))
+    np.testing.assert_allclose(written, pixels, atol=0.5 / 255)
+    assert "image" not in nodes["Image Texture.001"][1]["props"]
+    assert any("Files" in w and "'Missing'" in w and "no pixels" in w for w in state.warnings), state.warnings
