@@ -3,7 +3,8 @@
 `build_graph` walks backwards from the active Material Output (Cycles target) and returns the
 contract's node list: node groups inlined (inner nodes named `Group/Inner`, Group Input and
 Group Output resolved to what feeds them), reroutes removed, muted nodes replaced by their
-internal pass-through links (or the socket default), invalid and muted links treated as absent.
+internal pass-through links (an output without one feeds nothing, as in Cycles), invalid and
+muted links and links from unavailable sockets treated as absent.
 The walk reads Blender data only; images are collected (the caller writes them, node_images.py)
 and the few settings that need the scene (UV map numbers, object matrices) come from a
 `GraphContext`.
@@ -71,11 +72,13 @@ class Graph:
 
 
 def _valid_link(sock):
-    """The link into an input socket Cycles follows, or None (unlinked, invalid or muted)."""
+    """The link into an input socket Cycles follows, or None (unlinked, invalid, muted, or from
+    a socket the node's settings made unavailable, such as the Mix node's float result in
+    colour mode)."""
     if not sock.is_linked:
         return None
     for link in sock.links:
-        if link.is_valid and not link.is_muted:
+        if link.is_valid and not link.is_muted and _available(link.from_socket):
             return link
     return None
 
@@ -211,6 +214,8 @@ class _Builder:
         return self.output_source(scope, link.from_node, link.from_socket, depth + 1)
 
     def output_source(self, scope, node, out, depth):
+        """What an output socket stands for: a node of the graph (added on first sight), or,
+        through reroutes, muted nodes and group boundaries, what feeds those."""
         if depth > 256:  # Blender refuses cycles; this only guards against a corrupt file
             self.warn(node.name, "the graph is too deep (a cycle?); the input is left unlinked")
             return None
