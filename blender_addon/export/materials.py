@@ -225,15 +225,14 @@ def complete_material(gltf2_material, blender_material, export_settings, state):
     """Everything Caustic adds to the exporter's glTF material (the material hook's work)."""
     as_graph = _node_graph(gltf2_material, blender_material, export_settings, state)
     # A material exported as a graph is rendered from the graph: the warnings about what its
-    # glTF approximation drops do not apply to Caustic (they still go to `dropped`, unused).
-    dropped = []
-    _translate_shader_node(gltf2_material, blender_material, export_settings, dropped if as_graph else state.warnings)
+    # glTF approximation drops do not apply to Caustic, so they are collected and discarded.
+    approximation_warnings = [] if as_graph else state.warnings
+    _translate_shader_node(gltf2_material, blender_material, export_settings, approximation_warnings)
     coat, warnings = principled_extras(blender_material, graph=as_graph)
     state.warnings.extend(warnings)
     if coat is not None:
         _set_extension(gltf2_material, COAT_EXTENSION, coat)
-    tint_warnings = _principled_transmission_tint(gltf2_material, blender_material)
-    (dropped if as_graph else state.warnings).extend(tint_warnings)
+    approximation_warnings.extend(_principled_transmission_tint(gltf2_material, blender_material))
     extensions = gltf2_material.extensions or {}
     if "KHR_materials_transmission" in extensions and "KHR_materials_volume" not in extensions:
         _set_extension(gltf2_material, "KHR_materials_volume", {"thicknessFactor": 1.0})
