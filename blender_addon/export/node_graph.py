@@ -34,8 +34,10 @@ _SKIPPED_POINTERS = {"texture_mapping", "color_mapping", "image_user", "node_tre
 _LUMINANCE = (0.2126729, 0.7151522, 0.0721750)
 # Blender Z-up to glTF Y-up: (x, y, z) -> (x, z, -y).
 _Y_UP = ((1.0, 0.0, 0.0, 0.0), (0.0, 0.0, 1.0, 0.0), (0.0, -1.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))
-# Samples of ColorRamp and curve tables (contract: evaluated at i/255, i = 0..255).
-TABLE_SIZE = 256
+# Samples of ColorRamp and curve tables: as Cycles 5.0 bakes them (RAMP_TABLE_SIZE + 1 entries
+# at i/256, looked up with floor; checked with a render: a CONSTANT ramp's step at 0.65 falls at
+# 167/256), so that the renderer's lookup gives Cycles' values, step positions included.
+TABLE_SIZE = 257
 # Nodes that name a UV map (`uv_map`, empty: the active render map) and nodes that read the
 # active render map when their input is unlinked (Image Texture) or on an output (UV).
 _NAMED_UV_NODES = {"ShaderNodeUVMap", "ShaderNodeNormalMap", "ShaderNodeTangent"}
@@ -136,7 +138,7 @@ def object_matrix(obj, depsgraph):
 
 
 def ramp_table(ramp):
-    """A ColorRamp evaluated by Blender at i/255 (contract)."""
+    """A ColorRamp evaluated by Blender at i/256, i = 0..256 (contract)."""
     return [[float(c) for c in ramp.evaluate(i / (TABLE_SIZE - 1))] for i in range(TABLE_SIZE)]
 
 

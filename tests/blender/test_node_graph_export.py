@@ -172,7 +172,7 @@ def test_reroutes_are_removed_and_muted_nodes_pass_through(addon, empty_scene, t
 
 
 def test_color_ramp_and_curve_tables_are_blenders_own_evaluation(addon, empty_scene, tmp_path):
-    """The ColorRamp table is `ColorRamp.evaluate(i/255)`; RGB Curves' tables are C, R, G, B from
+    """The ColorRamp table is `ColorRamp.evaluate(i/256)`; RGB Curves' tables are C, R, G, B from
     `CurveMapping.evaluate` over the curves' x range; Float Curve has one table."""
     mat = new_material("Tables")
     tree = mat.node_tree
@@ -200,21 +200,21 @@ def test_color_ramp_and_curve_tables_are_blenders_own_evaluation(addon, empty_sc
     gltf, _, _ = export(addon, empty_scene, tmp_path)
     nodes = by_name(graph_of(gltf, "Tables"))
     table = nodes["Color Ramp"][1]["props"]["color_ramp"]
-    assert table["interpolation"] == "EASE" and len(table["table"]) == 256
-    for i in (0, 64, 102, 200, 255):
-        assert table["table"][i] == pytest.approx(list(ramp.color_ramp.evaluate(i / 255)), abs=1e-6), i
+    assert table["interpolation"] == "EASE" and len(table["table"]) == 257
+    for i in (0, 64, 102, 200, 256):
+        assert table["table"][i] == pytest.approx(list(ramp.color_ramp.evaluate(i / 256)), abs=1e-6), i
     mapping = nodes["RGB Curves"][1]["props"]["mapping"]
     assert mapping["range"] == [0.0, 1.0] and len(mapping["tables"]) == 4
-    assert all(len(t) == 256 for t in mapping["tables"])
+    assert all(len(t) == 257 for t in mapping["tables"])
     curves.mapping.initialize()
-    for i in (0, 77, 128, 255):
-        x = i / 255
+    for i in (0, 77, 128, 256):
+        x = i / 256
         expected = [curves.mapping.evaluate(curves.mapping.curves[c], x) for c in (3, 0, 1, 2)]
         assert [t[i] for t in mapping["tables"]] == pytest.approx(expected, abs=1e-6), i
-    assert mapping["tables"][1][int(0.3 * 255 + 0.5)] == pytest.approx(0.8, abs=0.02), "the red curve's point"
-    assert mapping["tables"][0][255] == pytest.approx(0.6, abs=1e-6), "the combined curve's end point"
+    assert mapping["tables"][1][int(0.3 * 256 + 0.5)] == pytest.approx(0.8, abs=0.02), "the red curve's point"
+    assert mapping["tables"][0][256] == pytest.approx(0.6, abs=1e-6), "the combined curve's end point"
     fmap = nodes["Float Curve"][1]["props"]["mapping"]
-    assert len(fmap["tables"]) == 1 and fmap["tables"][0][int(0.5 * 255 + 0.5)] == pytest.approx(0.1, abs=0.02)
+    assert len(fmap["tables"]) == 1 and fmap["tables"][0][128] == pytest.approx(0.1, abs=0.02)
 
 
 def test_images_are_written_beside_the_gltf_and_referenced(addon, empty_scene, tmp_path):
