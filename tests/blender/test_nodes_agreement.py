@@ -8,7 +8,7 @@ two seeds per engine:
   test. Direct light only reaches the camera, so the image is the texture times a constant: the
   only noise is the pixel filter's sampling of the pattern.
 * "sphere" scenes: the material on a sphere above a grey floor under a disk light (shaders
-  mixing diffuse and glossy, translucency, transparency, holdout), 2 bounces.
+  mixing diffuse and glossy, translucency, transparency, holdout, emission), 2 bounces.
 * a point, a sun and an area light whose node tree's Emission Strength is 1/3 over the flat
   grey plane (the exporter used to ignore it: 3x too bright).
 
@@ -331,6 +331,9 @@ CASES = {
     # Holdout: Cycles cuts the sphere out of the image (colour and alpha 0) but it still casts
     # its shadow on the floor.
     "holdout": (sphere_scene, single_shader("ShaderNodeHoldout"), None),
+    # A bare Emission shader (a light panel's usual material) is a graph too: it must still light
+    # the floor, i.e. be a light source for next-event estimation, not only seen by the camera.
+    "emission": (sphere_scene, single_shader("ShaderNodeEmission", Color=(1.0, 0.6, 0.3, 1.0), Strength=3.0), None),
 }
 # Cycles ends a path at its transparent-bounce limit counting every crossing, so a camera ray
 # through the transparent sphere (two crossings) needs more than BOUNCES to reach the floor;
