@@ -321,7 +321,22 @@ class _Builder:
             else:
                 props[key] = plain(value)
         self._tex_coord(node, name, props)
+        self._warn_colour_attribute(node, name, props)
         return props
+
+    def _warn_colour_attribute(self, node, name, props):
+        """Name a node that reads a colour (or other non-UV) attribute: the exporter writes
+        COLOR_n sets without their names (and in its own order), so the contract cannot say
+        which set a name is (checked on io_scene_gltf2 5.0.21: two colour attributes and a
+        Color Attribute node gave COLOR_0..COLOR_2)."""
+        if node.bl_idname == "ShaderNodeVertexColor":
+            attribute = node.layer_name or "(active)"
+        elif node.bl_idname == "ShaderNodeAttribute" and "tex_coord" not in props:
+            attribute = node.attribute_name
+        else:
+            return
+        self.warn(name, f"attribute '{attribute}' is not exported by name (glTF's COLOR_n sets are unnamed); "
+                  "the renderer cannot read it as Cycles does")
 
     def _pointer_prop(self, node, name, key, value, props):
         if key == "color_ramp":

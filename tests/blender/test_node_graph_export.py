@@ -476,3 +476,19 @@ def test_file_images_are_rewritten_and_missing_ones_named(addon, empty_scene, tm
     np.testing.assert_allclose(written, pixels, atol=0.5 / 255)
     assert "image" not in nodes["Image Texture.001"][1]["props"]
     assert any("Files" in w and "'Missing'" in w and "no pixels" in w for w in state.warnings), state.warnings
+
+
+def test_colour_attribute_nodes_are_named_in_a_warning(addon, empty_scene, tmp_path):
+    """glTF's COLOR_n sets carry no names, so a Color Attribute node's attribute cannot be told
+    apart: exported as a node, and named in a warning rather than read silently as COLOR_0."""
+    mat = new_material("Painted")
+    tree = mat.node_tree
+    paint = tree.nodes.new("ShaderNodeVertexColor")
+    paint.layer_name = "Paint"
+    diffuse_from(mat, paint.outputs["Color"])
+    obj = uv_plane(empty_scene, "P", mat)
+    obj.data.color_attributes.new("Paint", "BYTE_COLOR", "CORNER")
+    gltf, state, _ = export(addon, empty_scene, tmp_path)
+    nodes = by_name(graph_of(gltf, "Painted"))
+    assert nodes["Color Attribute"][1]["props"]["layer_name"] == "Paint"
+    assert any("'Painted'" in w and "'Paint'" in w and "COLOR_n" in w for w in state.warnings), state.warnings
