@@ -166,7 +166,24 @@ def scale_punctual_light(gltf2_node, blender_object, state):
     # The exporter wrote colour = the node's Color (the light's colour dropped) and intensity
     # from the light's power (a sun: from the node's Strength instead of the power).
     value["color"] = [c * n for c, n in zip(_light_color(light), node_color)]
-    if node.inputs["Strength"].is_linked:
-        return  # the exporter may have read a Light Falloff there; named in a warning above
+    if light.type != "SUN" and _has_falloff_upstream(node.inputs["Strength"]):
+        # The exporter took its intensity from the Light Falloff node's Strength instead of the
+        # power; that is kept (the linked Strength is named in a warning above).
+        return
     if "intensity" in value:
         value["intensity"] = float(value["intensity"]) * (float(light.energy) if light.type == "SUN" else strength)
+
+
+def _has_falloff_upstream(sock):
+    """Whether a Light Falloff node feeds `sock` (the exporter reads its Strength then)."""
+    todo, seen = [sock], set()
+    while todo:
+        for link in todo.pop().links:
+            node = link.from_node
+            if node.as_pointer() in seen:
+                continue
+            seen.add(node.as_pointer())
+            if node.type == "LIGHT_FALLOFF":
+                return True
+            todo.extend(s for s in node.inputs if s.is_linked)
+    return False

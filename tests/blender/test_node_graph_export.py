@@ -352,14 +352,14 @@ def test_plain_principled_writes_no_graph_and_procedural_warnings_are_replaced(a
 def test_light_node_tree_strength_and_colour_multiply_the_light(addon, empty_scene, tmp_path):
     """Cycles multiplies a light's power by its node tree's Emission Strength and its colour by the
     Emission Color: the exported point light's intensity and colour, and the area light's power
-    and colour, carry both; a linked Strength is named in a warning."""
+    and colour, carry both; a linked Strength is named in a warning and its own value used."""
     uv_plane(empty_scene, "Floor", scenes.diffuse_material("Grey", 0.5))
     plain = scenes.light(empty_scene, "Plain", "POINT", location=(0, 0, 3), energy=300.0, color=(1.0, 0.5, 0.25))
     noded = scenes.light(empty_scene, "Noded", "POINT", location=(1, 0, 3), energy=300.0, color=(1.0, 0.5, 0.25))
     area = scenes.light(empty_scene, "AreaNoded", "AREA", location=(0, 1, 3), energy=200.0, size=1.0)
     linked = scenes.light(empty_scene, "Linked", "POINT", location=(2, 0, 3), energy=100.0)
     for obj, strength, color in ((noded, 1.0 / 3.0, (0.5, 1.0, 1.0)), (area, 2.0, (1.0, 0.8, 0.6)),
-                                 (linked, 1.0, (1.0, 1.0, 1.0))):
+                                 (linked, 0.5, (1.0, 1.0, 1.0))):
         obj.data.use_nodes = True
         emission = next(n for n in obj.data.node_tree.nodes if n.type == "EMISSION")
         emission.inputs["Strength"].default_value = strength
@@ -383,6 +383,8 @@ def test_light_node_tree_strength_and_colour_multiply_the_light(addon, empty_sce
     assert lights["AreaNoded"]["power"] == pytest.approx(400.0, rel=1e-6)
     assert lights["AreaNoded"]["color"] == pytest.approx([1.0, 0.8, 0.6], abs=1e-6)
     assert any("Linked" in w and "Strength" in w and "linked" in w for w in state.warnings), state.warnings
+    # A linked Strength: the socket's own value (0.5) is used, as the warning says.
+    assert lights["Linked"]["intensity"] == pytest.approx(lights["Plain"]["intensity"] / 3.0 * 0.5, rel=1e-6)
 
 
 def test_graph_scene_passes_the_khronos_validator(addon, empty_scene, tmp_path):
