@@ -5,7 +5,9 @@ clamping, no denoising, equal bounces of every kind, Blackman-Harris 1.5 px), 48
 two seeds per engine:
 * "flat" scenes: a 2x2 plane filling the frame, seen straight down, lit by a sun (angle 0) and
   nothing else, its material a Diffuse BSDF whose colour (or normal) comes from the graph under
-  test. Direct light only reaches the camera, so the image is the texture times a constant: the
+  test: a texture with its main options, or a Noise texture through converters (ColorRamp,
+  Math, Mix, RGB and Float Curves, Map Range, Hue/Saturation/Value, Vector Math, Separate and
+  Combine HSV, Invert, Gamma, Bright/Contrast, RGB to BW, Clamp). Direct light only reaches the camera, so the image is the texture times a constant: the
   only noise is the pixel filter's sampling of the pattern.
 * "sphere" scenes: the material on a sphere above a grey floor under a disk light (shaders
   mixing diffuse and glossy, translucency, transparency, holdout, emission), 2 bounces.
@@ -132,16 +134,51 @@ def mapped(coordinate, target=None):
     return vector
 
 
-def noise_into(make_converter):
-    """A maker: Noise Texture Fac -> the converter chain `make_converter(tree, socket)` -> colour."""
+def noise_into(make_converter, output="Fac"):
+    """A maker: Noise Texture `output` -> the converter chain `make_converter(tree, socket)` ->
+    colour."""
     def make(name):
         mat = new_material(name)
         tree = mat.node_tree
         noise = tree.nodes.new("ShaderNodeTexNoise")
         noise.inputs["Scale"].default_value = 4.0
-        diffuse_from(mat, make_converter(tree, noise.outputs["Fac"]))
+        diffuse_from(mat, make_converter(tree, noise.outputs[output]))
         return mat
     return make
+
+
+def chain(*steps):
+    """A converter chain: each step is (bl_idname, {property: value}, {input identifier: value},
+    input identifier the previous socket feeds, output identifier)."""
+    def build(tree, socket):
+        for kind, props, inputs, into, out in steps:
+            node = tree.nodes.new(kind)
+            for key, value in props.items():
+                setattr(node, key, value)
+            for key, value in inputs.items():
+                by_id(node.inputs, key).default_value = value
+            tree.links.new(socket, by_id(node.inputs, into))
+            socket = by_id(node.outputs, out)
+        return socket
+    return build
+
+
+def rgb_curves(tree, color):
+    node = tree.nodes.new("ShaderNodeRGBCurve")
+    node.mapping.curves[0].points.new(0.4, 0.8)  # red lifted
+    node.mapping.curves[3].points[1].location = (1.0, 0.7)  # combined curve lowered
+    node.mapping.update()
+    tree.links.new(color, node.inputs["Color"])
+    return node.outputs["Color"]
+
+
+def float_curve(tree, fac):
+    node = tree.nodes.new("ShaderNodeFloatCurve")
+    node.mapping.curves[0].points.new(0.45, 0.1)
+    node.mapping.curves[0].points.new(0.55, 0.9)
+    node.mapping.update()
+    tree.links.new(fac, node.inputs["Value"])
+    return node.outputs["Value"]
 
 
 def ramp(interpolation):
@@ -184,6 +221,19 @@ def mix_overlay(tree, fac):
     tree.links.new(checker.outputs["Color"], by_id(mix.inputs, "A_Color"))
     by_id(mix.inputs, "B_Color").default_value = (0.9, 0.3, 0.1, 1.0)
     return by_id(mix.outputs, "Result_Color")
+
+
+def swap_hsv(tree, color):
+    """Separate Color (HSV) -> Combine Color (HSV) with hue and saturation swapped."""
+    separate = tree.nodes.new("ShaderNodeSeparateColor")
+    separate.mode = "HSV"
+    combine = tree.nodes.new("ShaderNodeCombineColor")
+    combine.mode = "HSV"
+    tree.links.new(color, separate.inputs["Color"])
+    tree.links.new(separate.outputs["Red"], combine.inputs["Green"])
+    tree.links.new(separate.outputs["Green"], combine.inputs["Red"])
+    tree.links.new(separate.outputs["Blue"], combine.inputs["Blue"])
+    return combine.outputs["Color"]
 
 
 def grey_with_normal(make_normal):
@@ -316,6 +366,25 @@ CASES = {
     "color_ramp_constant": (flat_scene, noise_into(ramp("CONSTANT")), None),
     "math": (flat_scene, noise_into(math_chain), None),
     "mix_overlay": (flat_scene, noise_into(mix_overlay), None),
+    "rgb_curves": (flat_scene, noise_into(rgb_curves, "Color"), None),
+    "float_curve": (flat_scene, noise_into(float_curve), None),
+    "map_range_smoothstep": (flat_scene, noise_into(chain(
+        ("ShaderNodeMapRange", {"interpolation_type": "SMOOTHSTEP"}, {"From Min": 0.35, "From Max": 0.65},
+         "Value", "Result"))), None),
+    "hue_saturation_value": (flat_scene, noise_into(chain(
+        ("ShaderNodeHueSaturation", {}, {"Hue": 0.3, "Saturation": 1.5, "Value": 0.9}, "Color", "Color")),
+        "Color"), None),
+    "vector_math": (flat_scene, noise_into(chain(
+        ("ShaderNodeVectorMath", {"operation": "MULTIPLY"}, {"Vector_001": (3.0, 1.5, 2.0)}, "Vector", "Vector"),
+        ("ShaderNodeVectorMath", {"operation": "FRACTION"}, {}, "Vector", "Vector")), "Color"), None),
+    "separate_combine_hsv": (flat_scene, noise_into(lambda tree, color: swap_hsv(tree, color), "Color"), None),
+    "invert_gamma_contrast": (flat_scene, noise_into(chain(
+        ("ShaderNodeInvert", {}, {"Fac": 0.7}, "Color", "Color"),
+        ("ShaderNodeGamma", {}, {"Gamma": 2.2}, "Color", "Color"),
+        ("ShaderNodeBrightContrast", {}, {"Bright": 0.1, "Contrast": 0.3}, "Color", "Color")), "Color"), None),
+    "rgb_to_bw_clamp": (flat_scene, noise_into(chain(
+        ("ShaderNodeRGBToBW", {}, {}, "Color", "Val"),
+        ("ShaderNodeClamp", {}, {"Min": 0.45, "Max": 0.6}, "Value", "Result")), "Color"), None),
     "mapping_generated": (flat_scene, texture("ShaderNodeTexChecker", inputs={"Scale": 2.0},
                                               vector=mapped("Generated")), None),
     "mapping_object": (flat_scene, texture("ShaderNodeTexChecker", inputs={"Scale": 0.8},
