@@ -252,24 +252,24 @@ def graph_of(blender_material, state):
         return None
     key = blender_material.as_pointer()
     if key not in state.graphs:
-        meshes = _meshes_using(blender_material, state.depsgraph)
+        meshes = list(_meshes_by_material(state).get(blender_material.original.as_pointer(), {}).values())
         state.graphs[key] = build_graph(blender_material, GraphContext(state.depsgraph, meshes))
     return state.graphs[key]
 
 
-def _meshes_using(blender_material, depsgraph):
-    """The evaluated meshes of the depsgraph's objects with `blender_material` in a slot."""
-    if depsgraph is None:
-        return []
-    target = blender_material.original.as_pointer()
-    found = []
-    for obj in depsgraph.objects:
-        if obj.type != "MESH":
-            continue
-        if any(slot.material is not None and slot.material.original.as_pointer() == target
-               for slot in obj.material_slots):
-            found.append(obj.data)
-    return found
+def _meshes_by_material(state):
+    """Original material pointer -> {mesh pointer: evaluated mesh} of the depsgraph's objects
+    using it in a slot; built once per export (one pass over the objects, not one per material)."""
+    if state.material_meshes is None:
+        state.material_meshes = {}
+        for obj in state.depsgraph.objects if state.depsgraph is not None else ():
+            if obj.type != "MESH":
+                continue
+            for slot in obj.material_slots:
+                if slot.material is not None:
+                    users = state.material_meshes.setdefault(slot.material.original.as_pointer(), {})
+                    users[obj.data.as_pointer()] = obj.data
+    return state.material_meshes
 
 
 def uses_graph(blender_material, state):

@@ -24,6 +24,7 @@ class ExportState:
         self.warnings = []
         self.depsgraph = None  # the render depsgraph (evaluated meshes and objects for node graphs)
         self.graphs = {}  # material pointer -> node_graph.Graph or None, built once per export
+        self.material_meshes = None  # original material pointer -> {pointer: evaluated mesh} using it
         self.scaled_lights = set()  # ids of KHR light dicts already scaled by a light node tree
         self._image_writer = None
         # The exporter logs and swallows hook exceptions: the hooks record them here and
