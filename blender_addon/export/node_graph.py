@@ -461,8 +461,9 @@ def _exporter_reads_link(entry, identifier, source, output_identifier):
 
 
 def _raw_walk_has_group_or_mute(output):
-    """Whether a group node or a muted node feeds the output (walking Blender's own links)."""
-    seen, todo = set(), [s for s in output.inputs if s.is_linked]
+    """Whether a group node or a muted node feeds the output's Surface or Displacement (walking
+    Blender's own links; the Volume output is exported apart, media.py)."""
+    seen, todo = set(), [s for s in output.inputs if s.is_linked and s.name in {"Surface", "Displacement"}]
     while todo:
         for link in todo.pop().links:
             node = link.from_node
