@@ -7,8 +7,9 @@ two seeds per engine:
   nothing else, its material a Diffuse BSDF whose colour (or normal) comes from the graph under
   test: a texture with its main options, or a Noise texture through converters (ColorRamp,
   Math, Mix, RGB and Float Curves, Map Range, Hue/Saturation/Value, Vector Math, Separate and
-  Combine HSV, Invert, Gamma, Bright/Contrast, RGB to BW, Clamp). Direct light only reaches the camera, so the image is the texture times a constant: the
-  only noise is the pixel filter's sampling of the pattern.
+  Combine HSV, Invert, Gamma, Bright/Contrast, RGB to BW, Clamp). Direct light only reaches
+  the camera, so the image is the texture times a constant: the only noise is the pixel
+  filter's sampling of the pattern.
 * "sphere" scenes: the material on a sphere above a grey floor under a disk light (shaders
   mixing diffuse and glossy, translucency, transparency, holdout, emission), 2 bounces.
 * a point, a sun and an area light whose node tree's Emission Strength is 1/3 over the flat
