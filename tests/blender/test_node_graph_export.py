@@ -494,3 +494,50 @@ def test_colour_attribute_nodes_are_named_in_a_warning(addon, empty_scene, tmp_p
     nodes = by_name(graph_of(gltf, "Painted"))
     assert nodes["Color Attribute"][1]["props"]["layer_name"] == "Paint"
     assert any("'Painted'" in w and "'Paint'" in w and "COLOR_n" in w for w in state.warnings), state.warnings
+
+
+def shader_node_types():
+    """Every shader node type that can be added to a material's tree (bpy 5.0.1: about 100)."""
+    probe = new_material("Probe")
+    kinds = []
+    for name in dir(bpy.types):
+        cls = getattr(bpy.types, name)
+        if not (isinstance(cls, type) and issubclass(cls, bpy.types.ShaderNode)) or cls is bpy.types.ShaderNode:
+            continue
+        try:
+            node = probe.node_tree.nodes.new(name)
+        except RuntimeError:  # abstract or not allowed in a material
+            continue
+        if node.outputs and node.type not in {"OUTPUT_MATERIAL", "OUTPUT_LIGHT", "OUTPUT_WORLD", "OUTPUT_AOV",
+                                              "GROUP"}:
+            kinds.append(name)
+    bpy.data.materials.remove(probe)
+    return kinds
+
+
+def test_every_shader_node_type_exports(addon, empty_scene, tmp_path):
+    """Each shader node type, on the output (closures) or into a Diffuse colour (values), is
+    written as itself with props and inputs that are plain, finite JSON; nothing raises (a
+    Principled BSDF alone stays the exporter's)."""
+    kinds = shader_node_types()
+    assert len(kinds) > 80, kinds
+    for i, kind in enumerate(kinds):
+        mat = new_material(f"Kind{i}")
+        tree = mat.node_tree
+        node = tree.nodes.new(kind)
+        out = node.outputs[0]
+        if out.type == "SHADER":
+            tree.links.new(out, tree.nodes["Material Output"].inputs["Surface"])
+        else:
+            diffuse_from(mat, out)
+        uv_plane(empty_scene, f"P{i}", mat, location=(3 * (i % 10), 3 * (i // 10), 0))
+    gltf, state, _ = export(addon, empty_scene, tmp_path)
+    text = json.dumps(gltf, allow_nan=False)  # raises on NaN or infinity
+    assert "CAUSTIC_materials_nodes" in text
+    for i, kind in enumerate(kinds):
+        graph = graph_of(gltf, f"Kind{i}")
+        if kind == "ShaderNodeBsdfPrincipled":  # alone on the output: the exporter's own material
+            assert graph is None
+            continue
+        assert graph is not None, kind
+        assert kind in {n["type"] for n in graph["nodes"]}, (kind, graph["nodes"])
