@@ -198,6 +198,9 @@ pub struct Scene {
     pub cameras: Vec<Camera>,
     /// The world light (`CAUSTIC_world`), if any.
     pub world: Option<crate::light::Environment>,
+    /// The medium filling the scene outside every mesh medium (Blender's World Volume);
+    /// camera rays and lights start in it.
+    pub world_medium: Option<crate::medium::HomogeneousMedium>,
     /// Render settings from the file.
     pub settings: SceneSettings,
     /// Everything the loader dropped, clamped or guessed.
