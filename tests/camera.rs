@@ -5,7 +5,8 @@
 //! radius a |1/f - 1/z| on the image plane at distance 1 (similar triangles), and the lens
 //! moves light around without creating or losing any (every aperture point sees the same
 //! source). The shift moves the frame on the image plane: a shifted frame shows
-//! what the unshifted frame shows next to it.
+//! what the unshifted frame shows next to it. The clipping planes (glTF znear/zfar,
+//! Blender's Clip Start/End) hide what lies nearer or farther, in every integrator.
 
 mod common;
 
@@ -228,4 +229,72 @@ fn info_reports_shift_and_depth_of_field() {
         text.contains("shift 0.25 x 0 frames") && text.contains("aperture radius 0.02, focus 3.5, 6 blades"),
         "{text}"
     );
+}
+
+/// An emissive plane (radiance 1) at depth 2 behind a black occluder at depth 0.05, under a
+/// world of radiance 0.25: with znear 0.1 the occluder is clipped away and every pixel sees
+/// the plane (exactly 1: no light reaches the black occluder's side the camera sees); with
+/// zfar 1.5 as well, the plane is clipped too and every pixel sees the world (0.25). In
+/// every integrator — BDPT's light-tracing strategy connects to the camera through the
+/// same planes.
+#[test]
+fn clipping_planes_hide_what_lies_outside_them() {
+    let dir = temp_dir();
+    for (znear, zfar, expected) in [(0.1f32, None, 1.0f32), (0.1, Some(1.5f32), 0.25)] {
+        let mut g = GltfBuilder::new();
+        let light =
+            g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1]}, "emissiveFactor": [1, 1, 1]}));
+        let black =
+            g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1], "metallicFactor": 0.0}}));
+        let quad = |z: f32, h: f32| [[-h, -h, -z], [h, -h, -z], [h, h, -z], [-h, h, -z]];
+        g.mesh(&quad(2.0, 10.0), &[0, 1, 2, 0, 2, 3], light);
+        g.mesh(&quad(0.05, 1.0), &[0, 1, 2, 0, 2, 3], black);
+        g.camera([0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0], YFOV);
+        g.world(json!({"color": [0.25, 0.25, 0.25]}));
+        let mut path = g.write(dir.path(), "clip.gltf");
+        // Set the clipping planes in the written file.
+        let mut doc: Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+        doc["cameras"][0]["perspective"]["znear"] = json!(znear);
+        if let Some(f) = zfar {
+            doc["cameras"][0]["perspective"]["zfar"] = json!(f);
+        }
+        // The camera sees the world (Film → Transparent off).
+        doc["scenes"][0]["extras"] = json!({"caustic": {"transparent": false}});
+        path = dir.path().join("clip_planes.gltf");
+        std::fs::write(&path, doc.to_string()).unwrap();
+        for integrator in ["path", "bdpt", "photon", "sppm"] {
+            let img = render(
+                &path,
+                &dir.path().join(format!("{integrator}.exr")),
+                &["--resolution", "8x8", "--spp", "4", "--integrator", integrator, "--max-depth", "4"],
+            );
+            // BDPT adds light-tracing splats (random) to the camera paths' exact value, so
+            // its pixels are estimates: the image mean is checked to 5 standard errors of
+            // the pixel mean (plus f32 rounding, 1e-4); the others are exact and then have
+            // a standard error of 0. A clipping error is off by 0.75 or more.
+            let v: Vec<f64> = img.iter().map(|p| p[0] as f64).collect();
+            let (mean, se) = common::mean_se(&v);
+            assert!(
+                (mean - expected as f64).abs() <= 5.0 * se + 1e-4,
+                "{integrator}, znear {znear}, zfar {zfar:?}: the image is {mean} ± {se} where {expected} is expected"
+            );
+        }
+    }
+}
+
+/// Clipping planes that cannot be (negative znear, zfar not beyond znear) are refused.
+#[test]
+fn bad_clipping_planes_are_refused() {
+    let dir = temp_dir();
+    for (znear, zfar) in [(0.5f32, 0.5f32), (2.0, 1.0)] {
+        let path = point_source(dir.path(), "bad_clip.gltf", 2.0, 1.0, None);
+        let mut doc: Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+        doc["cameras"][0]["perspective"]["znear"] = json!(znear);
+        doc["cameras"][0]["perspective"]["zfar"] = json!(zfar);
+        std::fs::write(&path, doc.to_string()).unwrap();
+        let out = dir.path().join("o.exr");
+        let r = run(&["render", path.to_str().unwrap(), "-o", out.to_str().unwrap(), "--progress", "json"], LIMIT);
+        assert_eq!(r.code, Some(3), "znear {znear}, zfar {zfar}: {}", r.stderr);
+        assert!(r.error_message().unwrap().contains("znear"), "{}", r.stderr);
+    }
 }

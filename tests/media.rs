@@ -516,7 +516,8 @@ fn gather_nee_inside_a_medium_sees_it() {
 
 /// The world's volume (`CAUSTIC_world.medium`, Blender's World Volume) fills the scene and
 /// the camera is in it. Absorption only: an emissive plane at distance D seen through it
-/// has radiance Le·exp(−σa D / cos θ) for the pixel centre's ray at angle θ to the axis,
+/// has radiance Le·exp(−σa (D − znear) / cos θ) for the pixel centre's ray at angle θ to the
+/// axis (the ray starts at the near clipping plane, as Cycles' Clip Start),
 /// exact in every integrator (no sampling at depth 0: the pass weight is the
 /// transmittance, and the filter is a box of width 1e-5 px); checked to 1e-4 relative
 /// (f32 rounding of the hit distance and of exp).
@@ -559,7 +560,8 @@ fn world_volume_absorbs_along_camera_rays() {
         for (i, p) in img.iter().enumerate() {
             let x = (2.0 * ((i % 8) as f64 + 0.5) / 8.0 - 1.0) * tan_half;
             let y = (2.0 * ((i / 8) as f64 + 0.5) / 8.0 - 1.0) * tan_half;
-            let dist = d as f64 * (1.0 + x * x + y * y).sqrt();
+            // The camera ray starts at the near clipping plane (GltfBuilder's znear 0.01).
+            let dist = (d as f64 - 0.01) * (1.0 + x * x + y * y).sqrt();
             for c in 0..3 {
                 let expected = (le as f64 * (-sigma_a[c] as f64 * dist).exp()) as f32;
                 assert!(

@@ -58,7 +58,18 @@ def medium_extension(blender_material):
         return None, warnings
     node = linked_node(output.inputs["Volume"])
     what = f"material '{blender_material.name}'"
-    value = {"surface": bool(output.inputs["Surface"].is_linked)}
+    value = volume_medium(node, what, warnings)
+    if value is None:
+        return None, warnings
+    value["surface"] = bool(output.inputs["Surface"].is_linked)
+    return value, warnings
+
+
+def volume_medium(node, what, warnings):
+    """The medium coefficients of a volume shader node (Principled Volume, Volume Scatter,
+    Volume Absorption) as `CAUSTIC_materials_medium` has them, or None (with a warning) for
+    another node. Shared by materials and the world's Volume output."""
+    value = {}
 
     def rgb(name, default):
         return [float(c) for c in _value(node, name, what, warnings, default)[:3]]
@@ -91,6 +102,6 @@ def medium_extension(blender_material):
     else:
         warnings.append(f"{what}: the {node.name} node ({node.bl_label}) on the Volume output cannot be "
                         "exported; the volume is left out")
-        return None, warnings
+        return None
     value["anisotropy"] = min(max(value.get("anisotropy", 0.0), -1.0), 1.0)
-    return value, warnings
+    return value

@@ -5,6 +5,7 @@ import os
 
 import bpy
 
+from .media import volume_medium
 from .nodes import linked_node
 
 WORLD_EXTENSION = "CAUSTIC_world"
@@ -18,12 +19,36 @@ def world_extension(scene, folder):
 
     Supported: a Background node (colour × strength) on the active World Output, whose colour
     may come from an Environment Texture (equirectangular) optionally rotated about Z by a
-    Mapping node. The image file (or the packed image's bytes) is copied next to the glTF.
+    Mapping node (the image file, or the packed image's bytes, is copied next to the glTF);
+    and a volume shader on its Volume output (`medium`: fog filling the scene).
     """
     world = scene.world
     if world is None:
         return None, []
     warnings = []
+    value, warnings = _world_surface(world, folder, warnings)
+    medium = _world_volume(world, warnings)
+    if medium is not None:
+        # A world without a surface is black; its fog still counts.
+        value = value or {"color": [0.0, 0.0, 0.0], "strength": 0.0}
+        value["medium"] = medium
+    return value, warnings
+
+
+def _world_volume(world, warnings):
+    """The medium of the World Output's Volume input, or None."""
+    tree = world.node_tree if getattr(world, "use_nodes", True) else None
+    if tree is None:
+        return None
+    outputs = [n for n in tree.nodes if n.type == "OUTPUT_WORLD"]
+    output = next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
+    if output is None or not output.inputs["Volume"].is_linked:
+        return None
+    return volume_medium(linked_node(output.inputs["Volume"]), f"world '{world.name}'", warnings)
+
+
+def _world_surface(world, folder, warnings):
+    """The Background part of `CAUSTIC_world` (None for a black world) and the warnings."""
     tree = world.node_tree if getattr(world, "use_nodes", True) else None
     if tree is None:
         c = world.color

@@ -21,6 +21,7 @@ use crate::medium::{HomogeneousMedium, MediumStack};
 use crate::render::job::RayStats;
 use crate::sampling::PixelSampler;
 use crate::sampling::warp::uniform_cone_pdf;
+use crate::scene::camera::CameraRay;
 use crate::scene::camera::CameraRays;
 use crate::scene::shading::SurfaceHit;
 use crate::scene::{AlphaMode, Scene};
@@ -372,17 +373,17 @@ impl Integrator {
         camera: &CameraRays,
         filter: &Filter,
         scratch: &mut TileScratch,
-        (org, dir): (Vec3, Vec3),
+        ray: &CameraRay,
         sampler: &mut PixelSampler,
         pixel_sample: (u32, u32, u32, u32),
         stats: &mut RayStats,
     ) -> CameraSample {
         match (self, scratch) {
-            (Integrator::Path(p), _) => p.li(ctx, org, dir, sampler, |q| camera.depth(q), stats),
-            (Integrator::Photon(p), _) => p.li(ctx, org, dir, sampler, |q| camera.depth(q), stats),
+            (Integrator::Path(p), _) => p.li(ctx, ray, sampler, |q| camera.depth(q), stats),
+            (Integrator::Photon(p), _) => p.li(ctx, ray, sampler, |q| camera.depth(q), stats),
             (Integrator::Bdpt(b), TileScratch::Bdpt(buf, vertices)) => {
                 let mut target = bdpt::FilmTarget { camera, filter, splats: buf };
-                b.li(ctx, org, dir, sampler, pixel_sample, &mut target, vertices, stats)
+                b.li(ctx, ray, sampler, pixel_sample, &mut target, vertices, stats)
             }
             // SPPM renders whole iterations (`render::render` never asks it for samples);
             // BDPT always has its scratch (`tile_scratch`).

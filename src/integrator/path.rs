@@ -37,6 +37,7 @@ use crate::medium::{HenyeyGreenstein, MediumStack, WalkMedium, WalkRng, skin_mea
 use crate::render::job::RayStats;
 use crate::sampling::PixelSampler;
 use crate::sampling::warp::{cosine_hemisphere, cosine_hemisphere_pdf};
+use crate::scene::camera::CameraRay;
 use crate::scene::material::{Subsurface, SubsurfaceMethod};
 use crate::scene::shading::{ShadingPoint, SurfaceHit};
 use glam::{Vec2, Vec3};
@@ -74,8 +75,7 @@ impl PathIntegrator {
     pub fn li(
         &self,
         ctx: &SceneContext,
-        org: Vec3,
-        dir: Vec3,
+        ray: &CameraRay,
         sampler: &mut PixelSampler,
         depth_of: impl Fn(Vec3) -> f32,
         stats: &mut RayStats,
@@ -83,7 +83,7 @@ impl PathIntegrator {
         let mut out = CameraSample { depth: f32::INFINITY, ..Default::default() };
         stats.camera += 1;
         // Camera rays start in vacuum, with no MIS for what they hit first.
-        let st = PathState::camera(org, dir);
+        let st = PathState::camera(ray);
         out.radiance = self.trace(ctx, st, sampler, depth_of, stats, &mut out);
         out
     }
@@ -132,6 +132,7 @@ impl PathIntegrator {
             media,
             eta_scale: 1.0,
             transparent_hits: 0,
+            tmax: f32::INFINITY,
         };
         if st.depth < self.max_depth && st.survives(self.rr_depth, u_rr) {
             stats.bounce += 1;
@@ -378,6 +379,7 @@ impl PathIntegrator {
             media,
             eta_scale: 1.0,
             transparent_hits: 0,
+            tmax: f32::INFINITY,
         };
         if wi.dot(n_g) <= 0.0 || !st.survives(self.rr_depth, v_rr) {
             return radiance;

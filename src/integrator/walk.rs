@@ -13,6 +13,7 @@ use crate::math::{Rgb, offset_ray_origin};
 use crate::medium::{HenyeyGreenstein, MediumStack};
 use crate::render::job::RayStats;
 use crate::scene::AlphaMode;
+use crate::scene::camera::CameraRay;
 use crate::scene::shading::{ShadingPoint, SurfaceHit};
 use glam::{Vec2, Vec3};
 
@@ -48,6 +49,9 @@ pub struct PathState {
     pub eta_scale: f32,
     /// Transparent surfaces and volume boundaries passed so far.
     pub transparent_hits: u32,
+    /// How far the next ray sees: the far clipping plane for a camera ray (passed surfaces
+    /// use up some of it), infinite after the first event.
+    pub tmax: f32,
 }
 
 /// What `PathState::advance` found along the ray.
@@ -83,12 +87,16 @@ pub enum Step {
 impl PathState {
     /// A path leaving a light carrying `power` (photons, BDPT's light subpaths), in vacuum.
     pub fn photon(org: Vec3, dir: Vec3, power: Rgb) -> Self {
-        PathState { beta: power, ..Self::camera(org, dir) }
+        PathState { beta: power, ..Self::camera(&CameraRay::unclipped(org, dir)) }
     }
 
-    /// A camera ray: vacuum, no MIS for what it hits first.
-    pub fn camera(org: Vec3, dir: Vec3) -> Self {
+    /// A camera ray, starting at its near clipping plane and seeing as far as its far one:
+    /// vacuum (or the world's medium), no MIS for what it hits first.
+    pub fn camera(ray: &CameraRay) -> Self {
+        let org = if ray.near > 0.0 { ray.org + ray.dir * ray.near } else { ray.org };
+        let dir = ray.dir;
         PathState {
+            tmax: ray.far - ray.near,
             org,
             dir,
             beta: Rgb::ONE,
@@ -151,8 +159,10 @@ impl PathState {
         radiance: &mut Rgb,
         stats: &mut RayStats,
     ) -> (Step, Rgb) {
-        let hit = ctx.intersect(self.org, self.dir, f32::INFINITY);
-        let t_surface = hit.map_or(f32::INFINITY, |h| h.t);
+        let hit = ctx.intersect(self.org, self.dir, self.tmax);
+        // Past the far clipping plane the ray sees the world, through the medium up to it.
+        let t_surface = hit.map_or(self.tmax, |h| h.t);
+        let tmax = std::mem::replace(&mut self.tmax, f32::INFINITY);
 
         // The medium along this segment: emission, then where the next event is.
         let (scatter, crossed_w, segment_weight) = match u_medium {
@@ -185,6 +195,7 @@ impl PathState {
             self.transparent_hits += 1;
             self.media = ctx.medium_after(&s, self.dir, self.media);
             self.org = offset_ray_origin(s.p, -s.ng);
+            self.tmax = tmax - hit.t;
             stats.bounce += 1;
             return (Step::Passed, lights);
         }
@@ -195,6 +206,7 @@ impl PathState {
         {
             self.transparent_hits += 1;
             self.org = offset_ray_origin(s.p, -s.ng);
+            self.tmax = tmax - hit.t;
             stats.bounce += 1;
             return (Step::Passed, lights);
         }

@@ -139,14 +139,14 @@ fn progressive(
                                 let mut sampler = PixelSampler::new(job.seed, px, py, i);
                                 let off = job.filter.sample(sampler.next_2d());
                                 let u_lens = if camera.has_lens() { sampler.next_2d() } else { glam::Vec2::ZERO };
-                                let (org, dir) =
-                                    camera.sample_ray(px as f32 + 0.5 + off.x, py as f32 + 0.5 + off.y, u_lens);
+                                let ray =
+                                    camera.sample_clipped(px as f32 + 0.5 + off.x, py as f32 + 0.5 + off.y, u_lens);
                                 let s = integrator.sample(
                                     ctx,
                                     camera,
                                     &job.filter,
                                     &mut scratch,
-                                    (org, dir),
+                                    &ray,
                                     &mut sampler,
                                     (job.seed, px, py, i),
                                     &mut ts.rays,

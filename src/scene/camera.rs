@@ -71,6 +71,30 @@ pub struct Camera {
     pub shift: Vec2,
     /// Thin lens for depth of field; None: a pinhole.
     pub lens: Option<Lens>,
+    /// Near and far clipping planes: distances along the viewing axis (glTF's znear and
+    /// zfar, Blender's Clip Start and End). Camera rays see only what lies between them.
+    pub clip: (f32, f32),
+}
+
+/// A camera ray: from `org` along `dir`, seeing what lies between the distances `near`
+/// and `far` along it (the clipping planes met along this ray).
+#[derive(Clone, Copy, Debug)]
+pub struct CameraRay {
+    /// Origin: the aperture point (the camera position for a pinhole).
+    pub org: Vec3,
+    /// Unit direction.
+    pub dir: Vec3,
+    /// Distance along the ray to the near clipping plane.
+    pub near: f32,
+    /// Distance along the ray to the far clipping plane (infinite without one).
+    pub far: f32,
+}
+
+impl CameraRay {
+    /// A ray that sees everything in front of it (no clipping).
+    pub fn unclipped(org: Vec3, dir: Vec3) -> Self {
+        CameraRay { org, dir, near: 0.0, far: f32::INFINITY }
+    }
 }
 
 impl Camera {
@@ -90,6 +114,7 @@ impl Camera {
             projection,
             shift: Vec2::ZERO,
             lens: None,
+            clip: (0.0, f32::INFINITY),
         }
     }
 
@@ -180,6 +205,28 @@ impl CameraRays {
             let focus = (c.right * s.x + c.up * s.y - c.back) * fd;
             (c.position + offset, (focus - offset).normalize())
         }
+    }
+
+    /// [`sample_ray`](Self::sample_ray) with the distances along it at which it crosses the
+    /// clipping planes (as Cycles clips: planes perpendicular to the viewing axis).
+    #[inline]
+    pub fn sample_clipped(&self, x: f32, y: f32, u_lens: Vec2) -> CameraRay {
+        let (org, dir) = self.sample_ray(x, y, u_lens);
+        let (near, far) = self.cam.clip;
+        if near == 0.0 && far == f32::INFINITY {
+            return CameraRay::unclipped(org, dir);
+        }
+        let cos = -dir.dot(self.cam.back);
+        if !(cos > 0.0) {
+            return CameraRay { org, dir, near: 0.0, far: 0.0 };
+        }
+        CameraRay { org, dir, near: near / cos, far: far / cos }
+    }
+
+    /// The clipping planes' distances along the viewing axis.
+    #[inline]
+    pub fn clip(&self) -> (f32, f32) {
+        self.cam.clip
     }
 
     /// Camera-space depth (distance along the viewing axis) of a world point.

@@ -88,3 +88,31 @@ def test_world_lighting_matches_cycles(empty_scene, tmp_path, world):
         assert abs(m_caustic - m_cycles) <= bound, (
             f"world {world} {region}: Caustic/Cycles = {ratio:.4f}, difference {m_caustic - m_cycles:.3e} "
             f"exceeds {SIGMAS} sigma ({sigma:.2e}) + {MODEL_ALLOWANCE:.0%} model allowance")
+
+
+def fog_world(scene):
+    """World fog lit by a point light: the Background is black and the World Output's Volume
+    is a Principled Volume (scattering with a little absorption, forward anisotropy), so the
+    light reaches the floor attenuated and the air between glows with in-scattered light."""
+    from test_cycles_agreement import add_point
+    world = bpy.data.worlds.new("Fog")
+    world.use_nodes = True
+    nodes, links = world.node_tree.nodes, world.node_tree.links
+    nodes["Background"].inputs["Strength"].default_value = 0.0
+    volume = nodes.new("ShaderNodeVolumePrincipled")
+    volume.inputs["Density"].default_value = 0.15
+    volume.inputs["Color"].default_value = (0.9, 0.8, 0.7, 1.0)
+    volume.inputs["Anisotropy"].default_value = 0.3
+    links.new(volume.outputs["Volume"], nodes["World Output"].inputs["Volume"])
+    scene.world = world
+    add_point(scene)
+
+
+def test_world_fog_matches_cycles(empty_scene, tmp_path):
+    """Blender's World Volume through the add-on (`CAUSTIC_world.medium`) against Cycles, per
+    colour channel (the fog is coloured), with test_cycles_agreement's derived bound."""
+    from test_cycles_agreement import assert_mean_matches_cycles
+    scene = empty_scene
+    build(scene, fog_world)
+    ratios = assert_mean_matches_cycles(scene, tmp_path, "world fog", MODEL_ALLOWANCE, per_channel=True)
+    print(f"\n[caustic/cycles] world fog {ratios}")

@@ -58,6 +58,12 @@ impl BdptIntegrator {
         let Some((pos, cos_cam, dist)) = camera.project(y.p, cam_p, 0.5 * film.filter.width) else {
             return;
         };
+        // Only what lies between the clipping planes is seen, as by camera rays.
+        let (near, far) = camera.clip();
+        let depth = dist * cos_cam;
+        if depth < near || depth > far {
+            return;
+        }
         let w = (cam_p - y.p) / dist;
         // What the light vertex sends toward the camera (times the cosine at it).
         let f = match (y.kind, y.light) {
@@ -91,7 +97,11 @@ impl BdptIntegrator {
             return;
         }
         stats.shadow += 1;
-        let cam_vertex = scratch.cam[0];
+        // The segment ends where the camera ray would start: on the near clipping plane.
+        let mut cam_vertex = scratch.cam[0];
+        if near > 0.0 {
+            cam_vertex.p = cam_p - w * (near / cos_cam);
+        }
         let tr = segment_transmittance(ctx, &y, &cam_vertex, media_leaving(ctx, &y, w));
         if tr == Rgb::ZERO {
             return;

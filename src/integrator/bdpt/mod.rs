@@ -40,6 +40,7 @@ use crate::medium::MediumStack;
 use crate::render::job::RayStats;
 use crate::sampling::PixelSampler;
 use crate::sampling::warp::uniform_cone_pdf;
+use crate::scene::camera::CameraRay;
 use crate::scene::camera::CameraRays;
 use crate::scene::shading::SurfaceHit;
 use glam::{Vec2, Vec3};
@@ -179,8 +180,7 @@ impl BdptIntegrator {
     pub fn li(
         &self,
         ctx: &SceneContext,
-        org: Vec3,
-        dir: Vec3,
+        ray: &CameraRay,
         sampler: &mut PixelSampler,
         light_stream: (u32, u32, u32, u32),
         film: &mut FilmTarget,
@@ -189,7 +189,7 @@ impl BdptIntegrator {
     ) -> CameraSample {
         let mut out = CameraSample { depth: f32::INFINITY, ..Default::default() };
         let mut radiance = Rgb::ZERO;
-        self.camera_subpath(ctx, org, dir, sampler, film.camera, scratch, &mut out, &mut radiance, stats);
+        self.camera_subpath(ctx, ray, sampler, film.camera, scratch, &mut out, &mut radiance, stats);
         let (seed, px, py, index) = light_stream;
         let mut ls = light_sampler(seed, px, py, index);
         self.light_subpath(ctx, &mut ls, scratch, stats);

@@ -12,8 +12,7 @@ impl BdptIntegrator {
     pub(super) fn camera_subpath(
         &self,
         ctx: &SceneContext,
-        org: Vec3,
-        dir: Vec3,
+        ray: &CameraRay,
         sampler: &mut PixelSampler,
         camera: &CameraRays,
         scratch: &mut BdptScratch,
@@ -23,10 +22,12 @@ impl BdptIntegrator {
     ) {
         let cam = &mut scratch.cam;
         cam.clear();
+        // The camera vertex is the aperture point; the ray starts at the near clipping plane.
+        let (org, dir) = (ray.org, ray.dir);
         let mut v0 = Vertex::new(Kind::Camera, org);
         v0.pdf_fwd = 1.0;
         cam.push(v0);
-        let mut path = PathState::camera(org, dir);
+        let mut path = PathState::camera(ray);
         // Solid-angle density of the direction just sampled (0 after a delta lobe).
         let mut pdf_sa = if camera.is_orthographic() { 1.0 } else { camera.pdf_dir((-camera.camera().back).dot(dir)) };
         let mut prev_delta = false;

@@ -37,6 +37,7 @@ use crate::math::{Rgb, offset_ray_origin};
 use crate::medium::MediumStack;
 use crate::render::job::RayStats;
 use crate::sampling::PixelSampler;
+use crate::scene::camera::CameraRay;
 use glam::{Vec2, Vec3};
 use std::sync::Arc;
 
@@ -143,8 +144,7 @@ impl JensenIntegrator {
     pub fn li(
         &self,
         ctx: &SceneContext,
-        org: Vec3,
-        dir: Vec3,
+        ray: &CameraRay,
         sampler: &mut PixelSampler,
         depth_of: impl Fn(Vec3) -> f32,
         stats: &mut RayStats,
@@ -152,7 +152,7 @@ impl JensenIntegrator {
         let mut out = CameraSample { depth: f32::INFINITY, ..Default::default() };
         let mut radiance = Rgb::ZERO;
         // A scattering event in a medium is path traced from that vertex on.
-        let mut st = PathState::camera(org, dir);
+        let mut st = PathState::camera(ray);
         stats.camera += 1;
         loop {
             let [u_light, u_lx, u_ly, u_lobe] = sampler.next_4d();
@@ -295,6 +295,7 @@ impl JensenIntegrator {
                 media: gather_media,
                 eta_scale: 1.0,
                 transparent_hits: 0,
+                tmax: f32::INFINITY,
             };
             gathered += self.gather_path(ctx, st, sampler, stats);
         }

@@ -42,6 +42,7 @@ use crate::math::{Frame, Rgb};
 use crate::render::job::RayStats;
 use crate::render::job::{Progress, RenderJob, RenderResult};
 use crate::sampling::PixelSampler;
+use crate::scene::camera::CameraRay;
 use crate::scene::camera::CameraRays;
 use glam::{DVec3, Vec2, Vec3};
 use rayon::prelude::*;
@@ -256,19 +257,11 @@ fn render(
                     let off = job.filter.sample(sampler.next_2d());
                     let (fx, fy) = (px as f32 + 0.5 + off.x, py as f32 + 0.5 + off.y);
                     let u_lens = if camera.has_lens() { sampler.next_2d() } else { Vec2::ZERO };
-                    let (org, dir) = camera.sample_ray(fx, fy, u_lens);
+                    let ray = camera.sample_clipped(fx, fy, u_lens);
+                    let (org, dir) = (ray.org, ray.dir);
                     *pend = Pending::default();
-                    let (ld, point, first_t) = camera_path(
-                        ctx,
-                        org,
-                        dir,
-                        &mut sampler,
-                        max_depth,
-                        pend,
-                        camera,
-                        &mut rs,
-                        transparent_background,
-                    );
+                    let (ld, point, first_t) =
+                        camera_path(ctx, &ray, &mut sampler, max_depth, pend, camera, &mut rs, transparent_background);
                     pend.ld = ld;
                     if !ld.is_finite() {
                         pend.bad = true;
@@ -278,7 +271,9 @@ fn render(
                     if state.r == 0.0 && first_t.is_finite() {
                         pend.r_init = settings.sppm_radius.unwrap_or_else(|| {
                             let (o2, d2) = camera.sample_ray(fx + 1.0, fy, u_lens);
-                            let fp = ((o2 + d2 * first_t) - (org + dir * first_t)).length();
+                            // first_t is counted from the near clipping plane.
+                            let t = first_t + ray.near;
+                            let fp = ((o2 + d2 * t) - (org + dir * t)).length();
                             (SPPM_RADIUS_FOOTPRINTS * fp).clamp(1e-4 * scene_r, 5e-2 * scene_r)
                         });
                     }
@@ -426,8 +421,7 @@ fn image(states: &[PixelState], w: u32, h: u32, iters: u32) -> FilmImage {
 #[allow(clippy::too_many_arguments)]
 fn camera_path(
     ctx: &SceneContext,
-    org: Vec3,
-    dir: Vec3,
+    ray: &CameraRay,
     sampler: &mut PixelSampler,
     max_depth: u32,
     pend: &mut Pending,
@@ -440,7 +434,7 @@ fn camera_path(
     stats.camera += 1;
     // A scattering event in a medium is path traced from that vertex on (media have no
     // photon map): NEE plus a continued path.
-    let mut st = PathState::camera(org, dir);
+    let mut st = PathState::camera(ray);
     let continuation = PathIntegrator { max_depth, transparent_background, ..Default::default() };
     loop {
         let [u_light, u_lx, u_ly, u_lobe] = sampler.next_4d();

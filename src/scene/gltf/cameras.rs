@@ -17,6 +17,16 @@ impl Loader<'_> {
     ) -> Result<Camera> {
         // The node's name is the Blender object's name, which is what users pick by.
         let name = node_name.to_string();
+        let (znear, zfar) = match c.projection() {
+            gltf::camera::Projection::Perspective(p) => (p.znear(), p.zfar()),
+            gltf::camera::Projection::Orthographic(o) => (o.znear(), Some(o.zfar())),
+        };
+        let far = zfar.unwrap_or(f32::INFINITY);
+        if !(znear >= 0.0 && znear.is_finite() && far > znear) {
+            return Err(self.err(format!(
+                "camera '{name}': clipping planes znear {znear}, zfar {far} must satisfy 0 <= znear < zfar"
+            )));
+        }
         let projection = match c.projection() {
             gltf::camera::Projection::Perspective(p) => {
                 let yfov = p.yfov();
@@ -42,6 +52,7 @@ impl Loader<'_> {
         };
         let mut cam = Camera::from_matrix(name, world, projection);
         cam.data_name = c.name().map(str::to_string);
+        cam.clip = (znear, far);
         if let Some(v) = blender {
             self.camera_extension(&mut cam, v)?;
         }
