@@ -58,6 +58,8 @@ def area_light_extension(blender_object):
     # Spread (full angle, radians); 180° is Blender's default and no narrowing.
     if light.spread < math.pi - 1e-4:
         value["spread"] = float(light.spread)
+    if not light.use_shadow:
+        value["cast_shadow"] = False
     return value, warnings
 
 
@@ -80,6 +82,8 @@ def punctual_light_extension(blender_object):
             value["radius"] = float(light.shadow_soft_size)
     elif light.type == "SUN" and light.angle > 0.0:
         value["angle"] = float(light.angle)
+    if not light.use_shadow:
+        value["cast_shadow"] = False  # Cast Shadow off: nothing occludes the light
     return value or None
 
 

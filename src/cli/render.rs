@@ -57,6 +57,18 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         reporter.warning(w);
     }
     let res = resolve(args, &scene)?;
+    let mut run_warnings = Vec::new();
+    let shadowless = scene.light_casts_shadow.iter().filter(|c| !**c).count();
+    if shadowless > 0 && !matches!(res.integrator, IntegratorKind::Path) {
+        // Cycles skips the shadow ray of such a light; light tracing and photons follow
+        // the light's own paths, which occluders still stop.
+        let w = format!(
+            "{shadowless} light(s) with Cast Shadow off: only next-event estimation ignores occluders; this integrator's \
+             light-tracing or photon paths from them are still blocked (the path integrator renders them as Cycles)"
+        );
+        reporter.warning(&w);
+        run_warnings.push(w);
+    }
     charge_render(&budget, args, &res, &scene)?;
     if stop.load(Ordering::Relaxed) {
         return Err(Error::InterruptedEmpty);
@@ -179,6 +191,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     reporter.image(&out_str, result.spp_min, true);
 
     let mut warnings = scene.warnings.clone();
+    warnings.extend(run_warnings);
     if result.nan_samples > 0 {
         let w = format!("{} sample(s) were NaN or infinite and were dropped", result.nan_samples);
         reporter.warning(&w);

@@ -224,6 +224,13 @@ impl<'a> SceneContext<'a> {
         stack
     }
 
+    /// False for a light whose Cast Shadow is off: next-event estimation skips its shadow
+    /// ray, as Cycles does (neither occluders nor media dim it).
+    #[inline]
+    pub fn casts_shadow(&self, light: usize) -> bool {
+        self.scene.light_casts_shadow.get(light).copied().unwrap_or(true)
+    }
+
     /// The medium in effect for a stack of media.
     #[inline]
     pub fn medium(&self, stack: &MediumStack) -> Option<&HomogeneousMedium> {

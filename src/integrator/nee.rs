@@ -46,8 +46,12 @@ pub fn surface_nee(
     if f == Rgb::ZERO || ls.li == Rgb::ZERO || !consistent {
         return Rgb::ZERO;
     }
-    stats.shadow += 1;
-    let tr = shadow_transmittance(ctx, s, &ls, media);
+    let tr = if ctx.casts_shadow(index) {
+        stats.shadow += 1;
+        shadow_transmittance(ctx, s, &ls, media)
+    } else {
+        Rgb::ONE
+    };
     if tr == Rgb::ZERO {
         return Rgb::ZERO;
     }
@@ -85,8 +89,12 @@ pub fn medium_nee(
     {
         let f = phase.eval(dir, ls.wi);
         if f > 0.0 && ls.li != Rgb::ZERO {
-            stats.shadow += 1;
-            let tr = media::light_transmittance(ctx, p, None, &ls, media);
+            let tr = if ctx.casts_shadow(index) {
+                stats.shadow += 1;
+                media::light_transmittance(ctx, p, None, &ls, media)
+            } else {
+                Rgb::ONE
+            };
             if tr != Rgb::ZERO {
                 let w = if ls.delta { 1.0 } else { power_heuristic(ls.pdf * pmf, f) };
                 return tr * ls.li * (f * w / (ls.pdf * pmf));
@@ -114,10 +122,13 @@ pub fn exit_nee(
     {
         let cos = ls.wi.dot(n_s);
         if cos > 0.0 && ls.wi.dot(n_g) > 0.0 && ls.li != Rgb::ZERO {
-            stats.shadow += 1;
-            let tr = if ctx.has_media {
+            let tr = if !ctx.casts_shadow(index) {
+                Rgb::ONE
+            } else if ctx.has_media {
+                stats.shadow += 1;
                 media::light_transmittance(ctx, se.p, Some(n_g), &ls, media)
             } else {
+                stats.shadow += 1;
                 Rgb::splat(ctx.visibility(se.p, n_g, &ls))
             };
             if tr != Rgb::ZERO {

@@ -162,6 +162,8 @@ pub struct LightReport {
     pub power: f32,
     /// Number of emissive triangles (for "emissive" entries).
     pub triangles: usize,
+    /// Blender's Cast Shadow (false: the light reaches every point it faces, unoccluded).
+    pub cast_shadow: bool,
 }
 
 /// A camera in the report.
@@ -201,6 +203,9 @@ pub struct Scene {
     /// The medium filling the scene outside every mesh medium (Blender's World Volume);
     /// camera rays and lights start in it.
     pub world_medium: Option<crate::medium::HomogeneousMedium>,
+    /// Per light (indexed as `lights`): false for a light whose Cast Shadow is off, whose
+    /// next-event estimation then skips the shadow ray (as Cycles does).
+    pub light_casts_shadow: Vec<bool>,
     /// Render settings from the file.
     pub settings: SceneSettings,
     /// Everything the loader dropped, clamped or guessed.

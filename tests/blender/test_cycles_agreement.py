@@ -113,7 +113,20 @@ def add_sun_angle(scene):
     scenes.light(scene, "SunA", "SUN", rotation_deg=(25.0, 10.0, 0.0), energy=2.0, angle=math.radians(12.0))
 
 
+def add_point_no_shadow(scene):
+    """A point light with Cast Shadow off: the cube's shadow on the floor disappears."""
+    add_point(scene)
+    scene.objects["Point"].data.use_shadow = False
+
+
+def add_rectangle_no_shadow(scene):
+    add_rectangle(scene)
+    scene.objects["Rect"].data.use_shadow = False
+
+
 LIGHTS = {
+    "point_no_shadow": add_point_no_shadow,
+    "area_rectangle_no_shadow": add_rectangle_no_shadow,
     "point": add_point,
     "point_radius": add_point_radius,
     "point_radius_hard": add_point_radius_hard,

@@ -16,6 +16,9 @@ pub(super) struct AreaLightExt {
     /// Blender's Spread: full angle in radians, π = no narrowing.
     #[serde(default = "half_turn")]
     pub(super) spread: f32,
+    /// Blender's Cast Shadow: false lights every point as if nothing stood in the way.
+    #[serde(default = "yes")]
+    pub(super) cast_shadow: bool,
 }
 
 fn half_turn() -> f32 {
@@ -122,11 +125,20 @@ pub(super) struct BlenderLight {
     pub(super) soft_falloff: bool,
     #[serde(default = "yes")]
     pub(super) camera_visible: bool,
+    #[serde(default = "yes")]
+    pub(super) cast_shadow: bool,
 }
 
 impl Default for BlenderLight {
     fn default() -> Self {
-        BlenderLight { radius: 0.0, angle: 0.0, spot_blend: None, soft_falloff: false, camera_visible: true }
+        BlenderLight {
+            radius: 0.0,
+            angle: 0.0,
+            spot_blend: None,
+            soft_falloff: false,
+            camera_visible: true,
+            cast_shadow: true,
+        }
     }
 }
 

@@ -88,7 +88,7 @@ impl Loader<'_> {
                 )
             }
         };
-        Ok((light, LightReport { kind: kind.into(), name, power: 0.0, triangles: 0 }))
+        Ok((light, LightReport { kind: kind.into(), name, power: 0.0, triangles: 0, cast_shadow: bl.cast_shadow }))
     }
 
     pub(super) fn area_light(
@@ -139,7 +139,13 @@ impl Loader<'_> {
         {
             Some(l) => Ok(Some((
                 Light::Area(l),
-                LightReport { kind: "area".into(), name: name.into(), power: 0.0, triangles: 0 },
+                LightReport {
+                    kind: "area".into(),
+                    name: name.into(),
+                    power: 0.0,
+                    triangles: 0,
+                    cast_shadow: a.cast_shadow,
+                },
             ))),
             None => {
                 self.warn(format!("area light '{name}' has zero area and was skipped"));
@@ -214,6 +220,7 @@ impl Loader<'_> {
                 name: materials[mi as usize].name.clone(),
                 power,
                 triangles: count,
+                cast_shadow: true,
             });
         }
         Ok(())

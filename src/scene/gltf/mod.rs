@@ -251,6 +251,8 @@ impl<'a> Loader<'a> {
         let mut mesh = Mesh::default();
         let mut cameras = Vec::new();
         let mut lights = Vec::new();
+        // Lights whose Cast Shadow is off, by index in `lights`.
+        let mut shadowless = Vec::new();
         let mut light_reports = Vec::new();
         let mut used_meshes = std::collections::HashSet::new();
         let mut instance_count = 0;
@@ -274,6 +276,9 @@ impl<'a> Loader<'a> {
             if let Some(l) = node.light() {
                 let blender = node.extension_value("CAUSTIC_lights_punctual").cloned();
                 let (light, rep) = self.punctual_light(&l, &node_name, world, blender)?;
+                if !rep.cast_shadow {
+                    shadowless.push(lights.len());
+                }
                 lights.push(light);
                 light_reports.push(rep);
             }
@@ -297,6 +302,9 @@ impl<'a> Loader<'a> {
 
         for (ext, name, world) in area_lights {
             if let Some((light, rep)) = self.area_light(&ext, &name, &world)? {
+                if !rep.cast_shadow {
+                    shadowless.push(lights.len());
+                }
                 lights.push(light);
                 light_reports.push(rep);
             }
@@ -312,7 +320,13 @@ impl<'a> Loader<'a> {
             if power > 0.0 {
                 lights.push(Light::World);
                 light_power.push(power);
-                light_reports.push(LightReport { kind: "world".into(), name: "world".into(), power, triangles: 0 });
+                light_reports.push(LightReport {
+                    kind: "world".into(),
+                    name: "world".into(),
+                    power,
+                    triangles: 0,
+                    cast_shadow: true,
+                });
             } else {
                 self.warn("the world is black: it lights nothing");
             }
@@ -371,6 +385,10 @@ impl<'a> Loader<'a> {
             bounds: [lo.to_array(), hi.to_array()],
             profile: self.profile,
         };
+        let mut light_casts_shadow = vec![true; lights.len()];
+        for i in shadowless {
+            light_casts_shadow[i] = false;
+        }
         Ok(Scene {
             mesh,
             materials,
@@ -380,6 +398,7 @@ impl<'a> Loader<'a> {
             cameras,
             world,
             world_medium,
+            light_casts_shadow,
             settings,
             warnings: self.warnings,
             report,
