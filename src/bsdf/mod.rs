@@ -6,11 +6,13 @@ pub mod albedo;
 pub mod dielectric;
 pub mod glass_albedo;
 pub mod microfacet;
+pub mod mix;
 pub mod pbr;
 pub mod sheen;
 
 use crate::math::Rgb;
 use glam::{Vec2, Vec3};
+pub use mix::MixBsdf;
 pub use pbr::{PbrAt, PbrBsdf};
 
 /// A sampled direction with the BSDF value and the density that chose it.
@@ -31,6 +33,8 @@ pub struct BsdfSample {
 pub enum Bsdf {
     /// glTF 2.0 metallic-roughness (Appendix B of the spec).
     Pbr(PbrBsdf),
+    /// A weighted mixture of closures (a shader graph's Surface output, `mix.rs`).
+    Mix(MixBsdf),
 }
 
 impl Bsdf {
@@ -41,6 +45,7 @@ impl Bsdf {
     pub fn subsurface_weight(&self, wo: Vec3) -> f32 {
         match self {
             Bsdf::Pbr(b) => b.subsurface_weight(wo),
+            Bsdf::Mix(m) => m.subsurface_weight(wo),
         }
     }
 
@@ -50,6 +55,7 @@ impl Bsdf {
     pub fn subsurface_base(&self) -> (Rgb, f32) {
         match self {
             Bsdf::Pbr(b) => (b.base, b.roughness),
+            Bsdf::Mix(m) => (m.pbr.base, m.pbr.roughness),
         }
     }
 
@@ -58,6 +64,7 @@ impl Bsdf {
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
         match self {
             Bsdf::Pbr(b) => b.eval(wo, wi),
+            Bsdf::Mix(m) => m.eval(wo, wi),
         }
     }
 
@@ -66,6 +73,7 @@ impl Bsdf {
     pub fn at(&self, wo: Vec3) -> BsdfAt<'_> {
         match self {
             Bsdf::Pbr(b) => BsdfAt::Pbr(b.at(wo)),
+            Bsdf::Mix(m) => BsdfAt::Mix(m, wo),
         }
     }
 
@@ -74,6 +82,7 @@ impl Bsdf {
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         match self {
             Bsdf::Pbr(b) => b.pdf(wo, wi),
+            Bsdf::Mix(m) => m.pdf(wo, wi),
         }
     }
 
@@ -82,6 +91,7 @@ impl Bsdf {
     pub fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
         match self {
             Bsdf::Pbr(b) => b.sample(wo, uc, u),
+            Bsdf::Mix(m) => m.sample(wo, uc, u),
         }
     }
 
@@ -90,6 +100,7 @@ impl Bsdf {
     pub fn is_delta(&self) -> bool {
         match self {
             Bsdf::Pbr(b) => b.is_delta(),
+            Bsdf::Mix(m) => m.is_delta(),
         }
     }
 
@@ -113,6 +124,7 @@ impl Bsdf {
     pub fn refraction_adjoint_ratio(&self, wo: Vec3, wi: Vec3) -> Rgb {
         match self {
             Bsdf::Pbr(b) => b.refraction_adjoint_ratio(wo, wi),
+            Bsdf::Mix(m) => m.refraction_adjoint_ratio(wo, wi),
         }
     }
 
@@ -128,6 +140,7 @@ impl Bsdf {
                     b.glass.eta * b.glass.eta
                 }
             }
+            Bsdf::Mix(m) => m.refraction_eta2(),
         }
     }
 
@@ -136,6 +149,7 @@ impl Bsdf {
     pub fn transmits(&self) -> bool {
         match self {
             Bsdf::Pbr(b) => b.transmits(),
+            Bsdf::Mix(m) => m.transmits(),
         }
     }
 
@@ -143,6 +157,7 @@ impl Bsdf {
     pub fn albedo(&self) -> Rgb {
         match self {
             Bsdf::Pbr(b) => b.albedo(),
+            Bsdf::Mix(m) => m.albedo(),
         }
     }
 }
@@ -152,6 +167,8 @@ impl Bsdf {
 pub enum BsdfAt<'a> {
     /// glTF metallic-roughness.
     Pbr(PbrAt<'a>),
+    /// A mixture and wo (its lobes' wo-only terms are cheap; evaluated per call).
+    Mix(&'a MixBsdf, Vec3),
 }
 
 impl BsdfAt<'_> {
@@ -160,6 +177,7 @@ impl BsdfAt<'_> {
     pub fn eval(&self, wi: Vec3) -> Rgb {
         match self {
             BsdfAt::Pbr(b) => b.eval(wi),
+            BsdfAt::Mix(m, wo) => m.eval(*wo, wi),
         }
     }
 }

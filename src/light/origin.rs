@@ -142,19 +142,11 @@ pub fn sample_point(scene: &Scene, index: usize, u: Vec2) -> Option<LightPoint> 
             })
         }
         Light::Triangle { tri } => {
-            let m = &scene.mesh;
-            let mat = &scene.materials[m.tri_material[*tri as usize] as usize];
             let et = crate::light::EmitterTriangle::of(scene, *tri);
             let (q, n, b, area) = crate::light::sample_triangle(&et, u);
             if !(area > 0.0) {
                 return None;
             }
-            let [i0, i1, i2] = m.triangles[*tri as usize].map(|i| i as usize);
-            let b0 = 1.0 - b.x - b.y;
-            let uv = [
-                m.uv0[i0] * b0 + m.uv0[i1] * b.x + m.uv0[i2] * b.y,
-                m.uv1[i0] * b0 + m.uv1[i1] * b.x + m.uv1[i2] * b.y,
-            ];
             // A partly transparent emitter emits in proportion to its coverage, as the
             // path tracer's light sampling does.
             let coverage = scene.coverage(*tri, b.x, b.y);
@@ -162,7 +154,7 @@ pub fn sample_point(scene: &Scene, index: usize, u: Vec2) -> Option<LightPoint> 
                 light,
                 p: q,
                 n,
-                le: mat.emission(&scene.textures, uv) * coverage,
+                le: scene.emission_at(*tri, b.x, b.y) * coverage,
                 pdf_pos: 1.0 / area,
                 two_sided: et.two_sided,
             })

@@ -24,6 +24,7 @@ pub(super) const HANDLED_MATERIAL_EXTENSIONS: &[&str] = &[
     "KHR_materials_sheen",
     "KHR_materials_dispersion",
     "CAUSTIC_materials_coat",
+    "CAUSTIC_materials_nodes",
     // Warned about by name where they are read:
     "KHR_materials_iridescence",
     "KHR_materials_anisotropy",

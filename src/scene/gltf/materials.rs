@@ -124,6 +124,7 @@ impl Loader<'_> {
             ..Material::default()
         };
         self.material_extensions(doc, m, buffers, &mut mat, &mut features)?;
+        self.material_nodes(m, &mut mat, &mut features)?;
         Ok((mat, MaterialReport { name, features }))
     }
 }

@@ -21,6 +21,7 @@ mod material_ext;
 mod materials;
 mod mesh;
 mod nodes;
+mod shader_graph;
 mod textures;
 mod validate;
 mod world;
@@ -55,6 +56,7 @@ pub const SUPPORTED_REQUIRED: &[&str] = &[
     "KHR_materials_dispersion",
     "CAUSTIC_lights_area",
     "CAUSTIC_lights_punctual",
+    "CAUSTIC_materials_nodes",
     "CAUSTIC_camera",
     "CAUSTIC_world",
     "CAUSTIC_materials_medium",
@@ -255,6 +257,7 @@ impl<'a> Loader<'a> {
         let mut instance_count = 0;
         let mut degenerate = 0;
         let mut area_lights = Vec::new();
+        let objects: Vec<crate::shader::program::ObjectData> = Vec::new();
         for (node_index, world) in &instances {
             let node = doc.nodes().nth(*node_index).expect("validated index");
             let node_name = node.name().map(str::to_string).unwrap_or_else(|| format!("node {node_index}"));
@@ -322,6 +325,7 @@ impl<'a> Loader<'a> {
 
         // Emissive triangles are lights, one each, grouped by material in the report.
         let phase = Instant::now();
+        self.node_emitters(&mesh, &objects, &mut materials);
         self.emissive_lights(&mesh, &materials, &mut lights, &mut light_power, &mut light_reports)?;
         self.profile.emitter_power = phase.elapsed().as_secs_f64();
 
@@ -380,6 +384,7 @@ impl<'a> Loader<'a> {
             warnings: self.warnings,
             report,
             bounds: (lo, hi),
+            objects,
         })
     }
 

@@ -1,0 +1,7 @@
+//! Blender's shader nodes as the renderer evaluates them.
+pub mod closure;
+pub mod compile;
+pub mod graph;
+pub mod ops;
+pub mod program;
+pub mod shade;
