@@ -1,0 +1,265 @@
+//! Shader graphs (`CAUSTIC_materials_nodes`) through the binary: loading errors and
+//! warnings, one closed-form scene per node family (an emissive plane seen by an
+//! orthographic camera with a box filter a thousandth of a pixel wide, whose pixels are
+//! the graph's value at their centres),
+//! and a white furnace of mixed closures.
+
+mod common;
+
+use base64::Engine;
+use common::*;
+use serde_json::{Value, json};
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+const LIMIT: Duration = Duration::from_secs(120);
+/// Pixels across the plane [-1, 1]² (the orthographic view's whole frame).
+const RES: usize = 8;
+
+/// A scene of one quad z = 0, [-1, 1]², normal +Z, UV (u, v) = ((x + 1)/2, (1 − y)/2),
+/// with `material`, seen from +Z by an orthographic camera framing exactly the quad, box
+/// filter 0.001 pixel wide: every sample lies within 0.0005 pixel of the pixel's centre.
+fn plane_scene(dir: &Path, name: &str, material: Value) -> PathBuf {
+    let pos: [f32; 12] = [-1., -1., 0., 1., -1., 0., 1., 1., 0., -1., 1., 0.];
+    let nrm: [f32; 12] = [0., 0., 1., 0., 0., 1., 0., 0., 1., 0., 0., 1.];
+    let uv: [f32; 8] = [0., 1., 1., 1., 1., 0., 0., 0.];
+    let idx: [u32; 6] = [0, 1, 2, 0, 2, 3];
+    let mut data: Vec<u8> = Vec::new();
+    for f in pos.iter().chain(&nrm).chain(&uv) {
+        data.extend_from_slice(&f.to_le_bytes());
+    }
+    for i in idx {
+        data.extend_from_slice(&i.to_le_bytes());
+    }
+    let uri =
+        format!("data:application/octet-stream;base64,{}", base64::engine::general_purpose::STANDARD.encode(&data));
+    let doc = json!({
+        "asset": {"version": "2.0"},
+        "extensionsUsed": ["CAUSTIC_materials_nodes"],
+        "buffers": [{"uri": uri, "byteLength": data.len()}],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": 48},
+            {"buffer": 0, "byteOffset": 48, "byteLength": 48},
+            {"buffer": 0, "byteOffset": 96, "byteLength": 32},
+            {"buffer": 0, "byteOffset": 128, "byteLength": 24}
+        ],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [-1, -1, 0], "max": [1, 1, 0]},
+            {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC3"},
+            {"bufferView": 2, "componentType": 5126, "count": 4, "type": "VEC2"},
+            {"bufferView": 3, "componentType": 5125, "count": 6, "type": "SCALAR"}
+        ],
+        "materials": [material],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2}, "indices": 3, "material": 0}]}],
+        "cameras": [{"type": "orthographic", "orthographic": {"xmag": 1.0, "ymag": 1.0, "znear": 0.1, "zfar": 100.0}}],
+        "nodes": [{"mesh": 0}, {"camera": 0, "translation": [0, 0, 5]}],
+        "scenes": [{"nodes": [0, 1], "extras": {"caustic": {"filter": "box", "filter_width": 0.001}}}],
+        "scene": 0
+    });
+    let path = dir.join(name);
+    std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
+    path
+}
+
+fn node_material(name: &str, nodes: Value, surface: Value) -> Value {
+    json!({"name": name, "extensions": {"CAUSTIC_materials_nodes":
+        {"version": 1, "nodes": nodes, "output": {"surface": surface}}}})
+}
+
+/// Renders the plane and returns its pixels' RGB with each pixel's centre (x, y).
+fn render_plane(material: Value, spp: u32) -> Vec<([f32; 3], f32, f32)> {
+    let dir = temp_dir();
+    let scene = plane_scene(dir.path(), "plane.gltf", material);
+    let res = format!("{RES}x{RES}");
+    let spp = spp.to_string();
+    let px = render_image(&scene, &dir.path().join("o.exr"), &["--resolution", &res, "--spp", &spp], LIMIT);
+    px.iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let (col, row) = (i % RES, i / RES);
+            let x = -1.0 + (col as f32 + 0.5) * 2.0 / RES as f32;
+            let y = 1.0 - (row as f32 + 0.5) * 2.0 / RES as f32;
+            ([p[0], p[1], p[2]], x, y)
+        })
+        .collect()
+}
+
+/// Geometry → Separate XYZ → Math, Map Range, Mix (float) → Combine XYZ → Emission, with
+/// the strength from a constant-folded Math chain: each pixel is the formula at its centre.
+#[test]
+fn converters_on_an_emissive_plane() {
+    let nodes = json!([
+        {"name": "Geometry", "type": "ShaderNodeNewGeometry"},
+        {"name": "Separate", "type": "ShaderNodeSeparateXYZ", "inputs": {"Vector": {"link": [0, "Position"]}}},
+        {"name": "R", "type": "ShaderNodeMath", "props": {"operation": "MULTIPLY_ADD"},
+         "inputs": {"Value": {"link": [1, "X"]}, "Value_001": {"value": 0.5}, "Value_002": {"value": 1.0}}},
+        {"name": "G", "type": "ShaderNodeMapRange", "props": {"data_type": "FLOAT", "interpolation_type": "LINEAR", "clamp": true},
+         "inputs": {"Value": {"link": [1, "Z"]}, "From_Min": {"value": -1.0}, "From_Max": {"value": 1.0},
+                    "To_Min": {"value": 0.0}, "To_Max": {"value": 2.0}}},
+        {"name": "B", "type": "ShaderNodeMix", "props": {"data_type": "FLOAT", "clamp_factor": true},
+         "inputs": {"Factor_Float": {"value": 0.25}, "A_Float": {"link": [2, "Value"]}, "B_Float": {"value": 3.0}}},
+        {"name": "Combine", "type": "ShaderNodeCombineXYZ",
+         "inputs": {"X": {"link": [2, "Value"]}, "Y": {"link": [3, "Result"]}, "Z": {"link": [4, "Result_Float"]}}},
+        {"name": "Two", "type": "ShaderNodeMath", "props": {"operation": "SUBTRACT"},
+         "inputs": {"Value": {"value": 3.0}, "Value_001": {"value": 1.0}}},
+        {"name": "Emission", "type": "ShaderNodeEmission",
+         "inputs": {"Color": {"link": [5, "Vector"], "value": [1, 1, 1, 1]}, "Strength": {"link": [6, "Value"]}}}
+    ]);
+    let px = render_plane(node_material("conv", nodes, json!([7, "Emission"])), 16);
+    for (c, x, y) in px {
+        // Blender axes: X = x, Z = y (glTF's y up).
+        let r = 0.5 * x + 1.0;
+        let want = [2.0 * r, 2.0 * (y + 1.0), 2.0 * (0.75 * r + 0.75)];
+        for k in 0..3 {
+            // Samples within 0.0005 pixel of the centre, steepest channel 0.5 per pixel:
+            // 2.5e-4, plus f32 rounding.
+            assert!((c[k] - want[k]).abs() < 3e-4, "({x}, {y}) channel {k}: {} vs {}", c[k], want[k]);
+        }
+    }
+}
+
+/// Texture Coordinate UV and Fresnel at normal incidence (0.04 for IOR 1.5).
+#[test]
+fn uv_and_fresnel_inputs() {
+    let nodes = json!([
+        {"name": "TexCoord", "type": "ShaderNodeTexCoord"},
+        {"name": "Separate", "type": "ShaderNodeSeparateXYZ", "inputs": {"Vector": {"link": [0, "UV"]}}},
+        {"name": "Fresnel", "type": "ShaderNodeFresnel", "inputs": {"IOR": {"value": 1.5}}},
+        {"name": "Combine", "type": "ShaderNodeCombineColor", "props": {"mode": "RGB"},
+         "inputs": {"Red": {"link": [1, "X"]}, "Green": {"link": [1, "Y"]}, "Blue": {"link": [2, "Fac"]}}},
+        {"name": "Emission", "type": "ShaderNodeEmission",
+         "inputs": {"Color": {"link": [3, "Color"]}, "Strength": {"value": 1.0}}}
+    ]);
+    let px = render_plane(node_material("uv", nodes, json!([4, "Emission"])), 16);
+    for (c, x, y) in px {
+        // Blender's UV is (u, 1 − v) of glTF's: ((x + 1)/2, (y + 1)/2).
+        let want = [(x + 1.0) / 2.0, (y + 1.0) / 2.0, 0.04];
+        for k in 0..3 {
+            // As above: gradient 0.25 per pixel, samples within 0.0005 pixel of the centre.
+            assert!((c[k] - want[k]).abs() < 2e-4, "({x}, {y}) channel {k}: {} vs {}", c[k], want[k]);
+        }
+    }
+}
+
+/// A white furnace of mixed closures: a closed cube of double-sided walls whose graph is
+/// Add(Emission Le, Mix(0.3, Diffuse white, Glossy white)) seen from inside. Every lobe
+/// keeps all the light (the glossy one through multiscatter compensation), so with at most
+/// D = 3 scattering events each pixel sees (D + 1) Le = 4 Le.
+#[test]
+fn mixed_closures_white_furnace() {
+    let dir = temp_dir();
+    let mut g = GltfBuilder::new();
+    g.use_ext("CAUSTIC_materials_nodes");
+    let nodes = json!([
+        {"name": "Diffuse", "type": "ShaderNodeBsdfDiffuse", "inputs": {"Color": {"value": [1, 1, 1, 1]}}},
+        {"name": "Glossy", "type": "ShaderNodeBsdfGlossy", "props": {"distribution": "MULTI_GGX"},
+         "inputs": {"Color": {"value": [1, 1, 1, 1]}, "Roughness": {"value": 0.4}}},
+        {"name": "Mix", "type": "ShaderNodeMixShader",
+         "inputs": {"Fac": {"value": 0.3}, "Shader": {"link": [0, "BSDF"]}, "Shader_001": {"link": [1, "BSDF"]}}},
+        {"name": "Emission", "type": "ShaderNodeEmission", "inputs": {"Color": {"value": [1, 1, 1, 1]}, "Strength": {"value": 0.5}}},
+        {"name": "Add", "type": "ShaderNodeAddShader",
+         "inputs": {"Shader": {"link": [2, "Shader"]}, "Shader_001": {"link": [3, "Emission"]}}}
+    ]);
+    let m = g.material(node_material("furnace", nodes, json!([4, "Shader"])));
+    g.cube([-1.0, -1.0, -1.0], [1.0, 1.0, 1.0], m);
+    g.camera([0.1, 0.2, 0.3], look_rotation([0.3, -0.2, -1.0]), 1.2);
+    let scene = g.write(dir.path(), "furnace.gltf");
+    let px = render_image(
+        &scene,
+        &dir.path().join("o.exr"),
+        &["--resolution", "16x16", "--spp", "64", "--max-depth", "3"],
+        LIMIT,
+    );
+    let mean = px.iter().map(|p| p[0] as f64).sum::<f64>() / px.len() as f64;
+    // 4 × 0.5 = 2. The glossy lobe's multiscatter tables hold its albedo within 1 % (README)
+    // and it is 70 % of the mixture; 16k paths of bounded weight add < 0.5 % (4σ).
+    assert!((mean - 2.0).abs() < 0.03 * 2.0, "furnace mean {mean} (want 2)");
+}
+
+/// A cycle is a bad scene (exit 3) naming the material and a node of the cycle.
+#[test]
+fn a_cycle_is_refused_naming_material_and_node() {
+    let nodes = json!([
+        {"name": "First", "type": "ShaderNodeMath", "inputs": {"Value": {"link": [1, "Value"]}}},
+        {"name": "Second", "type": "ShaderNodeMath", "inputs": {"Value": {"link": [0, "Value"]}}},
+        {"name": "Emission", "type": "ShaderNodeEmission", "inputs": {"Strength": {"link": [0, "Value"]}}}
+    ]);
+    let dir = temp_dir();
+    let scene = plane_scene(dir.path(), "cycle.gltf", node_material("Loop", nodes, json!([2, "Emission"])));
+    let out = dir.path().join("o.exr");
+    let r = run(&["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--progress", "json"], LIMIT);
+    assert_eq!(r.code, Some(3), "{}", r.stderr);
+    let msg = r.error_message().unwrap();
+    assert!(msg.contains("material 'Loop'") && msg.contains("cycle"), "{msg}");
+    assert!(msg.contains("'First'") || msg.contains("'Second'"), "{msg}");
+}
+
+/// Links to missing nodes or outputs and wrong value shapes are bad scenes naming the node.
+#[test]
+fn bad_links_and_values_are_refused() {
+    let cases = [
+        (
+            json!([{"name": "E", "type": "ShaderNodeEmission", "inputs": {"Strength": {"link": [7, "Value"]}}}]),
+            "links to node 7",
+        ),
+        (
+            json!([{"name": "M", "type": "ShaderNodeMath"},
+                   {"name": "E", "type": "ShaderNodeEmission", "inputs": {"Strength": {"link": [0, "Nope"]}}}]),
+            "output 'Nope'",
+        ),
+        (
+            json!([{"name": "E", "type": "ShaderNodeEmission", "inputs": {"Strength": {"value": [1, 2, 3]}}}]),
+            "expects a number",
+        ),
+    ];
+    for (nodes, want) in cases {
+        let last = nodes.as_array().unwrap().len() - 1;
+        let dir = temp_dir();
+        let scene = plane_scene(dir.path(), "bad.gltf", node_material("Bad", nodes, json!([last, "Emission"])));
+        let out = dir.path().join("o.exr");
+        let r = run(&["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--progress", "json"], LIMIT);
+        assert_eq!(r.code, Some(3), "{want}: {}", r.stderr);
+        let msg = r.error_message().unwrap();
+        assert!(msg.contains("material 'Bad'") && msg.contains(want), "{msg}");
+    }
+}
+
+/// An unknown node type is a warning naming material, node and type; its outputs are 0.
+#[test]
+fn an_unknown_node_type_is_a_warning_and_gives_zero() {
+    let nodes = json!([
+        {"name": "Mystery", "type": "ShaderNodeFancyThing"},
+        {"name": "Add", "type": "ShaderNodeMath", "props": {"operation": "ADD"},
+         "inputs": {"Value": {"link": [0, "Fac"]}, "Value_001": {"value": 0.25}}},
+        {"name": "Emission", "type": "ShaderNodeEmission", "inputs": {"Strength": {"link": [1, "Value"]}}}
+    ]);
+    let dir = temp_dir();
+    let scene = plane_scene(dir.path(), "unknown.gltf", node_material("Odd", nodes, json!([2, "Emission"])));
+    let out = dir.path().join("o.exr");
+    let r = run(
+        &[
+            "render",
+            scene.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--progress",
+            "json",
+            "--resolution",
+            "4x4",
+            "--spp",
+            "4",
+        ],
+        LIMIT,
+    );
+    assert_eq!(r.code, Some(0), "{}", r.stderr);
+    let warned = r.json_lines().iter().any(|v| {
+        v["type"] == "warning"
+            && v["message"]
+                .as_str()
+                .is_some_and(|m| m.contains("'Odd'") && m.contains("'Mystery'") && m.contains("ShaderNodeFancyThing"))
+    });
+    assert!(warned, "{}", r.stderr);
+    let px = caustic::output::read_combined(&out).unwrap().2;
+    // 0 + 0.25 with an unlinked (white) colour.
+    assert!(px.iter().all(|p| (p[0] - 0.25).abs() < 1e-5), "{:?}", px[0]);
+}
