@@ -1,0 +1,2 @@
+//! Blender's shader nodes as the renderer evaluates them.
+pub mod texture;
