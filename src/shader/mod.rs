@@ -1,4 +1,6 @@
 //! Blender's shader nodes as the renderer evaluates them.
+pub mod texture;
+
 pub mod closure;
 pub mod compile;
 pub mod graph;

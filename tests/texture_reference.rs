@@ -1,0 +1,328 @@
+//! Caustic's procedural textures against the values Blender computed for the same inputs.
+//!
+//! `tests/data/texture_reference.json` holds, for 256 points and every texture in several
+//! settings, the outputs Blender 5.0's geometry nodes gave (same node algorithms as Cycles,
+//! on the CPU; `tests/data/make_texture_reference.py` regenerates it with real bpy). Each test
+//! maps the case's Blender settings onto our parameters as the node evaluator does, evaluates
+//! every point and compares every output component. Run with `--nocapture` to see the largest
+//! difference per texture.
+
+use std::collections::BTreeMap;
+
+use base64::Engine;
+use caustic::shader::texture::*;
+use glam::Vec3;
+use serde_json::Value;
+
+/// One texture node in one setting and what Blender computed with it.
+struct Case {
+    texture: String,
+    properties: serde_json::Map<String, Value>,
+    inputs: serde_json::Map<String, Value>,
+    outputs: BTreeMap<String, Vec<f32>>,
+}
+
+/// The reference file: sample points and cases.
+struct Reference {
+    position: Vec<Vec3>,
+    w: Vec<f32>,
+    cases: Vec<Case>,
+}
+
+fn floats(v: &Value) -> Vec<f32> {
+    let bytes = base64::engine::general_purpose::STANDARD
+        .decode(v.as_str().expect("base64 string"))
+        .expect("valid base64");
+    bytes
+        .chunks_exact(4)
+        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+        .collect()
+}
+
+fn load() -> Reference {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/texture_reference.json");
+    let doc: Value = serde_json::from_str(&std::fs::read_to_string(path).expect("reference file"))
+        .expect("reference JSON");
+    let position: Vec<Vec3> = floats(&doc["position"])
+        .chunks_exact(3)
+        .map(Vec3::from_slice)
+        .collect();
+    let w = floats(&doc["w"]);
+    assert_eq!(position.len(), w.len());
+    let cases = doc["cases"]
+        .as_array()
+        .expect("cases")
+        .iter()
+        .map(|c| Case {
+            texture: c["texture"].as_str().expect("texture").to_owned(),
+            properties: c["properties"].as_object().expect("properties").clone(),
+            inputs: c["inputs"].as_object().expect("inputs").clone(),
+            outputs: c["outputs"]
+                .as_object()
+                .expect("outputs")
+                .iter()
+                .map(|(k, v)| (k.clone(), floats(v)))
+                .collect(),
+        })
+        .collect();
+    Reference { position, w, cases }
+}
+
+impl Case {
+    fn prop(&self, key: &str) -> &Value {
+        self.properties
+            .get(key)
+            .unwrap_or_else(|| panic!("{} case without property {key}", self.texture))
+    }
+    fn prop_str(&self, key: &str) -> &str {
+        self.prop(key).as_str().expect("string property")
+    }
+    fn prop_bool(&self, key: &str) -> bool {
+        self.prop(key).as_bool().expect("boolean property")
+    }
+    fn prop_f32(&self, key: &str) -> f32 {
+        self.prop(key).as_f64().expect("number property") as f32
+    }
+    fn prop_i32(&self, key: &str) -> i32 {
+        self.prop(key).as_i64().expect("integer property") as i32
+    }
+    /// A socket's value; `default` is Blender's default for a socket the case leaves alone.
+    fn input(&self, key: &str, default: f32) -> f32 {
+        self.inputs
+            .get(key)
+            .map_or(default, |v| v.as_f64().expect("number input") as f32)
+    }
+    fn color(&self, key: &str) -> Vec3 {
+        let c = self.inputs[key].as_array().expect("colour input");
+        Vec3::new(
+            c[0].as_f64().unwrap() as f32,
+            c[1].as_f64().unwrap() as f32,
+            c[2].as_f64().unwrap() as f32,
+        )
+    }
+    fn dims(&self, key: &str) -> u8 {
+        match self.prop_str(key) {
+            "1D" => 1,
+            "2D" => 2,
+            "3D" => 3,
+            "4D" => 4,
+            other => panic!("unknown dimensions {other}"),
+        }
+    }
+    fn describe(&self) -> String {
+        format!(
+            "{} {:?} {:?}",
+            self.texture,
+            Value::Object(self.properties.clone()),
+            Value::Object(self.inputs.clone())
+        )
+    }
+}
+
+/// What one texture output at one point is compared with.
+enum Out {
+    Scalar(f32),
+    Color(Vec3),
+}
+
+/// The largest differences seen for one texture, and the comparisons made.
+#[derive(Default)]
+struct Tally {
+    compared: usize,
+    excluded: usize,
+    max_abs: f32,
+    worst: String,
+}
+
+/// Compares every output of every case of `texture`. `eval` returns, per output name, our
+/// value at point `i`; `tolerance(case, name, p, w, blender)` the allowed absolute difference;
+/// `excluded(case, i)` says (by a rule, documented where it is defined) that a point lies
+/// within rounding of a discontinuity of that case, where either side is right.
+fn compare(
+    reference: &Reference,
+    texture: &str,
+    mut eval: impl FnMut(&Case, Vec3, f32) -> Vec<(&'static str, Out)>,
+    tolerance: impl Fn(&Case, &str, Vec3, f32, f32) -> f32,
+    excluded: impl Fn(&Case, Vec3, f32) -> bool,
+) -> Tally {
+    let mut tally = Tally::default();
+    let mut failures = Vec::new();
+    let cases: Vec<&Case> = reference
+        .cases
+        .iter()
+        .filter(|c| c.texture == texture)
+        .collect();
+    assert!(!cases.is_empty(), "no reference cases for {texture}");
+    // TEXTURE_REFERENCE_VERBOSE=1 prints the largest difference of every case.
+    let verbose = std::env::var_os("TEXTURE_REFERENCE_VERBOSE").is_some();
+    for case in cases {
+        let mut case_max = (0.0f32, String::new());
+        for (i, (&p, &w)) in reference.position.iter().zip(&reference.w).enumerate() {
+            if excluded(case, p, w) {
+                tally.excluded += 1;
+                continue;
+            }
+            for (name, ours) in eval(case, p, w) {
+                let theirs = case
+                    .outputs
+                    .get(name)
+                    .unwrap_or_else(|| panic!("{} has no output {name}", case.describe()));
+                let pairs: Vec<(f32, f32)> = match ours {
+                    Out::Scalar(v) => vec![(v, theirs[i])],
+                    Out::Color(c) => (0..3).map(|k| (c[k], theirs[3 * i + k])).collect(),
+                };
+                for (a, b) in pairs {
+                    tally.compared += 1;
+                    let err = (a - b).abs();
+                    let ok = err <= tolerance(case, name, p, w, b) || (a.is_nan() && b.is_nan());
+                    if !(err <= case_max.0) {
+                        case_max = (err, format!("{name} point {i}: ours {a}, Blender {b}"));
+                    }
+                    if !(err <= tally.max_abs) && err.is_finite() {
+                        tally.max_abs = err;
+                        tally.worst = format!("{name} at point {i} {p} w={w}: ours {a}, Blender {b}");
+                    }
+                    if !ok {
+                        failures.push(format!(
+                            "{}: {name} at point {i} ({p}, w={w}): ours {a}, Blender {b}",
+                            case.describe()
+                        ));
+                    }
+                }
+            }
+        }
+        if verbose {
+            println!("  {:e} {} ({})", case_max.0, case.describe(), case_max.1);
+        }
+    }
+    println!(
+        "{texture}: {} values compared, {} points excluded, max |difference| {:e} ({})",
+        tally.compared, tally.excluded, tally.max_abs, tally.worst
+    );
+    assert!(
+        failures.is_empty(),
+        "{} of {} {texture} values differ from Blender, first ones:\n{}",
+        failures.len(),
+        tally.compared,
+        failures[..failures.len().min(12)].join("\n")
+    );
+    tally
+}
+
+/// White noise is a hash of the input bits: it must agree exactly.
+#[test]
+fn white_noise_matches_blender() {
+    let reference = load();
+    compare(
+        &reference,
+        "white_noise",
+        |case, p, w| {
+            let (value, color) = white_noise_texture(case.dims("noise_dimensions"), p, w);
+            vec![("Value", Out::Scalar(value)), ("Color", Out::Color(color))]
+        },
+        |_, _, _, _, _| 0.0,
+        |_, _, _| false,
+    );
+}
+
+fn noise_params(case: &Case) -> NoiseParams {
+    NoiseParams {
+        dims: case.dims("noise_dimensions"),
+        kind: match case.prop_str("noise_type") {
+            "MULTIFRACTAL" => NoiseKind::Multifractal,
+            "RIDGED_MULTIFRACTAL" => NoiseKind::RidgedMultifractal,
+            "HYBRID_MULTIFRACTAL" => NoiseKind::HybridMultifractal,
+            "FBM" => NoiseKind::Fbm,
+            "HETERO_TERRAIN" => NoiseKind::HeteroTerrain,
+            other => panic!("unknown noise type {other}"),
+        },
+        normalize: case.prop_bool("normalize"),
+        scale: case.input("Scale", 5.0),
+        detail: case.input("Detail", 2.0),
+        roughness: case.input("Roughness", 0.5),
+        lacunarity: case.input("Lacunarity", 2.0),
+        offset: case.input("Offset", 0.0),
+        gain: case.input("Gain", 1.0),
+        distortion: case.input("Distortion", 0.0),
+    }
+}
+
+#[test]
+fn noise_matches_blender() {
+    let reference = load();
+    compare(
+        &reference,
+        "noise",
+        |case, p, w| {
+            let (fac, color) = noise_texture(p, w, &noise_params(case));
+            vec![("Fac", Out::Scalar(fac)), ("Color", Out::Color(color))]
+        },
+        |case, name, p, w, blender| {
+            let prm = noise_params(case);
+            // Blender's BLI_noise interpolates as `(1 - t) a + t b` where Cycles writes
+            // `a + t (b - a)`: a few ulps per lattice mix and octave. 1e-5 relative (~80 ulps)
+            // covers the ~10 roundings per octave of a 6-octave sum.
+            let arithmetic = 1e-5 * blender.abs().max(1.0);
+            if prm.distortion == 0.0 {
+                return arithmetic;
+            }
+            // With distortion the fractal's coordinate is itself a noise result, so the two
+            // implementations may round it to neighbouring floats: an uncertainty of one ulp of
+            // its magnitude (the point, the distortion, and for the colour the seeded offsets of
+            // up to 200). Octave i sees that uncertainty multiplied by lacunarity^i and weighs
+            // it by roughness^i; |grad snoise| <= SNOISE_LIPSCHITZ turns it into a value.
+            let magnitude = p.abs().max_element().max(w.abs()) * prm.scale
+                + prm.distortion
+                + if name == "Color" { 200.0 } else { 0.0 };
+            let delta = f32::EPSILON * magnitude;
+            let octaves = prm.detail.clamp(0.0, 15.0).ceil() as i32;
+            let gain: f32 = (0..=octaves)
+                .map(|i| (prm.roughness * prm.lacunarity).powi(i))
+                .sum();
+            arithmetic + SNOISE_LIPSCHITZ * delta * gain * blender.abs().max(1.0)
+        },
+        |_, _, _| false,
+    );
+}
+
+/// An upper bound of the sum over axes of |d snoise / dx_k| in every dimension (so that a
+/// rounding of at most delta in each coordinate moves snoise by at most this times delta),
+/// checked by `snoise_lipschitz_bound`.
+const SNOISE_LIPSCHITZ: f32 = 12.0;
+
+/// Checks SNOISE_LIPSCHITZ on a dense sample: slopes of snoise over steps of 1e-3 along each
+/// axis (the fade polynomial and gradients make the noise C2, so finite slopes over such steps
+/// approach the gradient to within 1e-3 relative).
+#[test]
+fn snoise_lipschitz_bound() {
+    use caustic::shader::texture::perlin::NoiseCoord;
+    use glam::{Vec2, Vec4};
+    let h = 1e-3f32;
+    let mut max_slope = 0.0f32;
+    for i in 0..20000 {
+        // A low-discrepancy walk through a few cells.
+        let t = i as f32;
+        let p = Vec4::new(
+            (t * 0.618034).fract() * 4.0 - 2.0,
+            (t * 0.754878).fract() * 4.0 - 2.0,
+            (t * 0.569840).fract() * 4.0 - 2.0,
+            (t * 0.873580).fract() * 4.0 - 2.0,
+        );
+        let slope = |a: f32, b: f32| (a - b).abs() / h;
+        max_slope = max_slope.max(slope((p.x + h).snoise(), p.x.snoise()));
+        let p2 = Vec2::new(p.x, p.y);
+        for e in [Vec2::X, Vec2::Y] {
+            max_slope = max_slope.max(slope((p2 + e * h).snoise(), p2.snoise()));
+        }
+        let p3 = p.truncate();
+        for e in [Vec3::X, Vec3::Y, Vec3::Z] {
+            max_slope = max_slope.max(slope((p3 + e * h).snoise(), p3.snoise()));
+        }
+        for e in [Vec4::X, Vec4::Y, Vec4::Z, Vec4::W] {
+            max_slope = max_slope.max(slope((p + e * h).snoise(), p.snoise()));
+        }
+    }
+    println!("largest snoise slope {max_slope}");
+    // The sum over at most 4 axes of the largest slope, with 10% for steps that missed a peak.
+    assert!(4.0 * 1.1 * max_slope < SNOISE_LIPSCHITZ, "{max_slope}");
+}
