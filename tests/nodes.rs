@@ -20,7 +20,13 @@ const RES: usize = 8;
 /// with `material`, seen from +Z by an orthographic camera framing exactly the quad, box
 /// filter 0.001 pixel wide: every sample lies within 0.0005 pixel of the pixel's centre.
 fn plane_scene(dir: &Path, name: &str, material: Value) -> PathBuf {
-    let pos: [f32; 12] = [-1., -1., 0., 1., -1., 0., 1., 1., 0., -1., 1., 0.];
+    plane_scene_scaled(dir, name, material, 1.0)
+}
+
+/// The same plane built as a quad of half-size 1/`scale` on a node scaled by `scale`.
+fn plane_scene_scaled(dir: &Path, name: &str, material: Value, scale: f32) -> PathBuf {
+    let h = 1.0 / scale;
+    let pos: [f32; 12] = [-h, -h, 0., h, -h, 0., h, h, 0., -h, h, 0.];
     let nrm: [f32; 12] = [0., 0., 1., 0., 0., 1., 0., 0., 1., 0., 0., 1.];
     let uv: [f32; 8] = [0., 1., 1., 1., 1., 0., 0., 0.];
     let idx: [u32; 6] = [0, 1, 2, 0, 2, 3];
@@ -44,7 +50,7 @@ fn plane_scene(dir: &Path, name: &str, material: Value) -> PathBuf {
             {"buffer": 0, "byteOffset": 128, "byteLength": 24}
         ],
         "accessors": [
-            {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [-1, -1, 0], "max": [1, 1, 0]},
+            {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [-h, -h, 0], "max": [h, h, 0]},
             {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC3"},
             {"bufferView": 2, "componentType": 5126, "count": 4, "type": "VEC2"},
             {"bufferView": 3, "componentType": 5125, "count": 6, "type": "SCALAR"}
@@ -52,7 +58,7 @@ fn plane_scene(dir: &Path, name: &str, material: Value) -> PathBuf {
         "materials": [material],
         "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2}, "indices": 3, "material": 0}]}],
         "cameras": [{"type": "orthographic", "orthographic": {"xmag": 1.0, "ymag": 1.0, "znear": 0.1, "zfar": 100.0}}],
-        "nodes": [{"mesh": 0}, {"camera": 0, "translation": [0, 0, 5]}],
+        "nodes": [{"mesh": 0, "scale": [scale, scale, scale]}, {"camera": 0, "translation": [0, 0, 5]}],
         "scenes": [{"nodes": [0, 1], "extras": {"caustic": {"filter": "box", "filter_width": 0.001}}}],
         "scene": 0
     });
@@ -68,8 +74,13 @@ fn node_material(name: &str, nodes: Value, surface: Value) -> Value {
 
 /// Renders the plane and returns its pixels' RGB with each pixel's centre (x, y).
 fn render_plane(material: Value, spp: u32) -> Vec<([f32; 3], f32, f32)> {
+    render_plane_scaled(material, spp, 1.0)
+}
+
+/// [`render_plane`] of the plane on a node scaled by `scale`.
+fn render_plane_scaled(material: Value, spp: u32, scale: f32) -> Vec<([f32; 3], f32, f32)> {
     let dir = temp_dir();
-    let scene = plane_scene(dir.path(), "plane.gltf", material);
+    let scene = plane_scene_scaled(dir.path(), "plane.gltf", material, scale);
     let res = format!("{RES}x{RES}");
     let spp = spp.to_string();
     let px = render_image(&scene, &dir.path().join("o.exr"), &["--resolution", &res, "--spp", &spp], LIMIT);
@@ -138,6 +149,63 @@ fn uv_and_fresnel_inputs() {
             // As above: gradient 0.25 per pixel, samples within 0.0005 pixel of the centre.
             assert!((c[k] - want[k]).abs() < 2e-4, "({x}, {y}) channel {k}: {} vs {}", c[k], want[k]);
         }
+    }
+}
+
+/// Object coordinates undo the instance's transform: the plane's node is scaled by 2, so
+/// the object position is half the world position (Blender axes: (x, −z, y) of glTF).
+#[test]
+fn object_coordinates_undo_the_instance_transform() {
+    let nodes = json!([
+        {"name": "TexCoord", "type": "ShaderNodeTexCoord"},
+        {"name": "Shift", "type": "ShaderNodeVectorMath", "props": {"operation": "ADD"},
+         "inputs": {"Vector": {"link": [0, "Object"]}, "Vector_001": {"value": [1, 1, 1]}}},
+        {"name": "Emission", "type": "ShaderNodeEmission",
+         "inputs": {"Color": {"link": [1, "Vector"]}, "Strength": {"value": 1.0}}}
+    ]);
+    let px = render_plane_scaled(node_material("obj", nodes, json!([2, "Emission"])), 4, 2.0);
+    for (c, x, y) in px {
+        let want = [x / 2.0 + 1.0, 1.0, y / 2.0 + 1.0];
+        for k in 0..3 {
+            // Gradient 0.125 per pixel, samples within 0.0005 pixel of the centre.
+            assert!((c[k] - want[k]).abs() < 2e-4, "({x}, {y}) channel {k}: {} vs {}", c[k], want[k]);
+        }
+    }
+}
+
+/// The Noise Texture node is wired to its function: Position → Noise (3-D fBM) → Emission
+/// gives the function's value at each pixel centre.
+#[test]
+fn noise_texture_node_gives_the_function_value() {
+    use caustic::shader::texture::{NoiseKind, NoiseParams, noise_texture};
+    let nodes = json!([
+        {"name": "Geometry", "type": "ShaderNodeNewGeometry"},
+        {"name": "Noise", "type": "ShaderNodeTexNoise",
+         "props": {"noise_dimensions": "3D", "noise_type": "FBM", "normalize": true},
+         "inputs": {"Vector": {"link": [0, "Position"]}, "Scale": {"value": 3.0}, "Detail": {"value": 2.0},
+                    "Roughness": {"value": 0.5}, "Lacunarity": {"value": 2.0}, "Distortion": {"value": 0.0}}},
+        {"name": "Emission", "type": "ShaderNodeEmission",
+         "inputs": {"Color": {"link": [1, "Fac"]}, "Strength": {"value": 1.0}}}
+    ]);
+    let px = render_plane(node_material("noise", nodes, json!([2, "Emission"])), 4);
+    let prm = NoiseParams {
+        dims: 3,
+        kind: NoiseKind::Fbm,
+        normalize: true,
+        scale: 3.0,
+        detail: 2.0,
+        roughness: 0.5,
+        lacunarity: 2.0,
+        offset: 0.0,
+        gain: 1.0,
+        distortion: 0.0,
+    };
+    for (c, x, y) in px {
+        let want = noise_texture(glam::Vec3::new(x, 0.0, y), 0.0, &prm).0;
+        // Noise at scale 3 changes by at most ~3 per unit (gradient of Perlin noise about
+        // 1 per lattice unit, fBM sums of halving amplitude), 0.25 units per pixel: samples
+        // within 0.0005 pixel move it by < 4e-4.
+        assert!((c[0] - want).abs() < 1e-3, "({x}, {y}): {} vs {want}", c[0]);
     }
 }
 

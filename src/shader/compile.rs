@@ -12,6 +12,7 @@ use super::closure::{CAPACITY, ClosureKind, ClosureOp, Closures, PrincipledRegs}
 use super::graph::{NodeDesc, NodesExt, check_and_sort};
 use super::ops::{Blend, MathOp, RangeInterp, VecOp};
 use super::program::{ColorSpace, CurveKind, CurveTable, Geom, InputKind, MappingKind, ObjectData, Op, Program, Reg};
+use super::texture_nodes::{TexOp, dims as noise_dims, noise_kind};
 use glam::{Mat4, Vec2, Vec3, Vec4};
 use serde_json::Value;
 use std::collections::HashSet;
@@ -792,9 +793,42 @@ impl<'a> Compiler<'a> {
                 let out = self.out(i, "Normal", Ty::Vector);
                 self.ops.push(Op::NormalMap { space, strength, color, out });
             }
+            "ShaderNodeTexNoise" => {
+                let dims = self.noise_dims(i)?;
+                let name = self.prop_str(i, "noise_type", "FBM");
+                let kind = noise_kind(name).ok_or_else(|| self.err(i, format!("unknown noise type '{name}'")))?;
+                let normalize = self.prop_bool(i, "normalize", true);
+                let inputs = [
+                    self.vec_implicit(i, "Vector", InputKind::Generated)?,
+                    self.float(i, "W", 0.0)?,
+                    self.float(i, "Scale", 5.0)?,
+                    self.float(i, "Detail", 2.0)?,
+                    self.float(i, "Roughness", 0.5)?,
+                    self.float(i, "Lacunarity", 2.0)?,
+                    self.float(i, "Offset", 0.0)?,
+                    self.float(i, "Gain", 1.0)?,
+                    self.float(i, "Distortion", 0.0)?,
+                ];
+                let fac = self.out(i, "Fac", Ty::Float);
+                let color = self.out(i, "Color", Ty::Color);
+                self.ops.push(Op::Texture(Box::new(TexOp::Noise { dims, kind, normalize, inputs, fac, color })));
+            }
+            "ShaderNodeTexWhiteNoise" => {
+                let dims = self.noise_dims(i)?;
+                let vector = self.vec_implicit(i, "Vector", InputKind::Generated)?;
+                let w = self.float(i, "W", 0.0)?;
+                let value = self.out(i, "Value", Ty::Float);
+                let color = self.out(i, "Color", Ty::Color);
+                self.ops.push(Op::Texture(Box::new(TexOp::WhiteNoise { dims, vector, w, value, color })));
+            }
             _ => return Ok(false),
         }
         Ok(true)
+    }
+
+    fn noise_dims(&self, i: usize) -> Result<u8, String> {
+        let s = self.prop_str(i, "noise_dimensions", "3D");
+        noise_dims(s).ok_or_else(|| self.err(i, format!("unknown dimensions '{s}'")))
     }
 
     /// The float Map Range's sockets are "From Min"... in older files and "From_Min" in

@@ -7,3 +7,4 @@ pub mod graph;
 pub mod ops;
 pub mod program;
 pub mod shade;
+pub mod texture_nodes;

@@ -349,6 +349,8 @@ pub enum Op {
     },
     /// A closure (shader/closure.rs).
     Closure(Box<super::closure::ClosureOp>),
+    /// A procedural texture (shader/texture_nodes.rs).
+    Texture(Box<super::texture_nodes::TexOp>),
 }
 
 /// A compiled material graph.
@@ -612,6 +614,7 @@ impl Program {
                 r[out2 as usize] = wv * t;
             }
             Op::Closure(ref c) => c.apply(r, g, out),
+            Op::Texture(ref t) => t.run(r),
         }
     }
 

@@ -257,7 +257,10 @@ impl<'a> Loader<'a> {
         let mut instance_count = 0;
         let mut degenerate = 0;
         let mut area_lights = Vec::new();
-        let objects: Vec<crate::shader::program::ObjectData> = Vec::new();
+        // Shader graphs read the instance (Object coordinates, Object Info, Generated):
+        // per-triangle instance indices are kept only when a graph is present.
+        let graphs = materials.iter().any(|m| m.nodes.is_some());
+        let mut objects: Vec<crate::shader::program::ObjectData> = Vec::new();
         for (node_index, world) in &instances {
             let node = doc.nodes().nth(*node_index).expect("validated index");
             let node_name = node.name().map(str::to_string).unwrap_or_else(|| format!("node {node_index}"));
@@ -268,6 +271,12 @@ impl<'a> Loader<'a> {
                 used_meshes.insert(m.index());
                 instance_count += 1;
                 degenerate += self.append_mesh(&m, world, &buffers, &mut materials, default_material, &mut mesh)?;
+                if graphs {
+                    let texspace = value.pointer(&format!("/meshes/{}/extras/CAUSTIC_texspace", m.index()));
+                    objects.push(shader_graph::object_data(world, &node_name, texspace));
+                    let o = objects.len() as u32 - 1;
+                    mesh.tri_object.resize(mesh.triangles.len(), o);
+                }
             }
             if let Some(c) = node.camera() {
                 let blender = node.extension_value("CAUSTIC_camera").cloned();

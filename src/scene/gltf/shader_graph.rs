@@ -99,3 +99,34 @@ impl Loader<'_> {
         }
     }
 }
+
+/// What a shader graph reads of an instance: its inverse world matrix and location, a
+/// per-object random number, and the mesh's texture space (`CAUSTIC_texspace` extras).
+///
+/// Object Info's Random: Cycles hashes the object's name with Blender's own string hash;
+/// Caustic hashes the node's name (the Blender object's name) with its own integer hash,
+/// so the value is stable per object and uniform in [0, 1) but not Cycles' number.
+pub(super) fn object_data(
+    world: &glam::Mat4,
+    node_name: &str,
+    texspace: Option<&serde_json::Value>,
+) -> crate::shader::program::ObjectData {
+    let mut h = 0x9e37_79b9u32;
+    for b in node_name.bytes() {
+        h = crate::math::hash_u32(h ^ b as u32);
+    }
+    let vec3 = |v: Option<&serde_json::Value>| -> Option<glam::Vec3> {
+        let a = v?.as_array()?;
+        if a.len() != 3 {
+            return None;
+        }
+        Some(glam::Vec3::new(a[0].as_f64()? as f32, a[1].as_f64()? as f32, a[2].as_f64()? as f32))
+    };
+    let texspace = texspace.and_then(|t| Some((vec3(t.get("location"))?, vec3(t.get("size"))?)));
+    crate::shader::program::ObjectData {
+        world_to_object: world.inverse(),
+        location: world.w_axis.truncate(),
+        random: (h >> 8) as f32 / 16_777_216.0,
+        texspace,
+    }
+}
