@@ -80,10 +80,15 @@ fn render_plane(material: Value, spp: u32) -> Vec<([f32; 3], f32, f32)> {
 /// [`render_plane`] of the plane on a node scaled by `scale`.
 fn render_plane_scaled(material: Value, spp: u32, scale: f32) -> Vec<([f32; 3], f32, f32)> {
     let dir = temp_dir();
-    let scene = plane_scene_scaled(dir.path(), "plane.gltf", material, scale);
+    render_plane_in(dir.path(), material, spp, scale)
+}
+
+/// [`render_plane_scaled`] in a given directory (for graphs with image files).
+fn render_plane_in(dir: &Path, material: Value, spp: u32, scale: f32) -> Vec<([f32; 3], f32, f32)> {
+    let scene = plane_scene_scaled(dir, "plane.gltf", material, scale);
     let res = format!("{RES}x{RES}");
     let spp = spp.to_string();
-    let px = render_image(&scene, &dir.path().join("o.exr"), &["--resolution", &res, "--spp", &spp], LIMIT);
+    let px = render_image(&scene, &dir.join("o.exr"), &["--resolution", &res, "--spp", &spp], LIMIT);
     px.iter()
         .enumerate()
         .map(|(i, p)| {
@@ -206,6 +211,53 @@ fn noise_texture_node_gives_the_function_value() {
         // 1 per lattice unit, fBM sums of halving amplitude), 0.25 units per pixel: samples
         // within 0.0005 pixel move it by < 4e-4.
         assert!((c[0] - want).abs() < 1e-3, "({x}, {y}): {} vs {want}", c[0]);
+    }
+}
+
+/// Image Texture (Closest, Repeat) on UV: each quadrant of the plane shows one texel of a
+/// 2×2 sRGB PNG, decoded to linear; a ColorRamp on UV's u gives u back through its table.
+#[test]
+fn image_texture_and_color_ramp() {
+    let dir = temp_dir();
+    let texels: [[u8; 4]; 4] = [[255, 0, 0, 255], [0, 128, 0, 255], [0, 0, 64, 255], [255, 255, 255, 255]];
+    let mut img = image::RgbaImage::new(2, 2);
+    for (k, t) in texels.iter().enumerate() {
+        img.put_pixel(k as u32 % 2, k as u32 / 2, image::Rgba(*t));
+    }
+    img.save(dir.path().join("tex.png")).unwrap();
+    let nodes = json!([
+        {"name": "Image", "type": "ShaderNodeTexImage",
+         "props": {"image": 0, "interpolation": "Closest", "projection": "FLAT", "extension": "REPEAT"}},
+        {"name": "Emission", "type": "ShaderNodeEmission",
+         "inputs": {"Color": {"link": [0, "Color"]}, "Strength": {"value": 1.0}}}
+    ]);
+    let mut m = node_material("img", nodes, json!([1, "Emission"]));
+    m["extensions"]["CAUSTIC_materials_nodes"]["images"] = json!([{"uri": "tex.png", "colorspace": "sRGB"}]);
+    let srgb = |c: u8| {
+        let c = c as f32 / 255.0;
+        if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
+    };
+    for (c, x, y) in render_plane_in(dir.path(), m, 4, 1.0) {
+        // The image's top row is at the top of the plane (y > 0).
+        let k = (x > 0.0) as usize + 2 * (y < 0.0) as usize;
+        let want = [srgb(texels[k][0]), srgb(texels[k][1]), srgb(texels[k][2])];
+        for ch in 0..3 {
+            assert!((c[ch] - want[ch]).abs() < 1e-5, "({x}, {y}) channel {ch}: {} vs {}", c[ch], want[ch]);
+        }
+    }
+    let table: Vec<Value> = (0..256).map(|i| json!([i as f32 / 255.0, 0.5, 0.0, 1.0])).collect();
+    let nodes = json!([
+        {"name": "TexCoord", "type": "ShaderNodeTexCoord"},
+        {"name": "Separate", "type": "ShaderNodeSeparateXYZ", "inputs": {"Vector": {"link": [0, "UV"]}}},
+        {"name": "Ramp", "type": "ShaderNodeValToRGB",
+         "props": {"color_ramp": {"interpolation": "LINEAR", "table": table}}, "inputs": {"Fac": {"link": [1, "X"]}}},
+        {"name": "Emission", "type": "ShaderNodeEmission",
+         "inputs": {"Color": {"link": [2, "Color"]}, "Strength": {"value": 1.0}}}
+    ]);
+    for (c, x, _) in render_plane(node_material("ramp", nodes, json!([3, "Emission"])), 4) {
+        // A linear table read linearly is the identity (to f32 rounding).
+        let u = (x + 1.0) / 2.0;
+        assert!((c[0] - u).abs() < 2e-4 && (c[1] - 0.5).abs() < 1e-6, "({x}): {c:?} vs {u}");
     }
 }
 

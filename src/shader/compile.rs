@@ -10,6 +10,7 @@
 
 use super::closure::{CAPACITY, ClosureKind, ClosureOp, Closures, PrincipledRegs};
 use super::graph::{NodeDesc, NodesExt, check_and_sort};
+use super::image_node::{Extension, ImageOp, Interp, Projection};
 use super::ops::{Blend, MathOp, RangeInterp, VecOp};
 use super::program::{ColorSpace, CurveKind, CurveTable, Geom, InputKind, MappingKind, ObjectData, Op, Program, Reg};
 use super::texture_nodes::{TexOp, dims as noise_dims, noise_kind};
@@ -46,8 +47,9 @@ pub struct Compiled {
     pub uses_generated: bool,
 }
 
-/// Compiles `ext` for material `name`; errors name the node.
-pub fn compile(name: &str, ext: &NodesExt) -> Result<Compiled, String> {
+/// Compiles `ext` for material `name`, whose `images` are scene textures `images[i]`;
+/// errors name the node.
+pub fn compile(name: &str, ext: &NodesExt, images: &[u32]) -> Result<Compiled, String> {
     let order = check_and_sort(ext)?;
     let mut used = HashSet::new();
     for n in &ext.nodes {
@@ -62,6 +64,7 @@ pub fn compile(name: &str, ext: &NodesExt) -> Result<Compiled, String> {
     }
     let mut c = Compiler {
         ext,
+        images,
         init: Vec::new(),
         konst: Vec::new(),
         ops: Vec::new(),
@@ -131,11 +134,13 @@ fn dummy_geom(o: &ObjectData) -> Geom<'_> {
         tangent: Vec4::ZERO,
         backfacing: false,
         object: o,
+        textures: &[],
     }
 }
 
 struct Compiler<'a> {
     ext: &'a NodesExt,
+    images: &'a [u32],
     init: Vec<f32>,
     konst: Vec<bool>,
     ops: Vec<Op>,
@@ -820,6 +825,51 @@ impl<'a> Compiler<'a> {
                 let value = self.out(i, "Value", Ty::Float);
                 let color = self.out(i, "Color", Ty::Color);
                 self.ops.push(Op::Texture(Box::new(TexOp::WhiteNoise { dims, vector, w, value, color })));
+            }
+            "ShaderNodeTexImage" => {
+                let texture = match self.desc(i).props.get("image").and_then(Value::as_u64) {
+                    Some(k) => Some(*self.images.get(k as usize).ok_or_else(|| {
+                        self.err(i, format!("image {k} is not in the graph's images ({})", self.images.len()))
+                    })?),
+                    None => {
+                        self.warn(i, "the node has no image: it gives magenta, as Cycles");
+                        None
+                    }
+                };
+                let interp = match self.prop_str(i, "interpolation", "Linear") {
+                    "Closest" => Interp::Closest,
+                    "Linear" => Interp::Linear,
+                    "Cubic" | "Smart" => Interp::Cubic,
+                    other => return Err(self.err(i, format!("unknown interpolation '{other}'"))),
+                };
+                let extension = match self.prop_str(i, "extension", "REPEAT") {
+                    "REPEAT" => Extension::Repeat,
+                    "EXTEND" => Extension::Extend,
+                    "CLIP" => Extension::Clip,
+                    "MIRROR" => Extension::Mirror,
+                    other => return Err(self.err(i, format!("unknown extension '{other}'"))),
+                };
+                let projection = match self.prop_str(i, "projection", "FLAT") {
+                    "FLAT" => Projection::Flat,
+                    "BOX" => Projection::Box,
+                    "SPHERE" => Projection::Sphere,
+                    "TUBE" => Projection::Tube,
+                    other => return Err(self.err(i, format!("unknown projection '{other}'"))),
+                };
+                let blend = self.desc(i).props.get("projection_blend").and_then(Value::as_f64).unwrap_or(0.0) as f32;
+                let vector = self.vec_implicit(i, "Vector", InputKind::Uv(self.tex_coord(i)))?;
+                let normal = if projection == Projection::Box {
+                    let n = self.alloc(3);
+                    self.ops.push(Op::Input { what: InputKind::ObjectNormal, out: n });
+                    n
+                } else {
+                    vector
+                };
+                let color = self.out(i, "Color", Ty::Color);
+                let alpha = self.out(i, "Alpha", Ty::Float);
+                self.all_const = false;
+                let op = ImageOp { texture, interp, extension, projection, blend, vector, normal, color, alpha };
+                self.ops.push(Op::Image(Box::new(op)));
             }
             _ => return Ok(false),
         }

@@ -4,6 +4,7 @@ pub mod texture;
 pub mod closure;
 pub mod compile;
 pub mod graph;
+pub mod image_node;
 pub mod ops;
 pub mod program;
 pub mod shade;

@@ -67,6 +67,8 @@ pub struct Geom<'a> {
     pub backfacing: bool,
     /// The instance.
     pub object: &'a ObjectData,
+    /// The scene's textures (Image Texture nodes).
+    pub textures: &'a [crate::scene::Texture],
 }
 
 /// Which geometric quantity an `Input` op reads (each in Blender axes).
@@ -351,6 +353,8 @@ pub enum Op {
     Closure(Box<super::closure::ClosureOp>),
     /// A procedural texture (shader/texture_nodes.rs).
     Texture(Box<super::texture_nodes::TexOp>),
+    /// An Image Texture (shader/image_node.rs).
+    Image(Box<super::image_node::ImageOp>),
 }
 
 /// A compiled material graph.
@@ -615,6 +619,7 @@ impl Program {
             }
             Op::Closure(ref c) => c.apply(r, g, out),
             Op::Texture(ref t) => t.run(r),
+            Op::Image(ref t) => t.run(r, g.textures),
         }
     }
 

@@ -37,6 +37,7 @@ fn evaluate(scene: &Scene, prog: &Program, s: &SurfaceHit, wo: Vec3) -> Closures
         tangent: s.tangent,
         backfacing: !s.front,
         object: scene.object_of(s.tri),
+        textures: &scene.textures,
     };
     let mut out = Closures::default();
     with_registers(|regs| prog.run(&g, regs, &mut out));
@@ -95,7 +96,14 @@ pub fn shade_nodes(scene: &Scene, prog: &Program, s: &SurfaceHit, wo: Vec3, doub
 
 /// The shading point at barycentrics of a triangle without a ray: the viewer is taken
 /// along the normal (Fresnel-driven transparency or emission then uses normal incidence).
-pub fn geom_at<'a>(mesh: &Mesh, objects: &'a [ObjectData], tri: u32, b1: f32, b2: f32) -> Geom<'a> {
+pub fn geom_at<'a>(
+    mesh: &Mesh,
+    objects: &'a [ObjectData],
+    textures: &'a [crate::scene::Texture],
+    tri: u32,
+    b1: f32,
+    b2: f32,
+) -> Geom<'a> {
     let m = mesh;
     let [i0, i1, i2] = m.triangles[tri as usize].map(|i| i as usize);
     let b0 = 1.0 - b1 - b2;
@@ -109,12 +117,12 @@ pub fn geom_at<'a>(mesh: &Mesh, objects: &'a [ObjectData], tri: u32, b1: f32, b2
         Some(&o) => objects.get(o as usize).unwrap_or(&NO_OBJECT),
         None => &NO_OBJECT,
     };
-    Geom { p, n: ns, ng, wo: ns, uv, color, tangent, backfacing: false, object }
+    Geom { p, n: ns, ng, wo: ns, uv, color, tangent, backfacing: false, object, textures }
 }
 
 /// The graph's opacity at barycentrics (1 − its Transparent weight, grey by the mean).
 pub fn node_alpha(scene: &Scene, prog: &Program, tri: u32, b1: f32, b2: f32) -> f32 {
-    let g = geom_at(&scene.mesh, &scene.objects, tri, b1, b2);
+    let g = geom_at(&scene.mesh, &scene.objects, &scene.textures, tri, b1, b2);
     let mut out = Closures::default();
     with_registers(|regs| prog.run(&g, regs, &mut out));
     let t = out.transparent;
@@ -122,11 +130,19 @@ pub fn node_alpha(scene: &Scene, prog: &Program, tri: u32, b1: f32, b2: f32) -> 
 }
 
 /// The emission of a node material at barycentrics, seen along the normal.
-pub fn node_emission(mesh: &Mesh, objects: &[ObjectData], prog: &Program, tri: u32, b1: f32, b2: f32) -> Rgb {
+pub fn node_emission(
+    mesh: &Mesh,
+    objects: &[ObjectData],
+    textures: &[crate::scene::Texture],
+    prog: &Program,
+    tri: u32,
+    b1: f32,
+    b2: f32,
+) -> Rgb {
     if let Some(e) = prog.constant_emission {
         return e;
     }
-    let g = geom_at(mesh, objects, tri, b1, b2);
+    let g = geom_at(mesh, objects, textures, tri, b1, b2);
     let mut out = Closures::default();
     with_registers(|regs| prog.run(&g, regs, &mut out));
     out.emission.max(Vec3::ZERO)
@@ -139,7 +155,7 @@ impl Scene {
     pub fn emission_at(&self, tri: u32, b1: f32, b2: f32) -> Rgb {
         let mat = &self.materials[self.mesh.tri_material[tri as usize] as usize];
         match &mat.nodes {
-            Some(prog) => node_emission(&self.mesh, &self.objects, prog, tri, b1, b2),
+            Some(prog) => node_emission(&self.mesh, &self.objects, &self.textures, prog, tri, b1, b2),
             None => mat.emission(&self.textures, self.attributes(tri, b1, b2).0),
         }
     }

@@ -25,8 +25,12 @@ impl Loader<'_> {
         features.push("CAUSTIC_materials_nodes".into());
         let ext: NodesExt = serde_json::from_value(v.clone())
             .map_err(|e| self.err(format!("material '{name}': CAUSTIC_materials_nodes is malformed: {e}")))?;
-        let compiled =
-            compile(&name, &ext).map_err(|e| self.err(format!("material '{name}': CAUSTIC_materials_nodes: {e}")))?;
+        let mut images = Vec::with_capacity(ext.images.len());
+        for (k, img) in ext.images.iter().enumerate() {
+            images.push(self.node_image(&name, k, img)?);
+        }
+        let compiled = compile(&name, &ext, &images)
+            .map_err(|e| self.err(format!("material '{name}': CAUSTIC_materials_nodes: {e}")))?;
         for w in compiled.warnings {
             self.warn(format!("material '{name}': {w}"));
         }
@@ -54,6 +58,59 @@ impl Loader<'_> {
         };
         mat.nodes = Some(Arc::new(prog));
         Ok(())
+    }
+}
+
+impl Loader<'_> {
+    /// Decodes image `k` of a material's graph into a scene texture; returns its index.
+    fn node_image(&mut self, material: &str, k: usize, img: &crate::shader::graph::ImageDesc) -> Result<u32> {
+        let what = format!("material '{material}': CAUSTIC_materials_nodes image {k} '{}'", img.uri);
+        let srgb = match img.colorspace.as_str() {
+            "sRGB" => true,
+            "Non-Color" | "Linear Rec.709" | "Linear" => false,
+            other => {
+                self.warn(format!("{what}: colour space '{other}' is read as linear (not converted)"));
+                false
+            }
+        };
+        let bytes = self.resolve_uri(&img.uri, &what)?;
+        let reader = image::ImageReader::new(std::io::Cursor::new(&bytes))
+            .with_guessed_format()
+            .map_err(|e| self.err(format!("{what}: {e}")))?;
+        let (w, h) = reader.into_dimensions().map_err(|e| self.err(format!("{what}: cannot read the header: {e}")))?;
+        if w == 0 || h == 0 || w > super::MAX_TEXTURE_SIDE || h > super::MAX_TEXTURE_SIDE {
+            return Err(self.err(format!("{what}: size {w}×{h} is outside 1..={} per side", super::MAX_TEXTURE_SIDE)));
+        }
+        let texels = w as u64 * h as u64;
+        self.budget.charge(format!("{what} ({w}×{h})"), texels * 4)?;
+        self.budget.check_peak(format!("decoding {what}"), texels * 16)?;
+        let start = std::time::Instant::now();
+        let decoded = image::ImageReader::new(std::io::Cursor::new(&bytes))
+            .with_guessed_format()
+            .map_err(|e| self.err(format!("{what}: {e}")))?
+            .decode()
+            .map_err(|e| self.err(format!("{what}: cannot decode: {e}")))?;
+        if decoded.color().has_color()
+            && matches!(decoded, image::DynamicImage::ImageRgb32F(_) | image::DynamicImage::ImageRgba32F(_))
+        {
+            self.warn(format!("{what}: a float image is kept at 8 bits per channel (values clamped to [0, 1])"));
+        }
+        let texels: Vec<[u8; 4]> = decoded.to_rgba8().pixels().map(|p| p.0).collect();
+        self.profile.decode_textures += start.elapsed().as_secs_f64();
+        let tex = crate::scene::Texture {
+            name: img.uri.clone(),
+            width: w,
+            height: h,
+            texels,
+            srgb,
+            wrap_s: crate::scene::texture::Wrap::Repeat,
+            wrap_t: crate::scene::texture::Wrap::Repeat,
+            nearest: false,
+            mean: glam::Vec3::ZERO,
+        }
+        .with_mean();
+        self.textures.push(tex);
+        Ok(self.textures.len() as u32 - 1)
     }
 }
 
@@ -87,7 +144,8 @@ impl Loader<'_> {
             let mut sum = glam::Vec3::ZERO;
             let mut n = 0;
             for &t in tris.iter().step_by(stride) {
-                sum += crate::shader::shade::node_emission(mesh, objects, prog, t, 1.0 / 3.0, 1.0 / 3.0);
+                sum +=
+                    crate::shader::shade::node_emission(mesh, objects, &self.textures, prog, t, 1.0 / 3.0, 1.0 / 3.0);
                 n += 1;
             }
             let mean = sum / n as f32;
