@@ -326,3 +326,56 @@ fn snoise_lipschitz_bound() {
     // The sum over at most 4 axes of the largest slope, with 10% for steps that missed a peak.
     assert!(4.0 * 1.1 * max_slope < SNOISE_LIPSCHITZ, "{max_slope}");
 }
+
+fn voronoi_params(case: &Case) -> VoronoiParams {
+    VoronoiParams {
+        dims: case.dims("voronoi_dimensions"),
+        feature: match case.prop_str("feature") {
+            "F1" => VoronoiFeature::F1,
+            "F2" => VoronoiFeature::F2,
+            "SMOOTH_F1" => VoronoiFeature::SmoothF1,
+            "DISTANCE_TO_EDGE" => VoronoiFeature::DistanceToEdge,
+            "N_SPHERE_RADIUS" => VoronoiFeature::NSphereRadius,
+            other => panic!("unknown voronoi feature {other}"),
+        },
+        metric: match case.prop_str("distance") {
+            "EUCLIDEAN" => VoronoiMetric::Euclidean,
+            "MANHATTAN" => VoronoiMetric::Manhattan,
+            "CHEBYCHEV" => VoronoiMetric::Chebychev,
+            "MINKOWSKI" => VoronoiMetric::Minkowski,
+            other => panic!("unknown voronoi metric {other}"),
+        },
+        normalize: case.prop_bool("normalize"),
+        scale: case.input("Scale", 5.0),
+        detail: case.input("Detail", 0.0),
+        roughness: case.input("Roughness", 0.5),
+        lacunarity: case.input("Lacunarity", 2.0),
+        smoothness: case.input("Smoothness", 1.0),
+        exponent: case.input("Exponent", 0.5),
+        randomness: case.input("Randomness", 1.0),
+    }
+}
+
+#[test]
+fn voronoi_matches_blender() {
+    let reference = load();
+    compare(
+        &reference,
+        "voronoi",
+        |case, p, w| {
+            let out = voronoi_texture(p, w, &voronoi_params(case));
+            vec![
+                ("Distance", Out::Scalar(out.distance)),
+                ("Color", Out::Color(out.color)),
+                ("Position", Out::Color(out.position)),
+                ("W", Out::Scalar(out.w)),
+                ("Radius", Out::Scalar(out.radius)),
+            ]
+            .into_iter()
+            .filter(|(name, _)| case.outputs.contains_key(*name))
+            .collect()
+        },
+        |_, _, _, _, blender| 1e-5 * blender.abs().max(1.0),
+        |_, _, _| false,
+    );
+}

@@ -8,7 +8,9 @@ pub mod fractal;
 pub mod hash;
 pub mod noise;
 pub mod perlin;
+pub mod voronoi;
 pub mod white_noise;
 
 pub use noise::{NoiseKind, NoiseParams, noise_texture};
+pub use voronoi::{VoronoiFeature, VoronoiMetric, VoronoiOut, VoronoiParams, voronoi_texture};
 pub use white_noise::white_noise_texture;
