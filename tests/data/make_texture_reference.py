@@ -146,16 +146,60 @@ def cases():
 
 
 def cycles_cases():
-    """Nodes whose geometry-node implementation differs from Cycles', checked by rendering.
+    """Nodes evaluated by rendering with Cycles (see render_with_cycles).
 
-    Magic: Cycles takes the unscaled vector modulo 2 pi before scaling (svm/magic.h), geometry
-    nodes do not (node_shader_tex_magic.cc); the two agree only where |p| < 2 pi on every axis.
+    Magic, because its geometry-node implementation differs from Cycles': Cycles takes the
+    unscaled vector modulo 2 pi before scaling (svm/magic.h), geometry nodes do not
+    (node_shader_tex_magic.cc).
     """
     vec = "FLOAT_VECTOR"
     out = []
     for depth, distortion in [(0, 1.7), (1, 1.7), (2, 1.7), (5, 1.7), (10, 1.7), (3, 0.0)]:
         out.append(("magic", "ShaderNodeTexMagic", {"turbulence_depth": depth},
                     {"Scale": 4.1, "Distortion": distortion}, [("Color", vec), ("Fac", "FLOAT")]))
+
+    # A cross-check of the geometry-node reference: one or two settings of every other node,
+    # rendered by Cycles too.
+    out.append(("white_noise", "ShaderNodeTexWhiteNoise", {"noise_dimensions": "4D"}, {},
+                [("Value", "FLOAT"), ("Color", vec)]))
+    noise = dict(Scale=1.7, Detail=2.5, Roughness=0.6, Lacunarity=2.1, Offset=0.8, Gain=1.3,
+                 Distortion=0.7)
+    for dims, kind in [("4D", "FBM"), ("3D", "RIDGED_MULTIFRACTAL"), ("1D", "MULTIFRACTAL")]:
+        out.append(("noise", "ShaderNodeTexNoise",
+                    {"noise_dimensions": dims, "noise_type": kind, "normalize": True}, noise,
+                    [("Fac", "FLOAT"), ("Color", vec)]))
+    voronoi = dict(Scale=2.3, Detail=1.5, Roughness=0.55, Lacunarity=2.2, Smoothness=0.8,
+                   Exponent=1.3, Randomness=0.85)
+    for dims, feature, metric, outputs in [
+        ("3D", "F1", "EUCLIDEAN", [("Distance", "FLOAT"), ("Color", vec), ("Position", vec)]),
+        ("4D", "SMOOTH_F1", "MINKOWSKI", [("Distance", "FLOAT"), ("Color", vec), ("W", "FLOAT")]),
+        ("2D", "F2", "MANHATTAN", [("Distance", "FLOAT"), ("Color", vec)]),
+        ("3D", "DISTANCE_TO_EDGE", "EUCLIDEAN", [("Distance", "FLOAT")]),
+        ("4D", "N_SPHERE_RADIUS", "EUCLIDEAN", [("Radius", "FLOAT")]),
+    ]:
+        out.append(("voronoi", "ShaderNodeTexVoronoi",
+                    {"voronoi_dimensions": dims, "feature": feature, "distance": metric,
+                     "normalize": True}, voronoi, outputs))
+    out.append(("checker", "ShaderNodeTexChecker", {},
+                {"Color1": (0.9, 0.2, 0.1, 1.0), "Color2": (0.05, 0.3, 0.8, 1.0), "Scale": 3.7},
+                [("Color", vec), ("Fac", "FLOAT")]))
+    for kind in ["RADIAL", "EASING", "QUADRATIC_SPHERE"]:
+        out.append(("gradient", "ShaderNodeTexGradient", {"gradient_type": kind}, {},
+                    [("Fac", "FLOAT")]))
+    wave = {"Scale": 1.3, "Distortion": 2.0, "Detail": 2.5, "Detail Scale": 1.3,
+            "Detail Roughness": 0.6, "Phase Offset": 0.4}
+    out.append(("wave", "ShaderNodeTexWave",
+                {"wave_type": "RINGS", "rings_direction": "SPHERICAL", "wave_profile": "SAW"}, wave,
+                [("Fac", "FLOAT")]))
+    out.append(("wave", "ShaderNodeTexWave",
+                {"wave_type": "BANDS", "bands_direction": "DIAGONAL", "wave_profile": "SIN"},
+                wave, [("Fac", "FLOAT")]))
+    out.append(("brick", "ShaderNodeTexBrick",
+                {"offset": 0.3, "offset_frequency": 3, "squash": 0.6, "squash_frequency": 2},
+                {"Scale": 2.2, "Mortar Size": 0.05, "Mortar Smooth": 0.3, "Bias": 0.2,
+                 "Brick Width": 0.7, "Row Height": 0.3, "Color1": (0.8, 0.8, 0.8, 1.0),
+                 "Color2": (0.2, 0.2, 0.2, 1.0), "Mortar": (0.0, 0.1, 0.3, 1.0)},
+                [("Color", vec), ("Fac", "FLOAT")]))
     return out
 
 
