@@ -17,6 +17,8 @@ use serde_json::Value;
 /// One texture node in one setting and what Blender computed with it.
 struct Case {
     texture: String,
+    /// Rendered by Cycles (`cycles_cases`) rather than evaluated by geometry nodes.
+    cycles: bool,
     properties: serde_json::Map<String, Value>,
     inputs: serde_json::Map<String, Value>,
     outputs: BTreeMap<String, Vec<f32>>,
@@ -42,12 +44,13 @@ fn load() -> Reference {
     let position: Vec<Vec3> = floats(&doc["position"]).chunks_exact(3).map(Vec3::from_slice).collect();
     let w = floats(&doc["w"]);
     assert_eq!(position.len(), w.len());
-    let cases = doc["cases"]
-        .as_array()
-        .expect("cases")
-        .iter()
-        .map(|c| Case {
+    let geometry_nodes = doc["cases"].as_array().expect("cases").iter().map(|c| (c, false));
+    let cycles = doc["cycles_cases"].as_array().expect("cycles cases").iter().map(|c| (c, true));
+    let cases = geometry_nodes
+        .chain(cycles)
+        .map(|(c, cycles)| Case {
             texture: c["texture"].as_str().expect("texture").to_owned(),
+            cycles,
             properties: c["properties"].as_object().expect("properties").clone(),
             inputs: c["inputs"].as_object().expect("inputs").clone(),
             outputs: c["outputs"].as_object().expect("outputs").iter().map(|(k, v)| (k.clone(), floats(v))).collect(),
@@ -91,8 +94,9 @@ impl Case {
     }
     fn describe(&self) -> String {
         format!(
-            "{} {:?} {:?}",
+            "{}{} {:?} {:?}",
             self.texture,
+            if self.cycles { " (Cycles render)" } else { "" },
             Value::Object(self.properties.clone()),
             Value::Object(self.inputs.clone())
         )
@@ -297,4 +301,255 @@ fn snoise_lipschitz_bound() {
     println!("largest snoise slope {max_slope}");
     // The sum over at most 4 axes of the largest slope, with 10% for steps that missed a peak.
     assert!(4.0 * 1.1 * max_slope < SNOISE_LIPSCHITZ, "{max_slope}");
+}
+
+fn voronoi_params(case: &Case) -> VoronoiParams {
+    VoronoiParams {
+        dims: case.dims("voronoi_dimensions"),
+        feature: match case.prop_str("feature") {
+            "F1" => VoronoiFeature::F1,
+            "F2" => VoronoiFeature::F2,
+            "SMOOTH_F1" => VoronoiFeature::SmoothF1,
+            "DISTANCE_TO_EDGE" => VoronoiFeature::DistanceToEdge,
+            "N_SPHERE_RADIUS" => VoronoiFeature::NSphereRadius,
+            other => panic!("unknown voronoi feature {other}"),
+        },
+        metric: match case.prop_str("distance") {
+            "EUCLIDEAN" => VoronoiMetric::Euclidean,
+            "MANHATTAN" => VoronoiMetric::Manhattan,
+            "CHEBYCHEV" => VoronoiMetric::Chebychev,
+            "MINKOWSKI" => VoronoiMetric::Minkowski,
+            other => panic!("unknown voronoi metric {other}"),
+        },
+        normalize: case.prop_bool("normalize"),
+        scale: case.input("Scale", 5.0),
+        detail: case.input("Detail", 0.0),
+        roughness: case.input("Roughness", 0.5),
+        lacunarity: case.input("Lacunarity", 2.0),
+        smoothness: case.input("Smoothness", 1.0),
+        exponent: case.input("Exponent", 0.5),
+        randomness: case.input("Randomness", 1.0),
+    }
+}
+
+#[test]
+fn voronoi_matches_blender() {
+    let reference = load();
+    compare(
+        &reference,
+        "voronoi",
+        |case, p, w| {
+            let out = voronoi_texture(p, w, &voronoi_params(case));
+            vec![
+                ("Distance", Out::Scalar(out.distance)),
+                ("Color", Out::Color(out.color)),
+                ("Position", Out::Color(out.position)),
+                ("W", Out::Scalar(out.w)),
+                ("Radius", Out::Scalar(out.radius)),
+            ]
+            .into_iter()
+            .filter(|(name, _)| case.outputs.contains_key(*name))
+            .collect()
+        },
+        |_, _, _, _, blender| 1e-5 * blender.abs().max(1.0),
+        |_, _, _| false,
+    );
+}
+
+/// Relative-or-absolute closeness for outputs of order 1: 1e-5 (~80 ulps at 1) covers a
+/// different operation order in a few dozen f32 operations.
+fn order_one(blender: f32) -> f32 {
+    1e-5 * blender.abs().max(1.0)
+}
+
+#[test]
+fn checker_matches_blender() {
+    let reference = load();
+    compare(
+        &reference,
+        "checker",
+        |case, p, _| {
+            let (color, fac) = checker_texture(
+                p,
+                case.color("Color1"),
+                case.color("Color2"),
+                case.input("Scale", 5.0),
+            );
+            vec![("Color", Out::Color(color)), ("Fac", Out::Scalar(fac))]
+        },
+        |_, _, _, _, _| 0.0,
+        |_, _, _| false,
+    );
+}
+
+#[test]
+fn gradient_matches_blender() {
+    let reference = load();
+    compare(
+        &reference,
+        "gradient",
+        |case, p, _| {
+            let kind = match case.prop_str("gradient_type") {
+                "LINEAR" => GradientKind::Linear,
+                "QUADRATIC" => GradientKind::Quadratic,
+                "EASING" => GradientKind::Easing,
+                "DIAGONAL" => GradientKind::Diagonal,
+                "RADIAL" => GradientKind::Radial,
+                "QUADRATIC_SPHERE" => GradientKind::QuadraticSphere,
+                "SPHERICAL" => GradientKind::Spherical,
+                other => panic!("unknown gradient type {other}"),
+            };
+            vec![("Fac", Out::Scalar(gradient_texture(p, kind)))]
+        },
+        |_, _, _, _, blender| order_one(blender),
+        |_, _, _| false,
+    );
+}
+
+/// Geometry nodes' Magic texture is not Cycles': it omits the `fmod(p, 2 pi)` that Cycles
+/// applies to the unscaled vector and scales before summing (node_shader_tex_magic.cc against
+/// svm/magic.h), so its reference is a Cycles render of the same points (`cycles_cases`).
+#[test]
+fn magic_matches_blender() {
+    let reference = load();
+    compare(
+        &reference,
+        "magic",
+        |case, p, _| {
+            let (color, fac) = magic_texture(
+                p,
+                case.prop_i32("turbulence_depth"),
+                case.input("Scale", 5.0),
+                case.input("Distortion", 1.0),
+            );
+            vec![("Color", Out::Color(color)), ("Fac", Out::Scalar(fac))]
+        },
+        |_, _, _, _, blender| order_one(blender),
+        |_, _, _| false,
+    );
+}
+
+fn wave_params(case: &Case) -> WaveParams {
+    let kind = match case.prop_str("wave_type") {
+        "BANDS" => WaveKind::Bands,
+        "RINGS" => WaveKind::Rings,
+        other => panic!("unknown wave type {other}"),
+    };
+    let direction_key = match kind {
+        WaveKind::Bands => "bands_direction",
+        WaveKind::Rings => "rings_direction",
+    };
+    WaveParams {
+        kind,
+        direction: match case.prop_str(direction_key) {
+            "X" => WaveDirection::X,
+            "Y" => WaveDirection::Y,
+            "Z" => WaveDirection::Z,
+            "DIAGONAL" => WaveDirection::Diagonal,
+            "SPHERICAL" => WaveDirection::Spherical,
+            other => panic!("unknown wave direction {other}"),
+        },
+        profile: match case.prop_str("wave_profile") {
+            "SIN" => WaveProfile::Sine,
+            "SAW" => WaveProfile::Saw,
+            "TRI" => WaveProfile::Tri,
+            other => panic!("unknown wave profile {other}"),
+        },
+        scale: case.input("Scale", 5.0),
+        distortion: case.input("Distortion", 0.0),
+        detail: case.input("Detail", 2.0),
+        detail_scale: case.input("Detail Scale", 1.0),
+        detail_roughness: case.input("Detail Roughness", 0.5),
+        phase_offset: case.input("Phase Offset", 0.0),
+    }
+}
+
+#[test]
+fn wave_matches_blender() {
+    let reference = load();
+    compare(
+        &reference,
+        "wave",
+        |case, p, _| {
+            let (fac, _) = wave_texture(p, &wave_params(case));
+            vec![("Fac", Out::Scalar(fac))]
+        },
+        |case, _, p, _, blender| {
+            let prm = wave_params(case);
+            order_one(blender) + profile_slope(prm.profile) * wave_phase_uncertainty(&prm, p)
+        },
+        // The saw profile jumps from 1 to 0 where the phase crosses a multiple of 2 pi; within
+        // the phase's rounding of that jump either side is right.
+        |case, p, _| {
+            let prm = wave_params(case);
+            let (fac, _) = wave_texture(p, &prm);
+            let margin = profile_slope(prm.profile) * wave_phase_uncertainty(&prm, p) + 1e-5;
+            prm.profile == WaveProfile::Saw && (fac < margin || fac > 1.0 - margin)
+        },
+    );
+}
+
+/// |d Fac / d phase| of a wave profile: sine 0.5, saw 1 / 2 pi, triangle 2 / 2 pi.
+fn profile_slope(profile: WaveProfile) -> f32 {
+    match profile {
+        WaveProfile::Sine => 0.5,
+        WaveProfile::Saw => 1.0 / core::f32::consts::TAU,
+        WaveProfile::Tri => 2.0 / core::f32::consts::TAU,
+    }
+}
+
+/// How far the wave's phase may differ between two f32 evaluations in different operation
+/// orders. The phase is ~20 |p| scale (bands along an axis; up to 20 sqrt(3) |p| scale for the
+/// diagonal and rings) plus the phase offset, made by about ten roundings (scale, the nudge,
+/// the direction sum or length, the factor, the offset), each at most one ulp of the phase.
+/// With distortion, it adds distortion (2 fBM - 1): fBM's coordinate p scale dscale may round
+/// to a neighbouring float in each octave i (lacunarity 2), which moves the normalised sum by
+/// at most 0.5 SNOISE_LIPSCHITZ eps |q| sum(r^i 2^i) / sum(r^i); its own arithmetic adds ~1e-5.
+fn wave_phase_uncertainty(prm: &WaveParams, p: Vec3) -> f32 {
+    let extent = p.abs().max_element() * prm.scale.abs() + 1.0;
+    let phase = 20.0 * 3f32.sqrt() * extent + prm.phase_offset.abs() + prm.distortion.abs();
+    let mut delta = 10.0 * f32::EPSILON * phase;
+    if prm.distortion != 0.0 {
+        let q = extent * prm.detail_scale.abs();
+        let octaves = prm.detail.clamp(0.0, 15.0).ceil() as i32;
+        let r = prm.detail_roughness;
+        let weighted: f32 = (0..=octaves).map(|i| (2.0 * r).powi(i)).sum();
+        let total: f32 = (0..=octaves).map(|i| r.powi(i)).sum();
+        let fbm = 0.5 * SNOISE_LIPSCHITZ * f32::EPSILON * q * weighted / total + 1e-5;
+        delta += 2.0 * prm.distortion.abs() * fbm;
+    }
+    delta
+}
+
+fn brick_params(case: &Case) -> BrickParams {
+    BrickParams {
+        offset: case.prop_f32("offset"),
+        offset_frequency: case.prop_i32("offset_frequency"),
+        squash: case.prop_f32("squash"),
+        squash_frequency: case.prop_i32("squash_frequency"),
+        color1: case.color("Color1"),
+        color2: case.color("Color2"),
+        mortar: case.color("Mortar"),
+        scale: case.input("Scale", 5.0),
+        mortar_size: case.input("Mortar Size", 0.02),
+        mortar_smooth: case.input("Mortar Smooth", 0.1),
+        bias: case.input("Bias", 0.0),
+        brick_width: case.input("Brick Width", 0.5),
+        row_height: case.input("Row Height", 0.25),
+    }
+}
+
+#[test]
+fn brick_matches_blender() {
+    let reference = load();
+    compare(
+        &reference,
+        "brick",
+        |case, p, _| {
+            let (color, fac) = brick_texture(p, &brick_params(case));
+            vec![("Color", Out::Color(color)), ("Fac", Out::Scalar(fac))]
+        },
+        |_, _, _, _, blender| order_one(blender),
+        |_, _, _| false,
+    );
 }

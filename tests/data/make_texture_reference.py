@@ -112,9 +112,7 @@ def cases():
         out.append(("gradient", "ShaderNodeTexGradient", {"gradient_type": kind}, {},
                     [("Fac", "FLOAT")]))
 
-    for depth, distortion in [(0, 1.7), (1, 1.7), (2, 1.7), (5, 1.7), (10, 1.7), (3, 0.0)]:
-        out.append(("magic", "ShaderNodeTexMagic", {"turbulence_depth": depth},
-                    {"Scale": 4.1, "Distortion": distortion}, [("Color", vec), ("Fac", "FLOAT")]))
+    # Magic is not here: geometry nodes compute a different function (see cycles_cases).
 
     for kind, directions in [("BANDS", ["X", "Y", "Z", "DIAGONAL"]),
                              ("RINGS", ["X", "Y", "Z", "SPHERICAL"])]:
@@ -147,6 +145,64 @@ def cases():
     return out
 
 
+def cycles_cases():
+    """Nodes evaluated by rendering with Cycles (see render_with_cycles).
+
+    Magic, because its geometry-node implementation differs from Cycles': Cycles takes the
+    unscaled vector modulo 2 pi before scaling (svm/magic.h), geometry nodes do not
+    (node_shader_tex_magic.cc).
+    """
+    vec = "FLOAT_VECTOR"
+    out = []
+    for depth, distortion in [(0, 1.7), (1, 1.7), (2, 1.7), (5, 1.7), (10, 1.7), (3, 0.0)]:
+        out.append(("magic", "ShaderNodeTexMagic", {"turbulence_depth": depth},
+                    {"Scale": 4.1, "Distortion": distortion}, [("Color", vec), ("Fac", "FLOAT")]))
+
+    # A cross-check of the geometry-node reference: one or two settings of every other node,
+    # rendered by Cycles too.
+    out.append(("white_noise", "ShaderNodeTexWhiteNoise", {"noise_dimensions": "4D"}, {},
+                [("Value", "FLOAT"), ("Color", vec)]))
+    noise = dict(Scale=1.7, Detail=2.5, Roughness=0.6, Lacunarity=2.1, Offset=0.8, Gain=1.3,
+                 Distortion=0.7)
+    for dims, kind in [("4D", "FBM"), ("3D", "RIDGED_MULTIFRACTAL"), ("1D", "MULTIFRACTAL")]:
+        out.append(("noise", "ShaderNodeTexNoise",
+                    {"noise_dimensions": dims, "noise_type": kind, "normalize": True}, noise,
+                    [("Fac", "FLOAT"), ("Color", vec)]))
+    voronoi = dict(Scale=2.3, Detail=1.5, Roughness=0.55, Lacunarity=2.2, Smoothness=0.8,
+                   Exponent=1.3, Randomness=0.85)
+    for dims, feature, metric, outputs in [
+        ("3D", "F1", "EUCLIDEAN", [("Distance", "FLOAT"), ("Color", vec), ("Position", vec)]),
+        ("4D", "SMOOTH_F1", "MINKOWSKI", [("Distance", "FLOAT"), ("Color", vec), ("W", "FLOAT")]),
+        ("2D", "F2", "MANHATTAN", [("Distance", "FLOAT"), ("Color", vec)]),
+        ("3D", "DISTANCE_TO_EDGE", "EUCLIDEAN", [("Distance", "FLOAT")]),
+        ("4D", "N_SPHERE_RADIUS", "EUCLIDEAN", [("Radius", "FLOAT")]),
+    ]:
+        out.append(("voronoi", "ShaderNodeTexVoronoi",
+                    {"voronoi_dimensions": dims, "feature": feature, "distance": metric,
+                     "normalize": True}, voronoi, outputs))
+    out.append(("checker", "ShaderNodeTexChecker", {},
+                {"Color1": (0.9, 0.2, 0.1, 1.0), "Color2": (0.05, 0.3, 0.8, 1.0), "Scale": 3.7},
+                [("Color", vec), ("Fac", "FLOAT")]))
+    for kind in ["RADIAL", "EASING", "QUADRATIC_SPHERE"]:
+        out.append(("gradient", "ShaderNodeTexGradient", {"gradient_type": kind}, {},
+                    [("Fac", "FLOAT")]))
+    wave = {"Scale": 1.3, "Distortion": 2.0, "Detail": 2.5, "Detail Scale": 1.3,
+            "Detail Roughness": 0.6, "Phase Offset": 0.4}
+    out.append(("wave", "ShaderNodeTexWave",
+                {"wave_type": "RINGS", "rings_direction": "SPHERICAL", "wave_profile": "SAW"}, wave,
+                [("Fac", "FLOAT")]))
+    out.append(("wave", "ShaderNodeTexWave",
+                {"wave_type": "BANDS", "bands_direction": "DIAGONAL", "wave_profile": "SIN"},
+                wave, [("Fac", "FLOAT")]))
+    out.append(("brick", "ShaderNodeTexBrick",
+                {"offset": 0.3, "offset_frequency": 3, "squash": 0.6, "squash_frequency": 2},
+                {"Scale": 2.2, "Mortar Size": 0.05, "Mortar Smooth": 0.3, "Bias": 0.2,
+                 "Brick Width": 0.7, "Row Height": 0.3, "Color1": (0.8, 0.8, 0.8, 1.0),
+                 "Color2": (0.2, 0.2, 0.2, 1.0), "Mortar": (0.0, 0.1, 0.3, 1.0)},
+                [("Color", vec), ("Fac", "FLOAT")]))
+    return out
+
+
 def socket_by_name(sockets, name):
     """A socket by its UI name (the identifiers of some outputs differ, e.g. Fac)."""
     for s in sockets:
@@ -157,6 +213,94 @@ def socket_by_name(sockets, name):
 
 def b64(array):
     return base64.b64encode(np.asarray(array, dtype="<f4").tobytes()).decode("ascii")
+
+
+def render_with_cycles(pts, ws, all_cases):
+    """Evaluates shader nodes with Cycles itself: one quad per sample point, seen by one pixel
+    of an orthographic camera, carrying the point and w as exact FACE attributes; the node's
+    output drives an Emission shader (strength 1), rendered with 1 sample and a 0.01 box
+    filter (the pixel centre), Standard view transform, no denoising, into a float EXR."""
+    side = 16
+    assert side * side == POINTS
+    scene = bpy.context.scene
+    scene.render.engine = "CYCLES"
+    scene.cycles.device = "CPU"
+    scene.cycles.samples = 1
+    scene.cycles.use_denoising = False
+    scene.cycles.pixel_filter_type = "BOX"
+    scene.cycles.filter_width = 0.01
+    scene.view_settings.view_transform = "Standard"
+    scene.view_settings.look = "None"
+    scene.view_settings.exposure = 0.0
+    scene.view_settings.gamma = 1.0
+    scene.render.dither_intensity = 0.0
+    scene.render.resolution_x = side
+    scene.render.resolution_y = side
+    scene.render.resolution_percentage = 100
+    scene.render.image_settings.file_format = "OPEN_EXR"
+    scene.render.image_settings.color_depth = "32"
+
+    verts, faces = [], []
+    for i in range(POINTS):
+        x, y = i % side, i // side
+        base = len(verts)
+        verts += [(x, y, 0.0), (x + 1, y, 0.0), (x + 1, y + 1, 0.0), (x, y + 1, 0.0)]
+        faces.append((base, base + 1, base + 2, base + 3))
+    mesh = bpy.data.meshes.new("pixels")
+    mesh.from_pydata(verts, [], faces)
+    p_attr = mesh.attributes.new("p", "FLOAT_VECTOR", "FACE")
+    p_attr.data.foreach_set("vector", np.asarray(pts, dtype=np.float32).ravel())
+    w_attr = mesh.attributes.new("w", "FLOAT", "FACE")
+    w_attr.data.foreach_set("value", np.asarray(ws, dtype=np.float32))
+    obj = bpy.data.objects.new("pixels", mesh)
+    scene.collection.objects.link(obj)
+    cam_data = bpy.data.cameras.new("camera")
+    cam_data.type = "ORTHO"
+    cam_data.ortho_scale = side
+    camera = bpy.data.objects.new("camera", cam_data)
+    camera.location = (side / 2, side / 2, 10.0)
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+
+    material = bpy.data.materials.new("texture")
+    obj.data.materials.append(material)
+    nodes, links = material.node_tree.nodes, material.node_tree.links
+    nodes.clear()
+    p_node = nodes.new("ShaderNodeAttribute")
+    p_node.attribute_name = "p"
+    w_node = nodes.new("ShaderNodeAttribute")
+    w_node.attribute_name = "w"
+    emission = nodes.new("ShaderNodeEmission")
+    emission.inputs["Strength"].default_value = 1.0
+    output = nodes.new("ShaderNodeOutputMaterial")
+    links.new(emission.outputs[0], output.inputs["Surface"])
+
+    import tempfile
+    results = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for texture, node_type, props, sockets, outputs in all_cases:
+            node = nodes.new(node_type)
+            for key, value in props.items():
+                setattr(node, key, value)
+            for key, value in sockets.items():
+                socket_by_name(node.inputs, key).default_value = value
+            if "Vector" in node.inputs:
+                links.new(p_node.outputs["Vector"], node.inputs["Vector"])
+            if "W" in node.inputs:
+                links.new(w_node.outputs["Fac"], node.inputs["W"])
+            got = {}
+            for name, data_type in outputs:
+                links.new(socket_by_name(node.outputs, name), emission.inputs["Color"])
+                scene.render.filepath = f"{tmp}/render.exr"
+                bpy.ops.render.render(write_still=True)
+                image = bpy.data.images.load(scene.render.filepath)
+                pixels = np.asarray(image.pixels[:], dtype=np.float32).reshape(-1, 4)
+                bpy.data.images.remove(image)
+                width = 3 if data_type == "FLOAT_VECTOR" else 1
+                got[name] = b64(pixels[:, :width].ravel())
+            nodes.remove(node)
+            results.append(got)
+    return results
 
 
 def main():
@@ -241,6 +385,19 @@ def main():
             for index, (texture, _, props, sockets, _) in enumerate(all_cases)
         ],
     }
+    # Nodes whose geometry-node version differs from Cycles: rendered with Cycles instead, at
+    # the same points (as f32, exactly as the point cloud stored them).
+    rendered_cases = cycles_cases()
+    rendered = render_with_cycles(pos.reshape(-1, 3).tolist(), w.tolist(), rendered_cases)
+    doc["cycles_cases"] = [
+        {
+            "texture": texture,
+            "properties": props,
+            "inputs": {k: list(v) if isinstance(v, tuple) else v for k, v in sockets.items()},
+            "outputs": rendered[index],
+        }
+        for index, (texture, _, props, sockets, _) in enumerate(rendered_cases)
+    ]
     OUT.write_text(json.dumps(doc, indent=0, sort_keys=True) + "\n")
     print(f"{OUT}: {len(all_cases)} cases, {count} points, {OUT.stat().st_size} bytes")
 

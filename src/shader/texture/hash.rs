@@ -1,6 +1,9 @@
 //! Cycles' hashes (`intern/cycles/util/hash.h`): Bob Jenkins' lookup3 on 32-bit words and
 //! the float wrappers the procedural textures seed themselves with.
 //!
+//! Voronoi cells in 2 to 4 dimensions are hashed from their integer coordinates with PCG
+//! (Blender 4.3 on); everything else hashes float bit patterns with lookup3.
+//!
 //! Every function is bit-exact with Cycles: floats are hashed by their bit pattern, and the
 //! `[0, 1]` mapping multiplies by `1 / 2^32` (Cycles divides by `(float)0xFFFFFFFF`, which
 //! rounds to `2^32`), so a hash of `0xFFFFFFFF` gives exactly 1.
@@ -166,6 +169,103 @@ pub fn hash_vector4_to_float3(k: Vec4) -> Vec3 {
         hash_vector4_to_float(Vec4::new(k.z, k.x, k.w, k.y)),
         hash_vector4_to_float(Vec4::new(k.w, k.z, k.y, k.x)),
     )
+}
+
+/// PCG's multiplier and increment (Numerical Recipes' LCG), as Cycles uses them.
+const PCG_MUL: i32 = 1664525;
+const PCG_INC: i32 = 1013904223;
+
+/// Cycles' `hash_pcg2d_i`: Jarzynski and Olano's PCG2D on signed integers (so that OSL can run
+/// it: wrapping arithmetic, arithmetic shift), masked to 31 bits.
+#[inline]
+pub fn hash_pcg2d_i(k: [i32; 2]) -> [i32; 2] {
+    let [mut x, mut y] = k.map(|v| v.wrapping_mul(PCG_MUL).wrapping_add(PCG_INC));
+    x = x.wrapping_add(y.wrapping_mul(PCG_MUL));
+    y = y.wrapping_add(x.wrapping_mul(PCG_MUL));
+    x ^= x >> 16;
+    y ^= y >> 16;
+    x = x.wrapping_add(y.wrapping_mul(PCG_MUL));
+    y = y.wrapping_add(x.wrapping_mul(PCG_MUL));
+    [x & 0x7FFF_FFFF, y & 0x7FFF_FFFF]
+}
+
+/// Cycles' `hash_pcg3d_i` (see [`hash_pcg2d_i`]).
+#[inline]
+pub fn hash_pcg3d_i(k: [i32; 3]) -> [i32; 3] {
+    let [mut x, mut y, mut z] = k.map(|v| v.wrapping_mul(PCG_MUL).wrapping_add(PCG_INC));
+    x = x.wrapping_add(y.wrapping_mul(z));
+    y = y.wrapping_add(z.wrapping_mul(x));
+    z = z.wrapping_add(x.wrapping_mul(y));
+    x ^= x >> 16;
+    y ^= y >> 16;
+    z ^= z >> 16;
+    x = x.wrapping_add(y.wrapping_mul(z));
+    y = y.wrapping_add(z.wrapping_mul(x));
+    z = z.wrapping_add(x.wrapping_mul(y));
+    [x & 0x7FFF_FFFF, y & 0x7FFF_FFFF, z & 0x7FFF_FFFF]
+}
+
+/// Cycles' `hash_pcg4d_i` (see [`hash_pcg2d_i`]).
+#[inline]
+pub fn hash_pcg4d_i(k: [i32; 4]) -> [i32; 4] {
+    let [mut x, mut y, mut z, mut w] = k.map(|v| v.wrapping_mul(PCG_MUL).wrapping_add(PCG_INC));
+    x = x.wrapping_add(y.wrapping_mul(w));
+    y = y.wrapping_add(z.wrapping_mul(x));
+    z = z.wrapping_add(x.wrapping_mul(y));
+    w = w.wrapping_add(y.wrapping_mul(z));
+    x ^= x >> 16;
+    y ^= y >> 16;
+    z ^= z >> 16;
+    w ^= w >> 16;
+    x = x.wrapping_add(y.wrapping_mul(w));
+    y = y.wrapping_add(z.wrapping_mul(x));
+    z = z.wrapping_add(x.wrapping_mul(y));
+    w = w.wrapping_add(y.wrapping_mul(z));
+    [x & 0x7FFF_FFFF, y & 0x7FFF_FFFF, z & 0x7FFF_FFFF, w & 0x7FFF_FFFF]
+}
+
+/// A 31-bit hash to [0, 1]: Cycles multiplies by `1 / (float)0x7FFFFFFF`, and that float is 2^31.
+#[inline(always)]
+fn int31_to_float(h: i32) -> f32 {
+    h as f32 * (1.0 / 2147483648.0)
+}
+
+/// Cycles' `hash_int2_to_float2`: the feature point of a 2-D Voronoi cell.
+#[inline]
+pub fn hash_int2_to_float2(k: [i32; 2]) -> Vec2 {
+    let [x, y] = hash_pcg2d_i(k);
+    Vec2::new(int31_to_float(x), int31_to_float(y))
+}
+
+/// Cycles' `hash_int3_to_float3`.
+#[inline]
+pub fn hash_int3_to_float3(k: [i32; 3]) -> Vec3 {
+    let [x, y, z] = hash_pcg3d_i(k);
+    Vec3::new(int31_to_float(x), int31_to_float(y), int31_to_float(z))
+}
+
+/// Cycles' `hash_int4_to_float4`.
+#[inline]
+pub fn hash_int4_to_float4(k: [i32; 4]) -> Vec4 {
+    let [x, y, z, w] = hash_pcg4d_i(k);
+    Vec4::new(
+        int31_to_float(x),
+        int31_to_float(y),
+        int31_to_float(z),
+        int31_to_float(w),
+    )
+}
+
+/// Cycles' `hash_int2_to_float3`: the 3-D hash of `(k, 0)`.
+#[inline]
+pub fn hash_int2_to_float3(k: [i32; 2]) -> Vec3 {
+    hash_int3_to_float3([k[0], k[1], 0])
+}
+
+/// Cycles' `hash_int4_to_float3`: the first three components of the 4-D hash.
+#[inline]
+pub fn hash_int4_to_float3(k: [i32; 4]) -> Vec3 {
+    hash_int4_to_float4(k).truncate()
 }
 
 #[cfg(test)]
