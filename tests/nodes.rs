@@ -261,6 +261,32 @@ fn image_texture_and_color_ramp() {
     }
 }
 
+/// Checker Texture on UV: every pixel centre shows exactly one of the two colours, the one
+/// the texture function gives there (the cells' edges fall between pixel centres).
+#[test]
+fn checker_gives_exactly_the_two_colours() {
+    use caustic::shader::texture::checker_texture;
+    let nodes = json!([
+        {"name": "TexCoord", "type": "ShaderNodeTexCoord"},
+        {"name": "Checker", "type": "ShaderNodeTexChecker",
+         "inputs": {"Vector": {"link": [0, "UV"]}, "Color1": {"value": [0.9, 0.5, 0.1, 1.0]},
+                    "Color2": {"value": [0.1, 0.2, 0.7, 1.0]}, "Scale": {"value": 2.0}}},
+        {"name": "Emission", "type": "ShaderNodeEmission",
+         "inputs": {"Color": {"link": [1, "Color"]}, "Strength": {"value": 1.0}}}
+    ]);
+    let (c1, c2) = (glam::Vec3::new(0.9, 0.5, 0.1), glam::Vec3::new(0.1, 0.2, 0.7));
+    let mut seen = [false; 2];
+    for (c, x, y) in render_plane(node_material("checker", nodes, json!([2, "Emission"])), 4) {
+        let uv = glam::Vec3::new((x + 1.0) / 2.0, (y + 1.0) / 2.0, 0.0);
+        let want = checker_texture(uv, c1, c2, 2.0).0;
+        let got = glam::Vec3::from(c);
+        assert!((got - want).abs().max_element() < 1e-6, "({x}, {y}): {got} vs {want}");
+        seen[(want == c1) as usize] = true;
+        assert!(want == c1 || want == c2);
+    }
+    assert!(seen[0] && seen[1], "both colours appear");
+}
+
 /// A white furnace of mixed closures: a closed cube of double-sided walls whose graph is
 /// Add(Emission Le, Mix(0.3, Diffuse white, Glossy white)) seen from inside. Every lobe
 /// keeps all the light (the glossy one through multiscatter compensation), so with at most

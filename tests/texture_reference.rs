@@ -369,12 +369,7 @@ fn checker_matches_blender() {
         &reference,
         "checker",
         |case, p, _| {
-            let (color, fac) = checker_texture(
-                p,
-                case.color("Color1"),
-                case.color("Color2"),
-                case.input("Scale", 5.0),
-            );
+            let (color, fac) = checker_texture(p, case.color("Color1"), case.color("Color2"), case.input("Scale", 5.0));
             vec![("Color", Out::Color(color)), ("Fac", Out::Scalar(fac))]
         },
         |_, _, _, _, _| 0.0,

@@ -13,7 +13,9 @@ use super::graph::{NodeDesc, NodesExt, check_and_sort};
 use super::image_node::{Extension, ImageOp, Interp, Projection};
 use super::ops::{Blend, MathOp, RangeInterp, VecOp};
 use super::program::{ColorSpace, CurveKind, CurveTable, Geom, InputKind, MappingKind, ObjectData, Op, Program, Reg};
-use super::texture_nodes::{TexOp, dims as noise_dims, noise_kind};
+use super::texture_nodes::{
+    TexOp, dims as noise_dims, gradient_kind, noise_kind, voronoi_feature, voronoi_metric, wave_settings,
+};
 use glam::{Mat4, Vec2, Vec3, Vec4};
 use serde_json::Value;
 use std::collections::HashSet;
@@ -825,6 +827,110 @@ impl<'a> Compiler<'a> {
                 let value = self.out(i, "Value", Ty::Float);
                 let color = self.out(i, "Color", Ty::Color);
                 self.ops.push(Op::Texture(Box::new(TexOp::WhiteNoise { dims, vector, w, value, color })));
+            }
+            "ShaderNodeTexVoronoi" => {
+                let d = self.prop_str(i, "voronoi_dimensions", "3D");
+                let dims = noise_dims(d).ok_or_else(|| self.err(i, format!("unknown dimensions '{d}'")))?;
+                let f = self.prop_str(i, "feature", "F1");
+                let feature = voronoi_feature(f).ok_or_else(|| self.err(i, format!("unknown feature '{f}'")))?;
+                let m = self.prop_str(i, "distance", "EUCLIDEAN");
+                let metric = voronoi_metric(m).ok_or_else(|| self.err(i, format!("unknown distance '{m}'")))?;
+                let normalize = self.prop_bool(i, "normalize", false);
+                let inputs = [
+                    self.vec_implicit(i, "Vector", InputKind::Generated)?,
+                    self.float(i, "W", 0.0)?,
+                    self.float(i, "Scale", 5.0)?,
+                    self.float(i, "Detail", 0.0)?,
+                    self.float(i, "Roughness", 0.5)?,
+                    self.float(i, "Lacunarity", 2.0)?,
+                    self.float(i, "Smoothness", 1.0)?,
+                    self.float(i, "Exponent", 0.5)?,
+                    self.float(i, "Randomness", 1.0)?,
+                ];
+                let outputs = [
+                    self.out(i, "Distance", Ty::Float),
+                    self.out(i, "Color", Ty::Color),
+                    self.out(i, "Position", Ty::Vector),
+                    self.out(i, "W", Ty::Float),
+                    self.out(i, "Radius", Ty::Float),
+                ];
+                let op = TexOp::Voronoi { dims, feature, metric, normalize, inputs, outputs };
+                self.ops.push(Op::Texture(Box::new(op)));
+            }
+            "ShaderNodeTexWave" => {
+                let (k, b, rg, pr) = (
+                    self.prop_str(i, "wave_type", "BANDS"),
+                    self.prop_str(i, "bands_direction", "X"),
+                    self.prop_str(i, "rings_direction", "X"),
+                    self.prop_str(i, "wave_profile", "SIN"),
+                );
+                let (kind, direction, profile) = wave_settings(k, b, rg, pr)
+                    .ok_or_else(|| self.err(i, format!("unknown settings {k}/{b}/{rg}/{pr}")))?;
+                let inputs = [
+                    self.vec_implicit(i, "Vector", InputKind::Generated)?,
+                    self.float(i, "Scale", 5.0)?,
+                    self.float(i, "Distortion", 0.0)?,
+                    self.float(i, "Detail", 2.0)?,
+                    self.float(i, "Detail Scale", 1.0)?,
+                    self.float(i, "Detail Roughness", 0.5)?,
+                    self.float(i, "Phase Offset", 0.0)?,
+                ];
+                let fac = self.out(i, "Fac", Ty::Float);
+                let color = self.out(i, "Color", Ty::Color);
+                self.ops.push(Op::Texture(Box::new(TexOp::Wave { kind, direction, profile, inputs, fac, color })));
+            }
+            "ShaderNodeTexChecker" => {
+                let inputs = [
+                    self.vec_implicit(i, "Vector", InputKind::Generated)?,
+                    self.vec(i, "Color1", Vec3::splat(0.8))?,
+                    self.vec(i, "Color2", Vec3::splat(0.2))?,
+                    self.float(i, "Scale", 5.0)?,
+                ];
+                let color = self.out(i, "Color", Ty::Color);
+                let fac = self.out(i, "Fac", Ty::Float);
+                self.ops.push(Op::Texture(Box::new(TexOp::Checker { inputs, color, fac })));
+            }
+            "ShaderNodeTexGradient" => {
+                let g = self.prop_str(i, "gradient_type", "LINEAR");
+                let kind = gradient_kind(g).ok_or_else(|| self.err(i, format!("unknown gradient type '{g}'")))?;
+                let vector = self.vec_implicit(i, "Vector", InputKind::Generated)?;
+                let fac = self.out(i, "Fac", Ty::Float);
+                let color = self.out(i, "Color", Ty::Color);
+                self.ops.push(Op::Texture(Box::new(TexOp::Gradient { kind, vector, fac, color })));
+            }
+            "ShaderNodeTexMagic" => {
+                let depth = self.desc(i).props.get("turbulence_depth").and_then(Value::as_i64).unwrap_or(2) as i32;
+                let inputs = [
+                    self.vec_implicit(i, "Vector", InputKind::Generated)?,
+                    self.float(i, "Scale", 5.0)?,
+                    self.float(i, "Distortion", 1.0)?,
+                ];
+                let color = self.out(i, "Color", Ty::Color);
+                let fac = self.out(i, "Fac", Ty::Float);
+                self.ops.push(Op::Texture(Box::new(TexOp::Magic { depth, inputs, color, fac })));
+            }
+            "ShaderNodeTexBrick" => {
+                let num_prop = |c: &Self, k: &str, d: f64| c.desc(i).props.get(k).and_then(Value::as_f64).unwrap_or(d);
+                let (offset, offset_frequency) =
+                    (num_prop(self, "offset", 0.5) as f32, num_prop(self, "offset_frequency", 2.0) as i32);
+                let (squash, squash_frequency) =
+                    (num_prop(self, "squash", 1.0) as f32, num_prop(self, "squash_frequency", 2.0) as i32);
+                let inputs = [
+                    self.vec_implicit(i, "Vector", InputKind::Generated)?,
+                    self.vec(i, "Color1", Vec3::splat(0.8))?,
+                    self.vec(i, "Color2", Vec3::splat(0.2))?,
+                    self.vec(i, "Mortar", Vec3::ZERO)?,
+                    self.float(i, "Scale", 5.0)?,
+                    self.float(i, "Mortar Size", 0.02)?,
+                    self.float(i, "Mortar Smooth", 0.1)?,
+                    self.float(i, "Bias", 0.0)?,
+                    self.float(i, "Brick Width", 0.5)?,
+                    self.float(i, "Row Height", 0.25)?,
+                ];
+                let color = self.out(i, "Color", Ty::Color);
+                let fac = self.out(i, "Fac", Ty::Float);
+                let op = TexOp::Brick { offset, offset_frequency, squash, squash_frequency, inputs, color, fac };
+                self.ops.push(Op::Texture(Box::new(op)));
             }
             "ShaderNodeTexImage" => {
                 let texture = match self.desc(i).props.get("image").and_then(Value::as_u64) {

@@ -248,12 +248,7 @@ pub fn hash_int3_to_float3(k: [i32; 3]) -> Vec3 {
 #[inline]
 pub fn hash_int4_to_float4(k: [i32; 4]) -> Vec4 {
     let [x, y, z, w] = hash_pcg4d_i(k);
-    Vec4::new(
-        int31_to_float(x),
-        int31_to_float(y),
-        int31_to_float(z),
-        int31_to_float(w),
-    )
+    Vec4::new(int31_to_float(x), int31_to_float(y), int31_to_float(z), int31_to_float(w))
 }
 
 /// Cycles' `hash_int2_to_float3`: the 3-D hash of `(k, 0)`.
