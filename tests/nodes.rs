@@ -287,6 +287,34 @@ fn checker_gives_exactly_the_two_colours() {
     assert!(seen[0] && seen[1], "both colours appear");
 }
 
+/// Bump of a linear height h = 0.5 x (Distance 2): the bumped normal is
+/// normalize(N − 2 ∇h) = normalize((−1, 0, 1)) in glTF axes, (−1, −1, 0)/√2 in Blender's;
+/// shown through Emission as the normal plus (1, 1, 1).
+#[test]
+fn bump_of_a_linear_height_tilts_the_normal_by_its_gradient() {
+    let nodes = json!([
+        {"name": "Geometry", "type": "ShaderNodeNewGeometry"},
+        {"name": "Separate", "type": "ShaderNodeSeparateXYZ", "inputs": {"Vector": {"link": [0, "Position"]}}},
+        {"name": "Height", "type": "ShaderNodeMath", "props": {"operation": "MULTIPLY"},
+         "inputs": {"Value": {"link": [1, "X"]}, "Value_001": {"value": 0.5}}},
+        {"name": "Bump", "type": "ShaderNodeBump", "props": {"invert": false},
+         "inputs": {"Strength": {"value": 1.0}, "Distance": {"value": 2.0}, "Height": {"link": [2, "Value"]}}},
+        {"name": "Shift", "type": "ShaderNodeVectorMath", "props": {"operation": "ADD"},
+         "inputs": {"Vector": {"link": [3, "Normal"]}, "Vector_001": {"value": [1, 1, 1]}}},
+        {"name": "Emission", "type": "ShaderNodeEmission",
+         "inputs": {"Color": {"link": [4, "Vector"]}, "Strength": {"value": 1.0}}}
+    ]);
+    let s = std::f32::consts::FRAC_1_SQRT_2;
+    let want = [1.0 - s, 1.0 - s, 1.0];
+    for (c, x, y) in render_plane(node_material("bump", nodes, json!([5, "Emission"])), 4) {
+        for k in 0..3 {
+            // Finite differences of a linear height are exact up to f32 rounding of h
+            // (6e-8 over a difference of 5e-5): 1e-3 relative in the gradient.
+            assert!((c[k] - want[k]).abs() < 2e-3, "({x}, {y}) channel {k}: {} vs {}", c[k], want[k]);
+        }
+    }
+}
+
 /// A white furnace of mixed closures: a closed cube of double-sided walls whose graph is
 /// Add(Emission Le, Mix(0.3, Diffuse white, Glossy white)) seen from inside. Every lobe
 /// keeps all the light (the glossy one through multiscatter compensation), so with at most

@@ -12,7 +12,9 @@ use super::closure::{CAPACITY, ClosureKind, ClosureOp, Closures, PrincipledRegs}
 use super::graph::{NodeDesc, NodesExt, check_and_sort};
 use super::image_node::{Extension, ImageOp, Interp, Projection};
 use super::ops::{Blend, MathOp, RangeInterp, VecOp};
-use super::program::{ColorSpace, CurveKind, CurveTable, Geom, InputKind, MappingKind, ObjectData, Op, Program, Reg};
+use super::program::{
+    BumpOp, ColorSpace, CurveKind, CurveTable, Geom, InputKind, MappingKind, ObjectData, Op, Program, Reg,
+};
 use super::texture_nodes::{
     TexOp, dims as noise_dims, gradient_kind, noise_kind, voronoi_feature, voronoi_metric, wave_settings,
 };
@@ -72,6 +74,7 @@ pub fn compile(name: &str, ext: &NodesExt, images: &[u32]) -> Result<Compiled, S
         ops: Vec::new(),
         prog: Program { name: name.to_string(), ..Program::default() },
         outs: vec![Vec::new(); ext.nodes.len()],
+        ranges: vec![(0, 0); ext.nodes.len()],
         unknown: vec![false; ext.nodes.len()],
         warnings: Vec::new(),
         all_const: true,
@@ -87,8 +90,8 @@ pub fn compile(name: &str, ext: &NodesExt, images: &[u32]) -> Result<Compiled, S
     if let Some((n, out)) = &ext.output.surface {
         c.closure(*n, out, None)?;
     }
-    if ext.output.displacement.is_some() {
-        c.warnings.push("the Displacement output is not rendered yet (no bump from it)".into());
+    if let Some((n, out)) = &ext.output.displacement {
+        c.displacement(*n, out)?;
     }
     if c.small_lobes > CAPACITY {
         c.warnings.push(format!(
@@ -113,7 +116,8 @@ pub fn compile(name: &str, ext: &NodesExt, images: &[u32]) -> Result<Compiled, S
 /// The emission when no operation depends on the shading point: the program run once.
 fn constant_emission(prog: &Program) -> Option<Vec3> {
     let varying = prog.ops.iter().any(|op| match op {
-        Op::Input { .. } | Op::Fresnel { .. } | Op::LayerWeight { .. } | Op::NormalMap { .. } => true,
+        Op::Input { .. } | Op::Fresnel { .. } | Op::LayerWeight { .. } | Op::NormalMap { .. } | Op::Bump(_) => true,
+        Op::Image(_) => true,
         _ => false,
     });
     if varying {
@@ -137,8 +141,23 @@ fn dummy_geom(o: &ObjectData) -> Geom<'_> {
         backfacing: false,
         object: o,
         textures: &[],
+        mesh: &EMPTY_MESH,
+        tri: 0,
     }
 }
+
+/// No triangles: what constant folding evaluates against.
+static EMPTY_MESH: crate::scene::Mesh = crate::scene::Mesh {
+    positions: Vec::new(),
+    normals: Vec::new(),
+    tangents: Vec::new(),
+    uv0: Vec::new(),
+    uv1: Vec::new(),
+    colors: Vec::new(),
+    triangles: Vec::new(),
+    tri_material: Vec::new(),
+    tri_object: Vec::new(),
+};
 
 struct Compiler<'a> {
     ext: &'a NodesExt,
@@ -148,6 +167,8 @@ struct Compiler<'a> {
     ops: Vec<Op>,
     prog: Program,
     outs: Vec<Vec<(String, Sock)>>,
+    /// Each data node's operations in `ops` (start, end).
+    ranges: Vec<(u32, u32)>,
     unknown: Vec<bool>,
     warnings: Vec<String>,
     /// Every input of the node being compiled was constant so far.
@@ -383,6 +404,7 @@ impl<'a> Compiler<'a> {
         let mark = self.ops.len();
         self.all_const = true;
         let known = self.data_node(i, kind)?;
+        self.ranges[i] = (mark as u32, self.ops.len() as u32);
         if !known {
             self.unknown[i] = true;
             self.warn(i, "this node type is not supported: its outputs are 0");
@@ -390,9 +412,13 @@ impl<'a> Compiler<'a> {
         }
         // Fold a node whose inputs are all constant and that reads nothing of the point.
         let pure = self.ops[mark..].iter().all(|op| {
-            !matches!(op, Op::Input { .. } | Op::Fresnel { .. } | Op::LayerWeight { .. } | Op::NormalMap { .. })
+            !matches!(
+                op,
+                Op::Input { .. } | Op::Fresnel { .. } | Op::LayerWeight { .. } | Op::NormalMap { .. } | Op::Bump(_)
+            )
         });
         if self.all_const && pure && self.ops.len() > mark {
+            self.ranges[i] = (mark as u32, mark as u32);
             let ops: Vec<Op> = self.ops.drain(mark..).collect();
             let obj = ObjectData::default();
             let g = dummy_geom(&obj);
@@ -828,6 +854,31 @@ impl<'a> Compiler<'a> {
                 let color = self.out(i, "Color", Ty::Color);
                 self.ops.push(Op::Texture(Box::new(TexOp::WhiteNoise { dims, vector, w, value, color })));
             }
+            "ShaderNodeBump" => {
+                let strength = self.float(i, "Strength", 1.0)?;
+                let distance = self.float(i, "Distance", 1.0)?;
+                let invert = self.prop_bool(i, "invert", false);
+                let normal = self.normal(i, "Normal")?;
+                let Some(src) = self.desc(i).inputs.get("Height").and_then(|d| d.link.clone()) else {
+                    // An unlinked height is flat: the normal passes through.
+                    let out = self.out(i, "Normal", Ty::Vector);
+                    let n = match normal {
+                        Some(n) => n,
+                        None => {
+                            let n = self.alloc(3);
+                            self.ops.push(Op::Input { what: InputKind::Normal, out: n });
+                            n
+                        }
+                    };
+                    self.ops.push(Op::Copy3 { src: n, out });
+                    return Ok(true);
+                };
+                let height = self.float(i, "Height", 0.0)?;
+                self.all_const = false;
+                let out = self.out(i, "Normal", Ty::Vector);
+                let sub = self.upstream_ranges(src.0);
+                self.ops.push(Op::Bump(Box::new(BumpOp { strength, distance, invert, height, normal, out, sub })));
+            }
             "ShaderNodeTexVoronoi" => {
                 let d = self.prop_str(i, "voronoi_dimensions", "3D");
                 let dims = noise_dims(d).ok_or_else(|| self.err(i, format!("unknown dimensions '{d}'")))?;
@@ -1074,6 +1125,70 @@ impl<'a> Compiler<'a> {
         let extrapolate = m.get("extrapolate").and_then(Value::as_bool).unwrap_or(false);
         self.prog.curves.push(CurveTable { range, extrapolate, tables });
         Ok(self.prog.curves.len() as u32 - 1)
+    }
+
+    /// The operation ranges of node `i` and every node upstream of it, in program order
+    /// (what a Bump re-runs at its offset positions).
+    fn upstream_ranges(&self, i: usize) -> Vec<(u32, u32)> {
+        let mut seen = vec![false; self.ext.nodes.len()];
+        let mut stack = vec![i];
+        let mut nodes = Vec::new();
+        while let Some(n) = stack.pop() {
+            if std::mem::replace(&mut seen[n], true) {
+                continue;
+            }
+            nodes.push(n);
+            for d in self.ext.nodes[n].inputs.values() {
+                if let Some(l) = &d.link {
+                    stack.push(l.0);
+                }
+            }
+        }
+        let mut ranges: Vec<(u32, u32)> = nodes.into_iter().map(|n| self.ranges[n]).filter(|(a, b)| b > a).collect();
+        ranges.sort_unstable();
+        ranges
+    }
+
+    /// The Displacement output rendered as bump: a Displacement node's (Height − Midlevel)
+    /// × Scale is the height of a bump of distance 1 on the shading normal, which closures
+    /// without a linked normal take (as Cycles' "bump only" displacement method).
+    fn displacement(&mut self, i: usize, out: &str) -> Result<(), String> {
+        if self.unknown[i] {
+            return Ok(());
+        }
+        if self.desc(i).kind != "ShaderNodeDisplacement" {
+            self.warn(i, format!("the Displacement output from '{out}' is rendered only through a Displacement node"));
+            return Ok(());
+        }
+        let Some(src) = self.desc(i).inputs.get("Height").and_then(|d| d.link.clone()) else {
+            return Ok(());
+        };
+        let mark = self.ops.len();
+        let h = self.float(i, "Height", 0.0)?;
+        let mid = self.float(i, "Midlevel", 0.5)?;
+        let scale = self.float(i, "Scale", 1.0)?;
+        let centred = self.alloc(1);
+        self.ops.push(Op::Math { op: MathOp::Subtract, a: h, b: mid, c: mid, out: centred, clamp: false });
+        let height = self.alloc(1);
+        self.ops.push(Op::Math { op: MathOp::Multiply, a: centred, b: scale, c: scale, out: height, clamp: false });
+        if self.desc(i).props.get("space").and_then(Value::as_str).is_some_and(|s| s != "OBJECT") {
+            self.warn(i, "world-space displacement is rendered as object-space bump");
+        }
+        // The bump re-runs the height's nodes and the two operations above.
+        let mut sub = self.upstream_ranges(src.0);
+        sub.push((mark as u32, self.ops.len() as u32));
+        let (one, out_n) = (self.konst_f(1.0), self.alloc(3));
+        self.ops.push(Op::Bump(Box::new(BumpOp {
+            strength: one,
+            distance: one,
+            invert: false,
+            height,
+            normal: None,
+            out: out_n,
+            sub,
+        })));
+        self.prog.displacement_normal = Some(out_n);
+        Ok(())
     }
 
     /// Flattens the closure tree under output `out` of node `i` with weight `w`.

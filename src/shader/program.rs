@@ -8,7 +8,7 @@
 
 use super::closure::Closures;
 use super::ops::{self, Blend, MathOp, RangeInterp, VecOp};
-use crate::math::luminance;
+use crate::math::{Frame, luminance};
 use glam::{EulerRot, Mat3, Mat4, Vec2, Vec3, Vec4};
 use std::cell::RefCell;
 
@@ -69,6 +69,10 @@ pub struct Geom<'a> {
     pub object: &'a ObjectData,
     /// The scene's textures (Image Texture nodes).
     pub textures: &'a [crate::scene::Texture],
+    /// The scene's triangles (Bump re-evaluates attributes at offset points).
+    pub mesh: &'a crate::scene::Mesh,
+    /// The shaded triangle.
+    pub tri: u32,
 }
 
 /// Which geometric quantity an `Input` op reads (each in Blender axes).
@@ -355,6 +359,27 @@ pub enum Op {
     Texture(Box<super::texture_nodes::TexOp>),
     /// An Image Texture (shader/image_node.rs).
     Image(Box<super::image_node::ImageOp>),
+    /// A Bump node (or the Displacement output as bump).
+    Bump(Box<BumpOp>),
+}
+
+/// A Bump node: the height's operations re-run at two offset positions.
+#[derive(Clone, Debug)]
+pub struct BumpOp {
+    /// Strength register.
+    pub strength: Reg,
+    /// Distance register.
+    pub distance: Reg,
+    /// Invert the height.
+    pub invert: bool,
+    /// The height at the shading point.
+    pub height: Reg,
+    /// The Normal input when linked (Blender axes).
+    pub normal: Option<Reg>,
+    /// Output normal (Blender axes).
+    pub out: Reg,
+    /// Operation ranges that compute the height (re-run at the offsets).
+    pub sub: Vec<(u32, u32)>,
 }
 
 /// A compiled material graph.
@@ -378,6 +403,8 @@ pub struct Program {
     pub emits: bool,
     /// The emission does not depend on the shading point (then it is `constant_emission`).
     pub constant_emission: Option<Vec3>,
+    /// The Displacement output's bumped normal (Blender axes), the default closure normal.
+    pub displacement_normal: Option<Reg>,
 }
 
 thread_local! {
@@ -620,7 +647,76 @@ impl Program {
             Op::Closure(ref c) => c.apply(r, g, out),
             Op::Texture(ref t) => t.run(r),
             Op::Image(ref t) => t.run(r, g.textures),
+            Op::Bump(ref b) => self.bump(b, g, r, out),
         }
+    }
+
+    /// The Bump node: Cycles' surface-gradient formula (`svm_node_set_bump`) with the
+    /// heights at P + dx and P + dy, dx and dy a small orthogonal pair in the triangle's
+    /// plane. Cycles takes them from the ray's footprint (times the Filter Width); without
+    /// ray differentials the pair is 10⁻⁴ of max(1, |P|) long (above f32's resolution of
+    /// P, below any texture detail), which is the limit the footprint tends to for fine
+    /// pixels: N' = normalize(N − Distance ∇h) blended with N by Strength.
+    fn bump(&self, b: &BumpOp, g: &Geom, r: &mut [f32], out: &mut Closures) {
+        let n_in = b.normal.map_or(g.n, |n| from_blender(v3(r, n)).normalize_or(g.n));
+        let hc = r[b.height as usize];
+        let mut result = n_in;
+        if let Some(&[i0, i1, i2]) = g.mesh.triangles.get(g.tri as usize) {
+            let m = g.mesh;
+            let (p0, p1, p2) = (m.positions[i0 as usize], m.positions[i1 as usize], m.positions[i2 as usize]);
+            let (e1, e2) = (p1 - p0, p2 - p0);
+            let ng = e1.cross(e2);
+            let (ex, ey) = {
+                let f = Frame::from_normal(ng.normalize_or(Vec3::Z));
+                (f.s, f.t)
+            };
+            let eps = 1e-4 * g.p.abs().max_element().max(1.0);
+            // Barycentrics of a point of the plane: solve p − p0 = b1 e1 + b2 e2.
+            let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+            let den = d11 * d22 - d12 * d12;
+            let bary = |q: Vec3| {
+                let v = q - p0;
+                let (v1, v2) = (v.dot(e1), v.dot(e2));
+                ((d22 * v1 - d12 * v2) / den, (d11 * v2 - d12 * v1) / den)
+            };
+            if den > 0.0 {
+                let mut h = [0.0f32; 2];
+                for (k, d) in [ex * eps, ey * eps].into_iter().enumerate() {
+                    let (b1, b2) = bary(g.p + d);
+                    let mut g2 = super::shade::geom_at(m, std::slice::from_ref(g.object), g.textures, g.tri, b1, b2);
+                    g2.object = g.object;
+                    g2.wo = g.wo;
+                    g2.backfacing = g.backfacing;
+                    g2.p = g.p + d;
+                    if g2.n.dot(g.n) < 0.0 {
+                        g2.n = -g2.n;
+                        g2.ng = -g2.ng;
+                    }
+                    for &(a, z) in &b.sub {
+                        for op in &self.ops[a as usize..z as usize] {
+                            self.step(op, &g2, r, out);
+                        }
+                    }
+                    h[k] = r[b.height as usize];
+                }
+                // Restore the registers the re-runs overwrote.
+                for &(a, z) in &b.sub {
+                    for op in &self.ops[a as usize..z as usize] {
+                        self.step(op, g, r, out);
+                    }
+                }
+                let (dx, dy) = (ex * eps, ey * eps);
+                let rx = dy.cross(n_in);
+                let ry = n_in.cross(dx);
+                let det = dx.dot(rx);
+                let surfgrad = (h[0] - hc) * rx + (h[1] - hc) * ry;
+                let dist = r[b.distance as usize] * if b.invert { -1.0 } else { 1.0 };
+                let bumped = (det.abs() * n_in - dist * det.signum() * surfgrad).normalize_or(n_in);
+                let s = r[b.strength as usize].clamp(0.0, 1.0);
+                result = (s * bumped + (1.0 - s) * n_in).normalize_or(n_in);
+            }
+        }
+        set3(r, b.out, to_blender(result));
     }
 
     fn input(&self, what: InputKind, g: &Geom, r: &mut [f32], out: Reg) {

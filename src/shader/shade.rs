@@ -38,9 +38,19 @@ fn evaluate(scene: &Scene, prog: &Program, s: &SurfaceHit, wo: Vec3) -> Closures
         backfacing: !s.front,
         object: scene.object_of(s.tri),
         textures: &scene.textures,
+        mesh: &scene.mesh,
+        tri: s.tri,
     };
     let mut out = Closures::default();
-    with_registers(|regs| prog.run(&g, regs, &mut out));
+    with_registers(|regs| {
+        prog.run(&g, regs, &mut out);
+        if out.normal.is_none()
+            && let Some(n) = prog.displacement_normal
+        {
+            let n = n as usize;
+            out.normal = Some(Vec3::new(regs[n], regs[n + 1], regs[n + 2]));
+        }
+    });
     out
 }
 
@@ -97,7 +107,7 @@ pub fn shade_nodes(scene: &Scene, prog: &Program, s: &SurfaceHit, wo: Vec3, doub
 /// The shading point at barycentrics of a triangle without a ray: the viewer is taken
 /// along the normal (Fresnel-driven transparency or emission then uses normal incidence).
 pub fn geom_at<'a>(
-    mesh: &Mesh,
+    mesh: &'a Mesh,
     objects: &'a [ObjectData],
     textures: &'a [crate::scene::Texture],
     tri: u32,
@@ -117,7 +127,7 @@ pub fn geom_at<'a>(
         Some(&o) => objects.get(o as usize).unwrap_or(&NO_OBJECT),
         None => &NO_OBJECT,
     };
-    Geom { p, n: ns, ng, wo: ns, uv, color, tangent, backfacing: false, object, textures }
+    Geom { p, n: ns, ng, wo: ns, uv, color, tangent, backfacing: false, object, textures, mesh, tri }
 }
 
 /// The graph's opacity at barycentrics (1 − its Transparent weight, grey by the mean).
