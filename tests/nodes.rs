@@ -315,6 +315,26 @@ fn bump_of_a_linear_height_tilts_the_normal_by_its_gradient() {
     }
 }
 
+/// Transparent through coverage: Mix(0.25, Emission 1, Transparent white) over the black,
+/// transparent background gives radiance 0.75 and alpha 0.75, as Cycles (the emission's
+/// weight 0.75, a quarter of the light passes to the background).
+#[test]
+fn transparent_mix_gives_coverage() {
+    let nodes = json!([
+        {"name": "Emission", "type": "ShaderNodeEmission", "inputs": {"Color": {"value": [1, 1, 1, 1]}, "Strength": {"value": 1.0}}},
+        {"name": "Transparent", "type": "ShaderNodeBsdfTransparent", "inputs": {"Color": {"value": [1, 1, 1, 1]}}},
+        {"name": "Mix", "type": "ShaderNodeMixShader",
+         "inputs": {"Fac": {"value": 0.25}, "Shader": {"link": [0, "Emission"]}, "Shader_001": {"link": [1, "BSDF"]}}}
+    ]);
+    let dir = temp_dir();
+    let scene = plane_scene(dir.path(), "t.gltf", node_material("glassy", nodes, json!([2, "Shader"])));
+    let px = render_image(&scene, &dir.path().join("o.exr"), &["--resolution", "4x4", "--spp", "4096"], LIMIT);
+    let n = px.len() as f64;
+    let (mean_c, mean_a) = px.iter().fold((0.0, 0.0), |(c, a), p| (c + p[0] as f64 / n, a + p[3] as f64 / n));
+    // Stochastic coverage: 65536 Bernoulli(0.75) draws, σ = 0.0017; 5σ.
+    assert!((mean_c - 0.75).abs() < 0.009 && (mean_a - 0.75).abs() < 0.009, "radiance {mean_c}, alpha {mean_a}");
+}
+
 /// A white furnace of mixed closures: a closed cube of double-sided walls whose graph is
 /// Add(Emission Le, Mix(0.3, Diffuse white, Glossy white)) seen from inside. Every lobe
 /// keeps all the light (the glossy one through multiscatter compensation), so with at most
@@ -345,6 +365,7 @@ fn mixed_closures_white_furnace() {
         LIMIT,
     );
     let mean = px.iter().map(|p| p[0] as f64).sum::<f64>() / px.len() as f64;
+    eprintln!("mixed-closure furnace: mean {mean} (want 2)");
     // 4 × 0.5 = 2. The glossy lobe's multiscatter tables hold its albedo within 1 % (README)
     // and it is 70 % of the mixture; 16k paths of bounded weight add < 0.5 % (4σ).
     assert!((mean - 2.0).abs() < 0.03 * 2.0, "furnace mean {mean} (want 2)");
