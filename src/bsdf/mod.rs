@@ -29,6 +29,12 @@ pub struct BsdfSample {
 }
 
 /// The scattering function at a surface point.
+///
+/// The mixture makes the enum 508 bytes (228 for `Pbr` alone); boxing it would allocate per
+/// shading point. Measured (callgrind, Cornell box 96×72, 8 spp, 1 thread): `render::render`
+/// executes 0.13 % fewer instructions than before the variant existed, so materials without a
+/// graph do not pay for it; SPPM's visible points grow by the difference.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug)]
 pub enum Bsdf {
     /// glTF 2.0 metallic-roughness (Appendix B of the spec).

@@ -142,7 +142,7 @@ impl CurveTable {
         let n = t.len();
         let span = self.range[1] - self.range[0];
         let f = if span != 0.0 { (x - self.range[0]) / span } else { 0.0 };
-        if self.extrapolate && (f < 0.0 || f > 1.0) && n >= 2 {
+        if self.extrapolate && !(0.0..=1.0).contains(&f) && n >= 2 {
             let (t0, dy, d) = if f < 0.0 { (t[0], t[0] - t[1], -f) } else { (t[n - 1], t[n - 1] - t[n - 2], f - 1.0) };
             return t0 + dy * d * (n - 1) as f32;
         }

@@ -64,7 +64,7 @@ impl Compiler<'_> {
                     self.err(i, format!("the shader is linked to output '{out}', which the node does not have"))
                 );
             };
-            let color = self.to_vec(i, out, s)?;
+            let color = self.convert_vec(i, out, s)?;
             let strength = self.konst_f(1.0);
             self.warn(i, "a colour linked to a shader socket emits it, as in Cycles");
             self.push_closure(ClosureKind::Emission, w, color, strength, strength, strength, None);

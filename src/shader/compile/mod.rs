@@ -118,10 +118,16 @@ pub fn compile(name: &str, ext: &NodesExt, images: &[u32]) -> Result<Compiled, S
 
 /// The emission when no operation depends on the shading point: the program run once.
 fn constant_emission(prog: &Program) -> Option<Vec3> {
-    let varying = prog.ops.iter().any(|op| match op {
-        Op::Input { .. } | Op::Fresnel { .. } | Op::LayerWeight { .. } | Op::NormalMap { .. } | Op::Bump(_) => true,
-        Op::Image(_) => true,
-        _ => false,
+    let varying = prog.ops.iter().any(|op| {
+        matches!(
+            op,
+            Op::Input { .. }
+                | Op::Fresnel { .. }
+                | Op::LayerWeight { .. }
+                | Op::NormalMap { .. }
+                | Op::Bump(_)
+                | Op::Image(_)
+        )
     });
     if varying {
         return None;
@@ -295,7 +301,7 @@ impl<'a> Compiler<'a> {
     /// A float input: linked (converted), else its value, else `default`.
     fn float(&mut self, i: usize, id: &str, default: f32) -> Result<Reg, String> {
         if let Some(s) = self.source(i, id)? {
-            return self.to_float(i, id, s);
+            return self.convert_float(i, id, s);
         }
         let v = match self.value(i, id) {
             None => default,
@@ -313,7 +319,7 @@ impl<'a> Compiler<'a> {
     /// a colour's alpha is dropped), else `default`.
     fn vec(&mut self, i: usize, id: &str, default: Vec3) -> Result<Reg, String> {
         if let Some(s) = self.source(i, id)? {
-            return self.to_vec(i, id, s);
+            return self.convert_vec(i, id, s);
         }
         let v = match self.value(i, id) {
             None => default,
@@ -334,7 +340,7 @@ impl<'a> Compiler<'a> {
     /// A vector input that Blender fills with an implicit coordinate when unlinked.
     fn vec_implicit(&mut self, i: usize, id: &str, implicit: InputKind) -> Result<Reg, String> {
         if let Some(s) = self.source(i, id)? {
-            return self.to_vec(i, id, s);
+            return self.convert_vec(i, id, s);
         }
         if implicit == InputKind::Generated {
             self.uses_generated = true;
@@ -348,12 +354,12 @@ impl<'a> Compiler<'a> {
     /// A Normal input: only when linked (unlinked is the shading normal).
     fn normal(&mut self, i: usize, id: &str) -> Result<Option<Reg>, String> {
         match self.source(i, id)? {
-            Some(s) => Ok(Some(self.to_vec(i, id, s)?)),
+            Some(s) => Ok(Some(self.convert_vec(i, id, s)?)),
             None => Ok(None),
         }
     }
 
-    fn to_float(&mut self, i: usize, id: &str, s: Sock) -> Result<Reg, String> {
+    fn convert_float(&mut self, i: usize, id: &str, s: Sock) -> Result<Reg, String> {
         Ok(match s.ty {
             Ty::Float => s.reg,
             Ty::Color => {
@@ -370,7 +376,7 @@ impl<'a> Compiler<'a> {
         })
     }
 
-    fn to_vec(&mut self, i: usize, id: &str, s: Sock) -> Result<Reg, String> {
+    fn convert_vec(&mut self, i: usize, id: &str, s: Sock) -> Result<Reg, String> {
         Ok(match s.ty {
             Ty::Float => {
                 let out = self.alloc(3);
