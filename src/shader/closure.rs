@@ -18,7 +18,7 @@
 //!   distribution); Emission → emitted radiance Color × Strength; Transparent → pass-through
 //!   by coverage (`Scene::alpha`), grey as its mean.
 
-use super::program::{Geom, Reg, from_blender, to_blender};
+use super::program::{Geom, Reg, from_blender};
 use crate::bsdf::dielectric::DielectricBsdf;
 use crate::bsdf::mix::{GlossyFresnel, Lobe, MAX_LOBES, MixBsdf};
 use crate::bsdf::pbr::PbrParams;
@@ -286,8 +286,3 @@ impl Closures {
 
 /// Capacity of the mixture, for the loader's warning.
 pub const CAPACITY: usize = MAX_LOBES;
-
-/// Blender axes of a world vector (re-exported for the shading glue).
-pub fn blender(v: Vec3) -> Vec3 {
-    to_blender(v)
-}

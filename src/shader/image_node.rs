@@ -34,6 +34,10 @@ pub enum Projection {
     Box,
     Sphere,
     Tube,
+    /// Environment Texture: equirectangular lookup of the (normalised) vector.
+    Equirectangular,
+    /// Environment Texture: mirror ball.
+    MirrorBall,
 }
 
 /// An Image Texture node compiled.
@@ -197,6 +201,22 @@ impl ImageOp {
                             0.0
                         };
                         at(Vec2::new(u, (p.z + 1.0) / 2.0))
+                    }
+                    Projection::Equirectangular => {
+                        let d = co.normalize_or(Vec3::X);
+                        // As the world's image (docs/contract.md, CAUSTIC_world).
+                        let u = 0.5 - d.y.atan2(d.x) / (2.0 * std::f32::consts::PI);
+                        let v = 0.5 + d.z.clamp(-1.0, 1.0).asin() / std::f32::consts::PI;
+                        at(Vec2::new(u, v))
+                    }
+                    Projection::MirrorBall => {
+                        let mut d = co.normalize_or(Vec3::X);
+                        d.y -= 1.0;
+                        let div = 2.0 * (-0.5 * d.y).max(0.0).sqrt();
+                        if div > 0.0 {
+                            d /= div;
+                        }
+                        at(Vec2::new(0.5 * (d.x + 1.0), 0.5 * (d.z + 1.0)))
                     }
                     Projection::Box => {
                         let signed = v(self.normal);

@@ -768,3 +768,56 @@ impl<'a> Compiler<'a> {
 fn num(v: &Value) -> f32 {
     v.as_f64().map_or(f32::NAN, |x| x as f32)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    fn compiled(nodes: Value, surface: Value) -> Compiled {
+        let ext: NodesExt =
+            serde_json::from_value(json!({"version": 1, "nodes": nodes, "output": {"surface": surface}})).unwrap();
+        compile("m", &ext, &[]).unwrap()
+    }
+
+    /// A chain of constant nodes folds away: the program keeps only the closure, and its
+    /// constant emission is known at load.
+    #[test]
+    fn constant_nodes_fold_at_load() {
+        let c = compiled(
+            json!([
+                {"name": "A", "type": "ShaderNodeMath", "props": {"operation": "POWER"},
+                 "inputs": {"Value": {"value": 2.0}, "Value_001": {"value": 3.0}}},
+                {"name": "B", "type": "ShaderNodeCombineXYZ",
+                 "inputs": {"X": {"link": [0, "Value"]}, "Y": {"value": 1.0}, "Z": {"value": 0.5}}},
+                {"name": "E", "type": "ShaderNodeEmission",
+                 "inputs": {"Color": {"link": [1, "Vector"]}, "Strength": {"value": 0.5}}}
+            ]),
+            json!([2, "Emission"]),
+        );
+        assert_eq!(c.program.ops.len(), 1, "{:?}", c.program.ops);
+        assert!(matches!(c.program.ops[0], Op::Closure(_)));
+        assert_eq!(c.program.constant_emission, Some(Vec3::new(4.0, 0.5, 0.25)));
+    }
+
+    /// More small lobes than a mixture holds is named at load; two Principled BSDFs too.
+    #[test]
+    fn capacity_and_merged_principled_are_warned() {
+        let mut nodes = Vec::new();
+        for k in 0..5 {
+            nodes.push(json!({"name": format!("D{k}"), "type": "ShaderNodeBsdfDiffuse"}));
+        }
+        nodes.push(json!({"name": "P1", "type": "ShaderNodeBsdfPrincipled"}));
+        nodes.push(json!({"name": "P2", "type": "ShaderNodeBsdfPrincipled"}));
+        // Add shaders chaining all seven.
+        let mut last = (0usize, "BSDF".to_string());
+        for k in 1..7 {
+            nodes.push(json!({"name": format!("Add{k}"), "type": "ShaderNodeAddShader",
+                "inputs": {"Shader": {"link": [last.0, last.1]}, "Shader_001": {"link": [k, "BSDF"]}}}));
+            last = (nodes.len() - 1, "Shader".into());
+        }
+        let c = compiled(Value::Array(nodes), json!([last.0, last.1]));
+        assert!(c.warnings.iter().any(|w| w.contains("5 BSDF lobes")), "{:?}", c.warnings);
+        assert!(c.warnings.iter().any(|w| w.contains("2 Principled BSDFs")), "{:?}", c.warnings);
+    }
+}

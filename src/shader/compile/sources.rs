@@ -330,6 +330,45 @@ impl Compiler<'_> {
                 let op = TexOp::Brick { offset, offset_frequency, squash, squash_frequency, inputs, color, fac };
                 self.ops.push(Op::Texture(Box::new(op)));
             }
+            "ShaderNodeTexEnvironment" => {
+                let texture = match self.desc(i).props.get("image").and_then(Value::as_u64) {
+                    Some(k) => Some(*self.images.get(k as usize).ok_or_else(|| {
+                        self.err(i, format!("image {k} is not in the graph's images ({})", self.images.len()))
+                    })?),
+                    None => {
+                        self.warn(i, "the node has no image: it gives magenta, as Cycles");
+                        None
+                    }
+                };
+                let interp = match self.prop_str(i, "interpolation", "Linear") {
+                    "Closest" => Interp::Closest,
+                    "Linear" => Interp::Linear,
+                    "Cubic" | "Smart" => Interp::Cubic,
+                    other => return Err(self.err(i, format!("unknown interpolation '{other}'"))),
+                };
+                let projection = match self.prop_str(i, "projection", "EQUIRECTANGULAR") {
+                    "EQUIRECTANGULAR" => Projection::Equirectangular,
+                    "MIRROR_BALL" => Projection::MirrorBall,
+                    other => return Err(self.err(i, format!("unknown projection '{other}'"))),
+                };
+                // On a surface an unlinked vector is the position, as Cycles.
+                let vector = self.vec_implicit(i, "Vector", InputKind::Position)?;
+                let color = self.out(i, "Color", Ty::Color);
+                let alpha = self.out(i, "Alpha", Ty::Float);
+                self.all_const = false;
+                let op = ImageOp {
+                    texture,
+                    interp,
+                    extension: Extension::Repeat,
+                    projection,
+                    blend: 0.0,
+                    vector,
+                    normal: vector,
+                    color,
+                    alpha,
+                };
+                self.ops.push(Op::Image(Box::new(op)));
+            }
             "ShaderNodeTexImage" => {
                 let texture = match self.desc(i).props.get("image").and_then(Value::as_u64) {
                     Some(k) => Some(*self.images.get(k as usize).ok_or_else(|| {
