@@ -32,23 +32,16 @@ struct Reference {
 }
 
 fn floats(v: &Value) -> Vec<f32> {
-    let bytes = base64::engine::general_purpose::STANDARD
-        .decode(v.as_str().expect("base64 string"))
-        .expect("valid base64");
-    bytes
-        .chunks_exact(4)
-        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
-        .collect()
+    let bytes =
+        base64::engine::general_purpose::STANDARD.decode(v.as_str().expect("base64 string")).expect("valid base64");
+    bytes.chunks_exact(4).map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect()
 }
 
 fn load() -> Reference {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/texture_reference.json");
-    let doc: Value = serde_json::from_str(&std::fs::read_to_string(path).expect("reference file"))
-        .expect("reference JSON");
-    let position: Vec<Vec3> = floats(&doc["position"])
-        .chunks_exact(3)
-        .map(Vec3::from_slice)
-        .collect();
+    let doc: Value =
+        serde_json::from_str(&std::fs::read_to_string(path).expect("reference file")).expect("reference JSON");
+    let position: Vec<Vec3> = floats(&doc["position"]).chunks_exact(3).map(Vec3::from_slice).collect();
     let w = floats(&doc["w"]);
     assert_eq!(position.len(), w.len());
     let geometry_nodes = doc["cases"].as_array().expect("cases").iter().map(|c| (c, false));
@@ -60,12 +53,7 @@ fn load() -> Reference {
             cycles,
             properties: c["properties"].as_object().expect("properties").clone(),
             inputs: c["inputs"].as_object().expect("inputs").clone(),
-            outputs: c["outputs"]
-                .as_object()
-                .expect("outputs")
-                .iter()
-                .map(|(k, v)| (k.clone(), floats(v)))
-                .collect(),
+            outputs: c["outputs"].as_object().expect("outputs").iter().map(|(k, v)| (k.clone(), floats(v))).collect(),
         })
         .collect();
     Reference { position, w, cases }
@@ -73,9 +61,7 @@ fn load() -> Reference {
 
 impl Case {
     fn prop(&self, key: &str) -> &Value {
-        self.properties
-            .get(key)
-            .unwrap_or_else(|| panic!("{} case without property {key}", self.texture))
+        self.properties.get(key).unwrap_or_else(|| panic!("{} case without property {key}", self.texture))
     }
     fn prop_str(&self, key: &str) -> &str {
         self.prop(key).as_str().expect("string property")
@@ -91,17 +77,11 @@ impl Case {
     }
     /// A socket's value; `default` is Blender's default for a socket the case leaves alone.
     fn input(&self, key: &str, default: f32) -> f32 {
-        self.inputs
-            .get(key)
-            .map_or(default, |v| v.as_f64().expect("number input") as f32)
+        self.inputs.get(key).map_or(default, |v| v.as_f64().expect("number input") as f32)
     }
     fn color(&self, key: &str) -> Vec3 {
         let c = self.inputs[key].as_array().expect("colour input");
-        Vec3::new(
-            c[0].as_f64().unwrap() as f32,
-            c[1].as_f64().unwrap() as f32,
-            c[2].as_f64().unwrap() as f32,
-        )
+        Vec3::new(c[0].as_f64().unwrap() as f32, c[1].as_f64().unwrap() as f32, c[2].as_f64().unwrap() as f32)
     }
     fn dims(&self, key: &str) -> u8 {
         match self.prop_str(key) {
@@ -151,11 +131,7 @@ fn compare(
 ) -> Tally {
     let mut tally = Tally::default();
     let mut failures = Vec::new();
-    let cases: Vec<&Case> = reference
-        .cases
-        .iter()
-        .filter(|c| c.texture == texture)
-        .collect();
+    let cases: Vec<&Case> = reference.cases.iter().filter(|c| c.texture == texture).collect();
     assert!(!cases.is_empty(), "no reference cases for {texture}");
     // TEXTURE_REFERENCE_VERBOSE=1 prints the largest difference of every case.
     let verbose = std::env::var_os("TEXTURE_REFERENCE_VERBOSE").is_some();
@@ -167,10 +143,8 @@ fn compare(
                 continue;
             }
             for (name, ours) in eval(case, p, w) {
-                let theirs = case
-                    .outputs
-                    .get(name)
-                    .unwrap_or_else(|| panic!("{} has no output {name}", case.describe()));
+                let theirs =
+                    case.outputs.get(name).unwrap_or_else(|| panic!("{} has no output {name}", case.describe()));
                 let pairs: Vec<(f32, f32)> = match ours {
                     Out::Scalar(v) => vec![(v, theirs[i])],
                     Out::Color(c) => (0..3).map(|k| (c[k], theirs[3 * i + k])).collect(),
@@ -179,10 +153,10 @@ fn compare(
                     tally.compared += 1;
                     let err = (a - b).abs();
                     let ok = err <= tolerance(case, name, p, w, b) || (a.is_nan() && b.is_nan());
-                    if !(err <= case_max.0) {
+                    if err.is_nan() || err > case_max.0 {
                         case_max = (err, format!("{name} point {i}: ours {a}, Blender {b}"));
                     }
-                    if !(err <= tally.max_abs) && err.is_finite() {
+                    if err.is_finite() && err > tally.max_abs {
                         tally.max_abs = err;
                         tally.worst = format!("{name} at point {i} {p} w={w}: ours {a}, Blender {b}");
                     }
@@ -280,9 +254,7 @@ fn noise_matches_blender() {
                 + if name == "Color" { 200.0 } else { 0.0 };
             let delta = f32::EPSILON * magnitude;
             let octaves = prm.detail.clamp(0.0, 15.0).ceil() as i32;
-            let gain: f32 = (0..=octaves)
-                .map(|i| (prm.roughness * prm.lacunarity).powi(i))
-                .sum();
+            let gain: f32 = (0..=octaves).map(|i| (prm.roughness * prm.lacunarity).powi(i)).sum();
             arithmetic + SNOISE_LIPSCHITZ * delta * gain * blender.abs().max(1.0)
         },
         |_, _, _| false,
@@ -397,12 +369,7 @@ fn checker_matches_blender() {
         &reference,
         "checker",
         |case, p, _| {
-            let (color, fac) = checker_texture(
-                p,
-                case.color("Color1"),
-                case.color("Color2"),
-                case.input("Scale", 5.0),
-            );
+            let (color, fac) = checker_texture(p, case.color("Color1"), case.color("Color2"), case.input("Scale", 5.0));
             vec![("Color", Out::Color(color)), ("Fac", Out::Scalar(fac))]
         },
         |_, _, _, _, _| 0.0,

@@ -26,9 +26,7 @@ pub struct BrickParams {
 fn brick_noise(n: u32) -> f32 {
     let mut n = n.wrapping_add(1013) & 0x7fff_ffff;
     n ^= n >> 13;
-    let nn = n
-        .wrapping_mul(n.wrapping_mul(n).wrapping_mul(60493).wrapping_add(19990303))
-        .wrapping_add(1376312589)
+    let nn = n.wrapping_mul(n.wrapping_mul(n).wrapping_mul(60493).wrapping_add(19990303)).wrapping_add(1376312589)
         & 0x7fff_ffff;
     0.5 * (nn as f32 / 1073741824.0)
 }

@@ -61,13 +61,7 @@ pub fn multi_fractal<T: NoiseCoord>(mut p: T, detail: f32, roughness: f32, lacun
 
 /// Musgrave's heterogeneous terrain: octaves scaled by the value so far.
 #[inline]
-pub fn hetero_terrain<T: NoiseCoord>(
-    mut p: T,
-    detail: f32,
-    roughness: f32,
-    lacunarity: f32,
-    offset: f32,
-) -> f32 {
+pub fn hetero_terrain<T: NoiseCoord>(mut p: T, detail: f32, roughness: f32, lacunarity: f32, offset: f32) -> f32 {
     let mut pwr = roughness;
     // The first octave is unscaled; later octaves are scaled by the value so far.
     let mut value = offset + p.snoise();

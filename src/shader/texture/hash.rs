@@ -115,31 +115,19 @@ pub fn hash_vector3_to_float(k: Vec3) -> f32 {
 /// Cycles' `hash_float4_to_float`.
 #[inline]
 pub fn hash_vector4_to_float(k: Vec4) -> f32 {
-    uint_to_float_incl(hash_uint4(
-        k.x.to_bits(),
-        k.y.to_bits(),
-        k.z.to_bits(),
-        k.w.to_bits(),
-    ))
+    uint_to_float_incl(hash_uint4(k.x.to_bits(), k.y.to_bits(), k.z.to_bits(), k.w.to_bits()))
 }
 
 /// Cycles' `hash_float2_to_float2`.
 #[inline]
 pub fn hash_vector2_to_float2(k: Vec2) -> Vec2 {
-    Vec2::new(
-        hash_vector2_to_float(k),
-        hash_vector3_to_float(Vec3::new(k.x, k.y, 1.0)),
-    )
+    Vec2::new(hash_vector2_to_float(k), hash_vector3_to_float(Vec3::new(k.x, k.y, 1.0)))
 }
 
 /// Cycles' `hash_float3_to_float3`.
 #[inline]
 pub fn hash_vector3_to_float3(k: Vec3) -> Vec3 {
-    Vec3::new(
-        hash_vector3_to_float(k),
-        hash_vector4_to_float(k.extend(1.0)),
-        hash_vector4_to_float(k.extend(2.0)),
-    )
+    Vec3::new(hash_vector3_to_float(k), hash_vector4_to_float(k.extend(1.0)), hash_vector4_to_float(k.extend(2.0)))
 }
 
 /// Cycles' `hash_float4_to_float4`.
@@ -260,12 +248,7 @@ pub fn hash_int3_to_float3(k: [i32; 3]) -> Vec3 {
 #[inline]
 pub fn hash_int4_to_float4(k: [i32; 4]) -> Vec4 {
     let [x, y, z, w] = hash_pcg4d_i(k);
-    Vec4::new(
-        int31_to_float(x),
-        int31_to_float(y),
-        int31_to_float(z),
-        int31_to_float(w),
-    )
+    Vec4::new(int31_to_float(x), int31_to_float(y), int31_to_float(z), int31_to_float(w))
 }
 
 /// Cycles' `hash_int2_to_float3`: the 3-D hash of `(k, 0)`.

@@ -86,11 +86,7 @@ impl Seeded for Vec3 {
     const DIMS: f32 = 3.0;
     #[inline(always)]
     fn random_offset(seed: f32) -> Self {
-        Vec3::new(
-            offset_component(seed, 0.0),
-            offset_component(seed, 1.0),
-            offset_component(seed, 2.0),
-        )
+        Vec3::new(offset_component(seed, 0.0), offset_component(seed, 1.0), offset_component(seed, 2.0))
     }
     #[inline(always)]
     fn distortion(self, amount: f32) -> Self {

@@ -72,7 +72,6 @@ fn bi_mix(v0: f32, v1: f32, v2: f32, v3: f32, x: f32, y: f32) -> f32 {
 }
 
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
 fn tri_mix(v: [f32; 8], x: f32, y: f32, z: f32) -> f32 {
     let x1 = 1.0 - x;
     let y1 = 1.0 - y;
@@ -92,11 +91,7 @@ fn bit(i: usize, k: usize) -> i32 {
 pub fn perlin_1d(x: f32) -> f32 {
     let (ix, fx) = floorfrac(x);
     let u = fade(fx);
-    mix(
-        grad1(hash_uint(ix as u32), fx),
-        grad1(hash_uint(ix.wrapping_add(1) as u32), fx - 1.0),
-        u,
-    )
+    mix(grad1(hash_uint(ix as u32), fx), grad1(hash_uint(ix.wrapping_add(1) as u32), fx - 1.0), u)
 }
 
 /// Unscaled 2-D Perlin noise.
@@ -106,11 +101,7 @@ pub fn perlin_2d(x: f32, y: f32) -> f32 {
     let (iy, fy) = floorfrac(y);
     let g = |i: usize| {
         let (dx, dy) = (bit(i, 0), bit(i, 1));
-        grad2(
-            hash_uint2(ix.wrapping_add(dx) as u32, iy.wrapping_add(dy) as u32),
-            fx - dx as f32,
-            fy - dy as f32,
-        )
+        grad2(hash_uint2(ix.wrapping_add(dx) as u32, iy.wrapping_add(dy) as u32), fx - dx as f32, fy - dy as f32)
     };
     bi_mix(g(0), g(1), g(2), g(3), fade(fx), fade(fy))
 }
@@ -125,11 +116,7 @@ pub fn perlin_3d(x: f32, y: f32, z: f32) -> f32 {
     for (i, vi) in v.iter_mut().enumerate() {
         let (dx, dy, dz) = (bit(i, 0), bit(i, 1), bit(i, 2));
         *vi = grad3(
-            hash_uint3(
-                ix.wrapping_add(dx) as u32,
-                iy.wrapping_add(dy) as u32,
-                iz.wrapping_add(dz) as u32,
-            ),
+            hash_uint3(ix.wrapping_add(dx) as u32, iy.wrapping_add(dy) as u32, iz.wrapping_add(dz) as u32),
             fx - dx as f32,
             fy - dy as f32,
             fz - dz as f32,
@@ -203,12 +190,7 @@ impl NoiseCoord for Vec3 {
 impl NoiseCoord for Vec4 {
     #[inline]
     fn snoise(self) -> f32 {
-        0.8344 * perlin_4d(
-            self.x % REPEAT,
-            self.y % REPEAT,
-            self.z % REPEAT,
-            self.w % REPEAT,
-        )
+        0.8344 * perlin_4d(self.x % REPEAT, self.y % REPEAT, self.z % REPEAT, self.w % REPEAT)
     }
 }
 

@@ -13,8 +13,8 @@ use core::ops::{Add, Mul, Sub};
 use glam::{Vec2, Vec3, Vec4};
 
 use super::hash::{
-    hash_float_to_float, hash_float_to_float3, hash_int2_to_float2, hash_int2_to_float3,
-    hash_int3_to_float3, hash_int4_to_float3, hash_int4_to_float4,
+    hash_float_to_float, hash_float_to_float3, hash_int2_to_float2, hash_int2_to_float3, hash_int3_to_float3,
+    hash_int4_to_float3, hash_int4_to_float4,
 };
 use super::perlin::mix;
 
@@ -308,11 +308,7 @@ impl Coord for Vec3 {
     #[inline(always)]
     fn offset(i: u32, r: i32) -> Self {
         let n = (2 * r + 1) as u32;
-        Vec3::new(
-            (i % n) as f32 - r as f32,
-            (i / n % n) as f32 - r as f32,
-            (i / (n * n)) as f32 - r as f32,
-        )
+        Vec3::new((i % n) as f32 - r as f32, (i / n % n) as f32 - r as f32, (i / (n * n)) as f32 - r as f32)
     }
     #[inline(always)]
     fn splat(v: f32) -> Self {
@@ -444,24 +440,15 @@ fn smooth_f1<T: Coord>(prm: &Params, coord: T) -> Octave {
         let offset = T::offset(i, 2);
         let point = offset + T::hash_point(cell, offset) * prm.randomness;
         let d = T::distance(point, local, prm);
-        h = if h == -1.0 {
-            1.0
-        } else {
-            smoothstep01(0.5 + 0.5 * (smooth_distance - d) / prm.smoothness)
-        };
+        h = if h == -1.0 { 1.0 } else { smoothstep01(0.5 + 0.5 * (smooth_distance - d) / prm.smoothness) };
         let mut correction = prm.smoothness * h * (1.0 - h);
         smooth_distance = mix(smooth_distance, d, h) - correction;
         correction /= 1.0 + 3.0 * prm.smoothness;
         let cell_color = T::hash_color(cell, offset);
         smooth_color = smooth_color + (cell_color - smooth_color) * h - Vec3::splat(correction);
-        smooth_position =
-            smooth_position + (point - smooth_position) * h - T::splat(correction);
+        smooth_position = smooth_position + (point - smooth_position) * h - T::splat(correction);
     }
-    Octave {
-        distance: smooth_distance,
-        color: smooth_color,
-        position: (cell + smooth_position).position(),
-    }
+    Octave { distance: smooth_distance, color: smooth_color, position: (cell + smooth_position).position() }
 }
 
 /// Cycles' `smoothstep(0, 1, x)`.
@@ -501,11 +488,7 @@ fn f2<T: Coord>(prm: &Params, coord: T) -> Octave {
             position_f2 = point;
         }
     }
-    Octave {
-        distance: distance_f2,
-        color: T::hash_color(cell, offset_f2),
-        position: (position_f2 + cell).position(),
-    }
+    Octave { distance: distance_f2, color: T::hash_color(cell, offset_f2), position: (position_f2 + cell).position() }
 }
 
 /// Cycles' `voronoi_n_sphere_radius`: half the distance from the closest feature point to its
@@ -590,11 +573,7 @@ fn fractal<T: Coord>(prm: &Params, coord: T) -> Octave {
         out.color *= 1.0 / max_amplitude;
     }
     // Cycles' `safe_divide(position, scale)`.
-    out.position = if prm.scale != 0.0 {
-        out.position * (1.0 / prm.scale)
-    } else {
-        Vec4::ZERO
-    };
+    out.position = if prm.scale != 0.0 { out.position * (1.0 / prm.scale) } else { Vec4::ZERO };
     out
 }
 
@@ -645,24 +624,14 @@ fn evaluate<T: Coord>(prm: &mut Params, coord: T) -> VoronoiOut {
     match prm.feature {
         VoronoiFeature::DistanceToEdge => {
             prm.max_distance = 0.5 + 0.5 * prm.randomness;
-            VoronoiOut {
-                distance: fractal_distance_to_edge(prm, coord),
-                ..VoronoiOut::default()
-            }
+            VoronoiOut { distance: fractal_distance_to_edge(prm, coord), ..VoronoiOut::default() }
         }
-        VoronoiFeature::NSphereRadius => VoronoiOut {
-            radius: n_sphere_radius(prm, coord),
-            ..VoronoiOut::default()
-        },
+        VoronoiFeature::NSphereRadius => VoronoiOut { radius: n_sphere_radius(prm, coord), ..VoronoiOut::default() },
         _ => {
             // The largest F1 distance of a jittered grid: the distance to the far corner of
             // the cell's reach (in 1-D plainly 0.5 + 0.5 randomness); twice that for F2.
             let reach = 0.5 + 0.5 * prm.randomness;
-            let max_distance = if T::DIMS == 1 {
-                reach
-            } else {
-                T::distance(T::splat(0.0), T::splat(reach), prm)
-            };
+            let max_distance = if T::DIMS == 1 { reach } else { T::distance(T::splat(0.0), T::splat(reach), prm) };
             let factor = if prm.feature == VoronoiFeature::F2 { 2.0 } else { 1.0 };
             prm.max_distance = max_distance * factor;
             let out = fractal(prm, coord);

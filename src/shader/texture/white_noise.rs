@@ -6,8 +6,8 @@
 use glam::{Vec2, Vec3};
 
 use super::hash::{
-    hash_float_to_float, hash_float_to_float3, hash_vector2_to_float, hash_vector2_to_float3,
-    hash_vector3_to_float, hash_vector3_to_float3, hash_vector4_to_float, hash_vector4_to_float3,
+    hash_float_to_float, hash_float_to_float3, hash_vector2_to_float, hash_vector2_to_float3, hash_vector3_to_float,
+    hash_vector3_to_float3, hash_vector4_to_float, hash_vector4_to_float3,
 };
 
 /// (Value, Color) of the White Noise node with `dims` in 1..=4 (anything else is treated as 3,
