@@ -153,10 +153,10 @@ fn compare(
                     tally.compared += 1;
                     let err = (a - b).abs();
                     let ok = err <= tolerance(case, name, p, w, b) || (a.is_nan() && b.is_nan());
-                    if !(err <= case_max.0) {
+                    if err.is_nan() || err > case_max.0 {
                         case_max = (err, format!("{name} point {i}: ours {a}, Blender {b}"));
                     }
-                    if !(err <= tally.max_abs) && err.is_finite() {
+                    if err.is_finite() && err > tally.max_abs {
                         tally.max_abs = err;
                         tally.worst = format!("{name} at point {i} {p} w={w}: ours {a}, Blender {b}");
                     }

@@ -6,18 +6,31 @@ use glam::Vec3;
 /// The Brick node's settings and non-vector inputs.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BrickParams {
+    /// Shift of every `offset_frequency`-th row, as a fraction of the brick width.
     pub offset: f32,
+    /// Which rows are shifted (every n-th).
     pub offset_frequency: i32,
+    /// Width factor of every `squash_frequency`-th row.
     pub squash: f32,
+    /// Which rows are squashed (every n-th).
     pub squash_frequency: i32,
+    /// One end of the bricks' tint range.
     pub color1: Vec3,
+    /// The other end of the tint range.
     pub color2: Vec3,
+    /// The mortar's colour.
     pub mortar: Vec3,
+    /// Multiplies the vector.
     pub scale: f32,
+    /// Width of the mortar.
     pub mortar_size: f32,
+    /// Softness of the brick edge, as a fraction of the mortar.
     pub mortar_smooth: f32,
+    /// Shifts the tint towards `color1` (< 0) or `color2` (> 0).
     pub bias: f32,
+    /// Brick width.
     pub brick_width: f32,
+    /// Row height.
     pub row_height: f32,
 }
 

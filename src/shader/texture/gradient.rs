@@ -25,6 +25,8 @@ pub fn gradient_texture(p: Vec3, kind: GradientKind) -> f32 {
             r * r
         }
         GradientKind::Easing => {
+            // Cycles' fminf(fmaxf(x, 0), 1), which maps NaN to 0 where clamp would keep it.
+            #[allow(clippy::manual_clamp)]
             let r = x.max(0.0).min(1.0);
             let t = r * r;
             3.0 * t - 2.0 * t * r

@@ -27,14 +27,23 @@ pub enum NoiseKind {
 pub struct NoiseParams {
     /// 1..=4 (anything else is treated as 3, Blender's default).
     pub dims: u8,
+    /// The fractal: the node's "Type".
     pub kind: NoiseKind,
+    /// Map fBM to about [0, 1] (the node's "Normalize"; other kinds ignore it).
     pub normalize: bool,
+    /// Multiplies the vector and W before anything else.
     pub scale: f32,
+    /// Octaves after the first, [0, 15]; a fraction blends in one more.
     pub detail: f32,
+    /// Amplitude ratio between octaves (>= 0).
     pub roughness: f32,
+    /// Frequency ratio between octaves.
     pub lacunarity: f32,
+    /// Musgrave's offset (hybrid, ridged, hetero terrain).
     pub offset: f32,
+    /// Musgrave's gain (hybrid, ridged).
     pub gain: f32,
+    /// Strength of the noise-driven domain distortion (0: none).
     pub distortion: f32,
 }
 

@@ -72,7 +72,6 @@ fn bi_mix(v0: f32, v1: f32, v2: f32, v3: f32, x: f32, y: f32) -> f32 {
 }
 
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
 fn tri_mix(v: [f32; 8], x: f32, y: f32, z: f32) -> f32 {
     let x1 = 1.0 - x;
     let y1 = 1.0 - y;

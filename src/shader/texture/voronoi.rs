@@ -42,25 +42,40 @@ pub enum VoronoiMetric {
 pub struct VoronoiParams {
     /// 1..=4 (anything else is treated as 3, Blender's default).
     pub dims: u8,
+    /// What is measured: the node's "Feature".
     pub feature: VoronoiFeature,
+    /// How distance is measured: the node's "Distance".
     pub metric: VoronoiMetric,
+    /// Divide distance and colour by their largest possible value.
     pub normalize: bool,
+    /// Multiplies the vector and W before anything else.
     pub scale: f32,
+    /// Octaves after the first, [0, 15]; a fraction blends in one more.
     pub detail: f32,
+    /// Amplitude ratio between octaves, [0, 1].
     pub roughness: f32,
+    /// Frequency ratio between octaves.
     pub lacunarity: f32,
+    /// Smooth F1's blend width, [0, 1] (halved inside, as Cycles does).
     pub smoothness: f32,
+    /// The Minkowski exponent.
     pub exponent: f32,
+    /// How far feature points stray from the cell corner, [0, 1].
     pub randomness: f32,
 }
 
 /// The node's outputs; those the feature does not produce are zero, as in Cycles.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct VoronoiOut {
+    /// F1, F2, smooth F1 or edge distance.
     pub distance: f32,
+    /// The cell's random colour (blended for smooth F1 and octaves).
     pub color: Vec3,
+    /// The feature point, in the input's (unscaled) space.
     pub position: Vec3,
+    /// The feature point's W (1-D and 4-D).
     pub w: f32,
+    /// The n-sphere radius.
     pub radius: f32,
 }
 

@@ -37,14 +37,23 @@ pub enum WaveProfile {
 /// The Wave node's settings and non-vector inputs.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WaveParams {
+    /// Bands or rings.
     pub kind: WaveKind,
+    /// The bands' or rings' axis.
     pub direction: WaveDirection,
+    /// The shape of one period.
     pub profile: WaveProfile,
+    /// Multiplies the vector.
     pub scale: f32,
+    /// Strength of the fBM added to the phase (0: none).
     pub distortion: f32,
+    /// fBM octaves after the first.
     pub detail: f32,
+    /// fBM frequency relative to the scaled vector.
     pub detail_scale: f32,
+    /// fBM amplitude ratio between octaves.
     pub detail_roughness: f32,
+    /// Added to the phase, in radians.
     pub phase_offset: f32,
 }
 
@@ -72,7 +81,10 @@ pub fn wave_texture(p: Vec3, prm: &WaveParams) -> (f32, Vec3) {
     };
     n += prm.phase_offset;
     if prm.distortion != 0.0 {
-        let noise = fbm(p * prm.detail_scale, prm.detail, prm.detail_roughness, 2.0, true);
+        // Cycles passes detail unclamped: a detail of 1e9 would loop 1e9 octaves. Clamping to
+        // the socket's range [0, 15] (as the Noise node does) changes nothing inside it.
+        let detail = prm.detail.clamp(0.0, 15.0);
+        let noise = fbm(p * prm.detail_scale, detail, prm.detail_roughness, 2.0, true);
         n += prm.distortion * (noise * 2.0 - 1.0);
     }
     let fac = match prm.profile {
