@@ -335,6 +335,31 @@ fn transparent_mix_gives_coverage() {
     assert!((mean_c - 0.75).abs() < 0.009 && (mean_a - 0.75).abs() < 0.009, "radiance {mean_c}, alpha {mean_a}");
 }
 
+/// Normal Map (tangent space) on the plane, whose MikkTSpace frame is (+x, +y, +z): the
+/// colour of the tangent-space normal t = normalize(0.5, 0, 1) gives t in the world
+/// (Blender axes (t.x, −t.z, t.y)), shown through Emission plus (1, 1, 1). The loader makes
+/// the tangents because the graph asks for them.
+#[test]
+fn tangent_space_normal_map_uses_generated_tangents() {
+    let t = glam::Vec3::new(0.5, 0.0, 1.0).normalize();
+    let c = t * 0.5 + glam::Vec3::splat(0.5);
+    let nodes = json!([
+        {"name": "Normal Map", "type": "ShaderNodeNormalMap", "props": {"space": "TANGENT"},
+         "inputs": {"Strength": {"value": 1.0}, "Color": {"value": [c.x, c.y, c.z, 1.0]}}},
+        {"name": "Shift", "type": "ShaderNodeVectorMath", "props": {"operation": "ADD"},
+         "inputs": {"Vector": {"link": [0, "Normal"]}, "Vector_001": {"value": [1, 1, 1]}}},
+        {"name": "Emission", "type": "ShaderNodeEmission",
+         "inputs": {"Color": {"link": [1, "Vector"]}, "Strength": {"value": 1.0}}}
+    ]);
+    let want = [1.0 + t.x, 1.0 - t.z, 1.0 + t.y];
+    for (px, x, y) in render_plane(node_material("nmap", nodes, json!([2, "Emission"])), 4) {
+        for k in 0..3 {
+            // MikkTSpace on a flat quad is exact up to f32 rounding.
+            assert!((px[k] - want[k]).abs() < 1e-4, "({x}, {y}) channel {k}: {} vs {}", px[k], want[k]);
+        }
+    }
+}
+
 /// A white furnace of mixed closures: a closed cube of double-sided walls whose graph is
 /// Add(Emission Le, Mix(0.3, Diffuse white, Glossy white)) seen from inside. Every lobe
 /// keeps all the light (the glossy one through multiscatter compensation), so with at most

@@ -405,6 +405,8 @@ pub struct Program {
     pub constant_emission: Option<Vec3>,
     /// The Displacement output's bumped normal (Blender axes), the default closure normal.
     pub displacement_normal: Option<Reg>,
+    /// Mesh tangents are read (tangent-space Normal Map, Geometry Tangent), from this UV set.
+    pub tangent_uv: Option<u32>,
 }
 
 thread_local! {

@@ -58,6 +58,9 @@ impl Compiler<'_> {
                         continue;
                     }
                     let out = self.out(i, id, ty);
+                    if what == Some(InputKind::Tangent) {
+                        self.prog.tangent_uv.get_or_insert(0);
+                    }
                     match what {
                         Some(what) => self.ops.push(Op::Input { what, out }),
                         None => self.warn(i, format!("the {id} output is not supported: it gives 0")),
@@ -167,6 +170,9 @@ impl Compiler<'_> {
                     "WORLD" | "BLENDER_WORLD" => 2,
                     other => return Err(self.err(i, format!("unknown space '{other}'"))),
                 };
+                if space == 0 {
+                    self.prog.tangent_uv = Some(self.tex_coord(i) as u32);
+                }
                 let strength = self.float(i, "Strength", 1.0)?;
                 let color = self.vec(i, "Color", Vec3::new(0.5, 0.5, 1.0))?;
                 self.all_const = false;
