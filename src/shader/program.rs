@@ -411,6 +411,8 @@ pub struct Program {
 
 thread_local! {
     static REGISTERS: RefCell<Vec<f32>> = const { RefCell::new(Vec::new()) };
+    /// A copy of the register file a Bump restores after its offset evaluations.
+    static SAVED: RefCell<Vec<f32>> = const { RefCell::new(Vec::new()) };
 }
 
 /// Runs `f` with this thread's register file (grown once to the largest program).
@@ -682,6 +684,14 @@ impl Program {
                 ((d22 * v1 - d12 * v2) / den, (d11 * v2 - d12 * v1) / den)
             };
             if den > 0.0 {
+                // The offset runs overwrite the height's registers: a copy of the file puts
+                // them back (a nested bump, whose copy is in use, re-runs instead).
+                let saved = SAVED.with(|s| {
+                    s.try_borrow_mut().ok().map(|mut s| {
+                        s.clear();
+                        s.extend_from_slice(r);
+                    })
+                });
                 let mut h = [0.0f32; 2];
                 for (k, d) in [ex * eps, ey * eps].into_iter().enumerate() {
                     let (b1, b2) = bary(g.p + d);
@@ -702,9 +712,12 @@ impl Program {
                     h[k] = r[b.height as usize];
                 }
                 // Restore the registers the re-runs overwrote.
-                for &(a, z) in &b.sub {
-                    for op in &self.ops[a as usize..z as usize] {
-                        self.step(op, g, r, out);
+                let restored = saved.is_some() && SAVED.with(|s| s.try_borrow().map(|s| r.copy_from_slice(&s)).is_ok());
+                if !restored {
+                    for &(a, z) in &b.sub {
+                        for op in &self.ops[a as usize..z as usize] {
+                            self.step(op, g, r, out);
+                        }
                     }
                 }
                 let (dx, dy) = (ex * eps, ey * eps);

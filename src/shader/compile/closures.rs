@@ -152,6 +152,9 @@ impl Compiler<'_> {
                     strength: zero,
                     normal,
                 };
+                if !self.normals.contains(&normal) {
+                    self.normals.push(normal);
+                }
                 self.ops.push(Op::Closure(Box::new(op)));
                 self.closure_ops += 1;
             }
@@ -257,6 +260,9 @@ impl Compiler<'_> {
         normal: Option<Reg>,
     ) {
         self.closure_ops += 1;
+        if !matches!(kind, ClosureKind::Emission | ClosureKind::Transparent) && !self.normals.contains(&normal) {
+            self.normals.push(normal);
+        }
         self.ops.push(Op::Closure(Box::new(ClosureOp { kind, w, color, roughness, ior, strength, normal })));
     }
 }

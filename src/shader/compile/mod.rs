@@ -83,6 +83,7 @@ pub fn compile(name: &str, ext: &NodesExt, images: &[u32]) -> Result<Compiled, S
         all_const: true,
         used,
         closure_ops: 0,
+        normals: Vec::new(),
         small_lobes: 0,
         principled: 0,
         uses_generated: false,
@@ -102,6 +103,11 @@ pub fn compile(name: &str, ext: &NodesExt, images: &[u32]) -> Result<Compiled, S
              the lobes past that are dropped where all are present",
             c.small_lobes
         ));
+    }
+    if c.normals.len() > 1 {
+        c.warnings.push(
+            "the BSDFs have different Normal inputs: the mixture shades all of them with the first linked one".into(),
+        );
     }
     if c.principled > 1 {
         c.warnings.push(format!(
@@ -184,6 +190,8 @@ struct Compiler<'a> {
     all_const: bool,
     used: HashSet<(usize, String)>,
     closure_ops: usize,
+    /// The distinct Normal inputs of the BSDF closures (None: the shading normal).
+    normals: Vec<Option<Reg>>,
     small_lobes: usize,
     principled: usize,
     uses_generated: bool,
