@@ -7,11 +7,14 @@ out of it or writes differently from what Cycles renders (docs/contract.md):
 |---|---|
 | `settings.py` | the render settings: `scenes[i].extras.caustic` |
 | `camera.py` | lens shift and depth of field: `CAUSTIC_camera` |
-| `lights.py` | area lights (`CAUSTIC_lights_area`), light shapes (`CAUSTIC_lights_punctual`), spot angles |
+| `lights.py` | area lights (`CAUSTIC_lights_area`), light shapes (`CAUSTIC_lights_punctual`), spot |
+|  | angles, light node trees' strength and colour |
 | `world.py` | the world's Background and environment image: `CAUSTIC_world` |
 | `materials.py` | shader nodes the exporter cannot read, solid glass, coat, warnings |
+| `node_graph.py` | a material's whole shader graph for the renderer: `CAUSTIC_materials_nodes` |
+| `node_images.py` | the graphs' images, written beside the glTF in `caustic_nodes/` |
 | `media.py` | subsurface and the Volume output: `CAUSTIC_materials_subsurface`, `CAUSTIC_materials_medium` |
-| `meshes.py` | TEXCOORD_n for textured meshes without a UV map |
+| `meshes.py` | TEXCOORD_n for textured meshes without a UV map; `CAUSTIC_texspace` extras |
 | `nodes.py` | reading shader node trees (shared) |
 | `gltf_objects.py` | building the exporter's glTF objects (extensions, accessors) |
 | `gltf_hooks.py` | the hook class the exporter calls, and making sure it finds it |
@@ -76,6 +79,7 @@ def export_scene(depsgraph, folder, settings):
     view_layer = depsgraph.view_layer
     state = ExportState(settings)
     state.pixel_aspect = (scene.render.pixel_aspect_x, scene.render.pixel_aspect_y)
+    state.depsgraph = depsgraph
     # The exporter takes object transforms from the original objects, which only the viewport
     # depsgraph updates; during an animation render it still holds the previous frame.
     scene_eval = depsgraph.scene_eval

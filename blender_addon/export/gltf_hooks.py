@@ -18,7 +18,7 @@ from . import materials, meshes
 from .camera import CAMERA_EXTENSION, camera_extension
 from .gltf_objects import attach_extension
 from .lights import (AREA_LIGHT_EXTENSION, PUNCTUAL_EXTENSION, area_light_extension,
-                     punctual_light_extension, separate_spot_angles)
+                     punctual_light_extension, scale_punctual_light, separate_spot_angles)
 from .state import current
 from .world import WORLD_EXTENSION, world_extension
 
@@ -31,7 +31,8 @@ class glTF2ExportUserExtension:
 
     def gather_node_hook(self, gltf2_node, blender_object, export_settings):
         """Attach CAUSTIC_camera to a camera's node, CAUSTIC_lights_area to an area light's node,
-        CAUSTIC_lights_punctual to the other lights'."""
+        CAUSTIC_lights_punctual to the other lights', and CAUSTIC_texspace to a mesh whose
+        node graphs read Generated coordinates."""
         state = current()
         if state is None or blender_object is None:
             return
@@ -43,10 +44,14 @@ class glTF2ExportUserExtension:
                 if value:
                     attach_extension(gltf2_node, CAMERA_EXTENSION, value)
                 return
+            if blender_object.type == "MESH":
+                meshes.add_texspace(gltf2_node.mesh, blender_object, state)
+                return
             if blender_object.type != "LIGHT":
                 return
             if blender_object.data.type != "AREA":
                 separate_spot_angles(gltf2_node)
+                scale_punctual_light(gltf2_node, blender_object, state)
                 value = punctual_light_extension(blender_object)
                 if value:
                     attach_extension(gltf2_node, PUNCTUAL_EXTENSION, value)
@@ -56,11 +61,11 @@ class glTF2ExportUserExtension:
             state.area_lights.append(gltf2_node.name)
             state.warnings.extend(warnings)
         except Exception as err:  # the exporter would swallow it: keep it for export_scene
-            state.errors.append(f"area light '{blender_object.name}': {err!r}")
+            state.errors.append(f"object '{blender_object.name}': {err!r}")
 
     def gather_mesh_hook(self, gltf2_mesh, blender_mesh, blender_object, vertex_groups, modifiers, materials,
                          export_settings):
-        """Give primitives without a material Blender's default surface, and the TEXCOORD_n their
+        """Give primitives without a material Blender's default surface and the TEXCOORD_n their
         material's textures read (meshes.py)."""
         state = current()
         if state is None or gltf2_mesh is None:

@@ -11,6 +11,11 @@
 * A spot with blend 0 gets innerConeAngle == outerConeAngle from the exporter, which the glTF
   validator calls an error (glTF wants inner < outer): the inner angle is moved down to the
   next double (Caustic uses `spot_blend` instead anyway).
+* Light node trees: Cycles multiplies the light's power by the Strength and its colour by the
+  Color of the Emission node on the light's output (`light_node_factors`). The exporter instead
+  replaces the colour by the node's and ignores the Strength (it uses it *instead of* the power
+  for a sun); `scale_punctual_light` corrects what it wrote, `area_light_extension` applies the
+  factors. A linked Strength or Color, or another shader, is named in a warning.
 """
 
 import math
@@ -42,8 +47,10 @@ def area_light_extension(blender_object):
     if not light.normalize:
         power *= light.area(matrix_world=blender_object.matrix_world)
 
-    if light.use_nodes:
-        warnings.append(f"light '{blender_object.name}': light node trees are ignored")
+    strength, node_color, node_warnings = light_node_factors(blender_object)
+    warnings += node_warnings
+    power *= strength
+    color = [c * n for c, n in zip(color, node_color)]
     value = {"shape": shape, "size": [float(s) for s in size], "power": float(power),
              "color": [float(c) for c in color],
              # Ray Visibility > Camera (Blender hides lights from the camera by default).
@@ -86,3 +93,97 @@ def separate_spot_angles(gltf2_node):
         inner, outer = spot.get("innerConeAngle"), spot.get("outerConeAngle")
         if isinstance(inner, float) and isinstance(outer, float) and inner >= outer > 0.0:
             spot["innerConeAngle"] = math.nextafter(outer, 0.0)
+
+
+def _light_color(light):
+    """The light's own colour, with its blackbody temperature when used (as Cycles)."""
+    color = [float(c) for c in light.color]
+    if getattr(light, "use_temperature", False):
+        color = [c * float(t) for c, t in zip(color, light.temperature_color)]
+    return color
+
+
+def _emission_node(light):
+    """The node on the light's (Cycles) output Surface, through reroutes, or None."""
+    tree = light.node_tree
+    output = tree.get_output_node("CYCLES") if tree is not None else None
+    if output is None:
+        return None
+    sock = output.inputs.get("Surface")
+    while sock is not None and sock.is_linked:
+        link = next((k for k in sock.links if k.is_valid and not k.is_muted), None)
+        if link is None:
+            return None
+        if link.from_node.type != "REROUTE":
+            return link.from_node
+        sock = link.from_node.inputs[0]
+    return None
+
+
+def light_node_factors(blender_object):
+    """(strength, [r, g, b], warnings): what the light's node tree multiplies its power and colour
+    by in Cycles. Only an Emission node with unlinked Strength and Color is read; anything else
+    is named in a warning (and its unlinked values, or 1, are used)."""
+    light = blender_object.data
+    if not getattr(light, "use_nodes", False) or light.node_tree is None:
+        return 1.0, [1.0, 1.0, 1.0], []
+    name = blender_object.name
+    node = _emission_node(light)
+    if node is None:
+        return 1.0, [1.0, 1.0, 1.0], [f"light '{name}': its node tree has no shader on the Light Output's "
+                                       "Surface; Caustic uses the light's own power and colour"]
+    if node.type != "EMISSION" or node.mute:
+        return 1.0, [1.0, 1.0, 1.0], [f"light '{name}': the {node.bl_label} node '{node.name}' of its node tree "
+                                       "is not read (only an Emission node is); Caustic uses the light's own "
+                                       "power and colour"]
+    warnings = []
+    for socket_name in ("Strength", "Color"):
+        if node.inputs[socket_name].is_linked:
+            warnings.append(f"light '{name}': the {socket_name} of its node tree's Emission node '{node.name}' is "
+                            "linked; Caustic uses the socket's own value (light textures are not exported)")
+    strength = float(node.inputs["Strength"].default_value)
+    color = [float(c) for c in node.inputs["Color"].default_value[:3]]
+    return strength, color, warnings
+
+
+def scale_punctual_light(gltf2_node, blender_object, state):
+    """Make the exporter's KHR_lights_punctual light what Cycles renders for a light with a node
+    tree (module doc); warnings go to the state."""
+    ext = (gltf2_node.extensions or {}).get("KHR_lights_punctual")
+    child = ext.extension.get("light") if ext is not None and isinstance(ext.extension, dict) else None
+    value = getattr(child, "extension", None)
+    light = blender_object.data
+    if not isinstance(value, dict) or not getattr(light, "use_nodes", False) or light.node_tree is None:
+        return
+    strength, node_color, warnings = light_node_factors(blender_object)
+    if id(value) in state.scaled_lights:  # a light dict the exporter shares between objects
+        return
+    state.scaled_lights.add(id(value))
+    state.warnings.extend(warnings)
+    node = _emission_node(light)
+    if node is None or node.type != "EMISSION" or node.mute:
+        return  # the exporter found no Emission on the output either: it wrote the light's own values
+    # The exporter wrote colour = the node's Color (the light's colour dropped) and intensity
+    # from the light's power (a sun: from the node's Strength instead of the power).
+    value["color"] = [c * n for c, n in zip(_light_color(light), node_color)]
+    if light.type != "SUN" and _has_falloff_upstream(node.inputs["Strength"]):
+        # The exporter took its intensity from the Light Falloff node's Strength instead of the
+        # power; that is kept (the linked Strength is named in a warning above).
+        return
+    if "intensity" in value:
+        value["intensity"] = float(value["intensity"]) * (float(light.energy) if light.type == "SUN" else strength)
+
+
+def _has_falloff_upstream(sock):
+    """Whether a Light Falloff node feeds `sock` (the exporter reads its Strength then)."""
+    todo, seen = [sock], set()
+    while todo:
+        for link in todo.pop().links:
+            node = link.from_node
+            if node.as_pointer() in seen:
+                continue
+            seen.add(node.as_pointer())
+            if node.type == "LIGHT_FALLOFF":
+                return True
+            todo.extend(s for s in node.inputs if s.is_linked)
+    return False

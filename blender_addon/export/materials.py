@@ -10,12 +10,18 @@ Principled BSDF parameters it drops (contract, "Materials the exporter writes di
 * A Principled glass's base colour: glTF tints by it at every crossing, Cycles by its square
   root; written as sqrt(base) where that is exact (`_principled_transmission_tint`).
 * Coat IOR and tint (`CAUSTIC_materials_coat`); subsurface and volume media (media.py).
-* Procedural textures and Principled inputs neither glTF nor Caustic render: warnings.
+* Anything else the exporter cannot express (procedural textures, converters, mixtures of
+  shaders, groups, bump, ...): the whole Surface/Displacement graph in
+  `CAUSTIC_materials_nodes` (node_graph.py); the exporter's glTF material stays beside it for
+  other readers, and its fallback warnings are not given, since Caustic renders the graph.
+* Principled inputs neither glTF nor Caustic render: warnings.
 """
 
+import copy
 import math
 
 from .gltf_objects import optional_extension
+from .node_graph import GRAPH_EXTENSION, GraphContext, build_graph, needs_graph
 from .media import MEDIUM_EXTENSION, SUBSURFACE_EXTENSION, medium_extension, subsurface_extension
 from .nodes import procedural_source, surface_node, value as _value
 
@@ -31,9 +37,12 @@ def _principled(blender_material):
     return node if node is not None and node.type == "BSDF_PRINCIPLED" else None
 
 
-def principled_extras(blender_material):
+def principled_extras(blender_material, graph=False):
     """What Blender's glTF exporter drops from a Principled BSDF that Caustic renders
-    (`CAUSTIC_materials_coat`: coat IOR and tint), and warnings naming what neither renders."""
+    (`CAUSTIC_materials_coat`: coat IOR and tint), and warnings naming what neither renders.
+
+    With `graph` (the material is exported as a node graph) linked inputs are not named: the
+    graph carries them."""
     node = _principled(blender_material)
     if node is None:
         return None, []
@@ -46,11 +55,11 @@ def principled_extras(blender_material):
         socket = inputs.get(socket_name)
         if socket is None:
             return default
-        if socket.is_linked:
+        if socket.is_linked and not graph:
             warnings.append(f"material '{name}': a linked {socket_name} is not supported; using its value")
         return socket.default_value
 
-    for socket in inputs:
+    for socket in inputs if not graph else ():
         source = procedural_source(socket) if socket.is_linked and socket.type != "SHADER" else None
         if source is not None:
             warnings.append(f"material '{name}': {socket.name} comes from a {source.bl_label} node, which glTF "
@@ -214,12 +223,16 @@ def _set_extension(gltf2_material, name, value):
 
 def complete_material(gltf2_material, blender_material, export_settings, state):
     """Everything Caustic adds to the exporter's glTF material (the material hook's work)."""
-    _translate_shader_node(gltf2_material, blender_material, export_settings, state)
-    coat, warnings = principled_extras(blender_material)
+    as_graph = _node_graph(gltf2_material, blender_material, export_settings, state)
+    # A material exported as a graph is rendered from the graph: the warnings about what its
+    # glTF approximation drops do not apply to Caustic, so they are collected and discarded.
+    approximation_warnings = [] if as_graph else state.warnings
+    _translate_shader_node(gltf2_material, blender_material, export_settings, approximation_warnings)
+    coat, warnings = principled_extras(blender_material, graph=as_graph)
     state.warnings.extend(warnings)
     if coat is not None:
         _set_extension(gltf2_material, COAT_EXTENSION, coat)
-    state.warnings.extend(_principled_transmission_tint(gltf2_material, blender_material))
+    approximation_warnings.extend(_principled_transmission_tint(gltf2_material, blender_material))
     extensions = gltf2_material.extensions or {}
     if "KHR_materials_transmission" in extensions and "KHR_materials_volume" not in extensions:
         _set_extension(gltf2_material, "KHR_materials_volume", {"thicknessFactor": 1.0})
@@ -231,8 +244,72 @@ def complete_material(gltf2_material, blender_material, export_settings, state):
             _set_extension(gltf2_material, name, value)
 
 
-def _translate_shader_node(gltf2_material, blender_material, export_settings, state):
-    """Write the glTF material of a Diffuse/Glossy/Metallic/Glass/Refraction surface."""
+def graph_of(blender_material, state):
+    """The material's node graph (node_graph.Graph, or None), built once per export.
+
+    The UV map numbers come from the evaluated meshes of the objects that use the material."""
+    if blender_material is None:
+        return None
+    key = blender_material.as_pointer()
+    if key not in state.graphs:
+        meshes = list(_meshes_by_material(state).get(blender_material.original.as_pointer(), {}).values())
+        state.graphs[key] = build_graph(blender_material, GraphContext(state.depsgraph, meshes))
+    return state.graphs[key]
+
+
+def _meshes_by_material(state):
+    """Original material pointer -> {mesh pointer: evaluated mesh} of the depsgraph's objects
+    using it in a slot; built once per export (one pass over the objects, not one per material)."""
+    if state.material_meshes is None:
+        state.material_meshes = {}
+        for obj in state.depsgraph.objects if state.depsgraph is not None else ():
+            if obj.type != "MESH":
+                continue
+            for slot in obj.material_slots:
+                if slot.material is not None:
+                    users = state.material_meshes.setdefault(slot.material.original.as_pointer(), {})
+                    users[obj.data.as_pointer()] = obj.data
+    return state.material_meshes
+
+
+def uses_graph(blender_material, state):
+    """Whether the material is exported as a node graph (contract's rule, node_graph.needs_graph)."""
+    graph = graph_of(blender_material, state)
+    return graph is not None and needs_graph(blender_material, graph)
+
+
+def _node_graph(gltf2_material, blender_material, export_settings, state):
+    """Attach `CAUSTIC_materials_nodes` when the exporter cannot express the material, writing its
+    images; whether it did."""
+    if not uses_graph(blender_material, state):
+        return False
+    graph = graph_of(blender_material, state)
+    what = f"material '{blender_material.name}'"
+    state.warnings.extend(graph.warnings)
+    writer = state.image_writer(export_settings["gltf_filedirectory"])
+    entries, renumber = [], {}
+    for i, image in enumerate(graph.images):
+        entry = writer.entry(image, what, state.warnings)
+        if entry is not None:
+            renumber[i] = len(entries)
+            entries.append(entry)
+    nodes = copy.deepcopy(graph.nodes)
+    for node in nodes:
+        image = node["props"].get("image")
+        if image is not None:
+            if image in renumber:
+                node["props"]["image"] = renumber[image]
+            else:
+                del node["props"]["image"]
+    value = graph.value(entries)
+    value["nodes"] = nodes
+    _set_extension(gltf2_material, GRAPH_EXTENSION, value)
+    return True
+
+
+def _translate_shader_node(gltf2_material, blender_material, export_settings, out_warnings):
+    """Write the glTF material of a Diffuse/Glossy/Metallic/Glass/Refraction surface; its
+    warnings go to `out_warnings`."""
     params, color_socket, warnings = shader_node_material(blender_material)
     pbr = gltf2_material.pbr_metallic_roughness
     wrote = pbr is not None and any(getattr(pbr, k, None) is not None for k in (
@@ -240,7 +317,7 @@ def _translate_shader_node(gltf2_material, blender_material, export_settings, st
         "metallic_roughness_texture"))
     if params is not None and params.get("fallback") and wrote:
         return  # the exporter found a Principled BSDF in the surface (e.g. in a node group)
-    state.warnings.extend(warnings)
+    out_warnings.extend(warnings)
     if params is None:
         return
     from io_scene_gltf2.io.com.gltf2_io import MaterialPBRMetallicRoughness
@@ -252,7 +329,7 @@ def _translate_shader_node(gltf2_material, blender_material, export_settings, st
             texture = None
             print(f"Caustic: texture of material '{blender_material.name}' not exported: {err!r}")
         if texture is None:
-            state.warnings.append(f"material '{blender_material.name}': its colour comes from nodes other "
+            out_warnings.append(f"material '{blender_material.name}': its colour comes from nodes other "
                                   "than an image texture; rendered white")
     pbr = gltf2_material.pbr_metallic_roughness or MaterialPBRMetallicRoughness(
         None, None, None, None, None, None, None)

@@ -10,9 +10,20 @@ Such primitives get one explicit glTF material of those values.
 The exporter keeps the material's texture bindings but writes no TEXCOORD attribute, which the
 glTF validator calls an error. The missing TEXCOORD_n are added with every vertex at Blender's
 UV (0, 0) (glTF (0, 1)), which is what Cycles looks up for a mesh without UVs, with a warning.
+
+A mesh whose materials' node graphs read Generated coordinates gets its texture space in
+`extras.CAUSTIC_texspace` (contract): the evaluated mesh's `texspace_location`/`texspace_size`,
+which Cycles reads from the same evaluated mesh. Cycles applies it to the *undeformed* vertex
+positions (orco), which glTF cannot carry; the renderer applies it to the exported ones. The two
+agree without modifiers and with Subdivision Surface (which smooths both alike); any other
+modifier or shape keys are named in a warning (checked on bpy 5.0.1: an Array modifier keeps the
+original mesh's texture space, so its copies repeat the pattern in Cycles).
 """
 
 from .gltf_objects import constant_uv_accessor
+from .materials import graph_of, uses_graph
+
+TEXSPACE_EXTRA = "CAUSTIC_texspace"
 
 DEFAULT_SURFACE_NAME = "Blender default surface"
 
@@ -76,3 +87,41 @@ def _texcoords_used(material):
             used.add(obj.tex_coord or 0)
         todo.extend(vars(obj).values() if hasattr(obj, "__dict__") else ())
     return sorted(used)
+
+
+def add_texspace(gltf2_mesh, blender_object, state):
+    """Put the object's mesh's texture space in the glTF mesh's extras when a material's graph
+    reads Generated coordinates (module doc). Called from the node hook: the exporter's mesh
+    hook is not given the object of an unskinned mesh."""
+    if gltf2_mesh is None or blender_object is None or blender_object.type != "MESH":
+        return
+    materials = [slot.material for slot in blender_object.material_slots]
+    if not any(m is not None and uses_graph(m, state) and graph_of(m, state).uses_generated for m in materials):
+        return
+    mesh = blender_object.data
+    if state.depsgraph is not None:
+        mesh = blender_object.evaluated_get(state.depsgraph).data
+    _warn_deformed(blender_object, state)
+    extras = gltf2_mesh.extras if isinstance(gltf2_mesh.extras, dict) else {}
+    extras[TEXSPACE_EXTRA] = {"location": [float(v) for v in mesh.texspace_location],
+                              "size": [float(v) for v in mesh.texspace_size]}
+    gltf2_mesh.extras = extras
+
+
+# Modifiers after which Generated coordinates of the exported positions are still Cycles' (the
+# undeformed positions go through them alike).
+_ORCO_SAFE_MODIFIERS = {"SUBSURF"}
+
+
+def _warn_deformed(blender_object, state):
+    """Name an object whose modifiers or shape keys move its vertices away from the undeformed
+    positions Cycles' Generated coordinates use (module doc)."""
+    if blender_object is None:
+        return
+    moved = [m.name for m in blender_object.modifiers if m.show_render and m.type not in _ORCO_SAFE_MODIFIERS]
+    if getattr(blender_object.data, "shape_keys", None) is not None:
+        moved.append("shape keys")
+    if moved:
+        state.warnings.append(
+            f"object '{blender_object.name}': Generated texture coordinates are computed from the modified mesh "
+            f"({', '.join(moved)}); Cycles computes them from the undeformed one, so the pattern may differ")

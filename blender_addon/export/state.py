@@ -22,9 +22,22 @@ class ExportState:
         # that the exporter writes it once.
         self.default_material = None
         self.warnings = []
+        self.depsgraph = None  # the render depsgraph (evaluated meshes and objects for node graphs)
+        self.graphs = {}  # material pointer -> node_graph.Graph or None, built once per export
+        self.material_meshes = None  # original material pointer -> {pointer: evaluated mesh} using it
+        self.scaled_lights = set()  # ids of KHR light dicts already scaled by a light node tree
+        self._image_writer = None
         # The exporter logs and swallows hook exceptions: the hooks record them here and
         # export_scene raises them afterwards.
         self.errors = []
+
+
+    def image_writer(self, gltf_folder):
+        """The export's one node_images.ImageWriter (an image used twice is written once)."""
+        if self._image_writer is None:
+            from .node_images import ImageWriter
+            self._image_writer = ImageWriter(gltf_folder)
+        return self._image_writer
 
 
 def current():

@@ -36,8 +36,9 @@ pub(super) const TABLE_N: usize = 32;
 /// linear in F0), with the cosine-weighted averages of A and B. Computed once by
 /// stratified quadrature of the VNDF estimator F · G2 / G1 (deterministic).
 pub struct SpecularAlbedo {
-    a: Vec<f32>,
-    b: Vec<f32>,
+    /// (A, B) side by side, row-major over (roughness, μ): a fixed size lets the
+    /// compiler drop the bounds checks of the bilinear lookup, one of the hottest reads.
+    ab: Box<[[f32; 2]; TABLE_N * TABLE_N]>,
     avg_a: Vec<f32>,
     avg_b: Vec<f32>,
 }
@@ -69,7 +70,11 @@ impl SpecularAlbedo {
                 .collect()
         };
         let (avg_a, avg_b) = (avg(&a), avg(&b));
-        SpecularAlbedo { a, b, avg_a, avg_b }
+        let mut ab = Box::new([[0.0f32; 2]; TABLE_N * TABLE_N]);
+        for (i, e) in entries.iter().enumerate() {
+            ab[i] = [e.0, e.1];
+        }
+        SpecularAlbedo { ab, avg_a, avg_b }
     }
 
     /// Node i of the μ axis; nodes are spaced in √μ because E changes fastest at grazing angles.
@@ -94,8 +99,10 @@ impl SpecularAlbedo {
         let (fx, fy) = (x - x0 as f32, y - y0 as f32);
         let (i00, i01) = (y0 * TABLE_N + x0, (y0 + 1) * TABLE_N + x0);
         let w = [(1.0 - fx) * (1.0 - fy), fx * (1.0 - fy), (1.0 - fx) * fy, fx * fy];
-        let at = |t: &[f32]| w[0] * t[i00] + w[1] * t[i00 + 1] + w[2] * t[i01] + w[3] * t[i01 + 1];
-        (at(&self.a), at(&self.b))
+        let t = &*self.ab;
+        let (p00, p10, p01, p11) = (t[i00], t[i00 + 1], t[i01], t[i01 + 1]);
+        let at = |k: usize| w[0] * p00[k] + w[1] * p10[k] + w[2] * p01[k] + w[3] * p11[k];
+        (at(0), at(1))
     }
 
     /// E of the GGX lobe without Fresnel (F = 1, Schlick's F0 = 1: A + B): the fraction a

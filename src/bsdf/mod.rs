@@ -168,7 +168,9 @@ impl Bsdf {
     }
 }
 
-/// A [`Bsdf`] seen from one outgoing direction ([`Bsdf::at`]).
+/// A [`Bsdf`] seen from one outgoing direction ([`Bsdf::at`]): what depends on wo alone
+/// (layer albedos, the lobe weights) is computed once for the NEE evaluation, its MIS
+/// density and the sampled bounce of one vertex.
 #[derive(Clone, Copy, Debug)]
 pub enum BsdfAt<'a> {
     /// glTF metallic-roughness.
@@ -184,6 +186,24 @@ impl BsdfAt<'_> {
         match self {
             BsdfAt::Pbr(b) => b.eval(wi),
             BsdfAt::Mix(m, wo) => m.eval(*wo, wi),
+        }
+    }
+
+    /// Density of [`sample`](Self::sample) for wi, as [`Bsdf::pdf`].
+    #[inline]
+    pub fn pdf(&self, wi: Vec3) -> f32 {
+        match self {
+            BsdfAt::Pbr(b) => b.pdf(wi),
+            BsdfAt::Mix(m, wo) => m.pdf(*wo, wi),
+        }
+    }
+
+    /// Samples an incident direction, as [`Bsdf::sample`].
+    #[inline]
+    pub fn sample(&self, uc: f32, u: Vec2) -> Option<BsdfSample> {
+        match self {
+            BsdfAt::Pbr(b) => b.sample(uc, u),
+            BsdfAt::Mix(m, wo) => m.sample(*wo, uc, u),
         }
     }
 }

@@ -35,6 +35,19 @@
 //! sampling exact and, as in Cycles, makes those lobes non-reciprocal (light paths use
 //! the adjoint, `Bsdf::eval_adjoint`). The opaque dielectric's specular layer and the coat
 //! stay single-scattering (their albedo scales the layers below them).
+//!
+//! The shading frame's normal is the one the specular lobes see, which the caller may have
+//! bent towards the geometric normal to keep mirror reflections above the surface (as
+//! Cycles does, `scene::bent_normal`). Cycles leaves its diffuse closure on the unbent
+//! normal; so does this BSDF: the diffuse base then has its own normal (`diffuse_normal`),
+//! its cosine taken to it as the coat's is to the coat normal.
+//!
+//! Under a normal map the diffuse base is shadowed as Cycles shadows its diffuse closures
+//! (the bump terminator: Estevez et al. 2019, "A Microfacet-Based Shadowing Function to Solve
+//! the Bump Terminator Problem"): the mapped normal's deviation θd from the interpolated
+//! normal Ns is read as the roughness of a GGX surface, α² = min(tan²θd / 8, 1), whose
+//! masking G1 at the light's angle to Ns scales the diffuse value; light on the other side
+//! of Ns than the mapped normal puts it is not reflected at all.
 
 use super::BsdfSample;
 use super::dielectric::{DielectricBsdf, SMOOTH_ROUGHNESS};
@@ -99,6 +112,12 @@ pub struct PbrParams {
     /// Subsurface weight: the part of the diffuse base that scatters below the
     /// surface instead (sampled by the integrator's random walk, not by this BSDF).
     pub subsurface: f32,
+    /// The diffuse base's own normal in the shading frame, when the frame's normal was
+    /// bent for the specular lobes and this one was not.
+    pub diffuse_normal: Option<Vec3>,
+    /// The interpolated normal before normal mapping, in the shading frame, when a normal
+    /// map changed it (the diffuse base's bump shadowing).
+    pub smooth_normal: Option<Vec3>,
 }
 
 impl PbrParams {
@@ -123,6 +142,8 @@ impl PbrParams {
             sheen_roughness: 0.0,
             dispersion: 0.0,
             subsurface: 0.0,
+            diffuse_normal: None,
+            smooth_normal: None,
         }
     }
 }
@@ -167,6 +188,11 @@ pub struct PbrBsdf {
     pub smooth_coat: bool,
     /// The coat's frame within the shading frame, when its normal differs.
     pub coat_frame: Option<Frame>,
+    /// The diffuse base's frame within the shading frame, when its normal differs.
+    pub diffuse_frame: Option<Frame>,
+    /// The interpolated normal before normal mapping and the GGX α² of the bump shadowing
+    /// (the diffuse base's), when a normal map moved the normal.
+    bump: Option<(Vec3, f32)>,
     /// Normal-incidence reflectance of the coat (from its IOR).
     pub coat_f0: f32,
     /// Coat IOR (for the refracted path length through a tinted coat).
@@ -218,6 +244,18 @@ impl PbrBsdf {
             let n = n.normalize();
             (n.z < 1.0 - 1e-6).then(|| Frame::from_normal(n))
         });
+        // A diffuse normal below the frame's horizon (a normal facing away from the
+        // viewer) still reflects light arriving above both: kept, whatever its height.
+        let diffuse_frame = p.diffuse_normal.filter(|n| n.is_finite()).and_then(|n| {
+            let n = n.try_normalize()?;
+            (n.z < 1.0 - 1e-6).then(|| Frame::from_normal(n))
+        });
+        let diffuse_n = diffuse_frame.map_or(Vec3::Z, |f| f.n);
+        let bump = p.smooth_normal.and_then(|ns| ns.try_normalize()).and_then(|ns| {
+            // The deviation of the normal the diffuse base uses from the interpolated one.
+            let cos_d = ns.dot(diffuse_n).abs().min(1.0);
+            (cos_d < 1.0 && cos_d > 0.0).then(|| (ns, (0.125 * (1.0 / (cos_d * cos_d) - 1.0)).min(1.0)))
+        });
         let mut glass = DielectricBsdf::new(p.eta, roughness, p.thin, base);
         if p.dispersion > 0.0 && p.dispersion.is_finite() && !p.thin {
             glass = glass.with_dispersion(ior, p.dispersion);
@@ -244,6 +282,8 @@ impl PbrBsdf {
             layer_avg: Rgb::ZERO,
             metal_fms: Rgb::ZERO,
             coat_frame,
+            diffuse_frame,
+            bump,
             coat_f0: f0_from_ior(if p.coat_ior.is_finite() && p.coat_ior >= 1.0 { p.coat_ior } else { 1.5 }).min(1.0),
             coat_ior: if p.coat_ior.is_finite() && p.coat_ior >= 1.0 { p.coat_ior } else { 1.5 },
             coat_tint: if p.coat_tint.is_finite() { p.coat_tint.clamp(Vec3::ZERO, Vec3::ONE) } else { Vec3::ONE },
@@ -264,17 +304,6 @@ impl PbrBsdf {
             self.metal_fms = f_avg * e_avg / (Vec3::ONE - f_avg * (1.0 - e_avg)).max(Vec3::splat(1e-6));
         }
         self
-    }
-
-    /// The metal lobe's multiple-scattering factor seen from μo (1 when off).
-    #[inline]
-    fn metal_ms(&self, mu_o: f32) -> Rgb {
-        if self.metal_fms == Rgb::ZERO {
-            return Rgb::ONE;
-        }
-        // E of the white lobe is above 0.3 everywhere; the floor only guards the division.
-        let e = specular_albedo().e_white(mu_o, self.roughness).max(0.05);
-        Rgb::ONE + self.metal_fms * (1.0 / e - 1.0)
     }
 
     /// For a refracted pair (wo, wi), the adjoint f(wi, wo) over η² f(wo, wi): not 1 when
@@ -344,18 +373,22 @@ impl PbrBsdf {
         if self.sheen_max > 0.0 { (1.0 - self.sheen_albedo(mu_o)).min(1.0 - self.sheen_albedo(mu_i)) } else { 1.0 }
     }
 
+    /// How `sample` chooses among the lobes at `at.wo` (upper hemisphere): by the energy each
+    /// reflects towards wo, from the view-side terms [`at`](Self::at) computed.
     #[inline]
-    fn lobes(&self, wo: Vec3) -> LobeChoice {
-        let e = luminance(self.layer_albedo(wo.z));
-        let ec = self.coat_albedo(wo);
-        let es = self.sheen_albedo(wo.z);
-        let under = (1.0 - ec) * luminance(self.coat_transmittance(wo));
+    fn lobes(&self, at: &PbrAt) -> LobeChoice {
+        let wo = at.wo;
+        // `at` leaves the layer albedo at 0 when nothing is opaque: every term that reads it
+        // is multiplied by `opaque` = 0 then.
+        let e = luminance(at.eo);
+        let (ec, es) = (at.ec, at.es);
+        let under = (1.0 - ec) * luminance(at.coat_t);
         let below = under * (1.0 - es);
         let dielectric = 1.0 - self.metallic;
         let opaque = dielectric * (1.0 - self.transmission);
         let metal = below
             * self.metallic
-            * luminance((self.base + (Vec3::ONE - self.base) * schlick_weight(wo.z)) * self.metal_ms(wo.z));
+            * luminance((self.base + (Vec3::ONE - self.base) * schlick_weight(wo.z)) * at.metal_ms);
         let spec = below * opaque * e;
         let diffuse = below * opaque * (1.0 - e) * luminance(self.base) * (1.0 - self.subsurface);
         let glass = if self.transmission > 0.0 {
@@ -417,6 +450,31 @@ impl PbrBsdf {
         self.coat_ggx.pdf_visible_normal(wo, h) / (4.0 * wo.dot(h).max(1e-8))
     }
 
+    /// Density of the diffuse lobe's cosine-weighted samples around its normal (wi in the
+    /// upper hemisphere of the shading frame).
+    #[inline]
+    fn diffuse_pdf(&self, wi: Vec3) -> f32 {
+        match &self.diffuse_frame {
+            Some(f) => cosine_hemisphere_pdf(wi.dot(f.n).max(0.0)),
+            None => cosine_hemisphere_pdf(wi.z),
+        }
+    }
+
+    /// The diffuse base's cosine over the shading frame's (the integrators multiply by the
+    /// latter, and the base reflects by its own normal's, 0 below its own horizon), times
+    /// its bump shadowing.
+    #[inline]
+    fn diffuse_cos_ratio(&self, wi: Vec3) -> f32 {
+        let (n, ratio) = match &self.diffuse_frame {
+            Some(f) => (f.n, wi.dot(f.n).max(0.0) / wi.z),
+            None => (Vec3::Z, 1.0),
+        };
+        match self.bump {
+            Some((ns, alpha2)) => ratio * bump_shadowing(ns, n, wi, alpha2),
+            None => ratio,
+        }
+    }
+
     /// The Charlie sheen lobe's f(wo, wi) (colour included).
     #[inline]
     fn sheen_eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
@@ -459,16 +517,36 @@ impl PbrBsdf {
         let flip = wo.z < 0.0;
         let wo = if flip { Vec3::new(wo.x, wo.y, -wo.z) } else { wo };
         if wo.z <= 0.0 {
-            return PbrAt { b: self, wo, flip, under: Rgb::ZERO, eo: Rgb::ZERO, sheen_o: 0.0, metal_ms: Rgb::ONE };
+            return PbrAt {
+                b: self,
+                wo,
+                flip,
+                under: Rgb::ZERO,
+                eo: Rgb::ZERO,
+                sheen_o: 0.0,
+                metal_ms: Rgb::ONE,
+                ec: 0.0,
+                coat_t: Rgb::ONE,
+                es: 0.0,
+            };
         }
         // The coat reflects E_c(μo) of the light and leaves the rest to the layers below
         // (albedo scaling by the outgoing direction, as Cycles layers its coat).
-        let under = self.coat_transmittance(wo) * (1.0 - self.coat_albedo(wo));
+        let ec = self.coat_albedo(wo);
+        let coat_t = self.coat_transmittance(wo);
+        let under = coat_t * (1.0 - ec);
         let opaque = (1.0 - self.metallic) * (1.0 - self.transmission);
-        let eo = if opaque > 0.0 { self.layer_albedo(wo.z) } else { Rgb::ZERO };
-        let sheen_o = if self.sheen_max > 0.0 { 1.0 - self.sheen_albedo(wo.z) } else { 1.0 };
-        let metal_ms = self.metal_ms(wo.z);
-        PbrAt { b: self, wo, flip, under, eo, sheen_o, metal_ms }
+        // The dielectric layer and the metal read the same (μo, roughness) table entry.
+        let need_layer = opaque > 0.0 && self.specular != 0.0;
+        let need_metal = self.metal_fms != Rgb::ZERO;
+        let (a, b) = if need_layer || need_metal { specular_albedo().ab(wo.z, self.roughness) } else { (0.0, 0.0) };
+        let eo = if need_layer { (self.f0_rgb * a + Vec3::splat(b)) * self.specular } else { Rgb::ZERO };
+        let es = self.sheen_albedo(wo.z);
+        let sheen_o = if self.sheen_max > 0.0 { 1.0 - es } else { 1.0 };
+        // The metal's multiple-scattering factor 1 + F_ms (1/E − 1) with E the white lobe's
+        // albedo (above 0.3 everywhere; the floor only guards the division).
+        let metal_ms = if need_metal { Rgb::ONE + self.metal_fms * (1.0 / (a + b).max(0.05) - 1.0) } else { Rgb::ONE };
+        PbrAt { b: self, wo, flip, under, eo, sheen_o, metal_ms, ec, coat_t, es }
     }
 
     /// Density of [`sample`](Self::sample) for the non-delta lobes.
@@ -478,7 +556,16 @@ impl PbrBsdf {
         if wo.z <= 0.0 || wi.z == 0.0 {
             return 0.0;
         }
-        let c = self.lobes(wo);
+        self.pdf_with(&self.lobes(&self.at(wo)), wo, wi)
+    }
+
+    /// [`pdf`](Self::pdf) with the lobe choice at `wo` (upper hemisphere) already made:
+    /// `sample` chooses a lobe and then needs the whole density, from the same choice.
+    #[inline]
+    fn pdf_with(&self, c: &LobeChoice, wo: Vec3, wi: Vec3) -> f32 {
+        if wo.z <= 0.0 || wi.z == 0.0 {
+            return 0.0;
+        }
         let mut pdf = 0.0;
         if c.glass > 0.0 {
             pdf += c.glass * self.glass.pdf(wo, wi);
@@ -489,7 +576,7 @@ impl PbrBsdf {
                 let pdf_spec = self.ggx.pdf_visible_normal(wo, h) / (4.0 * wo.dot(h).max(1e-8));
                 pdf += (c.metal + c.spec) * pdf_spec;
             }
-            pdf += (c.diffuse + c.sheen) * cosine_hemisphere_pdf(wi.z);
+            pdf += c.diffuse * self.diffuse_pdf(wi) + c.sheen * cosine_hemisphere_pdf(wi.z);
             if c.coat > 0.0 && !self.smooth_coat {
                 pdf += c.coat * self.coat_pdf(wo, wi);
             }
@@ -500,70 +587,93 @@ impl PbrBsdf {
     /// Samples wi for wo; `uc` picks the lobe (and is reused within the glass lobe).
     #[inline]
     pub fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
-        let flip = wo.z < 0.0;
+        self.at(wo).sample(uc, u)
+    }
+}
+
+impl PbrAt<'_> {
+    /// Density of [`PbrBsdf::sample`] for wi, as [`PbrBsdf::pdf`].
+    #[inline]
+    pub fn pdf(&self, wi: Vec3) -> f32 {
+        let wi = if self.flip { Vec3::new(wi.x, wi.y, -wi.z) } else { wi };
+        if self.wo.z <= 0.0 || wi.z == 0.0 {
+            return 0.0;
+        }
+        self.b.pdf_with(&self.b.lobes(self), self.wo, wi)
+    }
+
+    /// [`PbrBsdf::sample`] from the view-side terms computed once.
+    #[inline]
+    pub fn sample(&self, uc: f32, u: Vec2) -> Option<BsdfSample> {
+        let flip = self.flip;
         let mirror = |w: Vec3| if flip { Vec3::new(w.x, w.y, -w.z) } else { w };
-        let wo_up = mirror(wo);
+        let wo_up = self.wo;
         if wo_up.z <= 0.0 {
             return None;
         }
-        let c = self.lobes(wo_up);
+        let this = self.b;
+        let c = this.lobes(self);
         let wi_up = if uc < c.glass {
-            let s = self.glass.sample(wo_up, uc / c.glass, u)?;
+            let s = this.glass.sample(wo_up, uc / c.glass, u)?;
             if s.delta {
-                let weight = self.coat_transmittance(wo_up)
-                    * (1.0 - self.metallic)
-                    * self.transmission
-                    * (1.0 - self.coat_albedo(wo_up))
-                    * self.sheen_scaling(wo_up.z, s.wi.z.abs());
+                let weight = self.coat_t
+                    * (1.0 - this.metallic)
+                    * this.transmission
+                    * (1.0 - self.ec)
+                    * this.sheen_scaling(wo_up.z, s.wi.z.abs());
                 return Some(BsdfSample { wi: mirror(s.wi), f: s.f * weight, pdf: s.pdf * c.glass, delta: true });
             }
             s.wi
         } else if uc < c.glass + c.metal + c.spec {
-            if self.smooth {
+            if this.smooth {
                 // Perfect mirror: the metal's and the dielectric layer's reflectance.
                 let mu = wo_up.z;
-                let under =
-                    self.coat_transmittance(wo_up) * (1.0 - self.coat_albedo(wo_up)) * self.sheen_scaling(mu, mu);
-                let opaque = (1.0 - self.metallic) * (1.0 - self.transmission);
-                let metal = (self.base + (Vec3::ONE - self.base) * schlick_weight(mu)) * self.metallic;
-                let refl = (metal + self.layer_albedo(mu) * opaque) * under;
+                let under = self.under * this.sheen_scaling(mu, mu);
+                let opaque = (1.0 - this.metallic) * (1.0 - this.transmission);
+                let metal = (this.base + (Vec3::ONE - this.base) * schlick_weight(mu)) * this.metallic;
+                let refl = (metal + self.eo * opaque) * under;
                 let wi = Vec3::new(-wo_up.x, -wo_up.y, wo_up.z);
                 return Some(BsdfSample { wi: mirror(wi), f: refl / mu, pdf: c.metal + c.spec, delta: true });
             }
-            reflect(wo_up, self.ggx.sample_visible_normal(wo_up, u))
+            reflect(wo_up, this.ggx.sample_visible_normal(wo_up, u))
+        } else if uc < c.glass + c.metal + c.spec + c.diffuse {
+            match &this.diffuse_frame {
+                Some(f) => f.to_world(cosine_hemisphere(u)),
+                None => cosine_hemisphere(u),
+            }
         } else if uc < c.glass + c.metal + c.spec + c.diffuse + c.sheen {
             cosine_hemisphere(u)
         } else {
-            let cf = self.coat_frame.unwrap_or(Frame { s: Vec3::X, t: Vec3::Y, n: Vec3::Z });
+            let cf = this.coat_frame.unwrap_or(Frame { s: Vec3::X, t: Vec3::Y, n: Vec3::Z });
             let wo_c = cf.to_local(wo_up);
             if wo_c.z <= 0.0 {
                 return None;
             }
-            if self.smooth_coat {
+            if this.smooth_coat {
                 let wi = cf.to_world(Vec3::new(-wo_c.x, -wo_c.y, wo_c.z));
                 if wi.z <= 0.0 {
                     return None;
                 }
-                return Some(BsdfSample {
-                    wi: mirror(wi),
-                    f: Rgb::splat(self.coat_albedo(wo_up) / wi.z),
-                    pdf: c.coat,
-                    delta: true,
-                });
+                return Some(BsdfSample { wi: mirror(wi), f: Rgb::splat(self.ec / wi.z), pdf: c.coat, delta: true });
             }
-            cf.to_world(reflect(wo_c, self.coat_ggx.sample_visible_normal(wo_c, u)))
+            cf.to_world(reflect(wo_c, this.coat_ggx.sample_visible_normal(wo_c, u)))
         };
         if wi_up.z == 0.0 || (uc >= c.glass && wi_up.z < 0.0) {
             return None;
         }
-        let wi = mirror(wi_up);
-        let pdf = self.pdf(wo, wi);
+        // The density and value from the lobe choice and wo-terms of this call (the same
+        // numbers `pdf` and `eval` would recompute: the profile had the albedo-table
+        // lookups at wo three times per sampled bounce).
+        let pdf = this.pdf_with(&c, wo_up, wi_up);
         if !(pdf > 0.0) {
             return None;
         }
-        Some(BsdfSample { wi, f: self.eval(wo, wi), pdf, delta: false })
+        let wi = mirror(wi_up);
+        Some(BsdfSample { wi, f: self.eval(wi), pdf, delta: false })
     }
+}
 
+impl PbrBsdf {
     /// Weight of the subsurface part seen from `wo` (local, either side), relative to
     /// the base colour: what the layers above (coat, specular) and the metal and glass
     /// mixes leave to the diffuse base, times the subsurface weight. Cycles weights
@@ -610,6 +720,12 @@ pub struct PbrAt<'a> {
     sheen_o: f32,
     /// The metal's multiple-scattering factor at wo.
     metal_ms: Rgb,
+    /// The coat's albedo at wo.
+    ec: f32,
+    /// What a tinted coat transmits, seen from wo.
+    coat_t: Rgb,
+    /// The sheen's albedo at wo (0 without sheen).
+    es: f32,
 }
 
 impl PbrAt<'_> {
@@ -645,7 +761,7 @@ impl PbrAt<'_> {
             let diffuse_weight = (Vec3::ONE - self.eo) * (Vec3::ONE - ei)
                 / (Vec3::ONE - b.layer_avg).max(Vec3::splat(1e-6))
                 * (1.0 - b.subsurface);
-            f += (b.base * diffuse_weight * FRAC_1_PI + f_layer * spec) * opaque;
+            f += (b.base * diffuse_weight * (FRAC_1_PI * b.diffuse_cos_ratio(wi)) + f_layer * spec) * opaque;
         }
         if b.metallic > 0.0 {
             f += (b.base + (Vec3::ONE - b.base) * fw) * self.metal_ms * (spec * b.metallic);
@@ -656,6 +772,24 @@ impl PbrAt<'_> {
         }
         f
     }
+}
+
+/// The bump terminator's shadowing of a diffuse lobe on normal `n` for light from `wi`, with
+/// `ns` the interpolated normal and α² the GGX roughness its deviation stands for: 0 for
+/// light on the other side of `ns` than `n` puts it, else Smith's G1 of that GGX surface at
+/// the light's angle to `ns` (1 at normal incidence, falling towards grazing light).
+#[inline]
+fn bump_shadowing(ns: Vec3, n: Vec3, wi: Vec3, alpha2: f32) -> f32 {
+    let cos_i = ns.dot(wi);
+    if cos_i * ns.dot(n) * n.dot(wi) < 0.0 {
+        return 0.0;
+    }
+    let cos_i = cos_i.abs().min(1.0);
+    if cos_i < 1e-6 {
+        return 0.0;
+    }
+    let tan2 = 1.0 / (cos_i * cos_i) - 1.0;
+    2.0 / (1.0 + (1.0 + alpha2 * tan2).sqrt())
 }
 
 /// Mirrors both directions to the upper hemisphere when `wo` is below it, which makes

@@ -31,8 +31,11 @@ pub fn medium_segment(
     let Some(m) = ctx.medium(media) else {
         return (None, Rgb::ONE, Rgb::ONE);
     };
-    if t_surface.is_finite() {
-        *l += beta * m.emitted(t_surface);
+    // An unbounded segment (an open mesh's medium, the world's) gathers E/σt where the
+    // medium attenuates; infinite emission (σt = 0) is refused when the scene loads.
+    let emitted = m.emitted(t_surface);
+    if emitted.is_finite() {
+        *l += beta * emitted;
     }
     match m.sample_free_flight(t_surface, beta, u[0], u[1]) {
         FreeFlight::Scatter { t, weight } => (Some((t, m.phase)), m.pass_weight(t, beta), weight),

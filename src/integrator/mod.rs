@@ -110,7 +110,8 @@ impl<'a> SceneContext<'a> {
             world_light,
             spheres,
             suns,
-            has_media: scene.materials.iter().any(|m| m.medium.is_some() || m.subsurface.is_some()),
+            has_media: scene.world_medium.is_some()
+                || scene.materials.iter().any(|m| m.medium.is_some() || m.subsurface.is_some()),
         }
     }
 
@@ -225,7 +226,11 @@ impl<'a> SceneContext<'a> {
     /// The medium in effect for a stack of media.
     #[inline]
     pub fn medium(&self, stack: &MediumStack) -> Option<&HomogeneousMedium> {
-        stack.current().and_then(|m| self.scene.materials[m as usize].medium.as_ref())
+        match stack.current() {
+            Some(m) => self.scene.materials[m as usize].medium.as_ref(),
+            // Outside every mesh medium: the world's volume, if any.
+            None => self.scene.world_medium.as_ref(),
+        }
     }
 
     /// Radiance of the world seen along direction `d` (zero without a world).

@@ -4,6 +4,7 @@
 //! media and volume boundaries.
 
 use super::{SceneContext, media, power_heuristic};
+use crate::bsdf::BsdfAt;
 use crate::light::LightSample;
 use crate::math::Rgb;
 use crate::medium::{HenyeyGreenstein, MediumStack};
@@ -11,7 +12,8 @@ use crate::render::job::RayStats;
 use crate::scene::shading::{ShadingPoint, SurfaceHit};
 use glam::{Vec2, Vec3};
 
-/// Light reaching surface `s` from one light sample, times the BSDF and the throughput
+/// Light reaching surface `s` from one light sample, times the BSDF (`at`: the shading
+/// point's BSDF seen from the outgoing direction) and the throughput
 /// `beta`, MIS-weighted against BSDF sampling whose density is scaled by `bsdf_pdf_scale`
 /// (the probability of the BSDF part of the material). `n_select` is the receiver normal
 /// given to light selection (zero when the BSDF transmits: lights below count too).
@@ -23,7 +25,7 @@ pub fn surface_nee(
     ctx: &SceneContext,
     s: &SurfaceHit,
     sp: &ShadingPoint,
-    wo_local: Vec3,
+    at: &BsdfAt,
     n_select: Vec3,
     bsdf_pdf_scale: f32,
     beta: Rgb,
@@ -39,7 +41,7 @@ pub fn surface_nee(
         return Rgb::ZERO;
     };
     let wi_local = sp.frame.to_local(ls.wi);
-    let f = sp.bsdf.eval(wo_local, wi_local) * wi_local.z.abs();
+    let f = at.eval(wi_local) * wi_local.z.abs();
     let consistent = (wi_local.z > 0.0) == (ls.wi.dot(s.ng) > 0.0);
     if f == Rgb::ZERO || ls.li == Rgb::ZERO || !consistent {
         return Rgb::ZERO;
@@ -49,7 +51,7 @@ pub fn surface_nee(
     if tr == Rgb::ZERO {
         return Rgb::ZERO;
     }
-    let bsdf_pdf = sp.bsdf.pdf(wo_local, wi_local) * bsdf_pdf_scale;
+    let bsdf_pdf = at.pdf(wi_local) * bsdf_pdf_scale;
     let w = if ls.delta { 1.0 } else { power_heuristic(ls.pdf * pmf, bsdf_pdf) };
     beta * f * tr * ls.li * (w / (ls.pdf * pmf))
 }

@@ -166,7 +166,7 @@ impl PathIntegrator {
             let (hit, s) = match step {
                 Step::End => break,
                 Step::Passed => continue,
-                Step::Medium { p, phase } => {
+                Step::Medium { p, phase, .. } => {
                     if !st.beta.is_finite() || st.beta == Rgb::ZERO {
                         break;
                     }
@@ -229,6 +229,7 @@ impl PathIntegrator {
             }
 
             let wo_local = sp.frame.to_local(wo);
+            let at = sp.bsdf.at(wo_local);
             // Probability of the subsurface part (its weight: what the layers above leave
             // to the diffuse base, times Subsurface Weight); the BSDF has the rest.
             let q_sss = if mat.subsurface.is_some() { sp.bsdf.subsurface_weight(wo_local) } else { 0.0 };
@@ -242,7 +243,7 @@ impl PathIntegrator {
                     ctx,
                     &s,
                     &sp,
-                    wo_local,
+                    &at,
                     n_select,
                     1.0 - q_sss,
                     st.beta,
@@ -292,7 +293,7 @@ impl PathIntegrator {
             }
 
             // Sample the BSDF for the next direction.
-            let Some(bs) = sp.bsdf.sample(wo_local, u_lobe, u_dir) else {
+            let Some(bs) = at.sample(u_lobe, u_dir) else {
                 break;
             };
             let wi = sp.frame.to_world(bs.wi);

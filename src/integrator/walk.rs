@@ -1,8 +1,8 @@
 //! The steps every unidirectional path walker shares: the path's state between two
 //! bounces, one `advance` along the ray (medium segment, crossed emitters, surfaces that
 //! only bound a medium or are transparent), emission found by the path with its MIS
-//! weight, and Russian roulette. The path tracer, SPPM's camera paths and Jensen's
-//! camera and gather paths walk with these; each keeps its own sample-dimension layout
+//! weight, and Russian roulette. The path tracer, SPPM's camera paths, Jensen's
+//! camera and gather paths and photon tracing walk with these; each keeps its own sample-dimension layout
 //! (the random numbers come in as arguments) and its own policy of what to do at the
 //! event `advance` returns.
 
@@ -64,6 +64,9 @@ pub enum Step {
         p: Vec3,
         /// The medium's phase function.
         phase: HenyeyGreenstein,
+        /// The free flight's weight (already in the throughput): photon tracing's
+        /// Russian roulette is taken on it.
+        weight: Rgb,
     },
     /// A volume boundary without a surface or a transparent surface was passed: the
     /// state now starts beyond it; the walker goes on with fresh sample dimensions.
@@ -78,6 +81,11 @@ pub enum Step {
 }
 
 impl PathState {
+    /// A path leaving a light carrying `power` (photons, BDPT's light subpaths), in vacuum.
+    pub fn photon(org: Vec3, dir: Vec3, power: Rgb) -> Self {
+        PathState { beta: power, ..Self::camera(org, dir) }
+    }
+
     /// A camera ray: vacuum, no MIS for what it hits first.
     pub fn camera(org: Vec3, dir: Vec3) -> Self {
         PathState {
@@ -110,44 +118,75 @@ impl PathState {
         radiance: &mut Rgb,
         stats: &mut RayStats,
     ) -> (Step, bool) {
+        let mut any = false;
+        let crossed = |st: &PathState, t_event: f32, w: Rgb| {
+            if !count_crossed {
+                return Rgb::ZERO;
+            }
+            let (le, a) =
+                ctx.crossed_emission(st.org, st.dir, t_event, st.prev_p, st.prev_n, st.prev_pdf, st.depth == 0);
+            any = a;
+            if a { w * le } else { Rgb::ZERO }
+        };
+        let (step, crossed) = self.advance_with(ctx, Some(u_medium), u_alpha, crossed, radiance, stats);
+        if any {
+            *radiance += crossed;
+        }
+        (step, any)
+    }
+
+    /// [`advance`](Self::advance) with the walker's own rule for lights crossed on the
+    /// way: `crossed(state, t_event, beta × pass weight to the event)` gives their
+    /// contribution (BDPT weighs them over all its strategies), which is returned
+    /// beside the event rather than added. Without `u_medium` the media only attenuate
+    /// (no scattering events, no emission): BDPT's light subpaths carry the paths
+    /// without medium vertices.
+    #[inline]
+    pub fn advance_with(
+        &mut self,
+        ctx: &SceneContext,
+        u_medium: Option<[f32; 2]>,
+        u_alpha: impl FnOnce() -> f32,
+        crossed: impl FnOnce(&PathState, f32, Rgb) -> Rgb,
+        radiance: &mut Rgb,
+        stats: &mut RayStats,
+    ) -> (Step, Rgb) {
         let hit = ctx.intersect(self.org, self.dir, f32::INFINITY);
         let t_surface = hit.map_or(f32::INFINITY, |h| h.t);
 
         // The medium along this segment: emission, then where the next event is.
-        let (scatter, crossed_w, segment_weight) =
-            medium_segment(ctx, &self.media, t_surface, self.beta, u_medium, radiance);
-        let t_event = scatter.map_or(t_surface, |(t, _)| t);
-        let (crossed, any) = if count_crossed {
-            ctx.crossed_emission(self.org, self.dir, t_event, self.prev_p, self.prev_n, self.prev_pdf, self.depth == 0)
-        } else {
-            (Rgb::ZERO, false)
+        let (scatter, crossed_w, segment_weight) = match u_medium {
+            Some(u) => medium_segment(ctx, &self.media, t_surface, self.beta, u, radiance),
+            None => match (ctx.medium(&self.media), hit) {
+                (Some(m), Some(h)) => (None, Rgb::ONE, m.transmittance(h.t)),
+                _ => (None, Rgb::ONE, Rgb::ONE),
+            },
         };
-        if any {
-            *radiance += self.beta * crossed_w * crossed;
-        }
+        let t_event = scatter.map_or(t_surface, |(t, _)| t);
+        let lights = crossed(self, t_event, self.beta * crossed_w);
         self.beta *= segment_weight;
 
         if let Some((t, phase)) = scatter {
-            return (Step::Medium { p: self.org + self.dir * t, phase }, any);
+            return (Step::Medium { p: self.org + self.dir * t, phase, weight: segment_weight }, lights);
         }
         let Some(hit) = hit else {
-            return (Step::Escaped, any);
+            return (Step::Escaped, lights);
         };
         if !self.beta.is_finite() || self.beta == Rgb::ZERO {
-            return (Step::End, any);
+            return (Step::End, lights);
         }
         let s = ctx.scene.surface(&hit, self.org, self.dir);
         let mat = &ctx.scene.materials[s.material as usize];
         // A volume boundary without a surface: only the medium changes.
         if mat.null_surface {
             if self.transparent_hits >= MAX_TRANSPARENT_HITS {
-                return (Step::End, any);
+                return (Step::End, lights);
             }
             self.transparent_hits += 1;
             self.media = ctx.medium_after(&s, self.dir, self.media);
             self.org = offset_ray_origin(s.p, -s.ng);
             stats.bounce += 1;
-            return (Step::Passed, any);
+            return (Step::Passed, lights);
         }
         // Stochastic transparency: pass straight through with probability 1 - alpha.
         if mat.alpha_mode == AlphaMode::Blend
@@ -157,9 +196,9 @@ impl PathState {
             self.transparent_hits += 1;
             self.org = offset_ray_origin(s.p, -s.ng);
             stats.bounce += 1;
-            return (Step::Passed, any);
+            return (Step::Passed, lights);
         }
-        (Step::Surface { hit, s }, any)
+        (Step::Surface { hit, s }, lights)
     }
 
     /// Radiance of the world and sun disks along the escape direction, MIS-weighted

@@ -229,18 +229,11 @@ impl Emitters {
                     n = -n;
                 }
                 // Local emission relative to the mean the power was computed with.
-                let uv = {
-                    let [i0, i1, i2] = m.triangles[*tri as usize].map(|i| i as usize);
-                    let b0 = 1.0 - b.x - b.y;
-                    [
-                        m.uv0[i0] * b0 + m.uv0[i1] * b.x + m.uv0[i2] * b.y,
-                        m.uv1[i0] * b0 + m.uv1[i1] * b.x + m.uv1[i2] * b.y,
-                    ]
-                };
+                let (uv, color) = scene.attributes(*tri, b.x, b.y);
                 let mut factor = Rgb::ONE;
                 if let Some(t) = mat.emissive_tex {
                     let mean = scene.textures[t.texture as usize].mean_rgb();
-                    let local = mat.emission(&scene.textures, uv) / mat.emissive;
+                    let local = mat.emission(&scene.textures, uv, color) / mat.emissive;
                     factor = Rgb::new(ratio(local.x, mean.x), ratio(local.y, mean.y), ratio(local.z, mean.z));
                 } else if mat.nodes.is_some() {
                     // A node graph's emission relative to the material's estimate the
@@ -248,6 +241,9 @@ impl Emitters {
                     let local = scene.emission_at(*tri, b.x, b.y);
                     let e = mat.emissive;
                     factor = Rgb::new(ratio(local.x, e.x), ratio(local.y, e.y), ratio(local.z, e.z));
+                } else if mat.unlit {
+                    // An unlit surface's vertex colour, which the power left out.
+                    factor = color.truncate();
                 }
                 let coverage = scene.coverage(*tri, b.x, b.y);
                 let dir = Frame::from_normal(n).to_world(cosine_hemisphere(u_dir));

@@ -39,6 +39,9 @@ pub struct Material {
     pub emissive: Rgb,
     /// Emissive texture (sRGB).
     pub emissive_tex: Option<TexRef>,
+    /// `KHR_materials_unlit`: the surface shows its base colour (factor × texture × vertex
+    /// colour, held in `emissive` and `emissive_tex`) and reflects no light.
+    pub unlit: bool,
     /// `KHR_materials_specular` specularFactor: weight of the dielectric specular layer.
     pub specular: f32,
     /// specularTexture (A): multiplies `specular`.
@@ -111,6 +114,7 @@ impl Default for Material {
             normal_scale: 1.0,
             emissive: Rgb::ZERO,
             emissive_tex: None,
+            unlit: false,
             specular: 1.0,
             specular_tex: None,
             specular_color: Rgb::ONE,
@@ -176,13 +180,14 @@ impl Material {
 }
 
 impl Material {
-    /// Emitted radiance at a point with texture coordinates `uv` (sets 0 and 1).
+    /// Emitted radiance at a point with texture coordinates `uv` (sets 0 and 1) and vertex
+    /// colour `color` (which only an unlit material's emission, its base colour, uses).
     #[inline]
-    pub fn emission(&self, textures: &[Texture], uv: [Vec2; 2]) -> Rgb {
+    pub fn emission(&self, textures: &[Texture], uv: [Vec2; 2], color: Vec4) -> Rgb {
         let mut e = self.emissive;
         if let Some(t) = self.emissive_tex {
             e *= textures[t.texture as usize].lookup(t.uv(uv[t.tex_coord as usize])).truncate();
         }
-        e
+        if self.unlit { e * color.truncate() } else { e }
     }
 }

@@ -1,6 +1,7 @@
 //! The renderer's own scene description. Everything downstream of the loader sees
 //! these types only; `gltf/` is the one module that reads glTF.
 
+pub mod bent_normal;
 pub mod camera;
 pub mod gltf;
 pub mod material;
@@ -200,6 +201,9 @@ pub struct Scene {
     pub cameras: Vec<Camera>,
     /// The world light (`CAUSTIC_world`), if any.
     pub world: Option<crate::light::Environment>,
+    /// The medium filling the scene outside every mesh medium (Blender's World Volume);
+    /// camera rays and lights start in it.
+    pub world_medium: Option<crate::medium::HomogeneousMedium>,
     /// Render settings from the file.
     pub settings: SceneSettings,
     /// Everything the loader dropped, clamped or guessed.

@@ -2,6 +2,7 @@
 //! attributes (`Scene::surface`), its alpha, and the material evaluated there — textures,
 //! normal mapping and the BSDF (`Scene::shade`).
 
+use super::bent_normal::valid_reflection_normal;
 use super::{AlphaMode, Scene};
 use crate::accel::Hit;
 use crate::bsdf::pbr::PbrParams;
@@ -167,21 +168,21 @@ impl Scene {
             n = mapped;
             tangent_hint = Some(tf);
         }
-        // A shading normal that faces away from the viewer makes the BRDF see the
-        // viewer from below: bend it back toward the geometric normal just enough.
-        let cos_o = n.dot(wo);
-        if cos_o < 1e-3 {
-            n = (n + wo * (1e-3 - cos_o)).normalize_or(s.ng);
-            if n.dot(wo) <= 0.0 {
-                n = s.ng;
-            }
-        }
+        // A shading normal whose mirror image of the viewer points below the surface (or
+        // that faces away from the viewer) is turned towards the geometric normal just
+        // enough for the specular reflection to stay valid, as Cycles does; the diffuse
+        // base keeps the unbent normal, as Cycles' diffuse closure does.
+        let unbent = n;
+        n = valid_reflection_normal(s.ng, wo, n);
         let frame = match tangent_hint {
             Some(t) => Frame::from_normal_tangent(n, t),
             None => Frame::from_normal(n),
         };
-        let emitted =
-            if mat.is_emissive() && (s.front || mat.double_sided) { mat.emission(tex, s.uv) } else { Rgb::ZERO };
+        let emitted = if mat.is_emissive() && (s.front || mat.double_sided) {
+            mat.emission(tex, s.uv, s.color)
+        } else {
+            Rgb::ZERO
+        };
         let mut transmission = mat.transmission;
         if let Some(t) = &mat.transmission_tex {
             transmission *= lookup(t).x;
@@ -216,7 +217,9 @@ impl Scene {
         }
         // The coat's own normal map, in the shading frame (the coat lobe uses it).
         let coat_normal = match &mat.coat_normal_tex {
-            Some(t) if coat > 0.0 => map_normal(t, mat.coat_normal_scale).map(|(m, _)| frame.to_local(m)),
+            Some(t) if coat > 0.0 => {
+                map_normal(t, mat.coat_normal_scale).map(|(m, _)| frame.to_local(valid_reflection_normal(s.ng, wo, m)))
+            }
             _ => None,
         };
         let params = PbrParams {
@@ -238,7 +241,12 @@ impl Scene {
             sheen_roughness,
             dispersion: mat.dispersion,
             subsurface: mat.subsurface.map_or(0.0, |s| s.weight),
+            diffuse_normal: (n != unbent).then(|| frame.to_local(unbent)),
+            smooth_normal: (unbent != s.ns).then(|| frame.to_local(s.ns)),
         };
+        // An unlit surface only shows its colour (the emission above): it reflects nothing.
+        let params =
+            if mat.unlit { PbrParams { specular: 0.0, ..PbrParams::opaque(Rgb::ZERO, 0.0, 1.0) } } else { params };
         ShadingPoint { bsdf: Bsdf::Pbr(PbrBsdf::from_params(&params)), frame, emitted }
     }
 }

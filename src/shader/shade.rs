@@ -166,7 +166,10 @@ impl Scene {
         let mat = &self.materials[self.mesh.tri_material[tri as usize] as usize];
         match &mat.nodes {
             Some(prog) => node_emission(&self.mesh, &self.objects, &self.textures, prog, tri, b1, b2),
-            None => mat.emission(&self.textures, self.attributes(tri, b1, b2).0),
+            None => {
+                let (uv, color) = self.attributes(tri, b1, b2);
+                mat.emission(&self.textures, uv, color)
+            }
         }
     }
 }

@@ -86,6 +86,15 @@ fn materials_with(base: Vec3) -> Vec<(String, PbrBsdf)> {
         };
         v.push((format!("coat normal cr={coat_roughness}"), PbrBsdf::from_params(&p)));
     }
+    // A diffuse base on its own (unbent) normal below a bent frame, tilted and turned away.
+    for (nx, nz, metallic) in [(0.6f32, 0.8f32, 0.0f32), (0.95, -0.3, 0.3)] {
+        let p = PbrParams {
+            diffuse_normal: Some(Vec3::new(nx, 0.1, nz)),
+            smooth_normal: Some(Vec3::new(0.2, -0.1, 0.97)),
+            ..PbrParams::opaque(base, metallic, 0.4)
+        };
+        v.push((format!("diffuse normal ({nx}, 0.1, {nz}) m={metallic}"), PbrBsdf::from_params(&p)));
+    }
     v
 }
 
@@ -112,7 +121,9 @@ fn chi2_pbr_lobes() {
 fn reciprocity() {
     let mut rng = Pcg32::new(9);
     let compensated = |b: &PbrBsdf| (b.metallic > 0.0 && !b.smooth) || (b.transmission > 0.0 && !b.glass.smooth);
-    for (_, b) in materials().into_iter().filter(|(_, b)| b.coat == 0.0 && !compensated(b)) {
+    // A diffuse normal apart from the frame's takes its cosine to another normal, as the coat.
+    let own_normals = |b: &PbrBsdf| b.coat > 0.0 || b.diffuse_frame.is_some();
+    for (_, b) in materials().into_iter().filter(|(_, b)| !own_normals(b) && !compensated(b)) {
         for _ in 0..200 {
             let a = cosine_hemisphere(Vec2::new(rng.next_f32(), rng.next_f32()));
             let c = cosine_hemisphere(Vec2::new(rng.next_f32(), rng.next_f32()));
@@ -133,8 +144,8 @@ fn metal_multiscatter_is_a_factor_of_wo() {
         for _ in 0..200 {
             let a = cosine_hemisphere(Vec2::new(rng.next_f32(), rng.next_f32()));
             let c = cosine_hemisphere(Vec2::new(rng.next_f32(), rng.next_f32()));
-            let f1 = b.eval(a, c) / b.metal_ms(a.z);
-            let f2 = b.eval(c, a) / b.metal_ms(c.z);
+            let f1 = b.eval(a, c) / b.at(a).metal_ms;
+            let f2 = b.eval(c, a) / b.at(c).metal_ms;
             assert!((f1 - f2).abs().max_element() <= 1e-4 * f1.max_element().max(1.0), "{f1} vs {f2}");
         }
     }
@@ -247,6 +258,62 @@ fn specular_colour_tints_f0() {
     let f0 = f0_from_ior(1.5);
     // The delta mirror's weight is the layer albedo, which at μ = 1 is about F0.
     assert!((w.x / w.y - 2.0).abs() < 0.05 && w.z < 0.2 * w.y, "{w} for F0 {f0}");
+}
+
+/// A white Lambertian on its own normal, tilted θ from the frame's (a bent shading normal),
+/// reflects the light of the frame's upper hemisphere only: its albedo is the view factor
+/// of a plane tilted by θ to the sky, (1 + cos θ)/2.
+#[test]
+fn diffuse_normal_sees_the_frames_hemisphere() {
+    for theta in [0.0f32, 0.5, 1.2, 2.0] {
+        let p = PbrParams {
+            specular: 0.0,
+            diffuse_normal: Some(Vec3::new(theta.sin(), 0.0, theta.cos())),
+            ..PbrParams::opaque(Vec3::ONE, 0.0, 0.5)
+        };
+        let b = PbrBsdf::from_params(&p);
+        let wo = Vec3::new(-0.3, 0.2, 0.93).normalize();
+        let mut rng = Pcg32::new(5);
+        let n = 100_000;
+        let (mut sum, mut sum2) = (0.0f64, 0.0f64);
+        for _ in 0..n {
+            let u = Vec2::new(rng.next_f32(), rng.next_f32());
+            let v = b.sample(wo, rng.next_f32(), u).map_or(0.0, |s| (s.f.x * s.wi.z / s.pdf) as f64);
+            sum += v;
+            sum2 += v * v;
+        }
+        let mean = sum / n as f64;
+        let se = ((sum2 / n as f64 - mean * mean).max(0.0) / n as f64).sqrt();
+        let want = 0.5 * (1.0 + theta.cos() as f64);
+        // Five standard errors of the estimate (its only error: the estimator is the exact
+        // integrand over its exact density).
+        assert!((mean - want).abs() <= 5.0 * se + 1e-6, "θ={theta}: albedo {mean} ± {se}, view factor {want}");
+    }
+}
+
+/// The bump terminator's shadowing: none for light along the interpolated normal, falling
+/// monotonically towards grazing light, zero for light that the interpolated normal and the
+/// mapped one put on different sides; and G1 = 2 / (1 + √(1 + α² tan²θ)) at one point
+/// worked by hand (α² = tan²30° / 8 = 1/24, θi = 60°: tan² = 3, G1 = 2 / (1 + √1.125)).
+#[test]
+fn bump_shadowing_of_the_diffuse_base() {
+    let ns = Vec3::Z;
+    let t = 30f32.to_radians();
+    let n = Vec3::new(t.sin(), 0.0, t.cos());
+    let alpha2 = t.tan().powi(2) / 8.0;
+    assert!((bump_shadowing(ns, n, Vec3::Z, alpha2) - 1.0).abs() < 1e-6);
+    let mut last = 1.0;
+    for deg in [20.0f32, 40.0, 60.0, 80.0, 89.0] {
+        let wi = Vec3::new(deg.to_radians().sin(), 0.0, deg.to_radians().cos());
+        let g = bump_shadowing(ns, n, wi, alpha2);
+        assert!(g < last && g > 0.0, "{deg}°: {g}");
+        last = g;
+    }
+    let w60 = Vec3::new(60f32.to_radians().sin(), 0.0, 0.5);
+    assert!((bump_shadowing(ns, n, w60, alpha2) - 2.0 / (1.0 + 1.125f32.sqrt())).abs() < 1e-5);
+    // Above the mapped normal's horizon, below the interpolated one's.
+    let under = Vec3::new(0.99, 0.0, -0.1).normalize();
+    assert!(n.dot(under) > 0.0 && bump_shadowing(ns, n, under, alpha2) == 0.0);
 }
 
 /// A white Lambertian (metallic 0, rough) reflects 1 - F: its albedo is close to,

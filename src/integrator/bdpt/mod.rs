@@ -40,7 +40,6 @@ use crate::medium::MediumStack;
 use crate::render::job::RayStats;
 use crate::sampling::PixelSampler;
 use crate::sampling::warp::uniform_cone_pdf;
-use crate::scene::AlphaMode;
 use crate::scene::camera::CameraRays;
 use crate::scene::shading::SurfaceHit;
 use glam::{Vec2, Vec3};
@@ -49,8 +48,6 @@ use std::sync::Arc;
 
 /// Largest `max_depth` the bidirectional integrator accepts (its vertex arrays are fixed).
 pub const MAX_BDPT_DEPTH: u32 = 62;
-
-use crate::integrator::walk::MAX_TRANSPARENT_HITS;
 
 /// One strategy to render alone (debugging and tests).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

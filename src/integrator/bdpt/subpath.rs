@@ -3,7 +3,7 @@
 
 use super::vertex::*;
 use super::*;
-use crate::integrator::media::medium_segment;
+use crate::integrator::walk::{PathState, Step};
 
 impl BdptIntegrator {
     /// Traces the camera subpath into `scratch.cam`, adding every s = 0 contribution
@@ -12,8 +12,8 @@ impl BdptIntegrator {
     pub(super) fn camera_subpath(
         &self,
         ctx: &SceneContext,
-        mut org: Vec3,
-        mut dir: Vec3,
+        org: Vec3,
+        dir: Vec3,
         sampler: &mut PixelSampler,
         camera: &CameraRays,
         scratch: &mut BdptScratch,
@@ -26,110 +26,80 @@ impl BdptIntegrator {
         let mut v0 = Vertex::new(Kind::Camera, org);
         v0.pdf_fwd = 1.0;
         cam.push(v0);
-        let mut beta = Rgb::ONE;
+        let mut path = PathState::camera(org, dir);
         // Solid-angle density of the direction just sampled (0 after a delta lobe).
         let mut pdf_sa = if camera.is_orthographic() { 1.0 } else { camera.pdf_dir((-camera.camera().back).dot(dir)) };
         let mut prev_delta = false;
-        let mut medium = MediumStack::default();
         let mut eta_scale = 1.0f32;
-        let mut transparent_hits = 0u32;
         stats.camera += 1;
         loop {
             let [u_lobe, u_dx, u_dy, u_rr] = sampler.next_4d();
             let [u_alpha, u_channel, u_dist, _] = sampler.next_4d();
             let i = cam.len() - 1; // the vertex the ray leaves from
-            let hit = ctx.intersect(org, dir, f32::INFINITY);
-            let t_surface = hit.map_or(f32::INFINITY, |h| h.t);
 
-            // The medium along this segment: its emission, then where the next event is
-            // (the path tracer's segment).
+            // The shared step: the medium segment (its emission counts only when every
+            // strategy does), emitters crossed on the way (area and sphere lights do not
+            // block; weighed over BDPT's strategies), pass-through surfaces.
             let mut emitted = Rgb::ZERO;
-            let (scatter, crossed_w, segment_weight) =
-                medium_segment(ctx, &medium, t_surface, beta, [u_channel, u_dist], &mut emitted);
-            if self.strategy.is_none() {
-                *radiance += emitted;
-            }
-            let scatter_at = scatter.map(|(t, _)| t);
-            let phase = scatter.map(|(_, ph)| ph).unwrap_or_default();
-            let t_event = scatter_at.unwrap_or(t_surface);
-
-            // Emitters crossed on the way (area and sphere lights do not block).
-            if self.allowed(0, i + 2) {
-                let crossed = self.crossed_lights(
+            let crossed = |st: &PathState, t_event: f32, w: Rgb| {
+                if !self.allowed(0, i + 2) {
+                    return Rgb::ZERO;
+                }
+                self.crossed_lights(
                     ctx,
                     cam,
                     &mut scratch.dens,
-                    (org, dir, t_event),
-                    beta * crossed_w,
+                    (st.org, st.dir, t_event),
+                    w,
                     (pdf_sa, prev_delta),
                     camera,
-                );
-                if crossed != Rgb::ZERO {
-                    *radiance += crossed;
-                    if i == 0 {
-                        out.alpha = 1.0;
-                    }
-                }
+                )
+            };
+            let (step, crossed) =
+                path.advance_with(ctx, Some([u_channel, u_dist]), || u_alpha, crossed, &mut emitted, stats);
+            if self.strategy.is_none() {
+                *radiance += emitted;
             }
-
-            beta *= segment_weight;
-            if let Some(t) = scatter_at {
-                // A vertex in a medium: the rest of the path is traced by the path tracer
-                // (BDPT's strategies carry the paths without medium vertices).
-                let p = org + dir * t;
+            if crossed != Rgb::ZERO {
+                *radiance += crossed;
                 if i == 0 {
                     out.alpha = 1.0;
-                    out.depth = camera.depth(p);
                 }
-                if self.strategy.is_none() && (i as u32) < self.max_depth && beta.is_finite() && beta != Rgb::ZERO {
-                    *radiance += self
-                        .continuation()
-                        .scatter_in_medium(ctx, p, dir, phase, medium, beta, i as u32, sampler, stats);
-                }
-                break;
             }
-            let Some(hit) = hit else {
-                if self.allowed(0, i + 2) && !(i == 0 && self.transparent_background) {
-                    let le = ctx.world_radiance(dir);
-                    let mut sum = Rgb::ZERO;
-                    if le != Rgb::ZERO {
-                        let p_light =
-                            ctx.scene.lights.iter().position(|l| matches!(l, Light::World)).map_or(0.0, |w| {
-                                self.lights.pmf_any(w) * ctx.scene.world.as_ref().map_or(0.0, |e| e.pdf(dir))
-                            });
-                        sum += le * self.camera_only_weight(i, prev_delta, pdf_sa, p_light);
+            let (dir, beta, medium) = (path.dir, path.beta, path.media);
+            let (hit, s) = match step {
+                Step::End => break,
+                Step::Passed => continue,
+                Step::Medium { p, phase, .. } => {
+                    // A vertex in a medium: the rest of the path is traced by the path
+                    // tracer (BDPT's strategies carry the paths without medium vertices).
+                    if i == 0 {
+                        out.alpha = 1.0;
+                        out.depth = camera.depth(p);
                     }
-                    for (index, l) in ctx.scene.lights.iter().enumerate() {
-                        if let Light::Directional { direction, irradiance, cos_half } = l
-                            && *cos_half < 1.0 - 1e-7
-                            && dir.dot(-*direction) >= *cos_half
-                        {
-                            let p_light = self.lights.pmf_any(index) * uniform_cone_pdf(*cos_half);
-                            sum += crate::light::sun_radiance(*irradiance, *cos_half)
-                                * self.camera_only_weight(i, prev_delta, pdf_sa, p_light);
-                        }
+                    if self.strategy.is_none() && (i as u32) < self.max_depth && beta.is_finite() && beta != Rgb::ZERO {
+                        *radiance += self
+                            .continuation()
+                            .scatter_in_medium(ctx, p, dir, phase, medium, beta, i as u32, sampler, stats);
                     }
-                    if sum != Rgb::ZERO {
-                        *radiance += beta * sum;
-                        if i == 0 {
-                            out.alpha = 1.0;
-                        }
-                    }
+                    break;
                 }
-                break;
+                Step::Escaped => {
+                    if self.allowed(0, i + 2) && !(i == 0 && self.transparent_background) {
+                        let sum = self.escaped_radiance(ctx, dir, i, prev_delta, pdf_sa);
+                        if sum != Rgb::ZERO {
+                            *radiance += beta * sum;
+                            if i == 0 {
+                                out.alpha = 1.0;
+                            }
+                        }
+                    }
+                    break;
+                }
+                Step::Surface { hit, s } => (hit, s),
             };
-            let s = ctx.scene.surface(&hit, org, dir);
             let wo = -dir;
             let mat = &ctx.scene.materials[s.material as usize];
-            match pass_through(ctx, &s, &hit, dir, u_alpha, &mut medium, &mut transparent_hits) {
-                Pass::End => break,
-                Pass::Through => {
-                    org = offset_ray_origin(s.p, -s.ng);
-                    stats.bounce += 1;
-                    continue;
-                }
-                Pass::Shade => {}
-            }
             let sp = ctx.scene.shade(&s, wo);
             // Subsurface scattering is path traced from here (the BSDF holds the rest of
             // the material: its diffuse base is already reduced by the subsurface weight).
@@ -190,13 +160,13 @@ impl BdptIntegrator {
                 cam[last - 1].pdf_rev = cam[last - 1].area_density(pdf_rev_sa, prev_p);
             }
             cam[last].delta = bs.delta;
-            beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
-            if !beta.is_finite() || beta == Rgb::ZERO {
+            path.beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
+            if !path.beta.is_finite() || path.beta == Rgb::ZERO {
                 break;
             }
             pdf_sa = if bs.delta { 0.0 } else { bs.pdf };
             prev_delta = bs.delta;
-            medium = ctx.medium_after(&s, wi, medium);
+            path.media = ctx.medium_after(&s, wi, medium);
             if transmitted {
                 let mat = &ctx.scene.materials[s.material as usize];
                 if mat.medium.is_some() {
@@ -205,16 +175,43 @@ impl BdptIntegrator {
                 }
             }
             if (t - 1) as u32 >= self.rr_depth {
-                let survive = (beta.max_element() * eta_scale).min(0.95);
+                let survive = (path.beta.max_element() * eta_scale).min(0.95);
                 if u_rr >= survive {
                     break;
                 }
-                beta /= survive;
+                path.beta /= survive;
             }
-            org = offset_ray_origin(s.p, if transmitted { -s.ng } else { s.ng });
-            dir = wi;
+            path.org = offset_ray_origin(s.p, if transmitted { -s.ng } else { s.ng });
+            path.dir = wi;
             stats.bounce += 1;
         }
+    }
+
+    /// What a camera subpath escaping along `dir` from its vertex `i` sees: the world and
+    /// sun disks, each weighed against light sampling (s = 0 with s = 1).
+    fn escaped_radiance(&self, ctx: &SceneContext, dir: Vec3, i: usize, prev_delta: bool, pdf_sa: f32) -> Rgb {
+        let le = ctx.world_radiance(dir);
+        let mut sum = Rgb::ZERO;
+        if le != Rgb::ZERO {
+            let p_light = ctx
+                .scene
+                .lights
+                .iter()
+                .position(|l| matches!(l, Light::World))
+                .map_or(0.0, |w| self.lights.pmf_any(w) * ctx.scene.world.as_ref().map_or(0.0, |e| e.pdf(dir)));
+            sum += le * self.camera_only_weight(i, prev_delta, pdf_sa, p_light);
+        }
+        for (index, l) in ctx.scene.lights.iter().enumerate() {
+            if let Light::Directional { direction, irradiance, cos_half } = l
+                && *cos_half < 1.0 - 1e-7
+                && dir.dot(-*direction) >= *cos_half
+            {
+                let p_light = self.lights.pmf_any(index) * uniform_cone_pdf(*cos_half);
+                sum += crate::light::sun_radiance(*irradiance, *cos_half)
+                    * self.camera_only_weight(i, prev_delta, pdf_sa, p_light);
+            }
+        }
+        sum
     }
 
     /// The weight of an s = 0 or s = 1 contribution from a light that only the camera
@@ -406,39 +403,31 @@ impl BdptIntegrator {
         v0.light = Some(lp);
         light.push(v0);
         let cos0 = if lp.n == Vec3::ZERO { 1.0 } else { lp.n.dot(dir).abs() };
-        let mut beta = le * (cos0 / (pdf_origin * pdf_dir));
+        let beta = le * (cos0 / (pdf_origin * pdf_dir));
         let beta_ref = beta.max_element();
         let mut pdf_sa = pdf_dir;
         let mut prev_delta = false;
-        let mut org = if matches!(ctx.scene.lights[index], Light::Triangle { .. }) {
+        let org = if matches!(ctx.scene.lights[index], Light::Triangle { .. }) {
             offset_ray_origin(lp.p, if lp.n.dot(dir) >= 0.0 { lp.n } else { -lp.n })
         } else {
             lp.p
         };
-        let mut dir = dir;
-        let mut medium = MediumStack::default();
-        let mut transparent_hits = 0u32;
+        let mut path = PathState::photon(org, dir, beta);
+        let mut ignored = Rgb::ZERO;
         loop {
             let [u_lobe, u_x, u_y, u_rr] = ls.next_4d();
             let [u_alpha, _, _, _] = ls.next_4d();
-            let Some(hit) = ctx.intersect(org, dir, f32::INFINITY) else {
-                break;
+            // The shared step, with media that only attenuate: light subpaths carry the
+            // paths without medium vertices.
+            let no_lights = |_: &PathState, _: f32, _: Rgb| Rgb::ZERO;
+            let (step, _) = path.advance_with(ctx, None, || u_alpha, no_lights, &mut ignored, stats);
+            let s = match step {
+                Step::Surface { s, .. } => s,
+                Step::Passed => continue,
+                Step::End | Step::Escaped | Step::Medium { .. } => break,
             };
-            // Light subpaths carry the paths without medium vertices: extinction only.
-            if let Some(m) = ctx.medium(&medium) {
-                beta *= m.transmittance(hit.t);
-            }
-            let s = ctx.scene.surface(&hit, org, dir);
+            let (dir, beta, medium) = (path.dir, path.beta, path.media);
             let wo = -dir;
-            match pass_through(ctx, &s, &hit, dir, u_alpha, &mut medium, &mut transparent_hits) {
-                Pass::End => break,
-                Pass::Through => {
-                    org = offset_ray_origin(s.p, -s.ng);
-                    stats.bounce += 1;
-                    continue;
-                }
-                Pass::Shade => {}
-            }
             let sp = ctx.scene.shade(&s, wo);
             let i = light.len() - 1;
             let mut v = Vertex::surface(&s, &sp, wo, beta, medium);
@@ -467,24 +456,24 @@ impl BdptIntegrator {
             let prev_p = light[last].p;
             light[last - 1].pdf_rev = light[last - 1].area_density(pdf_rev_sa, prev_p);
             light[last].delta = bs.delta;
-            beta *= f * (bs.wi.z.abs() / bs.pdf) * shading_correction(&s, &sp.frame, wo, wi);
-            if !beta.is_finite() || beta == Rgb::ZERO {
+            path.beta *= f * (bs.wi.z.abs() / bs.pdf) * shading_correction(&s, &sp.frame, wo, wi);
+            if !path.beta.is_finite() || path.beta == Rgb::ZERO {
                 break;
             }
             pdf_sa = if bs.delta { 0.0 } else { bs.pdf };
             prev_delta = bs.delta;
-            medium = ctx.medium_after(&s, wi, medium);
+            path.media = ctx.medium_after(&s, wi, medium);
             if (light.len() - 1) as u32 >= self.rr_depth {
                 // Light throughput carries the light's power: survive in proportion to
                 // what is left of the first segment's.
-                let survive = (beta.max_element() / beta_ref).min(0.95);
+                let survive = (path.beta.max_element() / beta_ref).min(0.95);
                 if !(survive > 0.0) || u_rr >= survive {
                     break;
                 }
-                beta /= survive;
+                path.beta /= survive;
             }
-            org = offset_ray_origin(s.p, if transmitted { -s.ng } else { s.ng });
-            dir = wi;
+            path.org = offset_ray_origin(s.p, if transmitted { -s.ng } else { s.ng });
+            path.dir = wi;
             stats.bounce += 1;
         }
     }

@@ -126,49 +126,6 @@ pub(super) fn segment_transmittance(ctx: &SceneContext, a: &Vertex, b: &Vertex, 
     crate::integrator::media::light_transmittance(ctx, a.p, ng, &target, stack)
 }
 
-/// What a subpath does at surface `s`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(super) enum Pass {
-    /// Passed a volume boundary (the medium changed) or a transparent surface.
-    Through,
-    /// A volume boundary past the pass-through cap: the subpath ends.
-    End,
-    /// A surface to shade.
-    Shade,
-}
-
-/// Whether a subpath passes surface `s` (a volume boundary, or a BLEND surface where
-/// `u_alpha` ≥ alpha), with the shared rule of `walk.rs`: past the cap a volume boundary
-/// ends the subpath and a transparent surface is shaded. Updates the media and the count.
-#[inline]
-pub(super) fn pass_through(
-    ctx: &SceneContext,
-    s: &SurfaceHit,
-    hit: &crate::accel::Hit,
-    dir: Vec3,
-    u_alpha: f32,
-    medium: &mut MediumStack,
-    hits: &mut u32,
-) -> Pass {
-    let mat = &ctx.scene.materials[s.material as usize];
-    if mat.null_surface {
-        if *hits >= MAX_TRANSPARENT_HITS {
-            return Pass::End;
-        }
-        *medium = ctx.medium_after(s, dir, *medium);
-        *hits += 1;
-        return Pass::Through;
-    }
-    if mat.alpha_mode == AlphaMode::Blend
-        && *hits < MAX_TRANSPARENT_HITS
-        && u_alpha >= ctx.scene.alpha(hit.tri, hit.b1, hit.b2)
-    {
-        *hits += 1;
-        return Pass::Through;
-    }
-    Pass::Shade
-}
-
 /// The media a segment leaving vertex `v` in direction `w` is in.
 #[inline]
 pub(super) fn media_leaving(ctx: &SceneContext, v: &Vertex, w: Vec3) -> MediumStack {

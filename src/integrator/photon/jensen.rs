@@ -167,7 +167,7 @@ impl JensenIntegrator {
             let (hit, s) = match step {
                 Step::End => break,
                 Step::Passed => continue,
-                Step::Medium { p, phase } => {
+                Step::Medium { p, phase, .. } => {
                     if st.depth == 0 {
                         out.alpha = 1.0;
                         out.depth = depth_of(p);
@@ -253,7 +253,8 @@ impl JensenIntegrator {
         // Direct light, MIS against the gather rays (lights below count when the BSDF
         // transmits: photons are gathered on the camera's side only).
         let n_select = if sp.bsdf.transmits() { Vec3::ZERO } else { s.ng };
-        let mut l = surface_nee(ctx, s, sp, wo_local, n_select, gather as f32, Rgb::ONE, media, u_light, u_pt, stats);
+        let at = sp.bsdf.at(wo_local);
+        let mut l = surface_nee(ctx, s, sp, &at, n_select, gather as f32, Rgb::ONE, media, u_light, u_pt, stats);
         // Caustics: photons with hit index j make paths of j - 1 + d events.
         let jmax = self.max_depth + 1 - d;
         l += radiance(&self.maps.caustic, s.p, s.ng, &sp.frame, &sp.bsdf, wo_local, self.caustic_k, max_r2, |p| {
@@ -325,7 +326,7 @@ impl JensenIntegrator {
             let (hit, s) = match step {
                 Step::End => break,
                 Step::Passed => continue,
-                Step::Medium { p, phase } => {
+                Step::Medium { p, phase, .. } => {
                     if st.depth < self.max_depth && st.beta.is_finite() && st.beta != Rgb::ZERO {
                         l += self
                             .continuation()
@@ -350,6 +351,7 @@ impl JensenIntegrator {
                 break;
             }
             let wo_local = sp.frame.to_local(wo);
+            let at = sp.bsdf.at(wo_local);
             l += self.subsurface_part(ctx, &s, &sp, wo, wo_local, st.media, st.beta, st.depth, sampler, stats);
             let delta = sp.bsdf.is_delta();
             let n_select = if sp.bsdf.transmits() { Vec3::ZERO } else { s.ng };
@@ -369,7 +371,7 @@ impl JensenIntegrator {
                     ctx,
                     &s,
                     &sp,
-                    wo_local,
+                    &at,
                     n_select,
                     1.0,
                     st.beta,
@@ -379,7 +381,7 @@ impl JensenIntegrator {
                     stats,
                 );
             }
-            let Some(bs) = sp.bsdf.sample(wo_local, u_lobe, Vec2::new(u_dx, u_dy)) else {
+            let Some(bs) = at.sample(u_lobe, Vec2::new(u_dx, u_dy)) else {
                 break;
             };
             let wi = sp.frame.to_world(bs.wi);

@@ -457,7 +457,7 @@ fn camera_path(
         let (hit, s) = match step {
             Step::End => break,
             Step::Passed => continue,
-            Step::Medium { p, phase } => {
+            Step::Medium { p, phase, .. } => {
                 if st.depth == 0 {
                     pend.alpha += 1.0;
                 }
@@ -509,7 +509,19 @@ fn camera_path(
             // count when the BSDF transmits (photons are gathered on this side only).
             let n_select = if sp.bsdf.transmits() { Vec3::ZERO } else { s.ng };
             let u_pt = Vec2::new(u_lx, u_ly);
-            l += surface_nee(ctx, &s, &sp, wo_local, n_select, 0.0, st.beta, st.media, u_light, u_pt, stats);
+            l += surface_nee(
+                ctx,
+                &s,
+                &sp,
+                &sp.bsdf.at(wo_local),
+                n_select,
+                0.0,
+                st.beta,
+                st.media,
+                u_light,
+                u_pt,
+                stats,
+            );
             return (
                 l,
                 Some(VisiblePoint {

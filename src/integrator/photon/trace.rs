@@ -33,12 +33,13 @@
 use super::Photon;
 use crate::integrator::SceneContext;
 use crate::integrator::path::PathIntegrator;
+use crate::integrator::walk::{PathState, Step};
 use crate::light::emit::Emitters;
+use crate::math::Rgb;
 use crate::math::offset_ray_origin;
-use crate::medium::FreeFlight;
+use crate::render::job::RayStats;
 use crate::sampling::PixelSampler;
 use crate::sampling::warp::cosine_hemisphere;
-use crate::scene::AlphaMode;
 use glam::Vec2;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -54,8 +55,6 @@ pub enum MapKind {
 
 /// Photons per parallel work item.
 pub const CHUNK: u64 = 4096;
-
-use crate::integrator::walk::MAX_TRANSPARENT_HITS;
 
 /// Counters of a tracing pass.
 #[derive(Clone, Copy, Debug, Default, serde::Serialize)]
@@ -153,88 +152,63 @@ pub fn trace_one(
     else {
         return;
     };
-    let (mut org, mut dir, mut power) = (e.org, e.dir, e.power);
+    let mut path = PathState::photon(e.org, e.dir, e.power);
     let mut specular_only = true;
-    let mut depth = 0u32;
-    let mut transparent = 0u32;
-    // Media the photon is in; photons scatter in them (free flights as the path
-    // tracer's, with the photon's power as the channel weights) but are stored only on
-    // surfaces.
-    let mut medium = crate::medium::MediumStack::default();
+    // Photons scatter in media (free flights as the path tracer's, with the photon's
+    // power as the channel weights) but are stored only on surfaces; they count no
+    // emission on the way.
+    let mut ignored = Rgb::ZERO;
+    let mut ray_stats = RayStats::default();
     loop {
         let [u_lobe, u_x, u_y, u_rr] = s.next_4d();
         let [u_channel, u_dist, u_px, u_py] = if ctx.has_media { s.next_4d() } else { [0.0; 4] };
         st.rays += 1;
-        let hit = ctx.intersect(org, dir, f32::INFINITY);
-        if let Some(m) = ctx.medium(&medium).copied() {
-            match m.sample_free_flight(hit.map_or(f32::INFINITY, |h| h.t), power, u_channel, u_dist) {
-                FreeFlight::Scatter { t, weight } => {
-                    // Russian roulette on the event's weight (the single-scattering
-                    // albedo for a grey medium), as on surfaces.
-                    let q = weight.max_element().min(1.0);
-                    if !(q > 0.0) || u_rr >= q || !weight.is_finite() {
-                        return;
-                    }
-                    power *= weight / q;
-                    depth += 1;
-                    specular_only = false;
-                    if depth >= job.max_depth {
-                        return;
-                    }
-                    org += dir * t;
-                    dir = m.phase.sample(dir, Vec2::new(u_px, u_py)).0;
-                    continue;
+        let power_before = path.beta;
+        let (step, _) = path.advance(ctx, [u_channel, u_dist], || s.next_4d()[0], false, &mut ignored, &mut ray_stats);
+        let sh = match step {
+            Step::End | Step::Escaped => return,
+            Step::Passed => continue,
+            Step::Medium { p, phase, weight } => {
+                // Russian roulette on the event's weight (the single-scattering albedo
+                // for a grey medium), as on surfaces.
+                let q = weight.max_element().min(1.0);
+                if !(q > 0.0) || u_rr >= q || !weight.is_finite() {
+                    return;
                 }
-                FreeFlight::Pass { weight } => power *= weight,
-            }
-        }
-        let Some(hit) = hit else {
-            return;
-        };
-        let sh = ctx.scene.surface(&hit, org, dir);
-        if ctx.scene.materials[sh.material as usize].null_surface {
-            // A volume boundary without a surface: only the medium changes (past the
-            // shared cap the photon ends, as every path does).
-            if transparent >= MAX_TRANSPARENT_HITS {
-                return;
-            }
-            transparent += 1;
-            medium = ctx.medium_after(&sh, dir, medium);
-            org = offset_ray_origin(sh.p, -sh.ng);
-            continue;
-        }
-        if ctx.scene.materials[sh.material as usize].alpha_mode == AlphaMode::Blend
-            && transparent < MAX_TRANSPARENT_HITS
-        {
-            let a = ctx.scene.alpha(hit.tri, hit.b1, hit.b2);
-            if s.next_4d()[0] >= a {
-                transparent += 1;
-                org = offset_ray_origin(sh.p, -sh.ng);
+                path.beta = power_before * (weight / q);
+                path.depth += 1;
+                specular_only = false;
+                if path.depth >= job.max_depth {
+                    return;
+                }
+                path.org = p;
+                path.dir = phase.sample(path.dir, Vec2::new(u_px, u_py)).0;
                 continue;
             }
-        }
-        depth += 1;
-        let wo = -dir;
+            Step::Surface { s, .. } => s,
+        };
+        path.depth += 1;
+        let wo = -path.dir;
         let sp = ctx.scene.shade(&sh, wo);
         let delta = sp.bsdf.is_delta();
         if !delta {
-            let caustic = specular_only && depth > 1;
+            let caustic = specular_only && path.depth > 1;
             match job.kind {
-                MapKind::Global if job.skip_direct && depth == 1 => {}
+                MapKind::Global if job.skip_direct && path.depth == 1 => {}
                 MapKind::Global => {
-                    out.push(Photon::new(sh.p, power, wo, sh.ng, depth, caustic));
+                    out.push(Photon::new(sh.p, path.beta, wo, sh.ng, path.depth, caustic));
                     st.stored += 1;
                 }
                 MapKind::Caustic => {
                     if caustic {
-                        out.push(Photon::new(sh.p, power, wo, sh.ng, depth, true));
+                        out.push(Photon::new(sh.p, path.beta, wo, sh.ng, path.depth, true));
                         st.stored += 1;
                     }
                     return;
                 }
             }
         }
-        if depth >= job.max_depth {
+        if path.depth >= job.max_depth {
             return;
         }
         specular_only &= delta;
@@ -252,17 +226,17 @@ pub fn trace_one(
             if u[0] < q_sss {
                 let walker = PathIntegrator::default();
                 let entry_u = [u[1], u[2], (u[0] / q_sss).min(0.999_999), u[3]];
-                let Some(exit) = walker.subsurface(ctx, &sh, &sp, wo, &ss, power, entry_u) else {
+                let Some(exit) = walker.subsurface(ctx, &sh, &sp, wo, &ss, path.beta, entry_u) else {
                     return;
                 };
                 let q = exit.weight.max_element().min(1.0);
                 if !(q > 0.0) || v_rr >= q || !exit.weight.is_finite() {
                     return;
                 }
-                power *= exit.weight / q;
-                depth += 1;
+                path.beta *= exit.weight / q;
+                path.depth += 1;
                 specular_only = false;
-                if depth >= job.max_depth {
+                if path.depth >= job.max_depth {
                     return;
                 }
                 let se = ctx.scene.surface(&exit.hit, exit.org, exit.dir);
@@ -271,8 +245,8 @@ pub fn trace_one(
                 if wi.dot(n_g) <= 0.0 {
                     return;
                 }
-                org = offset_ray_origin(se.p, n_g);
-                dir = wi;
+                path.org = offset_ray_origin(se.p, n_g);
+                path.dir = wi;
                 continue;
             }
         }
@@ -305,9 +279,9 @@ pub fn trace_one(
         if !(q > 0.0) || u_rr >= q || !w.is_finite() {
             return;
         }
-        power *= w / q;
-        medium = ctx.medium_after(&sh, wi, medium);
-        org = offset_ray_origin(sh.p, if cos_i_g > 0.0 { sh.ng } else { -sh.ng });
-        dir = wi;
+        path.beta *= w / q;
+        path.media = ctx.medium_after(&sh, wi, path.media);
+        path.org = offset_ray_origin(sh.p, if cos_i_g > 0.0 { sh.ng } else { -sh.ng });
+        path.dir = wi;
     }
 }

@@ -90,6 +90,8 @@ pub(super) struct WorldExt {
     pub(super) image: Option<String>,
     #[serde(default)]
     pub(super) rotation: f32,
+    /// Blender's World Volume: a homogeneous medium filling the scene (the camera is in it).
+    pub(super) medium: Option<MediumExt>,
 }
 
 /// `CAUSTIC_camera` on a camera's node: Blender's lens shift and depth of field.

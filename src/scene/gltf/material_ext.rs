@@ -25,12 +25,35 @@ pub(super) const HANDLED_MATERIAL_EXTENSIONS: &[&str] = &[
     "KHR_materials_dispersion",
     "CAUSTIC_materials_coat",
     "CAUSTIC_materials_nodes",
+    // Read in `materials.rs`:
+    "KHR_materials_unlit",
     // Warned about by name where they are read:
     "KHR_materials_iridescence",
     "KHR_materials_anisotropy",
 ];
 
 impl Loader<'_> {
+    /// The homogeneous medium a `CAUSTIC_materials_medium` value describes (also the world's
+    /// volume), checked: finite, non-negative density and colours, anisotropy in [-1, 1].
+    pub(super) fn homogeneous_medium(&self, what: &str, ext: &MediumExt) -> Result<HomogeneousMedium> {
+        let colours = [ext.scatter_color, ext.absorption_color, ext.emission];
+        let finite = ext.density.is_finite()
+            && ext.anisotropy.is_finite()
+            && colours.iter().all(|c| c.iter().all(|x| x.is_finite()));
+        if !finite || ext.density < 0.0 || colours.iter().any(|c| c.iter().any(|&x| x < 0.0)) {
+            return Err(self.err(format!("{what} needs finite, non-negative density and colours")));
+        }
+        if !(-1.0..=1.0).contains(&ext.anisotropy) {
+            return Err(self.err(format!("{what}: anisotropy {} is outside [-1, 1]", ext.anisotropy)));
+        }
+        Ok(HomogeneousMedium {
+            sigma_a: Vec3::from(ext.absorption_color) * ext.density,
+            sigma_s: Vec3::from(ext.scatter_color) * ext.density,
+            phase: HenyeyGreenstein::new(ext.anisotropy),
+            emission: Vec3::from(ext.emission),
+        })
+    }
+
     /// Reads the material extensions of `m` into `mat` (whose core glTF fields are set),
     /// naming each one read in `features`.
     pub(super) fn material_extensions(
@@ -111,32 +134,13 @@ impl Loader<'_> {
             features.push("CAUSTIC_materials_medium".into());
             let ext: MediumExt = serde_json::from_value(v)
                 .map_err(|e| self.err(format!("material '{name}': CAUSTIC_materials_medium is malformed: {e}")))?;
-            let colours = [ext.scatter_color, ext.absorption_color, ext.emission];
-            let finite = ext.density.is_finite()
-                && ext.anisotropy.is_finite()
-                && colours.iter().all(|c| c.iter().all(|x| x.is_finite()));
-            if !finite || ext.density < 0.0 || colours.iter().any(|c| c.iter().any(|&x| x < 0.0)) {
-                return Err(self.err(format!(
-                    "material '{name}': CAUSTIC_materials_medium needs finite, non-negative density and colours"
-                )));
-            }
-            if !(-1.0..=1.0).contains(&ext.anisotropy) {
-                return Err(self.err(format!(
-                    "material '{name}': CAUSTIC_materials_medium anisotropy {} is outside [-1, 1]",
-                    ext.anisotropy
-                )));
-            }
+            let parsed = self.homogeneous_medium(&format!("material '{name}': CAUSTIC_materials_medium"), &ext)?;
             if medium.is_some() {
                 self.warn(format!(
                     "material '{name}': CAUSTIC_materials_medium replaces the KHR_materials_volume attenuation"
                 ));
             }
-            medium = Some(HomogeneousMedium {
-                sigma_a: Vec3::from(ext.absorption_color) * ext.density,
-                sigma_s: Vec3::from(ext.scatter_color) * ext.density,
-                phase: HenyeyGreenstein::new(ext.anisotropy),
-                emission: Vec3::from(ext.emission),
-            });
+            medium = Some(parsed);
             null_surface = !ext.surface;
         }
         let mut subsurface = None;

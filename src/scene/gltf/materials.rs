@@ -124,6 +124,15 @@ impl Loader<'_> {
             ..Material::default()
         };
         self.material_extensions(doc, m, buffers, &mut mat, &mut features)?;
+        if m.extension_value("KHR_materials_unlit").is_some() {
+            // The spec: the base colour (factor × texture × vertex colour) is the surface's
+            // colour, every other lighting property is ignored; alpha and doubleSided apply.
+            // Rendered as emission of that colour over a surface that reflects nothing.
+            features.push("KHR_materials_unlit".into());
+            mat.unlit = true;
+            mat.emissive = mat.base_color.truncate();
+            mat.emissive_tex = mat.base_color_tex;
+        }
         self.material_nodes(m, &mut mat, &mut features)?;
         Ok((mat, MaterialReport { name, features }))
     }
@@ -213,6 +222,21 @@ mod tests {
         assert_eq!((m.metallic, m.roughness, m.ior, m.specular, m.transmission), (1.0, 1.0, 1.5, 1.0, 0.0));
         assert_eq!(m.alpha_mode, AlphaMode::Opaque);
         assert!(m.medium.is_none() && !m.double_sided && m.emissive == Vec3::ZERO);
+    }
+
+    #[test]
+    fn unlit_shows_the_base_colour_and_ignores_emission() {
+        let (m, scene) = material(
+            json!({"name": "flat",
+                "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.25, 0.125, 0.75], "baseColorTexture": {"index": 0}},
+                "emissiveFactor": [1.0, 1.0, 1.0], "emissiveTexture": {"index": 1},
+                "extensions": {"KHR_materials_unlit": {}}}),
+            2,
+        );
+        assert!(m.unlit);
+        assert_eq!(m.emissive, Vec3::new(0.5, 0.25, 0.125));
+        assert_eq!(texel_id(&scene, m.emissive_tex), 0, "the emission is the base colour texture");
+        assert_eq!(m.base_color.w, 0.75, "alpha still applies");
     }
 
     #[test]

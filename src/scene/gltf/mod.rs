@@ -54,6 +54,7 @@ pub const SUPPORTED_REQUIRED: &[&str] = &[
     "KHR_materials_specular",
     "KHR_materials_sheen",
     "KHR_materials_dispersion",
+    "KHR_materials_unlit",
     "CAUSTIC_lights_area",
     "CAUSTIC_lights_punctual",
     "CAUSTIC_materials_nodes",
@@ -313,7 +314,7 @@ impl<'a> Loader<'a> {
             }
         }
         self.profile.mesh = phase.elapsed().as_secs_f64() - self.profile.tangents;
-        let world = self.world(&value, &doc, &buffers)?;
+        let (world, world_medium) = self.world(&value, &doc, &buffers)?;
         let world_power = world.as_ref().map(|w| {
             // Power through the scene's bounding disk: irradiance π L over π R².
             std::f32::consts::PI * w.mean_luminance() * std::f32::consts::PI * scene_radius * scene_radius
@@ -343,8 +344,10 @@ impl<'a> Loader<'a> {
             self.warn("no camera in the file: framing the scene's bounds from +Z with a 40° camera");
             cameras.push(frame_bounds(lo, hi));
         }
-        if lights.is_empty() {
-            self.warn("the scene has no lights and no emissive materials: the image will be black");
+        let glowing_media = world_medium.as_ref().is_some_and(|m| m.emission != glam::Vec3::ZERO)
+            || materials.iter().any(|m| m.medium.as_ref().is_some_and(|m| m.emission != glam::Vec3::ZERO));
+        if lights.is_empty() && !glowing_media {
+            self.warn("the scene has no lights, no emissive materials and no emitting media: the image will be black");
         }
         if degenerate > 0 {
             self.warn(format!("{degenerate} degenerate (zero-area) triangle(s) were dropped"));
@@ -389,6 +392,7 @@ impl<'a> Loader<'a> {
             light_power,
             cameras,
             world,
+            world_medium,
             settings,
             warnings: self.warnings,
             report,
@@ -535,6 +539,7 @@ mod tests {
             "KHR_materials_sheen",
             "KHR_materials_dispersion",
             "KHR_materials_emissive_strength",
+            "KHR_materials_unlit",
             "KHR_texture_transform",
             "KHR_lights_punctual",
             "CAUSTIC_lights_area",

@@ -1,22 +1,24 @@
-//! The world: `CAUSTIC_world`'s colour or equirectangular image.
+//! The world: `CAUSTIC_world`'s colour or equirectangular image, and its volume.
 
 use super::extensions::WorldExt;
 use super::{Loader, MAX_TEXTURE_SIDE};
 use crate::error::Result;
+use crate::medium::HomogeneousMedium;
 use glam::Vec3;
 
 impl Loader<'_> {
     /// `scenes[i].extensions.CAUSTIC_world`: a colour × strength, or an equirectangular
-    /// image (.hdr, .exr, .png, .jpg) × colour × strength, rotated about the up axis.
+    /// image (.hdr, .exr, .png, .jpg) × colour × strength, rotated about the up axis; and
+    /// the homogeneous medium that fills the scene (Blender's World Volume).
     pub(super) fn world(
         &mut self,
         value: &serde_json::Value,
         doc: &gltf::Document,
         buffers: &[Vec<u8>],
-    ) -> Result<Option<crate::light::Environment>> {
+    ) -> Result<(Option<crate::light::Environment>, Option<HomogeneousMedium>)> {
         let scene_index = value.get("scene").and_then(|s| s.as_u64()).unwrap_or(0) as usize;
         let Some(ext) = value.pointer(&format!("/scenes/{scene_index}/extensions/CAUSTIC_world")) else {
-            return Ok(None);
+            return Ok((None, None));
         };
         let w: WorldExt =
             serde_json::from_value(ext.clone()).map_err(|e| self.err(format!("CAUSTIC_world is malformed: {e}")))?;
@@ -25,6 +27,25 @@ impl Loader<'_> {
             return Err(self.err("CAUSTIC_world: color, strength and rotation must be finite and non-negative"));
         }
         let _ = (doc, buffers);
+        let medium = match &w.medium {
+            None => None,
+            Some(m) => {
+                if !m.surface {
+                    return Err(
+                        self.err("CAUSTIC_world: a world medium has no surface to leave out (\"surface\": false)")
+                    );
+                }
+                let medium = self.homogeneous_medium("CAUSTIC_world medium", m)?;
+                // Radiance gathered along an unbounded ray is E/σt: infinite where σt = 0.
+                let st = medium.sigma_t();
+                if (0..3).any(|c| medium.emission[c] > 0.0 && st[c] <= 0.0) {
+                    return Err(self.err(
+                        "CAUSTIC_world medium: emission in a colour channel the medium does not attenuate would be infinite",
+                    ));
+                }
+                Some(medium)
+            }
+        };
         let image = match &w.image {
             None => None,
             Some(uri) => {
@@ -73,6 +94,6 @@ impl Loader<'_> {
                 )
             }
         };
-        Ok(Some(crate::light::Environment { color, image, rotation: w.rotation }))
+        Ok((Some(crate::light::Environment { color, image, rotation: w.rotation }), medium))
     }
 }

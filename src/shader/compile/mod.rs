@@ -665,7 +665,10 @@ impl<'a> Compiler<'a> {
             "ShaderNodeValue" => {
                 let v = self.desc(i).props.get("value").and_then(Value::as_f64).map(|v| v as f32);
                 let Some(v) = v.filter(|v| v.is_finite()) else {
-                    return Err(self.err(i, "props.value (the node's number) is missing"));
+                    self.warn(i, "props.value (the node's number) is missing: it gives 0");
+                    let r = self.konst_f(0.0);
+                    self.alias(i, "Value", r, Ty::Float);
+                    return Ok(true);
                 };
                 let r = self.konst_f(v);
                 self.alias(i, "Value", r, Ty::Float);
@@ -678,7 +681,10 @@ impl<'a> Compiler<'a> {
                     .and_then(Value::as_array)
                     .and_then(|a| (a.len() >= 3).then(|| Vec3::new(num(&a[0]), num(&a[1]), num(&a[2]))));
                 let Some(c) = c.filter(|c| c.is_finite()) else {
-                    return Err(self.err(i, "props.color (the node's colour) is missing"));
+                    self.warn(i, "props.color (the node's colour) is missing: it gives black");
+                    let r = self.konst_v(Vec3::ZERO);
+                    self.alias(i, "Color", r, Ty::Color);
+                    return Ok(true);
                 };
                 let r = self.konst_v(c);
                 self.alias(i, "Color", r, Ty::Color);

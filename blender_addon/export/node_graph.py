@@ -1,0 +1,476 @@
+"""A material's shader node graph as Cycles sees it: `CAUSTIC_materials_nodes` (contract).
+
+`build_graph` walks backwards from the active Material Output (Cycles target) and returns the
+contract's node list: node groups inlined (inner nodes named `Group/Inner`, Group Input and
+Group Output resolved to what feeds them), reroutes removed, muted nodes replaced by their
+internal pass-through links (an output without one feeds nothing, as in Cycles), invalid and
+muted links and links from unavailable sockets treated as absent.
+The walk reads Blender data only; images are collected (the caller writes them, node_images.py)
+and the few settings that need the scene (UV map numbers, object matrices) come from a
+`GraphContext`.
+
+`needs_graph` says whether the glTF exporter could express the material itself (contract: only
+Principled BSDF, Image Texture, Normal Map, UV Map and Material Output, with the links the
+exporter reads); a material it can express keeps today's export unchanged.
+"""
+
+import bpy
+
+GRAPH_EXTENSION = "CAUSTIC_materials_nodes"
+GRAPH_VERSION = 1
+
+# What the glTF exporter reads (contract): any other node type needs the graph.
+_EXPRESSIBLE = {"ShaderNodeBsdfPrincipled", "ShaderNodeTexImage", "ShaderNodeNormalMap", "ShaderNodeUVMap"}
+# The Principled BSDF inputs whose links the exporter turns into glTF textures (io_scene_gltf2
+# 5.0: base colour and alpha, metallic/roughness, normal, emission, clearcoat, transmission,
+# specular, sheen); a link into any other input is dropped by it.
+_EXPORTER_LINKED_INPUTS = {"Base Color", "Alpha", "Metallic", "Roughness", "Normal", "Emission Color",
+                           "Coat Weight", "Coat Roughness", "Coat Normal", "Transmission Weight",
+                           "Specular IOR Level", "Specular Tint", "Sheen Color", "Sheen Roughness"}
+# Pointer properties that are not settings of the node (legacy texture mapping, image user):
+_SKIPPED_POINTERS = {"texture_mapping", "color_mapping", "image_user", "node_tree"}
+# Cycles' colour-to-float conversion: luminance of linear Rec.709 (util/color.h, the scene's
+# default colour space).
+_LUMINANCE = (0.2126729, 0.7151522, 0.0721750)
+# Blender Z-up to glTF Y-up: (x, y, z) -> (x, z, -y).
+_Y_UP = ((1.0, 0.0, 0.0, 0.0), (0.0, 0.0, 1.0, 0.0), (0.0, -1.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))
+# Samples of ColorRamp and curve tables: as Cycles 5.0 bakes them (RAMP_TABLE_SIZE + 1 entries
+# at i/256, looked up with floor; checked with a render: a CONSTANT ramp's step at 0.65 falls at
+# 167/256), so that the renderer's lookup gives Cycles' values, step positions included.
+TABLE_SIZE = 257
+# Nodes that name a UV map (`uv_map`, empty: the active render map) and nodes that read the
+# active render map when their input is unlinked (Image Texture) or on an output (UV).
+_NAMED_UV_NODES = {"ShaderNodeUVMap", "ShaderNodeNormalMap", "ShaderNodeTangent"}
+_ACTIVE_UV_NODES = {"ShaderNodeTexImage", "ShaderNodeTexCoord"}
+# Procedural textures whose unlinked Vector input is Generated in Cycles
+# (SocketType::LINK_TEXTURE_GENERATED); Image Texture's is UV, Environment's the direction.
+_GENERATED_DEFAULT = {"TEX_NOISE", "TEX_VORONOI", "TEX_WAVE", "TEX_CHECKER", "TEX_GRADIENT", "TEX_MAGIC",
+                      "TEX_BRICK", "TEX_WHITE_NOISE", "TEX_GABOR"}
+
+
+class GraphContext:
+    """What the walk needs from the scene: the depsgraph (object matrices) and the meshes that
+    use the material (UV map numbers)."""
+
+    def __init__(self, depsgraph=None, meshes=()):
+        self.depsgraph = depsgraph
+        self.meshes = list(meshes)
+
+
+class Graph:
+    """A built graph: the contract's value without `images`, the Blender images it uses (in
+    index order), whether it reads Generated coordinates, and warnings."""
+
+    def __init__(self, nodes, output, images, uses_generated, warnings):
+        self.nodes = nodes
+        self.output = output
+        self.images = images
+        self.uses_generated = uses_generated
+        self.warnings = warnings
+
+    def value(self, image_entries):
+        """The extension's value, with the `images` entries the caller wrote."""
+        return {"version": GRAPH_VERSION, "nodes": self.nodes, "output": self.output, "images": image_entries}
+
+
+def _valid_link(sock):
+    """The link into an input socket Cycles follows, or None (unlinked, invalid, muted, or from
+    a socket the node's settings made unavailable, such as the Mix node's float result in
+    colour mode)."""
+    if not sock.is_linked:
+        return None
+    for link in sock.links:
+        if link.is_valid and not link.is_muted and _available(link.from_socket):
+            return link
+    return None
+
+
+def _available(sock):
+    """Cycles sees only enabled, available sockets."""
+    return sock.enabled and not sock.is_unavailable
+
+
+def plain(value):
+    """A socket or property value as JSON: numbers, strings, lists of numbers."""
+    if isinstance(value, (bool, int, float, str)):
+        return value
+    try:
+        return [plain(v) for v in value]
+    except TypeError:
+        return float(value)
+
+
+def convert(value, from_type, to_type):
+    """A constant carried from a socket of `from_type` into one of `to_type`, as Cycles'
+    implicit conversion nodes do (float -> grey colour, colour -> luminance, vector -> average)."""
+    value = plain(value)
+    if from_type == to_type or isinstance(value, str):
+        return value
+    scalar = not isinstance(value, list)
+    if to_type in {"VALUE", "INT", "BOOLEAN"}:
+        if scalar:
+            out = float(value)
+        elif from_type == "RGBA":
+            out = sum(c * w for c, w in zip(value[:3], _LUMINANCE))
+        else:
+            out = sum(value[:3]) / 3.0
+        return int(out) if to_type == "INT" else (out != 0.0 if to_type == "BOOLEAN" else out)
+    if to_type == "RGBA":
+        return [float(value)] * 3 + [1.0] if scalar else [*value[:3], value[3] if len(value) > 3 else 1.0]
+    if to_type in {"VECTOR", "ROTATION"}:
+        return [float(value)] * 3 if scalar else list(value[:3])
+    return value
+
+
+def _matrix_list(m):
+    """A 4x4 matrix as 16 numbers, column-major (glTF's order)."""
+    return [float(m[row][col]) for col in range(4) for row in range(4)]
+
+
+def object_matrix(obj, depsgraph):
+    """The inverse of `obj`'s world matrix in glTF's Y-up world: C M^-1 C^-1 with C the axis swap,
+    so that applied to a glTF world point it gives the object-space point in glTF axes."""
+    from mathutils import Matrix
+    if depsgraph is not None:
+        obj = obj.evaluated_get(depsgraph)
+    c = Matrix(_Y_UP)
+    return _matrix_list(c @ obj.matrix_world.inverted_safe() @ c.inverted())
+
+
+def ramp_table(ramp):
+    """A ColorRamp evaluated by Blender at i/256, i = 0..256 (contract)."""
+    return [[float(c) for c in ramp.evaluate(i / (TABLE_SIZE - 1))] for i in range(TABLE_SIZE)]
+
+
+def curve_tables(node):
+    """A curve node's mapping as the contract's range, extrapolation and tables.
+
+    The range is Cycles' (curvemapping_minmax: the first and last points' x over all curves);
+    RGB Curves lists C, R, G, B (Blender stores C as curves[3])."""
+    mapping = node.mapping
+    mapping.initialize()  # evaluate() needs the curve tables Blender builds here
+    curves = list(mapping.curves)
+    if node.bl_idname == "ShaderNodeRGBCurve":
+        curves = [curves[3], curves[0], curves[1], curves[2]]
+    elif node.bl_idname == "ShaderNodeVectorCurve":
+        curves = curves[:3]
+    else:
+        curves = curves[:1]
+    lo = min(c.points[0].location[0] for c in curves)
+    hi = max(c.points[len(c.points) - 1].location[0] for c in curves)
+    xs = [lo + (hi - lo) * i / (TABLE_SIZE - 1) for i in range(TABLE_SIZE)]
+    return {"range": [float(lo), float(hi)], "extrapolate": mapping.extend == "EXTRAPOLATED",
+            "tables": [[float(mapping.evaluate(c, x)) for x in xs] for c in curves]}
+
+
+def _uv_index(name, meshes):
+    """The TEXCOORD_n Blender's glTF exporter writes for UV map `name`: it writes every UV map of
+    the mesh in order (primitive_extract.py, tex_coord_max = len(uv_layers)), so n is the map's
+    index. Returns (n or None, meshes that disagree or lack the map)."""
+    found, missing = set(), []
+    for mesh in meshes:
+        i = mesh.uv_layers.find(name)
+        if i < 0:
+            missing.append(mesh.name)
+        else:
+            found.add(i)
+    return (min(found) if found else None), missing, len(found) > 1
+
+
+def _active_uv_index(meshes):
+    """The TEXCOORD_n of the meshes' active render UV maps (Cycles' default UV map), and whether
+    the meshes disagree; (None, False) when none has a UV map."""
+    found = set()
+    for mesh in meshes:
+        layers = list(mesh.uv_layers)
+        if layers:
+            found.add(next((i for i, layer in enumerate(layers) if layer.active_render), 0))
+    return (min(found) if found else None), len(found) > 1
+
+
+class _Builder:
+    """One walk over one material's tree (see the module doc)."""
+
+    def __init__(self, material, context):
+        self.material = material
+        self.context = context
+        self.nodes = []
+        self.index = {}
+        self.todo = []
+        self.images = []
+        self.image_index = {}
+        self.uses_generated = False
+        self.warnings = []
+        self.base_props = {p.identifier for p in bpy.types.ShaderNode.bl_rna.properties}
+
+    def warn(self, node_name, text):
+        self.warnings.append(f"material '{self.material.name}', node '{node_name}': {text}")
+
+    # --- resolving sockets to sources: ("link", index, identifier) | ("value", v, type) | None ---
+
+    def input_source(self, scope, sock, depth=0):
+        """What feeds an input socket in `scope` (a tuple of group nodes), or None when unlinked."""
+        link = _valid_link(sock)
+        if link is None:
+            return None
+        return self.output_source(scope, link.from_node, link.from_socket, depth + 1)
+
+    def output_source(self, scope, node, out, depth):
+        """What an output socket stands for: a node of the graph (added on first sight), or,
+        through reroutes, muted nodes and group boundaries, what feeds those."""
+        if depth > 256:  # Blender refuses cycles; this only guards against a corrupt file
+            self.warn(node.name, "the graph is too deep (a cycle?); the input is left unlinked")
+            return None
+        if node.type == "REROUTE":
+            return self.input_source(scope, node.inputs[0], depth)
+        if node.mute:
+            return self._muted(scope, node, out, depth)
+        if node.type == "GROUP":
+            return self._group_output(scope, node, out, depth)
+        if node.type == "GROUP_INPUT":
+            return self._group_input(scope, node, out, depth)
+        if node.type == "FRAME":
+            return None
+        if node.type == "TEX_COORD" and out.identifier == "Generated":
+            self.uses_generated = True
+        return ("link", self.add(scope, node), out.identifier)
+
+    def _value_or_link(self, scope, sock, depth):
+        """The source of an input that stands in for an output (pass-through, group sockets)."""
+        source = self.input_source(scope, sock, depth)
+        if source is not None:
+            return source
+        if sock.type == "SHADER" or not hasattr(sock, "default_value"):
+            return None
+        return ("value", plain(sock.default_value), sock.type)
+
+    def _muted(self, scope, node, out, depth):
+        """A muted node's output: what feeds the input its internal link passes through (that
+        input's own value when unlinked). An output without a pass-through is no source: as in
+        Cycles (its sync maps muted nodes' internal links only), the input it fed keeps its own
+        value."""
+        for link in node.internal_links:
+            if link.to_socket.identifier == out.identifier and link.from_socket is not None:
+                return self._value_or_link(scope, link.from_socket, depth)
+        return None
+
+    def _group_output(self, scope, node, out, depth):
+        tree = node.node_tree
+        if tree is None:
+            self.warn(node.name, "the group node has no node tree; its outputs are left unlinked")
+            return None
+        outputs = [n for n in tree.nodes if n.type == "GROUP_OUTPUT"]
+        group_out = next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
+        if group_out is None:
+            return None
+        sock = next((s for s in group_out.inputs if s.identifier == out.identifier), None)
+        return None if sock is None else self._value_or_link(scope + (node,), sock, depth)
+
+    def _group_input(self, scope, node, out, depth):
+        if not scope:
+            return None
+        group = scope[-1]
+        sock = next((s for s in group.inputs if s.identifier == out.identifier), None)
+        return None if sock is None else self._value_or_link(scope[:-1], sock, depth)
+
+    # --- nodes ---
+
+    def add(self, scope, node):
+        """The index of `node` (in `scope`) in the node list, adding it on first sight."""
+        key = (tuple(g.as_pointer() for g in scope), node.as_pointer())
+        if key not in self.index:
+            self.index[key] = len(self.nodes)
+            name = "/".join([g.name for g in scope] + [node.name])
+            self.nodes.append({"name": name, "type": node.bl_idname, "props": {}, "inputs": {}})
+            self.todo.append((scope, node))
+        return self.index[key]
+
+    def fill(self, scope, node):
+        """The node's props and inputs (after `add`; iterative, so deep graphs need no recursion)."""
+        entry = self.nodes[self.index[(tuple(g.as_pointer() for g in scope), node.as_pointer())]]
+        entry["props"] = self.props(node, entry["name"])
+        for sock in node.inputs:
+            if not _available(sock):
+                continue
+            item = {}
+            if sock.type != "SHADER" and hasattr(sock, "default_value"):
+                item["value"] = plain(sock.default_value)
+            source = self.input_source(scope, sock)
+            if source is not None and source[0] == "link":
+                item["link"] = [source[1], source[2]]
+            elif source is not None and "value" in item:
+                item["value"] = convert(source[1], source[2], sock.type)
+            entry["inputs"][sock.identifier] = item
+        if node.type in _GENERATED_DEFAULT:
+            vector = node.inputs.get("Vector")
+            if vector is not None and _available(vector) and "link" not in entry["inputs"].get("Vector", {}):
+                self.uses_generated = True
+
+    def props(self, node, name):
+        """The node's own settings (everything not inherited from ShaderNode), contract's shapes."""
+        props = {}
+        for prop in node.bl_rna.properties:
+            key = prop.identifier
+            if key in self.base_props or key in _SKIPPED_POINTERS or prop.type == "COLLECTION":
+                continue
+            value = getattr(node, key)
+            if prop.type == "POINTER":
+                self._pointer_prop(node, name, key, value, props)
+            elif prop.type == "ENUM":
+                props[key] = sorted(value) if prop.is_enum_flag else value
+            else:
+                props[key] = plain(value)
+        self._tex_coord(node, name, props)
+        self._warn_colour_attribute(node, name, props)
+        return props
+
+    def _warn_colour_attribute(self, node, name, props):
+        """Name a node that reads a colour (or other non-UV) attribute: the exporter writes
+        COLOR_n sets without their names (and in its own order), so the contract cannot say
+        which set a name is (checked on io_scene_gltf2 5.0.21: two colour attributes and a
+        Color Attribute node gave COLOR_0..COLOR_2)."""
+        if node.bl_idname == "ShaderNodeVertexColor":
+            attribute = node.layer_name or "(active)"
+        elif node.bl_idname == "ShaderNodeAttribute" and "tex_coord" not in props:
+            attribute = node.attribute_name
+        else:
+            return
+        self.warn(name, f"attribute '{attribute}' is not exported by name (glTF's COLOR_n sets are unnamed); "
+                  "the renderer cannot read it as Cycles does")
+
+    def _pointer_prop(self, node, name, key, value, props):
+        if key == "color_ramp":
+            props[key] = {"interpolation": value.interpolation, "table": ramp_table(value)}
+        elif key == "mapping":
+            props[key] = curve_tables(node)
+        elif key == "image":
+            if value is None:
+                self.warn(name, "the image texture has no image; Cycles renders it magenta, Caustic as "
+                          "the renderer's missing-image colour")
+                return
+            pointer = value.as_pointer()
+            if pointer not in self.image_index:
+                self.image_index[pointer] = len(self.images)
+                self.images.append(value)
+            props[key] = self.image_index[pointer]
+        elif key == "object":
+            if value is not None:
+                props["object_matrix"] = object_matrix(value, self.context.depsgraph)
+        elif value is not None:
+            self.warn(name, f"its setting '{key}' ({type(value).__name__}) is not exported")
+
+    def _tex_coord(self, node, name, props):
+        """`tex_coord`: the TEXCOORD_n of the UV map the node reads — a named map (UV Map, Normal
+        Map, Tangent, an Attribute naming a UV map), or the active render map that Cycles uses
+        for an unnamed one, an Image Texture's default and Texture Coordinate's UV."""
+        meshes = self.context.meshes
+        if not meshes:
+            return
+        uv_map = getattr(node, "uv_map", None) if node.bl_idname in _NAMED_UV_NODES else None
+        if node.bl_idname == "ShaderNodeAttribute" and node.attribute_type == "GEOMETRY":
+            if any(mesh.uv_layers.find(node.attribute_name) >= 0 for mesh in meshes):
+                uv_map = node.attribute_name
+            else:
+                return  # a colour or other attribute, not a UV map
+        if uv_map:
+            n, missing, ambiguous = _uv_index(uv_map, meshes)
+            if missing:
+                self.warn(name, f"UV map '{uv_map}' is missing on mesh(es) {', '.join(sorted(missing))}; "
+                          "they use their active map")
+        elif uv_map is not None or node.bl_idname in _ACTIVE_UV_NODES:
+            uv_map = "(active render map)"
+            n, ambiguous = _active_uv_index(meshes)
+        else:
+            return
+        if ambiguous:
+            self.warn(name, f"UV map '{uv_map}' has different numbers on the material's meshes; "
+                      f"TEXCOORD_{n} is used for all")
+        if n is not None:
+            props["tex_coord"] = n
+
+    def run(self, output):
+        surface = self._output_link(output, "Surface")
+        displacement = self._output_link(output, "Displacement")
+        while self.todo:
+            self.fill(*self.todo.pop())
+        if displacement is not None and self.material.displacement_method != "BUMP":
+            self.warn(output.name, f"displacement method {self.material.displacement_method}: Caustic "
+                      "renders the Displacement output as bump only (the surface is not moved)")
+        return Graph(self.nodes, {"surface": surface, "displacement": displacement}, self.images,
+                     self.uses_generated, self.warnings)
+
+    def _output_link(self, output, socket_name):
+        sock = output.inputs.get(socket_name)
+        source = self.input_source((), sock) if sock is not None else None
+        return [source[1], source[2]] if source is not None and source[0] == "link" else None
+
+
+def cycles_output(material):
+    """The Material Output node Cycles renders, or None."""
+    tree = getattr(material, "node_tree", None)
+    if tree is None:
+        return None
+    return tree.get_output_node("CYCLES")
+
+
+def build_graph(material, context):
+    """The material's graph (a `Graph`), or None when it has no Cycles Material Output."""
+    output = cycles_output(material)
+    if output is None:
+        return None
+    return _Builder(material, context).run(output)
+
+
+def needs_graph(material, graph):
+    """Whether the glTF exporter cannot express `material`, whose graph is `graph` (contract):
+    a node type it does not read, a group or muted node on the way (the graph is then not what
+    the exporter walks), a Displacement output, a projected image, or a link it drops."""
+    if graph is None:
+        return False
+    if graph.output["displacement"] is not None:
+        return True
+    if any(n["type"] not in _EXPRESSIBLE for n in graph.nodes):
+        return True
+    if any(n["type"] == "ShaderNodeTexImage" and n["props"].get("projection", "FLAT") != "FLAT" for n in graph.nodes):
+        return True  # the exporter reads every image as UV-mapped
+    if _raw_walk_has_group_or_mute(cycles_output(material)):
+        return True
+    for entry in graph.nodes:
+        for identifier, item in entry["inputs"].items():
+            if "link" not in item:
+                continue
+            source = graph.nodes[item["link"][0]]
+            if not _exporter_reads_link(entry, identifier, source, item["link"][1]):
+                return True
+    return False
+
+
+def _exporter_reads_link(entry, identifier, source, output_identifier):
+    """Whether Blender's glTF exporter turns this link (between expressible nodes) into glTF."""
+    kind = entry["type"]
+    if kind == "ShaderNodeBsdfPrincipled":
+        name = identifier  # Principled BSDF's identifiers are its socket names
+        return name in _EXPORTER_LINKED_INPUTS and (
+            source["type"] != "ShaderNodeTexImage" or output_identifier == "Color" or name == "Alpha")
+    if kind == "ShaderNodeNormalMap":
+        return identifier == "Color" and entry["props"].get("space") == "TANGENT"
+    if kind == "ShaderNodeTexImage":
+        return identifier == "Vector" and source["type"] == "ShaderNodeUVMap" and entry["props"].get(
+            "projection") == "FLAT"
+    return False
+
+
+def _raw_walk_has_group_or_mute(output):
+    """Whether a group node or a muted node feeds the output's Surface or Displacement (walking
+    Blender's own links; the Volume output is exported apart, media.py)."""
+    seen, todo = set(), [s for s in output.inputs if s.is_linked and s.name in {"Surface", "Displacement"}]
+    while todo:
+        for link in todo.pop().links:
+            node = link.from_node
+            if node.as_pointer() in seen:
+                continue
+            seen.add(node.as_pointer())
+            if node.type == "GROUP" or node.mute:
+                return True
+            todo.extend(s for s in node.inputs if s.is_linked)
+    return False

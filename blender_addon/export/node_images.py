@@ -1,0 +1,102 @@
+"""The images of exported node graphs, written beside the glTF in `caustic_nodes/` (contract:
+`CAUSTIC_materials_nodes`, `images`).
+
+Every image (packed, generated or from a file) is written from the pixels Blender holds, so the
+renderer reads the same numbers Cycles does: 8-bit images as PNG, float images as OpenEXR, the
+values as stored (no view transform, no colour conversion) and the colour space recorded by
+name. An image is written once per export however many materials use it.
+"""
+
+import os
+import re
+
+import bpy
+import numpy as np
+
+FOLDER = "caustic_nodes"
+
+
+class ImageWriter:
+    """Writes each Blender image once into `<gltf folder>/caustic_nodes/`; remembers the entries."""
+
+    def __init__(self, gltf_folder):
+        self.gltf_folder = gltf_folder
+        self.written = {}  # image pointer -> the contract's entry, or None when it has no pixels
+        self.names = set()
+
+    def entry(self, image, what, warnings):
+        """The contract's `images` entry for `image` (writing it on first use), or None when the
+        image has no pixels (a missing file), which is named in a warning."""
+        key = image.as_pointer()
+        if key not in self.written:
+            self.written[key] = self._write(image, what, warnings)
+        return self.written[key]
+
+    def _write(self, image, what, warnings):
+        if image.source in {"SEQUENCE", "MOVIE"}:
+            warnings.append(f"{what}: image '{image.name}' is a {image.source.lower()}; its current frame is used")
+        if image.source == "TILED":
+            warnings.append(f"{what}: image '{image.name}' has UDIM tiles; only its first tile is exported")
+        width, height = image.size
+        if width == 0 or height == 0 or not image.has_data and not _load(image):
+            warnings.append(f"{what}: image '{image.name}' has no pixels (missing file?); Caustic renders the "
+                            "renderer's missing-image colour")
+            return None
+        width, height = image.size
+        channels = image.channels
+        pixels = np.empty(width * height * channels, dtype=np.float32)
+        image.pixels.foreach_get(pixels)
+        pixels = pixels.reshape(height, width, channels)
+        if channels == 4:
+            rgba = pixels  # the usual case: no second copy of a large image
+        else:
+            rgba = np.ones((height, width, 4), dtype=np.float32)
+            rgba[..., :3] = pixels[..., :3] if channels >= 3 else pixels[..., :1]  # 1-2 channels: grey
+            if channels == 2:
+                rgba[..., 3] = pixels[..., 1]
+        is_float = bool(image.is_float)
+        suffix = ".exr" if is_float else ".png"
+        filename = self._unique(image.name, suffix)
+        os.makedirs(os.path.join(self.gltf_folder, FOLDER), exist_ok=True)
+        path = os.path.join(self.gltf_folder, FOLDER, filename)
+        _save(rgba, is_float, path)
+        colorspace = image.colorspace_settings.name
+        if colorspace not in {"sRGB", "Non-Color", "Linear Rec.709"}:
+            warnings.append(f"{what}: image '{image.name}' is in colour space '{colorspace}', which the contract "
+                            "does not name (sRGB, Non-Color, Linear Rec.709); the renderer may read it as linear")
+        return {"uri": f"{FOLDER}/{filename}", "colorspace": colorspace, "alpha": image.alpha_mode}
+
+    def _unique(self, name, suffix):
+        stem = re.sub(r"[^A-Za-z0-9._-]+", "_", os.path.splitext(name)[0]) or "image"
+        candidate, n = stem + suffix, 1
+        while candidate in self.names:
+            candidate, n = f"{stem}_{n}{suffix}", n + 1
+        self.names.add(candidate)
+        return candidate
+
+
+def _load(image):
+    """Try to load an image's pixels from its file; whether it has them now."""
+    try:
+        image.reload()
+    except RuntimeError:
+        return False
+    return image.has_data and image.size[0] > 0
+
+
+def _save(rgba, is_float, path):
+    """Write RGBA pixels (rows bottom to top, Blender's order) as PNG (8-bit) or OpenEXR (float),
+    through a temporary Blender image so that nothing is converted on the way: a byte image's
+    stored values go back to the same bytes, a float image's are written as 32-bit floats."""
+    height, width, _ = rgba.shape
+    temp = bpy.data.images.new("caustic-node-image", width, height, alpha=True, float_buffer=is_float)
+    try:
+        # The temporary image's own colour space must not convert on save: Non-Color stores
+        # the numbers as they are in both formats.
+        temp.colorspace_settings.name = "Non-Color"
+        temp.pixels.foreach_set(rgba.ravel())
+        temp.filepath_raw = path
+        temp.file_format = "OPEN_EXR" if is_float else "PNG"
+        temp.save()
+    finally:
+        bpy.data.images.remove(temp)

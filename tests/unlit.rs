@@ -1,0 +1,93 @@
+//! `KHR_materials_unlit` end to end: a quad whose material is unlit shows its base colour ×
+//! vertex colour exactly, however it is lit, and lights nothing else by reflection.
+
+mod common;
+
+use base64::Engine;
+use common::{run, temp_dir};
+use serde_json::json;
+use std::time::Duration;
+
+fn f32_bytes(v: &[f32]) -> Vec<u8> {
+    v.iter().flat_map(|f| f.to_le_bytes()).collect()
+}
+
+/// A 2×2 quad facing +Z, one vertex colour for all four vertices, an unlit material of base
+/// colour `base`, a strong sun straight down onto it, and a camera looking down at it.
+fn scene(dir: &std::path::Path, base: [f32; 3], vertex: [f32; 4]) -> std::path::PathBuf {
+    let positions = f32_bytes(&[-1., -1., 0., 1., -1., 0., 1., 1., 0., -1., 1., 0.]);
+    let normals = f32_bytes(&[0., 0., 1., 0., 0., 1., 0., 0., 1., 0., 0., 1.]);
+    let colors = f32_bytes(&[vertex, vertex, vertex, vertex].concat());
+    let indices: Vec<u8> = [0u32, 1, 2, 0, 2, 3].iter().flat_map(|i| i.to_le_bytes()).collect();
+    let data = [positions, normals, colors, indices].concat();
+    let views: Vec<_> = [(0, 48), (48, 48), (96, 64), (160, 24)]
+        .iter()
+        .map(|(o, l)| json!({"buffer": 0, "byteOffset": o, "byteLength": l}))
+        .collect();
+    let uri =
+        format!("data:application/octet-stream;base64,{}", base64::engine::general_purpose::STANDARD.encode(&data));
+    let doc = json!({
+        "asset": {"version": "2.0"},
+        "extensionsUsed": ["KHR_lights_punctual", "KHR_materials_unlit"],
+        "extensionsRequired": ["KHR_materials_unlit"],
+        "extensions": {"KHR_lights_punctual": {"lights": [{"type": "directional", "intensity": 683.0 * 10.0}]}},
+        "buffers": [{"uri": uri, "byteLength": data.len()}],
+        "bufferViews": views,
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [-1, -1, 0], "max": [1, 1, 0]},
+            {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC3"},
+            {"bufferView": 2, "componentType": 5126, "count": 4, "type": "VEC4"},
+            {"bufferView": 3, "componentType": 5125, "count": 6, "type": "SCALAR"}
+        ],
+        "materials": [{"name": "flat", "pbrMetallicRoughness": {"baseColorFactor": [base[0], base[1], base[2], 1.0]},
+            "extensions": {"KHR_materials_unlit": {}}}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1, "COLOR_0": 2}, "indices": 3, "material": 0}]}],
+        "cameras": [{"type": "perspective", "perspective": {"yfov": 0.3, "znear": 0.01, "aspectRatio": 1.0}}],
+        "nodes": [
+            {"mesh": 0},
+            {"camera": 0, "translation": [0.0, 0.0, 3.0]},
+            // Lights shine along their node's -Z: straight down onto the quad.
+            {"extensions": {"KHR_lights_punctual": {"light": 0}}}
+        ],
+        "scenes": [{"nodes": [0, 1, 2]}],
+        "scene": 0
+    });
+    let path = dir.join("unlit.gltf");
+    std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
+    path
+}
+
+#[test]
+fn an_unlit_quad_shows_base_colour_times_vertex_colour_under_any_light() {
+    let dir = temp_dir();
+    let (base, vertex) = ([0.8f32, 0.5, 0.25], [0.5f32, 1.0, 0.4, 1.0]);
+    let path = scene(dir.path(), base, vertex);
+    let out = dir.path().join("out.exr");
+    let r = run(
+        &[
+            "render",
+            path.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--resolution",
+            "8x8",
+            "--spp",
+            "4",
+            "--progress",
+            "none",
+        ],
+        Duration::from_secs(60),
+    );
+    assert_eq!(r.code, Some(0), "{}", r.stderr);
+    assert!(!r.stderr.contains("KHR_materials_unlit"), "no warning about the extension: {}", r.stderr);
+    let (_, _, px) = caustic::output::read_combined(&out).unwrap();
+    for (i, p) in px.iter().enumerate() {
+        for c in 0..3 {
+            let want = base[c] * vertex[c];
+            // The emission is the only term (the sun's 10 W/m² would add up to 10/π × colour
+            // if the surface reflected it); f32 rounding of one product and the film's
+            // average of 4 equal samples: 1e-5 relative bounds it.
+            assert!((p[c] - want).abs() <= 1e-5 * want, "pixel {i} channel {c} = {}, want {want}", p[c]);
+        }
+    }
+}
