@@ -22,3 +22,4 @@ pub mod progress;
 pub mod render;
 pub mod sampling;
 pub mod scene;
+pub mod shader;

@@ -6,11 +6,13 @@ pub mod albedo;
 pub mod dielectric;
 pub mod glass_albedo;
 pub mod microfacet;
+pub mod mix;
 pub mod pbr;
 pub mod sheen;
 
 use crate::math::Rgb;
 use glam::{Vec2, Vec3};
+pub use mix::MixBsdf;
 pub use pbr::{PbrAt, PbrBsdf};
 
 /// A sampled direction with the BSDF value and the density that chose it.
@@ -27,10 +29,18 @@ pub struct BsdfSample {
 }
 
 /// The scattering function at a surface point.
+///
+/// The mixture makes the enum 508 bytes (228 for `Pbr` alone); boxing it would allocate per
+/// shading point. Measured (callgrind, Cornell box 96×72, 8 spp, 1 thread): `render::render`
+/// executes 0.13 % fewer instructions than before the variant existed, so materials without a
+/// graph do not pay for it; SPPM's visible points grow by the difference.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug)]
 pub enum Bsdf {
     /// glTF 2.0 metallic-roughness (Appendix B of the spec).
     Pbr(PbrBsdf),
+    /// A weighted mixture of closures (a shader graph's Surface output, `mix.rs`).
+    Mix(MixBsdf),
 }
 
 impl Bsdf {
@@ -41,6 +51,7 @@ impl Bsdf {
     pub fn subsurface_weight(&self, wo: Vec3) -> f32 {
         match self {
             Bsdf::Pbr(b) => b.subsurface_weight(wo),
+            Bsdf::Mix(m) => m.subsurface_weight(wo),
         }
     }
 
@@ -50,6 +61,7 @@ impl Bsdf {
     pub fn subsurface_base(&self) -> (Rgb, f32) {
         match self {
             Bsdf::Pbr(b) => (b.base, b.roughness),
+            Bsdf::Mix(m) => (m.pbr.base, m.pbr.roughness),
         }
     }
 
@@ -58,6 +70,7 @@ impl Bsdf {
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
         match self {
             Bsdf::Pbr(b) => b.eval(wo, wi),
+            Bsdf::Mix(m) => m.eval(wo, wi),
         }
     }
 
@@ -66,6 +79,7 @@ impl Bsdf {
     pub fn at(&self, wo: Vec3) -> BsdfAt<'_> {
         match self {
             Bsdf::Pbr(b) => BsdfAt::Pbr(b.at(wo)),
+            Bsdf::Mix(m) => BsdfAt::Mix(m, wo),
         }
     }
 
@@ -74,6 +88,7 @@ impl Bsdf {
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         match self {
             Bsdf::Pbr(b) => b.pdf(wo, wi),
+            Bsdf::Mix(m) => m.pdf(wo, wi),
         }
     }
 
@@ -82,6 +97,7 @@ impl Bsdf {
     pub fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
         match self {
             Bsdf::Pbr(b) => b.sample(wo, uc, u),
+            Bsdf::Mix(m) => m.sample(wo, uc, u),
         }
     }
 
@@ -90,6 +106,7 @@ impl Bsdf {
     pub fn is_delta(&self) -> bool {
         match self {
             Bsdf::Pbr(b) => b.is_delta(),
+            Bsdf::Mix(m) => m.is_delta(),
         }
     }
 
@@ -113,6 +130,7 @@ impl Bsdf {
     pub fn refraction_adjoint_ratio(&self, wo: Vec3, wi: Vec3) -> Rgb {
         match self {
             Bsdf::Pbr(b) => b.refraction_adjoint_ratio(wo, wi),
+            Bsdf::Mix(m) => m.refraction_adjoint_ratio(wo, wi),
         }
     }
 
@@ -128,6 +146,7 @@ impl Bsdf {
                     b.glass.eta * b.glass.eta
                 }
             }
+            Bsdf::Mix(m) => m.refraction_eta2(),
         }
     }
 
@@ -136,6 +155,7 @@ impl Bsdf {
     pub fn transmits(&self) -> bool {
         match self {
             Bsdf::Pbr(b) => b.transmits(),
+            Bsdf::Mix(m) => m.transmits(),
         }
     }
 
@@ -143,6 +163,7 @@ impl Bsdf {
     pub fn albedo(&self) -> Rgb {
         match self {
             Bsdf::Pbr(b) => b.albedo(),
+            Bsdf::Mix(m) => m.albedo(),
         }
     }
 }
@@ -154,6 +175,8 @@ impl Bsdf {
 pub enum BsdfAt<'a> {
     /// glTF metallic-roughness.
     Pbr(PbrAt<'a>),
+    /// A mixture and wo (its lobes' wo-only terms are cheap; evaluated per call).
+    Mix(&'a MixBsdf, Vec3),
 }
 
 impl BsdfAt<'_> {
@@ -162,6 +185,7 @@ impl BsdfAt<'_> {
     pub fn eval(&self, wi: Vec3) -> Rgb {
         match self {
             BsdfAt::Pbr(b) => b.eval(wi),
+            BsdfAt::Mix(m, wo) => m.eval(*wo, wi),
         }
     }
 
@@ -170,6 +194,7 @@ impl BsdfAt<'_> {
     pub fn pdf(&self, wi: Vec3) -> f32 {
         match self {
             BsdfAt::Pbr(b) => b.pdf(wi),
+            BsdfAt::Mix(m, wo) => m.pdf(*wo, wi),
         }
     }
 
@@ -178,6 +203,7 @@ impl BsdfAt<'_> {
     pub fn sample(&self, uc: f32, u: Vec2) -> Option<BsdfSample> {
         match self {
             BsdfAt::Pbr(b) => b.sample(uc, u),
+            BsdfAt::Mix(m, wo) => m.sample(*wo, uc, u),
         }
     }
 }

@@ -235,6 +235,12 @@ impl Emitters {
                     let mean = scene.textures[t.texture as usize].mean_rgb();
                     let local = mat.emission(&scene.textures, uv, color) / mat.emissive;
                     factor = Rgb::new(ratio(local.x, mean.x), ratio(local.y, mean.y), ratio(local.z, mean.z));
+                } else if mat.nodes.is_some() {
+                    // A node graph's emission relative to the material's estimate the
+                    // power was computed with (exact when the emission is constant).
+                    let local = scene.emission_at(*tri, b.x, b.y);
+                    let e = mat.emissive;
+                    factor = Rgb::new(ratio(local.x, e.x), ratio(local.y, e.y), ratio(local.z, e.z));
                 } else if mat.unlit {
                     // An unlit surface's vertex colour, which the power left out.
                     factor = color.truncate();

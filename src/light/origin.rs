@@ -142,14 +142,11 @@ pub fn sample_point(scene: &Scene, index: usize, u: Vec2) -> Option<LightPoint> 
             })
         }
         Light::Triangle { tri } => {
-            let m = &scene.mesh;
-            let mat = &scene.materials[m.tri_material[*tri as usize] as usize];
             let et = crate::light::EmitterTriangle::of(scene, *tri);
             let (q, n, b, area) = crate::light::sample_triangle(&et, u);
             if !(area > 0.0) {
                 return None;
             }
-            let (uv, color) = scene.attributes(*tri, b.x, b.y);
             // A partly transparent emitter emits in proportion to its coverage, as the
             // path tracer's light sampling does.
             let coverage = scene.coverage(*tri, b.x, b.y);
@@ -157,7 +154,7 @@ pub fn sample_point(scene: &Scene, index: usize, u: Vec2) -> Option<LightPoint> 
                 light,
                 p: q,
                 n,
-                le: mat.emission(&scene.textures, uv, color) * coverage,
+                le: scene.emission_at(*tri, b.x, b.y) * coverage,
                 pdf_pos: 1.0 / area,
                 two_sided: et.two_sided,
             })

@@ -132,8 +132,6 @@ impl Light {
                 Some(LightSample { wi, dist: f32::INFINITY, li, pdf, delta: false, point: p + wi, normal: Vec3::ZERO })
             }
             Light::Triangle { tri } => {
-                let m = &scene.mesh;
-                let mat = &scene.materials[m.tri_material[*tri as usize] as usize];
                 let et = EmitterTriangle::of(scene, *tri);
                 let (q, n, b, area) = sample_triangle(&et, u);
                 let d = q - p;
@@ -148,7 +146,6 @@ impl Light {
                 if !(pdf > 0.0) {
                     return None;
                 }
-                let (uv, color) = scene.attributes(*tri, b.x, b.y);
                 let normal = if cos_signed >= 0.0 { n } else { -n };
                 // A partly transparent emitter emits in proportion to its coverage, as
                 // a path that hits it counts its emission only when it does not pass.
@@ -156,7 +153,7 @@ impl Light {
                 Some(LightSample {
                     wi,
                     dist,
-                    li: mat.emission(&scene.textures, uv, color) * coverage,
+                    li: scene.emission_at(*tri, b.x, b.y) * coverage,
                     pdf,
                     delta: false,
                     point: q,

@@ -94,6 +94,9 @@ pub struct Material {
     pub alpha_mode: AlphaMode,
     /// Emits from both sides (glTF `doubleSided`). Shading is always two-sided, as in Cycles.
     pub double_sided: bool,
+    /// Blender's shader graph (`CAUSTIC_materials_nodes`), compiled: when present it
+    /// replaces the glTF parameters above in shading, alpha and emission.
+    pub nodes: Option<std::sync::Arc<crate::shader::program::Program>>,
 }
 
 impl Default for Material {
@@ -137,6 +140,7 @@ impl Default for Material {
             dispersion: 0.0,
             alpha_mode: AlphaMode::Opaque,
             double_sided: false,
+            nodes: None,
         }
     }
 }

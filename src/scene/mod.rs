@@ -36,6 +36,9 @@ pub struct Mesh {
     pub triangles: Vec<[u32; 3]>,
     /// Material of each triangle.
     pub tri_material: Vec<u32>,
+    /// Instance (index into `Scene::objects`) of each triangle; empty when no material
+    /// reads instance data (shader graphs' Object coordinates, Object Info).
+    pub tri_object: Vec<u32>,
 }
 
 /// Render settings stored in the scene (`scenes[i].extras.caustic`), all optional;
@@ -214,6 +217,8 @@ pub struct Scene {
     pub report: LoadReport,
     /// World bounds (min, max).
     pub bounds: (Vec3, Vec3),
+    /// Per-instance data for shader graphs (`Mesh::tri_object` indexes it).
+    pub objects: Vec<crate::shader::program::ObjectData>,
 }
 
 impl Scene {

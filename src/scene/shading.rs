@@ -62,6 +62,9 @@ impl Scene {
     #[inline]
     pub fn alpha(&self, tri: u32, b1: f32, b2: f32) -> f32 {
         let mat = &self.materials[self.mesh.tri_material[tri as usize] as usize];
+        if let Some(prog) = &mat.nodes {
+            return crate::shader::shade::node_alpha(self, prog, tri, b1, b2);
+        }
         let (uv, color) = self.attributes(tri, b1, b2);
         let mut a = mat.base_color.w * color.w;
         if let Some(t) = mat.base_color_tex {
@@ -127,6 +130,9 @@ impl Scene {
     #[inline]
     pub fn shade(&self, s: &SurfaceHit, wo: Vec3) -> ShadingPoint {
         let mat = &self.materials[s.material as usize];
+        if let Some(prog) = &mat.nodes {
+            return crate::shader::shade::shade_nodes(self, prog, s, wo, mat.double_sided);
+        }
         let tex = &self.textures;
         let lookup = |t: &crate::scene::TexRef| tex[t.texture as usize].lookup(t.uv(s.uv[t.tex_coord as usize]));
         let mut base = mat.base_color.truncate() * s.color.truncate();

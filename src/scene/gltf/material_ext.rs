@@ -24,6 +24,7 @@ pub(super) const HANDLED_MATERIAL_EXTENSIONS: &[&str] = &[
     "KHR_materials_sheen",
     "KHR_materials_dispersion",
     "CAUSTIC_materials_coat",
+    "CAUSTIC_materials_nodes",
     // Read in `materials.rs`:
     "KHR_materials_unlit",
     // Warned about by name where they are read:

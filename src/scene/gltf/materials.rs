@@ -133,6 +133,7 @@ impl Loader<'_> {
             mat.emissive = mat.base_color.truncate();
             mat.emissive_tex = mat.base_color_tex;
         }
+        self.material_nodes(m, &mut mat, &mut features)?;
         Ok((mat, MaterialReport { name, features }))
     }
 }

@@ -148,10 +148,13 @@ impl Loader<'_> {
 
             // Tangents for normal maps: given, or generated with MikkTSpace.
             let mut tangents = tangents;
-            if let Some(nt) = material.normal_tex
+            // A shader graph's tangent-space Normal Map (or Tangent input) needs them too.
+            let tangent_set =
+                material.normal_tex.map(|t| t.tex_coord).or(material.nodes.as_ref().and_then(|p| p.tangent_uv));
+            if let Some(set) = tangent_set
                 && tangents.is_none()
             {
-                let uv = if nt.tex_coord == 0 { &uv0 } else { &uv1 };
+                let uv = if set == 0 { &uv0 } else { &uv1 };
                 match (uv, &normals) {
                     (Some(uv), Some(n)) => {
                         let t0 = std::time::Instant::now();

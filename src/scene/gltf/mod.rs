@@ -21,6 +21,7 @@ mod material_ext;
 mod materials;
 mod mesh;
 mod nodes;
+mod shader_graph;
 mod textures;
 mod validate;
 mod world;
@@ -56,6 +57,7 @@ pub const SUPPORTED_REQUIRED: &[&str] = &[
     "KHR_materials_unlit",
     "CAUSTIC_lights_area",
     "CAUSTIC_lights_punctual",
+    "CAUSTIC_materials_nodes",
     "CAUSTIC_camera",
     "CAUSTIC_world",
     "CAUSTIC_materials_medium",
@@ -258,6 +260,10 @@ impl<'a> Loader<'a> {
         let mut instance_count = 0;
         let mut degenerate = 0;
         let mut area_lights = Vec::new();
+        // Shader graphs read the instance (Object coordinates, Object Info, Generated):
+        // per-triangle instance indices are kept only when a graph is present.
+        let graphs = materials.iter().any(|m| m.nodes.is_some());
+        let mut objects: Vec<crate::shader::program::ObjectData> = Vec::new();
         for (node_index, world) in &instances {
             let node = doc.nodes().nth(*node_index).expect("validated index");
             let node_name = node.name().map(str::to_string).unwrap_or_else(|| format!("node {node_index}"));
@@ -268,6 +274,12 @@ impl<'a> Loader<'a> {
                 used_meshes.insert(m.index());
                 instance_count += 1;
                 degenerate += self.append_mesh(&m, world, &buffers, &mut materials, default_material, &mut mesh)?;
+                if graphs {
+                    let texspace = value.pointer(&format!("/meshes/{}/extras/CAUSTIC_texspace", m.index()));
+                    objects.push(shader_graph::object_data(world, &node_name, texspace));
+                    let o = objects.len() as u32 - 1;
+                    mesh.tri_object.resize(mesh.triangles.len(), o);
+                }
             }
             if let Some(c) = node.camera() {
                 let blender = node.extension_value("CAUSTIC_camera").cloned();
@@ -337,6 +349,7 @@ impl<'a> Loader<'a> {
 
         // Emissive triangles are lights, one each, grouped by material in the report.
         let phase = Instant::now();
+        self.node_emitters(&mesh, &objects, &mut materials);
         self.emissive_lights(&mesh, &materials, &mut lights, &mut light_power, &mut light_reports)?;
         self.profile.emitter_power = phase.elapsed().as_secs_f64();
 
@@ -403,6 +416,7 @@ impl<'a> Loader<'a> {
             warnings: self.warnings,
             report,
             bounds: (lo, hi),
+            objects,
         })
     }
 

@@ -1,0 +1,101 @@
+"""Cost of a shader graph against a Principled-only material (issue 19: "a 30-node procedural
+material costs at most 1.5x the shading time of a Principled-only material at equal spp").
+
+One quad filling the view under a point light, rendered twice at equal spp on one thread: with
+a plain glTF material, and with a 26-node graph (Texture Coordinate → Mapping → Noise (detail 4,
+distortion) → ColorRamp; Voronoi → 12 Math → Clamp → Mix → Hue/Saturation → Invert → Gamma →
+Principled Base Color; Map Range → Roughness; RGB to BW → Bump → Normal).
+
+Usage:
+    cargo build --release
+    python3 bench/node_graph.py [--binary target/release/caustic] [--callgrind]
+
+Prints each render's user CPU time (or, with --callgrind, the instructions of
+`render::render`, which a shared machine does not disturb) and the ratio graph / plain.
+"""
+import argparse
+import base64
+import json
+import os
+import re
+import resource
+import struct
+import subprocess
+import sys
+import tempfile
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+def scene(material, path):
+    pos=[-2,-2,0, 2,-2,0, 2,2,0, -2,2,0]; nrm=[0,0,1]*4; uv=[0,1,1,1,1,0,0,0]; idx=[0,1,2,0,2,3]
+    data=struct.pack('12f',*pos)+struct.pack('12f',*nrm)+struct.pack('8f',*uv)+struct.pack('6I',*idx)
+    uri="data:application/octet-stream;base64,"+base64.b64encode(data).decode()
+    doc={"asset":{"version":"2.0"},"extensionsUsed":["CAUSTIC_materials_nodes","KHR_lights_punctual"],
+      "buffers":[{"uri":uri,"byteLength":len(data)}],
+      "bufferViews":[{"buffer":0,"byteOffset":0,"byteLength":48},{"buffer":0,"byteOffset":48,"byteLength":48},{"buffer":0,"byteOffset":96,"byteLength":32},{"buffer":0,"byteOffset":128,"byteLength":24}],
+      "accessors":[{"bufferView":0,"componentType":5126,"count":4,"type":"VEC3","min":[-2,-2,0],"max":[2,2,0]},{"bufferView":1,"componentType":5126,"count":4,"type":"VEC3"},{"bufferView":2,"componentType":5126,"count":4,"type":"VEC2"},{"bufferView":3,"componentType":5125,"count":6,"type":"SCALAR"}],
+      "materials":[material],
+      "meshes":[{"primitives":[{"attributes":{"POSITION":0,"NORMAL":1,"TEXCOORD_0":2},"indices":3,"material":0}]}],
+      "cameras":[{"type":"perspective","perspective":{"yfov":0.8,"znear":0.1,"aspectRatio":1.333}}],
+      "extensions":{"KHR_lights_punctual":{"lights":[{"type":"point","intensity":20000,"color":[1,1,1]}]}},
+      "nodes":[{"mesh":0},{"camera":0,"translation":[0,0,3]},{"translation":[0.5,0.5,2],"extensions":{"KHR_lights_punctual":{"light":0}}}],
+      "scenes":[{"nodes":[0,1,2]}],"scene":0}
+    json.dump(doc, open(path,'w'))
+plain={"name":"plain","pbrMetallicRoughness":{"baseColorFactor":[0.8,0.5,0.3,1],"metallicFactor":0,"roughnessFactor":0.5}}
+N=[]
+def add(n):
+    N.append(n); return len(N)-1
+tc=add({"name":"tc","type":"ShaderNodeTexCoord"})
+mp=add({"name":"map","type":"ShaderNodeMapping","props":{"vector_type":"POINT"},"inputs":{"Vector":{"link":[tc,"UV"]},"Location":{"value":[0,0,0]},"Rotation":{"value":[0,0,0.3]},"Scale":{"value":[2,2,2]}}})
+nz=add({"name":"noise","type":"ShaderNodeTexNoise","props":{"noise_dimensions":"3D","noise_type":"FBM","normalize":True},"inputs":{"Vector":{"link":[mp,"Vector"]},"Scale":{"value":5.0},"Detail":{"value":4.0},"Roughness":{"value":0.5},"Lacunarity":{"value":2.0},"Distortion":{"value":0.2}}})
+table=[[i/255,0.5*i/255,0.2,1] for i in range(256)]
+rp=add({"name":"ramp","type":"ShaderNodeValToRGB","props":{"color_ramp":{"interpolation":"LINEAR","table":table}},"inputs":{"Fac":{"link":[nz,"Fac"]}}})
+vo=add({"name":"vor","type":"ShaderNodeTexVoronoi","props":{"voronoi_dimensions":"3D","feature":"F1","distance":"EUCLIDEAN","normalize":False},"inputs":{"Vector":{"link":[mp,"Vector"]},"Scale":{"value":8.0},"Randomness":{"value":1.0}}})
+last=(vo,"Distance")
+for k in range(12):
+    last=(add({"name":f"m{k}","type":"ShaderNodeMath","props":{"operation":["MULTIPLY_ADD","SINE","ABSOLUTE","POWER"][k%4]},"inputs":{"Value":{"link":list(last)},"Value_001":{"value":1.1},"Value_002":{"value":0.05}}}),"Value")
+cl=add({"name":"clamp","type":"ShaderNodeClamp","inputs":{"Value":{"link":list(last)},"Min":{"value":0.0},"Max":{"value":1.0}}})
+mx=add({"name":"mix","type":"ShaderNodeMix","props":{"data_type":"RGBA","blend_type":"MULTIPLY","clamp_factor":True},"inputs":{"Factor_Float":{"link":[cl,"Result"]},"A_Color":{"link":[rp,"Color"]},"B_Color":{"value":[0.9,0.8,0.7,1]}}})
+hs=add({"name":"hsv","type":"ShaderNodeHueSaturation","inputs":{"Hue":{"value":0.5},"Saturation":{"value":1.1},"Value":{"value":1.0},"Fac":{"value":1.0},"Color":{"link":[mx,"Result_Color"]}}})
+mr=add({"name":"mr","type":"ShaderNodeMapRange","props":{"data_type":"FLOAT","interpolation_type":"SMOOTHSTEP","clamp":True},"inputs":{"Value":{"link":[nz,"Fac"]},"From_Min":{"value":0.3},"From_Max":{"value":0.7},"To_Min":{"value":0.2},"To_Max":{"value":0.8}}})
+bw=add({"name":"bw","type":"ShaderNodeRGBToBW","inputs":{"Color":{"link":[hs,"Color"]}}})
+bp=add({"name":"bump","type":"ShaderNodeBump","props":{"invert":False},"inputs":{"Strength":{"value":0.5},"Distance":{"value":0.1},"Height":{"link":[bw,"Val"]}}})
+inv=add({"name":"inv","type":"ShaderNodeInvert","inputs":{"Fac":{"value":0.2},"Color":{"link":[hs,"Color"]}}})
+gm=add({"name":"gamma","type":"ShaderNodeGamma","inputs":{"Color":{"link":[inv,"Color"]},"Gamma":{"value":1.1}}})
+pr=add({"name":"bsdf","type":"ShaderNodeBsdfPrincipled","inputs":{"Base Color":{"link":[gm,"Color"]},"Roughness":{"link":[mr,"Result"]},"Normal":{"link":[bp,"Normal"]}}})
+graph={"name":"graph","extensions":{"CAUSTIC_materials_nodes":{"version":1,"nodes":N,"output":{"surface":[pr,"BSDF"]}}}}
+
+
+
+def run(binary, path, callgrind, out_dir):
+    args = [binary, "render", path, "-o", os.path.join(out_dir, "o.exr"), "--resolution", "80x60" if callgrind else "320x240",
+            "--spp", "4" if callgrind else "16", "--threads", "1"]
+    if callgrind:
+        cg = os.path.join(out_dir, "cg.out")
+        subprocess.run(["valgrind", "--tool=callgrind", "--callgrind-out-file=" + cg] + args, check=True,
+                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        text = subprocess.run(["callgrind_annotate", "--inclusive=yes", cg], capture_output=True, text=True).stdout
+        line = next(l for l in text.splitlines() if re.search(r"caustic::render::render \[", l))
+        return int(line.split()[0].replace(",", ""))
+    before = resource.getrusage(resource.RUSAGE_CHILDREN).ru_utime
+    subprocess.run(args, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    return resource.getrusage(resource.RUSAGE_CHILDREN).ru_utime - before
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--binary", default=os.path.join(ROOT, "target", "release", "caustic"))
+    ap.add_argument("--callgrind", action="store_true")
+    a = ap.parse_args()
+    with tempfile.TemporaryDirectory() as d:
+        paths = {}
+        for name, m in (("plain", plain), ("graph", graph)):
+            paths[name] = os.path.join(d, name + ".gltf")
+            scene(m, paths[name])
+        cost = {name: run(a.binary, p, a.callgrind, d) for name, p in paths.items()}
+    unit = "instructions" if a.callgrind else "s user"
+    print(f"{len(N)} nodes; plain {cost['plain']} {unit}, graph {cost['graph']} {unit}, ratio {cost['graph'] / cost['plain']:.2f}")
+
+
+if __name__ == "__main__":
+    main()

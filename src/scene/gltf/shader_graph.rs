@@ -1,0 +1,190 @@
+//! `CAUSTIC_materials_nodes`: Blender's shader graph on a material, compiled into the
+//! material's program (`shader::compile`). The glTF parameters of that material are then
+//! not rendered (docs/contract.md); its `CAUSTIC_materials_medium` and
+//! `CAUSTIC_materials_subsurface` still apply.
+
+use super::Loader;
+use crate::error::Result;
+use crate::scene::{AlphaMode, Material};
+use crate::shader::compile::compile;
+use crate::shader::graph::NodesExt;
+use std::sync::Arc;
+
+impl Loader<'_> {
+    /// Compiles the material's graph, if it has one, into `mat.nodes`.
+    pub(super) fn material_nodes(
+        &mut self,
+        m: &gltf::Material,
+        mat: &mut Material,
+        features: &mut Vec<String>,
+    ) -> Result<()> {
+        let Some(v) = m.extension_value("CAUSTIC_materials_nodes") else {
+            return Ok(());
+        };
+        let name = mat.name.clone();
+        features.push("CAUSTIC_materials_nodes".into());
+        let ext: NodesExt = serde_json::from_value(v.clone())
+            .map_err(|e| self.err(format!("material '{name}': CAUSTIC_materials_nodes is malformed: {e}")))?;
+        let mut images = Vec::with_capacity(ext.images.len());
+        for (k, img) in ext.images.iter().enumerate() {
+            images.push(self.node_image(&name, k, img)?);
+        }
+        let compiled = compile(&name, &ext, &images)
+            .map_err(|e| self.err(format!("material '{name}': CAUSTIC_materials_nodes: {e}")))?;
+        for w in compiled.warnings {
+            self.warn(format!("material '{name}': {w}"));
+        }
+        let prog = compiled.program;
+        // The graph replaces the glTF description: no glTF textures, emission or alpha.
+        let keep = Material {
+            name: mat.name.clone(),
+            double_sided: true,
+            medium: if features.iter().any(|f| f == "CAUSTIC_materials_medium") { mat.medium } else { None },
+            null_surface: mat.null_surface,
+            subsurface: mat.subsurface,
+            ..Material::default()
+        };
+        *mat = keep;
+        mat.metallic = 0.0;
+        mat.alpha_mode = if prog.transparent { AlphaMode::Blend } else { AlphaMode::Opaque };
+        mat.emissive = if prog.emits {
+            match prog.constant_emission {
+                Some(e) => e.max(glam::Vec3::ZERO),
+                // Estimated per material once the mesh is known (`node_emitters`).
+                None => glam::Vec3::splat(1.0),
+            }
+        } else {
+            glam::Vec3::ZERO
+        };
+        mat.nodes = Some(Arc::new(prog));
+        Ok(())
+    }
+}
+
+impl Loader<'_> {
+    /// Decodes image `k` of a material's graph into a scene texture; returns its index.
+    fn node_image(&mut self, material: &str, k: usize, img: &crate::shader::graph::ImageDesc) -> Result<u32> {
+        let what = format!("material '{material}': CAUSTIC_materials_nodes image {k} '{}'", img.uri);
+        let srgb = match img.colorspace.as_str() {
+            "sRGB" => true,
+            "Non-Color" | "Linear Rec.709" | "Linear" => false,
+            other => {
+                self.warn(format!("{what}: colour space '{other}' is read as linear (not converted)"));
+                false
+            }
+        };
+        let bytes = self.resolve_uri(&img.uri, &what)?;
+        let reader = image::ImageReader::new(std::io::Cursor::new(&bytes))
+            .with_guessed_format()
+            .map_err(|e| self.err(format!("{what}: {e}")))?;
+        let (w, h) = reader.into_dimensions().map_err(|e| self.err(format!("{what}: cannot read the header: {e}")))?;
+        if w == 0 || h == 0 || w > super::MAX_TEXTURE_SIDE || h > super::MAX_TEXTURE_SIDE {
+            return Err(self.err(format!("{what}: size {w}×{h} is outside 1..={} per side", super::MAX_TEXTURE_SIDE)));
+        }
+        let texels = w as u64 * h as u64;
+        self.budget.charge(format!("{what} ({w}×{h})"), texels * 4)?;
+        self.budget.check_peak(format!("decoding {what}"), texels * 16)?;
+        let start = std::time::Instant::now();
+        let decoded = image::ImageReader::new(std::io::Cursor::new(&bytes))
+            .with_guessed_format()
+            .map_err(|e| self.err(format!("{what}: {e}")))?
+            .decode()
+            .map_err(|e| self.err(format!("{what}: cannot decode: {e}")))?;
+        if decoded.color().has_color()
+            && matches!(decoded, image::DynamicImage::ImageRgb32F(_) | image::DynamicImage::ImageRgba32F(_))
+        {
+            self.warn(format!("{what}: a float image is kept at 8 bits per channel (values clamped to [0, 1])"));
+        }
+        let texels: Vec<[u8; 4]> = decoded.to_rgba8().pixels().map(|p| p.0).collect();
+        self.profile.decode_textures += start.elapsed().as_secs_f64();
+        let tex = crate::scene::Texture {
+            name: img.uri.clone(),
+            width: w,
+            height: h,
+            texels,
+            srgb,
+            wrap_s: crate::scene::texture::Wrap::Repeat,
+            wrap_t: crate::scene::texture::Wrap::Repeat,
+            nearest: false,
+            mean: glam::Vec3::ZERO,
+        }
+        .with_mean();
+        self.textures.push(tex);
+        Ok(self.textures.len() as u32 - 1)
+    }
+}
+
+/// Triangles sampled per material for the estimate of a varying emission.
+const EMISSION_SAMPLES: usize = 4096;
+
+impl Loader<'_> {
+    /// Node materials whose emission varies over the surface get an estimate of their
+    /// mean radiance in `emissive` (the light list's powers and photon emission use it;
+    /// the radiance itself is always evaluated exactly, `Scene::emission_at`): the mean of
+    /// the graph's emission at the centroids of up to 4096 of the material's triangles
+    /// (evenly strided). A material whose samples are all black keeps a tiny positive
+    /// estimate, so that its triangles stay sampleable lights wherever they do emit.
+    pub(super) fn node_emitters(
+        &mut self,
+        mesh: &crate::scene::Mesh,
+        objects: &[crate::shader::program::ObjectData],
+        materials: &mut [Material],
+    ) {
+        for (mi, mat) in materials.iter_mut().enumerate() {
+            let Some(prog) = &mat.nodes else { continue };
+            if !prog.emits || prog.constant_emission.is_some() {
+                continue;
+            }
+            let tris: Vec<u32> =
+                (0..mesh.triangles.len() as u32).filter(|&t| mesh.tri_material[t as usize] == mi as u32).collect();
+            if tris.is_empty() {
+                continue;
+            }
+            let stride = tris.len().div_ceil(EMISSION_SAMPLES);
+            let mut sum = glam::Vec3::ZERO;
+            let mut n = 0;
+            for &t in tris.iter().step_by(stride) {
+                sum +=
+                    crate::shader::shade::node_emission(mesh, objects, &self.textures, prog, t, 1.0 / 3.0, 1.0 / 3.0);
+                n += 1;
+            }
+            let mean = sum / n as f32;
+            mat.emissive = mean.max(glam::Vec3::splat(1e-6));
+            let name = mat.name.clone();
+            self.warn(format!(
+                "material '{name}': its emission varies over the surface; lights are weighted by its mean over {n} triangle centres"
+            ));
+        }
+    }
+}
+
+/// What a shader graph reads of an instance: its inverse world matrix and location, a
+/// per-object random number, and the mesh's texture space (`CAUSTIC_texspace` extras).
+///
+/// Object Info's Random: Cycles hashes the object's name with Blender's own string hash;
+/// Caustic hashes the node's name (the Blender object's name) with its own integer hash,
+/// so the value is stable per object and uniform in [0, 1) but not Cycles' number.
+pub(super) fn object_data(
+    world: &glam::Mat4,
+    node_name: &str,
+    texspace: Option<&serde_json::Value>,
+) -> crate::shader::program::ObjectData {
+    let mut h = 0x9e37_79b9u32;
+    for b in node_name.bytes() {
+        h = crate::math::hash_u32(h ^ b as u32);
+    }
+    let vec3 = |v: Option<&serde_json::Value>| -> Option<glam::Vec3> {
+        let a = v?.as_array()?;
+        if a.len() != 3 {
+            return None;
+        }
+        Some(glam::Vec3::new(a[0].as_f64()? as f32, a[1].as_f64()? as f32, a[2].as_f64()? as f32))
+    };
+    let texspace = texspace.and_then(|t| Some((vec3(t.get("location"))?, vec3(t.get("size"))?)));
+    crate::shader::program::ObjectData {
+        world_to_object: world.inverse(),
+        location: world.w_axis.truncate(),
+        random: (h >> 8) as f32 / 16_777_216.0,
+        texspace,
+    }
+}

@@ -1,0 +1,268 @@
+//! Compiling the Surface output: the closure tree flattened into weights and closure
+//! operations, and the Displacement output as bump.
+
+use super::*;
+
+impl Compiler<'_> {
+    /// The Displacement output rendered as bump: a Displacement node's (Height − Midlevel)
+    /// × Scale is the height of a bump of distance 1 on the shading normal, which closures
+    /// without a linked normal take (as Cycles' "bump only" displacement method).
+    pub(super) fn displacement(&mut self, i: usize, out: &str) -> Result<(), String> {
+        if self.unknown[i] {
+            return Ok(());
+        }
+        if self.desc(i).kind != "ShaderNodeDisplacement" {
+            self.warn(i, format!("the Displacement output from '{out}' is rendered only through a Displacement node"));
+            return Ok(());
+        }
+        let Some(src) = self.desc(i).inputs.get("Height").and_then(|d| d.link.clone()) else {
+            return Ok(());
+        };
+        let mark = self.ops.len();
+        let h = self.float(i, "Height", 0.0)?;
+        let mid = self.float(i, "Midlevel", 0.5)?;
+        let scale = self.float(i, "Scale", 1.0)?;
+        let centred = self.alloc(1);
+        self.ops.push(Op::Math { op: MathOp::Subtract, a: h, b: mid, c: mid, out: centred, clamp: false });
+        let height = self.alloc(1);
+        self.ops.push(Op::Math { op: MathOp::Multiply, a: centred, b: scale, c: scale, out: height, clamp: false });
+        if self.desc(i).props.get("space").and_then(Value::as_str).is_some_and(|s| s != "OBJECT") {
+            self.warn(i, "world-space displacement is rendered as object-space bump");
+        }
+        // The bump re-runs the height's nodes and the two operations above.
+        let mut sub = self.upstream_ranges(src.0);
+        sub.push((mark as u32, self.ops.len() as u32));
+        let (one, out_n) = (self.konst_f(1.0), self.alloc(3));
+        self.ops.push(Op::Bump(Box::new(BumpOp {
+            strength: one,
+            distance: one,
+            invert: false,
+            height,
+            normal: None,
+            out: out_n,
+            sub,
+        })));
+        self.prog.displacement_normal = Some(out_n);
+        Ok(())
+    }
+
+    /// Flattens the closure tree under output `out` of node `i` with weight `w`.
+    pub(super) fn closure(&mut self, i: usize, out: &str, w: Option<Reg>) -> Result<(), String> {
+        if self.closure_ops >= MAX_CLOSURE_OPS {
+            self.warn(i, format!("the shader tree has more than {MAX_CLOSURE_OPS} closures: the rest are dropped"));
+            return Ok(());
+        }
+        let kind = self.desc(i).kind.as_str();
+        if self.unknown[i] {
+            return Ok(());
+        }
+        if !is_closure_node(kind) {
+            // A colour linked to a shader socket: Cycles inserts an Emission of strength 1.
+            let s = self.outs[i].iter().find(|(n, _)| n == out).map(|(_, s)| *s);
+            let Some(s) = s else {
+                return Err(
+                    self.err(i, format!("the shader is linked to output '{out}', which the node does not have"))
+                );
+            };
+            let color = self.convert_vec(i, out, s)?;
+            let strength = self.konst_f(1.0);
+            self.warn(i, "a colour linked to a shader socket emits it, as in Cycles");
+            self.push_closure(ClosureKind::Emission, w, color, strength, strength, strength, None);
+            return Ok(());
+        }
+        if out != closure_output(kind) {
+            return Err(self.err(i, format!("the shader is linked to output '{out}', which the node does not have")));
+        }
+        let link = |c: &Self, id: &str| c.desc(i).inputs.get(id).and_then(|d| d.link.clone());
+        match kind {
+            "ShaderNodeMixShader" => {
+                let fac = self.float(i, "Fac", 0.5)?;
+                let (out1, out2) = (self.alloc(1), self.alloc(1));
+                self.ops.push(Op::MixWeight { w, fac, out1, out2 });
+                if let Some(l) = link(self, "Shader") {
+                    self.closure(l.0, &l.1, Some(out1))?;
+                }
+                if let Some(l) = link(self, "Shader_001") {
+                    self.closure(l.0, &l.1, Some(out2))?;
+                }
+            }
+            "ShaderNodeAddShader" => {
+                for id in ["Shader", "Shader_001"] {
+                    if let Some(l) = link(self, id) {
+                        self.closure(l.0, &l.1, w)?;
+                    }
+                }
+            }
+            "ShaderNodeHoldout" => {
+                self.warn(i, "Holdout is not rendered (film alpha is not cut out); it contributes nothing");
+            }
+            "ShaderNodeBsdfPrincipled" => {
+                self.principled += 1;
+                let p = PrincipledRegs {
+                    base: self.vec(i, "Base Color", Vec3::splat(0.8))?,
+                    metallic: self.float(i, "Metallic", 0.0)?,
+                    roughness: self.float(i, "Roughness", 0.5)?,
+                    ior: self.float(i, "IOR", 1.5)?,
+                    alpha: self.float(i, "Alpha", 1.0)?,
+                    subsurface: self.float(i, "Subsurface Weight", 0.0)?,
+                    spec_level: self.float(i, "Specular IOR Level", 0.5)?,
+                    spec_tint: self.vec(i, "Specular Tint", Vec3::ONE)?,
+                    transmission: self.float(i, "Transmission Weight", 0.0)?,
+                    coat: self.float(i, "Coat Weight", 0.0)?,
+                    coat_roughness: self.float(i, "Coat Roughness", 0.03)?,
+                    coat_ior: self.float(i, "Coat IOR", 1.5)?,
+                    coat_tint: self.vec(i, "Coat Tint", Vec3::ONE)?,
+                    coat_normal: self.normal(i, "Coat Normal")?,
+                    sheen: self.float(i, "Sheen Weight", 0.0)?,
+                    sheen_roughness: self.float(i, "Sheen Roughness", 0.5)?,
+                    sheen_tint: self.vec(i, "Sheen Tint", Vec3::ONE)?,
+                    emission: self.vec(i, "Emission Color", Vec3::ONE)?,
+                    emission_strength: self.float(i, "Emission Strength", 0.0)?,
+                };
+                for id in ["Anisotropic", "Thin Film Thickness", "Diffuse Roughness"] {
+                    let nonzero = self.source(i, id)?.is_some()
+                        || self.value(i, id).and_then(Value::as_f64).is_some_and(|v| v != 0.0);
+                    if nonzero {
+                        self.warn(i, format!("'{id}' is not rendered"));
+                    }
+                }
+                let transmission_varies = self.source(i, "Transmission Weight")?.is_some()
+                    || self.value(i, "Transmission Weight").and_then(Value::as_f64).is_some_and(|v| v > 0.0 && v < 1.0);
+                if transmission_varies {
+                    self.warn(
+                        i,
+                        "partial transmission tints transmitted light by the base colour at each crossing \
+                         (Cycles: by its square root)",
+                    );
+                }
+                if !self.is_const(p.alpha, 1) || self.init[p.alpha as usize] < 1.0 {
+                    self.prog.transparent = true;
+                }
+                if !self.is_const(p.emission_strength, 1) || self.init[p.emission_strength as usize] != 0.0 {
+                    self.prog.emits = true;
+                }
+                let normal = self.normal(i, "Normal")?;
+                let zero = self.konst_f(0.0);
+                let op = ClosureOp {
+                    kind: ClosureKind::Principled(Box::new(p)),
+                    w,
+                    color: zero,
+                    roughness: zero,
+                    ior: zero,
+                    strength: zero,
+                    normal,
+                };
+                if !self.normals.contains(&normal) {
+                    self.normals.push(normal);
+                }
+                self.ops.push(Op::Closure(Box::new(op)));
+                self.closure_ops += 1;
+            }
+            _ => self.simple_closure(i, kind, w)?,
+        }
+        Ok(())
+    }
+
+    fn simple_closure(&mut self, i: usize, kind: &str, w: Option<Reg>) -> Result<(), String> {
+        let zero = self.konst_f(0.0);
+        let (ck, color) = match kind {
+            "ShaderNodeBsdfDiffuse" | "ShaderNodeSubsurfaceScattering" => {
+                if kind == "ShaderNodeSubsurfaceScattering" {
+                    self.warn(i, "rendered as a Diffuse BSDF of its colour (no subsurface scattering)");
+                } else {
+                    let r = self.float(i, "Roughness", 0.0)?;
+                    if !self.is_const(r, 1) || self.init[r as usize] != 0.0 {
+                        self.warn(i, "Oren-Nayar roughness is not rendered (Lambertian)");
+                    }
+                }
+                (ClosureKind::Diffuse, self.vec(i, "Color", Vec3::splat(0.8))?)
+            }
+            "ShaderNodeBsdfGlossy" | "ShaderNodeBsdfAnisotropic" => {
+                let dist = self.prop_str(i, "distribution", "MULTI_GGX");
+                if dist != "MULTI_GGX" && dist != "GGX" {
+                    self.warn(i, format!("distribution {dist} is rendered as GGX"));
+                }
+                let an = self.source(i, "Anisotropy")?.is_some()
+                    || self.value(i, "Anisotropy").and_then(Value::as_f64).is_some_and(|v| v != 0.0);
+                if an {
+                    self.warn(i, "anisotropy is not rendered (isotropic GGX)");
+                }
+                (
+                    ClosureKind::Glossy { metallic: false, multiscatter: dist == "MULTI_GGX" },
+                    self.vec(i, "Color", Vec3::splat(0.8))?,
+                )
+            }
+            "ShaderNodeBsdfMetallic" => {
+                if self.prop_str(i, "fresnel_type", "F82") != "F82" {
+                    self.warn(i, "the physical-conductor Fresnel is rendered as Schlick's with F0 = Base Color");
+                }
+                let tint = self.vec(i, "Edge Tint", Vec3::ONE)?;
+                if !self.is_const(tint, 3) || (0..3).any(|k| self.init[tint as usize + k] != 1.0) {
+                    self.warn(i, "Edge Tint is not rendered (Schlick's Fresnel of F0 = Base Color)");
+                }
+                let dist = self.prop_str(i, "distribution", "MULTI_GGX");
+                (
+                    ClosureKind::Glossy { metallic: true, multiscatter: dist == "MULTI_GGX" },
+                    self.vec(i, "Base Color", Vec3::splat(0.8))?,
+                )
+            }
+            "ShaderNodeBsdfGlass" | "ShaderNodeBsdfRefraction" => {
+                if kind == "ShaderNodeBsdfRefraction" {
+                    self.warn(i, "rendered as a Glass BSDF (Cycles' Refraction BSDF does not reflect)");
+                }
+                (ClosureKind::Glass, self.vec(i, "Color", Vec3::ONE)?)
+            }
+            "ShaderNodeBsdfTranslucent" => (ClosureKind::Translucent, self.vec(i, "Color", Vec3::splat(0.8))?),
+            "ShaderNodeBsdfSheen" => (ClosureKind::Sheen, self.vec(i, "Color", Vec3::splat(0.8))?),
+            "ShaderNodeBsdfTransparent" => {
+                let c = self.vec(i, "Color", Vec3::ONE)?;
+                if !self.is_const(c, 3) || {
+                    let v = &self.init[c as usize..c as usize + 3];
+                    v[0] != v[1] || v[1] != v[2]
+                } {
+                    self.warn(i, "a coloured Transparent BSDF passes light by its mean (grey) transparency");
+                }
+                self.prog.transparent = true;
+                (ClosureKind::Transparent, c)
+            }
+            "ShaderNodeEmission" => {
+                let c = self.vec(i, "Color", Vec3::ONE)?;
+                let s = self.float(i, "Strength", 1.0)?;
+                self.prog.emits = true;
+                self.push_closure(ClosureKind::Emission, w, c, zero, zero, s, None);
+                return Ok(());
+            }
+            _ => unreachable!("closure kinds are listed in is_closure_node"),
+        };
+        let roughness = match ck {
+            ClosureKind::Glossy { .. } | ClosureKind::Glass => self.float(i, "Roughness", 0.5)?,
+            ClosureKind::Sheen => self.float(i, "Roughness", 0.5)?,
+            _ => zero,
+        };
+        let ior = if matches!(ck, ClosureKind::Glass) { self.float(i, "IOR", 1.5)? } else { zero };
+        let normal = if matches!(ck, ClosureKind::Transparent) { None } else { self.normal(i, "Normal")? };
+        if !matches!(ck, ClosureKind::Transparent) {
+            self.small_lobes += 1;
+        }
+        self.push_closure(ck, w, color, roughness, ior, zero, normal);
+        Ok(())
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn push_closure(
+        &mut self,
+        kind: ClosureKind,
+        w: Option<Reg>,
+        color: Reg,
+        roughness: Reg,
+        ior: Reg,
+        strength: Reg,
+        normal: Option<Reg>,
+    ) {
+        self.closure_ops += 1;
+        if !matches!(kind, ClosureKind::Emission | ClosureKind::Transparent) && !self.normals.contains(&normal) {
+            self.normals.push(normal);
+        }
+        self.ops.push(Op::Closure(Box::new(ClosureOp { kind, w, color, roughness, ior, strength, normal })));
+    }
+}

@@ -1,0 +1,454 @@
+//! Compiling the nodes that read the shading point or the scene: inputs (Texture
+//! Coordinate, UV Map, Geometry, Attribute, Fresnel, Layer Weight, Object Info), Mapping,
+//! Normal Map, Bump, and the texture nodes (procedural and image).
+
+use super::*;
+
+impl Compiler<'_> {
+    /// Emits an input, vector or texture node; false for an unknown type.
+    pub(super) fn source_node(&mut self, i: usize, kind: &str) -> Result<bool, String> {
+        match kind {
+            "ShaderNodeTexCoord" => {
+                let matrix = self.matrix(i)?;
+                for (id, what) in [
+                    ("Generated", Some(InputKind::Generated)),
+                    ("Normal", Some(InputKind::ObjectNormal)),
+                    ("UV", Some(InputKind::Uv(0))),
+                    ("Object", Some(matrix.map_or(InputKind::Object, InputKind::ObjectMatrix))),
+                    ("Camera", None),
+                    ("Window", None),
+                    ("Reflection", Some(InputKind::Reflection)),
+                ] {
+                    if !self.is_used(i, id) {
+                        continue;
+                    }
+                    self.all_const = false;
+                    let out = self.out(i, id, Ty::Vector);
+                    match what {
+                        Some(what) => {
+                            if what == InputKind::Generated {
+                                self.uses_generated = true;
+                            }
+                            self.ops.push(Op::Input { what, out });
+                        }
+                        None => self.warn(i, format!("the {id} output is not supported: it gives 0")),
+                    }
+                }
+            }
+            "ShaderNodeUVMap" => {
+                let set = self.tex_coord(i);
+                let out = self.out(i, "UV", Ty::Vector);
+                self.all_const = false;
+                self.ops.push(Op::Input { what: InputKind::Uv(set), out });
+            }
+            "ShaderNodeNewGeometry" => {
+                self.all_const = false;
+                for (id, what, ty) in [
+                    ("Position", Some(InputKind::Position), Ty::Vector),
+                    ("Normal", Some(InputKind::Normal), Ty::Vector),
+                    ("Tangent", Some(InputKind::Tangent), Ty::Vector),
+                    ("True Normal", Some(InputKind::TrueNormal), Ty::Vector),
+                    ("Incoming", Some(InputKind::Incoming), Ty::Vector),
+                    ("Parametric", None, Ty::Vector),
+                    ("Backfacing", Some(InputKind::Backfacing), Ty::Float),
+                    ("Pointiness", None, Ty::Float),
+                    ("Random Per Island", None, Ty::Float),
+                ] {
+                    if !self.is_used(i, id) {
+                        continue;
+                    }
+                    let out = self.out(i, id, ty);
+                    if what == Some(InputKind::Tangent) {
+                        self.prog.tangent_uv.get_or_insert(0);
+                    }
+                    match what {
+                        Some(what) => self.ops.push(Op::Input { what, out }),
+                        None => self.warn(i, format!("the {id} output is not supported: it gives 0")),
+                    }
+                }
+            }
+            "ShaderNodeAttribute" | "ShaderNodeVertexColor" => {
+                self.all_const = false;
+                let name = self.prop_str(i, "attribute_name", self.prop_str(i, "layer_name", "")).to_string();
+                if let Some(set) = self.desc(i).props.get("tex_coord").and_then(Value::as_u64) {
+                    // A UV map read as an attribute.
+                    for id in ["Vector", "Color"] {
+                        if self.is_used(i, id) {
+                            let out = self.out(i, id, if id == "Color" { Ty::Color } else { Ty::Vector });
+                            self.ops.push(Op::Input { what: InputKind::Uv(set.min(1) as u8), out });
+                        }
+                    }
+                } else {
+                    if kind == "ShaderNodeAttribute" {
+                        self.warn(i, format!("attribute '{name}' is read as the mesh's colour attribute (COLOR_0)"));
+                    }
+                    for (id, what, ty) in [
+                        ("Color", InputKind::VertexColor, Ty::Color),
+                        ("Vector", InputKind::VertexColor, Ty::Vector),
+                        ("Alpha", InputKind::VertexAlpha, Ty::Float),
+                    ] {
+                        if self.is_used(i, id) {
+                            let out = self.out(i, id, ty);
+                            self.ops.push(Op::Input { what, out });
+                        }
+                    }
+                    if self.is_used(i, "Fac") {
+                        let c = self.alloc(3);
+                        self.ops.push(Op::Input { what: InputKind::VertexColor, out: c });
+                        let out = self.out(i, "Fac", Ty::Float);
+                        self.ops.push(Op::Avg { v: c, out });
+                    }
+                }
+            }
+            "ShaderNodeFresnel" => {
+                let ior = self.float(i, "IOR", 1.5)?;
+                let n = self.normal(i, "Normal")?;
+                let out = self.out(i, "Fac", Ty::Float);
+                self.ops.push(Op::Fresnel { ior, n, out });
+            }
+            "ShaderNodeLayerWeight" => {
+                let blend = self.float(i, "Blend", 0.5)?;
+                let n = self.normal(i, "Normal")?;
+                let fresnel = self.out(i, "Fresnel", Ty::Float);
+                let facing = self.out(i, "Facing", Ty::Float);
+                self.ops.push(Op::LayerWeight { blend, n, fresnel, facing });
+            }
+            "ShaderNodeObjectInfo" => {
+                self.all_const = false;
+                for (id, ty) in [
+                    ("Location", Ty::Vector),
+                    ("Random", Ty::Float),
+                    ("Color", Ty::Color),
+                    ("Alpha", Ty::Float),
+                    ("Object Index", Ty::Float),
+                    ("Material Index", Ty::Float),
+                ] {
+                    if !self.is_used(i, id) {
+                        continue;
+                    }
+                    match id {
+                        "Location" => {
+                            let out = self.out(i, id, ty);
+                            self.ops.push(Op::Input { what: InputKind::ObjectLocation, out });
+                        }
+                        "Random" => {
+                            let out = self.out(i, id, ty);
+                            self.ops.push(Op::Input { what: InputKind::ObjectRandom, out });
+                        }
+                        "Color" | "Alpha" => {
+                            self.warn(i, format!("the object's {id} is not exported: it gives 1"));
+                            let r = if ty == Ty::Float { self.konst_f(1.0) } else { self.konst_v(Vec3::ONE) };
+                            self.alias(i, id, r, ty);
+                        }
+                        _ => {
+                            self.warn(i, format!("the {id} output is not supported: it gives 0"));
+                            let r = self.konst_f(0.0);
+                            self.alias(i, id, r, ty);
+                        }
+                    }
+                }
+            }
+            "ShaderNodeMapping" => {
+                let kind = match self.prop_str(i, "vector_type", "POINT") {
+                    "POINT" => MappingKind::Point,
+                    "TEXTURE" => MappingKind::Texture,
+                    "VECTOR" => MappingKind::Vector,
+                    "NORMAL" => MappingKind::Normal,
+                    other => return Err(self.err(i, format!("unknown vector type '{other}'"))),
+                };
+                let v = self.vec(i, "Vector", Vec3::ZERO)?;
+                let loc = self.vec(i, "Location", Vec3::ZERO)?;
+                let rot = self.vec(i, "Rotation", Vec3::ZERO)?;
+                let scale = self.vec(i, "Scale", Vec3::ONE)?;
+                let out = self.out(i, "Vector", Ty::Vector);
+                self.ops.push(Op::Mapping { kind, v, loc, rot, scale, out });
+            }
+            "ShaderNodeNormalMap" => {
+                let space = match self.prop_str(i, "space", "TANGENT") {
+                    "TANGENT" => 0,
+                    "OBJECT" | "BLENDER_OBJECT" => 1,
+                    "WORLD" | "BLENDER_WORLD" => 2,
+                    other => return Err(self.err(i, format!("unknown space '{other}'"))),
+                };
+                if space == 0 {
+                    self.prog.tangent_uv = Some(self.tex_coord(i) as u32);
+                }
+                let strength = self.float(i, "Strength", 1.0)?;
+                let color = self.vec(i, "Color", Vec3::new(0.5, 0.5, 1.0))?;
+                self.all_const = false;
+                let out = self.out(i, "Normal", Ty::Vector);
+                self.ops.push(Op::NormalMap { space, strength, color, out });
+            }
+            "ShaderNodeTexNoise" => {
+                let dims = self.noise_dims(i)?;
+                let name = self.prop_str(i, "noise_type", "FBM");
+                let kind = noise_kind(name).ok_or_else(|| self.err(i, format!("unknown noise type '{name}'")))?;
+                let normalize = self.prop_bool(i, "normalize", true);
+                let inputs = [
+                    self.vec_implicit(i, "Vector", InputKind::Generated)?,
+                    self.float(i, "W", 0.0)?,
+                    self.float(i, "Scale", 5.0)?,
+                    self.float(i, "Detail", 2.0)?,
+                    self.float(i, "Roughness", 0.5)?,
+                    self.float(i, "Lacunarity", 2.0)?,
+                    self.float(i, "Offset", 0.0)?,
+                    self.float(i, "Gain", 1.0)?,
+                    self.float(i, "Distortion", 0.0)?,
+                ];
+                let fac = self.out(i, "Fac", Ty::Float);
+                let color = self.out(i, "Color", Ty::Color);
+                self.ops.push(Op::Texture(Box::new(TexOp::Noise { dims, kind, normalize, inputs, fac, color })));
+            }
+            "ShaderNodeTexWhiteNoise" => {
+                let dims = self.noise_dims(i)?;
+                let vector = self.vec_implicit(i, "Vector", InputKind::Generated)?;
+                let w = self.float(i, "W", 0.0)?;
+                let value = self.out(i, "Value", Ty::Float);
+                let color = self.out(i, "Color", Ty::Color);
+                self.ops.push(Op::Texture(Box::new(TexOp::WhiteNoise { dims, vector, w, value, color })));
+            }
+            "ShaderNodeBump" => {
+                let strength = self.float(i, "Strength", 1.0)?;
+                let distance = self.float(i, "Distance", 1.0)?;
+                let invert = self.prop_bool(i, "invert", false);
+                let normal = self.normal(i, "Normal")?;
+                let Some(src) = self.desc(i).inputs.get("Height").and_then(|d| d.link.clone()) else {
+                    // An unlinked height is flat: the normal passes through.
+                    let out = self.out(i, "Normal", Ty::Vector);
+                    let n = match normal {
+                        Some(n) => n,
+                        None => {
+                            let n = self.alloc(3);
+                            self.ops.push(Op::Input { what: InputKind::Normal, out: n });
+                            n
+                        }
+                    };
+                    self.ops.push(Op::Copy3 { src: n, out });
+                    return Ok(true);
+                };
+                let height = self.float(i, "Height", 0.0)?;
+                self.all_const = false;
+                let out = self.out(i, "Normal", Ty::Vector);
+                let sub = self.upstream_ranges(src.0);
+                self.ops.push(Op::Bump(Box::new(BumpOp { strength, distance, invert, height, normal, out, sub })));
+            }
+            "ShaderNodeTexVoronoi" => {
+                let d = self.prop_str(i, "voronoi_dimensions", "3D");
+                let dims = noise_dims(d).ok_or_else(|| self.err(i, format!("unknown dimensions '{d}'")))?;
+                let f = self.prop_str(i, "feature", "F1");
+                let feature = voronoi_feature(f).ok_or_else(|| self.err(i, format!("unknown feature '{f}'")))?;
+                let m = self.prop_str(i, "distance", "EUCLIDEAN");
+                let metric = voronoi_metric(m).ok_or_else(|| self.err(i, format!("unknown distance '{m}'")))?;
+                let normalize = self.prop_bool(i, "normalize", false);
+                let inputs = [
+                    self.vec_implicit(i, "Vector", InputKind::Generated)?,
+                    self.float(i, "W", 0.0)?,
+                    self.float(i, "Scale", 5.0)?,
+                    self.float(i, "Detail", 0.0)?,
+                    self.float(i, "Roughness", 0.5)?,
+                    self.float(i, "Lacunarity", 2.0)?,
+                    self.float(i, "Smoothness", 1.0)?,
+                    self.float(i, "Exponent", 0.5)?,
+                    self.float(i, "Randomness", 1.0)?,
+                ];
+                let outputs = [
+                    self.out(i, "Distance", Ty::Float),
+                    self.out(i, "Color", Ty::Color),
+                    self.out(i, "Position", Ty::Vector),
+                    self.out(i, "W", Ty::Float),
+                    self.out(i, "Radius", Ty::Float),
+                ];
+                let op = TexOp::Voronoi { dims, feature, metric, normalize, inputs, outputs };
+                self.ops.push(Op::Texture(Box::new(op)));
+            }
+            "ShaderNodeTexWave" => {
+                let (k, b, rg, pr) = (
+                    self.prop_str(i, "wave_type", "BANDS"),
+                    self.prop_str(i, "bands_direction", "X"),
+                    self.prop_str(i, "rings_direction", "X"),
+                    self.prop_str(i, "wave_profile", "SIN"),
+                );
+                let (kind, direction, profile) = wave_settings(k, b, rg, pr)
+                    .ok_or_else(|| self.err(i, format!("unknown settings {k}/{b}/{rg}/{pr}")))?;
+                let inputs = [
+                    self.vec_implicit(i, "Vector", InputKind::Generated)?,
+                    self.float(i, "Scale", 5.0)?,
+                    self.float(i, "Distortion", 0.0)?,
+                    self.float(i, "Detail", 2.0)?,
+                    self.float(i, "Detail Scale", 1.0)?,
+                    self.float(i, "Detail Roughness", 0.5)?,
+                    self.float(i, "Phase Offset", 0.0)?,
+                ];
+                let fac = self.out(i, "Fac", Ty::Float);
+                let color = self.out(i, "Color", Ty::Color);
+                self.ops.push(Op::Texture(Box::new(TexOp::Wave { kind, direction, profile, inputs, fac, color })));
+            }
+            "ShaderNodeTexChecker" => {
+                let inputs = [
+                    self.vec_implicit(i, "Vector", InputKind::Generated)?,
+                    self.vec(i, "Color1", Vec3::splat(0.8))?,
+                    self.vec(i, "Color2", Vec3::splat(0.2))?,
+                    self.float(i, "Scale", 5.0)?,
+                ];
+                let color = self.out(i, "Color", Ty::Color);
+                let fac = self.out(i, "Fac", Ty::Float);
+                self.ops.push(Op::Texture(Box::new(TexOp::Checker { inputs, color, fac })));
+            }
+            "ShaderNodeTexGradient" => {
+                let g = self.prop_str(i, "gradient_type", "LINEAR");
+                let kind = gradient_kind(g).ok_or_else(|| self.err(i, format!("unknown gradient type '{g}'")))?;
+                let vector = self.vec_implicit(i, "Vector", InputKind::Generated)?;
+                let fac = self.out(i, "Fac", Ty::Float);
+                let color = self.out(i, "Color", Ty::Color);
+                self.ops.push(Op::Texture(Box::new(TexOp::Gradient { kind, vector, fac, color })));
+            }
+            "ShaderNodeTexMagic" => {
+                let depth = self.desc(i).props.get("turbulence_depth").and_then(Value::as_i64).unwrap_or(2) as i32;
+                let inputs = [
+                    self.vec_implicit(i, "Vector", InputKind::Generated)?,
+                    self.float(i, "Scale", 5.0)?,
+                    self.float(i, "Distortion", 1.0)?,
+                ];
+                let color = self.out(i, "Color", Ty::Color);
+                let fac = self.out(i, "Fac", Ty::Float);
+                self.ops.push(Op::Texture(Box::new(TexOp::Magic { depth, inputs, color, fac })));
+            }
+            "ShaderNodeTexBrick" => {
+                let num_prop = |c: &Self, k: &str, d: f64| c.desc(i).props.get(k).and_then(Value::as_f64).unwrap_or(d);
+                let (offset, offset_frequency) =
+                    (num_prop(self, "offset", 0.5) as f32, num_prop(self, "offset_frequency", 2.0) as i32);
+                let (squash, squash_frequency) =
+                    (num_prop(self, "squash", 1.0) as f32, num_prop(self, "squash_frequency", 2.0) as i32);
+                let inputs = [
+                    self.vec_implicit(i, "Vector", InputKind::Generated)?,
+                    self.vec(i, "Color1", Vec3::splat(0.8))?,
+                    self.vec(i, "Color2", Vec3::splat(0.2))?,
+                    self.vec(i, "Mortar", Vec3::ZERO)?,
+                    self.float(i, "Scale", 5.0)?,
+                    self.float(i, "Mortar Size", 0.02)?,
+                    self.float(i, "Mortar Smooth", 0.1)?,
+                    self.float(i, "Bias", 0.0)?,
+                    self.float(i, "Brick Width", 0.5)?,
+                    self.float(i, "Row Height", 0.25)?,
+                ];
+                let color = self.out(i, "Color", Ty::Color);
+                let fac = self.out(i, "Fac", Ty::Float);
+                let op = TexOp::Brick { offset, offset_frequency, squash, squash_frequency, inputs, color, fac };
+                self.ops.push(Op::Texture(Box::new(op)));
+            }
+            "ShaderNodeTexEnvironment" => {
+                let texture = match self.desc(i).props.get("image").and_then(Value::as_u64) {
+                    Some(k) => Some(*self.images.get(k as usize).ok_or_else(|| {
+                        self.err(i, format!("image {k} is not in the graph's images ({})", self.images.len()))
+                    })?),
+                    None => {
+                        self.warn(i, "the node has no image: it gives magenta, as Cycles");
+                        None
+                    }
+                };
+                let interp = match self.prop_str(i, "interpolation", "Linear") {
+                    "Closest" => Interp::Closest,
+                    "Linear" => Interp::Linear,
+                    "Cubic" | "Smart" => Interp::Cubic,
+                    other => return Err(self.err(i, format!("unknown interpolation '{other}'"))),
+                };
+                let projection = match self.prop_str(i, "projection", "EQUIRECTANGULAR") {
+                    "EQUIRECTANGULAR" => Projection::Equirectangular,
+                    "MIRROR_BALL" => Projection::MirrorBall,
+                    other => return Err(self.err(i, format!("unknown projection '{other}'"))),
+                };
+                // On a surface an unlinked vector is the position, as Cycles.
+                let vector = self.vec_implicit(i, "Vector", InputKind::Position)?;
+                let color = self.out(i, "Color", Ty::Color);
+                let alpha = self.out(i, "Alpha", Ty::Float);
+                self.all_const = false;
+                let op = ImageOp {
+                    texture,
+                    interp,
+                    extension: Extension::Repeat,
+                    projection,
+                    blend: 0.0,
+                    vector,
+                    normal: vector,
+                    color,
+                    alpha,
+                };
+                self.ops.push(Op::Image(Box::new(op)));
+            }
+            "ShaderNodeTexImage" => {
+                let texture = match self.desc(i).props.get("image").and_then(Value::as_u64) {
+                    Some(k) => Some(*self.images.get(k as usize).ok_or_else(|| {
+                        self.err(i, format!("image {k} is not in the graph's images ({})", self.images.len()))
+                    })?),
+                    None => {
+                        self.warn(i, "the node has no image: it gives magenta, as Cycles");
+                        None
+                    }
+                };
+                let interp = match self.prop_str(i, "interpolation", "Linear") {
+                    "Closest" => Interp::Closest,
+                    "Linear" => Interp::Linear,
+                    "Cubic" | "Smart" => Interp::Cubic,
+                    other => return Err(self.err(i, format!("unknown interpolation '{other}'"))),
+                };
+                let extension = match self.prop_str(i, "extension", "REPEAT") {
+                    "REPEAT" => Extension::Repeat,
+                    "EXTEND" => Extension::Extend,
+                    "CLIP" => Extension::Clip,
+                    "MIRROR" => Extension::Mirror,
+                    other => return Err(self.err(i, format!("unknown extension '{other}'"))),
+                };
+                let projection = match self.prop_str(i, "projection", "FLAT") {
+                    "FLAT" => Projection::Flat,
+                    "BOX" => Projection::Box,
+                    "SPHERE" => Projection::Sphere,
+                    "TUBE" => Projection::Tube,
+                    other => return Err(self.err(i, format!("unknown projection '{other}'"))),
+                };
+                let blend = self.desc(i).props.get("projection_blend").and_then(Value::as_f64).unwrap_or(0.0) as f32;
+                let vector = self.vec_implicit(i, "Vector", InputKind::Uv(self.tex_coord(i)))?;
+                let normal = if projection == Projection::Box {
+                    let n = self.alloc(3);
+                    self.ops.push(Op::Input { what: InputKind::ObjectNormal, out: n });
+                    n
+                } else {
+                    vector
+                };
+                let color = self.out(i, "Color", Ty::Color);
+                let alpha = self.out(i, "Alpha", Ty::Float);
+                self.all_const = false;
+                let op = ImageOp { texture, interp, extension, projection, blend, vector, normal, color, alpha };
+                self.ops.push(Op::Image(Box::new(op)));
+            }
+            _ => return Ok(false),
+        }
+        Ok(true)
+    }
+
+    pub(super) fn noise_dims(&self, i: usize) -> Result<u8, String> {
+        let s = self.prop_str(i, "noise_dimensions", "3D");
+        noise_dims(s).ok_or_else(|| self.err(i, format!("unknown dimensions '{s}'")))
+    }
+
+    /// The operation ranges of node `i` and every node upstream of it, in program order
+    /// (what a Bump re-runs at its offset positions).
+    pub(super) fn upstream_ranges(&self, i: usize) -> Vec<(u32, u32)> {
+        let mut seen = vec![false; self.ext.nodes.len()];
+        let mut stack = vec![i];
+        let mut nodes = Vec::new();
+        while let Some(n) = stack.pop() {
+            if std::mem::replace(&mut seen[n], true) {
+                continue;
+            }
+            nodes.push(n);
+            for d in self.ext.nodes[n].inputs.values() {
+                if let Some(l) = &d.link {
+                    stack.push(l.0);
+                }
+            }
+        }
+        let mut ranges: Vec<(u32, u32)> = nodes.into_iter().map(|n| self.ranges[n]).filter(|(a, b)| b > a).collect();
+        ranges.sort_unstable();
+        ranges
+    }
+}

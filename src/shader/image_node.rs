@@ -1,0 +1,290 @@
+//! The Image Texture node: Blender's projections (Flat, Box with its blend, Sphere, Tube),
+//! interpolations (Closest, Linear, Cubic B-spline; Smart as Cubic) and extensions
+//! (Repeat, Extend, Clip, Mirror), as Cycles' `svm/image.h` and its CPU image lookup.
+//! Texels are the scene's decoded textures (8-bit, sRGB decoded by `Texture::texel`).
+
+use super::program::Reg;
+use crate::scene::texture::{Texture, Wrap, wrap};
+use glam::{Vec2, Vec3, Vec4};
+
+/// Interpolation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[allow(missing_docs)]
+pub enum Interp {
+    Closest,
+    Linear,
+    Cubic,
+}
+
+/// Extension beyond [0, 1].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[allow(missing_docs)]
+pub enum Extension {
+    Repeat,
+    Extend,
+    Clip,
+    Mirror,
+}
+
+/// Projection of the Vector input onto the image.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[allow(missing_docs)]
+pub enum Projection {
+    Flat,
+    Box,
+    Sphere,
+    Tube,
+    /// Environment Texture: equirectangular lookup of the (normalised) vector.
+    Equirectangular,
+    /// Environment Texture: mirror ball.
+    MirrorBall,
+}
+
+/// An Image Texture node compiled.
+#[derive(Clone, Debug)]
+pub struct ImageOp {
+    /// Index into `Scene::textures` (None: the node has no image; Cycles' magenta).
+    pub texture: Option<u32>,
+    /// Interpolation.
+    pub interp: Interp,
+    /// Extension.
+    pub extension: Extension,
+    /// Projection.
+    pub projection: Projection,
+    /// Box projection's blend.
+    pub blend: f32,
+    /// Vector input (Blender axes).
+    pub vector: Reg,
+    /// Object-space normal (for Box).
+    pub normal: Reg,
+    /// Colour output.
+    pub color: Reg,
+    /// Alpha output.
+    pub alpha: Reg,
+}
+
+fn texel(t: &Texture, x: i64, y: i64, ext: Extension) -> Vec4 {
+    let (w, h) = (t.width as i64, t.height as i64);
+    let (x, y) = match ext {
+        Extension::Clip => {
+            if x < 0 || y < 0 || x >= w || y >= h {
+                return Vec4::ZERO;
+            }
+            (x, y)
+        }
+        Extension::Repeat => (wrap(x, t.width, Wrap::Repeat) as i64, wrap(y, t.height, Wrap::Repeat) as i64),
+        Extension::Extend => (x.clamp(0, w - 1), y.clamp(0, h - 1)),
+        Extension::Mirror => (wrap(x, t.width, Wrap::Mirror) as i64, wrap(y, t.height, Wrap::Mirror) as i64),
+    };
+    // In range: the texture's own wrap mode leaves the index unchanged.
+    t.texel(x, y)
+}
+
+/// Cubic B-spline weights for fraction t.
+fn bspline(t: f32) -> [f32; 4] {
+    let t2 = t * t;
+    let t3 = t2 * t;
+    [
+        (1.0 - 3.0 * t + 3.0 * t2 - t3) / 6.0,
+        (4.0 - 6.0 * t2 + 3.0 * t3) / 6.0,
+        (1.0 + 3.0 * t + 3.0 * t2 - 3.0 * t3) / 6.0,
+        t3 / 6.0,
+    ]
+}
+
+/// The image at Blender texture coordinate `uv` (v up).
+pub fn lookup(t: &Texture, uv: Vec2, interp: Interp, ext: Extension) -> Vec4 {
+    if !uv.is_finite() {
+        return Vec4::ZERO;
+    }
+    if ext == Extension::Clip && (uv.x < 0.0 || uv.y < 0.0 || uv.x > 1.0 || uv.y > 1.0) {
+        return Vec4::ZERO;
+    }
+    // Texel rows are stored top first: Blender's v = 1 is row 0.
+    let (fx, fy) = (uv.x * t.width as f32, (1.0 - uv.y) * t.height as f32);
+    match interp {
+        Interp::Closest => texel(t, fx.floor() as i64, fy.floor() as i64, ext),
+        Interp::Linear => {
+            let (x, y) = (fx - 0.5, fy - 0.5);
+            let (x0, y0) = (x.floor(), y.floor());
+            let (tx, ty) = (x - x0, y - y0);
+            let (x0, y0) = (x0 as i64, y0 as i64);
+            let a = texel(t, x0, y0, ext).lerp(texel(t, x0 + 1, y0, ext), tx);
+            let b = texel(t, x0, y0 + 1, ext).lerp(texel(t, x0 + 1, y0 + 1, ext), tx);
+            a.lerp(b, ty)
+        }
+        Interp::Cubic => {
+            let (x, y) = (fx - 0.5, fy - 0.5);
+            let (x0, y0) = (x.floor(), y.floor());
+            let (wx, wy) = (bspline(x - x0), bspline(y - y0));
+            let (x0, y0) = (x0 as i64, y0 as i64);
+            let mut c = Vec4::ZERO;
+            for (j, wyj) in wy.iter().enumerate() {
+                for (i, wxi) in wx.iter().enumerate() {
+                    c += texel(t, x0 - 1 + i as i64, y0 - 1 + j as i64, ext) * (wxi * wyj);
+                }
+            }
+            c
+        }
+    }
+}
+
+/// Cycles' box-projection weights for the object-space normal `n` and `blend`.
+pub fn box_weights(n: Vec3, blend: f32) -> Vec3 {
+    let a = n.abs();
+    let s = a.x + a.y + a.z;
+    if !(s > 0.0) {
+        return Vec3::X;
+    }
+    let n = a / s;
+    let limit = 0.5 * (1.0 + blend);
+    let mut w = Vec3::ZERO;
+    if n.x > limit * (n.x + n.y) && n.x > limit * (n.x + n.z) {
+        w.x = 1.0;
+    } else if n.y > limit * (n.x + n.y) && n.y > limit * (n.y + n.z) {
+        w.y = 1.0;
+    } else if n.z > limit * (n.x + n.z) && n.z > limit * (n.y + n.z) {
+        w.z = 1.0;
+    } else if blend > 0.0 {
+        let ramp = |x: f32| ((x - 0.5 * (1.0 - blend)) / blend).clamp(0.0, 1.0);
+        if n.z < (1.0 - limit) * (n.y + n.x) {
+            w.x = ramp(n.x / (n.x + n.y));
+            w.y = 1.0 - w.x;
+        } else if n.x < (1.0 - limit) * (n.y + n.z) {
+            w.y = ramp(n.y / (n.y + n.z));
+            w.z = 1.0 - w.y;
+        } else if n.y < (1.0 - limit) * (n.x + n.z) {
+            w.x = ramp(n.x / (n.x + n.z));
+            w.z = 1.0 - w.x;
+        } else {
+            let f = |x: f32| ((2.0 - limit) * x + (limit - 1.0)) / (2.0 * limit - 1.0);
+            w = Vec3::new(f(n.x), f(n.y), f(n.z));
+        }
+    } else {
+        w.x = 1.0;
+    }
+    w
+}
+
+impl ImageOp {
+    /// Evaluates the node.
+    pub fn run(&self, r: &mut [f32], textures: &[Texture]) {
+        let v = |i: Reg| Vec3::new(r[i as usize], r[i as usize + 1], r[i as usize + 2]);
+        let co = v(self.vector);
+        let c = match self.texture.and_then(|i| textures.get(i as usize)) {
+            None => Vec4::new(1.0, 0.0, 1.0, 1.0),
+            Some(t) => {
+                let at = |uv: Vec2| lookup(t, uv, self.interp, self.extension);
+                match self.projection {
+                    Projection::Flat => at(Vec2::new(co.x, co.y)),
+                    Projection::Sphere => {
+                        let p = (co - Vec3::splat(0.5)) * 2.0;
+                        let len = p.length();
+                        let uv = if len > 0.0 {
+                            let u = if p.x == 0.0 && p.y == 0.0 {
+                                0.0
+                            } else {
+                                (1.0 - p.x.atan2(p.y) / std::f32::consts::PI) / 2.0
+                            };
+                            Vec2::new(u, 1.0 - (p.z / len).clamp(-1.0, 1.0).acos() / std::f32::consts::PI)
+                        } else {
+                            Vec2::ZERO
+                        };
+                        at(uv)
+                    }
+                    Projection::Tube => {
+                        let p = (co - Vec3::splat(0.5)) * 2.0;
+                        let len = (p.x * p.x + p.y * p.y).sqrt();
+                        let u = if len > 0.0 {
+                            (1.0 - (p.x / len).atan2(p.y / len) / std::f32::consts::PI) / 2.0
+                        } else {
+                            0.0
+                        };
+                        at(Vec2::new(u, (p.z + 1.0) / 2.0))
+                    }
+                    Projection::Equirectangular => {
+                        let d = co.normalize_or(Vec3::X);
+                        // As the world's image (docs/contract.md, CAUSTIC_world).
+                        let u = 0.5 - d.y.atan2(d.x) / (2.0 * std::f32::consts::PI);
+                        let v = 0.5 + d.z.clamp(-1.0, 1.0).asin() / std::f32::consts::PI;
+                        at(Vec2::new(u, v))
+                    }
+                    Projection::MirrorBall => {
+                        let mut d = co.normalize_or(Vec3::X);
+                        d.y -= 1.0;
+                        let div = 2.0 * (-0.5 * d.y).max(0.0).sqrt();
+                        if div > 0.0 {
+                            d /= div;
+                        }
+                        at(Vec2::new(0.5 * (d.x + 1.0), 0.5 * (d.z + 1.0)))
+                    }
+                    Projection::Box => {
+                        let signed = v(self.normal);
+                        let w = box_weights(signed, self.blend);
+                        let mut f = Vec4::ZERO;
+                        if w.x > 0.0 {
+                            f += at(Vec2::new(if signed.x < 0.0 { 1.0 - co.y } else { co.y }, co.z)) * w.x;
+                        }
+                        if w.y > 0.0 {
+                            f += at(Vec2::new(if signed.y > 0.0 { 1.0 - co.x } else { co.x }, co.z)) * w.y;
+                        }
+                        if w.z > 0.0 {
+                            f += at(Vec2::new(if signed.z > 0.0 { 1.0 - co.y } else { co.y }, co.x)) * w.z;
+                        }
+                        f
+                    }
+                }
+            }
+        };
+        let o = self.color as usize;
+        r[o] = c.x;
+        r[o + 1] = c.y;
+        r[o + 2] = c.z;
+        r[self.alpha as usize] = c.w;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tex() -> Texture {
+        // 2×2: top row red, green; bottom row blue, white.
+        Texture {
+            name: "t".into(),
+            width: 2,
+            height: 2,
+            texels: vec![[255, 0, 0, 255], [0, 255, 0, 255], [0, 0, 255, 255], [255, 255, 255, 255]],
+            srgb: false,
+            wrap_s: Wrap::Repeat,
+            wrap_t: Wrap::Repeat,
+            nearest: false,
+            mean: Vec3::ZERO,
+        }
+    }
+
+    #[test]
+    fn blender_v_is_up_and_extensions_behave() {
+        let t = tex();
+        // Blender's (0.25, 0.75) is the top-left texel.
+        assert_eq!(lookup(&t, Vec2::new(0.25, 0.75), Interp::Closest, Extension::Repeat), Vec4::new(1., 0., 0., 1.));
+        assert_eq!(lookup(&t, Vec2::new(0.25, 0.25), Interp::Closest, Extension::Repeat), Vec4::new(0., 0., 1., 1.));
+        // Repeat wraps, Clip is transparent black outside, Extend holds the edge.
+        assert_eq!(lookup(&t, Vec2::new(1.25, 0.75), Interp::Closest, Extension::Repeat), Vec4::new(1., 0., 0., 1.));
+        assert_eq!(lookup(&t, Vec2::new(1.25, 0.75), Interp::Closest, Extension::Clip), Vec4::ZERO);
+        assert_eq!(lookup(&t, Vec2::new(1.25, 0.75), Interp::Closest, Extension::Extend), Vec4::new(0., 1., 0., 1.));
+        // Linear at the centre averages the four texels.
+        let c = lookup(&t, Vec2::new(0.5, 0.5), Interp::Linear, Extension::Repeat);
+        assert!((c - Vec4::new(0.5, 0.5, 0.5, 1.0)).abs().max_element() < 1e-6, "{c}");
+        // The cubic B-spline keeps a constant image constant (its weights sum to 1).
+        let w: f32 = bspline(0.3).iter().sum();
+        assert!((w - 1.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn box_weights_pick_the_dominant_axis_and_blend_sums_to_one() {
+        assert_eq!(box_weights(Vec3::new(0.1, 0.2, 0.9), 0.0), Vec3::Z);
+        let w = box_weights(Vec3::new(1.0, 1.0, 0.0), 0.5);
+        assert!((w.x + w.y + w.z - 1.0).abs() < 1e-6 && (w.x - 0.5).abs() < 1e-6, "{w}");
+    }
+}

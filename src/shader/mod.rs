@@ -1,0 +1,11 @@
+//! Blender's shader nodes as the renderer evaluates them.
+pub mod texture;
+
+pub mod closure;
+pub mod compile;
+pub mod graph;
+pub mod image_node;
+pub mod ops;
+pub mod program;
+pub mod shade;
+pub mod texture_nodes;

@@ -1,0 +1,788 @@
+//! A compiled shader graph: a flat list of operations over a register file of f32.
+//! Vectors and colours take three consecutive registers; constants (unlinked inputs and
+//! the results of nodes whose inputs are all constant) sit in the initial register file,
+//! copied in at each evaluation. Evaluation allocates nothing: the register file is a
+//! per-thread scratch grown once (`with_registers`).
+//!
+//! Coordinates inside the program are Blender's (Z up: b = (x, −z, y) of glTF).
+
+use super::closure::Closures;
+use super::ops::{self, Blend, MathOp, RangeInterp, VecOp};
+use crate::math::{Frame, luminance};
+use glam::{EulerRot, Mat3, Mat4, Vec2, Vec3, Vec4};
+use std::cell::RefCell;
+
+/// A register index.
+pub type Reg = u32;
+
+/// glTF (Y up) to Blender (Z up) axes.
+#[inline]
+pub fn to_blender(v: Vec3) -> Vec3 {
+    Vec3::new(v.x, -v.z, v.y)
+}
+
+/// Blender (Z up) to glTF (Y up) axes.
+#[inline]
+pub fn from_blender(v: Vec3) -> Vec3 {
+    Vec3::new(v.x, v.z, -v.y)
+}
+
+/// What the instance of the shaded triangle gives the graph.
+#[derive(Clone, Copy, Debug)]
+pub struct ObjectData {
+    /// World (glTF) to object (glTF axes of the object's local frame).
+    pub world_to_object: Mat4,
+    /// The object's origin in the world (glTF axes).
+    pub location: Vec3,
+    /// Object Info's Random in [0, 1).
+    pub random: f32,
+    /// Texture space of the mesh (Blender's `texspace_location`, `texspace_size`, Blender axes).
+    pub texspace: Option<(Vec3, Vec3)>,
+}
+
+impl Default for ObjectData {
+    fn default() -> Self {
+        ObjectData { world_to_object: Mat4::IDENTITY, location: Vec3::ZERO, random: 0.0, texspace: None }
+    }
+}
+
+/// The shading point as the graph's input nodes see it (world glTF axes).
+#[derive(Clone, Copy, Debug)]
+pub struct Geom<'a> {
+    /// Position.
+    pub p: Vec3,
+    /// Interpolated shading normal, on the viewer's side.
+    pub n: Vec3,
+    /// Geometric normal, on the viewer's side.
+    pub ng: Vec3,
+    /// Toward the viewer (Blender's Incoming).
+    pub wo: Vec3,
+    /// Texture coordinates (glTF's: v down).
+    pub uv: [Vec2; 2],
+    /// COLOR_0.
+    pub color: Vec4,
+    /// Tangent (xyz) and bitangent sign, zero when absent.
+    pub tangent: Vec4,
+    /// The ray hit the back face.
+    pub backfacing: bool,
+    /// The instance.
+    pub object: &'a ObjectData,
+    /// The scene's textures (Image Texture nodes).
+    pub textures: &'a [crate::scene::Texture],
+    /// The scene's triangles (Bump re-evaluates attributes at offset points).
+    pub mesh: &'a crate::scene::Mesh,
+    /// The shaded triangle.
+    pub tri: u32,
+}
+
+/// Which geometric quantity an `Input` op reads (each in Blender axes).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum InputKind {
+    /// World position.
+    Position,
+    /// Shading normal.
+    Normal,
+    /// Geometric normal.
+    TrueNormal,
+    /// Toward the viewer.
+    Incoming,
+    /// Backfacing as 0/1.
+    Backfacing,
+    /// Tangent (from the mesh's tangents; zero without).
+    Tangent,
+    /// Texture coordinates of a set, (u, 1 − v, 0) as Blender's.
+    Uv(u8),
+    /// Generated: object position in the texture space, or the object's bounds-free fallback.
+    Generated,
+    /// Object-space position.
+    Object,
+    /// Object-space position under an explicit world→object matrix (index into `matrices`).
+    ObjectMatrix(u32),
+    /// Object-space normal.
+    ObjectNormal,
+    /// Reflection of the view direction about the normal (world).
+    Reflection,
+    /// COLOR_0 rgb.
+    VertexColor,
+    /// COLOR_0 alpha.
+    VertexAlpha,
+    /// Object Info Location.
+    ObjectLocation,
+    /// Object Info Random.
+    ObjectRandom,
+}
+
+/// Curve tables' kinds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CurveKind {
+    /// RGB Curves (tables C, R, G, B).
+    Rgb,
+    /// Vector Curves (X, Y, Z).
+    Vector,
+    /// Float Curve (one table).
+    Float,
+}
+
+/// A baked curve mapping (docs/contract.md): tables over `range`.
+#[derive(Clone, Debug)]
+pub struct CurveTable {
+    /// x range of the tables.
+    pub range: [f32; 2],
+    /// Extrapolate linearly beyond the range (else hold).
+    pub extrapolate: bool,
+    /// One table of 256 values per curve.
+    pub tables: Vec<Vec<f32>>,
+}
+
+impl CurveTable {
+    /// Curve `i` at x (Cycles' `rgb_ramp_lookup` with extrapolation).
+    #[inline]
+    pub fn eval(&self, i: usize, x: f32) -> f32 {
+        let t = &self.tables[i];
+        let n = t.len();
+        let span = self.range[1] - self.range[0];
+        let f = if span != 0.0 { (x - self.range[0]) / span } else { 0.0 };
+        if self.extrapolate && !(0.0..=1.0).contains(&f) && n >= 2 {
+            let (t0, dy, d) = if f < 0.0 { (t[0], t[0] - t[1], -f) } else { (t[n - 1], t[n - 1] - t[n - 2], f - 1.0) };
+            return t0 + dy * d * (n - 1) as f32;
+        }
+        lookup(t, f, true)
+    }
+}
+
+/// Linear interpolation in a table over [0, 1], clamped (Cycles' ramp lookup).
+#[inline]
+fn lookup(t: &[f32], f: f32, interpolate: bool) -> f32 {
+    let n = t.len();
+    let f = if f.is_nan() { 0.0 } else { f.clamp(0.0, 1.0) * (n - 1) as f32 };
+    let i = (f as usize).min(n - 1);
+    let frac = f - i as f32;
+    if interpolate && frac > 0.0 && i + 1 < n { t[i] * (1.0 - frac) + t[i + 1] * frac } else { t[i] }
+}
+
+/// Mapping node kinds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[allow(missing_docs)]
+pub enum MappingKind {
+    Point,
+    Texture,
+    Vector,
+    Normal,
+}
+
+/// Colour spaces of Separate/Combine Color.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[allow(missing_docs)]
+pub enum ColorSpace {
+    Hsv,
+    Hsl,
+}
+
+/// One operation. Register operands name the first of three registers for vectors.
+#[derive(Clone, Debug)]
+#[allow(missing_docs)]
+pub enum Op {
+    Math {
+        op: MathOp,
+        a: Reg,
+        b: Reg,
+        c: Reg,
+        out: Reg,
+        clamp: bool,
+    },
+    VecMath {
+        op: VecOp,
+        a: Reg,
+        b: Reg,
+        c: Reg,
+        s: Reg,
+        vout: Reg,
+        fout: Reg,
+    },
+    MixFloat {
+        fac: Reg,
+        a: Reg,
+        b: Reg,
+        out: Reg,
+        clamp: bool,
+    },
+    /// `fac_vec`: the factor is a vector (non-uniform).
+    MixVec {
+        fac: Reg,
+        fac_vec: bool,
+        a: Reg,
+        b: Reg,
+        out: Reg,
+        clamp: bool,
+    },
+    MixColor {
+        blend: Blend,
+        fac: Reg,
+        a: Reg,
+        b: Reg,
+        out: Reg,
+        clamp_fac: bool,
+        clamp_res: bool,
+    },
+    MapRange {
+        interp: RangeInterp,
+        vector: bool,
+        v: Reg,
+        fmin: Reg,
+        fmax: Reg,
+        tmin: Reg,
+        tmax: Reg,
+        steps: Reg,
+        out: Reg,
+        clamp: bool,
+    },
+    Clamp {
+        range: bool,
+        v: Reg,
+        min: Reg,
+        max: Reg,
+        out: Reg,
+    },
+    Ramp {
+        table: u32,
+        interpolate: bool,
+        fac: Reg,
+        color: Reg,
+        alpha: Reg,
+    },
+    Curve {
+        table: u32,
+        kind: CurveKind,
+        fac: Reg,
+        v: Reg,
+        out: Reg,
+    },
+    Invert {
+        fac: Reg,
+        c: Reg,
+        out: Reg,
+    },
+    Gamma {
+        c: Reg,
+        g: Reg,
+        out: Reg,
+    },
+    BrightContrast {
+        c: Reg,
+        bright: Reg,
+        contrast: Reg,
+        out: Reg,
+    },
+    HueSat {
+        hue: Reg,
+        sat: Reg,
+        val: Reg,
+        fac: Reg,
+        c: Reg,
+        out: Reg,
+    },
+    /// Colour to float (luminance).
+    Lum {
+        c: Reg,
+        out: Reg,
+    },
+    /// Vector to float (average).
+    Avg {
+        v: Reg,
+        out: Reg,
+    },
+    /// Float to vector/colour.
+    Splat {
+        f: Reg,
+        out: Reg,
+    },
+    /// Three floats to a vector.
+    Pack {
+        x: Reg,
+        y: Reg,
+        z: Reg,
+        out: Reg,
+    },
+    /// Copy a vector.
+    Copy3 {
+        src: Reg,
+        out: Reg,
+    },
+    /// RGB to (false) or from (true) HSV/HSL.
+    ColorSpace {
+        space: ColorSpace,
+        to_rgb: bool,
+        c: Reg,
+        out: Reg,
+    },
+    /// A geometric quantity.
+    Input {
+        what: InputKind,
+        out: Reg,
+    },
+    Fresnel {
+        ior: Reg,
+        n: Option<Reg>,
+        out: Reg,
+    },
+    LayerWeight {
+        blend: Reg,
+        n: Option<Reg>,
+        fresnel: Reg,
+        facing: Reg,
+    },
+    Mapping {
+        kind: MappingKind,
+        v: Reg,
+        loc: Reg,
+        rot: Reg,
+        scale: Reg,
+        out: Reg,
+    },
+    /// Normal Map: tangent (0), object (1) or world (2) space.
+    NormalMap {
+        space: u8,
+        strength: Reg,
+        color: Reg,
+        out: Reg,
+    },
+    /// Closure weights of a Mix Shader: out1 = w (1 − fac), out2 = w fac.
+    MixWeight {
+        w: Option<Reg>,
+        fac: Reg,
+        out1: Reg,
+        out2: Reg,
+    },
+    /// A closure (shader/closure.rs).
+    Closure(Box<super::closure::ClosureOp>),
+    /// A procedural texture (shader/texture_nodes.rs).
+    Texture(Box<super::texture_nodes::TexOp>),
+    /// An Image Texture (shader/image_node.rs).
+    Image(Box<super::image_node::ImageOp>),
+    /// A Bump node (or the Displacement output as bump).
+    Bump(Box<BumpOp>),
+}
+
+/// A Bump node: the height's operations re-run at two offset positions.
+#[derive(Clone, Debug)]
+pub struct BumpOp {
+    /// Strength register.
+    pub strength: Reg,
+    /// Distance register.
+    pub distance: Reg,
+    /// Invert the height.
+    pub invert: bool,
+    /// The height at the shading point.
+    pub height: Reg,
+    /// The Normal input when linked (Blender axes).
+    pub normal: Option<Reg>,
+    /// Output normal (Blender axes).
+    pub out: Reg,
+    /// Operation ranges that compute the height (re-run at the offsets).
+    pub sub: Vec<(u32, u32)>,
+}
+
+/// A compiled material graph.
+#[derive(Clone, Debug, Default)]
+pub struct Program {
+    /// Material name (messages).
+    pub name: String,
+    /// Initial register file: constants, zeros elsewhere.
+    pub init: Vec<f32>,
+    /// The operations in order.
+    pub ops: Vec<Op>,
+    /// ColorRamp tables (256 RGBA each).
+    pub ramps: Vec<Vec<[f32; 4]>>,
+    /// Curve tables.
+    pub curves: Vec<CurveTable>,
+    /// Texture Coordinate object matrices (world → object, glTF axes).
+    pub matrices: Vec<Mat4>,
+    /// The graph has a Transparent part (alpha must be evaluated).
+    pub transparent: bool,
+    /// The graph can emit.
+    pub emits: bool,
+    /// The emission does not depend on the shading point (then it is `constant_emission`).
+    pub constant_emission: Option<Vec3>,
+    /// The Displacement output's bumped normal (Blender axes), the default closure normal.
+    pub displacement_normal: Option<Reg>,
+    /// Mesh tangents are read (tangent-space Normal Map, Geometry Tangent), from this UV set.
+    pub tangent_uv: Option<u32>,
+}
+
+thread_local! {
+    static REGISTERS: RefCell<Vec<f32>> = const { RefCell::new(Vec::new()) };
+    /// A copy of the register file a Bump restores after its offset evaluations.
+    static SAVED: RefCell<Vec<f32>> = const { RefCell::new(Vec::new()) };
+}
+
+/// Runs `f` with this thread's register file (grown once to the largest program).
+pub fn with_registers<R>(f: impl FnOnce(&mut Vec<f32>) -> R) -> R {
+    REGISTERS.with(|r| match r.try_borrow_mut() {
+        Ok(mut regs) => f(&mut regs),
+        // Re-entered (cannot happen in the renderer: evaluation does not recurse): a
+        // private file keeps it correct.
+        Err(_) => f(&mut Vec::new()),
+    })
+}
+
+#[inline]
+fn v3(r: &[f32], i: Reg) -> Vec3 {
+    let i = i as usize;
+    Vec3::new(r[i], r[i + 1], r[i + 2])
+}
+
+#[inline]
+fn set3(r: &mut [f32], i: Reg, v: Vec3) {
+    let i = i as usize;
+    r[i] = v.x;
+    r[i + 1] = v.y;
+    r[i + 2] = v.z;
+}
+
+/// Fresnel reflectance of a dielectric for |cos| and relative η (Cycles' fresnel_dielectric_cos).
+pub fn fresnel_dielectric_cos(cosi: f32, eta: f32) -> f32 {
+    let c = cosi.abs();
+    let g = eta * eta - 1.0 + c * c;
+    if g > 0.0 {
+        let g = g.sqrt();
+        let a = (g - c) / (g + c);
+        let b = (c * (g + c) - 1.0) / (c * (g - c) + 1.0);
+        0.5 * a * a * (1.0 + b * b)
+    } else {
+        1.0
+    }
+}
+
+impl Program {
+    /// Evaluates every operation at `g`, leaving closures in `out`.
+    pub fn run(&self, g: &Geom, regs: &mut Vec<f32>, out: &mut Closures) {
+        regs.clear();
+        regs.extend_from_slice(&self.init);
+        for op in &self.ops {
+            self.step(op, g, regs, out);
+        }
+    }
+
+    /// One operation.
+    #[inline]
+    pub fn step(&self, op: &Op, g: &Geom, r: &mut [f32], out: &mut Closures) {
+        match *op {
+            Op::Math { op, a, b, c, out, clamp } => {
+                let v = ops::math(op, r[a as usize], r[b as usize], r[c as usize]);
+                r[out as usize] = if clamp { v.clamp(0.0, 1.0) } else { v };
+            }
+            Op::VecMath { op, a, b, c, s, vout, fout } => {
+                let (v, f) = ops::vector_math(op, v3(r, a), v3(r, b), v3(r, c), r[s as usize]);
+                set3(r, vout, v);
+                r[fout as usize] = f;
+            }
+            Op::MixFloat { fac, a, b, out, clamp } => {
+                let t = if clamp { r[fac as usize].clamp(0.0, 1.0) } else { r[fac as usize] };
+                r[out as usize] = r[a as usize] * (1.0 - t) + r[b as usize] * t;
+            }
+            Op::MixVec { fac, fac_vec, a, b, out, clamp } => {
+                let mut t = if fac_vec { v3(r, fac) } else { Vec3::splat(r[fac as usize]) };
+                if clamp {
+                    t = t.clamp(Vec3::ZERO, Vec3::ONE);
+                }
+                set3(r, out, v3(r, a) * (Vec3::ONE - t) + v3(r, b) * t);
+            }
+            Op::MixColor { blend, fac, a, b, out, clamp_fac, clamp_res } => {
+                let t = if clamp_fac { r[fac as usize].clamp(0.0, 1.0) } else { r[fac as usize] };
+                let mut c = ops::blend(blend, t, v3(r, a), v3(r, b));
+                if clamp_res {
+                    c = c.clamp(Vec3::ZERO, Vec3::ONE);
+                }
+                set3(r, out, c);
+            }
+            Op::MapRange { interp, vector, v, fmin, fmax, tmin, tmax, steps, out, clamp } => {
+                let n = if vector { 3 } else { 1 };
+                for k in 0..n {
+                    let at = |x: Reg| r[x as usize + k];
+                    r[out as usize + k] =
+                        ops::map_range(interp, at(v), at(fmin), at(fmax), at(tmin), at(tmax), at(steps), clamp);
+                }
+            }
+            Op::Clamp { range, v, min, max, out } => {
+                let (x, lo, hi) = (r[v as usize], r[min as usize], r[max as usize]);
+                r[out as usize] = if range && lo > hi { x.max(hi).min(lo) } else { x.max(lo).min(hi) };
+            }
+            Op::Ramp { table, interpolate, fac, color, alpha } => {
+                let t = &self.ramps[table as usize];
+                let n = t.len();
+                let f = r[fac as usize];
+                let f = if f.is_nan() { 0.0 } else { f.clamp(0.0, 1.0) * (n - 1) as f32 };
+                let i = (f as usize).min(n - 1);
+                let frac = f - i as f32;
+                let mut c = Vec4::from(t[i]);
+                if interpolate && frac > 0.0 && i + 1 < n {
+                    c = c * (1.0 - frac) + Vec4::from(t[i + 1]) * frac;
+                }
+                set3(r, color, c.truncate());
+                r[alpha as usize] = c.w;
+            }
+            Op::Curve { table, kind, fac, v, out } => {
+                let c = &self.curves[table as usize];
+                let t = r[fac as usize];
+                match kind {
+                    CurveKind::Float => {
+                        let x = r[v as usize];
+                        r[out as usize] = x * (1.0 - t) + c.eval(0, x) * t;
+                    }
+                    CurveKind::Vector => {
+                        let x = v3(r, v);
+                        let y = Vec3::new(c.eval(0, x.x), c.eval(1, x.y), c.eval(2, x.z));
+                        set3(r, out, x * (1.0 - t) + y * t);
+                    }
+                    CurveKind::Rgb => {
+                        let x = v3(r, v);
+                        // The combined curve C first, then each channel's (Blender's order).
+                        let y =
+                            Vec3::new(c.eval(1, c.eval(0, x.x)), c.eval(2, c.eval(0, x.y)), c.eval(3, c.eval(0, x.z)));
+                        set3(r, out, x * (1.0 - t) + y * t);
+                    }
+                }
+            }
+            Op::Invert { fac, c, out } => {
+                let x = v3(r, c);
+                let t = r[fac as usize];
+                set3(r, out, x * (1.0 - t) + (Vec3::ONE - x) * t);
+            }
+            Op::Gamma { c, g, out } => set3(r, out, ops::gamma(v3(r, c), r[g as usize])),
+            Op::BrightContrast { c, bright, contrast, out } => {
+                set3(r, out, ops::bright_contrast(v3(r, c), r[bright as usize], r[contrast as usize]))
+            }
+            Op::HueSat { hue, sat, val, fac, c, out } => set3(
+                r,
+                out,
+                ops::hue_sat_val(v3(r, c), r[hue as usize], r[sat as usize], r[val as usize], r[fac as usize]),
+            ),
+            Op::Lum { c, out } => r[out as usize] = luminance(v3(r, c)),
+            Op::Avg { v, out } => {
+                let x = v3(r, v);
+                r[out as usize] = (x.x + x.y + x.z) / 3.0;
+            }
+            Op::Splat { f, out } => set3(r, out, Vec3::splat(r[f as usize])),
+            Op::Pack { x, y, z, out } => set3(r, out, Vec3::new(r[x as usize], r[y as usize], r[z as usize])),
+            Op::Copy3 { src, out } => set3(r, out, v3(r, src)),
+            Op::ColorSpace { space, to_rgb, c, out } => {
+                let x = v3(r, c);
+                let y = match (space, to_rgb) {
+                    (ColorSpace::Hsv, true) => ops::hsv_to_rgb(x),
+                    (ColorSpace::Hsv, false) => ops::rgb_to_hsv(x),
+                    (ColorSpace::Hsl, true) => ops::hsl_to_rgb(x),
+                    (ColorSpace::Hsl, false) => ops::rgb_to_hsl(x),
+                };
+                set3(r, out, y);
+            }
+            Op::Input { what, out } => self.input(what, g, r, out),
+            Op::Fresnel { ior, n, out } => {
+                let n = n.map_or(to_blender(g.n), |n| ops::safe_normalize(v3(r, n)));
+                let eta = r[ior as usize].max(1e-5);
+                let eta = if g.backfacing { 1.0 / eta } else { eta };
+                r[out as usize] = fresnel_dielectric_cos(to_blender(g.wo).dot(n), eta);
+            }
+            Op::LayerWeight { blend, n, fresnel, facing } => {
+                let n = n.map_or(to_blender(g.n), |n| ops::safe_normalize(v3(r, n)));
+                let b = r[blend as usize];
+                let cos = to_blender(g.wo).dot(n);
+                let eta = (1.0 - b).max(1e-5);
+                let eta = if g.backfacing { eta } else { 1.0 / eta };
+                r[fresnel as usize] = fresnel_dielectric_cos(cos, eta);
+                let mut f = cos.abs();
+                if b != 0.5 {
+                    let b = b.clamp(0.0, 1.0 - 1e-5);
+                    let b = if b < 0.5 { 2.0 * b } else { 0.5 / (1.0 - b) };
+                    f = f.powf(b);
+                }
+                r[facing as usize] = 1.0 - f;
+            }
+            Op::Mapping { kind, v, loc, rot, scale, out } => {
+                let x = v3(r, v);
+                let rv = v3(r, rot);
+                let m = Mat3::from_euler(EulerRot::ZYX, rv.z, rv.y, rv.x);
+                let s = v3(r, scale);
+                let sdiv = |a: Vec3, b: Vec3| {
+                    Vec3::new(ops::safe_divide(a.x, b.x), ops::safe_divide(a.y, b.y), ops::safe_divide(a.z, b.z))
+                };
+                let y = match kind {
+                    MappingKind::Point => m * (x * s) + v3(r, loc),
+                    MappingKind::Texture => sdiv(m.transpose() * (x - v3(r, loc)), s),
+                    MappingKind::Vector => m * (x * s),
+                    MappingKind::Normal => ops::safe_normalize(m * sdiv(x, s)),
+                };
+                set3(r, out, y);
+            }
+            Op::NormalMap { space, strength, color, out } => {
+                let c = v3(r, color) * 2.0 - Vec3::ONE;
+                let n = to_blender(g.n);
+                let mapped = match space {
+                    0 => {
+                        let t = g.tangent.truncate();
+                        if t.length_squared() > 0.0 {
+                            // The tangent frame belongs to the front face.
+                            let side = if g.backfacing { -1.0 } else { 1.0 };
+                            let nf = g.n * side;
+                            let tf = (t - nf * nf.dot(t)).normalize_or_zero();
+                            let bf = nf.cross(tf) * if g.tangent.w < 0.0 { -1.0 } else { 1.0 };
+                            to_blender((tf * c.x + bf * c.y + nf * c.z) * side)
+                        } else {
+                            n
+                        }
+                    }
+                    1 => {
+                        // Object-space normals reach the world by the transposed world→object matrix.
+                        let m = g.object.world_to_object.transpose();
+                        to_blender(m.transform_vector3(from_blender(c)))
+                    }
+                    _ => c,
+                };
+                let mapped = ops::safe_normalize(mapped);
+                let s = r[strength as usize].max(0.0);
+                let y = ops::safe_normalize(n + (mapped - n) * s);
+                set3(r, out, if y == Vec3::ZERO { n } else { y });
+            }
+            Op::MixWeight { w, fac, out1, out2 } => {
+                let wv = w.map_or(1.0, |w| r[w as usize]);
+                let t = r[fac as usize].clamp(0.0, 1.0);
+                r[out1 as usize] = wv * (1.0 - t);
+                r[out2 as usize] = wv * t;
+            }
+            Op::Closure(ref c) => c.apply(r, g, out),
+            Op::Texture(ref t) => t.run(r),
+            Op::Image(ref t) => t.run(r, g.textures),
+            Op::Bump(ref b) => self.bump(b, g, r, out),
+        }
+    }
+
+    /// The Bump node: Cycles' surface-gradient formula (`svm_node_set_bump`) with the
+    /// heights at P + dx and P + dy, dx and dy a small orthogonal pair in the triangle's
+    /// plane. Cycles takes them from the ray's footprint (times the Filter Width); without
+    /// ray differentials the pair is 10⁻⁴ of max(1, |P|) long (above f32's resolution of
+    /// P, below any texture detail), which is the limit the footprint tends to for fine
+    /// pixels: N' = normalize(N − Distance ∇h) blended with N by Strength.
+    fn bump(&self, b: &BumpOp, g: &Geom, r: &mut [f32], out: &mut Closures) {
+        let n_in = b.normal.map_or(g.n, |n| from_blender(v3(r, n)).normalize_or(g.n));
+        let hc = r[b.height as usize];
+        let mut result = n_in;
+        if let Some(&[i0, i1, i2]) = g.mesh.triangles.get(g.tri as usize) {
+            let m = g.mesh;
+            let (p0, p1, p2) = (m.positions[i0 as usize], m.positions[i1 as usize], m.positions[i2 as usize]);
+            let (e1, e2) = (p1 - p0, p2 - p0);
+            let ng = e1.cross(e2);
+            let (ex, ey) = {
+                let f = Frame::from_normal(ng.normalize_or(Vec3::Z));
+                (f.s, f.t)
+            };
+            let eps = 1e-4 * g.p.abs().max_element().max(1.0);
+            // Barycentrics of a point of the plane: solve p − p0 = b1 e1 + b2 e2.
+            let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+            let den = d11 * d22 - d12 * d12;
+            let bary = |q: Vec3| {
+                let v = q - p0;
+                let (v1, v2) = (v.dot(e1), v.dot(e2));
+                ((d22 * v1 - d12 * v2) / den, (d11 * v2 - d12 * v1) / den)
+            };
+            if den > 0.0 {
+                // The offset runs overwrite the height's registers: a copy of the file puts
+                // them back (a nested bump, whose copy is in use, re-runs instead).
+                let saved = SAVED.with(|s| {
+                    s.try_borrow_mut().ok().map(|mut s| {
+                        s.clear();
+                        s.extend_from_slice(r);
+                    })
+                });
+                let mut h = [0.0f32; 2];
+                for (k, d) in [ex * eps, ey * eps].into_iter().enumerate() {
+                    let (b1, b2) = bary(g.p + d);
+                    let mut g2 = super::shade::geom_at(m, std::slice::from_ref(g.object), g.textures, g.tri, b1, b2);
+                    g2.object = g.object;
+                    g2.wo = g.wo;
+                    g2.backfacing = g.backfacing;
+                    g2.p = g.p + d;
+                    if g2.n.dot(g.n) < 0.0 {
+                        g2.n = -g2.n;
+                        g2.ng = -g2.ng;
+                    }
+                    for &(a, z) in &b.sub {
+                        for op in &self.ops[a as usize..z as usize] {
+                            self.step(op, &g2, r, out);
+                        }
+                    }
+                    h[k] = r[b.height as usize];
+                }
+                // Restore the registers the re-runs overwrote.
+                let restored = saved.is_some() && SAVED.with(|s| s.try_borrow().map(|s| r.copy_from_slice(&s)).is_ok());
+                if !restored {
+                    for &(a, z) in &b.sub {
+                        for op in &self.ops[a as usize..z as usize] {
+                            self.step(op, g, r, out);
+                        }
+                    }
+                }
+                let (dx, dy) = (ex * eps, ey * eps);
+                let rx = dy.cross(n_in);
+                let ry = n_in.cross(dx);
+                let det = dx.dot(rx);
+                let surfgrad = (h[0] - hc) * rx + (h[1] - hc) * ry;
+                let dist = r[b.distance as usize] * if b.invert { -1.0 } else { 1.0 };
+                let bumped = (det.abs() * n_in - dist * det.signum() * surfgrad).normalize_or(n_in);
+                let s = r[b.strength as usize].clamp(0.0, 1.0);
+                result = (s * bumped + (1.0 - s) * n_in).normalize_or(n_in);
+            }
+        }
+        set3(r, b.out, to_blender(result));
+    }
+
+    fn input(&self, what: InputKind, g: &Geom, r: &mut [f32], out: Reg) {
+        let obj = g.object;
+        let v = match what {
+            InputKind::Position => to_blender(g.p),
+            InputKind::Normal => to_blender(g.n),
+            InputKind::TrueNormal => to_blender(g.ng),
+            InputKind::Incoming => to_blender(g.wo),
+            InputKind::Backfacing => {
+                r[out as usize] = g.backfacing as u8 as f32;
+                return;
+            }
+            InputKind::Tangent => to_blender(g.tangent.truncate().normalize_or_zero()),
+            InputKind::Uv(set) => {
+                let uv = g.uv[set.min(1) as usize];
+                Vec3::new(uv.x, 1.0 - uv.y, 0.0)
+            }
+            InputKind::Object => to_blender(obj.world_to_object.transform_point3(g.p)),
+            InputKind::ObjectMatrix(i) => to_blender(self.matrices[i as usize].transform_point3(g.p)),
+            InputKind::Generated => {
+                let p = to_blender(obj.world_to_object.transform_point3(g.p));
+                match obj.texspace {
+                    Some((loc, size)) => {
+                        let d = |a: f32, b: f32| if b != 0.0 { a / (2.0 * b) } else { 0.0 };
+                        let q = p - loc;
+                        Vec3::new(d(q.x, size.x), d(q.y, size.y), d(q.z, size.z)) + Vec3::splat(0.5)
+                    }
+                    None => p,
+                }
+            }
+            InputKind::ObjectNormal => {
+                // Normals go to object space by the inverse transpose of world→object.
+                let m = obj.world_to_object.inverse().transpose();
+                to_blender(m.transform_vector3(g.n).normalize_or_zero())
+            }
+            InputKind::Reflection => {
+                let n = g.n;
+                to_blender(2.0 * n.dot(g.wo) * n - g.wo)
+            }
+            InputKind::VertexColor => g.color.truncate(),
+            InputKind::VertexAlpha => {
+                r[out as usize] = g.color.w;
+                return;
+            }
+            InputKind::ObjectLocation => to_blender(obj.location),
+            InputKind::ObjectRandom => {
+                r[out as usize] = obj.random;
+                return;
+            }
+        };
+        set3(r, out, v);
+    }
+}

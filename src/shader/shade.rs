@@ -1,0 +1,175 @@
+//! The shading point of a material with a node graph: the program evaluated at the hit,
+//! its closures turned into one BSDF, the shading frame and the emission; and the
+//! graph's transparency for `Scene::alpha`.
+
+use super::closure::Closures;
+use super::program::{Geom, ObjectData, Program, with_registers};
+use crate::bsdf::{Bsdf, PbrBsdf};
+use crate::math::{Frame, Rgb};
+use crate::scene::shading::{ShadingPoint, SurfaceHit};
+use crate::scene::{Mesh, Scene};
+use glam::Vec3;
+
+/// The default instance data (identity transform) for triangles without one.
+static NO_OBJECT: ObjectData =
+    ObjectData { world_to_object: glam::Mat4::IDENTITY, location: Vec3::ZERO, random: 0.0, texspace: None };
+
+impl Scene {
+    /// The instance data of a triangle.
+    #[inline]
+    pub fn object_of(&self, tri: u32) -> &ObjectData {
+        match self.mesh.tri_object.get(tri as usize) {
+            Some(&o) => self.objects.get(o as usize).unwrap_or(&NO_OBJECT),
+            None => &NO_OBJECT,
+        }
+    }
+}
+
+/// Runs `prog` at the hit `s` seen from `wo`.
+fn evaluate(scene: &Scene, prog: &Program, s: &SurfaceHit, wo: Vec3) -> Closures {
+    let g = Geom {
+        p: s.p,
+        n: s.ns,
+        ng: s.ng,
+        wo,
+        uv: s.uv,
+        color: s.color,
+        tangent: s.tangent,
+        backfacing: !s.front,
+        object: scene.object_of(s.tri),
+        textures: &scene.textures,
+        mesh: &scene.mesh,
+        tri: s.tri,
+    };
+    let mut out = Closures::default();
+    with_registers(|regs| {
+        prog.run(&g, regs, &mut out);
+        if out.normal.is_none()
+            && let Some(n) = prog.displacement_normal
+        {
+            let n = n as usize;
+            out.normal = Some(Vec3::new(regs[n], regs[n + 1], regs[n + 2]));
+        }
+    });
+    out
+}
+
+/// The shading point of a node material (`Scene::shade` calls this when the material
+/// has a program).
+pub fn shade_nodes(scene: &Scene, prog: &Program, s: &SurfaceHit, wo: Vec3, double_sided: bool) -> ShadingPoint {
+    let c = evaluate(scene, prog, s, wo);
+    // The Transparent part is taken by coverage (Scene::alpha) before the surface is
+    // shaded: what is shaded here is the rest, renormalised.
+    let t = ((c.transparent.x + c.transparent.y + c.transparent.z) / 3.0).clamp(0.0, 1.0);
+    let keep = if t > 0.0 && t < 1.0 { 1.0 / (1.0 - t) } else { 1.0 };
+    // Shading normal: the closures' linked normal, else the interpolated one, on the
+    // viewer's side and bent toward the viewer as the glTF path does.
+    let mut n = match c.normal_world() {
+        Some(m) => {
+            if m.dot(s.ng) < 0.0 {
+                -m
+            } else {
+                m
+            }
+        }
+        None => s.ns,
+    };
+    let cos_o = n.dot(wo);
+    if cos_o < 1e-3 {
+        n = (n + wo * (1e-3 - cos_o)).normalize_or(s.ng);
+        if n.dot(wo) <= 0.0 {
+            n = s.ng;
+        }
+    }
+    let frame = Frame::from_normal(n);
+    let mut mix = c.mix;
+    mix.scale(keep);
+    let bsdf = if c.pbr_w > 0.0 {
+        let mut params = c.principled_params(!s.front);
+        params.coat_normal = c.coat_normal_world().map(|m| frame.to_local(if m.dot(s.ng) < 0.0 { -m } else { m }));
+        let pbr = PbrBsdf::from_params(&params);
+        let w = c.pbr_w * keep;
+        if mix.n == 0 && (w - 1.0).abs() < 1e-6 {
+            // A lone Principled BSDF is the glTF material: the same code path.
+            Bsdf::Pbr(pbr)
+        } else {
+            mix.pbr = pbr;
+            mix.pbr_weight = w;
+            Bsdf::Mix(mix)
+        }
+    } else {
+        Bsdf::Mix(mix)
+    };
+    let emitted = if s.front || double_sided { c.emission * keep } else { Rgb::ZERO };
+    ShadingPoint { bsdf, frame, emitted }
+}
+
+/// The shading point at barycentrics of a triangle without a ray: the viewer is taken
+/// along the normal (Fresnel-driven transparency or emission then uses normal incidence).
+pub fn geom_at<'a>(
+    mesh: &'a Mesh,
+    objects: &'a [ObjectData],
+    textures: &'a [crate::scene::Texture],
+    tri: u32,
+    b1: f32,
+    b2: f32,
+) -> Geom<'a> {
+    let m = mesh;
+    let [i0, i1, i2] = m.triangles[tri as usize].map(|i| i as usize);
+    let b0 = 1.0 - b1 - b2;
+    let p = m.positions[i0] * b0 + m.positions[i1] * b1 + m.positions[i2] * b2;
+    let ng = (m.positions[i1] - m.positions[i0]).cross(m.positions[i2] - m.positions[i0]).normalize_or(Vec3::Z);
+    let ns = (m.normals[i0] * b0 + m.normals[i1] * b1 + m.normals[i2] * b2).normalize_or(ng);
+    let uv = [m.uv0[i0] * b0 + m.uv0[i1] * b1 + m.uv0[i2] * b2, m.uv1[i0] * b0 + m.uv1[i1] * b1 + m.uv1[i2] * b2];
+    let color = m.colors[i0] * b0 + m.colors[i1] * b1 + m.colors[i2] * b2;
+    let tangent = m.tangents[i0] * b0 + m.tangents[i1] * b1 + m.tangents[i2] * b2;
+    let object = match m.tri_object.get(tri as usize) {
+        Some(&o) => objects.get(o as usize).unwrap_or(&NO_OBJECT),
+        None => &NO_OBJECT,
+    };
+    Geom { p, n: ns, ng, wo: ns, uv, color, tangent, backfacing: false, object, textures, mesh, tri }
+}
+
+/// The graph's opacity at barycentrics (1 − its Transparent weight, grey by the mean).
+pub fn node_alpha(scene: &Scene, prog: &Program, tri: u32, b1: f32, b2: f32) -> f32 {
+    let g = geom_at(&scene.mesh, &scene.objects, &scene.textures, tri, b1, b2);
+    let mut out = Closures::default();
+    with_registers(|regs| prog.run(&g, regs, &mut out));
+    let t = out.transparent;
+    1.0 - ((t.x + t.y + t.z) / 3.0).clamp(0.0, 1.0)
+}
+
+/// The emission of a node material at barycentrics, seen along the normal.
+pub fn node_emission(
+    mesh: &Mesh,
+    objects: &[ObjectData],
+    textures: &[crate::scene::Texture],
+    prog: &Program,
+    tri: u32,
+    b1: f32,
+    b2: f32,
+) -> Rgb {
+    if let Some(e) = prog.constant_emission {
+        return e;
+    }
+    let g = geom_at(mesh, objects, textures, tri, b1, b2);
+    let mut out = Closures::default();
+    with_registers(|regs| prog.run(&g, regs, &mut out));
+    out.emission.max(Vec3::ZERO)
+}
+
+impl Scene {
+    /// Emitted radiance of triangle `tri` at barycentrics (toward its front): the node
+    /// graph's emission, or the glTF material's. For the light routines.
+    #[inline]
+    pub fn emission_at(&self, tri: u32, b1: f32, b2: f32) -> Rgb {
+        let mat = &self.materials[self.mesh.tri_material[tri as usize] as usize];
+        match &mat.nodes {
+            Some(prog) => node_emission(&self.mesh, &self.objects, &self.textures, prog, tri, b1, b2),
+            None => {
+                let (uv, color) = self.attributes(tri, b1, b2);
+                mat.emission(&self.textures, uv, color)
+            }
+        }
+    }
+}

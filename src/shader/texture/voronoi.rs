@@ -1,0 +1,687 @@
+//! Blender's Voronoi Texture node (`svm/voronoi.h`): Worley noise in 1 to 4 dimensions with
+//! the features F1, F2, smooth F1, distance to edge and n-sphere radius, four metrics, and the
+//! fractal (multi-octave) Voronoi added in Blender 4.0.
+//!
+//! Inputs as the node receives them; the node clamps detail to [0, 15], roughness and
+//! randomness to [0, 1] and halves smoothness into [0, 0.5], as here. 1-D reads only `w`,
+//! 2-D `p.xy`, 3-D `p`, 4-D `(p, w)`. Cycles' float details are kept: cells are scanned in
+//! its order (x fastest) with strict `<`, so ties go to the first cell; a vector divided by a
+//! scalar is multiplied by the reciprocal; 1-D ignores the metric.
+
+use core::ops::{Add, Mul, Sub};
+
+use glam::{Vec2, Vec3, Vec4};
+
+use super::hash::{
+    hash_float_to_float, hash_float_to_float3, hash_int2_to_float2, hash_int2_to_float3, hash_int3_to_float3,
+    hash_int4_to_float3, hash_int4_to_float4,
+};
+use super::perlin::mix;
+
+/// The node's "Feature" setting.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum VoronoiFeature {
+    F1,
+    F2,
+    SmoothF1,
+    DistanceToEdge,
+    NSphereRadius,
+}
+
+/// The node's "Distance" setting (ignored in 1-D).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum VoronoiMetric {
+    Euclidean,
+    Manhattan,
+    Chebychev,
+    Minkowski,
+}
+
+/// The Voronoi node's settings and non-vector inputs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VoronoiParams {
+    /// 1..=4 (anything else is treated as 3, Blender's default).
+    pub dims: u8,
+    /// What is measured: the node's "Feature".
+    pub feature: VoronoiFeature,
+    /// How distance is measured: the node's "Distance".
+    pub metric: VoronoiMetric,
+    /// Divide distance and colour by their largest possible value.
+    pub normalize: bool,
+    /// Multiplies the vector and W before anything else.
+    pub scale: f32,
+    /// Octaves after the first, [0, 15]; a fraction blends in one more.
+    pub detail: f32,
+    /// Amplitude ratio between octaves, [0, 1].
+    pub roughness: f32,
+    /// Frequency ratio between octaves.
+    pub lacunarity: f32,
+    /// Smooth F1's blend width, [0, 1] (halved inside, as Cycles does).
+    pub smoothness: f32,
+    /// The Minkowski exponent.
+    pub exponent: f32,
+    /// How far feature points stray from the cell corner, [0, 1].
+    pub randomness: f32,
+}
+
+/// The node's outputs; those the feature does not produce are zero, as in Cycles.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct VoronoiOut {
+    /// F1, F2, smooth F1 or edge distance.
+    pub distance: f32,
+    /// The cell's random colour (blended for smooth F1 and octaves).
+    pub color: Vec3,
+    /// The feature point, in the input's (unscaled) space.
+    pub position: Vec3,
+    /// The feature point's W (1-D and 4-D).
+    pub w: f32,
+    /// The n-sphere radius.
+    pub radius: f32,
+}
+
+/// The parameters after the node's clamping, as Cycles' `VoronoiParams`.
+struct Params {
+    feature: VoronoiFeature,
+    metric: VoronoiMetric,
+    normalize: bool,
+    scale: f32,
+    detail: f32,
+    roughness: f32,
+    lacunarity: f32,
+    smoothness: f32,
+    exponent: f32,
+    randomness: f32,
+    max_distance: f32,
+}
+
+/// One octave's (or the sum's) outputs; position in 4-D as Cycles keeps it.
+#[derive(Clone, Copy, Default)]
+struct Octave {
+    distance: f32,
+    color: Vec3,
+    position: Vec4,
+}
+
+/// A Voronoi coordinate of 1 to 4 dimensions.
+trait Coord: Copy + Add<Output = Self> + Sub<Output = Self> + Mul<f32, Output = Self> {
+    const DIMS: u32;
+    fn floor(self) -> Self;
+    /// The cell offset with index `i` of the `(2r + 1)^DIMS` neighbourhood, x fastest.
+    fn offset(i: u32, r: i32) -> Self;
+    fn splat(v: f32) -> Self;
+    /// The feature point inside cell `cell + offset` (`cell` is a floor, so integral): 1-D
+    /// hashes the float's bits, 2-D to 4-D the integer coordinates (Cycles' `hash_intN_to_floatN`,
+    /// added in int arithmetic as Cycles does, which stays exact beyond 2^24).
+    fn hash_point(cell: Self, offset: Self) -> Self;
+    /// The colour of cell `cell + offset`.
+    fn hash_color(cell: Self, offset: Self) -> Vec3;
+    fn dot(self, b: Self) -> f32;
+    /// Sum of the components (Cycles' `reduce_add`).
+    fn sum(self) -> f32;
+    fn max_element(self) -> f32;
+    fn abs(self) -> Self;
+    fn powf(self, e: f32) -> Self;
+    /// Cycles' `voronoi_position`: where the coordinate lands in the 4-D output.
+    fn position(self) -> Vec4;
+
+    /// Cycles' `voronoi_distance` for the node's metric (1-D overrides: always |a - b|).
+    #[inline(always)]
+    fn distance(a: Self, b: Self, prm: &Params) -> f32 {
+        let d = (a - b).abs();
+        match prm.metric {
+            VoronoiMetric::Euclidean => euclidean(a, b),
+            VoronoiMetric::Manhattan => d.sum(),
+            VoronoiMetric::Chebychev => d.max_element(),
+            VoronoiMetric::Minkowski => d.powf(prm.exponent).sum().powf(1.0 / prm.exponent),
+        }
+    }
+
+    /// Cycles' `voronoi_distance_bound`: a monotonic stand-in for the distance (no root) that
+    /// F1 compares with (1-D overrides: |a - b|).
+    #[inline(always)]
+    fn distance_bound(a: Self, b: Self, prm: &Params) -> f32 {
+        let d = (a - b).abs();
+        match prm.metric {
+            VoronoiMetric::Euclidean => (a - b).dot(a - b),
+            VoronoiMetric::Manhattan => d.sum(),
+            VoronoiMetric::Chebychev => d.max_element(),
+            VoronoiMetric::Minkowski => d.powf(prm.exponent).sum(),
+        }
+    }
+
+    /// Cycles' `voronoi_distance_to_edge` (1-D overrides with its closed form).
+    #[inline]
+    fn distance_to_edge(prm: &Params, coord: Self) -> f32 {
+        let cell = coord.floor();
+        let local = coord - cell;
+        let n = 3u32.pow(Self::DIMS);
+        let to_point = |i: u32| {
+            let offset = Self::offset(i, 1);
+            offset + Self::hash_point(cell, offset) * prm.randomness - local
+        };
+        let mut to_closest = Self::splat(0.0);
+        let mut min_distance = f32::MAX;
+        for i in 0..n {
+            let v = to_point(i);
+            let d = v.dot(v);
+            if d < min_distance {
+                min_distance = d;
+                to_closest = v;
+            }
+        }
+        min_distance = f32::MAX;
+        for i in 0..n {
+            let v = to_point(i);
+            let perpendicular = v - to_closest;
+            let len2 = perpendicular.dot(perpendicular);
+            // Cycles skips the closest point itself (and points within 0.01 of it).
+            if len2 > 0.0001 {
+                let unit = perpendicular * (1.0 / len2.sqrt());
+                let d = ((to_closest + v) * 0.5).dot(unit);
+                min_distance = min_distance.min(d);
+            }
+        }
+        min_distance
+    }
+}
+
+/// Cycles' `make_intN(floor) + offset`: integer cell coordinates.
+#[inline(always)]
+fn cell_index<const N: usize>(cell: [f32; N], offset: [f32; N]) -> [i32; N] {
+    core::array::from_fn(|k| (cell[k] as i32).wrapping_add(offset[k] as i32))
+}
+
+/// Cycles' `distance`: the Euclidean length of `a - b`.
+#[inline(always)]
+fn euclidean<T: Coord>(a: T, b: T) -> f32 {
+    let d = a - b;
+    d.dot(d).sqrt()
+}
+
+impl Coord for f32 {
+    const DIMS: u32 = 1;
+    #[inline(always)]
+    fn floor(self) -> Self {
+        f32::floor(self)
+    }
+    #[inline(always)]
+    fn offset(i: u32, r: i32) -> Self {
+        (i as i32 - r) as f32
+    }
+    #[inline(always)]
+    fn splat(v: f32) -> Self {
+        v
+    }
+    #[inline(always)]
+    fn hash_point(cell: Self, offset: Self) -> Self {
+        hash_float_to_float(cell + offset)
+    }
+    #[inline(always)]
+    fn hash_color(cell: Self, offset: Self) -> Vec3 {
+        hash_float_to_float3(cell + offset)
+    }
+    #[inline(always)]
+    fn dot(self, b: Self) -> f32 {
+        self * b
+    }
+    #[inline(always)]
+    fn sum(self) -> f32 {
+        self
+    }
+    #[inline(always)]
+    fn max_element(self) -> f32 {
+        self
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        f32::abs(self)
+    }
+    #[inline(always)]
+    fn powf(self, e: f32) -> Self {
+        f32::powf(self, e)
+    }
+    #[inline(always)]
+    fn position(self) -> Vec4 {
+        Vec4::new(0.0, 0.0, 0.0, self)
+    }
+    #[inline(always)]
+    fn distance(a: Self, b: Self, _: &Params) -> f32 {
+        (b - a).abs()
+    }
+    #[inline(always)]
+    fn distance_bound(a: Self, b: Self, _: &Params) -> f32 {
+        (b - a).abs()
+    }
+    #[inline]
+    fn distance_to_edge(prm: &Params, coord: Self) -> f32 {
+        let cell = coord.floor();
+        let local = coord - cell;
+        let mid = hash_float_to_float(cell) * prm.randomness;
+        let left = -1.0 + hash_float_to_float(cell - 1.0) * prm.randomness;
+        let right = 1.0 + hash_float_to_float(cell + 1.0) * prm.randomness;
+        let to_mid_left = ((mid + left) / 2.0 - local).abs();
+        let to_mid_right = ((mid + right) / 2.0 - local).abs();
+        to_mid_left.min(to_mid_right)
+    }
+}
+
+impl Coord for Vec2 {
+    const DIMS: u32 = 2;
+    #[inline(always)]
+    fn floor(self) -> Self {
+        Vec2::floor(self)
+    }
+    #[inline(always)]
+    fn offset(i: u32, r: i32) -> Self {
+        let n = (2 * r + 1) as u32;
+        Vec2::new((i % n) as i32 as f32 - r as f32, (i / n) as i32 as f32 - r as f32)
+    }
+    #[inline(always)]
+    fn splat(v: f32) -> Self {
+        Vec2::splat(v)
+    }
+    #[inline(always)]
+    fn hash_point(cell: Self, offset: Self) -> Self {
+        hash_int2_to_float2(cell_index(cell.to_array(), offset.to_array()))
+    }
+    #[inline(always)]
+    fn hash_color(cell: Self, offset: Self) -> Vec3 {
+        hash_int2_to_float3(cell_index(cell.to_array(), offset.to_array()))
+    }
+    #[inline(always)]
+    fn dot(self, b: Self) -> f32 {
+        self.x * b.x + self.y * b.y
+    }
+    #[inline(always)]
+    fn sum(self) -> f32 {
+        self.x + self.y
+    }
+    #[inline(always)]
+    fn max_element(self) -> f32 {
+        self.x.max(self.y)
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        Vec2::abs(self)
+    }
+    #[inline(always)]
+    fn powf(self, e: f32) -> Self {
+        Vec2::new(self.x.powf(e), self.y.powf(e))
+    }
+    #[inline(always)]
+    fn position(self) -> Vec4 {
+        Vec4::new(self.x, self.y, 0.0, 0.0)
+    }
+}
+
+impl Coord for Vec3 {
+    const DIMS: u32 = 3;
+    #[inline(always)]
+    fn floor(self) -> Self {
+        Vec3::floor(self)
+    }
+    #[inline(always)]
+    fn offset(i: u32, r: i32) -> Self {
+        let n = (2 * r + 1) as u32;
+        Vec3::new((i % n) as f32 - r as f32, (i / n % n) as f32 - r as f32, (i / (n * n)) as f32 - r as f32)
+    }
+    #[inline(always)]
+    fn splat(v: f32) -> Self {
+        Vec3::splat(v)
+    }
+    #[inline(always)]
+    fn hash_point(cell: Self, offset: Self) -> Self {
+        hash_int3_to_float3(cell_index(cell.to_array(), offset.to_array()))
+    }
+    #[inline(always)]
+    fn hash_color(cell: Self, offset: Self) -> Vec3 {
+        hash_int3_to_float3(cell_index(cell.to_array(), offset.to_array()))
+    }
+    #[inline(always)]
+    fn dot(self, b: Self) -> f32 {
+        self.x * b.x + self.y * b.y + self.z * b.z
+    }
+    #[inline(always)]
+    fn sum(self) -> f32 {
+        self.x + self.y + self.z
+    }
+    #[inline(always)]
+    fn max_element(self) -> f32 {
+        self.x.max(self.y).max(self.z)
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        Vec3::abs(self)
+    }
+    #[inline(always)]
+    fn powf(self, e: f32) -> Self {
+        Vec3::new(self.x.powf(e), self.y.powf(e), self.z.powf(e))
+    }
+    #[inline(always)]
+    fn position(self) -> Vec4 {
+        self.extend(0.0)
+    }
+}
+
+impl Coord for Vec4 {
+    const DIMS: u32 = 4;
+    #[inline(always)]
+    fn floor(self) -> Self {
+        Vec4::floor(self)
+    }
+    #[inline(always)]
+    fn offset(i: u32, r: i32) -> Self {
+        let n = (2 * r + 1) as u32;
+        Vec4::new(
+            (i % n) as f32 - r as f32,
+            (i / n % n) as f32 - r as f32,
+            (i / (n * n) % n) as f32 - r as f32,
+            (i / (n * n * n)) as f32 - r as f32,
+        )
+    }
+    #[inline(always)]
+    fn splat(v: f32) -> Self {
+        Vec4::splat(v)
+    }
+    #[inline(always)]
+    fn hash_point(cell: Self, offset: Self) -> Self {
+        hash_int4_to_float4(cell_index(cell.to_array(), offset.to_array()))
+    }
+    #[inline(always)]
+    fn hash_color(cell: Self, offset: Self) -> Vec3 {
+        hash_int4_to_float3(cell_index(cell.to_array(), offset.to_array()))
+    }
+    #[inline(always)]
+    fn dot(self, b: Self) -> f32 {
+        self.x * b.x + self.y * b.y + self.z * b.z + self.w * b.w
+    }
+    #[inline(always)]
+    fn sum(self) -> f32 {
+        self.x + self.y + self.z + self.w
+    }
+    #[inline(always)]
+    fn max_element(self) -> f32 {
+        self.x.max(self.y).max(self.z).max(self.w)
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        Vec4::abs(self)
+    }
+    #[inline(always)]
+    fn powf(self, e: f32) -> Self {
+        Vec4::new(self.x.powf(e), self.y.powf(e), self.z.powf(e), self.w.powf(e))
+    }
+    #[inline(always)]
+    fn position(self) -> Vec4 {
+        self
+    }
+}
+
+/// Cycles' `voronoi_f1`: the closest feature point (found by the bound, measured after).
+#[inline]
+fn f1<T: Coord>(prm: &Params, coord: T) -> Octave {
+    let cell = coord.floor();
+    let local = coord - cell;
+    let mut min_distance = f32::MAX;
+    let mut target_offset = T::splat(0.0);
+    let mut target_position = T::splat(0.0);
+    for i in 0..3u32.pow(T::DIMS) {
+        let offset = T::offset(i, 1);
+        let point = offset + T::hash_point(cell, offset) * prm.randomness;
+        let d = T::distance_bound(point, local, prm);
+        if d < min_distance {
+            target_offset = offset;
+            min_distance = d;
+            target_position = point;
+        }
+    }
+    Octave {
+        distance: T::distance(target_position, local, prm),
+        color: T::hash_color(cell, target_offset),
+        position: (target_position + cell).position(),
+    }
+}
+
+/// Cycles' `voronoi_smooth_f1`: a smooth minimum over a 5^N neighbourhood.
+#[inline]
+fn smooth_f1<T: Coord>(prm: &Params, coord: T) -> Octave {
+    let cell = coord.floor();
+    let local = coord - cell;
+    let mut smooth_distance = 0.0f32;
+    let mut smooth_color = Vec3::ZERO;
+    let mut smooth_position = T::splat(0.0);
+    let mut h = -1.0f32;
+    for i in 0..5u32.pow(T::DIMS) {
+        let offset = T::offset(i, 2);
+        let point = offset + T::hash_point(cell, offset) * prm.randomness;
+        let d = T::distance(point, local, prm);
+        h = if h == -1.0 { 1.0 } else { smoothstep01(0.5 + 0.5 * (smooth_distance - d) / prm.smoothness) };
+        let mut correction = prm.smoothness * h * (1.0 - h);
+        smooth_distance = mix(smooth_distance, d, h) - correction;
+        correction /= 1.0 + 3.0 * prm.smoothness;
+        let cell_color = T::hash_color(cell, offset);
+        smooth_color = smooth_color + (cell_color - smooth_color) * h - Vec3::splat(correction);
+        smooth_position = smooth_position + (point - smooth_position) * h - T::splat(correction);
+    }
+    Octave { distance: smooth_distance, color: smooth_color, position: (cell + smooth_position).position() }
+}
+
+/// Cycles' `smoothstep(0, 1, x)`.
+#[inline(always)]
+fn smoothstep01(x: f32) -> f32 {
+    if x < 0.0 {
+        0.0
+    } else if x >= 1.0 {
+        1.0
+    } else {
+        (3.0 - 2.0 * x) * (x * x)
+    }
+}
+
+/// Cycles' `voronoi_f2`: the second closest feature point.
+#[inline]
+fn f2<T: Coord>(prm: &Params, coord: T) -> Octave {
+    let cell = coord.floor();
+    let local = coord - cell;
+    let (mut distance_f1, mut distance_f2) = (f32::MAX, f32::MAX);
+    let (mut offset_f1, mut position_f1) = (T::splat(0.0), T::splat(0.0));
+    let (mut offset_f2, mut position_f2) = (T::splat(0.0), T::splat(0.0));
+    for i in 0..3u32.pow(T::DIMS) {
+        let offset = T::offset(i, 1);
+        let point = offset + T::hash_point(cell, offset) * prm.randomness;
+        let d = T::distance(point, local, prm);
+        if d < distance_f1 {
+            distance_f2 = distance_f1;
+            distance_f1 = d;
+            offset_f2 = offset_f1;
+            offset_f1 = offset;
+            position_f2 = position_f1;
+            position_f1 = point;
+        } else if d < distance_f2 {
+            distance_f2 = d;
+            offset_f2 = offset;
+            position_f2 = point;
+        }
+    }
+    Octave { distance: distance_f2, color: T::hash_color(cell, offset_f2), position: (position_f2 + cell).position() }
+}
+
+/// Cycles' `voronoi_n_sphere_radius`: half the distance from the closest feature point to its
+/// own closest neighbour (always Euclidean; compared squared, as Cycles does).
+#[inline]
+fn n_sphere_radius<T: Coord>(prm: &Params, coord: T) -> f32 {
+    let cell = coord.floor();
+    let local = coord - cell;
+    let mut closest = T::splat(0.0);
+    let mut closest_offset = T::splat(0.0);
+    let mut min_distance = f32::MAX;
+    let n = 3u32.pow(T::DIMS);
+    for i in 0..n {
+        let offset = T::offset(i, 1);
+        let point = offset + T::hash_point(cell, offset) * prm.randomness;
+        let d = (point - local).dot(point - local);
+        if d < min_distance {
+            min_distance = d;
+            closest = point;
+            closest_offset = offset;
+        }
+    }
+    min_distance = f32::MAX;
+    let mut closest_to_closest = T::splat(0.0);
+    // Index n / 2 is the zero offset, the closest point's own cell.
+    for i in (0..n).filter(|&i| i != n / 2) {
+        let offset = T::offset(i, 1) + closest_offset;
+        let point = offset + T::hash_point(cell, offset) * prm.randomness;
+        let d = (closest - point).dot(closest - point);
+        if d < min_distance {
+            min_distance = d;
+            closest_to_closest = point;
+        }
+    }
+    euclidean(closest_to_closest, closest) / 2.0
+}
+
+/// Cycles' `fractal_voronoi_x_fx`: octaves of F1, F2 or smooth F1 summed like fBM, the
+/// positions blended by lerps.
+#[inline]
+fn fractal<T: Coord>(prm: &Params, coord: T) -> Octave {
+    let mut amplitude = 1.0f32;
+    let mut max_amplitude = 0.0f32;
+    let mut scale = 1.0f32;
+    let mut out = Octave::default();
+    let zero_input = prm.detail == 0.0 || prm.roughness == 0.0;
+    let last = prm.detail.ceil() as i32;
+    for i in 0..=last {
+        let c = coord * scale;
+        let octave = match prm.feature {
+            VoronoiFeature::F2 => f2(prm, c),
+            VoronoiFeature::SmoothF1 if prm.smoothness != 0.0 => smooth_f1(prm, c),
+            _ => f1(prm, c),
+        };
+        if zero_input {
+            max_amplitude = 1.0;
+            out = octave;
+            break;
+        }
+        let octave_position = octave.position * (1.0 / scale);
+        if i as f32 <= prm.detail {
+            max_amplitude += amplitude;
+            out.distance += octave.distance * amplitude;
+            out.color += octave.color * amplitude;
+            out.position = mix4(out.position, octave_position, amplitude);
+            scale *= prm.lacunarity;
+            amplitude *= prm.roughness;
+        } else {
+            let remainder = prm.detail - prm.detail.floor();
+            if remainder != 0.0 {
+                max_amplitude = mix(max_amplitude, max_amplitude + amplitude, remainder);
+                out.distance = mix(out.distance, out.distance + octave.distance * amplitude, remainder);
+                let color = out.color + octave.color * amplitude;
+                out.color = out.color + (color - out.color) * remainder;
+                let position = mix4(out.position, octave_position, amplitude);
+                out.position = mix4(out.position, position, remainder);
+            }
+        }
+    }
+    if prm.normalize {
+        out.distance /= max_amplitude * prm.max_distance;
+        out.color *= 1.0 / max_amplitude;
+    }
+    // Cycles' `safe_divide(position, scale)`.
+    out.position = if prm.scale != 0.0 { out.position * (1.0 / prm.scale) } else { Vec4::ZERO };
+    out
+}
+
+/// Cycles' vector `mix`: `a + t (b - a)`.
+#[inline(always)]
+fn mix4(a: Vec4, b: Vec4, t: f32) -> Vec4 {
+    a + (b - a) * t
+}
+
+/// Cycles' `fractal_voronoi_distance_to_edge`: the smallest edge distance over octaves.
+#[inline]
+fn fractal_distance_to_edge<T: Coord>(prm: &Params, coord: T) -> f32 {
+    let mut amplitude = 1.0f32;
+    let mut max_amplitude = prm.max_distance;
+    let mut scale = 1.0f32;
+    let mut distance = 8.0f32;
+    let zero_input = prm.detail == 0.0 || prm.roughness == 0.0;
+    for i in 0..=prm.detail.ceil() as i32 {
+        let octave_distance = T::distance_to_edge(prm, coord * scale);
+        if zero_input {
+            distance = octave_distance;
+            break;
+        }
+        if i as f32 <= prm.detail {
+            max_amplitude = mix(max_amplitude, prm.max_distance / scale, amplitude);
+            distance = mix(distance, distance.min(octave_distance / scale), amplitude);
+            scale *= prm.lacunarity;
+            amplitude *= prm.roughness;
+        } else {
+            let remainder = prm.detail - prm.detail.floor();
+            if remainder != 0.0 {
+                let lerp_amplitude = mix(max_amplitude, prm.max_distance / scale, amplitude);
+                max_amplitude = mix(max_amplitude, lerp_amplitude, remainder);
+                let lerp_distance = mix(distance, distance.min(octave_distance / scale), amplitude);
+                distance = mix(distance, distance.min(lerp_distance), remainder);
+            }
+        }
+    }
+    if prm.normalize {
+        distance /= max_amplitude;
+    }
+    distance
+}
+
+/// The node for one coordinate type: the feature's outputs.
+#[inline]
+fn evaluate<T: Coord>(prm: &mut Params, coord: T) -> VoronoiOut {
+    match prm.feature {
+        VoronoiFeature::DistanceToEdge => {
+            prm.max_distance = 0.5 + 0.5 * prm.randomness;
+            VoronoiOut { distance: fractal_distance_to_edge(prm, coord), ..VoronoiOut::default() }
+        }
+        VoronoiFeature::NSphereRadius => VoronoiOut { radius: n_sphere_radius(prm, coord), ..VoronoiOut::default() },
+        _ => {
+            // The largest F1 distance of a jittered grid: the distance to the far corner of
+            // the cell's reach (in 1-D plainly 0.5 + 0.5 randomness); twice that for F2.
+            let reach = 0.5 + 0.5 * prm.randomness;
+            let max_distance = if T::DIMS == 1 { reach } else { T::distance(T::splat(0.0), T::splat(reach), prm) };
+            let factor = if prm.feature == VoronoiFeature::F2 { 2.0 } else { 1.0 };
+            prm.max_distance = max_distance * factor;
+            let out = fractal(prm, coord);
+            VoronoiOut {
+                distance: out.distance,
+                color: out.color,
+                position: out.position.truncate(),
+                w: out.position.w,
+                radius: 0.0,
+            }
+        }
+    }
+}
+
+/// Distance, Color, Position, W and Radius of the Voronoi Texture node at `p` (and `w`).
+pub fn voronoi_texture(p: Vec3, w: f32, prm: &VoronoiParams) -> VoronoiOut {
+    let mut params = Params {
+        feature: prm.feature,
+        metric: prm.metric,
+        normalize: prm.normalize,
+        scale: prm.scale,
+        detail: prm.detail.clamp(0.0, 15.0),
+        roughness: prm.roughness.clamp(0.0, 1.0),
+        lacunarity: prm.lacunarity,
+        smoothness: (prm.smoothness / 2.0).clamp(0.0, 0.5),
+        exponent: prm.exponent,
+        randomness: prm.randomness.clamp(0.0, 1.0),
+        max_distance: 0.0,
+    };
+    let p = p * prm.scale;
+    let w = w * prm.scale;
+    match prm.dims {
+        1 => evaluate(&mut params, w),
+        2 => evaluate(&mut params, Vec2::new(p.x, p.y)),
+        4 => evaluate(&mut params, p.extend(w)),
+        _ => evaluate(&mut params, p),
+    }
+}
