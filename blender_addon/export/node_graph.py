@@ -320,6 +320,11 @@ class _Builder:
                 props[key] = sorted(value) if prop.is_enum_flag else value
             else:
                 props[key] = plain(value)
+        # Value and RGB nodes keep their number in the output socket, not in a setting.
+        if node.bl_idname == "ShaderNodeValue":
+            props["value"] = float(node.outputs[0].default_value)
+        elif node.bl_idname == "ShaderNodeRGB":
+            props["color"] = plain(node.outputs[0].default_value)
         self._tex_coord(node, name, props)
         self._warn_colour_attribute(node, name, props)
         return props

@@ -541,3 +541,22 @@ def test_every_shader_node_type_exports(addon, empty_scene, tmp_path):
             continue
         assert graph is not None, kind
         assert kind in {n["type"] for n in graph["nodes"]}, (kind, graph["nodes"])
+
+
+def test_value_and_rgb_nodes_carry_their_numbers(addon, empty_scene, tmp_path):
+    """Value and RGB nodes keep their number in the output socket: the add-on writes it as
+    props.value / props.color (contract), else the renderer would read 0."""
+    mat = new_material("Constants")
+    tree = mat.node_tree
+    rgb = tree.nodes.new("ShaderNodeRGB")
+    rgb.outputs[0].default_value = (0.2, 0.4, 0.6, 1.0)
+    bsdf = diffuse_from(mat, rgb.outputs[0])
+    value = tree.nodes.new("ShaderNodeValue")
+    value.outputs[0].default_value = 0.3
+    tree.links.new(value.outputs[0], bsdf.inputs["Roughness"])
+    uv_plane(empty_scene, "P", mat)
+
+    gltf, _, _ = export(addon, empty_scene, tmp_path)
+    nodes = by_name(graph_of(gltf, "Constants"))
+    assert nodes["Value"][1]["props"]["value"] == pytest.approx(0.3)
+    assert nodes["Color"][1]["props"]["color"][:3] == pytest.approx([0.2, 0.4, 0.6])
