@@ -20,6 +20,7 @@ out of it or writes differently from what Cycles renders (docs/contract.md):
 | `gltf_hooks.py` | the hook class the exporter calls, and making sure it finds it |
 | `depsgraph.py` | pointing the exporter at the render depsgraph |
 | `state.py` | the export in progress, shared with the hooks |
+| `unsupported.py` | warnings naming what Caustic cannot render yet (motion blur, hair, holdout, ...) |
 """
 
 import os
@@ -36,6 +37,7 @@ from .materials import COAT_EXTENSION, principled_extras, shader_node_material  
 from .media import MEDIUM_EXTENSION, SUBSURFACE_EXTENSION, medium_extension, subsurface_extension  # noqa: F401
 from .settings import render_settings  # noqa: F401
 from .state import ExportState, exporting
+from .unsupported import scene_warnings
 from .world import WORLD_EXTENSION, world_extension  # noqa: F401
 
 
@@ -94,6 +96,7 @@ def export_scene(depsgraph, folder, settings):
         raise CausticError(f"glTF export failed: {lines[-1] if lines else err}") from None
     if state.errors:
         raise CausticError("export failed: " + "; ".join(state.errors))
+    state.warnings.extend(scene_warnings(depsgraph))
     if not os.path.isfile(filepath):
         raise CausticError("glTF export wrote no file")
     return filepath, state

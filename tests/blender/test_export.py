@@ -6,6 +6,7 @@ RenderEngine.render(), with the render depsgraph. The exporter swallows hook exc
 the written file proves that the hooks ran.
 """
 
+import importlib
 import json
 import math
 
@@ -437,3 +438,37 @@ def test_principled_inside_a_node_group_is_left_to_the_exporter(empty_scene, cap
     gltf = captured()[0]
     pbr = next(m for m in gltf["materials"] if m["name"] == "Grouped")["pbrMetallicRoughness"]
     assert pbr["baseColorFactor"][:3] == pytest.approx([0.1, 0.7, 0.2])
+
+
+def test_unrendered_features_are_named(addon, empty_scene):
+    """Scene features Caustic does not render yet are each named in a warning (issue 20):
+    motion blur, Holdout, Shadow Catcher, ray visibility, light linking, hair, volume objects,
+    Holdout/Indirect Only collections; an ordinary object gets none."""
+    unsupported = importlib.import_module(addon.__name__ + ".export.unsupported")
+    scene = empty_scene
+    scene.render.use_motion_blur = True
+    plain = scenes.cube(scene, "Plain", 1.0, (0, 0, 0))
+    held = scenes.cube(scene, "Held", 1.0, (2, 0, 0))
+    held.is_holdout = True
+    catcher = scenes.cube(scene, "Catcher", 1.0, (4, 0, 0))
+    catcher.is_shadow_catcher = True
+    shy = scenes.cube(scene, "Shy", 1.0, (6, 0, 0))
+    shy.visible_shadow = False
+    linked = scenes.cube(scene, "Linked", 1.0, (8, 0, 0))
+    linked.light_linking.receiver_collection = bpy.data.collections.new("Receivers")
+    furry = scenes.cube(scene, "Furry", 1.0, (10, 0, 0))
+    furry.modifiers.new("Hair", "PARTICLE_SYSTEM").particle_system.settings.type = "HAIR"
+    fog = bpy.data.objects.new("Smoke", bpy.data.volumes.new("SmokeData"))
+    scene.collection.objects.link(fog)
+    held_coll = bpy.data.collections.new("HeldCollection")
+    scene.collection.children.link(held_coll)
+    bpy.context.view_layer.layer_collection.children["HeldCollection"].holdout = True
+
+    warnings = unsupported.scene_warnings(bpy.context.evaluated_depsgraph_get())
+    text = "\n".join(warnings)
+    for words in (("motion blur",), ("Held", "Holdout"), ("Catcher", "Shadow Catcher"), ("Shy", "shadow"),
+                  ("Linked", "light linking"), ("Furry", "hair"), ("Smoke", "volume"),
+                  ("HeldCollection", "Holdout")):
+        assert any(all(w in line for w in words) for line in warnings), f"{words} not named in:\n{text}"
+    assert not any("'Plain'" in line for line in warnings), text
+    assert unsupported.object_warnings(plain) == []

@@ -1,0 +1,75 @@
+"""What Caustic cannot render yet, named: scene features that would otherwise be dropped without
+a word (motion blur, hair, volume objects, holdout and shadow catcher, ray visibility, light
+linking, view layer holdout and indirect-only collections, material override). Each warning
+names the object, collection or setting and says what the render does instead."""
+
+_RAY_VISIBILITY = (("visible_camera", "camera"), ("visible_diffuse", "diffuse"), ("visible_glossy", "glossy"),
+                   ("visible_transmission", "transmission"), ("visible_volume_scatter", "volume scatter"),
+                   ("visible_shadow", "shadow"))
+
+
+def scene_warnings(depsgraph):
+    """Warnings for everything in the render depsgraph's scene that Caustic does not render."""
+    scene = depsgraph.scene
+    view_layer = depsgraph.view_layer
+    warnings = []
+    if scene.render.use_motion_blur:
+        warnings.append("motion blur is on: Caustic renders the frame without it (sharp)")
+    if view_layer.material_override is not None:
+        warnings.append(f"view layer '{view_layer.name}': the material override "
+                        f"'{view_layer.material_override.name}' is not applied")
+    warnings += _collection_warnings(view_layer.layer_collection, view_layer.name)
+    seen = set()
+    for instance in depsgraph.object_instances:
+        obj = instance.instance_object if instance.is_instance else instance.object
+        original = obj.original
+        if original.name in seen:
+            continue
+        seen.add(original.name)
+        warnings += object_warnings(original)
+    return warnings
+
+
+def object_warnings(obj):
+    """Warnings for one object's features that Caustic does not render."""
+    what = f"object '{obj.name}'"
+    warnings = []
+    if obj.type == "CURVES":
+        warnings.append(f"{what}: hair curves are not rendered")
+    elif obj.type == "VOLUME":
+        warnings.append(f"{what}: volume objects (OpenVDB grids) are not rendered")
+    elif obj.type == "POINTCLOUD":
+        warnings.append(f"{what}: point clouds are not rendered")
+    for modifier in getattr(obj, "modifiers", ()):
+        if modifier.type == "PARTICLE_SYSTEM" and modifier.show_render:
+            settings = modifier.particle_system.settings
+            if settings.type == "HAIR" and settings.render_type == "PATH":
+                warnings.append(f"{what}: hair particle system '{modifier.particle_system.name}' is not rendered")
+    if getattr(obj, "is_holdout", False):
+        warnings.append(f"{what}: Holdout is not supported; it renders as an ordinary object")
+    if getattr(obj, "is_shadow_catcher", False):
+        warnings.append(f"{what}: Shadow Catcher is not supported; it renders as an ordinary object")
+    if obj.type in ("MESH", "CURVE", "SURFACE", "META", "FONT"):
+        hidden = [name for prop, name in _RAY_VISIBILITY if not getattr(obj, prop, True)]
+        if hidden:
+            warnings.append(f"{what}: ray visibility off for {', '.join(hidden)} is ignored "
+                            "(the object is seen by every ray)")
+    linking = getattr(obj, "light_linking", None)
+    if linking is not None and (linking.receiver_collection is not None or linking.blocker_collection is not None):
+        warnings.append(f"{what}: light linking (receivers/blockers) is ignored; the light lights and is "
+                        "blocked by everything")
+    return warnings
+
+
+def _collection_warnings(layer_collection, layer_name):
+    """Holdout and Indirect Only collections of the view layer, which Caustic renders as ordinary."""
+    warnings = []
+    for child in layer_collection.children:
+        if child.exclude:
+            continue
+        for flag, label in (("holdout", "Holdout"), ("indirect_only", "Indirect Only")):
+            if getattr(child, flag, False):
+                warnings.append(f"view layer '{layer_name}': collection '{child.name}' is {label}, which is not "
+                                "supported; it renders as ordinary")
+        warnings += _collection_warnings(child, layer_name)
+    return warnings
