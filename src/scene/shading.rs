@@ -233,6 +233,7 @@ impl Scene {
             subsurface: mat.subsurface.map_or(0.0, |s| s.weight),
             diffuse_normal: (n != unbent).then(|| frame.to_local(unbent)),
             smooth_normal: (unbent != s.ns).then(|| frame.to_local(s.ns)),
+            anisotropy: None,
         };
         // An unlit surface only shows its colour (the emission above): it reflects nothing.
         let params = if mat.unlit { PbrParams { specular: 0.0, ..PbrParams::opaque(Rgb::ZERO, 0.0, 1.0) } } else { params };
