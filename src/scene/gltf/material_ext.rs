@@ -26,9 +26,9 @@ pub(super) const HANDLED_MATERIAL_EXTENSIONS: &[&str] = &[
     "CAUSTIC_materials_coat",
     // Read in `materials.rs`:
     "KHR_materials_unlit",
-    // Warned about by name where they are read:
-    "KHR_materials_iridescence",
     "KHR_materials_anisotropy",
+    // Warned about by name where it is read:
+    "KHR_materials_iridescence",
 ];
 
 impl Loader<'_> {
@@ -260,10 +260,21 @@ impl Loader<'_> {
                 ));
             }
         }
-        for ext in ["KHR_materials_iridescence", "KHR_materials_anisotropy"] {
-            if m.extension_value(ext).is_some() {
-                features.push(format!("{ext} (ignored)"));
-                self.warn(format!("material '{name}': {ext} is not rendered yet and was ignored"));
+        if m.extension_value("KHR_materials_iridescence").is_some() {
+            features.push("KHR_materials_iridescence (ignored)".into());
+            self.warn(format!("material '{name}': KHR_materials_iridescence is not rendered yet and was ignored"));
+        }
+        let (mut anisotropy_strength, mut anisotropy_rotation, mut anisotropy_tex) = (0.0, 0.0, None);
+        if let Some(a) = m.extension_value("KHR_materials_anisotropy").cloned() {
+            features.push("KHR_materials_anisotropy".into());
+            let strength = num(&a, "anisotropyStrength", 0.0)?;
+            anisotropy_strength = strength.clamp(0.0, 1.0);
+            if anisotropy_strength != strength {
+                self.warn(format!("material '{name}': anisotropyStrength {strength} was clamped to [0, 1]"));
+            }
+            anisotropy_rotation = num(&a, "anisotropyRotation", 0.0)?;
+            if let Some(t) = a.get("anisotropyTexture") {
+                anisotropy_tex = self.raw_texture(doc, t, false, buffers, &name)?;
             }
         }
         let mut specular = 1.0;
@@ -315,6 +326,9 @@ impl Loader<'_> {
         mat.sheen_roughness = sheen_roughness;
         mat.sheen_roughness_tex = sheen_roughness_tex;
         mat.dispersion = dispersion;
+        mat.anisotropy_strength = anisotropy_strength;
+        mat.anisotropy_rotation = anisotropy_rotation;
+        mat.anisotropy_tex = anisotropy_tex;
         Ok(())
     }
 }

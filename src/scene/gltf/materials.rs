@@ -239,6 +239,18 @@ mod tests {
     }
 
     #[test]
+    fn anisotropy_strength_rotation_and_texture() {
+        let (m, scene) = material(
+            json!({"name": "brushed",
+                "extensions": {"KHR_materials_anisotropy": {"anisotropyStrength": 0.6, "anisotropyRotation": 0.75,
+                    "anisotropyTexture": {"index": 0}}}}),
+            1,
+        );
+        assert_eq!((m.anisotropy_strength, m.anisotropy_rotation), (0.6, 0.75));
+        assert_eq!(texel_id(&scene, m.anisotropy_tex), 0);
+    }
+
+    #[test]
     fn core_factors_and_textures() {
         let (m, scene) = material(
             json!({"name": "m",
