@@ -195,7 +195,13 @@ impl Scene {
             if strength > 0.0 && (d - n * n.dot(d)).length_squared() > 1e-12 {
                 frame = Frame::from_normal_tangent(n, d);
                 let a = roughness.clamp(0.0, 1.0).powi(2);
-                anisotropy = Some((a + (1.0 - a) * strength * strength, a));
+                anisotropy = Some(if mat.anisotropy_blender {
+                    // Cycles' Principled BSDF; widths above 1 are clamped to 1 by the BSDF.
+                    let aspect = (1.0 - 0.9 * strength).sqrt();
+                    (a / aspect, a * aspect)
+                } else {
+                    (a + (1.0 - a) * strength * strength, a)
+                });
             }
         }
         let emitted =

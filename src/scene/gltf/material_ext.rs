@@ -27,6 +27,7 @@ pub(super) const HANDLED_MATERIAL_EXTENSIONS: &[&str] = &[
     // Read in `materials.rs`:
     "KHR_materials_unlit",
     "KHR_materials_anisotropy",
+    "CAUSTIC_materials_anisotropy",
     // Warned about by name where it is read:
     "KHR_materials_iridescence",
 ];
@@ -277,6 +278,19 @@ impl Loader<'_> {
                 anisotropy_tex = self.raw_texture(doc, t, false, buffers, &name)?;
             }
         }
+        let mut anisotropy_blender = false;
+        if let Some(a) = m.extension_value("CAUSTIC_materials_anisotropy").cloned() {
+            features.push("CAUSTIC_materials_anisotropy".into());
+            anisotropy_blender = match a.get("mapping").and_then(|v| v.as_str()) {
+                Some("blender") => true,
+                None | Some("gltf") => false,
+                Some(other) => {
+                    return Err(self.err(format!(
+                        "material '{name}': CAUSTIC_materials_anisotropy mapping '{other}' is not \"gltf\" or \"blender\""
+                    )));
+                }
+            };
+        }
         let mut specular = 1.0;
         let (mut specular_color, mut specular_tex, mut specular_color_tex) = (Vec3::ONE, None, None);
         if let Some(spec) = m.extension_value("KHR_materials_specular").cloned() {
@@ -329,6 +343,7 @@ impl Loader<'_> {
         mat.anisotropy_strength = anisotropy_strength;
         mat.anisotropy_rotation = anisotropy_rotation;
         mat.anisotropy_tex = anisotropy_tex;
+        mat.anisotropy_blender = anisotropy_blender;
         Ok(())
     }
 }

@@ -62,6 +62,7 @@ pub const SUPPORTED_REQUIRED: &[&str] = &[
     "CAUSTIC_materials_medium",
     "CAUSTIC_materials_subsurface",
     "CAUSTIC_materials_coat",
+    "CAUSTIC_materials_anisotropy",
     "CAUSTIC_default_material",
 ];
 
@@ -534,6 +535,7 @@ mod tests {
             "CAUSTIC_materials_medium",
             "CAUSTIC_materials_subsurface",
             "CAUSTIC_materials_coat",
+            "CAUSTIC_materials_anisotropy",
         ] {
             assert!(SUPPORTED_REQUIRED.contains(&name), "{name} is not in SUPPORTED_REQUIRED");
             if let Err(e) = load_requiring(&[name]) {
