@@ -47,7 +47,13 @@ fn scene(dir: &Path, with_tangents: bool) -> PathBuf {
 
 /// The plane of [`scene`] with a constant normal map of one `texel`, the given material,
 /// the sun, and a world of radiance `world` when given (then without the sun).
-fn plane_scene(path: &Path, with_tangents: bool, texel: [u8; 3], material: serde_json::Value, world: Option<f32>) -> PathBuf {
+fn plane_scene(
+    path: &Path,
+    with_tangents: bool,
+    texel: [u8; 3],
+    material: serde_json::Value,
+    world: Option<f32>,
+) -> PathBuf {
     let positions = f32_bytes(&[-1., -1., 0., 1., -1., 0., 1., 1., 0., -1., 1., 0.]);
     let normals = f32_bytes(&[0., 0., 1., 0., 0., 1., 0., 0., 1., 0., 0., 1.]);
     let uvs = f32_bytes(&[0., 1., 1., 1., 1., 0., 0., 0.]);

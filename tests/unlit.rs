@@ -24,7 +24,8 @@ fn scene(dir: &std::path::Path, base: [f32; 3], vertex: [f32; 4]) -> std::path::
         .iter()
         .map(|(o, l)| json!({"buffer": 0, "byteOffset": o, "byteLength": l}))
         .collect();
-    let uri = format!("data:application/octet-stream;base64,{}", base64::engine::general_purpose::STANDARD.encode(&data));
+    let uri =
+        format!("data:application/octet-stream;base64,{}", base64::engine::general_purpose::STANDARD.encode(&data));
     let doc = json!({
         "asset": {"version": "2.0"},
         "extensionsUsed": ["KHR_lights_punctual", "KHR_materials_unlit"],

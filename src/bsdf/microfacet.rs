@@ -150,7 +150,8 @@ mod tests {
             for (theta, phi) in [(0.0f32, 0.0f32), (0.8, 0.7), (1.4, 2.0)] {
                 let ggx = Ggx::anisotropic(ax, ay);
                 let wo = Vec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos());
-                let t = ChiSquareTest::new(&format!("anisotropic GGX visible normals α=({ax}, {ay}) θ={theta} φ={phi}"));
+                let t =
+                    ChiSquareTest::new(&format!("anisotropic GGX visible normals α=({ax}, {ay}) θ={theta} φ={phi}"));
                 assert_chi2(t.run(|u| Some(ggx.sample_visible_normal(wo, u)), |m| ggx.pdf_visible_normal(wo, m)));
             }
         }

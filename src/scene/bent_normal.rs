@@ -73,7 +73,8 @@ mod tests {
         // tilted 50° to 89° (their reflections are below the surface for these views), also
         // normals that face away from the viewer.
         let mut bent = 0;
-        for &(vx, vy, vz) in &[(0.0, 0.0, 1.0), (0.5, 0.2, 0.8), (-0.6, 0.3, 0.7), (0.9, -0.1, 0.05), (-0.95, 0.0, 0.02)]
+        for &(vx, vy, vz) in
+            &[(0.0, 0.0, 1.0), (0.5, 0.2, 0.8), (-0.6, 0.3, 0.7), (0.9, -0.1, 0.05), (-0.95, 0.0, 0.02)]
         {
             let wo = Vec3::new(vx, vy, vz).normalize();
             for tilt_deg in [50.0f32, 65.0, 80.0, 89.0] {

@@ -204,8 +204,11 @@ impl Scene {
                 });
             }
         }
-        let emitted =
-            if mat.is_emissive() && (s.front || mat.double_sided) { mat.emission(tex, s.uv, s.color) } else { Rgb::ZERO };
+        let emitted = if mat.is_emissive() && (s.front || mat.double_sided) {
+            mat.emission(tex, s.uv, s.color)
+        } else {
+            Rgb::ZERO
+        };
         let mut transmission = mat.transmission;
         if let Some(t) = &mat.transmission_tex {
             transmission *= lookup(t).x;
@@ -240,8 +243,9 @@ impl Scene {
         }
         // The coat's own normal map, in the shading frame (the coat lobe uses it).
         let coat_normal = match &mat.coat_normal_tex {
-            Some(t) if coat > 0.0 => map_normal(t, mat.coat_normal_scale)
-                .map(|(m, _)| frame.to_local(valid_reflection_normal(s.ng, wo, m))),
+            Some(t) if coat > 0.0 => {
+                map_normal(t, mat.coat_normal_scale).map(|(m, _)| frame.to_local(valid_reflection_normal(s.ng, wo, m)))
+            }
             _ => None,
         };
         let params = PbrParams {
@@ -268,7 +272,8 @@ impl Scene {
             anisotropy,
         };
         // An unlit surface only shows its colour (the emission above): it reflects nothing.
-        let params = if mat.unlit { PbrParams { specular: 0.0, ..PbrParams::opaque(Rgb::ZERO, 0.0, 1.0) } } else { params };
+        let params =
+            if mat.unlit { PbrParams { specular: 0.0, ..PbrParams::opaque(Rgb::ZERO, 0.0, 1.0) } } else { params };
         ShadingPoint { bsdf: Bsdf::Pbr(PbrBsdf::from_params(&params)), frame, emitted }
     }
 }
