@@ -26,6 +26,7 @@ from .media import MEDIUM_EXTENSION, SUBSURFACE_EXTENSION, medium_extension, sub
 from .nodes import procedural_source, surface_node, value as _value
 
 COAT_EXTENSION = "CAUSTIC_materials_coat"
+ANISOTROPY_EXTENSION = "CAUSTIC_materials_anisotropy"
 
 # Shaders the add-on translates; any other surface is a warning and a grey Lambertian.
 _BSDF_NODES = {"BSDF_DIFFUSE", "BSDF_GLOSSY", "BSDF_METALLIC", "BSDF_GLASS", "BSDF_REFRACTION"}
@@ -39,7 +40,8 @@ def _principled(blender_material):
 
 def principled_extras(blender_material, graph=False):
     """What Blender's glTF exporter drops from a Principled BSDF that Caustic renders
-    (`CAUSTIC_materials_coat`: coat IOR and tint), and warnings naming what neither renders.
+    (`CAUSTIC_materials_coat`: coat IOR and tint), and warnings naming what neither renders
+    (the anisotropy's Cycles mapping is added in `complete_material`).
 
     With `graph` (the material is exported as a node graph) linked inputs are not named: the
     graph carries them."""
@@ -75,7 +77,8 @@ def principled_extras(blender_material, graph=False):
     if value("Diffuse Roughness", 0.0) > 0.0:
         warnings.append(f"material '{name}': Diffuse Roughness is not rendered (Caustic's diffuse is Lambertian)")
     if value("Anisotropic", 0.0) > 0.0:
-        warnings.append(f"material '{name}': anisotropic reflection is rendered isotropic")
+        warnings.append(f"material '{name}': the anisotropy direction follows the UV tangents (MikkTSpace); "
+                        "Cycles' default Tangent is radial around the object's Z axis (the same on a UV sphere)")
     return coat, warnings
 
 
@@ -232,6 +235,10 @@ def complete_material(gltf2_material, blender_material, export_settings, state):
     state.warnings.extend(warnings)
     if coat is not None:
         _set_extension(gltf2_material, COAT_EXTENSION, coat)
+    if "KHR_materials_anisotropy" in (gltf2_material.extensions or {}):
+        # The exporter writes Blender's Anisotropic as glTF's strength; Cycles maps it to widths
+        # differently (docs/contract.md).
+        _set_extension(gltf2_material, ANISOTROPY_EXTENSION, {"mapping": "blender"})
     approximation_warnings.extend(_principled_transmission_tint(gltf2_material, blender_material))
     extensions = gltf2_material.extensions or {}
     if "KHR_materials_transmission" in extensions and "KHR_materials_volume" not in extensions:

@@ -36,6 +36,12 @@
 //! the adjoint, `Bsdf::eval_adjoint`). The opaque dielectric's specular layer and the coat
 //! stay single-scattering (their albedo scales the layers below them).
 //!
+//! `KHR_materials_anisotropy` (and Blender's Anisotropic): the metal's and the specular
+//! layer's GGX take widths (αx, αy) along the shading frame's X axis (the anisotropy
+//! direction) and Y; their albedos, for the layering and the multiple-scattering
+//! compensation, come from the anisotropic table (`aniso_albedo.rs`), which depends on the
+//! view's azimuth too. The glass stays isotropic, as in Cycles' Principled BSDF.
+//!
 //! The shading frame's normal is the one the specular lobes see, which the caller may have
 //! bent towards the geometric normal to keep mirror reflections above the surface (as
 //! Cycles does, `scene::bent_normal`). Cycles leaves its diffuse closure on the unbent
@@ -50,6 +56,7 @@
 //! of Ns than the mapped normal puts it is not reflected at all.
 
 use super::BsdfSample;
+use super::aniso_albedo::aniso_albedo;
 use super::dielectric::{DielectricBsdf, SMOOTH_ROUGHNESS};
 use super::microfacet::{Ggx, reflect, schlick_weight};
 use super::sheen::{charlie_brdf, sheen_albedo_table};
@@ -118,6 +125,9 @@ pub struct PbrParams {
     /// The interpolated normal before normal mapping, in the shading frame, when a normal
     /// map changed it (the diffuse base's bump shadowing).
     pub smooth_normal: Option<Vec3>,
+    /// Anisotropic widths (αx, αy) of the metal's and the specular layer's GGX along the
+    /// shading frame's X and Y axes, replacing roughness² there.
+    pub anisotropy: Option<(f32, f32)>,
 }
 
 impl PbrParams {
@@ -144,6 +154,7 @@ impl PbrParams {
             subsurface: 0.0,
             diffuse_normal: None,
             smooth_normal: None,
+            anisotropy: None,
         }
     }
 }
@@ -190,6 +201,8 @@ pub struct PbrBsdf {
     pub coat_frame: Option<Frame>,
     /// The diffuse base's frame within the shading frame, when its normal differs.
     pub diffuse_frame: Option<Frame>,
+    /// Perceptual roughnesses (√αx, √αy) of anisotropic reflection lobes (their albedo table).
+    aniso: Option<(f32, f32)>,
     /// The interpolated normal before normal mapping and the GGX α² of the bump shadowing
     /// (the diffuse base's), when a normal map moved the normal.
     bump: Option<(Vec3, f32)>,
@@ -256,6 +269,15 @@ impl PbrBsdf {
             let cos_d = ns.dot(diffuse_n).abs().min(1.0);
             (cos_d < 1.0 && cos_d > 0.0).then(|| (ns, (0.125 * (1.0 / (cos_d * cos_d) - 1.0)).min(1.0)))
         });
+        let (ggx, aniso, smooth) = match p.anisotropy.filter(|(x, y)| x.is_finite() && y.is_finite()) {
+            Some((ax, ay)) => {
+                // The table covers widths up to 1 (glTF's mapping stays within it).
+                let ggx = Ggx::anisotropic(ax.clamp(0.0, 1.0), ay.clamp(0.0, 1.0));
+                let (ax, ay) = ggx.alphas();
+                (ggx, Some((ax.sqrt(), ay.sqrt())), ax.max(ay).sqrt() < SMOOTH_ROUGHNESS)
+            }
+            None => (Ggx::from_roughness(roughness), None, roughness < SMOOTH_ROUGHNESS),
+        };
         let mut glass = DielectricBsdf::new(p.eta, roughness, p.thin, base);
         if p.dispersion > 0.0 && p.dispersion.is_finite() && !p.thin {
             glass = glass.with_dispersion(ior, p.dispersion);
@@ -273,16 +295,17 @@ impl PbrBsdf {
             f0_rgb: (spec_color * f0).min(Vec3::ONE),
             transmission: p.transmission.clamp(0.0, 1.0),
             glass,
-            ggx: Ggx::from_roughness(roughness),
+            ggx,
             coat: p.coat.clamp(0.0, 1.0),
             coat_roughness: p.coat_roughness.clamp(0.0, 1.0),
             coat_ggx: Ggx::from_roughness(p.coat_roughness.clamp(0.0, 1.0)),
-            smooth: roughness < SMOOTH_ROUGHNESS,
+            smooth,
             smooth_coat: p.coat_roughness < SMOOTH_ROUGHNESS,
             layer_avg: Rgb::ZERO,
             metal_fms: Rgb::ZERO,
             coat_frame,
             diffuse_frame,
+            aniso,
             bump,
             coat_f0: f0_from_ior(if p.coat_ior.is_finite() && p.coat_ior >= 1.0 { p.coat_ior } else { 1.5 }).min(1.0),
             coat_ior: if p.coat_ior.is_finite() && p.coat_ior >= 1.0 { p.coat_ior } else { 1.5 },
@@ -296,14 +319,26 @@ impl PbrBsdf {
     }
 
     fn with_layer_avg(mut self) -> Self {
-        let (a, b) = specular_albedo().ab_avg(self.roughness);
+        let (a, b) = match self.aniso {
+            Some((rx, ry)) => aniso_albedo().ab_avg(rx, ry),
+            None => specular_albedo().ab_avg(self.roughness),
+        };
         self.layer_avg = (self.f0_rgb * a + Vec3::splat(b)) * self.specular;
         if self.metallic > 0.0 && !self.smooth {
-            let e_avg = specular_albedo().e_avg_white(self.roughness);
+            let e_avg = a + b;
             let f_avg = self.base + (Vec3::ONE - self.base) / 21.0;
             self.metal_fms = f_avg * e_avg / (Vec3::ONE - f_avg * (1.0 - e_avg)).max(Vec3::splat(1e-6));
         }
         self
+    }
+
+    /// (A, B) of the reflection lobes' albedo E = F0·A + B seen from local direction `w`.
+    #[inline]
+    fn lobe_ab(&self, w: Vec3) -> (f32, f32) {
+        match self.aniso {
+            Some((rx, ry)) => aniso_albedo().ab(w, rx, ry),
+            None => specular_albedo().ab(w.z, self.roughness),
+        }
     }
 
     /// For a refracted pair (wo, wi), the adjoint f(wi, wo) over η² f(wo, wi): not 1 when
@@ -350,14 +385,15 @@ impl PbrBsdf {
         Rgb::ONE + (t - Rgb::ONE) * self.coat
     }
 
-    /// Directional albedo of the opaque dielectric's specular layer at μ, per channel.
+    /// Directional albedo of the opaque dielectric's specular layer seen from local
+    /// direction `w` (upper hemisphere), per channel.
     #[inline]
-    fn layer_albedo(&self, mu: f32) -> Rgb {
+    fn layer_albedo(&self, w: Vec3) -> Rgb {
         // Blender's Specular IOR Level 0 (a pure Lambertian) needs no table lookup.
         if self.specular == 0.0 {
             return Rgb::ZERO;
         }
-        let (a, b) = specular_albedo().ab(mu, self.roughness);
+        let (a, b) = self.lobe_ab(w);
         (self.f0_rgb * a + Vec3::splat(b)) * self.specular
     }
 
@@ -539,7 +575,7 @@ impl PbrBsdf {
         // The dielectric layer and the metal read the same (μo, roughness) table entry.
         let need_layer = opaque > 0.0 && self.specular != 0.0;
         let need_metal = self.metal_fms != Rgb::ZERO;
-        let (a, b) = if need_layer || need_metal { specular_albedo().ab(wo.z, self.roughness) } else { (0.0, 0.0) };
+        let (a, b) = if need_layer || need_metal { self.lobe_ab(wo) } else { (0.0, 0.0) };
         let eo = if need_layer { (self.f0_rgb * a + Vec3::splat(b)) * self.specular } else { Rgb::ZERO };
         let es = self.sheen_albedo(wo.z);
         let sheen_o = if self.sheen_max > 0.0 { 1.0 - es } else { 1.0 };
@@ -688,7 +724,7 @@ impl PbrBsdf {
         // Coloured layers (a tinted coat or specular layer) are reduced to their luminance:
         // the random walk carries one weight for the whole spectrum of its entry.
         let above = luminance(self.coat_transmittance(up)) * (1.0 - self.coat_albedo(up)) * self.sheen_scaling(mu, mu);
-        above * opaque * (1.0 - luminance(self.layer_albedo(mu))) * self.subsurface
+        above * opaque * (1.0 - luminance(self.layer_albedo(up))) * self.subsurface
     }
 
     /// Albedo for the denoiser: the colour a white light would reflect, roughly.
@@ -757,7 +793,7 @@ impl PbrAt<'_> {
             // The specular weight scales the whole layer (F0 and F90), so its albedo is
             // weight × E and the albedo scaling stays exact, channel by channel.
             let f_layer = (b.f0_rgb + (Vec3::ONE - b.f0_rgb) * fw) * b.specular;
-            let ei = b.layer_albedo(wi.z);
+            let ei = b.layer_albedo(wi);
             let diffuse_weight = (Vec3::ONE - self.eo) * (Vec3::ONE - ei)
                 / (Vec3::ONE - b.layer_avg).max(Vec3::splat(1e-6))
                 * (1.0 - b.subsurface);

@@ -39,6 +39,15 @@ pub struct Material {
     pub emissive: Rgb,
     /// Emissive texture (sRGB).
     pub emissive_tex: Option<TexRef>,
+    /// `KHR_materials_anisotropy` anisotropyStrength (0: isotropic).
+    pub anisotropy_strength: f32,
+    /// anisotropyRotation: radians from the tangent towards the bitangent.
+    pub anisotropy_rotation: f32,
+    /// anisotropyTexture: direction in tangent space (RG, [-1, 1]) and strength (B).
+    pub anisotropy_tex: Option<TexRef>,
+    /// `CAUSTIC_materials_anisotropy` mapping "blender": the strength is Blender's Anisotropic,
+    /// widths α/√(1 − 0.9 s) along the direction and α·√(1 − 0.9 s) across (Cycles').
+    pub anisotropy_blender: bool,
     /// `KHR_materials_unlit`: the surface shows its base colour (factor × texture × vertex
     /// colour, held in `emissive` and `emissive_tex`) and reflects no light.
     pub unlit: bool,
@@ -115,6 +124,10 @@ impl Default for Material {
             emissive: Rgb::ZERO,
             emissive_tex: None,
             unlit: false,
+            anisotropy_strength: 0.0,
+            anisotropy_rotation: 0.0,
+            anisotropy_tex: None,
+            anisotropy_blender: false,
             specular: 1.0,
             specular_tex: None,
             specular_color: Rgb::ONE,

@@ -174,10 +174,42 @@ impl Scene {
         // base keeps the unbent normal, as Cycles' diffuse closure does.
         let unbent = n;
         n = valid_reflection_normal(s.ng, wo, n);
-        let frame = match tangent_hint {
+        let mut frame = match tangent_hint {
             Some(t) => Frame::from_normal_tangent(n, t),
             None => Frame::from_normal(n),
         };
+        // KHR_materials_anisotropy: the direction in tangent space is (cos r, sin r), or the
+        // texture's RG rotated by r; the texture's B scales the strength. The frame's X axis
+        // is the direction; widths αx = mix(α, 1, strength²) along it and αy = α across.
+        let mut anisotropy = None;
+        let tan = s.tangent.truncate();
+        if (mat.anisotropy_strength > 0.0 || mat.anisotropy_tex.is_some()) && tan.length_squared() > 0.0 {
+            let (sin_r, cos_r) = mat.anisotropy_rotation.sin_cos();
+            let (mut dir, mut strength) = (glam::Vec2::new(cos_r, sin_r), mat.anisotropy_strength);
+            if let Some(t) = &mat.anisotropy_tex {
+                let v = lookup(t);
+                let d = glam::Vec2::new(2.0 * v.x - 1.0, 2.0 * v.y - 1.0);
+                dir = glam::Vec2::new(cos_r * d.x - sin_r * d.y, sin_r * d.x + cos_r * d.y);
+                strength *= v.z;
+            }
+            let side = if s.front { 1.0 } else { -1.0 };
+            let nf = s.ns * side;
+            let tf = (tan - nf * nf.dot(tan)).normalize_or_zero();
+            let bf = nf.cross(tf) * if s.tangent.w < 0.0 { -1.0 } else { 1.0 };
+            let d = tf * dir.x + bf * dir.y;
+            let strength = strength.clamp(0.0, 1.0);
+            if strength > 0.0 && (d - n * n.dot(d)).length_squared() > 1e-12 {
+                frame = Frame::from_normal_tangent(n, d);
+                let a = roughness.clamp(0.0, 1.0).powi(2);
+                anisotropy = Some(if mat.anisotropy_blender {
+                    // Cycles' Principled BSDF; widths above 1 are clamped to 1 by the BSDF.
+                    let aspect = (1.0 - 0.9 * strength).sqrt();
+                    (a / aspect, a * aspect)
+                } else {
+                    (a + (1.0 - a) * strength * strength, a)
+                });
+            }
+        }
         let emitted = if mat.is_emissive() && (s.front || mat.double_sided) {
             mat.emission(tex, s.uv, s.color)
         } else {
@@ -243,6 +275,7 @@ impl Scene {
             subsurface: mat.subsurface.map_or(0.0, |s| s.weight),
             diffuse_normal: (n != unbent).then(|| frame.to_local(unbent)),
             smooth_normal: (unbent != s.ns).then(|| frame.to_local(s.ns)),
+            anisotropy,
         };
         // An unlit surface only shows its colour (the emission above): it reflects nothing.
         let params =

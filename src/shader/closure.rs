@@ -153,6 +153,7 @@ fn zero_params() -> PbrParams {
         sheen_roughness: 0.0,
         dispersion: 0.0,
         subsurface: 0.0,
+        anisotropy: None,
     }
 }
 
@@ -274,6 +275,7 @@ impl Closures {
             sheen_roughness: p.sheen_roughness * s,
             dispersion: 0.0,
             subsurface: p.subsurface * s,
+            anisotropy: None,
         }
     }
 

@@ -18,7 +18,8 @@ Measured with the renderer of the branch's base (Caustic/Cycles of the image mea
 normal map 0.715 (tilts along U only 1.046), rough metal 0.3/0.6/1.0: 0.992/0.903/0.646, rough
 glass 0.3/0.6/1.0: 0.954/0.649/0.393, rough glass of IOR 1: 0.216, glass of base colour 0.8:
 sphere 1.002, Suzanne 0.985 (0.890 and 0.917 before the add-on wrote sqrt(base), below), glass
-sheet 1.060, sheen 1.150.
+sheet 1.060, sheen 1.150. Anisotropic metal (Anisotropic 0.6, roughness 0.4): 1.006 with the add-on's
+CAUSTIC_materials_anisotropy (Cycles' width mapping), 0.906 with glTF's mapping of the same strength.
 
 Cases that cannot pass with today's renderer are strict xfails naming the renderer fix they wait
 for, so that the fix's merge turns them into failures (XPASS) until the mark is removed.
@@ -161,6 +162,9 @@ CASES = {
     "glass_0.8_closed_sphere": (sphere_of(lambda: glass("ClosedGlass", 0.0, base=0.8)), MATCHED, False, []),
     "glass_0.8_open_suzanne": (add_suzanne_glass, MATCHED, False, []),
     "thin_sheet": (add_thin_sheet, MATCHED, False, [xfail(THIN_SHEET)]),
+    "anisotropic_metal": (sphere_of(lambda: principled("Brushed", **{
+        "Base Color": (0.9, 0.6, 0.3, 1), "Roughness": 0.4, "Metallic": 1.0, "Anisotropic": 0.6})),
+        MATCHED, False, []),
     "sheen": (sphere_of(lambda: principled("Sheen", **{"Base Color": (0.05, 0.05, 0.05, 1), "Roughness": 0.8,
                                                         "Sheen Weight": 1.0, "Sheen Roughness": 0.5})),
               MATCHED, False, [xfail(SHEEN)]),

@@ -27,9 +27,10 @@ pub(super) const HANDLED_MATERIAL_EXTENSIONS: &[&str] = &[
     "CAUSTIC_materials_nodes",
     // Read in `materials.rs`:
     "KHR_materials_unlit",
-    // Warned about by name where they are read:
-    "KHR_materials_iridescence",
     "KHR_materials_anisotropy",
+    "CAUSTIC_materials_anisotropy",
+    // Warned about by name where it is read:
+    "KHR_materials_iridescence",
 ];
 
 impl Loader<'_> {
@@ -263,11 +264,35 @@ impl Loader<'_> {
                 ));
             }
         }
-        for ext in ["KHR_materials_iridescence", "KHR_materials_anisotropy"] {
-            if m.extension_value(ext).is_some() {
-                features.push(format!("{ext} (ignored)"));
-                self.warn(format!("material '{name}': {ext} is not rendered yet and was ignored"));
+        if m.extension_value("KHR_materials_iridescence").is_some() {
+            features.push("KHR_materials_iridescence (ignored)".into());
+            self.warn(format!("material '{name}': KHR_materials_iridescence is not rendered yet and was ignored"));
+        }
+        let (mut anisotropy_strength, mut anisotropy_rotation, mut anisotropy_tex) = (0.0, 0.0, None);
+        if let Some(a) = m.extension_value("KHR_materials_anisotropy").cloned() {
+            features.push("KHR_materials_anisotropy".into());
+            let strength = num(&a, "anisotropyStrength", 0.0)?;
+            anisotropy_strength = strength.clamp(0.0, 1.0);
+            if anisotropy_strength != strength {
+                self.warn(format!("material '{name}': anisotropyStrength {strength} was clamped to [0, 1]"));
             }
+            anisotropy_rotation = num(&a, "anisotropyRotation", 0.0)?;
+            if let Some(t) = a.get("anisotropyTexture") {
+                anisotropy_tex = self.raw_texture(doc, t, false, buffers, &name)?;
+            }
+        }
+        let mut anisotropy_blender = false;
+        if let Some(a) = m.extension_value("CAUSTIC_materials_anisotropy").cloned() {
+            features.push("CAUSTIC_materials_anisotropy".into());
+            anisotropy_blender = match a.get("mapping").and_then(|v| v.as_str()) {
+                Some("blender") => true,
+                None | Some("gltf") => false,
+                Some(other) => {
+                    return Err(self.err(format!(
+                        "material '{name}': CAUSTIC_materials_anisotropy mapping '{other}' is not \"gltf\" or \"blender\""
+                    )));
+                }
+            };
         }
         let mut specular = 1.0;
         let (mut specular_color, mut specular_tex, mut specular_color_tex) = (Vec3::ONE, None, None);
@@ -318,6 +343,10 @@ impl Loader<'_> {
         mat.sheen_roughness = sheen_roughness;
         mat.sheen_roughness_tex = sheen_roughness_tex;
         mat.dispersion = dispersion;
+        mat.anisotropy_strength = anisotropy_strength;
+        mat.anisotropy_rotation = anisotropy_rotation;
+        mat.anisotropy_tex = anisotropy_tex;
+        mat.anisotropy_blender = anisotropy_blender;
         Ok(())
     }
 }

@@ -240,6 +240,25 @@ mod tests {
     }
 
     #[test]
+    fn anisotropy_strength_rotation_and_texture() {
+        let (m, scene) = material(
+            json!({"name": "brushed",
+                "extensions": {"KHR_materials_anisotropy": {"anisotropyStrength": 0.6, "anisotropyRotation": 0.75,
+                    "anisotropyTexture": {"index": 0}}}}),
+            1,
+        );
+        assert_eq!((m.anisotropy_strength, m.anisotropy_rotation), (0.6, 0.75));
+        assert_eq!(texel_id(&scene, m.anisotropy_tex), 0);
+        assert!(!m.anisotropy_blender, "glTF's mapping unless the file says otherwise");
+        let blender = json!({"name": "b", "extensions": {
+            "KHR_materials_anisotropy": {"anisotropyStrength": 0.6},
+            "CAUSTIC_materials_anisotropy": {"mapping": "blender"}}});
+        assert!(material(blender, 0).0.anisotropy_blender);
+        let bad = json!({"name": "b", "extensions": {"CAUSTIC_materials_anisotropy": {"mapping": "cycles"}}});
+        assert!(error(bad, 0).contains("mapping 'cycles'"));
+    }
+
+    #[test]
     fn core_factors_and_textures() {
         let (m, scene) = material(
             json!({"name": "m",

@@ -146,22 +146,29 @@ impl Loader<'_> {
             let material_index = prim.material().index().map(|i| i as u32).unwrap_or(default_material);
             let material = &materials[material_index as usize];
 
-            // Tangents for normal maps: given, or generated with MikkTSpace.
+            // Tangents for normal maps and anisotropy: given, or generated with MikkTSpace
+            // (on the normal map's UVs, else the anisotropy texture's, else set 0).
             let mut tangents = tangents;
             // A shader graph's tangent-space Normal Map (or Tangent input) needs them too.
-            let tangent_set =
-                material.normal_tex.map(|t| t.tex_coord).or(material.nodes.as_ref().and_then(|p| p.tangent_uv));
-            if let Some(set) = tangent_set
+            let tangent_uvs = material
+                .normal_tex
+                .or(material.anisotropy_tex)
+                .map(|t| t.tex_coord)
+                .or((material.anisotropy_strength > 0.0).then_some(0))
+                .or(material.nodes.as_ref().and_then(|p| p.tangent_uv));
+            if let Some(tex_coord) = tangent_uvs
                 && tangents.is_none()
             {
-                let uv = if set == 0 { &uv0 } else { &uv1 };
+                let uv = if tex_coord == 0 { &uv0 } else { &uv1 };
                 match (uv, &normals) {
                     (Some(uv), Some(n)) => {
                         let t0 = std::time::Instant::now();
                         tangents = Some(mikktspace_tangents(&positions, n, uv, &tris));
                         self.profile.tangents += t0.elapsed().as_secs_f64();
                     }
-                    _ => self.warn(format!("{what}: a normal map without UVs or normals cannot be applied; ignored")),
+                    _ => self.warn(format!(
+                        "{what}: a normal map or anisotropy without UVs or normals (no tangents) cannot be applied; ignored"
+                    )),
                 }
             }
 

@@ -55,6 +55,7 @@ pub const SUPPORTED_REQUIRED: &[&str] = &[
     "KHR_materials_sheen",
     "KHR_materials_dispersion",
     "KHR_materials_unlit",
+    "KHR_materials_anisotropy",
     "CAUSTIC_lights_area",
     "CAUSTIC_lights_punctual",
     "CAUSTIC_materials_nodes",
@@ -63,6 +64,7 @@ pub const SUPPORTED_REQUIRED: &[&str] = &[
     "CAUSTIC_materials_medium",
     "CAUSTIC_materials_subsurface",
     "CAUSTIC_materials_coat",
+    "CAUSTIC_materials_anisotropy",
     "CAUSTIC_default_material",
 ];
 
@@ -559,6 +561,7 @@ mod tests {
             "KHR_materials_dispersion",
             "KHR_materials_emissive_strength",
             "KHR_materials_unlit",
+            "KHR_materials_anisotropy",
             "KHR_texture_transform",
             "KHR_lights_punctual",
             "CAUSTIC_lights_area",
@@ -568,6 +571,7 @@ mod tests {
             "CAUSTIC_materials_medium",
             "CAUSTIC_materials_subsurface",
             "CAUSTIC_materials_coat",
+            "CAUSTIC_materials_anisotropy",
         ] {
             assert!(SUPPORTED_REQUIRED.contains(&name), "{name} is not in SUPPORTED_REQUIRED");
             if let Err(e) = load_requiring(&[name]) {
