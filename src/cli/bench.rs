@@ -37,6 +37,8 @@ pub fn run_bench(args: &BenchArgs, stop: &AtomicBool) -> Result<()> {
         photon_map: None,
         photon: args.photon.clone(),
         bdpt_strategy: None,
+        sample_offset: None,
+        chunk: false,
         interim: None,
         filter: None,
         filter_width: None,
