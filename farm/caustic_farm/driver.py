@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 
 from . import tasks
 from .plan import Chunk, plan_chunks
-from .scene_files import SceneError, scene_files, scene_spp, sha256_file
+from .scene_files import SceneError, scene_files, scene_setting, scene_spp, sha256_file
 
 
 class FarmError(Exception):
@@ -85,6 +85,32 @@ def _scatter_scenes(client, scenes):
     return frames, len(by_sha)
 
 
+# `caustic photons` takes these of the render flags; the map they make is the one a render
+# with the same flags traces itself.
+PHOTON_FLAGS = ("--photons", "--caustic-photons", "--max-depth", "--seed", "--memory-limit")
+
+
+def flag_value(args, name):
+    """The value of `name` in a flag list (`--name v` or `--name=v`; the last wins), or None."""
+    value = None
+    for i, a in enumerate(args):
+        if a == name and i + 1 < len(args):
+            value = args[i + 1]
+        elif a.startswith(name + "="):
+            value = a[len(name) + 1:]
+    return value
+
+
+def photon_args(args):
+    """The render flags that `caustic photons` needs to trace the same map."""
+    out = []
+    for name in PHOTON_FLAGS:
+        v = flag_value(args, name)
+        if v is not None:
+            out += [name, v]
+    return out
+
+
 def render_frames(scenes, outputs, *, spp=None, chunks=4, binary=None, extra_args=(), scheduler=None,
                   workers=2, client=None, max_attempts=3, report=None, cancel=None):
     """Renders frame i from `scenes[i]` to `outputs[i]`; returns a FarmResult or raises FarmError."""
@@ -96,7 +122,8 @@ def render_frames(scenes, outputs, *, spp=None, chunks=4, binary=None, extra_arg
     if chunks < 1:
         raise FarmError(2, f"--chunks {chunks} must be at least 1")
     try:
-        spps = [spp or scene_spp(s) or 64 for s in scenes]  # 64: the binary's default
+        spps = [spp or scene_spp(s, "sppm_iterations" if _integrator(extra_args, s) == "sppm" else "spp")
+                or 64 for s in scenes]  # 64: the binary's default for both
     except SceneError as err:
         raise FarmError(err.code, str(err)) from None
     if any(n < 1 or n > 1 << 24 for n in spps):
@@ -121,6 +148,11 @@ def render_frames(scenes, outputs, *, spp=None, chunks=4, binary=None, extra_arg
                 cluster.close()
 
 
+def _integrator(extra_args, scene):
+    """The integrator a render of `scene` with these flags uses (flag > scene > path)."""
+    return flag_value(list(extra_args), "--integrator") or scene_setting(scene, "integrator") or "path"
+
+
 def _run(client, scenes, outputs, spps, chunks, binary, extra_args, max_attempts, report, cancel, cancel_name, t0):
     from distributed import Event
 
@@ -132,11 +164,21 @@ def _run(client, scenes, outputs, spps, chunks, binary, extra_args, max_attempts
     report({"type": "start", "frames": len(scenes), "chunks": len(plan), "files": distinct,
             "scheduler": client.scheduler.address})
     Event(cancel_name)  # created before any task polls it
+    kinds = [_integrator(extra_args, s) for s in scenes]
+    # Jensen photon mapping: each frame's map is traced once, by a task, and travels to the
+    # chunks (the map a chunk would trace from the seed is the same map, so chunks stay exact).
+    maps = {}
+    for f, kind in enumerate(kinds):
+        if kind == "photon" and flag_value(extra_args, "--photon-map") is None:
+            key, scene_rel, files = frames[f]
+            maps[f] = client.submit(tasks.trace_photons, binary, key, scene_rel, files, photon_args(extra_args),
+                                    cancel_name, pure=False, retries=max_attempts - 1)
 
     def submit(chunk, attempt):
         key, scene_rel, files = frames[chunk.frame]
+        count_flag = "--sppm-iterations" if kinds[chunk.frame] == "sppm" else "--spp"
         return client.submit(tasks.render_chunk, binary, key, scene_rel, files, chunk.offset, chunk.spp,
-                             extra_args, cancel_name, pure=False,
+                             extra_args, cancel_name, count_flag, maps.get(chunk.frame), pure=False,
                              key=f"render-f{chunk.frame}-s{chunk.offset}-a{attempt}-{uuid.uuid4().hex[:8]}")
 
     active = {submit(c, 1): (c, 1) for c in plan}

@@ -86,11 +86,16 @@ def sha256_file(path):
     return h.hexdigest()
 
 
-def scene_spp(path):
-    """The samples per pixel the scene's settings ask for (`extras.caustic.spp`), or None."""
+def scene_setting(path, key):
+    """A render setting stored in the scene (`scenes[i].extras.caustic[key]`), or None."""
     doc = read_gltf_json(path)
     scenes = doc.get("scenes") or [{}]
     index = doc.get("scene", 0)
     scene = scenes[index] if isinstance(index, int) and 0 <= index < len(scenes) else {}
-    spp = ((scene.get("extras") or {}).get("caustic") or {}).get("spp")
+    return ((scene.get("extras") or {}).get("caustic") or {}).get(key)
+
+
+def scene_spp(path, key="spp"):
+    """The samples per pixel (or, key `sppm_iterations`, SPPM iterations) the scene asks for, or None."""
+    spp = scene_setting(path, key)
     return spp if isinstance(spp, int) else None

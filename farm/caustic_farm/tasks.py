@@ -125,9 +125,35 @@ def run_binary(args, cancel_name):
     return proc.returncode, message, stopped
 
 
-def render_chunk(binary, scene_key, scene_rel, files, offset, spp, extra_args, cancel_name):
-    """Renders samples [offset, offset + spp) of a scene as a chunk; returns
-    {"data": EXR bytes or None, "partial": bool, "elapsed": s, "worker": address}."""
+def trace_photons(binary, scene_key, scene_rel, files, photon_args, cancel_name):
+    """Traces a frame's photon maps once (`caustic photons`); returns the map file's bytes,
+    which then travel to the workers that render the frame's chunks."""
+    binary = resolve_binary(binary)
+    folder = materialize(scene_key, files)
+    work = os.path.join(cache_dir(), "work")
+    os.makedirs(work, exist_ok=True)
+    out = os.path.join(work, f"map-{uuid.uuid4().hex}.photons")
+    try:
+        code, message, stopped = run_binary([binary, "photons", os.path.join(folder, scene_rel), "-o", out,
+                                             *photon_args], cancel_name)
+        if code == 0:
+            with open(out, "rb") as f:
+                return f.read()
+        if stopped:
+            return None
+        what = message or (f"killed by signal {-code}" if code < 0 else f"exit code {code}")
+        raise RenderFailed(code, f"photon maps: {what}", fatal=code in FATAL_CODES)
+    finally:
+        if os.path.exists(out):
+            os.remove(out)
+
+
+def render_chunk(binary, scene_key, scene_rel, files, offset, spp, extra_args, cancel_name, count_flag="--spp",
+                 photon_map=None):
+    """Renders samples [offset, offset + spp) of a scene as a chunk (`count_flag`: `--spp`, or
+    `--sppm-iterations` for SPPM); with `photon_map` (the bytes of the frame's map) the
+    chunk reads it instead of tracing its own. Returns {"data": EXR bytes or None,
+    "partial": bool, "elapsed": s, "worker": address}."""
     t0 = time.monotonic()
     worker = _worker_address()
     if _cancelled(cancel_name):
@@ -138,7 +164,13 @@ def render_chunk(binary, scene_key, scene_rel, files, offset, spp, extra_args, c
     os.makedirs(work, exist_ok=True)
     out = os.path.join(work, f"chunk-{uuid.uuid4().hex}.exr")
     args = [binary, "render", os.path.join(folder, scene_rel), "-o", out, "--sample-offset", str(offset),
-            "--spp", str(spp), "--chunk", *extra_args]
+            count_flag, str(spp), "--chunk", *extra_args]
+    map_path = None
+    if photon_map is not None:
+        map_path = f"{out}.photons"
+        with open(map_path, "wb") as f:
+            f.write(photon_map)
+        args += ["--photon-map", map_path]
     try:
         code, message, stopped = run_binary(args, cancel_name)
         if code in (0, INTERRUPTED_PARTIAL):
@@ -150,8 +182,9 @@ def render_chunk(binary, scene_key, scene_rel, files, offset, spp, extra_args, c
         what = message or (f"killed by signal {-code}" if code < 0 else f"exit code {code}")
         raise RenderFailed(code, f"samples {offset}..{offset + spp}: {what}", fatal=code in FATAL_CODES)
     finally:
-        if os.path.exists(out):
-            os.remove(out)
+        for p in (out, map_path):
+            if p and os.path.exists(p):
+                os.remove(p)
 
 
 def merge_chunks(binary, chunks):

@@ -40,15 +40,28 @@ def test_plan_covers_every_sample_once():
     assert [c.samples for c in plan_chunks(1, 2, 5)] == [[0, 1], [1, 2]]  # no empty chunk
 
 
-@pytest.mark.parametrize("integrator", ["path", "bdpt"])
+@pytest.mark.parametrize("integrator", ["path", "bdpt", "photon"])
 def test_merged_chunks_equal_single_render(tmp_path, client, events, integrator):
+    # Jensen: the frame's map is traced once by a task and read by every chunk; it is the
+    # map a single render traces from the same seed.
     extra = [*SMALL, "--integrator", integrator, "--max-depth", "5"]
+    if integrator == "photon":
+        extra += ["--photons", "4000", "--caustic-photons", "1000"]
     out = str(tmp_path / "farm.exr")
     result = render_frames([CORNELL], [out], spp=8, chunks=3, extra_args=extra, client=client, report=events)
     assert result.code == 0 and result.written == [out]
     assert read(out) == single(tmp_path, CORNELL, "single.exr", [*extra, "--spp", "8"])
     kinds = [e["type"] for e in events.seen]
     assert kinds.count("chunk") == 3 and kinds[-1] == "summary"
+
+
+def test_sppm_chunks_split_iterations(tmp_path, client, events):
+    # SPPM chunks are independent runs of their share of the iterations (docs/contract.md).
+    out = str(tmp_path / "farm.exr")
+    result = render_frames([CORNELL], [out], spp=4, chunks=2, client=client, report=events,
+                           extra_args=[*SMALL, "--integrator", "sppm", "--sppm-photons", "1000"])
+    assert result.code == 0 and os.path.getsize(out) > 0
+    assert sorted(e["samples"] for e in events.seen if e["type"] == "chunk") == [[0, 2], [2, 4]]
 
 
 def test_killed_worker_is_retried_and_exact(tmp_path, client, events):
