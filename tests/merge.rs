@@ -181,3 +181,22 @@ fn bad_merges_fail_clearly_and_write_nothing() {
         run(&["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--sample-offset", "4294967295"], LIMIT);
     assert_eq!(r.code, Some(2), "{}", r.stderr);
 }
+
+/// `--photon-seed` chooses the map's seed alone: equal to the seed it is the default map,
+/// another seed gives another map (an independent chunk); without Jensen it is refused.
+#[test]
+fn photon_seed_picks_the_map_only() {
+    let dir = temp_dir();
+    let p = |n: &str| dir.path().join(n);
+    let jensen =
+        ["--integrator", "photon", "--photons", "3000", "--caustic-photons", "1000", "--spp", "2", "--seed", "4"];
+    render(&p("default.exr"), &jensen);
+    render(&p("same.exr"), &[&jensen[..], &["--photon-seed", "4"]].concat());
+    render(&p("other.exr"), &[&jensen[..], &["--photon-seed", "5"]].concat());
+    assert_same(&p("default.exr"), &p("same.exr"));
+    assert_ne!(channels(&p("default.exr")), channels(&p("other.exr")));
+    let scene = root().join("scenes/cornell_box.gltf");
+    let out = p("x.exr");
+    let r = run(&["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--photon-seed", "1"], LIMIT);
+    assert_eq!(r.code, Some(2), "{}", r.stderr);
+}

@@ -26,6 +26,9 @@ def parse(argv):
     p.add_argument("--workers", type=int, default=2, help="LocalCluster workers (without --scheduler) [default: 2]")
     p.add_argument("--binary", help="caustic binary on the workers [default: CAUSTIC_BINARY there, else PATH]")
     p.add_argument("--attempts", type=int, default=3, help="tries per chunk before the run fails [default: 3]")
+    p.add_argument("--photon-maps", choices=("frame", "chunk"), default="frame",
+                   help="Jensen photon mapping: one map per frame, shared by its chunks (exact), or one per "
+                        "chunk (independent estimates) [default: frame]")
     p.epilog = "Flags after -- go to every `caustic render` (e.g. -- --integrator bdpt --resolution 640x360)."
     # Split at the first "--" by hand: argparse would let the scenes swallow everything.
     render_args = []
@@ -66,7 +69,8 @@ def main(argv=None):
         outputs = outputs_for(args.output, len(args.scenes))
         result = render_frames(args.scenes, outputs, spp=args.spp, chunks=args.chunks, binary=args.binary,
                                extra_args=args.render_args, scheduler=args.scheduler, workers=args.workers,
-                               max_attempts=args.attempts, report=report, cancel=cancel)
+                               max_attempts=args.attempts, report=report, cancel=cancel,
+                               photon_maps=args.photon_maps)
         return result.code
     except FarmError as err:
         report({"type": "error", "code": err.code, "message": str(err)})

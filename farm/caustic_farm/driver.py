@@ -112,8 +112,12 @@ def photon_args(args):
 
 
 def render_frames(scenes, outputs, *, spp=None, chunks=4, binary=None, extra_args=(), scheduler=None,
-                  workers=2, client=None, max_attempts=3, report=None, cancel=None):
-    """Renders frame i from `scenes[i]` to `outputs[i]`; returns a FarmResult or raises FarmError."""
+                  workers=2, client=None, max_attempts=3, report=None, cancel=None, photon_maps="frame"):
+    """Renders frame i from `scenes[i]` to `outputs[i]`; returns a FarmResult or raises FarmError.
+
+    `photon_maps` (Jensen photon mapping): "frame" traces each frame's map once and every
+    chunk reads it (exact: the single render's image); "chunk" lets chunk k trace its own map
+    from photon seed seed + 1 + k (independent estimates, less variance, not bit-equal)."""
     report = report or json_lines()
     cancel = cancel or threading.Event()
     t0 = time.monotonic()
@@ -121,6 +125,8 @@ def render_frames(scenes, outputs, *, spp=None, chunks=4, binary=None, extra_arg
         raise FarmError(2, "give one output per scene, and at least one scene")
     if chunks < 1:
         raise FarmError(2, f"--chunks {chunks} must be at least 1")
+    if photon_maps not in ("frame", "chunk"):
+        raise FarmError(2, f"photon maps per {photon_maps!r}: choose frame or chunk")
     try:
         spps = [spp or scene_spp(s, "sppm_iterations" if _integrator(extra_args, s) == "sppm" else "spp")
                 or 64 for s in scenes]  # 64: the binary's default for both
@@ -140,7 +146,7 @@ def render_frames(scenes, outputs, *, spp=None, chunks=4, binary=None, extra_arg
     cancel_name = f"caustic-farm-cancel-{uuid.uuid4().hex}"
     try:
         return _run(client, scenes, outputs, spps, chunks, binary, list(extra_args), max_attempts, report,
-                    cancel, cancel_name, t0)
+                    cancel, cancel_name, t0, photon_maps)
     finally:
         if own_client:
             client.close()
@@ -153,7 +159,8 @@ def _integrator(extra_args, scene):
     return flag_value(list(extra_args), "--integrator") or scene_setting(scene, "integrator") or "path"
 
 
-def _run(client, scenes, outputs, spps, chunks, binary, extra_args, max_attempts, report, cancel, cancel_name, t0):
+def _run(client, scenes, outputs, spps, chunks, binary, extra_args, max_attempts, report, cancel, cancel_name, t0,
+         photon_maps):
     from distributed import Event
 
     try:
@@ -169,16 +176,22 @@ def _run(client, scenes, outputs, spps, chunks, binary, extra_args, max_attempts
     # chunks (the map a chunk would trace from the seed is the same map, so chunks stay exact).
     maps = {}
     for f, kind in enumerate(kinds):
-        if kind == "photon" and flag_value(extra_args, "--photon-map") is None:
+        if kind == "photon" and photon_maps == "frame" and flag_value(extra_args, "--photon-map") is None:
             key, scene_rel, files = frames[f]
             maps[f] = client.submit(tasks.trace_photons, binary, key, scene_rel, files, photon_args(extra_args),
                                     cancel_name, pure=False, retries=max_attempts - 1)
 
+    seed = int(flag_value(extra_args, "--seed") or 0)
+    index_in_frame = {c: sum(1 for d in plan if d.frame == c.frame and d.offset < c.offset) for c in plan}
+
     def submit(chunk, attempt):
         key, scene_rel, files = frames[chunk.frame]
         count_flag = "--sppm-iterations" if kinds[chunk.frame] == "sppm" else "--spp"
+        args = extra_args
+        if kinds[chunk.frame] == "photon" and photon_maps == "chunk":
+            args = [*extra_args, "--photon-seed", str((seed + 1 + index_in_frame[chunk]) % (1 << 32))]
         return client.submit(tasks.render_chunk, binary, key, scene_rel, files, chunk.offset, chunk.spp,
-                             extra_args, cancel_name, count_flag, maps.get(chunk.frame), pure=False,
+                             args, cancel_name, count_flag, maps.get(chunk.frame), pure=False,
                              key=f"render-f{chunk.frame}-s{chunk.offset}-a{attempt}-{uuid.uuid4().hex[:8]}")
 
     active = {submit(c, 1): (c, 1) for c in plan}

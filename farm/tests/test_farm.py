@@ -55,6 +55,19 @@ def test_merged_chunks_equal_single_render(tmp_path, client, events, integrator)
     assert kinds.count("chunk") == 3 and kinds[-1] == "summary"
 
 
+def test_photon_maps_per_chunk_are_independent(tmp_path, client, events):
+    # Each chunk traces its own map (--photon-seed): the merge is a mean of independent
+    # estimates, so it differs from the shared-map render, whose image is the single render's.
+    extra = [*SMALL, "--integrator", "photon", "--photons", "3000", "--caustic-photons", "1000"]
+    shared, own = str(tmp_path / "shared.exr"), str(tmp_path / "own.exr")
+    assert render_frames([CORNELL], [shared], spp=4, chunks=2, extra_args=extra, client=client,
+                         report=events).code == 0
+    assert render_frames([CORNELL], [own], spp=4, chunks=2, extra_args=extra, client=client, report=events,
+                         photon_maps="chunk").code == 0
+    assert read(shared) == single(tmp_path, CORNELL, "single.exr", [*extra, "--spp", "4"])
+    assert read(own) != read(shared)
+
+
 def test_sppm_chunks_split_iterations(tmp_path, client, events):
     # SPPM chunks are independent runs of their share of the iterations (docs/contract.md).
     out = str(tmp_path / "farm.exr")

@@ -258,6 +258,9 @@ pub struct RenderArgs {
     /// Photon maps written by `caustic photons` for this scene (photon integrator).
     #[arg(long)]
     pub photon_map: Option<PathBuf>,
+    /// Seed of the photon maps the render traces (photon integrator): chunks with their own maps [default: --seed].
+    #[arg(long, value_name = "N")]
+    pub photon_seed: Option<u32>,
     /// Photon-mapping settings.
     #[command(flatten)]
     pub photon: PhotonArgs,

@@ -35,6 +35,7 @@ pub fn run_bench(args: &BenchArgs, stop: &AtomicBool) -> Result<()> {
         progress: Some(ProgressMode::None),
         integrator: Some(args.integrator),
         photon_map: None,
+        photon_seed: None,
         photon: args.photon.clone(),
         bdpt_strategy: None,
         sample_offset: None,

@@ -112,8 +112,11 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
                 }
                 None => {
                     let hash = photon::io::scene_hash(&args.scene)?;
-                    let (maps, st) = pool
-                        .install(|| trace_maps(&ctx, &res.photon, res.job_seed, res.max_depth, hash, reporter, stop));
+                    // A chunk may trace its own, independent map (`--photon-seed`); by default
+                    // every chunk of a frame traces the frame's map from the seed.
+                    let map_seed = args.photon_seed.unwrap_or(res.job_seed);
+                    let (maps, st) =
+                        pool.install(|| trace_maps(&ctx, &res.photon, map_seed, res.max_depth, hash, reporter, stop));
                     photon_stats = map_stats_json(&maps, &st);
                     maps
                 }

@@ -239,6 +239,9 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
     if sample_offset > MAX_SAMPLE_OFFSET {
         return Err(Error::Usage(format!("--sample-offset {sample_offset} is absurd (at most {MAX_SAMPLE_OFFSET})")));
     }
+    if args.photon_seed.is_some() && (integrator != IntegratorKind::Photon || args.photon_map.is_some()) {
+        return Err(Error::Usage("--photon-seed needs --integrator photon and no --photon-map".into()));
+    }
     if args.photon_map.is_some() && integrator != IntegratorKind::Photon {
         return Err(Error::Usage("--photon-map needs --integrator photon".into()));
     }
