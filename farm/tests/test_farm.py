@@ -110,10 +110,11 @@ def test_killed_worker_is_retried_and_exact(tmp_path, client, events):
 
 
 def test_internal_error_is_retried(tmp_path, client, events):
-    # A binary that crashes (exit 1, the binary's "internal error") on its first render.
+    # A binary that crashes (exit 1, the binary's "internal error") on its first render only:
+    # mkdir is atomic, so of two chunks starting together exactly one crashes.
     marker = tmp_path / "crashed-once"
     fake = tmp_path / "flaky-caustic"
-    fake.write_text(f"#!/bin/sh\nif [ \"$1\" = render ] && [ ! -e {marker} ]; then touch {marker}; "
+    fake.write_text(f"#!/bin/sh\nif [ \"$1\" = render ] && mkdir {marker} 2>/dev/null; then "
                     f"echo '{{\"type\":\"error\",\"code\":1,\"message\":\"simulated bug\"}}' >&2; exit 1; fi\n"
                     f"exec {BINARY} \"$@\"\n")
     fake.chmod(0o755)
