@@ -4,10 +4,10 @@ This file only registers. The glTF exporter looks for `glTF2ExportUserExtension`
 so the hook class is re-exported here.
 """
 
-from . import engine, properties, ui
+from . import engine, farm, properties, ui
 from .export import glTF2ExportUserExtension  # noqa: F401  (found by the glTF exporter here)
 
-_modules = (properties, engine, ui)
+_modules = (properties, engine, farm, ui)
 
 
 def register():

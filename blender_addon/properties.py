@@ -106,13 +106,36 @@ class CausticPreferences(bpy.types.AddonPreferences):
         subtype="FILE_PATH",
         default="",
     )
+    farm_python: StringProperty(
+        name="Farm Python",
+        description="Python with caustic_farm and Dask installed, which runs Render on Farm "
+        "(empty: $CAUSTIC_FARM_PYTHON)",
+        subtype="FILE_PATH",
+        default="",
+    )
+    farm_scheduler: StringProperty(
+        name="Farm Scheduler",
+        description="Dask scheduler address (tcp://host:8786, tls://...). Empty: a local cluster "
+        "on 127.0.0.1",
+        default="",
+    )
+    farm_chunks: IntProperty(
+        name="Chunks per Frame",
+        description="Sample chunks each frame is split into on the farm",
+        default=4,
+        min=1,
+        max=4096,
+    )
 
     def draw(self, context):
-        """Show the binary path and which binary will actually be used."""
+        """Show the binary path and which binary will actually be used, and the farm settings."""
         from . import runner
 
         layout = self.layout
         layout.prop(self, "binary_path")
+        layout.prop(self, "farm_python")
+        layout.prop(self, "farm_scheduler")
+        layout.prop(self, "farm_chunks")
         try:
             found = runner.find_binary()
             layout.label(text=f"Using: {found}", icon="CHECKMARK")

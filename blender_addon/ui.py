@@ -85,6 +85,9 @@ class CAUSTIC_PT_render(CausticButtonsPanel, bpy.types.Panel):
         layout.prop(settings, "light_sampler")
         layout.prop(settings, "seed")
         layout.prop(settings, "threads")
+        row = layout.row(align=True)
+        row.operator("caustic.render_farm", text="Render on Farm", icon="RENDER_STILL").animation = False
+        row.operator("caustic.render_farm", text="Animation on Farm", icon="RENDER_ANIMATION").animation = True
 
 
 class CAUSTIC_PT_light(CausticButtonsPanel, bpy.types.Panel):

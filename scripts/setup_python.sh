@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Create the project's Python environment for the Blender add-on tests: .venv/ at the repository
 # root with bpy 5.0.1 (Blender as a Python module, needs CPython 3.11), pytest and numpy from PyPI,
-# and matplotlib for the benchmark's plots (bench/run.py).
+# matplotlib for the benchmark's plots (bench/run.py), and the render farm package (farm/:
+# caustic_farm, editable) with Dask's distributed.
 # Idempotent: an existing .venv that already has these versions is left as it is.
 #
 # Usage: scripts/setup_python.sh        (PYTHON=python3.11 to choose the interpreter)
@@ -40,16 +41,18 @@ import sys
 from importlib.metadata import PackageNotFoundError, version
 try:
     ok = (version("bpy") == sys.argv[1] and version("pytest") and version("numpy")
-          and version("matplotlib"))
+          and version("matplotlib") and version("distributed") == "2026.8.0"
+          and version("caustic-farm"))
 except PackageNotFoundError:
     ok = False
 sys.exit(0 if ok else 1)
 EOF
 then
-    echo "setup_python.sh: $VENV already has bpy $BPY_VERSION, pytest, numpy and matplotlib"
+    echo "setup_python.sh: $VENV already has bpy $BPY_VERSION, pytest, numpy, matplotlib, distributed and caustic-farm"
     exit 0
 fi
 
 "$VENV/bin/python" -m pip install --upgrade pip
-"$VENV/bin/python" -m pip install "bpy==$BPY_VERSION" pytest numpy matplotlib
+"$VENV/bin/python" -m pip install "bpy==$BPY_VERSION" pytest numpy matplotlib "distributed==2026.8.0"
+"$VENV/bin/python" -m pip install -e farm
 echo "setup_python.sh: ready: $VENV/bin/python -m pytest tests/blender"

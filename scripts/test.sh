@@ -18,3 +18,6 @@ bash scripts/setup_validator.sh
 
 echo "== Blender add-on tests (real bpy) =="
 CAUSTIC_BINARY="${CARGO_TARGET_DIR:-$PWD/target}/release/caustic" .venv/bin/python -m pytest -q tests/blender
+
+echo "== Render farm: caustic_farm on a Dask LocalCluster (loopback) =="
+CAUSTIC_BINARY="${CARGO_TARGET_DIR:-$PWD/target}/release/caustic" .venv/bin/python -m pytest -q farm/tests -p no:cacheprovider

@@ -3,10 +3,15 @@
 //! pixel filter, applied by importance sampling the filter as Cycles does: every sample
 //! lands in one pixel with weight 1, so pixels are independent of each other — which
 //! makes images identical for any thread count and crops equal to full-frame windows.
+//!
+//! Every sum is fixed point (`crate::fixed`): integer sums do not depend on the order of
+//! the additions, so chunks of samples rendered apart and merged, or splat buffers of any
+//! number of threads, give the single render's sums bit for bit.
 
+use crate::fixed::{add3, from_fixed, in_range, sum3, to_fixed};
 use crate::math::Rgb;
 use crate::sampling::Distribution1D;
-use glam::{DVec3, Vec2, Vec3};
+use glam::{Vec2, Vec3};
 
 /// One camera sample's contributions to the film.
 #[derive(Clone, Copy, Debug, Default)]
@@ -88,39 +93,55 @@ impl Filter {
     }
 }
 
-/// Sums for one pixel.
+/// Sums for one pixel, fixed point (units of 2^-64, see `crate::fixed`).
 #[derive(Clone, Copy, Debug)]
 pub struct PixelAccum {
     /// Σ radiance (premultiplied by coverage).
-    pub rgb: DVec3,
+    pub rgb: [i128; 3],
     /// Σ alpha.
-    pub alpha: f64,
+    pub alpha: i128,
     /// Nearest depth seen.
     pub depth: f32,
     /// Σ normal.
-    pub normal: Vec3,
+    pub normal: [i128; 3],
     /// Σ albedo.
-    pub albedo: Vec3,
+    pub albedo: [i128; 3],
     /// Samples taken.
     pub n: u32,
 }
 
 impl Default for PixelAccum {
     fn default() -> Self {
-        PixelAccum { rgb: DVec3::ZERO, alpha: 0.0, depth: f32::INFINITY, normal: Vec3::ZERO, albedo: Vec3::ZERO, n: 0 }
+        PixelAccum { rgb: [0; 3], alpha: 0, depth: f32::INFINITY, normal: [0; 3], albedo: [0; 3], n: 0 }
     }
 }
 
 impl PixelAccum {
-    /// Adds one camera sample.
+    /// Adds one camera sample; returns false (and adds nothing) when its radiance is not
+    /// finite or beyond the fixed-point range.
     #[inline]
-    pub fn add(&mut self, s: &CameraSample) {
-        self.rgb += s.radiance.as_dvec3();
-        self.alpha += s.alpha as f64;
+    pub fn add(&mut self, s: &CameraSample) -> bool {
+        let rgb = s.radiance.to_array();
+        if !in_range(rgb) {
+            return false;
+        }
+        add3(&mut self.rgb, rgb);
+        self.alpha = self.alpha.wrapping_add(to_fixed(s.alpha));
         self.depth = self.depth.min(s.depth);
-        self.normal += s.normal;
-        self.albedo += s.albedo;
+        add3(&mut self.normal, s.normal.to_array());
+        add3(&mut self.albedo, s.albedo.to_array());
         self.n += 1;
+        true
+    }
+
+    /// Adds another accumulator of the same pixel (a merged chunk): sums add, depth is the minimum.
+    pub fn merge(&mut self, o: &PixelAccum) {
+        sum3(&mut self.rgb, &o.rgb);
+        self.alpha = self.alpha.wrapping_add(o.alpha);
+        self.depth = self.depth.min(o.depth);
+        sum3(&mut self.normal, &o.normal);
+        sum3(&mut self.albedo, &o.albedo);
+        self.n += o.n;
     }
 }
 
@@ -179,10 +200,12 @@ pub struct Film {
     pub width: u32,
     /// Image height.
     pub height: u32,
+    /// Tile side in pixels.
+    pub tile_size: u32,
     /// Tiles in scanline order of tiles.
     pub tiles: Vec<Tile>,
-    /// Σ of light-tracing splats per pixel (bidirectional integrators), row-major.
-    pub splat: Vec<DVec3>,
+    /// Σ of light-tracing splats per pixel (bidirectional integrators), row-major, fixed point.
+    pub splat: Vec<[i128; 3]>,
     /// Light paths traced: the splat sums' denominator (each light path estimates every pixel).
     pub light_paths: u64,
 }
@@ -198,10 +221,12 @@ pub struct SplatBuffer {
     pub w: u32,
     /// Window height.
     pub h: u32,
-    /// Row-major sums.
-    pub data: Vec<DVec3>,
+    /// Row-major sums, fixed point.
+    pub data: Vec<[i128; 3]>,
     /// Splats added (for statistics).
     pub count: u64,
+    /// Splat contributions dropped as non-finite or beyond the fixed-point range.
+    pub dropped: u64,
 }
 
 impl SplatBuffer {
@@ -218,8 +243,13 @@ impl SplatBuffer {
             for px in lo_x..=hi_x {
                 let f = filter.eval(pos - Vec2::new(px as f32 + 0.5, py as f32 + 0.5));
                 if f > 0.0 {
+                    let v = (value * f).to_array();
+                    if !in_range(v) {
+                        self.dropped += 1;
+                        continue;
+                    }
                     let i = (py - self.y0 as i64) as usize * self.w as usize + (px - self.x0 as i64) as usize;
-                    self.data[i] += (value * f).as_dvec3();
+                    add3(&mut self.data[i], v);
                 }
             }
         }
@@ -248,8 +278,9 @@ impl SplatPool {
             y0,
             w: x1 - x0,
             h: y1 - y0,
-            data: vec![DVec3::ZERO; ((x1 - x0) * (y1 - y0)) as usize],
+            data: vec![[0; 3]; ((x1 - x0) * (y1 - y0)) as usize],
             count: 0,
+            dropped: 0,
         })
     }
 
@@ -260,20 +291,23 @@ impl SplatPool {
         }
     }
 
-    /// Adds every buffer's sums to the film and clears them; returns the splats added.
-    pub fn drain_into(&self, film: &mut Film) -> u64 {
-        let mut count = 0;
+    /// Adds every buffer's sums to the film and clears them; returns the splats added and
+    /// the splat contributions dropped.
+    pub fn drain_into(&self, film: &mut Film) -> (u64, u64) {
+        let (mut count, mut dropped) = (0, 0);
         if let Ok(mut v) = self.free.lock() {
             for b in v.iter_mut() {
                 for (acc, d) in film.splat.iter_mut().zip(b.data.iter_mut()) {
-                    *acc += *d;
-                    *d = DVec3::ZERO;
+                    sum3(acc, d);
+                    *d = [0; 3];
                 }
                 count += b.count;
+                dropped += b.dropped;
                 b.count = 0;
+                b.dropped = 0;
             }
         }
-        count
+        (count, dropped)
     }
 }
 
@@ -287,7 +321,26 @@ impl Film {
                 tiles.push(Tile { x0, y0, w, h, pixels: vec![PixelAccum::default(); (w * h) as usize] });
             }
         }
-        Film { width, height, tiles, splat: vec![DVec3::ZERO; (width * height) as usize], light_paths: 0 }
+        Film { width, height, tile_size: tile, tiles, splat: vec![[0; 3]; (width * height) as usize], light_paths: 0 }
+    }
+
+    /// The sums of pixel (x, y) of the image.
+    pub fn pixel(&self, x: u32, y: u32) -> &PixelAccum {
+        let t = &self.tiles[self.tile_index(x, y)];
+        &t.pixels[((y - t.y0) * t.w + x - t.x0) as usize]
+    }
+
+    /// The sums of pixel (x, y), mutable.
+    pub fn pixel_mut(&mut self, x: u32, y: u32) -> &mut PixelAccum {
+        let t = self.tile_index(x, y);
+        let t = &mut self.tiles[t];
+        &mut t.pixels[((y - t.y0) * t.w + x - t.x0) as usize]
+    }
+
+    /// Index of the tile holding (x, y): tiles are squares of `tile_size` in scanline order.
+    fn tile_index(&self, x: u32, y: u32) -> usize {
+        let per_row = self.width.div_ceil(self.tile_size);
+        ((y / self.tile_size) * per_row + x / self.tile_size) as usize
     }
 
     /// Normalises every pixel by its own sample count.
@@ -312,17 +365,19 @@ impl Film {
                         continue;
                     }
                     let inv = 1.0 / p.n as f64;
-                    let mut c = p.rgb * inv;
+                    let mean = |s: &[i128; 3]| s.map(|v| (from_fixed(v) * inv) as f32);
+                    let mut c = p.rgb.map(|v| from_fixed(v) * inv);
                     if self.light_paths > 0 {
-                        c += self.splat[i] / self.light_paths as f64;
+                        for (c, s) in c.iter_mut().zip(self.splat[i]) {
+                            *c += from_fixed(s) / self.light_paths as f64;
+                        }
                     }
-                    img.combined[i] = [c.x as f32, c.y as f32, c.z as f32, (p.alpha * inv) as f32];
+                    img.combined[i] = [c[0] as f32, c[1] as f32, c[2] as f32, (from_fixed(p.alpha) * inv) as f32];
                     if p.depth.is_finite() {
                         img.depth[i] = p.depth;
                     }
-                    let invf = inv as f32;
-                    img.normal[i] = (p.normal * invf).to_array();
-                    img.albedo[i] = (p.albedo * invf).to_array();
+                    img.normal[i] = mean(&p.normal);
+                    img.albedo[i] = mean(&p.albedo);
                 }
             }
         }

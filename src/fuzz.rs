@@ -133,6 +133,7 @@ pub fn run_one(bytes: &[u8], base_dir: &Path) -> Outcome {
             spp: Some(1),
             time_limit: None,
             seed: 0,
+            sample_offset: 0,
             filter: Filter::box_filter(1.0),
         };
         let integrator = Integrator::Path(PathIntegrator::new(4, true));

@@ -8,9 +8,11 @@
 
 pub mod accel;
 pub mod bsdf;
+pub mod chunk;
 pub mod cli;
 pub mod error;
 pub mod film;
+pub mod fixed;
 pub mod fuzz;
 pub mod integrator;
 pub mod light;

@@ -127,6 +127,23 @@ fn main() {
                 }
             }
         }
+        Command::Merge(args) => {
+            let reporter = Arc::new(Reporter::new(args.progress.unwrap_or(ProgressMode::None)));
+            // A signal while reading the chunks ends the merge (exit 6, nothing written);
+            // a write in progress finishes, as for `render`.
+            handle_signals(
+                Arc::new(AtomicBool::new(false)),
+                reporter.clone(),
+                vec![caustic::output::temp_path(&args.output)],
+            );
+            match caustic::cli::run_merge(&args, &reporter) {
+                Ok(()) => exit_code::OK,
+                Err(e) => {
+                    reporter.error(e.exit_code(), &e.to_string());
+                    e.exit_code()
+                }
+            }
+        }
         Command::Render(args) => {
             let mode = args.progress.unwrap_or(if std::io::stderr().is_terminal() {
                 ProgressMode::Bar

@@ -5,8 +5,9 @@
 //! `RenderLayer.load_from_file` finds passes by these names; a plain R/G/B/A file
 //! would load as silent black.
 
+use crate::chunk::ChunkInfo;
 use crate::error::{Error, Result};
-use crate::film::FilmImage;
+use crate::film::{Film, FilmImage};
 use exr::prelude::*;
 use std::path::{Path, PathBuf};
 
@@ -55,6 +56,16 @@ pub fn check_writable(out: &Path) -> Result<()> {
 
 /// Writes the image as a single-part EXR, float or half, through a temp file + rename.
 pub fn write_exr(out: &Path, img: &FilmImage, half: bool) -> Result<()> {
+    write_exr_with(out, img, half, None)
+}
+
+/// Writes the image as [`write_exr`] does, plus a chunk's sums and info (`crate::chunk`)
+/// in the same file, so that the chunk is replaced atomically as a whole.
+pub fn write_chunk(out: &Path, img: &FilmImage, half: bool, film: &Film, info: &ChunkInfo) -> Result<()> {
+    write_exr_with(out, img, half, Some((film, info)))
+}
+
+fn write_exr_with(out: &Path, img: &FilmImage, half: bool, chunk: Option<(&Film, &ChunkInfo)>) -> Result<()> {
     let (w, h) = (img.width as usize, img.height as usize);
     let make = |data: Vec<f32>| -> FlatSamples {
         if half { FlatSamples::F16(data.into_iter().map(f16::from_f32).collect()) } else { FlatSamples::F32(data) }
@@ -74,7 +85,19 @@ pub fn write_exr(out: &Path, img: &FilmImage, half: bool) -> Result<()> {
     for (i, ch) in ["R", "G", "B"].iter().enumerate() {
         list.push(AnyChannel::new(format!("Denoising Albedo.{ch}").as_str(), make(col3(&img.albedo, i))));
     }
-    let layer = Layer::new((w, h), LayerAttributes::default(), Encoding::FAST_LOSSLESS, AnyChannels::sort(list));
+    // Samples per pixel, as Cycles' Debug Sample Count pass; float (exact up to 2^24)
+    // and float even in half mode, which is exact only up to 2048.
+    list.push(AnyChannel::new(
+        "Debug Sample Count.X",
+        FlatSamples::F32(img.samples.iter().map(|&n| n as f32).collect()),
+    ));
+    let mut attributes = LayerAttributes::default();
+    if let Some((film, info)) = chunk {
+        list.extend(crate::chunk::channels(film));
+        let (name, value) = crate::chunk::attribute(info);
+        attributes.other.insert(name, value);
+    }
+    let layer = Layer::new((w, h), attributes, Encoding::FAST_LOSSLESS, AnyChannels::sort(list));
     let image = Image::from_layer(layer);
     let tmp = temp_path(out);
     let result = image.write().to_file(&tmp);

@@ -6,8 +6,8 @@
 //! --release --test golden`, and the commit that does so adds a line to that file's
 //! header saying which images moved and why.
 //!
-//! Every render is single-threaded: BDPT's light-tracing splats are summed in thread
-//! order, so its image is equal across thread counts only to rounding. The hash covers
+//! Every render is single-threaded (the film's fixed-point sums make images equal across
+//! thread counts, BDPT's splats included, but one thread keeps the run short). The hash covers
 //! every channel of the EXR (decoded, so the file's encoding does not matter), in
 //! channel-name order.
 

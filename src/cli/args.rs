@@ -17,6 +17,8 @@ pub const MAX_SIDE: u32 = 32_768;
 pub const MAX_PIXELS: u64 = 1 << 28;
 /// Largest accepted samples per pixel.
 pub const MAX_SPP: u32 = 1 << 24;
+/// Largest accepted `--sample-offset`: offset + spp stays below 2^32 (the sample index is a u32).
+pub const MAX_SAMPLE_OFFSET: u32 = 1 << 31;
 /// Largest accepted path depth.
 pub const MAX_DEPTH: u32 = 1024;
 
@@ -40,6 +42,28 @@ pub enum Command {
     Bench(BenchArgs),
     /// Trace a scene's photon maps and write them for `render --photon-map`.
     Photons(PhotonsArgs),
+    /// Merge chunks of one frame (renders with --chunk of disjoint sample ranges) exactly.
+    Merge(MergeArgs),
+}
+
+/// `caustic merge`.
+#[derive(Args, Debug)]
+pub struct MergeArgs {
+    /// Chunk files written by `caustic render --chunk` (any order).
+    #[arg(required = true)]
+    pub inputs: Vec<PathBuf>,
+    /// Output OpenEXR file.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Write the merged sums too, so that the output can be merged again.
+    #[arg(long)]
+    pub chunk: bool,
+    /// Write half floats instead of 32-bit floats (Depth stays 32-bit).
+    #[arg(long)]
+    pub half: bool,
+    /// Progress display [default: none].
+    #[arg(long, value_enum)]
+    pub progress: Option<ProgressMode>,
 }
 
 /// `caustic photons`.
@@ -234,9 +258,18 @@ pub struct RenderArgs {
     /// Photon maps written by `caustic photons` for this scene (photon integrator).
     #[arg(long)]
     pub photon_map: Option<PathBuf>,
+    /// Seed of the photon maps the render traces (photon integrator): chunks with their own maps [default: --seed].
+    #[arg(long, value_name = "N")]
+    pub photon_seed: Option<u32>,
     /// Photon-mapping settings.
     #[command(flatten)]
     pub photon: PhotonArgs,
+    /// First sample index: render samples N..N+spp of the seed's sequence (a chunk of a frame) [default: 0].
+    #[arg(long, value_name = "N")]
+    pub sample_offset: Option<u32>,
+    /// Write the raw sums into the EXR as well, for `caustic merge` (docs/contract.md, chunks).
+    #[arg(long)]
+    pub chunk: bool,
     /// Debugging (bdpt): render only strategy S,T (S light vertices, T camera vertices,
     /// the camera included), MIS-weighted, or unweighted with S,T,unweighted.
     #[arg(long, value_name = "S,T[,unweighted]", value_parser = parse_strategy)]

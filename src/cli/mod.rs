@@ -12,6 +12,7 @@ macro_rules! outln {
 pub mod args;
 mod bench;
 mod info;
+mod merge;
 mod photons;
 mod render;
 pub mod settings;
@@ -19,6 +20,7 @@ pub mod settings;
 pub use args::*;
 pub use bench::run_bench;
 pub use info::run_info;
+pub use merge::run_merge;
 pub use photons::run_photons;
 pub use render::{Outcome, run_render};
 pub use settings::{Resolved, resolve, resolve_photon};

@@ -4,6 +4,7 @@
 use super::args::*;
 use super::settings::{Resolved, resolve};
 use crate::accel::Accel;
+use crate::chunk::{self, ChunkInfo};
 use crate::error::{Error, Result};
 use crate::integrator::bdpt::BdptIntegrator;
 use crate::integrator::path::PathIntegrator;
@@ -123,8 +124,11 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
                 }
                 None => {
                     let hash = photon::io::scene_hash(&args.scene)?;
-                    let (maps, st) = pool
-                        .install(|| trace_maps(&ctx, &res.photon, res.job_seed, res.max_depth, hash, reporter, stop));
+                    // A chunk may trace its own, independent map (`--photon-seed`); by default
+                    // every chunk of a frame traces the frame's map from the seed.
+                    let map_seed = args.photon_seed.unwrap_or(res.job_seed);
+                    let (maps, st) =
+                        pool.install(|| trace_maps(&ctx, &res.photon, map_seed, res.max_depth, hash, reporter, stop));
                     photon_stats = map_stats_json(&maps, &st);
                     maps
                 }
@@ -143,7 +147,29 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         spp: res.spp,
         time_limit: res.time_limit,
         seed: res.job_seed,
+        sample_offset: res.sample_offset,
         filter: res.filter.clone(),
+    };
+    // What every chunk of this frame must agree on (`--chunk`); the ranges are filled in per write.
+    let chunk_info = match args.chunk {
+        true => Some(chunk_info(args, &res)?),
+        false => None,
+    };
+    let write = |img: &crate::film::FilmImage, film: Option<&crate::film::Film>, spp: u32, light_paths: u64| {
+        match &chunk_info {
+            None => output::write_exr(&args.output, img, args.half),
+            Some(info) => {
+                let info = ChunkInfo {
+                    samples: vec![[res.sample_offset, res.sample_offset + spp]],
+                    light_paths,
+                    ..info.clone()
+                };
+                match film {
+                    Some(f) => output::write_chunk(&args.output, img, args.half, f, &info),
+                    None => output::write_chunk(&args.output, img, args.half, &chunk::film_from_image(img), &info),
+                }
+            }
+        }
     };
 
     reporter.phase("rendering", t0.elapsed().as_secs_f64());
@@ -164,7 +190,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
                 if !res.transparent {
                     img.make_opaque();
                 }
-                match output::write_exr(&args.output, &img, args.half) {
+                match write(&img, Some(film), spp, film.light_paths) {
                     Ok(()) => reporter.image(&out_str, spp, false),
                     Err(e) => interim_error = Some(e),
                 }
@@ -187,13 +213,13 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     }
 
     reporter.phase("writing", t0.elapsed().as_secs_f64());
-    output::write_exr(&args.output, &result.image, args.half)?;
+    write(&result.image, result.film.as_ref(), result.spp_max, result.light_paths)?;
     reporter.image(&out_str, result.spp_min, true);
 
     let mut warnings = scene.warnings.clone();
     warnings.extend(run_warnings);
     if result.nan_samples > 0 {
-        let w = format!("{} sample(s) were NaN or infinite and were dropped", result.nan_samples);
+        let w = format!("{} sample(s) were NaN, infinite or beyond ±2^31 and were dropped", result.nan_samples);
         reporter.warning(&w);
         warnings.push(w);
     }
@@ -238,6 +264,37 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     });
     reporter.summary(summary.clone());
     Ok(Outcome { interrupted: result.interrupted, summary })
+}
+
+/// The chunk identity of this render: the scene file's hash and a hash of every setting
+/// that changes what a sample computes (not the sample range, threads or output).
+fn chunk_info(args: &RenderArgs, res: &Resolved) -> Result<ChunkInfo> {
+    // SPPM's iteration count is its chunk's sample count, not an identity.
+    let photon = PhotonSettings { sppm_iterations: 0, ..res.photon.clone() };
+    let settings = format!(
+        "{:?}|{:?}|{}|{:?}|{}|{:?}|{:?}|{}|{:?}",
+        res.resolution,
+        res.camera,
+        res.max_depth,
+        res.filter,
+        res.transparent,
+        res.integrator,
+        photon,
+        res.light_sampler.name(),
+        args.bdpt_strategy,
+    );
+    Ok(ChunkInfo {
+        version: chunk::CHUNK_VERSION,
+        scene_hash: photon::io::scene_hash(&args.scene)?,
+        settings_hash: photon::io::fnv1a64(settings.as_bytes()),
+        integrator: res.integrator.name().to_string(),
+        resolution: [res.resolution.0, res.resolution.1],
+        window: res.window,
+        seed: res.job_seed,
+        transparent: res.transparent,
+        samples: Vec::new(),
+        light_paths: 0,
+    })
 }
 
 /// Traces the global and caustic maps, reporting the "photons" phase's progress at
@@ -316,6 +373,10 @@ fn charge_render(budget: &MemoryBudget, args: &RenderArgs, res: &Resolved, scene
         format!("the film for {}x{} pixels", x1 - x0, y1 - y0),
         pixels.saturating_mul(memory::film_bytes_per_pixel()),
     )?;
+    if args.chunk {
+        // The chunk channels: 54 words of 4 bytes per pixel, built beside the image.
+        budget.charge(format!("the chunk sums for {}x{} pixels", x1 - x0, y1 - y0), pixels.saturating_mul(54 * 4))?;
+    }
     match res.integrator {
         IntegratorKind::Photon => match &args.photon_map {
             // A map file holds 32 bytes per photon, as the loaded map does.
@@ -336,11 +397,11 @@ fn charge_render(budget: &MemoryBudget, args: &RenderArgs, res: &Resolved, scene
                 memory::photon_map_bytes(per_iter, res.max_depth),
             )
         }
-        // Light-tracing splats: the film's sum plus one buffer per worker (f64 RGB each;
-        // the pool holds one per concurrently running tile, at most one per thread).
+        // Light-tracing splats: the film's sum plus one buffer per worker (fixed-point RGB
+        // each; the pool holds one per concurrently running tile, at most one per thread).
         IntegratorKind::Bdpt => budget.charge(
             format!("bidirectional splat buffers ({} threads + 1) for {pixels} pixels", res.threads),
-            pixels.saturating_mul(24).saturating_mul(res.threads as u64 + 1),
+            pixels.saturating_mul(std::mem::size_of::<[i128; 3]>() as u64).saturating_mul(res.threads as u64 + 1),
         ),
         // The path tracer keeps nothing per pixel beyond the film.
         IntegratorKind::Path => Ok(()),

@@ -40,6 +40,8 @@ pub struct Resolved {
     pub photon: PhotonSettings,
     /// Light selection.
     pub light_sampler: LightSamplerKind,
+    /// Index of the first sample (`--sample-offset`).
+    pub sample_offset: u32,
 }
 
 /// Resolves the photon-mapping settings (flag > scene > default) and checks them.
@@ -233,6 +235,13 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
     if args.bdpt_strategy.is_some() && integrator != IntegratorKind::Bdpt {
         return Err(Error::Usage("--bdpt-strategy needs --integrator bdpt".into()));
     }
+    let sample_offset = args.sample_offset.unwrap_or(0);
+    if sample_offset > MAX_SAMPLE_OFFSET {
+        return Err(Error::Usage(format!("--sample-offset {sample_offset} is absurd (at most {MAX_SAMPLE_OFFSET})")));
+    }
+    if args.photon_seed.is_some() && (integrator != IntegratorKind::Photon || args.photon_map.is_some()) {
+        return Err(Error::Usage("--photon-seed needs --integrator photon and no --photon-map".into()));
+    }
     if args.photon_map.is_some() && integrator != IntegratorKind::Photon {
         return Err(Error::Usage("--photon-map needs --integrator photon".into()));
     }
@@ -250,5 +259,6 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
         integrator,
         photon,
         light_sampler,
+        sample_offset,
     })
 }

@@ -2,7 +2,7 @@
 //! reports and ray counters. Shared by the driver and the integrators that drive
 //! themselves (SPPM), so that neither imports the other's internals.
 
-use crate::film::{FilmImage, Filter};
+use crate::film::{Film, FilmImage, Filter};
 use std::time::Duration;
 
 /// What to render.
@@ -20,6 +20,9 @@ pub struct RenderJob {
     pub time_limit: Option<Duration>,
     /// Seed.
     pub seed: u32,
+    /// Index of the first sample (`--sample-offset`): the render takes samples
+    /// offset..offset+spp of the seed's sequence (SPPM: its iterations' samples and photon passes).
+    pub sample_offset: u32,
     /// Pixel filter.
     pub filter: Filter,
 }
@@ -30,7 +33,7 @@ pub struct RenderResult {
     pub image: FilmImage,
     /// Ray counts.
     pub rays: RayStats,
-    /// Samples that were NaN or infinite and were dropped.
+    /// Samples (and light-tracing splats) that were NaN, infinite or beyond ±2^31 and were dropped.
     pub nan_samples: u64,
     /// Fewest samples any pixel got.
     pub spp_min: u32,
@@ -46,6 +49,8 @@ pub struct RenderResult {
     pub splats: u64,
     /// The integrator's own counters for the summary (SPPM's iterations and photons), if any.
     pub integrator_stats: Option<serde_json::Value>,
+    /// The film's sums (the progressive loop; SPPM keeps none), for chunk files.
+    pub film: Option<Film>,
 }
 
 /// Progress callback data.

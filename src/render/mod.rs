@@ -4,6 +4,9 @@
 //! Pass sizes grow (1, 1, 2, 4, 8, 16, 16, ...) so that a first full image appears at
 //! once and later passes amortise the scheduling. Within a pass every tile renders the
 //! same sample indices, so the result never depends on which thread took which tile.
+//! Sample i of pixel (x, y) depends only on (seed, x, y, i), never on the pass, so a
+//! render of samples offset..offset+spp (`job.sample_offset`) takes exactly the samples a
+//! single render takes at those indices, and the film's fixed-point sums add exactly.
 
 pub mod job;
 
@@ -73,7 +76,8 @@ fn progressive(
     let finished = AtomicBool::new(false);
     let mut stats = TileStats::default();
     let mut spp_done = 0u32;
-    let target = job.spp.unwrap_or(u32::MAX);
+    // Without --spp the render runs until the time limit, as far as the index allows.
+    let target = job.spp.unwrap_or(u32::MAX - job.sample_offset);
     let splats = SplatPool::new(job.window);
     let mut splat_count = 0u64;
 
@@ -135,7 +139,9 @@ fn progressive(
                             let (px, py) = (x0 + tile.x0 + tx, y0 + tile.y0 + ty);
                             let acc = &mut tile.pixels[(ty * tile.w + tx) as usize];
                             let rays_before = ts.rays.total();
-                            for i in first..first + n {
+                            // Sample numbers continue after the offset: a chunk takes the samples a
+                            // single render would take at those numbers, camera and light streams alike.
+                            for i in job.sample_offset + first..job.sample_offset + first + n {
                                 let mut sampler = PixelSampler::new(job.seed, px, py, i);
                                 let off = job.filter.sample(sampler.next_2d());
                                 let u_lens = if camera.has_lens() { sampler.next_2d() } else { glam::Vec2::ZERO };
@@ -152,9 +158,7 @@ fn progressive(
                                     &mut ts.rays,
                                 );
                                 ts.light_paths += integrator.light_paths_per_sample();
-                                if s.radiance.is_finite() {
-                                    acc.add(&s);
-                                } else {
+                                if !acc.add(&s) {
                                     ts.nan += 1;
                                 }
                             }
@@ -171,7 +175,9 @@ fn progressive(
                 stats.nan += t.nan;
                 film.light_paths += t.light_paths;
             }
-            splat_count += splats.drain_into(&mut film);
+            let (added, dropped) = splats.drain_into(&mut film);
+            splat_count += added;
+            stats.nan += dropped;
             if stop.load(Ordering::Relaxed) || timed_out.load(Ordering::Relaxed) {
                 break;
             }
@@ -199,5 +205,6 @@ fn progressive(
         splats: splat_count,
         elapsed: start.elapsed(),
         integrator_stats: None,
+        film: Some(film),
     }
 }

@@ -28,6 +28,14 @@
 //! point's material is path traced; its BSDF part reads the photons. Not handled: the world light, the pixel filter (one sample at
 //! a filter-distributed offset per pixel and iteration, so the filter is applied), AOVs
 //! other than those of the first hit.
+//!
+//! Chunks (`--sample-offset N`): iterations take sample indices and photon passes N, N+1, …,
+//! but each chunk is a whole SPPM run of its own (radii start again; the per-pixel state
+//! of earlier iterations is not carried over): chunks are independent consistent
+//! estimates, and `caustic merge` averages them weighted by their iterations. This
+//! reduces the variance, not the bias of the first iterations' larger radii, and is not
+//! bit for bit a single run of all the iterations (which the path tracer, BDPT and Jensen
+//! photon mapping give).
 
 use super::trace::{MapKind, TraceJob, trace_photons};
 use super::{PhotonMap, PhotonSettings, default_sppm_photons};
@@ -253,7 +261,7 @@ fn render(
                 let py = y0 + row as u32;
                 for (i, ((state, vp), pend)) in srow.iter().zip(vrow.iter_mut()).zip(prow.iter_mut()).enumerate() {
                     let px = x0 + i as u32;
-                    let mut sampler = PixelSampler::new(job.seed, px, py, it);
+                    let mut sampler = PixelSampler::new(job.seed, px, py, job.sample_offset + it);
                     let off = job.filter.sample(sampler.next_2d());
                     let (fx, fy) = (px as f32 + 0.5 + off.x, py as f32 + 0.5 + off.y);
                     let u_lens = if camera.has_lens() { sampler.next_2d() } else { Vec2::ZERO };
@@ -298,7 +306,7 @@ fn render(
                 kind: MapKind::Global,
                 count: per_iter,
                 seed: job.seed,
-                pass: it + 1,
+                pass: job.sample_offset + it + 1,
                 max_depth,
                 skip_direct: true,
             },
@@ -379,6 +387,7 @@ fn render(
             light_paths: 0,
             splats: 0,
             integrator_stats: None,
+            film: None,
         },
         st,
     )

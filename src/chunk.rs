@@ -1,0 +1,273 @@
+//! Chunk files: a render's raw fixed-point sums inside its EXR, so that renders of
+//! disjoint sample ranges of one frame (`--sample-offset`, on any machine) merge into
+//! exactly the image a single render of all the samples gives.
+//!
+//! A chunk is an ordinary output EXR (Blender reads it as usual) with two additions,
+//! written only with `render --chunk` or `merge --chunk`:
+//! * the attribute `causticChunk`: a JSON [`ChunkInfo`] (what must agree between the chunks
+//!   of one frame, and the sample ranges and light paths this chunk holds);
+//! * UINT channels `CausticSum.<Q>.<k>` holding each fixed-point sum Q (see
+//!   `crate::fixed`) as four little-endian 32-bit words k = 0..3, `CausticSum.N` the
+//!   samples per pixel and a FLOAT channel `CausticSum.Depth` with the nearest depth
+//!   (infinite where nothing was hit), so that the merge never reads the rounded means.
+
+use crate::error::{Error, Result};
+use crate::film::{Film, FilmImage, PixelAccum};
+use crate::fixed;
+use exr::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// Version of the chunk layout; a merge refuses any other.
+pub const CHUNK_VERSION: u32 = 1;
+
+/// Name of the EXR attribute holding the [`ChunkInfo`] JSON.
+pub const ATTRIBUTE: &str = "causticChunk";
+
+/// The fixed-point sums of a pixel in channel order: radiance, alpha, normal, albedo,
+/// light-tracing splats.
+const QUANTITIES: [&str; 13] = ["R", "G", "B", "A", "NX", "NY", "NZ", "AR", "AG", "AB", "SR", "SG", "SB"];
+
+/// What a chunk says about itself.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct ChunkInfo {
+    /// Layout version ([`CHUNK_VERSION`]).
+    pub version: u32,
+    /// FNV-1a of the scene file's bytes.
+    pub scene_hash: u64,
+    /// FNV-1a of every setting that changes the samples (resolution, camera, seed,
+    /// integrator and its parameters, filter, ...), but not the sample range or threads.
+    pub settings_hash: u64,
+    /// Integrator name (for messages, and because SPPM chunks are merged as estimates).
+    pub integrator: String,
+    /// Full frame size.
+    pub resolution: [u32; 2],
+    /// Pixel window of the full frame held (x0, y0, x1, y1).
+    pub window: [u32; 4],
+    /// Seed.
+    pub seed: u32,
+    /// Film → Transparent (false: alpha is made 1 where samples were taken).
+    pub transparent: bool,
+    /// Sample index ranges [start, end) held (one per chunk merged in; a pixel may hold a
+    /// prefix of a range when its render was interrupted).
+    pub samples: Vec<[u32; 2]>,
+    /// Light paths traced (the splat sums' denominator).
+    pub light_paths: u64,
+}
+
+impl ChunkInfo {
+    /// Checks that `other` belongs to the same frame and holds other samples; the error
+    /// names both files.
+    pub fn check_compatible(&self, other: &ChunkInfo, a: &Path, b: &Path) -> Result<()> {
+        let what = |name: &str, x: String, y: String| {
+            Error::Usage(format!("cannot merge {} and {}: their {name} differ ({x} vs {y})", a.display(), b.display()))
+        };
+        if self.scene_hash != other.scene_hash {
+            return Err(what("scenes", format!("{:016x}", self.scene_hash), format!("{:016x}", other.scene_hash)));
+        }
+        if self.resolution != other.resolution || self.window != other.window {
+            return Err(what(
+                "sizes",
+                format!("{:?} window {:?}", self.resolution, self.window),
+                format!("{:?} window {:?}", other.resolution, other.window),
+            ));
+        }
+        if self.seed != other.seed {
+            return Err(what("seeds", self.seed.to_string(), other.seed.to_string()));
+        }
+        if self.integrator != other.integrator
+            || self.settings_hash != other.settings_hash
+            || self.transparent != other.transparent
+        {
+            return Err(what(
+                "render settings",
+                format!("{} {:016x}", self.integrator, self.settings_hash),
+                format!("{} {:016x}", other.integrator, other.settings_hash),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Sorts ranges and fails when two overlap (a sample would count twice).
+pub fn check_disjoint(ranges: &mut [([u32; 2], &Path)]) -> Result<()> {
+    ranges.sort_by_key(|(r, _)| *r);
+    for w in ranges.windows(2) {
+        let ((a, pa), (b, pb)) = (&w[0], &w[1]);
+        if b[0] < a[1] {
+            return Err(Error::Usage(format!(
+                "cannot merge: samples {}..{} of {} overlap samples {}..{} of {}",
+                a[0],
+                a[1],
+                pa.display(),
+                b[0],
+                b[1],
+                pb.display()
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// The chunk channels of `film` (see the module doc).
+pub fn channels(film: &Film) -> Vec<AnyChannel<FlatSamples>> {
+    let (w, h) = (film.width, film.height);
+    let n = (w * h) as usize;
+    let mut words: Vec<Vec<u32>> = vec![vec![0; n]; QUANTITIES.len() * 4];
+    let mut count = vec![0u32; n];
+    let mut depth = vec![f32::INFINITY; n];
+    for y in 0..h {
+        for x in 0..w {
+            let i = (y * w + x) as usize;
+            let p = film.pixel(x, y);
+            let s = film.splat[i];
+            let q = [
+                p.rgb[0],
+                p.rgb[1],
+                p.rgb[2],
+                p.alpha,
+                p.normal[0],
+                p.normal[1],
+                p.normal[2],
+                p.albedo[0],
+                p.albedo[1],
+                p.albedo[2],
+                s[0],
+                s[1],
+                s[2],
+            ];
+            for (j, v) in q.iter().enumerate() {
+                let u = *v as u128;
+                for k in 0..4 {
+                    words[j * 4 + k][i] = (u >> (32 * k)) as u32;
+                }
+            }
+            count[i] = p.n;
+            depth[i] = p.depth;
+        }
+    }
+    let mut out = Vec::with_capacity(words.len() + 2);
+    for (j, data) in words.into_iter().enumerate() {
+        let name = format!("CausticSum.{}.{}", QUANTITIES[j / 4], j % 4);
+        out.push(AnyChannel::new(name.as_str(), FlatSamples::U32(data)));
+    }
+    out.push(AnyChannel::new("CausticSum.N", FlatSamples::U32(count)));
+    out.push(AnyChannel::new("CausticSum.Depth", FlatSamples::F32(depth)));
+    out
+}
+
+/// The info as the EXR attribute value.
+pub fn attribute(info: &ChunkInfo) -> (Text, AttributeValue) {
+    let json = serde_json::to_string(info).unwrap_or_default();
+    (Text::from(ATTRIBUTE), AttributeValue::Text(Text::from_slice_unchecked(json.as_bytes())))
+}
+
+/// A chunk read back: its info and its sums as a film (one tile).
+pub struct Chunk {
+    /// What the chunk says about itself.
+    pub info: ChunkInfo,
+    /// The sums.
+    pub film: Film,
+}
+
+/// Reads a chunk; a file that is not an EXR, is cut short or has no chunk data is an error
+/// naming it (I/O for an unreadable file, usage for an EXR that is not a chunk).
+pub fn read(path: &Path) -> Result<Chunk> {
+    let image = read_all_flat_layers_from_file(path)
+        .map_err(|e| Error::io(path, format!("not a readable OpenEXR file: {e}")))?;
+    let not_chunk = |why: &str| {
+        Error::Usage(format!("{} is not a Caustic chunk ({why}); render chunks with --chunk", path.display()))
+    };
+    let layer = image.layer_data.first().ok_or_else(|| not_chunk("no layer"))?;
+    let info = layer
+        .attributes
+        .other
+        .get(&Text::from(ATTRIBUTE))
+        .and_then(|v| if let AttributeValue::Text(t) = v { Some(t.bytes().to_vec()) } else { None })
+        .ok_or_else(|| not_chunk("no causticChunk attribute"))?;
+    let info: ChunkInfo =
+        serde_json::from_slice(&info).map_err(|e| not_chunk(&format!("unreadable causticChunk: {e}")))?;
+    if info.version != CHUNK_VERSION {
+        return Err(not_chunk(&format!("layout version {}, this build reads {CHUNK_VERSION}", info.version)));
+    }
+    let [x0, y0, x1, y1] = info.window;
+    let (w, h) = (x1.saturating_sub(x0), y1.saturating_sub(y0));
+    if (layer.size.width(), layer.size.height()) != (w as usize, h as usize) {
+        return Err(not_chunk("the image size is not the window's"));
+    }
+    let find = |name: &str| layer.channel_data.list.iter().find(|c| c.name.to_string() == name);
+    let u32s = |name: &str| -> Result<&Vec<u32>> {
+        match find(name).map(|c| &c.sample_data) {
+            Some(FlatSamples::U32(v)) => Ok(v),
+            _ => Err(not_chunk(&format!("no UINT channel {name}"))),
+        }
+    };
+    let mut words = Vec::with_capacity(QUANTITIES.len() * 4);
+    for q in QUANTITIES {
+        for k in 0..4 {
+            words.push(u32s(&format!("CausticSum.{q}.{k}"))?);
+        }
+    }
+    let count = u32s("CausticSum.N")?;
+    let depth = match find("CausticSum.Depth").map(|c| &c.sample_data) {
+        Some(FlatSamples::F32(v)) => v,
+        _ => return Err(not_chunk("no FLOAT channel CausticSum.Depth")),
+    };
+    let mut film = Film::new(w, h, crate::render::TILE_SIZE);
+    film.light_paths = info.light_paths;
+    for y in 0..h {
+        for x in 0..w {
+            let i = (y * w + x) as usize;
+            let q: Vec<i128> = (0..QUANTITIES.len())
+                .map(|j| (0..4).fold(0u128, |a, k| a | (words[j * 4 + k][i] as u128) << (32 * k)) as i128)
+                .collect();
+            *film.pixel_mut(x, y) = PixelAccum {
+                rgb: [q[0], q[1], q[2]],
+                alpha: q[3],
+                depth: depth[i],
+                normal: [q[4], q[5], q[6]],
+                albedo: [q[7], q[8], q[9]],
+                n: count[i],
+            };
+            film.splat[i] = [q[10], q[11], q[12]];
+        }
+    }
+    Ok(Chunk { info, film })
+}
+
+/// A film holding `img`'s means times its sample counts, for integrators that keep no
+/// sums (SPPM: its chunks are independent estimates, merged weighted by iterations).
+pub fn film_from_image(img: &FilmImage) -> Film {
+    let mut film = Film::new(img.width, img.height, crate::render::TILE_SIZE);
+    // mean (24-bit mantissa) × n (≤ 2^24) is exact in f64; × 2^64 is a power of two.
+    let times = |v: f32, n: u32| ((v as f64) * (n as f64) * fixed::SCALE) as i128;
+    for y in 0..img.height {
+        for x in 0..img.width {
+            let i = (y * img.width + x) as usize;
+            let n = img.samples[i];
+            let c = img.combined[i];
+            *film.pixel_mut(x, y) = PixelAccum {
+                rgb: [times(c[0], n), times(c[1], n), times(c[2], n)],
+                alpha: times(c[3], n),
+                depth: img.depth[i],
+                normal: img.normal[i].map(|v| times(v, n)),
+                albedo: img.albedo[i].map(|v| times(v, n)),
+                n,
+            };
+        }
+    }
+    film
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn overlapping_ranges_are_refused() {
+        let (a, b) = (Path::new("a.exr"), Path::new("b.exr"));
+        assert!(check_disjoint(&mut [([3, 8], a), ([0, 3], b)]).is_ok());
+        let err = check_disjoint(&mut [([0, 4], a), ([3, 8], b)]).unwrap_err().to_string();
+        assert!(err.contains("overlap"), "{err}");
+    }
+}

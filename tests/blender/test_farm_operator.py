@@ -1,0 +1,72 @@
+"""Render on Farm with real bpy: the add-on exports, runs caustic_farm on a local Dask
+cluster, and loads the merged frame, which equals a single render of the exported scene."""
+
+import os
+import subprocess
+import sys
+
+import bpy
+import pytest
+
+import scenes
+
+pytestmark = pytest.mark.needs_binary
+
+W, H = 32, 24
+FARM = os.path.join(os.path.dirname(__file__), "..", "..", "farm")
+
+
+@pytest.fixture
+def scene(empty_scene, tmp_path, monkeypatch, addon):
+    s = empty_scene
+    scenes.small_render_settings(s, W, H, samples=6)
+    scenes.plane_and_cube_scene(s)
+    scenes.light(s, "Key", "AREA", location=(0.5, -0.5, 3.0), shape="RECTANGLE", size=1.5,
+                 size_y=1.0, energy=200.0)
+    s.render.filepath = str(tmp_path / "frames" / "out")
+    # The farm runs in this test's Python (the project's .venv has distributed) with farm/ on its path.
+    monkeypatch.setenv("CAUSTIC_FARM_PYTHON", sys.executable)
+    monkeypatch.setenv("PYTHONPATH", os.path.abspath(FARM))
+    return s
+
+
+def farm_module(addon):
+    return sys.modules[f"{addon.__name__}.farm"]
+
+
+def test_render_on_farm_equals_single_render(scene, addon, tmp_path):
+    assert bpy.ops.caustic.render_farm(animation=False) == {"FINISHED"}
+    run = farm_module(addon).last_run
+    assert run["code"] == 0
+    out = run["outputs"][0]
+    # The merged frame is loaded as an image (Blender reads the multi-pass EXR as a multilayer
+    # image, whose passes show in the image editor).
+    image = bpy.data.images["Caustic Farm"]
+    assert os.path.samefile(bpy.path.abspath(image.filepath_raw), out), (image.filepath_raw, out)
+    assert sys.modules[f"{addon.__name__}.result"].exr_size(out) == (W, H)
+    assert sum(1 for m in run["lines"] if m["type"] == "chunk") == 4  # the preference's default
+    single = str(tmp_path / "single.exr")
+    subprocess.run([os.environ["CAUSTIC_BINARY"], "render", run["scenes"][0], "-o", single], check=True,
+                   capture_output=True)
+    with open(out, "rb") as a, open(single, "rb") as b:
+        assert a.read() == b.read()
+
+
+def test_animation_on_farm_writes_every_frame(scene, addon):
+    scene.frame_start, scene.frame_end = 1, 3
+    cam = bpy.data.objects["Camera"]
+    cam.location.x = 0.0
+    cam.keyframe_insert("location", frame=1)
+    cam.location.x = 0.4
+    cam.keyframe_insert("location", frame=3)
+    assert bpy.ops.caustic.render_farm(animation=True) == {"FINISHED"}
+    run = farm_module(addon).last_run
+    assert [os.path.basename(p) for p in run["outputs"]] == [f"caustic_farm_{f:05d}.exr" for f in (1, 2, 3)]
+    data = [open(p, "rb").read() for p in run["outputs"]]
+    assert len(set(data)) == 3  # the camera moved: three different frames
+
+
+def test_missing_farm_python_is_a_clear_error(scene, addon, monkeypatch):
+    monkeypatch.delenv("CAUSTIC_FARM_PYTHON")
+    with pytest.raises(RuntimeError, match="Farm's Python|farm's Python"):
+        bpy.ops.caustic.render_farm(animation=False)
