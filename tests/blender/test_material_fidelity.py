@@ -20,6 +20,8 @@ glass 0.3/0.6/1.0: 0.954/0.649/0.393, rough glass of IOR 1: 0.216, glass of base
 sphere 1.002, Suzanne 0.985 (0.890 and 0.917 before the add-on wrote sqrt(base), below), glass
 sheet 1.060, sheen 1.150. Anisotropic metal (Anisotropic 0.6, roughness 0.4): 1.006 with the add-on's
 CAUSTIC_materials_anisotropy (Cycles' width mapping), 0.906 with glTF's mapping of the same strength.
+The Glass BSDF node is rendered from its shader graph (CAUSTIC_materials_nodes), whose Glass
+closure tints reflection and transmission as Cycles does: R 1.0001 G 1.0137 B 1.0001.
 
 Cases that cannot pass with today's renderer are strict xfails naming the renderer fix they wait
 for, so that the fix's merge turns them into failures (XPASS) until the mark is removed.
@@ -50,9 +52,6 @@ THIN_SHEET = ("renderer: a single-faced glass quad renders 1.12 of Cycles as a t
 TANGENTS = ("renderer: a normal-mapped sphere is 1.020 of Cycles (1.014 with tilts along +U only; 1.083 and 1.054 "
             "before the diffuse base got Cycles' bump-terminator shadowing, 0.715 before the tangent handedness fix); "
             "the rest is not diagnosed (texture filtering of the 4-texel stripes is a candidate)")
-GLASS_TINT = ("renderer: a Glass BSDF colour that tints reflection as well as transmission "
-              "(Cycles' closure weight); glTF's KHR_materials_specular cannot say it (F90 stays untinted) "
-              "and the renderer's glass part ignores it")
 SHEEN = "renderer: Cycles' microfiber sheen (Zeltner et al. 2022) instead of glTF's Charlie sheen"
 
 
@@ -148,7 +147,7 @@ CASES = {
     "default_principled": (sphere_of(lambda: principled("Default")), ISSUE_DEFAULT, False, []),
     "glass_node_color": (sphere_of(lambda: scenes.shader_node_material(
         "GreenGlass", "ShaderNodeBsdfGlass", Color=(0.3, 0.9, 0.3, 1), Roughness=0.0, IOR=1.45)),
-        MATCHED, True, [xfail(GLASS_TINT)]),
+        MATCHED, True, []),
     "normal_map": (sphere_of(lambda: normal_map_material("NormalMapped")), MATCHED, False, [xfail(TANGENTS)]),
     "normal_map_tangent_only": (sphere_of(lambda: normal_map_material("NormalMappedU", tilt_v=False)),
                                 MATCHED, False, [xfail(TANGENTS)]),
