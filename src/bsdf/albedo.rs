@@ -7,7 +7,6 @@
 //! come with it.
 
 use super::microfacet::{Ggx, reflect, schlick_weight};
-use super::pbr::F0_DIELECTRIC;
 use glam::{Vec2, Vec3};
 
 /// How far a table entry may be from a 4× finer quadrature (asserted by the tests below);
@@ -27,6 +26,9 @@ pub(super) fn build_entries<T: Send>(n: usize, f: impl Fn(usize) -> T + Sync + S
         (0..n).into_par_iter().map(f).collect()
     }
 }
+
+/// Normal-incidence reflectance of the default dielectric layer (IOR 1.5).
+pub const F0_DIELECTRIC: f32 = 0.04;
 
 /// Resolution of the albedo table along cos θ and roughness.
 pub(super) const TABLE_N: usize = 32;

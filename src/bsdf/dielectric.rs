@@ -29,6 +29,7 @@ use super::BsdfSample;
 use super::albedo::specular_albedo;
 use super::glass_albedo::glass_albedo;
 use super::microfacet::{Ggx, reflect};
+pub use super::microfacet::{fresnel_dielectric, refract};
 use crate::math::Rgb;
 use glam::{Vec2, Vec3};
 
@@ -42,35 +43,6 @@ pub const SMOOTH_ROUGHNESS: f32 = 0.02;
 /// wrong by ~10⁻⁷/|η - 1| rad); a microfacet tilted by θm bends a ray by about
 /// |η - 1| tan θm, under 10⁻³ rad here for all but the most grazing facets: invisible.
 pub const INVISIBLE_ETA: f32 = 1e-3;
-
-/// Unpolarised Fresnel reflectance of a dielectric interface for cosine `cos_i` of the
-/// incident direction and relative index `eta` (transmitted over incident). 1 under
-/// total internal reflection.
-#[inline]
-pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
-    let cos_i = cos_i.clamp(0.0, 1.0);
-    let sin2_t = (1.0 - cos_i * cos_i) / (eta * eta);
-    if sin2_t >= 1.0 {
-        return 1.0;
-    }
-    let cos_t = (1.0 - sin2_t).sqrt();
-    let r_parl = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
-    let r_perp = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
-    0.5 * (r_parl * r_parl + r_perp * r_perp)
-}
-
-/// Refracts `w` (pointing away from the surface, on the side of `n`) through the
-/// interface with relative index `eta`; None under total internal reflection.
-#[inline]
-pub fn refract(w: Vec3, n: Vec3, eta: f32) -> Option<Vec3> {
-    let cos_i = n.dot(w);
-    let sin2_t = (1.0 - cos_i * cos_i).max(0.0) / (eta * eta);
-    if sin2_t >= 1.0 {
-        return None;
-    }
-    let cos_t = (1.0 - sin2_t).sqrt();
-    Some(-w / eta + n * (cos_i / eta - cos_t))
-}
 
 /// The dielectric interface.
 #[derive(Clone, Copy, Debug)]

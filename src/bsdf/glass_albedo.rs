@@ -11,8 +11,7 @@
 //! The μ axis is spaced in √μ (E changes fastest at grazing angles), roughness linearly.
 
 use super::albedo::build_entries;
-use super::dielectric::{fresnel_dielectric, refract};
-use super::microfacet::{Ggx, reflect};
+use super::microfacet::{Ggx, fresnel_dielectric, reflect, refract};
 use glam::{Vec2, Vec3};
 
 /// Nodes along μ = cos θo.

@@ -127,6 +127,35 @@ pub fn schlick_weight(cos: f32) -> f32 {
     m2 * m2 * m
 }
 
+/// Unpolarised Fresnel reflectance of a dielectric interface for cosine `cos_i` of the
+/// incident direction and relative index `eta` (transmitted over incident). 1 under
+/// total internal reflection.
+#[inline]
+pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
+    let cos_i = cos_i.clamp(0.0, 1.0);
+    let sin2_t = (1.0 - cos_i * cos_i) / (eta * eta);
+    if sin2_t >= 1.0 {
+        return 1.0;
+    }
+    let cos_t = (1.0 - sin2_t).sqrt();
+    let r_parl = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+    let r_perp = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+    0.5 * (r_parl * r_parl + r_perp * r_perp)
+}
+
+/// Refracts `w` (pointing away from the surface, on the side of `n`) through the
+/// interface with relative index `eta`; None under total internal reflection.
+#[inline]
+pub fn refract(w: Vec3, n: Vec3, eta: f32) -> Option<Vec3> {
+    let cos_i = n.dot(w);
+    let sin2_t = (1.0 - cos_i * cos_i).max(0.0) / (eta * eta);
+    if sin2_t >= 1.0 {
+        return None;
+    }
+    let cos_t = (1.0 - sin2_t).sqrt();
+    Some(-w / eta + n * (cos_i / eta - cos_t))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -56,20 +56,17 @@
 //! of Ns than the mapped normal puts it is not reflected at all.
 
 use super::BsdfSample;
+pub use super::albedo::F0_DIELECTRIC;
 use super::aniso_albedo::aniso_albedo;
 use super::dielectric::{DielectricBsdf, SMOOTH_ROUGHNESS};
-use super::microfacet::{Ggx, reflect, schlick_weight};
+use super::microfacet::{Ggx, schlick_weight};
 use super::sheen::{charlie_brdf, sheen_albedo_table};
 use crate::math::{Frame, Rgb, luminance};
-use crate::sampling::warp::{cosine_hemisphere, cosine_hemisphere_pdf};
+use crate::sampling::warp::cosine_hemisphere_pdf;
 use glam::{Vec2, Vec3};
-use std::f32::consts::FRAC_1_PI;
 
 // The renderer warms the table up through this path before rendering.
 pub use super::albedo::specular_albedo;
-
-/// Normal-incidence reflectance of the default dielectric layer (IOR 1.5).
-pub const F0_DIELECTRIC: f32 = 0.04;
 
 /// Normal-incidence reflectance of a dielectric of index `ior` in air.
 #[inline]
@@ -224,7 +221,7 @@ pub struct PbrBsdf {
 
 /// Probabilities of the lobes for one `wo`: metal, dielectric specular, diffuse, glass.
 #[derive(Clone, Copy)]
-struct LobeChoice {
+pub(super) struct LobeChoice {
     metal: f32,
     spec: f32,
     diffuse: f32,
@@ -627,88 +624,6 @@ impl PbrBsdf {
     }
 }
 
-impl PbrAt<'_> {
-    /// Density of [`PbrBsdf::sample`] for wi, as [`PbrBsdf::pdf`].
-    #[inline]
-    pub fn pdf(&self, wi: Vec3) -> f32 {
-        let wi = if self.flip { Vec3::new(wi.x, wi.y, -wi.z) } else { wi };
-        if self.wo.z <= 0.0 || wi.z == 0.0 {
-            return 0.0;
-        }
-        self.b.pdf_with(&self.b.lobes(self), self.wo, wi)
-    }
-
-    /// [`PbrBsdf::sample`] from the view-side terms computed once.
-    #[inline]
-    pub fn sample(&self, uc: f32, u: Vec2) -> Option<BsdfSample> {
-        let flip = self.flip;
-        let mirror = |w: Vec3| if flip { Vec3::new(w.x, w.y, -w.z) } else { w };
-        let wo_up = self.wo;
-        if wo_up.z <= 0.0 {
-            return None;
-        }
-        let this = self.b;
-        let c = this.lobes(self);
-        let wi_up = if uc < c.glass {
-            let s = this.glass.sample(wo_up, uc / c.glass, u)?;
-            if s.delta {
-                let weight = self.coat_t
-                    * (1.0 - this.metallic)
-                    * this.transmission
-                    * (1.0 - self.ec)
-                    * this.sheen_scaling(wo_up.z, s.wi.z.abs());
-                return Some(BsdfSample { wi: mirror(s.wi), f: s.f * weight, pdf: s.pdf * c.glass, delta: true });
-            }
-            s.wi
-        } else if uc < c.glass + c.metal + c.spec {
-            if this.smooth {
-                // Perfect mirror: the metal's and the dielectric layer's reflectance.
-                let mu = wo_up.z;
-                let under = self.under * this.sheen_scaling(mu, mu);
-                let opaque = (1.0 - this.metallic) * (1.0 - this.transmission);
-                let metal = (this.base + (Vec3::ONE - this.base) * schlick_weight(mu)) * this.metallic;
-                let refl = (metal + self.eo * opaque) * under;
-                let wi = Vec3::new(-wo_up.x, -wo_up.y, wo_up.z);
-                return Some(BsdfSample { wi: mirror(wi), f: refl / mu, pdf: c.metal + c.spec, delta: true });
-            }
-            reflect(wo_up, this.ggx.sample_visible_normal(wo_up, u))
-        } else if uc < c.glass + c.metal + c.spec + c.diffuse {
-            match &this.diffuse_frame {
-                Some(f) => f.to_world(cosine_hemisphere(u)),
-                None => cosine_hemisphere(u),
-            }
-        } else if uc < c.glass + c.metal + c.spec + c.diffuse + c.sheen {
-            cosine_hemisphere(u)
-        } else {
-            let cf = this.coat_frame.unwrap_or(Frame { s: Vec3::X, t: Vec3::Y, n: Vec3::Z });
-            let wo_c = cf.to_local(wo_up);
-            if wo_c.z <= 0.0 {
-                return None;
-            }
-            if this.smooth_coat {
-                let wi = cf.to_world(Vec3::new(-wo_c.x, -wo_c.y, wo_c.z));
-                if wi.z <= 0.0 {
-                    return None;
-                }
-                return Some(BsdfSample { wi: mirror(wi), f: Rgb::splat(self.ec / wi.z), pdf: c.coat, delta: true });
-            }
-            cf.to_world(reflect(wo_c, this.coat_ggx.sample_visible_normal(wo_c, u)))
-        };
-        if wi_up.z == 0.0 || (uc >= c.glass && wi_up.z < 0.0) {
-            return None;
-        }
-        // The density and value from the lobe choice and wo-terms of this call (the same
-        // numbers `pdf` and `eval` would recompute: the profile had the albedo-table
-        // lookups at wo three times per sampled bounce).
-        let pdf = this.pdf_with(&c, wo_up, wi_up);
-        if !(pdf > 0.0) {
-            return None;
-        }
-        let wi = mirror(wi_up);
-        Some(BsdfSample { wi, f: self.eval(wi), pdf, delta: false })
-    }
-}
-
 impl PbrBsdf {
     /// Weight of the subsurface part seen from `wo` (local, either side), relative to
     /// the base colour: what the layers above (coat, specular) and the metal and glass
@@ -738,84 +653,12 @@ impl PbrBsdf {
     }
 }
 
-/// A [`PbrBsdf`] seen from one outgoing direction ([`PbrBsdf::at`]): evaluates f(wo, wi)
-/// for many wi with the wo-only terms (coat transmittance, layer and sheen albedos at wo)
-/// computed once. `PbrBsdf::eval` goes through it, so there is one copy of the formula.
-#[derive(Clone, Copy, Debug)]
-pub struct PbrAt<'a> {
-    b: &'a PbrBsdf,
-    /// wo, flipped into the upper hemisphere.
-    wo: Vec3,
-    /// wo was below the surface: wi is flipped with it.
-    flip: bool,
-    /// What the coat leaves to the layers below, seen from wo.
-    under: Rgb,
-    /// The opaque dielectric layer's albedo at wo.
-    eo: Rgb,
-    /// 1 - the sheen's albedo at wo (1 without sheen).
-    sheen_o: f32,
-    /// The metal's multiple-scattering factor at wo.
-    metal_ms: Rgb,
-    /// The coat's albedo at wo.
-    ec: f32,
-    /// What a tinted coat transmits, seen from wo.
-    coat_t: Rgb,
-    /// The sheen's albedo at wo (0 without sheen).
-    es: f32,
-}
-
-impl PbrAt<'_> {
-    /// f(wo, wi), as [`PbrBsdf::eval`].
-    #[inline]
-    pub fn eval(&self, wi: Vec3) -> Rgb {
-        let b = self.b;
-        let wo = self.wo;
-        let wi = if self.flip { Vec3::new(wi.x, wi.y, -wi.z) } else { wi };
-        if wo.z <= 0.0 || wi.z == 0.0 {
-            return Vec3::ZERO;
-        }
-        let dielectric = 1.0 - b.metallic;
-        let under = self.under;
-        let scaling = if b.sheen_max > 0.0 { self.sheen_o.min(1.0 - b.sheen_albedo(wi.z.abs())) } else { 1.0 };
-        let mut f = Rgb::ZERO;
-        if b.transmission > 0.0 {
-            f += b.glass.eval(wo, wi) * (dielectric * b.transmission);
-        }
-        if wi.z < 0.0 {
-            return f * (under * scaling);
-        }
-        let h = (wo + wi).normalize();
-        let fw = schlick_weight(wo.dot(h).max(0.0));
-        // Smooth reflection is a delta lobe: sampled only, never evaluated.
-        let spec = if b.smooth { 0.0 } else { b.ggx.d(h) * b.ggx.g2(wo, wi) / (4.0 * wo.z * wi.z) };
-        let opaque = dielectric * (1.0 - b.transmission);
-        if opaque > 0.0 {
-            // The specular weight scales the whole layer (F0 and F90), so its albedo is
-            // weight × E and the albedo scaling stays exact, channel by channel.
-            let f_layer = (b.f0_rgb + (Vec3::ONE - b.f0_rgb) * fw) * b.specular;
-            let ei = b.layer_albedo(wi);
-            let diffuse_weight = (Vec3::ONE - self.eo) * (Vec3::ONE - ei)
-                / (Vec3::ONE - b.layer_avg).max(Vec3::splat(1e-6))
-                * (1.0 - b.subsurface);
-            f += (b.base * diffuse_weight * (FRAC_1_PI * b.diffuse_cos_ratio(wi)) + f_layer * spec) * opaque;
-        }
-        if b.metallic > 0.0 {
-            f += (b.base + (Vec3::ONE - b.base) * fw) * self.metal_ms * (spec * b.metallic);
-        }
-        f = (f * scaling + b.sheen_eval(wo, wi)) * under;
-        if b.coat > 0.0 && !b.smooth_coat {
-            f += Rgb::splat(b.coat_eval(wo, wi));
-        }
-        f
-    }
-}
-
 /// The bump terminator's shadowing of a diffuse lobe on normal `n` for light from `wi`, with
 /// `ns` the interpolated normal and α² the GGX roughness its deviation stands for: 0 for
 /// light on the other side of `ns` than `n` puts it, else Smith's G1 of that GGX surface at
 /// the light's angle to `ns` (1 at normal incidence, falling towards grazing light).
 #[inline]
-fn bump_shadowing(ns: Vec3, n: Vec3, wi: Vec3, alpha2: f32) -> f32 {
+pub(super) fn bump_shadowing(ns: Vec3, n: Vec3, wi: Vec3, alpha2: f32) -> f32 {
     let cos_i = ns.dot(wi);
     if cos_i * ns.dot(n) * n.dot(wi) < 0.0 {
         return 0.0;
@@ -834,6 +677,9 @@ fn bump_shadowing(ns: Vec3, n: Vec3, wi: Vec3, alpha2: f32) -> f32 {
 fn flip_to_upper(wo: Vec3, wi: Vec3) -> (Vec3, Vec3) {
     if wo.z < 0.0 { (Vec3::new(wo.x, wo.y, -wo.z), Vec3::new(wi.x, wi.y, -wi.z)) } else { (wo, wi) }
 }
+
+mod view;
+pub use view::PbrAt;
 
 #[cfg(test)]
 mod tests;

@@ -3,7 +3,9 @@
 use super::*;
 use crate::bsdf::albedo::TABLE_ERROR;
 use crate::bsdf::dielectric::refract;
+use crate::bsdf::microfacet::reflect;
 use crate::sampling::chi2::{ChiSquareTest, Pcg32, assert_chi2};
+use crate::sampling::warp::cosine_hemisphere;
 
 fn materials_with(base: Vec3) -> Vec<(String, PbrBsdf)> {
     let mut v = Vec::new();
