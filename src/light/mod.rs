@@ -330,18 +330,6 @@ pub struct EmitterTriangle {
     pub two_sided: bool,
 }
 
-impl EmitterTriangle {
-    /// Emissive triangle `tri` of the scene: its corners, two-sided when its material is.
-    #[inline]
-    pub fn of(scene: &crate::scene::Scene, tri: u32) -> Self {
-        let m = &scene.mesh;
-        EmitterTriangle {
-            p: m.triangles[tri as usize].map(|i| m.positions[i as usize]),
-            two_sided: scene.materials[m.tri_material[tri as usize] as usize].double_sided,
-        }
-    }
-}
-
 /// A spot's attenuation: Blender's smoothstep when `smooth` is set, else glTF's.
 #[inline]
 pub fn spot_attenuation(cos_theta: f32, cos_inner: f32, cos_outer: f32, smooth: Option<f32>) -> f32 {

@@ -11,6 +11,20 @@ use crate::sampling::warp::{concentric_disk, uniform_cone, uniform_cone_pdf};
 use crate::scene::Scene;
 use glam::{Vec2, Vec3};
 
+// Here rather than beside the type in `light/mod.rs`: the light types sit below the
+// scene (which holds them), and only the sampling side may look into the scene.
+impl EmitterTriangle {
+    /// Emissive triangle `tri` of the scene: its corners, two-sided when its material is.
+    #[inline]
+    pub fn of(scene: &Scene, tri: u32) -> Self {
+        let m = &scene.mesh;
+        EmitterTriangle {
+            p: m.triangles[tri as usize].map(|i| m.positions[i as usize]),
+            two_sided: scene.materials[m.tri_material[tri as usize] as usize].double_sided,
+        }
+    }
+}
+
 impl Light {
     /// Samples a point of this light as seen from `p` for next-event estimation: the
     /// direction, distance, incident radiance and its solid-angle density.

@@ -105,7 +105,7 @@ pub struct Material {
     pub double_sided: bool,
     /// Blender's shader graph (`CAUSTIC_materials_nodes`), compiled: when present it
     /// replaces the glTF parameters above in shading, alpha and emission.
-    pub nodes: Option<std::sync::Arc<crate::shader::program::Program>>,
+    pub nodes: Option<std::sync::Arc<crate::shader::instructions::Program>>,
 }
 
 impl Default for Material {

@@ -4,42 +4,20 @@
 pub mod bent_normal;
 pub mod camera;
 pub mod gltf;
+pub mod hit;
 pub mod material;
+pub mod mesh;
 pub mod shading;
 pub mod texture;
 
 use crate::light::Light;
-use glam::{Vec2, Vec3, Vec4};
+use glam::Vec3;
 use serde::Serialize;
 
 pub use camera::{Camera, Lens, Projection};
 pub use material::{AlphaMode, Material};
+pub use mesh::Mesh;
 pub use texture::{TexRef, Texture};
-
-/// All triangles of the scene, instanced and transformed to world space, with
-/// per-vertex attributes (absent attributes are filled with defaults).
-#[derive(Clone, Debug, Default)]
-pub struct Mesh {
-    /// World-space positions.
-    pub positions: Vec<Vec3>,
-    /// World-space unit shading normals.
-    pub normals: Vec<Vec3>,
-    /// World-space tangents with the bitangent sign in w (zero when not needed).
-    pub tangents: Vec<Vec4>,
-    /// TEXCOORD_0.
-    pub uv0: Vec<Vec2>,
-    /// TEXCOORD_1.
-    pub uv1: Vec<Vec2>,
-    /// COLOR_0 (white when absent).
-    pub colors: Vec<Vec4>,
-    /// Vertex indices, counter-clockwise seen from the front.
-    pub triangles: Vec<[u32; 3]>,
-    /// Material of each triangle.
-    pub tri_material: Vec<u32>,
-    /// Instance (index into `Scene::objects`) of each triangle; empty when no material
-    /// reads instance data (shader graphs' Object coordinates, Object Info).
-    pub tri_object: Vec<u32>,
-}
 
 /// Render settings stored in the scene (`scenes[i].extras.caustic`), all optional;
 /// command-line flags override them.
@@ -218,7 +196,7 @@ pub struct Scene {
     /// World bounds (min, max).
     pub bounds: (Vec3, Vec3),
     /// Per-instance data for shader graphs (`Mesh::tri_object` indexes it).
-    pub objects: Vec<crate::shader::program::ObjectData>,
+    pub objects: Vec<crate::shader::geom::ObjectData>,
 }
 
 impl Scene {

@@ -3,47 +3,15 @@
 //! normal mapping and the BSDF (`Scene::shade`).
 
 use super::bent_normal::valid_reflection_normal;
+// The hit types live in the leaf `hit.rs` so that the node evaluator can take them
+// without importing this dispatch; re-exported for the integrators.
+pub use super::hit::{ShadingPoint, SurfaceHit};
 use super::{AlphaMode, Scene};
 use crate::accel::Hit;
 use crate::bsdf::pbr::PbrParams;
 use crate::bsdf::{Bsdf, PbrBsdf};
 use crate::math::{Frame, Rgb};
 use glam::{Vec2, Vec3};
-
-/// A surface point found by a ray.
-#[derive(Clone, Copy, Debug)]
-pub struct SurfaceHit {
-    /// Position.
-    pub p: Vec3,
-    /// Unit geometric normal on the side the ray came from.
-    pub ng: Vec3,
-    /// Unit interpolated shading normal (before normal mapping), on the same side as `ng`.
-    pub ns: Vec3,
-    /// Interpolated tangent (xyz) and bitangent sign (w), zero when absent.
-    pub tangent: glam::Vec4,
-    /// Texture coordinates (sets 0 and 1).
-    pub uv: [Vec2; 2],
-    /// Vertex colour.
-    pub color: glam::Vec4,
-    /// Material index.
-    pub material: u32,
-    /// Triangle index.
-    pub tri: u32,
-    /// True when the ray hit the front (counter-clockwise) face.
-    pub front: bool,
-    /// Hit distance.
-    pub t: f32,
-}
-
-/// What the material gives at a hit.
-pub struct ShadingPoint {
-    /// Scattering function.
-    pub bsdf: Bsdf,
-    /// Shading frame (normal-mapped), normal on the side of `ng`.
-    pub frame: Frame,
-    /// Emitted radiance toward the ray's origin.
-    pub emitted: Rgb,
-}
 
 impl Scene {
     /// Texture coordinates and vertex attributes interpolated at barycentrics.

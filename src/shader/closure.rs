@@ -18,7 +18,7 @@
 //!   distribution); Emission → emitted radiance Color × Strength; Transparent → pass-through
 //!   by coverage (`Scene::alpha`), grey as its mean.
 
-use super::program::{Geom, Reg, from_blender};
+use super::geom::{Geom, Reg, from_blender};
 use crate::bsdf::dielectric::DielectricBsdf;
 use crate::bsdf::mix::{GlossyFresnel, Lobe, MAX_LOBES, MixBsdf};
 use crate::bsdf::pbr::PbrParams;

@@ -3,7 +3,7 @@
 //! (Repeat, Extend, Clip, Mirror), as Cycles' `svm/image.h` and its CPU image lookup.
 //! Texels are the scene's decoded textures (8-bit, sRGB decoded by `Texture::texel`).
 
-use super::program::Reg;
+use super::geom::Reg;
 use crate::scene::texture::{Texture, Wrap, wrap};
 use glam::{Vec2, Vec3, Vec4};
 

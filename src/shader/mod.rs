@@ -3,8 +3,10 @@ pub mod texture;
 
 pub mod closure;
 pub mod compile;
+pub mod geom;
 pub mod graph;
 pub mod image_node;
+pub mod instructions;
 pub mod ops;
 pub mod program;
 pub mod shade;

@@ -3,16 +3,16 @@
 //! graph's transparency for `Scene::alpha`.
 
 use super::closure::Closures;
-use super::program::{Geom, ObjectData, Program, with_registers};
+use super::geom::{Geom, NO_OBJECT, ObjectData, geom_at};
+use super::instructions::Program;
+use super::program::with_registers;
 use crate::bsdf::{Bsdf, PbrBsdf};
 use crate::math::{Frame, Rgb};
-use crate::scene::shading::{ShadingPoint, SurfaceHit};
-use crate::scene::{Mesh, Scene};
+use crate::scene::Scene;
+use crate::scene::hit::{ShadingPoint, SurfaceHit};
+use crate::scene::mesh::Mesh;
+use crate::scene::texture::Texture;
 use glam::Vec3;
-
-/// The default instance data (identity transform) for triangles without one.
-static NO_OBJECT: ObjectData =
-    ObjectData { world_to_object: glam::Mat4::IDENTITY, location: Vec3::ZERO, random: 0.0, texspace: None };
 
 impl Scene {
     /// The instance data of a triangle.
@@ -104,32 +104,6 @@ pub fn shade_nodes(scene: &Scene, prog: &Program, s: &SurfaceHit, wo: Vec3, doub
     ShadingPoint { bsdf, frame, emitted }
 }
 
-/// The shading point at barycentrics of a triangle without a ray: the viewer is taken
-/// along the normal (Fresnel-driven transparency or emission then uses normal incidence).
-pub fn geom_at<'a>(
-    mesh: &'a Mesh,
-    objects: &'a [ObjectData],
-    textures: &'a [crate::scene::Texture],
-    tri: u32,
-    b1: f32,
-    b2: f32,
-) -> Geom<'a> {
-    let m = mesh;
-    let [i0, i1, i2] = m.triangles[tri as usize].map(|i| i as usize);
-    let b0 = 1.0 - b1 - b2;
-    let p = m.positions[i0] * b0 + m.positions[i1] * b1 + m.positions[i2] * b2;
-    let ng = (m.positions[i1] - m.positions[i0]).cross(m.positions[i2] - m.positions[i0]).normalize_or(Vec3::Z);
-    let ns = (m.normals[i0] * b0 + m.normals[i1] * b1 + m.normals[i2] * b2).normalize_or(ng);
-    let uv = [m.uv0[i0] * b0 + m.uv0[i1] * b1 + m.uv0[i2] * b2, m.uv1[i0] * b0 + m.uv1[i1] * b1 + m.uv1[i2] * b2];
-    let color = m.colors[i0] * b0 + m.colors[i1] * b1 + m.colors[i2] * b2;
-    let tangent = m.tangents[i0] * b0 + m.tangents[i1] * b1 + m.tangents[i2] * b2;
-    let object = match m.tri_object.get(tri as usize) {
-        Some(&o) => objects.get(o as usize).unwrap_or(&NO_OBJECT),
-        None => &NO_OBJECT,
-    };
-    Geom { p, n: ns, ng, wo: ns, uv, color, tangent, backfacing: false, object, textures, mesh, tri }
-}
-
 /// The graph's opacity at barycentrics (1 − its Transparent weight, grey by the mean).
 pub fn node_alpha(scene: &Scene, prog: &Program, tri: u32, b1: f32, b2: f32) -> f32 {
     let g = geom_at(&scene.mesh, &scene.objects, &scene.textures, tri, b1, b2);
@@ -143,7 +117,7 @@ pub fn node_alpha(scene: &Scene, prog: &Program, tri: u32, b1: f32, b2: f32) -> 
 pub fn node_emission(
     mesh: &Mesh,
     objects: &[ObjectData],
-    textures: &[crate::scene::Texture],
+    textures: &[Texture],
     prog: &Program,
     tri: u32,
     b1: f32,

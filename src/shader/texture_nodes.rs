@@ -1,7 +1,7 @@
 //! The texture nodes' side of the program: each procedural texture node's settings and
 //! input registers, evaluated by the pure functions of `texture/`.
 
-use super::program::Reg;
+use super::geom::Reg;
 use super::texture::{
     BrickParams, GradientKind, NoiseKind, NoiseParams, VoronoiFeature, VoronoiMetric, VoronoiParams, WaveDirection,
     WaveKind, WaveParams, WaveProfile, brick_texture, checker_texture, gradient_texture, magic_texture, noise_texture,

@@ -265,7 +265,7 @@ impl<'a> Loader<'a> {
         // Shader graphs read the instance (Object coordinates, Object Info, Generated):
         // per-triangle instance indices are kept only when a graph is present.
         let graphs = materials.iter().any(|m| m.nodes.is_some());
-        let mut objects: Vec<crate::shader::program::ObjectData> = Vec::new();
+        let mut objects: Vec<crate::shader::geom::ObjectData> = Vec::new();
         for (node_index, world) in &instances {
             let node = doc.nodes().nth(*node_index).expect("validated index");
             let node_name = node.name().map(str::to_string).unwrap_or_else(|| format!("node {node_index}"));

@@ -127,7 +127,7 @@ impl Loader<'_> {
     pub(super) fn node_emitters(
         &mut self,
         mesh: &crate::scene::Mesh,
-        objects: &[crate::shader::program::ObjectData],
+        objects: &[crate::shader::geom::ObjectData],
         materials: &mut [Material],
     ) {
         for (mi, mat) in materials.iter_mut().enumerate() {
@@ -168,7 +168,7 @@ pub(super) fn object_data(
     world: &glam::Mat4,
     node_name: &str,
     texspace: Option<&serde_json::Value>,
-) -> crate::shader::program::ObjectData {
+) -> crate::shader::geom::ObjectData {
     let mut h = 0x9e37_79b9u32;
     for b in node_name.bytes() {
         h = crate::math::hash_u32(h ^ b as u32);
@@ -181,7 +181,7 @@ pub(super) fn object_data(
         Some(glam::Vec3::new(a[0].as_f64()? as f32, a[1].as_f64()? as f32, a[2].as_f64()? as f32))
     };
     let texspace = texspace.and_then(|t| Some((vec3(t.get("location"))?, vec3(t.get("size"))?)));
-    crate::shader::program::ObjectData {
+    crate::shader::geom::ObjectData {
         world_to_object: world.inverse(),
         location: world.w_axis.truncate(),
         random: (h >> 8) as f32 / 16_777_216.0,

@@ -1,0 +1,102 @@
+//! What the graph's input nodes read: the register index, Blender's axes, the instance
+//! data and the shading point (`Geom`), and the shading point at barycentrics without a
+//! ray (`geom_at`, for alpha, emission and Bump's offset evaluations). A leaf of
+//! `shader/`: it imports none of its siblings, so the node operations, the program and
+//! the shading dispatch all build on it without a circle.
+
+use crate::scene::mesh::Mesh;
+use crate::scene::texture::Texture;
+use glam::{Mat4, Vec2, Vec3, Vec4};
+
+/// A register index.
+pub type Reg = u32;
+
+/// glTF (Y up) to Blender (Z up) axes.
+#[inline]
+pub fn to_blender(v: Vec3) -> Vec3 {
+    Vec3::new(v.x, -v.z, v.y)
+}
+
+/// Blender (Z up) to glTF (Y up) axes.
+#[inline]
+pub fn from_blender(v: Vec3) -> Vec3 {
+    Vec3::new(v.x, v.z, -v.y)
+}
+
+/// What the instance of the shaded triangle gives the graph.
+#[derive(Clone, Copy, Debug)]
+pub struct ObjectData {
+    /// World (glTF) to object (glTF axes of the object's local frame).
+    pub world_to_object: Mat4,
+    /// The object's origin in the world (glTF axes).
+    pub location: Vec3,
+    /// Object Info's Random in [0, 1).
+    pub random: f32,
+    /// Texture space of the mesh (Blender's `texspace_location`, `texspace_size`, Blender axes).
+    pub texspace: Option<(Vec3, Vec3)>,
+}
+
+impl Default for ObjectData {
+    fn default() -> Self {
+        ObjectData { world_to_object: Mat4::IDENTITY, location: Vec3::ZERO, random: 0.0, texspace: None }
+    }
+}
+
+/// The shading point as the graph's input nodes see it (world glTF axes).
+#[derive(Clone, Copy, Debug)]
+pub struct Geom<'a> {
+    /// Position.
+    pub p: Vec3,
+    /// Interpolated shading normal, on the viewer's side.
+    pub n: Vec3,
+    /// Geometric normal, on the viewer's side.
+    pub ng: Vec3,
+    /// Toward the viewer (Blender's Incoming).
+    pub wo: Vec3,
+    /// Texture coordinates (glTF's: v down).
+    pub uv: [Vec2; 2],
+    /// COLOR_0.
+    pub color: Vec4,
+    /// Tangent (xyz) and bitangent sign, zero when absent.
+    pub tangent: Vec4,
+    /// The ray hit the back face.
+    pub backfacing: bool,
+    /// The instance.
+    pub object: &'a ObjectData,
+    /// The scene's textures (Image Texture nodes).
+    pub textures: &'a [Texture],
+    /// The scene's triangles (Bump re-evaluates attributes at offset points).
+    pub mesh: &'a Mesh,
+    /// The shaded triangle.
+    pub tri: u32,
+}
+
+/// The default instance data (identity transform) for triangles without one.
+pub static NO_OBJECT: ObjectData =
+    ObjectData { world_to_object: Mat4::IDENTITY, location: Vec3::ZERO, random: 0.0, texspace: None };
+
+/// The shading point at barycentrics of a triangle without a ray: the viewer is taken
+/// along the normal (Fresnel-driven transparency or emission then uses normal incidence).
+pub fn geom_at<'a>(
+    mesh: &'a Mesh,
+    objects: &'a [ObjectData],
+    textures: &'a [Texture],
+    tri: u32,
+    b1: f32,
+    b2: f32,
+) -> Geom<'a> {
+    let m = mesh;
+    let [i0, i1, i2] = m.triangles[tri as usize].map(|i| i as usize);
+    let b0 = 1.0 - b1 - b2;
+    let p = m.positions[i0] * b0 + m.positions[i1] * b1 + m.positions[i2] * b2;
+    let ng = (m.positions[i1] - m.positions[i0]).cross(m.positions[i2] - m.positions[i0]).normalize_or(Vec3::Z);
+    let ns = (m.normals[i0] * b0 + m.normals[i1] * b1 + m.normals[i2] * b2).normalize_or(ng);
+    let uv = [m.uv0[i0] * b0 + m.uv0[i1] * b1 + m.uv0[i2] * b2, m.uv1[i0] * b0 + m.uv1[i1] * b1 + m.uv1[i2] * b2];
+    let color = m.colors[i0] * b0 + m.colors[i1] * b1 + m.colors[i2] * b2;
+    let tangent = m.tangents[i0] * b0 + m.tangents[i1] * b1 + m.tangents[i2] * b2;
+    let object = match m.tri_object.get(tri as usize) {
+        Some(&o) => objects.get(o as usize).unwrap_or(&NO_OBJECT),
+        None => &NO_OBJECT,
+    };
+    Geom { p, n: ns, ng, wo: ns, uv, color, tangent, backfacing: false, object, textures, mesh, tri }
+}

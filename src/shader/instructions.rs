@@ -1,0 +1,344 @@
+//! The instruction set of a compiled shader graph: the operations (`Op`) over the
+//! register file, their tables (ramps, curves) and the compiled `Program` that holds
+//! them. Evaluation is in `program.rs`.
+
+use super::closure::ClosureOp;
+use super::geom::Reg;
+use super::image_node::ImageOp;
+use super::ops::{Blend, MathOp, RangeInterp, VecOp};
+use super::texture_nodes::TexOp;
+use glam::{Mat4, Vec3};
+
+/// Which geometric quantity an `Input` op reads (each in Blender axes).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum InputKind {
+    /// World position.
+    Position,
+    /// Shading normal.
+    Normal,
+    /// Geometric normal.
+    TrueNormal,
+    /// Toward the viewer.
+    Incoming,
+    /// Backfacing as 0/1.
+    Backfacing,
+    /// Tangent (from the mesh's tangents; zero without).
+    Tangent,
+    /// Texture coordinates of a set, (u, 1 − v, 0) as Blender's.
+    Uv(u8),
+    /// Generated: object position in the texture space, or the object's bounds-free fallback.
+    Generated,
+    /// Object-space position.
+    Object,
+    /// Object-space position under an explicit world→object matrix (index into `matrices`).
+    ObjectMatrix(u32),
+    /// Object-space normal.
+    ObjectNormal,
+    /// Reflection of the view direction about the normal (world).
+    Reflection,
+    /// COLOR_0 rgb.
+    VertexColor,
+    /// COLOR_0 alpha.
+    VertexAlpha,
+    /// Object Info Location.
+    ObjectLocation,
+    /// Object Info Random.
+    ObjectRandom,
+}
+
+/// Curve tables' kinds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CurveKind {
+    /// RGB Curves (tables C, R, G, B).
+    Rgb,
+    /// Vector Curves (X, Y, Z).
+    Vector,
+    /// Float Curve (one table).
+    Float,
+}
+
+/// A baked curve mapping (docs/contract.md): tables over `range`.
+#[derive(Clone, Debug)]
+pub struct CurveTable {
+    /// x range of the tables.
+    pub range: [f32; 2],
+    /// Extrapolate linearly beyond the range (else hold).
+    pub extrapolate: bool,
+    /// One table of 256 values per curve.
+    pub tables: Vec<Vec<f32>>,
+}
+
+impl CurveTable {
+    /// Curve `i` at x (Cycles' `rgb_ramp_lookup` with extrapolation).
+    #[inline]
+    pub fn eval(&self, i: usize, x: f32) -> f32 {
+        let t = &self.tables[i];
+        let n = t.len();
+        let span = self.range[1] - self.range[0];
+        let f = if span != 0.0 { (x - self.range[0]) / span } else { 0.0 };
+        if self.extrapolate && !(0.0..=1.0).contains(&f) && n >= 2 {
+            let (t0, dy, d) = if f < 0.0 { (t[0], t[0] - t[1], -f) } else { (t[n - 1], t[n - 1] - t[n - 2], f - 1.0) };
+            return t0 + dy * d * (n - 1) as f32;
+        }
+        lookup(t, f, true)
+    }
+}
+
+/// Linear interpolation in a table over [0, 1], clamped (Cycles' ramp lookup).
+#[inline]
+fn lookup(t: &[f32], f: f32, interpolate: bool) -> f32 {
+    let n = t.len();
+    let f = if f.is_nan() { 0.0 } else { f.clamp(0.0, 1.0) * (n - 1) as f32 };
+    let i = (f as usize).min(n - 1);
+    let frac = f - i as f32;
+    if interpolate && frac > 0.0 && i + 1 < n { t[i] * (1.0 - frac) + t[i + 1] * frac } else { t[i] }
+}
+
+/// Mapping node kinds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[allow(missing_docs)]
+pub enum MappingKind {
+    Point,
+    Texture,
+    Vector,
+    Normal,
+}
+
+/// Colour spaces of Separate/Combine Color.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[allow(missing_docs)]
+pub enum ColorSpace {
+    Hsv,
+    Hsl,
+}
+
+/// One operation. Register operands name the first of three registers for vectors.
+#[derive(Clone, Debug)]
+#[allow(missing_docs)]
+pub enum Op {
+    Math {
+        op: MathOp,
+        a: Reg,
+        b: Reg,
+        c: Reg,
+        out: Reg,
+        clamp: bool,
+    },
+    VecMath {
+        op: VecOp,
+        a: Reg,
+        b: Reg,
+        c: Reg,
+        s: Reg,
+        vout: Reg,
+        fout: Reg,
+    },
+    MixFloat {
+        fac: Reg,
+        a: Reg,
+        b: Reg,
+        out: Reg,
+        clamp: bool,
+    },
+    /// `fac_vec`: the factor is a vector (non-uniform).
+    MixVec {
+        fac: Reg,
+        fac_vec: bool,
+        a: Reg,
+        b: Reg,
+        out: Reg,
+        clamp: bool,
+    },
+    MixColor {
+        blend: Blend,
+        fac: Reg,
+        a: Reg,
+        b: Reg,
+        out: Reg,
+        clamp_fac: bool,
+        clamp_res: bool,
+    },
+    MapRange {
+        interp: RangeInterp,
+        vector: bool,
+        v: Reg,
+        fmin: Reg,
+        fmax: Reg,
+        tmin: Reg,
+        tmax: Reg,
+        steps: Reg,
+        out: Reg,
+        clamp: bool,
+    },
+    Clamp {
+        range: bool,
+        v: Reg,
+        min: Reg,
+        max: Reg,
+        out: Reg,
+    },
+    Ramp {
+        table: u32,
+        interpolate: bool,
+        fac: Reg,
+        color: Reg,
+        alpha: Reg,
+    },
+    Curve {
+        table: u32,
+        kind: CurveKind,
+        fac: Reg,
+        v: Reg,
+        out: Reg,
+    },
+    Invert {
+        fac: Reg,
+        c: Reg,
+        out: Reg,
+    },
+    Gamma {
+        c: Reg,
+        g: Reg,
+        out: Reg,
+    },
+    BrightContrast {
+        c: Reg,
+        bright: Reg,
+        contrast: Reg,
+        out: Reg,
+    },
+    HueSat {
+        hue: Reg,
+        sat: Reg,
+        val: Reg,
+        fac: Reg,
+        c: Reg,
+        out: Reg,
+    },
+    /// Colour to float (luminance).
+    Lum {
+        c: Reg,
+        out: Reg,
+    },
+    /// Vector to float (average).
+    Avg {
+        v: Reg,
+        out: Reg,
+    },
+    /// Float to vector/colour.
+    Splat {
+        f: Reg,
+        out: Reg,
+    },
+    /// Three floats to a vector.
+    Pack {
+        x: Reg,
+        y: Reg,
+        z: Reg,
+        out: Reg,
+    },
+    /// Copy a vector.
+    Copy3 {
+        src: Reg,
+        out: Reg,
+    },
+    /// RGB to (false) or from (true) HSV/HSL.
+    ColorSpace {
+        space: ColorSpace,
+        to_rgb: bool,
+        c: Reg,
+        out: Reg,
+    },
+    /// A geometric quantity.
+    Input {
+        what: InputKind,
+        out: Reg,
+    },
+    Fresnel {
+        ior: Reg,
+        n: Option<Reg>,
+        out: Reg,
+    },
+    LayerWeight {
+        blend: Reg,
+        n: Option<Reg>,
+        fresnel: Reg,
+        facing: Reg,
+    },
+    Mapping {
+        kind: MappingKind,
+        v: Reg,
+        loc: Reg,
+        rot: Reg,
+        scale: Reg,
+        out: Reg,
+    },
+    /// Normal Map: tangent (0), object (1) or world (2) space.
+    NormalMap {
+        space: u8,
+        strength: Reg,
+        color: Reg,
+        out: Reg,
+    },
+    /// Closure weights of a Mix Shader: out1 = w (1 − fac), out2 = w fac.
+    MixWeight {
+        w: Option<Reg>,
+        fac: Reg,
+        out1: Reg,
+        out2: Reg,
+    },
+    /// A closure (shader/closure.rs).
+    Closure(Box<ClosureOp>),
+    /// A procedural texture (shader/texture_nodes.rs).
+    Texture(Box<TexOp>),
+    /// An Image Texture (shader/image_node.rs).
+    Image(Box<ImageOp>),
+    /// A Bump node (or the Displacement output as bump).
+    Bump(Box<BumpOp>),
+}
+
+/// A Bump node: the height's operations re-run at two offset positions.
+#[derive(Clone, Debug)]
+pub struct BumpOp {
+    /// Strength register.
+    pub strength: Reg,
+    /// Distance register.
+    pub distance: Reg,
+    /// Invert the height.
+    pub invert: bool,
+    /// The height at the shading point.
+    pub height: Reg,
+    /// The Normal input when linked (Blender axes).
+    pub normal: Option<Reg>,
+    /// Output normal (Blender axes).
+    pub out: Reg,
+    /// Operation ranges that compute the height (re-run at the offsets).
+    pub sub: Vec<(u32, u32)>,
+}
+
+/// A compiled material graph.
+#[derive(Clone, Debug, Default)]
+pub struct Program {
+    /// Material name (messages).
+    pub name: String,
+    /// Initial register file: constants, zeros elsewhere.
+    pub init: Vec<f32>,
+    /// The operations in order.
+    pub ops: Vec<Op>,
+    /// ColorRamp tables (256 RGBA each).
+    pub ramps: Vec<Vec<[f32; 4]>>,
+    /// Curve tables.
+    pub curves: Vec<CurveTable>,
+    /// Texture Coordinate object matrices (world → object, glTF axes).
+    pub matrices: Vec<Mat4>,
+    /// The graph has a Transparent part (alpha must be evaluated).
+    pub transparent: bool,
+    /// The graph can emit.
+    pub emits: bool,
+    /// The emission does not depend on the shading point (then it is `constant_emission`).
+    pub constant_emission: Option<Vec3>,
+    /// The Displacement output's bumped normal (Blender axes), the default closure normal.
+    pub displacement_normal: Option<Reg>,
+    /// Mesh tangents are read (tangent-space Normal Map, Geometry Tangent), from this UV set.
+    pub tangent_uv: Option<u32>,
+}
