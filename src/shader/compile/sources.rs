@@ -5,6 +5,27 @@
 use super::*;
 
 impl Compiler<'_> {
+    /// An Image or Environment Texture node's image (None, with a warning: magenta, as
+    /// Cycles) and its interpolation.
+    fn image_and_interpolation(&mut self, i: usize) -> Result<(Option<u32>, Interp), String> {
+        let texture = match self.desc(i).props.get("image").and_then(Value::as_u64) {
+            Some(k) => Some(*self.images.get(k as usize).ok_or_else(|| {
+                self.err(i, format!("image {k} is not in the graph's images ({})", self.images.len()))
+            })?),
+            None => {
+                self.warn(i, "the node has no image: it gives magenta, as Cycles");
+                None
+            }
+        };
+        let interp = match self.prop_str(i, "interpolation", "Linear") {
+            "Closest" => Interp::Closest,
+            "Linear" => Interp::Linear,
+            "Cubic" | "Smart" => Interp::Cubic,
+            other => return Err(self.err(i, format!("unknown interpolation '{other}'"))),
+        };
+        Ok((texture, interp))
+    }
+
     /// Emits an input, vector or texture node; false for an unknown type.
     pub(super) fn source_node(&mut self, i: usize, kind: &str) -> Result<bool, String> {
         match kind {
@@ -337,21 +358,7 @@ impl Compiler<'_> {
                 self.ops.push(Op::Texture(Box::new(op)));
             }
             "ShaderNodeTexEnvironment" => {
-                let texture = match self.desc(i).props.get("image").and_then(Value::as_u64) {
-                    Some(k) => Some(*self.images.get(k as usize).ok_or_else(|| {
-                        self.err(i, format!("image {k} is not in the graph's images ({})", self.images.len()))
-                    })?),
-                    None => {
-                        self.warn(i, "the node has no image: it gives magenta, as Cycles");
-                        None
-                    }
-                };
-                let interp = match self.prop_str(i, "interpolation", "Linear") {
-                    "Closest" => Interp::Closest,
-                    "Linear" => Interp::Linear,
-                    "Cubic" | "Smart" => Interp::Cubic,
-                    other => return Err(self.err(i, format!("unknown interpolation '{other}'"))),
-                };
+                let (texture, interp) = self.image_and_interpolation(i)?;
                 let projection = match self.prop_str(i, "projection", "EQUIRECTANGULAR") {
                     "EQUIRECTANGULAR" => Projection::Equirectangular,
                     "MIRROR_BALL" => Projection::MirrorBall,
@@ -376,21 +383,7 @@ impl Compiler<'_> {
                 self.ops.push(Op::Image(Box::new(op)));
             }
             "ShaderNodeTexImage" => {
-                let texture = match self.desc(i).props.get("image").and_then(Value::as_u64) {
-                    Some(k) => Some(*self.images.get(k as usize).ok_or_else(|| {
-                        self.err(i, format!("image {k} is not in the graph's images ({})", self.images.len()))
-                    })?),
-                    None => {
-                        self.warn(i, "the node has no image: it gives magenta, as Cycles");
-                        None
-                    }
-                };
-                let interp = match self.prop_str(i, "interpolation", "Linear") {
-                    "Closest" => Interp::Closest,
-                    "Linear" => Interp::Linear,
-                    "Cubic" | "Smart" => Interp::Cubic,
-                    other => return Err(self.err(i, format!("unknown interpolation '{other}'"))),
-                };
+                let (texture, interp) = self.image_and_interpolation(i)?;
                 let extension = match self.prop_str(i, "extension", "REPEAT") {
                     "REPEAT" => Extension::Repeat,
                     "EXTEND" => Extension::Extend,
