@@ -143,8 +143,13 @@ impl SpecularAlbedo {
 /// (A, B) of ∫ f_spec cos dωi = F0·A + B for the GGX layer at μ = cos θo, by `n`×`n`
 /// stratified VNDF samples.
 pub fn directional_albedo_split(mu: f32, roughness: f32, n: usize) -> (f32, f32) {
-    let ggx = Ggx::from_roughness(roughness);
     let wo = Vec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu);
+    albedo_split(&Ggx::from_roughness(roughness), wo, n)
+}
+
+/// (A, B) of the albedo of the GGX layer `ggx` seen from `wo`, by `n`×`n` stratified VNDF
+/// samples of the estimator F · G2 / G1 with Schlick's F split linearly in F0.
+pub(super) fn albedo_split(ggx: &Ggx, wo: Vec3, n: usize) -> (f32, f32) {
     let (mut sa, mut sb) = (0.0f64, 0.0f64);
     for i in 0..n {
         for j in 0..n {

@@ -9,9 +9,9 @@
 //! (μ, φ, rx, ry), rx and ry the perceptual roughnesses √αx and √αy, φ folded into
 //! [0, π/2] by the lobe's mirror symmetries; built once, lazily, only when a scene uses it.
 
-use super::albedo::build_entries;
-use super::microfacet::{Ggx, reflect, schlick_weight};
-use glam::{Vec2, Vec3};
+use super::albedo::{albedo_split, build_entries};
+use super::microfacet::Ggx;
+use glam::Vec3;
 use std::f32::consts::FRAC_PI_2;
 
 /// Nodes along μ (spaced in √μ), φ (uniform in [0, π/2]) and each roughness (uniform).
@@ -123,23 +123,7 @@ pub fn anisotropic_albedo_split(mu: f32, phi: f32, alpha_x: f32, alpha_y: f32, n
     let ggx = Ggx::anisotropic(alpha_x, alpha_y);
     let s = (1.0 - mu * mu).max(0.0).sqrt();
     let wo = Vec3::new(s * phi.cos(), s * phi.sin(), mu);
-    let (mut sa, mut sb) = (0.0f64, 0.0f64);
-    for i in 0..n {
-        for j in 0..n {
-            let u = Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
-            let m = ggx.sample_visible_normal(wo, u);
-            let wi = reflect(wo, m);
-            if wi.z <= 0.0 {
-                continue;
-            }
-            let w = schlick_weight(wo.dot(m));
-            let g = (ggx.g2(wo, wi) / ggx.g1(wo)) as f64;
-            sa += (1.0 - w) as f64 * g;
-            sb += w as f64 * g;
-        }
-    }
-    let k = (n * n) as f64;
-    ((sa / k) as f32, (sb / k) as f32)
+    albedo_split(&ggx, wo, n)
 }
 
 /// The shared table.

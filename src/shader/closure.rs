@@ -18,7 +18,7 @@
 //!   distribution); Emission → emitted radiance Color × Strength; Transparent → pass-through
 //!   by coverage (`Scene::alpha`), grey as its mean.
 
-use super::geom::{Geom, Reg, from_blender};
+use super::geom::{Geom, Reg, from_blender, v3};
 use crate::bsdf::dielectric::DielectricBsdf;
 use crate::bsdf::mix::{GlossyFresnel, Lobe, MAX_LOBES, MixBsdf};
 use crate::bsdf::pbr::PbrParams;
@@ -155,12 +155,6 @@ fn zero_params() -> PbrParams {
         subsurface: 0.0,
         anisotropy: None,
     }
-}
-
-#[inline]
-fn v3(r: &[f32], i: Reg) -> Vec3 {
-    let i = i as usize;
-    Vec3::new(r[i], r[i + 1], r[i + 2])
 }
 
 impl ClosureOp {

@@ -100,3 +100,19 @@ pub fn geom_at<'a>(
     };
     Geom { p, n: ns, ng, wo: ns, uv, color, tangent, backfacing: false, object, textures, mesh, tri }
 }
+
+/// The vector in registers i..i+3.
+#[inline]
+pub(super) fn v3(r: &[f32], i: Reg) -> Vec3 {
+    let i = i as usize;
+    Vec3::new(r[i], r[i + 1], r[i + 2])
+}
+
+/// Writes a vector to registers i..i+3.
+#[inline]
+pub(super) fn set3(r: &mut [f32], i: Reg, v: Vec3) {
+    let i = i as usize;
+    r[i] = v.x;
+    r[i + 1] = v.y;
+    r[i + 2] = v.z;
+}

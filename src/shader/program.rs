@@ -9,7 +9,7 @@
 // The operations themselves are in `instructions.rs`; the shading point in `geom.rs`.
 
 use super::closure::Closures;
-use super::geom::{Geom, Reg, from_blender, geom_at, to_blender};
+use super::geom::{Geom, Reg, from_blender, geom_at, set3, to_blender, v3};
 use super::instructions::{BumpOp, ColorSpace, CurveKind, InputKind, MappingKind, Op, Program};
 use super::ops;
 use crate::math::{Frame, luminance};
@@ -30,20 +30,6 @@ pub fn with_registers<R>(f: impl FnOnce(&mut Vec<f32>) -> R) -> R {
         // private file keeps it correct.
         Err(_) => f(&mut Vec::new()),
     })
-}
-
-#[inline]
-fn v3(r: &[f32], i: Reg) -> Vec3 {
-    let i = i as usize;
-    Vec3::new(r[i], r[i + 1], r[i + 2])
-}
-
-#[inline]
-fn set3(r: &mut [f32], i: Reg, v: Vec3) {
-    let i = i as usize;
-    r[i] = v.x;
-    r[i + 1] = v.y;
-    r[i + 2] = v.z;
 }
 
 /// Fresnel reflectance of a dielectric for |cos| and relative η (Cycles' fresnel_dielectric_cos).

@@ -1,7 +1,7 @@
 //! The texture nodes' side of the program: each procedural texture node's settings and
 //! input registers, evaluated by the pure functions of `texture/`.
 
-use super::geom::Reg;
+use super::geom::{Reg, set3, v3};
 use super::texture::{
     BrickParams, GradientKind, NoiseKind, NoiseParams, VoronoiFeature, VoronoiMetric, VoronoiParams, WaveDirection,
     WaveKind, WaveParams, WaveProfile, brick_texture, checker_texture, gradient_texture, magic_texture, noise_texture,
@@ -47,20 +47,6 @@ pub enum TexOp {
         color: Reg,
         fac: Reg,
     },
-}
-
-#[inline]
-fn v3(r: &[f32], i: Reg) -> Vec3 {
-    let i = i as usize;
-    Vec3::new(r[i], r[i + 1], r[i + 2])
-}
-
-#[inline]
-fn set3(r: &mut [f32], i: Reg, v: Vec3) {
-    let i = i as usize;
-    r[i] = v.x;
-    r[i + 1] = v.y;
-    r[i + 2] = v.z;
 }
 
 impl TexOp {
