@@ -25,11 +25,11 @@
 //! Not handled: dispersion of rough glass (one IOR for all wavelengths), absorption
 //! inside (the integrator applies `KHR_materials_volume` along the path).
 
-use super::BsdfSample;
 use super::albedo::specular_albedo;
 use super::glass_albedo::glass_albedo;
 use super::microfacet::{Ggx, reflect};
 pub use super::microfacet::{fresnel_dielectric, refract};
+use super::{BsdfSample, LobeKind};
 use crate::math::Rgb;
 use glam::{Vec2, Vec3};
 
@@ -247,12 +247,18 @@ impl DielectricBsdf {
             let r = self.reflectance(wo.z);
             if uc < r {
                 let wi = Vec3::new(-wo.x, -wo.y, wo.z);
-                return Some(BsdfSample { wi, f: Rgb::splat(r / wi.z), pdf: r, delta: true });
+                return Some(BsdfSample { wi, f: Rgb::splat(r / wi.z), pdf: r, delta: true, kind: LobeKind::Glossy });
             }
             let t = 1.0 - r;
             if self.thin {
                 let wi = -wo;
-                return Some(BsdfSample { wi, f: self.tint * (t / wi.z.abs()), pdf: t, delta: true });
+                return Some(BsdfSample {
+                    wi,
+                    f: self.tint * (t / wi.z.abs()),
+                    pdf: t,
+                    delta: true,
+                    kind: LobeKind::Glossy,
+                });
             }
             if let Some(etas) = self.eta_rgb {
                 // Dispersion: one channel's wavelength refracts, chosen uniformly (the rest of
@@ -265,11 +271,11 @@ impl DielectricBsdf {
                 let mut mask = Vec3::ZERO;
                 mask[c] = 3.0;
                 let f = self.tint * mask * (tc / (eta * eta) / wi.z.abs());
-                return Some(BsdfSample { wi, f, pdf: t, delta: true });
+                return Some(BsdfSample { wi, f, pdf: t, delta: true, kind: LobeKind::Glossy });
             }
             let wi = refract(wo, Vec3::Z, self.eta)?;
             let f = self.tint * (t / (self.eta * self.eta) / wi.z.abs());
-            return Some(BsdfSample { wi, f, pdf: t, delta: true });
+            return Some(BsdfSample { wi, f, pdf: t, delta: true, kind: LobeKind::Glossy });
         }
         let m = self.ggx.sample_visible_normal(wo, u);
         let r = self.reflectance(wo.dot(m));
@@ -289,7 +295,7 @@ impl DielectricBsdf {
         if !(pdf > 0.0) {
             return None;
         }
-        Some(BsdfSample { wi, f: self.eval(wo, wi), pdf, delta: false })
+        Some(BsdfSample { wi, f: self.eval(wo, wi), pdf, delta: false, kind: LobeKind::Glossy })
     }
 }
 

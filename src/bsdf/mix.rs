@@ -24,7 +24,7 @@
 use super::dielectric::{DielectricBsdf, SMOOTH_ROUGHNESS};
 use super::microfacet::{Ggx, reflect, schlick_weight};
 use super::sheen::{charlie_brdf, sheen_albedo_table};
-use super::{BsdfSample, PbrBsdf, albedo::specular_albedo};
+use super::{BsdfSample, LobeKind, PbrBsdf, albedo::specular_albedo};
 use crate::math::{Rgb, luminance};
 use crate::sampling::warp::{cosine_hemisphere, cosine_hemisphere_pdf};
 use glam::{Vec2, Vec3};
@@ -193,6 +193,7 @@ impl Lobe {
                         f: f * Self::glossy_ms(*fms, *roughness, wo.z) / wi.z,
                         pdf: 1.0,
                         delta: true,
+                        kind: LobeKind::Glossy,
                     });
                 }
                 reflect(wo, ggx.sample_visible_normal(wo, u))
@@ -203,7 +204,11 @@ impl Lobe {
             return None;
         }
         let pdf = self.pdf(wo, wi);
-        (pdf > 0.0).then(|| BsdfSample { wi, f: self.eval(wo, wi), pdf, delta: false })
+        let kind = match self {
+            Lobe::Glossy { .. } | Lobe::Dielectric(_) => LobeKind::Glossy,
+            Lobe::Diffuse | Lobe::Sheen { .. } | Lobe::Translucent => LobeKind::Diffuse,
+        };
+        (pdf > 0.0).then(|| BsdfSample { wi, f: self.eval(wo, wi), pdf, delta: false, kind })
     }
 }
 
@@ -355,10 +360,10 @@ impl MixBsdf {
         };
         if s.delta {
             let w = if k == 0 { Rgb::splat(self.pbr_weight) } else { self.weights[k - 1] };
-            return Some(BsdfSample { wi: s.wi, f: s.f * w, pdf: s.pdf * p[k], delta: true });
+            return Some(BsdfSample { wi: s.wi, f: s.f * w, pdf: s.pdf * p[k], delta: true, kind: s.kind });
         }
         let pdf = self.pdf(wo, s.wi);
-        (pdf > 0.0).then(|| BsdfSample { wi: s.wi, f: self.eval(wo, s.wi), pdf, delta: false })
+        (pdf > 0.0).then(|| BsdfSample { wi: s.wi, f: self.eval(wo, s.wi), pdf, delta: false, kind: s.kind })
     }
 
     /// True when every lobe in use is a delta lobe.

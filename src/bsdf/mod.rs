@@ -27,6 +27,22 @@ pub struct BsdfSample {
     pub pdf: f32,
     /// Chosen from a delta lobe (perfect mirror or refraction): no MIS, no NEE.
     pub delta: bool,
+    /// The kind of lobe that chose `wi` (Cycles' closure labels; with `delta` = singular).
+    pub kind: LobeKind,
+}
+
+/// Which kind of lobe sampled a direction, as Cycles labels its closures.
+///
+/// Ray visibility, the Light Path node and the light passes classify a bounce by it:
+/// diffuse (Lambert, Oren-Nayar, translucent, sheen) or glossy (microfacet and smooth
+/// reflection or refraction; singular when the sample is `delta`). Whether the bounce
+/// transmitted is geometric: `wi` on the other side of the surface from `wo`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LobeKind {
+    /// A diffuse closure (reflecting or translucent).
+    Diffuse,
+    /// A glossy closure: metal, specular, coat, glass reflection or refraction.
+    Glossy,
 }
 
 /// The scattering function at a surface point.

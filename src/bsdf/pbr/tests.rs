@@ -1,6 +1,7 @@
 //! Tests of the glTF material BSDF: sampling against its density, reciprocity, energy.
 
 use super::*;
+use crate::bsdf::LobeKind;
 use crate::bsdf::albedo::TABLE_ERROR;
 use crate::bsdf::dielectric::refract;
 use crate::bsdf::microfacet::reflect;
@@ -512,6 +513,46 @@ fn white_furnace_anisotropic_metal() {
                     (mean - 1.0).abs() <= 0.01 + 5.0 * se,
                     "r={roughness} s={strength} θ={theta} φ={phi}: albedo {mean} ± {se}"
                 );
+            }
+        }
+    }
+}
+
+#[test]
+fn sampled_lobe_kinds_follow_the_lobe_that_chose() {
+    // The label must name the lobe that drew wi, not the mixture: directions labelled
+    // diffuse are cosine distributed (E[cos θ] = 2/3, σ² = 1/2 - 4/9 = 1/18), and a metal
+    // or a glass never labels a sample diffuse.
+    let mut rng = Pcg32::new(7);
+    let wo = Vec3::new(0.5, 0.1, 0.86).normalize();
+    let plastic = PbrBsdf::new(Vec3::splat(0.8), 0.0, 0.5);
+    let (mut n, mut sum, mut glossy) = (0usize, 0.0f64, 0usize);
+    for _ in 0..40_000 {
+        let Some(s) = plastic.sample(wo, rng.next_f32(), Vec2::new(rng.next_f32(), rng.next_f32())) else {
+            continue;
+        };
+        match s.kind {
+            LobeKind::Diffuse => {
+                n += 1;
+                sum += s.wi.z as f64;
+            }
+            LobeKind::Glossy => glossy += 1,
+        }
+    }
+    assert!(n > 10_000 && glossy > 1_000, "both lobes sampled: {n} diffuse, {glossy} glossy");
+    let mean = sum / n as f64;
+    let bound = 5.0 * (1.0f64 / 18.0 / n as f64).sqrt();
+    assert!((mean - 2.0 / 3.0).abs() < bound, "diffuse-labelled mean cos {mean}, bound {bound}");
+
+    let metal = PbrBsdf::new(Vec3::splat(0.8), 1.0, 0.5);
+    let glass =
+        PbrBsdf::from_params(&PbrParams { transmission: 1.0, eta: 1.5, ..PbrParams::opaque(Vec3::ONE, 0.0, 0.3) });
+    let smooth_glass =
+        PbrBsdf::from_params(&PbrParams { transmission: 1.0, eta: 1.5, ..PbrParams::opaque(Vec3::ONE, 0.0, 0.0) });
+    for (name, b) in [("metal", metal), ("glass", glass), ("smooth glass", smooth_glass)] {
+        for _ in 0..2_000 {
+            if let Some(s) = b.sample(wo, rng.next_f32(), Vec2::new(rng.next_f32(), rng.next_f32())) {
+                assert_eq!(s.kind, LobeKind::Glossy, "{name}");
             }
         }
     }

@@ -3,8 +3,8 @@
 //! value, density and sampled bounce that next-event estimation and the path share.
 
 use super::PbrBsdf;
-use crate::bsdf::BsdfSample;
 use crate::bsdf::microfacet::{reflect, schlick_weight};
+use crate::bsdf::{BsdfSample, LobeKind};
 use crate::math::{Frame, Rgb};
 use crate::sampling::warp::cosine_hemisphere;
 use glam::{Vec2, Vec3};
@@ -58,6 +58,7 @@ impl PbrAt<'_> {
         }
         let this = self.b;
         let c = this.lobes(self);
+        let diffuse = uc >= c.glass + c.metal + c.spec && uc < c.glass + c.metal + c.spec + c.diffuse + c.sheen;
         let wi_up = if uc < c.glass {
             let s = this.glass.sample(wo_up, uc / c.glass, u)?;
             if s.delta {
@@ -66,7 +67,13 @@ impl PbrAt<'_> {
                     * this.transmission
                     * (1.0 - self.ec)
                     * this.sheen_scaling(wo_up.z, s.wi.z.abs());
-                return Some(BsdfSample { wi: mirror(s.wi), f: s.f * weight, pdf: s.pdf * c.glass, delta: true });
+                return Some(BsdfSample {
+                    wi: mirror(s.wi),
+                    f: s.f * weight,
+                    pdf: s.pdf * c.glass,
+                    delta: true,
+                    kind: s.kind,
+                });
             }
             s.wi
         } else if uc < c.glass + c.metal + c.spec {
@@ -78,7 +85,13 @@ impl PbrAt<'_> {
                 let metal = (this.base + (Vec3::ONE - this.base) * schlick_weight(mu)) * this.metallic;
                 let refl = (metal + self.eo * opaque) * under;
                 let wi = Vec3::new(-wo_up.x, -wo_up.y, wo_up.z);
-                return Some(BsdfSample { wi: mirror(wi), f: refl / mu, pdf: c.metal + c.spec, delta: true });
+                return Some(BsdfSample {
+                    wi: mirror(wi),
+                    f: refl / mu,
+                    pdf: c.metal + c.spec,
+                    delta: true,
+                    kind: LobeKind::Glossy,
+                });
             }
             reflect(wo_up, this.ggx.sample_visible_normal(wo_up, u))
         } else if uc < c.glass + c.metal + c.spec + c.diffuse {
@@ -99,7 +112,13 @@ impl PbrAt<'_> {
                 if wi.z <= 0.0 {
                     return None;
                 }
-                return Some(BsdfSample { wi: mirror(wi), f: Rgb::splat(self.ec / wi.z), pdf: c.coat, delta: true });
+                return Some(BsdfSample {
+                    wi: mirror(wi),
+                    f: Rgb::splat(self.ec / wi.z),
+                    pdf: c.coat,
+                    delta: true,
+                    kind: LobeKind::Glossy,
+                });
             }
             cf.to_world(reflect(wo_c, this.coat_ggx.sample_visible_normal(wo_c, u)))
         };
@@ -114,7 +133,8 @@ impl PbrAt<'_> {
             return None;
         }
         let wi = mirror(wi_up);
-        Some(BsdfSample { wi, f: self.eval(wi), pdf, delta: false })
+        let kind = if diffuse { LobeKind::Diffuse } else { LobeKind::Glossy };
+        Some(BsdfSample { wi, f: self.eval(wi), pdf, delta: false, kind })
     }
 }
 
