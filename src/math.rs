@@ -94,6 +94,20 @@ pub fn hash_u32(mut x: u32) -> u32 {
     x
 }
 
+/// FNV-1a 64 of a byte string (stable across builds and platforms).
+pub fn fnv1a64(bytes: &[u8]) -> u64 {
+    fnv1a64_from(0xcbf2_9ce4_8422_2325, bytes)
+}
+
+/// FNV-1a 64 continued from state `h`, for a hash over several byte strings.
+pub fn fnv1a64_from(mut h: u64, bytes: &[u8]) -> u64 {
+    for &b in bytes {
+        h ^= b as u64;
+        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    h
+}
+
 /// Combines several integers into one hash.
 #[inline]
 pub fn hash_combine(values: &[u32]) -> u32 {

@@ -200,3 +200,52 @@ fn photon_seed_picks_the_map_only() {
     let r = run(&["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--photon-seed", "1"], LIMIT);
     assert_eq!(r.code, Some(2), "{}", r.stderr);
 }
+
+/// A chunk's identity covers the files the glTF reads, not only the glTF: chunks rendered
+/// before and after its `.bin` changed (one vertex moved) are refused, while two chunks of the
+/// unchanged files merge.
+#[test]
+fn chunks_of_a_changed_buffer_are_refused() {
+    let dir = temp_dir();
+    for f in ["cornell_box.gltf", "cornell_box.bin"] {
+        std::fs::copy(root().join("scenes").join(f), dir.path().join(f)).unwrap();
+    }
+    let scene = dir.path().join("cornell_box.gltf");
+    let chunk = |name: &str, offset: &str| {
+        let out = dir.path().join(name);
+        let r = run(
+            &[
+                "render",
+                scene.to_str().unwrap(),
+                "-o",
+                out.to_str().unwrap(),
+                "--resolution",
+                "12x9",
+                "--spp",
+                "2",
+                "--chunk",
+                "--sample-offset",
+                offset,
+            ],
+            LIMIT,
+        );
+        assert_eq!(r.code, Some(0), "{}", r.stderr);
+        out
+    };
+    let a = chunk("a.exr", "0");
+    let b = chunk("b.exr", "2");
+    let ok = merge(&[&a, &b], &dir.path().join("ab.exr"), &[]);
+    assert_eq!(ok.code, Some(0), "{}", ok.stderr);
+    // Nudge the first float of the buffer (a position) by one ulp.
+    let bin = dir.path().join("cornell_box.bin");
+    let mut bytes = std::fs::read(&bin).unwrap();
+    let x = f32::from_le_bytes(bytes[0..4].try_into().unwrap());
+    bytes[0..4].copy_from_slice(&f32::from_bits(x.to_bits() + 1).to_le_bytes());
+    std::fs::write(&bin, bytes).unwrap();
+    let c = chunk("c.exr", "4");
+    let out = dir.path().join("ac.exr");
+    let bad = merge(&[&a, &c], &out, &[]);
+    assert_eq!(bad.code, Some(2), "{}", bad.stderr);
+    assert!(bad.stderr.contains("scenes"), "the error names the scenes: {}", bad.stderr);
+    assert!(!out.exists(), "nothing written");
+}

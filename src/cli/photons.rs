@@ -41,7 +41,7 @@ pub fn run_photons(args: &PhotonsArgs, reporter: &Reporter, stop: &AtomicBool) -
         Some(0) => return Err(Error::Usage("--threads must be at least 1".into())),
         Some(t) => t.min(4096),
     };
-    let hash = photon::io::scene_hash(&args.scene)?;
+    let hash = scene.source_hash;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()

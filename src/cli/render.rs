@@ -105,7 +105,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
             reporter.phase("photons", t0.elapsed().as_secs_f64());
             let maps = match &args.photon_map {
                 Some(path) => {
-                    let maps = PhotonMaps::load(path, photon::io::scene_hash(&args.scene)?)?;
+                    let maps = PhotonMaps::load(path, scene.source_hash)?;
                     if maps.max_depth < res.max_depth {
                         return Err(Error::Usage(format!(
                             "the photon map '{}' serves paths of at most {} scattering events; render with --max-depth {} or less, or make the map with --max-depth {}",
@@ -123,7 +123,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
                     maps
                 }
                 None => {
-                    let hash = photon::io::scene_hash(&args.scene)?;
+                    let hash = scene.source_hash;
                     // A chunk may trace its own, independent map (`--photon-seed`); by default
                     // every chunk of a frame traces the frame's map from the seed.
                     let map_seed = args.photon_seed.unwrap_or(res.job_seed);
@@ -152,7 +152,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     };
     // What every chunk of this frame must agree on (`--chunk`); the ranges are filled in per write.
     let chunk_info = match args.chunk {
-        true => Some(chunk_info(args, &res)?),
+        true => Some(chunk_info(args, &res, &scene)),
         false => None,
     };
     let write = |img: &crate::film::FilmImage, film: Option<&crate::film::Film>, spp: u32, light_paths: u64| {
@@ -266,9 +266,10 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     Ok(Outcome { interrupted: result.interrupted, summary })
 }
 
-/// The chunk identity of this render: the scene file's hash and a hash of every setting
-/// that changes what a sample computes (not the sample range, threads or output).
-fn chunk_info(args: &RenderArgs, res: &Resolved) -> Result<ChunkInfo> {
+/// The chunk identity of this render: the scene's source hash (the glTF and every file it
+/// read) and a hash of every setting that changes what a sample computes (not the sample
+/// range, threads or output).
+fn chunk_info(args: &RenderArgs, res: &Resolved, scene: &Scene) -> ChunkInfo {
     // SPPM's iteration count is its chunk's sample count, not an identity.
     let photon = PhotonSettings { sppm_iterations: 0, ..res.photon.clone() };
     let settings = format!(
@@ -283,10 +284,10 @@ fn chunk_info(args: &RenderArgs, res: &Resolved) -> Result<ChunkInfo> {
         res.light_sampler.name(),
         args.bdpt_strategy,
     );
-    Ok(ChunkInfo {
+    ChunkInfo {
         version: chunk::CHUNK_VERSION,
-        scene_hash: photon::io::scene_hash(&args.scene)?,
-        settings_hash: photon::io::fnv1a64(settings.as_bytes()),
+        scene_hash: scene.source_hash,
+        settings_hash: crate::math::fnv1a64(settings.as_bytes()),
         integrator: res.integrator.name().to_string(),
         resolution: [res.resolution.0, res.resolution.1],
         window: res.window,
@@ -294,7 +295,7 @@ fn chunk_info(args: &RenderArgs, res: &Resolved) -> Result<ChunkInfo> {
         transparent: res.transparent,
         samples: Vec::new(),
         light_paths: 0,
-    })
+    }
 }
 
 /// Traces the global and caustic maps, reporting the "photons" phase's progress at

@@ -197,6 +197,10 @@ pub struct Scene {
     pub bounds: (Vec3, Vec3),
     /// Per-instance data for shader graphs (`Mesh::tri_object` indexes it).
     pub objects: Vec<crate::shader::geom::ObjectData>,
+    /// FNV-1a 64 of the glTF file and of every external file it read (buffers, images, by
+    /// URI): the identity of a photon map and of a chunk, which a changed texture or .bin
+    /// must change too.
+    pub source_hash: u64,
 }
 
 impl Scene {

@@ -7,7 +7,7 @@
 //! ```text
 //! magic      8 bytes  "CAUSTPM\0"
 //! version    u32      2
-//! scene_hash u64      FNV-1a 64 of the scene file's bytes
+//! scene_hash u64      the scene's source hash (`Scene::source_hash`: the glTF and every file it reads)
 //! max_depth  u32      largest hit index stored
 //! seed       u32
 //! emitted    u64 × 2  photons emitted for the global and the caustic map
@@ -62,22 +62,6 @@ pub struct MapStats {
     pub trace_seconds: f64,
     /// Seconds spent building the kd-trees.
     pub build_seconds: f64,
-}
-
-/// FNV-1a 64 of a byte string (stable across builds and platforms).
-pub fn fnv1a64(bytes: &[u8]) -> u64 {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for &b in bytes {
-        h ^= b as u64;
-        h = h.wrapping_mul(0x0000_0100_0000_01b3);
-    }
-    h
-}
-
-/// Hash of a scene file's bytes.
-pub fn scene_hash(path: &Path) -> Result<u64> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    Ok(fnv1a64(&bytes))
 }
 
 impl PhotonMaps {

@@ -140,6 +140,9 @@ struct Loader<'a> {
     khr_volume_materials: std::collections::HashSet<u32>,
     /// Thin-walled copies of those materials, for open primitives: original → copy.
     thin_variants: HashMap<u32, u32>,
+    /// External files read so far (URI, content hash), for `Scene::source_hash`; a cell
+    /// because files are read through `&self`.
+    files_read: std::cell::RefCell<Vec<(String, u64)>>,
 }
 
 impl<'a> Loader<'a> {
@@ -155,6 +158,7 @@ impl<'a> Loader<'a> {
             profile: LoadProfile::default(),
             khr_volume_materials: Default::default(),
             thin_variants: HashMap::new(),
+            files_read: Default::default(),
         }
     }
 
@@ -370,6 +374,7 @@ impl<'a> Loader<'a> {
         }
 
         self.profile.total = start.elapsed().as_secs_f64();
+        let source_hash = self.source_hash(bytes);
         let report = LoadReport {
             file: self.file.to_string(),
             triangles: mesh.triangles.len(),
@@ -419,6 +424,7 @@ impl<'a> Loader<'a> {
             report,
             bounds: (lo, hi),
             objects,
+            source_hash,
         })
     }
 
@@ -466,7 +472,25 @@ impl<'a> Loader<'a> {
         }
         let decoded = percent_encoding::percent_decode_str(uri).decode_utf8_lossy().to_string();
         let path: PathBuf = self.base_dir.join(&decoded);
-        std::fs::read(&path).map_err(|e| self.err(format!("{what}: cannot read '{}': {e}", path.display())))
+        let bytes =
+            std::fs::read(&path).map_err(|e| self.err(format!("{what}: cannot read '{}': {e}", path.display())))?;
+        self.files_read.borrow_mut().push((decoded, crate::math::fnv1a64(&bytes)));
+        Ok(bytes)
+    }
+
+    /// The scene's source hash: the glTF's bytes, then each external file read (URI and
+    /// content hash) in URI order, so the order of reading does not matter.
+    fn source_hash(&self, gltf: &[u8]) -> u64 {
+        let mut files = self.files_read.borrow().clone();
+        files.sort();
+        files.dedup();
+        let mut h = crate::math::fnv1a64(gltf);
+        for (uri, file) in &files {
+            h = crate::math::fnv1a64_from(h, &[0]);
+            h = crate::math::fnv1a64_from(h, uri.as_bytes());
+            h = crate::math::fnv1a64_from(h, &file.to_le_bytes());
+        }
+        h
     }
 
     fn load_buffers(&self, doc: &gltf::Document, mut bin: Option<Vec<u8>>) -> Result<Vec<Vec<u8>>> {
