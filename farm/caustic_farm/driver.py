@@ -69,20 +69,46 @@ def _start_client(scheduler, workers):
     return Client(cluster), cluster
 
 
-def _scatter_scenes(client, scenes):
-    """Scatters every distinct file once; returns per frame (scene key, scene file name, [(rel, sha, future)])."""
-    by_sha = {}
-    frames = []
-    for path in scenes:
-        entries = [(rel, full, sha256_file(full)) for rel, full in scene_files(path)]
-        for _, full, sha in entries:
-            if sha not in by_sha:
-                with open(full, "rb") as f:
-                    by_sha[sha] = client.scatter(f.read(), hash=False)
-        manifest = json.dumps(sorted((rel, sha) for rel, _, sha in entries)).encode()
-        key = hashlib.sha256(manifest).hexdigest()[:32]
-        frames.append((key, entries[0][0], [(rel, sha, by_sha[sha]) for rel, _, sha in entries]))
-    return frames, len(by_sha)
+class _SceneFiles:
+    """A run's scene files by hash: what each frame needs, and for each blob either the
+    future of the bytes sent to the cluster or None where every worker already held it."""
+
+    def __init__(self, client, scenes):
+        self.client = client
+        self.paths = {}  # sha -> a local path with those bytes
+        self.frames = []  # per frame: (scene key, scene file name, [(rel, sha)])
+        for path in scenes:
+            entries = [(rel, full, sha256_file(full)) for rel, full in scene_files(path)]
+            for _, full, sha in entries:
+                self.paths.setdefault(sha, full)
+            manifest = json.dumps(sorted((rel, sha) for rel, _, sha in entries)).encode()
+            key = hashlib.sha256(manifest).hexdigest()[:32]
+            self.frames.append((key, entries[0][0], [(rel, sha) for rel, _, sha in entries]))
+        shas = sorted(self.paths)
+        held = client.run(tasks.cached_blobs, shas)
+        everywhere = set(shas)
+        for blobs in held.values():
+            everywhere &= set(blobs)
+        if not held:
+            everywhere = set()
+        self.futures = {sha: None for sha in everywhere}
+        self.send([sha for sha in shas if sha not in everywhere])
+        self.cached = len(everywhere)
+
+    def send(self, shas):
+        """Scatters the files with these hashes (each once); returns how many were sent."""
+        sent = 0
+        for sha in shas:
+            if self.futures.get(sha) is None:
+                with open(self.paths[sha], "rb") as f:
+                    self.futures[sha] = self.client.scatter(f.read(), hash=False)
+                sent += 1
+        return sent
+
+    def frame(self, f):
+        """(scene key, scene file name, [(rel, sha, future or None)]) of frame f, for a task."""
+        key, scene_rel, entries = self.frames[f]
+        return key, scene_rel, [(rel, sha, self.futures[sha]) for rel, sha in entries]
 
 
 # `caustic photons` takes these of the render flags; the map they make is the one a render
@@ -164,33 +190,37 @@ def _run(client, scenes, outputs, spps, chunks, binary, extra_args, max_attempts
     from distributed import Event
 
     try:
-        frames, distinct = _scatter_scenes(client, scenes)
+        files = _SceneFiles(client, scenes)
     except SceneError as err:
         raise FarmError(err.code, str(err)) from None
     plan = [Chunk(f, c.offset, c.spp) for f, n in enumerate(spps) for c in plan_chunks(1, n, chunks)]
-    report({"type": "start", "frames": len(scenes), "chunks": len(plan), "files": distinct,
-            "scheduler": client.scheduler.address})
+    report({"type": "start", "frames": len(scenes), "chunks": len(plan), "files": len(files.paths),
+            "files_cached": files.cached, "scheduler": client.scheduler.address})
     Event(cancel_name)  # created before any task polls it
     kinds = [_integrator(extra_args, s) for s in scenes]
     # Jensen photon mapping: each frame's map is traced once, by a task, and travels to the
     # chunks (the map a chunk would trace from the seed is the same map, so chunks stay exact).
     maps = {}
+
+    def submit_map(f):
+        key, scene_rel, frame_files = files.frame(f)
+        maps[f] = client.submit(tasks.trace_photons, binary, key, scene_rel, frame_files,
+                                photon_args(extra_args), cancel_name, pure=False, retries=max_attempts - 1)
+
     for f, kind in enumerate(kinds):
         if kind == "photon" and photon_maps == "frame" and flag_value(extra_args, "--photon-map") is None:
-            key, scene_rel, files = frames[f]
-            maps[f] = client.submit(tasks.trace_photons, binary, key, scene_rel, files, photon_args(extra_args),
-                                    cancel_name, pure=False, retries=max_attempts - 1)
+            submit_map(f)
 
     seed = int(flag_value(extra_args, "--seed") or 0)
     index_in_frame = {c: sum(1 for d in plan if d.frame == c.frame and d.offset < c.offset) for c in plan}
 
     def submit(chunk, attempt):
-        key, scene_rel, files = frames[chunk.frame]
+        key, scene_rel, frame_files = files.frame(chunk.frame)
         count_flag = "--sppm-iterations" if kinds[chunk.frame] == "sppm" else "--spp"
         args = extra_args
         if kinds[chunk.frame] == "photon" and photon_maps == "chunk":
             args = [*extra_args, "--photon-seed", str((seed + 1 + index_in_frame[chunk]) % (1 << 32))]
-        return client.submit(tasks.render_chunk, binary, key, scene_rel, files, chunk.offset, chunk.spp,
+        return client.submit(tasks.render_chunk, binary, key, scene_rel, frame_files, chunk.offset, chunk.spp,
                              args, cancel_name, count_flag, maps.get(chunk.frame), pure=False,
                              key=f"render-f{chunk.frame}-s{chunk.offset}-a{attempt}-{uuid.uuid4().hex[:8]}")
 
@@ -222,6 +252,14 @@ def _run(client, scenes, outputs, spps, chunks, binary, extra_args, max_attempts
                 report({"type": "chunk", "frame": chunk.frame, "samples": chunk.samples, "partial": res["partial"],
                         "worker": res["worker"], "seconds": round(res["elapsed"], 3), "done": done_count,
                         "total": len(plan), "elapsed": time.monotonic() - t0})
+            elif isinstance(err, tasks.MissingFiles) and not cancelled:
+                # A worker lost (or never had) files every worker held at the start: send
+                # them and run the chunk again; this is not a failed attempt.
+                report({"type": "resend", "frame": chunk.frame, "files": files.send(err.shas)})
+                if chunk.frame in maps and maps[chunk.frame].status == "error":
+                    submit_map(chunk.frame)  # the map's task met the same missing files
+                active[submit(chunk, attempt)] = (chunk, attempt)
+                continue
             elif isinstance(err, tasks.RenderFailed) and err.fatal:
                 Event(cancel_name).set()
                 raise FarmError(err.code, f"frame {chunk.frame} ({scenes[chunk.frame]}): {err}")

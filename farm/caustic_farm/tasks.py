@@ -38,6 +38,19 @@ class RenderFailed(Exception):
         return (RenderFailed, (self.code, str(self), self.fatal))
 
 
+class MissingFiles(Exception):
+    """This worker's cache lacks files the driver did not send because every worker held
+    them when it asked (evicted since, or a worker that joined later): the driver sends
+    them and submits the task again."""
+
+    def __init__(self, shas):
+        super().__init__(f"{len(shas)} scene file(s) missing from this worker's cache")
+        self.shas = list(shas)
+
+    def __reduce__(self):
+        return (MissingFiles, (self.shas,))
+
+
 def cache_dir():
     """This machine's cache of scene files (CAUSTIC_FARM_CACHE, else under the temp folder)."""
     return os.environ.get("CAUSTIC_FARM_CACHE") or os.path.join(tempfile.gettempdir(), "caustic-farm-cache")
@@ -50,13 +63,25 @@ def _write_atomically(path, data):
     os.replace(tmp, path)
 
 
+def cached_blobs(shas):
+    """The hashes among `shas` whose files this machine's cache holds (asked by the driver
+    before it sends a run's files, so that a scene is sent once, not once per run)."""
+    blobs = os.path.join(cache_dir(), "blobs")
+    return sorted(s for s in shas if os.path.isfile(os.path.join(blobs, s)))
+
+
 def materialize(scene_key, files):
     """The folder holding a scene's files on this worker: `files` is [(relative path, sha256,
-    bytes)]; each blob is stored once per machine under its hash and linked into the folder."""
+    bytes or None)]; each blob is stored once per machine under its hash and linked into the
+    folder. None: the driver found the blob in every worker's cache and did not send it;
+    if it has gone since, MissingFiles asks the driver for it."""
     root = cache_dir()
     blobs = os.path.join(root, "blobs")
     folder = os.path.join(root, "scenes", scene_key)
     os.makedirs(blobs, exist_ok=True)
+    missing = [sha for _, sha, data in files if data is None and not os.path.isfile(os.path.join(blobs, sha))]
+    if missing:
+        raise MissingFiles(missing)
     for rel, sha, data in files:
         blob = os.path.join(blobs, sha)
         if not os.path.exists(blob):

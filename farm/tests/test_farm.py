@@ -211,3 +211,59 @@ def test_cancel_leaves_no_process_and_a_partial_frame(tmp_path):
     # The partial frame is a valid image with fewer samples than asked.
     info = subprocess.run([BINARY, "merge", str(out), "-o", str(tmp_path / "x.exr")], capture_output=True, text=True)
     assert info.returncode == 2 and "not a Caustic chunk" in info.stderr
+
+
+def _own_scene(tmp_path, tag):
+    """A copy of the Cornell box whose glTF bytes are this test's own (a new hash), so that
+    no earlier test's run has cached it."""
+    folder = tmp_path / "scene"
+    folder.mkdir()
+    with open(CORNELL) as f:
+        doc = json.load(f)
+    doc["asset"]["extras"] = {"test": f"{tag} {time.time_ns()}"}
+    (folder / "cornell_box.gltf").write_text(json.dumps(doc))
+    with open(os.path.join(os.path.dirname(CORNELL), "cornell_box.bin"), "rb") as f:
+        (folder / "cornell_box.bin").write_bytes(f.read())
+    return str(folder / "cornell_box.gltf")
+
+
+def test_scene_files_travel_once(tmp_path, client, events):
+    # The second run finds every file in the workers' caches and sends none; the frame is
+    # the same bytes.
+    scene = _own_scene(tmp_path, "once")
+    outs = [str(tmp_path / "a.exr"), str(tmp_path / "b.exr")]
+    starts = []
+    for out in outs:
+        events.seen.clear()
+        assert render_frames([scene], [out], spp=4, chunks=2, extra_args=SMALL, client=client,
+                             report=events).code == 0
+        starts.append(next(e for e in events.seen if e["type"] == "start"))
+    assert starts[0]["files"] == 2 and starts[0]["files_cached"] < 2, starts[0]
+    assert starts[1]["files_cached"] == 2, starts[1]
+    assert read(outs[0]) == read(outs[1])
+
+
+def test_file_gone_from_a_cache_is_sent_again(tmp_path, client, events):
+    # A blob that every worker held when the run asked, deleted before the chunks ran (a
+    # cache cleaned meanwhile): the chunks ask for it, the driver sends it, the frame is exact.
+    from caustic_farm import tasks
+    from caustic_farm.scene_files import sha256_file
+
+    scene = _own_scene(tmp_path, "gone")
+    first = str(tmp_path / "first.exr")
+    assert render_frames([scene], [first], spp=4, chunks=2, extra_args=SMALL, client=client,
+                         report=events).code == 0
+    blob = os.path.join(tasks.cache_dir(), "blobs", sha256_file(scene))
+    seen = []
+
+    def report(obj):
+        seen.append(obj)
+        if obj["type"] == "start":
+            assert obj["files_cached"] == 2
+            os.remove(blob)
+
+    again = str(tmp_path / "again.exr")
+    result = render_frames([scene], [again], spp=4, chunks=2, extra_args=SMALL, client=client, report=report)
+    assert result.code == 0 and result.retries == 0
+    assert any(e["type"] == "resend" and e["files"] == 1 for e in seen), seen
+    assert read(again) == read(first)
