@@ -1,6 +1,9 @@
-"""Render on farm: export the frame (or every frame of the range), hand the scenes to the
-`caustic_farm` command (Dask; README "Rendering on many machines") and load the merged
-result into Blender as an image.
+"""Render on farm, two ways. With the render setting "Render on Farm" on, F12 and Render
+Animation send each frame to the `caustic_farm` command (Dask; README "Rendering on many
+machines") in sample chunks, with progress, cancel (Esc) and the merged frame in the Render
+Result like a local render (`frame_command`, `on_frame_message`; final.py runs it). The
+operators export every frame of the range at once (frames run in parallel on the farm) and
+load the merged result into Blender as an image.
 
 The farm runs in a Python that has `caustic_farm` and Dask's `distributed` installed (the
 project's `.venv`, or a render-farm machine's), named in the add-on preferences with the
@@ -30,12 +33,62 @@ def _prefs(context):
     return context.preferences.addons[__package__].preferences
 
 
+def preferences():
+    """The add-on preferences that hold the farm's Python, scheduler and chunk count."""
+    return _prefs(bpy.context)
+
+
 def farm_command(python, scenes, pattern, chunks, scheduler, binary):
     """The farm's argv: one scene per frame, chunks per frame, the scheduler if any."""
     argv = [python, "-m", "caustic_farm", *scenes, "-o", pattern, "--chunks", str(chunks), "--binary", binary]
     if scheduler:
         argv += ["--scheduler", scheduler]
     return argv
+
+
+# Flags of `caustic render` that the farm sets per chunk itself or that have no meaning
+# there, with whether they take a value.
+_FARM_OWN_FLAGS = {"--progress": True, "--interim": True, "--spp": True, "--time-limit": True}
+
+
+def frame_command(prefs, binary, gltf_path, out_path, render_argv, spp):
+    """The farm's argv for one frame, from the local render's argv (`final.command_line`):
+    its flags go to every chunk after `--`, but the sample count, which the farm splits into
+    chunks, and the flags the farm owns. Returns (argv, warnings)."""
+    python = prefs.farm_python or os.environ.get("CAUSTIC_FARM_PYTHON", "")
+    if not python:
+        raise CausticError("Render on Farm is on: set the farm's Python (with caustic_farm installed) in "
+                           "Preferences > Add-ons > Caustic")
+    flags, warnings, i = [], [], 5  # after: binary render SCENE -o OUT
+    while i < len(render_argv):
+        flag = render_argv[i]
+        if flag in _FARM_OWN_FLAGS:
+            if flag == "--time-limit":
+                warnings.append("Render on Farm renders every sample: the time limit is not used")
+            i += 2 if _FARM_OWN_FLAGS[flag] else 1
+            continue
+        flags.append(flag)
+        i += 1
+    argv = farm_command(python, [gltf_path], out_path, prefs.farm_chunks, prefs.farm_scheduler, binary)
+    return argv + ["--spp", str(spp), "--", *flags], warnings
+
+
+def on_frame_message(engine, message):
+    """Shows one JSON line of the farm on the engine: progress per merged chunk, retries."""
+    kind = message.get("type")
+    if kind == "start":
+        engine.update_stats("", f"Caustic farm | {message.get('chunks', '?')} chunks on "
+                                f"{message.get('scheduler', 'the farm')}")
+    elif kind == "chunk":
+        done, total = message.get("done"), message.get("total")
+        if isinstance(done, int) and isinstance(total, int) and total > 0:
+            engine.update_progress(min(max(done / total, 0.0), 1.0))
+            engine.update_stats("", f"Caustic farm | chunk {done}/{total}")
+    elif kind == "retry":
+        engine.report({"WARNING"}, f"Caustic farm: retrying samples {message.get('samples')}: "
+                                   f"{message.get('reason')}")
+    elif kind == "cancelling":
+        engine.update_stats("", "Caustic farm | cancelling: merging the samples rendered so far")
 
 
 def _export_frames(context, frames, folder):

@@ -155,14 +155,23 @@ def render_frame(engine, depsgraph):
             return
         out_path = os.path.join(folder, "out.exr")
         argv = command_line(binary, gltf_path, out_path, settings, window)
+        on_farm = scene.caustic.use_farm
+        if on_farm:
+            # Imported here: farm.py builds on this module (FrameWindow).
+            from . import farm
+            argv, warnings = farm.frame_command(farm.preferences(), binary, gltf_path, out_path, argv,
+                                                settings["spp"])
+            for warning in warnings:
+                engine.report({"WARNING"}, f"Caustic: {warning}")
         width, height = window.size
         render_result = engine.begin_result(0, 0, width, height, layer=depsgraph.view_layer.name)
         failed = True
         try:
             session = _Session(engine, render_result, out_path)
             engine._caustic_session = session  # lets tests see the progress state
-            outcome = runner.run(argv, session.on_message, engine.should_stop,
-                                 log_path=os.path.join(folder, "stdout.log"))
+            on_message = (lambda m: farm.on_frame_message(engine, m)) if on_farm else session.on_message
+            outcome = runner.run(argv, on_message, engine.should_stop,
+                                 log_path=os.path.join(folder, "stdout.log"), json_on_stdout=on_farm)
             message = outcome.error_message()
             if message:
                 raise CausticError(message)

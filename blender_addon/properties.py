@@ -5,7 +5,7 @@ one key of `scenes[i].extras.caustic` (docs/contract.md).
 """
 
 import bpy
-from bpy.props import EnumProperty, FloatProperty, IntProperty, PointerProperty, StringProperty
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty, StringProperty
 
 # (identifier, UI name, description); the identifier is the renderer's integrator name.
 INTEGRATORS = [
@@ -91,6 +91,13 @@ class CausticRenderSettings(bpy.types.PropertyGroup):
         default=0,
         min=0,
         max=1024,
+    )
+    use_farm: BoolProperty(
+        name="Render on Farm",
+        description="Render (F12) and Render Animation send each frame to the Dask render farm "
+        "set in the add-on preferences, split into sample chunks that merge into exactly the "
+        "local image; progress, cancel and the result as for a local render",
+        default=False,
     )
 
 

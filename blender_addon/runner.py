@@ -129,29 +129,33 @@ def _drain(stream, lines):
         lines.put(None)
 
 
-def run(argv, on_message, should_stop, log_path=None):
+def run(argv, on_message, should_stop, log_path=None, json_on_stdout=False):
     """Run the binary to the end, calling `on_message(dict)` for every JSON progress line.
 
     `should_stop()` is polled about every POLL_SECONDS; when it turns true the binary gets
     SIGTERM (it then writes the image rendered so far) and is killed if it does not exit within
     TERMINATE_GRACE_SECONDS. stdout, which the contract keeps empty, goes to `log_path`.
+    `json_on_stdout`: the progress lines come on stdout and stderr is the log (the farm
+    command's convention: Dask logs to stderr).
     """
-    stdout = open(log_path, "wb") if log_path else subprocess.DEVNULL
+    log = open(log_path, "wb") if log_path else subprocess.DEVNULL
     try:
         try:
-            process = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=stdout,
-                                       stderr=subprocess.PIPE)
+            if json_on_stdout:
+                process = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=log)
+            else:
+                process = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=log, stderr=subprocess.PIPE)
         except OSError as err:
-            raise CausticError(f"could not start the Caustic binary {argv[0]}: {err.strerror}") from None
-        return _supervise(process, on_message, should_stop)
+            raise CausticError(f"could not start {argv[0]}: {err.strerror}") from None
+        return _supervise(process, process.stdout if json_on_stdout else process.stderr, on_message, should_stop)
     finally:
         if log_path:
-            stdout.close()
+            log.close()
 
 
-def _supervise(process, on_message, should_stop):
+def _supervise(process, stream, on_message, should_stop):
     lines = queue.Queue()
-    reader = threading.Thread(target=_drain, args=(process.stderr, lines), daemon=True)
+    reader = threading.Thread(target=_drain, args=(stream, lines), daemon=True)
     reader.start()
     summary = error = None
     log = []
@@ -189,7 +193,7 @@ def _supervise(process, on_message, should_stop):
         raise
     finally:
         reader.join(timeout=1.0)
-        process.stderr.close()
+        stream.close()
     return RunResult(code, summary, error, log, cancelled_at is not None)
 
 

@@ -85,6 +85,7 @@ class CAUSTIC_PT_render(CausticButtonsPanel, bpy.types.Panel):
         layout.prop(settings, "light_sampler")
         layout.prop(settings, "seed")
         layout.prop(settings, "threads")
+        layout.prop(settings, "use_farm")
         row = layout.row(align=True)
         row.operator("caustic.render_farm", text="Render on Farm", icon="RENDER_STILL").animation = False
         row.operator("caustic.render_farm", text="Animation on Farm", icon="RENDER_ANIMATION").animation = True

@@ -70,3 +70,25 @@ def test_missing_farm_python_is_a_clear_error(scene, addon, monkeypatch):
     monkeypatch.delenv("CAUSTIC_FARM_PYTHON")
     with pytest.raises(RuntimeError, match="Farm's Python|farm's Python"):
         bpy.ops.caustic.render_farm(animation=False)
+
+
+def test_f12_on_the_farm_equals_the_local_render(scene, addon, tmp_path, capfd):
+    # "Render on Farm" on: F12 runs the frame as sample chunks on the farm and loads the merged
+    # frame into the Render Result, which then equals the local F12 render to the bit (the
+    # chunks merge exactly). The time limit has no meaning on the farm: a warning says so.
+    local = scenes.render_rgb(scene, "CAUSTIC", 3, str(tmp_path / "local.exr"))
+    scene.caustic.use_farm = True
+    scene.caustic.time_limit = 100.0
+    capfd.readouterr()
+    on_farm = scenes.render_rgb(scene, "CAUSTIC", 3, str(tmp_path / "farm.exr"))
+    out, err = capfd.readouterr()
+    assert "time limit is not used" in out + err, (out + err)[-2000:]
+    assert on_farm.shape == local.shape == (H, W, 3)
+    assert (on_farm == local).all(), abs(on_farm - local).max()
+
+
+def test_f12_on_the_farm_without_its_python_is_an_error(scene, addon, monkeypatch):
+    monkeypatch.delenv("CAUSTIC_FARM_PYTHON")
+    scene.caustic.use_farm = True
+    with pytest.raises(RuntimeError, match="farm's Python"):
+        bpy.ops.render.render()
