@@ -92,3 +92,22 @@ def test_f12_on_the_farm_without_its_python_is_an_error(scene, addon, monkeypatc
     scene.caustic.use_farm = True
     with pytest.raises(RuntimeError, match="farm's Python"):
         bpy.ops.render.render()
+
+
+def test_f12_on_the_farm_cancels_with_a_partial_image(scene, addon, tmp_path, monkeypatch):
+    # Esc during a farm F12 (the engine's break check turns true after 4 s): the farm stops
+    # every renderer, merges what they had into the Render Result, and leaves no process.
+    import time
+
+    import psutil
+
+    scene.caustic.use_farm = True
+    scene.caustic.samples = 1_000_000
+    engine_cls = sys.modules[f"{addon.__name__}.engine"].CausticRenderEngine
+    t0 = time.monotonic()
+    monkeypatch.setattr(engine_cls, "should_stop", lambda self: time.monotonic() - t0 > 4.0)
+    pixels = scenes.render_rgb(scene, "CAUSTIC", 0, str(tmp_path / "cancelled.exr"))
+    assert time.monotonic() - t0 < 90.0
+    assert pixels.mean() > 0.0  # the samples rendered before the cancel
+    leftovers = [p for p in psutil.Process().children(recursive=True) if p.is_running()]
+    assert not leftovers, leftovers
