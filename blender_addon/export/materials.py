@@ -195,7 +195,7 @@ def _principled_transmission_tint(gltf2_material, blender_material):
     """
     node = _principled(blender_material)
     pbr = gltf2_material.pbr_metallic_roughness
-    if node is None or pbr is None or "KHR_materials_transmission" not in (gltf2_material.extensions or {}):
+    if node is None or pbr is None or not _present(gltf2_material, "KHR_materials_transmission"):
         return []
     inputs = node.inputs
     base = inputs["Base Color"]
@@ -224,6 +224,14 @@ def _set_extension(gltf2_material, name, value):
     gltf2_material.extensions = extensions
 
 
+def _present(gltf2_material, name):
+    """Whether the exporter wrote extension `name` with any value: at the hook it also holds
+    empty ones ({} = every factor 0: no transmission, no anisotropy), dropped only later."""
+    ext = (gltf2_material.extensions or {}).get(name)
+    value = getattr(ext, "extension", ext)
+    return bool(value)
+
+
 def complete_material(gltf2_material, blender_material, export_settings, state):
     """Everything Caustic adds to the exporter's glTF material (the material hook's work)."""
     as_graph = _node_graph(gltf2_material, blender_material, export_settings, state)
@@ -235,13 +243,12 @@ def complete_material(gltf2_material, blender_material, export_settings, state):
     state.warnings.extend(warnings)
     if coat is not None:
         _set_extension(gltf2_material, COAT_EXTENSION, coat)
-    if "KHR_materials_anisotropy" in (gltf2_material.extensions or {}):
+    if _present(gltf2_material, "KHR_materials_anisotropy"):
         # The exporter writes Blender's Anisotropic as glTF's strength; Cycles maps it to widths
         # differently (docs/contract.md).
         _set_extension(gltf2_material, ANISOTROPY_EXTENSION, {"mapping": "blender"})
     approximation_warnings.extend(_principled_transmission_tint(gltf2_material, blender_material))
-    extensions = gltf2_material.extensions or {}
-    if "KHR_materials_transmission" in extensions and "KHR_materials_volume" not in extensions:
+    if _present(gltf2_material, "KHR_materials_transmission") and not _present(gltf2_material, "KHR_materials_volume"):
         _set_extension(gltf2_material, "KHR_materials_volume", {"thicknessFactor": 1.0})
         state.solid_materials.append(blender_material.name if blender_material else "?")
     for name, build in ((SUBSURFACE_EXTENSION, subsurface_extension), (MEDIUM_EXTENSION, medium_extension)):

@@ -197,6 +197,12 @@ def test_principled_glass_base_colour_is_written_as_its_square_root(addon, empty
     assert materials["HalfGlass"]["pbrMetallicRoughness"]["baseColorFactor"][:3] == pytest.approx([0.64] * 3, abs=1e-6)
     assert any("HalfGlass" in w and "square root" in w for w in state.warnings), state.warnings
     assert not any("FullGlass" in w for w in state.warnings), state.warnings
+    # The exporter's empty extensions ({}: no transmission, no anisotropy) are not the real
+    # thing: the floor, an opaque material, gets neither the warning nor Cycles' anisotropy
+    # mapping.
+    opaque = [name for name in materials if "Glass" not in name]
+    assert opaque and not any(name in w for name in opaque for w in state.warnings), state.warnings
+    assert not any("CAUSTIC_materials_anisotropy" in materials[n].get("extensions", {}) for n in opaque)
 
 
 def test_object_without_material_gets_blenders_default_surface(empty_scene, tmp_path, monkeypatch, fake_binary):
