@@ -3,20 +3,23 @@ Animation send each frame to the `caustic_farm` command (Dask; README "Rendering
 machines") in sample chunks, with progress, cancel (Esc) and the merged frame in the Render
 Result like a local render (`frame_command`, `on_frame_message`; final.py runs it). The
 operators export every frame of the range at once (frames run in parallel on the farm) and
-load the merged result into Blender as an image.
+load the merged result into Blender as an image; from the panel they run as a modal
+operator (Blender stays responsive, Esc cancels), from scripts to the end.
 
 The farm runs in a Python that has `caustic_farm` and Dask's `distributed` installed (the
 project's `.venv`, or a render-farm machine's), named in the add-on preferences with the
 scheduler address (empty: a local cluster on 127.0.0.1). Blender's own Python is not used:
-it has no Dask. The operator blocks while the farm runs and shows progress on the window
-manager's progress indicator; frame images are written beside the blend file's output path.
+it has no Dask. Progress shows on the window manager's indicator and the status bar; frame
+images are written beside the blend file's output path.
 """
 
 import json
 import os
+import queue
 import subprocess
 import tempfile
 import threading
+import time
 
 import bpy
 from bpy.props import BoolProperty
@@ -113,88 +116,114 @@ def _export_frames(context, frames, folder):
     return paths
 
 
-def run_farm(argv, on_line):
-    """Runs the farm command, calling `on_line(dict)` for each JSON line; returns (code, error)."""
-    try:
-        proc = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
-    except OSError as err:
-        raise CausticError(f"could not start the farm ({argv[0]}): {err.strerror}") from None
-    log = []
-    reader = threading.Thread(target=lambda: log.extend(proc.stderr.read().decode(errors="replace").splitlines()),
-                              daemon=True)
-    reader.start()
-    error = None
-    try:
-        for raw in proc.stdout:
+class FarmJob:
+    """One run of the farm over exported frames, polled rather than waited on, so that the
+    modal operator keeps Blender responsive and Esc cancels, while scripts (and headless
+    tests) poll the same job in a loop."""
+
+    def __init__(self, context, animation, report):
+        scene = context.scene
+        prefs = _prefs(context)
+        python = prefs.farm_python or os.environ.get("CAUSTIC_FARM_PYTHON", "")
+        if not python:
+            raise CausticError("set the farm's Python (with caustic_farm installed) in Preferences > Add-ons > Caustic")
+        binary = runner.find_binary()
+        frames = list(range(scene.frame_start, scene.frame_end + 1, scene.frame_step)) if animation \
+            else [scene.frame_current]
+        self.report = report
+        self.work = tempfile.mkdtemp(prefix="caustic-farm-")
+        out_dir = os.path.dirname(bpy.path.abspath(scene.render.filepath)) or self.work
+        os.makedirs(out_dir, exist_ok=True)
+        self.scenes = _export_frames(context, frames, self.work)
+        self.outputs = [os.path.join(out_dir, f"caustic_farm_{f:05d}.exr") for f in frames]
+        # The farm numbers frames 0..n-1: write through a pattern on that index, then rename.
+        self.pattern = os.path.join(self.work, "frame_{frame:05d}.exr")
+        argv = farm_command(python, self.scenes, self.pattern, prefs.farm_chunks, prefs.farm_scheduler, binary)
+        self.lines = []
+        self.fraction = 0.0
+        self.error = None
+        self.cancelled = False
+        self.log = []
+        self.messages = queue.Queue()
+        try:
+            self.proc = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                                         stderr=subprocess.PIPE)
+        except OSError as err:
+            raise CausticError(f"could not start the farm ({argv[0]}): {err.strerror}") from None
+        self.readers = [threading.Thread(target=self._read_json, daemon=True),
+                        threading.Thread(target=self._read_log, daemon=True)]
+        for t in self.readers:
+            t.start()
+
+    def _read_json(self):
+        for raw in self.proc.stdout:
             try:
                 message = json.loads(raw)
             except ValueError:
                 continue
             if isinstance(message, dict):
-                if message.get("type") == "error":
-                    error = message.get("message")
-                on_line(message)
-        code = proc.wait()
-    except BaseException:
-        proc.terminate()  # the farm cancels its chunks and stops its workers
-        proc.wait()
-        raise
-    reader.join(timeout=1.0)
-    if code not in (0, 5) and not error:
-        tail = " / ".join(log[-3:])
-        error = f"the farm exited with code {code}" + (f": {tail}" if tail else "")
-    return code, error
+                self.messages.put(message)
 
+    def _read_log(self):
+        self.log.extend(self.proc.stderr.read().decode(errors="replace").splitlines())
 
-def render_on_farm(context, animation, report):
-    """Exports, runs the farm, loads the result; returns the frame image paths."""
-    scene = context.scene
-    prefs = _prefs(context)
-    python = prefs.farm_python or os.environ.get("CAUSTIC_FARM_PYTHON", "")
-    if not python:
-        raise CausticError("set the farm's Python (with caustic_farm installed) in Preferences > Add-ons > Caustic")
-    binary = runner.find_binary()
-    frames = list(range(scene.frame_start, scene.frame_end + 1, scene.frame_step)) if animation \
-        else [scene.frame_current]
-    work = tempfile.mkdtemp(prefix="caustic-farm-")
-    out_dir = os.path.dirname(bpy.path.abspath(scene.render.filepath)) or work
-    os.makedirs(out_dir, exist_ok=True)
-    scenes = _export_frames(context, frames, work)
-    outputs = [os.path.join(out_dir, f"caustic_farm_{f:05d}.exr") for f in frames]
-    # The farm numbers frames 0..n-1: write through a pattern on that index, then rename.
-    tmp_pattern = os.path.join(work, "frame_{frame:05d}.exr")
-    argv = farm_command(python, scenes, tmp_pattern, prefs.farm_chunks, prefs.farm_scheduler, binary)
-    lines = []
-    wm = context.window_manager
-    wm.progress_begin(0, 1)
+    def _take_messages(self):
+        while True:
+            try:
+                message = self.messages.get_nowait()
+            except queue.Empty:
+                return
+            self.lines.append(message)
+            kind = message.get("type")
+            if kind == "error":
+                self.error = message.get("message")
+            elif kind == "chunk" and message.get("total"):
+                self.fraction = message["done"] / message["total"]
+            elif kind == "retry":
+                self.report({"WARNING"}, f"Caustic farm: retrying frame {message.get('frame')}: "
+                                         f"{message.get('reason')}")
 
-    def on_line(message):
-        lines.append(message)
-        if message.get("type") == "chunk" and message.get("total"):
-            wm.progress_update(message["done"] / message["total"])
-        elif message.get("type") == "retry":
-            report({"WARNING"}, f"Caustic farm: retrying frame {message.get('frame')}: {message.get('reason')}")
+    def cancel(self):
+        """Asks the farm to stop: every renderer writes its samples, partial frames merge.
+        Once: a second signal would make the farm leave without merging."""
+        if self.proc.poll() is None and not self.cancelled:
+            self.cancelled = True
+            self.proc.terminate()
 
-    try:
-        code, error = run_farm(argv, on_line)
-    finally:
-        wm.progress_end()
-    last_run.update(scenes=scenes, outputs=outputs, lines=lines, code=code)
-    if error:
-        raise CausticError(f"Caustic farm: {error}")
-    written = []
-    for i, out in enumerate(outputs):
-        src = tmp_pattern.format(frame=i)
-        if os.path.exists(src):
-            os.replace(src, out)
-            written.append(out)
-    if not written:
-        raise CausticError("Caustic farm: no frame was rendered")
-    image = bpy.data.images.load(written[-1], check_existing=False)
-    image.name = "Caustic Farm"
-    if code == 5:
-        report({"WARNING"}, "Caustic farm: cancelled; the frames hold the samples rendered so far")
-    return written
+    def kill(self):
+        """Leaves at once (Blender is closing the operator): no process stays behind."""
+        if self.proc.poll() is None:
+            self.proc.kill()
+            self.proc.wait()
+
+    def poll(self):
+        """None while the farm runs; then the frame images written (raises CausticError)."""
+        self._take_messages()
+        code = self.proc.poll()
+        if code is None:
+            return None
+        for t in self.readers:
+            t.join(timeout=1.0)
+        self._take_messages()
+        last_run.update(scenes=self.scenes, outputs=self.outputs, lines=self.lines, code=code)
+        if code not in (0, 5) and not self.error:
+            tail = " / ".join(self.log[-3:])
+            self.error = f"the farm exited with code {code}" + (f": {tail}" if tail else "")
+        if self.error:
+            raise CausticError(f"Caustic farm: {self.error}")
+        written = []
+        for i, out in enumerate(self.outputs):
+            src = self.pattern.format(frame=i)
+            if os.path.exists(src):
+                os.replace(src, out)
+                written.append(out)
+        if not written:
+            raise CausticError("Caustic farm: no frame was rendered")
+        image = bpy.data.images.load(written[-1], check_existing=False)
+        image.name = "Caustic Farm"
+        if code == 5:
+            self.report({"WARNING"}, "Caustic farm: cancelled; the frames hold the samples rendered so far")
+        return written
 
 
 class CAUSTIC_OT_render_farm(bpy.types.Operator):
@@ -205,16 +234,77 @@ class CAUSTIC_OT_render_farm(bpy.types.Operator):
 
     animation: BoolProperty(name="Animation", description="Render every frame of the range", default=False)
 
+    _job = None
+    _timer = None
+
     @classmethod
     def poll(cls, context):
         return context.scene.render.engine == "CAUSTIC"
 
     def execute(self, context):
+        """Scripts: run the farm to the end (Ctrl-C in the console cancels it)."""
         try:
-            written = render_on_farm(context, self.animation, self.report)
+            job = FarmJob(context, self.animation, self.report)
+            try:
+                while (written := job.poll()) is None:
+                    time.sleep(0.1)
+            except KeyboardInterrupt:
+                job.cancel()
+                while (written := job.poll()) is None:
+                    time.sleep(0.1)
         except CausticError as err:
             self.report({"ERROR"}, str(err))
             return {"CANCELLED"}
+        return self._finished(written)
+
+    def invoke(self, context, event):
+        """The panel's buttons: run in the background of Blender's event loop; Esc cancels."""
+        try:
+            self._job = FarmJob(context, self.animation, self.report)
+        except CausticError as err:
+            self.report({"ERROR"}, str(err))
+            return {"CANCELLED"}
+        wm = context.window_manager
+        self._timer = wm.event_timer_add(0.25, window=context.window)
+        wm.modal_handler_add(self)
+        wm.progress_begin(0, 1)
+        return {"RUNNING_MODAL"}
+
+    def modal(self, context, event):
+        if event.type == "ESC":
+            self._job.cancel()
+            context.workspace.status_text_set("Caustic farm: cancelling (merging the samples rendered so far)")
+            return {"RUNNING_MODAL"}
+        if event.type != "TIMER":
+            return {"PASS_THROUGH"}
+        try:
+            written = self._job.poll()
+        except CausticError as err:
+            self._end(context)
+            self.report({"ERROR"}, str(err))
+            return {"CANCELLED"}
+        if written is None:
+            context.window_manager.progress_update(self._job.fraction)
+            context.workspace.status_text_set(f"Caustic farm: {self._job.fraction:.0%} (Esc to cancel)")
+            return {"RUNNING_MODAL"}
+        self._end(context)
+        return self._finished(written)
+
+    def cancel(self, context):
+        """Blender ends the operator (file closed, quit): stop the farm with it."""
+        if self._job is not None:
+            self._job.kill()
+        self._end(context)
+
+    def _end(self, context):
+        wm = context.window_manager
+        if self._timer is not None:
+            wm.event_timer_remove(self._timer)
+            self._timer = None
+        wm.progress_end()
+        context.workspace.status_text_set(None)
+
+    def _finished(self, written):
         self.report({"INFO"}, f"Caustic farm: {len(written)} frame(s) in {os.path.dirname(written[0])}")
         return {"FINISHED"}
 

@@ -111,3 +111,28 @@ def test_f12_on_the_farm_cancels_with_a_partial_image(scene, addon, tmp_path, mo
     assert pixels.mean() > 0.0  # the samples rendered before the cancel
     leftovers = [p for p in psutil.Process().children(recursive=True) if p.is_running()]
     assert not leftovers, leftovers
+
+
+def test_farm_job_cancels_with_partial_frames(scene, addon):
+    # The operators' job, polled as the modal operator polls it: cancel after the farm has
+    # started; the frame holds the samples rendered so far, the run reports code 5 and no
+    # process is left.
+    import time
+
+    import psutil
+
+    scene.caustic.samples = 1_000_000
+    farm = farm_module(addon)
+    reports = []
+    job = farm.FarmJob(bpy.context, False, lambda kind, text: reports.append(text))
+    t0 = time.monotonic()
+    written = None
+    while written is None and time.monotonic() - t0 < 120.0:
+        if time.monotonic() - t0 > 4.0:
+            job.cancel()
+        written = job.poll()
+        time.sleep(0.1)
+    assert written and os.path.isfile(written[0]), reports
+    assert farm.last_run["code"] == 5
+    assert any("cancelled" in r for r in reports), reports
+    assert not [p for p in psutil.Process().children(recursive=True) if p.is_running()]
