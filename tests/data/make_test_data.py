@@ -1424,7 +1424,7 @@ def hostile_makers():
         root["accessors"][0]["componentType"] = 5122  # SHORT
         root["accessors"][0]["normalized"] = True
         root["accessors"][0]["count"] = 3
-    add(lambda: tri_bad("bad/position_quantized.gltf", "POSITION as normalized SHORT (mesh quantization)",
+    add(lambda: tri_bad("bad/position_quantized.gltf", "POSITION as normalized SHORT without KHR_mesh_quantization declared",
                         position_quantized, ["position", "quantiz", "invalid"]))
     add(lambda: tri_bad("bad/settings_unknown_key.gltf", "extras.caustic with a misspelt key 'spps'",
                         setter(["scenes", 0, "extras"], {"caustic": {"spps": 4}}), ["spps", "settings"]))

@@ -2,6 +2,7 @@
 //! unrolled, degenerate triangles dropped, mirrored instances rewound, and MikkTSpace
 //! tangents generated for normal maps when the file has none.
 
+use super::quantized::{Quantization, read_f32};
 use super::{Loader, MAX_COORDINATE};
 use crate::error::Result;
 use crate::memory;
@@ -79,16 +80,12 @@ impl Loader<'_> {
             let pos_acc = prim
                 .get(&gltf::Semantic::Positions)
                 .ok_or_else(|| self.err(format!("{what}: no POSITION attribute")))?;
-            if pos_acc.data_type() != gltf::accessor::DataType::F32
-                || pos_acc.dimensions() != gltf::accessor::Dimensions::Vec3
-            {
-                return Err(self.err(format!(
-                    "{what}: POSITION must be float VEC3 (quantized positions, KHR_mesh_quantization, are not supported)"
-                )));
-            }
-            let positions: Vec<Vec3> = reader
-                .read_positions()
+            // Any component type the file may use (validate.rs checked it against glTF
+            // and KHR_mesh_quantization): integers are dequantized here, their scale and
+            // offset are in the node's transform.
+            let positions: Vec<Vec3> = read_f32::<3>(&pos_acc, buffers, false)
                 .ok_or_else(|| self.err(format!("{what}: cannot read POSITION")))?
+                .into_iter()
                 .map(Vec3::from)
                 .collect();
             if positions.len() != pos_acc.count() {
@@ -106,10 +103,41 @@ impl Loader<'_> {
                     other => Ok(other),
                 }
             };
-            let normals = read_exact(reader.read_normals().map(|it| it.map(Vec3::from).collect()), "NORMAL")?;
-            let tangents: Option<Vec<Vec4>> = reader.read_tangents().map(|it| it.map(Vec4::from).collect());
-            let uv0: Option<Vec<Vec2>> = reader.read_tex_coords(0).map(|t| t.into_f32().map(Vec2::from).collect());
-            let uv1: Option<Vec<Vec2>> = reader.read_tex_coords(1).map(|t| t.into_f32().map(Vec2::from).collect());
+            let attribute = |semantic: gltf::Semantic| prim.get(&semantic).map(|acc| (acc, semantic.to_string()));
+            let unreadable = |name: &str| self.err(format!("{what}: cannot read {name}"));
+            let normals = match attribute(gltf::Semantic::Normals) {
+                Some((acc, name)) => read_f32::<3>(&acc, buffers, false)
+                    .map(|v| v.into_iter().map(Vec3::from).collect())
+                    .ok_or_else(|| unreadable(&name))
+                    .map(Some)?,
+                None => None,
+            };
+            let normals = read_exact(normals, "NORMAL")?;
+            let tangents: Option<Vec<Vec4>> = match attribute(gltf::Semantic::Tangents) {
+                Some((acc, name)) => Some(
+                    read_f32::<4>(&acc, buffers, false)
+                        .ok_or_else(|| unreadable(&name))?
+                        .into_iter()
+                        .map(Vec4::from)
+                        .collect(),
+                ),
+                None => None,
+            };
+            // Without KHR_mesh_quantization, integer coordinates are normalized (core glTF).
+            let quantized = self.quantization == Quantization::Allowed;
+            let uv = |set: u32| -> Result<Option<Vec<Vec2>>> {
+                match attribute(gltf::Semantic::TexCoords(set)) {
+                    Some((acc, name)) => Ok(Some(
+                        read_f32::<2>(&acc, buffers, !quantized)
+                            .ok_or_else(|| unreadable(&name))?
+                            .into_iter()
+                            .map(Vec2::from)
+                            .collect(),
+                    )),
+                    None => Ok(None),
+                }
+            };
+            let (uv0, uv1) = (uv(0)?, uv(1)?);
             let colors: Option<Vec<Vec4>> = reader.read_colors(0).map(|c| c.into_rgba_f32().map(Vec4::from).collect());
             for (len, name) in [
                 (tangents.as_ref().map(Vec::len), "TANGENT"),

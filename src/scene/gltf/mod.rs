@@ -21,6 +21,7 @@ mod material_ext;
 mod materials;
 mod mesh;
 mod nodes;
+mod quantized;
 mod shader_graph;
 mod textures;
 mod validate;
@@ -56,6 +57,7 @@ pub const SUPPORTED_REQUIRED: &[&str] = &[
     "KHR_materials_dispersion",
     "KHR_materials_unlit",
     "KHR_materials_anisotropy",
+    "KHR_mesh_quantization",
     "CAUSTIC_lights_area",
     "CAUSTIC_lights_punctual",
     "CAUSTIC_materials_nodes",
@@ -143,6 +145,8 @@ struct Loader<'a> {
     /// External files read so far (URI, content hash), for `Scene::source_hash`; a cell
     /// because files are read through `&self`.
     files_read: std::cell::RefCell<Vec<(String, u64)>>,
+    /// Whether the file declares KHR_mesh_quantization (integer vertex attributes).
+    quantization: quantized::Quantization,
 }
 
 impl<'a> Loader<'a> {
@@ -159,6 +163,7 @@ impl<'a> Loader<'a> {
             khr_volume_materials: Default::default(),
             thin_variants: HashMap::new(),
             files_read: Default::default(),
+            quantization: quantized::Quantization::Core,
         }
     }
 
@@ -229,6 +234,9 @@ impl<'a> Loader<'a> {
         // 5. Buffers.
         let buffers = self.load_buffers(&doc, bin)?;
         self.check_views_and_accessors(&doc, &buffers)?;
+        if doc.extensions_used().any(|e| e == "KHR_mesh_quantization") {
+            self.quantization = quantized::Quantization::Allowed;
+        }
         self.check_accessor_types(&doc)?;
 
         self.profile.parse = start.elapsed().as_secs_f64();

@@ -4,6 +4,7 @@
 //! fuzzer), so they run before it sees the document.
 
 use super::Loader;
+use super::quantized::{Quantization, attribute_type_allowed};
 use crate::error::Result;
 
 impl Loader<'_> {
@@ -11,8 +12,8 @@ impl Loader<'_> {
     /// the types glTF allows: the crate's readers and `Image::source`
     /// reach `unreachable!()` or unwrap `None` on anything else (found by the fuzzer).
     pub(super) fn check_accessor_types(&self, doc: &gltf::Document) -> Result<()> {
-        use gltf::Semantic;
         use gltf::accessor::{DataType as T, Dimensions as D};
+        let quantization = self.quantization;
         for m in doc.meshes() {
             for prim in m.primitives() {
                 let what = format!("mesh {} primitive {}", m.index(), prim.index());
@@ -28,21 +29,18 @@ impl Loader<'_> {
                 }
                 for (semantic, acc) in prim.attributes() {
                     let (t, d) = (acc.data_type(), acc.dimensions());
-                    let ok = match &semantic {
-                        Semantic::Positions | Semantic::Normals => (t, d) == (T::F32, D::Vec3),
-                        Semantic::Tangents => (t, d) == (T::F32, D::Vec4),
-                        Semantic::TexCoords(_) => d == D::Vec2 && matches!(t, T::F32 | T::U8 | T::U16),
-                        Semantic::Colors(_) => matches!(d, D::Vec3 | D::Vec4) && matches!(t, T::F32 | T::U8 | T::U16),
-                        Semantic::Joints(_) => d == D::Vec4 && matches!(t, T::U8 | T::U16),
-                        Semantic::Weights(_) => d == D::Vec4 && matches!(t, T::F32 | T::U8 | T::U16),
-                        #[allow(unreachable_patterns)]
-                        _ => true,
-                    };
+                    let ok = attribute_type_allowed(&semantic, t, acc.normalized(), d, quantization);
                     if !ok {
                         return Err(self.err(format!(
-                            "{what}: attribute {} uses accessor {} of type {t:?} {d:?}, which glTF does not allow for it",
+                            "{what}: attribute {} uses accessor {} of type {t:?} {d:?}{}, which glTF does not allow for it{}",
                             semantic.to_string(),
-                            acc.index()
+                            acc.index(),
+                            if acc.normalized() { " normalized" } else { "" },
+                            if quantization == Quantization::Core && t != gltf::accessor::DataType::F32 {
+                                " (integer vertex attributes need KHR_mesh_quantization in extensionsUsed)"
+                            } else {
+                                ""
+                            }
                         )));
                     }
                 }
