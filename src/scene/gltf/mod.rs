@@ -58,6 +58,7 @@ pub const SUPPORTED_REQUIRED: &[&str] = &[
     "KHR_materials_unlit",
     "KHR_materials_anisotropy",
     "KHR_mesh_quantization",
+    "EXT_texture_webp",
     "CAUSTIC_lights_area",
     "CAUSTIC_lights_punctual",
     "CAUSTIC_materials_nodes",
@@ -192,11 +193,12 @@ impl<'a> Loader<'a> {
         };
 
         // 2. JSON, with its position on error.
-        let value: serde_json::Value =
+        let mut value: serde_json::Value =
             serde_json::from_slice(&json_bytes).map_err(|e| self.err(format!("invalid JSON: {e}")))?;
         if !value.is_object() {
             return Err(self.err("invalid glTF: the JSON root is not an object"));
         }
+        textures::prefer_webp_sources(&mut value);
         let version = value.pointer("/asset/version").and_then(|v| v.as_str()).unwrap_or("");
         if !version.starts_with("2.") {
             return Err(self.err(format!(
@@ -579,6 +581,35 @@ mod tests {
             "req.gltf",
             &MemoryBudget::unlimited(),
         )
+    }
+
+    /// A 2×2 image of one colour, encoded as PNG or lossless WebP, as a data URI.
+    fn image_uri(rgb: [u8; 3], webp: bool) -> String {
+        let img = image::RgbaImage::from_pixel(2, 2, image::Rgba([rgb[0], rgb[1], rgb[2], 255]));
+        let mut bytes = Vec::new();
+        let (format, mime) =
+            if webp { (image::ImageFormat::WebP, "image/webp") } else { (image::ImageFormat::Png, "image/png") };
+        img.write_to(&mut std::io::Cursor::new(&mut bytes), format).unwrap();
+        format!("data:{mime};base64,{}", base64::engine::general_purpose::STANDARD.encode(&bytes))
+    }
+
+    #[test]
+    fn ext_texture_webp_reads_the_webp_image_over_the_fallback() {
+        // Texture 0 has a PNG fallback (red) and a WebP source (green); texture 1 only WebP.
+        for (texture, required) in [
+            (json!({"source": 0, "extensions": {"EXT_texture_webp": {"source": 1}}}), &[][..]),
+            (json!({"extensions": {"EXT_texture_webp": {"source": 1}}}), &["EXT_texture_webp"][..]),
+        ] {
+            let root = json!({
+                "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "material": 0}]}],
+                "materials": [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}],
+                "textures": [texture],
+                "images": [{"uri": image_uri([255, 0, 0], false)}, {"uri": image_uri([0, 255, 0], true)}]
+            });
+            let scene = load_triangle(required, root).expect("loads");
+            assert_eq!(scene.textures.len(), 1);
+            assert!(scene.textures[0].texels.iter().all(|t| t[..3] == [0, 255, 0]), "{:?}", scene.textures[0].texels);
+        }
     }
 
     #[test]

@@ -8,6 +8,21 @@ use crate::scene::TexRef;
 use crate::scene::texture::{Texture, Wrap, texture_transform};
 use glam::Mat3;
 
+/// `EXT_texture_webp`: a texture whose extension names a WebP image reads that image (the
+/// core `source`, when there is one, is the fallback for viewers without WebP). Done on the
+/// raw JSON, before references are checked, so that the WebP source is checked like any.
+pub(super) fn prefer_webp_sources(root: &mut serde_json::Value) {
+    let Some(textures) = root.get_mut("textures").and_then(|t| t.as_array_mut()) else {
+        return;
+    };
+    for t in textures {
+        let webp = t.pointer("/extensions/EXT_texture_webp/source").cloned();
+        if let (Some(source), Some(obj)) = (webp, t.as_object_mut()) {
+            obj.insert("source".into(), source);
+        }
+    }
+}
+
 impl Loader<'_> {
     pub(super) fn image(&mut self, doc: &gltf::Document, index: usize, buffers: &[Vec<u8>]) -> Result<DecodedImage> {
         if let Some(img) = self.images.get(&index) {
@@ -29,7 +44,7 @@ impl Loader<'_> {
             .with_guessed_format()
             .map_err(|e| self.err(format!("texture {label}: {e}")))?;
         if reader.format().is_none() {
-            return Err(self.err(format!("texture {label}: unknown image format (Caustic reads PNG and JPEG)")));
+            return Err(self.err(format!("texture {label}: unknown image format (Caustic reads PNG, JPEG and WebP)")));
         }
         let (w, h) = reader
             .into_dimensions()
