@@ -37,9 +37,29 @@ class _BpyProxy:
         return getattr(bpy, name)
 
 
+def _import_exporter_modules():
+    """Imports every module of the exporter's `blender.exp` package: the exporter imports
+    some only inside its operator, and a module first imported after the patch below would
+    see the viewport depsgraph (the first F12 of a session exported viewport subdivision
+    levels)."""
+    import importlib
+    import pkgutil
+
+    try:
+        package = importlib.import_module("io_scene_gltf2.blender.exp")
+    except ImportError:
+        return
+    for info in pkgutil.walk_packages(package.__path__, package.__name__ + "."):
+        try:
+            importlib.import_module(info.name)
+        except Exception:  # an optional part (e.g. a compression library) may not load
+            continue
+
+
 @contextmanager
 def render_depsgraph(depsgraph):
     """Let the exporter's modules see `depsgraph` as the context's evaluated depsgraph."""
+    _import_exporter_modules()
     proxy = _BpyProxy(depsgraph)
     patched = []
     for name, module in list(sys.modules.items()):
