@@ -20,6 +20,7 @@ out of it or writes differently from what Cycles renders (docs/contract.md):
 | `gltf_hooks.py` | the hook class the exporter calls, and making sure it finds it |
 | `depsgraph.py` | pointing the exporter at the render depsgraph |
 | `state.py` | the export in progress, shared with the hooks |
+| `view_layer.py` | the view layer's excluded collections left out of the exporter's tree (instances kept) |
 | `unsupported.py` | warnings naming what Caustic cannot render yet (motion blur, hair, holdout, ...) |
 """
 

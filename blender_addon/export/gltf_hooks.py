@@ -14,7 +14,7 @@ from contextlib import contextmanager
 
 import bpy
 
-from . import materials, meshes
+from . import materials, meshes, view_layer
 from .camera import CAMERA_EXTENSION, camera_extension
 from .gltf_objects import attach_extension
 from .lights import (AREA_LIGHT_EXTENSION, PUNCTUAL_EXTENSION, area_light_extension,
@@ -85,6 +85,16 @@ class glTF2ExportUserExtension:
             materials.complete_material(gltf2_material, blender_material, export_settings, state)
         except Exception as err:
             state.errors.append(f"material '{getattr(blender_material, 'name', '?')}': {err!r}")
+
+    def gather_tree_filter_tag_hook(self, vtree, export_settings):
+        """Leave out the objects of collections the view layer excludes (see view_layer.py)."""
+        state = current()
+        if state is None or state.depsgraph is None:
+            return
+        try:
+            view_layer.drop_objects_outside(vtree, state.depsgraph)
+        except Exception as err:
+            state.errors.append(f"view layer '{state.depsgraph.view_layer.name}': {err!r}")
 
     def gather_scene_hook(self, gltf2_scene, blender_scene, export_settings):
         """Store the render settings in the scene's extras.caustic and the world in CAUSTIC_world."""

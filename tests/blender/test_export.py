@@ -217,6 +217,38 @@ def test_render_visibility_and_render_level_modifiers(empty_scene, captured):
     assert triangles("ViewportDisabled") == 12
 
 
+def test_excluded_collections_are_left_out_but_their_instances_render(empty_scene, captured):
+    """A collection excluded from the view layer is not rendered (Cycles), but an instance of
+    it is: the usual way to keep instanced assets out of view."""
+    scene = empty_scene
+    scenes.small_render_settings(scene, 8, 6, samples=1)
+    scenes.camera(scene, (0, -4, 3), (60, 0, 0))
+    scenes.light(scene, "Sun", "SUN", energy=1.0)
+    scenes.cube(scene, "Kept", 1.0, (0, 0, 0))
+    assets = bpy.data.collections.new("Assets")
+    scene.collection.children.link(assets)
+    asset = scenes.cube(scene, "Asset", 1.0, (5, 0, 0))
+    scene.collection.objects.unlink(asset)
+    assets.objects.link(asset)
+    lamp = scenes.light(scene, "AssetLamp", "POINT", location=(5, 0, 3), energy=10.0)
+    scene.collection.objects.unlink(lamp)
+    assets.objects.link(lamp)
+    scene.view_layers[0].layer_collection.children["Assets"].exclude = True
+    instancer = bpy.data.objects.new("Instancer", None)
+    instancer.instance_type = "COLLECTION"
+    instancer.instance_collection = assets
+    instancer.location = (-3, 0, 0)
+    scene.collection.objects.link(instancer)
+
+    (gltf,) = captured()
+    names = [n.get("name") for n in gltf["nodes"]]
+    meshes = [n.get("name") for n in gltf["nodes"] if "mesh" in n]
+    # The excluded collection's cube and light appear once each: through the instancer (an
+    # instanced light lights the scene in Cycles too), not at their own place.
+    assert sorted(meshes) == ["Asset", "Kept"], names
+    assert names.count("AssetLamp") == 1, names
+
+
 def test_animation_exports_each_frame(empty_scene, captured, tmp_path):
     scene = empty_scene
     scenes.small_render_settings(scene, 8, 6, samples=1)
