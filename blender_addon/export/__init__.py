@@ -20,7 +20,7 @@ out of it or writes differently from what Cycles renders (docs/contract.md):
 | `gltf_hooks.py` | the hook class the exporter calls, and making sure it finds it |
 | `depsgraph.py` | pointing the exporter at the render depsgraph |
 | `state.py` | the export in progress, shared with the hooks |
-| `view_layer.py` | the view layer's excluded collections left out of the exporter's tree (instances kept) |
+| `view_layer.py` | the view layer's excluded collections left out of the exporter's tree (instances kept); the Material Override is applied in `meshes.py` |
 | `unsupported.py` | warnings naming what Caustic cannot render yet (motion blur, hair, holdout, ...) |
 """
 
@@ -83,6 +83,7 @@ def export_scene(depsgraph, folder, settings):
     state = ExportState(settings)
     state.pixel_aspect = (scene.render.pixel_aspect_x, scene.render.pixel_aspect_y)
     state.depsgraph = depsgraph
+    state.material_override = view_layer.material_override
     # The exporter takes object transforms from the original objects, which only the viewport
     # depsgraph updates; during an animation render it still holds the previous frame.
     scene_eval = depsgraph.scene_eval

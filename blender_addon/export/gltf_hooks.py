@@ -71,6 +71,7 @@ class glTF2ExportUserExtension:
         if state is None or gltf2_mesh is None:
             return
         try:
+            meshes.apply_material_override(gltf2_mesh, state, export_settings)
             meshes.give_default_material(gltf2_mesh, state)
             meshes.add_missing_texcoords(gltf2_mesh, blender_mesh, state)
         except Exception as err:

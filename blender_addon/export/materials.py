@@ -232,9 +232,12 @@ def _present(gltf2_material, name):
     return bool(value)
 
 
-def complete_material(gltf2_material, blender_material, export_settings, state):
-    """Everything Caustic adds to the exporter's glTF material (the material hook's work)."""
-    as_graph = _node_graph(gltf2_material, blender_material, export_settings, state)
+def complete_material(gltf2_material, blender_material, export_settings, state, force_graph=False):
+    """Everything Caustic adds to the exporter's glTF material (the material hook's work);
+    `force_graph`: render it from its node graph even where glTF could say it (a material the
+    exporter did not convert, such as a view layer's override). Returns whether the graph
+    was written."""
+    as_graph = _node_graph(gltf2_material, blender_material, export_settings, state, force_graph)
     # A material exported as a graph is rendered from the graph: the warnings about what its
     # glTF approximation drops do not apply to Caustic, so they are collected and discarded.
     approximation_warnings = [] if as_graph else state.warnings
@@ -256,6 +259,7 @@ def complete_material(gltf2_material, blender_material, export_settings, state):
         state.warnings.extend(warnings)
         if value is not None:
             _set_extension(gltf2_material, name, value)
+    return as_graph
 
 
 def graph_of(blender_material, state):
@@ -276,8 +280,12 @@ def _meshes_by_material(state):
     using it in a slot; built once per export (one pass over the objects, not one per material)."""
     if state.material_meshes is None:
         state.material_meshes = {}
+        override = state.material_override
         for obj in state.depsgraph.objects if state.depsgraph is not None else ():
             if obj.type != "MESH":
+                continue
+            if override is not None:  # every mesh wears the view layer's override
+                state.material_meshes.setdefault(override.original.as_pointer(), {})[obj.data.as_pointer()] = obj.data
                 continue
             for slot in obj.material_slots:
                 if slot.material is not None:
@@ -292,12 +300,12 @@ def uses_graph(blender_material, state):
     return graph is not None and needs_graph(blender_material, graph)
 
 
-def _node_graph(gltf2_material, blender_material, export_settings, state):
-    """Attach `CAUSTIC_materials_nodes` when the exporter cannot express the material, writing its
-    images; whether it did."""
-    if not uses_graph(blender_material, state):
-        return False
+def _node_graph(gltf2_material, blender_material, export_settings, state, force=False):
+    """Attach `CAUSTIC_materials_nodes` when the exporter cannot express the material (or
+    `force`), writing its images; whether it did."""
     graph = graph_of(blender_material, state)
+    if graph is None or not (force or uses_graph(blender_material, state)):
+        return False
     what = f"material '{blender_material.name}'"
     state.warnings.extend(graph.warnings)
     writer = state.image_writer(export_settings["gltf_filedirectory"])

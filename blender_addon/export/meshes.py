@@ -21,11 +21,28 @@ original mesh's texture space, so its copies repeat the pattern in Cycles).
 """
 
 from .gltf_objects import constant_uv_accessor
-from .materials import graph_of, uses_graph
+from .materials import complete_material, graph_of, uses_graph
 
 TEXSPACE_EXTRA = "CAUSTIC_texspace"
 
 DEFAULT_SURFACE_NAME = "Blender default surface"
+
+
+def apply_material_override(gltf2_mesh, state, export_settings):
+    """The view layer's Material Override on every primitive, as Cycles renders it: one glTF
+    material built from the override's node graph (the exporter never converted it)."""
+    override = state.material_override
+    if override is None:
+        return
+    if state.override_material is None:
+        material = _default_surface()
+        material.name = override.name
+        if not complete_material(material, override, export_settings, state, force_graph=True):
+            state.warnings.append(f"material override '{override.name}' has no shader graph Caustic reads: "
+                                  "rendered as Blender's default surface")
+        state.override_material = material
+    for prim in gltf2_mesh.primitives or []:
+        prim.material = state.override_material
 
 
 def give_default_material(gltf2_mesh, state):

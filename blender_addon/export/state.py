@@ -25,6 +25,8 @@ class ExportState:
         self.depsgraph = None  # the render depsgraph (evaluated meshes and objects for node graphs)
         self.graphs = {}  # material pointer -> node_graph.Graph or None, built once per export
         self.material_meshes = None  # original material pointer -> {pointer: evaluated mesh} using it
+        self.material_override = None  # the view layer's Material Override (a Blender material)
+        self.override_material = None  # its glTF material, built once, given to every primitive
         self.scaled_lights = set()  # ids of KHR light dicts already scaled by a light node tree
         self._image_writer = None
         # The exporter logs and swallows hook exceptions: the hooks record them here and

@@ -15,9 +15,6 @@ def scene_warnings(depsgraph):
     warnings = []
     if scene.render.use_motion_blur:
         warnings.append("motion blur is on: Caustic renders the frame without it (sharp)")
-    if view_layer.material_override is not None:
-        warnings.append(f"view layer '{view_layer.name}': the material override "
-                        f"'{view_layer.material_override.name}' is not applied")
     warnings += _collection_warnings(view_layer.layer_collection, view_layer.name)
     seen = set()
     for instance in depsgraph.object_instances:
