@@ -627,3 +627,66 @@ fn bad_world_media_are_refused() {
         assert!(msg.contains("CAUSTIC_world") && msg.contains(words), "{msg}");
     }
 }
+
+/// A camera inside a closed mesh medium starts its paths in it (as Cycles does): inside a
+/// cube of absorbing medium (no surface; half-size 2, σa per channel), the camera at the
+/// centre looks at an emitter of radiance Le outside the cube, so each pixel is
+/// Le·exp(−σa·(D_inside)) where D_inside is the camera ray's length up to the cube's face
+/// (the emitter's own distance does not matter: vacuum beyond). Exact in every integrator as
+/// in `world_volume_absorbs_along_camera_rays` (pure absorption at depth 0), 1e-4 relative.
+/// Before the fix the camera counted itself outside, and the pixels were Le.
+#[test]
+fn camera_inside_a_mesh_medium_starts_in_it() {
+    let dir = temp_dir();
+    let (le, half, sigma_a) = (2.0f32, 2.0f32, [0.5f32, 1.0, 0.25]);
+    let mut g = GltfBuilder::new();
+    g.use_ext("KHR_materials_emissive_strength");
+    let glow = g.material(json!({
+        "pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1], "metallicFactor": 0.0, "roughnessFactor": 1.0},
+        "emissiveFactor": [1, 1, 1],
+        "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": le}}
+    }));
+    let water = medium_material(&mut g, [0.0; 3], sigma_a, false);
+    g.cube([-half; 3], [half; 3], water);
+    // The emitter faces +z at z = -5, outside the cube; the camera at the origin looks down -z.
+    g.mesh(
+        &[[-20.0, -20.0, -5.0], [20.0, -20.0, -5.0], [20.0, 20.0, -5.0], [-20.0, 20.0, -5.0]],
+        &[0, 1, 2, 0, 2, 3],
+        glow,
+    );
+    g.camera([0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0], 0.06);
+    let path = g.write(dir.path(), "camera_in_medium.gltf");
+    for integrator in ["path", "bdpt", "photon", "sppm"] {
+        let img = render(
+            &path,
+            &dir.path().join(format!("{integrator}.exr")),
+            &[
+                "--resolution",
+                "8x8",
+                "--spp",
+                "1",
+                "--integrator",
+                integrator,
+                "--filter",
+                "box",
+                "--filter-width",
+                "0.00001",
+            ],
+        );
+        let tan_half = (0.03f64).tan();
+        for (i, p) in img.iter().enumerate() {
+            let x = (2.0 * ((i % 8) as f64 + 0.5) / 8.0 - 1.0) * tan_half;
+            let y = (2.0 * ((i / 8) as f64 + 0.5) / 8.0 - 1.0) * tan_half;
+            // From the near plane (znear 0.01) to the face z = -half.
+            let dist = (half as f64 - 0.01) * (1.0 + x * x + y * y).sqrt();
+            for c in 0..3 {
+                let expected = (le as f64 * (-sigma_a[c] as f64 * dist).exp()) as f32;
+                assert!(
+                    (p[c] - expected).abs() <= 1e-4 * expected,
+                    "{integrator}: channel {c} gives {} where Le·exp(−σa D) = {expected}",
+                    p[c]
+                );
+            }
+        }
+    }
+}

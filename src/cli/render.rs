@@ -90,7 +90,8 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     if stop.load(Ordering::Relaxed) {
         return Err(Error::InterruptedEmpty);
     }
-    let ctx = SceneContext::with_light_sampler(&scene, &accel, res.light_sampler);
+    let ctx = SceneContext::with_light_sampler(&scene, &accel, res.light_sampler)
+        .with_camera_at(scene.cameras[res.camera].position);
     let camera = CameraRays::new(&scene.cameras[res.camera], res.resolution.0, res.resolution.1);
     let mut photon_stats = serde_json::Value::Null;
     let integrator = match res.integrator {

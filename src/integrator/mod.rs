@@ -50,6 +50,8 @@ pub struct SceneContext<'a> {
     /// Some material has a medium or subsurface scattering (paths then track media and
     /// shadow rays step through volume boundaries).
     pub has_media: bool,
+    /// The mesh media around the camera, which camera paths start in (`with_camera_at`).
+    pub camera_media: MediumStack,
 }
 
 /// Power heuristic (β = 2) of Veach; 0 when the weights are not finite.
@@ -113,7 +115,47 @@ impl<'a> SceneContext<'a> {
             suns,
             has_media: scene.world_medium.is_some()
                 || scene.materials.iter().any(|m| m.medium.is_some() || m.subsurface.is_some()),
+            camera_media: MediumStack::default(),
         }
+    }
+
+    /// This context for a camera at `p`: camera paths start in the mesh media that enclose
+    /// it (a camera under water sees through the water), as Cycles starts them.
+    pub fn with_camera_at(mut self, p: Vec3) -> Self {
+        self.camera_media = self.media_at(p);
+        self
+    }
+
+    /// The media enclosing `p`, outermost first: a ray from `p` is followed through every
+    /// surface, and a medium whose boundary it first crosses from the back (leaving) holds
+    /// `p`. The ray's direction is generic so that it does not run along a mesh's edges.
+    pub fn media_at(&self, p: Vec3) -> MediumStack {
+        // Surfaces followed at most: enough for any real nesting, bounded for a broken mesh.
+        const MAX_SURFACES: usize = 4096;
+        let mut stack = MediumStack::default();
+        if !self.scene.materials.iter().any(|m| m.medium.is_some()) {
+            return stack;
+        }
+        let dir = Vec3::new(0.3178, 0.8059, 0.4993).normalize();
+        let (mut org, mut seen, mut inside) = (p, Vec::new(), Vec::new());
+        for _ in 0..MAX_SURFACES {
+            let Some(hit) = self.intersect(org, dir, f32::INFINITY) else {
+                break;
+            };
+            let s = self.scene.surface(&hit, org, dir);
+            if self.scene.materials[s.material as usize].medium.is_some() && !seen.contains(&s.material) {
+                seen.push(s.material);
+                if !s.front {
+                    inside.push(s.material);
+                }
+            }
+            org = offset_ray_origin(s.p, -s.ng);
+        }
+        // Met innermost first.
+        for &m in inside.iter().rev() {
+            stack.enter(m);
+        }
+        stack
     }
 
     /// Emission of lights that are not scene geometry (area and sphere lights) crossed by

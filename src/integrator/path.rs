@@ -83,7 +83,7 @@ impl PathIntegrator {
         let mut out = CameraSample { depth: f32::INFINITY, ..Default::default() };
         stats.camera += 1;
         // Camera rays start in vacuum, with no MIS for what they hit first.
-        let st = PathState::camera(ray);
+        let st = PathState::camera(ray, ctx.camera_media);
         out.radiance = self.trace(ctx, st, sampler, depth_of, stats, &mut out);
         out
     }

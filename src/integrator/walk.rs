@@ -87,12 +87,13 @@ pub enum Step {
 impl PathState {
     /// A path leaving a light carrying `power` (photons, BDPT's light subpaths), in vacuum.
     pub fn photon(org: Vec3, dir: Vec3, power: Rgb) -> Self {
-        PathState { beta: power, ..Self::camera(&CameraRay::unclipped(org, dir)) }
+        PathState { beta: power, ..Self::camera(&CameraRay::unclipped(org, dir), MediumStack::default()) }
     }
 
-    /// A camera ray, starting at its near clipping plane and seeing as far as its far one:
-    /// vacuum (or the world's medium), no MIS for what it hits first.
-    pub fn camera(ray: &CameraRay) -> Self {
+    /// A camera ray, starting at its near clipping plane and seeing as far as its far one,
+    /// in the media around the camera (`SceneContext::camera_media`; none: vacuum or the
+    /// world's medium), no MIS for what it hits first.
+    pub fn camera(ray: &CameraRay, media: MediumStack) -> Self {
         let org = if ray.near > 0.0 { ray.org + ray.dir * ray.near } else { ray.org };
         let dir = ray.dir;
         PathState {
@@ -104,7 +105,7 @@ impl PathState {
             prev_pdf: 0.0,
             prev_p: org,
             prev_n: Vec3::ZERO,
-            media: MediumStack::default(),
+            media,
             eta_scale: 1.0,
             transparent_hits: 0,
         }

@@ -26,8 +26,9 @@ impl BdptIntegrator {
         let (org, dir) = (ray.org, ray.dir);
         let mut v0 = Vertex::new(Kind::Camera, org);
         v0.pdf_fwd = 1.0;
+        v0.medium = ctx.camera_media;
         cam.push(v0);
-        let mut path = PathState::camera(ray);
+        let mut path = PathState::camera(ray, ctx.camera_media);
         // Solid-angle density of the direction just sampled (0 after a delta lobe).
         let mut pdf_sa = if camera.is_orthographic() { 1.0 } else { camera.pdf_dir((-camera.camera().back).dot(dir)) };
         let mut prev_delta = false;

@@ -152,7 +152,7 @@ impl JensenIntegrator {
         let mut out = CameraSample { depth: f32::INFINITY, ..Default::default() };
         let mut radiance = Rgb::ZERO;
         // A scattering event in a medium is path traced from that vertex on.
-        let mut st = PathState::camera(ray);
+        let mut st = PathState::camera(ray, ctx.camera_media);
         stats.camera += 1;
         loop {
             let [u_light, u_lx, u_ly, u_lobe] = sampler.next_4d();

@@ -443,7 +443,7 @@ fn camera_path(
     stats.camera += 1;
     // A scattering event in a medium is path traced from that vertex on (media have no
     // photon map): NEE plus a continued path.
-    let mut st = PathState::camera(ray);
+    let mut st = PathState::camera(ray, ctx.camera_media);
     let continuation = PathIntegrator { max_depth, transparent_background, ..Default::default() };
     loop {
         let [u_light, u_lx, u_ly, u_lobe] = sampler.next_4d();
