@@ -70,6 +70,18 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         reporter.warning(&w);
         run_warnings.push(w);
     }
+    let hidden = &scene.ray_visibility.hidden_objects;
+    if !hidden.is_empty() && !matches!(res.integrator, IntegratorKind::Path) {
+        // Light subpaths and photons learn the kind of each segment only at its far end,
+        // so they cannot skip hidden objects yet: the object stays visible to every ray.
+        let w = format!(
+            "ray visibility of object(s) {} is not honoured by this integrator: every ray sees them (the path \
+             integrator renders them as Cycles)",
+            hidden.iter().map(|n| format!("'{n}'")).collect::<Vec<_>>().join(", ")
+        );
+        reporter.warning(&w);
+        run_warnings.push(w);
+    }
     charge_render(&budget, args, &res, &scene)?;
     if stop.load(Ordering::Relaxed) {
         return Err(Error::InterruptedEmpty);
@@ -91,6 +103,8 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         return Err(Error::InterruptedEmpty);
     }
     let ctx = SceneContext::with_light_sampler(&scene, &accel, res.light_sampler);
+    // Only the path tracer gives every ray its kind (see the warning above).
+    let ctx = if matches!(res.integrator, IntegratorKind::Path) { ctx.with_ray_visibility() } else { ctx };
     let camera = CameraRays::new(&scene.cameras[res.camera], res.resolution.0, res.resolution.1);
     let mut photon_stats = serde_json::Value::Null;
     let integrator = match res.integrator {

@@ -24,6 +24,7 @@ use crate::sampling::warp::uniform_cone_pdf;
 use crate::scene::camera::CameraRay;
 use crate::scene::camera::CameraRays;
 use crate::scene::shading::SurfaceHit;
+use crate::scene::visibility::RayMask;
 use crate::scene::{AlphaMode, Scene};
 use glam::{Vec2, Vec3};
 
@@ -37,8 +38,11 @@ pub struct SceneContext<'a> {
     pub lights: LightSampler,
     /// Triangles whose material has an alpha mask (tested during traversal).
     masked: Vec<bool>,
-    /// Triangles that shadow rays may pass through (MASK or BLEND).
+    /// Triangles that shadow rays may pass through (MASK or BLEND, or hidden from shadow rays).
     transparent: Vec<bool>,
+    /// Which rays see each triangle (empty: every ray sees every triangle, or the
+    /// integrator does not honour ray visibility; see `with_ray_visibility`).
+    visibility: &'a [RayMask],
     /// Area lights with their light index (intersected by camera and BSDF rays).
     area_lights: Vec<(AreaLight, usize)>,
     /// Light index of the world, if it is a light.
@@ -107,6 +111,7 @@ impl<'a> SceneContext<'a> {
             },
             masked: (0..n).map(|t| matches!(mode(t), AlphaMode::Mask(_))).collect(),
             transparent: (0..n).map(|t| mode(t) != AlphaMode::Opaque).collect(),
+            visibility: &[],
             area_lights,
             world_light,
             spheres,
@@ -114,6 +119,30 @@ impl<'a> SceneContext<'a> {
             has_media: scene.world_medium.is_some()
                 || scene.materials.iter().any(|m| m.medium.is_some() || m.subsurface.is_some()),
         }
+    }
+
+    /// Honours the objects' ray visibility (`Scene::ray_visibility`): rays pass objects
+    /// hidden from their kind. Only walkers that give every ray its kind may ask for it
+    /// (the path tracer); the others see every object with every ray.
+    pub fn with_ray_visibility(mut self) -> Self {
+        let scene = self.scene;
+        let vis = &scene.ray_visibility.per_triangle;
+        if vis.is_empty() {
+            return self;
+        }
+        for (t, m) in vis.iter().enumerate() {
+            // Hidden from some kind: tested during traversal, like an alpha mask.
+            self.masked[t] |= *m != RayMask::ALL;
+            self.transparent[t] |= !m.meets(RayMask::SHADOW);
+        }
+        self.visibility = vis;
+        self
+    }
+
+    /// True when rays of kind `ray` see triangle `tri`.
+    #[inline]
+    fn sees(&self, ray: RayMask, tri: u32) -> bool {
+        self.visibility.get(tri as usize).is_none_or(|m| ray.meets(*m))
     }
 
     /// Emission of lights that are not scene geometry (area and sphere lights) crossed by
@@ -256,10 +285,20 @@ impl<'a> SceneContext<'a> {
         }
     }
 
-    /// Closest surface hit (alpha masks applied).
+    /// Closest surface hit (alpha masks applied) of a ray that sees every object.
     #[inline]
     pub fn intersect(&self, org: Vec3, dir: Vec3, tmax: f32) -> Option<Hit> {
+        self.intersect_as(org, dir, tmax, RayMask::ALL)
+    }
+
+    /// Closest surface hit (alpha masks applied) of a ray of kind `ray`: objects hidden
+    /// from it are passed.
+    #[inline]
+    pub fn intersect_as(&self, org: Vec3, dir: Vec3, tmax: f32, ray: RayMask) -> Option<Hit> {
         self.accel.intersect(org, dir, tmax, &self.masked, |tri, b1, b2| {
+            if !self.sees(ray, tri) {
+                return false;
+            }
             match self.scene.materials[self.scene.mesh.tri_material[tri as usize] as usize].alpha_mode {
                 AlphaMode::Mask(cutoff) => self.scene.alpha(tri, b1, b2) >= cutoff,
                 _ => true,
@@ -267,10 +306,14 @@ impl<'a> SceneContext<'a> {
         })
     }
 
-    /// Fraction of light passing from `org` along `dir` for distance `tmax`.
+    /// Fraction of light passing from `org` along `dir` for distance `tmax` (a shadow
+    /// ray: objects hidden from shadow rays let it through).
     #[inline]
     pub fn transmittance(&self, org: Vec3, dir: Vec3, tmax: f32) -> f32 {
         self.accel.transmittance(org, dir, tmax, &self.transparent, |tri, b1, b2| {
+            if !self.sees(RayMask::SHADOW, tri) {
+                return 1.0;
+            }
             match self.scene.materials[self.scene.mesh.tri_material[tri as usize] as usize].alpha_mode {
                 AlphaMode::Mask(cutoff) => {
                     if self.scene.alpha(tri, b1, b2) >= cutoff {

@@ -40,6 +40,7 @@ use crate::sampling::warp::{cosine_hemisphere, cosine_hemisphere_pdf};
 use crate::scene::camera::CameraRay;
 use crate::scene::material::{Subsurface, SubsurfaceMethod};
 use crate::scene::shading::{ShadingPoint, SurfaceHit};
+use crate::scene::visibility::RayMask;
 use glam::{Vec2, Vec3};
 
 /// The path tracer's parameters.
@@ -133,6 +134,7 @@ impl PathIntegrator {
             eta_scale: 1.0,
             transparent_hits: 0,
             tmax: f32::INFINITY,
+            ray: RayMask::AFTER_VOLUME,
         };
         if st.depth < self.max_depth && st.survives(self.rr_depth, u_rr) {
             stats.bounce += 1;
@@ -190,6 +192,7 @@ impl PathIntegrator {
                     }
                     st.org = p;
                     st.dir = wi;
+                    st.ray = RayMask::AFTER_VOLUME;
                     stats.bounce += 1;
                     continue;
                 }
@@ -289,6 +292,7 @@ impl PathIntegrator {
                 }
                 st.org = offset_ray_origin(se.p, n_g);
                 st.dir = wi;
+                st.ray = RayMask::DIFFUSE;
                 stats.bounce += 1;
                 continue;
             }
@@ -326,6 +330,7 @@ impl PathIntegrator {
 
             st.org = offset_ray_origin(s.p, if transmitted { -s.ng } else { s.ng });
             st.dir = wi;
+            st.ray = RayMask::after_bounce(bs.kind, transmitted);
             stats.bounce += 1;
         }
         radiance
@@ -380,6 +385,8 @@ impl PathIntegrator {
             eta_scale: 1.0,
             transparent_hits: 0,
             tmax: f32::INFINITY,
+            // The exit scatters as a diffuse reflection, as Cycles labels it.
+            ray: RayMask::DIFFUSE,
         };
         if wi.dot(n_g) <= 0.0 || !st.survives(self.rr_depth, v_rr) {
             return radiance;

@@ -15,6 +15,7 @@ use crate::render::job::RayStats;
 use crate::scene::AlphaMode;
 use crate::scene::camera::CameraRay;
 use crate::scene::shading::{ShadingPoint, SurfaceHit};
+use crate::scene::visibility::RayMask;
 use glam::{Vec2, Vec3};
 
 use super::power_heuristic;
@@ -52,6 +53,9 @@ pub struct PathState {
     /// How far the next ray sees: the far clipping plane for a camera ray (passed surfaces
     /// use up some of it), infinite after the first event.
     pub tmax: f32,
+    /// The kind of the next ray (camera until the first event, then the kind of the
+    /// last bounce): objects hidden from it are passed (`SceneContext::with_ray_visibility`).
+    pub ray: RayMask,
 }
 
 /// What `PathState::advance` found along the ray.
@@ -87,7 +91,7 @@ pub enum Step {
 impl PathState {
     /// A path leaving a light carrying `power` (photons, BDPT's light subpaths), in vacuum.
     pub fn photon(org: Vec3, dir: Vec3, power: Rgb) -> Self {
-        PathState { beta: power, ..Self::camera(&CameraRay::unclipped(org, dir)) }
+        PathState { beta: power, ray: RayMask::ALL, ..Self::camera(&CameraRay::unclipped(org, dir)) }
     }
 
     /// A camera ray, starting at its near clipping plane and seeing as far as its far one:
@@ -107,6 +111,7 @@ impl PathState {
             media: MediumStack::default(),
             eta_scale: 1.0,
             transparent_hits: 0,
+            ray: RayMask::CAMERA,
         }
     }
 
@@ -159,7 +164,7 @@ impl PathState {
         radiance: &mut Rgb,
         stats: &mut RayStats,
     ) -> (Step, Rgb) {
-        let hit = ctx.intersect(self.org, self.dir, self.tmax);
+        let hit = ctx.intersect_as(self.org, self.dir, self.tmax, self.ray);
         // Past the far clipping plane the ray sees the world, through the medium up to it.
         let t_surface = hit.map_or(self.tmax, |h| h.t);
         let tmax = std::mem::replace(&mut self.tmax, f32::INFINITY);
@@ -284,6 +289,7 @@ impl PathState {
         }
         self.depth += 1;
         self.media = ctx.medium_after(s, wi, self.media);
+        self.ray = RayMask::after_bounce(bs.kind, wi.dot(s.ng) <= 0.0);
         self.org = offset_ray_origin(s.p, if wi.dot(s.ng) > 0.0 { s.ng } else { -s.ng });
         self.dir = wi;
         stats.bounce += 1;

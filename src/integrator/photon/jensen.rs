@@ -38,6 +38,7 @@ use crate::medium::MediumStack;
 use crate::render::job::RayStats;
 use crate::sampling::PixelSampler;
 use crate::scene::camera::CameraRay;
+use crate::scene::visibility::RayMask;
 use glam::{Vec2, Vec3};
 use std::sync::Arc;
 
@@ -296,6 +297,7 @@ impl JensenIntegrator {
                 eta_scale: 1.0,
                 transparent_hits: 0,
                 tmax: f32::INFINITY,
+                ray: RayMask::after_bounce(bs.kind, ci < 0.0),
             };
             gathered += self.gather_path(ctx, st, sampler, stats);
         }

@@ -142,6 +142,41 @@ impl Default for BlenderLight {
     }
 }
 
+/// `CAUSTIC_object_visibility` on a mesh's node: Blender's Ray Visibility of the object
+/// (docs/contract.md); each kind of ray sees the object unless its flag is false.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct ObjectVisibilityExt {
+    #[serde(default = "yes")]
+    pub(super) camera: bool,
+    #[serde(default = "yes")]
+    pub(super) diffuse: bool,
+    #[serde(default = "yes")]
+    pub(super) glossy: bool,
+    #[serde(default = "yes")]
+    pub(super) transmission: bool,
+    #[serde(default = "yes")]
+    pub(super) volume_scatter: bool,
+    #[serde(default = "yes")]
+    pub(super) shadow: bool,
+}
+
+impl ObjectVisibilityExt {
+    /// The kinds of ray that see the object.
+    pub(super) fn mask(&self) -> crate::scene::visibility::RayMask {
+        use crate::scene::visibility::RayMask;
+        let flags = [
+            (self.camera, RayMask::CAMERA),
+            (self.diffuse, RayMask::DIFFUSE),
+            (self.glossy, RayMask::GLOSSY),
+            (self.transmission, RayMask::TRANSMISSION),
+            (self.volume_scatter, RayMask::VOLUME),
+            (self.shadow, RayMask::SHADOW),
+        ];
+        RayMask(flags.iter().filter(|(on, _)| *on).fold(0, |m, (_, k)| m | k.0))
+    }
+}
+
 /// `CAUSTIC_default_material` on the document's root: the material of primitives that
 /// name none (docs/contract.md).
 #[derive(Deserialize)]

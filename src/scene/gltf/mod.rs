@@ -33,6 +33,7 @@ use crate::light::Light;
 use crate::memory::MemoryBudget;
 use base64::Engine;
 use cameras::frame_bounds;
+use extensions::ObjectVisibilityExt;
 use glam::{Vec2, Vec3};
 use gltf::json;
 use lights::punctual_power;
@@ -266,6 +267,7 @@ impl<'a> Loader<'a> {
         // per-triangle instance indices are kept only when a graph is present.
         let graphs = materials.iter().any(|m| m.nodes.is_some());
         let mut objects: Vec<crate::shader::geom::ObjectData> = Vec::new();
+        let mut ray_visibility = crate::scene::visibility::RayVisibility::default();
         for (node_index, world) in &instances {
             let node = doc.nodes().nth(*node_index).expect("validated index");
             let node_name = node.name().map(str::to_string).unwrap_or_else(|| format!("node {node_index}"));
@@ -275,7 +277,15 @@ impl<'a> Loader<'a> {
             if let Some(m) = node.mesh() {
                 used_meshes.insert(m.index());
                 instance_count += 1;
+                let first = mesh.triangles.len();
                 degenerate += self.append_mesh(&m, world, &buffers, &mut materials, default_material, &mut mesh)?;
+                if let Some(ext) = node.extension_value("CAUSTIC_object_visibility") {
+                    let vis: ObjectVisibilityExt = serde_json::from_value(ext.clone()).map_err(|e| {
+                        self.err(format!("node {node_index} ('{node_name}'): bad CAUSTIC_object_visibility: {e}"))
+                    })?;
+                    let total = mesh.triangles.len();
+                    ray_visibility.mark(&node_name, first..total, total, vis.mask());
+                }
                 if graphs {
                     let texspace = value.pointer(&format!("/meshes/{}/extras/CAUSTIC_texspace", m.index()));
                     objects.push(shader_graph::object_data(world, &node_name, texspace));
@@ -300,6 +310,7 @@ impl<'a> Loader<'a> {
                 area_lights.push((ext.clone(), node_name.clone(), *world));
             }
         }
+        ray_visibility.finish(mesh.triangles.len());
         if mesh.triangles.is_empty() {
             return Err(self.err("nothing to render: the scene has no triangles (no mesh, or only points/lines)"));
         }
@@ -414,6 +425,7 @@ impl<'a> Loader<'a> {
             world,
             world_medium,
             light_casts_shadow,
+            ray_visibility,
             settings,
             warnings: self.warnings,
             report,
