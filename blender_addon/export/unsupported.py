@@ -1,11 +1,12 @@
 """What Caustic cannot render yet, named: scene features that would otherwise be dropped without
-a word (motion blur, hair, volume objects, holdout and shadow catcher, ray visibility, light
-linking, view layer holdout and indirect-only collections, material override). Each warning
+a word (motion blur, hair, volume objects, holdout and shadow catcher, lights' ray visibility
+beyond Camera, light linking, view layer holdout and indirect-only collections, material override). Each warning
 names the object, collection or setting and says what the render does instead."""
 
-_RAY_VISIBILITY = (("visible_camera", "camera"), ("visible_diffuse", "diffuse"), ("visible_glossy", "glossy"),
-                   ("visible_transmission", "transmission"), ("visible_volume_scatter", "volume scatter"),
-                   ("visible_shadow", "shadow"))
+# A light's Ray Visibility beyond Camera (which lights.py exports): Cycles excludes the hidden
+# kinds' closures from the light's next-event estimation, which Caustic's BSDFs cannot yet.
+_LIGHT_RAY_VISIBILITY = (("visible_diffuse", "diffuse"), ("visible_glossy", "glossy"),
+                         ("visible_transmission", "transmission"), ("visible_volume_scatter", "volume scatter"))
 
 
 def scene_warnings(depsgraph):
@@ -49,11 +50,11 @@ def object_warnings(obj):
         warnings.append(f"{what}: Holdout is not supported; it renders as an ordinary object")
     if getattr(obj, "is_shadow_catcher", False):
         warnings.append(f"{what}: Shadow Catcher is not supported; it renders as an ordinary object")
-    if obj.type in ("MESH", "CURVE", "SURFACE", "META", "FONT"):
-        hidden = [name for prop, name in _RAY_VISIBILITY if not getattr(obj, prop, True)]
+    if obj.type == "LIGHT":
+        hidden = [name for prop, name in _LIGHT_RAY_VISIBILITY if not getattr(obj, prop, True)]
         if hidden:
-            warnings.append(f"{what}: ray visibility off for {', '.join(hidden)} is ignored "
-                            "(the object is seen by every ray)")
+            warnings.append(f"light '{obj.name}': ray visibility off for {', '.join(hidden)} is ignored "
+                            "(the light lights every surface)")
     linking = getattr(obj, "light_linking", None)
     if linking is not None and (linking.receiver_collection is not None or linking.blocker_collection is not None):
         warnings.append(f"{what}: light linking (receivers/blockers) is ignored; the light lights and is "

@@ -77,7 +77,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         let w = format!(
             "ray visibility of object(s) {} is not honoured by this integrator: every ray sees them (the path \
              integrator renders them as Cycles)",
-            hidden.iter().map(|n| format!("'{n}'")).collect::<Vec<_>>().join(", ")
+            hidden.iter().map(|o| format!("'{}'", o.name)).collect::<Vec<_>>().join(", ")
         );
         reporter.warning(&w);
         run_warnings.push(w);

@@ -55,8 +55,19 @@ impl RayMask {
 pub struct RayVisibility {
     /// Per triangle (indexed as `Mesh::triangles`); empty when every object is seen by every ray.
     pub per_triangle: Vec<RayMask>,
-    /// Names of the objects hidden from some kind of ray, for warnings.
-    pub hidden_objects: Vec<String>,
+    /// The objects hidden from some kind of ray, for warnings.
+    pub hidden_objects: Vec<HiddenObject>,
+}
+
+/// An object that some kind of ray does not see.
+#[derive(Clone, Debug)]
+pub struct HiddenObject {
+    /// Its node's name.
+    pub name: String,
+    /// Its triangles (indices into `Mesh::triangles`).
+    pub triangles: std::ops::Range<usize>,
+    /// The kinds of ray that see it.
+    pub mask: RayMask,
 }
 
 impl RayVisibility {
@@ -67,10 +78,21 @@ impl RayVisibility {
             return;
         }
         self.per_triangle.resize(total, RayMask::ALL);
-        self.per_triangle[range].fill(mask);
-        if !self.hidden_objects.iter().any(|n| n == name) {
-            self.hidden_objects.push(name.to_string());
-        }
+        self.per_triangle[range.clone()].fill(mask);
+        self.hidden_objects.push(HiddenObject { name: name.to_string(), triangles: range, mask });
+    }
+
+    /// Hidden objects that emit light (some triangle in `emissive`) yet are hidden from
+    /// diffuse, glossy or transmitted rays: next-event estimation still samples them for
+    /// every lobe (Cycles excludes the hidden kinds' closures there), so only their
+    /// BSDF-sampled light is missing. Their names, for a warning.
+    pub fn emitters_lighting_hidden_kinds(&self, emissive: impl Fn(usize) -> bool) -> Vec<&str> {
+        let bounce = RayMask(RayMask::DIFFUSE.0 | RayMask::GLOSSY.0 | RayMask::TRANSMISSION.0);
+        self.hidden_objects
+            .iter()
+            .filter(|o| o.mask.0 & bounce.0 != bounce.0 && o.triangles.clone().any(&emissive))
+            .map(|o| o.name.as_str())
+            .collect()
     }
 
     /// Pads the table to `total` triangles once every object is loaded (objects appended
@@ -109,6 +131,11 @@ mod tests {
         v.mark("ghost", 2..3, 3, RayMask::SHADOW);
         v.finish(5);
         assert_eq!(v.per_triangle, vec![RayMask::ALL, RayMask::ALL, RayMask::SHADOW, RayMask::ALL, RayMask::ALL]);
-        assert_eq!(v.hidden_objects, vec!["ghost".to_string()]);
+        assert_eq!(v.hidden_objects.len(), 1);
+        assert_eq!((v.hidden_objects[0].name.as_str(), v.hidden_objects[0].triangles.clone()), ("ghost", 2..3));
+        assert_eq!(v.emitters_lighting_hidden_kinds(|t| t == 2), vec!["ghost"]);
+        assert!(v.emitters_lighting_hidden_kinds(|t| t == 3).is_empty());
+        v.mark("no glossy", 3..4, 4, RayMask(RayMask::ALL.0 & !RayMask::GLOSSY.0));
+        assert_eq!(v.emitters_lighting_hidden_kinds(|t| t == 3), vec!["no glossy"]);
     }
 }

@@ -217,6 +217,25 @@ def test_render_visibility_and_render_level_modifiers(empty_scene, captured):
     assert triangles("ViewportDisabled") == 12
 
 
+def test_object_ray_visibility_is_exported(empty_scene, captured):
+    """An object's Ray Visibility flags that are off go out as CAUSTIC_object_visibility on its
+    node; an object every ray sees carries no extension."""
+    scene = empty_scene
+    scenes.small_render_settings(scene, 8, 6, samples=1)
+    scenes.camera(scene, (0, -4, 3), (60, 0, 0))
+    scenes.light(scene, "Sun", "SUN", energy=1.0)
+    scenes.cube(scene, "Plain", 1.0, (0, 0, 0))
+    ghost = scenes.cube(scene, "Ghost", 1.0, (2, 0, 0))
+    ghost.visible_camera = False
+    ghost.visible_shadow = False
+    ghost.visible_volume_scatter = False
+    (gltf,) = captured()
+    assert node_by_name(gltf, "Ghost")["extensions"]["CAUSTIC_object_visibility"] == {
+        "camera": False, "volume_scatter": False, "shadow": False}
+    assert "CAUSTIC_object_visibility" not in node_by_name(gltf, "Plain").get("extensions", {})
+    assert "CAUSTIC_object_visibility" in gltf["extensionsUsed"]
+
+
 def test_animation_exports_each_frame(empty_scene, captured, tmp_path):
     scene = empty_scene
     scenes.small_render_settings(scene, 8, 6, samples=1)
@@ -442,8 +461,9 @@ def test_principled_inside_a_node_group_is_left_to_the_exporter(empty_scene, cap
 
 def test_unrendered_features_are_named(addon, empty_scene):
     """Scene features Caustic does not render yet are each named in a warning (issue 20):
-    motion blur, Holdout, Shadow Catcher, ray visibility, light linking, hair, volume objects,
-    Holdout/Indirect Only collections; an ordinary object gets none."""
+    motion blur, Holdout, Shadow Catcher, a light's ray visibility beyond Camera, light linking,
+    hair, volume objects, Holdout/Indirect Only collections; an ordinary object gets none, nor
+    does an object's ray visibility (exported, test_object_ray_visibility_is_exported)."""
     unsupported = importlib.import_module(addon.__name__ + ".export.unsupported")
     scene = empty_scene
     scene.render.use_motion_blur = True
@@ -454,6 +474,8 @@ def test_unrendered_features_are_named(addon, empty_scene):
     catcher.is_shadow_catcher = True
     shy = scenes.cube(scene, "Shy", 1.0, (6, 0, 0))
     shy.visible_shadow = False
+    shy_light = scenes.light(scene, "ShyLight", "POINT", energy=1.0)
+    shy_light.visible_diffuse = False
     linked = scenes.cube(scene, "Linked", 1.0, (8, 0, 0))
     linked.light_linking.receiver_collection = bpy.data.collections.new("Receivers")
     furry = scenes.cube(scene, "Furry", 1.0, (10, 0, 0))
@@ -466,9 +488,10 @@ def test_unrendered_features_are_named(addon, empty_scene):
 
     warnings = unsupported.scene_warnings(bpy.context.evaluated_depsgraph_get())
     text = "\n".join(warnings)
-    for words in (("motion blur",), ("Held", "Holdout"), ("Catcher", "Shadow Catcher"), ("Shy", "shadow"),
+    for words in (("motion blur",), ("Held", "Holdout"), ("Catcher", "Shadow Catcher"), ("ShyLight", "diffuse"),
                   ("Linked", "light linking"), ("Furry", "hair"), ("Smoke", "volume"),
                   ("HeldCollection", "Holdout")):
         assert any(all(w in line for w in words) for line in warnings), f"{words} not named in:\n{text}"
     assert not any("'Plain'" in line for line in warnings), text
     assert unsupported.object_warnings(plain) == []
+    assert unsupported.object_warnings(shy) == []

@@ -364,6 +364,15 @@ impl<'a> Loader<'a> {
         let phase = Instant::now();
         self.node_emitters(&mesh, &objects, &mut materials);
         self.emissive_lights(&mesh, &materials, &mut lights, &mut light_power, &mut light_reports)?;
+        let emissive: std::collections::HashSet<usize> =
+            lights.iter().filter_map(|l| if let Light::Triangle { tri } = l { Some(*tri as usize) } else { None }).collect();
+        for name in ray_visibility.emitters_lighting_hidden_kinds(|t| emissive.contains(&t)) {
+            let w = format!(
+                "object '{name}': emits light and is hidden from diffuse, glossy or transmitted rays; next-event \
+                 estimation still lights every surface from it, so only its BSDF-sampled light is missing"
+            );
+            self.warn(w);
+        }
         self.profile.emitter_power = phase.elapsed().as_secs_f64();
 
         let file_cameras = cameras.len();
