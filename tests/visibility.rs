@@ -174,3 +174,41 @@ fn hidden_from_diffuse_and_shadow_rays_lets_the_world_in() {
     let half = render(&scene("b.gltf", json!({"camera": false, "shadow": false})), &d.join("b.exr"), "64", "1");
     assert!(mean(&half) < 0.5 * 0.9, "a roof seen by diffuse rays hides the BSDF-sampled world: {}", mean(&half));
 }
+
+/// A holdout quad (half-width 0.3 at depth 2: ±9.4 px) in front of an emitter of radiance 1
+/// filling the view: camera rays that reach it see nothing, colour and alpha 0, in the path,
+/// Jensen and SPPM integrators; the emitter around it shows 1 with alpha 1. Pixels wholly
+/// inside or outside the quad's image are exact (a box filter of one pixel).
+#[test]
+fn a_holdout_shows_nothing_with_alpha_zero() {
+    let dir = temp_dir();
+    let d = dir.path();
+    let mut g = GltfBuilder::new();
+    let grey = g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1], "metallicFactor": 0.0}}));
+    let glow = g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1]}, "emissiveFactor": [1, 1, 1]}));
+    quad(&mut g, -4.0, 10.0, true, glow);
+    let held = quad(&mut g, -2.0, 0.3, true, grey);
+    g.node_ext(held, "CAUSTIC_object_visibility", json!({"holdout": true}));
+    g.camera([0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0], 0.5);
+    let scene = g.write(d, "held.gltf");
+    for integrator in ["path", "photon", "sppm"] {
+        let args = ["--resolution", "32x32", "--spp", "4", "--filter", "box", "--filter-width", "1", "--max-depth", "3",
+            "--integrator", integrator, "--photons", "1000"];
+        let px = render_image(&scene, &d.join(format!("{integrator}.exr")), &args, LIMIT);
+        let centre = |p: &[f32; 4]| p.iter().all(|v| *v == 0.0);
+        let inside: Vec<&[f32; 4]> = (0..px.len())
+            .filter(|i| ((i % W) as f32 - 15.5).abs().max(((i / W) as f32 - 15.5).abs()) < 9.0)
+            .map(|i| &px[i])
+            .collect();
+        assert!(inside.iter().all(|p| centre(p)), "{integrator}: the holdout shows colour or alpha: {:?}", inside[0]);
+        let outside: Vec<&[f32; 4]> = (0..px.len())
+            .filter(|i| ((i % W) as f32 - 15.5).abs().max(((i / W) as f32 - 15.5).abs()) > 10.0)
+            .map(|i| &px[i])
+            .collect();
+        assert!(
+            outside.iter().all(|p| p[3] == 1.0 && (p[0] - 1.0).abs() < 1e-3),
+            "{integrator}: the emitter around the holdout: {:?}",
+            outside[0]
+        );
+    }
+}

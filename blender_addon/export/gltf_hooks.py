@@ -34,13 +34,14 @@ class glTF2ExportUserExtension:
         """Attach CAUSTIC_camera to a camera's node, CAUSTIC_lights_area to an area light's node,
         CAUSTIC_lights_punctual to the other lights', CAUSTIC_texspace to a mesh whose
         node graphs read Generated coordinates, and CAUSTIC_object_visibility to a mesh node
-        whose object some kind of ray does not see."""
+        whose object some kind of ray does not see or that is a holdout."""
         state = current()
         if state is None or blender_object is None:
             return
         try:
             if gltf2_node.mesh is not None:
-                hidden = object_visibility_extension(blender_object)
+                view_layer = state.depsgraph.view_layer if state.depsgraph is not None else None
+                hidden = object_visibility_extension(blender_object, view_layer)
                 if hidden:
                     attach_extension(gltf2_node, OBJECT_VISIBILITY_EXTENSION, hidden)
             if blender_object.type == "CAMERA":

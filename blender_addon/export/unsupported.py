@@ -1,6 +1,7 @@
 """What Caustic cannot render yet, named: scene features that would otherwise be dropped without
-a word (motion blur, hair, volume objects, holdout and shadow catcher, lights' ray visibility
-beyond Camera, light linking, view layer holdout and indirect-only collections, material override). Each warning
+a word (motion blur, hair, volume objects, shadow catcher, lights' ray visibility beyond Camera, light
+linking, view layer indirect-only collections, material override; Holdout goes out with
+visibility.py, with a warning from the BDPT run that cannot render it). Each warning
 names the object, collection or setting and says what the render does instead."""
 
 # A light's Ray Visibility beyond Camera (which lights.py exports): Cycles excludes the hidden
@@ -46,8 +47,6 @@ def object_warnings(obj):
             settings = modifier.particle_system.settings
             if settings.type == "HAIR" and settings.render_type == "PATH":
                 warnings.append(f"{what}: hair particle system '{modifier.particle_system.name}' is not rendered")
-    if getattr(obj, "is_holdout", False):
-        warnings.append(f"{what}: Holdout is not supported; it renders as an ordinary object")
     if getattr(obj, "is_shadow_catcher", False):
         warnings.append(f"{what}: Shadow Catcher is not supported; it renders as an ordinary object")
     if obj.type == "LIGHT":
@@ -68,7 +67,7 @@ def _collection_warnings(layer_collection, layer_name):
     for child in layer_collection.children:
         if child.exclude:
             continue
-        for flag, label in (("holdout", "Holdout"), ("indirect_only", "Indirect Only")):
+        for flag, label in (("indirect_only", "Indirect Only"),):
             if getattr(child, flag, False):
                 warnings.append(f"view layer '{layer_name}': collection '{child.name}' is {label}, which is not "
                                 "supported; it renders as ordinary")

@@ -82,6 +82,17 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         reporter.warning(&w);
         run_warnings.push(w);
     }
+    let held = &scene.ray_visibility.holdout_objects;
+    if !held.is_empty() && matches!(res.integrator, IntegratorKind::Bdpt) {
+        // Its light-tracing splats would still show light reflected by the holdout.
+        let w = format!(
+            "holdout object(s) {} are rendered as ordinary objects by BDPT (the path, photon and SPPM \
+             integrators render them as Cycles)",
+            held.iter().map(|n| format!("'{n}'")).collect::<Vec<_>>().join(", ")
+        );
+        reporter.warning(&w);
+        run_warnings.push(w);
+    }
     charge_render(&budget, args, &res, &scene)?;
     if stop.load(Ordering::Relaxed) {
         return Err(Error::InterruptedEmpty);

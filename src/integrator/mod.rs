@@ -139,6 +139,13 @@ impl<'a> SceneContext<'a> {
         self
     }
 
+    /// True when triangle `tri` belongs to a holdout object: camera rays reaching it end
+    /// with nothing seen (colour and alpha 0), as Cycles' holdout.
+    #[inline]
+    pub fn is_holdout(&self, tri: u32) -> bool {
+        self.scene.ray_visibility.is_holdout(tri)
+    }
+
     /// True when rays of kind `ray` see triangle `tri`.
     #[inline]
     fn sees(&self, ray: RayMask, tri: u32) -> bool {

@@ -213,6 +213,12 @@ impl PathIntegrator {
                 }
                 Step::Surface { hit, s } => (hit, s),
             };
+            // A holdout seen by a camera ray (through pass-throughs only): nothing, alpha 0,
+            // as Cycles' holdout (indirect rays see the object as it is).
+            if st.depth == 0 && ctx.is_holdout(hit.tri) {
+                out.alpha = 0.0;
+                break;
+            }
             let wo = -st.dir;
             let mat = &ctx.scene.materials[s.material as usize];
             let sp = ctx.scene.shade(&s, wo);

@@ -57,6 +57,12 @@ pub struct RayVisibility {
     pub per_triangle: Vec<RayMask>,
     /// The objects hidden from some kind of ray, for warnings.
     pub hidden_objects: Vec<HiddenObject>,
+    /// Per triangle: its object is a holdout (Blender's Object > Visibility > Holdout, or a
+    /// Holdout collection): camera rays that reach it see nothing, alpha 0. Empty when no
+    /// object is.
+    pub holdout: Vec<bool>,
+    /// Names of the holdout objects, for warnings.
+    pub holdout_objects: Vec<String>,
 }
 
 /// An object that some kind of ray does not see.
@@ -95,11 +101,27 @@ impl RayVisibility {
             .collect()
     }
 
-    /// Pads the table to `total` triangles once every object is loaded (objects appended
-    /// after the last hidden one are seen by every ray).
+    /// Marks triangles `range` (one object's, just appended; `total` so far) as a holdout.
+    pub fn mark_holdout(&mut self, name: &str, range: std::ops::Range<usize>, total: usize) {
+        self.holdout.resize(total, false);
+        self.holdout[range].fill(true);
+        self.holdout_objects.push(name.to_string());
+    }
+
+    /// True when triangle `tri` belongs to a holdout object.
+    #[inline]
+    pub fn is_holdout(&self, tri: u32) -> bool {
+        self.holdout.get(tri as usize).copied().unwrap_or(false)
+    }
+
+    /// Pads the tables to `total` triangles once every object is loaded (objects appended
+    /// after the last marked one are seen by every ray and are no holdouts).
     pub fn finish(&mut self, total: usize) {
         if !self.per_triangle.is_empty() {
             self.per_triangle.resize(total, RayMask::ALL);
+        }
+        if !self.holdout.is_empty() {
+            self.holdout.resize(total, false);
         }
     }
 }
@@ -137,5 +159,10 @@ mod tests {
         assert!(v.emitters_lighting_hidden_kinds(|t| t == 3).is_empty());
         v.mark("no glossy", 3..4, 4, RayMask(RayMask::ALL.0 & !RayMask::GLOSSY.0));
         assert_eq!(v.emitters_lighting_hidden_kinds(|t| t == 3), vec!["no glossy"]);
+        assert!(!v.is_holdout(1));
+        v.mark_holdout("held", 1..2, 4);
+        v.finish(6);
+        assert_eq!(v.holdout, vec![false, true, false, false, false, false]);
+        assert!(v.is_holdout(1) && !v.is_holdout(0) && !v.is_holdout(9));
     }
 }

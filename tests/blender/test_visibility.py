@@ -1,4 +1,4 @@
-"""Caustic and Cycles agree on per-object Ray Visibility (issue 20).
+"""Caustic and Cycles agree on per-object Ray Visibility and Holdout (issue 20).
 
 Scene and bound as test_cycles_agreement.py (a grey floor and a lighter cube under a point
 light, seen from above; 5 sigma of the two-seed estimate, block variance, plus the 1 % model
@@ -13,11 +13,19 @@ The cube is lifted 2 cm off the floor: its bottom face would otherwise lie in th
 plane, where which of two coincident faces a ray finds is up to each renderer's
 self-intersection rule (with it on the floor and hidden from camera and shadow rays, the
 floor inside it sees its lit inner faces: Caustic/Cycles was 1.0100).
+
+Holdout (the cube's own, or its collection's in the view layer) with Film > Transparent: the
+colour channels and alpha are compared, each with the same bound; the floor fills the view,
+so alpha is 1 but where the camera sees the cube (0 there in both renderers).
 """
 
 import math
 
+import bpy
+
 import pytest
+
+import numpy as np
 
 import scenes
 from test_cycles_agreement import (MODEL_ALLOWANCE, SEEDS, SIGMAS, add_point, assert_mean_matches_cycles, build,
@@ -62,3 +70,49 @@ def test_ray_visibility_matches_cycles(empty_scene, tmp_path, case):
     print(f"\n[caustic/cycles] box hidden from {case}: {ratios}; seen by every ray the mean moves by "
           f"{m_seen / m_hidden - 1.0:+.4f} (bound {bound / m_hidden:.4f})")
     assert abs(m_seen - m_hidden) > bound, f"{case}: the flag changes the image by less than the bound"
+
+
+def render_rgba(scene, engine, seed, path):
+    """`scenes.render_rgb` with alpha: the (height, width, 4) image."""
+    scene.render.engine = engine
+    if engine == "CYCLES":
+        scene.cycles.seed = seed
+    else:
+        scene.caustic.seed = seed
+    scene.render.filepath = path
+    bpy.ops.render.render(write_still=True)
+    return scenes.load_pixels(path).astype(np.float64)
+
+
+@pytest.mark.parametrize("how", ["object", "collection"])
+def test_holdout_matches_cycles(empty_scene, tmp_path, how):
+    def light_and_holdout(scene):
+        add_point(scene)
+        box = scene.objects["Box"]
+        box.location.z += 0.02
+        if how == "object":
+            box.is_holdout = True
+        else:
+            held = bpy.data.collections.new("Held")
+            scene.collection.children.link(held)
+            scene.collection.objects.unlink(box)
+            held.objects.link(box)
+            bpy.context.view_layer.layer_collection.children["Held"].holdout = True
+
+    scene = empty_scene
+    build(scene, light_and_holdout)
+    scene.render.film_transparent = True
+    images = {e: [render_rgba(scene, e, s, str(tmp_path / f"{e}_{s}.exr")) for s in SEEDS] for e in ("CYCLES", "CAUSTIC")}
+    failures = []
+    for channel, name in enumerate("RGBA"):
+        (m_caustic, v_caustic), (m_cycles, v_cycles) = (
+            mean_and_variance(images[e][0][..., channel], images[e][1][..., channel]) for e in ("CAUSTIC", "CYCLES"))
+        bound = SIGMAS * math.sqrt(v_caustic + v_cycles) + MODEL_ALLOWANCE * m_cycles
+        print(f"\n[caustic/cycles] holdout ({how}) {name} ratio {m_caustic / m_cycles:.4f}  caustic {m_caustic:.5f}  "
+              f"cycles {m_cycles:.5f}  bound {bound:.2e}")
+        if abs(m_caustic - m_cycles) > bound:
+            failures.append(f"{name}: {m_caustic:.5f} against Cycles' {m_cycles:.5f} (bound {bound:.2e})")
+    assert not failures, "; ".join(failures)
+    # The holdout matters: the cube hides about a tenth of the view, far over the bound.
+    alpha = 0.5 * (images["CAUSTIC"][0][..., 3].mean() + images["CAUSTIC"][1][..., 3].mean())
+    assert alpha < 1.0 - 0.05, f"alpha {alpha}: the holdout does not show"

@@ -194,6 +194,11 @@ impl JensenIntegrator {
                 }
                 Step::Surface { hit, s } => (hit, s),
             };
+            // A holdout seen by a camera ray: nothing, alpha 0 (as the path tracer).
+            if st.depth == 0 && ctx.is_holdout(hit.tri) {
+                out.alpha = 0.0;
+                break;
+            }
             let wo = -st.dir;
             let sp = ctx.scene.shade(&s, wo);
             if st.depth == 0 {

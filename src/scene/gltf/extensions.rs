@@ -159,6 +159,9 @@ pub(super) struct ObjectVisibilityExt {
     pub(super) volume_scatter: bool,
     #[serde(default = "yes")]
     pub(super) shadow: bool,
+    /// Blender's Holdout (the object's, or its collection's in the view layer).
+    #[serde(default)]
+    pub(super) holdout: bool,
 }
 
 impl ObjectVisibilityExt {

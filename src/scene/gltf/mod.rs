@@ -285,6 +285,9 @@ impl<'a> Loader<'a> {
                     })?;
                     let total = mesh.triangles.len();
                     ray_visibility.mark(&node_name, first..total, total, vis.mask());
+                    if vis.holdout {
+                        ray_visibility.mark_holdout(&node_name, first..total, total);
+                    }
                 }
                 if graphs {
                     let texspace = value.pointer(&format!("/meshes/{}/extras/CAUSTIC_texspace", m.index()));
