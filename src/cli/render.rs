@@ -93,6 +93,17 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         reporter.warning(&w);
         run_warnings.push(w);
     }
+    let linked = &scene.light_linking.emitters;
+    if !linked.is_empty() && !matches!(res.integrator, IntegratorKind::Path) {
+        // Photons and light subpaths would need the receiver at every vertex.
+        let w = format!(
+            "light linking of {} is not honoured by this integrator: they light every object (the path \
+             integrator renders it as Cycles)",
+            linked.iter().map(|n| format!("'{n}'")).collect::<Vec<_>>().join(", ")
+        );
+        reporter.warning(&w);
+        run_warnings.push(w);
+    }
     charge_render(&budget, args, &res, &scene)?;
     if stop.load(Ordering::Relaxed) {
         return Err(Error::InterruptedEmpty);
@@ -115,7 +126,11 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     }
     let ctx = SceneContext::with_light_sampler(&scene, &accel, res.light_sampler);
     // Only the path tracer gives every ray its kind (see the warning above).
-    let ctx = if matches!(res.integrator, IntegratorKind::Path) { ctx.with_ray_visibility() } else { ctx };
+    let ctx = if matches!(res.integrator, IntegratorKind::Path) {
+        ctx.with_ray_visibility().with_light_linking()
+    } else {
+        ctx
+    };
     let camera = CameraRays::new(&scene.cameras[res.camera], res.resolution.0, res.resolution.1);
     let mut photon_stats = serde_json::Value::Null;
     let integrator = match res.integrator {

@@ -43,6 +43,8 @@ pub struct SceneContext<'a> {
     /// Which rays see each triangle (empty: every ray sees every triangle, or the
     /// integrator does not honour ray visibility; see `with_ray_visibility`).
     visibility: &'a [RayMask],
+    /// Light linking is honoured (`with_light_linking`).
+    linking: bool,
     /// Area lights with their light index (intersected by camera and BSDF rays).
     area_lights: Vec<(AreaLight, usize)>,
     /// Light index of the world, if it is a light.
@@ -112,6 +114,7 @@ impl<'a> SceneContext<'a> {
             masked: (0..n).map(|t| matches!(mode(t), AlphaMode::Mask(_))).collect(),
             transparent: (0..n).map(|t| mode(t) != AlphaMode::Opaque).collect(),
             visibility: &[],
+            linking: false,
             area_lights,
             world_light,
             spheres,
@@ -139,6 +142,21 @@ impl<'a> SceneContext<'a> {
         self
     }
 
+    /// Honours light linking (`Scene::light_linking`): emitters light only their receivers,
+    /// by NEE and when BSDF-sampled rays find them. Only walkers that track the object a
+    /// ray left (the path tracer) may ask for it; the others let every emitter light all.
+    pub fn with_light_linking(mut self) -> Self {
+        self.linking = !self.scene.light_linking.rules.is_empty();
+        self
+    }
+
+    /// True when light `light` lights the surface of triangle `receiver` (`NO_OBJECT`: a
+    /// point in a medium); always without light linking.
+    #[inline]
+    pub fn links(&self, light: usize, receiver: u32) -> bool {
+        !self.linking || self.scene.light_linking.lights(light, receiver)
+    }
+
     /// True when triangle `tri` belongs to a holdout object: camera rays reaching it end
     /// with nothing seen (colour and alpha 0), as Cycles' holdout.
     #[inline]
@@ -155,7 +173,8 @@ impl<'a> SceneContext<'a> {
     /// Emission of lights that are not scene geometry (area and sphere lights) crossed by
     /// a ray before `tmax`, each weighted by MIS against light sampling from `prev_p`
     /// with the normal `prev_n` that light selection was given there (`prev_pdf` = 0: no
-    /// MIS); lights hidden from the camera are skipped for camera rays. Returns the
+    /// MIS); lights hidden from the camera are skipped for camera rays, and for other rays
+    /// lights not linked to `receiver`, the triangle the ray left. Returns the
     /// radiance and whether anything was crossed.
     #[inline]
     #[allow(clippy::too_many_arguments)]
@@ -168,11 +187,12 @@ impl<'a> SceneContext<'a> {
         prev_n: Vec3,
         prev_pdf: f32,
         camera_ray: bool,
+        receiver: u32,
     ) -> (Rgb, bool) {
         let mut sum = Rgb::ZERO;
         let mut any = false;
         for (a, index) in &self.area_lights {
-            if camera_ray && !a.camera_visible {
+            if (camera_ray && !a.camera_visible) || (!camera_ray && !self.links(*index, receiver)) {
                 continue;
             }
             if let Some(t) = a.intersect(org, dir, tmax)
@@ -188,7 +208,7 @@ impl<'a> SceneContext<'a> {
             }
         }
         for &(center, radius, radiance, soft, camera_visible, index) in &self.spheres {
-            if camera_ray && !camera_visible {
+            if (camera_ray && !camera_visible) || (!camera_ray && !self.links(index, receiver)) {
                 continue;
             }
             if soft {
@@ -228,12 +248,13 @@ impl<'a> SceneContext<'a> {
         (sum, any)
     }
 
-    /// Radiance of sun disks seen along an escaping ray, MIS-weighted as `crossed_emission`.
+    /// Radiance of sun disks seen along an escaping ray, MIS-weighted as `crossed_emission`
+    /// (`receiver`: the triangle a non-camera ray left, for light linking).
     #[inline]
-    pub fn sun_emission(&self, dir: Vec3, prev_pdf: f32) -> Rgb {
+    pub fn sun_emission(&self, dir: Vec3, prev_pdf: f32, camera_ray: bool, receiver: u32) -> Rgb {
         let mut sum = Rgb::ZERO;
         for &(to_sun, cos_half, radiance, index) in &self.suns {
-            if dir.dot(to_sun) >= cos_half {
+            if dir.dot(to_sun) >= cos_half && (camera_ray || self.links(index, receiver)) {
                 let w = if prev_pdf == 0.0 {
                     1.0
                 } else {

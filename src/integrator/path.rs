@@ -40,6 +40,7 @@ use crate::sampling::warp::{cosine_hemisphere, cosine_hemisphere_pdf};
 use crate::scene::camera::CameraRay;
 use crate::scene::material::{Subsurface, SubsurfaceMethod};
 use crate::scene::shading::{ShadingPoint, SurfaceHit};
+use crate::scene::linking::NO_OBJECT;
 use crate::scene::visibility::RayMask;
 use glam::{Vec2, Vec3};
 
@@ -135,6 +136,7 @@ impl PathIntegrator {
             transparent_hits: 0,
             tmax: f32::INFINITY,
             ray: RayMask::AFTER_VOLUME,
+            prev_tri: NO_OBJECT,
         };
         if st.depth < self.max_depth && st.survives(self.rr_depth, u_rr) {
             stats.bounce += 1;
@@ -193,6 +195,7 @@ impl PathIntegrator {
                     st.org = p;
                     st.dir = wi;
                     st.ray = RayMask::AFTER_VOLUME;
+                    st.prev_tri = NO_OBJECT;
                     stats.bounce += 1;
                     continue;
                 }
@@ -299,6 +302,7 @@ impl PathIntegrator {
                 st.org = offset_ray_origin(se.p, n_g);
                 st.dir = wi;
                 st.ray = RayMask::DIFFUSE;
+                st.prev_tri = se.tri;
                 stats.bounce += 1;
                 continue;
             }
@@ -337,6 +341,7 @@ impl PathIntegrator {
             st.org = offset_ray_origin(s.p, if transmitted { -s.ng } else { s.ng });
             st.dir = wi;
             st.ray = RayMask::after_bounce(bs.kind, transmitted);
+            st.prev_tri = hit.tri;
             stats.bounce += 1;
         }
         radiance
@@ -393,6 +398,7 @@ impl PathIntegrator {
             tmax: f32::INFINITY,
             // The exit scatters as a diffuse reflection, as Cycles labels it.
             ray: RayMask::DIFFUSE,
+            prev_tri: se.tri,
         };
         if wi.dot(n_g) <= 0.0 || !st.survives(self.rr_depth, v_rr) {
             return radiance;

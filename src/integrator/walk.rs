@@ -15,6 +15,7 @@ use crate::render::job::RayStats;
 use crate::scene::AlphaMode;
 use crate::scene::camera::CameraRay;
 use crate::scene::shading::{ShadingPoint, SurfaceHit};
+use crate::scene::linking::NO_OBJECT;
 use crate::scene::visibility::RayMask;
 use glam::{Vec2, Vec3};
 
@@ -56,6 +57,9 @@ pub struct PathState {
     /// The kind of the next ray (camera until the first event, then the kind of the
     /// last bounce): objects hidden from it are passed (`SceneContext::with_ray_visibility`).
     pub ray: RayMask,
+    /// The triangle the ray left (`NO_OBJECT` for camera rays and after a medium event):
+    /// light linking's receiver for what the ray finds.
+    pub prev_tri: u32,
 }
 
 /// What `PathState::advance` found along the ray.
@@ -112,6 +116,7 @@ impl PathState {
             eta_scale: 1.0,
             transparent_hits: 0,
             ray: RayMask::CAMERA,
+            prev_tri: NO_OBJECT,
         }
     }
 
@@ -137,7 +142,16 @@ impl PathState {
                 return Rgb::ZERO;
             }
             let (le, a) =
-                ctx.crossed_emission(st.org, st.dir, t_event, st.prev_p, st.prev_n, st.prev_pdf, st.depth == 0);
+                ctx.crossed_emission(
+                st.org,
+                st.dir,
+                t_event,
+                st.prev_p,
+                st.prev_n,
+                st.prev_pdf,
+                st.depth == 0,
+                st.prev_tri,
+            );
             any = a;
             if a { w * le } else { Rgb::ZERO }
         };
@@ -223,7 +237,7 @@ impl PathState {
     #[inline]
     pub fn escaped_radiance(&self, ctx: &SceneContext) -> Option<Rgb> {
         let le = ctx.world_radiance(self.dir);
-        let sun = ctx.sun_emission(self.dir, self.prev_pdf);
+        let sun = ctx.sun_emission(self.dir, self.prev_pdf, self.depth == 0, self.prev_tri);
         if le == Rgb::ZERO && sun == Rgb::ZERO {
             return None;
         }
@@ -236,6 +250,14 @@ impl PathState {
     #[inline]
     pub fn surface_emission(&self, ctx: &SceneContext, hit: &Hit, s: &SurfaceHit, sp: &ShadingPoint) -> Rgb {
         if sp.emitted == Rgb::ZERO {
+            return Rgb::ZERO;
+        }
+        // Light linking: an emitter that does not light the surface the ray left gives it
+        // nothing (camera rays see every emitter, as in Cycles).
+        if self.depth > 0
+            && let Some(index) = ctx.lights.light_of_triangle(hit.tri)
+            && !ctx.links(index, self.prev_tri)
+        {
             return Rgb::ZERO;
         }
         let w = match (self.prev_pdf > 0.0, ctx.lights.light_of_triangle(hit.tri)) {

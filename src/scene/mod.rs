@@ -5,6 +5,7 @@ pub mod bent_normal;
 pub mod camera;
 pub mod gltf;
 pub mod hit;
+pub mod linking;
 pub mod material;
 pub mod mesh;
 pub mod shading;
@@ -190,6 +191,8 @@ pub struct Scene {
     pub light_casts_shadow: Vec<bool>,
     /// Which rays see each triangle (Blender's per-object Ray Visibility).
     pub ray_visibility: visibility::RayVisibility,
+    /// Which objects each light lights (Blender's light linking receivers).
+    pub light_linking: linking::LightLinking,
     /// Render settings from the file.
     pub settings: SceneSettings,
     /// Everything the loader dropped, clamped or guessed.

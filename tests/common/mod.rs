@@ -235,6 +235,11 @@ impl GltfBuilder {
         self.doc["nodes"][node]["extensions"] = json!({ "CAUSTIC_camera": ext });
     }
 
+    /// Names node `node`.
+    pub fn node_name(&mut self, node: usize, name: &str) {
+        self.doc["nodes"][node]["name"] = json!(name);
+    }
+
     /// Puts extension `name` with value `ext` on node `node` (beside any it has) and declares it.
     pub fn node_ext(&mut self, node: usize, name: &str, ext: Value) {
         self.use_ext(name);

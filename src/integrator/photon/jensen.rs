@@ -303,6 +303,7 @@ impl JensenIntegrator {
                 transparent_hits: 0,
                 tmax: f32::INFINITY,
                 ray: RayMask::after_bounce(bs.kind, ci < 0.0),
+                prev_tri: s.tri,
             };
             gathered += self.gather_path(ctx, st, sampler, stats);
         }

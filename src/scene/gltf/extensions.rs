@@ -180,6 +180,17 @@ impl ObjectVisibilityExt {
     }
 }
 
+/// `CAUSTIC_light_linking` on an emitter's node (a light or an emissive mesh): the objects it
+/// lights, by node name (docs/contract.md).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct LightLinkingExt {
+    /// Receivers' node names.
+    pub(super) receivers: Vec<String>,
+    /// True: only the receivers are lit; false: every object but them.
+    pub(super) include: bool,
+}
+
 /// `CAUSTIC_default_material` on the document's root: the material of primitives that
 /// name none (docs/contract.md).
 #[derive(Deserialize)]
