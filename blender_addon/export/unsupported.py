@@ -1,6 +1,6 @@
 """What Caustic cannot render yet, named: scene features that would otherwise be dropped without
-a word (motion blur, hair, volume objects, shadow catcher, lights' ray visibility beyond Camera, light
-linking, view layer indirect-only collections, material override; Holdout goes out with
+a word (motion blur, hair, volume objects, shadow catcher, lights' ray visibility beyond Camera, shadow
+linking (blockers), view layer indirect-only collections, material override; Holdout goes out with
 visibility.py, with a warning from the BDPT run that cannot render it). Each warning
 names the object, collection or setting and says what the render does instead."""
 
@@ -55,9 +55,8 @@ def object_warnings(obj):
             warnings.append(f"light '{obj.name}': ray visibility off for {', '.join(hidden)} is ignored "
                             "(the light lights every surface)")
     linking = getattr(obj, "light_linking", None)
-    if linking is not None and (linking.receiver_collection is not None or linking.blocker_collection is not None):
-        warnings.append(f"{what}: light linking (receivers/blockers) is ignored; the light lights and is "
-                        "blocked by everything")
+    if linking is not None and linking.blocker_collection is not None:
+        warnings.append(f"{what}: shadow linking (blocker collection) is ignored; every object blocks its light")
     return warnings
 
 

@@ -488,6 +488,7 @@ def test_unrendered_features_are_named(addon, empty_scene):
     shy_light.visible_diffuse = False
     linked = scenes.cube(scene, "Linked", 1.0, (8, 0, 0))
     linked.light_linking.receiver_collection = bpy.data.collections.new("Receivers")
+    linked.light_linking.blocker_collection = bpy.data.collections.new("Blockers")
     furry = scenes.cube(scene, "Furry", 1.0, (10, 0, 0))
     furry.modifiers.new("Hair", "PARTICLE_SYSTEM").particle_system.settings.type = "HAIR"
     fog = bpy.data.objects.new("Smoke", bpy.data.volumes.new("SmokeData"))
@@ -502,7 +503,7 @@ def test_unrendered_features_are_named(addon, empty_scene):
     warnings = unsupported.scene_warnings(bpy.context.evaluated_depsgraph_get())
     text = "\n".join(warnings)
     for words in (("motion blur",), ("Catcher", "Shadow Catcher"), ("ShyLight", "diffuse"),
-                  ("Linked", "light linking"), ("Furry", "hair"), ("Smoke", "volume"),
+                  ("Linked", "shadow linking"), ("Furry", "hair"), ("Smoke", "volume"),
                   ("IndirectCollection", "Indirect Only")):
         assert any(all(w in line for w in words) for line in warnings), f"{words} not named in:\n{text}"
     assert not any("'Plain'" in line for line in warnings), text

@@ -1,4 +1,4 @@
-"""Caustic and Cycles agree on per-object Ray Visibility and Holdout (issue 20).
+"""Caustic and Cycles agree on per-object Ray Visibility, Holdout and light linking (issue 20).
 
 Scene and bound as test_cycles_agreement.py (a grey floor and a lighter cube under a point
 light, seen from above; 5 sigma of the two-seed estimate, block variance, plus the 1 % model
@@ -17,6 +17,10 @@ floor inside it sees its lit inner faces: Caustic/Cycles was 1.0100).
 Holdout (the cube's own, or its collection's in the view layer) with Film > Transparent: the
 colour channels and alpha are compared, each with the same bound; the floor fills the view,
 so alpha is 1 but where the camera sees the cube (0 there in both renderers).
+
+Light linking: the point light's receiver collection includes only the cube, or excludes it
+(the floor is then lit directly, the cube only by the floor's bounce light); each case also
+proves that the rule moves the image by more than the bound.
 """
 
 import math
@@ -116,3 +120,24 @@ def test_holdout_matches_cycles(empty_scene, tmp_path, how):
     # The holdout matters: the cube hides about a tenth of the view, far over the bound.
     alpha = 0.5 * (images["CAUSTIC"][0][..., 3].mean() + images["CAUSTIC"][1][..., 3].mean())
     assert alpha < 1.0 - 0.05, f"alpha {alpha}: the holdout does not show"
+
+
+@pytest.mark.parametrize("state", ["INCLUDE", "EXCLUDE"])
+def test_light_linking_matches_cycles(empty_scene, tmp_path, state):
+    def linked_light(scene):
+        add_point(scene)
+        receivers = bpy.data.collections.new("Receivers")
+        receivers.objects.link(scene.objects["Box"])
+        receivers.collection_objects[0].light_linking.link_state = state
+        scene.objects["Point"].light_linking.receiver_collection = receivers
+
+    scene = empty_scene
+    build(scene, linked_light)
+    ratios = assert_mean_matches_cycles(scene, tmp_path, f"linking {state.lower()}", MODEL_ALLOWANCE)
+    m_linked, v_linked = caustic_mean(scene, tmp_path, "linked")
+    scene.objects["Point"].light_linking.receiver_collection = None
+    m_free, v_free = caustic_mean(scene, tmp_path, "free")
+    bound = SIGMAS * math.sqrt(v_linked + v_free) + MODEL_ALLOWANCE * m_linked
+    print(f"\n[caustic/cycles] light linking {state.lower()}: {ratios}; without the rule the mean moves by "
+          f"{m_free / m_linked - 1.0:+.4f} (bound {bound / m_linked:.4f})")
+    assert abs(m_free - m_linked) > bound, f"{state}: the rule changes the image by less than the bound"
