@@ -20,7 +20,8 @@ const W: usize = 32;
 /// The two quads and the camera; `emitter` adds the light and returns its node.
 fn scene(dir: &Path, name: &str, rule: Option<Value>, emitter: impl Fn(&mut GltfBuilder) -> usize) -> PathBuf {
     let mut g = GltfBuilder::new();
-    let grey = g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1], "metallicFactor": 0.0}}));
+    let grey =
+        g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1], "metallicFactor": 0.0}}));
     let (z, h) = (-4.0, 3.0);
     let left = g.mesh(&[[-h, -h, z], [0.0, -h, z], [0.0, h, z], [-h, h, z]], &[0, 1, 2, 0, 2, 3], grey);
     let right = g.mesh(&[[0.0, -h, z], [h, -h, z], [h, h, z], [0.0, h, z]], &[0, 1, 2, 0, 2, 3], grey);
@@ -48,7 +49,8 @@ fn halves(px: &[[f32; 4]]) -> (Vec<[f32; 4]>, Vec<[f32; 4]>) {
 
 fn check(dir: &Path, label: &str, rule: Value, lit_left: bool, emitter: impl Fn(&mut GltfBuilder) -> usize + Copy) {
     let free = render(&scene(dir, &format!("{label}0.gltf"), None, emitter), &dir.join(format!("{label}0.exr")));
-    let linked = render(&scene(dir, &format!("{label}1.gltf"), Some(rule), emitter), &dir.join(format!("{label}1.exr")));
+    let linked =
+        render(&scene(dir, &format!("{label}1.gltf"), Some(rule), emitter), &dir.join(format!("{label}1.exr")));
     let ((fl, fr), (ll, lr)) = (halves(&free), halves(&linked));
     let (lit_free, lit, dark) = if lit_left { (fl, ll, lr) } else { (fr, lr, ll) };
     assert!(lit_free.iter().all(|p| p[0] > 0.01), "{label}: the scene is lit without the rule");
@@ -71,7 +73,8 @@ fn a_sun_lights_only_its_receivers() {
 fn an_emissive_object_excludes_a_receiver() {
     let dir = temp_dir();
     check(dir.path(), "mesh", json!({"receivers": ["Left"], "include": false}), false, |g| {
-        let glow = g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1]}, "emissiveFactor": [1, 1, 1]}));
+        let glow =
+            g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1]}, "emissiveFactor": [1, 1, 1]}));
         let h = 4.0;
         g.mesh(&[[-h, -h, 1.0], [-h, h, 1.0], [h, h, 1.0], [h, -h, 1.0]], &[0, 1, 2, 0, 2, 3], glow)
     });

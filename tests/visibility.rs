@@ -47,7 +47,8 @@ fn mean_red(px: &[[f32; 4]], r: f32, inside: bool) -> f64 {
 /// floor (half-width 0.3 at depth 4) to ±4.7 px; the floor is lit outside both.
 fn sun_scene(dir: &Path, name: &str, vis: Value) -> PathBuf {
     let mut g = GltfBuilder::new();
-    let white = g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1], "metallicFactor": 0.0}}));
+    let white =
+        g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1], "metallicFactor": 0.0}}));
     let black = g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1], "metallicFactor": 0.0}}));
     quad(&mut g, -4.0, 10.0, true, white);
     let occluder = quad(&mut g, -2.0, 0.3, true, black);
@@ -102,7 +103,8 @@ fn hidden_from_glossy_rays_leaves_the_mirror_empty() {
     let scene = |name: &str, vis: Value| {
         let mut g = GltfBuilder::new();
         let mirror = g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 1], "metallicFactor": 1.0, "roughnessFactor": 0.0}}));
-        let glow = g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1]}, "emissiveFactor": [1, 1, 1]}));
+        let glow =
+            g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1]}, "emissiveFactor": [1, 1, 1]}));
         quad(&mut g, -4.0, 10.0, true, mirror);
         let emitter = quad(&mut g, 1.0, 10.0, false, glow);
         g.node_ext(emitter, "CAUSTIC_object_visibility", vis);
@@ -110,7 +112,11 @@ fn hidden_from_glossy_rays_leaves_the_mirror_empty() {
         g.write(d, name)
     };
     let seen = render(&scene("a.gltf", json!({"diffuse": false, "transmission": false})), &d.join("a.exr"), "4", "3");
-    assert!((mean_red(&seen, 16.0, true) - 1.0).abs() < 1e-4, "mirror shows the emitter: {}", mean_red(&seen, 16.0, true));
+    assert!(
+        (mean_red(&seen, 16.0, true) - 1.0).abs() < 1e-4,
+        "mirror shows the emitter: {}",
+        mean_red(&seen, 16.0, true)
+    );
     let hidden = render(&scene("b.gltf", json!({"glossy": false})), &d.join("b.exr"), "4", "3");
     assert_eq!(mean_red(&hidden, 16.0, true), 0.0, "a glossy ray passes the emitter");
 }
@@ -131,7 +137,8 @@ fn hidden_from_transmission_is_not_seen_through_glass() {
             "pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 1], "metallicFactor": 0.0, "roughnessFactor": 0.0},
             "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1.0}, "KHR_materials_ior": {"ior": 1.01}}
         }));
-        let glow = g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1]}, "emissiveFactor": [1, 1, 1]}));
+        let glow =
+            g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1]}, "emissiveFactor": [1, 1, 1]}));
         g.cube([-0.3, -0.3, -2.2], [0.3, 0.3, -1.8], glass);
         let emitter = quad(&mut g, -4.0, 10.0, true, glow);
         g.node_ext(emitter, "CAUSTIC_object_visibility", vis);
@@ -160,7 +167,8 @@ fn hidden_from_diffuse_and_shadow_rays_lets_the_world_in() {
     let scene = |name: &str, vis: Value| {
         let mut g = GltfBuilder::new();
         let grey = g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1], "metallicFactor": 0.0, "roughnessFactor": 1.0}}));
-        let black = g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1], "metallicFactor": 0.0}}));
+        let black =
+            g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1], "metallicFactor": 0.0}}));
         quad(&mut g, -4.0, 10.0, true, grey);
         let roof = quad(&mut g, -3.0, 50.0, false, black);
         g.node_ext(roof, "CAUSTIC_object_visibility", vis);
@@ -168,7 +176,12 @@ fn hidden_from_diffuse_and_shadow_rays_lets_the_world_in() {
         g.camera([0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0], 0.5);
         g.write(d, name)
     };
-    let open = render(&scene("a.gltf", json!({"camera": false, "diffuse": false, "shadow": false})), &d.join("a.exr"), "64", "1");
+    let open = render(
+        &scene("a.gltf", json!({"camera": false, "diffuse": false, "shadow": false})),
+        &d.join("a.exr"),
+        "64",
+        "1",
+    );
     let mean = |px: &[[f32; 4]]| px.iter().map(|p| p[0] as f64).sum::<f64>() / px.len() as f64;
     assert!((mean(&open) - 0.5).abs() < 0.5 * 0.03, "floor under a hidden roof: {}", mean(&open));
     let half = render(&scene("b.gltf", json!({"camera": false, "shadow": false})), &d.join("b.exr"), "64", "1");
@@ -184,16 +197,32 @@ fn a_holdout_shows_nothing_with_alpha_zero() {
     let dir = temp_dir();
     let d = dir.path();
     let mut g = GltfBuilder::new();
-    let grey = g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1], "metallicFactor": 0.0}}));
-    let glow = g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1]}, "emissiveFactor": [1, 1, 1]}));
+    let grey =
+        g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1], "metallicFactor": 0.0}}));
+    let glow =
+        g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1]}, "emissiveFactor": [1, 1, 1]}));
     quad(&mut g, -4.0, 10.0, true, glow);
     let held = quad(&mut g, -2.0, 0.3, true, grey);
     g.node_ext(held, "CAUSTIC_object_visibility", json!({"holdout": true}));
     g.camera([0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0], 0.5);
     let scene = g.write(d, "held.gltf");
     for integrator in ["path", "photon", "sppm"] {
-        let args = ["--resolution", "32x32", "--spp", "4", "--filter", "box", "--filter-width", "1", "--max-depth", "3",
-            "--integrator", integrator, "--photons", "1000"];
+        let args = [
+            "--resolution",
+            "32x32",
+            "--spp",
+            "4",
+            "--filter",
+            "box",
+            "--filter-width",
+            "1",
+            "--max-depth",
+            "3",
+            "--integrator",
+            integrator,
+            "--photons",
+            "1000",
+        ];
         let px = render_image(&scene, &d.join(format!("{integrator}.exr")), &args, LIMIT);
         let centre = |p: &[f32; 4]| p.iter().all(|v| *v == 0.0);
         let inside: Vec<&[f32; 4]> = (0..px.len())

@@ -38,9 +38,9 @@ use crate::render::job::RayStats;
 use crate::sampling::PixelSampler;
 use crate::sampling::warp::{cosine_hemisphere, cosine_hemisphere_pdf};
 use crate::scene::camera::CameraRay;
+use crate::scene::linking::NO_OBJECT;
 use crate::scene::material::{Subsurface, SubsurfaceMethod};
 use crate::scene::shading::{ShadingPoint, SurfaceHit};
-use crate::scene::linking::NO_OBJECT;
 use crate::scene::visibility::RayMask;
 use glam::{Vec2, Vec3};
 

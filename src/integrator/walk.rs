@@ -14,8 +14,8 @@ use crate::medium::{HenyeyGreenstein, MediumStack};
 use crate::render::job::RayStats;
 use crate::scene::AlphaMode;
 use crate::scene::camera::CameraRay;
-use crate::scene::shading::{ShadingPoint, SurfaceHit};
 use crate::scene::linking::NO_OBJECT;
+use crate::scene::shading::{ShadingPoint, SurfaceHit};
 use crate::scene::visibility::RayMask;
 use glam::{Vec2, Vec3};
 
@@ -141,8 +141,7 @@ impl PathState {
             if !count_crossed {
                 return Rgb::ZERO;
             }
-            let (le, a) =
-                ctx.crossed_emission(
+            let (le, a) = ctx.crossed_emission(
                 st.org,
                 st.dir,
                 t_event,

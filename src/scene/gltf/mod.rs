@@ -31,10 +31,10 @@ use super::{CameraReport, LightReport, LoadProfile, LoadReport, Material, Mesh, 
 use crate::error::{Error, Result};
 use crate::light::Light;
 use crate::memory::MemoryBudget;
+use crate::scene::linking::{LightLinking, ReceiverRule};
 use base64::Engine;
 use cameras::frame_bounds;
 use extensions::{LightLinkingExt, ObjectVisibilityExt};
-use crate::scene::linking::{LightLinking, ReceiverRule};
 use glam::{Vec2, Vec3};
 use gltf::json;
 use lights::punctual_power;
@@ -406,8 +406,10 @@ impl<'a> Loader<'a> {
                 }
             }
         }
-        let emissive: std::collections::HashSet<usize> =
-            lights.iter().filter_map(|l| if let Light::Triangle { tri } = l { Some(*tri as usize) } else { None }).collect();
+        let emissive: std::collections::HashSet<usize> = lights
+            .iter()
+            .filter_map(|l| if let Light::Triangle { tri } = l { Some(*tri as usize) } else { None })
+            .collect();
         for name in ray_visibility.emitters_lighting_hidden_kinds(|t| emissive.contains(&t)) {
             let w = format!(
                 "object '{name}': emits light and is hidden from diffuse, glossy or transmitted rays; next-event \
@@ -496,9 +498,8 @@ impl<'a> Loader<'a> {
         node_name: &str,
         ext: &serde_json::Value,
     ) -> Result<ReceiverRule> {
-        let ext: LightLinkingExt = serde_json::from_value(ext.clone()).map_err(|e| {
-            self.err(format!("node {node_index} ('{node_name}'): bad CAUSTIC_light_linking: {e}"))
-        })?;
+        let ext: LightLinkingExt = serde_json::from_value(ext.clone())
+            .map_err(|e| self.err(format!("node {node_index} ('{node_name}'): bad CAUSTIC_light_linking: {e}")))?;
         let mut objects: Vec<u32> = doc
             .nodes()
             .filter(|n| n.name().is_some_and(|name| ext.receivers.iter().any(|r| r == name)))
