@@ -9,7 +9,7 @@
 
 mod common;
 
-use common::{GltfBuilder, render_image, temp_dir};
+use common::{GltfBuilder, render_image, run, temp_dir};
 use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -89,4 +89,53 @@ fn an_area_light_lights_only_its_receivers() {
         g.node(json!({"translation": [0.0, 0.0, -1.0],
             "extensions": {"CAUSTIC_lights_area": {"shape": "square", "size": [2.0, 2.0], "power": 100.0}}}))
     });
+}
+
+/// Integrators that cannot honour light linking, ray visibility or holdout yet say so, naming
+/// the objects: BDPT all three, Jensen's photon mapping the first two (it renders holdouts).
+#[test]
+fn other_integrators_name_what_they_do_not_honour() {
+    let dir = temp_dir();
+    let d = dir.path();
+    let path = scene(d, "warn.gltf", Some(json!({"receivers": ["Left"], "include": true})), |g| {
+        g.punctual(json!({"type": "directional", "intensity": 683.0}), [0.0, 0.0, 1.0], [0.0, 0.0, 0.0, 1.0])
+    });
+    // Left hidden from the camera, Right a holdout (nodes 0 and 1).
+    let mut doc: Value = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+    doc["nodes"][0]["extensions"] = json!({"CAUSTIC_object_visibility": {"camera": false}});
+    doc["nodes"][1]["extensions"] = json!({"CAUSTIC_object_visibility": {"holdout": true}});
+    doc["extensionsUsed"].as_array_mut().unwrap().push(json!("CAUSTIC_object_visibility"));
+    std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
+    for (integrator, expect_holdout) in [("bdpt", true), ("photon", false)] {
+        let out = d.join(format!("{integrator}.exr"));
+        let args = [
+            "render",
+            path.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--progress",
+            "json",
+            "--resolution",
+            "4x4",
+            "--spp",
+            "1",
+            "--integrator",
+            integrator,
+            "--photons",
+            "1000",
+        ];
+        let r = run(&args, LIMIT);
+        assert_eq!(r.code, Some(0), "{}", r.stderr);
+        let warnings: Vec<String> = r
+            .json_lines()
+            .iter()
+            .filter(|v| v["type"] == "warning")
+            .filter_map(|v| v["message"].as_str().map(str::to_string))
+            .collect();
+        let said = |words: &[&str]| warnings.iter().any(|w| words.iter().all(|x| w.contains(x)));
+        // The sun's node has no name: the loader calls it by its index.
+        assert!(said(&["light linking", "'node 2'"]), "{integrator}: {warnings:?}");
+        assert!(said(&["ray visibility", "'Left'"]), "{integrator}: {warnings:?}");
+        assert_eq!(said(&["holdout", "'Right'"]), expect_holdout, "{integrator}: {warnings:?}");
+    }
 }
