@@ -20,6 +20,8 @@ from .gltf_objects import attach_extension
 from .lights import (AREA_LIGHT_EXTENSION, PUNCTUAL_EXTENSION, area_light_extension,
                      punctual_light_extension, scale_punctual_light, separate_spot_angles)
 from .state import current
+from .light_linking import LIGHT_LINKING_EXTENSION, light_linking_extension
+from .visibility import OBJECT_VISIBILITY_EXTENSION, object_visibility_extension
 from .world import WORLD_EXTENSION, world_extension
 
 # The add-on's package (this module lives in its `export` subpackage).
@@ -31,12 +33,22 @@ class glTF2ExportUserExtension:
 
     def gather_node_hook(self, gltf2_node, blender_object, export_settings):
         """Attach CAUSTIC_camera to a camera's node, CAUSTIC_lights_area to an area light's node,
-        CAUSTIC_lights_punctual to the other lights', and CAUSTIC_texspace to a mesh whose
-        node graphs read Generated coordinates."""
+        CAUSTIC_lights_punctual to the other lights', CAUSTIC_texspace to a mesh whose
+        node graphs read Generated coordinates, and CAUSTIC_object_visibility to a mesh node
+        whose object some kind of ray does not see or that is a holdout, and CAUSTIC_light_linking
+        to an emitter with a receiver collection."""
         state = current()
         if state is None or blender_object is None:
             return
         try:
+            receivers = light_linking_extension(blender_object)
+            if receivers is not None:
+                attach_extension(gltf2_node, LIGHT_LINKING_EXTENSION, receivers)
+            if gltf2_node.mesh is not None:
+                view_layer = state.depsgraph.view_layer if state.depsgraph is not None else None
+                hidden = object_visibility_extension(blender_object, view_layer)
+                if hidden:
+                    attach_extension(gltf2_node, OBJECT_VISIBILITY_EXTENSION, hidden)
             if blender_object.type == "CAMERA":
                 value, warnings = camera_extension(blender_object, state.settings["resolution"],
                                                    state.pixel_aspect)

@@ -1,11 +1,13 @@
 """What Caustic cannot render yet, named: scene features that would otherwise be dropped without
-a word (motion blur, hair, volume objects, holdout and shadow catcher, ray visibility, light
-linking, view layer holdout and indirect-only collections, material override). Each warning
+a word (motion blur, hair, volume objects, shadow catcher, lights' ray visibility beyond Camera, shadow
+linking (blockers), view layer indirect-only collections, material override; Holdout goes out with
+visibility.py, with a warning from the BDPT run that cannot render it). Each warning
 names the object, collection or setting and says what the render does instead."""
 
-_RAY_VISIBILITY = (("visible_camera", "camera"), ("visible_diffuse", "diffuse"), ("visible_glossy", "glossy"),
-                   ("visible_transmission", "transmission"), ("visible_volume_scatter", "volume scatter"),
-                   ("visible_shadow", "shadow"))
+# A light's Ray Visibility beyond Camera (which lights.py exports): Cycles excludes the hidden
+# kinds' closures from the light's next-event estimation, which Caustic's BSDFs cannot yet.
+_LIGHT_RAY_VISIBILITY = (("visible_diffuse", "diffuse"), ("visible_glossy", "glossy"),
+                         ("visible_transmission", "transmission"), ("visible_volume_scatter", "volume scatter"))
 
 
 def scene_warnings(depsgraph):
@@ -42,19 +44,16 @@ def object_warnings(obj):
             settings = modifier.particle_system.settings
             if settings.type == "HAIR" and settings.render_type == "PATH":
                 warnings.append(f"{what}: hair particle system '{modifier.particle_system.name}' is not rendered")
-    if getattr(obj, "is_holdout", False):
-        warnings.append(f"{what}: Holdout is not supported; it renders as an ordinary object")
     if getattr(obj, "is_shadow_catcher", False):
         warnings.append(f"{what}: Shadow Catcher is not supported; it renders as an ordinary object")
-    if obj.type in ("MESH", "CURVE", "SURFACE", "META", "FONT"):
-        hidden = [name for prop, name in _RAY_VISIBILITY if not getattr(obj, prop, True)]
+    if obj.type == "LIGHT":
+        hidden = [name for prop, name in _LIGHT_RAY_VISIBILITY if not getattr(obj, prop, True)]
         if hidden:
-            warnings.append(f"{what}: ray visibility off for {', '.join(hidden)} is ignored "
-                            "(the object is seen by every ray)")
+            warnings.append(f"light '{obj.name}': ray visibility off for {', '.join(hidden)} is ignored "
+                            "(the light lights every surface)")
     linking = getattr(obj, "light_linking", None)
-    if linking is not None and (linking.receiver_collection is not None or linking.blocker_collection is not None):
-        warnings.append(f"{what}: light linking (receivers/blockers) is ignored; the light lights and is "
-                        "blocked by everything")
+    if linking is not None and linking.blocker_collection is not None:
+        warnings.append(f"{what}: shadow linking (blocker collection) is ignored; every object blocks its light")
     return warnings
 
 
@@ -64,7 +63,7 @@ def _collection_warnings(layer_collection, layer_name):
     for child in layer_collection.children:
         if child.exclude:
             continue
-        for flag, label in (("holdout", "Holdout"), ("indirect_only", "Indirect Only")):
+        for flag, label in (("indirect_only", "Indirect Only"),):
             if getattr(child, flag, False):
                 warnings.append(f"view layer '{layer_name}': collection '{child.name}' is {label}, which is not "
                                 "supported; it renders as ordinary")

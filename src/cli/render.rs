@@ -70,6 +70,40 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         reporter.warning(&w);
         run_warnings.push(w);
     }
+    let hidden = &scene.ray_visibility.hidden_objects;
+    if !hidden.is_empty() && !matches!(res.integrator, IntegratorKind::Path) {
+        // Light subpaths and photons learn the kind of each segment only at its far end,
+        // so they cannot skip hidden objects yet: the object stays visible to every ray.
+        let w = format!(
+            "ray visibility of object(s) {} is not honoured by this integrator: every ray sees them (the path \
+             integrator renders them as Cycles)",
+            hidden.iter().map(|o| format!("'{}'", o.name)).collect::<Vec<_>>().join(", ")
+        );
+        reporter.warning(&w);
+        run_warnings.push(w);
+    }
+    let held = &scene.ray_visibility.holdout_objects;
+    if !held.is_empty() && matches!(res.integrator, IntegratorKind::Bdpt) {
+        // Its light-tracing splats would still show light reflected by the holdout.
+        let w = format!(
+            "holdout object(s) {} are rendered as ordinary objects by BDPT (the path, photon and SPPM \
+             integrators render them as Cycles)",
+            held.iter().map(|n| format!("'{n}'")).collect::<Vec<_>>().join(", ")
+        );
+        reporter.warning(&w);
+        run_warnings.push(w);
+    }
+    let linked = &scene.light_linking.emitters;
+    if !linked.is_empty() && !matches!(res.integrator, IntegratorKind::Path) {
+        // Photons and light subpaths would need the receiver at every vertex.
+        let w = format!(
+            "light linking of {} is not honoured by this integrator: they light every object (the path \
+             integrator renders it as Cycles)",
+            linked.iter().map(|n| format!("'{n}'")).collect::<Vec<_>>().join(", ")
+        );
+        reporter.warning(&w);
+        run_warnings.push(w);
+    }
     charge_render(&budget, args, &res, &scene)?;
     if stop.load(Ordering::Relaxed) {
         return Err(Error::InterruptedEmpty);
@@ -92,6 +126,12 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     }
     let ctx = SceneContext::with_light_sampler(&scene, &accel, res.light_sampler)
         .with_camera_at(scene.cameras[res.camera].position);
+    // Only the path tracer gives every ray its kind (see the warning above).
+    let ctx = if matches!(res.integrator, IntegratorKind::Path) {
+        ctx.with_ray_visibility().with_light_linking()
+    } else {
+        ctx
+    };
     let camera = CameraRays::new(&scene.cameras[res.camera], res.resolution.0, res.resolution.1);
     let mut photon_stats = serde_json::Value::Null;
     let integrator = match res.integrator {

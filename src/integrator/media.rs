@@ -9,6 +9,7 @@ use crate::light::LightSample;
 use crate::math::{Rgb, offset_ray_origin};
 use crate::medium::{FreeFlight, HenyeyGreenstein, MediumStack};
 use crate::scene::AlphaMode;
+use crate::scene::visibility::RayMask;
 use glam::Vec3;
 
 /// Surfaces a shadow ray may cross (volume boundaries without a surface, transparent
@@ -72,7 +73,7 @@ pub fn light_transmittance(
     let mut org = org;
     let mut tr = Rgb::ONE;
     for _ in 0..MAX_SHADOW_CROSSINGS {
-        let hit = ctx.intersect(org, dir, remaining);
+        let hit = ctx.intersect_as(org, dir, remaining, RayMask::SHADOW);
         let seg = hit.map_or(remaining, |h| h.t);
         if let Some(m) = ctx.medium(&stack)
             && m.attenuates()

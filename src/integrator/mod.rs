@@ -24,6 +24,7 @@ use crate::sampling::warp::uniform_cone_pdf;
 use crate::scene::camera::CameraRay;
 use crate::scene::camera::CameraRays;
 use crate::scene::shading::SurfaceHit;
+use crate::scene::visibility::RayMask;
 use crate::scene::{AlphaMode, Scene};
 use glam::{Vec2, Vec3};
 
@@ -37,8 +38,13 @@ pub struct SceneContext<'a> {
     pub lights: LightSampler,
     /// Triangles whose material has an alpha mask (tested during traversal).
     masked: Vec<bool>,
-    /// Triangles that shadow rays may pass through (MASK or BLEND).
+    /// Triangles that shadow rays may pass through (MASK or BLEND, or hidden from shadow rays).
     transparent: Vec<bool>,
+    /// Which rays see each triangle (empty: every ray sees every triangle, or the
+    /// integrator does not honour ray visibility; see `with_ray_visibility`).
+    visibility: &'a [RayMask],
+    /// Light linking is honoured (`with_light_linking`).
+    linking: bool,
     /// Area lights with their light index (intersected by camera and BSDF rays).
     area_lights: Vec<(AreaLight, usize)>,
     /// Light index of the world, if it is a light.
@@ -109,6 +115,8 @@ impl<'a> SceneContext<'a> {
             },
             masked: (0..n).map(|t| matches!(mode(t), AlphaMode::Mask(_))).collect(),
             transparent: (0..n).map(|t| mode(t) != AlphaMode::Opaque).collect(),
+            visibility: &[],
+            linking: false,
             area_lights,
             world_light,
             spheres,
@@ -158,10 +166,57 @@ impl<'a> SceneContext<'a> {
         stack
     }
 
+    /// Honours the objects' ray visibility (`Scene::ray_visibility`): rays pass objects
+    /// hidden from their kind. Only walkers that give every ray its kind may ask for it
+    /// (the path tracer); the others see every object with every ray.
+    pub fn with_ray_visibility(mut self) -> Self {
+        let scene = self.scene;
+        let vis = &scene.ray_visibility.per_triangle;
+        if vis.is_empty() {
+            return self;
+        }
+        for (t, m) in vis.iter().enumerate() {
+            // Hidden from some kind: tested during traversal, like an alpha mask.
+            self.masked[t] |= *m != RayMask::ALL;
+            self.transparent[t] |= !m.meets(RayMask::SHADOW);
+        }
+        self.visibility = vis;
+        self
+    }
+
+    /// Honours light linking (`Scene::light_linking`): emitters light only their receivers,
+    /// by NEE and when BSDF-sampled rays find them. Only walkers that track the object a
+    /// ray left (the path tracer) may ask for it; the others let every emitter light all.
+    pub fn with_light_linking(mut self) -> Self {
+        self.linking = !self.scene.light_linking.rules.is_empty();
+        self
+    }
+
+    /// True when light `light` lights the surface of triangle `receiver` (`NO_OBJECT`: a
+    /// point in a medium); always without light linking.
+    #[inline]
+    pub fn links(&self, light: usize, receiver: u32) -> bool {
+        !self.linking || self.scene.light_linking.lights(light, receiver)
+    }
+
+    /// True when triangle `tri` belongs to a holdout object: camera rays reaching it end
+    /// with nothing seen (colour and alpha 0), as Cycles' holdout.
+    #[inline]
+    pub fn is_holdout(&self, tri: u32) -> bool {
+        self.scene.ray_visibility.is_holdout(tri)
+    }
+
+    /// True when rays of kind `ray` see triangle `tri`.
+    #[inline]
+    fn sees(&self, ray: RayMask, tri: u32) -> bool {
+        self.visibility.get(tri as usize).is_none_or(|m| ray.meets(*m))
+    }
+
     /// Emission of lights that are not scene geometry (area and sphere lights) crossed by
     /// a ray before `tmax`, each weighted by MIS against light sampling from `prev_p`
     /// with the normal `prev_n` that light selection was given there (`prev_pdf` = 0: no
-    /// MIS); lights hidden from the camera are skipped for camera rays. Returns the
+    /// MIS); lights hidden from the camera are skipped for camera rays, and for other rays
+    /// lights not linked to `receiver`, the triangle the ray left. Returns the
     /// radiance and whether anything was crossed.
     #[inline]
     #[allow(clippy::too_many_arguments)]
@@ -174,11 +229,12 @@ impl<'a> SceneContext<'a> {
         prev_n: Vec3,
         prev_pdf: f32,
         camera_ray: bool,
+        receiver: u32,
     ) -> (Rgb, bool) {
         let mut sum = Rgb::ZERO;
         let mut any = false;
         for (a, index) in &self.area_lights {
-            if camera_ray && !a.camera_visible {
+            if (camera_ray && !a.camera_visible) || (!camera_ray && !self.links(*index, receiver)) {
                 continue;
             }
             if let Some(t) = a.intersect(org, dir, tmax)
@@ -194,7 +250,7 @@ impl<'a> SceneContext<'a> {
             }
         }
         for &(center, radius, radiance, soft, camera_visible, index) in &self.spheres {
-            if camera_ray && !camera_visible {
+            if (camera_ray && !camera_visible) || (!camera_ray && !self.links(index, receiver)) {
                 continue;
             }
             if soft {
@@ -234,12 +290,13 @@ impl<'a> SceneContext<'a> {
         (sum, any)
     }
 
-    /// Radiance of sun disks seen along an escaping ray, MIS-weighted as `crossed_emission`.
+    /// Radiance of sun disks seen along an escaping ray, MIS-weighted as `crossed_emission`
+    /// (`receiver`: the triangle a non-camera ray left, for light linking).
     #[inline]
-    pub fn sun_emission(&self, dir: Vec3, prev_pdf: f32) -> Rgb {
+    pub fn sun_emission(&self, dir: Vec3, prev_pdf: f32, camera_ray: bool, receiver: u32) -> Rgb {
         let mut sum = Rgb::ZERO;
         for &(to_sun, cos_half, radiance, index) in &self.suns {
-            if dir.dot(to_sun) >= cos_half {
+            if dir.dot(to_sun) >= cos_half && (camera_ray || self.links(index, receiver)) {
                 let w = if prev_pdf == 0.0 {
                     1.0
                 } else {
@@ -298,10 +355,20 @@ impl<'a> SceneContext<'a> {
         }
     }
 
-    /// Closest surface hit (alpha masks applied).
+    /// Closest surface hit (alpha masks applied) of a ray that sees every object.
     #[inline]
     pub fn intersect(&self, org: Vec3, dir: Vec3, tmax: f32) -> Option<Hit> {
+        self.intersect_as(org, dir, tmax, RayMask::ALL)
+    }
+
+    /// Closest surface hit (alpha masks applied) of a ray of kind `ray`: objects hidden
+    /// from it are passed.
+    #[inline]
+    pub fn intersect_as(&self, org: Vec3, dir: Vec3, tmax: f32, ray: RayMask) -> Option<Hit> {
         self.accel.intersect(org, dir, tmax, &self.masked, |tri, b1, b2| {
+            if !self.sees(ray, tri) {
+                return false;
+            }
             match self.scene.materials[self.scene.mesh.tri_material[tri as usize] as usize].alpha_mode {
                 AlphaMode::Mask(cutoff) => self.scene.alpha(tri, b1, b2) >= cutoff,
                 _ => true,
@@ -309,10 +376,14 @@ impl<'a> SceneContext<'a> {
         })
     }
 
-    /// Fraction of light passing from `org` along `dir` for distance `tmax`.
+    /// Fraction of light passing from `org` along `dir` for distance `tmax` (a shadow
+    /// ray: objects hidden from shadow rays let it through).
     #[inline]
     pub fn transmittance(&self, org: Vec3, dir: Vec3, tmax: f32) -> f32 {
         self.accel.transmittance(org, dir, tmax, &self.transparent, |tri, b1, b2| {
+            if !self.sees(RayMask::SHADOW, tri) {
+                return 1.0;
+            }
             match self.scene.materials[self.scene.mesh.tri_material[tri as usize] as usize].alpha_mode {
                 AlphaMode::Mask(cutoff) => {
                     if self.scene.alpha(tri, b1, b2) >= cutoff {

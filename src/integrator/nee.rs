@@ -9,6 +9,7 @@ use crate::light::LightSample;
 use crate::math::Rgb;
 use crate::medium::{HenyeyGreenstein, MediumStack};
 use crate::render::job::RayStats;
+use crate::scene::linking::NO_OBJECT;
 use crate::scene::shading::{ShadingPoint, SurfaceHit};
 use glam::{Vec2, Vec3};
 
@@ -37,6 +38,11 @@ pub fn surface_nee(
     let Some((index, pmf)) = ctx.lights.sample(s.p, n_select, u_light) else {
         return Rgb::ZERO;
     };
+    // Light linking: a light chosen for a surface it does not light gives nothing (the
+    // choice keeps its density, so the estimate of the linked lights is unchanged).
+    if !ctx.links(index, s.tri) {
+        return Rgb::ZERO;
+    }
     let Some(ls) = ctx.sample_light(index, s.p, u_light_pt) else {
         return Rgb::ZERO;
     };
@@ -85,6 +91,7 @@ pub fn medium_nee(
     stats: &mut RayStats,
 ) -> Rgb {
     if let Some((index, pmf)) = ctx.lights.sample(p, Vec3::ZERO, u_light)
+        && ctx.links(index, NO_OBJECT)
         && let Some(ls) = ctx.sample_light(index, p, u_light_pt)
     {
         let f = phase.eval(dir, ls.wi);
@@ -118,6 +125,7 @@ pub fn exit_nee(
     stats: &mut RayStats,
 ) -> Rgb {
     if let Some((index, pmf)) = ctx.lights.sample(se.p, n_g, u_light)
+        && ctx.links(index, se.tri)
         && let Some(ls) = ctx.sample_light(index, se.p, u_pt)
     {
         let cos = ls.wi.dot(n_s);

@@ -38,8 +38,10 @@ use crate::render::job::RayStats;
 use crate::sampling::PixelSampler;
 use crate::sampling::warp::{cosine_hemisphere, cosine_hemisphere_pdf};
 use crate::scene::camera::CameraRay;
+use crate::scene::linking::NO_OBJECT;
 use crate::scene::material::{Subsurface, SubsurfaceMethod};
 use crate::scene::shading::{ShadingPoint, SurfaceHit};
+use crate::scene::visibility::RayMask;
 use glam::{Vec2, Vec3};
 
 /// The path tracer's parameters.
@@ -133,6 +135,8 @@ impl PathIntegrator {
             eta_scale: 1.0,
             transparent_hits: 0,
             tmax: f32::INFINITY,
+            ray: RayMask::AFTER_VOLUME,
+            prev_tri: NO_OBJECT,
         };
         if st.depth < self.max_depth && st.survives(self.rr_depth, u_rr) {
             stats.bounce += 1;
@@ -190,6 +194,8 @@ impl PathIntegrator {
                     }
                     st.org = p;
                     st.dir = wi;
+                    st.ray = RayMask::AFTER_VOLUME;
+                    st.prev_tri = NO_OBJECT;
                     stats.bounce += 1;
                     continue;
                 }
@@ -210,6 +216,12 @@ impl PathIntegrator {
                 }
                 Step::Surface { hit, s } => (hit, s),
             };
+            // A holdout seen by a camera ray (through pass-throughs only): nothing, alpha 0,
+            // as Cycles' holdout (indirect rays see the object as it is).
+            if st.depth == 0 && ctx.is_holdout(hit.tri) {
+                out.alpha = 0.0;
+                break;
+            }
             let wo = -st.dir;
             let mat = &ctx.scene.materials[s.material as usize];
             let sp = ctx.scene.shade(&s, wo);
@@ -289,6 +301,8 @@ impl PathIntegrator {
                 }
                 st.org = offset_ray_origin(se.p, n_g);
                 st.dir = wi;
+                st.ray = RayMask::DIFFUSE;
+                st.prev_tri = se.tri;
                 stats.bounce += 1;
                 continue;
             }
@@ -326,6 +340,8 @@ impl PathIntegrator {
 
             st.org = offset_ray_origin(s.p, if transmitted { -s.ng } else { s.ng });
             st.dir = wi;
+            st.ray = RayMask::after_bounce(bs.kind, transmitted);
+            st.prev_tri = hit.tri;
             stats.bounce += 1;
         }
         radiance
@@ -380,6 +396,9 @@ impl PathIntegrator {
             eta_scale: 1.0,
             transparent_hits: 0,
             tmax: f32::INFINITY,
+            // The exit scatters as a diffuse reflection, as Cycles labels it.
+            ray: RayMask::DIFFUSE,
+            prev_tri: se.tri,
         };
         if wi.dot(n_g) <= 0.0 || !st.survives(self.rr_depth, v_rr) {
             return radiance;

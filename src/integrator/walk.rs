@@ -14,7 +14,9 @@ use crate::medium::{HenyeyGreenstein, MediumStack};
 use crate::render::job::RayStats;
 use crate::scene::AlphaMode;
 use crate::scene::camera::CameraRay;
+use crate::scene::linking::NO_OBJECT;
 use crate::scene::shading::{ShadingPoint, SurfaceHit};
+use crate::scene::visibility::RayMask;
 use glam::{Vec2, Vec3};
 
 use super::power_heuristic;
@@ -52,6 +54,12 @@ pub struct PathState {
     /// How far the next ray sees: the far clipping plane for a camera ray (passed surfaces
     /// use up some of it), infinite after the first event.
     pub tmax: f32,
+    /// The kind of the next ray (camera until the first event, then the kind of the
+    /// last bounce): objects hidden from it are passed (`SceneContext::with_ray_visibility`).
+    pub ray: RayMask,
+    /// The triangle the ray left (`NO_OBJECT` for camera rays and after a medium event):
+    /// light linking's receiver for what the ray finds.
+    pub prev_tri: u32,
 }
 
 /// What `PathState::advance` found along the ray.
@@ -87,7 +95,11 @@ pub enum Step {
 impl PathState {
     /// A path leaving a light carrying `power` (photons, BDPT's light subpaths), in vacuum.
     pub fn photon(org: Vec3, dir: Vec3, power: Rgb) -> Self {
-        PathState { beta: power, ..Self::camera(&CameraRay::unclipped(org, dir), MediumStack::default()) }
+        PathState {
+            beta: power,
+            ray: RayMask::ALL,
+            ..Self::camera(&CameraRay::unclipped(org, dir), MediumStack::default())
+        }
     }
 
     /// A camera ray, starting at its near clipping plane and seeing as far as its far one,
@@ -108,6 +120,8 @@ impl PathState {
             media,
             eta_scale: 1.0,
             transparent_hits: 0,
+            ray: RayMask::CAMERA,
+            prev_tri: NO_OBJECT,
         }
     }
 
@@ -132,8 +146,16 @@ impl PathState {
             if !count_crossed {
                 return Rgb::ZERO;
             }
-            let (le, a) =
-                ctx.crossed_emission(st.org, st.dir, t_event, st.prev_p, st.prev_n, st.prev_pdf, st.depth == 0);
+            let (le, a) = ctx.crossed_emission(
+                st.org,
+                st.dir,
+                t_event,
+                st.prev_p,
+                st.prev_n,
+                st.prev_pdf,
+                st.depth == 0,
+                st.prev_tri,
+            );
             any = a;
             if a { w * le } else { Rgb::ZERO }
         };
@@ -160,7 +182,7 @@ impl PathState {
         radiance: &mut Rgb,
         stats: &mut RayStats,
     ) -> (Step, Rgb) {
-        let hit = ctx.intersect(self.org, self.dir, self.tmax);
+        let hit = ctx.intersect_as(self.org, self.dir, self.tmax, self.ray);
         // Past the far clipping plane the ray sees the world, through the medium up to it.
         let t_surface = hit.map_or(self.tmax, |h| h.t);
         let tmax = std::mem::replace(&mut self.tmax, f32::INFINITY);
@@ -219,7 +241,7 @@ impl PathState {
     #[inline]
     pub fn escaped_radiance(&self, ctx: &SceneContext) -> Option<Rgb> {
         let le = ctx.world_radiance(self.dir);
-        let sun = ctx.sun_emission(self.dir, self.prev_pdf);
+        let sun = ctx.sun_emission(self.dir, self.prev_pdf, self.depth == 0, self.prev_tri);
         if le == Rgb::ZERO && sun == Rgb::ZERO {
             return None;
         }
@@ -232,6 +254,14 @@ impl PathState {
     #[inline]
     pub fn surface_emission(&self, ctx: &SceneContext, hit: &Hit, s: &SurfaceHit, sp: &ShadingPoint) -> Rgb {
         if sp.emitted == Rgb::ZERO {
+            return Rgb::ZERO;
+        }
+        // Light linking: an emitter that does not light the surface the ray left gives it
+        // nothing (camera rays see every emitter, as in Cycles).
+        if self.depth > 0
+            && let Some(index) = ctx.lights.light_of_triangle(hit.tri)
+            && !ctx.links(index, self.prev_tri)
+        {
             return Rgb::ZERO;
         }
         let w = match (self.prev_pdf > 0.0, ctx.lights.light_of_triangle(hit.tri)) {
@@ -285,6 +315,7 @@ impl PathState {
         }
         self.depth += 1;
         self.media = ctx.medium_after(s, wi, self.media);
+        self.ray = RayMask::after_bounce(bs.kind, wi.dot(s.ng) <= 0.0);
         self.org = offset_ray_origin(s.p, if wi.dot(s.ng) > 0.0 { s.ng } else { -s.ng });
         self.dir = wi;
         stats.bounce += 1;

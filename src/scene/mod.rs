@@ -5,10 +5,12 @@ pub mod bent_normal;
 pub mod camera;
 pub mod gltf;
 pub mod hit;
+pub mod linking;
 pub mod material;
 pub mod mesh;
 pub mod shading;
 pub mod texture;
+pub mod visibility;
 
 use crate::light::Light;
 use glam::Vec3;
@@ -187,6 +189,10 @@ pub struct Scene {
     /// Per light (indexed as `lights`): false for a light whose Cast Shadow is off, whose
     /// next-event estimation then skips the shadow ray (as Cycles does).
     pub light_casts_shadow: Vec<bool>,
+    /// Which rays see each triangle (Blender's per-object Ray Visibility).
+    pub ray_visibility: visibility::RayVisibility,
+    /// Which objects each light lights (Blender's light linking receivers).
+    pub light_linking: linking::LightLinking,
     /// Render settings from the file.
     pub settings: SceneSettings,
     /// Everything the loader dropped, clamped or guessed.

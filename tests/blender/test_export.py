@@ -249,6 +249,35 @@ def test_excluded_collections_are_left_out_but_their_instances_render(empty_scen
     assert names.count("AssetLamp") == 1, names
 
 
+def test_object_ray_visibility_is_exported(empty_scene, captured):
+    """An object's Ray Visibility flags that are off, and its Holdout (its own or its
+    collection's in the view layer), go out as CAUSTIC_object_visibility on its node; an
+    ordinary object carries no extension."""
+    scene = empty_scene
+    scenes.small_render_settings(scene, 8, 6, samples=1)
+    scenes.camera(scene, (0, -4, 3), (60, 0, 0))
+    scenes.light(scene, "Sun", "SUN", energy=1.0)
+    scenes.cube(scene, "Plain", 1.0, (0, 0, 0))
+    ghost = scenes.cube(scene, "Ghost", 1.0, (2, 0, 0))
+    ghost.visible_camera = False
+    ghost.visible_shadow = False
+    ghost.visible_volume_scatter = False
+    scenes.cube(scene, "Held", 1.0, (4, 0, 0)).is_holdout = True
+    held_coll = bpy.data.collections.new("HeldCollection")
+    scene.collection.children.link(held_coll)
+    in_held = scenes.cube(scene, "InHeld", 1.0, (6, 0, 0))
+    scene.collection.objects.unlink(in_held)
+    held_coll.objects.link(in_held)
+    bpy.context.view_layer.layer_collection.children["HeldCollection"].holdout = True
+    (gltf,) = captured()
+    assert node_by_name(gltf, "Ghost")["extensions"]["CAUSTIC_object_visibility"] == {
+        "camera": False, "volume_scatter": False, "shadow": False}
+    for name in ("Held", "InHeld"):
+        assert node_by_name(gltf, name)["extensions"]["CAUSTIC_object_visibility"] == {"holdout": True}
+    assert "CAUSTIC_object_visibility" not in node_by_name(gltf, "Plain").get("extensions", {})
+    assert "CAUSTIC_object_visibility" in gltf["extensionsUsed"]
+
+
 def test_animation_exports_each_frame(empty_scene, captured, tmp_path):
     scene = empty_scene
     scenes.small_render_settings(scene, 8, 6, samples=1)
@@ -474,8 +503,9 @@ def test_principled_inside_a_node_group_is_left_to_the_exporter(empty_scene, cap
 
 def test_unrendered_features_are_named(addon, empty_scene):
     """Scene features Caustic does not render yet are each named in a warning (issue 20):
-    motion blur, Holdout, Shadow Catcher, ray visibility, light linking, hair, volume objects,
-    Holdout/Indirect Only collections; an ordinary object gets none."""
+    motion blur, Shadow Catcher, a light's ray visibility beyond Camera, light linking, hair,
+    volume objects, Indirect Only collections; an ordinary object gets none, nor do an object's
+    ray visibility and Holdout (exported, test_object_ray_visibility_is_exported)."""
     unsupported = importlib.import_module(addon.__name__ + ".export.unsupported")
     scene = empty_scene
     scene.render.use_motion_blur = True
@@ -486,8 +516,11 @@ def test_unrendered_features_are_named(addon, empty_scene):
     catcher.is_shadow_catcher = True
     shy = scenes.cube(scene, "Shy", 1.0, (6, 0, 0))
     shy.visible_shadow = False
+    shy_light = scenes.light(scene, "ShyLight", "POINT", energy=1.0)
+    shy_light.visible_diffuse = False
     linked = scenes.cube(scene, "Linked", 1.0, (8, 0, 0))
     linked.light_linking.receiver_collection = bpy.data.collections.new("Receivers")
+    linked.light_linking.blocker_collection = bpy.data.collections.new("Blockers")
     furry = scenes.cube(scene, "Furry", 1.0, (10, 0, 0))
     furry.modifiers.new("Hair", "PARTICLE_SYSTEM").particle_system.settings.type = "HAIR"
     fog = bpy.data.objects.new("Smoke", bpy.data.volumes.new("SmokeData"))
@@ -495,12 +528,18 @@ def test_unrendered_features_are_named(addon, empty_scene):
     held_coll = bpy.data.collections.new("HeldCollection")
     scene.collection.children.link(held_coll)
     bpy.context.view_layer.layer_collection.children["HeldCollection"].holdout = True
+    indirect_coll = bpy.data.collections.new("IndirectCollection")
+    scene.collection.children.link(indirect_coll)
+    bpy.context.view_layer.layer_collection.children["IndirectCollection"].indirect_only = True
 
     warnings = unsupported.scene_warnings(bpy.context.evaluated_depsgraph_get())
     text = "\n".join(warnings)
-    for words in (("motion blur",), ("Held", "Holdout"), ("Catcher", "Shadow Catcher"), ("Shy", "shadow"),
-                  ("Linked", "light linking"), ("Furry", "hair"), ("Smoke", "volume"),
-                  ("HeldCollection", "Holdout")):
+    for words in (("motion blur",), ("Catcher", "Shadow Catcher"), ("ShyLight", "diffuse"),
+                  ("Linked", "shadow linking"), ("Furry", "hair"), ("Smoke", "volume"),
+                  ("IndirectCollection", "Indirect Only")):
         assert any(all(w in line for w in words) for line in warnings), f"{words} not named in:\n{text}"
     assert not any("'Plain'" in line for line in warnings), text
     assert unsupported.object_warnings(plain) == []
+    assert unsupported.object_warnings(shy) == []
+    assert unsupported.object_warnings(held) == []
+    assert not any("HeldCollection" in line for line in warnings), text

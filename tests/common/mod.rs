@@ -235,6 +235,21 @@ impl GltfBuilder {
         self.doc["nodes"][node]["extensions"] = json!({ "CAUSTIC_camera": ext });
     }
 
+    /// Names node `node`.
+    pub fn node_name(&mut self, node: usize, name: &str) {
+        self.doc["nodes"][node]["name"] = json!(name);
+    }
+
+    /// Puts extension `name` with value `ext` on node `node` (beside any it has) and declares it.
+    pub fn node_ext(&mut self, node: usize, name: &str, ext: Value) {
+        self.use_ext(name);
+        let n = &mut self.doc["nodes"][node];
+        if n.get("extensions").is_none() {
+            n["extensions"] = json!({});
+        }
+        n["extensions"][name] = ext;
+    }
+
     /// Declares an extension as used.
     pub fn use_ext(&mut self, name: &str) {
         let used = self.doc["extensionsUsed"].as_array_mut().unwrap();

@@ -38,6 +38,7 @@ use crate::medium::MediumStack;
 use crate::render::job::RayStats;
 use crate::sampling::PixelSampler;
 use crate::scene::camera::CameraRay;
+use crate::scene::visibility::RayMask;
 use glam::{Vec2, Vec3};
 use std::sync::Arc;
 
@@ -193,6 +194,11 @@ impl JensenIntegrator {
                 }
                 Step::Surface { hit, s } => (hit, s),
             };
+            // A holdout seen by a camera ray: nothing, alpha 0 (as the path tracer).
+            if st.depth == 0 && ctx.is_holdout(hit.tri) {
+                out.alpha = 0.0;
+                break;
+            }
             let wo = -st.dir;
             let sp = ctx.scene.shade(&s, wo);
             if st.depth == 0 {
@@ -296,6 +302,8 @@ impl JensenIntegrator {
                 eta_scale: 1.0,
                 transparent_hits: 0,
                 tmax: f32::INFINITY,
+                ray: RayMask::after_bounce(bs.kind, ci < 0.0),
+                prev_tri: s.tri,
             };
             gathered += self.gather_path(ctx, st, sampler, stats);
         }

@@ -445,6 +445,8 @@ fn camera_path(
     // photon map): NEE plus a continued path.
     let mut st = PathState::camera(ray, ctx.camera_media);
     let continuation = PathIntegrator { max_depth, transparent_background, ..Default::default() };
+    // This sample's alpha is undone if the camera ray ends on a holdout.
+    let alpha_before = pend.alpha;
     loop {
         let [u_light, u_lx, u_ly, u_lobe] = sampler.next_4d();
         let [u_dx, u_dy, _, u_alpha] = sampler.next_4d();
@@ -483,6 +485,11 @@ fn camera_path(
             }
             Step::Surface { hit, s } => (hit, s),
         };
+        // A holdout seen by a camera ray: nothing, alpha 0 (as the path tracer).
+        if st.depth == 0 && ctx.is_holdout(hit.tri) {
+            pend.alpha = alpha_before;
+            return (l, None, first_t);
+        }
         let wo = -st.dir;
         let sp = ctx.scene.shade(&s, wo);
         if st.depth == 0 {

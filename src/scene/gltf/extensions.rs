@@ -142,6 +142,55 @@ impl Default for BlenderLight {
     }
 }
 
+/// `CAUSTIC_object_visibility` on a mesh's node: Blender's Ray Visibility of the object
+/// (docs/contract.md); each kind of ray sees the object unless its flag is false.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct ObjectVisibilityExt {
+    #[serde(default = "yes")]
+    pub(super) camera: bool,
+    #[serde(default = "yes")]
+    pub(super) diffuse: bool,
+    #[serde(default = "yes")]
+    pub(super) glossy: bool,
+    #[serde(default = "yes")]
+    pub(super) transmission: bool,
+    #[serde(default = "yes")]
+    pub(super) volume_scatter: bool,
+    #[serde(default = "yes")]
+    pub(super) shadow: bool,
+    /// Blender's Holdout (the object's, or its collection's in the view layer).
+    #[serde(default)]
+    pub(super) holdout: bool,
+}
+
+impl ObjectVisibilityExt {
+    /// The kinds of ray that see the object.
+    pub(super) fn mask(&self) -> crate::scene::visibility::RayMask {
+        use crate::scene::visibility::RayMask;
+        let flags = [
+            (self.camera, RayMask::CAMERA),
+            (self.diffuse, RayMask::DIFFUSE),
+            (self.glossy, RayMask::GLOSSY),
+            (self.transmission, RayMask::TRANSMISSION),
+            (self.volume_scatter, RayMask::VOLUME),
+            (self.shadow, RayMask::SHADOW),
+        ];
+        RayMask(flags.iter().filter(|(on, _)| *on).fold(0, |m, (_, k)| m | k.0))
+    }
+}
+
+/// `CAUSTIC_light_linking` on an emitter's node (a light or an emissive mesh): the objects it
+/// lights, by node name (docs/contract.md).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct LightLinkingExt {
+    /// Receivers' node names.
+    pub(super) receivers: Vec<String>,
+    /// True: only the receivers are lit; false: every object but them.
+    pub(super) include: bool,
+}
+
 /// `CAUSTIC_default_material` on the document's root: the material of primitives that
 /// name none (docs/contract.md).
 #[derive(Deserialize)]

@@ -32,8 +32,10 @@ use super::{CameraReport, LightReport, LoadProfile, LoadReport, Material, Mesh, 
 use crate::error::{Error, Result};
 use crate::light::Light;
 use crate::memory::MemoryBudget;
+use crate::scene::linking::{LightLinking, ReceiverRule};
 use base64::Engine;
 use cameras::frame_bounds;
+use extensions::{LightLinkingExt, ObjectVisibilityExt};
 use glam::{Vec2, Vec3};
 use gltf::json;
 use lights::punctual_power;
@@ -280,16 +282,46 @@ impl<'a> Loader<'a> {
         // per-triangle instance indices are kept only when a graph is present.
         let graphs = materials.iter().any(|m| m.nodes.is_some());
         let mut objects: Vec<crate::shader::geom::ObjectData> = Vec::new();
+        let mut ray_visibility = crate::scene::visibility::RayVisibility::default();
+        // Light linking: every triangle's object is kept only when some emitter has a rule.
+        let linked = doc.nodes().any(|n| n.extension_value("CAUSTIC_light_linking").is_some());
+        let mut linking = LightLinking::default();
+        let mut light_rules: Vec<(usize, ReceiverRule)> = Vec::new();
+        let mut node_rules: HashMap<u32, ReceiverRule> = HashMap::new();
         for (node_index, world) in &instances {
             let node = doc.nodes().nth(*node_index).expect("validated index");
             let node_name = node.name().map(str::to_string).unwrap_or_else(|| format!("node {node_index}"));
             if !world.is_finite() {
                 return Err(self.err(format!("node {node_index} ('{node_name}'): transform is not finite")));
             }
+            let rule = match node.extension_value("CAUSTIC_light_linking") {
+                Some(ext) => {
+                    linking.emitters.push(node_name.clone());
+                    Some(self.receiver_rule(&doc, *node_index, &node_name, ext)?)
+                }
+                None => None,
+            };
             if let Some(m) = node.mesh() {
                 used_meshes.insert(m.index());
                 instance_count += 1;
+                let first = mesh.triangles.len();
                 degenerate += self.append_mesh(&m, world, &buffers, &mut materials, default_material, &mut mesh)?;
+                if let Some(ext) = node.extension_value("CAUSTIC_object_visibility") {
+                    let vis: ObjectVisibilityExt = serde_json::from_value(ext.clone()).map_err(|e| {
+                        self.err(format!("node {node_index} ('{node_name}'): bad CAUSTIC_object_visibility: {e}"))
+                    })?;
+                    let total = mesh.triangles.len();
+                    ray_visibility.mark(&node_name, first..total, total, vis.mask());
+                    if vis.holdout {
+                        ray_visibility.mark_holdout(&node_name, first..total, total);
+                    }
+                }
+                if linked {
+                    linking.tri_object.resize(mesh.triangles.len(), *node_index as u32);
+                }
+                if let Some(r) = &rule {
+                    node_rules.insert(*node_index as u32, r.clone());
+                }
                 if graphs {
                     let texspace = value.pointer(&format!("/meshes/{}/extras/CAUSTIC_texspace", m.index()));
                     objects.push(shader_graph::object_data(world, &node_name, texspace));
@@ -307,13 +339,17 @@ impl<'a> Loader<'a> {
                 if !rep.cast_shadow {
                     shadowless.push(lights.len());
                 }
+                if let Some(r) = &rule {
+                    light_rules.push((lights.len(), r.clone()));
+                }
                 lights.push(light);
                 light_reports.push(rep);
             }
             if let Some(ext) = node.extension_value("CAUSTIC_lights_area") {
-                area_lights.push((ext.clone(), node_name.clone(), *world));
+                area_lights.push((ext.clone(), node_name.clone(), *world, rule));
             }
         }
+        ray_visibility.finish(mesh.triangles.len());
         if mesh.triangles.is_empty() {
             return Err(self.err("nothing to render: the scene has no triangles (no mesh, or only points/lines)"));
         }
@@ -328,10 +364,13 @@ impl<'a> Loader<'a> {
         }
         let scene_radius = ((hi - lo).length() * 0.5).max(1e-3);
 
-        for (ext, name, world) in area_lights {
+        for (ext, name, world, rule) in area_lights {
             if let Some((light, rep)) = self.area_light(&ext, &name, &world)? {
                 if !rep.cast_shadow {
                     shadowless.push(lights.len());
+                }
+                if let Some(r) = rule {
+                    light_rules.push((lights.len(), r));
                 }
                 lights.push(light);
                 light_reports.push(rep);
@@ -367,6 +406,31 @@ impl<'a> Loader<'a> {
         let phase = Instant::now();
         self.node_emitters(&mesh, &objects, &mut materials);
         self.emissive_lights(&mesh, &materials, &mut lights, &mut light_power, &mut light_reports)?;
+        if linked {
+            linking.rules = vec![None; lights.len()];
+            for (i, r) in light_rules {
+                linking.rules[i] = Some(r);
+            }
+            // An emissive object's rule goes to each of its triangles' lights.
+            for (i, l) in lights.iter().enumerate() {
+                if let Light::Triangle { tri } = l
+                    && let Some(r) = node_rules.get(&linking.tri_object[*tri as usize])
+                {
+                    linking.rules[i] = Some(r.clone());
+                }
+            }
+        }
+        let emissive: std::collections::HashSet<usize> = lights
+            .iter()
+            .filter_map(|l| if let Light::Triangle { tri } = l { Some(*tri as usize) } else { None })
+            .collect();
+        for name in ray_visibility.emitters_lighting_hidden_kinds(|t| emissive.contains(&t)) {
+            let w = format!(
+                "object '{name}': emits light and is hidden from diffuse, glossy or transmitted rays; next-event \
+                 estimation still lights every surface from it, so only its BSDF-sampled light is missing"
+            );
+            self.warn(w);
+        }
         self.profile.emitter_power = phase.elapsed().as_secs_f64();
 
         let file_cameras = cameras.len();
@@ -429,6 +493,8 @@ impl<'a> Loader<'a> {
             world,
             world_medium,
             light_casts_shadow,
+            ray_visibility,
+            light_linking: linking,
             settings,
             warnings: self.warnings,
             report,
@@ -436,6 +502,27 @@ impl<'a> Loader<'a> {
             objects,
             source_hash,
         })
+    }
+
+    /// `CAUSTIC_light_linking` on emitter node `node_index`: its receivers by node name
+    /// (every node of that name: an object's instances share it); names not in the file
+    /// (objects not rendered) light nothing and are left out.
+    fn receiver_rule(
+        &self,
+        doc: &gltf::Document,
+        node_index: usize,
+        node_name: &str,
+        ext: &serde_json::Value,
+    ) -> Result<ReceiverRule> {
+        let ext: LightLinkingExt = serde_json::from_value(ext.clone())
+            .map_err(|e| self.err(format!("node {node_index} ('{node_name}'): bad CAUSTIC_light_linking: {e}")))?;
+        let mut objects: Vec<u32> = doc
+            .nodes()
+            .filter(|n| n.name().is_some_and(|name| ext.receivers.iter().any(|r| r == name)))
+            .map(|n| n.index() as u32)
+            .collect();
+        objects.sort_unstable();
+        Ok(ReceiverRule { include: ext.include, objects })
     }
 
     /// The material of primitives that name none: `CAUSTIC_default_material`'s (the add-on

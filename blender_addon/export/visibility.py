@@ -1,0 +1,33 @@
+"""Blender's Object > Visibility panel as the `CAUSTIC_object_visibility` node extension
+(docs/contract.md): which kinds of ray see a mesh object (Ray Visibility; Cycles' flags, one
+to one, honoured by the path tracer), and whether it is a holdout (the object's Holdout, or a
+Holdout collection of the view layer being rendered)."""
+
+OBJECT_VISIBILITY_EXTENSION = "CAUSTIC_object_visibility"
+
+# Blender's property and the extension's key, per kind of ray.
+_FLAGS = (("visible_camera", "camera"), ("visible_diffuse", "diffuse"), ("visible_glossy", "glossy"),
+          ("visible_transmission", "transmission"), ("visible_volume_scatter", "volume_scatter"),
+          ("visible_shadow", "shadow"))
+
+
+def object_visibility_extension(blender_object, view_layer=None):
+    """The kinds of ray that do not see the object, as {key: False}, and "holdout": True for a
+    holdout in `view_layer`; None when every ray sees it and it is no holdout."""
+    value = {key: False for prop, key in _FLAGS if not getattr(blender_object, prop, True)}
+    if is_holdout(blender_object, view_layer):
+        value["holdout"] = True
+    return value or None
+
+
+def is_holdout(blender_object, view_layer=None):
+    """The object's own Holdout, or (with `view_layer`) a Holdout collection holding it there."""
+    original = getattr(blender_object, "original", blender_object)
+    if original.is_holdout:
+        return True
+    if view_layer is None:
+        return False
+    try:
+        return bool(original.holdout_get(view_layer=view_layer))
+    except (RuntimeError, TypeError):  # not in that view layer (e.g. an instanced collection's object)
+        return False

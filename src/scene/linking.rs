@@ -1,0 +1,62 @@
+//! Light linking (Blender's Object > Shading > Light Linking > Receiver Collection on an
+//! emitter, Cycles' light sets): which objects a light or an emissive object lights. A rule
+//! either includes only the listed objects or excludes them; an emitter without a rule
+//! lights everything. Camera rays see every emitter whatever its rule, as in Cycles.
+
+/// The receivers of one emitter.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ReceiverRule {
+    /// True: only `objects` are lit; false: all but `objects` are.
+    pub include: bool,
+    /// Object ids (glTF node indices), sorted.
+    pub objects: Vec<u32>,
+}
+
+impl ReceiverRule {
+    /// True when the rule lets its emitter light object `object` (`NO_OBJECT`: a point in a
+    /// medium, which no collection holds).
+    #[inline]
+    pub fn lights(&self, object: u32) -> bool {
+        self.objects.binary_search(&object).is_ok() == self.include
+    }
+}
+
+/// The object id of a point that belongs to no object (a scattering event in a medium).
+pub const NO_OBJECT: u32 = u32::MAX;
+
+/// Light linking of a scene; empty when no emitter has a rule.
+#[derive(Clone, Debug, Default)]
+pub struct LightLinking {
+    /// Per triangle, its object's id (glTF node index); empty without rules.
+    pub tri_object: Vec<u32>,
+    /// Per light (indexed as `Scene::lights`), its rule; empty without rules.
+    pub rules: Vec<Option<ReceiverRule>>,
+    /// Names of the emitters with a rule, for warnings.
+    pub emitters: Vec<String>,
+}
+
+impl LightLinking {
+    /// True when light `light` lights the surface of triangle `tri` (`NO_OBJECT`: no surface).
+    #[inline]
+    pub fn lights(&self, light: usize, tri: u32) -> bool {
+        match self.rules.get(light) {
+            Some(Some(rule)) => rule.lights(self.tri_object.get(tri as usize).copied().unwrap_or(NO_OBJECT)),
+            _ => true,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn include_and_exclude_rules() {
+        let include = ReceiverRule { include: true, objects: vec![2, 5] };
+        assert!(include.lights(2) && include.lights(5) && !include.lights(3) && !include.lights(NO_OBJECT));
+        let exclude = ReceiverRule { include: false, objects: vec![2] };
+        assert!(!exclude.lights(2) && exclude.lights(3) && exclude.lights(NO_OBJECT));
+        let l = LightLinking { tri_object: vec![2, 3], rules: vec![None, Some(include)], emitters: vec![] };
+        assert!(l.lights(0, 1) && l.lights(1, 0) && !l.lights(1, 1) && !l.lights(1, NO_OBJECT));
+    }
+}

@@ -1,0 +1,143 @@
+"""Caustic and Cycles agree on per-object Ray Visibility, Holdout and light linking (issue 20).
+
+Scene and bound as test_cycles_agreement.py (a grey floor and a lighter cube under a point
+light, seen from above; 5 sigma of the two-seed estimate, block variance, plus the 1 % model
+allowance derived there). The cube is hidden in turn from the camera (the floor shows through
+it, its shadow stays), from shadow rays (it shows, its shadow goes), from diffuse rays (the
+light it bounces onto the floor goes; the light then sits low beside the cube, so that this
+bounce is 19 % of the image) and from both camera and shadow rays. Each case also
+checks that the flag matters: Caustic's image with the cube seen by every ray differs from
+Cycles' by more than the bound, so a renderer ignoring the flag would fail.
+
+The cube is lifted 2 cm off the floor: its bottom face would otherwise lie in the floor's
+plane, where which of two coincident faces a ray finds is up to each renderer's
+self-intersection rule (with it on the floor and hidden from camera and shadow rays, the
+floor inside it sees its lit inner faces: Caustic/Cycles was 1.0100).
+
+Holdout (the cube's own, or its collection's in the view layer) with Film > Transparent: the
+colour channels and alpha are compared, each with the same bound; the floor fills the view,
+so alpha is 1 but where the camera sees the cube (0 there in both renderers).
+
+Light linking: the point light's receiver collection includes only the cube, or excludes it
+(the floor is then lit directly, the cube only by the floor's bounce light); each case also
+proves that the rule moves the image by more than the bound.
+"""
+
+import math
+
+import bpy
+
+import pytest
+
+import numpy as np
+
+import scenes
+from test_cycles_agreement import (MODEL_ALLOWANCE, SEEDS, SIGMAS, add_point, assert_mean_matches_cycles, build,
+                                   mean_and_variance)
+
+pytestmark = pytest.mark.needs_binary
+
+FLAGS = {
+    "camera": ("visible_camera",),
+    "shadow": ("visible_shadow",),
+    "diffuse": ("visible_diffuse",),
+    "camera_and_shadow": ("visible_camera", "visible_shadow"),
+}
+
+
+def caustic_mean(scene, tmp_path, label):
+    """Caustic's two-seed image mean and its variance (test_cycles_agreement's estimate)."""
+    a, b = (scenes.render_rgb(scene, "CAUSTIC", s, str(tmp_path / f"{label}_{s}.exr")).mean(axis=2) for s in SEEDS)
+    return mean_and_variance(a, b)
+
+
+@pytest.mark.parametrize("case", list(FLAGS))
+def test_ray_visibility_matches_cycles(empty_scene, tmp_path, case):
+    def light_and_flags(scene):
+        add_point(scene)
+        if case == "diffuse":
+            # Low beside the cube: its lit side bounces enough light onto the floor to matter.
+            scene.objects["Point"].location = (1.2, -0.2, 0.6)
+        scene.objects["Box"].location.z += 0.02
+        for flag in FLAGS[case]:
+            setattr(scene.objects["Box"], flag, False)
+
+    scene = empty_scene
+    build(scene, light_and_flags)
+    ratios = assert_mean_matches_cycles(scene, tmp_path, f"hidden from {case}", MODEL_ALLOWANCE)
+    m_hidden, v_hidden = caustic_mean(scene, tmp_path, "hidden")
+    for flag in FLAGS[case]:
+        setattr(scene.objects["Box"], flag, True)
+    m_seen, v_seen = caustic_mean(scene, tmp_path, "seen")
+    # Against Caustic's hidden image (equal to Cycles' within the bound just checked).
+    bound = SIGMAS * math.sqrt(v_hidden + v_seen) + MODEL_ALLOWANCE * m_hidden
+    print(f"\n[caustic/cycles] box hidden from {case}: {ratios}; seen by every ray the mean moves by "
+          f"{m_seen / m_hidden - 1.0:+.4f} (bound {bound / m_hidden:.4f})")
+    assert abs(m_seen - m_hidden) > bound, f"{case}: the flag changes the image by less than the bound"
+
+
+def render_rgba(scene, engine, seed, path):
+    """`scenes.render_rgb` with alpha: the (height, width, 4) image."""
+    scene.render.engine = engine
+    if engine == "CYCLES":
+        scene.cycles.seed = seed
+    else:
+        scene.caustic.seed = seed
+    scene.render.filepath = path
+    bpy.ops.render.render(write_still=True)
+    return scenes.load_pixels(path).astype(np.float64)
+
+
+@pytest.mark.parametrize("how", ["object", "collection"])
+def test_holdout_matches_cycles(empty_scene, tmp_path, how):
+    def light_and_holdout(scene):
+        add_point(scene)
+        box = scene.objects["Box"]
+        box.location.z += 0.02
+        if how == "object":
+            box.is_holdout = True
+        else:
+            held = bpy.data.collections.new("Held")
+            scene.collection.children.link(held)
+            scene.collection.objects.unlink(box)
+            held.objects.link(box)
+            bpy.context.view_layer.layer_collection.children["Held"].holdout = True
+
+    scene = empty_scene
+    build(scene, light_and_holdout)
+    scene.render.film_transparent = True
+    images = {e: [render_rgba(scene, e, s, str(tmp_path / f"{e}_{s}.exr")) for s in SEEDS] for e in ("CYCLES", "CAUSTIC")}
+    failures = []
+    for channel, name in enumerate("RGBA"):
+        (m_caustic, v_caustic), (m_cycles, v_cycles) = (
+            mean_and_variance(images[e][0][..., channel], images[e][1][..., channel]) for e in ("CAUSTIC", "CYCLES"))
+        bound = SIGMAS * math.sqrt(v_caustic + v_cycles) + MODEL_ALLOWANCE * m_cycles
+        print(f"\n[caustic/cycles] holdout ({how}) {name} ratio {m_caustic / m_cycles:.4f}  caustic {m_caustic:.5f}  "
+              f"cycles {m_cycles:.5f}  bound {bound:.2e}")
+        if abs(m_caustic - m_cycles) > bound:
+            failures.append(f"{name}: {m_caustic:.5f} against Cycles' {m_cycles:.5f} (bound {bound:.2e})")
+    assert not failures, "; ".join(failures)
+    # The holdout matters: the cube hides about a tenth of the view, far over the bound.
+    alpha = 0.5 * (images["CAUSTIC"][0][..., 3].mean() + images["CAUSTIC"][1][..., 3].mean())
+    assert alpha < 1.0 - 0.05, f"alpha {alpha}: the holdout does not show"
+
+
+@pytest.mark.parametrize("state", ["INCLUDE", "EXCLUDE"])
+def test_light_linking_matches_cycles(empty_scene, tmp_path, state):
+    def linked_light(scene):
+        add_point(scene)
+        receivers = bpy.data.collections.new("Receivers")
+        receivers.objects.link(scene.objects["Box"])
+        receivers.collection_objects[0].light_linking.link_state = state
+        scene.objects["Point"].light_linking.receiver_collection = receivers
+
+    scene = empty_scene
+    build(scene, linked_light)
+    ratios = assert_mean_matches_cycles(scene, tmp_path, f"linking {state.lower()}", MODEL_ALLOWANCE)
+    m_linked, v_linked = caustic_mean(scene, tmp_path, "linked")
+    scene.objects["Point"].light_linking.receiver_collection = None
+    m_free, v_free = caustic_mean(scene, tmp_path, "free")
+    bound = SIGMAS * math.sqrt(v_linked + v_free) + MODEL_ALLOWANCE * m_linked
+    print(f"\n[caustic/cycles] light linking {state.lower()}: {ratios}; without the rule the mean moves by "
+          f"{m_free / m_linked - 1.0:+.4f} (bound {bound / m_linked:.4f})")
+    assert abs(m_free - m_linked) > bound, f"{state}: the rule changes the image by less than the bound"
