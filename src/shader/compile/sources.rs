@@ -217,7 +217,9 @@ impl Compiler<'_> {
                     self.float(i, "Distortion", 0.0)?,
                 ];
                 let fac = self.out(i, "Fac", Ty::Float);
+                // Two of the three fractal sums are the colour's: skipped when unlinked.
                 let color = self.out(i, "Color", Ty::Color);
+                let color = self.is_used(i, "Color").then_some(color);
                 self.ops.push(Op::Texture(Box::new(TexOp::Noise { dims, kind, normalize, inputs, fac, color })));
             }
             "ShaderNodeTexWhiteNoise" => {

@@ -6,6 +6,7 @@
 
 pub mod brick;
 pub mod checker;
+pub mod float_ops;
 pub mod fractal;
 pub mod gradient;
 pub mod hash;
@@ -20,7 +21,7 @@ pub use brick::{BrickParams, brick_texture};
 pub use checker::checker_texture;
 pub use gradient::{GradientKind, gradient_texture};
 pub use magic::magic_texture;
-pub use noise::{NoiseKind, NoiseParams, noise_texture};
+pub use noise::{NoiseKind, NoiseParams, noise_fac, noise_texture};
 pub use voronoi::{VoronoiFeature, VoronoiMetric, VoronoiOut, VoronoiParams, voronoi_texture};
 pub use wave::{WaveDirection, WaveKind, WaveParams, WaveProfile, wave_texture};
 pub use white_noise::white_noise_texture;

@@ -12,6 +12,7 @@ use core::ops::{Add, Mul, Sub};
 
 use glam::{Vec2, Vec3, Vec4};
 
+use super::float_ops::floor;
 use super::hash::{
     hash_float_to_float, hash_float_to_float3, hash_int2_to_float2, hash_int2_to_float3, hash_int3_to_float3,
     hash_int4_to_float3, hash_int4_to_float4,
@@ -202,7 +203,7 @@ impl Coord for f32 {
     const DIMS: u32 = 1;
     #[inline(always)]
     fn floor(self) -> Self {
-        f32::floor(self)
+        floor(self)
     }
     #[inline(always)]
     fn offset(i: u32, r: i32) -> Self {
@@ -269,7 +270,7 @@ impl Coord for Vec2 {
     const DIMS: u32 = 2;
     #[inline(always)]
     fn floor(self) -> Self {
-        Vec2::floor(self)
+        Vec2::new(floor(self.x), floor(self.y))
     }
     #[inline(always)]
     fn offset(i: u32, r: i32) -> Self {
@@ -318,7 +319,7 @@ impl Coord for Vec3 {
     const DIMS: u32 = 3;
     #[inline(always)]
     fn floor(self) -> Self {
-        Vec3::floor(self)
+        Vec3::new(floor(self.x), floor(self.y), floor(self.z))
     }
     #[inline(always)]
     fn offset(i: u32, r: i32) -> Self {
@@ -367,7 +368,7 @@ impl Coord for Vec4 {
     const DIMS: u32 = 4;
     #[inline(always)]
     fn floor(self) -> Self {
-        Vec4::floor(self)
+        Vec4::new(floor(self.x), floor(self.y), floor(self.z), floor(self.w))
     }
     #[inline(always)]
     fn offset(i: u32, r: i32) -> Self {
