@@ -50,6 +50,9 @@ pub struct SceneContext<'a> {
     /// Some material has a medium or subsurface scattering (paths then track media and
     /// shadow rays step through volume boundaries).
     pub has_media: bool,
+    /// Some material's Transparent BSDF is coloured: shadow rays then take the per-channel
+    /// route (`media::light_transmittance`), as with media.
+    pub tinted_shadows: bool,
 }
 
 /// Power heuristic (β = 2) of Veach; 0 when the weights are not finite.
@@ -113,6 +116,7 @@ impl<'a> SceneContext<'a> {
             suns,
             has_media: scene.world_medium.is_some()
                 || scene.materials.iter().any(|m| m.medium.is_some() || m.subsurface.is_some()),
+            tinted_shadows: scene.materials.iter().any(|m| m.nodes.as_ref().is_some_and(|p| p.tinted_transparency)),
         }
     }
 
