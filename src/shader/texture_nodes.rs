@@ -5,7 +5,7 @@ use super::geom::{Reg, set3, v3};
 use super::texture::{
     BrickParams, GradientKind, NoiseKind, NoiseParams, VoronoiFeature, VoronoiMetric, VoronoiParams, WaveDirection,
     WaveKind, WaveParams, WaveProfile, brick_texture, checker_texture, gradient_texture, magic_texture, noise_fac,
-    noise_texture, voronoi_texture, wave_texture, white_noise_texture,
+    noise_texture, voronoi_texture, voronoi_texture_without_color, wave_texture, white_noise_texture,
 };
 use glam::Vec3;
 
@@ -19,12 +19,14 @@ pub enum TexOp {
     /// White Noise Texture: Vector, W; outputs Value and Color.
     WhiteNoise { dims: u8, vector: Reg, w: Reg, value: Reg, color: Reg },
     /// Voronoi Texture: Vector, W, Scale, Detail, Roughness, Lacunarity, Smoothness,
-    /// Exponent, Randomness; outputs Distance, Color, Position, W, Radius.
+    /// Exponent, Randomness; outputs Distance, Color, Position, W, Radius (`color`: the
+    /// Color output is linked and computed).
     Voronoi {
         dims: u8,
         feature: VoronoiFeature,
         metric: VoronoiMetric,
         normalize: bool,
+        color: bool,
         inputs: [Reg; 9],
         outputs: [Reg; 5],
     },
@@ -83,7 +85,7 @@ impl TexOp {
                 r[value as usize] = v;
                 set3(r, color, c);
             }
-            TexOp::Voronoi { dims, feature, metric, normalize, inputs: i, outputs: o } => {
+            TexOp::Voronoi { dims, feature, metric, normalize, color, inputs: i, outputs: o } => {
                 let f = |k: usize| r[i[k] as usize];
                 let prm = VoronoiParams {
                     dims,
@@ -98,7 +100,11 @@ impl TexOp {
                     exponent: f(7),
                     randomness: f(8),
                 };
-                let out = voronoi_texture(v3(r, i[0]), f(1), &prm);
+                let out = if color {
+                    voronoi_texture(v3(r, i[0]), f(1), &prm)
+                } else {
+                    voronoi_texture_without_color(v3(r, i[0]), f(1), &prm)
+                };
                 r[o[0] as usize] = out.distance;
                 set3(r, o[1], out.color);
                 set3(r, o[2], out.position);

@@ -281,7 +281,9 @@ impl Compiler<'_> {
                     self.out(i, "W", Ty::Float),
                     self.out(i, "Radius", Ty::Float),
                 ];
-                let op = TexOp::Voronoi { dims, feature, metric, normalize, inputs, outputs };
+                // Smooth F1 hashes a colour per cell: skipped when Color is not linked.
+                let color = self.is_used(i, "Color");
+                let op = TexOp::Voronoi { dims, feature, metric, normalize, color, inputs, outputs };
                 self.ops.push(Op::Texture(Box::new(op)));
             }
             "ShaderNodeTexWave" => {
