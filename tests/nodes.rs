@@ -335,6 +335,53 @@ fn transparent_mix_gives_coverage() {
     assert!((mean_c - 0.75).abs() < 0.009 && (mean_a - 0.75).abs() < 0.009, "radiance {mean_c}, alpha {mean_a}");
 }
 
+/// A coloured Transparent BSDF tints what passes, in the walk and in shadow rays: a white
+/// Diffuse cube inside a closed box of Transparent (0.5, 0.7, 0.9) walls under a uniform
+/// white world. Seen through a wall the world is T; the convex cube (albedo 1, no
+/// interreflection) is lit only through the walls, by T per channel (shadow rays carry T,
+/// BSDF-sampled paths pass by T's mean and are weighted T / mean). So every pixel is T, for
+/// the path tracer and BDPT.
+#[test]
+fn coloured_transparent_tints_paths_and_shadows() {
+    let t = [0.5, 0.7, 0.9];
+    for integrator in ["path", "bdpt"] {
+        let dir = temp_dir();
+        let mut g = GltfBuilder::new();
+        g.use_ext("CAUSTIC_materials_nodes");
+        let walls = g.material(node_material(
+            "tinted",
+            json!([{"name": "Transparent", "type": "ShaderNodeBsdfTransparent",
+                    "inputs": {"Color": {"value": [t[0], t[1], t[2], 1]}}}]),
+            json!([0, "BSDF"]),
+        ));
+        let white = g.material(node_material(
+            "white",
+            json!([{"name": "Diffuse", "type": "ShaderNodeBsdfDiffuse", "inputs": {"Color": {"value": [1, 1, 1, 1]}}}]),
+            json!([0, "BSDF"]),
+        ));
+        g.cube([-3.0, -3.0, -3.0], [3.0, 3.0, 3.0], walls);
+        g.cube([-0.5, -0.5, -0.5], [0.5, 0.5, 0.5], white);
+        g.camera([0.3, 0.4, 2.5], look_rotation([-0.1, -0.15, -1.0]), 1.2);
+        g.world(json!({"color": [1, 1, 1]}));
+        // An opaque film: the world seen through the walls is part of the image.
+        g.settings(json!({"filter": "box", "transparent": false}));
+        let scene = g.write(dir.path(), "tinted.gltf");
+        let px = render_image(
+            &scene,
+            &dir.path().join("o.exr"),
+            &["--resolution", "16x16", "--spp", "256", "--max-depth", "6", "--integrator", integrator],
+            LIMIT,
+        );
+        for k in 0..3 {
+            let v: Vec<f64> = px.iter().map(|p| p[k] as f64).collect();
+            let (mean, se) = mean_se(&v);
+            eprintln!("{integrator} channel {k}: {mean:.4} ± {se:.4} (want {})", t[k]);
+            // Box-filtered pixels are independent estimates: 5 standard errors.
+            assert!((mean - t[k]).abs() < 5.0 * se, "{integrator} channel {k}: {mean} ± {se}, want {}", t[k]);
+        }
+    }
+}
+
 /// Normal Map (tangent space) on the plane, whose MikkTSpace frame is (+x, +y, +z): the
 /// colour of the tangent-space normal t = normalize(0.5, 0, 1) gives t in the world
 /// (Blender axes (t.x, −t.z, t.y)), shown through Emission plus (1, 1, 1). The loader makes

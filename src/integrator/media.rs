@@ -47,7 +47,7 @@ pub fn medium_segment(
 /// Fraction of light from a light sample reaching point `p` (a surface point offset
 /// along `ng`, or a point in a medium when `ng` is None) through the media of `stack`:
 /// volume boundaries without a surface are crossed (changing the medium), BLEND
-/// surfaces pass 1 - alpha, any other surface blocks.
+/// surfaces pass 1 - alpha (a tinted Transparent BSDF its colour), any other surface blocks.
 pub fn light_transmittance(
     ctx: &SceneContext,
     p: Vec3,
@@ -88,7 +88,7 @@ pub fn light_transmittance(
         if mat.null_surface {
             stack = ctx.medium_after(&s, dir, stack);
         } else if mat.alpha_mode == AlphaMode::Blend {
-            tr *= (1.0 - ctx.scene.alpha(h.tri, h.b1, h.b2)).clamp(0.0, 1.0);
+            tr *= ctx.scene.transmission(h.tri, h.b1, h.b2);
         } else {
             return Rgb::ZERO;
         }

@@ -58,6 +58,9 @@ pub struct SceneContext<'a> {
     pub has_media: bool,
     /// The mesh media around the camera, which camera paths start in (`with_camera_at`).
     pub camera_media: MediumStack,
+    /// Some material's Transparent BSDF is coloured: shadow rays then take the per-channel
+    /// route (`media::light_transmittance`), as with media.
+    pub tinted_shadows: bool,
 }
 
 /// Power heuristic (β = 2) of Veach; 0 when the weights are not finite.
@@ -124,6 +127,7 @@ impl<'a> SceneContext<'a> {
             has_media: scene.world_medium.is_some()
                 || scene.materials.iter().any(|m| m.medium.is_some() || m.subsurface.is_some()),
             camera_media: MediumStack::default(),
+            tinted_shadows: scene.materials.iter().any(|m| m.nodes.as_ref().is_some_and(|p| p.tinted_transparency)),
         }
     }
 

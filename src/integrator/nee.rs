@@ -67,10 +67,11 @@ pub fn surface_nee(
 }
 
 /// Transmittance of a shadow ray from surface `s` to a light sample: through media and
-/// volume boundaries when the scene has any, else plain visibility.
+/// volume boundaries (and tinted Transparent BSDFs) when the scene has any, else plain
+/// visibility.
 #[inline]
 pub fn shadow_transmittance(ctx: &SceneContext, s: &SurfaceHit, ls: &LightSample, media: MediumStack) -> Rgb {
-    if ctx.has_media {
+    if ctx.has_media || ctx.tinted_shadows {
         media::light_transmittance(ctx, s.p, Some(s.ng), ls, ctx.medium_after(s, ls.wi, media))
     } else {
         Rgb::splat(ctx.visibility(s.p, s.ng, ls))
@@ -132,7 +133,7 @@ pub fn exit_nee(
         if cos > 0.0 && ls.wi.dot(n_g) > 0.0 && ls.li != Rgb::ZERO {
             let tr = if !ctx.casts_shadow(index) {
                 Rgb::ONE
-            } else if ctx.has_media {
+            } else if ctx.has_media || ctx.tinted_shadows {
                 stats.shadow += 1;
                 media::light_transmittance(ctx, se.p, Some(n_g), &ls, media)
             } else {

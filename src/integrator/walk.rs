@@ -222,16 +222,18 @@ impl PathState {
             stats.bounce += 1;
             return (Step::Passed, lights);
         }
-        // Stochastic transparency: pass straight through with probability 1 - alpha.
-        if mat.alpha_mode == AlphaMode::Blend
-            && self.transparent_hits < MAX_TRANSPARENT_HITS
-            && u_alpha() >= ctx.scene.alpha(hit.tri, hit.b1, hit.b2)
-        {
-            self.transparent_hits += 1;
-            self.org = offset_ray_origin(s.p, -s.ng);
-            self.tmax = tmax - hit.t;
-            stats.bounce += 1;
-            return (Step::Passed, lights);
+        // Stochastic transparency: pass straight through with probability 1 - alpha, the
+        // throughput tinted by a coloured Transparent BSDF (weight colour / (1 - alpha)).
+        if mat.alpha_mode == AlphaMode::Blend && self.transparent_hits < MAX_TRANSPARENT_HITS {
+            let (alpha, tint) = ctx.scene.pass_through(hit.tri, hit.b1, hit.b2);
+            if u_alpha() >= alpha {
+                self.transparent_hits += 1;
+                self.beta *= tint;
+                self.org = offset_ray_origin(s.p, -s.ng);
+                self.tmax = tmax - hit.t;
+                stats.bounce += 1;
+                return (Step::Passed, lights);
+            }
         }
         (Step::Surface { hit, s }, lights)
     }

@@ -16,7 +16,8 @@
 //!   (Cycles' has no reflection: warned); Translucent → Lambertian transmission; Sheen →
 //!   the Charlie sheen (Cycles' microfiber model is a different fit of the same
 //!   distribution); Emission → emitted radiance Color × Strength; Transparent → pass-through
-//!   by coverage (`Scene::alpha`), grey as its mean.
+//!   by coverage (`Scene::pass_through`: probability its colour's mean, weight colour / mean;
+//!   shadow rays `Scene::transmission`).
 
 use super::geom::{Geom, Reg, from_blender, v3};
 use crate::bsdf::dielectric::DielectricBsdf;

@@ -333,6 +333,9 @@ pub struct Program {
     pub matrices: Vec<Mat4>,
     /// The graph has a Transparent part (alpha must be evaluated).
     pub transparent: bool,
+    /// A Transparent BSDF's colour may not be grey: pass-throughs and shadow rays carry it
+    /// per channel (`Scene::pass_through`, `Scene::transmission`).
+    pub tinted_transparency: bool,
     /// The graph can emit.
     pub emits: bool,
     /// The emission does not depend on the shading point (then it is `constant_emission`).

@@ -1,6 +1,7 @@
 //! The shading point of a material with a node graph: the program evaluated at the hit,
 //! its closures turned into one BSDF, the shading frame and the emission; and the
-//! graph's transparency for `Scene::alpha`.
+//! graph's transparency for `Scene::alpha`, and its colour for the pass-through and shadow
+//! rays (`Scene::pass_through`, `Scene::transmission`).
 
 use super::closure::Closures;
 use super::geom::{Geom, NO_OBJECT, ObjectData, geom_at};
@@ -60,7 +61,7 @@ pub fn shade_nodes(scene: &Scene, prog: &Program, s: &SurfaceHit, wo: Vec3, doub
     let c = evaluate(scene, prog, s, wo);
     // The Transparent part is taken by coverage (Scene::alpha) before the surface is
     // shaded: what is shaded here is the rest, renormalised.
-    let t = ((c.transparent.x + c.transparent.y + c.transparent.z) / 3.0).clamp(0.0, 1.0);
+    let t = pass_fraction(c.transparent);
     let keep = if t > 0.0 && t < 1.0 { 1.0 / (1.0 - t) } else { 1.0 };
     // Shading normal: the closures' linked normal, else the interpolated one, on the
     // viewer's side and bent toward the viewer as the glTF path does.
@@ -104,13 +105,25 @@ pub fn shade_nodes(scene: &Scene, prog: &Program, s: &SurfaceHit, wo: Vec3, doub
     ShadingPoint { bsdf, frame, emitted }
 }
 
-/// The graph's opacity at barycentrics (1 − its Transparent weight, grey by the mean).
-pub fn node_alpha(scene: &Scene, prog: &Program, tri: u32, b1: f32, b2: f32) -> f32 {
+/// The probability that a path passes a surface whose Transparent weight is `t`: the mean of
+/// its channels, each in [0, 1] (for grey weights the same number as clamping the mean).
+#[inline]
+fn pass_fraction(t: Rgb) -> f32 {
+    let t = t.clamp(Rgb::ZERO, Rgb::ONE);
+    (t.x + t.y + t.z) / 3.0
+}
+
+/// The graph's Transparent weight at barycentrics.
+fn node_transparent(scene: &Scene, prog: &Program, tri: u32, b1: f32, b2: f32) -> Rgb {
     let g = geom_at(&scene.mesh, &scene.objects, &scene.textures, tri, b1, b2);
     let mut out = Closures::default();
     with_registers(|regs| prog.run(&g, regs, &mut out));
-    let t = out.transparent;
-    1.0 - ((t.x + t.y + t.z) / 3.0).clamp(0.0, 1.0)
+    out.transparent
+}
+
+/// The graph's opacity at barycentrics (1 − the mean of its Transparent weight).
+pub fn node_alpha(scene: &Scene, prog: &Program, tri: u32, b1: f32, b2: f32) -> f32 {
+    1.0 - pass_fraction(node_transparent(scene, prog, tri, b1, b2))
 }
 
 /// The emission of a node material at barycentrics, seen along the normal.
@@ -133,6 +146,37 @@ pub fn node_emission(
 }
 
 impl Scene {
+    /// A BLEND surface's stochastic pass-through at barycentrics: its alpha (a path passes
+    /// with probability 1 − alpha) and the throughput weight of passing, transmission /
+    /// (1 − alpha): 1 unless a node graph's Transparent colour is tinted, whose expected
+    /// weight is then that colour (Cycles' transparent bounce carries the closure's colour).
+    #[inline]
+    pub fn pass_through(&self, tri: u32, b1: f32, b2: f32) -> (f32, Rgb) {
+        let mat = &self.materials[self.mesh.tri_material[tri as usize] as usize];
+        match &mat.nodes {
+            Some(prog) if prog.tinted_transparency => {
+                let t = node_transparent(self, prog, tri, b1, b2);
+                let p = pass_fraction(t);
+                let tint = if p > 0.0 { t.clamp(Rgb::ZERO, Rgb::ONE) / p } else { Rgb::ONE };
+                (1.0 - p, tint)
+            }
+            _ => (self.alpha(tri, b1, b2), Rgb::ONE),
+        }
+    }
+
+    /// What a BLEND surface lets through at barycentrics per channel, for shadow rays:
+    /// 1 − alpha, or a tinted node graph's Transparent colour (each channel in [0, 1]).
+    #[inline]
+    pub fn transmission(&self, tri: u32, b1: f32, b2: f32) -> Rgb {
+        let mat = &self.materials[self.mesh.tri_material[tri as usize] as usize];
+        match &mat.nodes {
+            Some(prog) if prog.tinted_transparency => {
+                node_transparent(self, prog, tri, b1, b2).clamp(Rgb::ZERO, Rgb::ONE)
+            }
+            _ => Rgb::splat((1.0 - self.alpha(tri, b1, b2)).clamp(0.0, 1.0)),
+        }
+    }
+
     /// Emitted radiance of triangle `tri` at barycentrics (toward its front): the node
     /// graph's emission, or the glTF material's. For the light routines.
     #[inline]

@@ -4,8 +4,8 @@
 use super::geom::{Reg, set3, v3};
 use super::texture::{
     BrickParams, GradientKind, NoiseKind, NoiseParams, VoronoiFeature, VoronoiMetric, VoronoiParams, WaveDirection,
-    WaveKind, WaveParams, WaveProfile, brick_texture, checker_texture, gradient_texture, magic_texture, noise_texture,
-    voronoi_texture, wave_texture, white_noise_texture,
+    WaveKind, WaveParams, WaveProfile, brick_texture, checker_texture, gradient_texture, magic_texture, noise_fac,
+    noise_texture, voronoi_texture, voronoi_texture_without_color, wave_texture, white_noise_texture,
 };
 use glam::Vec3;
 
@@ -13,17 +13,20 @@ use glam::Vec3;
 #[derive(Clone, Debug)]
 pub enum TexOp {
     /// Noise Texture: settings, then registers of Vector, W, Scale, Detail, Roughness,
-    /// Lacunarity, Offset, Gain, Distortion; outputs Fac and Color.
-    Noise { dims: u8, kind: NoiseKind, normalize: bool, inputs: [Reg; 9], fac: Reg, color: Reg },
+    /// Lacunarity, Offset, Gain, Distortion; outputs Fac and Color (None: not linked, not
+    /// computed).
+    Noise { dims: u8, kind: NoiseKind, normalize: bool, inputs: [Reg; 9], fac: Reg, color: Option<Reg> },
     /// White Noise Texture: Vector, W; outputs Value and Color.
     WhiteNoise { dims: u8, vector: Reg, w: Reg, value: Reg, color: Reg },
     /// Voronoi Texture: Vector, W, Scale, Detail, Roughness, Lacunarity, Smoothness,
-    /// Exponent, Randomness; outputs Distance, Color, Position, W, Radius.
+    /// Exponent, Randomness; outputs Distance, Color, Position, W, Radius (`color`: the
+    /// Color output is linked and computed).
     Voronoi {
         dims: u8,
         feature: VoronoiFeature,
         metric: VoronoiMetric,
         normalize: bool,
+        color: bool,
         inputs: [Reg; 9],
         outputs: [Reg; 5],
     },
@@ -68,16 +71,21 @@ impl TexOp {
                     gain: f(7),
                     distortion: f(8),
                 };
-                let (v, c) = noise_texture(v3(r, i[0]), f(1), &prm);
-                r[fac as usize] = v;
-                set3(r, color, c);
+                match color {
+                    Some(color) => {
+                        let (v, c) = noise_texture(v3(r, i[0]), f(1), &prm);
+                        r[fac as usize] = v;
+                        set3(r, color, c);
+                    }
+                    None => r[fac as usize] = noise_fac(v3(r, i[0]), f(1), &prm),
+                }
             }
             TexOp::WhiteNoise { dims, vector, w, value, color } => {
                 let (v, c) = white_noise_texture(dims, v3(r, vector), r[w as usize]);
                 r[value as usize] = v;
                 set3(r, color, c);
             }
-            TexOp::Voronoi { dims, feature, metric, normalize, inputs: i, outputs: o } => {
+            TexOp::Voronoi { dims, feature, metric, normalize, color, inputs: i, outputs: o } => {
                 let f = |k: usize| r[i[k] as usize];
                 let prm = VoronoiParams {
                     dims,
@@ -92,7 +100,11 @@ impl TexOp {
                     exponent: f(7),
                     randomness: f(8),
                 };
-                let out = voronoi_texture(v3(r, i[0]), f(1), &prm);
+                let out = if color {
+                    voronoi_texture(v3(r, i[0]), f(1), &prm)
+                } else {
+                    voronoi_texture_without_color(v3(r, i[0]), f(1), &prm)
+                };
                 r[o[0] as usize] = out.distance;
                 set3(r, o[1], out.color);
                 set3(r, o[2], out.position);

@@ -518,9 +518,6 @@ def build_case(scene, case):
 
 # Known differences, kept failing on purpose (strict: a fix turns them into errors to remove):
 KNOWN_DIFFERENCES = {
-    # A coloured Transparent BSDF passes light by its colour's mean (the integrators'
-    # pass-through carries one probability, not a tint): red 1.168, blue 0.798 of Cycles.
-    "transparent": "coloured Transparent BSDF is passed by its grey mean (no tinted pass-through yet)",
     # Cell interiors differ by a few per cent in 6 of 108 blocks (red 0.983, green 1.010):
     # some snapped Generated cells get a neighbouring cell's hash; undiagnosed (the smooth
     # Generated cases pass, and the White Noise hash itself is bit-exact, tests/texture_reference.rs).

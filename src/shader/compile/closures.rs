@@ -220,7 +220,7 @@ impl Compiler<'_> {
                     let v = &self.init[c as usize..c as usize + 3];
                     v[0] != v[1] || v[1] != v[2]
                 } {
-                    self.warn(i, "a coloured Transparent BSDF passes light by its mean (grey) transparency");
+                    self.prog.tinted_transparency = true;
                 }
                 self.prog.transparent = true;
                 (ClosureKind::Transparent, c)

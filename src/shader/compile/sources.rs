@@ -217,7 +217,9 @@ impl Compiler<'_> {
                     self.float(i, "Distortion", 0.0)?,
                 ];
                 let fac = self.out(i, "Fac", Ty::Float);
+                // Two of the three fractal sums are the colour's: skipped when unlinked.
                 let color = self.out(i, "Color", Ty::Color);
+                let color = self.is_used(i, "Color").then_some(color);
                 self.ops.push(Op::Texture(Box::new(TexOp::Noise { dims, kind, normalize, inputs, fac, color })));
             }
             "ShaderNodeTexWhiteNoise" => {
@@ -279,7 +281,9 @@ impl Compiler<'_> {
                     self.out(i, "W", Ty::Float),
                     self.out(i, "Radius", Ty::Float),
                 ];
-                let op = TexOp::Voronoi { dims, feature, metric, normalize, inputs, outputs };
+                // Smooth F1 hashes a colour per cell: skipped when Color is not linked.
+                let color = self.is_used(i, "Color");
+                let op = TexOp::Voronoi { dims, feature, metric, normalize, color, inputs, outputs };
                 self.ops.push(Op::Texture(Box::new(op)));
             }
             "ShaderNodeTexWave" => {

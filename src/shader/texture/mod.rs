@@ -6,6 +6,7 @@
 
 pub mod brick;
 pub mod checker;
+pub mod float_ops;
 pub mod fractal;
 pub mod gradient;
 pub mod hash;
@@ -20,8 +21,10 @@ pub use brick::{BrickParams, brick_texture};
 pub use checker::checker_texture;
 pub use gradient::{GradientKind, gradient_texture};
 pub use magic::magic_texture;
-pub use noise::{NoiseKind, NoiseParams, noise_texture};
-pub use voronoi::{VoronoiFeature, VoronoiMetric, VoronoiOut, VoronoiParams, voronoi_texture};
+pub use noise::{NoiseKind, NoiseParams, noise_fac, noise_texture};
+pub use voronoi::{
+    VoronoiFeature, VoronoiMetric, VoronoiOut, VoronoiParams, voronoi_texture, voronoi_texture_without_color,
+};
 pub use wave::{WaveDirection, WaveKind, WaveParams, WaveProfile, wave_texture};
 pub use white_noise::white_noise_texture;
 
@@ -140,6 +143,57 @@ mod tests {
         for x in [0.0, 15.0, f32::NAN, f32::INFINITY, -f32::INFINITY, 1e30, -1e30] {
             all_outputs(Vec3::splat(x), x, 2.0);
             all_outputs(p, 0.5, x);
+        }
+    }
+
+    /// The entry points without a colour (for unlinked Color outputs) give the other outputs
+    /// bit for bit, for every dimension, kind, feature and metric.
+    #[test]
+    fn colourless_entry_points_keep_the_other_outputs() {
+        for (p, w, x) in [(Vec3::new(-2.5, 0.75, 3.0), -1.25, 0.6), (Vec3::new(13.1, -7.2, 0.4), 4.5, 2.5)] {
+            for dims in 1..=4 {
+                for kind in [
+                    NoiseKind::Multifractal,
+                    NoiseKind::RidgedMultifractal,
+                    NoiseKind::HybridMultifractal,
+                    NoiseKind::Fbm,
+                    NoiseKind::HeteroTerrain,
+                ] {
+                    let prm = NoiseParams {
+                        dims,
+                        kind,
+                        normalize: true,
+                        scale: x,
+                        detail: 3.5,
+                        roughness: 0.5,
+                        lacunarity: 2.0,
+                        offset: 0.5,
+                        gain: 1.0,
+                        distortion: x,
+                    };
+                    assert_eq!(noise_fac(p, w, &prm).to_bits(), noise_texture(p, w, &prm).0.to_bits());
+                }
+                for feature in [VoronoiFeature::F1, VoronoiFeature::F2, VoronoiFeature::SmoothF1] {
+                    for metric in [VoronoiMetric::Euclidean, VoronoiMetric::Manhattan, VoronoiMetric::Minkowski] {
+                        let prm = VoronoiParams {
+                            dims,
+                            feature,
+                            metric,
+                            normalize: true,
+                            scale: x,
+                            detail: 1.5,
+                            roughness: 0.5,
+                            lacunarity: 2.0,
+                            smoothness: 0.7,
+                            exponent: 1.5,
+                            randomness: 0.9,
+                        };
+                        let (a, b) = (voronoi_texture(p, w, &prm), voronoi_texture_without_color(p, w, &prm));
+                        assert_eq!(b.color, Vec3::ZERO);
+                        assert_eq!(VoronoiOut { color: Vec3::ZERO, ..a }, b, "{dims}-D {feature:?} {metric:?}");
+                    }
+                }
+            }
         }
     }
 }

@@ -147,30 +147,46 @@ fn select<T: NoiseCoord>(p: T, prm: &NoiseParams, detail: f32, roughness: f32) -
 
 /// Cycles' `noise_texture_Nd`. The colour seeds follow the distortion seeds: 1-D distorts with
 /// seed 0 and colours with 1, 2; N-D distorts with seeds 0..N and colours with N, N + 1
-/// (so the first colour seed is always the dimension).
+/// (so the first colour seed is always the dimension). Without `COLOR` the two colour
+/// fractals (two thirds of the node's cost without distortion) are skipped and the colour is 0.
 #[inline]
-fn texture<T: Seeded>(co: T, prm: &NoiseParams, detail: f32, roughness: f32) -> (f32, Vec3) {
+fn texture<T: Seeded, const COLOR: bool>(co: T, prm: &NoiseParams, detail: f32, roughness: f32) -> (f32, Vec3) {
     let mut p = co;
     if prm.distortion != 0.0 {
         p = p + p.distortion(prm.distortion);
     }
     let first = T::DIMS;
     let value = select(p, prm, detail, roughness);
+    if !COLOR {
+        return (value, Vec3::ZERO);
+    }
     let g = select(p + T::random_offset(first), prm, detail, roughness);
     let b = select(p + T::random_offset(first + 1.0), prm, detail, roughness);
     (value, Vec3::new(value, g, b))
 }
 
-/// (Fac, Color) of the Noise Texture node at `p` (and `w` for 1-D and 4-D).
-pub fn noise_texture(p: Vec3, w: f32, prm: &NoiseParams) -> (f32, Vec3) {
+/// The node at `p` (and `w` for 1-D and 4-D), with or without its colour.
+#[inline]
+fn node<const COLOR: bool>(p: Vec3, w: f32, prm: &NoiseParams) -> (f32, Vec3) {
     let detail = prm.detail.clamp(0.0, 15.0);
     let roughness = prm.roughness.max(0.0);
     let p = p * prm.scale;
     let w = w * prm.scale;
     match prm.dims {
-        1 => texture(w, prm, detail, roughness),
-        2 => texture(Vec2::new(p.x, p.y), prm, detail, roughness),
-        4 => texture(p.extend(w), prm, detail, roughness),
-        _ => texture(p, prm, detail, roughness),
+        1 => texture::<f32, COLOR>(w, prm, detail, roughness),
+        2 => texture::<Vec2, COLOR>(Vec2::new(p.x, p.y), prm, detail, roughness),
+        4 => texture::<Vec4, COLOR>(p.extend(w), prm, detail, roughness),
+        _ => texture::<Vec3, COLOR>(p, prm, detail, roughness),
     }
+}
+
+/// (Fac, Color) of the Noise Texture node at `p` (and `w` for 1-D and 4-D).
+pub fn noise_texture(p: Vec3, w: f32, prm: &NoiseParams) -> (f32, Vec3) {
+    node::<true>(p, w, prm)
+}
+
+/// Fac alone of the Noise Texture node (the same number as `noise_texture`'s), for a node
+/// whose Color output is not linked.
+pub fn noise_fac(p: Vec3, w: f32, prm: &NoiseParams) -> f32 {
+    node::<false>(p, w, prm).0
 }

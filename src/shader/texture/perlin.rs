@@ -6,6 +6,7 @@
 
 use glam::{Vec2, Vec3, Vec4};
 
+use super::float_ops::{floor, fmod_pos};
 use super::hash::{hash_uint, hash_uint2, hash_uint3, hash_uint4};
 
 /// Perlin's quintic fade `6t^5 - 15t^4 + 10t^3`, in Cycles' operation order.
@@ -17,7 +18,7 @@ fn fade(t: f32) -> f32 {
 /// Cycles' `floorfrac`: the integer cell and the offset inside it.
 #[inline(always)]
 fn floorfrac(x: f32) -> (i32, f32) {
-    let f = x.floor();
+    let f = floor(x);
     (f as i32, x - f)
 }
 
@@ -169,28 +170,34 @@ pub trait NoiseCoord: Copy + core::ops::Add<Output = Self> + core::ops::Mul<f32,
 impl NoiseCoord for f32 {
     #[inline]
     fn snoise(self) -> f32 {
-        0.2500 * perlin_1d(self % REPEAT)
+        0.2500 * perlin_1d(fmod_pos(self, REPEAT))
     }
 }
 
 impl NoiseCoord for Vec2 {
     #[inline]
     fn snoise(self) -> f32 {
-        0.6616 * perlin_2d(self.x % REPEAT, self.y % REPEAT)
+        0.6616 * perlin_2d(fmod_pos(self.x, REPEAT), fmod_pos(self.y, REPEAT))
     }
 }
 
 impl NoiseCoord for Vec3 {
     #[inline]
     fn snoise(self) -> f32 {
-        0.9820 * perlin_3d(self.x % REPEAT, self.y % REPEAT, self.z % REPEAT)
+        0.9820 * perlin_3d(fmod_pos(self.x, REPEAT), fmod_pos(self.y, REPEAT), fmod_pos(self.z, REPEAT))
     }
 }
 
 impl NoiseCoord for Vec4 {
     #[inline]
     fn snoise(self) -> f32 {
-        0.8344 * perlin_4d(self.x % REPEAT, self.y % REPEAT, self.z % REPEAT, self.w % REPEAT)
+        0.8344
+            * perlin_4d(
+                fmod_pos(self.x, REPEAT),
+                fmod_pos(self.y, REPEAT),
+                fmod_pos(self.z, REPEAT),
+                fmod_pos(self.w, REPEAT),
+            )
     }
 }
 

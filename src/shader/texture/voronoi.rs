@@ -12,6 +12,7 @@ use core::ops::{Add, Mul, Sub};
 
 use glam::{Vec2, Vec3, Vec4};
 
+use super::float_ops::floor;
 use super::hash::{
     hash_float_to_float, hash_float_to_float3, hash_int2_to_float2, hash_int2_to_float3, hash_int3_to_float3,
     hash_int4_to_float3, hash_int4_to_float4,
@@ -92,6 +93,9 @@ struct Params {
     exponent: f32,
     randomness: f32,
     max_distance: f32,
+    /// Compute the Color output (off when it is not linked: smooth F1 hashes a colour for
+    /// each of its 125 cells).
+    color: bool,
 }
 
 /// One octave's (or the sum's) outputs; position in 4-D as Cycles keeps it.
@@ -202,7 +206,7 @@ impl Coord for f32 {
     const DIMS: u32 = 1;
     #[inline(always)]
     fn floor(self) -> Self {
-        f32::floor(self)
+        floor(self)
     }
     #[inline(always)]
     fn offset(i: u32, r: i32) -> Self {
@@ -269,7 +273,7 @@ impl Coord for Vec2 {
     const DIMS: u32 = 2;
     #[inline(always)]
     fn floor(self) -> Self {
-        Vec2::floor(self)
+        Vec2::new(floor(self.x), floor(self.y))
     }
     #[inline(always)]
     fn offset(i: u32, r: i32) -> Self {
@@ -318,7 +322,7 @@ impl Coord for Vec3 {
     const DIMS: u32 = 3;
     #[inline(always)]
     fn floor(self) -> Self {
-        Vec3::floor(self)
+        Vec3::new(floor(self.x), floor(self.y), floor(self.z))
     }
     #[inline(always)]
     fn offset(i: u32, r: i32) -> Self {
@@ -367,7 +371,7 @@ impl Coord for Vec4 {
     const DIMS: u32 = 4;
     #[inline(always)]
     fn floor(self) -> Self {
-        Vec4::floor(self)
+        Vec4::new(floor(self.x), floor(self.y), floor(self.z), floor(self.w))
     }
     #[inline(always)]
     fn offset(i: u32, r: i32) -> Self {
@@ -437,7 +441,7 @@ fn f1<T: Coord>(prm: &Params, coord: T) -> Octave {
     }
     Octave {
         distance: T::distance(target_position, local, prm),
-        color: T::hash_color(cell, target_offset),
+        color: if prm.color { T::hash_color(cell, target_offset) } else { Vec3::ZERO },
         position: (target_position + cell).position(),
     }
 }
@@ -459,8 +463,10 @@ fn smooth_f1<T: Coord>(prm: &Params, coord: T) -> Octave {
         let mut correction = prm.smoothness * h * (1.0 - h);
         smooth_distance = mix(smooth_distance, d, h) - correction;
         correction /= 1.0 + 3.0 * prm.smoothness;
-        let cell_color = T::hash_color(cell, offset);
-        smooth_color = smooth_color + (cell_color - smooth_color) * h - Vec3::splat(correction);
+        if prm.color {
+            let cell_color = T::hash_color(cell, offset);
+            smooth_color = smooth_color + (cell_color - smooth_color) * h - Vec3::splat(correction);
+        }
         smooth_position = smooth_position + (point - smooth_position) * h - T::splat(correction);
     }
     Octave { distance: smooth_distance, color: smooth_color, position: (cell + smooth_position).position() }
@@ -503,7 +509,8 @@ fn f2<T: Coord>(prm: &Params, coord: T) -> Octave {
             position_f2 = point;
         }
     }
-    Octave { distance: distance_f2, color: T::hash_color(cell, offset_f2), position: (position_f2 + cell).position() }
+    let color = if prm.color { T::hash_color(cell, offset_f2) } else { Vec3::ZERO };
+    Octave { distance: distance_f2, color, position: (position_f2 + cell).position() }
 }
 
 /// Cycles' `voronoi_n_sphere_radius`: half the distance from the closest feature point to its
@@ -663,6 +670,16 @@ fn evaluate<T: Coord>(prm: &mut Params, coord: T) -> VoronoiOut {
 
 /// Distance, Color, Position, W and Radius of the Voronoi Texture node at `p` (and `w`).
 pub fn voronoi_texture(p: Vec3, w: f32, prm: &VoronoiParams) -> VoronoiOut {
+    node(p, w, prm, true)
+}
+
+/// [`voronoi_texture`] without its Color output (zero), for a node whose Color is not
+/// linked; the other outputs are the same numbers.
+pub fn voronoi_texture_without_color(p: Vec3, w: f32, prm: &VoronoiParams) -> VoronoiOut {
+    node(p, w, prm, false)
+}
+
+fn node(p: Vec3, w: f32, prm: &VoronoiParams, color: bool) -> VoronoiOut {
     let mut params = Params {
         feature: prm.feature,
         metric: prm.metric,
@@ -675,6 +692,7 @@ pub fn voronoi_texture(p: Vec3, w: f32, prm: &VoronoiParams) -> VoronoiOut {
         exponent: prm.exponent,
         randomness: prm.randomness.clamp(0.0, 1.0),
         max_distance: 0.0,
+        color,
     };
     let p = p * prm.scale;
     let w = w * prm.scale;
