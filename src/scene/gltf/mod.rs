@@ -266,6 +266,7 @@ impl<'a> Loader<'a> {
         // per-triangle instance indices are kept only when a graph is present.
         let graphs = materials.iter().any(|m| m.nodes.is_some());
         let mut objects: Vec<crate::shader::geom::ObjectData> = Vec::new();
+        let mut instances_out = Vec::new();
         for (node_index, world) in &instances {
             let node = doc.nodes().nth(*node_index).expect("validated index");
             let node_name = node.name().map(str::to_string).unwrap_or_else(|| format!("node {node_index}"));
@@ -275,13 +276,23 @@ impl<'a> Loader<'a> {
             if let Some(m) = node.mesh() {
                 used_meshes.insert(m.index());
                 instance_count += 1;
+                let (v0, t0) = (mesh.positions.len() as u32, mesh.triangles.len() as u32);
                 degenerate += self.append_mesh(&m, world, &buffers, &mut materials, default_material, &mut mesh)?;
+                let mut object = None;
                 if graphs {
                     let texspace = value.pointer(&format!("/meshes/{}/extras/CAUSTIC_texspace", m.index()));
                     objects.push(shader_graph::object_data(world, &node_name, texspace));
                     let o = objects.len() as u32 - 1;
                     mesh.tri_object.resize(mesh.triangles.len(), o);
+                    object = Some(o);
                 }
+                instances_out.push(crate::scene::InstanceSpan {
+                    name: node_name.clone(),
+                    world: *world,
+                    vertices: v0..mesh.positions.len() as u32,
+                    triangles: t0..mesh.triangles.len() as u32,
+                    object,
+                });
             }
             if let Some(c) = node.camera() {
                 let blender = node.extension_value("CAUSTIC_camera").cloned();
@@ -419,6 +430,7 @@ impl<'a> Loader<'a> {
             report,
             bounds: (lo, hi),
             objects,
+            instances: instances_out,
         })
     }
 
