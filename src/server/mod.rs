@@ -119,7 +119,7 @@ impl Server {
                 }
             };
             let kind = kind.unwrap_or_default();
-            if matches!(request, Request::Quit) {
+            if matches!(request, Request::Quit) && msg.payload.is_empty() {
                 self.out.send(json!({"type": "ok", "request": "quit", "generation": self.generation}), &[]);
                 break;
             }
@@ -182,10 +182,15 @@ impl Server {
             Request::Settings(e) => {
                 let mut merged = self.settings.clone();
                 merge_settings(&mut merged, e);
-                if let Some(l) = &self.loaded {
-                    let settings = resolve_settings(&l.scene, &merged)?;
-                    self.stop_worker();
-                    self.loaded.as_mut().expect("checked").settings = settings;
+                match &self.loaded {
+                    Some(l) => {
+                        let settings = resolve_settings(&l.scene, &merged)?;
+                        self.stop_worker();
+                        self.loaded.as_mut().expect("checked").settings = settings;
+                    }
+                    // Checked now as for a scene without settings of its own, so that a
+                    // bad value is refused when sent, not at the next load.
+                    None => drop(resolve_settings(&settings_probe(), &merged)?),
                 }
                 self.settings = merged;
                 self.edited(Invalidates::Shading, "settings");
@@ -203,7 +208,7 @@ impl Server {
                 self.rendering = false;
                 self.ok("render_stop", json!({}));
             }
-            Request::Quit => unreachable!("handled by the loop"),
+            Request::Quit => unreachable!("a quit without payload ends the loop; with one it is refused above"),
         }
         Ok(())
     }
@@ -370,6 +375,12 @@ fn resolve_settings(scene: &Scene, s: &SettingsEdit) -> Result<RenderSettings, S
         format: s.frame_format.unwrap_or_default(),
         reduce,
     })
+}
+
+/// A scene with one camera and nothing else: enough for `resolve` to check settings.
+fn settings_probe() -> Scene {
+    let projection = crate::scene::Projection::Perspective { yfov: 0.8, aspect: None };
+    Scene { cameras: vec![crate::scene::Camera::from_matrix("probe".into(), &glam::Mat4::IDENTITY, projection)], ..Scene::default() }
 }
 
 /// The scene's camera at its resolution (what `caustic render` would frame).
