@@ -76,16 +76,44 @@ def _principled(material):
     node = out.inputs["Surface"].links[0].from_node
     if node.type != "BSDF_PRINCIPLED":
         return None
-    names = ("Base Color", "Metallic", "Roughness", "IOR", "Transmission Weight", "Alpha")
-    if any(node.inputs[n].is_linked for n in names):
+    if any(node.inputs[n].is_linked for n in EDITABLE_INPUTS):
         return None
     return node
 
 
-def material_request(material):
-    """The material edit for a Blender material, or RELOAD when its factors are not plain."""
+EDITABLE_INPUTS = ("Base Color", "Metallic", "Roughness", "IOR", "Transmission Weight", "Alpha")
+
+
+def _value(socket):
+    v = getattr(socket, "default_value", None)
+    try:
+        return tuple(round(float(x), 7) for x in v)
+    except TypeError:
+        return v if v is None or isinstance(v, (bool, str)) else round(float(v), 7)
+
+
+def material_snapshot(material):
+    """What a material edit does not carry: every other input of the material's nodes and its
+    links. A change there (emission, coat, sheen, a new node) needs the exporter."""
+    tree = material.node_tree
+    if tree is None:
+        return None
+    nodes = tuple(sorted(
+        (n.name, n.type, tuple((i.identifier, _value(i)) for i in n.inputs
+                               if not (n.type == "BSDF_PRINCIPLED" and i.name in EDITABLE_INPUTS)))
+        for n in tree.nodes))
+    links = tuple(sorted((l.from_node.name, l.from_socket.identifier, l.to_node.name, l.to_socket.identifier)
+                         for l in tree.links))
+    return nodes, links
+
+
+def material_request(material, known=None):
+    """The material edit for a Blender material, or RELOAD when its factors are not plain or
+    anything else in it changed since `known` (name → `material_snapshot` at the last export)."""
     node = _principled(material)
     if node is None:
+        return RELOAD
+    if known is not None and known.get(material.name) != material_snapshot(material):
         return RELOAD
     inp = node.inputs
     color = list(inp["Base Color"].default_value)
@@ -102,10 +130,11 @@ def material_request(material):
     }
 
 
-def edits_from_updates(updates, objects_before, objects_now):
+def edits_from_updates(updates, objects_before, objects_now, known=None):
     """Requests for one depsgraph update: a list of headers, or [RELOAD] when the scene must be
     exported again (objects added or removed, mesh, light or world data changed, a material
-    that is not a plain Principled BSDF). `objects_*` are the sets of rendered object names."""
+    that is not a plain Principled BSDF or changed beyond its factors). `objects_*` are the
+    sets of rendered object names, `known` the materials' snapshots at the last export."""
     if objects_before != objects_now:
         return [RELOAD]
     edits = []
@@ -121,7 +150,7 @@ def edits_from_updates(updates, objects_before, objects_now):
                 elif data.type != "CAMERA":  # cameras: the view is sent by view_draw
                     return [RELOAD]
         elif isinstance(data, bpy.types.Material):
-            req = material_request(data.original if hasattr(data, "original") else data)
+            req = material_request(data.original if hasattr(data, "original") else data, known)
             if req == RELOAD:
                 return [RELOAD]
             edits.append(req)
@@ -165,6 +194,7 @@ class Viewport:
         self.texture = None
         self.texture_generation = None
         self.texture_key = None
+        self.known = None
 
     def _client(self):
         if self.client is None:
@@ -180,6 +210,7 @@ class Viewport:
         settings = export.render_settings(scene, (scene.render.resolution_x, scene.render.resolution_y), None)
         old, self.folder = self.folder, tempfile.mkdtemp(prefix="caustic-view-")
         path, state = export.export_scene(depsgraph, self.folder, settings)
+        self.known = {m.name: material_snapshot(m) for m in bpy.data.materials}
         for warning in state.warnings:
             self.engine.report({"WARNING"}, f"Caustic: {warning}")
         client = self._client()
@@ -193,7 +224,7 @@ class Viewport:
         try:
             objects = rendered_objects(depsgraph)
             first = self.objects is None or self.client is None or not self.client.alive()
-            edits = [RELOAD] if first else edits_from_updates(depsgraph.updates, self.objects, objects)
+            edits = [RELOAD] if first else edits_from_updates(depsgraph.updates, self.objects, objects, self.known)
             self.objects = objects
             if edits == [RELOAD]:
                 self._reload(depsgraph)
@@ -202,6 +233,10 @@ class Viewport:
             for req in edits:
                 try:
                     self._client().request(req)
+                    if req["type"] == "material":
+                        mat = bpy.data.materials.get(req["name"])
+                        if mat is not None:
+                            self.known[req["name"]] = material_snapshot(mat)
                 except ServerError:
                     # The server refused it (a node-graph material, a mirrored object): reload.
                     self._reload(depsgraph)

@@ -80,17 +80,23 @@ def test_a_principled_colour_change_is_a_material_edit(vp, empty_scene, updates)
     scenes.cube(empty_scene, "Box", 1.0, (0, 0, 0), material=mat)
     _settle()
     names = viewport.rendered_objects(bpy.context.evaluated_depsgraph_get())
+    known = {mat.name: viewport.material_snapshot(mat)}
     updates.clear()
     bsdf = next(n for n in mat.node_tree.nodes if n.type == "BSDF_PRINCIPLED")
     bsdf.inputs["Base Color"].default_value = (0.9, 0.1, 0.2, 1.0)
     bsdf.inputs["Roughness"].default_value = 0.25
     _settle()
-    edits = viewport.edits_from_updates(updates, names, names)
+    edits = viewport.edits_from_updates(updates, names, names, known)
     mats = [e for e in edits if e["type"] == "material"]
     assert mats and mats[-1]["name"] == "Paint", edits
     assert mats[-1]["base_color"] == pytest.approx([0.9, 0.1, 0.2, 1.0])
     assert mats[-1]["roughness"] == pytest.approx(0.25)
     assert not any(e["type"] == "transform" for e in edits), "a colour change is not a move"
+    # Emission is not in a material edit: turning it up needs the exporter.
+    bsdf.inputs["Emission Strength"].default_value = 3.0
+    assert viewport.material_request(mat, known) == viewport.RELOAD
+    bsdf.inputs["Emission Strength"].default_value = 0.0
+    assert viewport.material_request(mat, known)["type"] == "material"
     # A texture linked into Base Color makes the material a graph: the scene is reloaded.
     tex = mat.node_tree.nodes.new("ShaderNodeTexChecker")
     mat.node_tree.links.new(tex.outputs["Color"], bsdf.inputs["Base Color"])
