@@ -244,8 +244,11 @@ fn light_edits_change_the_picture() {
     let a = mean_after(&mut s, json!({"type": "light", "name": name, "emission": [1.0, 1.0, 1.0]}));
     let b = mean_after(&mut s, json!({"type": "light", "name": name, "emission": [2.0, 2.0, 2.0]}));
     let c = mean_after(&mut s, json!({"type": "world", "color": [0.0, 0.0, 0.0]}));
-    let far = mean_after(&mut s, json!({"type": "light", "name": name,
-        "matrix": [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,3,0,1]}));
+    let far = mean_after(
+        &mut s,
+        json!({"type": "light", "name": name,
+        "matrix": [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,3,0,1]}),
+    );
     for ch in 0..3 {
         assert!(a[ch] > 0.0);
         assert!((b[ch] / a[ch] - 2.0).abs() < 1e-4, "emission ×2 gave ×{}", b[ch] / a[ch]);
@@ -264,12 +267,15 @@ fn bad_messages_get_error_replies_and_the_server_goes_on() {
         (frame(&json!({"type": "frobnicate"}), &[]), "unknown variant"),
         (frame(&json!({"no_type": 1}), &[]), "missing field `type`"),
         (frame(&json!([1, 2]), &[]), "bad request"),
-        ({
-            let mut m = 5u32.to_le_bytes().to_vec();
-            m.extend_from_slice(&0u32.to_le_bytes());
-            m.extend_from_slice(b"{bad}");
-            m
-        }, "not JSON"),
+        (
+            {
+                let mut m = 5u32.to_le_bytes().to_vec();
+                m.extend_from_slice(&0u32.to_le_bytes());
+                m.extend_from_slice(b"{bad}");
+                m
+            },
+            "not JSON",
+        ),
         (frame(&json!({"type": "load", "bytes": 100}), b"only twenty bytes...."), "truncated payload"),
         (frame(&json!({"type": "hello", "version": 99}), &[]), "protocol version 99"),
         (frame(&json!({"type": "render_start"}), &[]), "no scene loaded"),
@@ -291,14 +297,23 @@ fn bad_messages_get_error_replies_and_the_server_goes_on() {
         (json!({"type": "settings", "integrator": "sppm"}), "SPPM"),
         (json!({"type": "material", "name": "nope", "roughness": 0.5}), "no material named 'nope'"),
         (json!({"type": "material", "name": "white", "roughness": 2.0}), "roughness 2 must be in [0, 1]"),
-        (json!({"type": "transform", "name": "nope", "matrix": [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1]}), "no mesh object"),
+        (
+            json!({"type": "transform", "name": "nope", "matrix": [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1]}),
+            "no mesh object",
+        ),
         (json!({"type": "transform", "name": "floor", "matrix": [-1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1]}), "mirrors"),
         (json!({"type": "light", "name": "nope", "emission": [1, 1, 1]}), "no light named"),
         (json!({"type": "world", "color": [-1, 0, 0]}), "non-negative"),
-        (json!({"type": "camera", "matrix": [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1], "projection": "fisheye",
-            "resolution": [8, 8]}), "unknown projection"),
-        (json!({"type": "camera", "matrix": [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1], "projection": "perspective",
-            "yfov": 0.5, "resolution": [0, 8]}), "resolution 0x8"),
+        (
+            json!({"type": "camera", "matrix": [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1], "projection": "fisheye",
+            "resolution": [8, 8]}),
+            "unknown projection",
+        ),
+        (
+            json!({"type": "camera", "matrix": [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1], "projection": "perspective",
+            "yfov": 0.5, "resolution": [0, 8]}),
+            "resolution 0x8",
+        ),
     ] {
         s.send(req.clone());
         let r = s.reply();

@@ -244,7 +244,7 @@ pub fn light(scene: &mut Scene, e: &LightEdit) -> Result<Invalidates, String> {
         Some(a) => Some(Mat4::from_cols_array(&a)),
         None => None,
     };
-    let emission = e.emission.map(|c| Rgb::from(c));
+    let emission = e.emission.map(Rgb::from);
     let pos = m.map(|m| m.transform_point3(Vec3::ZERO));
     let dir = m.map(|m| m.transform_vector3(-Vec3::Z).normalize_or(-Vec3::Z));
     match &mut scene.lights[idx] {

@@ -17,9 +17,9 @@ use crate::error::Error;
 use crate::integrator::Integrator;
 use crate::memory::MemoryBudget;
 use crate::scene::{self, Scene};
+use clap::Parser;
 use edits::{Invalidates, View};
 use protocol::{ReadError, Request, SettingsEdit};
-use clap::Parser;
 use serde_json::json;
 use std::io::Read;
 use std::path::Path;
@@ -176,7 +176,9 @@ impl Server {
                 self.edited(Invalidates::View, "camera");
             }
             Request::Material(e) => self.edit_scene("material", |s| edits::material(s, &e))?,
-            Request::Transform { name, matrix } => self.edit_scene("transform", |s| edits::transform(s, &name, &matrix))?,
+            Request::Transform { name, matrix } => {
+                self.edit_scene("transform", |s| edits::transform(s, &name, &matrix))?
+            }
             Request::Light(e) => self.edit_scene("light", |s| edits::light(s, &e))?,
             Request::World { color } => self.edit_scene("world", |s| edits::world(s, color))?,
             Request::Settings(e) => {
@@ -380,7 +382,10 @@ fn resolve_settings(scene: &Scene, s: &SettingsEdit) -> Result<RenderSettings, S
 /// A scene with one camera and nothing else: enough for `resolve` to check settings.
 fn settings_probe() -> Scene {
     let projection = crate::scene::Projection::Perspective { yfov: 0.8, aspect: None };
-    Scene { cameras: vec![crate::scene::Camera::from_matrix("probe".into(), &glam::Mat4::IDENTITY, projection)], ..Scene::default() }
+    Scene {
+        cameras: vec![crate::scene::Camera::from_matrix("probe".into(), &glam::Mat4::IDENTITY, projection)],
+        ..Scene::default()
+    }
 }
 
 /// The scene's camera at its resolution (what `caustic render` would frame).
