@@ -187,3 +187,62 @@ def test_a_server_killed_mid_frame_is_restarted_with_its_state(vp):
     finally:
         c.stop()
     assert c.process is None
+
+
+class _Engine:
+    """What viewport.Viewport uses of the RenderEngine: reports (recorded) and redraws."""
+
+    def __init__(self):
+        self.reports = []
+
+    def report(self, kind, message):
+        self.reports.append((kind, message))
+
+    def tag_redraw(self):
+        pass
+
+
+@pytest.mark.needs_binary
+def test_view_update_exports_once_then_sends_edits(vp, empty_scene):
+    """The first view_update exports and loads the scene and starts rendering; a move made
+    afterwards (seen by a depsgraph handler, as view_update sees it) is a transform edit that
+    the server accepts, with no second export."""
+    viewport, _ = vp
+    scenes.small_render_settings(empty_scene, W, H, samples=2)
+    scenes.camera(empty_scene, (0, -4, 3), (60, 0, 0))
+    box = scenes.cube(empty_scene, "Box", 1.0, (0, 0, 0.5), material=scenes.diffuse_material("Paint", 0.5))
+    scenes.plane(empty_scene, "Floor", 4.0)
+    scenes.light(empty_scene, "Sun", "SUN", energy=1.0)
+    engine = _Engine()
+    v = viewport.Viewport(engine)
+    try:
+        v.update(bpy.context, bpy.context.evaluated_depsgraph_get())
+        assert not [r for r in engine.reports if r[0] == {"ERROR"}], engine.reports
+        first_folder = v.folder
+        assert first_folder and v.client.alive()
+        v.client.wait_frame(v.client.generation)
+        sent = []
+        request = v.client.request
+
+        def spy(header, payload=b"", replay=True):
+            sent.append(header["type"])
+            return request(header, payload, replay)
+
+        v.client.request = spy
+
+        def handler(scene, depsgraph):
+            v.update(bpy.context, depsgraph)
+
+        bpy.app.handlers.depsgraph_update_post.append(handler)
+        try:
+            box.location.x += 0.5
+            _settle()
+        finally:
+            bpy.app.handlers.depsgraph_update_post.remove(handler)
+        assert "transform" in sent and "load" not in sent, sent
+        assert v.folder == first_folder, "a move exported the scene again"
+        v.client.wait_frame(v.client.generation)
+        assert not [r for r in engine.reports if r[0] == {"ERROR"}], engine.reports
+    finally:
+        v.free()
+    assert v.client is None and v.folder is None
