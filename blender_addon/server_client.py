@@ -76,6 +76,7 @@ class ServerClient:
         self.latest_frame = None  # (header, payload) of the newest generation
         self.generation = 0
         self.done = None
+        self.render_error = None
         self._replies = queue.Queue()
         self._lock = threading.Lock()
         # What to send again after a restart, in order.
@@ -154,6 +155,10 @@ class ServerClient:
                 with self._lock:
                     if header["generation"] >= self.generation:
                         self.done = header
+            elif kind == "error" and "generation" in header:
+                # The render failed (not a reply): the viewport reports it on its next draw.
+                with self._lock:
+                    self.render_error = header.get("message")
             elif kind in ("ok", "error", "hello"):
                 self._replies.put(header)
 

@@ -263,6 +263,9 @@ class Viewport:
                 client.request(cam)
                 self.last_camera = cam
             frame = client.latest_frame
+            if client.render_error:
+                self.engine.report({"ERROR"}, f"Caustic viewport: {client.render_error}")
+                client.render_error = None
         except (CausticError, ServerError) as err:
             self.engine.report({"ERROR"}, f"Caustic viewport: {err}")
             return

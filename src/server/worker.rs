@@ -96,7 +96,27 @@ impl Worker {
     pub fn spawn(job: Job, out: Arc<Output>, pool: Arc<rayon::ThreadPool>) -> Self {
         let stop = Arc::new(AtomicBool::new(false));
         let flag = stop.clone();
-        let handle = std::thread::spawn(move || pool.install(|| run(job, &out, &flag)));
+        let handle = std::thread::spawn(move || {
+            let generation = job.generation;
+            // A bug in a render must not end the server silently: the client hears of it
+            // and the next edit starts a fresh worker.
+            match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| pool.install(|| run(job, &out, &flag)))) {
+                Ok(kept) => kept,
+                Err(panic) => {
+                    let what = panic
+                        .downcast_ref::<&str>()
+                        .map(|s| s.to_string())
+                        .or_else(|| panic.downcast_ref::<String>().cloned())
+                        .unwrap_or_else(|| "unknown".into());
+                    out.send(
+                        json!({"type": "error", "request": null, "generation": generation,
+                               "message": format!("the render failed (internal error, please report it): {what}")}),
+                        &[],
+                    );
+                    None
+                }
+            }
+        });
         Worker { stop, handle }
     }
 
