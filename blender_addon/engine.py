@@ -15,7 +15,9 @@ class CausticRenderEngine(bpy.types.RenderEngine):
     bl_label = "Caustic"
     # Material/light previews would start the binary for every thumbnail: not yet.
     bl_use_preview = False
-    # Material Preview stays EEVEE's; Rendered is Caustic's, through `caustic serve` (viewport.py).
+    # Rendered shading is Caustic's, through `caustic serve` (viewport.py). With this off
+    # Blender sends Material Preview to view_draw too (ED_view3d_engine_type), so both show
+    # Caustic's image; Material Preview's studio lighting is not used.
     bl_use_eevee_viewport = False
     # Materials are Blender's own shader nodes, converted by the glTF exporter.
     bl_use_shading_nodes_custom = False
