@@ -4,7 +4,7 @@ import traceback
 
 import bpy
 
-from . import final, result
+from . import final, result, viewport
 from .errors import CausticError
 
 
@@ -15,8 +15,10 @@ class CausticRenderEngine(bpy.types.RenderEngine):
     bl_label = "Caustic"
     # Material/light previews would start the binary for every thumbnail: not yet.
     bl_use_preview = False
-    # The viewport's Material Preview and Rendered modes fall back to EEVEE (no view_draw yet).
-    bl_use_eevee_viewport = True
+    # Rendered shading is Caustic's, through `caustic serve` (viewport.py). With this off
+    # Blender sends Material Preview to view_draw too (ED_view3d_engine_type), so both show
+    # Caustic's image; Material Preview's studio lighting is not used.
+    bl_use_eevee_viewport = False
     # Materials are Blender's own shader nodes, converted by the glTF exporter.
     bl_use_shading_nodes_custom = False
     # Compositing and sequencer work on Caustic's passes like on any engine's.
@@ -25,6 +27,34 @@ class CausticRenderEngine(bpy.types.RenderEngine):
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
         self._caustic_session = None
+        self._caustic_viewport = None
+
+    def __del__(self):
+        # Blender frees the engine when the viewport leaves Rendered mode: stop its server.
+        # (RenderEngine has no other hook for this; Cycles frees its session here too.)
+        vp = getattr(self, "_caustic_viewport", None)
+        if vp is not None:
+            vp.free()
+
+    def view_update(self, context, depsgraph):
+        """The viewport's scene changed: send the edits (viewport.py), never raise."""
+        if self._caustic_viewport is None:
+            self._caustic_viewport = viewport.Viewport(self)
+        try:
+            self._caustic_viewport.update(context, depsgraph)
+        except Exception as err:  # a bug in the add-on: keep Blender's viewport alive
+            traceback.print_exc()
+            self.report({"ERROR"}, f"Caustic viewport internal error: {err!r} (details in the console)")
+
+    def view_draw(self, context, depsgraph):
+        """Draw the newest frame of the viewport's server (viewport.py), never raise."""
+        if self._caustic_viewport is None:
+            return
+        try:
+            self._caustic_viewport.draw(context, depsgraph)
+        except Exception as err:
+            traceback.print_exc()
+            self.report({"ERROR"}, f"Caustic viewport internal error: {err!r} (details in the console)")
 
     def render(self, depsgraph):
         """Render one frame of one view layer; failures become reports, never tracebacks."""

@@ -24,4 +24,5 @@ pub mod progress;
 pub mod render;
 pub mod sampling;
 pub mod scene;
+pub mod server;
 pub mod shader;

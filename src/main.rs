@@ -103,6 +103,15 @@ fn main() {
                 e.exit_code()
             }
         },
+        // The server ends on `quit` or at the end of its input; a signal ends it at once
+        // (nothing of it is worth writing out).
+        Command::Serve(args) => match caustic::cli::run_serve(&args) {
+            Ok(()) => exit_code::OK,
+            Err(e) => {
+                eprintln!("error: {e}");
+                e.exit_code()
+            }
+        },
         Command::Bench(args) => {
             let stop = AtomicBool::new(false);
             match caustic::cli::run_bench(&args, &stop) {

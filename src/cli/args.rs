@@ -44,6 +44,19 @@ pub enum Command {
     Photons(PhotonsArgs),
     /// Merge chunks of one frame (renders with --chunk of disjoint sample ranges) exactly.
     Merge(MergeArgs),
+    /// Serve Blender's Rendered viewport: framed requests on stdin, frames on stdout (docs/protocol.md).
+    Serve(ServeArgs),
+}
+
+/// `caustic serve`.
+#[derive(Args, Debug)]
+pub struct ServeArgs {
+    /// Worker threads [default: all cores].
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Memory budget for loaded scenes, e.g. 8G [default: none].
+    #[arg(long)]
+    pub memory_limit: Option<String>,
 }
 
 /// `caustic merge`.

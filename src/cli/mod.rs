@@ -15,6 +15,7 @@ mod info;
 mod merge;
 mod photons;
 mod render;
+mod serve;
 pub mod settings;
 
 pub use args::*;
@@ -22,5 +23,7 @@ pub use bench::run_bench;
 pub use info::run_info;
 pub use merge::run_merge;
 pub use photons::run_photons;
+pub(crate) use render::build_bsdf_tables;
 pub use render::{Outcome, run_render};
+pub use serve::run_serve;
 pub use settings::{Resolved, resolve, resolve_photon};

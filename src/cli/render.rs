@@ -27,7 +27,7 @@ use std::time::{Duration, Instant};
 /// Builds the BSDF's albedo tables the scene's materials use, in parallel on the
 /// caller's pool, rather than by the first shading point inside the timed rendering phase
 /// (and, inside a render worker, on one thread).
-pub(super) fn build_bsdf_tables(scene: &Scene) {
+pub(crate) fn build_bsdf_tables(scene: &Scene) {
     crate::bsdf::albedo::specular_albedo();
     let m = &scene.materials;
     if m.iter().any(|m| m.transmission > 0.0 || m.transmission_tex.is_some()) {

@@ -82,8 +82,9 @@ fn progressive(
     let mut splat_count = 0u64;
 
     std::thread::scope(|scope| {
-        // Reporter thread: reads the counters, never touches the film.
-        scope.spawn(|| {
+        // Reporter thread: reads the counters, never touches the film. It is woken when
+        // the render ends, so that a short render (the viewport's) does not wait out its nap.
+        let reporter = scope.spawn(|| {
             while !finished.load(Ordering::Relaxed) {
                 let elapsed = start.elapsed().as_secs_f64();
                 let done = samples_done_px.load(Ordering::Relaxed) as f64;
@@ -109,7 +110,7 @@ fn progressive(
                     if finished.load(Ordering::Relaxed) {
                         break;
                     }
-                    std::thread::sleep(Duration::from_millis(50));
+                    std::thread::park_timeout(Duration::from_millis(50));
                 }
             }
         });
@@ -189,6 +190,7 @@ fn progressive(
             }
         }
         finished.store(true, Ordering::Relaxed);
+        reporter.thread().unpark();
     });
 
     let image = film.image();

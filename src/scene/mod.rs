@@ -207,6 +207,24 @@ pub struct Scene {
     /// URI): the identity of a photon map and of a chunk, which a changed texture or .bin
     /// must change too.
     pub source_hash: u64,
+    /// Each mesh instance's name, world matrix and span of the flattened mesh, so that
+    /// the render server can move one object without reloading (`server::edits`).
+    pub instances: Vec<InstanceSpan>,
+}
+
+/// Where one mesh instance (a glTF node with a mesh) lies in the flattened [`Mesh`].
+#[derive(Clone, Debug)]
+pub struct InstanceSpan {
+    /// Node name (Blender's object name), else "node N".
+    pub name: String,
+    /// The node's world matrix (glTF axes) the vertices were transformed by.
+    pub world: glam::Mat4,
+    /// Its vertices in `Mesh::positions` (and the other per-vertex arrays).
+    pub vertices: std::ops::Range<u32>,
+    /// Its triangles in `Mesh::triangles`.
+    pub triangles: std::ops::Range<u32>,
+    /// Its entry in `Scene::objects`, when shader graphs keep instance data.
+    pub object: Option<u32>,
 }
 
 impl Scene {

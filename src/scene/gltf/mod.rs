@@ -288,6 +288,7 @@ impl<'a> Loader<'a> {
         let mut linking = LightLinking::default();
         let mut light_rules: Vec<(usize, ReceiverRule)> = Vec::new();
         let mut node_rules: HashMap<u32, ReceiverRule> = HashMap::new();
+        let mut instances_out = Vec::new();
         for (node_index, world) in &instances {
             let node = doc.nodes().nth(*node_index).expect("validated index");
             let node_name = node.name().map(str::to_string).unwrap_or_else(|| format!("node {node_index}"));
@@ -304,7 +305,8 @@ impl<'a> Loader<'a> {
             if let Some(m) = node.mesh() {
                 used_meshes.insert(m.index());
                 instance_count += 1;
-                let first = mesh.triangles.len();
+                let (v0, t0) = (mesh.positions.len() as u32, mesh.triangles.len() as u32);
+                let first = t0 as usize;
                 degenerate += self.append_mesh(&m, world, &buffers, &mut materials, default_material, &mut mesh)?;
                 if let Some(ext) = node.extension_value("CAUSTIC_object_visibility") {
                     let vis: ObjectVisibilityExt = serde_json::from_value(ext.clone()).map_err(|e| {
@@ -322,12 +324,21 @@ impl<'a> Loader<'a> {
                 if let Some(r) = &rule {
                     node_rules.insert(*node_index as u32, r.clone());
                 }
+                let mut object = None;
                 if graphs {
                     let texspace = value.pointer(&format!("/meshes/{}/extras/CAUSTIC_texspace", m.index()));
                     objects.push(shader_graph::object_data(world, &node_name, texspace));
                     let o = objects.len() as u32 - 1;
                     mesh.tri_object.resize(mesh.triangles.len(), o);
+                    object = Some(o);
                 }
+                instances_out.push(crate::scene::InstanceSpan {
+                    name: node_name.clone(),
+                    world: *world,
+                    vertices: v0..mesh.positions.len() as u32,
+                    triangles: t0..mesh.triangles.len() as u32,
+                    object,
+                });
             }
             if let Some(c) = node.camera() {
                 let blender = node.extension_value("CAUSTIC_camera").cloned();
@@ -501,6 +512,7 @@ impl<'a> Loader<'a> {
             bounds: (lo, hi),
             objects,
             source_hash,
+            instances: instances_out,
         })
     }
 

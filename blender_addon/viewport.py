@@ -1,0 +1,305 @@
+"""The Rendered viewport through `caustic serve` (docs/protocol.md).
+
+`view_update` turns the depsgraph's updates into requests (`edits_from_updates`): an object's
+move is a transform edit, a Principled BSDF's factors a material edit; anything else (objects
+added or removed, mesh edits, lights, the world, node-graph materials) re-exports the scene
+with the final render's exporter and loads it. `view_draw` sends the region's view as a camera
+edit when it changed, and draws the newest frame through the view's colour management. The
+server is one process per viewport, started lazily, restarted (with a report) when it died,
+and stopped when Blender frees the engine.
+"""
+
+import shutil
+import tempfile
+
+import bpy
+import mathutils
+
+from . import export, runner
+from .errors import CausticError
+from .server_client import ServerClient, ServerError, frame_pixels
+
+# Blender's world axes (Z up) to glTF's (Y up), as the glTF exporter converts them.
+AXES = mathutils.Matrix(((1, 0, 0, 0), (0, 0, 1, 0), (0, -1, 0, 0), (0, 0, 0, 1)))
+
+RELOAD = "reload"
+
+
+def _flat(m):
+    """A 4×4 matrix as 16 floats, column-major (glTF's and the protocol's order)."""
+    return [float(m[r][c]) for c in range(4) for r in range(4)]
+
+
+def object_matrix(matrix_world):
+    """A mesh object's world matrix in glTF axes: its vertices were converted too."""
+    return _flat(AXES @ matrix_world @ AXES.inverted())
+
+
+def camera_request(view_matrix, window_matrix, perspective, resolution, clip, border=None):
+    """The camera edit for a view: the view matrix (world → view, Blender axes) and the
+    projection matrix Blender draws the region with, so the frame shows what the region shows.
+
+    A perspective projection has P[1][1] = 1 / tan(yfov / 2), P[0][0] / P[1][1] = 1 / aspect,
+    and P[0][2], P[1][2] = the frame centre's offset in half-frames, so the lens shift in
+    frames is half of it. An orthographic one has P[0][0] = 1 / xmag, P[1][1] = 1 / ymag and
+    the offset, negated, in P[0][3], P[1][3].
+    """
+    p = window_matrix
+    header = {
+        "type": "camera",
+        "matrix": _flat(AXES @ view_matrix.inverted()),
+        "resolution": [int(resolution[0]), int(resolution[1])],
+        "clip": [float(clip[0]), float(clip[1])],
+    }
+    if perspective:
+        import math
+
+        header.update(projection="perspective", yfov=2.0 * math.atan(1.0 / p[1][1]),
+                      aspect=float(p[1][1] / p[0][0]), shift=[float(p[0][2]) / 2.0, float(p[1][2]) / 2.0])
+    else:
+        header.update(projection="orthographic", xmag=float(1.0 / p[0][0]), ymag=float(1.0 / p[1][1]),
+                      shift=[-float(p[0][3]) / 2.0, -float(p[1][3]) / 2.0])
+    if border is not None:
+        header["border"] = [float(v) for v in border]
+    return header
+
+
+def _principled(material):
+    """The material's Principled BSDF when it feeds the output directly with no input linked
+    that a material edit carries; else None (the exporter may make a node graph of it)."""
+    tree = material.node_tree
+    if tree is None:
+        return None
+    out = next((n for n in tree.nodes if n.type == "OUTPUT_MATERIAL" and n.is_active_output), None)
+    if out is None or not out.inputs["Surface"].is_linked:
+        return None
+    node = out.inputs["Surface"].links[0].from_node
+    if node.type != "BSDF_PRINCIPLED":
+        return None
+    if any(node.inputs[n].is_linked for n in EDITABLE_INPUTS):
+        return None
+    return node
+
+
+EDITABLE_INPUTS = ("Base Color", "Metallic", "Roughness", "IOR", "Transmission Weight", "Alpha")
+
+
+def _value(socket):
+    v = getattr(socket, "default_value", None)
+    try:
+        return tuple(round(float(x), 7) for x in v)
+    except TypeError:
+        return v if v is None or isinstance(v, (bool, str)) else round(float(v), 7)
+
+
+def material_snapshot(material):
+    """What a material edit does not carry: every other input of the material's nodes and its
+    links. A change there (emission, coat, sheen, a new node) needs the exporter."""
+    tree = material.node_tree
+    if tree is None:
+        return None
+    nodes = tuple(sorted(
+        (n.name, n.type, tuple((i.identifier, _value(i)) for i in n.inputs
+                               if not (n.type == "BSDF_PRINCIPLED" and i.name in EDITABLE_INPUTS)))
+        for n in tree.nodes))
+    links = tuple(sorted((l.from_node.name, l.from_socket.identifier, l.to_node.name, l.to_socket.identifier)
+                         for l in tree.links))
+    return nodes, links
+
+
+def material_request(material, known=None):
+    """The material edit for a Blender material, or RELOAD when its factors are not plain or
+    anything else in it changed since `known` (name → `material_snapshot` at the last export)."""
+    node = _principled(material)
+    if node is None:
+        return RELOAD
+    if known is not None and known.get(material.name) != material_snapshot(material):
+        return RELOAD
+    inp = node.inputs
+    color = list(inp["Base Color"].default_value)
+    color[3] = float(inp["Alpha"].default_value)
+    clamp = lambda v: min(max(float(v), 0.0), 1.0)  # noqa: E731 (the exporter clamps alike)
+    return {
+        "type": "material",
+        "name": material.name,
+        "base_color": [clamp(c) for c in color],
+        "metallic": clamp(inp["Metallic"].default_value),
+        "roughness": clamp(inp["Roughness"].default_value),
+        "ior": max(float(inp["IOR"].default_value), 1.0),
+        "transmission": clamp(inp["Transmission Weight"].default_value),
+    }
+
+
+def edits_from_updates(updates, objects_before, objects_now, known=None):
+    """Requests for one depsgraph update: a list of headers, or [RELOAD] when the scene must be
+    exported again (objects added or removed, mesh, light or world data changed, a material
+    that is not a plain Principled BSDF or changed beyond its factors). `objects_*` are the
+    sets of rendered object names, `known` the materials' snapshots at the last export."""
+    if objects_before != objects_now:
+        return [RELOAD]
+    edits = []
+    for u in updates:
+        data = u.id
+        if isinstance(data, bpy.types.Object):
+            if u.is_updated_geometry and data.type != "CAMERA":
+                return [RELOAD]
+            if u.is_updated_transform:
+                if data.type == "MESH":
+                    edits.append({"type": "transform", "name": data.name,
+                                  "matrix": object_matrix(data.matrix_world)})
+                elif data.type != "CAMERA":  # cameras: the view is sent by view_draw
+                    return [RELOAD]
+        elif isinstance(data, bpy.types.Material):
+            req = material_request(data.original if hasattr(data, "original") else data, known)
+            if req == RELOAD:
+                return [RELOAD]
+            edits.append(req)
+        elif isinstance(data, (bpy.types.Mesh, bpy.types.Light, bpy.types.World, bpy.types.Curve)):
+            if u.is_updated_geometry or isinstance(data, (bpy.types.Light, bpy.types.World)):
+                return [RELOAD]
+    return edits
+
+
+def rendered_objects(depsgraph):
+    """Names of the objects the depsgraph renders."""
+    return {inst.object.name for inst in depsgraph.object_instances}
+
+
+def view_settings(scene):
+    """The settings request of the viewport: the scene's, with SPPM (no progressive frames)
+    shown by Jensen's photon mapping, which the panel's photon counts also drive."""
+    props = scene.caustic
+    integrator = "photon" if props.integrator == "sppm" else props.integrator
+    return {"type": "settings", "integrator": integrator, "spp": int(props.samples), "frame_format": "f16"}
+
+
+def draw_rect(header, region_width, region_height):
+    """Where a frame goes in the region: x, y (bottom-left) and size in region pixels. The frame
+    covers its window of the full frame, which spans the region (a reduced frame too)."""
+    w, h = header["resolution"]
+    x0, y0, x1, y1 = header["window"]
+    sx, sy = region_width / w, region_height / h
+    return x0 * sx, (h - y1) * sy, (x1 - x0) * sx, (y1 - y0) * sy
+
+
+class Viewport:
+    """The render server of one viewport engine instance."""
+
+    def __init__(self, engine):
+        self.engine = engine
+        self.client = None
+        self.folder = None
+        self.objects = None
+        self.last_camera = None
+        self.texture = None
+        self.texture_generation = None
+        self.texture_key = None
+        self.known = None
+
+    def _client(self):
+        if self.client is None:
+            self.client = ServerClient(runner.find_binary())
+        note = self.client.ensure_running()
+        if note:
+            self.engine.report({"WARNING"}, note)
+        return self.client
+
+    def _reload(self, depsgraph):
+        """Export the scene as F12 does and load it."""
+        scene = depsgraph.scene
+        settings = export.render_settings(scene, (scene.render.resolution_x, scene.render.resolution_y), None)
+        old, self.folder = self.folder, tempfile.mkdtemp(prefix="caustic-view-")
+        path, state = export.export_scene(depsgraph, self.folder, settings)
+        self.known = {m.name: material_snapshot(m) for m in bpy.data.materials}
+        for warning in state.warnings:
+            self.engine.report({"WARNING"}, f"Caustic: {warning}")
+        client = self._client()
+        client.request(view_settings(scene))
+        client.request({"type": "load", "path": path})
+        if old:
+            shutil.rmtree(old, ignore_errors=True)
+
+    def update(self, context, depsgraph):
+        """view_update: the depsgraph's changes as edits, or a reload."""
+        try:
+            objects = rendered_objects(depsgraph)
+            first = self.objects is None or self.client is None or not self.client.alive()
+            edits = [RELOAD] if first else edits_from_updates(depsgraph.updates, self.objects, objects, self.known)
+            self.objects = objects
+            if edits == [RELOAD]:
+                self._reload(depsgraph)
+                self._client().request({"type": "render_start"})
+                return
+            for req in edits:
+                try:
+                    self._client().request(req)
+                    if req["type"] == "material":
+                        mat = bpy.data.materials.get(req["name"])
+                        if mat is not None:
+                            self.known[req["name"]] = material_snapshot(mat)
+                except ServerError:
+                    # The server refused it (a node-graph material, a mirrored object): reload.
+                    self._reload(depsgraph)
+                    break
+        except (CausticError, ServerError) as err:
+            self.engine.report({"ERROR"}, f"Caustic viewport: {err}")
+
+    def draw(self, context, depsgraph):
+        """view_draw: send the view if it moved, draw the newest frame, redraw while rendering."""
+        region, rv3d = context.region, context.region_data
+        if self.client is None:
+            return
+        try:
+            border = None
+            v3d = context.space_data
+            if rv3d.view_perspective != "CAMERA" and getattr(v3d, "use_render_border", False):
+                # Blender's border has its origin bottom-left; the protocol's top-left.
+                border = (v3d.render_border_min_x, 1.0 - v3d.render_border_max_y,
+                          v3d.render_border_max_x, 1.0 - v3d.render_border_min_y)
+            cam = camera_request(rv3d.view_matrix, rv3d.window_matrix, rv3d.is_perspective,
+                                 (region.width, region.height), (v3d.clip_start, v3d.clip_end), border)
+            client = self._client()
+            if cam != self.last_camera:
+                client.request(cam)
+                self.last_camera = cam
+            frame = client.latest_frame
+            if client.render_error:
+                self.engine.report({"ERROR"}, f"Caustic viewport: {client.render_error}")
+                client.render_error = None
+        except (CausticError, ServerError) as err:
+            self.engine.report({"ERROR"}, f"Caustic viewport: {err}")
+            return
+        if frame is not None:
+            self._draw_frame(depsgraph.scene, frame, region.width, region.height)
+        if client.done is None or client.done["generation"] < client.generation:
+            self.engine.tag_redraw()
+
+    def _draw_frame(self, scene, frame, region_width, region_height):
+        import gpu
+        from gpu_extras.presets import draw_texture_2d
+
+        header, payload = frame
+        key = (header["generation"], header["samples"], header["width"], header["height"])
+        if key != self.texture_key:
+            px = frame_pixels(header, payload)
+            buf = gpu.types.Buffer("FLOAT", px.size, px.ravel())
+            self.texture = gpu.types.GPUTexture((header["width"], header["height"]), format="RGBA16F", data=buf)
+            self.texture_key = key
+        x, y, w, h = draw_rect(header, region_width, region_height)
+        gpu.state.blend_set("ALPHA_PREMULT")
+        # As Blender's own example engine: the display space shader applies the view's colour
+        # management (view transform, look, exposure) to the texture drawn while it is bound.
+        self.engine.bind_display_space_shader(scene)
+        draw_texture_2d(self.texture, (x, y), w, h)
+        self.engine.unbind_display_space_shader()
+        gpu.state.blend_set("NONE")
+
+    def free(self):
+        """Stop the server and remove the exported scene."""
+        if self.client is not None:
+            self.client.stop()
+            self.client = None
+        if self.folder:
+            shutil.rmtree(self.folder, ignore_errors=True)
+            self.folder = None
+
