@@ -70,6 +70,15 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         reporter.warning(&w);
         run_warnings.push(w);
     }
+    if res.adaptive.is_some() && res.integrator == IntegratorKind::Sppm {
+        // Ignored rather than refused, so that a scene saved with adaptive sampling on still
+        // renders with SPPM: the warning names what was not applied.
+        let w = "adaptive sampling (noise threshold) is ignored by SPPM: its iterations shrink every pixel's \
+                 photon radius together, so no pixel can stop on its own; every pixel takes every iteration"
+            .to_string();
+        reporter.warning(&w);
+        run_warnings.push(w);
+    }
     charge_render(&budget, args, &res, &scene)?;
     if stop.load(Ordering::Relaxed) {
         return Err(Error::InterruptedEmpty);
@@ -149,6 +158,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         seed: res.job_seed,
         sample_offset: res.sample_offset,
         filter: res.filter.clone(),
+        adaptive: res.adaptive,
     };
     // What every chunk of this frame must agree on (`--chunk`); the ranges are filled in per write.
     let chunk_info = match args.chunk {
@@ -259,6 +269,12 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
             "bounce_rays_per_sec": result.rays.bounce as f64 / secs,
             "shadow_rays_per_sec": result.rays.shadow as f64 / secs,
             "threads": res.threads,
+            "adaptive": res.adaptive.filter(|_| result.adaptive_active.is_some()).map(|a| json!({
+                "noise_threshold": a.noise_threshold,
+                "min_samples": a.min_samples,
+                "step": a.step,
+                "active_pixels": result.adaptive_active,
+            })),
             "photons": photon_stats,
         }
     });

@@ -382,6 +382,7 @@ fn render(
             nan_samples: nan,
             spp_min: st.iterations,
             spp_max: st.iterations,
+            adaptive_active: None,
             interrupted: stop.load(Ordering::Relaxed),
             elapsed: start.elapsed(),
             light_paths: 0,
