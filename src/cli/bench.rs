@@ -48,6 +48,8 @@ pub fn run_bench(args: &BenchArgs, stop: &AtomicBool) -> Result<()> {
         light_sampler: args.light_sampler,
         noise_threshold: None,
         min_samples: None,
+        denoise: false,
+        oidn: None,
     };
     let reporter = Reporter::silent();
     let outcome = run_render(&render_args, &reporter, stop);

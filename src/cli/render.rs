@@ -80,6 +80,23 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         run_warnings.push(w);
     }
     charge_render(&budget, args, &res, &scene)?;
+    // Loaded before rendering, so that a missing library costs no render time.
+    let denoiser = match args.denoise {
+        false => None,
+        true if args.chunk => {
+            return Err(Error::Usage(
+                "--denoise cannot write a chunk (--chunk): chunks carry sums to merge; denoise the merged frame".into(),
+            ));
+        }
+        true => {
+            let pixels = ((res.window[2] - res.window[0]) as u64) * ((res.window[3] - res.window[1]) as u64);
+            budget.charge(
+                format!("the denoiser's images for {pixels} pixels"),
+                pixels.saturating_mul(crate::denoise::BYTES_PER_PIXEL),
+            )?;
+            Some(crate::denoise::Denoiser::open(args.oidn.as_deref())?)
+        }
+    };
     if stop.load(Ordering::Relaxed) {
         return Err(Error::InterruptedEmpty);
     }
@@ -222,6 +239,11 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         result.image.make_opaque();
     }
 
+    if let Some(d) = &denoiser {
+        reporter.phase("denoising", t0.elapsed().as_secs_f64());
+        pool.install(|| d.denoise(&mut result.image))?;
+    }
+
     reporter.phase("writing", t0.elapsed().as_secs_f64());
     write(&result.image, result.film.as_ref(), result.spp_max, result.light_paths)?;
     reporter.image(&out_str, result.spp_min, true);
@@ -254,6 +276,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         "black": black,
         "warnings": warnings,
         "light_sampler": res.light_sampler.name(),
+        "denoised": denoiser.as_ref().map(|d| d.source.display().to_string()),
         "integrator": integrator.describe(),
         "stats": {
             "load_profile": scene.report.profile,
