@@ -49,6 +49,15 @@ def _export_frames(context, frames, folder):
         for f in frames:
             scene.frame_set(f)
             settings = export.render_settings(scene, (window.width, window.height), camera.name if camera else None)
+            if settings.pop("noise_threshold", None) is not None:
+                # The binary refuses adaptive chunks: a pixel's stop depends on all its samples.
+                settings.pop("min_samples", None)
+                print(f"Caustic farm: frame {f}: adaptive sampling is off on the farm (frames are rendered in "
+                      "sample chunks, and a pixel's stopping point needs all of its samples); every pixel takes "
+                      "every sample")
+            if scene.caustic.use_denoising:
+                print(f"Caustic farm: frame {f}: not denoised (the farm merges sample chunks; denoising on the "
+                      "farm is not implemented)")
             sub = os.path.join(folder, f"frame_{f:05d}")
             os.makedirs(sub)
             gltf, state = export.export_scene(context.evaluated_depsgraph_get(), sub, settings)

@@ -56,7 +56,7 @@ class FrameWindow:
         return f"{self.xmin},{y0},{self.xmax},{y1}"
 
 
-def command_line(binary, gltf_path, out_path, settings, window):
+def command_line(binary, gltf_path, out_path, settings, window, denoise=False):
     """The binary's argv for one frame (flags repeat extras.caustic so that flags win)."""
     argv = [binary, "render", gltf_path, "-o", out_path, "--progress", "json",
             "--interim", str(INTERIM_SECONDS),
@@ -73,6 +73,11 @@ def command_line(binary, gltf_path, out_path, settings, window):
         argv += ["--camera", settings["camera"]]
     if window.is_border:
         argv += ["--crop", window.crop_argument()]
+    if denoise:
+        argv += ["--denoise"]
+        library = runner.find_oidn()
+        if library:
+            argv += ["--oidn", library]
     return argv
 
 
@@ -154,7 +159,8 @@ def render_frame(engine, depsgraph):
         if engine.should_stop():
             return
         out_path = os.path.join(folder, "out.exr")
-        argv = command_line(binary, gltf_path, out_path, settings, window)
+        # Denoising is a command-line option, not a scene setting: farm chunks cannot be denoised.
+        argv = command_line(binary, gltf_path, out_path, settings, window, denoise=scene.caustic.use_denoising)
         width, height = window.size
         render_result = engine.begin_result(0, 0, width, height, layer=depsgraph.view_layer.name)
         failed = True
