@@ -51,7 +51,21 @@ def farm_command(python, scenes, pattern, chunks, scheduler, binary):
 
 # Flags of `caustic render` that the farm sets per chunk itself or that have no meaning
 # there, with whether they take a value.
-_FARM_OWN_FLAGS = {"--progress": True, "--interim": True, "--spp": True, "--time-limit": True}
+_FARM_OWN_FLAGS = {"--progress": True, "--interim": True, "--spp": True, "--time-limit": True,
+                   "--denoise": False, "--oidn": True}
+
+
+def strip_unfarmable(settings, scene):
+    """Drops from the render settings what chunks cannot do; returns the warnings saying so."""
+    warnings = []
+    if settings.pop("noise_threshold", None) is not None:
+        # The binary refuses adaptive chunks: a pixel's stop depends on all its samples.
+        settings.pop("min_samples", None)
+        warnings.append("adaptive sampling is off on the farm (frames are rendered in sample chunks, and a "
+                        "pixel's stopping point needs all of its samples); every pixel takes every sample")
+    if scene.caustic.use_denoising:
+        warnings.append("not denoised (the farm merges sample chunks; denoising on the farm is not implemented)")
+    return warnings
 
 
 def frame_command(prefs, binary, gltf_path, out_path, render_argv, spp):
@@ -105,6 +119,8 @@ def _export_frames(context, frames, folder):
         for f in frames:
             scene.frame_set(f)
             settings = export.render_settings(scene, (window.width, window.height), camera.name if camera else None)
+            for warning in strip_unfarmable(settings, scene):
+                print(f"Caustic farm: frame {f}: {warning}")
             sub = os.path.join(folder, f"frame_{f:05d}")
             os.makedirs(sub)
             gltf, state = export.export_scene(context.evaluated_depsgraph_get(), sub, settings)

@@ -56,7 +56,7 @@ class FrameWindow:
         return f"{self.xmin},{y0},{self.xmax},{y1}"
 
 
-def command_line(binary, gltf_path, out_path, settings, window):
+def command_line(binary, gltf_path, out_path, settings, window, denoise=False):
     """The binary's argv for one frame (flags repeat extras.caustic so that flags win)."""
     argv = [binary, "render", gltf_path, "-o", out_path, "--progress", "json",
             "--interim", str(INTERIM_SECONDS),
@@ -73,6 +73,11 @@ def command_line(binary, gltf_path, out_path, settings, window):
         argv += ["--camera", settings["camera"]]
     if window.is_border:
         argv += ["--crop", window.crop_argument()]
+    if denoise:
+        argv += ["--denoise"]
+        library = runner.find_oidn()
+        if library:
+            argv += ["--oidn", library]
     return argv
 
 
@@ -145,6 +150,12 @@ def render_frame(engine, depsgraph):
     camera = engine.camera_override or scene.camera
     settings = export.render_settings(scene, (window.width, window.height),
                                       camera.name if camera else None)
+    on_farm = scene.caustic.use_farm
+    if on_farm:
+        # Imported here: farm.py builds on this module (FrameWindow).
+        from . import farm
+        for warning in farm.strip_unfarmable(settings, scene):
+            engine.report({"WARNING"}, f"Caustic farm: {warning}")
     folder = tempfile.mkdtemp(prefix="caustic-")
     try:
         engine.update_stats("", "Caustic | exporting scene")
@@ -154,11 +165,10 @@ def render_frame(engine, depsgraph):
         if engine.should_stop():
             return
         out_path = os.path.join(folder, "out.exr")
-        argv = command_line(binary, gltf_path, out_path, settings, window)
-        on_farm = scene.caustic.use_farm
+        # Denoising is a command-line option, not a scene setting: farm chunks cannot be denoised.
+        argv = command_line(binary, gltf_path, out_path, settings, window,
+                            denoise=scene.caustic.use_denoising and not on_farm)
         if on_farm:
-            # Imported here: farm.py builds on this module (FrameWindow).
-            from . import farm
             argv, warnings = farm.frame_command(farm.preferences(), binary, gltf_path, out_path, argv,
                                                 settings["spp"])
             for warning in warnings:

@@ -63,6 +63,39 @@ class CausticRenderSettings(bpy.types.PropertyGroup):
         min=1,
         soft_max=4096,
     )
+    # Cycles' names and meanings (scene.cycles.*); off by default, unlike Cycles, so that a
+    # scene made before these existed renders as it did.
+    use_adaptive_sampling: BoolProperty(
+        name="Noise Threshold",
+        description="Automatically reduce the number of samples per pixel based on estimated noise level "
+        "(path tracing, bidirectional and photon mapping; progressive photon mapping ignores it)",
+        default=False,
+    )
+    adaptive_threshold: FloatProperty(
+        name="Noise Threshold",
+        description="Noise level step to stop sampling at, lower values reduce noise at the cost of render "
+        "time. Zero for automatic setting based on number of AA samples",
+        default=0.01,
+        min=0.0,
+        max=1.0,
+        soft_min=0.001,
+        step=0.1,
+        precision=4,
+    )
+    adaptive_min_samples: IntProperty(
+        name="Min Samples",
+        description="Minimum AA samples for adaptive sampling, to discover noisy features before stopping "
+        "sampling. Zero for automatic setting based on noise threshold",
+        default=0,
+        min=0,
+        max=4096,
+    )
+    use_denoising: BoolProperty(
+        name="Denoise",
+        description="Denoise the rendered image with Intel Open Image Denoise (the copy Blender ships); "
+        "the noisy image is kept as the Noisy Image pass",
+        default=False,
+    )
     time_limit: FloatProperty(
         name="Time Limit",
         description="Stop rendering after this many seconds, even if not all samples are done "

@@ -84,6 +84,37 @@ def find_binary():
                        f"install the extension with the bundled binary, or put '{_EXE}' on PATH")
 
 
+OIDN_ENV = "CAUSTIC_OIDN"
+_OIDN_NAMES = {"linux": "libOpenImageDenoise.so.2", "darwin": "libOpenImageDenoise.2.dylib",
+               "win32": "OpenImageDenoise.dll"}
+
+
+def find_oidn():
+    """The Open Image Denoise library Blender ships, for `--denoise`, or None.
+
+    `$CAUSTIC_OIDN` is left to the binary, which reads it itself; otherwise `lib/` in the
+    folders above the bpy module (the bpy wheel) and `lib/` beside Blender's executable. None
+    lets the binary search the system and, failing that, refuse with a message naming them.
+    """
+    if os.environ.get(OIDN_ENV):
+        return None
+    name = _OIDN_NAMES.get(sys.platform, _OIDN_NAMES["linux"])
+    # The bpy wheel keeps the module at bpy/5.0/scripts/modules/bpy/ and the libraries in
+    # bpy/lib/: look in lib/ of each folder above the module (a handful of levels).
+    folders = []
+    here = os.path.dirname(os.path.abspath(bpy.__file__))
+    for _ in range(6):
+        folders.append(os.path.join(here, "lib"))
+        here = os.path.dirname(here)
+    if bpy.app.binary_path:
+        folders.append(os.path.join(os.path.dirname(bpy.app.binary_path), "lib"))
+    for folder in folders:
+        candidate = os.path.join(folder, name)
+        if os.path.isfile(candidate):
+            return candidate
+    return None
+
+
 class RunResult:
     """How a run ended: exit code, the summary and error objects, and any stray output."""
 

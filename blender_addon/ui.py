@@ -78,9 +78,19 @@ class CAUSTIC_PT_render(CausticButtonsPanel, bpy.types.Panel):
         if settings.integrator == "photon":
             layout.prop(settings, "photons")
             layout.prop(settings, "caustic_photons")
+        row = layout.row(heading="Noise Threshold")
+        row.active = settings.integrator != "sppm"
+        row.prop(settings, "use_adaptive_sampling", text="")
+        sub = row.row()
+        sub.active = settings.use_adaptive_sampling
+        sub.prop(settings, "adaptive_threshold", text="")
         col = layout.column(align=True)
-        col.prop(settings, "samples")
+        col.prop(settings, "samples", text="Max Samples" if settings.use_adaptive_sampling else "Samples")
+        sub = col.column(align=True)
+        sub.active = settings.use_adaptive_sampling
+        sub.prop(settings, "adaptive_min_samples", text="Min Samples")
         col.prop(settings, "time_limit")
+        layout.prop(settings, "use_denoising")
         layout.prop(settings, "max_bounces")
         layout.prop(settings, "light_sampler")
         layout.prop(settings, "seed")

@@ -177,6 +177,8 @@ pub struct FilmImage {
     pub albedo: Vec<[f32; 3]>,
     /// Samples per pixel taken.
     pub samples: Vec<u32>,
+    /// The Combined before denoising (`--denoise`; written as Cycles' Noisy Image), else empty.
+    pub noisy: Vec<[f32; 4]>,
 }
 
 impl FilmImage {
@@ -354,6 +356,7 @@ impl Film {
             normal: vec![[0.0; 3]; n],
             albedo: vec![[0.0; 3]; n],
             samples: vec![0; n],
+            noisy: Vec::new(),
         };
         for t in &self.tiles {
             for ty in 0..t.h {

@@ -135,6 +135,7 @@ pub fn run_one(bytes: &[u8], base_dir: &Path) -> Outcome {
             seed: 0,
             sample_offset: 0,
             filter: Filter::box_filter(1.0),
+            adaptive: None,
         };
         let integrator = Integrator::Path(PathIntegrator::new(4, true));
         let stop = AtomicBool::new(false);

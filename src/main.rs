@@ -14,13 +14,13 @@ use std::time::Duration;
 /// After the first SIGINT/SIGTERM the pipeline has this long to reach its next stop
 /// check (per photon chunk, between phases); a phase before rendering that cannot poll
 /// (decoding a texture, building the BVH or a kd-tree) is then abandoned, so that the
-/// process ends within about two seconds. Rendering and writing are never abandoned:
+/// process ends within about two seconds. Rendering, denoising and writing are never abandoned:
 /// rendering stops within a pixel's work and then writes the partial image, and cutting
 /// that write short would lose the evening's work (a 4K EXR takes seconds to write).
 const STOP_GRACE: Duration = Duration::from_millis(1500);
 
 /// Phases in which the pipeline, once stopped, is delivering its image.
-const DELIVERING: [&str; 2] = ["rendering", "writing"];
+const DELIVERING: [&str; 3] = ["rendering", "denoising", "writing"];
 
 /// Ends the process at once after a signal: removes this process's temporary files, and
 /// exits 5 if this run already put an image at the output (an interim one, which was

@@ -76,6 +76,15 @@ fn write_exr_with(out: &Path, img: &FilmImage, half: bool, chunk: Option<(&Film,
     for (i, ch) in ["R", "G", "B", "A"].iter().enumerate() {
         list.push(AnyChannel::new(format!("Combined.{ch}").as_str(), make(col4(i))));
     }
+    // The Combined before denoising, under Cycles' name for it (`--denoise` only).
+    if !img.noisy.is_empty() {
+        for (i, ch) in ["R", "G", "B", "A"].iter().enumerate() {
+            list.push(AnyChannel::new(
+                format!("Noisy Image.{ch}").as_str(),
+                make(img.noisy.iter().map(|p| p[i]).collect()),
+            ));
+        }
+    }
     // Depth stays float even in half mode: 1e10 does not fit in a half.
     list.push(AnyChannel::new("Depth.Z", FlatSamples::F32(img.depth.clone())));
     for (i, ch) in ["X", "Y", "Z"].iter().enumerate() {

@@ -26,6 +26,13 @@ def render_settings(scene, resolution, camera_name):
             settings["photons"] = int(props.photons)
         if props.caustic_photons > 0:
             settings["caustic_photons"] = int(props.caustic_photons)
+    if props.use_adaptive_sampling:
+        threshold = float(props.adaptive_threshold)
+        if threshold == 0.0:
+            # Cycles' automatic threshold (scene/integrator.cpp): max(0.001, 1 / samples).
+            threshold = max(0.001, 1.0 / int(props.samples))
+        settings["noise_threshold"] = threshold
+        settings["min_samples"] = int(props.adaptive_min_samples)
     if props.time_limit > 0.0:
         settings["time_limit"] = float(props.time_limit)
     if props.threads > 0:

@@ -305,6 +305,18 @@ pub struct RenderArgs {
     /// Light selection for next-event estimation [default: the scene's, else tree].
     #[arg(long, value_enum)]
     pub light_sampler: Option<LightSamplerArg>,
+    /// Adaptive sampling's noise threshold, as Cycles' (0 = off; path, bdpt, photon) [default: the scene's, else 0].
+    #[arg(long, value_name = "T")]
+    pub noise_threshold: Option<f32>,
+    /// Samples before adaptive sampling may stop a pixel (0 = Cycles' derivation from the threshold) [default: the scene's, else 0].
+    #[arg(long, value_name = "N")]
+    pub min_samples: Option<u32>,
+    /// Denoise the final Combined with Intel Open Image Denoise (the noisy one is kept as `Noisy Image`).
+    #[arg(long)]
+    pub denoise: bool,
+    /// The Open Image Denoise library (or its folder) for --denoise [default: $CAUSTIC_OIDN, else the system's].
+    #[arg(long, value_name = "PATH")]
+    pub oidn: Option<std::path::PathBuf>,
 }
 
 /// `caustic info`.

@@ -46,6 +46,10 @@ pub fn run_bench(args: &BenchArgs, stop: &AtomicBool) -> Result<()> {
         memory_limit: None,
         debug_delay: Vec::new(),
         light_sampler: args.light_sampler,
+        noise_threshold: None,
+        min_samples: None,
+        denoise: false,
+        oidn: None,
     };
     let reporter = Reporter::silent();
     let outcome = run_render(&render_args, &reporter, stop);

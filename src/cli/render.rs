@@ -104,7 +104,33 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         reporter.warning(&w);
         run_warnings.push(w);
     }
+    if res.adaptive.is_some() && res.integrator == IntegratorKind::Sppm {
+        // Ignored rather than refused, so that a scene saved with adaptive sampling on still
+        // renders with SPPM: the warning names what was not applied.
+        let w = "adaptive sampling (noise threshold) is ignored by SPPM: its iterations shrink every pixel's \
+                 photon radius together, so no pixel can stop on its own; every pixel takes every iteration"
+            .to_string();
+        reporter.warning(&w);
+        run_warnings.push(w);
+    }
     charge_render(&budget, args, &res, &scene)?;
+    // Loaded before rendering, so that a missing library costs no render time.
+    let denoiser = match args.denoise {
+        false => None,
+        true if args.chunk => {
+            return Err(Error::Usage(
+                "--denoise cannot write a chunk (--chunk): chunks carry sums to merge; denoise the merged frame".into(),
+            ));
+        }
+        true => {
+            let pixels = ((res.window[2] - res.window[0]) as u64) * ((res.window[3] - res.window[1]) as u64);
+            budget.charge(
+                format!("the denoiser's images for {pixels} pixels"),
+                pixels.saturating_mul(crate::denoise::BYTES_PER_PIXEL),
+            )?;
+            Some(crate::denoise::Denoiser::open(args.oidn.as_deref())?)
+        }
+    };
     if stop.load(Ordering::Relaxed) {
         return Err(Error::InterruptedEmpty);
     }
@@ -190,6 +216,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         seed: res.job_seed,
         sample_offset: res.sample_offset,
         filter: res.filter.clone(),
+        adaptive: res.adaptive,
     };
     // What every chunk of this frame must agree on (`--chunk`); the ranges are filled in per write.
     let chunk_info = match args.chunk {
@@ -253,6 +280,11 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         result.image.make_opaque();
     }
 
+    if let Some(d) = &denoiser {
+        reporter.phase("denoising", t0.elapsed().as_secs_f64());
+        pool.install(|| d.denoise(&mut result.image))?;
+    }
+
     reporter.phase("writing", t0.elapsed().as_secs_f64());
     write(&result.image, result.film.as_ref(), result.spp_max, result.light_paths)?;
     reporter.image(&out_str, result.spp_min, true);
@@ -285,6 +317,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         "black": black,
         "warnings": warnings,
         "light_sampler": res.light_sampler.name(),
+        "denoised": denoiser.as_ref().map(|d| d.source.display().to_string()),
         "integrator": integrator.describe(),
         "stats": {
             "load_profile": scene.report.profile,
@@ -300,6 +333,12 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
             "bounce_rays_per_sec": result.rays.bounce as f64 / secs,
             "shadow_rays_per_sec": result.rays.shadow as f64 / secs,
             "threads": res.threads,
+            "adaptive": res.adaptive.filter(|_| result.adaptive_active.is_some()).map(|a| json!({
+                "noise_threshold": a.noise_threshold,
+                "min_samples": a.min_samples,
+                "step": a.step,
+                "active_pixels": result.adaptive_active,
+            })),
             "photons": photon_stats,
         }
     });

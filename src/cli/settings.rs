@@ -7,6 +7,7 @@ use crate::film::Filter;
 use crate::integrator::path::PathIntegrator;
 use crate::integrator::photon::{self, MAX_K, PhotonSettings};
 use crate::light::LightSamplerKind;
+use crate::render::adaptive::Adaptive;
 use crate::scene::{self, Scene};
 use clap::ValueEnum;
 use std::time::Duration;
@@ -42,6 +43,8 @@ pub struct Resolved {
     pub light_sampler: LightSamplerKind,
     /// Index of the first sample (`--sample-offset`).
     pub sample_offset: u32,
+    /// Adaptive sampling (None: off).
+    pub adaptive: Option<Adaptive>,
 }
 
 /// Resolves the photon-mapping settings (flag > scene > default) and checks them.
@@ -245,6 +248,16 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
     if args.photon_map.is_some() && integrator != IntegratorKind::Photon {
         return Err(Error::Usage("--photon-map needs --integrator photon".into()));
     }
+    let adaptive = resolve_adaptive(args, st)?;
+    if adaptive.is_some() && (args.chunk || sample_offset != 0) {
+        // Each chunk would stop its pixels on its own samples: the merged counts would not
+        // be what one render decides, and the merge could not add them exactly.
+        return Err(Error::Usage(
+            "adaptive sampling (--noise-threshold) cannot be split into chunks (--chunk, --sample-offset): \
+             a pixel's stopping point depends on all its earlier samples; render the frame whole or set the threshold to 0"
+                .into(),
+        ));
+    }
     Ok(Resolved {
         resolution,
         window,
@@ -260,5 +273,20 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
         photon,
         light_sampler,
         sample_offset,
+        adaptive,
     })
+}
+
+/// Resolves adaptive sampling (flag > scene > off) and checks its range (Cycles' panel:
+/// threshold in [0, 1], min samples up to 4096; here up to the largest spp).
+fn resolve_adaptive(args: &RenderArgs, st: &scene::SceneSettings) -> Result<Option<Adaptive>> {
+    let threshold = args.noise_threshold.or(st.noise_threshold).unwrap_or(0.0);
+    let min_samples = args.min_samples.or(st.min_samples).unwrap_or(0);
+    if !(0.0..=1.0).contains(&threshold) {
+        return Err(Error::Usage(format!("--noise-threshold {threshold} must be in [0, 1] (0 = off)")));
+    }
+    if min_samples > MAX_SPP {
+        return Err(Error::Usage(format!("--min-samples {min_samples} is absurd (at most {MAX_SPP})")));
+    }
+    Ok((threshold > 0.0).then(|| Adaptive::new(threshold, min_samples)))
 }

@@ -25,6 +25,8 @@ pub struct RenderJob {
     pub sample_offset: u32,
     /// Pixel filter.
     pub filter: Filter,
+    /// Adaptive sampling (`--noise-threshold`); None: every pixel takes every sample.
+    pub adaptive: Option<super::adaptive::Adaptive>,
 }
 
 /// What came out.
@@ -39,6 +41,8 @@ pub struct RenderResult {
     pub spp_min: u32,
     /// Most samples any pixel got.
     pub spp_max: u32,
+    /// Pixels still taking samples when adaptive sampling stopped (None when it is off).
+    pub adaptive_active: Option<u64>,
     /// Stopped by a signal.
     pub interrupted: bool,
     /// Rendering time.

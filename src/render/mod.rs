@@ -8,6 +8,7 @@
 //! render of samples offset..offset+spp (`job.sample_offset`) takes exactly the samples a
 //! single render takes at those indices, and the film's fixed-point sums add exactly.
 
+pub mod adaptive;
 pub mod job;
 
 pub use job::{Progress, RayStats, RenderJob, RenderResult};
@@ -16,6 +17,7 @@ use crate::film::{Film, SplatPool};
 use crate::integrator::{Integrator, SceneContext};
 use crate::sampling::PixelSampler;
 use crate::scene::camera::CameraRays;
+use adaptive::AdaptiveFilm;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
@@ -25,6 +27,10 @@ pub const TILE_SIZE: u32 = 32;
 
 /// Largest pass, in samples per pixel.
 const MAX_PASS: u32 = 16;
+
+// Adaptive sampling tests convergence after multiples of its step: the passes (1, 1, 2, 4,
+// 8, then MAX_PASS each) end on every multiple of MAX_PASS, so the step must be one of them.
+const _: () = assert!(adaptive::ADAPTIVE_STEP.is_multiple_of(MAX_PASS));
 
 /// Per-tile counters, summed after each pass.
 #[derive(Default, Clone, Copy)]
@@ -67,10 +73,14 @@ fn progressive(
 ) -> RenderResult {
     let [x0, y0, x1, y1] = job.window;
     let mut film = Film::new(x1 - x0, y1 - y0, TILE_SIZE);
+    // Adaptive sampling: the class-A half sums and converged flags, one tile per film tile.
+    let mut adaptive = AdaptiveFilm::new(&film, job.adaptive);
     let pixels = ((x1 - x0) as u64) * ((y1 - y0) as u64);
     let start = Instant::now();
     let deadline = job.time_limit.map(|t| start + t);
     let samples_done_px = AtomicU64::new(0);
+    // Samples the render will take in all (pixels × spp, lowered as pixels converge).
+    let samples_expected_px = AtomicU64::new(job.spp.map_or(0, |s| s as u64 * pixels));
     let rays_done = AtomicU64::new(0);
     let timed_out = AtomicBool::new(false);
     let finished = AtomicBool::new(false);
@@ -88,7 +98,8 @@ fn progressive(
             while !finished.load(Ordering::Relaxed) {
                 let elapsed = start.elapsed().as_secs_f64();
                 let done = samples_done_px.load(Ordering::Relaxed) as f64;
-                let by_samples = job.spp.map(|s| done / (s as f64 * pixels as f64));
+                let expected = samples_expected_px.load(Ordering::Relaxed) as f64;
+                let by_samples = job.spp.map(|_| done / expected.max(1.0));
                 let by_time = job.time_limit.map(|t| elapsed / t.as_secs_f64());
                 let fraction = match (by_samples, by_time) {
                     (Some(a), Some(b)) => a.max(b),
@@ -122,7 +133,8 @@ fn progressive(
             let tile_stats: Vec<TileStats> = film
                 .tiles
                 .par_iter_mut()
-                .map(|tile| {
+                .zip(adaptive.tiles.par_iter_mut())
+                .map(|(tile, adaptive_tile)| {
                     let mut ts = TileStats::default();
                     // Per-tile working memory (bidirectional: splat buffer, subpath vertices).
                     let mut scratch = integrator.tile_scratch(&splats);
@@ -137,8 +149,12 @@ fn progressive(
                                 timed_out.store(true, Ordering::Relaxed);
                                 break;
                             }
+                            let k = (ty * tile.w + tx) as usize;
+                            if !adaptive_tile.active(k) {
+                                continue; // converged: adaptive sampling stopped this pixel
+                            }
                             let (px, py) = (x0 + tile.x0 + tx, y0 + tile.y0 + ty);
-                            let acc = &mut tile.pixels[(ty * tile.w + tx) as usize];
+                            let acc = &mut tile.pixels[k];
                             let rays_before = ts.rays.total();
                             // Sample numbers continue after the offset: a chunk takes the samples a
                             // single render would take at those numbers, camera and light streams alike.
@@ -159,7 +175,9 @@ fn progressive(
                                     &mut ts.rays,
                                 );
                                 ts.light_paths += integrator.light_paths_per_sample();
-                                if !acc.add(&s) {
+                                if acc.add(&s) {
+                                    adaptive_tile.add(k, i, &s);
+                                } else {
                                     ts.nan += 1;
                                 }
                             }
@@ -183,7 +201,17 @@ fn progressive(
                 break;
             }
             spp_done += n;
+            let active_before = adaptive.active;
+            let active = adaptive.update(&film, spp_done);
+            if active != active_before {
+                // Converged pixels take no more samples: the progress counts only what is left.
+                let done = samples_done_px.load(Ordering::Relaxed);
+                samples_expected_px.store(done + active * (target - spp_done) as u64, Ordering::Relaxed);
+            }
             on_pass(&film, spp_done);
+            if active == 0 {
+                break; // every pixel converged
+            }
             pass = (pass * 2).min(MAX_PASS);
             if spp_done == n {
                 pass = 1; // the second pass is 1 spp too: a quick refinement
@@ -202,6 +230,7 @@ fn progressive(
         nan_samples: stats.nan,
         spp_min,
         spp_max,
+        adaptive_active: job.adaptive.map(|_| adaptive.active),
         interrupted: stop.load(Ordering::Relaxed),
         light_paths: film.light_paths,
         splats: splat_count,

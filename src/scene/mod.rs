@@ -73,6 +73,10 @@ pub struct SceneSettings {
     pub sppm_radius: Option<f32>,
     /// Light selection for next-event estimation: "tree" or "power".
     pub light_sampler: Option<String>,
+    /// Adaptive sampling's noise threshold (0 = off).
+    pub noise_threshold: Option<f32>,
+    /// Adaptive sampling's minimum samples (0 = derived from the threshold).
+    pub min_samples: Option<u32>,
 }
 
 /// Counts and per-material features for `caustic info`.

@@ -209,6 +209,8 @@ fn run(job: Job, out: &Output, stop: &AtomicBool) -> Option<Arc<Integrator>> {
             seed: s.seed,
             sample_offset: 0,
             filter: s.filter.clone(),
+            // The viewport refines every pixel alike: a frame is shown after every pass.
+            adaptive: None,
         };
         let on_progress = |p: &render::Progress| {
             out.send(

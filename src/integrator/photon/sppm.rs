@@ -382,6 +382,7 @@ fn render(
             nan_samples: nan,
             spp_min: st.iterations,
             spp_max: st.iterations,
+            adaptive_active: None,
             interrupted: stop.load(Ordering::Relaxed),
             elapsed: start.elapsed(),
             light_paths: 0,
@@ -404,6 +405,7 @@ fn image(states: &[PixelState], w: u32, h: u32, iters: u32) -> FilmImage {
         normal: vec![[0.0; 3]; n],
         albedo: vec![[0.0; 3]; n],
         samples: vec![iters; n],
+        noisy: Vec::new(),
     };
     if iters == 0 {
         return img;
