@@ -76,7 +76,7 @@ pub fn f0_from_ior(ior: f32) -> f32 {
 }
 
 /// The glTF material's factors at a shading point (textures already applied).
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PbrParams {
     /// Base colour.
     pub base: Rgb,
@@ -128,6 +128,13 @@ pub struct PbrParams {
 }
 
 impl PbrParams {
+    /// Equal in every factor but the base colour: the BSDF built from `self` is then
+    /// `PbrBsdf::without_base(other).with_base(self.base)`.
+    #[inline]
+    pub fn same_but_base(&self, other: &PbrParams) -> bool {
+        PbrParams { base: other.base, ..*self } == *other
+    }
+
     /// An opaque dielectric/metal without the extensions.
     pub fn opaque(base: Rgb, metallic: f32, roughness: f32) -> Self {
         PbrParams {
@@ -191,6 +198,10 @@ pub struct PbrBsdf {
     layer_avg: Rgb,
     /// F_ms per channel of the metal's multiple-scattering compensation (zero: off).
     metal_fms: Rgb,
+    /// Mean albedo E_avg = A_avg + B_avg of the reflection lobes (the metal's F_ms needs it).
+    e_avg: f32,
+    /// The glass part restores multiple scattering (its F_ms depends on the base colour).
+    glass_ms: bool,
 
     /// The coat is a perfect mirror.
     pub smooth_coat: bool,
@@ -242,8 +253,15 @@ impl PbrBsdf {
     }
 
     /// The full material from its parameters (clamped to their valid ranges).
+    #[inline]
     pub fn from_params(p: &PbrParams) -> Self {
-        let base = p.base.clamp(Vec3::ZERO, Vec3::ONE);
+        Self::without_base(p).with_base(p.base)
+    }
+
+    /// The material from every parameter but `p.base`, which `with_base` then supplies:
+    /// a material whose other factors are the same at every hit builds this once, and
+    /// the base colour (times the vertex colour) is all that varies.
+    pub fn without_base(p: &PbrParams) -> Self {
         let roughness = p.roughness.clamp(0.0, 1.0);
         let ior = if p.ior.is_finite() && p.ior >= 1.0 { p.ior } else { 1.5 };
         let f0 = f0_from_ior(ior).min(1.0);
@@ -275,16 +293,12 @@ impl PbrBsdf {
             }
             None => (Ggx::from_roughness(roughness), None, roughness < SMOOTH_ROUGHNESS),
         };
-        let mut glass = DielectricBsdf::new(p.eta, roughness, p.thin, base);
+        let mut glass = DielectricBsdf::new(p.eta, roughness, p.thin, Rgb::ZERO);
         if p.dispersion > 0.0 && p.dispersion.is_finite() && !p.thin {
             glass = glass.with_dispersion(ior, p.dispersion);
         }
-        // Only materials that show the glass pay for its table.
-        if p.transmission > 0.0 && p.metallic < 1.0 {
-            glass = glass.with_multiscatter();
-        }
         PbrBsdf {
-            base,
+            base: Rgb::ZERO,
             metallic: p.metallic.clamp(0.0, 1.0),
             roughness,
             specular: p.specular.clamp(0.0, 1.0),
@@ -300,6 +314,9 @@ impl PbrBsdf {
             smooth_coat: p.coat_roughness < SMOOTH_ROUGHNESS,
             layer_avg: Rgb::ZERO,
             metal_fms: Rgb::ZERO,
+            e_avg: 0.0,
+            // Only materials that show the glass pay for its table.
+            glass_ms: p.transmission > 0.0 && p.metallic < 1.0,
             coat_frame,
             diffuse_frame,
             aniso,
@@ -321,9 +338,23 @@ impl PbrBsdf {
             None => specular_albedo().ab_avg(self.roughness),
         };
         self.layer_avg = (self.f0_rgb * a + Vec3::splat(b)) * self.specular;
+        self.e_avg = a + b;
+        self
+    }
+
+    /// This material with base colour `base` (clamped to [0, 1]): the glass part's tint
+    /// and the base colour's multiple-scattering terms, the only ones that read it.
+    #[inline]
+    pub fn with_base(mut self, base: Rgb) -> Self {
+        let base = base.clamp(Vec3::ZERO, Vec3::ONE);
+        self.base = base;
+        self.glass.tint = base;
+        if self.glass_ms {
+            self.glass = self.glass.with_multiscatter();
+        }
         if self.metallic > 0.0 && !self.smooth {
-            let e_avg = a + b;
-            let f_avg = self.base + (Vec3::ONE - self.base) / 21.0;
+            let e_avg = self.e_avg;
+            let f_avg = base + (Vec3::ONE - base) / 21.0;
             self.metal_fms = f_avg * e_avg / (Vec3::ONE - f_avg * (1.0 - e_avg)).max(Vec3::splat(1e-6));
         }
         self

@@ -194,7 +194,7 @@ impl JensenIntegrator {
                 Step::Surface { hit, s } => (hit, s),
             };
             let wo = -st.dir;
-            let sp = ctx.scene.shade(&s, wo);
+            let sp = ctx.shade(&s, wo);
             if st.depth == 0 {
                 out.alpha = 1.0;
                 out.depth = depth_of(s.p);
@@ -344,7 +344,7 @@ impl JensenIntegrator {
                 Step::Surface { hit, s } => (hit, s),
             };
             let wo = -st.dir;
-            let sp = ctx.scene.shade(&s, wo);
+            let sp = ctx.shade(&s, wo);
             if !caustic {
                 l += st.surface_emission(ctx, &hit, &s, &sp);
             }

@@ -484,7 +484,7 @@ fn camera_path(
             Step::Surface { hit, s } => (hit, s),
         };
         let wo = -st.dir;
-        let sp = ctx.scene.shade(&s, wo);
+        let sp = ctx.shade(&s, wo);
         if st.depth == 0 {
             first_t = s.t;
             pend.alpha += 1.0;
