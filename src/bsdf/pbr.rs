@@ -129,7 +129,7 @@ pub struct PbrParams {
 
 impl PbrParams {
     /// Equal in every factor but the base colour: the BSDF built from `self` is then
-    /// `PbrBsdf::without_base(other).with_base(self.base)`.
+    /// `PbrBsdf::without_base(other)` `.with_base(self.base)`.
     #[inline]
     pub fn same_but_base(&self, other: &PbrParams) -> bool {
         PbrParams { base: other.base, ..*self } == *other
@@ -343,21 +343,25 @@ impl PbrBsdf {
     }
 
     /// This material with base colour `base` (clamped to [0, 1]): the glass part's tint
-    /// and the base colour's multiple-scattering terms, the only ones that read it.
-    #[inline]
-    pub fn with_base(mut self, base: Rgb) -> Self {
+    /// and the base colour's multiple-scattering terms are the only ones that read it.
+    /// Built as one struct update from `self`, so that the caller's copy of this large
+    /// BSDF lands where it is returned (separate copies showed in the profile).
+    #[inline(always)]
+    pub fn with_base(&self, base: Rgb) -> Self {
         let base = base.clamp(Vec3::ZERO, Vec3::ONE);
-        self.base = base;
-        self.glass.tint = base;
+        let mut glass = self.glass;
+        glass.tint = base;
         if self.glass_ms {
-            self.glass = self.glass.with_multiscatter();
+            glass = glass.with_multiscatter();
         }
-        if self.metallic > 0.0 && !self.smooth {
+        let metal_fms = if self.metallic > 0.0 && !self.smooth {
             let e_avg = self.e_avg;
             let f_avg = base + (Vec3::ONE - base) / 21.0;
-            self.metal_fms = f_avg * e_avg / (Vec3::ONE - f_avg * (1.0 - e_avg)).max(Vec3::splat(1e-6));
-        }
-        self
+            f_avg * e_avg / (Vec3::ONE - f_avg * (1.0 - e_avg)).max(Vec3::splat(1e-6))
+        } else {
+            self.metal_fms
+        };
+        PbrBsdf { base, glass, metal_fms, ..*self }
     }
 
     /// (A, B) of the reflection lobes' albedo E = F0·A + B seen from local direction `w`.

@@ -153,8 +153,9 @@ impl Scene {
     }
 
     /// The glTF parameters of a material without a shader graph at a hit (textures read,
-    /// normal mapped and bent) and the shading frame.
-    #[inline]
+    /// normal mapped and bent) and the shading frame. Always inlined: returned from a
+    /// call, the parameters were copied once more (callgrind).
+    #[inline(always)]
     fn pbr_params(&self, s: &SurfaceHit, wo: Vec3) -> (PbrParams, Frame) {
         let mat = &self.materials[s.material as usize];
         let tex = &self.textures;
