@@ -325,10 +325,21 @@ mod tests {
     fn constant_bsdf_is_the_shaded_one() {
         let materials = vec![
             Material::default(),
-            Material { base_color: glam::Vec4::new(0.8, 0.3, 0.2, 1.0), metallic: 0.0, roughness: 0.5, ..Default::default() },
+            Material {
+                base_color: glam::Vec4::new(0.8, 0.3, 0.2, 1.0),
+                metallic: 0.0,
+                roughness: 0.5,
+                ..Default::default()
+            },
             Material { metallic: 0.6, roughness: 0.3, ..Default::default() },
             Material { metallic: 0.0, roughness: 0.2, transmission: 0.9, ior: 1.45, ..Default::default() },
-            Material { metallic: 0.0, coat: 0.7, coat_roughness: 0.1, sheen_color: Vec3::splat(0.5), ..Default::default() },
+            Material {
+                metallic: 0.0,
+                coat: 0.7,
+                coat_roughness: 0.1,
+                sheen_color: Vec3::splat(0.5),
+                ..Default::default()
+            },
             Material { metallic: 0.0, anisotropy_strength: 0.6, ..Default::default() },
             Material { unlit: true, ..Default::default() },
         ];
