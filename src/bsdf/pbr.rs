@@ -75,87 +75,6 @@ pub fn f0_from_ior(ior: f32) -> f32 {
     r * r
 }
 
-/// The glTF material's factors at a shading point (textures already applied).
-#[derive(Clone, Copy, Debug)]
-pub struct PbrParams {
-    /// Base colour.
-    pub base: Rgb,
-    /// Metalness.
-    pub metallic: f32,
-    /// Perceptual roughness.
-    pub roughness: f32,
-    /// `KHR_materials_specular` specularFactor (weight of the dielectric reflection).
-    pub specular: f32,
-    /// `KHR_materials_ior` (1.5 by default).
-    pub ior: f32,
-    /// `KHR_materials_transmission` transmissionFactor.
-    pub transmission: f32,
-    /// Thin-walled (no `KHR_materials_volume`, or thickness 0).
-    pub thin: bool,
-    /// Relative IOR across the surface for the transmission lobe: `ior` when entering,
-    /// `1 / ior` when leaving (decided by the caller from the geometric normal).
-    pub eta: f32,
-    /// `KHR_materials_clearcoat` clearcoatFactor (weight of the coat layer).
-    pub coat: f32,
-    /// clearcoatRoughness.
-    pub coat_roughness: f32,
-    /// The coat's own normal in the shading frame (clearcoatNormalTexture), if it differs.
-    pub coat_normal: Option<Vec3>,
-    /// Index of refraction of the coat (Blender's Coat IOR; glTF's is 1.5).
-    pub coat_ior: f32,
-    /// Colour of the coat's absorption at normal incidence (Blender's Coat Tint).
-    pub coat_tint: Rgb,
-    /// `KHR_materials_specular` specularColorFactor (tints the dielectric layer's F0).
-    pub specular_color: Rgb,
-    /// `KHR_materials_sheen` sheenColorFactor (black: no sheen).
-    pub sheen_color: Rgb,
-    /// sheenRoughnessFactor.
-    pub sheen_roughness: f32,
-    /// `KHR_materials_dispersion` (20 / Abbe number; 0: none).
-    pub dispersion: f32,
-    /// Subsurface weight: the part of the diffuse base that scatters below the
-    /// surface instead (sampled by the integrator's random walk, not by this BSDF).
-    pub subsurface: f32,
-    /// The diffuse base's own normal in the shading frame, when the frame's normal was
-    /// bent for the specular lobes and this one was not.
-    pub diffuse_normal: Option<Vec3>,
-    /// The interpolated normal before normal mapping, in the shading frame, when a normal
-    /// map changed it (the diffuse base's bump shadowing).
-    pub smooth_normal: Option<Vec3>,
-    /// Anisotropic widths (αx, αy) of the metal's and the specular layer's GGX along the
-    /// shading frame's X and Y axes, replacing roughness² there.
-    pub anisotropy: Option<(f32, f32)>,
-}
-
-impl PbrParams {
-    /// An opaque dielectric/metal without the extensions.
-    pub fn opaque(base: Rgb, metallic: f32, roughness: f32) -> Self {
-        PbrParams {
-            base,
-            metallic,
-            roughness,
-            specular: 1.0,
-            ior: 1.5,
-            transmission: 0.0,
-            thin: true,
-            eta: 1.5,
-            coat: 0.0,
-            coat_roughness: 0.0,
-            coat_normal: None,
-            coat_ior: 1.5,
-            coat_tint: Rgb::ONE,
-            specular_color: Rgb::ONE,
-            sheen_color: Rgb::ZERO,
-            sheen_roughness: 0.0,
-            dispersion: 0.0,
-            subsurface: 0.0,
-            diffuse_normal: None,
-            smooth_normal: None,
-            anisotropy: None,
-        }
-    }
-}
-
 /// The glTF material BSDF: a metal, an opaque dielectric (specular over diffuse) and a
 /// transmissive dielectric (glass), mixed by metallic and transmission as the glTF
 /// spec and Blender's Principled BSDF mix them.
@@ -191,6 +110,10 @@ pub struct PbrBsdf {
     layer_avg: Rgb,
     /// F_ms per channel of the metal's multiple-scattering compensation (zero: off).
     metal_fms: Rgb,
+    /// Mean albedo E_avg = A_avg + B_avg of the reflection lobes (the metal's F_ms needs it).
+    e_avg: f32,
+    /// The glass part restores multiple scattering (its F_ms depends on the base colour).
+    glass_ms: bool,
 
     /// The coat is a perfect mirror.
     pub smooth_coat: bool,
@@ -242,8 +165,15 @@ impl PbrBsdf {
     }
 
     /// The full material from its parameters (clamped to their valid ranges).
+    #[inline]
     pub fn from_params(p: &PbrParams) -> Self {
-        let base = p.base.clamp(Vec3::ZERO, Vec3::ONE);
+        Self::without_base(p).with_base(p.base)
+    }
+
+    /// The material from every parameter but `p.base`, which `with_base` then supplies:
+    /// a material whose other factors are the same at every hit builds this once, and
+    /// the base colour (times the vertex colour) is all that varies.
+    pub fn without_base(p: &PbrParams) -> Self {
         let roughness = p.roughness.clamp(0.0, 1.0);
         let ior = if p.ior.is_finite() && p.ior >= 1.0 { p.ior } else { 1.5 };
         let f0 = f0_from_ior(ior).min(1.0);
@@ -275,16 +205,12 @@ impl PbrBsdf {
             }
             None => (Ggx::from_roughness(roughness), None, roughness < SMOOTH_ROUGHNESS),
         };
-        let mut glass = DielectricBsdf::new(p.eta, roughness, p.thin, base);
+        let mut glass = DielectricBsdf::new(p.eta, roughness, p.thin, Rgb::ZERO);
         if p.dispersion > 0.0 && p.dispersion.is_finite() && !p.thin {
             glass = glass.with_dispersion(ior, p.dispersion);
         }
-        // Only materials that show the glass pay for its table.
-        if p.transmission > 0.0 && p.metallic < 1.0 {
-            glass = glass.with_multiscatter();
-        }
         PbrBsdf {
-            base,
+            base: Rgb::ZERO,
             metallic: p.metallic.clamp(0.0, 1.0),
             roughness,
             specular: p.specular.clamp(0.0, 1.0),
@@ -300,6 +226,9 @@ impl PbrBsdf {
             smooth_coat: p.coat_roughness < SMOOTH_ROUGHNESS,
             layer_avg: Rgb::ZERO,
             metal_fms: Rgb::ZERO,
+            e_avg: 0.0,
+            // Only materials that show the glass pay for its table.
+            glass_ms: p.transmission > 0.0 && p.metallic < 1.0,
             coat_frame,
             diffuse_frame,
             aniso,
@@ -321,12 +250,30 @@ impl PbrBsdf {
             None => specular_albedo().ab_avg(self.roughness),
         };
         self.layer_avg = (self.f0_rgb * a + Vec3::splat(b)) * self.specular;
-        if self.metallic > 0.0 && !self.smooth {
-            let e_avg = a + b;
-            let f_avg = self.base + (Vec3::ONE - self.base) / 21.0;
-            self.metal_fms = f_avg * e_avg / (Vec3::ONE - f_avg * (1.0 - e_avg)).max(Vec3::splat(1e-6));
-        }
+        self.e_avg = a + b;
         self
+    }
+
+    /// This material with base colour `base` (clamped to [0, 1]): the glass part's tint
+    /// and the base colour's multiple-scattering terms are the only ones that read it.
+    /// Built as one struct update from `self`, so that the caller's copy of this large
+    /// BSDF lands where it is returned (separate copies showed in the profile).
+    #[inline(always)]
+    pub fn with_base(&self, base: Rgb) -> Self {
+        let base = base.clamp(Vec3::ZERO, Vec3::ONE);
+        let mut glass = self.glass;
+        glass.tint = base;
+        if self.glass_ms {
+            glass = glass.with_multiscatter();
+        }
+        let metal_fms = if self.metallic > 0.0 && !self.smooth {
+            let e_avg = self.e_avg;
+            let f_avg = base + (Vec3::ONE - base) / 21.0;
+            f_avg * e_avg / (Vec3::ONE - f_avg * (1.0 - e_avg)).max(Vec3::splat(1e-6))
+        } else {
+            self.metal_fms
+        };
+        PbrBsdf { base, glass, metal_fms, ..*self }
     }
 
     /// (A, B) of the reflection lobes' albedo E = F0·A + B seen from local direction `w`.
@@ -678,7 +625,9 @@ fn flip_to_upper(wo: Vec3, wi: Vec3) -> (Vec3, Vec3) {
     if wo.z < 0.0 { (Vec3::new(wo.x, wo.y, -wo.z), Vec3::new(wi.x, wi.y, -wi.z)) } else { (wo, wi) }
 }
 
+mod params;
 mod view;
+pub use params::PbrParams;
 pub use view::PbrAt;
 
 #[cfg(test)]

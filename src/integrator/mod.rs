@@ -23,7 +23,7 @@ use crate::sampling::PixelSampler;
 use crate::sampling::warp::uniform_cone_pdf;
 use crate::scene::camera::CameraRay;
 use crate::scene::camera::CameraRays;
-use crate::scene::shading::SurfaceHit;
+use crate::scene::shading::{ConstantBsdf, ShadingPoint, SurfaceHit};
 use crate::scene::visibility::RayMask;
 use crate::scene::{AlphaMode, Scene};
 use glam::{Vec2, Vec3};
@@ -61,6 +61,8 @@ pub struct SceneContext<'a> {
     /// Some material's Transparent BSDF is coloured: shadow rays then take the per-channel
     /// route (`media::light_transmittance`), as with media.
     pub tinted_shadows: bool,
+    /// Per material, its BSDF built once when it reads no texture (`Scene::constant_bsdf`).
+    constant_bsdfs: Vec<Option<ConstantBsdf>>,
 }
 
 /// Power heuristic (β = 2) of Veach; 0 when the weights are not finite.
@@ -126,6 +128,7 @@ impl<'a> SceneContext<'a> {
             suns,
             has_media: scene.world_medium.is_some()
                 || scene.materials.iter().any(|m| m.medium.is_some() || m.subsurface.is_some()),
+            constant_bsdfs: (0..scene.materials.len() as u32).map(|m| scene.constant_bsdf(m)).collect(),
             camera_media: MediumStack::default(),
             tinted_shadows: scene.materials.iter().any(|m| m.nodes.as_ref().is_some_and(|p| p.tinted_transparency)),
         }
@@ -214,6 +217,12 @@ impl<'a> SceneContext<'a> {
     #[inline]
     fn sees(&self, ray: RayMask, tri: u32) -> bool {
         self.visibility.get(tri as usize).is_none_or(|m| ray.meets(*m))
+    }
+
+    /// The material at a hit (`Scene::shade`), with texture-free materials' BSDFs built once.
+    #[inline]
+    pub fn shade(&self, s: &SurfaceHit, wo: Vec3) -> ShadingPoint {
+        self.scene.shade_with(s, wo, self.constant_bsdfs.get(s.material as usize).and_then(Option::as_ref))
     }
 
     /// Emission of lights that are not scene geometry (area and sphere lights) crossed by

@@ -224,7 +224,7 @@ impl PathIntegrator {
             }
             let wo = -st.dir;
             let mat = &ctx.scene.materials[s.material as usize];
-            let sp = ctx.scene.shade(&s, wo);
+            let sp = ctx.shade(&s, wo);
             if st.depth == 0 {
                 out.alpha = 1.0;
                 out.depth = depth_of(s.p);

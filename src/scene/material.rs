@@ -186,6 +186,72 @@ pub struct Subsurface {
 }
 
 impl Material {
+    /// Every texture the material's glTF parameters read, in one place: the fields are
+    /// destructured without `..`, so a field added to `Material` does not compile until
+    /// it is named here as a texture or not (and so can never be missed by what relies
+    /// on this list, such as the shading's texture-free fast path).
+    pub fn textures(&self) -> [Option<TexRef>; 13] {
+        let Material {
+            name: _,
+            base_color: _,
+            base_color_tex,
+            metallic: _,
+            roughness: _,
+            metallic_roughness_tex,
+            normal_tex,
+            normal_scale: _,
+            emissive: _,
+            emissive_tex,
+            anisotropy_strength: _,
+            anisotropy_rotation: _,
+            anisotropy_tex,
+            anisotropy_blender: _,
+            unlit: _,
+            specular: _,
+            specular_tex,
+            specular_color: _,
+            specular_color_tex,
+            ior: _,
+            transmission: _,
+            transmission_tex,
+            coat: _,
+            coat_tex,
+            coat_roughness: _,
+            coat_roughness_tex,
+            coat_ior: _,
+            coat_tint: _,
+            coat_normal_tex,
+            coat_normal_scale: _,
+            sheen_color: _,
+            sheen_color_tex,
+            sheen_roughness: _,
+            sheen_roughness_tex,
+            dispersion: _,
+            medium: _,
+            null_surface: _,
+            subsurface: _,
+            alpha_mode: _,
+            double_sided: _,
+            // Not a texture: a shader graph replaces every parameter above.
+            nodes: _,
+        } = self;
+        [
+            *base_color_tex,
+            *metallic_roughness_tex,
+            *normal_tex,
+            *emissive_tex,
+            *anisotropy_tex,
+            *specular_tex,
+            *specular_color_tex,
+            *transmission_tex,
+            *coat_tex,
+            *coat_roughness_tex,
+            *coat_normal_tex,
+            *sheen_color_tex,
+            *sheen_roughness_tex,
+        ]
+    }
+
     /// True when the material emits light.
     pub fn is_emissive(&self) -> bool {
         self.emissive.max_element() > 0.0

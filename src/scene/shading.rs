@@ -11,7 +11,7 @@ use crate::accel::Hit;
 use crate::bsdf::pbr::PbrParams;
 use crate::bsdf::{Bsdf, PbrBsdf};
 use crate::math::{Frame, Rgb};
-use glam::{Vec2, Vec3};
+use glam::{Vec2, Vec3, Vec4};
 
 impl Scene {
     /// Texture coordinates and vertex attributes interpolated at barycentrics.
@@ -97,10 +97,67 @@ impl Scene {
     /// Evaluates the material at a hit: BSDF, shading frame and emission.
     #[inline]
     pub fn shade(&self, s: &SurfaceHit, wo: Vec3) -> ShadingPoint {
+        self.shade_with(s, wo, None)
+    }
+
+    /// `shade`, taking the BSDF from `constant` (the material's `constant_bsdf`) when the
+    /// hit's parameters are the ones it was built from but for the base colour: the same
+    /// BSDF bit for bit, without rebuilding what does not change from hit to hit.
+    #[inline]
+    pub fn shade_with(&self, s: &SurfaceHit, wo: Vec3, constant: Option<&ConstantBsdf>) -> ShadingPoint {
         let mat = &self.materials[s.material as usize];
         if let Some(prog) = &mat.nodes {
             return crate::shader::shade::shade_nodes(self, prog, s, wo, mat.double_sided);
         }
+        let (params, frame) = self.pbr_params(s, wo);
+        let emitted = if mat.is_emissive() && (s.front || mat.double_sided) {
+            mat.emission(&self.textures, s.uv, s.color)
+        } else {
+            Rgb::ZERO
+        };
+        let side = s.front as usize;
+        let bsdf = match constant {
+            Some(c) if params.same_but_base(&c.params[side]) => c.bsdf[side].with_base(params.base),
+            _ => PbrBsdf::from_params(&params),
+        };
+        ShadingPoint { bsdf: Bsdf::Pbr(bsdf), frame, emitted }
+    }
+
+    /// The BSDF of material `m` built once per side, when the material reads no texture
+    /// (`Material::textures`, the one list of them) and has no shader graph; None otherwise.
+    pub fn constant_bsdf(&self, m: u32) -> Option<ConstantBsdf> {
+        let mat = self.materials.get(m as usize)?;
+        if mat.nodes.is_some() || mat.textures().iter().any(Option::is_some) {
+            return None;
+        }
+        let side = |front: bool| {
+            // A hit seen head-on whose interpolated normal is the geometric one: no
+            // normal is bent and there is no tangent, so nothing per-hit enters but the
+            // base colour (which `with_base` supplies).
+            let s = SurfaceHit {
+                p: Vec3::ZERO,
+                ng: Vec3::Z,
+                ns: Vec3::Z,
+                tangent: Vec4::ZERO,
+                uv: [Vec2::ZERO; 2],
+                color: Vec4::ONE,
+                material: m,
+                tri: 0,
+                front,
+                t: 1.0,
+            };
+            self.pbr_params(&s, Vec3::Z).0
+        };
+        let params = [side(false), side(true)];
+        Some(ConstantBsdf { params, bsdf: params.map(|p| PbrBsdf::without_base(&p)) })
+    }
+
+    /// The glTF parameters of a material without a shader graph at a hit (textures read,
+    /// normal mapped and bent) and the shading frame. Always inlined: returned from a
+    /// call, the parameters were copied once more (callgrind).
+    #[inline(always)]
+    fn pbr_params(&self, s: &SurfaceHit, wo: Vec3) -> (PbrParams, Frame) {
+        let mat = &self.materials[s.material as usize];
         let tex = &self.textures;
         let lookup = |t: &crate::scene::TexRef| tex[t.texture as usize].lookup(t.uv(s.uv[t.tex_coord as usize]));
         let mut base = mat.base_color.truncate() * s.color.truncate();
@@ -178,11 +235,6 @@ impl Scene {
                 });
             }
         }
-        let emitted = if mat.is_emissive() && (s.front || mat.double_sided) {
-            mat.emission(tex, s.uv, s.color)
-        } else {
-            Rgb::ZERO
-        };
         let mut transmission = mat.transmission;
         if let Some(t) = &mat.transmission_tex {
             transmission *= lookup(t).x;
@@ -248,6 +300,81 @@ impl Scene {
         // An unlit surface only shows its colour (the emission above): it reflects nothing.
         let params =
             if mat.unlit { PbrParams { specular: 0.0, ..PbrParams::opaque(Rgb::ZERO, 0.0, 1.0) } } else { params };
-        ShadingPoint { bsdf: Bsdf::Pbr(PbrBsdf::from_params(&params)), frame, emitted }
+        (params, frame)
+    }
+}
+
+/// A texture-free material's BSDF on each side (indexed by `SurfaceHit::front`) without
+/// its base colour, and the parameters it was built from (`Scene::constant_bsdf`).
+#[derive(Clone, Debug)]
+pub struct ConstantBsdf {
+    params: [PbrParams; 2],
+    bsdf: [PbrBsdf; 2],
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::Material;
+
+    /// For texture-free materials of every kind the glTF path builds, the BSDF taken from
+    /// `constant_bsdf` is the one `shade` builds, bit for bit (compared through `Debug`,
+    /// which prints each f32 exactly), at hits with vertex colours, tilted shading normals
+    /// (some bent) and tangents; and the fast path is taken at most of them.
+    #[test]
+    fn constant_bsdf_is_the_shaded_one() {
+        let materials = vec![
+            Material::default(),
+            Material {
+                base_color: glam::Vec4::new(0.8, 0.3, 0.2, 1.0),
+                metallic: 0.0,
+                roughness: 0.5,
+                ..Default::default()
+            },
+            Material { metallic: 0.6, roughness: 0.3, ..Default::default() },
+            Material { metallic: 0.0, roughness: 0.2, transmission: 0.9, ior: 1.45, ..Default::default() },
+            Material {
+                metallic: 0.0,
+                coat: 0.7,
+                coat_roughness: 0.1,
+                sheen_color: Vec3::splat(0.5),
+                ..Default::default()
+            },
+            Material { metallic: 0.0, anisotropy_strength: 0.6, ..Default::default() },
+            Material { unlit: true, ..Default::default() },
+        ];
+        let scene = Scene { materials, ..Default::default() };
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut rnd = move || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((state >> 40) as f32 + 0.5) / (1u64 << 24) as f32
+        };
+        let (mut fast, mut total) = (0, 0);
+        for m in 0..scene.materials.len() as u32 {
+            let constant = scene.constant_bsdf(m).expect("texture-free material");
+            for i in 0..400 {
+                let tilt = if i % 2 == 0 { 0.0 } else { 0.4 };
+                let ns = Vec3::new(tilt * (rnd() - 0.5), tilt * (rnd() - 0.5), 1.0).normalize();
+                let wo = Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd()).normalize();
+                let s = SurfaceHit {
+                    p: Vec3::ZERO,
+                    ng: Vec3::Z,
+                    ns,
+                    tangent: if i % 3 == 0 { Vec4::ZERO } else { Vec4::new(1.0, 0.0, 0.0, 1.0) },
+                    uv: [Vec2::ZERO; 2],
+                    color: Vec4::new(rnd(), rnd(), rnd(), 1.0) * 0.5 + Vec4::splat(0.5),
+                    material: m,
+                    tri: 0,
+                    front: i % 4 < 2,
+                    t: 1.0,
+                };
+                let want = format!("{:?}", scene.shade(&s, wo).bsdf);
+                let got = format!("{:?}", scene.shade_with(&s, wo, Some(&constant)).bsdf);
+                assert_eq!(got, want, "material {m}, hit {i}");
+                total += 1;
+                fast += scene.pbr_params(&s, wo).0.same_but_base(&constant.params[s.front as usize]) as u32;
+            }
+        }
+        assert!(fast * 2 > total, "fast path taken at {fast} of {total} hits");
     }
 }

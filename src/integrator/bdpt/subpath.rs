@@ -102,7 +102,7 @@ impl BdptIntegrator {
             };
             let wo = -dir;
             let mat = &ctx.scene.materials[s.material as usize];
-            let sp = ctx.scene.shade(&s, wo);
+            let sp = ctx.shade(&s, wo);
             // Subsurface scattering is path traced from here (the BSDF holds the rest of
             // the material: its diffuse base is already reduced by the subsurface weight).
             if mat.subsurface.is_some() && self.strategy.is_none() && (i as u32) < self.max_depth {
@@ -430,7 +430,7 @@ impl BdptIntegrator {
             };
             let (dir, beta, medium) = (path.dir, path.beta, path.media);
             let wo = -dir;
-            let sp = ctx.scene.shade(&s, wo);
+            let sp = ctx.shade(&s, wo);
             let i = light.len() - 1;
             let mut v = Vertex::surface(&s, &sp, wo, beta, medium);
             v.pdf_fwd = if prev_delta { 0.0 } else { v.area_density(pdf_sa, light[i].p) };

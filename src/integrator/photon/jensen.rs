@@ -200,7 +200,7 @@ impl JensenIntegrator {
                 break;
             }
             let wo = -st.dir;
-            let sp = ctx.scene.shade(&s, wo);
+            let sp = ctx.shade(&s, wo);
             if st.depth == 0 {
                 out.alpha = 1.0;
                 out.depth = depth_of(s.p);
@@ -352,7 +352,7 @@ impl JensenIntegrator {
                 Step::Surface { hit, s } => (hit, s),
             };
             let wo = -st.dir;
-            let sp = ctx.scene.shade(&s, wo);
+            let sp = ctx.shade(&s, wo);
             if !caustic {
                 l += st.surface_emission(ctx, &hit, &s, &sp);
             }

@@ -493,7 +493,7 @@ fn camera_path(
             return (l, None, first_t);
         }
         let wo = -st.dir;
-        let sp = ctx.scene.shade(&s, wo);
+        let sp = ctx.shade(&s, wo);
         if st.depth == 0 {
             first_t = s.t;
             pend.alpha += 1.0;

@@ -189,7 +189,7 @@ pub fn trace_one(
         };
         path.depth += 1;
         let wo = -path.dir;
-        let sp = ctx.scene.shade(&sh, wo);
+        let sp = ctx.shade(&sh, wo);
         let delta = sp.bsdf.is_delta();
         if !delta {
             let caustic = specular_only && path.depth > 1;

@@ -1,0 +1,92 @@
+//! The glTF material's factors at one shading point, the input of `PbrBsdf::from_params`.
+
+use crate::math::Rgb;
+use glam::Vec3;
+
+/// The glTF material's factors at a shading point (textures already applied).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PbrParams {
+    /// Base colour.
+    pub base: Rgb,
+    /// Metalness.
+    pub metallic: f32,
+    /// Perceptual roughness.
+    pub roughness: f32,
+    /// `KHR_materials_specular` specularFactor (weight of the dielectric reflection).
+    pub specular: f32,
+    /// `KHR_materials_ior` (1.5 by default).
+    pub ior: f32,
+    /// `KHR_materials_transmission` transmissionFactor.
+    pub transmission: f32,
+    /// Thin-walled (no `KHR_materials_volume`, or thickness 0).
+    pub thin: bool,
+    /// Relative IOR across the surface for the transmission lobe: `ior` when entering,
+    /// `1 / ior` when leaving (decided by the caller from the geometric normal).
+    pub eta: f32,
+    /// `KHR_materials_clearcoat` clearcoatFactor (weight of the coat layer).
+    pub coat: f32,
+    /// clearcoatRoughness.
+    pub coat_roughness: f32,
+    /// The coat's own normal in the shading frame (clearcoatNormalTexture), if it differs.
+    pub coat_normal: Option<Vec3>,
+    /// Index of refraction of the coat (Blender's Coat IOR; glTF's is 1.5).
+    pub coat_ior: f32,
+    /// Colour of the coat's absorption at normal incidence (Blender's Coat Tint).
+    pub coat_tint: Rgb,
+    /// `KHR_materials_specular` specularColorFactor (tints the dielectric layer's F0).
+    pub specular_color: Rgb,
+    /// `KHR_materials_sheen` sheenColorFactor (black: no sheen).
+    pub sheen_color: Rgb,
+    /// sheenRoughnessFactor.
+    pub sheen_roughness: f32,
+    /// `KHR_materials_dispersion` (20 / Abbe number; 0: none).
+    pub dispersion: f32,
+    /// Subsurface weight: the part of the diffuse base that scatters below the
+    /// surface instead (sampled by the integrator's random walk, not by this BSDF).
+    pub subsurface: f32,
+    /// The diffuse base's own normal in the shading frame, when the frame's normal was
+    /// bent for the specular lobes and this one was not.
+    pub diffuse_normal: Option<Vec3>,
+    /// The interpolated normal before normal mapping, in the shading frame, when a normal
+    /// map changed it (the diffuse base's bump shadowing).
+    pub smooth_normal: Option<Vec3>,
+    /// Anisotropic widths (αx, αy) of the metal's and the specular layer's GGX along the
+    /// shading frame's X and Y axes, replacing roughness² there.
+    pub anisotropy: Option<(f32, f32)>,
+}
+
+impl PbrParams {
+    /// Equal in every factor but the base colour: the BSDF built from `self` is then
+    /// `PbrBsdf::without_base(other)` `.with_base(self.base)`.
+    #[inline]
+    pub fn same_but_base(&self, other: &PbrParams) -> bool {
+        PbrParams { base: other.base, ..*self } == *other
+    }
+
+    /// An opaque dielectric/metal without the extensions.
+    pub fn opaque(base: Rgb, metallic: f32, roughness: f32) -> Self {
+        PbrParams {
+            base,
+            metallic,
+            roughness,
+            specular: 1.0,
+            ior: 1.5,
+            transmission: 0.0,
+            thin: true,
+            eta: 1.5,
+            coat: 0.0,
+            coat_roughness: 0.0,
+            coat_normal: None,
+            coat_ior: 1.5,
+            coat_tint: Rgb::ONE,
+            specular_color: Rgb::ONE,
+            sheen_color: Rgb::ZERO,
+            sheen_roughness: 0.0,
+            dispersion: 0.0,
+            subsurface: 0.0,
+            diffuse_normal: None,
+            smooth_normal: None,
+            anisotropy: None,
+        }
+    }
+}
