@@ -678,6 +678,7 @@ fn flip_to_upper(wo: Vec3, wi: Vec3) -> (Vec3, Vec3) {
     if wo.z < 0.0 { (Vec3::new(wo.x, wo.y, -wo.z), Vec3::new(wi.x, wi.y, -wi.z)) } else { (wo, wi) }
 }
 
+mod passes;
 mod view;
 pub use view::PbrAt;
 

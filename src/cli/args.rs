@@ -292,6 +292,11 @@ pub struct RenderArgs {
     /// Light selection for next-event estimation [default: the scene's, else tree].
     #[arg(long, value_enum)]
     pub light_sampler: Option<LightSamplerArg>,
+    /// Passes to write besides Combined, comma-separated Blender names or view-layer
+    /// tokens (diffuse_direct, emit, z, mist, ...; "none": Combined alone) [default: the
+    /// scene's, else z,normal,denoising_albedo,denoising_normal,sample_count].
+    #[arg(long, value_name = "LIST")]
+    pub passes: Option<String>,
 }
 
 /// `caustic info`.

@@ -46,6 +46,7 @@ pub fn run_bench(args: &BenchArgs, stop: &AtomicBool) -> Result<()> {
         memory_limit: None,
         debug_delay: Vec::new(),
         light_sampler: args.light_sampler,
+        passes: None,
     };
     let reporter = Reporter::silent();
     let outcome = run_render(&render_args, &reporter, stop);

@@ -42,6 +42,10 @@ pub struct Resolved {
     pub light_sampler: LightSamplerKind,
     /// Index of the first sample (`--sample-offset`).
     pub sample_offset: u32,
+    /// Passes to write besides Combined.
+    pub passes: crate::passes::PassSet,
+    /// Data-pass settings (mist, AO distance).
+    pub data: crate::integrator::data_passes::DataSettings,
 }
 
 /// Resolves the photon-mapping settings (flag > scene > default) and checks them.
@@ -245,7 +249,39 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
     if args.photon_map.is_some() && integrator != IntegratorKind::Photon {
         return Err(Error::Usage("--photon-map needs --integrator photon".into()));
     }
+    let passes = match (&args.passes, &st.passes) {
+        (Some(list), _) => crate::passes::PassSet::parse_list(list)?,
+        (None, Some(list)) => crate::passes::PassSet::parse_list(&list.join(","))
+            .map_err(|e| Error::Usage(format!("the scene's render settings: {e}")))?,
+        (None, None) => crate::passes::PassSet::legacy(),
+    };
+    if passes.any_light() && integrator != IntegratorKind::Path {
+        return Err(Error::Usage(format!(
+            "the light passes ({}) are rendered by the path integrator only, not by '{}'",
+            passes.iter().filter(|p| p.is_light()).map(|p| p.name()).collect::<Vec<_>>().join(", "),
+            integrator.name()
+        )));
+    }
+    for p in [crate::passes::Pass::ObjectIndex, crate::passes::Pass::MaterialIndex] {
+        if passes.contains(p) {
+            return Err(Error::Usage(format!(
+                "the {} pass is not rendered yet (pass indices are not exported)",
+                p.name()
+            )));
+        }
+    }
+    if passes.any_data() && integrator == IntegratorKind::Sppm {
+        return Err(Error::Usage("the data passes (AO, Mist, Position, UV, indices) are not rendered by 'sppm'".into()));
+    }
+    if (passes.any_light() || passes.any_data()) && args.chunk {
+        return Err(Error::Usage(
+            "chunks (--chunk) do not carry the light and data passes yet: render them without --chunk".into(),
+        ));
+    }
+    let data = crate::integrator::data_passes::DataSettings::resolve(st.mist, st.ao_distance)?;
     Ok(Resolved {
+        passes,
+        data,
         resolution,
         window,
         spp,

@@ -25,6 +25,10 @@ pub struct RenderJob {
     pub sample_offset: u32,
     /// Pixel filter.
     pub filter: Filter,
+    /// The passes to render besides Combined.
+    pub passes: crate::passes::PassSet,
+    /// Mist and AO settings of the data passes.
+    pub data: crate::integrator::data_passes::DataSettings,
 }
 
 /// What came out.

@@ -71,6 +71,13 @@ pub struct SceneSettings {
     pub sppm_radius: Option<f32>,
     /// Light selection for next-event estimation: "tree" or "power".
     pub light_sampler: Option<String>,
+    /// Passes to write besides Combined (`crate::passes`: tokens or Blender names).
+    pub passes: Option<Vec<String>>,
+    /// Blender's mist (World → Mist Pass): start, depth, falloff exponent (quadratic 2,
+    /// linear 1, inverse quadratic 0.5).
+    pub mist: Option<[f32; 3]>,
+    /// Blender's AO distance (World → Ambient Occlusion → Distance) for the AO pass.
+    pub ao_distance: Option<f32>,
 }
 
 /// Counts and per-material features for `caustic info`.

@@ -404,6 +404,8 @@ fn image(states: &[PixelState], w: u32, h: u32, iters: u32) -> FilmImage {
         normal: vec![[0.0; 3]; n],
         albedo: vec![[0.0; 3]; n],
         samples: vec![iters; n],
+        passes: crate::passes::PassSet::legacy(),
+        extra: Vec::new(),
     };
     if iters == 0 {
         return img;
