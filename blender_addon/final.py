@@ -56,8 +56,9 @@ class FrameWindow:
         return f"{self.xmin},{y0},{self.xmax},{y1}"
 
 
-def command_line(binary, gltf_path, out_path, settings, window):
-    """The binary's argv for one frame (flags repeat extras.caustic so that flags win)."""
+def command_line(binary, gltf_path, out_path, settings, window, passes="none"):
+    """The binary's argv for one frame (flags repeat extras.caustic so that flags win);
+    `passes` is the `--passes` list of the view layer (result.pass_request)."""
     argv = [binary, "render", gltf_path, "-o", out_path, "--progress", "json",
             "--interim", str(INTERIM_SECONDS),
             "--resolution", f"{window.width}x{window.height}",
@@ -73,6 +74,7 @@ def command_line(binary, gltf_path, out_path, settings, window):
         argv += ["--camera", settings["camera"]]
     if window.is_border:
         argv += ["--crop", window.crop_argument()]
+    argv += ["--passes", passes]
     return argv
 
 
@@ -154,7 +156,10 @@ def render_frame(engine, depsgraph):
         if engine.should_stop():
             return
         out_path = os.path.join(folder, "out.exr")
-        argv = command_line(binary, gltf_path, out_path, settings, window)
+        passes, pass_warnings = result.pass_request(depsgraph.view_layer, settings["integrator"])
+        for warning in pass_warnings:
+            engine.report({"WARNING"}, f"Caustic: {warning}")
+        argv = command_line(binary, gltf_path, out_path, settings, window, passes)
         width, height = window.size
         render_result = engine.begin_result(0, 0, width, height, layer=depsgraph.view_layer.name)
         failed = True
