@@ -147,6 +147,9 @@ pub mod slot {
     pub const COUNT: usize = 49;
 }
 
+// The film keeps its slots in a u64 bit mask.
+const _: () = assert!(slot::COUNT <= 64);
+
 /// Bit mask of the slots kept as "value at the nearest hit" instead of a sum.
 pub const NEAREST_SLOTS: u64 = (0b111 << slot::POS) | (1 << slot::OB) | (1 << slot::MA);
 

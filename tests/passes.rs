@@ -131,9 +131,11 @@ fn only_selected_passes_are_written() {
     render(&scene, &out, &["--spp", "1", "--resolution", "16x12", "--passes", "none"]);
     assert_eq!(names(&out), ["Combined.A", "Combined.B", "Combined.G", "Combined.R"]);
     render(&scene, &out, &["--spp", "1", "--resolution", "16x12", "--passes", "Diffuse Direct,z"]);
-    let want = ["Combined.A", "Combined.B", "Combined.G", "Combined.R", "Depth.Z"]
-        .into_iter()
-        .chain(["Diffuse Direct.B", "Diffuse Direct.G", "Diffuse Direct.R"]);
+    let want = ["Combined.A", "Combined.B", "Combined.G", "Combined.R", "Depth.Z"].into_iter().chain([
+        "Diffuse Direct.B",
+        "Diffuse Direct.G",
+        "Diffuse Direct.R",
+    ]);
     let mut want: Vec<String> = want.map(String::from).collect();
     want.sort();
     assert_eq!(names(&out), want, "the colour pass is kept for the division, not written");
@@ -168,7 +170,8 @@ fn data_passes_on_a_known_scene() {
     let path = g.write(dir.path(), "quad.gltf");
     // Make the camera orthographic, 1.6 × 1.6 units: all of it on the quad.
     let mut doc: serde_json::Value = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
-    doc["cameras"][0] = json!({"type": "orthographic", "orthographic": {"xmag": 0.8, "ymag": 0.8, "znear": 0.01, "zfar": 100.0}});
+    doc["cameras"][0] =
+        json!({"type": "orthographic", "orthographic": {"xmag": 0.8, "ymag": 0.8, "znear": 0.01, "zfar": 100.0}});
     std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
     let out = dir.path().join("d.exr");
     render(&path, &out, &["--spp", "4", "--resolution", "8x8", "--passes", "mist,position,uv,ambient_occlusion"]);

@@ -271,7 +271,9 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
         }
     }
     if passes.any_data() && integrator == IntegratorKind::Sppm {
-        return Err(Error::Usage("the data passes (AO, Mist, Position, UV, indices) are not rendered by 'sppm'".into()));
+        return Err(Error::Usage(
+            "the data passes (AO, Mist, Position, UV, indices) are not rendered by 'sppm'".into(),
+        ));
     }
     if (passes.any_light() || passes.any_data()) && args.chunk {
         return Err(Error::Usage(

@@ -350,7 +350,8 @@ impl PathIntegrator {
             }
             let pdf = bs.pdf * (1.0 - q_sss);
             if passes && st.depth == 0 {
-                let (d, g) = if bs.delta { (Rgb::ZERO, Rgb::splat(!transmitted as u8 as f32)) } else { shares_at(&at, bs.wi) };
+                let (d, g) =
+                    if bs.delta { (Rgb::ZERO, Rgb::splat(!transmitted as u8 as f32)) } else { shares_at(&at, bs.wi) };
                 tally.surface_bounce(d, g);
             }
             st.beta *= bs.f * (bs.wi.z.abs() / pdf);

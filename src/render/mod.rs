@@ -166,7 +166,15 @@ fn progressive(
                                 );
                                 if want_data {
                                     let pixel_sample = (job.seed, px, py, i);
-                                    data_passes::fill(ctx, &ray, &mut s, job.passes, &job.data, pixel_sample, &mut ts.rays);
+                                    data_passes::fill(
+                                        ctx,
+                                        &ray,
+                                        &mut s,
+                                        job.passes,
+                                        &job.data,
+                                        pixel_sample,
+                                        &mut ts.rays,
+                                    );
                                 }
                                 ts.light_paths += integrator.light_paths_per_sample();
                                 if !tile.add(idx, &s) {

@@ -48,11 +48,13 @@ impl PbrAt<'_> {
         let below = self.under * self.sheen_o;
         let dielectric = 1.0 - b.metallic;
         let opaque = dielectric * (1.0 - b.transmission);
-        let diffuse = b.base * (Vec3::ONE - self.eo) * (opaque * below) + b.sheen_color * (self.es / b.sheen_max.max(1e-6)) * self.under;
+        let diffuse = b.base * (Vec3::ONE - self.eo) * (opaque * below)
+            + b.sheen_color * (self.es / b.sheen_max.max(1e-6)) * self.under;
         let metal = (b.base + (Vec3::ONE - b.base) * schlick_weight(wo.z)) * self.metal_ms.min(Vec3::splat(1.5));
         let f_glass = fresnel_dielectric(wo.z, b.glass.eta);
         let glass = dielectric * b.transmission;
-        let glossy = (self.eo * opaque + metal * b.metallic + Rgb::splat(f_glass * glass)) * below + Rgb::splat(self.ec);
+        let glossy =
+            (self.eo * opaque + metal * b.metallic + Rgb::splat(f_glass * glass)) * below + Rgb::splat(self.ec);
         let transmission = b.glass.tint * ((1.0 - f_glass) * glass) * below;
         [diffuse, glossy, transmission]
     }
