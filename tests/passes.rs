@@ -52,6 +52,42 @@ fn opaque_copy(name: &str, dir: &Path) -> PathBuf {
 const LIGHT: &str = "diffuse_direct,diffuse_indirect,diffuse_color,glossy_direct,glossy_indirect,glossy_color,\
 transmission_direct,transmission_indirect,transmission_color,volume_direct,volume_indirect,emit,environment";
 
+/// Asserts that the light passes of `ch` sum to its Combined, pixel by pixel (see below).
+fn assert_recombines(ch: &BTreeMap<String, Vec<f32>>, name: &str) {
+    let rgb = |pass: &str, c: usize| &ch[&format!("{pass}.{}", ["R", "G", "B"][c])];
+    let mut worst = 0.0f64;
+    let mut total = 0.0f64;
+    for c in 0..3 {
+        for i in 0..ch["Combined.R"].len() {
+            let mut sum = 0.0f64;
+            // Each term's size, for the rounding bound.
+            let mut scale = 0.0f64;
+            for class in ["Diffuse", "Glossy", "Transmission"] {
+                let col = rgb(&format!("{class} Color"), c)[i] as f64;
+                for kind in ["Direct", "Indirect"] {
+                    let t = rgb(&format!("{class} {kind}"), c)[i] as f64 * col;
+                    sum += t;
+                    scale += t.abs();
+                }
+            }
+            for pass in ["Volume Direct", "Volume Indirect", "Emission", "Environment"] {
+                sum += rgb(pass, c)[i] as f64;
+                scale += (rgb(pass, c)[i] as f64).abs();
+            }
+            let combined = rgb("Combined", c)[i] as f64;
+            // Float rounding: every pass is a sum of the same contributions in f32
+            // (about 2^-24 relative per addition and 8 samples × a few terms per
+            // path), then a quotient and a product in f32 (2 × 2^-24): 1e-5 of the
+            // terms' magnitude bounds it with room, far below any misfiled light.
+            let tol = 1e-5 * scale.max(combined.abs()) + 1e-9;
+            worst = worst.max((combined - sum).abs() / tol);
+            total += combined;
+        }
+    }
+    assert!(total > 0.0, "{name}: black image");
+    assert!(worst <= 1.0, "{name}: passes differ from Combined by {worst} × the rounding bound");
+}
+
 /// (Diffuse Direct + Indirect) × Color + the same for Glossy and Transmission + Volume
 /// Direct + Indirect + Emission + Environment = Combined, pixel by pixel.
 #[test]
@@ -62,39 +98,7 @@ fn light_passes_recombine_to_combined() {
         let scene = opaque_copy(name, dir.path());
         let out = dir.path().join(format!("{name}.exr"));
         render(&scene, &out, &["--spp", "8", "--resolution", "40x30", "--passes", LIGHT]);
-        let ch = channels(&out);
-        let rgb = |pass: &str, c: usize| &ch[&format!("{pass}.{}", ["R", "G", "B"][c])];
-        let mut worst = 0.0f64;
-        let mut total = 0.0f64;
-        for c in 0..3 {
-            for i in 0..ch["Combined.R"].len() {
-                let mut sum = 0.0f64;
-                // Each term's size, for the rounding bound.
-                let mut scale = 0.0f64;
-                for class in ["Diffuse", "Glossy", "Transmission"] {
-                    let col = rgb(&format!("{class} Color"), c)[i] as f64;
-                    for kind in ["Direct", "Indirect"] {
-                        let t = rgb(&format!("{class} {kind}"), c)[i] as f64 * col;
-                        sum += t;
-                        scale += t.abs();
-                    }
-                }
-                for pass in ["Volume Direct", "Volume Indirect", "Emission", "Environment"] {
-                    sum += rgb(pass, c)[i] as f64;
-                    scale += (rgb(pass, c)[i] as f64).abs();
-                }
-                let combined = rgb("Combined", c)[i] as f64;
-                // Float rounding: every pass is a sum of the same contributions in f32
-                // (about 2^-24 relative per addition and 8 samples × a few terms per
-                // path), then a quotient and a product in f32 (2 × 2^-24): 1e-5 of the
-                // terms' magnitude bounds it with room, far below any misfiled light.
-                let tol = 1e-5 * scale.max(combined.abs()) + 1e-9;
-                worst = worst.max((combined - sum).abs() / tol);
-                total += combined;
-            }
-        }
-        assert!(total > 0.0, "{name}: black image");
-        assert!(worst <= 1.0, "{name}: passes differ from Combined by {worst} × the rounding bound");
+        assert_recombines(&channels(&out), name);
     }
 }
 
@@ -118,6 +122,45 @@ fn light_passes_are_filed_by_class() {
     render(&scene, &out, &["--spp", "4", "--resolution", "40x30", "--passes", LIGHT]);
     let ch = channels(&out);
     assert!(mean(&ch, "Emission") > 0.0 && mean(&ch, "Diffuse Indirect") > 0.0);
+    // The subsurface scene's glass-bounded medium scatters light seen through its surface
+    // (surface first: transmission) and nothing scatters first in a medium at the camera.
+    let scene = opaque_copy("subsurface", dir.path());
+    render(&scene, &out, &["--spp", "4", "--resolution", "40x30", "--passes", LIGHT]);
+    let ch = channels(&out);
+    assert!(mean(&ch, "Transmission Indirect") > 0.0 && mean(&ch, "Volume Direct") == 0.0);
+}
+
+/// A camera in world fog over a grey floor lit by a point light: light scattered first in
+/// the fog is volume light (direct from the light, indirect via the floor), the fog's own
+/// emission seen directly is Emission, and everything still sums to Combined.
+#[test]
+fn volume_passes_in_fog() {
+    let dir = temp_dir();
+    let mut g = GltfBuilder::new();
+    let grey =
+        g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1], "metallicFactor": 0.0}}));
+    g.mesh(&[[-5.0, 0.0, -5.0], [5.0, 0.0, -5.0], [5.0, 0.0, 5.0], [-5.0, 0.0, 5.0]], &[0, 2, 1, 0, 3, 2], grey);
+    g.camera([0.0, 1.0, 4.0], look_rotation([0.0, -0.3, -1.0]), 0.8);
+    g.punctual(
+        json!({"type": "point", "intensity": 2000.0, "color": [1, 1, 1]}),
+        [0.0, 2.0, 0.0],
+        [0.0, 0.0, 0.0, 1.0],
+    );
+    g.world(json!({"color": [0, 0, 0], "medium": {
+        "density": 0.2, "scatter_color": [1, 1, 1], "absorption_color": [0.2, 0.2, 0.2], "emission": [0.01, 0.01, 0.01]
+    }}));
+    g.settings(json!({"transparent": false}));
+    let path = g.write(dir.path(), "fog.gltf");
+    let out = dir.path().join("fog.exr");
+    render(&path, &out, &["--spp", "8", "--resolution", "32x24", "--passes", LIGHT]);
+    let ch = channels(&out);
+    let mean = |pass: &str| -> f64 {
+        ["R", "G", "B"].iter().map(|c| ch[&format!("{pass}.{c}")].iter().map(|&v| v as f64).sum::<f64>()).sum()
+    };
+    for pass in ["Volume Direct", "Volume Indirect", "Emission", "Diffuse Direct"] {
+        assert!(mean(pass) > 0.0, "fog: {pass} is empty");
+    }
+    assert_recombines(&ch, "fog");
 }
 
 /// Only Combined and the passes asked for are written: nothing else (memory, and
