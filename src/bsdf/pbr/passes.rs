@@ -50,7 +50,8 @@ impl PbrAt<'_> {
         let opaque = dielectric * (1.0 - b.transmission);
         let diffuse = b.base * (Vec3::ONE - self.eo) * (opaque * below)
             + b.sheen_color * (self.es / b.sheen_max.max(1e-6)) * self.under;
-        let metal = (b.base + (Vec3::ONE - b.base) * schlick_weight(wo.z)) * self.metal_ms.min(Vec3::splat(1.5));
+        // The multiple-scattering compensation makes the metal's albedo its Fresnel colour.
+        let metal = b.base + (Vec3::ONE - b.base) * schlick_weight(wo.z);
         let f_glass = fresnel_dielectric(wo.z, b.glass.eta);
         let glass = dielectric * b.transmission;
         let glossy =
