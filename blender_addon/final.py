@@ -56,8 +56,9 @@ class FrameWindow:
         return f"{self.xmin},{y0},{self.xmax},{y1}"
 
 
-def command_line(binary, gltf_path, out_path, settings, window, denoise=False):
-    """The binary's argv for one frame (flags repeat extras.caustic so that flags win)."""
+def command_line(binary, gltf_path, out_path, settings, window, passes="none", denoise=False):
+    """The binary's argv for one frame (flags repeat extras.caustic so that flags win);
+    `passes` is the `--passes` list of the view layer (result.pass_request)."""
     argv = [binary, "render", gltf_path, "-o", out_path, "--progress", "json",
             "--interim", str(INTERIM_SECONDS),
             "--resolution", f"{window.width}x{window.height}",
@@ -73,6 +74,7 @@ def command_line(binary, gltf_path, out_path, settings, window, denoise=False):
         argv += ["--camera", settings["camera"]]
     if window.is_border:
         argv += ["--crop", window.crop_argument()]
+    argv += ["--passes", passes]
     if denoise:
         argv += ["--denoise"]
         library = runner.find_oidn()
@@ -165,8 +167,11 @@ def render_frame(engine, depsgraph):
         if engine.should_stop():
             return
         out_path = os.path.join(folder, "out.exr")
+        passes, pass_warnings = result.pass_request(depsgraph.view_layer, settings["integrator"], chunked=on_farm)
+        for warning in pass_warnings:
+            engine.report({"WARNING"}, f"Caustic: {warning}")
         # Denoising is a command-line option, not a scene setting: farm chunks cannot be denoised.
-        argv = command_line(binary, gltf_path, out_path, settings, window,
+        argv = command_line(binary, gltf_path, out_path, settings, window, passes,
                             denoise=scene.caustic.use_denoising and not on_farm)
         if on_farm:
             argv, warnings = farm.frame_command(farm.preferences(), binary, gltf_path, out_path, argv,

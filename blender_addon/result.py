@@ -13,23 +13,94 @@ import numpy as np
 
 from .errors import CausticError
 
-# (name, channels, channel ids, type) as RenderEngine.register_pass wants them.
-PASSES = (
-    ("Combined", 4, "RGBA", "COLOR"),
-    ("Depth", 1, "Z", "VALUE"),
-    ("Normal", 3, "XYZ", "VECTOR"),
-    ("Denoising Albedo", 3, "RGB", "COLOR"),
-    ("Denoising Normal", 3, "XYZ", "VECTOR"),
+# The view layer's passes Caustic renders: (where the flag lives: "" the view layer, "cycles"
+# its Cycles settings; the flag; the binary's `--passes` token; then the name, channels,
+# channel ids and type as RenderEngine.register_pass wants them). Names and channels are
+# Cycles' (checked on bpy 5.0.1 with every pass enabled under Cycles).
+VIEW_LAYER_PASSES = (
+    ("", "use_pass_z", "z", "Depth", 1, "Z", "VALUE"),
+    ("", "use_pass_mist", "mist", "Mist", 1, "Z", "VALUE"),
+    ("", "use_pass_normal", "normal", "Normal", 3, "XYZ", "VECTOR"),
+    ("", "use_pass_position", "position", "Position", 3, "XYZ", "VECTOR"),
+    ("", "use_pass_uv", "uv", "UV", 3, "UVA", "VECTOR"),
+    ("", "use_pass_diffuse_direct", "diffuse_direct", "Diffuse Direct", 3, "RGB", "COLOR"),
+    ("", "use_pass_diffuse_indirect", "diffuse_indirect", "Diffuse Indirect", 3, "RGB", "COLOR"),
+    ("", "use_pass_diffuse_color", "diffuse_color", "Diffuse Color", 3, "RGB", "COLOR"),
+    ("", "use_pass_glossy_direct", "glossy_direct", "Glossy Direct", 3, "RGB", "COLOR"),
+    ("", "use_pass_glossy_indirect", "glossy_indirect", "Glossy Indirect", 3, "RGB", "COLOR"),
+    ("", "use_pass_glossy_color", "glossy_color", "Glossy Color", 3, "RGB", "COLOR"),
+    ("", "use_pass_transmission_direct", "transmission_direct", "Transmission Direct", 3, "RGB", "COLOR"),
+    ("", "use_pass_transmission_indirect", "transmission_indirect", "Transmission Indirect", 3, "RGB",
+     "COLOR"),
+    ("", "use_pass_transmission_color", "transmission_color", "Transmission Color", 3, "RGB", "COLOR"),
+    ("cycles", "use_pass_volume_direct", "volume_direct", "Volume Direct", 3, "RGB", "COLOR"),
+    ("cycles", "use_pass_volume_indirect", "volume_indirect", "Volume Indirect", 3, "RGB", "COLOR"),
+    ("", "use_pass_emit", "emit", "Emission", 3, "RGB", "COLOR"),
+    ("", "use_pass_environment", "environment", "Environment", 3, "RGB", "COLOR"),
+    ("", "use_pass_ambient_occlusion", "ambient_occlusion", "Ambient Occlusion", 3, "RGB", "COLOR"),
+    ("cycles", "denoising_store_passes", "denoising_albedo", "Denoising Albedo", 3, "RGB", "COLOR"),
+    ("cycles", "denoising_store_passes", "denoising_normal", "Denoising Normal", 3, "XYZ", "VECTOR"),
 )
 
-# The binary writes normals in glTF axes (Y up); Blender's passes are in Blender's world axes
-# (Z up), as Cycles writes them: blender = (x, -z, y).
-_NORMAL_PASSES = ("Normal", "Denoising Normal")
+# Light passes: only the path integrator classifies light by the first bounce (contract).
+LIGHT_TOKENS = frozenset(t for _, _, t, *_ in VIEW_LAYER_PASSES[5:18])
+# Data passes traced from the camera ray's first hit, by every integrator but SPPM.
+DATA_TOKENS = frozenset(("mist", "position", "uv", "ambient_occlusion"))
+
+# Passes of the view layer that Caustic does not render yet (named in a warning when on).
+UNSUPPORTED = (
+    ("", "use_pass_vector", "Vector"),
+    ("", "use_pass_object_index", "Object Index"),
+    ("", "use_pass_material_index", "Material Index"),
+    ("", "use_pass_shadow", "Shadow"),
+    ("", "use_pass_cryptomatte_object", "Cryptomatte Object"),
+    ("", "use_pass_cryptomatte_material", "Cryptomatte Material"),
+    ("", "use_pass_cryptomatte_asset", "Cryptomatte Asset"),
+    ("cycles", "use_pass_shadow_catcher", "Shadow Catcher"),
+)
+
+# The binary writes normals and positions in glTF axes (Y up); Blender's passes are in Blender's
+# world axes (Z up), as Cycles writes them: blender = (x, -z, y).
+_AXIS_PASSES = ("Normal", "Denoising Normal", "Position")
+
+
+def _flag(view_layer, owner, attr):
+    holder = getattr(view_layer, owner, None) if owner else view_layer
+    return bool(getattr(holder, attr, False)) if holder is not None else False
+
+
+def enabled_passes(view_layer):
+    """The rows of VIEW_LAYER_PASSES whose flag is on in `view_layer`."""
+    return [row for row in VIEW_LAYER_PASSES if _flag(view_layer, row[0], row[1])]
+
+
+def pass_request(view_layer, integrator, chunked=False):
+    """(`--passes` list, warnings): the enabled passes that `integrator` renders (on the farm,
+    `chunked`: those that chunks carry), and a warning naming each enabled pass that will be
+    missing from the result."""
+    tokens, warnings = [], []
+    for _, _, token, name, *_ in enabled_passes(view_layer):
+        if chunked and (token in LIGHT_TOKENS or token in DATA_TOKENS):
+            warnings.append(f"the {name} pass is not rendered on the farm yet (sample chunks do not carry "
+                            "it); it stays black")
+        elif token in LIGHT_TOKENS and integrator != "path":
+            warnings.append(f"the {name} pass is rendered by the path integrator only; "
+                            f"it stays black with '{integrator}'")
+        elif token in DATA_TOKENS and integrator == "sppm":
+            warnings.append(f"the {name} pass is not rendered by SPPM; it stays black")
+        else:
+            tokens.append(token)
+    for owner, attr, name in UNSUPPORTED:
+        if _flag(view_layer, owner, attr):
+            warnings.append(f"the {name} pass is not rendered by Caustic yet; it stays black")
+    return ",".join(tokens) or "none", warnings
 
 
 def register_passes(engine, scene, view_layer):
-    """Declare Caustic's passes so they appear in the compositor's Render Layers node."""
-    for name, channels, chan_id, kind in PASSES:
+    """Declare exactly the view layer's enabled passes that Caustic writes, so that they appear
+    in the compositor's Render Layers node (Combined always)."""
+    engine.register_pass(scene, view_layer, "Combined", 4, "RGBA", "COLOR")
+    for _, _, _, name, channels, chan_id, kind in enabled_passes(view_layer):
         engine.register_pass(scene, view_layer, name, channels, chan_id, kind)
 
 
@@ -63,7 +134,7 @@ def load(result, path):
         layer.load_from_file(path)
     except RuntimeError as err:
         raise CausticError(f"cannot load the rendered image: {err}") from None
-    for name in _NORMAL_PASSES:
+    for name in _AXIS_PASSES:
         render_pass = layer.passes.find_by_name(name, "")
         if render_pass is not None and render_pass.channels == 3:
             _gltf_to_blender_axes(render_pass)

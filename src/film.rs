@@ -10,6 +10,7 @@
 
 use crate::fixed::{add3, from_fixed, in_range, sum3, to_fixed};
 use crate::math::Rgb;
+use crate::passes::{Aov, NEAREST_SLOTS, Pass, PassSet, divide_even_color};
 use crate::sampling::Distribution1D;
 use glam::{Vec2, Vec3};
 
@@ -26,6 +27,8 @@ pub struct CameraSample {
     pub normal: Vec3,
     /// Albedo of the first hit.
     pub albedo: Rgb,
+    /// Values of the extra passes (`crate::passes`), filled only for the passes asked.
+    pub aov: Aov,
 }
 
 /// Pixel filter.
@@ -158,6 +161,49 @@ pub struct Tile {
     pub h: u32,
     /// Row-major sums.
     pub pixels: Vec<PixelAccum>,
+    /// The [`slot`]s of the extra passes kept (bit mask; `PassSet::slots`).
+    pub slots: u64,
+    /// Row-major extra-pass sums, `slots.count_ones()` per pixel in slot order: fixed
+    /// point, or for the nearest-hit slots the f32 bits of the nearest sample's value.
+    pub extra: Vec<i128>,
+}
+
+impl Tile {
+    /// Adds one camera sample to pixel `i` of the tile (base sums and extra passes);
+    /// returns false (and adds nothing) when a value is not finite or out of range.
+    #[inline]
+    pub fn add(&mut self, i: usize, s: &CameraSample) -> bool {
+        if self.slots == 0 {
+            return self.pixels[i].add(s);
+        }
+        let mut m = self.slots & !NEAREST_SLOTS;
+        while m != 0 {
+            if !in_range([s.aov.0[m.trailing_zeros() as usize], 0.0, 0.0]) {
+                return false;
+            }
+            m &= m - 1;
+        }
+        // The nearest hit's values follow the depth the base sums keep (ties: the first).
+        let nearer = s.depth < self.pixels[i].depth;
+        if !self.pixels[i].add(s) {
+            return false;
+        }
+        let stride = self.slots.count_ones() as usize;
+        let acc = &mut self.extra[i * stride..(i + 1) * stride];
+        let mut m = self.slots;
+        for a in acc.iter_mut() {
+            let k = m.trailing_zeros() as usize;
+            if NEAREST_SLOTS >> k & 1 == 1 {
+                if nearer {
+                    *a = s.aov.0[k].to_bits() as i128;
+                }
+            } else {
+                *a = a.wrapping_add(to_fixed(s.aov.0[k]));
+            }
+            m &= m - 1;
+        }
+        true
+    }
 }
 
 /// Final pixel values of every pass, row-major, top row first.
@@ -179,6 +225,10 @@ pub struct FilmImage {
     pub samples: Vec<u32>,
     /// The Combined before denoising (`--denoise`; written as Cycles' Noisy Image), else empty.
     pub noisy: Vec<[f32; 4]>,
+    /// The passes to write besides Combined (`crate::passes`).
+    pub passes: PassSet,
+    /// The extra passes' pixels, channels interleaved, for each written pass with a slot.
+    pub extra: Vec<(Pass, Vec<f32>)>,
 }
 
 impl FilmImage {
@@ -210,6 +260,8 @@ pub struct Film {
     pub splat: Vec<[i128; 3]>,
     /// Light paths traced: the splat sums' denominator (each light path estimates every pixel).
     pub light_paths: u64,
+    /// The passes asked for (which extra slots the tiles keep and what `image` gives).
+    pub passes: PassSet,
 }
 
 /// A whole-window buffer of light-tracing splats owned by one worker at a time.
@@ -314,16 +366,41 @@ impl SplatPool {
 }
 
 impl Film {
-    /// An empty film cut into tiles of `tile` × `tile` pixels.
+    /// An empty film cut into tiles of `tile` × `tile` pixels, with the passes Caustic
+    /// wrote before pass selection (`PassSet::legacy`).
     pub fn new(width: u32, height: u32, tile: u32) -> Self {
+        Self::with_passes(width, height, tile, PassSet::legacy())
+    }
+
+    /// An empty film keeping the sums that `passes` need.
+    pub fn with_passes(width: u32, height: u32, tile: u32, passes: PassSet) -> Self {
+        let slots = passes.slots();
+        let stride = slots.count_ones() as usize;
         let mut tiles = Vec::new();
         for y0 in (0..height).step_by(tile as usize) {
             for x0 in (0..width).step_by(tile as usize) {
                 let (w, h) = (tile.min(width - x0), tile.min(height - y0));
-                tiles.push(Tile { x0, y0, w, h, pixels: vec![PixelAccum::default(); (w * h) as usize] });
+                let n = (w * h) as usize;
+                tiles.push(Tile {
+                    x0,
+                    y0,
+                    w,
+                    h,
+                    pixels: vec![PixelAccum::default(); n],
+                    slots,
+                    extra: vec![0; n * stride],
+                });
             }
         }
-        Film { width, height, tile_size: tile, tiles, splat: vec![[0; 3]; (width * height) as usize], light_paths: 0 }
+        Film {
+            width,
+            height,
+            tile_size: tile,
+            tiles,
+            splat: vec![[0; 3]; (width * height) as usize],
+            light_paths: 0,
+            passes,
+        }
     }
 
     /// The sums of pixel (x, y) of the image.
@@ -357,6 +434,13 @@ impl Film {
             albedo: vec![[0.0; 3]; n],
             samples: vec![0; n],
             noisy: Vec::new(),
+            passes: self.passes,
+            extra: self
+                .passes
+                .iter()
+                .filter(|p| p.slot().is_some())
+                .map(|p| (p, vec![0.0; n * p.channels().len()]))
+                .collect(),
         };
         for t in &self.tiles {
             for ty in 0..t.h {
@@ -381,10 +465,39 @@ impl Film {
                     }
                     img.normal[i] = mean(&p.normal);
                     img.albedo[i] = mean(&p.albedo);
+                    let stride = t.slots.count_ones() as usize;
+                    let j = (ty * t.w + tx) as usize;
+                    extra_pixel(&mut img.extra, i, t.slots, &t.extra[j * stride..(j + 1) * stride], inv);
                 }
             }
         }
         img
+    }
+}
+
+/// The extra passes' values of pixel `i` from its sums `acc` (one per slot of `slots`, in
+/// slot order) and 1 / its sample count.
+fn extra_pixel(out: &mut [(Pass, Vec<f32>)], i: usize, slots: u64, acc: &[i128], inv: f64) {
+    let at = |k: usize| acc[(slots & ((1u64 << k) - 1)).count_ones() as usize];
+    let mean = |k: usize| (from_fixed(at(k)) * inv) as f32;
+    for (pass, data) in out.iter_mut() {
+        let Some(k) = pass.slot() else { continue };
+        let c = pass.channels().len();
+        let px = &mut data[i * c..(i + 1) * c];
+        match pass.divided_by() {
+            // Direct and Indirect are read divided by their Colour pass, as Cycles reads them.
+            Some(col) => {
+                let cs = col.slot().unwrap_or(k);
+                let sum3 = |k: usize| [0, 1, 2].map(|d| from_fixed(at(k + d)) as f32);
+                px.copy_from_slice(&divide_even_color(sum3(k), sum3(cs)));
+            }
+            None if *pass == Pass::AmbientOcclusion => px.fill(mean(k)),
+            None => {
+                for (d, v) in px.iter_mut().enumerate() {
+                    *v = if NEAREST_SLOTS >> (k + d) & 1 == 1 { f32::from_bits(at(k + d) as u32) } else { mean(k + d) };
+                }
+            }
+        }
     }
 }
 

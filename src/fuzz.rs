@@ -136,8 +136,10 @@ pub fn run_one(bytes: &[u8], base_dir: &Path) -> Outcome {
             sample_offset: 0,
             filter: Filter::box_filter(1.0),
             adaptive: None,
+            passes: crate::passes::ALL.into_iter().collect(),
+            data: Default::default(),
         };
-        let integrator = Integrator::Path(PathIntegrator::new(4, true));
+        let integrator = Integrator::Path(PathIntegrator { light_passes: true, ..PathIntegrator::new(4, true) });
         let stop = AtomicBool::new(false);
         render(&ctx, &camera, &integrator, &job, &stop, &|_| {}, &mut |_, _| {})
     }));

@@ -21,6 +21,7 @@ pub mod math;
 pub mod medium;
 pub mod memory;
 pub mod output;
+pub mod passes;
 pub mod progress;
 pub mod render;
 pub mod sampling;

@@ -1,13 +1,14 @@
 //! Writing images: OpenEXR with Blender's pass names, replaced atomically.
 //!
 //! Channels are named `<Pass>.<Channel>` (`Combined.R`, `Depth.Z`, `Normal.X`,
-//! `Denoising Albedo.R`, `Denoising Normal.X`, ...) because Blender's
+//! `Diffuse Direct.R`, `UV.U`, ...; `crate::passes` names them all) because Blender's
 //! `RenderLayer.load_from_file` finds passes by these names; a plain R/G/B/A file
 //! would load as silent black.
 
 use crate::chunk::ChunkInfo;
 use crate::error::{Error, Result};
 use crate::film::{Film, FilmImage};
+use crate::passes::Pass;
 use exr::prelude::*;
 use std::path::{Path, PathBuf};
 
@@ -85,21 +86,42 @@ fn write_exr_with(out: &Path, img: &FilmImage, half: bool, chunk: Option<(&Film,
             ));
         }
     }
-    // Depth stays float even in half mode: 1e10 does not fit in a half.
-    list.push(AnyChannel::new("Depth.Z", FlatSamples::F32(img.depth.clone())));
+    let passes = img.passes;
+    if passes.contains(Pass::Depth) {
+        // Depth stays float even in half mode: 1e10 does not fit in a half.
+        list.push(AnyChannel::new("Depth.Z", FlatSamples::F32(img.depth.clone())));
+    }
     for (i, ch) in ["X", "Y", "Z"].iter().enumerate() {
-        list.push(AnyChannel::new(format!("Normal.{ch}").as_str(), make(col3(&img.normal, i))));
-        list.push(AnyChannel::new(format!("Denoising Normal.{ch}").as_str(), make(col3(&img.normal, i))));
+        for pass in [Pass::Normal, Pass::DenoisingNormal] {
+            if passes.contains(pass) {
+                list.push(AnyChannel::new(format!("{}.{ch}", pass.name()).as_str(), make(col3(&img.normal, i))));
+            }
+        }
     }
-    for (i, ch) in ["R", "G", "B"].iter().enumerate() {
-        list.push(AnyChannel::new(format!("Denoising Albedo.{ch}").as_str(), make(col3(&img.albedo, i))));
+    if passes.contains(Pass::DenoisingAlbedo) {
+        for (i, ch) in ["R", "G", "B"].iter().enumerate() {
+            list.push(AnyChannel::new(format!("Denoising Albedo.{ch}").as_str(), make(col3(&img.albedo, i))));
+        }
     }
-    // Samples per pixel, as Cycles' Debug Sample Count pass; float (exact up to 2^24)
-    // and float even in half mode, which is exact only up to 2048.
-    list.push(AnyChannel::new(
-        "Debug Sample Count.X",
-        FlatSamples::F32(img.samples.iter().map(|&n| n as f32).collect()),
-    ));
+    if passes.contains(Pass::SampleCount) {
+        // Samples per pixel, as Cycles' Debug Sample Count pass; float (exact up to 2^24)
+        // and float even in half mode, which is exact only up to 2048.
+        list.push(AnyChannel::new(
+            "Debug Sample Count.X",
+            FlatSamples::F32(img.samples.iter().map(|&n| n as f32).collect()),
+        ));
+    }
+    for (pass, data) in &img.extra {
+        let names = pass.channels();
+        for (c, ch) in names.iter().enumerate() {
+            let values: Vec<f32> = data.iter().skip(c).step_by(names.len()).copied().collect();
+            // Indices and positions keep full precision in half mode (an index above 2048
+            // or a far position would round), as Depth does.
+            let exact = matches!(pass, Pass::ObjectIndex | Pass::MaterialIndex | Pass::Position);
+            let samples = if exact { FlatSamples::F32(values) } else { make(values) };
+            list.push(AnyChannel::new(format!("{}.{ch}", pass.name()).as_str(), samples));
+        }
+    }
     let mut attributes = LayerAttributes::default();
     if let Some((film, info)) = chunk {
         list.extend(crate::chunk::channels(film));

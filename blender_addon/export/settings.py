@@ -39,4 +39,11 @@ def render_settings(scene, resolution, camera_name):
         settings["threads"] = int(props.threads)
     if camera_name:
         settings["camera"] = camera_name
+    world = scene.world
+    if world is not None:
+        # The Mist and AO passes' settings live on the world, as in Cycles.
+        mist = world.mist_settings
+        falloff = {"QUADRATIC": 2.0, "LINEAR": 1.0, "INVERSE_QUADRATIC": 0.5}[mist.falloff]
+        settings["mist"] = [float(mist.start), float(mist.depth), falloff]
+        settings["ao_distance"] = float(world.light_settings.distance)
     return settings

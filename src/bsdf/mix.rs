@@ -435,6 +435,8 @@ impl Default for MixBsdf {
     }
 }
 
+mod passes;
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -223,4 +223,23 @@ impl BsdfAt<'_> {
             BsdfAt::Mix(m, wo) => m.sample(*wo, uc, u),
         }
     }
+
+    /// The part of [`eval`](Self::eval) from diffuse-class closures (Cycles' classes, for
+    /// the light passes: diffuse, translucent, sheen).
+    #[inline]
+    pub fn eval_diffuse(&self, wi: Vec3) -> Rgb {
+        match self {
+            BsdfAt::Pbr(b) => b.eval_diffuse(wi),
+            BsdfAt::Mix(m, wo) => m.eval_diffuse(*wo, wi),
+        }
+    }
+
+    /// Albedo per closure class (diffuse, glossy, transmission) seen from wo: the
+    /// Colour passes.
+    pub fn class_albedo(&self) -> [Rgb; 3] {
+        match self {
+            BsdfAt::Pbr(b) => b.class_albedo(),
+            BsdfAt::Mix(m, wo) => m.class_albedo(*wo),
+        }
+    }
 }

@@ -626,6 +626,7 @@ fn flip_to_upper(wo: Vec3, wi: Vec3) -> (Vec3, Vec3) {
 }
 
 mod params;
+mod passes;
 mod view;
 pub use params::PbrParams;
 pub use view::PbrAt;

@@ -317,6 +317,11 @@ pub struct RenderArgs {
     /// The Open Image Denoise library (or its folder) for --denoise [default: $CAUSTIC_OIDN, else the system's].
     #[arg(long, value_name = "PATH")]
     pub oidn: Option<std::path::PathBuf>,
+    /// Passes to write besides Combined, comma-separated Blender names or view-layer
+    /// tokens (diffuse_direct, emit, z, mist, ...; "none": Combined alone) [default: the
+    /// scene's, else z,normal,denoising_albedo,denoising_normal,sample_count].
+    #[arg(long, value_name = "LIST")]
+    pub passes: Option<String>,
 }
 
 /// `caustic info`.

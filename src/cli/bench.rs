@@ -50,6 +50,7 @@ pub fn run_bench(args: &BenchArgs, stop: &AtomicBool) -> Result<()> {
         min_samples: None,
         denoise: false,
         oidn: None,
+        passes: None,
     };
     let reporter = Reporter::silent();
     let outcome = run_render(&render_args, &reporter, stop);

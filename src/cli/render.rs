@@ -161,7 +161,10 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     let camera = CameraRays::new(&scene.cameras[res.camera], res.resolution.0, res.resolution.1);
     let mut photon_stats = serde_json::Value::Null;
     let integrator = match res.integrator {
-        IntegratorKind::Path => Integrator::Path(PathIntegrator::new(res.max_depth, res.transparent)),
+        IntegratorKind::Path => Integrator::Path(PathIntegrator {
+            light_passes: res.passes.any_light(),
+            ..PathIntegrator::new(res.max_depth, res.transparent)
+        }),
         IntegratorKind::Sppm => {
             Integrator::Sppm(SppmIntegrator::new(res.max_depth, res.photon.clone(), res.transparent))
         }
@@ -217,6 +220,8 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         sample_offset: res.sample_offset,
         filter: res.filter.clone(),
         adaptive: res.adaptive,
+        passes: res.passes,
+        data: res.data,
     };
     // What every chunk of this frame must agree on (`--chunk`); the ranges are filled in per write.
     let chunk_info = match args.chunk {
@@ -454,6 +459,14 @@ fn charge_render(budget: &MemoryBudget, args: &RenderArgs, res: &Resolved, scene
         format!("the film for {}x{} pixels", x1 - x0, y1 - y0),
         pixels.saturating_mul(memory::film_bytes_per_pixel()),
     )?;
+    let slots = res.passes.slots().count_ones() as u64;
+    if slots > 0 {
+        // Each extra slot: an i128 sum, the image's f32 and the EXR writer's copy.
+        budget.charge(
+            format!("the {} extra pass channels for {}x{} pixels", slots, x1 - x0, y1 - y0),
+            pixels.saturating_mul(slots * (16 + 4 + 4)),
+        )?;
+    }
     if args.chunk {
         // The chunk channels: 54 words of 4 bytes per pixel, built beside the image.
         budget.charge(format!("the chunk sums for {}x{} pixels", x1 - x0, y1 - y0), pixels.saturating_mul(54 * 4))?;

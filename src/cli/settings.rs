@@ -45,6 +45,10 @@ pub struct Resolved {
     pub sample_offset: u32,
     /// Adaptive sampling (None: off).
     pub adaptive: Option<Adaptive>,
+    /// Passes to write besides Combined.
+    pub passes: crate::passes::PassSet,
+    /// Data-pass settings (mist, AO distance).
+    pub data: crate::integrator::data_passes::DataSettings,
 }
 
 /// Resolves the photon-mapping settings (flag > scene > default) and checks them.
@@ -258,7 +262,45 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
                 .into(),
         ));
     }
+    let mut passes = match (&args.passes, &st.passes) {
+        (Some(list), _) => crate::passes::PassSet::parse_list(list)?,
+        (None, Some(list)) => crate::passes::PassSet::parse_list(&list.join(","))
+            .map_err(|e| Error::Usage(format!("the scene's render settings: {e}")))?,
+        (None, None) => crate::passes::PassSet::legacy(),
+    };
+    if passes.any_light() && integrator != IntegratorKind::Path {
+        return Err(Error::Usage(format!(
+            "the light passes ({}) are rendered by the path integrator only, not by '{}'",
+            passes.iter().filter(|p| p.is_light()).map(|p| p.name()).collect::<Vec<_>>().join(", "),
+            integrator.name()
+        )));
+    }
+    for p in [crate::passes::Pass::ObjectIndex, crate::passes::Pass::MaterialIndex] {
+        if passes.contains(p) {
+            return Err(Error::Usage(format!(
+                "the {} pass is not rendered yet (pass indices are not exported)",
+                p.name()
+            )));
+        }
+    }
+    if passes.any_data() && integrator == IntegratorKind::Sppm {
+        return Err(Error::Usage(
+            "the data passes (AO, Mist, Position, UV, indices) are not rendered by 'sppm'".into(),
+        ));
+    }
+    if (passes.any_light() || passes.any_data()) && args.chunk {
+        return Err(Error::Usage(
+            "chunks (--chunk) do not carry the light and data passes yet: render them without --chunk".into(),
+        ));
+    }
+    let data = crate::integrator::data_passes::DataSettings::resolve(st.mist, st.ao_distance)?;
+    if adaptive.is_some() {
+        // Where adaptive sampling stopped each pixel is part of its result (Cycles writes it too).
+        passes.insert(crate::passes::Pass::SampleCount);
+    }
     Ok(Resolved {
+        passes,
+        data,
         resolution,
         window,
         spp,

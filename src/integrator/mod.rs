@@ -4,6 +4,8 @@
 //! sample at a time; the tile loop, film and progress are shared (`render.rs`).
 
 pub mod bdpt;
+pub mod data_passes;
+pub mod light_passes;
 pub mod media;
 pub mod nee;
 pub mod path;

@@ -35,22 +35,42 @@ pub fn surface_nee(
     u_light_pt: Vec2,
     stats: &mut RayStats,
 ) -> Rgb {
+    surface_nee_at(ctx, s, sp, at, n_select, bsdf_pdf_scale, beta, media, u_light, u_light_pt, stats).0
+}
+
+/// [`surface_nee`], with the light direction in the shading frame (zero when no light
+/// was sampled): the light passes split the estimate by the BSDF's classes there.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub fn surface_nee_at(
+    ctx: &SceneContext,
+    s: &SurfaceHit,
+    sp: &ShadingPoint,
+    at: &BsdfAt,
+    n_select: Vec3,
+    bsdf_pdf_scale: f32,
+    beta: Rgb,
+    media: MediumStack,
+    u_light: f32,
+    u_light_pt: Vec2,
+    stats: &mut RayStats,
+) -> (Rgb, Vec3) {
     let Some((index, pmf)) = ctx.lights.sample(s.p, n_select, u_light) else {
-        return Rgb::ZERO;
+        return (Rgb::ZERO, Vec3::ZERO);
     };
     // Light linking: a light chosen for a surface it does not light gives nothing (the
     // choice keeps its density, so the estimate of the linked lights is unchanged).
     if !ctx.links(index, s.tri) {
-        return Rgb::ZERO;
+        return (Rgb::ZERO, Vec3::ZERO);
     }
     let Some(ls) = ctx.sample_light(index, s.p, u_light_pt) else {
-        return Rgb::ZERO;
+        return (Rgb::ZERO, Vec3::ZERO);
     };
     let wi_local = sp.frame.to_local(ls.wi);
     let f = at.eval(wi_local) * wi_local.z.abs();
     let consistent = (wi_local.z > 0.0) == (ls.wi.dot(s.ng) > 0.0);
     if f == Rgb::ZERO || ls.li == Rgb::ZERO || !consistent {
-        return Rgb::ZERO;
+        return (Rgb::ZERO, wi_local);
     }
     let tr = if ctx.casts_shadow(index) {
         stats.shadow += 1;
@@ -59,11 +79,11 @@ pub fn surface_nee(
         Rgb::ONE
     };
     if tr == Rgb::ZERO {
-        return Rgb::ZERO;
+        return (Rgb::ZERO, wi_local);
     }
     let bsdf_pdf = at.pdf(wi_local) * bsdf_pdf_scale;
     let w = if ls.delta { 1.0 } else { power_heuristic(ls.pdf * pmf, bsdf_pdf) };
-    beta * f * tr * ls.li * (w / (ls.pdf * pmf))
+    (beta * f * tr * ls.li * (w / (ls.pdf * pmf)), wi_local)
 }
 
 /// Transmittance of a shadow ray from surface `s` to a light sample: through media and

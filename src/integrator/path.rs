@@ -27,7 +27,8 @@
 //! and leaves through a Lambertian exit (NEE at the exit point, cosine sampling out).
 
 use super::SceneContext;
-use super::nee::{exit_nee, medium_nee, surface_nee};
+use super::light_passes::{Tally, shares_at};
+use super::nee::{exit_nee, medium_nee, surface_nee_at};
 use super::walk::{PathState, Step};
 use crate::bsdf::dielectric::refract;
 use crate::bsdf::microfacet::Ggx;
@@ -54,11 +55,13 @@ pub struct PathIntegrator {
     /// Camera rays that miss show nothing (alpha 0) instead of the world, as Blender's
     /// Film → Transparent; the world still lights the scene.
     pub transparent_background: bool,
+    /// Classify contributions into the light passes (`light_passes.rs`; only when asked).
+    pub light_passes: bool,
 }
 
 impl Default for PathIntegrator {
     fn default() -> Self {
-        PathIntegrator { max_depth: 13, rr_depth: 3, transparent_background: true }
+        PathIntegrator { max_depth: 13, rr_depth: 3, transparent_background: true, light_passes: false }
     }
 }
 
@@ -156,6 +159,9 @@ impl PathIntegrator {
         out: &mut CameraSample,
     ) -> Rgb {
         let mut radiance = Rgb::ZERO;
+        // Light passes: only camera paths (`li`) keep a tally.
+        let passes = self.light_passes && st.depth == 0;
+        let mut tally = Tally::default();
         loop {
             // Bounce dimensions, drawn up front so that their positions are fixed.
             let [u_light, u_lx, u_ly, u_lobe] = sampler.next_4d();
@@ -164,7 +170,13 @@ impl PathIntegrator {
             let (u_light_pt, u_dir) = (Vec2::new(u_lx, u_ly), Vec2::new(u_dx, u_dy));
 
             // Along the ray: medium, crossed lights, pass-through surfaces.
+            let before = radiance;
+            let depth_before = st.depth;
             let (step, crossed) = st.advance(ctx, [u_channel, u_dist], || u_alpha, true, &mut radiance, stats);
+            if passes && radiance != before {
+                // Crossed lights and medium emission (the difference keeps Combined's sum as it was).
+                tally.found(out, depth_before, radiance - before, false);
+            }
             if crossed && st.depth == 0 {
                 out.alpha = 1.0;
             }
@@ -182,7 +194,12 @@ impl PathIntegrator {
                     if st.depth >= self.max_depth {
                         break;
                     }
-                    radiance += st.beta * medium_nee(ctx, p, st.dir, phase, st.media, u_light, u_light_pt, stats);
+                    let c = st.beta * medium_nee(ctx, p, st.dir, phase, st.media, u_light, u_light_pt, stats);
+                    radiance += c;
+                    if passes {
+                        tally.estimated(out, st.depth, c, None);
+                        tally.volume();
+                    }
                     // The phase function is its own density: the throughput is unchanged.
                     let (wi, pdf) = phase.sample(st.dir, u_dir);
                     st.prev_pdf = pdf;
@@ -211,6 +228,15 @@ impl PathIntegrator {
                         if seen_directly {
                             out.alpha = 1.0;
                         }
+                        if passes {
+                            tally.found(out, st.depth, st.beta * le, true);
+                        }
+                    } else if passes
+                        && seen_directly
+                        && let Some(le) = st.escaped_radiance(ctx)
+                    {
+                        // Cycles' Environment pass shows the world behind a transparent film too.
+                        tally.found(out, 0, st.beta * le, true);
                     }
                     break;
                 }
@@ -234,7 +260,11 @@ impl PathIntegrator {
 
             // Emission found by the path, weighted against light sampling.
             if sp.emitted != Rgb::ZERO {
-                radiance += st.surface_emission(ctx, &hit, &s, &sp);
+                let c = st.surface_emission(ctx, &hit, &s, &sp);
+                radiance += c;
+                if passes {
+                    tally.found(out, st.depth, c, false);
+                }
             }
 
             if st.depth >= self.max_depth {
@@ -243,6 +273,9 @@ impl PathIntegrator {
 
             let wo_local = sp.frame.to_local(wo);
             let at = sp.bsdf.at(wo_local);
+            if passes && st.depth == 0 {
+                Tally::colours(out, &at, st.beta);
+            }
             // Probability of the subsurface part (its weight: what the layers above leave
             // to the diffuse base, times Subsurface Weight); the BSDF has the rest.
             let q_sss = if mat.subsurface.is_some() { sp.bsdf.subsurface_weight(wo_local) } else { 0.0 };
@@ -252,7 +285,7 @@ impl PathIntegrator {
             // which the light tree uses.
             let n_select = if sp.bsdf.transmits() { Vec3::ZERO } else { s.ng };
             if !sp.bsdf.is_delta() {
-                radiance += surface_nee(
+                let (c, wi_light) = surface_nee_at(
                     ctx,
                     &s,
                     &sp,
@@ -265,6 +298,10 @@ impl PathIntegrator {
                     u_light_pt,
                     stats,
                 );
+                radiance += c;
+                if passes && c != Rgb::ZERO {
+                    tally.estimated(out, st.depth, c, Some(shares_at(&at, wi_light)));
+                }
             }
 
             if u_sss < q_sss
@@ -286,7 +323,15 @@ impl PathIntegrator {
                 }
                 let [v_light, v_lx, v_ly, _] = sampler.next_4d();
                 let [v_dx, v_dy, _, _] = sampler.next_4d();
-                radiance += st.beta * exit_nee(ctx, &se, n_g, n_s, st.media, v_light, Vec2::new(v_lx, v_ly), stats);
+                if passes {
+                    tally.subsurface();
+                }
+                let c = st.beta * exit_nee(ctx, &se, n_g, n_s, st.media, v_light, Vec2::new(v_lx, v_ly), stats);
+                radiance += c;
+                if passes {
+                    // A walk from the first hit makes this exit's estimate the direct one.
+                    tally.estimated(out, st.depth, c, Some((Rgb::ONE, Rgb::ZERO)));
+                }
                 let local = cosine_hemisphere(Vec2::new(v_dx, v_dy));
                 let wi = Frame::from_normal(n_s).to_world(local);
                 if wi.dot(n_g) <= 0.0 {
@@ -318,6 +363,11 @@ impl PathIntegrator {
                 break;
             }
             let pdf = bs.pdf * (1.0 - q_sss);
+            if passes && st.depth == 0 {
+                let (d, g) =
+                    if bs.delta { (Rgb::ZERO, Rgb::splat(!transmitted as u8 as f32)) } else { shares_at(&at, bs.wi) };
+                tally.surface_bounce(d, g);
+            }
             st.beta *= bs.f * (bs.wi.z.abs() / pdf);
             if !st.beta.is_finite() || st.beta == Rgb::ZERO {
                 break;

@@ -27,6 +27,10 @@ pub struct RenderJob {
     pub filter: Filter,
     /// Adaptive sampling (`--noise-threshold`); None: every pixel takes every sample.
     pub adaptive: Option<super::adaptive::Adaptive>,
+    /// The passes to render besides Combined.
+    pub passes: crate::passes::PassSet,
+    /// Mist and AO settings of the data passes.
+    pub data: crate::integrator::data_passes::DataSettings,
 }
 
 /// What came out.

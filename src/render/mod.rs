@@ -14,7 +14,7 @@ pub mod job;
 pub use job::{Progress, RayStats, RenderJob, RenderResult};
 
 use crate::film::{Film, SplatPool};
-use crate::integrator::{Integrator, SceneContext};
+use crate::integrator::{Integrator, SceneContext, data_passes};
 use crate::sampling::PixelSampler;
 use crate::scene::camera::CameraRays;
 use adaptive::AdaptiveFilm;
@@ -55,7 +55,12 @@ pub fn render(
     on_pass: &mut dyn FnMut(&Film, u32),
 ) -> RenderResult {
     match integrator {
-        Integrator::Sppm(s) => s.render(ctx, camera, job, stop, on_progress),
+        Integrator::Sppm(s) => {
+            // SPPM keeps only the base passes (the settings refuse the others for it).
+            let mut r = s.render(ctx, camera, job, stop, on_progress);
+            r.image.passes = job.passes;
+            r
+        }
         _ => progressive(ctx, camera, integrator, job, stop, on_progress, on_pass),
     }
 }
@@ -72,7 +77,7 @@ fn progressive(
     on_pass: &mut dyn FnMut(&Film, u32),
 ) -> RenderResult {
     let [x0, y0, x1, y1] = job.window;
-    let mut film = Film::new(x1 - x0, y1 - y0, TILE_SIZE);
+    let mut film = Film::with_passes(x1 - x0, y1 - y0, TILE_SIZE, job.passes);
     // Adaptive sampling: the class-A half sums and converged flags, one tile per film tile.
     let mut adaptive = AdaptiveFilm::new(&film, job.adaptive);
     let pixels = ((x1 - x0) as u64) * ((y1 - y0) as u64);
@@ -89,6 +94,8 @@ fn progressive(
     // Without --spp the render runs until the time limit, as far as the index allows.
     let target = job.spp.unwrap_or(u32::MAX - job.sample_offset);
     let splats = SplatPool::new(job.window);
+    // Data passes trace the camera ray's first hit apart from the integrator.
+    let want_data = job.passes.any_data();
     let mut splat_count = 0u64;
 
     std::thread::scope(|scope| {
@@ -154,7 +161,6 @@ fn progressive(
                                 continue; // converged: adaptive sampling stopped this pixel
                             }
                             let (px, py) = (x0 + tile.x0 + tx, y0 + tile.y0 + ty);
-                            let acc = &mut tile.pixels[k];
                             let rays_before = ts.rays.total();
                             // Sample numbers continue after the offset: a chunk takes the samples a
                             // single render would take at those numbers, camera and light streams alike.
@@ -164,7 +170,7 @@ fn progressive(
                                 let u_lens = if camera.has_lens() { sampler.next_2d() } else { glam::Vec2::ZERO };
                                 let ray =
                                     camera.sample_clipped(px as f32 + 0.5 + off.x, py as f32 + 0.5 + off.y, u_lens);
-                                let s = integrator.sample(
+                                let mut s = integrator.sample(
                                     ctx,
                                     camera,
                                     &job.filter,
@@ -174,8 +180,20 @@ fn progressive(
                                     (job.seed, px, py, i),
                                     &mut ts.rays,
                                 );
+                                if want_data {
+                                    let pixel_sample = (job.seed, px, py, i);
+                                    data_passes::fill(
+                                        ctx,
+                                        &ray,
+                                        &mut s,
+                                        job.passes,
+                                        &job.data,
+                                        pixel_sample,
+                                        &mut ts.rays,
+                                    );
+                                }
                                 ts.light_paths += integrator.light_paths_per_sample();
-                                if acc.add(&s) {
+                                if tile.add(k, &s) {
                                     adaptive_tile.add(k, i, &s);
                                 } else {
                                     ts.nan += 1;

@@ -77,6 +77,13 @@ pub struct SceneSettings {
     pub noise_threshold: Option<f32>,
     /// Adaptive sampling's minimum samples (0 = derived from the threshold).
     pub min_samples: Option<u32>,
+    /// Passes to write besides Combined (`crate::passes`: tokens or Blender names).
+    pub passes: Option<Vec<String>>,
+    /// Blender's mist (World → Mist Pass): start, depth, falloff exponent (quadratic 2,
+    /// linear 1, inverse quadratic 0.5).
+    pub mist: Option<[f32; 3]>,
+    /// Blender's AO distance (World → Ambient Occlusion → Distance) for the AO pass.
+    pub ao_distance: Option<f32>,
 }
 
 /// Counts and per-material features for `caustic info`.

@@ -211,6 +211,9 @@ fn run(job: Job, out: &Output, stop: &AtomicBool) -> Option<Arc<Integrator>> {
             filter: s.filter.clone(),
             // The viewport refines every pixel alike: a frame is shown after every pass.
             adaptive: None,
+            // The viewport shows Combined only.
+            passes: crate::passes::PassSet::legacy(),
+            data: Default::default(),
         };
         let on_progress = |p: &render::Progress| {
             out.send(

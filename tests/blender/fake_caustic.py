@@ -96,6 +96,7 @@ def main():
     parser.add_argument("--threads", type=int)
     parser.add_argument("--camera")
     parser.add_argument("--integrator")
+    parser.add_argument("--passes")
     args = parser.parse_args()
     mode = os.environ.get("FAKE_CAUSTIC_MODE", "ok")
     if args.progress != "json":

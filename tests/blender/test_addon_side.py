@@ -34,6 +34,8 @@ def engine_module(addon):
 
 
 def test_passes_are_loaded_by_name_and_normals_are_blender_axes(scene, tmp_path):
+    layer = scene.view_layers[0]
+    layer.use_pass_z = layer.use_pass_normal = layer.cycles.denoising_store_passes = True
     scene.render.image_settings.media_type = "MULTI_LAYER_IMAGE"
     scene.render.image_settings.exr_codec = "ZIP"
     bpy.ops.render.render(write_still=True)

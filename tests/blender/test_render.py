@@ -41,6 +41,8 @@ def test_headless_render_fills_result_and_writes_file(scene):
 
 def test_render_result_has_the_passes(scene):
     from exr_io import read_exr
+    layer = scene.view_layers[0]
+    layer.use_pass_z = layer.use_pass_normal = layer.cycles.denoising_store_passes = True
     scene.render.image_settings.media_type = "MULTI_LAYER_IMAGE"
     scene.render.image_settings.exr_codec = "ZIP"
     bpy.ops.render.render(write_still=True)

@@ -557,3 +557,31 @@ fn sampled_lobe_kinds_follow_the_lobe_that_chose() {
         }
     }
 }
+
+/// The light passes' split: the diffuse-class part of f is never more than f, is all of f
+/// for a pure Lambertian (specular 0, metallic 0), none of it for a metal without sheen; the class
+/// albedos of every material sum to at most 1 (plus the tables' error).
+#[test]
+fn class_split_of_f_and_albedo() {
+    let mut rng = Pcg32::new(7);
+    let wo = Vec3::new(0.3, -0.2, 0.93).normalize();
+    for (name, b) in materials() {
+        let at = b.at(wo);
+        for _ in 0..64 {
+            let wi = cosine_hemisphere(Vec2::new(rng.next_f32(), rng.next_f32()));
+            let (f, fd) = (at.eval(wi), at.eval_diffuse(wi));
+            assert!((fd - f).max_element() <= 1e-5 * f.max_element().max(1e-3), "{name}: {fd} above {f}");
+            // Sheen is diffuse-class (as Cycles'), even over a metal.
+            if b.metallic == 1.0 && b.sheen_max == 0.0 {
+                assert_eq!(fd, Rgb::ZERO, "{name}");
+            }
+        }
+        let [d, g, t] = at.class_albedo();
+        assert!((d + g + t).max_element() <= 1.0 + TABLE_ERROR as f32, "{name}: {d} + {g} + {t}");
+    }
+    let lambert = PbrBsdf::with_specular(Vec3::splat(0.5), 0.0, 1.0, 0.0);
+    let at = lambert.at(wo);
+    let wi = Vec3::new(-0.4, 0.1, 0.9).normalize();
+    assert_eq!(at.eval_diffuse(wi), at.eval(wi));
+    assert_eq!(at.class_albedo()[1], Rgb::ZERO);
+}

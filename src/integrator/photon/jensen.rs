@@ -95,6 +95,7 @@ impl JensenIntegrator {
             max_depth: self.max_depth,
             rr_depth: self.rr_depth,
             transparent_background: self.transparent_background,
+            light_passes: false,
         }
     }
 

@@ -406,6 +406,8 @@ fn image(states: &[PixelState], w: u32, h: u32, iters: u32) -> FilmImage {
         albedo: vec![[0.0; 3]; n],
         samples: vec![iters; n],
         noisy: Vec::new(),
+        passes: crate::passes::PassSet::legacy(),
+        extra: Vec::new(),
     };
     if iters == 0 {
         return img;

@@ -1,0 +1,62 @@
+//! The glTF material split by Cycles' closure classes for the light passes: the diffuse
+//! part of f (the diffuse base and the sheen, which Cycles counts as diffuse) and the
+//! albedo of each class seen from wo (the Colour passes). Everything else the material
+//! reflects is glossy (metal, specular layer, coat, glass reflection), and what it
+//! transmits is transmission.
+
+use super::PbrAt;
+use crate::bsdf::microfacet::{fresnel_dielectric, schlick_weight};
+use crate::math::Rgb;
+use glam::Vec3;
+use std::f32::consts::FRAC_1_PI;
+
+impl PbrAt<'_> {
+    /// The diffuse-class part of [`eval`](Self::eval): the diffuse base and the sheen, with
+    /// the same layer, sheen and coat scaling.
+    #[inline]
+    pub fn eval_diffuse(&self, wi: Vec3) -> Rgb {
+        let b = self.b;
+        let wo = self.wo;
+        let wi = if self.flip { Vec3::new(wi.x, wi.y, -wi.z) } else { wi };
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return Rgb::ZERO;
+        }
+        let scaling = if b.sheen_max > 0.0 { self.sheen_o.min(1.0 - b.sheen_albedo(wi.z)) } else { 1.0 };
+        let opaque = (1.0 - b.metallic) * (1.0 - b.transmission);
+        let mut f = Rgb::ZERO;
+        if opaque > 0.0 {
+            let ei = b.layer_albedo(wi);
+            let diffuse_weight = (Vec3::ONE - self.eo) * (Vec3::ONE - ei)
+                / (Vec3::ONE - b.layer_avg).max(Vec3::splat(1e-6))
+                * (1.0 - b.subsurface);
+            f = b.base * diffuse_weight * (FRAC_1_PI * b.diffuse_cos_ratio(wi)) * opaque;
+        }
+        (f * scaling + b.sheen_eval(wo, wi)) * self.under
+    }
+
+    /// Albedo seen from wo per class (diffuse, glossy, transmission), as Cycles' Colour
+    /// passes sum its closures' albedo estimates: the diffuse base (subsurface included,
+    /// which Cycles counts as diffuse) under the specular layer, the sheen; the specular
+    /// layer, the metal at Schlick's Fresnel, the coat and glass reflection; glass
+    /// transmission (its tint times 1 − Fresnel).
+    pub fn class_albedo(&self) -> [Rgb; 3] {
+        let b = self.b;
+        let wo = self.wo;
+        if wo.z <= 0.0 {
+            return [Rgb::ZERO; 3];
+        }
+        let below = self.under * self.sheen_o;
+        let dielectric = 1.0 - b.metallic;
+        let opaque = dielectric * (1.0 - b.transmission);
+        let diffuse = b.base * (Vec3::ONE - self.eo) * (opaque * below)
+            + b.sheen_color * (self.es / b.sheen_max.max(1e-6)) * self.under;
+        // The multiple-scattering compensation makes the metal's albedo its Fresnel colour.
+        let metal = b.base + (Vec3::ONE - b.base) * schlick_weight(wo.z);
+        let f_glass = fresnel_dielectric(wo.z, b.glass.eta);
+        let glass = dielectric * b.transmission;
+        let glossy =
+            (self.eo * opaque + metal * b.metallic + Rgb::splat(f_glass * glass)) * below + Rgb::splat(self.ec);
+        let transmission = b.glass.tint * ((1.0 - f_glass) * glass) * below;
+        [diffuse, glossy, transmission]
+    }
+}

@@ -1,0 +1,466 @@
+//! Render passes as Blender names them: which exist, which a render was asked for
+//! (`--passes`, or `passes` in the scene's render settings), where a camera sample keeps
+//! each one's value ([`Aov`] slots) and how the film turns the sums into the pass.
+//!
+//! Names, channels and meanings follow Cycles 5.0 (checked with bpy 5.0.1: every pass of
+//! the view layer enabled under Cycles, `render_result` saved as multilayer EXR):
+//! * light passes (`intern/cycles/kernel/film/light_passes.h`): a contribution is filed by
+//!   the class of the first scattering event (diffuse, glossy, transmission at a surface,
+//!   by the BSDF's split at the sampled or light direction; volume in a medium); "direct"
+//!   is next-event estimation at the first event and emission found at the second vertex,
+//!   "indirect" the rest. Emission and Environment are emitters and the world seen
+//!   directly (the world also when Film → Transparent hides it from Combined, as Cycles).
+//!   Colour passes hold the first hit's albedo per class; Cycles divides Direct and
+//!   Indirect by the Colour pass when it reads the film (`safe_divide_even_color`), so
+//!   that (Direct + Indirect) × Colour is the class's light.
+//! * data passes (`kernel/film/data_passes.h`): Mist = 1 − mean((1 − mist) × coverage),
+//!   with mist = clamp((distance − start) / depth)^falloff; Position, Object Index and
+//!   Material Index are single values, not means (Cycles takes sample 0; Caustic the
+//!   nearest hit over the samples, as its Depth, so that chunks merge exactly); UV is
+//!   (u, v, 1) averaged, so its A channel is the coverage; AO is the fraction of cosine
+//!   rays from the first hit that travel the world's AO distance unoccluded.
+
+use crate::error::{Error, Result};
+
+/// A render pass that Caustic can write, with Blender's name.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Pass {
+    /// Camera-space Z of the first hit (always accumulated).
+    Depth,
+    /// First hit's shading normal (always accumulated).
+    Normal,
+    /// Albedo for denoisers (always accumulated).
+    DenoisingAlbedo,
+    /// Normal for denoisers (the Normal sums).
+    DenoisingNormal,
+    /// Samples taken per pixel.
+    SampleCount,
+    /// Diffuse light, direct.
+    DiffuseDirect,
+    /// Diffuse light, indirect.
+    DiffuseIndirect,
+    /// Diffuse albedo of the first hit.
+    DiffuseColor,
+    /// Glossy light, direct.
+    GlossyDirect,
+    /// Glossy light, indirect.
+    GlossyIndirect,
+    /// Glossy albedo of the first hit.
+    GlossyColor,
+    /// Transmitted light, direct.
+    TransmissionDirect,
+    /// Transmitted light, indirect.
+    TransmissionIndirect,
+    /// Transmission albedo of the first hit.
+    TransmissionColor,
+    /// Light scattered first in a volume, direct.
+    VolumeDirect,
+    /// Light scattered first in a volume, indirect.
+    VolumeIndirect,
+    /// Emitters seen directly.
+    Emission,
+    /// The world seen directly.
+    Environment,
+    /// Ambient occlusion of the first hit.
+    AmbientOcclusion,
+    /// Blender's mist.
+    Mist,
+    /// World position of the first hit (Blender's axes).
+    Position,
+    /// UV of the first hit (active render map).
+    Uv,
+    /// Object pass index.
+    ObjectIndex,
+    /// Material pass index.
+    MaterialIndex,
+}
+
+/// Every pass, in the order of the table below.
+pub const ALL: [Pass; 24] = [
+    Pass::Depth,
+    Pass::Normal,
+    Pass::DenoisingAlbedo,
+    Pass::DenoisingNormal,
+    Pass::SampleCount,
+    Pass::DiffuseDirect,
+    Pass::DiffuseIndirect,
+    Pass::DiffuseColor,
+    Pass::GlossyDirect,
+    Pass::GlossyIndirect,
+    Pass::GlossyColor,
+    Pass::TransmissionDirect,
+    Pass::TransmissionIndirect,
+    Pass::TransmissionColor,
+    Pass::VolumeDirect,
+    Pass::VolumeIndirect,
+    Pass::Emission,
+    Pass::Environment,
+    Pass::AmbientOcclusion,
+    Pass::Mist,
+    Pass::Position,
+    Pass::Uv,
+    Pass::ObjectIndex,
+    Pass::MaterialIndex,
+];
+
+/// Slots of [`Aov`]: where a camera sample keeps each extra pass's value.
+pub mod slot {
+    /// Diffuse Direct (RGB).
+    pub const DIFF_DIR: usize = 0;
+    /// Diffuse Indirect.
+    pub const DIFF_IND: usize = 3;
+    /// Diffuse Color.
+    pub const DIFF_COL: usize = 6;
+    /// Glossy Direct.
+    pub const GLOSS_DIR: usize = 9;
+    /// Glossy Indirect.
+    pub const GLOSS_IND: usize = 12;
+    /// Glossy Color.
+    pub const GLOSS_COL: usize = 15;
+    /// Transmission Direct.
+    pub const TRANS_DIR: usize = 18;
+    /// Transmission Indirect.
+    pub const TRANS_IND: usize = 21;
+    /// Transmission Color.
+    pub const TRANS_COL: usize = 24;
+    /// Volume Direct.
+    pub const VOL_DIR: usize = 27;
+    /// Volume Indirect.
+    pub const VOL_IND: usize = 30;
+    /// Emission.
+    pub const EMIT: usize = 33;
+    /// Environment.
+    pub const ENV: usize = 36;
+    /// Ambient Occlusion (one value, written grey).
+    pub const AO: usize = 39;
+    /// Mist's per-sample value (1 − (1 − mist) × coverage).
+    pub const MIST: usize = 40;
+    /// Position (nearest hit).
+    pub const POS: usize = 41;
+    /// UV and coverage.
+    pub const UV: usize = 44;
+    /// Object index (nearest hit).
+    pub const OB: usize = 47;
+    /// Material index (nearest hit).
+    pub const MA: usize = 48;
+    /// Number of slots.
+    pub const COUNT: usize = 49;
+}
+
+// The film keeps its slots in a u64 bit mask.
+const _: () = assert!(slot::COUNT <= 64);
+
+/// Bit mask of the slots kept as "value at the nearest hit" instead of a sum.
+pub const NEAREST_SLOTS: u64 = (0b111 << slot::POS) | (1 << slot::OB) | (1 << slot::MA);
+
+/// The extra pass values of one camera sample, by [`slot`].
+#[derive(Clone, Copy, Debug)]
+pub struct Aov(pub [f32; slot::COUNT]);
+
+impl Default for Aov {
+    fn default() -> Self {
+        // Mist of a sample that hits nothing is 1 (Cycles' 1 − 0).
+        let mut a = [0.0; slot::COUNT];
+        a[slot::MIST] = 1.0;
+        Aov(a)
+    }
+}
+
+impl Aov {
+    /// Adds an RGB value to the three slots from `at`.
+    #[inline]
+    pub fn add3(&mut self, at: usize, v: glam::Vec3) {
+        self.0[at] += v.x;
+        self.0[at + 1] += v.y;
+        self.0[at + 2] += v.z;
+    }
+
+    /// Sets three slots from `at`.
+    #[inline]
+    pub fn set3(&mut self, at: usize, v: glam::Vec3) {
+        self.0[at..at + 3].copy_from_slice(&v.to_array());
+    }
+}
+
+impl Pass {
+    /// Blender's pass name (the EXR channel prefix `RenderLayer.load_from_file` reads).
+    pub fn name(self) -> &'static str {
+        match self {
+            Pass::Depth => "Depth",
+            Pass::Normal => "Normal",
+            Pass::DenoisingAlbedo => "Denoising Albedo",
+            Pass::DenoisingNormal => "Denoising Normal",
+            Pass::SampleCount => "Debug Sample Count",
+            Pass::DiffuseDirect => "Diffuse Direct",
+            Pass::DiffuseIndirect => "Diffuse Indirect",
+            Pass::DiffuseColor => "Diffuse Color",
+            Pass::GlossyDirect => "Glossy Direct",
+            Pass::GlossyIndirect => "Glossy Indirect",
+            Pass::GlossyColor => "Glossy Color",
+            Pass::TransmissionDirect => "Transmission Direct",
+            Pass::TransmissionIndirect => "Transmission Indirect",
+            Pass::TransmissionColor => "Transmission Color",
+            Pass::VolumeDirect => "Volume Direct",
+            Pass::VolumeIndirect => "Volume Indirect",
+            Pass::Emission => "Emission",
+            Pass::Environment => "Environment",
+            Pass::AmbientOcclusion => "Ambient Occlusion",
+            Pass::Mist => "Mist",
+            Pass::Position => "Position",
+            Pass::Uv => "UV",
+            Pass::ObjectIndex => "Object Index",
+            Pass::MaterialIndex => "Material Index",
+        }
+    }
+
+    /// The short name used by `--passes`: Blender's view-layer property without
+    /// `use_pass_` (`diffuse_direct`, `emit`, `z`, ...), or Cycles' for its own passes.
+    pub fn token(self) -> &'static str {
+        match self {
+            Pass::Depth => "z",
+            Pass::Normal => "normal",
+            Pass::DenoisingAlbedo => "denoising_albedo",
+            Pass::DenoisingNormal => "denoising_normal",
+            Pass::SampleCount => "sample_count",
+            Pass::DiffuseDirect => "diffuse_direct",
+            Pass::DiffuseIndirect => "diffuse_indirect",
+            Pass::DiffuseColor => "diffuse_color",
+            Pass::GlossyDirect => "glossy_direct",
+            Pass::GlossyIndirect => "glossy_indirect",
+            Pass::GlossyColor => "glossy_color",
+            Pass::TransmissionDirect => "transmission_direct",
+            Pass::TransmissionIndirect => "transmission_indirect",
+            Pass::TransmissionColor => "transmission_color",
+            Pass::VolumeDirect => "volume_direct",
+            Pass::VolumeIndirect => "volume_indirect",
+            Pass::Emission => "emit",
+            Pass::Environment => "environment",
+            Pass::AmbientOcclusion => "ambient_occlusion",
+            Pass::Mist => "mist",
+            Pass::Position => "position",
+            Pass::Uv => "uv",
+            Pass::ObjectIndex => "object_index",
+            Pass::MaterialIndex => "material_index",
+        }
+    }
+
+    /// Channel names, as Blender's render result has them.
+    pub fn channels(self) -> &'static [&'static str] {
+        match self {
+            Pass::Depth | Pass::Mist => &["Z"],
+            Pass::SampleCount | Pass::ObjectIndex | Pass::MaterialIndex => &["X"],
+            Pass::Normal | Pass::DenoisingNormal | Pass::Position => &["X", "Y", "Z"],
+            Pass::Uv => &["U", "V", "A"],
+            _ => &["R", "G", "B"],
+        }
+    }
+
+    /// First [`slot`] of an extra pass (None: the pass lives in the film's base sums).
+    pub fn slot(self) -> Option<usize> {
+        Some(match self {
+            Pass::Depth | Pass::Normal | Pass::DenoisingAlbedo | Pass::DenoisingNormal | Pass::SampleCount => {
+                return None;
+            }
+            Pass::DiffuseDirect => slot::DIFF_DIR,
+            Pass::DiffuseIndirect => slot::DIFF_IND,
+            Pass::DiffuseColor => slot::DIFF_COL,
+            Pass::GlossyDirect => slot::GLOSS_DIR,
+            Pass::GlossyIndirect => slot::GLOSS_IND,
+            Pass::GlossyColor => slot::GLOSS_COL,
+            Pass::TransmissionDirect => slot::TRANS_DIR,
+            Pass::TransmissionIndirect => slot::TRANS_IND,
+            Pass::TransmissionColor => slot::TRANS_COL,
+            Pass::VolumeDirect => slot::VOL_DIR,
+            Pass::VolumeIndirect => slot::VOL_IND,
+            Pass::Emission => slot::EMIT,
+            Pass::Environment => slot::ENV,
+            Pass::AmbientOcclusion => slot::AO,
+            Pass::Mist => slot::MIST,
+            Pass::Position => slot::POS,
+            Pass::Uv => slot::UV,
+            Pass::ObjectIndex => slot::OB,
+            Pass::MaterialIndex => slot::MA,
+        })
+    }
+
+    /// Slots the pass occupies (its channels; AO keeps one value for three channels).
+    fn slot_count(self) -> usize {
+        match self {
+            Pass::AmbientOcclusion => 1,
+            p => p.channels().len(),
+        }
+    }
+
+    /// The Colour pass a Direct or Indirect pass is divided by when it is read.
+    pub fn divided_by(self) -> Option<Pass> {
+        match self {
+            Pass::DiffuseDirect | Pass::DiffuseIndirect => Some(Pass::DiffuseColor),
+            Pass::GlossyDirect | Pass::GlossyIndirect => Some(Pass::GlossyColor),
+            Pass::TransmissionDirect | Pass::TransmissionIndirect => Some(Pass::TransmissionColor),
+            _ => None,
+        }
+    }
+
+    /// A light pass: the path tracer must classify its contributions.
+    pub fn is_light(self) -> bool {
+        matches!(
+            self,
+            Pass::DiffuseDirect
+                | Pass::DiffuseIndirect
+                | Pass::DiffuseColor
+                | Pass::GlossyDirect
+                | Pass::GlossyIndirect
+                | Pass::GlossyColor
+                | Pass::TransmissionDirect
+                | Pass::TransmissionIndirect
+                | Pass::TransmissionColor
+                | Pass::VolumeDirect
+                | Pass::VolumeIndirect
+                | Pass::Emission
+                | Pass::Environment
+        )
+    }
+
+    /// Reads a pass from its token or its Blender name (case and `_`/space insensitive).
+    pub fn parse(s: &str) -> Option<Pass> {
+        let norm = |x: &str| x.trim().to_ascii_lowercase().replace(' ', "_");
+        let want = norm(s);
+        ALL.into_iter().find(|p| norm(p.token()) == want || norm(p.name()) == want)
+    }
+}
+
+/// A set of passes (bit i = `ALL[i]`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct PassSet(u32);
+
+impl PassSet {
+    /// What a render writes without `--passes`: the passes of Caustic before pass
+    /// selection (Combined, Depth, Normal, the two denoising passes and the sample count).
+    pub fn legacy() -> Self {
+        [Pass::Depth, Pass::Normal, Pass::DenoisingAlbedo, Pass::DenoisingNormal, Pass::SampleCount]
+            .into_iter()
+            .collect()
+    }
+
+    /// True when `p` is in the set.
+    #[inline]
+    pub fn contains(self, p: Pass) -> bool {
+        self.0 & (1 << index(p)) != 0
+    }
+
+    /// Adds a pass.
+    pub fn insert(&mut self, p: Pass) {
+        self.0 |= 1 << index(p);
+    }
+
+    /// The passes, in [`ALL`]'s order.
+    pub fn iter(self) -> impl Iterator<Item = Pass> {
+        ALL.into_iter().filter(move |p| self.contains(*p))
+    }
+
+    /// Any light pass asked (the path tracer classifies contributions only then).
+    pub fn any_light(self) -> bool {
+        self.iter().any(Pass::is_light)
+    }
+
+    /// Any data pass the camera ray's first hit gives (AO, Mist, Position, UV, indices).
+    pub fn any_data(self) -> bool {
+        self.iter().any(|p| p.slot().is_some() && !p.is_light())
+    }
+
+    /// The slots a film must keep for these passes: each pass's own, and the Colour
+    /// pass's for a Direct or Indirect pass, which is divided by it.
+    pub fn slots(self) -> u64 {
+        let mut mask = 0u64;
+        for p in self.iter() {
+            for q in [Some(p), p.divided_by()].into_iter().flatten() {
+                if let Some(s) = q.slot() {
+                    mask |= ((1u64 << q.slot_count()) - 1) << s;
+                }
+            }
+        }
+        mask
+    }
+
+    /// Reads a comma-separated list of tokens or Blender names; "combined" is accepted
+    /// (always written) and "none" or an empty list asks for Combined alone.
+    pub fn parse_list(list: &str) -> Result<PassSet> {
+        let mut set = PassSet::default();
+        for item in list.split(',').map(str::trim).filter(|s| !s.is_empty()) {
+            if item.eq_ignore_ascii_case("combined") || item.eq_ignore_ascii_case("none") {
+                continue;
+            }
+            set.insert(Pass::parse(item).ok_or_else(|| {
+                Error::Usage(format!(
+                    "unknown pass '{item}' (known: combined, {})",
+                    ALL.iter().map(|p| p.token()).collect::<Vec<_>>().join(", ")
+                ))
+            })?);
+        }
+        Ok(set)
+    }
+}
+
+impl FromIterator<Pass> for PassSet {
+    fn from_iter<I: IntoIterator<Item = Pass>>(it: I) -> Self {
+        let mut s = PassSet::default();
+        for p in it {
+            s.insert(p);
+        }
+        s
+    }
+}
+
+fn index(p: Pass) -> usize {
+    ALL.iter().position(|&q| q == p).unwrap_or(0)
+}
+
+/// a / b per channel; where b is zero in a channel the ratio of the other channels is
+/// taken, so a colour pass with a zero channel still gives a grey quotient (Cycles'
+/// `safe_divide_even_color`, which its film applies to Direct and Indirect passes).
+pub fn divide_even_color(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    let q = |i: usize| if b[i] != 0.0 { a[i] / b[i] } else { 0.0 };
+    let (mut x, mut y, mut z) = (q(0), q(1), q(2));
+    let zero = [b[0] == 0.0, b[1] == 0.0, b[2] == 0.0];
+    match zero {
+        [true, true, _] => (x, y) = (z, z),
+        [true, false, true] => (x, z) = (y, y),
+        [true, false, false] => x = 0.5 * (y + z),
+        [false, true, true] => (y, z) = (x, x),
+        [false, true, false] => y = 0.5 * (x + z),
+        [false, false, true] => z = 0.5 * (x + y),
+        [false, false, false] => {}
+    }
+    [x, y, z]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_and_tokens_parse_back() {
+        for p in ALL {
+            assert_eq!(Pass::parse(p.token()), Some(p));
+            assert_eq!(Pass::parse(p.name()), Some(p));
+        }
+        let set = PassSet::parse_list("Combined, diffuse_direct,Emission").unwrap();
+        assert_eq!(set.iter().collect::<Vec<_>>(), vec![Pass::DiffuseDirect, Pass::Emission]);
+        assert!(PassSet::parse_list("diffuse_directt").unwrap_err().to_string().contains("unknown pass"));
+    }
+
+    #[test]
+    fn direct_passes_keep_their_colour() {
+        let set = PassSet::parse_list("glossy_direct").unwrap();
+        assert_eq!(set.slots(), (0b111 << slot::GLOSS_DIR) | (0b111 << slot::GLOSS_COL));
+        assert_eq!(PassSet::parse_list("ambient_occlusion").unwrap().slots(), 1 << slot::AO);
+    }
+
+    #[test]
+    fn even_colour_division() {
+        assert_eq!(divide_even_color([2.0, 4.0, 6.0], [1.0, 2.0, 3.0]), [2.0, 2.0, 2.0]);
+        assert_eq!(divide_even_color([2.0, 4.0, 0.0], [1.0, 1.0, 0.0]), [2.0, 4.0, 3.0]);
+        assert_eq!(divide_even_color([0.0, 0.0, 5.0], [0.0, 0.0, 2.0]), [2.5, 2.5, 2.5]);
+        assert_eq!(divide_even_color([1.0, 1.0, 1.0], [0.0, 0.0, 0.0]), [0.0, 0.0, 0.0]);
+    }
+}
