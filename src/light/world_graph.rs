@@ -265,7 +265,8 @@ mod tests {
                 v
             });
             eprintln!("{name}: bsdf {bsdf:?}, nee {nee:?}, mis {mis:?}");
-            for ((a, sa), (b, sb), what) in [(bsdf, nee, "BSDF vs NEE"), (bsdf, mis, "BSDF vs MIS"), (nee, mis, "NEE vs MIS")]
+            for ((a, sa), (b, sb), what) in
+                [(bsdf, nee, "BSDF vs NEE"), (bsdf, mis, "BSDF vs MIS"), (nee, mis, "NEE vs MIS")]
             {
                 let sigma = (sa * sa + sb * sb).sqrt();
                 assert!((a - b).abs() <= 5.0 * sigma, "{name}: {what}: {a} vs {b} (σ {sigma})");
