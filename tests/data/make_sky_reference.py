@@ -11,7 +11,7 @@ every render of a pixel): first a world whose Background colour is 0.5 Generated
 (Generated is the direction on the world), which gives each pixel's direction, then one world
 per case with the Sky Texture as the Background colour (strength 1). Colour management is Standard
 (scene linear out). The result, with each case's node settings as the add-on exports them,
-is `sky_reference.json`, read by `src/shader/sky.rs`'s tests.
+is `sky_reference.json`, read by `src/shader/sky/mod.rs`'s tests.
 """
 
 import json
