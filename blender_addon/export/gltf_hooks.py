@@ -122,7 +122,8 @@ class glTF2ExportUserExtension:
         except Exception as err:
             state.errors.append(f"scene settings: {err!r}")
         try:
-            value, warnings = world_extension(blender_scene, export_settings["gltf_filedirectory"])
+            folder = export_settings["gltf_filedirectory"]
+            value, warnings = world_extension(blender_scene, folder, state.image_writer(folder))
             state.warnings.extend(warnings)
             if value is not None:
                 attach_extension(gltf2_scene, WORLD_EXTENSION, value)

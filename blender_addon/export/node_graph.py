@@ -202,9 +202,10 @@ class _Builder:
         self.uses_generated = False
         self.warnings = []
         self.base_props = {p.identifier for p in bpy.types.ShaderNode.bl_rna.properties}
+        self.what = f"material '{material.name}'"  # how warnings name the tree's owner
 
     def warn(self, node_name, text):
-        self.warnings.append(f"material '{self.material.name}', node '{node_name}': {text}")
+        self.warnings.append(f"{self.what}, node '{node_name}': {text}")
 
     # --- resolving sockets to sources: ("link", index, identifier) | ("value", v, type) | None ---
 
@@ -424,6 +425,17 @@ def build_graph(material, context):
     if output is None:
         return None
     return _Builder(material, context).run(output)
+
+
+def build_world_graph(world, context):
+    """The World Output's Surface graph (a `Graph`, contract: `CAUSTIC_world.nodes`), or None
+    when the world has no Cycles World Output."""
+    output = cycles_output(world)
+    if output is None:
+        return None
+    builder = _Builder(world, context)
+    builder.what = f"world '{world.name}'"
+    return builder.run(output)
 
 
 def needs_graph(material, graph):

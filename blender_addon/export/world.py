@@ -1,11 +1,16 @@
-"""The world: Blender's Background node, optionally an equirectangular Environment Texture and
-a Mapping rotation about Z (contract: `CAUSTIC_world`), which the glTF exporter does not write."""
+"""The world (contract: `CAUSTIC_world`), which the glTF exporter does not write: Blender's
+Background node, optionally an equirectangular Environment Texture and a Mapping rotation about
+Z, as colour/strength/image/rotation; any other World Output Surface (Sky Texture, procedural
+textures, Mix/Add Shader of backgrounds, converters) as its whole node graph (`nodes`, in the
+shape of `CAUSTIC_materials_nodes`)."""
 
+import copy
 import os
 
 import bpy
 
 from .media import volume_medium
+from .node_graph import GraphContext, build_world_graph
 from .nodes import linked_node
 
 WORLD_EXTENSION = "CAUSTIC_world"
@@ -14,19 +19,29 @@ _IMAGE_EXTENSIONS = {"HDR": ".hdr", "OPEN_EXR": ".exr", "OPEN_EXR_MULTILAYER": "
                      "JPEG": ".jpg"}
 
 
-def world_extension(scene, folder):
+# The nodes of a world the plain form expresses (colour, strength, image, rotation).
+_PLAIN_WORLD_NODES = {"BACKGROUND", "TEX_ENVIRONMENT", "MAPPING", "TEX_COORD"}
+
+
+def world_extension(scene, folder, writer=None):
     """The `CAUSTIC_world` value for the scene's world, and warnings about what it drops.
 
-    Supported: a Background node (colour × strength) on the active World Output, whose colour
-    may come from an Environment Texture (equirectangular) optionally rotated about Z by a
-    Mapping node (the image file, or the packed image's bytes, is copied next to the glTF);
-    and a volume shader on its Volume output (`medium`: fog filling the scene).
+    A Background node (colour × strength) on the active World Output, whose colour may come
+    from an Environment Texture (equirectangular) optionally rotated about Z by a Mapping node,
+    is written in the plain form (the image file, or the packed image's bytes, is copied next
+    to the glTF, at full float precision); any other Surface graph is written as `nodes`, its
+    images through `writer` (node_images.ImageWriter). A volume shader on the Volume output is
+    `medium`: fog filling the scene.
     """
     world = scene.world
     if world is None:
         return None, []
     warnings = []
     value, warnings = _world_surface(world, folder, warnings)
+    if writer is not None and (warnings or not _plain_world(world)):
+        graph_value, graph_warnings = _world_graph(world, writer)
+        if graph_value is not None:
+            value, warnings = graph_value, graph_warnings
     medium = _world_volume(world, warnings)
     if medium is not None:
         # A world without a surface is black; its fog still counts.
@@ -105,3 +120,74 @@ def _world_surface(world, folder, warnings):
             fout.write(fin.read())
     value["image"] = os.path.basename(target)
     return value, warnings
+
+
+def _surface_tree_nodes(world):
+    """Every node feeding the active World Output's Surface (Blender's own links), or None
+    when a group or muted node is on the way."""
+    tree = world.node_tree if getattr(world, "use_nodes", True) else None
+    if tree is None:
+        return []
+    output = tree.get_output_node("CYCLES")
+    if output is None or not output.inputs["Surface"].is_linked:
+        return []
+    seen, nodes, todo = set(), [], [output.inputs["Surface"]]
+    while todo:
+        for link in todo.pop().links:
+            node = link.from_node
+            if node.as_pointer() in seen:
+                continue
+            seen.add(node.as_pointer())
+            if node.type == "GROUP" or node.mute or node.type == "REROUTE":
+                return None
+            nodes.append(node)
+            todo.extend(s for s in node.inputs if s.is_linked)
+    return nodes
+
+
+def _plain_world(world):
+    """Whether the plain form says everything the Surface does: only Background, Environment
+    Texture, Texture Coordinate and a point Mapping that only turns about Z."""
+    nodes = _surface_tree_nodes(world)
+    if nodes is None:
+        return False
+    for node in nodes:
+        if node.type not in _PLAIN_WORLD_NODES:
+            return False
+        if node.type == "MAPPING":
+            loc, scale = node.inputs["Location"], node.inputs["Scale"]
+            if node.vector_type != "POINT" or loc.is_linked or scale.is_linked or node.inputs["Rotation"].is_linked:
+                return False
+            if any(abs(v) > 1e-6 for v in loc.default_value) or any(abs(v - 1.0) > 1e-6 for v in scale.default_value):
+                return False
+        if node.type == "TEX_COORD" and any(o.is_linked for o in node.outputs if o.name != "Generated"):
+            return False
+    return True
+
+
+def _world_graph(world, writer):
+    """The `nodes` form of `CAUSTIC_world` and its warnings, or (None, []) without a Cycles
+    World Output."""
+    graph = build_world_graph(world, GraphContext())
+    if graph is None or graph.output["surface"] is None:
+        return None, []
+    what = f"world '{world.name}'"
+    warnings = list(graph.warnings)
+    entries, renumber = [], {}
+    for i, image in enumerate(graph.images):
+        entry = writer.entry(image, what, warnings)
+        if entry is not None:
+            renumber[i] = len(entries)
+            entries.append(entry)
+    nodes = copy.deepcopy(graph.nodes)
+    for node in nodes:
+        image = node["props"].get("image")
+        if image is not None:
+            if image in renumber:
+                node["props"]["image"] = renumber[image]
+            else:
+                del node["props"]["image"]
+    value = graph.value(entries)
+    value["nodes"] = nodes
+    value["output"] = {"surface": graph.output["surface"]}
+    return {"nodes": value}, warnings

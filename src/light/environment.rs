@@ -4,6 +4,9 @@
 //! piecewise-constant distribution of luminance × sin θ, so NEE picks bright texels and
 //! MIS with BSDF sampling covers the rest.
 //!
+//! A world node graph (`world_graph.rs`) gives the radiance itself; its baked table then
+//! serves as `image`, for sampling only (the graph's value × `color`, which is 1).
+//!
 //! Directions are glTF world directions (Y up). The image mapping is Blender's: with
 //! Blender's axes b = (x, -z, y) of the glTF direction, u = 0.5 - atan2(b.y, b.x) / 2π and
 //! v = 0.5 + asin(b.z) / π, with v = 1 at the image's top row.
@@ -92,9 +95,27 @@ pub struct Environment {
     pub image: Option<EnvImage>,
     /// Rotation of the mapping about the up axis, radians.
     pub rotation: f32,
+    /// A world node graph: the radiance of every direction (`image` is then its baked
+    /// table, which only steers sampling).
+    pub graph: Option<super::world_graph::WorldGraph>,
 }
 
 impl Environment {
+    /// The world of a node graph: its radiance baked into a table for sampling (`bake_width`
+    /// wide), or a constant colour when the graph reads nothing of the direction. None
+    /// when the table is not finite.
+    pub fn from_graph(graph: super::world_graph::WorldGraph) -> Option<Environment> {
+        if let Some(c) = graph.program().constant_emission {
+            let color = if c.is_finite() { c.max(Vec3::ZERO) } else { return None };
+            return Some(Environment { color, image: None, rotation: 0.0, graph: None });
+        }
+        let unrotated = Environment { color: Rgb::ONE, image: None, rotation: 0.0, graph: None };
+        let width = graph.bake_width();
+        let texels = graph.bake(width, |uv| unrotated.uv_to_dir(uv));
+        let image = EnvImage::new(width, width / 2, texels)?;
+        Some(Environment { color: Rgb::ONE, image: Some(image), rotation: 0.0, graph: Some(graph) })
+    }
+
     /// Image coordinates of a glTF direction.
     #[inline]
     fn dir_to_uv(&self, d: Vec3) -> Vec2 {
@@ -122,6 +143,9 @@ impl Environment {
     /// Radiance arriving from direction `d` (pointing away from the scene).
     #[inline]
     pub fn radiance(&self, d: Vec3) -> Rgb {
+        if let Some(g) = &self.graph {
+            return g.radiance(d) * self.color;
+        }
         match &self.image {
             None => self.color,
             Some(img) => img.lookup(self.dir_to_uv(d)) * self.color,
@@ -217,7 +241,7 @@ mod tests {
     #[test]
     fn chi2_environment_image() {
         for rotation in [0.0f32, 1.3] {
-            let env = Environment { color: Rgb::ONE, image: Some(test_image()), rotation };
+            let env = Environment { color: Rgb::ONE, image: Some(test_image()), rotation, graph: None };
             let t = ChiSquareTest::new(&format!("environment map rot={rotation}"));
             assert_chi2(t.run_with_pdf(|u| env.sample(u).map(|(d, _, p)| (d, p)), |d| env.pdf(d)));
         }
@@ -225,7 +249,7 @@ mod tests {
 
     #[test]
     fn uv_direction_round_trip_and_blender_axes() {
-        let env = Environment { color: Rgb::ONE, image: None, rotation: 0.7 };
+        let env = Environment { color: Rgb::ONE, image: None, rotation: 0.7, graph: None };
         for &(u, v) in &[(0.1f32, 0.2f32), (0.5, 0.5), (0.9, 0.8), (0.3, 0.95)] {
             let d = env.uv_to_dir(Vec2::new(u, v));
             let back = env.dir_to_uv(d);
@@ -233,7 +257,7 @@ mod tests {
         }
         // Unrotated: Blender's -X (glTF -X) is the image centre u = 0.5... per the formula
         // u = 0.5 - atan2(y, x)/2π: +X is u = 0.5, +Y (glTF -Z) is u = 0.25; up is v = 1.
-        let env = Environment { color: Rgb::ONE, image: None, rotation: 0.0 };
+        let env = Environment { color: Rgb::ONE, image: None, rotation: 0.0, graph: None };
         assert!((env.dir_to_uv(Vec3::X) - Vec2::new(0.5, 0.5)).length() < 1e-5);
         assert!((env.dir_to_uv(-Vec3::Z) - Vec2::new(0.25, 0.5)).length() < 1e-5);
         assert!((env.dir_to_uv(Vec3::Y).y - 1.0).abs() < 1e-5);

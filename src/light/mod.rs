@@ -13,6 +13,7 @@ pub mod origin;
 pub mod sample;
 pub mod sampler;
 pub mod tree;
+pub mod world_graph;
 
 use crate::math::Rgb;
 use crate::sampling::warp::{concentric_disk, uniform_triangle};

@@ -302,8 +302,11 @@ pub fn world(scene: &mut Scene, color: [f32; 3]) -> Result<Invalidates, String> 
     }
     let c = Rgb::from(color);
     match &mut scene.world {
+        Some(w) if w.graph.is_some() => {
+            return Err("the world is a shader graph: its colour cannot be edited, send load instead".into());
+        }
         Some(w) => w.color = c,
-        None => scene.world = Some(Environment { color: c, image: None, rotation: 0.0 }),
+        None => scene.world = Some(Environment { color: c, image: None, rotation: 0.0, graph: None }),
     }
     let at = scene.lights.iter().position(|l| matches!(l, Light::World));
     match (at, c == Rgb::ZERO) {

@@ -10,4 +10,5 @@ pub mod instructions;
 pub mod ops;
 pub mod program;
 pub mod shade;
+pub mod sky;
 pub mod texture_nodes;

@@ -50,6 +50,8 @@ pub enum TexOp {
         color: Reg,
         fac: Reg,
     },
+    /// Sky Texture (Single or Multiple Scattering, precomputed at load): Vector; output Color.
+    Sky { sky: std::sync::Arc<super::sky::Sky>, vector: Reg, color: Reg },
 }
 
 impl TexOp {
@@ -164,6 +166,7 @@ impl TexOp {
                 set3(r, color, c);
                 r[fac as usize] = v;
             }
+            TexOp::Sky { ref sky, vector, color } => set3(r, color, sky.radiance(v3(r, vector))),
         }
     }
 }

@@ -95,6 +95,9 @@ pub(super) struct WorldExt {
     pub(super) rotation: f32,
     /// Blender's World Volume: a homogeneous medium filling the scene (the camera is in it).
     pub(super) medium: Option<MediumExt>,
+    /// The World Output's Surface graph (`CAUSTIC_materials_nodes`' shape); replaces
+    /// colour, strength, image and rotation.
+    pub(super) nodes: Option<crate::shader::graph::NodesExt>,
 }
 
 /// `CAUSTIC_camera` on a camera's node: Blender's lens shift and depth of field.

@@ -63,7 +63,12 @@ impl Loader<'_> {
 
 impl Loader<'_> {
     /// Decodes image `k` of a material's graph into a scene texture; returns its index.
-    fn node_image(&mut self, material: &str, k: usize, img: &crate::shader::graph::ImageDesc) -> Result<u32> {
+    pub(super) fn node_image(
+        &mut self,
+        material: &str,
+        k: usize,
+        img: &crate::shader::graph::ImageDesc,
+    ) -> Result<u32> {
         let what = format!("material '{material}': CAUSTIC_materials_nodes image {k} '{}'", img.uri);
         let srgb = match img.colorspace.as_str() {
             "sRGB" => true,

@@ -46,6 +46,9 @@ impl Loader<'_> {
                 Some(medium)
             }
         };
+        if let Some(nodes) = &w.nodes {
+            return Ok((Some(self.world_graph(nodes)?), medium));
+        }
         let image = match &w.image {
             None => None,
             Some(uri) => {
@@ -94,6 +97,43 @@ impl Loader<'_> {
                 )
             }
         };
-        Ok((Some(crate::light::Environment { color, image, rotation: w.rotation }), medium))
+        Ok((Some(crate::light::Environment { color, image, rotation: w.rotation, graph: None }), medium))
+    }
+}
+
+impl Loader<'_> {
+    /// The world's node graph compiled, its images decoded into its own textures, and its
+    /// radiance baked into the sampling table (`light::world_graph`).
+    fn world_graph(&mut self, nodes: &crate::shader::graph::NodesExt) -> Result<crate::light::Environment> {
+        const NAME: &str = "world";
+        let first = self.textures.len();
+        let mut images = Vec::with_capacity(nodes.images.len());
+        for (k, img) in nodes.images.iter().enumerate() {
+            images.push(self.node_image(NAME, k, img)? - first as u32);
+        }
+        // The graph's images belong to the world alone: they leave the scene's list.
+        let textures = self.textures.split_off(first);
+        let compiled = crate::shader::compile::compile(NAME, nodes, &images)
+            .map_err(|e| self.err(format!("CAUSTIC_world nodes: {e}")))?;
+        for w in &compiled.warnings {
+            self.warn(format!("world: {w}"));
+        }
+        let prog = compiled.program;
+        let lobes = prog.ops.iter().any(|op| {
+            matches!(op, crate::shader::instructions::Op::Closure(c)
+                if !matches!(c.kind, crate::shader::closure::ClosureKind::Emission))
+        });
+        if lobes || prog.transparent {
+            self.warn("world: a BSDF or Transparent shader on the World Output renders nothing (black, as in Cycles)");
+        }
+        let graph = crate::light::world_graph::WorldGraph::new(prog, textures);
+        let width = graph.bake_width();
+        // The table: radiance (12 B) and its distribution (≈ 8 B) per texel.
+        self.budget.charge(format!("world table ({width}×{})", width / 2), (width * width / 2) as u64 * 20)?;
+        let start = std::time::Instant::now();
+        let env = crate::light::Environment::from_graph(graph)
+            .ok_or_else(|| self.err("CAUSTIC_world nodes: the world's radiance is not finite"))?;
+        self.profile.decode_textures += start.elapsed().as_secs_f64();
+        Ok(env)
     }
 }

@@ -225,7 +225,8 @@ impl Compiler<'_> {
                 self.prog.transparent = true;
                 (ClosureKind::Transparent, c)
             }
-            "ShaderNodeEmission" => {
+            // A world's Background is its emission (Cycles' background closure: colour × strength).
+            "ShaderNodeEmission" | "ShaderNodeBackground" => {
                 let c = self.vec(i, "Color", Vec3::ONE)?;
                 let s = self.float(i, "Strength", 1.0)?;
                 self.prog.emits = true;

@@ -211,6 +211,7 @@ fn is_closure_node(kind: &str) -> bool {
             | "ShaderNodeBsdfTransparent"
             | "ShaderNodeBsdfSheen"
             | "ShaderNodeEmission"
+            | "ShaderNodeBackground"
             | "ShaderNodeMixShader"
             | "ShaderNodeAddShader"
             | "ShaderNodeHoldout"
@@ -221,6 +222,7 @@ fn is_closure_node(kind: &str) -> bool {
 fn closure_output(kind: &str) -> &'static str {
     match kind {
         "ShaderNodeEmission" => "Emission",
+        "ShaderNodeBackground" => "Background",
         "ShaderNodeMixShader" | "ShaderNodeAddShader" => "Shader",
         "ShaderNodeHoldout" => "Holdout",
         "ShaderNodeSubsurfaceScattering" => "BSSRDF",

@@ -3,6 +3,7 @@
 //! Normal Map, Bump, and the texture nodes (procedural and image).
 
 use super::*;
+use crate::shader::sky::{Sky, SkyModel, SkyParams};
 
 impl Compiler<'_> {
     /// An Image or Environment Texture node's image (None, with a warning: magenta, as
@@ -360,6 +361,47 @@ impl Compiler<'_> {
                 let fac = self.out(i, "Fac", Ty::Float);
                 let op = TexOp::Brick { offset, offset_frequency, squash, squash_frequency, inputs, color, fac };
                 self.ops.push(Op::Texture(Box::new(op)));
+            }
+            "ShaderNodeTexSky" => {
+                let model = match self.prop_str(i, "sky_type", "MULTIPLE_SCATTERING") {
+                    "SINGLE_SCATTERING" => Some(SkyModel::Single),
+                    "MULTIPLE_SCATTERING" => Some(SkyModel::Multiple),
+                    "PREETHAM" | "HOSEK_WILKIE" => None,
+                    other => return Err(self.err(i, format!("unknown sky type '{other}'"))),
+                };
+                let vector = self.vec_implicit(i, "Vector", InputKind::Generated)?;
+                let color = self.out(i, "Color", Ty::Color);
+                let Some(model) = model else {
+                    let t = self.prop_str(i, "sky_type", "");
+                    self.warn(
+                        i,
+                        format!("the {t} sky model is not supported (Single and Multiple Scattering are): it gives 0"),
+                    );
+                    return Ok(true);
+                };
+                let num =
+                    |c: &Self, k: &str, d: f64| c.desc(i).props.get(k).and_then(Value::as_f64).unwrap_or(d) as f32;
+                let params = SkyParams {
+                    model,
+                    sun_disc: self.prop_bool(i, "sun_disc", true),
+                    sun_size: num(self, "sun_size", 0.009_512),
+                    sun_intensity: num(self, "sun_intensity", 1.0),
+                    sun_elevation: num(self, "sun_elevation", 15f64.to_radians()),
+                    sun_rotation: num(self, "sun_rotation", 0.0),
+                    altitude: num(self, "altitude", 100.0),
+                    air: num(self, "air_density", 1.0),
+                    aerosol: num(self, "aerosol_density", 1.0),
+                    ozone: num(self, "ozone_density", 1.0),
+                };
+                let finite = [params.sun_size, params.sun_intensity, params.sun_elevation, params.sun_rotation]
+                    .into_iter()
+                    .chain([params.altitude, params.air, params.aerosol, params.ozone])
+                    .all(f32::is_finite);
+                if !finite {
+                    return Err(self.err(i, "the sky's settings must be finite numbers"));
+                }
+                let sky = std::sync::Arc::new(Sky::new(&params));
+                self.ops.push(Op::Texture(Box::new(TexOp::Sky { sky, vector, color })));
             }
             "ShaderNodeTexEnvironment" => {
                 let (texture, interp) = self.image_and_interpolation(i)?;
