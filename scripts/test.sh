@@ -6,12 +6,13 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
+# bpy first: its wheel carries the Open Image Denoise library that tests/denoise.rs uses.
+echo "== Python: bpy 5.0.1 + pytest in .venv =="
+bash scripts/setup_python.sh
+
 echo "== Rust: build and test (release) =="
 cargo build --release --locked
 cargo test --release --locked
-
-echo "== Python: bpy 5.0.1 + pytest in .venv =="
-bash scripts/setup_python.sh
 
 echo "== Khronos glTF validator (npm gltf-validator) in .tools =="
 bash scripts/setup_validator.sh
