@@ -44,7 +44,8 @@ def object_warnings(obj):
             settings = modifier.particle_system.settings
             if settings.type == "HAIR" and settings.render_type == "PATH":
                 warnings.append(f"{what}: hair particle system '{modifier.particle_system.name}' is not rendered")
-    if getattr(obj, "is_shadow_catcher", False):
+    # Blender 5.0 sets the flag on new lights too; it means something for geometry only.
+    if obj.type not in ("LIGHT", "CAMERA", "EMPTY") and getattr(obj, "is_shadow_catcher", False):
         warnings.append(f"{what}: Shadow Catcher is not supported; it renders as an ordinary object")
     if obj.type == "LIGHT":
         hidden = [name for prop, name in _LIGHT_RAY_VISIBILITY if not getattr(obj, prop, True)]

@@ -543,3 +543,6 @@ def test_unrendered_features_are_named(addon, empty_scene):
     assert unsupported.object_warnings(shy) == []
     assert unsupported.object_warnings(held) == []
     assert not any("HeldCollection" in line for line in warnings), text
+    # A light's Shadow Catcher flag (on by default in Blender 5.0) means nothing: no warning.
+    assert shy_light.is_shadow_catcher
+    assert not any("ShyLight" in line and "Catcher" in line for line in warnings), text
