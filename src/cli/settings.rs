@@ -48,7 +48,7 @@ pub struct Resolved {
     /// Passes to write besides Combined.
     pub passes: crate::passes::PassSet,
     /// Data-pass settings (mist, AO distance).
-    pub data: crate::integrator::data_passes::DataSettings,
+    pub data: crate::passes::DataSettings,
 }
 
 /// Resolves the photon-mapping settings (flag > scene > default) and checks them.
@@ -293,7 +293,7 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
             "chunks (--chunk) do not carry the light and data passes yet: render them without --chunk".into(),
         ));
     }
-    let data = crate::integrator::data_passes::DataSettings::resolve(st.mist, st.ao_distance)?;
+    let data = crate::passes::DataSettings::resolve(st.mist, st.ao_distance)?;
     if adaptive.is_some() {
         // Where adaptive sampling stopped each pixel is part of its result (Cycles writes it too).
         passes.insert(crate::passes::Pass::SampleCount);

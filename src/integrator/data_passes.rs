@@ -6,68 +6,13 @@
 //! the first surface hit gives the values.
 
 use super::SceneContext;
-use crate::error::{Error, Result};
 use crate::film::CameraSample;
 use crate::math::{Frame, offset_ray_origin};
-use crate::passes::{Pass, PassSet, slot};
+use crate::passes::{DataSettings, Pass, PassSet, slot};
 use crate::render::job::RayStats;
 use crate::sampling::warp::cosine_hemisphere;
 use crate::scene::camera::CameraRay;
 use glam::Vec2;
-
-/// Blender's mist and AO settings (World panel), with Blender's defaults.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct DataSettings {
-    /// Mist start (scene units).
-    pub mist_start: f32,
-    /// Mist depth: distance over which mist goes from 0 to 1.
-    pub mist_depth: f32,
-    /// Mist falloff exponent (Blender's Quadratic 2, Linear 1, Inverse Quadratic 0.5).
-    pub mist_falloff: f32,
-    /// AO ray length.
-    pub ao_distance: f32,
-}
-
-impl Default for DataSettings {
-    /// Blender 5.0's defaults: mist start 5, depth 25, quadratic; AO distance 10.
-    fn default() -> Self {
-        DataSettings { mist_start: 5.0, mist_depth: 25.0, mist_falloff: 2.0, ao_distance: 10.0 }
-    }
-}
-
-impl DataSettings {
-    /// The scene's settings over the defaults, checked.
-    pub fn resolve(mist: Option<[f32; 3]>, ao_distance: Option<f32>) -> Result<Self> {
-        let mut d = DataSettings::default();
-        if let Some([start, depth, falloff]) = mist {
-            if !(start.is_finite() && depth.is_finite() && depth >= 0.0 && falloff.is_finite() && falloff > 0.0) {
-                return Err(Error::Usage(format!(
-                    "the scene's mist [{start}, {depth}, {falloff}] needs a finite start, depth ≥ 0 and falloff > 0"
-                )));
-            }
-            (d.mist_start, d.mist_depth, d.mist_falloff) = (start, depth, falloff);
-        }
-        if let Some(a) = ao_distance {
-            if !(a.is_finite() && a >= 0.0) {
-                return Err(Error::Usage(format!("the scene's ao_distance {a} must be a distance ≥ 0")));
-            }
-            d.ao_distance = a;
-        }
-        Ok(d)
-    }
-
-    /// Mist at camera distance `dist`: clamp((dist − start) / depth, 0, 1) ^ falloff.
-    pub fn mist(&self, dist: f32) -> f32 {
-        let m = if self.mist_depth > 0.0 {
-            ((dist - self.mist_start) / self.mist_depth).clamp(0.0, 1.0)
-        } else if dist >= self.mist_start {
-            1.0
-        } else {
-            0.0
-        };
-        m.powf(self.mist_falloff)
-    }
-}
 
 /// Two uniform numbers for the AO ray of pixel sample (seed, x, y, i), apart from the
 /// sampler's stream so that asking for AO changes no other pass (SplitMix64 of the tuple).

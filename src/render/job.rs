@@ -30,7 +30,7 @@ pub struct RenderJob {
     /// The passes to render besides Combined.
     pub passes: crate::passes::PassSet,
     /// Mist and AO settings of the data passes.
-    pub data: crate::integrator::data_passes::DataSettings,
+    pub data: crate::passes::DataSettings,
 }
 
 /// What came out.

@@ -1,0 +1,144 @@
+//! Tests of glTF loading: required extensions, default materials, texture sources.
+
+use super::{SUPPORTED_REQUIRED, load_bytes};
+use crate::memory::MemoryBudget;
+use base64::Engine;
+use serde_json::json;
+
+/// One triangle whose file lists `required` in extensionsRequired (and extensionsUsed).
+fn load_requiring(required: &[&str]) -> crate::error::Result<crate::scene::Scene> {
+    load_triangle(required, json!({}))
+}
+
+/// One triangle without a material, `required` in extensionsRequired, `root`'s keys
+/// set on the document's root.
+fn load_triangle(required: &[&str], root: serde_json::Value) -> crate::error::Result<crate::scene::Scene> {
+    let data: Vec<u8> = [0f32, 0., 0., 1., 0., 0., 0., 1., 0.].iter().flat_map(|f| f.to_le_bytes()).collect();
+    let uri =
+        format!("data:application/octet-stream;base64,{}", base64::engine::general_purpose::STANDARD.encode(&data));
+    let doc = json!({
+        "asset": {"version": "2.0"},
+        "extensionsUsed": required,
+        "extensionsRequired": required,
+        "buffers": [{"uri": uri, "byteLength": 36}],
+        "bufferViews": [{"buffer": 0, "byteLength": 36}],
+        "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+            "min": [0, 0, 0], "max": [1, 1, 0]}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+        "nodes": [{"mesh": 0}],
+        "scenes": [{"nodes": [0]}]
+    });
+    let mut doc = doc;
+    for (k, v) in root.as_object().unwrap() {
+        doc[k] = v.clone();
+    }
+    load_bytes(&serde_json::to_vec(&doc).unwrap(), std::path::Path::new("."), "req.gltf", &MemoryBudget::unlimited())
+}
+
+/// A 2×2 image of one colour, encoded as PNG or lossless WebP, as a data URI.
+fn image_uri(rgb: [u8; 3], webp: bool) -> String {
+    let img = image::RgbaImage::from_pixel(2, 2, image::Rgba([rgb[0], rgb[1], rgb[2], 255]));
+    let mut bytes = Vec::new();
+    let (format, mime) =
+        if webp { (image::ImageFormat::WebP, "image/webp") } else { (image::ImageFormat::Png, "image/png") };
+    img.write_to(&mut std::io::Cursor::new(&mut bytes), format).unwrap();
+    format!("data:{mime};base64,{}", base64::engine::general_purpose::STANDARD.encode(&bytes))
+}
+
+#[test]
+fn ext_texture_webp_reads_the_webp_image_over_the_fallback() {
+    // Texture 0 has a PNG fallback (red) and a WebP source (green); texture 1 only WebP.
+    for (texture, required) in [
+        (json!({"source": 0, "extensions": {"EXT_texture_webp": {"source": 1}}}), &[][..]),
+        (json!({"extensions": {"EXT_texture_webp": {"source": 1}}}), &["EXT_texture_webp"][..]),
+    ] {
+        let root = json!({
+            "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "material": 0}]}],
+            "materials": [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}],
+            "textures": [texture],
+            "images": [{"uri": image_uri([255, 0, 0], false)}, {"uri": image_uri([0, 255, 0], true)}]
+        });
+        let scene = load_triangle(required, root).expect("loads");
+        assert_eq!(scene.textures.len(), 1);
+        assert!(scene.textures[0].texels.iter().all(|t| t[..3] == [0, 255, 0]), "{:?}", scene.textures[0].texels);
+    }
+}
+
+#[test]
+fn every_extension_caustic_renders_may_be_required() {
+    for name in [
+        "KHR_materials_clearcoat",
+        "KHR_materials_transmission",
+        "KHR_materials_volume",
+        "KHR_materials_ior",
+        "KHR_materials_specular",
+        "KHR_materials_sheen",
+        "KHR_materials_dispersion",
+        "KHR_materials_emissive_strength",
+        "KHR_materials_unlit",
+        "KHR_materials_anisotropy",
+        "KHR_texture_transform",
+        "KHR_lights_punctual",
+        "CAUSTIC_lights_area",
+        "CAUSTIC_lights_punctual",
+        "CAUSTIC_camera",
+        "CAUSTIC_world",
+        "CAUSTIC_materials_medium",
+        "CAUSTIC_materials_subsurface",
+        "CAUSTIC_materials_coat",
+        "CAUSTIC_materials_anisotropy",
+    ] {
+        assert!(SUPPORTED_REQUIRED.contains(&name), "{name} is not in SUPPORTED_REQUIRED");
+        if let Err(e) = load_requiring(&[name]) {
+            panic!("a file requiring {name} was refused: {e}");
+        }
+    }
+    assert!(load_requiring(SUPPORTED_REQUIRED).is_ok(), "all of them at once");
+}
+
+#[test]
+fn unknown_required_extensions_are_refused_by_name() {
+    for unknown in [
+        &["KHR_draco_mesh_compression"][..],
+        &["KHR_materials_clearcoat", "EXT_meshopt_compression", "KHR_materials_iridescence"],
+    ] {
+        let msg = load_requiring(unknown).expect_err("refused").to_string();
+        for name in unknown.iter().filter(|n| !SUPPORTED_REQUIRED.contains(n)) {
+            assert!(msg.contains(name), "{msg}");
+        }
+        assert!(msg.contains("requires unsupported extension"), "{msg}");
+    }
+}
+
+#[test]
+fn a_primitive_without_material_gets_gltfs_default_in_a_plain_file() {
+    let scene = load_triangle(&[], json!({})).unwrap();
+    let m = &scene.materials[scene.mesh.tri_material[0] as usize];
+    // glTF 2.0, materials: the default is base colour 1, metallic 1, roughness 1.
+    assert_eq!((m.base_color, m.metallic, m.roughness), (glam::Vec4::ONE, 1.0, 1.0));
+}
+
+#[test]
+fn caustic_default_material_names_the_material_for_primitives_without_one() {
+    // Blender's default surface (Principled: base 0.8, metallic 0, roughness 0.5, IOR
+    // 1.5), written by the add-on as a material of the file.
+    let blender = json!({"name": "Blender default",
+        "pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.5}});
+    let root = json!({"materials": [blender], "extensionsUsed": ["CAUSTIC_default_material"],
+        "extensions": {"CAUSTIC_default_material": {"material": 0}}});
+    let scene = load_triangle(&[], root).unwrap();
+    let m = &scene.materials[scene.mesh.tri_material[0] as usize];
+    assert_eq!(m.name, "Blender default");
+    assert_eq!((m.base_color, m.metallic, m.roughness, m.ior), (glam::Vec4::new(0.8, 0.8, 0.8, 1.0), 0.0, 0.5, 1.5));
+    let root = json!({"materials": [{}], "extensions": {"CAUSTIC_default_material": {"material": 0}}});
+    assert!(load_triangle(&["CAUSTIC_default_material"], root).is_ok(), "may be required");
+    for (bad, want) in [
+        (json!({"material": 3}), "material 3 does not exist (the file has 1)"),
+        (json!({"material": "grey"}), "CAUSTIC_default_material is malformed"),
+        (json!({"materia": 0}), "CAUSTIC_default_material is malformed"),
+    ] {
+        let root = json!({"materials": [{}], "extensions": {"CAUSTIC_default_material": bad}});
+        let msg = load_triangle(&[], root).expect_err("refused").to_string();
+        assert!(msg.contains(want), "{msg}");
+    }
+}
