@@ -32,7 +32,13 @@ class CausticRenderEngine(bpy.types.RenderEngine):
     def __del__(self):
         # Blender frees the engine when the viewport leaves Rendered mode: stop its server.
         # (RenderEngine has no other hook for this; Cycles frees its session here too.)
-        vp = getattr(self, "_caustic_viewport", None)
+        # The RNA side may already be gone (after a final render): attribute access on the
+        # engine then raises ReferenceError, which a finaliser must not (it ran inside pytest's
+        # source parsing and broke it). The Python side's own dict still holds the viewport.
+        try:
+            vp = object.__getattribute__(self, "__dict__").get("_caustic_viewport")
+        except (AttributeError, ReferenceError):
+            return
         if vp is not None:
             vp.free()
 

@@ -26,7 +26,7 @@ from bpy.props import BoolProperty
 
 from . import export, runner
 from .errors import CausticError
-from .final import FrameWindow
+from .frame import FrameWindow
 
 # What the last run did, for tests and scripts: scenes exported, frame images, farm lines.
 last_run = {}
