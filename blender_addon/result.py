@@ -102,6 +102,10 @@ def register_passes(engine, scene, view_layer):
     engine.register_pass(scene, view_layer, "Combined", 4, "RGBA", "COLOR")
     for _, _, _, name, channels, chan_id, kind in enabled_passes(view_layer):
         engine.register_pass(scene, view_layer, name, channels, chan_id, kind)
+    settings = getattr(scene, "caustic", None)
+    if settings is not None and settings.use_denoising and not settings.use_farm:
+        # The Combined before denoising, which the binary writes beside it (Cycles' name).
+        engine.register_pass(scene, view_layer, "Noisy Image", 4, "RGBA", "COLOR")
 
 
 def exr_size(path):

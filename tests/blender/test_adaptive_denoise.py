@@ -65,3 +65,28 @@ def test_render_with_adaptive_sampling_and_denoising(scene, monkeypatch):
     assert img.shape == (H, W, 4)
     assert np.isfinite(img).all()
     assert img[..., :3].mean() > 1e-3, "the render is black"
+
+
+def test_noisy_image_is_declared_with_denoising(scene, addon):
+    """With denoising on, the Combined before denoising (which the binary writes as Noisy
+    Image) is a pass of the result, as in Cycles; without it, or on the farm (not denoised),
+    it is not."""
+    result = module(addon, "result")
+
+    class Engine:
+        def __init__(self):
+            self.names = []
+
+        def register_pass(self, scene, layer, name, channels, chan_id, kind):
+            self.names.append(name)
+
+    def declared():
+        engine = Engine()
+        result.register_passes(engine, scene, scene.view_layers[0])
+        return engine.names
+
+    assert "Noisy Image" not in declared()
+    scene.caustic.use_denoising = True
+    assert "Noisy Image" in declared()
+    scene.caustic.use_farm = True
+    assert "Noisy Image" not in declared()
