@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
-# Sets up and runs every test: the Rust suite (release build), then the Blender
-# add-on suite with real bpy in a project-local virtual environment (and the Khronos glTF
-# validator from npm in .tools/, for the export-validity tests).
+# Sets up and runs every test: bpy in a project-local virtual environment first (its wheel
+# carries the OIDN library the denoising tests load), then the Rust suite (release build),
+# the Blender add-on suite with real bpy (and the Khronos glTF validator from npm in .tools/,
+# for the export-validity tests), and the render farm's tests.
 # Usage: bash scripts/test.sh
 set -euo pipefail
 cd "$(dirname "$0")/.."
