@@ -36,22 +36,9 @@ fn half_flat(dir: &Path) -> PathBuf {
     g.write(dir, "half_flat.gltf")
 }
 
-/// Every channel of an EXR, by name, as f32 bits.
-fn channels(path: &Path) -> Vec<(String, Vec<u32>)> {
-    let image = exr::prelude::read_all_flat_layers_from_file(path).expect("read EXR");
-    let mut out: Vec<(String, Vec<u32>)> = image
-        .layer_data
-        .iter()
-        .flat_map(|l| l.channel_data.list.iter())
-        .map(|c| (c.name.to_string(), c.sample_data.values_as_f32().map(f32::to_bits).collect()))
-        .collect();
-    out.sort_by(|a, b| a.0.cmp(&b.0));
-    out
-}
-
 /// One channel as floats.
 fn channel(path: &Path, name: &str) -> Vec<f32> {
-    let c = channels(path).into_iter().find(|c| c.0 == name).unwrap_or_else(|| panic!("no channel {name}"));
+    let c = exr_channel_bits(path).into_iter().find(|c| c.0 == name).unwrap_or_else(|| panic!("no channel {name}"));
     c.1.into_iter().map(f32::from_bits).collect()
 }
 
@@ -135,7 +122,7 @@ fn threshold_zero_is_the_non_adaptive_image_bit_for_bit() {
     let scene = half_flat(dir.path());
     let plain = render(&scene, dir.path(), "p.exr", &["--spp", "40"]);
     let zero = render(&scene, dir.path(), "z.exr", &["--spp", "40", "--noise-threshold", "0", "--min-samples", "8"]);
-    assert_eq!(channels(&plain), channels(&zero));
+    assert_eq!(exr_channel_bits(&plain), exr_channel_bits(&zero));
 }
 
 #[test]
@@ -145,7 +132,7 @@ fn adaptive_image_does_not_depend_on_the_thread_count() {
     let args = |t: &'static str| ["--spp", "128", "--noise-threshold", "0.02", "--min-samples", "16", "--threads", t];
     let one = render(&scene, dir.path(), "1.exr", &args("1"));
     let two = render(&scene, dir.path(), "2.exr", &args("3"));
-    assert_eq!(channels(&one), channels(&two));
+    assert_eq!(exr_channel_bits(&one), exr_channel_bits(&two));
     for integrator in ["bdpt", "photon"] {
         let flags = |t: &'static str| {
             [
@@ -163,7 +150,7 @@ fn adaptive_image_does_not_depend_on_the_thread_count() {
         };
         let a = render(&scene, dir.path(), &format!("{integrator}1.exr"), &flags("1"));
         let b = render(&scene, dir.path(), &format!("{integrator}3.exr"), &flags("3"));
-        assert_eq!(channels(&a), channels(&b), "{integrator}");
+        assert_eq!(exr_channel_bits(&a), exr_channel_bits(&b), "{integrator}");
         let counts = channel(&a, "Debug Sample Count.X");
         // First test after 16 samples (index 15 > 8): the flat half stops there, the noisy half goes on.
         assert!(counts.contains(&16.0) && counts.contains(&48.0), "{integrator}: {counts:?}");

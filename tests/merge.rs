@@ -6,28 +6,15 @@
 
 mod common;
 
-use common::{root, run, temp_dir};
+use common::{exr_channel_bits, root, run, temp_dir};
 use std::path::Path;
 use std::time::Duration;
 
 const LIMIT: Duration = Duration::from_secs(120);
 
-/// Every channel of an EXR decoded to f32 bits, by name (sorted).
-fn channels(path: &Path) -> Vec<(String, Vec<u32>)> {
-    let image = exr::prelude::read_all_flat_layers_from_file(path).expect("read EXR");
-    let mut out: Vec<(String, Vec<u32>)> = image
-        .layer_data
-        .iter()
-        .flat_map(|l| l.channel_data.list.iter())
-        .map(|c| (c.name.to_string(), c.sample_data.values_as_f32().map(f32::to_bits).collect()))
-        .collect();
-    out.sort_by(|a, b| a.0.cmp(&b.0));
-    out
-}
-
 /// Asserts two EXRs hold the same channels bit for bit.
 fn assert_same(a: &Path, b: &Path) {
-    let (ca, cb) = (channels(a), channels(b));
+    let (ca, cb) = (exr_channel_bits(a), exr_channel_bits(b));
     assert_eq!(ca.iter().map(|c| &c.0).collect::<Vec<_>>(), cb.iter().map(|c| &c.0).collect::<Vec<_>>());
     for ((name, x), (_, y)) in ca.iter().zip(&cb) {
         let differ = x.iter().zip(y).filter(|(p, q)| p != q).count();
@@ -135,7 +122,7 @@ fn sppm_chunks_merge_as_weighted_mean() {
 
 /// The Debug Sample Count channel.
 fn caustic_sample_counts(path: &Path) -> Vec<f32> {
-    channels(path)
+    exr_channel_bits(path)
         .into_iter()
         .find(|c| c.0 == "Debug Sample Count.X")
         .expect("sample count")
@@ -194,7 +181,7 @@ fn photon_seed_picks_the_map_only() {
     render(&p("same.exr"), &[&jensen[..], &["--photon-seed", "4"]].concat());
     render(&p("other.exr"), &[&jensen[..], &["--photon-seed", "5"]].concat());
     assert_same(&p("default.exr"), &p("same.exr"));
-    assert_ne!(channels(&p("default.exr")), channels(&p("other.exr")));
+    assert_ne!(exr_channel_bits(&p("default.exr")), exr_channel_bits(&p("other.exr")));
     let scene = root().join("scenes/cornell_box.gltf");
     let out = p("x.exr");
     let r = run(&["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--photon-seed", "1"], LIMIT);

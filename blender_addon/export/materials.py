@@ -17,7 +17,6 @@ Principled BSDF parameters it drops (contract, "Materials the exporter writes di
 * Principled inputs neither glTF nor Caustic render: warnings.
 """
 
-import copy
 import math
 
 from .gltf_objects import optional_extension
@@ -306,25 +305,9 @@ def _node_graph(gltf2_material, blender_material, export_settings, state, force=
     graph = graph_of(blender_material, state)
     if graph is None or not (force or uses_graph(blender_material, state)):
         return False
-    what = f"material '{blender_material.name}'"
     state.warnings.extend(graph.warnings)
     writer = state.image_writer(export_settings["gltf_filedirectory"])
-    entries, renumber = [], {}
-    for i, image in enumerate(graph.images):
-        entry = writer.entry(image, what, state.warnings)
-        if entry is not None:
-            renumber[i] = len(entries)
-            entries.append(entry)
-    nodes = copy.deepcopy(graph.nodes)
-    for node in nodes:
-        image = node["props"].get("image")
-        if image is not None:
-            if image in renumber:
-                node["props"]["image"] = renumber[image]
-            else:
-                del node["props"]["image"]
-    value = graph.value(entries)
-    value["nodes"] = nodes
+    value = writer.graph_value(graph, f"material '{blender_material.name}'", state.warnings)
     _set_extension(gltf2_material, GRAPH_EXTENSION, value)
     return True
 

@@ -7,6 +7,7 @@ values as stored (no view transform, no colour conversion) and the colour space 
 name. An image is written once per export however many materials use it.
 """
 
+import copy
 import os
 import re
 
@@ -31,6 +32,27 @@ class ImageWriter:
         if key not in self.written:
             self.written[key] = self._write(image, what, warnings)
         return self.written[key]
+
+    def graph_value(self, graph, what, warnings):
+        """The graph as the contract's value: its images written (an image without pixels is
+        dropped from the nodes that read it, with a warning) and renumbered, its nodes."""
+        entries, renumber = [], {}
+        for i, image in enumerate(graph.images):
+            entry = self.entry(image, what, warnings)
+            if entry is not None:
+                renumber[i] = len(entries)
+                entries.append(entry)
+        nodes = copy.deepcopy(graph.nodes)
+        for node in nodes:
+            image = node["props"].get("image")
+            if image is not None:
+                if image in renumber:
+                    node["props"]["image"] = renumber[image]
+                else:
+                    del node["props"]["image"]
+        value = graph.value(entries)
+        value["nodes"] = nodes
+        return value
 
     def _write(self, image, what, warnings):
         if image.source in {"SEQUENCE", "MOVIE"}:

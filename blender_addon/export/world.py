@@ -4,7 +4,6 @@ Z, as colour/strength/image/rotation; any other World Output Surface (Sky Textur
 textures, Mix/Add Shader of backgrounds, converters) as its whole node graph (`nodes`, in the
 shape of `CAUSTIC_materials_nodes`)."""
 
-import copy
 import os
 
 import bpy
@@ -171,23 +170,7 @@ def _world_graph(world, writer):
     graph = build_world_graph(world, GraphContext())
     if graph is None or graph.output["surface"] is None:
         return None, []
-    what = f"world '{world.name}'"
     warnings = list(graph.warnings)
-    entries, renumber = [], {}
-    for i, image in enumerate(graph.images):
-        entry = writer.entry(image, what, warnings)
-        if entry is not None:
-            renumber[i] = len(entries)
-            entries.append(entry)
-    nodes = copy.deepcopy(graph.nodes)
-    for node in nodes:
-        image = node["props"].get("image")
-        if image is not None:
-            if image in renumber:
-                node["props"]["image"] = renumber[image]
-            else:
-                del node["props"]["image"]
-    value = graph.value(entries)
-    value["nodes"] = nodes
+    value = writer.graph_value(graph, f"world '{world.name}'", warnings)
     value["output"] = {"surface": graph.output["surface"]}
     return {"nodes": value}, warnings

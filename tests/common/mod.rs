@@ -288,6 +288,20 @@ pub fn look_rotation(dir: [f32; 3]) -> [f32; 4] {
     [q.x, q.y, q.z, q.w]
 }
 
+/// Every channel of an EXR (all layers), decoded to f32 bits, by name (sorted): equality of
+/// two of these is bit-for-bit equality of the images.
+pub fn exr_channel_bits(path: &Path) -> Vec<(String, Vec<u32>)> {
+    let image = exr::prelude::read_all_flat_layers_from_file(path).expect("read EXR");
+    let mut out: Vec<(String, Vec<u32>)> = image
+        .layer_data
+        .iter()
+        .flat_map(|l| l.channel_data.list.iter())
+        .map(|c| (c.name.to_string(), c.sample_data.values_as_f32().map(f32::to_bits).collect()))
+        .collect();
+    out.sort_by(|a, b| a.0.cmp(&b.0));
+    out
+}
+
 /// Renders `scene` to `out` with `extra` flags, asserts success, and returns the Combined pixels.
 pub fn render_image(scene: &Path, out: &Path, extra: &[&str], limit: Duration) -> Vec<[f32; 4]> {
     let mut args = vec!["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--progress", "json"];

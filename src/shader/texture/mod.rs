@@ -33,19 +33,22 @@ mod tests {
     use super::*;
     use glam::Vec3;
 
+    /// Every fractal kind of the Noise node.
+    const NOISE_KINDS: [NoiseKind; 5] = [
+        NoiseKind::Multifractal,
+        NoiseKind::RidgedMultifractal,
+        NoiseKind::HybridMultifractal,
+        NoiseKind::Fbm,
+        NoiseKind::HeteroTerrain,
+    ];
+
     /// Every node with every setting, at `p` and `w`, with the given scalar inputs.
     fn all_outputs(p: Vec3, w: f32, x: f32) -> Vec<f32> {
         let mut out = Vec::new();
         for dims in 1..=4 {
             let (v, c) = white_noise_texture(dims, p, w);
             out.extend([v, c.x, c.y, c.z]);
-            for kind in [
-                NoiseKind::Multifractal,
-                NoiseKind::RidgedMultifractal,
-                NoiseKind::HybridMultifractal,
-                NoiseKind::Fbm,
-                NoiseKind::HeteroTerrain,
-            ] {
+            for kind in NOISE_KINDS {
                 let prm = NoiseParams {
                     dims,
                     kind,
@@ -152,13 +155,7 @@ mod tests {
     fn colourless_entry_points_keep_the_other_outputs() {
         for (p, w, x) in [(Vec3::new(-2.5, 0.75, 3.0), -1.25, 0.6), (Vec3::new(13.1, -7.2, 0.4), 4.5, 2.5)] {
             for dims in 1..=4 {
-                for kind in [
-                    NoiseKind::Multifractal,
-                    NoiseKind::RidgedMultifractal,
-                    NoiseKind::HybridMultifractal,
-                    NoiseKind::Fbm,
-                    NoiseKind::HeteroTerrain,
-                ] {
+                for kind in NOISE_KINDS {
                     let prm = NoiseParams {
                         dims,
                         kind,
