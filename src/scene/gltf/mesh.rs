@@ -2,6 +2,7 @@
 //! unrolled, degenerate triangles dropped, mirrored instances rewound, and MikkTSpace
 //! tangents generated for normal maps when the file has none.
 
+use super::pose::{NodePose, VertexTransforms};
 use super::quantized::{Quantization, read_f32};
 use super::{Loader, MAX_COORDINATE};
 use crate::error::Result;
@@ -44,12 +45,14 @@ impl Loader<'_> {
         self.budget.charge(format!("the mesh ({triangles} triangles and {vertices} vertices after instancing)"), bytes)
     }
 
-    /// Appends every triangle primitive of `m` under `world`; returns the number of
-    /// degenerate triangles dropped.
+    /// Appends every triangle primitive of `m` under `world` in its `pose` (morph
+    /// weights, skin); returns the number of degenerate triangles dropped.
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn append_mesh(
         &mut self,
         m: &gltf::Mesh,
         world: &Mat4,
+        pose: &NodePose,
         buffers: &[Vec<u8>],
         materials: &mut Vec<Material>,
         default_material: u32,
@@ -62,7 +65,8 @@ impl Loader<'_> {
         if !det.is_finite() {
             return Err(self.err(format!("{mesh_name}: an instance's transform is not finite (scale too large?)")));
         }
-        if det == 0.0 {
+        // A skinned mesh ignores its node's transform (glTF 2.0 §3.7.3): only the joints place it.
+        if det == 0.0 && pose.joints.is_none() {
             self.warn(format!("{mesh_name}: an instance has a singular transform (zero scale) and was skipped"));
             return Ok(0);
         }
@@ -83,7 +87,7 @@ impl Loader<'_> {
             // Any component type the file may use (validate.rs checked it against glTF
             // and KHR_mesh_quantization): integers are dequantized here, their scale and
             // offset are in the node's transform.
-            let positions: Vec<Vec3> = read_f32::<3>(&pos_acc, buffers, false)
+            let mut positions: Vec<Vec3> = read_f32::<3>(&pos_acc, buffers, false)
                 .ok_or_else(|| self.err(format!("{what}: cannot read POSITION")))?
                 .into_iter()
                 .map(Vec3::from)
@@ -112,8 +116,8 @@ impl Loader<'_> {
                     .map(Some)?,
                 None => None,
             };
-            let normals = read_exact(normals, "NORMAL")?;
-            let tangents: Option<Vec<Vec4>> = match attribute(gltf::Semantic::Tangents) {
+            let mut normals = read_exact(normals, "NORMAL")?;
+            let mut tangents: Option<Vec<Vec4>> = match attribute(gltf::Semantic::Tangents) {
                 Some((acc, name)) => Some(
                     read_f32::<4>(&acc, buffers, false)
                         .ok_or_else(|| unreadable(&name))?
@@ -151,6 +155,17 @@ impl Loader<'_> {
                     return Err(self.err(format!("{what}: {name} has {l} entries for {nv} vertices")));
                 }
             }
+            self.apply_morph(
+                &prim,
+                &pose.weights,
+                buffers,
+                &what,
+                (&mut positions, normals.as_mut(), tangents.as_mut()),
+            )?;
+            let transforms = match &pose.joints {
+                Some(joints) => self.skin_vertices(&prim, joints, nv, buffers, &what)?,
+                None => VertexTransforms::Uniform,
+            };
             let raw_indices: Vec<u32> = match reader.read_indices() {
                 Some(ix) => ix.into_u32().collect(),
                 None => (0..nv as u32).collect(),
@@ -176,7 +191,6 @@ impl Loader<'_> {
 
             // Tangents for normal maps and anisotropy: given, or generated with MikkTSpace
             // (on the normal map's UVs, else the anisotropy texture's, else set 0).
-            let mut tangents = tangents;
             // A shader graph's tangent-space Normal Map (or Tangent input) needs them too.
             let tangent_uvs = material
                 .normal_tex
@@ -202,7 +216,19 @@ impl Loader<'_> {
 
             // Append transformed vertices.
             let base = out.positions.len() as u32;
+            // Skinned vertices each have their own matrix; the winding of a triangle
+            // follows its first vertex's (a mirrored joint turns it inside out).
+            let mut vertex_flip = Vec::new();
             for i in 0..nv {
+                let (world, normal_matrix, flip) = match &transforms {
+                    VertexTransforms::Uniform => (*world, normal_matrix, flip),
+                    VertexTransforms::Skinned(m) => {
+                        let m3 = Mat3::from_mat4(m[i]);
+                        let vflip = m3.determinant() < 0.0;
+                        vertex_flip.push(vflip);
+                        (m[i], m3.inverse().transpose(), vflip)
+                    }
+                };
                 let p = world.transform_point3(positions[i]);
                 if !p.is_finite() {
                     return Err(self.err(format!(
@@ -240,6 +266,7 @@ impl Loader<'_> {
                     degenerate += 1;
                     continue;
                 }
+                let flip = vertex_flip.get(t[0] as usize).copied().unwrap_or(flip);
                 let t = if flip { [t[0], t[2], t[1]] } else { t };
                 out.triangles.push(t.map(|i| base + i));
                 out.tri_material.push(material_index);

@@ -21,6 +21,7 @@ mod material_ext;
 mod materials;
 mod mesh;
 mod nodes;
+mod pose;
 mod quantized;
 mod shader_graph;
 mod textures;
@@ -289,6 +290,23 @@ impl<'a> Loader<'a> {
         let mut light_rules: Vec<(usize, ReceiverRule)> = Vec::new();
         let mut node_rules: HashMap<u32, ReceiverRule> = HashMap::new();
         let mut instances_out = Vec::new();
+        // Joints' world matrices, for skinned meshes only (joints may lie outside the scene).
+        let worlds = if doc.nodes().any(|n| n.skin().is_some() && n.mesh().is_some()) {
+            pose::node_worlds(&doc)
+        } else {
+            Vec::new()
+        };
+        let animations: Vec<String> = doc
+            .animations()
+            .map(|a| a.name().map(|n| format!("'{n}'")).unwrap_or_else(|| format!("animation {}", a.index())))
+            .collect();
+        if !animations.is_empty() {
+            self.warn(format!(
+                "the file's animations ({}) are not played: the scene is rendered in its rest pose (the nodes' \
+                 own transforms and the meshes' default morph weights)",
+                animations.join(", ")
+            ));
+        }
         for (node_index, world) in &instances {
             let node = doc.nodes().nth(*node_index).expect("validated index");
             let node_name = node.name().map(str::to_string).unwrap_or_else(|| format!("node {node_index}"));
@@ -307,7 +325,9 @@ impl<'a> Loader<'a> {
                 instance_count += 1;
                 let (v0, t0) = (mesh.positions.len() as u32, mesh.triangles.len() as u32);
                 let first = t0 as usize;
-                degenerate += self.append_mesh(&m, world, &buffers, &mut materials, default_material, &mut mesh)?;
+                let pose = self.node_pose(&node, &m, &worlds, &buffers)?;
+                degenerate +=
+                    self.append_mesh(&m, world, &pose, &buffers, &mut materials, default_material, &mut mesh)?;
                 if let Some(ext) = node.extension_value("CAUSTIC_object_visibility") {
                     let vis: ObjectVisibilityExt = serde_json::from_value(ext.clone()).map_err(|e| {
                         self.err(format!("node {node_index} ('{node_name}'): bad CAUSTIC_object_visibility: {e}"))
