@@ -29,6 +29,8 @@ pub(super) const HANDLED_MATERIAL_EXTENSIONS: &[&str] = &[
     "KHR_materials_unlit",
     "KHR_materials_anisotropy",
     "CAUSTIC_materials_anisotropy",
+    // Read in `spec_gloss.rs`:
+    "KHR_materials_pbrSpecularGlossiness",
     // Warned about by name where it is read:
     "KHR_materials_iridescence",
 ];

@@ -124,6 +124,10 @@ impl Loader<'_> {
             ..Material::default()
         };
         self.material_extensions(doc, m, buffers, &mut mat, &mut features)?;
+        if let Some(ext) = m.extension_value("KHR_materials_pbrSpecularGlossiness") {
+            features.push("KHR_materials_pbrSpecularGlossiness".into());
+            self.specular_glossiness(doc, ext, buffers, &mut mat)?;
+        }
         if m.extension_value("KHR_materials_unlit").is_some() {
             // The spec: the base colour (factor × texture × vertex colour) is the surface's
             // colour, every other lighting property is ignored; alpha and doubleSided apply.

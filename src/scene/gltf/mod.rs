@@ -24,6 +24,7 @@ mod nodes;
 mod pose;
 mod quantized;
 mod shader_graph;
+mod spec_gloss;
 mod textures;
 mod validate;
 mod world;
@@ -60,6 +61,7 @@ pub const SUPPORTED_REQUIRED: &[&str] = &[
     "KHR_materials_dispersion",
     "KHR_materials_unlit",
     "KHR_materials_anisotropy",
+    "KHR_materials_pbrSpecularGlossiness",
     "KHR_mesh_quantization",
     "EXT_texture_webp",
     "CAUSTIC_lights_area",

@@ -77,6 +77,7 @@ fn every_extension_caustic_renders_may_be_required() {
         "KHR_materials_emissive_strength",
         "KHR_materials_unlit",
         "KHR_materials_anisotropy",
+        "KHR_materials_pbrSpecularGlossiness",
         "KHR_texture_transform",
         "KHR_lights_punctual",
         "CAUSTIC_lights_area",
