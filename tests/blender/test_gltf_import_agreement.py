@@ -12,6 +12,13 @@ glTF features whose meaning the loader must get right:
 * `morph`: a morph target at weight 0.5 (the sphere grows by 0.15 along its normals);
 * `skin`: a skinned sphere whose joint moves it sideways and whose own node transform (which
   glTF says to ignore) would push it out of view.
+* and the core features an asset most often has: emission with KHR_materials_emissive_strength,
+  clear coat, rough metal, rough glass (transmission, IOR, volume), a base colour texture under
+  KHR_texture_transform with a nearest sampler, alpha BLEND.
+
+Measured (bpy 5.0.1, 64 spp): every case 1.000-1.010 but for those named below; clear coat 1.04-1.07
+and glass 0.968 pass within their noise (sigma 6 % and 4.5 %: the point light's glossy paths), so
+they catch gross errors only.
 
 Tolerance: the block-variance bound of test_cycles_agreement (5 sigma over two seeds each) plus
 a 1 % model allowance, the same as test_material_fidelity's for "the same model in both
@@ -94,7 +101,18 @@ class _Gltf:
             json.dump(self.doc, f)
 
 
-def build(path, material, morph=False, skin=False):
+def _checker_png():
+    """An 8x8 sRGB checker of orange and teal as a PNG data URI (PIL, which bpy's Python has)."""
+    from io import BytesIO
+    from PIL import Image
+    image = Image.new("RGB", (8, 8))
+    image.putdata([(230, 120, 30) if (x + y) % 2 else (20, 150, 160) for y in range(8) for x in range(8)])
+    buf = BytesIO()
+    image.save(buf, format="PNG")
+    return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode()
+
+
+def build(path, material, morph=False, skin=False, texture=False):
     """The test file: floor, sphere with `material`, camera, point light (glTF's Y up)."""
     g = _Gltf()
     g.doc["materials"] = [{"name": "Floor", "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1],
@@ -108,6 +126,13 @@ def build(path, material, morph=False, skin=False):
                                                               "indices": fi, "material": 0}]})
     pos, nrm, idx = _sphere()
     attributes = {"POSITION": g.accessor(pos, "VEC3", minmax=True), "NORMAL": g.accessor(nrm, "VEC3")}
+    if texture:
+        uv = np.array([[0.5 + math.atan2(p[2], p[0]) / (2 * math.pi), math.acos(max(-1.0, min(1.0, p[1] / RADIUS)))
+                        / math.pi] for p in pos], np.float32)
+        attributes["TEXCOORD_0"] = g.accessor(uv, "VEC2")
+        g.doc["images"] = [{"uri": _checker_png()}]
+        g.doc["samplers"] = [{"magFilter": 9728, "minFilter": 9728}]
+        g.doc["textures"] = [{"source": 0, "sampler": 0}]
     primitive = {"attributes": attributes, "indices": g.accessor(idx, "SCALAR", 5125), "material": 1}
     mesh = {"name": "Ball", "primitives": [primitive]}
     if morph:
@@ -138,7 +163,10 @@ def build(path, material, morph=False, skin=False):
                                                                 "color": [1, 1, 1]}]}}
     roots.append(g.node(name="Lamp", translation=[1.2, 3.0, 1.8], extensions={"KHR_lights_punctual": {"light": 0}}))
     g.doc["scenes"][0]["nodes"] = roots
-    extensions = [k for k in material.get("extensions", {})]
+    extensions = set(material.get("extensions", {}))
+    for info in material.get("pbrMetallicRoughness", {}).values():
+        if isinstance(info, dict):
+            extensions |= set(info.get("extensions", {}))
     g.write(path, extensions)
 
 
@@ -157,6 +185,25 @@ CASES = {
     "spec_gloss_coloured": ({"extensions": {"KHR_materials_pbrSpecularGlossiness": {
         "diffuseFactor": [0.05, 0.05, 0.05, 1], "specularFactor": [0.9, 0.6, 0.3], "glossinessFactor": 0.7}}},
                             {}, [pytest.mark.xfail(strict=True, reason=SCHLICK)]),
+    "emissive": ({"pbrMetallicRoughness": {"baseColorFactor": [0.2, 0.2, 0.2, 1], "metallicFactor": 0.0},
+                  "emissiveFactor": [1.0, 0.5, 0.2],
+                  "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 2.0}}}, {}),
+    "clearcoat": ({"pbrMetallicRoughness": {"baseColorFactor": [0.6, 0.1, 0.1, 1], "metallicFactor": 0.0,
+                                            "roughnessFactor": 0.6},
+                   "extensions": {"KHR_materials_clearcoat": {"clearcoatFactor": 1.0,
+                                                              "clearcoatRoughnessFactor": 0.1}}}, {}),
+    "rough_metal": ({"pbrMetallicRoughness": {"baseColorFactor": [0.9, 0.7, 0.3, 1], "metallicFactor": 1.0,
+                                              "roughnessFactor": 0.4}}, {}),
+    "glass": ({"pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 1], "metallicFactor": 0.0,
+                                        "roughnessFactor": 0.2},
+               "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1.0},
+                              "KHR_materials_ior": {"ior": 1.5},
+                              "KHR_materials_volume": {"thicknessFactor": 1.2}}}, {}),
+    "textured": ({"pbrMetallicRoughness": {"baseColorTexture": {
+        "index": 0, "extensions": {"KHR_texture_transform": {"scale": [2.0, 2.0]}}},
+        "metallicFactor": 0.0, "roughnessFactor": 0.5}}, {"texture": True}),
+    "alpha_blend": ({"pbrMetallicRoughness": {"baseColorFactor": [0.2, 0.4, 0.9, 0.5], "metallicFactor": 0.0,
+                                              "roughnessFactor": 0.5}, "alphaMode": "BLEND"}, {}),
     "morph": ({"pbrMetallicRoughness": {"baseColorFactor": [0.2, 0.6, 0.3, 1], "metallicFactor": 0.0,
                                         "roughnessFactor": 0.5}}, {"morph": True}),
     "skin": ({"pbrMetallicRoughness": {"baseColorFactor": [0.3, 0.3, 0.8, 1], "metallicFactor": 0.0,
@@ -175,6 +222,10 @@ def cycles_images(gltf_path, tmp_path):
     scene.world = None  # the file has no world: black, as Caustic reads it
     scenes.small_render_settings(scene, W, H, samples=SAMPLES)
     scenes.match_cycles(scene, SAMPLES, BOUNCES)
+    # A glTF file has no bounce settings and Caustic passes alpha-blended surfaces without
+    # counting them as bounces (up to 128 crossings); Cycles' limit of BOUNCES transparent
+    # crossings would turn the shadow of a blended sphere (two crossings) opaque behind it.
+    scene.cycles.transparent_max_bounces = 128
     return [scenes.render_rgb(scene, "CYCLES", s, str(tmp_path / f"cycles_{s}.exr")) for s in SEEDS]
 
 
