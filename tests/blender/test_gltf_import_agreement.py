@@ -10,6 +10,7 @@ glTF features whose meaning the loader must get right:
   BSDF of IOR 1000 tinted by the specular colour (before the loader read it, Caustic rendered
   glTF's default white metal);
 * `morph`: a morph target at weight 0.5 (the sphere grows by 0.15 along its normals);
+* `gpu_instancing`: EXT_mesh_gpu_instancing, three scaled copies of the sphere;
 * `skin`: a skinned sphere whose joint moves it sideways and whose own node transform (which
   glTF says to ignore) would push it out of view.
 * and the core features an asset most often has: emission with KHR_materials_emissive_strength,
@@ -112,7 +113,7 @@ def _checker_png():
     return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode()
 
 
-def build(path, material, morph=False, skin=False, texture=False):
+def build(path, material, morph=False, skin=False, texture=False, instanced=False):
     """The test file: floor, sphere with `material`, camera, point light (glTF's Y up)."""
     g = _Gltf()
     g.doc["materials"] = [{"name": "Floor", "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1],
@@ -150,6 +151,13 @@ def build(path, material, morph=False, skin=False, texture=False):
         joint = g.node(name="Joint", translation=[0.35, RADIUS, 0.0])
         g.doc["skins"] = [{"joints": [joint]}]
         roots += [joint, g.node(name="Ball", mesh=1, skin=0, translation=[0.0, 0.0, 40.0])]
+    elif instanced:
+        # Three half-size copies in a row (EXT_mesh_gpu_instancing), under a node at the sphere's height.
+        rows = np.array([[-0.8, -0.3, 0.0], [0.0, -0.3, -0.4], [0.8, -0.3, 0.0]], np.float32)
+        attrs = {"TRANSLATION": g.accessor(rows, "VEC3"),
+                 "SCALE": g.accessor(np.full((3, 3), 0.5, np.float32), "VEC3")}
+        roots.append(g.node(name="Ball", mesh=1, translation=[0.0, RADIUS, 0.0],
+                            extensions={"EXT_mesh_gpu_instancing": {"attributes": attrs}}))
     else:
         roots.append(g.node(name="Ball", mesh=1, translation=[0.0, RADIUS, 0.0]))
     # Camera at (0, 1.6, 2.6) looking at (0, 0.55, 0): a rotation about X.
@@ -163,7 +171,7 @@ def build(path, material, morph=False, skin=False, texture=False):
                                                                 "color": [1, 1, 1]}]}}
     roots.append(g.node(name="Lamp", translation=[1.2, 3.0, 1.8], extensions={"KHR_lights_punctual": {"light": 0}}))
     g.doc["scenes"][0]["nodes"] = roots
-    extensions = set(material.get("extensions", {}))
+    extensions = set(material.get("extensions", {})) | ({"EXT_mesh_gpu_instancing"} if instanced else set())
     for info in material.get("pbrMetallicRoughness", {}).values():
         if isinstance(info, dict):
             extensions |= set(info.get("extensions", {}))
@@ -204,6 +212,8 @@ CASES = {
         "metallicFactor": 0.0, "roughnessFactor": 0.5}}, {"texture": True}),
     "alpha_blend": ({"pbrMetallicRoughness": {"baseColorFactor": [0.2, 0.4, 0.9, 0.5], "metallicFactor": 0.0,
                                               "roughnessFactor": 0.5}, "alphaMode": "BLEND"}, {}),
+    "gpu_instancing": ({"pbrMetallicRoughness": {"baseColorFactor": [0.7, 0.5, 0.2, 1], "metallicFactor": 0.0,
+                                                 "roughnessFactor": 0.5}}, {"instanced": True}),
     "morph": ({"pbrMetallicRoughness": {"baseColorFactor": [0.2, 0.6, 0.3, 1], "metallicFactor": 0.0,
                                         "roughnessFactor": 0.5}}, {"morph": True}),
     "skin": ({"pbrMetallicRoughness": {"baseColorFactor": [0.3, 0.3, 0.8, 1], "metallicFactor": 0.0,

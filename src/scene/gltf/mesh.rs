@@ -21,7 +21,9 @@ impl Loader<'_> {
         let mut per_mesh: HashMap<usize, (u64, u64)> = HashMap::new();
         let (mut vertices, mut triangles) = (0u64, 0u64);
         for (node_index, _) in instances {
-            let Some(m) = doc.nodes().nth(*node_index).and_then(|n| n.mesh()) else { continue };
+            let Some(node) = doc.nodes().nth(*node_index) else { continue };
+            let Some(m) = node.mesh() else { continue };
+            let copies = super::gpu_instancing::copies(&node, doc);
             let (v, t) = *per_mesh.entry(m.index()).or_insert_with(|| {
                 let (mut v, mut t) = (0u64, 0u64);
                 for prim in m.primitives() {
@@ -36,8 +38,8 @@ impl Loader<'_> {
                 }
                 (v, t)
             });
-            vertices = vertices.saturating_add(v);
-            triangles = triangles.saturating_add(t);
+            vertices = vertices.saturating_add(v.saturating_mul(copies));
+            triangles = triangles.saturating_add(t.saturating_mul(copies));
         }
         let bytes = vertices
             .saturating_mul(memory::MESH_BYTES_PER_VERTEX)

@@ -16,6 +16,7 @@
 mod cameras;
 mod emission;
 mod extensions;
+mod gpu_instancing;
 mod lights;
 mod material_ext;
 mod materials;
@@ -64,6 +65,7 @@ pub const SUPPORTED_REQUIRED: &[&str] = &[
     "KHR_materials_pbrSpecularGlossiness",
     "KHR_mesh_quantization",
     "EXT_texture_webp",
+    "EXT_mesh_gpu_instancing",
     "CAUSTIC_lights_area",
     "CAUSTIC_lights_punctual",
     "CAUSTIC_materials_nodes",
@@ -324,43 +326,47 @@ impl<'a> Loader<'a> {
             };
             if let Some(m) = node.mesh() {
                 used_meshes.insert(m.index());
-                instance_count += 1;
-                let (v0, t0) = (mesh.positions.len() as u32, mesh.triangles.len() as u32);
-                let first = t0 as usize;
-                let pose = self.node_pose(&node, &m, &worlds, &buffers)?;
-                degenerate +=
-                    self.append_mesh(&m, world, &pose, &buffers, &mut materials, default_material, &mut mesh)?;
-                if let Some(ext) = node.extension_value("CAUSTIC_object_visibility") {
-                    let vis: ObjectVisibilityExt = serde_json::from_value(ext.clone()).map_err(|e| {
-                        self.err(format!("node {node_index} ('{node_name}'): bad CAUSTIC_object_visibility: {e}"))
-                    })?;
-                    let total = mesh.triangles.len();
-                    ray_visibility.mark(&node_name, first..total, total, vis.mask());
-                    if vis.holdout {
-                        ray_visibility.mark_holdout(&node_name, first..total, total);
+                // EXT_mesh_gpu_instancing draws the mesh once per row of its attributes.
+                let copies = self.mesh_copies(&doc, &node, &node_name, world, &buffers)?;
+                for world in &copies {
+                    instance_count += 1;
+                    let (v0, t0) = (mesh.positions.len() as u32, mesh.triangles.len() as u32);
+                    let first = t0 as usize;
+                    let pose = self.node_pose(&node, &m, &worlds, &buffers)?;
+                    degenerate +=
+                        self.append_mesh(&m, world, &pose, &buffers, &mut materials, default_material, &mut mesh)?;
+                    if let Some(ext) = node.extension_value("CAUSTIC_object_visibility") {
+                        let vis: ObjectVisibilityExt = serde_json::from_value(ext.clone()).map_err(|e| {
+                            self.err(format!("node {node_index} ('{node_name}'): bad CAUSTIC_object_visibility: {e}"))
+                        })?;
+                        let total = mesh.triangles.len();
+                        ray_visibility.mark(&node_name, first..total, total, vis.mask());
+                        if vis.holdout {
+                            ray_visibility.mark_holdout(&node_name, first..total, total);
+                        }
                     }
+                    if linked {
+                        linking.tri_object.resize(mesh.triangles.len(), *node_index as u32);
+                    }
+                    if let Some(r) = &rule {
+                        node_rules.insert(*node_index as u32, r.clone());
+                    }
+                    let mut object = None;
+                    if graphs {
+                        let texspace = value.pointer(&format!("/meshes/{}/extras/CAUSTIC_texspace", m.index()));
+                        objects.push(shader_graph::object_data(world, &node_name, texspace));
+                        let o = objects.len() as u32 - 1;
+                        mesh.tri_object.resize(mesh.triangles.len(), o);
+                        object = Some(o);
+                    }
+                    instances_out.push(crate::scene::InstanceSpan {
+                        name: node_name.clone(),
+                        world: *world,
+                        vertices: v0..mesh.positions.len() as u32,
+                        triangles: t0..mesh.triangles.len() as u32,
+                        object,
+                    });
                 }
-                if linked {
-                    linking.tri_object.resize(mesh.triangles.len(), *node_index as u32);
-                }
-                if let Some(r) = &rule {
-                    node_rules.insert(*node_index as u32, r.clone());
-                }
-                let mut object = None;
-                if graphs {
-                    let texspace = value.pointer(&format!("/meshes/{}/extras/CAUSTIC_texspace", m.index()));
-                    objects.push(shader_graph::object_data(world, &node_name, texspace));
-                    let o = objects.len() as u32 - 1;
-                    mesh.tri_object.resize(mesh.triangles.len(), o);
-                    object = Some(o);
-                }
-                instances_out.push(crate::scene::InstanceSpan {
-                    name: node_name.clone(),
-                    world: *world,
-                    vertices: v0..mesh.positions.len() as u32,
-                    triangles: t0..mesh.triangles.len() as u32,
-                    object,
-                });
             }
             if let Some(c) = node.camera() {
                 let blender = node.extension_value("CAUSTIC_camera").cloned();
