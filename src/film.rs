@@ -243,7 +243,7 @@ pub struct FilmImage {
     pub passes: PassSet,
     /// The extra passes' pixels, channels interleaved, for each written pass with a slot.
     pub extra: Vec<(Pass, Vec<f32>)>,
-    /// Cryptomatte passes (`CryptoObject00`, ...) as R G B A interleaved: (id, coverage)
+    /// Cryptomatte passes (`CryptoObject00`, ...) as r g b a interleaved: (id, coverage)
     /// of rank 2i and of rank 2i + 1.
     pub crypto: Vec<(String, Vec<f32>)>,
     /// EXR header attributes to write (the Cryptomatte manifests), key and text.

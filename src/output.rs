@@ -124,7 +124,7 @@ fn write_exr_with(out: &Path, img: &FilmImage, half: bool, chunk: Option<(&Film,
     }
     for (name, data) in &img.crypto {
         // Ids are float-encoded hashes: float even in half mode, where they would round.
-        for (c, ch) in ["R", "G", "B", "A"].iter().enumerate() {
+        for (c, ch) in Pass::CryptoObject.channels().iter().enumerate() {
             let values: Vec<f32> = data.iter().skip(c).step_by(4).copied().collect();
             list.push(AnyChannel::new(format!("{name}.{ch}").as_str(), FlatSamples::F32(values)));
         }

@@ -269,7 +269,8 @@ impl Pass {
             Pass::SampleCount | Pass::ObjectIndex | Pass::MaterialIndex => &["X"],
             Pass::Normal | Pass::DenoisingNormal | Pass::Position => &["X", "Y", "Z"],
             Pass::Uv => &["U", "V", "A"],
-            Pass::CryptoObject | Pass::CryptoMaterial | Pass::CryptoAsset => &["R", "G", "B", "A"],
+            // Lower case as Cycles names them (OpenEXR's DWA compression keeps r g b a lossless).
+            Pass::CryptoObject | Pass::CryptoMaterial | Pass::CryptoAsset => &["r", "g", "b", "a"],
             _ => &["R", "G", "B"],
         }
     }

@@ -80,6 +80,7 @@ fn index_passes_and_cryptomatte_on_two_quads() {
     let passes = "object_index,material_index,cryptomatte_object,cryptomatte_material,cryptomatte_asset";
     let r = render(&scene, &out, &["--passes", passes, "--cryptomatte-levels", "2"]);
     assert_eq!(r.code, Some(0), "{}", r.stderr);
+    assert!(!r.stderr.contains("_pass"), "the pass extensions are read: {}", r.stderr);
     let (ch, attrs) = read(&out);
     let at = |name: &str, x: usize, y: usize| ch[name][y * SIZE + x];
     let bits = |name: &str, x: usize, y: usize| at(name, x, y).to_bits();
@@ -92,13 +93,13 @@ fn index_passes_and_cryptomatte_on_two_quads() {
             // Cryptomatte: one id covering the whole pixel, the second rank empty.
             let (ob, ma, asset) = if left { ("Left", "Red", "Rig") } else { ("Right", "Blue", "Parent") };
             for (layer, name) in [("CryptoObject00", ob), ("CryptoMaterial00", ma), ("CryptoAsset00", asset)] {
-                assert_eq!(bits(&format!("{layer}.R"), x, y), id_of(name), "{layer} ({x}, {y})");
-                assert_eq!(at(&format!("{layer}.G"), x, y), 1.0);
-                assert_eq!((at(&format!("{layer}.B"), x, y), at(&format!("{layer}.A"), x, y)), (0.0, 0.0));
+                assert_eq!(bits(&format!("{layer}.r"), x, y), id_of(name), "{layer} ({x}, {y})");
+                assert_eq!(at(&format!("{layer}.g"), x, y), 1.0);
+                assert_eq!((at(&format!("{layer}.b"), x, y), at(&format!("{layer}.a"), x, y)), (0.0, 0.0));
             }
         }
         // Column 4 is half covered by each quad.
-        let (r, g, b, a) = ["R", "G", "B", "A"].map(|c| format!("CryptoObject00.{c}")).into();
+        let [r, g, b, a] = ["r", "g", "b", "a"].map(|c| format!("CryptoObject00.{c}"));
         let ids = [bits(&r, 4, y), bits(&b, 4, y)];
         assert!(ids == [id_of("Left"), id_of("Right")] || ids == [id_of("Right"), id_of("Left")], "{ids:?}");
         let (cov_first, cov_second) = (at(&g, 4, y), at(&a, 4, y));
@@ -113,7 +114,7 @@ fn index_passes_and_cryptomatte_on_two_quads() {
         assert!([3.0, 4.0].contains(&at("Object Index.X", 4, y)));
     }
     // Levels 2: one pass (two ranks) per layer.
-    assert!(!ch.contains_key("CryptoObject01.R"));
+    assert!(!ch.contains_key("CryptoObject01.r"));
     // The manifests, under the specification's keys.
     for (layer, names) in
         [("CryptoObject", &["Left", "Right"][..]), ("CryptoMaterial", &["Red", "Blue"]), ("CryptoAsset", &["Rig", "Parent"])]
@@ -144,6 +145,6 @@ fn cryptomatte_levels_and_chunks_are_checked() {
     let r = render(&scene, &out, &["--passes", "cryptomatte_material"]);
     assert_eq!(r.code, Some(0), "{}", r.stderr);
     let (ch, _) = read(&out);
-    assert!(ch.contains_key("CryptoMaterial02.A") && !ch.contains_key("CryptoMaterial03.R"));
-    assert!(!ch.contains_key("CryptoObject00.R"), "only the layer asked for");
+    assert!(ch.contains_key("CryptoMaterial02.a") && !ch.contains_key("CryptoMaterial03.r"));
+    assert!(!ch.contains_key("CryptoObject00.r"), "only the layer asked for");
 }
