@@ -109,6 +109,12 @@ def pass_request(view_layer, integrator, chunked=False):
     for owner, attr, name in UNSUPPORTED:
         if _flag(view_layer, owner, attr):
             warnings.append(f"the {name} pass is not rendered by Caustic yet; it stays black")
+    # Light groups and shader AOVs are not rendered yet: their passes are not declared.
+    for group in getattr(view_layer, "lightgroups", ()):
+        warnings.append(f"the light group '{group.name}' (pass Combined_{group.name}) is not rendered by "
+                        "Caustic yet; the pass is missing")
+    for aov in getattr(view_layer, "aovs", ()):
+        warnings.append(f"the shader AOV '{aov.name}' is not rendered by Caustic yet; the pass is missing")
     return ",".join(tokens) or "none", warnings
 
 

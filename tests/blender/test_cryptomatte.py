@@ -183,3 +183,26 @@ def test_manifest_names_the_entities_as_cycles(renders):
         cy, ca = json.loads(meta_cy[prefix + "manifest"]), json.loads(meta_ca[prefix + "manifest"])
         for n in names:
             assert ca[n] == cy[n], (layer, n)
+
+
+def test_request_levels_and_warnings(addon):
+    """The binary is asked for the enabled layers with the view layer's levels (odd levels:
+    Cycles' passes of two ranks, rounded up); light groups and shader AOVs, not rendered yet,
+    are named in warnings; chunks on the farm cannot carry Cryptomatte."""
+    import importlib
+    result = importlib.import_module("bl_ext.caustic_dev.caustic.result")
+    bpy.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)
+    layer = bpy.context.scene.view_layers[0]
+    layer.use_pass_cryptomatte_asset = layer.use_pass_object_index = True
+    layer.pass_cryptomatte_depth = 3
+    layer.lightgroups.add(name="Key")
+    layer.aovs.add().name = "Mask"
+    passes, warnings = result.pass_request(layer, "path")
+    assert passes == "object_index,cryptomatte_asset"
+    assert result.cryptomatte_arguments(layer, passes) == ["--cryptomatte-levels", "3"]
+    assert result.enabled_cryptomatte(layer) == [("cryptomatte_asset", ["CryptoAsset00", "CryptoAsset01"])]
+    assert any("'Key'" in w and "Combined_Key" in w for w in warnings)
+    assert any("'Mask'" in w for w in warnings)
+    passes, warnings = result.pass_request(layer, "path", chunked=True)
+    assert passes == "none" and result.cryptomatte_arguments(layer, passes) == []
+    assert any("Cryptomatte Asset" in w and "farm" in w for w in warnings)
