@@ -239,10 +239,10 @@ mod tests {
             add(&mut s, id);
         }
         // 15 found every slot taken: it counts in the last one (13's), as in Cycles.
-        assert_eq!(s, [Slot { id: 7, count: 3 }, Slot { id: 9, count: 1 }, Slot { id: 11, count: 1 }, Slot {
-            id: 13,
-            count: 2
-        }]);
+        assert_eq!(
+            s,
+            [Slot { id: 7, count: 3 }, Slot { id: 9, count: 1 }, Slot { id: 11, count: 1 }, Slot { id: 13, count: 2 }]
+        );
         rank(&mut s);
         assert_eq!(s.map(|x| x.id), [7, 13, 9, 11]);
     }

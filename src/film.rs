@@ -8,9 +8,9 @@
 //! the additions, so chunks of samples rendered apart and merged, or splat buffers of any
 //! number of threads, give the single render's sums bit for bit.
 
+use crate::cryptomatte::{self, Layout, Slot};
 use crate::fixed::{add3, from_fixed, in_range, sum3, to_fixed};
 use crate::math::Rgb;
-use crate::cryptomatte::{self, Layout, Slot};
 use crate::passes::{Aov, FIRST_SAMPLE_SLOTS, Pass, PassSet, divide_even_color};
 use crate::sampling::Distribution1D;
 use glam::{Vec2, Vec3};
@@ -539,7 +539,11 @@ fn extra_pixel(out: &mut [(Pass, Vec<f32>)], i: usize, slots: u64, acc: &[i128],
             None if *pass == Pass::AmbientOcclusion => px.fill(mean(k)),
             None => {
                 for (d, v) in px.iter_mut().enumerate() {
-                    *v = if FIRST_SAMPLE_SLOTS >> (k + d) & 1 == 1 { f32::from_bits(at(k + d) as u32) } else { mean(k + d) };
+                    *v = if FIRST_SAMPLE_SLOTS >> (k + d) & 1 == 1 {
+                        f32::from_bits(at(k + d) as u32)
+                    } else {
+                        mean(k + d)
+                    };
                 }
             }
         }

@@ -131,7 +131,9 @@ fn write_exr_with(out: &Path, img: &FilmImage, half: bool, chunk: Option<(&Film,
     }
     let mut attributes = LayerAttributes::default();
     for (key, value) in &img.metadata {
-        attributes.other.insert(Text::from(key.as_str()), AttributeValue::Text(Text::from_slice_unchecked(value.as_bytes())));
+        attributes
+            .other
+            .insert(Text::from(key.as_str()), AttributeValue::Text(Text::from_slice_unchecked(value.as_bytes())));
     }
     if let Some((film, info)) = chunk {
         list.extend(crate::chunk::channels(film));

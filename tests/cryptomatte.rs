@@ -116,9 +116,11 @@ fn index_passes_and_cryptomatte_on_two_quads() {
     // Levels 2: one pass (two ranks) per layer.
     assert!(!ch.contains_key("CryptoObject01.r"));
     // The manifests, under the specification's keys.
-    for (layer, names) in
-        [("CryptoObject", &["Left", "Right"][..]), ("CryptoMaterial", &["Red", "Blue"]), ("CryptoAsset", &["Rig", "Parent"])]
-    {
+    for (layer, names) in [
+        ("CryptoObject", &["Left", "Right"][..]),
+        ("CryptoMaterial", &["Red", "Blue"]),
+        ("CryptoAsset", &["Rig", "Parent"]),
+    ] {
         let key = format!("cryptomatte/{}", &format!("{:08x}", murmur3_32(layer.as_bytes()))[..7]);
         assert_eq!(attrs[&format!("{key}/name")], layer);
         assert_eq!(attrs[&format!("{key}/hash")], "MurmurHash3_32");

@@ -246,12 +246,8 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     };
 
     // The Cryptomatte manifests go into every image's header (interim ones too).
-    let crypto_header: Vec<(String, String)> = res
-        .passes
-        .cryptomatte()?
-        .iter()
-        .flat_map(|k| crate::cryptomatte::header(k, scene.pass_ids.names(k)))
-        .collect();
+    let crypto_header: Vec<(String, String)> =
+        res.passes.cryptomatte()?.iter().flat_map(|k| crate::cryptomatte::header(k, scene.pass_ids.names(k))).collect();
     reporter.phase("rendering", t0.elapsed().as_secs_f64());
     let out_str = args.output.display().to_string();
     let mut last_interim = Instant::now();

@@ -71,15 +71,17 @@ impl Loader<'_> {
         let mut file_materials = Vec::new();
         for m in doc.materials() {
             let index = match m.extension_value("CAUSTIC_material_pass") {
-                Some(v) => serde_json::from_value::<MaterialPassExt>(v.clone())
-                    .map_err(|e| {
-                        self.err(format!(
-                            "material {} ('{}'): bad CAUSTIC_material_pass: {e}",
-                            m.index().unwrap_or(0),
-                            m.name().unwrap_or("")
-                        ))
-                    })?
-                    .pass_index,
+                Some(v) => {
+                    serde_json::from_value::<MaterialPassExt>(v.clone())
+                        .map_err(|e| {
+                            self.err(format!(
+                                "material {} ('{}'): bad CAUSTIC_material_pass: {e}",
+                                m.index().unwrap_or(0),
+                                m.name().unwrap_or("")
+                            ))
+                        })?
+                        .pass_index
+                }
                 None => 0,
             };
             file_materials.push((m.name().unwrap_or("").to_string(), index));
