@@ -133,6 +133,7 @@ def render_frame(engine, depsgraph):
         # Denoising is a command-line option, not a scene setting: farm chunks cannot be denoised.
         argv = command_line(binary, gltf_path, out_path, settings, window, passes,
                             denoise=scene.caustic.use_denoising and not on_farm)
+        argv += result.cryptomatte_arguments(depsgraph.view_layer, passes)
         if on_farm:
             argv, warnings = farm.frame_command(farm.preferences(), binary, gltf_path, out_path, argv,
                                                 settings["spp"])
@@ -152,6 +153,7 @@ def render_frame(engine, depsgraph):
                 raise CausticError(message)
             if outcome.has_image:
                 result.load(render_result, out_path)
+                result.store_metadata(engine, out_path, depsgraph.view_layer.name)
             if outcome.summary:
                 _report_summary(engine, outcome.summary)
             failed = False

@@ -23,6 +23,8 @@ VIEW_LAYER_PASSES = (
     ("", "use_pass_normal", "normal", "Normal", 3, "XYZ", "VECTOR"),
     ("", "use_pass_position", "position", "Position", 3, "XYZ", "VECTOR"),
     ("", "use_pass_uv", "uv", "UV", 3, "UVA", "VECTOR"),
+    ("", "use_pass_object_index", "object_index", "Object Index", 1, "X", "VALUE"),
+    ("", "use_pass_material_index", "material_index", "Material Index", 1, "X", "VALUE"),
     ("", "use_pass_diffuse_direct", "diffuse_direct", "Diffuse Direct", 3, "RGB", "COLOR"),
     ("", "use_pass_diffuse_indirect", "diffuse_indirect", "Diffuse Indirect", 3, "RGB", "COLOR"),
     ("", "use_pass_diffuse_color", "diffuse_color", "Diffuse Color", 3, "RGB", "COLOR"),
@@ -43,19 +45,23 @@ VIEW_LAYER_PASSES = (
 )
 
 # Light passes: only the path integrator classifies light by the first bounce (contract).
-LIGHT_TOKENS = frozenset(t for _, _, t, *_ in VIEW_LAYER_PASSES[5:18])
+LIGHT_TOKENS = frozenset(t for _, _, t, *_ in VIEW_LAYER_PASSES
+                         if t.endswith(("_direct", "_indirect", "_color")) or t in ("emit", "environment"))
+# Cryptomatte layers: the view layer's flag, the binary's token and Blender's pass prefix; each
+# layer is ceil(levels / 2) passes of 4 channels (two ranks of id and coverage), as Cycles'.
+CRYPTOMATTE_LAYERS = (
+    ("use_pass_cryptomatte_object", "cryptomatte_object", "CryptoObject"),
+    ("use_pass_cryptomatte_material", "cryptomatte_material", "CryptoMaterial"),
+    ("use_pass_cryptomatte_asset", "cryptomatte_asset", "CryptoAsset"),
+)
 # Data passes traced from the camera ray's first hit, by every integrator but SPPM.
-DATA_TOKENS = frozenset(("mist", "position", "uv", "ambient_occlusion"))
+DATA_TOKENS = frozenset(("mist", "position", "uv", "ambient_occlusion", "object_index", "material_index")
+                        + tuple(token for _, token, _ in CRYPTOMATTE_LAYERS))
 
 # Passes of the view layer that Caustic does not render yet (named in a warning when on).
 UNSUPPORTED = (
     ("", "use_pass_vector", "Vector"),
-    ("", "use_pass_object_index", "Object Index"),
-    ("", "use_pass_material_index", "Material Index"),
     ("", "use_pass_shadow", "Shadow"),
-    ("", "use_pass_cryptomatte_object", "Cryptomatte Object"),
-    ("", "use_pass_cryptomatte_material", "Cryptomatte Material"),
-    ("", "use_pass_cryptomatte_asset", "Cryptomatte Asset"),
     ("cycles", "use_pass_shadow_catcher", "Shadow Catcher"),
 )
 
@@ -74,12 +80,22 @@ def enabled_passes(view_layer):
     return [row for row in VIEW_LAYER_PASSES if _flag(view_layer, row[0], row[1])]
 
 
+def enabled_cryptomatte(view_layer):
+    """(token, pass names) of each Cryptomatte layer enabled in `view_layer`."""
+    count = (min(16, view_layer.pass_cryptomatte_depth) + 1) // 2
+    return [(token, [f"{prefix}{i:02}" for i in range(count)])
+            for attr, token, prefix in CRYPTOMATTE_LAYERS if _flag(view_layer, "", attr)]
+
+
 def pass_request(view_layer, integrator, chunked=False):
     """(`--passes` list, warnings): the enabled passes that `integrator` renders (on the farm,
     `chunked`: those that chunks carry), and a warning naming each enabled pass that will be
     missing from the result."""
     tokens, warnings = [], []
-    for _, _, token, name, *_ in enabled_passes(view_layer):
+    rows = [(token, name) for _, _, token, name, *_ in enabled_passes(view_layer)]
+    rows += [(token, f"Cryptomatte {token.rpartition('_')[2].capitalize()}")
+             for token, _ in enabled_cryptomatte(view_layer)]
+    for token, name in rows:
         if chunked and (token in LIGHT_TOKENS or token in DATA_TOKENS):
             warnings.append(f"the {name} pass is not rendered on the farm yet (sample chunks do not carry "
                             "it); it stays black")
@@ -93,7 +109,21 @@ def pass_request(view_layer, integrator, chunked=False):
     for owner, attr, name in UNSUPPORTED:
         if _flag(view_layer, owner, attr):
             warnings.append(f"the {name} pass is not rendered by Caustic yet; it stays black")
+    # Light groups and shader AOVs are not rendered yet: their passes are not declared.
+    for group in getattr(view_layer, "lightgroups", ()):
+        warnings.append(f"the light group '{group.name}' (pass Combined_{group.name}) is not rendered by "
+                        "Caustic yet; the pass is missing")
+    for aov in getattr(view_layer, "aovs", ()):
+        warnings.append(f"the shader AOV '{aov.name}' is not rendered by Caustic yet; the pass is missing")
     return ",".join(tokens) or "none", warnings
+
+
+def cryptomatte_arguments(view_layer, passes):
+    """The binary's `--cryptomatte-levels` for the view layer's levels when `passes` (the
+    `--passes` list) asks for a Cryptomatte layer."""
+    if any(token in passes.split(",") for _, token, _ in CRYPTOMATTE_LAYERS):
+        return ["--cryptomatte-levels", str(view_layer.pass_cryptomatte_depth)]
+    return []
 
 
 def register_passes(engine, scene, view_layer):
@@ -102,6 +132,9 @@ def register_passes(engine, scene, view_layer):
     engine.register_pass(scene, view_layer, "Combined", 4, "RGBA", "COLOR")
     for _, _, _, name, channels, chan_id, kind in enabled_passes(view_layer):
         engine.register_pass(scene, view_layer, name, channels, chan_id, kind)
+    for _, names in enabled_cryptomatte(view_layer):
+        for name in names:
+            engine.register_pass(scene, view_layer, name, 4, "rgba", "COLOR")
     settings = getattr(scene, "caustic", None)
     if settings is not None and settings.use_denoising and not settings.use_farm:
         # The Combined before denoising, which the binary writes beside it (Cycles' name).
@@ -142,6 +175,101 @@ def load(result, path):
         render_pass = layer.passes.find_by_name(name, "")
         if render_pass is not None and render_pass.channels == 3:
             _gltf_to_blender_axes(render_pass)
+
+
+def store_metadata(engine, path, view_layer_name):
+    """Put the EXR's Cryptomatte names into the render's metadata, as Cycles does: saved with
+    the image, they let compositors name what they isolate. Cycles stamps the engine's whole
+    result (`RenderEngine.get_result`); the tile result of `begin_result` keeps no stamp."""
+    fields = cryptomatte_metadata(path, view_layer_name)
+    if fields:
+        whole = engine.get_result()
+        for key, value in fields.items():
+            whole.stamp_data_add_field(key, value)
+
+
+def cryptomatte_metadata(path, view_layer_name):
+    """The Cryptomatte header attributes of the binary's EXR, keyed as Cycles keys them in the
+    render result: the binary names a layer `CryptoObject` (its channels' prefix), Blender
+    `<view layer>.CryptoObject`, and the key holds the first 7 hex digits of the name's hash."""
+    attributes = exr_text_attributes(path)
+    out = {}
+    for key, name in attributes.items():
+        parts = key.split("/")
+        if len(parts) != 3 or parts[0] != "cryptomatte" or parts[2] != "name":
+            continue
+        full = f"{view_layer_name}.{name}"
+        prefix = f"cryptomatte/{murmur3_32(full.encode()):08x}"[:len("cryptomatte/") + 7]
+        out[f"{prefix}/name"] = full
+        for field in ("hash", "conversion", "manifest"):
+            value = attributes.get(f"cryptomatte/{parts[1]}/{field}")
+            if value is not None:
+                out[f"{prefix}/{field}"] = value
+    return out
+
+
+def exr_text_attributes(path):
+    """The header attributes of type `string` of an OpenEXR file, by name."""
+    try:
+        with open(path, "rb") as f:
+            data = f.read(1 << 16)
+            while True:
+                attributes, complete = _parse_header(data)
+                if complete:
+                    return attributes
+                more = f.read(len(data))
+                if not more:
+                    raise CausticError(f"the rendered image's header is cut short: {path}")
+                data += more
+    except OSError as err:
+        raise CausticError(f"cannot read the rendered image {path}: {err.strerror}") from None
+
+
+def _parse_header(data):
+    """(string attributes, whether the header's end was reached) of the EXR bytes `data`."""
+    attributes, pos = {}, 8
+    while pos < len(data):
+        if data[pos] == 0:
+            return attributes, True
+        name_end = data.find(b"\0", pos)
+        type_end = data.find(b"\0", name_end + 1) if name_end >= 0 else -1
+        if type_end < 0 or type_end + 5 > len(data):
+            return attributes, False
+        (size,) = struct.unpack_from("<i", data, type_end + 1)
+        start = type_end + 5
+        if start + size > len(data):
+            return attributes, False
+        if data[name_end + 1:type_end] == b"string":
+            attributes[data[pos:name_end].decode("utf-8", "replace")] = \
+                data[start:start + size].decode("utf-8", "replace")
+        pos = start + size
+    return attributes, False
+
+
+def murmur3_32(data, seed=0):
+    """MurmurHash3 (x86, 32 bits), the hash Cryptomatte names its layers and entities by."""
+    c1, c2, mask = 0xcc9e2d51, 0x1b873593, 0xffffffff
+    h = seed
+    whole = len(data) // 4 * 4
+    for i in range(0, whole, 4):
+        k = int.from_bytes(data[i:i + 4], "little")
+        k = (k * c1) & mask
+        k = ((k << 15) | (k >> 17)) & mask
+        h ^= (k * c2) & mask
+        h = ((h << 13) | (h >> 19)) & mask
+        h = (h * 5 + 0xe6546b64) & mask
+    tail = data[whole:]
+    if tail:
+        k = int.from_bytes(tail, "little")
+        k = (k * c1) & mask
+        k = ((k << 15) | (k >> 17)) & mask
+        h ^= (k * c2) & mask
+    h ^= len(data)
+    h ^= h >> 16
+    h = (h * 0x85ebca6b) & mask
+    h ^= h >> 13
+    h = (h * 0xc2b2ae35) & mask
+    return h ^ (h >> 16)
 
 
 def _gltf_to_blender_axes(render_pass):

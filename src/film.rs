@@ -8,9 +8,10 @@
 //! the additions, so chunks of samples rendered apart and merged, or splat buffers of any
 //! number of threads, give the single render's sums bit for bit.
 
+use crate::cryptomatte::{self, Layout, Slot};
 use crate::fixed::{add3, from_fixed, in_range, sum3, to_fixed};
 use crate::math::Rgb;
-use crate::passes::{Aov, NEAREST_SLOTS, Pass, PassSet, divide_even_color};
+use crate::passes::{Aov, FIRST_SAMPLE_SLOTS, Pass, PassSet, divide_even_color};
 use crate::sampling::Distribution1D;
 use glam::{Vec2, Vec3};
 
@@ -29,6 +30,8 @@ pub struct CameraSample {
     pub albedo: Rgb,
     /// Values of the extra passes (`crate::passes`), filled only for the passes asked.
     pub aov: Aov,
+    /// Cryptomatte ids of the first hit (object, material, asset; 0: none or not asked).
+    pub crypto: [u32; 3],
 }
 
 /// Pixel filter.
@@ -164,8 +167,12 @@ pub struct Tile {
     /// The [`slot`]s of the extra passes kept (bit mask; `PassSet::slots`).
     pub slots: u64,
     /// Row-major extra-pass sums, `slots.count_ones()` per pixel in slot order: fixed
-    /// point, or for the nearest-hit slots the f32 bits of the nearest sample's value.
+    /// point, or for the first-sample slots the f32 bits of the pixel's first sample's value.
     pub extra: Vec<i128>,
+    /// The Cryptomatte layers kept.
+    pub crypto_layout: Layout,
+    /// Row-major Cryptomatte slots, `crypto_layout.stride()` per pixel, layer after layer.
+    pub crypto: Vec<Slot>,
 }
 
 impl Tile {
@@ -173,28 +180,35 @@ impl Tile {
     /// returns false (and adds nothing) when a value is not finite or out of range.
     #[inline]
     pub fn add(&mut self, i: usize, s: &CameraSample) -> bool {
-        if self.slots == 0 {
+        if self.slots == 0 && self.crypto_layout.is_empty() {
             return self.pixels[i].add(s);
         }
-        let mut m = self.slots & !NEAREST_SLOTS;
+        let mut m = self.slots & !FIRST_SAMPLE_SLOTS;
         while m != 0 {
             if !in_range([s.aov.0[m.trailing_zeros() as usize], 0.0, 0.0]) {
                 return false;
             }
             m &= m - 1;
         }
-        // The nearest hit's values follow the depth the base sums keep (ties: the first).
-        let nearer = s.depth < self.pixels[i].depth;
+        // Position and the indices are the pixel's first sample's, as Cycles' sample 0.
+        let first = self.pixels[i].n == 0;
         if !self.pixels[i].add(s) {
             return false;
+        }
+        if !self.crypto_layout.is_empty() {
+            let (layout, per) = (self.crypto_layout, self.crypto_layout.slots as usize);
+            let px = &mut self.crypto[i * layout.stride()..(i + 1) * layout.stride()];
+            for (layer, kind) in px.chunks_exact_mut(per).zip(layout.iter()) {
+                cryptomatte::add(layer, s.crypto[kind.index()]);
+            }
         }
         let stride = self.slots.count_ones() as usize;
         let acc = &mut self.extra[i * stride..(i + 1) * stride];
         let mut m = self.slots;
         for a in acc.iter_mut() {
             let k = m.trailing_zeros() as usize;
-            if NEAREST_SLOTS >> k & 1 == 1 {
-                if nearer {
+            if FIRST_SAMPLE_SLOTS >> k & 1 == 1 {
+                if first {
                     *a = s.aov.0[k].to_bits() as i128;
                 }
             } else {
@@ -229,6 +243,11 @@ pub struct FilmImage {
     pub passes: PassSet,
     /// The extra passes' pixels, channels interleaved, for each written pass with a slot.
     pub extra: Vec<(Pass, Vec<f32>)>,
+    /// Cryptomatte passes (`CryptoObject00`, ...) as r g b a interleaved: (id, coverage)
+    /// of rank 2i and of rank 2i + 1.
+    pub crypto: Vec<(String, Vec<f32>)>,
+    /// EXR header attributes to write (the Cryptomatte manifests), key and text.
+    pub metadata: Vec<(String, String)>,
 }
 
 impl FilmImage {
@@ -375,6 +394,8 @@ impl Film {
     /// An empty film keeping the sums that `passes` need.
     pub fn with_passes(width: u32, height: u32, tile: u32, passes: PassSet) -> Self {
         let slots = passes.slots();
+        // The settings checked the levels (`resolve`); a set without Cryptomatte has none.
+        let crypto_layout = passes.cryptomatte().unwrap_or_default();
         let stride = slots.count_ones() as usize;
         let mut tiles = Vec::new();
         for y0 in (0..height).step_by(tile as usize) {
@@ -389,6 +410,8 @@ impl Film {
                     pixels: vec![PixelAccum::default(); n],
                     slots,
                     extra: vec![0; n * stride],
+                    crypto_layout,
+                    crypto: vec![Slot::default(); n * crypto_layout.stride()],
                 });
             }
         }
@@ -441,7 +464,16 @@ impl Film {
                 .filter(|p| p.slot().is_some())
                 .map(|p| (p, vec![0.0; n * p.channels().len()]))
                 .collect(),
+            crypto: Vec::new(),
+            metadata: Vec::new(),
         };
+        let layout = self.tiles.first().map(|t| t.crypto_layout).unwrap_or_default();
+        for kind in layout.iter() {
+            for name in layout.pass_names(kind) {
+                img.crypto.push((name, vec![0.0; n * 4]));
+            }
+        }
+        let mut ranked = vec![Slot::default(); layout.slots as usize];
         for t in &self.tiles {
             for ty in 0..t.h {
                 for tx in 0..t.w {
@@ -468,6 +500,19 @@ impl Film {
                     let stride = t.slots.count_ones() as usize;
                     let j = (ty * t.w + tx) as usize;
                     extra_pixel(&mut img.extra, i, t.slots, &t.extra[j * stride..(j + 1) * stride], inv);
+                    let per = layout.slots as usize;
+                    let px = &t.crypto[j * layout.stride()..(j + 1) * layout.stride()];
+                    for (l, layer) in px.chunks_exact(per.max(1)).enumerate() {
+                        ranked.copy_from_slice(layer);
+                        cryptomatte::rank(&mut ranked);
+                        for (pair, slot) in ranked.chunks_exact(2).enumerate() {
+                            let out = &mut img.crypto[l * per / 2 + pair].1[i * 4..i * 4 + 4];
+                            for (k, s) in slot.iter().enumerate() {
+                                out[2 * k] = f32::from_bits(s.id);
+                                out[2 * k + 1] = (s.count as f64 * inv) as f32;
+                            }
+                        }
+                    }
                 }
             }
         }
@@ -494,7 +539,11 @@ fn extra_pixel(out: &mut [(Pass, Vec<f32>)], i: usize, slots: u64, acc: &[i128],
             None if *pass == Pass::AmbientOcclusion => px.fill(mean(k)),
             None => {
                 for (d, v) in px.iter_mut().enumerate() {
-                    *v = if NEAREST_SLOTS >> (k + d) & 1 == 1 { f32::from_bits(at(k + d) as u32) } else { mean(k + d) };
+                    *v = if FIRST_SAMPLE_SLOTS >> (k + d) & 1 == 1 {
+                        f32::from_bits(at(k + d) as u32)
+                    } else {
+                        mean(k + d)
+                    };
                 }
             }
         }

@@ -122,7 +122,19 @@ fn write_exr_with(out: &Path, img: &FilmImage, half: bool, chunk: Option<(&Film,
             list.push(AnyChannel::new(format!("{}.{ch}", pass.name()).as_str(), samples));
         }
     }
+    for (name, data) in &img.crypto {
+        // Ids are float-encoded hashes: float even in half mode, where they would round.
+        for (c, ch) in Pass::CryptoObject.channels().iter().enumerate() {
+            let values: Vec<f32> = data.iter().skip(c).step_by(4).copied().collect();
+            list.push(AnyChannel::new(format!("{name}.{ch}").as_str(), FlatSamples::F32(values)));
+        }
+    }
     let mut attributes = LayerAttributes::default();
+    for (key, value) in &img.metadata {
+        attributes
+            .other
+            .insert(Text::from(key.as_str()), AttributeValue::Text(Text::from_slice_unchecked(value.as_bytes())));
+    }
     if let Some((film, info)) = chunk {
         list.extend(crate::chunk::channels(film));
         let (name, value) = crate::chunk::attribute(info);

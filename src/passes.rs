@@ -15,11 +15,14 @@
 //!   that (Direct + Indirect) × Colour is the class's light.
 //! * data passes (`kernel/film/data_passes.h`): Mist = 1 − mean((1 − mist) × coverage),
 //!   with mist = clamp((distance − start) / depth)^falloff; Position, Object Index and
-//!   Material Index are single values, not means (Cycles takes sample 0; Caustic the
-//!   nearest hit over the samples, as its Depth, so that chunks merge exactly); UV is
+//!   Material Index are single values, not means: the pixel's first sample's (Cycles
+//!   writes sample 0's, wherever the pixel filter put it; 0 when it hit nothing); UV is
 //!   (u, v, 1) averaged, so its A channel is the coverage; AO is the fraction of cosine
 //!   rays from the first hit that travel the world's AO distance unoccluded.
+//! * Cryptomatte (`crate::cryptomatte`): per layer the ranked (id, coverage) pairs of the
+//!   camera ray's first hit, `CryptoObject00.R/G/B/A`, ... as Blender names them.
 
+use crate::cryptomatte::{Kind, Layout};
 use crate::error::{Error, Result};
 
 /// A render pass that Caustic can write, with Blender's name.
@@ -73,10 +76,16 @@ pub enum Pass {
     ObjectIndex,
     /// Material pass index.
     MaterialIndex,
+    /// Cryptomatte of objects (`crate::cryptomatte`).
+    CryptoObject,
+    /// Cryptomatte of materials.
+    CryptoMaterial,
+    /// Cryptomatte of assets (topmost parents).
+    CryptoAsset,
 }
 
 /// Every pass, in the order of the table below.
-pub const ALL: [Pass; 24] = [
+pub const ALL: [Pass; 27] = [
     Pass::Depth,
     Pass::Normal,
     Pass::DenoisingAlbedo,
@@ -101,6 +110,9 @@ pub const ALL: [Pass; 24] = [
     Pass::Uv,
     Pass::ObjectIndex,
     Pass::MaterialIndex,
+    Pass::CryptoObject,
+    Pass::CryptoMaterial,
+    Pass::CryptoAsset,
 ];
 
 /// Slots of [`Aov`]: where a camera sample keeps each extra pass's value.
@@ -150,8 +162,8 @@ pub mod slot {
 // The film keeps its slots in a u64 bit mask.
 const _: () = assert!(slot::COUNT <= 64);
 
-/// Bit mask of the slots kept as "value at the nearest hit" instead of a sum.
-pub const NEAREST_SLOTS: u64 = (0b111 << slot::POS) | (1 << slot::OB) | (1 << slot::MA);
+/// Bit mask of the slots kept as "the pixel's first sample's value" instead of a sum.
+pub const FIRST_SAMPLE_SLOTS: u64 = (0b111 << slot::POS) | (1 << slot::OB) | (1 << slot::MA);
 
 /// The extra pass values of one camera sample, by [`slot`].
 #[derive(Clone, Copy, Debug)]
@@ -210,6 +222,9 @@ impl Pass {
             Pass::Uv => "UV",
             Pass::ObjectIndex => "Object Index",
             Pass::MaterialIndex => "Material Index",
+            Pass::CryptoObject => "CryptoObject",
+            Pass::CryptoMaterial => "CryptoMaterial",
+            Pass::CryptoAsset => "CryptoAsset",
         }
     }
 
@@ -241,6 +256,9 @@ impl Pass {
             Pass::Uv => "uv",
             Pass::ObjectIndex => "object_index",
             Pass::MaterialIndex => "material_index",
+            Pass::CryptoObject => "cryptomatte_object",
+            Pass::CryptoMaterial => "cryptomatte_material",
+            Pass::CryptoAsset => "cryptomatte_asset",
         }
     }
 
@@ -251,6 +269,8 @@ impl Pass {
             Pass::SampleCount | Pass::ObjectIndex | Pass::MaterialIndex => &["X"],
             Pass::Normal | Pass::DenoisingNormal | Pass::Position => &["X", "Y", "Z"],
             Pass::Uv => &["U", "V", "A"],
+            // Lower case as Cycles names them (OpenEXR's DWA compression keeps r g b a lossless).
+            Pass::CryptoObject | Pass::CryptoMaterial | Pass::CryptoAsset => &["r", "g", "b", "a"],
             _ => &["R", "G", "B"],
         }
     }
@@ -258,7 +278,14 @@ impl Pass {
     /// First [`slot`] of an extra pass (None: the pass lives in the film's base sums).
     pub fn slot(self) -> Option<usize> {
         Some(match self {
-            Pass::Depth | Pass::Normal | Pass::DenoisingAlbedo | Pass::DenoisingNormal | Pass::SampleCount => {
+            Pass::Depth
+            | Pass::Normal
+            | Pass::DenoisingAlbedo
+            | Pass::DenoisingNormal
+            | Pass::SampleCount
+            | Pass::CryptoObject
+            | Pass::CryptoMaterial
+            | Pass::CryptoAsset => {
                 return None;
             }
             Pass::DiffuseDirect => slot::DIFF_DIR,
@@ -321,6 +348,16 @@ impl Pass {
         )
     }
 
+    /// The Cryptomatte layer of a Cryptomatte pass.
+    pub fn crypto_kind(self) -> Option<Kind> {
+        match self {
+            Pass::CryptoObject => Some(Kind::Object),
+            Pass::CryptoMaterial => Some(Kind::Material),
+            Pass::CryptoAsset => Some(Kind::Asset),
+            _ => None,
+        }
+    }
+
     /// Reads a pass from its token or its Blender name (case and `_`/space insensitive).
     pub fn parse(s: &str) -> Option<Pass> {
         let norm = |x: &str| x.trim().to_ascii_lowercase().replace(' ', "_");
@@ -329,9 +366,16 @@ impl Pass {
     }
 }
 
-/// A set of passes (bit i = `ALL[i]`).
+/// A set of passes (bit i = `ALL[i]`) and Cryptomatte's levels.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub struct PassSet(u32);
+pub struct PassSet {
+    bits: u32,
+    /// Blender's Cryptomatte levels (0: Blender's default).
+    crypto_levels: u32,
+}
+
+// The set keeps its passes in a u32 bit mask.
+const _: () = assert!(ALL.len() <= 32);
 
 impl PassSet {
     /// What a render writes without `--passes`: the passes of Caustic before pass
@@ -345,12 +389,12 @@ impl PassSet {
     /// True when `p` is in the set.
     #[inline]
     pub fn contains(self, p: Pass) -> bool {
-        self.0 & (1 << index(p)) != 0
+        self.bits & (1 << index(p)) != 0
     }
 
     /// Adds a pass.
     pub fn insert(&mut self, p: Pass) {
-        self.0 |= 1 << index(p);
+        self.bits |= 1 << index(p);
     }
 
     /// The passes, in [`ALL`]'s order.
@@ -363,9 +407,28 @@ impl PassSet {
         self.iter().any(Pass::is_light)
     }
 
-    /// Any data pass the camera ray's first hit gives (AO, Mist, Position, UV, indices).
+    /// Any data pass the camera ray's first hit gives (AO, Mist, Position, UV, indices,
+    /// Cryptomatte).
     pub fn any_data(self) -> bool {
-        self.iter().any(|p| p.slot().is_some() && !p.is_light())
+        self.iter().any(|p| (p.slot().is_some() && !p.is_light()) || p.crypto_kind().is_some())
+    }
+
+    /// Any Cryptomatte layer asked.
+    #[inline]
+    pub fn any_crypto(self) -> bool {
+        [Pass::CryptoObject, Pass::CryptoMaterial, Pass::CryptoAsset].into_iter().any(|p| self.contains(p))
+    }
+
+    /// Sets Blender's Cryptomatte levels (2..=16; checked by [`PassSet::cryptomatte`]).
+    pub fn set_cryptomatte_levels(&mut self, levels: u32) {
+        self.crypto_levels = levels;
+    }
+
+    /// The Cryptomatte layers asked for and their slots per pixel.
+    pub fn cryptomatte(self) -> Result<Layout> {
+        let kinds: Vec<Kind> = self.iter().filter_map(Pass::crypto_kind).collect();
+        let levels = if self.crypto_levels == 0 { crate::cryptomatte::DEFAULT_LEVELS } else { self.crypto_levels };
+        Layout::new(&kinds, levels)
     }
 
     /// The slots a film must keep for these passes: each pass's own, and the Colour
@@ -411,8 +474,11 @@ impl FromIterator<Pass> for PassSet {
     }
 }
 
+/// Bit of pass `p` in a [`PassSet`]: its place in [`ALL`], which lists the variants in
+/// declaration order (a unit test checks it).
+#[inline]
 fn index(p: Pass) -> usize {
-    ALL.iter().position(|&q| q == p).unwrap_or(0)
+    p as usize
 }
 
 /// a / b per channel; where b is zero in a channel the ratio of the other channels is
@@ -437,6 +503,13 @@ pub fn divide_even_color(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn all_is_in_declaration_order() {
+        for (i, p) in ALL.into_iter().enumerate() {
+            assert_eq!(index(p), i, "{p:?}");
+        }
+    }
 
     #[test]
     fn names_and_tokens_parse_back() {

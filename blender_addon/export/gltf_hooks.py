@@ -21,6 +21,8 @@ from .lights import (AREA_LIGHT_EXTENSION, PUNCTUAL_EXTENSION, area_light_extens
                      punctual_light_extension, scale_punctual_light, separate_spot_angles)
 from .state import current
 from .light_linking import LIGHT_LINKING_EXTENSION, light_linking_extension
+from .pass_ids import (MATERIAL_PASS_EXTENSION, OBJECT_PASS_EXTENSION, material_pass_extension,
+                       object_pass_extension)
 from .visibility import OBJECT_VISIBILITY_EXTENSION, object_visibility_extension
 from .world import WORLD_EXTENSION, world_extension
 
@@ -35,7 +37,8 @@ class glTF2ExportUserExtension:
         """Attach CAUSTIC_camera to a camera's node, CAUSTIC_lights_area to an area light's node,
         CAUSTIC_lights_punctual to the other lights', CAUSTIC_texspace to a mesh whose
         node graphs read Generated coordinates, and CAUSTIC_object_visibility to a mesh node
-        whose object some kind of ray does not see or that is a holdout, and CAUSTIC_light_linking
+        whose object some kind of ray does not see or that is a holdout, CAUSTIC_object_pass to a mesh
+        node with a Pass Index or a parent, and CAUSTIC_light_linking
         to an emitter with a receiver collection."""
         state = current()
         if state is None or blender_object is None:
@@ -49,6 +52,9 @@ class glTF2ExportUserExtension:
                 hidden = object_visibility_extension(blender_object, view_layer)
                 if hidden:
                     attach_extension(gltf2_node, OBJECT_VISIBILITY_EXTENSION, hidden)
+                ids = object_pass_extension(blender_object)
+                if ids:
+                    attach_extension(gltf2_node, OBJECT_PASS_EXTENSION, ids)
             if blender_object.type == "CAMERA":
                 value, warnings = camera_extension(blender_object, state.settings["resolution"],
                                                    state.pixel_aspect)
@@ -96,6 +102,9 @@ class glTF2ExportUserExtension:
             return
         try:
             materials.complete_material(gltf2_material, blender_material, export_settings, state)
+            ids = material_pass_extension(blender_material)
+            if ids:
+                attach_extension(gltf2_material, MATERIAL_PASS_EXTENSION, ids)
         except Exception as err:
             state.errors.append(f"material '{getattr(blender_material, 'name', '?')}': {err!r}")
 

@@ -324,6 +324,10 @@ pub struct RenderArgs {
     /// scene's, else z,normal,denoising_albedo,denoising_normal,sample_count].
     #[arg(long, value_name = "LIST")]
     pub passes: Option<String>,
+    /// Cryptomatte levels: (id, coverage) pairs kept per pixel and layer, as Blender's
+    /// (2 to 16) [default: the scene's, else 6].
+    #[arg(long, value_name = "N")]
+    pub cryptomatte_levels: Option<u32>,
 }
 
 /// `caustic info`.

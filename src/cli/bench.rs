@@ -51,6 +51,7 @@ pub fn run_bench(args: &BenchArgs, stop: &AtomicBool) -> Result<()> {
         denoise: false,
         oidn: None,
         passes: None,
+        cryptomatte_levels: None,
     };
     let reporter = Reporter::silent();
     let outcome = run_render(&render_args, &reporter, stop);

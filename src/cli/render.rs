@@ -245,6 +245,9 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         }
     };
 
+    // The Cryptomatte manifests go into every image's header (interim ones too).
+    let crypto_header: Vec<(String, String)> =
+        res.passes.cryptomatte()?.iter().flat_map(|k| crate::cryptomatte::header(k, scene.pass_ids.names(k))).collect();
     reporter.phase("rendering", t0.elapsed().as_secs_f64());
     let out_str = args.output.display().to_string();
     let mut last_interim = Instant::now();
@@ -260,6 +263,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
                 && Some(spp) != job.spp
             {
                 let mut img = film.image();
+                img.metadata.clone_from(&crypto_header);
                 if !res.transparent {
                     img.make_opaque();
                 }
@@ -281,6 +285,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         return Err(Error::InterruptedEmpty);
     }
     let mut result = result;
+    result.image.metadata = crypto_header;
     if !res.transparent {
         result.image.make_opaque();
     }
@@ -465,6 +470,14 @@ fn charge_render(budget: &MemoryBudget, args: &RenderArgs, res: &Resolved, scene
         budget.charge(
             format!("the {} extra pass channels for {}x{} pixels", slots, x1 - x0, y1 - y0),
             pixels.saturating_mul(slots * (16 + 4 + 4)),
+        )?;
+    }
+    let crypto = res.passes.cryptomatte()?;
+    if !crypto.is_empty() {
+        // Each slot: 8 bytes in the tiles, the image's two f32 and the EXR writer's copy.
+        budget.charge(
+            format!("the Cryptomatte slots for {}x{} pixels", x1 - x0, y1 - y0),
+            pixels.saturating_mul(crypto.stride() as u64 * (8 + 8 + 8)),
         )?;
     }
     if args.chunk {

@@ -275,22 +275,22 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
             integrator.name()
         )));
     }
-    for p in [crate::passes::Pass::ObjectIndex, crate::passes::Pass::MaterialIndex] {
-        if passes.contains(p) {
-            return Err(Error::Usage(format!(
-                "the {} pass is not rendered yet (pass indices are not exported)",
-                p.name()
-            )));
-        }
+    if let Some(levels) = args.cryptomatte_levels.or(st.cryptomatte_levels) {
+        passes.set_cryptomatte_levels(levels);
     }
+    passes.cryptomatte()?;
     if passes.any_data() && integrator == IntegratorKind::Sppm {
         return Err(Error::Usage(
-            "the data passes (AO, Mist, Position, UV, indices) are not rendered by 'sppm'".into(),
+            "the data passes (AO, Mist, Position, UV, indices, Cryptomatte) are not rendered by 'sppm'".into(),
         ));
     }
     if (passes.any_light() || passes.any_data()) && args.chunk {
+        // Cryptomatte's slots are filled in sample order (a full pixel counts a new id in
+        // its last slot): chunks could not be merged into what one render keeps.
         return Err(Error::Usage(
-            "chunks (--chunk) do not carry the light and data passes yet: render them without --chunk".into(),
+            "chunks (--chunk) do not carry the light and data passes (Cryptomatte included) yet: \
+             render them without --chunk"
+                .into(),
         ));
     }
     let data = crate::passes::DataSettings::resolve(st.mist, st.ao_distance)?;

@@ -1,4 +1,5 @@
-//! The data passes of a camera sample (Mist, Position, UV, Ambient Occlusion), from the
+//! The data passes of a camera sample (Mist, Position, UV, Ambient Occlusion, Object and
+//! Material Index, Cryptomatte's ids), from the
 //! camera ray's first opaque hit, the same for every integrator that renders camera
 //! samples (`crate::passes` says what each pass holds, after Cycles' `data_passes.h` and
 //! its AO pass). Costs one more closest-hit ray per sample (and one AO ray), only when a
@@ -45,6 +46,10 @@ pub fn fill(
     };
     stats.camera += 1;
     let s = ctx.scene.surface(&hit, org, ray.dir);
+    if passes.any_crypto() {
+        // Weight 1 per sample: an opaque first hit (Cycles' throughput × (1 − transparency)).
+        out.crypto = ctx.scene.pass_ids.crypto(s.tri, s.material);
+    }
     let a = &mut out.aov.0;
     if passes.contains(Pass::Mist) {
         // Distance from the camera, not Z (Cycles' camera_distance).
@@ -57,6 +62,10 @@ pub fn fill(
         // glTF's v runs down the image, Blender's up.
         let uv = s.uv[0];
         a[slot::UV..slot::UV + 3].copy_from_slice(&[uv.x, 1.0 - uv.y, 1.0]);
+    }
+    if passes.contains(Pass::ObjectIndex) || passes.contains(Pass::MaterialIndex) {
+        let [ob, ma] = ctx.scene.pass_ids.indices(s.tri, s.material);
+        (a[slot::OB], a[slot::MA]) = (ob, ma);
     }
     if passes.contains(Pass::AmbientOcclusion) {
         // Cycles: one cosine-distributed ray about the shading normal, as long as the AO

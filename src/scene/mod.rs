@@ -5,6 +5,7 @@ pub mod bent_normal;
 pub mod camera;
 pub mod gltf;
 pub mod hit;
+pub mod ids;
 pub mod linking;
 pub mod material;
 pub mod mesh;
@@ -79,6 +80,8 @@ pub struct SceneSettings {
     pub min_samples: Option<u32>,
     /// Passes to write besides Combined (`crate::passes`: tokens or Blender names).
     pub passes: Option<Vec<String>>,
+    /// Blender's Cryptomatte levels (View Layer → Cryptomatte → Levels, 2..=16).
+    pub cryptomatte_levels: Option<u32>,
     /// Blender's mist (World → Mist Pass): start, depth, falloff exponent (quadratic 2,
     /// linear 1, inverse quadratic 0.5).
     pub mist: Option<[f32; 3]>,
@@ -221,6 +224,8 @@ pub struct Scene {
     /// Each mesh instance's name, world matrix and span of the flattened mesh, so that
     /// the render server can move one object without reloading (`server::edits`).
     pub instances: Vec<InstanceSpan>,
+    /// Pass indices and Cryptomatte ids of each instance and material.
+    pub pass_ids: ids::PassIds,
 }
 
 /// Where one mesh instance (a glTF node with a mesh) lies in the flattened [`Mesh`].

@@ -97,6 +97,7 @@ def main():
     parser.add_argument("--camera")
     parser.add_argument("--integrator")
     parser.add_argument("--passes")
+    parser.add_argument("--cryptomatte-levels", type=int)
     args = parser.parse_args()
     mode = os.environ.get("FAKE_CAUSTIC_MODE", "ok")
     if args.progress != "json":

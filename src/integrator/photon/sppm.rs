@@ -407,7 +407,7 @@ fn image(states: &[PixelState], w: u32, h: u32, iters: u32) -> FilmImage {
         samples: vec![iters; n],
         noisy: Vec::new(),
         passes: crate::passes::PassSet::legacy(),
-        extra: Vec::new(),
+        ..Default::default()
     };
     if iters == 0 {
         return img;

@@ -25,6 +25,8 @@ pub(super) const HANDLED_MATERIAL_EXTENSIONS: &[&str] = &[
     "KHR_materials_dispersion",
     "CAUSTIC_materials_coat",
     "CAUSTIC_materials_nodes",
+    // Read by `pass_ids.rs` (the Material Index pass).
+    "CAUSTIC_material_pass",
     // Read in `materials.rs`:
     "KHR_materials_unlit",
     "KHR_materials_anisotropy",

@@ -22,6 +22,7 @@ mod material_ext;
 mod materials;
 mod mesh;
 mod nodes;
+mod pass_ids;
 mod pose;
 mod quantized;
 mod shader_graph;
@@ -294,6 +295,8 @@ impl<'a> Loader<'a> {
         let mut light_rules: Vec<(usize, ReceiverRule)> = Vec::new();
         let mut node_rules: HashMap<u32, ReceiverRule> = HashMap::new();
         let mut instances_out = Vec::new();
+        // (node, name, end of its triangles) of each mesh instance, for the pass ids.
+        let mut id_spans = Vec::new();
         // Joints' world matrices, for skinned meshes only (joints may lie outside the scene).
         let worlds = if doc.nodes().any(|n| n.skin().is_some() && n.mesh().is_some()) {
             pose::node_worlds(&doc)
@@ -359,6 +362,7 @@ impl<'a> Loader<'a> {
                         mesh.tri_object.resize(mesh.triangles.len(), o);
                         object = Some(o);
                     }
+                    id_spans.push((*node_index, node_name.clone(), mesh.triangles.len() as u32));
                     instances_out.push(crate::scene::InstanceSpan {
                         name: node_name.clone(),
                         world: *world,
@@ -488,6 +492,7 @@ impl<'a> Loader<'a> {
 
         self.profile.total = start.elapsed().as_secs_f64();
         let source_hash = self.source_hash(bytes);
+        let pass_ids = self.pass_ids(&doc, &id_spans, &materials)?;
         let report = LoadReport {
             file: self.file.to_string(),
             triangles: mesh.triangles.len(),
@@ -523,6 +528,7 @@ impl<'a> Loader<'a> {
             light_casts_shadow[i] = false;
         }
         Ok(Scene {
+            pass_ids,
             mesh,
             materials,
             textures: self.textures,
