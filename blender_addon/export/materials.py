@@ -10,6 +10,8 @@ Principled BSDF parameters it drops (contract, "Materials the exporter writes di
 * A Principled glass's base colour: glTF tints by it at every crossing, Cycles by its square
   root; written as sqrt(base) where that is exact (`_principled_transmission_tint`).
 * Coat IOR and tint (`CAUSTIC_materials_coat`); subsurface and volume media (media.py).
+* Sheen: Cycles renders the microfiber sheen, not glTF's Charlie (`CAUSTIC_materials_sheen`),
+  and the exporter drops Sheen Weight (`_sheen`).
 * Anything else the exporter cannot express (procedural textures, converters, mixtures of
   shaders, groups, bump, ...): the whole Surface/Displacement graph in
   `CAUSTIC_materials_nodes` (node_graph.py); the exporter's glTF material stays beside it for
@@ -26,6 +28,7 @@ from .nodes import procedural_source, surface_node, value as _value
 
 COAT_EXTENSION = "CAUSTIC_materials_coat"
 ANISOTROPY_EXTENSION = "CAUSTIC_materials_anisotropy"
+SHEEN_EXTENSION = "CAUSTIC_materials_sheen"
 
 # Shaders the add-on translates; any other surface is a warning and a grey Lambertian.
 _BSDF_NODES = {"BSDF_DIFFUSE", "BSDF_GLOSSY", "BSDF_METALLIC", "BSDF_GLASS", "BSDF_REFRACTION"}
@@ -245,6 +248,8 @@ def complete_material(gltf2_material, blender_material, export_settings, state, 
     state.warnings.extend(warnings)
     if coat is not None:
         _set_extension(gltf2_material, COAT_EXTENSION, coat)
+    if _present(gltf2_material, "KHR_materials_sheen"):
+        state.warnings.extend(_sheen(gltf2_material, blender_material))
     if _present(gltf2_material, "KHR_materials_anisotropy"):
         # The exporter writes Blender's Anisotropic as glTF's strength; Cycles maps it to widths
         # differently (docs/contract.md).
@@ -259,6 +264,26 @@ def complete_material(gltf2_material, blender_material, export_settings, state, 
         if value is not None:
             _set_extension(gltf2_material, name, value)
     return as_graph
+
+
+def _sheen(gltf2_material, blender_material):
+    """Blender's sheen in the exporter's KHR_materials_sheen: Cycles' microfiber model
+    (`CAUSTIC_materials_sheen`), and Sheen Weight, which the exporter drops (it writes Sheen
+    Tint as sheenColorFactor), multiplied into the colour. Returns warnings."""
+    _set_extension(gltf2_material, SHEEN_EXTENSION, {"model": "microfiber"})
+    node = _principled(blender_material)
+    socket = node.inputs.get("Sheen Weight") if node is not None else None
+    if socket is None:
+        return []
+    if socket.is_linked:
+        return [f"material '{blender_material.name}': a linked Sheen Weight is not carried by glTF; "
+                "the sheen is rendered at full weight"]
+    weight = min(max(float(socket.default_value), 0.0), 1.0)
+    ext = gltf2_material.extensions["KHR_materials_sheen"]
+    value = getattr(ext, "extension", ext)
+    colour = value.get("sheenColorFactor", [0.0, 0.0, 0.0])
+    value["sheenColorFactor"] = [float(c) * weight for c in colour]
+    return []
 
 
 def graph_of(blender_material, state):

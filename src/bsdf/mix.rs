@@ -23,7 +23,7 @@
 
 use super::dielectric::{DielectricBsdf, SMOOTH_ROUGHNESS};
 use super::microfacet::{Ggx, reflect, schlick_weight};
-use super::sheen::{charlie_brdf, sheen_albedo_table};
+use super::microfiber::Microfiber;
 use super::{BsdfSample, LobeKind, PbrBsdf, albedo::specular_albedo};
 use crate::math::{Rgb, luminance};
 use crate::sampling::warp::{cosine_hemisphere, cosine_hemisphere_pdf};
@@ -62,7 +62,7 @@ pub enum Lobe {
     },
     /// A dielectric interface (Glass, Refraction) with white tint.
     Dielectric(DielectricBsdf),
-    /// The Charlie sheen (Sheen BSDF), white.
+    /// The Sheen BSDF, white: Cycles' microfiber sheen (`microfiber.rs`).
     Sheen {
         /// Roughness.
         roughness: f32,
@@ -113,7 +113,7 @@ impl Lobe {
                 GlossyFresnel::Schlick(f0) => luminance(*f0 + (Rgb::ONE - *f0) * schlick_weight(wo.z)),
             },
             Lobe::Dielectric(_) => 1.0,
-            Lobe::Sheen { roughness } => sheen_albedo_table().e(wo.z, *roughness).max(1e-3),
+            Lobe::Sheen { roughness } => Microfiber::at(wo, *roughness).albedo().max(1e-3),
         }
     }
 
@@ -135,20 +135,15 @@ impl Lobe {
                 f * Self::glossy_ms(*fms, *roughness, wo.z) * spec
             }
             Lobe::Dielectric(d) => d.eval(wo, wi),
-            Lobe::Sheen { roughness } => {
-                if wi.z <= 0.0 {
-                    return Rgb::ZERO;
-                }
-                let h = (wo + wi).normalize();
-                Rgb::splat(charlie_brdf(h.z, wo.z, wi.z, *roughness))
-            }
+            Lobe::Sheen { roughness } => Rgb::splat(Microfiber::at(wo, *roughness).f(wi)),
         }
     }
 
     /// Density of `sample` (non-delta part), wo.z > 0.
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         match self {
-            Lobe::Diffuse | Lobe::Sheen { .. } => {
+            Lobe::Sheen { roughness } => Microfiber::at(wo, *roughness).density(wi),
+            Lobe::Diffuse => {
                 if wi.z > 0.0 {
                     cosine_hemisphere_pdf(wi.z)
                 } else {
@@ -176,7 +171,8 @@ impl Lobe {
     /// Samples wi (wo.z > 0); the value is f (delta lobes: the delta's weight / cos).
     fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
         let wi = match self {
-            Lobe::Diffuse | Lobe::Sheen { .. } => cosine_hemisphere(u),
+            Lobe::Diffuse => cosine_hemisphere(u),
+            Lobe::Sheen { roughness } => Microfiber::at(wo, *roughness).sample(u)?,
             Lobe::Translucent => {
                 let w = cosine_hemisphere(u);
                 Vec3::new(w.x, w.y, -w.z)

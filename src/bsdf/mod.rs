@@ -7,6 +7,8 @@ pub mod aniso_albedo;
 pub mod dielectric;
 pub mod glass_albedo;
 pub mod microfacet;
+pub mod microfiber;
+mod microfiber_table;
 pub mod mix;
 pub mod pbr;
 pub mod sheen;

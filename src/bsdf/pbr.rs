@@ -23,7 +23,10 @@
 //! stays the specular weight), `KHR_materials_sheen` is a Charlie-distribution sheen
 //! (Estevez & Kulla 2017, Ashikhmin visibility) over everything below it with the
 //! reciprocal scaling min(1 - s·E(μo), 1 - s·E(μi)), s = max(sheen colour), and
-//! `KHR_materials_clearcoat` is a GGX layer of IOR 1.5 on top, with its own normal.
+//! `KHR_materials_clearcoat` is a GGX layer of IOR 1.5 on top, with its own normal. Blender's
+//! sheen is Cycles' microfiber sheen instead (`microfiber.rs`, `CAUSTIC_materials_sheen`),
+//! which scales the layers below by the view's side alone, 1 - s·E(μo), as Cycles does (the
+//! sheen stays under the coat; Cycles puts it above).
 //!
 //! Multiple scattering between microfacets, as Cycles' default Multiscatter GGX: the
 //! metal's GGX lobe keeps only E(μo) of the light (E of the white lobe, tabulated), so it
@@ -60,6 +63,7 @@ pub use super::albedo::F0_DIELECTRIC;
 use super::aniso_albedo::aniso_albedo;
 use super::dielectric::{DielectricBsdf, SMOOTH_ROUGHNESS};
 use super::microfacet::{Ggx, schlick_weight};
+use super::microfiber::Microfiber;
 use super::sheen::{charlie_brdf, sheen_albedo_table};
 use crate::math::{Frame, Rgb, luminance};
 use crate::sampling::warp::cosine_hemisphere_pdf;
@@ -138,6 +142,8 @@ pub struct PbrBsdf {
     pub sheen_roughness: f32,
     /// max(sheen colour): the sheen's albedo is this times the table's E.
     sheen_max: f32,
+    /// The sheen is Blender's microfiber sheen (else glTF's Charlie).
+    microfiber: bool,
     /// Fraction of the diffuse base left to subsurface scattering (not in this BSDF).
     pub subsurface: f32,
 }
@@ -151,6 +157,8 @@ pub(super) struct LobeChoice {
     glass: f32,
     coat: f32,
     sheen: f32,
+    /// The microfiber sheen seen from wo (its sampling density), when the sheen is one.
+    fiber: Option<Microfiber>,
 }
 
 impl PbrBsdf {
@@ -239,6 +247,7 @@ impl PbrBsdf {
             sheen_color,
             sheen_roughness: p.sheen_roughness.clamp(0.0, 1.0),
             sheen_max: sheen_color.max_element(),
+            microfiber: p.microfiber_sheen,
             subsurface: p.subsurface.clamp(0.0, 1.0),
         }
         .with_layer_avg()
@@ -341,16 +350,36 @@ impl PbrBsdf {
         (self.f0_rgb * a + Vec3::splat(b)) * self.specular
     }
 
-    /// The sheen's directional albedo at μ: max(sheen colour) × E_sheen.
+    /// The Charlie sheen's directional albedo at μ: max(sheen colour) × E_sheen.
     #[inline]
     fn sheen_albedo(&self, mu: f32) -> f32 {
         if self.sheen_max > 0.0 { self.sheen_max * sheen_albedo_table().e(mu, self.sheen_roughness) } else { 0.0 }
     }
 
-    /// The sheen's reciprocal albedo scaling of everything below it.
+    /// The microfiber sheen seen from `wo` (upper hemisphere), when the sheen is one.
     #[inline]
-    fn sheen_scaling(&self, mu_o: f32, mu_i: f32) -> f32 {
-        if self.sheen_max > 0.0 { (1.0 - self.sheen_albedo(mu_o)).min(1.0 - self.sheen_albedo(mu_i)) } else { 1.0 }
+    fn fiber(&self, wo: Vec3) -> Option<Microfiber> {
+        (self.microfiber && self.sheen_max > 0.0).then(|| Microfiber::at(wo, self.sheen_roughness))
+    }
+
+    /// The sheen's albedo scaling of everything below it, with `sheen_o` = 1 - its albedo at
+    /// wo: Charlie's reciprocal min(1 - s·E(μo), 1 - s·E(μi)), the microfiber's 1 - s·E(μo).
+    #[inline]
+    fn sheen_scaling_from(&self, sheen_o: f32, mu_i: f32) -> f32 {
+        if self.sheen_max > 0.0 && !self.microfiber { sheen_o.min(1.0 - self.sheen_albedo(mu_i)) } else { sheen_o }
+    }
+
+    /// The sheen's albedo scaling of everything below it, from wo and wi's cosines.
+    #[inline]
+    fn sheen_scaling(&self, wo: Vec3, mu_i: f32) -> f32 {
+        if self.sheen_max <= 0.0 {
+            return 1.0;
+        }
+        let e_o = match self.fiber(wo) {
+            Some(m) => self.sheen_max * m.albedo(),
+            None => self.sheen_albedo(wo.z),
+        };
+        self.sheen_scaling_from(1.0 - e_o, mu_i)
     }
 
     /// How `sample` chooses among the lobes at `at.wo` (upper hemisphere): by the energy each
@@ -389,9 +418,10 @@ impl PbrBsdf {
                 glass: glass / total,
                 coat: coat / total,
                 sheen: sheen / total,
+                fiber: at.fiber,
             }
         } else {
-            LobeChoice { metal: 0.0, spec: 1.0, diffuse: 0.0, glass: 0.0, coat: 0.0, sheen: 0.0 }
+            LobeChoice { metal: 0.0, spec: 1.0, diffuse: 0.0, glass: 0.0, coat: 0.0, sheen: 0.0, fiber: None }
         }
     }
 
@@ -455,11 +485,15 @@ impl PbrBsdf {
         }
     }
 
-    /// The Charlie sheen lobe's f(wo, wi) (colour included).
+    /// The sheen lobe's f(wo, wi) (colour included): the microfiber `fiber` seen from wo,
+    /// or the Charlie sheen.
     #[inline]
-    fn sheen_eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
+    fn sheen_eval(&self, fiber: &Option<Microfiber>, wo: Vec3, wi: Vec3) -> Rgb {
         if self.sheen_max <= 0.0 || wo.z <= 0.0 || wi.z <= 0.0 {
             return Rgb::ZERO;
+        }
+        if let Some(m) = fiber {
+            return self.sheen_color * m.f(wi);
         }
         let h = (wo + wi).normalize();
         self.sheen_color * charlie_brdf(h.z, wo.z, wi.z, self.sheen_roughness)
@@ -508,6 +542,7 @@ impl PbrBsdf {
                 ec: 0.0,
                 coat_t: Rgb::ONE,
                 es: 0.0,
+                fiber: None,
             };
         }
         // The coat reflects E_c(μo) of the light and leaves the rest to the layers below
@@ -521,12 +556,16 @@ impl PbrBsdf {
         let need_metal = self.metal_fms != Rgb::ZERO;
         let (a, b) = if need_layer || need_metal { self.lobe_ab(wo) } else { (0.0, 0.0) };
         let eo = if need_layer { (self.f0_rgb * a + Vec3::splat(b)) * self.specular } else { Rgb::ZERO };
-        let es = self.sheen_albedo(wo.z);
+        let fiber = self.fiber(wo);
+        let es = match &fiber {
+            Some(m) => self.sheen_max * m.albedo(),
+            None => self.sheen_albedo(wo.z),
+        };
         let sheen_o = if self.sheen_max > 0.0 { 1.0 - es } else { 1.0 };
         // The metal's multiple-scattering factor 1 + F_ms (1/E − 1) with E the white lobe's
         // albedo (above 0.3 everywhere; the floor only guards the division).
         let metal_ms = if need_metal { Rgb::ONE + self.metal_fms * (1.0 / (a + b).max(0.05) - 1.0) } else { Rgb::ONE };
-        PbrAt { b: self, wo, flip, under, eo, sheen_o, metal_ms, ec, coat_t, es }
+        PbrAt { b: self, wo, flip, under, eo, sheen_o, metal_ms, ec, coat_t, es, fiber }
     }
 
     /// Density of [`sample`](Self::sample) for the non-delta lobes.
@@ -556,7 +595,11 @@ impl PbrBsdf {
                 let pdf_spec = self.ggx.pdf_visible_normal(wo, h) / (4.0 * wo.dot(h).max(1e-8));
                 pdf += (c.metal + c.spec) * pdf_spec;
             }
-            pdf += c.diffuse * self.diffuse_pdf(wi) + c.sheen * cosine_hemisphere_pdf(wi.z);
+            let sheen_pdf = match &c.fiber {
+                Some(m) => m.density(wi),
+                None => cosine_hemisphere_pdf(wi.z),
+            };
+            pdf += c.diffuse * self.diffuse_pdf(wi) + c.sheen * sheen_pdf;
             if c.coat > 0.0 && !self.smooth_coat {
                 pdf += c.coat * self.coat_pdf(wo, wi);
             }
@@ -585,7 +628,7 @@ impl PbrBsdf {
         let opaque = (1.0 - self.metallic) * (1.0 - self.transmission);
         // Coloured layers (a tinted coat or specular layer) are reduced to their luminance:
         // the random walk carries one weight for the whole spectrum of its entry.
-        let above = luminance(self.coat_transmittance(up)) * (1.0 - self.coat_albedo(up)) * self.sheen_scaling(mu, mu);
+        let above = luminance(self.coat_transmittance(up)) * (1.0 - self.coat_albedo(up)) * self.sheen_scaling(up, mu);
         above * opaque * (1.0 - luminance(self.layer_albedo(up))) * self.subsurface
     }
 

@@ -89,6 +89,8 @@ pub struct Material {
     pub sheen_roughness: f32,
     /// sheenRoughnessTexture (A).
     pub sheen_roughness_tex: Option<TexRef>,
+    /// `CAUSTIC_materials_sheen` model "microfiber": Blender's (Cycles') sheen, not glTF's Charlie.
+    pub sheen_microfiber: bool,
     /// `KHR_materials_dispersion` (20 / Abbe number).
     pub dispersion: f32,
     /// The medium inside the mesh: `CAUSTIC_materials_medium`, or the absorption of
@@ -150,6 +152,7 @@ impl Default for Material {
             sheen_color_tex: None,
             sheen_roughness: 0.0,
             sheen_roughness_tex: None,
+            sheen_microfiber: false,
             dispersion: 0.0,
             alpha_mode: AlphaMode::Opaque,
             double_sided: false,
@@ -226,6 +229,7 @@ impl Material {
             sheen_color_tex,
             sheen_roughness: _,
             sheen_roughness_tex,
+            sheen_microfiber: _,
             dispersion: _,
             medium: _,
             null_surface: _,

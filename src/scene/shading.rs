@@ -291,6 +291,7 @@ impl Scene {
             specular_color,
             sheen_color,
             sheen_roughness,
+            microfiber_sheen: mat.sheen_microfiber,
             dispersion: mat.dispersion,
             subsurface: mat.subsurface.map_or(0.0, |s| s.weight),
             diffuse_normal: (n != unbent).then(|| frame.to_local(unbent)),

@@ -14,8 +14,8 @@
 //!   mode are approximated, warned at load); Glass → a dielectric interface whose
 //!   reflection and transmission the colour tints; Refraction → the same interface
 //!   (Cycles' has no reflection: warned); Translucent → Lambertian transmission; Sheen →
-//!   the Charlie sheen (Cycles' microfiber model is a different fit of the same
-//!   distribution); Emission → emitted radiance Color × Strength; Transparent → pass-through
+//!   Cycles' microfiber sheen (its Ashikhmin distribution is warned about at load), as is
+//!   the Principled BSDF's sheen; Emission → emitted radiance Color × Strength; Transparent → pass-through
 //!   by coverage (`Scene::pass_through`: probability its colour's mean, weight colour / mean;
 //!   shadow rays `Scene::transmission`).
 
@@ -152,6 +152,7 @@ fn zero_params() -> PbrParams {
         specular_color: Rgb::ZERO,
         sheen_color: Rgb::ZERO,
         sheen_roughness: 0.0,
+        microfiber_sheen: true,
         dispersion: 0.0,
         subsurface: 0.0,
         anisotropy: None,
@@ -268,6 +269,8 @@ impl Closures {
             specular_color: p.specular_color * s,
             sheen_color: p.sheen_color * s,
             sheen_roughness: p.sheen_roughness * s,
+            // Blender's graphs: Cycles' sheen.
+            microfiber_sheen: true,
             dispersion: 0.0,
             subsurface: p.subsurface * s,
             anisotropy: None,

@@ -17,9 +17,9 @@ allowance. The allowance is per material, with the measured reason:
   Cycles' the exact dielectric Fresnel of the coat IOR (1.5) and its own layering;
 * tinted coat (Coat IOR 1.8, Coat Tint, through CAUSTIC_materials_coat) and Specular Tint:
   3 %, as the coated plastic (measured 1.0006 and 1.0003 on bpy 5.0.1);
-* sheen cloth: 3 % — Caustic renders glTF's Charlie sheen (Estevez & Kulla 2017), Cycles 4+
-  its microfiber sheen (Zeltner et al. 2022), which reflects a little less at grazing angles;
-  measured Caustic/Cycles 1.017 on this scene;
+* sheen cloth: 1 % — both render the microfiber sheen (Zeltner et al. 2022; the add-on writes
+  CAUSTIC_materials_sheen); measured Caustic/Cycles 0.9994 on this scene (1.017 with glTF's
+  Charlie sheen);
 * rough metal: 4 % — Cycles' Principled metal uses the F82-tint Fresnel and multiscatter GGX,
   Caustic glTF's Schlick Fresnel and single scattering: at roughness 0.5 the multiple
   scattering Caustic leaves out is a few per cent of the reflected light (Kulla & Conty
@@ -104,7 +104,7 @@ MATERIALS = {
                                                         "Specular Tint": (1.0, 0.6, 0.2, 1)}), 0.03),
     "sheen_cloth": (lambda: principled("Sheen", **{"Base Color": (0.1, 0.05, 0.3, 1), "Roughness": 0.8,
                                                    "Sheen Weight": 1.0, "Sheen Roughness": 0.5,
-                                                   "Sheen Tint": (1, 1, 1, 1)}), 0.03),
+                                                   "Sheen Tint": (1, 1, 1, 1)}), 0.01),
     # Shader nodes other than the Principled BSDF, which Blender's glTF exporter does not read;
     # the add-on writes their glTF material (export.shader_node_material).
     "diffuse_node": (lambda: shader_node("DiffuseNode", "ShaderNodeBsdfDiffuse",

@@ -39,6 +39,8 @@ pub struct PbrParams {
     pub sheen_color: Rgb,
     /// sheenRoughnessFactor.
     pub sheen_roughness: f32,
+    /// The sheen is Blender's microfiber sheen (`CAUSTIC_materials_sheen`), not glTF's Charlie.
+    pub microfiber_sheen: bool,
     /// `KHR_materials_dispersion` (20 / Abbe number; 0: none).
     pub dispersion: f32,
     /// Subsurface weight: the part of the diffuse base that scatters below the
@@ -82,6 +84,7 @@ impl PbrParams {
             specular_color: Rgb::ONE,
             sheen_color: Rgb::ZERO,
             sheen_roughness: 0.0,
+            microfiber_sheen: false,
             dispersion: 0.0,
             subsurface: 0.0,
             diffuse_normal: None,

@@ -21,7 +21,7 @@ impl PbrAt<'_> {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return Rgb::ZERO;
         }
-        let scaling = if b.sheen_max > 0.0 { self.sheen_o.min(1.0 - b.sheen_albedo(wi.z)) } else { 1.0 };
+        let scaling = b.sheen_scaling_from(self.sheen_o, wi.z);
         let opaque = (1.0 - b.metallic) * (1.0 - b.transmission);
         let mut f = Rgb::ZERO;
         if opaque > 0.0 {
@@ -31,7 +31,7 @@ impl PbrAt<'_> {
                 * (1.0 - b.subsurface);
             f = b.base * diffuse_weight * (FRAC_1_PI * b.diffuse_cos_ratio(wi)) * opaque;
         }
-        (f * scaling + b.sheen_eval(wo, wi)) * self.under
+        (f * scaling + b.sheen_eval(&self.fiber, wo, wi)) * self.under
     }
 
     /// Albedo seen from wo per class (diffuse, glossy, transmission), as Cycles' Colour

@@ -4,6 +4,7 @@
 
 use super::PbrBsdf;
 use crate::bsdf::microfacet::{reflect, schlick_weight};
+use crate::bsdf::microfiber::Microfiber;
 use crate::bsdf::{BsdfSample, LobeKind};
 use crate::math::{Frame, Rgb};
 use crate::sampling::warp::cosine_hemisphere;
@@ -34,6 +35,8 @@ pub struct PbrAt<'a> {
     pub(super) coat_t: Rgb,
     /// The sheen's albedo at wo (0 without sheen).
     pub(super) es: f32,
+    /// The microfiber sheen seen from wo, when the sheen is one.
+    pub(super) fiber: Option<Microfiber>,
 }
 
 impl PbrAt<'_> {
@@ -66,7 +69,7 @@ impl PbrAt<'_> {
                     * (1.0 - this.metallic)
                     * this.transmission
                     * (1.0 - self.ec)
-                    * this.sheen_scaling(wo_up.z, s.wi.z.abs());
+                    * this.sheen_scaling_from(self.sheen_o, s.wi.z.abs());
                 return Some(BsdfSample {
                     wi: mirror(s.wi),
                     f: s.f * weight,
@@ -80,7 +83,7 @@ impl PbrAt<'_> {
             if this.smooth {
                 // Perfect mirror: the metal's and the dielectric layer's reflectance.
                 let mu = wo_up.z;
-                let under = self.under * this.sheen_scaling(mu, mu);
+                let under = self.under * this.sheen_scaling_from(self.sheen_o, mu);
                 let opaque = (1.0 - this.metallic) * (1.0 - this.transmission);
                 let metal = (this.base + (Vec3::ONE - this.base) * schlick_weight(mu)) * this.metallic;
                 let refl = (metal + self.eo * opaque) * under;
@@ -100,7 +103,10 @@ impl PbrAt<'_> {
                 None => cosine_hemisphere(u),
             }
         } else if uc < c.glass + c.metal + c.spec + c.diffuse + c.sheen {
-            cosine_hemisphere(u)
+            match &c.fiber {
+                Some(m) => m.sample(u)?,
+                None => cosine_hemisphere(u),
+            }
         } else {
             let cf = this.coat_frame.unwrap_or(Frame { s: Vec3::X, t: Vec3::Y, n: Vec3::Z });
             let wo_c = cf.to_local(wo_up);
@@ -150,7 +156,7 @@ impl PbrAt<'_> {
         }
         let dielectric = 1.0 - b.metallic;
         let under = self.under;
-        let scaling = if b.sheen_max > 0.0 { self.sheen_o.min(1.0 - b.sheen_albedo(wi.z.abs())) } else { 1.0 };
+        let scaling = b.sheen_scaling_from(self.sheen_o, wi.z.abs());
         let mut f = Rgb::ZERO;
         if b.transmission > 0.0 {
             f += b.glass.eval(wo, wi) * (dielectric * b.transmission);
@@ -176,7 +182,7 @@ impl PbrAt<'_> {
         if b.metallic > 0.0 {
             f += (b.base + (Vec3::ONE - b.base) * fw) * self.metal_ms * (spec * b.metallic);
         }
-        f = (f * scaling + b.sheen_eval(wo, wi)) * under;
+        f = (f * scaling + b.sheen_eval(&self.fiber, wo, wi)) * under;
         if b.coat > 0.0 && !b.smooth_coat {
             f += Rgb::splat(b.coat_eval(wo, wi));
         }

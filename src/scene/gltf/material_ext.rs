@@ -22,6 +22,7 @@ pub(super) const HANDLED_MATERIAL_EXTENSIONS: &[&str] = &[
     "CAUSTIC_materials_medium",
     "CAUSTIC_materials_subsurface",
     "KHR_materials_sheen",
+    "CAUSTIC_materials_sheen",
     "KHR_materials_dispersion",
     "CAUSTIC_materials_coat",
     "CAUSTIC_materials_nodes",
@@ -254,6 +255,19 @@ impl Loader<'_> {
                 sheen_roughness_tex = self.raw_texture(doc, t, false, buffers, &name)?;
             }
         }
+        let mut sheen_microfiber = false;
+        if let Some(sh) = m.extension_value("CAUSTIC_materials_sheen").cloned() {
+            features.push("CAUSTIC_materials_sheen".into());
+            sheen_microfiber = match sh.get("model").and_then(|v| v.as_str()) {
+                Some("microfiber") => true,
+                None | Some("charlie") => false,
+                Some(other) => {
+                    return Err(self.err(format!(
+                        "material '{name}': CAUSTIC_materials_sheen model '{other}' is not \"charlie\" or \"microfiber\""
+                    )));
+                }
+            };
+        }
         let mut dispersion = 0.0;
         if let Some(d) = m.extension_value("KHR_materials_dispersion").cloned() {
             features.push("KHR_materials_dispersion".into());
@@ -346,6 +360,7 @@ impl Loader<'_> {
         mat.sheen_color_tex = sheen_color_tex;
         mat.sheen_roughness = sheen_roughness;
         mat.sheen_roughness_tex = sheen_roughness_tex;
+        mat.sheen_microfiber = sheen_microfiber;
         mat.dispersion = dispersion;
         mat.anisotropy_strength = anisotropy_strength;
         mat.anisotropy_rotation = anisotropy_rotation;

@@ -263,6 +263,18 @@ mod tests {
     }
 
     #[test]
+    fn sheen_model_charlie_unless_the_file_says_microfiber() {
+        let sheen = json!({"sheenColorFactor": [0.5, 0.4, 0.3], "sheenRoughnessFactor": 0.25});
+        let (m, _) = material(json!({"name": "velvet", "extensions": {"KHR_materials_sheen": sheen}}), 0);
+        assert_eq!((m.sheen_color, m.sheen_roughness, m.sheen_microfiber), (Vec3::new(0.5, 0.4, 0.3), 0.25, false));
+        let blender = json!({"name": "b", "extensions": {"KHR_materials_sheen": sheen,
+            "CAUSTIC_materials_sheen": {"model": "microfiber"}}});
+        assert!(material(blender, 0).0.sheen_microfiber);
+        let bad = json!({"name": "b", "extensions": {"CAUSTIC_materials_sheen": {"model": "velvet"}}});
+        assert!(error(bad, 0).contains("model 'velvet'"));
+    }
+
+    #[test]
     fn core_factors_and_textures() {
         let (m, scene) = material(
             json!({"name": "m",

@@ -76,6 +76,7 @@ pub const SUPPORTED_REQUIRED: &[&str] = &[
     "CAUSTIC_materials_subsurface",
     "CAUSTIC_materials_coat",
     "CAUSTIC_materials_anisotropy",
+    "CAUSTIC_materials_sheen",
     "CAUSTIC_default_material",
 ];
 

@@ -213,7 +213,13 @@ impl Compiler<'_> {
                 (ClosureKind::Glass, self.vec(i, "Color", Vec3::ONE)?)
             }
             "ShaderNodeBsdfTranslucent" => (ClosureKind::Translucent, self.vec(i, "Color", Vec3::splat(0.8))?),
-            "ShaderNodeBsdfSheen" => (ClosureKind::Sheen, self.vec(i, "Color", Vec3::splat(0.8))?),
+            "ShaderNodeBsdfSheen" => {
+                let dist = self.prop_str(i, "distribution", "MICROFIBER");
+                if dist != "MICROFIBER" {
+                    self.warn(i, format!("distribution {dist} is rendered as Microfiber"));
+                }
+                (ClosureKind::Sheen, self.vec(i, "Color", Vec3::splat(0.8))?)
+            }
             "ShaderNodeBsdfTransparent" => {
                 let c = self.vec(i, "Color", Vec3::ONE)?;
                 if !self.is_const(c, 3) || {
