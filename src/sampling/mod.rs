@@ -2,6 +2,7 @@
 
 pub mod distribution;
 pub mod sampler;
+pub mod sobol;
 pub mod warp;
 
 #[cfg(test)]

@@ -4,23 +4,25 @@
 //! A pixel's samples depend only on (seed, pixel, sample index), never on the thread
 //! that renders them: that makes images bit-identical for any thread count.
 
+use super::sobol::{SobolTables, sobol_tables};
 use crate::math::hash_combine;
 use glam::Vec2;
 
 /// The Sobol stream of one pixel sample; dimensions are drawn four at a time
-/// (`sobol_burley::sample_4d` computes a set of four with SIMD).
+/// (`sobol_burley::sample_4d`'s points, computed from `sobol.rs`' tables).
 #[derive(Clone, Debug)]
 pub struct PixelSampler {
     pixel_seed: u32,
     index: u32,
     set: u32,
+    tables: &'static SobolTables,
 }
 
 impl PixelSampler {
     /// The stream for sample `index` of pixel (`x`, `y`) under the render seed.
     #[inline]
     pub fn new(seed: u32, x: u32, y: u32, index: u32) -> Self {
-        PixelSampler { pixel_seed: hash_combine(&[seed, x, y]), index, set: 0 }
+        PixelSampler { pixel_seed: hash_combine(&[seed, x, y]), index, set: 0, tables: sobol_tables() }
     }
 
     /// Next four dimensions in [0, 1).
@@ -33,7 +35,7 @@ impl PixelSampler {
         // stratification across blocks, nothing else).
         let block = (d / sobol_burley::NUM_DIMENSION_SETS_4D) ^ ((self.index >> 16) << 8);
         let seed = if block == 0 { self.pixel_seed } else { hash_combine(&[self.pixel_seed, block]) };
-        sobol_burley::sample_4d(self.index & 0xffff, d % sobol_burley::NUM_DIMENSION_SETS_4D, seed)
+        self.tables.sample_4d(self.index & 0xffff, d % sobol_burley::NUM_DIMENSION_SETS_4D, seed)
     }
 
     /// Two dimensions (a set of four, of which two are left unused).

@@ -184,6 +184,9 @@ impl Scene {
         let mat = &self.materials[self.mesh.tri_material[tri as usize] as usize];
         match &mat.nodes {
             Some(prog) => node_emission(&self.mesh, &self.objects, &self.textures, prog, tri, b1, b2),
+            // Neither a texture nor the vertex colour (unlit) enters: the factor itself,
+            // without interpolating the attributes (every light sample asks, callgrind).
+            None if mat.emissive_tex.is_none() && !mat.unlit => mat.emissive,
             None => {
                 let (uv, color) = self.attributes(tri, b1, b2);
                 mat.emission(&self.textures, uv, color)
