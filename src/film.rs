@@ -10,7 +10,7 @@
 
 use crate::fixed::{add3, from_fixed, in_range, sum3, to_fixed};
 use crate::math::Rgb;
-use crate::passes::{Aov, NEAREST_SLOTS, Pass, PassSet, divide_even_color};
+use crate::passes::{Aov, CATCHER_SLOTS, NEAREST_SLOTS, Pass, PassSet, divide_even_color, slot};
 use crate::sampling::Distribution1D;
 use glam::{Vec2, Vec3};
 
@@ -229,7 +229,13 @@ pub struct FilmImage {
     pub passes: PassSet,
     /// The extra passes' pixels, channels interleaved, for each written pass with a slot.
     pub extra: Vec<(Pass, Vec<f32>)>,
+    /// Per pixel, the means of the shadow catcher's sums (`slot::CATCHER_PASS` onward),
+    /// when the film keeps them; `crate::shadow_catcher` turns them into Cycles' passes.
+    pub catcher: Vec<[f32; CATCHER_SUMS]>,
 }
+
+/// Number of the shadow catcher's sums per pixel.
+pub const CATCHER_SUMS: usize = slot::COUNT - slot::CATCHER_PASS;
 
 impl FilmImage {
     /// Alpha 1 wherever a sample was taken (Blender's Film → Transparent off).
@@ -441,6 +447,10 @@ impl Film {
                 .filter(|p| p.slot().is_some())
                 .map(|p| (p, vec![0.0; n * p.channels().len()]))
                 .collect(),
+            catcher: match self.passes.slots() & CATCHER_SLOTS {
+                0 => Vec::new(),
+                _ => vec![[0.0; CATCHER_SUMS]; n],
+            },
         };
         for t in &self.tiles {
             for ty in 0..t.h {
@@ -467,7 +477,14 @@ impl Film {
                     img.albedo[i] = mean(&p.albedo);
                     let stride = t.slots.count_ones() as usize;
                     let j = (ty * t.w + tx) as usize;
-                    extra_pixel(&mut img.extra, i, t.slots, &t.extra[j * stride..(j + 1) * stride], inv);
+                    let acc = &t.extra[j * stride..(j + 1) * stride];
+                    extra_pixel(&mut img.extra, i, t.slots, acc, inv);
+                    if let Some(c) = img.catcher.get_mut(i) {
+                        for (k, v) in c.iter_mut().enumerate() {
+                            let at = slot::CATCHER_PASS + k;
+                            *v = (from_fixed(acc[(t.slots & ((1u64 << at) - 1)).count_ones() as usize]) * inv) as f32;
+                        }
+                    }
                 }
             }
         }

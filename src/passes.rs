@@ -73,10 +73,13 @@ pub enum Pass {
     ObjectIndex,
     /// Material pass index.
     MaterialIndex,
+    /// Cycles' Shadow Catcher: the factor by which catchers change what is behind them
+    /// (Combined over the catcher pass, `crate::shadow_catcher`).
+    ShadowCatcher,
 }
 
 /// Every pass, in the order of the table below.
-pub const ALL: [Pass; 24] = [
+pub const ALL: [Pass; 25] = [
     Pass::Depth,
     Pass::Normal,
     Pass::DenoisingAlbedo,
@@ -101,6 +104,7 @@ pub const ALL: [Pass; 24] = [
     Pass::Uv,
     Pass::ObjectIndex,
     Pass::MaterialIndex,
+    Pass::ShadowCatcher,
 ];
 
 /// Slots of [`Aov`]: where a camera sample keeps each extra pass's value.
@@ -143,8 +147,19 @@ pub mod slot {
     pub const OB: usize = 47;
     /// Material index (nearest hit).
     pub const MA: usize = 48;
+    /// Shadow catcher (`integrator::catcher`): the catcher pass's radiance (RGB).
+    pub const CATCHER_PASS: usize = 49;
+    /// The matte: radiance of paths that did not split at a catcher (RGB).
+    pub const CATCHER_MATTE: usize = 52;
+    /// The matte's transparency from splits (mean throughput at the split).
+    pub const CATCHER_SPLIT: usize = 55;
+    /// Samples that split at a catcher.
+    pub const CATCHER_COUNT: usize = 56;
+    /// The world along camera rays that escaped or split (Cycles' background pass, which
+    /// an opaque film's approximate shadow catcher composites over).
+    pub const CATCHER_BACKGROUND: usize = 57;
     /// Number of slots.
-    pub const COUNT: usize = 49;
+    pub const COUNT: usize = 60;
 }
 
 // The film keeps its slots in a u64 bit mask.
@@ -210,6 +225,7 @@ impl Pass {
             Pass::Uv => "UV",
             Pass::ObjectIndex => "Object Index",
             Pass::MaterialIndex => "Material Index",
+            Pass::ShadowCatcher => "Shadow Catcher",
         }
     }
 
@@ -241,6 +257,7 @@ impl Pass {
             Pass::Uv => "uv",
             Pass::ObjectIndex => "object_index",
             Pass::MaterialIndex => "material_index",
+            Pass::ShadowCatcher => "shadow_catcher",
         }
     }
 
@@ -280,6 +297,7 @@ impl Pass {
             Pass::Uv => slot::UV,
             Pass::ObjectIndex => slot::OB,
             Pass::MaterialIndex => slot::MA,
+            Pass::ShadowCatcher => slot::CATCHER_PASS,
         })
     }
 
@@ -329,11 +347,29 @@ impl Pass {
     }
 }
 
-/// A set of passes (bit i = `ALL[i]`).
+/// A set of passes (bit i = `ALL[i]`; the top bit: keep the shadow catcher's sums).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub struct PassSet(u32);
 
+/// The [`PassSet`] bit that keeps the shadow catcher's sums (no pass of its own).
+const CATCHER_SUMS: u32 = 1 << 31;
+const _: () = assert!(ALL.len() < 31);
+
+/// The slots of the shadow catcher's sums.
+pub const CATCHER_SLOTS: u64 = ((1u64 << (slot::COUNT - slot::CATCHER_PASS)) - 1) << slot::CATCHER_PASS;
+
 impl PassSet {
+    /// This set, keeping the shadow catcher's sums too (a scene with catchers, rendered by
+    /// an integrator that splits at them): the film then gives Combined as Cycles does.
+    pub fn with_catcher_sums(self) -> Self {
+        PassSet(self.0 | CATCHER_SUMS)
+    }
+
+    /// True when the shadow catcher's sums are kept.
+    pub fn catcher_sums(self) -> bool {
+        self.0 & CATCHER_SUMS != 0
+    }
+
     /// What a render writes without `--passes`: the passes of Caustic before pass
     /// selection (Combined, Depth, Normal, the two denoising passes and the sample count).
     pub fn legacy() -> Self {
@@ -365,13 +401,14 @@ impl PassSet {
 
     /// Any data pass the camera ray's first hit gives (AO, Mist, Position, UV, indices).
     pub fn any_data(self) -> bool {
-        self.iter().any(|p| p.slot().is_some() && !p.is_light())
+        self.iter().any(|p| p.slot().is_some() && !p.is_light() && p != Pass::ShadowCatcher)
     }
 
     /// The slots a film must keep for these passes: each pass's own, and the Colour
     /// pass's for a Direct or Indirect pass, which is divided by it.
     pub fn slots(self) -> u64 {
-        let mut mask = 0u64;
+        // The Shadow Catcher pass is computed from the catcher's sums.
+        let mut mask = if self.catcher_sums() || self.contains(Pass::ShadowCatcher) { CATCHER_SLOTS } else { 0 };
         for p in self.iter() {
             for q in [Some(p), p.divided_by()].into_iter().flatten() {
                 if let Some(s) = q.slot() {

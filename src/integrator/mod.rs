@@ -4,6 +4,7 @@
 //! sample at a time; the tile loop, film and progress are shared (`render.rs`).
 
 pub mod bdpt;
+pub mod catcher;
 pub mod data_passes;
 pub mod light_passes;
 pub mod media;
@@ -44,9 +45,17 @@ pub struct SceneContext<'a> {
     transparent: Vec<bool>,
     /// Which rays see each triangle (empty: every ray sees every triangle, or the
     /// integrator does not honour ray visibility; see `with_ray_visibility`).
-    visibility: &'a [RayMask],
+    visibility: std::borrow::Cow<'a, [RayMask]>,
     /// Light linking is honoured (`with_light_linking`).
     linking: bool,
+    /// This context is a shadow catcher's pass (`catcher::pass_context`): rays see only
+    /// catcher objects and only the lights that light catchers give light.
+    catcher_only: bool,
+    /// Per light, whether it lights the catcher pass (filled for `catcher_only`).
+    lights_catcher: Vec<bool>,
+    /// The shadow catcher's pass context when the scene has catchers and the integrator
+    /// splits paths at them (`with_shadow_catcher`).
+    pub catcher: Option<Box<SceneContext<'a>>>,
     /// Area lights with their light index (intersected by camera and BSDF rays).
     area_lights: Vec<(AreaLight, usize)>,
     /// Light index of the world, if it is a light.
@@ -122,8 +131,11 @@ impl<'a> SceneContext<'a> {
             },
             masked: (0..n).map(|t| matches!(mode(t), AlphaMode::Mask(_))).collect(),
             transparent: (0..n).map(|t| mode(t) != AlphaMode::Opaque).collect(),
-            visibility: &[],
+            visibility: std::borrow::Cow::Borrowed(&[]),
             linking: false,
+            catcher_only: false,
+            lights_catcher: Vec::new(),
+            catcher: None,
             area_lights,
             world_light,
             spheres,
@@ -189,7 +201,7 @@ impl<'a> SceneContext<'a> {
             self.masked[t] |= *m != RayMask::ALL;
             self.transparent[t] |= !m.meets(RayMask::SHADOW);
         }
-        self.visibility = vis;
+        self.visibility = std::borrow::Cow::Borrowed(vis);
         self
     }
 
@@ -205,7 +217,19 @@ impl<'a> SceneContext<'a> {
     /// point in a medium); always without light linking.
     #[inline]
     pub fn links(&self, light: usize, receiver: u32) -> bool {
+        // The catcher pass is lit only by the lights that light catchers (Cycles'
+        // SHADER_EXCLUDE_SHADOW_CATCHER, and emissive objects that are no catchers).
+        if self.catcher_only && !self.lights_catcher.get(light).copied().unwrap_or(true) {
+            return false;
+        }
         !self.linking || self.scene.light_linking.lights(light, receiver)
+    }
+
+    /// True when triangle `tri` belongs to a shadow catcher at which camera paths split
+    /// (only with a catcher pass context, `with_shadow_catcher`).
+    #[inline]
+    pub fn is_catcher(&self, tri: u32) -> bool {
+        self.catcher.is_some() && self.scene.ray_visibility.is_catcher(tri)
     }
 
     /// True when triangle `tri` belongs to a holdout object: camera rays reaching it end
@@ -248,6 +272,11 @@ impl<'a> SceneContext<'a> {
     ) -> (Rgb, bool) {
         let mut sum = Rgb::ZERO;
         let mut any = false;
+        if self.catcher_only && camera_ray {
+            // The catcher pass starts on the camera segment that the split path already
+            // walked: what it crossed there is counted once, before the split.
+            return (sum, any);
+        }
         for (a, index) in &self.area_lights {
             if (camera_ray && !a.camera_visible) || (!camera_ray && !self.links(*index, receiver)) {
                 continue;
@@ -310,6 +339,9 @@ impl<'a> SceneContext<'a> {
     #[inline]
     pub fn sun_emission(&self, dir: Vec3, prev_pdf: f32, camera_ray: bool, receiver: u32) -> Rgb {
         let mut sum = Rgb::ZERO;
+        if self.catcher_only && camera_ray {
+            return sum;
+        }
         for &(to_sun, cos_half, radiance, index) in &self.suns {
             if dir.dot(to_sun) >= cos_half && (camera_ray || self.links(index, receiver)) {
                 let w = if prev_pdf == 0.0 {

@@ -408,6 +408,7 @@ fn image(states: &[PixelState], w: u32, h: u32, iters: u32) -> FilmImage {
         noisy: Vec::new(),
         passes: crate::passes::PassSet::legacy(),
         extra: Vec::new(),
+        catcher: Vec::new(),
     };
     if iters == 0 {
         return img;

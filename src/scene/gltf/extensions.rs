@@ -18,7 +18,9 @@ pub(super) struct AreaLightExt {
     pub(super) spread: f32,
     /// Blender's Cast Shadow: false lights every point as if nothing stood in the way.
     #[serde(default = "yes")]
-    pub(super) cast_shadow: bool,
+    pub(super) cast_shadow: bool,    /// The light object's Shadow Catcher flag: false leaves it out of the catcher pass.
+    #[serde(default = "yes")]
+    pub(super) shadow_catcher: bool,
 }
 
 fn half_turn() -> f32 {
@@ -130,6 +132,9 @@ pub(super) struct BlenderLight {
     pub(super) camera_visible: bool,
     #[serde(default = "yes")]
     pub(super) cast_shadow: bool,
+    /// The light object's Shadow Catcher flag: false leaves it out of the catcher pass.
+    #[serde(default = "yes")]
+    pub(super) shadow_catcher: bool,
 }
 
 impl Default for BlenderLight {
@@ -141,6 +146,7 @@ impl Default for BlenderLight {
             soft_falloff: false,
             camera_visible: true,
             cast_shadow: true,
+            shadow_catcher: true,
         }
     }
 }
@@ -165,6 +171,9 @@ pub(super) struct ObjectVisibilityExt {
     /// Blender's Holdout (the object's, or its collection's in the view layer).
     #[serde(default)]
     pub(super) holdout: bool,
+    /// Blender's Shadow Catcher.
+    #[serde(default)]
+    pub(super) shadow_catcher: bool,
 }
 
 impl ObjectVisibilityExt {

@@ -273,6 +273,7 @@ impl<'a> Loader<'a> {
         let mut lights = Vec::new();
         // Lights whose Cast Shadow is off, by index in `lights`.
         let mut shadowless = Vec::new();
+        let mut no_catcher = Vec::new();
         let mut light_reports = Vec::new();
         let mut used_meshes = std::collections::HashSet::new();
         let mut instance_count = 0;
@@ -317,6 +318,9 @@ impl<'a> Loader<'a> {
                     if vis.holdout {
                         ray_visibility.mark_holdout(&node_name, first..total, total);
                     }
+                    if vis.shadow_catcher {
+                        ray_visibility.mark_catcher(&node_name, first..total, total);
+                    }
                 }
                 if linked {
                     linking.tri_object.resize(mesh.triangles.len(), *node_index as u32);
@@ -350,6 +354,9 @@ impl<'a> Loader<'a> {
                 if !rep.cast_shadow {
                     shadowless.push(lights.len());
                 }
+                if !rep.lights_catcher {
+                    no_catcher.push(lights.len());
+                }
                 if let Some(r) = &rule {
                     light_rules.push((lights.len(), r.clone()));
                 }
@@ -380,6 +387,9 @@ impl<'a> Loader<'a> {
                 if !rep.cast_shadow {
                     shadowless.push(lights.len());
                 }
+                if !rep.lights_catcher {
+                    no_catcher.push(lights.len());
+                }
                 if let Some(r) = rule {
                     light_rules.push((lights.len(), r));
                 }
@@ -404,6 +414,7 @@ impl<'a> Loader<'a> {
                     power,
                     triangles: 0,
                     cast_shadow: true,
+                    lights_catcher: true,
                 });
             } else {
                 self.warn("the world is black: it lights nothing");
@@ -494,6 +505,13 @@ impl<'a> Loader<'a> {
         for i in shadowless {
             light_casts_shadow[i] = false;
         }
+        let mut light_lights_catcher = Vec::new();
+        if !no_catcher.is_empty() {
+            light_lights_catcher = vec![true; lights.len()];
+            for i in no_catcher {
+                light_lights_catcher[i] = false;
+            }
+        }
         Ok(Scene {
             mesh,
             materials,
@@ -504,6 +522,7 @@ impl<'a> Loader<'a> {
             world,
             world_medium,
             light_casts_shadow,
+            light_lights_catcher,
             ray_visibility,
             light_linking: linking,
             settings,
