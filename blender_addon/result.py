@@ -38,12 +38,15 @@ VIEW_LAYER_PASSES = (
     ("", "use_pass_emit", "emit", "Emission", 3, "RGB", "COLOR"),
     ("", "use_pass_environment", "environment", "Environment", 3, "RGB", "COLOR"),
     ("", "use_pass_ambient_occlusion", "ambient_occlusion", "Ambient Occlusion", 3, "RGB", "COLOR"),
+    ("cycles", "use_pass_shadow_catcher", "shadow_catcher", "Shadow Catcher", 3, "RGB", "COLOR"),
     ("cycles", "denoising_store_passes", "denoising_albedo", "Denoising Albedo", 3, "RGB", "COLOR"),
     ("cycles", "denoising_store_passes", "denoising_normal", "Denoising Normal", 3, "XYZ", "VECTOR"),
 )
 
 # Light passes: only the path integrator classifies light by the first bounce (contract).
 LIGHT_TOKENS = frozenset(t for _, _, t, *_ in VIEW_LAYER_PASSES[5:18])
+# The Shadow Catcher pass: the path integrator splits paths at catchers; chunks do not carry it.
+PATH_ONLY_TOKENS = LIGHT_TOKENS | {"shadow_catcher"}
 # Data passes traced from the camera ray's first hit, by every integrator but SPPM.
 DATA_TOKENS = frozenset(("mist", "position", "uv", "ambient_occlusion"))
 
@@ -56,7 +59,6 @@ UNSUPPORTED = (
     ("", "use_pass_cryptomatte_object", "Cryptomatte Object"),
     ("", "use_pass_cryptomatte_material", "Cryptomatte Material"),
     ("", "use_pass_cryptomatte_asset", "Cryptomatte Asset"),
-    ("cycles", "use_pass_shadow_catcher", "Shadow Catcher"),
 )
 
 # The binary writes normals and positions in glTF axes (Y up); Blender's passes are in Blender's
@@ -80,10 +82,10 @@ def pass_request(view_layer, integrator, chunked=False):
     missing from the result."""
     tokens, warnings = [], []
     for _, _, token, name, *_ in enabled_passes(view_layer):
-        if chunked and (token in LIGHT_TOKENS or token in DATA_TOKENS):
+        if chunked and (token in PATH_ONLY_TOKENS or token in DATA_TOKENS):
             warnings.append(f"the {name} pass is not rendered on the farm yet (sample chunks do not carry "
                             "it); it stays black")
-        elif token in LIGHT_TOKENS and integrator != "path":
+        elif token in PATH_ONLY_TOKENS and integrator != "path":
             warnings.append(f"the {name} pass is rendered by the path integrator only; "
                             f"it stays black with '{integrator}'")
         elif token in DATA_TOKENS and integrator == "sppm":

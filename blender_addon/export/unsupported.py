@@ -1,7 +1,8 @@
 """What Caustic cannot render yet, named: scene features that would otherwise be dropped without
-a word (motion blur, hair, volume objects, shadow catcher, lights' ray visibility beyond Camera, shadow
-linking (blockers), view layer indirect-only collections, material override; Holdout goes out with
-visibility.py, with a warning from the BDPT run that cannot render it). Each warning
+a word (motion blur, hair, volume objects, lights' ray visibility beyond Camera, shadow
+linking (blockers), view layer indirect-only collections, material override; Holdout and Shadow
+Catcher go out with visibility.py, with a warning from the runs of integrators that cannot render
+them). Each warning
 names the object, collection or setting and says what the render does instead."""
 
 # A light's Ray Visibility beyond Camera (which lights.py exports): Cycles excludes the hidden
@@ -44,9 +45,6 @@ def object_warnings(obj):
             settings = modifier.particle_system.settings
             if settings.type == "HAIR" and settings.render_type == "PATH":
                 warnings.append(f"{what}: hair particle system '{modifier.particle_system.name}' is not rendered")
-    # Blender 5.0 sets the flag on new lights too; it means something for geometry only.
-    if obj.type not in ("LIGHT", "CAMERA", "EMPTY") and getattr(obj, "is_shadow_catcher", False):
-        warnings.append(f"{what}: Shadow Catcher is not supported; it renders as an ordinary object")
     if obj.type == "LIGHT":
         hidden = [name for prop, name in _LIGHT_RAY_VISIBILITY if not getattr(obj, prop, True)]
         if hidden:

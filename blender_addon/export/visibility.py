@@ -1,7 +1,7 @@
 """Blender's Object > Visibility panel as the `CAUSTIC_object_visibility` node extension
 (docs/contract.md): which kinds of ray see a mesh object (Ray Visibility; Cycles' flags, one
-to one, honoured by the path tracer), and whether it is a holdout (the object's Holdout, or a
-Holdout collection of the view layer being rendered)."""
+to one, honoured by the path tracer), whether it is a holdout (the object's Holdout, or a
+Holdout collection of the view layer being rendered) and whether it is a Shadow Catcher."""
 
 OBJECT_VISIBILITY_EXTENSION = "CAUSTIC_object_visibility"
 
@@ -12,11 +12,14 @@ _FLAGS = (("visible_camera", "camera"), ("visible_diffuse", "diffuse"), ("visibl
 
 
 def object_visibility_extension(blender_object, view_layer=None):
-    """The kinds of ray that do not see the object, as {key: False}, and "holdout": True for a
-    holdout in `view_layer`; None when every ray sees it and it is no holdout."""
+    """The kinds of ray that do not see the object, as {key: False}, "holdout": True for a
+    holdout in `view_layer` and "shadow_catcher": True for a catcher; None when every ray sees
+    it and it is neither."""
     value = {key: False for prop, key in _FLAGS if not getattr(blender_object, prop, True)}
     if is_holdout(blender_object, view_layer):
         value["holdout"] = True
+    if getattr(getattr(blender_object, "original", blender_object), "is_shadow_catcher", False):
+        value["shadow_catcher"] = True
     return value or None
 
 
