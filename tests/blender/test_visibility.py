@@ -18,6 +18,9 @@ Holdout (the cube's own, or its collection's in the view layer) with Film > Tran
 colour channels and alpha are compared, each with the same bound; the floor fills the view,
 so alpha is 1 but where the camera sees the cube (0 there in both renderers).
 
+Indirect Only: the cube in an Indirect Only collection of the view layer (hidden from the
+camera only, as Cycles).
+
 Shadow catcher: the floor catches the cube's shadow with Film > Transparent, with and without
 the Shadow Catcher pass; Combined's RGBA (and the pass's RGB) are compared channel by channel
 as the holdout's.
@@ -204,3 +207,30 @@ def test_shadow_catcher_matches_cycles(empty_scene, tmp_path, mode):
     channel = 3 if mode == "approximate" else 0
     m, v = mean_and_variance(*(images["CAUSTIC"][s][shown][..., channel] for s in (0, 1)))
     assert 1.0 - m > SIGMAS * math.sqrt(v) + MODEL_ALLOWANCE, f"{shown}: the shadow catcher does not show ({m})"
+
+
+def test_indirect_only_collection_matches_cycles(empty_scene, tmp_path):
+    """The cube in an Indirect Only collection of the view layer: the camera sees the floor
+    through it, its shadow and bounce light stay (Cycles clears its camera visibility); the
+    image mean agrees with Cycles' within the bound, and differs from the cube seen by the
+    camera by more than it."""
+    def light_and_collection(scene):
+        add_point(scene)
+        box = scene.objects["Box"]
+        box.location.z += 0.02
+        indirect = bpy.data.collections.new("Indirect")
+        scene.collection.children.link(indirect)
+        scene.collection.objects.unlink(box)
+        indirect.objects.link(box)
+        bpy.context.view_layer.layer_collection.children["Indirect"].indirect_only = True
+
+    scene = empty_scene
+    build(scene, light_and_collection)
+    ratios = assert_mean_matches_cycles(scene, tmp_path, "indirect only", MODEL_ALLOWANCE)
+    m_hidden, v_hidden = caustic_mean(scene, tmp_path, "indirect")
+    bpy.context.view_layer.layer_collection.children["Indirect"].indirect_only = False
+    m_seen, v_seen = caustic_mean(scene, tmp_path, "seen")
+    bound = SIGMAS * math.sqrt(v_hidden + v_seen) + MODEL_ALLOWANCE * m_hidden
+    print(f"\n[caustic/cycles] indirect only: {ratios}; seen by the camera the mean moves by "
+          f"{m_seen / m_hidden - 1.0:+.4f} (bound {bound / m_hidden:.4f})")
+    assert abs(m_seen - m_hidden) > bound, "the Indirect Only collection changes the image by less than the bound"
