@@ -1,6 +1,6 @@
 """What Caustic cannot render yet, named: scene features that would otherwise be dropped without
-a word (motion blur, hair, volume objects, lights' ray visibility beyond Camera, shadow
-linking (blockers), material override; Holdout, Indirect Only collections and Shadow
+a word (motion blur, hair, volume objects, lights' ray visibility beyond Camera, material
+override; shadow linking goes out with light_linking.py; Holdout, Indirect Only collections and Shadow
 Catcher go out with visibility.py, with a warning from the runs of integrators that cannot render
 them). Each warning
 names the object, collection or setting and says what the render does instead."""
@@ -48,8 +48,5 @@ def object_warnings(obj):
         if hidden:
             warnings.append(f"light '{obj.name}': ray visibility off for {', '.join(hidden)} is ignored "
                             "(the light lights every surface)")
-    linking = getattr(obj, "light_linking", None)
-    if linking is not None and linking.blocker_collection is not None:
-        warnings.append(f"{what}: shadow linking (blocker collection) is ignored; every object blocks its light")
     return warnings
 

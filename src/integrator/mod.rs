@@ -209,8 +209,26 @@ impl<'a> SceneContext<'a> {
     /// by NEE and when BSDF-sampled rays find them. Only walkers that track the object a
     /// ray left (the path tracer) may ask for it; the others let every emitter light all.
     pub fn with_light_linking(mut self) -> Self {
-        self.linking = !self.scene.light_linking.rules.is_empty();
+        let linking = &self.scene.light_linking;
+        self.linking = !linking.rules.is_empty();
+        // Shadow linking: a triangle that some light's shadow passes is tested during
+        // shadow traversal, like a transparent one.
+        let linked: Vec<usize> = (0..linking.blockers.len()).filter(|&l| linking.shadow_linked(l)).collect();
+        if !linked.is_empty() {
+            for (t, flag) in self.transparent.iter_mut().enumerate() {
+                *flag |= linked.iter().any(|&l| !linking.blocks(l, t as u32));
+            }
+        }
         self
+    }
+
+    /// True when light `light` has a blocker rule (shadow linking): its next-event estimate
+    /// counts only blockers' shadows and takes all of its light (BSDF-sampled rays that
+    /// find it give nothing, as they cannot tell its blockers from other objects); always
+    /// false without light linking.
+    #[inline]
+    pub fn shadow_linked(&self, light: usize) -> bool {
+        self.linking && self.scene.light_linking.shadow_linked(light)
     }
 
     /// True when light `light` lights the surface of triangle `receiver` (`NO_OBJECT`: a
@@ -278,7 +296,10 @@ impl<'a> SceneContext<'a> {
             return (sum, any);
         }
         for (a, index) in &self.area_lights {
-            if (camera_ray && !a.camera_visible) || (!camera_ray && !self.links(*index, receiver)) {
+            if (camera_ray && !a.camera_visible)
+                || (!camera_ray && !self.links(*index, receiver))
+                || (prev_pdf > 0.0 && self.shadow_linked(*index))
+            {
                 continue;
             }
             if let Some(t) = a.intersect(org, dir, tmax)
@@ -294,7 +315,10 @@ impl<'a> SceneContext<'a> {
             }
         }
         for &(center, radius, radiance, soft, camera_visible, index) in &self.spheres {
-            if (camera_ray && !camera_visible) || (!camera_ray && !self.links(index, receiver)) {
+            if (camera_ray && !camera_visible)
+                || (!camera_ray && !self.links(index, receiver))
+                || (prev_pdf > 0.0 && self.shadow_linked(index))
+            {
                 continue;
             }
             if soft {
@@ -343,7 +367,10 @@ impl<'a> SceneContext<'a> {
             return sum;
         }
         for &(to_sun, cos_half, radiance, index) in &self.suns {
-            if dir.dot(to_sun) >= cos_half && (camera_ray || self.links(index, receiver)) {
+            if dir.dot(to_sun) >= cos_half
+                && (camera_ray || self.links(index, receiver))
+                && !(prev_pdf > 0.0 && self.shadow_linked(index))
+            {
                 let w = if prev_pdf == 0.0 {
                     1.0
                 } else {
@@ -427,8 +454,15 @@ impl<'a> SceneContext<'a> {
     /// ray: objects hidden from shadow rays let it through).
     #[inline]
     pub fn transmittance(&self, org: Vec3, dir: Vec3, tmax: f32) -> f32 {
+        self.transmittance_of(org, dir, tmax, None)
+    }
+
+    /// [`transmittance`](Self::transmittance) of a shadow ray toward light `light`: with
+    /// shadow linking only its blockers stop it.
+    #[inline]
+    pub fn transmittance_of(&self, org: Vec3, dir: Vec3, tmax: f32, light: Option<usize>) -> f32 {
         self.accel.transmittance(org, dir, tmax, &self.transparent, |tri, b1, b2| {
-            if !self.sees(RayMask::SHADOW, tri) {
+            if !self.sees(RayMask::SHADOW, tri) || light.is_some_and(|l| !self.blocks(l, tri)) {
                 return 1.0;
             }
             match self.scene.materials[self.scene.mesh.tri_material[tri as usize] as usize].alpha_mode {
@@ -462,10 +496,22 @@ impl<'a> SceneContext<'a> {
     /// Unoccluded fraction between a surface point (offset along `ng`) and a light sample.
     #[inline]
     pub fn visibility(&self, p: Vec3, ng: Vec3, ls: &LightSample) -> f32 {
+        self.visibility_of(p, ng, ls, None)
+    }
+
+    /// True when triangle `tri` casts light `light`'s shadows (shadow linking).
+    #[inline]
+    pub fn blocks(&self, light: usize, tri: u32) -> bool {
+        !self.linking || self.scene.light_linking.blocks(light, tri)
+    }
+
+    /// [`visibility`](Self::visibility) of a sample of light `light` (shadow linking).
+    #[inline]
+    pub fn visibility_of(&self, p: Vec3, ng: Vec3, ls: &LightSample, light: Option<usize>) -> f32 {
         let side = if ls.wi.dot(ng) >= 0.0 { ng } else { -ng };
         let org = offset_ray_origin(p, side);
         if ls.dist.is_infinite() {
-            return self.transmittance(org, ls.wi, f32::INFINITY);
+            return self.transmittance_of(org, ls.wi, f32::INFINITY, light);
         }
         let target = if ls.normal != Vec3::ZERO { offset_ray_origin(ls.point, ls.normal) } else { ls.point };
         let d = target - org;
@@ -473,7 +519,7 @@ impl<'a> SceneContext<'a> {
         if !(dist > 0.0) {
             return 0.0;
         }
-        self.transmittance(org, d / dist, dist * (1.0 - 1e-4))
+        self.transmittance_of(org, d / dist, dist * (1.0 - 1e-4), light)
     }
 }
 

@@ -518,7 +518,7 @@ def test_principled_inside_a_node_group_is_left_to_the_exporter(empty_scene, cap
 
 def test_unrendered_features_are_named(addon, empty_scene):
     """Scene features Caustic does not render yet are each named in a warning (issue 20):
-    motion blur, a light's ray visibility beyond Camera, shadow linking, hair, volume objects;
+    motion blur, a light's ray visibility beyond Camera, hair, volume objects;
     an ordinary object gets none, nor do an object's ray visibility, Holdout, Indirect Only
     collection and Shadow Catcher (exported, test_object_ray_visibility_is_exported)."""
     unsupported = importlib.import_module(addon.__name__ + ".export.unsupported")
@@ -550,13 +550,14 @@ def test_unrendered_features_are_named(addon, empty_scene):
     warnings = unsupported.scene_warnings(bpy.context.evaluated_depsgraph_get())
     text = "\n".join(warnings)
     for words in (("motion blur",), ("ShyLight", "diffuse"),
-                  ("Linked", "shadow linking"), ("Furry", "hair"), ("Smoke", "volume")):
+                  ("Furry", "hair"), ("Smoke", "volume")):
         assert any(all(w in line for w in words) for line in warnings), f"{words} not named in:\n{text}"
     assert not any("'Plain'" in line for line in warnings), text
     assert unsupported.object_warnings(plain) == []
     assert unsupported.object_warnings(shy) == []
     assert unsupported.object_warnings(held) == []
     assert unsupported.object_warnings(catcher) == []
+    assert unsupported.object_warnings(linked) == []
     assert not any("HeldCollection" in line or "IndirectCollection" in line for line in warnings), text
     # A light's Shadow Catcher flag (on by default in Blender 5.0) is exported, not warned about.
     assert shy_light.is_shadow_catcher

@@ -18,6 +18,9 @@ Holdout (the cube's own, or its collection's in the view layer) with Film > Tran
 colour channels and alpha are compared, each with the same bound; the floor fills the view,
 so alpha is 1 but where the camera sees the cube (0 there in both renderers).
 
+Shadow linking: the point light's blocker collection includes only the floor, or excludes the
+cube, so that the cube casts none of its shadow.
+
 Indirect Only: the cube in an Indirect Only collection of the view layer (hidden from the
 camera only, as Cycles).
 
@@ -40,8 +43,8 @@ import numpy as np
 
 import scenes
 from exr_io import read_exr
-from test_cycles_agreement import (MODEL_ALLOWANCE, SEEDS, SIGMAS, add_point, assert_mean_matches_cycles, build,
-                                   mean_and_variance)
+from test_cycles_agreement import (MODEL_ALLOWANCE, SEEDS, SIGMAS, add_point, add_rectangle,
+                                   assert_mean_matches_cycles, build, mean_and_variance)
 
 pytestmark = pytest.mark.needs_binary
 
@@ -234,3 +237,31 @@ def test_indirect_only_collection_matches_cycles(empty_scene, tmp_path):
     print(f"\n[caustic/cycles] indirect only: {ratios}; seen by the camera the mean moves by "
           f"{m_seen / m_hidden - 1.0:+.4f} (bound {bound / m_hidden:.4f})")
     assert abs(m_seen - m_hidden) > bound, "the Indirect Only collection changes the image by less than the bound"
+
+
+@pytest.mark.parametrize("state", ["INCLUDE", "EXCLUDE"])
+@pytest.mark.parametrize("kind", ["Point", "Rect"])
+def test_shadow_linking_matches_cycles(empty_scene, tmp_path, state, kind):
+    """Shadow linking: the light's blocker collection includes only the floor, or excludes
+    the cube; either way the cube casts no shadow of that light (it still shows and bounces
+    light). The area light is found by next-event estimation alone then (no MIS with BSDF
+    rays): unbiased, as Cycles' dedicated light rays. The image mean agrees with Cycles'
+    within the bound, and the rule moves it by more than the bound."""
+    def blocked_light(scene):
+        (add_point if kind == "Point" else add_rectangle)(scene)
+        scene.objects["Box"].location.z += 0.02
+        blockers = bpy.data.collections.new("Blockers")
+        blockers.objects.link(scene.objects["Floor" if state == "INCLUDE" else "Box"])
+        blockers.collection_objects[0].light_linking.link_state = state
+        scene.objects[kind].light_linking.blocker_collection = blockers
+
+    scene = empty_scene
+    build(scene, blocked_light)
+    ratios = assert_mean_matches_cycles(scene, tmp_path, f"blockers {state.lower()}", MODEL_ALLOWANCE)
+    m_linked, v_linked = caustic_mean(scene, tmp_path, "linked")
+    scene.objects[kind].light_linking.blocker_collection = None
+    m_free, v_free = caustic_mean(scene, tmp_path, "free")
+    bound = SIGMAS * math.sqrt(v_linked + v_free) + MODEL_ALLOWANCE * m_linked
+    print(f"\n[caustic/cycles] shadow linking {state.lower()}: {ratios}; without the rule the mean moves by "
+          f"{m_free / m_linked - 1.0:+.4f} (bound {bound / m_linked:.4f})")
+    assert abs(m_free - m_linked) > bound, f"{state}: the rule changes the image by less than the bound"

@@ -197,10 +197,16 @@ impl ObjectVisibilityExt {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct LightLinkingExt {
-    /// Receivers' node names.
-    pub(super) receivers: Vec<String>,
+    /// Receivers' node names (none: the emitter lights every object).
+    pub(super) receivers: Option<Vec<String>>,
     /// True: only the receivers are lit; false: every object but them.
+    #[serde(default)]
     pub(super) include: bool,
+    /// Blockers' node names (shadow linking; none: every object casts its shadows).
+    pub(super) blockers: Option<Vec<String>>,
+    /// True: only the blockers cast its shadows; false: every object but them.
+    #[serde(default)]
+    pub(super) blockers_include: bool,
 }
 
 /// `CAUSTIC_default_material` on the document's root: the material of primitives that

@@ -152,6 +152,9 @@ struct Loader<'a> {
     quantization: quantized::Quantization,
 }
 
+/// An emitter's light linking rules: receivers, blockers (`CAUSTIC_light_linking`).
+type Links = (Option<ReceiverRule>, Option<ReceiverRule>);
+
 impl<'a> Loader<'a> {
     fn new(file: &'a str, base_dir: &'a Path, budget: &'a MemoryBudget) -> Self {
         Loader {
@@ -287,8 +290,9 @@ impl<'a> Loader<'a> {
         // Light linking: every triangle's object is kept only when some emitter has a rule.
         let linked = doc.nodes().any(|n| n.extension_value("CAUSTIC_light_linking").is_some());
         let mut linking = LightLinking::default();
-        let mut light_rules: Vec<(usize, ReceiverRule)> = Vec::new();
-        let mut node_rules: HashMap<u32, ReceiverRule> = HashMap::new();
+        // An emitter's rules: (receivers, blockers).
+        let mut light_rules: Vec<(usize, Links)> = Vec::new();
+        let mut node_rules: HashMap<u32, Links> = HashMap::new();
         let mut instances_out = Vec::new();
         for (node_index, world) in &instances {
             let node = doc.nodes().nth(*node_index).expect("validated index");
@@ -430,15 +434,16 @@ impl<'a> Loader<'a> {
         self.emissive_lights(&mesh, &materials, &mut lights, &mut light_power, &mut light_reports)?;
         if linked {
             linking.rules = vec![None; lights.len()];
-            for (i, r) in light_rules {
-                linking.rules[i] = Some(r);
+            linking.blockers = vec![None; lights.len()];
+            for (i, (r, b)) in light_rules {
+                (linking.rules[i], linking.blockers[i]) = (r, b);
             }
             // An emissive object's rule goes to each of its triangles' lights.
             for (i, l) in lights.iter().enumerate() {
                 if let Light::Triangle { tri } = l
                     && let Some(r) = node_rules.get(&linking.tri_object[*tri as usize])
                 {
-                    linking.rules[i] = Some(r.clone());
+                    (linking.rules[i], linking.blockers[i]) = r.clone();
                 }
             }
         }
@@ -535,25 +540,30 @@ impl<'a> Loader<'a> {
         })
     }
 
-    /// `CAUSTIC_light_linking` on emitter node `node_index`: its receivers by node name
-    /// (every node of that name: an object's instances share it); names not in the file
-    /// (objects not rendered) light nothing and are left out.
+    /// `CAUSTIC_light_linking` on emitter node `node_index`: its receivers and its blockers
+    /// by node name (every node of that name: an object's instances share it); names not in
+    /// the file (objects not rendered) are left out.
     fn receiver_rule(
         &self,
         doc: &gltf::Document,
         node_index: usize,
         node_name: &str,
         ext: &serde_json::Value,
-    ) -> Result<ReceiverRule> {
+    ) -> Result<Links> {
         let ext: LightLinkingExt = serde_json::from_value(ext.clone())
             .map_err(|e| self.err(format!("node {node_index} ('{node_name}'): bad CAUSTIC_light_linking: {e}")))?;
-        let mut objects: Vec<u32> = doc
-            .nodes()
-            .filter(|n| n.name().is_some_and(|name| ext.receivers.iter().any(|r| r == name)))
-            .map(|n| n.index() as u32)
-            .collect();
-        objects.sort_unstable();
-        Ok(ReceiverRule { include: ext.include, objects })
+        let rule = |names: &Option<Vec<String>>, include: bool| {
+            names.as_ref().map(|names| {
+                let mut objects: Vec<u32> = doc
+                    .nodes()
+                    .filter(|n| n.name().is_some_and(|name| names.iter().any(|r| r == name)))
+                    .map(|n| n.index() as u32)
+                    .collect();
+                objects.sort_unstable();
+                ReceiverRule { include, objects }
+            })
+        };
+        Ok((rule(&ext.receivers, ext.include), rule(&ext.blockers, ext.blockers_include)))
     }
 
     /// The material of primitives that name none: `CAUSTIC_default_material`'s (the add-on
