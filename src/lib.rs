@@ -27,5 +27,5 @@ pub mod render;
 pub mod sampling;
 pub mod scene;
 pub mod server;
-pub mod shadow_catcher;
 pub mod shader;
+pub mod shadow_catcher;

@@ -157,7 +157,11 @@ fn a_sun_is_shadowed_only_by_its_blockers() {
         let (z, h) = (-4.0, 3.0);
         let left = g.mesh(&[[-h, -h, z], [0.0, -h, z], [0.0, h, z], [-h, h, z]], &[0, 1, 2, 0, 2, 3], grey);
         let right = g.mesh(&[[0.0, -h, z], [h, -h, z], [h, h, z], [0.0, h, z]], &[0, 1, 2, 0, 2, 3], grey);
-        let blocker = g.mesh(&[[-2.5, -1.0, -2.0], [-0.5, -1.0, -2.0], [-0.5, 1.0, -2.0], [-2.5, 1.0, -2.0]], &[0, 1, 2, 0, 2, 3], grey);
+        let blocker = g.mesh(
+            &[[-2.5, -1.0, -2.0], [-0.5, -1.0, -2.0], [-0.5, 1.0, -2.0], [-2.5, 1.0, -2.0]],
+            &[0, 1, 2, 0, 2, 3],
+            grey,
+        );
         g.node_name(left, "Left");
         g.node_name(right, "Right");
         g.node_name(blocker, "Blocker");
@@ -175,9 +179,11 @@ fn a_sun_is_shadowed_only_by_its_blockers() {
     let (shadow_left, _) = halves(&unlit);
     assert!(shadow_left.iter().any(|p| p[0] == 0.0), "the blocker shadows the left quad without a rule");
     assert_ne!(unlit, lit);
-    let only_right = variant("only_right", unseen.clone(), Some(json!({"blockers": ["Right"], "blockers_include": true})));
+    let only_right =
+        variant("only_right", unseen.clone(), Some(json!({"blockers": ["Right"], "blockers_include": true})));
     assert_eq!(only_right, lit, "a blocker rule without the quad: no shadow");
-    let but_quad = variant("but_quad", unseen.clone(), Some(json!({"blockers": ["Blocker"], "blockers_include": false})));
+    let but_quad =
+        variant("but_quad", unseen.clone(), Some(json!({"blockers": ["Blocker"], "blockers_include": false})));
     assert_eq!(but_quad, lit, "a rule excluding the quad: no shadow");
     let only_quad = variant("only_quad", unseen, Some(json!({"blockers": ["Blocker"], "blockers_include": true})));
     assert_eq!(only_quad, unlit, "a rule listing the quad: its shadow");

@@ -46,7 +46,8 @@ fn scene(dir: &Path, name: &str, world: Option<f32>, transparent: bool) -> PathB
 }
 
 fn args<'a>(extra: &[&'a str]) -> Vec<&'a str> {
-    let mut a = vec!["--resolution", "32x32", "--spp", "8", "--filter", "box", "--filter-width", "1", "--max-depth", "1"];
+    let mut a =
+        vec!["--resolution", "32x32", "--spp", "8", "--filter", "box", "--filter-width", "1", "--max-depth", "1"];
     a.extend_from_slice(extra);
     a
 }
@@ -103,7 +104,8 @@ fn shadow_catcher_pass_is_the_factor() {
         }
     }
     // Without catchers the pass is 1 everywhere and Combined is the ordinary image.
-    let plain = std::fs::read_to_string(d.join("b.gltf")).unwrap().replace("\"shadow_catcher\": true", "\"shadow\": true");
+    let plain =
+        std::fs::read_to_string(d.join("b.gltf")).unwrap().replace("\"shadow_catcher\": true", "\"shadow\": true");
     std::fs::write(d.join("c.gltf"), plain).unwrap();
     let out = d.join("c.exr");
     render_image(&d.join("c.gltf"), &out, &args(&["--passes", "shadow_catcher"]), LIMIT);
@@ -142,11 +144,25 @@ fn chunks_refuse_and_other_integrators_warn() {
     let d = dir.path();
     let s = scene(d, "w.gltf", None, true);
     let out = d.join("w.exr");
-    let r = common::run(&["render", s.to_str().unwrap(), "-o", out.to_str().unwrap(), "--chunk", "--spp", "1", "--progress", "json"], LIMIT);
+    let r = common::run(
+        &["render", s.to_str().unwrap(), "-o", out.to_str().unwrap(), "--chunk", "--spp", "1", "--progress", "json"],
+        LIMIT,
+    );
     assert_eq!(r.code, Some(2), "{}", r.stderr);
     assert!(r.error_message().unwrap_or_default().contains("shadow catcher"));
     let r = common::run(
-        &["render", s.to_str().unwrap(), "-o", out.to_str().unwrap(), "--integrator", "bdpt", "--spp", "1", "--progress", "json"],
+        &[
+            "render",
+            s.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--integrator",
+            "bdpt",
+            "--spp",
+            "1",
+            "--progress",
+            "json",
+        ],
         LIMIT,
     );
     assert_eq!(r.code, Some(0), "{}", r.stderr);

@@ -18,7 +18,8 @@ pub(super) struct AreaLightExt {
     pub(super) spread: f32,
     /// Blender's Cast Shadow: false lights every point as if nothing stood in the way.
     #[serde(default = "yes")]
-    pub(super) cast_shadow: bool,    /// The light object's Shadow Catcher flag: false leaves it out of the catcher pass.
+    pub(super) cast_shadow: bool,
+    /// The light object's Shadow Catcher flag: false leaves it out of the catcher pass.
     #[serde(default = "yes")]
     pub(super) shadow_catcher: bool,
 }

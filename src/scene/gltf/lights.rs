@@ -88,14 +88,17 @@ impl Loader<'_> {
                 )
             }
         };
-        Ok((light, LightReport {
+        Ok((
+            light,
+            LightReport {
                 kind: kind.into(),
                 name,
                 power: 0.0,
                 triangles: 0,
                 cast_shadow: bl.cast_shadow,
                 lights_catcher: bl.shadow_catcher,
-            }))
+            },
+        ))
     }
 
     pub(super) fn area_light(
