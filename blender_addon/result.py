@@ -40,6 +40,7 @@ VIEW_LAYER_PASSES = (
     ("", "use_pass_emit", "emit", "Emission", 3, "RGB", "COLOR"),
     ("", "use_pass_environment", "environment", "Environment", 3, "RGB", "COLOR"),
     ("", "use_pass_ambient_occlusion", "ambient_occlusion", "Ambient Occlusion", 3, "RGB", "COLOR"),
+    ("cycles", "use_pass_shadow_catcher", "shadow_catcher", "Shadow Catcher", 3, "RGB", "COLOR"),
     ("cycles", "denoising_store_passes", "denoising_albedo", "Denoising Albedo", 3, "RGB", "COLOR"),
     ("cycles", "denoising_store_passes", "denoising_normal", "Denoising Normal", 3, "XYZ", "VECTOR"),
 )
@@ -54,6 +55,8 @@ CRYPTOMATTE_LAYERS = (
     ("use_pass_cryptomatte_material", "cryptomatte_material", "CryptoMaterial"),
     ("use_pass_cryptomatte_asset", "cryptomatte_asset", "CryptoAsset"),
 )
+# The Shadow Catcher pass: the path integrator splits paths at catchers; chunks do not carry it.
+PATH_ONLY_TOKENS = LIGHT_TOKENS | {"shadow_catcher"}
 # Data passes traced from the camera ray's first hit, by every integrator but SPPM.
 DATA_TOKENS = frozenset(("mist", "position", "uv", "ambient_occlusion", "object_index", "material_index")
                         + tuple(token for _, token, _ in CRYPTOMATTE_LAYERS))
@@ -62,7 +65,6 @@ DATA_TOKENS = frozenset(("mist", "position", "uv", "ambient_occlusion", "object_
 UNSUPPORTED = (
     ("", "use_pass_vector", "Vector"),
     ("", "use_pass_shadow", "Shadow"),
-    ("cycles", "use_pass_shadow_catcher", "Shadow Catcher"),
 )
 
 # The binary writes normals and positions in glTF axes (Y up); Blender's passes are in Blender's
@@ -96,10 +98,10 @@ def pass_request(view_layer, integrator, chunked=False):
     rows += [(token, f"Cryptomatte {token.rpartition('_')[2].capitalize()}")
              for token, _ in enabled_cryptomatte(view_layer)]
     for token, name in rows:
-        if chunked and (token in LIGHT_TOKENS or token in DATA_TOKENS):
+        if chunked and (token in PATH_ONLY_TOKENS or token in DATA_TOKENS):
             warnings.append(f"the {name} pass is not rendered on the farm yet (sample chunks do not carry "
                             "it); it stays black")
-        elif token in LIGHT_TOKENS and integrator != "path":
+        elif token in PATH_ONLY_TOKENS and integrator != "path":
             warnings.append(f"the {name} pass is rendered by the path integrator only; "
                             f"it stays black with '{integrator}'")
         elif token in DATA_TOKENS and integrator == "sppm":

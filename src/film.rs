@@ -11,7 +11,7 @@
 use crate::cryptomatte::{self, Layout, Slot};
 use crate::fixed::{add3, from_fixed, in_range, sum3, to_fixed};
 use crate::math::Rgb;
-use crate::passes::{Aov, FIRST_SAMPLE_SLOTS, Pass, PassSet, divide_even_color};
+use crate::passes::{Aov, CATCHER_SLOTS, FIRST_SAMPLE_SLOTS, Pass, PassSet, divide_even_color, slot};
 use crate::sampling::Distribution1D;
 use glam::{Vec2, Vec3};
 
@@ -248,7 +248,13 @@ pub struct FilmImage {
     pub crypto: Vec<(String, Vec<f32>)>,
     /// EXR header attributes to write (the Cryptomatte manifests), key and text.
     pub metadata: Vec<(String, String)>,
+    /// Per pixel, the means of the shadow catcher's sums (`slot::CATCHER_PASS` onward),
+    /// when the film keeps them; `crate::shadow_catcher` turns them into Cycles' passes.
+    pub catcher: Vec<[f32; CATCHER_SUMS]>,
 }
+
+/// Number of the shadow catcher's sums per pixel.
+pub const CATCHER_SUMS: usize = slot::COUNT - slot::CATCHER_PASS;
 
 impl FilmImage {
     /// Alpha 1 wherever a sample was taken (Blender's Film → Transparent off).
@@ -466,6 +472,10 @@ impl Film {
                 .collect(),
             crypto: Vec::new(),
             metadata: Vec::new(),
+            catcher: match self.passes.slots() & CATCHER_SLOTS {
+                0 => Vec::new(),
+                _ => vec![[0.0; CATCHER_SUMS]; n],
+            },
         };
         let layout = self.tiles.first().map(|t| t.crypto_layout).unwrap_or_default();
         for kind in layout.iter() {
@@ -499,7 +509,14 @@ impl Film {
                     img.albedo[i] = mean(&p.albedo);
                     let stride = t.slots.count_ones() as usize;
                     let j = (ty * t.w + tx) as usize;
-                    extra_pixel(&mut img.extra, i, t.slots, &t.extra[j * stride..(j + 1) * stride], inv);
+                    let acc = &t.extra[j * stride..(j + 1) * stride];
+                    extra_pixel(&mut img.extra, i, t.slots, acc, inv);
+                    if let Some(c) = img.catcher.get_mut(i) {
+                        for (k, v) in c.iter_mut().enumerate() {
+                            let at = slot::CATCHER_PASS + k;
+                            *v = (from_fixed(acc[(t.slots & ((1u64 << at) - 1)).count_ones() as usize]) * inv) as f32;
+                        }
+                    }
                     let per = layout.slots as usize;
                     let px = &t.crypto[j * layout.stride()..(j + 1) * layout.stride()];
                     for (l, layer) in px.chunks_exact(per.max(1)).enumerate() {

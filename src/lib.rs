@@ -29,3 +29,4 @@ pub mod sampling;
 pub mod scene;
 pub mod server;
 pub mod shader;
+pub mod shadow_catcher;

@@ -82,10 +82,13 @@ pub enum Pass {
     CryptoMaterial,
     /// Cryptomatte of assets (topmost parents).
     CryptoAsset,
+    /// Cycles' Shadow Catcher: the factor by which catchers change what is behind them
+    /// (Combined over the catcher pass, `crate::shadow_catcher`).
+    ShadowCatcher,
 }
 
 /// Every pass, in the order of the table below.
-pub const ALL: [Pass; 27] = [
+pub const ALL: [Pass; 28] = [
     Pass::Depth,
     Pass::Normal,
     Pass::DenoisingAlbedo,
@@ -113,6 +116,7 @@ pub const ALL: [Pass; 27] = [
     Pass::CryptoObject,
     Pass::CryptoMaterial,
     Pass::CryptoAsset,
+    Pass::ShadowCatcher,
 ];
 
 /// Slots of [`Aov`]: where a camera sample keeps each extra pass's value.
@@ -155,8 +159,19 @@ pub mod slot {
     pub const OB: usize = 47;
     /// Material index (nearest hit).
     pub const MA: usize = 48;
+    /// Shadow catcher (`integrator::catcher`): the catcher pass's radiance (RGB).
+    pub const CATCHER_PASS: usize = 49;
+    /// The matte: radiance of paths that did not split at a catcher (RGB).
+    pub const CATCHER_MATTE: usize = 52;
+    /// The matte's transparency from splits (mean throughput at the split).
+    pub const CATCHER_SPLIT: usize = 55;
+    /// Samples that split at a catcher.
+    pub const CATCHER_COUNT: usize = 56;
+    /// The world along camera rays that escaped or split (Cycles' background pass, which
+    /// an opaque film's approximate shadow catcher composites over).
+    pub const CATCHER_BACKGROUND: usize = 57;
     /// Number of slots.
-    pub const COUNT: usize = 49;
+    pub const COUNT: usize = 60;
 }
 
 // The film keeps its slots in a u64 bit mask.
@@ -225,6 +240,7 @@ impl Pass {
             Pass::CryptoObject => "CryptoObject",
             Pass::CryptoMaterial => "CryptoMaterial",
             Pass::CryptoAsset => "CryptoAsset",
+            Pass::ShadowCatcher => "Shadow Catcher",
         }
     }
 
@@ -259,6 +275,7 @@ impl Pass {
             Pass::CryptoObject => "cryptomatte_object",
             Pass::CryptoMaterial => "cryptomatte_material",
             Pass::CryptoAsset => "cryptomatte_asset",
+            Pass::ShadowCatcher => "shadow_catcher",
         }
     }
 
@@ -307,6 +324,7 @@ impl Pass {
             Pass::Uv => slot::UV,
             Pass::ObjectIndex => slot::OB,
             Pass::MaterialIndex => slot::MA,
+            Pass::ShadowCatcher => slot::CATCHER_PASS,
         })
     }
 
@@ -366,7 +384,8 @@ impl Pass {
     }
 }
 
-/// A set of passes (bit i = `ALL[i]`) and Cryptomatte's levels.
+/// A set of passes (bit i = `ALL[i]`; the top bit: keep the shadow catcher's sums) and
+/// Cryptomatte's levels.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub struct PassSet {
     bits: u32,
@@ -374,10 +393,26 @@ pub struct PassSet {
     crypto_levels: u32,
 }
 
-// The set keeps its passes in a u32 bit mask.
-const _: () = assert!(ALL.len() <= 32);
+
+/// The [`PassSet`] bit that keeps the shadow catcher's sums (no pass of its own).
+const CATCHER_SUMS: u32 = 1 << 31;
+const _: () = assert!(ALL.len() < 31);
+
+/// The slots of the shadow catcher's sums.
+pub const CATCHER_SLOTS: u64 = ((1u64 << (slot::COUNT - slot::CATCHER_PASS)) - 1) << slot::CATCHER_PASS;
 
 impl PassSet {
+    /// This set, keeping the shadow catcher's sums too (a scene with catchers, rendered by
+    /// an integrator that splits at them): the film then gives Combined as Cycles does.
+    pub fn with_catcher_sums(self) -> Self {
+        PassSet { bits: self.bits | CATCHER_SUMS, ..self }
+    }
+
+    /// True when the shadow catcher's sums are kept.
+    pub fn catcher_sums(self) -> bool {
+        self.bits & CATCHER_SUMS != 0
+    }
+
     /// What a render writes without `--passes`: the passes of Caustic before pass
     /// selection (Combined, Depth, Normal, the two denoising passes and the sample count).
     pub fn legacy() -> Self {
@@ -410,7 +445,7 @@ impl PassSet {
     /// Any data pass the camera ray's first hit gives (AO, Mist, Position, UV, indices,
     /// Cryptomatte).
     pub fn any_data(self) -> bool {
-        self.iter().any(|p| (p.slot().is_some() && !p.is_light()) || p.crypto_kind().is_some())
+        self.iter().any(|p| (p.slot().is_some() && !p.is_light() && p != Pass::ShadowCatcher) || p.crypto_kind().is_some())
     }
 
     /// Any Cryptomatte layer asked.
@@ -434,7 +469,8 @@ impl PassSet {
     /// The slots a film must keep for these passes: each pass's own, and the Colour
     /// pass's for a Direct or Indirect pass, which is divided by it.
     pub fn slots(self) -> u64 {
-        let mut mask = 0u64;
+        // The Shadow Catcher pass is computed from the catcher's sums.
+        let mut mask = if self.catcher_sums() || self.contains(Pass::ShadowCatcher) { CATCHER_SLOTS } else { 0 };
         for p in self.iter() {
             for q in [Some(p), p.divided_by()].into_iter().flatten() {
                 if let Some(s) = q.slot() {

@@ -139,3 +139,52 @@ fn other_integrators_name_what_they_do_not_honour() {
         assert_eq!(said(&["holdout", "'Right'"]), expect_holdout, "{integrator}: {warnings:?}");
     }
 }
+
+/// Shadow linking (`blockers` in `CAUSTIC_light_linking`, Blender's Blocker Collection): a
+/// quad that the camera does not see hangs over the left quad under a sun shining straight
+/// down. Only the sun's blockers cast its shadow: with a rule that leaves the quad out the
+/// floor is lit bit for bit as with the quad hidden from shadow rays; with a rule that lists
+/// it, shadowed bit for bit as without any rule (the sun is a delta light: its estimate
+/// takes no MIS weight, so the rule changes no number but the shadow test).
+#[test]
+fn a_sun_is_shadowed_only_by_its_blockers() {
+    let dir = temp_dir();
+    let d = dir.path();
+    let variant = |name: &str, occluder: Value, rule: Option<Value>| {
+        let mut g = GltfBuilder::new();
+        let grey =
+            g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1], "metallicFactor": 0.0}}));
+        let (z, h) = (-4.0, 3.0);
+        let left = g.mesh(&[[-h, -h, z], [0.0, -h, z], [0.0, h, z], [-h, h, z]], &[0, 1, 2, 0, 2, 3], grey);
+        let right = g.mesh(&[[0.0, -h, z], [h, -h, z], [h, h, z], [0.0, h, z]], &[0, 1, 2, 0, 2, 3], grey);
+        let blocker = g.mesh(
+            &[[-2.5, -1.0, -2.0], [-0.5, -1.0, -2.0], [-0.5, 1.0, -2.0], [-2.5, 1.0, -2.0]],
+            &[0, 1, 2, 0, 2, 3],
+            grey,
+        );
+        g.node_name(left, "Left");
+        g.node_name(right, "Right");
+        g.node_name(blocker, "Blocker");
+        g.node_ext(blocker, "CAUSTIC_object_visibility", occluder);
+        let sun = g.punctual(json!({"type": "directional", "intensity": 683.0}), [0.0, 0.0, 1.0], [0.0, 0.0, 0.0, 1.0]);
+        if let Some(r) = rule {
+            g.node_ext(sun, "CAUSTIC_light_linking", r);
+        }
+        g.camera([0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0], 0.5);
+        render(&g.write(d, &format!("{name}.gltf")), &d.join(format!("{name}.exr")))
+    };
+    let unseen = json!({"camera": false});
+    let unlit = variant("shadowed", unseen.clone(), None);
+    let lit = variant("lit", json!({"camera": false, "shadow": false}), None);
+    let (shadow_left, _) = halves(&unlit);
+    assert!(shadow_left.iter().any(|p| p[0] == 0.0), "the blocker shadows the left quad without a rule");
+    assert_ne!(unlit, lit);
+    let only_right =
+        variant("only_right", unseen.clone(), Some(json!({"blockers": ["Right"], "blockers_include": true})));
+    assert_eq!(only_right, lit, "a blocker rule without the quad: no shadow");
+    let but_quad =
+        variant("but_quad", unseen.clone(), Some(json!({"blockers": ["Blocker"], "blockers_include": false})));
+    assert_eq!(but_quad, lit, "a rule excluding the quad: no shadow");
+    let only_quad = variant("only_quad", unseen, Some(json!({"blockers": ["Blocker"], "blockers_include": true})));
+    assert_eq!(only_quad, unlit, "a rule listing the quad: its shadow");
+}

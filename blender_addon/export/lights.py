@@ -60,6 +60,8 @@ def area_light_extension(blender_object):
         value["spread"] = float(light.spread)
     if not light.use_shadow:
         value["cast_shadow"] = False
+    if not _lights_catcher(blender_object):
+        value["shadow_catcher"] = False
     return value, warnings
 
 
@@ -84,7 +86,15 @@ def punctual_light_extension(blender_object):
         value["angle"] = float(light.angle)
     if not light.use_shadow:
         value["cast_shadow"] = False  # Cast Shadow off: nothing occludes the light
+    if not _lights_catcher(blender_object):
+        value["shadow_catcher"] = False
     return value or None
+
+
+def _lights_catcher(blender_object):
+    """The light object's Shadow Catcher flag: Cycles lights the shadow catcher pass only with
+    lights whose flag is on (Blender 5.0 sets it on new lights)."""
+    return bool(getattr(getattr(blender_object, "original", blender_object), "is_shadow_catcher", True))
 
 
 def separate_spot_angles(gltf2_node):

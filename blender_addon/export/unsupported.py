@@ -1,7 +1,8 @@
 """What Caustic cannot render yet, named: scene features that would otherwise be dropped without
-a word (motion blur, hair, volume objects, shadow catcher, lights' ray visibility beyond Camera, shadow
-linking (blockers), view layer indirect-only collections, material override; Holdout goes out with
-visibility.py, with a warning from the BDPT run that cannot render it). Each warning
+a word (motion blur, hair, volume objects, lights' ray visibility beyond Camera, material
+override; shadow linking goes out with light_linking.py; Holdout, Indirect Only collections and Shadow
+Catcher go out with visibility.py, with a warning from the runs of integrators that cannot render
+them). Each warning
 names the object, collection or setting and says what the render does instead."""
 
 # A light's Ray Visibility beyond Camera (which lights.py exports): Cycles excludes the hidden
@@ -13,11 +14,9 @@ _LIGHT_RAY_VISIBILITY = (("visible_diffuse", "diffuse"), ("visible_glossy", "glo
 def scene_warnings(depsgraph):
     """Warnings for everything in the render depsgraph's scene that Caustic does not render."""
     scene = depsgraph.scene
-    view_layer = depsgraph.view_layer
     warnings = []
     if scene.render.use_motion_blur:
         warnings.append("motion blur is on: Caustic renders the frame without it (sharp)")
-    warnings += _collection_warnings(view_layer.layer_collection, view_layer.name)
     seen = set()
     for instance in depsgraph.object_instances:
         obj = instance.instance_object if instance.is_instance else instance.object
@@ -44,29 +43,10 @@ def object_warnings(obj):
             settings = modifier.particle_system.settings
             if settings.type == "HAIR" and settings.render_type == "PATH":
                 warnings.append(f"{what}: hair particle system '{modifier.particle_system.name}' is not rendered")
-    # Blender 5.0 sets the flag on new lights too; it means something for geometry only.
-    if obj.type not in ("LIGHT", "CAMERA", "EMPTY") and getattr(obj, "is_shadow_catcher", False):
-        warnings.append(f"{what}: Shadow Catcher is not supported; it renders as an ordinary object")
     if obj.type == "LIGHT":
         hidden = [name for prop, name in _LIGHT_RAY_VISIBILITY if not getattr(obj, prop, True)]
         if hidden:
             warnings.append(f"light '{obj.name}': ray visibility off for {', '.join(hidden)} is ignored "
                             "(the light lights every surface)")
-    linking = getattr(obj, "light_linking", None)
-    if linking is not None and linking.blocker_collection is not None:
-        warnings.append(f"{what}: shadow linking (blocker collection) is ignored; every object blocks its light")
     return warnings
 
-
-def _collection_warnings(layer_collection, layer_name):
-    """Holdout and Indirect Only collections of the view layer, which Caustic renders as ordinary."""
-    warnings = []
-    for child in layer_collection.children:
-        if child.exclude:
-            continue
-        for flag, label in (("indirect_only", "Indirect Only"),):
-            if getattr(child, flag, False):
-                warnings.append(f"view layer '{layer_name}': collection '{child.name}' is {label}, which is not "
-                                "supported; it renders as ordinary")
-        warnings += _collection_warnings(child, layer_name)
-    return warnings

@@ -1,7 +1,9 @@
 """Blender's Object > Visibility panel as the `CAUSTIC_object_visibility` node extension
 (docs/contract.md): which kinds of ray see a mesh object (Ray Visibility; Cycles' flags, one
-to one, honoured by the path tracer), and whether it is a holdout (the object's Holdout, or a
-Holdout collection of the view layer being rendered)."""
+to one, honoured by the path tracer), whether it is a holdout (the object's Holdout, or a
+Holdout collection of the view layer being rendered) and whether it is a Shadow Catcher. An
+object in an Indirect Only collection of the view layer (and no holdout) is hidden from camera
+rays, as Cycles clears its camera visibility."""
 
 OBJECT_VISIBILITY_EXTENSION = "CAUSTIC_object_visibility"
 
@@ -12,12 +14,28 @@ _FLAGS = (("visible_camera", "camera"), ("visible_diffuse", "diffuse"), ("visibl
 
 
 def object_visibility_extension(blender_object, view_layer=None):
-    """The kinds of ray that do not see the object, as {key: False}, and "holdout": True for a
-    holdout in `view_layer`; None when every ray sees it and it is no holdout."""
+    """The kinds of ray that do not see the object, as {key: False}, "holdout": True for a
+    holdout in `view_layer` and "shadow_catcher": True for a catcher; None when every ray sees
+    it and it is neither."""
     value = {key: False for prop, key in _FLAGS if not getattr(blender_object, prop, True)}
     if is_holdout(blender_object, view_layer):
         value["holdout"] = True
+    elif is_indirect_only(blender_object, view_layer):
+        value["camera"] = False
+    if getattr(getattr(blender_object, "original", blender_object), "is_shadow_catcher", False):
+        value["shadow_catcher"] = True
     return value or None
+
+
+def is_indirect_only(blender_object, view_layer=None):
+    """Whether an Indirect Only collection of `view_layer` holds the object there."""
+    if view_layer is None:
+        return False
+    original = getattr(blender_object, "original", blender_object)
+    try:
+        return bool(original.indirect_only_get(view_layer=view_layer))
+    except (RuntimeError, TypeError):  # not in that view layer (e.g. an instanced collection's object)
+        return False
 
 
 def is_holdout(blender_object, view_layer=None):

@@ -93,6 +93,17 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         reporter.warning(&w);
         run_warnings.push(w);
     }
+    let catchers = &scene.ray_visibility.catcher_objects;
+    if !catchers.is_empty() && !matches!(res.integrator, IntegratorKind::Path) {
+        // Splitting needs a camera path that can be followed twice from the catcher.
+        let w = format!(
+            "shadow catcher object(s) {} are rendered as ordinary objects by this integrator (the path \
+             integrator renders them as Cycles)",
+            catchers.iter().map(|n| format!("'{n}'")).collect::<Vec<_>>().join(", ")
+        );
+        reporter.warning(&w);
+        run_warnings.push(w);
+    }
     let linked = &scene.light_linking.emitters;
     if !linked.is_empty() && !matches!(res.integrator, IntegratorKind::Path) {
         // Photons and light subpaths would need the receiver at every vertex.
@@ -155,6 +166,16 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     // Only the path tracer gives every ray its kind (see the warning above).
     let ctx = if matches!(res.integrator, IntegratorKind::Path) {
         ctx.with_ray_visibility().with_light_linking()
+    } else {
+        ctx
+    };
+    // The shadow catcher's pass sees the scene apart (settings keep its sums for the path
+    // tracer only).
+    let ctx = if res.passes.catcher_sums() {
+        let pass = SceneContext::with_light_sampler(&scene, &accel, res.light_sampler)
+            .with_camera_at(scene.cameras[res.camera].position)
+            .with_light_linking();
+        ctx.with_shadow_catcher(crate::integrator::catcher::pass_context(pass, true))
     } else {
         ctx
     };
@@ -267,6 +288,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
                 if !res.transparent {
                     img.make_opaque();
                 }
+                crate::shadow_catcher::resolve(&mut img, res.transparent);
                 match write(&img, Some(film), spp, film.light_paths) {
                     Ok(()) => reporter.image(&out_str, spp, false),
                     Err(e) => interim_error = Some(e),
@@ -289,6 +311,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     if !res.transparent {
         result.image.make_opaque();
     }
+    crate::shadow_catcher::resolve(&mut result.image, res.transparent);
 
     if let Some(d) = &denoiser {
         reporter.phase("denoising", t0.elapsed().as_secs_f64());

@@ -293,6 +293,25 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
                 .into(),
         ));
     }
+    if !scene.ray_visibility.catcher_objects.is_empty() && integrator == IntegratorKind::Path {
+        if args.chunk {
+            return Err(Error::Usage(
+                "chunks (--chunk) do not carry the shadow catcher's sums yet: render a scene with a shadow \
+                 catcher without --chunk"
+                    .into(),
+            ));
+        }
+        passes = passes.with_catcher_sums();
+    }
+    if passes.contains(crate::passes::Pass::ShadowCatcher) && integrator != IntegratorKind::Path {
+        return Err(Error::Usage(format!(
+            "the Shadow Catcher pass is rendered by the path integrator only, not by '{}'",
+            integrator.name()
+        )));
+    }
+    if passes.contains(crate::passes::Pass::ShadowCatcher) && args.chunk {
+        return Err(Error::Usage("chunks (--chunk) do not carry the Shadow Catcher pass yet".into()));
+    }
     let data = crate::passes::DataSettings::resolve(st.mist, st.ao_distance)?;
     if adaptive.is_some() {
         // Where adaptive sampling stopped each pixel is part of its result (Cycles writes it too).

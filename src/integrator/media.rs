@@ -48,12 +48,19 @@ pub fn medium_segment(
 /// along `ng`, or a point in a medium when `ng` is None) through the media of `stack`:
 /// volume boundaries without a surface are crossed (changing the medium), BLEND
 /// surfaces pass 1 - alpha (a tinted Transparent BSDF its colour), any other surface blocks.
-pub fn light_transmittance(
+pub fn light_transmittance(ctx: &SceneContext, p: Vec3, ng: Option<Vec3>, ls: &LightSample, stack: MediumStack) -> Rgb {
+    light_transmittance_of(ctx, p, ng, ls, stack, None)
+}
+
+/// [`light_transmittance`] toward a sample of light `light`: with shadow linking, surfaces
+/// that do not block it are passed as if they were not there.
+pub fn light_transmittance_of(
     ctx: &SceneContext,
     p: Vec3,
     ng: Option<Vec3>,
     ls: &LightSample,
     mut stack: MediumStack,
+    light: Option<usize>,
 ) -> Rgb {
     let org = match ng {
         Some(n) => offset_ray_origin(p, if ls.wi.dot(n) >= 0.0 { n } else { -n }),
@@ -85,7 +92,9 @@ pub fn light_transmittance(
         };
         let mat = &ctx.scene.materials[ctx.scene.mesh.tri_material[h.tri as usize] as usize];
         let s = ctx.scene.surface(&h, org, dir);
-        if mat.null_surface {
+        if light.is_some_and(|l| !ctx.blocks(l, h.tri)) {
+            // Not one of the light's blockers: passed, its medium ignored.
+        } else if mat.null_surface {
             stack = ctx.medium_after(&s, dir, stack);
         } else if mat.alpha_mode == AlphaMode::Blend {
             tr *= ctx.scene.transmission(h.tri, h.b1, h.b2);

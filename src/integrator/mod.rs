@@ -4,6 +4,7 @@
 //! sample at a time; the tile loop, film and progress are shared (`render.rs`).
 
 pub mod bdpt;
+pub mod catcher;
 pub mod data_passes;
 pub mod light_passes;
 pub mod media;
@@ -44,9 +45,17 @@ pub struct SceneContext<'a> {
     transparent: Vec<bool>,
     /// Which rays see each triangle (empty: every ray sees every triangle, or the
     /// integrator does not honour ray visibility; see `with_ray_visibility`).
-    visibility: &'a [RayMask],
+    visibility: std::borrow::Cow<'a, [RayMask]>,
     /// Light linking is honoured (`with_light_linking`).
     linking: bool,
+    /// This context is a shadow catcher's pass (`catcher::pass_context`): rays see only
+    /// catcher objects and only the lights that light catchers give light.
+    catcher_only: bool,
+    /// Per light, whether it lights the catcher pass (filled for `catcher_only`).
+    lights_catcher: Vec<bool>,
+    /// The shadow catcher's pass context when the scene has catchers and the integrator
+    /// splits paths at them (`with_shadow_catcher`).
+    pub catcher: Option<Box<SceneContext<'a>>>,
     /// Area lights with their light index (intersected by camera and BSDF rays).
     area_lights: Vec<(AreaLight, usize)>,
     /// Light index of the world, if it is a light.
@@ -122,8 +131,11 @@ impl<'a> SceneContext<'a> {
             },
             masked: (0..n).map(|t| matches!(mode(t), AlphaMode::Mask(_))).collect(),
             transparent: (0..n).map(|t| mode(t) != AlphaMode::Opaque).collect(),
-            visibility: &[],
+            visibility: std::borrow::Cow::Borrowed(&[]),
             linking: false,
+            catcher_only: false,
+            lights_catcher: Vec::new(),
+            catcher: None,
             area_lights,
             world_light,
             spheres,
@@ -189,7 +201,7 @@ impl<'a> SceneContext<'a> {
             self.masked[t] |= *m != RayMask::ALL;
             self.transparent[t] |= !m.meets(RayMask::SHADOW);
         }
-        self.visibility = vis;
+        self.visibility = std::borrow::Cow::Borrowed(vis);
         self
     }
 
@@ -197,15 +209,45 @@ impl<'a> SceneContext<'a> {
     /// by NEE and when BSDF-sampled rays find them. Only walkers that track the object a
     /// ray left (the path tracer) may ask for it; the others let every emitter light all.
     pub fn with_light_linking(mut self) -> Self {
-        self.linking = !self.scene.light_linking.rules.is_empty();
+        let linking = &self.scene.light_linking;
+        self.linking = !linking.rules.is_empty();
+        // Shadow linking: a triangle that some light's shadow passes is tested during
+        // shadow traversal, like a transparent one.
+        let linked: Vec<usize> = (0..linking.blockers.len()).filter(|&l| linking.shadow_linked(l)).collect();
+        if !linked.is_empty() {
+            for (t, flag) in self.transparent.iter_mut().enumerate() {
+                *flag |= linked.iter().any(|&l| !linking.blocks(l, t as u32));
+            }
+        }
         self
+    }
+
+    /// True when light `light` has a blocker rule (shadow linking): its next-event estimate
+    /// counts only blockers' shadows and takes all of its light (BSDF-sampled rays that
+    /// find it give nothing, as they cannot tell its blockers from other objects); always
+    /// false without light linking.
+    #[inline]
+    pub fn shadow_linked(&self, light: usize) -> bool {
+        self.linking && self.scene.light_linking.shadow_linked(light)
     }
 
     /// True when light `light` lights the surface of triangle `receiver` (`NO_OBJECT`: a
     /// point in a medium); always without light linking.
     #[inline]
     pub fn links(&self, light: usize, receiver: u32) -> bool {
+        // The catcher pass is lit only by the lights that light catchers (Cycles'
+        // SHADER_EXCLUDE_SHADOW_CATCHER, and emissive objects that are no catchers).
+        if self.catcher_only && !self.lights_catcher.get(light).copied().unwrap_or(true) {
+            return false;
+        }
         !self.linking || self.scene.light_linking.lights(light, receiver)
+    }
+
+    /// True when triangle `tri` belongs to a shadow catcher at which camera paths split
+    /// (only with a catcher pass context, `with_shadow_catcher`).
+    #[inline]
+    pub fn is_catcher(&self, tri: u32) -> bool {
+        self.catcher.is_some() && self.scene.ray_visibility.is_catcher(tri)
     }
 
     /// True when triangle `tri` belongs to a holdout object: camera rays reaching it end
@@ -248,8 +290,16 @@ impl<'a> SceneContext<'a> {
     ) -> (Rgb, bool) {
         let mut sum = Rgb::ZERO;
         let mut any = false;
+        if self.catcher_only && camera_ray {
+            // The catcher pass starts on the camera segment that the split path already
+            // walked: what it crossed there is counted once, before the split.
+            return (sum, any);
+        }
         for (a, index) in &self.area_lights {
-            if (camera_ray && !a.camera_visible) || (!camera_ray && !self.links(*index, receiver)) {
+            if (camera_ray && !a.camera_visible)
+                || (!camera_ray && !self.links(*index, receiver))
+                || (prev_pdf > 0.0 && self.shadow_linked(*index))
+            {
                 continue;
             }
             if let Some(t) = a.intersect(org, dir, tmax)
@@ -265,7 +315,10 @@ impl<'a> SceneContext<'a> {
             }
         }
         for &(center, radius, radiance, soft, camera_visible, index) in &self.spheres {
-            if (camera_ray && !camera_visible) || (!camera_ray && !self.links(index, receiver)) {
+            if (camera_ray && !camera_visible)
+                || (!camera_ray && !self.links(index, receiver))
+                || (prev_pdf > 0.0 && self.shadow_linked(index))
+            {
                 continue;
             }
             if soft {
@@ -310,8 +363,14 @@ impl<'a> SceneContext<'a> {
     #[inline]
     pub fn sun_emission(&self, dir: Vec3, prev_pdf: f32, camera_ray: bool, receiver: u32) -> Rgb {
         let mut sum = Rgb::ZERO;
+        if self.catcher_only && camera_ray {
+            return sum;
+        }
         for &(to_sun, cos_half, radiance, index) in &self.suns {
-            if dir.dot(to_sun) >= cos_half && (camera_ray || self.links(index, receiver)) {
+            if dir.dot(to_sun) >= cos_half
+                && (camera_ray || self.links(index, receiver))
+                && !(prev_pdf > 0.0 && self.shadow_linked(index))
+            {
                 let w = if prev_pdf == 0.0 {
                     1.0
                 } else {
@@ -395,8 +454,15 @@ impl<'a> SceneContext<'a> {
     /// ray: objects hidden from shadow rays let it through).
     #[inline]
     pub fn transmittance(&self, org: Vec3, dir: Vec3, tmax: f32) -> f32 {
+        self.transmittance_of(org, dir, tmax, None)
+    }
+
+    /// [`transmittance`](Self::transmittance) of a shadow ray toward light `light`: with
+    /// shadow linking only its blockers stop it.
+    #[inline]
+    pub fn transmittance_of(&self, org: Vec3, dir: Vec3, tmax: f32, light: Option<usize>) -> f32 {
         self.accel.transmittance(org, dir, tmax, &self.transparent, |tri, b1, b2| {
-            if !self.sees(RayMask::SHADOW, tri) {
+            if !self.sees(RayMask::SHADOW, tri) || light.is_some_and(|l| !self.blocks(l, tri)) {
                 return 1.0;
             }
             match self.scene.materials[self.scene.mesh.tri_material[tri as usize] as usize].alpha_mode {
@@ -430,10 +496,22 @@ impl<'a> SceneContext<'a> {
     /// Unoccluded fraction between a surface point (offset along `ng`) and a light sample.
     #[inline]
     pub fn visibility(&self, p: Vec3, ng: Vec3, ls: &LightSample) -> f32 {
+        self.visibility_of(p, ng, ls, None)
+    }
+
+    /// True when triangle `tri` casts light `light`'s shadows (shadow linking).
+    #[inline]
+    pub fn blocks(&self, light: usize, tri: u32) -> bool {
+        !self.linking || self.scene.light_linking.blocks(light, tri)
+    }
+
+    /// [`visibility`](Self::visibility) of a sample of light `light` (shadow linking).
+    #[inline]
+    pub fn visibility_of(&self, p: Vec3, ng: Vec3, ls: &LightSample, light: Option<usize>) -> f32 {
         let side = if ls.wi.dot(ng) >= 0.0 { ng } else { -ng };
         let org = offset_ray_origin(p, side);
         if ls.dist.is_infinite() {
-            return self.transmittance(org, ls.wi, f32::INFINITY);
+            return self.transmittance_of(org, ls.wi, f32::INFINITY, light);
         }
         let target = if ls.normal != Vec3::ZERO { offset_ray_origin(ls.point, ls.normal) } else { ls.point };
         let d = target - org;
@@ -441,7 +519,7 @@ impl<'a> SceneContext<'a> {
         if !(dist > 0.0) {
             return 0.0;
         }
-        self.transmittance(org, d / dist, dist * (1.0 - 1e-4))
+        self.transmittance_of(org, d / dist, dist * (1.0 - 1e-4), light)
     }
 }
 

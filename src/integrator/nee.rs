@@ -74,7 +74,7 @@ pub fn surface_nee_at(
     }
     let tr = if ctx.casts_shadow(index) {
         stats.shadow += 1;
-        shadow_transmittance(ctx, s, &ls, media)
+        shadow_transmittance(ctx, s, &ls, media, index)
     } else {
         Rgb::ONE
     };
@@ -82,19 +82,26 @@ pub fn surface_nee_at(
         return (Rgb::ZERO, wi_local);
     }
     let bsdf_pdf = at.pdf(wi_local) * bsdf_pdf_scale;
-    let w = if ls.delta { 1.0 } else { power_heuristic(ls.pdf * pmf, bsdf_pdf) };
+    // A shadow-linked light is found by next-event estimation alone.
+    let w = if ls.delta || ctx.shadow_linked(index) { 1.0 } else { power_heuristic(ls.pdf * pmf, bsdf_pdf) };
     (beta * f * tr * ls.li * (w / (ls.pdf * pmf)), wi_local)
 }
 
-/// Transmittance of a shadow ray from surface `s` to a light sample: through media and
-/// volume boundaries (and tinted Transparent BSDFs) when the scene has any, else plain
-/// visibility.
+/// Transmittance of a shadow ray from surface `s` to a sample of light `light`: through
+/// media and volume boundaries (and tinted Transparent BSDFs) when the scene has any, else
+/// plain visibility; with shadow linking only the light's blockers stop it.
 #[inline]
-pub fn shadow_transmittance(ctx: &SceneContext, s: &SurfaceHit, ls: &LightSample, media: MediumStack) -> Rgb {
+pub fn shadow_transmittance(
+    ctx: &SceneContext,
+    s: &SurfaceHit,
+    ls: &LightSample,
+    media: MediumStack,
+    light: usize,
+) -> Rgb {
     if ctx.has_media || ctx.tinted_shadows {
-        media::light_transmittance(ctx, s.p, Some(s.ng), ls, ctx.medium_after(s, ls.wi, media))
+        media::light_transmittance_of(ctx, s.p, Some(s.ng), ls, ctx.medium_after(s, ls.wi, media), Some(light))
     } else {
-        Rgb::splat(ctx.visibility(s.p, s.ng, ls))
+        Rgb::splat(ctx.visibility_of(s.p, s.ng, ls, Some(light)))
     }
 }
 
@@ -119,12 +126,12 @@ pub fn medium_nee(
         if f > 0.0 && ls.li != Rgb::ZERO {
             let tr = if ctx.casts_shadow(index) {
                 stats.shadow += 1;
-                media::light_transmittance(ctx, p, None, &ls, media)
+                media::light_transmittance_of(ctx, p, None, &ls, media, Some(index))
             } else {
                 Rgb::ONE
             };
             if tr != Rgb::ZERO {
-                let w = if ls.delta { 1.0 } else { power_heuristic(ls.pdf * pmf, f) };
+                let w = if ls.delta || ctx.shadow_linked(index) { 1.0 } else { power_heuristic(ls.pdf * pmf, f) };
                 return tr * ls.li * (f * w / (ls.pdf * pmf));
             }
         }
@@ -155,14 +162,14 @@ pub fn exit_nee(
                 Rgb::ONE
             } else if ctx.has_media || ctx.tinted_shadows {
                 stats.shadow += 1;
-                media::light_transmittance(ctx, se.p, Some(n_g), &ls, media)
+                media::light_transmittance_of(ctx, se.p, Some(n_g), &ls, media, Some(index))
             } else {
                 stats.shadow += 1;
-                Rgb::splat(ctx.visibility(se.p, n_g, &ls))
+                Rgb::splat(ctx.visibility_of(se.p, n_g, &ls, Some(index)))
             };
             if tr != Rgb::ZERO {
                 let f = cos * std::f32::consts::FRAC_1_PI;
-                let w = if ls.delta { 1.0 } else { power_heuristic(ls.pdf * pmf, f) };
+                let w = if ls.delta || ctx.shadow_linked(index) { 1.0 } else { power_heuristic(ls.pdf * pmf, f) };
                 return tr * ls.li * (f * w / (ls.pdf * pmf));
             }
         }

@@ -27,6 +27,7 @@
 //! and leaves through a Lambertian exit (NEE at the exit point, cosine sampling out).
 
 use super::SceneContext;
+use super::catcher::{self, Split};
 use super::light_passes::{Tally, shares_at};
 use super::nee::{exit_nee, medium_nee, surface_nee_at};
 use super::walk::{PathState, Step};
@@ -89,7 +90,21 @@ impl PathIntegrator {
         stats.camera += 1;
         // Camera rays start in vacuum, with no MIS for what they hit first.
         let st = PathState::camera(ray, ctx.camera_media);
-        out.radiance = self.trace(ctx, st, sampler, depth_of, stats, &mut out);
+        let mut split = Split::new(ctx.catcher.is_some());
+        out.radiance = self.trace(ctx, st, sampler, depth_of, stats, &mut out, &mut split);
+        if let (Some(pass_ctx), Some((pre, _))) = (ctx.catcher.as_deref(), split.at) {
+            // The catcher pass: the same camera segment again, in the scene of catchers
+            // only; its own first-hit values are not the pixel's.
+            let mut scratch = CameraSample::default();
+            let pass = self.trace(pass_ctx, pre, sampler, |_| 0.0, stats, &mut scratch, &mut Split::new(false));
+            let behind = match self.transparent_background {
+                true => Rgb::ZERO,
+                false => pre.escaped_radiance(ctx).map_or(Rgb::ZERO, |le| pre.beta * le),
+            };
+            catcher::record(&mut out.aov, &split, out.radiance, pass, behind);
+        } else if split.allowed {
+            catcher::record(&mut out.aov, &split, out.radiance, Rgb::ZERO, Rgb::ZERO);
+        }
         out
     }
 
@@ -103,7 +118,7 @@ impl PathIntegrator {
         stats: &mut RayStats,
     ) -> Rgb {
         let mut out = CameraSample::default();
-        self.trace(ctx, st, sampler, |_| 0.0, stats, &mut out)
+        self.trace(ctx, st, sampler, |_| 0.0, stats, &mut out, &mut Split::new(false))
     }
 
     /// Radiance scattered at a point `p` in a medium of phase function `phase` toward a
@@ -148,7 +163,9 @@ impl PathIntegrator {
         radiance
     }
 
-    /// The path loop from state `st`; AOVs of the first hit go to `out`.
+    /// The path loop from state `st`; AOVs of the first hit go to `out`; a camera path
+    /// that finds a shadow catcher first notes where in `split` (when it is allowed).
+    #[allow(clippy::too_many_arguments)]
     fn trace(
         &self,
         ctx: &SceneContext,
@@ -157,6 +174,7 @@ impl PathIntegrator {
         depth_of: impl Fn(Vec3) -> f32,
         stats: &mut RayStats,
         out: &mut CameraSample,
+        split: &mut Split,
     ) -> Rgb {
         let mut radiance = Rgb::ZERO;
         // Light passes: only camera paths (`li`) keep a tally.
@@ -170,6 +188,7 @@ impl PathIntegrator {
             let (u_light_pt, u_dir) = (Vec2::new(u_lx, u_ly), Vec2::new(u_dx, u_dy));
 
             // Along the ray: medium, crossed lights, pass-through surfaces.
+            let pre = if split.allowed && st.depth == 0 { Some(st) } else { None };
             let before = radiance;
             let depth_before = st.depth;
             let (step, crossed) = st.advance(ctx, [u_channel, u_dist], || u_alpha, true, &mut radiance, stats);
@@ -221,6 +240,9 @@ impl PathIntegrator {
                     // medium means its mesh is open: the segment's weight is then zero in
                     // every channel the medium attenuates.)
                     let seen_directly = st.depth == 0;
+                    if split.allowed && seen_directly {
+                        split.background = st.escaped_radiance(ctx).map_or(Rgb::ZERO, |le| st.beta * le);
+                    }
                     if !(seen_directly && self.transparent_background)
                         && let Some(le) = st.escaped_radiance(ctx)
                     {
@@ -247,6 +269,13 @@ impl PathIntegrator {
             if st.depth == 0 && ctx.is_holdout(hit.tri) {
                 out.alpha = 0.0;
                 break;
+            }
+            // A shadow catcher seen by a camera ray: the path splits here (the catcher
+            // pass follows in `li`); what it gathered so far is the matte's.
+            if let Some(pre) = pre
+                && ctx.is_catcher(hit.tri)
+            {
+                split.at = Some((pre, radiance));
             }
             let wo = -st.dir;
             let mat = &ctx.scene.materials[s.material as usize];

@@ -266,6 +266,14 @@ impl PathState {
         {
             return Rgb::ZERO;
         }
+        // A shadow-linked emitter is found by next-event estimation alone (after a delta
+        // lobe, which NEE cannot follow, the path still finds it).
+        if self.prev_pdf > 0.0
+            && let Some(index) = ctx.lights.light_of_triangle(hit.tri)
+            && ctx.shadow_linked(index)
+        {
+            return Rgb::ZERO;
+        }
         let w = match (self.prev_pdf > 0.0, ctx.lights.light_of_triangle(hit.tri)) {
             (true, Some(index)) => {
                 power_heuristic(self.prev_pdf, ctx.light_pdf(index, self.prev_p, self.prev_n, s.p, s.ng))

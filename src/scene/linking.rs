@@ -2,6 +2,8 @@
 //! emitter, Cycles' light sets): which objects a light or an emissive object lights. A rule
 //! either includes only the listed objects or excludes them; an emitter without a rule
 //! lights everything. Camera rays see every emitter whatever its rule, as in Cycles.
+//! Shadow linking (Blocker Collection) has the same shape: the objects that cast the
+//! emitter's shadows.
 
 /// The receivers of one emitter.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -31,6 +33,9 @@ pub struct LightLinking {
     pub tri_object: Vec<u32>,
     /// Per light (indexed as `Scene::lights`), its rule; empty without rules.
     pub rules: Vec<Option<ReceiverRule>>,
+    /// Per light, the objects that cast its shadows (shadow linking: a rule of the same
+    /// shape, `lights` read as "blocks"); empty without rules.
+    pub blockers: Vec<Option<ReceiverRule>>,
     /// Names of the emitters with a rule, for warnings.
     pub emitters: Vec<String>,
 }
@@ -44,6 +49,21 @@ impl LightLinking {
             _ => true,
         }
     }
+
+    /// True when the object of triangle `tri` casts light `light`'s shadows.
+    #[inline]
+    pub fn blocks(&self, light: usize, tri: u32) -> bool {
+        match self.blockers.get(light) {
+            Some(Some(rule)) => rule.lights(self.tri_object.get(tri as usize).copied().unwrap_or(NO_OBJECT)),
+            _ => true,
+        }
+    }
+
+    /// True when light `light` has a blocker rule.
+    #[inline]
+    pub fn shadow_linked(&self, light: usize) -> bool {
+        matches!(self.blockers.get(light), Some(Some(_)))
+    }
 }
 
 #[cfg(test)]
@@ -56,7 +76,15 @@ mod tests {
         assert!(include.lights(2) && include.lights(5) && !include.lights(3) && !include.lights(NO_OBJECT));
         let exclude = ReceiverRule { include: false, objects: vec![2] };
         assert!(!exclude.lights(2) && exclude.lights(3) && exclude.lights(NO_OBJECT));
-        let l = LightLinking { tri_object: vec![2, 3], rules: vec![None, Some(include)], emitters: vec![] };
+        let l = LightLinking {
+            tri_object: vec![2, 3],
+            rules: vec![None, Some(include.clone())],
+            blockers: vec![Some(include), None],
+            emitters: vec![],
+        };
         assert!(l.lights(0, 1) && l.lights(1, 0) && !l.lights(1, 1) && !l.lights(1, NO_OBJECT));
+        // Light 0's shadows come from object 2 only; light 1 is blocked by everything.
+        assert!(l.blocks(0, 0) && !l.blocks(0, 1) && l.blocks(1, 1));
+        assert!(l.shadow_linked(0) && !l.shadow_linked(1) && !l.shadow_linked(7));
     }
 }

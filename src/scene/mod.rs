@@ -161,6 +161,9 @@ pub struct LightReport {
     pub triangles: usize,
     /// Blender's Cast Shadow (false: the light reaches every point it faces, unoccluded).
     pub cast_shadow: bool,
+    /// The light's Shadow Catcher flag (false: it does not light the catcher pass).
+    #[serde(skip)]
+    pub lights_catcher: bool,
 }
 
 /// A camera in the report.
@@ -203,6 +206,9 @@ pub struct Scene {
     /// Per light (indexed as `lights`): false for a light whose Cast Shadow is off, whose
     /// next-event estimation then skips the shadow ray (as Cycles does).
     pub light_casts_shadow: Vec<bool>,
+    /// Per light: false for a light whose object is no shadow catcher, which Cycles leaves
+    /// out of the catcher pass (`integrator::catcher`); empty when every light lights it.
+    pub light_lights_catcher: Vec<bool>,
     /// Which rays see each triangle (Blender's per-object Ray Visibility).
     pub ray_visibility: visibility::RayVisibility,
     /// Which objects each light lights (Blender's light linking receivers).

@@ -63,6 +63,11 @@ pub struct RayVisibility {
     pub holdout: Vec<bool>,
     /// Names of the holdout objects, for warnings.
     pub holdout_objects: Vec<String>,
+    /// Per triangle: its object is a shadow catcher (Blender's Object > Visibility > Shadow
+    /// Catcher; `integrator::catcher`). Empty when no object is.
+    pub catcher: Vec<bool>,
+    /// Names of the shadow catcher objects, for warnings.
+    pub catcher_objects: Vec<String>,
 }
 
 /// An object that some kind of ray does not see.
@@ -114,6 +119,19 @@ impl RayVisibility {
         self.holdout.get(tri as usize).copied().unwrap_or(false)
     }
 
+    /// Marks triangles `range` (one object's, just appended; `total` so far) as a shadow catcher.
+    pub fn mark_catcher(&mut self, name: &str, range: std::ops::Range<usize>, total: usize) {
+        self.catcher.resize(total, false);
+        self.catcher[range].fill(true);
+        self.catcher_objects.push(name.to_string());
+    }
+
+    /// True when triangle `tri` belongs to a shadow catcher object.
+    #[inline]
+    pub fn is_catcher(&self, tri: u32) -> bool {
+        self.catcher.get(tri as usize).copied().unwrap_or(false)
+    }
+
     /// Pads the tables to `total` triangles once every object is loaded (objects appended
     /// after the last marked one are seen by every ray and are no holdouts).
     pub fn finish(&mut self, total: usize) {
@@ -122,6 +140,9 @@ impl RayVisibility {
         }
         if !self.holdout.is_empty() {
             self.holdout.resize(total, false);
+        }
+        if !self.catcher.is_empty() {
+            self.catcher.resize(total, false);
         }
     }
 }
@@ -164,5 +185,9 @@ mod tests {
         v.finish(6);
         assert_eq!(v.holdout, vec![false, true, false, false, false, false]);
         assert!(v.is_holdout(1) && !v.is_holdout(0) && !v.is_holdout(9));
+        v.mark_catcher("floor", 2..4, 6);
+        v.finish(7);
+        assert_eq!(v.catcher, vec![false, false, true, true, false, false, false]);
+        assert!(v.is_catcher(3) && !v.is_catcher(4) && !v.is_catcher(99));
     }
 }

@@ -250,9 +250,11 @@ def test_excluded_collections_are_left_out_but_their_instances_render(empty_scen
 
 
 def test_object_ray_visibility_is_exported(empty_scene, captured):
-    """An object's Ray Visibility flags that are off, and its Holdout (its own or its
-    collection's in the view layer), go out as CAUSTIC_object_visibility on its node; an
-    ordinary object carries no extension."""
+    """An object's Ray Visibility flags that are off, its Holdout (its own or its
+    collection's in the view layer), an Indirect Only collection's (camera off) and its Shadow
+    Catcher go out as CAUSTIC_object_visibility
+    on its node; an ordinary object carries no extension. A light whose Shadow Catcher flag is
+    off says so in its light extension."""
     scene = empty_scene
     scenes.small_render_settings(scene, 8, 6, samples=1)
     scenes.camera(scene, (0, -4, 3), (60, 0, 0))
@@ -269,7 +271,20 @@ def test_object_ray_visibility_is_exported(empty_scene, captured):
     scene.collection.objects.unlink(in_held)
     held_coll.objects.link(in_held)
     bpy.context.view_layer.layer_collection.children["HeldCollection"].holdout = True
+    scenes.cube(scene, "Catcher", 1.0, (8, 0, 0)).is_shadow_catcher = True
+    indirect_coll = bpy.data.collections.new("IndirectCollection")
+    scene.collection.children.link(indirect_coll)
+    indirect = scenes.cube(scene, "Indirect", 1.0, (10, 0, 0))
+    scene.collection.objects.unlink(indirect)
+    indirect_coll.objects.link(indirect)
+    bpy.context.view_layer.layer_collection.children["IndirectCollection"].indirect_only = True
+    scenes.light(scene, "Apart", "POINT", energy=1.0).is_shadow_catcher = False
     (gltf,) = captured()
+    assert node_by_name(gltf, "Catcher")["extensions"]["CAUSTIC_object_visibility"] == {"shadow_catcher": True}
+    # Indirect Only: Cycles clears the object's camera visibility.
+    assert node_by_name(gltf, "Indirect")["extensions"]["CAUSTIC_object_visibility"] == {"camera": False}
+    assert node_by_name(gltf, "Apart")["extensions"]["CAUSTIC_lights_punctual"] == {"shadow_catcher": False}
+    assert "shadow_catcher" not in node_by_name(gltf, "Sun")["extensions"]["CAUSTIC_lights_punctual"]
     assert node_by_name(gltf, "Ghost")["extensions"]["CAUSTIC_object_visibility"] == {
         "camera": False, "volume_scatter": False, "shadow": False}
     for name in ("Held", "InHeld"):
@@ -503,9 +518,9 @@ def test_principled_inside_a_node_group_is_left_to_the_exporter(empty_scene, cap
 
 def test_unrendered_features_are_named(addon, empty_scene):
     """Scene features Caustic does not render yet are each named in a warning (issue 20):
-    motion blur, Shadow Catcher, a light's ray visibility beyond Camera, light linking, hair,
-    volume objects, Indirect Only collections; an ordinary object gets none, nor do an object's
-    ray visibility and Holdout (exported, test_object_ray_visibility_is_exported)."""
+    motion blur, a light's ray visibility beyond Camera, hair, volume objects;
+    an ordinary object gets none, nor do an object's ray visibility, Holdout, Indirect Only
+    collection and Shadow Catcher (exported, test_object_ray_visibility_is_exported)."""
     unsupported = importlib.import_module(addon.__name__ + ".export.unsupported")
     scene = empty_scene
     scene.render.use_motion_blur = True
@@ -534,15 +549,16 @@ def test_unrendered_features_are_named(addon, empty_scene):
 
     warnings = unsupported.scene_warnings(bpy.context.evaluated_depsgraph_get())
     text = "\n".join(warnings)
-    for words in (("motion blur",), ("Catcher", "Shadow Catcher"), ("ShyLight", "diffuse"),
-                  ("Linked", "shadow linking"), ("Furry", "hair"), ("Smoke", "volume"),
-                  ("IndirectCollection", "Indirect Only")):
+    for words in (("motion blur",), ("ShyLight", "diffuse"),
+                  ("Furry", "hair"), ("Smoke", "volume")):
         assert any(all(w in line for w in words) for line in warnings), f"{words} not named in:\n{text}"
     assert not any("'Plain'" in line for line in warnings), text
     assert unsupported.object_warnings(plain) == []
     assert unsupported.object_warnings(shy) == []
     assert unsupported.object_warnings(held) == []
-    assert not any("HeldCollection" in line for line in warnings), text
-    # A light's Shadow Catcher flag (on by default in Blender 5.0) means nothing: no warning.
+    assert unsupported.object_warnings(catcher) == []
+    assert unsupported.object_warnings(linked) == []
+    assert not any("HeldCollection" in line or "IndirectCollection" in line for line in warnings), text
+    # A light's Shadow Catcher flag (on by default in Blender 5.0) is exported, not warned about.
     assert shy_light.is_shadow_catcher
     assert not any("ShyLight" in line and "Catcher" in line for line in warnings), text

@@ -18,6 +18,16 @@ Holdout (the cube's own, or its collection's in the view layer) with Film > Tran
 colour channels and alpha are compared, each with the same bound; the floor fills the view,
 so alpha is 1 but where the camera sees the cube (0 there in both renderers).
 
+Shadow linking: the point light's blocker collection includes only the floor, or excludes the
+cube, so that the cube casts none of its shadow.
+
+Indirect Only: the cube in an Indirect Only collection of the view layer (hidden from the
+camera only, as Cycles).
+
+Shadow catcher: the floor catches the cube's shadow with Film > Transparent, with and without
+the Shadow Catcher pass; Combined's RGBA (and the pass's RGB) are compared channel by channel
+as the holdout's.
+
 Light linking: the point light's receiver collection includes only the cube, or excludes it
 (the floor is then lit directly, the cube only by the floor's bounce light); each case also
 proves that the rule moves the image by more than the bound.
@@ -32,8 +42,9 @@ import pytest
 import numpy as np
 
 import scenes
-from test_cycles_agreement import (MODEL_ALLOWANCE, SEEDS, SIGMAS, add_point, assert_mean_matches_cycles, build,
-                                   mean_and_variance)
+from exr_io import read_exr
+from test_cycles_agreement import (MODEL_ALLOWANCE, SEEDS, SIGMAS, add_point, add_rectangle,
+                                   assert_mean_matches_cycles, build, mean_and_variance)
 
 pytestmark = pytest.mark.needs_binary
 
@@ -139,5 +150,118 @@ def test_light_linking_matches_cycles(empty_scene, tmp_path, state):
     m_free, v_free = caustic_mean(scene, tmp_path, "free")
     bound = SIGMAS * math.sqrt(v_linked + v_free) + MODEL_ALLOWANCE * m_linked
     print(f"\n[caustic/cycles] light linking {state.lower()}: {ratios}; without the rule the mean moves by "
+          f"{m_free / m_linked - 1.0:+.4f} (bound {bound / m_linked:.4f})")
+    assert abs(m_free - m_linked) > bound, f"{state}: the rule changes the image by less than the bound"
+
+
+def render_layers(scene, engine, seed, path):
+    """Every pass of the render as {name: (height, width, channels)}, from a multilayer EXR."""
+    scene.render.engine = engine
+    if engine == "CYCLES":
+        scene.cycles.seed = seed
+    else:
+        scene.caustic.seed = seed
+    scene.render.filepath = path
+    bpy.ops.render.render(write_still=True)
+    out = {}
+    for key, value in read_exr(path).items():
+        _, name, c = key.split(".")
+        out.setdefault(name, {})[c] = value.astype(np.float64)
+    return {name: np.stack([v[c] for c in ("RGBA" if "A" in v else "RGB")], -1) for name, v in out.items()}
+
+
+@pytest.mark.parametrize("mode", ["approximate", "pass"])
+def test_shadow_catcher_matches_cycles(empty_scene, tmp_path, mode):
+    """The floor is a Shadow Catcher under Film > Transparent: without the Shadow Catcher pass
+    (Cycles' approximate catcher) Combined's alpha holds the shadow; with it, Combined is the
+    matte and the pass holds the factor. Each channel's mean (Combined RGBA, and the pass's
+    RGB) is compared with Cycles' with the holdout test's bound; the shadow must move alpha
+    (or the factor) by more than that bound, so that a renderer drawing the floor as ordinary
+    (alpha 1, factor 1) fails."""
+    def light_and_catcher(scene):
+        add_point(scene)
+        scene.objects["Box"].location.z += 0.02
+        scene.objects["Floor"].is_shadow_catcher = True
+
+    scene = empty_scene
+    build(scene, light_and_catcher)
+    scene.render.film_transparent = True
+    scene.render.image_settings.media_type = "MULTI_LAYER_IMAGE"
+    scene.render.image_settings.exr_codec = "ZIP"
+    bpy.context.view_layer.cycles.use_pass_shadow_catcher = mode == "pass"
+    images = {e: [render_layers(scene, e, s, str(tmp_path / f"{e}_{s}.exr")) for s in SEEDS]
+              for e in ("CYCLES", "CAUSTIC")}
+    planes = [("Combined", c, n) for c, n in enumerate("RGBA")]
+    if mode == "pass":
+        planes += [("Shadow Catcher", c, f"catcher {n}") for c, n in enumerate("RGB")]
+    failures = []
+    for name, channel, label in planes:
+        (m_caustic, v_caustic), (m_cycles, v_cycles) = (
+            mean_and_variance(images[e][0][name][..., channel], images[e][1][name][..., channel])
+            for e in ("CAUSTIC", "CYCLES"))
+        bound = SIGMAS * math.sqrt(v_caustic + v_cycles) + MODEL_ALLOWANCE * max(m_cycles, 1e-3)
+        print(f"\n[caustic/cycles] shadow catcher ({mode}) {label} ratio {m_caustic / max(m_cycles, 1e-12):.4f}  "
+              f"caustic {m_caustic:.5f}  cycles {m_cycles:.5f}  bound {bound:.2e}")
+        if abs(m_caustic - m_cycles) > bound:
+            failures.append(f"{label}: {m_caustic:.5f} against Cycles' {m_cycles:.5f} (bound {bound:.2e})")
+    assert not failures, "; ".join(failures)
+    # The catcher matters: an ordinary floor would give alpha 1 (approximate) or factor 1 (pass).
+    shown = "Combined" if mode == "approximate" else "Shadow Catcher"
+    channel = 3 if mode == "approximate" else 0
+    m, v = mean_and_variance(*(images["CAUSTIC"][s][shown][..., channel] for s in (0, 1)))
+    assert 1.0 - m > SIGMAS * math.sqrt(v) + MODEL_ALLOWANCE, f"{shown}: the shadow catcher does not show ({m})"
+
+
+def test_indirect_only_collection_matches_cycles(empty_scene, tmp_path):
+    """The cube in an Indirect Only collection of the view layer: the camera sees the floor
+    through it, its shadow and bounce light stay (Cycles clears its camera visibility); the
+    image mean agrees with Cycles' within the bound, and differs from the cube seen by the
+    camera by more than it."""
+    def light_and_collection(scene):
+        add_point(scene)
+        box = scene.objects["Box"]
+        box.location.z += 0.02
+        indirect = bpy.data.collections.new("Indirect")
+        scene.collection.children.link(indirect)
+        scene.collection.objects.unlink(box)
+        indirect.objects.link(box)
+        bpy.context.view_layer.layer_collection.children["Indirect"].indirect_only = True
+
+    scene = empty_scene
+    build(scene, light_and_collection)
+    ratios = assert_mean_matches_cycles(scene, tmp_path, "indirect only", MODEL_ALLOWANCE)
+    m_hidden, v_hidden = caustic_mean(scene, tmp_path, "indirect")
+    bpy.context.view_layer.layer_collection.children["Indirect"].indirect_only = False
+    m_seen, v_seen = caustic_mean(scene, tmp_path, "seen")
+    bound = SIGMAS * math.sqrt(v_hidden + v_seen) + MODEL_ALLOWANCE * m_hidden
+    print(f"\n[caustic/cycles] indirect only: {ratios}; seen by the camera the mean moves by "
+          f"{m_seen / m_hidden - 1.0:+.4f} (bound {bound / m_hidden:.4f})")
+    assert abs(m_seen - m_hidden) > bound, "the Indirect Only collection changes the image by less than the bound"
+
+
+@pytest.mark.parametrize("state", ["INCLUDE", "EXCLUDE"])
+@pytest.mark.parametrize("kind", ["Point", "Rect"])
+def test_shadow_linking_matches_cycles(empty_scene, tmp_path, state, kind):
+    """Shadow linking: the light's blocker collection includes only the floor, or excludes
+    the cube; either way the cube casts no shadow of that light (it still shows and bounces
+    light). The area light is found by next-event estimation alone then (no MIS with BSDF
+    rays): unbiased, as Cycles' dedicated light rays. The image mean agrees with Cycles'
+    within the bound, and the rule moves it by more than the bound."""
+    def blocked_light(scene):
+        (add_point if kind == "Point" else add_rectangle)(scene)
+        scene.objects["Box"].location.z += 0.02
+        blockers = bpy.data.collections.new("Blockers")
+        blockers.objects.link(scene.objects["Floor" if state == "INCLUDE" else "Box"])
+        blockers.collection_objects[0].light_linking.link_state = state
+        scene.objects[kind].light_linking.blocker_collection = blockers
+
+    scene = empty_scene
+    build(scene, blocked_light)
+    ratios = assert_mean_matches_cycles(scene, tmp_path, f"blockers {state.lower()}", MODEL_ALLOWANCE)
+    m_linked, v_linked = caustic_mean(scene, tmp_path, "linked")
+    scene.objects[kind].light_linking.blocker_collection = None
+    m_free, v_free = caustic_mean(scene, tmp_path, "free")
+    bound = SIGMAS * math.sqrt(v_linked + v_free) + MODEL_ALLOWANCE * m_linked
+    print(f"\n[caustic/cycles] shadow linking {state.lower()}: {ratios}; without the rule the mean moves by "
           f"{m_free / m_linked - 1.0:+.4f} (bound {bound / m_linked:.4f})")
     assert abs(m_free - m_linked) > bound, f"{state}: the rule changes the image by less than the bound"

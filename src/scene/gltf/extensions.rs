@@ -19,6 +19,9 @@ pub(super) struct AreaLightExt {
     /// Blender's Cast Shadow: false lights every point as if nothing stood in the way.
     #[serde(default = "yes")]
     pub(super) cast_shadow: bool,
+    /// The light object's Shadow Catcher flag: false leaves it out of the catcher pass.
+    #[serde(default = "yes")]
+    pub(super) shadow_catcher: bool,
 }
 
 fn half_turn() -> f32 {
@@ -130,6 +133,9 @@ pub(super) struct BlenderLight {
     pub(super) camera_visible: bool,
     #[serde(default = "yes")]
     pub(super) cast_shadow: bool,
+    /// The light object's Shadow Catcher flag: false leaves it out of the catcher pass.
+    #[serde(default = "yes")]
+    pub(super) shadow_catcher: bool,
 }
 
 impl Default for BlenderLight {
@@ -141,6 +147,7 @@ impl Default for BlenderLight {
             soft_falloff: false,
             camera_visible: true,
             cast_shadow: true,
+            shadow_catcher: true,
         }
     }
 }
@@ -165,6 +172,9 @@ pub(super) struct ObjectVisibilityExt {
     /// Blender's Holdout (the object's, or its collection's in the view layer).
     #[serde(default)]
     pub(super) holdout: bool,
+    /// Blender's Shadow Catcher.
+    #[serde(default)]
+    pub(super) shadow_catcher: bool,
 }
 
 impl ObjectVisibilityExt {
@@ -188,10 +198,16 @@ impl ObjectVisibilityExt {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct LightLinkingExt {
-    /// Receivers' node names.
-    pub(super) receivers: Vec<String>,
+    /// Receivers' node names (none: the emitter lights every object).
+    pub(super) receivers: Option<Vec<String>>,
     /// True: only the receivers are lit; false: every object but them.
+    #[serde(default)]
     pub(super) include: bool,
+    /// Blockers' node names (shadow linking; none: every object casts its shadows).
+    pub(super) blockers: Option<Vec<String>>,
+    /// True: only the blockers cast its shadows; false: every object but them.
+    #[serde(default)]
+    pub(super) blockers_include: bool,
 }
 
 /// `CAUSTIC_default_material` on the document's root: the material of primitives that

@@ -88,7 +88,17 @@ impl Loader<'_> {
                 )
             }
         };
-        Ok((light, LightReport { kind: kind.into(), name, power: 0.0, triangles: 0, cast_shadow: bl.cast_shadow }))
+        Ok((
+            light,
+            LightReport {
+                kind: kind.into(),
+                name,
+                power: 0.0,
+                triangles: 0,
+                cast_shadow: bl.cast_shadow,
+                lights_catcher: bl.shadow_catcher,
+            },
+        ))
     }
 
     pub(super) fn area_light(
@@ -145,6 +155,7 @@ impl Loader<'_> {
                     power: 0.0,
                     triangles: 0,
                     cast_shadow: a.cast_shadow,
+                    lights_catcher: a.shadow_catcher,
                 },
             ))),
             None => {
@@ -221,6 +232,7 @@ impl Loader<'_> {
                 power,
                 triangles: count,
                 cast_shadow: true,
+                lights_catcher: true,
             });
         }
         Ok(())

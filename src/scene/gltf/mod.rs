@@ -159,6 +159,9 @@ struct Loader<'a> {
     quantization: quantized::Quantization,
 }
 
+/// An emitter's light linking rules: receivers, blockers (`CAUSTIC_light_linking`).
+type Links = (Option<ReceiverRule>, Option<ReceiverRule>);
+
 impl<'a> Loader<'a> {
     fn new(file: &'a str, base_dir: &'a Path, budget: &'a MemoryBudget) -> Self {
         Loader {
@@ -280,6 +283,7 @@ impl<'a> Loader<'a> {
         let mut lights = Vec::new();
         // Lights whose Cast Shadow is off, by index in `lights`.
         let mut shadowless = Vec::new();
+        let mut no_catcher = Vec::new();
         let mut light_reports = Vec::new();
         let mut used_meshes = std::collections::HashSet::new();
         let mut instance_count = 0;
@@ -293,8 +297,9 @@ impl<'a> Loader<'a> {
         // Light linking: every triangle's object is kept only when some emitter has a rule.
         let linked = doc.nodes().any(|n| n.extension_value("CAUSTIC_light_linking").is_some());
         let mut linking = LightLinking::default();
-        let mut light_rules: Vec<(usize, ReceiverRule)> = Vec::new();
-        let mut node_rules: HashMap<u32, ReceiverRule> = HashMap::new();
+        // An emitter's rules: (receivers, blockers).
+        let mut light_rules: Vec<(usize, Links)> = Vec::new();
+        let mut node_rules: HashMap<u32, Links> = HashMap::new();
         let mut instances_out = Vec::new();
         // (node, name, end of its triangles) of each mesh instance, for the pass ids.
         let mut id_spans = Vec::new();
@@ -348,6 +353,9 @@ impl<'a> Loader<'a> {
                         if vis.holdout {
                             ray_visibility.mark_holdout(&node_name, first..total, total);
                         }
+                        if vis.shadow_catcher {
+                            ray_visibility.mark_catcher(&node_name, first..total, total);
+                        }
                     }
                     if linked {
                         linking.tri_object.resize(mesh.triangles.len(), *node_index as u32);
@@ -383,6 +391,9 @@ impl<'a> Loader<'a> {
                 if !rep.cast_shadow {
                     shadowless.push(lights.len());
                 }
+                if !rep.lights_catcher {
+                    no_catcher.push(lights.len());
+                }
                 if let Some(r) = &rule {
                     light_rules.push((lights.len(), r.clone()));
                 }
@@ -413,6 +424,9 @@ impl<'a> Loader<'a> {
                 if !rep.cast_shadow {
                     shadowless.push(lights.len());
                 }
+                if !rep.lights_catcher {
+                    no_catcher.push(lights.len());
+                }
                 if let Some(r) = rule {
                     light_rules.push((lights.len(), r));
                 }
@@ -437,6 +451,7 @@ impl<'a> Loader<'a> {
                     power,
                     triangles: 0,
                     cast_shadow: true,
+                    lights_catcher: true,
                 });
             } else {
                 self.warn("the world is black: it lights nothing");
@@ -452,15 +467,16 @@ impl<'a> Loader<'a> {
         self.emissive_lights(&mesh, &materials, &mut lights, &mut light_power, &mut light_reports)?;
         if linked {
             linking.rules = vec![None; lights.len()];
-            for (i, r) in light_rules {
-                linking.rules[i] = Some(r);
+            linking.blockers = vec![None; lights.len()];
+            for (i, (r, b)) in light_rules {
+                (linking.rules[i], linking.blockers[i]) = (r, b);
             }
             // An emissive object's rule goes to each of its triangles' lights.
             for (i, l) in lights.iter().enumerate() {
                 if let Light::Triangle { tri } = l
                     && let Some(r) = node_rules.get(&linking.tri_object[*tri as usize])
                 {
-                    linking.rules[i] = Some(r.clone());
+                    (linking.rules[i], linking.blockers[i]) = r.clone();
                 }
             }
         }
@@ -528,6 +544,13 @@ impl<'a> Loader<'a> {
         for i in shadowless {
             light_casts_shadow[i] = false;
         }
+        let mut light_lights_catcher = Vec::new();
+        if !no_catcher.is_empty() {
+            light_lights_catcher = vec![true; lights.len()];
+            for i in no_catcher {
+                light_lights_catcher[i] = false;
+            }
+        }
         Ok(Scene {
             pass_ids,
             mesh,
@@ -539,6 +562,7 @@ impl<'a> Loader<'a> {
             world,
             world_medium,
             light_casts_shadow,
+            light_lights_catcher,
             ray_visibility,
             light_linking: linking,
             settings,
@@ -551,25 +575,30 @@ impl<'a> Loader<'a> {
         })
     }
 
-    /// `CAUSTIC_light_linking` on emitter node `node_index`: its receivers by node name
-    /// (every node of that name: an object's instances share it); names not in the file
-    /// (objects not rendered) light nothing and are left out.
+    /// `CAUSTIC_light_linking` on emitter node `node_index`: its receivers and its blockers
+    /// by node name (every node of that name: an object's instances share it); names not in
+    /// the file (objects not rendered) are left out.
     fn receiver_rule(
         &self,
         doc: &gltf::Document,
         node_index: usize,
         node_name: &str,
         ext: &serde_json::Value,
-    ) -> Result<ReceiverRule> {
+    ) -> Result<Links> {
         let ext: LightLinkingExt = serde_json::from_value(ext.clone())
             .map_err(|e| self.err(format!("node {node_index} ('{node_name}'): bad CAUSTIC_light_linking: {e}")))?;
-        let mut objects: Vec<u32> = doc
-            .nodes()
-            .filter(|n| n.name().is_some_and(|name| ext.receivers.iter().any(|r| r == name)))
-            .map(|n| n.index() as u32)
-            .collect();
-        objects.sort_unstable();
-        Ok(ReceiverRule { include: ext.include, objects })
+        let rule = |names: &Option<Vec<String>>, include: bool| {
+            names.as_ref().map(|names| {
+                let mut objects: Vec<u32> = doc
+                    .nodes()
+                    .filter(|n| n.name().is_some_and(|name| names.iter().any(|r| r == name)))
+                    .map(|n| n.index() as u32)
+                    .collect();
+                objects.sort_unstable();
+                ReceiverRule { include, objects }
+            })
+        };
+        Ok((rule(&ext.receivers, ext.include), rule(&ext.blockers, ext.blockers_include)))
     }
 
     /// The material of primitives that name none: `CAUSTIC_default_material`'s (the add-on

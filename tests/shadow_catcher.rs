@@ -1,0 +1,170 @@
+//! The shadow catcher (`CAUSTIC_object_visibility.shadow_catcher`, Blender's Shadow
+//! Catcher) in a scene whose answer is known without rendering: a white floor that
+//! catches shadows under a sun shining straight down, and a quad above it that the camera
+//! does not see but that casts its shadow on the floor.
+//!
+//! Camera at the origin looking down -Z (half-height tan(0.25) = 0.2553 per unit of depth
+//! over 16 px); floor at z = -4; the quad (half-width 0.3) at z = -2 shadows the floor to
+//! ±4.7 px about the centre. Direct light only (max depth 1) from a delta sun: the floor's
+//! value on the split path and on the catcher pass is the same computation, so the factor
+//! is exactly 0 in the shadow and 1 outside it (up to the film's fixed-point rounding,
+//! far below the 1e-5 allowed).
+
+mod common;
+
+use common::{GltfBuilder, render_image, temp_dir};
+use serde_json::json;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+const LIMIT: Duration = Duration::from_secs(120);
+const W: usize = 32;
+const TOL: f32 = 1e-5;
+
+fn quad(g: &mut GltfBuilder, z: f32, h: f32, material: usize) -> usize {
+    let p = [[-h, -h, z], [h, -h, z], [h, h, z], [-h, h, z]];
+    g.mesh(&p, &[0, 1, 2, 0, 2, 3], material)
+}
+
+/// The scene; `world`: a constant world colour (none: no world); `transparent`: the film.
+fn scene(dir: &Path, name: &str, world: Option<f32>, transparent: bool) -> PathBuf {
+    let mut g = GltfBuilder::new();
+    let white =
+        g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1], "metallicFactor": 0.0}}));
+    let floor = quad(&mut g, -4.0, 10.0, white);
+    g.node_ext(floor, "CAUSTIC_object_visibility", json!({"shadow_catcher": true}));
+    let occluder = quad(&mut g, -2.0, 0.3, white);
+    g.node_ext(occluder, "CAUSTIC_object_visibility", json!({"camera": false}));
+    g.punctual(json!({"type": "directional", "intensity": 683.0}), [0.0, 0.0, 1.0], [0.0, 0.0, 0.0, 1.0]);
+    g.camera([0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0], 0.5);
+    if let Some(w) = world {
+        g.world(json!({"color": [w, w, w]}));
+    }
+    g.settings(json!({"transparent": transparent}));
+    g.write(dir, name)
+}
+
+fn args<'a>(extra: &[&'a str]) -> Vec<&'a str> {
+    let mut a =
+        vec!["--resolution", "32x32", "--spp", "8", "--filter", "box", "--filter-width", "1", "--max-depth", "1"];
+    a.extend_from_slice(extra);
+    a
+}
+
+/// Pixel indices wholly in the shadow (centre within 3.5 px) or wholly lit (6.5 to 15 px).
+fn shadowed(i: usize) -> bool {
+    ((i % W) as f32 - 15.5).abs().max(((i / W) as f32 - 15.5).abs()) < 3.5
+}
+fn lit(i: usize) -> bool {
+    (6.5..15.0).contains(&((i % W) as f32 - 15.5).abs().max(((i / W) as f32 - 15.5).abs()))
+}
+
+fn channels(path: &Path) -> BTreeMap<String, Vec<f32>> {
+    let image = exr::prelude::read_all_flat_layers_from_file(path).expect("read EXR");
+    let layer = &image.layer_data[0];
+    layer.channel_data.list.iter().map(|c| (c.name.to_string(), c.sample_data.values_as_f32().collect())).collect()
+}
+
+/// Film → Transparent without the Shadow Catcher pass (Cycles' approximate catcher): the
+/// floor itself is gone (colour 0) and its alpha is the shadow: 1 in the shadow, 0 where lit.
+#[test]
+fn transparent_combined_alpha_holds_the_shadow() {
+    let dir = temp_dir();
+    let d = dir.path();
+    let px = render_image(&scene(d, "a.gltf", None, true), &d.join("a.exr"), &args(&[]), LIMIT);
+    for (i, p) in px.iter().enumerate() {
+        if shadowed(i) {
+            assert!((p[3] - 1.0).abs() < TOL && p[0] == 0.0, "pixel {i} in the shadow: {p:?}");
+        }
+        if lit(i) {
+            assert!(p[3].abs() < TOL && p[0] == 0.0, "pixel {i} lit: {p:?}");
+        }
+    }
+}
+
+/// With the Shadow Catcher pass asked: the pass is the factor (0 in the shadow, 1 lit) and
+/// Combined is the matte, empty over the floor.
+#[test]
+fn shadow_catcher_pass_is_the_factor() {
+    let dir = temp_dir();
+    let d = dir.path();
+    let out = d.join("b.exr");
+    render_image(&scene(d, "b.gltf", None, true), &out, &args(&["--passes", "shadow_catcher"]), LIMIT);
+    let ch = channels(&out);
+    let (sc, alpha) = (&ch["Shadow Catcher.R"], &ch["Combined.A"]);
+    assert!(ch.contains_key("Shadow Catcher.B") && !ch.contains_key("Shadow Catcher.A"));
+    for i in 0..W * W {
+        assert!(alpha[i] == 0.0 && ch["Combined.G"][i] == 0.0, "pixel {i}: the matte over the floor is empty");
+        if shadowed(i) {
+            assert!(sc[i].abs() < TOL, "pixel {i} in the shadow: factor {}", sc[i]);
+        }
+        if lit(i) {
+            assert!((sc[i] - 1.0).abs() < TOL, "pixel {i} lit: factor {}", sc[i]);
+        }
+    }
+    // Without catchers the pass is 1 everywhere and Combined is the ordinary image.
+    let plain =
+        std::fs::read_to_string(d.join("b.gltf")).unwrap().replace("\"shadow_catcher\": true", "\"shadow\": true");
+    std::fs::write(d.join("c.gltf"), plain).unwrap();
+    let out = d.join("c.exr");
+    render_image(&d.join("c.gltf"), &out, &args(&["--passes", "shadow_catcher"]), LIMIT);
+    let ch = channels(&out);
+    assert!(ch["Shadow Catcher.G"].iter().all(|v| *v == 1.0));
+    assert!((0..W * W).filter(|&i| lit(i)).all(|i| ch["Combined.A"][i] == 1.0 && ch["Combined.R"][i] > 0.1));
+}
+
+/// An opaque film composites the matte over the world behind the catcher (Cycles'
+/// approximate catcher with its background pass): over the floor the image is the world's
+/// colour times the mean Shadow Catcher factor (at most 1), which a render with the pass asked gives
+/// for the same samples (the pass changes no sample), so the two agree to rounding. The
+/// world also lights the floor, so the factor is no longer exactly 0 or 1.
+#[test]
+fn opaque_film_shows_the_world_darkened_by_the_shadow() {
+    let dir = temp_dir();
+    let d = dir.path();
+    let s = scene(d, "o.gltf", Some(0.01), false);
+    let px = render_image(&s, &d.join("o.exr"), &args(&[]), LIMIT);
+    let out = d.join("f.exr");
+    render_image(&s, &out, &args(&["--passes", "shadow_catcher"]), LIMIT);
+    let ch = channels(&out);
+    for (i, p) in px.iter().enumerate().filter(|(i, _)| shadowed(*i) || lit(*i)) {
+        let mean = (ch["Shadow Catcher.R"][i] + ch["Shadow Catcher.G"][i] + ch["Shadow Catcher.B"][i]) / 3.0;
+        // Cycles clamps the mean factor to [0, 1] in the alpha.
+        assert!(p[3] == 1.0 && (p[1] - 0.01 * mean.clamp(0.0, 1.0)).abs() < 1e-6, "pixel {i}: {p:?}, factor {mean}");
+        assert!(if shadowed(i) { mean < 0.2 } else { mean > 0.5 }, "pixel {i}: factor {mean}");
+    }
+}
+
+/// Scenes with a catcher cannot be split into chunks yet (its sums are not in chunks), and
+/// the other integrators render the catcher as an ordinary object with a warning.
+#[test]
+fn chunks_refuse_and_other_integrators_warn() {
+    let dir = temp_dir();
+    let d = dir.path();
+    let s = scene(d, "w.gltf", None, true);
+    let out = d.join("w.exr");
+    let r = common::run(
+        &["render", s.to_str().unwrap(), "-o", out.to_str().unwrap(), "--chunk", "--spp", "1", "--progress", "json"],
+        LIMIT,
+    );
+    assert_eq!(r.code, Some(2), "{}", r.stderr);
+    assert!(r.error_message().unwrap_or_default().contains("shadow catcher"));
+    let r = common::run(
+        &[
+            "render",
+            s.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--integrator",
+            "bdpt",
+            "--spp",
+            "1",
+            "--progress",
+            "json",
+        ],
+        LIMIT,
+    );
+    assert_eq!(r.code, Some(0), "{}", r.stderr);
+    assert!(r.stderr.contains("shadow catcher object(s)"), "{}", r.stderr);
+}
