@@ -1,5 +1,5 @@
 """What Caustic cannot render yet, named: scene features that would otherwise be dropped without
-a word (motion blur, hair, volume objects, shadow catcher, lights' ray visibility beyond Camera, shadow
+a word (motion blur, hair, shadow catcher, lights' ray visibility beyond Camera, shadow
 linking (blockers), view layer indirect-only collections, material override; Holdout goes out with
 visibility.py, with a warning from the BDPT run that cannot render it). Each warning
 names the object, collection or setting and says what the render does instead."""
@@ -35,8 +35,6 @@ def object_warnings(obj):
     warnings = []
     if obj.type == "CURVES":
         warnings.append(f"{what}: hair curves are not rendered")
-    elif obj.type == "VOLUME":
-        warnings.append(f"{what}: volume objects (OpenVDB grids) are not rendered")
     elif obj.type == "POINTCLOUD":
         warnings.append(f"{what}: point clouds are not rendered")
     for modifier in getattr(obj, "modifiers", ()):

@@ -9,7 +9,10 @@
 //! * σa = max(1 − colour, 0) × max(1 − √Absorption Color, 0) × d (a negative colour read as 0),
 //! * E = Emission Strength × Emission Color + blackbody(T) × tint × σ/π·lerp(1, T⁴,
 //!   Blackbody Intensity), T = Temperature × max(temperature grid, 0) — not scaled by
-//!   the density, as in Cycles.
+//!   the density, as in Cycles. Cycles reads grids by stochastic one-tap lookups (one
+//!   voxel picked with its trilinear weight); for everything linear in the grid that is
+//!   trilinear interpolation in the mean, and the blackbody term, non-linear in T, is
+//!   blended from the voxels' emission to have the same mean.
 //!
 //! A coarse majorant grid (cells of [`CELL`] voxels) bounds the extinction for the
 //! tracking in `tracking.rs`. What it does not do: Cycles bounds a volume object by the
@@ -127,6 +130,28 @@ impl Field {
         if n == 1 { Vec3::splat(out[0]) } else { Vec3::from(out) }
     }
 
+    /// Σ wᵢ f(vᵢ) over the eight voxels around index-space point `p` with their trilinear
+    /// weights (first component): the expectation of Cycles' stochastic one-tap lookup
+    /// (Pharr et al., "Stochastic Texture Filtering"), which a non-linear `f` of the value
+    /// (the blackbody's T⁴) needs to match.
+    #[inline]
+    pub fn trilinear_of(&self, dims: [u32; 3], p: Vec3, f: impl Fn(f32) -> Rgb) -> Rgb {
+        let fl = p.floor();
+        let t = p - fl;
+        let (x0, y0, z0) = (fl.x as i64, fl.y as i64, fl.z as i64);
+        let mut sum = Rgb::ZERO;
+        for corner in 0..8 {
+            let (dx, dy, dz) = ((corner & 1) as i64, (corner >> 1 & 1) as i64, (corner >> 2 & 1) as i64);
+            let w = if dx == 1 { t.x } else { 1.0 - t.x }
+                * if dy == 1 { t.y } else { 1.0 - t.y }
+                * if dz == 1 { t.z } else { 1.0 - t.z };
+            if w > 0.0 {
+                sum += w * f(self.at(dims, x0 + dx, y0 + dy, z0 + dz, 0));
+            }
+        }
+        sum
+    }
+
     /// Largest value of component-maximum over voxels [lo, hi] (inclusive, clamped to the grid).
     fn max_over(&self, dims: [u32; 3], lo: [i64; 3], hi: [i64; 3]) -> f32 {
         let mut m = f32::NEG_INFINITY;
@@ -233,11 +258,16 @@ impl GridMedium {
         }
         let mut emission = if sh.emission.max_element() > CLOSURE_WEIGHT_CUTOFF { sh.emission } else { Rgb::ZERO };
         if sh.blackbody_intensity > CLOSURE_WEIGHT_CUTOFF {
-            let t = match &self.temperature {
-                Some(f) => sh.temperature * f.trilinear(self.dims, p).x.max(0.0),
-                None => sh.temperature,
+            // Not clamped: Cycles keeps the fit's negative channels (colours outside Rec.709,
+            // below about 980 K in green) in a volume's emission.
+            let glow = |t: f32| blackbody_emission(sh.temperature * t.max(0.0), sh.blackbody_intensity, sh.blackbody_tint);
+            emission += match &self.temperature {
+                // Cycles looks the temperature up stochastically (one voxel, picked with its
+                // trilinear weight), so its mean emission is the blend of the voxels' emission,
+                // not the emission of the blended temperature.
+                Some(f) => f.trilinear_of(self.dims, p, glow),
+                None => glow(1.0),
             };
-            emission += blackbody_emission(t, sh.blackbody_intensity, sh.blackbody_tint).max(Rgb::ZERO);
         }
         PointCoefficients { sigma_a, sigma_s, emission }
     }
