@@ -29,7 +29,11 @@ fn shader() -> Value {
 fn fog_scene(dir: &Path, name: &str, eye: [f32; 3], look: [f32; 3], grid: bool) -> PathBuf {
     let mut g = GltfBuilder::new();
     let white = g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1], "metallicFactor": 0.0, "roughnessFactor": 1.0}}));
-    g.mesh(&[[-20.0, 0.0, -20.0], [20.0, 0.0, -20.0], [20.0, 0.0, 20.0], [-20.0, 0.0, 20.0]], &[0, 2, 1, 0, 3, 2], white);
+    g.mesh(
+        &[[-20.0, 0.0, -20.0], [20.0, 0.0, -20.0], [20.0, 0.0, 20.0], [-20.0, 0.0, 20.0]],
+        &[0, 2, 1, 0, 3, 2],
+        white,
+    );
     g.punctual(json!({"type": "point", "intensity": 2732.0}), [0.3, 3.0, -0.2], [0.0, 0.0, 0.0, 1.0]);
     g.camera(eye, look_rotation(look), 0.6);
     if !grid {
@@ -48,8 +52,11 @@ fn fog_scene(dir: &Path, name: &str, eye: [f32; 3], look: [f32; 3], grid: bool) 
     };
     std::fs::write(dir.join("fog.cvol"), file.to_bytes()).unwrap();
     let path = g.write(dir, name);
-    add_volume(&path, json!({"name": "Fog", "uri": "fog.cvol", "matrix": identity(), "density_grid": null,
-                             "shader": shader()}));
+    add_volume(
+        &path,
+        json!({"name": "Fog", "uri": "fog.cvol", "matrix": identity(), "density_grid": null,
+                             "shader": shader()}),
+    );
     path
 }
 
@@ -130,8 +137,23 @@ fn render_with_file(bytes: &[u8], volume: Value) -> common::Run {
     let path = fog_scene(dir.path(), "v.gltf", [0.0, 2.5, 2.0], [0.0, -2.5, -2.0], false);
     add_volume(&path, volume);
     let out = dir.path().join("o.exr");
-    run(&["render", path.to_str().unwrap(), "-o", out.to_str().unwrap(), "--progress", "json", "--spp", "1",
-          "--resolution", "8x8", "--memory-limit", "1G"], LIMIT)
+    run(
+        &[
+            "render",
+            path.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--progress",
+            "json",
+            "--spp",
+            "1",
+            "--resolution",
+            "8x8",
+            "--memory-limit",
+            "1G",
+        ],
+        LIMIT,
+    )
 }
 
 fn density_file(dims: [u32; 3], values: Vec<f32>) -> GridFile {
@@ -148,9 +170,7 @@ fn density_file(dims: [u32; 3], values: Vec<f32>) -> GridFile {
 #[test]
 fn bad_volumes_are_refused() {
     let good = density_file([2, 2, 2], vec![1.0; 8]).to_bytes();
-    let volume = |grid: &str, shader: Value| {
-        json!({"name": "Smoke", "uri": "v.cvol", "matrix": identity(), "density_grid": grid, "shader": shader})
-    };
+    let volume = |grid: &str, shader: Value| json!({"name": "Smoke", "uri": "v.cvol", "matrix": identity(), "density_grid": grid, "shader": shader});
     let mut nan = density_file([2, 2, 2], vec![1.0; 8]);
     nan.grids[0].values[3] = f32::NAN;
     let mut anisotropic = shader();

@@ -104,7 +104,8 @@ impl Field {
         if x < 0 || y < 0 || z < 0 || x >= dims[0] as i64 || y >= dims[1] as i64 || z >= dims[2] as i64 {
             return 0.0;
         }
-        let i = (x as usize + dims[0] as usize * (y as usize + dims[1] as usize * z as usize)) * self.components as usize;
+        let i =
+            (x as usize + dims[0] as usize * (y as usize + dims[1] as usize * z as usize)) * self.components as usize;
         self.values[i + c]
     }
 
@@ -260,7 +261,8 @@ impl GridMedium {
         if sh.blackbody_intensity > CLOSURE_WEIGHT_CUTOFF {
             // Not clamped: Cycles keeps the fit's negative channels (colours outside Rec.709,
             // below about 980 K in green) in a volume's emission.
-            let glow = |t: f32| blackbody_emission(sh.temperature * t.max(0.0), sh.blackbody_intensity, sh.blackbody_tint);
+            let glow =
+                |t: f32| blackbody_emission(sh.temperature * t.max(0.0), sh.blackbody_intensity, sh.blackbody_tint);
             emission += match &self.temperature {
                 // Cycles looks the temperature up stochastically (one voxel, picked with its
                 // trilinear weight), so its mean emission is the blend of the voxels' emission,
@@ -327,7 +329,8 @@ impl GridMedium {
 
     /// True when the shader emits anywhere (Emission Strength or blackbody).
     pub fn may_emit(&self) -> bool {
-        self.shader.emission.max_element() > CLOSURE_WEIGHT_CUTOFF || self.shader.blackbody_intensity > CLOSURE_WEIGHT_CUTOFF
+        self.shader.emission.max_element() > CLOSURE_WEIGHT_CUTOFF
+            || self.shader.blackbody_intensity > CLOSURE_WEIGHT_CUTOFF
     }
 
     /// The majorant of cell (cx, cy, cz).
@@ -389,7 +392,11 @@ mod tests {
             let c = g.coefficients(p, true);
             let cell = (p + 1.0) / CELL as f32;
             let m = g.cell_majorant([cell.x as u32, cell.y as u32, cell.z as u32]);
-            assert!((c.sigma_a + c.sigma_s).max_element() <= m, "σt {} over majorant {m} at {p}", c.sigma_a + c.sigma_s);
+            assert!(
+                (c.sigma_a + c.sigma_s).max_element() <= m,
+                "σt {} over majorant {m} at {p}",
+                c.sigma_a + c.sigma_s
+            );
         }
         // A voxel centre: σs = colour·d, σa = (1 − colour)(1 − √a)·d.
         let plain = GridMedium::new(

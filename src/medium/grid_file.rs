@@ -84,7 +84,8 @@ impl GridFile {
     /// Parses `bytes` (a file named `uri` in messages), charging the voxels to `budget`
     /// before they are copied. Errors are scene errors of `file` (exit 3), or the memory error.
     pub fn parse(bytes: &[u8], uri: &str, file: &str, budget: &MemoryBudget) -> Result<GridFile> {
-        let bad = |m: String| Error::Scene { file: file.to_string(), message: format!("volume grid file '{uri}': {m}") };
+        let bad =
+            |m: String| Error::Scene { file: file.to_string(), message: format!("volume grid file '{uri}': {m}") };
         let mut r = Reader { bytes, at: 0 };
         if r.take(8).map_err(bad)? != MAGIC {
             return Err(bad("not a Caustic grid file (the magic 'CAUSTICV' is missing)".into()));
@@ -133,7 +134,10 @@ impl GridFile {
         let remaining = (bytes.len() - r.at) as u64;
         if remaining != values * 4 {
             let what = if remaining < values * 4 { "truncated" } else { "has trailing bytes" };
-            return Err(bad(format!("{what}: the header promises {} bytes of voxels, the file holds {remaining}", values * 4)));
+            return Err(bad(format!(
+                "{what}: the header promises {} bytes of voxels, the file holds {remaining}",
+                values * 4
+            )));
         }
         let mut grids = Vec::with_capacity(headers.len());
         for (name, components) in headers {
@@ -143,8 +147,12 @@ impl GridFile {
                 raw.chunks_exact(4).map(|b| f32::from_le_bytes(b.try_into().expect("4 bytes"))).collect();
             if let Some(i) = values.iter().position(|v| !v.is_finite()) {
                 let v = i / components as usize;
-                let (x, y, z) = (v % dims[0] as usize, v / dims[0] as usize % dims[1] as usize, v / (dims[0] * dims[1]) as usize);
-                return Err(bad(format!("grid '{name}': voxel ({x}, {y}, {z}) is {} (values must be finite)", values[i])));
+                let (x, y, z) =
+                    (v % dims[0] as usize, v / dims[0] as usize % dims[1] as usize, v / (dims[0] * dims[1]) as usize);
+                return Err(bad(format!(
+                    "grid '{name}': voxel ({x}, {y}, {z}) is {} (values must be finite)",
+                    values[i]
+                )));
             }
             grids.push(NamedGrid { name, components, values });
         }

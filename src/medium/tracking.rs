@@ -104,7 +104,8 @@ impl<'a> MajorantWalk<'a> {
             t0 = t0.max(ta.min(tb));
             t1 = t1.min(ta.max(tb));
         }
-        let mut walk = MajorantWalk { g, cell: [0; 3], step: [0; 3], next: [f32::INFINITY; 3], delta: [0.0; 3], t: t0, t_end: t1 };
+        let mut walk =
+            MajorantWalk { g, cell: [0; 3], step: [0; 3], next: [f32::INFINITY; 3], delta: [0.0; 3], t: t0, t_end: t1 };
         if !(t0 < t1) {
             walk.t_end = walk.t;
             return walk;
@@ -277,7 +278,12 @@ mod tests {
         let (mean, err) = got;
         for c in 0..3 {
             let bound = 5.0 * err[c] + 1e-5;
-            assert!((mean[c] - want[c]).abs() <= bound, "{what}, channel {c}: {} vs {} (bound {bound})", mean[c], want[c]);
+            assert!(
+                (mean[c] - want[c]).abs() <= bound,
+                "{what}, channel {c}: {} vs {} (bound {bound})",
+                mean[c],
+                want[c]
+            );
         }
     }
 
@@ -328,7 +334,8 @@ mod tests {
         let density = Field { values: (0..n_vox).map(|i| i as f32).collect(), components: 1 };
         let voxel = 0.1;
         let world = Affine3A::from_scale(Vec3::splat(voxel));
-        let g = GridMedium::new("ramp".into(), [n_vox, 1, 1], world, [Some(density), None, None], shader(0.8, Rgb::ZERO));
+        let g =
+            GridMedium::new("ramp".into(), [n_vox, 1, 1], world, [Some(density), None, None], shader(0.8, Rgb::ZERO));
         // Extinction per unit density, read where the density is 1.
         let c = g.coefficients(Vec3::new(1.0, 0.0, 0.0), false);
         let k = c.sigma_a + c.sigma_s;
@@ -342,7 +349,11 @@ mod tests {
         // Both directions agree (the cell walk runs backwards too).
         let mut rng = WalkRng::new(0.5, 12);
         let back = Vec3::new(b * voxel, 0.0, 0.0);
-        agrees("ramp backwards", mean_and_error(200_000, |_| ratio_tracking(&g, back, -Vec3::X, t_max, &mut rng)), exact);
+        agrees(
+            "ramp backwards",
+            mean_and_error(200_000, |_| ratio_tracking(&g, back, -Vec3::X, t_max, &mut rng)),
+            exact,
+        );
     }
 
     /// The cell walk covers [entry, exit] of the domain without gaps or overlaps.

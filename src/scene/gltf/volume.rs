@@ -116,7 +116,11 @@ impl Loader<'_> {
                 .ok_or_else(|| self.err(format!("{what}: the {kind} grid '{name}' is not in '{}'", v.uri)))?;
             Ok(Some(Field { values: g.values.clone(), components: g.components }))
         };
-        let fields = [take(&v.density_grid, "density")?, take(&v.temperature_grid, "temperature")?, take(&v.color_grid, "colour")?];
+        let fields = [
+            take(&v.density_grid, "density")?,
+            take(&v.temperature_grid, "temperature")?,
+            take(&v.color_grid, "colour")?,
+        ];
         let m = file.index_to_object;
         let index_to_object = Affine3A::from_mat4(Mat4::from_cols_array(&[
             m[0], m[4], m[8], 0.0, m[1], m[5], m[9], 0.0, m[2], m[6], m[10], 0.0, m[3], m[7], m[11], 1.0,
