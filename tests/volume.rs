@@ -195,3 +195,29 @@ fn bad_volumes_are_refused() {
     assert_eq!(r.code, Some(7), "absurd dimensions: {}", r.stderr);
     assert!(r.error_message().unwrap_or_default().contains("volume grids"), "{}", r.stderr);
 }
+
+/// Blackbody emission of a homogeneous medium (`CAUSTIC_materials_medium`'s blackbody keys,
+/// here the world's volume): an absorbing, glowing world seen along camera rays that meet
+/// nothing gives the unbounded segment's E/σa exactly (no sampling is involved), with E
+/// Cycles' blackbody at the Temperature; to 1e-5 relative (f32 evaluation of the same formula).
+#[test]
+fn homogeneous_blackbody_emission_reaches_equilibrium() {
+    let dir = temp_dir();
+    let mut g = GltfBuilder::new();
+    let grey = g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1]}}));
+    // Something to render, behind the camera.
+    g.mesh(&[[-1.0, -1.0, 5.0], [1.0, -1.0, 5.0], [0.0, 1.0, 5.0]], &[0, 1, 2], grey);
+    g.camera([0.0, 0.0, 0.0], look_rotation([0.0, 0.0, -1.0]), 0.5);
+    let (sigma_a, t, tint) = (0.5f32, 2500.0f32, [1.0f32, 0.8, 0.6]);
+    g.world(json!({"color": [0.0, 0.0, 0.0], "medium": {"density": 1.0, "scatter_color": [0.0, 0.0, 0.0],
+        "absorption_color": [sigma_a, sigma_a, sigma_a], "blackbody_intensity": 1.0, "blackbody_tint": tint, "temperature": t}}));
+    let path = g.write(dir.path(), "glow.gltf");
+    let image = render_image(&path, &dir.path().join("glow.exr"), &["--resolution", "4x4", "--spp", "4"], LIMIT);
+    let e = caustic::medium::blackbody::blackbody_emission(t, 1.0, glam::Vec3::from(tint));
+    for p in &image {
+        for c in 0..3 {
+            let want = e[c] / sigma_a;
+            assert!(want > 0.01 && (p[c] - want).abs() <= 1e-5 * want, "channel {c}: {} vs {want}", p[c]);
+        }
+    }
+}

@@ -146,3 +146,18 @@ def test_volume_export_writes_the_grid_file(addon, empty_scene, tmp_path):
     expected = field[lo[0]:hi[0] + 1, lo[1]:hi[1] + 1, lo[2]:hi[2] + 1].transpose(2, 1, 0)
     np.testing.assert_array_equal(voxels, expected)
     assert json.dumps(value)  # plain JSON
+
+
+def test_blackbody_in_a_mesh_volume_matches_cycles(empty_scene, tmp_path):
+    """A Principled Volume with blackbody emission inside a mesh (no temperature grid: the
+    Temperature alone, 2500 K) glowing through its own absorption onto the floor, no light;
+    exported as `CAUSTIC_materials_medium`'s blackbody keys."""
+    def add_glow(scene):
+        mat = principled_volume("Glow", Density=1.5, Color=(0.1, 0.1, 0.1, 1.0), **{
+            "Blackbody Intensity": 1.0, "Temperature": 2500.0, "Blackbody Tint": (0.9, 1.0, 1.0, 1.0)})
+        scenes.cube(scene, "GlowBox", 0.8, (-0.3, 0.2, 1.2), material=mat)
+
+    scene = empty_scene
+    build(scene, add_glow)
+    ratios = assert_mean_matches_cycles(scene, tmp_path, "mesh blackbody", MODEL_ALLOWANCE, per_channel=True)
+    print(f"\n[caustic/cycles] mesh blackbody {ratios}")
