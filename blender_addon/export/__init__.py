@@ -21,6 +21,7 @@ out of it or writes differently from what Cycles renders (docs/contract.md):
 | `depsgraph.py` | pointing the exporter at the render depsgraph |
 | `state.py` | the export in progress, shared with the hooks |
 | `view_layer.py` | the view layer's excluded collections left out of the exporter's tree (instances kept); the Material Override is applied in `meshes.py` |
+| `volumes.py` | volume objects: their grids from the .vdb into `caustic_volumes/*.cvol`, `CAUSTIC_volume` |
 | `unsupported.py` | warnings naming what Caustic cannot render yet (motion blur, hair, holdout, ...) |
 """
 
@@ -39,6 +40,7 @@ from .media import MEDIUM_EXTENSION, SUBSURFACE_EXTENSION, medium_extension, sub
 from .settings import render_settings  # noqa: F401
 from .state import ExportState, exporting
 from .unsupported import scene_warnings
+from .volumes import VOLUME_EXTENSION, attach_volumes  # noqa: F401
 from .world import WORLD_EXTENSION, world_extension  # noqa: F401
 
 
@@ -101,4 +103,5 @@ def export_scene(depsgraph, folder, settings):
     state.warnings.extend(scene_warnings(depsgraph))
     if not os.path.isfile(filepath):
         raise CausticError("glTF export wrote no file")
+    state.warnings.extend(attach_volumes(depsgraph, folder, filepath))
     return filepath, state

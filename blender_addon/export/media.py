@@ -84,8 +84,9 @@ def volume_medium(node, what, warnings):
         value["anisotropy"] = float(_value(node, "Anisotropy", what, warnings, 0.0))
         strength = float(_value(node, "Emission Strength", what, warnings, 0.0))
         value["emission"] = [max(c, 0.0) * max(strength, 0.0) for c in rgb("Emission Color", (1, 1, 1))]
-        if float(_value(node, "Blackbody Intensity", what, warnings, 0.0)) > 0.0:
-            warnings.append(f"{what}: the {node.name} node's blackbody emission is not exported")
+        value["blackbody_intensity"] = max(float(_value(node, "Blackbody Intensity", what, warnings, 0.0)), 0.0)
+        value["blackbody_tint"] = [max(c, 0.0) for c in rgb("Blackbody Tint", (1.0, 1.0, 1.0))]
+        value["temperature"] = float(_value(node, "Temperature", what, warnings, 1000.0))
     elif node.type == "VOLUME_SCATTER":
         value["density"] = max(float(_value(node, "Density", what, warnings, 1.0)), 0.0)
         value["scatter_color"] = [max(c, 0.0) for c in rgb("Color", (0.8, 0.8, 0.8))]

@@ -1,5 +1,5 @@
 """What Caustic cannot render yet, named: scene features that would otherwise be dropped without
-a word (motion blur, hair, volume objects, lights' ray visibility beyond Camera, material
+a word (motion blur, hair, lights' ray visibility beyond Camera, material
 override; shadow linking goes out with light_linking.py; Holdout, Indirect Only collections and Shadow
 Catcher go out with visibility.py, with a warning from the runs of integrators that cannot render
 them). Each warning
@@ -34,8 +34,6 @@ def object_warnings(obj):
     warnings = []
     if obj.type == "CURVES":
         warnings.append(f"{what}: hair curves are not rendered")
-    elif obj.type == "VOLUME":
-        warnings.append(f"{what}: volume objects (OpenVDB grids) are not rendered")
     elif obj.type == "POINTCLOUD":
         warnings.append(f"{what}: point clouds are not rendered")
     for modifier in getattr(obj, "modifiers", ()):

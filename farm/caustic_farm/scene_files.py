@@ -1,8 +1,8 @@
 """What a scene needs on a worker: the scene file and every file it refers to, by content.
 
 A glTF names its buffers and images by relative URIs, and Caustic's extensions name more
-files (`CAUSTIC_world.image`, the node graphs' `images[].uri`). These files travel to the
-workers keyed by their SHA-256, so a file shared by many frames (one `.bin` under 100
+files (`CAUSTIC_world.image`, the node graphs' `images[].uri`, `CAUSTIC_volume`'s grid
+files, `volumes[].uri`). These files travel to the workers keyed by their SHA-256, so a file shared by many frames (one `.bin` under 100
 animated `.gltf` files) travels once, and a worker rebuilds each scene's folder from the
 content it already holds.
 """

@@ -267,3 +267,17 @@ def test_file_gone_from_a_cache_is_sent_again(tmp_path, client, events):
     assert result.code == 0 and result.retries == 0
     assert any(e["type"] == "resend" and e["files"] == 1 for e in seen), seen
     assert read(again) == read(first)
+
+
+def test_volume_grid_files_travel(tmp_path):
+    # A volume object's grid file is named by `CAUSTIC_volume.volumes[].uri` (docs/contract.md):
+    # it travels with the scene like buffers and images.
+    from caustic_farm.scene_files import scene_files
+
+    (tmp_path / "caustic_volumes").mkdir()
+    (tmp_path / "caustic_volumes" / "Smoke.cvol").write_bytes(b"CAUSTICV")
+    scene = tmp_path / "scene.gltf"
+    scene.write_text(json.dumps({"asset": {"version": "2.0"}, "extensions": {"CAUSTIC_volume": {"volumes": [
+        {"name": "Smoke", "uri": "caustic_volumes/Smoke.cvol"}]}}}))
+    rels = [rel for rel, _ in scene_files(str(scene))]
+    assert rels == ["scene.gltf", os.path.join("caustic_volumes", "Smoke.cvol")]

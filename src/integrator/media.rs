@@ -7,7 +7,8 @@
 use super::SceneContext;
 use crate::light::LightSample;
 use crate::math::{Rgb, offset_ray_origin};
-use crate::medium::{FreeFlight, HenyeyGreenstein, MediumStack};
+use crate::medium::tracking::delta_tracking;
+use crate::medium::{FreeFlight, GridMedium, HenyeyGreenstein, Medium, MediumStack, WalkRng};
 use crate::scene::AlphaMode;
 use crate::scene::visibility::RayMask;
 use glam::Vec3;
@@ -16,21 +17,24 @@ use glam::Vec3;
 /// BLEND surfaces) before it is considered blocked: bounds the loop.
 const MAX_SHADOW_CROSSINGS: u32 = 64;
 
-/// One ray segment through the media `media`, up to `t_surface`: adds the medium's
-/// emission along it to `l` (times `beta`) and samples a free flight. Returns the
-/// scattering event (distance, phase function) if any, the weight of emitters crossed
-/// before the event, and the segment's throughput factor.
+/// One ray segment `(origin, unit direction)` through the media `media`, up to
+/// `t_surface`: adds the medium's emission along it to `l` (times `beta`) and samples a
+/// free flight. Returns the scattering event (distance, phase function) if any, the
+/// weight of emitters crossed before the event, and the segment's throughput factor.
 #[inline]
 pub fn medium_segment(
     ctx: &SceneContext,
     media: &MediumStack,
+    ray: (Vec3, Vec3),
     t_surface: f32,
     beta: Rgb,
     u: [f32; 2],
     l: &mut Rgb,
 ) -> (Option<(f32, HenyeyGreenstein)>, Rgb, Rgb) {
-    let Some(m) = ctx.medium(media) else {
-        return (None, Rgb::ONE, Rgb::ONE);
+    let m = match ctx.medium(media) {
+        None => return (None, Rgb::ONE, Rgb::ONE),
+        Some(Medium::Grid(g)) => return grid_segment(g, ray, t_surface, beta, u, l),
+        Some(Medium::Homogeneous(m)) => m,
     };
     // An unbounded segment (an open mesh's medium, the world's) gathers E/σt where the
     // medium attenuates; infinite emission (σt = 0) is refused when the scene loads.
@@ -41,6 +45,31 @@ pub fn medium_segment(
     match m.sample_free_flight(t_surface, beta, u[0], u[1]) {
         FreeFlight::Scatter { t, weight } => (Some((t, m.phase)), m.pass_weight(t, beta), weight),
         FreeFlight::Pass { weight } => (None, m.pass_weight(t_surface.min(1e30), beta), weight),
+    }
+}
+
+/// [`medium_segment`] in a grid medium: delta tracking, seeded from the segment's two
+/// sample values (the walk needs as many numbers as it meets collisions). Emitters crossed
+/// before the event take the weight the tracking reached at the event, which is exact
+/// when none sits inside the grid's box (an area light inside smoke is approximate).
+#[inline]
+fn grid_segment(
+    g: &GridMedium,
+    (org, dir): (Vec3, Vec3),
+    t_surface: f32,
+    beta: Rgb,
+    u: [f32; 2],
+    l: &mut Rgb,
+) -> (Option<(f32, HenyeyGreenstein)>, Rgb, Rgb) {
+    let mut rng = WalkRng::new(u[1], u[0].to_bits());
+    let mut emitted = Rgb::ZERO;
+    let (flight, pass) = delta_tracking(g, org, dir, t_surface, beta, &mut rng, &mut emitted);
+    if emitted.is_finite() {
+        *l += beta * emitted;
+    }
+    match flight {
+        FreeFlight::Scatter { t, weight } => (Some((t, g.phase)), pass, weight),
+        FreeFlight::Pass { weight } => (None, pass, weight),
     }
 }
 
@@ -85,7 +114,7 @@ pub fn light_transmittance_of(
         if let Some(m) = ctx.medium(&stack)
             && m.attenuates()
         {
-            tr *= m.transmittance(seg);
+            tr *= m.transmittance_along(org, dir, seg);
         }
         let Some(h) = hit else {
             return tr;

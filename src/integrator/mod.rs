@@ -20,7 +20,7 @@ use crate::light::{
     intersect_sphere, sphere_cos_max, sun_radiance,
 };
 use crate::math::{Rgb, offset_ray_origin};
-use crate::medium::{HomogeneousMedium, MediumStack};
+use crate::medium::{Medium, MediumStack};
 use crate::render::job::RayStats;
 use crate::sampling::PixelSampler;
 use crate::sampling::warp::uniform_cone_pdf;
@@ -406,11 +406,17 @@ impl<'a> SceneContext<'a> {
 
     /// The medium in effect for a stack of media.
     #[inline]
-    pub fn medium(&self, stack: &MediumStack) -> Option<&HomogeneousMedium> {
+    pub fn medium(&self, stack: &MediumStack) -> Option<Medium<'_>> {
         match stack.current() {
-            Some(m) => self.scene.materials[m as usize].medium.as_ref(),
+            Some(m) => {
+                let mat = &self.scene.materials[m as usize];
+                match mat.grid {
+                    Some(g) => Some(Medium::Grid(&self.scene.grids[g as usize])),
+                    None => mat.medium.as_ref().map(Medium::Homogeneous),
+                }
+            }
             // Outside every mesh medium: the world's volume, if any.
-            None => self.scene.world_medium.as_ref(),
+            None => self.scene.world_medium.as_ref().map(Medium::Homogeneous),
         }
     }
 

@@ -189,9 +189,9 @@ impl PathState {
 
         // The medium along this segment: emission, then where the next event is.
         let (scatter, crossed_w, segment_weight) = match u_medium {
-            Some(u) => medium_segment(ctx, &self.media, t_surface, self.beta, u, radiance),
+            Some(u) => medium_segment(ctx, &self.media, (self.org, self.dir), t_surface, self.beta, u, radiance),
             None => match (ctx.medium(&self.media), hit) {
-                (Some(m), Some(h)) => (None, Rgb::ONE, m.transmittance(h.t)),
+                (Some(m), Some(h)) => (None, Rgb::ONE, m.transmittance_along(self.org, self.dir, h.t)),
                 _ => (None, Rgb::ONE, Rgb::ONE),
             },
         };

@@ -2,18 +2,25 @@
 //! chromatic free-flight sampling, the medium stack that tracks nested media along a
 //! path, and the albedo inversion of random-walk subsurface scattering. Pure maths:
 //! the scene-aware parts (walks through geometry, shadow rays) live in
-//! `integrator::media`.
+//! `integrator::media`. Grid media (volume objects) and their tracking are in
+//! `grid.rs` and `tracking.rs`, their file format in `grid_file.rs`.
 //!
 //! Chromatic media are sampled as Cycles and pbrt-v4 do: pick one colour channel,
 //! sample a distance from that channel's exponential, and weight by the *average* of
 //! the three channels' densities (one-sample MIS with the balance heuristic), so a
 //! medium whose extinction differs by channel has no fireflies.
 
+pub mod blackbody;
+pub mod grid;
+pub mod grid_file;
 pub mod phase;
+pub mod tracking;
 pub mod walk;
 
 use crate::math::Rgb;
+pub use grid::GridMedium;
 pub use phase::HenyeyGreenstein;
+pub use tracking::Medium;
 
 /// A homogeneous medium: coefficients per scene unit.
 #[derive(Clone, Copy, Debug, PartialEq)]

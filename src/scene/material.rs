@@ -99,6 +99,9 @@ pub struct Material {
     /// The boundary has no surface (a volume-only material, as Blender's with nothing
     /// on the Surface output): rays cross it unchanged and only the medium changes.
     pub null_surface: bool,
+    /// The volume object's grid medium (`Scene::grids`) that replaces `medium` inside a
+    /// volume object's bounding box (`CAUSTIC_volume`).
+    pub grid: Option<u32>,
     /// `CAUSTIC_materials_subsurface`: Principled BSDF random-walk subsurface scattering.
     pub subsurface: Option<Subsurface>,
     /// Alpha mode.
@@ -139,6 +142,7 @@ impl Default for Material {
             transmission_tex: None,
             medium: None,
             null_surface: false,
+            grid: None,
             subsurface: None,
             coat: 0.0,
             coat_tex: None,
@@ -233,6 +237,7 @@ impl Material {
             dispersion: _,
             medium: _,
             null_surface: _,
+            grid: _,
             subsurface: _,
             alpha_mode: _,
             double_sided: _,

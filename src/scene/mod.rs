@@ -203,6 +203,8 @@ pub struct Scene {
     /// The medium filling the scene outside every mesh medium (Blender's World Volume);
     /// camera rays and lights start in it.
     pub world_medium: Option<crate::medium::HomogeneousMedium>,
+    /// Volume objects' grid media (`Material::grid` indexes this).
+    pub grids: Vec<crate::medium::GridMedium>,
     /// Per light (indexed as `lights`): false for a light whose Cast Shadow is off, whose
     /// next-event estimation then skips the shadow ray (as Cycles does).
     pub light_casts_shadow: Vec<bool>,

@@ -42,8 +42,22 @@ pub(super) struct MediumExt {
     pub(super) anisotropy: f32,
     #[serde(default = "black")]
     pub(super) emission: [f32; 3],
+    /// The Principled Volume's Blackbody Intensity (0: no blackbody emission).
+    #[serde(default)]
+    pub(super) blackbody_intensity: f32,
+    /// Blackbody Tint.
+    #[serde(default = "white")]
+    pub(super) blackbody_tint: [f32; 3],
+    /// Temperature (kelvin).
+    #[serde(default = "kelvin_1000")]
+    pub(super) temperature: f32,
     #[serde(default = "yes")]
     pub(super) surface: bool,
+}
+
+/// The Principled Volume's default Temperature.
+fn kelvin_1000() -> f32 {
+    1000.0
 }
 
 /// `CAUSTIC_materials_subsurface` on a material (docs/contract.md).

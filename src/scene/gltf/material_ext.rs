@@ -42,9 +42,11 @@ impl Loader<'_> {
     /// The homogeneous medium a `CAUSTIC_materials_medium` value describes (also the world's
     /// volume), checked: finite, non-negative density and colours, anisotropy in [-1, 1].
     pub(super) fn homogeneous_medium(&self, what: &str, ext: &MediumExt) -> Result<HomogeneousMedium> {
-        let colours = [ext.scatter_color, ext.absorption_color, ext.emission];
+        let colours = [ext.scatter_color, ext.absorption_color, ext.emission, ext.blackbody_tint];
         let finite = ext.density.is_finite()
             && ext.anisotropy.is_finite()
+            && ext.blackbody_intensity.is_finite()
+            && ext.temperature.is_finite()
             && colours.iter().all(|c| c.iter().all(|x| x.is_finite()));
         if !finite || ext.density < 0.0 || colours.iter().any(|c| c.iter().any(|&x| x < 0.0)) {
             return Err(self.err(format!("{what} needs finite, non-negative density and colours")));
@@ -56,7 +58,13 @@ impl Loader<'_> {
             sigma_a: Vec3::from(ext.absorption_color) * ext.density,
             sigma_s: Vec3::from(ext.scatter_color) * ext.density,
             phase: HenyeyGreenstein::new(ext.anisotropy),
-            emission: Vec3::from(ext.emission),
+            // A mesh or the world has no temperature grid: the Temperature alone, as Cycles.
+            emission: Vec3::from(ext.emission)
+                + crate::medium::blackbody::blackbody_emission(
+                    ext.temperature,
+                    ext.blackbody_intensity,
+                    Vec3::from(ext.blackbody_tint),
+                ),
         })
     }
 

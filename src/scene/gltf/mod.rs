@@ -29,6 +29,7 @@ mod shader_graph;
 mod spec_gloss;
 mod textures;
 mod validate;
+mod volume;
 mod world;
 
 use super::texture::Texture;
@@ -78,6 +79,7 @@ pub const SUPPORTED_REQUIRED: &[&str] = &[
     "CAUSTIC_materials_anisotropy",
     "CAUSTIC_materials_sheen",
     "CAUSTIC_default_material",
+    "CAUSTIC_volume",
 ];
 
 /// glTF's photometric units to Blender's radiometric ones: Blender's exporter writes
@@ -279,6 +281,8 @@ impl<'a> Loader<'a> {
         self.charge_mesh(&doc, &instances)?;
 
         let mut mesh = Mesh::default();
+        // Volume objects first: their boxes are plain triangles with a volume-only material.
+        let grids = self.volumes(&value, &mut mesh, &mut materials)?;
         let mut cameras = Vec::new();
         let mut lights = Vec::new();
         // Lights whose Cast Shadow is off, by index in `lights`.
@@ -499,7 +503,8 @@ impl<'a> Loader<'a> {
             cameras.push(frame_bounds(lo, hi));
         }
         let glowing_media = world_medium.as_ref().is_some_and(|m| m.emission != glam::Vec3::ZERO)
-            || materials.iter().any(|m| m.medium.as_ref().is_some_and(|m| m.emission != glam::Vec3::ZERO));
+            || materials.iter().any(|m| m.medium.as_ref().is_some_and(|m| m.emission != glam::Vec3::ZERO))
+            || grids.iter().any(|g| g.may_emit());
         if lights.is_empty() && !glowing_media {
             self.warn("the scene has no lights, no emissive materials and no emitting media: the image will be black");
         }
@@ -561,6 +566,7 @@ impl<'a> Loader<'a> {
             cameras,
             world,
             world_medium,
+            grids,
             light_casts_shadow,
             light_lights_catcher,
             ray_visibility,
