@@ -9,6 +9,7 @@ use crate::light::LightSample;
 use crate::math::{Rgb, offset_ray_origin};
 use crate::medium::{FreeFlight, HenyeyGreenstein, MediumStack};
 use crate::scene::AlphaMode;
+use crate::scene::light_path::LightPath;
 use crate::scene::visibility::RayMask;
 use glam::Vec3;
 
@@ -48,12 +49,14 @@ pub fn medium_segment(
 /// along `ng`, or a point in a medium when `ng` is None) through the media of `stack`:
 /// volume boundaries without a surface are crossed (changing the medium), BLEND
 /// surfaces pass 1 - alpha (a tinted Transparent BSDF its colour), any other surface blocks.
+/// `path`: the shadow ray as the Light Path node sees it.
 pub fn light_transmittance(
     ctx: &SceneContext,
     p: Vec3,
     ng: Option<Vec3>,
     ls: &LightSample,
     mut stack: MediumStack,
+    mut path: LightPath,
 ) -> Rgb {
     let org = match ng {
         Some(n) => offset_ray_origin(p, if ls.wi.dot(n) >= 0.0 { n } else { -n }),
@@ -72,6 +75,8 @@ pub fn light_transmittance(
     };
     let mut org = org;
     let mut tr = Rgb::ONE;
+    // Cycles measures each hit's Ray Length along the one shadow ray.
+    let mut travelled = 0.0;
     for _ in 0..MAX_SHADOW_CROSSINGS {
         let hit = ctx.intersect_as(org, dir, remaining, RayMask::SHADOW);
         let seg = hit.map_or(remaining, |h| h.t);
@@ -88,7 +93,8 @@ pub fn light_transmittance(
         if mat.null_surface {
             stack = ctx.medium_after(&s, dir, stack);
         } else if mat.alpha_mode == AlphaMode::Blend {
-            tr *= ctx.scene.transmission(h.tri, h.b1, h.b2);
+            tr *= ctx.scene.transmission(h.tri, h.b1, h.b2, path.at(travelled + h.t));
+            path = path.passed_transparent();
         } else {
             return Rgb::ZERO;
         }
@@ -97,6 +103,7 @@ pub fn light_transmittance(
         }
         org = offset_ray_origin(s.p, -s.ng);
         remaining -= h.t;
+        travelled += h.t;
         if !(remaining > 0.0) {
             return tr;
         }

@@ -9,6 +9,7 @@ use crate::light::LightSample;
 use crate::math::Rgb;
 use crate::medium::{HenyeyGreenstein, MediumStack};
 use crate::render::job::RayStats;
+use crate::scene::light_path::LightPath;
 use crate::scene::linking::NO_OBJECT;
 use crate::scene::shading::{ShadingPoint, SurfaceHit};
 use glam::{Vec2, Vec3};
@@ -92,9 +93,9 @@ pub fn surface_nee_at(
 #[inline]
 pub fn shadow_transmittance(ctx: &SceneContext, s: &SurfaceHit, ls: &LightSample, media: MediumStack) -> Rgb {
     if ctx.has_media || ctx.tinted_shadows {
-        media::light_transmittance(ctx, s.p, Some(s.ng), ls, ctx.medium_after(s, ls.wi, media))
+        media::light_transmittance(ctx, s.p, Some(s.ng), ls, ctx.medium_after(s, ls.wi, media), s.light_path.shadow())
     } else {
-        Rgb::splat(ctx.visibility(s.p, s.ng, ls))
+        Rgb::splat(ctx.visibility(s.p, s.ng, ls, s.light_path.shadow()))
     }
 }
 
@@ -119,7 +120,7 @@ pub fn medium_nee(
         if f > 0.0 && ls.li != Rgb::ZERO {
             let tr = if ctx.casts_shadow(index) {
                 stats.shadow += 1;
-                media::light_transmittance(ctx, p, None, &ls, media)
+                media::light_transmittance(ctx, p, None, &ls, media, LightPath::SHADOW_RAY)
             } else {
                 Rgb::ONE
             };
@@ -155,10 +156,10 @@ pub fn exit_nee(
                 Rgb::ONE
             } else if ctx.has_media || ctx.tinted_shadows {
                 stats.shadow += 1;
-                media::light_transmittance(ctx, se.p, Some(n_g), &ls, media)
+                media::light_transmittance(ctx, se.p, Some(n_g), &ls, media, se.light_path.shadow())
             } else {
                 stats.shadow += 1;
-                Rgb::splat(ctx.visibility(se.p, n_g, &ls))
+                Rgb::splat(ctx.visibility(se.p, n_g, &ls, se.light_path.shadow()))
             };
             if tr != Rgb::ZERO {
                 let f = cos * std::f32::consts::FRAC_1_PI;

@@ -5,6 +5,7 @@ pub mod bent_normal;
 pub mod camera;
 pub mod gltf;
 pub mod hit;
+pub mod light_path;
 pub mod linking;
 pub mod material;
 pub mod mesh;

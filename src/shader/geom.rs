@@ -4,6 +4,7 @@
 //! `shader/`: it imports none of its siblings, so the node operations, the program and
 //! the shading dispatch all build on it without a circle.
 
+use crate::scene::light_path::LightPath;
 use crate::scene::mesh::Mesh;
 use crate::scene::texture::Texture;
 use glam::{Mat4, Vec2, Vec3, Vec4};
@@ -69,6 +70,8 @@ pub struct Geom<'a> {
     pub mesh: &'a Mesh,
     /// The shaded triangle.
     pub tri: u32,
+    /// The ray that reached the point (the Light Path node).
+    pub path: LightPath,
 }
 
 /// The default instance data (identity transform) for triangles without one.
@@ -76,7 +79,8 @@ pub static NO_OBJECT: ObjectData =
     ObjectData { world_to_object: Mat4::IDENTITY, location: Vec3::ZERO, random: 0.0, texspace: None };
 
 /// The shading point at barycentrics of a triangle without a ray: the viewer is taken
-/// along the normal (Fresnel-driven transparency or emission then uses normal incidence).
+/// along the normal (Fresnel-driven transparency or emission then uses normal incidence),
+/// the Light Path node sees emission for light sampling (callers with a ray set `path`).
 pub fn geom_at<'a>(
     mesh: &'a Mesh,
     objects: &'a [ObjectData],
@@ -98,7 +102,21 @@ pub fn geom_at<'a>(
         Some(&o) => objects.get(o as usize).unwrap_or(&NO_OBJECT),
         None => &NO_OBJECT,
     };
-    Geom { p, n: ns, ng, wo: ns, uv, color, tangent, backfacing: false, object, textures, mesh, tri }
+    Geom {
+        p,
+        n: ns,
+        ng,
+        wo: ns,
+        uv,
+        color,
+        tangent,
+        backfacing: false,
+        object,
+        textures,
+        mesh,
+        tri,
+        path: LightPath::LIGHT_EMISSION,
+    }
 }
 
 /// The vector in registers i..i+3.

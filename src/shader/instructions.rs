@@ -7,6 +7,7 @@ use super::geom::Reg;
 use super::image_node::ImageOp;
 use super::ops::{Blend, MathOp, RangeInterp, VecOp};
 use super::texture_nodes::TexOp;
+use crate::scene::light_path::PathOutput;
 use glam::{Mat4, Vec3};
 
 /// Which geometric quantity an `Input` op reads (each in Blender axes).
@@ -44,6 +45,8 @@ pub enum InputKind {
     ObjectLocation,
     /// Object Info Random.
     ObjectRandom,
+    /// One output of the Light Path node.
+    LightPath(PathOutput),
 }
 
 /// Curve tables' kinds.

@@ -292,6 +292,7 @@ impl Program {
                     g2.object = g.object;
                     g2.wo = g.wo;
                     g2.backfacing = g.backfacing;
+                    g2.path = g.path;
                     g2.p = g.p + d;
                     if g2.n.dot(g.n) < 0.0 {
                         g2.n = -g2.n;
@@ -373,6 +374,10 @@ impl Program {
             InputKind::ObjectLocation => to_blender(obj.location),
             InputKind::ObjectRandom => {
                 r[out as usize] = obj.random;
+                return;
+            }
+            InputKind::LightPath(o) => {
+                r[out as usize] = g.path.output(o);
                 return;
             }
         };

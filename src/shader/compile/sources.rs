@@ -3,6 +3,7 @@
 //! Normal Map, Bump, and the texture nodes (procedural and image).
 
 use super::*;
+use crate::scene::light_path::PathOutput;
 use crate::shader::sky::{Sky, SkyModel, SkyParams};
 
 impl Compiler<'_> {
@@ -54,6 +55,15 @@ impl Compiler<'_> {
                             self.ops.push(Op::Input { what, out });
                         }
                         None => self.warn(i, format!("the {id} output is not supported: it gives 0")),
+                    }
+                }
+            }
+            "ShaderNodeLightPath" => {
+                self.all_const = false;
+                for (id, o) in PathOutput::ALL {
+                    if self.is_used(i, id) {
+                        let out = self.out(i, id, Ty::Float);
+                        self.ops.push(Op::Input { what: InputKind::LightPath(o), out });
                     }
                 }
             }
