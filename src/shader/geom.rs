@@ -35,11 +35,13 @@ pub struct ObjectData {
     pub random: f32,
     /// Texture space of the mesh (Blender's `texspace_location`, `texspace_size`, Blender axes).
     pub texspace: Option<(Vec3, Vec3)>,
+    /// Object Info Color (RGB) and Alpha: the object's viewport colour (`Object.color`).
+    pub color: Vec4,
 }
 
 impl Default for ObjectData {
     fn default() -> Self {
-        ObjectData { world_to_object: Mat4::IDENTITY, location: Vec3::ZERO, random: 0.0, texspace: None }
+        NO_OBJECT
     }
 }
 
@@ -76,7 +78,7 @@ pub struct Geom<'a> {
 
 /// The default instance data (identity transform) for triangles without one.
 pub static NO_OBJECT: ObjectData =
-    ObjectData { world_to_object: Mat4::IDENTITY, location: Vec3::ZERO, random: 0.0, texspace: None };
+    ObjectData { world_to_object: Mat4::IDENTITY, location: Vec3::ZERO, random: 0.0, texspace: None, color: Vec4::ONE };
 
 /// The shading point at barycentrics of a triangle without a ray: the viewer is taken
 /// along the normal (Fresnel-driven transparency or emission then uses normal incidence),

@@ -45,6 +45,10 @@ pub enum InputKind {
     ObjectLocation,
     /// Object Info Random.
     ObjectRandom,
+    /// Object Info Color.
+    ObjectColor,
+    /// Object Info Alpha.
+    ObjectAlpha,
     /// One output of the Light Path node.
     LightPath(PathOutput),
 }

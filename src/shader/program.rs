@@ -376,6 +376,11 @@ impl Program {
                 r[out as usize] = obj.random;
                 return;
             }
+            InputKind::ObjectColor => obj.color.truncate(),
+            InputKind::ObjectAlpha => {
+                r[out as usize] = obj.color.w;
+                return;
+            }
             InputKind::LightPath(o) => {
                 r[out as usize] = g.path.output(o);
                 return;

@@ -341,6 +341,12 @@ def add_object_target(scene):
     target.scale = (0.7, 0.7, 0.7)
 
 
+def coloured_flat_scene(scene, material):
+    """The flat scene with the plane's object colour set (Object Info Color reads it)."""
+    flat_scene(scene, material)
+    bpy.data.objects["Plane"].color = (0.9, 0.4, 0.15, 1.0)
+
+
 # name -> (scene builder, material maker, extra set-up or None)
 CASES = {
     "noise_fbm_3d": (flat_scene, texture("ShaderNodeTexNoise", inputs={"Scale": 4.0, "Detail": 3.0}), None),
@@ -372,6 +378,7 @@ CASES = {
     "magic": (flat_scene, texture("ShaderNodeTexMagic", props={"turbulence_depth": 3}, inputs={"Scale": 3.0}),
               None),
     "brick": (flat_scene, texture("ShaderNodeTexBrick", inputs={"Scale": 3.0}), None),
+    "object_info_color": (coloured_flat_scene, texture("ShaderNodeObjectInfo", output="Color"), None),
     "white_noise_cells": (flat_scene, texture("ShaderNodeTexWhiteNoise", vector=snapped_generated), None),
     "color_ramp_ease": (flat_scene, noise_into(ramp("EASE")), None),
     "color_ramp_constant": (flat_scene, noise_into(ramp("CONSTANT")), None),

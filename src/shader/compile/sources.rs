@@ -168,9 +168,9 @@ impl Compiler<'_> {
                             self.ops.push(Op::Input { what: InputKind::ObjectRandom, out });
                         }
                         "Color" | "Alpha" => {
-                            self.warn(i, format!("the object's {id} is not exported: it gives 1"));
-                            let r = if ty == Ty::Float { self.konst_f(1.0) } else { self.konst_v(Vec3::ONE) };
-                            self.alias(i, id, r, ty);
+                            let out = self.out(i, id, ty);
+                            let what = if id == "Color" { InputKind::ObjectColor } else { InputKind::ObjectAlpha };
+                            self.ops.push(Op::Input { what, out });
                         }
                         _ => {
                             self.warn(i, format!("the {id} output is not supported: it gives 0"));
