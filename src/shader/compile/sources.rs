@@ -191,9 +191,16 @@ impl Compiler<'_> {
                 let v = self.vec(i, "Vector", Vec3::ZERO)?;
                 let loc = self.vec(i, "Location", Vec3::ZERO)?;
                 let rot = self.vec(i, "Rotation", Vec3::ZERO)?;
+                // A constant rotation's matrix (three sin/cos pairs) is built here once.
+                let rotation = self.is_const(rot, 3).then(|| {
+                    let r = rot as usize;
+                    let angles = Vec3::new(self.init[r], self.init[r + 1], self.init[r + 2]);
+                    self.prog.rotations.push(crate::shader::program::mapping_rotation(angles));
+                    self.prog.rotations.len() as u32 - 1
+                });
                 let scale = self.vec(i, "Scale", Vec3::ONE)?;
                 let out = self.out(i, "Vector", Ty::Vector);
-                self.ops.push(Op::Mapping { kind, v, loc, rot, scale, out });
+                self.ops.push(Op::Mapping { kind, v, loc, rot, rotation, scale, out });
             }
             "ShaderNodeNormalMap" => {
                 let space = match self.prop_str(i, "space", "TANGENT") {
