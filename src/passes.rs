@@ -393,7 +393,6 @@ pub struct PassSet {
     crypto_levels: u32,
 }
 
-
 /// The [`PassSet`] bit that keeps the shadow catcher's sums (no pass of its own).
 const CATCHER_SUMS: u32 = 1 << 31;
 const _: () = assert!(ALL.len() < 31);
@@ -445,7 +444,8 @@ impl PassSet {
     /// Any data pass the camera ray's first hit gives (AO, Mist, Position, UV, indices,
     /// Cryptomatte).
     pub fn any_data(self) -> bool {
-        self.iter().any(|p| (p.slot().is_some() && !p.is_light() && p != Pass::ShadowCatcher) || p.crypto_kind().is_some())
+        self.iter()
+            .any(|p| (p.slot().is_some() && !p.is_light() && p != Pass::ShadowCatcher) || p.crypto_kind().is_some())
     }
 
     /// Any Cryptomatte layer asked.

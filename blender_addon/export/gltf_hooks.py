@@ -64,6 +64,7 @@ class glTF2ExportUserExtension:
                 return
             if blender_object.type == "MESH":
                 meshes.add_texspace(gltf2_node.mesh, blender_object, state)
+                meshes.add_object_color(gltf2_node, blender_object, state)
                 return
             if blender_object.type != "LIGHT":
                 return

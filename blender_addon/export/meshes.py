@@ -24,6 +24,7 @@ from .gltf_objects import constant_uv_accessor
 from .materials import complete_material, graph_of, uses_graph
 
 TEXSPACE_EXTRA = "CAUSTIC_texspace"
+OBJECT_COLOR_EXTRA = "CAUSTIC_object_color"
 
 DEFAULT_SURFACE_NAME = "Blender default surface"
 
@@ -123,6 +124,24 @@ def add_texspace(gltf2_mesh, blender_object, state):
     extras[TEXSPACE_EXTRA] = {"location": [float(v) for v in mesh.texspace_location],
                               "size": [float(v) for v in mesh.texspace_size]}
     gltf2_mesh.extras = extras
+
+
+def add_object_color(gltf2_node, blender_object, state):
+    """Put the object's colour (Object Info Color and Alpha) in the glTF node's extras when a
+    material's graph has an Object Info node and the colour is not Blender's default white."""
+    if gltf2_node is None or blender_object is None or blender_object.type != "MESH":
+        return
+    color = [float(v) for v in blender_object.color]
+    if color == [1.0, 1.0, 1.0, 1.0]:
+        return
+    materials = [slot.material for slot in blender_object.material_slots]
+    if not any(m is not None and uses_graph(m, state)
+               and any(n.get("type") == "ShaderNodeObjectInfo" for n in graph_of(m, state).nodes)
+               for m in materials):
+        return
+    extras = gltf2_node.extras if isinstance(gltf2_node.extras, dict) else {}
+    extras[OBJECT_COLOR_EXTRA] = color
+    gltf2_node.extras = extras
 
 
 # Modifiers after which Generated coordinates of the exported positions are still Cycles' (the

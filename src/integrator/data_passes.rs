@@ -76,7 +76,8 @@ pub fn fill(
         if wi.dot(ng) > 0.0 {
             stats.shadow += 1;
             let from = offset_ray_origin(s.p, ng);
-            a[slot::AO] = ctx.transmittance(from, wi, settings.ao_distance);
+            a[slot::AO] =
+                ctx.transmittance(from, wi, settings.ao_distance, crate::scene::light_path::LightPath::SHADOW_RAY);
         }
     }
 }

@@ -10,6 +10,7 @@ use crate::math::{Rgb, offset_ray_origin};
 use crate::medium::tracking::delta_tracking;
 use crate::medium::{FreeFlight, GridMedium, HenyeyGreenstein, Medium, MediumStack, WalkRng};
 use crate::scene::AlphaMode;
+use crate::scene::light_path::LightPath;
 use crate::scene::visibility::RayMask;
 use glam::Vec3;
 
@@ -77,8 +78,16 @@ fn grid_segment(
 /// along `ng`, or a point in a medium when `ng` is None) through the media of `stack`:
 /// volume boundaries without a surface are crossed (changing the medium), BLEND
 /// surfaces pass 1 - alpha (a tinted Transparent BSDF its colour), any other surface blocks.
-pub fn light_transmittance(ctx: &SceneContext, p: Vec3, ng: Option<Vec3>, ls: &LightSample, stack: MediumStack) -> Rgb {
-    light_transmittance_of(ctx, p, ng, ls, stack, None)
+/// `path`: the shadow ray as the Light Path node sees it.
+pub fn light_transmittance(
+    ctx: &SceneContext,
+    p: Vec3,
+    ng: Option<Vec3>,
+    ls: &LightSample,
+    stack: MediumStack,
+    path: LightPath,
+) -> Rgb {
+    light_transmittance_of(ctx, p, ng, ls, stack, None, path)
 }
 
 /// [`light_transmittance`] toward a sample of light `light`: with shadow linking, surfaces
@@ -90,6 +99,7 @@ pub fn light_transmittance_of(
     ls: &LightSample,
     mut stack: MediumStack,
     light: Option<usize>,
+    mut path: LightPath,
 ) -> Rgb {
     let org = match ng {
         Some(n) => offset_ray_origin(p, if ls.wi.dot(n) >= 0.0 { n } else { -n }),
@@ -108,6 +118,8 @@ pub fn light_transmittance_of(
     };
     let mut org = org;
     let mut tr = Rgb::ONE;
+    // Cycles measures each hit's Ray Length along the one shadow ray.
+    let mut travelled = 0.0;
     for _ in 0..MAX_SHADOW_CROSSINGS {
         let hit = ctx.intersect_as(org, dir, remaining, RayMask::SHADOW);
         let seg = hit.map_or(remaining, |h| h.t);
@@ -126,7 +138,8 @@ pub fn light_transmittance_of(
         } else if mat.null_surface {
             stack = ctx.medium_after(&s, dir, stack);
         } else if mat.alpha_mode == AlphaMode::Blend {
-            tr *= ctx.scene.transmission(h.tri, h.b1, h.b2);
+            tr *= ctx.scene.transmission(h.tri, h.b1, h.b2, path.at(travelled + h.t));
+            path = path.passed_transparent();
         } else {
             return Rgb::ZERO;
         }
@@ -135,6 +148,7 @@ pub fn light_transmittance_of(
         }
         org = offset_ray_origin(s.p, -s.ng);
         remaining -= h.t;
+        travelled += h.t;
         if !(remaining > 0.0) {
             return tr;
         }

@@ -26,6 +26,7 @@ use crate::sampling::PixelSampler;
 use crate::sampling::warp::uniform_cone_pdf;
 use crate::scene::camera::CameraRay;
 use crate::scene::camera::CameraRays;
+use crate::scene::light_path::LightPath;
 use crate::scene::shading::{ConstantBsdf, ShadingPoint, SurfaceHit};
 use crate::scene::visibility::RayMask;
 use crate::scene::{AlphaMode, Scene};
@@ -457,29 +458,29 @@ impl<'a> SceneContext<'a> {
     }
 
     /// Fraction of light passing from `org` along `dir` for distance `tmax` (a shadow
-    /// ray: objects hidden from shadow rays let it through).
+    /// ray of state `path`: objects hidden from shadow rays let it through).
     #[inline]
-    pub fn transmittance(&self, org: Vec3, dir: Vec3, tmax: f32) -> f32 {
-        self.transmittance_of(org, dir, tmax, None)
+    pub fn transmittance(&self, org: Vec3, dir: Vec3, tmax: f32, path: LightPath) -> f32 {
+        self.transmittance_of(org, dir, tmax, None, path)
     }
 
     /// [`transmittance`](Self::transmittance) of a shadow ray toward light `light`: with
     /// shadow linking only its blockers stop it.
     #[inline]
-    pub fn transmittance_of(&self, org: Vec3, dir: Vec3, tmax: f32, light: Option<usize>) -> f32 {
+    pub fn transmittance_of(&self, org: Vec3, dir: Vec3, tmax: f32, light: Option<usize>, path: LightPath) -> f32 {
         self.accel.transmittance(org, dir, tmax, &self.transparent, |tri, b1, b2| {
             if !self.sees(RayMask::SHADOW, tri) || light.is_some_and(|l| !self.blocks(l, tri)) {
                 return 1.0;
             }
             match self.scene.materials[self.scene.mesh.tri_material[tri as usize] as usize].alpha_mode {
                 AlphaMode::Mask(cutoff) => {
-                    if self.scene.alpha(tri, b1, b2) >= cutoff {
+                    if self.scene.shadow_alpha(tri, b1, b2, path, org) >= cutoff {
                         0.0
                     } else {
                         1.0
                     }
                 }
-                AlphaMode::Blend => (1.0 - self.scene.alpha(tri, b1, b2)).clamp(0.0, 1.0),
+                AlphaMode::Blend => (1.0 - self.scene.shadow_alpha(tri, b1, b2, path, org)).clamp(0.0, 1.0),
                 AlphaMode::Opaque => 0.0,
             }
         })
@@ -499,10 +500,11 @@ impl<'a> SceneContext<'a> {
         self.scene.lights[index].pdf_li(self.scene, p, q, n_light).map_or(0.0, |pdf| self.lights.pmf(p, n, index) * pdf)
     }
 
-    /// Unoccluded fraction between a surface point (offset along `ng`) and a light sample.
+    /// Unoccluded fraction between a surface point (offset along `ng`) and a light sample,
+    /// for a shadow ray of state `path`.
     #[inline]
-    pub fn visibility(&self, p: Vec3, ng: Vec3, ls: &LightSample) -> f32 {
-        self.visibility_of(p, ng, ls, None)
+    pub fn visibility(&self, p: Vec3, ng: Vec3, ls: &LightSample, path: LightPath) -> f32 {
+        self.visibility_of(p, ng, ls, None, path)
     }
 
     /// True when triangle `tri` casts light `light`'s shadows (shadow linking).
@@ -513,11 +515,11 @@ impl<'a> SceneContext<'a> {
 
     /// [`visibility`](Self::visibility) of a sample of light `light` (shadow linking).
     #[inline]
-    pub fn visibility_of(&self, p: Vec3, ng: Vec3, ls: &LightSample, light: Option<usize>) -> f32 {
+    pub fn visibility_of(&self, p: Vec3, ng: Vec3, ls: &LightSample, light: Option<usize>, path: LightPath) -> f32 {
         let side = if ls.wi.dot(ng) >= 0.0 { ng } else { -ng };
         let org = offset_ray_origin(p, side);
         if ls.dist.is_infinite() {
-            return self.transmittance_of(org, ls.wi, f32::INFINITY, light);
+            return self.transmittance_of(org, ls.wi, f32::INFINITY, light, path);
         }
         let target = if ls.normal != Vec3::ZERO { offset_ray_origin(ls.point, ls.normal) } else { ls.point };
         let d = target - org;
@@ -525,7 +527,7 @@ impl<'a> SceneContext<'a> {
         if !(dist > 0.0) {
             return 0.0;
         }
-        self.transmittance_of(org, d / dist, dist * (1.0 - 1e-4), light)
+        self.transmittance_of(org, d / dist, dist * (1.0 - 1e-4), light, path)
     }
 }
 

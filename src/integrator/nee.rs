@@ -9,6 +9,7 @@ use crate::light::LightSample;
 use crate::math::Rgb;
 use crate::medium::{HenyeyGreenstein, MediumStack};
 use crate::render::job::RayStats;
+use crate::scene::light_path::LightPath;
 use crate::scene::linking::NO_OBJECT;
 use crate::scene::shading::{ShadingPoint, SurfaceHit};
 use glam::{Vec2, Vec3};
@@ -99,9 +100,17 @@ pub fn shadow_transmittance(
     light: usize,
 ) -> Rgb {
     if ctx.has_media || ctx.tinted_shadows {
-        media::light_transmittance_of(ctx, s.p, Some(s.ng), ls, ctx.medium_after(s, ls.wi, media), Some(light))
+        media::light_transmittance_of(
+            ctx,
+            s.p,
+            Some(s.ng),
+            ls,
+            ctx.medium_after(s, ls.wi, media),
+            Some(light),
+            s.light_path.shadow(),
+        )
     } else {
-        Rgb::splat(ctx.visibility_of(s.p, s.ng, ls, Some(light)))
+        Rgb::splat(ctx.visibility_of(s.p, s.ng, ls, Some(light), s.light_path.shadow()))
     }
 }
 
@@ -126,7 +135,7 @@ pub fn medium_nee(
         if f > 0.0 && ls.li != Rgb::ZERO {
             let tr = if ctx.casts_shadow(index) {
                 stats.shadow += 1;
-                media::light_transmittance_of(ctx, p, None, &ls, media, Some(index))
+                media::light_transmittance_of(ctx, p, None, &ls, media, Some(index), LightPath::SHADOW_RAY)
             } else {
                 Rgb::ONE
             };
@@ -162,10 +171,10 @@ pub fn exit_nee(
                 Rgb::ONE
             } else if ctx.has_media || ctx.tinted_shadows {
                 stats.shadow += 1;
-                media::light_transmittance_of(ctx, se.p, Some(n_g), &ls, media, Some(index))
+                media::light_transmittance_of(ctx, se.p, Some(n_g), &ls, media, Some(index), se.light_path.shadow())
             } else {
                 stats.shadow += 1;
-                Rgb::splat(ctx.visibility_of(se.p, n_g, &ls, Some(index)))
+                Rgb::splat(ctx.visibility_of(se.p, n_g, &ls, Some(index), se.light_path.shadow()))
             };
             if tr != Rgb::ZERO {
                 let f = cos * std::f32::consts::FRAC_1_PI;

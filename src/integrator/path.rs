@@ -31,6 +31,7 @@ use super::catcher::{self, Split};
 use super::light_passes::{Tally, shares_at};
 use super::nee::{exit_nee, medium_nee, surface_nee_at};
 use super::walk::{PathState, Step};
+use crate::bsdf::LobeKind;
 use crate::bsdf::dielectric::refract;
 use crate::bsdf::microfacet::Ggx;
 use crate::film::CameraSample;
@@ -40,6 +41,7 @@ use crate::render::job::RayStats;
 use crate::sampling::PixelSampler;
 use crate::sampling::warp::{cosine_hemisphere, cosine_hemisphere_pdf};
 use crate::scene::camera::CameraRay;
+use crate::scene::light_path::LightPath;
 use crate::scene::linking::NO_OBJECT;
 use crate::scene::material::{Subsurface, SubsurfaceMethod};
 use crate::scene::shading::{ShadingPoint, SurfaceHit};
@@ -155,6 +157,8 @@ impl PathIntegrator {
             tmax: f32::INFINITY,
             ray: RayMask::AFTER_VOLUME,
             prev_tri: NO_OBJECT,
+            // The path behind the medium point is not known here: only its depth.
+            light_path: LightPath { depth: depth as u16, ..LightPath::FROM_LIGHT }.scattered_in_volume(),
         };
         if st.depth < self.max_depth && st.survives(self.rr_depth, u_rr) {
             stats.bounce += 1;
@@ -231,6 +235,7 @@ impl PathIntegrator {
                     st.org = p;
                     st.dir = wi;
                     st.ray = RayMask::AFTER_VOLUME;
+                    st.light_path = st.light_path.scattered_in_volume();
                     st.prev_tri = NO_OBJECT;
                     stats.bounce += 1;
                     continue;
@@ -376,6 +381,8 @@ impl PathIntegrator {
                 st.org = offset_ray_origin(se.p, n_g);
                 st.dir = wi;
                 st.ray = RayMask::DIFFUSE;
+                // Cycles continues from a subsurface exit as from a diffuse reflection.
+                st.light_path = st.light_path.bounced(LobeKind::Diffuse, false, false);
                 st.prev_tri = se.tri;
                 stats.bounce += 1;
                 continue;
@@ -420,6 +427,7 @@ impl PathIntegrator {
             st.org = offset_ray_origin(s.p, if transmitted { -s.ng } else { s.ng });
             st.dir = wi;
             st.ray = RayMask::after_bounce(bs.kind, transmitted);
+            st.light_path = st.light_path.bounced(bs.kind, transmitted, bs.delta);
             st.prev_tri = hit.tri;
             stats.bounce += 1;
         }
@@ -478,6 +486,11 @@ impl PathIntegrator {
             // The exit scatters as a diffuse reflection, as Cycles labels it.
             ray: RayMask::DIFFUSE,
             prev_tri: se.tri,
+            light_path: LightPath { depth: (depth + 1) as u16, ..LightPath::FROM_LIGHT }.bounced(
+                LobeKind::Diffuse,
+                false,
+                false,
+            ),
         };
         if wi.dot(n_g) <= 0.0 || !st.survives(self.rr_depth, v_rr) {
             return radiance;

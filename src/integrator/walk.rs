@@ -14,6 +14,7 @@ use crate::medium::{HenyeyGreenstein, MediumStack};
 use crate::render::job::RayStats;
 use crate::scene::AlphaMode;
 use crate::scene::camera::CameraRay;
+use crate::scene::light_path::LightPath;
 use crate::scene::linking::NO_OBJECT;
 use crate::scene::shading::{ShadingPoint, SurfaceHit};
 use crate::scene::visibility::RayMask;
@@ -60,6 +61,8 @@ pub struct PathState {
     /// The triangle the ray left (`NO_OBJECT` for camera rays and after a medium event):
     /// light linking's receiver for what the ray finds.
     pub prev_tri: u32,
+    /// The ray as the Light Path node sees it (flags of the last bounce, bounce counts).
+    pub light_path: LightPath,
 }
 
 /// What `PathState::advance` found along the ray.
@@ -98,6 +101,7 @@ impl PathState {
         PathState {
             beta: power,
             ray: RayMask::ALL,
+            light_path: LightPath::FROM_LIGHT,
             ..Self::camera(&CameraRay::unclipped(org, dir), MediumStack::default())
         }
     }
@@ -122,6 +126,7 @@ impl PathState {
             transparent_hits: 0,
             ray: RayMask::CAMERA,
             prev_tri: NO_OBJECT,
+            light_path: LightPath::CAMERA_RAY,
         }
     }
 
@@ -225,9 +230,10 @@ impl PathState {
         // Stochastic transparency: pass straight through with probability 1 - alpha, the
         // throughput tinted by a coloured Transparent BSDF (weight colour / (1 - alpha)).
         if mat.alpha_mode == AlphaMode::Blend && self.transparent_hits < MAX_TRANSPARENT_HITS {
-            let (alpha, tint) = ctx.scene.pass_through(hit.tri, hit.b1, hit.b2);
+            let (alpha, tint) = ctx.scene.pass_through(hit.tri, hit.b1, hit.b2, self.light_path.at(hit.t));
             if u_alpha() >= alpha {
                 self.transparent_hits += 1;
+                self.light_path = self.light_path.passed_transparent();
                 self.beta *= tint;
                 self.org = offset_ray_origin(s.p, -s.ng);
                 self.tmax = tmax - hit.t;
@@ -235,6 +241,7 @@ impl PathState {
                 return (Step::Passed, lights);
             }
         }
+        let s = SurfaceHit { light_path: self.light_path.at(hit.t), ..s };
         (Step::Surface { hit, s }, lights)
     }
 
@@ -326,6 +333,7 @@ impl PathState {
         self.depth += 1;
         self.media = ctx.medium_after(s, wi, self.media);
         self.ray = RayMask::after_bounce(bs.kind, wi.dot(s.ng) <= 0.0);
+        self.light_path = self.light_path.bounced(bs.kind, wi.dot(s.ng) <= 0.0, bs.delta);
         self.org = offset_ray_origin(s.p, if wi.dot(s.ng) > 0.0 { s.ng } else { -s.ng });
         self.dir = wi;
         stats.bounce += 1;

@@ -78,6 +78,8 @@ impl WorldGraph {
             textures: &self.textures,
             mesh: &NO_MESH,
             tri: u32::MAX,
+            // The world is baked for every ray alike: it is lit as light sampling sees it.
+            path: crate::scene::light_path::LightPath::LIGHT_EMISSION,
         };
         let mut out = Closures::default();
         with_registers(|regs| self.program.run(&g, regs, &mut out));

@@ -29,6 +29,8 @@ pub struct SurfaceHit {
     pub front: bool,
     /// Hit distance.
     pub t: f32,
+    /// The ray that found the hit, as the Light Path node sees it (the walkers set it).
+    pub light_path: crate::scene::light_path::LightPath,
 }
 
 /// What the material gives at a hit.

@@ -6,6 +6,7 @@ pub mod camera;
 pub mod gltf;
 pub mod hit;
 pub mod ids;
+pub mod light_path;
 pub mod linking;
 pub mod material;
 pub mod mesh;

@@ -6,6 +6,7 @@ use super::bent_normal::valid_reflection_normal;
 // The hit types live in the leaf `hit.rs` so that the node evaluator can take them
 // without importing this dispatch; re-exported for the integrators.
 pub use super::hit::{ShadingPoint, SurfaceHit};
+use super::light_path::LightPath;
 use super::{AlphaMode, Scene};
 use crate::accel::Hit;
 use crate::bsdf::pbr::PbrParams;
@@ -26,12 +27,13 @@ impl Scene {
         ([uv0, uv1], c)
     }
 
-    /// Alpha (coverage) of a triangle's material at barycentrics.
+    /// Alpha (coverage) of a triangle's material at barycentrics (a node graph's as light
+    /// sampling sees it; rays use `pass_through` and `shadow_alpha`).
     #[inline]
     pub fn alpha(&self, tri: u32, b1: f32, b2: f32) -> f32 {
         let mat = &self.materials[self.mesh.tri_material[tri as usize] as usize];
         if let Some(prog) = &mat.nodes {
-            return crate::shader::shade::node_alpha(self, prog, tri, b1, b2);
+            return crate::shader::shade::node_alpha(self, prog, tri, b1, b2, LightPath::LIGHT_EMISSION, None);
         }
         let (uv, color) = self.attributes(tri, b1, b2);
         let mut a = mat.base_color.w * color.w;
@@ -91,6 +93,7 @@ impl Scene {
             tri: hit.tri,
             front,
             t: hit.t,
+            light_path: LightPath::CAMERA_RAY.at(hit.t),
         }
     }
 
@@ -161,6 +164,7 @@ impl Scene {
                 tri: 0,
                 front,
                 t: 1.0,
+                light_path: LightPath::CAMERA_RAY,
             };
             self.pbr_params(&s, Vec3::Z).0
         };
@@ -392,6 +396,7 @@ mod tests {
                     tri: 0,
                     front: i % 4 < 2,
                     t: 1.0,
+                    light_path: LightPath::CAMERA_RAY,
                 };
                 let (want, got) = (scene.shade(&s, wo), scene.shade_with(&s, wo, Some(&constant)));
                 let want = format!("{:?} {:?} {:?}", want.bsdf, want.frame, want.emitted);

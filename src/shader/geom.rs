@@ -4,6 +4,7 @@
 //! `shader/`: it imports none of its siblings, so the node operations, the program and
 //! the shading dispatch all build on it without a circle.
 
+use crate::scene::light_path::LightPath;
 use crate::scene::mesh::Mesh;
 use crate::scene::texture::Texture;
 use glam::{Mat4, Vec2, Vec3, Vec4};
@@ -34,11 +35,13 @@ pub struct ObjectData {
     pub random: f32,
     /// Texture space of the mesh (Blender's `texspace_location`, `texspace_size`, Blender axes).
     pub texspace: Option<(Vec3, Vec3)>,
+    /// Object Info Color (RGB) and Alpha: the object's viewport colour (`Object.color`).
+    pub color: Vec4,
 }
 
 impl Default for ObjectData {
     fn default() -> Self {
-        ObjectData { world_to_object: Mat4::IDENTITY, location: Vec3::ZERO, random: 0.0, texspace: None }
+        NO_OBJECT
     }
 }
 
@@ -69,14 +72,17 @@ pub struct Geom<'a> {
     pub mesh: &'a Mesh,
     /// The shaded triangle.
     pub tri: u32,
+    /// The ray that reached the point (the Light Path node).
+    pub path: LightPath,
 }
 
 /// The default instance data (identity transform) for triangles without one.
 pub static NO_OBJECT: ObjectData =
-    ObjectData { world_to_object: Mat4::IDENTITY, location: Vec3::ZERO, random: 0.0, texspace: None };
+    ObjectData { world_to_object: Mat4::IDENTITY, location: Vec3::ZERO, random: 0.0, texspace: None, color: Vec4::ONE };
 
 /// The shading point at barycentrics of a triangle without a ray: the viewer is taken
-/// along the normal (Fresnel-driven transparency or emission then uses normal incidence).
+/// along the normal (Fresnel-driven transparency or emission then uses normal incidence),
+/// the Light Path node sees emission for light sampling (callers with a ray set `path`).
 pub fn geom_at<'a>(
     mesh: &'a Mesh,
     objects: &'a [ObjectData],
@@ -98,7 +104,21 @@ pub fn geom_at<'a>(
         Some(&o) => objects.get(o as usize).unwrap_or(&NO_OBJECT),
         None => &NO_OBJECT,
     };
-    Geom { p, n: ns, ng, wo: ns, uv, color, tangent, backfacing: false, object, textures, mesh, tri }
+    Geom {
+        p,
+        n: ns,
+        ng,
+        wo: ns,
+        uv,
+        color,
+        tangent,
+        backfacing: false,
+        object,
+        textures,
+        mesh,
+        tri,
+        path: LightPath::LIGHT_EMISSION,
+    }
 }
 
 /// The vector in registers i..i+3.

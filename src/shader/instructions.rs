@@ -7,7 +7,8 @@ use super::geom::Reg;
 use super::image_node::ImageOp;
 use super::ops::{Blend, MathOp, RangeInterp, VecOp};
 use super::texture_nodes::TexOp;
-use glam::{Mat4, Vec3};
+use crate::scene::light_path::PathOutput;
+use glam::{Mat3, Mat4, Vec3};
 
 /// Which geometric quantity an `Input` op reads (each in Blender axes).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -44,6 +45,12 @@ pub enum InputKind {
     ObjectLocation,
     /// Object Info Random.
     ObjectRandom,
+    /// Object Info Color.
+    ObjectColor,
+    /// Object Info Alpha.
+    ObjectAlpha,
+    /// One output of the Light Path node.
+    LightPath(PathOutput),
 }
 
 /// Curve tables' kinds.
@@ -265,11 +272,14 @@ pub enum Op {
         fresnel: Reg,
         facing: Reg,
     },
+    /// `rotation`: the rotation matrix built at load (index into `Program::rotations`)
+    /// when the Rotation input is constant.
     Mapping {
         kind: MappingKind,
         v: Reg,
         loc: Reg,
         rot: Reg,
+        rotation: Option<u32>,
         scale: Reg,
         out: Reg,
     },
@@ -331,6 +341,8 @@ pub struct Program {
     pub curves: Vec<CurveTable>,
     /// Texture Coordinate object matrices (world → object, glTF axes).
     pub matrices: Vec<Mat4>,
+    /// Mapping nodes' rotation matrices, built once when their Rotation is constant.
+    pub rotations: Vec<Mat3>,
     /// The graph has a Transparent part (alpha must be evaluated).
     pub transparent: bool,
     /// A Transparent BSDF's colour may not be grey: pass-throughs and shadow rays carry it

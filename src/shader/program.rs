@@ -46,6 +46,12 @@ pub fn fresnel_dielectric_cos(cosi: f32, eta: f32) -> f32 {
     }
 }
 
+/// The Mapping node's rotation matrix for Euler angles `rv` (XYZ order, as Blender's).
+#[inline]
+pub fn mapping_rotation(rv: Vec3) -> Mat3 {
+    Mat3::from_euler(EulerRot::ZYX, rv.z, rv.y, rv.x)
+}
+
 impl Program {
     /// Evaluates every operation at `g`, leaving closures in `out`.
     pub fn run(&self, g: &Geom, regs: &mut Vec<f32>, out: &mut Closures) {
@@ -190,10 +196,12 @@ impl Program {
                 }
                 r[facing as usize] = 1.0 - f;
             }
-            Op::Mapping { kind, v, loc, rot, scale, out } => {
+            Op::Mapping { kind, v, loc, rot, rotation, scale, out } => {
                 let x = v3(r, v);
-                let rv = v3(r, rot);
-                let m = Mat3::from_euler(EulerRot::ZYX, rv.z, rv.y, rv.x);
+                let m = match rotation {
+                    Some(k) => self.rotations[k as usize],
+                    None => mapping_rotation(v3(r, rot)),
+                };
                 let s = v3(r, scale);
                 let sdiv = |a: Vec3, b: Vec3| {
                     Vec3::new(ops::safe_divide(a.x, b.x), ops::safe_divide(a.y, b.y), ops::safe_divide(a.z, b.z))
@@ -292,6 +300,7 @@ impl Program {
                     g2.object = g.object;
                     g2.wo = g.wo;
                     g2.backfacing = g.backfacing;
+                    g2.path = g.path;
                     g2.p = g.p + d;
                     if g2.n.dot(g.n) < 0.0 {
                         g2.n = -g2.n;
@@ -373,6 +382,15 @@ impl Program {
             InputKind::ObjectLocation => to_blender(obj.location),
             InputKind::ObjectRandom => {
                 r[out as usize] = obj.random;
+                return;
+            }
+            InputKind::ObjectColor => obj.color.truncate(),
+            InputKind::ObjectAlpha => {
+                r[out as usize] = obj.color.w;
+                return;
+            }
+            InputKind::LightPath(o) => {
+                r[out as usize] = g.path.output(o);
                 return;
             }
         };

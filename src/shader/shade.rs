@@ -11,6 +11,7 @@ use crate::bsdf::{Bsdf, PbrBsdf};
 use crate::math::{Frame, Rgb};
 use crate::scene::Scene;
 use crate::scene::hit::{ShadingPoint, SurfaceHit};
+use crate::scene::light_path::LightPath;
 use crate::scene::mesh::Mesh;
 use crate::scene::texture::Texture;
 use glam::Vec3;
@@ -41,6 +42,7 @@ fn evaluate(scene: &Scene, prog: &Program, s: &SurfaceHit, wo: Vec3) -> Closures
         textures: &scene.textures,
         mesh: &scene.mesh,
         tri: s.tri,
+        path: s.light_path,
     };
     let mut out = Closures::default();
     with_registers(|regs| {
@@ -113,17 +115,36 @@ fn pass_fraction(t: Rgb) -> f32 {
     (t.x + t.y + t.z) / 3.0
 }
 
-/// The graph's Transparent weight at barycentrics.
-fn node_transparent(scene: &Scene, prog: &Program, tri: u32, b1: f32, b2: f32) -> Rgb {
-    let g = geom_at(&scene.mesh, &scene.objects, &scene.textures, tri, b1, b2);
+/// The graph's Transparent weight at barycentrics, for a ray of state `path` (its length
+/// measured from `org` when given).
+fn node_transparent(
+    scene: &Scene,
+    prog: &Program,
+    tri: u32,
+    b1: f32,
+    b2: f32,
+    path: LightPath,
+    org: Option<Vec3>,
+) -> Rgb {
+    let mut g = geom_at(&scene.mesh, &scene.objects, &scene.textures, tri, b1, b2);
+    g.path = org.map_or(path, |o| path.at((g.p - o).length()));
     let mut out = Closures::default();
     with_registers(|regs| prog.run(&g, regs, &mut out));
     out.transparent
 }
 
-/// The graph's opacity at barycentrics (1 − the mean of its Transparent weight).
-pub fn node_alpha(scene: &Scene, prog: &Program, tri: u32, b1: f32, b2: f32) -> f32 {
-    1.0 - pass_fraction(node_transparent(scene, prog, tri, b1, b2))
+/// The graph's opacity at barycentrics (1 − the mean of its Transparent weight) for a ray
+/// of state `path` (from `org`, when its length is not in `path`).
+pub fn node_alpha(
+    scene: &Scene,
+    prog: &Program,
+    tri: u32,
+    b1: f32,
+    b2: f32,
+    path: LightPath,
+    org: Option<Vec3>,
+) -> f32 {
+    1.0 - pass_fraction(node_transparent(scene, prog, tri, b1, b2, path, org))
 }
 
 /// The emission of a node material at barycentrics, seen along the normal.
@@ -150,30 +171,45 @@ impl Scene {
     /// with probability 1 − alpha) and the throughput weight of passing, transmission /
     /// (1 − alpha): 1 unless a node graph's Transparent colour is tinted, whose expected
     /// weight is then that colour (Cycles' transparent bounce carries the closure's colour).
+    /// `path`: the ray that reached the surface (the Light Path node).
     #[inline]
-    pub fn pass_through(&self, tri: u32, b1: f32, b2: f32) -> (f32, Rgb) {
+    pub fn pass_through(&self, tri: u32, b1: f32, b2: f32, path: LightPath) -> (f32, Rgb) {
         let mat = &self.materials[self.mesh.tri_material[tri as usize] as usize];
         match &mat.nodes {
             Some(prog) if prog.tinted_transparency => {
-                let t = node_transparent(self, prog, tri, b1, b2);
+                let t = node_transparent(self, prog, tri, b1, b2, path, None);
                 let p = pass_fraction(t);
                 let tint = if p > 0.0 { t.clamp(Rgb::ZERO, Rgb::ONE) / p } else { Rgb::ONE };
                 (1.0 - p, tint)
             }
-            _ => (self.alpha(tri, b1, b2), Rgb::ONE),
+            Some(prog) => (node_alpha(self, prog, tri, b1, b2, path, None), Rgb::ONE),
+            None => (self.alpha(tri, b1, b2), Rgb::ONE),
         }
     }
 
     /// What a BLEND surface lets through at barycentrics per channel, for shadow rays:
     /// 1 − alpha, or a tinted node graph's Transparent colour (each channel in [0, 1]).
+    /// `path`: the shadow ray's state with its length to the surface.
     #[inline]
-    pub fn transmission(&self, tri: u32, b1: f32, b2: f32) -> Rgb {
+    pub fn transmission(&self, tri: u32, b1: f32, b2: f32, path: LightPath) -> Rgb {
         let mat = &self.materials[self.mesh.tri_material[tri as usize] as usize];
         match &mat.nodes {
             Some(prog) if prog.tinted_transparency => {
-                node_transparent(self, prog, tri, b1, b2).clamp(Rgb::ZERO, Rgb::ONE)
+                node_transparent(self, prog, tri, b1, b2, path, None).clamp(Rgb::ZERO, Rgb::ONE)
             }
-            _ => Rgb::splat((1.0 - self.alpha(tri, b1, b2)).clamp(0.0, 1.0)),
+            Some(prog) => Rgb::splat((1.0 - node_alpha(self, prog, tri, b1, b2, path, None)).clamp(0.0, 1.0)),
+            None => Rgb::splat((1.0 - self.alpha(tri, b1, b2)).clamp(0.0, 1.0)),
+        }
+    }
+
+    /// Alpha of a triangle's material at barycentrics as a shadow ray of state `path` from
+    /// `org` sees it (a node graph may read the Light Path node; other materials do not).
+    #[inline]
+    pub fn shadow_alpha(&self, tri: u32, b1: f32, b2: f32, path: LightPath, org: Vec3) -> f32 {
+        let mat = &self.materials[self.mesh.tri_material[tri as usize] as usize];
+        match &mat.nodes {
+            Some(prog) => node_alpha(self, prog, tri, b1, b2, path, Some(org)),
+            None => self.alpha(tri, b1, b2),
         }
     }
 

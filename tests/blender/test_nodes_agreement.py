@@ -110,12 +110,22 @@ def texture(kind, output="Color", props=None, inputs=None, vector=None):
 
 
 def snapped_generated(tree, step=0.125):
-    """Generated coordinates snapped to a grid (Vector Math SNAP): a cell pattern for White Noise."""
+    """Generated coordinates snapped to a grid (Vector Math SNAP): a cell pattern for White Noise.
+
+    The coordinates are moved by half a cell first. On the flat plane Generated Z is 0.5, a grid
+    line: Cycles interpolates it from the vertices' 0.5 with rounding, and 5 % of the image
+    (whole patches of triangles) reads 0.49999997, which snaps to the cell below (measured: a
+    Cycles render of Generated Z < 0.5); Caustic's is exactly 0.5. Which cell a point on a grid
+    line falls in is rounding noise, not the pattern; half a cell off the line it is not."""
     coords = tree.nodes.new("ShaderNodeTexCoord")
+    shift = tree.nodes.new("ShaderNodeVectorMath")
+    shift.operation = "ADD"
+    by_id(shift.inputs, "Vector_001").default_value = (step / 2, step / 2, step / 2)
+    tree.links.new(coords.outputs["Generated"], shift.inputs[0])
     snap = tree.nodes.new("ShaderNodeVectorMath")
     snap.operation = "SNAP"
     by_id(snap.inputs, "Vector_001").default_value = (step, step, step)
-    tree.links.new(coords.outputs["Generated"], snap.inputs[0])
+    tree.links.new(shift.outputs["Vector"], snap.inputs[0])
     return snap.outputs["Vector"]
 
 
@@ -331,6 +341,12 @@ def add_object_target(scene):
     target.scale = (0.7, 0.7, 0.7)
 
 
+def coloured_flat_scene(scene, material):
+    """The flat scene with the plane's object colour set (Object Info Color reads it)."""
+    flat_scene(scene, material)
+    bpy.data.objects["Plane"].color = (0.9, 0.4, 0.15, 1.0)
+
+
 # name -> (scene builder, material maker, extra set-up or None)
 CASES = {
     "noise_fbm_3d": (flat_scene, texture("ShaderNodeTexNoise", inputs={"Scale": 4.0, "Detail": 3.0}), None),
@@ -362,6 +378,7 @@ CASES = {
     "magic": (flat_scene, texture("ShaderNodeTexMagic", props={"turbulence_depth": 3}, inputs={"Scale": 3.0}),
               None),
     "brick": (flat_scene, texture("ShaderNodeTexBrick", inputs={"Scale": 3.0}), None),
+    "object_info_color": (coloured_flat_scene, texture("ShaderNodeObjectInfo", output="Color"), None),
     "white_noise_cells": (flat_scene, texture("ShaderNodeTexWhiteNoise", vector=snapped_generated), None),
     "color_ramp_ease": (flat_scene, noise_into(ramp("EASE")), None),
     "color_ramp_constant": (flat_scene, noise_into(ramp("CONSTANT")), None),
@@ -517,12 +534,7 @@ def build_case(scene, case):
 
 
 # Known differences, kept failing on purpose (strict: a fix turns them into errors to remove):
-KNOWN_DIFFERENCES = {
-    # Cell interiors differ by a few per cent in 6 of 108 blocks (red 0.983, green 1.010):
-    # some snapped Generated cells get a neighbouring cell's hash; undiagnosed (the smooth
-    # Generated cases pass, and the White Noise hash itself is bit-exact, tests/texture_reference.rs).
-    "white_noise_cells": "snapped Generated cells land in neighbouring cells in places (undiagnosed)",
-}
+KNOWN_DIFFERENCES = {}
 
 
 @pytest.mark.parametrize("case", [pytest.param(c, marks=pytest.mark.xfail(strict=True, reason=KNOWN_DIFFERENCES[c]))

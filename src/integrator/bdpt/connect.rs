@@ -166,6 +166,7 @@ impl BdptIntegrator {
                 Some(hit.ng),
                 &ls,
                 media_leaving(ctx, &x, ls.wi),
+                crate::scene::light_path::LightPath::SHADOW_RAY,
             );
             if tr == Rgb::ZERO {
                 return Rgb::ZERO;

@@ -168,6 +168,7 @@ impl BdptIntegrator {
             }
             pdf_sa = if bs.delta { 0.0 } else { bs.pdf };
             prev_delta = bs.delta;
+            path.light_path = path.light_path.bounced(bs.kind, transmitted, bs.delta);
             path.media = ctx.medium_after(&s, wi, medium);
             if transmitted {
                 let mat = &ctx.scene.materials[s.material as usize];

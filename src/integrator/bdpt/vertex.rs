@@ -123,7 +123,14 @@ pub(super) fn segment_transmittance(ctx: &SceneContext, a: &Vertex, b: &Vertex, 
     };
     let target = LightSample { wi, dist, li: Rgb::ZERO, pdf: 0.0, delta: false, point: b.p, normal };
     let ng = (a.ng != Vec3::ZERO).then_some(a.ng);
-    crate::integrator::media::light_transmittance(ctx, a.p, ng, &target, stack)
+    crate::integrator::media::light_transmittance(
+        ctx,
+        a.p,
+        ng,
+        &target,
+        stack,
+        crate::scene::light_path::LightPath::SHADOW_RAY,
+    )
 }
 
 /// The media a segment leaving vertex `v` in direction `w` is in.

@@ -305,6 +305,7 @@ impl JensenIntegrator {
                 tmax: f32::INFINITY,
                 ray: RayMask::after_bounce(bs.kind, ci < 0.0),
                 prev_tri: s.tri,
+                light_path: s.light_path.bounced(bs.kind, ci < 0.0, bs.delta),
             };
             gathered += self.gather_path(ctx, st, sampler, stats);
         }

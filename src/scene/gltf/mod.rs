@@ -370,7 +370,8 @@ impl<'a> Loader<'a> {
                     let mut object = None;
                     if graphs {
                         let texspace = value.pointer(&format!("/meshes/{}/extras/CAUSTIC_texspace", m.index()));
-                        objects.push(shader_graph::object_data(world, &node_name, texspace));
+                        let color = value.pointer(&format!("/nodes/{node_index}/extras/CAUSTIC_object_color"));
+                        objects.push(shader_graph::object_data(world, &node_name, texspace, color));
                         let o = objects.len() as u32 - 1;
                         mesh.tri_object.resize(mesh.triangles.len(), o);
                         object = Some(o);

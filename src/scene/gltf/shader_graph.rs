@@ -164,11 +164,14 @@ impl Loader<'_> {
 }
 
 /// What a shader graph reads of an instance: its inverse world matrix and location, a
-/// per-object random number, and the mesh's texture space (`CAUSTIC_texspace` extras).
+/// per-object random number, the mesh's texture space (`CAUSTIC_texspace` extras) and the
+/// object's colour (the node's `CAUSTIC_object_color` extras; white without them, as
+/// Blender's default, or when they are not 4 finite numbers).
 pub(super) fn object_data(
     world: &glam::Mat4,
     node_name: &str,
     texspace: Option<&serde_json::Value>,
+    color: Option<&serde_json::Value>,
 ) -> crate::shader::geom::ObjectData {
     let vec3 = |v: Option<&serde_json::Value>| -> Option<glam::Vec3> {
         let a = v?.as_array()?;
@@ -183,6 +186,14 @@ pub(super) fn object_data(
         location: world.w_axis.truncate(),
         random: object_random(node_name),
         texspace,
+        color: color
+            .and_then(|c| c.as_array())
+            .filter(|a| a.len() == 4)
+            .and_then(|a| {
+                let v: Option<Vec<f32>> = a.iter().map(|x| x.as_f64().map(|x| x as f32)).collect();
+                v.filter(|v| v.iter().all(|x| x.is_finite())).map(|v| glam::Vec4::new(v[0], v[1], v[2], v[3]))
+            })
+            .unwrap_or(glam::Vec4::ONE),
     }
 }
 
@@ -208,5 +219,16 @@ mod object_random_tests {
         assert_eq!(object_random("Plane"), 0.135_764_3);
         assert_eq!(object_random("Object Info"), 0.583_441_8);
         assert_eq!(object_random("Würfel.001"), 0.053_860_776);
+    }
+
+    /// Object Info Color/Alpha from the node's extras; white without them or when malformed.
+    #[test]
+    fn object_color_from_extras() {
+        let world = glam::Mat4::IDENTITY;
+        let c = serde_json::json!([0.2, 0.4, 0.6, 0.5]);
+        assert_eq!(super::object_data(&world, "A", None, Some(&c)).color, glam::Vec4::new(0.2, 0.4, 0.6, 0.5));
+        assert_eq!(super::object_data(&world, "A", None, None).color, glam::Vec4::ONE);
+        let bad = serde_json::json!([0.2, "x", 0.6, 1]);
+        assert_eq!(super::object_data(&world, "A", None, Some(&bad)).color, glam::Vec4::ONE);
     }
 }

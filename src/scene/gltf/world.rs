@@ -123,6 +123,19 @@ impl Loader<'_> {
             matches!(op, crate::shader::instructions::Op::Closure(c)
                 if !matches!(c.kind, crate::shader::closure::ClosureKind::Emission))
         });
+        let light_path = prog.ops.iter().any(|op| {
+            matches!(
+                op,
+                crate::shader::instructions::Op::Input {
+                    what: crate::shader::instructions::InputKind::LightPath(_),
+                    ..
+                }
+            )
+        });
+        if light_path {
+            // The world is one table for every ray: what the camera sees is what lights the scene.
+            self.warn("world: the Light Path node reads as for light sampling (Is Camera Ray 0, Ray Depth 1) for every ray, the camera's too");
+        }
         if lobes || prog.transparent {
             self.warn("world: a BSDF or Transparent shader on the World Output renders nothing (black, as in Cycles)");
         }

@@ -158,6 +158,7 @@ fn dummy_geom(o: &ObjectData) -> Geom<'_> {
         textures: &[],
         mesh: &EMPTY_MESH,
         tri: 0,
+        path: crate::scene::light_path::LightPath::LIGHT_EMISSION,
     }
 }
 
@@ -426,12 +427,7 @@ impl<'a> Compiler<'a> {
         self.ranges[i] = (mark as u32, self.ops.len() as u32);
         if !known {
             self.unknown[i] = true;
-            let why = match kind {
-                // The shading point does not know the ray's type (camera, shadow, ...).
-                "ShaderNodeLightPath" => "Light Path is not supported (the ray type is not known where it is shaded)",
-                _ => "this node type is not supported",
-            };
-            self.warn(i, format!("{why}: its outputs are 0"));
+            self.warn(i, "this node type is not supported: its outputs are 0");
             return Ok(());
         }
         // Fold a node whose inputs are all constant and that reads nothing of the point.

@@ -3,6 +3,7 @@
 //! Normal Map, Bump, and the texture nodes (procedural and image).
 
 use super::*;
+use crate::scene::light_path::PathOutput;
 use crate::shader::sky::{Sky, SkyModel, SkyParams};
 
 impl Compiler<'_> {
@@ -54,6 +55,15 @@ impl Compiler<'_> {
                             self.ops.push(Op::Input { what, out });
                         }
                         None => self.warn(i, format!("the {id} output is not supported: it gives 0")),
+                    }
+                }
+            }
+            "ShaderNodeLightPath" => {
+                self.all_const = false;
+                for (id, o) in PathOutput::ALL {
+                    if self.is_used(i, id) {
+                        let out = self.out(i, id, Ty::Float);
+                        self.ops.push(Op::Input { what: InputKind::LightPath(o), out });
                     }
                 }
             }
@@ -158,9 +168,9 @@ impl Compiler<'_> {
                             self.ops.push(Op::Input { what: InputKind::ObjectRandom, out });
                         }
                         "Color" | "Alpha" => {
-                            self.warn(i, format!("the object's {id} is not exported: it gives 1"));
-                            let r = if ty == Ty::Float { self.konst_f(1.0) } else { self.konst_v(Vec3::ONE) };
-                            self.alias(i, id, r, ty);
+                            let out = self.out(i, id, ty);
+                            let what = if id == "Color" { InputKind::ObjectColor } else { InputKind::ObjectAlpha };
+                            self.ops.push(Op::Input { what, out });
                         }
                         _ => {
                             self.warn(i, format!("the {id} output is not supported: it gives 0"));
@@ -181,9 +191,16 @@ impl Compiler<'_> {
                 let v = self.vec(i, "Vector", Vec3::ZERO)?;
                 let loc = self.vec(i, "Location", Vec3::ZERO)?;
                 let rot = self.vec(i, "Rotation", Vec3::ZERO)?;
+                // A constant rotation's matrix (three sin/cos pairs) is built here once.
+                let rotation = self.is_const(rot, 3).then(|| {
+                    let r = rot as usize;
+                    let angles = Vec3::new(self.init[r], self.init[r + 1], self.init[r + 2]);
+                    self.prog.rotations.push(crate::shader::program::mapping_rotation(angles));
+                    self.prog.rotations.len() as u32 - 1
+                });
                 let scale = self.vec(i, "Scale", Vec3::ONE)?;
                 let out = self.out(i, "Vector", Ty::Vector);
-                self.ops.push(Op::Mapping { kind, v, loc, rot, scale, out });
+                self.ops.push(Op::Mapping { kind, v, loc, rot, rotation, scale, out });
             }
             "ShaderNodeNormalMap" => {
                 let space = match self.prop_str(i, "space", "TANGENT") {

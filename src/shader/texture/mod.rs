@@ -5,6 +5,7 @@
 //! with values Blender itself computed (`tests/data/make_texture_reference.py`).
 
 pub mod brick;
+mod cell_offsets;
 pub mod checker;
 pub mod float_ops;
 pub mod fractal;

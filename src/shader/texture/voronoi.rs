@@ -12,6 +12,7 @@ use core::ops::{Add, Mul, Sub};
 
 use glam::{Vec2, Vec3, Vec4};
 
+use super::cell_offsets::{OFFSETS_2D, OFFSETS_3D, OFFSETS_4D};
 use super::float_ops::floor;
 use super::hash::{
     hash_float_to_float, hash_float_to_float3, hash_int2_to_float2, hash_int2_to_float3, hash_int3_to_float3,
@@ -277,6 +278,9 @@ impl Coord for Vec2 {
     }
     #[inline(always)]
     fn offset(i: u32, r: i32) -> Self {
+        if r == 1 {
+            return OFFSETS_2D[i as usize];
+        }
         let n = (2 * r + 1) as u32;
         Vec2::new((i % n) as i32 as f32 - r as f32, (i / n) as i32 as f32 - r as f32)
     }
@@ -326,6 +330,9 @@ impl Coord for Vec3 {
     }
     #[inline(always)]
     fn offset(i: u32, r: i32) -> Self {
+        if r == 1 {
+            return OFFSETS_3D[i as usize];
+        }
         let n = (2 * r + 1) as u32;
         Vec3::new((i % n) as f32 - r as f32, (i / n % n) as f32 - r as f32, (i / (n * n)) as f32 - r as f32)
     }
@@ -337,6 +344,7 @@ impl Coord for Vec3 {
     fn hash_point(cell: Self, offset: Self) -> Self {
         hash_int3_to_float3(cell_index(cell.to_array(), offset.to_array()))
     }
+
     #[inline(always)]
     fn hash_color(cell: Self, offset: Self) -> Vec3 {
         hash_int3_to_float3(cell_index(cell.to_array(), offset.to_array()))
@@ -375,6 +383,9 @@ impl Coord for Vec4 {
     }
     #[inline(always)]
     fn offset(i: u32, r: i32) -> Self {
+        if r == 1 {
+            return OFFSETS_4D[i as usize];
+        }
         let n = (2 * r + 1) as u32;
         Vec4::new(
             (i % n) as f32 - r as f32,
