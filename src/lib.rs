@@ -10,6 +10,7 @@ pub mod accel;
 pub mod bsdf;
 pub mod chunk;
 pub mod cli;
+pub mod curves;
 pub mod denoise;
 pub mod error;
 pub mod film;

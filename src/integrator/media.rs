@@ -83,8 +83,8 @@ pub fn light_transmittance(
         let Some(h) = hit else {
             return tr;
         };
-        let mat = &ctx.scene.materials[ctx.scene.mesh.tri_material[h.tri as usize] as usize];
         let s = ctx.scene.surface(&h, org, dir);
+        let mat = &ctx.scene.materials[s.material as usize];
         if mat.null_surface {
             stack = ctx.medium_after(&s, dir, stack);
         } else if mat.alpha_mode == AlphaMode::Blend {

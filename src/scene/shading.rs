@@ -56,6 +56,9 @@ impl Scene {
     /// Geometry of a hit as seen from direction `wo` (pointing back along the ray).
     #[inline]
     pub fn surface(&self, hit: &Hit, org: Vec3, dir: Vec3) -> SurfaceHit {
+        if crate::curves::is_curve(hit.tri) {
+            return self.curves.surface(hit, org, dir);
+        }
         let m = &self.mesh;
         let [i0, i1, i2] = m.triangles[hit.tri as usize].map(|i| i as usize);
         let (b1, b2) = (hit.b1, hit.b2);

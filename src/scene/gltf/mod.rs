@@ -14,6 +14,7 @@
 //! `extensions.rs` holds the serde shapes of the `CAUSTIC_*` extensions.
 
 mod cameras;
+mod curves;
 mod emission;
 mod extensions;
 mod lights;
@@ -361,6 +362,7 @@ impl<'a> Loader<'a> {
             }
         }
         ray_visibility.finish(mesh.triangles.len());
+        let curves = self.curves(&value, &doc, &buffers, &mut materials, default_material)?;
         if mesh.triangles.is_empty() {
             return Err(self.err("nothing to render: the scene has no triangles (no mesh, or only points/lines)"));
         }
@@ -372,6 +374,10 @@ impl<'a> Loader<'a> {
                 lo = lo.min(mesh.positions[i as usize]);
                 hi = hi.max(mesh.positions[i as usize]);
             }
+        }
+        for p in &curves.points {
+            lo = lo.min(p.truncate() - p.w);
+            hi = hi.max(p.truncate() + p.w);
         }
         let scene_radius = ((hi - lo).length() * 0.5).max(1e-3);
 
@@ -466,6 +472,9 @@ impl<'a> Loader<'a> {
             meshes: used_meshes.len(),
             instances: instance_count,
             degenerate_triangles: degenerate,
+            strands: curves.strands.len(),
+            curve_segments: curves.segments(),
+            curve_bytes: curves.bytes(),
             extensions_used: doc.extensions_used().map(str::to_string).collect(),
             materials: material_reports,
             lights: light_reports,
@@ -496,6 +505,7 @@ impl<'a> Loader<'a> {
         }
         Ok(Scene {
             mesh,
+            curves,
             materials,
             textures: self.textures,
             lights,
