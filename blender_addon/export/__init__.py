@@ -21,6 +21,7 @@ out of it or writes differently from what Cycles renders (docs/contract.md):
 | `depsgraph.py` | pointing the exporter at the render depsgraph |
 | `state.py` | the export in progress, shared with the hooks |
 | `view_layer.py` | the view layer's excluded collections left out of the exporter's tree (instances kept); the Material Override is applied in `meshes.py` |
+| `curves.py` | hair particle systems and Curves objects: `CAUSTIC_curves`, appended after the exporter ran |
 | `unsupported.py` | warnings naming what Caustic cannot render yet (motion blur, hair, holdout, ...) |
 """
 
@@ -29,6 +30,7 @@ import os
 import bpy
 
 from ..errors import CausticError
+from .curves import add_curves
 from .camera import CAMERA_EXTENSION, camera_extension  # noqa: F401  (public names)
 from .depsgraph import render_depsgraph
 from .gltf_hooks import glTF2ExportUserExtension, hooks_enabled  # noqa: F401
@@ -98,7 +100,11 @@ def export_scene(depsgraph, folder, settings):
         raise CausticError(f"glTF export failed: {lines[-1] if lines else err}") from None
     if state.errors:
         raise CausticError("export failed: " + "; ".join(state.errors))
-    state.warnings.extend(scene_warnings(depsgraph))
     if not os.path.isfile(filepath):
         raise CausticError("glTF export wrote no file")
+    try:
+        add_curves(filepath, depsgraph, state.warnings)
+    except (OSError, ValueError, KeyError, AttributeError) as err:
+        raise CausticError(f"exporting hair and curves failed: {err!r}") from None
+    state.warnings.extend(scene_warnings(depsgraph))
     return filepath, state

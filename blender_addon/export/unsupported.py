@@ -1,5 +1,5 @@
 """What Caustic cannot render yet, named: scene features that would otherwise be dropped without
-a word (motion blur, hair, volume objects, shadow catcher, lights' ray visibility beyond Camera, shadow
+a word (motion blur, volume objects, shadow catcher, lights' ray visibility beyond Camera, shadow
 linking (blockers), view layer indirect-only collections, material override; Holdout goes out with
 visibility.py, with a warning from the BDPT run that cannot render it). Each warning
 names the object, collection or setting and says what the render does instead."""
@@ -33,17 +33,10 @@ def object_warnings(obj):
     """Warnings for one object's features that Caustic does not render."""
     what = f"object '{obj.name}'"
     warnings = []
-    if obj.type == "CURVES":
-        warnings.append(f"{what}: hair curves are not rendered")
-    elif obj.type == "VOLUME":
+    if obj.type == "VOLUME":
         warnings.append(f"{what}: volume objects (OpenVDB grids) are not rendered")
     elif obj.type == "POINTCLOUD":
         warnings.append(f"{what}: point clouds are not rendered")
-    for modifier in getattr(obj, "modifiers", ()):
-        if modifier.type == "PARTICLE_SYSTEM" and modifier.show_render:
-            settings = modifier.particle_system.settings
-            if settings.type == "HAIR" and settings.render_type == "PATH":
-                warnings.append(f"{what}: hair particle system '{modifier.particle_system.name}' is not rendered")
     # Blender 5.0 sets the flag on new lights too; it means something for geometry only.
     if obj.type not in ("LIGHT", "CAMERA", "EMPTY") and getattr(obj, "is_shadow_catcher", False):
         warnings.append(f"{what}: Shadow Catcher is not supported; it renders as an ordinary object")
