@@ -268,8 +268,13 @@ def add_curves(gltf_path, depsgraph, warnings):
 
     objects = []
     total = 0
+    from .nodes import surface_node
     for s in strands:
         what = f"hair '{s.name}'"
+        node = surface_node(s.material) if s.material is not None else None
+        if node is not None and node.type in ("BSDF_HAIR_PRINCIPLED", "BSDF_HAIR"):
+            warnings.append(f"{what}: material '{s.material.name}': the {node.bl_label} is not rendered yet; the "
+                            "strands are shaded as a surface with the material's glTF values")
         entry = {
             "name": s.name,
             "points": accessor(s.points.astype(np.float32), 5126, "VEC3"),

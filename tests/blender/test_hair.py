@@ -156,3 +156,23 @@ def test_curves_object_is_exported(addon, empty_scene):
     assert list(s.counts) == [2 * curves.SUBDIVISIONS + 1, curves.SUBDIVISIONS + 1]
     assert s.radii == pytest.approx(2.0 * curves.DEFAULT_CURVES_RADIUS)
     assert s.points[0] == pytest.approx([0.0, 1.0, 0.0]) and s.points[2 * curves.SUBDIVISIONS] == pytest.approx([0.0, 5.0, 0.0])
+
+
+def test_principled_hair_bsdf_is_named_in_a_warning(addon, empty_scene, tmp_path):
+    """Strands whose material is a Principled Hair BSDF (Chiang, Blender 5.0's default model)
+    are exported and named in a warning: the hair BSDF is not rendered yet."""
+    curves = importlib.import_module(addon.__name__ + ".export.curves")
+    scene = empty_scene
+    sphere = furry_sphere(scene)
+    hair = scenes.shader_node_material("Hairy", "ShaderNodeBsdfHairPrincipled")
+    assert hair.node_tree.nodes["Principled Hair BSDF"].model == "CHIANG"
+    sphere.data.materials.append(hair)
+    sphere.particle_systems[0].settings.material = 2
+    export = importlib.import_module(addon.__name__ + ".export")
+    settings = export.render_settings(scene, (W, H), "Camera")
+    path, state = export.export_scene(bpy.context.evaluated_depsgraph_get(), str(tmp_path), settings)
+    with open(path) as f:
+        doc = json.load(f)
+    (obj,) = doc["extensions"][curves.CURVES_EXTENSION]["objects"]
+    assert doc["materials"][obj["material"]]["name"] == "Hairy"
+    assert any("Hairy" in w and "Principled Hair BSDF" in w for w in state.warnings), state.warnings
