@@ -24,7 +24,8 @@ const HEIGHT: f32 = 0.5;
 /// The scene; each strand is four control points along x (three segments, joints included).
 fn strands_scene(dir: &Path, name: &str) -> PathBuf {
     let mut g = GltfBuilder::new();
-    let white = g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1], "metallicFactor": 0.0},
+    let white = g
+        .material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1], "metallicFactor": 0.0},
         "extensions": {"KHR_materials_specular": {"specularFactor": 0.0}}}));
     let black = g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1], "metallicFactor": 0.0},
         "extensions": {"KHR_materials_specular": {"specularFactor": 0.0}}}));
@@ -71,8 +72,18 @@ fn strands_and_their_shadows_cover_their_width_in_every_integrator() {
         ("sppm", 2e-2, vec!["--sppm-iterations", "64", "--sppm-radius", "0.02"]),
     ] {
         let mut args = vec![
-            "--resolution", "64x64", "--spp", "64", "--filter", "box", "--filter-width", "1", "--max-depth", "1",
-            "--integrator", integrator,
+            "--resolution",
+            "64x64",
+            "--spp",
+            "64",
+            "--filter",
+            "box",
+            "--filter-width",
+            "1",
+            "--max-depth",
+            "1",
+            "--integrator",
+            integrator,
         ];
         args.extend(extra);
         let px = render_image(&scene, &d.join(format!("{integrator}.exr")), &args, LIMIT);
@@ -98,7 +109,10 @@ fn bad_strands_are_refused_by_name() {
         let path = d.join(name);
         std::fs::write(&path, serde_json::to_vec(doc).unwrap()).unwrap();
         let out = d.join("bad.exr");
-        run(&["render", path.to_str().unwrap(), "-o", out.to_str().unwrap(), "--spp", "1", "--resolution", "8x8"], LIMIT)
+        run(
+            &["render", path.to_str().unwrap(), "-o", out.to_str().unwrap(), "--spp", "1", "--resolution", "8x8"],
+            LIMIT,
+        )
     };
     let ok = render(&doc, "ok.gltf");
     assert_eq!(ok.code, Some(0), "{}", ok.stderr);

@@ -24,11 +24,13 @@ within L² κ / 8 of Cycles' curve, and subdividing would multiply the memory of
 """
 
 import json
+import math
 import os
 
 import numpy as np
 
 CURVES_EXTENSION = "CAUSTIC_curves"
+HAIR_EXTENSION = "CAUSTIC_materials_hair"
 BUFFER_NAME = "scene_curves.bin"
 # Straight pieces per Catmull-Rom segment (see the module's comment).
 SUBDIVISIONS = 4
@@ -235,6 +237,9 @@ def _gltf_material(doc, material, warnings, what):
             warnings.append(f"{what}: material '{material.name}': linked inputs ({', '.join(linked)}) are not "
                             "exported for strands; their values are used")
         entry["pbrMetallicRoughness"] = pbr
+    elif node is not None and node.type == "BSDF_HAIR_PRINCIPLED":
+        # Shaded by CAUSTIC_materials_hair on strands; the glTF values serve a mesh using it.
+        entry["pbrMetallicRoughness"] = {"baseColorFactor": [0.8, 0.8, 0.8, 1.0], "metallicFactor": 0.0}
     else:
         kind = node.bl_label if node is not None else "no surface"
         warnings.append(f"{what}: material '{material.name}' ({kind}) is not rendered on strands; they are "
@@ -242,6 +247,49 @@ def _gltf_material(doc, material, warnings, what):
         entry["pbrMetallicRoughness"] = {"baseColorFactor": [0.8, 0.8, 0.8, 1.0], "metallicFactor": 0.0}
     materials.append(entry)
     return len(materials) - 1
+
+
+def _sigma_from_reflectance(color, radial):
+    """Cycles' `sigma_from_reflectance`: the absorption giving the fibre colour `color`."""
+    x = radial
+    fac = (((((0.245 * x) + 5.574) * x - 10.73) * x + 2.532) * x - 0.215) * x + 5.969
+    return [(math.log(max(c, 1e-6)) / fac) ** 2 for c in color[:3]]
+
+
+def hair_parameters(node, what, warnings):
+    """`CAUSTIC_materials_hair` of a Principled Hair BSDF node: the absorption from its
+    parametrisation (Cycles' formulas, node_principled_hair_bsdf.osl), roughnesses, coat, offset, IOR."""
+    from .nodes import socket
+    linked = [s.name for s in node.inputs if s.is_linked]
+    if linked:
+        warnings.append(f"{what}: the Principled Hair BSDF's linked inputs ({', '.join(linked)}) are not "
+                        "exported; their values are used")
+    if node.model == "HUANG":
+        warnings.append(f"{what}: the Principled Hair BSDF's Huang model is rendered as the Chiang model "
+                        "(the same colour, roughness, IOR and offset; no aspect ratio or lobe weights)")
+    if socket(node, "Random Color").default_value or socket(node, "Random Roughness").default_value:
+        warnings.append(f"{what}: the Principled Hair BSDF's Random Color and Random Roughness are ignored "
+                        "(every strand takes the node's values)")
+    value = lambda name: socket(node, name).default_value  # noqa: E731
+    radial = float(value("Radial Roughness"))
+    if node.parametrization == "ABSORPTION":
+        sigma = [float(c) for c in value("Absorption Coefficient")[:3]]
+    elif node.parametrization == "MELANIN":
+        melanin = -math.log(max(1.0 - float(value("Melanin")), 1e-4))
+        redness = float(value("Melanin Redness"))
+        eu, pheo = melanin * (1.0 - redness), melanin * redness
+        tint = _sigma_from_reflectance(value("Tint"), radial)
+        sigma = [eu * a + pheo * b + t for a, b, t in zip((0.506, 0.841, 1.653), (0.343, 0.733, 1.924), tint)]
+    else:
+        sigma = _sigma_from_reflectance(value("Color"), radial)
+    return {"sigma": sigma, "roughness": min(max(float(value("Roughness")), 0.0), 1.0),
+            "radialRoughness": min(max(radial, 0.0), 1.0), "coat": min(max(float(value("Coat")), 0.0), 1.0),
+            "offset": float(value("Offset")), "ior": max(float(value("IOR")), 1.0001)}
+
+
+def used_extensions(doc):
+    """The document's extensionsUsed list (made when missing)."""
+    return doc.setdefault("extensionsUsed", [])
 
 
 def add_curves(gltf_path, depsgraph, warnings):
@@ -272,9 +320,9 @@ def add_curves(gltf_path, depsgraph, warnings):
     for s in strands:
         what = f"hair '{s.name}'"
         node = surface_node(s.material) if s.material is not None else None
-        if node is not None and node.type in ("BSDF_HAIR_PRINCIPLED", "BSDF_HAIR"):
-            warnings.append(f"{what}: material '{s.material.name}': the {node.bl_label} is not rendered yet; the "
-                            "strands are shaded as a surface with the material's glTF values")
+        if node is not None and node.type == "BSDF_HAIR":
+            warnings.append(f"{what}: material '{s.material.name}': the (non-principled) Hair BSDF is not rendered; "
+                            "the strands are shaded as a surface with the material's glTF values")
         entry = {
             "name": s.name,
             "points": accessor(s.points.astype(np.float32), 5126, "VEC3"),
@@ -286,6 +334,12 @@ def add_curves(gltf_path, depsgraph, warnings):
         material = _gltf_material(doc, s.material, warnings, what)
         if material is not None:
             entry["material"] = material
+            if node is not None and node.type == "BSDF_HAIR_PRINCIPLED":
+                gltf_material = doc["materials"][material]
+                gltf_material.setdefault("extensions", {})[HAIR_EXTENSION] = hair_parameters(
+                    node, f"{what}: material '{s.material.name}'", warnings)
+                if HAIR_EXTENSION not in used_extensions(doc):
+                    used_extensions(doc).append(HAIR_EXTENSION)
         objects.append(entry)
         total += len(s.counts)
     folder = os.path.dirname(gltf_path)

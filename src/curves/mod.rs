@@ -15,6 +15,7 @@
 
 pub mod bvh;
 pub mod round_cone;
+pub mod shade;
 
 use crate::accel::Hit;
 use crate::scene::hit::SurfaceHit;
@@ -86,6 +87,12 @@ impl Curves {
     fn strand_of(&self, point: u32) -> &Strand {
         let i = self.strands.partition_point(|s| s.first <= point) - 1;
         &self.strands[i]
+    }
+
+    /// The centre of the sphere a curve hit touches: a point on the strand's axis.
+    pub fn axis_point(&self, hit: &Hit) -> Vec3 {
+        let k = self.first_point(hit) as usize;
+        self.points[k].xyz().lerp(self.points[k + 1].xyz(), hit.b1)
     }
 
     /// Position along the strand of a curve hit: 0 at the root, 1 at the tip.

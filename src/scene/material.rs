@@ -106,6 +106,9 @@ pub struct Material {
     /// Blender's shader graph (`CAUSTIC_materials_nodes`), compiled: when present it
     /// replaces the glTF parameters above in shading, alpha and emission.
     pub nodes: Option<std::sync::Arc<crate::shader::instructions::Program>>,
+    /// The Principled Hair BSDF (`CAUSTIC_materials_hair`): strands with this material are
+    /// shaded by it; triangles keep the glTF parameters.
+    pub hair: Option<crate::bsdf::hair::HairParams>,
 }
 
 impl Default for Material {
@@ -154,6 +157,7 @@ impl Default for Material {
             alpha_mode: AlphaMode::Opaque,
             double_sided: false,
             nodes: None,
+            hair: None,
         }
     }
 }
@@ -232,6 +236,7 @@ impl Material {
             subsurface: _,
             alpha_mode: _,
             double_sided: _,
+            hair: _,
             // Not a texture: a shader graph replaces every parameter above.
             nodes: _,
         } = self;

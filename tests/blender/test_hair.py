@@ -158,14 +158,47 @@ def test_curves_object_is_exported(addon, empty_scene):
     assert s.points[0] == pytest.approx([0.0, 1.0, 0.0]) and s.points[2 * curves.SUBDIVISIONS] == pytest.approx([0.0, 5.0, 0.0])
 
 
-def test_principled_hair_bsdf_is_named_in_a_warning(addon, empty_scene, tmp_path):
-    """Strands whose material is a Principled Hair BSDF (Chiang, Blender 5.0's default model)
-    are exported and named in a warning: the hair BSDF is not rendered yet."""
-    curves = importlib.import_module(addon.__name__ + ".export.curves")
+@pytest.mark.needs_binary
+@pytest.mark.xfail(strict=True, reason="Caustic's hair is 3-4 % darker than Cycles' on this scene (COLOR: R 0.962, "
+                   "G 0.964, B 0.968; MELANIN: R 0.972, G 0.978, B 0.986 of Cycles, bound ~2 %); the unit tests "
+                   "(chi-square, furnace) pass, the cause is not found yet (issue 20)")
+@pytest.mark.parametrize("parametrization", ["COLOR", "MELANIN"])
+def test_principled_hair_bsdf_matches_cycles(empty_scene, tmp_path, parametrization):
+    """The furry sphere with a Principled Hair BSDF (Chiang, Blender 5.0's default model) on the
+    strands: brown direct colouring, and melanin with a tint. Same bound as the diffuse case.
+    Beyond its allowance: Cycles samples the R lobe's longitudinal angle with the uncoated
+    variance (its pdf then differs from its sampling when Coat > 0; the test keeps Coat 0) and
+    takes h from the curve's true normal, Caustic from the segment's axis (exact on cylinders;
+    these strands taper by 0.015 over 0.3, a slope of 3 degrees)."""
     scene = empty_scene
     sphere = furry_sphere(scene)
     hair = scenes.shader_node_material("Hairy", "ShaderNodeBsdfHairPrincipled")
-    assert hair.node_tree.nodes["Principled Hair BSDF"].model == "CHIANG"
+    node = hair.node_tree.nodes["Principled Hair BSDF"]
+    node.parametrization = parametrization
+    # Inputs of the other parametrisations are hidden (not reachable by key).
+    values = {"Color": (0.5, 0.3, 0.15, 1.0), "Roughness": 0.35, "Radial Roughness": 0.4, "Melanin": 0.4,
+              "Melanin Redness": 0.6, "Tint": (0.9, 0.8, 0.7, 1.0)}
+    for socket in node.inputs:
+        if socket.name in values:
+            socket.default_value = values[socket.name]
+    sphere.data.materials.append(hair)
+    sphere.particle_systems[0].settings.material = 2
+    ratios = assert_mean_matches_cycles(scene, tmp_path, f"hair BSDF {parametrization}", MODEL_ALLOWANCE,
+                                        per_channel=True)
+    print(f"\n[hair] Principled Hair BSDF ({parametrization}) Caustic/Cycles {ratios}")
+
+
+def test_principled_hair_bsdf_is_exported(addon, empty_scene, tmp_path):
+    """Strands whose material is a Principled Hair BSDF carry CAUSTIC_materials_hair on that
+    material: the absorption of its colour (Cycles' inverse of the fibre's albedo), roughness,
+    radial roughness, coat, offset and IOR; the Huang model is named in a warning."""
+    curves = importlib.import_module(addon.__name__ + ".export.curves")
+    scene = empty_scene
+    sphere = furry_sphere(scene)
+    hair = scenes.shader_node_material("Hairy", "ShaderNodeBsdfHairPrincipled",
+                                       **{"Color": (0.5, 0.3, 0.15, 1.0), "Coat": 0.25})
+    node = hair.node_tree.nodes["Principled Hair BSDF"]
+    assert node.model == "CHIANG"
     sphere.data.materials.append(hair)
     sphere.particle_systems[0].settings.material = 2
     export = importlib.import_module(addon.__name__ + ".export")
@@ -174,5 +207,15 @@ def test_principled_hair_bsdf_is_named_in_a_warning(addon, empty_scene, tmp_path
     with open(path) as f:
         doc = json.load(f)
     (obj,) = doc["extensions"][curves.CURVES_EXTENSION]["objects"]
-    assert doc["materials"][obj["material"]]["name"] == "Hairy"
-    assert any("Hairy" in w and "Principled Hair BSDF" in w for w in state.warnings), state.warnings
+    material = doc["materials"][obj["material"]]
+    assert material["name"] == "Hairy"
+    params = material["extensions"][curves.HAIR_EXTENSION]
+    fac = 5.969 - 0.215 * 0.3 + 2.532 * 0.3 ** 2 - 10.73 * 0.3 ** 3 + 5.574 * 0.3 ** 4 + 0.245 * 0.3 ** 5
+    assert params["sigma"] == pytest.approx([(np.log(c) / fac) ** 2 for c in (0.5, 0.3, 0.15)], rel=1e-5)
+    assert params["coat"] == pytest.approx(0.25) and params["ior"] == pytest.approx(1.55)
+    assert params["offset"] == pytest.approx(np.radians(2.0), rel=1e-5)
+    assert curves.HAIR_EXTENSION in doc["extensionsUsed"]
+    assert not any("Hairy" in w for w in state.warnings), state.warnings
+    node.model = "HUANG"
+    _, state = export.export_scene(bpy.context.evaluated_depsgraph_get(), str(tmp_path), settings)
+    assert any("Huang" in w and "Hairy" in w for w in state.warnings), state.warnings

@@ -3,6 +3,7 @@
 //! and their BVH built.
 
 use super::Loader;
+use crate::bsdf::hair::HairParams;
 use crate::curves::{Curves, Strand};
 use crate::error::Result;
 use crate::scene::{AlphaMode, Material};
@@ -56,6 +57,22 @@ impl Loader<'_> {
         let Some(ext) = value.pointer("/extensions/CAUSTIC_curves") else {
             return Ok(curves);
         };
+        // The Principled Hair BSDF of the materials that have one (strands shade with it).
+        for (i, m) in value.get("materials").and_then(|m| m.as_array()).into_iter().flatten().enumerate() {
+            if let Some(hair) = m.pointer("/extensions/CAUSTIC_materials_hair") {
+                let name = m.get("name").and_then(|n| n.as_str()).unwrap_or("");
+                let params: HairParams = serde_json::from_value(hair.clone()).map_err(|e| {
+                    self.err(format!("material {i} ('{name}'): CAUSTIC_materials_hair is malformed: {e}"))
+                })?;
+                if !params.valid() {
+                    return Err(self.err(format!(
+                        "material {i} ('{name}'): CAUSTIC_materials_hair out of range (absorption >= 0, roughnesses \
+                         and coat in [0, 1], IOR > 1): {params:?}"
+                    )));
+                }
+                materials[i].hair = Some(params);
+            }
+        }
         let ext: CurvesExt =
             serde_json::from_value(ext.clone()).map_err(|e| self.err(format!("CAUSTIC_curves is malformed: {e}")))?;
         let mut opaque_copies: std::collections::HashMap<u32, u32> = Default::default();
@@ -65,7 +82,10 @@ impl Loader<'_> {
             let what = format!("curves object '{}'", obj.name);
             let accessor = |index: usize, field: &str| {
                 doc.accessors().nth(index).ok_or_else(|| {
-                    self.err(format!("{what}: {field} accessor {index} does not exist (the file has {})", doc.accessors().len()))
+                    self.err(format!(
+                        "{what}: {field} accessor {index} does not exist (the file has {})",
+                        doc.accessors().len()
+                    ))
                 })
             };
             let (points_acc, radii_acc, counts_acc) =
@@ -125,10 +145,9 @@ impl Loader<'_> {
             }
             let material = match obj.material {
                 Some(m) if m as usize >= materials.len() => {
-                    return Err(self.err(format!(
-                        "{what}: material {m} does not exist (the file has {})",
-                        materials.len()
-                    )));
+                    return Err(
+                        self.err(format!("{what}: material {m} does not exist (the file has {})", materials.len()))
+                    );
                 }
                 Some(m) => m,
                 None => default_material,
@@ -162,7 +181,9 @@ impl Loader<'_> {
                 }
             };
             let mut uvs = match uv_acc {
-                Some(acc) => Some(gltf::accessor::Iter::<[f32; 2]>::new(acc, get).ok_or_else(|| unreadable("rootUvs"))?),
+                Some(acc) => {
+                    Some(gltf::accessor::Iter::<[f32; 2]>::new(acc, get).ok_or_else(|| unreadable("rootUvs"))?)
+                }
                 None => None,
             };
             let counts = gltf::accessor::Iter::<u32>::new(counts_acc, get).ok_or_else(|| unreadable("counts"))?;
