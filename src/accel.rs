@@ -157,8 +157,8 @@ fn gamma(n: i32) -> f32 {
     e / (1.0 - e)
 }
 
-/// Per-ray constants of the node test.
-struct NodeRay {
+/// Per-ray constants of the node test (shared with the curves' BVH, `curves::bvh`).
+pub(crate) struct NodeRay {
     org: Vec3A,
     inv: Vec3A,
     neg: [bool; 3],
@@ -166,7 +166,7 @@ struct NodeRay {
 
 impl NodeRay {
     #[inline]
-    fn new(org: Vec3, dir: Vec3A) -> Self {
+    pub(crate) fn new(org: Vec3, dir: Vec3A) -> Self {
         // Not obvhs' safe_inverse, which clamps 1/d to 1/ε = 8.4e6 and so shortens the
         // box exits of rays nearly parallel to an axis.
         let inv = |d: f32| if d.abs() >= 1e-20 { 1.0 / d } else { 1e20f32.copysign(d) };
@@ -185,7 +185,7 @@ impl NodeRay {
 /// (|p - o| + 255 e)/|d| (the subtraction, two products, two sums, and the builder's
 /// f32 quantisation); 8ε is used.
 #[inline(always)]
-fn node_hits(node: &CwBvhNode, ray: &NodeRay, tmax: f32, oct_inv4: u32) -> u32 {
+pub(crate) fn node_hits(node: &CwBvhNode, ray: &NodeRay, tmax: f32, oct_inv4: u32) -> u32 {
     let ext = node.compute_extent();
     let rel = Vec3A::from(node.p) - ray.org;
     let scale = ext * ray.inv;
@@ -264,7 +264,7 @@ fn node_hits(node: &CwBvhNode, ray: &NodeRay, tmax: f32, oct_inv4: u32) -> u32 {
 /// obvhs picks a node's near plane from the direction's comparison with zero but
 /// inverts it with the sign bit, so a -0.0 component misses boxes; -0.0 + 0.0 = +0.0.
 #[inline]
-fn obvhs_direction(dir: Vec3) -> Vec3A {
+pub(crate) fn obvhs_direction(dir: Vec3) -> Vec3A {
     Vec3A::from(dir + Vec3::ZERO)
 }
 

@@ -11,6 +11,7 @@ pub mod bsdf;
 pub mod chunk;
 pub mod cli;
 pub mod cryptomatte;
+pub mod curves;
 pub mod denoise;
 pub mod error;
 pub mod film;

@@ -22,6 +22,7 @@ out of it or writes differently from what Cycles renders (docs/contract.md):
 | `state.py` | the export in progress, shared with the hooks |
 | `view_layer.py` | the view layer's excluded collections left out of the exporter's tree (instances kept); the Material Override is applied in `meshes.py` |
 | `volumes.py` | volume objects: their grids from the .vdb into `caustic_volumes/*.cvol`, `CAUSTIC_volume` |
+| `curves.py` | hair particle systems and Curves objects: `CAUSTIC_curves`, appended after the exporter ran |
 | `unsupported.py` | warnings naming what Caustic cannot render yet (motion blur, hair, holdout, ...) |
 """
 
@@ -30,6 +31,7 @@ import os
 import bpy
 
 from ..errors import CausticError
+from .curves import add_curves
 from .camera import CAMERA_EXTENSION, camera_extension  # noqa: F401  (public names)
 from .depsgraph import render_depsgraph
 from .gltf_hooks import glTF2ExportUserExtension, hooks_enabled  # noqa: F401
@@ -100,8 +102,12 @@ def export_scene(depsgraph, folder, settings):
         raise CausticError(f"glTF export failed: {lines[-1] if lines else err}") from None
     if state.errors:
         raise CausticError("export failed: " + "; ".join(state.errors))
-    state.warnings.extend(scene_warnings(depsgraph))
     if not os.path.isfile(filepath):
         raise CausticError("glTF export wrote no file")
+    state.warnings.extend(scene_warnings(depsgraph))
     state.warnings.extend(attach_volumes(depsgraph, folder, filepath))
+    try:
+        add_curves(filepath, depsgraph, state.warnings)
+    except (OSError, ValueError, KeyError, AttributeError) as err:
+        raise CausticError(f"exporting hair and curves failed: {err!r}") from None
     return filepath, state

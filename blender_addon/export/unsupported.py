@@ -1,5 +1,5 @@
 """What Caustic cannot render yet, named: scene features that would otherwise be dropped without
-a word (motion blur, hair, lights' ray visibility beyond Camera, material
+a word (motion blur, lights' ray visibility beyond Camera, material
 override; shadow linking goes out with light_linking.py; Holdout, Indirect Only collections and Shadow
 Catcher go out with visibility.py, with a warning from the runs of integrators that cannot render
 them). Each warning
@@ -32,15 +32,8 @@ def object_warnings(obj):
     """Warnings for one object's features that Caustic does not render."""
     what = f"object '{obj.name}'"
     warnings = []
-    if obj.type == "CURVES":
-        warnings.append(f"{what}: hair curves are not rendered")
-    elif obj.type == "POINTCLOUD":
+    if obj.type == "POINTCLOUD":
         warnings.append(f"{what}: point clouds are not rendered")
-    for modifier in getattr(obj, "modifiers", ()):
-        if modifier.type == "PARTICLE_SYSTEM" and modifier.show_render:
-            settings = modifier.particle_system.settings
-            if settings.type == "HAIR" and settings.render_type == "PATH":
-                warnings.append(f"{what}: hair particle system '{modifier.particle_system.name}' is not rendered")
     if obj.type == "LIGHT":
         hidden = [name for prop, name in _LIGHT_RAY_VISIBILITY if not getattr(obj, prop, True)]
         if hidden:

@@ -6,6 +6,7 @@ pub mod albedo;
 pub mod aniso_albedo;
 pub mod dielectric;
 pub mod glass_albedo;
+pub mod hair;
 pub mod microfacet;
 pub mod microfiber;
 mod microfiber_table;
@@ -15,6 +16,7 @@ pub mod sheen;
 
 use crate::math::Rgb;
 use glam::{Vec2, Vec3};
+pub use hair::HairBsdf;
 pub use mix::MixBsdf;
 pub use pbr::{PbrAt, PbrBsdf};
 
@@ -60,6 +62,8 @@ pub enum Bsdf {
     Pbr(PbrBsdf),
     /// A weighted mixture of closures (a shader graph's Surface output, `mix.rs`).
     Mix(MixBsdf),
+    /// The Principled Hair BSDF (Chiang) of a strand (`hair.rs`).
+    Hair(HairBsdf),
 }
 
 impl Bsdf {
@@ -71,6 +75,7 @@ impl Bsdf {
         match self {
             Bsdf::Pbr(b) => b.subsurface_weight(wo),
             Bsdf::Mix(m) => m.subsurface_weight(wo),
+            Bsdf::Hair(_) => 0.0,
         }
     }
 
@@ -81,6 +86,7 @@ impl Bsdf {
         match self {
             Bsdf::Pbr(b) => (b.base, b.roughness),
             Bsdf::Mix(m) => (m.pbr.base, m.pbr.roughness),
+            Bsdf::Hair(h) => (h.albedo(), 1.0),
         }
     }
 
@@ -90,6 +96,7 @@ impl Bsdf {
         match self {
             Bsdf::Pbr(b) => b.eval(wo, wi),
             Bsdf::Mix(m) => m.eval(wo, wi),
+            Bsdf::Hair(h) => h.eval(wo, wi),
         }
     }
 
@@ -99,6 +106,7 @@ impl Bsdf {
         match self {
             Bsdf::Pbr(b) => BsdfAt::Pbr(b.at(wo)),
             Bsdf::Mix(m) => BsdfAt::Mix(m, wo),
+            Bsdf::Hair(h) => BsdfAt::Hair(h, wo),
         }
     }
 
@@ -108,6 +116,7 @@ impl Bsdf {
         match self {
             Bsdf::Pbr(b) => b.pdf(wo, wi),
             Bsdf::Mix(m) => m.pdf(wo, wi),
+            Bsdf::Hair(h) => h.pdf(wo, wi),
         }
     }
 
@@ -117,6 +126,7 @@ impl Bsdf {
         match self {
             Bsdf::Pbr(b) => b.sample(wo, uc, u),
             Bsdf::Mix(m) => m.sample(wo, uc, u),
+            Bsdf::Hair(h) => hair_sample(h, wo, uc, u),
         }
     }
 
@@ -126,6 +136,7 @@ impl Bsdf {
         match self {
             Bsdf::Pbr(b) => b.is_delta(),
             Bsdf::Mix(m) => m.is_delta(),
+            Bsdf::Hair(_) => false,
         }
     }
 
@@ -150,6 +161,7 @@ impl Bsdf {
         match self {
             Bsdf::Pbr(b) => b.refraction_adjoint_ratio(wo, wi),
             Bsdf::Mix(m) => m.refraction_adjoint_ratio(wo, wi),
+            Bsdf::Hair(_) => Rgb::ONE,
         }
     }
 
@@ -166,6 +178,8 @@ impl Bsdf {
                 }
             }
             Bsdf::Mix(m) => m.refraction_eta2(),
+            // Light leaves the fibre into the medium it came from: no change of η².
+            Bsdf::Hair(_) => 1.0,
         }
     }
 
@@ -175,6 +189,7 @@ impl Bsdf {
         match self {
             Bsdf::Pbr(b) => b.transmits(),
             Bsdf::Mix(m) => m.transmits(),
+            Bsdf::Hair(_) => true,
         }
     }
 
@@ -183,6 +198,7 @@ impl Bsdf {
         match self {
             Bsdf::Pbr(b) => b.albedo(),
             Bsdf::Mix(m) => m.albedo(),
+            Bsdf::Hair(h) => h.albedo(),
         }
     }
 }
@@ -196,6 +212,8 @@ pub enum BsdfAt<'a> {
     Pbr(PbrAt<'a>),
     /// A mixture and wo (its lobes' wo-only terms are cheap; evaluated per call).
     Mix(&'a MixBsdf, Vec3),
+    /// A hair fibre and wo.
+    Hair(&'a HairBsdf, Vec3),
 }
 
 impl BsdfAt<'_> {
@@ -205,6 +223,7 @@ impl BsdfAt<'_> {
         match self {
             BsdfAt::Pbr(b) => b.eval(wi),
             BsdfAt::Mix(m, wo) => m.eval(*wo, wi),
+            BsdfAt::Hair(h, wo) => h.eval(*wo, wi),
         }
     }
 
@@ -214,6 +233,7 @@ impl BsdfAt<'_> {
         match self {
             BsdfAt::Pbr(b) => b.pdf(wi),
             BsdfAt::Mix(m, wo) => m.pdf(*wo, wi),
+            BsdfAt::Hair(h, wo) => h.pdf(*wo, wi),
         }
     }
 
@@ -223,6 +243,7 @@ impl BsdfAt<'_> {
         match self {
             BsdfAt::Pbr(b) => b.sample(uc, u),
             BsdfAt::Mix(m, wo) => m.sample(*wo, uc, u),
+            BsdfAt::Hair(h, wo) => hair_sample(h, *wo, uc, u),
         }
     }
 
@@ -233,6 +254,8 @@ impl BsdfAt<'_> {
         match self {
             BsdfAt::Pbr(b) => b.eval_diffuse(wi),
             BsdfAt::Mix(m, wo) => m.eval_diffuse(*wo, wi),
+            // Cycles labels every hair lobe glossy.
+            BsdfAt::Hair(..) => Rgb::ZERO,
         }
     }
 
@@ -242,6 +265,13 @@ impl BsdfAt<'_> {
         match self {
             BsdfAt::Pbr(b) => b.class_albedo(),
             BsdfAt::Mix(m, wo) => m.class_albedo(*wo),
+            BsdfAt::Hair(h, _) => [Rgb::ZERO, h.albedo(), Rgb::ZERO],
         }
     }
+}
+
+/// A hair sample as a `BsdfSample`: every lobe is glossy (Cycles' labels), none is a delta.
+#[inline]
+fn hair_sample(h: &HairBsdf, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
+    h.sample(wo, uc, u).map(|(wi, f, pdf, _)| BsdfSample { wi, f, pdf, delta: false, kind: LobeKind::Glossy })
 }

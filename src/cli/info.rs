@@ -19,6 +19,9 @@ pub fn run_info(args: &InfoArgs) -> Result<()> {
             "meshes": r.meshes,
             "instances": r.instances,
             "degenerate_triangles": r.degenerate_triangles,
+            "strands": r.strands,
+            "curve_segments": r.curve_segments,
+            "curve_bytes": r.curve_bytes,
             "emissive_triangles": scene.lights.iter().filter(|l| matches!(l, crate::light::Light::Triangle { .. })).count(),
             "punctual_lights": scene.lights.iter().filter(|l| !matches!(l, crate::light::Light::Triangle { .. } | crate::light::Light::Area(_))).count(),
             "area_lights": scene.lights.iter().filter(|l| matches!(l, crate::light::Light::Area(_))).count(),
@@ -41,6 +44,14 @@ pub fn run_info(args: &InfoArgs) -> Result<()> {
         r.instances,
         r.degenerate_triangles
     );
+    if r.strands > 0 {
+        outln!(
+            "  strands: {} ({} segments, {:.1} MiB with their BVH)",
+            r.strands,
+            r.curve_segments,
+            r.curve_bytes as f64 / (1u64 << 20) as f64
+        );
+    }
     outln!("  bounds: {:?} .. {:?}", r.bounds[0], r.bounds[1]);
     if !r.extensions_used.is_empty() {
         outln!("  extensions used: {}", r.extensions_used.join(", "));

@@ -131,8 +131,8 @@ pub fn light_transmittance_of(
         let Some(h) = hit else {
             return tr;
         };
-        let mat = &ctx.scene.materials[ctx.scene.mesh.tri_material[h.tri as usize] as usize];
         let s = ctx.scene.surface(&h, org, dir);
+        let mat = &ctx.scene.materials[s.material as usize];
         if light.is_some_and(|l| !ctx.blocks(l, h.tri)) {
             // Not one of the light's blockers: passed, its medium ignored.
         } else if mat.null_surface {

@@ -446,7 +446,7 @@ impl<'a> SceneContext<'a> {
     /// from it are passed.
     #[inline]
     pub fn intersect_as(&self, org: Vec3, dir: Vec3, tmax: f32, ray: RayMask) -> Option<Hit> {
-        self.accel.intersect(org, dir, tmax, &self.masked, |tri, b1, b2| {
+        let hit = self.accel.intersect(org, dir, tmax, &self.masked, |tri, b1, b2| {
             if !self.sees(ray, tri) {
                 return false;
             }
@@ -454,7 +454,12 @@ impl<'a> SceneContext<'a> {
                 AlphaMode::Mask(cutoff) => self.scene.alpha(tri, b1, b2) >= cutoff,
                 _ => true,
             }
-        })
+        });
+        // Strands, in their own BVH, up to the triangle hit: the nearer wins.
+        match &self.scene.curves.bvh {
+            Some(curves) => curves.intersect(&self.scene.curves.points, org, dir, hit.map_or(tmax, |h| h.t)).or(hit),
+            None => hit,
+        }
     }
 
     /// Fraction of light passing from `org` along `dir` for distance `tmax` (a shadow
@@ -468,7 +473,7 @@ impl<'a> SceneContext<'a> {
     /// shadow linking only its blockers stop it.
     #[inline]
     pub fn transmittance_of(&self, org: Vec3, dir: Vec3, tmax: f32, light: Option<usize>, path: LightPath) -> f32 {
-        self.accel.transmittance(org, dir, tmax, &self.transparent, |tri, b1, b2| {
+        let tr = self.accel.transmittance(org, dir, tmax, &self.transparent, |tri, b1, b2| {
             if !self.sees(RayMask::SHADOW, tri) || light.is_some_and(|l| !self.blocks(l, tri)) {
                 return 1.0;
             }
@@ -483,7 +488,12 @@ impl<'a> SceneContext<'a> {
                 AlphaMode::Blend => (1.0 - self.scene.shadow_alpha(tri, b1, b2, path, org)).clamp(0.0, 1.0),
                 AlphaMode::Opaque => 0.0,
             }
-        })
+        });
+        // Strands are opaque.
+        match &self.scene.curves.bvh {
+            Some(curves) if tr > 0.0 && curves.occluded(&self.scene.curves.points, org, dir, tmax) => 0.0,
+            _ => tr,
+        }
     }
 
     /// Samples light `index` from point `p` (the light's own `sample_li`).

@@ -111,6 +111,9 @@ pub struct Material {
     /// Blender's shader graph (`CAUSTIC_materials_nodes`), compiled: when present it
     /// replaces the glTF parameters above in shading, alpha and emission.
     pub nodes: Option<std::sync::Arc<crate::shader::instructions::Program>>,
+    /// The Principled Hair BSDF (`CAUSTIC_materials_hair`): strands with this material are
+    /// shaded by it; triangles keep the glTF parameters.
+    pub hair: Option<crate::bsdf::hair::HairParams>,
 }
 
 impl Default for Material {
@@ -161,6 +164,7 @@ impl Default for Material {
             alpha_mode: AlphaMode::Opaque,
             double_sided: false,
             nodes: None,
+            hair: None,
         }
     }
 }
@@ -241,6 +245,7 @@ impl Material {
             subsurface: _,
             alpha_mode: _,
             double_sided: _,
+            hair: _,
             // Not a texture: a shader graph replaces every parameter above.
             nodes: _,
         } = self;

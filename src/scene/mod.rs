@@ -103,6 +103,12 @@ pub struct LoadReport {
     pub instances: usize,
     /// Degenerate (zero-area) triangles dropped.
     pub degenerate_triangles: usize,
+    /// Hair and curve strands (`CAUSTIC_curves`).
+    pub strands: usize,
+    /// Their segments (round cones).
+    pub curve_segments: usize,
+    /// Bytes the strands and their BVH hold.
+    pub curve_bytes: usize,
     /// `extensionsUsed` of the file.
     pub extensions_used: Vec<String>,
     /// One entry per material.
@@ -189,6 +195,8 @@ pub struct CameraReport {
 pub struct Scene {
     /// Geometry.
     pub mesh: Mesh,
+    /// Hair and curves (`CAUSTIC_curves`), with their own BVH; empty without them.
+    pub curves: crate::curves::Curves,
     /// Materials; triangles index into this.
     pub materials: Vec<Material>,
     /// Textures; materials index into this.

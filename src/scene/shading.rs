@@ -58,6 +58,13 @@ impl Scene {
     /// Geometry of a hit as seen from direction `wo` (pointing back along the ray).
     #[inline]
     pub fn surface(&self, hit: &Hit, org: Vec3, dir: Vec3) -> SurfaceHit {
+        if crate::curves::is_curve(hit.tri) {
+            let mut s = self.curves.surface(hit, org, dir);
+            if self.materials[s.material as usize].hair.is_some() {
+                crate::curves::shade::as_fibre(&mut s, self.curves.axis_point(hit), -dir);
+            }
+            return s;
+        }
         let m = &self.mesh;
         let [i0, i1, i2] = m.triangles[hit.tri as usize].map(|i| i as usize);
         let (b1, b2) = (hit.b1, hit.b2);
@@ -109,6 +116,11 @@ impl Scene {
     #[inline]
     pub fn shade_with(&self, s: &SurfaceHit, wo: Vec3, constant: Option<&ConstantBsdf>) -> ShadingPoint {
         let mat = &self.materials[s.material as usize];
+        if let Some(hair) = &mat.hair
+            && crate::curves::is_curve(s.tri)
+        {
+            return self.shade_hair(hair, s, wo);
+        }
         if let Some(prog) = &mat.nodes {
             return crate::shader::shade::shade_nodes(self, prog, s, wo, mat.double_sided);
         }

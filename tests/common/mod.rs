@@ -199,6 +199,38 @@ impl GltfBuilder {
         self.add_node(json!({"camera": ci, "translation": pos, "rotation": rotation}))
     }
 
+    /// Adds an orthographic camera node at `pos` with `rotation` (half-extents xmag, ymag).
+    pub fn orthographic(&mut self, pos: [f32; 3], rotation: [f32; 4], xmag: f32, ymag: f32) -> usize {
+        let cams = self.doc.as_object_mut().unwrap().entry("cameras").or_insert(json!([]));
+        cams.as_array_mut().unwrap().push(
+            json!({"type": "orthographic", "orthographic": {"xmag": xmag, "ymag": ymag, "znear": 0.01, "zfar": 100.0}}),
+        );
+        let ci = cams.as_array().unwrap().len() - 1;
+        self.add_node(json!({"camera": ci, "translation": pos, "rotation": rotation}))
+    }
+
+    /// Adds a `CAUSTIC_curves` object: strands of `counts[i]` consecutive `points` (world
+    /// space) with a radius each, in accessors of the document's buffer.
+    pub fn curves(&mut self, name: &str, material: usize, points: &[[f32; 3]], radii: &[f32], counts: &[u32]) {
+        let bytes = |v: &[f32]| v.iter().flat_map(|c| c.to_le_bytes()).collect::<Vec<u8>>();
+        let flat: Vec<f32> = points.iter().flatten().copied().collect();
+        let pv = self.push_view(&bytes(&flat), 34962);
+        let rv = self.push_view(&bytes(radii), 34962);
+        let cv = self.push_view(&counts.iter().flat_map(|c| c.to_le_bytes()).collect::<Vec<u8>>(), 34962);
+        let acc = self.doc["accessors"].as_array_mut().unwrap();
+        let first = acc.len();
+        acc.push(json!({"bufferView": pv, "componentType": 5126, "count": points.len(), "type": "VEC3"}));
+        acc.push(json!({"bufferView": rv, "componentType": 5126, "count": radii.len(), "type": "SCALAR"}));
+        acc.push(json!({"bufferView": cv, "componentType": 5125, "count": counts.len(), "type": "SCALAR"}));
+        self.use_ext("CAUSTIC_curves");
+        let root = self.doc.as_object_mut().unwrap();
+        let exts = root.entry("extensions").or_insert(json!({}));
+        let curves = exts.as_object_mut().unwrap().entry("CAUSTIC_curves").or_insert(json!({"objects": []}));
+        curves["objects"].as_array_mut().unwrap().push(json!({
+            "name": name, "material": material, "points": first, "radii": first + 1, "counts": first + 2
+        }));
+    }
+
     /// Adds a KHR_lights_punctual light on a node.
     pub fn punctual(&mut self, light: Value, translation: [f32; 3], rotation: [f32; 4]) -> usize {
         self.punctual_with(light, translation, rotation, json!({}))

@@ -14,6 +14,7 @@
 //! `extensions.rs` holds the serde shapes of the `CAUSTIC_*` extensions.
 
 mod cameras;
+mod curves;
 mod emission;
 mod extensions;
 mod gpu_instancing;
@@ -410,6 +411,7 @@ impl<'a> Loader<'a> {
             }
         }
         ray_visibility.finish(mesh.triangles.len());
+        let curves = self.curves(&value, &doc, &buffers, &mut materials, default_material)?;
         if mesh.triangles.is_empty() {
             return Err(self.err("nothing to render: the scene has no triangles (no mesh, or only points/lines)"));
         }
@@ -421,6 +423,10 @@ impl<'a> Loader<'a> {
                 lo = lo.min(mesh.positions[i as usize]);
                 hi = hi.max(mesh.positions[i as usize]);
             }
+        }
+        for p in &curves.points {
+            lo = lo.min(p.truncate() - p.w);
+            hi = hi.max(p.truncate() + p.w);
         }
         let scene_radius = ((hi - lo).length() * 0.5).max(1e-3);
 
@@ -522,6 +528,9 @@ impl<'a> Loader<'a> {
             meshes: used_meshes.len(),
             instances: instance_count,
             degenerate_triangles: degenerate,
+            strands: curves.strands.len(),
+            curve_segments: curves.segments(),
+            curve_bytes: curves.bytes(),
             extensions_used: doc.extensions_used().map(str::to_string).collect(),
             materials: material_reports,
             lights: light_reports,
@@ -560,6 +569,7 @@ impl<'a> Loader<'a> {
         Ok(Scene {
             pass_ids,
             mesh,
+            curves,
             materials,
             textures: self.textures,
             lights,
