@@ -31,7 +31,7 @@ pub struct Hit {
 
 /// Per-ray constants of the watertight test.
 #[derive(Clone, Copy)]
-struct RayTransform {
+pub(crate) struct RayTransform {
     org: Vec3A,
     /// The axes (x, y, z) of the ray's frame, each < 3.
     k: [usize; 3],
@@ -48,7 +48,7 @@ fn lanes(v: Vec3A) -> [f32; 4] {
 
 impl RayTransform {
     #[inline]
-    fn new(org: Vec3, dir: Vec3) -> Self {
+    pub(crate) fn new(org: Vec3, dir: Vec3) -> Self {
         let a = dir.abs();
         let kz = if a.x > a.y {
             if a.x > a.z { 0 } else { 2 }
@@ -67,7 +67,7 @@ impl RayTransform {
 
     /// Watertight intersection; returns (t, b1, b2) for tmin < t < tmax.
     #[inline(always)]
-    fn intersect(&self, v: &[Vec3A; 3], tmin: f32, tmax: f32) -> Option<(f32, f32, f32)> {
+    pub(crate) fn intersect(&self, v: &[Vec3A; 3], tmin: f32, tmax: f32) -> Option<(f32, f32, f32)> {
         // `& 3` proves the index in range to the compiler (k < 3 by construction).
         let [kx, ky, kz] = self.k.map(|k| k & 3);
         let [sx, sy, sz] = self.s;
@@ -158,7 +158,7 @@ fn gamma(n: i32) -> f32 {
 }
 
 /// Per-ray constants of the node test.
-struct NodeRay {
+pub(crate) struct NodeRay {
     org: Vec3A,
     inv: Vec3A,
     neg: [bool; 3],
@@ -166,7 +166,7 @@ struct NodeRay {
 
 impl NodeRay {
     #[inline]
-    fn new(org: Vec3, dir: Vec3A) -> Self {
+    pub(crate) fn new(org: Vec3, dir: Vec3A) -> Self {
         // Not obvhs' safe_inverse, which clamps 1/d to 1/ε = 8.4e6 and so shortens the
         // box exits of rays nearly parallel to an axis.
         let inv = |d: f32| if d.abs() >= 1e-20 { 1.0 / d } else { 1e20f32.copysign(d) };
@@ -185,7 +185,7 @@ impl NodeRay {
 /// (|p - o| + 255 e)/|d| (the subtraction, two products, two sums, and the builder's
 /// f32 quantisation); 8ε is used.
 #[inline(always)]
-fn node_hits(node: &CwBvhNode, ray: &NodeRay, tmax: f32, oct_inv4: u32) -> u32 {
+pub(crate) fn node_hits(node: &CwBvhNode, ray: &NodeRay, tmax: f32, oct_inv4: u32) -> u32 {
     let ext = node.compute_extent();
     let rel = Vec3A::from(node.p) - ray.org;
     let scale = ext * ray.inv;
@@ -264,7 +264,7 @@ fn node_hits(node: &CwBvhNode, ray: &NodeRay, tmax: f32, oct_inv4: u32) -> u32 {
 /// obvhs picks a node's near plane from the direction's comparison with zero but
 /// inverts it with the sign bit, so a -0.0 component misses boxes; -0.0 + 0.0 = +0.0.
 #[inline]
-fn obvhs_direction(dir: Vec3) -> Vec3A {
+pub(crate) fn obvhs_direction(dir: Vec3) -> Vec3A {
     Vec3A::from(dir + Vec3::ZERO)
 }
 
@@ -280,6 +280,16 @@ pub struct Accel {
 }
 
 impl Accel {
+    /// Builds the BVH over some of the scene's triangles: `triangles[i]` is scene
+    /// triangle `ids[i]` (motion blur keeps the moving ones in `motion::accel`).
+    pub fn build_with_ids(triangles: &[[Vec3; 3]], ids: &[u32]) -> Self {
+        let mut accel = Self::build(triangles);
+        for id in &mut accel.ids {
+            *id = ids[*id as usize];
+        }
+        accel
+    }
+
     /// Builds the BVH over triangles given by their three vertices.
     pub fn build(triangles: &[[Vec3; 3]]) -> Self {
         let start = Instant::now();

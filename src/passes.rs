@@ -73,10 +73,13 @@ pub enum Pass {
     ObjectIndex,
     /// Material pass index.
     MaterialIndex,
+    /// Screen-space motion of the first hit in pixels: to the previous frame (X, Y) and to
+    /// the next (Z, W), as Cycles' Vector pass (`crate::motion::vector`).
+    Vector,
 }
 
 /// Every pass, in the order of the table below.
-pub const ALL: [Pass; 24] = [
+pub const ALL: [Pass; 25] = [
     Pass::Depth,
     Pass::Normal,
     Pass::DenoisingAlbedo,
@@ -101,6 +104,7 @@ pub const ALL: [Pass; 24] = [
     Pass::Uv,
     Pass::ObjectIndex,
     Pass::MaterialIndex,
+    Pass::Vector,
 ];
 
 /// Slots of [`Aov`]: where a camera sample keeps each extra pass's value.
@@ -143,8 +147,10 @@ pub mod slot {
     pub const OB: usize = 47;
     /// Material index (nearest hit).
     pub const MA: usize = 48;
+    /// Vector (four values).
+    pub const VECTOR: usize = 49;
     /// Number of slots.
-    pub const COUNT: usize = 49;
+    pub const COUNT: usize = 53;
 }
 
 // The film keeps its slots in a u64 bit mask.
@@ -210,6 +216,7 @@ impl Pass {
             Pass::Uv => "UV",
             Pass::ObjectIndex => "Object Index",
             Pass::MaterialIndex => "Material Index",
+            Pass::Vector => "Vector",
         }
     }
 
@@ -241,6 +248,7 @@ impl Pass {
             Pass::Uv => "uv",
             Pass::ObjectIndex => "object_index",
             Pass::MaterialIndex => "material_index",
+            Pass::Vector => "vector",
         }
     }
 
@@ -251,6 +259,7 @@ impl Pass {
             Pass::SampleCount | Pass::ObjectIndex | Pass::MaterialIndex => &["X"],
             Pass::Normal | Pass::DenoisingNormal | Pass::Position => &["X", "Y", "Z"],
             Pass::Uv => &["U", "V", "A"],
+            Pass::Vector => &["X", "Y", "Z", "W"],
             _ => &["R", "G", "B"],
         }
     }
@@ -280,6 +289,7 @@ impl Pass {
             Pass::Uv => slot::UV,
             Pass::ObjectIndex => slot::OB,
             Pass::MaterialIndex => slot::MA,
+            Pass::Vector => slot::VECTOR,
         })
     }
 

@@ -65,6 +65,8 @@ pub struct SceneContext<'a> {
     pub tinted_shadows: bool,
     /// Per material, its BSDF built once when it reads no texture (`Scene::constant_bsdf`).
     constant_bsdfs: Vec<Option<ConstantBsdf>>,
+    /// The moving triangles' BVH when the render blurs motion (`with_motion`).
+    motion: Option<&'a crate::motion::accel::MotionAccel>,
 }
 
 /// Power heuristic (β = 2) of Veach; 0 when the weights are not finite.
@@ -133,7 +135,16 @@ impl<'a> SceneContext<'a> {
             constant_bsdfs: (0..scene.materials.len() as u32).map(|m| scene.constant_bsdf(m)).collect(),
             camera_media: MediumStack::default(),
             tinted_shadows: scene.materials.iter().any(|m| m.nodes.as_ref().is_some_and(|p| p.tinted_transparency)),
+            motion: None,
         }
+    }
+
+    /// Rays also meet the moving triangles, where they are at the camera sample's time
+    /// (`crate::motion`); the static BVH must then hold only the others
+    /// (`SceneMotion::static_triangles`).
+    pub fn with_motion(mut self, motion: Option<&'a crate::motion::accel::MotionAccel>) -> Self {
+        self.motion = motion;
+        self
     }
 
     /// This context for a camera at `p`: camera paths start in the mesh media that enclose
@@ -380,7 +391,7 @@ impl<'a> SceneContext<'a> {
     /// from it are passed.
     #[inline]
     pub fn intersect_as(&self, org: Vec3, dir: Vec3, tmax: f32, ray: RayMask) -> Option<Hit> {
-        self.accel.intersect(org, dir, tmax, &self.masked, |tri, b1, b2| {
+        let accept = |tri: u32, b1: f32, b2: f32| {
             if !self.sees(ray, tri) {
                 return false;
             }
@@ -388,14 +399,22 @@ impl<'a> SceneContext<'a> {
                 AlphaMode::Mask(cutoff) => self.scene.alpha(tri, b1, b2) >= cutoff,
                 _ => true,
             }
-        })
+        };
+        let hit = self.accel.intersect(org, dir, tmax, &self.masked, accept);
+        match self.motion {
+            None => hit,
+            Some(m) => {
+                let t = crate::motion::ray_time();
+                m.intersect(org, dir, hit.map_or(tmax, |h| h.t), t, &self.masked, accept).or(hit)
+            }
+        }
     }
 
     /// Fraction of light passing from `org` along `dir` for distance `tmax` (a shadow
     /// ray: objects hidden from shadow rays let it through).
     #[inline]
     pub fn transmittance(&self, org: Vec3, dir: Vec3, tmax: f32) -> f32 {
-        self.accel.transmittance(org, dir, tmax, &self.transparent, |tri, b1, b2| {
+        let transparency = |tri: u32, b1: f32, b2: f32| {
             if !self.sees(RayMask::SHADOW, tri) {
                 return 1.0;
             }
@@ -410,7 +429,15 @@ impl<'a> SceneContext<'a> {
                 AlphaMode::Blend => (1.0 - self.scene.alpha(tri, b1, b2)).clamp(0.0, 1.0),
                 AlphaMode::Opaque => 0.0,
             }
-        })
+        };
+        let tr = self.accel.transmittance(org, dir, tmax, &self.transparent, transparency);
+        match self.motion {
+            Some(m) if tr > 0.0 => {
+                let t = crate::motion::ray_time();
+                tr * m.transmittance(org, dir, tmax, t, &self.transparent, transparency)
+            }
+            _ => tr,
+        }
     }
 
     /// Samples light `index` from point `p` (the light's own `sample_li`).

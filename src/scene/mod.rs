@@ -221,6 +221,8 @@ pub struct Scene {
     /// Each mesh instance's name, world matrix and span of the flattened mesh, so that
     /// the render server can move one object without reloading (`server::edits`).
     pub instances: Vec<InstanceSpan>,
+    /// Moving triangles and the shutter (`CAUSTIC_motion`); None when nothing moves.
+    pub motion: Option<crate::motion::SceneMotion>,
 }
 
 /// Where one mesh instance (a glTF node with a mesh) lies in the flattened [`Mesh`].
