@@ -40,16 +40,17 @@ VIEW_LAYER_PASSES = (
     ("", "use_pass_ambient_occlusion", "ambient_occlusion", "Ambient Occlusion", 3, "RGB", "COLOR"),
     ("cycles", "denoising_store_passes", "denoising_albedo", "Denoising Albedo", 3, "RGB", "COLOR"),
     ("cycles", "denoising_store_passes", "denoising_normal", "Denoising Normal", 3, "XYZ", "VECTOR"),
+    # Screen-space motion to the previous and next frames, in pixels (export/motion.py).
+    ("", "use_pass_vector", "vector", "Vector", 4, "XYZW", "VECTOR"),
 )
 
 # Light passes: only the path integrator classifies light by the first bounce (contract).
 LIGHT_TOKENS = frozenset(t for _, _, t, *_ in VIEW_LAYER_PASSES[5:18])
 # Data passes traced from the camera ray's first hit, by every integrator but SPPM.
-DATA_TOKENS = frozenset(("mist", "position", "uv", "ambient_occlusion"))
+DATA_TOKENS = frozenset(("mist", "position", "uv", "ambient_occlusion", "vector"))
 
 # Passes of the view layer that Caustic does not render yet (named in a warning when on).
 UNSUPPORTED = (
-    ("", "use_pass_vector", "Vector"),
     ("", "use_pass_object_index", "Object Index"),
     ("", "use_pass_material_index", "Material Index"),
     ("", "use_pass_shadow", "Shadow"),
@@ -74,13 +75,16 @@ def enabled_passes(view_layer):
     return [row for row in VIEW_LAYER_PASSES if _flag(view_layer, row[0], row[1])]
 
 
-def pass_request(view_layer, integrator, chunked=False):
+def pass_request(view_layer, integrator, chunked=False, motion_blur=False):
     """(`--passes` list, warnings): the enabled passes that `integrator` renders (on the farm,
     `chunked`: those that chunks carry), and a warning naming each enabled pass that will be
-    missing from the result."""
+    missing from the result. With `motion_blur` on, Vector stays black, as in Cycles (whose
+    panel greys it out then): its motion is to the neighbouring frames, not over the shutter."""
     tokens, warnings = [], []
     for _, _, token, name, *_ in enabled_passes(view_layer):
-        if chunked and (token in LIGHT_TOKENS or token in DATA_TOKENS):
+        if token == "vector" and motion_blur:
+            warnings.append("the Vector pass needs motion blur off (as in Cycles); it stays black")
+        elif chunked and (token in LIGHT_TOKENS or token in DATA_TOKENS):
             warnings.append(f"the {name} pass is not rendered on the farm yet (sample chunks do not carry "
                             "it); it stays black")
         elif token in LIGHT_TOKENS and integrator != "path":

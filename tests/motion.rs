@@ -155,8 +155,9 @@ fn still_steps_change_nothing() {
 }
 
 /// The Vector pass without motion blur (steps at the neighbouring frames): the quad moves
-/// SPEED units per frame at depth 2, i.e. SPEED / (2 tan(yfov/2)) × 16 pixels, to the right;
-/// the still emitter has no motion.
+/// SPEED units per frame at depth 2, i.e. SPEED / (2 tan(yfov/2)) × 16 pixels, to the right,
+/// which Cycles writes as −that in X (previous − here) and Z (here − next); the still
+/// emitter has no motion.
 #[test]
 fn vector_pass_gives_the_motion_in_pixels() {
     let dir = temp_dir();
@@ -175,7 +176,7 @@ fn vector_pass_gives_the_motion_in_pixels() {
     };
     let (x, y, z, w) = (ch("Vector.X"), ch("Vector.Y"), ch("Vector.Z"), ch("Vector.W"));
     let px_per_unit = W as f64 / 2.0 / (2.0 * (0.5 * YFOV as f64).tan());
-    let want = SPEED * px_per_unit;
+    let want = -SPEED * px_per_unit;
     // Columns wholly on the quad at the frame (|x| < HALF) and wholly off it.
     let inside: Vec<usize> = (0..W).filter(|&c| plane_x(c as f64).abs() < HALF && plane_x(c as f64 + 1.0).abs() < HALF).collect();
     let outside: Vec<usize> = (0..W).filter(|&c| plane_x(c as f64).min(plane_x(c as f64 + 1.0)) > HALF).collect();
@@ -185,7 +186,7 @@ fn vector_pass_gives_the_motion_in_pixels() {
             let i = r * W + c;
             // Float rounding of the projection only: 1e-4 of the motion.
             for (v, e) in [(x[i], want), (z[i], want), (y[i], 0.0), (w[i], 0.0)] {
-                assert!((v as f64 - e).abs() < 1e-4 * want, "pixel ({c}, {r}): {v} expected {e}");
+                assert!((v as f64 - e).abs() < 1e-4 * want.abs(), "pixel ({c}, {r}): {v} expected {e}");
             }
         }
         for &c in &outside {

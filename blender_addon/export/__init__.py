@@ -21,6 +21,7 @@ out of it or writes differently from what Cycles renders (docs/contract.md):
 | `depsgraph.py` | pointing the exporter at the render depsgraph |
 | `state.py` | the export in progress, shared with the hooks |
 | `view_layer.py` | the view layer's excluded collections left out of the exporter's tree (instances kept); the Material Override is applied in `meshes.py` |
+| `motion.py` | motion blur and the Vector pass: the scene evaluated at the motion steps, `CAUSTIC_motion` |
 | `unsupported.py` | warnings naming what Caustic cannot render yet (motion blur, hair, holdout, ...) |
 """
 
@@ -38,6 +39,7 @@ from .materials import COAT_EXTENSION, principled_extras, shader_node_material  
 from .media import MEDIUM_EXTENSION, SUBSURFACE_EXTENSION, medium_extension, subsurface_extension  # noqa: F401
 from .settings import render_settings  # noqa: F401
 from .state import ExportState, exporting
+from .motion import sample_motion
 from .unsupported import scene_warnings
 from .world import WORLD_EXTENSION, world_extension  # noqa: F401
 
@@ -72,8 +74,10 @@ def _exporter_options(filepath):
     )
 
 
-def export_scene(depsgraph, folder, settings):
+def export_scene(depsgraph, folder, settings, motion=True):
     """Write the render depsgraph's scene to `folder`/scene.gltf; return (path, export state).
+
+    `motion`: export motion blur's (or the Vector pass's) steps; the viewport renders without.
 
     Raises CausticError when the exporter fails or one of Caustic's hooks failed.
     """
@@ -88,6 +92,11 @@ def export_scene(depsgraph, folder, settings):
     # depsgraph updates; during an animation render it still holds the previous frame.
     scene_eval = depsgraph.scene_eval
     scene.frame_set(scene_eval.frame_current, subframe=scene_eval.frame_subframe)
+    if motion:
+        with bpy.context.temp_override(scene=scene, view_layer=view_layer):
+            state.motion = sample_motion(scene, view_layer)
+        if state.motion is not None:
+            state.warnings.extend(state.motion.warnings)
     try:
         with exporting(state), bpy.context.temp_override(scene=scene, view_layer=view_layer), \
                 hooks_enabled(), render_depsgraph(depsgraph):

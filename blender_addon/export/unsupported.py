@@ -1,5 +1,5 @@
 """What Caustic cannot render yet, named: scene features that would otherwise be dropped without
-a word (motion blur, hair, volume objects, shadow catcher, lights' ray visibility beyond Camera, shadow
+a word (hair, volume objects, shadow catcher, lights' ray visibility beyond Camera, shadow
 linking (blockers), view layer indirect-only collections, material override; Holdout goes out with
 visibility.py, with a warning from the BDPT run that cannot render it). Each warning
 names the object, collection or setting and says what the render does instead."""
@@ -15,8 +15,6 @@ def scene_warnings(depsgraph):
     scene = depsgraph.scene
     view_layer = depsgraph.view_layer
     warnings = []
-    if scene.render.use_motion_blur:
-        warnings.append("motion blur is on: Caustic renders the frame without it (sharp)")
     warnings += _collection_warnings(view_layer.layer_collection, view_layer.name)
     seen = set()
     for instance in depsgraph.object_instances:

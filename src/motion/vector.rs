@@ -1,8 +1,9 @@
 //! The Vector pass: how far the first hit moves on the film between the previous frame,
-//! this frame and the next, as Cycles writes it (`kernel/geom/primitive.h`,
-//! `primitive_motion_vector`): (x, y) = here − previous, (z, w) = next − here, in pixels
-//! with y up (Blender's raster). Blender offers it only without motion blur; the
-//! add-on then exports the steps at frames −1, 0 and +1.
+//! this frame and the next, as Cycles 5.0 writes it, in pixels with y up (Blender's
+//! raster): (x, y) = previous − here, (z, w) = here − next, so that an object moving right
+//! has negative x and z (measured against Cycles: tests/blender/test_motion_blur.py).
+//! Blender offers it only without motion blur; the add-on then exports the steps at
+//! frames −1, 0 and +1.
 
 use super::SceneMotion;
 use crate::accel::Hit;
@@ -27,7 +28,7 @@ pub fn motion_vector(motion: Option<&SceneMotion>, camera: &CameraRays, hit: &Hi
         return [0.0; 4];
     };
     // Film rows run down, Blender's raster y up.
-    [here.x - pre.x, pre.y - here.y, post.x - here.x, here.y - post.y]
+    [pre.x - here.x, here.y - pre.y, here.x - post.x, post.y - here.y]
 }
 
 #[cfg(test)]
@@ -37,7 +38,7 @@ mod tests {
     use glam::Mat4;
 
     #[test]
-    fn a_point_moving_right_and_up_has_positive_vectors() {
+    fn a_point_moving_right_and_up_has_negative_vectors() {
         let cam = Camera::from_matrix(
             "c".into(),
             &Mat4::from_translation(Vec3::new(0.0, 0.0, 10.0)),
@@ -58,7 +59,7 @@ mod tests {
         let hit = Hit { tri: 0, t: 10.0, b1: 0.25, b2: 0.25 };
         let p = Vec3::new(0.25, 0.25, 0.0);
         let v = motion_vector(Some(&m), &rays, &hit, p);
-        for (got, want) in v.iter().zip([5.0, 2.5, 5.0, 2.5]) {
+        for (got, want) in v.iter().zip([-5.0, -2.5, -5.0, -2.5]) {
             assert!((got - want).abs() < 1e-4, "{v:?}");
         }
         // A static scene has no motion.

@@ -72,6 +72,7 @@ pub const SUPPORTED_REQUIRED: &[&str] = &[
     "CAUSTIC_materials_coat",
     "CAUSTIC_materials_anisotropy",
     "CAUSTIC_default_material",
+    "CAUSTIC_motion",
 ];
 
 /// glTF's photometric units to Blender's radiometric ones: Blender's exporter writes

@@ -124,8 +124,23 @@ impl Loader<'_> {
                 node_steps.insert(n, (reference, steps));
             }
         }
+        // A node without its own motion moves with its nearest ancestor that has one (the
+        // exporter's camera-correction child, a collection instance's objects under the
+        // instancer): its world matrix is the ancestor's times a fixed local part.
+        let mut parent = vec![None; doc.nodes().count()];
+        for nd in doc.nodes() {
+            for c in nd.children() {
+                parent[c.index()] = Some(nd.index());
+            }
+        }
+        let moving_ancestor = |mut n: usize| loop {
+            if node_steps.contains_key(&n) {
+                return Some(n);
+            }
+            n = parent[n]?;
+        };
         for (cam, &n) in cameras.iter_mut().zip(camera_nodes) {
-            if let Some((reference, steps)) = node_steps.get(&n) {
+            if let Some((reference, steps)) = moving_ancestor(n).and_then(|a| node_steps.get(&a)) {
                 cam.motion = Some(CameraMotion::new(times.clone(), steps, reference));
             }
         }
@@ -133,8 +148,9 @@ impl Loader<'_> {
         let moving: Vec<(&InstanceSpan, Mat4, Vec<Decomposed>)> = spans
             .iter()
             .zip(span_nodes)
-            .filter_map(|(s, n)| {
-                node_steps.get(n).map(|(r, st)| (s, r.inverse(), st.iter().map(Decomposed::new).collect()))
+            .filter_map(|(s, &n)| {
+                let (r, st) = node_steps.get(&moving_ancestor(n)?)?;
+                Some((s, r.inverse(), st.iter().map(Decomposed::new).collect()))
             })
             .collect();
         let mut per_segment = vec![1usize; times.len() - 1];
