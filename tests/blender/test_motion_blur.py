@@ -18,6 +18,7 @@ deterministic, so the bound is float rounding of a 14 px motion (1e-3 px) plus 1
 Cycles' float32 camera matrices.
 """
 
+import importlib
 import math
 
 import bpy
@@ -26,6 +27,8 @@ import pytest
 
 import scenes
 from exr_io import read_exr
+from mathutils import Matrix
+from test_export import captured, node_by_name, node_matrix  # noqa: F401  (captured is a fixture)
 from test_cycles_agreement import MODEL_ALLOWANCE, SEEDS, SIGMAS, mean_and_variance
 
 pytestmark = pytest.mark.needs_binary
@@ -120,3 +123,47 @@ def test_vector_pass_matches_cycles(empty_scene, tmp_path):
           f"Caustic {cau[moving].mean(axis=0)}; largest difference {err[moving | still].max():.2e} px")
     assert (err[moving] <= bound[moving]).all(), f"largest difference {err[moving].max()} px"
     assert (err[still] <= bound[still]).all()
+
+
+def test_motion_is_exported_at_cycles_steps(addon, empty_scene, captured):
+    """CAUSTIC_motion in the glTF: Cycles' 3 steps (Motion Steps 1) over a centred half-frame
+    shutter, the moving cube's matrices in glTF axes (its frame matrix is the node's own), none
+    for a still object or one whose Motion Blur is off; a deforming object is named."""
+    motion = importlib.import_module(addon.__name__ + ".export.motion")
+    scene = empty_scene
+    build(scene, blur=True)
+    opted = scenes.cube(scene, "Opted", 0.5, (2.0, 0.0, 0.25))
+    opted.keyframe_insert("location", frame=1)
+    opted.location = (1.0, 0.0, 0.0)
+    opted.keyframe_insert("location", frame=3)
+    opted.cycles.use_motion_blur = False
+    scenes.cube(scene, "Still", 0.5, (-2.0, 0.0, 0.25))
+    wobbly = scenes.cube(scene, "Wobbly", 0.5, (0.0, 2.0, 0.25))
+    wobbly.shape_key_add(name="Basis")
+    key = wobbly.shape_key_add(name="Squash")
+    for v in key.data:
+        v.co.z *= 0.5
+    key.value = 0.0
+    key.keyframe_insert("value", frame=1)
+    key.value = 1.0
+    key.keyframe_insert("value", frame=3)
+    scene.frame_set(2)
+
+    sampled = motion.sample_motion(scene, scene.view_layers[0])
+    assert sampled.times == pytest.approx([-0.25, 0.0, 0.25])
+    assert set(sampled.matrices) == {"Box"}, sampled.matrices.keys()
+    assert any("'Wobbly'" in w and "deformation" in w for w in sampled.warnings), sampled.warnings
+    assert scene.frame_current == 2 and scene.frame_subframe == 0.0
+
+    (gltf,) = captured()
+    assert gltf["scenes"][0]["extensions"]["CAUSTIC_motion"] == {
+        "times": pytest.approx([-0.25, 0.0, 0.25]), "shutter": {"open": -0.25, "close": 0.25}}
+    box = node_by_name(gltf, "Box")
+    ext = box["extensions"]["CAUSTIC_motion"]
+    frame = Matrix([ext["matrix"][c::4] for c in range(4)])
+    assert all(abs(a - b) < 1e-6 for ra, rb in zip(frame, node_matrix(box)) for a, b in zip(ra, rb))
+    # The cube moves along Blender's +x (glTF +x) and +y (glTF −z) through the frame.
+    first, last = ext["matrices"][0], ext["matrices"][-1]
+    assert first[12] < frame[0][3] < last[12] and first[14] > frame[2][3] > last[14]
+    for name in ("Opted", "Still"):
+        assert "CAUSTIC_motion" not in node_by_name(gltf, name).get("extensions", {})
