@@ -29,7 +29,13 @@ fn translation(x: f32) -> Value {
 
 /// The scene; `quad_motion` / `camera_motion` are the node extensions (None: still), and
 /// `scene_motion` the scene's.
-fn scene(dir: &Path, name: &str, scene_motion: Option<Value>, quad_motion: Option<Value>, camera_motion: Option<Value>) -> PathBuf {
+fn scene(
+    dir: &Path,
+    name: &str,
+    scene_motion: Option<Value>,
+    quad_motion: Option<Value>,
+    camera_motion: Option<Value>,
+) -> PathBuf {
     let mut g = GltfBuilder::new();
     let emitter = g.material(json!({
         "pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1], "metallicFactor": 0.0},
@@ -103,8 +109,8 @@ fn assert_matches(px: &[[f32; 4]], spp: usize, what: &str) {
     assert!(l > 0.0);
     let n = (16 * spp) as f64;
     let mut worst = 0.0f64;
-    for c in 0..W {
-        let (want, got) = (expected(c), cols[c] / l);
+    for (c, col) in cols.iter().enumerate() {
+        let (want, got) = (expected(c), col / l);
         let bound = 5.0 * (want * (1.0 - want) / n).sqrt() + 1e-4;
         eprintln!("{what}: column {c}: {got:.4} expected {want:.4} (bound {bound:.4})");
         assert!((got - want).abs() <= bound, "{what}: column {c} is {got}, expected {want} ± {bound}");
@@ -119,7 +125,8 @@ const SPP: usize = 256;
 
 fn render(scene: &Path, out: &Path, extra: &[&str]) -> Vec<[f32; 4]> {
     let spp = SPP.to_string();
-    let mut args = vec!["--resolution", "32x32", "--spp", &spp, "--filter", "box", "--filter-width", "1", "--max-depth", "1"];
+    let mut args =
+        vec!["--resolution", "32x32", "--spp", &spp, "--filter", "box", "--filter-width", "1", "--max-depth", "1"];
     args.extend_from_slice(extra);
     render_image(scene, out, &args, LIMIT)
 }
@@ -178,7 +185,8 @@ fn vector_pass_gives_the_motion_in_pixels() {
     let px_per_unit = W as f64 / 2.0 / (2.0 * (0.5 * YFOV as f64).tan());
     let want = -SPEED * px_per_unit;
     // Columns wholly on the quad at the frame (|x| < HALF) and wholly off it.
-    let inside: Vec<usize> = (0..W).filter(|&c| plane_x(c as f64).abs() < HALF && plane_x(c as f64 + 1.0).abs() < HALF).collect();
+    let inside: Vec<usize> =
+        (0..W).filter(|&c| plane_x(c as f64).abs() < HALF && plane_x(c as f64 + 1.0).abs() < HALF).collect();
     let outside: Vec<usize> = (0..W).filter(|&c| plane_x(c as f64).min(plane_x(c as f64 + 1.0)) > HALF).collect();
     assert!(!inside.is_empty() && !outside.is_empty());
     for r in 8..24 {
@@ -216,7 +224,12 @@ fn bad_motion_is_refused() {
             json!({"matrix": translation(0.0), "matrices": [translation(0.0), vec![0.0f32; 16]]}),
             "invertible",
         ),
-        ("shutter", json!({"times": [0.0, 1.0], "shutter": {"open": 1.0, "close": 0.0}}), sliding(SPEED), "open <= close"),
+        (
+            "shutter",
+            json!({"times": [0.0, 1.0], "shutter": {"open": 1.0, "close": 0.0}}),
+            sliding(SPEED),
+            "open <= close",
+        ),
     ];
     for (name, scene_motion, node_motion, says) in cases {
         let s = scene(d, &format!("{name}.gltf"), Some(scene_motion), Some(node_motion), None);

@@ -118,7 +118,8 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
             // Blender offers the Vector pass only without motion blur (its steps are then
             // the neighbouring frames, not the shutter's).
             return Err(Error::Usage(
-                "the Vector pass needs motion blur off (as in Blender): the scene's CAUSTIC_motion has a shutter".into(),
+                "the Vector pass needs motion blur off (as in Blender): the scene's CAUSTIC_motion has a shutter"
+                    .into(),
             ));
         }
         let camera_moves = scene.cameras[res.camera].motion.is_some();

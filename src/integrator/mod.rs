@@ -67,6 +67,9 @@ pub struct SceneContext<'a> {
     constant_bsdfs: Vec<Option<ConstantBsdf>>,
     /// The moving triangles' BVH when the render blurs motion (`with_motion`).
     motion: Option<&'a crate::motion::accel::MotionAccel>,
+    /// Camera samples draw a time over the scene's shutter (`with_motion`); false for
+    /// renders whose BVH holds every triangle where it is at the frame (server, bench).
+    pub blurs_motion: bool,
 }
 
 /// Power heuristic (β = 2) of Veach; 0 when the weights are not finite.
@@ -136,6 +139,7 @@ impl<'a> SceneContext<'a> {
             camera_media: MediumStack::default(),
             tinted_shadows: scene.materials.iter().any(|m| m.nodes.as_ref().is_some_and(|p| p.tinted_transparency)),
             motion: None,
+            blurs_motion: false,
         }
     }
 
@@ -144,6 +148,7 @@ impl<'a> SceneContext<'a> {
     /// (`SceneMotion::static_triangles`).
     pub fn with_motion(mut self, motion: Option<&'a crate::motion::accel::MotionAccel>) -> Self {
         self.motion = motion;
+        self.blurs_motion = self.scene.motion.as_ref().is_some_and(|m| m.blurs());
         self
     }
 

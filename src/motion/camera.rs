@@ -54,7 +54,8 @@ mod tests {
     #[test]
     fn moves_rays_with_the_camera() {
         let reference = Mat4::from_translation(Vec3::new(0.0, 0.0, 5.0));
-        let steps = [Mat4::from_translation(Vec3::new(-1.0, 0.0, 5.0)), Mat4::from_translation(Vec3::new(1.0, 0.0, 5.0))];
+        let steps =
+            [Mat4::from_translation(Vec3::new(-1.0, 0.0, 5.0)), Mat4::from_translation(Vec3::new(1.0, 0.0, 5.0))];
         let m = CameraMotion::new(vec![-0.5, 0.5], &steps, &reference);
         let (o, d) = m.move_ray(Vec3::new(0.0, 0.0, 5.0), -Vec3::Z, 0.25);
         assert!((o - Vec3::new(0.5, 0.0, 5.0)).length() < 1e-6);

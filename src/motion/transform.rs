@@ -63,7 +63,8 @@ mod tests {
     #[test]
     fn translation_and_scale_are_linear() {
         let a = Decomposed::new(&Mat4::from_translation(Vec3::new(0.0, 0.0, 0.0)));
-        let b = Decomposed::new(&(Mat4::from_translation(Vec3::new(2.0, 0.0, 0.0)) * Mat4::from_scale(Vec3::splat(3.0))));
+        let b =
+            Decomposed::new(&(Mat4::from_translation(Vec3::new(2.0, 0.0, 0.0)) * Mat4::from_scale(Vec3::splat(3.0))));
         let m = a.lerp(&b, 0.25);
         assert!((m.translation - Vec3::new(0.5, 0.0, 0.0)).length() < 1e-6);
         assert!((m.scale - Vec3::splat(1.5)).length() < 1e-6);

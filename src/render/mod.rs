@@ -97,7 +97,7 @@ fn progressive(
     // Data passes trace the camera ray's first hit apart from the integrator.
     let want_data = job.passes.any_data();
     // Motion blur: each camera sample draws its time over the shutter (static scenes draw none).
-    let shutter = ctx.scene.motion.as_ref().and_then(|m| m.shutter);
+    let shutter = ctx.scene.motion.as_ref().and_then(|m| m.shutter).filter(|_| ctx.blurs_motion);
     let mut splat_count = 0u64;
 
     std::thread::scope(|scope| {

@@ -61,9 +61,11 @@ impl Scene {
         let (b1, b2) = (hit.b1, hit.b2);
         let b0 = 1.0 - b1 - b2;
         // A moving triangle is where it is at the ray's time (motion blur).
-        let moved = self.motion.as_ref().filter(|mo| mo.blurs()).and_then(|mo| {
-            mo.moving(hit.tri).map(|k| mo.triangle_at(k, crate::motion::ray_time()))
-        });
+        let moved = self
+            .motion
+            .as_ref()
+            .filter(|mo| mo.blurs())
+            .and_then(|mo| mo.moving(hit.tri).map(|k| mo.triangle_at(k, crate::motion::ray_time())));
         let ([p0, p1, p2], [n0, n1, n2]) = moved.unwrap_or((
             [m.positions[i0], m.positions[i1], m.positions[i2]],
             [m.normals[i0], m.normals[i1], m.normals[i2]],

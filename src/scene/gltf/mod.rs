@@ -463,8 +463,7 @@ impl<'a> Loader<'a> {
         if degenerate > 0 {
             self.warn(format!("{degenerate} degenerate (zero-area) triangle(s) were dropped"));
         }
-        let motion =
-            self.motion(&value, &doc, &mesh, &instances_out, &span_nodes, &mut cameras, &camera_nodes)?;
+        let motion = self.motion(&value, &doc, &mesh, &instances_out, &span_nodes, &mut cameras, &camera_nodes)?;
         if let Some(m) = motion.as_ref().filter(|m| m.blurs()) {
             // The scene's bounds hold every moving triangle at every step.
             for p in m.corners.iter().flatten() {

@@ -92,7 +92,7 @@ impl Loader<'_> {
             None => None,
             Some(s) => {
                 let rolling_ok = s.rolling_duration.is_none_or(|d| (0.0..=1.0).contains(&d));
-                if !(s.open.is_finite() && s.close.is_finite() && s.open <= s.close) || !rolling_ok {
+                if !(s.open.is_finite() && s.close.is_finite() && s.open <= s.close && rolling_ok) {
                     return Err(self.err(format!(
                         "CAUSTIC_motion: shutter open {} close {} (rolling duration {:?}) needs open <= close, a duration in 0..1",
                         s.open, s.close, s.rolling_duration
@@ -213,7 +213,12 @@ impl Loader<'_> {
     /// Names what motion blur leaves sharp: lights that move (punctual and area lights
     /// are placed at the frame) and moving emissive triangles, which next-event
     /// estimation samples where they are at the frame.
-    pub(super) fn motion_warnings(&mut self, doc: &gltf::Document, motion: &SceneMotion, lights: &[crate::light::Light]) {
+    pub(super) fn motion_warnings(
+        &mut self,
+        doc: &gltf::Document,
+        motion: &SceneMotion,
+        lights: &[crate::light::Light],
+    ) {
         for nd in doc.nodes() {
             let Some(v) = nd.extension_value("CAUSTIC_motion") else { continue };
             let is_light = nd.light().is_some() || nd.extension_value("CAUSTIC_lights_area").is_some();
@@ -224,9 +229,8 @@ impl Loader<'_> {
                 self.warn(format!("light '{name}' moves: motion blur renders lights where they are at the frame"));
             }
         }
-        let moving_emitters = lights.iter().any(|l| {
-            matches!(l, crate::light::Light::Triangle { tri } if motion.moving(*tri).is_some())
-        });
+        let moving_emitters =
+            lights.iter().any(|l| matches!(l, crate::light::Light::Triangle { tri } if motion.moving(*tri).is_some()));
         if moving_emitters {
             self.warn(format!(
                 "emissive moving object(s) {}: seen blurred, but next-event estimation samples their light where it is at the frame",
