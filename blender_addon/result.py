@@ -43,6 +43,8 @@ VIEW_LAYER_PASSES = (
     ("cycles", "use_pass_shadow_catcher", "shadow_catcher", "Shadow Catcher", 3, "RGB", "COLOR"),
     ("cycles", "denoising_store_passes", "denoising_albedo", "Denoising Albedo", 3, "RGB", "COLOR"),
     ("cycles", "denoising_store_passes", "denoising_normal", "Denoising Normal", 3, "XYZ", "VECTOR"),
+    # Screen-space motion to the previous and next frames, in pixels (export/motion.py).
+    ("", "use_pass_vector", "vector", "Vector", 4, "XYZW", "VECTOR"),
 )
 
 # Light passes: only the path integrator classifies light by the first bounce (contract).
@@ -58,12 +60,11 @@ CRYPTOMATTE_LAYERS = (
 # The Shadow Catcher pass: the path integrator splits paths at catchers; chunks do not carry it.
 PATH_ONLY_TOKENS = LIGHT_TOKENS | {"shadow_catcher"}
 # Data passes traced from the camera ray's first hit, by every integrator but SPPM.
-DATA_TOKENS = frozenset(("mist", "position", "uv", "ambient_occlusion", "object_index", "material_index")
+DATA_TOKENS = frozenset(("mist", "position", "uv", "ambient_occlusion", "object_index", "material_index", "vector")
                         + tuple(token for _, token, _ in CRYPTOMATTE_LAYERS))
 
 # Passes of the view layer that Caustic does not render yet (named in a warning when on).
 UNSUPPORTED = (
-    ("", "use_pass_vector", "Vector"),
     ("", "use_pass_shadow", "Shadow"),
 )
 
@@ -89,16 +90,19 @@ def enabled_cryptomatte(view_layer):
             for attr, token, prefix in CRYPTOMATTE_LAYERS if _flag(view_layer, "", attr)]
 
 
-def pass_request(view_layer, integrator, chunked=False):
+def pass_request(view_layer, integrator, chunked=False, motion_blur=False):
     """(`--passes` list, warnings): the enabled passes that `integrator` renders (on the farm,
     `chunked`: those that chunks carry), and a warning naming each enabled pass that will be
-    missing from the result."""
+    missing from the result. With `motion_blur` on, Vector stays black, as in Cycles (whose
+    panel greys it out then): its motion is to the neighbouring frames, not over the shutter."""
     tokens, warnings = [], []
     rows = [(token, name) for _, _, token, name, *_ in enabled_passes(view_layer)]
     rows += [(token, f"Cryptomatte {token.rpartition('_')[2].capitalize()}")
              for token, _ in enabled_cryptomatte(view_layer)]
     for token, name in rows:
-        if chunked and (token in PATH_ONLY_TOKENS or token in DATA_TOKENS):
+        if token == "vector" and motion_blur:
+            warnings.append("the Vector pass needs motion blur off (as in Cycles); it stays black")
+        elif chunked and (token in PATH_ONLY_TOKENS or token in DATA_TOKENS):
             warnings.append(f"the {name} pass is not rendered on the farm yet (sample chunks do not carry "
                             "it); it stays black")
         elif token in PATH_ONLY_TOKENS and integrator != "path":

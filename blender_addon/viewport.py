@@ -209,7 +209,7 @@ class Viewport:
         scene = depsgraph.scene
         settings = export.render_settings(scene, (scene.render.resolution_x, scene.render.resolution_y), None)
         old, self.folder = self.folder, tempfile.mkdtemp(prefix="caustic-view-")
-        path, state = export.export_scene(depsgraph, self.folder, settings)
+        path, state = export.export_scene(depsgraph, self.folder, settings, motion=False)
         self.known = {m.name: material_snapshot(m) for m in bpy.data.materials}
         for warning in state.warnings:
             self.engine.report({"WARNING"}, f"Caustic: {warning}")

@@ -31,7 +31,7 @@ pub struct Hit {
 
 /// Per-ray constants of the watertight test.
 #[derive(Clone, Copy)]
-struct RayTransform {
+pub(crate) struct RayTransform {
     org: Vec3A,
     /// The axes (x, y, z) of the ray's frame, each < 3.
     k: [usize; 3],
@@ -48,7 +48,7 @@ fn lanes(v: Vec3A) -> [f32; 4] {
 
 impl RayTransform {
     #[inline]
-    fn new(org: Vec3, dir: Vec3) -> Self {
+    pub(crate) fn new(org: Vec3, dir: Vec3) -> Self {
         let a = dir.abs();
         let kz = if a.x > a.y {
             if a.x > a.z { 0 } else { 2 }
@@ -67,7 +67,7 @@ impl RayTransform {
 
     /// Watertight intersection; returns (t, b1, b2) for tmin < t < tmax.
     #[inline(always)]
-    fn intersect(&self, v: &[Vec3A; 3], tmin: f32, tmax: f32) -> Option<(f32, f32, f32)> {
+    pub(crate) fn intersect(&self, v: &[Vec3A; 3], tmin: f32, tmax: f32) -> Option<(f32, f32, f32)> {
         // `& 3` proves the index in range to the compiler (k < 3 by construction).
         let [kx, ky, kz] = self.k.map(|k| k & 3);
         let [sx, sy, sz] = self.s;
@@ -347,6 +347,16 @@ pub struct Accel {
 }
 
 impl Accel {
+    /// Builds the BVH over some of the scene's triangles: `triangles[i]` is scene
+    /// triangle `ids[i]` (motion blur keeps the moving ones in `motion::accel`).
+    pub fn build_with_ids(triangles: &[[Vec3; 3]], ids: &[u32]) -> Self {
+        let mut accel = Self::build(triangles);
+        for id in &mut accel.ids {
+            *id = ids[*id as usize];
+        }
+        accel
+    }
+
     /// Builds the BVH over triangles given by their three vertices.
     pub fn build(triangles: &[[Vec3; 3]]) -> Self {
         let start = Instant::now();

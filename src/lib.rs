@@ -22,6 +22,7 @@ pub mod light;
 pub mod math;
 pub mod medium;
 pub mod memory;
+pub mod motion;
 pub mod output;
 pub mod passes;
 pub mod progress;

@@ -85,10 +85,13 @@ pub enum Pass {
     /// Cycles' Shadow Catcher: the factor by which catchers change what is behind them
     /// (Combined over the catcher pass, `crate::shadow_catcher`).
     ShadowCatcher,
+    /// Screen-space motion of the first hit in pixels: to the previous frame (X, Y) and to
+    /// the next (Z, W), as Cycles' Vector pass (`crate::motion::vector`).
+    Vector,
 }
 
 /// Every pass, in the order of the table below.
-pub const ALL: [Pass; 28] = [
+pub const ALL: [Pass; 29] = [
     Pass::Depth,
     Pass::Normal,
     Pass::DenoisingAlbedo,
@@ -117,6 +120,7 @@ pub const ALL: [Pass; 28] = [
     Pass::CryptoMaterial,
     Pass::CryptoAsset,
     Pass::ShadowCatcher,
+    Pass::Vector,
 ];
 
 /// Slots of [`Aov`]: where a camera sample keeps each extra pass's value.
@@ -159,19 +163,21 @@ pub mod slot {
     pub const OB: usize = 47;
     /// Material index (nearest hit).
     pub const MA: usize = 48;
+    /// Vector (four values).
+    pub const VECTOR: usize = 49;
     /// Shadow catcher (`integrator::catcher`): the catcher pass's radiance (RGB).
-    pub const CATCHER_PASS: usize = 49;
+    pub const CATCHER_PASS: usize = 53;
     /// The matte: radiance of paths that did not split at a catcher (RGB).
-    pub const CATCHER_MATTE: usize = 52;
+    pub const CATCHER_MATTE: usize = 56;
     /// The matte's transparency from splits (mean throughput at the split).
-    pub const CATCHER_SPLIT: usize = 55;
+    pub const CATCHER_SPLIT: usize = 59;
     /// Samples that split at a catcher.
-    pub const CATCHER_COUNT: usize = 56;
+    pub const CATCHER_COUNT: usize = 60;
     /// The world along camera rays that escaped or split (Cycles' background pass, which
     /// an opaque film's approximate shadow catcher composites over).
-    pub const CATCHER_BACKGROUND: usize = 57;
-    /// Number of slots.
-    pub const COUNT: usize = 60;
+    pub const CATCHER_BACKGROUND: usize = 61;
+    /// Number of slots (the catcher's sums stay last: `CATCHER_SLOTS` runs to the end).
+    pub const COUNT: usize = 64;
 }
 
 // The film keeps its slots in a u64 bit mask.
@@ -241,6 +247,7 @@ impl Pass {
             Pass::CryptoMaterial => "CryptoMaterial",
             Pass::CryptoAsset => "CryptoAsset",
             Pass::ShadowCatcher => "Shadow Catcher",
+            Pass::Vector => "Vector",
         }
     }
 
@@ -276,6 +283,7 @@ impl Pass {
             Pass::CryptoMaterial => "cryptomatte_material",
             Pass::CryptoAsset => "cryptomatte_asset",
             Pass::ShadowCatcher => "shadow_catcher",
+            Pass::Vector => "vector",
         }
     }
 
@@ -288,6 +296,7 @@ impl Pass {
             Pass::Uv => &["U", "V", "A"],
             // Lower case as Cycles names them (OpenEXR's DWA compression keeps r g b a lossless).
             Pass::CryptoObject | Pass::CryptoMaterial | Pass::CryptoAsset => &["r", "g", "b", "a"],
+            Pass::Vector => &["X", "Y", "Z", "W"],
             _ => &["R", "G", "B"],
         }
     }
@@ -325,6 +334,7 @@ impl Pass {
             Pass::ObjectIndex => slot::OB,
             Pass::MaterialIndex => slot::MA,
             Pass::ShadowCatcher => slot::CATCHER_PASS,
+            Pass::Vector => slot::VECTOR,
         })
     }
 

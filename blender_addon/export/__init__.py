@@ -23,6 +23,7 @@ out of it or writes differently from what Cycles renders (docs/contract.md):
 | `view_layer.py` | the view layer's excluded collections left out of the exporter's tree (instances kept); the Material Override is applied in `meshes.py` |
 | `volumes.py` | volume objects: their grids from the .vdb into `caustic_volumes/*.cvol`, `CAUSTIC_volume` |
 | `curves.py` | hair particle systems and Curves objects: `CAUSTIC_curves`, appended after the exporter ran |
+| `motion.py` | motion blur and the Vector pass: the scene evaluated at the motion steps, `CAUSTIC_motion` |
 | `unsupported.py` | warnings naming what Caustic cannot render yet (motion blur, hair, holdout, ...) |
 """
 
@@ -41,6 +42,7 @@ from .materials import COAT_EXTENSION, principled_extras, shader_node_material  
 from .media import MEDIUM_EXTENSION, SUBSURFACE_EXTENSION, medium_extension, subsurface_extension  # noqa: F401
 from .settings import render_settings  # noqa: F401
 from .state import ExportState, exporting
+from .motion import sample_motion
 from .unsupported import scene_warnings
 from .volumes import VOLUME_EXTENSION, attach_volumes  # noqa: F401
 from .world import WORLD_EXTENSION, world_extension  # noqa: F401
@@ -76,8 +78,10 @@ def _exporter_options(filepath):
     )
 
 
-def export_scene(depsgraph, folder, settings):
+def export_scene(depsgraph, folder, settings, motion=True):
     """Write the render depsgraph's scene to `folder`/scene.gltf; return (path, export state).
+
+    `motion`: export motion blur's (or the Vector pass's) steps; the viewport renders without.
 
     Raises CausticError when the exporter fails or one of Caustic's hooks failed.
     """
@@ -92,6 +96,11 @@ def export_scene(depsgraph, folder, settings):
     # depsgraph updates; during an animation render it still holds the previous frame.
     scene_eval = depsgraph.scene_eval
     scene.frame_set(scene_eval.frame_current, subframe=scene_eval.frame_subframe)
+    if motion:
+        with bpy.context.temp_override(scene=scene, view_layer=view_layer):
+            state.motion = sample_motion(scene, view_layer)
+        if state.motion is not None:
+            state.warnings.extend(state.motion.warnings)
     try:
         with exporting(state), bpy.context.temp_override(scene=scene, view_layer=view_layer), \
                 hooks_enabled(), render_depsgraph(depsgraph):

@@ -23,6 +23,7 @@ from .state import current
 from .light_linking import LIGHT_LINKING_EXTENSION, light_linking_extension
 from .pass_ids import (MATERIAL_PASS_EXTENSION, OBJECT_PASS_EXTENSION, material_pass_extension,
                        object_pass_extension)
+from .motion import MOTION_EXTENSION
 from .visibility import OBJECT_VISIBILITY_EXTENSION, object_visibility_extension
 from .world import WORLD_EXTENSION, world_extension
 
@@ -38,12 +39,15 @@ class glTF2ExportUserExtension:
         CAUSTIC_lights_punctual to the other lights', CAUSTIC_texspace to a mesh whose
         node graphs read Generated coordinates, and CAUSTIC_object_visibility to a mesh node
         whose object some kind of ray does not see or that is a holdout, CAUSTIC_object_pass to a mesh
-        node with a Pass Index or a parent, and CAUSTIC_light_linking
-        to an emitter with a receiver collection."""
+        node with a Pass Index or a parent, CAUSTIC_light_linking to an emitter with a receiver
+        collection, and CAUSTIC_motion to a moving object's node."""
         state = current()
         if state is None or blender_object is None:
             return
         try:
+            moves = state.motion.node_extension(blender_object.name) if state.motion is not None else None
+            if moves is not None:
+                attach_extension(gltf2_node, MOTION_EXTENSION, moves)
             receivers = light_linking_extension(blender_object)
             if receivers is not None:
                 attach_extension(gltf2_node, LIGHT_LINKING_EXTENSION, receivers)
@@ -139,6 +143,8 @@ class glTF2ExportUserExtension:
                 attach_extension(gltf2_scene, WORLD_EXTENSION, value)
         except Exception as err:
             state.errors.append(f"world: {err!r}")
+        if state.motion is not None:
+            attach_extension(gltf2_scene, MOTION_EXTENSION, state.motion.scene_extension())
 
 
 @contextmanager

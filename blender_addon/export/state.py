@@ -29,6 +29,7 @@ class ExportState:
         self.override_material = None  # its glTF material, built once, given to every primitive
         self.scaled_lights = set()  # ids of KHR light dicts already scaled by a light node tree
         self._image_writer = None
+        self.motion = None  # motion.Motion: the steps of moving objects, or None
         # The exporter logs and swallows hook exceptions: the hooks record them here and
         # export_scene raises them afterwards.
         self.errors = []

@@ -1,5 +1,5 @@
 """What Caustic cannot render yet, named: scene features that would otherwise be dropped without
-a word (motion blur, lights' ray visibility beyond Camera, material
+a word (lights' ray visibility beyond Camera, material
 override; shadow linking goes out with light_linking.py; Holdout, Indirect Only collections and Shadow
 Catcher go out with visibility.py, with a warning from the runs of integrators that cannot render
 them). Each warning
@@ -13,10 +13,7 @@ _LIGHT_RAY_VISIBILITY = (("visible_diffuse", "diffuse"), ("visible_glossy", "glo
 
 def scene_warnings(depsgraph):
     """Warnings for everything in the render depsgraph's scene that Caustic does not render."""
-    scene = depsgraph.scene
     warnings = []
-    if scene.render.use_motion_blur:
-        warnings.append("motion blur is on: Caustic renders the frame without it (sharp)")
     seen = set()
     for instance in depsgraph.object_instances:
         obj = instance.instance_object if instance.is_instance else instance.object

@@ -124,6 +124,36 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         reporter.warning(&w);
         run_warnings.push(w);
     }
+    if let Some(m) = scene.motion.as_ref().filter(|m| m.blurs()) {
+        if res.passes.contains(crate::passes::Pass::Vector) {
+            // Blender offers the Vector pass only without motion blur (its steps are then
+            // the neighbouring frames, not the shutter's).
+            return Err(Error::Usage(
+                "the Vector pass needs motion blur off (as in Blender): the scene's CAUSTIC_motion has a shutter"
+                    .into(),
+            ));
+        }
+        let camera_moves = scene.cameras[res.camera].motion.is_some();
+        let w = match res.integrator {
+            IntegratorKind::Sppm => Some(format!(
+                "motion blur is not rendered by SPPM: {} and the camera render sharp, where they are at the frame (the path and BDPT integrators blur them)",
+                m.objects.iter().map(|o| format!("'{o}'")).collect::<Vec<_>>().join(", ")
+            )),
+            IntegratorKind::Photon => Some(
+                "motion blur with photon mapping: camera paths are blurred, but the photon maps are traced with                  every object where it is at the frame"
+                    .to_string(),
+            ),
+            IntegratorKind::Bdpt if camera_moves => Some(
+                "motion blur with BDPT: the light-tracing strategy (t = 1) splats through the camera as it is at                  the frame, not as it moves"
+                    .to_string(),
+            ),
+            _ => None,
+        };
+        if let Some(w) = w {
+            reporter.warning(&w);
+            run_warnings.push(w);
+        }
+    }
     charge_render(&budget, args, &res, &scene)?;
     // Loaded before rendering, so that a missing library costs no render time.
     let denoiser = match args.denoise {
@@ -153,15 +183,23 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         .num_threads(res.threads)
         .build()
         .map_err(|e| Error::Internal(format!("cannot start worker threads: {e}")))?;
-    let accel = pool.install(|| {
+    // With motion blur the moving triangles get their own BVH (`motion::accel`).
+    let (accel, motion_accel) = pool.install(|| {
         build_bsdf_tables(&scene);
-        Accel::build(&tris)
+        match scene.motion.as_ref().filter(|m| m.blurs()) {
+            Some(m) => {
+                let (fixed, ids) = m.static_triangles(&tris);
+                (Accel::build_with_ids(&fixed, &ids), crate::motion::accel::MotionAccel::build(m))
+            }
+            None => (Accel::build(&tris), None),
+        }
     });
     drop(tris);
     if stop.load(Ordering::Relaxed) {
         return Err(Error::InterruptedEmpty);
     }
     let ctx = SceneContext::with_light_sampler(&scene, &accel, res.light_sampler)
+        .with_motion(motion_accel.as_ref())
         .with_camera_at(scene.cameras[res.camera].position);
     // Only the path tracer gives every ray its kind (see the warning above).
     let ctx = if matches!(res.integrator, IntegratorKind::Path) {

@@ -12,7 +12,7 @@ use crate::math::{Frame, offset_ray_origin};
 use crate::passes::{DataSettings, Pass, PassSet, slot};
 use crate::render::job::RayStats;
 use crate::sampling::warp::cosine_hemisphere;
-use crate::scene::camera::CameraRay;
+use crate::scene::camera::{CameraRay, CameraRays};
 use glam::Vec2;
 
 /// Two uniform numbers for the AO ray of pixel sample (seed, x, y, i), apart from the
@@ -31,8 +31,10 @@ fn ao_numbers(pixel_sample: (u32, u32, u32, u32)) -> Vec2 {
 }
 
 /// Fills the asked data passes of camera sample `out` along camera ray `ray`.
+#[allow(clippy::too_many_arguments)]
 pub fn fill(
     ctx: &SceneContext,
+    camera: &CameraRays,
     ray: &CameraRay,
     out: &mut CameraSample,
     passes: PassSet,
@@ -66,6 +68,10 @@ pub fn fill(
     if passes.contains(Pass::ObjectIndex) || passes.contains(Pass::MaterialIndex) {
         let [ob, ma] = ctx.scene.pass_ids.indices(s.tri, s.material);
         (a[slot::OB], a[slot::MA]) = (ob, ma);
+    }
+    if passes.contains(Pass::Vector) {
+        let v = crate::motion::vector::motion_vector(ctx.scene.motion.as_ref(), camera, &hit, s.p);
+        a[slot::VECTOR..slot::VECTOR + 4].copy_from_slice(&v);
     }
     if passes.contains(Pass::AmbientOcclusion) {
         // Cycles: one cosine-distributed ray about the shading normal, as long as the AO

@@ -75,6 +75,11 @@ pub struct SceneContext<'a> {
     pub tinted_shadows: bool,
     /// Per material, its BSDF built once when it reads no texture (`Scene::constant_bsdf`).
     constant_bsdfs: Vec<Option<ConstantBsdf>>,
+    /// The moving triangles' BVH when the render blurs motion (`with_motion`).
+    motion: Option<&'a crate::motion::accel::MotionAccel>,
+    /// Camera samples draw a time over the scene's shutter (`with_motion`); false for
+    /// renders whose BVH holds every triangle where it is at the frame (server, bench).
+    pub blurs_motion: bool,
 }
 
 /// Power heuristic (β = 2) of Veach; 0 when the weights are not finite.
@@ -146,7 +151,18 @@ impl<'a> SceneContext<'a> {
             constant_bsdfs: (0..scene.materials.len() as u32).map(|m| scene.constant_bsdf(m)).collect(),
             camera_media: MediumStack::default(),
             tinted_shadows: scene.materials.iter().any(|m| m.nodes.as_ref().is_some_and(|p| p.tinted_transparency)),
+            motion: None,
+            blurs_motion: false,
         }
+    }
+
+    /// Rays also meet the moving triangles, where they are at the camera sample's time
+    /// (`crate::motion`); the static BVH must then hold only the others
+    /// (`SceneMotion::static_triangles`).
+    pub fn with_motion(mut self, motion: Option<&'a crate::motion::accel::MotionAccel>) -> Self {
+        self.motion = motion;
+        self.blurs_motion = self.scene.motion.as_ref().is_some_and(|m| m.blurs());
+        self
     }
 
     /// This context for a camera at `p`: camera paths start in the mesh media that enclose
@@ -446,7 +462,7 @@ impl<'a> SceneContext<'a> {
     /// from it are passed.
     #[inline]
     pub fn intersect_as(&self, org: Vec3, dir: Vec3, tmax: f32, ray: RayMask) -> Option<Hit> {
-        let hit = self.accel.intersect(org, dir, tmax, &self.masked, |tri, b1, b2| {
+        let accept = |tri: u32, b1: f32, b2: f32| {
             if !self.sees(ray, tri) {
                 return false;
             }
@@ -454,7 +470,15 @@ impl<'a> SceneContext<'a> {
                 AlphaMode::Mask(cutoff) => self.scene.alpha(tri, b1, b2) >= cutoff,
                 _ => true,
             }
-        });
+        };
+        let hit = self.accel.intersect(org, dir, tmax, &self.masked, accept);
+        let hit = match self.motion {
+            None => hit,
+            Some(m) => {
+                let t = crate::motion::ray_time();
+                m.intersect(org, dir, hit.map_or(tmax, |h| h.t), t, &self.masked, accept).or(hit)
+            }
+        };
         // Strands, in their own BVH, up to the triangle hit: the nearer wins.
         match &self.scene.curves.bvh {
             Some(curves) => curves.intersect(&self.scene.curves.points, org, dir, hit.map_or(tmax, |h| h.t)).or(hit),
@@ -473,7 +497,7 @@ impl<'a> SceneContext<'a> {
     /// shadow linking only its blockers stop it.
     #[inline]
     pub fn transmittance_of(&self, org: Vec3, dir: Vec3, tmax: f32, light: Option<usize>, path: LightPath) -> f32 {
-        let tr = self.accel.transmittance(org, dir, tmax, &self.transparent, |tri, b1, b2| {
+        let transparency = |tri: u32, b1: f32, b2: f32| {
             if !self.sees(RayMask::SHADOW, tri) || light.is_some_and(|l| !self.blocks(l, tri)) {
                 return 1.0;
             }
@@ -488,7 +512,15 @@ impl<'a> SceneContext<'a> {
                 AlphaMode::Blend => (1.0 - self.scene.shadow_alpha(tri, b1, b2, path, org)).clamp(0.0, 1.0),
                 AlphaMode::Opaque => 0.0,
             }
-        });
+        };
+        let tr = self.accel.transmittance(org, dir, tmax, &self.transparent, transparency);
+        let tr = match self.motion {
+            Some(m) if tr > 0.0 => {
+                let t = crate::motion::ray_time();
+                tr * m.transmittance(org, dir, tmax, t, &self.transparent, transparency)
+            }
+            _ => tr,
+        };
         // Strands are opaque.
         match &self.scene.curves.bvh {
             Some(curves) if tr > 0.0 && curves.occluded(&self.scene.curves.points, org, dir, tmax) => 0.0,

@@ -96,6 +96,8 @@ fn progressive(
     let splats = SplatPool::new(job.window);
     // Data passes trace the camera ray's first hit apart from the integrator.
     let want_data = job.passes.any_data();
+    // Motion blur: each camera sample draws its time over the shutter (static scenes draw none).
+    let shutter = ctx.scene.motion.as_ref().and_then(|m| m.shutter).filter(|_| ctx.blurs_motion);
     let mut splat_count = 0u64;
 
     std::thread::scope(|scope| {
@@ -168,8 +170,11 @@ fn progressive(
                                 let mut sampler = PixelSampler::new(job.seed, px, py, i);
                                 let off = job.filter.sample(sampler.next_2d());
                                 let u_lens = if camera.has_lens() { sampler.next_2d() } else { glam::Vec2::ZERO };
-                                let ray =
-                                    camera.sample_clipped(px as f32 + 0.5 + off.x, py as f32 + 0.5 + off.y, u_lens);
+                                let time = shutter.map(|s| s.time(sampler.next_2d().x, py, job.height));
+                                let (fx, fy) = (px as f32 + 0.5 + off.x, py as f32 + 0.5 + off.y);
+                                let ray = camera.sample_clipped_at(fx, fy, u_lens, time);
+                                // Every ray of this sample (bounces, shadow rays, BDPT's light subpath) at its time.
+                                let _time = crate::motion::TimeScope::enter(time);
                                 let mut s = integrator.sample(
                                     ctx,
                                     camera,
@@ -184,6 +189,7 @@ fn progressive(
                                     let pixel_sample = (job.seed, px, py, i);
                                     data_passes::fill(
                                         ctx,
+                                        camera,
                                         &ray,
                                         &mut s,
                                         job.passes,

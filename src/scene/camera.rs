@@ -74,6 +74,8 @@ pub struct Camera {
     /// Near and far clipping planes: distances along the viewing axis (glTF's znear and
     /// zfar, Blender's Clip Start and End). Camera rays see only what lies between them.
     pub clip: (f32, f32),
+    /// The camera's motion over the shutter (`CAUSTIC_motion`); None when it keeps still.
+    pub motion: Option<crate::motion::CameraMotion>,
 }
 
 /// A camera ray: from `org` along `dir`, seeing what lies between the distances `near`
@@ -115,6 +117,7 @@ impl Camera {
             shift: Vec2::ZERO,
             lens: None,
             clip: (0.0, f32::INFINITY),
+            motion: None,
         }
     }
 
@@ -221,6 +224,43 @@ impl CameraRays {
             return CameraRay { org, dir, near: 0.0, far: 0.0 };
         }
         CameraRay { org, dir, near: near / cos, far: far / cos }
+    }
+
+    /// [`sample_clipped`](Self::sample_clipped) by the camera as it is at time `t`
+    /// (frames; None: no motion blur): the ray is carried by the camera's rigid motion,
+    /// which keeps its clipping distances.
+    #[inline]
+    pub fn sample_clipped_at(&self, x: f32, y: f32, u_lens: Vec2, t: Option<f32>) -> CameraRay {
+        let ray = self.sample_clipped(x, y, u_lens);
+        match (t, &self.cam.motion) {
+            (Some(t), Some(m)) => {
+                let (org, dir) = m.move_ray(ray.org, ray.dir, t);
+                CameraRay { org, dir, ..ray }
+            }
+            _ => ray,
+        }
+    }
+
+    /// Where a world point appears on the film through the lens centre (the pinhole
+    /// projection, Cycles' world-to-raster), by the camera as it is at time `t` (frames):
+    /// pixels from the top-left corner of the full frame; None behind a perspective camera.
+    pub fn raster_at(&self, p: Vec3, t: f32) -> Option<Vec2> {
+        let c = &self.cam;
+        let p = match &c.motion {
+            Some(m) => m.delta(t).inverse().transform_point3(p),
+            None => p,
+        };
+        let w = p - c.position;
+        let s = if self.ortho {
+            Vec2::new(w.dot(c.right), w.dot(c.up))
+        } else {
+            let z = -w.dot(c.back);
+            if !(z > 0.0) {
+                return None;
+            }
+            Vec2::new(w.dot(c.right) / z, w.dot(c.up) / z)
+        } - self.center;
+        Some(Vec2::new((s.x / self.half.x + 1.0) * 0.5 * self.width, (1.0 - s.y / self.half.y) * 0.5 * self.height))
     }
 
     /// The clipping planes' distances along the viewing axis.

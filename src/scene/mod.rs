@@ -243,6 +243,8 @@ pub struct Scene {
     pub instances: Vec<InstanceSpan>,
     /// Pass indices and Cryptomatte ids of each instance and material.
     pub pass_ids: ids::PassIds,
+    /// Moving triangles and the shutter (`CAUSTIC_motion`); None when nothing moves.
+    pub motion: Option<crate::motion::SceneMotion>,
 }
 
 /// Where one mesh instance (a glTF node with a mesh) lies in the flattened [`Mesh`].

@@ -69,7 +69,16 @@ impl Scene {
         let [i0, i1, i2] = m.triangles[hit.tri as usize].map(|i| i as usize);
         let (b1, b2) = (hit.b1, hit.b2);
         let b0 = 1.0 - b1 - b2;
-        let (p0, p1, p2) = (m.positions[i0], m.positions[i1], m.positions[i2]);
+        // A moving triangle is where it is at the ray's time (motion blur).
+        let moved = self
+            .motion
+            .as_ref()
+            .filter(|mo| mo.blurs())
+            .and_then(|mo| mo.moving(hit.tri).map(|k| mo.triangle_at(k, crate::motion::ray_time())));
+        let ([p0, p1, p2], [n0, n1, n2]) = moved.unwrap_or((
+            [m.positions[i0], m.positions[i1], m.positions[i2]],
+            [m.normals[i0], m.normals[i1], m.normals[i2]],
+        ));
         let mut p = p0 * b0 + p1 * b1 + p2 * b2;
         if !p.is_finite() {
             p = org + dir * hit.t;
@@ -78,7 +87,7 @@ impl Scene {
         let front = ng_front.dot(dir) < 0.0;
         let side = if front { 1.0 } else { -1.0 };
         let ng = ng_front * side;
-        let n_interp = m.normals[i0] * b0 + m.normals[i1] * b1 + m.normals[i2] * b2;
+        let n_interp = n0 * b0 + n1 * b1 + n2 * b2;
         // Vertex normals that point against the winding (an authoring slip some exporters
         // make) would put the shading hemisphere below the surface and end most paths:
         // they are turned to the geometric normal's side first, as pbrt does.

@@ -296,6 +296,16 @@ impl GltfBuilder {
         self.doc["scenes"][0]["extensions"] = json!({ "CAUSTIC_world": w });
     }
 
+    /// Puts extension `name` with value `ext` on the scene (beside any it has) and declares it.
+    pub fn scene_ext(&mut self, name: &str, ext: Value) {
+        self.use_ext(name);
+        let scene = &mut self.doc["scenes"][0];
+        if scene.get("extensions").is_none() {
+            scene["extensions"] = json!({});
+        }
+        scene["extensions"][name] = ext;
+    }
+
     /// Sets scene render settings (extras.caustic).
     pub fn settings(&mut self, s: Value) {
         self.doc["scenes"][0]["extras"] = json!({ "caustic": s });

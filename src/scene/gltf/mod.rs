@@ -22,6 +22,7 @@ mod lights;
 mod material_ext;
 mod materials;
 mod mesh;
+mod motion;
 mod nodes;
 mod pass_ids;
 mod pose;
@@ -81,6 +82,7 @@ pub const SUPPORTED_REQUIRED: &[&str] = &[
     "CAUSTIC_materials_sheen",
     "CAUSTIC_default_material",
     "CAUSTIC_volume",
+    "CAUSTIC_motion",
 ];
 
 /// glTF's photometric units to Blender's radiometric ones: Blender's exporter writes
@@ -325,6 +327,8 @@ impl<'a> Loader<'a> {
                 animations.join(", ")
             ));
         }
+        // The node of each instance span and of each camera, for `CAUSTIC_motion`.
+        let (mut span_nodes, mut camera_nodes) = (Vec::new(), Vec::new());
         for (node_index, world) in &instances {
             let node = doc.nodes().nth(*node_index).expect("validated index");
             let node_name = node.name().map(str::to_string).unwrap_or_else(|| format!("node {node_index}"));
@@ -378,6 +382,7 @@ impl<'a> Loader<'a> {
                         object = Some(o);
                     }
                     id_spans.push((*node_index, node_name.clone(), mesh.triangles.len() as u32));
+                    span_nodes.push(*node_index);
                     instances_out.push(crate::scene::InstanceSpan {
                         name: node_name.clone(),
                         world: *world,
@@ -390,6 +395,7 @@ impl<'a> Loader<'a> {
             if let Some(c) = node.camera() {
                 let blender = node.extension_value("CAUSTIC_camera").cloned();
                 cameras.push(self.camera(&c, &node_name, world, blender)?);
+                camera_nodes.push(*node_index);
             }
             if let Some(l) = node.light() {
                 let blender = node.extension_value("CAUSTIC_lights_punctual").cloned();
@@ -518,6 +524,14 @@ impl<'a> Loader<'a> {
         if degenerate > 0 {
             self.warn(format!("{degenerate} degenerate (zero-area) triangle(s) were dropped"));
         }
+        let motion = self.motion(&value, &doc, &mesh, &instances_out, &span_nodes, &mut cameras, &camera_nodes)?;
+        if let Some(m) = motion.as_ref().filter(|m| m.blurs()) {
+            // The scene's bounds hold every moving triangle at every step.
+            for p in m.corners.iter().flatten() {
+                (lo, hi) = (lo.min(*p), hi.max(*p));
+            }
+            self.motion_warnings(&doc, m, &lights);
+        }
 
         self.profile.total = start.elapsed().as_secs_f64();
         let source_hash = self.source_hash(bytes);
@@ -589,6 +603,7 @@ impl<'a> Loader<'a> {
             objects,
             source_hash,
             instances: instances_out,
+            motion,
         })
     }
 
