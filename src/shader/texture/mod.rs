@@ -15,6 +15,7 @@ pub mod magic;
 pub mod noise;
 pub mod perlin;
 pub mod voronoi;
+mod voronoi_coord;
 pub mod wave;
 pub mod white_noise;
 

@@ -8,17 +8,10 @@
 //! its order (x fastest) with strict `<`, so ties go to the first cell; a vector divided by a
 //! scalar is multiplied by the reciprocal; 1-D ignores the metric.
 
-use core::ops::{Add, Mul, Sub};
-
 use glam::{Vec2, Vec3, Vec4};
 
-use super::cell_offsets::{OFFSETS_2D, OFFSETS_3D, OFFSETS_4D};
-use super::float_ops::floor;
-use super::hash::{
-    hash_float_to_float, hash_float_to_float3, hash_int2_to_float2, hash_int2_to_float3, hash_int3_to_float3,
-    hash_int4_to_float3, hash_int4_to_float4,
-};
 use super::perlin::mix;
+use super::voronoi_coord::{Coord, euclidean};
 
 /// The node's "Feature" setting.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -82,21 +75,21 @@ pub struct VoronoiOut {
 }
 
 /// The parameters after the node's clamping, as Cycles' `VoronoiParams`.
-struct Params {
-    feature: VoronoiFeature,
-    metric: VoronoiMetric,
-    normalize: bool,
-    scale: f32,
-    detail: f32,
-    roughness: f32,
-    lacunarity: f32,
-    smoothness: f32,
-    exponent: f32,
-    randomness: f32,
-    max_distance: f32,
+pub(super) struct Params {
+    pub(super) feature: VoronoiFeature,
+    pub(super) metric: VoronoiMetric,
+    pub(super) normalize: bool,
+    pub(super) scale: f32,
+    pub(super) detail: f32,
+    pub(super) roughness: f32,
+    pub(super) lacunarity: f32,
+    pub(super) smoothness: f32,
+    pub(super) exponent: f32,
+    pub(super) randomness: f32,
+    pub(super) max_distance: f32,
     /// Compute the Color output (off when it is not linked: smooth F1 hashes a colour for
     /// each of its 125 cells).
-    color: bool,
+    pub(super) color: bool,
 }
 
 /// One octave's (or the sum's) outputs; position in 4-D as Cycles keeps it.
@@ -105,331 +98,6 @@ struct Octave {
     distance: f32,
     color: Vec3,
     position: Vec4,
-}
-
-/// A Voronoi coordinate of 1 to 4 dimensions.
-trait Coord: Copy + Add<Output = Self> + Sub<Output = Self> + Mul<f32, Output = Self> {
-    const DIMS: u32;
-    fn floor(self) -> Self;
-    /// The cell offset with index `i` of the `(2r + 1)^DIMS` neighbourhood, x fastest.
-    fn offset(i: u32, r: i32) -> Self;
-    fn splat(v: f32) -> Self;
-    /// The feature point inside cell `cell + offset` (`cell` is a floor, so integral): 1-D
-    /// hashes the float's bits, 2-D to 4-D the integer coordinates (Cycles' `hash_intN_to_floatN`,
-    /// added in int arithmetic as Cycles does, which stays exact beyond 2^24).
-    fn hash_point(cell: Self, offset: Self) -> Self;
-    /// The colour of cell `cell + offset`.
-    fn hash_color(cell: Self, offset: Self) -> Vec3;
-    fn dot(self, b: Self) -> f32;
-    /// Sum of the components (Cycles' `reduce_add`).
-    fn sum(self) -> f32;
-    fn max_element(self) -> f32;
-    fn abs(self) -> Self;
-    fn powf(self, e: f32) -> Self;
-    /// Cycles' `voronoi_position`: where the coordinate lands in the 4-D output.
-    fn position(self) -> Vec4;
-
-    /// Cycles' `voronoi_distance` for the node's metric (1-D overrides: always |a - b|).
-    #[inline(always)]
-    fn distance(a: Self, b: Self, prm: &Params) -> f32 {
-        let d = (a - b).abs();
-        match prm.metric {
-            VoronoiMetric::Euclidean => euclidean(a, b),
-            VoronoiMetric::Manhattan => d.sum(),
-            VoronoiMetric::Chebychev => d.max_element(),
-            VoronoiMetric::Minkowski => d.powf(prm.exponent).sum().powf(1.0 / prm.exponent),
-        }
-    }
-
-    /// Cycles' `voronoi_distance_bound`: a monotonic stand-in for the distance (no root) that
-    /// F1 compares with (1-D overrides: |a - b|).
-    #[inline(always)]
-    fn distance_bound(a: Self, b: Self, prm: &Params) -> f32 {
-        let d = (a - b).abs();
-        match prm.metric {
-            VoronoiMetric::Euclidean => (a - b).dot(a - b),
-            VoronoiMetric::Manhattan => d.sum(),
-            VoronoiMetric::Chebychev => d.max_element(),
-            VoronoiMetric::Minkowski => d.powf(prm.exponent).sum(),
-        }
-    }
-
-    /// Cycles' `voronoi_distance_to_edge` (1-D overrides with its closed form).
-    #[inline]
-    fn distance_to_edge(prm: &Params, coord: Self) -> f32 {
-        let cell = coord.floor();
-        let local = coord - cell;
-        let n = 3u32.pow(Self::DIMS);
-        let to_point = |i: u32| {
-            let offset = Self::offset(i, 1);
-            offset + Self::hash_point(cell, offset) * prm.randomness - local
-        };
-        let mut to_closest = Self::splat(0.0);
-        let mut min_distance = f32::MAX;
-        for i in 0..n {
-            let v = to_point(i);
-            let d = v.dot(v);
-            if d < min_distance {
-                min_distance = d;
-                to_closest = v;
-            }
-        }
-        min_distance = f32::MAX;
-        for i in 0..n {
-            let v = to_point(i);
-            let perpendicular = v - to_closest;
-            let len2 = perpendicular.dot(perpendicular);
-            // Cycles skips the closest point itself (and points within 0.01 of it).
-            if len2 > 0.0001 {
-                let unit = perpendicular * (1.0 / len2.sqrt());
-                let d = ((to_closest + v) * 0.5).dot(unit);
-                min_distance = min_distance.min(d);
-            }
-        }
-        min_distance
-    }
-}
-
-/// Cycles' `make_intN(floor) + offset`: integer cell coordinates.
-#[inline(always)]
-fn cell_index<const N: usize>(cell: [f32; N], offset: [f32; N]) -> [i32; N] {
-    core::array::from_fn(|k| (cell[k] as i32).wrapping_add(offset[k] as i32))
-}
-
-/// Cycles' `distance`: the Euclidean length of `a - b`.
-#[inline(always)]
-fn euclidean<T: Coord>(a: T, b: T) -> f32 {
-    let d = a - b;
-    d.dot(d).sqrt()
-}
-
-impl Coord for f32 {
-    const DIMS: u32 = 1;
-    #[inline(always)]
-    fn floor(self) -> Self {
-        floor(self)
-    }
-    #[inline(always)]
-    fn offset(i: u32, r: i32) -> Self {
-        (i as i32 - r) as f32
-    }
-    #[inline(always)]
-    fn splat(v: f32) -> Self {
-        v
-    }
-    #[inline(always)]
-    fn hash_point(cell: Self, offset: Self) -> Self {
-        hash_float_to_float(cell + offset)
-    }
-    #[inline(always)]
-    fn hash_color(cell: Self, offset: Self) -> Vec3 {
-        hash_float_to_float3(cell + offset)
-    }
-    #[inline(always)]
-    fn dot(self, b: Self) -> f32 {
-        self * b
-    }
-    #[inline(always)]
-    fn sum(self) -> f32 {
-        self
-    }
-    #[inline(always)]
-    fn max_element(self) -> f32 {
-        self
-    }
-    #[inline(always)]
-    fn abs(self) -> Self {
-        f32::abs(self)
-    }
-    #[inline(always)]
-    fn powf(self, e: f32) -> Self {
-        f32::powf(self, e)
-    }
-    #[inline(always)]
-    fn position(self) -> Vec4 {
-        Vec4::new(0.0, 0.0, 0.0, self)
-    }
-    #[inline(always)]
-    fn distance(a: Self, b: Self, _: &Params) -> f32 {
-        (b - a).abs()
-    }
-    #[inline(always)]
-    fn distance_bound(a: Self, b: Self, _: &Params) -> f32 {
-        (b - a).abs()
-    }
-    #[inline]
-    fn distance_to_edge(prm: &Params, coord: Self) -> f32 {
-        let cell = coord.floor();
-        let local = coord - cell;
-        let mid = hash_float_to_float(cell) * prm.randomness;
-        let left = -1.0 + hash_float_to_float(cell - 1.0) * prm.randomness;
-        let right = 1.0 + hash_float_to_float(cell + 1.0) * prm.randomness;
-        let to_mid_left = ((mid + left) / 2.0 - local).abs();
-        let to_mid_right = ((mid + right) / 2.0 - local).abs();
-        to_mid_left.min(to_mid_right)
-    }
-}
-
-impl Coord for Vec2 {
-    const DIMS: u32 = 2;
-    #[inline(always)]
-    fn floor(self) -> Self {
-        Vec2::new(floor(self.x), floor(self.y))
-    }
-    #[inline(always)]
-    fn offset(i: u32, r: i32) -> Self {
-        if r == 1 {
-            return OFFSETS_2D[i as usize];
-        }
-        let n = (2 * r + 1) as u32;
-        Vec2::new((i % n) as i32 as f32 - r as f32, (i / n) as i32 as f32 - r as f32)
-    }
-    #[inline(always)]
-    fn splat(v: f32) -> Self {
-        Vec2::splat(v)
-    }
-    #[inline(always)]
-    fn hash_point(cell: Self, offset: Self) -> Self {
-        hash_int2_to_float2(cell_index(cell.to_array(), offset.to_array()))
-    }
-    #[inline(always)]
-    fn hash_color(cell: Self, offset: Self) -> Vec3 {
-        hash_int2_to_float3(cell_index(cell.to_array(), offset.to_array()))
-    }
-    #[inline(always)]
-    fn dot(self, b: Self) -> f32 {
-        self.x * b.x + self.y * b.y
-    }
-    #[inline(always)]
-    fn sum(self) -> f32 {
-        self.x + self.y
-    }
-    #[inline(always)]
-    fn max_element(self) -> f32 {
-        self.x.max(self.y)
-    }
-    #[inline(always)]
-    fn abs(self) -> Self {
-        Vec2::abs(self)
-    }
-    #[inline(always)]
-    fn powf(self, e: f32) -> Self {
-        Vec2::new(self.x.powf(e), self.y.powf(e))
-    }
-    #[inline(always)]
-    fn position(self) -> Vec4 {
-        Vec4::new(self.x, self.y, 0.0, 0.0)
-    }
-}
-
-impl Coord for Vec3 {
-    const DIMS: u32 = 3;
-    #[inline(always)]
-    fn floor(self) -> Self {
-        Vec3::new(floor(self.x), floor(self.y), floor(self.z))
-    }
-    #[inline(always)]
-    fn offset(i: u32, r: i32) -> Self {
-        if r == 1 {
-            return OFFSETS_3D[i as usize];
-        }
-        let n = (2 * r + 1) as u32;
-        Vec3::new((i % n) as f32 - r as f32, (i / n % n) as f32 - r as f32, (i / (n * n)) as f32 - r as f32)
-    }
-    #[inline(always)]
-    fn splat(v: f32) -> Self {
-        Vec3::splat(v)
-    }
-    #[inline(always)]
-    fn hash_point(cell: Self, offset: Self) -> Self {
-        hash_int3_to_float3(cell_index(cell.to_array(), offset.to_array()))
-    }
-
-    #[inline(always)]
-    fn hash_color(cell: Self, offset: Self) -> Vec3 {
-        hash_int3_to_float3(cell_index(cell.to_array(), offset.to_array()))
-    }
-    #[inline(always)]
-    fn dot(self, b: Self) -> f32 {
-        self.x * b.x + self.y * b.y + self.z * b.z
-    }
-    #[inline(always)]
-    fn sum(self) -> f32 {
-        self.x + self.y + self.z
-    }
-    #[inline(always)]
-    fn max_element(self) -> f32 {
-        self.x.max(self.y).max(self.z)
-    }
-    #[inline(always)]
-    fn abs(self) -> Self {
-        Vec3::abs(self)
-    }
-    #[inline(always)]
-    fn powf(self, e: f32) -> Self {
-        Vec3::new(self.x.powf(e), self.y.powf(e), self.z.powf(e))
-    }
-    #[inline(always)]
-    fn position(self) -> Vec4 {
-        self.extend(0.0)
-    }
-}
-
-impl Coord for Vec4 {
-    const DIMS: u32 = 4;
-    #[inline(always)]
-    fn floor(self) -> Self {
-        Vec4::new(floor(self.x), floor(self.y), floor(self.z), floor(self.w))
-    }
-    #[inline(always)]
-    fn offset(i: u32, r: i32) -> Self {
-        if r == 1 {
-            return OFFSETS_4D[i as usize];
-        }
-        let n = (2 * r + 1) as u32;
-        Vec4::new(
-            (i % n) as f32 - r as f32,
-            (i / n % n) as f32 - r as f32,
-            (i / (n * n) % n) as f32 - r as f32,
-            (i / (n * n * n)) as f32 - r as f32,
-        )
-    }
-    #[inline(always)]
-    fn splat(v: f32) -> Self {
-        Vec4::splat(v)
-    }
-    #[inline(always)]
-    fn hash_point(cell: Self, offset: Self) -> Self {
-        hash_int4_to_float4(cell_index(cell.to_array(), offset.to_array()))
-    }
-    #[inline(always)]
-    fn hash_color(cell: Self, offset: Self) -> Vec3 {
-        hash_int4_to_float3(cell_index(cell.to_array(), offset.to_array()))
-    }
-    #[inline(always)]
-    fn dot(self, b: Self) -> f32 {
-        self.x * b.x + self.y * b.y + self.z * b.z + self.w * b.w
-    }
-    #[inline(always)]
-    fn sum(self) -> f32 {
-        self.x + self.y + self.z + self.w
-    }
-    #[inline(always)]
-    fn max_element(self) -> f32 {
-        self.x.max(self.y).max(self.z).max(self.w)
-    }
-    #[inline(always)]
-    fn abs(self) -> Self {
-        Vec4::abs(self)
-    }
-    #[inline(always)]
-    fn powf(self, e: f32) -> Self {
-        Vec4::new(self.x.powf(e), self.y.powf(e), self.z.powf(e), self.w.powf(e))
-    }
-    #[inline(always)]
-    fn position(self) -> Vec4 {
-        self
-    }
 }
 
 /// Cycles' `voronoi_f1`: the closest feature point (found by the bound, measured after).
