@@ -226,38 +226,10 @@ impl Loader<'_> {
 
 #[cfg(test)]
 mod tests {
-    use crate::memory::MemoryBudget;
-    use base64::Engine;
     use glam::Vec3;
     use serde_json::json;
 
-    /// One triangle (0,0,0) (1,0,0) (0,1,0) with `extra` bytes after its positions in the
-    /// one buffer, and `root`'s keys set on the document (accessor 0 is POSITION).
-    fn load(extra: &[u8], root: serde_json::Value) -> crate::error::Result<crate::scene::Scene> {
-        let mut data: Vec<u8> = [0f32, 0., 0., 1., 0., 0., 0., 1., 0.].iter().flat_map(|f| f.to_le_bytes()).collect();
-        data.extend_from_slice(extra);
-        let uri =
-            format!("data:application/octet-stream;base64,{}", base64::engine::general_purpose::STANDARD.encode(&data));
-        let mut doc = json!({
-            "asset": {"version": "2.0"},
-            "buffers": [{"uri": uri, "byteLength": data.len()}],
-            "bufferViews": [{"buffer": 0, "byteLength": 36}],
-            "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
-                "min": [0, 0, 0], "max": [1, 1, 0]}],
-            "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
-            "nodes": [{"mesh": 0}],
-            "scenes": [{"nodes": [0]}]
-        });
-        for (k, v) in root.as_object().unwrap() {
-            doc[k] = v.clone();
-        }
-        crate::scene::gltf::load_bytes(
-            &serde_json::to_vec(&doc).unwrap(),
-            std::path::Path::new("."),
-            "pose.gltf",
-            &MemoryBudget::unlimited(),
-        )
-    }
+    use crate::scene::gltf::tests::load_triangle_after as load;
 
     fn floats(v: &[f32]) -> Vec<u8> {
         v.iter().flat_map(|f| f.to_le_bytes()).collect()

@@ -91,34 +91,22 @@ impl Loader<'_> {
 
 #[cfg(test)]
 mod tests {
-    use crate::memory::MemoryBudget;
     use base64::Engine;
     use serde_json::json;
 
     /// A triangle with one material whose only description is `ext`, and `images`.
     fn load(ext: serde_json::Value, images: serde_json::Value) -> crate::scene::Scene {
-        let data: Vec<u8> = [0f32, 0., 0., 1., 0., 0., 0., 1., 0.].iter().flat_map(|f| f.to_le_bytes()).collect();
-        let uri =
-            format!("data:application/octet-stream;base64,{}", base64::engine::general_purpose::STANDARD.encode(&data));
-        let doc = json!({
-            "asset": {"version": "2.0"},
-            "extensionsUsed": ["KHR_materials_pbrSpecularGlossiness"],
-            "buffers": [{"uri": uri, "byteLength": 36}],
-            "bufferViews": [{"buffer": 0, "byteLength": 36}],
-            "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
-                "min": [0, 0, 0], "max": [1, 1, 0]}],
-            "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "material": 0}]}],
-            "materials": [{"name": "SG", "extensions": {"KHR_materials_pbrSpecularGlossiness": ext}}],
-            "textures": images.as_array().map(|a| (0..a.len()).map(|i| json!({"source": i})).collect::<Vec<_>>()),
-            "images": images,
-            "nodes": [{"mesh": 0}],
-            "scenes": [{"nodes": [0]}]
-        });
-        crate::scene::gltf::load_bytes(
-            &serde_json::to_vec(&doc).unwrap(),
-            std::path::Path::new("."),
-            "sg.gltf",
-            &MemoryBudget::unlimited(),
+        let textures: Vec<serde_json::Value> =
+            (0..images.as_array().map_or(0, Vec::len)).map(|i| json!({"source": i})).collect();
+        crate::scene::gltf::tests::load_triangle_after(
+            &[],
+            json!({
+                "extensionsUsed": ["KHR_materials_pbrSpecularGlossiness"],
+                "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "material": 0}]}],
+                "materials": [{"name": "SG", "extensions": {"KHR_materials_pbrSpecularGlossiness": ext}}],
+                "textures": textures,
+                "images": images
+            }),
         )
         .expect("loads")
     }

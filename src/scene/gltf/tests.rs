@@ -35,6 +35,30 @@ fn load_triangle(required: &[&str], root: serde_json::Value) -> crate::error::Re
     load_bytes(&serde_json::to_vec(&doc).unwrap(), std::path::Path::new("."), "req.gltf", &MemoryBudget::unlimited())
 }
 
+/// The unit triangle (0,0,0) (1,0,0) (0,1,0) as accessor 0, with `extra` bytes after its
+/// positions in the one buffer (for further accessors) and `root`'s keys set on the document;
+/// the loader tests of other files (pose, gpu instancing, specular-glossiness) build on it.
+pub(super) fn load_triangle_after(extra: &[u8], root: serde_json::Value) -> crate::error::Result<crate::scene::Scene> {
+    let mut data: Vec<u8> = [0f32, 0., 0., 1., 0., 0., 0., 1., 0.].iter().flat_map(|f| f.to_le_bytes()).collect();
+    data.extend_from_slice(extra);
+    let uri =
+        format!("data:application/octet-stream;base64,{}", base64::engine::general_purpose::STANDARD.encode(&data));
+    let mut doc = json!({
+        "asset": {"version": "2.0"},
+        "buffers": [{"uri": uri, "byteLength": data.len()}],
+        "bufferViews": [{"buffer": 0, "byteLength": 36}],
+        "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+            "min": [0, 0, 0], "max": [1, 1, 0]}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+        "nodes": [{"mesh": 0}],
+        "scenes": [{"nodes": [0]}]
+    });
+    for (k, v) in root.as_object().unwrap() {
+        doc[k] = v.clone();
+    }
+    load_bytes(&serde_json::to_vec(&doc).unwrap(), std::path::Path::new("."), "test.gltf", &MemoryBudget::unlimited())
+}
+
 /// A 2×2 image of one colour, encoded as PNG or lossless WebP, as a data URI.
 fn image_uri(rgb: [u8; 3], webp: bool) -> String {
     let img = image::RgbaImage::from_pixel(2, 2, image::Rgba([rgb[0], rgb[1], rgb[2], 255]));
