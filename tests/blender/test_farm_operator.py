@@ -72,6 +72,14 @@ def test_missing_farm_python_is_a_clear_error(scene, addon, monkeypatch):
         bpy.ops.caustic.render_farm(animation=False)
 
 
+def test_a_shadow_catcher_is_refused_before_the_farm_runs(scene, addon):
+    """Chunks cannot carry the shadow catcher's sums (the binary refuses them): the add-on says
+    so, naming the object, before exporting or submitting anything."""
+    bpy.data.objects["Floor"].is_shadow_catcher = True
+    with pytest.raises(RuntimeError, match="Shadow Catcher objects \\(Floor\\)"):
+        bpy.ops.caustic.render_farm(animation=False)
+
+
 def test_f12_on_the_farm_equals_the_local_render(scene, addon, tmp_path, capfd):
     # "Render on Farm" on: F12 runs the frame as sample chunks on the farm and loads the merged
     # frame into the Render Result, which then equals the local F12 render to the bit (the
