@@ -274,7 +274,7 @@ const STACK_DEPTH: usize = 32;
 /// The ray-octant code of obvhs' node layout: the child slots are stored in the order a
 /// ray of octant 0 meets them, and XOR with this visits them nearest-first for `dir`.
 #[inline]
-fn octant_inv4(dir: Vec3A) -> u32 {
+pub(crate) fn octant_inv4(dir: Vec3A) -> u32 {
     (if dir.x < 0.0 { 0 } else { 0x0404_0404 })
         | (if dir.y < 0.0 { 0 } else { 0x0202_0202 })
         | (if dir.z < 0.0 { 0 } else { 0x0101_0101 })
@@ -282,12 +282,19 @@ fn octant_inv4(dir: Vec3A) -> u32 {
 
 /// Walks the CWBVH in obvhs' order (Ylitie et al. 2017: a group of child nodes and a
 /// group of primitives per step, highest bit first), so hits are met in the same order as
-/// with `obvhs::traverse!` and results stay bit for bit. `leaf(primitive, tmax)` tests one
+/// with `obvhs::traverse!` and results stay bit for bit (the moving triangles' and the
+/// curves' BVHs walk with it too). `leaf(primitive, tmax)` tests one
 /// BVH-ordered triangle and returns the segment's new end, or None to stop. Its own loop
 /// because obvhs' traversal state zero-fills a 256-byte stack per ray and pushes through
 /// a bounds check (callgrind: 45 instructions per ray before the first node).
 #[inline(always)]
-fn traverse(bvh: &CwBvh, ray: &NodeRay, oct_inv4: u32, mut tmax: f32, mut leaf: impl FnMut(usize, f32) -> Option<f32>) {
+pub(crate) fn traverse(
+    bvh: &CwBvh,
+    ray: &NodeRay,
+    oct_inv4: u32,
+    mut tmax: f32,
+    mut leaf: impl FnMut(usize, f32) -> Option<f32>,
+) {
     if bvh.nodes.is_empty() {
         return;
     }

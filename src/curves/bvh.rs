@@ -5,8 +5,8 @@
 //! without curves has no curve BVH and asks nothing.
 
 use super::{CURVE_BIT, Strand, round_cone};
-use crate::accel::{Hit, NodeRay, node_hits, obvhs_direction};
-use glam::{UVec2, Vec3, Vec3A, Vec4, Vec4Swizzles};
+use crate::accel::{Hit, NodeRay, obvhs_direction, octant_inv4, traverse};
+use glam::{Vec3, Vec3A, Vec4, Vec4Swizzles};
 use obvhs::BvhBuildParams;
 use obvhs::aabb::Aabb;
 use obvhs::cwbvh::CwBvh;
@@ -62,15 +62,14 @@ impl CurveBvh {
         let dir_a = obvhs_direction(dir);
         let ray = NodeRay::new(org, dir_a);
         let mut best: Option<Hit> = None;
-        let mut best_t = tmax;
-        let mut state = self.bvh.new_traversal(dir_a);
-        let mut node;
-        obvhs::traverse!(self.bvh, node, state, node_hits(node, &ray, best_t, state.oct_inv4), {
-            let id = state.primitive_id;
-            let k = self.first[id as usize] as usize;
-            if let Some(h) = round_cone::intersect(org, dir, points[k], points[k + 1], 0.0, best_t) {
-                best_t = h.t;
-                best = Some(Hit { tri: CURVE_BIT | id, t: h.t, b1: h.s, b2: 0.0 });
+        traverse(&self.bvh, &ray, octant_inv4(dir_a), tmax, |id, best_t| {
+            let k = self.first[id] as usize;
+            match round_cone::intersect(org, dir, points[k], points[k + 1], 0.0, best_t) {
+                Some(h) => {
+                    best = Some(Hit { tri: CURVE_BIT | id as u32, t: h.t, b1: h.s, b2: 0.0 });
+                    Some(h.t)
+                }
+                None => Some(best_t),
             }
         });
         best
@@ -81,18 +80,12 @@ impl CurveBvh {
     pub fn occluded(&self, points: &[Vec4], org: Vec3, dir: Vec3, tmax: f32) -> bool {
         let dir_a = obvhs_direction(dir);
         let ray = NodeRay::new(org, dir_a);
-        let mut state = self.bvh.new_traversal(dir_a);
-        let mut node;
         let mut blocked = false;
-        'traversal: {
-            obvhs::traverse!(self.bvh, node, state, node_hits(node, &ray, tmax, state.oct_inv4), {
-                let k = self.first[state.primitive_id as usize] as usize;
-                if round_cone::intersect(org, dir, points[k], points[k + 1], 0.0, tmax).is_some() {
-                    blocked = true;
-                    break 'traversal;
-                }
-            });
-        }
+        traverse(&self.bvh, &ray, octant_inv4(dir_a), tmax, |id, _| {
+            let k = self.first[id] as usize;
+            blocked = round_cone::intersect(org, dir, points[k], points[k + 1], 0.0, tmax).is_some();
+            (!blocked).then_some(tmax)
+        });
         blocked
     }
 }

@@ -5,8 +5,8 @@
 //! with the static BVH's node and watertight triangle tests.
 
 use super::{SceneMotion, segment};
-use crate::accel::{Hit, NodeRay, RayTransform, node_hits, obvhs_direction};
-use glam::{UVec2, Vec3, Vec3A};
+use crate::accel::{Hit, NodeRay, RayTransform, obvhs_direction, octant_inv4, traverse};
+use glam::{Vec3, Vec3A};
 use obvhs::BvhBuildParams;
 use obvhs::aabb::Aabb;
 use obvhs::cwbvh::CwBvh;
@@ -86,18 +86,15 @@ impl MotionAccel {
         let dir_a = obvhs_direction(dir);
         let ray = NodeRay::new(org, dir_a);
         let mut best: Option<Hit> = None;
-        let mut best_t = tmax;
-        let mut state = self.bvh.new_traversal(dir_a);
-        let mut node;
-        obvhs::traverse!(self.bvh, node, state, node_hits(node, &ray, best_t, state.oct_inv4), {
-            let id = state.primitive_id as usize;
+        traverse(&self.bvh, &ray, octant_inv4(dir_a), tmax, |id, best_t| {
             if let Some((d, b1, b2)) = rt.intersect(&self.corners_at(id, seg), 0.0, best_t) {
                 let tri = self.ids[id];
                 if !maybe_masked[tri as usize] || accept(tri, b1, b2) {
-                    best_t = d;
                     best = Some(Hit { tri, t: d, b1, b2 });
+                    return Some(d);
                 }
             }
+            Some(best_t)
         });
         best
     }
@@ -118,21 +115,17 @@ impl MotionAccel {
         let dir_a = obvhs_direction(dir);
         let ray = NodeRay::new(org, dir_a);
         let mut tr = 1.0f32;
-        let mut state = self.bvh.new_traversal(dir_a);
-        let mut node;
-        'traversal: {
-            obvhs::traverse!(self.bvh, node, state, node_hits(node, &ray, tmax, state.oct_inv4), {
-                let id = state.primitive_id as usize;
-                if let Some((_, b1, b2)) = rt.intersect(&self.corners_at(id, seg), 0.0, tmax) {
-                    let tri = self.ids[id];
-                    tr = if maybe_transparent[tri as usize] { tr * transparency(tri, b1, b2) } else { 0.0 };
-                    if !(tr > 0.0) {
-                        tr = 0.0;
-                        break 'traversal;
-                    }
+        traverse(&self.bvh, &ray, octant_inv4(dir_a), tmax, |id, _| {
+            if let Some((_, b1, b2)) = rt.intersect(&self.corners_at(id, seg), 0.0, tmax) {
+                let tri = self.ids[id];
+                tr = if maybe_transparent[tri as usize] { tr * transparency(tri, b1, b2) } else { 0.0 };
+                if !(tr > 0.0) {
+                    tr = 0.0;
+                    return None;
                 }
-            });
-        }
+            }
+            Some(tmax)
+        });
         tr
     }
 }
