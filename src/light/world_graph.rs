@@ -12,7 +12,6 @@
 //! unbiased since the density is the table's wherever the graph is evaluated.
 
 use crate::math::Rgb;
-use crate::scene::mesh::Mesh;
 use crate::scene::texture::Texture;
 use crate::shader::closure::Closures;
 use crate::shader::geom::{Geom, NO_OBJECT, from_blender};
@@ -29,20 +28,6 @@ use std::sync::Arc;
 pub const DEFAULT_BAKE_WIDTH: usize = 1024;
 /// The largest table width.
 pub const MAX_BAKE_WIDTH: usize = 4096;
-
-/// No triangles: the world has no surface (a Bump in a world graph finds none and keeps
-/// the normal).
-static NO_MESH: Mesh = Mesh {
-    positions: Vec::new(),
-    normals: Vec::new(),
-    tangents: Vec::new(),
-    uv0: Vec::new(),
-    uv1: Vec::new(),
-    colors: Vec::new(),
-    triangles: Vec::new(),
-    tri_material: Vec::new(),
-    tri_object: Vec::new(),
-};
 
 /// A compiled world graph and the images it reads.
 #[derive(Clone, Debug)]
@@ -76,7 +61,8 @@ impl WorldGraph {
             backfacing: false,
             object: &NO_OBJECT,
             textures: &self.textures,
-            mesh: &NO_MESH,
+            // No surface: a Bump in a world graph finds none and keeps the normal.
+            mesh: &crate::scene::mesh::EMPTY_MESH,
             tri: u32::MAX,
             // The world is baked for every ray alike: it is lit as light sampling sees it.
             path: crate::scene::light_path::LightPath::LIGHT_EMISSION,

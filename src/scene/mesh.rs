@@ -27,3 +27,17 @@ pub struct Mesh {
     /// reads instance data (shader graphs' Object coordinates, Object Info).
     pub tri_object: Vec<u32>,
 }
+
+/// No triangles: the mesh a shader graph is evaluated against where there is no surface
+/// (constant folding at load, the world's graphs).
+pub static EMPTY_MESH: Mesh = Mesh {
+    positions: Vec::new(),
+    normals: Vec::new(),
+    tangents: Vec::new(),
+    uv0: Vec::new(),
+    uv1: Vec::new(),
+    colors: Vec::new(),
+    triangles: Vec::new(),
+    tri_material: Vec::new(),
+    tri_object: Vec::new(),
+};

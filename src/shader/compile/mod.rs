@@ -156,24 +156,11 @@ fn dummy_geom(o: &ObjectData) -> Geom<'_> {
         backfacing: false,
         object: o,
         textures: &[],
-        mesh: &EMPTY_MESH,
+        mesh: &crate::scene::mesh::EMPTY_MESH,
         tri: 0,
         path: crate::scene::light_path::LightPath::LIGHT_EMISSION,
     }
 }
-
-/// No triangles: what constant folding evaluates against.
-static EMPTY_MESH: crate::scene::Mesh = crate::scene::Mesh {
-    positions: Vec::new(),
-    normals: Vec::new(),
-    tangents: Vec::new(),
-    uv0: Vec::new(),
-    uv1: Vec::new(),
-    colors: Vec::new(),
-    triangles: Vec::new(),
-    tri_material: Vec::new(),
-    tri_object: Vec::new(),
-};
 
 struct Compiler<'a> {
     ext: &'a NodesExt,
