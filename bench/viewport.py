@@ -3,7 +3,13 @@
 Usage:
     cargo build --release
     python3 bench/viewport.py [SCENE] [--resolution 960x540] [--repeats 5] [--threads N]
-                              [--integrator path]
+                              [--integrator path] [--dense TRIANGLES]
+
+`--dense N` adds a tessellated sphere of about N triangles and a point light to the Cornell box
+(written to a temporary folder beside a copy of its buffer), for the issue's 100k- and
+1M-triangle figures: the edits are the same (and a light edit), so each shows whether anything
+scales with the mesh. The transform edit moves the box's tall block, not the sphere: the cost of
+moving one object in a large scene, not of rebuilding a large object.
 
 Drives the server through the add-on's own client (blender_addon/server_client.py, no Blender
 needed): loads the scene (default: the bundled Cornell box), starts rendering at the given
@@ -14,10 +20,14 @@ time to the first full-resolution frame. The times include the pipe round trip a
 decoding of the frame by the client, as the viewport sees them.
 """
 import argparse
+import json
 import math
 import os
+import shutil
 import statistics
+import struct
 import sys
+import tempfile
 import time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -45,7 +55,65 @@ def edits(resolution):
         "transform": lambda i: {"type": "transform", "name": "tall_block",
                                 "matrix": [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0.02 * i, 0, 0, 1]},
         "world": lambda i: {"type": "world", "color": [0.01 * i, 0.01 * i, 0.01 * i]},
+        "hide/show": lambda i: {"type": "visibility", "name": "short_block", "visible": i % 2 == 1},
+        "light": lambda i: {"type": "light", "name": "bench_lamp", "emission": [0.5 + 0.1 * i, 0.5, 0.5],
+                            "matrix": [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0.2 + 0.01 * i, 0.45, 0.2, 1]},
     }
+
+
+def dense_scene(triangles, folder):
+    """The Cornell box with a UV sphere of about `triangles` triangles on its floor, as a .gltf
+    in `folder`; returns its path. The sphere uses the box's white material."""
+    src = os.path.join(ROOT, "scenes", "cornell_box.gltf")
+    doc = json.load(open(src))
+    shutil.copy(os.path.join(ROOT, "scenes", doc["buffers"][0]["uri"]), folder)
+    rings = max(4, int(math.sqrt(triangles / 4)))
+    segments = 2 * rings
+    centre, radius = (0.40, 0.11, 0.15), 0.1
+    pos, nrm = bytearray(), bytearray()
+    for i in range(rings + 1):
+        th = math.pi * i / rings
+        for j in range(segments + 1):
+            ph = 2 * math.pi * j / segments
+            n = (math.sin(th) * math.cos(ph), math.cos(th), math.sin(th) * math.sin(ph))
+            pos += struct.pack("<3f", *(c + radius * v for c, v in zip(centre, n)))
+            nrm += struct.pack("<3f", *n)
+    idx = bytearray()
+    row = segments + 1
+    for i in range(rings):
+        for j in range(segments):
+            a, b = i * row + j, (i + 1) * row + j
+            idx += struct.pack("<6I", a, b, a + 1, a + 1, b, b + 1)
+    nverts, nidx = (rings + 1) * row, 6 * rings * segments
+    with open(os.path.join(folder, "dense.bin"), "wb") as f:
+        f.write(pos + nrm + idx)
+    b = len(doc["buffers"])
+    doc["buffers"].append({"uri": "dense.bin", "byteLength": len(pos) + len(nrm) + len(idx)})
+    v = len(doc["bufferViews"])
+    doc["bufferViews"] += [{"buffer": b, "byteOffset": 0, "byteLength": len(pos)},
+                           {"buffer": b, "byteOffset": len(pos), "byteLength": len(nrm)},
+                           {"buffer": b, "byteOffset": len(pos) + len(nrm), "byteLength": len(idx)}]
+    a = len(doc["accessors"])
+    lo = [c - radius for c in centre]
+    hi = [c + radius for c in centre]
+    doc["accessors"] += [{"bufferView": v, "componentType": 5126, "count": nverts, "type": "VEC3", "min": lo, "max": hi},
+                         {"bufferView": v + 1, "componentType": 5126, "count": nverts, "type": "VEC3"},
+                         {"bufferView": v + 2, "componentType": 5125, "count": nidx, "type": "SCALAR"}]
+    white = next(i for i, m in enumerate(doc["materials"]) if m["name"] == "white")
+    doc["meshes"].append({"name": "dense", "primitives": [
+        {"attributes": {"POSITION": a, "NORMAL": a + 1}, "indices": a + 2, "material": white}]})
+    doc["nodes"].append({"name": "dense_sphere", "mesh": len(doc["meshes"]) - 1})
+    doc["scenes"][0]["nodes"].append(len(doc["nodes"]) - 1)
+    # A point light, so that the bench times light edits too (the box's own light is a mesh).
+    doc.setdefault("extensionsUsed", []).append("KHR_lights_punctual")
+    doc.setdefault("extensions", {})["KHR_lights_punctual"] = {
+        "lights": [{"name": "bench_lamp", "type": "point", "intensity": 2.0, "color": [1.0, 0.9, 0.8]}]}
+    doc["nodes"].append({"name": "bench_lamp", "translation": [0.2, 0.45, 0.2],
+                         "extensions": {"KHR_lights_punctual": {"light": 0}}})
+    doc["scenes"][0]["nodes"].append(len(doc["nodes"]) - 1)
+    path = os.path.join(folder, "dense.gltf")
+    json.dump(doc, open(path, "w"))
+    return path
 
 
 def main():
@@ -55,15 +123,18 @@ def main():
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--threads", type=int)
     ap.add_argument("--integrator", default="path")
+    ap.add_argument("--dense", type=int, help="add a sphere of about this many triangles")
     ap.add_argument("--binary", default=os.environ.get("CAUSTIC_BINARY",
                                                        os.path.join(ROOT, "target", "release", "caustic")))
     a = ap.parse_args()
     resolution = tuple(int(v) for v in a.resolution.split("x"))
+    folder = tempfile.mkdtemp(prefix="caustic-bench-view-")
+    scene = dense_scene(a.dense, folder) if a.dense else a.scene
     client = ServerClient(a.binary, threads=a.threads)
     try:
         client.request({"type": "settings", "integrator": a.integrator, "frame_format": "f16"})
         t = time.perf_counter()
-        loaded = client.request({"type": "load", "path": os.path.abspath(a.scene)})
+        loaded = client.request({"type": "load", "path": os.path.abspath(scene)})
         print(f"load: {1000 * (time.perf_counter() - t):.0f} ms ({loaded['triangles']} triangles, "
               f"BVH {1000 * loaded['bvh_seconds']:.1f} ms)")
         client.request(camera(0.0, resolution))
@@ -72,7 +143,10 @@ def main():
         client.wait_frame(gen)
         print(f"render_start → first frame: {1000 * (time.perf_counter() - t):.1f} ms")
         full = []
+        has_lamp = any(entry["name"] == "bench_lamp" for entry in loaded.get("lights", []))
         for kind, make in edits(resolution).items():
+            if kind == "light" and not has_lamp:
+                continue
             times = []
             for i in range(a.repeats):
                 t = time.perf_counter()
@@ -91,6 +165,7 @@ def main():
         print(f"edit → first full-resolution frame: median {statistics.median(full):.1f} ms")
     finally:
         client.stop()
+        shutil.rmtree(folder, ignore_errors=True)
 
 
 if __name__ == "__main__":

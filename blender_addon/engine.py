@@ -4,7 +4,7 @@ import traceback
 
 import bpy
 
-from . import final, result, viewport
+from . import final, preview, result, viewport
 from .errors import CausticError
 
 
@@ -13,8 +13,8 @@ class CausticRenderEngine(bpy.types.RenderEngine):
 
     bl_idname = "CAUSTIC"
     bl_label = "Caustic"
-    # Material/light previews would start the binary for every thumbnail: not yet.
-    bl_use_preview = False
+    # Material, light and world thumbnails render through one preview server (preview.py).
+    bl_use_preview = True
     # Rendered shading is Caustic's, through `caustic serve` (viewport.py). With this off
     # Blender sends Material Preview to view_draw too (ED_view3d_engine_type), so both show
     # Caustic's image; Material Preview's studio lighting is not used.
@@ -23,6 +23,10 @@ class CausticRenderEngine(bpy.types.RenderEngine):
     bl_use_shading_nodes_custom = False
     # Compositing and sequencer work on Caustic's passes like on any engine's.
     bl_use_postprocess = True
+
+    # The thumbnails' server, shared by every engine instance Blender makes for a preview
+    # (each thumbnail gets a new one); stopped by unregister().
+    _caustic_previews = preview.PreviewServer()
 
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
@@ -65,7 +69,10 @@ class CausticRenderEngine(bpy.types.RenderEngine):
     def render(self, depsgraph):
         """Render one frame of one view layer; failures become reports, never tracebacks."""
         try:
-            final.render_frame(self, depsgraph)
+            if self.is_preview:
+                self._caustic_previews.render(self, depsgraph)
+            else:
+                final.render_frame(self, depsgraph)
         except CausticError as err:
             self.report({"ERROR"}, str(err) if str(err).startswith("Caustic") else f"Caustic: {err}")
         except Exception as err:  # a bug in the add-on: say so, keep the details in the console
@@ -87,5 +94,6 @@ def register():
 
 
 def unregister():
-    """Unregister the render engine."""
+    """Unregister the render engine and stop its preview server."""
+    CausticRenderEngine._caustic_previews.stop()
     bpy.utils.unregister_class(CausticRenderEngine)

@@ -56,12 +56,20 @@ def frame_pixels(header, payload):
     (OpenGL's and Blender's image order; the server sends the top row first)."""
     import numpy as np
 
-    dtype = {"f16": "<f2", "f32": "<f4"}[header["format"]]
+    dtype = {"f16": "<f2", "f32": "<f4", "u8": "u1"}.get(header.get("format"))
+    if dtype is None:
+        raise ServerError(f"frame format {header.get('format')!r} is not f16, f32 or u8")
     w, h = header["width"], header["height"]
     px = np.frombuffer(payload, dtype=dtype)
     if px.size != w * h * 4:
         raise ServerError(f"frame of {w}x{h} carries {px.size} values, not {w * h * 4}")
-    return px.reshape(h, w, 4)[::-1].astype(np.float32)
+    px = px.reshape(h, w, 4)[::-1].astype(np.float32)
+    if header["format"] == "u8":
+        # Back to linear: sRGB-decoded colour, linear alpha (docs/protocol.md).
+        px /= 255.0
+        c = px[..., :3]
+        px[..., :3] = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+    return px
 
 
 class ServerClient:
@@ -201,6 +209,14 @@ class ServerClient:
         elif kind in ("load", "camera"):
             self._state[kind] = (header, payload)
         # Scene edits are folded into the next load (the add-on re-exports on a restart).
+
+    def take_state(self):
+        """(latest frame, done message, render error) as one consistent snapshot; the error is
+        cleared (it is reported once)."""
+        with self._lock:
+            state = (self.latest_frame, self.done, self.render_error)
+            self.render_error = None
+        return state
 
     def wait_frame(self, generation, timeout=30.0, final=False):
         """The first frame of `generation` or later (the converged one with `final`)."""

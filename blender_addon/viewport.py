@@ -1,9 +1,10 @@
 """The Rendered viewport through `caustic serve` (docs/protocol.md).
 
 `view_update` turns the depsgraph's updates into requests (`edits_from_updates`): an object's
-move is a transform edit, a Principled BSDF's factors a material edit; anything else (objects
-added or removed, mesh edits, lights, the world, node-graph materials) re-exports the scene
-with the final render's exporter and loads it. `view_draw` sends the region's view as a camera
+move is a transform edit, a Principled BSDF's factors a material edit, a light's power, colour
+or placement a light edit and a Background's colour or strength a world edit
+(viewport_lights.py); anything else (objects added or removed, mesh edits, node-graph
+materials, a light's shape) re-exports the scene with the final render's exporter and loads it. `view_draw` sends the region's view as a camera
 edit when it changed, and draws the newest frame through the view's colour management. The
 server is one process per viewport, started lazily, restarted (with a report) when it died,
 and stopped when Blender frees the engine.
@@ -15,7 +16,7 @@ import tempfile
 import bpy
 import mathutils
 
-from . import export, runner
+from . import export, runner, viewport_lights
 from .errors import CausticError
 from .server_client import ServerClient, ServerError, frame_pixels
 
@@ -85,11 +86,14 @@ EDITABLE_INPUTS = ("Base Color", "Metallic", "Roughness", "IOR", "Transmission W
 
 
 def _value(socket):
+    # Strings iterate too: they are compared as they are (a string socket, a menu).
     v = getattr(socket, "default_value", None)
+    if v is None or isinstance(v, (bool, str, int)):
+        return v
     try:
         return tuple(round(float(x), 7) for x in v)
     except TypeError:
-        return v if v is None or isinstance(v, (bool, str)) else round(float(v), 7)
+        return round(float(v), 7)
 
 
 def material_snapshot(material):
@@ -130,32 +134,117 @@ def material_request(material, known=None):
     }
 
 
-def edits_from_updates(updates, objects_before, objects_now, known=None):
-    """Requests for one depsgraph update: a list of headers, or [RELOAD] when the scene must be
-    exported again (objects added or removed, mesh, light or world data changed, a material
-    that is not a plain Principled BSDF or changed beyond its factors). `objects_*` are the
-    sets of rendered object names, `known` the materials' snapshots at the last export."""
-    if objects_before != objects_now:
+def mesh_fingerprint(obj):
+    """The object's mesh data and modifier stack, compared when a hidden object is shown: an
+    edit made while it was hidden (no rendered object, so no update reaches the viewport)
+    needs the exporter."""
+    import numpy as np
+
+    mesh = obj.data
+    co = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
+    mesh.vertices.foreach_get("co", co)
+    mods = tuple((m.name, m.type, m.show_render, m.show_viewport) for m in obj.modifiers)
+    return len(mesh.vertices), len(mesh.polygons), hash(co.tobytes()), mods
+
+
+def visibility_edits(objects_before, objects_now, exported, lights, fingerprints=None):
+    """Requests for objects hidden or shown since the last update, or [RELOAD]: a mesh object
+    of the exported scene is hidden or shown in place (`visibility`, with its matrix now when
+    shown), a light by its emission (0 while hidden; a light the camera sees is reloaded, as its
+    shape would stay); a new object, or any other kind, needs the exporter. `fingerprints`
+    (name → `mesh_fingerprint` when hidden) is updated; a mesh that changed while hidden reloads."""
+    added, removed = objects_now - objects_before, objects_before - objects_now
+    if exported is None or not added <= exported:
         return [RELOAD]
+    fingerprints = {} if fingerprints is None else fingerprints
     edits = []
+    for name, visible in [(n, False) for n in sorted(removed)] + [(n, True) for n in sorted(added)]:
+        obj = bpy.data.objects.get(name)
+        if obj is None:
+            return [RELOAD]  # deleted: a new object could take its name
+        if obj.type == "MESH":
+            if not visible:
+                fingerprints[name] = mesh_fingerprint(obj)
+            elif fingerprints.pop(name, None) != mesh_fingerprint(obj):
+                return [RELOAD]
+            edits.append({"type": "visibility", "name": name, "visible": visible})
+            if visible:
+                edits.append({"type": "transform", "name": name, "matrix": object_matrix(obj.matrix_world)})
+        elif obj.type == "LIGHT" and lights is not None and not obj.visible_camera:
+            req = viewport_lights.light_request(obj, lights)
+            if req == RELOAD:
+                return [RELOAD]
+            if not visible:
+                req["emission"] = [0.0, 0.0, 0.0]
+            edits.append(req)
+        else:
+            return [RELOAD]
+    return edits
+
+
+def edits_from_updates(updates, objects_before, objects_now, known=None, lights=None, exported=None,
+                       fingerprints=None):
+    """Requests for one depsgraph update: a list of headers, or [RELOAD] when the scene must be
+    exported again (objects added, mesh data changed, a material that is not a plain Principled
+    BSDF or changed beyond its factors, a light or world changed beyond what their edits carry:
+    viewport_lights.py). `objects_*` are the sets of rendered object names, `known` the
+    materials' snapshots at the last export, `lights` its `LightState` (None: every light and
+    world change reloads), `exported` the objects it exported (None: hiding reloads),
+    `fingerprints` the meshes of hidden objects (visibility_edits)."""
+    edits = []
+    toggled = objects_before ^ objects_now
+    if toggled:
+        edits = visibility_edits(objects_before, objects_now, exported, lights, fingerprints)
+        if edits == [RELOAD]:
+            return edits
+
+    def add(req):
+        # One edit per light or object: the last state wins (a light's data and object both update).
+        key = (req["type"], req.get("name"))
+        edits[:] = [e for e in edits if (e["type"], e.get("name")) != key] + [req]
+
     for u in updates:
-        data = u.id
-        if isinstance(data, bpy.types.Object):
+        data = getattr(u.id, "original", u.id)
+        if isinstance(data, bpy.types.Object) and data.type == "LIGHT":
+            if u.is_updated_transform or u.is_updated_geometry or u.is_updated_shading:
+                req = viewport_lights.light_request(data, lights) if lights else RELOAD
+                if req == RELOAD:
+                    return [RELOAD]
+                add(req)
+        elif isinstance(data, bpy.types.Object) and data.name in toggled:
+            continue  # hidden or shown: its visibility edit says it (shown: with its matrix)
+        elif isinstance(data, bpy.types.Object):
             if u.is_updated_geometry and data.type != "CAMERA":
                 return [RELOAD]
             if u.is_updated_transform:
                 if data.type == "MESH":
-                    edits.append({"type": "transform", "name": data.name,
-                                  "matrix": object_matrix(data.matrix_world)})
+                    add({"type": "transform", "name": data.name, "matrix": object_matrix(data.matrix_world)})
                 elif data.type != "CAMERA":  # cameras: the view is sent by view_draw
                     return [RELOAD]
         elif isinstance(data, bpy.types.Material):
-            req = material_request(data.original if hasattr(data, "original") else data, known)
+            req = material_request(data, known)
             if req == RELOAD:
                 return [RELOAD]
-            edits.append(req)
-        elif isinstance(data, (bpy.types.Mesh, bpy.types.Light, bpy.types.World, bpy.types.Curve)):
-            if u.is_updated_geometry or isinstance(data, (bpy.types.Light, bpy.types.World)):
+            add(req)
+        elif isinstance(data, bpy.types.Light):
+            users = [o for o in (bpy.data.objects.get(n) for n in (lights.lights if lights else ()))
+                     if o is not None and o.data == data]
+            if not users:
+                return [RELOAD]
+            for obj in users:
+                req = viewport_lights.light_request(obj, lights)
+                if req == RELOAD:
+                    return [RELOAD]
+                add(req)
+        elif isinstance(data, bpy.types.World):
+            req = viewport_lights.world_request(data, lights) if lights else RELOAD
+            if req == RELOAD:
+                return [RELOAD]
+            add(req)
+        elif isinstance(data, (bpy.types.Mesh, bpy.types.Curve)):
+            # A shown object's mesh is evaluated again: its fingerprint said whether it changed.
+            shown = any(getattr(bpy.data.objects.get(n), "data", None) == data for n in toggled)
+            if u.is_updated_geometry and not shown:
                 return [RELOAD]
     return edits
 
@@ -171,6 +260,36 @@ def view_settings(scene):
     props = scene.caustic
     integrator = "photon" if props.integrator == "sppm" else props.integrator
     return {"type": "settings", "integrator": integrator, "spp": int(props.samples), "frame_format": "f16"}
+
+
+def camera_frame_in_region(corners, perspective_matrix, region_width, region_height):
+    """The camera frame's rectangle in region pixels (x0, y0, x1, y1, bottom-left origin) from
+    its corners in world space and the region's perspective matrix (window · view), as
+    `view3d_utils.location_3d_to_region_2d` projects points."""
+    xs, ys = [], []
+    for c in corners:
+        p = perspective_matrix @ mathutils.Vector((c[0], c[1], c[2], 1.0))
+        w = p[3] if abs(p[3]) > 1e-12 else 1e-12
+        xs.append((p[0] / w + 1.0) * 0.5 * region_width)
+        ys.append((p[1] / w + 1.0) * 0.5 * region_height)
+    return min(xs), min(ys), max(xs), max(ys)
+
+
+def camera_view_border(frame, border, region_width, region_height):
+    """The protocol's border (fractions of the region, top-left origin) for the scene's render
+    border (fractions of the camera frame, bottom-left origin) when the region shows the camera
+    frame at `frame` (camera_frame_in_region); None when it falls outside the region (nothing to
+    clip: the whole region renders)."""
+    fx0, fy0, fx1, fy1 = frame
+    bx0, by0, bx1, by1 = border
+    x0, x1 = fx0 + bx0 * (fx1 - fx0), fx0 + bx1 * (fx1 - fx0)
+    y0, y1 = fy0 + by0 * (fy1 - fy0), fy0 + by1 * (fy1 - fy0)
+    clamp = lambda v: min(max(v, 0.0), 1.0)  # noqa: E731
+    rx0, rx1 = clamp(x0 / region_width), clamp(x1 / region_width)
+    ry0, ry1 = clamp(1.0 - y1 / region_height), clamp(1.0 - y0 / region_height)
+    if not (rx0 < rx1 and ry0 < ry1):
+        return None
+    return rx0, ry0, rx1, ry1
 
 
 def draw_rect(header, region_width, region_height):
@@ -195,6 +314,9 @@ class Viewport:
         self.texture_generation = None
         self.texture_key = None
         self.known = None
+        self.lights = None
+        self.exported = None
+        self.fingerprints = {}
 
     def _client(self):
         if self.client is None:
@@ -209,13 +331,16 @@ class Viewport:
         scene = depsgraph.scene
         settings = export.render_settings(scene, (scene.render.resolution_x, scene.render.resolution_y), None)
         old, self.folder = self.folder, tempfile.mkdtemp(prefix="caustic-view-")
-        path, state = export.export_scene(depsgraph, self.folder, settings, motion=False)
+        path, state = export.export_scene(depsgraph, self.folder, settings, motion=False, viewport=True)
         self.known = {m.name: material_snapshot(m) for m in bpy.data.materials}
         for warning in state.warnings:
             self.engine.report({"WARNING"}, f"Caustic: {warning}")
         client = self._client()
         client.request(view_settings(scene))
-        client.request({"type": "load", "path": path})
+        loaded = client.request({"type": "load", "path": path})
+        self.lights = viewport_lights.LightState(scene, loaded.get("lights", []))
+        self.exported = rendered_objects(depsgraph)
+        self.fingerprints = {}
         if old:
             shutil.rmtree(old, ignore_errors=True)
 
@@ -224,7 +349,8 @@ class Viewport:
         try:
             objects = rendered_objects(depsgraph)
             first = self.objects is None or self.client is None or not self.client.alive()
-            edits = [RELOAD] if first else edits_from_updates(depsgraph.updates, self.objects, objects, self.known)
+            edits = [RELOAD] if first else edits_from_updates(depsgraph.updates, self.objects, objects, self.known,
+                                                                      self.lights, self.exported, self.fingerprints)
             self.objects = objects
             if edits == [RELOAD]:
                 self._reload(depsgraph)
@@ -252,7 +378,18 @@ class Viewport:
         try:
             border = None
             v3d = context.space_data
-            if rv3d.view_perspective != "CAMERA" and getattr(v3d, "use_render_border", False):
+            scene = depsgraph.scene
+            if rv3d.view_perspective == "CAMERA":
+                # Looking through the camera, the scene's render border (a part of the camera's
+                # frame) is the part rendered, as Cycles does.
+                camera = scene.camera
+                if scene.render.use_border and camera is not None:
+                    corners = [camera.matrix_world @ c for c in camera.data.view_frame(scene=scene)]
+                    frame = camera_frame_in_region(corners, rv3d.perspective_matrix, region.width, region.height)
+                    border = camera_view_border(frame, (scene.render.border_min_x, scene.render.border_min_y,
+                                                        scene.render.border_max_x, scene.render.border_max_y),
+                                                region.width, region.height)
+            elif getattr(v3d, "use_render_border", False):
                 # Blender's border has its origin bottom-left; the protocol's top-left.
                 border = (v3d.render_border_min_x, 1.0 - v3d.render_border_max_y,
                           v3d.render_border_max_x, 1.0 - v3d.render_border_min_y)

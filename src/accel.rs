@@ -349,6 +349,9 @@ pub struct Accel {
     tris: Vec<[Vec3A; 3]>,
     /// Scene triangle index of each BVH-ordered triangle.
     ids: Vec<u32>,
+    /// Triangles placed anew since the build (`relocate`), in a BVH of their own; None for
+    /// every render but the viewport's after an object moved or was shown again.
+    moved: Option<Box<Accel>>,
     /// Core build time.
     pub build_time: Duration,
 }
@@ -378,7 +381,33 @@ impl Accel {
         let bvh = obvhs::cwbvh::builder::build_cwbvh_from_tris(&prims, params, &mut core);
         let ids = bvh.primitive_indices.clone();
         let tris = ids.iter().map(|&i| [prims[i as usize].v0, prims[i as usize].v1, prims[i as usize].v2]).collect();
-        Accel { bvh, tris, ids, build_time: start.elapsed() }
+        Accel { bvh, tris, ids, moved: None, build_time: start.elapsed() }
+    }
+
+    /// Moves and hides scene triangles without rebuilding this BVH (the viewport's object
+    /// moves and hides): the triangles `detached` are collapsed to a point where this BVH
+    /// holds them (three equal corners make every edge function exactly 0, so the triangle
+    /// test never reports them), and `placed` (ids among them, with their corners now) are
+    /// held in a BVH of their own, built over them alone. Collapsing is for good: a later
+    /// call must detach every triangle an earlier one did. The cost is a scan of the ids and
+    /// a build over the placed triangles, not over the scene.
+    pub fn relocate(&mut self, detached: &[u32], placed: &[(u32, [Vec3; 3])]) {
+        let start = Instant::now();
+        let mut gone = vec![false; self.ids.iter().max().map_or(0, |&m| m as usize + 1)];
+        for &id in detached {
+            if let Some(f) = gone.get_mut(id as usize) {
+                *f = true;
+            }
+        }
+        for (tri, &id) in self.tris.iter_mut().zip(&self.ids) {
+            if gone[id as usize] {
+                *tri = [tri[0]; 3];
+            }
+        }
+        let corners: Vec<[Vec3; 3]> = placed.iter().map(|(_, c)| *c).collect();
+        let ids: Vec<u32> = placed.iter().map(|(id, _)| *id).collect();
+        self.moved = (!placed.is_empty()).then(|| Box::new(Accel::build_with_ids(&corners, &ids)));
+        self.build_time = start.elapsed();
     }
 
     /// Closest hit along a unit-direction ray in (0, tmax); `accept(tri, b1, b2)`
@@ -406,7 +435,10 @@ impl Accel {
             }
             Some(best_t)
         });
-        best
+        match &self.moved {
+            Some(m) => m.intersect(org, dir, best.map_or(tmax, |h| h.t), maybe_masked, accept).or(best),
+            None => best,
+        }
     }
 
     /// Fraction of light that passes along the segment (0, tmax): 0 at the first
@@ -437,7 +469,10 @@ impl Accel {
             }
             Some(tmax)
         });
-        tr
+        match &self.moved {
+            Some(m) if tr > 0.0 => tr * m.transmittance(org, dir, tmax, maybe_transparent, transparency),
+            _ => tr,
+        }
     }
 }
 
@@ -482,6 +517,40 @@ mod tests {
         assert_eq!(accel.transmittance(Vec3::new(0.25, 0.5, 0.0), -Vec3::Z, 3.0, &[false], |_, _, _| 1.0), 0.0);
         assert_eq!(accel.transmittance(Vec3::new(0.25, 0.5, 0.0), -Vec3::Z, 3.0, &[true], |_, _, _| 0.25), 0.25);
         assert_eq!(accel.transmittance(Vec3::new(0.25, 0.5, 0.0), Vec3::Z, 3.0, &[false], |_, _, _| 1.0), 1.0);
+    }
+
+    /// A relocated triangle is met where it moved to, with its own id, and no longer where
+    /// the BVH was built with it; the others stay; relocating again starts from the build.
+    #[test]
+    fn relocated_triangles_are_met_where_they_moved() {
+        let at = |z: f32, x: f32| [Vec3::new(x, 0.0, z), Vec3::new(x + 1.0, 0.0, z), Vec3::new(x, 1.0, z)];
+        let mut accel = Accel::build(&[at(-2.0, 0.0), at(-3.0, 5.0)]);
+        let flags = [false, false];
+        let down = |a: &Accel, x: f32| a.intersect(Vec3::new(x + 0.25, 0.25, 0.0), -Vec3::Z, f32::INFINITY, &flags, |_, _, _| true);
+        let shadow = |a: &Accel, x: f32| a.transmittance(Vec3::new(x + 0.25, 0.25, 0.0), -Vec3::Z, 10.0, &flags, |_, _, _| 1.0);
+        // Triangle 0 slides from x = 0 to x = 10, one unit further away.
+        accel.relocate(&[0], &[(0, at(-3.0, 10.0))]);
+        assert!(down(&accel, 0.0).is_none() && shadow(&accel, 0.0) == 1.0, "met where it was");
+        let h = down(&accel, 10.0).expect("not met where it moved");
+        assert_eq!(h.tri, 0);
+        assert!((h.t - 3.0).abs() < 1e-5);
+        assert_eq!(shadow(&accel, 10.0), 0.0);
+        assert_eq!(down(&accel, 5.0).map(|h| h.tri), Some(1), "an unmoved triangle was lost");
+        // Both moved: the second list replaces the first.
+        accel.relocate(&[0, 1], &[(0, at(-1.0, 20.0)), (1, at(-1.0, 30.0))]);
+        assert!(down(&accel, 10.0).is_none() && down(&accel, 5.0).is_none());
+        assert_eq!(down(&accel, 20.0).map(|h| h.tri), Some(0));
+        assert_eq!(down(&accel, 30.0).map(|h| h.tri), Some(1));
+        // Detached but not placed: hidden everywhere.
+        accel.relocate(&[0, 1], &[(1, at(-1.0, 30.0))]);
+        assert!(down(&accel, 20.0).is_none() && shadow(&accel, 20.0) == 1.0);
+        assert_eq!(down(&accel, 30.0).map(|h| h.tri), Some(1));
+        // The nearer of a built and a relocated triangle on one ray wins, either way round.
+        let mut accel = Accel::build(&[at(-2.0, 0.0), at(-3.0, 5.0)]);
+        accel.relocate(&[1], &[(1, at(-1.0, 0.0))]);
+        assert_eq!(down(&accel, 0.0).map(|h| h.tri), Some(1));
+        accel.relocate(&[1], &[(1, at(-4.0, 0.0))]);
+        assert_eq!(down(&accel, 0.0).map(|h| h.tri), Some(0));
     }
 
     /// Axis-aligned rays whose other components are -0.0 (e.g. `-Vec3::Z`) must hit.

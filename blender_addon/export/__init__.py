@@ -48,16 +48,18 @@ from .volumes import VOLUME_EXTENSION, attach_volumes  # noqa: F401
 from .world import WORLD_EXTENSION, world_extension  # noqa: F401
 
 
-def _exporter_options(filepath):
-    """Exporter settings for a renderer: the current frame's state, everything renderable."""
+def _exporter_options(filepath, viewport=False):
+    """Exporter settings for a renderer: the current frame's state, everything renderable (in
+    the viewport: everything visible there, as Cycles' viewport shows objects disabled in
+    renders and hides those hidden in the viewport)."""
     return dict(
         filepath=filepath,
         check_existing=False,
         export_format="GLTF_SEPARATE",
         export_image_format="AUTO",
         use_selection=False,
-        use_visible=False,
-        use_renderable=True,
+        use_visible=viewport,
+        use_renderable=not viewport,
         use_active_scene=True,
         use_active_collection=False,
         export_cameras=True,
@@ -78,10 +80,11 @@ def _exporter_options(filepath):
     )
 
 
-def export_scene(depsgraph, folder, settings, motion=True):
+def export_scene(depsgraph, folder, settings, motion=True, viewport=False):
     """Write the render depsgraph's scene to `folder`/scene.gltf; return (path, export state).
 
     `motion`: export motion blur's (or the Vector pass's) steps; the viewport renders without.
+    `viewport`: the objects visible in the viewport, not those enabled for renders.
 
     Raises CausticError when the exporter fails or one of Caustic's hooks failed.
     """
@@ -104,7 +107,7 @@ def export_scene(depsgraph, folder, settings, motion=True):
     try:
         with exporting(state), bpy.context.temp_override(scene=scene, view_layer=view_layer), \
                 hooks_enabled(), render_depsgraph(depsgraph):
-            bpy.ops.export_scene.gltf(**_exporter_options(filepath))
+            bpy.ops.export_scene.gltf(**_exporter_options(filepath, viewport))
     except RuntimeError as err:
         # The operator's error carries the exporter's whole traceback; its last line says why.
         lines = [line.strip() for line in str(err).splitlines() if line.strip()]

@@ -1,8 +1,9 @@
 //! Edits applied to a loaded scene in place: the view, a material's factors, an
 //! object's transform, a light, the world. Each says what it invalidates, so that the
 //! server rebuilds only that (`Invalidates`): a camera or material edit keeps the BVH,
-//! a transform rebuilds it (no refit: obvhs builds a fresh CWBVH, which on 2 cores takes
-//! about as long as a refit's traversal of the whole tree would for small scenes).
+//! a transform moves the object's triangles into a small BVH beside the scene's
+//! (`Accel::relocate`), so that dragging one object in a large scene costs the object's
+//! build, not the scene's.
 
 use super::protocol::{CameraEdit, LightEdit, MaterialEdit};
 use crate::light::{AreaLight, Environment, Light};
@@ -18,7 +19,7 @@ pub enum Invalidates {
     View,
     /// The integrator's scene-dependent state (photon maps, BDPT's light tables).
     Shading,
-    /// The BVH too.
+    /// Triangles moved: the BVH places them anew (`Accel::relocate`).
     Geometry,
 }
 
@@ -190,6 +191,41 @@ pub fn transform(scene: &mut Scene, name: &str, matrix: &[f32; 16]) -> Result<In
     Ok(Invalidates::Geometry)
 }
 
+/// Hides or shows mesh instance `index`: the server takes its triangles out of the BVH
+/// (`Accel::relocate`); here its emissive triangles leave light selection — each becomes a
+/// black point light of power 0 in its slot (so that no light index moves, and a scene whose
+/// every light is hidden picks only black ones), its triangle and power kept in `saved` — or
+/// come back as they were.
+pub fn visibility(
+    scene: &mut Scene,
+    index: usize,
+    visible: bool,
+    saved: &mut std::collections::HashMap<usize, (u32, f32)>,
+) -> Result<Invalidates, String> {
+    let span = scene.instances.get(index).ok_or("no such object")?.triangles.clone();
+    for (i, (l, p)) in scene.lights.iter_mut().zip(scene.light_power.iter_mut()).enumerate() {
+        match *l {
+            Light::Triangle { tri } if !visible && span.contains(&tri) => {
+                saved.insert(i, (tri, *p));
+                let t = scene.mesh.triangles[tri as usize].map(|v| scene.mesh.positions[v as usize]);
+                *l = Light::Point { position: (t[0] + t[1] + t[2]) / 3.0, intensity: Rgb::ZERO };
+                *p = 0.0;
+            }
+            Light::Point { .. } if visible => {
+                if let Some(&(tri, power)) = saved.get(&i)
+                    && span.contains(&tri)
+                {
+                    saved.remove(&i);
+                    *l = Light::Triangle { tri };
+                    *p = power;
+                }
+            }
+            _ => {}
+        }
+    }
+    Ok(Invalidates::Geometry)
+}
+
 /// The scene's bounds after vertices moved (directional and world lights' powers and
 /// photon radii read them).
 fn recompute_bounds(scene: &mut Scene) {
@@ -294,6 +330,20 @@ pub fn light(scene: &mut Scene, e: &LightEdit) -> Result<Invalidates, String> {
 
 const PI_F: f32 = std::f32::consts::PI;
 
+/// A light's emission in the unit of the `light` edit's `emission` (W/sr for point and spot
+/// lights, W/m² for a sun, W/(m² sr) for area and sphere lights), so that a client can scale
+/// it by the ratio of its own powers without converting units; None for other lights.
+pub fn emission(light: &Light) -> Option<[f32; 3]> {
+    let c = match light {
+        Light::Point { intensity, .. } | Light::Spot { intensity, .. } => *intensity,
+        Light::Directional { irradiance, .. } => *irradiance,
+        Light::Sphere { radiance, .. } => *radiance,
+        Light::Area(a) => a.radiance,
+        Light::Triangle { .. } | Light::World => return None,
+    };
+    Some([c.x, c.y, c.z])
+}
+
 /// Sets the world's colour (a constant world, or an image world's multiplier); a scene
 /// loaded without a world gets a constant one.
 pub fn world(scene: &mut Scene, color: [f32; 3]) -> Result<Invalidates, String> {
@@ -308,22 +358,17 @@ pub fn world(scene: &mut Scene, color: [f32; 3]) -> Result<Invalidates, String> 
         Some(w) => w.color = c,
         None => scene.world = Some(Environment { color: c, image: None, rotation: 0.0, graph: None }),
     }
-    let at = scene.lights.iter().position(|l| matches!(l, Light::World));
-    match (at, c == Rgb::ZERO) {
-        // Lights at infinity sit beside the tree; the order among lights is free (the
-        // punctual and area lights that `light` finds by index stay before it).
-        (None, false) => {
-            scene.lights.push(Light::World);
-            scene.light_power.push(0.0);
-            scene.light_casts_shadow.push(true);
+    // Lights at infinity sit beside the tree; the order among lights is free, so a world
+    // that becomes a light is added last, and one that turns black keeps its slot with power
+    // 0 (refresh_powers): no light index moves (`light` finds lights by index, and hidden
+    // objects' emitters keep theirs: `visibility`).
+    if c != Rgb::ZERO && !scene.lights.iter().any(|l| matches!(l, Light::World)) {
+        scene.lights.push(Light::World);
+        scene.light_power.push(0.0);
+        scene.light_casts_shadow.push(true);
+        if !scene.light_lights_catcher.is_empty() {
+            scene.light_lights_catcher.push(true);
         }
-        // A black world lights nothing: the loader leaves it out of light selection too.
-        (Some(i), true) => {
-            scene.lights.remove(i);
-            scene.light_power.remove(i);
-            scene.light_casts_shadow.remove(i);
-        }
-        _ => {}
     }
     refresh_powers(scene);
     Ok(Invalidates::Shading)

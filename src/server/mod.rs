@@ -2,7 +2,7 @@
 //! reads requests from stdin and writes replies and frames to stdout in the framed,
 //! versioned protocol of `docs/protocol.md` (`protocol.rs`), keeps the loaded scene and
 //! its BVH, applies edits in place (`edits.rs`: the view and materials keep the BVH, a
-//! transform rebuilds it) and renders on a worker thread (`worker.rs`) that every edit
+//! transform moves the object into a side BVH of moved objects) and renders on a worker thread (`worker.rs`) that every edit
 //! stops and restarts. A bad request gets an error reply and the server goes on; only a
 //! length prefix beyond the limits (the stream cannot be resynchronised) or the end of
 //! the input ends it.
@@ -38,6 +38,15 @@ struct Loaded {
     settings: RenderSettings,
     /// The scene's own camera and resolution, used until the client sends a view.
     default_view: View,
+    /// Instances (indices into `Scene::instances`) moved or hidden since the load: their
+    /// triangles left the scene's BVH; the visible ones live in its side BVH
+    /// (`Accel::relocate`).
+    detached: Vec<usize>,
+    /// Instances hidden now.
+    hidden: Vec<usize>,
+    /// The hidden objects' emissive triangles by light index (their slot holds a black
+    /// light meanwhile: `edits::visibility`), with their selection power.
+    hidden_power: std::collections::HashMap<usize, (u32, f32)>,
 }
 
 /// The server's state between requests.
@@ -164,7 +173,7 @@ impl Server {
                 }
                 self.out.send(
                     json!({"type": "hello", "version": protocol::VERSION, "server": format!("caustic {}", env!("CARGO_PKG_VERSION")),
-                           "formats": ["f16", "f32"]}),
+                           "formats": ["f16", "f32", "u8"]}),
                     &[],
                 );
             }
@@ -177,7 +186,32 @@ impl Server {
             }
             Request::Material(e) => self.edit_scene("material", |s| edits::material(s, &e))?,
             Request::Transform { name, matrix } => {
+                if let Some(l) = self.loaded.as_mut()
+                    && let Some(i) = l.scene.instances.iter().position(|s| s.name == name)
+                    && !l.detached.contains(&i)
+                {
+                    l.detached.push(i);
+                }
                 self.edit_scene("transform", |s| edits::transform(s, &name, &matrix))?
+            }
+            Request::Visibility { name, visible } => {
+                let Some(l) = self.loaded.as_mut() else {
+                    return Err("no scene loaded: send load first".into());
+                };
+                let i = l.scene.instances.iter().position(|s| s.name == name).ok_or_else(|| format!("no mesh object named '{name}'"))?;
+                if !l.detached.contains(&i) {
+                    l.detached.push(i);
+                }
+                l.hidden.retain(|&h| h != i);
+                if !visible {
+                    l.hidden.push(i);
+                }
+                let mut saved = std::mem::take(&mut l.hidden_power);
+                let r = self.edit_scene("visibility", |s| edits::visibility(s, i, visible, &mut saved));
+                if let Some(l) = self.loaded.as_mut() {
+                    l.hidden_power = saved;
+                }
+                r?
             }
             Request::Light(e) => self.edit_scene("light", |s| edits::light(s, &e))?,
             Request::World { color } => self.edit_scene("world", |s| edits::world(s, color))?,
@@ -239,7 +273,7 @@ impl Server {
     }
 
     /// Applies an edit to the loaded scene with the render stopped; a geometry edit
-    /// rebuilds the BVH.
+    /// relocates the moved objects' triangles in the BVH.
     fn edit_scene(
         &mut self,
         request: &str,
@@ -253,7 +287,7 @@ impl Server {
         // The worker has ended, so the scene is not shared and this does not copy it.
         let what = edit(Arc::make_mut(&mut l.scene))?;
         if what == Invalidates::Geometry {
-            l.accel = Arc::new(build_accel(&self.pool, &l.scene));
+            relocate(&self.pool, l);
         }
         self.edited(what, request);
         Ok(())
@@ -294,14 +328,23 @@ impl Server {
             "triangles": scene.mesh.triangles.len(),
             "materials": scene.materials.iter().map(|m| json!({"name": m.name, "nodes": m.nodes.is_some()})).collect::<Vec<_>>(),
             "objects": names(scene.instances.iter().map(|i| i.name.clone()).collect()),
-            "lights": scene.report.lights.iter().filter(|l| l.kind != "emissive" && l.kind != "world")
-                .map(|l| json!({"name": l.name, "kind": l.kind})).collect::<Vec<_>>(),
+            "lights": scene.report.lights.iter().zip(&scene.lights).filter(|(l, _)| l.kind != "emissive" && l.kind != "world")
+                .map(|(l, light)| json!({"name": l.name, "kind": l.kind, "emission": edits::emission(light)})).collect::<Vec<_>>(),
             "cameras": names(scene.cameras.iter().map(|c| c.name.clone()).collect()),
             "warnings": scene.warnings,
             "load_seconds": load_seconds,
             "bvh_seconds": bvh_seconds,
         });
-        self.loaded = Some(Loaded { scene: Arc::new(scene), accel: Arc::new(accel), settings, default_view });
+        self.loaded =
+            Some(Loaded {
+                scene: Arc::new(scene),
+                accel: Arc::new(accel),
+                settings,
+                default_view,
+                detached: Vec::new(),
+                hidden: Vec::new(),
+                hidden_power: Default::default(),
+            });
         self.integrator = None;
         self.generation += 1;
         self.ok("load", reply);
@@ -317,6 +360,32 @@ fn build_accel(pool: &rayon::ThreadPool, scene: &Scene) -> Accel {
         crate::cli::build_bsdf_tables(scene);
         Accel::build(&tris)
     })
+}
+
+/// Carries the moved and hidden instances out of the scene's BVH, the visible ones into its
+/// side BVH: the scene-sized BVH is not rebuilt (a 1 M-triangle scene's build takes about a
+/// second on 2 cores; this costs a scan of its ids and a build over the moved objects alone).
+fn relocate(pool: &rayon::ThreadPool, l: &mut Loaded) {
+    let scene = &l.scene;
+    let tris = |i: &usize| scene.instances[*i].triangles.clone();
+    let detached: Vec<u32> = l.detached.iter().flat_map(tris).collect();
+    let placed: Vec<(u32, [glam::Vec3; 3])> = l
+        .detached
+        .iter()
+        .filter(|i| !l.hidden.contains(i))
+        .flat_map(tris)
+        .map(|t| (t, scene.mesh.triangles[t as usize].map(|v| scene.mesh.positions[v as usize])))
+        .collect();
+    match Arc::get_mut(&mut l.accel) {
+        Some(accel) => pool.install(|| accel.relocate(&detached, &placed)),
+        // Only the stopped worker shared it; should anything still hold it, a fresh build
+        // of the visible triangles gives the same answers.
+        None => {
+            let mut fresh = build_accel(pool, scene);
+            pool.install(|| fresh.relocate(&detached, &placed));
+            l.accel = Arc::new(fresh);
+        }
+    }
 }
 
 fn merge_settings(into: &mut SettingsEdit, e: SettingsEdit) {

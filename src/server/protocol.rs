@@ -102,6 +102,9 @@ pub enum FrameFormat {
     F16,
     /// IEEE single floats.
     F32,
+    /// 8 bits per channel, colour sRGB-encoded and clamped to [0, 1], alpha linear: for a
+    /// display that shows the frame as it is, without colour management of its own.
+    U8,
 }
 
 impl FrameFormat {
@@ -110,6 +113,7 @@ impl FrameFormat {
         match self {
             FrameFormat::F16 => "f16",
             FrameFormat::F32 => "f32",
+            FrameFormat::U8 => "u8",
         }
     }
 }
@@ -222,6 +226,13 @@ pub enum Request {
         /// New world matrix, column-major, glTF axes.
         matrix: [f32; 16],
     },
+    /// Hide or show a mesh object (Blender's viewport hiding).
+    Visibility {
+        /// Object (node) name.
+        name: String,
+        /// False hides it from every ray and its emission from light selection.
+        visible: bool,
+    },
     /// Change a light.
     Light(LightEdit),
     /// Change the world's colour (the multiplier of a world image).
@@ -281,12 +292,37 @@ pub fn encode_pixels(pixels: &[[f32; 4]], format: FrameFormat) -> Vec<u8> {
     match format {
         FrameFormat::F32 => pixels.iter().flatten().flat_map(|v| v.to_le_bytes()).collect(),
         FrameFormat::F16 => pixels.iter().flatten().flat_map(|v| f16_bits(*v).to_le_bytes()).collect(),
+        FrameFormat::U8 => pixels
+            .iter()
+            .flat_map(|p| [srgb_byte(p[0]), srgb_byte(p[1]), srgb_byte(p[2]), unit_byte(p[3])])
+            .collect(),
     }
+}
+
+/// A linear value in [0, 1] (clamped; NaN as 0) to a byte, rounded to nearest.
+fn unit_byte(v: f32) -> u8 {
+    let v = if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) };
+    (v * 255.0 + 0.5) as u8
+}
+
+/// A linear value to an sRGB-encoded byte (IEC 61966-2-1's transfer function).
+fn srgb_byte(v: f32) -> u8 {
+    let v = if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) };
+    let e = if v <= 0.003_130_8 { 12.92 * v } else { 1.055 * v.powf(1.0 / 2.4) - 0.055 };
+    unit_byte(e)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn bytes_are_srgb_encoded_colour_and_linear_alpha() {
+        let px = [[0.0, 1.0, 0.5, 0.5], [0.002, 2.0, -1.0, f32::NAN]];
+        // sRGB(0.5) = 1.055 · 0.5^(1/2.4) − 0.055 = 0.7354 → 187.5 → 188; 0.002 is on the
+        // linear segment: 12.92 · 0.002 · 255 = 6.59 → 7; out-of-range values clamp.
+        assert_eq!(encode_pixels(&px, FrameFormat::U8), vec![0, 255, 188, 128, 7, 255, 0, 0]);
+    }
 
     #[test]
     fn half_floats_match_the_standard_at_its_landmarks() {

@@ -143,6 +143,30 @@ def test_a_cameras_view_gives_the_camera_the_exporter_writes(vp, empty_scene):
     assert list(forward) == pytest.approx([blender_forward.x, blender_forward.z, -blender_forward.y], abs=1e-6)
 
 
+def test_the_render_border_in_camera_view_is_a_part_of_the_camera_frame(vp, empty_scene):
+    """Looking through the camera, the scene's render border (fractions of the camera frame)
+    becomes the protocol's border (fractions of the region): with the camera's own projection
+    the frame fills the region; zoomed out by half, the frame is the region's middle half."""
+    viewport, _ = vp
+    scenes.small_render_settings(empty_scene, W, H)  # the camera frame's aspect is the render's
+    cam = scenes.camera(empty_scene, (1, -5, 2), (75, 0, 10), lens=40.0)
+    _settle()
+    dg = bpy.context.evaluated_depsgraph_get()
+    corners = [cam.matrix_world @ c for c in cam.data.view_frame(scene=empty_scene)]
+    view = cam.matrix_world.inverted()
+    proj = cam.calc_matrix_camera(dg, x=W, y=H)
+    frame = viewport.camera_frame_in_region(corners, proj @ view, W, H)
+    assert frame == pytest.approx((0.0, 0.0, W, H), abs=1e-3)
+    border = (0.25, 0.5, 0.75, 1.0)  # Blender's: x0, y0, x1, y1 from the bottom left
+    assert viewport.camera_view_border(frame, border, W, H) == pytest.approx((0.25, 0.0, 0.75, 0.5), abs=1e-5)
+    zoom = mathutils.Matrix.Diagonal((0.5, 0.5, 1.0, 1.0))
+    frame = viewport.camera_frame_in_region(corners, zoom @ proj @ view, W, H)
+    assert frame == pytest.approx((W / 4, H / 4, 3 * W / 4, 3 * H / 4), abs=1e-3)
+    assert viewport.camera_view_border(frame, border, W, H) == pytest.approx((0.375, 0.25, 0.625, 0.5), abs=1e-5)
+    # A border wholly outside the region clips nothing.
+    assert viewport.camera_view_border((W, H, 2 * W, 2 * H), (0.5, 0.5, 1.0, 1.0), W, H) is None
+
+
 def test_frames_become_bottom_first_float_pixels(vp):
     viewport, client = vp
     w, h = 3, 2
@@ -157,6 +181,14 @@ def test_frames_become_bottom_first_float_pixels(vp):
     assert px[1, 2].tolist() == [1.0, 0.0, 0.0, 1.0]
     with pytest.raises(client.ServerError):
         client.frame_pixels(header, payload[:-2])
+    # 8-bit frames: sRGB-encoded colour (188 is the encoding of 0.5 linear), linear alpha.
+    bytes8 = bytes([0, 255, 188, 128] * w + [7, 0, 0, 255] * w)
+    px8 = client.frame_pixels(dict(header, format="u8"), bytes8)
+    mid = ((188 / 255 + 0.055) / 1.055) ** 2.4  # 0.5029: 0.5 encodes to 187.52, rounded up
+    assert px8[1, 0].tolist() == pytest.approx([0.0, 1.0, mid, 128 / 255], rel=1e-6)
+    assert px8[0, 0].tolist() == pytest.approx([7 / 255 / 12.92, 0.0, 0.0, 1.0], abs=1e-6)
+    with pytest.raises(client.ServerError):
+        client.frame_pixels(dict(header, format="rgb9"), payload)
     # The window's top rows of the full frame are drawn at the region's top.
     x, y, dw, dh = viewport.draw_rect(header, 120, 80)
     assert (x, y, dw, dh) == pytest.approx((40.0, 60.0, 30.0, 20.0))
@@ -246,3 +278,202 @@ def test_view_update_exports_once_then_sends_edits(vp, empty_scene):
     finally:
         v.free()
     assert v.client is None and v.folder is None
+
+
+def _light_scene(scene, kind):
+    """A box on a floor under one light of `kind`, seen by the scene camera."""
+    scenes.small_render_settings(scene, W, H, samples=4)
+    scenes.camera(scene, (0, -4, 3), (55, 0, 0))
+    scenes.cube(scene, "Box", 1.0, (0, 0, 0.5), material=scenes.diffuse_material("Paint", 0.6))
+    scenes.plane(scene, "Floor", 6.0, material=scenes.diffuse_material("Grey", 0.5))
+    energy = {"POINT": 300.0, "SPOT": 600.0, "SUN": 3.0, "AREA": 200.0}[kind]
+    lamp = scenes.light(scene, "Lamp", kind, location=(0.5, -0.5, 3.0), rotation_deg=(10, 0, 0), energy=energy)
+    if kind == "AREA":
+        lamp.data.size = 0.5
+    if kind == "SPOT":
+        lamp.data.spot_size = math.radians(70)
+    return lamp
+
+
+def _converged(v):
+    """The pixels of the viewport server's converged frame (the scene camera's view)."""
+    server_client = sys.modules[type(v).__module__.rsplit(".", 1)[0] + ".server_client"]
+    header, payload = v.client.wait_frame(v.client.generation, timeout=120, final=True)
+    return server_client.frame_pixels(header, payload)
+
+
+def _edited_and_fresh(viewport, change):
+    """The converged frame after `change()` is sent as edits to a running viewport, against
+    a second viewport that exports the changed scene from scratch; and the requests sent."""
+    engine = _Engine()
+    v = viewport.Viewport(engine)
+    sent = []
+    try:
+        v.update(bpy.context, bpy.context.evaluated_depsgraph_get())
+        _converged(v)
+        request = v.client.request
+
+        def spy(header, payload=b"", replay=True):
+            sent.append(header["type"])
+            return request(header, payload, replay)
+
+        v.client.request = spy
+
+        def handler(scene, depsgraph):
+            v.update(bpy.context, depsgraph)
+
+        bpy.app.handlers.depsgraph_update_post.append(handler)
+        try:
+            change()
+            _settle()
+        finally:
+            bpy.app.handlers.depsgraph_update_post.remove(handler)
+        edited = _converged(v)
+        assert not [r for r in engine.reports if r[0] == {"ERROR"}], engine.reports
+    finally:
+        v.free()
+    fresh_view = viewport.Viewport(_Engine())
+    try:
+        fresh_view.update(bpy.context, bpy.context.evaluated_depsgraph_get())
+        fresh = _converged(fresh_view)
+    finally:
+        fresh_view.free()
+    return edited, fresh, sent
+
+
+def _assert_same_render(edited, fresh):
+    """The same samples of the same scene: the edit's emission differs from the loader's own
+    conversion by float rounding only (a ratio of powers against the exporter's chain of
+    products: a few ulps, ~1e-6 relative) and the light's matrix alike, so almost every pixel
+    agrees to 1e-4 relative and the mean to 1e-4 — far below what any edit changes (tens of
+    percent here). A shadow ray grazing the box's edge may part differently after such a
+    rounding and change its pixel by a sample's share, so 1 % of the pixels are let off."""
+    assert edited.shape == fresh.shape
+    a, b = edited[..., :3], fresh[..., :3]
+    assert float(a.mean()) == pytest.approx(float(b.mean()), rel=1e-4)
+    close = np.abs(a - b) <= 1e-4 * np.maximum(np.abs(b), 1e-3 * float(b.mean()))
+    assert close.mean() >= 0.99, f"{(~close).sum()} of {close.size} values differ"
+
+
+@pytest.mark.needs_binary
+@pytest.mark.parametrize("kind", ["POINT", "SPOT", "SUN", "AREA"])
+def test_light_edits_render_as_a_fresh_export(vp, empty_scene, kind):
+    """A light's power, colour and placement changed in the viewport are light edits (no
+    export), and the frame they give is the frame of the changed scene exported anew."""
+    viewport, _ = vp
+    lamp = _light_scene(empty_scene, kind)
+
+    def change():
+        lamp.data.energy *= 2.5
+        lamp.data.color = (1.0, 0.6, 0.3)
+        lamp.location = (-0.4, -0.2, 2.6)
+        lamp.rotation_euler = (math.radians(-15), math.radians(10), 0)
+
+    edited, fresh, sent = _edited_and_fresh(viewport, change)
+    assert "light" in sent and "load" not in sent, sent
+    _assert_same_render(edited, fresh)
+
+
+@pytest.mark.needs_binary
+def test_world_edits_render_as_a_fresh_export(vp, empty_scene):
+    """A Background's colour and strength changed in the viewport are a world edit (no export)
+    giving the frame of the changed scene exported anew; a new node in the world reloads."""
+    viewport, _ = vp
+    _light_scene(empty_scene, "SUN")
+    world = bpy.data.worlds.new("Sky")
+    world.use_nodes = True
+    empty_scene.world = world
+    bg = world.node_tree.nodes["Background"]
+    bg.inputs["Color"].default_value = (0.2, 0.3, 0.5, 1.0)
+    bg.inputs["Strength"].default_value = 1.0
+
+    def change():
+        bg.inputs["Color"].default_value = (0.6, 0.4, 0.1, 1.0)
+        bg.inputs["Strength"].default_value = 1.7
+
+    edited, fresh, sent = _edited_and_fresh(viewport, change)
+    assert "world" in sent and "load" not in sent, sent
+    _assert_same_render(edited, fresh)
+
+
+def test_light_changes_beyond_emission_and_placement_reload(vp, empty_scene, updates):
+    """A light's shape (here its radius and, for an area light, its size) is not in a light
+    edit: the scene is reloaded; a shared light data, too."""
+    viewport, _ = vp
+    lamp = _light_scene(empty_scene, "POINT")
+    _settle()
+    names = viewport.rendered_objects(bpy.context.evaluated_depsgraph_get())
+    lights_mod = sys.modules[viewport.__name__ + "_lights"]
+    state = lights_mod.LightState(empty_scene, [{"name": "Lamp", "kind": "point", "emission": [1.0, 1.0, 1.0]}])
+    updates.clear()
+    lamp.data.energy = 50.0
+    _settle()
+    edits = viewport.edits_from_updates(updates, names, names, {}, state)
+    assert [e["type"] for e in edits] == ["light"], edits
+    assert edits[0]["emission"] == pytest.approx([50.0 / 300.0] * 3)
+    # The light's matrix in glTF axes: Blender (x, y, z) is glTF (x, z, -y).
+    assert edits[0]["matrix"][12:15] == pytest.approx([0.5, 3.0, 0.5])
+    updates.clear()
+    lamp.data.shadow_soft_size = 0.7
+    _settle()
+    assert viewport.edits_from_updates(updates, names, names, {}, state) == [viewport.RELOAD]
+    # Without a light state (nothing loaded yet), any light change reloads.
+    assert viewport.edits_from_updates(updates, names, names, {}, None) == [viewport.RELOAD]
+
+
+def test_hiding_and_showing_are_visibility_edits(vp, empty_scene, updates):
+    """A mesh object of the exported scene hidden and shown again: visibility edits (shown
+    with its matrix now); a new object or a deleted one reloads."""
+    viewport, _ = vp
+    scenes.cube(empty_scene, "Box", 1.0, (0, 0, 0))
+    scenes.cube(empty_scene, "Other", 1.0, (3, 0, 0))
+    _settle()
+    exported = viewport.rendered_objects(bpy.context.evaluated_depsgraph_get())
+    updates.clear()
+    box = bpy.data.objects["Box"]
+    box.hide_viewport = True
+    _settle()
+    hidden = viewport.rendered_objects(bpy.context.evaluated_depsgraph_get())
+    assert hidden == exported - {"Box"}
+    prints = {}
+    edits = viewport.edits_from_updates(updates, exported, hidden, {}, None, exported, prints)
+    assert {"type": "visibility", "name": "Box", "visible": False} in edits, edits
+    updates.clear()
+    box.hide_viewport = False
+    box.location.x = 0.5
+    _settle()
+    edits = viewport.edits_from_updates(updates, hidden, exported, {}, None, exported, prints)
+    assert {"type": "visibility", "name": "Box", "visible": True} in edits, edits
+    moves = [e for e in edits if e["type"] == "transform" and e["name"] == "Box"]
+    assert len(moves) == 1 and moves[0]["matrix"][12] == pytest.approx(0.5)
+    # A mesh edited while hidden is exported again when shown.
+    prints = {}
+    assert viewport.visibility_edits(exported, hidden, exported, None, prints) != [viewport.RELOAD]
+    box.data.vertices[0].co.z += 0.25
+    assert viewport.visibility_edits(hidden, exported, exported, None, prints) == [viewport.RELOAD]
+    # Without the exported set (nothing loaded), or for an object it does not hold: reload.
+    assert viewport.edits_from_updates([], exported, hidden, {}, None, None) == [viewport.RELOAD]
+    scenes.cube(empty_scene, "New", 1.0, (6, 0, 0))
+    _settle()
+    grown = viewport.rendered_objects(bpy.context.evaluated_depsgraph_get())
+    assert viewport.edits_from_updates([], exported, grown, {}, None, exported) == [viewport.RELOAD]
+    bpy.data.objects.remove(bpy.data.objects["Other"])
+    _settle()
+    shrunk = viewport.rendered_objects(bpy.context.evaluated_depsgraph_get())
+    assert viewport.edits_from_updates([], grown, shrunk, {}, None, exported) == [viewport.RELOAD]
+
+
+@pytest.mark.needs_binary
+def test_a_hidden_object_renders_as_a_fresh_export_without_it(vp, empty_scene):
+    """Hiding an object in a running viewport sends a visibility edit (no export), and the
+    frame is that of the scene exported anew without it."""
+    viewport, _ = vp
+    _light_scene(empty_scene, "SUN")
+    box = bpy.data.objects["Box"]
+
+    def change():
+        box.hide_viewport = True
+
+    edited, fresh, sent = _edited_and_fresh(viewport, change)
+    assert "visibility" in sent and "load" not in sent, sent
+    _assert_same_render(edited, fresh)
