@@ -526,8 +526,11 @@ mod tests {
         let at = |z: f32, x: f32| [Vec3::new(x, 0.0, z), Vec3::new(x + 1.0, 0.0, z), Vec3::new(x, 1.0, z)];
         let mut accel = Accel::build(&[at(-2.0, 0.0), at(-3.0, 5.0)]);
         let flags = [false, false];
-        let down = |a: &Accel, x: f32| a.intersect(Vec3::new(x + 0.25, 0.25, 0.0), -Vec3::Z, f32::INFINITY, &flags, |_, _, _| true);
-        let shadow = |a: &Accel, x: f32| a.transmittance(Vec3::new(x + 0.25, 0.25, 0.0), -Vec3::Z, 10.0, &flags, |_, _, _| 1.0);
+        let down = |a: &Accel, x: f32| {
+            a.intersect(Vec3::new(x + 0.25, 0.25, 0.0), -Vec3::Z, f32::INFINITY, &flags, |_, _, _| true)
+        };
+        let shadow =
+            |a: &Accel, x: f32| a.transmittance(Vec3::new(x + 0.25, 0.25, 0.0), -Vec3::Z, 10.0, &flags, |_, _, _| 1.0);
         // Triangle 0 slides from x = 0 to x = 10, one unit further away.
         accel.relocate(&[0], &[(0, at(-3.0, 10.0))]);
         assert!(down(&accel, 0.0).is_none() && shadow(&accel, 0.0) == 1.0, "met where it was");

@@ -392,12 +392,13 @@ fn moved_objects_render_as_loaded_there() {
     let moved = dir.path().join("moved.gltf");
     std::fs::write(&moved, doc.to_string()).unwrap();
     std::fs::copy(common::root().join("scenes/cornell_box.bin"), dir.path().join("cornell_box.bin")).unwrap();
-    let reference = common::render_image(&moved, &dir.path().join("moved.exr"), &["--spp", "4", "--threads", "2"], LIMIT);
+    let reference =
+        common::render_image(&moved, &dir.path().join("moved.exr"), &["--spp", "4", "--threads", "2"], LIMIT);
     let mut s = Server::start();
     s.ok(json!({"type": "settings", "spp": 4, "frame_format": "f32"}));
     s.ok(json!({"type": "load", "path": src}));
     s.ok(json!({"type": "render_start"}));
-    let translate = |t: [f64; 3]| json!([1,0,0,0, 0,1,0,0, 0,0,1,0, t[0],t[1],t[2],1]);
+    let translate = |t: [f64; 3]| json!([1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, t[0], t[1], t[2], 1]);
     // The tall block twice (the second edit starts from the first), then the short one.
     s.ok(json!({"type": "transform", "name": "tall_block", "matrix": translate([0.2, 0.0, 0.0])}));
     s.ok(json!({"type": "transform", "name": "tall_block", "matrix": translate(tall)}));
@@ -436,7 +437,12 @@ fn cornell_without(dir: &std::path::Path, names: &[&str]) -> Vec<f32> {
 fn assert_same_image(served: &[f32], reference: &[f32], what: &str) {
     let (a, b) = (mean_rgb(served), mean_rgb(reference));
     for c in 0..3 {
-        assert!((a[c] - b[c]).abs() <= 1e-3 * b[c].max(1e-6), "{what}, channel {c}: served {} vs render {}", a[c], b[c]);
+        assert!(
+            (a[c] - b[c]).abs() <= 1e-3 * b[c].max(1e-6),
+            "{what}, channel {c}: served {} vs render {}",
+            a[c],
+            b[c]
+        );
     }
     let floor = 1e-3 * (b[0] + b[1] + b[2]) as f32 / 3.0;
     let differing = served
@@ -469,7 +475,9 @@ fn hidden_objects_render_as_left_out() {
     assert!(mean_rgb(&dark).iter().all(|&c| c == 0.0), "a hidden emitter still lights: {:?}", mean_rgb(&dark));
     let g = generation(&s.ok(json!({"type": "visibility", "name": "light", "visible": true})));
     assert_same_image(&f32_pixels(&s.frame(g, true).1), &full, "light shown again");
-    assert!(s.error_for(&frame(&json!({"type": "visibility", "name": "nope", "visible": false}), &[])).contains("nope"));
+    assert!(
+        s.error_for(&frame(&json!({"type": "visibility", "name": "nope", "visible": false}), &[])).contains("nope")
+    );
     s.finish();
 }
 

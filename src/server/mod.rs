@@ -198,7 +198,12 @@ impl Server {
                 let Some(l) = self.loaded.as_mut() else {
                     return Err("no scene loaded: send load first".into());
                 };
-                let i = l.scene.instances.iter().position(|s| s.name == name).ok_or_else(|| format!("no mesh object named '{name}'"))?;
+                let i = l
+                    .scene
+                    .instances
+                    .iter()
+                    .position(|s| s.name == name)
+                    .ok_or_else(|| format!("no mesh object named '{name}'"))?;
                 if !l.detached.contains(&i) {
                     l.detached.push(i);
                 }
@@ -335,16 +340,15 @@ impl Server {
             "load_seconds": load_seconds,
             "bvh_seconds": bvh_seconds,
         });
-        self.loaded =
-            Some(Loaded {
-                scene: Arc::new(scene),
-                accel: Arc::new(accel),
-                settings,
-                default_view,
-                detached: Vec::new(),
-                hidden: Vec::new(),
-                hidden_power: Default::default(),
-            });
+        self.loaded = Some(Loaded {
+            scene: Arc::new(scene),
+            accel: Arc::new(accel),
+            settings,
+            default_view,
+            detached: Vec::new(),
+            hidden: Vec::new(),
+            hidden_power: Default::default(),
+        });
         self.integrator = None;
         self.generation += 1;
         self.ok("load", reply);

@@ -292,10 +292,9 @@ pub fn encode_pixels(pixels: &[[f32; 4]], format: FrameFormat) -> Vec<u8> {
     match format {
         FrameFormat::F32 => pixels.iter().flatten().flat_map(|v| v.to_le_bytes()).collect(),
         FrameFormat::F16 => pixels.iter().flatten().flat_map(|v| f16_bits(*v).to_le_bytes()).collect(),
-        FrameFormat::U8 => pixels
-            .iter()
-            .flat_map(|p| [srgb_byte(p[0]), srgb_byte(p[1]), srgb_byte(p[2]), unit_byte(p[3])])
-            .collect(),
+        FrameFormat::U8 => {
+            pixels.iter().flat_map(|p| [srgb_byte(p[0]), srgb_byte(p[1]), srgb_byte(p[2]), unit_byte(p[3])]).collect()
+        }
     }
 }
 
