@@ -1,14 +1,9 @@
 """What Caustic cannot render yet, named: scene features that would otherwise be dropped without
-a word (lights' ray visibility beyond Camera, material
+a word (point clouds, material
 override; shadow linking goes out with light_linking.py; Holdout, Indirect Only collections and Shadow
 Catcher go out with visibility.py, with a warning from the runs of integrators that cannot render
 them). Each warning
 names the object, collection or setting and says what the render does instead."""
-
-# A light's Ray Visibility beyond Camera (which lights.py exports): Cycles excludes the hidden
-# kinds' closures from the light's next-event estimation, which Caustic's BSDFs cannot yet.
-_LIGHT_RAY_VISIBILITY = (("visible_diffuse", "diffuse"), ("visible_glossy", "glossy"),
-                         ("visible_transmission", "transmission"), ("visible_volume_scatter", "volume scatter"))
 
 
 def scene_warnings(depsgraph):
@@ -31,10 +26,5 @@ def object_warnings(obj):
     warnings = []
     if obj.type == "POINTCLOUD":
         warnings.append(f"{what}: point clouds are not rendered")
-    if obj.type == "LIGHT":
-        hidden = [name for prop, name in _LIGHT_RAY_VISIBILITY if not getattr(obj, prop, True)]
-        if hidden:
-            warnings.append(f"light '{obj.name}': ray visibility off for {', '.join(hidden)} is ignored "
-                            "(the light lights every surface)")
     return warnings
 

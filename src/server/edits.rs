@@ -322,6 +322,9 @@ pub fn world(scene: &mut Scene, color: [f32; 3]) -> Result<Invalidates, String> 
             scene.lights.remove(i);
             scene.light_power.remove(i);
             scene.light_casts_shadow.remove(i);
+            if i < scene.light_rays.len() {
+                scene.light_rays.remove(i);
+            }
         }
         _ => {}
     }

@@ -16,6 +16,7 @@
 mod buffers;
 mod cameras;
 mod curves;
+mod deformation;
 mod emission;
 mod extensions;
 mod gpu_instancing;
@@ -291,6 +292,7 @@ impl<'a> Loader<'a> {
         // Lights whose Cast Shadow is off, by index in `lights`.
         let mut shadowless = Vec::new();
         let mut no_catcher = Vec::new();
+        let mut hidden_lights = Vec::new();
         let mut light_reports = Vec::new();
         let mut used_meshes = std::collections::HashSet::new();
         let mut instance_count = 0;
@@ -338,7 +340,7 @@ impl<'a> Loader<'a> {
             let rule = match node.extension_value("CAUSTIC_light_linking") {
                 Some(ext) => {
                     linking.emitters.push(node_name.clone());
-                    Some(self.receiver_rule(&doc, *node_index, &node_name, ext)?)
+                    Some(self.receiver_rule(&value, &doc, *node_index, &node_name, ext)?)
                 }
                 None => None,
             };
@@ -406,6 +408,9 @@ impl<'a> Loader<'a> {
                 if !rep.lights_catcher {
                     no_catcher.push(lights.len());
                 }
+                if rep.rays != crate::scene::visibility::RayMask::ALL {
+                    hidden_lights.push((lights.len(), rep.rays));
+                }
                 if let Some(r) = &rule {
                     light_rules.push((lights.len(), r.clone()));
                 }
@@ -418,8 +423,14 @@ impl<'a> Loader<'a> {
         }
         ray_visibility.finish(mesh.triangles.len());
         let curves = self.curves(&value, &doc, &buffers, &mut materials, default_material)?;
-        if mesh.triangles.is_empty() {
-            return Err(self.err("nothing to render: the scene has no triangles (no mesh, or only points/lines)"));
+        if linked {
+            linking.curve_object = curves::object_ids(&value, &doc).into_iter().map(|(_, id)| id).collect();
+        }
+        // Strands alone are a scene (their BVH stands beside an empty triangle BVH).
+        if mesh.triangles.is_empty() && curves.is_empty() {
+            return Err(
+                self.err("nothing to render: the scene has no triangles and no curves (no mesh, or only points/lines)")
+            );
         }
 
         // Bounds.
@@ -443,6 +454,9 @@ impl<'a> Loader<'a> {
                 }
                 if !rep.lights_catcher {
                     no_catcher.push(lights.len());
+                }
+                if rep.rays != crate::scene::visibility::RayMask::ALL {
+                    hidden_lights.push((lights.len(), rep.rays));
                 }
                 if let Some(r) = rule {
                     light_rules.push((lights.len(), r));
@@ -469,6 +483,7 @@ impl<'a> Loader<'a> {
                     triangles: 0,
                     cast_shadow: true,
                     lights_catcher: true,
+                    rays: crate::scene::visibility::RayMask::ALL,
                 });
             } else {
                 self.warn("the world is black: it lights nothing");
@@ -524,7 +539,8 @@ impl<'a> Loader<'a> {
         if degenerate > 0 {
             self.warn(format!("{degenerate} degenerate (zero-area) triangle(s) were dropped"));
         }
-        let motion = self.motion(&value, &doc, &mesh, &instances_out, &span_nodes, &mut cameras, &camera_nodes)?;
+        let motion =
+            self.motion(&value, &doc, &buffers, &mesh, &instances_out, &span_nodes, &mut cameras, &camera_nodes)?;
         if let Some(m) = motion.as_ref().filter(|m| m.blurs()) {
             // The scene's bounds hold every moving triangle at every step.
             for p in m.corners.iter().flatten() {
@@ -573,6 +589,14 @@ impl<'a> Loader<'a> {
         for i in shadowless {
             light_casts_shadow[i] = false;
         }
+        // Only with a light hidden from some kind of ray (empty: every ray sees every light).
+        let mut light_rays = Vec::new();
+        if !hidden_lights.is_empty() {
+            light_rays = vec![crate::scene::visibility::RayMask::ALL; lights.len()];
+            for (i, mask) in hidden_lights {
+                light_rays[i] = mask;
+            }
+        }
         let mut light_lights_catcher = Vec::new();
         if !no_catcher.is_empty() {
             light_lights_catcher = vec![true; lights.len()];
@@ -594,6 +618,7 @@ impl<'a> Loader<'a> {
             grids,
             light_casts_shadow,
             light_lights_catcher,
+            light_rays,
             ray_visibility,
             light_linking: linking,
             settings,
@@ -612,6 +637,7 @@ impl<'a> Loader<'a> {
     /// the file (objects not rendered) are left out.
     fn receiver_rule(
         &self,
+        value: &serde_json::Value,
         doc: &gltf::Document,
         node_index: usize,
         node_name: &str,
@@ -619,6 +645,7 @@ impl<'a> Loader<'a> {
     ) -> Result<Links> {
         let ext: LightLinkingExt = serde_json::from_value(ext.clone())
             .map_err(|e| self.err(format!("node {node_index} ('{node_name}'): bad CAUSTIC_light_linking: {e}")))?;
+        let strand_objects = curves::object_ids(value, doc);
         let rule = |names: &Option<Vec<String>>, include: bool| {
             names.as_ref().map(|names| {
                 let mut objects: Vec<u32> = doc
@@ -626,7 +653,10 @@ impl<'a> Loader<'a> {
                     .filter(|n| n.name().is_some_and(|name| names.iter().any(|r| r == name)))
                     .map(|n| n.index() as u32)
                     .collect();
+                // Strands of an object that has no node of its own (a Curves object).
+                objects.extend(strand_objects.iter().filter(|(n, _)| names.contains(n)).map(|(_, id)| *id));
                 objects.sort_unstable();
+                objects.dedup();
                 ReceiverRule { include, objects }
             })
         };
