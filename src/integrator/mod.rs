@@ -289,6 +289,13 @@ impl<'a> SceneContext<'a> {
         self.light_rays.get(light).is_none_or(|m| light_visibility::path_sees(*m, path))
     }
 
+    /// True when a bounce that left `receiver` with `path`'s flags finds light `light`
+    /// (light linking and the light's ray visibility).
+    #[inline]
+    fn bounce_finds(&self, light: usize, receiver: u32, path: &LightPath) -> bool {
+        self.links(light, receiver) && self.light_seen_by(light, path)
+    }
+
     /// True when light `light` lights volume scattering events (Ray Visibility > Volume
     /// Scatter); always unless the context honours it.
     #[inline]
@@ -351,10 +358,8 @@ impl<'a> SceneContext<'a> {
             return (sum, any);
         }
         for (a, index) in &self.area_lights {
-            if (camera_ray && !a.camera_visible)
-                || (!camera_ray && !(self.links(*index, receiver) && self.light_seen_by(*index, path)))
-                || (prev_pdf > 0.0 && self.shadow_linked(*index))
-            {
+            let seen = if camera_ray { a.camera_visible } else { self.bounce_finds(*index, receiver, path) };
+            if !seen || (prev_pdf > 0.0 && self.shadow_linked(*index)) {
                 continue;
             }
             if let Some(t) = a.intersect(org, dir, tmax)
@@ -370,10 +375,8 @@ impl<'a> SceneContext<'a> {
             }
         }
         for &(center, radius, radiance, soft, camera_visible, index) in &self.spheres {
-            if (camera_ray && !camera_visible)
-                || (!camera_ray && !(self.links(index, receiver) && self.light_seen_by(index, path)))
-                || (prev_pdf > 0.0 && self.shadow_linked(index))
-            {
+            let seen = if camera_ray { camera_visible } else { self.bounce_finds(index, receiver, path) };
+            if !seen || (prev_pdf > 0.0 && self.shadow_linked(index)) {
                 continue;
             }
             if soft {
@@ -424,7 +427,7 @@ impl<'a> SceneContext<'a> {
         }
         for &(to_sun, cos_half, radiance, index) in &self.suns {
             if dir.dot(to_sun) >= cos_half
-                && (camera_ray || (self.links(index, receiver) && self.light_seen_by(index, path)))
+                && (camera_ray || self.bounce_finds(index, receiver, path))
                 && !(prev_pdf > 0.0 && self.shadow_linked(index))
             {
                 let w = if prev_pdf == 0.0 {
