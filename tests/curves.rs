@@ -98,6 +98,41 @@ fn strands_and_their_shadows_cover_their_width_in_every_integrator() {
     }
 }
 
+/// A scene of strands only (no triangle at all) renders: the black strands of the scene
+/// above, without the floor and the sun, against a white world of radiance 1 seen straight
+/// down on an opaque film. Each pixel shows the world (1) or a strand (0: black, no specular),
+/// so the image's mean is the uncovered fraction 1 − 2r/P, within the 2e-3 bound of
+/// the edge pixels derived above.
+#[test]
+fn a_scene_of_strands_only_renders() {
+    let dir = temp_dir();
+    let d = dir.path();
+    let mut g = GltfBuilder::new();
+    let black = g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1], "metallicFactor": 0.0},
+        "extensions": {"KHR_materials_specular": {"specularFactor": 0.0}}}));
+    g.use_ext("KHR_materials_specular");
+    let (mut points, mut radii, mut counts) = (Vec::new(), Vec::new(), Vec::new());
+    for k in -1..9 {
+        let y = -1.0 + PERIOD * (k as f32 + 0.5);
+        for x in [-2.0f32, -0.7, 0.4, 2.0] {
+            points.push([x, y, HEIGHT]);
+            radii.push(RADIUS);
+        }
+        counts.push(4);
+    }
+    g.curves("strands", black, &points, &radii, &counts);
+    g.world(json!({"color": [1.0, 1.0, 1.0]}));
+    // An opaque film: the world seen directly keeps its colour.
+    g.settings(json!({"transparent": false}));
+    g.orthographic([0.0, 0.0, 3.0], [0.0, 0.0, 0.0, 1.0], 1.0, 1.0);
+    let scene = g.write(d, "strands_only.gltf");
+    let args = ["--resolution", "64x64", "--spp", "64", "--filter", "box", "--filter-width", "1", "--max-depth", "2"];
+    let px = render_image(&scene, &d.join("strands_only.exr"), &args, LIMIT);
+    let mean = px.iter().map(|p| p[0] as f64).sum::<f64>() / px.len() as f64;
+    let expected = 1.0 - 2.0 * RADIUS as f64 / PERIOD as f64;
+    assert!((mean - expected).abs() < 2e-3, "uncovered fraction {mean}, expected {expected}");
+}
+
 /// Bad strands are refused with exit 3 and a message naming the object and the fault.
 #[test]
 fn bad_strands_are_refused_by_name() {

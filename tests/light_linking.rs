@@ -188,3 +188,45 @@ fn a_sun_is_shadowed_only_by_its_blockers() {
     let only_quad = variant("only_quad", unseen, Some(json!({"blockers": ["Blocker"], "blockers_include": true})));
     assert_eq!(only_quad, unlit, "a rule listing the quad: its shadow");
 }
+
+/// Strands are lit as their object (`object` in `CAUSTIC_curves`): white strands over a black
+/// floor, under a sun whose receivers are the strands' object ("Hair", which has no node) or
+/// exclude it. Direct light only: including the strands changes no pixel from the unlinked
+/// render (bit for bit), excluding them leaves the image black (the floor reflects nothing).
+#[test]
+fn strands_are_lit_as_their_object() {
+    let dir = temp_dir();
+    let d = dir.path();
+    let scene = |name: &str, rule: Option<Value>| {
+        let mut g = GltfBuilder::new();
+        let black = g
+            .material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1], "metallicFactor": 0.0},
+            "extensions": {"KHR_materials_specular": {"specularFactor": 0.0}}}));
+        let white =
+            g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1], "metallicFactor": 0.0}}));
+        g.use_ext("KHR_materials_specular");
+        let (z, h) = (-4.0, 3.0);
+        g.mesh(&[[-h, -h, z], [h, -h, z], [h, h, z], [-h, h, z]], &[0, 1, 2, 0, 2, 3], black);
+        let (mut points, mut radii, mut counts) = (Vec::new(), Vec::new(), Vec::new());
+        for k in 0..8 {
+            let y = -1.4 + 0.4 * k as f32;
+            points.extend([[-2.0, y, -3.0], [2.0, y, -3.0]]);
+            radii.extend([0.05, 0.05]);
+            counts.push(2);
+        }
+        g.curves("Hair", white, &points, &radii, &counts);
+        let sun = g.punctual(json!({"type": "directional", "intensity": 683.0}), [0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]);
+        if let Some(r) = rule {
+            g.node_ext(sun, "CAUSTIC_light_linking", r);
+        }
+        g.camera([0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0], 0.5);
+        g.write(d, name)
+    };
+    let plain = render(&scene("plain.gltf", None), &d.join("plain.exr"));
+    assert!(plain.iter().any(|p| p[0] > 0.1), "the strands are lit");
+    let included = render(&scene("in.gltf", Some(json!({"receivers": ["Hair"], "include": true}))), &d.join("in.exr"));
+    assert_eq!(plain, included, "the sun lights the strands it includes as without a rule");
+    let excluded =
+        render(&scene("out.gltf", Some(json!({"receivers": ["Hair"], "include": false}))), &d.join("out.exr"));
+    assert!(excluded.iter().all(|p| p[..3] == [0.0; 3]), "the sun does not light strands it excludes");
+}

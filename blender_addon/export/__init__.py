@@ -42,7 +42,7 @@ from .materials import COAT_EXTENSION, principled_extras, shader_node_material  
 from .media import MEDIUM_EXTENSION, SUBSURFACE_EXTENSION, medium_extension, subsurface_extension  # noqa: F401
 from .settings import render_settings  # noqa: F401
 from .state import ExportState, exporting
-from .motion import sample_motion
+from .motion import add_deformation, sample_motion
 from .unsupported import scene_warnings
 from .volumes import VOLUME_EXTENSION, attach_volumes  # noqa: F401
 from .world import WORLD_EXTENSION, world_extension  # noqa: F401
@@ -122,4 +122,8 @@ def export_scene(depsgraph, folder, settings, motion=True, viewport=False):
         add_curves(filepath, depsgraph, state.warnings)
     except (OSError, ValueError, KeyError, AttributeError) as err:
         raise CausticError(f"exporting hair and curves failed: {err!r}") from None
+    try:
+        add_deformation(filepath, state.motion)
+    except (OSError, ValueError, KeyError) as err:
+        raise CausticError(f"exporting deformation motion failed: {err!r}") from None
     return filepath, state

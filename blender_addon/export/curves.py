@@ -41,8 +41,10 @@ DEFAULT_CURVES_RADIUS = 0.005
 class Strands:
     """One object's strands: points (N, 3) glTF axes, radii (N,), counts (M,), root UVs (M, 2) or None."""
 
-    def __init__(self, name, material, points, radii, counts, uvs):
+    def __init__(self, name, material, points, radii, counts, uvs, object_name=None):
         self.name = name
+        # The Blender object the strands belong to (light linking names it).
+        self.object_name = object_name or name
         self.material = material
         self.points = np.asarray(points, dtype=np.float32).reshape(-1, 3)
         self.radii = np.asarray(radii, dtype=np.float32)
@@ -133,7 +135,7 @@ def particle_strands(obj, modifier, warnings):
     material = slots[min(max(part.material - 1, 0), len(slots) - 1)].material if len(slots) else None
     points = _to_gltf_axes(pts.reshape(-1, 3))
     counts = np.full(total, steps, dtype=np.uint32)
-    return Strands(f"{obj.name}/{psys.name}", material, points, radii.reshape(-1), counts, uvs)
+    return Strands(f"{obj.name}/{psys.name}", material, points, radii.reshape(-1), counts, uvs, obj.name)
 
 
 def curves_object_strands(obj, warnings):
@@ -325,6 +327,7 @@ def add_curves(gltf_path, depsgraph, warnings):
                             "the strands are shaded as a surface with the material's glTF values")
         entry = {
             "name": s.name,
+            "object": s.object_name,
             "points": accessor(s.points.astype(np.float32), 5126, "VEC3"),
             "radii": accessor(s.radii.astype(np.float32), 5126, "SCALAR"),
             "counts": accessor(s.counts.astype(np.uint32), 5125, "SCALAR"),

@@ -11,6 +11,8 @@
 * A spot with blend 0 gets innerConeAngle == outerConeAngle from the exporter, which the glTF
   validator calls an error (glTF wants inner < outer): the inner angle is moved down to the
   next double (Caustic uses `spot_blend` instead anyway).
+* Ray Visibility: Camera goes out as `camera_visible`; Diffuse, Glossy, Transmission and
+  Volume Scatter as `*_visible` keys, only when off (`light_ray_visibility`).
 * Light node trees: Cycles multiplies the light's power by the Strength and its colour by the
   Color of the Emission node on the light's output (`light_node_factors`). The exporter instead
   replaces the colour by the node's and ignores the Strength (it uses it *instead of* the power
@@ -62,6 +64,7 @@ def area_light_extension(blender_object):
         value["cast_shadow"] = False
     if not _lights_catcher(blender_object):
         value["shadow_catcher"] = False
+    value.update(light_ray_visibility(blender_object))
     return value, warnings
 
 
@@ -88,7 +91,21 @@ def punctual_light_extension(blender_object):
         value["cast_shadow"] = False  # Cast Shadow off: nothing occludes the light
     if not _lights_catcher(blender_object):
         value["shadow_catcher"] = False
+    value.update(light_ray_visibility(blender_object))
     return value or None
+
+
+# Blender's Ray Visibility of a light object beyond Camera -> the extensions' keys.
+_RAY_VISIBILITY = (("visible_diffuse", "diffuse_visible"), ("visible_glossy", "glossy_visible"),
+                   ("visible_transmission", "transmission_visible"),
+                   ("visible_volume_scatter", "volume_scatter_visible"))
+
+
+def light_ray_visibility(blender_object):
+    """The light's Ray Visibility flags that are off, as {key: False}: Cycles leaves the
+    light out of bounces of those kinds and their closures out of its direct light."""
+    original = getattr(blender_object, "original", blender_object)
+    return {key: False for prop, key in _RAY_VISIBILITY if not getattr(original, prop, True)}
 
 
 def _lights_catcher(blender_object):

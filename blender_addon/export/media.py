@@ -4,7 +4,8 @@ Coefficients as Cycles builds them (contract)."""
 
 import math
 
-from .nodes import linked_node, material_output, value as _value
+from .constant_fold import folded_float
+from .nodes import linked_node, material_output, socket, value as _value
 
 SUBSURFACE_EXTENSION = "CAUSTIC_materials_subsurface"
 MEDIUM_EXTENSION = "CAUSTIC_materials_medium"
@@ -65,6 +66,18 @@ def medium_extension(blender_material):
     return value, warnings
 
 
+def _density(node, what, warnings):
+    """A volume shader's Density: its value, or the constant a linked chain of Value and Math
+    nodes folds to (`constant_fold`); another link (a texture, an attribute) is named in a
+    warning and the socket's own value is used."""
+    sock = socket(node, "Density")
+    if sock is not None and sock.is_linked:
+        folded = folded_float(sock)
+        if folded is not None:
+            return folded
+    return float(_value(node, "Density", what, warnings, 1.0))
+
+
 def volume_medium(node, what, warnings):
     """The medium coefficients of a volume shader node (Principled Volume, Volume Scatter,
     Volume Absorption) as `CAUSTIC_materials_medium` has them, or None (with a warning) for
@@ -77,7 +90,7 @@ def volume_medium(node, what, warnings):
     if node.type == "PRINCIPLED_VOLUME":
         color = rgb("Color", (0.5, 0.5, 0.5))
         absorption = rgb("Absorption Color", (0.0, 0.0, 0.0))
-        value["density"] = max(float(_value(node, "Density", what, warnings, 1.0)), 0.0)
+        value["density"] = max(_density(node, what, warnings), 0.0)
         value["scatter_color"] = [max(c, 0.0) for c in color]
         value["absorption_color"] = [max(1.0 - c, 0.0) * max(1.0 - math.sqrt(max(a, 0.0)), 0.0)
                                      for c, a in zip(color, absorption)]
@@ -88,7 +101,7 @@ def volume_medium(node, what, warnings):
         value["blackbody_tint"] = [max(c, 0.0) for c in rgb("Blackbody Tint", (1.0, 1.0, 1.0))]
         value["temperature"] = float(_value(node, "Temperature", what, warnings, 1000.0))
     elif node.type == "VOLUME_SCATTER":
-        value["density"] = max(float(_value(node, "Density", what, warnings, 1.0)), 0.0)
+        value["density"] = max(_density(node, what, warnings), 0.0)
         value["scatter_color"] = [max(c, 0.0) for c in rgb("Color", (0.8, 0.8, 0.8))]
         value["absorption_color"] = [0.0, 0.0, 0.0]
         value["anisotropy"] = float(_value(node, "Anisotropy", what, warnings, 0.0))
@@ -97,7 +110,7 @@ def volume_medium(node, what, warnings):
             warnings.append(f"{what}: the {node.name} node's {phase} phase function is rendered as "
                             "Henyey-Greenstein")
     elif node.type == "VOLUME_ABSORPTION":
-        value["density"] = max(float(_value(node, "Density", what, warnings, 1.0)), 0.0)
+        value["density"] = max(_density(node, what, warnings), 0.0)
         value["scatter_color"] = [0.0, 0.0, 0.0]
         value["absorption_color"] = [max(1.0 - c, 0.0) for c in rgb("Color", (0.8, 0.8, 0.8))]
     else:

@@ -9,11 +9,20 @@ and the next (Cycles' motion pass). Objects whose Motion Blur is off stay still.
 
 Each moving object's node gets its world matrices at the steps and at the frame, in glTF axes;
 the scene gets the step times and the shutter. Deformation motion (vertices moving within the
-object) is not exported: an object that deforms is named in a warning and blurs by its
-transform only. The shutter curve is taken as flat (a warning says when it is not).
+object: shape keys, armatures, lattices, any modifier; Cycles' Deformation Motion) goes out as
+the evaluated mesh's vertex positions at the frame (`reference`) and at each step
+(`positions`), object space in glTF axes, in a binary buffer beside the glTF
+(`add_deformation`); the binary finds each exported vertex's Blender vertex by its position at
+the frame, which the exporter wrote from the same evaluated mesh. An object whose vertex count
+changes between steps blurs by its transform only (a warning names it). The shutter curve is
+taken as flat (a warning says when it is not).
 """
 
+import json
 import math
+import os
+
+import numpy as np
 
 MOTION_EXTENSION = "CAUSTIC_motion"
 
@@ -29,6 +38,9 @@ class Motion:
         self.times = times
         self.shutter = shutter
         self.matrices = {}  # object name -> (matrix at the frame, [matrix per step]), glTF axes
+        # object name -> (matrix at the frame, vertex positions at the frame, [positions per step]):
+        # (n, 3) float32 arrays, object space in glTF axes.
+        self.deformation = {}
         self.warnings = []
 
     def scene_extension(self):
@@ -40,10 +52,14 @@ class Motion:
 
     def node_extension(self, name):
         """The node's `CAUSTIC_motion`, or None when the object does not move."""
-        if name not in self.matrices:
-            return None
-        frame, steps = self.matrices[name]
-        return {"matrix": frame, "matrices": steps}
+        if name in self.matrices:
+            frame, steps = self.matrices[name]
+            return {"matrix": frame, "matrices": steps}
+        if name in self.deformation:
+            # Deformation alone: the transform stays; `add_deformation` adds the positions.
+            frame = self.deformation[name][0]
+            return {"matrix": frame, "matrices": [frame] * len(self.times)}
+        return None
 
 
 def gltf_matrix(m):
@@ -86,13 +102,14 @@ def step_times(scene, view_layer, objects):
     return None
 
 
-def _vertex_signature(obj, depsgraph):
-    """A cheap fingerprint of an evaluated mesh's vertices (object space), to see deformation."""
+def _vertex_positions(obj, depsgraph):
+    """An evaluated mesh's vertex positions, object space, in glTF axes ((n, 3) float32): the
+    exporter's (x, y, z) -> (x, z, -y), exact in float32, so they equal what it writes."""
     mesh = obj.evaluated_get(depsgraph).data
-    n = len(mesh.vertices)
-    coords = [0.0] * (3 * n)
-    mesh.vertices.foreach_get("co", coords)
-    return n, sum(abs(v) * (1 + (i % 7)) for i, v in enumerate(coords))
+    co = np.empty(3 * len(mesh.vertices), dtype=np.float32)
+    mesh.vertices.foreach_get("co", co)
+    co = co.reshape(-1, 3)
+    return np.stack([co[:, 0], co[:, 2], -co[:, 1]], axis=1)
 
 
 def sample_motion(scene, view_layer):
@@ -117,7 +134,7 @@ def sample_motion(scene, view_layer):
     deforming = [o for o in moving if o.type == "MESH" and getattr(o.cycles, "use_deform_motion", True)
                  and (len(o.modifiers) > 0 or o.data.shape_keys is not None)]
     per_step = {o.name: [] for o in moving}
-    signatures = {o.name: [] for o in deforming}
+    positions = {o.name: [] for o in deforming}
     try:
         for t in times:
             whole = math.floor(frame + subframe + t)
@@ -126,7 +143,7 @@ def sample_motion(scene, view_layer):
             for o in moving:
                 per_step[o.name].append(gltf_matrix(o.matrix_world))
             for o in deforming:
-                signatures[o.name].append(_vertex_signature(o, depsgraph))
+                positions[o.name].append(_vertex_positions(o, depsgraph))
     finally:
         scene.frame_set(frame, subframe=subframe)
     for o in moving:
@@ -134,8 +151,54 @@ def sample_motion(scene, view_layer):
         reference = gltf_matrix(o.matrix_world)
         if any(any(abs(a - b) > 1e-7 * max(1.0, abs(b)) for a, b in zip(m, reference)) for m in steps):
             motion.matrices[o.name] = (reference, steps)
-    for name, sig in signatures.items():
-        if len(set(sig)) > 1:
-            motion.warnings.append(f"object '{name}': deformation motion blur is not rendered; it blurs by its "
-                                   "transform only")
+    if deforming:
+        depsgraph = bpy.context.evaluated_depsgraph_get()
+        for o in deforming:
+            steps = positions[o.name]
+            reference = _vertex_positions(o, depsgraph)
+            if any(p.shape != reference.shape for p in steps):
+                motion.warnings.append(f"object '{o.name}': its vertex count changes within the shutter; "
+                                       "deformation motion blur is not rendered, it blurs by its transform only")
+            elif any(not np.array_equal(p, reference) for p in steps):
+                motion.deformation[o.name] = (gltf_matrix(o.matrix_world), reference, steps)
     return motion
+
+
+def add_deformation(gltf_path, motion):
+    """Append each deforming object's vertex positions to the written glTF file: a binary
+    buffer (`scene_motion.bin`) and, on the object's node's `CAUSTIC_motion`, the accessors
+    `reference` (at the frame) and `positions` (one per step). Returns the objects written."""
+    if motion is None or not motion.deformation:
+        return 0
+    with open(gltf_path, encoding="utf-8") as f:
+        doc = json.load(f)
+    blob = bytearray()
+    buffer_index = len(doc.setdefault("buffers", []))
+    views = doc.setdefault("bufferViews", [])
+    accessors = doc.setdefault("accessors", [])
+
+    def accessor(array):
+        data = np.ascontiguousarray(array, dtype=np.float32).tobytes()
+        views.append({"buffer": buffer_index, "byteOffset": len(blob), "byteLength": len(data)})
+        blob.extend(data)
+        accessors.append({"bufferView": len(views) - 1, "componentType": 5126, "count": len(array), "type": "VEC3"})
+        return len(accessors) - 1
+
+    written = 0
+    for node in doc.get("nodes", []):
+        entry = motion.deformation.get(node.get("name"))
+        ext = node.get("extensions", {}).get(MOTION_EXTENSION)
+        if entry is None or ext is None or "mesh" not in node:
+            continue
+        _, reference, steps = entry
+        ext["reference"] = accessor(reference)
+        ext["positions"] = [accessor(p) for p in steps]
+        written += 1
+    if written:
+        name = "scene_motion.bin"
+        with open(os.path.join(os.path.dirname(gltf_path), name), "wb") as f:
+            f.write(blob)
+        doc["buffers"].append({"uri": name, "byteLength": len(blob)})
+        with open(gltf_path, "w", encoding="utf-8") as f:
+            json.dump(doc, f)
+    return written

@@ -1,14 +1,8 @@
 """What Caustic cannot render yet, named: scene features that would otherwise be dropped without
-a word (lights' ray visibility beyond Camera, material
-override; shadow linking goes out with light_linking.py; Holdout, Indirect Only collections and Shadow
-Catcher go out with visibility.py, with a warning from the runs of integrators that cannot render
-them). Each warning
-names the object, collection or setting and says what the render does instead."""
+a word (point clouds; shape keys on a mesh without modifiers, which Blender's glTF exporter
+writes undeformed). Each warning names the object and says what the render does instead."""
 
-# A light's Ray Visibility beyond Camera (which lights.py exports): Cycles excludes the hidden
-# kinds' closures from the light's next-event estimation, which Caustic's BSDFs cannot yet.
-_LIGHT_RAY_VISIBILITY = (("visible_diffuse", "diffuse"), ("visible_glossy", "glossy"),
-                         ("visible_transmission", "transmission"), ("visible_volume_scatter", "volume scatter"))
+import numpy as np
 
 
 def scene_warnings(depsgraph):
@@ -22,7 +16,26 @@ def scene_warnings(depsgraph):
             continue
         seen.add(original.name)
         warnings += object_warnings(original)
+        if _shape_keys_dropped(original, depsgraph):
+            warnings.append(f"object '{original.name}': its shape keys are not rendered: Blender's glTF exporter "
+                            "writes a mesh without modifiers from its undeformed data (add any modifier to "
+                            "export the deformed mesh)")
     return warnings
+
+
+def _shape_keys_dropped(obj, depsgraph):
+    """True for a mesh whose shape keys deform it but which has no modifier: the exporter then
+    writes the original (basis) vertices, where Cycles renders the keys' mix."""
+    if obj.type != "MESH" or obj.data.shape_keys is None or len(obj.modifiers) > 0:
+        return False
+    evaluated = obj.evaluated_get(depsgraph).data
+    basis = obj.data
+    if len(evaluated.vertices) != len(basis.vertices):
+        return True
+    a, b = (np.empty(3 * len(m.vertices), dtype=np.float32) for m in (evaluated, basis))
+    evaluated.vertices.foreach_get("co", a)
+    basis.vertices.foreach_get("co", b)
+    return not np.array_equal(a, b)
 
 
 def object_warnings(obj):
@@ -31,10 +44,5 @@ def object_warnings(obj):
     warnings = []
     if obj.type == "POINTCLOUD":
         warnings.append(f"{what}: point clouds are not rendered")
-    if obj.type == "LIGHT":
-        hidden = [name for prop, name in _LIGHT_RAY_VISIBILITY if not getattr(obj, prop, True)]
-        if hidden:
-            warnings.append(f"light '{obj.name}': ray visibility off for {', '.join(hidden)} is ignored "
-                            "(the light lights every surface)")
     return warnings
 

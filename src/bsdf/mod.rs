@@ -5,6 +5,7 @@
 pub mod albedo;
 pub mod aniso_albedo;
 pub mod dielectric;
+mod exclude;
 pub mod glass_albedo;
 pub mod hair;
 pub mod microfacet;

@@ -82,6 +82,25 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         reporter.warning(&w);
         run_warnings.push(w);
     }
+    // Only lights (not emissive triangles) have their own flags, and their reports come
+    // first, one per light, in the lights' order.
+    let hidden_lights: Vec<_> = scene
+        .light_rays
+        .iter()
+        .zip(&scene.report.lights)
+        .filter(|(m, _)| **m != crate::scene::visibility::RayMask::ALL)
+        .map(|(_, r)| format!("'{}'", r.name))
+        .collect();
+    if !hidden_lights.is_empty() && !matches!(res.integrator, IntegratorKind::Path) {
+        // Like the objects' ray visibility: only the path tracer knows each ray's kind.
+        let w = format!(
+            "ray visibility of light(s) {} is not honoured by this integrator: they light every kind of bounce \
+             (the path integrator renders them as Cycles)",
+            hidden_lights.join(", ")
+        );
+        reporter.warning(&w);
+        run_warnings.push(w);
+    }
     let held = &scene.ray_visibility.holdout_objects;
     if !held.is_empty() && matches!(res.integrator, IntegratorKind::Bdpt) {
         // Its light-tracing splats would still show light reflected by the holdout.

@@ -54,6 +54,8 @@ pub struct Curves {
     pub strands: Vec<Strand>,
     /// Names of the curves objects (hair systems, Curves objects), for messages.
     pub objects: Vec<String>,
+    /// Per curves object, the name of the Blender object it belongs to (light linking).
+    pub object_names: Vec<String>,
     /// The segments' BVH; None until `build` (and when there are no strands).
     pub bvh: Option<bvh::CurveBvh>,
 }
@@ -100,6 +102,15 @@ impl Curves {
         let k = self.first_point(hit);
         let strand = self.strand_of(k);
         ((k - strand.first) as f32 + hit.b1) / (strand.count - 1) as f32
+    }
+
+    /// The curves object (index into `objects`) of a curve hit's primitive (`Hit::tri`).
+    #[inline]
+    pub fn object_of_prim(&self, prim: u32) -> u32 {
+        match &self.bvh {
+            Some(bvh) => self.strand_of(bvh.first_point(prim & !CURVE_BIT)).object,
+            None => 0,
+        }
     }
 
     /// The strand a curve hit is on.

@@ -27,6 +27,7 @@ use crate::sampling::warp::uniform_cone_pdf;
 use crate::scene::camera::CameraRay;
 use crate::scene::camera::CameraRays;
 use crate::scene::light_path::LightPath;
+use crate::scene::light_visibility::{self, Excluded};
 use crate::scene::shading::{ConstantBsdf, ShadingPoint, SurfaceHit};
 use crate::scene::visibility::RayMask;
 use crate::scene::{AlphaMode, Scene};
@@ -49,6 +50,9 @@ pub struct SceneContext<'a> {
     visibility: std::borrow::Cow<'a, [RayMask]>,
     /// Light linking is honoured (`with_light_linking`).
     linking: bool,
+    /// Per light, the kinds of ray that see it (`Scene::light_rays`; empty: every ray sees
+    /// every light, or the integrator does not honour it; see `with_ray_visibility`).
+    light_rays: &'a [RayMask],
     /// This context is a shadow catcher's pass (`catcher::pass_context`): rays see only
     /// catcher objects and only the lights that light catchers give light.
     catcher_only: bool,
@@ -139,6 +143,7 @@ impl<'a> SceneContext<'a> {
             transparent: (0..n).map(|t| mode(t) != AlphaMode::Opaque).collect(),
             visibility: std::borrow::Cow::Borrowed(&[]),
             linking: false,
+            light_rays: &[],
             catcher_only: false,
             lights_catcher: Vec::new(),
             catcher: None,
@@ -209,6 +214,8 @@ impl<'a> SceneContext<'a> {
     /// (the path tracer); the others see every object with every ray.
     pub fn with_ray_visibility(mut self) -> Self {
         let scene = self.scene;
+        // Lights' own ray visibility (`scene::light_visibility`) goes with the objects'.
+        self.light_rays = &scene.light_rays;
         let vis = &scene.ray_visibility.per_triangle;
         if vis.is_empty() {
             return self;
@@ -257,7 +264,43 @@ impl<'a> SceneContext<'a> {
         if self.catcher_only && !self.lights_catcher.get(light).copied().unwrap_or(true) {
             return false;
         }
-        !self.linking || self.scene.light_linking.lights(light, receiver)
+        if !self.linking {
+            return true;
+        }
+        // A strand's receiver is its curves object's object.
+        if receiver != crate::scene::linking::NO_OBJECT && crate::curves::is_curve(receiver) {
+            let object = self.scene.curves.object_of_prim(receiver);
+            return self.scene.light_linking.lights_curves(light, object);
+        }
+        self.scene.light_linking.lights(light, receiver)
+    }
+
+    /// The BSDF classes next-event estimation toward light `light` leaves out (its Ray
+    /// Visibility, `scene::light_visibility`); none unless the context honours it.
+    #[inline]
+    pub fn light_excludes(&self, light: usize) -> Excluded {
+        self.light_rays.get(light).map_or(Excluded::default(), |m| Excluded::of(*m))
+    }
+
+    /// True when a path whose last event set `path`'s flags finds light `light` (its Ray
+    /// Visibility beyond Camera); always unless the context honours it.
+    #[inline]
+    pub fn light_seen_by(&self, light: usize, path: &LightPath) -> bool {
+        self.light_rays.get(light).is_none_or(|m| light_visibility::path_sees(*m, path))
+    }
+
+    /// True when a bounce that left `receiver` with `path`'s flags finds light `light`
+    /// (light linking and the light's ray visibility).
+    #[inline]
+    fn bounce_finds(&self, light: usize, receiver: u32, path: &LightPath) -> bool {
+        self.links(light, receiver) && self.light_seen_by(light, path)
+    }
+
+    /// True when light `light` lights volume scattering events (Ray Visibility > Volume
+    /// Scatter); always unless the context honours it.
+    #[inline]
+    pub fn light_seen_in_volume(&self, light: usize) -> bool {
+        self.light_rays.get(light).is_none_or(|m| m.meets(RayMask::VOLUME))
     }
 
     /// True when triangle `tri` belongs to a shadow catcher at which camera paths split
@@ -290,8 +333,9 @@ impl<'a> SceneContext<'a> {
     /// a ray before `tmax`, each weighted by MIS against light sampling from `prev_p`
     /// with the normal `prev_n` that light selection was given there (`prev_pdf` = 0: no
     /// MIS); lights hidden from the camera are skipped for camera rays, and for other rays
-    /// lights not linked to `receiver`, the triangle the ray left. Returns the
-    /// radiance and whether anything was crossed.
+    /// lights not linked to `receiver`, the triangle the ray left, or hidden from the
+    /// kind of the path's last bounce (`path`, [`light_seen_by`](Self::light_seen_by)).
+    /// Returns the radiance and whether anything was crossed.
     #[inline]
     #[allow(clippy::too_many_arguments)]
     pub fn crossed_emission(
@@ -304,6 +348,7 @@ impl<'a> SceneContext<'a> {
         prev_pdf: f32,
         camera_ray: bool,
         receiver: u32,
+        path: &LightPath,
     ) -> (Rgb, bool) {
         let mut sum = Rgb::ZERO;
         let mut any = false;
@@ -313,10 +358,8 @@ impl<'a> SceneContext<'a> {
             return (sum, any);
         }
         for (a, index) in &self.area_lights {
-            if (camera_ray && !a.camera_visible)
-                || (!camera_ray && !self.links(*index, receiver))
-                || (prev_pdf > 0.0 && self.shadow_linked(*index))
-            {
+            let seen = if camera_ray { a.camera_visible } else { self.bounce_finds(*index, receiver, path) };
+            if !seen || (prev_pdf > 0.0 && self.shadow_linked(*index)) {
                 continue;
             }
             if let Some(t) = a.intersect(org, dir, tmax)
@@ -332,10 +375,8 @@ impl<'a> SceneContext<'a> {
             }
         }
         for &(center, radius, radiance, soft, camera_visible, index) in &self.spheres {
-            if (camera_ray && !camera_visible)
-                || (!camera_ray && !self.links(index, receiver))
-                || (prev_pdf > 0.0 && self.shadow_linked(index))
-            {
+            let seen = if camera_ray { camera_visible } else { self.bounce_finds(index, receiver, path) };
+            if !seen || (prev_pdf > 0.0 && self.shadow_linked(index)) {
                 continue;
             }
             if soft {
@@ -376,16 +417,17 @@ impl<'a> SceneContext<'a> {
     }
 
     /// Radiance of sun disks seen along an escaping ray, MIS-weighted as `crossed_emission`
-    /// (`receiver`: the triangle a non-camera ray left, for light linking).
+    /// (`receiver`: the triangle a non-camera ray left, for light linking; `path`: its last
+    /// bounce, for the sun's ray visibility).
     #[inline]
-    pub fn sun_emission(&self, dir: Vec3, prev_pdf: f32, camera_ray: bool, receiver: u32) -> Rgb {
+    pub fn sun_emission(&self, dir: Vec3, prev_pdf: f32, camera_ray: bool, receiver: u32, path: &LightPath) -> Rgb {
         let mut sum = Rgb::ZERO;
         if self.catcher_only && camera_ray {
             return sum;
         }
         for &(to_sun, cos_half, radiance, index) in &self.suns {
             if dir.dot(to_sun) >= cos_half
-                && (camera_ray || self.links(index, receiver))
+                && (camera_ray || self.bounce_finds(index, receiver, path))
                 && !(prev_pdf > 0.0 && self.shadow_linked(index))
             {
                 let w = if prev_pdf == 0.0 {

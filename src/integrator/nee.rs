@@ -68,7 +68,9 @@ pub fn surface_nee_at(
         return (Rgb::ZERO, Vec3::ZERO);
     };
     let wi_local = sp.frame.to_local(ls.wi);
-    let f = at.eval(wi_local) * wi_local.z.abs();
+    // A light hidden from some kinds of ray lights only the other classes' closures.
+    let excluded = ctx.light_excludes(index);
+    let f = if excluded.none() { at.eval(wi_local) } else { at.eval_visible(wi_local, excluded) } * wi_local.z.abs();
     let consistent = (wi_local.z > 0.0) == (ls.wi.dot(s.ng) > 0.0);
     if f == Rgb::ZERO || ls.li == Rgb::ZERO || !consistent {
         return (Rgb::ZERO, wi_local);
@@ -129,6 +131,7 @@ pub fn medium_nee(
 ) -> Rgb {
     if let Some((index, pmf)) = ctx.lights.sample(p, Vec3::ZERO, u_light)
         && ctx.links(index, NO_OBJECT)
+        && ctx.light_seen_in_volume(index)
         && let Some(ls) = ctx.sample_light(index, p, u_light_pt)
     {
         let f = phase.eval(dir, ls.wi);
@@ -163,6 +166,8 @@ pub fn exit_nee(
 ) -> Rgb {
     if let Some((index, pmf)) = ctx.lights.sample(se.p, n_g, u_light)
         && ctx.links(index, se.tri)
+        // The exit is a diffuse closure (Cycles' BSSRDF exit).
+        && !ctx.light_excludes(index).diffuse
         && let Some(ls) = ctx.sample_light(index, se.p, u_pt)
     {
         let cos = ls.wi.dot(n_s);

@@ -160,6 +160,7 @@ impl PathState {
                 st.prev_pdf,
                 st.depth == 0,
                 st.prev_tri,
+                &st.light_path,
             );
             any = a;
             if a { w * le } else { Rgb::ZERO }
@@ -250,7 +251,7 @@ impl PathState {
     #[inline]
     pub fn escaped_radiance(&self, ctx: &SceneContext) -> Option<Rgb> {
         let le = ctx.world_radiance(self.dir);
-        let sun = ctx.sun_emission(self.dir, self.prev_pdf, self.depth == 0, self.prev_tri);
+        let sun = ctx.sun_emission(self.dir, self.prev_pdf, self.depth == 0, self.prev_tri, &self.light_path);
         if le == Rgb::ZERO && sun == Rgb::ZERO {
             return None;
         }

@@ -38,6 +38,9 @@ pub struct LightLinking {
     pub blockers: Vec<Option<ReceiverRule>>,
     /// Names of the emitters with a rule, for warnings.
     pub emitters: Vec<String>,
+    /// Per curves object (`Curves::objects`), its object's id: the node of the same name
+    /// (a hair system's emitter mesh), else one past the nodes by its index; empty without rules.
+    pub curve_object: Vec<u32>,
 }
 
 impl LightLinking {
@@ -46,6 +49,17 @@ impl LightLinking {
     pub fn lights(&self, light: usize, tri: u32) -> bool {
         match self.rules.get(light) {
             Some(Some(rule)) => rule.lights(self.tri_object.get(tri as usize).copied().unwrap_or(NO_OBJECT)),
+            _ => true,
+        }
+    }
+
+    /// True when light `light` lights the strands of curves object `curves_object`.
+    #[inline]
+    pub fn lights_curves(&self, light: usize, curves_object: u32) -> bool {
+        match self.rules.get(light) {
+            Some(Some(rule)) => {
+                rule.lights(self.curve_object.get(curves_object as usize).copied().unwrap_or(NO_OBJECT))
+            }
             _ => true,
         }
     }
@@ -81,10 +95,13 @@ mod tests {
             rules: vec![None, Some(include.clone())],
             blockers: vec![Some(include), None],
             emitters: vec![],
+            curve_object: vec![5],
         };
         assert!(l.lights(0, 1) && l.lights(1, 0) && !l.lights(1, 1) && !l.lights(1, NO_OBJECT));
         // Light 0's shadows come from object 2 only; light 1 is blocked by everything.
         assert!(l.blocks(0, 0) && !l.blocks(0, 1) && l.blocks(1, 1));
         assert!(l.shadow_linked(0) && !l.shadow_linked(1) && !l.shadow_linked(7));
+        // Strands of curves object 0 belong to object 5, which light 1 includes.
+        assert!(l.lights_curves(1, 0) && !l.lights_curves(1, 1) && l.lights_curves(0, 3));
     }
 }

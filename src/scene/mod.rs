@@ -7,6 +7,7 @@ pub mod gltf;
 pub mod hit;
 pub mod ids;
 pub mod light_path;
+pub mod light_visibility;
 pub mod linking;
 pub mod material;
 pub mod mesh;
@@ -171,6 +172,9 @@ pub struct LightReport {
     /// The light's Shadow Catcher flag (false: it does not light the catcher pass).
     #[serde(skip)]
     pub lights_catcher: bool,
+    /// The kinds of ray that see the light (its Ray Visibility, `light_visibility`).
+    #[serde(skip)]
+    pub rays: visibility::RayMask,
 }
 
 /// A camera in the report.
@@ -220,6 +224,9 @@ pub struct Scene {
     /// Per light: false for a light whose object is no shadow catcher, which Cycles leaves
     /// out of the catcher pass (`integrator::catcher`); empty when every light lights it.
     pub light_lights_catcher: Vec<bool>,
+    /// Per light: the kinds of ray that see it (Blender's Ray Visibility of a light,
+    /// `light_visibility`); empty when every ray sees every light.
+    pub light_rays: Vec<visibility::RayMask>,
     /// Which rays see each triangle (Blender's per-object Ray Visibility).
     pub ray_visibility: visibility::RayVisibility,
     /// Which objects each light lights (Blender's light linking receivers).

@@ -369,6 +369,9 @@ pub fn world(scene: &mut Scene, color: [f32; 3]) -> Result<Invalidates, String> 
         if !scene.light_lights_catcher.is_empty() {
             scene.light_lights_catcher.push(true);
         }
+        if !scene.light_rays.is_empty() {
+            scene.light_rays.push(crate::scene::visibility::RayMask::ALL);
+        }
     }
     refresh_powers(scene);
     Ok(Invalidates::Shading)

@@ -118,6 +118,9 @@ def test_particle_hair_is_exported_render_evaluated(addon, empty_scene, tmp_path
     assert "CAUSTIC_curves" in doc["extensionsUsed"]
     (obj,) = doc["extensions"]["CAUSTIC_curves"]["objects"]
     assert doc["materials"][obj["material"]]["name"] == "Fur"
+    # The strands belong to their emitter, whose node light linking finds by that name.
+    assert obj["object"] == s.object_name != obj["name"]
+    assert any(n.get("name") == obj["object"] for n in doc["nodes"])
     assert doc["accessors"][obj["counts"]]["count"] == len(s.counts)
     buffer = doc["buffers"][doc["bufferViews"][doc["accessors"][obj["points"]]["bufferView"]]["buffer"]]
     assert os.path.getsize(os.path.join(tmp_path, buffer["uri"])) == buffer["byteLength"]

@@ -128,7 +128,8 @@ def test_vector_pass_matches_cycles(empty_scene, tmp_path):
 def test_motion_is_exported_at_cycles_steps(addon, empty_scene, captured):
     """CAUSTIC_motion in the glTF: Cycles' 3 steps (Motion Steps 1) over a centred half-frame
     shutter, the moving cube's matrices in glTF axes (its frame matrix is the node's own), none
-    for a still object or one whose Motion Blur is off; a deforming object is named."""
+    for a still object or one whose Motion Blur is off; a deforming object's vertex positions
+    at the frame and the steps, in glTF axes, behind accessors on its node."""
     motion = importlib.import_module(addon.__name__ + ".export.motion")
     scene = empty_scene
     build(scene, blur=True)
@@ -152,7 +153,12 @@ def test_motion_is_exported_at_cycles_steps(addon, empty_scene, captured):
     sampled = motion.sample_motion(scene, scene.view_layers[0])
     assert sampled.times == pytest.approx([-0.25, 0.0, 0.25])
     assert set(sampled.matrices) == {"Box"}, sampled.matrices.keys()
-    assert any("'Wobbly'" in w and "deformation" in w for w in sampled.warnings), sampled.warnings
+    assert set(sampled.deformation) == {"Wobbly"}, sampled.deformation.keys()
+    assert not sampled.warnings, sampled.warnings
+    # The squash halves Blender z (glTF y) from 0.75 to 0.625 (ease) around the frame's value.
+    _, reference, steps = sampled.deformation["Wobbly"]
+    assert reference.shape == (8, 3) and len(steps) == 3
+    assert steps[0][:, 1].max() > reference[:, 1].max() > steps[-1][:, 1].max()
     assert scene.frame_current == 2 and scene.frame_subframe == 0.0
 
     (gltf,) = captured()
@@ -167,3 +173,62 @@ def test_motion_is_exported_at_cycles_steps(addon, empty_scene, captured):
     assert first[12] < frame[0][3] < last[12] and first[14] > frame[2][3] > last[14]
     for name in ("Opted", "Still"):
         assert "CAUSTIC_motion" not in node_by_name(gltf, name).get("extensions", {})
+    wobbly_ext = node_by_name(gltf, "Wobbly")["extensions"]["CAUSTIC_motion"]
+    assert wobbly_ext["matrices"] == [wobbly_ext["matrix"]] * 3
+    accessors = gltf["accessors"]
+    assert [accessors[i]["count"] for i in [wobbly_ext["reference"], *wobbly_ext["positions"]]] == [8] * 4
+
+
+def build_squash(scene):
+    """The floor and the light cube, which a Simple Deform modifier stretches along x (about
+    the object's origin), the factor keyed from 0 on frame 1 to 1 on frame 3 (Blender's default
+    Bezier keys, which both renderers sample at their motion steps): from frame 2 a half-frame
+    shutter sweeps the factor by about a third, so the cube's sides at x = ±0.5 (1 + factor)
+    sweep about 0.17, several pixels at 24 mm, while its height and depth shrink by
+    1 / sqrt(1 + factor). A modifier, not a
+    shape key: the exporter writes a mesh without modifiers from its undeformed data (so
+    Caustic warns that it cannot match the deformation of a shape-key-only object)."""
+    scenes.small_render_settings(scene, W, H, samples=SAMPLES)
+    scenes.plane(scene, "Floor", 10.0, material=scenes.diffuse_material("Grey", 0.5))
+    box = scenes.cube(scene, "Box", 1.0, (0.0, 0.0, 0.5), material=scenes.diffuse_material("Light", 0.8))
+    scenes.camera(scene, (0.0, 0.0, 2.8), (0.0, 0.0, 0.0), lens=24.0)
+    scenes.light(scene, "Sun", "SUN", rotation_deg=(25.0, 10.0, 0.0), energy=2.0, angle=0.0)
+    stretch = box.modifiers.new("Stretch", "SIMPLE_DEFORM")
+    stretch.deform_method = "STRETCH"
+    stretch.deform_axis = "X"
+    for frame, factor in ((1, 0.0), (3, 1.0)):
+        stretch.factor = factor
+        box.keyframe_insert('modifiers["Stretch"].factor', frame=frame)
+    scene.frame_set(2)
+    scene.render.use_motion_blur = True
+    scene.render.motion_blur_shutter = 0.5
+    # The shutter opens at the frame: a centred one would blur each edge evenly about its
+    # sharp place, leaving the strips' means where the sharp render has them.
+    scene.render.motion_blur_position = "START"
+    scene.caustic.threads = 0
+    scenes.match_cycles(scene, SAMPLES, BOUNCES)
+
+
+def test_deforming_cube_blurs_as_in_cycles(empty_scene, tmp_path):
+    """Deformation motion blur (a modifier stretching the cube) against Cycles, strip by strip
+    as the sliding cube above (same bound); the sharp render must fall outside the bound
+    somewhere, so the test sees the blur."""
+    scene = empty_scene
+    build_squash(scene)
+    images = {engine: [scenes.render_rgb(scene, engine, s, str(tmp_path / f"{engine}_{s}.exr")).mean(axis=2)
+                       for s in SEEDS] for engine in ("CYCLES", "CAUSTIC")}
+    sharp = scenes.render_rgb(scene_sharp(scene), "CAUSTIC", SEEDS[0], str(tmp_path / "sharp.exr")).mean(axis=2)
+    failures, moved = [], 0.0
+    for k in range(STRIPS):
+        (mc, vc), (my, vy) = (mean_and_variance(*[strip_images(i)[k] for i in images[e]])
+                              for e in ("CAUSTIC", "CYCLES"))
+        sigma = math.sqrt(vc + vy)
+        bound = SIGMAS * sigma + MODEL_ALLOWANCE * my
+        print(f"\n[deformation] strip {k}: caustic {mc:.5f} cycles {my:.5f} ratio {mc / my:.4f} "
+              f"bound {bound:.2e} sharp {strip_images(sharp)[k].mean():.5f}")
+        if abs(mc - my) > bound:
+            failures.append(f"strip {k}: Caustic {mc:.5f}, Cycles {my:.5f}, bound {bound:.2e}")
+        moved = max(moved, abs(strip_images(sharp)[k].mean() - my) / bound)
+    assert not failures, "; ".join(failures)
+    assert moved > 1.0, "the sharp render is within the bound of the blurred one: the scene shows no blur"
+

@@ -24,6 +24,22 @@ impl MixBsdf {
         f
     }
 
+    /// The glass part of [`eval`](Self::eval): the Principled part's and the Glass and
+    /// Refraction lobes'.
+    pub fn eval_glass(&self, wo: Vec3, wi: Vec3) -> Rgb {
+        let mut f = if self.pbr_weight > 0.0 { self.pbr.at(wo).eval_glass(wi) * self.pbr_weight } else { Rgb::ZERO };
+        let (wo, wi, _) = upper(wo, wi);
+        if wo.z <= 0.0 {
+            return f;
+        }
+        for k in 0..self.n as usize {
+            if matches!(self.lobes[k], Lobe::Dielectric(_)) {
+                f += self.weights[k] * self.lobes[k].eval(wo, wi);
+            }
+        }
+        f
+    }
+
     /// Albedo seen from wo per class (diffuse, glossy, transmission), for the Colour passes.
     pub fn class_albedo(&self, wo: Vec3) -> [Rgb; 3] {
         let mut c = if self.pbr_weight > 0.0 {

@@ -34,6 +34,25 @@ impl PbrAt<'_> {
         (f * scaling + b.sheen_eval(&self.fiber, wo, wi)) * self.under
     }
 
+    /// The glass part of [`eval`](Self::eval) (the transmission lobe's reflection and
+    /// refraction, a glass closure to Cycles), with the same sheen and coat scaling.
+    #[inline]
+    pub fn eval_glass(&self, wi: Vec3) -> Rgb {
+        let b = self.b;
+        let wi = if self.flip { Vec3::new(wi.x, wi.y, -wi.z) } else { wi };
+        if b.transmission <= 0.0 || self.wo.z <= 0.0 || wi.z == 0.0 {
+            return Rgb::ZERO;
+        }
+        let scaling = b.sheen_scaling_from(self.sheen_o, wi.z.abs());
+        b.glass.eval(self.wo, wi) * ((1.0 - b.metallic) * b.transmission) * scaling * self.under
+    }
+
+    /// wo as given to [`PbrBsdf::at`] (not flipped).
+    #[inline]
+    pub fn wo_local(&self) -> Vec3 {
+        if self.flip { Vec3::new(self.wo.x, self.wo.y, -self.wo.z) } else { self.wo }
+    }
+
     /// Albedo seen from wo per class (diffuse, glossy, transmission), as Cycles' Colour
     /// passes sum its closures' albedo estimates: the diffuse base (subsurface included,
     /// which Cycles counts as diffuse) under the specular layer, the sheen; the specular

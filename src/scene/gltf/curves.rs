@@ -14,8 +14,12 @@ use serde::Deserialize;
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct CurvesObjectExt {
-    /// Object name, for messages.
+    /// Name, for messages.
     name: String,
+    /// The Blender object the strands belong to (a hair system's emitter, a Curves object),
+    /// which light linking's collections name; `name` when absent.
+    #[serde(default)]
+    object: Option<String>,
     /// glTF material index; the default material when absent.
     material: Option<u32>,
     /// VEC3 float accessor: control points, world space, glTF axes.
@@ -215,6 +219,7 @@ impl Loader<'_> {
                 return Err(self.err(format!("{what}: more than 2^31 control points in the scene")));
             }
             curves.objects.push(obj.name.clone());
+            curves.object_names.push(obj.object.clone().unwrap_or_else(|| obj.name.clone()));
         }
         for w in warnings {
             self.warn(w);
@@ -222,4 +227,23 @@ impl Loader<'_> {
         curves.build();
         Ok(curves)
     }
+}
+
+/// Each `CAUSTIC_curves` object's Blender object (its `object`, else its `name`) and that
+/// object's id for light linking: the first node of that name (a hair system's emitter mesh),
+/// else one past the nodes by the curves object's index (a Curves object has no node).
+pub(super) fn object_ids(value: &serde_json::Value, doc: &gltf::Document) -> Vec<(String, u32)> {
+    let objects = value.pointer("/extensions/CAUSTIC_curves/objects").and_then(|o| o.as_array());
+    let nodes = doc.nodes().count() as u32;
+    objects
+        .into_iter()
+        .flatten()
+        .enumerate()
+        .map(|(k, o)| {
+            let name = o.get("object").or_else(|| o.get("name")).and_then(|n| n.as_str()).unwrap_or("").to_string();
+            let id =
+                doc.nodes().find(|n| n.name() == Some(name.as_str())).map_or(nodes + k as u32, |n| n.index() as u32);
+            (name, id)
+        })
+        .collect()
 }

@@ -22,6 +22,35 @@ pub(super) struct AreaLightExt {
     /// The light object's Shadow Catcher flag: false leaves it out of the catcher pass.
     #[serde(default = "yes")]
     pub(super) shadow_catcher: bool,
+    /// The light's Ray Visibility beyond Camera (`scene::light_visibility`): each kind of
+    /// bounce finds the light unless its flag is false.
+    #[serde(default = "yes")]
+    pub(super) diffuse_visible: bool,
+    #[serde(default = "yes")]
+    pub(super) glossy_visible: bool,
+    #[serde(default = "yes")]
+    pub(super) transmission_visible: bool,
+    #[serde(default = "yes")]
+    pub(super) volume_scatter_visible: bool,
+}
+
+/// The kinds of ray that see a light whose Ray Visibility flags beyond Camera are these
+/// (camera and shadow rays always: the camera flag is `camera_visible`, and Cycles gives
+/// lights no shadow visibility).
+pub(super) fn light_rays(
+    diffuse: bool,
+    glossy: bool,
+    transmission: bool,
+    volume: bool,
+) -> crate::scene::visibility::RayMask {
+    use crate::scene::visibility::RayMask;
+    let flags = [
+        (diffuse, RayMask::DIFFUSE),
+        (glossy, RayMask::GLOSSY),
+        (transmission, RayMask::TRANSMISSION),
+        (volume, RayMask::VOLUME),
+    ];
+    RayMask(flags.iter().filter(|(on, _)| *on).fold(RayMask::CAMERA.0 | RayMask::SHADOW.0, |m, (_, k)| m | k.0))
 }
 
 fn half_turn() -> f32 {
@@ -150,6 +179,16 @@ pub(super) struct BlenderLight {
     /// The light object's Shadow Catcher flag: false leaves it out of the catcher pass.
     #[serde(default = "yes")]
     pub(super) shadow_catcher: bool,
+    /// The light's Ray Visibility beyond Camera (`scene::light_visibility`): each kind of
+    /// bounce finds the light unless its flag is false.
+    #[serde(default = "yes")]
+    pub(super) diffuse_visible: bool,
+    #[serde(default = "yes")]
+    pub(super) glossy_visible: bool,
+    #[serde(default = "yes")]
+    pub(super) transmission_visible: bool,
+    #[serde(default = "yes")]
+    pub(super) volume_scatter_visible: bool,
 }
 
 impl Default for BlenderLight {
@@ -162,6 +201,10 @@ impl Default for BlenderLight {
             camera_visible: true,
             cast_shadow: true,
             shadow_catcher: true,
+            diffuse_visible: true,
+            glossy_visible: true,
+            transmission_visible: true,
+            volume_scatter_visible: true,
         }
     }
 }

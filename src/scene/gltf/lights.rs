@@ -2,7 +2,7 @@
 //! `CAUSTIC_lights_area`, emissive triangles, and each light's power for light selection.
 
 use super::emission::{MeanPyramid, pyramid_bytes};
-use super::extensions::{AreaLightExt, BlenderLight};
+use super::extensions::{AreaLightExt, BlenderLight, light_rays};
 use super::{LUMENS_PER_WATT, Loader};
 use crate::error::Result;
 use crate::light::{AreaLight, AreaShape, Light};
@@ -97,6 +97,12 @@ impl Loader<'_> {
                 triangles: 0,
                 cast_shadow: bl.cast_shadow,
                 lights_catcher: bl.shadow_catcher,
+                rays: light_rays(
+                    bl.diffuse_visible,
+                    bl.glossy_visible,
+                    bl.transmission_visible,
+                    bl.volume_scatter_visible,
+                ),
             },
         ))
     }
@@ -156,6 +162,12 @@ impl Loader<'_> {
                     triangles: 0,
                     cast_shadow: a.cast_shadow,
                     lights_catcher: a.shadow_catcher,
+                    rays: light_rays(
+                        a.diffuse_visible,
+                        a.glossy_visible,
+                        a.transmission_visible,
+                        a.volume_scatter_visible,
+                    ),
                 },
             ))),
             None => {
@@ -233,6 +245,7 @@ impl Loader<'_> {
                 triangles: count,
                 cast_shadow: true,
                 lights_catcher: true,
+                rays: crate::scene::visibility::RayMask::ALL,
             });
         }
         Ok(())

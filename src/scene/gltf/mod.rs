@@ -16,9 +16,11 @@
 mod buffers;
 mod cameras;
 mod curves;
+mod deformation;
 mod emission;
 mod extensions;
 mod gpu_instancing;
+mod light_linking;
 mod lights;
 mod material_ext;
 mod materials;
@@ -42,7 +44,7 @@ use crate::light::Light;
 use crate::memory::MemoryBudget;
 use crate::scene::linking::{LightLinking, ReceiverRule};
 use cameras::frame_bounds;
-use extensions::{LightLinkingExt, ObjectVisibilityExt};
+use extensions::ObjectVisibilityExt;
 use glam::{Vec2, Vec3};
 use gltf::json;
 use lights::punctual_power;
@@ -291,6 +293,7 @@ impl<'a> Loader<'a> {
         // Lights whose Cast Shadow is off, by index in `lights`.
         let mut shadowless = Vec::new();
         let mut no_catcher = Vec::new();
+        let mut hidden_lights = Vec::new();
         let mut light_reports = Vec::new();
         let mut used_meshes = std::collections::HashSet::new();
         let mut instance_count = 0;
@@ -338,7 +341,7 @@ impl<'a> Loader<'a> {
             let rule = match node.extension_value("CAUSTIC_light_linking") {
                 Some(ext) => {
                     linking.emitters.push(node_name.clone());
-                    Some(self.receiver_rule(&doc, *node_index, &node_name, ext)?)
+                    Some(self.receiver_rule(&value, &doc, *node_index, &node_name, ext)?)
                 }
                 None => None,
             };
@@ -406,6 +409,9 @@ impl<'a> Loader<'a> {
                 if !rep.lights_catcher {
                     no_catcher.push(lights.len());
                 }
+                if rep.rays != crate::scene::visibility::RayMask::ALL {
+                    hidden_lights.push((lights.len(), rep.rays));
+                }
                 if let Some(r) = &rule {
                     light_rules.push((lights.len(), r.clone()));
                 }
@@ -418,8 +424,14 @@ impl<'a> Loader<'a> {
         }
         ray_visibility.finish(mesh.triangles.len());
         let curves = self.curves(&value, &doc, &buffers, &mut materials, default_material)?;
-        if mesh.triangles.is_empty() {
-            return Err(self.err("nothing to render: the scene has no triangles (no mesh, or only points/lines)"));
+        if linked {
+            linking.curve_object = curves::object_ids(&value, &doc).into_iter().map(|(_, id)| id).collect();
+        }
+        // Strands alone are a scene (their BVH stands beside an empty triangle BVH).
+        if mesh.triangles.is_empty() && curves.is_empty() {
+            return Err(
+                self.err("nothing to render: the scene has no triangles and no curves (no mesh, or only points/lines)")
+            );
         }
 
         // Bounds.
@@ -443,6 +455,9 @@ impl<'a> Loader<'a> {
                 }
                 if !rep.lights_catcher {
                     no_catcher.push(lights.len());
+                }
+                if rep.rays != crate::scene::visibility::RayMask::ALL {
+                    hidden_lights.push((lights.len(), rep.rays));
                 }
                 if let Some(r) = rule {
                     light_rules.push((lights.len(), r));
@@ -469,6 +484,7 @@ impl<'a> Loader<'a> {
                     triangles: 0,
                     cast_shadow: true,
                     lights_catcher: true,
+                    rays: crate::scene::visibility::RayMask::ALL,
                 });
             } else {
                 self.warn("the world is black: it lights nothing");
@@ -524,7 +540,8 @@ impl<'a> Loader<'a> {
         if degenerate > 0 {
             self.warn(format!("{degenerate} degenerate (zero-area) triangle(s) were dropped"));
         }
-        let motion = self.motion(&value, &doc, &mesh, &instances_out, &span_nodes, &mut cameras, &camera_nodes)?;
+        let motion =
+            self.motion(&value, &doc, &buffers, &mesh, &instances_out, &span_nodes, &mut cameras, &camera_nodes)?;
         if let Some(m) = motion.as_ref().filter(|m| m.blurs()) {
             // The scene's bounds hold every moving triangle at every step.
             for p in m.corners.iter().flatten() {
@@ -573,6 +590,14 @@ impl<'a> Loader<'a> {
         for i in shadowless {
             light_casts_shadow[i] = false;
         }
+        // Only with a light hidden from some kind of ray (empty: every ray sees every light).
+        let mut light_rays = Vec::new();
+        if !hidden_lights.is_empty() {
+            light_rays = vec![crate::scene::visibility::RayMask::ALL; lights.len()];
+            for (i, mask) in hidden_lights {
+                light_rays[i] = mask;
+            }
+        }
         let mut light_lights_catcher = Vec::new();
         if !no_catcher.is_empty() {
             light_lights_catcher = vec![true; lights.len()];
@@ -594,6 +619,7 @@ impl<'a> Loader<'a> {
             grids,
             light_casts_shadow,
             light_lights_catcher,
+            light_rays,
             ray_visibility,
             light_linking: linking,
             settings,
@@ -605,32 +631,6 @@ impl<'a> Loader<'a> {
             instances: instances_out,
             motion,
         })
-    }
-
-    /// `CAUSTIC_light_linking` on emitter node `node_index`: its receivers and its blockers
-    /// by node name (every node of that name: an object's instances share it); names not in
-    /// the file (objects not rendered) are left out.
-    fn receiver_rule(
-        &self,
-        doc: &gltf::Document,
-        node_index: usize,
-        node_name: &str,
-        ext: &serde_json::Value,
-    ) -> Result<Links> {
-        let ext: LightLinkingExt = serde_json::from_value(ext.clone())
-            .map_err(|e| self.err(format!("node {node_index} ('{node_name}'): bad CAUSTIC_light_linking: {e}")))?;
-        let rule = |names: &Option<Vec<String>>, include: bool| {
-            names.as_ref().map(|names| {
-                let mut objects: Vec<u32> = doc
-                    .nodes()
-                    .filter(|n| n.name().is_some_and(|name| names.iter().any(|r| r == name)))
-                    .map(|n| n.index() as u32)
-                    .collect();
-                objects.sort_unstable();
-                ReceiverRule { include, objects }
-            })
-        };
-        Ok((rule(&ext.receivers, ext.include), rule(&ext.blockers, ext.blockers_include)))
     }
 
     /// The material of primitives that name none: `CAUSTIC_default_material`'s (the add-on

@@ -2,9 +2,11 @@
 //! moving node's world matrices at the steps. Moving meshes' triangles are baked at the
 //! steps (and at sub-steps where a step turns more than `MAX_STEP_ANGLE`, so that the
 //! linear blend of corners between steps follows Cycles' decomposed interpolation to
-//! within a small chord error); a moving camera keeps its decomposed frames.
+//! within a small chord error), their vertices deformed first when the node carries
+//! deformation (`deformation.rs`); a moving camera keeps its decomposed frames.
 
 use super::Loader;
+use super::deformation::{Deformation, normal_turn};
 use crate::error::Result;
 use crate::motion::transform::Decomposed;
 use crate::motion::{CameraMotion, SceneMotion, Shutter, segment};
@@ -51,6 +53,13 @@ struct NodeMotionExt {
     matrix: [f32; 16],
     /// The world matrix at each step time.
     matrices: Vec<[f32; 16]>,
+    /// Deformation: the accessor of the object's vertex positions at the frame
+    /// (`deformation.rs`).
+    #[serde(default)]
+    reference: Option<usize>,
+    /// Deformation: one accessor of vertex positions per step time.
+    #[serde(default)]
+    positions: Option<Vec<usize>>,
 }
 
 impl Loader<'_> {
@@ -62,6 +71,7 @@ impl Loader<'_> {
         &mut self,
         value: &serde_json::Value,
         doc: &gltf::Document,
+        buffers: &[Vec<u8>],
         mesh: &Mesh,
         spans: &[InstanceSpan],
         span_nodes: &[usize],
@@ -103,6 +113,7 @@ impl Loader<'_> {
         };
         // Every node's matrices, checked.
         let mut node_steps = std::collections::HashMap::new();
+        let mut node_deform: std::collections::HashMap<usize, Deformation> = Default::default();
         for n in 0..doc.nodes().count() {
             let Some(v) = node_ext(n) else { continue };
             let e: NodeMotionExt = serde_json::from_value(v.clone())
@@ -119,6 +130,18 @@ impl Loader<'_> {
             let invertible = |m: &Mat4| m.is_finite() && Mat3::from_mat4(*m).determinant().abs() > 1e-30;
             if !invertible(&reference) || !steps.iter().all(invertible) {
                 return Err(self.err(format!("node {n}: CAUSTIC_motion matrices must be finite and invertible")));
+            }
+            match (e.reference, &e.positions) {
+                (Some(r), Some(p)) => {
+                    let d = self.deformation(n, doc, buffers, r, p, times.len())?;
+                    node_deform.insert(n, d);
+                }
+                (None, None) => {}
+                _ => {
+                    return Err(
+                        self.err(format!("node {n}: CAUSTIC_motion needs both reference and positions, or neither"))
+                    );
+                }
             }
             if steps.iter().any(|m| *m != reference) {
                 node_steps.insert(n, (reference, steps));
@@ -144,17 +167,40 @@ impl Loader<'_> {
                 cam.motion = Some(CameraMotion::new(times.clone(), steps, reference));
             }
         }
-        // Moving meshes: their decomposed steps, and the baking grid.
-        let moving: Vec<(&InstanceSpan, Mat4, Vec<Decomposed>)> = spans
-            .iter()
-            .zip(span_nodes)
-            .filter_map(|(s, &n)| {
-                let (r, st) = node_steps.get(&moving_ancestor(n)?)?;
-                Some((s, r.inverse(), st.iter().map(Decomposed::new).collect()))
-            })
-            .collect();
+        // Moving meshes: their decomposed steps (none: the transform stays), their
+        // deformation (its source vertex per mesh vertex), and the baking grid.
+        type Moving<'s> = (&'s InstanceSpan, Mat4, Vec<Decomposed>, Option<(&'s Deformation, Vec<u32>)>);
+        let mut moving: Vec<Moving> = Vec::new();
+        for (s, &n) in spans.iter().zip(span_nodes) {
+            let transform = moving_ancestor(n).and_then(|a| node_steps.get(&a));
+            let deform = match node_deform.get(&n) {
+                Some(d) => {
+                    let v = s.vertices.start as usize..s.vertices.end as usize;
+                    match d.vertex_map(&s.world, &mesh.positions[v]) {
+                        Some(map) => Some((d, map)),
+                        None => {
+                            self.warn(format!(
+                                "object '{}': its deformation positions do not match its mesh at the frame; deformation \
+                                 motion blur is not rendered (it blurs by its transform only)",
+                                s.name
+                            ));
+                            None
+                        }
+                    }
+                }
+                None => None,
+            };
+            if transform.is_none() && deform.is_none() {
+                continue;
+            }
+            let (inv, decomposed) = match transform {
+                Some((r, st)) => (r.inverse(), st.iter().map(Decomposed::new).collect()),
+                None => (Mat4::IDENTITY, Vec::new()),
+            };
+            moving.push((s, inv, decomposed, deform));
+        }
         let mut per_segment = vec![1usize; times.len() - 1];
-        for (_, _, d) in &moving {
+        for (_, _, d, _) in moving.iter().filter(|m| !m.2.is_empty()) {
             for (i, sub) in per_segment.iter_mut().enumerate() {
                 let need = (d[i].angle_to(&d[i + 1]) / MAX_STEP_ANGLE).ceil() as usize;
                 *sub = (*sub).max(need);
@@ -181,24 +227,38 @@ impl Loader<'_> {
             slot: vec![crate::motion::STATIC; mesh.triangles.len()],
             ..Default::default()
         };
-        for (span, reference_inv, decomposed) in &moving {
+        for (span, reference_inv, decomposed, deform) in &moving {
             motion.objects.push(span.name.clone());
-            // The motion from the frame to each baked time: D(t) = M(t) M(0)⁻¹.
-            let deltas: Vec<(Mat4, Mat3)> = grid
+            // The motion from the frame to each baked time: D(t) = M(t) M(0)⁻¹ (identity for
+            // a node that only deforms), and the step segment of each time.
+            let deltas: Vec<(Mat4, Mat3, (usize, f32))> = grid
                 .iter()
                 .map(|&t| {
-                    let (i, f) = segment(&times, t);
-                    let d = decomposed[i].lerp(&decomposed[i + 1], f).matrix() * *reference_inv;
-                    (d, Mat3::from_mat4(d).inverse().transpose())
+                    let seg = segment(&times, t);
+                    let d = match decomposed.is_empty() {
+                        true => Mat4::IDENTITY,
+                        false => decomposed[seg.0].lerp(&decomposed[seg.0 + 1], seg.1).matrix() * *reference_inv,
+                    };
+                    (d, Mat3::from_mat4(d).inverse().transpose(), seg)
                 })
                 .collect();
+            let v0 = span.vertices.start as usize;
             for tri in span.triangles.clone() {
                 motion.slot[tri as usize] = motion.triangles.len() as u32;
                 motion.triangles.push(tri);
                 let v = mesh.triangles[tri as usize].map(|i| i as usize);
-                for (d, n) in &deltas {
-                    motion.corners.push(v.map(|i| d.transform_point3(mesh.positions[i])));
-                    motion.normals.push(v.map(|i| (*n * mesh.normals[i]).normalize_or(Vec3::Z)));
+                let frame = v.map(|i| mesh.positions[i]);
+                for (d, n, (i, f)) in &deltas {
+                    // The deformed corners at the frame's transform, then the transform's motion.
+                    let (at_frame, turn) = match deform {
+                        Some((def, map)) => {
+                            let c = v.map(|k| span.world.transform_point3(def.at(map[k - v0], *i, *f)));
+                            (c, normal_turn(frame, c))
+                        }
+                        None => (frame, glam::Quat::IDENTITY),
+                    };
+                    motion.corners.push(at_frame.map(|p| d.transform_point3(p)));
+                    motion.normals.push(v.map(|k| (*n * (turn * mesh.normals[k])).normalize_or(Vec3::Z)));
                 }
             }
         }
