@@ -145,9 +145,9 @@ use vertex::*;
 /// Per-worker scratch memory, reused for every sample (nothing is allocated per sample).
 #[derive(Debug, Default)]
 pub struct BdptScratch {
-    cam: Vec<Vertex>,
-    light: Vec<Vertex>,
-    dens: Box<PathDensities>,
+    pub(crate) cam: Vec<Vertex>,
+    pub(crate) light: Vec<Vertex>,
+    pub(crate) dens: Box<PathDensities>,
 }
 
 impl BdptScratch {
@@ -170,7 +170,7 @@ pub struct FilmTarget<'a> {
 
 /// The light subpath's sample stream: an independent scramble of the pixel's Sobol points.
 #[inline]
-fn light_sampler(seed: u32, px: u32, py: u32, index: u32) -> PixelSampler {
+pub(crate) fn light_sampler(seed: u32, px: u32, py: u32, index: u32) -> PixelSampler {
     PixelSampler::new(hash_combine(&[seed, 0x4c49_4748]), px, py, index)
 }
 

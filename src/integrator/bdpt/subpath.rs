@@ -9,7 +9,7 @@ impl BdptIntegrator {
     /// Traces the camera subpath into `scratch.cam`, adding every s = 0 contribution
     /// (emitters found by the path) to `radiance`.
     #[allow(clippy::too_many_arguments)]
-    pub(super) fn camera_subpath(
+    pub(crate) fn camera_subpath(
         &self,
         ctx: &SceneContext,
         ray: &CameraRay,
@@ -375,7 +375,7 @@ impl BdptIntegrator {
     }
 
     /// Traces the light subpath into `scratch.light`.
-    pub(super) fn light_subpath(
+    pub(crate) fn light_subpath(
         &self,
         ctx: &SceneContext,
         ls: &mut PixelSampler,
