@@ -9,8 +9,9 @@
 //! strategy s is p_s² / Σ_j p_j², summed over the strategies that can make the path.
 //!
 //! Vertices reached through a delta lobe store densities of 0, counted as 1 in the
-//! ratios (their delta factor is common to every strategy that can sample them), and
-//! no strategy may connect at them. Any choice of densities gives weights that sum to 1
+//! ratios (their delta factor is common to every strategy that can sample them), or with
+//! `BdptIntegrator::delta_geometry` (VCM) their geometric factor alone; no strategy may
+//! connect at them. Any choice of densities gives weights that sum to 1
 //! over the strategies as long as every strategy evaluates the same function of the
 //! path, which is what makes the estimator unbiased; the densities only decide how well
 //! the strategies are combined.

@@ -74,6 +74,13 @@ pub struct BdptIntegrator {
     pub strategy: Option<Strategy>,
     /// The lights as subpath origins.
     pub lights: Arc<BdptLights>,
+    /// A vertex reached through a delta lobe keeps its geometric factor |cos| / d² as its
+    /// density (the delta's solid-angle density counted as 1, SmallVCM's convention)
+    /// instead of 0 (pbrt's, whole density counted as 1). Both give weights that sum to 1;
+    /// VCM needs the geometry: merging at a diffuse vertex between two specular ones is
+    /// weighed against s = 0 by distances that dropping it would lose (caustics seen
+    /// through glass turned to fireflies). False for BDPT, whose images it would change.
+    pub delta_geometry: bool,
 }
 
 impl BdptIntegrator {
@@ -91,6 +98,7 @@ impl BdptIntegrator {
             transparent_background,
             strategy,
             lights: Arc::new(BdptLights::new(scene)),
+            delta_geometry: false,
         }
     }
 
@@ -117,6 +125,18 @@ impl BdptIntegrator {
             transparent_background: self.transparent_background,
             light_passes: false,
         }
+    }
+
+    /// The solid-angle density a delta lobe's direction is given in the MIS densities.
+    #[inline]
+    fn delta_solid_angle(&self) -> f32 {
+        if self.delta_geometry { 1.0 } else { 0.0 }
+    }
+
+    /// The area density of vertex `v` reached from `from` through a delta lobe.
+    #[inline]
+    fn delta_area(&self, v: &Vertex, from: Vec3) -> f32 {
+        v.area_density(self.delta_solid_angle(), from)
     }
 
     #[inline]

@@ -16,6 +16,8 @@ pub struct MergeRecord {
     pub p: Vec3,
     /// Unit direction toward the previous vertex of its light subpath.
     pub wo: Vec3,
+    /// Geometric normal (either side).
+    pub ng: Vec3,
     /// Light throughput arriving here divided by the densities (BDPT's `beta`).
     pub beta: Rgb,
     /// The light subpath's share of the merge weight.
@@ -67,6 +69,7 @@ pub(crate) fn push_records(scene: &Scene, light: &[Vertex], eta: f32, out: &mut 
             out.push(MergeRecord {
                 p: v.p,
                 wo: v.wo,
+                ng: v.ng,
                 beta: v.beta,
                 side: rec.side(v.pdf_fwd),
                 g: light[i - 1].area_density(1.0, v.p),
@@ -111,6 +114,15 @@ pub(crate) fn merge_camera_path(cam: &[Vertex], map: &MergeMap, camera_connectib
             |i| map.records[i as usize].p,
             |i| {
                 let y = &map.records[i as usize];
+                // Another surface within r (an edge, a corner, a face seen at a grazing
+                // angle) is not this one: its light is not merged here (SPPM's 60° rule, on
+                // either side so that light a thin surface transmits still merges). As
+                // r → 0 only points of the same surface remain, so the weights, which
+                // assume merging can make every path through a non-delta vertex, stay right.
+                let c = y.ng.dot(hit.ng);
+                if c * c < 0.25 {
+                    return;
+                }
                 if y.m > m_max {
                     return;
                 }

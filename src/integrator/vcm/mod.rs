@@ -75,7 +75,11 @@ impl VcmIntegrator {
         mode: VcmMode,
         radius: Option<f32>,
     ) -> Self {
-        VcmIntegrator { bdpt: BdptIntegrator::new(scene, max_depth, transparent_background, None), mode, radius }
+        let bdpt = BdptIntegrator {
+            delta_geometry: mode == VcmMode::Full,
+            ..BdptIntegrator::new(scene, max_depth, transparent_background, None)
+        };
+        VcmIntegrator { bdpt, mode, radius }
     }
 
     /// Human-readable description.
