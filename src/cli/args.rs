@@ -311,7 +311,7 @@ pub struct RenderArgs {
     /// the camera included), MIS-weighted, or unweighted with S,T,unweighted.
     #[arg(long, value_name = "S,T[,unweighted]", value_parser = parse_strategy)]
     pub bdpt_strategy: Option<crate::integrator::bdpt::Strategy>,
-    /// VCM's initial merging radius in scene units [default: 3 pixel footprints at the first hits, bounded by the scene's size].
+    /// VCM's initial merging radius in scene units [default: 1 pixel footprint at the first hits, bounded by the scene's size].
     #[arg(long, value_name = "R")]
     pub vcm_radius: Option<f32>,
     /// Debugging (vcm): `connect` renders the connections alone (BDPT, bit for bit) [default: full].
