@@ -47,8 +47,8 @@ pub const VCM_ALPHA: f32 = 0.75;
 /// merges only where MIS prefers it, so a smaller radius costs it less noise, and its
 /// bias (light lost where the disk overhangs an edge) is proportional to r. Measured
 /// (bench/integrators.py, 10 s, 128x96, Cornell box, one run): 3 footprints (r = 0.024)
-/// left blocks 1-8 % dark, relMSE 2.2x the path tracer's; 1 footprint (r = 0.008) blocks
-/// within 1 % at the same relMSE; on the glass caustic 0.14x and 0.13x the path tracer's.
+/// left blocks 1-8 % dark, relMSE 2.2x the path tracer's; one footprint (r = 0.0058) blocks
+/// within 1 %, 1.75x; on the glass caustic 0.14x and 0.137x (docs/benchmarks.md).
 pub const VCM_RADIUS_FOOTPRINTS: f32 = 1.0;
 
 /// Which strategies to combine (debugging and tests).
