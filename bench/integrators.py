@@ -3,7 +3,7 @@
 Usage (numpy from the project's venv; the binary from `cargo build --release`):
 
     .venv/bin/python bench/integrators.py [--scenes cornell_box,glass_caustic,door_ajar]
-        [--integrators path,bdpt] [--resolution 160x120] [--seconds 20] [--ref-seconds 300]
+        [--integrators path,bdpt,vcm] [--resolution 160x120] [--seconds 20] [--ref-seconds 300]
         [--threads 2] [--binary target/release/caustic] [--out results/integrators]
         [--variant 'LABEL=INTEGRATOR FLAGS...'] [--reuse-ref] [--repeats N]
 
@@ -71,7 +71,7 @@ def rel_mse(x, ref):
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--scenes", default="cornell_box,glass_caustic,door_ajar")
-    ap.add_argument("--integrators", default="path,bdpt")
+    ap.add_argument("--integrators", default="path,bdpt,vcm")
     ap.add_argument("--ref-integrator", default="bdpt")
     ap.add_argument("--resolution", default="160x120")
     ap.add_argument("--seconds", type=float, default=20.0)

@@ -16,6 +16,9 @@ INTEGRATORS = [
      "(fast, smooth caustics; slightly biased)"),
     ("sppm", "Progressive Photon Mapping", "Stochastic progressive photon mapping: consistent, converges "
      "to the path-traced image; Samples sets the number of iterations"),
+    ("vcm", "Vertex Connection and Merging", "Bidirectional path tracing and photon merging combined by MIS "
+     "(consistent; diffuse light like BDPT, caustics like photon mapping): the integrator to pick when "
+     "unsure. Samples sets the number of iterations"),
 ]
 
 

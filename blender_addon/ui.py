@@ -79,7 +79,8 @@ class CAUSTIC_PT_render(CausticButtonsPanel, bpy.types.Panel):
             layout.prop(settings, "photons")
             layout.prop(settings, "caustic_photons")
         row = layout.row(heading="Noise Threshold")
-        row.active = settings.integrator != "sppm"
+        # SPPM and VCM iterate over every pixel together: no pixel can stop on its own.
+        row.active = settings.integrator not in {"sppm", "vcm"}
         row.prop(settings, "use_adaptive_sampling", text="")
         sub = row.row()
         sub.active = settings.use_adaptive_sampling

@@ -2,16 +2,12 @@
 //! image, BDPT agrees with the path tracer on the Cornell box, the glass caustic scene and
 //! scenes with every light type, the emissive furnace is exact, and the settings are checked.
 //!
-//! How the bounds are derived: light tracing splats one light path onto many pixels, so
-//! pixels of one render are correlated and a per-pixel standard error would understate
-//! the noise. Each estimate is therefore rendered with K independent seeds; the standard
-//! error of a region's mean comes from the spread of its K means, and two estimates agree
-//! when their difference is within a Student-t quantile (Welch's degrees of freedom) at a
-//! false-alarm rate of 10⁻³ per test, split over the comparisons of the test (Šidák).
+//! The statistics (`common::agreement`): K seeds per estimate, Welch's test per region, Šidák's split.
 
 mod common;
 
-use common::{GltfBuilder, emissive_furnace, look_rotation, render_image, root, run, temp_dir};
+use common::agreement::{agree, mean_var, regions, sidak};
+use common::{GltfBuilder, emissive_furnace, look_rotation, root, run, temp_dir};
 use serde_json::json;
 use statrs::distribution::{ContinuousCDF, StudentsT};
 use std::path::{Path, PathBuf};
@@ -19,11 +15,7 @@ use std::time::Duration;
 
 const LIMIT: Duration = Duration::from_secs(300);
 
-fn render(scene: &Path, out: &Path, extra: &[&str]) -> Vec<[f32; 4]> {
-    render_image(scene, out, extra, LIMIT)
-}
-
-/// Mean luminance-like value (channel mean) of each region, for K seeds.
+/// Channel means of each region, for K seeds.
 fn region_means(
     scene: &Path,
     dir: &Path,
@@ -31,57 +23,7 @@ fn region_means(
     seeds: u32,
     regions: &[(String, Vec<usize>)],
 ) -> Vec<Vec<f64>> {
-    let mut out = vec![Vec::new(); regions.len()];
-    for seed in 0..seeds {
-        let mut args: Vec<&str> = extra.to_vec();
-        let s = (seed * 7919 + 13).to_string();
-        args.extend_from_slice(&["--seed", &s]);
-        let px = render(scene, &dir.join("r.exr"), &args);
-        for (k, (_, idx)) in regions.iter().enumerate() {
-            let m = idx.iter().map(|&i| (px[i][0] + px[i][1] + px[i][2]) as f64 / 3.0).sum::<f64>() / idx.len() as f64;
-            out[k].push(m);
-        }
-    }
-    out
-}
-
-fn mean_var(v: &[f64]) -> (f64, f64) {
-    let n = v.len() as f64;
-    let m = v.iter().sum::<f64>() / n;
-    (m, v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0))
-}
-
-/// Welch's test: |mean(a) - mean(b)| within the t quantile at two-sided level `alpha`.
-fn agree(name: &str, a: &[f64], b: &[f64], alpha: f64) -> bool {
-    let (ma, va) = mean_var(a);
-    let (mb, vb) = mean_var(b);
-    let (sa, sb) = (va / a.len() as f64, vb / b.len() as f64);
-    let se = (sa + sb).sqrt();
-    let dof = (sa + sb).powi(2) / (sa * sa / (a.len() as f64 - 1.0) + sb * sb / (b.len() as f64 - 1.0));
-    let t = StudentsT::new(0.0, 1.0, dof.max(1.0)).unwrap().inverse_cdf(1.0 - alpha / 2.0);
-    let ok = (ma - mb).abs() <= t * se;
-    eprintln!(
-        "{name}: {ma:.5} vs {mb:.5} (ratio {:.4}), diff {:.2e}, bound {:.2e} (t {t:.2}, dof {dof:.1})",
-        ma / mb,
-        (ma - mb).abs(),
-        t * se
-    );
-    ok
-}
-
-/// Per-comparison level for a test making `n` comparisons at overall level 10⁻³.
-fn sidak(n: usize) -> f64 {
-    1.0 - (1.0 - 1e-3f64).powf(1.0 / n as f64)
-}
-
-/// Whole image and quadrants of a w×h image.
-fn regions(w: usize, h: usize) -> Vec<(String, Vec<usize>)> {
-    let mut out = vec![("whole".to_string(), (0..w * h).collect::<Vec<_>>())];
-    for (qy, qx) in [(0, 0), (0, 1), (1, 0), (1, 1)] {
-        let idx = (0..w * h).filter(|i| (i / w) * 2 / h == qy && (i % w) * 2 / w == qx).collect();
-        out.push((format!("quadrant {qy}{qx}"), idx));
-    }
-    out
+    common::agreement::region_means(scene, dir, extra, seeds, regions, LIMIT)
 }
 
 fn cornell() -> PathBuf {

@@ -89,6 +89,13 @@ fn bdpt_chunks_merge_exactly() {
     chunks_equal_single(&["--integrator", "bdpt", "--max-depth", "4", "--crop", "4,2,20,14"]);
 }
 
+/// VCM's radius follows the global iteration (the sample index), so chunks take exactly
+/// the merges a single render takes at those samples.
+#[test]
+fn vcm_chunks_merge_exactly() {
+    chunks_equal_single(&["--integrator", "vcm", "--max-depth", "4"]);
+}
+
 #[test]
 fn photon_mapping_chunks_share_the_map_and_merge_exactly() {
     // Every chunk traces the same maps from the seed: the frame's map is shared.

@@ -188,6 +188,9 @@ pub enum IntegratorKind {
     Sppm,
     /// Bidirectional path tracing with MIS over all strategies.
     Bdpt,
+    /// Vertex connection and merging: BDPT and photon merging combined by MIS
+    /// (consistent; the integrator to pick when unsure).
+    Vcm,
 }
 
 impl IntegratorKind {
@@ -198,6 +201,25 @@ impl IntegratorKind {
             IntegratorKind::Photon => "photon",
             IntegratorKind::Sppm => "sppm",
             IntegratorKind::Bdpt => "bdpt",
+            IntegratorKind::Vcm => "vcm",
+        }
+    }
+}
+
+/// VCM's strategies (`--vcm-mode`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum VcmModeArg {
+    /// Connections and merging.
+    Full,
+    /// Connections only (BDPT).
+    Connect,
+}
+
+impl From<VcmModeArg> for crate::integrator::vcm::VcmMode {
+    fn from(a: VcmModeArg) -> Self {
+        match a {
+            VcmModeArg::Full => crate::integrator::vcm::VcmMode::Full,
+            VcmModeArg::Connect => crate::integrator::vcm::VcmMode::Connect,
         }
     }
 }
@@ -289,6 +311,12 @@ pub struct RenderArgs {
     /// the camera included), MIS-weighted, or unweighted with S,T,unweighted.
     #[arg(long, value_name = "S,T[,unweighted]", value_parser = parse_strategy)]
     pub bdpt_strategy: Option<crate::integrator::bdpt::Strategy>,
+    /// VCM's initial merging radius in scene units [default: 1 pixel footprint at the first hits, bounded by the scene's size].
+    #[arg(long, value_name = "R")]
+    pub vcm_radius: Option<f32>,
+    /// Debugging (vcm): `connect` renders the connections alone (BDPT, bit for bit) [default: full].
+    #[arg(long, value_enum, value_name = "MODE")]
+    pub vcm_mode: Option<VcmModeArg>,
     /// Rewrite the output every SECONDS while rendering.
     #[arg(long, value_name = "SECONDS")]
     pub interim: Option<f64>,

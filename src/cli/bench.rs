@@ -38,6 +38,8 @@ pub fn run_bench(args: &BenchArgs, stop: &AtomicBool) -> Result<()> {
         photon_seed: None,
         photon: args.photon.clone(),
         bdpt_strategy: None,
+        vcm_radius: None,
+        vcm_mode: None,
         sample_offset: None,
         chunk: false,
         interim: None,
@@ -57,7 +59,8 @@ pub fn run_bench(args: &BenchArgs, stop: &AtomicBool) -> Result<()> {
     let outcome = run_render(&render_args, &reporter, stop);
     let _ = std::fs::remove_dir_all(&dir);
     let s = outcome?.summary;
-    let photon_figures = if matches!(args.integrator, IntegratorKind::Path | IntegratorKind::Bdpt) {
+    let photon_figures = if matches!(args.integrator, IntegratorKind::Path | IntegratorKind::Bdpt | IntegratorKind::Vcm)
+    {
         serde_json::Value::Null
     } else {
         bench_photon_maps(args, stop)?

@@ -102,12 +102,13 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         run_warnings.push(w);
     }
     let held = &scene.ray_visibility.holdout_objects;
-    if !held.is_empty() && matches!(res.integrator, IntegratorKind::Bdpt) {
+    if !held.is_empty() && matches!(res.integrator, IntegratorKind::Bdpt | IntegratorKind::Vcm) {
         // Its light-tracing splats would still show light reflected by the holdout.
         let w = format!(
-            "holdout object(s) {} are rendered as ordinary objects by BDPT (the path, photon and SPPM \
+            "holdout object(s) {} are rendered as ordinary objects by {} (the path, photon and SPPM \
              integrators render them as Cycles)",
-            held.iter().map(|n| format!("'{n}'")).collect::<Vec<_>>().join(", ")
+            held.iter().map(|n| format!("'{n}'")).collect::<Vec<_>>().join(", "),
+            res.integrator.name()
         );
         reporter.warning(&w);
         run_warnings.push(w);
@@ -131,6 +132,13 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
              integrator renders it as Cycles)",
             linked.iter().map(|n| format!("'{n}'")).collect::<Vec<_>>().join(", ")
         );
+        reporter.warning(&w);
+        run_warnings.push(w);
+    }
+    if res.adaptive.is_some() && res.integrator == IntegratorKind::Vcm {
+        let w = "adaptive sampling (noise threshold) is ignored by VCM: every iteration merges every pixel \
+                 with one shared set of light subpaths, so every pixel takes every iteration"
+            .to_string();
         reporter.warning(&w);
         run_warnings.push(w);
     }
@@ -160,6 +168,11 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
             )),
             IntegratorKind::Photon => Some(
                 "motion blur with photon mapping: camera paths are blurred, but the photon maps are traced with                  every object where it is at the frame"
+                    .to_string(),
+            ),
+            IntegratorKind::Vcm => Some(
+                "motion blur with VCM: merging joins light and camera subpaths traced at different shutter \
+                 times (each pixel's at its own), and light tracing splats through the camera as it is at the frame"
                     .to_string(),
             ),
             IntegratorKind::Bdpt if camera_moves => Some(
@@ -249,6 +262,13 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         IntegratorKind::Bdpt => {
             Integrator::Bdpt(BdptIntegrator::new(&scene, res.max_depth, res.transparent, args.bdpt_strategy))
         }
+        IntegratorKind::Vcm => Integrator::Vcm(crate::integrator::vcm::VcmIntegrator::new(
+            &scene,
+            res.max_depth,
+            res.transparent,
+            args.vcm_mode.map_or(crate::integrator::vcm::VcmMode::Full, Into::into),
+            args.vcm_radius,
+        )),
         IntegratorKind::Photon => {
             reporter.phase("photons", t0.elapsed().as_secs_f64());
             let maps = match &args.photon_map {
@@ -589,6 +609,15 @@ fn charge_render(budget: &MemoryBudget, args: &RenderArgs, res: &Resolved, scene
         IntegratorKind::Bdpt => budget.charge(
             format!("bidirectional splat buffers ({} threads + 1) for {pixels} pixels", res.threads),
             pixels.saturating_mul(std::mem::size_of::<[i128; 3]>() as u64).saturating_mul(res.threads as u64 + 1),
+        ),
+        // VCM: BDPT's splat buffers, plus one iteration's merge records (a light subpath
+        // stores about one per bounce: charged for four per pixel) and their grid.
+        IntegratorKind::Vcm => budget.charge(
+            format!("VCM's splat buffers ({} threads + 1) and merge records for {pixels} pixels", res.threads),
+            pixels.saturating_mul(
+                std::mem::size_of::<[i128; 3]>() as u64 * (res.threads as u64 + 1)
+                    + 4 * (std::mem::size_of::<crate::integrator::vcm::merge::MergeRecord>() as u64 + 3 * 4),
+            ),
         ),
         // The path tracer keeps nothing per pixel beyond the film.
         IntegratorKind::Path => Ok(()),

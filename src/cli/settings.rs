@@ -205,7 +205,7 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
         (None, None) => IntegratorKind::Path,
         (None, Some(name)) => IntegratorKind::from_str(name, true).map_err(|_| {
             Error::Usage(format!(
-                "the scene asks for integrator '{name}', which this build does not have (path, bdpt, photon, sppm)"
+                "the scene asks for integrator '{name}', which this build does not have (path, bdpt, photon, sppm, vcm)"
             ))
         })?,
     };
@@ -233,7 +233,9 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
             photon::MAX_PHOTON_DEPTH
         )));
     }
-    if integrator == IntegratorKind::Bdpt && max_depth > crate::integrator::bdpt::MAX_BDPT_DEPTH {
+    if matches!(integrator, IntegratorKind::Bdpt | IntegratorKind::Vcm)
+        && max_depth > crate::integrator::bdpt::MAX_BDPT_DEPTH
+    {
         return Err(Error::Usage(format!(
             "--max-depth {max_depth} is too deep for bidirectional path tracing (at most {})",
             crate::integrator::bdpt::MAX_BDPT_DEPTH
@@ -241,6 +243,14 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
     }
     if args.bdpt_strategy.is_some() && integrator != IntegratorKind::Bdpt {
         return Err(Error::Usage("--bdpt-strategy needs --integrator bdpt".into()));
+    }
+    if (args.vcm_radius.is_some() || args.vcm_mode.is_some()) && integrator != IntegratorKind::Vcm {
+        return Err(Error::Usage("--vcm-radius and --vcm-mode need --integrator vcm".into()));
+    }
+    if let Some(r) = args.vcm_radius
+        && !(r > 0.0 && r.is_finite())
+    {
+        return Err(Error::Usage(format!("--vcm-radius {r} must be a positive number of scene units")));
     }
     let sample_offset = args.sample_offset.unwrap_or(0);
     if sample_offset > MAX_SAMPLE_OFFSET {

@@ -11,6 +11,7 @@ pub mod media;
 pub mod nee;
 pub mod path;
 pub mod photon;
+pub mod vcm;
 pub mod walk;
 
 use crate::accel::{Accel, Hit};
@@ -626,6 +627,8 @@ pub enum Integrator {
     Bdpt(bdpt::BdptIntegrator),
     /// Stochastic progressive photon mapping (drives its own iterations).
     Sppm(photon::sppm::SppmIntegrator),
+    /// Vertex connection and merging (drives its own iterations).
+    Vcm(vcm::VcmIntegrator),
 }
 
 /// Per-tile working memory of an integrator, taken before a tile and released after it.
@@ -653,6 +656,7 @@ impl Integrator {
             Integrator::Photon(p) => p.describe(),
             Integrator::Bdpt(b) => b.describe(),
             Integrator::Sppm(s) => s.describe(),
+            Integrator::Vcm(v) => v.describe(),
         }
     }
 
@@ -690,9 +694,9 @@ impl Integrator {
                 let mut target = bdpt::FilmTarget { camera, filter, splats: buf };
                 b.li(ctx, ray, sampler, pixel_sample, &mut target, vertices, stats)
             }
-            // SPPM renders whole iterations (`render::render` never asks it for samples);
-            // BDPT always has its scratch (`tile_scratch`).
-            (Integrator::Sppm(_) | Integrator::Bdpt(_), _) => CameraSample::default(),
+            // SPPM and VCM render whole iterations (`render::render` never asks them for
+            // samples); BDPT always has its scratch (`tile_scratch`).
+            (Integrator::Sppm(_) | Integrator::Vcm(_) | Integrator::Bdpt(_), _) => CameraSample::default(),
         }
     }
 }

@@ -61,6 +61,7 @@ pub fn render(
             r.image.passes = job.passes;
             r
         }
+        Integrator::Vcm(v) => v.render(ctx, camera, job, stop, on_progress, on_pass),
         _ => progressive(ctx, camera, integrator, job, stop, on_progress, on_pass),
     }
 }

@@ -180,7 +180,7 @@ pub struct LightEdit {
 #[derive(Clone, Debug, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct SettingsEdit {
-    /// "path", "bdpt" or "photon".
+    /// "path", "bdpt", "photon" or "vcm".
     pub integrator: Option<String>,
     /// Samples per pixel to stop at.
     pub spp: Option<u32>,

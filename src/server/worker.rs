@@ -152,6 +152,13 @@ fn build_integrator(ctx: &SceneContext, s: &RenderSettings, stop: &AtomicBool) -
             let (_, r) = ctx.scene.bounding_sphere();
             Integrator::Photon(JensenIntegrator::new(maps, &s.photon, r, s.max_depth, s.transparent))
         }
+        IntegratorKind::Vcm => Integrator::Vcm(crate::integrator::vcm::VcmIntegrator::new(
+            ctx.scene,
+            s.max_depth,
+            s.transparent,
+            crate::integrator::vcm::VcmMode::Full,
+            None,
+        )),
         IntegratorKind::Sppm => unreachable!("the server refuses SPPM before rendering"),
     })
 }

@@ -2,6 +2,8 @@
 //! and writing small glTF scenes with data-URI buffers.
 #![allow(dead_code)]
 
+pub mod agreement;
+
 use base64::Engine;
 use serde_json::{Value, json};
 use std::path::{Path, PathBuf};

@@ -6,7 +6,7 @@ use super::*;
 
 impl BdptIntegrator {
     /// Every strategy with s ≥ 1; returns the camera-side sum, splats t = 1.
-    pub(super) fn connect_all(
+    pub(crate) fn connect_all(
         &self,
         ctx: &SceneContext,
         sampler: &mut PixelSampler,

@@ -9,11 +9,18 @@
 //! strategy s is p_s² / Σ_j p_j², summed over the strategies that can make the path.
 //!
 //! Vertices reached through a delta lobe store densities of 0, counted as 1 in the
-//! ratios (their delta factor is common to every strategy that can sample them), and
-//! no strategy may connect at them. Any choice of densities gives weights that sum to 1
+//! ratios (their delta factor is common to every strategy that can sample them), or with
+//! `BdptIntegrator::delta_geometry` (VCM) their geometric factor alone; no strategy may
+//! connect at them. Any choice of densities gives weights that sum to 1
 //! over the strategies as long as every strategy evaluates the same function of the
 //! path, which is what makes the estimator unbiased; the densities only decide how well
 //! the strategies are combined.
+//!
+//! Vertex merging (VCM, `integrator::vcm`) adds one strategy per interior vertex z_m
+//! (1 ≤ m ≤ k-1, connectible): the light subpath generates z₀ … z_m, the camera subpath
+//! z_m … z_k, and they are joined when within the merging radius r, which happens with
+//! probability a_m π r², for each of the N light subpaths of an iteration. So its density
+//! is P_m = p_m · a_m · η with η = N π r² (`eta_vm`; 0 for BDPT, which has no merging).
 
 /// Most vertices a path may have (subpath lengths are bounded accordingly).
 pub const MAX_PATH_VERTICES: usize = 130;
@@ -32,6 +39,9 @@ pub struct PathDensities {
     pub n: usize,
     /// A camera path can hit z₀ (false for point and spot lights).
     pub light_hittable: bool,
+    /// Vertex merging's η = N π r² (light subpaths per iteration × the merging disk's
+    /// area); 0 without merging (BDPT).
+    pub eta_vm: f32,
 }
 
 impl Default for PathDensities {
@@ -42,6 +52,7 @@ impl Default for PathDensities {
             connectible: [false; MAX_PATH_VERTICES],
             n: 0,
             light_hittable: true,
+            eta_vm: 0.0,
         }
     }
 }
@@ -63,16 +74,37 @@ impl PathDensities {
         light_end && self.connectible[j]
     }
 
-    /// Power-heuristic weight of strategy `s`.
+    /// Whether vertex merging can produce the path at z_m (an interior, connectible vertex).
     #[inline]
-    pub fn weight(&self, s: usize) -> f32 {
+    pub fn mergeable(&self, m: usize) -> bool {
+        self.eta_vm > 0.0 && m >= 1 && m + 1 < self.n && self.connectible[m]
+    }
+
+    /// (P_m / p_m)²: vertex merging at z_m against connection strategy m.
+    #[inline]
+    fn merge_ratio2(&self, m: usize) -> f64 {
+        let x = remap0(self.a[m]) as f64 * self.eta_vm as f64;
+        x * x
+    }
+
+    /// `own` + Σ over every strategy that can make the path (connections, and merges
+    /// when `eta_vm` > 0) of (density / p_s)², the connection strategy s itself left out
+    /// (BDPT's sums are added in the order they always were: weights stay bit for bit).
+    #[inline]
+    fn total(&self, s: usize, own: f64) -> f64 {
         let k = self.n - 1;
-        let mut sum = 1.0f64;
+        let mut sum = own;
+        if self.mergeable(s) {
+            sum += self.merge_ratio2(s);
+        }
         let mut r = 1.0f64;
         for j in (0..s).rev() {
             r *= remap0(self.b[j]) as f64 / remap0(self.a[j]) as f64;
             if self.valid(j) {
                 sum += r * r;
+            }
+            if self.mergeable(j) {
+                sum += r * r * self.merge_ratio2(j);
             }
         }
         r = 1.0;
@@ -81,8 +113,26 @@ impl PathDensities {
             if self.valid(j) {
                 sum += r * r;
             }
+            if self.mergeable(j) {
+                sum += r * r * self.merge_ratio2(j);
+            }
         }
-        let w = (1.0 / sum) as f32;
+        sum
+    }
+
+    /// Power-heuristic weight of strategy `s`.
+    #[inline]
+    pub fn weight(&self, s: usize) -> f32 {
+        let w = (1.0 / self.total(s, 1.0)) as f32;
+        if w.is_finite() { w } else { 0.0 }
+    }
+
+    /// Power-heuristic weight of merging at z_m (`mergeable(m)`), in the ratio form; the
+    /// merging integrator computes it recursively (`vcm::mis`), this is its reference.
+    pub fn merge_weight(&self, m: usize) -> f32 {
+        let x2 = self.merge_ratio2(m);
+        let own = if self.valid(m) { 1.0 } else { 0.0 };
+        let w = (x2 / self.total(m, own)) as f32;
         if w.is_finite() { w } else { 0.0 }
     }
 }

@@ -74,6 +74,13 @@ pub struct BdptIntegrator {
     pub strategy: Option<Strategy>,
     /// The lights as subpath origins.
     pub lights: Arc<BdptLights>,
+    /// A vertex reached through a delta lobe keeps its geometric factor |cos| / d² as its
+    /// density (the delta's solid-angle density counted as 1, SmallVCM's convention)
+    /// instead of 0 (pbrt's, whole density counted as 1). Both give weights that sum to 1;
+    /// VCM needs the geometry: merging at a diffuse vertex between two specular ones is
+    /// weighed against s = 0 by distances that dropping it would lose (caustics seen
+    /// through glass turned to fireflies). False for BDPT, whose images it would change.
+    pub delta_geometry: bool,
 }
 
 impl BdptIntegrator {
@@ -91,6 +98,7 @@ impl BdptIntegrator {
             transparent_background,
             strategy,
             lights: Arc::new(BdptLights::new(scene)),
+            delta_geometry: false,
         }
     }
 
@@ -119,6 +127,18 @@ impl BdptIntegrator {
         }
     }
 
+    /// The solid-angle density a delta lobe's direction is given in the MIS densities.
+    #[inline]
+    fn delta_solid_angle(&self) -> f32 {
+        if self.delta_geometry { 1.0 } else { 0.0 }
+    }
+
+    /// The area density of vertex `v` reached from `from` through a delta lobe.
+    #[inline]
+    fn delta_area(&self, v: &Vertex, from: Vec3) -> f32 {
+        v.area_density(self.delta_solid_angle(), from)
+    }
+
     #[inline]
     fn allowed(&self, s: usize, t: usize) -> bool {
         match self.strategy {
@@ -145,9 +165,9 @@ use vertex::*;
 /// Per-worker scratch memory, reused for every sample (nothing is allocated per sample).
 #[derive(Debug, Default)]
 pub struct BdptScratch {
-    cam: Vec<Vertex>,
-    light: Vec<Vertex>,
-    dens: Box<PathDensities>,
+    pub(crate) cam: Vec<Vertex>,
+    pub(crate) light: Vec<Vertex>,
+    pub(crate) dens: Box<PathDensities>,
 }
 
 impl BdptScratch {
@@ -170,7 +190,7 @@ pub struct FilmTarget<'a> {
 
 /// The light subpath's sample stream: an independent scramble of the pixel's Sobol points.
 #[inline]
-fn light_sampler(seed: u32, px: u32, py: u32, index: u32) -> PixelSampler {
+pub(crate) fn light_sampler(seed: u32, px: u32, py: u32, index: u32) -> PixelSampler {
     PixelSampler::new(hash_combine(&[seed, 0x4c49_4748]), px, py, index)
 }
 

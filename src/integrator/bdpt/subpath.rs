@@ -9,7 +9,7 @@ impl BdptIntegrator {
     /// Traces the camera subpath into `scratch.cam`, adding every s = 0 contribution
     /// (emitters found by the path) to `radiance`.
     #[allow(clippy::too_many_arguments)]
-    pub(super) fn camera_subpath(
+    pub(crate) fn camera_subpath(
         &self,
         ctx: &SceneContext,
         ray: &CameraRay,
@@ -129,7 +129,7 @@ impl BdptIntegrator {
             }
             let mut v = Vertex::surface(&s, &sp, wo, beta, medium);
             v.emitted = sp.emitted;
-            v.pdf_fwd = if prev_delta { 0.0 } else { v.area_density(pdf_sa, cam[i].p) };
+            v.pdf_fwd = if prev_delta { self.delta_area(&v, cam[i].p) } else { v.area_density(pdf_sa, cam[i].p) };
             cam.push(v);
             let t = cam.len();
 
@@ -156,7 +156,7 @@ impl BdptIntegrator {
             }
             let last = cam.len() - 1;
             // The density of the previous vertex from this one (the reverse direction).
-            let pdf_rev_sa = if bs.delta { 0.0 } else { sp.bsdf.pdf(bs.wi, wo_local) };
+            let pdf_rev_sa = if bs.delta { self.delta_solid_angle() } else { sp.bsdf.pdf(bs.wi, wo_local) };
             if last >= 2 {
                 let prev_p = cam[last].p;
                 cam[last - 1].pdf_rev = cam[last - 1].area_density(pdf_rev_sa, prev_p);
@@ -288,7 +288,7 @@ impl BdptIntegrator {
             let mut v = Vertex::new(Kind::Light, q);
             v.ng = n;
             v.wo = -dir;
-            v.pdf_fwd = if prev_delta { 0.0 } else { v.area_density(pdf_sa, cam[i].p) };
+            v.pdf_fwd = if prev_delta { self.delta_area(&v, cam[i].p) } else { v.area_density(pdf_sa, cam[i].p) };
             v.light = Some(LightPoint {
                 light: index as u32,
                 p: q,
@@ -375,7 +375,7 @@ impl BdptIntegrator {
     }
 
     /// Traces the light subpath into `scratch.light`.
-    pub(super) fn light_subpath(
+    pub(crate) fn light_subpath(
         &self,
         ctx: &SceneContext,
         ls: &mut PixelSampler,
@@ -434,7 +434,7 @@ impl BdptIntegrator {
             let sp = ctx.shade(&s, wo);
             let i = light.len() - 1;
             let mut v = Vertex::surface(&s, &sp, wo, beta, medium);
-            v.pdf_fwd = if prev_delta { 0.0 } else { v.area_density(pdf_sa, light[i].p) };
+            v.pdf_fwd = if prev_delta { self.delta_area(&v, light[i].p) } else { v.area_density(pdf_sa, light[i].p) };
             light.push(v);
             // s light vertices give paths of s - 1 + (t - 1) scattering events, t ≥ 1.
             if light.len() > self.max_depth as usize || light.len() >= mis::MAX_PATH_VERTICES / 2 {
@@ -455,7 +455,7 @@ impl BdptIntegrator {
                 sp.bsdf.eval_adjoint(wo_local, bs.wi)
             };
             let last = light.len() - 1;
-            let pdf_rev_sa = if bs.delta { 0.0 } else { sp.bsdf.pdf(bs.wi, wo_local) };
+            let pdf_rev_sa = if bs.delta { self.delta_solid_angle() } else { sp.bsdf.pdf(bs.wi, wo_local) };
             let prev_p = light[last].p;
             light[last - 1].pdf_rev = light[last - 1].area_density(pdf_rev_sa, prev_p);
             light[last].delta = bs.delta;

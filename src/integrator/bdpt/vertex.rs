@@ -5,7 +5,7 @@ use super::*;
 
 /// What a vertex is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(super) enum Kind {
+pub(crate) enum Kind {
     Camera,
     /// The first vertex of a light subpath (or a light point connected to).
     Light,
@@ -14,36 +14,36 @@ pub(super) enum Kind {
 
 /// A vertex of a subpath.
 #[derive(Clone, Copy, Debug)]
-pub(super) struct Vertex {
-    pub(super) kind: Kind,
-    pub(super) p: Vec3,
+pub(crate) struct Vertex {
+    pub(crate) kind: Kind,
+    pub(crate) p: Vec3,
     /// Geometric normal (surfaces: on the side the subpath arrived from; lights: the
     /// emitting side; zero for points and the camera).
-    pub(super) ng: Vec3,
+    pub(crate) ng: Vec3,
     /// Shading frame and BSDF of surfaces.
-    pub(super) frame: Frame,
-    pub(super) bsdf: Option<Bsdf>,
-    pub(super) hit: Option<SurfaceHit>,
+    pub(crate) frame: Frame,
+    pub(crate) bsdf: Option<Bsdf>,
+    pub(crate) hit: Option<SurfaceHit>,
     /// Unit direction toward the previous vertex of its own subpath.
-    pub(super) wo: Vec3,
+    pub(crate) wo: Vec3,
     /// Throughput up to this vertex divided by the densities (subpath measure).
-    pub(super) beta: Rgb,
+    pub(crate) beta: Rgb,
     /// Area density of this vertex from its own subpath's side.
-    pub(super) pdf_fwd: f32,
+    pub(crate) pdf_fwd: f32,
     /// Area density of this vertex from the other side (set when the next vertex is sampled).
-    pub(super) pdf_rev: f32,
+    pub(crate) pdf_rev: f32,
     /// Its outgoing direction was sampled from a delta lobe.
-    pub(super) delta: bool,
+    pub(crate) delta: bool,
     /// The media the arriving segment crossed (absorbing only in this integrator).
-    pub(super) medium: MediumStack,
+    pub(crate) medium: MediumStack,
     /// Light vertices: the light point (index, emission, densities).
-    pub(super) light: Option<LightPoint>,
+    pub(crate) light: Option<LightPoint>,
     /// Emission of a surface toward `wo` (emissive triangles).
-    pub(super) emitted: Rgb,
+    pub(crate) emitted: Rgb,
 }
 
 impl Vertex {
-    pub(super) fn new(kind: Kind, p: Vec3) -> Self {
+    pub(crate) fn new(kind: Kind, p: Vec3) -> Self {
         Vertex {
             kind,
             p,
@@ -63,7 +63,7 @@ impl Vertex {
     }
 
     /// A surface vertex reached from direction `wo` with throughput `beta` through `medium`.
-    pub(super) fn surface(
+    pub(crate) fn surface(
         s: &SurfaceHit,
         sp: &crate::scene::shading::ShadingPoint,
         wo: Vec3,
@@ -84,13 +84,13 @@ impl Vertex {
 
     /// |cos| between the vertex's normal and `w` (1 for points and the camera).
     #[inline]
-    pub(super) fn abs_cos_geo(&self, w: Vec3) -> f32 {
+    pub(crate) fn abs_cos_geo(&self, w: Vec3) -> f32 {
         if self.ng == Vec3::ZERO { 1.0 } else { self.ng.dot(w).abs() }
     }
 
     /// Converts a solid-angle density at `from` toward this vertex into an area density here.
     #[inline]
-    pub(super) fn area_density(&self, pdf_sa: f32, from: Vec3) -> f32 {
+    pub(crate) fn area_density(&self, pdf_sa: f32, from: Vec3) -> f32 {
         let d = self.p - from;
         let d2 = d.length_squared();
         if !(d2 > 0.0) {
@@ -106,7 +106,7 @@ impl Vertex {
 /// connections carry the paths without a medium vertex; those with one are path traced
 /// from the camera side), any other surface blocks.
 #[inline]
-pub(super) fn segment_transmittance(ctx: &SceneContext, a: &Vertex, b: &Vertex, stack: MediumStack) -> Rgb {
+pub(crate) fn segment_transmittance(ctx: &SceneContext, a: &Vertex, b: &Vertex, stack: MediumStack) -> Rgb {
     let d = b.p - a.p;
     let dist = d.length();
     if !(dist > 0.0) {
@@ -135,7 +135,7 @@ pub(super) fn segment_transmittance(ctx: &SceneContext, a: &Vertex, b: &Vertex, 
 
 /// The media a segment leaving vertex `v` in direction `w` is in.
 #[inline]
-pub(super) fn media_leaving(ctx: &SceneContext, v: &Vertex, w: Vec3) -> MediumStack {
+pub(crate) fn media_leaving(ctx: &SceneContext, v: &Vertex, w: Vec3) -> MediumStack {
     match v.hit {
         Some(h) => ctx.medium_after(&h, w, v.medium),
         None => v.medium,
@@ -145,7 +145,7 @@ pub(super) fn media_leaving(ctx: &SceneContext, v: &Vertex, w: Vec3) -> MediumSt
 /// Veach's correction for shading normals on light paths: |wo·ns| |wi·ng| / (|wo·ng| |wi·ns|),
 /// with `wo` toward the light side and `wi` the direction importance leaves in.
 #[inline]
-pub(super) fn shading_correction(s: &SurfaceHit, frame: &Frame, wo: Vec3, wi: Vec3) -> f32 {
+pub(crate) fn shading_correction(s: &SurfaceHit, frame: &Frame, wo: Vec3, wi: Vec3) -> f32 {
     let num = wo.dot(frame.n).abs() * wi.dot(s.ng).abs();
     let den = wo.dot(s.ng).abs() * wi.dot(frame.n).abs();
     if den > 0.0 && num.is_finite() { (num / den).min(10.0) } else { 0.0 }

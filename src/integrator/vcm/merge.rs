@@ -1,0 +1,152 @@
+//! Vertex merging: the light subpaths' vertices stored for range search, and the merge
+//! at each camera vertex with every stored vertex within the radius.
+
+use super::grid::HashGrid;
+use super::mis::{Recursion, Side, merge_weight};
+use crate::integrator::bdpt::vertex::Vertex;
+use crate::light::origin as lights;
+use crate::math::Rgb;
+use crate::scene::Scene;
+use glam::Vec3;
+
+/// A light subpath vertex as merging needs it (a non-delta surface vertex z_m, m ≥ 1).
+#[derive(Clone, Copy, Debug)]
+pub struct MergeRecord {
+    /// Position.
+    pub p: Vec3,
+    /// Unit direction toward the previous vertex of its light subpath.
+    pub wo: Vec3,
+    /// Geometric normal (either side).
+    pub ng: Vec3,
+    /// Light throughput arriving here divided by the densities (BDPT's `beta`).
+    pub beta: Rgb,
+    /// The light subpath's share of the merge weight.
+    pub side: Side,
+    /// |cos| at the previous vertex toward this one / distance²: turns the camera
+    /// vertex's solid-angle density toward the previous vertex into an area density.
+    pub g: f32,
+    /// Vertex index m on its light subpath (m - 1 scattering events before it).
+    pub m: u32,
+}
+
+/// What one iteration's merging needs: the stored vertices, their grid, and the constants.
+#[derive(Debug, Default)]
+pub struct MergeMap {
+    /// Every light subpath's merge records.
+    pub records: Vec<MergeRecord>,
+    /// The records' grid.
+    pub grid: HashGrid,
+    /// The merging radius r_i.
+    pub radius: f32,
+    /// η = N π r² (N: light subpaths of the iteration).
+    pub eta: f32,
+    /// 1 / (N π r²): the kernel's normalisation.
+    pub norm: f32,
+}
+
+impl MergeMap {
+    /// Sets the radius of this iteration for `n` light subpaths and rebuilds the grid.
+    pub fn build(&mut self, radius: f32, n: u64) {
+        self.radius = radius;
+        let area = std::f32::consts::PI * radius * radius;
+        self.eta = n as f32 * area;
+        self.norm = 1.0 / self.eta;
+        self.grid.build(self.records.iter().map(|r| r.p), radius);
+    }
+}
+
+/// Appends to `out` the merge records of one light subpath (`light`, BDPT's vertices from
+/// the light point on), with η of this iteration for the recursive weights.
+pub(crate) fn push_records(scene: &Scene, light: &[Vertex], eta: f32, out: &mut Vec<MergeRecord>) {
+    let Some(lp) = light.first().and_then(|v| v.light) else {
+        return;
+    };
+    let hittable = !lights::is_delta_position(scene, lp.light as usize);
+    let mut rec = Recursion::start(eta, light[0].pdf_fwd, !light[0].delta, Some(hittable));
+    for i in 1..light.len() {
+        let v = &light[i];
+        if v.bsdf.is_some_and(|b| !b.is_delta()) {
+            out.push(MergeRecord {
+                p: v.p,
+                wo: v.wo,
+                ng: v.ng,
+                beta: v.beta,
+                side: rec.side(v.pdf_fwd),
+                g: light[i - 1].area_density(1.0, v.p),
+                m: i as u32,
+            });
+        }
+        if i + 1 < light.len() {
+            rec.push(v.pdf_fwd, !v.delta, light[i - 1].pdf_rev);
+        }
+    }
+}
+
+/// Merges every camera vertex of `cam` (BDPT's camera subpath: the camera, then surface
+/// vertices) with the stored light vertices within the radius; returns the weighted sum.
+/// `camera_connectible`: light subpaths can reach the camera (not orthographic);
+/// `max_depth` bounds the merged paths' scattering events.
+pub(crate) fn merge_camera_path(cam: &[Vertex], map: &MergeMap, camera_connectible: bool, max_depth: u32) -> Rgb {
+    let mut total = Rgb::ZERO;
+    let mut rec = Recursion::start(map.eta, 0.0, camera_connectible, None);
+    for c in 1..cam.len() {
+        if c >= 2 {
+            let prev = &cam[c - 1];
+            rec.push(prev.pdf_fwd, !prev.delta, cam[c - 2].pdf_rev);
+        }
+        // Scattering events of a merged path: m - 1 on the light side, this vertex, c - 1.
+        if c as u32 > max_depth {
+            break;
+        }
+        let x = &cam[c];
+        let (Some(bsdf), Some(hit)) = (x.bsdf, x.hit) else { continue };
+        if bsdf.is_delta() {
+            continue;
+        }
+        let cam_side = rec.side(x.pdf_fwd);
+        // Area density factor of the camera-side predecessor seen from this vertex.
+        let g_prev = cam[c - 1].area_density(1.0, x.p);
+        let wo_l = x.frame.to_local(x.wo);
+        let m_max = max_depth + 1 - c as u32;
+        let mut sum = Rgb::ZERO;
+        map.grid.for_each_within(
+            x.p,
+            |i| map.records[i as usize].p,
+            |i| {
+                let y = &map.records[i as usize];
+                // Another surface within r (an edge, a corner, a face seen at a grazing
+                // angle) is not this one: its light is not merged here (SPPM's 60° rule, on
+                // either side so that light a thin surface transmits still merges). As
+                // r → 0 only points of the same surface remain, so the weights, which
+                // assume merging can make every path through a non-delta vertex, stay right.
+                let c = y.ng.dot(hit.ng);
+                if c * c < 0.25 {
+                    return;
+                }
+                if y.m > m_max {
+                    return;
+                }
+                let wi_l = x.frame.to_local(y.wo);
+                let cos_g = y.wo.dot(hit.ng);
+                // The light arrived on the side the BSDF says it did.
+                if (wi_l.z > 0.0) != (cos_g > 0.0) {
+                    return;
+                }
+                let f = bsdf.eval(wo_l, wi_l);
+                if f == Rgb::ZERO {
+                    return;
+                }
+                // Photon flux is per unit area across the geometric normal; the BSDF's
+                // cosine is the shading normal's: |wi·ns| / |wi·ng| (bounded as BDPT's
+                // shading-normal correction is).
+                let shading = (wi_l.z.abs() / cos_g.abs()).min(10.0);
+                let b_prev = bsdf.pdf(wo_l, wi_l) * y.g;
+                let a_next = bsdf.pdf(wi_l, wo_l) * g_prev;
+                let w = merge_weight(map.eta, y.side, b_prev, cam_side, a_next);
+                sum += f * y.beta * (shading * w);
+            },
+        );
+        total += x.beta * sum * map.norm;
+    }
+    total
+}
