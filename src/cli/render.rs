@@ -104,6 +104,12 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         reporter.warning(&w);
         run_warnings.push(w);
     }
+    if res.passes.asks_light_groups() && scene.light_groups.is_empty() {
+        let w = "the light group passes were asked for, but the scene declares no light groups: none is written"
+            .to_string();
+        reporter.warning(&w);
+        run_warnings.push(w);
+    }
     let linked = &scene.light_linking.emitters;
     if !linked.is_empty() && !matches!(res.integrator, IntegratorKind::Path) {
         // Photons and light subpaths would need the receiver at every vertex.
@@ -222,6 +228,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     let integrator = match res.integrator {
         IntegratorKind::Path => Integrator::Path(PathIntegrator {
             light_passes: res.passes.any_light(),
+            light_groups: res.passes.light_groups() > 0,
             ..PathIntegrator::new(res.max_depth, res.transparent)
         }),
         IntegratorKind::Sppm => {
@@ -307,6 +314,8 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     // The Cryptomatte manifests go into every image's header (interim ones too).
     let crypto_header: Vec<(String, String)> =
         res.passes.cryptomatte()?.iter().flat_map(|k| crate::cryptomatte::header(k, scene.pass_ids.names(k))).collect();
+    // The light groups' pass names, by the film's group order.
+    let group_names: Vec<String> = scene.light_groups.names[..res.passes.light_groups()].to_vec();
     reporter.phase("rendering", t0.elapsed().as_secs_f64());
     let out_str = args.output.display().to_string();
     let mut last_interim = Instant::now();
@@ -323,6 +332,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
             {
                 let mut img = film.image();
                 img.metadata.clone_from(&crypto_header);
+                img.light_group_names.clone_from(&group_names);
                 if !res.transparent {
                     img.make_opaque();
                 }
@@ -346,6 +356,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     }
     let mut result = result;
     result.image.metadata = crypto_header;
+    result.image.light_group_names = group_names;
     if !res.transparent {
         result.image.make_opaque();
     }
@@ -531,6 +542,14 @@ fn charge_render(budget: &MemoryBudget, args: &RenderArgs, res: &Resolved, scene
         budget.charge(
             format!("the {} extra pass channels for {}x{} pixels", slots, x1 - x0, y1 - y0),
             pixels.saturating_mul(slots * (16 + 4 + 4)),
+        )?;
+    }
+    let groups = res.passes.light_groups() as u64;
+    if groups > 0 {
+        // Each group: three i128 sums in the tiles, the image's three f32 and the writer's copy.
+        budget.charge(
+            format!("the {groups} light group passes for {}x{} pixels", x1 - x0, y1 - y0),
+            pixels.saturating_mul(groups * 3 * (16 + 4 + 4)),
         )?;
     }
     let crypto = res.passes.cryptomatte()?;

@@ -275,6 +275,20 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
             integrator.name()
         )));
     }
+    if passes.asks_light_groups() {
+        if integrator != IntegratorKind::Path {
+            return Err(Error::Usage(format!(
+                "the light group passes are rendered by the path integrator only, not by '{}'",
+                integrator.name()
+            )));
+        }
+        if args.chunk {
+            return Err(Error::Usage(
+                "chunks (--chunk) do not carry the light group passes yet: render them without --chunk".into(),
+            ));
+        }
+        passes.set_light_groups(scene.light_groups.len());
+    }
     if let Some(levels) = args.cryptomatte_levels.or(st.cryptomatte_levels) {
         passes.set_cryptomatte_levels(levels);
     }
