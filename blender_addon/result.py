@@ -57,8 +57,10 @@ CRYPTOMATTE_LAYERS = (
     ("use_pass_cryptomatte_material", "cryptomatte_material", "CryptoMaterial"),
     ("use_pass_cryptomatte_asset", "cryptomatte_asset", "CryptoAsset"),
 )
-# The Shadow Catcher pass: the path integrator splits paths at catchers; chunks do not carry it.
+# The Shadow Catcher pass: the path integrator splits paths at catchers.
 PATH_ONLY_TOKENS = LIGHT_TOKENS | {"shadow_catcher"}
+# Cryptomatte's ranked slots do not travel in sample chunks (the farm): their passes stay black there.
+CRYPTOMATTE_TOKENS = frozenset(token for _, token, _ in CRYPTOMATTE_LAYERS)
 # Data passes traced from the camera ray's first hit, by every integrator but SPPM.
 DATA_TOKENS = frozenset(("mist", "position", "uv", "ambient_occlusion", "object_index", "material_index", "vector")
                         + tuple(token for _, token, _ in CRYPTOMATTE_LAYERS))
@@ -111,7 +113,7 @@ def pass_request(view_layer, integrator, chunked=False, motion_blur=False):
     for token, name in rows:
         if token == "vector" and motion_blur:
             warnings.append("the Vector pass needs motion blur off (as in Cycles); it stays black")
-        elif chunked and (token in PATH_ONLY_TOKENS or token in DATA_TOKENS):
+        elif chunked and token in CRYPTOMATTE_TOKENS:
             warnings.append(f"the {name} pass is not rendered on the farm yet (sample chunks do not carry "
                             "it); it stays black")
         elif token in PATH_ONLY_TOKENS and integrator != "path":
@@ -125,10 +127,7 @@ def pass_request(view_layer, integrator, chunked=False, motion_blur=False):
         if _flag(view_layer, owner, attr):
             warnings.append(f"the {name} pass is not rendered by Caustic yet; it stays black")
     groups = light_group_passes(view_layer)
-    if groups and chunked:
-        warnings.append(f"the light group passes ({', '.join(groups)}) are not rendered on the farm yet (sample "
-                        "chunks do not carry them); they stay black")
-    elif groups and integrator != "path":
+    if groups and integrator != "path":
         warnings.append(f"the light group passes ({', '.join(groups)}) are rendered by the path integrator only; "
                         f"they stay black with '{integrator}'")
     elif groups:

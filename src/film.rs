@@ -471,6 +471,47 @@ impl Film {
         &mut t.pixels[((y - t.y0) * t.w + x - t.x0) as usize]
     }
 
+    /// The extra-pass sums of pixel (x, y): its kept slots (`PassSet::slots`, in slot order)
+    /// and its light groups' sums (three per group).
+    pub fn pixel_extra(&self, x: u32, y: u32) -> (&[i128], &[i128]) {
+        let t = &self.tiles[self.tile_index(x, y)];
+        let j = ((y - t.y0) * t.w + x - t.x0) as usize;
+        let (stride, g) = (t.slots.count_ones() as usize, 3 * t.groups);
+        (&t.extra[j * stride..(j + 1) * stride], &t.group_sums[j * g..(j + 1) * g])
+    }
+
+    /// [`pixel_extra`](Self::pixel_extra), mutable.
+    pub fn pixel_extra_mut(&mut self, x: u32, y: u32) -> (&mut [i128], &mut [i128]) {
+        let t = self.tile_index(x, y);
+        let t = &mut self.tiles[t];
+        let j = ((y - t.y0) * t.w + x - t.x0) as usize;
+        let (stride, g) = (t.slots.count_ones() as usize, 3 * t.groups);
+        (&mut t.extra[j * stride..(j + 1) * stride], &mut t.group_sums[j * g..(j + 1) * g])
+    }
+
+    /// Adds pixel (x, y) of `other`, a film of the same size and passes (a merged chunk):
+    /// sums add, depth is the minimum; the first-sample slots (Position, the indices) take
+    /// `other`'s values when `other_first` (its samples come before this film's).
+    pub fn merge_pixel(&mut self, x: u32, y: u32, other: &Film, other_first: bool) {
+        self.pixel_mut(x, y).merge(other.pixel(x, y));
+        let slots = self.passes.slots();
+        let (a, ga) = self.pixel_extra_mut(x, y);
+        let (b, gb) = other.pixel_extra(x, y);
+        let mut m = slots;
+        for (a, b) in a.iter_mut().zip(b) {
+            let k = m.trailing_zeros();
+            if FIRST_SAMPLE_SLOTS >> k & 1 == 0 {
+                *a = a.wrapping_add(*b);
+            } else if other_first {
+                *a = *b;
+            }
+            m &= m - 1;
+        }
+        for (a, b) in ga.iter_mut().zip(gb) {
+            *a = a.wrapping_add(*b);
+        }
+    }
+
     /// Index of the tile holding (x, y): tiles are squares of `tile_size` in scanline order.
     fn tile_index(&self, x: u32, y: u32) -> usize {
         let per_row = self.width.div_ceil(self.tile_size);

@@ -396,7 +396,7 @@ impl Pass {
 
 /// A set of passes (bit i = `ALL[i]`; the top bit: keep the shadow catcher's sums; the
 /// next: the light groups), Cryptomatte's levels and the number of light groups.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 pub struct PassSet {
     bits: u32,
     /// Blender's Cryptomatte levels (0: Blender's default).

@@ -288,10 +288,10 @@ fn light_groups_sum_to_combined() {
 }
 
 /// An emitter in no group is in no group pass: with half of the street's bulbs grouped,
-/// the group holds part of Combined; light groups are asked of the path tracer only, not
-/// in chunks, and a group the view layer does not have is a bad scene.
+/// the group holds part of Combined; light groups are asked of the path tracer only, merge
+/// exactly from chunks, and a group the view layer does not have is a bad scene.
 #[test]
-fn light_groups_leave_out_ungrouped_emitters_and_refuse_bad_requests() {
+fn light_groups_leave_out_ungrouped_emitters_merge_from_chunks_and_refuse_bad_requests() {
     let dir = temp_dir();
     let scene = opaque_copy("many_lights", dir.path());
     with_light_groups(&scene, json!({"names": ["some"], "objects": {"bulbs0": "some", "bulbs1": "some"}}));
@@ -305,12 +305,23 @@ fn light_groups_leave_out_ungrouped_emitters_and_refuse_bad_requests() {
     assert!(!channels(&out).keys().any(|k| k.starts_with("Combined_")));
     let s = scene.to_str().unwrap();
     let o = out.to_str().unwrap();
-    for extra in [["--integrator", "bdpt"], ["--chunk", "--spp=1"]] {
-        let mut args = vec!["render", s, "-o", o, "--passes", "light_groups"];
-        args.extend_from_slice(&extra);
-        let bad = run(&args, LIMIT);
-        assert_eq!(bad.code, Some(2), "{extra:?}: {}", bad.stderr);
-        assert!(bad.stderr.contains("light group"), "{}", bad.stderr);
+    let bad = run(&["render", s, "-o", o, "--passes", "light_groups", "--integrator", "bdpt"], LIMIT);
+    assert_eq!(bad.code, Some(2), "{}", bad.stderr);
+    assert!(bad.stderr.contains("light group"), "{}", bad.stderr);
+    // Chunks carry the groups' sums: two chunks merge into the single render bit for bit.
+    let p = |n: &str| dir.path().join(n);
+    let lg = ["--resolution", "16x12", "--passes", "light_groups"];
+    render(&scene, &p("single.exr"), &[&lg[..], &["--spp", "4"]].concat());
+    render(&scene, &p("a.exr"), &[&lg[..], &["--spp", "1", "--chunk"]].concat());
+    render(&scene, &p("b.exr"), &[&lg[..], &["--spp", "3", "--sample-offset", "1", "--chunk"]].concat());
+    let (a, b, m) = (p("a.exr"), p("b.exr"), p("merged.exr"));
+    let r = run(&["merge", a.to_str().unwrap(), b.to_str().unwrap(), "-o", m.to_str().unwrap()], LIMIT);
+    assert_eq!(r.code, Some(0), "{}", r.stderr);
+    let (single, merged) = (channels(&p("single.exr")), channels(&m));
+    assert!(single.contains_key("Combined_some.R"));
+    for (name, v) in &single {
+        let w = &merged[name];
+        assert!(v.iter().zip(w).all(|(x, y)| x.to_bits() == y.to_bits()), "{name} differs after the merge");
     }
     with_light_groups(&scene, json!({"names": ["some"], "objects": {"bulbs0": "other"}}));
     let bad = run(&["render", s, "-o", o, "--passes", "light_groups"], LIMIT);

@@ -435,7 +435,7 @@ fn chunk_info(args: &RenderArgs, res: &Resolved, scene: &Scene) -> ChunkInfo {
     // SPPM's iteration count is its chunk's sample count, not an identity.
     let photon = PhotonSettings { sppm_iterations: 0, ..res.photon.clone() };
     let settings = format!(
-        "{:?}|{:?}|{}|{:?}|{}|{:?}|{:?}|{}|{:?}",
+        "{:?}|{:?}|{}|{:?}|{}|{:?}|{:?}|{}|{:?}|{:?}|{:?}",
         res.resolution,
         res.camera,
         res.max_depth,
@@ -445,6 +445,8 @@ fn chunk_info(args: &RenderArgs, res: &Resolved, scene: &Scene) -> ChunkInfo {
         photon,
         res.light_sampler.name(),
         args.bdpt_strategy,
+        res.passes,
+        res.data,
     );
     ChunkInfo {
         version: chunk::CHUNK_VERSION,
@@ -457,6 +459,8 @@ fn chunk_info(args: &RenderArgs, res: &Resolved, scene: &Scene) -> ChunkInfo {
         transparent: res.transparent,
         samples: Vec::new(),
         light_paths: 0,
+        passes: res.passes,
+        light_groups: scene.light_groups.names[..res.passes.light_groups()].to_vec(),
     }
 }
 
