@@ -565,8 +565,11 @@ fn charge_render(budget: &MemoryBudget, args: &RenderArgs, res: &Resolved, scene
         )?;
     }
     if args.chunk {
-        // The chunk channels: 54 words of 4 bytes per pixel, built beside the image.
-        budget.charge(format!("the chunk sums for {}x{} pixels", x1 - x0, y1 - y0), pixels.saturating_mul(54 * 4))?;
+        // The chunk channels, built beside the image: 54 words of 4 bytes per pixel, and four
+        // words for each extra sum (the kept slots, three per light group).
+        let words = 54 + 4 * (slots + 3 * groups);
+        budget
+            .charge(format!("the chunk sums for {}x{} pixels", x1 - x0, y1 - y0), pixels.saturating_mul(words * 4))?;
     }
     match res.integrator {
         IntegratorKind::Photon => match &args.photon_map {
