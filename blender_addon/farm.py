@@ -57,14 +57,8 @@ _FARM_OWN_FLAGS = {"--progress": True, "--interim": True, "--spp": True, "--time
 
 def strip_unfarmable(settings, scene):
     """Drops from the render settings what chunks cannot do; returns the warnings saying so.
-    Raises CausticError for what the farm cannot render at all."""
-    # The binary refuses to chunk a scene with shadow catchers (the catcher's per-pixel sums do
-    # not travel in chunk files): say so before any export or submission.
-    catchers = sorted(o.name for o in scene.objects if getattr(o, "is_shadow_catcher", False)
-                      and o.type not in ("LIGHT", "CAMERA", "EMPTY") and not o.hide_render)
-    if catchers:
-        raise CausticError(f"Render on Farm cannot render Shadow Catcher objects ({', '.join(catchers)}): "
-                           "sample chunks do not carry the catcher's sums; untick Render on Farm")
+    Shadow catchers, light groups and the light and data passes travel in chunks (their sums
+    merge exactly); Cryptomatte's ranked slots do not (result.pass_request warns)."""
     warnings = []
     if settings.pop("noise_threshold", None) is not None:
         # The binary refuses adaptive chunks: a pixel's stop depends on all its samples.

@@ -114,6 +114,9 @@ def render_frame(engine, depsgraph):
     camera = engine.camera_override or scene.camera
     settings = export.render_settings(scene, (window.width, window.height),
                                       camera.name if camera else None)
+    groups = export.light_group_settings(depsgraph.view_layer, scene, depsgraph.objects)
+    if groups is not None:
+        settings["light_groups"] = groups
     on_farm = scene.caustic.use_farm
     if on_farm:
         for warning in farm.strip_unfarmable(settings, scene):

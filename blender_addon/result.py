@@ -57,11 +57,17 @@ CRYPTOMATTE_LAYERS = (
     ("use_pass_cryptomatte_material", "cryptomatte_material", "CryptoMaterial"),
     ("use_pass_cryptomatte_asset", "cryptomatte_asset", "CryptoAsset"),
 )
-# The Shadow Catcher pass: the path integrator splits paths at catchers; chunks do not carry it.
+# The Shadow Catcher pass: the path integrator splits paths at catchers.
 PATH_ONLY_TOKENS = LIGHT_TOKENS | {"shadow_catcher"}
+# Cryptomatte's ranked slots do not travel in sample chunks (the farm): their passes stay black there.
+CRYPTOMATTE_TOKENS = frozenset(token for _, token, _ in CRYPTOMATTE_LAYERS)
 # Data passes traced from the camera ray's first hit, by every integrator but SPPM.
 DATA_TOKENS = frozenset(("mist", "position", "uv", "ambient_occlusion", "object_index", "material_index", "vector")
                         + tuple(token for _, token, _ in CRYPTOMATTE_LAYERS))
+
+# The binary's `--passes` token for one `Combined_<group>` pass per light group of the scene (whose
+# groups the exporter writes, export/light_groups.py).
+LIGHT_GROUPS_TOKEN = "light_groups"
 
 # Passes of the view layer that Caustic does not render yet (named in a warning when on).
 UNSUPPORTED = (
@@ -83,6 +89,11 @@ def enabled_passes(view_layer):
     return [row for row in VIEW_LAYER_PASSES if _flag(view_layer, row[0], row[1])]
 
 
+def light_group_passes(view_layer):
+    """The pass names of the view layer's light groups, as Cycles names them: `Combined_<group>`."""
+    return [f"Combined_{group.name}" for group in getattr(view_layer, "lightgroups", ())]
+
+
 def enabled_cryptomatte(view_layer):
     """(token, pass names) of each Cryptomatte layer enabled in `view_layer`."""
     count = (min(16, view_layer.pass_cryptomatte_depth) + 1) // 2
@@ -102,7 +113,7 @@ def pass_request(view_layer, integrator, chunked=False, motion_blur=False):
     for token, name in rows:
         if token == "vector" and motion_blur:
             warnings.append("the Vector pass needs motion blur off (as in Cycles); it stays black")
-        elif chunked and (token in PATH_ONLY_TOKENS or token in DATA_TOKENS):
+        elif chunked and token in CRYPTOMATTE_TOKENS:
             warnings.append(f"the {name} pass is not rendered on the farm yet (sample chunks do not carry "
                             "it); it stays black")
         elif token in PATH_ONLY_TOKENS and integrator != "path":
@@ -115,10 +126,13 @@ def pass_request(view_layer, integrator, chunked=False, motion_blur=False):
     for owner, attr, name in UNSUPPORTED:
         if _flag(view_layer, owner, attr):
             warnings.append(f"the {name} pass is not rendered by Caustic yet; it stays black")
-    # Light groups and shader AOVs are not rendered yet: their passes are not declared.
-    for group in getattr(view_layer, "lightgroups", ()):
-        warnings.append(f"the light group '{group.name}' (pass Combined_{group.name}) is not rendered by "
-                        "Caustic yet; the pass is missing")
+    groups = light_group_passes(view_layer)
+    if groups and integrator != "path":
+        warnings.append(f"the light group passes ({', '.join(groups)}) are rendered by the path integrator only; "
+                        f"they stay black with '{integrator}'")
+    elif groups:
+        tokens.append(LIGHT_GROUPS_TOKEN)
+    # Shader AOVs are not rendered yet: their passes are not declared.
     for aov in getattr(view_layer, "aovs", ()):
         warnings.append(f"the shader AOV '{aov.name}' is not rendered by Caustic yet; the pass is missing")
     return ",".join(tokens) or "none", warnings
@@ -141,6 +155,8 @@ def register_passes(engine, scene, view_layer):
     for _, names in enabled_cryptomatte(view_layer):
         for name in names:
             engine.register_pass(scene, view_layer, name, 4, "rgba", "COLOR")
+    for name in light_group_passes(view_layer):
+        engine.register_pass(scene, view_layer, name, 3, "RGB", "COLOR")
     settings = getattr(scene, "caustic", None)
     if settings is not None and settings.use_denoising and not settings.use_farm:
         # The Combined before denoising, which the binary writes beside it (Cycles' name).

@@ -9,17 +9,24 @@
 //! * UINT channels `CausticSum.<Q>.<k>` holding each fixed-point sum Q (see
 //!   `crate::fixed`) as four little-endian 32-bit words k = 0..3, `CausticSum.N` the
 //!   samples per pixel and a FLOAT channel `CausticSum.Depth` with the nearest depth
-//!   (infinite where nothing was hit), so that the merge never reads the rounded means.
+//!   (infinite where nothing was hit), so that the merge never reads the rounded means;
+//!   the extra passes' sums likewise, `CausticSum.S<slot>.<k>` for each [`slot`] the
+//!   passes keep (the first-sample slots hold their f32 bits) and `CausticSum.L<g><c>.<k>`
+//!   for channel c of light group g. Cryptomatte's ranked slots are not carried (its
+//!   passes are refused with `--chunk`).
+//!
+//! [`slot`]: crate::passes::slot
 
 use crate::error::{Error, Result};
 use crate::film::{Film, FilmImage, PixelAccum};
 use crate::fixed;
+use crate::passes::PassSet;
 use exr::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
 /// Version of the chunk layout; a merge refuses any other.
-pub const CHUNK_VERSION: u32 = 1;
+pub const CHUNK_VERSION: u32 = 2;
 
 /// Name of the EXR attribute holding the [`ChunkInfo`] JSON.
 pub const ATTRIBUTE: &str = "causticChunk";
@@ -53,6 +60,10 @@ pub struct ChunkInfo {
     pub samples: Vec<[u32; 2]>,
     /// Light paths traced (the splat sums' denominator).
     pub light_paths: u64,
+    /// The passes whose sums the chunk holds (part of the settings hash too).
+    pub passes: PassSet,
+    /// The light groups' names, in the order of their sums.
+    pub light_groups: Vec<String>,
 }
 
 impl ChunkInfo {
@@ -78,6 +89,8 @@ impl ChunkInfo {
         if self.integrator != other.integrator
             || self.settings_hash != other.settings_hash
             || self.transparent != other.transparent
+            || self.passes != other.passes
+            || self.light_groups != other.light_groups
         {
             return Err(what(
                 "render settings",
@@ -151,9 +164,37 @@ pub fn channels(film: &Film) -> Vec<AnyChannel<FlatSamples>> {
         let name = format!("CausticSum.{}.{}", QUANTITIES[j / 4], j % 4);
         out.push(AnyChannel::new(name.as_str(), FlatSamples::U32(data)));
     }
+    let names = extra_names(film.passes);
+    let mut extra: Vec<Vec<u32>> = vec![vec![0; n]; names.len() * 4];
+    for y in 0..h {
+        for x in 0..w {
+            let i = (y * w + x) as usize;
+            let (slots, groups) = film.pixel_extra(x, y);
+            for (j, v) in slots.iter().chain(groups).enumerate() {
+                for (k, word) in extra[j * 4..j * 4 + 4].iter_mut().enumerate() {
+                    word[i] = (*v as u128 >> (32 * k)) as u32;
+                }
+            }
+        }
+    }
+    for (j, data) in extra.into_iter().enumerate() {
+        let name = format!("CausticSum.{}.{}", names[j / 4], j % 4);
+        out.push(AnyChannel::new(name.as_str(), FlatSamples::U32(data)));
+    }
     out.push(AnyChannel::new("CausticSum.N", FlatSamples::U32(count)));
     out.push(AnyChannel::new("CausticSum.Depth", FlatSamples::F32(depth)));
     out
+}
+
+/// The names of the extra sums of `passes` in the film's order: each kept slot, then each
+/// light group's three channels.
+fn extra_names(passes: PassSet) -> Vec<String> {
+    let slots = passes.slots();
+    let mut names: Vec<String> = (0..64).filter(|k| slots >> k & 1 == 1).map(|k| format!("S{k}")).collect();
+    for g in 0..passes.light_groups() {
+        names.extend(["R", "G", "B"].map(|c| format!("L{g}{c}")));
+    }
+    names
 }
 
 /// The info as the EXR attribute value.
@@ -213,7 +254,17 @@ pub fn read(path: &Path) -> Result<Chunk> {
         Some(FlatSamples::F32(v)) => v,
         _ => return Err(not_chunk("no FLOAT channel CausticSum.Depth")),
     };
-    let mut film = Film::new(w, h, crate::render::TILE_SIZE);
+    if info.passes.any_crypto() || info.light_groups.len() != info.passes.light_groups() {
+        return Err(not_chunk("its passes are not ones chunks carry"));
+    }
+    let names = extra_names(info.passes);
+    let mut extra = Vec::with_capacity(names.len() * 4);
+    for q in &names {
+        for k in 0..4 {
+            extra.push(u32s(&format!("CausticSum.{q}.{k}"))?);
+        }
+    }
+    let mut film = Film::with_passes(w, h, crate::render::TILE_SIZE, info.passes);
     film.light_paths = info.light_paths;
     for y in 0..h {
         for x in 0..w {
@@ -230,6 +281,10 @@ pub fn read(path: &Path) -> Result<Chunk> {
                 n: count[i],
             };
             film.splat[i] = [q[10], q[11], q[12]];
+            let (slots, groups) = film.pixel_extra_mut(x, y);
+            for (j, v) in slots.iter_mut().chain(groups).enumerate() {
+                *v = (0..4).fold(0u128, |a, k| a | (extra[j * 4 + k][i] as u128) << (32 * k)) as i128;
+            }
         }
     }
     Ok(Chunk { info, film })

@@ -13,6 +13,7 @@ use crate::fixed::{add3, from_fixed, in_range, sum3, to_fixed};
 use crate::math::Rgb;
 use crate::passes::{Aov, CATCHER_SLOTS, FIRST_SAMPLE_SLOTS, Pass, PassSet, divide_even_color, slot};
 use crate::sampling::Distribution1D;
+use crate::scene::light_groups::GroupSums;
 use glam::{Vec2, Vec3};
 
 /// One camera sample's contributions to the film.
@@ -32,6 +33,8 @@ pub struct CameraSample {
     pub aov: Aov,
     /// Cryptomatte ids of the first hit (object, material, asset; 0: none or not asked).
     pub crypto: [u32; 3],
+    /// The radiance by light group (`crate::scene::light_groups`), filled only when asked.
+    pub groups: GroupSums,
 }
 
 /// Pixel filter.
@@ -173,6 +176,10 @@ pub struct Tile {
     pub crypto_layout: Layout,
     /// Row-major Cryptomatte slots, `crypto_layout.stride()` per pixel, layer after layer.
     pub crypto: Vec<Slot>,
+    /// Light groups kept.
+    pub groups: usize,
+    /// Row-major light-group sums, fixed point, `3 × groups` per pixel.
+    pub group_sums: Vec<i128>,
 }
 
 impl Tile {
@@ -180,7 +187,7 @@ impl Tile {
     /// returns false (and adds nothing) when a value is not finite or out of range.
     #[inline]
     pub fn add(&mut self, i: usize, s: &CameraSample) -> bool {
-        if self.slots == 0 && self.crypto_layout.is_empty() {
+        if self.slots == 0 && self.crypto_layout.is_empty() && self.groups == 0 {
             return self.pixels[i].add(s);
         }
         let mut m = self.slots & !FIRST_SAMPLE_SLOTS;
@@ -189,6 +196,9 @@ impl Tile {
                 return false;
             }
             m &= m - 1;
+        }
+        if !s.groups.0[..self.groups].iter().all(|g| in_range(*g)) {
+            return false;
         }
         // Position and the indices are the pixel's first sample's, as Cycles' sample 0.
         let first = self.pixels[i].n == 0;
@@ -200,6 +210,14 @@ impl Tile {
             let px = &mut self.crypto[i * layout.stride()..(i + 1) * layout.stride()];
             for (layer, kind) in px.chunks_exact_mut(per).zip(layout.iter()) {
                 cryptomatte::add(layer, s.crypto[kind.index()]);
+            }
+        }
+        if self.groups > 0 {
+            let sums = &mut self.group_sums[i * 3 * self.groups..(i + 1) * 3 * self.groups];
+            for (acc, g) in sums.chunks_exact_mut(3).zip(&s.groups.0) {
+                for (a, v) in acc.iter_mut().zip(g) {
+                    *a = a.wrapping_add(to_fixed(*v));
+                }
             }
         }
         let stride = self.slots.count_ones() as usize;
@@ -251,6 +269,11 @@ pub struct FilmImage {
     /// Per pixel, the means of the shadow catcher's sums (`slot::CATCHER_PASS` onward),
     /// when the film keeps them; `crate::shadow_catcher` turns them into Cycles' passes.
     pub catcher: Vec<[f32; CATCHER_SUMS]>,
+    /// Each light group's mean radiance, RGB interleaved, in group order.
+    pub light_groups: Vec<Vec<f32>>,
+    /// The light groups' names, which the writer needs (the film knows only their number;
+    /// the render sets them from the scene).
+    pub light_group_names: Vec<String>,
 }
 
 /// Number of the shadow catcher's sums per pixel.
@@ -403,6 +426,7 @@ impl Film {
         // The settings checked the levels (`resolve`); a set without Cryptomatte has none.
         let crypto_layout = passes.cryptomatte().unwrap_or_default();
         let stride = slots.count_ones() as usize;
+        let groups = passes.light_groups();
         let mut tiles = Vec::new();
         for y0 in (0..height).step_by(tile as usize) {
             for x0 in (0..width).step_by(tile as usize) {
@@ -418,6 +442,8 @@ impl Film {
                     extra: vec![0; n * stride],
                     crypto_layout,
                     crypto: vec![Slot::default(); n * crypto_layout.stride()],
+                    groups,
+                    group_sums: vec![0; n * 3 * groups],
                 });
             }
         }
@@ -443,6 +469,47 @@ impl Film {
         let t = self.tile_index(x, y);
         let t = &mut self.tiles[t];
         &mut t.pixels[((y - t.y0) * t.w + x - t.x0) as usize]
+    }
+
+    /// The extra-pass sums of pixel (x, y): its kept slots (`PassSet::slots`, in slot order)
+    /// and its light groups' sums (three per group).
+    pub fn pixel_extra(&self, x: u32, y: u32) -> (&[i128], &[i128]) {
+        let t = &self.tiles[self.tile_index(x, y)];
+        let j = ((y - t.y0) * t.w + x - t.x0) as usize;
+        let (stride, g) = (t.slots.count_ones() as usize, 3 * t.groups);
+        (&t.extra[j * stride..(j + 1) * stride], &t.group_sums[j * g..(j + 1) * g])
+    }
+
+    /// [`pixel_extra`](Self::pixel_extra), mutable.
+    pub fn pixel_extra_mut(&mut self, x: u32, y: u32) -> (&mut [i128], &mut [i128]) {
+        let t = self.tile_index(x, y);
+        let t = &mut self.tiles[t];
+        let j = ((y - t.y0) * t.w + x - t.x0) as usize;
+        let (stride, g) = (t.slots.count_ones() as usize, 3 * t.groups);
+        (&mut t.extra[j * stride..(j + 1) * stride], &mut t.group_sums[j * g..(j + 1) * g])
+    }
+
+    /// Adds pixel (x, y) of `other`, a film of the same size and passes (a merged chunk):
+    /// sums add, depth is the minimum; the first-sample slots (Position, the indices) take
+    /// `other`'s values when `other_first` (its samples come before this film's).
+    pub fn merge_pixel(&mut self, x: u32, y: u32, other: &Film, other_first: bool) {
+        self.pixel_mut(x, y).merge(other.pixel(x, y));
+        let slots = self.passes.slots();
+        let (a, ga) = self.pixel_extra_mut(x, y);
+        let (b, gb) = other.pixel_extra(x, y);
+        let mut m = slots;
+        for (a, b) in a.iter_mut().zip(b) {
+            let k = m.trailing_zeros();
+            if FIRST_SAMPLE_SLOTS >> k & 1 == 0 {
+                *a = a.wrapping_add(*b);
+            } else if other_first {
+                *a = *b;
+            }
+            m &= m - 1;
+        }
+        for (a, b) in ga.iter_mut().zip(gb) {
+            *a = a.wrapping_add(*b);
+        }
     }
 
     /// Index of the tile holding (x, y): tiles are squares of `tile_size` in scanline order.
@@ -476,6 +543,8 @@ impl Film {
                 0 => Vec::new(),
                 _ => vec![[0.0; CATCHER_SUMS]; n],
             },
+            light_groups: vec![vec![0.0; n * 3]; self.passes.light_groups()],
+            light_group_names: Vec::new(),
         };
         let layout = self.tiles.first().map(|t| t.crypto_layout).unwrap_or_default();
         for kind in layout.iter() {
@@ -511,6 +580,12 @@ impl Film {
                     let j = (ty * t.w + tx) as usize;
                     let acc = &t.extra[j * stride..(j + 1) * stride];
                     extra_pixel(&mut img.extra, i, t.slots, acc, inv);
+                    let sums = &t.group_sums[j * 3 * t.groups..(j + 1) * 3 * t.groups];
+                    for (data, g) in img.light_groups.iter_mut().zip(sums.chunks_exact(3)) {
+                        for (d, v) in data[i * 3..i * 3 + 3].iter_mut().zip(g) {
+                            *d = (from_fixed(*v) * inv) as f32;
+                        }
+                    }
                     if let Some(c) = img.catcher.get_mut(i) {
                         for (k, v) in c.iter_mut().enumerate() {
                             let at = slot::CATCHER_PASS + k;

@@ -122,6 +122,20 @@ fn write_exr_with(out: &Path, img: &FilmImage, half: bool, chunk: Option<(&Film,
             list.push(AnyChannel::new(format!("{}.{ch}", pass.name()).as_str(), samples));
         }
     }
+    if img.light_groups.len() != img.light_group_names.len() {
+        return Err(Error::Internal(format!(
+            "{} light group passes but {} names to write them under",
+            img.light_groups.len(),
+            img.light_group_names.len()
+        )));
+    }
+    for (name, data) in img.light_group_names.iter().zip(&img.light_groups) {
+        // Blender's and Cycles' name for a light group's pass.
+        for (c, ch) in ["R", "G", "B"].iter().enumerate() {
+            let values: Vec<f32> = data.iter().skip(c).step_by(3).copied().collect();
+            list.push(AnyChannel::new(format!("Combined_{name}.{ch}").as_str(), make(values)));
+        }
+    }
     for (name, data) in &img.crypto {
         // Ids are float-encoded hashes: float even in half mode, where they would round.
         for (c, ch) in Pass::CryptoObject.channels().iter().enumerate() {

@@ -394,18 +394,26 @@ impl Pass {
     }
 }
 
-/// A set of passes (bit i = `ALL[i]`; the top bit: keep the shadow catcher's sums) and
-/// Cryptomatte's levels.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+/// A set of passes (bit i = `ALL[i]`; the top bit: keep the shadow catcher's sums; the
+/// next: the light groups), Cryptomatte's levels and the number of light groups.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 pub struct PassSet {
     bits: u32,
     /// Blender's Cryptomatte levels (0: Blender's default).
     crypto_levels: u32,
+    /// Light groups of the scene written as `Combined_<name>` (when asked).
+    light_groups: u8,
 }
 
 /// The [`PassSet`] bit that keeps the shadow catcher's sums (no pass of its own).
 const CATCHER_SUMS: u32 = 1 << 31;
-const _: () = assert!(ALL.len() < 31);
+/// The [`PassSet`] bit that asks for the scene's light groups (`--passes light_groups`).
+const LIGHT_GROUPS: u32 = 1 << 30;
+const _: () = assert!(ALL.len() < 30);
+
+/// The `--passes` token that asks for one `Combined_<group>` pass per light group of the
+/// scene (`crate::scene::light_groups`).
+pub const LIGHT_GROUPS_TOKEN: &str = "light_groups";
 
 /// The slots of the shadow catcher's sums.
 pub const CATCHER_SLOTS: u64 = ((1u64 << (slot::COUNT - slot::CATCHER_PASS)) - 1) << slot::CATCHER_PASS;
@@ -420,6 +428,22 @@ impl PassSet {
     /// True when the shadow catcher's sums are kept.
     pub fn catcher_sums(self) -> bool {
         self.bits & CATCHER_SUMS != 0
+    }
+
+    /// True when the light groups were asked for (`--passes light_groups`).
+    pub fn asks_light_groups(self) -> bool {
+        self.bits & LIGHT_GROUPS != 0
+    }
+
+    /// Sets how many light groups the scene has (written only when asked).
+    pub fn set_light_groups(&mut self, count: usize) {
+        self.light_groups = count.min(crate::scene::light_groups::MAX) as u8;
+    }
+
+    /// The light groups to write: the scene's count when asked, else 0.
+    #[inline]
+    pub fn light_groups(self) -> usize {
+        if self.asks_light_groups() { self.light_groups as usize } else { 0 }
     }
 
     /// What a render writes without `--passes`: the passes of Caustic before pass
@@ -499,9 +523,13 @@ impl PassSet {
             if item.eq_ignore_ascii_case("combined") || item.eq_ignore_ascii_case("none") {
                 continue;
             }
+            if item.eq_ignore_ascii_case(LIGHT_GROUPS_TOKEN) {
+                set.bits |= LIGHT_GROUPS;
+                continue;
+            }
             set.insert(Pass::parse(item).ok_or_else(|| {
                 Error::Usage(format!(
-                    "unknown pass '{item}' (known: combined, {})",
+                    "unknown pass '{item}' (known: combined, {}, {LIGHT_GROUPS_TOKEN})",
                     ALL.iter().map(|p| p.token()).collect::<Vec<_>>().join(", ")
                 ))
             })?);
@@ -566,6 +594,13 @@ mod tests {
         let set = PassSet::parse_list("Combined, diffuse_direct,Emission").unwrap();
         assert_eq!(set.iter().collect::<Vec<_>>(), vec![Pass::DiffuseDirect, Pass::Emission]);
         assert!(PassSet::parse_list("diffuse_directt").unwrap_err().to_string().contains("unknown pass"));
+        let mut set = PassSet::parse_list("light_groups").unwrap();
+        assert_eq!((set.iter().count(), set.light_groups()), (0, 0));
+        set.set_light_groups(3);
+        assert_eq!(set.light_groups(), 3);
+        let mut unasked = PassSet::default();
+        unasked.set_light_groups(3);
+        assert_eq!(unasked.light_groups(), 0);
     }
 
     #[test]

@@ -83,6 +83,18 @@ fn path_tracer_chunks_merge_exactly() {
     chunks_equal_single(&["--integrator", "path"]);
 }
 
+/// The light and data passes travel in chunks as sums (the first-sample ones, Position and
+/// the indices, from the chunk holding sample 0), so that merged passes are the single
+/// render's bit for bit.
+#[test]
+fn passes_merge_exactly() {
+    chunks_equal_single(&[
+        "--passes",
+        "diffuse_direct,diffuse_indirect,glossy_color,transmission_direct,emit,environment,volume_direct,\
+         mist,position,uv,ambient_occlusion,object_index,material_index,vector,z,normal,denoising_albedo",
+    ]);
+}
+
 #[test]
 fn bdpt_chunks_merge_exactly() {
     // A crop window too: chunks keep the window and merge within it.

@@ -231,3 +231,100 @@ fn data_passes_on_a_known_scene() {
     assert!(ch["Ambient Occlusion.R"].iter().all(|&a| a == 1.0), "{:?}", ch["Ambient Occlusion.R"]);
     assert!(!ch.contains_key("Depth.Z"), "Depth was not asked for");
 }
+
+/// `scene` with the render settings' `light_groups` set to `spec`.
+fn with_light_groups(scene: &Path, spec: serde_json::Value) {
+    let mut doc: serde_json::Value = serde_json::from_slice(&std::fs::read(scene).unwrap()).unwrap();
+    doc["scenes"][0]["extras"]["caustic"]["light_groups"] = spec;
+    std::fs::write(scene, serde_json::to_vec(&doc).unwrap()).unwrap();
+}
+
+/// Σ over the channels R, G, B and pixels of pass `pass`.
+fn pass_total(ch: &BTreeMap<String, Vec<f32>>, pass: &str) -> f64 {
+    ["R", "G", "B"].iter().map(|c| ch[&format!("{pass}.{c}")].iter().map(|&v| v as f64).sum::<f64>()).sum()
+}
+
+/// Light groups whose emitters are every emitter of the scene sum to Combined, pixel by
+/// pixel, and each holds light: an area light and the world (with subsurface exits and a
+/// medium), a street of emissive objects split into two groups, an emissive ceiling.
+#[test]
+fn light_groups_sum_to_combined() {
+    let dir = temp_dir();
+    let bulbs = |range: std::ops::Range<u32>| range.map(|i| (format!("bulbs{i}"), json!("near")));
+    let cases = [
+        ("subsurface", json!({"names": ["key", "sky"], "world": "sky", "objects": {"area_light": "key"}})),
+        (
+            "many_lights",
+            json!({"names": ["near", "far"], "objects": bulbs(0..4)
+                .chain(bulbs(4..8).map(|(k, _)| (k, json!("far"))))
+                .chain([("windows".to_string(), json!("far"))])
+                .collect::<serde_json::Map<_, _>>()}),
+        ),
+        ("cornell_box", json!({"names": ["ceiling"], "objects": {"light": "ceiling"}})),
+    ];
+    for (name, spec) in cases {
+        let scene = opaque_copy(name, dir.path());
+        let names: Vec<String> = spec["names"].as_array().unwrap().iter().map(|n| n.as_str().unwrap().into()).collect();
+        with_light_groups(&scene, spec);
+        let out = dir.path().join(format!("{name}.exr"));
+        render(&scene, &out, &["--spp", "8", "--resolution", "40x30", "--passes", "light_groups"]);
+        let ch = channels(&out);
+        for g in &names {
+            assert!(pass_total(&ch, &format!("Combined_{g}")) > 0.0, "{name}: group {g} is empty");
+        }
+        let mut worst = 0.0f64;
+        for c in ["R", "G", "B"] {
+            for (i, combined) in ch[&format!("Combined.{c}")].iter().enumerate() {
+                let sum: f64 = names.iter().map(|g| ch[&format!("Combined_{g}.{c}")][i] as f64).sum();
+                // Each group and Combined add the same f32 contributions (a few dozen per
+                // path, 8 paths) in different orders: 2^-24 relative per addition, so
+                // 1e-5 of the magnitude bounds the difference with room.
+                let tol = 1e-5 * (*combined as f64).abs().max(sum) + 1e-9;
+                worst = worst.max((*combined as f64 - sum).abs() / tol);
+            }
+        }
+        assert!(worst <= 1.0, "{name}: the light groups differ from Combined by {worst} × the rounding bound");
+    }
+}
+
+/// An emitter in no group is in no group pass: with half of the street's bulbs grouped,
+/// the group holds part of Combined; light groups are asked of the path tracer only, merge
+/// exactly from chunks, and a group the view layer does not have is a bad scene.
+#[test]
+fn light_groups_leave_out_ungrouped_emitters_merge_from_chunks_and_refuse_bad_requests() {
+    let dir = temp_dir();
+    let scene = opaque_copy("many_lights", dir.path());
+    with_light_groups(&scene, json!({"names": ["some"], "objects": {"bulbs0": "some", "bulbs1": "some"}}));
+    let out = dir.path().join("lg.exr");
+    render(&scene, &out, &["--spp", "4", "--resolution", "32x24", "--passes", "light_groups"]);
+    let ch = channels(&out);
+    let (group, combined) = (pass_total(&ch, "Combined_some"), pass_total(&ch, "Combined"));
+    assert!(group > 0.0 && group < 0.9 * combined, "group {group}, combined {combined}");
+    // Without the token the groups are not written.
+    render(&scene, &out, &["--spp", "1", "--resolution", "16x12", "--passes", "none"]);
+    assert!(!channels(&out).keys().any(|k| k.starts_with("Combined_")));
+    let s = scene.to_str().unwrap();
+    let o = out.to_str().unwrap();
+    let bad = run(&["render", s, "-o", o, "--passes", "light_groups", "--integrator", "bdpt"], LIMIT);
+    assert_eq!(bad.code, Some(2), "{}", bad.stderr);
+    assert!(bad.stderr.contains("light group"), "{}", bad.stderr);
+    // Chunks carry the groups' sums: two chunks merge into the single render bit for bit.
+    let p = |n: &str| dir.path().join(n);
+    let lg = ["--resolution", "16x12", "--passes", "light_groups"];
+    render(&scene, &p("single.exr"), &[&lg[..], &["--spp", "4"]].concat());
+    render(&scene, &p("a.exr"), &[&lg[..], &["--spp", "1", "--chunk"]].concat());
+    render(&scene, &p("b.exr"), &[&lg[..], &["--spp", "3", "--sample-offset", "1", "--chunk"]].concat());
+    let (a, b, m) = (p("a.exr"), p("b.exr"), p("merged.exr"));
+    let r = run(&["merge", a.to_str().unwrap(), b.to_str().unwrap(), "-o", m.to_str().unwrap()], LIMIT);
+    assert_eq!(r.code, Some(0), "{}", r.stderr);
+    let (single, merged) = (channels(&p("single.exr")), channels(&m));
+    assert!(single.contains_key("Combined_some.R"));
+    for (name, v) in &single {
+        let w = &merged[name];
+        assert!(v.iter().zip(w).all(|(x, y)| x.to_bits() == y.to_bits()), "{name} differs after the merge");
+    }
+    with_light_groups(&scene, json!({"names": ["some"], "objects": {"bulbs0": "other"}}));
+    let bad = run(&["render", s, "-o", o, "--passes", "light_groups"], LIMIT);
+    assert_eq!(bad.code, Some(3), "{}", bad.stderr);
+    assert!(bad.stderr.contains("'other'"), "{}", bad.stderr);
+}

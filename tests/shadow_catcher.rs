@@ -136,20 +136,38 @@ fn opaque_film_shows_the_world_darkened_by_the_shadow() {
     }
 }
 
-/// Scenes with a catcher cannot be split into chunks yet (its sums are not in chunks), and
-/// the other integrators render the catcher as an ordinary object with a warning.
+/// Chunks of a scene with a catcher carry the catcher's sums: two chunks merged give the
+/// single render's Combined and Shadow Catcher pass bit for bit; the other integrators render
+/// the catcher as an ordinary object with a warning.
 #[test]
-fn chunks_refuse_and_other_integrators_warn() {
+fn chunks_merge_exactly_and_other_integrators_warn() {
     let dir = temp_dir();
     let d = dir.path();
     let s = scene(d, "w.gltf", None, true);
     let out = d.join("w.exr");
+    let render = |out: &Path, extra: &[&str]| {
+        let mut a = vec!["render", s.to_str().unwrap(), "-o", out.to_str().unwrap(), "--passes", "shadow_catcher"];
+        a.extend_from_slice(&["--resolution", "16x12", "--progress", "json"]);
+        a.extend_from_slice(extra);
+        let r = common::run(&a, LIMIT);
+        assert_eq!(r.code, Some(0), "{extra:?}: {}", r.stderr);
+    };
+    render(&d.join("single.exr"), &["--spp", "6"]);
+    render(&d.join("a.exr"), &["--spp", "2", "--chunk"]);
+    render(&d.join("b.exr"), &["--spp", "4", "--sample-offset", "2", "--chunk"]);
+    let merged = d.join("merged.exr");
+    let (a, b) = (d.join("a.exr"), d.join("b.exr"));
     let r = common::run(
-        &["render", s.to_str().unwrap(), "-o", out.to_str().unwrap(), "--chunk", "--spp", "1", "--progress", "json"],
+        &["merge", b.to_str().unwrap(), a.to_str().unwrap(), "-o", merged.to_str().unwrap(), "--progress", "json"],
         LIMIT,
     );
-    assert_eq!(r.code, Some(2), "{}", r.stderr);
-    assert!(r.error_message().unwrap_or_default().contains("shadow catcher"));
+    assert_eq!(r.code, Some(0), "{}", r.stderr);
+    let (single, merged) = (common::exr_channel_bits(&d.join("single.exr")), common::exr_channel_bits(&merged));
+    assert_eq!(single.iter().map(|c| &c.0).collect::<Vec<_>>(), merged.iter().map(|c| &c.0).collect::<Vec<_>>());
+    assert!(single.iter().any(|c| c.0.starts_with("Shadow Catcher")));
+    for ((name, x), (_, y)) in single.iter().zip(&merged) {
+        assert_eq!(x, y, "{name} differs between the single render and the merged chunks");
+    }
     let r = common::run(
         &[
             "render",

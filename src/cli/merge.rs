@@ -22,13 +22,26 @@ pub fn run_merge(args: &MergeArgs, reporter: &Reporter) -> Result<()> {
     let chunk::Chunk { info, mut film } = chunk::read(first)?;
     let mut ranges: Vec<([u32; 2], &std::path::Path)> = info.samples.iter().map(|r| (*r, first.as_path())).collect();
     let mut merged = ChunkInfo { samples: Vec::new(), ..info.clone() };
+    // Per pixel, the first sample index of the chunk whose first-sample values (Position,
+    // the indices: a single render keeps its sample 0's) the merged film holds.
+    let start = |c: &ChunkInfo| c.samples.iter().map(|r| r[0]).min().unwrap_or(u32::MAX);
+    let mut first_from: Vec<u32> = (0..film.height)
+        .flat_map(|y| (0..film.width).map(move |x| (x, y)))
+        .map(|(x, y)| if film.pixel(x, y).n > 0 { start(&info) } else { u32::MAX })
+        .collect();
     for path in inputs {
         let c = chunk::read(path)?;
         info.check_compatible(&c.info, first, path)?;
         ranges.extend(c.info.samples.iter().map(|r| (*r, path.as_path())));
+        let s = start(&c.info);
         for y in 0..film.height {
             for x in 0..film.width {
-                film.pixel_mut(x, y).merge(c.film.pixel(x, y));
+                let f = &mut first_from[(y * film.width + x) as usize];
+                let other_first = c.film.pixel(x, y).n > 0 && s < *f;
+                if other_first {
+                    *f = s;
+                }
+                film.merge_pixel(x, y, &c.film, other_first);
             }
         }
         for (a, b) in film.splat.iter_mut().zip(&c.film.splat) {
@@ -42,9 +55,11 @@ pub fn run_merge(args: &MergeArgs, reporter: &Reporter) -> Result<()> {
 
     reporter.phase("writing", t0.elapsed().as_secs_f64());
     let mut img = film.image();
+    img.light_group_names.clone_from(&info.light_groups);
     if !info.transparent {
         img.make_opaque();
     }
+    crate::shadow_catcher::resolve(&mut img, info.transparent);
     match args.chunk {
         true => output::write_chunk(&args.output, &img, args.half, &film, &merged)?,
         false => output::write_exr(&args.output, &img, args.half)?,

@@ -124,6 +124,12 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         reporter.warning(&w);
         run_warnings.push(w);
     }
+    if res.passes.asks_light_groups() && scene.light_groups.is_empty() {
+        let w = "the light group passes were asked for, but the scene declares no light groups: none is written"
+            .to_string();
+        reporter.warning(&w);
+        run_warnings.push(w);
+    }
     let linked = &scene.light_linking.emitters;
     if !linked.is_empty() && !matches!(res.integrator, IntegratorKind::Path) {
         // Photons and light subpaths would need the receiver at every vertex.
@@ -254,6 +260,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     let integrator = match res.integrator {
         IntegratorKind::Path => Integrator::Path(PathIntegrator {
             light_passes: res.passes.any_light(),
+            light_groups: res.passes.light_groups() > 0,
             ..PathIntegrator::new(res.max_depth, res.transparent)
         }),
         IntegratorKind::Sppm => {
@@ -346,6 +353,8 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     // The Cryptomatte manifests go into every image's header (interim ones too).
     let crypto_header: Vec<(String, String)> =
         res.passes.cryptomatte()?.iter().flat_map(|k| crate::cryptomatte::header(k, scene.pass_ids.names(k))).collect();
+    // The light groups' pass names, by the film's group order.
+    let group_names: Vec<String> = scene.light_groups.names[..res.passes.light_groups()].to_vec();
     reporter.phase("rendering", t0.elapsed().as_secs_f64());
     let out_str = args.output.display().to_string();
     let mut last_interim = Instant::now();
@@ -362,6 +371,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
             {
                 let mut img = film.image();
                 img.metadata.clone_from(&crypto_header);
+                img.light_group_names.clone_from(&group_names);
                 if !res.transparent {
                     img.make_opaque();
                 }
@@ -385,6 +395,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     }
     let mut result = result;
     result.image.metadata = crypto_header;
+    result.image.light_group_names = group_names;
     if !res.transparent {
         result.image.make_opaque();
     }
@@ -463,7 +474,7 @@ fn chunk_info(args: &RenderArgs, res: &Resolved, scene: &Scene) -> ChunkInfo {
     // SPPM's iteration count is its chunk's sample count, not an identity.
     let photon = PhotonSettings { sppm_iterations: 0, ..res.photon.clone() };
     let settings = format!(
-        "{:?}|{:?}|{}|{:?}|{}|{:?}|{:?}|{}|{:?}",
+        "{:?}|{:?}|{}|{:?}|{}|{:?}|{:?}|{}|{:?}|{:?}|{:?}",
         res.resolution,
         res.camera,
         res.max_depth,
@@ -473,6 +484,8 @@ fn chunk_info(args: &RenderArgs, res: &Resolved, scene: &Scene) -> ChunkInfo {
         photon,
         res.light_sampler.name(),
         args.bdpt_strategy,
+        res.passes,
+        res.data,
     );
     ChunkInfo {
         version: chunk::CHUNK_VERSION,
@@ -485,6 +498,8 @@ fn chunk_info(args: &RenderArgs, res: &Resolved, scene: &Scene) -> ChunkInfo {
         transparent: res.transparent,
         samples: Vec::new(),
         light_paths: 0,
+        passes: res.passes,
+        light_groups: scene.light_groups.names[..res.passes.light_groups()].to_vec(),
     }
 }
 
@@ -572,6 +587,14 @@ fn charge_render(budget: &MemoryBudget, args: &RenderArgs, res: &Resolved, scene
             pixels.saturating_mul(slots * (16 + 4 + 4)),
         )?;
     }
+    let groups = res.passes.light_groups() as u64;
+    if groups > 0 {
+        // Each group: three i128 sums in the tiles, the image's three f32 and the writer's copy.
+        budget.charge(
+            format!("the {groups} light group passes for {}x{} pixels", x1 - x0, y1 - y0),
+            pixels.saturating_mul(groups * 3 * (16 + 4 + 4)),
+        )?;
+    }
     let crypto = res.passes.cryptomatte()?;
     if !crypto.is_empty() {
         // Each slot: 8 bytes in the tiles, the image's two f32 and the EXR writer's copy.
@@ -581,8 +604,11 @@ fn charge_render(budget: &MemoryBudget, args: &RenderArgs, res: &Resolved, scene
         )?;
     }
     if args.chunk {
-        // The chunk channels: 54 words of 4 bytes per pixel, built beside the image.
-        budget.charge(format!("the chunk sums for {}x{} pixels", x1 - x0, y1 - y0), pixels.saturating_mul(54 * 4))?;
+        // The chunk channels, built beside the image: 54 words of 4 bytes per pixel, and four
+        // words for each extra sum (the kept slots, three per light group).
+        let words = 54 + 4 * (slots + 3 * groups);
+        budget
+            .charge(format!("the chunk sums for {}x{} pixels", x1 - x0, y1 - y0), pixels.saturating_mul(words * 4))?;
     }
     match res.integrator {
         IntegratorKind::Photon => match &args.photon_map {

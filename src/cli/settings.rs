@@ -285,6 +285,15 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
             integrator.name()
         )));
     }
+    if passes.asks_light_groups() {
+        if integrator != IntegratorKind::Path {
+            return Err(Error::Usage(format!(
+                "the light group passes are rendered by the path integrator only, not by '{}'",
+                integrator.name()
+            )));
+        }
+        passes.set_light_groups(scene.light_groups.len());
+    }
     if let Some(levels) = args.cryptomatte_levels.or(st.cryptomatte_levels) {
         passes.set_cryptomatte_levels(levels);
     }
@@ -294,23 +303,14 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
             "the data passes (AO, Mist, Position, UV, indices, Cryptomatte) are not rendered by 'sppm'".into(),
         ));
     }
-    if (passes.any_light() || passes.any_data()) && args.chunk {
+    if passes.any_crypto() && args.chunk {
         // Cryptomatte's slots are filled in sample order (a full pixel counts a new id in
         // its last slot): chunks could not be merged into what one render keeps.
         return Err(Error::Usage(
-            "chunks (--chunk) do not carry the light and data passes (Cryptomatte included) yet: \
-             render them without --chunk"
-                .into(),
+            "chunks (--chunk) do not carry the Cryptomatte passes yet: render them without --chunk".into(),
         ));
     }
     if !scene.ray_visibility.catcher_objects.is_empty() && integrator == IntegratorKind::Path {
-        if args.chunk {
-            return Err(Error::Usage(
-                "chunks (--chunk) do not carry the shadow catcher's sums yet: render a scene with a shadow \
-                 catcher without --chunk"
-                    .into(),
-            ));
-        }
         passes = passes.with_catcher_sums();
     }
     if passes.contains(crate::passes::Pass::ShadowCatcher) && integrator != IntegratorKind::Path {
@@ -318,9 +318,6 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
             "the Shadow Catcher pass is rendered by the path integrator only, not by '{}'",
             integrator.name()
         )));
-    }
-    if passes.contains(crate::passes::Pass::ShadowCatcher) && args.chunk {
-        return Err(Error::Usage("chunks (--chunk) do not carry the Shadow Catcher pass yet".into()));
     }
     let data = crate::passes::DataSettings::resolve(st.mist, st.ao_distance)?;
     if adaptive.is_some() {

@@ -351,6 +351,26 @@ impl<'a> SceneContext<'a> {
         receiver: u32,
         path: &LightPath,
     ) -> (Rgb, bool) {
+        self.crossed_emission_each(org, dir, tmax, prev_p, prev_n, prev_pdf, camera_ray, receiver, path, |_, _| {})
+    }
+
+    /// [`crossed_emission`](Self::crossed_emission), also handing each crossed light's
+    /// index and its weighted radiance to `each` (the light groups file them).
+    #[inline]
+    #[allow(clippy::too_many_arguments)]
+    pub fn crossed_emission_each(
+        &self,
+        org: Vec3,
+        dir: Vec3,
+        tmax: f32,
+        prev_p: Vec3,
+        prev_n: Vec3,
+        prev_pdf: f32,
+        camera_ray: bool,
+        receiver: u32,
+        path: &LightPath,
+        mut each: impl FnMut(usize, Rgb),
+    ) -> (Rgb, bool) {
         let mut sum = Rgb::ZERO;
         let mut any = false;
         if self.catcher_only && camera_ray {
@@ -371,7 +391,9 @@ impl<'a> SceneContext<'a> {
                 } else {
                     power_heuristic(prev_pdf, self.light_pdf(*index, prev_p, prev_n, org + dir * t, a.normal))
                 };
-                sum += a.radiance * (w * a.spread_attenuation((-dir).dot(a.normal)));
+                let c = a.radiance * (w * a.spread_attenuation((-dir).dot(a.normal)));
+                sum += c;
+                each(*index, c);
                 any = true;
             }
         }
@@ -401,6 +423,7 @@ impl<'a> SceneContext<'a> {
                     power_heuristic(prev_pdf, light_pdf)
                 };
                 sum += radiance * w;
+                each(index, radiance * w);
                 any = true;
             } else if intersect_sphere(org, dir, center, radius, tmax).is_some() {
                 let w = if prev_pdf == 0.0 {
@@ -411,6 +434,7 @@ impl<'a> SceneContext<'a> {
                     power_heuristic(prev_pdf, light_pdf)
                 };
                 sum += radiance * w;
+                each(index, radiance * w);
                 any = true;
             }
         }
@@ -422,6 +446,21 @@ impl<'a> SceneContext<'a> {
     /// bounce, for the sun's ray visibility).
     #[inline]
     pub fn sun_emission(&self, dir: Vec3, prev_pdf: f32, camera_ray: bool, receiver: u32, path: &LightPath) -> Rgb {
+        self.sun_emission_each(dir, prev_pdf, camera_ray, receiver, path, |_, _| {})
+    }
+
+    /// [`sun_emission`](Self::sun_emission), also handing each sun's index and weighted
+    /// radiance to `each`.
+    #[inline]
+    pub fn sun_emission_each(
+        &self,
+        dir: Vec3,
+        prev_pdf: f32,
+        camera_ray: bool,
+        receiver: u32,
+        path: &LightPath,
+        mut each: impl FnMut(usize, Rgb),
+    ) -> Rgb {
         let mut sum = Rgb::ZERO;
         if self.catcher_only && camera_ray {
             return sum;
@@ -437,6 +476,7 @@ impl<'a> SceneContext<'a> {
                     power_heuristic(prev_pdf, self.lights.infinite_pmf(index) * uniform_cone_pdf(cos_half))
                 };
                 sum += radiance * w;
+                each(index, radiance * w);
             }
         }
         sum

@@ -40,7 +40,8 @@ pub fn surface_nee(
 }
 
 /// [`surface_nee`], with the light direction in the shading frame (zero when no light
-/// was sampled): the light passes split the estimate by the BSDF's classes there.
+/// was sampled): the light passes split the estimate by the BSDF's classes there; and
+/// the light's index ([`NO_LIGHT`] when none was sampled), which the light groups file it by.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 pub fn surface_nee_at(
@@ -55,17 +56,17 @@ pub fn surface_nee_at(
     u_light: f32,
     u_light_pt: Vec2,
     stats: &mut RayStats,
-) -> (Rgb, Vec3) {
+) -> (Rgb, Vec3, usize) {
     let Some((index, pmf)) = ctx.lights.sample(s.p, n_select, u_light) else {
-        return (Rgb::ZERO, Vec3::ZERO);
+        return (Rgb::ZERO, Vec3::ZERO, NO_LIGHT);
     };
     // Light linking: a light chosen for a surface it does not light gives nothing (the
     // choice keeps its density, so the estimate of the linked lights is unchanged).
     if !ctx.links(index, s.tri) {
-        return (Rgb::ZERO, Vec3::ZERO);
+        return (Rgb::ZERO, Vec3::ZERO, index);
     }
     let Some(ls) = ctx.sample_light(index, s.p, u_light_pt) else {
-        return (Rgb::ZERO, Vec3::ZERO);
+        return (Rgb::ZERO, Vec3::ZERO, index);
     };
     let wi_local = sp.frame.to_local(ls.wi);
     // A light hidden from some kinds of ray lights only the other classes' closures.
@@ -73,7 +74,7 @@ pub fn surface_nee_at(
     let f = if excluded.none() { at.eval(wi_local) } else { at.eval_visible(wi_local, excluded) } * wi_local.z.abs();
     let consistent = (wi_local.z > 0.0) == (ls.wi.dot(s.ng) > 0.0);
     if f == Rgb::ZERO || ls.li == Rgb::ZERO || !consistent {
-        return (Rgb::ZERO, wi_local);
+        return (Rgb::ZERO, wi_local, index);
     }
     let tr = if ctx.casts_shadow(index) {
         stats.shadow += 1;
@@ -82,13 +83,16 @@ pub fn surface_nee_at(
         Rgb::ONE
     };
     if tr == Rgb::ZERO {
-        return (Rgb::ZERO, wi_local);
+        return (Rgb::ZERO, wi_local, index);
     }
     let bsdf_pdf = at.pdf(wi_local) * bsdf_pdf_scale;
     // A shadow-linked light is found by next-event estimation alone.
     let w = if ls.delta || ctx.shadow_linked(index) { 1.0 } else { power_heuristic(ls.pdf * pmf, bsdf_pdf) };
-    (beta * f * tr * ls.li * (w / (ls.pdf * pmf)), wi_local)
+    (beta * f * tr * ls.li * (w / (ls.pdf * pmf)), wi_local, index)
 }
+
+/// The light index next-event estimation reports when it sampled no light.
+pub const NO_LIGHT: usize = usize::MAX;
 
 /// Transmittance of a shadow ray from surface `s` to a sample of light `light`: through
 /// media and volume boundaries (and tinted Transparent BSDFs) when the scene has any, else
@@ -129,6 +133,21 @@ pub fn medium_nee(
     u_light_pt: Vec2,
     stats: &mut RayStats,
 ) -> Rgb {
+    medium_nee_light(ctx, p, dir, phase, media, u_light, u_light_pt, stats).0
+}
+
+/// [`medium_nee`] and the light it sampled ([`NO_LIGHT`]: none gave light).
+#[allow(clippy::too_many_arguments)]
+pub fn medium_nee_light(
+    ctx: &SceneContext,
+    p: Vec3,
+    dir: Vec3,
+    phase: HenyeyGreenstein,
+    media: MediumStack,
+    u_light: f32,
+    u_light_pt: Vec2,
+    stats: &mut RayStats,
+) -> (Rgb, usize) {
     if let Some((index, pmf)) = ctx.lights.sample(p, Vec3::ZERO, u_light)
         && ctx.links(index, NO_OBJECT)
         && ctx.light_seen_in_volume(index)
@@ -144,11 +163,11 @@ pub fn medium_nee(
             };
             if tr != Rgb::ZERO {
                 let w = if ls.delta || ctx.shadow_linked(index) { 1.0 } else { power_heuristic(ls.pdf * pmf, f) };
-                return tr * ls.li * (f * w / (ls.pdf * pmf));
+                return (tr * ls.li * (f * w / (ls.pdf * pmf)), index);
             }
         }
     }
-    Rgb::ZERO
+    (Rgb::ZERO, NO_LIGHT)
 }
 
 /// NEE at a subsurface exit point: a Lambertian of albedo 1 about `n_s` on the outside
@@ -164,6 +183,21 @@ pub fn exit_nee(
     u_pt: Vec2,
     stats: &mut RayStats,
 ) -> Rgb {
+    exit_nee_light(ctx, se, n_g, n_s, media, u_light, u_pt, stats).0
+}
+
+/// [`exit_nee`] and the light it sampled ([`NO_LIGHT`]: none gave light).
+#[allow(clippy::too_many_arguments)]
+pub fn exit_nee_light(
+    ctx: &SceneContext,
+    se: &SurfaceHit,
+    n_g: Vec3,
+    n_s: Vec3,
+    media: MediumStack,
+    u_light: f32,
+    u_pt: Vec2,
+    stats: &mut RayStats,
+) -> (Rgb, usize) {
     if let Some((index, pmf)) = ctx.lights.sample(se.p, n_g, u_light)
         && ctx.links(index, se.tri)
         // The exit is a diffuse closure (Cycles' BSSRDF exit).
@@ -184,9 +218,9 @@ pub fn exit_nee(
             if tr != Rgb::ZERO {
                 let f = cos * std::f32::consts::FRAC_1_PI;
                 let w = if ls.delta || ctx.shadow_linked(index) { 1.0 } else { power_heuristic(ls.pdf * pmf, f) };
-                return tr * ls.li * (f * w / (ls.pdf * pmf));
+                return (tr * ls.li * (f * w / (ls.pdf * pmf)), index);
             }
         }
     }
-    Rgb::ZERO
+    (Rgb::ZERO, NO_LIGHT)
 }

@@ -29,7 +29,7 @@
 use super::SceneContext;
 use super::catcher::{self, Split};
 use super::light_passes::{Tally, shares_at};
-use super::nee::{exit_nee, medium_nee, surface_nee_at};
+use super::nee::{exit_nee, exit_nee_light, medium_nee, medium_nee_light, surface_nee_at};
 use super::walk::{PathState, Step};
 use crate::bsdf::LobeKind;
 use crate::bsdf::dielectric::refract;
@@ -60,11 +60,20 @@ pub struct PathIntegrator {
     pub transparent_background: bool,
     /// Classify contributions into the light passes (`light_passes.rs`; only when asked).
     pub light_passes: bool,
+    /// File contributions by the light group of the emitter that gave them
+    /// (`scene::light_groups`; only when asked).
+    pub light_groups: bool,
 }
 
 impl Default for PathIntegrator {
     fn default() -> Self {
-        PathIntegrator { max_depth: 13, rr_depth: 3, transparent_background: true, light_passes: false }
+        PathIntegrator {
+            max_depth: 13,
+            rr_depth: 3,
+            transparent_background: true,
+            light_passes: false,
+            light_groups: false,
+        }
     }
 }
 
@@ -184,6 +193,10 @@ impl PathIntegrator {
         // Light passes: only camera paths (`li`) keep a tally.
         let passes = self.light_passes && st.depth == 0;
         let mut tally = Tally::default();
+        // Light groups: camera paths file by emitter, until they split at a shadow catcher
+        // (Cycles files nothing of a path that hit a catcher).
+        let groups = &ctx.scene.light_groups;
+        let mut grouping = self.light_groups && st.depth == 0;
         loop {
             // Bounce dimensions, drawn up front so that their positions are fixed.
             let [u_light, u_lx, u_ly, u_lobe] = sampler.next_4d();
@@ -195,7 +208,19 @@ impl PathIntegrator {
             let pre = if split.allowed && st.depth == 0 { Some(st) } else { None };
             let before = radiance;
             let depth_before = st.depth;
-            let (step, crossed) = st.advance(ctx, [u_channel, u_dist], || u_alpha, true, &mut radiance, stats);
+            let (step, crossed) = st.advance_each(
+                ctx,
+                [u_channel, u_dist],
+                || u_alpha,
+                true,
+                &mut radiance,
+                stats,
+                |light, c| {
+                    if grouping {
+                        out.groups.add(groups.of_light(light), c);
+                    }
+                },
+            );
             if passes && radiance != before {
                 // Crossed lights and medium emission (the difference keeps Combined's sum as it was).
                 tally.found(out, depth_before, radiance - before, false);
@@ -217,8 +242,12 @@ impl PathIntegrator {
                     if st.depth >= self.max_depth {
                         break;
                     }
-                    let c = st.beta * medium_nee(ctx, p, st.dir, phase, st.media, u_light, u_light_pt, stats);
+                    let (le, light) = medium_nee_light(ctx, p, st.dir, phase, st.media, u_light, u_light_pt, stats);
+                    let c = st.beta * le;
                     radiance += c;
+                    if grouping {
+                        out.groups.add(groups.of_light(light), c);
+                    }
                     if passes {
                         tally.estimated(out, st.depth, c, None);
                         tally.volume();
@@ -247,6 +276,16 @@ impl PathIntegrator {
                     let seen_directly = st.depth == 0;
                     if split.allowed && seen_directly {
                         split.background = st.escaped_radiance(ctx).map_or(Rgb::ZERO, |le| st.beta * le);
+                    }
+                    // The world's and the suns' groups (Cycles files the world seen through a
+                    // transparent film in its group too, as in the Environment pass).
+                    let beta = st.beta;
+                    let file = |light: Option<usize>, c: Rgb, out: &mut CameraSample| {
+                        let g = light.map_or(groups.world, |i| groups.of_light(i));
+                        out.groups.add(g, beta * c);
+                    };
+                    if grouping {
+                        st.escaped_radiance_each(ctx, |light, c| file(light, c, out));
                     }
                     if !(seen_directly && self.transparent_background)
                         && let Some(le) = st.escaped_radiance(ctx)
@@ -281,6 +320,7 @@ impl PathIntegrator {
                 && ctx.is_catcher(hit.tri)
             {
                 split.at = Some((pre, radiance));
+                grouping = false;
             }
             let wo = -st.dir;
             let mat = &ctx.scene.materials[s.material as usize];
@@ -296,6 +336,9 @@ impl PathIntegrator {
             if sp.emitted != Rgb::ZERO {
                 let c = st.surface_emission(ctx, &hit, &s, &sp);
                 radiance += c;
+                if grouping {
+                    out.groups.add(groups.of_tri(hit.tri), c);
+                }
                 if passes {
                     tally.found(out, st.depth, c, false);
                 }
@@ -319,7 +362,7 @@ impl PathIntegrator {
             // which the light tree uses.
             let n_select = if sp.bsdf.transmits() { Vec3::ZERO } else { s.ng };
             if !sp.bsdf.is_delta() {
-                let (c, wi_light) = surface_nee_at(
+                let (c, wi_light, light) = surface_nee_at(
                     ctx,
                     &s,
                     &sp,
@@ -333,6 +376,9 @@ impl PathIntegrator {
                     stats,
                 );
                 radiance += c;
+                if grouping {
+                    out.groups.add(groups.of_light(light), c);
+                }
                 if passes && c != Rgb::ZERO {
                     tally.estimated(out, st.depth, c, Some(shares_at(&at, wi_light)));
                 }
@@ -360,8 +406,12 @@ impl PathIntegrator {
                 if passes {
                     tally.subsurface();
                 }
-                let c = st.beta * exit_nee(ctx, &se, n_g, n_s, st.media, v_light, Vec2::new(v_lx, v_ly), stats);
+                let (le, light) = exit_nee_light(ctx, &se, n_g, n_s, st.media, v_light, Vec2::new(v_lx, v_ly), stats);
+                let c = st.beta * le;
                 radiance += c;
+                if grouping {
+                    out.groups.add(groups.of_light(light), c);
+                }
                 if passes {
                     // A walk from the first hit makes this exit's estimate the direct one.
                     tally.estimated(out, st.depth, c, Some((Rgb::ONE, Rgb::ZERO)));

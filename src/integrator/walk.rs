@@ -146,12 +146,29 @@ impl PathState {
         radiance: &mut Rgb,
         stats: &mut RayStats,
     ) -> (Step, bool) {
+        self.advance_each(ctx, u_medium, u_alpha, count_crossed, radiance, stats, |_, _| {})
+    }
+
+    /// [`advance`](Self::advance), also handing each crossed light's index and its
+    /// contribution (throughput included) to `each` (the light groups file them).
+    #[inline]
+    #[allow(clippy::too_many_arguments)]
+    pub fn advance_each(
+        &mut self,
+        ctx: &SceneContext,
+        u_medium: [f32; 2],
+        u_alpha: impl FnOnce() -> f32,
+        count_crossed: bool,
+        radiance: &mut Rgb,
+        stats: &mut RayStats,
+        mut each: impl FnMut(usize, Rgb),
+    ) -> (Step, bool) {
         let mut any = false;
         let crossed = |st: &PathState, t_event: f32, w: Rgb| {
             if !count_crossed {
                 return Rgb::ZERO;
             }
-            let (le, a) = ctx.crossed_emission(
+            let (le, a) = ctx.crossed_emission_each(
                 st.org,
                 st.dir,
                 t_event,
@@ -161,6 +178,7 @@ impl PathState {
                 st.depth == 0,
                 st.prev_tri,
                 &st.light_path,
+                |i, c| each(i, w * c),
             );
             any = a;
             if a { w * le } else { Rgb::ZERO }
@@ -250,12 +268,22 @@ impl PathState {
     /// against light sampling (not yet times the throughput); None when there is none.
     #[inline]
     pub fn escaped_radiance(&self, ctx: &SceneContext) -> Option<Rgb> {
+        self.escaped_radiance_each(ctx, |_, _| {})
+    }
+
+    /// [`escaped_radiance`](Self::escaped_radiance), also handing each part to `each`:
+    /// the world's (None) and each sun's (its light index), not yet times the throughput.
+    #[inline]
+    pub fn escaped_radiance_each(&self, ctx: &SceneContext, mut each: impl FnMut(Option<usize>, Rgb)) -> Option<Rgb> {
         let le = ctx.world_radiance(self.dir);
-        let sun = ctx.sun_emission(self.dir, self.prev_pdf, self.depth == 0, self.prev_tri, &self.light_path);
+        let sun = ctx.sun_emission_each(self.dir, self.prev_pdf, self.depth == 0, self.prev_tri, &self.light_path, |i, c| {
+            each(Some(i), c)
+        });
         if le == Rgb::ZERO && sun == Rgb::ZERO {
             return None;
         }
         let w = if self.prev_pdf == 0.0 { 1.0 } else { power_heuristic(self.prev_pdf, ctx.world_pdf(self.dir)) };
+        each(None, le * w);
         Some(le * w + sun)
     }
 

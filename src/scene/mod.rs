@@ -6,6 +6,7 @@ pub mod camera;
 pub mod gltf;
 pub mod hit;
 pub mod ids;
+pub mod light_groups;
 pub mod light_path;
 pub mod light_visibility;
 pub mod linking;
@@ -89,6 +90,8 @@ pub struct SceneSettings {
     pub mist: Option<[f32; 3]>,
     /// Blender's AO distance (World → Ambient Occlusion → Distance) for the AO pass.
     pub ao_distance: Option<f32>,
+    /// The view layer's light groups and their emitters (`light_groups`).
+    pub light_groups: Option<light_groups::LightGroupSpec>,
 }
 
 /// Counts and per-material features for `caustic info`.
@@ -252,6 +255,8 @@ pub struct Scene {
     pub pass_ids: ids::PassIds,
     /// Moving triangles and the shutter (`CAUSTIC_motion`); None when nothing moves.
     pub motion: Option<crate::motion::SceneMotion>,
+    /// Each emitter's light group (`light_groups`); empty without groups.
+    pub light_groups: light_groups::LightGroups,
 }
 
 /// Where one mesh instance (a glTF node with a mesh) lies in the flattened [`Mesh`].

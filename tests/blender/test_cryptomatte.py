@@ -187,8 +187,9 @@ def test_manifest_names_the_entities_as_cycles(renders):
 
 def test_request_levels_and_warnings(addon):
     """The binary is asked for the enabled layers with the view layer's levels (odd levels:
-    Cycles' passes of two ranks, rounded up); light groups and shader AOVs, not rendered yet,
-    are named in warnings; chunks on the farm cannot carry Cryptomatte."""
+    Cycles' passes of two ranks, rounded up) and for the light groups; shader AOVs, not rendered
+    yet, are named in warnings; chunks on the farm cannot carry Cryptomatte (but the index
+    passes and light groups), BDPT no light groups."""
     import importlib
     result = importlib.import_module("bl_ext.caustic_dev.caustic.result")
     bpy.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)
@@ -198,11 +199,13 @@ def test_request_levels_and_warnings(addon):
     layer.lightgroups.add(name="Key")
     layer.aovs.add().name = "Mask"
     passes, warnings = result.pass_request(layer, "path")
-    assert passes == "object_index,cryptomatte_asset"
+    assert passes == "object_index,cryptomatte_asset,light_groups"
     assert result.cryptomatte_arguments(layer, passes) == ["--cryptomatte-levels", "3"]
     assert result.enabled_cryptomatte(layer) == [("cryptomatte_asset", ["CryptoAsset00", "CryptoAsset01"])]
-    assert any("'Key'" in w and "Combined_Key" in w for w in warnings)
+    assert not any("Combined_Key" in w for w in warnings)
     assert any("'Mask'" in w for w in warnings)
     passes, warnings = result.pass_request(layer, "path", chunked=True)
-    assert passes == "none" and result.cryptomatte_arguments(layer, passes) == []
+    assert passes == "object_index,light_groups" and result.cryptomatte_arguments(layer, passes) == []
     assert any("Cryptomatte Asset" in w and "farm" in w for w in warnings)
+    passes, warnings = result.pass_request(layer, "bdpt")
+    assert "light_groups" not in passes and any("Combined_Key" in w and "'bdpt'" in w for w in warnings)

@@ -72,12 +72,14 @@ def test_missing_farm_python_is_a_clear_error(scene, addon, monkeypatch):
         bpy.ops.caustic.render_farm(animation=False)
 
 
-def test_a_shadow_catcher_is_refused_before_the_farm_runs(scene, addon):
-    """Chunks cannot carry the shadow catcher's sums (the binary refuses them): the add-on says
-    so, naming the object, before exporting or submitting anything."""
+def test_a_shadow_catcher_on_the_farm_equals_the_local_render(scene, addon, tmp_path):
+    """Chunks carry the shadow catcher's sums, so a frame with a catcher renders on the farm as
+    locally, to the bit."""
     bpy.data.objects["Floor"].is_shadow_catcher = True
-    with pytest.raises(RuntimeError, match="Shadow Catcher objects \\(Floor\\)"):
-        bpy.ops.caustic.render_farm(animation=False)
+    local = scenes.render_rgb(scene, "CAUSTIC", 3, str(tmp_path / "local.exr"))
+    scene.caustic.use_farm = True
+    on_farm = scenes.render_rgb(scene, "CAUSTIC", 3, str(tmp_path / "farm.exr"))
+    assert (on_farm == local).all(), abs(on_farm - local).max()
 
 
 def test_f12_on_the_farm_equals_the_local_render(scene, addon, tmp_path, capfd):

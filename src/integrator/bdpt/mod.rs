@@ -124,6 +124,7 @@ impl BdptIntegrator {
             rr_depth: self.rr_depth,
             transparent_background: self.transparent_background,
             light_passes: false,
+            light_groups: false,
         }
     }
 

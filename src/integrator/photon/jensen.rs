@@ -96,6 +96,7 @@ impl JensenIntegrator {
             rr_depth: self.rr_depth,
             transparent_background: self.transparent_background,
             light_passes: false,
+            light_groups: false,
         }
     }
 

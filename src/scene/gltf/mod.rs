@@ -21,6 +21,7 @@ mod emission;
 mod extensions;
 mod gpu_instancing;
 mod light_linking;
+mod light_groups;
 mod lights;
 mod material_ext;
 mod materials;
@@ -290,6 +291,8 @@ impl<'a> Loader<'a> {
         let grids = self.volumes(&value, &mut mesh, &mut materials)?;
         let mut cameras = Vec::new();
         let mut lights = Vec::new();
+        // The node name of each light from a node, for its light group.
+        let mut light_nodes: Vec<Option<String>> = Vec::new();
         // Lights whose Cast Shadow is off, by index in `lights`.
         let mut shadowless = Vec::new();
         let mut no_catcher = Vec::new();
@@ -415,6 +418,8 @@ impl<'a> Loader<'a> {
                 if let Some(r) = &rule {
                     light_rules.push((lights.len(), r.clone()));
                 }
+                light_nodes.resize(lights.len(), None);
+                light_nodes.push(Some(node_name.clone()));
                 lights.push(light);
                 light_reports.push(rep);
             }
@@ -462,6 +467,8 @@ impl<'a> Loader<'a> {
                 if let Some(r) = rule {
                     light_rules.push((lights.len(), r));
                 }
+                light_nodes.resize(lights.len(), None);
+                light_nodes.push(Some(name.clone()));
                 lights.push(light);
                 light_reports.push(rep);
             }
@@ -553,6 +560,14 @@ impl<'a> Loader<'a> {
         self.profile.total = start.elapsed().as_secs_f64();
         let source_hash = self.source_hash(bytes);
         let pass_ids = self.pass_ids(&doc, &id_spans, &materials)?;
+        let light_groups = self.light_groups(
+            settings.light_groups.as_ref(),
+            &lights,
+            &light_nodes,
+            &id_spans,
+            mesh.triangles.len(),
+            glowing_media,
+        )?;
         let report = LoadReport {
             file: self.file.to_string(),
             triangles: mesh.triangles.len(),
@@ -630,6 +645,7 @@ impl<'a> Loader<'a> {
             source_hash,
             instances: instances_out,
             motion,
+            light_groups,
         })
     }
 
