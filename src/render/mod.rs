@@ -23,7 +23,7 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 /// Tile side in pixels.
-pub const TILE_SIZE: u32 = 32;
+pub const TILE_SIZE: u32 = 16;
 
 /// Largest pass, in samples per pixel.
 const MAX_PASS: u32 = 16;
