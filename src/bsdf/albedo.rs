@@ -45,13 +45,16 @@ pub struct SpecularAlbedo {
     avg_b: Vec<f32>,
 }
 
-/// Stratified samples per table entry (per axis).
+/// Stratified samples per table entry (per axis); renders read the shipped table, so only
+/// the tests that check and regenerate it run the quadrature.
+#[cfg(test)]
 const TABLE_STRATA: usize = 48;
 
 impl SpecularAlbedo {
     /// The table by quadrature: 2.4 M GGX samples, ~0.13 s on two cores, which every
     /// render paid before its first sample (a third of a small benchmark render's wall
     /// time); renders read the shipped copy ([`Self::shipped`]) instead.
+    #[cfg(test)]
     fn compute() -> Self {
         let entries: Vec<(f32, f32)> = build_entries(TABLE_N * TABLE_N, |i| {
             let (ri, mi) = (i / TABLE_N, i % TABLE_N);
