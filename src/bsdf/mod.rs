@@ -3,6 +3,7 @@
 //! point away from the surface. Closed set of lobes: an enum, no dynamic dispatch.
 
 pub mod albedo;
+mod albedo_table;
 pub mod aniso_albedo;
 pub mod dielectric;
 mod exclude;

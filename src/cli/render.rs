@@ -30,12 +30,31 @@ use std::time::{Duration, Instant};
 pub(crate) fn build_bsdf_tables(scene: &Scene) {
     crate::bsdf::albedo::specular_albedo();
     let m = &scene.materials;
-    if m.iter().any(|m| m.transmission > 0.0 || m.transmission_tex.is_some()) {
+    if m.iter().any(may_show_rough_glass) {
         crate::bsdf::glass_albedo::glass_albedo();
     }
     if m.iter().any(|m| m.sheen_color != crate::math::Rgb::ZERO || m.sheen_color_tex.is_some()) {
         crate::bsdf::sheen::sheen_albedo_table();
     }
+}
+
+/// Whether a material may show rough glass, the only user of the glass albedo table
+/// (multiscatter compensation; a smooth interface, roughness below
+/// `SMOOTH_ROUGHNESS`, never reads it). Building that table costs ~0.25 s on two cores,
+/// a third of a small render's wall time on the benchmark's glass scene, whose sphere is
+/// smooth. Only a hint: a material that needs the table after all builds it at first use.
+fn may_show_rough_glass(m: &crate::scene::material::Material) -> bool {
+    use crate::shader::closure::ClosureKind;
+    use crate::shader::instructions::Op;
+    let pbr_glass = (m.transmission > 0.0 || m.transmission_tex.is_some())
+        && (m.roughness >= crate::bsdf::dielectric::SMOOTH_ROUGHNESS || m.metallic_roughness_tex.is_some());
+    // A node graph's Glass and Principled closures read their roughness per shading point.
+    let graph_glass = m.nodes.as_ref().is_some_and(|p| {
+        p.ops
+            .iter()
+            .any(|op| matches!(op, Op::Closure(c) if matches!(c.kind, ClosureKind::Glass | ClosureKind::Principled(_))))
+    });
+    pbr_glass || graph_glass
 }
 
 /// Outcome of a finished render command.
