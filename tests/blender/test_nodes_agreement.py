@@ -347,6 +347,24 @@ def coloured_flat_scene(scene, material):
     bpy.data.objects["Plane"].color = (0.9, 0.4, 0.15, 1.0)
 
 
+def coordinate(output):
+    """A `vector` function: Texture Coordinate `output` as it is."""
+    def vector(tree):
+        return tree.nodes.new("ShaderNodeTexCoord").outputs[output]
+    return vector
+
+
+def mirror_ball_scene(scene, material):
+    """The material on the floor, seen directly and in a mirror ball (Glossy, roughness 0.05):
+    in the ball the floor is shaded for glossy rays, whose hit points' Window and Camera
+    coordinates are not the ball's pixel's."""
+    scenes.plane(scene, "Floor", 10.0, material=material)
+    mirror = scenes.shader_node_material("Mirror", "ShaderNodeBsdfGlossy", Roughness=0.05)
+    uv_sphere(scene, "Ball", 0.6, (0.0, 0.0, 0.6), mirror)
+    scenes.light(scene, "Sun", "SUN", rotation_deg=(20.0, 10.0, 0.0), energy=3.0, angle=0.0)
+    scenes.camera(scene, (0.0, -2.2, 3.2), (35.0, 0.0, 0.0), lens=40.0)
+
+
 # name -> (scene builder, material maker, extra set-up or None)
 CASES = {
     "noise_fbm_3d": (flat_scene, texture("ShaderNodeTexNoise", inputs={"Scale": 4.0, "Detail": 3.0}), None),
@@ -407,6 +425,16 @@ CASES = {
                                               vector=mapped("Generated")), None),
     "mapping_object": (flat_scene, texture("ShaderNodeTexChecker", inputs={"Scale": 0.8},
                                            vector=mapped("Object", "Target")), add_object_target),
+    # Camera: the position in camera space (z forward); Window: on the frame, 0..1 from the
+    # lower-left corner (Cycles' svm_node_tex_coord), for every ray's hit point.
+    "coords_camera": (flat_scene, texture("ShaderNodeTexChecker", inputs={"Scale": 1.5},
+                                          vector=mapped("Camera")), None),
+    "coords_window": (flat_scene, texture("ShaderNodeTexChecker", inputs={"Scale": 4.0},
+                                          vector=coordinate("Window")), None),
+    "coords_window_in_mirror": (mirror_ball_scene, texture("ShaderNodeTexChecker", inputs={"Scale": 4.0},
+                                                           vector=coordinate("Window")), None),
+    "coords_camera_in_mirror": (mirror_ball_scene, texture("ShaderNodeTexChecker", inputs={"Scale": 0.5},
+                                                           vector=coordinate("Camera")), None),
     "mapping_uv": (flat_scene, texture("ShaderNodeTexChecker", inputs={"Scale": 2.0}, vector=mapped("UV")), None),
     "bump": (flat_scene, grey_with_normal(bump), None),
     "normal_map": (flat_scene, grey_with_normal(normal_map), None),

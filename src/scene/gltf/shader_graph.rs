@@ -149,8 +149,16 @@ impl Loader<'_> {
             let mut sum = glam::Vec3::ZERO;
             let mut n = 0;
             for &t in tris.iter().step_by(stride) {
-                sum +=
-                    crate::shader::shade::node_emission(mesh, objects, &self.textures, prog, t, 1.0 / 3.0, 1.0 / 3.0);
+                sum += crate::shader::shade::node_emission(
+                    mesh,
+                    objects,
+                    &self.textures,
+                    &crate::shader::geom::NO_VIEW,
+                    prog,
+                    t,
+                    1.0 / 3.0,
+                    1.0 / 3.0,
+                );
                 n += 1;
             }
             let mean = sum / n as f32;
