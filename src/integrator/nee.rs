@@ -64,7 +64,7 @@ pub fn surface_nee_at(
     if !ctx.links(index, s.tri) {
         return (Rgb::ZERO, Vec3::ZERO);
     }
-    let Some(ls) = ctx.sample_light(index, s.p, u_light_pt) else {
+    let Some(ls) = ctx.sample_light_from(index, s.p, u_light_pt, s.light_path) else {
         return (Rgb::ZERO, Vec3::ZERO);
     };
     let wi_local = sp.frame.to_local(ls.wi);
@@ -163,7 +163,7 @@ pub fn exit_nee(
 ) -> Rgb {
     if let Some((index, pmf)) = ctx.lights.sample(se.p, n_g, u_light)
         && ctx.links(index, se.tri)
-        && let Some(ls) = ctx.sample_light(index, se.p, u_pt)
+        && let Some(ls) = ctx.sample_light_from(index, se.p, u_pt, se.light_path)
     {
         let cos = ls.wi.dot(n_s);
         if cos > 0.0 && ls.wi.dot(n_g) > 0.0 && ls.li != Rgb::ZERO {

@@ -150,7 +150,7 @@ pub fn node_alpha(
 }
 
 /// The emission of a node material at barycentrics, seen along the normal, for the render
-/// camera `view`.
+/// camera `view` and a Light Path node reading `path`.
 #[allow(clippy::too_many_arguments)]
 pub fn node_emission(
     mesh: &Mesh,
@@ -161,12 +161,14 @@ pub fn node_emission(
     tri: u32,
     b1: f32,
     b2: f32,
+    path: LightPath,
 ) -> Rgb {
     if let Some(e) = prog.constant_emission {
         return e;
     }
     let mut g = geom_at(mesh, objects, textures, tri, b1, b2);
     g.view = view;
+    g.path = path;
     let mut out = Closures::default();
     with_registers(|regs| prog.run(&g, regs, &mut out));
     out.emission.max(Vec3::ZERO)
@@ -223,9 +225,15 @@ impl Scene {
     /// graph's emission, or the glTF material's. For the light routines.
     #[inline]
     pub fn emission_at(&self, tri: u32, b1: f32, b2: f32) -> Rgb {
+        self.emission_for(tri, b1, b2, LightPath::LIGHT_EMISSION)
+    }
+
+    /// [`emission_at`](Self::emission_at) with the Light Path node reading `path`.
+    #[inline]
+    pub fn emission_for(&self, tri: u32, b1: f32, b2: f32, path: LightPath) -> Rgb {
         let mat = &self.materials[self.mesh.tri_material[tri as usize] as usize];
         match &mat.nodes {
-            Some(prog) => node_emission(&self.mesh, &self.objects, &self.textures, &self.view, prog, tri, b1, b2),
+            Some(prog) => node_emission(&self.mesh, &self.objects, &self.textures, &self.view, prog, tri, b1, b2, path),
             // Neither a texture nor the vertex colour (unlit) enters: the factor itself,
             // without interpolating the attributes (every light sample asks, callgrind).
             None if mat.emissive_tex.is_none() && !mat.unlit => mat.emissive,
