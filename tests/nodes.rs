@@ -298,7 +298,12 @@ fn float_and_16_bit_images_keep_their_values() {
             for ch in 0..3 {
                 // The texel itself: only the film's f32 accumulation rounds (relative 1e-6).
                 let tol = 1e-6 * want[k][ch].max(1.0);
-                assert!((c[ch] - want[k][ch]).abs() <= tol, "{uri} ({x}, {y}) channel {ch}: {} vs {}", c[ch], want[k][ch]);
+                assert!(
+                    (c[ch] - want[k][ch]).abs() <= tol,
+                    "{uri} ({x}, {y}) channel {ch}: {} vs {}",
+                    c[ch],
+                    want[k][ch]
+                );
             }
         }
     }

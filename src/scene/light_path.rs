@@ -246,7 +246,10 @@ mod tests {
         // An emitter sampled by next-event estimation from the refraction's shading point:
         // no flag, the path's counters, depth + 1, the distance to the sample.
         let e = r.emission(4.0);
-        assert_eq!((out(&e, "Is Transmission Ray"), out(&e, "Is Camera Ray"), out(&e, "Is Shadow Ray")), (0.0, 0.0, 0.0));
+        assert_eq!(
+            (out(&e, "Is Transmission Ray"), out(&e, "Is Camera Ray"), out(&e, "Is Shadow Ray")),
+            (0.0, 0.0, 0.0)
+        );
         assert_eq!((out(&e, "Ray Depth"), out(&e, "Diffuse Depth"), out(&e, "Ray Length")), (3.0, 1.0, 4.0));
     }
 }
