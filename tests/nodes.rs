@@ -261,6 +261,79 @@ fn image_texture_and_color_ramp() {
     }
 }
 
+/// Float images keep their floats: a 2×2 linear EXR with values above 1 and below 1/255,
+/// and a 16-bit PNG (Non-Color) whose values lie between two 8-bit steps, each quadrant
+/// showing its texel exactly (8 bits would clamp 2.5 to 1 and round the fine values).
+#[test]
+fn float_and_16_bit_images_keep_their_values() {
+    let dir = temp_dir();
+    let hdr: [[f32; 4]; 4] =
+        [[2.5, 0.25, 1e-3, 1.0], [7.0, 0.5, 0.125, 1.0], [0.0, 1.5, 3e-4, 1.0], [0.3, 0.3, 0.3, 1.0]];
+    let mut img = image::Rgba32FImage::new(2, 2);
+    for (k, t) in hdr.iter().enumerate() {
+        img.put_pixel(k as u32 % 2, k as u32 / 2, image::Rgba(*t));
+    }
+    img.save(dir.path().join("tex.exr")).unwrap();
+    let fine: [[u16; 4]; 4] =
+        [[32769, 100, 65535, 65535], [1, 2, 3, 65535], [40000, 40001, 40002, 65535], [0, 65535, 12345, 65535]];
+    let mut img16 = image::ImageBuffer::<image::Rgba<u16>, Vec<u16>>::new(2, 2);
+    for (k, t) in fine.iter().enumerate() {
+        img16.put_pixel(k as u32 % 2, k as u32 / 2, image::Rgba(*t));
+    }
+    img16.save(dir.path().join("fine.png")).unwrap();
+    for (uri, colorspace, want) in [
+        ("tex.exr", "Linear Rec.709", hdr.map(|t| [t[0], t[1], t[2]])),
+        ("fine.png", "Non-Color", fine.map(|t| [t[0], t[1], t[2]].map(|v| v as f32 / 65535.0))),
+    ] {
+        let nodes = json!([
+            {"name": "Image", "type": "ShaderNodeTexImage",
+             "props": {"image": 0, "interpolation": "Closest", "projection": "FLAT", "extension": "REPEAT"}},
+            {"name": "Emission", "type": "ShaderNodeEmission",
+             "inputs": {"Color": {"link": [0, "Color"]}, "Strength": {"value": 1.0}}}
+        ]);
+        let mut m = node_material("img", nodes, json!([1, "Emission"]));
+        m["extensions"]["CAUSTIC_materials_nodes"]["images"] = json!([{"uri": uri, "colorspace": colorspace}]);
+        for (c, x, y) in render_plane_in(dir.path(), m, 4, 1.0) {
+            let k = (x > 0.0) as usize + 2 * (y < 0.0) as usize;
+            for ch in 0..3 {
+                // The texel itself: only the film's f32 accumulation rounds (relative 1e-6).
+                let tol = 1e-6 * want[k][ch].max(1.0);
+                assert!(
+                    (c[ch] - want[k][ch]).abs() <= tol,
+                    "{uri} ({x}, {y}) channel {ch}: {} vs {}",
+                    c[ch],
+                    want[k][ch]
+                );
+            }
+        }
+    }
+}
+
+/// Texture Coordinate Camera and Window on the plane under the orthographic camera at
+/// z = 5 framing it: Camera is (x, y, 5) (z forward), Window ((x + 1)/2, (y + 1)/2, 0).
+#[test]
+fn camera_and_window_coordinates() {
+    for (output, want) in [
+        ("Camera", (|x: f32, y: f32| [x, y, 5.0]) as fn(f32, f32) -> [f32; 3]),
+        ("Window", |x: f32, y: f32| [(x + 1.0) / 2.0, (y + 1.0) / 2.0, 0.0]),
+    ] {
+        let nodes = json!([
+            {"name": "TexCoord", "type": "ShaderNodeTexCoord"},
+            {"name": "Abs", "type": "ShaderNodeVectorMath", "props": {"operation": "ABSOLUTE"},
+             "inputs": {"Vector": {"link": [0, output]}}},
+            {"name": "Emission", "type": "ShaderNodeEmission",
+             "inputs": {"Color": {"link": [1, "Vector"]}, "Strength": {"value": 1.0}}}
+        ]);
+        for (c, x, y) in render_plane(node_material("coords", nodes, json!([2, "Emission"])), 4) {
+            let w = want(x, y).map(f32::abs);
+            for ch in 0..3 {
+                // Samples within 0.0005 pixel of the centre (2.5e-4 in x, y), plus f32 rounding.
+                assert!((c[ch] - w[ch]).abs() < 3e-4, "{output} ({x}, {y}) channel {ch}: {} vs {}", c[ch], w[ch]);
+            }
+        }
+    }
+}
+
 /// Checker Texture on UV: every pixel centre shows exactly one of the two colours, the one
 /// the texture function gives there (the cells' edges fall between pixel centres).
 #[test]

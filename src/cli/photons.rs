@@ -20,7 +20,8 @@ pub fn run_photons(args: &PhotonsArgs, reporter: &Reporter, stop: &AtomicBool) -
     let t0 = Instant::now();
     reporter.phase("loading", 0.0);
     let budget = MemoryBudget::from_flag(args.memory_limit.as_deref())?;
-    let scene = scene::gltf::load_within(&args.scene, &budget)?;
+    let mut scene = scene::gltf::load_within(&args.scene, &budget)?;
+    super::settings::scene_view(&mut scene)?;
     for w in &scene.warnings {
         reporter.warning(w);
     }

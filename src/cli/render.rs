@@ -72,11 +72,12 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     output::clean_stale_temps(&args.output);
     output::check_writable(&args.output)?;
     let budget = MemoryBudget::from_flag(args.memory_limit.as_deref())?;
-    let scene = scene::gltf::load_within(&args.scene, &budget)?;
+    let mut scene = scene::gltf::load_within(&args.scene, &budget)?;
     for w in &scene.warnings {
         reporter.warning(w);
     }
     let res = resolve(args, &scene)?;
+    scene.set_view(res.camera, res.resolution.0, res.resolution.1);
     let mut run_warnings = Vec::new();
     let shadowless = scene.light_casts_shadow.iter().filter(|c| !**c).count();
     if shadowless > 0 && !matches!(res.integrator, IntegratorKind::Path) {

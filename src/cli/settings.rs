@@ -119,17 +119,34 @@ fn pick_camera(scene: &Scene, wanted: Option<&str>) -> Result<usize> {
     Err(Error::Usage(format!("unknown camera '{w}' (the scene has {})", names.join(", "))))
 }
 
-/// Resolves every setting; each default lives here.
-pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
-    let st = &scene.settings;
-    let camera = pick_camera(scene, args.camera.as_deref().or(st.camera.as_deref()))?;
-    let resolution = match args.resolution.or(st.resolution.map(|r| (r[0], r[1]))) {
+/// The frame size: the flag's, else the scene's, else the default width at the camera's aspect.
+fn frame_size(scene: &Scene, camera: usize, flag: Option<(u32, u32)>) -> (u32, u32) {
+    match flag.or(scene.settings.resolution.map(|r| (r[0], r[1]))) {
         Some(r) => r,
         None => match scene.cameras[camera].aspect() {
             Some(a) => (DEFAULT_WIDTH, ((DEFAULT_WIDTH as f32 / a).round() as u32).max(1)),
             None => (DEFAULT_WIDTH, DEFAULT_HEIGHT),
         },
-    };
+    }
+}
+
+/// The camera and frame the scene's own settings render with (`caustic photons`, whose
+/// maps are traced before any render: shader graphs reading Camera or Window see it).
+pub fn scene_view(scene: &mut Scene) -> Result<()> {
+    if scene.cameras.is_empty() {
+        return Ok(());
+    }
+    let camera = pick_camera(scene, scene.settings.camera.as_deref())?;
+    let (w, h) = frame_size(scene, camera, None);
+    scene.set_view(camera, w.max(1), h.max(1));
+    Ok(())
+}
+
+/// Resolves every setting; each default lives here.
+pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
+    let st = &scene.settings;
+    let camera = pick_camera(scene, args.camera.as_deref().or(st.camera.as_deref()))?;
+    let resolution = frame_size(scene, camera, args.resolution);
     let (w, h) = resolution;
     if w == 0 || h == 0 || w > MAX_SIDE || h > MAX_SIDE || (w as u64) * (h as u64) > MAX_PIXELS {
         return Err(Error::Usage(format!(

@@ -617,6 +617,13 @@ impl<'a> SceneContext<'a> {
         self.scene.lights[index].sample_li(self.scene, p, u)
     }
 
+    /// [`sample_light`](Self::sample_light) from a shading point reached by `path` (an
+    /// emissive node graph's Light Path node reads it, as Cycles' light sampling does).
+    #[inline]
+    pub fn sample_light_from(&self, index: usize, p: Vec3, u: Vec2, path: LightPath) -> Option<LightSample> {
+        self.scene.lights[index].sample_li_from(self.scene, p, u, path)
+    }
+
     /// Solid-angle density with which `sample_light` (including the light choice, made
     /// with the receiver normal `n`) would pick the point `q` with normal `n_light` of
     /// light `index`, from `p`.

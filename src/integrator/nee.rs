@@ -65,7 +65,7 @@ pub fn surface_nee_at(
     if !ctx.links(index, s.tri) {
         return (Rgb::ZERO, Vec3::ZERO, index);
     }
-    let Some(ls) = ctx.sample_light(index, s.p, u_light_pt) else {
+    let Some(ls) = ctx.sample_light_from(index, s.p, u_light_pt, s.light_path) else {
         return (Rgb::ZERO, Vec3::ZERO, index);
     };
     let wi_local = sp.frame.to_local(ls.wi);
@@ -202,7 +202,7 @@ pub fn exit_nee_light(
         && ctx.links(index, se.tri)
         // The exit is a diffuse closure (Cycles' BSSRDF exit).
         && !ctx.light_excludes(index).diffuse
-        && let Some(ls) = ctx.sample_light(index, se.p, u_pt)
+        && let Some(ls) = ctx.sample_light_from(index, se.p, u_pt, se.light_path)
     {
         let cos = ls.wi.dot(n_s);
         if cos > 0.0 && ls.wi.dot(n_g) > 0.0 && ls.li != Rgb::ZERO {

@@ -9,6 +9,7 @@ use super::{
 use crate::math::Frame;
 use crate::sampling::warp::{concentric_disk, uniform_cone, uniform_cone_pdf};
 use crate::scene::Scene;
+use crate::scene::light_path::LightPath;
 use glam::{Vec2, Vec3};
 
 // Here rather than beside the type in `light/mod.rs`: the light types sit below the
@@ -27,9 +28,17 @@ impl EmitterTriangle {
 
 impl Light {
     /// Samples a point of this light as seen from `p` for next-event estimation: the
-    /// direction, distance, incident radiance and its solid-angle density.
+    /// direction, distance, incident radiance and its solid-angle density. An emissive
+    /// node graph is evaluated as for light sampling without a path behind it.
     #[inline]
     pub fn sample_li(&self, scene: &Scene, p: Vec3, u: Vec2) -> Option<LightSample> {
+        self.sample_li_from(scene, p, u, LightPath::LIGHT_EMISSION)
+    }
+
+    /// [`sample_li`](Self::sample_li) from a shading point reached by `path`: an emissive
+    /// node graph reads the path's counters and the distance (`LightPath::emission`).
+    #[inline]
+    pub fn sample_li_from(&self, scene: &Scene, p: Vec3, u: Vec2, path: LightPath) -> Option<LightSample> {
         match self {
             Light::Point { position, intensity } => {
                 let d = *position - p;
@@ -167,7 +176,7 @@ impl Light {
                 Some(LightSample {
                     wi,
                     dist,
-                    li: scene.emission_at(*tri, b.x, b.y) * coverage,
+                    li: scene.emission_for(*tri, b.x, b.y, path.emission(dist)) * coverage,
                     pdf,
                     delta: false,
                     point: q,

@@ -66,6 +66,8 @@ impl WorldGraph {
             tri: u32::MAX,
             // The world is baked for every ray alike: it is lit as light sampling sees it.
             path: crate::scene::light_path::LightPath::LIGHT_EMISSION,
+            // Baked before the render's camera is known: Camera and Window give 0 (warned).
+            view: &crate::shader::geom::NO_VIEW,
         };
         let mut out = Closures::default();
         with_registers(|regs| self.program.run(&g, regs, &mut out));

@@ -331,6 +331,22 @@ impl CameraRays {
         1.0 / (4.0 * self.half.x * self.half.y * cos_theta * cos_theta * cos_theta)
     }
 
+    /// The camera and frame as shader graphs read them (Cycles' `worldtocamera` and
+    /// `worldtondc`): camera space with z forward, the frame's rectangle on the image plane.
+    pub fn shader_view(&self) -> crate::shader::geom::ViewData {
+        let c = &self.cam;
+        // Rows: right, up and forward (−back), then the camera position moved to the origin.
+        let rot = glam::Mat3::from_cols(c.right, c.up, -c.back).transpose();
+        let world_to_camera = Mat4::from_mat3(rot) * Mat4::from_translation(-c.position);
+        crate::shader::geom::ViewData {
+            world_to_camera,
+            plane_min: self.center - self.half,
+            plane_inv_size: Vec2::ONE / (2.0 * self.half),
+            ortho: self.ortho,
+            known: true,
+        }
+    }
+
     /// The camera.
     pub fn camera(&self) -> &Camera {
         &self.cam
@@ -341,6 +357,40 @@ impl CameraRays {
 mod tests {
     use super::*;
     use crate::sampling::chi2::Pcg32;
+
+    /// The shader view's Window output is the film position of a point on a pinhole ray,
+    /// as a fraction of the frame from its lower-left corner, and its Camera output lies on
+    /// that ray at the point's depth along the viewing axis (z forward), for both
+    /// projections and with lens shift. The bound is f32 rounding of a few operations on
+    /// coordinates up to about 25 units (25 · 2⁻²³ · 10 ≈ 3e-5), taken as 1e-4.
+    #[test]
+    fn shader_view_matches_rays() {
+        let m = Mat4::from_rotation_translation(
+            glam::Quat::from_euler(glam::EulerRot::XYZ, 0.3, -0.7, 0.2),
+            Vec3::new(1.0, 2.0, -3.0),
+        );
+        let mut rng = Pcg32::new(11);
+        for projection in
+            [Projection::Perspective { yfov: 0.8, aspect: None }, Projection::Orthographic { xmag: 2.0, ymag: 1.5 }]
+        {
+            let mut cam = Camera::from_matrix("c".into(), &m, projection);
+            cam.shift = Vec2::new(0.2, -0.1);
+            let rays = CameraRays::new(&cam, 64, 48);
+            let view = rays.shader_view();
+            for _ in 0..200 {
+                let (x, y) = (rng.next_f32() * 64.0, rng.next_f32() * 48.0);
+                let (org, dir) = rays.ray(x, y);
+                let t = 0.5 + 20.0 * rng.next_f32();
+                let p = org + dir * t;
+                let w = view.window(p);
+                assert!((w - Vec3::new(x / 64.0, 1.0 - y / 48.0, 0.0)).abs().max_element() < 1e-4, "{w} at {x},{y}");
+                let c = view.camera(p);
+                let depth = (p - cam.position).dot(-cam.back);
+                assert!((c.z - depth).abs() < 1e-4 && (c.length() - (p - cam.position).length()).abs() < 1e-4);
+                assert!((c.x - (p - cam.position).dot(cam.right)).abs() < 1e-4);
+            }
+        }
+    }
 
     /// `project` from a ray's aperture point returns the film position the ray was made
     /// for, with and without shift and lens; its cosine and distance describe that ray.

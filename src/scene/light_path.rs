@@ -116,6 +116,14 @@ impl LightPath {
         LightPath { flags: Self::SHADOW, ray_length: 0.0, ..self }
     }
 
+    /// A light-sampled emitter seen from a shading point reached by this path, `ray_length`
+    /// away: Cycles shades it with `PATH_RAY_EMISSION` alone and the path's own counters
+    /// (`light_sample_shader_eval`), so Ray Depth reads one more than the shading point's.
+    #[inline]
+    pub fn emission(self, ray_length: f32) -> LightPath {
+        LightPath { flags: Self::EMISSION, ray_length, ..self }
+    }
+
     /// One output of the Light Path node (Cycles' `svm_node_light_path`).
     #[inline]
     pub fn output(&self, o: PathOutput) -> f32 {
@@ -235,5 +243,13 @@ mod tests {
             (1.0, 0.0, 3.0)
         );
         assert_eq!(out(&LightPath::LIGHT_EMISSION, "Ray Depth"), 1.0);
+        // An emitter sampled by next-event estimation from the refraction's shading point:
+        // no flag, the path's counters, depth + 1, the distance to the sample.
+        let e = r.emission(4.0);
+        assert_eq!(
+            (out(&e, "Is Transmission Ray"), out(&e, "Is Camera Ray"), out(&e, "Is Shadow Ray")),
+            (0.0, 0.0, 0.0)
+        );
+        assert_eq!((out(&e, "Ray Depth"), out(&e, "Diffuse Depth"), out(&e, "Ray Length")), (3.0, 1.0, 4.0));
     }
 }

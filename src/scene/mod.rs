@@ -244,6 +244,9 @@ pub struct Scene {
     pub bounds: (Vec3, Vec3),
     /// Per-instance data for shader graphs (`Mesh::tri_object` indexes it).
     pub objects: Vec<crate::shader::geom::ObjectData>,
+    /// The render camera as shader graphs read it (Texture Coordinate Camera and Window):
+    /// set by the command that renders (`Scene::set_view`), unknown after loading.
+    pub view: crate::shader::geom::ViewData,
     /// FNV-1a 64 of the glTF file and of every external file it read (buffers, images, by
     /// URI): the identity of a photon map and of a chunk, which a changed texture or .bin
     /// must change too.
@@ -275,6 +278,14 @@ pub struct InstanceSpan {
 }
 
 impl Scene {
+    /// Makes shader graphs see camera `camera` with a `width` × `height` frame (Texture
+    /// Coordinate Camera and Window).
+    pub fn set_view(&mut self, camera: usize, width: u32, height: u32) {
+        if let Some(c) = self.cameras.get(camera) {
+            self.view = camera::CameraRays::new(c, width, height).shader_view();
+        }
+    }
+
     /// Centre and radius of a sphere bounding the scene.
     pub fn bounding_sphere(&self) -> (Vec3, f32) {
         let c = (self.bounds.0 + self.bounds.1) * 0.5;

@@ -14,8 +14,10 @@ pub enum Wrap {
     Clamp,
 }
 
-/// An 8-bit RGBA image with its sampler state. 8 bits per channel keeps large scenes
-/// in memory (a 4k texture is 64 MiB); 16-bit PNGs are reduced to 8 bits on load.
+/// An RGBA image with its sampler state: 8 bits per channel for glTF's textures, which
+/// keeps large scenes in memory (a 4k texture is 64 MiB; 16-bit PNGs are reduced to 8 bits
+/// on load), or linear f32 (`hdr`) for a shader graph's float images (EXR, 16-bit), whose
+/// values may pass 1 or need finer steps than 1/255.
 #[derive(Clone, Debug)]
 pub struct Texture {
     /// Name for messages.
@@ -24,8 +26,12 @@ pub struct Texture {
     pub width: u32,
     /// Height in texels.
     pub height: u32,
-    /// Row-major RGBA texels, top row first (glTF's UV origin is the top-left).
+    /// Row-major RGBA texels, top row first (glTF's UV origin is the top-left); empty when
+    /// the image is held in `hdr`.
     pub texels: Vec<[u8; 4]>,
+    /// Row-major linear RGBA texels as floats, top row first, already decoded from sRGB
+    /// where the image was; empty for an 8-bit image.
+    pub hdr: Vec<Vec4>,
     /// RGB are sRGB-encoded (base colour, emissive); alpha is always linear.
     pub srgb: bool,
     /// Horizontal wrap.
@@ -74,7 +80,11 @@ impl Texture {
     pub fn texel(&self, x: i64, y: i64) -> Vec4 {
         let x = wrap(x, self.width, self.wrap_s);
         let y = wrap(y, self.height, self.wrap_t);
-        let t = self.texels[(y * self.width + x) as usize];
+        let i = (y * self.width + x) as usize;
+        if !self.hdr.is_empty() {
+            return self.hdr[i];
+        }
+        let t = self.texels[i];
         if self.srgb {
             let table = srgb_table();
             Vec4::new(table[t[0] as usize], table[t[1] as usize], table[t[2] as usize], t[3] as f32 / 255.0)
@@ -160,6 +170,7 @@ mod tests {
             width: 2,
             height: 1,
             texels: vec![[0, 0, 0, 255], [255, 255, 255, 255]],
+            hdr: Vec::new(),
             srgb: false,
             wrap_s: wrap_mode,
             wrap_t: Wrap::Clamp,

@@ -265,11 +265,19 @@ impl Server {
     }
 
     fn restart(&mut self) {
-        let (Some(l), true) = (&self.loaded, self.rendering) else { return };
+        let (Some(l), true) = (&mut self.loaded, self.rendering) else { return };
+        let view = self.view.clone().unwrap_or_else(|| l.default_view.clone());
+        // Shader graphs' Camera and Window read the view (the worker has ended, so the
+        // scene is not shared and this does not copy it).
+        let shader_view =
+            crate::scene::camera::CameraRays::new(&view.camera, view.resolution.0, view.resolution.1).shader_view();
+        if l.scene.view != shader_view {
+            Arc::make_mut(&mut l.scene).view = shader_view;
+        }
         let job = Job {
             scene: l.scene.clone(),
             accel: l.accel.clone(),
-            view: self.view.clone().unwrap_or_else(|| l.default_view.clone()),
+            view,
             settings: l.settings.clone(),
             integrator: self.integrator.clone(),
             generation: self.generation,

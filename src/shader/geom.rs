@@ -74,7 +74,71 @@ pub struct Geom<'a> {
     pub tri: u32,
     /// The ray that reached the point (the Light Path node).
     pub path: LightPath,
+    /// The render camera (Texture Coordinate Camera and Window).
+    pub view: &'a ViewData,
 }
+
+/// The render camera as the Texture Coordinate node's Camera and Window outputs read it
+/// (Cycles' `worldtocamera` and `worldtondc`), made from the camera and frame the render
+/// uses (`CameraRays::shader_view`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ViewData {
+    /// World (glTF axes) to Cycles' camera space: x right, y up, z forward (into the view).
+    pub world_to_camera: Mat4,
+    /// The frame's lower-left corner on the image plane (distance 1, or world units for an
+    /// orthographic camera), lens shift included.
+    pub plane_min: Vec2,
+    /// 1 / the frame's size on that plane.
+    pub plane_inv_size: Vec2,
+    /// Parallel projection.
+    pub ortho: bool,
+    /// False where no render camera is known (a world graph, a scene shaded without one):
+    /// both outputs then give 0, with a warning at load for the world.
+    pub known: bool,
+}
+
+impl ViewData {
+    /// Camera space of a world point (the Camera output).
+    #[inline]
+    pub fn camera(&self, p: Vec3) -> Vec3 {
+        if self.known { self.world_to_camera.transform_point3(p) } else { Vec3::ZERO }
+    }
+
+    /// Normalised frame coordinates of a world point (the Window output): (0, 0) at the
+    /// frame's lower-left corner, (1, 1) at its upper right, z = 0. A point behind a
+    /// perspective camera is divided by its negative depth as Cycles' `transform_perspective`
+    /// divides (mirrored), and one in the camera's plane gives 0 as there.
+    #[inline]
+    pub fn window(&self, p: Vec3) -> Vec3 {
+        if !self.known {
+            return Vec3::ZERO;
+        }
+        let c = self.world_to_camera.transform_point3(p);
+        let s = if self.ortho {
+            Vec2::new(c.x, c.y)
+        } else if c.z != 0.0 {
+            Vec2::new(c.x, c.y) / c.z
+        } else {
+            return Vec3::ZERO;
+        };
+        ((s - self.plane_min) * self.plane_inv_size).extend(0.0)
+    }
+}
+
+impl Default for ViewData {
+    fn default() -> Self {
+        NO_VIEW
+    }
+}
+
+/// No render camera: Camera and Window give 0.
+pub static NO_VIEW: ViewData = ViewData {
+    world_to_camera: Mat4::IDENTITY,
+    plane_min: Vec2::ZERO,
+    plane_inv_size: Vec2::ONE,
+    ortho: false,
+    known: false,
+};
 
 /// The default instance data (identity transform) for triangles without one.
 pub static NO_OBJECT: ObjectData =
@@ -82,7 +146,8 @@ pub static NO_OBJECT: ObjectData =
 
 /// The shading point at barycentrics of a triangle without a ray: the viewer is taken
 /// along the normal (Fresnel-driven transparency or emission then uses normal incidence),
-/// the Light Path node sees emission for light sampling (callers with a ray set `path`).
+/// the Light Path node sees emission for light sampling (callers with a ray set `path`),
+/// and no camera is known (callers with a scene set `view`).
 pub fn geom_at<'a>(
     mesh: &'a Mesh,
     objects: &'a [ObjectData],
@@ -118,6 +183,7 @@ pub fn geom_at<'a>(
         mesh,
         tri,
         path: LightPath::LIGHT_EMISSION,
+        view: &NO_VIEW,
     }
 }
 

@@ -255,6 +255,7 @@ mod tests {
             width: 2,
             height: 2,
             texels: vec![[255, 0, 0, 255], [0, 255, 0, 255], [0, 0, 255, 255], [255, 255, 255, 255]],
+            hdr: Vec::new(),
             srgb: false,
             wrap_s: Wrap::Repeat,
             wrap_t: Wrap::Repeat,

@@ -37,6 +37,10 @@ pub enum InputKind {
     ObjectNormal,
     /// Reflection of the view direction about the normal (world).
     Reflection,
+    /// Texture Coordinate Camera: the position in the render camera's space.
+    Camera,
+    /// Texture Coordinate Window: the position on the render frame, 0..1.
+    Window,
     /// COLOR_0 rgb.
     VertexColor,
     /// COLOR_0 alpha.

@@ -301,6 +301,7 @@ impl Program {
                     g2.wo = g.wo;
                     g2.backfacing = g.backfacing;
                     g2.path = g.path;
+                    g2.view = g.view;
                     g2.p = g.p + d;
                     if g2.n.dot(g.n) < 0.0 {
                         g2.n = -g2.n;
@@ -374,6 +375,9 @@ impl Program {
                 let n = g.n;
                 to_blender(2.0 * n.dot(g.wo) * n - g.wo)
             }
+            // Camera space and the frame are the same in both axis conventions.
+            InputKind::Camera => g.view.camera(g.p),
+            InputKind::Window => g.view.window(g.p),
             InputKind::VertexColor => g.color.truncate(),
             InputKind::VertexAlpha => {
                 r[out as usize] = g.color.w;

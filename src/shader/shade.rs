@@ -4,7 +4,7 @@
 //! rays (`Scene::pass_through`, `Scene::transmission`).
 
 use super::closure::Closures;
-use super::geom::{Geom, NO_OBJECT, ObjectData, geom_at};
+use super::geom::{Geom, NO_OBJECT, ObjectData, ViewData, geom_at};
 use super::instructions::Program;
 use super::program::with_registers;
 use crate::bsdf::{Bsdf, PbrBsdf};
@@ -43,6 +43,7 @@ fn evaluate(scene: &Scene, prog: &Program, s: &SurfaceHit, wo: Vec3) -> Closures
         mesh: &scene.mesh,
         tri: s.tri,
         path: s.light_path,
+        view: &scene.view,
     };
     let mut out = Closures::default();
     with_registers(|regs| {
@@ -127,6 +128,7 @@ fn node_transparent(
     org: Option<Vec3>,
 ) -> Rgb {
     let mut g = geom_at(&scene.mesh, &scene.objects, &scene.textures, tri, b1, b2);
+    g.view = &scene.view;
     g.path = org.map_or(path, |o| path.at((g.p - o).length()));
     let mut out = Closures::default();
     with_registers(|regs| prog.run(&g, regs, &mut out));
@@ -147,20 +149,26 @@ pub fn node_alpha(
     1.0 - pass_fraction(node_transparent(scene, prog, tri, b1, b2, path, org))
 }
 
-/// The emission of a node material at barycentrics, seen along the normal.
+/// The emission of a node material at barycentrics, seen along the normal, for the render
+/// camera `view` and a Light Path node reading `path`.
+#[allow(clippy::too_many_arguments)]
 pub fn node_emission(
     mesh: &Mesh,
     objects: &[ObjectData],
     textures: &[Texture],
+    view: &ViewData,
     prog: &Program,
     tri: u32,
     b1: f32,
     b2: f32,
+    path: LightPath,
 ) -> Rgb {
     if let Some(e) = prog.constant_emission {
         return e;
     }
-    let g = geom_at(mesh, objects, textures, tri, b1, b2);
+    let mut g = geom_at(mesh, objects, textures, tri, b1, b2);
+    g.view = view;
+    g.path = path;
     let mut out = Closures::default();
     with_registers(|regs| prog.run(&g, regs, &mut out));
     out.emission.max(Vec3::ZERO)
@@ -217,9 +225,15 @@ impl Scene {
     /// graph's emission, or the glTF material's. For the light routines.
     #[inline]
     pub fn emission_at(&self, tri: u32, b1: f32, b2: f32) -> Rgb {
+        self.emission_for(tri, b1, b2, LightPath::LIGHT_EMISSION)
+    }
+
+    /// [`emission_at`](Self::emission_at) with the Light Path node reading `path`.
+    #[inline]
+    pub fn emission_for(&self, tri: u32, b1: f32, b2: f32, path: LightPath) -> Rgb {
         let mat = &self.materials[self.mesh.tri_material[tri as usize] as usize];
         match &mat.nodes {
-            Some(prog) => node_emission(&self.mesh, &self.objects, &self.textures, prog, tri, b1, b2),
+            Some(prog) => node_emission(&self.mesh, &self.objects, &self.textures, &self.view, prog, tri, b1, b2, path),
             // Neither a texture nor the vertex colour (unlit) enters: the factor itself,
             // without interpolating the attributes (every light sample asks, callgrind).
             None if mat.emissive_tex.is_none() && !mat.unlit => mat.emissive,

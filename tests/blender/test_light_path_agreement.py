@@ -11,15 +11,22 @@ Path output, so that an engine that ignored the ray's kind renders a visibly dif
   sphere's underside takes a green bounce light that the camera never sees on the floor;
 * Is Glossy Ray / Is Reflection Ray: a mirror-like sphere (Glossy 0.05) over a floor that turns
   blue only to glossy reflections — seen blue in the sphere, grey directly.
-The depth outputs are checked in Rust (scene::light_path's test): Cycles evaluates an emitter
-sampled by next-event estimation at the path's depth + 1, which Caustic's light sampling does
-not know (docs/contract.md), so a depth-switched emitter is not compared here.
+* Ray Depth on an emitter: a small sphere that emits only where Ray Depth is 2 or more lights a
+  orange ball on the floor (no other light). Cycles shades an emitter found by next-event
+  estimation with the shading point's path (`light_sample_shader_eval`: the path's bounce + 1),
+  so it is black to the camera and to what the camera sees, and lights what one bounce
+  reaches; an emitter evaluated without the path (Ray Depth 1 always) gives next-event
+  estimation nothing, leaving only the rare BSDF-sampled hits (measured before the fix: mean
+  R/G/B 0.046 of Cycles).
 """
+
+import bpy
 
 import pytest
 
 import scenes
 from test_node_graph_export import new_material
+from test_material_agreement import uv_sphere
 from test_nodes_agreement import SAMPLES, BOUNCES, W, H, compare, sphere_scene
 
 pytestmark = pytest.mark.needs_binary
@@ -56,7 +63,33 @@ def floor_switched(make_floor, ball=RED):
     return build
 
 
+STRENGTH = 200.0
+
+
+def depth_lit_scene(scene, _material):
+    """An orange ball on a grey floor lit only by a small sphere emitting STRENGTH where Ray Depth
+    is 2 or more, nothing at depths 0 and 1."""
+    sphere_scene(scene, scenes.shader_node_material("Ball", "ShaderNodeBsdfDiffuse", Color=(0.7, 0.5, 0.3, 1.0)))
+    bpy.data.objects.remove(bpy.data.objects["Disk"])
+    mat = new_material("Depth emitter")
+    tree = mat.node_tree
+    path = tree.nodes.new("ShaderNodeLightPath")
+    deep = tree.nodes.new("ShaderNodeMath")
+    deep.operation = "GREATER_THAN"
+    deep.inputs[1].default_value = 1.5
+    times = tree.nodes.new("ShaderNodeMath")
+    times.operation = "MULTIPLY"
+    times.inputs[1].default_value = STRENGTH
+    emission = tree.nodes.new("ShaderNodeEmission")
+    tree.links.new(path.outputs["Ray Depth"], deep.inputs[0])
+    tree.links.new(deep.outputs["Value"], times.inputs[0])
+    tree.links.new(times.outputs["Value"], emission.inputs["Strength"])
+    tree.links.new(emission.outputs["Emission"], tree.nodes["Material Output"].inputs["Surface"])
+    uv_sphere(scene, "Emitter", 0.25, (0.8, -0.5, 2.2), mat)
+
+
 CASES = {
+    "ray_depth_emitter": (depth_lit_scene, None),
     "is_camera_ray": (sphere_scene, light_path_switch(
         "Is Camera Ray", RED, ("ShaderNodeEmission", {"Color": (1.0, 0.8, 0.3, 1.0), "Strength": 4.0}))),
     "is_shadow_ray": (sphere_scene, light_path_switch(

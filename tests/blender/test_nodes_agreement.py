@@ -291,6 +291,32 @@ def normal_map(tree):
     return node.outputs["Normal"]
 
 
+def float_image(name):
+    """A maker: a 16x16 float image (Linear Rec.709) with red rising to 2.5 across U, green
+    a fine gradient (0.5 + 1/4000 steps, finer than 8 bits) across V, blue 1.8, scaled by 0.4
+    into a Diffuse colour: at 8 bits red and blue clamp at 1 (0.4 after scaling; measured with
+    the 8-bit loader: mean red 0.626, blue 0.556 of Cycles)."""
+    size = 16
+    mat = new_material(name)
+    tree = mat.node_tree
+    image = bpy.data.images.new("Floats", size, size, float_buffer=True)
+    image.colorspace_settings.name = "Linear Rec.709"
+    pixels = []
+    for y in range(size):
+        for x in range(size):
+            pixels += [2.5 * x / (size - 1), 0.5 + y / 4000.0, 1.8, 1.0]
+    image.pixels.foreach_set(pixels)
+    image.pack()
+    tex = tree.nodes.new("ShaderNodeTexImage")
+    tex.image = image
+    scale = tree.nodes.new("ShaderNodeVectorMath")
+    scale.operation = "SCALE"
+    by_id(scale.inputs, "Scale").default_value = 0.4
+    tree.links.new(tex.outputs["Color"], scale.inputs[0])
+    diffuse_from(mat, scale.outputs["Vector"])
+    return mat
+
+
 def shader_pair(combine, factor=None):
     """A maker: a red Diffuse and a Glossy (roughness 0.2) combined by `combine` (Mix or Add
     Shader); the Mix factor (or the Glossy colour, for Add) from `factor(tree)`."""
@@ -345,6 +371,24 @@ def coloured_flat_scene(scene, material):
     """The flat scene with the plane's object colour set (Object Info Color reads it)."""
     flat_scene(scene, material)
     bpy.data.objects["Plane"].color = (0.9, 0.4, 0.15, 1.0)
+
+
+def coordinate(output):
+    """A `vector` function: Texture Coordinate `output` as it is."""
+    def vector(tree):
+        return tree.nodes.new("ShaderNodeTexCoord").outputs[output]
+    return vector
+
+
+def mirror_ball_scene(scene, material):
+    """The material on the floor, seen directly and in a mirror ball (Glossy, roughness 0.05):
+    in the ball the floor is shaded for glossy rays, whose hit points' Window and Camera
+    coordinates are not the ball's pixel's."""
+    scenes.plane(scene, "Floor", 10.0, material=material)
+    mirror = scenes.shader_node_material("Mirror", "ShaderNodeBsdfGlossy", Roughness=0.05)
+    uv_sphere(scene, "Ball", 0.6, (0.0, 0.0, 0.6), mirror)
+    scenes.light(scene, "Sun", "SUN", rotation_deg=(20.0, 10.0, 0.0), energy=3.0, angle=0.0)
+    scenes.camera(scene, (0.0, -2.2, 3.2), (35.0, 0.0, 0.0), lens=40.0)
 
 
 # name -> (scene builder, material maker, extra set-up or None)
@@ -407,7 +451,18 @@ CASES = {
                                               vector=mapped("Generated")), None),
     "mapping_object": (flat_scene, texture("ShaderNodeTexChecker", inputs={"Scale": 0.8},
                                            vector=mapped("Object", "Target")), add_object_target),
+    # Camera: the position in camera space (z forward); Window: on the frame, 0..1 from the
+    # lower-left corner (Cycles' svm_node_tex_coord), for every ray's hit point.
+    "coords_camera": (flat_scene, texture("ShaderNodeTexChecker", inputs={"Scale": 1.5},
+                                          vector=mapped("Camera")), None),
+    "coords_window": (flat_scene, texture("ShaderNodeTexChecker", inputs={"Scale": 4.0},
+                                          vector=coordinate("Window")), None),
+    "coords_window_in_mirror": (mirror_ball_scene, texture("ShaderNodeTexChecker", inputs={"Scale": 4.0},
+                                                           vector=coordinate("Window")), None),
+    "coords_camera_in_mirror": (mirror_ball_scene, texture("ShaderNodeTexChecker", inputs={"Scale": 0.5},
+                                                           vector=coordinate("Camera")), None),
     "mapping_uv": (flat_scene, texture("ShaderNodeTexChecker", inputs={"Scale": 2.0}, vector=mapped("UV")), None),
+    "image_float": (flat_scene, float_image, None),
     "bump": (flat_scene, grey_with_normal(bump), None),
     "normal_map": (flat_scene, grey_with_normal(normal_map), None),
     "mix_shader_fresnel": (sphere_scene, shader_pair("ShaderNodeMixShader", fresnel), None),

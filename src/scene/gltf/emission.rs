@@ -132,6 +132,7 @@ mod tests {
             width: w,
             height: h,
             texels,
+            hdr: Vec::new(),
             srgb,
             wrap_s: Wrap::Repeat,
             wrap_t: Wrap::Repeat,

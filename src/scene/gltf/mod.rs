@@ -642,6 +642,7 @@ impl<'a> Loader<'a> {
             report,
             bounds: (lo, hi),
             objects,
+            view: Default::default(),
             source_hash,
             instances: instances_out,
             motion,

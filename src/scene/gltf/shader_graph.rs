@@ -87,27 +87,45 @@ impl Loader<'_> {
             return Err(self.err(format!("{what}: size {w}×{h} is outside 1..={} per side", super::MAX_TEXTURE_SIDE)));
         }
         let texels = w as u64 * h as u64;
-        self.budget.charge(format!("{what} ({w}×{h})"), texels * 4)?;
-        self.budget.check_peak(format!("decoding {what}"), texels * 16)?;
+        self.budget.check_peak(format!("decoding {what}"), texels * 32)?;
         let start = std::time::Instant::now();
         let decoded = image::ImageReader::new(std::io::Cursor::new(&bytes))
             .with_guessed_format()
             .map_err(|e| self.err(format!("{what}: {e}")))?
             .decode()
             .map_err(|e| self.err(format!("{what}: cannot decode: {e}")))?;
-        if decoded.color().has_color()
-            && matches!(decoded, image::DynamicImage::ImageRgb32F(_) | image::DynamicImage::ImageRgba32F(_))
-        {
-            self.warn(format!("{what}: a float image is kept at 8 bits per channel (values clamped to [0, 1])"));
-        }
-        let texels: Vec<[u8; 4]> = decoded.to_rgba8().pixels().map(|p| p.0).collect();
+        // 8-bit images stay 8-bit (4 B a texel); anything finer (EXR, HDR, 16-bit PNG) is
+        // kept as linear f32 (16 B), as Cycles keeps a float image.
+        let float = !matches!(
+            decoded.color(),
+            image::ColorType::L8 | image::ColorType::La8 | image::ColorType::Rgb8 | image::ColorType::Rgba8
+        );
+        self.budget.charge(format!("{what} ({w}×{h})"), texels * if float { 16 } else { 4 })?;
+        let (texels, hdr) = if float {
+            let decode = |v: f32| if srgb { srgb_to_linear(v) } else { v };
+            let hdr = decoded
+                .to_rgba32f()
+                .pixels()
+                .map(|p| {
+                    let [r, g, b, a] = p.0;
+                    // A NaN or infinite texel (a broken EXR) would poison every sum it enters.
+                    let clean = |v: f32| if v.is_finite() { v } else { 0.0 };
+                    glam::Vec4::new(clean(decode(r)), clean(decode(g)), clean(decode(b)), clean(a))
+                })
+                .collect();
+            (Vec::new(), hdr)
+        } else {
+            (decoded.to_rgba8().pixels().map(|p| p.0).collect(), Vec::new())
+        };
         self.profile.decode_textures += start.elapsed().as_secs_f64();
         let tex = crate::scene::Texture {
             name: img.uri.clone(),
             width: w,
             height: h,
             texels,
-            srgb,
+            // Float texels are linear already.
+            srgb: srgb && hdr.is_empty(),
+            hdr,
             wrap_s: crate::scene::texture::Wrap::Repeat,
             wrap_t: crate::scene::texture::Wrap::Repeat,
             nearest: false,
@@ -117,6 +135,12 @@ impl Loader<'_> {
         self.textures.push(tex);
         Ok(self.textures.len() as u32 - 1)
     }
+}
+
+/// The sRGB transfer function decoded for a float value (Blender's piecewise curve,
+/// continued past 1 for HDR values).
+fn srgb_to_linear(c: f32) -> f32 {
+    if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
 }
 
 /// Triangles sampled per material for the estimate of a varying emission.
@@ -149,8 +173,17 @@ impl Loader<'_> {
             let mut sum = glam::Vec3::ZERO;
             let mut n = 0;
             for &t in tris.iter().step_by(stride) {
-                sum +=
-                    crate::shader::shade::node_emission(mesh, objects, &self.textures, prog, t, 1.0 / 3.0, 1.0 / 3.0);
+                sum += crate::shader::shade::node_emission(
+                    mesh,
+                    objects,
+                    &self.textures,
+                    &crate::shader::geom::NO_VIEW,
+                    prog,
+                    t,
+                    1.0 / 3.0,
+                    1.0 / 3.0,
+                    crate::scene::light_path::LightPath::LIGHT_EMISSION,
+                );
                 n += 1;
             }
             let mean = sum / n as f32;

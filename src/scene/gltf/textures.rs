@@ -101,6 +101,7 @@ impl Loader<'_> {
                     width: w,
                     height: h,
                     texels: (*texels).clone(),
+                    hdr: Vec::new(),
                     srgb,
                     wrap_s: wrap(sampler.wrap_s()),
                     wrap_t: wrap(sampler.wrap_t()),

@@ -136,6 +136,14 @@ impl Loader<'_> {
             // The world is one table for every ray: what the camera sees is what lights the scene.
             self.warn("world: the Light Path node reads as for light sampling (Is Camera Ray 0, Ray Depth 1) for every ray, the camera's too");
         }
+        let camera = prog.ops.iter().any(|op| {
+            use crate::shader::instructions::{InputKind, Op};
+            matches!(op, Op::Input { what: InputKind::Camera | InputKind::Window, .. })
+        });
+        if camera {
+            // The world's table is baked at load, before the render's camera is chosen.
+            self.warn("world: Texture Coordinate Camera and Window are not supported on the world: they give 0");
+        }
         if lobes || prog.transparent {
             self.warn("world: a BSDF or Transparent shader on the World Output renders nothing (black, as in Cycles)");
         }

@@ -159,6 +159,7 @@ fn dummy_geom(o: &ObjectData) -> Geom<'_> {
         mesh: &crate::scene::mesh::EMPTY_MESH,
         tri: 0,
         path: crate::scene::light_path::LightPath::LIGHT_EMISSION,
+        view: &crate::shader::geom::NO_VIEW,
     }
 }
 

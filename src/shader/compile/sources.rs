@@ -38,8 +38,8 @@ impl Compiler<'_> {
                     ("Normal", Some(InputKind::ObjectNormal)),
                     ("UV", Some(InputKind::Uv(0))),
                     ("Object", Some(matrix.map_or(InputKind::Object, InputKind::ObjectMatrix))),
-                    ("Camera", None),
-                    ("Window", None),
+                    ("Camera", Some(InputKind::Camera)),
+                    ("Window", Some(InputKind::Window)),
                     ("Reflection", Some(InputKind::Reflection)),
                 ] {
                     if !self.is_used(i, id) {
