@@ -4,9 +4,17 @@
 //!
 //! Conventions: local frame with `wo.z > 0` (the caller orients the frame toward the
 //! viewer); `eta` is the relative index of refraction n(other side) / n(wo's side),
-//! decided by the caller from the geometric normal (entering or leaving). Radiance is
-//! transported: a refracted ray's value is divided by η², which cancels over a closed
-//! object. Transmission is tinted by `tint` (glTF: the base colour).
+//! decided by the caller from the geometric normal (entering or leaving). Transmission is
+//! tinted by `tint` (glTF: the base colour).
+//!
+//! Refraction follows Cycles' convention, not the radiance one: a refracted ray's value is
+//! not divided by η² (Cycles' BTDF is η² times Walter's radiance BTDF, the adjoint of it:
+//! its sampled weight is 1 - F whatever η; `bsdf_microfacet_eval`'s `sqr(ior)` term). Over
+//! a closed object the two agree (entering and leaving cancel), but a single refracting
+//! surface (a window modelled as one plane, an open mesh) does not: with the radiance
+//! convention the floor seen through a glass sheet came out 1/η² of Cycles' where its light
+//! does not cross the sheet. Light paths use the adjoint, 1/η² of `eval` for a refraction
+//! (`Bsdf::eval_adjoint`).
 //!
 //! Thin-walled (glTF's default without `KHR_materials_volume`): light passes straight
 //! through (smooth) or through the mirror image of the reflection lobe (rough), with
@@ -132,9 +140,9 @@ impl DielectricBsdf {
         if self.ms_fms == Rgb::ZERO { Rgb::ONE } else { self.ms_factor(self.ms_fms, wo.z.abs(), self.eta) }
     }
 
-    /// For a refracted pair (wo, wi), f(wi, wo) / (η² f(wo, wi)): 1 for single scattering
-    /// (generalised reciprocity), else the compensation seen from wi (on the other side,
-    /// η → 1/η; the same η for a thin sheet) over that seen from wo.
+    /// For a refracted pair (wo, wi), η² f(wi, wo) / f(wo, wi): 1 for single scattering
+    /// (Cycles' BTDF is η² times a reciprocal one), else the compensation seen from wi (on
+    /// the other side, η → 1/η; the same η for a thin sheet) over that seen from wo.
     #[inline]
     pub fn adjoint_ratio(&self, wo: Vec3, wi: Vec3) -> Rgb {
         if self.ms_fms == Rgb::ZERO {
@@ -193,7 +201,8 @@ impl DielectricBsdf {
         let denom = dot_i + dot_o / self.eta;
         let value = self.ggx.d(m) * (1.0 - f) * self.ggx.g2(wo, Vec3::new(wi.x, wi.y, -wi.z)) * (dot_i * dot_o).abs()
             / (denom * denom * wi.z.abs() * wo.z);
-        self.tint * self.multiscatter(wo) * (value / (self.eta * self.eta))
+        // Cycles' convention (module doc): Walter's radiance BTDF times η².
+        self.tint * self.multiscatter(wo) * value
     }
 
     /// Generalised half vector of a refraction pair, oriented to +Z; None for pairs that
@@ -262,7 +271,7 @@ impl DielectricBsdf {
             }
             if let Some(etas) = self.eta_rgb {
                 // Dispersion: one channel's wavelength refracts, chosen uniformly (the rest of
-                // the path carries that channel alone, ×3); its own Fresnel and η² apply.
+                // the path carries that channel alone, ×3); its own Fresnel applies.
                 let v = ((uc - r) / t).clamp(0.0, 0.999_999);
                 let c = (v * 3.0) as usize;
                 let eta = etas[c];
@@ -270,11 +279,11 @@ impl DielectricBsdf {
                 let tc = 1.0 - fresnel_dielectric(wo.z, eta);
                 let mut mask = Vec3::ZERO;
                 mask[c] = 3.0;
-                let f = self.tint * mask * (tc / (eta * eta) / wi.z.abs());
+                let f = self.tint * mask * (tc / wi.z.abs());
                 return Some(BsdfSample { wi, f, pdf: t, delta: true, kind: LobeKind::Glossy });
             }
             let wi = refract(wo, Vec3::Z, self.eta)?;
-            let f = self.tint * (t / (self.eta * self.eta) / wi.z.abs());
+            let f = self.tint * (t / wi.z.abs());
             return Some(BsdfSample { wi, f, pdf: t, delta: true, kind: LobeKind::Glossy });
         }
         let m = self.ggx.sample_visible_normal(wo, u);
@@ -305,7 +314,7 @@ mod tests {
 
     /// Dispersive glass: each channel refracts by Snell's law with its own index (blue
     /// bends most), and per channel the sampled transmission weight averages to 1 - F(η_c)
-    /// (times η_c² undone), so no channel gains or loses energy.
+    /// (Cycles' convention: no η²), so no channel gains or loses energy.
     #[test]
     fn dispersion_follows_snell_per_channel() {
         let (ior, dispersion) = (1.5f32, 20.0 / 30.0); // Abbe number 30 (dense flint-like)
@@ -329,7 +338,7 @@ mod tests {
                 let eta_c = if entering { n[c] } else { 1.0 / n[c] };
                 let sin_t = (s.wi.x * s.wi.x + s.wi.y * s.wi.y).sqrt();
                 assert!((theta.sin() - eta_c * sin_t).abs() < 1e-5, "Snell for channel {c}");
-                sum += s.f * s.wi.z.abs() / s.pdf * (eta_c * eta_c);
+                sum += s.f * s.wi.z.abs() / s.pdf;
             }
             let mean = sum / m as f32;
             for c in 0..3 {
@@ -374,9 +383,9 @@ mod tests {
                 let wo = Vec3::new(theta.sin(), 0.0, theta.cos());
                 let r = b.sample(wo, 0.0, Vec2::ZERO).unwrap();
                 let t = b.sample(wo, 0.999_999, Vec2::ZERO).unwrap();
-                // Weight of each choice = f |cos| / pdf · P(choice); radiance scaling aside.
+                // Weight of each choice = f |cos| / pdf · P(choice) (Cycles' convention: no η²).
                 let r_part = r.f.x * r.wi.z.abs();
-                let t_part = t.f.x * t.wi.z.abs() * eta * eta;
+                let t_part = t.f.x * t.wi.z.abs();
                 assert!((r_part + t_part - 1.0).abs() < 1e-5, "η={eta} θ={theta}: R+T = {}", r_part + t_part);
                 // Snell: sin θo = η sin θt.
                 let sin_t = (t.wi.x * t.wi.x + t.wi.y * t.wi.y).sqrt();
@@ -403,8 +412,8 @@ mod tests {
         assert_eq!(fresnel_dielectric(1.0, 1.0), 0.0);
     }
 
-    /// The rough interface's albedo (reflection + transmission, without the 1/η²
-    /// radiance scaling) is at most 1, within 5 standard errors.
+    /// The rough interface's albedo (reflection + transmission; Cycles' convention has no
+    /// η² in a refraction's weight) is at most 1, within 5 standard errors.
     #[test]
     fn rough_albedo_at_most_one() {
         let n = 100_000;
@@ -419,10 +428,7 @@ mod tests {
                         let u = Vec2::new(rng.next_f32(), rng.next_f32());
                         let v = b
                             .sample(wo, rng.next_f32(), u)
-                            .map(|s| {
-                                let scale = if s.wi.z < 0.0 { eta * eta } else { 1.0 };
-                                (s.f.x * s.wi.z.abs() / s.pdf * scale) as f64
-                            })
+                            .map(|s| (s.f.x * s.wi.z.abs() / s.pdf) as f64)
                             .unwrap_or(0.0);
                         sum += v;
                         sum2 += v * v;

@@ -373,23 +373,23 @@ impl MixBsdf {
             || self.lobes[..self.n as usize].iter().any(|l| matches!(l, Lobe::Translucent | Lobe::Dielectric(_)))
     }
 
-    /// η² of the refracting part: the Principled's glass, else the first dielectric lobe
-    /// (a mixture of two glasses of different IOR is refused... no: warned at load, the
-    /// first one's η applies to the adjoint correction).
-    pub fn refraction_eta2(&self) -> f32 {
+    /// 1/η² of the refracting part: the Principled's glass, else the first dielectric lobe
+    /// (a mixture of two glasses of different IOR is warned at load; the first one's η
+    /// applies to the adjoint correction).
+    pub fn refraction_adjoint_scale(&self) -> f32 {
         if self.pbr_weight > 0.0 && self.pbr.transmits() {
-            return if self.pbr.glass.thin { 1.0 } else { self.pbr.glass.eta * self.pbr.glass.eta };
+            return if self.pbr.glass.thin { 1.0 } else { 1.0 / (self.pbr.glass.eta * self.pbr.glass.eta) };
         }
         for l in &self.lobes[..self.n as usize] {
             if let Lobe::Dielectric(d) = l {
-                return if d.thin { 1.0 } else { d.eta * d.eta };
+                return if d.thin { 1.0 } else { 1.0 / (d.eta * d.eta) };
             }
         }
         1.0
     }
 
     /// The adjoint ratio of rough glass's compensation (of the refracting part named by
-    /// [`refraction_eta2`](Self::refraction_eta2)).
+    /// [`refraction_adjoint_scale`](Self::refraction_adjoint_scale)).
     pub fn refraction_adjoint_ratio(&self, wo: Vec3, wi: Vec3) -> Rgb {
         if self.pbr_weight > 0.0 && self.pbr.transmits() {
             return self.pbr.refraction_adjoint_ratio(wo, wi);

@@ -144,19 +144,20 @@ impl Bsdf {
 
     /// The adjoint BSDF f*(wo, wi) = f(wi, wo) that carries importance along light paths:
     /// the same as `eval` with the arguments swapped for reflection; for refraction across
-    /// a solid's interface `eval` divides radiance by η² and importance is not divided,
-    /// so the value is `eval(wo, wi)` times η² (times the change of rough glass's
-    /// multiple-scattering compensation, which depends on the viewer's side).
+    /// a solid's interface `eval` is Cycles' BTDF, η² times a reciprocal one (the camera's
+    /// throughput keeps 1 - F whatever η, `bsdf::dielectric`), so its adjoint is `eval(wo,
+    /// wi)` over η² (times the change of rough glass's multiple-scattering compensation,
+    /// which depends on the viewer's side).
     #[inline]
     pub fn eval_adjoint(&self, wo: Vec3, wi: Vec3) -> Rgb {
         if wo.z * wi.z >= 0.0 {
             self.eval(wi, wo)
         } else {
-            self.eval(wo, wi) * self.refraction_eta2() * self.refraction_adjoint_ratio(wo, wi)
+            self.eval(wo, wi) * self.refraction_adjoint_scale() * self.refraction_adjoint_ratio(wo, wi)
         }
     }
 
-    /// For a refracted pair (wo, wi), the adjoint f(wi, wo) over η² f(wo, wi): not 1 when
+    /// For a refracted pair (wo, wi), η² f(wi, wo) over f(wo, wi): not 1 when
     /// rough glass compensates multiple scattering, which depends on the viewer's side.
     #[inline]
     pub fn refraction_adjoint_ratio(&self, wo: Vec3, wi: Vec3) -> Rgb {
@@ -167,20 +168,20 @@ impl Bsdf {
         }
     }
 
-    /// η² of the refracting part (1 for thin sheets): the ratio between a transmitted
-    /// sample's adjoint value and its radiance value.
+    /// 1/η² of the refracting part (1 for thin sheets): the ratio between a transmitted
+    /// sample's adjoint value (light paths) and its value (camera paths).
     #[inline]
-    pub fn refraction_eta2(&self) -> f32 {
+    pub fn refraction_adjoint_scale(&self) -> f32 {
         match self {
             Bsdf::Pbr(b) => {
                 if b.glass.thin {
                     1.0
                 } else {
-                    b.glass.eta * b.glass.eta
+                    1.0 / (b.glass.eta * b.glass.eta)
                 }
             }
-            Bsdf::Mix(m) => m.refraction_eta2(),
-            // Light leaves the fibre into the medium it came from: no change of η².
+            Bsdf::Mix(m) => m.refraction_adjoint_scale(),
+            // Light leaves the fibre into the medium it came from: no change of η.
             Bsdf::Hair(_) => 1.0,
         }
     }

@@ -294,7 +294,7 @@ impl PbrBsdf {
         }
     }
 
-    /// For a refracted pair (wo, wi), the adjoint f(wi, wo) over η² f(wo, wi): not 1 when
+    /// For a refracted pair (wo, wi), η² f(wi, wo) over f(wo, wi): not 1 when
     /// the glass compensates multiple scattering, which depends on the viewer's side.
     #[inline]
     pub fn refraction_adjoint_ratio(&self, wo: Vec3, wi: Vec3) -> Rgb {

@@ -161,7 +161,6 @@ impl PathIntegrator {
             prev_p: p,
             prev_n: Vec3::ZERO,
             media,
-            eta_scale: 1.0,
             transparent_hits: 0,
             tmax: f32::INFINITY,
             ray: RayMask::AFTER_VOLUME,
@@ -464,11 +463,8 @@ impl PathIntegrator {
             st.prev_n = n_select;
             st.depth += 1;
 
-            // Crossing an interface of a solid changes the medium and the η scale.
+            // Crossing an interface of a solid changes the medium.
             st.media = ctx.medium_after(&s, wi, st.media);
-            if transmitted && mat.medium.is_some() {
-                st.refracted(&s, mat.ior);
-            }
 
             if !st.survives(self.rr_depth, u_rr) {
                 break;
@@ -530,7 +526,6 @@ impl PathIntegrator {
             prev_p: se.p,
             prev_n: n_g,
             media,
-            eta_scale: 1.0,
             transparent_hits: 0,
             tmax: f32::INFINITY,
             // The exit scatters as a diffuse reflection, as Cycles labels it.

@@ -46,10 +46,6 @@ pub struct PathState {
     pub prev_n: Vec3,
     /// The media the path is in.
     pub media: MediumStack,
-    /// Product of η² over refractions into and out of solids, undone in Russian roulette
-    /// so that the 1/η² radiance scaling inside glass does not end paths early (pbrt's
-    /// etaScale).
-    pub eta_scale: f32,
     /// Transparent surfaces and volume boundaries passed so far.
     pub transparent_hits: u32,
     /// How far the next ray sees: the far clipping plane for a camera ray (passed surfaces
@@ -122,7 +118,6 @@ impl PathState {
             prev_p: org,
             prev_n: Vec3::ZERO,
             media,
-            eta_scale: 1.0,
             transparent_hits: 0,
             ray: RayMask::CAMERA,
             prev_tri: NO_OBJECT,
@@ -320,14 +315,14 @@ impl PathState {
     }
 
     /// Russian roulette from `rr_depth` on: false when the path ends; survivors are
-    /// reweighted. The survival probability is the throughput's largest channel times
-    /// the η scale, at most 0.95.
+    /// reweighted. The survival probability is the throughput's largest channel, at most
+    /// 0.95 (a refraction does not scale the throughput: `bsdf::dielectric`).
     #[inline]
     pub fn survives(&mut self, rr_depth: u32, u_rr: f32) -> bool {
         if self.depth < rr_depth {
             return true;
         }
-        let survive = (self.beta.max_element() * self.eta_scale).min(0.95);
+        let survive = self.beta.max_element().min(0.95);
         if u_rr >= survive {
             return false;
         }
@@ -367,13 +362,5 @@ impl PathState {
         self.dir = wi;
         stats.bounce += 1;
         true
-    }
-
-    /// After a refraction through the surface of a solid with index `ior`: the η scale
-    /// (entering from the front multiplies by η², leaving divides).
-    #[inline]
-    pub fn refracted(&mut self, s: &SurfaceHit, ior: f32) {
-        let eta = if s.front { ior } else { 1.0 / ior };
-        self.eta_scale *= eta * eta;
     }
 }

@@ -120,10 +120,18 @@ def mean_and_variance(a, b):
 PASS_NAMES = tuple(f"{cls} {kind} x Color" for cls in LIGHT_CLASSES for kind in ("Direct", "Indirect")) + \
     tuple(f"{cls} Color" for cls in LIGHT_CLASSES) + ("Emission", "Environment", "Combined")
 
-# Caustic's smooth glass cube is brighter than Cycles' in Combined too (the glass cube's pixels:
-# 0.617 against 0.557 at 3 bounces, 0.626 against 0.563 at 12): a difference of light transport
-# through glass that the passes only make visible, left to the glass work.
-GLASS_TRANSPORT = pytest.mark.xfail(strict=True, reason="smooth glass cube brighter than Cycles")
+# The glass cube rests on the floor: its bottom face and the floor are coplanar. Measured
+# (Transmission Indirect x Color, Caustic/Cycles): 1.555 as built, 0.995 with the cube lifted
+# by 0.05 (Combined 1.003 -> 1.000); the same with the metal cube and the emitter removed (1.389
+# -> 0.997). So not glass transport (refraction, Fresnel, the medium stack agree once the faces
+# part) but the contact: a ray leaving through the bottom face starts its next segment offset
+# 1.5e-5 below z = 0 (math::offset_ray_origin), past the floor it should hit, and sees the world
+# under the horizon; Cycles, which skips only the primitive just hit, lands on the floor. The fix
+# belongs to ray-origin handling at coincident surfaces (accel / offset_ray_origin), not to
+# the glass.
+GLASS_TRANSPORT = pytest.mark.xfail(strict=True, reason=(
+    "renderer: the glass cube's bottom face is coplanar with the floor; leaving through it, Caustic's offset ray "
+    "origin passes below the floor (Cycles lands on it): 1.555 of Cycles as built, 0.995 lifted by 0.05"))
 
 
 @pytest.fixture(scope="module")

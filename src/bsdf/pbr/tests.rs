@@ -248,11 +248,8 @@ fn albedo_at_most_one() {
                 let u = Vec2::new(rng.next_f32(), rng.next_f32());
                 let v = b
                     .sample(wo, rng.next_f32(), u)
-                    .map(|s| {
-                        // Undo the 1/η² radiance scaling of refracted samples.
-                        let scale = if s.wi.z < 0.0 && !b.glass.thin { b.glass.eta * b.glass.eta } else { 1.0 };
-                        (s.f * (s.wi.z.abs() / s.pdf * scale)).as_dvec3()
-                    })
+                    // Cycles' convention: a refracted sample's weight has no η².
+                    .map(|s| (s.f * (s.wi.z.abs() / s.pdf)).as_dvec3())
                     .unwrap_or(glam::DVec3::ZERO);
                 sum += v;
                 sum2 += v * v;
@@ -353,8 +350,8 @@ fn diffuse_limit() {
     assert!(f.x == f.y && f.y == f.z && f.x > 0.0 && f.x < 0.1);
 }
 
-/// The directional albedo ∫ f |cos θi| dωi over the sphere of `b` seen from `wo` (refracted
-/// directions with their 1/η² radiance scaling undone), as (mean, standard error) over `k`
+/// The directional albedo ∫ f |cos θi| dωi over the sphere of `b` seen from `wo` (Cycles'
+/// convention: refraction without η²), as (mean, standard error) over `k`
 /// independent replicas of a jittered `g`×`g` quadrature: each point picks a visible normal
 /// m, which maps one-to-one onto a reflected direction and a refracted one (or its mirror
 /// image through a thin sheet); `eval` there over the density of that map is a smooth
@@ -393,7 +390,7 @@ fn albedo_quadrature(b: &PbrBsdf, wo: Vec3, g: usize, k: usize, seed: u64) -> (f
                     // Refraction: p(wt) = D_wo(m) |wt·m| / (wt·m + wo·m / η)².
                     let (eta, im) = (b.glass.eta, wt.dot(m));
                     let p = dm * im.abs() / ((im + om / eta) * (im + om / eta));
-                    sum += (b.eval(wo, wt).x * -wt.z / p * eta * eta) as f64;
+                    sum += (b.eval(wo, wt).x * -wt.z / p) as f64;
                 }
             }
             sum / (g * g) as f64
@@ -476,9 +473,8 @@ fn rough_glass_of_ior_one_passes_light_through() {
                     let mut sum = 0.0f64;
                     for _ in 0..n {
                         let s = b.sample(wo, rng.next_f32(), Vec2::new(rng.next_f32(), rng.next_f32()));
-                        // The 1/η² radiance scaling of a refraction undone.
-                        let scale = |wi: Vec3| if wi.z < 0.0 && !thin { eta * eta } else { 1.0 };
-                        let w = s.map_or(Vec3::ZERO, |s| s.f * (s.wi.z.abs() / s.pdf * scale(s.wi)));
+                        // Cycles' convention: a refraction's weight has no η².
+                        let w = s.map_or(Vec3::ZERO, |s| s.f * (s.wi.z.abs() / s.pdf));
                         assert!(w.is_finite(), "η={eta} thin={thin} r={roughness} θ={theta}: weight {w}");
                         sum += w.x as f64;
                     }

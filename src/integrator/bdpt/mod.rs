@@ -15,8 +15,9 @@
 //! world, suns and soft-falloff point lights are made by s = 0 and s = 1 only, weighted as
 //! the path tracer weights them.
 //!
-//! Light subpaths carry importance: refraction does not scale it by 1/η², and shading
-//! normals get Veach's correction |wo·ns| |wi·ng| / (|wo·ng| |wi·ns|).
+//! Light subpaths carry the adjoint of the camera's BSDF: a refraction, whose camera-side
+//! value follows Cycles' convention (no η², `bsdf::dielectric`), scales them by 1/η², and
+//! shading normals get Veach's correction |wo·ns| |wi·ng| / (|wo·ng| |wi·ns|).
 //!
 //! Media and subsurface scattering: the strategies above carry the paths without a vertex in
 //! a medium, attenuated by extinction along every segment (light subpaths, connections and

@@ -32,7 +32,6 @@ impl BdptIntegrator {
         // Solid-angle density of the direction just sampled (0 after a delta lobe).
         let mut pdf_sa = if camera.is_orthographic() { 1.0 } else { camera.pdf_dir((-camera.camera().back).dot(dir)) };
         let mut prev_delta = false;
-        let mut eta_scale = 1.0f32;
         stats.camera += 1;
         loop {
             let [u_lobe, u_dx, u_dy, u_rr] = sampler.next_4d();
@@ -170,15 +169,8 @@ impl BdptIntegrator {
             prev_delta = bs.delta;
             path.light_path = path.light_path.bounced(bs.kind, transmitted, bs.delta);
             path.media = ctx.medium_after(&s, wi, medium);
-            if transmitted {
-                let mat = &ctx.scene.materials[s.material as usize];
-                if mat.medium.is_some() {
-                    let eta = if s.front { mat.ior } else { 1.0 / mat.ior };
-                    eta_scale *= eta * eta;
-                }
-            }
             if (t - 1) as u32 >= self.rr_depth {
-                let survive = (path.beta.max_element() * eta_scale).min(0.95);
+                let survive = path.beta.max_element().min(0.95);
                 if u_rr >= survive {
                     break;
                 }
@@ -450,7 +442,7 @@ impl BdptIntegrator {
                 break;
             }
             let f = if bs.delta {
-                if transmitted { bs.f * sp.bsdf.refraction_eta2() } else { bs.f }
+                if transmitted { bs.f * sp.bsdf.refraction_adjoint_scale() } else { bs.f }
             } else {
                 sp.bsdf.eval_adjoint(wo_local, bs.wi)
             };

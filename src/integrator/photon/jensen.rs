@@ -301,7 +301,6 @@ impl JensenIntegrator {
                 prev_p: s.p,
                 prev_n: n_select,
                 media: gather_media,
-                eta_scale: 1.0,
                 transparent_hits: 0,
                 tmax: f32::INFINITY,
                 ray: RayMask::after_bounce(bs.kind, ci < 0.0),
@@ -406,12 +405,6 @@ impl JensenIntegrator {
                 break;
             }
             st.prev_pdf = if delta { 0.0 } else { bs.pdf };
-            // Refraction into or out of a solid scales radiance by 1/η²: Russian roulette
-            // undoes it, as the path tracer's does.
-            let mat = &ctx.scene.materials[s.material as usize];
-            if ci * co < 0.0 && mat.medium.is_some() {
-                st.refracted(&s, mat.ior);
-            }
             st.prev_p = s.p;
             // The receiver normal NEE gave light selection here.
             st.prev_n = n_select;

@@ -263,16 +263,16 @@ pub fn trace_one(
         let correction = (wo_local.z * cos_i_g / (cos_o_g * bs.wi.z)).abs();
         // Photons carry flux, which scatters by the adjoint BSDF f(wi, wo): it differs from
         // f(wo, wi) where a clear coat scales the layers below by its albedo seen from the
-        // eye's side (as Cycles), which is not reciprocal. Transmission keeps f(wo, wi): photons inside a refractive object keep
-        // the 1/η² radiance scaling, which cancels for closed objects (module doc).
-        // Rough transmission keeps the radiance value's η² but takes the adjoint's
-        // multiple-scattering compensation (seen from the photon's side).
-        let f = if bs.delta {
-            bs.f
-        } else if bs.wi.z * wo_local.z > 0.0 {
+        // eye's side (as Cycles), which is not reciprocal, and across a refraction, whose
+        // camera-side value follows Cycles' convention (no η², `bsdf::dielectric`): the
+        // adjoint is 1/η² of it (and takes rough glass's multiple-scattering compensation
+        // from the photon's side).
+        let f = if !bs.delta {
             sp.bsdf.eval_adjoint(wo_local, bs.wi)
+        } else if bs.wi.z * wo_local.z < 0.0 {
+            bs.f * sp.bsdf.refraction_adjoint_scale()
         } else {
-            bs.f * sp.bsdf.refraction_adjoint_ratio(wo_local, bs.wi)
+            bs.f
         };
         let w = f * (bs.wi.z.abs() / (bs.pdf * (1.0 - q_sss))) * correction;
         let q = w.max_element().min(1.0);

@@ -6,6 +6,7 @@ use super::pose::{NodePose, VertexTransforms};
 use super::quantized::{Quantization, read_f32};
 use super::{Loader, MAX_COORDINATE};
 use crate::error::Result;
+use crate::math::Rgb;
 use crate::memory;
 use crate::scene::{Material, Mesh};
 use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
@@ -56,7 +57,7 @@ impl Loader<'_> {
         world: &Mat4,
         pose: &NodePose,
         buffers: &[Vec<u8>],
-        materials: &mut Vec<Material>,
+        materials: &[Material],
         default_material: u32,
         out: &mut Mesh,
     ) -> Result<usize> {
@@ -274,39 +275,20 @@ impl Loader<'_> {
                 out.tri_material.push(material_index);
             }
             let material = &materials[material_index as usize];
-            if material.medium.is_some() || material.subsurface.is_some() {
+            // A volume on an open primitive (Blender's exporter and the add-on put
+            // KHR_materials_volume on every transmissive material, a window modelled as one
+            // quad included) is entered and left by the side of the geometric normal, as
+            // Cycles refracts at every glass surface whatever the topology. Only a medium
+            // that absorbs, scatters or emits, or subsurface scattering, loses light through
+            // the holes.
+            let lossy = material.subsurface.is_some()
+                || material
+                    .medium
+                    .as_ref()
+                    .is_some_and(|m| m.sigma_a != Rgb::ZERO || m.sigma_s != Rgb::ZERO || m.emission != Rgb::ZERO);
+            if lossy {
                 let open = open_edges(&out.positions, &out.triangles[first_tri..]);
-                if open > 0
-                    && flat(&out.positions, &out.triangles[first_tri..])
-                    && self.khr_volume_materials.contains(&material_index)
-                    && material.subsurface.is_none()
-                {
-                    // KHR_materials_volume describes the inside of a closed mesh; on a flat
-                    // sheet (Blender's exporter and the add-on add it to every transmissive
-                    // material) it would make the sheet a one-way entry into glass. As a
-                    // volume of thickness 0, the spec's thin-walled case, it renders as Cycles
-                    // renders the sheet. An open mesh that is not flat (a subdivided Suzanne
-                    // with holes) keeps its volume: it is a solid with holes, entered and left
-                    // by the side of the geometric normal as in Cycles (thin-walled it came out
-                    // 16 % brighter than Cycles).
-                    let thin = match self.thin_variants.get(&material_index) {
-                        Some(&t) => t,
-                        None => {
-                            let name = material.name.clone();
-                            materials.push(Material { medium: None, ..material.clone() });
-                            let t = materials.len() as u32 - 1;
-                            self.thin_variants.insert(material_index, t);
-                            self.warn(format!(
-                                "material '{name}': KHR_materials_volume on an open surface ({what}, {open} open \
-                                 edges) is rendered thin-walled (no volume inside a sheet)"
-                            ));
-                            t
-                        }
-                    };
-                    for m in &mut out.tri_material[first_tri..] {
-                        *m = thin;
-                    }
-                } else if open > 0 {
+                if open > 0 {
                     self.warn(format!(
                         "{what}: material '{}' has a volume or subsurface scattering but the primitive is not closed \
                          ({open} open edges): paths that leave through a hole lose the light the medium would have \
@@ -318,19 +300,6 @@ impl Loader<'_> {
         }
         Ok(degenerate)
     }
-}
-
-/// True when every triangle lies in one plane (normals parallel within 10⁻⁴ in cosine,
-/// about 0.8°): a flat sheet, which encloses no volume whatever its edges.
-pub(super) fn flat(positions: &[Vec3], tris: &[[u32; 3]]) -> bool {
-    let normal = |t: &[u32; 3]| {
-        let [a, b, c] = t.map(|i| positions[i as usize]);
-        (b - a).cross(c - a).normalize_or_zero()
-    };
-    let Some(n0) = tris.iter().map(normal).find(|n| *n != Vec3::ZERO) else {
-        return true;
-    };
-    tris.iter().map(normal).all(|n| n == Vec3::ZERO || n.dot(n0).abs() >= 1.0 - 1e-4)
 }
 
 /// Edges used by an odd number of the triangles: 0 for a closed surface. Vertices are
@@ -448,14 +417,10 @@ mod tests {
         }
     }
 
-    /// A quad (an open sheet, 2 triangles) and a closed cube (12 triangles), both of one
-    /// glass material with KHR_materials_volume thickness 1, as Blender's exports are.
-    fn sheet_and_cube() -> crate::scene::Scene {
-        sheet_and_box(true)
-    }
-
-    /// The quad and a cube (closed) or an open box (the cube without its top face).
-    fn sheet_and_box(closed: bool) -> crate::scene::Scene {
+    /// A quad (an open sheet, 2 triangles) and a cube (12 triangles, closed) or an open box
+    /// (the cube without its top face), all of one glass material with KHR_materials_volume
+    /// thickness 1, as Blender's exports are; `absorbing` gives the volume an attenuation.
+    fn sheet_and_box(closed: bool, absorbing: bool) -> crate::scene::Scene {
         use base64::Engine;
         let quad = [[-1f32, -1., 0.], [1., -1., 0.], [1., 1., 0.], [-1., 1., 0.]];
         let cube: Vec<[f32; 3]> =
@@ -486,7 +451,11 @@ mod tests {
             ],
             "materials": [{"name": "glass", "extensions": {
                 "KHR_materials_transmission": {"transmissionFactor": 1.0},
-                "KHR_materials_volume": {"thicknessFactor": 1.0, "attenuationColor": [0.5, 0.5, 0.5], "attenuationDistance": 1.0}}}],
+                "KHR_materials_volume": if absorbing {
+                    serde_json::json!({"thicknessFactor": 1.0, "attenuationColor": [0.5, 0.5, 0.5], "attenuationDistance": 1.0})
+                } else {
+                    serde_json::json!({"thicknessFactor": 1.0})
+                }}}],
             "meshes": [
                 {"primitives": [{"attributes": {"POSITION": 0}, "indices": 1, "material": 0}]},
                 {"primitives": [{"attributes": {"POSITION": 2}, "indices": 3, "material": 0}]}
@@ -499,34 +468,35 @@ mod tests {
         crate::scene::gltf::load_bytes(&bytes, std::path::Path::new("."), "sheet.gltf", &budget).unwrap()
     }
 
+    /// Cycles refracts at every glass surface, entering by the geometric normal's side,
+    /// whatever the topology: a volume on a single sheet or an open box is kept (the sheet
+    /// is no thin wall), as on the closed cube.
     #[test]
-    fn a_volume_on_an_open_sheet_is_thin_walled_and_on_a_closed_mesh_a_volume() {
-        let scene = sheet_and_cube();
-        let m = &scene.mesh;
-        assert_eq!(m.triangles.len(), 14);
-        let material = |t: usize| &scene.materials[m.tri_material[t] as usize];
-        for t in 0..2 {
-            assert!(material(t).medium.is_none(), "the sheet's triangle {t} is thin-walled");
-            assert_eq!((material(t).name.as_str(), material(t).transmission), ("glass", 1.0));
+    fn a_volume_on_an_open_sheet_or_box_stays_a_volume() {
+        for closed in [true, false] {
+            let scene = sheet_and_box(closed, false);
+            let m = &scene.mesh;
+            assert_eq!(m.triangles.len(), if closed { 14 } else { 12 });
+            for (t, &mat) in m.tri_material.iter().enumerate() {
+                let mat = &scene.materials[mat as usize];
+                assert!(mat.medium.is_some(), "closed {closed}: triangle {t} bounds a volume");
+                assert_eq!((mat.name.as_str(), mat.transmission), ("glass", 1.0));
+            }
         }
-        for t in 2..14 {
-            assert!(material(t).medium.is_some(), "the cube's triangle {t} bounds a volume");
-        }
-        assert!(
-            scene.warnings.iter().any(|w| w.contains("'glass'") && w.contains("thin-walled")),
-            "{:?}",
-            scene.warnings
-        );
     }
 
+    /// Holes lose light only where the medium does something: a clear volume on open
+    /// primitives loads without a warning, an absorbing one warns for each open primitive
+    /// (the sheet, the open box) and not for the closed cube.
     #[test]
-    fn a_volume_on_an_open_mesh_that_is_not_flat_stays_a_volume() {
-        let scene = sheet_and_box(false);
-        let m = &scene.mesh;
-        assert_eq!(m.triangles.len(), 12);
-        for t in 2..12 {
-            assert!(scene.materials[m.tri_material[t] as usize].medium.is_some(), "the open box's triangle {t}");
+    fn open_primitives_warn_only_when_their_medium_absorbs() {
+        let clear = sheet_and_box(false, false);
+        assert!(!clear.warnings.iter().any(|w| w.contains("not closed")), "{:?}", clear.warnings);
+        for closed in [true, false] {
+            let scene = sheet_and_box(closed, true);
+            let open: Vec<_> = scene.warnings.iter().filter(|w| w.contains("not closed")).collect();
+            assert_eq!(open.len(), if closed { 1 } else { 2 }, "closed {closed}: {open:?}");
+            assert!(open[0].contains("4 open edges"), "the sheet: {open:?}");
         }
-        assert!(scene.warnings.iter().any(|w| w.contains("not closed")), "{:?}", scene.warnings);
     }
 }

@@ -156,10 +156,6 @@ struct Loader<'a> {
     texture_cache: HashMap<TexKey, u32>,
     images: HashMap<usize, DecodedImage>,
     profile: LoadProfile,
-    /// Materials whose medium is KHR_materials_volume's attenuation (not a CAUSTIC medium).
-    khr_volume_materials: std::collections::HashSet<u32>,
-    /// Thin-walled copies of those materials, for open primitives: original → copy.
-    thin_variants: HashMap<u32, u32>,
     /// External files read so far (URI, content hash), for `Scene::source_hash`; a cell
     /// because files are read through `&self`.
     files_read: std::cell::RefCell<Vec<(String, u64)>>,
@@ -181,8 +177,6 @@ impl<'a> Loader<'a> {
             texture_cache: HashMap::new(),
             images: HashMap::new(),
             profile: LoadProfile::default(),
-            khr_volume_materials: Default::default(),
-            thin_variants: HashMap::new(),
             files_read: Default::default(),
             quantization: quantized::Quantization::Core,
         }
@@ -273,12 +267,6 @@ impl<'a> Loader<'a> {
             material_reports.push(rep);
         }
         let default_material = self.default_material(&value, &mut materials)?;
-        for (i, (mat, rep)) in materials.iter().zip(&material_reports).enumerate() {
-            let has = |f: &str| rep.features.iter().any(|x| x == f);
-            if mat.medium.is_some() && has("KHR_materials_volume") && !has("CAUSTIC_materials_medium") {
-                self.khr_volume_materials.insert(i as u32);
-            }
-        }
         self.profile.materials = phase.elapsed().as_secs_f64() - self.profile.decode_textures;
 
         // 7. Node graph to instances.
@@ -358,7 +346,7 @@ impl<'a> Loader<'a> {
                     let first = t0 as usize;
                     let pose = self.node_pose(&node, &m, &worlds, &buffers)?;
                     degenerate +=
-                        self.append_mesh(&m, world, &pose, &buffers, &mut materials, default_material, &mut mesh)?;
+                        self.append_mesh(&m, world, &pose, &buffers, &materials, default_material, &mut mesh)?;
                     if let Some(ext) = node.extension_value("CAUSTIC_object_visibility") {
                         let vis: ObjectVisibilityExt = serde_json::from_value(ext.clone()).map_err(|e| {
                             self.err(format!("node {node_index} ('{node_name}'): bad CAUSTIC_object_visibility: {e}"))
