@@ -5,6 +5,7 @@
 pub mod albedo;
 pub mod aniso_albedo;
 pub mod dielectric;
+pub mod fresnel_layer;
 pub mod glass_albedo;
 pub mod hair;
 pub mod microfacet;
@@ -13,6 +14,7 @@ mod microfiber_table;
 pub mod mix;
 pub mod pbr;
 pub mod sheen;
+pub mod thin_film;
 
 use crate::math::Rgb;
 use glam::{Vec2, Vec3};

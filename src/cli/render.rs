@@ -29,6 +29,7 @@ use std::time::{Duration, Instant};
 /// (and, inside a render worker, on one thread).
 pub(crate) fn build_bsdf_tables(scene: &Scene) {
     crate::bsdf::albedo::specular_albedo();
+    crate::bsdf::fresnel_layer::layer_albedo();
     let m = &scene.materials;
     if m.iter().any(|m| m.transmission > 0.0 || m.transmission_tex.is_some()) {
         crate::bsdf::glass_albedo::glass_albedo();
