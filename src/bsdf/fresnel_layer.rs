@@ -108,8 +108,7 @@ impl LayerAlbedo {
         let entries: Vec<[f32; 2]> = build_entries(Z_N * TABLE_N * TABLE_N, |i| {
             let (k, rest) = (i / (TABLE_N * TABLE_N), i % (TABLE_N * TABLE_N));
             let (ri, mi) = (rest / TABLE_N, rest % TABLE_N);
-            let (a, b) =
-                layer_split(SpecularAlbedo::mu(mi), ri as f32 / (TABLE_N - 1) as f32, node_eta(k), STRATA);
+            let (a, b) = layer_split(SpecularAlbedo::mu(mi), ri as f32 / (TABLE_N - 1) as f32, node_eta(k), STRATA);
             [a, b]
         });
         let mut s_avg = [0.0f32; Z_N];

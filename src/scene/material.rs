@@ -118,7 +118,6 @@ pub struct Material {
     pub hair: Option<crate::bsdf::hair::HairParams>,
 }
 
-
 /// A thin film on the dielectric layer (`KHR_materials_iridescence`, Blender's Thin Film).
 #[derive(Clone, Copy, Debug)]
 pub struct Iridescence {

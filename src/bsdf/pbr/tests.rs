@@ -185,7 +185,9 @@ fn metal_multiscatter_is_a_factor_of_wo() {
 #[test]
 fn dielectric_layer_is_reciprocal_but_for_factors_of_wo() {
     let mut rng = Pcg32::new(5);
-    for (roughness, ior, tint) in [(0.3f32, 1.5f32, Vec3::ONE), (0.8, 1.5, Vec3::ONE), (0.5, 2.4, Vec3::new(1.0, 0.5, 0.2))] {
+    for (roughness, ior, tint) in
+        [(0.3f32, 1.5f32, Vec3::ONE), (0.8, 1.5, Vec3::ONE), (0.5, 2.4, Vec3::new(1.0, 0.5, 0.2))]
+    {
         let params = |base| PbrParams { ior, specular_color: tint, ..PbrParams::opaque(base, 0.0, roughness) };
         let black = PbrBsdf::from_params(&params(Vec3::ZERO));
         let white = PbrBsdf::from_params(&params(Vec3::ONE));
@@ -424,7 +426,8 @@ fn thin_film_on_the_layer() {
     let want = film_reflectance(1.0, 1.33, 400.0, 1.5);
     assert!((w - want).abs().max_element() < TABLE_ERROR as f32, "{w} vs {want}");
     // A free film (IOR 1: no layer without it) still reflects.
-    let soap = PbrBsdf::from_params(&PbrParams { ior: 1.0, thin_film: film, ..PbrParams::opaque(Vec3::ZERO, 0.0, 0.0) });
+    let soap =
+        PbrBsdf::from_params(&PbrParams { ior: 1.0, thin_film: film, ..PbrParams::opaque(Vec3::ZERO, 0.0, 0.0) });
     let s = soap.sample(Vec3::Z, 0.0, Vec2::splat(0.5)).unwrap();
     assert!((s.f * s.wi.z / s.pdf).max_element() > 0.01);
     for roughness in [0.3f32, 0.7] {
