@@ -10,6 +10,7 @@ Principled BSDF parameters it drops (contract, "Materials the exporter writes di
 * A Principled glass's base colour: glTF tints by it at every crossing, Cycles by its square
   root; written as sqrt(base) where that is exact (`_principled_transmission_tint`).
 * Coat IOR and tint (`CAUSTIC_materials_coat`); subsurface and volume media (media.py).
+* Thin Film Thickness and IOR, which the exporter drops: `KHR_materials_iridescence` (`_thin_film`).
 * Sheen: Cycles renders the microfiber sheen, not glTF's Charlie (`CAUSTIC_materials_sheen`),
   and the exporter drops Sheen Weight (`_sheen`).
 * Anything else the exporter cannot express (procedural textures, converters, mixtures of
@@ -74,8 +75,6 @@ def principled_extras(blender_material, graph=False):
         tint = [float(c) for c in value("Coat Tint", (1, 1, 1, 1))[:3]]
         if abs(ior - 1.5) > 1e-6 or any(abs(c - 1.0) > 1e-6 for c in tint):
             coat = {"ior": ior, "tint": tint}
-    if value("Thin Film Thickness", 0.0) > 0.0:
-        warnings.append(f"material '{name}': thin film (iridescence) is not rendered by Caustic")
     if value("Diffuse Roughness", 0.0) > 0.0:
         warnings.append(f"material '{name}': Diffuse Roughness is not rendered (Caustic's diffuse is Lambertian)")
     if value("Anisotropic", 0.0) > 0.0:
@@ -250,6 +249,8 @@ def complete_material(gltf2_material, blender_material, export_settings, state, 
         _set_extension(gltf2_material, COAT_EXTENSION, coat)
     if _present(gltf2_material, "KHR_materials_sheen"):
         state.warnings.extend(_sheen(gltf2_material, blender_material))
+    state.warnings.extend(_thin_film(gltf2_material, blender_material, as_graph))
+    _opaque_ior(gltf2_material, blender_material)
     if _present(gltf2_material, "KHR_materials_anisotropy"):
         # The exporter writes Blender's Anisotropic as glTF's strength; Cycles maps it to widths
         # differently (docs/contract.md).
@@ -284,6 +285,50 @@ def _sheen(gltf2_material, blender_material):
     colour = value.get("sheenColorFactor", [0.0, 0.0, 0.0])
     value["sheenColorFactor"] = [float(c) * weight for c in colour]
     return []
+
+
+def _opaque_ior(gltf2_material, blender_material):
+    """The Principled BSDF's IOR, which the exporter writes only beside transmission, volume or
+    specular extensions: an opaque material of another IOR than glTF's 1.5 would lose the shape
+    of its dielectric layer's Fresnel (and a free thin film, IOR 1, its substrate)."""
+    node = _principled(blender_material)
+    socket = node.inputs.get("IOR") if node is not None else None
+    if socket is None or socket.is_linked or _present(gltf2_material, "KHR_materials_ior"):
+        return
+    ior = float(socket.default_value)
+    if abs(ior - 1.5) > 1e-6:
+        _set_extension(gltf2_material, "KHR_materials_ior", {"ior": ior})
+
+
+# Cycles' THINFILM_THICKNESS_CUTOFF: a thinner film is no film.
+_THIN_FILM_CUTOFF_NM = 0.1
+
+
+def _thin_film(gltf2_material, blender_material, graph):
+    """The Principled BSDF's Thin Film as KHR_materials_iridescence (factor 1, the film's IOR,
+    minimum = maximum = the thickness in nm), which the exporter drops. The renderer puts the
+    film on the dielectric layer only: a metallic or transmissive part is named in a warning.
+    With `graph` the node graph carries a linked thickness. Returns warnings."""
+    node = _principled(blender_material)
+    socket = node.inputs.get("Thin Film Thickness") if node is not None else None
+    if socket is None or (float(socket.default_value) <= _THIN_FILM_CUTOFF_NM and not socket.is_linked):
+        return []
+    name = blender_material.name
+    warnings = []
+    if socket.is_linked and not graph:
+        warnings.append(f"material '{name}': a linked Thin Film Thickness is not carried by glTF; using its value")
+    thickness = float(socket.default_value)
+    if thickness > _THIN_FILM_CUTOFF_NM:
+        ior = float(node.inputs["Thin Film IOR"].default_value)
+        _set_extension(gltf2_material, "KHR_materials_iridescence", {
+            "iridescenceFactor": 1.0, "iridescenceIor": ior,
+            "iridescenceThicknessMinimum": thickness, "iridescenceThicknessMaximum": thickness})
+    for part in ("Metallic", "Transmission Weight"):
+        p = node.inputs.get(part)
+        if p is not None and (p.is_linked or float(p.default_value) > 0.0):
+            warnings.append(f"material '{name}': the thin film is rendered on the dielectric layer only, "
+                            f"not on the {'metal' if part == 'Metallic' else 'glass'} part ({part})")
+    return warnings
 
 
 def graph_of(blender_material, state):

@@ -7,6 +7,7 @@ mod albedo_table;
 pub mod aniso_albedo;
 pub mod dielectric;
 mod exclude;
+pub mod fresnel_layer;
 pub mod glass_albedo;
 pub mod hair;
 pub mod microfacet;
@@ -15,6 +16,7 @@ mod microfiber_table;
 pub mod mix;
 pub mod pbr;
 pub mod sheen;
+pub mod thin_film;
 
 use crate::math::Rgb;
 use glam::{Vec2, Vec3};

@@ -10,17 +10,19 @@
 //! diffuse lobe with a probability estimated from the layer albedos at `wo`; `pdf` is
 //! the mixture of both, so it matches `sample` exactly.
 //!
-//! One deliberate departure from Appendix B: the spec weights the diffuse base by
-//! (1 - F(v·h)) per direction pair, which reflects more than it receives near 60° for
-//! smooth surfaces (albedo ≈ 1.016 at roughness 0.15). Caustic layers by albedo
-//! scaling instead, as Cycles' Principled BSDF and the glTF layering extensions do, in
-//! Kulla & Conty's reciprocal form: diffuse × (1 - E(μo))(1 - E(μi)) / (1 - E_avg), with
-//! E the directional albedo of the specular layer, tabulated once. It conserves energy
-//! exactly and stays reciprocal.
+//! The dielectric specular layer is Cycles' Principled one rather than Appendix B's
+//! (`fresnel_layer.rs`): the exact dielectric Fresnel's shape for the layer's IOR rescaled
+//! to start at its F0, with Cycles' multiple-scattering compensation; the diffuse base under
+//! it is weighted by 1 − max over channels of the layer's albedo seen from wo, Cycles'
+//! layering (tabulated over roughness, μ and η). Appendix B's (1 − F(v·h)) per direction pair
+//! reflected more than it received near 60° for smooth surfaces; the albedo scaling conserves
+//! energy exactly (a white base reflects what the layer leaves), but like Cycles' it is not
+//! reciprocal: light paths use the adjoint (`Bsdf::eval_adjoint` swaps the directions).
 //!
 //! The glTF extensions layer on top by albedo scaling, as the glTF spec's layering rules
-//! say: `KHR_materials_specular` colour tints the dielectric layer's F0 per channel (F90
-//! stays the specular weight), `KHR_materials_sheen` is a Charlie-distribution sheen
+//! say: `KHR_materials_specular` colour tints the dielectric layer's F0 per channel and its
+//! factor scales F0 as Blender imports it (half the Specular IOR Level; F90 stays 1),
+//! `KHR_materials_sheen` is a Charlie-distribution sheen
 //! (Estevez & Kulla 2017, Ashikhmin visibility) over everything below it with the
 //! reciprocal scaling min(1 - s·E(μo), 1 - s·E(μi)), s = max(sheen colour), and
 //! `KHR_materials_clearcoat` is a GGX layer of IOR 1.5 on top, with its own normal. Blender's
@@ -36,8 +38,8 @@
 //! saturates as its interreflections do. The glass does the same with its own tables
 //! (`DielectricBsdf::with_multiscatter`). The factor depends on wo alone, which keeps the
 //! sampling exact and, as in Cycles, makes those lobes non-reciprocal (light paths use
-//! the adjoint, `Bsdf::eval_adjoint`). The opaque dielectric's specular layer and the coat
-//! stay single-scattering (their albedo scales the layers below them).
+//! the adjoint, `Bsdf::eval_adjoint`). The opaque dielectric's specular layer is compensated
+//! the same way with its own F_ms (`fresnel_layer.rs`); the coat stays single-scattering.
 //!
 //! `KHR_materials_anisotropy` (and Blender's Anisotropic): the metal's and the specular
 //! layer's GGX take widths (αx, αy) along the shading frame's X axis (the anisotropy
@@ -62,9 +64,11 @@ use super::BsdfSample;
 pub use super::albedo::F0_DIELECTRIC;
 use super::aniso_albedo::aniso_albedo;
 use super::dielectric::{DielectricBsdf, SMOOTH_ROUGHNESS};
+use super::fresnel_layer::{eta_z, f0_of, fresnel_s, layer_albedo, layer_eta};
 use super::microfacet::{Ggx, schlick_weight};
 use super::microfiber::Microfiber;
 use super::sheen::{charlie_brdf, sheen_albedo_table};
+use super::thin_film::film_reflectance;
 use crate::math::{Frame, Rgb, luminance};
 use crate::sampling::warp::cosine_hemisphere_pdf;
 use glam::{Vec2, Vec3};
@@ -90,12 +94,23 @@ pub struct PbrBsdf {
     pub metallic: f32,
     /// Perceptual roughness in [0, 1] (for the albedo table).
     pub roughness: f32,
-    /// Weight of the dielectric specular layer (`KHR_materials_specular` specularFactor).
+    /// Scale of the dielectric layer's F0 (`KHR_materials_specular` specularFactor, Blender's
+    /// 2 × Specular IOR Level); 0: no layer.
     pub specular: f32,
     /// Normal-incidence reflectance of the opaque dielectric's layer (from the IOR).
     pub f0: f32,
-    /// Per-channel F0 of that layer: min(f0 × specular colour, 1).
+    /// Per-channel F0 of that layer: min(f0 × specular × specular colour, 1).
     pub f0_rgb: Rgb,
+    /// The layer's η, whose exact Fresnel gives its shape (the IOR of F0 × specular).
+    layer_eta: f32,
+    /// F0 of `layer_eta` (where the shape starts).
+    layer_f0_eta: f32,
+    /// `layer_eta` on the albedo table's axis.
+    layer_z: f32,
+    /// A thin film on the dielectric layer: (thickness nm, film IOR, weight).
+    film: Option<(f32, f32, f32)>,
+    /// The opaque dielectric has a specular layer (η > 1 or a film).
+    layer: bool,
     /// Weight of the glass part within the dielectric part.
     pub transmission: f32,
     /// The glass part.
@@ -110,8 +125,8 @@ pub struct PbrBsdf {
     pub coat_ggx: Ggx,
     /// The reflection lobes are perfect mirrors (roughness below `SMOOTH_ROUGHNESS`).
     pub smooth: bool,
-    /// Cosine-weighted mean albedo of the dielectric layer per channel (specular weight included).
-    layer_avg: Rgb,
+    /// F_ms per channel of the dielectric layer's multiple-scattering compensation (zero: off).
+    layer_fms: Rgb,
     /// F_ms per channel of the metal's multiple-scattering compensation (zero: off).
     metal_fms: Rgb,
     /// Mean albedo E_avg = A_avg + B_avg of the reflection lobes (the metal's F_ms needs it).
@@ -185,6 +200,12 @@ impl PbrBsdf {
         let roughness = p.roughness.clamp(0.0, 1.0);
         let ior = if p.ior.is_finite() && p.ior >= 1.0 { p.ior } else { 1.5 };
         let f0 = f0_from_ior(ior).min(1.0);
+        let specular = if p.specular.is_finite() { p.specular.max(0.0) } else { 1.0 };
+        let layer_eta = if specular > 0.0 { layer_eta(ior, specular) } else { 1.0 };
+        // Cycles' films of 0.1 nm or less are no film.
+        let film = p.thin_film.filter(|&(d, n, w)| d > 0.1 && d.is_finite() && n > 0.0 && n.is_finite() && w > 0.0);
+        // Cycles' condition for a specular layer: η ≠ 1 or a film (a free film of IOR 1).
+        let layer = layer_eta > 1.0 || film.is_some();
         let spec_color = if p.specular_color.is_finite() { p.specular_color.max(Vec3::ZERO) } else { Vec3::ONE };
         let sheen_color =
             if p.sheen_color.is_finite() { p.sheen_color.clamp(Vec3::ZERO, Vec3::ONE) } else { Vec3::ZERO };
@@ -221,9 +242,14 @@ impl PbrBsdf {
             base: Rgb::ZERO,
             metallic: p.metallic.clamp(0.0, 1.0),
             roughness,
-            specular: p.specular.clamp(0.0, 1.0),
+            specular,
             f0,
-            f0_rgb: (spec_color * f0).min(Vec3::ONE),
+            f0_rgb: (spec_color * (f0 * specular)).min(Vec3::ONE),
+            layer_eta,
+            layer_f0_eta: f0_of(layer_eta),
+            layer_z: eta_z(layer_eta),
+            film,
+            layer,
             transmission: p.transmission.clamp(0.0, 1.0),
             glass,
             ggx,
@@ -232,7 +258,7 @@ impl PbrBsdf {
             coat_ggx: Ggx::from_roughness(p.coat_roughness.clamp(0.0, 1.0)),
             smooth,
             smooth_coat: p.coat_roughness < SMOOTH_ROUGHNESS,
-            layer_avg: Rgb::ZERO,
+            layer_fms: Rgb::ZERO,
             metal_fms: Rgb::ZERO,
             e_avg: 0.0,
             // Only materials that show the glass pay for its table.
@@ -258,8 +284,13 @@ impl PbrBsdf {
             Some((rx, ry)) => aniso_albedo().ab_avg(rx, ry),
             None => specular_albedo().ab_avg(self.roughness),
         };
-        self.layer_avg = (self.f0_rgb * a + Vec3::splat(b)) * self.specular;
         self.e_avg = a + b;
+        if self.layer && !self.smooth {
+            // Cycles' F_ss = mix(F0, 1, s_avg) and Kulla & Conty's F_ms from it.
+            let s_avg = layer_albedo().s_avg(self.layer_z);
+            let f_ss = self.f0_rgb + (Vec3::ONE - self.f0_rgb) * s_avg;
+            self.layer_fms = f_ss * self.e_avg / (Vec3::ONE - f_ss * (1.0 - self.e_avg)).max(Vec3::splat(1e-6));
+        }
         self
     }
 
@@ -292,6 +323,48 @@ impl PbrBsdf {
             Some((rx, ry)) => aniso_albedo().ab(w, rx, ry),
             None => specular_albedo().ab(w.z, self.roughness),
         }
+    }
+
+    /// (A, B) of the dielectric layer's albedo ms (F0·A + B) seen from `w`, with `white` = A + B
+    /// of the reflection lobes (the Schlick table's, or the anisotropic table's): an anisotropic
+    /// layer splits its own white albedo by the isotropic split at roughness (αx αy)^¼, the
+    /// proxy Cycles' albedo estimate reads its table at.
+    #[inline]
+    fn layer_ab(&self, w: Vec3, white: f32) -> (f32, f32) {
+        match self.aniso {
+            Some((rx, ry)) => {
+                let (a, b) = layer_albedo().ab(w.z, (rx * ry).sqrt(), self.layer_z);
+                let fb = b / (a + b).max(1e-6);
+                (white * (1.0 - fb), white * fb)
+            }
+            None => layer_albedo().ab(w.z, self.roughness, self.layer_z),
+        }
+    }
+
+    /// The dielectric layer's multiple-scattering factor 1 + F_ms (1/E − 1) for the white lobe's
+    /// albedo E seen from the viewer (E above 0.3 everywhere; the floor only guards the division).
+    #[inline]
+    fn layer_ms(&self, white: f32) -> Rgb {
+        if self.layer_fms == Rgb::ZERO { Rgb::ONE } else { Rgb::ONE + self.layer_fms * (1.0 / white.max(0.05) - 1.0) }
+    }
+
+    /// The dielectric layer's Fresnel at cos θ to the half vector: F0 + (1 − F0) s(cos, η);
+    /// with a thin film, the film's reflectance on a substrate of η, rescaled towards F0 as
+    /// Cycles rescales it (each channel by mix(1, F0/F0_η, (1 − F)/(1 − F0_η))), mixed in by
+    /// the film's weight.
+    #[inline]
+    pub(super) fn layer_fresnel(&self, cos: f32) -> Rgb {
+        let s = fresnel_s(cos, self.layer_eta, self.layer_f0_eta);
+        let plain = self.f0_rgb + (Vec3::ONE - self.f0_rgb) * s;
+        let Some((d, n, w)) = self.film else { return plain };
+        let mut f = film_reflectance(cos, n, d, self.layer_eta);
+        let f0_eta = self.layer_f0_eta;
+        if f0_eta > 1e-5 && f != Rgb::ONE {
+            let t = ((Vec3::ONE - f) / (1.0 - f0_eta)).clamp(Vec3::ZERO, Vec3::ONE);
+            let factor = self.f0_rgb / f0_eta;
+            f *= Vec3::ONE + (factor - Vec3::ONE) * t;
+        }
+        plain + (f - plain) * w.min(1.0)
     }
 
     /// For a refracted pair (wo, wi), η² f(wi, wo) over f(wo, wi): not 1 when
@@ -343,11 +416,30 @@ impl PbrBsdf {
     #[inline]
     fn layer_albedo(&self, w: Vec3) -> Rgb {
         // Blender's Specular IOR Level 0 (a pure Lambertian) needs no table lookup.
-        if self.specular == 0.0 {
+        if !self.layer {
             return Rgb::ZERO;
         }
         let (a, b) = self.lobe_ab(w);
-        (self.f0_rgb * a + Vec3::splat(b)) * self.specular
+        self.layer_e(w, a + b) * self.layer_ms(a + b)
+    }
+
+    /// The dielectric layer's single-scattering albedo seen from `w`, with `white` the lobe's
+    /// albedo at Fresnel 1: from the table; with a thin film, Cycles' estimate, the white
+    /// albedo times the Fresnel at the view angle (no table covers the film).
+    #[inline]
+    fn layer_e(&self, w: Vec3, white: f32) -> Rgb {
+        if self.film.is_some() {
+            return self.layer_fresnel(w.z) * white;
+        }
+        let (la, lb) = self.layer_ab(w, white);
+        self.f0_rgb * la + Vec3::splat(lb)
+    }
+
+    /// The diffuse base's weight under the dielectric layer whose albedo seen from wo is `eo`:
+    /// 1 − its largest channel (Cycles' `closure_layering_weight`).
+    #[inline]
+    pub(super) fn base_weight(eo: Rgb) -> f32 {
+        (1.0 - eo.max_element()).clamp(0.0, 1.0)
     }
 
     /// The Charlie sheen's directional albedo at μ: max(sheen colour) × E_sheen.
@@ -399,7 +491,7 @@ impl PbrBsdf {
             * self.metallic
             * luminance((self.base + (Vec3::ONE - self.base) * schlick_weight(wo.z)) * at.metal_ms);
         let spec = below * opaque * e;
-        let diffuse = below * opaque * (1.0 - e) * luminance(self.base) * (1.0 - self.subsurface);
+        let diffuse = below * opaque * Self::base_weight(at.eo) * luminance(self.base) * (1.0 - self.subsurface);
         let glass = if self.transmission > 0.0 {
             let r = self.glass.reflect_probability(wo);
             let ms = luminance(self.glass.multiscatter(wo));
@@ -509,7 +601,7 @@ impl PbrBsdf {
         let dielectric = 1.0 - self.metallic;
         let opaque = dielectric * (1.0 - self.transmission);
         let rough = (opaque > 0.0 && luminance(self.base) > 0.0 && self.subsurface < 1.0)
-            || (!self.smooth && (self.metallic > 0.0 || (opaque > 0.0 && self.specular > 0.0)))
+            || (!self.smooth && (self.metallic > 0.0 || (opaque > 0.0 && self.layer)))
             || (self.transmission > 0.0 && dielectric > 0.0 && !self.glass.smooth)
             || (self.coat > 0.0 && !self.smooth_coat)
             || self.sheen_max > 0.0;
@@ -537,6 +629,7 @@ impl PbrBsdf {
                 flip,
                 under: Rgb::ZERO,
                 eo: Rgb::ZERO,
+                layer_ms: Rgb::ONE,
                 sheen_o: 0.0,
                 metal_ms: Rgb::ONE,
                 ec: 0.0,
@@ -552,10 +645,11 @@ impl PbrBsdf {
         let under = coat_t * (1.0 - ec);
         let opaque = (1.0 - self.metallic) * (1.0 - self.transmission);
         // The dielectric layer and the metal read the same (μo, roughness) table entry.
-        let need_layer = opaque > 0.0 && self.specular != 0.0;
+        let need_layer = opaque > 0.0 && self.layer;
         let need_metal = self.metal_fms != Rgb::ZERO;
         let (a, b) = if need_layer || need_metal { self.lobe_ab(wo) } else { (0.0, 0.0) };
-        let eo = if need_layer { (self.f0_rgb * a + Vec3::splat(b)) * self.specular } else { Rgb::ZERO };
+        let layer_ms = if need_layer { self.layer_ms(a + b) } else { Rgb::ONE };
+        let eo = if need_layer { self.layer_e(wo, a + b) * layer_ms } else { Rgb::ZERO };
         let fiber = self.fiber(wo);
         let es = match &fiber {
             Some(m) => self.sheen_max * m.albedo(),
@@ -565,7 +659,7 @@ impl PbrBsdf {
         // The metal's multiple-scattering factor 1 + F_ms (1/E − 1) with E the white lobe's
         // albedo (above 0.3 everywhere; the floor only guards the division).
         let metal_ms = if need_metal { Rgb::ONE + self.metal_fms * (1.0 / (a + b).max(0.05) - 1.0) } else { Rgb::ONE };
-        PbrAt { b: self, wo, flip, under, eo, sheen_o, metal_ms, ec, coat_t, es, fiber }
+        PbrAt { b: self, wo, flip, under, eo, layer_ms, sheen_o, metal_ms, ec, coat_t, es, fiber }
     }
 
     /// Density of [`sample`](Self::sample) for the non-delta lobes.
@@ -629,12 +723,12 @@ impl PbrBsdf {
         // Coloured layers (a tinted coat or specular layer) are reduced to their luminance:
         // the random walk carries one weight for the whole spectrum of its entry.
         let above = luminance(self.coat_transmittance(up)) * (1.0 - self.coat_albedo(up)) * self.sheen_scaling(up, mu);
-        above * opaque * (1.0 - luminance(self.layer_albedo(up))) * self.subsurface
+        above * opaque * Self::base_weight(self.layer_albedo(up)) * self.subsurface
     }
 
     /// Albedo for the denoiser: the colour a white light would reflect, roughly.
     pub fn albedo(&self) -> Rgb {
-        let f0 = self.f0 * self.specular;
+        let f0 = (self.f0 * self.specular).min(1.0);
         let dielectric = self.base * (1.0 - f0) + Vec3::splat(f0);
         let below = dielectric * (1.0 - self.metallic) + self.base * self.metallic;
         let below = below * (1.0 - self.sheen_max * 0.5) + self.sheen_color * 0.5;

@@ -29,6 +29,7 @@ use std::time::{Duration, Instant};
 /// (and, inside a render worker, on one thread).
 pub(crate) fn build_bsdf_tables(scene: &Scene) {
     crate::bsdf::albedo::specular_albedo();
+    crate::bsdf::fresnel_layer::layer_albedo();
     let m = &scene.materials;
     if m.iter().any(may_show_rough_glass) {
         crate::bsdf::glass_albedo::glass_albedo();

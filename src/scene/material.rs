@@ -93,6 +93,8 @@ pub struct Material {
     pub sheen_microfiber: bool,
     /// `KHR_materials_dispersion` (20 / Abbe number).
     pub dispersion: f32,
+    /// `KHR_materials_iridescence` (Blender's Thin Film): a thin film on the dielectric layer.
+    pub iridescence: Option<Iridescence>,
     /// The medium inside the mesh: `CAUSTIC_materials_medium`, or the absorption of
     /// `KHR_materials_volume` (σa only); None when the surface is thin-walled.
     pub medium: Option<HomogeneousMedium>,
@@ -114,6 +116,23 @@ pub struct Material {
     /// The Principled Hair BSDF (`CAUSTIC_materials_hair`): strands with this material are
     /// shaded by it; triangles keep the glTF parameters.
     pub hair: Option<crate::bsdf::hair::HairParams>,
+}
+
+/// A thin film on the dielectric layer (`KHR_materials_iridescence`, Blender's Thin Film).
+#[derive(Clone, Copy, Debug)]
+pub struct Iridescence {
+    /// iridescenceFactor: the weight of the film's Fresnel.
+    pub factor: f32,
+    /// iridescenceTexture (R scales the factor).
+    pub factor_tex: Option<TexRef>,
+    /// iridescenceIor: the film's index.
+    pub ior: f32,
+    /// iridescenceThicknessMinimum, nm.
+    pub thickness_min: f32,
+    /// iridescenceThicknessMaximum, nm (the thickness without a texture).
+    pub thickness_max: f32,
+    /// iridescenceThicknessTexture (G mixes minimum to maximum).
+    pub thickness_tex: Option<TexRef>,
 }
 
 impl Default for Material {
@@ -161,6 +180,7 @@ impl Default for Material {
             sheen_roughness_tex: None,
             sheen_microfiber: false,
             dispersion: 0.0,
+            iridescence: None,
             alpha_mode: AlphaMode::Opaque,
             double_sided: false,
             nodes: None,
@@ -201,7 +221,7 @@ impl Material {
     /// destructured without `..`, so a field added to `Material` does not compile until
     /// it is named here as a texture or not (and so can never be missed by what relies
     /// on this list, such as the shading's texture-free fast path).
-    pub fn textures(&self) -> [Option<TexRef>; 13] {
+    pub fn textures(&self) -> [Option<TexRef>; 15] {
         let Material {
             name: _,
             base_color: _,
@@ -239,6 +259,7 @@ impl Material {
             sheen_roughness_tex,
             sheen_microfiber: _,
             dispersion: _,
+            iridescence,
             medium: _,
             null_surface: _,
             grid: _,
@@ -263,6 +284,8 @@ impl Material {
             *coat_normal_tex,
             *sheen_color_tex,
             *sheen_roughness_tex,
+            iridescence.as_ref().and_then(|i| i.factor_tex),
+            iridescence.as_ref().and_then(|i| i.thickness_tex),
         ]
     }
 

@@ -341,6 +341,11 @@ impl Scene {
             diffuse_normal: (n != unbent).then(|| frame.to_local(unbent)),
             smooth_normal: (unbent != s.ns).then(|| frame.to_local(s.ns)),
             anisotropy,
+            thin_film: mat.iridescence.map(|i| {
+                let factor = i.factor * i.factor_tex.map_or(1.0, |t| lookup(&t).x);
+                let g = i.thickness_tex.map_or(1.0, |t| lookup(&t).y);
+                (i.thickness_min + (i.thickness_max - i.thickness_min) * g, i.ior, factor)
+            }),
         };
         // An unlit surface only shows its colour (the emission above): it reflects nothing.
         let params =

@@ -3,9 +3,10 @@
 //!
 //! Mapping onto the renderer's lobes (Cycles' `kernel/svm/closure.h` for reference):
 //! * Principled BSDF → [`PbrParams`] (Base Color, Metallic, Roughness, IOR, Transmission
-//!   Weight; Specular IOR Level L as glTF's specular weight min(2L, 1) with the tint
-//!   scaled by max(2L, 1), which is Cycles' F0 = 2L F0(IOR) × tint; Coat Weight, Roughness,
-//!   IOR, Tint; Sheen Weight × Sheen Tint; Subsurface Weight; Emission Color × Strength;
+//!   Weight; Specular IOR Level L as the dielectric layer's F0 scale 2L with the tint, which
+//!   is Cycles' F0 = 2L F0(IOR) × tint with the shape of that F0's IOR; Coat Weight, Roughness,
+//!   IOR, Tint; Sheen Weight × Sheen Tint; Subsurface Weight; Emission Color × Strength; Thin
+//!   Film Thickness and IOR on the dielectric layer (`bsdf/thin_film.rs`);
 //!   Alpha as a Transparent part of weight 1 − Alpha). Several Principled BSDFs in one
 //!   mixture are merged into one by their weights (an approximation: warned at load).
 //! * Diffuse → Lambert (Oren-Nayar roughness is warned about at load); Glossy → GGX with
@@ -49,6 +50,8 @@ pub struct PrincipledRegs {
     pub sheen_tint: Reg,
     pub emission: Reg,
     pub emission_strength: Reg,
+    pub thin_film_thickness: Reg,
+    pub thin_film_ior: Reg,
 }
 
 /// Which closure.
@@ -156,6 +159,7 @@ fn zero_params() -> PbrParams {
         dispersion: 0.0,
         subsurface: 0.0,
         anisotropy: None,
+        thin_film: None,
     }
 }
 
@@ -231,8 +235,8 @@ fn principled(p: &PrincipledRegs, r: &[f32], w: f32, out: &mut Closures) {
     acc.roughness += f(p.roughness).clamp(0.0, 1.0) * w;
     acc.ior += f(p.ior).max(1.0) * w;
     acc.transmission += f(p.transmission).clamp(0.0, 1.0) * w;
-    acc.specular += (2.0 * level).min(1.0) * w;
-    acc.specular_color += v3(r, p.spec_tint).max(Vec3::ZERO) * ((2.0 * level).max(1.0) * w);
+    acc.specular += 2.0 * level * w;
+    acc.specular_color += v3(r, p.spec_tint).max(Vec3::ZERO) * w;
     acc.coat += f(p.coat).clamp(0.0, 1.0) * w;
     acc.coat_roughness += f(p.coat_roughness).clamp(0.0, 1.0) * w;
     acc.coat_ior += f(p.coat_ior).max(1.0) * w;
@@ -240,6 +244,11 @@ fn principled(p: &PrincipledRegs, r: &[f32], w: f32, out: &mut Closures) {
     acc.sheen_color += v3(r, p.sheen_tint).clamp(Vec3::ZERO, Vec3::ONE) * (f(p.sheen).clamp(0.0, 1.0) * w);
     acc.sheen_roughness += f(p.sheen_roughness).clamp(0.0, 1.0) * w;
     acc.subsurface += f(p.subsurface).clamp(0.0, 1.0) * w;
+    // The first Principled BSDF's film, whole (films do not average).
+    let thickness = f(p.thin_film_thickness);
+    if acc.thin_film.is_none() && thickness > 0.1 {
+        acc.thin_film = Some((thickness, f(p.thin_film_ior).max(1e-5), 1.0));
+    }
     out.pbr_w += w;
 }
 
@@ -274,6 +283,7 @@ impl Closures {
             dispersion: 0.0,
             subsurface: p.subsurface * s,
             anisotropy: None,
+            thin_film: p.thin_film,
         }
     }
 

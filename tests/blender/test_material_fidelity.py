@@ -27,6 +27,10 @@ Refraction in Cycles' convention (a refracted ray keeps 1 - F of its throughput,
 the same over closed objects, not over one surface) with the sheet kept a refracting volume:
 glass sheet 0.9976, Suzanne 0.9934 (was 0.985), closed sphere 1.004, the rest unchanged.
 
+After the dielectric layer took Cycles' Fresnel (bsdf/fresnel_layer.rs): no material 1.0003,
+default Principled 1.0003, anisotropic metal 1.0061, sheen 0.9992, Sheen BSDF node 0.9993; thin
+film on IOR 1.5 (400 nm, film IOR 1.33) R 1.0013 G 1.0010 B 1.0010.
+
 Cases that cannot pass with today's renderer are strict xfails naming the renderer fix they wait
 for, so that the fix's merge turns them into failures (XPASS) until the mark is removed.
 Ratios are printed with pytest -s.
@@ -46,6 +50,10 @@ pytestmark = pytest.mark.needs_binary
 
 MATCHED = 0.01  # same model in both renderers (module doc)
 ISSUE_DEFAULT = 0.005  # the issue's bound for the default Principled BSDF
+# Thin film: the same model (bsdf/thin_film.rs), but Caustic's colour-matching functions are
+# Wyman et al.'s fit of CIE 1931 (within 1 % of the tables' peak) where Cycles tabulates the
+# tables themselves: 1 % for that on top of MATCHED.
+FILM = MATCHED + 0.01
 
 # What each remaining xfail waits for (measured Caustic/Cycles after multiscatter GGX, tangent
 # handedness and IOR 1 glass landed; the marks of the cases those fixed are gone).
@@ -74,6 +82,13 @@ TANGENTS = ("renderer: a normal-mapped sphere is 1.020 of Cycles (1.014 with til
 # image mean measures the material, not the floor around it; the sheet needs the floor under it.
 CLOSE_UP = 90.0
 WIDE = 30.0
+
+
+SOAP = ("renderer: a free thin film (IOR 1 under a 500 nm film of IOR 1.33, black base, roughness 0.05) "
+        "renders R 0.976 G 0.831 B 1.053 of Cycles, while a film on IOR 1.5 (thin_film_coating) agrees within "
+        "0.13 % per channel. Both films' Fresnel terms match the closed-form reflectance at normal incidence "
+        "(bsdf/thin_film.rs). Not diagnosed: compare the two renderers' film reflectance on this material "
+        "per angle next (the exporter's IOR 1 and Cycles' eta = 1 specular closure are suspects)")
 
 
 def floor_light_camera(scene, lens=CLOSE_UP):
@@ -184,6 +199,14 @@ CASES = {
               MATCHED, False, []),
     "sheen_node": (sphere_of(lambda: scenes.shader_node_material(
         "SheenNode", "ShaderNodeBsdfSheen", Color=(0.9, 0.7, 0.5, 1), Roughness=0.3)), MATCHED, False, []),
+    # Thin film (KHR_materials_iridescence from the add-on): a coated dark plastic and a soap-bubble
+    # film (IOR 1 under the film: the free film's reflection), channel by channel.
+    "thin_film_coating": (sphere_of(lambda: principled("Iridescent", **{
+        "Base Color": (0.02, 0.02, 0.02, 1), "Roughness": 0.2, "Thin Film Thickness": 400.0,
+        "Thin Film IOR": 1.33})), FILM, True, []),
+    "thin_film_soap": (sphere_of(lambda: principled("Soap", **{
+        "Base Color": (0.0, 0.0, 0.0, 1), "Roughness": 0.05, "IOR": 1.0, "Thin Film Thickness": 500.0,
+        "Thin Film IOR": 1.33})), FILM, True, [xfail(SOAP)]),
 }
 
 

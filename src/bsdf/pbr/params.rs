@@ -55,6 +55,9 @@ pub struct PbrParams {
     /// Anisotropic widths (αx, αy) of the metal's and the specular layer's GGX along the
     /// shading frame's X and Y axes, replacing roughness² there.
     pub anisotropy: Option<(f32, f32)>,
+    /// A thin film on the dielectric layer: (thickness in nm, film IOR, weight) — Blender's
+    /// Thin Film (weight 1), glTF's `KHR_materials_iridescence` (iridescenceFactor).
+    pub thin_film: Option<(f32, f32, f32)>,
 }
 
 impl PbrParams {
@@ -90,6 +93,7 @@ impl PbrParams {
             diffuse_normal: None,
             smooth_normal: None,
             anisotropy: None,
+            thin_film: None,
         }
     }
 }

@@ -25,11 +25,8 @@ impl PbrAt<'_> {
         let opaque = (1.0 - b.metallic) * (1.0 - b.transmission);
         let mut f = Rgb::ZERO;
         if opaque > 0.0 {
-            let ei = b.layer_albedo(wi);
-            let diffuse_weight = (Vec3::ONE - self.eo) * (Vec3::ONE - ei)
-                / (Vec3::ONE - b.layer_avg).max(Vec3::splat(1e-6))
-                * (1.0 - b.subsurface);
-            f = b.base * diffuse_weight * (FRAC_1_PI * b.diffuse_cos_ratio(wi)) * opaque;
+            let diffuse_weight = super::PbrBsdf::base_weight(self.eo) * (1.0 - b.subsurface);
+            f = b.base * (diffuse_weight * FRAC_1_PI * b.diffuse_cos_ratio(wi) * opaque);
         }
         (f * scaling + b.sheen_eval(&self.fiber, wo, wi)) * self.under
     }
@@ -67,7 +64,7 @@ impl PbrAt<'_> {
         let below = self.under * self.sheen_o;
         let dielectric = 1.0 - b.metallic;
         let opaque = dielectric * (1.0 - b.transmission);
-        let diffuse = b.base * (Vec3::ONE - self.eo) * (opaque * below)
+        let diffuse = b.base * (super::PbrBsdf::base_weight(self.eo) * opaque) * below
             + b.sheen_color * (self.es / b.sheen_max.max(1e-6)) * self.under;
         // The multiple-scattering compensation makes the metal's albedo its Fresnel colour.
         let metal = b.base + (Vec3::ONE - b.base) * schlick_weight(wo.z);

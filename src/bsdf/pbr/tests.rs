@@ -140,12 +140,14 @@ fn chi2_pbr_lobes() {
 }
 
 /// Reciprocity: f(wo, wi) = f(wi, wo) for the whole BRDF (the Fresnel term uses the
-/// half vector, which is symmetric; the diffuse/specular split is too), except where the
-/// coat or the multiple-scattering compensation scale by what is seen from wo (as Cycles).
+/// half vector, which is symmetric), except where the coat, the dielectric layer or the
+/// multiple-scattering compensation scale by what is seen from wo (as Cycles).
 #[test]
 fn reciprocity() {
     let mut rng = Pcg32::new(9);
-    let compensated = |b: &PbrBsdf| (b.metallic > 0.0 && !b.smooth) || (b.transmission > 0.0 && !b.glass.smooth);
+    let layered = |b: &PbrBsdf| b.layer && b.metallic < 1.0 && b.transmission < 1.0;
+    let compensated =
+        |b: &PbrBsdf| (b.metallic > 0.0 && !b.smooth) || (b.transmission > 0.0 && !b.glass.smooth) || layered(b);
     // A diffuse normal apart from the frame's takes its cosine to another normal, as the coat.
     // So does the microfiber sheen, which scales the layers below by its albedo at wo.
     let own_normals = |b: &PbrBsdf| b.coat > 0.0 || b.diffuse_frame.is_some() || b.microfiber;
@@ -173,6 +175,33 @@ fn metal_multiscatter_is_a_factor_of_wo() {
             let f1 = b.eval(a, c) / b.at(a).metal_ms;
             let f2 = b.eval(c, a) / b.at(c).metal_ms;
             assert!((f1 - f2).abs().max_element() <= 1e-4 * f1.max_element().max(1.0), "{f1} vs {f2}");
+        }
+    }
+}
+
+/// The dielectric layer departs from reciprocity only by factors of wo, as Cycles': over a
+/// black base its lobe divided by its compensation at wo is symmetric, and over a white base
+/// the diffuse part divided by the base's weight 1 − max(E(wo)) is the symmetric Lambertian.
+#[test]
+fn dielectric_layer_is_reciprocal_but_for_factors_of_wo() {
+    let mut rng = Pcg32::new(5);
+    for (roughness, ior, tint) in
+        [(0.3f32, 1.5f32, Vec3::ONE), (0.8, 1.5, Vec3::ONE), (0.5, 2.4, Vec3::new(1.0, 0.5, 0.2))]
+    {
+        let params = |base| PbrParams { ior, specular_color: tint, ..PbrParams::opaque(base, 0.0, roughness) };
+        let black = PbrBsdf::from_params(&params(Vec3::ZERO));
+        let white = PbrBsdf::from_params(&params(Vec3::ONE));
+        for _ in 0..200 {
+            let a = cosine_hemisphere(Vec2::new(rng.next_f32(), rng.next_f32()));
+            let c = cosine_hemisphere(Vec2::new(rng.next_f32(), rng.next_f32()));
+            let f1 = black.eval(a, c) / black.at(a).layer_ms;
+            let f2 = black.eval(c, a) / black.at(c).layer_ms;
+            assert!((f1 - f2).abs().max_element() <= 1e-4 * f1.max_element().max(1.0), "{f1} vs {f2}");
+            let (wa, wc) = (white.at(a), white.at(c));
+            let d1 = wa.eval_diffuse(c) / PbrBsdf::base_weight(wa.eo);
+            let d2 = wc.eval_diffuse(a) / PbrBsdf::base_weight(wc.eo);
+            assert!((d1 - d2).abs().max_element() <= 1e-5, "{d1} vs {d2}");
+            assert!((d1 - Vec3::splat(std::f32::consts::FRAC_1_PI)).abs().max_element() <= 1e-5);
         }
     }
 }
@@ -259,6 +288,9 @@ fn albedo_at_most_one() {
             for c in 0..3 {
                 // The compensated lobes are exact to within 1 % (the white furnace test).
                 let allowed = if b.metal_fms != Rgb::ZERO || b.glass.multiscatter(wo) != Rgb::ONE { 1e-2 } else { 0.0 };
+                // The dielectric layer's table error, scaled by its compensation (as in the
+                // dielectric layer's furnace).
+                let allowed = allowed + 1.25 * crate::bsdf::fresnel_layer::LAYER_TABLE_ERROR;
                 assert!(
                     mean[c] <= 1.0 + 5.0 * se[c] + TABLE_ERROR + allowed,
                     "{name} θ={theta} channel {c}: albedo {} ± {}",
@@ -337,6 +369,74 @@ fn bump_shadowing_of_the_diffuse_base() {
     // Above the mapped normal's horizon, below the interpolated one's.
     let under = Vec3::new(0.99, 0.0, -0.1).normalize();
     assert!(n.dot(under) > 0.0 && bump_shadowing(ns, n, under, alpha2) == 0.0);
+}
+
+/// White furnace of the dielectric layer: a white base under the layer reflects exactly what
+/// the layer leaves it, so the albedo is 1 at every roughness, IOR and angle, within 5
+/// standard errors of the sampled estimate plus the layer table's error scaled by the
+/// compensation (at most 1.25 where E ≥ 0.3 and F_ms ≤ 0.1, the layer's bounds here).
+#[test]
+fn white_furnace_dielectric_layer() {
+    use crate::bsdf::fresnel_layer::LAYER_TABLE_ERROR;
+    let n = 200_000;
+    for roughness in [0.2f32, 0.5, 0.8, 1.0] {
+        for ior in [1.5f32, 2.4, 1000.0] {
+            let b = PbrBsdf::from_params(&PbrParams { ior, ..PbrParams::opaque(Vec3::ONE, 0.0, roughness) });
+            for theta in [0.0f32, 0.8, 1.3] {
+                let wo = Vec3::new(theta.sin(), 0.0, theta.cos());
+                let mut rng = Pcg32::new(2);
+                let (mut sum, mut sum2) = (glam::DVec3::ZERO, glam::DVec3::ZERO);
+                for _ in 0..n {
+                    let u = Vec2::new(rng.next_f32(), rng.next_f32());
+                    let v = b
+                        .sample(wo, rng.next_f32(), u)
+                        .map(|s| (s.f * (s.wi.z.abs() / s.pdf)).as_dvec3())
+                        .unwrap_or(glam::DVec3::ZERO);
+                    sum += v;
+                    sum2 += v * v;
+                }
+                let mean = sum / n as f64;
+                let se = ((sum2 / n as f64 - mean * mean).max(glam::DVec3::ZERO) / n as f64).powf(0.5);
+                let bound = 5.0 * se.x + 1.25 * LAYER_TABLE_ERROR;
+                assert!(
+                    (mean.x - 1.0).abs() <= bound,
+                    "r={roughness} ior={ior} θ={theta}: albedo {} ± {}",
+                    mean.x,
+                    se.x
+                );
+            }
+        }
+    }
+}
+
+/// A thin film on the dielectric layer: a smooth black dielectric's mirror at normal
+/// incidence reflects the film's RGB reflectance on glass (no F0 rescaling at Specular IOR
+/// Level 0.5: F0 = F0_η), within the table's error of E(μ = 1) = 1; and the rough layer with a
+/// film samples by its density (chi-square), over a coloured base.
+#[test]
+fn thin_film_on_the_layer() {
+    use crate::bsdf::thin_film::film_reflectance;
+    let film = Some((400.0f32, 1.33f32, 1.0f32));
+    let b = PbrBsdf::from_params(&PbrParams { thin_film: film, ..PbrParams::opaque(Vec3::ZERO, 0.0, 0.0) });
+    let s = b.sample(Vec3::Z, 0.0, Vec2::splat(0.5)).unwrap();
+    let w = s.f * s.wi.z / s.pdf;
+    let want = film_reflectance(1.0, 1.33, 400.0, 1.5);
+    assert!((w - want).abs().max_element() < TABLE_ERROR as f32, "{w} vs {want}");
+    // A free film (IOR 1: no layer without it) still reflects.
+    let soap =
+        PbrBsdf::from_params(&PbrParams { ior: 1.0, thin_film: film, ..PbrParams::opaque(Vec3::ZERO, 0.0, 0.0) });
+    let s = soap.sample(Vec3::Z, 0.0, Vec2::splat(0.5)).unwrap();
+    assert!((s.f * s.wi.z / s.pdf).max_element() > 0.01);
+    for roughness in [0.3f32, 0.7] {
+        let p = PbrParams { thin_film: film, ..PbrParams::opaque(Vec3::new(0.2, 0.5, 0.3), 0.0, roughness) };
+        let b = PbrBsdf::from_params(&p);
+        for theta in [0.1f32, 0.9, 1.45] {
+            let wo = Vec3::new(theta.sin(), 0.0, theta.cos());
+            let mut rng = Pcg32::new(8);
+            let t = ChiSquareTest::new(&format!("thin film r={roughness} θ={theta}"));
+            assert_chi2(t.run_with_pdf(|u| b.sample(wo, rng.next_f32(), u).map(|s| (s.wi, s.pdf)), |wi| b.pdf(wo, wi)));
+        }
+    }
 }
 
 /// A white Lambertian (metallic 0, rough) reflects 1 - F: its albedo is close to,

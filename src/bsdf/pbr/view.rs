@@ -25,6 +25,8 @@ pub struct PbrAt<'a> {
     pub(super) under: Rgb,
     /// The opaque dielectric layer's albedo at wo.
     pub(super) eo: Rgb,
+    /// The dielectric layer's multiple-scattering factor at wo.
+    pub(super) layer_ms: Rgb,
     /// 1 - the sheen's albedo at wo (1 without sheen).
     pub(super) sheen_o: f32,
     /// The metal's multiple-scattering factor at wo.
@@ -165,19 +167,16 @@ impl PbrAt<'_> {
             return f * (under * scaling);
         }
         let h = (wo + wi).normalize();
-        let fw = schlick_weight(wo.dot(h).max(0.0));
+        let cos_h = wo.dot(h).max(0.0);
+        let fw = schlick_weight(cos_h);
         // Smooth reflection is a delta lobe: sampled only, never evaluated.
         let spec = if b.smooth { 0.0 } else { b.ggx.d(h) * b.ggx.g2(wo, wi) / (4.0 * wo.z * wi.z) };
         let opaque = dielectric * (1.0 - b.transmission);
         if opaque > 0.0 {
-            // The specular weight scales the whole layer (F0 and F90), so its albedo is
-            // weight × E and the albedo scaling stays exact, channel by channel.
-            let f_layer = (b.f0_rgb + (Vec3::ONE - b.f0_rgb) * fw) * b.specular;
-            let ei = b.layer_albedo(wi);
-            let diffuse_weight = (Vec3::ONE - self.eo) * (Vec3::ONE - ei)
-                / (Vec3::ONE - b.layer_avg).max(Vec3::splat(1e-6))
-                * (1.0 - b.subsurface);
-            f += (b.base * diffuse_weight * (FRAC_1_PI * b.diffuse_cos_ratio(wi)) + f_layer * spec) * opaque;
+            // Cycles' layer: its Fresnel and compensation, the base under 1 − max(albedo at wo).
+            let f_layer = if b.layer && spec > 0.0 { b.layer_fresnel(cos_h) * self.layer_ms } else { Rgb::ZERO };
+            let diffuse_weight = PbrBsdf::base_weight(self.eo) * (1.0 - b.subsurface);
+            f += (b.base * (diffuse_weight * FRAC_1_PI * b.diffuse_cos_ratio(wi)) + f_layer * spec) * opaque;
         }
         if b.metallic > 0.0 {
             f += (b.base + (Vec3::ONE - b.base) * fw) * self.metal_ms * (spec * b.metallic);

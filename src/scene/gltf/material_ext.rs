@@ -34,7 +34,7 @@ pub(super) const HANDLED_MATERIAL_EXTENSIONS: &[&str] = &[
     "CAUSTIC_materials_anisotropy",
     // Read in `spec_gloss.rs`:
     "KHR_materials_pbrSpecularGlossiness",
-    // Warned about by name where it is read:
+    // Read in `iridescence.rs`:
     "KHR_materials_iridescence",
 ];
 
@@ -290,9 +290,11 @@ impl Loader<'_> {
                 ));
             }
         }
-        if m.extension_value("KHR_materials_iridescence").is_some() {
-            features.push("KHR_materials_iridescence (ignored)".into());
-            self.warn(format!("material '{name}': KHR_materials_iridescence is not rendered yet and was ignored"));
+        let mut iridescence = None;
+        if let Some(ext) = m.extension_value("KHR_materials_iridescence").cloned() {
+            features.push("KHR_materials_iridescence".into());
+            let metallic = mat.metallic > 0.0;
+            iridescence = self.iridescence(doc, &ext, buffers, &name, metallic)?;
         }
         let (mut anisotropy_strength, mut anisotropy_rotation, mut anisotropy_tex) = (0.0, 0.0, None);
         if let Some(a) = m.extension_value("KHR_materials_anisotropy").cloned() {
@@ -370,6 +372,7 @@ impl Loader<'_> {
         mat.sheen_roughness_tex = sheen_roughness_tex;
         mat.sheen_microfiber = sheen_microfiber;
         mat.dispersion = dispersion;
+        mat.iridescence = iridescence;
         mat.anisotropy_strength = anisotropy_strength;
         mat.anisotropy_rotation = anisotropy_rotation;
         mat.anisotropy_tex = anisotropy_tex;

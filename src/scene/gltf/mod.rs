@@ -22,6 +22,7 @@ mod extensions;
 mod gpu_instancing;
 mod light_linking;
 mod light_groups;
+mod iridescence;
 mod lights;
 mod material_ext;
 mod materials;
@@ -55,7 +56,7 @@ use std::time::Instant;
 use validate::check_references;
 
 /// Extensions that Caustic renders, and so accepts in `extensionsRequired`: every one the
-/// loader reads (not those it reads only to warn about, such as iridescence).
+/// loader reads.
 pub const SUPPORTED_REQUIRED: &[&str] = &[
     "KHR_lights_punctual",
     "KHR_materials_emissive_strength",
@@ -69,6 +70,7 @@ pub const SUPPORTED_REQUIRED: &[&str] = &[
     "KHR_materials_dispersion",
     "KHR_materials_unlit",
     "KHR_materials_anisotropy",
+    "KHR_materials_iridescence",
     "KHR_materials_pbrSpecularGlossiness",
     "KHR_mesh_quantization",
     "EXT_texture_webp",

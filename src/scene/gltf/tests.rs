@@ -125,7 +125,7 @@ fn every_extension_caustic_renders_may_be_required() {
 fn unknown_required_extensions_are_refused_by_name() {
     for unknown in [
         &["KHR_draco_mesh_compression"][..],
-        &["KHR_materials_clearcoat", "EXT_meshopt_compression", "KHR_materials_iridescence"],
+        &["KHR_materials_clearcoat", "EXT_meshopt_compression", "KHR_materials_diffuse_transmission"],
     ] {
         let msg = load_requiring(unknown).expect_err("refused").to_string();
         for name in unknown.iter().filter(|n| !SUPPORTED_REQUIRED.contains(n)) {

@@ -118,8 +118,10 @@ impl Compiler<'_> {
                     sheen_tint: self.vec(i, "Sheen Tint", Vec3::ONE)?,
                     emission: self.vec(i, "Emission Color", Vec3::ONE)?,
                     emission_strength: self.float(i, "Emission Strength", 0.0)?,
+                    thin_film_thickness: self.float(i, "Thin Film Thickness", 0.0)?,
+                    thin_film_ior: self.float(i, "Thin Film IOR", 1.33)?,
                 };
-                for id in ["Anisotropic", "Thin Film Thickness", "Diffuse Roughness"] {
+                for id in ["Anisotropic", "Diffuse Roughness"] {
                     let nonzero = self.source(i, id)?.is_some()
                         || self.value(i, id).and_then(Value::as_f64).is_some_and(|v| v != 0.0);
                     if nonzero {

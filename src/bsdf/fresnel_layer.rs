@@ -1,0 +1,259 @@
+//! The Principled BSDF's dielectric specular layer with Cycles' Fresnel, and the albedo
+//! table over (roughness, cos θ, η) that layers the diffuse base under it.
+//!
+//! Cycles' Principled BSDF (`svm/closure.h`, `bsdf_microfacet.h`'s generalized Schlick with
+//! a negative exponent) gives its specular layer the exact dielectric Fresnel's *shape* for
+//! the layer's IOR η, rescaled to start at the layer's (tinted) F0:
+//!
+//! ```text
+//! F(cos) = F0 + (1 − F0) s(cos, η),   s = clamp((F_η(cos) − F0_η) / (1 − F0_η), 0, 1)
+//! ```
+//! with F_η the unpolarised dielectric Fresnel and F0_η = ((η − 1)/(η + 1))². A large η
+//! (Blender imports glTF's specular-glossiness with IOR 1000) keeps F at F0 up to the very
+//! edge, where Schlick's (1 − cos)^5 rose to 1 for every F0. Specular IOR Level L scales
+//! F0(IOR) by k = 2L and η becomes the IOR of that F0 (the shape follows), F90 stays 1.
+//!
+//! With multiple-scattering GGX (Blender's default) the layer's lobe is scaled, as Cycles'
+//! `microfacet_ggx_preserve_energy`, by 1 + F_ms (1/E(μo) − 1): E the white GGX lobe's albedo,
+//! F_ms = F_ss E_avg / (1 − F_ss (1 − E_avg)), F_ss = F0 + (1 − F0) s_avg(η) the
+//! cosine-weighted mean Fresnel, s_avg computed here by quadrature of the exact Fresnel
+//! (Cycles uses Kulla & Conty's fit of it).
+//!
+//! The diffuse base below is weighted by 1 − max over channels of the layer's albedo seen
+//! from the viewer (Cycles' `closure_layering_weight`). The albedo is E_layer(μ) =
+//! ms(μ) (F0 A + B), Fresnel being linear in F0: A = ∫ (1 − s) f cos, B = ∫ s f cos over
+//! the single-scattering lobe of Fresnel 1 (A + B = E). [`LayerAlbedo`] tabulates (A, B) over
+//! roughness, μ and z = F0_η^(1/4) (Cycles' parametrisation of η, which spends the nodes on
+//! the common IORs 1–2), by stratified quadrature of the visible-normal estimator, built once
+//! on first use. Cycles' own table stores the visible normals' unweighted mean of s and
+//! multiplies E by it; the weighted split here is the lobe's exact albedo, so the white
+//! furnace holds (a white base reflects exactly what the layer leaves it).
+
+use super::albedo::{SpecularAlbedo, TABLE_N, build_entries};
+use super::microfacet::{Ggx, fresnel_dielectric, reflect};
+use glam::{Vec2, Vec3};
+
+/// Normal-incidence reflectance of a dielectric of index `eta` in air.
+#[inline]
+pub fn f0_of(eta: f32) -> f32 {
+    let r = (eta - 1.0) / (eta + 1.0);
+    r * r
+}
+
+/// The IOR whose normal-incidence reflectance is `f0`; F0 is capped at 0.99 (η ≈ 399), as
+/// Cycles' `ior_from_F0` caps it, so that η stays finite.
+#[inline]
+pub fn ior_from_f0(f0: f32) -> f32 {
+    let s = f0.clamp(0.0, 0.99).sqrt();
+    (1.0 + s) / (1.0 - s)
+}
+
+/// The layer's η for a material of index `ior` whose F0 is scaled by `k` (Cycles' 2 × Specular
+/// IOR Level; glTF's specularFactor, which Blender imports as half the level): the IOR whose F0
+/// is k F0(ior). An unscaled layer keeps `ior` itself (Cycles adjusts only when L ≠ 0.5).
+#[inline]
+pub fn layer_eta(ior: f32, k: f32) -> f32 {
+    if k == 1.0 { ior } else { ior_from_f0(f0_of(ior) * k) }
+}
+
+/// z = F0_η^(1/4) = √((η − 1)/(η + 1)), the table's η axis.
+#[inline]
+pub fn eta_z(eta: f32) -> f32 {
+    ((eta - 1.0) / (eta + 1.0)).max(0.0).sqrt()
+}
+
+/// The exact Fresnel's shape s(cos, η) rescaled to [0, 1], for η ≥ 1 with F0_η = `f0_eta`.
+#[inline]
+pub fn fresnel_s(cos: f32, eta: f32, f0_eta: f32) -> f32 {
+    if f0_eta >= 1.0 {
+        return 0.0;
+    }
+    ((fresnel_dielectric(cos, eta) - f0_eta) / (1.0 - f0_eta)).clamp(0.0, 1.0)
+}
+
+/// Nodes of the table's z axis (uniform in z up to [`Z_MAX`]).
+const Z_N: usize = 24;
+/// The largest z tabulated: η = 1000 (F0 = 0.996), the IOR Blender gives specular-glossiness
+/// materials; larger IORs read this node.
+const Z_MAX: f32 = 0.999;
+/// Stratified visible-normal samples per entry, per axis.
+const STRATA: usize = 24;
+/// Steps of the midpoint rule for s_avg over μ (its integrand is smooth; 1024 steps put its
+/// error far below f32's resolution).
+const AVG_STEPS: usize = 1024;
+
+/// How far a table entry (A or B) may be from a fine quadrature, interpolation included
+/// (asserted by the test below over points between the nodes); the layered BSDF's energy
+/// tests allow for it.
+pub const LAYER_TABLE_ERROR: f64 = 4e-3;
+
+/// The layer's albedo split (A, B) over (roughness, μ, z), and s_avg over z.
+pub struct LayerAlbedo {
+    /// (A, B) per node, index ((z · TABLE_N) + roughness) · TABLE_N + μ.
+    ab: Box<[[f32; 2]]>,
+    /// Cosine-weighted mean of s per z node.
+    s_avg: [f32; Z_N],
+}
+
+/// η at node `k` of the z axis.
+fn node_eta(k: usize) -> f32 {
+    let z = Z_MAX * k as f32 / (Z_N - 1) as f32;
+    let f0 = z * z * z * z;
+    let s = f0.sqrt();
+    (1.0 + s) / (1.0 - s)
+}
+
+impl LayerAlbedo {
+    fn compute() -> Self {
+        let entries: Vec<[f32; 2]> = build_entries(Z_N * TABLE_N * TABLE_N, |i| {
+            let (k, rest) = (i / (TABLE_N * TABLE_N), i % (TABLE_N * TABLE_N));
+            let (ri, mi) = (rest / TABLE_N, rest % TABLE_N);
+            let (a, b) = layer_split(SpecularAlbedo::mu(mi), ri as f32 / (TABLE_N - 1) as f32, node_eta(k), STRATA);
+            [a, b]
+        });
+        let mut s_avg = [0.0f32; Z_N];
+        for (k, avg) in s_avg.iter_mut().enumerate() {
+            *avg = fresnel_s_avg(node_eta(k));
+        }
+        LayerAlbedo { ab: entries.into_boxed_slice(), s_avg }
+    }
+
+    /// (A, B) at (μ, roughness, z), trilinear (μ along √μ, as the nodes).
+    #[inline]
+    pub fn ab(&self, mu: f32, roughness: f32, z: f32) -> (f32, f32) {
+        let x = mu.clamp(0.0, 1.0).sqrt() * (TABLE_N - 1) as f32;
+        let y = roughness.clamp(0.0, 1.0) * (TABLE_N - 1) as f32;
+        let w = z.clamp(0.0, Z_MAX) / Z_MAX * (Z_N - 1) as f32;
+        let (x0, y0, w0) = ((x as usize).min(TABLE_N - 2), (y as usize).min(TABLE_N - 2), (w as usize).min(Z_N - 2));
+        let (fx, fy, fw) = (x - x0 as f32, y - y0 as f32, w - w0 as f32);
+        let t = &*self.ab;
+        let mut out = [0.0f32; 2];
+        for (dz, wz) in [(0, 1.0 - fw), (1, fw)] {
+            let base = (w0 + dz) * TABLE_N * TABLE_N;
+            for (dy, wy) in [(0, 1.0 - fy), (1, fy)] {
+                let row = base + (y0 + dy) * TABLE_N + x0;
+                let (p0, p1) = (t[row], t[row + 1]);
+                let k = wz * wy;
+                out[0] += k * ((1.0 - fx) * p0[0] + fx * p1[0]);
+                out[1] += k * ((1.0 - fx) * p0[1] + fx * p1[1]);
+            }
+        }
+        (out[0], out[1])
+    }
+
+    /// The cosine-weighted mean of s at z, linear between the nodes.
+    #[inline]
+    pub fn s_avg(&self, z: f32) -> f32 {
+        let w = z.clamp(0.0, Z_MAX) / Z_MAX * (Z_N - 1) as f32;
+        let w0 = (w as usize).min(Z_N - 2);
+        let f = w - w0 as f32;
+        self.s_avg[w0] * (1.0 - f) + self.s_avg[w0 + 1] * f
+    }
+}
+
+/// (A, B) of the layer at μ = cos θo, roughness and η by `n`×`n` stratified visible-normal
+/// samples of the estimator s · G2/G1 (B) and (1 − s) · G2/G1 (A).
+pub fn layer_split(mu: f32, roughness: f32, eta: f32, n: usize) -> (f32, f32) {
+    let ggx = Ggx::from_roughness(roughness);
+    let wo = Vec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu);
+    let f0 = f0_of(eta);
+    let (mut sa, mut sb) = (0.0f64, 0.0f64);
+    for i in 0..n {
+        for j in 0..n {
+            let u = Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
+            let m = ggx.sample_visible_normal(wo, u);
+            let wi = reflect(wo, m);
+            if wi.z <= 0.0 {
+                continue;
+            }
+            let s = fresnel_s(wo.dot(m), eta, f0) as f64;
+            let g = (ggx.g2(wo, wi) / ggx.g1(wo)) as f64;
+            sa += (1.0 - s) * g;
+            sb += s * g;
+        }
+    }
+    let k = (n * n) as f64;
+    ((sa / k) as f32, (sb / k) as f32)
+}
+
+/// s_avg(η) = 2 ∫ s(μ, η) μ dμ by the midpoint rule.
+pub fn fresnel_s_avg(eta: f32) -> f32 {
+    let f0 = f0_of(eta);
+    let mut sum = 0.0f64;
+    for i in 0..AVG_STEPS {
+        let mu = (i as f64 + 0.5) / AVG_STEPS as f64;
+        sum += fresnel_s(mu as f32, eta, f0) as f64 * mu;
+    }
+    (2.0 * sum / AVG_STEPS as f64) as f32
+}
+
+/// The shared table, built on first use.
+pub fn layer_albedo() -> &'static LayerAlbedo {
+    static TABLE: std::sync::OnceLock<LayerAlbedo> = std::sync::OnceLock::new();
+    TABLE.get_or_init(LayerAlbedo::compute)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bsdf::albedo::specular_albedo;
+
+    /// The table between its nodes agrees with a 4× finer quadrature within
+    /// [`LAYER_TABLE_ERROR`], at IORs between the z nodes (1.33, 1.5, 2.4, 1000).
+    #[test]
+    fn layer_table_accuracy() {
+        let start = std::time::Instant::now();
+        let t = layer_albedo();
+        eprintln!("layer table built in {:?}", start.elapsed());
+        let mut worst = 0.0f64;
+        for &eta in &[1.33f32, 1.5, 2.4, 1000.0] {
+            for &(mu, r) in &[(0.05f32, 0.1f32), (0.3, 0.5), (0.77, 0.23), (1.0, 1.0), (0.5, 0.05), (0.12, 0.83)] {
+                let (a, b) = layer_split(mu, r, eta, 4 * STRATA);
+                let (ta, tb) = t.ab(mu, r, eta_z(eta));
+                let err = ((ta - a).abs().max((tb - b).abs())) as f64;
+                worst = worst.max(err);
+                assert!(err < LAYER_TABLE_ERROR, "η={eta} μ={mu} r={r}: table ({ta}, {tb}) vs ({a}, {b})");
+            }
+        }
+        eprintln!("layer table: worst error {worst:.2e}");
+    }
+
+    /// A + B is the white lobe's albedo, the same function the Schlick table's A + B is.
+    #[test]
+    fn split_sums_to_the_white_albedo() {
+        let t = layer_albedo();
+        for &(mu, r) in &[(0.2f32, 0.3f32), (0.9, 0.7), (0.5, 1.0)] {
+            let (a, b) = t.ab(mu, r, eta_z(1.5));
+            let e = specular_albedo().e_white(mu, r);
+            assert!((a + b - e).abs() < 2.0 * LAYER_TABLE_ERROR as f32, "μ={mu} r={r}: {} vs {e}", a + b);
+        }
+    }
+
+    /// The shape's limits: s(1) = 0 and s(0) = 1 (grazing incidence); η = 1000 keeps F at F0
+    /// until within a few degrees of grazing (s < 0.05 at 85°), where Schlick's weight is 0.63;
+    /// s_avg for IOR 1.5 is (F_avg − F0)/(1 − F0) with F_avg = 0.0918 the known hemispherical
+    /// reflectance of glass (tabulated to three figures, so 1e-3).
+    #[test]
+    fn fresnel_shape() {
+        for eta in [1.2f32, 1.5, 3.0, 1000.0] {
+            let f0 = f0_of(eta);
+            assert!(fresnel_s(1.0, eta, f0) < 1e-5);
+            assert!(fresnel_s(0.0, eta, f0) > 1.0 - 1e-5, "η={eta}");
+        }
+        let c85 = 85f32.to_radians().cos();
+        assert!(fresnel_s(c85, 1000.0, f0_of(1000.0)) < 0.05);
+        let s_avg = fresnel_s_avg(1.5);
+        let expect = (0.0918 - 0.04) / 0.96;
+        assert!((s_avg - expect).abs() < 1e-3, "{s_avg} vs {expect}");
+        assert!((layer_albedo().s_avg(eta_z(1.5)) - s_avg).abs() < 2e-3);
+    }
+
+    /// Specular IOR Level's η: k = 1 keeps the IOR; k scales F0.
+    #[test]
+    fn level_rescales_f0() {
+        assert_eq!(layer_eta(1.5, 1.0), 1.5);
+        let eta = layer_eta(1.5, 0.5);
+        assert!((f0_of(eta) - 0.02).abs() < 1e-6, "{eta}");
+        assert!((layer_eta(1.5, 0.0) - 1.0).abs() < 1e-6);
+    }
+}
