@@ -8,6 +8,7 @@ pub mod aniso_albedo;
 pub mod dielectric;
 mod exclude;
 pub mod fresnel_layer;
+mod layer_table;
 pub mod glass_albedo;
 pub mod hair;
 pub mod microfacet;
