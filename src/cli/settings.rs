@@ -89,8 +89,12 @@ pub fn resolve_photon(a: &PhotonArgs, st: &scene::SceneSettings) -> Result<Photo
     if p.gather_rays == 0 || p.gather_rays > 65_536 {
         return Err(Error::Usage(format!("--gather-rays {} must be in 1..=65536", p.gather_rays)));
     }
-    if p.diffuse_bounces > MAX_DEPTH {
-        return Err(Error::Usage(format!("--diffuse-bounces {} is absurd", p.diffuse_bounces)));
+    if p.diffuse_bounces > crate::integrator::photon::MAX_DIFFUSE_BOUNCES {
+        return Err(Error::Usage(format!(
+            "--diffuse-bounces {} must be in 0..={}",
+            p.diffuse_bounces,
+            crate::integrator::photon::MAX_DIFFUSE_BOUNCES
+        )));
     }
     if p.sppm_iterations == 0 || p.sppm_iterations > MAX_SPP {
         return Err(Error::Usage(format!("--sppm-iterations {} must be in 1..={MAX_SPP}", p.sppm_iterations)));

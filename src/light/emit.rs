@@ -6,7 +6,8 @@
 //! |---|---|---|---|
 //! | point | the light | uniform sphere | 4π I / (p_l N) |
 //! | spot | the light | exactly ∝ glTF's falloff inside the outer cone | Φ_spot / (p_l N) |
-//! | directional | uniform on a disk of the scene's bounding-sphere radius, outside it | the light's | π R² E / (p_l N) |
+//! | directional | uniform on a disk of the scene's bounding-sphere radius, outside it, facing the photon's direction | the light's (uniform in its cone for a sun with a size) | π R² E · 2/(1 + cos θ) / (p_l N) |
+//! | world | the same disk, facing the direction | from the world's importance map, density p(ω) | π R² L(ω) / (p(ω) p_l N) |
 //! | area (CAUSTIC) | uniform | cosine-weighted, one-sided | π A L / (p_l N) |
 //! | emissive triangle | uniform | cosine-weighted, both sides when double-sided | π A L(x) s / (p_l N), s = sides |
 //!
@@ -20,7 +21,12 @@
 //! A spot's power is 2π I [(1 - c₁) + (c₁ - c_o)³ / (3 w²)] with c_o the outer cone's
 //! cosine, w = max(c_i - c_o, 10⁻³) and c₁ = min(c_o + w, 1) (glTF's smooth ramp as
 //! `light::spot_falloff` computes it); directions are drawn with exactly that density.
-//! Not handled: the world / environment light (none exists yet).
+//! The disk faces each photon's own direction, so that every direction covers the whole
+//! bounding sphere (a disk facing the sun's axis leaves part of the scene unlit by the
+//! cone's slanted directions). Through such a disk a sun of radiance L over a cone of
+//! half-angle θ sends π R² L Ω = π R² E · 2/(1 + cos θ), since E = L π sin²θ and
+//! Ω = 2π (1 − cos θ); the world sends π R² ∫ L dω = 4π² R² L̄ (L̄ its mean over the
+//! sphere).
 
 use crate::light::{Light, sample_triangle};
 use crate::math::{Frame, Rgb, luminance};
@@ -78,6 +84,14 @@ pub fn spot_direction(u: Vec2, cos_inner: f32, cos_outer: f32) -> Vec3 {
     Vec3::new(s * ph.cos(), s * ph.sin(), c)
 }
 
+/// Power of a sun through a disk facing each photon's direction over its power through a
+/// disk facing its axis (π R² E): Ω L / E = 2 / (1 + cos θ) for a cone of half-angle θ, 1
+/// for a delta sun.
+#[inline]
+pub fn sun_disk_factor(cos_half: f32) -> f32 {
+    if cos_half < 1.0 { 2.0 / (1.0 + cos_half) } else { 1.0 }
+}
+
 impl Emitters {
     /// Computes each light's exact power and the selection distribution.
     pub fn new(scene: &Scene) -> Self {
@@ -97,11 +111,14 @@ impl Emitters {
                     *intensity * (2.0 * PI * (a + b))
                 }
                 Light::Sphere { radius, radiance, .. } => *radiance * (4.0 * PI * PI * radius * radius),
+                // π R² through the disk times ∫ L dω = 4π L̄ over the sphere.
                 Light::World => match &scene.world {
-                    Some(w) => Rgb::splat(w.mean_luminance() * PI * PI * radius * radius),
+                    Some(w) => Rgb::splat(w.mean_luminance() * 4.0 * PI * PI * radius * radius),
                     None => Rgb::ZERO,
                 },
-                Light::Directional { irradiance, .. } => *irradiance * (PI * radius * radius),
+                Light::Directional { irradiance, cos_half, .. } => {
+                    *irradiance * (PI * radius * radius * sun_disk_factor(*cos_half))
+                }
                 Light::Area(a) => a.radiance * (PI * a.area),
                 Light::Triangle { tri } => {
                     let m = &scene.mesh;
@@ -198,16 +215,20 @@ impl Emitters {
                 Some(EmittedPhoton { org: *position, dir: Frame::from_normal(*direction).to_world(local), power: phi })
             }
             Light::Directional { direction, cos_half, .. } => {
-                let f = Frame::from_normal(*direction);
-                let d = concentric_disk(u_pos) * self.radius;
-                // A sun with a size sends each photon from a direction within its cone.
+                // A sun with a size sends each photon from a direction within its cone
+                // (uniform: its radiance is constant there), from a disk facing that
+                // direction.
                 let dir = if *cos_half < 1.0 {
-                    f.to_world(crate::sampling::warp::uniform_cone(u_dir, *cos_half).normalize())
+                    Frame::from_normal(*direction)
+                        .to_world(crate::sampling::warp::uniform_cone(u_dir, *cos_half))
+                        .normalize()
                 } else {
                     *direction
                 };
+                let f = Frame::from_normal(dir);
+                let d = concentric_disk(u_pos) * self.radius;
                 Some(EmittedPhoton {
-                    org: self.center - *direction * (self.radius * 1.01) + f.s * d.x + f.t * d.y,
+                    org: self.center - dir * (self.radius * 1.01) + f.s * d.x + f.t * d.y,
                     dir,
                     power: phi,
                 })

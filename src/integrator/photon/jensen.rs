@@ -1,33 +1,52 @@
 //! Jensen's two-pass photon mapping, the rendering pass (the photon pass is
-//! `trace.rs`, the maps `io.rs`). At the first non-specular hit x₁ of a camera path:
+//! `trace.rs`, the maps `io.rs`). The maps are read only for the diffuse-like part f_D
+//! of a BSDF; its glossy part f_G (specular lobes and glossy ones below the roughness
+//! threshold, `lobes.rs`) is followed by sampling, as Jensen's method intends. At a
+//! vertex x reached from the camera through glossy scattering only (E G* x):
 //!
 //! ```text
-//! L(x₁) = Le + direct (NEE, MIS against the gather rays)
-//!       + caustics (caustic map, radiance estimate)
-//!       + indirect: diffuse_bounces = 0: global map at x₁ (photons after ≥ 1 bounce,
-//!                                         not on L S+ D paths: those are the caustics)
-//!                   diffuse_bounces = b ≥ 1: N gather rays (BSDF-sampled); each follows
-//!                   specular bounces, path-traces b - 1 non-specular bounces (NEE + MIS),
-//!                   then reads the global map (all photons) where it lands.
+//! L(x) = Le + direct (NEE for the whole BSDF, MIS against the BSDF-sampled next ray)
+//!      + caustics through f_D (caustic map: photons of L G+ D paths)
+//!      + indirect through f_D: diffuse_bounces = 0: global map at x (photons after ≥ 1
+//!                                  bounce, not on L G+ D paths: those are the caustics)
+//!                              b ≥ 1: gather rays sampled from the BSDF and weighted by
+//!                                  f_D; each follows glossy scattering, path-traces b - 1
+//!                                  diffuse-like bounces (NEE + MIS), then reads the global
+//!                                  map (all photons) through f_D where it lands
+//!      + glossy through f_G: the camera path goes on (x's outgoing light again).
 //! ```
-//! Specular (delta) surfaces before x₁ are followed as a path tracer does; glossy lobes
-//! at x₁ are integrated by the gather rays, which sample the full BSDF. Emission reached
-//! from x₁ through specular bounces only is skipped: it is in the caustic map.
+//!
+//! **Roles.** One ray serves all of a vertex's terms: its throughput is split into roles
+//! by the diffuse-like bounces taken since the camera, k = 0 (the camera role above),
+//! 1..b-1 (path traced: NEE, emission with MIS) and b (gather: reads the global map
+//! through f_D, no NEE). A BSDF sample of weight w = f cos / p moves role k's share
+//! w_D = f_D cos / p to role k + 1 (the gather role's is spent on its map read) and keeps
+//! w_G = w − w_D in role k; emission the ray finds counts with MIS for every role that
+//! made NEE at the vertex it left (through the whole w), plainly for the gather role's
+//! glossy share when b ≥ 2, and not for it when b = 1 (L G+ D light: the caustic map's).
+//! On a purely diffuse-like material this is the classic final gather bit for bit in
+//! expectation; on a purely glossy one, a path tracer until a diffuse-like surface.
+//! Extra gather rays (`gather_rays` > 1) at a camera-role vertex are chains of their own
+//! that count no direct light (NEE and the shared ray did); the shared ray carries 1/N of
+//! the gather role.
+//!
 //! Depth: a photon with hit index j read at the camera path's n-th scattering event
 //! makes a path of (j - 1) + n events; only those within `max_depth` are counted, so
 //! the result converges to the path tracer's at the same maximum depth.
 //!
-//! Parameters (defaults in `PhotonSettings`): k = 20 neighbours (10 in the caustic map), maximum radius a tenth
-//! of the scene radius, 1 gather ray per camera sample, 1 diffuse bounce (final gather), maximum depth
-//! as the path tracer's. Media: a camera path or gather ray that scatters in a medium is
-//! path traced from there (media have no photon map); crossing media, paths carry
-//! their transmittance; the subsurface part of a material is path traced, its BSDF part
-//! reads the maps. Not handled: shadow photons (measured not to
-//! pay off: shadow rays are ~2 % of the render, less than the lookups that would skip them;
-//! docs/benchmarks.md), photon-map irradiance caching, the world light.
+//! Parameters (defaults in `PhotonSettings`): k = 20 neighbours (10 in the caustic map),
+//! maximum radius a tenth of the scene radius, 1 gather ray per camera sample, 1 diffuse
+//! bounce (final gather, at most `MAX_DIFFUSE_BOUNCES`), maximum depth as the path
+//! tracer's. Media: a chain that scatters in a medium is path traced from there (media
+//! have no photon map); crossing media, chains carry their transmittance; the subsurface
+//! part of a material is path traced, its BSDF part as above. Not handled: shadow photons
+//! (measured not to pay off: shadow rays are ~2 % of the render, less than the lookups
+//! that would skip them; docs/benchmarks.md), photon-map irradiance caching, emissive
+//! media seen through a map read (their light is in no map).
 
-use super::estimate::radiance;
+use super::estimate::estimate;
 use super::io::PhotonMaps;
+use super::lobes::Split;
 use crate::film::CameraSample;
 use crate::integrator::SceneContext;
 use crate::integrator::nee::surface_nee;
@@ -38,6 +57,7 @@ use crate::medium::MediumStack;
 use crate::render::job::RayStats;
 use crate::sampling::PixelSampler;
 use crate::scene::camera::CameraRay;
+use crate::scene::shading::{ShadingPoint, SurfaceHit};
 use crate::scene::visibility::RayMask;
 use glam::{Vec2, Vec3};
 use std::sync::Arc;
@@ -153,271 +173,364 @@ impl JensenIntegrator {
         stats: &mut RayStats,
     ) -> CameraSample {
         let mut out = CameraSample { depth: f32::INFINITY, ..Default::default() };
-        let mut radiance = Rgb::ZERO;
-        // A scattering event in a medium is path traced from that vertex on.
-        let mut st = PathState::camera(ray, ctx.camera_media);
         stats.camera += 1;
+        let mut roles = [Rgb::ZERO; MAX_ROLES];
+        roles[0] = Rgb::ONE;
+        // What the camera ray finds first has no MIS (the state's pdf is 0).
+        let chain = Chain {
+            st: PathState::camera(ray, ctx.camera_media),
+            roles,
+            e_mis: Rgb::ONE,
+            e_plain: Rgb::ZERO,
+            e_medium: Rgb::ONE,
+        };
+        out.radiance = self.walk(ctx, chain, sampler, &depth_of, &mut out, stats);
+        out
+    }
+
+    /// The gather role's index b (roles 0..=b are live), capped by `MAX_ROLES`.
+    #[inline]
+    fn gather_role(&self) -> usize {
+        (self.diffuse_bounces as usize).min(MAX_ROLES - 1)
+    }
+
+    /// Follows one chain of rays (module doc: the roles), returning the radiance it
+    /// brings. The camera's chain fills `out`'s first-hit values; gather chains that start
+    /// at depth ≥ 1 leave them alone.
+    fn walk(
+        &self,
+        ctx: &SceneContext,
+        mut c: Chain,
+        sampler: &mut PixelSampler,
+        depth_of: &dyn Fn(Vec3) -> f32,
+        out: &mut CameraSample,
+        stats: &mut RayStats,
+    ) -> Rgb {
+        let b = self.gather_role();
+        let max_r2 = self.max_radius * self.max_radius;
+        let mut radiance = Rgb::ZERO;
         loop {
             let [u_light, u_lx, u_ly, u_lobe] = sampler.next_4d();
-            let [u_dx, u_dy, u_channel, u_dist] = sampler.next_4d();
-            // Area lights crossed: every earlier vertex was specular (no MIS).
-            st.prev_p = st.org;
-            let (step, crossed) =
-                st.advance(ctx, [u_channel, u_dist], || sampler.next_4d()[0], true, &mut radiance, stats);
-            if crossed && st.depth == 0 {
+            let [u_dx, u_dy, u_rr, u_channel] = sampler.next_4d();
+            let u_dist = if ctx.has_media { sampler.next_4d()[0] } else { 0.0 };
+
+            // Along the ray, with a unit throughput: the segment's weight then scales every
+            // role. Lights crossed count as emission found (MIS and plain weights).
+            let (e_mis, e_plain) = (c.e_mis, c.e_plain);
+            let mut crossed_any = false;
+            let mut medium_l = Rgb::ZERO;
+            c.st.beta = Rgb::ONE;
+            let (step, crossed_l) = c.st.advance_with(
+                ctx,
+                Some([u_channel, u_dist]),
+                || sampler.next_4d()[0],
+                |st, t_event, w| {
+                    let mut l = Rgb::ZERO;
+                    for (e, pdf) in [(e_mis, st.prev_pdf), (e_plain, 0.0)] {
+                        if e == Rgb::ZERO {
+                            continue;
+                        }
+                        let (le, any) = ctx.crossed_emission(
+                            st.org,
+                            st.dir,
+                            t_event,
+                            st.prev_p,
+                            st.prev_n,
+                            pdf,
+                            st.depth == 0,
+                            st.prev_tri,
+                        );
+                        crossed_any |= any;
+                        l += e * w * le;
+                    }
+                    l
+                },
+                &mut medium_l,
+                stats,
+            );
+            radiance += crossed_l + c.e_medium * medium_l;
+            let seg = std::mem::replace(&mut c.st.beta, Rgb::ONE);
+            c.scale(seg);
+            if crossed_any && c.st.depth == 0 {
                 out.alpha = 1.0;
             }
             let (hit, s) = match step {
                 Step::End => break,
                 Step::Passed => continue,
                 Step::Medium { p, phase, .. } => {
-                    if st.depth == 0 {
+                    // Media have no photon map: every role is path traced from here.
+                    if c.st.depth == 0 {
                         out.alpha = 1.0;
                         out.depth = depth_of(p);
                     }
-                    if st.depth < self.max_depth && st.beta.is_finite() && st.beta != Rgb::ZERO {
+                    let total = c.total();
+                    if c.st.depth < self.max_depth && total.is_finite() && total != Rgb::ZERO {
                         radiance += self
                             .continuation()
-                            .scatter_in_medium(ctx, p, st.dir, phase, st.media, st.beta, st.depth, sampler, stats);
+                            .scatter_in_medium(ctx, p, c.st.dir, phase, c.st.media, total, c.st.depth, sampler, stats);
                     }
                     break;
                 }
                 Step::Escaped => {
-                    // The world and sun disks (every earlier vertex was specular).
-                    if !(st.depth == 0 && self.transparent_background)
-                        && let Some(le) = st.escaped_radiance(ctx)
-                    {
-                        radiance += st.beta * le;
-                        if st.depth == 0 {
+                    // The world and sun disks.
+                    if !(c.st.depth == 0 && self.transparent_background) {
+                        let le = c.found(|st| st.escaped_radiance(ctx).map_or(Rgb::ZERO, |le| st.beta * le));
+                        if c.st.depth == 0 && le != Rgb::ZERO {
                             out.alpha = 1.0;
                         }
+                        radiance += le;
                     }
                     break;
                 }
                 Step::Surface { hit, s } => (hit, s),
             };
             // A holdout seen by a camera ray: nothing, alpha 0 (as the path tracer).
-            if st.depth == 0 && ctx.is_holdout(hit.tri) {
+            if c.st.depth == 0 && ctx.is_holdout(hit.tri) {
                 out.alpha = 0.0;
                 break;
             }
-            let wo = -st.dir;
+            let wo = -c.st.dir;
             let sp = ctx.shade(&s, wo);
-            if st.depth == 0 {
+            if c.st.depth == 0 {
                 out.alpha = 1.0;
                 out.depth = depth_of(s.p);
                 out.normal = sp.frame.n;
                 out.albedo = sp.bsdf.albedo();
             }
-            radiance += st.surface_emission(ctx, &hit, &s, &sp);
-            if st.depth >= self.max_depth {
-                break;
-            }
-            let wo_local = sp.frame.to_local(wo);
-            radiance += self.subsurface_part(ctx, &s, &sp, wo, wo_local, st.media, st.beta, st.depth, sampler, stats);
-            if !sp.bsdf.is_delta() {
-                // x₁: the first non-specular hit, scattering event depth + 1.
-                radiance += st.beta
-                    * self.shade_first_diffuse(
-                        ctx,
-                        &s,
-                        &sp,
-                        wo_local,
-                        st.depth + 1,
-                        u_light,
-                        Vec2::new(u_lx, u_ly),
-                        st.media,
-                        sampler,
-                        stats,
-                    );
-                break;
-            }
-            // Specular: continue the path.
-            if !st.follow_specular(ctx, &s, &sp, wo_local, u_lobe, Vec2::new(u_dx, u_dy), stats) {
-                break;
-            }
-        }
-        out.radiance = radiance;
-        out
-    }
-
-    /// Reflected radiance at x₁ (scattering event `d`), without its emission.
-    #[allow(clippy::too_many_arguments)]
-    fn shade_first_diffuse(
-        &self,
-        ctx: &SceneContext,
-        s: &crate::scene::shading::SurfaceHit,
-        sp: &crate::scene::shading::ShadingPoint,
-        wo_local: Vec3,
-        d: u32,
-        u_light: f32,
-        u_pt: Vec2,
-        media: MediumStack,
-        sampler: &mut PixelSampler,
-        stats: &mut RayStats,
-    ) -> Rgb {
-        let gather = if self.diffuse_bounces == 0 || d >= self.max_depth { 0 } else { self.gather_rays };
-        let max_r2 = self.max_radius * self.max_radius;
-        // Direct light, MIS against the gather rays (lights below count when the BSDF
-        // transmits: photons are gathered on the camera's side only).
-        let n_select = if sp.bsdf.transmits() { Vec3::ZERO } else { s.ng };
-        let at = sp.bsdf.at(wo_local);
-        let mut l = surface_nee(ctx, s, sp, &at, n_select, gather as f32, Rgb::ONE, media, u_light, u_pt, stats);
-        // Caustics: photons with hit index j make paths of j - 1 + d events.
-        let jmax = self.max_depth + 1 - d;
-        l += radiance(&self.maps.caustic, s.p, s.ng, &sp.frame, &sp.bsdf, wo_local, self.caustic_k, max_r2, |p| {
-            p.depth() <= jmax
-        });
-        if self.diffuse_bounces == 0 {
-            l += radiance(&self.maps.global, s.p, s.ng, &sp.frame, &sp.bsdf, wo_local, self.k, max_r2, |p| {
-                p.depth() >= 2 && !p.caustic() && p.depth() <= jmax
-            });
-            return l;
-        }
-        // Final gather.
-        let wo = sp.frame.to_world(wo_local);
-        let mut gathered = Rgb::ZERO;
-        for _ in 0..gather {
-            let [u_lobe, u_x, u_y, _] = sampler.next_4d();
-            let Some(bs) = sp.bsdf.sample(wo_local, u_lobe, Vec2::new(u_x, u_y)) else {
-                continue;
-            };
-            let wi = sp.frame.to_world(bs.wi);
-            let (co, ci) = (wo.dot(s.ng), wi.dot(s.ng));
-            if (bs.wi.z * wo_local.z > 0.0) != (co * ci > 0.0) || ci == 0.0 {
-                continue;
-            }
-            // Russian roulette sees the per-ray weight; the 1/N comes at the end.
-            let beta = bs.f * (bs.wi.z.abs() / bs.pdf);
-            let mis_pdf = if sp.bsdf.is_delta() { 0.0 } else { bs.pdf * gather as f32 };
-            let org = offset_ray_origin(s.p, if ci > 0.0 { s.ng } else { -s.ng });
-            let gather_media = ctx.medium_after(s, wi, media);
-            let st = PathState {
-                org,
-                dir: wi,
-                beta,
-                depth: d,
-                prev_pdf: mis_pdf,
-                prev_p: s.p,
-                prev_n: n_select,
-                media: gather_media,
-                transparent_hits: 0,
-                tmax: f32::INFINITY,
-                ray: RayMask::after_bounce(bs.kind, ci < 0.0),
-                prev_tri: s.tri,
-                light_path: s.light_path.bounced(bs.kind, ci < 0.0, bs.delta),
-            };
-            gathered += self.gather_path(ctx, st, sampler, stats);
-        }
-        l + gathered / gather.max(1) as f32
-    }
-
-    /// One gather ray from x₁ (scattering event `d`): radiance it brings, times the
-    /// state's throughput.
-    fn gather_path(
-        &self,
-        ctx: &SceneContext,
-        mut st: PathState,
-        sampler: &mut PixelSampler,
-        stats: &mut RayStats,
-    ) -> Rgb {
-        let max_r2 = self.max_radius * self.max_radius;
-        let mut l = Rgb::ZERO;
-        // Only specular bounces since x₁, and at least one: emission is a caustic.
-        let mut delta_only = true;
-        let mut bounced = false;
-        let mut nondelta = 0u32;
-        stats.bounce += 1;
-        loop {
-            let [u_light, u_lx, u_ly, u_lobe] = sampler.next_4d();
-            let [u_dx, u_dy, u_rr, u_channel] = sampler.next_4d();
-            let u_dist = if ctx.has_media { sampler.next_4d()[0] } else { 0.0 };
-            let caustic = delta_only && bounced;
-            let (step, _) = st.advance(ctx, [u_channel, u_dist], || sampler.next_4d()[0], !caustic, &mut l, stats);
-            let (hit, s) = match step {
-                Step::End => break,
-                Step::Passed => continue,
-                Step::Medium { p, phase, .. } => {
-                    if st.depth < self.max_depth && st.beta.is_finite() && st.beta != Rgb::ZERO {
-                        l += self
-                            .continuation()
-                            .scatter_in_medium(ctx, p, st.dir, phase, st.media, st.beta, st.depth, sampler, stats);
-                    }
-                    break;
-                }
-                Step::Escaped => {
-                    if !caustic && let Some(le) = st.escaped_radiance(ctx) {
-                        l += st.beta * le;
-                    }
-                    break;
-                }
-                Step::Surface { hit, s } => (hit, s),
-            };
-            let wo = -st.dir;
-            let sp = ctx.shade(&s, wo);
-            if !caustic {
-                l += st.surface_emission(ctx, &hit, &s, &sp);
-            }
-            if st.depth >= self.max_depth {
+            radiance += c.found(|st| st.surface_emission(ctx, &hit, &s, &sp));
+            if c.st.depth >= self.max_depth {
                 break;
             }
             let wo_local = sp.frame.to_local(wo);
             let at = sp.bsdf.at(wo_local);
-            l += self.subsurface_part(ctx, &s, &sp, wo, wo_local, st.media, st.beta, st.depth, sampler, stats);
+            radiance +=
+                self.subsurface_part(ctx, &s, &sp, wo, wo_local, c.st.media, c.total(), c.st.depth, sampler, stats);
             let delta = sp.bsdf.is_delta();
+            let split = Split::of(&sp.bsdf);
             let n_select = if sp.bsdf.transmits() { Vec3::ZERO } else { s.ng };
+            // This vertex is scattering event d; a photon with hit index j read here makes
+            // a path of j - 1 + d events.
+            let d = c.st.depth + 1;
+            let jmax = self.max_depth + 1 - d;
+            let nee_beta = c.nee_roles(b);
             if !delta {
-                nondelta += 1;
-                delta_only = false;
-                if nondelta >= self.diffuse_bounces {
-                    // Read the global map: this is event depth + 1.
-                    let jmax = self.max_depth - st.depth;
-                    l += st.beta
-                        * radiance(&self.maps.global, s.p, s.ng, &sp.frame, &sp.bsdf, wo_local, self.k, max_r2, |p| {
-                            p.depth() <= jmax
-                        });
-                    break;
+                // Direct light for the roles that path-trace it, MIS against this vertex's
+                // BSDF sample (the chain's next ray).
+                if nee_beta != Rgb::ZERO {
+                    radiance += surface_nee(
+                        ctx,
+                        &s,
+                        &sp,
+                        &at,
+                        n_select,
+                        1.0,
+                        nee_beta,
+                        c.st.media,
+                        u_light,
+                        Vec2::new(u_lx, u_ly),
+                        stats,
+                    );
                 }
-                l += surface_nee(
-                    ctx,
-                    &s,
-                    &sp,
-                    &at,
-                    n_select,
-                    1.0,
-                    st.beta,
-                    st.media,
-                    u_light,
-                    Vec2::new(u_lx, u_ly),
-                    stats,
-                );
+                let mapped = (c.roles[0] != Rgb::ZERO || (b > 0 && c.roles[b] != Rgb::ZERO)) && split.has_diffuse(&at);
+                if mapped {
+                    let f_d = |p: &super::Photon| split.diffuse(&at, sp.frame.to_local(p.wi()));
+                    if c.roles[0] != Rgb::ZERO {
+                        // The camera role: caustics (L G+ D) from the caustic map, and with
+                        // no gather (b = 0) the rest of the indirect light from the global one.
+                        let mut l =
+                            estimate(&self.maps.caustic, s.p, s.ng, self.caustic_k, max_r2, |p| p.depth() <= jmax, f_d)
+                                .0;
+                        if b == 0 {
+                            l += estimate(
+                                &self.maps.global,
+                                s.p,
+                                s.ng,
+                                self.k,
+                                max_r2,
+                                |p| p.depth() >= 2 && !p.caustic() && p.depth() <= jmax,
+                                f_d,
+                            )
+                            .0;
+                        }
+                        radiance += c.roles[0] * l;
+                    }
+                    if b > 0 && c.roles[b] != Rgb::ZERO {
+                        // The gather role: everything the global map holds.
+                        let l = estimate(&self.maps.global, s.p, s.ng, self.k, max_r2, |p| p.depth() <= jmax, f_d).0;
+                        radiance += c.roles[b] * l;
+                    }
+                    // More gather rays at a camera-role vertex: each a chain of its own that
+                    // counts no direct light (NEE and this chain's sample did).
+                    if b > 0 && c.roles[0] != Rgb::ZERO && self.gather_rays > 1 && d < self.max_depth {
+                        for _ in 1..self.gather_rays {
+                            let [v_lobe, v_x, v_y, _] = sampler.next_4d();
+                            let Some(bs) = at.sample(v_lobe, Vec2::new(v_x, v_y)) else { continue };
+                            let w_d = split.diffuse_of_sample(&at, bs.wi, bs.f, bs.delta) * (bs.wi.z.abs() / bs.pdf);
+                            let mut roles = [Rgb::ZERO; MAX_ROLES];
+                            roles[1] = c.roles[0] * w_d / self.gather_rays as f32;
+                            let mut g =
+                                Chain { st: c.st, roles, e_mis: Rgb::ZERO, e_plain: Rgb::ZERO, e_medium: Rgb::ZERO };
+                            if roles[1] == Rgb::ZERO || !g.bounce(ctx, &s, &sp, wo_local, &bs, n_select, stats) {
+                                continue;
+                            }
+                            let mut scratch = CameraSample::default();
+                            radiance += self.walk(ctx, g, sampler, depth_of, &mut scratch, stats);
+                        }
+                    }
+                }
             }
+
+            // The chain's next ray, sampled from the whole BSDF: its diffuse-like share moves
+            // each role k < b on to role k + 1 (the camera role's shared with the extra
+            // gather rays), its glossy share keeps the role.
             let Some(bs) = at.sample(u_lobe, Vec2::new(u_dx, u_dy)) else {
                 break;
             };
-            let wi = sp.frame.to_world(bs.wi);
-            let (co, ci) = (wo.dot(s.ng), wi.dot(s.ng));
-            if (bs.wi.z * wo_local.z > 0.0) != (co * ci > 0.0) || ci == 0.0 {
+            let cos_over_pdf = bs.wi.z.abs() / bs.pdf;
+            let w_all = bs.f * cos_over_pdf;
+            if !w_all.is_finite() {
                 break;
             }
-            st.beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
-            if !st.beta.is_finite() || st.beta == Rgb::ZERO {
+            let w_d = split.diffuse_of_sample(&at, bs.wi, bs.f, bs.delta) * cos_over_pdf;
+            let w_g = (w_all - w_d).max(Rgb::ZERO);
+            let mut next = [Rgb::ZERO; MAX_ROLES];
+            for k in 0..=b {
+                if c.roles[k] == Rgb::ZERO {
+                    continue;
+                }
+                next[k] += c.roles[k] * w_g;
+                if k < b {
+                    let share = if k == 0 { 1.0 / self.gather_rays.max(1) as f32 } else { 1.0 };
+                    next[k + 1] += c.roles[k] * w_d * share;
+                }
+            }
+            // Emission the ray finds: the roles that did NEE here see it through the
+            // whole BSDF with MIS; the gather role's glossy share sees it plainly when no
+            // caustic map stands for it (b ≥ 2: the vertex before is path traced), and
+            // media's emission (in no map) always.
+            let gather_glossy = if b > 0 { c.roles[b] * w_g } else { Rgb::ZERO };
+            c.e_mis = nee_beta * w_all;
+            c.e_plain = if b >= 2 { gather_glossy } else { Rgb::ZERO };
+            c.e_medium = c.e_mis + gather_glossy;
+            c.roles = next;
+            if !(c.largest() > 0.0) || !c.bounce(ctx, &s, &sp, wo_local, &bs, n_select, stats) {
                 break;
             }
-            st.prev_pdf = if delta { 0.0 } else { bs.pdf };
-            st.prev_p = s.p;
-            // The receiver normal NEE gave light selection here.
-            st.prev_n = n_select;
-            bounced = true;
-            st.depth += 1;
-            if !st.survives(self.rr_depth, u_rr) {
-                break;
+            // Russian roulette on the whole chain, by its largest weight.
+            if c.st.depth >= self.rr_depth {
+                // Refraction keeps 1 − F of the throughput (Cycles' convention): the chain's
+                // own weight is what roulette sees, as the path tracer's.
+                let q = c.largest().min(0.95);
+                if !(u_rr < q) {
+                    break;
+                }
+                c.scale(Rgb::splat(1.0 / q));
             }
-            st.media = ctx.medium_after(&s, wi, st.media);
-            st.org = offset_ray_origin(s.p, if ci > 0.0 { s.ng } else { -s.ng });
-            st.dir = wi;
-            stats.bounce += 1;
+        }
+        radiance
+    }
+}
+
+/// Most roles a chain carries: the camera role, up to `MAX_DIFFUSE_BOUNCES` - 1
+/// path-traced ones and the gather role.
+const MAX_ROLES: usize = super::MAX_DIFFUSE_BOUNCES as usize + 1;
+
+/// One chain of rays from the camera (or from an extra gather ray) with its throughput
+/// split into roles by the diffuse-like bounces taken so far (module doc).
+#[derive(Clone, Copy)]
+struct Chain {
+    /// Geometry, media and MIS state of the next ray (its `beta` is kept at one: the
+    /// roles carry the throughput).
+    st: PathState,
+    /// Throughput of role k: k diffuse-like bounces since the camera.
+    roles: [Rgb; MAX_ROLES],
+    /// Weight of emission the next ray finds, MIS-weighted against NEE where it left.
+    e_mis: Rgb,
+    /// Weight of emission the next ray finds with no MIS (no NEE was made for it).
+    e_plain: Rgb,
+    /// Weight of media's emission along the next ray (no map holds it).
+    e_medium: Rgb,
+}
+
+impl Chain {
+    /// Scales every weight (a segment's transmittance, Russian roulette).
+    #[inline]
+    fn scale(&mut self, w: Rgb) {
+        for r in &mut self.roles {
+            *r *= w;
+        }
+        self.e_mis *= w;
+        self.e_plain *= w;
+        self.e_medium *= w;
+    }
+
+    /// Sum of the roles' throughputs: what a path traced from here carries.
+    #[inline]
+    fn total(&self) -> Rgb {
+        self.roles.iter().fold(Rgb::ZERO, |a, r| a + *r)
+    }
+
+    /// Throughput of the roles that make NEE at a vertex: all but the gather role b
+    /// (with b = 0 the camera role reads the whole map and still makes NEE).
+    #[inline]
+    fn nee_roles(&self, b: usize) -> Rgb {
+        let n = if b == 0 { 1 } else { b };
+        self.roles[..n].iter().fold(Rgb::ZERO, |a, r| a + *r)
+    }
+
+    /// Largest component of any weight (zero: the chain carries nothing).
+    #[inline]
+    fn largest(&self) -> f32 {
+        let m = self.roles.iter().fold(0.0f32, |a, r| a.max(r.max_element()));
+        m.max(self.e_mis.max_element()).max(self.e_plain.max_element()).max(self.e_medium.max_element())
+    }
+
+    /// Emission found by the ray: `le(state)` (radiance times the state's throughput)
+    /// with MIS for `e_mis` and without for `e_plain`, the state's throughput set to each.
+    #[inline]
+    fn found(&self, le: impl Fn(&PathState) -> Rgb) -> Rgb {
+        let mut l = Rgb::ZERO;
+        if self.e_mis != Rgb::ZERO {
+            l += le(&PathState { beta: self.e_mis, ..self.st });
+        }
+        if self.e_plain != Rgb::ZERO {
+            l += le(&PathState { beta: self.e_plain, prev_pdf: 0.0, ..self.st });
         }
         l
+    }
+
+    /// Spawns the next ray from the surface `s` along the sampled `bs`; false when the
+    /// shading and geometric normals disagree about the side (light would leak).
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn bounce(
+        &mut self,
+        ctx: &SceneContext,
+        s: &SurfaceHit,
+        sp: &ShadingPoint,
+        wo_local: Vec3,
+        bs: &crate::bsdf::BsdfSample,
+        n_select: Vec3,
+        stats: &mut RayStats,
+    ) -> bool {
+        let wi = sp.frame.to_world(bs.wi);
+        let (co, ci) = (sp.frame.to_world(wo_local).dot(s.ng), wi.dot(s.ng));
+        if (bs.wi.z * wo_local.z > 0.0) != (co * ci > 0.0) || ci == 0.0 {
+            return false;
+        }
+        let st = &mut self.st;
+        st.prev_pdf = if bs.delta { 0.0 } else { bs.pdf };
+        st.prev_p = s.p;
+        // The receiver normal NEE gave light selection here.
+        st.prev_n = n_select;
+        st.prev_tri = s.tri;
+        st.depth += 1;
+        st.media = ctx.medium_after(s, wi, st.media);
+        st.ray = RayMask::after_bounce(bs.kind, ci < 0.0);
+        st.light_path = s.light_path.bounced(bs.kind, ci < 0.0, bs.delta);
+        st.org = offset_ray_origin(s.p, if ci > 0.0 { s.ng } else { -s.ng });
+        st.dir = wi;
+        stats.bounce += 1;
+        true
     }
 }

@@ -7,6 +7,8 @@
 //!   at every non-specular hit into a global map and (paths L S+ D) a caustic map;
 //! - `kdtree.rs`: the balanced kd-tree over photons (k nearest neighbours, range queries);
 //! - `estimate.rs`: radiance estimates (cone filter, disc area) and the shared NEE step;
+//! - `lobes.rs`: which part of a BSDF the maps stand for (diffuse-like) and which part
+//!   camera paths follow by sampling (glossy: below the roughness threshold, specular);
 //! - `jensen.rs`: the rendering pass of Jensen's method (NEE + caustic map + final gather);
 //! - `sppm.rs`: SPPM with its own iteration driver;
 //! - `io.rs`: the photon-map file (`caustic photons`, `--photon-map`).
@@ -33,6 +35,7 @@ pub mod estimate;
 pub mod io;
 pub mod jensen;
 pub mod kdtree;
+pub mod lobes;
 pub mod sppm;
 pub mod trace;
 
@@ -159,6 +162,11 @@ fn oct_decode_raw(code: u32, bits: u32) -> Vec3 {
     Vec3::new(x + if x >= 0.0 { -t } else { t }, y + if y >= 0.0 { -t } else { t }, z)
 }
 
+/// Largest `diffuse_bounces` accepted: a camera path carries one throughput per
+/// diffuse-like bounce count on the stack (`jensen.rs`); beyond a few bounces the map
+/// read is rarely reached before the maximum depth and path tracing is the better tool.
+pub const MAX_DIFFUSE_BOUNCES: u32 = 8;
+
 /// Largest k accepted (the k-NN heap lives on the stack).
 pub const MAX_K: usize = 256;
 
@@ -184,8 +192,9 @@ pub struct PhotonSettings {
     /// per pixel beat more gather rays per sample (Cornell box, equal time: 4 rays gave
     /// 2.8× the relative MSE of 1).
     pub gather_rays: u32,
-    /// Non-specular bounces of the camera path before the global map is read:
-    /// 0 reads it at the first diffuse hit, 1 is final gather (default).
+    /// Diffuse-like bounces of the camera path before the global map is read:
+    /// 0 reads it at the first diffuse-like hit, 1 is final gather (default); at most
+    /// [`MAX_DIFFUSE_BOUNCES`].
     pub diffuse_bounces: u32,
     /// SPPM iterations.
     pub sppm_iterations: u32,

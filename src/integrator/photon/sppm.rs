@@ -2,8 +2,12 @@
 //! iteration driver. Each iteration:
 //!
 //! 1. **Visible points**: one camera sample per pixel (Owen-scrambled Sobol, sample index
-//!    = iteration) follows specular bounces to the first non-specular hit; emission on
-//!    the way and direct light there (NEE, as pbrt-v4's SPPM does) are accumulated.
+//!    = iteration) follows glossy and specular bounces (`lobes.rs`: glossy below the
+//!    roughness threshold) to the first vertex with a diffuse-like part; emission on the
+//!    way and direct light (NEE with MIS at every non-delta vertex) are accumulated. The
+//!    photons are gathered through the visible point's diffuse-like part only; its
+//!    glossy part is path traced from there (up to the maximum depth), so a glossy
+//!    surface shows a path-traced reflection instead of a blurred, noisy photon estimate.
 //! 2. **Photon pass**: `photons per iteration` photons are traced (first hits are not
 //!    stored: direct light came from NEE) and put in a kd-tree.
 //! 3. **Gather**: each pixel sums f(wo, wp) Φp over the photons within its radius r
@@ -37,6 +41,7 @@
 //! bit for bit a single run of all the iterations (which the path tracer, BDPT and Jensen
 //! photon mapping give).
 
+use super::lobes::Split;
 use super::trace::{MapKind, TraceJob, trace_photons};
 use super::{PhotonMap, PhotonSettings, default_sppm_photons};
 use crate::bsdf::Bsdf;
@@ -46,12 +51,13 @@ use crate::integrator::nee::surface_nee;
 use crate::integrator::path::PathIntegrator;
 use crate::integrator::walk::{PathState, Step};
 use crate::light::emit::Emitters;
-use crate::math::{Frame, Rgb};
+use crate::math::{Frame, Rgb, offset_ray_origin};
 use crate::render::job::RayStats;
 use crate::render::job::{Progress, RenderJob, RenderResult};
 use crate::sampling::PixelSampler;
 use crate::scene::camera::CameraRay;
 use crate::scene::camera::CameraRays;
+use crate::scene::visibility::RayMask;
 use glam::{DVec3, Vec2, Vec3};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -126,6 +132,8 @@ struct VisiblePoint {
     frame: Frame,
     bsdf: Bsdf,
     wo_local: Vec3,
+    /// Which part of the BSDF the photons stand for.
+    split: Split,
     beta: Rgb,
     /// Scattering event index of the visible point on the camera path.
     d: u32,
@@ -341,7 +349,7 @@ fn render(
                     map.for_each_within(vp.p, r2, |ph, _| {
                         if ph.depth() <= jmax && ph.normal_within_60(vp.ng) {
                             let wi = vp.frame.to_local(ph.wi());
-                            phi += at.eval(wi) * ph.power();
+                            phi += vp.split.diffuse(&at, wi) * ph.power();
                             m += 1;
                         }
                     });
@@ -428,9 +436,12 @@ fn image(states: &[PixelState], w: u32, h: u32, iters: u32) -> FilmImage {
     img
 }
 
-/// Follows a camera ray through specular bounces to its visible point. Returns the
-/// emission and direct light collected, the visible point, and the first hit distance; the
-/// sample's coverage and first-hit passes go to `pend`.
+/// Follows a camera ray through glossy and specular bounces to its visible point, the
+/// first vertex with a diffuse-like part (`lobes.rs`), where the photons will be gathered
+/// through that part; the glossy part there and everything after it is path traced
+/// (NEE with MIS at every non-delta vertex, the BSDF-sampled ray finding emission).
+/// Returns the emission and direct light collected, the visible point, and the first hit
+/// distance; the sample's coverage and first-hit passes go to `pend`.
 #[allow(clippy::too_many_arguments)]
 fn camera_path(
     ctx: &SceneContext,
@@ -449,18 +460,50 @@ fn camera_path(
     // photon map): NEE plus a continued path.
     let mut st = PathState::camera(ray, ctx.camera_media);
     let continuation = PathIntegrator { max_depth, transparent_background, ..Default::default() };
+    // `beta` carries the path on; `e` weighs the emission the next ray finds (they differ
+    // after the visible point, whose diffuse-like part the photons stand for but whose
+    // direct light NEE and the next ray share by MIS through the whole BSDF).
+    let mut beta = Rgb::ONE;
+    let mut e = Rgb::ONE;
+    let mut vp: Option<VisiblePoint> = None;
     // This sample's alpha is undone if the camera ray ends on a holdout.
     let alpha_before = pend.alpha;
     loop {
         let [u_light, u_lx, u_ly, u_lobe] = sampler.next_4d();
-        let [u_dx, u_dy, _, u_alpha] = sampler.next_4d();
+        let [u_dx, u_dy, u_rr, u_alpha] = sampler.next_4d();
         let [u_channel, u_dist, _, _] = if ctx.has_media { sampler.next_4d() } else { [0.0; 4] };
-        // Lights crossed and the world are found by specular paths only (no MIS: the
-        // state's pdf stays 0): the visible point's NEE covers the rest. Soft sphere
-        // lights face the ray's origin.
-        st.prev_p = st.org;
-        let (step, crossed) = st.advance(ctx, [u_channel, u_dist], || u_alpha, true, &mut l, stats);
-        if crossed && st.depth == 0 {
+        // Along the ray with a unit throughput (the segment's weight then scales both).
+        // Lights crossed and the world carry MIS against the NEE where the ray left (none
+        // for the camera ray and after delta lobes: the state's pdf is 0).
+        let mut medium_l = Rgb::ZERO;
+        let mut crossed_any = false;
+        st.beta = Rgb::ONE;
+        let (step, crossed_l) = st.advance_with(
+            ctx,
+            Some([u_channel, u_dist]),
+            || u_alpha,
+            |st, t_event, w| {
+                let (le, any) = ctx.crossed_emission(
+                    st.org,
+                    st.dir,
+                    t_event,
+                    st.prev_p,
+                    st.prev_n,
+                    st.prev_pdf,
+                    st.depth == 0,
+                    st.prev_tri,
+                );
+                crossed_any = any;
+                if any { e * w * le } else { Rgb::ZERO }
+            },
+            &mut medium_l,
+            stats,
+        );
+        l += crossed_l + e * medium_l;
+        let seg = std::mem::replace(&mut st.beta, Rgb::ONE);
+        beta *= seg;
+        e *= seg;
+        if crossed_any && st.depth == 0 {
             pend.alpha += 1.0;
         }
         let (hit, s) = match step {
@@ -470,17 +513,17 @@ fn camera_path(
                 if st.depth == 0 {
                     pend.alpha += 1.0;
                 }
-                if st.depth < max_depth && st.beta.is_finite() && st.beta != Rgb::ZERO {
-                    l += continuation
-                        .scatter_in_medium(ctx, p, st.dir, phase, st.media, st.beta, st.depth, sampler, stats);
+                if st.depth < max_depth && beta.is_finite() && beta != Rgb::ZERO {
+                    l +=
+                        continuation.scatter_in_medium(ctx, p, st.dir, phase, st.media, beta, st.depth, sampler, stats);
                 }
-                return (l, None, first_t);
+                break;
             }
             Step::Escaped => {
                 if !(st.depth == 0 && transparent_background)
                     && let Some(le) = st.escaped_radiance(ctx)
                 {
-                    l += st.beta * le;
+                    l += e * le;
                     if st.depth == 0 {
                         pend.alpha += 1.0;
                     }
@@ -506,53 +549,87 @@ fn camera_path(
         } else if first_t.is_infinite() {
             first_t = s.t;
         }
-        l += st.surface_emission(ctx, &hit, &s, &sp);
+        l += PathState { beta: e, ..st }.surface_emission(ctx, &hit, &s, &sp);
         if st.depth >= max_depth {
             break;
         }
         let wo_local = sp.frame.to_local(wo);
-        // The subsurface part has no photon map: path traced (the BSDF part is mapped).
+        // The subsurface part has no photon map: path traced (the BSDF part as below).
         if ctx.scene.materials[s.material as usize].subsurface.is_some() {
             let q = sp.bsdf.subsurface_weight(wo_local);
             if q > 0.0 {
-                l += continuation.subsurface_from(ctx, &s, &sp, wo, st.media, st.beta * q, st.depth, sampler, stats);
+                l += continuation.subsurface_from(ctx, &s, &sp, wo, st.media, beta * q, st.depth, sampler, stats);
             }
         }
-        if !sp.bsdf.is_delta() {
-            // Direct light without MIS (no BSDF ray finds lights from here); lights below
-            // count when the BSDF transmits (photons are gathered on this side only).
+        let at = sp.bsdf.at(wo_local);
+        let split = Split::of(&sp.bsdf);
+        let delta = sp.bsdf.is_delta();
+        // The visible point: the first vertex with a diffuse-like part.
+        let (diffuse, glossy) = if delta || vp.is_some() { (false, true) } else { split.parts(&at) };
+        let is_vp = diffuse;
+        if !delta {
+            // Direct light (lights below count when the BSDF transmits: photons are
+            // gathered on this side only), MIS against the next ray unless the path ends
+            // here (a visible point with no glossy part).
             let n_select = if sp.bsdf.transmits() { Vec3::ZERO } else { s.ng };
-            let u_pt = Vec2::new(u_lx, u_ly);
-            l += surface_nee(
-                ctx,
-                &s,
-                &sp,
-                &sp.bsdf.at(wo_local),
-                n_select,
-                0.0,
-                st.beta,
-                st.media,
-                u_light,
-                u_pt,
-                stats,
-            );
-            return (
-                l,
-                Some(VisiblePoint {
+            let mis = if is_vp && !glossy { 0.0 } else { 1.0 };
+            l += surface_nee(ctx, &s, &sp, &at, n_select, mis, beta, st.media, u_light, Vec2::new(u_lx, u_ly), stats);
+            if is_vp {
+                vp = Some(VisiblePoint {
                     p: s.p,
                     ng: s.ng,
                     frame: sp.frame,
                     bsdf: sp.bsdf,
+                    split,
                     wo_local,
-                    beta: st.beta,
+                    beta,
                     d: st.depth + 1,
-                }),
-                first_t,
-            );
+                });
+                if !glossy {
+                    break;
+                }
+            }
+            st.prev_n = n_select;
         }
-        if !st.follow_specular(ctx, &s, &sp, wo_local, u_lobe, Vec2::new(u_dx, u_dy), stats) {
+        // The next ray from the whole BSDF; at the visible point only its glossy share goes on.
+        let Some(bs) = at.sample(u_lobe, Vec2::new(u_dx, u_dy)) else {
+            break;
+        };
+        let wi = sp.frame.to_world(bs.wi);
+        let (co, ci) = (wo.dot(s.ng), wi.dot(s.ng));
+        if (bs.wi.z * wo_local.z > 0.0) != (co * ci > 0.0) || ci == 0.0 {
             break;
         }
+        let w = bs.f * (bs.wi.z.abs() / bs.pdf);
+        e = beta * w;
+        beta = if is_vp {
+            beta * (w - split.diffuse_of_sample(&at, bs.wi, bs.f, bs.delta) * (bs.wi.z.abs() / bs.pdf)).max(Rgb::ZERO)
+        } else {
+            e
+        };
+        if !(beta.is_finite() && e.is_finite()) || (beta == Rgb::ZERO && e == Rgb::ZERO) {
+            break;
+        }
+        st.prev_pdf = if bs.delta { 0.0 } else { bs.pdf };
+        st.prev_p = s.p;
+        st.prev_tri = s.tri;
+        st.depth += 1;
+        st.media = ctx.medium_after(&s, wi, st.media);
+        st.ray = RayMask::after_bounce(bs.kind, ci < 0.0);
+        st.light_path = s.light_path.bounced(bs.kind, ci < 0.0, bs.delta);
+        st.org = offset_ray_origin(s.p, if ci > 0.0 { s.ng } else { -s.ng });
+        st.dir = wi;
+        stats.bounce += 1;
+        // Russian roulette after the visible point, as the path tracer's.
+        if vp.is_some() && st.depth >= continuation.rr_depth {
+            // Refraction keeps 1 − F of the throughput (Cycles' convention): no η scale.
+            let q = beta.max_element().max(e.max_element()).min(0.95);
+            if !(u_rr < q) {
+                break;
+            }
+            beta /= q;
+            e /= q;
+        }
     }
-    (l, None, first_t)
+    (l, vp, first_t)
 }

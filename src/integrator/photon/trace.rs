@@ -11,19 +11,22 @@
 //! photon's largest power component never grows: no power blow-up, and every stored
 //! photon has at most its light's per-photon power.
 //!
-//! Two maps, as in Jensen's notes:
-//! - `Global`: every non-specular hit of every photon (paths L {S|D}* D), with its hit
-//!   index (1 = direct light) and a flag for L S+ D paths;
-//! - `Caustic`: only hits reached through specular (delta) scattering alone (L S+ D);
-//!   the photon is dropped at its first non-specular hit. Not implemented: aiming
-//!   caustic photons at specular objects (projection maps); caustic photons are emitted
-//!   as the global ones are, only more of them (on the glass caustic scene 10.7 % are
-//!   stored, and 10x as many changed PM's error by 6 %: docs/benchmarks.md).
+//! Two maps, as in Jensen's notes, with "glossy" as `lobes.rs` splits a BSDF (specular
+//! lobes and glossy lobes below the roughness threshold; the diffuse-like rest is "D"):
+//! - `Global`: every non-specular hit of every photon (paths L {G|D}* D), with its hit
+//!   index (1 = direct light) and a flag for L G+ D paths (every scattering glossy);
+//! - `Caustic`: only hits reached through glossy scattering alone (L G+ D); the photon
+//!   continues with the glossy part of each scattering only and is dropped when none is
+//!   left. Not implemented: aiming caustic photons at glossy objects (projection maps);
+//!   caustic photons are emitted as the global ones are, only more of them (on the glass
+//!   caustic scene 10.7 % are stored, and 10x as many changed PM's error by 6 %:
+//!   docs/benchmarks.md).
 //!
-//! "Specular" is `Bsdf::is_delta()`: delta BSDFs only. Glossy lobes, however smooth,
-//! are stored as non-specular (a photon estimate of a very smooth glossy lobe is noisy
-//! rather than wrong; treating it as specular would need a roughness threshold with no
-//! principled value).
+//! A scattering with both parts keeps the L G+ D flag for its glossy share of the weight
+//! only: in the global pass the photon stays flagged with probability P_G = lum(w_G) /
+//! lum(w) and then carries w_G / P_G, else w_D / (1 − P_G) (both unbiased), so that the
+//! flagged photons estimate exactly the light a camera vertex's diffuse-like part does
+//! not get from the global map through a gather ray.
 //!
 //! Random numbers: photon i of pass `pass` draws from the Owen-scrambled Sobol stream
 //! (seed, salt, pass, i), so the maps depend on (seed, i) only, never on threads; the
@@ -31,12 +34,13 @@
 //! Stochastic transparency (BLEND) lets photons pass as camera rays do.
 
 use super::Photon;
+use super::lobes::Split;
 use crate::integrator::SceneContext;
 use crate::integrator::path::PathIntegrator;
 use crate::integrator::walk::{PathState, Step};
 use crate::light::emit::Emitters;
-use crate::math::Rgb;
 use crate::math::offset_ray_origin;
+use crate::math::{Rgb, luminance};
 use crate::render::job::RayStats;
 use crate::sampling::PixelSampler;
 use crate::sampling::warp::cosine_hemisphere;
@@ -153,14 +157,15 @@ pub fn trace_one(
         return;
     };
     let mut path = PathState::photon(e.org, e.dir, e.power);
-    let mut specular_only = true;
+    // Every scattering so far was glossy or specular (the L G+ D flag).
+    let mut glossy_only = true;
     // Photons scatter in media (free flights as the path tracer's, with the photon's
     // power as the channel weights) but are stored only on surfaces; they count no
     // emission on the way.
     let mut ignored = Rgb::ZERO;
     let mut ray_stats = RayStats::default();
     loop {
-        let [u_lobe, u_x, u_y, u_rr] = s.next_4d();
+        let [u_lobe, u_x, u_y, mut u_rr] = s.next_4d();
         let [u_channel, u_dist, u_px, u_py] = if ctx.has_media { s.next_4d() } else { [0.0; 4] };
         st.rays += 1;
         let power_before = path.beta;
@@ -177,8 +182,8 @@ pub fn trace_one(
                 }
                 path.beta = power_before * (weight / q);
                 path.depth += 1;
-                specular_only = false;
-                if path.depth >= job.max_depth {
+                glossy_only = false;
+                if path.depth >= job.max_depth || job.kind == MapKind::Caustic {
                     return;
                 }
                 path.org = p;
@@ -192,26 +197,19 @@ pub fn trace_one(
         let sp = ctx.shade(&sh, wo);
         let delta = sp.bsdf.is_delta();
         if !delta {
-            let caustic = specular_only && path.depth > 1;
-            match job.kind {
-                MapKind::Global if job.skip_direct && path.depth == 1 => {}
-                MapKind::Global => {
-                    out.push(Photon::new(sh.p, path.beta, wo, sh.ng, path.depth, caustic));
-                    st.stored += 1;
-                }
-                MapKind::Caustic => {
-                    if caustic {
-                        out.push(Photon::new(sh.p, path.beta, wo, sh.ng, path.depth, true));
-                        st.stored += 1;
-                    }
-                    return;
-                }
+            let caustic = glossy_only && path.depth > 1;
+            let store = match job.kind {
+                MapKind::Global => !(job.skip_direct && path.depth == 1),
+                MapKind::Caustic => caustic,
+            };
+            if store {
+                out.push(Photon::new(sh.p, path.beta, wo, sh.ng, path.depth, caustic));
+                st.stored += 1;
             }
         }
         if path.depth >= job.max_depth {
             return;
         }
-        specular_only &= delta;
         // Scatter.
         let wo_local = sp.frame.to_local(wo);
         // The subsurface part, chosen with probability its weight (as the path tracer):
@@ -224,6 +222,10 @@ pub fn trace_one(
             let u = s.next_4d();
             let [v_dx, v_dy, v_rr, _] = s.next_4d();
             if u[0] < q_sss {
+                // A subsurface walk is not glossy: the caustic map has no use for it.
+                if job.kind == MapKind::Caustic {
+                    return;
+                }
                 let walker = PathIntegrator::default();
                 let entry_u = [u[1], u[2], (u[0] / q_sss).min(0.999_999), u[3]];
                 let Some(exit) = walker.subsurface(ctx, &sh, &sp, wo, &ss, path.beta, entry_u) else {
@@ -235,7 +237,7 @@ pub fn trace_one(
                 }
                 path.beta *= exit.weight / q;
                 path.depth += 1;
-                specular_only = false;
+                glossy_only = false;
                 if path.depth >= job.max_depth {
                     return;
                 }
@@ -274,7 +276,40 @@ pub fn trace_one(
         } else {
             bs.f
         };
-        let w = f * (bs.wi.z.abs() / (bs.pdf * (1.0 - q_sss))) * correction;
+        let scale = (bs.wi.z.abs() / (bs.pdf * (1.0 - q_sss))) * correction;
+        let mut w = f * scale;
+        // The L G+ D flag: split the weight into its diffuse-like and glossy shares (the
+        // adjoint's diffuse part for a reflection, as f above).
+        if glossy_only {
+            let split = Split::of(&sp.bsdf);
+            let f_d = if bs.delta {
+                Rgb::ZERO
+            } else if split == Split::AllDiffuse {
+                f
+            } else if bs.wi.z * wo_local.z > 0.0 {
+                split.diffuse(&sp.bsdf.at(bs.wi), wo_local).min(f).max(Rgb::ZERO)
+            } else {
+                split.diffuse_of_sample(&sp.bsdf.at(wo_local), bs.wi, bs.f, false)
+                    * sp.bsdf.refraction_adjoint_ratio(wo_local, bs.wi)
+            };
+            let (w_d, w_g) = (f_d * scale, (f - f_d).max(Rgb::ZERO) * scale);
+            let p_g = if w_d == Rgb::ZERO { 1.0 } else { luminance(w_g) / luminance(w_d + w_g) };
+            if job.kind == MapKind::Caustic {
+                // Only the glossy share goes on in the caustic pass.
+                w = w_g;
+            } else if p_g >= 1.0 {
+                w = w_g;
+            } else if u_rr < p_g {
+                // The choice spends u_rr's first share; the rest, rescaled, is uniform
+                // again for Russian roulette.
+                w = w_g / p_g;
+                u_rr /= p_g;
+            } else {
+                w = w_d / (1.0 - p_g);
+                u_rr = (u_rr - p_g) / (1.0 - p_g);
+                glossy_only = false;
+            }
+        }
         let q = w.max_element().min(1.0);
         if !(q > 0.0) || u_rr >= q || !w.is_finite() {
             return;
