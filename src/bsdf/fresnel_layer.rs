@@ -247,7 +247,10 @@ mod tests {
         let shipped = &super::super::layer_table::LAYER_AB_BITS;
         assert_eq!(ab.len(), shipped.len());
         let differ = ab.iter().zip(shipped.iter()).filter(|(a, b)| a != b).count();
-        assert_eq!(differ, 0, "{differ} shipped entries differ from the quadrature: CAUSTIC_TABLES_BLESS=1 rewrites the file");
+        assert_eq!(
+            differ, 0,
+            "{differ} shipped entries differ from the quadrature: CAUSTIC_TABLES_BLESS=1 rewrites the file"
+        );
         assert_eq!(avg.as_slice(), super::super::layer_table::LAYER_S_AVG_BITS.as_slice());
     }
 

@@ -271,9 +271,10 @@ impl PathState {
     #[inline]
     pub fn escaped_radiance_each(&self, ctx: &SceneContext, mut each: impl FnMut(Option<usize>, Rgb)) -> Option<Rgb> {
         let le = ctx.world_radiance(self.dir);
-        let sun = ctx.sun_emission_each(self.dir, self.prev_pdf, self.depth == 0, self.prev_tri, &self.light_path, |i, c| {
-            each(Some(i), c)
-        });
+        let sun =
+            ctx.sun_emission_each(self.dir, self.prev_pdf, self.depth == 0, self.prev_tri, &self.light_path, |i, c| {
+                each(Some(i), c)
+            });
         if le == Rgb::ZERO && sun == Rgb::ZERO {
             return None;
         }

@@ -239,6 +239,7 @@ impl JensenIntegrator {
                             pdf,
                             st.depth == 0,
                             st.prev_tri,
+                            &st.light_path,
                         );
                         crossed_any |= any;
                         l += e * w * le;

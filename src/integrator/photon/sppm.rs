@@ -492,6 +492,7 @@ fn camera_path(
                     st.prev_pdf,
                     st.depth == 0,
                     st.prev_tri,
+                    &st.light_path,
                 );
                 crossed_any = any;
                 if any { e * w * le } else { Rgb::ZERO }

@@ -16,6 +16,7 @@ pub mod noise;
 pub mod perlin;
 pub mod voronoi;
 mod voronoi_coord;
+mod voronoi_settings;
 pub mod wave;
 pub mod white_noise;
 

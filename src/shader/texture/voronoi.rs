@@ -12,25 +12,8 @@ use glam::{Vec2, Vec3, Vec4};
 
 use super::perlin::mix;
 use super::voronoi_coord::{Coord, euclidean};
-
-/// The node's "Feature" setting.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum VoronoiFeature {
-    F1,
-    F2,
-    SmoothF1,
-    DistanceToEdge,
-    NSphereRadius,
-}
-
-/// The node's "Distance" setting (ignored in 1-D).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum VoronoiMetric {
-    Euclidean,
-    Manhattan,
-    Chebychev,
-    Minkowski,
-}
+pub(super) use super::voronoi_settings::Params;
+pub use super::voronoi_settings::{VoronoiFeature, VoronoiMetric};
 
 /// The Voronoi node's settings and non-vector inputs.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -72,24 +55,6 @@ pub struct VoronoiOut {
     pub w: f32,
     /// The n-sphere radius.
     pub radius: f32,
-}
-
-/// The parameters after the node's clamping, as Cycles' `VoronoiParams`.
-pub(super) struct Params {
-    pub(super) feature: VoronoiFeature,
-    pub(super) metric: VoronoiMetric,
-    pub(super) normalize: bool,
-    pub(super) scale: f32,
-    pub(super) detail: f32,
-    pub(super) roughness: f32,
-    pub(super) lacunarity: f32,
-    pub(super) smoothness: f32,
-    pub(super) exponent: f32,
-    pub(super) randomness: f32,
-    pub(super) max_distance: f32,
-    /// Compute the Color output (off when it is not linked: smooth F1 hashes a colour for
-    /// each of its 125 cells).
-    pub(super) color: bool,
 }
 
 /// One octave's (or the sum's) outputs; position in 4-D as Cycles keeps it.

@@ -11,7 +11,7 @@ use super::hash::{
     hash_float_to_float, hash_float_to_float3, hash_int2_to_float2, hash_int2_to_float3, hash_int3_to_float3,
     hash_int4_to_float3, hash_int4_to_float4,
 };
-use super::voronoi::{Params, VoronoiMetric};
+use super::voronoi_settings::{Params, VoronoiMetric};
 
 /// A Voronoi coordinate of 1 to 4 dimensions.
 pub(super) trait Coord: Copy + Add<Output = Self> + Sub<Output = Self> + Mul<f32, Output = Self> {
