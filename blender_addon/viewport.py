@@ -86,14 +86,7 @@ EDITABLE_INPUTS = ("Base Color", "Metallic", "Roughness", "IOR", "Transmission W
 
 
 def _value(socket):
-    # Strings iterate too: they are compared as they are (a string socket, a menu).
-    v = getattr(socket, "default_value", None)
-    if v is None or isinstance(v, (bool, str, int)):
-        return v
-    try:
-        return tuple(round(float(x), 7) for x in v)
-    except TypeError:
-        return round(float(v), 7)
+    return viewport_lights.rounded(getattr(socket, "default_value", None))
 
 
 def material_snapshot(material):

@@ -35,8 +35,9 @@ def _flat(m):
     return [float(m[r][c]) for c in range(4) for r in range(4)]
 
 
-def _rounded(v):
-    """A property or socket value, comparable and rounded as the material snapshots are."""
+def rounded(v):
+    """A property or socket value, comparable and rounded to 7 digits (snapshots of lights,
+    worlds and materials); strings, which iterate too, are kept as they are."""
     if v is None or isinstance(v, (bool, str, int)):
         return v
     try:
@@ -64,12 +65,12 @@ def light_snapshot(obj):
     """What a light edit does not carry (see the module doc); equal snapshots mean the light
     differs from the exported one only in its emission and placement."""
     light = obj.data
-    shape = tuple((p, _rounded(getattr(light, p, None))) for p in _SHAPE_PROPERTIES)
-    flags = tuple((p, _rounded(getattr(obj, p, None))) for p in _OBJECT_PROPERTIES)
+    shape = tuple((p, rounded(getattr(light, p, None))) for p in _SHAPE_PROPERTIES)
+    flags = tuple((p, rounded(getattr(obj, p, None))) for p in _OBJECT_PROPERTIES)
     tree = light.node_tree if getattr(light, "use_nodes", False) else None
     nodes = None
     if tree is not None:
-        nodes = (tuple(sorted((n.name, n.type, tuple((i.identifier, _rounded(getattr(i, "default_value", None)))
+        nodes = (tuple(sorted((n.name, n.type, tuple((i.identifier, rounded(getattr(i, "default_value", None)))
                                                      for i in n.inputs if n.type != "EMISSION"))
                               for n in tree.nodes)),
                  tuple(sorted((k.from_node.name, k.from_socket.identifier, k.to_node.name, k.to_socket.identifier)
@@ -147,7 +148,7 @@ def world_snapshot(world):
     bg = _background(world)
     nodes = tuple(sorted(
         (n.name, n.type, getattr(getattr(n, "image", None), "name", None),
-         tuple((i.identifier, _rounded(getattr(i, "default_value", None))) for i in n.inputs
+         tuple((i.identifier, rounded(getattr(i, "default_value", None))) for i in n.inputs
                if not (n == bg and (i.name == "Strength" or i.name == "Color" and not i.is_linked))))
         for n in tree.nodes))
     links = tuple(sorted((k.from_node.name, k.from_socket.identifier, k.to_node.name, k.to_socket.identifier)
