@@ -61,29 +61,38 @@ fn sun_scene(dir: &Path, name: &str, vis: Value) -> PathBuf {
 /// Hidden from the camera, the occluder still casts its shadow: the middle of the image
 /// shows the floor in shadow (0: direct light only, a black occluder reflects nothing)
 /// where a visible occluder shows itself (also 0) — and hidden from both the camera and
-/// shadow rays, the floor is lit everywhere alike. The sun is a delta light seen by NEE
-/// only, so each lit pixel is exact up to rounding: equal within 1e-4 relative.
+/// shadow rays, the floor is lit everywhere. The sun is a delta light seen by NEE only, so
+/// a lit pixel is the same in two renders up to rounding (1e-4 relative); across the image
+/// the floor's value varies a little with the view direction (its dielectric layer's albedo
+/// seen from the viewer: 8e-5 of it here), so the bare floor is held to 1e-3 of its mean,
+/// where a shadow would be 100 % off.
 #[test]
 fn hidden_from_camera_still_casts_its_shadow() {
     let dir = temp_dir();
     let d = dir.path();
     let px = render(&sun_scene(d, "a.gltf", json!({"camera": false})), &d.join("a.exr"), "4", "1");
+    let bare = render(&sun_scene(d, "b.gltf", json!({"camera": false, "shadow": false})), &d.join("b.exr"), "4", "1");
     let lit = mean_red(&px, 10.0, false);
     assert!(lit > 0.1, "the floor is lit around the occluder: {lit}");
     assert_eq!(mean_red(&px, 2.0, true), 0.0, "the floor under an unseen occluder is in its shadow");
-    // Pixels wholly between the shadow (±4.7 px) and the occluder's image (±9.4 px): floor, lit.
-    let ring: Vec<f64> = (0..px.len())
+    // Pixels wholly between the shadow (±4.7 px) and the occluder's image (±9.4 px): floor, lit
+    // as the bare floor is there.
+    let ring: Vec<usize> = (0..px.len())
         .filter(|i| {
             let (x, y) = ((i % W) as f32 - 15.5, (i / W) as f32 - 15.5);
             (5.5..=8.5).contains(&x.abs().max(y.abs()))
         })
-        .map(|i| px[i][0] as f64)
         .collect();
-    assert!(ring.iter().all(|v| (v - lit).abs() <= 1e-4 * lit), "the floor shows where the occluder hides: {ring:?}");
-
-    let px = render(&sun_scene(d, "b.gltf", json!({"camera": false, "shadow": false})), &d.join("b.exr"), "4", "1");
-    let all: Vec<f64> = px.iter().map(|p| p[0] as f64).collect();
-    assert!(all.iter().all(|v| (v - lit).abs() <= 1e-4 * lit), "nothing hides the floor or its light");
+    let off: Vec<(f32, f32)> = ring
+        .iter()
+        .filter(|&&i| (px[i][0] - bare[i][0]).abs() > 1e-4 * bare[i][0])
+        .map(|&i| (px[i][0], bare[i][0]))
+        .collect();
+    assert!(off.is_empty(), "the floor does not show where the occluder hides: {off:?}");
+    assert!(
+        bare.iter().all(|p| (p[0] as f64 - lit).abs() <= 1e-3 * lit),
+        "nothing hides the floor or its light"
+    );
 
     // Seen by the camera but not by shadow rays: the occluder shows (black: only its 4 %
     // dielectric specular reflects the sun) and casts no shadow beside its image.
