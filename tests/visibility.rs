@@ -89,10 +89,7 @@ fn hidden_from_camera_still_casts_its_shadow() {
         .map(|&i| (px[i][0], bare[i][0]))
         .collect();
     assert!(off.is_empty(), "the floor does not show where the occluder hides: {off:?}");
-    assert!(
-        bare.iter().all(|p| (p[0] as f64 - lit).abs() <= 1e-3 * lit),
-        "nothing hides the floor or its light"
-    );
+    assert!(bare.iter().all(|p| (p[0] as f64 - lit).abs() <= 1e-3 * lit), "nothing hides the floor or its light");
 
     // Seen by the camera but not by shadow rays: the occluder shows (black: only its 4 %
     // dielectric specular reflects the sun) and casts no shadow beside its image.

@@ -5,7 +5,7 @@
 
 /// (A, B) of each entry as `f32` bits.
 #[rustfmt::skip]
-pub(super) const LAYER_AB_BITS: [u32; 49152] = [
+pub(super) static LAYER_AB_BITS: [u32; 49152] = [
     0x3f6467f2, 0x36fcdce6, 0x3f644bfe, 0x36d0219b, 0x3f77c79b, 0x339d1aa2, 0x3f7f133b, 0x3131bdbe,
     0x3f7fc1db, 0x2f906be4, 0x3f7fe759, 0x2e34ea32, 0x3f7ff43c, 0x2d1e9dcf, 0x3f7ff9b0, 0x2c36b587,
     0x3f7ffc50, 0x2b8ec2bd, 0x3f7ffdb5, 0x2ab85d02, 0x3f7ffe81, 0x2a2901a4, 0x3f7ffefc, 0x29a7a025,
@@ -6154,7 +6154,7 @@ pub(super) const LAYER_AB_BITS: [u32; 49152] = [
 
 /// s_avg per z node as `f32` bits.
 #[rustfmt::skip]
-pub(super) const LAYER_S_AVG_BITS: [u32; 24] = [
+pub(super) static LAYER_S_AVG_BITS: [u32; 24] = [
     0x00000000, 0x3aa04fce, 0x3b979de2, 0x3c1ef604, 0x3c8261f1, 0x3cba8e52, 0x3cf46311, 0x3d16583e,
     0x3d305113, 0x3d46d464, 0x3d58b0fa, 0x3d64bf95, 0x3d69d515, 0x3d66b250, 0x3d59ef0f, 0x3d41dd24,
     0x3d1c5ce0, 0x3ccd2ee1, 0x3c1c81c9, 0x3b3e7107, 0x3a3d229d, 0x38f3e737, 0x36d3c955, 0x00000000,
