@@ -234,6 +234,30 @@ class _Engine:
         pass
 
 
+def _apply_live(v, change):
+    """Run `change()` with the viewport `v` hearing every depsgraph update (as view_update does);
+    returns the types of the requests it sent."""
+    sent = []
+    request = v.client.request
+
+    def spy(header, payload=b"", replay=True):
+        sent.append(header["type"])
+        return request(header, payload, replay)
+
+    v.client.request = spy
+
+    def handler(scene, depsgraph):
+        v.update(bpy.context, depsgraph)
+
+    bpy.app.handlers.depsgraph_update_post.append(handler)
+    try:
+        change()
+        _settle()
+    finally:
+        bpy.app.handlers.depsgraph_update_post.remove(handler)
+    return sent
+
+
 @pytest.mark.needs_binary
 def test_view_update_exports_once_then_sends_edits(vp, empty_scene):
     """The first view_update exports and loads the scene and starts rendering; a move made
@@ -253,24 +277,11 @@ def test_view_update_exports_once_then_sends_edits(vp, empty_scene):
         first_folder = v.folder
         assert first_folder and v.client.alive()
         v.client.wait_frame(v.client.generation)
-        sent = []
-        request = v.client.request
 
-        def spy(header, payload=b"", replay=True):
-            sent.append(header["type"])
-            return request(header, payload, replay)
-
-        v.client.request = spy
-
-        def handler(scene, depsgraph):
-            v.update(bpy.context, depsgraph)
-
-        bpy.app.handlers.depsgraph_update_post.append(handler)
-        try:
+        def move():
             box.location.x += 0.5
-            _settle()
-        finally:
-            bpy.app.handlers.depsgraph_update_post.remove(handler)
+
+        sent = _apply_live(v, move)
         assert "transform" in sent and "load" not in sent, sent
         assert v.folder == first_folder, "a move exported the scene again"
         v.client.wait_frame(v.client.generation)
@@ -307,27 +318,10 @@ def _edited_and_fresh(viewport, change):
     a second viewport that exports the changed scene from scratch; and the requests sent."""
     engine = _Engine()
     v = viewport.Viewport(engine)
-    sent = []
     try:
         v.update(bpy.context, bpy.context.evaluated_depsgraph_get())
         _converged(v)
-        request = v.client.request
-
-        def spy(header, payload=b"", replay=True):
-            sent.append(header["type"])
-            return request(header, payload, replay)
-
-        v.client.request = spy
-
-        def handler(scene, depsgraph):
-            v.update(bpy.context, depsgraph)
-
-        bpy.app.handlers.depsgraph_update_post.append(handler)
-        try:
-            change()
-            _settle()
-        finally:
-            bpy.app.handlers.depsgraph_update_post.remove(handler)
+        sent = _apply_live(v, change)
         edited = _converged(v)
         assert not [r for r in engine.reports if r[0] == {"ERROR"}], engine.reports
     finally:
