@@ -67,6 +67,12 @@ def strip_images(img):
 def test_moving_cube_blurs_as_in_cycles(empty_scene, tmp_path, position):
     scene = empty_scene
     build(scene, blur=True, position=position)
+    assert_blur_matches_cycles(scene, tmp_path, f"motion {position}")
+
+
+def assert_blur_matches_cycles(scene, tmp_path, label):
+    """Caustic's blurred render against Cycles', strip by strip (mean within the bound of each
+    strip), and the sharp render outside the bound in some strip, so that the test sees blur."""
     images = {engine: [scenes.render_rgb(scene, engine, s, str(tmp_path / f"{engine}_{s}.exr")).mean(axis=2)
                        for s in SEEDS] for engine in ("CYCLES", "CAUSTIC")}
     sharp = scenes.render_rgb(scene_sharp(scene), "CAUSTIC", SEEDS[0], str(tmp_path / "sharp.exr")).mean(axis=2)
@@ -76,13 +82,12 @@ def test_moving_cube_blurs_as_in_cycles(empty_scene, tmp_path, position):
                               for e in ("CAUSTIC", "CYCLES"))
         sigma = math.sqrt(vc + vy)
         bound = SIGMAS * sigma + MODEL_ALLOWANCE * my
-        print(f"\n[motion {position}] strip {k}: caustic {mc:.5f} cycles {my:.5f} ratio {mc / my:.4f} "
+        print(f"\n[{label}] strip {k}: caustic {mc:.5f} cycles {my:.5f} ratio {mc / my:.4f} "
               f"bound {bound:.2e} sharp {strip_images(sharp)[k].mean():.5f}")
         if abs(mc - my) > bound:
             failures.append(f"strip {k}: Caustic {mc:.5f}, Cycles {my:.5f}, bound {bound:.2e}")
         moved = max(moved, abs(strip_images(sharp)[k].mean() - my) / bound)
     assert not failures, "; ".join(failures)
-    # The test can see blur: the sharp image is outside the bound in some strip.
     assert moved > 1.0, "the sharp render is within the bound of the blurred one: the scene shows no blur"
 
 
@@ -215,20 +220,5 @@ def test_deforming_cube_blurs_as_in_cycles(empty_scene, tmp_path):
     somewhere, so the test sees the blur."""
     scene = empty_scene
     build_squash(scene)
-    images = {engine: [scenes.render_rgb(scene, engine, s, str(tmp_path / f"{engine}_{s}.exr")).mean(axis=2)
-                       for s in SEEDS] for engine in ("CYCLES", "CAUSTIC")}
-    sharp = scenes.render_rgb(scene_sharp(scene), "CAUSTIC", SEEDS[0], str(tmp_path / "sharp.exr")).mean(axis=2)
-    failures, moved = [], 0.0
-    for k in range(STRIPS):
-        (mc, vc), (my, vy) = (mean_and_variance(*[strip_images(i)[k] for i in images[e]])
-                              for e in ("CAUSTIC", "CYCLES"))
-        sigma = math.sqrt(vc + vy)
-        bound = SIGMAS * sigma + MODEL_ALLOWANCE * my
-        print(f"\n[deformation] strip {k}: caustic {mc:.5f} cycles {my:.5f} ratio {mc / my:.4f} "
-              f"bound {bound:.2e} sharp {strip_images(sharp)[k].mean():.5f}")
-        if abs(mc - my) > bound:
-            failures.append(f"strip {k}: Caustic {mc:.5f}, Cycles {my:.5f}, bound {bound:.2e}")
-        moved = max(moved, abs(strip_images(sharp)[k].mean() - my) / bound)
-    assert not failures, "; ".join(failures)
-    assert moved > 1.0, "the sharp render is within the bound of the blurred one: the scene shows no blur"
+    assert_blur_matches_cycles(scene, tmp_path, "deformation")
 
