@@ -6,7 +6,7 @@
 
 mod common;
 
-use common::agreement::{agree, mean_var, regions, sidak};
+use common::agreement::{agree, disagreeing, mean_var, regions, sidak};
 use common::{GltfBuilder, emissive_furnace, look_rotation, root, run, temp_dir};
 use serde_json::json;
 use statrs::distribution::{ContinuousCDF, StudentsT};
@@ -47,12 +47,7 @@ fn bdpt_matches_path(
     let b = region_means(scene, dir.path(), &["--integrator", "bdpt", "--resolution", &r, "--spp", &sb], seeds, &regs);
     let p = region_means(scene, dir.path(), &["--integrator", "path", "--resolution", &r, "--spp", &sp], seeds, &regs);
     let alpha = sidak(regs.len() * scenes);
-    let mut failed = Vec::new();
-    for (k, (rn, _)) in regs.iter().enumerate() {
-        if !agree(&format!("{name} {rn}"), &b[k], &p[k], alpha) {
-            failed.push(rn.clone());
-        }
-    }
+    let failed = disagreeing(name, &regs, &b, &p, alpha);
     assert!(failed.is_empty(), "{name}: BDPT and path tracing disagree in {failed:?}");
 }
 

@@ -14,7 +14,7 @@
 
 mod common;
 
-use common::agreement::{agree, region_means, regions, sidak};
+use common::agreement::{disagreeing, region_means, regions, sidak};
 use common::{root, run, temp_dir};
 use std::path::Path;
 use std::time::Duration;
@@ -46,12 +46,7 @@ fn vcm_matches_path(
         LIMIT,
     );
     let alpha = sidak(regs.len());
-    let mut failed = Vec::new();
-    for (k, (rn, _)) in regs.iter().enumerate() {
-        if !agree(&format!("{name} {rn}"), &v[k], &p[k], alpha) {
-            failed.push(rn.clone());
-        }
-    }
+    let failed = disagreeing(name, &regs, &v, &p, alpha);
     assert!(failed.is_empty(), "{name}: VCM and path tracing disagree in {failed:?}");
 }
 

@@ -61,6 +61,22 @@ pub fn agree(name: &str, a: &[f64], b: &[f64], alpha: f64) -> bool {
     ok
 }
 
+/// The regions (of `regions`) where the per-seed means `a` and `b` disagree at level `alpha`.
+pub fn disagreeing(
+    name: &str,
+    regions: &[(String, Vec<usize>)],
+    a: &[Vec<f64>],
+    b: &[Vec<f64>],
+    alpha: f64,
+) -> Vec<String> {
+    regions
+        .iter()
+        .enumerate()
+        .filter(|(k, (rn, _))| !agree(&format!("{name} {rn}"), &a[*k], &b[*k], alpha))
+        .map(|(_, (rn, _))| rn.clone())
+        .collect()
+}
+
 /// Per-comparison level for a test making `n` comparisons at overall level 10⁻³.
 pub fn sidak(n: usize) -> f64 {
     1.0 - (1.0 - 1e-3f64).powf(1.0 / n as f64)
