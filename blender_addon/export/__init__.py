@@ -108,7 +108,8 @@ def export_scene(depsgraph, folder, settings, motion=True, viewport=False):
             state.warnings.extend(state.motion.warnings)
     try:
         with exporting(state), bpy.context.temp_override(scene=scene, view_layer=view_layer), \
-                hooks_enabled(), shape_keys_exported(depsgraph, state.warnings), render_depsgraph(depsgraph):
+                hooks_enabled(), shape_keys_exported(depsgraph, state.warnings, viewport), \
+                render_depsgraph(depsgraph):
             bpy.ops.export_scene.gltf(**_exporter_options(filepath, viewport))
     except RuntimeError as err:
         # The operator's error carries the exporter's whole traceback; its last line says why.

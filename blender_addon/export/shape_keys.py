@@ -11,9 +11,15 @@ So for the export each such object gets a placeholder modifier, disabled for the
 for renders (evaluation skips it, so the evaluated mesh is unchanged) and a no-op if it were
 enabled (Smooth with no iterations and factor 0), removed again when the export ends, also on
 failure. An object whose modifiers cannot be edited (linked library data) keeps the warning.
+
+Final renders only: in the Rendered viewport, adding and removing a modifier tags the object's
+geometry as changed, which the viewport answers with a reload (viewport.py), which would export
+again: a loop. There such objects are named instead (shown undeformed until a final render).
 """
 
 from contextlib import contextmanager
+
+import numpy as np
 
 PLACEHOLDER_NAME = "Caustic export (temporary)"
 
@@ -29,11 +35,29 @@ def shape_keyed_meshes(depsgraph):
     return list(found.values())
 
 
+def _deformed(obj, depsgraph):
+    """True when the keys move the mesh: its evaluated vertices differ from its basis."""
+    evaluated = obj.evaluated_get(depsgraph).data
+    if len(evaluated.vertices) != len(obj.data.vertices):
+        return True
+    a, b = (np.empty(3 * len(m.vertices), dtype=np.float32) for m in (evaluated, obj.data))
+    evaluated.vertices.foreach_get("co", a)
+    obj.data.vertices.foreach_get("co", b)
+    return not np.array_equal(a, b)
+
+
 @contextmanager
-def shape_keys_exported(depsgraph, warnings):
+def shape_keys_exported(depsgraph, warnings, viewport=False):
     """While active, every mesh of `shape_keyed_meshes` carries the placeholder modifier (module
-    doc); objects that cannot take one are named in `warnings`."""
+    doc); objects that cannot take one are named in `warnings`. In the `viewport` nothing is
+    touched: meshes the keys deform are named in `warnings`."""
     added = []
+    if viewport:
+        warnings.extend(f"object '{obj.name}': its shape keys are not shown in the Rendered viewport (Blender's "
+                        "glTF exporter writes a mesh without modifiers from its undeformed data); final renders "
+                        "deform it" for obj in shape_keyed_meshes(depsgraph) if _deformed(obj, depsgraph))
+        yield
+        return
     try:
         for obj in shape_keyed_meshes(depsgraph):
             try:
