@@ -17,7 +17,7 @@ own count of the bytes its strands and their BVH hold (`caustic info --json`: cu
 
 Usage:
     cargo build --release
-    .venv/bin/python bench/hair.py [--binary target/release/caustic] [--strands 1000000] [--cycles]
+    .venv/bin/python bench/hair.py [--binary target/release/caustic] [--strands 1000000] [--cycles] [--shape ribbon]
 (numpy, and for --cycles the project's bpy: run it with the .venv's Python.)
 """
 import argparse
@@ -72,7 +72,7 @@ def gltf_axes(p):
     return np.stack([p[:, 0], p[:, 2], -p[:, 1]], axis=1)
 
 
-def write_gltf(folder, n):
+def write_gltf(folder, n, shape="round"):
     pts, radii, counts = strands(n)
     verts, faces = uv_sphere()
     blob = bytearray()
@@ -111,7 +111,8 @@ def write_gltf(folder, n):
         "cameras": [{"type": "perspective", "perspective": {"yfov": 0.6, "znear": 0.1, "aspectRatio": RES[0] / RES[1]}}],
         "extensions": {
             "KHR_lights_punctual": {"lights": [{"type": "directional", "intensity": 3.0 * 683.0}]},
-            "CAUSTIC_curves": {"objects": [{"name": "Fur", "material": 0, "points": cp, "radii": cr, "counts": cc}]},
+            "CAUSTIC_curves": {"objects": [dict({"name": "Fur", "material": 0, "points": cp, "radii": cr, "counts": cc},
+                                                **({"shape": "ribbon"} if shape == "ribbon" else {}))]},
         },
         "nodes": [{"mesh": 0}, {"camera": 0, "translation": [0.0, 2.3, 4.0], "rotation": cam_rot},
                   {"rotation": [-0.7071068, 0.0, 0.0, 0.7071068], "extensions": {"KHR_lights_punctual": {"light": 0}}}],
@@ -161,7 +162,8 @@ hc = bpy.data.hair_curves.new("Fur")
 hc.add_curves(counts.tolist())
 hc.points.foreach_set("position", pts.reshape(-1))
 r = hc.attributes.new("radius", "FLOAT", "POINT"); r.data.foreach_set("value", radii)
-hc.set_types(type="POLY")
+hc.set_types(type={curve_type!r})
+scene.cycles_curves.shape = {cycles_shape!r}
 hc.materials.append(mat)
 scene.collection.objects.link(bpy.data.objects.new("Fur", hc))
 cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
@@ -177,10 +179,13 @@ print("RESULT", json.dumps({{"seconds": t, "rss": resource.getrusage(resource.RU
 '''
 
 
-def run_cycles(n, spp, folder):
+def run_cycles(n, spp, folder, shape="round"):
     script = os.path.join(folder, f"cycles_{spp}.py")
     with open(script, "w") as f:
+        # Ribbons: Cycles draws only non-Poly curves as ribbons (through the same points).
+        curve_type, cycles_shape = ("CATMULL_ROM", "RIBBONS") if shape == "ribbon" else ("POLY", "THICK")
         f.write(CYCLES_SCRIPT.format(bench=os.path.join(ROOT, "bench"), n=n, spp=spp, res=RES,
+                                     curve_type=curve_type, cycles_shape=cycles_shape,
                                      out=os.path.join(folder, f"cycles_{spp}.exr")))
     r = subprocess.run([os.path.join(ROOT, ".venv", "bin", "python"), script], capture_output=True, text=True)
     line = next((ln for ln in r.stdout.splitlines() if ln.startswith("RESULT")), None)
@@ -195,10 +200,13 @@ def main():
     ap.add_argument("--binary", default=os.path.join(ROOT, "target", "release", "caustic"))
     ap.add_argument("--strands", type=int, default=1_000_000)
     ap.add_argument("--cycles", action="store_true", help="also render the scene with Cycles (bpy)")
+    ap.add_argument("--shape", choices=("round", "ribbon"), default="round",
+                    help="strands as round cones (Cycles: Poly curves, Thick Linear) or ribbons (Cycles: Catmull-Rom "
+                         "curves under the Ribbons Curves Shape, Blender 5.0's default)")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory(prefix="caustic-hair-") as folder:
         t = time.time()
-        scene = write_gltf(folder, args.strands)
+        scene = write_gltf(folder, args.strands, args.shape)
         print(f"scene: {args.strands} strands, {args.strands * (POINTS - 1)} segments, written in {time.time() - t:.1f} s")
         info = json.loads(subprocess.run([args.binary, "info", scene, "--json"], capture_output=True, text=True,
                                          check=True).stdout)
@@ -210,7 +218,7 @@ def main():
         print(f"caustic: {SAMPLES[0]} spp {t1:.2f} s, {SAMPLES[1]} spp {t2:.2f} s -> {per:.3f} s per sample "
               f"({RES[0]}x{RES[1]}); peak RSS {max(m1, m2) / 2**20:.0f} MiB")
         if args.cycles:
-            (c1, n1), (c2, n2) = (run_cycles(args.strands, s, folder) for s in SAMPLES)
+            (c1, n1), (c2, n2) = (run_cycles(args.strands, s, folder, args.shape) for s in SAMPLES)
             cper = (c2 - c1) / (SAMPLES[1] - SAMPLES[0])
             print(f"cycles:  {SAMPLES[0]} spp {c1:.2f} s, {SAMPLES[1]} spp {c2:.2f} s -> {cper:.3f} s per sample; "
                   f"peak RSS {max(n1, n2) / 2**20:.0f} MiB (Blender's process, the Curves data included)")

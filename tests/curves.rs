@@ -102,7 +102,8 @@ fn strands_and_their_shadows_cover_their_width_in_every_integrator() {
 /// above, without the floor and the sun, against a white world of radiance 1 seen straight
 /// down on an opaque film. Each pixel shows the world (1) or a strand (0: black, no specular),
 /// so the image's mean is the uncovered fraction 1 − 2r/P, within the 2e-3 bound of
-/// the edge pixels derived above.
+/// the edge pixels derived above; the same drawn as ribbons (`"shape": "ribbon"`), which
+/// face the ray as wide as the strand.
 #[test]
 fn a_scene_of_strands_only_renders() {
     let dir = temp_dir();
@@ -126,11 +127,17 @@ fn a_scene_of_strands_only_renders() {
     g.settings(json!({"transparent": false}));
     g.orthographic([0.0, 0.0, 3.0], [0.0, 0.0, 0.0, 1.0], 1.0, 1.0);
     let scene = g.write(d, "strands_only.gltf");
+    let mut doc: serde_json::Value = serde_json::from_slice(&std::fs::read(&scene).unwrap()).unwrap();
+    doc["extensions"]["CAUSTIC_curves"]["objects"][0]["shape"] = json!("ribbon");
+    let ribbons = d.join("ribbons_only.gltf");
+    std::fs::write(&ribbons, serde_json::to_vec(&doc).unwrap()).unwrap();
     let args = ["--resolution", "64x64", "--spp", "64", "--filter", "box", "--filter-width", "1", "--max-depth", "2"];
-    let px = render_image(&scene, &d.join("strands_only.exr"), &args, LIMIT);
-    let mean = px.iter().map(|p| p[0] as f64).sum::<f64>() / px.len() as f64;
-    let expected = 1.0 - 2.0 * RADIUS as f64 / PERIOD as f64;
-    assert!((mean - expected).abs() < 2e-3, "uncovered fraction {mean}, expected {expected}");
+    for (scene, shape) in [(scene, "round"), (ribbons, "ribbon")] {
+        let px = render_image(&scene, &d.join(format!("{shape}.exr")), &args, LIMIT);
+        let mean = px.iter().map(|p| p[0] as f64).sum::<f64>() / px.len() as f64;
+        let expected = 1.0 - 2.0 * RADIUS as f64 / PERIOD as f64;
+        assert!((mean - expected).abs() < 2e-3, "{shape}: uncovered fraction {mean}, expected {expected}");
+    }
 }
 
 /// Bad strands are refused with exit 3 and a message naming the object and the fault.

@@ -44,6 +44,7 @@ from .settings import render_settings  # noqa: F401
 from .light_groups import light_group_settings  # noqa: F401
 from .state import ExportState, exporting
 from .motion import add_deformation, sample_motion
+from .shape_keys import shape_keys_exported
 from .unsupported import scene_warnings
 from .volumes import VOLUME_EXTENSION, attach_volumes  # noqa: F401
 from .world import WORLD_EXTENSION, world_extension  # noqa: F401
@@ -107,7 +108,8 @@ def export_scene(depsgraph, folder, settings, motion=True, viewport=False):
             state.warnings.extend(state.motion.warnings)
     try:
         with exporting(state), bpy.context.temp_override(scene=scene, view_layer=view_layer), \
-                hooks_enabled(), render_depsgraph(depsgraph):
+                hooks_enabled(), shape_keys_exported(depsgraph, state.warnings, viewport), \
+                render_depsgraph(depsgraph):
             bpy.ops.export_scene.gltf(**_exporter_options(filepath, viewport))
     except RuntimeError as err:
         # The operator's error carries the exporter's whole traceback; its last line says why.

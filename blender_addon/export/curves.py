@@ -14,8 +14,12 @@ strands load without a JSON array.
   the first 2D curve attribute as the root UV (as Cycles' "weak" rule), transformed by the
   object's matrix (radius scaled by its mean scale).
 
-Cycles intersects non-Poly strands as Catmull-Rom curves through these points; Caustic's
-segments are straight round cones. A Curves object's segments (a few control points per strand,
+Cycles intersects non-Poly strands as Catmull-Rom curves through these points, drawn as the
+scene's Curves Shape (`scene.cycles_curves.shape`): Ribbons (Blender 5.0's default) or Thick;
+Poly curves always as Thick Linear. Strands Cycles draws as ribbons are written with `"shape":
+"ribbon"` (the renderer's ray-facing strips with Cycles' self-intersection guard, which is what
+makes dense ribbon fur brighter than round fur); the rest are round. Caustic's segments are
+straight. A Curves object's segments (a few control points per strand,
 as sculpted) are subdivided here into `SUBDIVISIONS` pieces on the Catmull-Rom curve (radius
 interpolated the same way), which brings the straight chain within (segment length)² ×
 curvature / 8 / SUBDIVISIONS² of the curve. Particle hair is not: its points are already
@@ -50,6 +54,10 @@ class Strands:
         self.radii = np.asarray(radii, dtype=np.float32)
         self.counts = np.asarray(counts, dtype=np.uint32)
         self.uvs = None if uvs is None else np.asarray(uvs, dtype=np.float32).reshape(-1, 2)
+        # Poly curves: Cycles draws them as straight round segments whatever the Curves Shape.
+        self.poly = False
+        # Drawn as ray-facing ribbons (set by `scene_strands` from the scene's Curves Shape).
+        self.ribbon = False
 
 
 def _to_gltf_axes(p):
@@ -186,11 +194,22 @@ def curves_object_strands(obj, warnings):
     if not poly:
         points, radii, counts = catmull_rom(points, radii, counts, SUBDIVISIONS)
     material = obj.material_slots[0].material if len(obj.material_slots) else None
-    return Strands(obj.name, material, points, radii, counts, uvs)
+    strands = Strands(obj.name, material, points, radii, counts, uvs)
+    strands.poly = poly
+    return strands
+
+
+def ribbons_in(scene):
+    """True when Cycles draws this scene's (non-Poly) curves as ribbons: the Curves Shape of the
+    Render properties (`cycles_curves.shape`, 'RIBBONS' by default in Blender 5.0)."""
+    settings = getattr(scene, "cycles_curves", None)
+    return settings is not None and settings.shape == "RIBBONS"
 
 
 def scene_strands(depsgraph, warnings):
-    """Every hair particle system and Curves object the render depsgraph renders."""
+    """Every hair particle system and Curves object the render depsgraph renders, each marked
+    ribbon or round as Cycles draws it."""
+    ribbons = ribbons_in(depsgraph.scene)
     out = []
     for obj in depsgraph.objects:
         if obj.type == "CURVES":
@@ -206,6 +225,8 @@ def scene_strands(depsgraph, warnings):
                 s = particle_strands(obj, modifier, warnings)
                 if s is not None:
                     out.append(s)
+    for s in out:
+        s.ribbon = ribbons and not s.poly
     return out
 
 
@@ -334,6 +355,8 @@ def add_curves(gltf_path, depsgraph, warnings):
         }
         if s.uvs is not None:
             entry["rootUvs"] = accessor(s.uvs.astype(np.float32), 5126, "VEC2")
+        if s.ribbon:
+            entry["shape"] = "ribbon"
         material = _gltf_material(doc, s.material, warnings, what)
         if material is not None:
             entry["material"] = material

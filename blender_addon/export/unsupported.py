@@ -1,8 +1,6 @@
 """What Caustic cannot render yet, named: scene features that would otherwise be dropped without
-a word (point clouds; shape keys on a mesh without modifiers, which Blender's glTF exporter
-writes undeformed). Each warning names the object and says what the render does instead."""
-
-import numpy as np
+a word (point clouds). Each warning names the object and says what the render does instead.
+(Shape keys on a mesh without modifiers are exported deformed by shape_keys.py.)"""
 
 
 def scene_warnings(depsgraph):
@@ -16,26 +14,7 @@ def scene_warnings(depsgraph):
             continue
         seen.add(original.name)
         warnings += object_warnings(original)
-        if _shape_keys_dropped(original, depsgraph):
-            warnings.append(f"object '{original.name}': its shape keys are not rendered: Blender's glTF exporter "
-                            "writes a mesh without modifiers from its undeformed data (add any modifier to "
-                            "export the deformed mesh)")
     return warnings
-
-
-def _shape_keys_dropped(obj, depsgraph):
-    """True for a mesh whose shape keys deform it but which has no modifier: the exporter then
-    writes the original (basis) vertices, where Cycles renders the keys' mix."""
-    if obj.type != "MESH" or obj.data.shape_keys is None or len(obj.modifiers) > 0:
-        return False
-    evaluated = obj.evaluated_get(depsgraph).data
-    basis = obj.data
-    if len(evaluated.vertices) != len(basis.vertices):
-        return True
-    a, b = (np.empty(3 * len(m.vertices), dtype=np.float32) for m in (evaluated, basis))
-    evaluated.vertices.foreach_get("co", a)
-    basis.vertices.foreach_get("co", b)
-    return not np.array_equal(a, b)
 
 
 def object_warnings(obj):

@@ -1,10 +1,11 @@
 //! The curves' own BVH: an obvhs CWBVH over the segments' boxes, traversed with the
 //! triangle BVH's node test (`accel::node_hits`, which keeps boxes next to the origin and
-//! widens slabs by their rounding error) and the round-cone test at the leaves. It sits
+//! widens slabs by their rounding error) and at the leaves the round-cone test, or the
+//! ray-facing ribbon's for the segments of objects drawn as ribbons (`ribbon.rs`). It sits
 //! beside the triangles' BVH; `SceneContext` asks both, the nearer hit winning, and a scene
 //! without curves has no curve BVH and asks nothing.
 
-use super::{CURVE_BIT, Strand, round_cone};
+use super::{CURVE_BIT, Strand, ribbon, round_cone};
 use crate::accel::{Hit, NodeRay, obvhs_direction, octant_inv4, traverse};
 use glam::{Vec3, Vec3A, Vec4, Vec4Swizzles};
 use obvhs::BvhBuildParams;
@@ -16,20 +17,28 @@ use obvhs::cwbvh::CwBvh;
 pub struct CurveBvh {
     bvh: CwBvh,
     /// For each segment in BVH order, the index of its first control point (the second is
-    /// the next one): 4 bytes per segment.
+    /// the next one), with [`RIBBON_BIT`] set when its object is drawn as ribbons: 4 bytes
+    /// per segment.
     first: Vec<u32>,
 }
 
+/// Set in a segment's `first` entry when it is a ribbon (control points stay below 2^31,
+/// as `CURVE_BIT` already requires).
+const RIBBON_BIT: u32 = 1 << 31;
+
 impl CurveBvh {
-    /// Builds the BVH over the segments of `strands`.
-    pub fn build(points: &[Vec4], strands: &[Strand]) -> Self {
+    /// Builds the BVH over the segments of `strands`; `ribbons[o]` says whether curves object
+    /// `o` is drawn as ribbons (objects beyond the slice are round).
+    pub fn build(points: &[Vec4], strands: &[Strand], ribbons: &[bool]) -> Self {
         let mut first = Vec::with_capacity(strands.iter().map(|s| s.count as usize - 1).sum());
         for s in strands {
-            first.extend(s.first..s.first + s.count - 1);
+            let flag = if ribbons.get(s.object as usize).copied().unwrap_or(false) { RIBBON_BIT } else { 0 };
+            first.extend((s.first..s.first + s.count - 1).map(|k| k | flag));
         }
         let boxes: Vec<Aabb> = first
             .iter()
             .map(|&k| {
+                let k = k & !RIBBON_BIT;
                 let (a, b) = (points[k as usize], points[k as usize + 1]);
                 let r = Vec3A::splat(a.w.max(b.w));
                 let (pa, pb) = (Vec3A::from(a.xyz()), Vec3A::from(b.xyz()));
@@ -52,21 +61,27 @@ impl CurveBvh {
     /// The first control point of segment `id` (BVH order).
     #[inline]
     pub fn first_point(&self, id: u32) -> u32 {
-        self.first[id as usize]
+        self.first[id as usize] & !RIBBON_BIT
+    }
+
+    /// True when segment `id` (BVH order) is a ribbon.
+    #[inline]
+    pub fn is_ribbon(&self, id: u32) -> bool {
+        self.first[id as usize] & RIBBON_BIT != 0
     }
 
     /// Closest entry into a segment along a unit-direction ray in (0, tmax): a `Hit` with
-    /// `CURVE_BIT | segment` and the axial parameter in `b1`.
+    /// `CURVE_BIT | segment`, the axial parameter in `b1` and, for a ribbon, the offset
+    /// across it in `b2` (0 for a round cone).
     #[inline]
     pub fn intersect(&self, points: &[Vec4], org: Vec3, dir: Vec3, tmax: f32) -> Option<Hit> {
         let dir_a = obvhs_direction(dir);
         let ray = NodeRay::new(org, dir_a);
         let mut best: Option<Hit> = None;
         traverse(&self.bvh, &ray, octant_inv4(dir_a), tmax, |id, best_t| {
-            let k = self.first[id] as usize;
-            match round_cone::intersect(org, dir, points[k], points[k + 1], 0.0, best_t) {
+            match self.segment_hit(points, id, org, dir, best_t) {
                 Some(h) => {
-                    best = Some(Hit { tri: CURVE_BIT | id as u32, t: h.t, b1: h.s, b2: 0.0 });
+                    best = Some(Hit { tri: CURVE_BIT | id as u32, ..h });
                     Some(h.t)
                 }
                 None => Some(best_t),
@@ -82,11 +97,26 @@ impl CurveBvh {
         let ray = NodeRay::new(org, dir_a);
         let mut blocked = false;
         traverse(&self.bvh, &ray, octant_inv4(dir_a), tmax, |id, _| {
-            let k = self.first[id] as usize;
-            blocked = round_cone::intersect(org, dir, points[k], points[k + 1], 0.0, tmax).is_some();
+            blocked = self.segment_hit(points, id, org, dir, tmax).is_some();
             (!blocked).then_some(tmax)
         });
         blocked
+    }
+}
+
+impl CurveBvh {
+    /// The ray's hit on segment `id` in (0, tmax), as a `Hit` without its id: the round
+    /// cone's entry, or the ribbon's hit with its offset in `b2`.
+    #[inline(always)]
+    fn segment_hit(&self, points: &[Vec4], id: usize, org: Vec3, dir: Vec3, tmax: f32) -> Option<Hit> {
+        let e = self.first[id];
+        let k = (e & !RIBBON_BIT) as usize;
+        let (a, b) = (points[k], points[k + 1]);
+        if e & RIBBON_BIT != 0 {
+            ribbon::intersect(org, dir, a, b, 0.0, tmax).map(|h| Hit { tri: 0, t: h.t, b1: h.s, b2: h.v })
+        } else {
+            round_cone::intersect(org, dir, a, b, 0.0, tmax).map(|h| Hit { tri: 0, t: h.t, b1: h.s, b2: 0.0 })
+        }
     }
 }
 
@@ -96,8 +126,8 @@ mod tests {
     use crate::curves::Curves;
     use glam::Vec2;
 
-    /// A field of random strands: the BVH's closest hit and occlusion agree with testing
-    /// every segment.
+    /// A field of random strands, every other one a ribbon: the BVH's closest hit and
+    /// occlusion agree with testing every segment with its own shape's test.
     #[test]
     fn bvh_agrees_with_testing_every_segment() {
         let mut state = 7u64;
@@ -105,8 +135,8 @@ mod tests {
             state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
             ((state >> 40) as f32 + 0.5) / (1u64 << 24) as f32
         };
-        let mut curves = Curves::default();
-        for _ in 0..300 {
+        let mut curves = Curves { ribbons: vec![false, true], ..Curves::default() };
+        for n in 0..300 {
             let first = curves.points.len() as u32;
             let mut p = Vec3::new(rnd(), 0.0, rnd()) * 4.0 - Vec3::new(2.0, 0.0, 2.0);
             let count = 2 + (rnd() * 6.0) as u32;
@@ -114,7 +144,7 @@ mod tests {
                 curves.points.push(p.extend(0.02 * (1.0 - i as f32 / count as f32) + 0.002));
                 p += Vec3::new(rnd() - 0.5, 1.0, rnd() - 0.5) * 0.2;
             }
-            curves.strands.push(Strand { first, count, material: 0, uv: Vec2::ZERO, object: 0 });
+            curves.strands.push(Strand { first, count, material: 0, uv: Vec2::ZERO, object: n % 2 });
         }
         curves.build();
         let bvh = curves.bvh.as_ref().unwrap();
@@ -125,13 +155,19 @@ mod tests {
             let d = (target - o).normalize();
             let tmax = if rnd() < 0.3 { (target - o).length() } else { f32::INFINITY };
             let mut brute: Option<f32> = None;
-            for (id, &k) in bvh.first.iter().enumerate() {
-                let k = k as usize;
-                if let Some(h) = round_cone::intersect(o, d, curves.points[k], curves.points[k + 1], 0.0, tmax)
-                    && brute.is_none_or(|b| h.t < b)
-                {
-                    brute = Some(h.t);
-                    let _ = id;
+            for strand in &curves.strands {
+                for k in strand.first as usize..(strand.first + strand.count - 1) as usize {
+                    let (a, b) = (curves.points[k], curves.points[k + 1]);
+                    let t = if strand.object == 1 {
+                        ribbon::intersect(o, d, a, b, 0.0, tmax).map(|h| h.t)
+                    } else {
+                        round_cone::intersect(o, d, a, b, 0.0, tmax).map(|h| h.t)
+                    };
+                    if let Some(t) = t
+                        && brute.is_none_or(|b| t < b)
+                    {
+                        brute = Some(t);
+                    }
                 }
             }
             let got = bvh.intersect(&curves.points, o, d, tmax);

@@ -1,4 +1,5 @@
-//! Hair and curves: strands as chains of round-cone segments (`round_cone.rs`) with a radius
+//! Hair and curves: strands as chains of round-cone segments (`round_cone.rs`), or of
+//! ray-facing ribbons where Blender's Curves Shape is Ribbons (`ribbon.rs`), with a radius
 //! per control point, in their own BVH beside the triangles' (`bvh.rs`), and the surface a
 //! ray finds on them (`Curves::surface`).
 //!
@@ -14,6 +15,7 @@
 //! docs/benchmarks.md).
 
 pub mod bvh;
+pub mod ribbon;
 pub mod round_cone;
 pub mod shade;
 
@@ -56,6 +58,8 @@ pub struct Curves {
     pub objects: Vec<String>,
     /// Per curves object, the name of the Blender object it belongs to (light linking).
     pub object_names: Vec<String>,
+    /// Per curves object, true when it is drawn as ray-facing ribbons (`ribbon.rs`).
+    pub ribbons: Vec<bool>,
     /// The segments' BVH; None until `build` (and when there are no strands).
     pub bvh: Option<bvh::CurveBvh>,
 }
@@ -74,7 +78,11 @@ impl Curves {
 
     /// Builds the BVH over every segment (after all strands are added).
     pub fn build(&mut self) {
-        self.bvh = if self.strands.is_empty() { None } else { Some(bvh::CurveBvh::build(&self.points, &self.strands)) };
+        self.bvh = if self.strands.is_empty() {
+            None
+        } else {
+            Some(bvh::CurveBvh::build(&self.points, &self.strands, &self.ribbons))
+        };
     }
 
     /// Bytes held: points, strands and the BVH (for the memory figures).
@@ -126,14 +134,20 @@ impl Curves {
 
     /// The surface of a curve hit seen along `dir`: the point on the touching sphere, its
     /// outward normal (always facing the ray: only entries are hits), the strand's direction
-    /// root to tip as the tangent, the root's UV in both sets (as Cycles gives curves).
+    /// root to tip as the tangent, the root's UV in both sets (as Cycles gives curves). On a
+    /// ribbon: the point on the strip and Cycles' rounded normal there.
     pub fn surface(&self, hit: &Hit, org: Vec3, dir: Vec3) -> SurfaceHit {
         let k = self.first_point(hit);
         let strand = self.strand_of(k);
         let (a, b) = (self.points[k as usize], self.points[k as usize + 1]);
         let s = hit.b1;
-        let n = round_cone::normal(org + dir * hit.t, a, b, s);
-        let p = a.xyz().lerp(b.xyz(), s) + n * (a.w + (b.w - a.w) * s);
+        let ribbon = self.bvh.as_ref().is_some_and(|bvh| bvh.is_ribbon(hit.tri & !CURVE_BIT));
+        let (p, n) = if ribbon {
+            (org + dir * hit.t, ribbon::normal(dir, a, b, hit.b2))
+        } else {
+            let n = round_cone::normal(org + dir * hit.t, a, b, s);
+            (a.xyz().lerp(b.xyz(), s) + n * (a.w + (b.w - a.w) * s), n)
+        };
         let along = (b.xyz() - a.xyz()).normalize_or(n.any_orthonormal_vector());
         SurfaceHit {
             p,

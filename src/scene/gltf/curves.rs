@@ -31,6 +31,21 @@ struct CurvesObjectExt {
     /// VEC2 float accessor: each strand's root texture coordinates (glTF convention).
     #[serde(rename = "rootUvs")]
     root_uvs: Option<usize>,
+    /// How a ray meets the strands: round (the default) or ray-facing ribbons.
+    #[serde(default)]
+    shape: CurveShape,
+}
+
+/// The strands' shape, as Cycles' Curves Shape.
+#[derive(Deserialize, Default, Clone, Copy, PartialEq)]
+enum CurveShape {
+    /// Round cones between the points (Cycles' Thick and Thick Linear).
+    #[default]
+    #[serde(rename = "round")]
+    Round,
+    /// Ray-facing strips through the axis, with Cycles' self-intersection guard.
+    #[serde(rename = "ribbon")]
+    Ribbon,
 }
 
 /// The extension's root.
@@ -220,6 +235,7 @@ impl Loader<'_> {
             }
             curves.objects.push(obj.name.clone());
             curves.object_names.push(obj.object.clone().unwrap_or_else(|| obj.name.clone()));
+            curves.ribbons.push(obj.shape == CurveShape::Ribbon);
         }
         for w in warnings {
             self.warn(w);

@@ -36,6 +36,8 @@ pub(super) const HANDLED_MATERIAL_EXTENSIONS: &[&str] = &[
     "KHR_materials_pbrSpecularGlossiness",
     // Read in `iridescence.rs`:
     "KHR_materials_iridescence",
+    // Read in `curves.rs` (strands with this material shade with it).
+    "CAUSTIC_materials_hair",
 ];
 
 impl Loader<'_> {

@@ -544,7 +544,7 @@ impl<'a> Loader<'a> {
             for p in m.corners.iter().flatten() {
                 (lo, hi) = (lo.min(*p), hi.max(*p));
             }
-            self.motion_warnings(&doc, m, &lights);
+            self.motion_warnings(m, &lights);
         }
 
         self.profile.total = start.elapsed().as_secs_f64();
