@@ -1,0 +1,153 @@
+"""Added objects and changed meshes in the Rendered viewport, with real bpy: the depsgraph's
+updates become one `objects` request naming the mesh objects to export alone (not a reload of
+the scene), a deleted object is hidden, and in a running viewport the exported objects merged
+into the server's scene render as the changed scene exported anew (test_viewport.py's
+`_edited_and_fresh`)."""
+
+import bpy
+import pytest
+
+import scenes
+from test_viewport import _apply_live, _assert_same_render, _Engine, _edited_and_fresh, _light_scene, _settle
+
+
+@pytest.fixture
+def vp(addon):
+    """The add-on's viewport module."""
+    import sys
+    return sys.modules[f"{addon.__name__}.viewport"]
+
+
+@pytest.fixture
+def updates():
+    """The depsgraph's updates after each evaluation (as test_viewport.py collects them)."""
+    import types
+    got = []
+
+    def collect(scene, depsgraph):
+        got.extend(types.SimpleNamespace(id=u.id.original, is_updated_transform=u.is_updated_transform,
+                                         is_updated_geometry=u.is_updated_geometry,
+                                         is_updated_shading=u.is_updated_shading)
+                   for u in depsgraph.updates)
+
+    bpy.app.handlers.depsgraph_update_post.append(collect)
+    yield got
+    bpy.app.handlers.depsgraph_update_post.remove(collect)
+
+
+def _rendered(vp):
+    return vp.rendered_objects(bpy.context.evaluated_depsgraph_get())
+
+
+def test_an_added_cube_is_an_objects_request(vp, empty_scene, updates):
+    """A new mesh object (moved after it was added, as the add operator's redo panel does) is
+    one `objects` request naming it, with no transform edit of a name the server lacks."""
+    scenes.cube(empty_scene, "Box", 1.0, (0, 0, 0))
+    _settle()
+    exported = _rendered(vp)
+    before = set(exported)
+    updates.clear()
+    new = scenes.cube(empty_scene, "New", 1.0, (3, 0, 0))
+    _settle()
+    new.location.x = 4.0
+    _settle()
+    edits = vp.edits_from_updates(updates, before, _rendered(vp), {}, None, exported)
+    assert edits == [{"type": vp.OBJECTS, "names": ["New"]}], edits
+    # A light added is not merged: the scene is exported again.
+    scenes.light(empty_scene, "Lamp", "POINT")
+    _settle()
+    assert vp.edits_from_updates([], before, _rendered(vp), {}, None, exported) == [vp.RELOAD]
+
+
+def test_mesh_edits_and_modifiers_are_objects_requests(vp, empty_scene, updates):
+    """A mesh's vertices changed (as edit mode leaves them) or a modifier added: an `objects`
+    request for the object (its transform edit dropped: the export carries its matrix)."""
+    box = scenes.cube(empty_scene, "Box", 1.0, (0, 0, 0))
+    scenes.cube(empty_scene, "Other", 1.0, (3, 0, 0))
+    _settle()
+    names = _rendered(vp)
+    updates.clear()
+    box.data.vertices[0].co.z += 0.25
+    box.data.update()
+    box.location.y = 1.0
+    _settle()
+    edits = vp.edits_from_updates(updates, names, names, {}, None, set(names))
+    assert edits == [{"type": vp.OBJECTS, "names": ["Box"]}], edits
+    updates.clear()
+    box.modifiers.new("Bevel", "BEVEL")
+    _settle()
+    edits = vp.edits_from_updates(updates, names, names, {}, None, set(names))
+    assert edits == [{"type": vp.OBJECTS, "names": ["Box"]}], edits
+
+
+def test_a_deleted_object_is_hidden_and_its_name_is_new_again(vp, empty_scene, updates):
+    """Deleting a mesh object is the visibility edit that hides it; the name, taken again by a
+    new object, is an added object (merged, replacing the hidden one on the server)."""
+    scenes.cube(empty_scene, "Box", 1.0, (0, 0, 0))
+    scenes.cube(empty_scene, "Other", 1.0, (3, 0, 0))
+    _settle()
+    exported = _rendered(vp)
+    before = set(exported)
+    bpy.data.objects.remove(bpy.data.objects["Other"])
+    _settle()
+    after = _rendered(vp)
+    edits = vp.edits_from_updates([], before, after, {}, None, exported)
+    assert edits == [{"type": "visibility", "name": "Other", "visible": False}], edits
+    assert "Other" not in exported
+    scenes.cube(empty_scene, "Other", 0.5, (-3, 0, 0))
+    _settle()
+    edits = vp.edits_from_updates([], after, _rendered(vp), {}, None, exported)
+    assert edits == [{"type": vp.OBJECTS, "names": ["Other"]}], edits
+
+
+@pytest.mark.needs_binary
+def test_a_cube_added_live_renders_as_a_fresh_export(vp, empty_scene):
+    """A cube added to a running viewport is exported alone and merged (`objects`, no `load`),
+    and the converged frame is the frame of the scene exported anew with it."""
+    _light_scene(empty_scene, "SUN")
+
+    def change():
+        scenes.cube(empty_scene, "Added", 0.6, (-1.2, 0.4, 0.3), material=scenes.diffuse_material("Clay", 0.3))
+
+    edited, fresh, sent = _edited_and_fresh(vp, change)
+    assert "objects" in sent and "load" not in sent, sent
+    _assert_same_render(edited, fresh)
+
+
+@pytest.mark.needs_binary
+def test_an_edited_mesh_renders_as_a_fresh_export(vp, empty_scene):
+    """A box whose top is raised in a running viewport replaces the loaded box (`objects`, no
+    `load`), and the converged frame is the frame of the scene exported anew."""
+    _light_scene(empty_scene, "SUN")
+    box = bpy.data.objects["Box"]
+
+    def change():
+        for v in box.data.vertices:
+            if v.co.z > 0:
+                v.co.z += 0.4
+        box.data.update()
+
+    edited, fresh, sent = _edited_and_fresh(vp, change)
+    assert "objects" in sent and "load" not in sent, sent
+    _assert_same_render(edited, fresh)
+
+
+@pytest.mark.needs_binary
+def test_a_merge_the_server_refuses_reloads(vp, empty_scene):
+    """Objects the server cannot merge (a scene with light linking, whose collections the server
+    holds by node number) make the viewport export the scene anew instead, with no error shown."""
+    _light_scene(empty_scene, "SUN")
+    receivers = bpy.data.collections.new("Lit")
+    receivers.objects.link(bpy.data.objects["Box"])
+    bpy.data.objects["Lamp"].light_linking.receiver_collection = receivers
+    engine = _Engine()
+    v = vp.Viewport(engine)
+    try:
+        v.update(bpy.context, bpy.context.evaluated_depsgraph_get())
+        v.client.wait_frame(v.client.generation)
+        sent = _apply_live(v, lambda: scenes.cube(empty_scene, "Late", 0.5, (1.5, 0, 0.25)))
+        assert sent.index("objects") < sent.index("load"), sent
+        v.client.wait_frame(v.client.generation)
+        assert not [r for r in engine.reports if r[0] == {"ERROR"}], engine.reports
+    finally:
+        v.free()
