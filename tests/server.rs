@@ -5,7 +5,9 @@
 mod common;
 
 use common::GltfBuilder;
-use common::serve::{LIMIT, Server, assert_same_image, cornell, cornell_without, f32_pixels, frame, generation, mean_rgb};
+use common::serve::{
+    LIMIT, Server, assert_same_image, cornell, cornell_without, f32_pixels, frame, generation, mean_rgb,
+};
 use serde_json::{Value, json};
 use std::time::Instant;
 

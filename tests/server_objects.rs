@@ -13,7 +13,8 @@ use std::path::{Path, PathBuf};
 fn cornell_with(dir: &Path, name: &str, keep: Option<&[&str]>, moves: &[(&str, [f64; 3])]) -> PathBuf {
     let src = common::root().join("scenes/cornell_box.gltf");
     let mut doc: Value = serde_json::from_str(&std::fs::read_to_string(&src).unwrap()).unwrap();
-    let node_name = |doc: &Value, n: &Value| doc["nodes"][n.as_u64().unwrap() as usize]["name"].as_str().unwrap().to_string();
+    let node_name =
+        |doc: &Value, n: &Value| doc["nodes"][n.as_u64().unwrap() as usize]["name"].as_str().unwrap().to_string();
     if let Some(keep) = keep {
         let kept: Vec<Value> = doc["scenes"][0]["nodes"]
             .as_array()
@@ -68,7 +69,11 @@ fn added_objects_render_as_the_scene_loaded_whole() {
     let bytes = std::fs::read(&block).unwrap();
     s.raw(&frame(&json!({"type": "objects", "bytes": bytes.len(), "base_dir": d}), &bytes));
     let r = s.reply();
-    assert_eq!((r["type"].as_str(), &r["added"], &r["replaced"]), (Some("ok"), &json!(["tall_block"]), &json!([])), "{r}");
+    assert_eq!(
+        (r["type"].as_str(), &r["added"], &r["replaced"]),
+        (Some("ok"), &json!(["tall_block"]), &json!([])),
+        "{r}"
+    );
     let r = s.ok(json!({"type": "objects", "path": light}));
     assert_eq!((&r["added"], r["triangles"].as_u64()), (&json!(["light"]), Some(32)), "{r}");
     let served = f32_pixels(&s.frame(generation(&r), true).1);

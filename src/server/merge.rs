@@ -150,7 +150,11 @@ pub fn merge(scene: &mut Scene, mut add: Scene) -> Result<Merged, String> {
     // Light groups by name: the second file's group numbers are its own.
     let g = &mut scene.light_groups;
     let to_mine = |x: u8| {
-        add.light_groups.names.get(x as usize).and_then(|n| g.names.iter().position(|m| m == n)).map_or(NONE, |i| i as u8)
+        add.light_groups
+            .names
+            .get(x as usize)
+            .and_then(|n| g.names.iter().position(|m| m == n))
+            .map_or(NONE, |i| i as u8)
     };
     let of_tri: Vec<u8> = add.light_groups.of_tri.iter().map(|&x| to_mine(x)).collect();
     let of_light: Vec<u8> = pick(&add.light_groups.of_light, &kept, NONE).into_iter().map(to_mine).collect();

@@ -391,7 +391,15 @@ impl Server {
         edits::recompute_bounds(scene);
         self.pool.install(|| crate::cli::build_bsdf_tables(scene));
         relocate(&self.pool, l);
-        let names = |v: &[usize]| l.scene.instances.iter().enumerate().filter(|(i, _)| v.contains(i)).map(|(_, s)| s.name.clone()).collect::<Vec<_>>();
+        let names = |v: &[usize]| {
+            l.scene
+                .instances
+                .iter()
+                .enumerate()
+                .filter(|(i, _)| v.contains(i))
+                .map(|(_, s)| s.name.clone())
+                .collect::<Vec<_>>()
+        };
         let reply = json!({
             "added": names(&merged.added),
             "replaced": names(&merged.retired),

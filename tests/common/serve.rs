@@ -216,4 +216,3 @@ pub fn assert_same_image(served: &[f32], reference: &[f32], what: &str) {
         .count();
     assert!(differing * 100 < served.len() / 4, "{what}: {differing} of {} pixels differ", served.len() / 4);
 }
-
