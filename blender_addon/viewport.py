@@ -20,7 +20,7 @@ import mathutils
 
 from . import export, runner, viewport_lights
 from .errors import CausticError
-from .export.object_filter import mergeable
+from .export.object_filter import foreign_meshes, mergeable
 from .server_client import ServerClient, ServerError, frame_pixels
 
 # Blender's world axes (Z up) to glTF's (Y up), as the glTF exporter converts them.
@@ -390,6 +390,10 @@ class Viewport:
         try:
             path, state = export.export_scene(depsgraph, folder, settings, motion=False, viewport=True,
                                               only=set(names))
+            clash = foreign_meshes(path, names, self.exported)
+            if clash:
+                raise CausticError(f"the export of {sorted(names)} holds instances named as other objects "
+                                   f"({', '.join(clash)}): exporting the scene")
             for warning in state.warnings:
                 self.engine.report({"WARNING"}, f"Caustic: {warning}")
             self._client().request({"type": "objects", "path": path})

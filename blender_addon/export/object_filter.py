@@ -3,6 +3,8 @@ exporter's tree keeps only the named objects, so that their change costs their o
 the scene's, and the server merges them into the scene it holds (`objects`, docs/protocol.md).
 """
 
+import json
+
 
 def keep_only(vtree, names):
     """Untags the exporter's nodes whose object is not one of `names`; an instance node without
@@ -28,3 +30,13 @@ def mergeable(obj):
     if obj is None or obj.type != "MESH":
         return False
     return not any(p.settings.type == "HAIR" for p in obj.particle_systems)
+
+
+def foreign_meshes(path, names, loaded):
+    """Mesh nodes of the export at `path` (a .gltf) that are not the objects `names` yet bear the
+    name of an object the server holds (`loaded`): instances an object makes (particles,
+    geometry nodes) named after their source object. Merged, they would replace that object."""
+    with open(path, encoding="utf-8") as f:
+        doc = json.load(f)
+    return sorted({n.get("name") for n in doc.get("nodes", [])
+                   if "mesh" in n and n.get("name") not in names and n.get("name") in loaded})

@@ -133,6 +133,42 @@ def test_an_edited_mesh_renders_as_a_fresh_export(vp, empty_scene):
 
 
 @pytest.mark.needs_binary
+def test_an_edited_child_of_a_turned_parent_renders_as_a_fresh_export(vp, empty_scene):
+    """The child of a turned and moved parent, its mesh changed, is exported alone (its parent
+    left out of the export): it carries its world matrix, so the merged child sits where the
+    fresh export of the whole scene puts it."""
+    _light_scene(empty_scene, "SUN")
+    parent = scenes.cube(empty_scene, "Parent", 0.4, (0.8, 0.6, 0.2))
+    parent.rotation_euler = (0.0, 0.0, 0.5)
+    child = scenes.cube(empty_scene, "Child", 0.3, (0.0, 0.0, 0.0), material=scenes.diffuse_material("Clay", 0.3))
+    child.parent = parent
+    child.location = (0.0, -0.9, 0.4)
+    _settle()
+
+    def change():
+        for v in child.data.vertices:
+            v.co.x *= 1.5
+        child.data.update()
+
+    edited, fresh, sent = _edited_and_fresh(vp, change)
+    assert "objects" in sent and "load" not in sent, sent
+    _assert_same_render(edited, fresh)
+
+
+def test_instances_named_as_loaded_objects_are_not_merged(vp, tmp_path):
+    """An export whose extra mesh nodes (an object's instances) bear the name of an object the
+    server holds is caught before it is merged, so that the viewport exports the scene instead."""
+    import json
+    import sys
+    object_filter = sys.modules[vp.__name__.rsplit(".", 1)[0] + ".export.object_filter"]
+    path = tmp_path / "objects.gltf"
+    path.write_text(json.dumps({"nodes": [{"name": "Scatter", "mesh": 0}, {"name": "Rock", "mesh": 1},
+                                          {"name": "Pebble", "mesh": 1}, {"name": "Empty"}]}))
+    assert object_filter.foreign_meshes(str(path), {"Scatter"}, {"Rock", "Ground", "Empty"}) == ["Rock"]
+    assert object_filter.foreign_meshes(str(path), {"Scatter", "Rock"}, {"Rock"}) == []
+
+
+@pytest.mark.needs_binary
 def test_a_merge_the_server_refuses_reloads(vp, empty_scene):
     """Objects the server cannot merge (a scene with light linking, whose collections the server
     holds by node number) make the viewport export the scene anew instead, with no error shown."""
