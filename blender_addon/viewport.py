@@ -30,6 +30,8 @@ RELOAD = "reload"
 # The request `edits_from_updates` asks for objects to export alone and merge: {"type": OBJECTS,
 # "names": [...]}; `Viewport.update` exports them and sends the server's `objects` request.
 OBJECTS = "objects"
+# Object types that render nothing themselves but deform meshes (whose own updates carry it).
+DEFORMERS = ("ARMATURE", "LATTICE")
 
 
 def _flat(m):
@@ -234,6 +236,8 @@ def edits_from_updates(updates, objects_before, objects_now, known=None, lights=
         elif isinstance(data, bpy.types.Object) and data.name in toggled:
             continue  # hidden or shown: its visibility edit says it (shown: with its matrix)
         elif isinstance(data, bpy.types.Object):
+            if u.is_updated_geometry and data.type in DEFORMERS and not u.is_updated_transform:
+                continue  # a pose or a lattice edit: the objects it deforms update on their own
             if u.is_updated_geometry and data.type != "CAMERA":
                 # Edit mode, a modifier, an armature's pose: the object's evaluated mesh changed.
                 if merge is None or data.name not in objects_now or not mergeable(data):

@@ -80,6 +80,29 @@ def test_mesh_edits_and_modifiers_are_objects_requests(vp, empty_scene, updates)
     assert edits == [{"type": vp.OBJECTS, "names": ["Box"]}], edits
 
 
+def test_an_armature_pose_is_an_objects_request_for_the_deformed_mesh(vp, empty_scene, updates):
+    """A bone turned in pose mode: the armature renders nothing, and the mesh it deforms is
+    exported alone and merged."""
+    box = scenes.cube(empty_scene, "Box", 1.0, (0, 0, 0))
+    rig = bpy.data.objects.new("Rig", bpy.data.armatures.new("Rig"))
+    empty_scene.collection.objects.link(rig)
+    bpy.context.view_layer.objects.active = rig
+    bpy.ops.object.mode_set(mode="EDIT")
+    bone = rig.data.edit_bones.new("Bone")
+    bone.head, bone.tail = (0, 0, -1), (0, 0, 1)
+    bpy.ops.object.mode_set(mode="OBJECT")
+    box.modifiers.new("Armature", "ARMATURE").object = rig
+    box.vertex_groups.new(name="Bone").add(list(range(len(box.data.vertices))), 1.0, "REPLACE")
+    _settle()
+    names = _rendered(vp)
+    updates.clear()
+    rig.pose.bones["Bone"].rotation_mode = "XYZ"
+    rig.pose.bones["Bone"].rotation_euler = (0.5, 0.0, 0.0)
+    _settle()
+    edits = vp.edits_from_updates(updates, names, names, {}, None, set(names))
+    assert edits == [{"type": vp.OBJECTS, "names": ["Box"]}], edits
+
+
 def test_a_deleted_object_is_hidden_and_its_name_is_new_again(vp, empty_scene, updates):
     """Deleting a mesh object is the visibility edit that hides it; the name, taken again by a
     new object, is an added object (merged, replacing the hidden one on the server)."""
