@@ -400,7 +400,7 @@ class Viewport:
                                    f"({', '.join(clash)}): exporting the scene")
             for warning in state.warnings:
                 self.engine.report({"WARNING"}, f"Caustic: {warning}")
-            self._client().request({"type": "objects", "path": path})
+            reply = self._client().request({"type": "objects", "path": path})
         finally:
             # The server has read every file of the export by its reply.
             shutil.rmtree(folder, ignore_errors=True)
@@ -409,6 +409,11 @@ class Viewport:
             for slot in getattr(obj, "material_slots", ()):
                 if slot.material is not None:
                     self.known[slot.material.name] = material_snapshot(slot.material)
+        if 2 * reply.get("retired_triangles", 0) > reply.get("triangles", 0):
+            # The meshes replaced so far (kept, collapsed, by the server) outweigh the live scene:
+            # a reload gives their memory back, so a session of mesh edits stays within twice the
+            # scene's size at the cost of one export per scene's worth of edited triangles.
+            self._reload(depsgraph)
 
     def update(self, context, depsgraph):
         """view_update: the depsgraph's changes as edits, or a reload."""

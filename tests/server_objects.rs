@@ -96,9 +96,14 @@ fn a_replaced_mesh_renders_as_loaded_there() {
     let mut s = serving(&cornell_with(d, "box.gltf", None, &[]));
     let r = s.ok(json!({"type": "objects", "path": moved}));
     assert_eq!((&r["added"], &r["replaced"]), (&json!(["tall_block"]), &json!(["tall_block"])), "{r}");
+    // The old block's 10 triangles stay in memory (collapsed), reported as retired.
+    assert_eq!((r["triangles"].as_u64(), r["retired_triangles"].as_u64()), (Some(42), Some(10)), "{r}");
     let served = f32_pixels(&s.frame(generation(&r), true).1);
     let differing = served.iter().zip(&reference).filter(|(a, b)| a != b).count();
     assert_eq!(differing, 0, "the replaced block's frame differs from the render in {differing} values");
+    // Replaced again: the name once among the replaced, both old blocks retired.
+    let r = s.ok(json!({"type": "objects", "path": moved}));
+    assert_eq!((&r["replaced"], r["retired_triangles"].as_u64()), (&json!(["tall_block"]), Some(20)), "{r}");
     // Away and back by transform edits: the vertices reach their place by other roundings.
     let translate = |t: [f64; 3]| json!([1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, t[0], t[1], t[2], 1]);
     s.ok(json!({"type": "transform", "name": "tall_block", "matrix": translate([0.3, 0.0, 0.0])}));

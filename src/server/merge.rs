@@ -86,7 +86,8 @@ pub fn merge(scene: &mut Scene, mut add: Scene) -> Result<Merged, String> {
     let o0 = scene.objects.len() as u32;
     let (nt, nl) = (add.mesh.triangles.len(), add.lights.len());
     let mut merged = Merged::default();
-    // The newest instance of each name is the live one (older ones were retired before).
+    // Every instance of a name the second scene brings is replaced (older copies of an object
+    // replaced before are already hidden for good: retiring them again changes nothing).
     for name in add.instances.iter().map(|s| &s.name) {
         for (i, s) in scene.instances.iter().enumerate() {
             if &s.name == name && !merged.retired.contains(&i) {

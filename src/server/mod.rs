@@ -391,19 +391,22 @@ impl Server {
         edits::recompute_bounds(scene);
         self.pool.install(|| crate::cli::build_bsdf_tables(scene));
         relocate(&self.pool, l);
+        // Each name once (an object replaced again retires its older copies with it).
         let names = |v: &[usize]| {
-            l.scene
-                .instances
-                .iter()
-                .enumerate()
-                .filter(|(i, _)| v.contains(i))
-                .map(|(_, s)| s.name.clone())
-                .collect::<Vec<_>>()
+            let mut out: Vec<&str> = Vec::new();
+            for &i in v {
+                let n = l.scene.instances[i].name.as_str();
+                if !out.contains(&n) {
+                    out.push(n);
+                }
+            }
+            out
         };
         let reply = json!({
             "added": names(&merged.added),
             "replaced": names(&merged.retired),
             "triangles": l.scene.mesh.triangles.len(),
+            "retired_triangles": retired_triangles(&l.scene),
             "warnings": warnings,
             "load_seconds": load_seconds,
             "merge_seconds": t1.elapsed().as_secs_f64(),
@@ -414,6 +417,13 @@ impl Server {
         self.restart();
         Ok(())
     }
+}
+
+/// Triangles of the instances a newer one of the same name replaced (`merge`): memory they
+/// still hold, which a client can reclaim by a `load` once it outweighs the live scene.
+fn retired_triangles(scene: &Scene) -> usize {
+    let mut newer = std::collections::HashSet::new();
+    scene.instances.iter().rev().filter(|s| !newer.insert(s.name.as_str())).map(|s| s.triangles.len()).sum()
 }
 
 /// The scene a `load` or `objects` request names: a file, or the payload.

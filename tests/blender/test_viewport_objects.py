@@ -156,6 +156,29 @@ def test_an_edited_mesh_renders_as_a_fresh_export(vp, empty_scene):
 
 
 @pytest.mark.needs_binary
+def test_repeated_mesh_edits_reload_once_the_replaced_meshes_outweigh_the_scene(vp, empty_scene):
+    """Each edit of the box's mesh leaves the replaced box's triangles with the server; the
+    first edit merges (12 of 26 triangles replaced), the second makes the replaced ones the
+    larger part (24 of 38) and the viewport reloads the scene to give them back."""
+    _light_scene(empty_scene, "SUN")
+    box = bpy.data.objects["Box"]
+
+    def raise_top():
+        for v in box.data.vertices:
+            if v.co.z > 0:
+                v.co.z += 0.1
+        box.data.update()
+
+    v = vp.Viewport(_Engine())
+    try:
+        v.update(bpy.context, bpy.context.evaluated_depsgraph_get())
+        assert _apply_live(v, raise_top) == ["objects"]
+        assert _apply_live(v, raise_top)[:3] == ["objects", "settings", "load"]
+    finally:
+        v.free()
+
+
+@pytest.mark.needs_binary
 def test_an_edited_child_of_a_turned_parent_renders_as_a_fresh_export(vp, empty_scene):
     """The child of a turned and moved parent, its mesh changed, is exported alone (its parent
     left out of the export): it carries its world matrix, so the merged child sits where the
