@@ -13,9 +13,13 @@ moving one object in a large scene, not of rebuilding a large object.
 
 Drives the server through the add-on's own client (blender_addon/server_client.py, no Blender
 needed): loads the scene (default: the bundled Cornell box), starts rendering at the given
-resolution and, for each edit kind (camera move, material edit, object transform, world),
+resolution and, for each edit kind (camera move, material edit, object transform, world,
+hide/show, light, an object added, a mesh edited, and the reload these two needed before),
 sends the edit and waits for the first frame of the new generation, which is the reduced
-(1/4 per side) frame. Prints the median and the worst of the repeats per kind, in ms, and the
+(1/4 per side) frame. "add object" merges a new 12-triangle cube (a glTF of that cube alone,
+as the add-on exports an added object) and "edit mesh" the tall block with its vertices moved
+(the box's block alone, replacing the loaded one); "reload" loads the whole scene again, the
+server's share of what both cost before (the add-on's export of the whole scene came on top). Prints the median and the worst of the repeats per kind, in ms, and the
 time to the first full-resolution frame. The times include the pipe round trip and the
 decoding of the frame by the client, as the viewport sees them.
 """
@@ -46,8 +50,49 @@ def camera(angle, resolution):
             "resolution": list(resolution)}
 
 
-def edits(resolution):
+def object_files(folder):
+    """Writers of the glTF files of "add object" (a cube named by the repeat, in a data-URI
+    buffer) and "edit mesh" (the Cornell box's tall block alone, moved by the repeat, on the
+    box's buffer, which `folder` holds): each returns the file's path."""
+    import base64
+
+    def add(i):
+        # The 8 corners of a 0.1 cube on the floor and its 12 triangles.
+        corners = [(0.1 * (k & 1) - 0.35, 0.1 * (k >> 1 & 1), 0.1 * (k >> 2 & 1) + 0.1 * (i % 5)) for k in range(8)]
+        faces = [(0, 2, 3, 1), (4, 5, 7, 6), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), (1, 3, 7, 5)]
+        idx = [v for f in faces for v in (f[0], f[1], f[2], f[0], f[2], f[3])]
+        data = b"".join(struct.pack("<3f", *c) for c in corners) + struct.pack(f"<{len(idx)}I", *idx)
+        doc = {"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}],
+               "nodes": [{"name": f"added_{i}", "mesh": 0}],
+               "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1, "material": 0}]}],
+               "materials": [{"name": "added", "pbrMetallicRoughness": {"metallicFactor": 0.0}}],
+               "buffers": [{"byteLength": len(data), "uri": "data:application/octet-stream;base64,"
+                            + base64.b64encode(data).decode()}],
+               "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 96},
+                               {"buffer": 0, "byteOffset": 96, "byteLength": 4 * len(idx)}],
+               "accessors": [{"bufferView": 0, "componentType": 5126, "count": 8, "type": "VEC3",
+                              "min": [min(c[k] for c in corners) for k in range(3)],
+                              "max": [max(c[k] for c in corners) for k in range(3)]},
+                             {"bufferView": 1, "componentType": 5125, "count": len(idx), "type": "SCALAR"}]}
+        path = os.path.join(folder, f"added_{i}.gltf")
+        json.dump(doc, open(path, "w"))
+        return path
+
+    def edit(i):
+        doc = json.load(open(os.path.join(ROOT, "scenes", "cornell_box.gltf")))
+        block = next(k for k, n in enumerate(doc["nodes"]) if n.get("name") == "tall_block")
+        doc["scenes"][0]["nodes"] = [block]
+        doc["nodes"][block]["translation"] = [0.01 * (i % 5), 0.0, 0.0]
+        path = os.path.join(folder, f"edited_{i}.gltf")
+        json.dump(doc, open(path, "w"))
+        return path
+
+    return add, edit
+
+
+def edits(resolution, folder, scene):
     """One request per edit kind, varying with the repeat index."""
+    add, edit = object_files(folder)
     return {
         "camera": lambda i: camera(0.05 * (i + 1), resolution),
         "material": lambda i: {"type": "material", "name": "white",
@@ -58,6 +103,9 @@ def edits(resolution):
         "hide/show": lambda i: {"type": "visibility", "name": "short_block", "visible": i % 2 == 1},
         "light": lambda i: {"type": "light", "name": "bench_lamp", "emission": [0.5 + 0.1 * i, 0.5, 0.5],
                             "matrix": [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0.2 + 0.01 * i, 0.45, 0.2, 1]},
+        "add object": lambda i: {"type": "objects", "path": add(i)},
+        "edit mesh": lambda i: {"type": "objects", "path": edit(i)},
+        "reload": lambda i: {"type": "load", "path": os.path.abspath(scene)},
     }
 
 
@@ -130,6 +178,8 @@ def main():
     resolution = tuple(int(v) for v in a.resolution.split("x"))
     folder = tempfile.mkdtemp(prefix="caustic-bench-view-")
     scene = dense_scene(a.dense, folder) if a.dense else a.scene
+    if not a.dense:
+        shutil.copy(os.path.join(ROOT, "scenes", "cornell_box.bin"), folder)
     client = ServerClient(a.binary, threads=a.threads)
     try:
         client.request({"type": "settings", "integrator": a.integrator, "frame_format": "f16"})
@@ -144,13 +194,14 @@ def main():
         print(f"render_start → first frame: {1000 * (time.perf_counter() - t):.1f} ms")
         full = []
         has_lamp = any(entry["name"] == "bench_lamp" for entry in loaded.get("lights", []))
-        for kind, make in edits(resolution).items():
+        for kind, make in edits(resolution, folder, scene).items():
             if kind == "light" and not has_lamp:
                 continue
             times = []
             for i in range(a.repeats):
+                request = make(i)  # the file of an objects request is written before the clock starts
                 t = time.perf_counter()
-                gen = client.request(make(i))["generation"]
+                gen = client.request(request)["generation"]
                 header, _ = client.wait_frame(gen)
                 times.append(1000 * (time.perf_counter() - t))
                 # The first full-resolution pass after the reduced frame.
@@ -160,7 +211,7 @@ def main():
                         break
                     time.sleep(0.001)
                 full.append(1000 * (time.perf_counter() - t))
-            print(f"{kind:9s} → first frame: median {statistics.median(times):6.1f} ms, "
+            print(f"{kind:10s} → first frame: median {statistics.median(times):6.1f} ms, "
                   f"worst {max(times):6.1f} ms  ({a.repeats} repeats, {resolution[0]}x{resolution[1]})")
         print(f"edit → first full-resolution frame: median {statistics.median(full):.1f} ms")
     finally:

@@ -14,7 +14,7 @@ import subprocess
 import threading
 import time
 
-PROTOCOL_VERSION = 1
+PROTOCOL_VERSION = 2
 REPLY_TIMEOUT_SECONDS = 60.0
 
 
@@ -191,7 +191,10 @@ class ServerClient:
         if "generation" in reply:
             with self._lock:
                 self.generation = reply["generation"]
-                self.done = None
+                # The reader may have stored the new generation's `done` before this thread
+                # woke up with the reply (a small frame renders in a millisecond): keep it.
+                if self.done is not None and self.done["generation"] < self.generation:
+                    self.done = None
         if replay:
             self._remember(header, payload)
         return reply

@@ -3,8 +3,10 @@
 `view_update` turns the depsgraph's updates into requests (`edits_from_updates`): an object's
 move is a transform edit, a Principled BSDF's factors a material edit, a light's power, colour
 or placement a light edit and a Background's colour or strength a world edit
-(viewport_lights.py); anything else (objects added or removed, mesh edits, node-graph
-materials, a light's shape) re-exports the scene with the final render's exporter and loads it. `view_draw` sends the region's view as a camera
+(viewport_lights.py); a mesh object added or its mesh changed (edit mode, modifiers, an
+armature's pose) is exported alone by the final render's exporter and merged into the running
+scene (`objects`), a deleted one hidden; anything else (lights or other objects added or
+deleted, node-graph materials, a light's shape) re-exports the scene and loads it. `view_draw` sends the region's view as a camera
 edit when it changed, and draws the newest frame through the view's colour management. The
 server is one process per viewport, started lazily, restarted (with a report) when it died,
 and stopped when Blender frees the engine.
@@ -18,12 +20,18 @@ import mathutils
 
 from . import export, runner, viewport_lights
 from .errors import CausticError
+from .export.object_filter import foreign_meshes, mergeable
 from .server_client import ServerClient, ServerError, frame_pixels
 
 # Blender's world axes (Z up) to glTF's (Y up), as the glTF exporter converts them.
 AXES = mathutils.Matrix(((1, 0, 0, 0), (0, 0, 1, 0), (0, -1, 0, 0), (0, 0, 0, 1)))
 
 RELOAD = "reload"
+# The request `edits_from_updates` asks for objects to export alone and merge: {"type": OBJECTS,
+# "names": [...]}; `Viewport.update` exports them and sends the server's `objects` request.
+OBJECTS = "objects"
+# Object types that render nothing themselves but deform meshes (whose own updates carry it).
+DEFORMERS = ("ARMATURE", "LATTICE")
 
 
 def _flat(m):
@@ -140,26 +148,43 @@ def mesh_fingerprint(obj):
     return len(mesh.vertices), len(mesh.polygons), hash(co.tobytes()), mods
 
 
-def visibility_edits(objects_before, objects_now, exported, lights, fingerprints=None):
+def visibility_edits(objects_before, objects_now, exported, lights, fingerprints=None, merge=None):
     """Requests for objects hidden or shown since the last update, or [RELOAD]: a mesh object
     of the exported scene is hidden or shown in place (`visibility`, with its matrix now when
     shown), a light by its emission (0 while hidden; a light the camera sees is reloaded, as its
-    shape would stay); a new object, or any other kind, needs the exporter. `fingerprints`
-    (name → `mesh_fingerprint` when hidden) is updated; a mesh that changed while hidden reloads."""
+    shape would stay). With a `merge` set, a new mesh object (`mergeable`), or one whose mesh
+    changed while hidden, is added to it (to be exported alone and merged), and a deleted one is
+    hidden and leaves `exported` (its name, taken again, is a new object); without, or for any
+    other kind, the exporter reloads. `fingerprints` (name → `mesh_fingerprint` when hidden) is
+    updated."""
     added, removed = objects_now - objects_before, objects_before - objects_now
-    if exported is None or not added <= exported:
+    if exported is None or (merge is None and not added <= exported):
         return [RELOAD]
     fingerprints = {} if fingerprints is None else fingerprints
     edits = []
     for name, visible in [(n, False) for n in sorted(removed)] + [(n, True) for n in sorted(added)]:
         obj = bpy.data.objects.get(name)
+        if obj is None and merge is not None:
+            # Deleted: hidden for good (the server refuses a name it holds no mesh of: reload).
+            edits.append({"type": "visibility", "name": name, "visible": False})
+            exported.discard(name)
+            fingerprints.pop(name, None)
+            continue
         if obj is None:
             return [RELOAD]  # deleted: a new object could take its name
+        if visible and name not in exported:
+            if not mergeable(obj):
+                return [RELOAD]
+            merge.add(name)
+            continue
         if obj.type == "MESH":
             if not visible:
                 fingerprints[name] = mesh_fingerprint(obj)
             elif fingerprints.pop(name, None) != mesh_fingerprint(obj):
-                return [RELOAD]
+                if merge is None or not mergeable(obj):
+                    return [RELOAD]
+                merge.add(name)
+                continue
             edits.append({"type": "visibility", "name": name, "visible": visible})
             if visible:
                 edits.append({"type": "transform", "name": name, "matrix": object_matrix(obj.matrix_world)})
@@ -178,16 +203,20 @@ def visibility_edits(objects_before, objects_now, exported, lights, fingerprints
 def edits_from_updates(updates, objects_before, objects_now, known=None, lights=None, exported=None,
                        fingerprints=None):
     """Requests for one depsgraph update: a list of headers, or [RELOAD] when the scene must be
-    exported again (objects added, mesh data changed, a material that is not a plain Principled
+    exported again (objects other than meshes added, a material that is not a plain Principled
     BSDF or changed beyond its factors, a light or world changed beyond what their edits carry:
-    viewport_lights.py). `objects_*` are the sets of rendered object names, `known` the
-    materials' snapshots at the last export, `lights` its `LightState` (None: every light and
-    world change reloads), `exported` the objects it exported (None: hiding reloads),
-    `fingerprints` the meshes of hidden objects (visibility_edits)."""
+    viewport_lights.py). Mesh objects added or whose mesh changed come first as one OBJECTS
+    request naming them (exported alone, they carry their matrix: no other edit of theirs is
+    sent). `objects_*` are the sets of rendered object names, `known` the materials' snapshots
+    at the last export, `lights` its `LightState` (None: every light and world change reloads),
+    `exported` the objects it exported (None: nothing is merged, hiding reloads; deleted objects
+    leave it), `fingerprints` the meshes of hidden objects (visibility_edits)."""
     edits = []
+    merge = set() if exported is not None else None
+    new_materials = []
     toggled = objects_before ^ objects_now
     if toggled:
-        edits = visibility_edits(objects_before, objects_now, exported, lights, fingerprints)
+        edits = visibility_edits(objects_before, objects_now, exported, lights, fingerprints, merge)
         if edits == [RELOAD]:
             return edits
 
@@ -207,14 +236,22 @@ def edits_from_updates(updates, objects_before, objects_now, known=None, lights=
         elif isinstance(data, bpy.types.Object) and data.name in toggled:
             continue  # hidden or shown: its visibility edit says it (shown: with its matrix)
         elif isinstance(data, bpy.types.Object):
+            if u.is_updated_geometry and data.type in DEFORMERS and not u.is_updated_transform:
+                continue  # a pose or a lattice edit: the objects it deforms update on their own
             if u.is_updated_geometry and data.type != "CAMERA":
-                return [RELOAD]
+                # Edit mode, a modifier, an armature's pose: the object's evaluated mesh changed.
+                if merge is None or data.name not in objects_now or not mergeable(data):
+                    return [RELOAD]
+                merge.add(data.name)
             if u.is_updated_transform:
                 if data.type == "MESH":
                     add({"type": "transform", "name": data.name, "matrix": object_matrix(data.matrix_world)})
                 elif data.type != "CAMERA":  # cameras: the view is sent by view_draw
                     return [RELOAD]
         elif isinstance(data, bpy.types.Material):
+            if merge is not None and known is not None and data.name not in known:
+                new_materials.append(data)  # not in the scene yet: exported with its objects
+                continue
             req = material_request(data, known)
             if req == RELOAD:
                 return [RELOAD]
@@ -238,7 +275,18 @@ def edits_from_updates(updates, objects_before, objects_now, known=None, lights=
             # A shown object's mesh is evaluated again: its fingerprint said whether it changed.
             shown = any(getattr(bpy.data.objects.get(n), "data", None) == data for n in toggled)
             if u.is_updated_geometry and not shown:
-                return [RELOAD]
+                users = [o for o in (bpy.data.objects.get(n) for n in objects_now) if o is not None and o.data == data]
+                if merge is None or not all(mergeable(o) for o in users):
+                    return [RELOAD]
+                merge.update(o.name for o in users)
+    for mat in new_materials:
+        users = {o.name for o in (bpy.data.objects.get(n) for n in objects_now) if o is not None
+                 and any(slot.material == mat for slot in getattr(o, "material_slots", ()))}
+        if not users <= merge:
+            return [RELOAD]  # a new material on an object that is not exported again
+    if merge:
+        # Exported alone, the objects carry their matrix and visibility: their other edits go.
+        edits = [{"type": OBJECTS, "names": sorted(merge)}] + [e for e in edits if e.get("name") not in merge]
     return edits
 
 
@@ -337,6 +385,36 @@ class Viewport:
         if old:
             shutil.rmtree(old, ignore_errors=True)
 
+    def _merge(self, depsgraph, names):
+        """Export the objects `names` alone, as F12 exports them, and merge them into the
+        running scene (`objects`): added ones join it, changed ones replace their old selves."""
+        scene = depsgraph.scene
+        settings = export.render_settings(scene, (scene.render.resolution_x, scene.render.resolution_y), None)
+        folder = tempfile.mkdtemp(prefix="objects-", dir=self.folder)
+        try:
+            path, state = export.export_scene(depsgraph, folder, settings, motion=False, viewport=True,
+                                              only=set(names))
+            clash = foreign_meshes(path, names, self.exported)
+            if clash:
+                raise CausticError(f"the export of {sorted(names)} holds instances named as other objects "
+                                   f"({', '.join(clash)}): exporting the scene")
+            for warning in state.warnings:
+                self.engine.report({"WARNING"}, f"Caustic: {warning}")
+            reply = self._client().request({"type": "objects", "path": path})
+        finally:
+            # The server has read every file of the export by its reply.
+            shutil.rmtree(folder, ignore_errors=True)
+        self.exported |= set(names)
+        for obj in (bpy.data.objects.get(n) for n in names):
+            for slot in getattr(obj, "material_slots", ()):
+                if slot.material is not None:
+                    self.known[slot.material.name] = material_snapshot(slot.material)
+        if 2 * reply.get("retired_triangles", 0) > reply.get("triangles", 0):
+            # The meshes replaced so far (kept, collapsed, by the server) outweigh the live scene:
+            # a reload gives their memory back, so a session of mesh edits stays within twice the
+            # scene's size at the cost of one export per scene's worth of edited triangles.
+            self._reload(depsgraph)
+
     def update(self, context, depsgraph):
         """view_update: the depsgraph's changes as edits, or a reload."""
         try:
@@ -351,13 +429,17 @@ class Viewport:
                 return
             for req in edits:
                 try:
+                    if req["type"] == OBJECTS:
+                        self._merge(depsgraph, req["names"])
+                        continue
                     self._client().request(req)
                     if req["type"] == "material":
                         mat = bpy.data.materials.get(req["name"])
                         if mat is not None:
                             self.known[req["name"]] = material_snapshot(mat)
-                except ServerError:
-                    # The server refused it (a node-graph material, a mirrored object): reload.
+                except (ServerError, CausticError):
+                    # The server refused it (a node-graph material, a mirrored object, objects
+                    # it cannot merge) or their export failed: reload.
                     self._reload(depsgraph)
                     break
         except (CausticError, ServerError) as err:

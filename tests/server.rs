@@ -5,170 +5,20 @@
 mod common;
 
 use common::GltfBuilder;
+use common::serve::{
+    LIMIT, Server, assert_same_image, cornell, cornell_without, f32_pixels, frame, generation, mean_rgb,
+};
 use serde_json::{Value, json};
-use std::io::{Read, Write};
-use std::process::{Child, ChildStdin, Command, Stdio};
-use std::sync::mpsc::{Receiver, RecvTimeoutError, channel};
-use std::time::{Duration, Instant};
-
-/// Longest wait for any one reply or frame: the scenes here render in well under a second
-/// per pass; this only turns a hang into a failure.
-const LIMIT: Duration = Duration::from_secs(60);
-
-struct Server {
-    child: Child,
-    stdin: Option<ChildStdin>,
-    rx: Receiver<(Value, Vec<u8>)>,
-}
-
-fn frame(header: &Value, payload: &[u8]) -> Vec<u8> {
-    let h = serde_json::to_vec(header).unwrap();
-    let mut m = Vec::new();
-    m.extend_from_slice(&(h.len() as u32).to_le_bytes());
-    m.extend_from_slice(&(payload.len() as u32).to_le_bytes());
-    m.extend_from_slice(&h);
-    m.extend_from_slice(payload);
-    m
-}
-
-impl Server {
-    fn start() -> Server {
-        let mut child = Command::new(common::bin())
-            .args(["serve", "--threads", "2"])
-            .stdin(Stdio::piped())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("start caustic serve");
-        let mut out = child.stdout.take().unwrap();
-        let (tx, rx) = channel();
-        std::thread::spawn(move || {
-            loop {
-                let mut prefix = [0u8; 8];
-                if out.read_exact(&mut prefix).is_err() {
-                    return;
-                }
-                let hl = u32::from_le_bytes(prefix[..4].try_into().unwrap()) as usize;
-                let pl = u32::from_le_bytes(prefix[4..].try_into().unwrap()) as usize;
-                let mut h = vec![0; hl];
-                let mut p = vec![0; pl];
-                if out.read_exact(&mut h).is_err() || out.read_exact(&mut p).is_err() {
-                    return;
-                }
-                if tx.send((serde_json::from_slice(&h).expect("the server's headers are JSON"), p)).is_err() {
-                    return;
-                }
-            }
-        });
-        let stdin = child.stdin.take();
-        Server { child, stdin, rx }
-    }
-
-    fn raw(&mut self, bytes: &[u8]) {
-        let s = self.stdin.as_mut().unwrap();
-        s.write_all(bytes).unwrap();
-        s.flush().unwrap();
-    }
-
-    fn send(&mut self, header: Value) {
-        self.raw(&frame(&header, &[]));
-    }
-
-    /// The next reply to a request (ok, error or hello), skipping frames and progress.
-    fn reply(&self) -> Value {
-        let end = Instant::now() + LIMIT;
-        loop {
-            let (h, _) = self.rx.recv_timeout(end - Instant::now()).expect("a reply in time");
-            if matches!(h["type"].as_str(), Some("ok" | "error" | "hello")) {
-                return h;
-            }
-        }
-    }
-
-    /// Sends a request and returns its ok reply, failing on an error.
-    fn ok(&mut self, header: Value) -> Value {
-        self.send(header.clone());
-        let r = self.reply();
-        assert_eq!(r["type"], "ok", "{header} was refused: {r}");
-        r
-    }
-
-    /// Sends raw bytes and returns the error reply they must cause.
-    fn error_for(&mut self, bytes: &[u8]) -> String {
-        self.raw(bytes);
-        let r = self.reply();
-        assert_eq!(r["type"], "error", "expected an error reply, got {r}");
-        r["message"].as_str().unwrap().to_string()
-    }
-
-    /// The first frame of `generation`; with `done`, the frame the render finished on.
-    fn frame(&self, generation: u64, done: bool) -> (Value, Vec<u8>) {
-        let end = Instant::now() + LIMIT;
-        let mut last = None;
-        loop {
-            let (h, p) = match self.rx.recv_timeout(end.saturating_duration_since(Instant::now())) {
-                Ok(m) => m,
-                Err(RecvTimeoutError::Timeout) => panic!("no frame of generation {generation} in time"),
-                Err(e) => panic!("the server ended: {e}"),
-            };
-            if h["generation"].as_u64() != Some(generation) {
-                continue;
-            }
-            match h["type"].as_str() {
-                Some("frame") if !done => return (h, p),
-                Some("frame") => last = Some((h, p)),
-                Some("done") => return last.expect("a frame before done"),
-                _ => {}
-            }
-        }
-    }
-
-    /// Closes stdin and checks that the server ends cleanly.
-    fn finish(mut self) {
-        drop(self.stdin.take());
-        let end = Instant::now() + LIMIT;
-        loop {
-            if let Some(st) = self.child.try_wait().unwrap() {
-                assert!(st.success(), "the server ended with {st}");
-                return;
-            }
-            assert!(Instant::now() < end, "the server did not end at the end of its input");
-            std::thread::sleep(Duration::from_millis(5));
-        }
-    }
-}
-
-fn cornell() -> String {
-    common::root().join("scenes/cornell_box.gltf").display().to_string()
-}
-
-fn f32_pixels(p: &[u8]) -> Vec<f32> {
-    p.chunks_exact(4).map(|b| f32::from_le_bytes(b.try_into().unwrap())).collect()
-}
-
-fn mean_rgb(px: &[f32]) -> [f64; 3] {
-    let n = (px.len() / 4) as f64;
-    let mut m = [0.0; 3];
-    for p in px.chunks_exact(4) {
-        for c in 0..3 {
-            m[c] += p[c] as f64 / n;
-        }
-    }
-    m
-}
-
-fn generation(r: &Value) -> u64 {
-    r["generation"].as_u64().unwrap()
-}
+use std::time::Instant;
 
 /// Every request kind gets its reply, and edits restart the render with frames of the
 /// new generation (the first one at reduced resolution).
 #[test]
 fn every_request_kind_is_served() {
     let mut s = Server::start();
-    s.send(json!({"type": "hello", "version": 1}));
+    s.send(json!({"type": "hello", "version": 2}));
     let h = s.reply();
-    assert_eq!((h["type"].as_str(), h["version"].as_u64()), (Some("hello"), Some(1)));
+    assert_eq!((h["type"].as_str(), h["version"].as_u64()), (Some("hello"), Some(2)));
     s.ok(json!({"type": "settings", "spp": 4, "frame_format": "f32", "max_depth": 4}));
     let loaded = s.ok(json!({"type": "load", "path": cornell()}));
     assert_eq!(loaded["triangles"], 32);
@@ -326,7 +176,7 @@ fn bad_messages_get_error_replies_and_the_server_goes_on() {
     let mut cut = frame(&json!({"type": "load", "bytes": 1000}), &[0u8; 1000]);
     cut.truncate(cut.len() - 10);
     s.raw(&cut);
-    drop(s.stdin.take());
+    s.close_input();
     let r = s.reply();
     assert!(r["message"].as_str().unwrap().contains("truncated"), "{r}");
     s.finish();
@@ -407,50 +257,6 @@ fn moved_objects_render_as_loaded_there() {
     let flat: Vec<f32> = reference.iter().flatten().copied().collect();
     assert_same_image(&served, &flat, "moved blocks");
     s.finish();
-}
-
-/// The Cornell box with the named nodes left out of its scene, rendered at 4 spp by
-/// `caustic render`.
-fn cornell_without(dir: &std::path::Path, names: &[&str]) -> Vec<f32> {
-    let src = common::root().join("scenes/cornell_box.gltf");
-    let mut doc: Value = serde_json::from_str(&std::fs::read_to_string(&src).unwrap()).unwrap();
-    let keep: Vec<Value> = doc["scenes"][0]["nodes"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .filter(|n| !names.contains(&doc["nodes"][n.as_u64().unwrap() as usize]["name"].as_str().unwrap()))
-        .cloned()
-        .collect();
-    doc["scenes"][0]["nodes"] = Value::Array(keep);
-    let path = dir.join(format!("without_{}.gltf", names.join("_")));
-    std::fs::write(&path, doc.to_string()).unwrap();
-    let _ = std::fs::copy(common::root().join("scenes/cornell_box.bin"), dir.join("cornell_box.bin"));
-    let img = common::render_image(&path, &path.with_extension("exr"), &["--spp", "4", "--threads", "2"], LIMIT);
-    img.iter().flatten().copied().collect()
-}
-
-/// The same samples of the same scene, up to float rounding of the geometry: paths that meet
-/// a surface placed by different roundings continue from points ulps apart, so their pixels
-/// differ in the last digits (a relative 1e-4 covers the drift of a few bounces by orders of
-/// magnitude), and a path grazing an edge may part another way and change its pixel by a
-/// sample's share: 1 % of the pixels are let off. Means agree to 1e-3.
-fn assert_same_image(served: &[f32], reference: &[f32], what: &str) {
-    let (a, b) = (mean_rgb(served), mean_rgb(reference));
-    for c in 0..3 {
-        assert!(
-            (a[c] - b[c]).abs() <= 1e-3 * b[c].max(1e-6),
-            "{what}, channel {c}: served {} vs render {}",
-            a[c],
-            b[c]
-        );
-    }
-    let floor = 1e-3 * (b[0] + b[1] + b[2]) as f32 / 3.0;
-    let differing = served
-        .chunks(4)
-        .zip(reference.chunks(4))
-        .filter(|(x, y)| x.iter().zip(y.iter()).any(|(p, q)| (p - q).abs() > 1e-4 * q.abs().max(floor)))
-        .count();
-    assert!(differing * 100 < served.len() / 4, "{what}: {differing} of {} pixels differ", served.len() / 4);
 }
 
 /// Hiding an object renders the scene without it (its emission too: hiding the box's only

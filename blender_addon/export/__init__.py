@@ -24,6 +24,7 @@ out of it or writes differently from what Cycles renders (docs/contract.md):
 | `volumes.py` | volume objects: their grids from the .vdb into `caustic_volumes/*.cvol`, `CAUSTIC_volume` |
 | `curves.py` | hair particle systems and Curves objects: `CAUSTIC_curves`, appended after the exporter ran |
 | `motion.py` | motion blur and the Vector pass: the scene evaluated at the motion steps, `CAUSTIC_motion` |
+| `object_filter.py` | the viewport's export of a few objects alone (added objects, edited meshes) |
 | `unsupported.py` | warnings naming what Caustic cannot render yet (motion blur, hair, holdout, ...) |
 """
 
@@ -82,11 +83,14 @@ def _exporter_options(filepath, viewport=False):
     )
 
 
-def export_scene(depsgraph, folder, settings, motion=True, viewport=False):
+def export_scene(depsgraph, folder, settings, motion=True, viewport=False, only=None):
     """Write the render depsgraph's scene to `folder`/scene.gltf; return (path, export state).
 
     `motion`: export motion blur's (or the Vector pass's) steps; the viewport renders without.
     `viewport`: the objects visible in the viewport, not those enabled for renders.
+    `only`: a set of object names to export alone (the viewport's added objects and edited
+    meshes, object_filter.py): no world, hair, volumes or scene-wide warnings, which the
+    running scene already has.
 
     Raises CausticError when the exporter fails or one of Caustic's hooks failed.
     """
@@ -97,6 +101,7 @@ def export_scene(depsgraph, folder, settings, motion=True, viewport=False):
     state.pixel_aspect = (scene.render.pixel_aspect_x, scene.render.pixel_aspect_y)
     state.depsgraph = depsgraph
     state.material_override = view_layer.material_override
+    state.only = only
     # The exporter takes object transforms from the original objects, which only the viewport
     # depsgraph updates; during an animation render it still holds the previous frame.
     scene_eval = depsgraph.scene_eval
@@ -119,6 +124,8 @@ def export_scene(depsgraph, folder, settings, motion=True, viewport=False):
         raise CausticError("export failed: " + "; ".join(state.errors))
     if not os.path.isfile(filepath):
         raise CausticError("glTF export wrote no file")
+    if only is not None:
+        return filepath, state
     state.warnings.extend(scene_warnings(depsgraph))
     state.warnings.extend(attach_volumes(depsgraph, folder, filepath))
     try:

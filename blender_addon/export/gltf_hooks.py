@@ -14,7 +14,7 @@ from contextlib import contextmanager
 
 import bpy
 
-from . import materials, meshes, view_layer
+from . import materials, meshes, object_filter, view_layer
 from .camera import CAMERA_EXTENSION, camera_extension
 from .gltf_objects import attach_extension
 from .lights import (AREA_LIGHT_EXTENSION, PUNCTUAL_EXTENSION, area_light_extension,
@@ -114,7 +114,8 @@ class glTF2ExportUserExtension:
             state.errors.append(f"material '{getattr(blender_material, 'name', '?')}': {err!r}")
 
     def gather_tree_filter_tag_hook(self, vtree, export_settings):
-        """Leave out the objects of collections the view layer excludes (see view_layer.py)."""
+        """Leave out the objects of collections the view layer excludes (see view_layer.py), and in
+        an export of a few objects every other one (object_filter.py)."""
         state = current()
         if state is None or state.depsgraph is None:
             return
@@ -122,6 +123,11 @@ class glTF2ExportUserExtension:
             view_layer.drop_objects_outside(vtree, state.depsgraph)
         except Exception as err:
             state.errors.append(f"view layer '{state.depsgraph.view_layer.name}': {err!r}")
+        if state.only is not None:
+            try:
+                object_filter.keep_only(vtree, state.only)
+            except Exception as err:
+                state.errors.append(f"exporting only {sorted(state.only)}: {err!r}")
 
     def gather_scene_hook(self, gltf2_scene, blender_scene, export_settings):
         """Store the render settings in the scene's extras.caustic and the world in CAUSTIC_world."""
@@ -135,6 +141,8 @@ class glTF2ExportUserExtension:
             state.scenes += 1
         except Exception as err:
             state.errors.append(f"scene settings: {err!r}")
+        if state.only is not None:
+            return  # a few objects for the running scene, which keeps its own world
         try:
             folder = export_settings["gltf_filedirectory"]
             value, warnings = world_extension(blender_scene, folder, state.image_writer(folder))

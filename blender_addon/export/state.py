@@ -30,6 +30,7 @@ class ExportState:
         self.scaled_lights = set()  # ids of KHR light dicts already scaled by a light node tree
         self._image_writer = None
         self.motion = None  # motion.Motion: the steps of moving objects, or None
+        self.only = None  # names of the only objects to export (object_filter.py), or None: all
         # The exporter logs and swallows hook exceptions: the hooks record them here and
         # export_scene raises them afterwards.
         self.errors = []

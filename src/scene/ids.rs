@@ -63,6 +63,27 @@ impl PassIds {
         }
     }
 
+    /// Appends the ids of a second scene whose triangles follow this one's from
+    /// `tri_offset` and whose materials follow from `material_offset` (the viewport's merge
+    /// of added objects: `server::merge`).
+    pub fn append(&mut self, other: &PassIds, tri_offset: u32, material_offset: u32) {
+        // Material ids are indexed by material: pad for materials this scene has no ids of.
+        self.material_index.resize(material_offset as usize, 0.0);
+        self.material_ids.resize(material_offset as usize, 0);
+        self.tri_end.extend(other.tri_end.iter().map(|e| e + tri_offset));
+        self.object_index.extend(&other.object_index);
+        self.object_ids.extend(&other.object_ids);
+        self.material_index.extend(&other.material_index);
+        self.material_ids.extend(&other.material_ids);
+        for (mine, theirs) in self.names.iter_mut().zip(&other.names) {
+            for n in theirs {
+                if !mine.contains(n) {
+                    mine.push(n.clone());
+                }
+            }
+        }
+    }
+
     /// The instance holding triangle `tri`.
     #[inline]
     fn instance(&self, tri: u32) -> Option<usize> {

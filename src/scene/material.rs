@@ -216,12 +216,13 @@ pub struct Subsurface {
     pub method: SubsurfaceMethod,
 }
 
-impl Material {
-    /// Every texture the material's glTF parameters read, in one place: the fields are
-    /// destructured without `..`, so a field added to `Material` does not compile until
-    /// it is named here as a texture or not (and so can never be missed by what relies
-    /// on this list, such as the shading's texture-free fast path).
-    pub fn textures(&self) -> [Option<TexRef>; 15] {
+/// The texture fields of a material (`&Material` or `&mut Material`): the thirteen
+/// `Option<TexRef>` fields and the iridescence, whose two textures sit inside it. The fields
+/// are destructured without `..`, so a field added to `Material` does not compile until it is
+/// named here as a texture or not (and so can never be missed by what relies on the list,
+/// such as the shading's texture-free fast path or the viewport's merge, which shifts them).
+macro_rules! texture_fields {
+    ($m:expr) => {{
         let Material {
             name: _,
             base_color: _,
@@ -269,24 +270,47 @@ impl Material {
             hair: _,
             // Not a texture: a shader graph replaces every parameter above.
             nodes: _,
-        } = self;
-        [
-            *base_color_tex,
-            *metallic_roughness_tex,
-            *normal_tex,
-            *emissive_tex,
-            *anisotropy_tex,
-            *specular_tex,
-            *specular_color_tex,
-            *transmission_tex,
-            *coat_tex,
-            *coat_roughness_tex,
-            *coat_normal_tex,
-            *sheen_color_tex,
-            *sheen_roughness_tex,
-            iridescence.as_ref().and_then(|i| i.factor_tex),
-            iridescence.as_ref().and_then(|i| i.thickness_tex),
-        ]
+        } = $m;
+        (
+            [
+                base_color_tex,
+                metallic_roughness_tex,
+                normal_tex,
+                emissive_tex,
+                anisotropy_tex,
+                specular_tex,
+                specular_color_tex,
+                transmission_tex,
+                coat_tex,
+                coat_roughness_tex,
+                coat_normal_tex,
+                sheen_color_tex,
+                sheen_roughness_tex,
+            ],
+            iridescence,
+        )
+    }};
+}
+
+impl Material {
+    /// Every texture the material's glTF parameters read, in one place (`texture_fields`).
+    pub fn textures(&self) -> [Option<TexRef>; 15] {
+        let (fields, iridescence) = texture_fields!(self);
+        let mut all = [None; 15];
+        for (a, f) in all.iter_mut().zip(fields) {
+            *a = *f;
+        }
+        all[13] = iridescence.as_ref().and_then(|i| i.factor_tex);
+        all[14] = iridescence.as_ref().and_then(|i| i.thickness_tex);
+        all
+    }
+
+    /// The same textures as [`Material::textures`], to change in place (the viewport's
+    /// merge of a second scene shifts their indices).
+    pub fn textures_mut(&mut self) -> impl Iterator<Item = &mut TexRef> {
+        let (fields, iridescence) = texture_fields!(self);
+        let film = iridescence.iter_mut().flat_map(|i| [&mut i.factor_tex, &mut i.thickness_tex]);
+        fields.into_iter().chain(film).flatten()
     }
 
     /// True when the material emits light.

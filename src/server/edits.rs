@@ -104,10 +104,12 @@ pub fn view_from_edit(e: &CameraEdit) -> Result<View, String> {
 /// Applies a material edit. Node-graph materials are not edited here: their colours
 /// live in the graph, so the client reloads the scene for them.
 pub fn material(scene: &mut Scene, e: &MaterialEdit) -> Result<Invalidates, String> {
-    let Some(m) = scene.materials.iter_mut().find(|m| m.name == e.name) else {
+    // Every material of the name: objects merged in later (`merge`) bring their own copies.
+    let mut named: Vec<&mut crate::scene::Material> = scene.materials.iter_mut().filter(|m| m.name == e.name).collect();
+    if named.is_empty() {
         return Err(format!("no material named '{}'", e.name));
-    };
-    if m.nodes.is_some() {
+    }
+    if named.iter().any(|m| m.nodes.is_some()) {
         return Err(format!(
             "material '{}' is a shader node graph: its parameters are not editable in place yet; send load",
             e.name
@@ -130,20 +132,22 @@ pub fn material(scene: &mut Scene, e: &MaterialEdit) -> Result<Invalidates, Stri
     {
         return Err(format!("ior {ior} must be at least 1"));
     }
-    if let Some(c) = e.base_color {
-        m.base_color = Vec4::from(c);
-    }
-    if let Some(v) = e.metallic {
-        m.metallic = v;
-    }
-    if let Some(v) = e.roughness {
-        m.roughness = v;
-    }
-    if let Some(v) = e.ior {
-        m.ior = v;
-    }
-    if let Some(v) = e.transmission {
-        m.transmission = v;
+    for m in &mut named {
+        if let Some(c) = e.base_color {
+            m.base_color = Vec4::from(c);
+        }
+        if let Some(v) = e.metallic {
+            m.metallic = v;
+        }
+        if let Some(v) = e.roughness {
+            m.roughness = v;
+        }
+        if let Some(v) = e.ior {
+            m.ior = v;
+        }
+        if let Some(v) = e.transmission {
+            m.transmission = v;
+        }
     }
     // Photon maps were traced with the old reflectances.
     Ok(Invalidates::Shading)
@@ -156,7 +160,8 @@ pub fn transform(scene: &mut Scene, name: &str, matrix: &[f32; 16]) -> Result<In
         return Err("the matrix must be finite".into());
     }
     let new = Mat4::from_cols_array(matrix);
-    let Some(span) = scene.instances.iter_mut().find(|s| s.name == name) else {
+    // The newest instance of the name: an `objects` request retires the older ones.
+    let Some(span) = scene.instances.iter_mut().rfind(|s| s.name == name) else {
         return Err(format!("no mesh object named '{name}'"));
     };
     let (d_old, d_new) = (span.world.determinant(), new.determinant());
@@ -226,9 +231,9 @@ pub fn visibility(
     Ok(Invalidates::Geometry)
 }
 
-/// The scene's bounds after vertices moved (directional and world lights' powers and
-/// photon radii read them).
-fn recompute_bounds(scene: &mut Scene) {
+/// The scene's bounds after vertices moved or were added (directional and world lights'
+/// powers and photon radii read them).
+pub(super) fn recompute_bounds(scene: &mut Scene) {
     let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
     for t in &scene.mesh.triangles {
         for &i in t {

@@ -8,6 +8,7 @@
 //! the input ends it.
 
 pub mod edits;
+pub mod merge;
 pub mod protocol;
 pub mod worker;
 
@@ -159,7 +160,8 @@ impl Server {
     }
 
     fn handle(&mut self, request: Request, payload: Vec<u8>) -> Result<(), String> {
-        let takes_payload = matches!(request, Request::Load { bytes: Some(_), .. });
+        let takes_payload =
+            matches!(request, Request::Load { bytes: Some(_), .. } | Request::Objects { bytes: Some(_), .. });
         if !takes_payload && !payload.is_empty() {
             return Err(format!("unexpected payload of {} bytes", payload.len()));
         }
@@ -178,6 +180,7 @@ impl Server {
                 );
             }
             Request::Load { path, bytes, base_dir } => self.load(path, bytes, base_dir, payload)?,
+            Request::Objects { path, bytes, base_dir } => self.objects(path, bytes, base_dir, payload)?,
             Request::Camera(e) => {
                 let view = edits::view_from_edit(&e)?;
                 self.stop_worker();
@@ -187,7 +190,7 @@ impl Server {
             Request::Material(e) => self.edit_scene("material", |s| edits::material(s, &e))?,
             Request::Transform { name, matrix } => {
                 if let Some(l) = self.loaded.as_mut()
-                    && let Some(i) = l.scene.instances.iter().position(|s| s.name == name)
+                    && let Some(i) = l.scene.instances.iter().rposition(|s| s.name == name)
                     && !l.detached.contains(&i)
                 {
                     l.detached.push(i);
@@ -198,11 +201,12 @@ impl Server {
                 let Some(l) = self.loaded.as_mut() else {
                     return Err("no scene loaded: send load first".into());
                 };
+                // The newest instance of the name: an `objects` request retires the older ones.
                 let i = l
                     .scene
                     .instances
                     .iter()
-                    .position(|s| s.name == name)
+                    .rposition(|s| s.name == name)
                     .ok_or_else(|| format!("no mesh object named '{name}'"))?;
                 if !l.detached.contains(&i) {
                     l.detached.push(i);
@@ -314,21 +318,7 @@ impl Server {
         payload: Vec<u8>,
     ) -> Result<(), String> {
         let t0 = Instant::now();
-        let scene = match (path, bytes) {
-            (Some(p), None) => scene::gltf::load_within(Path::new(&p), &self.budget),
-            (None, Some(n)) => {
-                if n != payload.len() as u64 {
-                    return Err(format!(
-                        "truncated payload: the header declares {n} bytes, the message carries {}",
-                        payload.len()
-                    ));
-                }
-                let base = base_dir.unwrap_or_else(|| ".".into());
-                scene::gltf::load_bytes(&payload, Path::new(&base), "payload", &self.budget)
-            }
-            _ => return Err("load needs either path or bytes (with the scene as payload)".into()),
-        }
-        .map_err(|e| e.to_string())?;
+        let scene = read_scene("load", path, bytes, base_dir, payload, &self.budget)?;
         let settings = resolve_settings(&scene, &self.settings)?;
         let default_view = default_view(&scene, &self.settings)?;
         let load_seconds = t0.elapsed().as_secs_f64();
@@ -363,6 +353,103 @@ impl Server {
         self.restart();
         Ok(())
     }
+    /// Merges the objects of a second scene into the loaded one (`merge`): added objects are
+    /// appended, an object named as a loaded one replaces it (the old one hidden for good),
+    /// and the new triangles go to the side BVH; the scene's BVH is not rebuilt.
+    fn objects(
+        &mut self,
+        path: Option<String>,
+        bytes: Option<u64>,
+        base_dir: Option<String>,
+        payload: Vec<u8>,
+    ) -> Result<(), String> {
+        if self.loaded.is_none() {
+            return Err("no scene loaded: send load first".into());
+        }
+        let t0 = Instant::now();
+        let add = read_scene("objects", path, bytes, base_dir, payload, &self.budget)?;
+        // Refused before the render stops, so that a refusal leaves the viewport rendering.
+        merge::check(&self.loaded.as_ref().expect("checked").scene, &add)?;
+        let warnings = add.warnings.clone();
+        let load_seconds = t0.elapsed().as_secs_f64();
+        self.stop_worker();
+        let t1 = Instant::now();
+        let l = self.loaded.as_mut().expect("checked");
+        // The worker has ended, so the scene is not shared and this does not copy it.
+        let scene = Arc::make_mut(&mut l.scene);
+        let merged = merge::merge(scene, add)?;
+        for &i in &merged.retired {
+            if !l.detached.contains(&i) {
+                l.detached.push(i);
+            }
+            if !l.hidden.contains(&i) {
+                l.hidden.push(i);
+            }
+            edits::visibility(scene, i, false, &mut l.hidden_power)?;
+        }
+        l.detached.extend(&merged.added);
+        edits::recompute_bounds(scene);
+        self.pool.install(|| crate::cli::build_bsdf_tables(scene));
+        relocate(&self.pool, l);
+        // Each name once (an object replaced again retires its older copies with it).
+        let names = |v: &[usize]| {
+            let mut out: Vec<&str> = Vec::new();
+            for &i in v {
+                let n = l.scene.instances[i].name.as_str();
+                if !out.contains(&n) {
+                    out.push(n);
+                }
+            }
+            out
+        };
+        let reply = json!({
+            "added": names(&merged.added),
+            "replaced": names(&merged.retired),
+            "triangles": l.scene.mesh.triangles.len(),
+            "retired_triangles": retired_triangles(&l.scene),
+            "warnings": warnings,
+            "load_seconds": load_seconds,
+            "merge_seconds": t1.elapsed().as_secs_f64(),
+        });
+        self.integrator = None;
+        self.generation += 1;
+        self.ok("objects", reply);
+        self.restart();
+        Ok(())
+    }
+}
+
+/// Triangles of the instances a newer one of the same name replaced (`merge`): memory they
+/// still hold, which a client can reclaim by a `load` once it outweighs the live scene.
+fn retired_triangles(scene: &Scene) -> usize {
+    let mut newer = std::collections::HashSet::new();
+    scene.instances.iter().rev().filter(|s| !newer.insert(s.name.as_str())).map(|s| s.triangles.len()).sum()
+}
+
+/// The scene a `load` or `objects` request names: a file, or the payload.
+fn read_scene(
+    request: &str,
+    path: Option<String>,
+    bytes: Option<u64>,
+    base_dir: Option<String>,
+    payload: Vec<u8>,
+    budget: &MemoryBudget,
+) -> Result<Scene, String> {
+    match (path, bytes) {
+        (Some(p), None) => scene::gltf::load_within(Path::new(&p), budget),
+        (None, Some(n)) => {
+            if n != payload.len() as u64 {
+                return Err(format!(
+                    "truncated payload: the header declares {n} bytes, the message carries {}",
+                    payload.len()
+                ));
+            }
+            let base = base_dir.unwrap_or_else(|| ".".into());
+            scene::gltf::load_bytes(&payload, Path::new(&base), "payload", budget)
+        }
+        _ => return Err(format!("{request} needs either path or bytes (with the scene as payload)")),
+    }
+    .map_err(|e| e.to_string())
 }
 
 fn build_accel(pool: &rayon::ThreadPool, scene: &Scene) -> Accel {

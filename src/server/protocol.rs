@@ -7,7 +7,7 @@ use serde::Deserialize;
 use std::io::{Read, Write};
 
 /// Protocol version: bumped on every change a client must know about.
-pub const VERSION: u32 = 1;
+pub const VERSION: u32 = 2;
 
 /// Longest header accepted: a camera edit is a few hundred bytes; a megabyte is far
 /// beyond any legitimate header and small enough to hold without a budget.
@@ -208,6 +208,16 @@ pub enum Request {
     /// Load a scene from `path`, or from the payload (`bytes` long; external files
     /// resolved against `base_dir`).
     Load {
+        /// A .gltf or .glb file.
+        path: Option<String>,
+        /// Payload length, when the scene is the payload.
+        bytes: Option<u64>,
+        /// Folder of the payload's external files.
+        base_dir: Option<String>,
+    },
+    /// Merge a scene of added or changed objects into the loaded one (`server::merge`): from
+    /// `path`, or from the payload (`bytes` long; external files resolved against `base_dir`).
+    Objects {
         /// A .gltf or .glb file.
         path: Option<String>,
         /// Payload length, when the scene is the payload.

@@ -103,7 +103,9 @@ def test_a_principled_colour_change_is_a_material_edit(vp, empty_scene, updates)
     assert viewport.material_request(mat) == viewport.RELOAD
 
 
-def test_added_objects_and_mesh_edits_reload(vp, empty_scene, updates):
+def test_added_objects_and_mesh_edits_reload_before_a_load(vp, empty_scene, updates):
+    """Without an exported scene (nothing loaded yet) there is nothing to merge objects into
+    (test_viewport_objects.py has the merges)."""
     viewport, _ = vp
     scenes.cube(empty_scene, "Box", 1.0, (0, 0, 0))
     _settle()
@@ -417,7 +419,8 @@ def test_light_changes_beyond_emission_and_placement_reload(vp, empty_scene, upd
 
 def test_hiding_and_showing_are_visibility_edits(vp, empty_scene, updates):
     """A mesh object of the exported scene hidden and shown again: visibility edits (shown
-    with its matrix now); a new object or a deleted one reloads."""
+    with its matrix now); a mesh edited while hidden is exported alone when shown; a new object
+    is merged and a deleted one hidden (test_viewport_objects.py)."""
     viewport, _ = vp
     scenes.cube(empty_scene, "Box", 1.0, (0, 0, 0))
     scenes.cube(empty_scene, "Other", 1.0, (3, 0, 0))
@@ -440,21 +443,18 @@ def test_hiding_and_showing_are_visibility_edits(vp, empty_scene, updates):
     assert {"type": "visibility", "name": "Box", "visible": True} in edits, edits
     moves = [e for e in edits if e["type"] == "transform" and e["name"] == "Box"]
     assert len(moves) == 1 and moves[0]["matrix"][12] == pytest.approx(0.5)
-    # A mesh edited while hidden is exported again when shown.
+    # A mesh edited while hidden is exported again when shown: alone (merged), or with the
+    # scene when nothing can be merged.
     prints = {}
     assert viewport.visibility_edits(exported, hidden, exported, None, prints) != [viewport.RELOAD]
     box.data.vertices[0].co.z += 0.25
+    saved = dict(prints)
     assert viewport.visibility_edits(hidden, exported, exported, None, prints) == [viewport.RELOAD]
-    # Without the exported set (nothing loaded), or for an object it does not hold: reload.
+    merge = set()
+    assert viewport.visibility_edits(hidden, exported, exported, None, saved, merge) == []
+    assert merge == {"Box"}
+    # Without the exported set (nothing loaded): reload.
     assert viewport.edits_from_updates([], exported, hidden, {}, None, None) == [viewport.RELOAD]
-    scenes.cube(empty_scene, "New", 1.0, (6, 0, 0))
-    _settle()
-    grown = viewport.rendered_objects(bpy.context.evaluated_depsgraph_get())
-    assert viewport.edits_from_updates([], exported, grown, {}, None, exported) == [viewport.RELOAD]
-    bpy.data.objects.remove(bpy.data.objects["Other"])
-    _settle()
-    shrunk = viewport.rendered_objects(bpy.context.evaluated_depsgraph_get())
-    assert viewport.edits_from_updates([], grown, shrunk, {}, None, exported) == [viewport.RELOAD]
 
 
 @pytest.mark.needs_binary
