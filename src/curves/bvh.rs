@@ -1,5 +1,5 @@
 //! The curves' own BVH: an obvhs CWBVH over the segments' boxes, traversed with the
-//! triangle BVH's node test (`accel::node_hits`, which keeps boxes next to the origin and
+//! triangle BVH's node test (`accel::traverse::node_hits`, which keeps boxes next to the origin and
 //! widens slabs by their rounding error) and the round-cone test at the leaves. It sits
 //! beside the triangles' BVH; `SceneContext` asks both, the nearer hit winning, and a scene
 //! without curves has no curve BVH and asks nothing.
