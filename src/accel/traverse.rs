@@ -245,6 +245,19 @@ pub(crate) fn obvhs_direction(dir: Vec3) -> Vec3A {
     Vec3A::from(dir + Vec3::ZERO)
 }
 
+/// Set bits of each byte value. Plain x86_64 has no popcnt instruction, so `count_ones`
+/// is a dozen dependent shifts and masks in the walk's chain from one node to the next;
+/// a byte suffices because the bits counted are the node's 8-bit inner-child mask.
+static BYTE_POPCOUNT: [u8; 256] = {
+    let mut t = [0u8; 256];
+    let mut i = 0;
+    while i < 256 {
+        t[i] = (i as u32).count_ones() as u8;
+        i += 1;
+    }
+    t
+};
+
 /// Deepest CWBVH the traversal's stack holds (obvhs' own traversal has the same bound).
 const STACK_DEPTH: usize = 32;
 
@@ -300,7 +313,8 @@ pub(crate) fn traverse(
                 depth += 1;
             }
             let slot = (child - 24) ^ (oct_inv4 & 0xff);
-            let relative = (hits_imask & !(0xffff_ffffu32 << slot)).count_ones();
+            // The inner children stored before `slot`: imask bits below it (slot < 8).
+            let relative = u32::from(BYTE_POPCOUNT[(hits_imask & !(0xffff_ffffu32 << slot)) as u8 as usize]);
             let node = &bvh.nodes[(nodes.0 + relative) as usize];
             let hitmask = node_hits(node, ray, tmax, oct_inv4);
             nodes = (node.child_base_idx, (hitmask & 0xff00_0000) | node.imask as u32);

@@ -152,7 +152,11 @@ mod tests {
                 let seed = rng.next_u64() as u32;
                 let want = sobol_burley::sample_4d(index, set, seed).map(f32::to_bits);
                 assert_eq!(tables.sample_4d(index, set, seed).map(f32::to_bits), want, "set {set} index {index}");
-                assert_eq!(tables.sample_4d_portable(index, set, seed).map(f32::to_bits), want, "set {set} index {index}");
+                assert_eq!(
+                    tables.sample_4d_portable(index, set, seed).map(f32::to_bits),
+                    want,
+                    "set {set} index {index}"
+                );
             }
         }
     }
