@@ -1,6 +1,6 @@
 //! The curves' own BVH: an obvhs CWBVH over the segments' boxes, traversed with the
-//! triangle BVH's node test (`accel::node_hits`, which keeps boxes next to the origin and
-//! widens slabs by their rounding error) and at the leaves the round-cone test, or the
+//! triangle BVH's node test (`accel::traverse::node_hits`, which keeps boxes next to the origin
+//! and widens slabs by their rounding error) and at the leaves the round-cone test, or the
 //! ray-facing ribbon's for the segments of objects drawn as ribbons (`ribbon.rs`). It sits
 //! beside the triangles' BVH; `SceneContext` asks both, the nearer hit winning, and a scene
 //! without curves has no curve BVH and asks nothing.
