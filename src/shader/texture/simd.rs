@@ -112,26 +112,46 @@ fn select(c: __m256i, a: __m256, b: __m256) -> __m256 {
     _mm256_blendv_ps(b, a, _mm256_castsi256_ps(c))
 }
 
-/// Perlin's 3-D corner gradients `grad3(hash_uint3(i + corner), f - corner)` for the eight
-/// corners of cell `i` (corner j has bit k of j on axis k), as `perlin::perlin_3d` takes them.
+/// Perlin's 3-D lattice work at `p` (each |p_k| < 2^23, as after the `fmod` precision fix):
+/// the cell `floor(p)`, the eight corner gradients `grad3(hash_uint3(cell + corner),
+/// p - cell - corner)` (corner j has bit k of j on axis k) and the three fades of `p - cell`,
+/// as `perlin::perlin_3d` computes them. The floor is SSE4.1's, which is IEEE `floor` like
+/// `float_ops::floor` (signed zeros included); below 2^23 the truncation to i32 is exact.
 ///
 /// # Safety
 /// The CPU must support AVX2 (`has_avx2`).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-pub(crate) unsafe fn perlin_corners_3d(i: [i32; 3], f: [f32; 3]) -> [f32; 8] {
+pub(crate) unsafe fn perlin_lattice_3d(p: [f32; 3]) -> ([f32; 8], [f32; 3]) {
+    let v = _mm_setr_ps(p[0], p[1], p[2], 0.0);
+    let cell = _mm_floor_ps(v);
+    let i = _mm_cvttps_epi32(cell);
+    let f = _mm_sub_ps(v, cell);
+    // fade(t) = t t t (t (6 t - 15) + 10), in `perlin::fade`'s order.
+    let t3 = _mm_mul_ps(_mm_mul_ps(f, f), f);
+    let inner = _mm_add_ps(_mm_mul_ps(f, _mm_sub_ps(_mm_mul_ps(f, _mm_set1_ps(6.0)), _mm_set1_ps(15.0))), _mm_set1_ps(10.0));
+    let fade = _mm_mul_ps(t3, inner);
     let ((dx, fdx), (dy, fdy), (dz, fdz)) = (corner_bits(0, 0), corner_bits(1, 0), corner_bits(2, 0));
     let s = _mm256_set1_epi32(seed(3));
-    let key = |c: i32, d: __m256i| _mm256_add_epi32(s, _mm256_add_epi32(_mm256_set1_epi32(c), d));
-    let h = finalize8(key(i[0], dx), key(i[1], dy), key(i[2], dz));
-    let x = _mm256_sub_ps(_mm256_set1_ps(f[0]), fdx);
-    let y = _mm256_sub_ps(_mm256_set1_ps(f[1]), fdy);
-    let z = _mm256_sub_ps(_mm256_set1_ps(f[2]), fdz);
-    let g = grad3_8(h, x, y, z);
-    let mut out = [0.0f32; 8];
-    // SAFETY: `out` holds eight f32; the store is unaligned.
-    unsafe { _mm256_storeu_ps(out.as_mut_ptr(), g) };
-    out
+    // Lane k of a 128-bit vector broadcast to all eight lanes.
+    let wide = _mm256_castsi128_si256(i);
+    let key = |lanes: __m256i, d: __m256i| _mm256_add_epi32(s, _mm256_add_epi32(lanes, d));
+    let h = finalize8(
+        key(_mm256_permutevar8x32_epi32(wide, _mm256_set1_epi32(0)), dx),
+        key(_mm256_permutevar8x32_epi32(wide, _mm256_set1_epi32(1)), dy),
+        key(_mm256_permutevar8x32_epi32(wide, _mm256_set1_epi32(2)), dz),
+    );
+    let fw = _mm256_castps128_ps256(f);
+    let at = |k: i32| _mm256_permutevar8x32_ps(fw, _mm256_set1_epi32(k));
+    let g = grad3_8(h, _mm256_sub_ps(at(0), fdx), _mm256_sub_ps(at(1), fdy), _mm256_sub_ps(at(2), fdz));
+    let mut corners = [0.0f32; 8];
+    let mut fades = [0.0f32; 4];
+    // SAFETY: `corners` holds eight f32 and `fades` four; the stores are unaligned.
+    unsafe {
+        _mm256_storeu_ps(corners.as_mut_ptr(), g);
+        _mm_storeu_ps(fades.as_mut_ptr(), fade);
+    }
+    (corners, [fades[0], fades[1], fades[2]])
 }
 
 /// `perlin::grad3` on each lane.
