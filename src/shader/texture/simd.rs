@@ -129,7 +129,8 @@ pub(crate) unsafe fn perlin_lattice_3d(p: [f32; 3]) -> ([f32; 8], [f32; 3]) {
     let f = _mm_sub_ps(v, cell);
     // fade(t) = t t t (t (6 t - 15) + 10), in `perlin::fade`'s order.
     let t3 = _mm_mul_ps(_mm_mul_ps(f, f), f);
-    let inner = _mm_add_ps(_mm_mul_ps(f, _mm_sub_ps(_mm_mul_ps(f, _mm_set1_ps(6.0)), _mm_set1_ps(15.0))), _mm_set1_ps(10.0));
+    let inner =
+        _mm_add_ps(_mm_mul_ps(f, _mm_sub_ps(_mm_mul_ps(f, _mm_set1_ps(6.0)), _mm_set1_ps(15.0))), _mm_set1_ps(10.0));
     let fade = _mm_mul_ps(t3, inner);
     let ((dx, fdx), (dy, fdy), (dz, fdz)) = (corner_bits(0, 0), corner_bits(1, 0), corner_bits(2, 0));
     let s = _mm256_set1_epi32(seed(3));
@@ -279,9 +280,8 @@ pub(crate) unsafe fn voronoi_cells_3d(
     for g in 0..4 {
         let lanes = 8 * g..8 * g + 8;
         // SAFETY (loads): each row of CELL_OFFSETS has 32 i32, lanes is within it.
-        let off: [__m256i; 3] = core::array::from_fn(|k| unsafe {
-            _mm256_loadu_si256(CELL_OFFSETS[k][lanes.clone()].as_ptr().cast())
-        });
+        let off: [__m256i; 3] =
+            core::array::from_fn(|k| unsafe { _mm256_loadu_si256(CELL_OFFSETS[k][lanes.clone()].as_ptr().cast()) });
         // hash_pcg3d_i on cell + offset (wrapping, as cell_index adds).
         let [mut x, mut y, mut z] = core::array::from_fn(|k| {
             let key = _mm256_add_epi32(_mm256_set1_epi32(cell[k]), off[k]);

@@ -7,13 +7,13 @@ use glam::{Vec2, Vec3, Vec4};
 
 use super::cell_offsets::{OFFSETS_2D, OFFSETS_3D, OFFSETS_4D};
 use super::float_ops::floor;
-use super::simd::Cells27;
-#[cfg(target_arch = "x86_64")]
-use super::simd::{LaneMetric, has_avx2, voronoi_cells_3d};
 use super::hash::{
     hash_float_to_float, hash_float_to_float3, hash_int2_to_float2, hash_int2_to_float3, hash_int3_to_float3,
     hash_int4_to_float3, hash_int4_to_float4,
 };
+use super::simd::Cells27;
+#[cfg(target_arch = "x86_64")]
+use super::simd::{LaneMetric, has_avx2, voronoi_cells_3d};
 use super::voronoi_settings::{Params, VoronoiMetric};
 
 /// A Voronoi coordinate of 1 to 4 dimensions.
@@ -501,7 +501,11 @@ mod tests {
             assert_eq!((bits(a.0), bits(a.1)), (bits(b.0), bits(b.1)), "F1 at {coord:?}");
             let (a, b) = (<Vec3 as Coord>::f2_scan(&prm, cell, local), scan_f2(&prm, cell, local));
             for (x, y) in a.iter().zip(&b) {
-                assert_eq!((x.0.to_bits(), bits(x.1), bits(x.2)), (y.0.to_bits(), bits(y.1), bits(y.2)), "F2 at {coord:?}");
+                assert_eq!(
+                    (x.0.to_bits(), bits(x.1), bits(x.2)),
+                    (y.0.to_bits(), bits(y.1), bits(y.2)),
+                    "F2 at {coord:?}"
+                );
             }
         }
     }
