@@ -352,6 +352,9 @@ pub struct Program {
     /// A Transparent BSDF's colour may not be grey: pass-throughs and shadow rays carry it
     /// per channel (`Scene::pass_through`, `Scene::transmission`).
     pub tinted_transparency: bool,
+    /// A Principled BSDF's Transmission Weight may be nonzero (linked, or a nonzero constant):
+    /// without it and without a Glass closure the graph never shows rough glass.
+    pub transmits: bool,
     /// The graph can emit.
     pub emits: bool,
     /// The emission does not depend on the shading point (then it is `constant_emission`).

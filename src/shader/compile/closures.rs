@@ -140,6 +140,9 @@ impl Compiler<'_> {
                 if !self.is_const(p.alpha, 1) || self.init[p.alpha as usize] < 1.0 {
                     self.prog.transparent = true;
                 }
+                if !self.is_const(p.transmission, 1) || self.init[p.transmission as usize] != 0.0 {
+                    self.prog.transmits = true;
+                }
                 if !self.is_const(p.emission_strength, 1) || self.init[p.emission_strength as usize] != 0.0 {
                     self.prog.emits = true;
                 }

@@ -59,28 +59,28 @@ const fn seed(words: u32) -> u32 {
 }
 
 /// Cycles' `hash_uint`.
-#[inline]
+#[inline(always)]
 pub fn hash_uint(kx: u32) -> u32 {
     let s = seed(1);
     finalize(s.wrapping_add(kx), s, s)
 }
 
 /// Cycles' `hash_uint2`.
-#[inline]
+#[inline(always)]
 pub fn hash_uint2(kx: u32, ky: u32) -> u32 {
     let s = seed(2);
     finalize(s.wrapping_add(kx), s.wrapping_add(ky), s)
 }
 
 /// Cycles' `hash_uint3`.
-#[inline]
+#[inline(always)]
 pub fn hash_uint3(kx: u32, ky: u32, kz: u32) -> u32 {
     let s = seed(3);
     finalize(s.wrapping_add(kx), s.wrapping_add(ky), s.wrapping_add(kz))
 }
 
 /// Cycles' `hash_uint4`.
-#[inline]
+#[inline(always)]
 pub fn hash_uint4(kx: u32, ky: u32, kz: u32, kw: u32) -> u32 {
     let s = seed(4);
     let (mut a, mut b, mut c) = (s.wrapping_add(kx), s.wrapping_add(ky), s.wrapping_add(kz));
@@ -177,7 +177,7 @@ const PCG_INC: i32 = 1013904223;
 
 /// Cycles' `hash_pcg2d_i`: Jarzynski and Olano's PCG2D on signed integers (so that OSL can run
 /// it: wrapping arithmetic, arithmetic shift), masked to 31 bits.
-#[inline]
+#[inline(always)]
 pub fn hash_pcg2d_i(k: [i32; 2]) -> [i32; 2] {
     let [mut x, mut y] = k.map(|v| v.wrapping_mul(PCG_MUL).wrapping_add(PCG_INC));
     x = x.wrapping_add(y.wrapping_mul(PCG_MUL));
@@ -190,7 +190,7 @@ pub fn hash_pcg2d_i(k: [i32; 2]) -> [i32; 2] {
 }
 
 /// Cycles' `hash_pcg3d_i` (see [`hash_pcg2d_i`]).
-#[inline]
+#[inline(always)]
 pub fn hash_pcg3d_i(k: [i32; 3]) -> [i32; 3] {
     let [mut x, mut y, mut z] = k.map(|v| v.wrapping_mul(PCG_MUL).wrapping_add(PCG_INC));
     x = x.wrapping_add(y.wrapping_mul(z));
@@ -206,7 +206,7 @@ pub fn hash_pcg3d_i(k: [i32; 3]) -> [i32; 3] {
 }
 
 /// Cycles' `hash_pcg4d_i` (see [`hash_pcg2d_i`]).
-#[inline]
+#[inline(always)]
 pub fn hash_pcg4d_i(k: [i32; 4]) -> [i32; 4] {
     let [mut x, mut y, mut z, mut w] = k.map(|v| v.wrapping_mul(PCG_MUL).wrapping_add(PCG_INC));
     x = x.wrapping_add(y.wrapping_mul(w));

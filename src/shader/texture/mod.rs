@@ -14,6 +14,7 @@ pub mod hash;
 pub mod magic;
 pub mod noise;
 pub mod perlin;
+pub(crate) mod simd;
 pub mod voronoi;
 mod voronoi_coord;
 mod voronoi_settings;

@@ -70,19 +70,7 @@ struct Octave {
 fn f1<T: Coord>(prm: &Params, coord: T) -> Octave {
     let cell = coord.floor();
     let local = coord - cell;
-    let mut min_distance = f32::MAX;
-    let mut target_offset = T::splat(0.0);
-    let mut target_position = T::splat(0.0);
-    for i in 0..3u32.pow(T::DIMS) {
-        let offset = T::offset(i, 1);
-        let point = offset + T::hash_point(cell, offset) * prm.randomness;
-        let d = T::distance_bound(point, local, prm);
-        if d < min_distance {
-            target_offset = offset;
-            min_distance = d;
-            target_position = point;
-        }
-    }
+    let (target_offset, target_position) = T::f1_scan(prm, cell, local);
     Octave {
         distance: T::distance(target_position, local, prm),
         color: if prm.color { T::hash_color(cell, target_offset) } else { Vec3::ZERO },
@@ -133,26 +121,7 @@ fn smoothstep01(x: f32) -> f32 {
 fn f2<T: Coord>(prm: &Params, coord: T) -> Octave {
     let cell = coord.floor();
     let local = coord - cell;
-    let (mut distance_f1, mut distance_f2) = (f32::MAX, f32::MAX);
-    let (mut offset_f1, mut position_f1) = (T::splat(0.0), T::splat(0.0));
-    let (mut offset_f2, mut position_f2) = (T::splat(0.0), T::splat(0.0));
-    for i in 0..3u32.pow(T::DIMS) {
-        let offset = T::offset(i, 1);
-        let point = offset + T::hash_point(cell, offset) * prm.randomness;
-        let d = T::distance(point, local, prm);
-        if d < distance_f1 {
-            distance_f2 = distance_f1;
-            distance_f1 = d;
-            offset_f2 = offset_f1;
-            offset_f1 = offset;
-            position_f2 = position_f1;
-            position_f1 = point;
-        } else if d < distance_f2 {
-            distance_f2 = d;
-            offset_f2 = offset;
-            position_f2 = point;
-        }
-    }
+    let [_, (distance_f2, offset_f2, position_f2)] = T::f2_scan(prm, cell, local);
     let color = if prm.color { T::hash_color(cell, offset_f2) } else { Vec3::ZERO };
     Octave { distance: distance_f2, color, position: (position_f2 + cell).position() }
 }

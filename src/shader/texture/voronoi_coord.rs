@@ -11,6 +11,9 @@ use super::hash::{
     hash_float_to_float, hash_float_to_float3, hash_int2_to_float2, hash_int2_to_float3, hash_int3_to_float3,
     hash_int4_to_float3, hash_int4_to_float4,
 };
+use super::simd::Cells27;
+#[cfg(target_arch = "x86_64")]
+use super::simd::{LaneMetric, has_avx2, voronoi_cells_3d};
 use super::voronoi_settings::{Params, VoronoiMetric};
 
 /// A Voronoi coordinate of 1 to 4 dimensions.
@@ -58,6 +61,20 @@ pub(super) trait Coord: Copy + Add<Output = Self> + Sub<Output = Self> + Mul<f32
             VoronoiMetric::Chebychev => d.max_element(),
             VoronoiMetric::Minkowski => d.powf(prm.exponent).sum(),
         }
+    }
+
+    /// The scan of Cycles' `voronoi_f1`: the offset and feature point of the closest cell
+    /// (by the distance bound; strict `<`, so ties go to the first cell, zeros if none).
+    #[inline(always)]
+    fn f1_scan(prm: &Params, cell: Self, local: Self) -> (Self, Self) {
+        scan_f1(prm, cell, local)
+    }
+
+    /// The scan of Cycles' `voronoi_f2`: (distance, offset, feature point) of the closest and
+    /// of the second closest cell.
+    #[inline(always)]
+    fn f2_scan(prm: &Params, cell: Self, local: Self) -> [(f32, Self, Self); 2] {
+        scan_f2(prm, cell, local)
     }
 
     /// Cycles' `voronoi_distance_to_edge` (1-D overrides with its closed form).
@@ -279,6 +296,106 @@ impl Coord for Vec3 {
     fn position(self) -> Vec4 {
         self.extend(0.0)
     }
+    #[inline(always)]
+    fn f1_scan(prm: &Params, cell: Self, local: Self) -> (Self, Self) {
+        match cells_3d(prm, cell, local, false) {
+            Some(c) => {
+                let mut min_distance = f32::MAX;
+                let mut target = (Vec3::ZERO, Vec3::ZERO);
+                for (i, &d) in c.d[..27].iter().enumerate() {
+                    if d < min_distance {
+                        min_distance = d;
+                        target = (OFFSETS_3D[i], Vec3::new(c.x[i], c.y[i], c.z[i]));
+                    }
+                }
+                target
+            }
+            None => scan_f1(prm, cell, local),
+        }
+    }
+    #[inline(always)]
+    fn f2_scan(prm: &Params, cell: Self, local: Self) -> [(f32, Self, Self); 2] {
+        match cells_3d(prm, cell, local, true) {
+            Some(c) => {
+                let mut best = [(f32::MAX, Vec3::ZERO, Vec3::ZERO); 2];
+                for (i, &d) in c.d[..27].iter().enumerate() {
+                    if d < best[0].0 {
+                        best[1] = best[0];
+                        best[0] = (d, OFFSETS_3D[i], Vec3::new(c.x[i], c.y[i], c.z[i]));
+                    } else if d < best[1].0 {
+                        best[1] = (d, OFFSETS_3D[i], Vec3::new(c.x[i], c.y[i], c.z[i]));
+                    }
+                }
+                best
+            }
+            None => scan_f2(prm, cell, local),
+        }
+    }
+}
+
+/// F1's scan one cell after the other (`Coord::f1_scan`).
+#[inline(always)]
+fn scan_f1<T: Coord>(prm: &Params, cell: T, local: T) -> (T, T) {
+    let mut min_distance = f32::MAX;
+    let mut target = (T::splat(0.0), T::splat(0.0));
+    for i in 0..3u32.pow(T::DIMS) {
+        let offset = T::offset(i, 1);
+        let point = offset + T::hash_point(cell, offset) * prm.randomness;
+        let d = T::distance_bound(point, local, prm);
+        if d < min_distance {
+            min_distance = d;
+            target = (offset, point);
+        }
+    }
+    target
+}
+
+/// F2's scan one cell after the other (`Coord::f2_scan`).
+#[inline(always)]
+fn scan_f2<T: Coord>(prm: &Params, cell: T, local: T) -> [(f32, T, T); 2] {
+    let mut best = [(f32::MAX, T::splat(0.0), T::splat(0.0)); 2];
+    for i in 0..3u32.pow(T::DIMS) {
+        let offset = T::offset(i, 1);
+        let point = offset + T::hash_point(cell, offset) * prm.randomness;
+        let d = T::distance(point, local, prm);
+        if d < best[0].0 {
+            best[1] = best[0];
+            best[0] = (d, offset, point);
+        } else if d < best[1].0 {
+            best[1] = (d, offset, point);
+        }
+    }
+    best
+}
+
+/// The 27 cells of a 3-D neighbourhood from the AVX2 kernel, when the CPU has it and the
+/// metric is one the kernel computes (`full`: the distance itself, else F1's bound); `None`
+/// sends the caller to the scalar scan.
+#[inline(always)]
+fn cells_3d(prm: &Params, cell: Vec3, local: Vec3, full: bool) -> Option<Cells27> {
+    #[cfg(target_arch = "x86_64")]
+    {
+        let metric = match prm.metric {
+            VoronoiMetric::Euclidean if full => LaneMetric::Euclidean,
+            VoronoiMetric::Euclidean => LaneMetric::EuclideanSquared,
+            VoronoiMetric::Manhattan => LaneMetric::Manhattan,
+            VoronoiMetric::Chebychev => LaneMetric::Chebychev,
+            VoronoiMetric::Minkowski => return None,
+        };
+        if !(has_avx2() && local.is_finite() && prm.randomness.is_finite()) {
+            return None;
+        }
+        let mut c = Cells27 { x: [0.0; 32], y: [0.0; 32], z: [0.0; 32], d: [0.0; 32] };
+        let index = cell_index(cell.to_array(), [0.0; 3]);
+        // SAFETY: the CPU has AVX2; local and randomness are finite, as the kernel needs.
+        unsafe { voronoi_cells_3d(index, local.to_array(), prm.randomness, metric, &mut c) };
+        Some(c)
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let _ = (prm, cell, local, full);
+        None
+    }
 }
 
 impl Coord for Vec4 {
@@ -335,5 +452,61 @@ impl Coord for Vec4 {
     #[inline(always)]
     fn position(self) -> Vec4 {
         self
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::shader::texture::voronoi_settings::VoronoiFeature;
+
+    fn params(metric: VoronoiMetric, randomness: f32) -> Params {
+        Params {
+            feature: VoronoiFeature::F1,
+            metric,
+            normalize: false,
+            scale: 1.0,
+            detail: 0.0,
+            roughness: 0.5,
+            lacunarity: 2.0,
+            smoothness: 0.5,
+            exponent: 0.5,
+            randomness,
+            max_distance: 0.0,
+            color: false,
+        }
+    }
+
+    /// The 3-D scans through the AVX2 kernel pick the same cells and give the same points and
+    /// distances, bit for bit, as the scalar scans, for every metric the kernel takes, over
+    /// small, negative and large coordinates (cells past 2^24, where the cell's float is
+    /// coarser than 1, and past i32, where `as i32` saturates) and randomness 0 (ties
+    /// everywhere: the first cell must win) to 1.
+    #[test]
+    fn kernel_scans_are_the_scalar_scans() {
+        let mut state = 0x2545_f491u32;
+        let mut next = || {
+            state = state.wrapping_mul(1664525).wrapping_add(1013904223);
+            (state >> 8) as f32 / (1u32 << 24) as f32
+        };
+        let metrics = [VoronoiMetric::Euclidean, VoronoiMetric::Manhattan, VoronoiMetric::Chebychev];
+        for k in 0..20_000 {
+            let range = [4.0, 300.0, 3.0e7, 5.0e9][k % 4];
+            let coord = Vec3::new(next() * 2.0 - 1.0, next() * 2.0 - 1.0, next() * 2.0 - 1.0) * range;
+            let prm = params(metrics[k % 3], [0.0, 0.3, 1.0, next()][k % 4]);
+            let cell = Coord::floor(coord);
+            let local = coord - cell;
+            let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+            let (a, b) = (<Vec3 as Coord>::f1_scan(&prm, cell, local), scan_f1(&prm, cell, local));
+            assert_eq!((bits(a.0), bits(a.1)), (bits(b.0), bits(b.1)), "F1 at {coord:?}");
+            let (a, b) = (<Vec3 as Coord>::f2_scan(&prm, cell, local), scan_f2(&prm, cell, local));
+            for (x, y) in a.iter().zip(&b) {
+                assert_eq!(
+                    (x.0.to_bits(), bits(x.1), bits(x.2)),
+                    (y.0.to_bits(), bits(y.1), bits(y.2)),
+                    "F2 at {coord:?}"
+                );
+            }
+        }
     }
 }
