@@ -12,7 +12,8 @@
 //!   (infinite where nothing was hit), so that the merge never reads the rounded means;
 //!   the extra passes' sums likewise, `CausticSum.S<slot>.<k>` for each [`slot`] the
 //!   passes keep (the first-sample slots hold their f32 bits) and `CausticSum.L<g><c>.<k>`
-//!   for channel c of light group g. Cryptomatte's ranked slots are not carried (its
+//!   for channel c of light group g, `CausticSum.V<c>.<k>` for shader AOV channel c.
+//!   Cryptomatte's ranked slots are not carried (its
 //!   passes are refused with `--chunk`).
 //!
 //! [`slot`]: crate::passes::slot
@@ -64,6 +65,9 @@ pub struct ChunkInfo {
     pub passes: PassSet,
     /// The light groups' names, in the order of their sums.
     pub light_groups: Vec<String>,
+    /// The shader AOVs, in the order of their sums.
+    #[serde(default)]
+    pub shader_aovs: Vec<crate::scene::shader_aovs::AovSpec>,
 }
 
 impl ChunkInfo {
@@ -91,6 +95,7 @@ impl ChunkInfo {
             || self.transparent != other.transparent
             || self.passes != other.passes
             || self.light_groups != other.light_groups
+            || self.shader_aovs != other.shader_aovs
         {
             return Err(what(
                 "render settings",
@@ -187,13 +192,14 @@ pub fn channels(film: &Film) -> Vec<AnyChannel<FlatSamples>> {
 }
 
 /// The names of the extra sums of `passes` in the film's order: each kept slot, then each
-/// light group's three channels.
+/// light group's three channels, then each shader AOV channel.
 fn extra_names(passes: PassSet) -> Vec<String> {
     let slots = passes.slots();
     let mut names: Vec<String> = (0..64).filter(|k| slots >> k & 1 == 1).map(|k| format!("S{k}")).collect();
     for g in 0..passes.light_groups() {
         names.extend(["R", "G", "B"].map(|c| format!("L{g}{c}")));
     }
+    names.extend((0..passes.shader_aov_channels()).map(|c| format!("V{c}")));
     names
 }
 
@@ -254,7 +260,11 @@ pub fn read(path: &Path) -> Result<Chunk> {
         Some(FlatSamples::F32(v)) => v,
         _ => return Err(not_chunk("no FLOAT channel CausticSum.Depth")),
     };
-    if info.passes.any_crypto() || info.light_groups.len() != info.passes.light_groups() {
+    let aov_channels: usize = info.shader_aovs.iter().map(|a| a.kind.channels().len()).sum();
+    if info.passes.any_crypto()
+        || info.light_groups.len() != info.passes.light_groups()
+        || aov_channels != info.passes.shader_aov_channels()
+    {
         return Err(not_chunk("its passes are not ones chunks carry"));
     }
     let names = extra_names(info.passes);

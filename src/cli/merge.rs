@@ -56,6 +56,7 @@ pub fn run_merge(args: &MergeArgs, reporter: &Reporter) -> Result<()> {
     reporter.phase("writing", t0.elapsed().as_secs_f64());
     let mut img = film.image();
     img.light_group_names.clone_from(&info.light_groups);
+    img.aov_specs.clone_from(&info.shader_aovs);
     if !info.transparent {
         img.make_opaque();
     }

@@ -315,6 +315,14 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
         }
         passes.set_light_groups(scene.light_groups.len());
     }
+    if passes.asks_shader_aovs() {
+        if integrator == IntegratorKind::Sppm {
+            return Err(Error::Usage(
+                "the shader AOVs are not rendered by 'sppm' (its camera paths are not camera samples)".into(),
+            ));
+        }
+        passes.set_shader_aov_channels(scene.shader_aovs.channels);
+    }
     if let Some(levels) = args.cryptomatte_levels.or(st.cryptomatte_levels) {
         passes.set_cryptomatte_levels(levels);
     }
