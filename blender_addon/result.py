@@ -60,8 +60,6 @@ CRYPTOMATTE_LAYERS = (
 )
 # The Shadow Catcher pass: the path integrator splits paths at catchers.
 PATH_ONLY_TOKENS = LIGHT_TOKENS | {"shadow_catcher"}
-# Cryptomatte's ranked slots do not travel in sample chunks (the farm): their passes stay black there.
-CRYPTOMATTE_TOKENS = frozenset(token for _, token, _ in CRYPTOMATTE_LAYERS)
 # Data passes traced from the camera ray's first hit, by every integrator but SPPM.
 DATA_TOKENS = frozenset(("mist", "position", "uv", "ambient_occlusion", "object_index", "material_index", "vector")
                         + tuple(token for _, token, _ in CRYPTOMATTE_LAYERS))
@@ -117,9 +115,6 @@ def pass_request(view_layer, integrator, chunked=False, motion_blur=False):
     for token, name in rows:
         if token == "vector" and motion_blur:
             warnings.append("the Vector pass needs motion blur off (as in Cycles); it stays black")
-        elif chunked and token in CRYPTOMATTE_TOKENS:
-            warnings.append(f"the {name} pass is not rendered on the farm yet (sample chunks do not carry "
-                            "it); it stays black")
         elif token in PATH_ONLY_TOKENS and integrator != "path":
             warnings.append(f"the {name} pass is rendered by the path integrator only; "
                             f"it stays black with '{integrator}'")

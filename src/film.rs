@@ -179,6 +179,9 @@ pub struct Tile {
     pub crypto_layout: Layout,
     /// Row-major Cryptomatte slots, `crypto_layout.stride()` per pixel, layer after layer.
     pub crypto: Vec<Slot>,
+    /// Samples whose Cryptomatte id went to a full pixel's last slot (an exact layout's
+    /// list then no longer merges exactly; `Film::crypto_folded`).
+    pub crypto_folded: u64,
     /// Light groups kept.
     pub groups: usize,
     /// Shader AOV channels kept.
@@ -220,10 +223,12 @@ impl Tile {
             return false;
         }
         if !self.crypto_layout.is_empty() {
-            let (layout, per) = (self.crypto_layout, self.crypto_layout.slots as usize);
+            let (layout, per) = (self.crypto_layout, self.crypto_layout.kept() as usize);
             let px = &mut self.crypto[i * layout.stride()..(i + 1) * layout.stride()];
             for (layer, kind) in px.chunks_exact_mut(per).zip(layout.iter()) {
-                cryptomatte::add(layer, s.crypto[kind.index()]);
+                if !cryptomatte::add(layer, s.crypto[kind.index()]) {
+                    self.crypto_folded += 1;
+                }
             }
         }
         let stride = self.sums_stride();
@@ -465,6 +470,7 @@ impl Film {
                     extra: vec![0; n * stride],
                     crypto_layout,
                     crypto: vec![Slot::default(); n * crypto_layout.stride()],
+                    crypto_folded: 0,
                     groups,
                     aov_channels,
                     group_sums: vec![0; n * (3 * groups + aov_channels)],
@@ -534,6 +540,43 @@ impl Film {
         for (a, b) in ga.iter_mut().zip(gb) {
             *a = a.wrapping_add(*b);
         }
+        self.merge_crypto(x, y, other, other_first);
+    }
+
+    /// Appends pixel (x, y)'s Cryptomatte list of `other` to this film's (before it when
+    /// `other_first`): each kept in first-seen order with exact counts, so the later list's
+    /// entries are counted after the earlier's, as the samples were (`cryptomatte::capped`).
+    fn merge_crypto(&mut self, x: u32, y: u32, other: &Film, other_first: bool) {
+        let t = self.tile_index(x, y);
+        let layout = self.tiles[t].crypto_layout;
+        if layout.is_empty() {
+            return;
+        }
+        let per = layout.kept() as usize;
+        let ot = &other.tiles[other.tile_index(x, y)];
+        let oj = ((y - ot.y0) * ot.w + x - ot.x0) as usize;
+        let theirs = &ot.crypto[oj * layout.stride()..(oj + 1) * layout.stride()];
+        let tile = &mut self.tiles[t];
+        let j = ((y - tile.y0) * tile.w + x - tile.x0) as usize;
+        let mine = &mut tile.crypto[j * layout.stride()..(j + 1) * layout.stride()];
+        // One layer's list on the stack: at most the levels' 16 or EXACT_SLOTS.
+        let mut earlier = [Slot::default(); cryptomatte::MAX_LEVELS as usize + cryptomatte::EXACT_SLOTS as usize];
+        for (a, b) in mine.chunks_exact_mut(per).zip(theirs.chunks_exact(per)) {
+            let (first, second) = if other_first { (b, &*a) } else { (&*a, b) };
+            let earlier = &mut earlier[..per];
+            earlier.copy_from_slice(first);
+            for s in second.iter().take_while(|s| s.id != 0) {
+                if !cryptomatte::add_n(earlier, s.id, s.count) {
+                    tile.crypto_folded += s.count as u64;
+                }
+            }
+            a.copy_from_slice(earlier);
+        }
+    }
+
+    /// Samples whose Cryptomatte id was counted under another id (see `Tile::crypto_folded`).
+    pub fn crypto_folded(&self) -> u64 {
+        self.tiles.iter().map(|t| t.crypto_folded).sum()
     }
 
     /// Index of the tile holding (x, y): tiles are squares of `tile_size` in scanline order.
@@ -579,6 +622,7 @@ impl Film {
             }
         }
         let mut ranked = vec![Slot::default(); layout.slots as usize];
+        let kept = layout.kept() as usize;
         for t in &self.tiles {
             for ty in 0..t.h {
                 for tx in 0..t.w {
@@ -625,8 +669,9 @@ impl Film {
                     }
                     let per = layout.slots as usize;
                     let px = &t.crypto[j * layout.stride()..(j + 1) * layout.stride()];
-                    for (l, layer) in px.chunks_exact(per.max(1)).enumerate() {
-                        ranked.copy_from_slice(layer);
+                    for (l, layer) in px.chunks_exact(kept.max(1)).enumerate() {
+                        // An exact list (chunks) holds what a render keeping `per` slots would.
+                        cryptomatte::capped(layer, &mut ranked);
                         cryptomatte::rank(&mut ranked);
                         for (pair, slot) in ranked.chunks_exact(2).enumerate() {
                             let out = &mut img.crypto[l * per / 2 + pair].1[i * 4..i * 4 + 4];

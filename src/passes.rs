@@ -406,6 +406,9 @@ pub struct PassSet {
     /// Channels of the view layer's shader AOVs (`crate::scene::shader_aovs`; when asked).
     #[serde(default)]
     shader_aovs: u8,
+    /// Keep Cryptomatte's slots for an exact merge of chunks (`Layout::with_exact`).
+    #[serde(default)]
+    crypto_exact: bool,
 }
 
 /// The [`PassSet`] bit that keeps the shadow catcher's sums (no pass of its own).
@@ -519,11 +522,17 @@ impl PassSet {
         self.crypto_levels = levels;
     }
 
+    /// Keeps Cryptomatte's slots as chunks need them (`render --chunk`).
+    pub fn set_cryptomatte_exact(&mut self) {
+        self.crypto_exact = true;
+    }
+
     /// The Cryptomatte layers asked for and their slots per pixel.
     pub fn cryptomatte(self) -> Result<Layout> {
         let kinds: Vec<Kind> = self.iter().filter_map(Pass::crypto_kind).collect();
         let levels = if self.crypto_levels == 0 { crate::cryptomatte::DEFAULT_LEVELS } else { self.crypto_levels };
-        Layout::new(&kinds, levels)
+        let layout = Layout::new(&kinds, levels)?;
+        Ok(if self.crypto_exact { layout.with_exact() } else { layout })
     }
 
     /// The slots a film must keep for these passes: each pass's own, and the Colour

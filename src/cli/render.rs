@@ -366,6 +366,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
                 let info = ChunkInfo {
                     samples: vec![[res.sample_offset, res.sample_offset + spp]],
                     light_paths,
+                    crypto_folded: film.map_or(0, |f| f.crypto_folded()),
                     ..info.clone()
                 };
                 match film {
@@ -537,6 +538,7 @@ fn chunk_info(args: &RenderArgs, res: &Resolved, scene: &Scene) -> ChunkInfo {
             0 => Vec::new(),
             _ => scene.shader_aovs.specs.clone(),
         },
+        crypto_folded: 0,
     }
 }
 

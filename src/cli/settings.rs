@@ -334,10 +334,8 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
     }
     if passes.any_crypto() && args.chunk {
         // Cryptomatte's slots are filled in sample order (a full pixel counts a new id in
-        // its last slot): chunks could not be merged into what one render keeps.
-        return Err(Error::Usage(
-            "chunks (--chunk) do not carry the Cryptomatte passes yet: render them without --chunk".into(),
-        ));
+        // its last slot): a chunk keeps each pixel's whole first-seen list for the merge.
+        passes.set_cryptomatte_exact();
     }
     if !scene.ray_visibility.catcher_objects.is_empty() && integrator == IntegratorKind::Path {
         passes = passes.with_catcher_sums();
