@@ -173,7 +173,8 @@ fn cryptomatte_chunks_merge_bit_for_bit() {
     let dir = temp_dir();
     let scene = stripes(dir.path());
     let p = |n: &str| dir.path().join(n);
-    let base = ["--resolution", "2x2", "--passes", "cryptomatte_object,cryptomatte_material", "--cryptomatte-levels", "2"];
+    let base =
+        ["--resolution", "2x2", "--passes", "cryptomatte_object,cryptomatte_material", "--cryptomatte-levels", "2"];
     let go = |out: &str, extra: &[&str]| {
         let mut args = vec!["render", scene.to_str().unwrap(), "-o"];
         let out = p(out);

@@ -87,7 +87,8 @@ fn aovs_hold_the_graph_values() {
     assert!(!plain.keys().any(|k| k.starts_with("pos.") || k.starts_with("val.")));
     for integrator in ["path", "bdpt", "photon", "vcm"] {
         let args = ["--resolution", "8x8", "--spp", "2", "--passes", "shader_aovs", "--integrator", integrator];
-        let r = run(&[&["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap()][..], &args[..]].concat(), LIMIT);
+        let r =
+            run(&[&["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap()][..], &args[..]].concat(), LIMIT);
         assert_eq!(r.code, Some(0), "{integrator}: {}", r.stderr);
         assert!(r.stderr.contains("'AOV ghost'") && r.stderr.contains("'ghost'"), "{}", r.stderr);
         let ch = channels(&out);
@@ -108,7 +109,12 @@ fn aovs_hold_the_graph_values() {
                 let tol = 2e-4;
                 let want = [x, 0.0, y];
                 for (k, c) in ["pos.R", "pos.G", "pos.B"].iter().enumerate() {
-                    assert!((ch[*c][i] - want[k]).abs() < tol, "{integrator} ({px}, {py}) {c}: {} vs {}", ch[*c][i], want[k]);
+                    assert!(
+                        (ch[*c][i] - want[k]).abs() < tol,
+                        "{integrator} ({px}, {py}) {c}: {} vs {}",
+                        ch[*c][i],
+                        want[k]
+                    );
                 }
                 assert_eq!(ch["pos.A"][i], 1.0);
                 // 2 × the average of (x, 0, y): the Math node converts the vector by its mean.
@@ -120,7 +126,16 @@ fn aovs_hold_the_graph_values() {
     }
     // SPPM's camera paths are not camera samples: refused, as its data passes are.
     let r = run(
-        &["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--passes", "shader_aovs", "--integrator", "sppm"],
+        &[
+            "render",
+            scene.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--passes",
+            "shader_aovs",
+            "--integrator",
+            "sppm",
+        ],
         LIMIT,
     );
     assert_eq!(r.code, Some(2), "{}", r.stderr);
