@@ -127,18 +127,15 @@ impl Default for AovSums {
 
 impl ShaderAovs {
     /// Resolves `spec` (checked) against the materials' AOV Output nodes; `warn` receives a
-    /// message for each node naming an AOV the view layer does not have.
+    /// message for each node naming an AOV the view layer does not have. Without a list
+    /// (the viewport, a file without AOVs) no AOV is rendered and nothing is said: asking
+    /// for the AOVs of such a scene is warned by the render command.
     pub fn resolve(
         spec: Option<&ShaderAovSpec>,
         materials: &[Material],
         mut warn: impl FnMut(String),
     ) -> Result<ShaderAovs, String> {
         let Some(spec) = spec.filter(|s| !s.aovs.is_empty()) else {
-            for m in materials {
-                for out in m.nodes.iter().flat_map(|p| &p.aovs) {
-                    warn(unlisted(m, &out.node, &out.name));
-                }
-            }
             return Ok(ShaderAovs::default());
         };
         spec.check()?;
@@ -167,11 +164,6 @@ impl ShaderAovs {
             })
             .collect();
         Ok(ShaderAovs { specs: spec.aovs.clone(), channels, alpha_threshold: spec.alpha_threshold, by_material })
-    }
-
-    /// True when no material writes any AOV (nothing to trace).
-    pub fn writes_nothing(&self) -> bool {
-        self.by_material.iter().all(Vec::is_empty)
     }
 
     /// The targets of material `m`.
