@@ -210,6 +210,26 @@ pub fn capped(kept: &[Slot], out: &mut [Slot]) {
     }
 }
 
+/// Appends the exact lists `theirs` of a pixel's layers (`per` slots each) to `mine` (before
+/// them when `theirs_first`), in place; returns the samples counted under another id.
+pub fn merge_lists(mine: &mut [Slot], theirs: &[Slot], per: usize, theirs_first: bool) -> u64 {
+    // One layer's list on the stack: at most the levels' 16 or EXACT_SLOTS.
+    let mut earlier = [Slot::default(); (MAX_LEVELS + EXACT_SLOTS) as usize];
+    let mut folded = 0;
+    for (a, b) in mine.chunks_exact_mut(per).zip(theirs.chunks_exact(per)) {
+        let (first, second) = if theirs_first { (b, &*a) } else { (&*a, b) };
+        let earlier = &mut earlier[..per];
+        earlier.copy_from_slice(first);
+        for s in second.iter().take_while(|s| s.id != 0) {
+            if !add_n(earlier, s.id, s.count) {
+                folded += s.count as u64;
+            }
+        }
+        a.copy_from_slice(earlier);
+    }
+    folded
+}
+
 /// Ranks a layer's slots by count, highest first, keeping the order of equal counts (an
 /// insertion sort, as Cycles', over a handful of entries).
 pub fn rank(slots: &mut [Slot]) {

@@ -559,19 +559,7 @@ impl Film {
         let tile = &mut self.tiles[t];
         let j = ((y - tile.y0) * tile.w + x - tile.x0) as usize;
         let mine = &mut tile.crypto[j * layout.stride()..(j + 1) * layout.stride()];
-        // One layer's list on the stack: at most the levels' 16 or EXACT_SLOTS.
-        let mut earlier = [Slot::default(); cryptomatte::MAX_LEVELS as usize + cryptomatte::EXACT_SLOTS as usize];
-        for (a, b) in mine.chunks_exact_mut(per).zip(theirs.chunks_exact(per)) {
-            let (first, second) = if other_first { (b, &*a) } else { (&*a, b) };
-            let earlier = &mut earlier[..per];
-            earlier.copy_from_slice(first);
-            for s in second.iter().take_while(|s| s.id != 0) {
-                if !cryptomatte::add_n(earlier, s.id, s.count) {
-                    tile.crypto_folded += s.count as u64;
-                }
-            }
-            a.copy_from_slice(earlier);
-        }
+        tile.crypto_folded += cryptomatte::merge_lists(mine, theirs, per, other_first);
     }
 
     /// Samples whose Cryptomatte id was counted under another id (see `Tile::crypto_folded`).
