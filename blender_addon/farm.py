@@ -57,8 +57,8 @@ _FARM_OWN_FLAGS = {"--progress": True, "--interim": True, "--spp": True, "--time
 
 def strip_unfarmable(settings, scene):
     """Drops from the render settings what chunks cannot do; returns the warnings saying so.
-    Shadow catchers, light groups and the light and data passes travel in chunks (their sums
-    merge exactly); Cryptomatte's ranked slots do not (result.pass_request warns)."""
+    Shadow catchers, light groups, shader AOVs and the light and data passes travel in chunks
+    (their sums merge exactly), Cryptomatte too (each pixel's first-seen ids with their counts)."""
     warnings = []
     if settings.pop("noise_threshold", None) is not None:
         # The binary refuses adaptive chunks: a pixel's stop depends on all its samples.

@@ -117,6 +117,11 @@ def render_frame(engine, depsgraph):
     groups = export.light_group_settings(depsgraph.view_layer, scene, depsgraph.objects)
     if groups is not None:
         settings["light_groups"] = groups
+    aovs, aov_warnings = export.shader_aov_settings(depsgraph.view_layer)
+    if aovs is not None:
+        settings["shader_aovs"] = aovs
+    for warning in aov_warnings:
+        engine.report({"WARNING"}, f"Caustic: {warning}")
     on_farm = scene.caustic.use_farm
     if on_farm:
         for warning in farm.strip_unfarmable(settings, scene):

@@ -12,6 +12,7 @@ import struct
 import numpy as np
 
 from .errors import CausticError
+from .export.shader_aovs import valid_aovs
 
 # The view layer's passes Caustic renders: (where the flag lives: "" the view layer, "cycles"
 # its Cycles settings; the flag; the binary's `--passes` token; then the name, channels,
@@ -59,8 +60,6 @@ CRYPTOMATTE_LAYERS = (
 )
 # The Shadow Catcher pass: the path integrator splits paths at catchers.
 PATH_ONLY_TOKENS = LIGHT_TOKENS | {"shadow_catcher"}
-# Cryptomatte's ranked slots do not travel in sample chunks (the farm): their passes stay black there.
-CRYPTOMATTE_TOKENS = frozenset(token for _, token, _ in CRYPTOMATTE_LAYERS)
 # Data passes traced from the camera ray's first hit, by every integrator but SPPM.
 DATA_TOKENS = frozenset(("mist", "position", "uv", "ambient_occlusion", "object_index", "material_index", "vector")
                         + tuple(token for _, token, _ in CRYPTOMATTE_LAYERS))
@@ -68,6 +67,9 @@ DATA_TOKENS = frozenset(("mist", "position", "uv", "ambient_occlusion", "object_
 # The binary's `--passes` token for one `Combined_<group>` pass per light group of the scene (whose
 # groups the exporter writes, export/light_groups.py).
 LIGHT_GROUPS_TOKEN = "light_groups"
+# The binary's `--passes` token for the view layer's shader AOVs, one pass each as the exporter
+# lists them (export/shader_aovs.py), with Cycles' channels: a colour RGBA, a value X.
+SHADER_AOVS_TOKEN = "shader_aovs"
 
 # Passes of the view layer that Caustic does not render yet (named in a warning when on).
 UNSUPPORTED = (
@@ -113,9 +115,6 @@ def pass_request(view_layer, integrator, chunked=False, motion_blur=False):
     for token, name in rows:
         if token == "vector" and motion_blur:
             warnings.append("the Vector pass needs motion blur off (as in Cycles); it stays black")
-        elif chunked and token in CRYPTOMATTE_TOKENS:
-            warnings.append(f"the {name} pass is not rendered on the farm yet (sample chunks do not carry "
-                            "it); it stays black")
         elif token in PATH_ONLY_TOKENS and integrator != "path":
             warnings.append(f"the {name} pass is rendered by the path integrator only; "
                             f"it stays black with '{integrator}'")
@@ -132,9 +131,12 @@ def pass_request(view_layer, integrator, chunked=False, motion_blur=False):
                         f"they stay black with '{integrator}'")
     elif groups:
         tokens.append(LIGHT_GROUPS_TOKEN)
-    # Shader AOVs are not rendered yet: their passes are not declared.
-    for aov in getattr(view_layer, "aovs", ()):
-        warnings.append(f"the shader AOV '{aov.name}' is not rendered by Caustic yet; the pass is missing")
+    aovs = valid_aovs(view_layer)
+    if aovs and integrator == "sppm":
+        warnings.append(f"the shader AOVs ({', '.join(repr(a.name) for a in aovs)}) are not rendered by SPPM; "
+                        "they stay black")
+    elif aovs:
+        tokens.append(SHADER_AOVS_TOKEN)
     return ",".join(tokens) or "none", warnings
 
 
@@ -157,6 +159,12 @@ def register_passes(engine, scene, view_layer):
             engine.register_pass(scene, view_layer, name, 4, "rgba", "COLOR")
     for name in light_group_passes(view_layer):
         engine.register_pass(scene, view_layer, name, 3, "RGB", "COLOR")
+    for aov in valid_aovs(view_layer):
+        # Cycles' declaration (its engine.py): a value AOV is X, a colour RGBA.
+        if aov.type == "VALUE":
+            engine.register_pass(scene, view_layer, aov.name, 1, "X", "VALUE")
+        else:
+            engine.register_pass(scene, view_layer, aov.name, 4, "RGBA", "COLOR")
     settings = getattr(scene, "caustic", None)
     if settings is not None and settings.use_denoising and not settings.use_farm:
         # The Combined before denoising, which the binary writes beside it (Cycles' name).

@@ -12,8 +12,10 @@
 //!   (infinite where nothing was hit), so that the merge never reads the rounded means;
 //!   the extra passes' sums likewise, `CausticSum.S<slot>.<k>` for each [`slot`] the
 //!   passes keep (the first-sample slots hold their f32 bits) and `CausticSum.L<g><c>.<k>`
-//!   for channel c of light group g. Cryptomatte's ranked slots are not carried (its
-//!   passes are refused with `--chunk`).
+//!   for channel c of light group g, `CausticSum.V<c>.<k>` for shader AOV channel c.
+//!   Cryptomatte's kept slots (`crate::cryptomatte`: a chunk keeps each pixel's
+//!   first-seen ids with their exact counts) as `CausticSum.C<layer><slot>.id` and `.n`
+//!   (layer: Object, Material, Asset), so that merged chunks rank as one render does.
 //!
 //! [`slot`]: crate::passes::slot
 
@@ -64,6 +66,13 @@ pub struct ChunkInfo {
     pub passes: PassSet,
     /// The light groups' names, in the order of their sums.
     pub light_groups: Vec<String>,
+    /// The shader AOVs, in the order of their sums.
+    #[serde(default)]
+    pub shader_aovs: Vec<crate::scene::shader_aovs::AovSpec>,
+    /// Samples whose Cryptomatte id a full pixel list counted under another id: 0 when the
+    /// chunk's Cryptomatte merges exactly.
+    #[serde(default)]
+    pub crypto_folded: u64,
 }
 
 impl ChunkInfo {
@@ -91,6 +100,7 @@ impl ChunkInfo {
             || self.transparent != other.transparent
             || self.passes != other.passes
             || self.light_groups != other.light_groups
+            || self.shader_aovs != other.shader_aovs
         {
             return Err(what(
                 "render settings",
@@ -183,17 +193,49 @@ pub fn channels(film: &Film) -> Vec<AnyChannel<FlatSamples>> {
     }
     out.push(AnyChannel::new("CausticSum.N", FlatSamples::U32(count)));
     out.push(AnyChannel::new("CausticSum.Depth", FlatSamples::F32(depth)));
+    let names = crypto_names(film);
+    let mut crypto: Vec<Vec<u32>> = vec![vec![0; n]; names.len()];
+    for t in &film.tiles {
+        let stride = t.crypto_layout.stride();
+        for ty in 0..t.h {
+            for tx in 0..t.w {
+                let (i, j) = (((t.y0 + ty) * w + t.x0 + tx) as usize, (ty * t.w + tx) as usize);
+                for (k, slot) in t.crypto[j * stride..(j + 1) * stride].iter().enumerate() {
+                    crypto[2 * k][i] = slot.id;
+                    crypto[2 * k + 1][i] = slot.count;
+                }
+            }
+        }
+    }
+    for (name, data) in names.iter().zip(crypto) {
+        out.push(AnyChannel::new(name.as_str(), FlatSamples::U32(data)));
+    }
     out
 }
 
+/// The Cryptomatte channels of `film` in the order of its kept slots: id and count of each.
+fn crypto_names(film: &Film) -> Vec<String> {
+    let layout = film.tiles.first().map(|t| t.crypto_layout).unwrap_or_default();
+    let mut names = Vec::new();
+    for kind in layout.iter() {
+        for j in 0..layout.kept() {
+            let layer = &kind.name()[6..]; // "CryptoObject" → "Object"
+            names.push(format!("CausticSum.C{layer}{j}.id"));
+            names.push(format!("CausticSum.C{layer}{j}.n"));
+        }
+    }
+    names
+}
+
 /// The names of the extra sums of `passes` in the film's order: each kept slot, then each
-/// light group's three channels.
+/// light group's three channels, then each shader AOV channel.
 fn extra_names(passes: PassSet) -> Vec<String> {
     let slots = passes.slots();
     let mut names: Vec<String> = (0..64).filter(|k| slots >> k & 1 == 1).map(|k| format!("S{k}")).collect();
     for g in 0..passes.light_groups() {
         names.extend(["R", "G", "B"].map(|c| format!("L{g}{c}")));
     }
+    names.extend((0..passes.shader_aov_channels()).map(|c| format!("V{c}")));
     names
 }
 
@@ -209,6 +251,26 @@ pub struct Chunk {
     pub info: ChunkInfo,
     /// The sums.
     pub film: Film,
+    /// The header's Cryptomatte attributes (`cryptomatte/...`: the manifests), for the merge
+    /// to write again.
+    pub metadata: Vec<(String, String)>,
+}
+
+/// Reads a chunk's [`ChunkInfo`] from its header alone (the pixels are not read).
+pub fn read_info(path: &Path) -> Result<ChunkInfo> {
+    let meta = exr::meta::MetaData::read_from_file(path, false)
+        .map_err(|e| Error::io(path, format!("not a readable OpenEXR file: {e}")))?;
+    let not_chunk = |why: &str| {
+        Error::Usage(format!("{} is not a Caustic chunk ({why}); render chunks with --chunk", path.display()))
+    };
+    let header = meta.headers.first().ok_or_else(|| not_chunk("no layer"))?;
+    let text = header
+        .own_attributes
+        .other
+        .get(&Text::from(ATTRIBUTE))
+        .and_then(|v| if let AttributeValue::Text(t) = v { Some(t.bytes().to_vec()) } else { None })
+        .ok_or_else(|| not_chunk("no causticChunk attribute"))?;
+    serde_json::from_slice(&text).map_err(|e| not_chunk(&format!("unreadable causticChunk: {e}")))
 }
 
 /// Reads a chunk; a file that is not an EXR, is cut short or has no chunk data is an error
@@ -254,7 +316,11 @@ pub fn read(path: &Path) -> Result<Chunk> {
         Some(FlatSamples::F32(v)) => v,
         _ => return Err(not_chunk("no FLOAT channel CausticSum.Depth")),
     };
-    if info.passes.any_crypto() || info.light_groups.len() != info.passes.light_groups() {
+    let aov_channels: usize = info.shader_aovs.iter().map(|a| a.kind.channels().len()).sum();
+    if (info.passes.any_crypto() && !info.passes.cryptomatte().is_ok_and(|l| l.exact))
+        || info.light_groups.len() != info.passes.light_groups()
+        || aov_channels != info.passes.shader_aov_channels()
+    {
         return Err(not_chunk("its passes are not ones chunks carry"));
     }
     let names = extra_names(info.passes);
@@ -287,7 +353,30 @@ pub fn read(path: &Path) -> Result<Chunk> {
             }
         }
     }
-    Ok(Chunk { info, film })
+    let names = crypto_names(&film);
+    let crypto = names.iter().map(|n| u32s(n)).collect::<Result<Vec<_>>>()?;
+    for t in &mut film.tiles {
+        let stride = t.crypto_layout.stride();
+        for ty in 0..t.h {
+            for tx in 0..t.w {
+                let (i, j) = (((t.y0 + ty) * w + t.x0 + tx) as usize, (ty * t.w + tx) as usize);
+                for (k, slot) in t.crypto[j * stride..(j + 1) * stride].iter_mut().enumerate() {
+                    *slot = crate::cryptomatte::Slot { id: crypto[2 * k][i], count: crypto[2 * k + 1][i] };
+                }
+            }
+        }
+    }
+    let metadata = layer
+        .attributes
+        .other
+        .iter()
+        .filter(|(k, _)| k.to_string().starts_with("cryptomatte/"))
+        .filter_map(|(k, v)| match v {
+            AttributeValue::Text(t) => Some((k.to_string(), String::from_utf8_lossy(t.bytes()).into_owned())),
+            _ => None,
+        })
+        .collect();
+    Ok(Chunk { info, film, metadata })
 }
 
 /// A film holding `img`'s means times its sample counts, for integrators that keep no

@@ -12,6 +12,13 @@
 //!   exact and the hot loop allocates nothing.
 //! * The image ranks the slots by count (a stable insertion order for ties, as Cycles'
 //!   `film_sort_cryptomatte_slots`) and divides by the pixel's samples.
+//! * Chunks (`render --chunk`) keep more slots, [`EXACT_SLOTS`] per layer, filled by the
+//!   same rule: a pixel's slots are then its distinct ids in first-seen order with their
+//!   exact counts (unless it saw more ids, which is counted). The capped slots a single
+//!   render keeps depend only on that list (its first ids keep their counts, the last slot
+//!   takes every later id's), so the image replays it into them ([`capped`]) and a merge
+//!   appends one chunk's list to the other's in sample order ([`add_n`]): merged chunks
+//!   give the single render's Cryptomatte bit for bit.
 //! * The manifest (`{"name":"hash in 8 hex digits",…}`) and the layer's name, hash and
 //!   conversion go into the EXR header under `cryptomatte/<7 hex digits of the name's
 //!   hash>/…`, so that compositors find the names.
@@ -37,6 +44,10 @@ pub const MAX_LEVELS: u32 = 16;
 
 /// Blender's default levels.
 pub const DEFAULT_LEVELS: u32 = 6;
+
+/// Slots per pixel and layer a chunk keeps (at least the levels'): the distinct ids a pixel
+/// of a chunk may see and still merge exactly. 8 bytes each per pixel.
+pub const EXACT_SLOTS: u32 = 16;
 
 impl Kind {
     /// Blender's pass name prefix (`CryptoObject00`, ...).
@@ -101,6 +112,8 @@ pub struct Layout {
     pub kinds: u8,
     /// Slots per pixel and layer: the levels rounded up to even (0 without layers).
     pub slots: u32,
+    /// Keep [`EXACT_SLOTS`] per layer for an exact merge of chunks (see the module doc).
+    pub exact: bool,
 }
 
 impl Layout {
@@ -112,7 +125,17 @@ impl Layout {
             )));
         }
         let mask = kinds.iter().fold(0u8, |m, k| m | 1 << k.index());
-        Ok(Layout { kinds: mask, slots: if mask == 0 { 0 } else { levels.div_ceil(2) * 2 } })
+        Ok(Layout { kinds: mask, slots: if mask == 0 { 0 } else { levels.div_ceil(2) * 2 }, exact: false })
+    }
+
+    /// This layout keeping the slots an exact merge of chunks needs.
+    pub fn with_exact(self) -> Layout {
+        Layout { exact: true, ..self }
+    }
+
+    /// Slots the film keeps per pixel and layer.
+    pub fn kept(self) -> u32 {
+        if self.exact && self.slots > 0 { self.slots.max(EXACT_SLOTS) } else { self.slots }
     }
 
     /// True when no layer is written.
@@ -130,9 +153,9 @@ impl Layout {
         KINDS.into_iter().filter(move |k| self.contains(*k))
     }
 
-    /// Slots per pixel over all layers.
+    /// Slots kept per pixel over all layers.
     pub fn stride(self) -> usize {
-        self.kinds.count_ones() as usize * self.slots as usize
+        self.kinds.count_ones() as usize * self.kept() as usize
     }
 
     /// The EXR passes of one layer (`CryptoObject00`, `CryptoObject01`, ...).
@@ -150,24 +173,61 @@ pub struct Slot {
     pub count: u32,
 }
 
-/// Counts one sample that saw `id` (0: nothing, not counted) in a layer's `slots`.
+/// Counts one sample that saw `id` (0: nothing, not counted) in a layer's `slots`; false
+/// when every slot held another id (the count went to the last slot's id).
 #[inline]
-pub fn add(slots: &mut [Slot], id: u32) {
-    if id == 0 {
-        return;
+pub fn add(slots: &mut [Slot], id: u32) -> bool {
+    add_n(slots, id, 1)
+}
+
+/// Counts `n` samples that saw `id`, as `n` calls of [`add`] would.
+#[inline]
+pub fn add_n(slots: &mut [Slot], id: u32, n: u32) -> bool {
+    if id == 0 || n == 0 {
+        return true;
     }
     let last = slots.len() - 1;
     for (i, s) in slots.iter_mut().enumerate() {
         if s.id == 0 {
-            *s = Slot { id, count: 1 };
-            return;
+            *s = Slot { id, count: n };
+            return true;
         }
         // Cycles: the id's slot, or when every slot holds another id, the last one.
         if s.id == id || i == last {
-            s.count += 1;
-            return;
+            s.count += n;
+            return s.id == id;
         }
     }
+    true
+}
+
+/// The slots a render keeping `out.len()` slots holds, from a pixel's exact first-seen list
+/// `kept` (a chunk's slots): each entry counted in order.
+pub fn capped(kept: &[Slot], out: &mut [Slot]) {
+    out.fill(Slot::default());
+    for s in kept.iter().take_while(|s| s.id != 0) {
+        add_n(out, s.id, s.count);
+    }
+}
+
+/// Appends the exact lists `theirs` of a pixel's layers (`per` slots each) to `mine` (before
+/// them when `theirs_first`), in place; returns the samples counted under another id.
+pub fn merge_lists(mine: &mut [Slot], theirs: &[Slot], per: usize, theirs_first: bool) -> u64 {
+    // One layer's list on the stack: at most the levels' 16 or EXACT_SLOTS.
+    let mut earlier = [Slot::default(); (MAX_LEVELS + EXACT_SLOTS) as usize];
+    let mut folded = 0;
+    for (a, b) in mine.chunks_exact_mut(per).zip(theirs.chunks_exact(per)) {
+        let (first, second) = if theirs_first { (b, &*a) } else { (&*a, b) };
+        let earlier = &mut earlier[..per];
+        earlier.copy_from_slice(first);
+        for s in second.iter().take_while(|s| s.id != 0) {
+            if !add_n(earlier, s.id, s.count) {
+                folded += s.count as u64;
+            }
+        }
+        a.copy_from_slice(earlier);
+    }
+    folded
 }
 
 /// Ranks a layer's slots by count, highest first, keeping the order of equal counts (an
@@ -245,6 +305,36 @@ mod tests {
         );
         rank(&mut s);
         assert_eq!(s.map(|x| x.id), [7, 13, 9, 11]);
+    }
+
+    /// A long list kept exactly and replayed into few slots gives what those slots hold when
+    /// the samples are counted straight into them, for any split of the samples into two
+    /// chunks merged in order (a small LCG draws the ids: 9 of them over 200 samples).
+    #[test]
+    fn exact_lists_replay_into_the_capped_slots() {
+        let mut x = 12345u32;
+        let ids: Vec<u32> = (0..200)
+            .map(|_| {
+                x = x.wrapping_mul(1_103_515_245).wrapping_add(12345);
+                (x >> 16) % 10 // 0 is "nothing"
+            })
+            .collect();
+        for split in [0, 1, 37, 120, 200] {
+            let mut direct = [Slot::default(); 4];
+            for &id in &ids {
+                add(&mut direct, id);
+            }
+            let (mut a, mut b) = ([Slot::default(); EXACT_SLOTS as usize], [Slot::default(); EXACT_SLOTS as usize]);
+            assert!(ids[..split].iter().all(|&id| add(&mut a, id)) && ids[split..].iter().all(|&id| add(&mut b, id)));
+            for s in b.iter().take_while(|s| s.id != 0) {
+                assert!(add_n(&mut a, s.id, s.count));
+            }
+            let mut replayed = [Slot::default(); 4];
+            capped(&a, &mut replayed);
+            assert_eq!(replayed, direct, "split at {split}");
+        }
+        let mut full = [Slot::default(); 2];
+        assert!(add(&mut full, 1) && add(&mut full, 2) && !add(&mut full, 3) && add(&mut full, 2));
     }
 
     #[test]

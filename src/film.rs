@@ -14,6 +14,7 @@ use crate::math::Rgb;
 use crate::passes::{Aov, CATCHER_SLOTS, FIRST_SAMPLE_SLOTS, Pass, PassSet, divide_even_color, slot};
 use crate::sampling::Distribution1D;
 use crate::scene::light_groups::GroupSums;
+use crate::scene::shader_aovs::{AovSpec, AovSums};
 use glam::{Vec2, Vec3};
 
 /// One camera sample's contributions to the film.
@@ -35,6 +36,8 @@ pub struct CameraSample {
     pub crypto: [u32; 3],
     /// The radiance by light group (`crate::scene::light_groups`), filled only when asked.
     pub groups: GroupSums,
+    /// The shader AOVs' values (`crate::scene::shader_aovs`), filled only when asked.
+    pub shader_aovs: AovSums,
 }
 
 /// Pixel filter.
@@ -176,18 +179,30 @@ pub struct Tile {
     pub crypto_layout: Layout,
     /// Row-major Cryptomatte slots, `crypto_layout.stride()` per pixel, layer after layer.
     pub crypto: Vec<Slot>,
+    /// Samples whose Cryptomatte id went to a full pixel's last slot (an exact layout's
+    /// list then no longer merges exactly; `Film::crypto_folded`).
+    pub crypto_folded: u64,
     /// Light groups kept.
     pub groups: usize,
-    /// Row-major light-group sums, fixed point, `3 × groups` per pixel.
+    /// Shader AOV channels kept.
+    pub aov_channels: usize,
+    /// Row-major light-group sums, fixed point, `3 × groups` per pixel, each pixel's
+    /// followed by its `aov_channels` shader AOV sums ([`Tile::sums_stride`] in all).
     pub group_sums: Vec<i128>,
 }
 
 impl Tile {
+    /// The light-group and shader AOV sums per pixel.
+    #[inline]
+    pub fn sums_stride(&self) -> usize {
+        3 * self.groups + self.aov_channels
+    }
+
     /// Adds one camera sample to pixel `i` of the tile (base sums and extra passes);
     /// returns false (and adds nothing) when a value is not finite or out of range.
     #[inline]
     pub fn add(&mut self, i: usize, s: &CameraSample) -> bool {
-        if self.slots == 0 && self.crypto_layout.is_empty() && self.groups == 0 {
+        if self.slots == 0 && self.crypto_layout.is_empty() && self.sums_stride() == 0 {
             return self.pixels[i].add(s);
         }
         let mut m = self.slots & !FIRST_SAMPLE_SLOTS;
@@ -197,7 +212,9 @@ impl Tile {
             }
             m &= m - 1;
         }
-        if !s.groups.0[..self.groups].iter().all(|g| in_range(*g)) {
+        if !s.groups.0[..self.groups].iter().all(|g| in_range(*g))
+            || !s.shader_aovs.0[..self.aov_channels].iter().all(|v| in_range([*v, 0.0, 0.0]))
+        {
             return false;
         }
         // Position and the indices are the pixel's first sample's, as Cycles' sample 0.
@@ -206,18 +223,24 @@ impl Tile {
             return false;
         }
         if !self.crypto_layout.is_empty() {
-            let (layout, per) = (self.crypto_layout, self.crypto_layout.slots as usize);
+            let (layout, per) = (self.crypto_layout, self.crypto_layout.kept() as usize);
             let px = &mut self.crypto[i * layout.stride()..(i + 1) * layout.stride()];
             for (layer, kind) in px.chunks_exact_mut(per).zip(layout.iter()) {
-                cryptomatte::add(layer, s.crypto[kind.index()]);
+                if !cryptomatte::add(layer, s.crypto[kind.index()]) {
+                    self.crypto_folded += 1;
+                }
             }
         }
-        if self.groups > 0 {
-            let sums = &mut self.group_sums[i * 3 * self.groups..(i + 1) * 3 * self.groups];
-            for (acc, g) in sums.chunks_exact_mut(3).zip(&s.groups.0) {
+        let stride = self.sums_stride();
+        if stride > 0 {
+            let (groups, aovs) = self.group_sums[i * stride..(i + 1) * stride].split_at_mut(3 * self.groups);
+            for (acc, g) in groups.chunks_exact_mut(3).zip(&s.groups.0) {
                 for (a, v) in acc.iter_mut().zip(g) {
                     *a = a.wrapping_add(to_fixed(*v));
                 }
+            }
+            for (a, v) in aovs.iter_mut().zip(&s.shader_aovs.0) {
+                *a = a.wrapping_add(to_fixed(*v));
             }
         }
         let stride = self.slots.count_ones() as usize;
@@ -274,6 +297,10 @@ pub struct FilmImage {
     /// The light groups' names, which the writer needs (the film knows only their number;
     /// the render sets them from the scene).
     pub light_group_names: Vec<String>,
+    /// The shader AOVs' means, `channels` per pixel (each AOV's in the order of `aov_specs`).
+    pub shader_aovs: Vec<f32>,
+    /// The shader AOVs to write (names and kinds; the render sets them from the scene).
+    pub aov_specs: Vec<AovSpec>,
 }
 
 /// Number of the shadow catcher's sums per pixel.
@@ -427,6 +454,7 @@ impl Film {
         let crypto_layout = passes.cryptomatte().unwrap_or_default();
         let stride = slots.count_ones() as usize;
         let groups = passes.light_groups();
+        let aov_channels = passes.shader_aov_channels();
         let mut tiles = Vec::new();
         for y0 in (0..height).step_by(tile as usize) {
             for x0 in (0..width).step_by(tile as usize) {
@@ -442,8 +470,10 @@ impl Film {
                     extra: vec![0; n * stride],
                     crypto_layout,
                     crypto: vec![Slot::default(); n * crypto_layout.stride()],
+                    crypto_folded: 0,
                     groups,
-                    group_sums: vec![0; n * 3 * groups],
+                    aov_channels,
+                    group_sums: vec![0; n * (3 * groups + aov_channels)],
                 });
             }
         }
@@ -472,11 +502,11 @@ impl Film {
     }
 
     /// The extra-pass sums of pixel (x, y): its kept slots (`PassSet::slots`, in slot order)
-    /// and its light groups' sums (three per group).
+    /// and its light groups' sums (three per group) followed by its shader AOV sums.
     pub fn pixel_extra(&self, x: u32, y: u32) -> (&[i128], &[i128]) {
         let t = &self.tiles[self.tile_index(x, y)];
         let j = ((y - t.y0) * t.w + x - t.x0) as usize;
-        let (stride, g) = (t.slots.count_ones() as usize, 3 * t.groups);
+        let (stride, g) = (t.slots.count_ones() as usize, t.sums_stride());
         (&t.extra[j * stride..(j + 1) * stride], &t.group_sums[j * g..(j + 1) * g])
     }
 
@@ -485,7 +515,7 @@ impl Film {
         let t = self.tile_index(x, y);
         let t = &mut self.tiles[t];
         let j = ((y - t.y0) * t.w + x - t.x0) as usize;
-        let (stride, g) = (t.slots.count_ones() as usize, 3 * t.groups);
+        let (stride, g) = (t.slots.count_ones() as usize, t.sums_stride());
         (&mut t.extra[j * stride..(j + 1) * stride], &mut t.group_sums[j * g..(j + 1) * g])
     }
 
@@ -510,6 +540,31 @@ impl Film {
         for (a, b) in ga.iter_mut().zip(gb) {
             *a = a.wrapping_add(*b);
         }
+        self.merge_crypto(x, y, other, other_first);
+    }
+
+    /// Appends pixel (x, y)'s Cryptomatte list of `other` to this film's (before it when
+    /// `other_first`): each kept in first-seen order with exact counts, so the later list's
+    /// entries are counted after the earlier's, as the samples were (`cryptomatte::capped`).
+    fn merge_crypto(&mut self, x: u32, y: u32, other: &Film, other_first: bool) {
+        let t = self.tile_index(x, y);
+        let layout = self.tiles[t].crypto_layout;
+        if layout.is_empty() {
+            return;
+        }
+        let per = layout.kept() as usize;
+        let ot = &other.tiles[other.tile_index(x, y)];
+        let oj = ((y - ot.y0) * ot.w + x - ot.x0) as usize;
+        let theirs = &ot.crypto[oj * layout.stride()..(oj + 1) * layout.stride()];
+        let tile = &mut self.tiles[t];
+        let j = ((y - tile.y0) * tile.w + x - tile.x0) as usize;
+        let mine = &mut tile.crypto[j * layout.stride()..(j + 1) * layout.stride()];
+        tile.crypto_folded += cryptomatte::merge_lists(mine, theirs, per, other_first);
+    }
+
+    /// Samples whose Cryptomatte id was counted under another id (see `Tile::crypto_folded`).
+    pub fn crypto_folded(&self) -> u64 {
+        self.tiles.iter().map(|t| t.crypto_folded).sum()
     }
 
     /// Index of the tile holding (x, y): tiles are squares of `tile_size` in scanline order.
@@ -545,6 +600,8 @@ impl Film {
             },
             light_groups: vec![vec![0.0; n * 3]; self.passes.light_groups()],
             light_group_names: Vec::new(),
+            shader_aovs: vec![0.0; n * self.passes.shader_aov_channels()],
+            aov_specs: Vec::new(),
         };
         let layout = self.tiles.first().map(|t| t.crypto_layout).unwrap_or_default();
         for kind in layout.iter() {
@@ -553,6 +610,7 @@ impl Film {
             }
         }
         let mut ranked = vec![Slot::default(); layout.slots as usize];
+        let kept = layout.kept() as usize;
         for t in &self.tiles {
             for ty in 0..t.h {
                 for tx in 0..t.w {
@@ -580,11 +638,16 @@ impl Film {
                     let j = (ty * t.w + tx) as usize;
                     let acc = &t.extra[j * stride..(j + 1) * stride];
                     extra_pixel(&mut img.extra, i, t.slots, acc, inv);
-                    let sums = &t.group_sums[j * 3 * t.groups..(j + 1) * 3 * t.groups];
-                    for (data, g) in img.light_groups.iter_mut().zip(sums.chunks_exact(3)) {
+                    let sums = &t.group_sums[j * t.sums_stride()..(j + 1) * t.sums_stride()];
+                    let (groups, aovs) = sums.split_at(3 * t.groups);
+                    for (data, g) in img.light_groups.iter_mut().zip(groups.chunks_exact(3)) {
                         for (d, v) in data[i * 3..i * 3 + 3].iter_mut().zip(g) {
                             *d = (from_fixed(*v) * inv) as f32;
                         }
+                    }
+                    let c = t.aov_channels;
+                    for (d, v) in img.shader_aovs[i * c..(i + 1) * c].iter_mut().zip(aovs) {
+                        *d = (from_fixed(*v) * inv) as f32;
                     }
                     if let Some(c) = img.catcher.get_mut(i) {
                         for (k, v) in c.iter_mut().enumerate() {
@@ -594,8 +657,9 @@ impl Film {
                     }
                     let per = layout.slots as usize;
                     let px = &t.crypto[j * layout.stride()..(j + 1) * layout.stride()];
-                    for (l, layer) in px.chunks_exact(per.max(1)).enumerate() {
-                        ranked.copy_from_slice(layer);
+                    for (l, layer) in px.chunks_exact(kept.max(1)).enumerate() {
+                        // An exact list (chunks) holds what a render keeping `per` slots would.
+                        cryptomatte::capped(layer, &mut ranked);
                         cryptomatte::rank(&mut ranked);
                         for (pair, slot) in ranked.chunks_exact(2).enumerate() {
                             let out = &mut img.crypto[l * per / 2 + pair].1[i * 4..i * 4 + 4];

@@ -136,6 +136,22 @@ fn write_exr_with(out: &Path, img: &FilmImage, half: bool, chunk: Option<(&Film,
             list.push(AnyChannel::new(format!("Combined_{name}.{ch}").as_str(), make(values)));
         }
     }
+    let aov_channels: usize = img.aov_specs.iter().map(|a| a.kind.channels().len()).sum();
+    if aov_channels * (img.width * img.height) as usize != img.shader_aovs.len() {
+        return Err(Error::Internal(format!(
+            "{} shader AOV values per image but {aov_channels} channels to write them under",
+            img.shader_aovs.len()
+        )));
+    }
+    let mut at = 0;
+    for aov in &img.aov_specs {
+        // The AOV's own name, with Blender's channels for its kind (Cycles' passes).
+        for ch in aov.kind.channels() {
+            let values: Vec<f32> = img.shader_aovs.iter().skip(at).step_by(aov_channels).copied().collect();
+            list.push(AnyChannel::new(format!("{}.{ch}", aov.name).as_str(), make(values)));
+            at += 1;
+        }
+    }
     for (name, data) in &img.crypto {
         // Ids are float-encoded hashes: float even in half mode, where they would round.
         for (c, ch) in Pass::CryptoObject.channels().iter().enumerate() {

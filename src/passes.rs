@@ -403,13 +403,26 @@ pub struct PassSet {
     crypto_levels: u32,
     /// Light groups of the scene written as `Combined_<name>` (when asked).
     light_groups: u8,
+    /// Channels of the view layer's shader AOVs (`crate::scene::shader_aovs`; when asked).
+    #[serde(default)]
+    shader_aovs: u8,
+    /// Keep Cryptomatte's slots for an exact merge of chunks (`Layout::with_exact`).
+    #[serde(default)]
+    crypto_exact: bool,
 }
 
 /// The [`PassSet`] bit that keeps the shadow catcher's sums (no pass of its own).
 const CATCHER_SUMS: u32 = 1 << 31;
 /// The [`PassSet`] bit that asks for the scene's light groups (`--passes light_groups`).
 const LIGHT_GROUPS: u32 = 1 << 30;
-const _: () = assert!(ALL.len() < 30);
+/// The [`PassSet`] bit that asks for the view layer's shader AOVs (`--passes shader_aovs`).
+const SHADER_AOVS: u32 = 1 << 29;
+// Bits 0..ALL.len() are the passes; 29, 30 and 31 the flags above.
+const _: () = assert!(ALL.len() <= 29);
+
+/// The `--passes` token that asks for the view layer's shader AOVs (AOV Output nodes), one
+/// pass each as the scene's render settings list them (`crate::scene::shader_aovs`).
+pub const SHADER_AOVS_TOKEN: &str = "shader_aovs";
 
 /// The `--passes` token that asks for one `Combined_<group>` pass per light group of the
 /// scene (`crate::scene::light_groups`).
@@ -444,6 +457,22 @@ impl PassSet {
     #[inline]
     pub fn light_groups(self) -> usize {
         if self.asks_light_groups() { self.light_groups as usize } else { 0 }
+    }
+
+    /// True when the shader AOVs were asked for (`--passes shader_aovs`).
+    pub fn asks_shader_aovs(self) -> bool {
+        self.bits & SHADER_AOVS != 0
+    }
+
+    /// Sets how many channels the scene's shader AOVs take (written only when asked).
+    pub fn set_shader_aov_channels(&mut self, channels: usize) {
+        self.shader_aovs = channels.min(crate::scene::shader_aovs::MAX_CHANNELS) as u8;
+    }
+
+    /// The shader AOV channels to keep: the scene's count when asked, else 0.
+    #[inline]
+    pub fn shader_aov_channels(self) -> usize {
+        if self.asks_shader_aovs() { self.shader_aovs as usize } else { 0 }
     }
 
     /// What a render writes without `--passes`: the passes of Caustic before pass
@@ -493,11 +522,17 @@ impl PassSet {
         self.crypto_levels = levels;
     }
 
+    /// Keeps Cryptomatte's slots as chunks need them (`render --chunk`).
+    pub fn set_cryptomatte_exact(&mut self) {
+        self.crypto_exact = true;
+    }
+
     /// The Cryptomatte layers asked for and their slots per pixel.
     pub fn cryptomatte(self) -> Result<Layout> {
         let kinds: Vec<Kind> = self.iter().filter_map(Pass::crypto_kind).collect();
         let levels = if self.crypto_levels == 0 { crate::cryptomatte::DEFAULT_LEVELS } else { self.crypto_levels };
-        Layout::new(&kinds, levels)
+        let layout = Layout::new(&kinds, levels)?;
+        Ok(if self.crypto_exact { layout.with_exact() } else { layout })
     }
 
     /// The slots a film must keep for these passes: each pass's own, and the Colour
@@ -527,9 +562,13 @@ impl PassSet {
                 set.bits |= LIGHT_GROUPS;
                 continue;
             }
+            if item.eq_ignore_ascii_case(SHADER_AOVS_TOKEN) {
+                set.bits |= SHADER_AOVS;
+                continue;
+            }
             set.insert(Pass::parse(item).ok_or_else(|| {
                 Error::Usage(format!(
-                    "unknown pass '{item}' (known: combined, {}, {LIGHT_GROUPS_TOKEN})",
+                    "unknown pass '{item}' (known: combined, {}, {LIGHT_GROUPS_TOKEN}, {SHADER_AOVS_TOKEN})",
                     ALL.iter().map(|p| p.token()).collect::<Vec<_>>().join(", ")
                 ))
             })?);
@@ -600,7 +639,11 @@ mod tests {
         assert_eq!(set.light_groups(), 3);
         let mut unasked = PassSet::default();
         unasked.set_light_groups(3);
-        assert_eq!(unasked.light_groups(), 0);
+        unasked.set_shader_aov_channels(5);
+        assert_eq!((unasked.light_groups(), unasked.shader_aov_channels()), (0, 0));
+        let mut aovs = PassSet::parse_list("shader_aovs").unwrap();
+        aovs.set_shader_aov_channels(5);
+        assert_eq!((aovs.iter().count(), aovs.shader_aov_channels()), (0, 5));
     }
 
     #[test]

@@ -43,6 +43,7 @@ from .materials import COAT_EXTENSION, principled_extras, shader_node_material  
 from .media import MEDIUM_EXTENSION, SUBSURFACE_EXTENSION, medium_extension, subsurface_extension  # noqa: F401
 from .settings import render_settings  # noqa: F401
 from .light_groups import light_group_settings  # noqa: F401
+from .shader_aovs import shader_aov_settings  # noqa: F401
 from .state import ExportState, exporting
 from .motion import add_deformation, sample_motion
 from .shape_keys import shape_keys_exported

@@ -9,6 +9,10 @@ The walk reads Blender data only; images are collected (the caller writes them, 
 and the few settings that need the scene (UV map numbers, object matrices) come from a
 `GraphContext`.
 
+AOV Output nodes (Blender's shader AOVs) are added, with what feeds them, when the view layer
+being rendered has AOVs (`GraphContext.with_aovs`): Cycles writes every unmuted one of the tree,
+inside node groups too, whatever the Material Output reads.
+
 `needs_graph` says whether the glTF exporter could express the material itself (contract: only
 Principled BSDF, Image Texture, Normal Map, UV Map and Material Output, with the links the
 exporter reads); a material it can express keeps today's export unchanged.
@@ -55,6 +59,12 @@ class GraphContext:
     def __init__(self, depsgraph=None, meshes=()):
         self.depsgraph = depsgraph
         self.meshes = list(meshes)
+
+    @property
+    def with_aovs(self):
+        """Whether the view layer rendered has shader AOVs (then AOV Output nodes are exported)."""
+        view_layer = getattr(self.depsgraph, "view_layer", None)
+        return bool(view_layer is not None and len(getattr(view_layer, "aovs", ())) > 0)
 
 
 class Graph:
@@ -394,9 +404,12 @@ class _Builder:
         if n is not None:
             props["tex_coord"] = n
 
-    def run(self, output):
+    def run(self, output, with_aovs=False):
         surface = self._output_link(output, "Surface")
         displacement = self._output_link(output, "Displacement")
+        if with_aovs:
+            for scope, node in _aov_outputs(output.id_data, ()):
+                self.add(scope, node)
         while self.todo:
             self.fill(*self.todo.pop())
         if displacement is not None and self.material.displacement_method != "BUMP":
@@ -409,6 +422,21 @@ class _Builder:
         sock = output.inputs.get(socket_name)
         source = self.input_source((), sock) if sock is not None else None
         return [source[1], source[2]] if source is not None and source[0] == "link" else None
+
+
+def _aov_outputs(tree, scope, depth=0):
+    """(scope, node) of each unmuted AOV Output node of `tree` and of the groups it uses."""
+    found = []
+    if depth > 32:  # Blender refuses recursive groups; this only guards against a corrupt file
+        return found
+    for node in tree.nodes:
+        if node.mute:
+            continue
+        if node.bl_idname == "ShaderNodeOutputAOV":
+            found.append((scope, node))
+        elif node.type == "GROUP" and node.node_tree is not None:
+            found += _aov_outputs(node.node_tree, scope + (node,), depth + 1)
+    return found
 
 
 def cycles_output(material):
@@ -424,7 +452,7 @@ def build_graph(material, context):
     output = cycles_output(material)
     if output is None:
         return None
-    return _Builder(material, context).run(output)
+    return _Builder(material, context).run(output, with_aovs=context.with_aovs)
 
 
 def build_world_graph(world, context):
@@ -446,6 +474,8 @@ def needs_graph(material, graph):
         return False
     if graph.output["displacement"] is not None:
         return True
+    if any(n["type"] == "ShaderNodeOutputAOV" for n in graph.nodes):
+        return True  # the exporter has no shader AOVs
     if any(n["type"] not in _EXPRESSIBLE for n in graph.nodes):
         return True
     if any(n["type"] == "ShaderNodeTexImage" and n["props"].get("projection", "FLAT") != "FLAT" for n in graph.nodes):

@@ -11,15 +11,25 @@ use crate::progress::Reporter;
 use serde_json::json;
 use std::time::Instant;
 
+/// The first sample index of the chunk at `path` (its header only).
+fn read_start(path: &std::path::Path) -> Result<u32> {
+    Ok(chunk::read_info(path)?.samples.iter().map(|r| r[0]).min().unwrap_or(u32::MAX))
+}
+
 /// `caustic merge`.
 pub fn run_merge(args: &MergeArgs, reporter: &Reporter) -> Result<()> {
     let t0 = Instant::now();
     reporter.phase("loading", 0.0);
     output::clean_stale_temps(&args.output);
     output::check_writable(&args.output)?;
-    let mut inputs = args.inputs.iter();
+    // Cryptomatte's lists are appended in sample order (`Film::merge_crypto`): the chunks are
+    // merged by their first sample, whatever the order of the arguments.
+    let mut order: Vec<(u32, &std::path::PathBuf)> =
+        args.inputs.iter().map(|p| Ok((read_start(p)?, p))).collect::<Result<Vec<_>>>()?;
+    order.sort_by_key(|(s, _)| *s);
+    let mut inputs = order.into_iter().map(|(_, p)| p);
     let first = inputs.next().ok_or_else(|| Error::Usage("merge needs at least one chunk".into()))?;
-    let chunk::Chunk { info, mut film } = chunk::read(first)?;
+    let chunk::Chunk { info, mut film, metadata } = chunk::read(first)?;
     let mut ranges: Vec<([u32; 2], &std::path::Path)> = info.samples.iter().map(|r| (*r, first.as_path())).collect();
     let mut merged = ChunkInfo { samples: Vec::new(), ..info.clone() };
     // Per pixel, the first sample index of the chunk whose first-sample values (Position,
@@ -29,8 +39,10 @@ pub fn run_merge(args: &MergeArgs, reporter: &Reporter) -> Result<()> {
         .flat_map(|y| (0..film.width).map(move |x| (x, y)))
         .map(|(x, y)| if film.pixel(x, y).n > 0 { start(&info) } else { u32::MAX })
         .collect();
+    let mut folded = info.crypto_folded;
     for path in inputs {
         let c = chunk::read(path)?;
+        folded += c.info.crypto_folded;
         info.check_compatible(&c.info, first, path)?;
         ranges.extend(c.info.samples.iter().map(|r| (*r, path.as_path())));
         let s = start(&c.info);
@@ -52,10 +64,24 @@ pub fn run_merge(args: &MergeArgs, reporter: &Reporter) -> Result<()> {
     chunk::check_disjoint(&mut ranges)?;
     merged.samples = ranges.iter().map(|(r, _)| *r).collect();
     merged.light_paths = film.light_paths;
+    merged.crypto_folded = folded + film.crypto_folded();
+    let mut warnings = Vec::new();
+    if merged.crypto_folded > 0 {
+        let w = format!(
+            "{} samples' Cryptomatte ids were counted under another id (a pixel of a chunk saw more than {} ids              in a layer): the merged Cryptomatte is not exactly the single render's there",
+            merged.crypto_folded,
+            crate::cryptomatte::EXACT_SLOTS
+        );
+        reporter.warning(&w);
+        warnings.push(w);
+    }
 
     reporter.phase("writing", t0.elapsed().as_secs_f64());
     let mut img = film.image();
     img.light_group_names.clone_from(&info.light_groups);
+    img.aov_specs.clone_from(&info.shader_aovs);
+    // The Cryptomatte manifests of the frame (every chunk has the same).
+    img.metadata = metadata;
     if !info.transparent {
         img.make_opaque();
     }
@@ -80,7 +106,7 @@ pub fn run_merge(args: &MergeArgs, reporter: &Reporter) -> Result<()> {
         "integrator": merged.integrator,
         "elapsed": t0.elapsed().as_secs_f64(),
         "interrupted": false,
-        "warnings": [],
+        "warnings": warnings,
     }));
     Ok(())
 }

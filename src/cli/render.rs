@@ -151,6 +151,11 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         reporter.warning(&w);
         run_warnings.push(w);
     }
+    if res.passes.asks_shader_aovs() && scene.shader_aovs.channels == 0 {
+        let w = "the shader AOVs were asked for, but the scene declares none: none is written".to_string();
+        reporter.warning(&w);
+        run_warnings.push(w);
+    }
     if res.passes.asks_light_groups() && scene.light_groups.is_empty() {
         let w = "the light group passes were asked for, but the scene declares no light groups: none is written"
             .to_string();
@@ -367,6 +372,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
                 let info = ChunkInfo {
                     samples: vec![[res.sample_offset, res.sample_offset + spp]],
                     light_paths,
+                    crypto_folded: film.map_or(0, |f| f.crypto_folded()),
                     ..info.clone()
                 };
                 match film {
@@ -382,6 +388,11 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         res.passes.cryptomatte()?.iter().flat_map(|k| crate::cryptomatte::header(k, scene.pass_ids.names(k))).collect();
     // The light groups' pass names, by the film's group order.
     let group_names: Vec<String> = scene.light_groups.names[..res.passes.light_groups()].to_vec();
+    // The shader AOVs' passes, when asked.
+    let aov_specs = match res.passes.shader_aov_channels() {
+        0 => Vec::new(),
+        _ => scene.shader_aovs.specs.clone(),
+    };
     reporter.phase("rendering", t0.elapsed().as_secs_f64());
     let out_str = args.output.display().to_string();
     let mut last_interim = Instant::now();
@@ -399,6 +410,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
                 let mut img = film.image();
                 img.metadata.clone_from(&crypto_header);
                 img.light_group_names.clone_from(&group_names);
+                img.aov_specs.clone_from(&aov_specs);
                 if !res.transparent {
                     img.make_opaque();
                 }
@@ -423,6 +435,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     let mut result = result;
     result.image.metadata = crypto_header;
     result.image.light_group_names = group_names;
+    result.image.aov_specs = aov_specs;
     if !res.transparent {
         result.image.make_opaque();
     }
@@ -527,6 +540,11 @@ fn chunk_info(args: &RenderArgs, res: &Resolved, scene: &Scene) -> ChunkInfo {
         light_paths: 0,
         passes: res.passes,
         light_groups: scene.light_groups.names[..res.passes.light_groups()].to_vec(),
+        shader_aovs: match res.passes.shader_aov_channels() {
+            0 => Vec::new(),
+            _ => scene.shader_aovs.specs.clone(),
+        },
+        crypto_folded: 0,
     }
 }
 
@@ -622,6 +640,14 @@ fn charge_render(budget: &MemoryBudget, args: &RenderArgs, res: &Resolved, scene
             pixels.saturating_mul(groups * 3 * (16 + 4 + 4)),
         )?;
     }
+    let aov_channels = res.passes.shader_aov_channels() as u64;
+    if aov_channels > 0 {
+        // Each channel: an i128 sum in the tiles, the image's f32 and the writer's copy.
+        budget.charge(
+            format!("the {aov_channels} shader AOV channels for {}x{} pixels", x1 - x0, y1 - y0),
+            pixels.saturating_mul(aov_channels * (16 + 4 + 4)),
+        )?;
+    }
     let crypto = res.passes.cryptomatte()?;
     if !crypto.is_empty() {
         // Each slot: 8 bytes in the tiles, the image's two f32 and the EXR writer's copy.
@@ -632,8 +658,8 @@ fn charge_render(budget: &MemoryBudget, args: &RenderArgs, res: &Resolved, scene
     }
     if args.chunk {
         // The chunk channels, built beside the image: 54 words of 4 bytes per pixel, and four
-        // words for each extra sum (the kept slots, three per light group).
-        let words = 54 + 4 * (slots + 3 * groups);
+        // words for each extra sum (the kept slots, three per light group, the AOV channels).
+        let words = 54 + 4 * (slots + 3 * groups + aov_channels);
         budget
             .charge(format!("the chunk sums for {}x{} pixels", x1 - x0, y1 - y0), pixels.saturating_mul(words * 4))?;
     }

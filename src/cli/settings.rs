@@ -315,6 +315,14 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
         }
         passes.set_light_groups(scene.light_groups.len());
     }
+    if passes.asks_shader_aovs() {
+        if integrator == IntegratorKind::Sppm {
+            return Err(Error::Usage(
+                "the shader AOVs are not rendered by 'sppm' (its camera paths are not camera samples)".into(),
+            ));
+        }
+        passes.set_shader_aov_channels(scene.shader_aovs.channels);
+    }
     if let Some(levels) = args.cryptomatte_levels.or(st.cryptomatte_levels) {
         passes.set_cryptomatte_levels(levels);
     }
@@ -326,10 +334,8 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
     }
     if passes.any_crypto() && args.chunk {
         // Cryptomatte's slots are filled in sample order (a full pixel counts a new id in
-        // its last slot): chunks could not be merged into what one render keeps.
-        return Err(Error::Usage(
-            "chunks (--chunk) do not carry the Cryptomatte passes yet: render them without --chunk".into(),
-        ));
+        // its last slot): a chunk keeps each pixel's whole first-seen list for the merge.
+        passes.set_cryptomatte_exact();
     }
     if !scene.ray_visibility.catcher_objects.is_empty() && integrator == IntegratorKind::Path {
         passes = passes.with_catcher_sums();

@@ -11,6 +11,7 @@ pub mod media;
 pub mod nee;
 pub mod path;
 pub mod photon;
+pub mod shader_aovs;
 pub mod vcm;
 pub mod walk;
 

@@ -100,6 +100,7 @@ fn progressive(
     let splats = SplatPool::new(job.window);
     // Data passes trace the camera ray's first hit apart from the integrator.
     let want_data = job.passes.any_data();
+    let want_aovs = job.passes.shader_aov_channels() > 0;
     // Motion blur: each camera sample draws its time over the shutter (static scenes draw none).
     let shutter = ctx.scene.motion.as_ref().and_then(|m| m.shutter).filter(|_| ctx.blurs_motion);
     let mut splat_count = 0u64;
@@ -199,6 +200,15 @@ fn progressive(
                                         job.passes,
                                         &job.data,
                                         pixel_sample,
+                                        &mut ts.rays,
+                                    );
+                                }
+                                if want_aovs {
+                                    crate::integrator::shader_aovs::fill(
+                                        ctx,
+                                        &ray,
+                                        &mut s,
+                                        (job.seed, px, py, i),
                                         &mut ts.rays,
                                     );
                                 }

@@ -12,6 +12,7 @@ pub mod light_visibility;
 pub mod linking;
 pub mod material;
 pub mod mesh;
+pub mod shader_aovs;
 pub mod shading;
 pub mod texture;
 pub mod visibility;
@@ -92,6 +93,8 @@ pub struct SceneSettings {
     pub ao_distance: Option<f32>,
     /// The view layer's light groups and their emitters (`light_groups`).
     pub light_groups: Option<light_groups::LightGroupSpec>,
+    /// The view layer's shader AOVs (`shader_aovs`).
+    pub shader_aovs: Option<shader_aovs::ShaderAovSpec>,
 }
 
 /// Counts and per-material features for `caustic info`.
@@ -260,6 +263,8 @@ pub struct Scene {
     pub motion: Option<crate::motion::SceneMotion>,
     /// Each emitter's light group (`light_groups`); empty without groups.
     pub light_groups: light_groups::LightGroups,
+    /// The view layer's shader AOVs and the AOV Output nodes that write them.
+    pub shader_aovs: shader_aovs::ShaderAovs,
 }
 
 /// Where one mesh instance (a glTF node with a mesh) lies in the flattened [`Mesh`].

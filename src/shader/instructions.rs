@@ -363,4 +363,9 @@ pub struct Program {
     pub displacement_normal: Option<Reg>,
     /// Mesh tangents are read (tangent-space Normal Map, Geometry Tangent), from this UV set.
     pub tangent_uv: Option<u32>,
+    /// `ops[..surface_end]` shade the surface; the rest compute only what AOV Output nodes
+    /// read, run after them for camera-ray hits (`shader::aov`).
+    pub surface_end: usize,
+    /// The AOV Output nodes, their inputs' registers after the whole program ran.
+    pub aovs: Vec<super::aov::AovOutput>,
 }

@@ -1,6 +1,7 @@
 //! Blender's shader nodes as the renderer evaluates them.
 pub mod texture;
 
+pub mod aov;
 pub mod closure;
 pub mod compile;
 pub mod geom;

@@ -53,11 +53,12 @@ pub fn mapping_rotation(rv: Vec3) -> Mat3 {
 }
 
 impl Program {
-    /// Evaluates every operation at `g`, leaving closures in `out`.
+    /// Evaluates the surface's operations at `g`, leaving closures in `out` (what only AOV
+    /// Output nodes read is left to `run_aovs`).
     pub fn run(&self, g: &Geom, regs: &mut Vec<f32>, out: &mut Closures) {
         regs.clear();
         regs.extend_from_slice(&self.init);
-        for op in &self.ops {
+        for op in &self.ops[..self.surface_end.min(self.ops.len())] {
             self.step(op, g, regs, out);
         }
     }

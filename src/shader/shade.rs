@@ -27,9 +27,9 @@ impl Scene {
     }
 }
 
-/// Runs `prog` at the hit `s` seen from `wo`.
-fn evaluate(scene: &Scene, prog: &Program, s: &SurfaceHit, wo: Vec3) -> Closures {
-    let g = Geom {
+/// The shading point of hit `s` seen from `wo`, as a program reads it.
+pub(super) fn geom_of<'a>(scene: &'a Scene, s: &SurfaceHit, wo: Vec3) -> Geom<'a> {
+    Geom {
         p: s.p,
         n: s.ns,
         ng: s.ng,
@@ -44,7 +44,12 @@ fn evaluate(scene: &Scene, prog: &Program, s: &SurfaceHit, wo: Vec3) -> Closures
         tri: s.tri,
         path: s.light_path,
         view: &scene.view,
-    };
+    }
+}
+
+/// Runs `prog` at the hit `s` seen from `wo`.
+fn evaluate(scene: &Scene, prog: &Program, s: &SurfaceHit, wo: Vec3) -> Closures {
+    let g = geom_of(scene, s, wo);
     let mut out = Closures::default();
     with_registers(|regs| {
         prog.run(&g, regs, &mut out);

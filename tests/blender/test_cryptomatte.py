@@ -187,9 +187,8 @@ def test_manifest_names_the_entities_as_cycles(renders):
 
 def test_request_levels_and_warnings(addon):
     """The binary is asked for the enabled layers with the view layer's levels (odd levels:
-    Cycles' passes of two ranks, rounded up) and for the light groups; shader AOVs, not rendered
-    yet, are named in warnings; chunks on the farm cannot carry Cryptomatte (but the index
-    passes and light groups), BDPT no light groups."""
+    Cycles' passes of two ranks, rounded up), for the light groups and for the shader AOVs; chunks
+    on the farm carry all of them; BDPT renders no light groups, SPPM no shader AOVs."""
     import importlib
     result = importlib.import_module("bl_ext.caustic_dev.caustic.result")
     bpy.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)
@@ -199,13 +198,16 @@ def test_request_levels_and_warnings(addon):
     layer.lightgroups.add(name="Key")
     layer.aovs.add().name = "Mask"
     passes, warnings = result.pass_request(layer, "path")
-    assert passes == "object_index,cryptomatte_asset,light_groups"
+    assert passes == "object_index,cryptomatte_asset,light_groups,shader_aovs"
     assert result.cryptomatte_arguments(layer, passes) == ["--cryptomatte-levels", "3"]
     assert result.enabled_cryptomatte(layer) == [("cryptomatte_asset", ["CryptoAsset00", "CryptoAsset01"])]
     assert not any("Combined_Key" in w for w in warnings)
-    assert any("'Mask'" in w for w in warnings)
+    assert not any("'Mask'" in w for w in warnings)
     passes, warnings = result.pass_request(layer, "path", chunked=True)
-    assert passes == "object_index,light_groups" and result.cryptomatte_arguments(layer, passes) == []
-    assert any("Cryptomatte Asset" in w and "farm" in w for w in warnings)
+    assert passes == "object_index,cryptomatte_asset,light_groups,shader_aovs"
+    assert result.cryptomatte_arguments(layer, passes) == ["--cryptomatte-levels", "3"]
+    assert not any("Cryptomatte" in w for w in warnings)
     passes, warnings = result.pass_request(layer, "bdpt")
     assert "light_groups" not in passes and any("Combined_Key" in w and "'bdpt'" in w for w in warnings)
+    passes, warnings = result.pass_request(layer, "sppm")
+    assert "shader_aovs" not in passes and any("'Mask'" in w and "SPPM" in w for w in warnings)

@@ -88,6 +88,7 @@ impl VcmIntegrator {
         let r0 = self.radius.unwrap_or_else(|| initial_radius(ctx, camera, job.window));
         let splats = SplatPool::new(job.window);
         let want_data = job.passes.any_data();
+        let want_aovs = job.passes.shader_aov_channels() > 0;
         let shutter = ctx.scene.motion.as_ref().and_then(|m| m.shutter).filter(|_| ctx.blurs_motion);
         let max_depth = self.bdpt.max_depth;
         let camera_connectible = !camera.is_orthographic();
@@ -197,6 +198,9 @@ impl VcmIntegrator {
                                     pixel_sample,
                                     &mut rs,
                                 );
+                            }
+                            if want_aovs {
+                                crate::integrator::shader_aovs::fill(ctx, &ray, &mut s, pixel_sample, &mut rs);
                             }
                             done += 1;
                             if !tile.add(k, &s) {

@@ -558,6 +558,15 @@ impl<'a> Loader<'a> {
             mesh.triangles.len(),
             glowing_media,
         )?;
+        let mut aov_warnings = Vec::new();
+        let shader_aovs =
+            crate::scene::shader_aovs::ShaderAovs::resolve(settings.shader_aovs.as_ref(), &materials, |w| {
+                aov_warnings.push(w)
+            })
+            .map_err(|e| self.err(format!("render settings 'shader_aovs': {e}")))?;
+        for w in aov_warnings {
+            self.warn(w);
+        }
         let report = LoadReport {
             file: self.file.to_string(),
             triangles: mesh.triangles.len(),
@@ -637,6 +646,7 @@ impl<'a> Loader<'a> {
             instances: instances_out,
             motion,
             light_groups,
+            shader_aovs,
         })
     }
 

@@ -6,8 +6,12 @@
 //! weight computations and closure operations (Mix Shader: w (1 − fac) and w fac; Add
 //! Shader: w for both), as Cycles' SVM compiler does.
 //!
+//! Nodes that only AOV Output nodes read are compiled after the surface's closures
+//! (`Program::surface_end`), so that shading a surface never computes them.
+//!
 //! Node types the renderer does not know are named in a warning; their outputs are 0.
 
+mod aov;
 mod closures;
 mod converters;
 mod sources;
@@ -88,7 +92,8 @@ pub fn compile(name: &str, ext: &NodesExt, images: &[u32]) -> Result<Compiled, S
         principled: 0,
         uses_generated: false,
     };
-    for &i in &order {
+    let surface = reachable_from_outputs(ext);
+    for &i in order.iter().filter(|&&i| surface[i]) {
         c.node(i)?;
     }
     if let Some((n, out)) = &ext.output.surface {
@@ -96,6 +101,10 @@ pub fn compile(name: &str, ext: &NodesExt, images: &[u32]) -> Result<Compiled, S
     }
     if let Some((n, out)) = &ext.output.displacement {
         c.displacement(*n, out)?;
+    }
+    let surface_end = c.ops.len();
+    for &i in order.iter().filter(|&&i| !surface[i]) {
+        c.node(i)?;
     }
     if c.small_lobes > CAPACITY {
         c.warnings.push(format!(
@@ -118,13 +127,27 @@ pub fn compile(name: &str, ext: &NodesExt, images: &[u32]) -> Result<Compiled, S
     let mut prog = c.prog;
     prog.init = c.init;
     prog.ops = c.ops;
+    prog.surface_end = surface_end;
     prog.constant_emission = constant_emission(&prog);
     Ok(Compiled { program: prog, warnings: c.warnings, uses_generated: c.uses_generated })
 }
 
-/// The emission when no operation depends on the shading point: the program run once.
+/// Which nodes the Surface and Displacement outputs read (the rest feed AOV Output nodes).
+fn reachable_from_outputs(ext: &NodesExt) -> Vec<bool> {
+    let mut seen = vec![false; ext.nodes.len()];
+    let mut stack: Vec<usize> = ext.output.surface.iter().chain(&ext.output.displacement).map(|l| l.0).collect();
+    while let Some(i) = stack.pop() {
+        if std::mem::replace(&mut seen[i], true) {
+            continue;
+        }
+        stack.extend(ext.nodes[i].inputs.values().filter_map(|d| d.link.as_ref().map(|l| l.0)));
+    }
+    seen
+}
+
+/// The emission when no surface operation depends on the shading point: the program run once.
 fn constant_emission(prog: &Program) -> Option<Vec3> {
-    let varying = prog.ops.iter().any(|op| {
+    let varying = prog.ops[..prog.surface_end].iter().any(|op| {
         matches!(
             op,
             Op::Input { .. }
@@ -408,6 +431,9 @@ impl<'a> Compiler<'a> {
         if is_closure_node(kind) {
             self.alias(i, closure_output(kind), 0, Ty::Closure);
             return Ok(());
+        }
+        if kind == aov::AOV_OUTPUT {
+            return self.aov_output(i);
         }
         let mark = self.ops.len();
         self.all_const = true;
