@@ -143,3 +143,54 @@ fn volume_scattering_ignores_a_light_hidden_from_volume_rays() {
     let hidden = render(&scene("b.gltf", all_hidden), &d.join("b.exr"), &args);
     assert!(hidden.iter().all(|p| p[..3] == [0.0; 3]), "a light hidden from volume rays lights no fog");
 }
+
+/// The world's own Ray Visibility (`visibility` in `CAUSTIC_world`, Cycles' World > Ray
+/// Visibility): a grey world over a floor that fills the left half of the view (a diffuse
+/// closure only: no specular layer), direct light only. Hidden from diffuse rays the world
+/// lights the floor with exactly nothing and the sky is seen as before (bit for bit); hidden
+/// from the camera the sky is black and the floor is lit bit for bit as before (the camera's
+/// escaping rays draw no random numbers). A malformed flag is a bad scene (exit 3).
+#[test]
+fn the_world_is_hidden_from_the_rays_its_flags_name() {
+    let dir = temp_dir();
+    let d = dir.path();
+    let scene = |name: &str, visibility: Option<Value>| {
+        let mut g = GltfBuilder::new();
+        g.use_ext("KHR_materials_specular");
+        let m = g
+            .material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1], "metallicFactor": 0.0},
+            "extensions": {"KHR_materials_specular": {"specularFactor": 0.0}}}));
+        let h = 10.0;
+        g.mesh(&[[-h, -h, -4.0], [0.0, -h, -4.0], [0.0, h, -4.0], [-h, h, -4.0]], &[0, 1, 2, 0, 2, 3], m);
+        let mut w = json!({"color": [0.5, 0.5, 0.5], "strength": 1.0});
+        if let Some(v) = visibility {
+            w["visibility"] = v;
+        }
+        g.world(w);
+        // An opaque film: camera rays that miss show the world.
+        g.settings(json!({"transparent": false}));
+        g.camera([0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0], 0.5);
+        g.write(d, name)
+    };
+    let args = ["--spp", "16", "--max-depth", "1"];
+    let r = |name: &str, v: Option<Value>| {
+        render(&scene(&format!("{name}.gltf"), v), &d.join(format!("{name}.exr")), &args)
+    };
+    let (floor, sky): (Vec<usize>, Vec<usize>) =
+        (0..32 * 32).filter(|i| i % 32 != 15 && i % 32 != 16).partition(|i| i % 32 < 16);
+    let seen = r("seen", None);
+    assert!(
+        floor.iter().all(|&i| seen[i][0] > 0.01) && sky.iter().all(|&i| seen[i][0] > 0.4),
+        "the world lights and shows"
+    );
+    let no_diffuse = r("no_diffuse", Some(json!({"diffuse": false})));
+    assert!(floor.iter().all(|&i| no_diffuse[i][..3] == [0.0; 3]), "hidden from diffuse rays: the floor is unlit");
+    assert!(sky.iter().all(|&i| no_diffuse[i] == seen[i]), "the camera still sees the world");
+    let no_camera = r("no_camera", Some(json!({"camera": false})));
+    assert!(sky.iter().all(|&i| no_camera[i][..3] == [0.0; 3]), "hidden from the camera: the sky is black");
+    assert!(floor.iter().all(|&i| no_camera[i] == seen[i]), "the floor is lit as before");
+    let bad = scene("bad.gltf", Some(json!({"camera": 1})));
+    let out = d.join("bad.exr");
+    let run = common::run(&["render", bad.to_str().unwrap(), "-o", out.to_str().unwrap()], LIMIT);
+    assert_eq!(run.code, Some(3), "a malformed flag is a bad scene: {}", run.stderr);
+}

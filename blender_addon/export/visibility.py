@@ -49,3 +49,17 @@ def is_holdout(blender_object, view_layer=None):
         return bool(original.holdout_get(view_layer=view_layer))
     except (RuntimeError, TypeError):  # not in that view layer (e.g. an instanced collection's object)
         return False
+
+
+# Cycles' World > Ray Visibility (`world.cycles_visibility`) and the key in `CAUSTIC_world`'s
+# `visibility`, per kind of ray (its Shadow flag has no effect on a world and is not read).
+_WORLD_FLAGS = ("camera", "diffuse", "glossy", "transmission", "scatter")
+
+
+def world_visibility(world):
+    """The kinds of ray that do not see the world, as {key: False}; None when every ray sees it."""
+    flags = getattr(world, "cycles_visibility", None)
+    if flags is None:
+        return None
+    value = {key: False for key in _WORLD_FLAGS if not getattr(flags, key, True)}
+    return value or None

@@ -11,6 +11,7 @@ import bpy
 from .media import volume_medium
 from .node_graph import GraphContext, build_world_graph
 from .nodes import linked_node
+from .visibility import world_visibility
 
 WORLD_EXTENSION = "CAUSTIC_world"
 
@@ -46,6 +47,9 @@ def world_extension(scene, folder, writer=None):
         # A world without a surface is black; its fog still counts.
         value = value or {"color": [0.0, 0.0, 0.0], "strength": 0.0}
         value["medium"] = medium
+    hidden = world_visibility(world)
+    if value is not None and hidden is not None:
+        value["visibility"] = hidden
     return value, warnings
 
 

@@ -162,17 +162,6 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         reporter.warning(&w);
         run_warnings.push(w);
     }
-    let linked = &scene.light_linking.emitters;
-    if !linked.is_empty() && !matches!(res.integrator, IntegratorKind::Path) {
-        // Photons and light subpaths would need the receiver at every vertex.
-        let w = format!(
-            "light linking of {} is not honoured by this integrator: they light every object (the path \
-             integrator renders it as Cycles)",
-            linked.iter().map(|n| format!("'{n}'")).collect::<Vec<_>>().join(", ")
-        );
-        reporter.warning(&w);
-        run_warnings.push(w);
-    }
     if res.adaptive.is_some() && res.integrator == IntegratorKind::Vcm {
         let w = "adaptive sampling (noise threshold) is ignored by VCM: every iteration merges every pixel \
                  with one shared set of light subpaths, so every pixel takes every iteration"
@@ -271,12 +260,10 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     let ctx = SceneContext::with_light_sampler(&scene, &accel, res.light_sampler)
         .with_motion(motion_accel.as_ref())
         .with_camera_at(scene.cameras[res.camera].position);
-    // Only the path tracer gives every ray its kind (see the warning above).
-    let ctx = if matches!(res.integrator, IntegratorKind::Path) {
-        ctx.with_ray_visibility().with_light_linking()
-    } else {
-        ctx
-    };
+    // Only the path tracer gives every ray its kind (see the warning above); every
+    // integrator honours light and shadow linking (`integrator::linking`).
+    let ctx = if matches!(res.integrator, IntegratorKind::Path) { ctx.with_ray_visibility() } else { ctx };
+    let ctx = ctx.with_light_linking();
     // The shadow catcher's pass sees the scene apart (settings keep its sums for the path
     // tracer only).
     let ctx = if res.passes.catcher_sums() {

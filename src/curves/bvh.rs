@@ -93,11 +93,18 @@ impl CurveBvh {
     /// True when some segment blocks the segment (0, tmax) of the ray (strands are opaque).
     #[inline]
     pub fn occluded(&self, points: &[Vec4], org: Vec3, dir: Vec3, tmax: f32) -> bool {
+        self.occluded_by(points, org, dir, tmax, |_| true)
+    }
+
+    /// [`occluded`](Self::occluded) by the segments `blocks` accepts (BVH-order ids, as in a
+    /// hit's `tri` without `CURVE_BIT`): shadow linking's blockers.
+    #[inline]
+    pub fn occluded_by(&self, points: &[Vec4], org: Vec3, dir: Vec3, tmax: f32, blocks: impl Fn(u32) -> bool) -> bool {
         let dir_a = obvhs_direction(dir);
         let ray = NodeRay::new(org, dir_a);
         let mut blocked = false;
         traverse(&self.bvh, &ray, octant_inv4(dir_a), tmax, |id, _| {
-            blocked = self.segment_hit(points, id, org, dir, tmax).is_some();
+            blocked = blocks(id as u32) && self.segment_hit(points, id, org, dir, tmax).is_some();
             (!blocked).then_some(tmax)
         });
         blocked

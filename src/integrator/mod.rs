@@ -7,6 +7,7 @@ pub mod bdpt;
 pub mod catcher;
 pub mod data_passes;
 pub mod light_passes;
+pub mod linking;
 pub mod media;
 pub mod nee;
 pub mod path;
@@ -232,8 +233,10 @@ impl<'a> SceneContext<'a> {
     }
 
     /// Honours light linking (`Scene::light_linking`): emitters light only their receivers,
-    /// by NEE and when BSDF-sampled rays find them. Only walkers that track the object a
-    /// ray left (the path tracer) may ask for it; the others let every emitter light all.
+    /// by NEE and when BSDF-sampled rays find them; shadow linking's blockers alone stop
+    /// their shadow rays. Every integrator asks for it: walkers track the object a ray left
+    /// (`PathState::prev_tri`), BDPT, VCM and photon tracing read it in path space
+    /// (`linking`).
     pub fn with_light_linking(mut self) -> Self {
         let linking = &self.scene.light_linking;
         self.linking = !linking.rules.is_empty();
@@ -296,6 +299,18 @@ impl<'a> SceneContext<'a> {
     #[inline]
     fn bounce_finds(&self, light: usize, receiver: u32, path: &LightPath) -> bool {
         self.links(light, receiver) && self.light_seen_by(light, path)
+    }
+
+    /// True when a ray of a path in state `path` sees the world (its Ray Visibility, held
+    /// with the lights'; `camera`: the camera ray, through pass-throughs only); always
+    /// unless the context honours it.
+    #[inline]
+    pub fn world_seen_by(&self, camera: bool, path: &LightPath) -> bool {
+        match self.world_light.and_then(|w| self.light_rays.get(w)) {
+            None => true,
+            Some(m) if camera => m.meets(RayMask::CAMERA),
+            Some(m) => light_visibility::path_sees(*m, path),
+        }
     }
 
     /// True when light `light` lights volume scattering events (Ray Visibility > Volume
@@ -605,9 +620,14 @@ impl<'a> SceneContext<'a> {
             }
             _ => tr,
         };
-        // Strands are opaque.
-        match &self.scene.curves.bvh {
-            Some(curves) if tr > 0.0 && curves.occluded(&self.scene.curves.points, org, dir, tmax) => 0.0,
+        // Strands are opaque; with shadow linking only the light's blockers among them count.
+        let points = &self.scene.curves.points;
+        match (&self.scene.curves.bvh, light.filter(|&l| self.shadow_linked(l))) {
+            (Some(curves), None) if tr > 0.0 && curves.occluded(points, org, dir, tmax) => 0.0,
+            (Some(curves), Some(l)) if tr > 0.0 => {
+                let blocker = |segment: u32| self.blocks(l, crate::curves::CURVE_BIT | segment);
+                if curves.occluded_by(points, org, dir, tmax, blocker) { 0.0 } else { tr }
+            }
             _ => tr,
         }
     }
@@ -643,7 +663,15 @@ impl<'a> SceneContext<'a> {
     /// True when triangle `tri` casts light `light`'s shadows (shadow linking).
     #[inline]
     pub fn blocks(&self, light: usize, tri: u32) -> bool {
-        !self.linking || self.scene.light_linking.blocks(light, tri)
+        if !self.linking {
+            return true;
+        }
+        // A strand blocks as its curves object's object.
+        if tri != crate::scene::linking::NO_OBJECT && crate::curves::is_curve(tri) {
+            let object = self.scene.curves.object_of_prim(tri);
+            return self.scene.light_linking.blocks_curves(light, object);
+        }
+        self.scene.light_linking.blocks(light, tri)
     }
 
     /// [`visibility`](Self::visibility) of a sample of light `light` (shadow linking).

@@ -270,7 +270,9 @@ impl PathState {
     /// the world's (None) and each sun's (its light index), not yet times the throughput.
     #[inline]
     pub fn escaped_radiance_each(&self, ctx: &SceneContext, mut each: impl FnMut(Option<usize>, Rgb)) -> Option<Rgb> {
-        let le = ctx.world_radiance(self.dir);
+        // The world's own Ray Visibility (Cycles' World > Ray Visibility).
+        let le =
+            if ctx.world_seen_by(self.depth == 0, &self.light_path) { ctx.world_radiance(self.dir) } else { Rgb::ZERO };
         let sun =
             ctx.sun_emission_each(self.dir, self.prev_pdf, self.depth == 0, self.prev_tri, &self.light_path, |i, c| {
                 each(Some(i), c)
@@ -356,6 +358,11 @@ impl PathState {
             return false;
         }
         self.depth += 1;
+        // What the next ray finds was reached through a delta lobe (no MIS) from this
+        // surface, light linking's receiver.
+        self.prev_pdf = 0.0;
+        self.prev_p = s.p;
+        self.prev_tri = s.tri;
         self.media = ctx.medium_after(s, wi, self.media);
         self.ray = RayMask::after_bounce(bs.kind, wi.dot(s.ng) <= 0.0);
         self.light_path = self.light_path.bounced(bs.kind, wi.dot(s.ng) <= 0.0, bs.delta);

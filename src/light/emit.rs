@@ -39,6 +39,8 @@ use std::f32::consts::PI;
 /// A photon leaving a light.
 #[derive(Clone, Copy, Debug)]
 pub struct EmittedPhoton {
+    /// Index of the light that emitted it (`Scene::lights`): light linking reads it.
+    pub light: usize,
     /// Origin (already offset off an emitting surface).
     pub org: Vec3,
     /// Unit direction of travel.
@@ -175,7 +177,7 @@ impl Emitters {
         let phi = self.power[index] * scale;
         match &scene.lights[index] {
             Light::Point { position, .. } => {
-                Some(EmittedPhoton { org: *position, dir: uniform_sphere(u_dir), power: phi })
+                Some(EmittedPhoton { light: index, org: *position, dir: uniform_sphere(u_dir), power: phi })
             }
             Light::Spot { position, direction, intensity, cos_inner, cos_outer, smooth: Some(k) } => {
                 // Blender's smoothstep: uniform in the outer cone, weighted by the falloff.
@@ -183,6 +185,7 @@ impl Emitters {
                 let atten = crate::light::spot_attenuation(local.z, *cos_inner, *cos_outer, Some(*k));
                 let omega = 2.0 * PI * (1.0 - cos_outer);
                 Some(EmittedPhoton {
+                    light: index,
                     org: *position,
                     dir: Frame::from_normal(*direction).to_world(local),
                     power: *intensity * (atten * omega / (pmf * n as f32)),
@@ -191,11 +194,11 @@ impl Emitters {
             Light::Sphere { center, radius, soft, .. } => {
                 if *soft {
                     // Blender's soft falloff has no fixed shape; far away it is a point.
-                    return Some(EmittedPhoton { org: *center, dir: uniform_sphere(u_dir), power: phi });
+                    return Some(EmittedPhoton { light: index, org: *center, dir: uniform_sphere(u_dir), power: phi });
                 }
                 let nrm = uniform_sphere(u_pos);
                 let dir = Frame::from_normal(nrm).to_world(cosine_hemisphere(u_dir));
-                Some(EmittedPhoton { org: *center + nrm * (*radius * 1.0001), dir, power: phi })
+                Some(EmittedPhoton { light: index, org: *center + nrm * (*radius * 1.0001), dir, power: phi })
             }
             Light::World => {
                 // Toward the scene from a disk beyond its bounds, perpendicular to a
@@ -205,6 +208,7 @@ impl Emitters {
                 let f = Frame::from_normal(to_world);
                 let d = concentric_disk(u_pos) * self.radius;
                 Some(EmittedPhoton {
+                    light: index,
                     org: self.center + to_world * (self.radius * 1.01) + f.s * d.x + f.t * d.y,
                     dir: -to_world,
                     power: le * (PI * self.radius * self.radius / (pdf * pmf * n as f32)),
@@ -212,7 +216,12 @@ impl Emitters {
             }
             Light::Spot { position, direction, cos_inner, cos_outer, .. } => {
                 let local = spot_direction(u_dir, *cos_inner, *cos_outer);
-                Some(EmittedPhoton { org: *position, dir: Frame::from_normal(*direction).to_world(local), power: phi })
+                Some(EmittedPhoton {
+                    light: index,
+                    org: *position,
+                    dir: Frame::from_normal(*direction).to_world(local),
+                    power: phi,
+                })
             }
             Light::Directional { direction, cos_half, .. } => {
                 // A sun with a size sends each photon from a direction within its cone
@@ -228,6 +237,7 @@ impl Emitters {
                 let f = Frame::from_normal(dir);
                 let d = concentric_disk(u_pos) * self.radius;
                 Some(EmittedPhoton {
+                    light: index,
                     org: self.center - dir * (self.radius * 1.01) + f.s * d.x + f.t * d.y,
                     dir,
                     power: phi,
@@ -239,7 +249,7 @@ impl Emitters {
                 let dir = Frame::from_normal(a.normal).to_world(local);
                 // Blender's spread reshapes the emission but keeps its power: the falloff
                 // averages 1 over cosine-distributed directions, so it weights the photon.
-                Some(EmittedPhoton { org: q, dir, power: phi * a.spread_attenuation(local.z) })
+                Some(EmittedPhoton { light: index, org: q, dir, power: phi * a.spread_attenuation(local.z) })
             }
             Light::Triangle { tri } => {
                 let m = &scene.mesh;
@@ -268,7 +278,12 @@ impl Emitters {
                 }
                 let coverage = scene.coverage(*tri, b.x, b.y);
                 let dir = Frame::from_normal(n).to_world(cosine_hemisphere(u_dir));
-                Some(EmittedPhoton { org: crate::math::offset_ray_origin(q, n), dir, power: phi * factor * coverage })
+                Some(EmittedPhoton {
+                    light: index,
+                    org: crate::math::offset_ray_origin(q, n),
+                    dir,
+                    power: phi * factor * coverage,
+                })
             }
         }
     }

@@ -73,6 +73,17 @@ impl LightLinking {
         }
     }
 
+    /// True when the strands of curves object `curves_object` cast light `light`'s shadows.
+    #[inline]
+    pub fn blocks_curves(&self, light: usize, curves_object: u32) -> bool {
+        match self.blockers.get(light) {
+            Some(Some(rule)) => {
+                rule.lights(self.curve_object.get(curves_object as usize).copied().unwrap_or(NO_OBJECT))
+            }
+            _ => true,
+        }
+    }
+
     /// True when light `light` has a blocker rule.
     #[inline]
     pub fn shadow_linked(&self, light: usize) -> bool {
@@ -103,5 +114,8 @@ mod tests {
         assert!(l.shadow_linked(0) && !l.shadow_linked(1) && !l.shadow_linked(7));
         // Strands of curves object 0 belong to object 5, which light 1 includes.
         assert!(l.lights_curves(1, 0) && !l.lights_curves(1, 1) && l.lights_curves(0, 3));
+        // Light 0's blockers are objects 2 and 5: the strands of curves object 0 (object 5)
+        // block it, those of an object it does not list do not; light 1 has no blocker rule.
+        assert!(l.blocks_curves(0, 0) && !l.blocks_curves(0, 1) && l.blocks_curves(1, 1));
     }
 }

@@ -201,11 +201,11 @@ fn run(job: Job, out: &Output, stop: &AtomicBool) -> Option<Arc<Integrator>> {
     let t0 = Instant::now();
     let s = &job.settings;
     // As `caustic render` builds it: the media around the camera, and for the path tracer the
-    // objects' ray visibility and light linking.
+    // objects' ray visibility; light linking for all.
     let ctx = SceneContext::with_light_sampler(&job.scene, &job.accel, s.light_sampler)
         .with_camera_at(job.view.camera.position);
-    let ctx =
-        if matches!(s.integrator, IntegratorKind::Path) { ctx.with_ray_visibility().with_light_linking() } else { ctx };
+    let ctx = if matches!(s.integrator, IntegratorKind::Path) { ctx.with_ray_visibility() } else { ctx };
+    let ctx = ctx.with_light_linking();
     let integrator = match &job.integrator {
         Some(i) => i.clone(),
         None => Arc::new(build_integrator(&ctx, s, stop)?),

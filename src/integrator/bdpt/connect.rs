@@ -3,6 +3,7 @@
 
 use super::vertex::*;
 use super::*;
+use crate::integrator::linking::{self, Gate};
 
 impl BdptIntegrator {
     /// Every strategy with s ≥ 1; returns the camera-side sum, splats t = 1.
@@ -74,7 +75,8 @@ impl BdptIntegrator {
                     Light::Sphere { camera_visible, .. } => *camera_visible,
                     _ => true,
                 };
-                if !visible {
+                // A shadow-linked light seen by the camera is s = 0's alone (`linking`).
+                if !visible || ctx.shadow_linked(lp.light as usize) {
                     return;
                 }
                 lights::emitted(ctx.scene, &lp, w) * y.abs_cos_geo(w)
@@ -146,6 +148,10 @@ impl BdptIntegrator {
         let Some((index, pmf)) = self.lights.pick_any(u[0]) else {
             return Rgb::ZERO;
         };
+        let gate = linking::sampled(ctx, index, hit.tri);
+        if gate == Gate::Drop {
+            return Rgb::ZERO;
+        }
         let wo_l = x.frame.to_local(x.wo);
         if !self.lights.finite(index) {
             // The world, a sun or a soft point light: light sampling as the path tracer
@@ -160,12 +166,13 @@ impl BdptIntegrator {
                 return Rgb::ZERO;
             }
             stats.shadow += 1;
-            let tr = crate::integrator::media::light_transmittance(
+            let tr = crate::integrator::media::light_transmittance_of(
                 ctx,
                 x.p,
                 Some(hit.ng),
                 &ls,
                 media_leaving(ctx, &x, ls.wi),
+                Some(index),
                 crate::scene::light_path::LightPath::SHADOW_RAY,
             );
             if tr == Rgb::ZERO {
@@ -173,7 +180,7 @@ impl BdptIntegrator {
             }
             let p_light = pmf * ls.pdf;
             let w = if ls.delta { 1.0 } else { power_heuristic(p_light, bsdf.pdf(wo_l, wi_l)) };
-            return x.beta * f * tr * ls.li * (self.mis(w) / p_light);
+            return x.beta * f * tr * ls.li * (self.mis(gate.weight(w)) / p_light);
         }
         let Some(lp) = lights::sample_point(ctx.scene, index, Vec2::new(u[1], u[2])) else {
             return Rgb::ZERO;
@@ -207,9 +214,12 @@ impl BdptIntegrator {
             return Rgb::ZERO;
         }
         stats.shadow += 1;
-        let tr = segment_transmittance(ctx, &x, &y, media_leaving(ctx, &x, wi));
+        let tr = segment_transmittance_of(ctx, &x, &y, media_leaving(ctx, &x, wi), Some(index));
         if tr == Rgb::ZERO {
             return Rgb::ZERO;
+        }
+        if gate == Gate::Whole {
+            return contribution * tr * self.mis(1.0);
         }
         // MIS with the light-origin density of light subpaths.
         y.pdf_fwd = self.lights.pmf_finite(index) * lp.pdf_pos;

@@ -3,6 +3,7 @@
 
 use super::vertex::*;
 use super::*;
+use crate::integrator::linking::{self, Gate};
 use crate::integrator::walk::{PathState, Step};
 
 impl BdptIntegrator {
@@ -87,7 +88,7 @@ impl BdptIntegrator {
                 }
                 Step::Escaped => {
                     if self.allowed(0, i + 2) && !(i == 0 && self.transparent_background) {
-                        let sum = self.escaped_radiance(ctx, dir, i, prev_delta, pdf_sa);
+                        let sum = self.escaped_radiance(ctx, dir, &cam[..=i], prev_delta, pdf_sa);
                         if sum != Rgb::ZERO {
                             *radiance += beta * sum;
                             if i == 0 {
@@ -132,13 +133,20 @@ impl BdptIntegrator {
             cam.push(v);
             let t = cam.len();
 
-            // s = 0: this surface emits.
+            // s = 0: this surface emits (to the vertex before as linking allows).
             if sp.emitted != Rgb::ZERO
                 && self.allowed(0, t)
                 && let Some(index) = ctx.lights.light_of_triangle(hit.tri)
             {
-                let w = self.weight_s0(ctx, cam, &mut scratch.dens, index, camera);
-                *radiance += beta * sp.emitted * self.mis(w);
+                let gate = linking::found(ctx, index, found_from(&cam[..t - 1]));
+                if gate != Gate::Drop {
+                    let w = if gate == Gate::Mis {
+                        self.weight_s0(ctx, cam, &mut scratch.dens, index, camera)
+                    } else {
+                        1.0
+                    };
+                    *radiance += beta * sp.emitted * self.mis(gate.weight(w));
+                }
             }
             // Scattering events so far: t - 2; a vertex at the depth limit only emits.
             if t - 1 > self.max_depth as usize || t >= mis::MAX_PATH_VERTICES / 2 {
@@ -184,17 +192,17 @@ impl BdptIntegrator {
 
     /// What a camera subpath escaping along `dir` from its vertex `i` sees: the world and
     /// sun disks, each weighed against light sampling (s = 0 with s = 1).
-    fn escaped_radiance(&self, ctx: &SceneContext, dir: Vec3, i: usize, prev_delta: bool, pdf_sa: f32) -> Rgb {
+    fn escaped_radiance(&self, ctx: &SceneContext, dir: Vec3, cam: &[Vertex], prev_delta: bool, pdf_sa: f32) -> Rgb {
+        let i = cam.len() - 1;
+        let from = found_from(cam);
         let le = ctx.world_radiance(dir);
         let mut sum = Rgb::ZERO;
         if le != Rgb::ZERO {
-            let p_light = ctx
-                .scene
-                .lights
-                .iter()
-                .position(|l| matches!(l, Light::World))
-                .map_or(0.0, |w| self.lights.pmf_any(w) * ctx.scene.world.as_ref().map_or(0.0, |e| e.pdf(dir)));
-            sum += le * self.camera_only_weight(i, prev_delta, pdf_sa, p_light);
+            let world = ctx.scene.lights.iter().position(|l| matches!(l, Light::World));
+            let p_light =
+                world.map_or(0.0, |w| self.lights.pmf_any(w) * ctx.scene.world.as_ref().map_or(0.0, |e| e.pdf(dir)));
+            let gate = world.map_or(Gate::Mis, |w| linking::found(ctx, w, from));
+            sum += le * gate.weight(self.camera_only_weight(i, prev_delta, pdf_sa, p_light));
         }
         for (index, l) in ctx.scene.lights.iter().enumerate() {
             if let Light::Directional { direction, irradiance, cos_half } = l
@@ -202,8 +210,9 @@ impl BdptIntegrator {
                 && dir.dot(-*direction) >= *cos_half
             {
                 let p_light = self.lights.pmf_any(index) * uniform_cone_pdf(*cos_half);
+                let gate = linking::found(ctx, index, from);
                 sum += crate::light::sun_radiance(*irradiance, *cos_half)
-                    * self.camera_only_weight(i, prev_delta, pdf_sa, p_light);
+                    * gate.weight(self.camera_only_weight(i, prev_delta, pdf_sa, p_light));
             }
         }
         sum
@@ -230,8 +239,16 @@ impl BdptIntegrator {
         camera: &CameraRays,
     ) -> Rgb {
         let i = cam.len() - 1;
+        let from = found_from(cam);
         let mut sum = Rgb::ZERO;
         for (index, l) in ctx.scene.lights.iter().enumerate() {
+            let gate = match l {
+                Light::Area(_) | Light::Sphere { .. } => linking::found(ctx, index, from),
+                _ => continue,
+            };
+            if gate == Gate::Drop {
+                continue;
+            }
             let (t, n, le) = match l {
                 Light::Area(a) => {
                     if i == 0 && !a.camera_visible {
@@ -270,7 +287,7 @@ impl BdptIntegrator {
                     let dist = (q - prev_p).length();
                     let p_light = self.lights.pmf_any(index)
                         * area_to_solid_angle(1.0 / (std::f32::consts::PI * radius * radius), dist, -denom);
-                    let w = self.camera_only_weight(i, prev_delta, pdf_sa, p_light);
+                    let w = gate.weight(self.camera_only_weight(i, prev_delta, pdf_sa, p_light));
                     sum += beta * *radiance * w;
                     continue;
                 }
@@ -289,10 +306,15 @@ impl BdptIntegrator {
                 pdf_pos: lights::pdf_point(ctx.scene, index),
                 two_sided: false,
             });
-            cam.push(v);
-            let w = self.weight_s0(ctx, cam, dens, index, camera);
-            cam.pop();
-            sum += beta * le * self.mis(w);
+            let w = if gate == Gate::Mis {
+                cam.push(v);
+                let w = self.weight_s0(ctx, cam, dens, index, camera);
+                cam.pop();
+                w
+            } else {
+                1.0
+            };
+            sum += beta * le * self.mis(gate.weight(w));
         }
         sum
     }
@@ -397,6 +419,9 @@ impl BdptIntegrator {
         v0.pdf_fwd = pdf_origin;
         v0.light = Some(lp);
         light.push(v0);
+        if !linking::light_subpaths_leave(ctx, index) {
+            return;
+        }
         let cos0 = if lp.n == Vec3::ZERO { 1.0 } else { lp.n.dot(dir).abs() };
         let beta = le * (cos0 / (pdf_origin * pdf_dir));
         let beta_ref = beta.max_element();
@@ -421,10 +446,14 @@ impl BdptIntegrator {
                 Step::Passed => continue,
                 Step::End | Step::Escaped | Step::Medium { .. } => break,
             };
+            let i = light.len() - 1;
+            // Light linking: the light's first segment must end on one of its receivers.
+            if i == 0 && !ctx.links(index, s.tri) {
+                break;
+            }
             let (dir, beta, medium) = (path.dir, path.beta, path.media);
             let wo = -dir;
             let sp = ctx.shade(&s, wo);
-            let i = light.len() - 1;
             let mut v = Vertex::surface(&s, &sp, wo, beta, medium);
             v.pdf_fwd = if prev_delta { self.delta_area(&v, light[i].p) } else { v.area_density(pdf_sa, light[i].p) };
             light.push(v);
@@ -471,5 +500,16 @@ impl BdptIntegrator {
             path.dir = wi;
             stats.bounce += 1;
         }
+    }
+}
+
+/// Where the ray that leaves the last vertex of `cam` starts, for `linking::found`: `None`
+/// from the camera, else that vertex's receiver and whether it scattered through a delta lobe.
+#[inline]
+fn found_from(cam: &[Vertex]) -> Option<(u32, bool)> {
+    let v = cam.last()?;
+    match v.kind {
+        Kind::Camera => None,
+        _ => Some((v.hit.map_or(crate::scene::linking::NO_OBJECT, |h| h.tri), v.delta)),
     }
 }

@@ -107,6 +107,19 @@ impl Vertex {
 /// from the camera side), any other surface blocks.
 #[inline]
 pub(crate) fn segment_transmittance(ctx: &SceneContext, a: &Vertex, b: &Vertex, stack: MediumStack) -> Rgb {
+    segment_transmittance_of(ctx, a, b, stack, None)
+}
+
+/// [`segment_transmittance`] of a segment to a point of light `light` (shadow linking:
+/// only its blockers stop it).
+#[inline]
+pub(crate) fn segment_transmittance_of(
+    ctx: &SceneContext,
+    a: &Vertex,
+    b: &Vertex,
+    stack: MediumStack,
+    light: Option<usize>,
+) -> Rgb {
     let d = b.p - a.p;
     let dist = d.length();
     if !(dist > 0.0) {
@@ -123,12 +136,13 @@ pub(crate) fn segment_transmittance(ctx: &SceneContext, a: &Vertex, b: &Vertex, 
     };
     let target = LightSample { wi, dist, li: Rgb::ZERO, pdf: 0.0, delta: false, point: b.p, normal };
     let ng = (a.ng != Vec3::ZERO).then_some(a.ng);
-    crate::integrator::media::light_transmittance(
+    crate::integrator::media::light_transmittance_of(
         ctx,
         a.p,
         ng,
         &target,
         stack,
+        light,
         crate::scene::light_path::LightPath::SHADOW_RAY,
     )
 }

@@ -36,6 +36,7 @@
 use super::Photon;
 use super::lobes::Split;
 use crate::integrator::SceneContext;
+use crate::integrator::linking;
 use crate::integrator::path::PathIntegrator;
 use crate::integrator::walk::{PathState, Step};
 use crate::light::emit::Emitters;
@@ -44,6 +45,7 @@ use crate::math::{Rgb, luminance};
 use crate::render::job::RayStats;
 use crate::sampling::PixelSampler;
 use crate::sampling::warp::cosine_hemisphere;
+use crate::scene::linking::NO_OBJECT;
 use glam::Vec2;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -156,7 +158,29 @@ pub fn trace_one(
     else {
         return;
     };
-    let mut path = PathState::photon(e.org, e.dir, e.power);
+    // A shadow-linked light's photon may go on through surfaces that do not block it
+    // (`linking`): each such continuation is traced after the path it split from.
+    let mut pending = Some(PathState::photon(e.org, e.dir, e.power));
+    while let Some(path) = pending.take() {
+        follow(ctx, job, &mut s, e.light, path, &mut pending, out, st);
+    }
+}
+
+/// Follows a photon of light `light` from its state `path` (at its light, or passing a
+/// surface on its first segment), storing its hits in `out`; a continuation through a
+/// surface that does not block the light goes to `pending`.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn follow(
+    ctx: &SceneContext,
+    job: &TraceJob,
+    s: &mut PixelSampler,
+    light: usize,
+    mut path: PathState,
+    pending: &mut Option<PathState>,
+    out: &mut Vec<Photon>,
+    st: &mut TraceStats,
+) {
     // Every scattering so far was glossy or specular (the L G+ D flag).
     let mut glossy_only = true;
     // Photons scatter in media (free flights as the path tracer's, with the photon's
@@ -174,6 +198,9 @@ pub fn trace_one(
             Step::End | Step::Escaped => return,
             Step::Passed => continue,
             Step::Medium { p, phase, weight } => {
+                if path.depth == 0 && !linking::photon_first_event(ctx, light, NO_OBJECT).scatters {
+                    return;
+                }
                 // Russian roulette on the event's weight (the single-scattering albedo
                 // for a grey medium), as on surfaces.
                 let q = weight.max_element().min(1.0);
@@ -192,6 +219,20 @@ pub fn trace_one(
             }
             Step::Surface { s, .. } => s,
         };
+        if path.depth == 0 {
+            // Light linking reads the first event (module doc of `linking`).
+            let first = linking::photon_first_event(ctx, light, sh.tri);
+            if first.passes {
+                *pending = Some(PathState {
+                    org: offset_ray_origin(sh.p, -sh.ng),
+                    media: ctx.medium_after(&sh, path.dir, path.media),
+                    ..path
+                });
+            }
+            if !first.scatters {
+                return;
+            }
+        }
         path.depth += 1;
         let wo = -path.dir;
         let sp = ctx.shade(&sh, wo);

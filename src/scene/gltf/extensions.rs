@@ -144,6 +144,33 @@ pub(super) struct WorldExt {
     /// The World Output's Surface graph (`CAUSTIC_materials_nodes`' shape); replaces
     /// colour, strength, image and rotation.
     pub(super) nodes: Option<crate::shader::graph::NodesExt>,
+    /// The world's Ray Visibility (Cycles' World > Ray Visibility); absent: every ray.
+    pub(super) visibility: Option<WorldVisibilityExt>,
+}
+
+/// `visibility` in `CAUSTIC_world`: which rays see the world (each true when absent).
+#[derive(Deserialize, Clone, Copy)]
+#[serde(deny_unknown_fields)]
+pub(super) struct WorldVisibilityExt {
+    #[serde(default = "yes")]
+    pub(super) camera: bool,
+    #[serde(default = "yes")]
+    pub(super) diffuse: bool,
+    #[serde(default = "yes")]
+    pub(super) glossy: bool,
+    #[serde(default = "yes")]
+    pub(super) transmission: bool,
+    #[serde(default = "yes")]
+    pub(super) scatter: bool,
+}
+
+impl WorldVisibilityExt {
+    /// The ray kinds that see the world (a light's mask, with the camera's bit too).
+    pub(super) fn mask(self) -> crate::scene::visibility::RayMask {
+        use crate::scene::visibility::RayMask;
+        let m = light_rays(self.diffuse, self.glossy, self.transmission, self.scatter);
+        if self.camera { m } else { RayMask(m.0 & !RayMask::CAMERA.0) }
+    }
 }
 
 /// `CAUSTIC_camera` on a camera's node: Blender's lens shift and depth of field.

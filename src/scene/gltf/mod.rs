@@ -472,6 +472,11 @@ impl<'a> Loader<'a> {
         let mut light_power: Vec<f32> = lights.iter().map(|l| punctual_power(l, scene_radius)).collect();
         if let Some(power) = world_power {
             if power > 0.0 {
+                // The world's Ray Visibility goes with the lights' (`scene::light_visibility`).
+                let rays = self.world_rays(&value)?;
+                if rays != crate::scene::visibility::RayMask::ALL {
+                    hidden_lights.push((lights.len(), rays));
+                }
                 lights.push(Light::World);
                 light_power.push(power);
                 light_reports.push(LightReport {
@@ -481,7 +486,7 @@ impl<'a> Loader<'a> {
                     triangles: 0,
                     cast_shadow: true,
                     lights_catcher: true,
-                    rays: crate::scene::visibility::RayMask::ALL,
+                    rays,
                 });
             } else {
                 self.warn("the world is black: it lights nothing");

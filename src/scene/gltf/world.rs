@@ -7,6 +7,18 @@ use crate::medium::HomogeneousMedium;
 use glam::Vec3;
 
 impl Loader<'_> {
+    /// The world's Ray Visibility (`visibility` in `CAUSTIC_world`): the ray kinds that see
+    /// it, camera included; every kind without the extension or the field.
+    pub(super) fn world_rays(&self, value: &serde_json::Value) -> Result<crate::scene::visibility::RayMask> {
+        let scene_index = value.get("scene").and_then(|s| s.as_u64()).unwrap_or(0) as usize;
+        let Some(ext) = value.pointer(&format!("/scenes/{scene_index}/extensions/CAUSTIC_world")) else {
+            return Ok(crate::scene::visibility::RayMask::ALL);
+        };
+        let w: WorldExt =
+            serde_json::from_value(ext.clone()).map_err(|e| self.err(format!("CAUSTIC_world is malformed: {e}")))?;
+        Ok(w.visibility.map_or(crate::scene::visibility::RayMask::ALL, |v| v.mask()))
+    }
+
     /// `scenes[i].extensions.CAUSTIC_world`: a colour × strength, or an equirectangular
     /// image (.hdr, .exr, .png, .jpg) × colour × strength, rotated about the up axis; and
     /// the homogeneous medium that fills the scene (Blender's World Volume).
