@@ -4,7 +4,8 @@
 //! 1. **Visible points**: one camera sample per pixel (Owen-scrambled Sobol, sample index
 //!    = iteration) follows glossy and specular bounces (`lobes.rs`: glossy below the
 //!    roughness threshold) to the first vertex with a diffuse-like part; emission on the
-//!    way and direct light (NEE with MIS at every non-delta vertex) are accumulated. The
+//!    way and direct light (NEE with MIS at every non-delta vertex, the visible point's
+//!    BSDF-sampled ray finding emission even where it carries nothing on) are accumulated. The
 //!    photons are gathered through the visible point's diffuse-like part only; its
 //!    glossy part is path traced from there (up to the maximum depth), so a glossy
 //!    surface shows a path-traced reflection instead of a blurred, noisy photon estimate.
@@ -551,7 +552,8 @@ fn camera_path(
             first_t = s.t;
         }
         l += PathState { beta: e, ..st }.surface_emission(ctx, &hit, &s, &sp);
-        if st.depth >= max_depth {
+        // The ray a diffuse-only visible point sent was for its emission alone (above).
+        if st.depth >= max_depth || beta == Rgb::ZERO {
             break;
         }
         let wo_local = sp.frame.to_local(wo);
@@ -570,11 +572,13 @@ fn camera_path(
         let is_vp = diffuse;
         if !delta {
             // Direct light (lights below count when the BSDF transmits: photons are
-            // gathered on this side only), MIS against the next ray unless the path ends
-            // here (a visible point with no glossy part).
+            // gathered on this side only), MIS against the next ray, which a visible point
+            // with no glossy part sends too, for the emission it finds only: light
+            // sampling alone left the broad sky of an environment map to the few world
+            // samples its sun disc left over (floor blocks 3-4x the path tracer's error
+            // on bench/run.py's hdri scene).
             let n_select = if sp.bsdf.transmits() { Vec3::ZERO } else { s.ng };
-            let mis = if is_vp && !glossy { 0.0 } else { 1.0 };
-            l += surface_nee(ctx, &s, &sp, &at, n_select, mis, beta, st.media, u_light, Vec2::new(u_lx, u_ly), stats);
+            l += surface_nee(ctx, &s, &sp, &at, n_select, 1.0, beta, st.media, u_light, Vec2::new(u_lx, u_ly), stats);
             if is_vp {
                 vp = Some(VisiblePoint {
                     p: s.p,
@@ -586,9 +590,6 @@ fn camera_path(
                     beta,
                     d: st.depth + 1,
                 });
-                if !glossy {
-                    break;
-                }
             }
             st.prev_n = n_select;
         }
@@ -603,7 +604,9 @@ fn camera_path(
         }
         let w = bs.f * (bs.wi.z.abs() / bs.pdf);
         e = beta * w;
-        beta = if is_vp {
+        beta = if is_vp && !glossy {
+            Rgb::ZERO
+        } else if is_vp {
             beta * (w - split.diffuse_of_sample(&at, bs.wi, bs.f, bs.delta) * (bs.wi.z.abs() / bs.pdf)).max(Rgb::ZERO)
         } else {
             e
