@@ -96,7 +96,6 @@ impl RowSubpaths {
             v
         }));
     }
-
 }
 
 /// Bytes one stored vertex takes (for the memory budget).

@@ -118,8 +118,7 @@ impl VcmIntegrator {
         let max_depth = self.bdpt.max_depth;
         let camera_connectible = !camera.is_orthographic();
         let mut map = MergeMap::default();
-        let mut rows: Vec<LightRow> =
-            (0..h)
+        let mut rows: Vec<LightRow> = (0..h)
             .map(|_| LightRow {
                 records: Vec::new(),
                 subpaths: RowSubpaths::default(),
@@ -220,8 +219,15 @@ impl VcmIntegrator {
                                 // The pixel's light subpath from the light pass, not traced again.
                                 let row = &rows_ref[(py - y0) as usize].subpaths;
                                 let light = (row, (px - x0) as usize);
-                                let mut s =
-                                    self.sample_stored(ctx, &ray, &mut sampler, light, &mut target, &mut scratch, &mut rs);
+                                let mut s = self.sample_stored(
+                                    ctx,
+                                    &ray,
+                                    &mut sampler,
+                                    light,
+                                    &mut target,
+                                    &mut scratch,
+                                    &mut rs,
+                                );
                                 s.radiance += merge_camera_path(&scratch.cam, map_ref, camera_connectible, max_depth);
                                 s
                             } else {
