@@ -677,12 +677,18 @@ fn charge_render(budget: &MemoryBudget, args: &RenderArgs, res: &Resolved, scene
             pixels.saturating_mul(std::mem::size_of::<[i128; 3]>() as u64).saturating_mul(res.threads as u64 + 1),
         ),
         // VCM: BDPT's splat buffers, plus one iteration's merge records (a light subpath
-        // stores about one per bounce: charged for four per pixel) and their grid.
+        // stores about one per bounce: charged for four per pixel) and their grid, and the
+        // light subpaths kept for the connections (the records' vertices, the light point
+        // and delta vertices: charged for five per pixel).
         IntegratorKind::Vcm => budget.charge(
-            format!("VCM's splat buffers ({} threads + 1) and merge records for {pixels} pixels", res.threads),
+            format!(
+                "VCM's splat buffers ({} threads + 1), merge records and light subpaths for {pixels} pixels",
+                res.threads
+            ),
             pixels.saturating_mul(
                 std::mem::size_of::<[i128; 3]>() as u64 * (res.threads as u64 + 1)
-                    + 4 * (std::mem::size_of::<crate::integrator::vcm::merge::MergeRecord>() as u64 + 3 * 4),
+                    + 4 * (std::mem::size_of::<crate::integrator::vcm::merge::MergeRecord>() as u64 + 3 * 4)
+                    + 5 * crate::integrator::vcm::light_store::VERTEX_BYTES,
             ),
         ),
         // The path tracer keeps nothing per pixel beyond the film.

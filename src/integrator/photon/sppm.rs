@@ -4,7 +4,8 @@
 //! 1. **Visible points**: one camera sample per pixel (Owen-scrambled Sobol, sample index
 //!    = iteration) follows glossy and specular bounces (`lobes.rs`: glossy below the
 //!    roughness threshold) to the first vertex with a diffuse-like part; emission on the
-//!    way and direct light (NEE with MIS at every non-delta vertex) are accumulated. The
+//!    way and direct light (NEE with MIS at every non-delta vertex, the visible point's
+//!    BSDF-sampled ray finding emission even where it carries nothing on) are accumulated. The
 //!    photons are gathered through the visible point's diffuse-like part only; its
 //!    glossy part is path traced from there (up to the maximum depth), so a glossy
 //!    surface shows a path-traced reflection instead of a blurred, noisy photon estimate.
@@ -24,8 +25,10 @@
 //!
 //! Parameters (defaults in `PhotonSettings`): iterations 64; photons per iteration = the
 //! window's pixel count × `SPPM_PHOTONS_PER_PIXEL` (2); α = 2/3; initial radius per pixel = `SPPM_RADIUS_FOOTPRINTS` (3) pixel footprints at the
-//! visible point (the distance between adjacent pixels' camera rays there), clamped to
-//! [10⁻⁴, 5·10⁻²] × the scene's bounding radius, or `--sppm-radius` for every pixel.
+//! visible point (the distance between adjacent pixels' camera rays there), widened to
+//! reach the k nearest photons (Jensen's k, 20) of the pixel's first photon pass
+//! (`photon_radius`), clamped to [10⁻⁴, 5·10⁻²] × the scene's bounding radius, or
+//! `--sppm-radius` for every pixel.
 //! Media: photons scatter in media (`trace.rs`); a camera path that scatters in a
 //! medium is path traced from there (no volume photon map), one that passes through
 //! media to a surface carries their transmittance. The subsurface part of a visible
@@ -41,6 +44,7 @@
 //! bit for bit a single run of all the iterations (which the path tracer, BDPT and Jensen
 //! photon mapping give).
 
+use super::kdtree::KnnResult;
 use super::lobes::Split;
 use super::trace::{MapKind, TraceJob, trace_photons};
 use super::{PhotonMap, PhotonSettings, default_sppm_photons};
@@ -181,7 +185,7 @@ impl SppmIntegrator {
             "sppm ({} iterations, {} photons per iteration, initial radius {}, alpha {:.3}, max depth {})",
             p.sppm_iterations,
             p.sppm_photons.map_or(format!("{} per pixel", super::SPPM_PHOTONS_PER_PIXEL), |n| n.to_string()),
-            p.sppm_radius.map_or("3 pixel footprints".to_string(), |r| r.to_string()),
+            p.sppm_radius.map_or(format!("3 pixel footprints or {} photons", p.k), |r| r.to_string()),
             p.sppm_alpha,
             self.max_depth
         )
@@ -237,6 +241,8 @@ fn render(
     let rays_done = AtomicU64::new(0);
     let mut nan = 0u64;
     let alpha = settings.sppm_alpha;
+    // The automatic radius's upper bound (the footprint rule's clamp).
+    let r_max = 5e-2 * scene_r;
     // An iteration stops early on a signal, or when the time limit passes during any but the
     // first iteration (so a time limit always gives an image); it is then discarded whole,
     // so every pixel keeps the same number of complete iterations. Without this a large image
@@ -290,7 +296,7 @@ fn render(
                             // first_t is counted from the near clipping plane.
                             let t = first_t + ray.near;
                             let fp = ((o2 + d2 * t) - (org + dir * t)).length();
-                            (SPPM_RADIUS_FOOTPRINTS * fp).clamp(1e-4 * scene_r, 5e-2 * scene_r)
+                            (SPPM_RADIUS_FOOTPRINTS * fp).clamp(1e-4 * scene_r, r_max)
                         });
                     }
                 }
@@ -336,13 +342,17 @@ fn render(
         states.par_chunks_mut(w as usize).zip(vps.par_chunks(w as usize)).zip(pending.par_chunks(w as usize)).for_each(
             |((srow, vrow), prow)| {
                 for ((state, vp), pend) in srow.iter_mut().zip(vrow).zip(prow) {
+                    let first = state.r == 0.0;
                     pend.apply(state);
                     let Some(vp) = vp else { continue };
                     if !(state.r > 0.0) {
                         continue;
                     }
-                    let r2 = state.r * state.r;
                     let jmax = max_depth + 1 - vp.d;
+                    if first && settings.sppm_radius.is_none() {
+                        state.r = photon_radius(&map, vp, jmax, state.r, r_max, settings.k);
+                    }
+                    let r2 = state.r * state.r;
                     let mut phi = Rgb::ZERO;
                     let mut m = 0u32;
                     let at = vp.bsdf.at(vp.wo_local);
@@ -400,6 +410,23 @@ fn render(
         },
         st,
     )
+}
+
+/// A pixel's initial radius: its footprint radius `r_fp`, widened to reach the `k`
+/// nearest photons of its first photon pass that it could gather (up to `r_max`). Where
+/// photons are dense the footprint rule stands; where they are sparse (an environment
+/// map's photons spread over a whole floor's bounding disc, of which few bounce onto the
+/// object in view) a footprint's disc held about one photon per iteration, and the
+/// estimate stayed that noisy while the radius, which shrinks only as photons arrive,
+/// hardly moved. k is Jensen's k (the same density estimate's count).
+fn photon_radius(map: &PhotonMap, vp: &VisiblePoint, jmax: u32, r_fp: f32, r_max: f32, k: usize) -> f32 {
+    if r_fp >= r_max {
+        return r_fp;
+    }
+    let mut near = KnnResult::new(k);
+    map.knn(vp.p, r_max * r_max, |ph| ph.depth() <= jmax && ph.normal_within_60(vp.ng), &mut near);
+    let r_k = if near.full() { near.max_d2().sqrt() } else { r_max };
+    r_fp.max(r_k)
 }
 
 /// The image after `iters` iterations.
@@ -551,7 +578,8 @@ fn camera_path(
             first_t = s.t;
         }
         l += PathState { beta: e, ..st }.surface_emission(ctx, &hit, &s, &sp);
-        if st.depth >= max_depth {
+        // The ray a diffuse-only visible point sent was for its emission alone (above).
+        if st.depth >= max_depth || beta == Rgb::ZERO {
             break;
         }
         let wo_local = sp.frame.to_local(wo);
@@ -570,11 +598,13 @@ fn camera_path(
         let is_vp = diffuse;
         if !delta {
             // Direct light (lights below count when the BSDF transmits: photons are
-            // gathered on this side only), MIS against the next ray unless the path ends
-            // here (a visible point with no glossy part).
+            // gathered on this side only), MIS against the next ray, which a visible point
+            // with no glossy part sends too, for the emission it finds only: light
+            // sampling alone left the broad sky of an environment map to the few world
+            // samples its sun disc left over (floor blocks 3-4x the path tracer's error
+            // on bench/run.py's hdri scene).
             let n_select = if sp.bsdf.transmits() { Vec3::ZERO } else { s.ng };
-            let mis = if is_vp && !glossy { 0.0 } else { 1.0 };
-            l += surface_nee(ctx, &s, &sp, &at, n_select, mis, beta, st.media, u_light, Vec2::new(u_lx, u_ly), stats);
+            l += surface_nee(ctx, &s, &sp, &at, n_select, 1.0, beta, st.media, u_light, Vec2::new(u_lx, u_ly), stats);
             if is_vp {
                 vp = Some(VisiblePoint {
                     p: s.p,
@@ -586,9 +616,6 @@ fn camera_path(
                     beta,
                     d: st.depth + 1,
                 });
-                if !glossy {
-                    break;
-                }
             }
             st.prev_n = n_select;
         }
@@ -603,7 +630,9 @@ fn camera_path(
         }
         let w = bs.f * (bs.wi.z.abs() / bs.pdf);
         e = beta * w;
-        beta = if is_vp {
+        beta = if is_vp && !glossy {
+            Rgb::ZERO
+        } else if is_vp {
             beta * (w - split.diffuse_of_sample(&at, bs.wi, bs.f, bs.delta) * (bs.wi.z.abs() / bs.pdf)).max(Rgb::ZERO)
         } else {
             e

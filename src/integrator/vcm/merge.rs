@@ -107,6 +107,9 @@ pub(crate) fn merge_camera_path(cam: &[Vertex], map: &MergeMap, camera_connectib
         // Area density factor of the camera-side predecessor seen from this vertex.
         let g_prev = cam[c - 1].area_density(1.0, x.p);
         let wo_l = x.frame.to_local(x.wo);
+        // The view-side terms (layer albedos, lobe weights) once per camera vertex, not
+        // per merge: f and the camera side's own density share them.
+        let at = bsdf.at(wo_l);
         let m_max = max_depth + 1 - c as u32;
         let mut sum = Rgb::ZERO;
         map.grid.for_each_within(
@@ -119,11 +122,11 @@ pub(crate) fn merge_camera_path(cam: &[Vertex], map: &MergeMap, camera_connectib
                 // either side so that light a thin surface transmits still merges). As
                 // r → 0 only points of the same surface remain, so the weights, which
                 // assume merging can make every path through a non-delta vertex, stay right.
-                let c = y.ng.dot(hit.ng);
-                if c * c < 0.25 {
+                if y.m > m_max {
                     return;
                 }
-                if y.m > m_max {
+                let c = y.ng.dot(hit.ng);
+                if c * c < 0.25 {
                     return;
                 }
                 let wi_l = x.frame.to_local(y.wo);
@@ -132,7 +135,7 @@ pub(crate) fn merge_camera_path(cam: &[Vertex], map: &MergeMap, camera_connectib
                 if (wi_l.z > 0.0) != (cos_g > 0.0) {
                     return;
                 }
-                let f = bsdf.eval(wo_l, wi_l);
+                let f = at.eval(wi_l);
                 if f == Rgb::ZERO {
                     return;
                 }
@@ -140,7 +143,7 @@ pub(crate) fn merge_camera_path(cam: &[Vertex], map: &MergeMap, camera_connectib
                 // cosine is the shading normal's: |wi·ns| / |wi·ng| (bounded as BDPT's
                 // shading-normal correction is).
                 let shading = (wi_l.z.abs() / cos_g.abs()).min(10.0);
-                let b_prev = bsdf.pdf(wo_l, wi_l) * y.g;
+                let b_prev = at.pdf(wi_l) * y.g;
                 let a_next = bsdf.pdf(wi_l, wo_l) * g_prev;
                 let w = merge_weight(map.eta, y.side, b_prev, cam_side, a_next);
                 sum += f * y.beta * (shading * w);

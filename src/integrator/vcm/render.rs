@@ -4,15 +4,17 @@
 //! progressive driver; an iteration's light pass is not interrupted once its camera pass
 //! may need it, and the first iteration always completes so a time limit gives an image.
 
+use super::light_store::RowSubpaths;
 use super::merge::{MergeMap, MergeRecord, merge_camera_path, push_records};
 use super::{VCM_ALPHA, VCM_RADIUS_FOOTPRINTS, VcmIntegrator, VcmMode};
-use crate::film::{Film, SplatPool};
+use crate::film::{CameraSample, Film, SplatPool};
 use crate::integrator::bdpt::{BdptScratch, FilmTarget, light_sampler};
 use crate::integrator::{SceneContext, data_passes};
+use crate::math::Rgb;
 use crate::render::TILE_SIZE;
 use crate::render::job::{Progress, RayStats, RenderJob, RenderResult};
 use crate::sampling::PixelSampler;
-use crate::scene::camera::CameraRays;
+use crate::scene::camera::{CameraRay, CameraRays};
 use glam::Vec2;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -62,10 +64,34 @@ pub fn initial_radius(ctx: &SceneContext, camera: &CameraRays, window: [u32; 4])
 /// Per-row working memory of the light pass, kept across iterations.
 struct LightRow {
     records: Vec<MergeRecord>,
+    /// The row's light subpaths, for its pixels' connections in the camera pass.
+    subpaths: RowSubpaths,
     scratch: BdptScratch,
 }
 
 impl VcmIntegrator {
+    /// BDPT's camera sample (`BdptIntegrator::li`) with the light subpath the light pass
+    /// traced for this pixel (`light`: the row's subpaths and the pixel's index in it).
+    #[allow(clippy::too_many_arguments)]
+    fn sample_stored(
+        &self,
+        ctx: &SceneContext,
+        ray: &CameraRay,
+        sampler: &mut PixelSampler,
+        (row, i): (&RowSubpaths, usize),
+        film: &mut FilmTarget,
+        scratch: &mut BdptScratch,
+        stats: &mut RayStats,
+    ) -> CameraSample {
+        let mut out = CameraSample { depth: f32::INFINITY, ..Default::default() };
+        let mut radiance = Rgb::ZERO;
+        self.bdpt.camera_subpath(ctx, ray, sampler, film.camera, scratch, &mut out, &mut radiance, stats);
+        row.restore(ctx, i, &mut scratch.light);
+        radiance += self.bdpt.connect_all(ctx, sampler, film, scratch, stats);
+        out.radiance = radiance;
+        out
+    }
+
     /// Renders the job's window (see the module's doc). `on_pass` is called after each
     /// iteration with the film.
     pub fn render(
@@ -93,8 +119,13 @@ impl VcmIntegrator {
         let max_depth = self.bdpt.max_depth;
         let camera_connectible = !camera.is_orthographic();
         let mut map = MergeMap::default();
-        let mut rows: Vec<LightRow> =
-            (0..h).map(|_| LightRow { records: Vec::new(), scratch: BdptScratch::new(max_depth) }).collect();
+        let mut rows: Vec<LightRow> = (0..h)
+            .map(|_| LightRow {
+                records: Vec::new(),
+                subpaths: RowSubpaths::default(),
+                scratch: BdptScratch::new(max_depth),
+            })
+            .collect();
         let mut rays = RayStats::default();
         let mut nan = 0u64;
         let mut splat_count = 0u64;
@@ -120,6 +151,7 @@ impl VcmIntegrator {
                     .map(|(row, lr)| {
                         let mut rs = RayStats::default();
                         lr.records.clear();
+                        lr.subpaths.clear();
                         let py = y0 + row as u32;
                         for px in x0..x1 {
                             // The camera sample's time, drawn as the camera pass draws it.
@@ -135,6 +167,7 @@ impl VcmIntegrator {
                             let mut ls = light_sampler(job.seed, px, py, index);
                             self.bdpt.light_subpath(ctx, &mut ls, &mut lr.scratch, &mut rs);
                             push_records(ctx.scene, &lr.scratch.light, eta, &mut lr.records);
+                            lr.subpaths.push(&lr.scratch.light);
                         }
                         rs
                     })
@@ -156,6 +189,7 @@ impl VcmIntegrator {
             // 2. Camera pass: BDPT's sample with merge-aware weights, then the merges.
             let eta = if merging { map.eta } else { 0.0 };
             let map_ref = &map;
+            let rows_ref = &rows;
             let tile_stats: Vec<(RayStats, u64, u64)> = film
                 .tiles
                 .par_iter_mut()
@@ -182,11 +216,24 @@ impl VcmIntegrator {
                             let _time = crate::motion::TimeScope::enter(time);
                             let mut target = FilmTarget { camera, filter: &job.filter, splats: &mut buf };
                             let pixel_sample = (job.seed, px, py, index);
-                            let mut s =
-                                self.bdpt.li(ctx, &ray, &mut sampler, pixel_sample, &mut target, &mut scratch, &mut rs);
-                            if merging {
+                            let mut s = if merging {
+                                // The pixel's light subpath from the light pass, not traced again.
+                                let row = &rows_ref[(py - y0) as usize].subpaths;
+                                let light = (row, (px - x0) as usize);
+                                let mut s = self.sample_stored(
+                                    ctx,
+                                    &ray,
+                                    &mut sampler,
+                                    light,
+                                    &mut target,
+                                    &mut scratch,
+                                    &mut rs,
+                                );
                                 s.radiance += merge_camera_path(&scratch.cam, map_ref, camera_connectible, max_depth);
-                            }
+                                s
+                            } else {
+                                self.bdpt.li(ctx, &ray, &mut sampler, pixel_sample, &mut target, &mut scratch, &mut rs)
+                            };
                             if want_data {
                                 data_passes::fill(
                                     ctx,
