@@ -8,6 +8,7 @@
 //! the input ends it.
 
 pub mod edits;
+pub mod graph_edit;
 pub mod merge;
 pub mod protocol;
 pub mod worker;
@@ -188,6 +189,7 @@ impl Server {
                 self.edited(Invalidates::View, "camera");
             }
             Request::Material(e) => self.edit_scene("material", |s| edits::material(s, &e))?,
+            Request::MaterialGraph { name, nodes } => self.material_graph(&name, &nodes)?,
             Request::Transform { name, matrix } => {
                 if let Some(l) = self.loaded.as_mut()
                     && let Some(i) = l.scene.instances.iter().rposition(|s| s.name == name)
@@ -353,6 +355,27 @@ impl Server {
         self.restart();
         Ok(())
     }
+    /// Replaces a node-graph material's program (`graph_edit`): compiled and checked while the
+    /// render goes on, applied with it stopped; the BVH stays.
+    fn material_graph(&mut self, name: &str, nodes: &serde_json::Value) -> Result<(), String> {
+        let Some(l) = self.loaded.as_ref() else {
+            return Err("no scene loaded: send load first".into());
+        };
+        let t0 = Instant::now();
+        let edit = graph_edit::prepare(&l.scene, name, nodes)?;
+        self.stop_worker();
+        let l = self.loaded.as_mut().expect("checked");
+        // The worker has ended, so the scene is not shared and this does not copy it.
+        let (what, warnings) = edit.apply(Arc::make_mut(&mut l.scene));
+        if what != Invalidates::View {
+            self.integrator = None;
+        }
+        self.generation += 1;
+        self.ok("material_graph", json!({"warnings": warnings, "compile_seconds": t0.elapsed().as_secs_f64()}));
+        self.restart();
+        Ok(())
+    }
+
     /// Merges the objects of a second scene into the loaded one (`merge`): added objects are
     /// appended, an object named as a loaded one replaces it (the old one hidden for good),
     /// and the new triangles go to the side BVH; the scene's BVH is not rebuilt.
