@@ -7,8 +7,9 @@ light's power, colour or placement a light edit and a Background's colour or str
 (viewport_lights.py); a mesh object added or its mesh changed (edit mode, modifiers, an
 armature's pose) is exported alone by the final render's exporter and merged into the running
 scene (`objects`), a deleted one hidden; anything else (lights or other objects added or
-deleted, a graph edit the server refuses (a new image, a new medium), a light's shape) re-exports the scene and loads it. `view_draw` sends the region's view as a camera
-edit when it changed, and draws the newest frame through the view's colour management. The
+deleted, a graph edit the server refuses (a new image, a new medium), a light's shape)
+re-exports the scene and loads it. `view_draw` sends the region's view as a camera edit when it
+changed, and draws the newest frame through the view's colour management. The
 server is one process per viewport, started lazily, restarted (with a report) when it died,
 and stopped when Blender frees the engine.
 """

@@ -49,7 +49,9 @@ pub fn prepare(scene: &Scene, name: &str, nodes: &serde_json::Value) -> Result<G
     let used_tris = || (0..scene.mesh.triangles.len()).filter(|&t| uses(t));
     let old = scene.materials[indices[0] as usize].nodes.as_ref().expect("checked");
     if prog.tangent_uv.is_some() && prog.tangent_uv != old.tangent_uv {
-        return Err(format!("material '{name}': the graph now reads tangents the loaded mesh was not given; send load"));
+        return Err(format!(
+            "material '{name}': the graph now reads tangents the loaded mesh was not given; send load"
+        ));
     }
     if compiled.uses_generated
         && used_tris().any(|t| {

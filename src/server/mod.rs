@@ -2,7 +2,8 @@
 //! reads requests from stdin and writes replies and frames to stdout in the framed,
 //! versioned protocol of `docs/protocol.md` (`protocol.rs`), keeps the loaded scene and
 //! its BVH, applies edits in place (`edits.rs`: the view and materials keep the BVH, a
-//! transform moves the object into a side BVH of moved objects) and renders on a worker thread (`worker.rs`) that every edit
+//! transform moves the object into a side BVH of moved objects; `graph_edit.rs`: a node-graph
+//! material's new graph compiled in place) and renders on a worker thread (`worker.rs`) that every edit
 //! stops and restarts. A bad request gets an error reply and the server goes on; only a
 //! length prefix beyond the limits (the stream cannot be resynchronised) or the end of
 //! the input ends it.

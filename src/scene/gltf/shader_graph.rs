@@ -45,7 +45,11 @@ impl Loader<'_> {
 /// `CAUSTIC_materials_medium`, not glTF's volume), `null_surface` and subsurface stay. A
 /// varying emission gets a placeholder until [`mean_node_emission`] estimates it. The loader
 /// and the server's graph edit (`server::graph_edit`) both build node materials here.
-pub(crate) fn graph_material(mat: &Material, prog: crate::shader::instructions::Program, keep_medium: bool) -> Material {
+pub(crate) fn graph_material(
+    mat: &Material,
+    prog: crate::shader::instructions::Program,
+    keep_medium: bool,
+) -> Material {
     let mut out = Material {
         name: mat.name.clone(),
         double_sided: true,
