@@ -126,3 +126,23 @@ fn refused_graphs_leave_the_scene_unchanged() {
     assert!(served == reference, "a refused graph changed the scene");
     s.finish();
 }
+
+/// The only emitter's graph turned black: its triangles stay lights of power 0 (no light index
+/// moves), the frame renders black without a panic, and turning it back on restores the
+/// picture as loaded, bit for bit.
+#[test]
+fn an_emitter_turned_off_and_on_again_renders_as_loaded() {
+    let dir = temp_dir();
+    let path = scene(dir.path(), "box.gltf", 3.0, 2.0);
+    let mut s = serving(&path);
+    let r = s.ok(json!({"type": "render_start"}));
+    let reference = converged(&s, &r);
+    let (_, black) = graphs(3.0, 0.0);
+    let r = s.ok(json!({"type": "material_graph", "name": "lamp", "nodes": black}));
+    let dark = converged(&s, &r);
+    assert!(dark.chunks(4).all(|p| p[..3] == [0.0; 3]), "nothing emits, yet the frame is not black");
+    let (_, lamp) = graphs(3.0, 2.0);
+    let r = s.ok(json!({"type": "material_graph", "name": "lamp", "nodes": lamp}));
+    assert!(converged(&s, &r) == reference, "the emitter turned on again differs from the loaded one");
+    s.finish();
+}
