@@ -14,12 +14,16 @@ moving one object in a large scene, not of rebuilding a large object.
 Drives the server through the add-on's own client (blender_addon/server_client.py, no Blender
 needed): loads the scene (default: the bundled Cornell box), starts rendering at the given
 resolution and, for each edit kind (camera move, material edit, object transform, world,
-hide/show, light, an object added, a mesh edited, and the reload these two needed before),
-sends the edit and waits for the first frame of the new generation, which is the reduced
-(1/4 per side) frame. "add object" merges a new 12-triangle cube (a glTF of that cube alone,
-as the add-on exports an added object) and "edit mesh" the tall block with its vertices moved
-(the box's block alone, replacing the loaded one); "reload" loads the whole scene again, the
-server's share of what both cost before (the add-on's export of the whole scene came on top). Prints the median and the worst of the repeats per kind, in ms, and the
+hide/show, light, an object added, a mesh edited, a node material's graph changed, and the
+reload these needed before), sends the edit and waits for the first frame of the new
+generation, which is the reduced (1/4 per side) frame. "add object" merges a new 12-triangle
+cube (a glTF of that cube alone, as the add-on exports an added object) and "edit mesh" the tall
+block with its vertices moved (the box's block alone, replacing the loaded one); "node material"
+sends the `material_graph` of the red wall, which the bench makes a node graph (a Noise Texture,
+3D fBM of Detail 3, into a Diffuse BSDF's colour) in its copy of the scene, with the noise's
+Scale changed per repeat, as dragging that field in Blender sends it; "reload" loads the whole
+scene again, the server's share of what they cost before (the add-on's export of the whole
+scene came on top). Prints the median and the worst of the repeats per kind, in ms, and the
 time to the first full-resolution frame. The times include the pipe round trip and the
 decoding of the frame by the client, as the viewport sees them.
 """
@@ -90,13 +94,40 @@ def object_files(folder):
     return add, edit
 
 
+def noise_graph(scale):
+    """The red wall's node graph (`CAUSTIC_materials_nodes`): a Noise Texture of `scale`
+    colouring a Diffuse BSDF."""
+    return {"version": 1, "output": {"surface": [2, "BSDF"]}, "images": [], "nodes": [
+        {"name": "Geometry", "type": "ShaderNodeNewGeometry"},
+        {"name": "Noise", "type": "ShaderNodeTexNoise",
+         "props": {"noise_dimensions": "3D", "noise_type": "FBM", "normalize": True},
+         "inputs": {"Vector": {"link": [0, "Position"]}, "Scale": {"value": scale}, "Detail": {"value": 3.0},
+                    "Roughness": {"value": 0.5}, "Lacunarity": {"value": 2.0}, "Distortion": {"value": 0.0}}},
+        {"name": "Diffuse", "type": "ShaderNodeBsdfDiffuse", "inputs": {"Color": {"link": [1, "Color"]}}}]}
+
+
+def with_node_material(scene, folder):
+    """A copy of `scene` in `folder` (beside which its buffers are) whose material "red", when
+    it has one, is the node graph of `noise_graph`; returns its path."""
+    doc = json.load(open(scene))
+    for m in doc.get("materials", []):
+        if m.get("name") == "red":
+            m.setdefault("extensions", {})["CAUSTIC_materials_nodes"] = noise_graph(4.0)
+            doc.setdefault("extensionsUsed", []).append("CAUSTIC_materials_nodes")
+    path = os.path.join(folder, "with_nodes.gltf")
+    json.dump(doc, open(path, "w"))
+    return path
+
+
 def edits(resolution, folder, scene):
-    """One request per edit kind, varying with the repeat index."""
+    """One request per edit kind, varying with the repeat index. The node material's edit comes
+    before the merges: their files copy the original box, whose red wall is no graph."""
     add, edit = object_files(folder)
     return {
         "camera": lambda i: camera(0.05 * (i + 1), resolution),
         "material": lambda i: {"type": "material", "name": "white",
                                "base_color": [0.5 + 0.05 * i, 0.5, 0.5, 1.0]},
+        "node material": lambda i: {"type": "material_graph", "name": "red", "nodes": noise_graph(4.0 + 0.5 * (i + 1))},
         "transform": lambda i: {"type": "transform", "name": "tall_block",
                                 "matrix": [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0.02 * i, 0, 0, 1]},
         "world": lambda i: {"type": "world", "color": [0.01 * i, 0.01 * i, 0.01 * i]},
@@ -180,6 +211,7 @@ def main():
     scene = dense_scene(a.dense, folder) if a.dense else a.scene
     if not a.dense:
         shutil.copy(os.path.join(ROOT, "scenes", "cornell_box.bin"), folder)
+    scene = with_node_material(scene, folder)
     client = ServerClient(a.binary, threads=a.threads)
     try:
         client.request({"type": "settings", "integrator": a.integrator, "frame_format": "f16"})
@@ -193,9 +225,10 @@ def main():
         client.wait_frame(gen)
         print(f"render_start → first frame: {1000 * (time.perf_counter() - t):.1f} ms")
         full = []
+        has_graph = any(m["name"] == "red" and m["nodes"] for m in loaded.get("materials", []))
         has_lamp = any(entry["name"] == "bench_lamp" for entry in loaded.get("lights", []))
         for kind, make in edits(resolution, folder, scene).items():
-            if kind == "light" and not has_lamp:
+            if kind == "light" and not has_lamp or kind == "node material" and not has_graph:
                 continue
             times = []
             for i in range(a.repeats):
@@ -211,7 +244,7 @@ def main():
                         break
                     time.sleep(0.001)
                 full.append(1000 * (time.perf_counter() - t))
-            print(f"{kind:10s} → first frame: median {statistics.median(times):6.1f} ms, "
+            print(f"{kind:13s} → first frame: median {statistics.median(times):6.1f} ms, "
                   f"worst {max(times):6.1f} ms  ({a.repeats} repeats, {resolution[0]}x{resolution[1]})")
         print(f"edit → first full-resolution frame: median {statistics.median(full):.1f} ms")
     finally:

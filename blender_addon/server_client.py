@@ -14,7 +14,7 @@ import subprocess
 import threading
 import time
 
-PROTOCOL_VERSION = 2
+PROTOCOL_VERSION = 3
 REPLY_TIMEOUT_SECONDS = 60.0
 
 

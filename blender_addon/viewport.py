@@ -1,13 +1,15 @@
 """The Rendered viewport through `caustic serve` (docs/protocol.md).
 
 `view_update` turns the depsgraph's updates into requests (`edits_from_updates`): an object's
-move is a transform edit, a Principled BSDF's factors a material edit, a light's power, colour
-or placement a light edit and a Background's colour or strength a world edit
+move is a transform edit, a Principled BSDF's factors a material edit, a node-graph material's
+changed graph a `material_graph` edit (its graph alone exported again, viewport_graphs.py), a
+light's power, colour or placement a light edit and a Background's colour or strength a world edit
 (viewport_lights.py); a mesh object added or its mesh changed (edit mode, modifiers, an
 armature's pose) is exported alone by the final render's exporter and merged into the running
 scene (`objects`), a deleted one hidden; anything else (lights or other objects added or
-deleted, node-graph materials, a light's shape) re-exports the scene and loads it. `view_draw` sends the region's view as a camera
-edit when it changed, and draws the newest frame through the view's colour management. The
+deleted, a graph edit the server refuses (a new image, a new medium), a light's shape)
+re-exports the scene and loads it. `view_draw` sends the region's view as a camera edit when it
+changed, and draws the newest frame through the view's colour management. The
 server is one process per viewport, started lazily, restarted (with a report) when it died,
 and stopped when Blender frees the engine.
 """
@@ -18,7 +20,7 @@ import tempfile
 import bpy
 import mathutils
 
-from . import export, runner, viewport_lights
+from . import export, runner, viewport_graphs, viewport_lights
 from .errors import CausticError
 from .export.object_filter import foreign_meshes, mergeable
 from .server_client import ServerClient, ServerError, frame_pixels
@@ -201,7 +203,7 @@ def visibility_edits(objects_before, objects_now, exported, lights, fingerprints
 
 
 def edits_from_updates(updates, objects_before, objects_now, known=None, lights=None, exported=None,
-                       fingerprints=None):
+                       fingerprints=None, graphs=None):
     """Requests for one depsgraph update: a list of headers, or [RELOAD] when the scene must be
     exported again (objects other than meshes added, a material that is not a plain Principled
     BSDF or changed beyond its factors, a light or world changed beyond what their edits carry:
@@ -210,7 +212,10 @@ def edits_from_updates(updates, objects_before, objects_now, known=None, lights=
     sent). `objects_*` are the sets of rendered object names, `known` the materials' snapshots
     at the last export, `lights` its `LightState` (None: every light and world change reloads),
     `exported` the objects it exported (None: nothing is merged, hiding reloads; deleted objects
-    leave it), `fingerprints` the meshes of hidden objects (visibility_edits)."""
+    leave it), `fingerprints` the meshes of hidden objects (visibility_edits), `graphs` the
+    materials the server loaded as node graphs (name -> viewport_graphs.graph_extras at the
+    export): a change of theirs is a MATERIAL_GRAPH request naming them, which `Viewport.update`
+    exports."""
     edits = []
     merge = set() if exported is not None else None
     new_materials = []
@@ -249,6 +254,11 @@ def edits_from_updates(updates, objects_before, objects_now, known=None, lights=
                 elif data.type != "CAMERA":  # cameras: the view is sent by view_draw
                     return [RELOAD]
         elif isinstance(data, bpy.types.Material):
+            if graphs is not None and data.name in graphs:
+                if graphs[data.name] != viewport_graphs.graph_extras(data):
+                    return [RELOAD]  # the medium or subsurface beside the graph changed
+                add({"type": viewport_graphs.MATERIAL_GRAPH, "name": data.name})
+                continue
             if merge is not None and known is not None and data.name not in known:
                 new_materials.append(data)  # not in the scene yet: exported with its objects
                 continue
@@ -358,6 +368,9 @@ class Viewport:
         self.lights = None
         self.exported = None
         self.fingerprints = {}
+        self.graphs = None  # node-graph materials of the loaded scene: name -> graph_extras
+        self.images = {}  # the last export's node-graph images: pointer -> entry
+        self.graph_warnings = set()  # warnings of graph edits reported so far
 
     def _client(self):
         if self.client is None:
@@ -380,6 +393,10 @@ class Viewport:
         client.request(view_settings(scene))
         loaded = client.request({"type": "load", "path": path})
         self.lights = viewport_lights.LightState(scene, loaded.get("lights", []))
+        self.images = state.image_entries()
+        self.graphs = {m["name"]: viewport_graphs.graph_extras(bpy.data.materials[m["name"]])
+                       for m in loaded.get("materials", [])
+                       if m.get("nodes") and m["name"] in bpy.data.materials}
         self.exported = rendered_objects(depsgraph)
         self.fingerprints = {}
         if old:
@@ -415,13 +432,27 @@ class Viewport:
             # scene's size at the cost of one export per scene's worth of edited triangles.
             self._reload(depsgraph)
 
+    def _graph_edit(self, depsgraph, name):
+        """Export material `name`'s graph alone and have the server compile it in place."""
+        material = bpy.data.materials.get(name)
+        if material is None:
+            raise viewport_graphs.GraphRefused(f"material '{name}' is gone")
+        header, warnings = viewport_graphs.graph_request(material, depsgraph, self.images)
+        reply = self._client().request(header)
+        # Once each: a drag sends the same graph's warnings on every step.
+        for warning in warnings + reply.get("warnings", []):
+            if warning not in self.graph_warnings:
+                self.graph_warnings.add(warning)
+                self.engine.report({"WARNING"}, f"Caustic: {warning}")
+
     def update(self, context, depsgraph):
         """view_update: the depsgraph's changes as edits, or a reload."""
         try:
             objects = rendered_objects(depsgraph)
             first = self.objects is None or self.client is None or not self.client.alive()
             edits = [RELOAD] if first else edits_from_updates(depsgraph.updates, self.objects, objects, self.known,
-                                                                      self.lights, self.exported, self.fingerprints)
+                                                                      self.lights, self.exported, self.fingerprints,
+                                                                      self.graphs)
             self.objects = objects
             if edits == [RELOAD]:
                 self._reload(depsgraph)
@@ -432,14 +463,17 @@ class Viewport:
                     if req["type"] == OBJECTS:
                         self._merge(depsgraph, req["names"])
                         continue
+                    if req["type"] == viewport_graphs.MATERIAL_GRAPH:
+                        self._graph_edit(depsgraph, req["name"])
+                        continue
                     self._client().request(req)
                     if req["type"] == "material":
                         mat = bpy.data.materials.get(req["name"])
                         if mat is not None:
                             self.known[req["name"]] = material_snapshot(mat)
                 except (ServerError, CausticError):
-                    # The server refused it (a node-graph material, a mirrored object, objects
-                    # it cannot merge) or their export failed: reload.
+                    # The server refused it (a graph needing a new image, a mirrored object,
+                    # objects it cannot merge) or their export failed: reload.
                     self._reload(depsgraph)
                     break
         except (CausticError, ServerError) as err:

@@ -16,9 +16,9 @@ use std::time::Instant;
 #[test]
 fn every_request_kind_is_served() {
     let mut s = Server::start();
-    s.send(json!({"type": "hello", "version": 2}));
+    s.send(json!({"type": "hello", "version": 3}));
     let h = s.reply();
-    assert_eq!((h["type"].as_str(), h["version"].as_u64()), (Some("hello"), Some(2)));
+    assert_eq!((h["type"].as_str(), h["version"].as_u64()), (Some("hello"), Some(3)));
     s.ok(json!({"type": "settings", "spp": 4, "frame_format": "f32", "max_depth": 4}));
     let loaded = s.ok(json!({"type": "load", "path": cornell()}));
     assert_eq!(loaded["triangles"], 32);

@@ -43,6 +43,11 @@ class ExportState:
             self._image_writer = ImageWriter(gltf_folder)
         return self._image_writer
 
+    def image_entries(self):
+        """The node-graph images this export wrote: image pointer -> the contract's entry (None
+        for an image without pixels); the viewport's graph edits name them (viewport_graphs.py)."""
+        return dict(self._image_writer.written) if self._image_writer is not None else {}
+
 
 def current():
     """The state of the Caustic export in progress, or None."""

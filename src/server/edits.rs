@@ -102,7 +102,7 @@ pub fn view_from_edit(e: &CameraEdit) -> Result<View, String> {
 }
 
 /// Applies a material edit. Node-graph materials are not edited here: their colours
-/// live in the graph, so the client reloads the scene for them.
+/// live in the graph, which the `material_graph` request replaces (`graph_edit`).
 pub fn material(scene: &mut Scene, e: &MaterialEdit) -> Result<Invalidates, String> {
     // Every material of the name: objects merged in later (`merge`) bring their own copies.
     let mut named: Vec<&mut crate::scene::Material> = scene.materials.iter_mut().filter(|m| m.name == e.name).collect();
@@ -111,7 +111,7 @@ pub fn material(scene: &mut Scene, e: &MaterialEdit) -> Result<Invalidates, Stri
     }
     if named.iter().any(|m| m.nodes.is_some()) {
         return Err(format!(
-            "material '{}' is a shader node graph: its parameters are not editable in place yet; send load",
+            "material '{}' is a shader node graph: its factors live in the graph (material_graph); send load",
             e.name
         ));
     }

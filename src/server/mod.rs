@@ -2,12 +2,14 @@
 //! reads requests from stdin and writes replies and frames to stdout in the framed,
 //! versioned protocol of `docs/protocol.md` (`protocol.rs`), keeps the loaded scene and
 //! its BVH, applies edits in place (`edits.rs`: the view and materials keep the BVH, a
-//! transform moves the object into a side BVH of moved objects) and renders on a worker thread (`worker.rs`) that every edit
+//! transform moves the object into a side BVH of moved objects; `graph_edit.rs`: a node-graph
+//! material's new graph compiled in place) and renders on a worker thread (`worker.rs`) that every edit
 //! stops and restarts. A bad request gets an error reply and the server goes on; only a
 //! length prefix beyond the limits (the stream cannot be resynchronised) or the end of
 //! the input ends it.
 
 pub mod edits;
+pub mod graph_edit;
 pub mod merge;
 pub mod protocol;
 pub mod worker;
@@ -188,6 +190,7 @@ impl Server {
                 self.edited(Invalidates::View, "camera");
             }
             Request::Material(e) => self.edit_scene("material", |s| edits::material(s, &e))?,
+            Request::MaterialGraph { name, nodes } => self.material_graph(&name, &nodes)?,
             Request::Transform { name, matrix } => {
                 if let Some(l) = self.loaded.as_mut()
                     && let Some(i) = l.scene.instances.iter().rposition(|s| s.name == name)
@@ -353,6 +356,27 @@ impl Server {
         self.restart();
         Ok(())
     }
+    /// Replaces a node-graph material's program (`graph_edit`): compiled and checked while the
+    /// render goes on, applied with it stopped; the BVH stays.
+    fn material_graph(&mut self, name: &str, nodes: &serde_json::Value) -> Result<(), String> {
+        let Some(l) = self.loaded.as_ref() else {
+            return Err("no scene loaded: send load first".into());
+        };
+        let t0 = Instant::now();
+        let edit = graph_edit::prepare(&l.scene, name, nodes)?;
+        self.stop_worker();
+        let l = self.loaded.as_mut().expect("checked");
+        // The worker has ended, so the scene is not shared and this does not copy it.
+        let (what, warnings) = edit.apply(Arc::make_mut(&mut l.scene));
+        if what != Invalidates::View {
+            self.integrator = None;
+        }
+        self.generation += 1;
+        self.ok("material_graph", json!({"warnings": warnings, "compile_seconds": t0.elapsed().as_secs_f64()}));
+        self.restart();
+        Ok(())
+    }
+
     /// Merges the objects of a second scene into the loaded one (`merge`): added objects are
     /// appended, an object named as a loaded one replaces it (the old one hidden for good),
     /// and the new triangles go to the side BVH; the scene's BVH is not rebuilt.

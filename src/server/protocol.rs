@@ -7,7 +7,7 @@ use serde::Deserialize;
 use std::io::{Read, Write};
 
 /// Protocol version: bumped on every change a client must know about.
-pub const VERSION: u32 = 2;
+pub const VERSION: u32 = 3;
 
 /// Longest header accepted: a camera edit is a few hundred bytes; a megabyte is far
 /// beyond any legitimate header and small enough to hold without a budget.
@@ -229,6 +229,14 @@ pub enum Request {
     Camera(CameraEdit),
     /// Change a material's factors.
     Material(MaterialEdit),
+    /// Replace a node-graph material's graph (`graph_edit`): every material of the name
+    /// gets the program compiled from `nodes`, its `CAUSTIC_materials_nodes` value.
+    MaterialGraph {
+        /// Material name.
+        name: String,
+        /// The graph, exactly as the exporter writes the extension's value.
+        nodes: serde_json::Value,
+    },
     /// Move a mesh object.
     Transform {
         /// Object (node) name.

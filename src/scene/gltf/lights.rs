@@ -11,6 +11,16 @@ use crate::scene::{LightReport, Material, Mesh};
 use glam::{Mat4, Vec3};
 use std::collections::HashMap;
 
+/// The selection power of emissive triangle `tri` of mean radiance luminance `radiance`:
+/// its flux π L A, from both sides when the material is double-sided (the loader and the
+/// server's graph edit share it).
+pub(crate) fn triangle_light_power(mesh: &Mesh, tri: u32, radiance: f32, double_sided: bool) -> f32 {
+    let p = mesh.triangles[tri as usize].map(|i| mesh.positions[i as usize]);
+    let area = 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length();
+    let sides = if double_sided { 2.0 } else { 1.0 };
+    radiance * area * std::f32::consts::PI * sides
+}
+
 impl Loader<'_> {
     pub(super) fn punctual_light(
         &mut self,
@@ -218,13 +228,8 @@ impl Loader<'_> {
                     (pyramids[&t.texture].triangle_mean(tex, uv, &mut reads), tex.mean_rgb() * MIN_POWER_SHARE)
                 }
             };
-            let p = tri.map(|i| mesh.positions[i as usize]);
-            let area = 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length();
-            let sides = if mat.double_sided { 2.0 } else { 1.0 };
-            let power = luminance(mat.emissive * mean_tex).max(luminance(mat.emissive * floor))
-                * area
-                * std::f32::consts::PI
-                * sides;
+            let radiance = luminance(mat.emissive * mean_tex).max(luminance(mat.emissive * floor));
+            let power = triangle_light_power(mesh, ti as u32, radiance, mat.double_sided);
             if power <= 0.0 {
                 continue;
             }

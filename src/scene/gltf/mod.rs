@@ -33,6 +33,8 @@ mod pass_ids;
 mod pose;
 mod quantized;
 mod shader_graph;
+pub(crate) use lights::triangle_light_power;
+pub(crate) use shader_graph::{colorspace_is_srgb, graph_material, mean_node_emission};
 mod spec_gloss;
 mod textures;
 mod validate;

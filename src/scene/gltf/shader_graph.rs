@@ -34,31 +34,43 @@ impl Loader<'_> {
         for w in compiled.warnings {
             self.warn(format!("material '{name}': {w}"));
         }
-        let prog = compiled.program;
-        // The graph replaces the glTF description: no glTF textures, emission or alpha.
-        let keep = Material {
-            name: mat.name.clone(),
-            double_sided: true,
-            medium: if features.iter().any(|f| f == "CAUSTIC_materials_medium") { mat.medium } else { None },
-            null_surface: mat.null_surface,
-            subsurface: mat.subsurface,
-            ..Material::default()
-        };
-        *mat = keep;
-        mat.metallic = 0.0;
-        mat.alpha_mode = if prog.transparent { AlphaMode::Blend } else { AlphaMode::Opaque };
-        mat.emissive = if prog.emits {
-            match prog.constant_emission {
-                Some(e) => e.max(glam::Vec3::ZERO),
-                // Estimated per material once the mesh is known (`node_emitters`).
-                None => glam::Vec3::splat(1.0),
-            }
-        } else {
-            glam::Vec3::ZERO
-        };
-        mat.nodes = Some(Arc::new(prog));
+        let keep_medium = features.iter().any(|f| f == "CAUSTIC_materials_medium");
+        *mat = graph_material(mat, compiled.program, keep_medium);
         Ok(())
     }
+}
+
+/// The material a compiled graph makes of `mat`: the graph replaces the glTF description
+/// (no glTF textures, emission or alpha); the name, the medium (when `keep_medium`: one of
+/// `CAUSTIC_materials_medium`, not glTF's volume), `null_surface` and subsurface stay. A
+/// varying emission gets a placeholder until [`mean_node_emission`] estimates it. The loader
+/// and the server's graph edit (`server::graph_edit`) both build node materials here.
+pub(crate) fn graph_material(
+    mat: &Material,
+    prog: crate::shader::instructions::Program,
+    keep_medium: bool,
+) -> Material {
+    let mut out = Material {
+        name: mat.name.clone(),
+        double_sided: true,
+        medium: if keep_medium { mat.medium } else { None },
+        null_surface: mat.null_surface,
+        subsurface: mat.subsurface,
+        ..Material::default()
+    };
+    out.metallic = 0.0;
+    out.alpha_mode = if prog.transparent { AlphaMode::Blend } else { AlphaMode::Opaque };
+    out.emissive = if prog.emits {
+        match prog.constant_emission {
+            Some(e) => e.max(glam::Vec3::ZERO),
+            // Estimated per material once the mesh is known (`mean_node_emission`).
+            None => glam::Vec3::splat(1.0),
+        }
+    } else {
+        glam::Vec3::ZERO
+    };
+    out.nodes = Some(Arc::new(prog));
+    out
 }
 
 impl Loader<'_> {
@@ -70,14 +82,10 @@ impl Loader<'_> {
         img: &crate::shader::graph::ImageDesc,
     ) -> Result<u32> {
         let what = format!("material '{material}': CAUSTIC_materials_nodes image {k} '{}'", img.uri);
-        let srgb = match img.colorspace.as_str() {
-            "sRGB" => true,
-            "Non-Color" | "Linear Rec.709" | "Linear" => false,
-            other => {
-                self.warn(format!("{what}: colour space '{other}' is read as linear (not converted)"));
-                false
-            }
-        };
+        let srgb = colorspace_is_srgb(&img.colorspace).unwrap_or_else(|| {
+            self.warn(format!("{what}: colour space '{}' is read as linear (not converted)", img.colorspace));
+            false
+        });
         let bytes = self.resolve_uri(&img.uri, &what)?;
         let reader = image::ImageReader::new(std::io::Cursor::new(&bytes))
             .with_guessed_format()
@@ -137,6 +145,16 @@ impl Loader<'_> {
     }
 }
 
+/// Whether a graph image in colour space `name` is decoded from sRGB (Some(false): read as
+/// linear data; None: a space the contract does not name, read as linear with a warning).
+pub(crate) fn colorspace_is_srgb(name: &str) -> Option<bool> {
+    match name {
+        "sRGB" => Some(true),
+        "Non-Color" | "Linear Rec.709" | "Linear" => Some(false),
+        _ => None,
+    }
+}
+
 /// The sRGB transfer function decoded for a float value (Blender's piecewise curve,
 /// continued past 1 for HDR values).
 fn srgb_to_linear(c: f32) -> f32 {
@@ -160,40 +178,52 @@ impl Loader<'_> {
         materials: &mut [Material],
     ) {
         for (mi, mat) in materials.iter_mut().enumerate() {
-            let Some(prog) = &mat.nodes else { continue };
-            if !prog.emits || prog.constant_emission.is_some() {
-                continue;
-            }
-            let tris: Vec<u32> =
-                (0..mesh.triangles.len() as u32).filter(|&t| mesh.tri_material[t as usize] == mi as u32).collect();
-            if tris.is_empty() {
-                continue;
-            }
-            let stride = tris.len().div_ceil(EMISSION_SAMPLES);
-            let mut sum = glam::Vec3::ZERO;
-            let mut n = 0;
-            for &t in tris.iter().step_by(stride) {
-                sum += crate::shader::shade::node_emission(
-                    mesh,
-                    objects,
-                    &self.textures,
-                    &crate::shader::geom::NO_VIEW,
-                    prog,
-                    t,
-                    1.0 / 3.0,
-                    1.0 / 3.0,
-                    crate::scene::light_path::LightPath::LIGHT_EMISSION,
-                );
-                n += 1;
-            }
-            let mean = sum / n as f32;
-            mat.emissive = mean.max(glam::Vec3::splat(1e-6));
+            let Some((mean, n)) = mean_node_emission(mesh, objects, &self.textures, mat, mi as u32) else { continue };
+            mat.emissive = mean;
             let name = mat.name.clone();
             self.warn(format!(
                 "material '{name}': its emission varies over the surface; lights are weighted by its mean over {n} triangle centres"
             ));
         }
     }
+}
+
+/// The estimate [`Loader::node_emitters`] gives node material `mat` (material index `mi`) of
+/// its mean radiance, with the number of triangle centres it averaged; None when the graph
+/// does not emit, emits a constant, or no triangle uses the material.
+pub(crate) fn mean_node_emission(
+    mesh: &crate::scene::Mesh,
+    objects: &[crate::shader::geom::ObjectData],
+    textures: &[crate::scene::Texture],
+    mat: &Material,
+    mi: u32,
+) -> Option<(glam::Vec3, usize)> {
+    let prog = mat.nodes.as_ref()?;
+    if !prog.emits || prog.constant_emission.is_some() {
+        return None;
+    }
+    let tris: Vec<u32> = (0..mesh.triangles.len() as u32).filter(|&t| mesh.tri_material[t as usize] == mi).collect();
+    if tris.is_empty() {
+        return None;
+    }
+    let stride = tris.len().div_ceil(EMISSION_SAMPLES);
+    let mut sum = glam::Vec3::ZERO;
+    let mut n = 0;
+    for &t in tris.iter().step_by(stride) {
+        sum += crate::shader::shade::node_emission(
+            mesh,
+            objects,
+            textures,
+            &crate::shader::geom::NO_VIEW,
+            prog,
+            t,
+            1.0 / 3.0,
+            1.0 / 3.0,
+            crate::scene::light_path::LightPath::LIGHT_EMISSION,
+        );
+        n += 1;
+    }
+    Some(((sum / n as f32).max(glam::Vec3::splat(1e-6)), n))
 }
 
 /// What a shader graph reads of an instance: its inverse world matrix and location, a
