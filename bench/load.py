@@ -6,7 +6,8 @@ Usage:
     python3 bench/load.py [--out DIR] [--triangles N] [--texture SIDE] [--repeats R]
 
 Prints the loader's time per phase (parse, image decoding, materials, mesh, MikkTSpace
-tangents, emitter power; from `examples/load_profile.rs`), the texels read for emitter power,
+tangents, emitter power; from `examples/load_profile.rs`) and the BVH build, the texels read
+for emitter power,
 and the wall time of `caustic info --json` (which also includes process start-up).
 Quote the phases' ratios, not the seconds, across machines.
 """
@@ -131,7 +132,7 @@ def main():
         subprocess.run([binary, "info", path, "--json"], check=True, capture_output=True)
         wall = time.time() - t
         phases = ", ".join(f"{k} {v:.3f}" for k, v in p["profile"].items() if isinstance(v, float))
-        print(f"run {r + 1}: {phases} s; emitter texel reads {p['profile']['emitter_texel_reads']:,} "
+        print(f"run {r + 1}: {phases}, bvh {p['bvh']:.3f} s; emitter texel reads {p['profile']['emitter_texel_reads']:,} "
               f"for {p['emissive_triangles']} emissive triangles; `caustic info` wall {wall:.2f} s")
 
 

@@ -110,6 +110,21 @@ impl Accel {
         maybe_masked: &[bool],
         accept: impl Fn(u32, f32, f32) -> bool,
     ) -> Option<Hit> {
+        self.intersect_except(org, dir, tmax, u32::MAX, maybe_masked, accept)
+    }
+
+    /// [`intersect`](Self::intersect) passing triangle `skip` (the one a ray leaves, as
+    /// Cycles skips its `isect.prim`; `u32::MAX` skips none).
+    #[inline]
+    pub fn intersect_except(
+        &self,
+        org: Vec3,
+        dir: Vec3,
+        tmax: f32,
+        skip: u32,
+        maybe_masked: &[bool],
+        accept: impl Fn(u32, f32, f32) -> bool,
+    ) -> Option<Hit> {
         let rt = RayTransform::new(org, dir);
         let dir_a = obvhs_direction(dir);
         let ray = NodeRay::new(org, dir_a);
@@ -117,7 +132,7 @@ impl Accel {
         traverse(&self.bvh, &ray, octant_inv4(dir_a), tmax, |id, best_t| {
             if let Some((t, b1, b2)) = rt.intersect(&self.tris[id], 0.0, best_t) {
                 let tri = self.ids[id];
-                if !maybe_masked[tri as usize] || accept(tri, b1, b2) {
+                if tri != skip && (!maybe_masked[tri as usize] || accept(tri, b1, b2)) {
                     best = Some(Hit { tri, t, b1, b2 });
                     return Some(t);
                 }
@@ -125,7 +140,7 @@ impl Accel {
             Some(best_t)
         });
         match &self.moved {
-            Some(m) => m.intersect(org, dir, best.map_or(tmax, |h| h.t), maybe_masked, accept).or(best),
+            Some(m) => m.intersect_except(org, dir, best.map_or(tmax, |h| h.t), skip, maybe_masked, accept).or(best),
             None => best,
         }
     }

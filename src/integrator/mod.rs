@@ -561,7 +561,33 @@ impl<'a> SceneContext<'a> {
     /// from it are passed.
     #[inline]
     pub fn intersect_as(&self, org: Vec3, dir: Vec3, tmax: f32, ray: RayMask) -> Option<Hit> {
-        let accept = |tri: u32, b1: f32, b2: f32| {
+        let hit = self.accel.intersect(org, dir, tmax, &self.masked, self.accepts(ray));
+        let hit = match self.motion {
+            None => hit,
+            Some(m) => {
+                let t = crate::motion::ray_time();
+                m.intersect(org, dir, hit.map_or(tmax, |h| h.t), t, &self.masked, self.accepts(ray)).or(hit)
+            }
+        };
+        // Strands, in their own BVH, up to the triangle hit: the nearer wins.
+        match &self.scene.curves.bvh {
+            Some(curves) => curves.intersect(&self.scene.curves.points, org, dir, hit.map_or(tmax, |h| h.t)).or(hit),
+            None => hit,
+        }
+    }
+
+    /// [`intersect_as`](Self::intersect_as) among the still triangles only, passing
+    /// triangle `skip`: the short look back across a surface that a ray has just left
+    /// (`walk::PathState::coincident_hit`).
+    #[inline]
+    pub fn intersect_still_except(&self, org: Vec3, dir: Vec3, tmax: f32, ray: RayMask, skip: u32) -> Option<Hit> {
+        self.accel.intersect_except(org, dir, tmax, skip, &self.masked, self.accepts(ray))
+    }
+
+    /// The hit filter of a ray of kind `ray`: visibility and alpha masks.
+    #[inline]
+    fn accepts(&self, ray: RayMask) -> impl Fn(u32, f32, f32) -> bool + '_ {
+        move |tri: u32, b1: f32, b2: f32| {
             if !self.sees(ray, tri) {
                 return false;
             }
@@ -569,19 +595,6 @@ impl<'a> SceneContext<'a> {
                 AlphaMode::Mask(cutoff) => self.scene.alpha(tri, b1, b2) >= cutoff,
                 _ => true,
             }
-        };
-        let hit = self.accel.intersect(org, dir, tmax, &self.masked, accept);
-        let hit = match self.motion {
-            None => hit,
-            Some(m) => {
-                let t = crate::motion::ray_time();
-                m.intersect(org, dir, hit.map_or(tmax, |h| h.t), t, &self.masked, accept).or(hit)
-            }
-        };
-        // Strands, in their own BVH, up to the triangle hit: the nearer wins.
-        match &self.scene.curves.bvh {
-            Some(curves) => curves.intersect(&self.scene.curves.points, org, dir, hit.map_or(tmax, |h| h.t)).or(hit),
-            None => hit,
         }
     }
 

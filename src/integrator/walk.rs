@@ -201,7 +201,10 @@ impl PathState {
         radiance: &mut Rgb,
         stats: &mut RayStats,
     ) -> (Step, Rgb) {
-        let hit = ctx.intersect_as(self.org, self.dir, self.tmax, self.ray);
+        let hit = match self.coincident_hit(ctx) {
+            Some(h) => Some(h),
+            None => ctx.intersect_as(self.org, self.dir, self.tmax, self.ray),
+        };
         // Past the far clipping plane the ray sees the world, through the medium up to it.
         let t_surface = hit.map_or(self.tmax, |h| h.t);
         let tmax = std::mem::replace(&mut self.tmax, f32::INFINITY);
@@ -257,6 +260,54 @@ impl PathState {
         }
         let s = SurfaceHit { light_path: self.light_path.at(hit.t), ..s };
         (Step::Surface { hit, s }, lights)
+    }
+
+    /// A surface coincident with the one the ray has just left (a glass resting on a floor,
+    /// a liquid filling its glass): the ray's origin is offset across the surface it leaves
+    /// (`offset_ray_origin`), which also carries it past a second surface in the same
+    /// plane — a ray leaving the glass's bottom face started below the floor, one leaving
+    /// the floor started inside the glass without entering it — so it is looked for behind
+    /// the origin, as Cycles finds it by starting on the surface and skipping only the
+    /// triangle it left. The look back runs from the mirror image of the origin (the same
+    /// offset to the other side) across the surface to the origin's offset, skipping the
+    /// triangle left, among the still triangles; when it finds one facing the other way,
+    /// the ray starts there.
+    /// Moving triangles and strands are not looked for; walkers that do not record the
+    /// triangle left (`prev_tri`: BDPT's subpaths, photon tracing) do not look.
+    #[inline]
+    fn coincident_hit(&mut self, ctx: &SceneContext) -> Option<Hit> {
+        // No triangle left: a camera ray, a medium event, a strand (`CURVE_BIT` ids).
+        if self.prev_tri == NO_OBJECT || self.prev_tri as usize >= ctx.scene.mesh.triangles.len() {
+            return None;
+        }
+        let offset = self.org - self.prev_p;
+        // The offset is at most 256 ulps or 1/65536 per axis (`offset_ray_origin`, with a
+        // normal of length 1 up to rounding: twice that here); a larger gap means the origin
+        // moved on since the bounce (a pass-through): nothing to look back across.
+        let bound = 2.0 * (self.prev_p.abs().max_element() * (256.0 * f32::EPSILON)).max(1.0 / 65536.0);
+        if offset == Vec3::ZERO || offset.abs().max_element() > bound {
+            return None;
+        }
+        let back = self.prev_p - offset;
+        let span = 2.0 * offset.length();
+        // Along the direction the slab between the two offsets is span / cos thick; below
+        // cos = 1/20 the look back is capped at 20 spans (a grazing ray crossing the slab
+        // further away would meet its own mesh's neighbours of the triangle left).
+        let cos = (self.dir.dot(offset) / offset.length()).abs().max(1.0 / 20.0);
+        let hit = ctx.intersect_still_except(back, self.dir, span / cos, self.ray, self.prev_tri)?;
+        // Two surfaces in contact face each other (the floor up, the glass's bottom down);
+        // a triangle facing the same way as the one left is its own mesh's neighbour, which
+        // the look back crosses when it leaves near an edge: not a second surface.
+        let mesh = &ctx.scene.mesh;
+        let winding = |tri: u32| {
+            let [a, b, c] = mesh.triangles[tri as usize].map(|i| mesh.positions[i as usize]);
+            (b - a).cross(c - a)
+        };
+        if winding(hit.tri).dot(winding(self.prev_tri)) >= 0.0 {
+            return None;
+        }
+        self.org = back;
+        Some(hit)
     }
 
     /// Radiance of the world and sun disks along the escape direction, MIS-weighted

@@ -33,6 +33,10 @@ normal was the difference, not the tangents or the filtering); no material 1.000
 default Principled 1.0003, anisotropic metal 1.0061, sheen 0.9992, Sheen BSDF node 0.9993; thin
 film on IOR 1.5 (400 nm, film IOR 1.33) R 1.0013 G 1.0010 B 1.0010.
 
+Rough glass at roughness 1.0 (0.941 of Cycles under the area light, a strict xfail until then) is
+Cycles' light sampling, not the material: see CYCLES_GLASS_FURNACE_LOSS; against Cycles' BSDF-sampled
+estimate it is 1.020.
+
 Cases that cannot pass with today's renderer are strict xfails naming the renderer fix they wait
 for, so that the fix's merge turns them into failures (XPASS) until the mark is removed.
 Ratios are printed with pytest -s.
@@ -59,17 +63,19 @@ FILM = MATCHED + 0.01
 
 # What each remaining xfail waits for (measured Caustic/Cycles after multiscatter GGX, tangent
 # handedness and IOR 1 glass landed; the marks of the cases those fixed are gone).
-ROUGH_GLASS_1 = ("renderer: rough glass at roughness 1.0 is 0.94 of Cycles (0.947 as a Glass BSDF node). Direct light "
-                 "alone agrees (0 bounces: 0.998-1.001 on the sphere's centre, ring and edge and on the floor), so the "
-                 "reflection lobe, its Fresnel and its multiscatter factor seen from the camera are Cycles'. The "
-                 "difference starts with the first indirect bounce (1 bounce: 0.980, the floor corners 0.977, the "
-                 "sphere's ring 0.972; 8 bounces 0.941) and grows with bounces. A white furnace (sphere filling the "
-                 "frame, 32 bounces): Caustic 1.000, Cycles 0.985 (0.984 at roughness 0.6, 0.996 at 0.3): Cycles loses "
-                 "light, yet is brighter lit. Cycles' leaving-side table (table_ggx_glass_inv_E, η = 1/1.5, α = 1) is "
-                 "above a VNDF Monte Carlo of its own sampling at μ < 0.4 (0.553 vs 0.495 at μ = 0.2, 0.716 vs 0.524 at "
-                 "0.067; the entering table agrees within 0.3 %, and Caustic's glass table agrees with the Monte Carlo "
-                 "on both sides within 0.003), which would make Cycles darker, so not this either. "
-                 "Next: the paths diffuse → rough glass → light (the floor's first bounce) term by term")
+# Rough glass at roughness 1.0 against the area light of the other cases is 0.94 of Cycles, and
+# that is Cycles disagreeing with itself: with an emissive disk found by BSDF sampling alone
+# (emission sampling None) Cycles renders the same sphere 0.939 of what it renders when it
+# samples that disk (1.179 vs 1.257, 1024 spp), while Caustic gives the same either way. Cycles'
+# rough refraction eval, which only light sampling calls, does not reject half vectors that no
+# microfacet produces (bsdf_microfacet_eval: "TODO: check if the refraction configuration is
+# valid"): integrated over all directions, such pairs add 12-106 % to the refracted light at
+# alpha = 1 and 4-54 % at alpha = 0.36 (a Monte Carlo of its formula against its own sampling). So the roughness-1 case is compared with
+# Cycles' unbiased estimator, test_rough_glass_1_matches_cycles_bsdf_sampled_lamp below.
+# Cycles' glass also loses light that Caustic keeps: a white furnace (sphere filling the frame,
+# 32 bounces) is 0.985 in Cycles at roughness 1 (0.984 at 0.6, 0.996 at 0.3), 1.000 in Caustic
+# (its multiscatter albedo tables under-compensate): that loss is the allowance's second part.
+CYCLES_GLASS_FURNACE_LOSS = 0.015
 
 # The subject fills the frame (a 90 mm lens frames 1.56 x 1.17 units at the sphere), so that the
 # image mean measures the material, not the floor around it; the sheet needs the floor under it.
@@ -179,7 +185,6 @@ CASES = {
     "rough_metal_1.0": (sphere_of(lambda: rough_metal(1.0)), MATCHED, False, []),
     "rough_glass_0.3": (sphere_of(lambda: glass("RoughGlass0.3", 0.3)), MATCHED, False, []),
     "rough_glass_0.6": (sphere_of(lambda: glass("RoughGlass0.6", 0.6)), MATCHED, False, []),
-    "rough_glass_1.0": (sphere_of(lambda: glass("RoughGlass1.0", 1.0)), MATCHED, False, [xfail(ROUGH_GLASS_1)]),
     "rough_glass_ior_1": (sphere_of(lambda: glass("GlassIor1", 0.5, ior=1.0)), MATCHED, False, []),
     "glass_0.8_closed_sphere": (sphere_of(lambda: glass("ClosedGlass", 0.0, base=0.8)), MATCHED, False, []),
     "glass_0.8_open_suzanne": (add_suzanne_glass, MATCHED, False, []),
@@ -210,6 +215,32 @@ def test_material_fidelity_matches_cycles(empty_scene, tmp_path, case):
     floor_light_camera(scene, WIDE if case == "thin_sheet" else CLOSE_UP)
     add_subject(scene)
     assert_mean_matches_cycles(scene, tmp_path, case, allowance, per_channel=per_channel)
+
+
+# BSDF sampling alone finds the lamp, so the renders are noisier than with light sampling: at
+# 256 spp the image mean's sigma was 1.2 %; a lamp of 9x the area (the same power) and 4x the
+# samples bring it to 0.3 %, so that 5 sigma + the allowance (3.9 %) stays well below the 6.5 %
+# of Cycles' light-sampling bias that this case must not hide.
+LAMP_SAMPLES = 1024
+
+
+def test_rough_glass_1_matches_cycles_bsdf_sampled_lamp(empty_scene, tmp_path):
+    """Rough glass of roughness 1.0 under an emissive disk that Cycles finds by BSDF sampling
+    only (its material's emission sampling None), where Cycles' estimate is unbiased (see
+    CYCLES_GLASS_FURNACE_LOSS). Measured: Caustic/Cycles 1.020 (0.3: 1.0002, 0.6: 1.013, the
+    order of Cycles' furnace losses)."""
+    scene = empty_scene
+    floor_light_camera(scene)
+    bpy.data.objects.remove(bpy.data.objects["Disk"])
+    lamp = scenes.emission_material("Lamp", (1.0, 1.0, 1.0), 200.0 / 9.0)
+    lamp.cycles.emission_sampling = "NONE"
+    # A 32-gon of radius 1.2 at the disk light's place, wound to face down.
+    ring = [(0.8 + 1.2 * math.cos(-2 * math.pi * i / 32), -0.5 + 1.2 * math.sin(-2 * math.pi * i / 32), 3.0)
+            for i in range(32)]
+    scenes.mesh_object(scene, "Lamp", ring, [tuple(range(32))], lamp)
+    sphere_of(lambda: glass("RoughGlass1.0", 1.0))(scene)
+    scene.cycles.samples = scene.caustic.samples = LAMP_SAMPLES
+    assert_mean_matches_cycles(scene, tmp_path, "rough_glass_1.0", MATCHED + CYCLES_GLASS_FURNACE_LOSS)
 
 
 def test_principled_glass_base_colour_is_written_as_its_square_root(addon, empty_scene, tmp_path):
