@@ -127,12 +127,7 @@ fn other_integrators_name_what_they_do_not_honour() {
         ];
         let r = run(&args, LIMIT);
         assert_eq!(r.code, Some(0), "{}", r.stderr);
-        let warnings: Vec<String> = r
-            .json_lines()
-            .iter()
-            .filter(|v| v["type"] == "warning")
-            .filter_map(|v| v["message"].as_str().map(str::to_string))
-            .collect();
+        let warnings = r.warnings();
         let said = |words: &[&str]| warnings.iter().any(|w| words.iter().all(|x| w.contains(x)));
         assert!(!said(&["light linking"]), "{integrator}: {warnings:?}");
         assert!(said(&["ray visibility", "'Left'"]), "{integrator}: {warnings:?}");

@@ -156,13 +156,7 @@ fn no_integrator_warns_about_linking() {
         ];
         let r = run(&args, LIMIT);
         assert_eq!(r.code, Some(0), "{integrator}: {}", r.stderr);
-        let linking: Vec<String> = r
-            .json_lines()
-            .iter()
-            .filter(|v| v["type"] == "warning")
-            .filter_map(|v| v["message"].as_str().map(str::to_string))
-            .filter(|m| m.contains("linking"))
-            .collect();
+        let linking: Vec<String> = r.warnings().into_iter().filter(|m| m.contains("linking")).collect();
         assert!(linking.is_empty(), "{integrator}: {linking:?}");
     }
 }

@@ -6,7 +6,7 @@
 //! `integrator::shader_aovs` walks.
 
 use super::closure::Closures;
-use super::geom::{Geom, Reg};
+use super::geom::Geom;
 use super::instructions::Program;
 use super::program::with_registers;
 use super::shade::geom_of;
@@ -14,19 +14,6 @@ use crate::scene::Scene;
 use crate::scene::hit::SurfaceHit;
 use crate::scene::shader_aovs::{AovKind, AovSums, AovTarget};
 use glam::Vec3;
-
-/// One AOV Output node of a material.
-#[derive(Clone, Debug, PartialEq)]
-pub struct AovOutput {
-    /// The AOV it writes (Blender's `aov_name`).
-    pub name: String,
-    /// The node's name (messages).
-    pub node: String,
-    /// Register of its Color input (three).
-    pub color: Reg,
-    /// Register of its Value input.
-    pub value: Reg,
-}
 
 impl Program {
     /// Runs the operations only AOV Output nodes read, after `run` filled `regs` at `g`.

@@ -367,5 +367,18 @@ pub struct Program {
     /// read, run after them for camera-ray hits (`shader::aov`).
     pub surface_end: usize,
     /// The AOV Output nodes, their inputs' registers after the whole program ran.
-    pub aovs: Vec<super::aov::AovOutput>,
+    pub aovs: Vec<AovOutput>,
+}
+
+/// One AOV Output node of a material.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AovOutput {
+    /// The AOV it writes (Blender's `aov_name`).
+    pub name: String,
+    /// The node's name (messages).
+    pub node: String,
+    /// Register of its Color input (three).
+    pub color: Reg,
+    /// Register of its Value input.
+    pub value: Reg,
 }

@@ -29,6 +29,15 @@ impl Run {
         self.stderr.lines().filter_map(|l| serde_json::from_str(l).ok()).collect()
     }
 
+    /// The messages of the warning objects, in order.
+    pub fn warnings(&self) -> Vec<String> {
+        self.json_lines()
+            .into_iter()
+            .filter(|v| v["type"] == "warning")
+            .filter_map(|v| v["message"].as_str().map(str::to_string))
+            .collect()
+    }
+
     /// The error object's message, if any.
     pub fn error_message(&self) -> Option<String> {
         self.json_lines()

@@ -3,7 +3,7 @@
 //! depends on the view layer's AOV of that name (colour or value), resolved at load.
 
 use super::Compiler;
-use crate::shader::aov::AovOutput;
+use crate::shader::instructions::AovOutput;
 use glam::Vec3;
 use serde_json::Value;
 
