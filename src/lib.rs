@@ -14,6 +14,7 @@ pub mod cryptomatte;
 pub mod curves;
 pub mod denoise;
 pub mod error;
+pub mod exr_header;
 pub mod film;
 pub mod fixed;
 pub mod fuzz;

@@ -170,10 +170,21 @@ fn write_exr_with(out: &Path, img: &FilmImage, half: bool, chunk: Option<(&Film,
         let (name, value) = crate::chunk::attribute(info);
         attributes.other.insert(name, value);
     }
-    let layer = Layer::new((w, h), attributes, Encoding::FAST_LOSSLESS, AnyChannels::sort(list));
+    // Tiles in increasing order: the exr crate compresses tiles in parallel and, with the
+    // default "unspecified" order, writes each as it is done, so the same image made files
+    // with different bytes from run to run. Increasing order makes it write them in place.
+    let encoding = Encoding { line_order: exr::meta::attribute::LineOrder::Increasing, ..Encoding::FAST_LOSSLESS };
+    let layer = Layer::new((w, h), attributes, encoding, AnyChannels::sort(list));
     let image = Image::from_layer(layer);
+    let mut bytes = Vec::new();
+    image
+        .write()
+        .to_buffered(std::io::Cursor::new(&mut bytes))
+        .map_err(|e| Error::io(out, format!("cannot encode EXR: {e}")))?;
+    // Custom attributes come out in a per-process hash order (see `crate::exr_header`).
+    crate::exr_header::sort_attributes(&mut bytes).map_err(Error::Internal)?;
     let tmp = temp_path(out);
-    let result = image.write().to_file(&tmp);
+    let result = std::fs::write(&tmp, &bytes);
     if let Err(e) = result {
         let _ = std::fs::remove_file(&tmp);
         return Err(Error::io(out, format!("cannot write EXR: {e}")));
