@@ -60,7 +60,9 @@ pub fn touching(tris: &[[Vec3; 3]]) -> Vec<bool> {
             (count <= MAX_CELLS).then_some((a, b))
         })
         .collect();
-    let key = |x: i64, y: i64, z: i64| (x as u64 & 0x1f_ffff) | ((y as u64 & 0x1f_ffff) << 21) | ((z as u64 & 0x1f_ffff) << 42);
+    let key = |x: i64, y: i64, z: i64| {
+        (x as u64 & 0x1f_ffff) | ((y as u64 & 0x1f_ffff) << 21) | ((z as u64 & 0x1f_ffff) << 42)
+    };
     let mut entries: Vec<(u64, u32)> = spans
         .par_iter()
         .enumerate()
@@ -92,6 +94,9 @@ pub fn touching(tris: &[[Vec3; 3]]) -> Vec<bool> {
         (0..entries.len()).filter(|&k| k == 0 || entries[k].0 != entries[k - 1].0).chain([entries.len()]).collect();
     starts.par_windows(2).for_each(|w| {
         let cell = &entries[w[0]..w[1]];
+        if one_way(cell.iter().map(|&(_, i)| winding[i as usize])) {
+            return;
+        }
         for (k, &(_, i)) in cell.iter().enumerate() {
             for &(_, j) in &cell[k + 1..] {
                 mark(i as usize, j as usize);
@@ -109,6 +114,25 @@ pub fn touching(tris: &[[Vec3; 3]]) -> Vec<bool> {
         }
     });
     flags.into_iter().map(AtomicBool::into_inner).collect()
+}
+
+/// Whether no two of these windings can face away from each other: every one lies within
+/// acos(0.71) = 44.8° of their mean direction, so any two are within 89.6°, and their dot
+/// is at least 0.008 |a| |b|, far above its f32 rounding (3 ulps of |a| |b|): the
+/// pairwise look-back test would pass them all. Spares the quadratic loop in cells of
+/// one smooth surface (a height field, the fan at a sphere's pole). A zero or non-finite
+/// winding (degenerate triangle) is not settled here.
+fn one_way(windings: impl Iterator<Item = Vec3> + Clone) -> bool {
+    let mut mean = Vec3::ZERO;
+    for w in windings.clone() {
+        let u = w.normalize_or_zero();
+        if u == Vec3::ZERO {
+            return false;
+        }
+        mean += u;
+    }
+    let mean = mean.normalize_or_zero();
+    mean != Vec3::ZERO && windings.into_iter().all(|w| w.normalize_or_zero().dot(mean) >= 0.71)
 }
 
 #[cfg(test)]
