@@ -10,6 +10,7 @@
 //! ends within 1e-4 of the origin and its error is not bounded, and the triangle test
 //! settles the sign of a distance that its f32 rounding cannot decide in f64.
 
+pub mod touching;
 mod traverse;
 
 use glam::{Vec3, Vec3A};
@@ -41,6 +42,10 @@ pub struct Accel {
     /// Triangles placed anew since the build (`relocate`), in a BVH of their own; None for
     /// every render but the viewport's after an object moved or was shown again.
     moved: Option<Box<Accel>>,
+    /// Per scene triangle: another surface lies within the look back's reach
+    /// (`touching`); ids beyond it (moving triangles, anything after `relocate`) count as
+    /// touching.
+    touching: Vec<bool>,
     /// Core build time.
     pub build_time: Duration,
 }
@@ -53,6 +58,11 @@ impl Accel {
         for id in &mut accel.ids {
             *id = ids[*id as usize];
         }
+        let mut touching = vec![true; ids.iter().max().map_or(0, |&m| m as usize + 1)];
+        for (&id, &t) in ids.iter().zip(&accel.touching) {
+            touching[id as usize] = t;
+        }
+        accel.touching = touching;
         accel
     }
 
@@ -70,7 +80,8 @@ impl Accel {
         let bvh = obvhs::cwbvh::builder::build_cwbvh_from_tris(&prims, params, &mut core);
         let ids = bvh.primitive_indices.clone();
         let tris = ids.iter().map(|&i| [prims[i as usize].v0, prims[i as usize].v1, prims[i as usize].v2]).collect();
-        Accel { bvh, tris, ids, moved: None, build_time: start.elapsed() }
+        let touching = touching::touching(triangles);
+        Accel { bvh, tris, ids, moved: None, touching, build_time: start.elapsed() }
     }
 
     /// Moves and hides scene triangles without rebuilding this BVH (the viewport's object
@@ -96,7 +107,16 @@ impl Accel {
         let corners: Vec<[Vec3; 3]> = placed.iter().map(|(_, c)| *c).collect();
         let ids: Vec<u32> = placed.iter().map(|(id, _)| *id).collect();
         self.moved = (!placed.is_empty()).then(|| Box::new(Accel::build_with_ids(&corners, &ids)));
+        // Moved triangles may now rest on others: every triangle looks back again.
+        self.touching.clear();
         self.build_time = start.elapsed();
+    }
+
+    /// Whether the coincident-surface look back from scene triangle `tri` can find
+    /// anything: a triangle facing the other way lies within its reach.
+    #[inline]
+    pub fn touches(&self, tri: u32) -> bool {
+        self.touching.get(tri as usize).copied().unwrap_or(true)
     }
 
     /// Closest hit along a unit-direction ray in (0, tmax); `accept(tri, b1, b2)`

@@ -280,6 +280,10 @@ impl PathState {
         if self.prev_tri == NO_OBJECT || self.prev_tri as usize >= ctx.scene.mesh.triangles.len() {
             return None;
         }
+        // No triangle facing the other way within reach: the look back would find none.
+        if !ctx.accel.touches(self.prev_tri) {
+            return None;
+        }
         let offset = self.org - self.prev_p;
         // The offset is at most 256 ulps or 1/65536 per axis (`offset_ray_origin`, with a
         // normal of length 1 up to rounding: twice that here); a larger gap means the origin
