@@ -202,14 +202,7 @@ fn strands_are_lit_as_their_object() {
         g.use_ext("KHR_materials_specular");
         let (z, h) = (-4.0, 3.0);
         g.mesh(&[[-h, -h, z], [h, -h, z], [h, h, z], [-h, h, z]], &[0, 1, 2, 0, 2, 3], black);
-        let (mut points, mut radii, mut counts) = (Vec::new(), Vec::new(), Vec::new());
-        for k in 0..8 {
-            let y = -1.4 + 0.4 * k as f32;
-            points.extend([[-2.0, y, -3.0], [2.0, y, -3.0]]);
-            radii.extend([0.05, 0.05]);
-            counts.push(2);
-        }
-        g.curves("Hair", white, &points, &radii, &counts);
+        hair_rows(&mut g, white);
         let sun = g.punctual(json!({"type": "directional", "intensity": 683.0}), [0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]);
         if let Some(r) = rule {
             g.node_ext(sun, "CAUSTIC_light_linking", r);
@@ -243,14 +236,7 @@ fn strands_block_as_their_object() {
         let (z, h) = (-4.0, 3.0);
         let floor = g.mesh(&[[-h, -h, z], [h, -h, z], [h, h, z], [-h, h, z]], &[0, 1, 2, 0, 2, 3], white);
         g.node_name(floor, "Floor");
-        let (mut points, mut radii, mut counts) = (Vec::new(), Vec::new(), Vec::new());
-        for k in 0..8 {
-            let y = -1.4 + 0.4 * k as f32;
-            points.extend([[-2.0, y, -3.0], [2.0, y, -3.0]]);
-            radii.extend([0.05, 0.05]);
-            counts.push(2);
-        }
-        g.curves("Hair", white, &points, &radii, &counts);
+        hair_rows(&mut g, white);
         let sun = g.punctual(json!({"type": "directional", "intensity": 683.0}), [0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]);
         if let Some(r) = rule {
             g.node_ext(sun, "CAUSTIC_light_linking", r);
@@ -274,4 +260,17 @@ fn strands_block_as_their_object() {
         left_out.iter().zip(&plain).all(|(a, b)| a[0] >= b[0] && a[1] >= b[1] && a[2] >= b[2]),
         "leaving the strands out of the blockers only lights shadowed samples"
     );
+}
+
+/// Eight straight strands of radius 0.05 in a row at z = -3, one unit in front of the floors
+/// the strand tests put at z = -4, as the object "Hair".
+fn hair_rows(g: &mut GltfBuilder, material: usize) {
+    let (mut points, mut radii, mut counts) = (Vec::new(), Vec::new(), Vec::new());
+    for k in 0..8 {
+        let y = -1.4 + 0.4 * k as f32;
+        points.extend([[-2.0, y, -3.0], [2.0, y, -3.0]]);
+        radii.extend([0.05, 0.05]);
+        counts.push(2);
+    }
+    g.curves("Hair", material, &points, &radii, &counts);
 }
