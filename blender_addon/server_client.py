@@ -102,8 +102,10 @@ class ServerClient:
         if self.threads:
             argv += ["--threads", str(self.threads)]
         self.process = subprocess.Popen(argv, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)
+        # Each process gets its own reply queue: the reader of a killed server puts its end
+        # (None) into that server's queue, never into the one its successor answers on.
         self._replies = queue.Queue()
-        threading.Thread(target=self._reader, args=(self.process,), daemon=True).start()
+        threading.Thread(target=self._reader, args=(self.process, self._replies), daemon=True).start()
         reply = self.request({"type": "hello", "version": PROTOCOL_VERSION}, replay=False)
         if reply.get("version") != PROTOCOL_VERSION:
             raise ServerError(f"the server speaks protocol {reply.get('version')}, not {PROTOCOL_VERSION}")
@@ -142,14 +144,14 @@ class ServerClient:
 
     # ---- messages ---------------------------------------------------------------------
 
-    def _reader(self, process):
+    def _reader(self, process, replies):
         while True:
             try:
                 msg = read_message(process.stdout)
             except (OSError, ValueError):
                 msg = None
             if msg is None:
-                self._replies.put(None)
+                replies.put(None)
                 return
             header, payload = msg
             kind = header.get("type")
@@ -168,7 +170,7 @@ class ServerClient:
                 with self._lock:
                     self.render_error = header.get("message")
             elif kind in ("ok", "error", "hello"):
-                self._replies.put(header)
+                replies.put(header)
 
     def request(self, header, payload=b"", replay=True):
         """Send one request and wait for its reply; raise ServerError on an error reply.

@@ -223,6 +223,44 @@ def test_a_server_killed_mid_frame_is_restarted_with_its_state(vp):
     assert c.process is None
 
 
+@pytest.mark.needs_binary
+def test_a_late_end_of_the_killed_server_is_not_its_successors_reply(vp, monkeypatch):
+    """The killed server's reader may see the end of its pipe only after the successor has
+    started (CI saw this once: 'the viewport server ended while handling hello'). Its end must
+    stay with the dead process, not answer the successor's next request."""
+    import threading
+
+    _, client_mod = vp
+    real_read = client_mod.read_message
+    late = threading.Event()
+    dead_streams = []
+
+    def read_message(stream):
+        msg = real_read(stream)
+        if msg is None and stream in dead_streams:
+            late.wait(timeout=30)
+        return msg
+
+    monkeypatch.setattr(client_mod, "read_message", read_message)
+    c = client_mod.ServerClient(os.environ["CAUSTIC_BINARY"], threads=1)
+    try:
+        c.request({"type": "settings", "spp": 4, "frame_format": "f32"})
+        first = c.process
+        dead_streams.append(first.stdout)
+        os.kill(first.pid, signal.SIGKILL)
+        first.wait()
+        assert c.ensure_running()
+        # Now the dead reader reports its end, after the successor answered hello and the
+        # replayed settings; the next request must get the successor's own reply.
+        late.set()
+        threading.Event().wait(0.5)  # the dead reader's put follows its read at once
+        c.request({"type": "settings", "spp": 8})
+        assert c.alive() and c.restarts == 1
+    finally:
+        late.set()
+        c.stop()
+
+
 class _Engine:
     """What viewport.Viewport uses of the RenderEngine: reports (recorded) and redraws."""
 
