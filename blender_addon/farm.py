@@ -24,11 +24,12 @@ import time
 import bpy
 from bpy.props import BoolProperty
 
-from . import export, runner
+from . import export, result, runner
 from .errors import CausticError
 from .frame import FrameWindow
 
-# What the last run did, for tests and scripts: scenes exported, frame images, farm lines.
+# What the last run did, for tests and scripts: scenes exported, frame images, farm lines,
+# the flags every chunk was rendered with.
 last_run = {}
 
 
@@ -111,8 +112,10 @@ def on_frame_message(engine, message):
 
 
 def _export_frames(context, frames, folder):
-    """Exports each frame to its own folder; returns the glTF paths (frame order)."""
+    """Exports each frame to its own folder; returns (the glTF paths in frame order, the flags
+    for every chunk: the view layer's passes, as F12 asks for them)."""
     scene = context.scene
+    view_layer = context.view_layer
     window = FrameWindow(scene.render)
     camera = scene.camera
     paths = []
@@ -120,18 +123,25 @@ def _export_frames(context, frames, folder):
     try:
         for f in frames:
             scene.frame_set(f)
-            settings = export.render_settings(scene, (window.width, window.height), camera.name if camera else None)
-            for warning in strip_unfarmable(settings, scene):
+            depsgraph = context.evaluated_depsgraph_get()
+            settings, warnings = export.layer_render_settings(scene, view_layer, depsgraph.objects,
+                                                              (window.width, window.height),
+                                                              camera.name if camera else None)
+            for warning in warnings + strip_unfarmable(settings, scene):
                 print(f"Caustic farm: frame {f}: {warning}")
             sub = os.path.join(folder, f"frame_{f:05d}")
             os.makedirs(sub)
-            gltf, state = export.export_scene(context.evaluated_depsgraph_get(), sub, settings)
+            gltf, state = export.export_scene(depsgraph, sub, settings)
             for warning in state.warnings:
                 print(f"Caustic farm: frame {f}: {warning}")
             paths.append(gltf)
     finally:
         scene.frame_set(current)
-    return paths
+    passes, warnings = result.pass_request(view_layer, settings["integrator"], chunked=True,
+                                           motion_blur=scene.render.use_motion_blur)
+    for warning in warnings:
+        print(f"Caustic farm: {warning}")
+    return paths, ["--passes", passes, *result.cryptomatte_arguments(view_layer, passes)]
 
 
 class FarmJob:
@@ -152,11 +162,12 @@ class FarmJob:
         self.work = tempfile.mkdtemp(prefix="caustic-farm-")
         out_dir = os.path.dirname(bpy.path.abspath(scene.render.filepath)) or self.work
         os.makedirs(out_dir, exist_ok=True)
-        self.scenes = _export_frames(context, frames, self.work)
+        self.scenes, self.chunk_flags = _export_frames(context, frames, self.work)
         self.outputs = [os.path.join(out_dir, f"caustic_farm_{f:05d}.exr") for f in frames]
         # The farm numbers frames 0..n-1: write through a pattern on that index, then rename.
         self.pattern = os.path.join(self.work, "frame_{frame:05d}.exr")
         argv = farm_command(python, self.scenes, self.pattern, prefs.farm_chunks, prefs.farm_scheduler, binary)
+        argv += ["--", *self.chunk_flags]
         self.lines = []
         self.fraction = 0.0
         self.error = None
@@ -223,7 +234,8 @@ class FarmJob:
         for t in self.readers:
             t.join(timeout=1.0)
         self._take_messages()
-        last_run.update(scenes=self.scenes, outputs=self.outputs, lines=self.lines, code=code)
+        last_run.update(scenes=self.scenes, outputs=self.outputs, lines=self.lines, code=code,
+                        chunk_flags=self.chunk_flags)
         if code not in (0, 5) and not self.error:
             tail = " / ".join(self.log[-3:])
             self.error = f"the farm exited with code {code}" + (f": {tail}" if tail else "")

@@ -112,14 +112,9 @@ def render_frame(engine, depsgraph):
     binary = runner.find_binary()
 
     camera = engine.camera_override or scene.camera
-    settings = export.render_settings(scene, (window.width, window.height),
-                                      camera.name if camera else None)
-    groups = export.light_group_settings(depsgraph.view_layer, scene, depsgraph.objects)
-    if groups is not None:
-        settings["light_groups"] = groups
-    aovs, aov_warnings = export.shader_aov_settings(depsgraph.view_layer)
-    if aovs is not None:
-        settings["shader_aovs"] = aovs
+    settings, aov_warnings = export.layer_render_settings(scene, depsgraph.view_layer, depsgraph.objects,
+                                                         (window.width, window.height),
+                                                         camera.name if camera else None)
     for warning in aov_warnings:
         engine.report({"WARNING"}, f"Caustic: {warning}")
     on_farm = scene.caustic.use_farm

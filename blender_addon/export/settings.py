@@ -47,3 +47,20 @@ def render_settings(scene, resolution, camera_name):
         settings["mist"] = [float(mist.start), float(mist.depth), falloff]
         settings["ao_distance"] = float(world.light_settings.distance)
     return settings
+
+
+def layer_render_settings(scene, view_layer, objects, resolution, camera_name):
+    """(settings, warnings) of one view layer's frame: the scene's settings with the layer's
+    light groups and shader AOVs. F12 and the farm operator both export through this, so a
+    frame rendered on the farm carries the same passes as a local one."""
+    from .light_groups import light_group_settings
+    from .shader_aovs import shader_aov_settings
+
+    settings = render_settings(scene, resolution, camera_name)
+    groups = light_group_settings(view_layer, scene, objects)
+    if groups is not None:
+        settings["light_groups"] = groups
+    aovs, warnings = shader_aov_settings(view_layer)
+    if aovs is not None:
+        settings["shader_aovs"] = aovs
+    return settings, warnings

@@ -46,8 +46,11 @@ def test_render_on_farm_equals_single_render(scene, addon, tmp_path):
     assert sys.modules[f"{addon.__name__}.result"].exr_size(out) == (W, H)
     assert sum(1 for m in run["lines"] if m["type"] == "chunk") == 4  # the preference's default
     single = str(tmp_path / "single.exr")
-    subprocess.run([os.environ["CAUSTIC_BINARY"], "render", run["scenes"][0], "-o", single], check=True,
-                   capture_output=True)
+    # The view layer's passes are asked for as F12 asks for them (this layer has none beyond
+    # Combined, so the default data passes are not written either).
+    assert run["chunk_flags"] == ["--passes", "none"], run["chunk_flags"]
+    subprocess.run([os.environ["CAUSTIC_BINARY"], "render", run["scenes"][0], "-o", single, *run["chunk_flags"]],
+                   check=True, capture_output=True)
     with open(out, "rb") as a, open(single, "rb") as b:
         assert a.read() == b.read()
 
@@ -146,3 +149,27 @@ def test_farm_job_cancels_with_partial_frames(scene, addon):
     assert farm.last_run["code"] == 5
     assert any("cancelled" in r for r in reports), reports
     assert not [p for p in psutil.Process().children(recursive=True) if p.is_running()]
+
+
+def test_the_farm_operator_writes_the_view_layers_passes(scene, addon, tmp_path):
+    """The operator's frames carry what F12 would ask for: a light pass, a light group and a
+    shader AOV, merged from chunks exactly as a single render of the same scene with them."""
+    layer = bpy.context.view_layer
+    layer.use_pass_diffuse_direct = True
+    layer.lightgroups.add(name="keygroup")
+    bpy.data.objects["Key"].lightgroup = "keygroup"
+    layer.aovs.add().name = "tint"
+    assert bpy.ops.caustic.render_farm(animation=False) == {"FINISHED"}
+    run = farm_module(addon).last_run
+    assert run["code"] == 0
+    with open(run["outputs"][0], "rb") as f:
+        farm_bytes = f.read()
+    header = farm_bytes[:4096]
+    for channel in (b"Diffuse Direct.R", b"Combined_keygroup.R", b"tint.R"):
+        assert channel in header, (channel, header[:600])
+    single = str(tmp_path / "single.exr")
+    assert run["chunk_flags"][:2] == ["--passes", "diffuse_direct,light_groups,shader_aovs"], run["chunk_flags"]
+    subprocess.run([os.environ["CAUSTIC_BINARY"], "render", run["scenes"][0], "-o", single, *run["chunk_flags"]],
+                   check=True, capture_output=True)
+    with open(single, "rb") as b:
+        assert farm_bytes == b.read()
