@@ -27,8 +27,10 @@ use exr::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
-/// Version of the chunk layout; a merge refuses any other.
-pub const CHUNK_VERSION: u32 = 2;
+/// Version of the chunk layout; a merge refuses any other. 3: shader AOV sums (`V`) and
+/// Cryptomatte's per-pixel id lists (`C`) joined layout 2, so a chunk of a build before
+/// them cannot merge exactly with one after.
+pub const CHUNK_VERSION: u32 = 3;
 
 /// Name of the EXR attribute holding the [`ChunkInfo`] JSON.
 pub const ATTRIBUTE: &str = "causticChunk";

@@ -140,6 +140,10 @@ fn sppm_chunks_merge_as_weighted_mean() {
 }
 
 /// The Debug Sample Count channel.
+fn find(haystack: &[u8], needle: &[u8]) -> Option<usize> {
+    haystack.windows(needle.len()).position(|w| w == needle)
+}
+
 fn caustic_sample_counts(path: &Path) -> Vec<f32> {
     exr_channel_bits(path)
         .into_iter()
@@ -164,7 +168,16 @@ fn bad_merges_fail_clearly_and_write_nothing() {
     let bytes = std::fs::read(p("a.exr")).unwrap();
     std::fs::write(p("cut.exr"), &bytes[..bytes.len() / 2]).unwrap();
     std::fs::write(p("text.exr"), b"not an image").unwrap();
-    let cases: [(&str, i32, &str); 7] = [
+    // A chunk of an older layout (a build before the shader AOV and Cryptomatte sums): the
+    // same file with its causticChunk JSON saying version 2.
+    let info_at = find(&bytes, b"\"version\":").expect("causticChunk holds a version");
+    let mut old = bytes.clone();
+    let digits = info_at + b"\"version\":".len();
+    assert_eq!(old[digits], b'0' + caustic::chunk::CHUNK_VERSION as u8);
+    old[digits] = b'2';
+    std::fs::write(p("old.exr"), &old).unwrap();
+    let cases: [(&str, i32, &str); 8] = [
+        ("old.exr", 2, "layout version 2"),
         ("b.exr", 2, "seeds differ"),
         ("small.exr", 2, "sizes differ"),
         ("overlap.exr", 2, "overlap"),
