@@ -8,10 +8,10 @@ use glam::{Vec2, Vec3, Vec4};
 
 use super::float_ops::{floor, fmod_pos};
 use super::hash::{hash_uint, hash_uint2, hash_uint3, hash_uint4};
-#[cfg(target_arch = "x86_64")]
-use super::simd::{has_avx2, perlin_3d_mixed, perlin_corners_4d};
 #[cfg(all(test, target_arch = "x86_64"))]
 use super::simd::perlin_lattice_3d;
+#[cfg(target_arch = "x86_64")]
+use super::simd::{has_avx2, perlin_3d_mixed, perlin_corners_4d};
 
 /// Perlin's quintic fade `6t^5 - 15t^4 + 10t^3`, in Cycles' operation order.
 #[inline(always)]
