@@ -20,9 +20,7 @@ impl Program {
     pub fn run_aovs(&self, g: &Geom, regs: &mut [f32]) {
         // The tail holds data nodes only: no closure is made there.
         let mut sink = Closures::default();
-        for op in &self.ops[self.surface_end.min(self.ops.len())..] {
-            self.step(op, g, regs, &mut sink);
-        }
+        self.steps(&self.ops[self.surface_end.min(self.ops.len())..], g, regs, &mut sink);
     }
 }
 

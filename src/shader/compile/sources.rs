@@ -505,6 +505,15 @@ impl Compiler<'_> {
         }
         let mut ranges: Vec<(u32, u32)> = nodes.into_iter().map(|n| self.ranges[n]).filter(|(a, b)| b > a).collect();
         ranges.sort_unstable();
-        ranges
+        // Ranges that meet are one loop for the Bump's re-runs (nodes compiled one after
+        // the other are usually adjacent).
+        let mut merged: Vec<(u32, u32)> = Vec::with_capacity(ranges.len());
+        for (a, b) in ranges {
+            match merged.last_mut() {
+                Some(last) if last.1 == a => last.1 = b,
+                _ => merged.push((a, b)),
+            }
+        }
+        merged
     }
 }
