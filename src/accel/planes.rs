@@ -241,6 +241,32 @@ mod tests {
         assert!(extra * 100 < touched, "{extra} boxes kept beyond {touched} touched");
     }
 
+    /// The memory charged per triangle (`memory::BVH_PLANES_BYTES_PER_TRIANGLE`) covers the
+    /// planes of a soup of small triangles and of a grid (a mesh's shape).
+    #[test]
+    fn planes_fit_their_memory_charge() {
+        let mut s = 3u64;
+        let soup: Vec<[Vec3; 3]> = (0..20000)
+            .map(|_| {
+                let c = Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s)) * 10.0;
+                [c, c + Vec3::X * 0.01, c + Vec3::Y * 0.01]
+            })
+            .collect();
+        let n = 100;
+        let grid: Vec<[Vec3; 3]> = (0..n * n)
+            .flat_map(|i| {
+                let p = Vec3::new((i % n) as f32, (i / n) as f32, 0.0);
+                [[p, p + Vec3::X, p + Vec3::Y], [p + Vec3::X, p + Vec3::ONE - Vec3::Z, p + Vec3::Y]]
+            })
+            .collect();
+        for tris in [&soup, &grid] {
+            let accel = crate::accel::Accel::build(tris);
+            let bytes = (accel.planes.len() * std::mem::size_of::<NodePlanes>()) as f64 / tris.len() as f64;
+            println!("{} triangles: {} nodes, {bytes:.1} plane bytes per triangle", tris.len(), accel.planes.len());
+            assert!(bytes <= crate::memory::BVH_PLANES_BYTES_PER_TRIANGLE as f64, "{bytes} B per triangle");
+        }
+    }
+
     /// Rays that start on a triangle and stop short of it (a random walk's steps) and
     /// long rays find the same hit with either node test.
     #[test]
