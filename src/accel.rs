@@ -10,12 +10,14 @@
 //! ends within 1e-4 of the origin and its error is not bounded, and the triangle test
 //! settles the sign of a distance that its f32 rounding cannot decide in f64.
 
+mod planes;
 pub mod touching;
 mod traverse;
 
 use glam::{Vec3, Vec3A};
 use obvhs::BvhBuildParams;
 use obvhs::cwbvh::CwBvh;
+use planes::{NodePlanes, PlaneRay, traverse_planes};
 use std::time::{Duration, Instant};
 pub(crate) use traverse::{NodeRay, RayTransform, obvhs_direction, octant_inv4, traverse};
 
@@ -35,6 +37,8 @@ pub struct Hit {
 /// The acceleration structure over the scene's triangles.
 pub struct Accel {
     bvh: CwBvh,
+    /// The nodes' child boxes as floats (`planes`), in node order.
+    planes: Vec<NodePlanes>,
     /// Triangle vertices in BVH order.
     tris: Vec<[Vec3A; 3]>,
     /// Scene triangle index of each BVH-ordered triangle.
@@ -81,7 +85,8 @@ impl Accel {
         let ids = bvh.primitive_indices.clone();
         let tris = ids.iter().map(|&i| [prims[i as usize].v0, prims[i as usize].v1, prims[i as usize].v2]).collect();
         let touching = touching::touching(triangles);
-        Accel { bvh, tris, ids, moved: None, touching, build_time: start.elapsed() }
+        let planes = NodePlanes::of(&bvh);
+        Accel { bvh, planes, tris, ids, moved: None, touching, build_time: start.elapsed() }
     }
 
     /// Moves and hides scene triangles without rebuilding this BVH (the viewport's object
@@ -147,9 +152,9 @@ impl Accel {
     ) -> Option<Hit> {
         let rt = RayTransform::new(org, dir);
         let dir_a = obvhs_direction(dir);
-        let ray = NodeRay::new(org, dir_a);
+        let ray = PlaneRay::new(&NodeRay::new(org, dir_a));
         let mut best: Option<Hit> = None;
-        traverse(&self.bvh, &ray, octant_inv4(dir_a), tmax, |id, best_t| {
+        traverse_planes(&self.bvh, &self.planes, &ray, octant_inv4(dir_a), tmax, |id, best_t| {
             if let Some((t, b1, b2)) = rt.intersect(&self.tris[id], 0.0, best_t) {
                 let tri = self.ids[id];
                 if tri != skip && (!maybe_masked[tri as usize] || accept(tri, b1, b2)) {
@@ -179,9 +184,9 @@ impl Accel {
     ) -> f32 {
         let rt = RayTransform::new(org, dir);
         let dir_a = obvhs_direction(dir);
-        let ray = NodeRay::new(org, dir_a);
+        let ray = PlaneRay::new(&NodeRay::new(org, dir_a));
         let mut tr = 1.0f32;
-        traverse(&self.bvh, &ray, octant_inv4(dir_a), tmax, |id, _| {
+        traverse_planes(&self.bvh, &self.planes, &ray, octant_inv4(dir_a), tmax, |id, _| {
             if let Some((_, b1, b2)) = rt.intersect(&self.tris[id], 0.0, tmax) {
                 let tri = self.ids[id];
                 tr = if maybe_transparent[tri as usize] { tr * transparency(tri, b1, b2) } else { 0.0 };
@@ -197,6 +202,26 @@ impl Accel {
             Some(m) if tr > 0.0 => tr * m.transmittance(org, dir, tmax, maybe_transparent, transparency),
             _ => tr,
         }
+    }
+}
+
+#[cfg(test)]
+impl Accel {
+    /// The closest hit found with the quantised node test (`traverse`), no filter: the
+    /// float-plane test's reference (`planes::tests`).
+    pub(crate) fn intersect_quantised_for_tests(&self, org: Vec3, dir: Vec3, tmax: f32) -> Option<Hit> {
+        let rt = RayTransform::new(org, dir);
+        let dir_a = obvhs_direction(dir);
+        let ray = NodeRay::new(org, dir_a);
+        let mut best: Option<Hit> = None;
+        traverse(&self.bvh, &ray, octant_inv4(dir_a), tmax, |id, best_t| {
+            if let Some((t, b1, b2)) = rt.intersect(&self.tris[id], 0.0, best_t) {
+                best = Some(Hit { tri: self.ids[id], t, b1, b2 });
+                return Some(t);
+            }
+            Some(best_t)
+        });
+        best
     }
 }
 

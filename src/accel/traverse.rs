@@ -136,9 +136,9 @@ fn gamma(n: i32) -> f32 {
 
 /// Per-ray constants of the node test (shared with the curves' BVH, `curves::bvh`).
 pub(crate) struct NodeRay {
-    org: Vec3A,
-    inv: Vec3A,
-    neg: [bool; 3],
+    pub(super) org: Vec3A,
+    pub(super) inv: Vec3A,
+    pub(super) neg: [bool; 3],
 }
 
 impl NodeRay {
@@ -163,6 +163,29 @@ impl NodeRay {
 /// f32 quantisation); 8ε is used.
 #[inline(always)]
 fn node_hits(node: &CwBvhNode, ray: &NodeRay, tmax: f32, oct_inv4: u32) -> u32 {
+    let (child_bits8, bit_index8) = node.get_child_and_index_bits(oct_inv4);
+    place_hits(child_bits8, bit_index8, slab_mask(node, ray, tmax))
+}
+
+/// The traversal's hit mask from the slab test's one bit per child slot: each hit child's
+/// bits (one for an inner node, the unary triangle count for a leaf) moved to its place.
+/// The per-child branch is kept on purpose: predicted, it lets the processor start on the
+/// next node before the slab test ends (a branch-free version measured slower, see
+/// docs/benchmarks.md, fourth round).
+#[inline(always)]
+pub(super) fn place_hits(child_bits8: u64, bit_index8: u64, slots: u32) -> u32 {
+    let mut hits = 0u32;
+    for j in 0..8 {
+        if slots & (1 << j) != 0 {
+            hits |= extract_byte64(child_bits8, j) << extract_byte64(bit_index8, j);
+        }
+    }
+    hits
+}
+
+/// One bit per child slot of `node` whose box the segment touches (see `node_hits`).
+#[inline(always)]
+fn slab_mask(node: &CwBvhNode, ray: &NodeRay, tmax: f32) -> u32 {
     let ext = node.compute_extent();
     let rel = Vec3A::from(node.p) - ray.org;
     let scale = ext * ray.inv;
@@ -170,15 +193,7 @@ fn node_hits(node: &CwBvhNode, ray: &NodeRay, tmax: f32, oct_inv4: u32) -> u32 {
     let err = (rel.abs() + ext * 255.0) * ray.inv.abs() * (8.0 * f32::EPSILON);
     // Entries are moved earlier and exits later by the bound.
     let (offset_near, offset_far) = (offset - err, offset + err);
-    let (child_bits8, bit_index8) = node.get_child_and_index_bits(oct_inv4);
-    let mut hits = 0u32;
-    let mut add = |mask: u32, base: usize| {
-        for j in 0..4 {
-            if mask & (1 << j) != 0 {
-                hits |= extract_byte64(child_bits8, base + j) << extract_byte64(bit_index8, base + j);
-            }
-        }
-    };
+    let mut slots = 0u32;
     #[cfg(target_arch = "x86_64")]
     {
         use std::arch::x86_64::*;
@@ -209,7 +224,7 @@ fn node_hits(node: &CwBvhNode, ray: &NodeRay, tmax: f32, oct_inv4: u32) -> u32 {
                     near = _mm_max_ps(near, _mm_add_ps(_mm_mul_ps(n, s), _mm_set1_ps(offset_near[k])));
                     far = _mm_min_ps(far, _mm_add_ps(_mm_mul_ps(f, s), _mm_set1_ps(offset_far[k])));
                 }
-                add(_mm_movemask_ps(_mm_cmple_ps(near, far)) as u32, i * 4);
+                slots |= (_mm_movemask_ps(_mm_cmple_ps(near, far)) as u32) << (i * 4);
             }
         }
     }
@@ -232,10 +247,10 @@ fn node_hits(node: &CwBvhNode, ray: &NodeRay, tmax: f32, oct_inv4: u32) -> u32 {
                 }
                 mask |= ((near <= far) as u32) << j;
             }
-            add(mask, i * 4);
+            slots |= mask << (i * 4);
         }
     }
-    hits
+    slots
 }
 
 /// obvhs picks a node's near plane from the direction's comparison with zero but
@@ -282,7 +297,20 @@ pub(crate) fn traverse(
     bvh: &CwBvh,
     ray: &NodeRay,
     oct_inv4: u32,
+    tmax: f32,
+    leaf: impl FnMut(usize, f32) -> Option<f32>,
+) {
+    walk(bvh, oct_inv4, tmax, |_, node, tmax| node_hits(node, ray, tmax, oct_inv4), leaf)
+}
+
+/// The walk of [`traverse`] with the node test given: `hits(index, node, tmax)` returns the
+/// node's hit mask (hit inner children in bits 24..32, hit triangles below).
+#[inline(always)]
+pub(super) fn walk(
+    bvh: &CwBvh,
+    oct_inv4: u32,
     mut tmax: f32,
+    hits: impl Fn(usize, &CwBvhNode, f32) -> u32,
     mut leaf: impl FnMut(usize, f32) -> Option<f32>,
 ) {
     if bvh.nodes.is_empty() {
@@ -315,8 +343,9 @@ pub(crate) fn traverse(
             let slot = (child - 24) ^ (oct_inv4 & 0xff);
             // The inner children stored before `slot`: imask bits below it (slot < 8).
             let relative = u32::from(BYTE_POPCOUNT[(hits_imask & !(0xffff_ffffu32 << slot)) as u8 as usize]);
-            let node = &bvh.nodes[(nodes.0 + relative) as usize];
-            let hitmask = node_hits(node, ray, tmax, oct_inv4);
+            let index = (nodes.0 + relative) as usize;
+            let node = &bvh.nodes[index];
+            let hitmask = hits(index, node, tmax);
             nodes = (node.child_base_idx, (hitmask & 0xff00_0000) | node.imask as u32);
             prims = (node.primitive_base_idx, hitmask & 0x00ff_ffff);
         } else {
