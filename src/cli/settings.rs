@@ -299,17 +299,19 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
             .map_err(|e| Error::Usage(format!("the scene's render settings: {e}")))?,
         (None, None) => crate::passes::PassSet::legacy(),
     };
-    if passes.any_light() && integrator != IntegratorKind::Path {
+    // Jensen's photon mapping files them as the path tracer (`photon/map_read.rs`).
+    let files_light = matches!(integrator, IntegratorKind::Path | IntegratorKind::Photon);
+    if passes.any_light() && !files_light {
         return Err(Error::Usage(format!(
-            "the light passes ({}) are rendered by the path integrator only, not by '{}'",
+            "the light passes ({}) are rendered by the path integrator only, and by 'photon', not by '{}'",
             passes.iter().filter(|p| p.is_light()).map(|p| p.name()).collect::<Vec<_>>().join(", "),
             integrator.name()
         )));
     }
     if passes.asks_light_groups() {
-        if integrator != IntegratorKind::Path {
+        if !files_light {
             return Err(Error::Usage(format!(
-                "the light group passes are rendered by the path integrator only, not by '{}'",
+                "the light group passes are rendered by the path integrator only, and by 'photon', not by '{}'",
                 integrator.name()
             )));
         }

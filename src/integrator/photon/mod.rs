@@ -36,6 +36,7 @@ pub mod io;
 pub mod jensen;
 pub mod kdtree;
 pub mod lobes;
+pub mod map_read;
 pub mod sppm;
 pub mod trace;
 

@@ -313,7 +313,7 @@ fn render(
         }
         // 2. Photons (the same rule: a signal or the deadline abandons the iteration).
         let t_ph = Instant::now();
-        let (photons, ts) = trace_photons(
+        let (photons, _, ts) = trace_photons(
             ctx,
             &emitters,
             &TraceJob {
@@ -323,6 +323,7 @@ fn render(
                 pass: job.sample_offset + it + 1,
                 max_depth,
                 skip_direct: true,
+                light_groups: false,
             },
             &abort,
             &|_| {
