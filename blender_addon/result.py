@@ -123,8 +123,9 @@ def pass_request(view_layer, integrator, chunked=False, motion_blur=False):
         elif token in LIGHT_TOKENS and integrator not in LIGHT_INTEGRATORS:
             warnings.append(f"the {name} pass is rendered by the path and photon integrators only; "
                             f"it stays black with '{integrator}'")
-        elif token in DATA_TOKENS and integrator == "sppm":
-            warnings.append(f"the {name} pass is not rendered by SPPM; it stays black")
+        elif token in DATA_TOKENS and integrator == "sppm" and chunked:
+            warnings.append(f"the {name} pass is not rendered by SPPM on the farm (its chunks keep no sums of it); "
+                            "it stays black")
         else:
             tokens.append(token)
     for owner, attr, name in UNSUPPORTED:
@@ -138,8 +139,9 @@ def pass_request(view_layer, integrator, chunked=False, motion_blur=False):
     elif groups:
         tokens.append(LIGHT_GROUPS_TOKEN)
     aovs = valid_aovs(view_layer)
-    if aovs and integrator == "sppm":
-        warnings.append(f"the shader AOVs ({', '.join(repr(a.name) for a in aovs)}) are not rendered by SPPM; "
+    if aovs and integrator == "sppm" and chunked:
+        warnings.append(f"the shader AOVs ({', '.join(repr(a.name) for a in aovs)}) are not rendered by SPPM on the "
+                        "farm (its chunks keep no sums of them); "
                         "they stay black")
     elif aovs:
         tokens.append(SHADER_AOVS_TOKEN)

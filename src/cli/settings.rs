@@ -318,20 +318,19 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
         passes.set_light_groups(scene.light_groups.len());
     }
     if passes.asks_shader_aovs() {
-        if integrator == IntegratorKind::Sppm {
-            return Err(Error::Usage(
-                "the shader AOVs are not rendered by 'sppm' (its camera paths are not camera samples)".into(),
-            ));
-        }
         passes.set_shader_aov_channels(scene.shader_aovs.channels);
     }
     if let Some(levels) = args.cryptomatte_levels.or(st.cryptomatte_levels) {
         passes.set_cryptomatte_levels(levels);
     }
     passes.cryptomatte()?;
-    if passes.any_data() && integrator == IntegratorKind::Sppm {
+    if crate::integrator::photon::sppm_extras::wanted(passes) && integrator == IntegratorKind::Sppm && args.chunk {
+        // An SPPM chunk is written as its image's means times its iterations
+        // (`chunk::film_from_image`), which keeps no sums of these passes.
         return Err(Error::Usage(
-            "the data passes (AO, Mist, Position, UV, indices, Cryptomatte) are not rendered by 'sppm'".into(),
+            "the data passes, Cryptomatte and shader AOVs of 'sppm' cannot be split into chunks (--chunk): \
+             render the frame whole or use another integrator"
+                .into(),
         ));
     }
     if passes.any_crypto() && args.chunk {

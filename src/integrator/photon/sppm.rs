@@ -204,6 +204,8 @@ impl SppmIntegrator {
     ) -> RenderResult {
         let (mut r, st) =
             render(ctx, camera, job, self.max_depth, &self.settings, self.transparent_background, stop, on_progress);
+        // The passes of the camera ray alone, over the completed iterations.
+        super::sppm_extras::fill(ctx, camera, job, st.iterations, &mut r.image, &mut r.rays);
         r.integrator_stats = Some(serde_json::json!({
             "sppm": st,
             "photons_per_sec": st.photons as f64 / st.photon_seconds.max(1e-9),
