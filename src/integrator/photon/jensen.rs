@@ -30,6 +30,11 @@
 //! that count no direct light (NEE and the shared ray did); the shared ray carries 1/N of
 //! the gather role.
 //!
+//! Light passes and light groups (when asked): each chain keeps the path tracer's tally
+//! (`light_passes::Tally`) of the camera path's first event, extra gather chains theirs;
+//! map reads are indirect, split by class at the first vertex (`map_read.rs`) and by the
+//! photons' light groups; media and subsurface parts file through `PathIntegrator::*_filed`.
+//!
 //! Depth: a photon with hit index j read at the camera path's n-th scattering event
 //! makes a path of (j - 1) + n events; only those within `max_depth` are counted, so
 //! the result converges to the path tracer's at the same maximum depth.

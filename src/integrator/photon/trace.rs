@@ -167,10 +167,7 @@ pub fn trace_one(
     let [u_light, u_side, u_px, u_py] = s.next_4d();
     let [u_dx, u_dy, _, _] = s.next_4d();
     st.emitted += 1;
-    let Some(e) = emitters.emit(ctx.scene, u_light, u_side, Vec2::new(u_px, u_py), Vec2::new(u_dx, u_dy), job.count)
-    else {
-        return None;
-    };
+    let e = emitters.emit(ctx.scene, u_light, u_side, Vec2::new(u_px, u_py), Vec2::new(u_dx, u_dy), job.count)?;
     // A shadow-linked light's photon may go on through surfaces that do not block it
     // (`linking`): each such continuation is traced after the path it split from.
     let mut pending = Some(PathState::photon(e.org, e.dir, e.power));
