@@ -211,3 +211,24 @@ fn sppm_data_passes_equal_the_path_tracers() {
         assert!(!nonzero || a.iter().any(|v| *v != 0.0), "{name} is empty");
     }
 }
+
+/// A photon-map file keeps no photon's light group: the light groups with `--photon-map` are
+/// refused (exit 2), naming the file; the light passes, which need no group, render from it.
+#[test]
+fn light_groups_need_traced_maps() {
+    let dir = temp_dir();
+    let scene = opaque_copy("cornell_box", dir.path());
+    with_light_groups(&scene, json!({"names": ["ceiling"], "objects": {"light": "ceiling"}}));
+    let map = dir.path().join("box.photons");
+    let (s, m) = (scene.to_str().unwrap(), map.to_str().unwrap());
+    let r = run(&["photons", s, "-o", m, "--photons", "2000", "--caustic-photons", "2000"], LIMIT);
+    assert_eq!(r.code, Some(0), "{}", r.stderr);
+    let out = dir.path().join("o.exr");
+    let o = out.to_str().unwrap();
+    let base = ["render", s, "-o", o, "--integrator", "photon", "--photon-map", m, "--resolution", "8x6", "--spp", "1"];
+    let r = run(&[&base[..], &["--passes", "light_groups"]].concat(), LIMIT);
+    assert_eq!(r.code, Some(2), "{}", r.stderr);
+    assert!(r.stderr.contains("light group") && r.stderr.contains("box.photons"), "{}", r.stderr);
+    let r = run(&[&base[..], &["--passes", LIGHT]].concat(), LIMIT);
+    assert_eq!(r.code, Some(0), "{}", r.stderr);
+}
