@@ -59,7 +59,9 @@ CRYPTOMATTE_LAYERS = (
     ("use_pass_cryptomatte_asset", "cryptomatte_asset", "CryptoAsset"),
 )
 # The Shadow Catcher pass: the path integrator splits paths at catchers.
-PATH_ONLY_TOKENS = LIGHT_TOKENS | {"shadow_catcher"}
+PATH_ONLY_TOKENS = frozenset({"shadow_catcher"})
+# The light passes and light groups: the path tracer and Jensen's photon mapping file them.
+LIGHT_INTEGRATORS = ("path", "photon")
 # Data passes traced from the camera ray's first hit, by every integrator but SPPM.
 DATA_TOKENS = frozenset(("mist", "position", "uv", "ambient_occlusion", "object_index", "material_index", "vector")
                         + tuple(token for _, token, _ in CRYPTOMATTE_LAYERS))
@@ -118,22 +120,28 @@ def pass_request(view_layer, integrator, chunked=False, motion_blur=False):
         elif token in PATH_ONLY_TOKENS and integrator != "path":
             warnings.append(f"the {name} pass is rendered by the path integrator only; "
                             f"it stays black with '{integrator}'")
-        elif token in DATA_TOKENS and integrator == "sppm":
-            warnings.append(f"the {name} pass is not rendered by SPPM; it stays black")
+        elif token in LIGHT_TOKENS and integrator not in LIGHT_INTEGRATORS:
+            warnings.append(f"the {name} pass is rendered by the path and photon integrators only; "
+                            f"it stays black with '{integrator}'")
+        elif token in DATA_TOKENS and integrator == "sppm" and chunked:
+            warnings.append(f"the {name} pass is not rendered by SPPM on the farm (its chunks keep no sums of it); "
+                            "it stays black")
         else:
             tokens.append(token)
     for owner, attr, name in UNSUPPORTED:
         if _flag(view_layer, owner, attr):
             warnings.append(f"the {name} pass is not rendered by Caustic yet; it stays black")
     groups = light_group_passes(view_layer)
-    if groups and integrator != "path":
-        warnings.append(f"the light group passes ({', '.join(groups)}) are rendered by the path integrator only; "
+    if groups and integrator not in LIGHT_INTEGRATORS:
+        warnings.append(f"the light group passes ({', '.join(groups)}) are rendered by the path and photon "
+                        "integrators only; "
                         f"they stay black with '{integrator}'")
     elif groups:
         tokens.append(LIGHT_GROUPS_TOKEN)
     aovs = valid_aovs(view_layer)
-    if aovs and integrator == "sppm":
-        warnings.append(f"the shader AOVs ({', '.join(repr(a.name) for a in aovs)}) are not rendered by SPPM; "
+    if aovs and integrator == "sppm" and chunked:
+        warnings.append(f"the shader AOVs ({', '.join(repr(a.name) for a in aovs)}) are not rendered by SPPM on the "
+                        "farm (its chunks keep no sums of them); "
                         "they stay black")
     elif aovs:
         tokens.append(SHADER_AOVS_TOKEN)

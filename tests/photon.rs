@@ -238,8 +238,16 @@ fn point_light_irradiance_converges() {
     let measure = |n: u64, r2: f32| -> (f64, f64) {
         let mut errs = Vec::with_capacity(runs as usize);
         for seed in 0..runs {
-            let job = TraceJob { kind: MapKind::Global, count: n, seed, pass: 0, max_depth: 1, skip_direct: false };
-            let (ph, _) = trace_photons(&ctx, &em, &job, &stop, &|_| {});
+            let job = TraceJob {
+                kind: MapKind::Global,
+                count: n,
+                seed,
+                pass: 0,
+                max_depth: 1,
+                skip_direct: false,
+                light_groups: false,
+            };
+            let (ph, _, _) = trace_photons(&ctx, &em, &job, &stop, &|_| {});
             let map = PhotonMap::build(ph);
             let mut found = 0;
             map.for_each_within(Vec3::ZERO, r2, |_, _| found += 1);

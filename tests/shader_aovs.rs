@@ -76,7 +76,8 @@ fn position_scene(dir: &Path) -> PathBuf {
 /// At each pixel centre the AOVs hold the graph's values: "pos" = the position in
 /// Blender's axes (x, −z, y) with alpha 1, "val" = 2 × its average; an AOV that no node
 /// writes is 0; Combined is unchanged by asking for AOVs; a node naming an AOV the view
-/// layer lacks is named in a warning. Every per-sample integrator gives the same values.
+/// layer lacks is named in a warning. Every integrator gives the same values (SPPM from its
+/// iterations' camera rays, `sppm_extras.rs`).
 #[test]
 fn aovs_hold_the_graph_values() {
     let dir = temp_dir();
@@ -85,8 +86,19 @@ fn aovs_hold_the_graph_values() {
     let res = 8usize;
     let plain = render(&scene, &out, &["--resolution", "8x8", "--spp", "2", "--passes", "none"]);
     assert!(!plain.keys().any(|k| k.starts_with("pos.") || k.starts_with("val.")));
-    for integrator in ["path", "bdpt", "photon", "vcm"] {
-        let args = ["--resolution", "8x8", "--spp", "2", "--passes", "shader_aovs", "--integrator", integrator];
+    for integrator in ["path", "bdpt", "photon", "vcm", "sppm"] {
+        let args = [
+            "--resolution",
+            "8x8",
+            "--spp",
+            "2",
+            "--sppm-iterations",
+            "2",
+            "--passes",
+            "shader_aovs",
+            "--integrator",
+            integrator,
+        ];
         let r =
             run(&[&["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap()][..], &args[..]].concat(), LIMIT);
         assert_eq!(r.code, Some(0), "{integrator}: {}", r.stderr);
@@ -124,7 +136,7 @@ fn aovs_hold_the_graph_values() {
             }
         }
     }
-    // SPPM's camera paths are not camera samples: refused, as its data passes are.
+    // An SPPM chunk keeps no sums of them (its image's means are written): refused.
     let r = run(
         &[
             "render",
@@ -135,10 +147,12 @@ fn aovs_hold_the_graph_values() {
             "shader_aovs",
             "--integrator",
             "sppm",
+            "--chunk",
         ],
         LIMIT,
     );
     assert_eq!(r.code, Some(2), "{}", r.stderr);
+    assert!(r.stderr.contains("chunks"), "{}", r.stderr);
 }
 
 /// A front quad whose Transparent weight is `1 − alpha` over a back quad; the front writes

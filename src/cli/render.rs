@@ -299,6 +299,14 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
             reporter.phase("photons", t0.elapsed().as_secs_f64());
             let maps = match &args.photon_map {
                 Some(path) => {
+                    if res.passes.light_groups() > 0 {
+                        // The file keeps no photon's light: its map reads could not be split.
+                        return Err(Error::Usage(format!(
+                            "the light group passes need photon maps traced in the render: the photon map file '{}' \
+                             does not record each photon's light group (render without --photon-map)",
+                            path.display()
+                        )));
+                    }
                     let maps = PhotonMaps::load(path, scene.source_hash)?;
                     if maps.max_depth < res.max_depth {
                         return Err(Error::Usage(format!(
@@ -331,7 +339,11 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
                 return Err(Error::InterruptedEmpty);
             }
             let (_, scene_r) = scene.bounding_sphere();
-            Integrator::Photon(JensenIntegrator::new(maps, &res.photon, scene_r, res.max_depth, res.transparent))
+            Integrator::Photon(JensenIntegrator {
+                light_passes: res.passes.any_light(),
+                light_groups: res.passes.light_groups() > 0,
+                ..JensenIntegrator::new(maps, &res.photon, scene_r, res.max_depth, res.transparent)
+            })
         }
     };
     let job = RenderJob {

@@ -299,37 +299,38 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
             .map_err(|e| Error::Usage(format!("the scene's render settings: {e}")))?,
         (None, None) => crate::passes::PassSet::legacy(),
     };
-    if passes.any_light() && integrator != IntegratorKind::Path {
+    // Jensen's photon mapping files them as the path tracer (`photon/map_read.rs`).
+    let files_light = matches!(integrator, IntegratorKind::Path | IntegratorKind::Photon);
+    if passes.any_light() && !files_light {
         return Err(Error::Usage(format!(
-            "the light passes ({}) are rendered by the path integrator only, not by '{}'",
+            "the light passes ({}) are rendered by the path integrator only, and by 'photon', not by '{}'",
             passes.iter().filter(|p| p.is_light()).map(|p| p.name()).collect::<Vec<_>>().join(", "),
             integrator.name()
         )));
     }
     if passes.asks_light_groups() {
-        if integrator != IntegratorKind::Path {
+        if !files_light {
             return Err(Error::Usage(format!(
-                "the light group passes are rendered by the path integrator only, not by '{}'",
+                "the light group passes are rendered by the path integrator only, and by 'photon', not by '{}'",
                 integrator.name()
             )));
         }
         passes.set_light_groups(scene.light_groups.len());
     }
     if passes.asks_shader_aovs() {
-        if integrator == IntegratorKind::Sppm {
-            return Err(Error::Usage(
-                "the shader AOVs are not rendered by 'sppm' (its camera paths are not camera samples)".into(),
-            ));
-        }
         passes.set_shader_aov_channels(scene.shader_aovs.channels);
     }
     if let Some(levels) = args.cryptomatte_levels.or(st.cryptomatte_levels) {
         passes.set_cryptomatte_levels(levels);
     }
     passes.cryptomatte()?;
-    if passes.any_data() && integrator == IntegratorKind::Sppm {
+    if crate::integrator::photon::sppm_extras::wanted(passes) && integrator == IntegratorKind::Sppm && args.chunk {
+        // An SPPM chunk is written as its image's means times its iterations
+        // (`chunk::film_from_image`), which keeps no sums of these passes.
         return Err(Error::Usage(
-            "the data passes (AO, Mist, Position, UV, indices, Cryptomatte) are not rendered by 'sppm'".into(),
+            "the data passes, Cryptomatte and shader AOVs of 'sppm' cannot be split into chunks (--chunk): \
+             render the frame whole or use another integrator"
+                .into(),
         ));
     }
     if passes.any_crypto() && args.chunk {

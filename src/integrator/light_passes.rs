@@ -62,6 +62,16 @@ impl Tally {
         }
     }
 
+    /// The first event was the surface bounce `bs` sampled from `at` (a delta lobe's
+    /// light is glossy when reflected, transmission when refracted, as the path tracer's).
+    pub fn surface_bounce_sampled(&mut self, at: &BsdfAt, bs: &crate::bsdf::BsdfSample) {
+        if self.first == First::None {
+            let (d, g) =
+                if bs.delta { (Rgb::ZERO, Rgb::splat((bs.wi.z >= 0.0) as u8 as f32)) } else { shares_at(at, bs.wi) };
+            self.first = First::Surface(d, g);
+        }
+    }
+
     /// The first event was a subsurface walk: diffuse, and its exit's estimate is direct.
     pub fn subsurface(&mut self) {
         if self.first == First::None {
@@ -96,6 +106,12 @@ impl Tally {
             _ => self.first,
         };
         self.file(out, direct, class, c);
+    }
+
+    /// Indirect light `c` (e.g. a photon-map read after the first event), filed by the
+    /// first event's class.
+    pub fn indirect(&self, out: &mut CameraSample, c: Rgb) {
+        self.file(out, false, self.first, c);
     }
 
     fn file(&self, out: &mut CameraSample, direct: bool, class: First, c: Rgb) {

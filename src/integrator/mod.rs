@@ -7,6 +7,7 @@ pub mod bdpt;
 pub mod catcher;
 pub mod data_passes;
 mod emission;
+pub mod filing;
 pub mod light_passes;
 pub mod linking;
 pub mod media;

@@ -28,8 +28,9 @@
 
 use super::SceneContext;
 use super::catcher::{self, Split};
+use super::filing::Filing;
 use super::light_passes::{Tally, shares_at};
-use super::nee::{exit_nee, exit_nee_light, medium_nee, medium_nee_light, surface_nee_at};
+use super::nee::{exit_nee_light, medium_nee_light, surface_nee_at};
 use super::walk::{PathState, Step};
 use crate::bsdf::LobeKind;
 use crate::bsdf::dielectric::refract;
@@ -102,12 +103,12 @@ impl PathIntegrator {
         // Camera rays start in vacuum, with no MIS for what they hit first.
         let st = PathState::camera(ray, ctx.camera_media);
         let mut split = Split::new(ctx.catcher.is_some());
-        out.radiance = self.trace(ctx, st, sampler, depth_of, stats, &mut out, &mut split);
+        out.radiance = self.trace(ctx, st, sampler, depth_of, stats, &mut out, &mut split, None);
         if let (Some(pass_ctx), Some((pre, _))) = (ctx.catcher.as_deref(), split.at) {
             // The catcher pass: the same camera segment again, in the scene of catchers
             // only; its own first-hit values are not the pixel's.
             let mut scratch = CameraSample::default();
-            let pass = self.trace(pass_ctx, pre, sampler, |_| 0.0, stats, &mut scratch, &mut Split::new(false));
+            let pass = self.trace(pass_ctx, pre, sampler, |_| 0.0, stats, &mut scratch, &mut Split::new(false), None);
             let behind = match self.transparent_background {
                 true => Rgb::ZERO,
                 false => pre.escaped_radiance(ctx).map_or(Rgb::ZERO, |le| pre.beta * le),
@@ -129,7 +130,26 @@ impl PathIntegrator {
         stats: &mut RayStats,
     ) -> Rgb {
         let mut out = CameraSample::default();
-        self.trace(ctx, st, sampler, |_| 0.0, stats, &mut out, &mut Split::new(false))
+        self.trace(ctx, st, sampler, |_| 0.0, stats, &mut out, &mut Split::new(false), None)
+    }
+
+    /// [`continue_path`](Self::continue_path), filing its contributions as `filing` says
+    /// (the caller's light passes and groups).
+    pub fn continue_path_filed(
+        &self,
+        ctx: &SceneContext,
+        st: PathState,
+        sampler: &mut PixelSampler,
+        stats: &mut RayStats,
+        filing: Option<Filing<'_>>,
+    ) -> Rgb {
+        match filing {
+            Some(f) => {
+                let filed = Some((f.tally, f.groups));
+                self.trace(ctx, st, sampler, |_| 0.0, stats, f.out, &mut Split::new(false), filed)
+            }
+            None => self.continue_path(ctx, st, sampler, stats),
+        }
     }
 
     /// Radiance scattered at a point `p` in a medium of phase function `phase` toward a
@@ -148,9 +168,38 @@ impl PathIntegrator {
         sampler: &mut PixelSampler,
         stats: &mut RayStats,
     ) -> Rgb {
+        self.scatter_in_medium_filed(ctx, p, dir, phase, media, beta, depth, sampler, stats, None)
+    }
+
+    /// [`scatter_in_medium`](Self::scatter_in_medium), filing its contributions as
+    /// `filing` says (the caller's light passes and groups).
+    #[allow(clippy::too_many_arguments)]
+    pub fn scatter_in_medium_filed(
+        &self,
+        ctx: &SceneContext,
+        p: Vec3,
+        dir: Vec3,
+        phase: HenyeyGreenstein,
+        media: MediumStack,
+        beta: Rgb,
+        depth: u32,
+        sampler: &mut PixelSampler,
+        stats: &mut RayStats,
+        mut filing: Option<Filing<'_>>,
+    ) -> Rgb {
         let [u_light, u_lx, u_ly, _] = sampler.next_4d();
         let [u_dx, u_dy, u_rr, _] = sampler.next_4d();
-        let mut radiance = beta * medium_nee(ctx, p, dir, phase, media, u_light, Vec2::new(u_lx, u_ly), stats);
+        let (le, light) = medium_nee_light(ctx, p, dir, phase, media, u_light, Vec2::new(u_lx, u_ly), stats);
+        let mut radiance = beta * le;
+        if let Some(f) = filing.as_mut() {
+            if f.groups {
+                f.out.groups.add(ctx.scene.light_groups.of_light(light), radiance);
+            }
+            if let Some(t) = f.tally.as_mut() {
+                t.estimated(f.out, depth, radiance, None);
+                t.volume();
+            }
+        }
         let (wi, pdf) = phase.sample(dir, Vec2::new(u_dx, u_dy));
         let mut st = PathState {
             org: p,
@@ -170,7 +219,7 @@ impl PathIntegrator {
         };
         if st.depth < self.max_depth && st.survives(self.rr_depth, u_rr) {
             stats.bounce += 1;
-            radiance += self.continue_path(ctx, st, sampler, stats);
+            radiance += self.continue_path_filed(ctx, st, sampler, stats, filing);
         }
         radiance
     }
@@ -187,15 +236,18 @@ impl PathIntegrator {
         stats: &mut RayStats,
         out: &mut CameraSample,
         split: &mut Split,
+        filed: Option<(Option<Tally>, bool)>,
     ) -> Rgb {
         let mut radiance = Rgb::ZERO;
-        // Light passes: only camera paths (`li`) keep a tally.
-        let passes = self.light_passes && st.depth == 0;
-        let mut tally = Tally::default();
+        // Light passes: only camera paths (`li`) keep a tally, or a path continued for
+        // another integrator's camera path (`filed`: its tally so far).
         // Light groups: camera paths file by emitter, until they split at a shadow catcher
         // (Cycles files nothing of a path that hit a catcher).
+        let (passes, mut tally, mut grouping) = match filed {
+            Some((t, g)) => (t.is_some(), t.unwrap_or_default(), g),
+            None => (self.light_passes && st.depth == 0, Tally::default(), self.light_groups && st.depth == 0),
+        };
         let groups = &ctx.scene.light_groups;
-        let mut grouping = self.light_groups && st.depth == 0;
         loop {
             // Bounce dimensions, drawn up front so that their positions are fixed.
             let [u_light, u_lx, u_ly, u_lobe] = sampler.next_4d();
@@ -497,6 +549,25 @@ impl PathIntegrator {
         sampler: &mut PixelSampler,
         stats: &mut RayStats,
     ) -> Rgb {
+        self.subsurface_from_filed(ctx, s, sp, wo, media, beta, depth, sampler, stats, None)
+    }
+
+    /// [`subsurface_from`](Self::subsurface_from), filing its contributions as `filing`
+    /// says (the caller's light passes and groups).
+    #[allow(clippy::too_many_arguments)]
+    pub fn subsurface_from_filed(
+        &self,
+        ctx: &SceneContext,
+        s: &SurfaceHit,
+        sp: &ShadingPoint,
+        wo: Vec3,
+        media: MediumStack,
+        beta: Rgb,
+        depth: u32,
+        sampler: &mut PixelSampler,
+        stats: &mut RayStats,
+        mut filing: Option<Filing<'_>>,
+    ) -> Rgb {
         let mat = &ctx.scene.materials[s.material as usize];
         let Some(ss) = mat.subsurface else {
             return Rgb::ZERO;
@@ -514,7 +585,19 @@ impl PathIntegrator {
         let (n_g, n_s) = (-se.ng, -se.ns);
         let [v_light, v_lx, v_ly, v_rr] = sampler.next_4d();
         let [v_dx, v_dy, _, _] = sampler.next_4d();
-        let radiance = beta * exit_nee(ctx, &se, n_g, n_s, media, v_light, Vec2::new(v_lx, v_ly), stats);
+        let (le, light) = exit_nee_light(ctx, &se, n_g, n_s, media, v_light, Vec2::new(v_lx, v_ly), stats);
+        let radiance = beta * le;
+        if let Some(f) = filing.as_mut() {
+            if f.groups {
+                f.out.groups.add(ctx.scene.light_groups.of_light(light), radiance);
+            }
+            if let Some(t) = f.tally.as_mut() {
+                // As the path tracer: the walk is a diffuse event, its exit's estimate
+                // direct when the walk started at the first hit.
+                t.subsurface();
+                t.estimated(f.out, depth, radiance, Some((Rgb::ONE, Rgb::ZERO)));
+            }
+        }
         let local = cosine_hemisphere(Vec2::new(v_dx, v_dy));
         let wi = Frame::from_normal(n_s).to_world(local);
         let mut st = PathState {
@@ -541,7 +624,7 @@ impl PathIntegrator {
             return radiance;
         }
         stats.bounce += 1;
-        radiance + self.continue_path(ctx, st, sampler, stats)
+        radiance + self.continue_path_filed(ctx, st, sampler, stats, filing)
     }
 
     /// Enters a subsurface material at `s` (seen along `wo`) and walks inside; None when

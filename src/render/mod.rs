@@ -59,7 +59,8 @@ pub fn render(
 ) -> RenderResult {
     match integrator {
         Integrator::Sppm(s) => {
-            // SPPM keeps only the base passes (the settings refuse the others for it).
+            // SPPM gives the base passes and those of the camera ray alone (`sppm_extras`);
+            // the settings refuse the light passes for it.
             let mut r = s.render(ctx, camera, job, stop, on_progress);
             r.image.passes = job.passes;
             r

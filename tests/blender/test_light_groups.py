@@ -1,6 +1,6 @@
 """Light groups as the compositor sees them: a view layer with three light groups (an area light,
 an emissive object, the world) gives one `Combined_<group>` pass each, as Cycles' passes, and
-Caustic's groups sum to its Combined.
+Caustic's groups sum to its Combined, with the path tracer and with Jensen's photon mapping.
 
 Scene: a grey floor, a rough gold cube, an emissive quad in view, an area light and a grey world
 in view; 48x36, 64 samples, 3 bounces, Film → Transparent off (test_passes.py's settings).
@@ -66,23 +66,25 @@ def both_renders(addon, tmp_path_factory):
     build(scene)
     tmp = tmp_path_factory.mktemp("light_groups")
     return {engine: [render_passes(scene, engine, s, str(tmp / f"{engine}{s}.exr")) for s in SEEDS]
-            for engine in ("CYCLES", "CAUSTIC")}
+            for engine in ("CYCLES", "CAUSTIC", "CAUSTIC_PHOTON")}
 
 
+@pytest.mark.parametrize("engine", ("CAUSTIC", "CAUSTIC_PHOTON"))
 @pytest.mark.parametrize("group", GROUPS)
-def test_light_group_matches_cycles(both_renders, group):
+def test_light_group_matches_cycles(both_renders, group, engine):
+    """Each group of the path tracer and of Jensen's photon mapping against Cycles'."""
     name = f"Combined_{group}"
     assert all(name in r for rs in both_renders.values() for r in rs), "the pass is missing"
     m_cy, v_cy = mean_and_variance(*(rgb(r, name) for r in both_renders["CYCLES"]))
-    m_ca, v_ca = mean_and_variance(*(rgb(r, name) for r in both_renders["CAUSTIC"]))
+    m_ca, v_ca = mean_and_variance(*(rgb(r, name) for r in both_renders[engine]))
     bound = SIGMAS * np.sqrt(v_cy + v_ca) + 0.05 * max(abs(m_cy), abs(m_ca))
-    print(f"{name:16s} cycles {m_cy:.5f} caustic {m_ca:.5f} bound {bound:.5f}")
+    print(f"{engine:15s} {name:16s} cycles {m_cy:.5f} caustic {m_ca:.5f} bound {bound:.5f}")
     assert m_ca > 0.0 and m_cy > 0.0
     assert abs(m_ca - m_cy) <= bound, f"caustic {m_ca:.5f}, cycles {m_cy:.5f}, bound {bound:.5f}"
 
 
 def test_light_groups_sum_to_combined(both_renders):
-    for p in both_renders["CAUSTIC"]:
+    for p in both_renders["CAUSTIC"] + both_renders["CAUSTIC_PHOTON"]:
         total = sum(rgb(p, f"Combined_{g}") for g in GROUPS)
         combined = rgb(p, "Combined")
         worst = np.max(np.abs(total - combined) / (1e-4 * np.maximum(np.abs(combined), np.abs(total)) + 1e-9))

@@ -3,6 +3,7 @@ exercises them (a Lambertian floor, a rough metal cube, a glass cube, an emitter
 grey world in view, lit by an area light), and a view layer without extra passes gets no
 extra passes.
 
+Caustic renders with the path tracer and with Jensen's photon mapping (1M photons in each map).
 Both renderers: 48x36, 64 samples, 3 bounces of every kind, no clamping, no denoising, no
 adaptive sampling, Film → Transparent off (so that the world is in Combined).
 
@@ -79,7 +80,11 @@ def enable_light_passes(layer):
 
 
 def render_passes(scene, engine, seed, path):
-    scene.render.engine = engine
+    # "CAUSTIC_PHOTON": Caustic with Jensen's photon mapping (its light passes, integrator/photon/map_read.rs).
+    scene.render.engine = "CAUSTIC" if engine.startswith("CAUSTIC") else engine
+    if engine.startswith("CAUSTIC"):
+        scene.caustic.integrator = "photon" if engine == "CAUSTIC_PHOTON" else "path"
+        scene.caustic.photons = scene.caustic.caustic_photons = 1_000_000 if engine == "CAUSTIC_PHOTON" else 0
     if engine == "CYCLES":
         scene.cycles.seed = seed
     else:
@@ -138,16 +143,27 @@ def both_renders(addon, tmp_path_factory):
     enable_light_passes(scene.view_layers[0])
     tmp = tmp_path_factory.mktemp("passes")
     return {engine: [light_images(render_passes(scene, engine, s, str(tmp / f"{engine}{s}.exr")))
-                     for s in SEEDS] for engine in ("CYCLES", "CAUSTIC")}
+                     for s in SEEDS] for engine in ("CYCLES", "CAUSTIC", "CAUSTIC_PHOTON")}
 
 
-@pytest.mark.parametrize("name", PASS_NAMES)
-def test_light_pass_matches_cycles(both_renders, name):
+# Jensen's photon mapping brings 1.25x Cycles' light into Transmission Indirect here (0.00654 vs
+# 0.00527; the path tracer 0.00519), the same with 10x the photons (so not the kernel's blur), and
+# no other pass loses what it gains: its transport through the glass cube resting on the floor, not
+# the filing of the passes (every other pass agrees). Strict: a fix makes this test fail first.
+JENSEN_GLASS = pytest.mark.xfail(strict=True, reason="Jensen's transport through the glass cube on the floor: 1.25x")
+JENSEN_GLASS_CASE = ("CAUSTIC_PHOTON", "Transmission Indirect x Color")
+CASES = [pytest.param(name, engine, marks=JENSEN_GLASS if (engine, name) == JENSEN_GLASS_CASE else ())
+         for engine in ("CAUSTIC", "CAUSTIC_PHOTON") for name in PASS_NAMES]
+
+
+@pytest.mark.parametrize(("name", "engine"), CASES)
+def test_light_pass_matches_cycles(both_renders, name, engine):
+    """Each pass of the path tracer and of Jensen's photon mapping against Cycles'."""
     m_cy, v_cy = mean_and_variance(*(r[name] for r in both_renders["CYCLES"]))
-    m_ca, v_ca = mean_and_variance(*(r[name] for r in both_renders["CAUSTIC"]))
+    m_ca, v_ca = mean_and_variance(*(r[name] for r in both_renders[engine]))
     allowance = 0.01 if name in ("Emission", "Environment") else 0.05
     bound = SIGMAS * np.sqrt(v_cy + v_ca) + allowance * max(abs(m_cy), abs(m_ca))
-    print(f"{name:32s} cycles {m_cy:.5f} caustic {m_ca:.5f} bound {bound:.5f}")
+    print(f"{engine:15s} {name:32s} cycles {m_cy:.5f} caustic {m_ca:.5f} bound {bound:.5f}")
     assert abs(m_ca - m_cy) <= bound, f"caustic {m_ca:.5f}, cycles {m_cy:.5f}, bound {bound:.5f}"
 
 

@@ -3,6 +3,7 @@
 #![allow(dead_code)]
 
 pub mod agreement;
+pub mod pass_checks;
 pub mod serve;
 
 use base64::Engine;

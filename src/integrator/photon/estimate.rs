@@ -42,25 +42,43 @@ pub fn estimate(
     filter: impl Fn(&Photon) -> bool,
     weight: impl Fn(&Photon) -> Rgb,
 ) -> (Rgb, f32) {
+    let mut sum = Rgb::ZERO;
+    let (norm, r2) = estimate_each(map, q, n, k, max_r2, filter, |_, p, w| sum += weight(p) * p.power() * w);
+    (sum * norm, r2)
+}
+
+/// The neighbour search of [`estimate`], handing each counted photon (its index in the
+/// map, itself) and its cone weight to `visit` (callers that split the estimate, e.g. by light pass or light group, sum
+/// `weight · Φp · w` themselves): returns (the factor the sums take, squared radius).
+/// The factor is 0 when no photon counts.
+#[inline]
+pub fn estimate_each(
+    map: &PhotonMap,
+    q: Vec3,
+    n: Vec3,
+    k: usize,
+    max_r2: f32,
+    filter: impl Fn(&Photon) -> bool,
+    mut visit: impl FnMut(u32, &Photon, f32),
+) -> (f32, f32) {
     if map.is_empty() {
-        return (Rgb::ZERO, max_r2);
+        return (0.0, max_r2);
     }
     let mut res = KnnResult::new(k);
     map.knn(q, max_r2, |p| p.normal_within_60(n) && filter(p), &mut res);
     let r2 = if res.full() { res.max_d2() } else { max_r2 };
     if !(r2 > 0.0) {
-        return (Rgb::ZERO, max_r2);
+        return (0.0, max_r2);
     }
     let r = r2.sqrt();
-    let mut sum = Rgb::ZERO;
     for &(d2, i) in res.items() {
         let p = &map.photons()[i as usize];
         let w = 1.0 - d2.sqrt() / r;
         if w > 0.0 {
-            sum += weight(p) * p.power() * w;
+            visit(i, p, w);
         }
     }
-    (sum * (3.0 / (std::f32::consts::PI * r2)), r2)
+    (3.0 / (std::f32::consts::PI * r2), r2)
 }
 
 /// Reflected radiance toward `wo_local` from the photons of `map` at a shading point.

@@ -81,16 +81,20 @@ impl PhotonMaps {
         let emitters = Emitters::new(ctx.scene);
         let total = photons + caustic_photons;
         let t0 = Instant::now();
-        let job = |kind, count| TraceJob { kind, count, seed, pass: 0, max_depth, skip_direct: false };
-        let (g, gs) = trace_photons(ctx, &emitters, &job(MapKind::Global, photons), stop, &|d| {
+        // Photons carry their light's group whenever the scene has light groups (a byte
+        // each beside the map), so that the light group passes can split map reads.
+        let light_groups = !ctx.scene.light_groups.is_empty();
+        let job = |kind, count| TraceJob { kind, count, seed, pass: 0, max_depth, skip_direct: false, light_groups };
+        let (g, g_groups, gs) = trace_photons(ctx, &emitters, &job(MapKind::Global, photons), stop, &|d| {
             progress(d, total, t0.elapsed().as_secs_f64())
         });
-        let (c, cs) = trace_photons(ctx, &emitters, &job(MapKind::Caustic, caustic_photons), stop, &|d| {
+        let (c, c_groups, cs) = trace_photons(ctx, &emitters, &job(MapKind::Caustic, caustic_photons), stop, &|d| {
             progress(photons + d, total, t0.elapsed().as_secs_f64())
         });
         let trace_seconds = t0.elapsed().as_secs_f64();
         let t1 = Instant::now();
-        let (global, caustic) = rayon::join(|| PhotonMap::build(g), || PhotonMap::build(c));
+        let (global, caustic) =
+            rayon::join(|| PhotonMap::build_grouped(g, g_groups), || PhotonMap::build_grouped(c, c_groups));
         let build_seconds = t1.elapsed().as_secs_f64();
         (
             PhotonMaps { global, caustic, emitted: [photons, caustic_photons], max_depth, seed, scene_hash },

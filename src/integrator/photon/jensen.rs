@@ -30,6 +30,11 @@
 //! that count no direct light (NEE and the shared ray did); the shared ray carries 1/N of
 //! the gather role.
 //!
+//! Light passes and light groups (when asked): each chain keeps the path tracer's tally
+//! (`light_passes::Tally`) of the camera path's first event, extra gather chains theirs;
+//! map reads are indirect, split by class at the first vertex (`map_read.rs`) and by the
+//! photons' light groups; media and subsurface parts file through `PathIntegrator::*_filed`.
+//!
 //! Depth: a photon with hit index j read at the camera path's n-th scattering event
 //! makes a path of (j - 1) + n events; only those within `max_depth` are counted, so
 //! the result converges to the path tracer's at the same maximum depth.
@@ -44,16 +49,19 @@
 //! that would skip them; docs/benchmarks.md), photon-map irradiance caching, emissive
 //! media seen through a map read (their light is in no map).
 
-use super::estimate::estimate;
 use super::io::PhotonMaps;
 use super::lobes::Split;
+use super::map_read::{self, Want};
 use crate::film::CameraSample;
 use crate::integrator::SceneContext;
-use crate::integrator::nee::surface_nee;
+use crate::integrator::filing::Filing;
+use crate::integrator::light_passes::{Tally, shares_at};
+use crate::integrator::nee::surface_nee_at;
 use crate::integrator::path::PathIntegrator;
 use crate::integrator::walk::{PathState, Step};
 use crate::math::{Rgb, offset_ray_origin};
 use crate::medium::MediumStack;
+use crate::passes::slot;
 use crate::render::job::RayStats;
 use crate::sampling::PixelSampler;
 use crate::scene::camera::CameraRay;
@@ -83,6 +91,10 @@ pub struct JensenIntegrator {
     pub diffuse_bounces: u32,
     /// Camera rays that miss show nothing (Film → Transparent), as in the path tracer.
     pub transparent_background: bool,
+    /// File contributions into the light passes (`jensen_passes.rs`; only when asked).
+    pub light_passes: bool,
+    /// File contributions by their emitter's light group (only when asked).
+    pub light_groups: bool,
 }
 
 impl JensenIntegrator {
@@ -105,6 +117,8 @@ impl JensenIntegrator {
             gather_rays: settings.gather_rays,
             diffuse_bounces: settings.diffuse_bounces,
             transparent_background,
+            light_passes: false,
+            light_groups: false,
         }
     }
 
@@ -134,15 +148,41 @@ impl JensenIntegrator {
         depth: u32,
         sampler: &mut PixelSampler,
         stats: &mut RayStats,
+        filing: Option<Filing<'_>>,
     ) -> Rgb {
         if ctx.scene.materials[s.material as usize].subsurface.is_none() {
             return Rgb::ZERO;
         }
         let q = sp.bsdf.subsurface_weight(wo_local);
         if q > 0.0 {
-            self.continuation().subsurface_from(ctx, s, sp, wo, media, beta * q, depth, sampler, stats)
+            self.continuation().subsurface_from_filed(ctx, s, sp, wo, media, beta * q, depth, sampler, stats, filing)
         } else {
             Rgb::ZERO
+        }
+    }
+
+    /// The light-pass tally and light groups a path continued from a chain files by, when
+    /// either is asked.
+    fn filing<'a>(&self, tally: Tally, out: &'a mut CameraSample) -> Option<Filing<'a>> {
+        let f = Filing { tally: self.light_passes.then_some(tally), groups: self.light_groups, out };
+        f.any().then_some(f)
+    }
+
+    /// Files a map read `r` taken by a role of throughput `role` (Combined has its total).
+    fn file_read(&self, out: &mut CameraSample, tally: &Tally, role: Rgb, r: &map_read::MapRead, want: Want<'_>) {
+        if self.light_passes {
+            if want.classes.is_some() {
+                for (sl, c) in [slot::DIFF_IND, slot::GLOSS_IND, slot::TRANS_IND].into_iter().zip(r.classes) {
+                    out.aov.add3(sl, role * c);
+                }
+            } else {
+                tally.indirect(out, role * r.total);
+            }
+        }
+        if want.groups {
+            for (g, c) in r.groups.0.iter().enumerate() {
+                out.groups.add(g as u8, role * Rgb::from_array(*c));
+            }
         }
     }
 
@@ -183,6 +223,7 @@ impl JensenIntegrator {
             e_mis: Rgb::ONE,
             e_plain: Rgb::ZERO,
             e_medium: Rgb::ONE,
+            tally: Tally::default(),
         };
         out.radiance = self.walk(ctx, chain, sampler, &depth_of, &mut out, stats);
         out
@@ -196,7 +237,8 @@ impl JensenIntegrator {
 
     /// Follows one chain of rays (module doc: the roles), returning the radiance it
     /// brings. The camera's chain fills `out`'s first-hit values; gather chains that start
-    /// at depth ≥ 1 leave them alone.
+    /// at depth ≥ 1 leave them alone. Every chain files its light passes (by its tally)
+    /// and light groups into `out` when they are asked.
     fn walk(
         &self,
         ctx: &SceneContext,
@@ -209,6 +251,8 @@ impl JensenIntegrator {
         let b = self.gather_role();
         let max_r2 = self.max_radius * self.max_radius;
         let mut radiance = Rgb::ZERO;
+        let (passes, grouping) = (self.light_passes, self.light_groups);
+        let groups = &ctx.scene.light_groups;
         loop {
             let [u_light, u_lx, u_ly, u_lobe] = sampler.next_4d();
             let [u_dx, u_dy, u_rr, u_channel] = sampler.next_4d();
@@ -219,7 +263,9 @@ impl JensenIntegrator {
             let (e_mis, e_plain) = (c.e_mis, c.e_plain);
             let mut crossed_any = false;
             let mut medium_l = Rgb::ZERO;
+            let depth_before = c.st.depth;
             c.st.beta = Rgb::ONE;
+            let out_groups = &mut out.groups;
             let (step, crossed_l) = c.st.advance_with(
                 ctx,
                 Some([u_channel, u_dist]),
@@ -230,7 +276,7 @@ impl JensenIntegrator {
                         if e == Rgb::ZERO {
                             continue;
                         }
-                        let (le, any) = ctx.crossed_emission(
+                        let (le, any) = ctx.crossed_emission_each(
                             st.org,
                             st.dir,
                             t_event,
@@ -240,6 +286,11 @@ impl JensenIntegrator {
                             st.depth == 0,
                             st.prev_tri,
                             &st.light_path,
+                            |light, c| {
+                                if grouping {
+                                    out_groups.add(groups.of_light(light), e * w * c);
+                                }
+                            },
                         );
                         crossed_any |= any;
                         l += e * w * le;
@@ -249,7 +300,12 @@ impl JensenIntegrator {
                 &mut medium_l,
                 stats,
             );
-            radiance += crossed_l + c.e_medium * medium_l;
+            let along = crossed_l + c.e_medium * medium_l;
+            radiance += along;
+            if passes && along != Rgb::ZERO {
+                // Crossed lights and media's emission (which goes to no light group).
+                c.tally.found(out, depth_before, along, false);
+            }
             let seg = std::mem::replace(&mut c.st.beta, Rgb::ONE);
             c.scale(seg);
             if crossed_any && c.st.depth == 0 {
@@ -266,20 +322,37 @@ impl JensenIntegrator {
                     }
                     let total = c.total();
                     if c.st.depth < self.max_depth && total.is_finite() && total != Rgb::ZERO {
-                        radiance += self
-                            .continuation()
-                            .scatter_in_medium(ctx, p, c.st.dir, phase, c.st.media, total, c.st.depth, sampler, stats);
+                        let filing = self.filing(c.tally, out);
+                        radiance += self.continuation().scatter_in_medium_filed(
+                            ctx, p, c.st.dir, phase, c.st.media, total, c.st.depth, sampler, stats, filing,
+                        );
                     }
                     break;
                 }
                 Step::Escaped => {
                     // The world and sun disks.
-                    if !(c.st.depth == 0 && self.transparent_background) {
+                    let seen_directly = c.st.depth == 0;
+                    if grouping {
+                        // As the path tracer: the world seen through a transparent film too.
+                        c.each_found(|st| {
+                            st.escaped_radiance_each(ctx, |light, l| {
+                                let g = light.map_or(groups.world, |i| groups.of_light(i));
+                                out.groups.add(g, st.beta * l);
+                            });
+                        });
+                    }
+                    if !(seen_directly && self.transparent_background) || passes {
                         let le = c.found(|st| st.escaped_radiance(ctx).map_or(Rgb::ZERO, |le| st.beta * le));
-                        if c.st.depth == 0 && le != Rgb::ZERO {
-                            out.alpha = 1.0;
+                        if passes {
+                            // The Environment pass shows the world behind a transparent film too.
+                            c.tally.found(out, c.st.depth, le, true);
                         }
-                        radiance += le;
+                        if !(seen_directly && self.transparent_background) {
+                            if seen_directly && le != Rgb::ZERO {
+                                out.alpha = 1.0;
+                            }
+                            radiance += le;
+                        }
                     }
                     break;
                 }
@@ -298,14 +371,38 @@ impl JensenIntegrator {
                 out.normal = sp.frame.n;
                 out.albedo = sp.bsdf.albedo();
             }
-            radiance += c.found(|st| st.surface_emission(ctx, &hit, &s, &sp));
+            if sp.emitted != Rgb::ZERO {
+                let le = c.found(|st| st.surface_emission(ctx, &hit, &s, &sp));
+                radiance += le;
+                if grouping {
+                    out.groups.add(groups.of_tri(hit.tri), le);
+                }
+                if passes {
+                    c.tally.found(out, c.st.depth, le, false);
+                }
+            }
             if c.st.depth >= self.max_depth {
                 break;
             }
             let wo_local = sp.frame.to_local(wo);
             let at = sp.bsdf.at(wo_local);
-            radiance +=
-                self.subsurface_part(ctx, &s, &sp, wo, wo_local, c.st.media, c.total(), c.st.depth, sampler, stats);
+            if passes && c.st.depth == 0 {
+                Tally::colours(out, &at, c.total());
+            }
+            let filing = self.filing(c.tally, out);
+            radiance += self.subsurface_part(
+                ctx,
+                &s,
+                &sp,
+                wo,
+                wo_local,
+                c.st.media,
+                c.total(),
+                c.st.depth,
+                sampler,
+                stats,
+                filing,
+            );
             let delta = sp.bsdf.is_delta();
             let split = Split::of(&sp.bsdf);
             let n_select = if sp.bsdf.transmits() { Vec3::ZERO } else { s.ng };
@@ -318,7 +415,7 @@ impl JensenIntegrator {
                 // Direct light for the roles that path-trace it, MIS against this vertex's
                 // BSDF sample (the chain's next ray).
                 if nee_beta != Rgb::ZERO {
-                    radiance += surface_nee(
+                    let (l, wi_light, light) = surface_nee_at(
                         ctx,
                         &s,
                         &sp,
@@ -331,18 +428,39 @@ impl JensenIntegrator {
                         Vec2::new(u_lx, u_ly),
                         stats,
                     );
+                    radiance += l;
+                    if grouping {
+                        out.groups.add(groups.of_light(light), l);
+                    }
+                    if passes && l != Rgb::ZERO {
+                        c.tally.estimated(out, c.st.depth, l, Some(shares_at(&at, wi_light)));
+                    }
                 }
                 let mapped = (c.roles[0] != Rgb::ZERO || (b > 0 && c.roles[b] != Rgb::ZERO)) && split.has_diffuse(&at);
                 if mapped {
                     let f_d = |p: &super::Photon| split.diffuse(&at, sp.frame.to_local(p.wi()));
+                    // Every map read is indirect light (a photon has left its light and
+                    // bounced at least once); at the first vertex it is filed by the class
+                    // of each photon's direction (`map_read`), later by the first event's.
+                    let want =
+                        Want { classes: (passes && c.st.depth == 0).then_some((&at, &sp.frame)), groups: grouping };
                     if c.roles[0] != Rgb::ZERO {
                         // The camera role: caustics (L G+ D) from the caustic map, and with
                         // no gather (b = 0) the rest of the indirect light from the global one.
-                        let mut l =
-                            estimate(&self.maps.caustic, s.p, s.ng, self.caustic_k, max_r2, |p| p.depth() <= jmax, f_d)
-                                .0;
+                        let caustic = map_read::read(
+                            &self.maps.caustic,
+                            s.p,
+                            s.ng,
+                            self.caustic_k,
+                            max_r2,
+                            |p| p.depth() <= jmax,
+                            f_d,
+                            want,
+                        );
+                        let mut l = caustic.total;
+                        self.file_read(out, &c.tally, c.roles[0], &caustic, want);
                         if b == 0 {
-                            l += estimate(
+                            let global = map_read::read(
                                 &self.maps.global,
                                 s.p,
                                 s.ng,
@@ -350,15 +468,27 @@ impl JensenIntegrator {
                                 max_r2,
                                 |p| p.depth() >= 2 && !p.caustic() && p.depth() <= jmax,
                                 f_d,
-                            )
-                            .0;
+                                want,
+                            );
+                            l += global.total;
+                            self.file_read(out, &c.tally, c.roles[0], &global, want);
                         }
                         radiance += c.roles[0] * l;
                     }
                     if b > 0 && c.roles[b] != Rgb::ZERO {
                         // The gather role: everything the global map holds.
-                        let l = estimate(&self.maps.global, s.p, s.ng, self.k, max_r2, |p| p.depth() <= jmax, f_d).0;
-                        radiance += c.roles[b] * l;
+                        let global = map_read::read(
+                            &self.maps.global,
+                            s.p,
+                            s.ng,
+                            self.k,
+                            max_r2,
+                            |p| p.depth() <= jmax,
+                            f_d,
+                            want,
+                        );
+                        radiance += c.roles[b] * global.total;
+                        self.file_read(out, &c.tally, c.roles[b], &global, want);
                     }
                     // More gather rays at a camera-role vertex: each a chain of its own that
                     // counts no direct light (NEE and this chain's sample did).
@@ -369,13 +499,23 @@ impl JensenIntegrator {
                             let w_d = split.diffuse_of_sample(&at, bs.wi, bs.f, bs.delta) * (bs.wi.z.abs() / bs.pdf);
                             let mut roles = [Rgb::ZERO; MAX_ROLES];
                             roles[1] = c.roles[0] * w_d / self.gather_rays as f32;
-                            let mut g =
-                                Chain { st: c.st, roles, e_mis: Rgb::ZERO, e_plain: Rgb::ZERO, e_medium: Rgb::ZERO };
+                            let mut tally = c.tally;
+                            if passes && c.st.depth == 0 {
+                                tally.surface_bounce_sampled(&at, &bs);
+                            }
+                            let mut g = Chain {
+                                st: c.st,
+                                roles,
+                                e_mis: Rgb::ZERO,
+                                e_plain: Rgb::ZERO,
+                                e_medium: Rgb::ZERO,
+                                tally,
+                            };
                             if roles[1] == Rgb::ZERO || !g.bounce(ctx, &s, &sp, wo_local, &bs, n_select, stats) {
                                 continue;
                             }
-                            let mut scratch = CameraSample::default();
-                            radiance += self.walk(ctx, g, sampler, depth_of, &mut scratch, stats);
+                            // Starting at depth ≥ 1, the chain leaves the first-hit values alone.
+                            radiance += self.walk(ctx, g, sampler, depth_of, out, stats);
                         }
                     }
                 }
@@ -394,6 +534,9 @@ impl JensenIntegrator {
             }
             let w_d = split.diffuse_of_sample(&at, bs.wi, bs.f, bs.delta) * cos_over_pdf;
             let w_g = (w_all - w_d).max(Rgb::ZERO);
+            if passes && c.st.depth == 0 {
+                c.tally.surface_bounce_sampled(&at, &bs);
+            }
             let mut next = [Rgb::ZERO; MAX_ROLES];
             for k in 0..=b {
                 if c.roles[k] == Rgb::ZERO {
@@ -451,6 +594,8 @@ struct Chain {
     e_plain: Rgb,
     /// Weight of media's emission along the next ray (no map holds it).
     e_medium: Rgb,
+    /// The light passes' filing of what this chain brings (the first event's class).
+    tally: Tally,
 }
 
 impl Chain {
@@ -498,6 +643,17 @@ impl Chain {
             l += le(&PathState { beta: self.e_plain, prev_pdf: 0.0, ..self.st });
         }
         l
+    }
+
+    /// Calls `f` with each state whose found emission counts ([`found`](Self::found)'s two).
+    #[inline]
+    fn each_found(&self, mut f: impl FnMut(&PathState)) {
+        if self.e_mis != Rgb::ZERO {
+            f(&PathState { beta: self.e_mis, ..self.st });
+        }
+        if self.e_plain != Rgb::ZERO {
+            f(&PathState { beta: self.e_plain, prev_pdf: 0.0, ..self.st });
+        }
     }
 
     /// Spawns the next ray from the surface `s` along the sampled `bs`; false when the

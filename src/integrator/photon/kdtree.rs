@@ -43,6 +43,9 @@ pub(crate) const LEAF: usize = 16;
 #[derive(Clone, Debug, Default)]
 pub struct PhotonMap {
     photons: Vec<Photon>,
+    /// Each photon's light group (`scene::light_groups`), in the photons' order; empty
+    /// when the render asks for no light groups (every photon then in none).
+    groups: Vec<u8>,
     /// Split plane of internal node i (heap order); unused slots (children of leaves)
     /// are never read.
     planes: Vec<Plane>,
@@ -132,6 +135,20 @@ impl PhotonMap {
         Self::from_tree_order(photons)
     }
 
+    /// Builds the tree with each photon's light group (`groups[i]` is photon i's), which
+    /// moves with its photon: the photons end in the order [`build`](Self::build) gives
+    /// (the same comparisons on the same positions).
+    pub fn build_grouped(photons: Vec<Photon>, groups: Vec<u8>) -> Self {
+        if groups.len() != photons.len() {
+            // Untagged photons (no light groups asked): the plain tree.
+            return Self::build(photons);
+        }
+        let mut tagged: Vec<(Photon, u8)> = photons.into_iter().zip(groups).collect();
+        build_range(&mut tagged);
+        let (photons, groups) = tagged.into_iter().unzip();
+        PhotonMap { groups, ..Self::from_tree_order(photons) }
+    }
+
     /// Wraps photons that are already in tree order (from a map file): reads the
     /// split planes back from them.
     pub(crate) fn from_tree_order(photons: Vec<Photon>) -> Self {
@@ -144,7 +161,13 @@ impl PhotonMap {
         }
         let mut planes = vec![Plane::default(); (1usize << levels) - 1];
         fill_planes(&photons, &mut planes, 0, 0, photons.len());
-        PhotonMap { photons, planes }
+        PhotonMap { photons, groups: Vec::new(), planes }
+    }
+
+    /// The light group of photon `i` (tree order), or `light_groups::NONE`.
+    #[inline]
+    pub fn group(&self, i: u32) -> u8 {
+        self.groups.get(i as usize).copied().unwrap_or(crate::scene::light_groups::NONE)
     }
 
     /// The photons in tree order.
@@ -262,13 +285,33 @@ fn dist2(p: [f32; 3], q: [f32; 3]) -> f32 {
 /// Parallel build above this many photons.
 const PARALLEL_BUILD: usize = 16_384;
 
-fn build_range(ph: &mut [Photon]) {
+/// What the tree build orders: a photon, or a photon with a tag that moves with it.
+trait Placed: Send {
+    /// The photon's position.
+    fn at(&self) -> Vec3;
+}
+
+impl Placed for Photon {
+    #[inline]
+    fn at(&self) -> Vec3 {
+        self.pos()
+    }
+}
+
+impl Placed for (Photon, u8) {
+    #[inline]
+    fn at(&self) -> Vec3 {
+        self.0.pos()
+    }
+}
+
+fn build_range<T: Placed>(ph: &mut [T]) {
     if ph.len() <= LEAF {
         return;
     }
     let axis = split_axis(ph);
     let m = ph.len() / 2;
-    ph.select_nth_unstable_by(m, |a, b| a.p[axis].total_cmp(&b.p[axis]));
+    ph.select_nth_unstable_by(m, |a, b| a.at()[axis].total_cmp(&b.at()[axis]));
     let (left, right) = ph.split_at_mut(m);
     if left.len() + right.len() > PARALLEL_BUILD {
         rayon::join(|| build_range(left), || build_range(right));
@@ -295,11 +338,11 @@ fn fill_planes(ph: &[Photon], planes: &mut [Plane], node: usize, lo: usize, hi: 
 }
 
 /// The axis of the largest extent of the photons' bounds.
-fn split_axis(ph: &[Photon]) -> usize {
+fn split_axis<T: Placed>(ph: &[T]) -> usize {
     let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
     for p in ph {
-        lo = lo.min(p.pos());
-        hi = hi.max(p.pos());
+        lo = lo.min(p.at());
+        hi = hi.max(p.at());
     }
     let ext = hi - lo;
     if ext.x >= ext.y && ext.x >= ext.z {
@@ -390,6 +433,25 @@ mod tests {
                 assert_eq!((count, sum), (bc, bs), "range query, seed {seed}");
             }
         }
+    }
+
+    #[test]
+    fn groups_move_with_their_photons() {
+        // Power i marks photon i; its group is i % 5. Duplicated positions test the order of ties.
+        let pts: Vec<Photon> = (0..2000u32)
+            .map(|i| {
+                let p = Vec3::new(rnd(7, 3 * (i / 2)), rnd(7, 3 * (i / 2) + 1), rnd(7, 3 * (i / 2) + 2));
+                Photon::new(p, Vec3::splat(i as f32), Vec3::Z, Vec3::Z, 1, false)
+            })
+            .collect();
+        let groups: Vec<u8> = (0..2000u32).map(|i| (i % 5) as u8).collect();
+        let plain = PhotonMap::build(pts.clone());
+        let grouped = PhotonMap::build_grouped(pts, groups);
+        assert_eq!(plain.photons(), grouped.photons(), "the same tree order");
+        for (i, p) in grouped.photons().iter().enumerate() {
+            assert_eq!(grouped.group(i as u32), (p.power[0] as u32 % 5) as u8);
+        }
+        assert_eq!(plain.group(0), crate::scene::light_groups::NONE);
     }
 
     #[test]

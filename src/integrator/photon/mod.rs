@@ -36,7 +36,9 @@ pub mod io;
 pub mod jensen;
 pub mod kdtree;
 pub mod lobes;
+pub mod map_read;
 pub mod sppm;
+pub mod sppm_extras;
 pub mod trace;
 
 use glam::{Vec2, Vec3};

@@ -204,6 +204,8 @@ impl SppmIntegrator {
     ) -> RenderResult {
         let (mut r, st) =
             render(ctx, camera, job, self.max_depth, &self.settings, self.transparent_background, stop, on_progress);
+        // The passes of the camera ray alone, over the completed iterations.
+        super::sppm_extras::fill(ctx, camera, job, st.iterations, &mut r.image, &mut r.rays);
         r.integrator_stats = Some(serde_json::json!({
             "sppm": st,
             "photons_per_sec": st.photons as f64 / st.photon_seconds.max(1e-9),
@@ -313,7 +315,7 @@ fn render(
         }
         // 2. Photons (the same rule: a signal or the deadline abandons the iteration).
         let t_ph = Instant::now();
-        let (photons, ts) = trace_photons(
+        let (photons, _, ts) = trace_photons(
             ctx,
             &emitters,
             &TraceJob {
@@ -323,6 +325,7 @@ fn render(
                 pass: job.sample_offset + it + 1,
                 max_depth,
                 skip_direct: true,
+                light_groups: false,
             },
             &abort,
             &|_| {

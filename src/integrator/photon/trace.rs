@@ -45,6 +45,7 @@ use crate::math::{Rgb, luminance};
 use crate::render::job::RayStats;
 use crate::sampling::PixelSampler;
 use crate::sampling::warp::cosine_hemisphere;
+use crate::scene::light_groups::NONE;
 use crate::scene::linking::NO_OBJECT;
 use glam::Vec2;
 use rayon::prelude::*;
@@ -88,6 +89,8 @@ pub struct TraceJob {
     pub max_depth: u32,
     /// Do not store first hits (direct light), for SPPM, which computes it by NEE.
     pub skip_direct: bool,
+    /// Tag each stored photon with its light's group (`scene::light_groups`).
+    pub light_groups: bool,
 }
 
 /// Salts that keep the global, caustic and SPPM streams apart from the pixels'.
@@ -99,17 +102,19 @@ fn salt(kind: MapKind) -> u32 {
 }
 
 /// Traces `job.count` photons in parallel; `progress` receives the number of photons
-/// done after each chunk. Returns the stored photons (not yet a tree) and counters.
+/// done after each chunk. Returns the stored photons (not yet a tree), their light groups
+/// (when `job.light_groups`, one per photon; else empty) and counters.
 pub fn trace_photons(
     ctx: &SceneContext,
     emitters: &Emitters,
     job: &TraceJob,
     stop: &AtomicBool,
     progress: &(dyn Fn(u64) + Sync),
-) -> (Vec<Photon>, TraceStats) {
+) -> (Vec<Photon>, Vec<u8>, TraceStats) {
     let chunks = job.count.div_ceil(CHUNK);
+    let groups_of = &ctx.scene.light_groups;
     let done = AtomicU64::new(0);
-    let parts: Vec<(Vec<Photon>, TraceStats)> = (0..chunks)
+    let parts: Vec<(Vec<Photon>, Vec<u8>, TraceStats)> = (0..chunks)
         .into_par_iter()
         .map(|c| {
             let lo = c * CHUNK;
@@ -118,29 +123,37 @@ pub fn trace_photons(
             // without reallocating unless the chunk's photons average more than 4 hits.
             let mut out = Vec::with_capacity(((hi - lo) * job.max_depth.clamp(1, 4) as u64) as usize);
             let mut st = TraceStats::default();
+            let mut groups = Vec::new();
             if stop.load(Ordering::Relaxed) {
-                return (out, st);
+                return (out, groups, st);
             }
             for i in lo..hi {
-                trace_one(ctx, emitters, job, i, &mut out, &mut st);
+                let light = trace_one(ctx, emitters, job, i, &mut out, &mut st);
+                if job.light_groups {
+                    // Every photon this one stored has its light's group.
+                    groups.resize(out.len(), light.map_or(NONE, |l| groups_of.of_light(l)));
+                }
             }
             progress(done.fetch_add(hi - lo, Ordering::Relaxed) + hi - lo);
-            (out, st)
+            (out, groups, st)
         })
         .collect();
     let total: usize = parts.iter().map(|p| p.0.len()).sum();
     let mut photons = Vec::with_capacity(total);
+    let mut groups = Vec::with_capacity(if job.light_groups { total } else { 0 });
     let mut stats = TraceStats::default();
-    for (p, s) in parts {
+    for (p, g, s) in parts {
         photons.extend_from_slice(&p);
+        groups.extend_from_slice(&g);
         stats.emitted += s.emitted;
         stats.stored += s.stored;
         stats.rays += s.rays;
     }
-    (photons, stats)
+    (photons, groups, stats)
 }
 
-/// Traces photon `i` of the job, appending what it stores to `out`.
+/// Traces photon `i` of the job, appending what it stores to `out`; returns the light
+/// that emitted it (None: no photon left a light).
 #[inline]
 pub fn trace_one(
     ctx: &SceneContext,
@@ -149,21 +162,19 @@ pub fn trace_one(
     i: u64,
     out: &mut Vec<Photon>,
     st: &mut TraceStats,
-) {
+) -> Option<usize> {
     let mut s = PixelSampler::new(job.seed, salt(job.kind), job.pass ^ ((i >> 32) as u32), i as u32);
     let [u_light, u_side, u_px, u_py] = s.next_4d();
     let [u_dx, u_dy, _, _] = s.next_4d();
     st.emitted += 1;
-    let Some(e) = emitters.emit(ctx.scene, u_light, u_side, Vec2::new(u_px, u_py), Vec2::new(u_dx, u_dy), job.count)
-    else {
-        return;
-    };
+    let e = emitters.emit(ctx.scene, u_light, u_side, Vec2::new(u_px, u_py), Vec2::new(u_dx, u_dy), job.count)?;
     // A shadow-linked light's photon may go on through surfaces that do not block it
     // (`linking`): each such continuation is traced after the path it split from.
     let mut pending = Some(PathState::photon(e.org, e.dir, e.power));
     while let Some(path) = pending.take() {
         follow(ctx, job, &mut s, e.light, path, &mut pending, out, st);
     }
+    Some(e.light)
 }
 
 /// Follows a photon of light `light` from its state `path` (at its light, or passing a
