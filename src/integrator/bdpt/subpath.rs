@@ -89,14 +89,7 @@ impl BdptIntegrator {
                 }
                 Step::Escaped => {
                     if self.allowed(0, i + 2) && !(i == 0 && self.transparent_background) {
-                        let sum = self.escaped_radiance(
-                            ctx,
-                            dir,
-                            cam,
-                            &mut scratch.dens,
-                            (prev_delta, pdf_sa),
-                            camera,
-                        );
+                        let sum = self.escaped_radiance(ctx, dir, cam, &mut scratch.dens, (prev_delta, pdf_sa), camera);
                         if sum != Rgb::ZERO {
                             *radiance += beta * sum;
                             if i == 0 {
@@ -218,7 +211,9 @@ impl BdptIntegrator {
             let pdf_dir = ctx.scene.world.as_ref().map_or(0.0, |e| e.pdf(dir));
             let gate = world.map_or(Gate::Mis, |w| linking::found(ctx, w, from));
             let w = match world {
-                Some(w) if gate == Gate::Mis => self.weight_escaped(ctx, cam, dens, w, dir, pdf_dir, (prev_delta, pdf_sa), camera),
+                Some(w) if gate == Gate::Mis => {
+                    self.weight_escaped(ctx, cam, dens, w, dir, pdf_dir, (prev_delta, pdf_sa), camera)
+                }
                 _ => 1.0,
             };
             sum += le * self.mis(gate.weight(w));

@@ -106,9 +106,7 @@ impl Vertex {
         }
         pdf_sa * self.abs_cos_geo(d / d2.sqrt()) / d2
     }
-}
 
-impl Vertex {
     /// Unit direction from point `from` toward this vertex.
     #[inline]
     pub(crate) fn dir_from(&self, from: Vec3) -> Vec3 {
