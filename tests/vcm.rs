@@ -70,6 +70,14 @@ fn glass_caustic_vcm_matches_path_tracing() {
     vcm_matches_path("glass", &root().join("scenes/glass_caustic.gltf"), (48, 36), (8, 64), 8, &[]);
 }
 
+/// Under the HDRI sky (an importance-sampled image with a sun in it) light subpaths start
+/// on a disk beyond the scene, in directions drawn from the sky: their vertices are
+/// connected and merged, and VCM agrees with the path tracer.
+#[test]
+fn hdri_sky_vcm_matches_path_tracing() {
+    vcm_matches_path("hdri", &root().join("scenes/hdri_sky.gltf"), (48, 27), (8, 32), 8, &[]);
+}
+
 /// Media and subsurface scattering (scenes/subsurface.gltf: a random-walk marble blob and
 /// homogeneous scattering smoke inside absorbing glass): paths with a medium vertex are path
 /// traced from the camera side, the rest connected and merged; the sum agrees.

@@ -31,7 +31,7 @@
 use crate::light::{Light, sample_triangle};
 use crate::math::{Frame, Rgb, luminance};
 use crate::sampling::Distribution1D;
-use crate::sampling::warp::{concentric_disk, cosine_hemisphere, uniform_sphere};
+use crate::sampling::warp::{concentric_disk, cosine_hemisphere, uniform_cone, uniform_cone_pdf, uniform_sphere};
 use crate::scene::Scene;
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
@@ -201,17 +201,12 @@ impl Emitters {
                 Some(EmittedPhoton { light: index, org: *center + nrm * (*radius * 1.0001), dir, power: phi })
             }
             Light::World => {
-                // Toward the scene from a disk beyond its bounds, perpendicular to a
-                // direction drawn from the world's own distribution.
-                let env = scene.world.as_ref()?;
-                let (to_world, le, pdf) = env.sample(u_dir)?;
-                let f = Frame::from_normal(to_world);
-                let d = concentric_disk(u_pos) * self.radius;
+                let r = infinite_ray(scene, &scene.lights[index], (self.center, self.radius), u_pos, u_dir)?;
                 Some(EmittedPhoton {
                     light: index,
-                    org: self.center + to_world * (self.radius * 1.01) + f.s * d.x + f.t * d.y,
-                    dir: -to_world,
-                    power: le * (PI * self.radius * self.radius / (pdf * pmf * n as f32)),
+                    org: r.org,
+                    dir: r.dir,
+                    power: r.le * (PI * self.radius * self.radius / (r.pdf_dir * pmf * n as f32)),
                 })
             }
             Light::Spot { position, direction, cos_inner, cos_outer, .. } => {
@@ -223,25 +218,9 @@ impl Emitters {
                     power: phi,
                 })
             }
-            Light::Directional { direction, cos_half, .. } => {
-                // A sun with a size sends each photon from a direction within its cone
-                // (uniform: its radiance is constant there), from a disk facing that
-                // direction.
-                let dir = if *cos_half < 1.0 {
-                    Frame::from_normal(*direction)
-                        .to_world(crate::sampling::warp::uniform_cone(u_dir, *cos_half))
-                        .normalize()
-                } else {
-                    *direction
-                };
-                let f = Frame::from_normal(dir);
-                let d = concentric_disk(u_pos) * self.radius;
-                Some(EmittedPhoton {
-                    light: index,
-                    org: self.center - dir * (self.radius * 1.01) + f.s * d.x + f.t * d.y,
-                    dir,
-                    power: phi,
-                })
+            Light::Directional { .. } => {
+                let r = infinite_ray(scene, &scene.lights[index], (self.center, self.radius), u_pos, u_dir)?;
+                Some(EmittedPhoton { light: index, org: r.org, dir: r.dir, power: phi })
             }
             Light::Area(a) => {
                 let q = a.sample_point(u_pos);
@@ -286,6 +265,76 @@ impl Emitters {
                 })
             }
         }
+    }
+}
+
+/// A ray of a light at infinity (the world or a sun) toward the scene.
+#[derive(Clone, Copy, Debug)]
+pub struct InfiniteRay {
+    /// Origin on the disk beyond the scene's bounding sphere.
+    pub org: Vec3,
+    /// Unit direction of travel (toward the scene).
+    pub dir: Vec3,
+    /// Radiance arriving from `-dir` (a delta sun: its irradiance).
+    pub le: Rgb,
+    /// Solid-angle density of `dir` (1 for a delta sun, whose direction is fixed).
+    pub pdf_dir: f32,
+    /// The light has this one direction only (a sun without a size).
+    pub delta: bool,
+}
+
+/// Area density of a point on the disk of [`infinite_ray`] for a bounding radius `radius`.
+#[inline]
+pub fn disk_pdf(radius: f32) -> f32 {
+    1.0 / (PI * radius * radius)
+}
+
+/// A ray from light `light` (the world or a sun; None for other lights) toward the scene
+/// bounded by the sphere (`center`, `radius`): a direction from the light's own
+/// distribution (the world's importance map, uniform in a sun's cone) drawn with `u_dir`,
+/// and a point drawn with `u_pos` uniformly on a disk of radius `radius` beyond the
+/// sphere, perpendicular to that direction, so that every direction covers the whole
+/// sphere (area density [`disk_pdf`]). Photon emission and BDPT's light subpaths share it.
+#[inline]
+pub fn infinite_ray(
+    scene: &Scene,
+    light: &Light,
+    (center, radius): (Vec3, f32),
+    u_pos: Vec2,
+    u_dir: Vec2,
+) -> Option<InfiniteRay> {
+    let d = concentric_disk(u_pos) * radius;
+    match light {
+        Light::World => {
+            let env = scene.world.as_ref()?;
+            let (to_world, le, pdf_dir) = env.sample(u_dir)?;
+            let f = Frame::from_normal(to_world);
+            Some(InfiniteRay {
+                org: center + to_world * (radius * 1.01) + f.s * d.x + f.t * d.y,
+                dir: -to_world,
+                le,
+                pdf_dir,
+                delta: false,
+            })
+        }
+        Light::Directional { direction, irradiance, cos_half } => {
+            // A sun with a size sends each ray from a direction within its cone (uniform:
+            // its radiance is constant there).
+            let delta = *cos_half >= crate::light::DELTA_SUN_COS;
+            let dir = if delta {
+                *direction
+            } else {
+                Frame::from_normal(*direction).to_world(uniform_cone(u_dir, *cos_half)).normalize()
+            };
+            let f = Frame::from_normal(dir);
+            let (le, pdf_dir) = if delta {
+                (*irradiance, 1.0)
+            } else {
+                (crate::light::sun_radiance(*irradiance, *cos_half), uniform_cone_pdf(*cos_half))
+            };
+            Some(InfiniteRay { org: center - dir * (radius * 1.01) + f.s * d.x + f.t * d.y, dir, le, pdf_dir, delta })
+        }
+        _ => None,
     }
 }
 

@@ -2,13 +2,19 @@
 //! with their densities, and the same densities evaluated for a given point and
 //! direction (needed by the MIS weights of every strategy).
 //!
-//! Lights with a fixed emitting surface or point start light subpaths ("finite"
-//! lights): point, spot, area, emissive triangle, and Blender's point light with a
-//! radius and without soft falloff (a sphere). The world, suns and soft-falloff point
-//! lights (a disk that turns to face each receiver: no fixed surface to start from)
-//! are reached only from the camera side: by a camera path that escapes or crosses
-//! them (s = 0) and by light sampling at a camera vertex (s = 1), weighted between
-//! those two strategies exactly as the path tracer weights them.
+//! Every light but Blender's soft-falloff point light (a disk that turns to face each
+//! receiver: no fixed surface to start from) starts light subpaths. Lights with a fixed
+//! emitting surface or point ("finite": point, spot, area, emissive triangle, a point
+//! light with a radius and without soft falloff) start them there; the world and suns
+//! (lights at infinity) start them on a disk beyond the scene's bounding sphere, facing a
+//! direction drawn from the light's own distribution, as photons are emitted
+//! (`emit::infinite_ray`). Such a light vertex lies at infinity: its density from the
+//! light side is the light's choice times the direction's solid-angle density, the next
+//! vertex's is the disk's area density times the cosine there, and a camera path reaches
+//! it with the BSDF's solid-angle density (no distance). Soft point lights are reached
+//! only from the camera side: by a camera path that crosses them (s = 0) and by light
+//! sampling at a camera vertex (s = 1), weighted between those two strategies exactly as
+//! the path tracer weights them.
 
 use super::emit::Emitters;
 use crate::light::{Light, spot_attenuation};
@@ -41,10 +47,13 @@ pub struct LightPoint {
 pub struct BdptLights {
     /// Light choice for light sampling at a camera vertex (s = 1): every light, by power.
     all: Distribution1D,
-    /// Light choice for light subpaths: finite lights only, by power.
-    finite: Distribution1D,
+    /// Light choice for light subpaths: the lights that start them, by power.
+    origin: Distribution1D,
     /// Per light: starts light subpaths.
-    is_finite: Vec<bool>,
+    starts: Vec<bool>,
+    /// The scene's bounding sphere (centre, radius): lights at infinity start light
+    /// subpaths on a disk of this radius.
+    bounds: (Vec3, f32),
 }
 
 /// True for lights with a fixed emitting point or surface.
@@ -56,25 +65,47 @@ pub fn is_finite(l: &Light) -> bool {
     }
 }
 
+/// True for lights that start light subpaths (all but soft-falloff point lights).
+pub fn starts_subpaths(l: &Light) -> bool {
+    !matches!(l, Light::Sphere { soft: true, .. })
+}
+
 impl BdptLights {
     /// Selection distributions from the lights' exact emitted power.
     pub fn new(scene: &Scene) -> Self {
         let emitters = Emitters::new(scene);
         let lum: Vec<f32> = emitters.power.iter().map(|p| luminance(*p).max(0.0)).collect();
-        let is_finite: Vec<bool> = scene.lights.iter().map(is_finite).collect();
-        let finite: Vec<f32> = lum.iter().zip(&is_finite).map(|(&l, &f)| if f { l } else { 0.0 }).collect();
-        BdptLights { all: Distribution1D::new(&lum), finite: Distribution1D::new(&finite), is_finite }
+        let starts: Vec<bool> = scene.lights.iter().map(starts_subpaths).collect();
+        let origin: Vec<f32> = lum.iter().zip(&starts).map(|(&l, &f)| if f { l } else { 0.0 }).collect();
+        BdptLights {
+            all: Distribution1D::new(&lum),
+            origin: Distribution1D::new(&origin),
+            starts,
+            bounds: scene.bounding_sphere(),
+        }
     }
 
     /// True when some light can start a light subpath.
-    pub fn has_finite(&self) -> bool {
-        !self.finite.is_empty() && self.finite.total() > 0.0
+    pub fn has_origins(&self) -> bool {
+        !self.origin.is_empty() && self.origin.total() > 0.0
     }
 
     /// Whether light `i` starts light subpaths.
     #[inline]
-    pub fn finite(&self, i: usize) -> bool {
-        self.is_finite[i]
+    pub fn starts(&self, i: usize) -> bool {
+        self.starts[i]
+    }
+
+    /// The scene's bounding sphere (centre, radius), which the disk of lights at infinity covers.
+    #[inline]
+    pub fn bounds(&self) -> (Vec3, f32) {
+        self.bounds
+    }
+
+    /// Area density of a light subpath's start on the disk of a light at infinity.
+    #[inline]
+    pub fn disk_pdf(&self) -> f32 {
+        super::emit::disk_pdf(self.bounds.1)
     }
 
     /// Picks a light for light sampling at a camera vertex: (index, probability).
@@ -95,19 +126,19 @@ impl BdptLights {
 
     /// Picks a light to start a light subpath: (index, probability).
     #[inline]
-    pub fn pick_finite(&self, u: f32) -> Option<(usize, f32)> {
-        if !self.has_finite() {
+    pub fn pick_origin(&self, u: f32) -> Option<(usize, f32)> {
+        if !self.has_origins() {
             return None;
         }
-        let (i, p, _) = self.finite.sample(u);
-        (p > 0.0 && self.is_finite[i]).then_some((i, p))
+        let (i, p, _) = self.origin.sample(u);
+        (p > 0.0 && self.starts[i]).then_some((i, p))
     }
 
-    /// Probability that `pick_finite` returns light `i` (the light-origin density of the
-    /// MIS weights, times the position density).
+    /// Probability that `pick_origin` returns light `i` (the light-origin density of the
+    /// MIS weights, times the position or direction density).
     #[inline]
-    pub fn pmf_finite(&self, i: usize) -> f32 {
-        if !self.has_finite() { 0.0 } else { self.finite.pmf(i) }
+    pub fn pmf_origin(&self, i: usize) -> f32 {
+        if !self.has_origins() { 0.0 } else { self.origin.pmf(i) }
     }
 }
 
@@ -189,10 +220,15 @@ pub fn two_sided(scene: &Scene, index: usize) -> bool {
     }
 }
 
-/// True for lights at a single point (they cannot be hit by a path).
+/// True for lights that no path can hit: at a single point (point and spot lights) or
+/// from a single direction (a sun without a size).
 #[inline]
-pub fn is_delta_position(scene: &Scene, index: usize) -> bool {
-    matches!(scene.lights[index], Light::Point { .. } | Light::Spot { .. })
+pub fn is_delta(scene: &Scene, index: usize) -> bool {
+    match scene.lights[index] {
+        Light::Point { .. } | Light::Spot { .. } => true,
+        Light::Directional { cos_half, .. } => cos_half >= crate::light::DELTA_SUN_COS,
+        _ => false,
+    }
 }
 
 /// Emitted radiance (or intensity) of a light point in direction `w`.

@@ -52,6 +52,11 @@ impl BdptIntegrator {
     ) {
         let camera = film.camera;
         let y = scratch.light[s - 1];
+        // A light at infinity sends one direction through the camera's point: no pixel
+        // sees it by this strategy (s = 0 alone makes such paths).
+        if y.kind == Kind::Infinite {
+            return;
+        }
         // Border pixels' filters reach outside the frame, where their camera samples go too.
         // The camera subpath's aperture point is a uniform lens sample independent of this
         // light subpath: connecting to it is the t = 1 strategy through a thin lens.
@@ -120,7 +125,7 @@ impl BdptIntegrator {
             && let Some(bsdf) = y.bsdf
         {
             let prev = &scratch.light[s - 2];
-            let pdf = bsdf.pdf(y.frame.to_local(w), y.frame.to_local((prev.p - y.p).normalize_or_zero()));
+            let pdf = bsdf.pdf(y.frame.to_local(w), y.frame.to_local(prev.dir_from(y.p)));
             dens.b[s - 2] = prev.area_density(pdf, y.p);
         }
         dens.a[k] = 0.0; // unused (t = 0 is not a strategy)
@@ -153,9 +158,10 @@ impl BdptIntegrator {
             return Rgb::ZERO;
         }
         let wo_l = x.frame.to_local(x.wo);
-        if !self.lights.finite(index) {
+        if !lights::is_finite(&ctx.scene.lights[index]) {
             // The world, a sun or a soft point light: light sampling as the path tracer
-            // does, weighted against BSDF sampling only.
+            // does; weighted over every strategy for lights that start light subpaths,
+            // else against BSDF sampling only.
             let Some(ls) = ctx.sample_light(index, x.p, Vec2::new(u[1], u[2])) else {
                 return Rgb::ZERO;
             };
@@ -179,7 +185,15 @@ impl BdptIntegrator {
                 return Rgb::ZERO;
             }
             let p_light = pmf * ls.pdf;
-            let w = if ls.delta { 1.0 } else { power_heuristic(p_light, bsdf.pdf(wo_l, wi_l)) };
+            let w = if gate != Gate::Mis {
+                1.0
+            } else if self.lights.starts(index) {
+                self.weight_s1_infinite(ctx, t, index, &ls, camera, scratch)
+            } else if ls.delta {
+                1.0
+            } else {
+                power_heuristic(p_light, bsdf.pdf(wo_l, wi_l))
+            };
             return x.beta * f * tr * ls.li * (self.mis(gate.weight(w)) / p_light);
         }
         let Some(lp) = lights::sample_point(ctx.scene, index, Vec2::new(u[1], u[2])) else {
@@ -222,7 +236,7 @@ impl BdptIntegrator {
             return contribution * tr * self.mis(1.0);
         }
         // MIS with the light-origin density of light subpaths.
-        y.pdf_fwd = self.lights.pmf_finite(index) * lp.pdf_pos;
+        y.pdf_fwd = self.lights.pmf_origin(index) * lp.pdf_pos;
         let dens = &mut scratch.dens;
         self.fill_path(ctx, &scratch.cam[..t], std::slice::from_ref(&y), 1, camera, dens);
         dens.connectible[0] = true;
@@ -242,6 +256,49 @@ impl BdptIntegrator {
         }
         let w = self.mis(dens.weight(1));
         contribution * tr * w
+    }
+
+    /// MIS weight of light sampling (s = 1) at camera vertex `cam[t-1]` toward light `index`
+    /// at infinity (the world or a sun, sampled as `ls`), over every strategy: the light
+    /// vertex's density from the light side is the light's choice times the direction's
+    /// density (that of `ls`: light subpaths draw directions from the same distribution).
+    pub(super) fn weight_s1_infinite(
+        &self,
+        ctx: &SceneContext,
+        t: usize,
+        index: usize,
+        ls: &LightSample,
+        camera: &CameraRays,
+        scratch: &mut BdptScratch,
+    ) -> f32 {
+        let x = &scratch.cam[t - 1];
+        let Some(bsdf) = x.bsdf else { return 0.0 };
+        let mut y = Vertex::new(Kind::Infinite, ls.wi);
+        y.pdf_fwd = self.lights.pmf_origin(index) * ls.pdf;
+        y.light = Some(LightPoint {
+            light: index as u32,
+            p: ls.wi,
+            n: Vec3::ZERO,
+            le: ls.li,
+            pdf_pos: self.lights.disk_pdf(),
+            two_sided: false,
+        });
+        let (wo_l, wi_l) = (x.frame.to_local(x.wo), x.frame.to_local(ls.wi));
+        let dens = &mut scratch.dens;
+        self.fill_path(ctx, &scratch.cam[..t], std::slice::from_ref(&y), 1, camera, dens);
+        dens.connectible[0] = true;
+        dens.connectible[1] = true;
+        // b[0]: the camera vertex's BSDF generating the direction (a solid-angle density).
+        dens.b[0] = if ls.delta { 0.0 } else { bsdf.pdf(wo_l, wi_l) };
+        // a[1]: the light's disk generating x.
+        dens.a[1] = x.density_from_infinity(ls.wi, self.lights.disk_pdf());
+        let prev = &scratch.cam[t - 2];
+        dens.a[2] = if prev.kind == Kind::Camera {
+            0.0 // a[k] is never used
+        } else {
+            prev.area_density(bsdf.pdf(wi_l, x.frame.to_local(prev.dir_from(x.p))), x.p)
+        };
+        dens.weight(1)
     }
 
     /// s, t ≥ 2: light vertex `light[s-1]` joined to camera vertex `cam[t-1]`.
@@ -294,7 +351,7 @@ impl BdptIntegrator {
         dens.a[s] = x.area_density(by.pdf(wo_y, wi_y), y.p);
         // b[s-2]: y generating its predecessor given x; a[s+1]: x generating its predecessor given y.
         let yp = &scratch.light[s - 2];
-        dens.b[s - 2] = yp.area_density(by.pdf(wi_y, y.frame.to_local((yp.p - y.p).normalize_or_zero())), y.p);
+        dens.b[s - 2] = yp.area_density(by.pdf(wi_y, y.frame.to_local(yp.dir_from(y.p))), y.p);
         let xp = &scratch.cam[t - 2];
         dens.a[s + 1] = if xp.kind == Kind::Camera {
             0.0

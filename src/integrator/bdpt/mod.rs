@@ -10,10 +10,13 @@
 //!   through the pixel filter (light tracing);
 //! - s, t ≥ 2: a shadow ray joins the two subpaths.
 //!
-//! Each contribution is weighted by `mis::PathDensities::weight`. Light subpaths start
-//! only at lights with a fixed point or surface (`lights::is_finite`); paths from the
-//! world, suns and soft-falloff point lights are made by s = 0 and s = 1 only, weighted as
-//! the path tracer weights them.
+//! Each contribution is weighted by `mis::PathDensities::weight`. Light subpaths start at
+//! every light but soft-falloff point lights (`lights::starts_subpaths`): the world and
+//! suns on a disk beyond the scene's bounding sphere facing a direction from the light's
+//! own distribution (a vertex at infinity, `Kind::Infinite`: its light-side density is the
+//! direction's, the next vertex's the disk's times the cosine there, and the camera side
+//! reaches it with a solid-angle density; t = 1 cannot see it). Paths from soft point
+//! lights are made by s = 0 and s = 1 only, weighted as the path tracer weights them.
 //!
 //! Light subpaths carry the adjoint of the camera's BSDF: a refraction, whose camera-side
 //! value follows Cycles' convention (no η², `bsdf::dielectric`), scales them by 1/η², and

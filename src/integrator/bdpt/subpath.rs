@@ -5,6 +5,7 @@ use super::vertex::*;
 use super::*;
 use crate::integrator::linking::{self, Gate};
 use crate::integrator::walk::{PathState, Step};
+use crate::light::emit::infinite_ray;
 
 impl BdptIntegrator {
     /// Traces the camera subpath into `scratch.cam`, adding every s = 0 contribution
@@ -88,7 +89,7 @@ impl BdptIntegrator {
                 }
                 Step::Escaped => {
                     if self.allowed(0, i + 2) && !(i == 0 && self.transparent_background) {
-                        let sum = self.escaped_radiance(ctx, dir, &cam[..=i], prev_delta, pdf_sa);
+                        let sum = self.escaped_radiance(ctx, dir, cam, &mut scratch.dens, (prev_delta, pdf_sa), camera);
                         if sum != Rgb::ZERO {
                             *radiance += beta * sum;
                             if i == 0 {
@@ -190,32 +191,82 @@ impl BdptIntegrator {
         }
     }
 
-    /// What a camera subpath escaping along `dir` from its vertex `i` sees: the world and
-    /// sun disks, each weighed against light sampling (s = 0 with s = 1).
-    fn escaped_radiance(&self, ctx: &SceneContext, dir: Vec3, cam: &[Vertex], prev_delta: bool, pdf_sa: f32) -> Rgb {
-        let i = cam.len() - 1;
+    /// What a camera subpath escaping along `dir` from its last vertex sees: the world and
+    /// sun disks, each weighed over every strategy that can make the path (s = 0 here).
+    #[allow(clippy::too_many_arguments)]
+    fn escaped_radiance(
+        &self,
+        ctx: &SceneContext,
+        dir: Vec3,
+        cam: &mut Vec<Vertex>,
+        dens: &mut PathDensities,
+        (prev_delta, pdf_sa): (bool, f32),
+        camera: &CameraRays,
+    ) -> Rgb {
         let from = found_from(cam);
         let le = ctx.world_radiance(dir);
         let mut sum = Rgb::ZERO;
         if le != Rgb::ZERO {
             let world = ctx.scene.lights.iter().position(|l| matches!(l, Light::World));
-            let p_light =
-                world.map_or(0.0, |w| self.lights.pmf_any(w) * ctx.scene.world.as_ref().map_or(0.0, |e| e.pdf(dir)));
+            let pdf_dir = ctx.scene.world.as_ref().map_or(0.0, |e| e.pdf(dir));
             let gate = world.map_or(Gate::Mis, |w| linking::found(ctx, w, from));
-            sum += le * gate.weight(self.camera_only_weight(i, prev_delta, pdf_sa, p_light));
+            let w = match world {
+                Some(w) if gate == Gate::Mis => {
+                    self.weight_escaped(ctx, cam, dens, w, dir, pdf_dir, (prev_delta, pdf_sa), camera)
+                }
+                _ => 1.0,
+            };
+            sum += le * self.mis(gate.weight(w));
         }
         for (index, l) in ctx.scene.lights.iter().enumerate() {
             if let Light::Directional { direction, irradiance, cos_half } = l
-                && *cos_half < 1.0 - 1e-7
+                && *cos_half < crate::light::DELTA_SUN_COS
                 && dir.dot(-*direction) >= *cos_half
             {
-                let p_light = self.lights.pmf_any(index) * uniform_cone_pdf(*cos_half);
                 let gate = linking::found(ctx, index, from);
-                sum += crate::light::sun_radiance(*irradiance, *cos_half)
-                    * gate.weight(self.camera_only_weight(i, prev_delta, pdf_sa, p_light));
+                let pdf_dir = uniform_cone_pdf(*cos_half);
+                let w = if gate == Gate::Mis {
+                    self.weight_escaped(ctx, cam, dens, index, dir, pdf_dir, (prev_delta, pdf_sa), camera)
+                } else {
+                    1.0
+                };
+                sum += crate::light::sun_radiance(*irradiance, *cos_half) * self.mis(gate.weight(w));
             }
         }
         sum
+    }
+
+    /// MIS weight of the s = 0 strategy for the camera subpath `cam` escaping along `dir` to
+    /// light `index` at infinity, whose light subpaths draw `dir` with density `pdf_dir`;
+    /// the last camera direction had density `pdf_sa` (or was a delta lobe's).
+    #[allow(clippy::too_many_arguments)]
+    fn weight_escaped(
+        &self,
+        ctx: &SceneContext,
+        cam: &mut Vec<Vertex>,
+        dens: &mut PathDensities,
+        index: usize,
+        dir: Vec3,
+        pdf_dir: f32,
+        (prev_delta, pdf_sa): (bool, f32),
+        camera: &CameraRays,
+    ) -> f32 {
+        // Seen directly from the camera: no other strategy makes the path.
+        if cam.len() < 2 {
+            return 1.0;
+        }
+        let mut z0 = Vertex::new(Kind::Infinite, dir);
+        z0.pdf_fwd = if prev_delta { self.delta_solid_angle() } else { pdf_sa };
+        cam.push(z0);
+        let t = cam.len();
+        self.fill_path(ctx, cam, &[], 0, camera, dens);
+        dens.a[0] = self.lights.pmf_origin(index) * pdf_dir;
+        dens.a[1] = cam[t - 2].density_from_infinity(dir, self.lights.disk_pdf());
+        dens.connectible[0] = true;
+        dens.light_hittable = true;
+        let w = dens.weight(0);
+        cam.pop();
+        w
     }
 
     /// The weight of an s = 0 or s = 1 contribution from a light that only the camera
@@ -330,7 +381,7 @@ impl BdptIntegrator {
         camera: &CameraRays,
     ) -> f32 {
         let t = cam.len();
-        if !self.lights.finite(index) {
+        if !self.lights.starts(index) {
             return 1.0;
         }
         let z0 = &cam[t - 1];
@@ -344,7 +395,7 @@ impl BdptIntegrator {
         };
         self.fill_path(ctx, cam, &[], 0, camera, dens);
         // Light-side densities of the light point and of the next vertex.
-        dens.a[0] = self.lights.pmf_finite(index) * lp.pdf_pos;
+        dens.a[0] = self.lights.pmf_origin(index) * lp.pdf_pos;
         if t >= 2 {
             let z1 = &cam[t - 2];
             let w = (z1.p - z0.p).normalize_or_zero();
@@ -383,7 +434,7 @@ impl BdptIntegrator {
             dens.connectible[j] = if v.kind == Kind::Camera { !camera.is_orthographic() } else { !v.delta };
         }
         dens.light_hittable = match light.first() {
-            Some(v) => v.light.is_some_and(|lp| !lights::is_delta_position(ctx.scene, lp.light as usize)),
+            Some(v) => v.light.is_some_and(|lp| !lights::is_delta(ctx.scene, lp.light as usize)),
             None => true,
         };
     }
@@ -400,38 +451,21 @@ impl BdptIntegrator {
         light.clear();
         let [u_pick, u_side, u_px, u_py] = ls.next_4d();
         let [u_dx, u_dy, _, _] = ls.next_4d();
-        let Some((index, pmf)) = self.lights.pick_finite(u_pick) else {
+        let Some((index, pmf)) = self.lights.pick_origin(u_pick) else {
             return;
         };
-        let Some(lp) = lights::sample_point(ctx.scene, index, Vec2::new(u_px, u_py)) else {
+        let Some((v0, org, dir, beta, pdf_dir)) = self.light_start(ctx, index, pmf, u_side, [u_px, u_py, u_dx, u_dy])
+        else {
             return;
         };
-        let dir = lights::sample_direction(ctx.scene, &lp, u_side, Vec2::new(u_dx, u_dy));
-        let pdf_dir = lights::pdf_direction(ctx.scene, &lp, dir);
-        let le = lights::emitted(ctx.scene, &lp, dir);
-        let pdf_origin = pmf * lp.pdf_pos;
-        if !(pdf_dir > 0.0) || !(pdf_origin > 0.0) || le == Rgb::ZERO {
-            return;
-        }
-        let mut v0 = Vertex::new(Kind::Light, lp.p);
-        v0.ng = lp.n;
-        v0.beta = Rgb::splat(1.0 / pdf_origin);
-        v0.pdf_fwd = pdf_origin;
-        v0.light = Some(lp);
         light.push(v0);
         if !linking::light_subpaths_leave(ctx, index) {
             return;
         }
-        let cos0 = if lp.n == Vec3::ZERO { 1.0 } else { lp.n.dot(dir).abs() };
-        let beta = le * (cos0 / (pdf_origin * pdf_dir));
+        let infinite = v0.kind == Kind::Infinite;
         let beta_ref = beta.max_element();
         let mut pdf_sa = pdf_dir;
         let mut prev_delta = false;
-        let org = if matches!(ctx.scene.lights[index], Light::Triangle { .. }) {
-            offset_ray_origin(lp.p, if lp.n.dot(dir) >= 0.0 { lp.n } else { -lp.n })
-        } else {
-            lp.p
-        };
         let mut path = PathState::photon(org, dir, beta);
         let mut ignored = Rgb::ZERO;
         loop {
@@ -455,7 +489,13 @@ impl BdptIntegrator {
             let wo = -dir;
             let sp = ctx.shade(&s, wo);
             let mut v = Vertex::surface(&s, &sp, wo, beta, medium);
-            v.pdf_fwd = if prev_delta { self.delta_area(&v, light[i].p) } else { v.area_density(pdf_sa, light[i].p) };
+            v.pdf_fwd = if i == 0 && infinite {
+                v.density_from_infinity(light[0].p, self.lights.disk_pdf())
+            } else if prev_delta {
+                self.delta_area(&v, light[i].p)
+            } else {
+                v.area_density(pdf_sa, light[i].p)
+            };
             light.push(v);
             // s light vertices give paths of s - 1 + (t - 1) scattering events, t ≥ 1.
             if light.len() > self.max_depth as usize || light.len() >= mis::MAX_PATH_VERTICES / 2 {
@@ -500,6 +540,64 @@ impl BdptIntegrator {
             path.dir = wi;
             stats.bounce += 1;
         }
+    }
+
+    /// The first vertex of a light subpath from light `index` (chosen with probability
+    /// `pmf`), the first ray (origin, direction), the throughput after it and the
+    /// direction's solid-angle density: a point and a cosine-weighted or the light's own
+    /// direction for finite lights; a direction and a point on the bounding disk for lights
+    /// at infinity (`emit::infinite_ray`), whose throughput is L(ω) / (pmf p(ω) p_disk).
+    #[allow(clippy::type_complexity)]
+    fn light_start(
+        &self,
+        ctx: &SceneContext,
+        index: usize,
+        pmf: f32,
+        u_side: f32,
+        [u_px, u_py, u_dx, u_dy]: [f32; 4],
+    ) -> Option<(Vertex, Vec3, Vec3, Rgb, f32)> {
+        let l = &ctx.scene.lights[index];
+        if !lights::is_finite(l) {
+            let disk = self.lights.disk_pdf();
+            let r = infinite_ray(ctx.scene, l, self.lights.bounds(), Vec2::new(u_px, u_py), Vec2::new(u_dx, u_dy))?;
+            let pdf_origin = pmf * r.pdf_dir;
+            if !(pdf_origin > 0.0) || r.le == Rgb::ZERO {
+                return None;
+            }
+            let mut v0 = Vertex::new(Kind::Infinite, -r.dir);
+            v0.beta = Rgb::splat(1.0 / pdf_origin);
+            v0.pdf_fwd = pdf_origin;
+            v0.light = Some(LightPoint {
+                light: index as u32,
+                p: -r.dir,
+                n: Vec3::ZERO,
+                le: r.le,
+                pdf_pos: disk,
+                two_sided: false,
+            });
+            return Some((v0, r.org, r.dir, r.le * (1.0 / (pdf_origin * disk)), r.pdf_dir));
+        }
+        let lp = lights::sample_point(ctx.scene, index, Vec2::new(u_px, u_py))?;
+        let dir = lights::sample_direction(ctx.scene, &lp, u_side, Vec2::new(u_dx, u_dy));
+        let pdf_dir = lights::pdf_direction(ctx.scene, &lp, dir);
+        let le = lights::emitted(ctx.scene, &lp, dir);
+        let pdf_origin = pmf * lp.pdf_pos;
+        if !(pdf_dir > 0.0) || !(pdf_origin > 0.0) || le == Rgb::ZERO {
+            return None;
+        }
+        let mut v0 = Vertex::new(Kind::Light, lp.p);
+        v0.ng = lp.n;
+        v0.beta = Rgb::splat(1.0 / pdf_origin);
+        v0.pdf_fwd = pdf_origin;
+        v0.light = Some(lp);
+        let cos0 = if lp.n == Vec3::ZERO { 1.0 } else { lp.n.dot(dir).abs() };
+        let beta = le * (cos0 / (pdf_origin * pdf_dir));
+        let org = if matches!(l, Light::Triangle { .. }) {
+            offset_ray_origin(lp.p, if lp.n.dot(dir) >= 0.0 { lp.n } else { -lp.n })
+        } else {
+            lp.p
+        };
+        Some((v0, org, dir, beta, pdf_dir))
     }
 }
 

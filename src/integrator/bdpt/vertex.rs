@@ -9,6 +9,10 @@ pub(crate) enum Kind {
     Camera,
     /// The first vertex of a light subpath (or a light point connected to).
     Light,
+    /// The first vertex of a light subpath from a light at infinity (the world, a sun), or
+    /// such a light found or sampled from the camera side: `p` is the unit direction
+    /// toward the light, densities toward it are solid-angle densities.
+    Infinite,
     Surface,
 }
 
@@ -88,15 +92,33 @@ impl Vertex {
         if self.ng == Vec3::ZERO { 1.0 } else { self.ng.dot(w).abs() }
     }
 
-    /// Converts a solid-angle density at `from` toward this vertex into an area density here.
+    /// Converts a solid-angle density at `from` toward this vertex into an area density here
+    /// (a vertex at infinity keeps the solid-angle density: its measure is directions).
     #[inline]
     pub(crate) fn area_density(&self, pdf_sa: f32, from: Vec3) -> f32 {
+        if self.kind == Kind::Infinite {
+            return pdf_sa;
+        }
         let d = self.p - from;
         let d2 = d.length_squared();
         if !(d2 > 0.0) {
             return 0.0;
         }
         pdf_sa * self.abs_cos_geo(d / d2.sqrt()) / d2
+    }
+
+    /// Unit direction from point `from` toward this vertex.
+    #[inline]
+    pub(crate) fn dir_from(&self, from: Vec3) -> Vec3 {
+        if self.kind == Kind::Infinite { self.p } else { (self.p - from).normalize_or_zero() }
+    }
+
+    /// Area density of this vertex as the first hit of a light subpath from a light at
+    /// infinity in direction `to_light` (`disk_pdf`: the disk's area density): the disk
+    /// projected along the direction, |cos| at this vertex.
+    #[inline]
+    pub(crate) fn density_from_infinity(&self, to_light: Vec3, disk_pdf: f32) -> f32 {
+        disk_pdf * self.abs_cos_geo(to_light)
     }
 }
 

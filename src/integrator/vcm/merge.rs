@@ -61,7 +61,7 @@ pub(crate) fn push_records(scene: &Scene, light: &[Vertex], eta: f32, out: &mut 
     let Some(lp) = light.first().and_then(|v| v.light) else {
         return;
     };
-    let hittable = !lights::is_delta_position(scene, lp.light as usize);
+    let hittable = !lights::is_delta(scene, lp.light as usize);
     let mut rec = Recursion::start(eta, light[0].pdf_fwd, !light[0].delta, Some(hittable));
     for i in 1..light.len() {
         let v = &light[i];

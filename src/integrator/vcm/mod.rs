@@ -23,9 +23,10 @@
 //! of a 32 × 32 grid of pixels, clamped to [10⁻⁴, 5·10⁻²] × the scene's bounding radius
 //! (SPPM's rule, made one radius for the whole image). The estimate is consistent: merging's bias vanishes as r → 0.
 //!
-//! What is approximated or left out (as BDPT): light subpaths start only at finite lights
-//! (the world, suns and soft point lights are reached by s = 0 and s = 1, weighted as the
-//! path tracer weights them, and never merged); paths with a vertex in a medium are path
+//! What is approximated or left out (as BDPT): light subpaths start at every light but soft
+//! point lights (the world and suns on a disk beyond the scene, as BDPT's; soft point
+//! lights are reached by s = 0 and s = 1, weighted as the path tracer weights them, and
+//! never merged); paths with a vertex in a medium are path
 //! traced from the camera side (light subpaths cross media attenuated, without scattering:
 //! no volume merging), and the subsurface part of a camera vertex's material is path
 //! traced. Merges are found by distance alone (a thin wall's other side within r leaks,
