@@ -305,7 +305,7 @@ fn light_groups_leave_out_ungrouped_emitters_merge_from_chunks_and_refuse_bad_re
     assert!(!channels(&out).keys().any(|k| k.starts_with("Combined_")));
     let s = scene.to_str().unwrap();
     let o = out.to_str().unwrap();
-    let bad = run(&["render", s, "-o", o, "--passes", "light_groups", "--integrator", "bdpt"], LIMIT);
+    let bad = run(&["render", s, "-o", o, "--passes", "light_groups", "--integrator", "photon"], LIMIT);
     assert_eq!(bad.code, Some(2), "{}", bad.stderr);
     assert!(bad.stderr.contains("light group"), "{}", bad.stderr);
     // Chunks carry the groups' sums: two chunks merge into the single render bit for bit.

@@ -299,17 +299,19 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
             .map_err(|e| Error::Usage(format!("the scene's render settings: {e}")))?,
         (None, None) => crate::passes::PassSet::legacy(),
     };
-    if passes.any_light() && integrator != IntegratorKind::Path {
+    // BDPT and VCM file every strategy's contribution (`integrator::bdpt::passes`).
+    let files_passes = matches!(integrator, IntegratorKind::Path | IntegratorKind::Bdpt | IntegratorKind::Vcm);
+    if passes.any_light() && !files_passes {
         return Err(Error::Usage(format!(
-            "the light passes ({}) are rendered by the path integrator only, not by '{}'",
+            "the light passes ({}) are rendered by the path, BDPT and VCM integrators only, not by '{}'",
             passes.iter().filter(|p| p.is_light()).map(|p| p.name()).collect::<Vec<_>>().join(", "),
             integrator.name()
         )));
     }
     if passes.asks_light_groups() {
-        if integrator != IntegratorKind::Path {
+        if !files_passes {
             return Err(Error::Usage(format!(
-                "the light group passes are rendered by the path integrator only, not by '{}'",
+                "the light group passes are rendered by the path, BDPT and VCM integrators only, not by '{}'",
                 integrator.name()
             )));
         }

@@ -29,7 +29,7 @@
 use super::SceneContext;
 use super::catcher::{self, Split};
 use super::light_passes::{Tally, shares_at};
-use super::nee::{exit_nee, exit_nee_light, medium_nee, medium_nee_light, surface_nee_at};
+use super::nee::{exit_nee_light, medium_nee_light, surface_nee_at};
 use super::walk::{PathState, Step};
 use crate::bsdf::LobeKind;
 use crate::bsdf::dielectric::refract;
@@ -128,8 +128,20 @@ impl PathIntegrator {
         sampler: &mut PixelSampler,
         stats: &mut RayStats,
     ) -> Rgb {
-        let mut out = CameraSample::default();
-        self.trace(ctx, st, sampler, |_| 0.0, stats, &mut out, &mut Split::new(false))
+        self.continue_path_into(ctx, st, sampler, stats, &mut CameraSample::default())
+    }
+
+    /// [`continue_path`](Self::continue_path), filing its light groups into `out` (with
+    /// `light_groups`: BDPT's continuations of camera paths).
+    pub fn continue_path_into(
+        &self,
+        ctx: &SceneContext,
+        st: PathState,
+        sampler: &mut PixelSampler,
+        stats: &mut RayStats,
+        out: &mut CameraSample,
+    ) -> Rgb {
+        self.trace(ctx, st, sampler, |_| 0.0, stats, out, &mut Split::new(false))
     }
 
     /// Radiance scattered at a point `p` in a medium of phase function `phase` toward a
@@ -148,9 +160,36 @@ impl PathIntegrator {
         sampler: &mut PixelSampler,
         stats: &mut RayStats,
     ) -> Rgb {
+        let out = &mut CameraSample::default();
+        let (direct, rest) = self.scatter_in_medium_parts(ctx, p, dir, phase, media, beta, depth, sampler, stats, out);
+        direct + rest
+    }
+
+    /// [`scatter_in_medium`](Self::scatter_in_medium) as its next-event estimate at `p`
+    /// and the rest (the light passes of BDPT's continuations tell them apart); with
+    /// `light_groups`, each emitter's light is filed into `out`'s groups.
+    #[allow(clippy::too_many_arguments)]
+    pub fn scatter_in_medium_parts(
+        &self,
+        ctx: &SceneContext,
+        p: Vec3,
+        dir: Vec3,
+        phase: HenyeyGreenstein,
+        media: MediumStack,
+        beta: Rgb,
+        depth: u32,
+        sampler: &mut PixelSampler,
+        stats: &mut RayStats,
+        out: &mut CameraSample,
+    ) -> (Rgb, Rgb) {
         let [u_light, u_lx, u_ly, _] = sampler.next_4d();
         let [u_dx, u_dy, u_rr, _] = sampler.next_4d();
-        let mut radiance = beta * medium_nee(ctx, p, dir, phase, media, u_light, Vec2::new(u_lx, u_ly), stats);
+        let (le, light) = medium_nee_light(ctx, p, dir, phase, media, u_light, Vec2::new(u_lx, u_ly), stats);
+        let direct = beta * le;
+        if self.light_groups {
+            out.groups.add(ctx.scene.light_groups.of_light(light), direct);
+        }
+        let mut radiance = Rgb::ZERO;
         let (wi, pdf) = phase.sample(dir, Vec2::new(u_dx, u_dy));
         let mut st = PathState {
             org: p,
@@ -170,9 +209,9 @@ impl PathIntegrator {
         };
         if st.depth < self.max_depth && st.survives(self.rr_depth, u_rr) {
             stats.bounce += 1;
-            radiance += self.continue_path(ctx, st, sampler, stats);
+            radiance += self.continue_path_into(ctx, st, sampler, stats, out);
         }
-        radiance
+        (direct, radiance)
     }
 
     /// The path loop from state `st`; AOVs of the first hit go to `out`; a camera path
@@ -195,7 +234,8 @@ impl PathIntegrator {
         // Light groups: camera paths file by emitter, until they split at a shadow catcher
         // (Cycles files nothing of a path that hit a catcher).
         let groups = &ctx.scene.light_groups;
-        let mut grouping = self.light_groups && st.depth == 0;
+        // (Camera paths start at depth 0; only BDPT's continuations group from further on.)
+        let mut grouping = self.light_groups;
         loop {
             // Bounce dimensions, drawn up front so that their positions are fixed.
             let [u_light, u_lx, u_ly, u_lobe] = sampler.next_4d();
@@ -497,24 +537,51 @@ impl PathIntegrator {
         sampler: &mut PixelSampler,
         stats: &mut RayStats,
     ) -> Rgb {
+        let out = &mut CameraSample::default();
+        let (exit, rest) = self.subsurface_parts(ctx, s, sp, wo, media, beta, depth, sampler, stats, out);
+        exit + rest
+    }
+
+    /// [`subsurface_from`](Self::subsurface_from) as the next-event estimate at the exit
+    /// and the rest (the light passes of BDPT's continuations tell them apart); with
+    /// `light_groups`, each emitter's light is filed into `out`'s groups.
+    #[allow(clippy::too_many_arguments)]
+    pub fn subsurface_parts(
+        &self,
+        ctx: &SceneContext,
+        s: &SurfaceHit,
+        sp: &ShadingPoint,
+        wo: Vec3,
+        media: MediumStack,
+        beta: Rgb,
+        depth: u32,
+        sampler: &mut PixelSampler,
+        stats: &mut RayStats,
+        out: &mut CameraSample,
+    ) -> (Rgb, Rgb) {
+        let none = (Rgb::ZERO, Rgb::ZERO);
         let mat = &ctx.scene.materials[s.material as usize];
         let Some(ss) = mat.subsurface else {
-            return Rgb::ZERO;
+            return none;
         };
         let u = sampler.next_4d();
         let Some(exit) = self.subsurface(ctx, s, sp, wo, &ss, beta, u) else {
-            return Rgb::ZERO;
+            return none;
         };
         let beta = beta * exit.weight;
         let depth = depth + 1;
         if depth >= self.max_depth || !beta.is_finite() || beta == Rgb::ZERO {
-            return Rgb::ZERO;
+            return none;
         }
         let se = ctx.scene.surface(&exit.hit, exit.org, exit.dir);
         let (n_g, n_s) = (-se.ng, -se.ns);
         let [v_light, v_lx, v_ly, v_rr] = sampler.next_4d();
         let [v_dx, v_dy, _, _] = sampler.next_4d();
-        let radiance = beta * exit_nee(ctx, &se, n_g, n_s, media, v_light, Vec2::new(v_lx, v_ly), stats);
+        let (le, light) = exit_nee_light(ctx, &se, n_g, n_s, media, v_light, Vec2::new(v_lx, v_ly), stats);
+        let radiance = beta * le;
+        if self.light_groups {
+            out.groups.add(ctx.scene.light_groups.of_light(light), radiance);
+        }
         let local = cosine_hemisphere(Vec2::new(v_dx, v_dy));
         let wi = Frame::from_normal(n_s).to_world(local);
         let mut st = PathState {
@@ -538,10 +605,10 @@ impl PathIntegrator {
             ),
         };
         if wi.dot(n_g) <= 0.0 || !st.survives(self.rr_depth, v_rr) {
-            return radiance;
+            return (radiance, Rgb::ZERO);
         }
         stats.bounce += 1;
-        radiance + self.continue_path(ctx, st, sampler, stats)
+        (radiance, self.continue_path_into(ctx, st, sampler, stats, out))
     }
 
     /// Enters a subsurface material at `s` (seen along `wo`) and walks inside; None when

@@ -43,6 +43,7 @@ impl BdptIntegrator {
             // strategy does), emitters crossed on the way (area and sphere lights do not
             // block; weighed over BDPT's strategies), pass-through surfaces.
             let mut emitted = Rgb::ZERO;
+            let first = scratch.first;
             let crossed = |st: &PathState, t_event: f32, w: Rgb| {
                 if !self.allowed(0, i + 2) {
                     return Rgb::ZERO;
@@ -55,12 +56,17 @@ impl BdptIntegrator {
                     w,
                     (pdf_sa, prev_delta),
                     camera,
+                    (&mut *out, first),
                 )
             };
             let (step, crossed) =
                 path.advance_with(ctx, Some([u_channel, u_dist]), || u_alpha, crossed, &mut emitted, stats);
             if self.strategy.is_none() {
                 *radiance += emitted;
+                if emitted != Rgb::ZERO && self.ledger.any() {
+                    // Media emit in no light group (`scene::light_groups`).
+                    self.ledger.file(out, i, first, false, crate::scene::light_groups::NONE, emitted);
+                }
             }
             if crossed != Rgb::ZERO {
                 *radiance += crossed;
@@ -80,16 +86,40 @@ impl BdptIntegrator {
                         out.depth = camera.depth(p);
                     }
                     if self.strategy.is_none() && (i as u32) < self.max_depth && beta.is_finite() && beta != Rgb::ZERO {
-                        *radiance += self
+                        let (direct, rest) = self
                             .continuation()
-                            .scatter_in_medium(ctx, p, dir, phase, medium, beta, i as u32, sampler, stats);
+                            .scatter_in_medium_parts(ctx, p, dir, phase, medium, beta, i as u32, sampler, stats, out);
+                        *radiance += direct + rest;
+                        // The first event here is this medium vertex; after a surface, all
+                        // of it is indirect light of that surface's class.
+                        let first = if i == 0 { First::Volume } else { first };
+                        if i == 0 {
+                            self.ledger.file_split(out, first, direct, rest);
+                        } else {
+                            self.ledger.file_split(out, first, Rgb::ZERO, direct + rest);
+                        }
                     }
                     break;
                 }
                 Step::Escaped => {
-                    if self.allowed(0, i + 2) && !(i == 0 && self.transparent_background) {
-                        let sum = self.escaped_radiance(ctx, dir, &cam[..=i], prev_delta, pdf_sa);
-                        if sum != Rgb::ZERO {
+                    // The world seen directly through a transparent film is not in Combined,
+                    // but Environment and its light group show it (as the path tracer's).
+                    let hidden = i == 0 && self.transparent_background;
+                    if self.allowed(0, i + 2) && (!hidden || self.ledger.any()) {
+                        let (ledger, groups) = (self.ledger, &ctx.scene.light_groups);
+                        let mut sum = Rgb::ZERO;
+                        self.escaped_radiance(ctx, dir, &cam[..=i], prev_delta, pdf_sa, &mut |light, c| {
+                            sum += c;
+                            if ledger.any() {
+                                let g = match (ledger.light_groups, light) {
+                                    (false, _) => crate::scene::light_groups::NONE,
+                                    (true, None) => groups.world,
+                                    (true, Some(l)) => groups.of_light(l),
+                                };
+                                ledger.file(out, i, first, true, g, beta * c);
+                            }
+                        });
+                        if sum != Rgb::ZERO && !hidden {
                             *radiance += beta * sum;
                             if i == 0 {
                                 out.alpha = 1.0;
@@ -108,7 +138,7 @@ impl BdptIntegrator {
             if mat.subsurface.is_some() && self.strategy.is_none() && (i as u32) < self.max_depth {
                 let q = sp.bsdf.subsurface_weight(sp.frame.to_local(wo));
                 if q > 0.0 {
-                    *radiance += self.continuation().subsurface_from(
+                    let (exit, rest) = self.continuation().subsurface_parts(
                         ctx,
                         &s,
                         &sp,
@@ -118,7 +148,16 @@ impl BdptIntegrator {
                         i as u32,
                         sampler,
                         stats,
+                        out,
                     );
+                    *radiance += exit + rest;
+                    // From the first hit the walk is the first event (diffuse) and its
+                    // exit's estimate the direct light; later, all of it is indirect.
+                    if i == 0 {
+                        self.ledger.file_split(out, First::Surface(Rgb::ONE, Rgb::ZERO), exit, rest);
+                    } else {
+                        self.ledger.file_split(out, first, Rgb::ZERO, exit + rest);
+                    }
                 }
             }
             if i == 0 {
@@ -145,7 +184,12 @@ impl BdptIntegrator {
                     } else {
                         1.0
                     };
-                    *radiance += beta * sp.emitted * self.mis(gate.weight(w));
+                    let c = beta * sp.emitted * self.mis(gate.weight(w));
+                    *radiance += c;
+                    if self.ledger.any() {
+                        let g = if self.ledger.light_groups { ctx.scene.light_groups.of_tri(hit.tri) } else { 0 };
+                        self.ledger.file(out, t - 2, first, false, g, c);
+                    }
                 }
             }
             // Scattering events so far: t - 2; a vertex at the depth limit only emits.
@@ -153,6 +197,9 @@ impl BdptIntegrator {
                 break;
             }
             let wo_local = sp.frame.to_local(wo);
+            if t == 2 && self.ledger.light_passes {
+                crate::integrator::light_passes::Tally::colours(out, &sp.bsdf.at(wo_local), beta);
+            }
             let Some(bs) = sp.bsdf.sample(wo_local, u_lobe, Vec2::new(u_dx, u_dy)) else {
                 break;
             };
@@ -160,6 +207,13 @@ impl BdptIntegrator {
             let transmitted = bs.wi.z < 0.0;
             if transmitted != (wi.dot(s.ng) < 0.0) {
                 break;
+            }
+            if t == 2 && self.ledger.light_passes {
+                // The class of the first bounce, which every longer camera prefix shares.
+                scratch.first = match bs.delta {
+                    true => passes::delta_bounce(transmitted),
+                    false => passes::shares_toward(&sp.bsdf, wo_local, bs.wi),
+                };
             }
             let last = cam.len() - 1;
             // The density of the previous vertex from this one (the reverse direction).
@@ -192,17 +246,25 @@ impl BdptIntegrator {
 
     /// What a camera subpath escaping along `dir` from its vertex `i` sees: the world and
     /// sun disks, each weighed against light sampling (s = 0 with s = 1).
-    fn escaped_radiance(&self, ctx: &SceneContext, dir: Vec3, cam: &[Vertex], prev_delta: bool, pdf_sa: f32) -> Rgb {
+    /// Each emitter's weighted radiance goes to `each` (`None`: the world), for the passes.
+    fn escaped_radiance(
+        &self,
+        ctx: &SceneContext,
+        dir: Vec3,
+        cam: &[Vertex],
+        prev_delta: bool,
+        pdf_sa: f32,
+        each: &mut dyn FnMut(Option<usize>, Rgb),
+    ) {
         let i = cam.len() - 1;
         let from = found_from(cam);
         let le = ctx.world_radiance(dir);
-        let mut sum = Rgb::ZERO;
         if le != Rgb::ZERO {
             let world = ctx.scene.lights.iter().position(|l| matches!(l, Light::World));
             let p_light =
                 world.map_or(0.0, |w| self.lights.pmf_any(w) * ctx.scene.world.as_ref().map_or(0.0, |e| e.pdf(dir)));
             let gate = world.map_or(Gate::Mis, |w| linking::found(ctx, w, from));
-            sum += le * gate.weight(self.camera_only_weight(i, prev_delta, pdf_sa, p_light));
+            each(None, le * gate.weight(self.camera_only_weight(i, prev_delta, pdf_sa, p_light)));
         }
         for (index, l) in ctx.scene.lights.iter().enumerate() {
             if let Light::Directional { direction, irradiance, cos_half } = l
@@ -211,11 +273,11 @@ impl BdptIntegrator {
             {
                 let p_light = self.lights.pmf_any(index) * uniform_cone_pdf(*cos_half);
                 let gate = linking::found(ctx, index, from);
-                sum += crate::light::sun_radiance(*irradiance, *cos_half)
+                let c = crate::light::sun_radiance(*irradiance, *cos_half)
                     * gate.weight(self.camera_only_weight(i, prev_delta, pdf_sa, p_light));
+                each(Some(index), c);
             }
         }
-        sum
     }
 
     /// The weight of an s = 0 or s = 1 contribution from a light that only the camera
@@ -237,6 +299,7 @@ impl BdptIntegrator {
         beta: Rgb,
         (pdf_sa, prev_delta): (f32, bool),
         camera: &CameraRays,
+        (out, first): (&mut CameraSample, First),
     ) -> Rgb {
         let i = cam.len() - 1;
         let from = found_from(cam);
@@ -288,7 +351,11 @@ impl BdptIntegrator {
                     let p_light = self.lights.pmf_any(index)
                         * area_to_solid_angle(1.0 / (std::f32::consts::PI * radius * radius), dist, -denom);
                     let w = gate.weight(self.camera_only_weight(i, prev_delta, pdf_sa, p_light));
-                    sum += beta * *radiance * w;
+                    let c = beta * *radiance * w;
+                    sum += c;
+                    if self.ledger.any() {
+                        self.ledger.file(out, i, first, false, self.ledger.group_of_light(ctx, index), c);
+                    }
                     continue;
                 }
                 _ => continue,
@@ -314,7 +381,11 @@ impl BdptIntegrator {
             } else {
                 1.0
             };
-            sum += beta * le * self.mis(gate.weight(w));
+            let c = beta * le * self.mis(gate.weight(w));
+            sum += c;
+            if self.ledger.any() {
+                self.ledger.file(out, i, first, false, self.ledger.group_of_light(ctx, index), c);
+            }
         }
         sum
     }
