@@ -48,7 +48,8 @@ VIEW_LAYER_PASSES = (
     ("", "use_pass_vector", "vector", "Vector", 4, "XYZW", "VECTOR"),
 )
 
-# Light passes: only the path integrator classifies light by the first bounce (contract).
+# Light passes and light groups: the integrators that file light by the first bounce (contract).
+LIGHT_INTEGRATORS = ("path", "bdpt", "vcm")
 LIGHT_TOKENS = frozenset(t for _, _, t, *_ in VIEW_LAYER_PASSES
                          if t.endswith(("_direct", "_indirect", "_color")) or t in ("emit", "environment"))
 # Cryptomatte layers: the view layer's flag, the binary's token and Blender's pass prefix; each
@@ -59,7 +60,7 @@ CRYPTOMATTE_LAYERS = (
     ("use_pass_cryptomatte_asset", "cryptomatte_asset", "CryptoAsset"),
 )
 # The Shadow Catcher pass: the path integrator splits paths at catchers.
-PATH_ONLY_TOKENS = LIGHT_TOKENS | {"shadow_catcher"}
+PATH_ONLY_TOKENS = frozenset({"shadow_catcher"})
 # Data passes traced from the camera ray's first hit, by every integrator but SPPM.
 DATA_TOKENS = frozenset(("mist", "position", "uv", "ambient_occlusion", "object_index", "material_index", "vector")
                         + tuple(token for _, token, _ in CRYPTOMATTE_LAYERS))
@@ -115,6 +116,9 @@ def pass_request(view_layer, integrator, chunked=False, motion_blur=False):
     for token, name in rows:
         if token == "vector" and motion_blur:
             warnings.append("the Vector pass needs motion blur off (as in Cycles); it stays black")
+        elif token in LIGHT_TOKENS and integrator not in LIGHT_INTEGRATORS:
+            warnings.append(f"the {name} pass is rendered by the path, BDPT and VCM integrators only; "
+                            f"it stays black with '{integrator}'")
         elif token in PATH_ONLY_TOKENS and integrator != "path":
             warnings.append(f"the {name} pass is rendered by the path integrator only; "
                             f"it stays black with '{integrator}'")
@@ -126,9 +130,9 @@ def pass_request(view_layer, integrator, chunked=False, motion_blur=False):
         if _flag(view_layer, owner, attr):
             warnings.append(f"the {name} pass is not rendered by Caustic yet; it stays black")
     groups = light_group_passes(view_layer)
-    if groups and integrator != "path":
-        warnings.append(f"the light group passes ({', '.join(groups)}) are rendered by the path integrator only; "
-                        f"they stay black with '{integrator}'")
+    if groups and integrator not in LIGHT_INTEGRATORS:
+        warnings.append(f"the light group passes ({', '.join(groups)}) are rendered by the path, BDPT and VCM "
+                        f"integrators only; they stay black with '{integrator}'")
     elif groups:
         tokens.append(LIGHT_GROUPS_TOKEN)
     aovs = valid_aovs(view_layer)

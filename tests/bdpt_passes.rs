@@ -276,3 +276,26 @@ fn light_groups_sum_to_combined_and_agree_with_the_path_tracer() {
     }
     assert!(failed.is_empty(), "disagree with the path tracer: {failed:?}");
 }
+
+/// Chunks of a BDPT render carry the splats' light passes and light groups: two chunks
+/// merge into the single render bit for bit.
+#[test]
+fn bdpt_chunks_with_light_passes_merge_exactly() {
+    let dir = temp_dir();
+    let scene = copy("cornell_box", dir.path(), Some(json!({"names": ["ceiling"], "objects": {"light": "ceiling"}})));
+    let p = |n: &str| dir.path().join(n);
+    let passes = format!("{LIGHT},light_groups");
+    let flags = ["--integrator", "bdpt", "--passes", passes.as_str()];
+    render(&scene, &p("single.exr"), &[&flags[..], &["--spp", "4"]].concat());
+    render(&scene, &p("a.exr"), &[&flags[..], &["--spp", "1", "--chunk"]].concat());
+    render(&scene, &p("b.exr"), &[&flags[..], &["--spp", "3", "--sample-offset", "1", "--chunk"]].concat());
+    let (a, b, m) = (p("a.exr"), p("b.exr"), p("merged.exr"));
+    let r = run(&["merge", a.to_str().unwrap(), b.to_str().unwrap(), "-o", m.to_str().unwrap()], LIMIT);
+    assert_eq!(r.code, Some(0), "{}", r.stderr);
+    let (single, merged) = (channels(&p("single.exr")), channels(&m));
+    assert!(single.contains_key("Combined_ceiling.R") && single.contains_key("Diffuse Indirect.R"));
+    for (name, v) in &single {
+        let w = &merged[name];
+        assert!(v.iter().zip(w).all(|(x, y)| x.to_bits() == y.to_bits()), "{name} differs after the merge");
+    }
+}

@@ -102,12 +102,12 @@ impl PathIntegrator {
         // Camera rays start in vacuum, with no MIS for what they hit first.
         let st = PathState::camera(ray, ctx.camera_media);
         let mut split = Split::new(ctx.catcher.is_some());
-        out.radiance = self.trace(ctx, st, sampler, depth_of, stats, &mut out, &mut split);
+        out.radiance = self.trace(ctx, st, sampler, depth_of, stats, &mut out, &mut split, None);
         if let (Some(pass_ctx), Some((pre, _))) = (ctx.catcher.as_deref(), split.at) {
             // The catcher pass: the same camera segment again, in the scene of catchers
             // only; its own first-hit values are not the pixel's.
             let mut scratch = CameraSample::default();
-            let pass = self.trace(pass_ctx, pre, sampler, |_| 0.0, stats, &mut scratch, &mut Split::new(false));
+            let pass = self.trace(pass_ctx, pre, sampler, |_| 0.0, stats, &mut scratch, &mut Split::new(false), None);
             let behind = match self.transparent_background {
                 true => Rgb::ZERO,
                 false => pre.escaped_radiance(ctx).map_or(Rgb::ZERO, |le| pre.beta * le),
@@ -128,11 +128,12 @@ impl PathIntegrator {
         sampler: &mut PixelSampler,
         stats: &mut RayStats,
     ) -> Rgb {
-        self.continue_path_into(ctx, st, sampler, stats, &mut CameraSample::default())
+        self.continue_path_into(ctx, st, sampler, stats, &mut CameraSample::default(), None)
     }
 
     /// [`continue_path`](Self::continue_path), filing its light groups into `out` (with
-    /// `light_groups`: BDPT's continuations of camera paths).
+    /// `light_groups`) and, given the camera path's `tally`, its light passes (BDPT's
+    /// continuations of camera paths).
     pub fn continue_path_into(
         &self,
         ctx: &SceneContext,
@@ -140,8 +141,9 @@ impl PathIntegrator {
         sampler: &mut PixelSampler,
         stats: &mut RayStats,
         out: &mut CameraSample,
+        tally: Option<Tally>,
     ) -> Rgb {
-        self.trace(ctx, st, sampler, |_| 0.0, stats, out, &mut Split::new(false))
+        self.trace(ctx, st, sampler, |_| 0.0, stats, out, &mut Split::new(false), tally)
     }
 
     /// Radiance scattered at a point `p` in a medium of phase function `phase` toward a
@@ -161,13 +163,14 @@ impl PathIntegrator {
         stats: &mut RayStats,
     ) -> Rgb {
         let out = &mut CameraSample::default();
-        let (direct, rest) = self.scatter_in_medium_parts(ctx, p, dir, phase, media, beta, depth, sampler, stats, out);
+        let (direct, rest) =
+            self.scatter_in_medium_parts(ctx, p, dir, phase, media, beta, depth, sampler, stats, out, None);
         direct + rest
     }
 
     /// [`scatter_in_medium`](Self::scatter_in_medium) as its next-event estimate at `p`
-    /// and the rest (the light passes of BDPT's continuations tell them apart); with
-    /// `light_groups`, each emitter's light is filed into `out`'s groups.
+    /// and the rest; with `light_groups`, each emitter's light is filed into `out`'s
+    /// groups, and given the camera path's `tally`, into its light passes.
     #[allow(clippy::too_many_arguments)]
     pub fn scatter_in_medium_parts(
         &self,
@@ -181,6 +184,7 @@ impl PathIntegrator {
         sampler: &mut PixelSampler,
         stats: &mut RayStats,
         out: &mut CameraSample,
+        tally: Option<Tally>,
     ) -> (Rgb, Rgb) {
         let [u_light, u_lx, u_ly, _] = sampler.next_4d();
         let [u_dx, u_dy, u_rr, _] = sampler.next_4d();
@@ -188,6 +192,9 @@ impl PathIntegrator {
         let direct = beta * le;
         if self.light_groups {
             out.groups.add(ctx.scene.light_groups.of_light(light), direct);
+        }
+        if let Some(t) = tally {
+            t.estimated(out, depth, direct, None);
         }
         let mut radiance = Rgb::ZERO;
         let (wi, pdf) = phase.sample(dir, Vec2::new(u_dx, u_dy));
@@ -209,7 +216,7 @@ impl PathIntegrator {
         };
         if st.depth < self.max_depth && st.survives(self.rr_depth, u_rr) {
             stats.bounce += 1;
-            radiance += self.continue_path_into(ctx, st, sampler, stats, out);
+            radiance += self.continue_path_into(ctx, st, sampler, stats, out, tally);
         }
         (direct, radiance)
     }
@@ -226,11 +233,12 @@ impl PathIntegrator {
         stats: &mut RayStats,
         out: &mut CameraSample,
         split: &mut Split,
+        tally: Option<Tally>,
     ) -> Rgb {
         let mut radiance = Rgb::ZERO;
-        // Light passes: only camera paths (`li`) keep a tally.
-        let passes = self.light_passes && st.depth == 0;
-        let mut tally = Tally::default();
+        // Light passes: camera paths (`li`) keep a tally, and BDPT's continuations of them.
+        let passes = tally.is_some() || (self.light_passes && st.depth == 0);
+        let mut tally = tally.unwrap_or_default();
         // Light groups: camera paths file by emitter, until they split at a shadow catcher
         // (Cycles files nothing of a path that hit a catcher).
         let groups = &ctx.scene.light_groups;
@@ -538,13 +546,13 @@ impl PathIntegrator {
         stats: &mut RayStats,
     ) -> Rgb {
         let out = &mut CameraSample::default();
-        let (exit, rest) = self.subsurface_parts(ctx, s, sp, wo, media, beta, depth, sampler, stats, out);
+        let (exit, rest) = self.subsurface_parts(ctx, s, sp, wo, media, beta, depth, sampler, stats, out, None);
         exit + rest
     }
 
     /// [`subsurface_from`](Self::subsurface_from) as the next-event estimate at the exit
-    /// and the rest (the light passes of BDPT's continuations tell them apart); with
-    /// `light_groups`, each emitter's light is filed into `out`'s groups.
+    /// and the rest; with `light_groups`, each emitter's light is filed into `out`'s
+    /// groups, and given the camera path's `tally`, into its light passes.
     #[allow(clippy::too_many_arguments)]
     pub fn subsurface_parts(
         &self,
@@ -558,6 +566,7 @@ impl PathIntegrator {
         sampler: &mut PixelSampler,
         stats: &mut RayStats,
         out: &mut CameraSample,
+        tally: Option<Tally>,
     ) -> (Rgb, Rgb) {
         let none = (Rgb::ZERO, Rgb::ZERO);
         let mat = &ctx.scene.materials[s.material as usize];
@@ -581,6 +590,10 @@ impl PathIntegrator {
         let radiance = beta * le;
         if self.light_groups {
             out.groups.add(ctx.scene.light_groups.of_light(light), radiance);
+        }
+        if let Some(t) = tally {
+            // The exit is a diffuse bounce (as the path tracer files it).
+            t.estimated(out, depth, radiance, Some((Rgb::ONE, Rgb::ZERO)));
         }
         let local = cosine_hemisphere(Vec2::new(v_dx, v_dy));
         let wi = Frame::from_normal(n_s).to_world(local);
@@ -608,7 +621,7 @@ impl PathIntegrator {
             return (radiance, Rgb::ZERO);
         }
         stats.bounce += 1;
-        (radiance, self.continue_path_into(ctx, st, sampler, stats, out))
+        (radiance, self.continue_path_into(ctx, st, sampler, stats, out, tally))
     }
 
     /// Enters a subsurface material at `s` (seen along `wo`) and walks inside; None when

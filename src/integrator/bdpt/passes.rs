@@ -29,6 +29,18 @@ pub(crate) enum First {
     Volume,
 }
 
+impl First {
+    /// The path tracer's tally for a continuation of a camera path whose first event is of
+    /// this class and whose estimate at depth `direct_depth` is direct.
+    pub(crate) fn tally(self, direct_depth: u32) -> crate::integrator::light_passes::Tally {
+        let shares = match self {
+            First::Surface(d, g) => Some((d, g)),
+            First::Volume => None,
+        };
+        crate::integrator::light_passes::Tally::continued(shares, direct_depth)
+    }
+}
+
 impl Default for First {
     fn default() -> Self {
         First::Surface(Rgb::ONE, Rgb::ZERO)
@@ -102,20 +114,6 @@ impl Ledger {
         }
         if self.light_groups && group != NONE {
             out.groups.add(group, c);
-        }
-    }
-
-    /// Files a contribution already split into its direct and indirect parts at a first
-    /// event of class `first` (a continuation by the path tracer from `cam[1]`).
-    #[inline]
-    pub(crate) fn file_split(self, out: &mut CameraSample, first: First, direct: Rgb, indirect: Rgb) {
-        if self.light_passes {
-            for (events, c) in [(1, direct), (2, indirect)] {
-                let (p, n) = parts(events, first, false, c);
-                for &(k, v) in &p[..n] {
-                    out.aov.add3(k, v);
-                }
-            }
         }
     }
 

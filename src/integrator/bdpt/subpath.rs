@@ -86,18 +86,13 @@ impl BdptIntegrator {
                         out.depth = camera.depth(p);
                     }
                     if self.strategy.is_none() && (i as u32) < self.max_depth && beta.is_finite() && beta != Rgb::ZERO {
-                        let (direct, rest) = self
-                            .continuation()
-                            .scatter_in_medium_parts(ctx, p, dir, phase, medium, beta, i as u32, sampler, stats, out);
-                        *radiance += direct + rest;
-                        // The first event here is this medium vertex; after a surface, all
-                        // of it is indirect light of that surface's class.
+                        // The first event is this medium vertex, or the surface before.
                         let first = if i == 0 { First::Volume } else { first };
-                        if i == 0 {
-                            self.ledger.file_split(out, first, direct, rest);
-                        } else {
-                            self.ledger.file_split(out, first, Rgb::ZERO, direct + rest);
-                        }
+                        let tally = self.ledger.light_passes.then(|| first.tally(0));
+                        let (direct, rest) = self.continuation().scatter_in_medium_parts(
+                            ctx, p, dir, phase, medium, beta, i as u32, sampler, stats, out, tally,
+                        );
+                        *radiance += direct + rest;
                     }
                     break;
                 }
@@ -138,6 +133,12 @@ impl BdptIntegrator {
             if mat.subsurface.is_some() && self.strategy.is_none() && (i as u32) < self.max_depth {
                 let q = sp.bsdf.subsurface_weight(sp.frame.to_local(wo));
                 if q > 0.0 {
+                    // From the first hit the walk is the first event (diffuse) and its exit's
+                    // estimate the direct one; later, all of it is indirect.
+                    let tally = self.ledger.light_passes.then(|| match i {
+                        0 => First::Surface(Rgb::ONE, Rgb::ZERO).tally(1),
+                        _ => first.tally(0),
+                    });
                     let (exit, rest) = self.continuation().subsurface_parts(
                         ctx,
                         &s,
@@ -149,15 +150,9 @@ impl BdptIntegrator {
                         sampler,
                         stats,
                         out,
+                        tally,
                     );
                     *radiance += exit + rest;
-                    // From the first hit the walk is the first event (diffuse) and its
-                    // exit's estimate the direct light; later, all of it is indirect.
-                    if i == 0 {
-                        self.ledger.file_split(out, First::Surface(Rgb::ONE, Rgb::ZERO), exit, rest);
-                    } else {
-                        self.ledger.file_split(out, first, Rgb::ZERO, exit + rest);
-                    }
                 }
             }
             if i == 0 {
