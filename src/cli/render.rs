@@ -128,18 +128,6 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         reporter.warning(&w);
         run_warnings.push(w);
     }
-    let held = &scene.ray_visibility.holdout_objects;
-    if !held.is_empty() && matches!(res.integrator, IntegratorKind::Bdpt | IntegratorKind::Vcm) {
-        // Its light-tracing splats would still show light reflected by the holdout.
-        let w = format!(
-            "holdout object(s) {} are rendered as ordinary objects by {} (the path, photon and SPPM \
-             integrators render them as Cycles)",
-            held.iter().map(|n| format!("'{n}'")).collect::<Vec<_>>().join(", "),
-            res.integrator.name()
-        );
-        reporter.warning(&w);
-        run_warnings.push(w);
-    }
     let catchers = &scene.ray_visibility.catcher_objects;
     if !catchers.is_empty() && !matches!(res.integrator, IntegratorKind::Path) {
         // Splitting needs a camera path that can be followed twice from the catcher.

@@ -85,6 +85,11 @@ impl BdptIntegrator {
             }
             _ => {
                 let (Some(bsdf), Some(hit)) = (y.bsdf, y.hit) else { return };
+                // The camera sees this vertex directly (the segment is tested below): on a
+                // holdout it shows nothing, as camera rays that hit it do.
+                if ctx.is_holdout(hit.tri) {
+                    return;
+                }
                 let (wo_l, wi_l) = (y.frame.to_local(y.wo), y.frame.to_local(w));
                 if (wi_l.z > 0.0) != (w.dot(hit.ng) > 0.0) {
                     return;

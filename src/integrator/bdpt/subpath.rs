@@ -125,6 +125,12 @@ impl BdptIntegrator {
                 }
                 Step::Surface { hit, s } => (hit, s),
             };
+            // A holdout seen by the camera ray (through pass-throughs only): nothing, alpha
+            // 0, as the path tracer's (Cycles'); later vertices see the object as it is.
+            if i == 0 && ctx.is_holdout(hit.tri) {
+                out.alpha = 0.0;
+                break;
+            }
             let wo = -dir;
             let mat = &ctx.scene.materials[s.material as usize];
             let sp = ctx.shade(&s, wo);
