@@ -154,6 +154,9 @@ fn light_passes_sum_to_combined() {
     }
 }
 
+/// The named per-pixel RGB quantities to compare, read from an image's channels.
+type Lights = fn(&BTreeMap<String, Vec<f32>>) -> Vec<(String, Vec<f64>)>;
+
 /// Region means (RGB averaged) of each pass's light, for `seeds` seeds.
 fn pass_means(
     scene: &Path,
@@ -161,7 +164,7 @@ fn pass_means(
     extra: &[&str],
     seeds: u32,
     regs: &[(String, Vec<usize>)],
-    light: fn(&BTreeMap<String, Vec<f32>>) -> Vec<(String, Vec<f64>)>,
+    light: Lights,
 ) -> BTreeMap<String, Vec<Vec<f64>>> {
     let mut out: BTreeMap<String, Vec<Vec<f64>>> = BTreeMap::new();
     for seed in 0..seeds {

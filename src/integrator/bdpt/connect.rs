@@ -75,6 +75,8 @@ impl BdptIntegrator {
                 let visible = match &ctx.scene.lights[lp.light as usize] {
                     Light::Area(a) => a.camera_visible,
                     Light::Sphere { camera_visible, .. } => *camera_visible,
+                    // An emissive holdout seen by the camera shows nothing either.
+                    Light::Triangle { tri } => !ctx.is_holdout(*tri),
                     _ => true,
                 };
                 // A shadow-linked light seen by the camera is s = 0's alone (`linking`).
@@ -148,6 +150,7 @@ impl BdptIntegrator {
     }
 
     /// s = 1: light sampling at camera vertex `cam[t-1]`.
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn connect_light_sample(
         &self,
         ctx: &SceneContext,
@@ -292,6 +295,7 @@ impl BdptIntegrator {
     }
 
     /// s, t ≥ 2: light vertex `light[s-1]` joined to camera vertex `cam[t-1]`.
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn connect_vertices(
         &self,
         ctx: &SceneContext,
