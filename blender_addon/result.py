@@ -48,7 +48,9 @@ VIEW_LAYER_PASSES = (
     ("", "use_pass_vector", "vector", "Vector", 4, "XYZW", "VECTOR"),
 )
 
-# Light passes: only the path integrator classifies light by the first bounce (contract).
+# Light passes and light groups: the integrators that file light by the first bounce (contract);
+# all but SPPM.
+LIGHT_INTEGRATORS = ("path", "bdpt", "vcm", "photon")
 LIGHT_TOKENS = frozenset(t for _, _, t, *_ in VIEW_LAYER_PASSES
                          if t.endswith(("_direct", "_indirect", "_color")) or t in ("emit", "environment"))
 # Cryptomatte layers: the view layer's flag, the binary's token and Blender's pass prefix; each
@@ -60,8 +62,6 @@ CRYPTOMATTE_LAYERS = (
 )
 # The Shadow Catcher pass: the path integrator splits paths at catchers.
 PATH_ONLY_TOKENS = frozenset({"shadow_catcher"})
-# The light passes and light groups: the path tracer and Jensen's photon mapping file them.
-LIGHT_INTEGRATORS = ("path", "photon")
 # Data passes traced from the camera ray's first hit, by every integrator but SPPM.
 DATA_TOKENS = frozenset(("mist", "position", "uv", "ambient_occlusion", "object_index", "material_index", "vector")
                         + tuple(token for _, token, _ in CRYPTOMATTE_LAYERS))
@@ -121,7 +121,7 @@ def pass_request(view_layer, integrator, chunked=False, motion_blur=False):
             warnings.append(f"the {name} pass is rendered by the path integrator only; "
                             f"it stays black with '{integrator}'")
         elif token in LIGHT_TOKENS and integrator not in LIGHT_INTEGRATORS:
-            warnings.append(f"the {name} pass is rendered by the path and photon integrators only; "
+            warnings.append(f"the {name} pass is rendered by the path, BDPT, VCM and photon integrators only; "
                             f"it stays black with '{integrator}'")
         elif token in DATA_TOKENS and integrator == "sppm" and chunked:
             warnings.append(f"the {name} pass is not rendered by SPPM on the farm (its chunks keep no sums of it); "
@@ -133,9 +133,8 @@ def pass_request(view_layer, integrator, chunked=False, motion_blur=False):
             warnings.append(f"the {name} pass is not rendered by Caustic yet; it stays black")
     groups = light_group_passes(view_layer)
     if groups and integrator not in LIGHT_INTEGRATORS:
-        warnings.append(f"the light group passes ({', '.join(groups)}) are rendered by the path and photon "
-                        "integrators only; "
-                        f"they stay black with '{integrator}'")
+        warnings.append(f"the light group passes ({', '.join(groups)}) are rendered by the path, BDPT, VCM and "
+                        f"photon integrators only; they stay black with '{integrator}'")
     elif groups:
         tokens.append(LIGHT_GROUPS_TOKEN)
     aovs = valid_aovs(view_layer)

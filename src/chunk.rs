@@ -16,6 +16,8 @@
 //!   Cryptomatte's kept slots (`crate::cryptomatte`: a chunk keeps each pixel's
 //!   first-seen ids with their exact counts) as `CausticSum.C<layer><slot>.id` and `.n`
 //!   (layer: Object, Material, Asset), so that merged chunks rank as one render does.
+//!   Light-tracing splats' light passes and light groups (`Film::splat_extra`, bidirectional
+//!   integrators only) as `CausticSum.X<j>.<k>` for its j-th value of a pixel.
 //!
 //! [`slot`]: crate::passes::slot
 
@@ -193,6 +195,15 @@ pub fn channels(film: &Film) -> Vec<AnyChannel<FlatSamples>> {
         let name = format!("CausticSum.{}.{}", names[j / 4], j % 4);
         out.push(AnyChannel::new(name.as_str(), FlatSamples::U32(data)));
     }
+    // The splats' light passes and groups, when the render kept them.
+    let per = film.splat_extra.len() / n.max(1) * 3;
+    for j in 0..per {
+        for k in 0..4 {
+            let data = film.splat_extra.chunks_exact(per / 3).map(|px| (px[j / 3][j % 3] as u128 >> (32 * k)) as u32);
+            let name = format!("CausticSum.X{j}.{k}");
+            out.push(AnyChannel::new(name.as_str(), FlatSamples::U32(data.collect())));
+        }
+    }
     out.push(AnyChannel::new("CausticSum.N", FlatSamples::U32(count)));
     out.push(AnyChannel::new("CausticSum.Depth", FlatSamples::F32(depth)));
     let names = crypto_names(film);
@@ -354,6 +365,21 @@ pub fn read(path: &Path) -> Result<Chunk> {
                 *v = (0..4).fold(0u128, |a, k| a | (extra[j * 4 + k][i] as u128) << (32 * k)) as i128;
             }
         }
+    }
+    if find("CausticSum.X0.0").is_some() {
+        let per = 3 * info.passes.splat_triples();
+        let mut words = Vec::with_capacity(per * 4);
+        for j in 0..per {
+            for k in 0..4 {
+                words.push(u32s(&format!("CausticSum.X{j}.{k}"))?);
+            }
+        }
+        film.splat_extra = (0..(w * h) as usize)
+            .flat_map(|i| {
+                let value = |j: usize| (0..4).fold(0u128, |a, k| a | (words[j * 4 + k][i] as u128) << (32 * k)) as i128;
+                (0..per / 3).map(move |t| [value(3 * t), value(3 * t + 1), value(3 * t + 2)]).collect::<Vec<_>>()
+            })
+            .collect();
     }
     let names = crypto_names(&film);
     let crypto = names.iter().map(|n| u32s(n)).collect::<Result<Vec<_>>>()?;

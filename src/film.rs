@@ -11,7 +11,7 @@
 use crate::cryptomatte::{self, Layout, Slot};
 use crate::fixed::{add3, from_fixed, in_range, sum3, to_fixed};
 use crate::math::Rgb;
-use crate::passes::{Aov, CATCHER_SLOTS, FIRST_SAMPLE_SLOTS, Pass, PassSet, divide_even_color, slot};
+use crate::passes::{Aov, CATCHER_SLOTS, FIRST_SAMPLE_SLOTS, Pass, PassSet, SPLAT_SLOTS, divide_even_color, slot};
 use crate::scene::light_groups::GroupSums;
 use crate::scene::shader_aovs::{AovSpec, AovSums};
 use glam::{Vec2, Vec3};
@@ -272,6 +272,10 @@ pub struct Film {
     pub splat: Vec<[i128; 3]>,
     /// Light paths traced: the splat sums' denominator (each light path estimates every pixel).
     pub light_paths: u64,
+    /// Σ of the splats' light passes and light groups per pixel, row-major,
+    /// `passes.splat_triples()` triples a pixel (`SplatBuffer::add_filed`); empty until a
+    /// splat buffer that keeps them is drained, so integrators without splats pay nothing.
+    pub splat_extra: Vec<[i128; 3]>,
     /// The passes asked for (which extra slots the tiles keep and what `image` gives).
     pub passes: PassSet,
 }
@@ -293,6 +297,12 @@ pub struct SplatBuffer {
     pub count: u64,
     /// Splat contributions dropped as non-finite or beyond the fixed-point range.
     pub dropped: u64,
+    /// The light-pass slots kept ([`SPLAT_SLOTS`] of the asked passes).
+    pub slots: u64,
+    /// Light groups kept.
+    pub groups: usize,
+    /// Row-major sums of the light passes then the light groups, `triples` a pixel.
+    pub extra: Vec<[i128; 3]>,
 }
 
 impl SplatBuffer {
@@ -300,7 +310,22 @@ impl SplatBuffer {
     /// (pixels, from the top-left corner): each pixel gets value × filter(pos - centre).
     #[inline]
     pub fn add(&mut self, filter: &Filter, pos: Vec2, value: Vec3) {
+        self.add_filed(filter, pos, value, &[], crate::scene::light_groups::NONE);
+    }
+
+    /// RGB triples kept per pixel besides Combined.
+    #[inline]
+    pub fn triples(&self) -> usize {
+        self.slots.count_ones() as usize / 3 + self.groups
+    }
+
+    /// [`add`](Self::add), with the value's light-pass parts (`(slot, value)`, slots of
+    /// `crate::passes::slot`; those not kept are skipped) and its light group.
+    #[inline]
+    pub fn add_filed(&mut self, filter: &Filter, pos: Vec2, value: Vec3, parts: &[(usize, Vec3)], group: u8) {
         let r = 0.5 * filter.width;
+        let triples = self.triples();
+        let group_at = ((group as usize) < self.groups).then(|| self.slots.count_ones() as usize / 3 + group as usize);
         let lo_x = (pos.x - r - 0.5).floor().max(self.x0 as f32) as i64;
         let hi_x = ((pos.x + r - 0.5).ceil() as i64).min(self.x0 as i64 + self.w as i64 - 1);
         let lo_y = (pos.y - r - 0.5).floor().max(self.y0 as f32) as i64;
@@ -316,6 +341,19 @@ impl SplatBuffer {
                     }
                     let i = (py - self.y0 as i64) as usize * self.w as usize + (px - self.x0 as i64) as usize;
                     add3(&mut self.data[i], v);
+                    if triples == 0 {
+                        continue;
+                    }
+                    let ex = &mut self.extra[i * triples..(i + 1) * triples];
+                    for &(k, part) in parts {
+                        let v = (part * f).to_array();
+                        if self.slots >> k & 1 == 1 && in_range(v) {
+                            add3(&mut ex[(self.slots & ((1u64 << k) - 1)).count_ones() as usize / 3], v);
+                        }
+                    }
+                    if let Some(g) = group_at {
+                        add3(&mut ex[g], v);
+                    }
                 }
             }
         }
@@ -328,12 +366,20 @@ impl SplatBuffer {
 pub struct SplatPool {
     free: std::sync::Mutex<Vec<SplatBuffer>>,
     window: [u32; 4],
+    /// Light-pass slots and light groups the buffers keep.
+    slots: u64,
+    groups: usize,
 }
 
 impl SplatPool {
     /// A pool for the pixel window (x0, y0, x1, y1) of the full frame.
     pub fn new(window: [u32; 4]) -> Self {
-        SplatPool { free: std::sync::Mutex::new(Vec::new()), window }
+        SplatPool { free: std::sync::Mutex::new(Vec::new()), window, slots: 0, groups: 0 }
+    }
+
+    /// A pool whose buffers also keep the light passes and light groups of `passes`.
+    pub fn with_passes(window: [u32; 4], passes: PassSet) -> Self {
+        SplatPool { slots: passes.slots() & SPLAT_SLOTS, groups: passes.light_groups(), ..Self::new(window) }
     }
 
     /// A buffer for one tile's work (a new one when all are in use).
@@ -347,6 +393,12 @@ impl SplatPool {
             data: vec![[0; 3]; ((x1 - x0) * (y1 - y0)) as usize],
             count: 0,
             dropped: 0,
+            slots: self.slots,
+            groups: self.groups,
+            extra: vec![
+                [0; 3];
+                ((x1 - x0) * (y1 - y0)) as usize * (self.slots.count_ones() as usize / 3 + self.groups)
+            ],
         })
     }
 
@@ -366,6 +418,15 @@ impl SplatPool {
                 for (acc, d) in film.splat.iter_mut().zip(b.data.iter_mut()) {
                     sum3(acc, d);
                     *d = [0; 3];
+                }
+                if !b.extra.is_empty() {
+                    if film.splat_extra.is_empty() {
+                        film.splat_extra = vec![[0; 3]; b.extra.len()];
+                    }
+                    for (acc, d) in film.splat_extra.iter_mut().zip(b.extra.iter_mut()) {
+                        sum3(acc, d);
+                        *d = [0; 3];
+                    }
                 }
                 count += b.count;
                 dropped += b.dropped;
@@ -421,6 +482,7 @@ impl Film {
             tiles,
             splat: vec![[0; 3]; (width * height) as usize],
             light_paths: 0,
+            splat_extra: Vec::new(),
             passes,
         }
     }
@@ -574,12 +636,31 @@ impl Film {
                     let stride = t.slots.count_ones() as usize;
                     let j = (ty * t.w + tx) as usize;
                     let acc = &t.extra[j * stride..(j + 1) * stride];
-                    extra_pixel(&mut img.extra, i, t.slots, acc, inv);
+                    // This pixel's splat sums of light passes and groups (bidirectional).
+                    let triples = self.passes.splat_triples();
+                    let splats = match self.splat_extra.is_empty() || self.light_paths == 0 {
+                        true => &[][..],
+                        false => &self.splat_extra[i * triples..(i + 1) * triples],
+                    };
+                    // Splat sums in the units of the camera samples' sums (n samples; the
+                    // splats' mean is over the light paths).
+                    let to_sums = p.n as f64 / self.light_paths.max(1) as f64;
+                    let splat_slots = self.passes.slots() & SPLAT_SLOTS;
+                    let splat_at = |k: usize| -> f64 {
+                        if splats.is_empty() || splat_slots >> k & 1 == 0 {
+                            return 0.0;
+                        }
+                        let before = (splat_slots & ((1u64 << k) - 1)).count_ones() as usize;
+                        from_fixed(splats[before / 3][before % 3]) * to_sums
+                    };
+                    extra_pixel(&mut img.extra, i, t.slots, acc, inv, &splat_at);
                     let sums = &t.group_sums[j * t.sums_stride()..(j + 1) * t.sums_stride()];
                     let (groups, aovs) = sums.split_at(3 * t.groups);
-                    for (data, g) in img.light_groups.iter_mut().zip(groups.chunks_exact(3)) {
-                        for (d, v) in data[i * 3..i * 3 + 3].iter_mut().zip(g) {
-                            *d = (from_fixed(*v) * inv) as f32;
+                    let group_splats = splats.get(splat_slots.count_ones() as usize / 3..).unwrap_or(&[]);
+                    for (g, (data, sum)) in img.light_groups.iter_mut().zip(groups.chunks_exact(3)).enumerate() {
+                        for (c, (d, v)) in data[i * 3..i * 3 + 3].iter_mut().zip(sum).enumerate() {
+                            let splat = group_splats.get(g).map_or(0.0, |s| from_fixed(s[c]) * to_sums);
+                            *d = ((from_fixed(*v) + splat) * inv) as f32;
                         }
                     }
                     let c = t.aov_channels;
@@ -615,9 +696,18 @@ impl Film {
 
 /// The extra passes' values of pixel `i` from its sums `acc` (one per slot of `slots`, in
 /// slot order) and 1 / its sample count.
-fn extra_pixel(out: &mut [(Pass, Vec<f32>)], i: usize, slots: u64, acc: &[i128], inv: f64) {
+fn extra_pixel(
+    out: &mut [(Pass, Vec<f32>)],
+    i: usize,
+    slots: u64,
+    acc: &[i128],
+    inv: f64,
+    splat: &dyn Fn(usize) -> f64,
+) {
     let at = |k: usize| acc[(slots & ((1u64 << k) - 1)).count_ones() as usize];
-    let mean = |k: usize| (from_fixed(at(k)) * inv) as f32;
+    // A slot's sum over the camera samples plus what light-tracing splats add to it.
+    let sum = |k: usize| from_fixed(at(k)) + splat(k);
+    let mean = |k: usize| (sum(k) * inv) as f32;
     for (pass, data) in out.iter_mut() {
         let Some(k) = pass.slot() else { continue };
         let c = pass.channels().len();
@@ -626,7 +716,7 @@ fn extra_pixel(out: &mut [(Pass, Vec<f32>)], i: usize, slots: u64, acc: &[i128],
             // Direct and Indirect are read divided by their Colour pass, as Cycles reads them.
             Some(col) => {
                 let cs = col.slot().unwrap_or(k);
-                let sum3 = |k: usize| [0, 1, 2].map(|d| from_fixed(at(k + d)) as f32);
+                let sum3 = |k: usize| [0, 1, 2].map(|d| sum(k + d) as f32);
                 px.copy_from_slice(&divide_even_color(sum3(k), sum3(cs)));
             }
             None if *pass == Pass::AmbientOcclusion => px.fill(mean(k)),

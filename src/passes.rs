@@ -183,6 +183,30 @@ pub mod slot {
 // The film keeps its slots in a u64 bit mask.
 const _: () = assert!(slot::COUNT <= 64);
 
+/// The light-pass slots that light-tracing splats add to: every light pass but the Colour
+/// passes (a splat has no camera sample whose first hit's albedo it could give).
+pub const SPLAT_SLOTS: u64 = {
+    let starts = [
+        slot::DIFF_DIR,
+        slot::DIFF_IND,
+        slot::GLOSS_DIR,
+        slot::GLOSS_IND,
+        slot::TRANS_DIR,
+        slot::TRANS_IND,
+        slot::VOL_DIR,
+        slot::VOL_IND,
+        slot::EMIT,
+        slot::ENV,
+    ];
+    let mut mask = 0u64;
+    let mut i = 0;
+    while i < starts.len() {
+        mask |= 0b111 << starts[i];
+        i += 1;
+    }
+    mask
+};
+
 /// Bit mask of the slots kept as "the pixel's first sample's value" instead of a sum.
 pub const FIRST_SAMPLE_SLOTS: u64 = (0b111 << slot::POS) | (1 << slot::OB) | (1 << slot::MA);
 
@@ -548,6 +572,12 @@ impl PassSet {
             }
         }
         mask
+    }
+
+    /// RGB triples a light-tracing splat carries per pixel besides Combined: the asked
+    /// light passes' ([`SPLAT_SLOTS`], in slot order), then one per light group.
+    pub fn splat_triples(self) -> usize {
+        (self.slots() & SPLAT_SLOTS).count_ones() as usize / 3 + self.light_groups()
     }
 
     /// Reads a comma-separated list of tokens or Blender names; "combined" is accepted

@@ -156,7 +156,6 @@ fn vcm_settings_errors() {
         (vec!["--vcm-radius", "0.1"], "need --integrator vcm"),
         (vec!["--integrator", "vcm", "--vcm-radius=-1"], "must be a positive"),
         (vec!["--integrator", "vcm", "--max-depth", "100"], "too deep"),
-        (vec!["--integrator", "vcm", "--passes", "combined,diffuse_direct"], "path integrator only"),
     ] {
         let mut a = vec!["render", s, "-o", o, "--resolution", "8x8", "--spp", "1"];
         a.extend_from_slice(&args);

@@ -196,8 +196,9 @@ fn hidden_from_diffuse_and_shadow_rays_lets_the_world_in() {
 
 /// A holdout quad (half-width 0.3 at depth 2: ±9.4 px) in front of an emitter of radiance 1
 /// filling the view: camera rays that reach it see nothing, colour and alpha 0, in the path,
-/// Jensen and SPPM integrators; the emitter around it shows 1 with alpha 1. Pixels wholly
-/// inside or outside the quad's image are exact (a box filter of one pixel).
+/// Jensen, SPPM, BDPT and VCM integrators (whose light tracing shows no light the holdout
+/// reflects); the emitter around it shows 1 with alpha 1. Pixels wholly inside or outside the
+/// quad's image are exact (a box filter of one pixel).
 #[test]
 fn a_holdout_shows_nothing_with_alpha_zero() {
     let dir = temp_dir();
@@ -212,7 +213,7 @@ fn a_holdout_shows_nothing_with_alpha_zero() {
     g.node_ext(held, "CAUSTIC_object_visibility", json!({"holdout": true}));
     g.camera([0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0], 0.5);
     let scene = g.write(d, "held.gltf");
-    for integrator in ["path", "photon", "sppm"] {
+    for integrator in ["path", "photon", "sppm", "bdpt", "vcm"] {
         let args = [
             "--resolution",
             "32x32",
@@ -240,10 +241,51 @@ fn a_holdout_shows_nothing_with_alpha_zero() {
             .filter(|i| ((i % W) as f32 - 15.5).abs().max(((i / W) as f32 - 15.5).abs()) > 10.0)
             .map(|i| &px[i])
             .collect();
+        if matches!(integrator, "bdpt" | "vcm") {
+            // The emitter seen directly is weighed between s = 0 and light tracing, whose
+            // sum is 1 only on average: its mean within 5 standard errors of the pixels'
+            // spread (each light path splats the emitter into one pixel: nearly independent).
+            let v: Vec<f64> = outside.iter().map(|p| p[0] as f64).collect();
+            let (m, se) = common::mean_se(&v);
+            assert!(outside.iter().all(|p| p[3] == 1.0), "{integrator}: alpha around the holdout");
+            assert!((m - 1.0).abs() <= 5.0 * se + 1e-6, "{integrator}: the emitter around the holdout: {m} ± {se}");
+            continue;
+        }
         assert!(
             outside.iter().all(|p| p[3] == 1.0 && (p[0] - 1.0).abs() < 1e-3),
             "{integrator}: the emitter around the holdout: {:?}",
             outside[0]
+        );
+    }
+}
+
+/// A holdout quad lit from the front by a point light between it and the camera: BDPT's and
+/// VCM's light tracing reaches the camera from the lit quad, and must show none of it where
+/// the camera sees the holdout (colour and alpha exactly 0, as camera rays that hit it).
+#[test]
+fn a_lit_holdout_shows_nothing_in_light_tracing() {
+    let dir = temp_dir();
+    let d = dir.path();
+    let mut g = GltfBuilder::new();
+    let grey =
+        g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1], "metallicFactor": 0.0}}));
+    let held = quad(&mut g, -2.0, 0.3, true, grey);
+    g.node_ext(held, "CAUSTIC_object_visibility", json!({"holdout": true}));
+    g.punctual(json!({"type": "point", "intensity": 50.0, "color": [1, 1, 1]}), [0.0, 0.2, -1.0], [0.0, 0.0, 0.0, 1.0]);
+    g.camera([0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0], 0.5);
+    let scene = g.write(d, "lit_held.gltf");
+    for integrator in ["bdpt", "vcm"] {
+        let args = ["--resolution", "32x32", "--spp", "16", "--filter", "box", "--filter-width", "1"];
+        let args = [&args[..], &["--integrator", integrator]].concat();
+        let px = render_image(&scene, &d.join(format!("{integrator}.exr")), &args, LIMIT);
+        let inside: Vec<&[f32; 4]> = (0..px.len())
+            .filter(|i| ((i % W) as f32 - 15.5).abs().max(((i / W) as f32 - 15.5).abs()) < 9.0)
+            .map(|i| &px[i])
+            .collect();
+        assert!(
+            inside.iter().all(|p| p.iter().all(|v| *v == 0.0)),
+            "{integrator}: the lit holdout shows colour or alpha: {:?}",
+            inside.iter().find(|p| p.iter().any(|v| *v != 0.0))
         );
     }
 }

@@ -59,6 +59,12 @@ pub fn run_merge(args: &MergeArgs, reporter: &Reporter) -> Result<()> {
         for (a, b) in film.splat.iter_mut().zip(&c.film.splat) {
             crate::fixed::sum3(a, b);
         }
+        if film.splat_extra.is_empty() {
+            film.splat_extra = vec![[0; 3]; c.film.splat_extra.len()];
+        }
+        for (a, b) in film.splat_extra.iter_mut().zip(&c.film.splat_extra) {
+            crate::fixed::sum3(a, b);
+        }
         film.light_paths += c.info.light_paths;
     }
     chunk::check_disjoint(&mut ranges)?;

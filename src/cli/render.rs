@@ -128,18 +128,6 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         reporter.warning(&w);
         run_warnings.push(w);
     }
-    let held = &scene.ray_visibility.holdout_objects;
-    if !held.is_empty() && matches!(res.integrator, IntegratorKind::Bdpt | IntegratorKind::Vcm) {
-        // Its light-tracing splats would still show light reflected by the holdout.
-        let w = format!(
-            "holdout object(s) {} are rendered as ordinary objects by {} (the path, photon and SPPM \
-             integrators render them as Cycles)",
-            held.iter().map(|n| format!("'{n}'")).collect::<Vec<_>>().join(", "),
-            res.integrator.name()
-        );
-        reporter.warning(&w);
-        run_warnings.push(w);
-    }
     let catchers = &scene.ray_visibility.catcher_objects;
     if !catchers.is_empty() && !matches!(res.integrator, IntegratorKind::Path) {
         // Splitting needs a camera path that can be followed twice from the catcher.
@@ -276,6 +264,11 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     };
     let camera = CameraRays::new(&scene.cameras[res.camera], res.resolution.0, res.resolution.1);
     let mut photon_stats = serde_json::Value::Null;
+    // What BDPT and VCM file their contributions into besides Combined.
+    let ledger = crate::integrator::bdpt::Ledger {
+        light_passes: res.passes.any_light(),
+        light_groups: res.passes.light_groups() > 0,
+    };
     let integrator = match res.integrator {
         IntegratorKind::Path => Integrator::Path(PathIntegrator {
             light_passes: res.passes.any_light(),
@@ -285,16 +278,21 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         IntegratorKind::Sppm => {
             Integrator::Sppm(SppmIntegrator::new(res.max_depth, res.photon.clone(), res.transparent))
         }
-        IntegratorKind::Bdpt => {
-            Integrator::Bdpt(BdptIntegrator::new(&scene, res.max_depth, res.transparent, args.bdpt_strategy))
+        IntegratorKind::Bdpt => Integrator::Bdpt(BdptIntegrator {
+            ledger,
+            ..BdptIntegrator::new(&scene, res.max_depth, res.transparent, args.bdpt_strategy)
+        }),
+        IntegratorKind::Vcm => {
+            let mut vcm = crate::integrator::vcm::VcmIntegrator::new(
+                &scene,
+                res.max_depth,
+                res.transparent,
+                args.vcm_mode.map_or(crate::integrator::vcm::VcmMode::Full, Into::into),
+                args.vcm_radius,
+            );
+            vcm.bdpt.ledger = ledger;
+            Integrator::Vcm(vcm)
         }
-        IntegratorKind::Vcm => Integrator::Vcm(crate::integrator::vcm::VcmIntegrator::new(
-            &scene,
-            res.max_depth,
-            res.transparent,
-            args.vcm_mode.map_or(crate::integrator::vcm::VcmMode::Full, Into::into),
-            args.vcm_radius,
-        )),
         IntegratorKind::Photon => {
             reporter.phase("photons", t0.elapsed().as_secs_f64());
             let maps = match &args.photon_map {
@@ -662,6 +660,8 @@ fn charge_render(budget: &MemoryBudget, args: &RenderArgs, res: &Resolved, scene
         budget
             .charge(format!("the chunk sums for {}x{} pixels", x1 - x0, y1 - y0), pixels.saturating_mul(words * 4))?;
     }
+    // A splat's Combined, then its light passes and light groups (bidirectional integrators).
+    let splat_bytes = std::mem::size_of::<[i128; 3]>() as u64 * (1 + res.passes.splat_triples() as u64);
     match res.integrator {
         IntegratorKind::Photon => match &args.photon_map {
             // A map file holds 32 bytes per photon, as the loaded map does.
@@ -683,10 +683,11 @@ fn charge_render(budget: &MemoryBudget, args: &RenderArgs, res: &Resolved, scene
             )
         }
         // Light-tracing splats: the film's sum plus one buffer per worker (fixed-point RGB
-        // each; the pool holds one per concurrently running tile, at most one per thread).
+        // each, and one more per light pass and light group asked; the pool holds one per
+        // concurrently running tile, at most one per thread).
         IntegratorKind::Bdpt => budget.charge(
             format!("bidirectional splat buffers ({} threads + 1) for {pixels} pixels", res.threads),
-            pixels.saturating_mul(std::mem::size_of::<[i128; 3]>() as u64).saturating_mul(res.threads as u64 + 1),
+            pixels.saturating_mul(splat_bytes).saturating_mul(res.threads as u64 + 1),
         ),
         // VCM: BDPT's splat buffers, plus one iteration's merge records (a light subpath
         // stores about one per bounce: charged for four per pixel) and their grid, and the
@@ -698,7 +699,7 @@ fn charge_render(budget: &MemoryBudget, args: &RenderArgs, res: &Resolved, scene
                 res.threads
             ),
             pixels.saturating_mul(
-                std::mem::size_of::<[i128; 3]>() as u64 * (res.threads as u64 + 1)
+                splat_bytes * (res.threads as u64 + 1)
                     + 4 * (std::mem::size_of::<crate::integrator::vcm::merge::MergeRecord>() as u64 + 3 * 4)
                     + 5 * crate::integrator::vcm::light_store::VERTEX_BYTES,
             ),

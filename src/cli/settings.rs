@@ -299,11 +299,12 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
             .map_err(|e| Error::Usage(format!("the scene's render settings: {e}")))?,
         (None, None) => crate::passes::PassSet::legacy(),
     };
-    // Jensen's photon mapping files them as the path tracer (`photon/map_read.rs`).
-    let files_light = matches!(integrator, IntegratorKind::Path | IntegratorKind::Photon);
+    // Every integrator but SPPM files them as the path tracer: BDPT and VCM every strategy's
+    // contribution (`integrator::bdpt::passes`), Jensen its map reads (`photon/map_read.rs`).
+    let files_light = !matches!(integrator, IntegratorKind::Sppm);
     if passes.any_light() && !files_light {
         return Err(Error::Usage(format!(
-            "the light passes ({}) are rendered by the path integrator only, and by 'photon', not by '{}'",
+            "the light passes ({}) are rendered by the path, BDPT, VCM and photon integrators, not by '{}'",
             passes.iter().filter(|p| p.is_light()).map(|p| p.name()).collect::<Vec<_>>().join(", "),
             integrator.name()
         )));
@@ -311,7 +312,7 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
     if passes.asks_light_groups() {
         if !files_light {
             return Err(Error::Usage(format!(
-                "the light group passes are rendered by the path integrator only, and by 'photon', not by '{}'",
+                "the light group passes are rendered by the path, BDPT, VCM and photon integrators, not by '{}'",
                 integrator.name()
             )));
         }

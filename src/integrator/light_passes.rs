@@ -55,6 +55,14 @@ impl Default for Tally {
 }
 
 impl Tally {
+    /// The tally of a camera path handed over after its first event, whose class is
+    /// `first` (a surface's diffuse and glossy shares; None: in a medium), and whose
+    /// next-event estimate at depth `direct_depth` is the direct one (BDPT's continuations).
+    pub fn continued(first: Option<(Rgb, Rgb)>, direct_depth: u32) -> Self {
+        let first = first.map_or(First::Volume, |(d, g)| First::Surface(d, g));
+        Tally { first, direct_depth }
+    }
+
     /// The first event was a surface bounce with these shares.
     pub fn surface_bounce(&mut self, diffuse: Rgb, glossy: Rgb) {
         if self.first == First::None {

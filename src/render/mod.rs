@@ -98,7 +98,7 @@ fn progressive(
     let mut spp_done = 0u32;
     // Without --spp the render runs until the time limit, as far as the index allows.
     let target = job.spp.unwrap_or(u32::MAX - job.sample_offset);
-    let splats = SplatPool::new(job.window);
+    let splats = SplatPool::with_passes(job.window, job.passes);
     // Data passes trace the camera ray's first hit apart from the integrator.
     let want_data = job.passes.any_data();
     let want_aovs = job.passes.shader_aov_channels() > 0;

@@ -188,7 +188,8 @@ def test_manifest_names_the_entities_as_cycles(renders):
 def test_request_levels_and_warnings(addon):
     """The binary is asked for the enabled layers with the view layer's levels (odd levels:
     Cycles' passes of two ranks, rounded up), for the light groups and for the shader AOVs; chunks
-    on the farm carry all of them; BDPT renders no light groups, SPPM no shader AOVs."""
+    on the farm carry all of them; BDPT renders light groups too, Jensen's photon mapping none,
+    SPPM no shader AOVs."""
     import importlib
     result = importlib.import_module("bl_ext.caustic_dev.caustic.result")
     bpy.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)
@@ -208,7 +209,9 @@ def test_request_levels_and_warnings(addon):
     assert result.cryptomatte_arguments(layer, passes) == ["--cryptomatte-levels", "3"]
     assert not any("Cryptomatte" in w for w in warnings)
     passes, warnings = result.pass_request(layer, "bdpt")
-    assert "light_groups" not in passes and any("Combined_Key" in w and "'bdpt'" in w for w in warnings)
+    assert "light_groups" in passes and not any("Combined_Key" in w for w in warnings)
+    passes, warnings = result.pass_request(layer, "photon")
+    assert "light_groups" in passes and not any("Combined_Key" in w for w in warnings)
     passes, warnings = result.pass_request(layer, "sppm")
     assert "shader_aovs" in passes and "cryptomatte_asset" in passes and not any("SPPM" in w for w in warnings)
     passes, warnings = result.pass_request(layer, "sppm", chunked=True)

@@ -13,6 +13,7 @@ impl BdptIntegrator {
         sampler: &mut PixelSampler,
         film: &mut FilmTarget,
         scratch: &mut BdptScratch,
+        out: &mut CameraSample,
         stats: &mut RayStats,
     ) -> Rgb {
         let mut sum = Rgb::ZERO;
@@ -29,13 +30,13 @@ impl BdptIntegrator {
             // s = 1: a fresh light point sampled for this camera vertex.
             let [u_pick, u_x, u_y, _] = sampler.next_4d();
             if t - 1 <= self.max_depth as usize && self.allowed(1, t) {
-                sum += self.connect_light_sample(ctx, t, [u_pick, u_x, u_y], film.camera, scratch, stats);
+                sum += self.connect_light_sample(ctx, t, [u_pick, u_x, u_y], film.camera, scratch, out, stats);
             }
             for s in 2..=n_light {
                 if s + t - 2 > self.max_depth as usize || !self.allowed(s, t) {
                     continue;
                 }
-                sum += self.connect_vertices(ctx, s, t, film.camera, scratch, stats);
+                sum += self.connect_vertices(ctx, s, t, film.camera, scratch, out, stats);
             }
         }
         sum
@@ -71,6 +72,7 @@ impl BdptIntegrator {
             return;
         }
         let w = (cam_p - y.p) / dist;
+        let mut first = First::default();
         // What the light vertex sends toward the camera (times the cosine at it).
         let f = match (y.kind, y.light) {
             (Kind::Light, Some(lp)) => {
@@ -78,6 +80,8 @@ impl BdptIntegrator {
                 let visible = match &ctx.scene.lights[lp.light as usize] {
                     Light::Area(a) => a.camera_visible,
                     Light::Sphere { camera_visible, .. } => *camera_visible,
+                    // An emissive holdout seen by the camera shows nothing either.
+                    Light::Triangle { tri } => !ctx.is_holdout(*tri),
                     _ => true,
                 };
                 // A shadow-linked light seen by the camera is s = 0's alone (`linking`).
@@ -88,9 +92,18 @@ impl BdptIntegrator {
             }
             _ => {
                 let (Some(bsdf), Some(hit)) = (y.bsdf, y.hit) else { return };
+                // The camera sees this vertex directly (the segment is tested below): on a
+                // holdout it shows nothing, as camera rays that hit it do.
+                if ctx.is_holdout(hit.tri) {
+                    return;
+                }
                 let (wo_l, wi_l) = (y.frame.to_local(y.wo), y.frame.to_local(w));
                 if (wi_l.z > 0.0) != (w.dot(hit.ng) > 0.0) {
                     return;
+                }
+                if self.ledger.light_passes {
+                    // Seen from the camera: leaving toward it, arriving from the light side.
+                    first = passes::shares_toward(&bsdf, wi_l, wo_l);
                 }
                 bsdf.eval_adjoint(wo_l, wi_l) * wi_l.z.abs() * shading_correction(&hit, &y.frame, y.wo, w)
             }
@@ -130,10 +143,19 @@ impl BdptIntegrator {
         }
         dens.a[k] = 0.0; // unused (t = 0 is not a strategy)
         let wgt = self.mis(dens.weight(s));
-        film.splats.add(film.filter, pos, c * wgt);
+        if !self.ledger.any() {
+            film.splats.add(film.filter, pos, c * wgt);
+            return;
+        }
+        // The camera side's first scattering event is this light vertex (none for s = 1).
+        let (parts, n) = passes::parts(s - 1, first, false, c * wgt);
+        let n = if self.ledger.light_passes { n } else { 0 };
+        let group = self.ledger.group_of_subpath(ctx, &scratch.light);
+        film.splats.add_filed(film.filter, pos, c * wgt, &parts[..n], group);
     }
 
     /// s = 1: light sampling at camera vertex `cam[t-1]`.
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn connect_light_sample(
         &self,
         ctx: &SceneContext,
@@ -141,21 +163,42 @@ impl BdptIntegrator {
         u: [f32; 3],
         camera: &CameraRays,
         scratch: &mut BdptScratch,
+        out: &mut CameraSample,
         stats: &mut RayStats,
     ) -> Rgb {
+        let c = self.light_sample_at(ctx, t, u, camera, scratch, stats);
+        if c.0 != Rgb::ZERO && self.ledger.any() {
+            let first = if t == 2 { c.1 } else { scratch.first };
+            self.ledger.file(out, t - 1, first, false, self.ledger.group_of_light(ctx, c.2), c.0);
+        }
+        c.0
+    }
+
+    /// [`connect_light_sample`](Self::connect_light_sample)'s contribution, with the class
+    /// of the camera vertex's BSDF toward the light (when light passes are kept) and the light.
+    fn light_sample_at(
+        &self,
+        ctx: &SceneContext,
+        t: usize,
+        u: [f32; 3],
+        camera: &CameraRays,
+        scratch: &mut BdptScratch,
+        stats: &mut RayStats,
+    ) -> (Rgb, First, usize) {
+        let none = (Rgb::ZERO, First::default(), 0);
         let x = scratch.cam[t - 1];
         let (Some(bsdf), Some(hit)) = (x.bsdf, x.hit) else {
-            return Rgb::ZERO;
+            return none;
         };
         if bsdf.is_delta() {
-            return Rgb::ZERO;
+            return none;
         }
         let Some((index, pmf)) = self.lights.pick_any(u[0]) else {
-            return Rgb::ZERO;
+            return none;
         };
         let gate = linking::sampled(ctx, index, hit.tri);
         if gate == Gate::Drop {
-            return Rgb::ZERO;
+            return none;
         }
         let wo_l = x.frame.to_local(x.wo);
         if !lights::is_finite(&ctx.scene.lights[index]) {
@@ -163,13 +206,13 @@ impl BdptIntegrator {
             // does; weighted over every strategy for lights that start light subpaths,
             // else against BSDF sampling only.
             let Some(ls) = ctx.sample_light(index, x.p, Vec2::new(u[1], u[2])) else {
-                return Rgb::ZERO;
+                return none;
             };
             let wi_l = x.frame.to_local(ls.wi);
             let consistent = (wi_l.z > 0.0) == (ls.wi.dot(hit.ng) > 0.0);
             let f = bsdf.eval(wo_l, wi_l) * wi_l.z.abs();
             if f == Rgb::ZERO || ls.li == Rgb::ZERO || !consistent {
-                return Rgb::ZERO;
+                return none;
             }
             stats.shadow += 1;
             let tr = crate::integrator::media::light_transmittance_of(
@@ -182,7 +225,7 @@ impl BdptIntegrator {
                 crate::scene::light_path::LightPath::SHADOW_RAY,
             );
             if tr == Rgb::ZERO {
-                return Rgb::ZERO;
+                return none;
             }
             let p_light = pmf * ls.pdf;
             let w = if gate != Gate::Mis {
@@ -194,29 +237,30 @@ impl BdptIntegrator {
             } else {
                 power_heuristic(p_light, bsdf.pdf(wo_l, wi_l))
             };
-            return x.beta * f * tr * ls.li * (self.mis(gate.weight(w)) / p_light);
+            let c = x.beta * f * tr * ls.li * (self.mis(gate.weight(w)) / p_light);
+            return (c, self.first_toward(&bsdf, wo_l, wi_l), index);
         }
         let Some(lp) = lights::sample_point(ctx.scene, index, Vec2::new(u[1], u[2])) else {
-            return Rgb::ZERO;
+            return none;
         };
         let d = lp.p - x.p;
         let dist2 = d.length_squared();
         if !(dist2 > 0.0) {
-            return Rgb::ZERO;
+            return none;
         }
         let dist = dist2.sqrt();
         let wi = d / dist;
         let le = lights::emitted(ctx.scene, &lp, -wi);
         if le == Rgb::ZERO {
-            return Rgb::ZERO;
+            return none;
         }
         let wi_l = x.frame.to_local(wi);
         if (wi_l.z > 0.0) != (wi.dot(hit.ng) > 0.0) {
-            return Rgb::ZERO;
+            return none;
         }
         let f = bsdf.eval(wo_l, wi_l) * wi_l.z.abs();
         if f == Rgb::ZERO {
-            return Rgb::ZERO;
+            return none;
         }
         let mut y = Vertex::new(Kind::Light, lp.p);
         y.ng = lp.n;
@@ -225,15 +269,15 @@ impl BdptIntegrator {
         let g = cos_y / dist2;
         let contribution = x.beta * f * le * (g / (pmf * lp.pdf_pos));
         if contribution == Rgb::ZERO {
-            return Rgb::ZERO;
+            return none;
         }
         stats.shadow += 1;
         let tr = segment_transmittance_of(ctx, &x, &y, media_leaving(ctx, &x, wi), Some(index));
         if tr == Rgb::ZERO {
-            return Rgb::ZERO;
+            return none;
         }
         if gate == Gate::Whole {
-            return contribution * tr * self.mis(1.0);
+            return (contribution * tr * self.mis(1.0), self.first_toward(&bsdf, wo_l, wi_l), index);
         }
         // MIS with the light-origin density of light subpaths.
         y.pdf_fwd = self.lights.pmf_origin(index) * lp.pdf_pos;
@@ -255,7 +299,13 @@ impl BdptIntegrator {
             dens.a[2] = prev.area_density(pdf, x.p);
         }
         let w = self.mis(dens.weight(1));
-        contribution * tr * w
+        (contribution * tr * w, self.first_toward(&bsdf, wo_l, wi_l), index)
+    }
+
+    /// The class of the BSDF from local `wo` toward local `wi`, when light passes are kept.
+    #[inline]
+    fn first_toward(&self, bsdf: &crate::bsdf::Bsdf, wo: Vec3, wi: Vec3) -> First {
+        if self.ledger.light_passes { passes::shares_toward(bsdf, wo, wi) } else { First::default() }
     }
 
     /// MIS weight of light sampling (s = 1) at camera vertex `cam[t-1]` toward light `index`
@@ -302,6 +352,7 @@ impl BdptIntegrator {
     }
 
     /// s, t ≥ 2: light vertex `light[s-1]` joined to camera vertex `cam[t-1]`.
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn connect_vertices(
         &self,
         ctx: &SceneContext,
@@ -309,6 +360,7 @@ impl BdptIntegrator {
         t: usize,
         camera: &CameraRays,
         scratch: &mut BdptScratch,
+        out: &mut CameraSample,
         stats: &mut RayStats,
     ) -> Rgb {
         let x = scratch.cam[t - 1];
@@ -359,6 +411,11 @@ impl BdptIntegrator {
             xp.area_density(bx.pdf(wi_x, x.frame.to_local((xp.p - x.p).normalize_or_zero())), x.p)
         };
         let wgt = self.mis(dens.weight(s));
+        if self.ledger.any() {
+            let first = if t == 2 { self.first_toward(&bx, wo_x, wi_x) } else { scratch.first };
+            let group = self.ledger.group_of_subpath(ctx, &scratch.light);
+            self.ledger.file(out, (t - 1) + (s - 1), first, false, group, c * tr * wgt);
+        }
         c * tr * wgt
     }
 }

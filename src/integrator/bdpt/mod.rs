@@ -85,6 +85,8 @@ pub struct BdptIntegrator {
     /// weighed against s = 0 by distances that dropping it would lose (caustics seen
     /// through glass turned to fireflies). False for BDPT, whose images it would change.
     pub delta_geometry: bool,
+    /// The light passes and light groups to file contributions into (`passes`).
+    pub ledger: Ledger,
 }
 
 impl BdptIntegrator {
@@ -103,6 +105,7 @@ impl BdptIntegrator {
             strategy,
             lights: Arc::new(BdptLights::new(scene)),
             delta_geometry: false,
+            ledger: Ledger::default(),
         }
     }
 
@@ -128,6 +131,7 @@ impl BdptIntegrator {
             rr_depth: self.rr_depth,
             transparent_background: self.transparent_background,
             light_passes: false,
+            // Passes and groups are filed through `Filing` into the camera sample.
             light_groups: false,
         }
     }
@@ -162,9 +166,12 @@ impl BdptIntegrator {
 }
 
 pub mod connect;
+pub mod passes;
 pub mod subpath;
 pub mod vertex;
 
+use passes::First;
+pub use passes::Ledger;
 use vertex::*;
 
 /// Per-worker scratch memory, reused for every sample (nothing is allocated per sample).
@@ -173,13 +180,20 @@ pub struct BdptScratch {
     pub(crate) cam: Vec<Vertex>,
     pub(crate) light: Vec<Vertex>,
     pub(crate) dens: Box<PathDensities>,
+    /// The class of the camera subpath's first scattering event (`passes`).
+    pub(crate) first: First,
 }
 
 impl BdptScratch {
     /// Scratch for paths of up to `max_depth` scattering events.
     pub fn new(max_depth: u32) -> Self {
         let n = max_depth as usize + 3;
-        BdptScratch { cam: Vec::with_capacity(n), light: Vec::with_capacity(n), dens: Box::default() }
+        BdptScratch {
+            cam: Vec::with_capacity(n),
+            light: Vec::with_capacity(n),
+            dens: Box::default(),
+            first: First::default(),
+        }
     }
 }
 
@@ -219,7 +233,7 @@ impl BdptIntegrator {
         let (seed, px, py, index) = light_stream;
         let mut ls = light_sampler(seed, px, py, index);
         self.light_subpath(ctx, &mut ls, scratch, stats);
-        radiance += self.connect_all(ctx, sampler, film, scratch, stats);
+        radiance += self.connect_all(ctx, sampler, film, scratch, &mut out, stats);
         out.radiance = radiance;
         out
     }

@@ -3,6 +3,7 @@
 
 use super::vertex::*;
 use super::*;
+use crate::integrator::filing::Filing;
 use crate::integrator::linking::{self, Gate};
 use crate::integrator::walk::{PathState, Step};
 use crate::light::emit::infinite_ray;
@@ -44,6 +45,7 @@ impl BdptIntegrator {
             // strategy does), emitters crossed on the way (area and sphere lights do not
             // block; weighed over BDPT's strategies), pass-through surfaces.
             let mut emitted = Rgb::ZERO;
+            let first = scratch.first;
             let crossed = |st: &PathState, t_event: f32, w: Rgb| {
                 if !self.allowed(0, i + 2) {
                     return Rgb::ZERO;
@@ -56,12 +58,17 @@ impl BdptIntegrator {
                     w,
                     (pdf_sa, prev_delta),
                     camera,
+                    (&mut *out, first),
                 )
             };
             let (step, crossed) =
                 path.advance_with(ctx, Some([u_channel, u_dist]), || u_alpha, crossed, &mut emitted, stats);
             if self.strategy.is_none() {
                 *radiance += emitted;
+                if emitted != Rgb::ZERO && self.ledger.any() {
+                    // Media emit in no light group (`scene::light_groups`).
+                    self.ledger.file(out, i, first, false, crate::scene::light_groups::NONE, emitted);
+                }
             }
             if crossed != Rgb::ZERO {
                 *radiance += crossed;
@@ -81,16 +88,45 @@ impl BdptIntegrator {
                         out.depth = camera.depth(p);
                     }
                     if self.strategy.is_none() && (i as u32) < self.max_depth && beta.is_finite() && beta != Rgb::ZERO {
-                        *radiance += self
-                            .continuation()
-                            .scatter_in_medium(ctx, p, dir, phase, medium, beta, i as u32, sampler, stats);
+                        // The first event is this medium vertex, or the surface before.
+                        let first = if i == 0 { First::Volume } else { first };
+                        let tally = self.ledger.light_passes.then(|| first.tally(0));
+                        let filing = Filing { tally, groups: self.ledger.light_groups, out: &mut *out };
+                        *radiance += self.continuation().scatter_in_medium_filed(
+                            ctx,
+                            p,
+                            dir,
+                            phase,
+                            medium,
+                            beta,
+                            i as u32,
+                            sampler,
+                            stats,
+                            Some(filing),
+                        );
                     }
                     break;
                 }
                 Step::Escaped => {
-                    if self.allowed(0, i + 2) && !(i == 0 && self.transparent_background) {
-                        let sum = self.escaped_radiance(ctx, dir, cam, &mut scratch.dens, (prev_delta, pdf_sa), camera);
-                        if sum != Rgb::ZERO {
+                    // The world seen directly through a transparent film is not in Combined,
+                    // but Environment and its light group show it (as the path tracer's).
+                    let hidden = i == 0 && self.transparent_background;
+                    if self.allowed(0, i + 2) && (!hidden || self.ledger.any()) {
+                        let (ledger, groups) = (self.ledger, &ctx.scene.light_groups);
+                        let mut sum = Rgb::ZERO;
+                        let mut each = |light: Option<usize>, c: Rgb| {
+                            sum += c;
+                            if ledger.any() {
+                                let g = match (ledger.light_groups, light) {
+                                    (false, _) => crate::scene::light_groups::NONE,
+                                    (true, None) => groups.world,
+                                    (true, Some(l)) => groups.of_light(l),
+                                };
+                                ledger.file(out, i, first, true, g, beta * c);
+                            }
+                        };
+                        self.escaped_radiance(ctx, dir, cam, &mut scratch.dens, (prev_delta, pdf_sa), camera, &mut each);
+                        if sum != Rgb::ZERO && !hidden {
                             *radiance += beta * sum;
                             if i == 0 {
                                 out.alpha = 1.0;
@@ -101,6 +137,12 @@ impl BdptIntegrator {
                 }
                 Step::Surface { hit, s } => (hit, s),
             };
+            // A holdout seen by the camera ray (through pass-throughs only): nothing, alpha
+            // 0, as the path tracer's (Cycles'); later vertices see the object as it is.
+            if i == 0 && ctx.is_holdout(hit.tri) {
+                out.alpha = 0.0;
+                break;
+            }
             let wo = -dir;
             let mat = &ctx.scene.materials[s.material as usize];
             let sp = ctx.shade(&s, wo);
@@ -109,7 +151,14 @@ impl BdptIntegrator {
             if mat.subsurface.is_some() && self.strategy.is_none() && (i as u32) < self.max_depth {
                 let q = sp.bsdf.subsurface_weight(sp.frame.to_local(wo));
                 if q > 0.0 {
-                    *radiance += self.continuation().subsurface_from(
+                    // From the first hit the walk is the first event (diffuse) and its exit's
+                    // estimate the direct one; later, all of it is indirect.
+                    let tally = self.ledger.light_passes.then(|| match i {
+                        0 => First::Surface(Rgb::ONE, Rgb::ZERO).tally(1),
+                        _ => first.tally(0),
+                    });
+                    let filing = Filing { tally, groups: self.ledger.light_groups, out: &mut *out };
+                    *radiance += self.continuation().subsurface_from_filed(
                         ctx,
                         &s,
                         &sp,
@@ -119,6 +168,7 @@ impl BdptIntegrator {
                         i as u32,
                         sampler,
                         stats,
+                        Some(filing),
                     );
                 }
             }
@@ -146,7 +196,12 @@ impl BdptIntegrator {
                     } else {
                         1.0
                     };
-                    *radiance += beta * sp.emitted * self.mis(gate.weight(w));
+                    let c = beta * sp.emitted * self.mis(gate.weight(w));
+                    *radiance += c;
+                    if self.ledger.any() {
+                        let g = if self.ledger.light_groups { ctx.scene.light_groups.of_tri(hit.tri) } else { 0 };
+                        self.ledger.file(out, t - 2, first, false, g, c);
+                    }
                 }
             }
             // Scattering events so far: t - 2; a vertex at the depth limit only emits.
@@ -154,6 +209,9 @@ impl BdptIntegrator {
                 break;
             }
             let wo_local = sp.frame.to_local(wo);
+            if t == 2 && self.ledger.light_passes {
+                crate::integrator::light_passes::Tally::colours(out, &sp.bsdf.at(wo_local), beta);
+            }
             let Some(bs) = sp.bsdf.sample(wo_local, u_lobe, Vec2::new(u_dx, u_dy)) else {
                 break;
             };
@@ -161,6 +219,13 @@ impl BdptIntegrator {
             let transmitted = bs.wi.z < 0.0;
             if transmitted != (wi.dot(s.ng) < 0.0) {
                 break;
+            }
+            if t == 2 && self.ledger.light_passes {
+                // The class of the first bounce, which every longer camera prefix shares.
+                scratch.first = match bs.delta {
+                    true => passes::delta_bounce(transmitted),
+                    false => passes::shares_toward(&sp.bsdf, wo_local, bs.wi),
+                };
             }
             let last = cam.len() - 1;
             // The density of the previous vertex from this one (the reverse direction).
@@ -193,6 +258,7 @@ impl BdptIntegrator {
 
     /// What a camera subpath escaping along `dir` from its last vertex sees: the world and
     /// sun disks, each weighed over every strategy that can make the path (s = 0 here).
+    /// Each emitter's weighted radiance goes to `each` (`None`: the world), for the passes.
     #[allow(clippy::too_many_arguments)]
     fn escaped_radiance(
         &self,
@@ -202,10 +268,10 @@ impl BdptIntegrator {
         dens: &mut PathDensities,
         (prev_delta, pdf_sa): (bool, f32),
         camera: &CameraRays,
-    ) -> Rgb {
+        each: &mut dyn FnMut(Option<usize>, Rgb),
+    ) {
         let from = found_from(cam);
         let le = ctx.world_radiance(dir);
-        let mut sum = Rgb::ZERO;
         if le != Rgb::ZERO {
             let world = ctx.scene.lights.iter().position(|l| matches!(l, Light::World));
             let pdf_dir = ctx.scene.world.as_ref().map_or(0.0, |e| e.pdf(dir));
@@ -216,7 +282,7 @@ impl BdptIntegrator {
                 }
                 _ => 1.0,
             };
-            sum += le * self.mis(gate.weight(w));
+            each(None, le * self.mis(gate.weight(w)));
         }
         for (index, l) in ctx.scene.lights.iter().enumerate() {
             if let Light::Directional { direction, irradiance, cos_half } = l
@@ -230,10 +296,9 @@ impl BdptIntegrator {
                 } else {
                     1.0
                 };
-                sum += crate::light::sun_radiance(*irradiance, *cos_half) * self.mis(gate.weight(w));
+                each(Some(index), crate::light::sun_radiance(*irradiance, *cos_half) * self.mis(gate.weight(w)));
             }
         }
-        sum
     }
 
     /// MIS weight of the s = 0 strategy for the camera subpath `cam` escaping along `dir` to
@@ -288,6 +353,7 @@ impl BdptIntegrator {
         beta: Rgb,
         (pdf_sa, prev_delta): (f32, bool),
         camera: &CameraRays,
+        (out, first): (&mut CameraSample, First),
     ) -> Rgb {
         let i = cam.len() - 1;
         let from = found_from(cam);
@@ -339,7 +405,11 @@ impl BdptIntegrator {
                     let p_light = self.lights.pmf_any(index)
                         * area_to_solid_angle(1.0 / (std::f32::consts::PI * radius * radius), dist, -denom);
                     let w = gate.weight(self.camera_only_weight(i, prev_delta, pdf_sa, p_light));
-                    sum += beta * *radiance * w;
+                    let c = beta * *radiance * w;
+                    sum += c;
+                    if self.ledger.any() {
+                        self.ledger.file(out, i, first, false, self.ledger.group_of_light(ctx, index), c);
+                    }
                     continue;
                 }
                 _ => continue,
@@ -365,7 +435,11 @@ impl BdptIntegrator {
             } else {
                 1.0
             };
-            sum += beta * le * self.mis(gate.weight(w));
+            let c = beta * le * self.mis(gate.weight(w));
+            sum += c;
+            if self.ledger.any() {
+                self.ledger.file(out, i, first, false, self.ledger.group_of_light(ctx, index), c);
+            }
         }
         sum
     }

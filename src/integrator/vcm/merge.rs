@@ -3,6 +3,10 @@
 
 use super::grid::HashGrid;
 use super::mis::{Recursion, Side, merge_weight};
+use crate::film::CameraSample;
+use crate::integrator::SceneContext;
+use crate::integrator::bdpt::Ledger;
+use crate::integrator::bdpt::passes::First;
 use crate::integrator::bdpt::vertex::Vertex;
 use crate::light::origin as lights;
 use crate::math::Rgb;
@@ -27,6 +31,8 @@ pub struct MergeRecord {
     pub g: f32,
     /// Vertex index m on its light subpath (m - 1 scattering events before it).
     pub m: u32,
+    /// The light its subpath started at (light groups).
+    pub light: u32,
 }
 
 /// What one iteration's merging needs: the stored vertices, their grid, and the constants.
@@ -74,6 +80,7 @@ pub(crate) fn push_records(scene: &Scene, light: &[Vertex], eta: f32, out: &mut 
                 side: rec.side(v.pdf_fwd),
                 g: light[i - 1].area_density(1.0, v.p),
                 m: i as u32,
+                light: lp.light,
             });
         }
         if i + 1 < light.len() {
@@ -86,7 +93,15 @@ pub(crate) fn push_records(scene: &Scene, light: &[Vertex], eta: f32, out: &mut 
 /// vertices) with the stored light vertices within the radius; returns the weighted sum.
 /// `camera_connectible`: light subpaths can reach the camera (not orthographic);
 /// `max_depth` bounds the merged paths' scattering events.
-pub(crate) fn merge_camera_path(cam: &[Vertex], map: &MergeMap, camera_connectible: bool, max_depth: u32) -> Rgb {
+/// With `passes`, each merge is also filed into the camera sample's light passes and light
+/// groups (`bdpt::passes`; the class of the first bounce of `cam` when it is not the merge's).
+pub(crate) fn merge_camera_path(
+    cam: &[Vertex],
+    map: &MergeMap,
+    camera_connectible: bool,
+    max_depth: u32,
+    mut passes: Option<(&SceneContext, Ledger, First, &mut CameraSample)>,
+) -> Rgb {
     let mut total = Rgb::ZERO;
     let mut rec = Recursion::start(map.eta, 0.0, camera_connectible, None);
     for c in 1..cam.len() {
@@ -111,6 +126,7 @@ pub(crate) fn merge_camera_path(cam: &[Vertex], map: &MergeMap, camera_connectib
         // per merge: f and the camera side's own density share them.
         let at = bsdf.at(wo_l);
         let m_max = max_depth + 1 - c as u32;
+        let vertex = c;
         let mut sum = Rgb::ZERO;
         map.grid.for_each_within(
             x.p,
@@ -147,6 +163,19 @@ pub(crate) fn merge_camera_path(cam: &[Vertex], map: &MergeMap, camera_connectib
                 let a_next = bsdf.pdf(wi_l, wo_l) * g_prev;
                 let w = merge_weight(map.eta, y.side, b_prev, cam_side, a_next);
                 sum += f * y.beta * (shading * w);
+                if let Some((ctx, ledger, first, out)) = passes.as_mut() {
+                    // Scattering events: this vertex and the c - 1 before it, m - 1 on the light side.
+                    let first = match (vertex, ledger.light_passes) {
+                        (1, true) => {
+                            let (d, g) = crate::integrator::light_passes::shares_at(&at, wi_l);
+                            First::Surface(d, g)
+                        }
+                        _ => *first,
+                    };
+                    let contribution = x.beta * f * y.beta * (shading * w * map.norm);
+                    let group = ledger.group_of_light(ctx, y.light as usize);
+                    ledger.file(out, vertex + y.m as usize - 1, first, false, group, contribution);
+                }
             },
         );
         total += x.beta * sum * map.norm;

@@ -87,7 +87,7 @@ impl VcmIntegrator {
         let mut radiance = Rgb::ZERO;
         self.bdpt.camera_subpath(ctx, ray, sampler, film.camera, scratch, &mut out, &mut radiance, stats);
         row.restore(ctx, i, &mut scratch.light);
-        radiance += self.bdpt.connect_all(ctx, sampler, film, scratch, stats);
+        radiance += self.bdpt.connect_all(ctx, sampler, film, scratch, &mut out, stats);
         out.radiance = radiance;
         out
     }
@@ -112,7 +112,7 @@ impl VcmIntegrator {
         let target = job.spp.unwrap_or(u32::MAX - job.sample_offset);
         let merging = self.mode == VcmMode::Full;
         let r0 = self.radius.unwrap_or_else(|| initial_radius(ctx, camera, job.window));
-        let splats = SplatPool::new(job.window);
+        let splats = SplatPool::with_passes(job.window, job.passes);
         let want_data = job.passes.any_data();
         let want_aovs = job.passes.shader_aov_channels() > 0;
         let shutter = ctx.scene.motion.as_ref().and_then(|m| m.shutter).filter(|_| ctx.blurs_motion);
@@ -229,7 +229,11 @@ impl VcmIntegrator {
                                     &mut scratch,
                                     &mut rs,
                                 );
-                                s.radiance += merge_camera_path(&scratch.cam, map_ref, camera_connectible, max_depth);
+                                let ledger = self.bdpt.ledger;
+                                let passes = ledger.any().then_some((ctx, ledger, scratch.first, &mut s));
+                                let merged =
+                                    merge_camera_path(&scratch.cam, map_ref, camera_connectible, max_depth, passes);
+                                s.radiance += merged;
                                 s
                             } else {
                                 self.bdpt.li(ctx, &ray, &mut sampler, pixel_sample, &mut target, &mut scratch, &mut rs)
