@@ -74,6 +74,25 @@ pub fn curve_bounds(p: &[Vec4; 4]) -> (Vec3, Vec3) {
 /// pieces a ray-facing strip (`intersect`); `s` is the curve parameter u.
 #[inline]
 pub fn intersect_curve(o: Vec3, d: Vec3, p: &[Vec4; 4], tmin: f32, tmax: f32) -> Option<RibbonHit> {
+    // Quick reject: the curve stays within `reach` of the line through p1 and p2 (its Bézier
+    // hull's inner points are no farther, and it bulges no wider than the largest radius
+    // coefficient), so a ray whose line passes farther from that line misses every piece.
+    let axis = (p[2] - p[1]).xyz();
+    let (b1, b2) = (p[1] + (p[2] - p[0]) / 6.0, p[2] - (p[3] - p[1]) / 6.0);
+    let len2 = axis.length_squared();
+    if len2 > 0.0 {
+        let off = |q: Vec3| {
+            let v = q - p[1].xyz();
+            (v - axis * (v.dot(axis) / len2)).length()
+        };
+        let reach = off(b1.xyz()).max(off(b2.xyz())) + p[1].w.max(p[2].w).max(b1.w).max(b2.w);
+        let c = d.cross(axis);
+        let c2 = c.length_squared();
+        // Lines closer than parallel by 1e-6 (relative) keep the full test.
+        if c2 > 1e-12 * len2 && (p[1].xyz() - o).dot(c).abs() > reach * c2.sqrt() * (1.0 + 1e-5) {
+            return None;
+        }
+    }
     let mut best: Option<RibbonHit> = None;
     let mut a = p[1];
     for i in 1..=PIECES {

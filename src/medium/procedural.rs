@@ -25,6 +25,7 @@ use crate::shader::compile::volume::{VolumeKind, VolumeProgram};
 use crate::shader::geom::{Geom, NO_VIEW, ObjectData};
 use crate::shader::program::with_registers;
 use glam::{Affine3A, Vec2, Vec3, Vec4};
+use rayon::prelude::*;
 
 /// Voxel-index extent of the box along each axis: 16 majorant cells of [`CELL`] (the
 /// program is evaluated at any point; the "voxels" only size the cells).
@@ -163,28 +164,25 @@ fn sampled_majorant(g: &GridMedium) -> (Vec<f32>, bool) {
     let cell_len =
         (0..3).map(|a| g.world_from_index.matrix3.col(a).length()).fold(f32::INFINITY, f32::min) * CELL as f32;
     let floor = 1.0 / cell_len.max(1e-30);
-    let mut out = Vec::with_capacity((nx * ny * nz) as usize);
-    let mut emits = false;
-    for cz in 0..nz {
-        for cy in 0..ny {
-            for cx in 0..nx {
-                let lo = Vec3::new(cx as f32, cy as f32, cz as f32) * CELL as f32 - 1.0;
-                let mut m = 0.0f32;
-                for k in 0..LATTICE * LATTICE * LATTICE {
-                    let t = Vec3::new(
-                        (k % LATTICE) as f32,
-                        (k / LATTICE % LATTICE) as f32,
-                        (k / (LATTICE * LATTICE)) as f32,
-                    ) / (LATTICE - 1) as f32;
-                    let c = src.coefficients(g.world_from_index.transform_point3(lo + t * CELL as f32), true);
-                    m = m.max((c.sigma_a + c.sigma_s).max_element());
-                    emits |= c.emission.abs().max_element() > 0.0;
-                }
-                out.push((m * MAJORANT_MARGIN).max(floor));
+    // Cells in parallel (x fastest, the order `cell_majorant` reads): 125 program runs each.
+    let cells: Vec<(f32, bool)> = (0..nx * ny * nz)
+        .into_par_iter()
+        .map(|i| {
+            let (cx, cy, cz) = (i % nx, i / nx % ny, i / (nx * ny));
+            let lo = Vec3::new(cx as f32, cy as f32, cz as f32) * CELL as f32 - 1.0;
+            let (mut m, mut emits) = (0.0f32, false);
+            for k in 0..LATTICE * LATTICE * LATTICE {
+                let t =
+                    Vec3::new((k % LATTICE) as f32, (k / LATTICE % LATTICE) as f32, (k / (LATTICE * LATTICE)) as f32)
+                        / (LATTICE - 1) as f32;
+                let c = src.coefficients(g.world_from_index.transform_point3(lo + t * CELL as f32), true);
+                m = m.max((c.sigma_a + c.sigma_s).max_element());
+                emits |= c.emission.abs().max_element() > 0.0;
             }
-        }
-    }
-    (out, emits)
+            ((m * MAJORANT_MARGIN).max(floor), emits)
+        })
+        .collect();
+    (cells.iter().map(|c| c.0).collect(), cells.iter().any(|c| c.1))
 }
 
 #[cfg(test)]
