@@ -1,10 +1,13 @@
 """Light inside a material: Principled subsurface (`CAUSTIC_materials_subsurface`) and the
 material's Volume output (`CAUSTIC_materials_medium`), which Blender's glTF exporter drops.
-Coefficients as Cycles builds them (contract)."""
+Coefficients as Cycles builds them (contract). A volume shader whose inputs vary over space (a
+texture, a ColorRamp, an Attribute on its Density, colours or emission) also carries its node
+graph (`graph`, `graph_shader`), which the renderer evaluates at each point of the medium."""
 
 import math
 
 from .constant_fold import folded_float
+from .node_graph import GraphContext, build_volume_graph
 from .nodes import linked_node, material_output, socket, value as _value
 
 SUBSURFACE_EXTENSION = "CAUSTIC_materials_subsurface"
@@ -59,11 +62,72 @@ def medium_extension(blender_material):
         return None, warnings
     node = linked_node(output.inputs["Volume"])
     what = f"material '{blender_material.name}'"
-    value = volume_medium(node, what, warnings)
+    graph = _volume_graph(blender_material, node, what, warnings)
+    if graph is None:
+        value = volume_medium(node, what, warnings)
+    elif node.type == "EMISSION":
+        # Emission only: the graph gives it; the constant part is an empty medium.
+        value = {"density": 0.0, "scatter_color": [0.0] * 3, "absorption_color": [0.0] * 3, "anisotropy": 0.0}
+    else:
+        # The graph carries the linked inputs: the constant part's "input is linked" warnings
+        # do not apply.
+        constant = []
+        value = volume_medium(node, what, constant)
+        warnings.extend(w for w in constant if "input is linked" not in w)
     if value is None:
         return None, warnings
+    if graph is not None:
+        value["graph"], value["graph_shader"] = graph
     value["surface"] = bool(output.inputs["Surface"].is_linked)
     return value, warnings
+
+
+# Inputs of each volume shader that a link can make vary over the medium.
+_VARYING_INPUTS = {
+    "PRINCIPLED_VOLUME": ("Density", "Color", "Absorption Color", "Emission Strength", "Emission Color",
+                          "Blackbody Intensity", "Blackbody Tint", "Temperature"),
+    "VOLUME_SCATTER": ("Density", "Color"),
+    "VOLUME_ABSORPTION": ("Density", "Color"),
+    "EMISSION": ("Color", "Strength"),
+}
+
+
+def _varies(node):
+    """Whether an input of the volume shader is linked to something that does not fold to a
+    constant (a float chain of Value and Math nodes folds, `constant_fold`)."""
+    for name in _VARYING_INPUTS.get(node.type, ()):
+        sock = socket(node, name)
+        if sock is not None and sock.is_linked and (sock.type != "VALUE" or folded_float(sock) is None):
+            return True
+    return False
+
+
+def _volume_graph(blender_material, node, what, warnings):
+    """(graph value, shader index) of a volume shader whose inputs vary (an Emission node on
+    the Volume output always), or None. A graph with an image is not exported (the medium has
+    no image lookups): the constant medium is used, with a warning."""
+    if node.type not in _VARYING_INPUTS or not (node.type == "EMISSION" or _varies(node)):
+        return None
+    graph, index = build_volume_graph(blender_material, node, GraphContext())
+    if graph.images:
+        warnings.append(f"{what}: an Image Texture feeds the {node.name} node on the Volume output; image "
+                        "lookups in a volume are not supported and its inputs' own values are used")
+        return None
+    warnings.extend(graph.warnings)
+    return {"version": 1, "nodes": graph.nodes, "output": {}}, index
+
+
+def volume_uses_generated(blender_material):
+    """Whether the material's Volume output graph reads Generated coordinates (the mesh's
+    texture space is then exported, meshes.py)."""
+    tree = getattr(blender_material, "node_tree", None)
+    output = material_output(tree) if tree is not None else None
+    if output is None or not output.inputs["Volume"].is_linked:
+        return False
+    node = linked_node(output.inputs["Volume"])
+    if node.type not in _VARYING_INPUTS or not (node.type == "EMISSION" or _varies(node)):
+        return False
+    return build_volume_graph(blender_material, node, GraphContext())[0].uses_generated
 
 
 def _density(node, what, warnings):

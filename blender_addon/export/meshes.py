@@ -22,6 +22,7 @@ original mesh's texture space, so its copies repeat the pattern in Cycles).
 
 from .gltf_objects import constant_uv_accessor
 from .materials import complete_material, graph_of, uses_graph
+from .media import volume_uses_generated
 
 TEXSPACE_EXTRA = "CAUSTIC_texspace"
 OBJECT_COLOR_EXTRA = "CAUSTIC_object_color"
@@ -114,7 +115,8 @@ def add_texspace(gltf2_mesh, blender_object, state):
     if gltf2_mesh is None or blender_object is None or blender_object.type != "MESH":
         return
     materials = [slot.material for slot in blender_object.material_slots]
-    if not any(m is not None and uses_graph(m, state) and graph_of(m, state).uses_generated for m in materials):
+    if not any(m is not None and ((uses_graph(m, state) and graph_of(m, state).uses_generated)
+                                  or volume_uses_generated(m)) for m in materials):
         return
     mesh = blender_object.data
     if state.depsgraph is not None:

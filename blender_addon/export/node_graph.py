@@ -466,6 +466,16 @@ def build_world_graph(world, context):
     return builder.run(output)
 
 
+def build_volume_graph(material, shader_node, context):
+    """The graph of a Volume output's shader node and what feeds it (a `Graph` whose output is
+    empty; contract: `CAUSTIC_materials_medium.graph`), and the shader node's index in it."""
+    builder = _Builder(material, context)
+    index = builder.add((), shader_node)
+    while builder.todo:
+        builder.fill(*builder.todo.pop())
+    return Graph(builder.nodes, {}, builder.images, builder.uses_generated, builder.warnings), index
+
+
 def needs_graph(material, graph):
     """Whether the glTF exporter cannot express `material`, whose graph is `graph` (contract):
     a node type it does not read, a group or muted node on the way (the graph is then not what

@@ -17,14 +17,32 @@ use obvhs::cwbvh::CwBvh;
 pub struct CurveBvh {
     bvh: CwBvh,
     /// For each segment in BVH order, the index of its first control point (the second is
-    /// the next one), with [`RIBBON_BIT`] set when its object is drawn as ribbons: 4 bytes
-    /// per segment.
+    /// the next one), with [`RIBBON_BIT`] set when its object is drawn as ribbons and, for a
+    /// ribbon, [`ROOT_BIT`] / [`TIP_BIT`] when it is its strand's first / last segment (its
+    /// Catmull-Rom curve then has no neighbour on that side): 4 bytes per segment.
     first: Vec<u32>,
 }
 
-/// Set in a segment's `first` entry when it is a ribbon (control points stay below 2^31,
-/// as `CURVE_BIT` already requires).
+/// Set in a segment's `first` entry when it is a ribbon (control points stay below
+/// [`MAX_POINTS`]).
 const RIBBON_BIT: u32 = 1 << 31;
+/// Set on a ribbon segment that starts its strand.
+const ROOT_BIT: u32 = 1 << 30;
+/// Set on a ribbon segment that ends its strand.
+const TIP_BIT: u32 = 1 << 29;
+/// The flags of a `first` entry.
+const FLAGS: u32 = RIBBON_BIT | ROOT_BIT | TIP_BIT;
+/// Control points a scene may hold: the point index shares its word with three flags.
+pub const MAX_POINTS: usize = 1 << 29;
+
+/// The four control points of the Catmull-Rom curve of the segment whose `first` entry is
+/// `e`: the segment's two and their neighbours, an end point standing in for a missing one.
+#[inline(always)]
+fn curve_points(points: &[Vec4], e: u32) -> [Vec4; 4] {
+    let k = (e & !FLAGS) as usize;
+    let (a, b) = (points[k], points[k + 1]);
+    [if e & ROOT_BIT != 0 { a } else { points[k - 1] }, a, b, if e & TIP_BIT != 0 { b } else { points[k + 2] }]
+}
 
 impl CurveBvh {
     /// Builds the BVH over the segments of `strands`; `ribbons[o]` says whether curves object
@@ -32,14 +50,21 @@ impl CurveBvh {
     pub fn build(points: &[Vec4], strands: &[Strand], ribbons: &[bool]) -> Self {
         let mut first = Vec::with_capacity(strands.iter().map(|s| s.count as usize - 1).sum());
         for s in strands {
-            let flag = if ribbons.get(s.object as usize).copied().unwrap_or(false) { RIBBON_BIT } else { 0 };
-            first.extend((s.first..s.first + s.count - 1).map(|k| k | flag));
+            let ribbon = ribbons.get(s.object as usize).copied().unwrap_or(false);
+            let last = s.first + s.count - 2;
+            first.extend((s.first..=last).map(|k| match ribbon {
+                true => k | RIBBON_BIT | if k == s.first { ROOT_BIT } else { 0 } | if k == last { TIP_BIT } else { 0 },
+                false => k,
+            }));
         }
         let boxes: Vec<Aabb> = first
             .iter()
-            .map(|&k| {
-                let k = k & !RIBBON_BIT;
-                let (a, b) = (points[k as usize], points[k as usize + 1]);
+            .map(|&e| {
+                if e & RIBBON_BIT != 0 {
+                    let (lo, hi) = ribbon::curve_bounds(&curve_points(points, e));
+                    return Aabb::new(lo.into(), hi.into());
+                }
+                let (a, b) = (points[e as usize], points[e as usize + 1]);
                 let r = Vec3A::splat(a.w.max(b.w));
                 let (pa, pb) = (Vec3A::from(a.xyz()), Vec3A::from(b.xyz()));
                 Aabb::new(pa.min(pb) - r, pa.max(pb) + r)
@@ -61,7 +86,13 @@ impl CurveBvh {
     /// The first control point of segment `id` (BVH order).
     #[inline]
     pub fn first_point(&self, id: u32) -> u32 {
-        self.first[id as usize] & !RIBBON_BIT
+        self.first[id as usize] & !FLAGS
+    }
+
+    /// The Catmull-Rom control points of ribbon segment `id` (BVH order).
+    #[inline]
+    pub fn ribbon_points(&self, points: &[Vec4], id: u32) -> [Vec4; 4] {
+        curve_points(points, self.first[id as usize])
     }
 
     /// True when segment `id` (BVH order) is a ribbon.
@@ -117,11 +148,12 @@ impl CurveBvh {
     #[inline(always)]
     fn segment_hit(&self, points: &[Vec4], id: usize, org: Vec3, dir: Vec3, tmax: f32) -> Option<Hit> {
         let e = self.first[id];
-        let k = (e & !RIBBON_BIT) as usize;
-        let (a, b) = (points[k], points[k + 1]);
         if e & RIBBON_BIT != 0 {
-            ribbon::intersect(org, dir, a, b, 0.0, tmax).map(|h| Hit { tri: 0, t: h.t, b1: h.s, b2: h.v })
+            let p = curve_points(points, e);
+            ribbon::intersect_curve(org, dir, &p, 0.0, tmax).map(|h| Hit { tri: 0, t: h.t, b1: h.s, b2: h.v })
         } else {
+            let k = e as usize;
+            let (a, b) = (points[k], points[k + 1]);
             round_cone::intersect(org, dir, a, b, 0.0, tmax).map(|h| Hit { tri: 0, t: h.t, b1: h.s, b2: 0.0 })
         }
     }
@@ -166,7 +198,10 @@ mod tests {
                 for k in strand.first as usize..(strand.first + strand.count - 1) as usize {
                     let (a, b) = (curves.points[k], curves.points[k + 1]);
                     let t = if strand.object == 1 {
-                        ribbon::intersect(o, d, a, b, 0.0, tmax).map(|h| h.t)
+                        let last = (strand.first + strand.count - 1) as usize;
+                        let p0 = if k == strand.first as usize { a } else { curves.points[k - 1] };
+                        let p3 = if k + 1 == last { b } else { curves.points[k + 2] };
+                        ribbon::intersect_curve(o, d, &[p0, a, b, p3], 0.0, tmax).map(|h| h.t)
                     } else {
                         round_cone::intersect(o, d, a, b, 0.0, tmax).map(|h| h.t)
                     };

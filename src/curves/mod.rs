@@ -99,10 +99,21 @@ impl Curves {
         &self.strands[i]
     }
 
-    /// The centre of the sphere a curve hit touches: a point on the strand's axis.
+    /// The centre of the sphere a curve hit touches: a point on the strand's axis (on a
+    /// ribbon, on its Catmull-Rom curve).
     pub fn axis_point(&self, hit: &Hit) -> Vec3 {
+        if let Some(p) = self.ribbon_points(hit) {
+            return ribbon::catmull_rom(&p, hit.b1).xyz();
+        }
         let k = self.first_point(hit) as usize;
         self.points[k].xyz().lerp(self.points[k + 1].xyz(), hit.b1)
+    }
+
+    /// The Catmull-Rom control points of a ribbon hit's segment (None on a round strand).
+    fn ribbon_points(&self, hit: &Hit) -> Option<[Vec4; 4]> {
+        let bvh = self.bvh.as_ref()?;
+        let id = hit.tri & !CURVE_BIT;
+        bvh.is_ribbon(id).then(|| bvh.ribbon_points(&self.points, id))
     }
 
     /// Position along the strand of a curve hit: 0 at the root, 1 at the tip.
@@ -141,14 +152,18 @@ impl Curves {
         let strand = self.strand_of(k);
         let (a, b) = (self.points[k as usize], self.points[k as usize + 1]);
         let s = hit.b1;
-        let ribbon = self.bvh.as_ref().is_some_and(|bvh| bvh.is_ribbon(hit.tri & !CURVE_BIT));
-        let (p, n) = if ribbon {
-            (org + dir * hit.t, ribbon::normal(dir, a, b, hit.b2))
-        } else {
-            let n = round_cone::normal(org + dir * hit.t, a, b, s);
-            (a.xyz().lerp(b.xyz(), s) + n * (a.w + (b.w - a.w) * s), n)
+        let (p, n, along) = match self.ribbon_points(hit) {
+            Some(cr) => {
+                // The Catmull-Rom curve's tangent: the rounded normal and the fibre follow it.
+                let tangent = ribbon::catmull_rom_tangent(&cr, s);
+                (org + dir * hit.t, ribbon::normal_along(dir, tangent, hit.b2), tangent)
+            }
+            None => {
+                let n = round_cone::normal(org + dir * hit.t, a, b, s);
+                (a.xyz().lerp(b.xyz(), s) + n * (a.w + (b.w - a.w) * s), n, b.xyz() - a.xyz())
+            }
         };
-        let along = (b.xyz() - a.xyz()).normalize_or(n.any_orthonormal_vector());
+        let along = along.normalize_or(n.any_orthonormal_vector());
         SurfaceHit {
             p,
             ng: n,

@@ -374,13 +374,14 @@ impl PathState {
 
     /// Russian roulette from `rr_depth` on: false when the path ends; survivors are
     /// reweighted. The survival probability is the throughput's largest channel, at most
-    /// 0.95 (a refraction does not scale the throughput: `bsdf::dielectric`).
+    /// 0.95 (a refraction does not scale the throughput: `bsdf::dielectric`); by magnitude,
+    /// since a procedural medium's tracking can make it negative (`medium::tracking`).
     #[inline]
     pub fn survives(&mut self, rr_depth: u32, u_rr: f32) -> bool {
         if self.depth < rr_depth {
             return true;
         }
-        let survive = self.beta.max_element().min(0.95);
+        let survive = self.beta.abs().max_element().min(0.95);
         if u_rr >= survive {
             return false;
         }

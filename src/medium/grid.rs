@@ -93,8 +93,11 @@ pub struct GridMedium {
     pub phase: HenyeyGreenstein,
     /// Majorant cells per axis.
     pub cells: [u32; 3],
-    /// Per cell, a bound of max-channel σt (or the emission floor) over the cell.
+    /// Per cell, a bound of max-channel σt (or the emission floor) over the cell; for a
+    /// procedural medium, a sampled estimate (`procedural.rs`).
     pub majorant: Vec<f32>,
+    /// The node-graph program that gives the coefficients instead of the fields and shader.
+    pub procedural: Option<Box<super::procedural::ProceduralSource>>,
 }
 
 impl Field {
@@ -195,6 +198,7 @@ impl GridMedium {
             phase: HenyeyGreenstein::new(shader.anisotropy),
             cells,
             majorant: Vec::new(),
+            procedural: None,
         };
         g.majorant = g.build_majorant();
         g
@@ -236,6 +240,9 @@ impl GridMedium {
     /// shadow rays need only the extinction).
     #[inline]
     pub fn coefficients(&self, p: Vec3, with_emission: bool) -> PointCoefficients {
+        if let Some(src) = &self.procedural {
+            return src.coefficients(self.world_from_index.transform_point3(p), with_emission);
+        }
         let sh = &self.shader;
         let mut d = sh.density.max(0.0);
         if d > CLOSURE_WEIGHT_CUTOFF

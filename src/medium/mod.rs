@@ -3,7 +3,8 @@
 //! path, and the albedo inversion of random-walk subsurface scattering. Pure maths:
 //! the scene-aware parts (walks through geometry, shadow rays) live in
 //! `integrator::media`. Grid media (volume objects) and their tracking are in
-//! `grid.rs` and `tracking.rs`, their file format in `grid_file.rs`.
+//! `grid.rs` and `tracking.rs`, their file format in `grid_file.rs`; media whose
+//! coefficients come from a node graph ride on a grid (`procedural.rs`).
 //!
 //! Chromatic media are sampled as Cycles and pbrt-v4 do: pick one colour channel,
 //! sample a distance from that channel's exponential, and weight by the *average* of
@@ -14,6 +15,7 @@ pub mod blackbody;
 pub mod grid;
 pub mod grid_file;
 pub mod phase;
+pub mod procedural;
 pub mod tracking;
 pub mod walk;
 

@@ -8,9 +8,13 @@
 //! collision of the scalar majorant μ (the largest channel's bound), emission adds w·E/μ,
 //! then a real scattering is chosen with probability P_s = Σ β w σs / Σ β w (σs + σn),
 //! σn = μ − σt, weighting the path by σs/(μ P_s), else a null collision by σn/(μ (1 − P_s)).
-//! Both estimators are unbiased for any majorant that bounds σt; a tighter one is only
-//! faster. Transmittance is ratio tracking: Π (1 − σt/μ) over the tentative collisions.
-//! Both end paths whose weight has fallen under [`ROULETTE_BELOW`] by Russian roulette.
+//! Both estimators are unbiased for any majorant μ > 0, also one that σt exceeds (a
+//! procedural medium's, `procedural.rs`): the null coefficient σn = μ − σt is then
+//! negative, the null event is chosen with |σn| and its weight σn/(μ (1 − P_s)) is
+//! negative, and ratio tracking's factor 1 − σt/μ too; a bounding majorant never sees
+//! that, and a tighter one is only faster. Transmittance is ratio tracking: Π (1 − σt/μ)
+//! over the tentative collisions. Both end paths whose weight (largest magnitude) has
+//! fallen under [`ROULETTE_BELOW`] by Russian roulette.
 //!
 //! The random numbers are a [`WalkRng`]: from the path's sample for free flights, from
 //! a hash of the ray for shadow rays (which have no sample dimensions to spare), so a
@@ -159,7 +163,7 @@ impl Iterator for MajorantWalk<'_> {
 /// meaningless); survivors are doubled.
 #[inline]
 fn roulette(w: &mut Rgb, rng: &mut WalkRng) -> bool {
-    if w.max_element() >= ROULETTE_BELOW {
+    if w.abs().max_element() >= ROULETTE_BELOW {
         return true;
     }
     if rng.next_f32() < 0.5 {
@@ -197,9 +201,10 @@ pub fn delta_tracking(
             }
             let c = g.coefficients(index(t), true);
             *emitted += w * c.emission / mu;
-            let sigma_n = (Rgb::splat(mu) - c.sigma_a - c.sigma_s).max(Rgb::ZERO);
+            // Negative where σt exceeds a sampled majorant (module doc).
+            let sigma_n = Rgb::splat(mu) - c.sigma_a - c.sigma_s;
             let bw = (beta * w).abs();
-            let (ps, pn) = ((c.sigma_s * bw).element_sum(), (sigma_n * bw).element_sum());
+            let (ps, pn) = ((c.sigma_s * bw).element_sum(), (sigma_n.abs() * bw).element_sum());
             if !(ps + pn > 0.0) {
                 // Only absorption at the majorant: the path ends here.
                 return (FreeFlight::Pass { weight: Rgb::ZERO }, Rgb::ZERO);
@@ -231,7 +236,8 @@ pub fn ratio_tracking(g: &GridMedium, org: Vec3, dir: Vec3, t_max: f32, rng: &mu
                 break;
             }
             let c = g.coefficients(g.index_from_world.transform_point3(org + dir * t), false);
-            tr *= (Rgb::ONE - (c.sigma_a + c.sigma_s) / mu).max(Rgb::ZERO);
+            // Negative where σt exceeds a sampled majorant: kept, so the mean stays exact.
+            tr *= Rgb::ONE - (c.sigma_a + c.sigma_s) / mu;
             if !roulette(&mut tr, rng) {
                 return Rgb::ZERO;
             }

@@ -104,6 +104,9 @@ pub struct Material {
     /// The volume object's grid medium (`Scene::grids`) that replaces `medium` inside a
     /// volume object's bounding box (`CAUSTIC_volume`).
     pub grid: Option<u32>,
+    /// The Volume output's node graph (`CAUSTIC_materials_medium.graph`), until the loader
+    /// has made it a procedural grid medium and set `grid`.
+    pub volume_program: Option<Box<crate::shader::compile::volume::VolumeProgram>>,
     /// `CAUSTIC_materials_subsurface`: Principled BSDF random-walk subsurface scattering.
     pub subsurface: Option<Subsurface>,
     /// Alpha mode.
@@ -165,6 +168,7 @@ impl Default for Material {
             medium: None,
             null_surface: false,
             grid: None,
+            volume_program: None,
             subsurface: None,
             coat: 0.0,
             coat_tex: None,
@@ -264,6 +268,7 @@ macro_rules! texture_fields {
             medium: _,
             null_surface: _,
             grid: _,
+            volume_program: _,
             subsurface: _,
             alpha_mode: _,
             double_sided: _,

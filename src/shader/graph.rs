@@ -14,7 +14,9 @@ pub struct NodesExt {
     pub version: u32,
     /// Every node reachable from the outputs.
     pub nodes: Vec<NodeDesc>,
-    /// The Material Output's sockets.
+    /// The Material Output's sockets (absent in a volume's graph, whose output is its shader
+    /// node: the glTF exporter drops an empty object).
+    #[serde(default)]
     pub output: OutputDesc,
     /// Images the add-on wrote beside the glTF.
     #[serde(default)]
@@ -51,7 +53,7 @@ pub struct InputDesc {
 }
 
 /// The Material Output's linked sockets.
-#[derive(Clone, Debug, Deserialize)]
+#[derive(Clone, Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct OutputDesc {
     /// Surface: `[node, output]`.

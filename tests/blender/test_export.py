@@ -417,16 +417,24 @@ def test_subsurface_and_volume_materials(empty_scene, captured, addon):
 def test_unsupported_volume_node_is_named(empty_scene, addon):
     import importlib
     export = importlib.import_module(addon.__name__ + ".export")
-    mat, node = _volume_only("Glow", "ShaderNodeEmission")
+    mat, node = _volume_only("Diffuse", "ShaderNodeBsdfDiffuse")
     value, warnings = export.medium_extension(mat)
     assert value is None
-    assert any("Glow" in w and node.name in w for w in warnings), warnings
+    assert any("Diffuse" in w and node.name in w for w in warnings), warnings
+    # A texture on the Density: the graph is exported (test_textured_volume.py renders it).
     smoke, pv = _volume_only("Textured", "ShaderNodeVolumePrincipled")
     noise = smoke.node_tree.nodes.new("ShaderNodeTexNoise")
     smoke.node_tree.links.new(noise.outputs[0], pv.inputs["Density"])
     value, warnings = export.medium_extension(smoke)
-    assert value is not None
-    assert any("Textured" in w and "Density" in w and "linked" in w for w in warnings), warnings
+    assert value is not None and "graph" in value and warnings == [], warnings
+    # An image has no lookup in a volume: named, and the constant medium is written.
+    imaged, pv = _volume_only("Imaged", "ShaderNodeVolumePrincipled")
+    image = imaged.node_tree.nodes.new("ShaderNodeTexImage")
+    image.image = bpy.data.images.new("Puff", 4, 4)
+    imaged.node_tree.links.new(image.outputs["Alpha"], pv.inputs["Density"])
+    value, warnings = export.medium_extension(imaged)
+    assert value is not None and "graph" not in value
+    assert any("Imaged" in w and "Image Texture" in w for w in warnings), warnings
     # A chain of Value and Math nodes folds to its constant, as Cycles folds it: no warning.
     folded, pv = _volume_only("Folded", "ShaderNodeVolumePrincipled")
     tree = folded.node_tree

@@ -230,8 +230,8 @@ impl Loader<'_> {
                     next - first_point
                 )));
             }
-            if curves.points.len() >= crate::curves::CURVE_BIT as usize {
-                return Err(self.err(format!("{what}: more than 2^31 control points in the scene")));
+            if curves.points.len() >= crate::curves::bvh::MAX_POINTS {
+                return Err(self.err(format!("{what}: more than 2^29 control points in the scene")));
             }
             curves.objects.push(obj.name.clone());
             curves.object_names.push(obj.object.clone().unwrap_or_else(|| obj.name.clone()));

@@ -82,6 +82,13 @@ pub(super) struct MediumExt {
     pub(super) temperature: f32,
     #[serde(default = "yes")]
     pub(super) surface: bool,
+    /// The Volume output's node graph when the shader's inputs vary over the medium (a
+    /// texture on the Density): its coefficients are then the graph's (docs/contract.md).
+    #[serde(default)]
+    pub(super) graph: Option<crate::shader::graph::NodesExt>,
+    /// The volume shader node's index in `graph`.
+    #[serde(default)]
+    pub(super) graph_shader: Option<usize>,
 }
 
 /// The Principled Volume's default Temperature.

@@ -158,6 +158,18 @@ impl Loader<'_> {
             }
             medium = Some(parsed);
             null_surface = !ext.surface;
+            if let Some(graph) = &ext.graph {
+                let what = format!("material '{name}': CAUSTIC_materials_medium.graph");
+                let Some(shader) = ext.graph_shader else {
+                    return Err(self.err(format!("{what} needs graph_shader (the volume shader node)")));
+                };
+                let v = crate::shader::compile::volume::compile_volume(&name, graph, shader)
+                    .map_err(|e| self.err(format!("{what}: {e}")))?;
+                for w in &v.warnings {
+                    self.warn(format!("{what}: {w}"));
+                }
+                mat.volume_program = Some(Box::new(v));
+            }
         }
         let mut subsurface = None;
         if let Some(v) = m.extension_value("CAUSTIC_materials_subsurface").cloned() {

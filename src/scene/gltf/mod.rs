@@ -31,6 +31,7 @@ mod motion;
 mod nodes;
 mod pass_ids;
 mod pose;
+mod procedural_volume;
 mod quantized;
 mod shader_graph;
 pub(crate) use lights::triangle_light_power;
@@ -280,7 +281,7 @@ impl<'a> Loader<'a> {
 
         let mut mesh = Mesh::default();
         // Volume objects first: their boxes are plain triangles with a volume-only material.
-        let grids = self.volumes(&value, &mut mesh, &mut materials)?;
+        let mut grids = self.volumes(&value, &mut mesh, &mut materials)?;
         let mut cameras = Vec::new();
         let mut lights = Vec::new();
         // The node name of each light from a node, for its light group.
@@ -296,7 +297,7 @@ impl<'a> Loader<'a> {
         let mut area_lights = Vec::new();
         // Shader graphs read the instance (Object coordinates, Object Info, Generated):
         // per-triangle instance indices are kept only when a graph is present.
-        let graphs = materials.iter().any(|m| m.nodes.is_some());
+        let graphs = materials.iter().any(|m| m.nodes.is_some() || m.volume_program.is_some());
         let mut objects: Vec<crate::shader::geom::ObjectData> = Vec::new();
         let mut ray_visibility = crate::scene::visibility::RayVisibility::default();
         // Light linking: every triangle's object is kept only when some emitter has a rule.
@@ -439,6 +440,7 @@ impl<'a> Loader<'a> {
                 hi = hi.max(mesh.positions[i as usize]);
             }
         }
+        self.procedural_media(&mut grids, &mesh, &objects, &mut materials);
         for p in &curves.points {
             lo = lo.min(p.truncate() - p.w);
             hi = hi.max(p.truncate() + p.w);

@@ -15,6 +15,7 @@ mod aov;
 mod closures;
 mod converters;
 mod sources;
+pub mod volume;
 
 use crate::shader::closure::{CAPACITY, ClosureKind, ClosureOp, Closures, PrincipledRegs};
 use crate::shader::geom::{Geom, ObjectData, Reg};

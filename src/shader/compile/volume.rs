@@ -1,0 +1,209 @@
+//! A material's Volume output compiled into a [`VolumeProgram`]: the data nodes feeding the
+//! volume shader node (Principled Volume, Volume Scatter, Volume Absorption, or Emission)
+//! become a program, and the shader's inputs become registers that
+//! `medium::procedural` reads at each point of the medium (Cycles evaluates a volume
+//! shader per point in the same way, `svm_node_principled_volume`).
+//!
+//! The graph is `CAUSTIC_materials_medium.graph` (docs/contract.md): the shader node and what
+//! feeds it, in the node-graph format, with `shader` naming the shader node's index.
+
+use super::{Compiler, Sock, Ty, check_and_sort};
+use crate::shader::geom::Reg;
+use crate::shader::graph::NodesExt;
+use crate::shader::instructions::{Op, Program};
+use glam::Vec3;
+use std::collections::HashSet;
+
+/// Which volume shader the program feeds (each maps its inputs to the Principled Volume's
+/// coefficients differently, `VolumeProgram::regs`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum VolumeKind {
+    /// Principled Volume.
+    Principled,
+    /// Volume Scatter: σs = Color × Density, no absorption.
+    Scatter,
+    /// Volume Absorption: σa = (1 − Color) × Density, no scattering.
+    Absorption,
+    /// Emission on the Volume output: emission only.
+    Emission,
+}
+
+/// Registers of the volume shader's inputs after the program ran (vectors take three).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct VolumeRegs {
+    /// Density (float).
+    pub density: Reg,
+    /// Color (scatter colour; Absorption's and Emission's Color).
+    pub color: Reg,
+    /// Absorption Color (Principled only; a constant 0 otherwise).
+    pub absorption_color: Reg,
+    /// Emission Color.
+    pub emission_color: Reg,
+    /// Emission Strength (Emission's Strength).
+    pub emission_strength: Reg,
+    /// Blackbody Intensity.
+    pub blackbody_intensity: Reg,
+    /// Blackbody Tint.
+    pub blackbody_tint: Reg,
+    /// Temperature (kelvin).
+    pub temperature: Reg,
+}
+
+/// A compiled volume shader.
+#[derive(Clone, Debug)]
+pub struct VolumeProgram {
+    /// The data nodes (every operation runs per point: `surface_end` covers them all).
+    pub program: Program,
+    /// The shader node.
+    pub kind: VolumeKind,
+    /// Its inputs' registers.
+    pub regs: VolumeRegs,
+    /// Anisotropy (constant: the phase function is one per medium).
+    pub anisotropy: f32,
+    /// Generated coordinates are read (the mesh's texture space is needed).
+    pub uses_generated: bool,
+    /// Warnings (without the material's name; the loader adds it).
+    pub warnings: Vec<String>,
+}
+
+/// Compiles the volume graph `ext` whose shader node is `shader`, for material `name`.
+/// Image Texture nodes are refused (the medium has no access to the scene's images); errors
+/// name the node.
+pub fn compile_volume(name: &str, ext: &NodesExt, shader: usize) -> Result<VolumeProgram, String> {
+    let order = check_and_sort(ext)?;
+    let Some(node) = ext.nodes.get(shader) else {
+        return Err(format!("the volume shader is node {shader} but the graph has {} nodes", ext.nodes.len()));
+    };
+    let kind = match node.kind.as_str() {
+        "ShaderNodeVolumePrincipled" => VolumeKind::Principled,
+        "ShaderNodeVolumeScatter" => VolumeKind::Scatter,
+        "ShaderNodeVolumeAbsorption" => VolumeKind::Absorption,
+        "ShaderNodeEmission" => VolumeKind::Emission,
+        other => return Err(format!("node '{}' ({other}) is not a volume shader Caustic renders", node.name)),
+    };
+    if let Some(n) = ext.nodes.iter().find(|n| n.kind == "ShaderNodeTexImage") {
+        return Err(format!("node '{}': an Image Texture in a volume's graph is not supported", n.name));
+    }
+    let mut used = HashSet::new();
+    for n in &ext.nodes {
+        for i in n.inputs.values() {
+            if let Some(l) = &i.link {
+                used.insert((l.0, l.1.clone()));
+            }
+        }
+    }
+    let mut c = Compiler {
+        ext,
+        images: &[],
+        init: Vec::new(),
+        konst: Vec::new(),
+        ops: Vec::new(),
+        prog: Program { name: name.to_string(), ..Program::default() },
+        outs: vec![Vec::new(); ext.nodes.len()],
+        ranges: vec![(0, 0); ext.nodes.len()],
+        unknown: vec![false; ext.nodes.len()],
+        warnings: Vec::new(),
+        all_const: true,
+        used,
+        closure_ops: 0,
+        normals: Vec::new(),
+        small_lobes: 0,
+        principled: 0,
+        uses_generated: false,
+    };
+    for &i in order.iter().filter(|&&i| i != shader) {
+        c.node(i)?;
+    }
+    let zero = c.konst_f(0.0);
+    let zero3 = c.konst_v(Vec3::ZERO);
+    let one3 = c.konst_v(Vec3::ONE);
+    let s = shader;
+    let regs = match kind {
+        VolumeKind::Principled => VolumeRegs {
+            density: c.float(s, "Density", 1.0)?,
+            color: c.vec(s, "Color", Vec3::splat(0.5))?,
+            absorption_color: c.vec(s, "Absorption Color", Vec3::ZERO)?,
+            emission_color: c.vec(s, "Emission Color", Vec3::ONE)?,
+            emission_strength: c.float(s, "Emission Strength", 0.0)?,
+            blackbody_intensity: c.float(s, "Blackbody Intensity", 0.0)?,
+            blackbody_tint: c.vec(s, "Blackbody Tint", Vec3::ONE)?,
+            temperature: c.float(s, "Temperature", 1000.0)?,
+        },
+        VolumeKind::Scatter | VolumeKind::Absorption => VolumeRegs {
+            density: c.float(s, "Density", 1.0)?,
+            color: c.vec(s, "Color", Vec3::splat(0.8))?,
+            absorption_color: zero3,
+            emission_color: zero3,
+            emission_strength: zero,
+            blackbody_intensity: zero,
+            blackbody_tint: one3,
+            temperature: zero,
+        },
+        VolumeKind::Emission => VolumeRegs {
+            density: zero,
+            color: zero3,
+            absorption_color: zero3,
+            emission_color: c.vec(s, "Color", Vec3::ONE)?,
+            emission_strength: c.float(s, "Strength", 1.0)?,
+            blackbody_intensity: zero,
+            blackbody_tint: one3,
+            temperature: zero,
+        },
+    };
+    let anisotropy = match kind {
+        VolumeKind::Principled | VolumeKind::Scatter => constant(&mut c, s, "Anisotropy")?,
+        _ => 0.0,
+    };
+    let mut prog = c.prog;
+    prog.init = c.init;
+    prog.ops = c.ops;
+    prog.surface_end = prog.ops.len();
+    if prog.ops.iter().any(|op| matches!(op, Op::Image(_))) {
+        return Err("an image lookup in a volume's graph is not supported".into());
+    }
+    Ok(VolumeProgram { program: prog, kind, regs, anisotropy, uses_generated: c.uses_generated, warnings: c.warnings })
+}
+
+/// The value of input `id` of node `i`, which must not vary over the medium (a linked one
+/// is read at the medium's first point would be wrong: it is named in a warning and its
+/// own value used).
+fn constant(c: &mut Compiler, i: usize, id: &str) -> Result<f32, String> {
+    let linked = matches!(c.source(i, id)?, Some(Sock { ty, reg }) if ty == Ty::Closure || !c.is_const(reg, 1));
+    if linked {
+        c.warn(i, format!("a varying {id} is not supported (one phase function per medium): its own value is used"));
+    }
+    Ok(c.value(i, id).and_then(|v| v.as_f64()).map_or(0.0, |v| v as f32))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    /// A Noise Texture into a Math node into the Principled Volume's Density compiles; the
+    /// shader's own Anisotropy is read; an Image Texture is refused.
+    #[test]
+    fn principled_volume_with_a_texture() {
+        let ext: NodesExt = serde_json::from_value(json!({"version": 1, "nodes": [
+            {"name": "Noise", "type": "ShaderNodeTexNoise", "props": {"noise_dimensions": "3D"},
+             "inputs": {"Scale": {"value": 5.0}}},
+            {"name": "Math", "type": "ShaderNodeMath", "props": {"operation": "MULTIPLY"},
+             "inputs": {"Value": {"value": 0.5, "link": [0, "Fac"]}, "Value_001": {"value": 4.0}}},
+            {"name": "PV", "type": "ShaderNodeVolumePrincipled",
+             "inputs": {"Density": {"value": 1.0, "link": [1, "Value"]}, "Anisotropy": {"value": 0.3}}}],
+            "output": {}}))
+        .unwrap();
+        let v = compile_volume("m", &ext, 2).unwrap();
+        assert_eq!(v.kind, VolumeKind::Principled);
+        assert!((v.anisotropy - 0.3).abs() < 1e-6);
+        assert!(v.uses_generated, "the Noise Texture's unlinked Vector is Generated");
+        assert!(!v.program.ops.is_empty());
+        let img: NodesExt = serde_json::from_value(json!({"version": 1, "nodes": [
+            {"name": "Img", "type": "ShaderNodeTexImage", "inputs": {}},
+            {"name": "PV", "type": "ShaderNodeVolumeScatter", "inputs": {"Density": {"link": [0, "Alpha"]}}}],
+            "output": {}}))
+        .unwrap();
+        assert!(compile_volume("m", &img, 1).unwrap_err().contains("Image Texture"));
+        assert!(compile_volume("m", &img, 0).unwrap_err().contains("not a volume shader"));
+    }
+}
