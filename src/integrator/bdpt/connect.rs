@@ -6,7 +6,8 @@ use super::*;
 use crate::integrator::linking::{self, Gate};
 
 impl BdptIntegrator {
-    /// Every strategy with s ≥ 1; returns the camera-side sum, splats t = 1.
+    /// Every strategy with s ≥ 1; returns the camera-side sum, splats t = 1. `sampler` is
+    /// the pixel sample's `connection_sampler` (light samples at camera vertices).
     pub(crate) fn connect_all(
         &self,
         ctx: &SceneContext,

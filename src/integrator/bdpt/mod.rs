@@ -213,6 +213,15 @@ pub(crate) fn light_sampler(seed: u32, px: u32, py: u32, index: u32) -> PixelSam
     PixelSampler::new(hash_combine(&[seed, 0x4c49_4748]), px, py, index)
 }
 
+/// The stream of the light samples at camera vertices (s = 1): one set of dimensions per
+/// camera vertex, at a fixed place. Drawn from the camera stream after the camera subpath,
+/// they would land on dimensions that move with each sample's camera-path length, so a
+/// pixel's samples of its first hit's light sample would not be stratified (issue 24).
+#[inline]
+pub(crate) fn connection_sampler(seed: u32, px: u32, py: u32, index: u32) -> PixelSampler {
+    PixelSampler::new(hash_combine(&[seed, 0x434f_4e4e]), px, py, index)
+}
+
 impl BdptIntegrator {
     /// Traces one camera sample: returns the camera-side contributions (s ≥ 0, t ≥ 2) and
     /// splats the light-tracing ones (t = 1) into `film.splats`.
@@ -233,7 +242,8 @@ impl BdptIntegrator {
         let (seed, px, py, index) = light_stream;
         let mut ls = light_sampler(seed, px, py, index);
         self.light_subpath(ctx, &mut ls, scratch, stats);
-        radiance += self.connect_all(ctx, sampler, film, scratch, &mut out, stats);
+        let mut cs = connection_sampler(seed, px, py, index);
+        radiance += self.connect_all(ctx, &mut cs, film, scratch, &mut out, stats);
         out.radiance = radiance;
         out
     }

@@ -8,7 +8,7 @@ use super::light_store::RowSubpaths;
 use super::merge::{MergeMap, MergeRecord, merge_camera_path, push_records};
 use super::{VCM_ALPHA, VCM_RADIUS_FOOTPRINTS, VcmIntegrator, VcmMode};
 use crate::film::{CameraSample, Film, SplatPool};
-use crate::integrator::bdpt::{BdptScratch, FilmTarget, light_sampler};
+use crate::integrator::bdpt::{BdptScratch, FilmTarget, connection_sampler, light_sampler};
 use crate::integrator::{SceneContext, data_passes};
 use crate::math::Rgb;
 use crate::render::TILE_SIZE;
@@ -71,13 +71,15 @@ struct LightRow {
 
 impl VcmIntegrator {
     /// BDPT's camera sample (`BdptIntegrator::li`) with the light subpath the light pass
-    /// traced for this pixel (`light`: the row's subpaths and the pixel's index in it).
+    /// traced for this pixel (`light`: the row's subpaths and the pixel's index in it;
+    /// `pixel_sample`: (seed, x, y, index), which seeds the connections' light samples).
     #[allow(clippy::too_many_arguments)]
     fn sample_stored(
         &self,
         ctx: &SceneContext,
         ray: &CameraRay,
         sampler: &mut PixelSampler,
+        pixel_sample: (u32, u32, u32, u32),
         (row, i): (&RowSubpaths, usize),
         film: &mut FilmTarget,
         scratch: &mut BdptScratch,
@@ -87,7 +89,9 @@ impl VcmIntegrator {
         let mut radiance = Rgb::ZERO;
         self.bdpt.camera_subpath(ctx, ray, sampler, film.camera, scratch, &mut out, &mut radiance, stats);
         row.restore(ctx, i, &mut scratch.light);
-        radiance += self.bdpt.connect_all(ctx, sampler, film, scratch, &mut out, stats);
+        let (seed, px, py, index) = pixel_sample;
+        let mut cs = connection_sampler(seed, px, py, index);
+        radiance += self.bdpt.connect_all(ctx, &mut cs, film, scratch, &mut out, stats);
         out.radiance = radiance;
         out
     }
@@ -224,6 +228,7 @@ impl VcmIntegrator {
                                     ctx,
                                     &ray,
                                     &mut sampler,
+                                    pixel_sample,
                                     light,
                                     &mut target,
                                     &mut scratch,
