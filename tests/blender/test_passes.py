@@ -150,6 +150,10 @@ def both_renders(addon, tmp_path_factory):
 # 0.00527; the path tracer 0.00519), the same with 10x the photons (so not the kernel's blur), and
 # no other pass loses what it gains: its transport through the glass cube resting on the floor, not
 # the filing of the passes (every other pass agrees). Strict: a fix makes this test fail first.
+# Photon tracing does not look back across a coincident surface (trace.rs keeps no prev_tri, see
+# PathState::coincident_hit) while Jensen's camera paths do; letting photons look back too (the
+# triangle left recorded after each surface bounce) raised this pass to 0.00702 (1.33x), so the
+# missing look back hides part of the excess rather than causing it: the cause is elsewhere.
 JENSEN_GLASS = pytest.mark.xfail(strict=True, reason="Jensen's transport through the glass cube on the floor: 1.25x")
 JENSEN_GLASS_CASE = ("CAUSTIC_PHOTON", "Transmission Indirect x Color")
 CASES = [pytest.param(name, engine, marks=JENSEN_GLASS if (engine, name) == JENSEN_GLASS_CASE else ())
