@@ -125,7 +125,15 @@ impl BdptIntegrator {
                                 ledger.file(out, i, first, true, g, beta * c);
                             }
                         };
-                        self.escaped_radiance(ctx, dir, cam, &mut scratch.dens, (prev_delta, pdf_sa), camera, &mut each);
+                        self.escaped_radiance(
+                            ctx,
+                            dir,
+                            cam,
+                            &mut scratch.dens,
+                            (prev_delta, pdf_sa),
+                            camera,
+                            &mut each,
+                        );
                         if sum != Rgb::ZERO && !hidden {
                             *radiance += beta * sum;
                             if i == 0 {

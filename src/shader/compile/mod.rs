@@ -74,25 +74,7 @@ pub fn compile(name: &str, ext: &NodesExt, images: &[u32]) -> Result<Compiled, S
     for l in ext.output.surface.iter().chain(&ext.output.displacement) {
         used.insert((l.0, l.1.clone()));
     }
-    let mut c = Compiler {
-        ext,
-        images,
-        init: Vec::new(),
-        konst: Vec::new(),
-        ops: Vec::new(),
-        prog: Program { name: name.to_string(), ..Program::default() },
-        outs: vec![Vec::new(); ext.nodes.len()],
-        ranges: vec![(0, 0); ext.nodes.len()],
-        unknown: vec![false; ext.nodes.len()],
-        warnings: Vec::new(),
-        all_const: true,
-        used,
-        closure_ops: 0,
-        normals: Vec::new(),
-        small_lobes: 0,
-        principled: 0,
-        uses_generated: false,
-    };
+    let mut c = Compiler::new(ext, images, name, used);
     let surface = reachable_from_outputs(ext);
     for &i in order.iter().filter(|&&i| surface[i]) {
         c.node(i)?;
@@ -208,6 +190,32 @@ struct Compiler<'a> {
     small_lobes: usize,
     principled: usize,
     uses_generated: bool,
+}
+
+impl<'a> Compiler<'a> {
+    /// An empty compiler for graph `ext` (images `images`) of material `name`, whose used
+    /// sockets are `used`.
+    fn new(ext: &'a NodesExt, images: &'a [u32], name: &str, used: HashSet<(usize, String)>) -> Self {
+        Compiler {
+            ext,
+            images,
+            init: Vec::new(),
+            konst: Vec::new(),
+            ops: Vec::new(),
+            prog: Program { name: name.to_string(), ..Program::default() },
+            outs: vec![Vec::new(); ext.nodes.len()],
+            ranges: vec![(0, 0); ext.nodes.len()],
+            unknown: vec![false; ext.nodes.len()],
+            warnings: Vec::new(),
+            all_const: true,
+            used,
+            closure_ops: 0,
+            normals: Vec::new(),
+            small_lobes: 0,
+            principled: 0,
+            uses_generated: false,
+        }
+    }
 }
 
 fn is_closure_node(kind: &str) -> bool {

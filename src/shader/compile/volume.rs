@@ -92,25 +92,7 @@ pub fn compile_volume(name: &str, ext: &NodesExt, shader: usize) -> Result<Volum
             }
         }
     }
-    let mut c = Compiler {
-        ext,
-        images: &[],
-        init: Vec::new(),
-        konst: Vec::new(),
-        ops: Vec::new(),
-        prog: Program { name: name.to_string(), ..Program::default() },
-        outs: vec![Vec::new(); ext.nodes.len()],
-        ranges: vec![(0, 0); ext.nodes.len()],
-        unknown: vec![false; ext.nodes.len()],
-        warnings: Vec::new(),
-        all_const: true,
-        used,
-        closure_ops: 0,
-        normals: Vec::new(),
-        small_lobes: 0,
-        principled: 0,
-        uses_generated: false,
-    };
+    let mut c = Compiler::new(ext, &[], name, used);
     for &i in order.iter().filter(|&&i| i != shader) {
         c.node(i)?;
     }
