@@ -21,6 +21,7 @@
 
 use super::HenyeyGreenstein;
 use super::blackbody::{CLOSURE_WEIGHT_CUTOFF, blackbody_emission, blackbody_scale};
+pub use super::coefficients::{PointCoefficients, VolumeShader};
 use crate::math::Rgb;
 use glam::{Affine3A, Vec3};
 
@@ -35,39 +36,6 @@ pub struct Field {
     pub values: Vec<f32>,
     /// 1 or 3.
     pub components: u32,
-}
-
-/// The Principled Volume's parameters (after the add-on's conversion of the other volume
-/// nodes; docs/contract.md).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct VolumeShader {
-    /// Density multiplier.
-    pub density: f32,
-    /// Scattering colour.
-    pub color: Rgb,
-    /// Absorption Color as Blender has it (the σa factor is max(1 − √c, 0)).
-    pub absorption_color: Rgb,
-    /// Henyey-Greenstein anisotropy.
-    pub anisotropy: f32,
-    /// Emission Strength × Emission Color (per unit length).
-    pub emission: Rgb,
-    /// Blackbody Intensity.
-    pub blackbody_intensity: f32,
-    /// Blackbody Tint.
-    pub blackbody_tint: Rgb,
-    /// Temperature (kelvin), times the temperature grid where there is one.
-    pub temperature: f32,
-}
-
-/// Coefficients at one point.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PointCoefficients {
-    /// Absorption σa.
-    pub sigma_a: Rgb,
-    /// Scattering σs.
-    pub sigma_s: Rgb,
-    /// Emitted radiance per unit length.
-    pub emission: Rgb,
 }
 
 /// A grid medium in the scene: fields, transform, shader and majorant grid.
@@ -97,7 +65,7 @@ pub struct GridMedium {
     /// procedural medium, a sampled estimate (`procedural.rs`).
     pub majorant: Vec<f32>,
     /// The node-graph program that gives the coefficients instead of the fields and shader.
-    pub procedural: Option<Box<super::procedural::ProceduralSource>>,
+    pub procedural: Option<Box<super::procedural_source::ProceduralSource>>,
 }
 
 impl Field {

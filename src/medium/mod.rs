@@ -12,10 +12,12 @@
 //! medium whose extinction differs by channel has no fireflies.
 
 pub mod blackbody;
+pub mod coefficients;
 pub mod grid;
 pub mod grid_file;
 pub mod phase;
 pub mod procedural;
+pub mod procedural_source;
 pub mod tracking;
 pub mod walk;
 

@@ -5,6 +5,12 @@
 use crate::film::{Film, FilmImage, Filter};
 use std::time::Duration;
 
+/// Tile side in pixels: small enough that a 128x128 image has 64 tiles, so that at the end
+/// of each progressive pass a worker waits for at most a small tile (with 32 px, 16 tiles,
+/// one costly tile of an object's centre could hold a pass back); the film's fixed-point sums
+/// make the image independent of the tiling.
+pub const TILE_SIZE: u32 = 16;
+
 /// What to render.
 #[derive(Clone, Debug)]
 pub struct RenderJob {

@@ -11,7 +11,7 @@
 pub mod adaptive;
 pub mod job;
 
-pub use job::{Progress, RayStats, RenderJob, RenderResult};
+pub use job::{Progress, RayStats, RenderJob, RenderResult, TILE_SIZE};
 
 use crate::film::{Film, SplatPool};
 use crate::integrator::{Integrator, SceneContext, data_passes};
@@ -21,12 +21,6 @@ use adaptive::AdaptiveFilm;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
-
-/// Tile side in pixels: small enough that a 128x128 image has 64 tiles, so that at the end
-/// of each progressive pass a worker waits for at most a small tile (with 32 px, 16 tiles,
-/// one costly tile of an object's centre could hold a pass back); the film's fixed-point sums
-/// make the image independent of the tiling.
-pub const TILE_SIZE: u32 = 16;
 
 /// Largest pass, in samples per pixel.
 const MAX_PASS: u32 = 16;

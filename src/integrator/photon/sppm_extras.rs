@@ -9,7 +9,7 @@
 use crate::film::{CameraSample, Film, FilmImage};
 use crate::integrator::{SceneContext, data_passes, shader_aovs};
 use crate::passes::PassSet;
-use crate::render::TILE_SIZE;
+use crate::render::job::TILE_SIZE;
 use crate::render::job::{RayStats, RenderJob};
 use crate::sampling::PixelSampler;
 use crate::scene::camera::CameraRays;

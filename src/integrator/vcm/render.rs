@@ -11,7 +11,7 @@ use crate::film::{CameraSample, Film, SplatPool};
 use crate::integrator::bdpt::{BdptScratch, FilmTarget, connection_sampler, light_sampler};
 use crate::integrator::{SceneContext, data_passes};
 use crate::math::Rgb;
-use crate::render::TILE_SIZE;
+use crate::render::job::TILE_SIZE;
 use crate::render::job::{Progress, RayStats, RenderJob, RenderResult};
 use crate::sampling::PixelSampler;
 use crate::scene::camera::{CameraRay, CameraRays};

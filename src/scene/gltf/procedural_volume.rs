@@ -5,7 +5,8 @@
 
 use super::Loader;
 use crate::medium::GridMedium;
-use crate::medium::procedural::{ProceduralSource, procedural_medium};
+use crate::medium::procedural::procedural_medium;
+use crate::medium::procedural_source::ProceduralSource;
 use crate::scene::{Material, Mesh};
 use crate::shader::geom::{NO_OBJECT, ObjectData};
 use glam::Vec3;
