@@ -147,10 +147,14 @@ struct VisiblePoint {
 }
 
 /// Bytes of SPPM's per-pixel state (progressive sums, this iteration's visible point and
-/// its pending camera sample), for the memory budget.
-pub fn bytes_per_pixel() -> u64 {
-    (std::mem::size_of::<PixelState>() + std::mem::size_of::<Option<VisiblePoint>>() + std::mem::size_of::<Pending>())
-        as u64
+/// its pending camera sample; with light passes or groups, `split`, their camera sample and
+/// sums too), for the memory budget.
+pub fn bytes_per_pixel(split: bool) -> u64 {
+    let split = if split { std::mem::size_of::<CameraSample>() + std::mem::size_of::<SplitSums>() } else { 0 };
+    (std::mem::size_of::<PixelState>()
+        + std::mem::size_of::<Option<VisiblePoint>>()
+        + std::mem::size_of::<Pending>()
+        + split) as u64
 }
 
 /// Counters of an SPPM render.
