@@ -49,8 +49,8 @@ VIEW_LAYER_PASSES = (
 )
 
 # Light passes and light groups: the integrators that file light by the first bounce (contract);
-# all but SPPM.
-LIGHT_INTEGRATORS = ("path", "bdpt", "vcm", "photon")
+# all of them (SPPM's not in farm chunks, which keep no sums of them).
+LIGHT_INTEGRATORS = ("path", "bdpt", "vcm", "photon", "sppm")
 LIGHT_TOKENS = frozenset(t for _, _, t, *_ in VIEW_LAYER_PASSES
                          if t.endswith(("_direct", "_indirect", "_color")) or t in ("emit", "environment"))
 # Cryptomatte layers: the view layer's flag, the binary's token and Blender's pass prefix; each
@@ -123,7 +123,7 @@ def pass_request(view_layer, integrator, chunked=False, motion_blur=False):
         elif token in LIGHT_TOKENS and integrator not in LIGHT_INTEGRATORS:
             warnings.append(f"the {name} pass is rendered by the path, BDPT, VCM and photon integrators only; "
                             f"it stays black with '{integrator}'")
-        elif token in DATA_TOKENS and integrator == "sppm" and chunked:
+        elif (token in DATA_TOKENS or token in LIGHT_TOKENS) and integrator == "sppm" and chunked:
             warnings.append(f"the {name} pass is not rendered by SPPM on the farm (its chunks keep no sums of it); "
                             "it stays black")
         else:
@@ -135,6 +135,9 @@ def pass_request(view_layer, integrator, chunked=False, motion_blur=False):
     if groups and integrator not in LIGHT_INTEGRATORS:
         warnings.append(f"the light group passes ({', '.join(groups)}) are rendered by the path, BDPT, VCM and "
                         f"photon integrators only; they stay black with '{integrator}'")
+    elif groups and integrator == "sppm" and chunked:
+        warnings.append(f"the light group passes ({', '.join(groups)}) are not rendered by SPPM on the farm "
+                        "(its chunks keep no sums of them); they stay black")
     elif groups:
         tokens.append(LIGHT_GROUPS_TOKEN)
     aovs = valid_aovs(view_layer)

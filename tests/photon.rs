@@ -250,7 +250,7 @@ fn point_light_irradiance_converges() {
             let (ph, _, _) = trace_photons(&ctx, &em, &job, &stop, &|_| {});
             let map = PhotonMap::build(ph);
             let mut found = 0;
-            map.for_each_within(Vec3::ZERO, r2, |_, _| found += 1);
+            map.for_each_within(Vec3::ZERO, r2, |_, _, _| found += 1);
             assert!(found < k, "the estimate must use the fixed radius");
             let (e, used) = estimate(&map, Vec3::ZERO, Vec3::Y, k, r2, |_| true, |_| Vec3::ONE);
             assert_eq!(used, r2);

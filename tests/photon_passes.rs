@@ -1,5 +1,5 @@
 //! Light passes and light groups in Jensen's photon mapping (`src/integrator/photon/`,
-//! `map_read.rs`): they sum to Combined pixel by pixel whatever the gather settings, and each
+//! `map_read.rs`) and SPPM (`sppm_passes.rs`): they sum to Combined pixel by pixel whatever the gather settings, and each
 //! pass and group agrees with the path tracer's, region by region.
 //!
 //! Bounds of the agreement (`common::agreement`): K seeds per estimate, Welch's test per
@@ -163,6 +163,100 @@ fn jensen_passes_and_groups_match_the_path_tracer() {
         );
     }
     assert!(failed.is_empty(), "Jensen's passes disagree with the path tracer's: {failed:?}");
+}
+
+/// SPPM's light passes and the groups of every emitter sum to Combined: glass and caustics,
+/// an emitter seen directly, subsurface, the world (the camera pass's split and τ's, which
+/// take the same radius-reduction ratio).
+#[test]
+fn sppm_passes_and_groups_sum_to_combined() {
+    let dir = temp_dir();
+    let groups = [
+        ("glass_caustic", None),
+        ("cornell_box", Some(json!({"names": ["ceiling"], "objects": {"light": "ceiling"}}))),
+        ("subsurface", Some(json!({"names": ["key", "sky"], "world": "sky", "objects": {"area_light": "key"}}))),
+        ("hdri_sky", None),
+    ];
+    for (name, spec) in groups {
+        let scene = opaque_copy(name, dir.path());
+        let names: Vec<String> = spec
+            .as_ref()
+            .map(|s| s["names"].as_array().unwrap().iter().map(|n| n.as_str().unwrap().into()).collect())
+            .unwrap_or_default();
+        let mut tokens = LIGHT.to_string();
+        if let Some(s) = spec {
+            with_light_groups(&scene, s);
+            tokens.push_str(",light_groups");
+        }
+        let out = dir.path().join(format!("{name}.exr"));
+        let args = [
+            "render",
+            scene.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--integrator",
+            "sppm",
+            "--sppm-iterations",
+            "4",
+            "--resolution",
+            "40x30",
+            "--passes",
+            &tokens,
+        ];
+        let r = run(&args, LIMIT);
+        assert_eq!(r.code, Some(0), "{name}: {}", r.stderr);
+        let ch = channels(&out);
+        let parts: Vec<[Vec<f64>; 3]> =
+            CONTRIBUTIONS.iter().map(|p| [0, 1, 2].map(|c| contribution(&ch, p, c))).collect();
+        let worst = worst_recombination(&ch, &parts);
+        assert!(worst <= 1.0, "{name}: the light passes differ from Combined by {worst} × the rounding bound");
+        if !names.is_empty() {
+            let parts: Vec<[Vec<f64>; 3]> =
+                names.iter().map(|g| [0, 1, 2].map(|c| contribution(&ch, &format!("Combined_{g}"), c))).collect();
+            for (g, p) in names.iter().zip(&parts) {
+                assert!(p.iter().flatten().sum::<f64>() > 0.0, "{name}: group {g} is empty");
+            }
+            let worst = worst_recombination(&ch, &parts);
+            assert!(worst <= 1.0, "{name}: the light groups differ from Combined by {worst} × the rounding bound");
+        }
+    }
+}
+
+/// Each light pass and light group of SPPM agrees with the path tracer's, with the same
+/// bounds as Jensen's: the radius starts at 0.02 (`--sppm-radius`) and only shrinks, so the
+/// kernel's blur is at most the one bounded in the module doc.
+#[test]
+fn sppm_passes_and_groups_match_the_path_tracer() {
+    let dir = temp_dir();
+    let path = scene(dir.path());
+    let regs = regions(RES.0, RES.1);
+    let r = format!("{}x{}", RES.0, RES.1);
+    let tokens = format!("{LIGHT},light_groups");
+    let common = ["--resolution", r.as_str(), "--max-depth", "4", "--passes", tokens.as_str()];
+    let passes: Vec<String> = ["Diffuse Direct", "Diffuse Indirect", "Glossy Direct", "Glossy Indirect", "Emission"]
+        .into_iter()
+        .chain(["Environment", "Combined_key", "Combined_fill"])
+        .map(String::from)
+        .collect();
+    let seeds = 6;
+    let means = |extra: &[&str]| {
+        let mut a = common.to_vec();
+        a.extend_from_slice(extra);
+        pass_region_means(&path, dir.path(), &a, seeds, &regs, &passes, LIMIT)
+    };
+    let reference = means(&["--integrator", "path", "--spp", "64"]);
+    let sppm =
+        means(&["--integrator", "sppm", "--sppm-iterations", "32", "--sppm-photons", "20000", "--sppm-radius", "0.02"]);
+    let alpha = sidak(regs.len() * passes.len());
+    let mut failed = Vec::new();
+    for (p, name) in passes.iter().enumerate() {
+        let total: f64 = reference[p][0].iter().sum();
+        assert!(total > 0.0, "the scene puts no light in {name}");
+        failed.extend(
+            disagreeing(name, &regs, &sppm[p], &reference[p], alpha).into_iter().map(|r| format!("{name} {r}")),
+        );
+    }
+    assert!(failed.is_empty(), "SPPM's passes disagree with the path tracer's: {failed:?}");
 }
 
 /// SPPM's data passes and Cryptomatte (`sppm_extras.rs`) are the path tracer's bit for bit

@@ -674,7 +674,9 @@ fn charge_render(budget: &MemoryBudget, args: &RenderArgs, res: &Resolved, scene
         IntegratorKind::Sppm => {
             budget.charge(
                 format!("SPPM's per-pixel state for {pixels} pixels"),
-                pixels.saturating_mul(photon::sppm::bytes_per_pixel()),
+                pixels.saturating_mul(photon::sppm::bytes_per_pixel(
+                    res.passes.any_light() || res.passes.light_groups() > 0,
+                )),
             )?;
             let per_iter = res.photon.sppm_photons.unwrap_or_else(|| photon::default_sppm_photons(pixels));
             budget.charge(

@@ -299,23 +299,10 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
             .map_err(|e| Error::Usage(format!("the scene's render settings: {e}")))?,
         (None, None) => crate::passes::PassSet::legacy(),
     };
-    // Every integrator but SPPM files them as the path tracer: BDPT and VCM every strategy's
-    // contribution (`integrator::bdpt::passes`), Jensen its map reads (`photon/map_read.rs`).
-    let files_light = !matches!(integrator, IntegratorKind::Sppm);
-    if passes.any_light() && !files_light {
-        return Err(Error::Usage(format!(
-            "the light passes ({}) are rendered by the path, BDPT, VCM and photon integrators, not by '{}'",
-            passes.iter().filter(|p| p.is_light()).map(|p| p.name()).collect::<Vec<_>>().join(", "),
-            integrator.name()
-        )));
-    }
+    // Every integrator files them as the path tracer: BDPT and VCM every strategy's
+    // contribution (`integrator::bdpt::passes`), Jensen its map reads (`photon/map_read.rs`),
+    // SPPM its camera pass and gathered flux (`photon/sppm_passes.rs`).
     if passes.asks_light_groups() {
-        if !files_light {
-            return Err(Error::Usage(format!(
-                "the light group passes are rendered by the path, BDPT, VCM and photon integrators, not by '{}'",
-                integrator.name()
-            )));
-        }
         passes.set_light_groups(scene.light_groups.len());
     }
     if passes.asks_shader_aovs() {
@@ -325,11 +312,13 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
         passes.set_cryptomatte_levels(levels);
     }
     passes.cryptomatte()?;
-    if crate::integrator::photon::sppm_extras::wanted(passes) && integrator == IntegratorKind::Sppm && args.chunk {
+    let sppm_own =
+        crate::integrator::photon::sppm_extras::wanted(passes) || passes.any_light() || passes.light_groups() > 0;
+    if sppm_own && integrator == IntegratorKind::Sppm && args.chunk {
         // An SPPM chunk is written as its image's means times its iterations
         // (`chunk::film_from_image`), which keeps no sums of these passes.
         return Err(Error::Usage(
-            "the data passes, Cryptomatte and shader AOVs of 'sppm' cannot be split into chunks (--chunk): \
+            "the data passes, Cryptomatte, shader AOVs, light passes and light groups of 'sppm' cannot be split into chunks (--chunk): \
              render the frame whole or use another integrator"
                 .into(),
         ));

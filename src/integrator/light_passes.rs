@@ -80,6 +80,15 @@ impl Tally {
         }
     }
 
+    /// The diffuse and glossy shares of the first event when it was a surface bounce
+    /// (SPPM files the photon flux gathered after it by them).
+    pub fn first_shares(&self) -> Option<(Rgb, Rgb)> {
+        match self.first {
+            First::Surface(d, g) => Some((d, g)),
+            _ => None,
+        }
+    }
+
     /// The first event was a subsurface walk: diffuse, and its exit's estimate is direct.
     pub fn subsurface(&mut self) {
         if self.first == First::None {

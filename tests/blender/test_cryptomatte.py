@@ -214,6 +214,7 @@ def test_request_levels_and_warnings(addon):
     assert "light_groups" in passes and not any("Combined_Key" in w for w in warnings)
     passes, warnings = result.pass_request(layer, "sppm")
     assert "shader_aovs" in passes and "cryptomatte_asset" in passes and not any("SPPM" in w for w in warnings)
+    assert "light_groups" in passes and not any("Combined_Key" in w for w in warnings)
     passes, warnings = result.pass_request(layer, "sppm", chunked=True)
     assert "shader_aovs" not in passes and any("'Mask'" in w and "SPPM" in w for w in warnings)
-    assert "light_groups" not in passes and any("Combined_Key" in w and "'sppm'" in w for w in warnings)
+    assert "light_groups" not in passes and any("Combined_Key" in w and "SPPM" in w for w in warnings)

@@ -236,9 +236,10 @@ impl PhotonMap {
         }
     }
 
-    /// Calls `f` with every photon within squared radius `r2` of `q` and its squared distance.
+    /// Calls `f` with every photon within squared radius `r2` of `q`, its index (tree order,
+    /// as [`group`](Self::group) takes) and its squared distance.
     #[inline]
-    pub fn for_each_within(&self, q: Vec3, r2: f32, mut f: impl FnMut(&Photon, f32)) {
+    pub fn for_each_within(&self, q: Vec3, r2: f32, mut f: impl FnMut(&Photon, u32, f32)) {
         if self.photons.is_empty() {
             return;
         }
@@ -252,10 +253,10 @@ impl PhotonMap {
             let (node, lo, hi) = stack[sp];
             let (lo, hi) = (lo as usize, hi as usize);
             if hi - lo <= LEAF {
-                for ph in &self.photons[lo..hi] {
+                for (k, ph) in self.photons[lo..hi].iter().enumerate() {
                     let d2 = dist2(ph.p, q);
                     if d2 < r2 {
-                        f(ph, d2);
+                        f(ph, (lo + k) as u32, d2);
                     }
                 }
                 continue;
@@ -422,7 +423,7 @@ mod tests {
                 let r2 = 0.02;
                 let mut count = 0usize;
                 let mut sum = 0.0f64;
-                map.for_each_within(q, r2, |p, _| {
+                map.for_each_within(q, r2, |p, _, _| {
                     count += 1;
                     sum += p.power[0] as f64;
                 });

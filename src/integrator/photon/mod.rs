@@ -39,6 +39,7 @@ pub mod lobes;
 pub mod map_read;
 pub mod sppm;
 pub mod sppm_extras;
+pub mod sppm_passes;
 pub mod trace;
 
 use glam::{Vec2, Vec3};

@@ -46,24 +46,24 @@
 
 use super::kdtree::KnnResult;
 use super::lobes::Split;
+use super::sppm_passes::{GatherSplit, SplitSums};
 use super::trace::{MapKind, TraceJob, trace_photons};
 use super::{PhotonMap, PhotonSettings, default_sppm_photons};
 use crate::bsdf::Bsdf;
-use crate::film::{DEPTH_BACKGROUND, FilmImage};
+use crate::film::{CameraSample, DEPTH_BACKGROUND, FilmImage};
 use crate::integrator::SceneContext;
-use crate::integrator::nee::surface_nee;
-use crate::integrator::path::PathIntegrator;
-use crate::integrator::walk::{PathState, Step};
+use crate::integrator::light_passes::shares_at;
 use crate::light::emit::Emitters;
-use crate::math::{Frame, Rgb, offset_ray_origin};
+use crate::math::{Frame, Rgb};
 use crate::render::job::RayStats;
 use crate::render::job::{Progress, RenderJob, RenderResult};
 use crate::sampling::PixelSampler;
-use crate::scene::camera::CameraRay;
 use crate::scene::camera::CameraRays;
-use crate::scene::visibility::RayMask;
 use glam::{DVec3, Vec2, Vec3};
 use rayon::prelude::*;
+
+mod camera;
+use camera::{Flags, camera_path};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::Instant;
 
@@ -141,13 +141,20 @@ struct VisiblePoint {
     beta: Rgb,
     /// Scattering event index of the visible point on the camera path.
     d: u32,
+    /// The class shares of the camera path's first bounce, which the photon flux gathered
+    /// at a later visible point is filed by (None at the first hit, and without passes).
+    first: Option<(Rgb, Rgb)>,
 }
 
 /// Bytes of SPPM's per-pixel state (progressive sums, this iteration's visible point and
-/// its pending camera sample), for the memory budget.
-pub fn bytes_per_pixel() -> u64 {
-    (std::mem::size_of::<PixelState>() + std::mem::size_of::<Option<VisiblePoint>>() + std::mem::size_of::<Pending>())
-        as u64
+/// its pending camera sample; with light passes or groups, `split`, their camera sample and
+/// sums too), for the memory budget.
+pub fn bytes_per_pixel(split: bool) -> u64 {
+    let split = if split { std::mem::size_of::<CameraSample>() + std::mem::size_of::<SplitSums>() } else { 0 };
+    (std::mem::size_of::<PixelState>()
+        + std::mem::size_of::<Option<VisiblePoint>>()
+        + std::mem::size_of::<Pending>()
+        + split) as u64
 }
 
 /// Counters of an SPPM render.
@@ -238,6 +245,14 @@ fn render(
     let mut states = vec![PixelState::default(); npix];
     let mut vps: Vec<Option<VisiblePoint>> = vec![None; npix];
     let mut pending = vec![Pending::default(); npix];
+    // Light passes and groups (`sppm_passes`): per-pixel camera samples and sums when asked;
+    // otherwise one scratch sample and no sums per row (chunks of one).
+    let passes = job.passes.any_light();
+    let grouping = job.passes.light_groups() > 0;
+    let split_on = passes || grouping;
+    let (row_len, per_row) = if split_on { (npix, w as usize) } else { (h as usize, 1) };
+    let mut samples = vec![CameraSample::default(); row_len];
+    let mut sums = vec![SplitSums::default(); if split_on { npix } else { h as usize }];
     let mut rays = RayStats::default();
     let mut st = SppmStats::default();
     let rays_done = AtomicU64::new(0);
@@ -267,8 +282,9 @@ fn render(
             .par_chunks(w as usize)
             .zip(vps.par_chunks_mut(w as usize))
             .zip(pending.par_chunks_mut(w as usize))
+            .zip(samples.par_chunks_mut(per_row))
             .enumerate()
-            .map(|(row, ((srow, vrow), prow))| {
+            .map(|(row, (((srow, vrow), prow), crow))| {
                 let mut rs = RayStats::default();
                 let mut bad = 0u64;
                 if should_stop(it) {
@@ -284,8 +300,13 @@ fn render(
                     let ray = camera.sample_clipped(fx, fy, u_lens);
                     let (org, dir) = (ray.org, ray.dir);
                     *pend = Pending::default();
+                    let out = &mut crow[if split_on { i } else { 0 }];
+                    if split_on {
+                        *out = CameraSample::default();
+                    }
+                    let flags = Flags { transparent_background, passes, grouping };
                     let (ld, point, first_t) =
-                        camera_path(ctx, &ray, &mut sampler, max_depth, pend, camera, &mut rs, transparent_background);
+                        camera_path(ctx, &ray, &mut sampler, max_depth, pend, camera, &mut rs, flags, out);
                     pend.ld = ld;
                     if !ld.is_finite() {
                         pend.bad = true;
@@ -315,7 +336,7 @@ fn render(
         }
         // 2. Photons (the same rule: a signal or the deadline abandons the iteration).
         let t_ph = Instant::now();
-        let (photons, _, ts) = trace_photons(
+        let (photons, groups, ts) = trace_photons(
             ctx,
             &emitters,
             &TraceJob {
@@ -325,7 +346,7 @@ fn render(
                 pass: job.sample_offset + it + 1,
                 max_depth,
                 skip_direct: true,
-                light_groups: false,
+                light_groups: grouping,
             },
             &abort,
             &|_| {
@@ -336,17 +357,28 @@ fn render(
             st.photon_seconds += t_ph.elapsed().as_secs_f64();
             break;
         }
-        let map = PhotonMap::build(photons);
+        let map = if grouping { PhotonMap::build_grouped(photons, groups) } else { PhotonMap::build(photons) };
         st.photon_seconds += t_ph.elapsed().as_secs_f64();
         st.photons += ts.emitted;
         nan += nan_here;
         // 3. Gather and update.
         // Not interruptible: from here on the iteration counts, for every pixel.
-        states.par_chunks_mut(w as usize).zip(vps.par_chunks(w as usize)).zip(pending.par_chunks(w as usize)).for_each(
-            |((srow, vrow), prow)| {
-                for ((state, vp), pend) in srow.iter_mut().zip(vrow).zip(prow) {
+        states
+            .par_chunks_mut(w as usize)
+            .zip(vps.par_chunks(w as usize))
+            .zip(pending.par_chunks(w as usize))
+            .zip(samples.par_chunks(per_row))
+            .zip(sums.par_chunks_mut(per_row))
+            .for_each(|((((srow, vrow), prow), crow), sumrow)| {
+                for (i, ((state, vp), pend)) in srow.iter_mut().zip(vrow).zip(prow).enumerate() {
                     let first = state.r == 0.0;
                     pend.apply(state);
+                    let mut sum = split_on.then(|| &mut sumrow[i]);
+                    if let Some(sum) = sum.as_deref_mut()
+                        && !pend.bad
+                    {
+                        sum.add_sample(&crow[i]);
+                    }
                     let Some(vp) = vp else { continue };
                     if !(state.r > 0.0) {
                         continue;
@@ -359,11 +391,20 @@ fn render(
                     let mut phi = Rgb::ZERO;
                     let mut m = 0u32;
                     let at = vp.bsdf.at(vp.wo_local);
-                    map.for_each_within(vp.p, r2, |ph, _| {
+                    // The split (when asked): at the first hit by each photon's direction,
+                    // later by the first bounce's shares (every share then the same).
+                    let mut gs = GatherSplit::default();
+                    let later = vp.first.unwrap_or((Rgb::ZERO, Rgb::ZERO));
+                    map.for_each_within(vp.p, r2, |ph, idx, _| {
                         if ph.depth() <= jmax && ph.normal_within_60(vp.ng) {
                             let wi = vp.frame.to_local(ph.wi());
-                            phi += vp.split.diffuse(&at, wi) * ph.power();
+                            let c = vp.split.diffuse(&at, wi) * ph.power();
+                            phi += c;
                             m += 1;
+                            if split_on {
+                                let sh = if passes && vp.d == 1 { shares_at(&at, wi) } else { later };
+                                gs.add(c, sh, map.group(idx));
+                            }
                         }
                     });
                     if m == 0 {
@@ -377,11 +418,13 @@ fn render(
                     let ratio = n_new / (state.n + m as f64);
                     let r_new = state.r * (ratio as f32).sqrt();
                     state.tau = (state.tau + contrib.as_dvec3()) * ratio;
+                    if let Some(sum) = sum {
+                        sum.add_gather(vp.beta, &gs, ratio);
+                    }
                     state.n = n_new;
                     state.r = r_new;
                 }
-            },
-        );
+            });
         st.iterations = it + 1;
         rays_done.store(rays.total(), Ordering::Relaxed);
         let elapsed = start.elapsed().as_secs_f64();
@@ -395,7 +438,13 @@ fn render(
             rays_per_sec: rays.total() as f64 / elapsed.max(1e-6),
         });
     }
-    let image = image(&states, w, h, st.iterations);
+    let mut image = image(&states, w, h, st.iterations);
+    if split_on {
+        super::sppm_passes::write(&mut image, job.passes, &sums, st.iterations, |i| {
+            let r = states[i].r as f64;
+            (r > 0.0).then_some(std::f64::consts::PI * r * r)
+        });
+    }
     (
         RenderResult {
             image,
@@ -464,205 +513,4 @@ fn image(states: &[PixelState], w: u32, h: u32, iters: u32) -> FilmImage {
         img.albedo[i] = (s.albedo * inv as f32).to_array();
     }
     img
-}
-
-/// Follows a camera ray through glossy and specular bounces to its visible point, the
-/// first vertex with a diffuse-like part (`lobes.rs`), where the photons will be gathered
-/// through that part; the glossy part there and everything after it is path traced
-/// (NEE with MIS at every non-delta vertex, the BSDF-sampled ray finding emission).
-/// Returns the emission and direct light collected, the visible point, and the first hit
-/// distance; the sample's coverage and first-hit passes go to `pend`.
-#[allow(clippy::too_many_arguments)]
-fn camera_path(
-    ctx: &SceneContext,
-    ray: &CameraRay,
-    sampler: &mut PixelSampler,
-    max_depth: u32,
-    pend: &mut Pending,
-    camera: &CameraRays,
-    stats: &mut RayStats,
-    transparent_background: bool,
-) -> (Rgb, Option<VisiblePoint>, f32) {
-    let mut l = Rgb::ZERO;
-    let mut first_t = f32::INFINITY;
-    stats.camera += 1;
-    // A scattering event in a medium is path traced from that vertex on (media have no
-    // photon map): NEE plus a continued path.
-    let mut st = PathState::camera(ray, ctx.camera_media);
-    let continuation = PathIntegrator { max_depth, transparent_background, ..Default::default() };
-    // `beta` carries the path on; `e` weighs the emission the next ray finds (they differ
-    // after the visible point, whose diffuse-like part the photons stand for but whose
-    // direct light NEE and the next ray share by MIS through the whole BSDF).
-    let mut beta = Rgb::ONE;
-    let mut e = Rgb::ONE;
-    let mut vp: Option<VisiblePoint> = None;
-    // This sample's alpha is undone if the camera ray ends on a holdout.
-    let alpha_before = pend.alpha;
-    loop {
-        let [u_light, u_lx, u_ly, u_lobe] = sampler.next_4d();
-        let [u_dx, u_dy, u_rr, u_alpha] = sampler.next_4d();
-        let [u_channel, u_dist, _, _] = if ctx.has_media { sampler.next_4d() } else { [0.0; 4] };
-        // Along the ray with a unit throughput (the segment's weight then scales both).
-        // Lights crossed and the world carry MIS against the NEE where the ray left (none
-        // for the camera ray and after delta lobes: the state's pdf is 0).
-        let mut medium_l = Rgb::ZERO;
-        let mut crossed_any = false;
-        st.beta = Rgb::ONE;
-        let (step, crossed_l) = st.advance_with(
-            ctx,
-            Some([u_channel, u_dist]),
-            || u_alpha,
-            |st, t_event, w| {
-                let (le, any) = ctx.crossed_emission(
-                    st.org,
-                    st.dir,
-                    t_event,
-                    st.prev_p,
-                    st.prev_n,
-                    st.prev_pdf,
-                    st.depth == 0,
-                    st.prev_tri,
-                    &st.light_path,
-                );
-                crossed_any = any;
-                if any { e * w * le } else { Rgb::ZERO }
-            },
-            &mut medium_l,
-            stats,
-        );
-        l += crossed_l + e * medium_l;
-        let seg = std::mem::replace(&mut st.beta, Rgb::ONE);
-        beta *= seg;
-        e *= seg;
-        if crossed_any && st.depth == 0 {
-            pend.alpha += 1.0;
-        }
-        let (hit, s) = match step {
-            Step::End => break,
-            Step::Passed => continue,
-            Step::Medium { p, phase, .. } => {
-                if st.depth == 0 {
-                    pend.alpha += 1.0;
-                }
-                if st.depth < max_depth && beta.is_finite() && beta != Rgb::ZERO {
-                    l +=
-                        continuation.scatter_in_medium(ctx, p, st.dir, phase, st.media, beta, st.depth, sampler, stats);
-                }
-                break;
-            }
-            Step::Escaped => {
-                if !(st.depth == 0 && transparent_background)
-                    && let Some(le) = st.escaped_radiance(ctx)
-                {
-                    l += e * le;
-                    if st.depth == 0 {
-                        pend.alpha += 1.0;
-                    }
-                }
-                break;
-            }
-            Step::Surface { hit, s } => (hit, s),
-        };
-        // A holdout seen by a camera ray: nothing, alpha 0 (as the path tracer).
-        if st.depth == 0 && ctx.is_holdout(hit.tri) {
-            pend.alpha = alpha_before;
-            return (l, None, first_t);
-        }
-        let wo = -st.dir;
-        let sp = ctx.shade(&s, wo);
-        if st.depth == 0 {
-            first_t = s.t;
-            pend.alpha += 1.0;
-            let z = camera.depth(s.p);
-            pend.depth = z;
-            pend.normal = sp.frame.n;
-            pend.albedo = sp.bsdf.albedo();
-        } else if first_t.is_infinite() {
-            first_t = s.t;
-        }
-        l += PathState { beta: e, ..st }.surface_emission(ctx, &hit, &s, &sp);
-        // The ray a diffuse-only visible point sent was for its emission alone (above).
-        if st.depth >= max_depth || beta == Rgb::ZERO {
-            break;
-        }
-        let wo_local = sp.frame.to_local(wo);
-        // The subsurface part has no photon map: path traced (the BSDF part as below).
-        if ctx.scene.materials[s.material as usize].subsurface.is_some() {
-            let q = sp.bsdf.subsurface_weight(wo_local);
-            if q > 0.0 {
-                l += continuation.subsurface_from(ctx, &s, &sp, wo, st.media, beta * q, st.depth, sampler, stats);
-            }
-        }
-        let at = sp.bsdf.at(wo_local);
-        let split = Split::of(&sp.bsdf);
-        let delta = sp.bsdf.is_delta();
-        // The visible point: the first vertex with a diffuse-like part.
-        let (diffuse, glossy) = if delta || vp.is_some() { (false, true) } else { split.parts(&at) };
-        let is_vp = diffuse;
-        if !delta {
-            // Direct light (lights below count when the BSDF transmits: photons are
-            // gathered on this side only), MIS against the next ray, which a visible point
-            // with no glossy part sends too, for the emission it finds only: light
-            // sampling alone left the broad sky of an environment map to the few world
-            // samples its sun disc left over (floor blocks 3-4x the path tracer's error
-            // on bench/run.py's hdri scene).
-            let n_select = if sp.bsdf.transmits() { Vec3::ZERO } else { s.ng };
-            l += surface_nee(ctx, &s, &sp, &at, n_select, 1.0, beta, st.media, u_light, Vec2::new(u_lx, u_ly), stats);
-            if is_vp {
-                vp = Some(VisiblePoint {
-                    p: s.p,
-                    ng: s.ng,
-                    frame: sp.frame,
-                    bsdf: sp.bsdf,
-                    split,
-                    wo_local,
-                    beta,
-                    d: st.depth + 1,
-                });
-            }
-            st.prev_n = n_select;
-        }
-        // The next ray from the whole BSDF; at the visible point only its glossy share goes on.
-        let Some(bs) = at.sample(u_lobe, Vec2::new(u_dx, u_dy)) else {
-            break;
-        };
-        let wi = sp.frame.to_world(bs.wi);
-        let (co, ci) = (wo.dot(s.ng), wi.dot(s.ng));
-        if (bs.wi.z * wo_local.z > 0.0) != (co * ci > 0.0) || ci == 0.0 {
-            break;
-        }
-        let w = bs.f * (bs.wi.z.abs() / bs.pdf);
-        e = beta * w;
-        beta = if is_vp && !glossy {
-            Rgb::ZERO
-        } else if is_vp {
-            beta * (w - split.diffuse_of_sample(&at, bs.wi, bs.f, bs.delta) * (bs.wi.z.abs() / bs.pdf)).max(Rgb::ZERO)
-        } else {
-            e
-        };
-        if !(beta.is_finite() && e.is_finite()) || (beta == Rgb::ZERO && e == Rgb::ZERO) {
-            break;
-        }
-        st.prev_pdf = if bs.delta { 0.0 } else { bs.pdf };
-        st.prev_p = s.p;
-        st.prev_tri = s.tri;
-        st.depth += 1;
-        st.media = ctx.medium_after(&s, wi, st.media);
-        st.ray = RayMask::after_bounce(bs.kind, ci < 0.0);
-        st.light_path = s.light_path.bounced(bs.kind, ci < 0.0, bs.delta);
-        st.org = offset_ray_origin(s.p, if ci > 0.0 { s.ng } else { -s.ng });
-        st.dir = wi;
-        stats.bounce += 1;
-        // Russian roulette after the visible point, as the path tracer's.
-        if vp.is_some() && st.depth >= continuation.rr_depth {
-            // Refraction keeps 1 − F of the throughput (Cycles' convention): no η scale.
-            let q = beta.max_element().max(e.max_element()).min(0.95);
-            if !(u_rr < q) {
-                break;
-            }
-            beta /= q;
-            e /= q;
-        }
-    }
-    (l, vp, first_t)
 }

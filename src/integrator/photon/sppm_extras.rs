@@ -73,7 +73,8 @@ pub fn fill(
         rays.add(r);
     }
     let side = film.image();
-    img.extra = side.extra;
+    // The light passes are SPPM's own (`sppm_passes`); the side film's are empty.
+    img.extra.extend(side.extra.into_iter().filter(|(p, _)| !p.is_light()));
     img.crypto = side.crypto;
     img.shader_aovs = side.shader_aovs;
 }
