@@ -4,49 +4,20 @@
 
 mod common;
 
+use common::pass_checks::{channels, opaque_copy, with_light_groups};
 use common::{GltfBuilder, look_rotation, root, run, temp_dir};
 use serde_json::json;
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::Duration;
 
 const LIMIT: Duration = Duration::from_secs(120);
-
-/// Every channel of an EXR by name.
-fn channels(path: &Path) -> BTreeMap<String, Vec<f32>> {
-    let image = exr::prelude::read_all_flat_layers_from_file(path).expect("read EXR");
-    let layer = &image.layer_data[0];
-    layer.channel_data.list.iter().map(|c| (c.name.to_string(), c.sample_data.values_as_f32().collect())).collect()
-}
 
 fn render(scene: &Path, out: &Path, extra: &[&str]) {
     let mut args = vec!["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--progress", "json"];
     args.extend_from_slice(extra);
     let r = run(&args, LIMIT);
     assert_eq!(r.code, Some(0), "render failed: {}", r.stderr);
-}
-
-/// A bundled scene copied beside its buffer with Film → Transparent off, so that the
-/// world seen directly is in Combined (and in Environment).
-fn opaque_copy(name: &str, dir: &Path) -> PathBuf {
-    let src = root().join("scenes").join(format!("{name}.gltf"));
-    let mut doc: serde_json::Value = serde_json::from_slice(&std::fs::read(&src).unwrap()).unwrap();
-    for b in doc["buffers"].as_array().unwrap() {
-        let uri = b["uri"].as_str().unwrap();
-        std::fs::copy(root().join("scenes").join(uri), dir.join(uri)).unwrap();
-    }
-    for img in doc["images"].as_array().cloned().unwrap_or_default() {
-        if let Some(uri) = img["uri"].as_str() {
-            std::fs::copy(root().join("scenes").join(uri), dir.join(uri)).unwrap();
-        }
-    }
-    if let Some(w) = doc["scenes"][0]["extensions"]["CAUSTIC_world"]["image"].as_str() {
-        std::fs::copy(root().join("scenes").join(w), dir.join(w)).unwrap();
-    }
-    doc["scenes"][0]["extras"]["caustic"]["transparent"] = json!(false);
-    let path = dir.join(format!("{name}.gltf"));
-    std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
-    path
 }
 
 const LIGHT: &str = "diffuse_direct,diffuse_indirect,diffuse_color,glossy_direct,glossy_indirect,glossy_color,\
@@ -234,13 +205,6 @@ fn data_passes_on_a_known_scene() {
     assert!(ch["UV.A"].iter().all(|&a| a == 1.0));
     assert!(ch["Ambient Occlusion.R"].iter().all(|&a| a == 1.0), "{:?}", ch["Ambient Occlusion.R"]);
     assert!(!ch.contains_key("Depth.Z"), "Depth was not asked for");
-}
-
-/// `scene` with the render settings' `light_groups` set to `spec`.
-fn with_light_groups(scene: &Path, spec: serde_json::Value) {
-    let mut doc: serde_json::Value = serde_json::from_slice(&std::fs::read(scene).unwrap()).unwrap();
-    doc["scenes"][0]["extras"]["caustic"]["light_groups"] = spec;
-    std::fs::write(scene, serde_json::to_vec(&doc).unwrap()).unwrap();
 }
 
 /// Σ over the channels R, G, B and pixels of pass `pass`.
