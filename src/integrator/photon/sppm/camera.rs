@@ -88,32 +88,23 @@ pub(super) fn camera_path(
             Some([u_channel, u_dist]),
             || u_alpha,
             |st, t_event, w| {
-                let (le, any) = if grouping {
-                    ctx.crossed_emission_each(
-                        st.org,
-                        st.dir,
-                        t_event,
-                        st.prev_p,
-                        st.prev_n,
-                        st.prev_pdf,
-                        st.depth == 0,
-                        st.prev_tri,
-                        &st.light_path,
-                        |light, c| out_groups.add(groups.of_light(light), e * w * c),
-                    )
-                } else {
-                    ctx.crossed_emission(
-                        st.org,
-                        st.dir,
-                        t_event,
-                        st.prev_p,
-                        st.prev_n,
-                        st.prev_pdf,
-                        st.depth == 0,
-                        st.prev_tri,
-                        &st.light_path,
-                    )
-                };
+                // One call either way: `crossed_emission` is this with a closure that files nothing.
+                let (le, any) = ctx.crossed_emission_each(
+                    st.org,
+                    st.dir,
+                    t_event,
+                    st.prev_p,
+                    st.prev_n,
+                    st.prev_pdf,
+                    st.depth == 0,
+                    st.prev_tri,
+                    &st.light_path,
+                    |light, c| {
+                        if grouping {
+                            out_groups.add(groups.of_light(light), e * w * c)
+                        }
+                    },
+                );
                 crossed_any = any;
                 if any { e * w * le } else { Rgb::ZERO }
             },
