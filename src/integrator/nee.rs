@@ -121,22 +121,9 @@ pub fn shadow_transmittance(
 }
 
 /// Light arriving at medium point `p` by NEE, times the phase function (MIS against
-/// phase sampling), for a path travelling along `dir`.
-#[allow(clippy::too_many_arguments)]
-pub fn medium_nee(
-    ctx: &SceneContext,
-    p: Vec3,
-    dir: Vec3,
-    phase: HenyeyGreenstein,
-    media: MediumStack,
-    u_light: f32,
-    u_light_pt: Vec2,
-    stats: &mut RayStats,
-) -> Rgb {
-    medium_nee_light(ctx, p, dir, phase, media, u_light, u_light_pt, stats).0
-}
-
-/// [`medium_nee`] and the light it sampled ([`NO_LIGHT`]: none gave light).
+/// phase sampling), for a path travelling along `dir` that reached `p` as `path` says (an
+/// emitter's Light Path node reads its counters, as Cycles' volume light sampling does),
+/// and the light it sampled ([`NO_LIGHT`]: none gave light).
 #[allow(clippy::too_many_arguments)]
 pub fn medium_nee_light(
     ctx: &SceneContext,
@@ -144,6 +131,7 @@ pub fn medium_nee_light(
     dir: Vec3,
     phase: HenyeyGreenstein,
     media: MediumStack,
+    path: LightPath,
     u_light: f32,
     u_light_pt: Vec2,
     stats: &mut RayStats,
@@ -151,7 +139,7 @@ pub fn medium_nee_light(
     if let Some((index, pmf)) = ctx.lights.sample(p, Vec3::ZERO, u_light)
         && ctx.links(index, NO_OBJECT)
         && ctx.light_seen_in_volume(index)
-        && let Some(ls) = ctx.sample_light(index, p, u_light_pt)
+        && let Some(ls) = ctx.sample_light_from(index, p, u_light_pt, path)
     {
         let f = phase.eval(dir, ls.wi);
         if f > 0.0 && ls.li != Rgb::ZERO {

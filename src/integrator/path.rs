@@ -189,7 +189,9 @@ impl PathIntegrator {
     ) -> Rgb {
         let [u_light, u_lx, u_ly, _] = sampler.next_4d();
         let [u_dx, u_dy, u_rr, _] = sampler.next_4d();
-        let (le, light) = medium_nee_light(ctx, p, dir, phase, media, u_light, Vec2::new(u_lx, u_ly), stats);
+        // The path behind the medium point is not known here: only its depth.
+        let path = LightPath { depth: depth as u16, ..LightPath::FROM_LIGHT };
+        let (le, light) = medium_nee_light(ctx, p, dir, phase, media, path, u_light, Vec2::new(u_lx, u_ly), stats);
         let mut radiance = beta * le;
         if let Some(f) = filing.as_mut() {
             if f.groups {
@@ -214,8 +216,7 @@ impl PathIntegrator {
             tmax: f32::INFINITY,
             ray: RayMask::AFTER_VOLUME,
             prev_tri: NO_OBJECT,
-            // The path behind the medium point is not known here: only its depth.
-            light_path: LightPath { depth: depth as u16, ..LightPath::FROM_LIGHT }.scattered_in_volume(),
+            light_path: path.scattered_in_volume(),
         };
         if st.depth < self.max_depth && st.survives(self.rr_depth, u_rr) {
             stats.bounce += 1;
@@ -293,7 +294,8 @@ impl PathIntegrator {
                     if st.depth >= self.max_depth {
                         break;
                     }
-                    let (le, light) = medium_nee_light(ctx, p, st.dir, phase, st.media, u_light, u_light_pt, stats);
+                    let (le, light) =
+                        medium_nee_light(ctx, p, st.dir, phase, st.media, st.light_path, u_light, u_light_pt, stats);
                     let c = st.beta * le;
                     radiance += c;
                     if grouping {

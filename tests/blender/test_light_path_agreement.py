@@ -18,6 +18,10 @@ Path output, so that an engine that ignored the ray's kind renders a visibly dif
   reaches; an emitter evaluated without the path (Ray Depth 1 always) gives next-event
   estimation nothing, leaving only the rare BSDF-sampled hits (measured before the fix: mean
   R/G/B 0.046 of Cycles).
+* The same emitter in world fog: light scattered in the air reaches the emitter by next-event
+  estimation from medium points, which Cycles also shades with the path's counters (a point
+  scattered once already sees Ray Depth 2); evaluated without the path (Ray Depth 1 at every
+  medium point, before the fix) the fog's glow beyond the first bounce is lost.
 """
 
 import bpy
@@ -88,8 +92,22 @@ def depth_lit_scene(scene, _material):
     uv_sphere(scene, "Emitter", 0.25, (0.8, -0.5, 2.2), mat)
 
 
+def depth_lit_fog_scene(scene, material):
+    """depth_lit_scene in a world of thin scattering fog (black background)."""
+    depth_lit_scene(scene, material)
+    world = bpy.data.worlds.new("Fog")
+    world.use_nodes = True
+    nodes = world.node_tree.nodes
+    nodes["Background"].inputs["Strength"].default_value = 0.0
+    fog = nodes.new("ShaderNodeVolumeScatter")
+    fog.inputs["Density"].default_value = 0.3
+    world.node_tree.links.new(fog.outputs["Volume"], nodes["World Output"].inputs["Volume"])
+    scene.world = world
+
+
 CASES = {
     "ray_depth_emitter": (depth_lit_scene, None),
+    "ray_depth_emitter_in_fog": (depth_lit_fog_scene, None),
     "is_camera_ray": (sphere_scene, light_path_switch(
         "Is Camera Ray", RED, ("ShaderNodeEmission", {"Color": (1.0, 0.8, 0.3, 1.0), "Strength": 4.0}))),
     "is_shadow_ray": (sphere_scene, light_path_switch(
