@@ -276,7 +276,11 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
             ..PathIntegrator::new(res.max_depth, res.transparent)
         }),
         IntegratorKind::Sppm => {
-            Integrator::Sppm(SppmIntegrator::new(res.max_depth, res.photon.clone(), res.transparent))
+            // A chunk keeps SPPM's sums of Combined and of every pass (`sppm_passes::into_film`).
+            Integrator::Sppm(SppmIntegrator {
+                keep_sums: args.chunk,
+                ..SppmIntegrator::new(res.max_depth, res.photon.clone(), res.transparent)
+            })
         }
         IntegratorKind::Bdpt => Integrator::Bdpt(BdptIntegrator {
             ledger,
