@@ -160,6 +160,10 @@ impl Loader<'_> {
             self.warn("world: a BSDF or Transparent shader on the World Output renders nothing (black, as in Cycles)");
         }
         let graph = crate::light::world_graph::WorldGraph::new(prog, textures);
+        if !graph.program().aovs.is_empty() {
+            // Its AOV Output nodes write where the camera sees the world (`scene::shader_aovs`).
+            self.world_aovs = Some(graph.clone());
+        }
         let width = graph.bake_width();
         // The table: radiance (12 B) and its distribution (≈ 8 B) per texel.
         self.budget.charge(format!("world table ({width}×{})", width / 2), (width * width / 2) as u64 * 20)?;
