@@ -149,3 +149,26 @@ def test_no_aov_passes_without_aovs(empty_scene, tmp_path):
     p = render_passes(scene, "CAUSTIC", 1, str(tmp_path / "plain.exr"))
     assert "tint" not in p and "height" not in p
 
+
+
+def test_world_aovs_export_with_the_graph(addon, empty_scene, tmp_path):
+    """A plain world (a Background colour) with AOV Output nodes is exported as its graph with
+    them when the view layer has AOVs, and as the plain colour without; a world whose Surface
+    is not linked names its unrendered AOV nodes in a warning."""
+    from test_node_graph_export import export
+
+    scene = empty_scene
+    scene.world = world_with_aovs()
+    gltf, state, _ = export(addon, scene, tmp_path / "plain")
+    assert "nodes" not in gltf["scenes"][0]["extensions"]["CAUSTIC_world"], "AOV nodes without AOVs"
+    scene.view_layers[0].aovs.add().name = "tint"
+    gltf, state, _ = export(addon, scene, tmp_path / "aovs")
+    nodes = gltf["scenes"][0]["extensions"]["CAUSTIC_world"]["nodes"]["nodes"]
+    assert sorted(n["props"]["aov_name"] for n in nodes if n["type"] == "ShaderNodeOutputAOV") == ["height", "tint"]
+    assert not [w for w in state.warnings if "world" in w], state.warnings
+    tree = scene.world.node_tree
+    for link in list(tree.links):
+        if link.to_node.type == "OUTPUT_WORLD":
+            tree.links.remove(link)
+    _, state, _ = export(addon, scene, tmp_path / "unlinked")
+    assert any("AOV Output nodes are not rendered" in w for w in state.warnings), state.warnings

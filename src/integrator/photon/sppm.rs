@@ -42,7 +42,9 @@
 //! estimates, and `caustic merge` averages them weighted by their iterations. This
 //! reduces the variance, not the bias of the first iterations' larger radii, and is not
 //! bit for bit a single run of all the iterations (which the path tracer, BDPT and Jensen
-//! photon mapping give).
+//! photon mapping give). A chunk (`keep_sums`) returns its sums as a film: its image's means
+//! times the iterations (the light passes and groups too, `sppm_passes::into_film`) and the
+//! side film's exact sums of the camera ray's passes (`sppm_extras.rs`).
 
 use super::kdtree::KnnResult;
 use super::lobes::Split;

@@ -146,7 +146,7 @@ impl Loader<'_> {
         });
         if light_path {
             // The world is one table for every ray: what the camera sees is what lights the scene.
-            self.warn("world: the Light Path node reads as for light sampling (Is Camera Ray 0, Ray Depth 1) for every ray, the camera's too");
+            self.warn("world: the Light Path node reads as for light sampling (Is Camera Ray 0, Ray Depth 1) for every ray, the camera's too (its AOV Output nodes alone read the camera ray's)");
         }
         let camera = prog.ops.iter().any(|op| {
             use crate::shader::instructions::{InputKind, Op};
