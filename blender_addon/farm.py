@@ -137,7 +137,7 @@ def _export_frames(context, frames, folder):
             paths.append(gltf)
     finally:
         scene.frame_set(current)
-    passes, warnings = result.pass_request(view_layer, settings["integrator"], chunked=True,
+    passes, warnings = result.pass_request(view_layer, settings["integrator"],
                                            motion_blur=scene.render.use_motion_blur)
     for warning in warnings:
         print(f"Caustic farm: {warning}")

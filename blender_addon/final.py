@@ -130,7 +130,7 @@ def render_frame(engine, depsgraph):
         if engine.should_stop():
             return
         out_path = os.path.join(folder, "out.exr")
-        passes, pass_warnings = result.pass_request(depsgraph.view_layer, settings["integrator"], chunked=on_farm,
+        passes, pass_warnings = result.pass_request(depsgraph.view_layer, settings["integrator"],
                                                     motion_blur=depsgraph.scene.render.use_motion_blur)
         for warning in pass_warnings:
             engine.report({"WARNING"}, f"Caustic: {warning}")

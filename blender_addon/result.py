@@ -49,7 +49,7 @@ VIEW_LAYER_PASSES = (
 )
 
 # Light passes and light groups: the integrators that file light by the first bounce (contract);
-# all of them (SPPM's not in farm chunks, which keep no sums of them).
+# all of them, in farm chunks too (SPPM's chunks keep them as its Combined: means times iterations).
 LIGHT_INTEGRATORS = ("path", "bdpt", "vcm", "photon", "sppm")
 LIGHT_TOKENS = frozenset(t for _, _, t, *_ in VIEW_LAYER_PASSES
                          if t.endswith(("_direct", "_indirect", "_color")) or t in ("emit", "environment"))
@@ -62,9 +62,6 @@ CRYPTOMATTE_LAYERS = (
 )
 # The Shadow Catcher pass: the path integrator splits paths at catchers.
 PATH_ONLY_TOKENS = frozenset({"shadow_catcher"})
-# Data passes traced from the camera ray's first hit, by every integrator but SPPM.
-DATA_TOKENS = frozenset(("mist", "position", "uv", "ambient_occlusion", "object_index", "material_index", "vector")
-                        + tuple(token for _, token, _ in CRYPTOMATTE_LAYERS))
 
 # The binary's `--passes` token for one `Combined_<group>` pass per light group of the scene (whose
 # groups the exporter writes, export/light_groups.py).
@@ -105,10 +102,9 @@ def enabled_cryptomatte(view_layer):
             for attr, token, prefix in CRYPTOMATTE_LAYERS if _flag(view_layer, "", attr)]
 
 
-def pass_request(view_layer, integrator, chunked=False, motion_blur=False):
-    """(`--passes` list, warnings): the enabled passes that `integrator` renders (on the farm,
-    `chunked`: those that chunks carry), and a warning naming each enabled pass that will be
-    missing from the result. With `motion_blur` on, Vector stays black, as in Cycles (whose
+def pass_request(view_layer, integrator, motion_blur=False):
+    """(`--passes` list, warnings): the enabled passes that `integrator` renders (farm chunks
+    carry them all), and a warning naming each enabled pass that will be missing from the result. With `motion_blur` on, Vector stays black, as in Cycles (whose
     panel greys it out then): its motion is to the neighbouring frames, not over the shutter."""
     tokens, warnings = [], []
     rows = [(token, name) for _, _, token, name, *_ in enabled_passes(view_layer)]
@@ -123,9 +119,6 @@ def pass_request(view_layer, integrator, chunked=False, motion_blur=False):
         elif token in LIGHT_TOKENS and integrator not in LIGHT_INTEGRATORS:
             warnings.append(f"the {name} pass is rendered by the path, BDPT, VCM and photon integrators only; "
                             f"it stays black with '{integrator}'")
-        elif (token in DATA_TOKENS or token in LIGHT_TOKENS) and integrator == "sppm" and chunked:
-            warnings.append(f"the {name} pass is not rendered by SPPM on the farm (its chunks keep no sums of it); "
-                            "it stays black")
         else:
             tokens.append(token)
     for owner, attr, name in UNSUPPORTED:
@@ -135,17 +128,10 @@ def pass_request(view_layer, integrator, chunked=False, motion_blur=False):
     if groups and integrator not in LIGHT_INTEGRATORS:
         warnings.append(f"the light group passes ({', '.join(groups)}) are rendered by the path, BDPT, VCM and "
                         f"photon integrators only; they stay black with '{integrator}'")
-    elif groups and integrator == "sppm" and chunked:
-        warnings.append(f"the light group passes ({', '.join(groups)}) are not rendered by SPPM on the farm "
-                        "(its chunks keep no sums of them); they stay black")
     elif groups:
         tokens.append(LIGHT_GROUPS_TOKEN)
     aovs = valid_aovs(view_layer)
-    if aovs and integrator == "sppm" and chunked:
-        warnings.append(f"the shader AOVs ({', '.join(repr(a.name) for a in aovs)}) are not rendered by SPPM on the "
-                        "farm (its chunks keep no sums of them); "
-                        "they stay black")
-    elif aovs:
+    if aovs:
         tokens.append(SHADER_AOVS_TOKEN)
     return ",".join(tokens) or "none", warnings
 

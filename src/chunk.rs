@@ -408,27 +408,39 @@ pub fn read(path: &Path) -> Result<Chunk> {
 }
 
 /// A film holding `img`'s means times its sample counts, for integrators that keep no
-/// sums (SPPM: its chunks are independent estimates, merged weighted by iterations).
+/// sums (SPPM without extra passes: its chunks are independent estimates, merged weighted by
+/// iterations).
 pub fn film_from_image(img: &FilmImage) -> Film {
     let mut film = Film::new(img.width, img.height, crate::render::TILE_SIZE);
-    // mean (24-bit mantissa) × n (≤ 2^24) is exact in f64; × 2^64 is a power of two.
-    let times = |v: f32, n: u32| ((v as f64) * (n as f64) * fixed::SCALE) as i128;
+    set_means(&mut film, img);
+    film
+}
+
+/// A mean over `n` samples as the fixed-point sum those samples would have given: exact,
+/// since the f32 mean (24-bit mantissa) × n (≤ 2^24) fits f64's 53 bits and × 2^64 is a
+/// power of two; an image's value read back from it (`Film::image`) is the mean again.
+pub fn mean_times(v: f32, n: u32) -> i128 {
+    ((v as f64) * (n as f64) * fixed::SCALE) as i128
+}
+
+/// Sets `film`'s base sums (Combined, alpha, normal, albedo, depth, sample count) to `img`'s
+/// means times its sample counts; its extra sums are left as they are.
+pub fn set_means(film: &mut Film, img: &FilmImage) {
     for y in 0..img.height {
         for x in 0..img.width {
             let i = (y * img.width + x) as usize;
             let n = img.samples[i];
             let c = img.combined[i];
             *film.pixel_mut(x, y) = PixelAccum {
-                rgb: [times(c[0], n), times(c[1], n), times(c[2], n)],
-                alpha: times(c[3], n),
+                rgb: [mean_times(c[0], n), mean_times(c[1], n), mean_times(c[2], n)],
+                alpha: mean_times(c[3], n),
                 depth: img.depth[i],
-                normal: img.normal[i].map(|v| times(v, n)),
-                albedo: img.albedo[i].map(|v| times(v, n)),
+                normal: img.normal[i].map(|v| mean_times(v, n)),
+                albedo: img.albedo[i].map(|v| mean_times(v, n)),
                 n,
             };
         }
     }
-    film
 }
 
 #[cfg(test)]

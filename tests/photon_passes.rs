@@ -326,3 +326,86 @@ fn light_groups_need_traced_maps() {
     let r = run(&[&base[..], &["--passes", LIGHT]].concat(), LIMIT);
     assert_eq!(r.code, Some(0), "{}", r.stderr);
 }
+
+/// SPPM's chunks carry its light passes, light groups, data passes and Cryptomatte
+/// (`sppm_passes::into_film`, `sppm_extras.rs`). Each chunk is a whole SPPM run, so the
+/// merge of chunks of 2 and 3 iterations is not one run of 5: the passes SPPM reduces per
+/// pixel (Combined, light passes, groups) are the chunks' mean weighted by iterations, as
+/// Combined is, and still sum to the merged Combined; the data passes and Cryptomatte,
+/// which depend on the sample indices alone, are a single render's of iterations 0..5 bit
+/// for bit. A chunk merged alone gives back its own image.
+#[test]
+fn sppm_chunks_merge_passes_by_iterations() {
+    let dir = temp_dir();
+    let scene = opaque_copy("cornell_box", dir.path());
+    with_light_groups(&scene, json!({"names": ["ceiling"], "objects": {"light": "ceiling"}}));
+    let tokens = format!("{LIGHT},light_groups,mist,position,object_index,cryptomatte_object");
+    let p = |n: &str| dir.path().join(n);
+    let render = |out: &Path, extra: &[&str]| {
+        let mut args = vec!["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--resolution", "24x18"];
+        args.extend_from_slice(&["--integrator", "sppm", "--sppm-photons", "4000", "--seed", "5", "--passes", &tokens]);
+        args.extend_from_slice(extra);
+        let r = run(&args, LIMIT);
+        assert_eq!(r.code, Some(0), "{extra:?}: {}", r.stderr);
+        channels(out)
+    };
+    let merge = |inputs: &[&Path], out: &Path| {
+        let mut args = vec!["merge"];
+        args.extend(inputs.iter().map(|p| p.to_str().unwrap()));
+        args.extend_from_slice(&["-o", out.to_str().unwrap()]);
+        let r = run(&args, LIMIT);
+        assert_eq!(r.code, Some(0), "{}", r.stderr);
+        channels(out)
+    };
+    let single = render(&p("single.exr"), &["--sppm-iterations", "5"]);
+    let a = render(&p("a.exr"), &["--sppm-iterations", "2", "--chunk"]);
+    let b = render(&p("b.exr"), &["--sppm-iterations", "3", "--sample-offset", "2", "--chunk"]);
+    let m = merge(&[&p("b.exr"), &p("a.exr")], &p("m.exr"));
+    let bits_equal = |x: &[f32], y: &[f32]| x.iter().zip(y).all(|(u, v)| u.to_bits() == v.to_bits());
+    let divided = |name: &str| {
+        name.contains(" Direct.") && !name.starts_with("Volume")
+            || name.contains(" Indirect.") && !name.starts_with("Volume")
+    };
+    let data = ["Mist.", "Position.", "Object Index.", "CryptoObject"];
+    let is_data = |name: &str| data.iter().any(|d| name.starts_with(d));
+    let mut seen = (0, 0, 0);
+    for (name, v) in m.iter().filter(|(n, _)| !n.starts_with("CausticSum") && !n.starts_with("Debug")) {
+        if is_data(name) {
+            assert!(bits_equal(v, &single[name]), "{name}: not the single render's");
+            seen.0 += 1;
+        } else if !divided(name) && name != "Depth.Z" {
+            // The chunks' sums are their f32 means times their iterations, exact
+            // (`chunk::mean_times`); the merged mean (2a + 3b) / 5 is rounded once to f32:
+            // half an ulp, 2^-24 relative (2^-23 allowed); a sum's part below 2^-64 is cut
+            // (`src/fixed.rs`), 1e-18 absolute covers it.
+            for (i, got) in v.iter().enumerate() {
+                let want = (2.0 * a[name][i] as f64 + 3.0 * b[name][i] as f64) / 5.0;
+                assert!((*got as f64 - want).abs() <= want.abs() * 2f64.powi(-23) + 1e-18, "{name} pixel {i}");
+            }
+            seen.1 += 1;
+        } else if divided(name) {
+            seen.2 += 1;
+        }
+    }
+    assert!(seen.0 >= 6 && seen.1 >= 20 && seen.2 >= 18, "channels compared (data, means, divided): {seen:?}");
+    assert!(m["Combined_ceiling.R"].iter().any(|v| *v > 0.0) && m["Emission.R"].iter().any(|v| *v > 0.0));
+    // Direct and Indirect are divided by the merged Colour from the merged sums: the passes
+    // still sum to Combined (tolerance derived in `worst_recombination`).
+    let parts: Vec<[Vec<f64>; 3]> = CONTRIBUTIONS.iter().map(|n| [0, 1, 2].map(|c| contribution(&m, n, c))).collect();
+    let worst = worst_recombination(&m, &parts);
+    assert!(worst <= 1.0, "the merged light passes differ from Combined by {worst} × the rounding bound");
+    let parts: Vec<[Vec<f64>; 3]> = [[0, 1, 2].map(|c| contribution(&m, "Combined_ceiling", c))].into();
+    let worst = worst_recombination(&m, &parts);
+    assert!(worst <= 1.0, "the merged light group differs from Combined by {worst} × the rounding bound");
+    // A lone chunk: its sums read back are its image (Direct and Indirect divided again from
+    // the sums, f32(d·n) / f32(c·n) against d / c: up to four roundings of 2^-24, 2^-21 allowed).
+    let alone = merge(&[&p("a.exr")], &p("alone.exr"));
+    for (name, v) in alone.iter().filter(|(n, _)| !n.starts_with("CausticSum")) {
+        if divided(name) {
+            let close = v.iter().zip(&a[name]).all(|(x, y)| (x - y).abs() as f64 <= y.abs() as f64 * 2f64.powi(-21));
+            assert!(close, "{name}: the lone chunk's merge is not its image");
+        } else {
+            assert!(bits_equal(v, &a[name]), "{name}: the lone chunk's merge is not its image");
+        }
+    }
+}

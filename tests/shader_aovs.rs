@@ -51,7 +51,18 @@ fn aov_settings(extra: Value, threshold: f32) -> Value {
 /// Position to "pos" and 2 × (the Position's average) to "val" through a Math node that
 /// only the AOV reads; an AOV Output naming an AOV the view layer lacks is warned.
 fn position_scene(dir: &Path) -> PathBuf {
-    let nodes = json!([
+    let mut g = GltfBuilder::new();
+    let m = g.material(node_material("plane", position_nodes(), json!([1, "Emission"])));
+    quad(&mut g, 0.0, m);
+    g.orthographic([0.0, 0.0, 5.0], [0.0, 0.0, 0.0, 1.0], 1.0, 1.0);
+    g.use_ext("CAUSTIC_materials_nodes");
+    g.settings(aov_settings(json!([{"name": "unwritten", "type": "COLOR"}]), 0.5));
+    g.write(dir, "pos.gltf")
+}
+
+/// The nodes of `position_scene`'s material.
+fn position_nodes() -> Value {
+    json!([
         {"name": "Geometry", "type": "ShaderNodeNewGeometry"},
         {"name": "Emission", "type": "ShaderNodeEmission",
          "inputs": {"Color": {"value": [0.5, 0.5, 0.5, 1]}, "Strength": {"value": 1.0}}},
@@ -63,14 +74,7 @@ fn position_scene(dir: &Path) -> PathBuf {
          "inputs": {"Value": {"link": [2, "Value"]}}},
         {"name": "AOV ghost", "type": "ShaderNodeOutputAOV", "props": {"aov_name": "ghost"},
          "inputs": {"Value": {"value": 1.0}}}
-    ]);
-    let mut g = GltfBuilder::new();
-    let m = g.material(node_material("plane", nodes, json!([1, "Emission"])));
-    quad(&mut g, 0.0, m);
-    g.orthographic([0.0, 0.0, 5.0], [0.0, 0.0, 0.0, 1.0], 1.0, 1.0);
-    g.use_ext("CAUSTIC_materials_nodes");
-    g.settings(aov_settings(json!([{"name": "unwritten", "type": "COLOR"}]), 0.5));
-    g.write(dir, "pos.gltf")
+    ])
 }
 
 /// At each pixel centre the AOVs hold the graph's values: "pos" = the position in
@@ -136,23 +140,6 @@ fn aovs_hold_the_graph_values() {
             }
         }
     }
-    // An SPPM chunk keeps no sums of them (its image's means are written): refused.
-    let r = run(
-        &[
-            "render",
-            scene.to_str().unwrap(),
-            "-o",
-            out.to_str().unwrap(),
-            "--passes",
-            "shader_aovs",
-            "--integrator",
-            "sppm",
-            "--chunk",
-        ],
-        LIMIT,
-    );
-    assert_eq!(r.code, Some(2), "{}", r.stderr);
-    assert!(r.stderr.contains("chunks"), "{}", r.stderr);
 }
 
 /// A front quad whose Transparent weight is `1 − alpha` over a back quad; the front writes
@@ -210,25 +197,34 @@ fn transparent_surfaces_follow_the_alpha_threshold() {
     assert!(ch["val.X"].iter().all(|&v| v == 1.0));
 }
 
-/// Chunks carry the AOV sums: two chunks merge into the single render bit for bit; a list
-/// with a name twice is a bad scene (exit 3).
+/// Chunks carry the AOV sums: two chunks merge into the single render bit for bit, SPPM's
+/// too (its AOVs depend on the iterations' camera rays alone, `sppm_extras.rs`, whatever
+/// each chunk's photons gave); a list with a name twice is a bad scene (exit 3).
 #[test]
 fn aovs_merge_from_chunks_and_bad_lists_are_refused() {
     let dir = temp_dir();
     let scene = layered_scene(dir.path(), 0.3, 0.5);
     let p = |n: &str| dir.path().join(n);
-    let base = ["--resolution", "8x8", "--passes", "shader_aovs"];
-    let single = render(&scene, &p("single.exr"), &[&base[..], &["--spp", "4"]].concat());
-    render(&scene, &p("a.exr"), &[&base[..], &["--spp", "1", "--chunk"]].concat());
-    render(&scene, &p("b.exr"), &[&base[..], &["--spp", "3", "--sample-offset", "1", "--chunk"]].concat());
-    let (a, b, m) = (p("a.exr"), p("b.exr"), p("merged.exr"));
-    let r = run(&["merge", a.to_str().unwrap(), b.to_str().unwrap(), "-o", m.to_str().unwrap()], LIMIT);
-    assert_eq!(r.code, Some(0), "{}", r.stderr);
-    let merged = channels(&m);
-    assert!(single.contains_key("val.X") && single.contains_key("pos.A"));
-    for (name, v) in &single {
-        let w = &merged[name];
-        assert!(v.iter().zip(w).all(|(x, y)| x.to_bits() == y.to_bits()), "{name} differs after the merge");
+    for (integrator, count) in [("path", "--spp"), ("sppm", "--sppm-iterations")] {
+        let base = ["--resolution", "8x8", "--passes", "shader_aovs", "--integrator", integrator];
+        let single = render(&scene, &p("single.exr"), &[&base[..], &[count, "4"]].concat());
+        render(&scene, &p("a.exr"), &[&base[..], &[count, "1", "--chunk"]].concat());
+        render(&scene, &p("b.exr"), &[&base[..], &[count, "3", "--sample-offset", "1", "--chunk"]].concat());
+        let (a, b, m) = (p("a.exr"), p("b.exr"), p("merged.exr"));
+        let r = run(&["merge", a.to_str().unwrap(), b.to_str().unwrap(), "-o", m.to_str().unwrap()], LIMIT);
+        assert_eq!(r.code, Some(0), "{integrator}: {}", r.stderr);
+        let merged = channels(&m);
+        assert!(single.contains_key("val.X") && single.contains_key("pos.A"));
+        // SPPM's chunks are independent runs: its Combined is their weighted mean (tests/merge.rs).
+        let compared =
+            |name: &str| integrator == "path" || ["val.", "pos.", "unwritten."].iter().any(|a| name.starts_with(a));
+        for (name, v) in single.iter().filter(|(n, _)| compared(n)) {
+            let w = &merged[name];
+            assert!(
+                v.iter().zip(w).all(|(x, y)| x.to_bits() == y.to_bits()),
+                "{integrator}: {name} differs after the merge"
+            );
+        }
     }
     let mut doc: Value = serde_json::from_slice(&std::fs::read(&scene).unwrap()).unwrap();
     doc["scenes"][0]["extras"]["caustic"]["shader_aovs"]["aovs"][1]["name"] = json!("pos");
@@ -236,4 +232,93 @@ fn aovs_merge_from_chunks_and_bad_lists_are_refused() {
     let r = run(&["render", scene.to_str().unwrap(), "-o", p("bad.exr").to_str().unwrap()], LIMIT);
     assert_eq!(r.code, Some(3), "{}", r.stderr);
     assert!(r.stderr.contains("'pos' is listed twice"), "{}", r.stderr);
+}
+
+/// `position_scene`'s quad over the left half of the frame only ([-1, 0] × [-1, 1]), under a
+/// world graph (a grey Background) whose AOV Output nodes write its Generated coordinate (the
+/// direction, in Blender's axes) to "pos" and 3 × its average to "val"; `world` adds fields
+/// to `CAUSTIC_world` (visibility), `settings` to the render settings.
+fn world_scene(dir: &Path, world: Value, settings: Value) -> PathBuf {
+    let mut g = GltfBuilder::new();
+    let m = g.material(node_material("plane", position_nodes(), json!([1, "Emission"])));
+    g.mesh(&[[-1., -1., 0.], [0., -1., 0.], [0., 1., 0.], [-1., 1., 0.]], &[0, 1, 2, 0, 2, 3], m);
+    g.orthographic([0.0, 0.0, 5.0], [0.0, 0.0, 0.0, 1.0], 1.0, 1.0);
+    g.use_ext("CAUSTIC_materials_nodes");
+    let mut st = aov_settings(json!([]), 0.5);
+    if let (Value::Object(s), Value::Object(more)) = (&mut st, settings) {
+        s.extend(more);
+    }
+    g.settings(st);
+    let nodes = json!([
+        {"name": "Coords", "type": "ShaderNodeTexCoord"},
+        {"name": "Background", "type": "ShaderNodeBackground",
+         "inputs": {"Color": {"value": [0.2, 0.2, 0.2, 1]}, "Strength": {"value": 1.0}}},
+        {"name": "Thrice", "type": "ShaderNodeMath", "props": {"operation": "MULTIPLY"},
+         "inputs": {"Value": {"link": [0, "Generated"]}, "Value_001": {"value": 3.0}}},
+        {"name": "World pos", "type": "ShaderNodeOutputAOV", "props": {"aov_name": "pos"},
+         "inputs": {"Color": {"link": [0, "Generated"]}}},
+        {"name": "World val", "type": "ShaderNodeOutputAOV", "props": {"aov_name": "val"},
+         "inputs": {"Value": {"link": [2, "Value"]}}}
+    ]);
+    let mut w = json!({"nodes": {"version": 1, "nodes": nodes, "output": {"surface": [1, "Background"]}}});
+    if let (Value::Object(w), Value::Object(more)) = (&mut w, world) {
+        w.extend(more);
+    }
+    g.world(w);
+    g.write(dir, "world_aovs.gltf")
+}
+
+/// The world's AOV Output nodes write where the camera sees the world, in every integrator
+/// (Cycles' background shader): the orthographic camera looks along glTF −Z, Blender's +Y, so
+/// "pos" is (0, 1, 0) with alpha 1 and "val" 3 × 1/3 there, while the quad's half keeps its own
+/// values. Not with the world hidden from the camera, nor with Film → Transparent unless the
+/// Environment pass is on (Cycles skips the background shader then; warned).
+#[test]
+fn world_aovs_where_the_camera_sees_the_world() {
+    let dir = temp_dir();
+    let out = dir.path().join("w.exr");
+    let res = 8usize;
+    let render_with = |scene: &Path, integrator: &str, passes: &str| -> (BTreeMap<String, Vec<f32>>, String) {
+        let args = [
+            "--resolution",
+            "8x8",
+            "--spp",
+            "2",
+            "--sppm-iterations",
+            "2",
+            "--passes",
+            passes,
+            "--integrator",
+            integrator,
+        ];
+        let r =
+            run(&[&["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap()][..], &args[..]].concat(), LIMIT);
+        assert_eq!(r.code, Some(0), "{integrator}: {}", r.stderr);
+        (channels(&out), r.stderr)
+    };
+    // Pixel columns 0..4 see the quad (x < 0), 4..8 the world.
+    let world_px = |f: &dyn Fn(usize) -> bool| (0..res * res).filter(|i| i % res >= res / 2).all(f);
+    let scene = world_scene(dir.path(), json!({}), json!({}));
+    for integrator in ["path", "bdpt", "photon", "vcm", "sppm"] {
+        let (ch, _) = render_with(&scene, integrator, "shader_aovs");
+        // 3 × (0 + 1 + 0) / 3 in f32: within an ulp of 1.
+        let ok = |i: usize| {
+            [ch["pos.R"][i], ch["pos.G"][i], ch["pos.B"][i], ch["pos.A"][i]] == [0.0, 1.0, 0.0, 1.0]
+                && (ch["val.X"][i] - 1.0).abs() <= f32::EPSILON
+        };
+        assert!(world_px(&ok), "{integrator}: the world's AOVs {:?} {:?}", ch["pos.G"], ch["val.X"]);
+        // The quad's pixels keep the quad's: "pos" its position (z = 0 → Blender's y = 0).
+        let quad = (0..res * res).filter(|i| i % res < res / 2);
+        assert!(quad.clone().all(|i| ch["pos.G"][i] == 0.0 && ch["pos.R"][i] < 0.0), "{integrator}: {:?}", ch["pos.R"]);
+    }
+    let hidden = world_scene(dir.path(), json!({"visibility": {"camera": false}}), json!({}));
+    let (ch, _) = render_with(&hidden, "path", "shader_aovs");
+    assert!(world_px(&|i| ch["pos.A"][i] == 0.0 && ch["val.X"][i] == 0.0), "a world hidden from the camera wrote");
+    let transparent = world_scene(dir.path(), json!({}), json!({"transparent": true}));
+    let (ch, stderr) = render_with(&transparent, "path", "shader_aovs");
+    assert!(world_px(&|i| ch["pos.A"][i] == 0.0), "a transparent film's world wrote");
+    assert!(stderr.contains("Film → Transparent unless the Environment pass is on"), "{stderr}");
+    let (ch, stderr) = render_with(&transparent, "path", "shader_aovs,environment");
+    assert!(world_px(&|i| ch["pos.A"][i] == 1.0), "the Environment pass did not bring the world's AOVs");
+    assert!(!stderr.contains("Film → Transparent"), "{stderr}");
 }

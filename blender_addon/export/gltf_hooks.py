@@ -145,7 +145,7 @@ class glTF2ExportUserExtension:
             return  # a few objects for the running scene, which keeps its own world
         try:
             folder = export_settings["gltf_filedirectory"]
-            value, warnings = world_extension(blender_scene, folder, state.image_writer(folder))
+            value, warnings = world_extension(blender_scene, folder, state.image_writer(folder), state.depsgraph)
             state.warnings.extend(warnings)
             if value is not None:
                 attach_extension(gltf2_scene, WORLD_EXTENSION, value)

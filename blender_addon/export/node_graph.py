@@ -424,6 +424,11 @@ class _Builder:
         return [source[1], source[2]] if source is not None and source[0] == "link" else None
 
 
+def has_aov_outputs(tree):
+    """Whether `tree` (or a group it uses) has an unmuted AOV Output node."""
+    return tree is not None and bool(_aov_outputs(tree, ()))
+
+
 def _aov_outputs(tree, scope, depth=0):
     """(scope, node) of each unmuted AOV Output node of `tree` and of the groups it uses."""
     found = []
@@ -463,7 +468,8 @@ def build_world_graph(world, context):
         return None
     builder = _Builder(world, context)
     builder.what = f"world '{world.name}'"
-    return builder.run(output)
+    # Cycles' background shader writes the world's AOVs where the camera sees the world.
+    return builder.run(output, with_aovs=context.with_aovs)
 
 
 def build_volume_graph(material, shader_node, context):

@@ -2,14 +2,15 @@
 Background node, optionally an equirectangular Environment Texture and a Mapping rotation about
 Z, as colour/strength/image/rotation; any other World Output Surface (Sky Texture, procedural
 textures, Mix/Add Shader of backgrounds, converters) as its whole node graph (`nodes`, in the
-shape of `CAUSTIC_materials_nodes`)."""
+shape of `CAUSTIC_materials_nodes`), and so is a world with AOV Output nodes when the view layer
+has shader AOVs (Cycles writes them where the camera sees the world)."""
 
 import os
 
 import bpy
 
 from .media import volume_medium
-from .node_graph import GraphContext, build_world_graph
+from .node_graph import GraphContext, build_world_graph, has_aov_outputs
 from .nodes import linked_node
 from .visibility import world_visibility
 
@@ -23,14 +24,15 @@ _IMAGE_EXTENSIONS = {"HDR": ".hdr", "OPEN_EXR": ".exr", "OPEN_EXR_MULTILAYER": "
 _PLAIN_WORLD_NODES = {"BACKGROUND", "TEX_ENVIRONMENT", "MAPPING", "TEX_COORD"}
 
 
-def world_extension(scene, folder, writer=None):
+def world_extension(scene, folder, writer=None, depsgraph=None):
     """The `CAUSTIC_world` value for the scene's world, and warnings about what it drops.
 
     A Background node (colour × strength) on the active World Output, whose colour may come
     from an Environment Texture (equirectangular) optionally rotated about Z by a Mapping node,
     is written in the plain form (the image file, or the packed image's bytes, is copied next
     to the glTF, at full float precision); any other Surface graph is written as `nodes`, its
-    images through `writer` (node_images.ImageWriter). A volume shader on the Volume output is
+    images through `writer` (node_images.ImageWriter), as is one with AOV Output nodes when
+    the view layer of `depsgraph` has shader AOVs. A volume shader on the Volume output is
     `medium`: fog filling the scene.
     """
     world = scene.world
@@ -38,10 +40,17 @@ def world_extension(scene, folder, writer=None):
         return None, []
     warnings = []
     value, warnings = _world_surface(world, folder, warnings)
-    if writer is not None and (warnings or not _plain_world(world)):
-        graph_value, graph_warnings = _world_graph(world, writer)
+    context = GraphContext(depsgraph)
+    tree = world.node_tree if getattr(world, "use_nodes", True) else None
+    aovs = context.with_aovs and has_aov_outputs(tree)
+    graph_value = None
+    if writer is not None and (warnings or aovs or not _plain_world(world)):
+        graph_value, graph_warnings = _world_graph(world, writer, context)
         if graph_value is not None:
             value, warnings = graph_value, graph_warnings
+    if aovs and writer is not None and graph_value is None:
+        warnings.append(f"world '{world.name}': its AOV Output nodes are not rendered (the World Output's "
+                        "Surface is not linked)")
     medium = _world_volume(world, warnings)
     if medium is not None:
         # A world without a surface is black; its fog still counts.
@@ -168,10 +177,10 @@ def _plain_world(world):
     return True
 
 
-def _world_graph(world, writer):
+def _world_graph(world, writer, context):
     """The `nodes` form of `CAUSTIC_world` and its warnings, or (None, []) without a Cycles
-    World Output."""
-    graph = build_world_graph(world, GraphContext())
+    World Output or a linked Surface; the AOV Output nodes come along when `context` asks for them."""
+    graph = build_world_graph(world, context)
     if graph is None or graph.output["surface"] is None:
         return None, []
     warnings = list(graph.warnings)

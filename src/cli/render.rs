@@ -144,6 +144,21 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         reporter.warning(&w);
         run_warnings.push(w);
     }
+    if !scene.shader_aovs.world.is_empty()
+        && res.transparent
+        && !res.passes.contains(crate::passes::Pass::Environment)
+        && res.passes.shader_aov_channels() > 0
+    {
+        // Cycles shades no background for a transparent film's camera rays unless the
+        // Environment pass is on (`integrate_background`): the world's AOVs stay empty.
+        scene.shader_aovs.world.clear();
+        scene.shader_aovs.world_graph = None;
+        let w = "the world's AOV Output nodes write nothing with Film → Transparent unless the Environment pass is on \
+                 (as in Cycles)"
+            .to_string();
+        reporter.warning(&w);
+        run_warnings.push(w);
+    }
     if res.passes.asks_light_groups() && scene.light_groups.is_empty() {
         let w = "the light group passes were asked for, but the scene declares no light groups: none is written"
             .to_string();
@@ -276,7 +291,11 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
             ..PathIntegrator::new(res.max_depth, res.transparent)
         }),
         IntegratorKind::Sppm => {
-            Integrator::Sppm(SppmIntegrator::new(res.max_depth, res.photon.clone(), res.transparent))
+            // A chunk keeps SPPM's sums of Combined and of every pass (`sppm_passes::into_film`).
+            Integrator::Sppm(SppmIntegrator {
+                keep_sums: args.chunk,
+                ..SppmIntegrator::new(res.max_depth, res.photon.clone(), res.transparent)
+            })
         }
         IntegratorKind::Bdpt => Integrator::Bdpt(BdptIntegrator {
             ledger,

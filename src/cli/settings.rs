@@ -312,17 +312,6 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
         passes.set_cryptomatte_levels(levels);
     }
     passes.cryptomatte()?;
-    let sppm_own =
-        crate::integrator::photon::sppm_extras::wanted(passes) || passes.any_light() || passes.light_groups() > 0;
-    if sppm_own && integrator == IntegratorKind::Sppm && args.chunk {
-        // An SPPM chunk is written as its image's means times its iterations
-        // (`chunk::film_from_image`), which keeps no sums of these passes.
-        return Err(Error::Usage(
-            "the data passes, Cryptomatte, shader AOVs, light passes and light groups of 'sppm' cannot be split into chunks (--chunk): \
-             render the frame whole or use another integrator"
-                .into(),
-        ));
-    }
     if passes.any_crypto() && args.chunk {
         // Cryptomatte's slots are filled in sample order (a full pixel counts a new id in
         // its last slot): a chunk keeps each pixel's whole first-seen list for the merge.

@@ -8,8 +8,10 @@
 //! each hit the material's AOVs are added; a surface at least as opaque as the threshold
 //! is the last; a more transparent one is passed with probability 1 − alpha (Cycles picks
 //! its transparent closure by weight, which is 1 − alpha of the closures' total), else
-//! the path turned there and writes nothing more. Costs one closest-hit ray per surface
-//! walked, only when the render asks for shader AOVs.
+//! the path turned there and writes nothing more. A ray that leaves the scene on the way
+//! reaches the world, whose AOV Output nodes then write (Cycles' background shader, with
+//! the camera ray's path flags and ray length `FLT_MAX`). Costs one closest-hit ray per
+//! surface walked, only when the render asks for shader AOVs.
 
 use super::SceneContext;
 use super::walk::MAX_TRANSPARENT_HITS;
@@ -47,6 +49,9 @@ pub fn fill(
     let mut path = LightPath::CAMERA_RAY;
     for k in 0..=MAX_TRANSPARENT_HITS {
         let Some(hit) = ctx.intersect_as(org, ray.dir, tmax, RayMask::CAMERA) else {
+            if let Some(world) = &aovs.world_graph {
+                world.write_aovs(ray.dir, path.at(f32::MAX), &aovs.world, &mut out.shader_aovs);
+            }
             return;
         };
         stats.camera += 1;

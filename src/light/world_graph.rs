@@ -12,6 +12,8 @@
 //! unbiased since the density is the table's wherever the graph is evaluated.
 
 use crate::math::Rgb;
+use crate::scene::light_path::LightPath;
+use crate::scene::shader_aovs::{AovSums, AovTarget};
 use crate::scene::texture::Texture;
 use crate::shader::closure::Closures;
 use crate::shader::geom::{Geom, NO_OBJECT, from_blender};
@@ -29,18 +31,18 @@ pub const DEFAULT_BAKE_WIDTH: usize = 1024;
 /// The largest table width.
 pub const MAX_BAKE_WIDTH: usize = 4096;
 
-/// A compiled world graph and the images it reads.
+/// A compiled world graph and the images it reads (shared: the shader AOVs keep a copy).
 #[derive(Clone, Debug)]
 pub struct WorldGraph {
     program: Arc<Program>,
     /// The graph's images (its Image/Environment Texture nodes index these).
-    textures: Vec<Texture>,
+    textures: Arc<Vec<Texture>>,
 }
 
 impl WorldGraph {
     /// The graph and its own images.
     pub fn new(program: Program, textures: Vec<Texture>) -> WorldGraph {
-        WorldGraph { program: Arc::new(program), textures }
+        WorldGraph { program: Arc::new(program), textures: Arc::new(textures) }
     }
 
     /// The compiled program.
@@ -48,9 +50,10 @@ impl WorldGraph {
         &self.program
     }
 
-    /// Radiance arriving from glTF direction `d` (unit, pointing away from the scene).
-    pub fn radiance(&self, d: Vec3) -> Rgb {
-        let g = Geom {
+    /// The shading point of glTF direction `d` (unit, pointing away from the scene) for a ray
+    /// of path state `path`.
+    fn geom(&self, d: Vec3, path: LightPath) -> Geom<'_> {
+        Geom {
             p: d,
             n: -d,
             ng: -d,
@@ -64,15 +67,33 @@ impl WorldGraph {
             // No surface: a Bump in a world graph finds none and keeps the normal.
             mesh: &crate::scene::mesh::EMPTY_MESH,
             tri: u32::MAX,
-            // The world is baked for every ray alike: it is lit as light sampling sees it.
-            path: crate::scene::light_path::LightPath::LIGHT_EMISSION,
+            path,
             // Baked before the render's camera is known: Camera and Window give 0 (warned).
             view: &crate::shader::geom::NO_VIEW,
-        };
+        }
+    }
+
+    /// Radiance arriving from glTF direction `d` (unit, pointing away from the scene).
+    pub fn radiance(&self, d: Vec3) -> Rgb {
+        // The world is baked for every ray alike: it is lit as light sampling sees it.
+        let g = self.geom(d, LightPath::LIGHT_EMISSION);
         let mut out = Closures::default();
         with_registers(|regs| self.program.run(&g, regs, &mut out));
         let e = out.emission;
         if e.is_finite() { e.max(Vec3::ZERO) } else { Vec3::ZERO }
+    }
+
+    /// Adds the values of the graph's AOV Output nodes `targets` for a camera ray of path
+    /// state `path` leaving the scene along `d` to `sums`, as Cycles' background shader
+    /// writes them where the camera sees the world (`crate::shader::aov`).
+    pub fn write_aovs(&self, d: Vec3, path: LightPath, targets: &[AovTarget], sums: &mut AovSums) {
+        let g = self.geom(d, path);
+        with_registers(|regs| {
+            let mut closures = Closures::default();
+            self.program.run(&g, regs, &mut closures);
+            self.program.run_aovs(&g, regs);
+            crate::shader::aov::add_targets(&self.program, targets, regs, sums);
+        });
     }
 
     /// Directions (glTF) of the visible sun discs of Sky Textures reading the direction

@@ -9,6 +9,12 @@
 //! AOV's A channel is the fraction of samples that wrote it (`integrator::shader_aovs`
 //! walks the camera ray). A node naming an AOV the view layer does not have writes nothing,
 //! as in Cycles (the loader warns, naming the material and node).
+//!
+//! The world's AOV Output nodes write where the camera ray leaves the scene (Cycles shades
+//! the background with the camera ray's path flags, `integrator_eval_background_shader`, and
+//! an AOV node keeps the world from its constant-colour shortcut): not when the world is
+//! hidden from camera rays, nor with Film → Transparent unless the Environment pass is on
+//! (Cycles then skips the background shader, `integrate_background`; `caustic render` warns).
 
 use crate::scene::material::Material;
 use serde::{Deserialize, Serialize};
@@ -87,6 +93,10 @@ pub struct ShaderAovs {
     pub alpha_threshold: f32,
     /// Per material (indexed as `Scene::materials`), its nodes' targets.
     pub by_material: Vec<Vec<AovTarget>>,
+    /// The world graph's nodes' targets (empty: the world writes none).
+    pub world: Vec<AovTarget>,
+    /// The world graph whose nodes `world` names.
+    pub world_graph: Option<crate::light::world_graph::WorldGraph>,
 }
 
 impl ShaderAovSpec {
@@ -126,13 +136,15 @@ impl Default for AovSums {
 }
 
 impl ShaderAovs {
-    /// Resolves `spec` (checked) against the materials' AOV Output nodes; `warn` receives a
-    /// message for each node naming an AOV the view layer does not have. Without a list
-    /// (the viewport, a file without AOVs) no AOV is rendered and nothing is said: asking
-    /// for the AOVs of such a scene is warned by the render command.
+    /// Resolves `spec` (checked) against the materials' AOV Output nodes and those of the
+    /// world graph `world` (None: a world without AOV nodes, or hidden from the camera);
+    /// `warn` receives a message for each node naming an AOV the view layer does not have.
+    /// Without a list (the viewport, a file without AOVs) no AOV is rendered and nothing is
+    /// said: asking for the AOVs of such a scene is warned by the render command.
     pub fn resolve(
         spec: Option<&ShaderAovSpec>,
         materials: &[Material],
+        world: Option<&crate::light::world_graph::WorldGraph>,
         mut warn: impl FnMut(String),
     ) -> Result<ShaderAovs, String> {
         let Some(spec) = spec.filter(|s| !s.aovs.is_empty()) else {
@@ -145,25 +157,32 @@ impl ShaderAovs {
             offsets.push(channels);
             channels += a.kind.channels().len();
         }
+        // The AOV Output nodes of a program that name one of the list's AOVs; `warn` names the others.
+        let mut targets_of = |prog: &crate::shader::instructions::Program, owner: &str| {
+            let mut targets = Vec::new();
+            for (k, out) in prog.aovs.iter().enumerate() {
+                match spec.aovs.iter().position(|a| a.name == out.name) {
+                    Some(i) => {
+                        targets.push(AovTarget { output: k as u16, offset: offsets[i] as u8, kind: spec.aovs[i].kind })
+                    }
+                    None => warn(unlisted(owner, &out.node, &out.name)),
+                }
+            }
+            targets
+        };
         let by_material = materials
             .iter()
-            .map(|m| {
-                let Some(prog) = &m.nodes else { return Vec::new() };
-                let mut targets = Vec::new();
-                for (k, out) in prog.aovs.iter().enumerate() {
-                    match spec.aovs.iter().position(|a| a.name == out.name) {
-                        Some(i) => targets.push(AovTarget {
-                            output: k as u16,
-                            offset: offsets[i] as u8,
-                            kind: spec.aovs[i].kind,
-                        }),
-                        None => warn(unlisted(m, &out.node, &out.name)),
-                    }
-                }
-                targets
-            })
+            .map(|m| m.nodes.as_ref().map_or_else(Vec::new, |prog| targets_of(prog, &format!("material '{}'", m.name))))
             .collect();
-        Ok(ShaderAovs { specs: spec.aovs.clone(), channels, alpha_threshold: spec.alpha_threshold, by_material })
+        let world_targets = world.map_or_else(Vec::new, |g| targets_of(g.program(), "the world"));
+        Ok(ShaderAovs {
+            specs: spec.aovs.clone(),
+            channels,
+            alpha_threshold: spec.alpha_threshold,
+            by_material,
+            world_graph: world.filter(|_| !world_targets.is_empty()).cloned(),
+            world: world_targets,
+        })
     }
 
     /// The targets of material `m`.
@@ -173,11 +192,10 @@ impl ShaderAovs {
     }
 }
 
-fn unlisted(m: &Material, node: &str, aov: &str) -> String {
+fn unlisted(owner: &str, node: &str, aov: &str) -> String {
     format!(
-        "material '{}': the AOV Output node '{node}' writes the AOV '{aov}', which the view layer does not list: \
-         it writes nothing (as in Cycles)",
-        m.name
+        "{owner}: the AOV Output node '{node}' writes the AOV '{aov}', which the view layer does not list: \
+         it writes nothing (as in Cycles)"
     )
 }
 

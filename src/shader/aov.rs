@@ -32,19 +32,25 @@ pub fn write(scene: &Scene, prog: &Program, targets: &[AovTarget], s: &SurfaceHi
         let mut closures = Closures::default();
         prog.run(&g, regs, &mut closures);
         prog.run_aovs(&g, regs);
-        for t in targets {
-            let node = &prog.aovs[t.output as usize];
-            let at = t.offset as usize;
-            match t.kind {
-                AovKind::Color => {
-                    let c = node.color as usize;
-                    for k in 0..3 {
-                        sums.0[at + k] += regs[c + k];
-                    }
-                    sums.0[at + 3] += 1.0;
-                }
-                AovKind::Value => sums.0[at] += regs[node.value as usize],
-            }
-        }
+        add_targets(prog, targets, regs, sums);
     });
+}
+
+/// Adds what program `prog`'s AOV Output nodes `targets` read from `regs` (after `run` and
+/// `run_aovs`) to `sums`: a colour with alpha 1, or a value.
+pub fn add_targets(prog: &Program, targets: &[AovTarget], regs: &[f32], sums: &mut AovSums) {
+    for t in targets {
+        let node = &prog.aovs[t.output as usize];
+        let at = t.offset as usize;
+        match t.kind {
+            AovKind::Color => {
+                let c = node.color as usize;
+                for k in 0..3 {
+                    sums.0[at + k] += regs[c + k];
+                }
+                sums.0[at + 3] += 1.0;
+            }
+            AovKind::Value => sums.0[at] += regs[node.value as usize],
+        }
+    }
 }

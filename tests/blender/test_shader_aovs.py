@@ -8,8 +8,10 @@ coordinates) to "tint" and its Geometry Position (a vector into a value socket: 
 "height"; in front of part of the cube a plane of Mix(white Diffuse 0.3, Transparent 0.7), alpha
 0.3 below the 0.5 threshold, writing 0.25 to "height": behind it the camera ray writes the cube's
 AOVs too whenever it passes the plane (probability 0.7 in both renderers: Cycles picks the
-Transparent closure by its share of the closures' weights, 0.7 of a white Diffuse's 0.3). 48x36,
-64 samples, test_passes.py's settings.
+Transparent closure by its share of the closures' weights, 0.7 of a white Diffuse's 0.3). The
+world (seen above the floor's far edge) writes its Generated coordinate, the ray's direction, to
+"tint" and that direction's average to "height" (Cycles' background shader writes a world's AOVs
+where the camera sees it). 48x36, 64 samples, test_passes.py's settings.
 
 Bound per channel mean, derived as in test_passes.py: two seeds per renderer give each image
 mean's variance from 8x8 blocks (the noise is the pixel filter's sampling across edges and the
@@ -69,7 +71,26 @@ def veil_material():
     return mat
 
 
+def world_with_aovs():
+    """A dark grey world whose AOV Output nodes write the direction (Generated) to "tint" and
+    its average to "height"."""
+    world = bpy.data.worlds.new("Sky")
+    if hasattr(world, "use_nodes"):
+        world.use_nodes = True
+    tree = world.node_tree
+    tree.nodes.clear()
+    out = tree.nodes.new("ShaderNodeOutputWorld")
+    background = tree.nodes.new("ShaderNodeBackground")
+    background.inputs["Color"].default_value = (0.05, 0.05, 0.05, 1.0)
+    tree.links.new(background.outputs["Background"], out.inputs["Surface"])
+    coords = tree.nodes.new("ShaderNodeTexCoord")
+    aov_output(tree, "tint", "Color", coords.outputs["Generated"])
+    aov_output(tree, "height", "Value", coords.outputs["Generated"])
+    return world
+
+
 def build(scene, with_aovs=True):
+    scene.world = world_with_aovs()
     scenes.plane(scene, "Floor", 8.0, material=scenes.diffuse_material("Grey", 0.5))
     scenes.cube(scene, "Box", 2.0, (0.0, 0.6, 1.0), material=cube_material())
     scenes.mesh_object(scene, "Veil", [(-1.6, -0.8, 0.1), (0.2, -0.8, 0.1), (0.2, -0.8, 2.4), (-1.6, -0.8, 2.4)],
@@ -128,3 +149,26 @@ def test_no_aov_passes_without_aovs(empty_scene, tmp_path):
     p = render_passes(scene, "CAUSTIC", 1, str(tmp_path / "plain.exr"))
     assert "tint" not in p and "height" not in p
 
+
+
+def test_world_aovs_export_with_the_graph(addon, empty_scene, tmp_path):
+    """A plain world (a Background colour) with AOV Output nodes is exported as its graph with
+    them when the view layer has AOVs, and as the plain colour without; a world whose Surface
+    is not linked names its unrendered AOV nodes in a warning."""
+    from test_node_graph_export import export
+
+    scene = empty_scene
+    scene.world = world_with_aovs()
+    gltf, state, _ = export(addon, scene, tmp_path / "plain")
+    assert "nodes" not in gltf["scenes"][0]["extensions"]["CAUSTIC_world"], "AOV nodes without AOVs"
+    scene.view_layers[0].aovs.add().name = "tint"
+    gltf, state, _ = export(addon, scene, tmp_path / "aovs")
+    nodes = gltf["scenes"][0]["extensions"]["CAUSTIC_world"]["nodes"]["nodes"]
+    assert sorted(n["props"]["aov_name"] for n in nodes if n["type"] == "ShaderNodeOutputAOV") == ["height", "tint"]
+    assert not [w for w in state.warnings if "world" in w], state.warnings
+    tree = scene.world.node_tree
+    for link in list(tree.links):
+        if link.to_node.type == "OUTPUT_WORLD":
+            tree.links.remove(link)
+    _, state, _ = export(addon, scene, tmp_path / "unlinked")
+    assert any("AOV Output nodes are not rendered" in w for w in state.warnings), state.warnings

@@ -42,7 +42,9 @@
 //! estimates, and `caustic merge` averages them weighted by their iterations. This
 //! reduces the variance, not the bias of the first iterations' larger radii, and is not
 //! bit for bit a single run of all the iterations (which the path tracer, BDPT and Jensen
-//! photon mapping give).
+//! photon mapping give). A chunk (`keep_sums`) returns its sums as a film: its image's means
+//! times the iterations (the light passes and groups too, `sppm_passes::into_film`) and the
+//! side film's exact sums of the camera ray's passes (`sppm_extras.rs`).
 
 use super::kdtree::KnnResult;
 use super::lobes::Split;
@@ -50,7 +52,7 @@ use super::sppm_passes::{GatherSplit, SplitSums};
 use super::trace::{MapKind, TraceJob, trace_photons};
 use super::{PhotonMap, PhotonSettings, default_sppm_photons};
 use crate::bsdf::Bsdf;
-use crate::film::{CameraSample, DEPTH_BACKGROUND, FilmImage};
+use crate::film::{CameraSample, DEPTH_BACKGROUND, Film, FilmImage};
 use crate::integrator::SceneContext;
 use crate::integrator::light_passes::shares_at;
 use crate::light::emit::Emitters;
@@ -177,12 +179,14 @@ pub struct SppmIntegrator {
     pub settings: PhotonSettings,
     /// Camera rays that miss show nothing (Film → Transparent), as in the path tracer.
     pub transparent_background: bool,
+    /// Return the image's sums as a film (`RenderResult::film`) for a chunk (`--chunk`).
+    pub keep_sums: bool,
 }
 
 impl SppmIntegrator {
     /// SPPM with the given settings.
     pub fn new(max_depth: u32, settings: PhotonSettings, transparent_background: bool) -> Self {
-        SppmIntegrator { max_depth, settings, transparent_background }
+        SppmIntegrator { max_depth, settings, transparent_background, keep_sums: false }
     }
 
     /// Parameters, for logs and the summary.
@@ -209,10 +213,7 @@ impl SppmIntegrator {
         stop: &AtomicBool,
         on_progress: &(dyn Fn(&Progress) + Sync),
     ) -> RenderResult {
-        let (mut r, st) =
-            render(ctx, camera, job, self.max_depth, &self.settings, self.transparent_background, stop, on_progress);
-        // The passes of the camera ray alone, over the completed iterations.
-        super::sppm_extras::fill(ctx, camera, job, st.iterations, &mut r.image, &mut r.rays);
+        let (mut r, st) = render(ctx, camera, job, self, stop, on_progress);
         r.integrator_stats = Some(serde_json::json!({
             "sppm": st,
             "photons_per_sec": st.photons as f64 / st.photon_seconds.max(1e-9),
@@ -222,17 +223,15 @@ impl SppmIntegrator {
 }
 
 /// Renders the job's window with SPPM (see [`SppmIntegrator::render`]).
-#[allow(clippy::too_many_arguments)]
 fn render(
     ctx: &SceneContext,
     camera: &CameraRays,
     job: &RenderJob,
-    max_depth: u32,
-    settings: &PhotonSettings,
-    transparent_background: bool,
+    sppm: &SppmIntegrator,
     stop: &AtomicBool,
     on_progress: &(dyn Fn(&Progress) + Sync),
 ) -> (RenderResult, SppmStats) {
+    let (max_depth, settings, transparent_background) = (sppm.max_depth, &sppm.settings, sppm.transparent_background);
     let [x0, y0, x1, y1] = job.window;
     let (w, h) = (x1 - x0, y1 - y0);
     let npix = (w * h) as usize;
@@ -439,12 +438,25 @@ fn render(
         });
     }
     let mut image = image(&states, w, h, st.iterations);
+    let area = |i: usize| {
+        let r = states[i].r as f64;
+        (r > 0.0).then_some(std::f64::consts::PI * r * r)
+    };
     if split_on {
-        super::sppm_passes::write(&mut image, job.passes, &sums, st.iterations, |i| {
-            let r = states[i].r as f64;
-            (r > 0.0).then_some(std::f64::consts::PI * r * r)
-        });
+        super::sppm_passes::write(&mut image, job.passes, &sums, st.iterations, area);
     }
+    // The passes of the camera ray alone, over the completed iterations.
+    let side = super::sppm_extras::fill(ctx, camera, job, st.iterations, &mut image, &mut rays);
+    // A chunk's sums: the side film's exact ones, and the means times the iterations of
+    // what SPPM reduces per pixel (Combined, the light passes and groups).
+    let film = sppm.keep_sums.then(|| {
+        let mut film = side.unwrap_or_else(|| Film::with_passes(w, h, crate::render::TILE_SIZE, job.passes));
+        crate::chunk::set_means(&mut film, &image);
+        if split_on {
+            super::sppm_passes::into_film(&mut film, job.passes, &sums, st.iterations, area);
+        }
+        film
+    });
     (
         RenderResult {
             image,
@@ -458,7 +470,7 @@ fn render(
             light_paths: 0,
             splats: 0,
             integrator_stats: None,
-            film: None,
+            film,
         },
         st,
     )

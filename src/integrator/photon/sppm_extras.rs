@@ -22,7 +22,9 @@ pub fn wanted(passes: PassSet) -> bool {
 }
 
 /// Fills `img`'s data passes, Cryptomatte and shader AOVs for `iterations` completed
-/// iterations of `job`, counting the rays in `rays`. Nothing when none is asked.
+/// iterations of `job`, counting the rays in `rays`, and returns the side film whose sums
+/// they are (a chunk's sums of them: they depend only on the sample indices, so SPPM's
+/// chunks merge them exactly). Nothing when none is asked.
 pub fn fill(
     ctx: &SceneContext,
     camera: &CameraRays,
@@ -30,9 +32,9 @@ pub fn fill(
     iterations: u32,
     img: &mut FilmImage,
     rays: &mut RayStats,
-) {
+) -> Option<Film> {
     if !wanted(job.passes) || iterations == 0 {
-        return;
+        return None;
     }
     let [x0, y0, x1, y1] = job.window;
     let mut film = Film::with_passes(x1 - x0, y1 - y0, TILE_SIZE, job.passes);
@@ -77,4 +79,5 @@ pub fn fill(
     img.extra.extend(side.extra.into_iter().filter(|(p, _)| !p.is_light()));
     img.crypto = side.crypto;
     img.shader_aovs = side.shader_aovs;
+    Some(film)
 }

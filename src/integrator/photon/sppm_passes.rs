@@ -7,8 +7,13 @@
 //! class of the camera path's first bounce; by light group with each photon's group. The
 //! split τ's take the same radius-reduction ratio as τ, so passes and groups keep summing to
 //! Combined. Allocated only when a light pass or light group is asked for.
+//!
+//! A chunk (`--chunk`) keeps them as SPPM keeps Combined (`chunk::set_means`): each pixel's
+//! value (Direct and Indirect before their division by Colour) times the iterations, so
+//! that `caustic merge` weighs the chunks' passes by their iterations as it weighs their
+//! Combined, and the merged passes still sum to the merged Combined.
 
-use crate::film::{CameraSample, FilmImage};
+use crate::film::{CameraSample, Film, FilmImage};
 use crate::math::Rgb;
 use crate::passes::{PassSet, divide_even_color, slot};
 use crate::scene::light_groups::{GroupSums, MAX};
@@ -88,6 +93,25 @@ impl SplitSums {
     }
 }
 
+/// A pixel's value of a light slot triple `at`: the camera pass's mean plus τ's share of it
+/// (`inv` = 1 / iterations, `area` the pixel's π r², None when no photons were gathered).
+fn slot_value(s: &SplitSums, at: usize, inv: f64, area: Option<f64>) -> [f32; 3] {
+    let mut v = DVec3::new(s.ld[at], s.ld[at + 1], s.ld[at + 2]) * inv;
+    if let (Some(k), Some(a)) = (TAU_SLOTS.iter().position(|&t| t == at), area) {
+        v += s.tau[k] * inv / a;
+    }
+    v.as_vec3().to_array()
+}
+
+/// A pixel's value of light group `g` (as [`slot_value`]).
+fn group_value(s: &SplitSums, g: usize, inv: f64, area: Option<f64>) -> [f32; 3] {
+    let mut v = s.ld_groups[g] * inv;
+    if let Some(a) = area {
+        v += s.tau_groups[g] * inv / a;
+    }
+    v.as_vec3().to_array()
+}
+
 /// Writes the light passes and light groups `passes` asks for into `img`, from `sums` after
 /// `iters` iterations; `area(i)` is pixel i's π r² (None: no photons were gathered).
 pub fn write(
@@ -99,23 +123,15 @@ pub fn write(
 ) {
     let n = sums.len();
     let inv = 1.0 / iters.max(1) as f64;
-    // A pixel's value of a slot triple: the camera pass's mean plus τ's share of it.
-    let value = |i: usize, at: usize| -> [f32; 3] {
-        let s = &sums[i];
-        let mut v = DVec3::new(s.ld[at], s.ld[at + 1], s.ld[at + 2]) * inv;
-        if let (Some(k), Some(a)) = (TAU_SLOTS.iter().position(|&t| t == at), area(i)) {
-            v += s.tau[k] * inv / a;
-        }
-        v.as_vec3().to_array()
-    };
     for pass in passes.iter().filter(|p| p.is_light()) {
         let Some(at) = pass.slot() else { continue };
         // Direct and Indirect are written divided by their Colour pass, as the film does.
         let col = pass.divided_by().and_then(|c| c.slot());
         let mut data = vec![0.0f32; n * 3];
         for (i, px) in data.chunks_exact_mut(3).enumerate() {
-            let v = value(i, at);
-            px.copy_from_slice(&col.map_or(v, |c| divide_even_color(v, value(i, c))));
+            let value = |at: usize| slot_value(&sums[i], at, inv, area(i));
+            let v = value(at);
+            px.copy_from_slice(&col.map_or(v, |c| divide_even_color(v, value(c))));
         }
         img.extra.push((pass, data));
     }
@@ -124,14 +140,45 @@ pub fn write(
         .map(|g| {
             let mut data = vec![0.0f32; n * 3];
             for (i, px) in data.chunks_exact_mut(3).enumerate() {
-                let s = &sums[i];
-                let mut v = s.ld_groups[g] * inv;
-                if let Some(a) = area(i) {
-                    v += s.tau_groups[g] * inv / a;
-                }
-                px.copy_from_slice(&v.as_vec3().to_array());
+                px.copy_from_slice(&group_value(&sums[i], g, inv, area(i)));
             }
             data
         })
         .collect();
+}
+
+/// Sets the light slots and light-group sums of `film` (a chunk's: the window's size, with
+/// `passes`) to the values [`write`] gives, undivided, times `iters`, so that `Film::image`
+/// reads them back (Direct and Indirect then divided by their Colour from these sums).
+pub fn into_film(
+    film: &mut Film,
+    passes: PassSet,
+    sums: &[SplitSums],
+    iters: u32,
+    area: impl Fn(usize) -> Option<f64>,
+) {
+    let inv = 1.0 / iters.max(1) as f64;
+    let slots = passes.slots();
+    let groups = passes.light_groups();
+    let w = film.width;
+    for (i, s) in sums.iter().enumerate() {
+        let (x, y) = (i as u32 % w, i as u32 / w);
+        let a = area(i);
+        let (acc, group_sums) = film.pixel_extra_mut(x, y);
+        // The light passes come in RGB triples from their first slot: fill the kept ones.
+        let mut m = slots;
+        for v in acc.iter_mut() {
+            let k = m.trailing_zeros() as usize;
+            m &= m - 1;
+            if k < LIGHT_SLOTS {
+                let at = k - k % 3;
+                *v = crate::chunk::mean_times(slot_value(s, at, inv, a)[k % 3], iters);
+            }
+        }
+        for (g, acc) in group_sums[..3 * groups].chunks_exact_mut(3).enumerate() {
+            for (v, c) in acc.iter_mut().zip(group_value(s, g, inv, a)) {
+                *v = crate::chunk::mean_times(c, iters);
+            }
+        }
+    }
 }

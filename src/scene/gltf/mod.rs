@@ -166,6 +166,8 @@ struct Loader<'a> {
     files_read: std::cell::RefCell<Vec<(String, u64)>>,
     /// Whether the file declares KHR_mesh_quantization (integer vertex attributes).
     quantization: quantized::Quantization,
+    /// The world graph, when it has AOV Output nodes (for `ShaderAovs::resolve`).
+    world_aovs: Option<crate::light::world_graph::WorldGraph>,
 }
 
 /// An emitter's light linking rules: receivers, blockers (`CAUSTIC_light_linking`).
@@ -184,6 +186,7 @@ impl<'a> Loader<'a> {
             profile: LoadProfile::default(),
             files_read: Default::default(),
             quantization: quantized::Quantization::Core,
+            world_aovs: None,
         }
     }
 
@@ -568,11 +571,18 @@ impl<'a> Loader<'a> {
             glowing_media,
         )?;
         let mut aov_warnings = Vec::new();
-        let shader_aovs =
-            crate::scene::shader_aovs::ShaderAovs::resolve(settings.shader_aovs.as_ref(), &materials, |w| {
-                aov_warnings.push(w)
-            })
-            .map_err(|e| self.err(format!("render settings 'shader_aovs': {e}")))?;
+        // Cycles evaluates no background shader for a ray the world is hidden from.
+        let world_aovs = match self.world_rays(&value)?.meets(crate::scene::visibility::RayMask::CAMERA) {
+            true => self.world_aovs.take(),
+            false => None,
+        };
+        let shader_aovs = crate::scene::shader_aovs::ShaderAovs::resolve(
+            settings.shader_aovs.as_ref(),
+            &materials,
+            world_aovs.as_ref(),
+            |w| aov_warnings.push(w),
+        )
+        .map_err(|e| self.err(format!("render settings 'shader_aovs': {e}")))?;
         for w in aov_warnings {
             self.warn(w);
         }

@@ -146,7 +146,7 @@ impl Loader<'_> {
         });
         if light_path {
             // The world is one table for every ray: what the camera sees is what lights the scene.
-            self.warn("world: the Light Path node reads as for light sampling (Is Camera Ray 0, Ray Depth 1) for every ray, the camera's too");
+            self.warn("world: the Light Path node reads as for light sampling (Is Camera Ray 0, Ray Depth 1) for every ray, the camera's too (its AOV Output nodes alone read the camera ray's)");
         }
         let camera = prog.ops.iter().any(|op| {
             use crate::shader::instructions::{InputKind, Op};
@@ -160,6 +160,10 @@ impl Loader<'_> {
             self.warn("world: a BSDF or Transparent shader on the World Output renders nothing (black, as in Cycles)");
         }
         let graph = crate::light::world_graph::WorldGraph::new(prog, textures);
+        if !graph.program().aovs.is_empty() {
+            // Its AOV Output nodes write where the camera sees the world (`scene::shader_aovs`).
+            self.world_aovs = Some(graph.clone());
+        }
         let width = graph.bake_width();
         // The table: radiance (12 B) and its distribution (≈ 8 B) per texel.
         self.budget.charge(format!("world table ({width}×{})", width / 2), (width * width / 2) as u64 * 20)?;
