@@ -157,3 +157,118 @@ impl Program {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::compile::compile;
+    use super::super::geom::{ObjectData, geom_at};
+    use super::super::graph::NodesExt;
+    use crate::scene::mesh::Mesh;
+    use glam::{Vec2, Vec3, Vec4};
+    use serde_json::{Value, json};
+
+    /// One triangle, tilted and away from the origin (so the Bump's offsets are not along the
+    /// axes), with every attribute `geom_at` reads.
+    fn triangle() -> Mesh {
+        let positions = vec![Vec3::new(-2.0, -1.0, 0.5), Vec3::new(3.0, -1.5, 1.0), Vec3::new(0.5, 2.5, -0.5)];
+        let n = (positions[1] - positions[0]).cross(positions[2] - positions[0]).normalize();
+        Mesh {
+            positions,
+            normals: vec![n, (n + Vec3::X * 0.1).normalize(), (n - Vec3::Y * 0.1).normalize()],
+            tangents: vec![Vec4::new(1.0, 0.0, 0.0, 1.0); 3],
+            uv0: vec![Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(0.0, 1.0)],
+            uv1: vec![Vec2::ZERO; 3],
+            colors: vec![Vec4::ONE; 3],
+            triangles: vec![[0, 1, 2]],
+            tri_material: vec![0],
+            tri_object: vec![0],
+        }
+    }
+
+    /// The graph's register file after a run with its lane-form Bump equals the one after a
+    /// run with `Program::bump`'s three passes, bit for bit, at many points; returns how many
+    /// points' bumped normals differ from the unbumped one (so that the test sees a bump).
+    fn lanes_match_passes(nodes: Value, expect_lanes: bool) -> usize {
+        let ext: NodesExt =
+            serde_json::from_value(json!({"version": 1, "nodes": nodes, "output": {"surface": [0, "BSDF"]}})).unwrap();
+        let lanes = compile("m", &ext, &[]).unwrap().program;
+        assert_eq!(lanes.lane_bump.is_some(), expect_lanes);
+        let mut passes = lanes.clone();
+        passes.lane_bump = None;
+        let mesh = triangle();
+        let objects = [ObjectData::default()];
+        let mut tilted = 0;
+        for i in 0..400 {
+            let (b1, b2) = ((i % 20) as f32 / 21.0 + 0.01, (i / 20) as f32 / 23.0 * 0.95);
+            if b1 + b2 >= 1.0 {
+                continue;
+            }
+            let g = geom_at(&mesh, &objects, &[], 0, b1, b2);
+            let run = |p: &super::super::instructions::Program| {
+                let (mut r, mut out) = (Vec::new(), super::super::closure::Closures::default());
+                p.run(&g, &mut r, &mut out);
+                (r, out.normal)
+            };
+            let (a, na) = run(&lanes);
+            let (b, nb) = run(&passes);
+            assert_eq!(a.iter().map(|x| x.to_bits()).collect::<Vec<_>>(), b.iter().map(|x| x.to_bits()).collect::<Vec<_>>());
+            assert_eq!(na.map(|n| n.to_array().map(f32::to_bits)), nb.map(|n| n.to_array().map(f32::to_bits)));
+            let n = na.expect("the Principled BSDF's Normal is linked");
+            // A bumped normal moves by far more than f32 rounding of a unit vector (1e-7).
+            tilted += ((n - super::super::geom::to_blender(g.n)).length() > 1e-4) as usize;
+        }
+        tilted
+    }
+
+    /// The 3-D fBm Noise with distortion (its lane form) and a Voronoi and Math chain (one
+    /// dispatch per lane) as the height, as in `bench/node_graph.py`.
+    #[test]
+    fn noise_voronoi_math_height() {
+        let nodes = json!([
+            {"name": "bsdf", "type": "ShaderNodeBsdfPrincipled", "inputs": {"Normal": {"link": [5, "Normal"]}}},
+            {"name": "tc", "type": "ShaderNodeTexCoord"},
+            {"name": "noise", "type": "ShaderNodeTexNoise", "props": {"noise_dimensions": "3D", "noise_type": "FBM"},
+             "inputs": {"Vector": {"link": [1, "Object"]}, "Scale": {"value": 5.0}, "Detail": {"value": 3.5},
+                        "Distortion": {"value": 0.3}}},
+            {"name": "vor", "type": "ShaderNodeTexVoronoi", "inputs": {"Vector": {"link": [1, "Object"]}, "Scale": {"value": 4.0}}},
+            {"name": "pow", "type": "ShaderNodeMath", "props": {"operation": "POWER"},
+             "inputs": {"Value": {"link": [2, "Fac"]}, "Value_001": {"link": [3, "Distance"]}}},
+            {"name": "bump", "type": "ShaderNodeBump", "inputs": {"Strength": {"value": 0.8}, "Distance": {"value": 0.1},
+             "Height": {"link": [4, "Value"]}}}
+        ]);
+        assert!(lanes_match_passes(nodes, true) > 100);
+    }
+
+    /// A Noise whose Scale depends on the point (its lanes differ: each lane runs alone) and
+    /// a colour height (its conversion to a float belongs to the height).
+    #[test]
+    fn point_dependent_settings_and_a_colour_height() {
+        let nodes = json!([
+            {"name": "bsdf", "type": "ShaderNodeBsdfPrincipled", "inputs": {"Normal": {"link": [4, "Normal"]}}},
+            {"name": "tc", "type": "ShaderNodeTexCoord"},
+            {"name": "sep", "type": "ShaderNodeSeparateXYZ", "inputs": {"Vector": {"link": [1, "Object"]}}},
+            {"name": "noise", "type": "ShaderNodeTexNoise", "props": {"noise_dimensions": "3D", "noise_type": "FBM"},
+             "inputs": {"Vector": {"link": [1, "Object"]}, "Scale": {"link": [2, "X"]}}},
+            {"name": "bump", "type": "ShaderNodeBump", "inputs": {"Distance": {"value": 0.5},
+             "Height": {"link": [3, "Color"]}}}
+        ]);
+        assert!(lanes_match_passes(nodes, true) > 100);
+    }
+
+    /// A Bump whose height reads another Bump: the inner one (first in order) takes the
+    /// lanes, the outer one the passes, whose re-runs hold the inner one.
+    #[test]
+    fn nested_bumps() {
+        let nodes = json!([
+            {"name": "bsdf", "type": "ShaderNodeBsdfPrincipled", "inputs": {"Normal": {"link": [5, "Normal"]}}},
+            {"name": "tc", "type": "ShaderNodeTexCoord"},
+            {"name": "noise", "type": "ShaderNodeTexNoise", "props": {"noise_dimensions": "3D"},
+             "inputs": {"Vector": {"link": [1, "Object"]}, "Scale": {"value": 3.0}}},
+            {"name": "inner", "type": "ShaderNodeBump", "inputs": {"Height": {"link": [2, "Fac"]}}},
+            {"name": "dot", "type": "ShaderNodeVectorMath", "props": {"operation": "DOT_PRODUCT"},
+             "inputs": {"Vector": {"link": [3, "Normal"]}, "Vector_001": {"link": [1, "Object"]}}},
+            {"name": "outer", "type": "ShaderNodeBump", "inputs": {"Height": {"link": [4, "Value"]}}}
+        ]);
+        assert!(lanes_match_passes(nodes, true) > 100);
+    }
+}
