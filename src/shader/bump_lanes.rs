@@ -211,7 +211,10 @@ mod tests {
             };
             let (a, na) = run(&lanes);
             let (b, nb) = run(&passes);
-            assert_eq!(a.iter().map(|x| x.to_bits()).collect::<Vec<_>>(), b.iter().map(|x| x.to_bits()).collect::<Vec<_>>());
+            assert_eq!(
+                a.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+                b.iter().map(|x| x.to_bits()).collect::<Vec<_>>()
+            );
             assert_eq!(na.map(|n| n.to_array().map(f32::to_bits)), nb.map(|n| n.to_array().map(f32::to_bits)));
             let n = na.expect("the Principled BSDF's Normal is linked");
             // A bumped normal moves by far more than f32 rounding of a unit vector (1e-7).

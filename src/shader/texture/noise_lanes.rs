@@ -12,9 +12,9 @@ use glam::Vec3;
 
 use super::float_ops::fmod_pos;
 use super::noise::{NoiseParams, offset_3d};
-use super::perlin::{REPEAT, mix, perlin_3d};
 #[cfg(target_arch = "x86_64")]
 use super::perlin::LATTICE_KERNEL_LIMIT;
+use super::perlin::{REPEAT, mix, perlin_3d};
 #[cfg(target_arch = "x86_64")]
 use super::simd::{has_avx2, perlin_3d_mixed_shared};
 
