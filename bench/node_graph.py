@@ -9,9 +9,16 @@ Principled Base Color; Map Range → Roughness; RGB to BW → Bump → Normal).
 Usage:
     cargo build --release
     python3 bench/node_graph.py [--binary target/release/caustic] [--callgrind]
+    .venv/bin/python bench/node_graph.py --cycles [--pairs 3]
 
 Prints each render's user CPU time (or, with --callgrind, the instructions of
 `render::render`, which a shared machine does not disturb) and the ratio graph / plain.
+With --cycles the same two materials are rendered by Cycles instead (bpy: the plain scene
+imported from the same glTF, the graph built as Blender nodes from the same list), one
+thread, 320x240, 16 spp, in alternating pairs; each render's time is the user CPU of
+`bpy.ops.render.render` alone, less the same render at 1 spp (scene sync, shader compile and
+kernel start-up), so that the ratio compares 15 spp of sampling and shading. --sampling-only
+measures Caustic the same way (16 spp less 1 spp, user CPU of the process).
 """
 import argparse
 import base64
@@ -67,9 +74,10 @@ graph={"name":"graph","extensions":{"CAUSTIC_materials_nodes":{"version":1,"node
 
 
 
-def run(binary, path, callgrind, out_dir):
+def run(binary, path, callgrind, out_dir, spp=None):
+    spp = spp or (4 if callgrind else 16)
     args = [binary, "render", path, "-o", os.path.join(out_dir, "o.exr"), "--resolution", "80x60" if callgrind else "320x240",
-            "--spp", "4" if callgrind else "16", "--threads", "1"]
+            "--spp", str(spp), "--threads", "1"]
     if callgrind:
         cg = os.path.join(out_dir, "cg.out")
         subprocess.run(["valgrind", "--tool=callgrind", "--callgrind-out-file=" + cg] + args, check=True,
@@ -82,19 +90,119 @@ def run(binary, path, callgrind, out_dir):
     return resource.getrusage(resource.RUSAGE_CHILDREN).ru_utime - before
 
 
+def cycles_material(bpy, spec):
+    """The graph's node list as a Blender material (the same nodes, inputs and links)."""
+    mat = bpy.data.materials.new("graph")
+    tree = mat.node_tree
+    tree.nodes.clear()
+    made = []
+    for n in N:
+        node = tree.nodes.new(n["type"])
+        for key, val in n.get("props", {}).items():
+            if key == "color_ramp":
+                # The exported table samples a linear ramp between two stops at 0 and 1.
+                els = node.color_ramp.elements
+                els[0].position, els[0].color = 0.0, val["table"][0]
+                els[1].position, els[1].color = 1.0, val["table"][-1]
+                node.color_ramp.interpolation = val["interpolation"]
+            else:
+                setattr(node, key, val)
+        made.append(node)
+    def socket(sockets, ident):
+        # The extension names a socket by its identifier where names repeat (Value_001), else
+        # by name; an unknown one is an error in this list, not something to skip.
+        found = ([s for s in sockets if s.identifier == ident] or [s for s in sockets if s.name == ident]
+                 or [s for s in sockets if s.name == ident.replace("_", " ")])
+        if not found:
+            raise KeyError(f"no socket {ident!r} among {[s.identifier for s in sockets]}")
+        return found[0]
+    for node, n in zip(made, N):
+        for ident, inp in n.get("inputs", {}).items():
+            sock = socket(node.inputs, ident)
+            if "link" in inp:
+                src, out = inp["link"]
+                tree.links.new(socket(made[src].outputs, out), sock)
+            else:
+                sock.default_value = inp["value"]
+    out = tree.nodes.new("ShaderNodeOutputMaterial")
+    src, name = spec["output"]["surface"]
+    tree.links.new(socket(made[src].outputs, name), out.inputs["Surface"])
+    return mat
+
+
+def cycles_times(gltf, pairs):
+    """User CPU seconds of Cycles' sampling (16 spp less 1 spp) for the plain and graph materials."""
+    import bpy
+    bpy.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)
+    bpy.ops.import_scene.gltf(filepath=gltf)
+    scene = bpy.context.scene
+    scene.camera = next(o for o in scene.objects if o.type == "CAMERA")
+    quad = next(o for o in scene.objects if o.type == "MESH")
+    mats = {"plain": quad.material_slots[0].material,
+            "graph": cycles_material(bpy, graph["extensions"]["CAUSTIC_materials_nodes"])}
+    r = scene.render
+    r.engine = "CYCLES"
+    r.resolution_x, r.resolution_y, r.resolution_percentage = 320, 240, 100
+    r.threads_mode, r.threads = "FIXED", 1
+    c = scene.cycles
+    c.device = "CPU"
+    c.use_adaptive_sampling = c.use_denoising = False
+    def render(name, spp):
+        quad.material_slots[0].material = mats[name]
+        c.samples = spp
+        # User CPU of this process (Cycles renders on one thread here): unlike the wall
+        # clock it does not count the time other programs hold the core.
+        t0 = resource.getrusage(resource.RUSAGE_SELF).ru_utime
+        bpy.ops.render.render()
+        return resource.getrusage(resource.RUSAGE_SELF).ru_utime - t0
+    for name in mats:  # warm-up: kernels and shader compile once
+        render(name, 1)
+    times = {"plain": [], "graph": []}
+    for _ in range(pairs):
+        for name in ("plain", "graph"):
+            times[name].append(render(name, 16) - render(name, 1))
+    return times
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--binary", default=os.path.join(ROOT, "target", "release", "caustic"))
     ap.add_argument("--callgrind", action="store_true")
+    ap.add_argument("--cycles", action="store_true", help="render with Cycles through bpy instead")
+    ap.add_argument("--pairs", type=int, default=3, help="alternating render pairs (--cycles, --sampling-only)")
+    ap.add_argument("--sampling-only", action="store_true", help="Caustic's user CPU at 16 spp less 1 spp, as --cycles")
     a = ap.parse_args()
+    if a.cycles:
+        with tempfile.TemporaryDirectory() as d:
+            path = os.path.join(d, "plain.gltf")
+            scene(plain, path)
+            t = cycles_times(path, a.pairs)
+        for name in t:
+            print(f"cycles {name}: " + " ".join(f"{x:.3f}" for x in t[name]) + " s")
+        ratios = [g / p for g, p in zip(t["graph"], t["plain"])]
+        print(f"{len(N)} nodes; Cycles graph / plain per pair: " + " ".join(f"{x:.2f}" for x in ratios)
+              + f"; of the minima {min(t['graph']) / min(t['plain']):.2f}")
+        return
     with tempfile.TemporaryDirectory() as d:
         paths = {}
         for name, m in (("plain", plain), ("graph", graph)):
             paths[name] = os.path.join(d, name + ".gltf")
             scene(m, paths[name])
-        cost = {name: run(a.binary, p, a.callgrind, d) for name, p in paths.items()}
+        if a.sampling_only:
+            # Alternating pairs, as for Cycles: the minimum of each is the least disturbed.
+            runs = {name: [] for name in paths}
+            for _ in range(a.pairs):
+                for name, p in paths.items():
+                    runs[name].append(run(a.binary, p, False, d) - run(a.binary, p, False, d, spp=1))
+            for name in runs:
+                print(f"caustic {name}: " + " ".join(f"{x:.3f}" for x in runs[name]) + " s")
+            cost = {name: min(v) for name, v in runs.items()}
+        else:
+            cost = {name: run(a.binary, p, a.callgrind, d) for name, p in paths.items()}
     unit = "instructions" if a.callgrind else "s user"
-    print(f"{len(N)} nodes; plain {cost['plain']} {unit}, graph {cost['graph']} {unit}, ratio {cost['graph'] / cost['plain']:.2f}")
+    fmt = (lambda x: str(x)) if a.callgrind else (lambda x: f"{x:.3f}")
+    print(f"{len(N)} nodes; plain {fmt(cost['plain'])} {unit}, graph {fmt(cost['graph'])} {unit}, "
+          f"ratio {cost['graph'] / cost['plain']:.2f}")
 
 
 if __name__ == "__main__":

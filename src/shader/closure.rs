@@ -120,10 +120,18 @@ pub struct Closures {
     pub dropped: bool,
 }
 
+/// An empty mixture, built once: `MixBsdf::new` builds its placeholder Principled BSDF
+/// (albedo table lookups, ~760 instructions; callgrind, `bench/node_graph.py`), which every
+/// shading point paid before its closures replaced it. A copy is ~90.
+fn empty_mix() -> MixBsdf {
+    static EMPTY: std::sync::LazyLock<MixBsdf> = std::sync::LazyLock::new(MixBsdf::new);
+    *EMPTY
+}
+
 impl Default for Closures {
     fn default() -> Self {
         Closures {
-            mix: MixBsdf::new(),
+            mix: empty_mix(),
             pbr: zero_params(),
             pbr_w: 0.0,
             emission: Rgb::ZERO,

@@ -2,6 +2,7 @@
 //! register file, their tables (ramps, curves) and the compiled `Program` that holds
 //! them. Evaluation is in `program.rs`.
 
+use super::bump_lanes::LaneBump;
 use super::closure::ClosureOp;
 use super::geom::Reg;
 use super::image_node::ImageOp;
@@ -368,6 +369,8 @@ pub struct Program {
     pub surface_end: usize,
     /// The AOV Output nodes, their inputs' registers after the whole program ran.
     pub aovs: Vec<AovOutput>,
+    /// The first Bump, run with its three heights as lanes (`shader::bump_lanes`).
+    pub lane_bump: Option<LaneBump>,
 }
 
 /// One AOV Output node of a material.

@@ -2,6 +2,7 @@
 pub mod texture;
 
 pub mod aov;
+pub mod bump_lanes;
 pub mod closure;
 pub mod compile;
 pub mod geom;

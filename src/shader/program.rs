@@ -58,7 +58,11 @@ impl Program {
     pub fn run(&self, g: &Geom, regs: &mut Vec<f32>, out: &mut Closures) {
         regs.clear();
         regs.extend_from_slice(&self.init);
-        self.steps(&self.ops[..self.surface_end.min(self.ops.len())], g, regs, out);
+        let end = self.surface_end.min(self.ops.len());
+        match &self.lane_bump {
+            Some(l) => self.run_lanes(l, g, regs, out, end),
+            None => self.steps(&self.ops[..end], g, regs, out),
+        }
     }
 
     /// One operation.
@@ -87,7 +91,7 @@ impl Program {
 
     /// The work of one operation (out of line: see `steps`).
     #[inline(never)]
-    fn dispatch(&self, op: &Op, g: &Geom, r: &mut [f32], out: &mut Closures) {
+    pub(super) fn dispatch(&self, op: &Op, g: &Geom, r: &mut [f32], out: &mut Closures) {
         match *op {
             Op::Math { op, a, b, c, out, clamp } => {
                 let v = ops::math(op, r[a as usize], r[b as usize], r[c as usize]);
@@ -286,81 +290,54 @@ impl Program {
     /// P, below any texture detail), which is the limit the footprint tends to for fine
     /// pixels: N' = normalize(N − Distance ∇h) blended with N by Strength.
     fn bump(&self, b: &BumpOp, g: &Geom, r: &mut [f32], out: &mut Closures) {
+        let Some(off) = bump_offsets(g) else {
+            return self.bump_finish(b, g, r, None);
+        };
+        let run_sub = |g2: &Geom, r: &mut [f32], out: &mut Closures| {
+            for &(a, z) in &b.sub {
+                self.steps(&self.ops[a as usize..z as usize], g2, r, out);
+            }
+        };
+        let mut h = [0.0f32; 2];
+        // The offset runs go to a copy of the register file, so the height's registers
+        // keep their centre values without a restore (one copy of the file instead of
+        // two; the second offset overwrites what the first wrote, as it did in place).
+        // A nested bump, whose copy is in use, runs in place and re-runs the centre.
+        let copied = SAVED.with(|s| {
+            let Ok(mut s) = s.try_borrow_mut() else { return false };
+            s.clear();
+            s.extend_from_slice(r);
+            for (k, g2) in off.geom.iter().enumerate() {
+                run_sub(g2, &mut s, out);
+                h[k] = s[b.height as usize];
+            }
+            true
+        });
+        if !copied {
+            for (k, g2) in off.geom.iter().enumerate() {
+                run_sub(g2, r, out);
+                h[k] = r[b.height as usize];
+            }
+            run_sub(g, r, out);
+        }
+        self.bump_finish(b, g, r, Some((off.d, h)));
+    }
+
+    /// The Bump node's normal from the heights `h` at the offsets `d` (None: a degenerate
+    /// triangle, where the input normal passes through).
+    pub(super) fn bump_finish(&self, b: &BumpOp, g: &Geom, r: &mut [f32], offsets: Option<([Vec3; 2], [f32; 2])>) {
         let n_in = b.normal.map_or(g.n, |n| from_blender(v3(r, n)).normalize_or(g.n));
         let hc = r[b.height as usize];
         let mut result = n_in;
-        if let Some(&[i0, i1, i2]) = g.mesh.triangles.get(g.tri as usize) {
-            let m = g.mesh;
-            let (p0, p1, p2) = (m.positions[i0 as usize], m.positions[i1 as usize], m.positions[i2 as usize]);
-            let (e1, e2) = (p1 - p0, p2 - p0);
-            let ng = e1.cross(e2);
-            let (ex, ey) = {
-                let f = Frame::from_normal(ng.normalize_or(Vec3::Z));
-                (f.s, f.t)
-            };
-            let eps = 1e-4 * g.p.abs().max_element().max(1.0);
-            // Barycentrics of a point of the plane: solve p − p0 = b1 e1 + b2 e2.
-            let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
-            let den = d11 * d22 - d12 * d12;
-            let bary = |q: Vec3| {
-                let v = q - p0;
-                let (v1, v2) = (v.dot(e1), v.dot(e2));
-                ((d22 * v1 - d12 * v2) / den, (d11 * v2 - d12 * v1) / den)
-            };
-            if den > 0.0 {
-                let offset_geom = |d: Vec3| {
-                    let (b1, b2) = bary(g.p + d);
-                    let mut g2 = geom_at(m, std::slice::from_ref(g.object), g.textures, g.tri, b1, b2);
-                    g2.object = g.object;
-                    g2.wo = g.wo;
-                    g2.backfacing = g.backfacing;
-                    g2.path = g.path;
-                    g2.view = g.view;
-                    g2.p = g.p + d;
-                    if g2.n.dot(g.n) < 0.0 {
-                        g2.n = -g2.n;
-                        g2.ng = -g2.ng;
-                    }
-                    g2
-                };
-                let run_sub = |g2: &Geom, r: &mut [f32], out: &mut Closures| {
-                    for &(a, z) in &b.sub {
-                        self.steps(&self.ops[a as usize..z as usize], g2, r, out);
-                    }
-                };
-                let offsets = [ex * eps, ey * eps];
-                let mut h = [0.0f32; 2];
-                // The offset runs go to a copy of the register file, so the height's registers
-                // keep their centre values without a restore (one copy of the file instead of
-                // two; the second offset overwrites what the first wrote, as it did in place).
-                // A nested bump, whose copy is in use, runs in place and re-runs the centre.
-                let copied = SAVED.with(|s| {
-                    let Ok(mut s) = s.try_borrow_mut() else { return false };
-                    s.clear();
-                    s.extend_from_slice(r);
-                    for (k, &d) in offsets.iter().enumerate() {
-                        run_sub(&offset_geom(d), &mut s, out);
-                        h[k] = s[b.height as usize];
-                    }
-                    true
-                });
-                if !copied {
-                    for (k, &d) in offsets.iter().enumerate() {
-                        run_sub(&offset_geom(d), r, out);
-                        h[k] = r[b.height as usize];
-                    }
-                    run_sub(g, r, out);
-                }
-                let (dx, dy) = (ex * eps, ey * eps);
-                let rx = dy.cross(n_in);
-                let ry = n_in.cross(dx);
-                let det = dx.dot(rx);
-                let surfgrad = (h[0] - hc) * rx + (h[1] - hc) * ry;
-                let dist = r[b.distance as usize] * if b.invert { -1.0 } else { 1.0 };
-                let bumped = (det.abs() * n_in - dist * det.signum() * surfgrad).normalize_or(n_in);
-                let s = r[b.strength as usize].clamp(0.0, 1.0);
-                result = (s * bumped + (1.0 - s) * n_in).normalize_or(n_in);
-            }
+        if let Some(([dx, dy], h)) = offsets {
+            let rx = dy.cross(n_in);
+            let ry = n_in.cross(dx);
+            let det = dx.dot(rx);
+            let surfgrad = (h[0] - hc) * rx + (h[1] - hc) * ry;
+            let dist = r[b.distance as usize] * if b.invert { -1.0 } else { 1.0 };
+            let bumped = (det.abs() * n_in - dist * det.signum() * surfgrad).normalize_or(n_in);
+            let s = r[b.strength as usize].clamp(0.0, 1.0);
+            result = (s * bumped + (1.0 - s) * n_in).normalize_or(n_in);
         }
         set3(r, b.out, to_blender(result));
     }
@@ -428,4 +405,54 @@ impl Program {
         };
         set3(r, out, v);
     }
+}
+
+/// The Bump node's two offset points: the offsets `d` in the triangle's plane and the
+/// shading point there.
+pub(super) struct BumpOffsets<'a> {
+    pub d: [Vec3; 2],
+    pub geom: [Geom<'a>; 2],
+}
+
+/// The points at which a Bump evaluates its height besides `g` (`Program::bump`'s pair);
+/// None for a degenerate triangle or a point without one.
+pub(super) fn bump_offsets<'a>(g: &Geom<'a>) -> Option<BumpOffsets<'a>> {
+    let &[i0, i1, i2] = g.mesh.triangles.get(g.tri as usize)?;
+    let m = g.mesh;
+    let (p0, p1, p2) = (m.positions[i0 as usize], m.positions[i1 as usize], m.positions[i2 as usize]);
+    let (e1, e2) = (p1 - p0, p2 - p0);
+    let ng = e1.cross(e2);
+    let (ex, ey) = {
+        let f = Frame::from_normal(ng.normalize_or(Vec3::Z));
+        (f.s, f.t)
+    };
+    let eps = 1e-4 * g.p.abs().max_element().max(1.0);
+    // Barycentrics of a point of the plane: solve p − p0 = b1 e1 + b2 e2.
+    let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+    let den = d11 * d22 - d12 * d12;
+    if den <= 0.0 || den.is_nan() {
+        return None;
+    }
+    let bary = |q: Vec3| {
+        let v = q - p0;
+        let (v1, v2) = (v.dot(e1), v.dot(e2));
+        ((d22 * v1 - d12 * v2) / den, (d11 * v2 - d12 * v1) / den)
+    };
+    let offset_geom = |d: Vec3| {
+        let (b1, b2) = bary(g.p + d);
+        let mut g2 = geom_at(m, std::slice::from_ref(g.object), g.textures, g.tri, b1, b2);
+        g2.object = g.object;
+        g2.wo = g.wo;
+        g2.backfacing = g.backfacing;
+        g2.path = g.path;
+        g2.view = g.view;
+        g2.p = g.p + d;
+        if g2.n.dot(g.n) < 0.0 {
+            g2.n = -g2.n;
+            g2.ng = -g2.ng;
+        }
+        g2
+    };
+    let d = [ex * eps, ey * eps];
+    Some(BumpOffsets { d, geom: [offset_geom(d[0]), offset_geom(d[1])] })
 }

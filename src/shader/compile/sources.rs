@@ -267,10 +267,16 @@ impl Compiler<'_> {
                     self.ops.push(Op::Copy3 { src: n, out });
                     return Ok(true);
                 };
+                let hmark = self.ops.len();
                 let height = self.float(i, "Height", 0.0)?;
                 self.all_const = false;
                 let out = self.out(i, "Normal", Ty::Vector);
-                let sub = self.upstream_ranges(src.0);
+                let mut sub = self.upstream_ranges(src.0);
+                // A colour height's conversion to a float lies in this node's range: it is
+                // part of the height (without it the offsets would read the centre's value).
+                if self.ops.len() > hmark {
+                    sub.push((hmark as u32, self.ops.len() as u32));
+                }
                 self.ops.push(Op::Bump(Box::new(BumpOp { strength, distance, invert, height, normal, out, sub })));
             }
             "ShaderNodeTexVoronoi" => {

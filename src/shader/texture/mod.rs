@@ -13,6 +13,7 @@ pub mod gradient;
 pub mod hash;
 pub mod magic;
 pub mod noise;
+pub mod noise_lanes;
 pub mod perlin;
 pub(crate) mod simd;
 pub mod voronoi;

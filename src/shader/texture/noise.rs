@@ -180,6 +180,12 @@ fn node<const COLOR: bool>(p: Vec3, w: f32, prm: &NoiseParams) -> (f32, Vec3) {
     }
 }
 
+/// The 3-D Noise's random offset for seed `seed` (its distortion and colour channels).
+#[inline(always)]
+pub(super) fn offset_3d(seed: f32) -> Vec3 {
+    <Vec3 as Seeded>::random_offset(seed)
+}
+
 /// (Fac, Color) of the Noise Texture node at `p` (and `w` for 1-D and 4-D).
 pub fn noise_texture(p: Vec3, w: f32, prm: &NoiseParams) -> (f32, Vec3) {
     node::<true>(p, w, prm)

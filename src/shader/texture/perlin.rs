@@ -153,7 +153,7 @@ pub fn perlin_3d(x: f32, y: f32, z: f32) -> f32 {
 /// Below this magnitude (2^23) a coordinate's floor fits an i32 and the vector floor equals
 /// `float_ops::floor`; NaN fails the test too. After the `fmod` fix every finite one passes.
 #[cfg(target_arch = "x86_64")]
-const LATTICE_KERNEL_LIMIT: f32 = 8_388_608.0;
+pub(super) const LATTICE_KERNEL_LIMIT: f32 = 8_388_608.0;
 
 /// Unscaled 4-D Perlin noise.
 #[inline]
@@ -181,7 +181,7 @@ pub fn perlin_4d(x: f32, y: f32, z: f32, w: f32) -> f32 {
 /// Period of Cycles' precision fix: coordinates are taken `fmod 100000` on each axis before
 /// the lattice lookup, so large coordinates keep their fractional precision (at the price of a
 /// seam every 100000 units, as in Blender).
-const REPEAT: f32 = 100000.0;
+pub(super) const REPEAT: f32 = 100000.0;
 
 /// A coordinate of 1 to 4 dimensions that signed Perlin noise is defined on; the fractal
 /// functions and the Noise texture are generic over it.

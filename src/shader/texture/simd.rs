@@ -179,6 +179,134 @@ pub(crate) unsafe fn perlin_3d_mixed(p: [f32; 3]) -> f32 {
     _mm_cvtss_f32(_mm_hadd_ps(_mm_mul_ps(b, z), _mm_setzero_ps()))
 }
 
+/// Unscaled 3-D Perlin noise at three points `p` (each |p_k| < 2^23) that lie in one lattice
+/// cell, as three `perlin_3d_mixed` calls compute it, bit for bit; None when their cells
+/// differ (the caller then takes one point at a time). The Bump node's three points, 10⁻⁴
+/// apart, share their cell nearly always: the eight corner hashes and the gradients'
+/// selection masks are computed once for the three, the rest (offsets, gradients, fades and
+/// the mix) per point with the same operations as `lattice_3d` and `perlin_3d_mixed`.
+///
+/// # Safety
+/// The CPU must support AVX2 (`has_avx2`).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+pub(crate) unsafe fn perlin_3d_mixed_shared(p: [[f32; 3]; 3]) -> Option<[f32; 3]> {
+    let v = p.map(|p| _mm_setr_ps(p[0], p[1], p[2], 0.0));
+    let cell = v.map(|v| _mm_floor_ps(v));
+    let i = _mm_cvttps_epi32(cell[0]);
+    let same = _mm_and_si128(
+        _mm_castps_si128(_mm_cmpeq_ps(cell[0], cell[1])),
+        _mm_castps_si128(_mm_cmpeq_ps(cell[0], cell[2])),
+    );
+    // Equal floors as floats are equal cells (signed zeros compare equal and truncate to 0).
+    if _mm_movemask_ps(_mm_castsi128_ps(same)) & 0b111 != 0b111 {
+        return None;
+    }
+    let h = corner_hashes_3d(i);
+    let m = Grad3Masks::new(h);
+    let ((_, fdx), (_, fdy), (_, fdz)) = (corner_bits(0, 0), corner_bits(1, 0), corner_bits(2, 0));
+    let mut out = [0.0f32; 3];
+    for k in 0..3 {
+        let f = _mm_sub_ps(v[k], cell[k]);
+        let fw = _mm256_castps128_ps256(f);
+        let at = |k: i32| _mm256_permutevar8x32_ps(fw, _mm256_set1_epi32(k));
+        let g = m.grad(_mm256_sub_ps(at(0), fdx), _mm256_sub_ps(at(1), fdy), _mm256_sub_ps(at(2), fdz));
+        out[k] = tri_mix8(g, fade4(f));
+    }
+    Some(out)
+}
+
+/// The eight corner hashes `hash_uint3(i + corner)` of 3-D cell `i` (lanes x, y, z of `i`).
+#[cfg(target_arch = "x86_64")]
+#[inline]
+#[target_feature(enable = "avx2")]
+fn corner_hashes_3d(i: __m128i) -> __m256i {
+    let ((dx, _), (dy, _), (dz, _)) = (corner_bits(0, 0), corner_bits(1, 0), corner_bits(2, 0));
+    let s = _mm256_set1_epi32(seed(3));
+    // Lane k of a 128-bit vector broadcast to all eight lanes.
+    let wide = _mm256_castsi128_si256(i);
+    let key = |lanes: __m256i, d: __m256i| _mm256_add_epi32(s, _mm256_add_epi32(lanes, d));
+    finalize8(
+        key(_mm256_permutevar8x32_epi32(wide, _mm256_set1_epi32(0)), dx),
+        key(_mm256_permutevar8x32_epi32(wide, _mm256_set1_epi32(1)), dy),
+        key(_mm256_permutevar8x32_epi32(wide, _mm256_set1_epi32(2)), dz),
+    )
+}
+
+/// Perlin's fade `t t t (t (6 t - 15) + 10)` on each lane, in `perlin::fade`'s order.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+#[target_feature(enable = "avx2")]
+fn fade4(f: __m128) -> __m128 {
+    let t3 = _mm_mul_ps(_mm_mul_ps(f, f), f);
+    let inner =
+        _mm_add_ps(_mm_mul_ps(f, _mm_sub_ps(_mm_mul_ps(f, _mm_set1_ps(6.0)), _mm_set1_ps(15.0))), _mm_set1_ps(10.0));
+    _mm_mul_ps(t3, inner)
+}
+
+/// `perlin::tri_mix` of the eight corners `g` with the fades (lanes x, y, z of `fade`), as
+/// `perlin_3d_mixed` computes it.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+#[target_feature(enable = "avx2")]
+fn tri_mix8(g: __m256, fade: __m128) -> f32 {
+    let rest = _mm_sub_ps(_mm_set1_ps(1.0), fade);
+    // [1 - x, x, 1 - y, y] and [1 - z, z, ..].
+    let xy = _mm_unpacklo_ps(rest, fade);
+    let z = _mm_unpackhi_ps(rest, fade);
+    let wx = _mm_movelh_ps(xy, xy);
+    // Lanes 2k and 2k + 1: v[2k] (1 - x) and v[2k + 1] x; summed in pairs (a0..a3).
+    let prod = _mm256_mul_ps(g, _mm256_insertf128_ps::<1>(_mm256_castps128_ps256(wx), wx));
+    let pairs = _mm256_hadd_ps(prod, prod);
+    let a = _mm_shuffle_ps::<0b01_00_01_00>(_mm256_castps256_ps128(pairs), _mm256_extractf128_ps::<1>(pairs));
+    // (1 - y) a0 + y a1 and (1 - y) a2 + y a3; then (1 - z) b0 + z b1.
+    let b = _mm_hadd_ps(_mm_mul_ps(a, _mm_movehl_ps(xy, xy)), _mm_setzero_ps());
+    _mm_cvtss_f32(_mm_hadd_ps(_mm_mul_ps(b, z), _mm_setzero_ps()))
+}
+
+/// `perlin::grad3`'s choices for eight hashes, made once and applied to several offsets.
+#[cfg(target_arch = "x86_64")]
+struct Grad3Masks {
+    /// h < 8: u = x (else y).
+    lt8: __m256i,
+    /// h is 12 or 14: the second term's fallback is x (else z).
+    x_not_z: __m256i,
+    /// h < 4: v = y (else that fallback).
+    lt4: __m256i,
+    /// Bits 0 and 1 of h: negate u, v.
+    b0: __m256i,
+    b1: __m256i,
+}
+
+#[cfg(target_arch = "x86_64")]
+impl Grad3Masks {
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn new(hash: __m256i) -> Self {
+        let h = _mm256_and_si256(hash, _mm256_set1_epi32(15));
+        let lt = |n: i32| _mm256_cmpgt_epi32(_mm256_set1_epi32(n), h);
+        let eq = |n: i32| _mm256_cmpeq_epi32(h, _mm256_set1_epi32(n));
+        let one = _mm256_set1_epi32(1);
+        Grad3Masks {
+            lt8: lt(8),
+            x_not_z: _mm256_or_si256(eq(12), eq(14)),
+            lt4: lt(4),
+            b0: _mm256_and_si256(h, one),
+            b1: _mm256_and_si256(_mm256_srli_epi32::<1>(h), one),
+        }
+    }
+
+    /// `grad3` of each lane's hash at offset (x, y, z), as `grad3_8`.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn grad(&self, x: __m256, y: __m256, z: __m256) -> __m256 {
+        let u = select(self.lt8, x, y);
+        let vt = select(self.x_not_z, x, z);
+        let v = select(self.lt4, y, vt);
+        _mm256_add_ps(negate_if8::<31>(u, self.b0), negate_if8::<31>(v, self.b1))
+    }
+}
+
 /// The corner gradients and the fades of `perlin_lattice_3d`, in vectors.
 #[cfg(target_arch = "x86_64")]
 #[inline]
