@@ -34,7 +34,8 @@ fn scene(dir: &std::path::Path) -> (caustic::scene::Scene, Accel) {
         "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1.0},
                        "KHR_materials_volume": {"thicknessFactor": 1.0}}
     }));
-    let grey = g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1], "metallicFactor": 0.0}}));
+    let grey =
+        g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1], "metallicFactor": 0.0}}));
     let s = 4.0;
     g.mesh(&[[-s, 0.0, -s], [s, 0.0, -s], [s, 0.0, s], [-s, 0.0, s]], &[0, 2, 1, 0, 3, 2], grey);
     g.cube([-H, 0.0, -H], [H, 2.0 * H, H], glass);
