@@ -54,7 +54,8 @@ fn contact_scene(dir: &std::path::Path) -> std::path::PathBuf {
 
 /// The path tracer walks `PathState::advance`,
 /// recording the triangle left, and looks back (SPPM and Jensen record it after their own
-/// bounces, not after `follow_specular`; BDPT and photon tracing do not yet).
+/// bounces, not after `follow_specular`; BDPT does not yet; photon tracing follows the trap
+/// this makes, mirrored: `photon/contact.rs`, tests/photon_contact.rs).
 #[test]
 fn light_leaving_a_glass_through_a_face_on_the_floor_lands_on_the_floor() {
     let dir = temp_dir();

@@ -37,7 +37,8 @@
 //!
 //! Depth: a photon with hit index j read at the camera path's n-th scattering event
 //! makes a path of (j - 1) + n events; only those within `max_depth` are counted, so
-//! the result converges to the path tracer's at the same maximum depth.
+//! the result converges to the path tracer's at the same maximum depth. At a contact (a
+//! glass resting on a floor) a read counts direct photons only (`contact.rs`).
 //!
 //! Parameters (defaults in `PhotonSettings`): k = 20 neighbours (10 in the caustic map),
 //! maximum radius a tenth of the scene radius, 1 gather ray per camera sample, 1 diffuse
@@ -49,6 +50,7 @@
 //! that would skip them; docs/benchmarks.md), photon-map irradiance caching, emissive
 //! media seen through a map read (their light is in no map).
 
+use super::contact;
 use super::io::PhotonMaps;
 use super::lobes::Split;
 use super::map_read::{self, Want};
@@ -438,6 +440,9 @@ impl JensenIntegrator {
                 }
                 let mapped = (c.roles[0] != Rgb::ZERO || (b > 0 && c.roles[b] != Rgb::ZERO)) && split.has_diffuse(&at);
                 if mapped {
+                    // At a contact (a glass resting on a floor) paths get direct light only
+                    // (`contact.rs`): photons straight from their lights.
+                    let jmax = if contact::at_contact(ctx, &s, c.st.ray) { 1 } else { jmax };
                     let f_d = |p: &super::Photon| split.diffuse(&at, sp.frame.to_local(p.wi()));
                     // Every map read is indirect light (a photon has left its light and
                     // bounced at least once); at the first vertex it is filed by the class

@@ -7,6 +7,8 @@
 //!   at every non-specular hit into a global map and (paths L S+ D) a caustic map;
 //! - `kdtree.rs`: the balanced kd-tree over photons (k nearest neighbours, range queries);
 //! - `estimate.rs`: radiance estimates (cone filter, disc area) and the shared NEE step;
+//! - `contact.rs`: a glass resting on a floor: light reaches the contact only as direct light,
+//!   as the camera walk's look back makes it;
 //! - `lobes.rs`: which part of a BSDF the maps stand for (diffuse-like) and which part
 //!   camera paths follow by sampling (glossy: below the roughness threshold, specular);
 //! - `jensen.rs`: the rendering pass of Jensen's method (NEE + caustic map + final gather);
@@ -31,6 +33,7 @@
 // `!(x > 0.0)` is deliberate throughout: it is also true for NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod contact;
 pub mod estimate;
 pub mod io;
 pub mod jensen;

@@ -31,9 +31,12 @@
 //! Random numbers: photon i of pass `pass` draws from the Owen-scrambled Sobol stream
 //! (seed, salt, pass, i), so the maps depend on (seed, i) only, never on threads; the
 //! photons are traced in fixed chunks in parallel and concatenated in chunk order.
-//! Stochastic transparency (BLEND) lets photons pass as camera rays do.
+//! Stochastic transparency (BLEND) lets photons pass as camera rays do. At a contact (a
+//! glass resting on a floor) a photon that arrives after a scattering, or onto a specular
+//! surface, ends unstored: the camera walk brings no other light there (`contact.rs`).
 
 use super::Photon;
+use super::contact;
 use super::lobes::Split;
 use crate::integrator::SceneContext;
 use crate::integrator::linking;
@@ -248,6 +251,11 @@ fn follow(
         let wo = -path.dir;
         let sp = ctx.shade(&sh, wo);
         let delta = sp.bsdf.is_delta();
+        // At a contact (a glass resting on a floor) light arrives only straight from its
+        // light onto a non-specular surface, as the camera walk's NEE finds it (`contact.rs`).
+        if (path.depth > 1 || delta) && contact::at_contact(ctx, &sh, path.ray) {
+            return;
+        }
         if !delta {
             let caustic = glossy_only && path.depth > 1;
             let store = match job.kind {
