@@ -1,7 +1,7 @@
 //! Vertex connection and merging end to end: it converges to the path tracer's image on the
 //! Cornell box, the glass caustic scene and a scene with media and subsurface scattering;
-//! its connections alone are BDPT bit for bit; it reports its merging; bad settings are
-//! refused.
+//! its connections alone are BDPT bit for bit; direct light is not merged; it reports its
+//! merging; bad settings are refused.
 //!
 //! The statistics (`common::agreement`): K seeds per estimate, Welch's test per region,
 //! Šidák's split. VCM is consistent, not unbiased: merging loses light where the disk of
@@ -108,6 +108,33 @@ fn connections_alone_are_bdpt_bit_for_bit() {
     // With merging the weights change, so the samples do.
     let full = render("f.exr", &["--integrator", "vcm"]);
     assert!(full != b, "merging changed nothing");
+}
+
+/// Direct light is not merged (`bdpt::mis::MIN_MERGE_VERTEX`): with one scattering event
+/// (`--max-depth 1`) no path can be merged, so merging neither adds light nor changes a
+/// weight, and VCM equals its connections alone bit for bit (the Cornell box has no delta
+/// lobe, whose densities are the one other difference between the modes). At two events
+/// merging changes the image.
+#[test]
+fn direct_light_is_not_merged() {
+    let dir = temp_dir();
+    let render = |name: &str, args: &[&str]| {
+        let out = dir.path().join(name);
+        let scene = root().join("scenes/cornell_box.gltf");
+        let mut a = vec!["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap()];
+        a.extend_from_slice(&["--resolution", "32x32", "--spp", "3", "--progress", "none", "--integrator", "vcm"]);
+        a.extend_from_slice(args);
+        let r = run(&a, LIMIT);
+        assert_eq!(r.code, Some(0), "{}", r.stderr);
+        caustic::output::read_combined(&out).unwrap().2
+    };
+    let full = render("f1.exr", &["--max-depth", "1"]);
+    let connect = render("c1.exr", &["--max-depth", "1", "--vcm-mode", "connect"]);
+    assert!(full.iter().any(|p| p[0] > 0.0));
+    assert!(full == connect, "direct light was merged");
+    let full2 = render("f2.exr", &["--max-depth", "2"]);
+    let connect2 = render("c2.exr", &["--max-depth", "2", "--vcm-mode", "connect"]);
+    assert!(full2 != connect2, "light scattered once was not merged");
 }
 
 /// The summary reports the iterations, the shrinking radius and the light vertices merged.

@@ -711,9 +711,11 @@ fn charge_render(budget: &MemoryBudget, args: &RenderArgs, res: &Resolved, scene
             pixels.saturating_mul(splat_bytes).saturating_mul(res.threads as u64 + 1),
         ),
         // VCM: BDPT's splat buffers, plus one iteration's merge records (a light subpath
-        // stores about one per bounce: charged for four per pixel) and their grid, and the
-        // light subpaths kept for the connections (the records' vertices, the light point
-        // and delta vertices: charged for five per pixel).
+        // stores about one per bounce from its second vertex on: 1.5 per pixel on the Cornell
+        // box, 3.2 on door_ajar at 13 bounces; charged for four per pixel) in three copies
+        // (the rows', gathered, in bucket order), their positions (12 bytes) and their grid
+        // (about 16 bytes a record), and the light subpaths kept for the connections (the
+        // records' vertices, the light point and delta vertices: charged for five per pixel).
         IntegratorKind::Vcm => budget.charge(
             format!(
                 "VCM's splat buffers ({} threads + 1), merge records and light subpaths for {pixels} pixels",
@@ -721,7 +723,7 @@ fn charge_render(budget: &MemoryBudget, args: &RenderArgs, res: &Resolved, scene
             ),
             pixels.saturating_mul(
                 splat_bytes * (res.threads as u64 + 1)
-                    + 4 * (std::mem::size_of::<crate::integrator::vcm::merge::MergeRecord>() as u64 + 3 * 4)
+                    + 4 * (3 * std::mem::size_of::<crate::integrator::vcm::merge::MergeRecord>() as u64 + 12 + 16)
                     + 5 * crate::integrator::vcm::light_store::VERTEX_BYTES,
             ),
         ),

@@ -21,9 +21,20 @@
 //! z_m … z_k, and they are joined when within the merging radius r, which happens with
 //! probability a_m π r², for each of the N light subpaths of an iteration. So its density
 //! is P_m = p_m · a_m · η with η = N π r² (`eta_vm`; 0 for BDPT, which has no merging).
+//! Merging is not a strategy at z₁ (`MIN_MERGE_VERTEX`): direct light is left to the
+//! connections, as photon mapping leaves it to shadow rays.
 
 /// Most vertices a path may have (subpath lengths are bounded accordingly).
 pub const MAX_PATH_VERTICES: usize = 130;
+
+/// The first light-subpath vertex merging may take: 2, so merges carry light that has
+/// scattered at least once. Direct light at z₁ is always made by light sampling (s = 1, any
+/// light but a hittable-only one is sampled) and by s = 0 / t = 1; a merge there competed
+/// with light sampling by density (a₁ η against 1) although its estimate, about one photon
+/// within r, is far noisier than a shadow ray (issue 24: it added a fifth to the variance per
+/// sample of the Cornell box). The set of strategies is a property of the vertex index,
+/// the same for every strategy's weight, so the weights still sum to 1.
+pub const MIN_MERGE_VERTEX: usize = 2;
 
 /// The densities of one full path, light end first.
 #[derive(Clone, Debug)]
@@ -74,10 +85,11 @@ impl PathDensities {
         light_end && self.connectible[j]
     }
 
-    /// Whether vertex merging can produce the path at z_m (an interior, connectible vertex).
+    /// Whether vertex merging can produce the path at z_m (an interior, connectible vertex,
+    /// m ≥ `MIN_MERGE_VERTEX`).
     #[inline]
     pub fn mergeable(&self, m: usize) -> bool {
-        self.eta_vm > 0.0 && m >= 1 && m + 1 < self.n && self.connectible[m]
+        self.eta_vm > 0.0 && m >= MIN_MERGE_VERTEX && m + 1 < self.n && self.connectible[m]
     }
 
     /// (P_m / p_m)²: vertex merging at z_m against connection strategy m.

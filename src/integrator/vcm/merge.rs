@@ -6,6 +6,7 @@ use super::mis::{Recursion, Side, merge_weight};
 use crate::film::CameraSample;
 use crate::integrator::SceneContext;
 use crate::integrator::bdpt::Ledger;
+use crate::integrator::bdpt::mis::MIN_MERGE_VERTEX;
 use crate::integrator::bdpt::passes::First;
 use crate::integrator::bdpt::vertex::Vertex;
 use crate::light::origin as lights;
@@ -13,7 +14,8 @@ use crate::math::Rgb;
 use crate::scene::Scene;
 use glam::Vec3;
 
-/// A light subpath vertex as merging needs it (a non-delta surface vertex z_m, m ≥ 1).
+/// A light subpath vertex as merging needs it (a non-delta surface vertex z_m,
+/// m ≥ `MIN_MERGE_VERTEX`).
 #[derive(Clone, Copy, Debug)]
 pub struct MergeRecord {
     /// Position.
@@ -38,8 +40,13 @@ pub struct MergeRecord {
 /// What one iteration's merging needs: the stored vertices, their grid, and the constants.
 #[derive(Debug, Default)]
 pub struct MergeMap {
-    /// Every light subpath's merge records.
+    /// Every light subpath's merge records (in the grid's bucket order after `build`).
     pub records: Vec<MergeRecord>,
+    /// The records in the order they were added (scratch of `build`).
+    unsorted: Vec<MergeRecord>,
+    /// The records' positions, in the same order: the query's distance tests read 12
+    /// bytes a record from here, not a 72-byte record (its loads were the query's cost).
+    positions: Vec<Vec3>,
     /// The records' grid.
     pub grid: HashGrid,
     /// The merging radius r_i.
@@ -51,13 +58,19 @@ pub struct MergeMap {
 }
 
 impl MergeMap {
-    /// Sets the radius of this iteration for `n` light subpaths and rebuilds the grid.
+    /// Sets the radius of this iteration for `n` light subpaths, rebuilds the grid and puts
+    /// the records in its bucket order.
     pub fn build(&mut self, radius: f32, n: u64) {
         self.radius = radius;
         let area = std::f32::consts::PI * radius * radius;
         self.eta = n as f32 * area;
         self.norm = 1.0 / self.eta;
         self.grid.build(self.records.iter().map(|r| r.p), radius);
+        std::mem::swap(&mut self.records, &mut self.unsorted);
+        self.records.clear();
+        self.records.extend(self.grid.order().iter().map(|&i| self.unsorted[i as usize]));
+        self.positions.clear();
+        self.positions.extend(self.records.iter().map(|r| r.p));
     }
 }
 
@@ -71,7 +84,7 @@ pub(crate) fn push_records(scene: &Scene, light: &[Vertex], eta: f32, out: &mut 
     let mut rec = Recursion::start(eta, light[0].pdf_fwd, !light[0].delta, Some(hittable));
     for i in 1..light.len() {
         let v = &light[i];
-        if v.bsdf.is_some_and(|b| !b.is_delta()) {
+        if i >= MIN_MERGE_VERTEX && v.bsdf.is_some_and(|b| !b.is_delta()) {
             out.push(MergeRecord {
                 p: v.p,
                 wo: v.wo,
@@ -84,7 +97,7 @@ pub(crate) fn push_records(scene: &Scene, light: &[Vertex], eta: f32, out: &mut 
             });
         }
         if i + 1 < light.len() {
-            rec.push(v.pdf_fwd, !v.delta, light[i - 1].pdf_rev);
+            rec.push(v.pdf_fwd, !v.delta, light[i - 1].pdf_rev, i >= MIN_MERGE_VERTEX);
         }
     }
 }
@@ -107,14 +120,16 @@ pub(crate) fn merge_camera_path(
     for c in 1..cam.len() {
         if c >= 2 {
             let prev = &cam[c - 1];
-            rec.push(prev.pdf_fwd, !prev.delta, cam[c - 2].pdf_rev);
+            // Beyond any merge's light vertex (m ≥ 2): merging is a strategy there.
+            rec.push(prev.pdf_fwd, !prev.delta, cam[c - 2].pdf_rev, true);
         }
         // Scattering events of a merged path: m - 1 on the light side, this vertex, c - 1.
         if c as u32 > max_depth {
             break;
         }
         let x = &cam[c];
-        let (Some(bsdf), Some(hit)) = (x.bsdf, x.hit) else { continue };
+        // By reference: a BSDF is 672 bytes, and most camera vertices merge nothing.
+        let (Some(bsdf), Some(hit)) = (&x.bsdf, &x.hit) else { continue };
         if bsdf.is_delta() {
             continue;
         }
@@ -123,14 +138,15 @@ pub(crate) fn merge_camera_path(
         let g_prev = cam[c - 1].area_density(1.0, x.p);
         let wo_l = x.frame.to_local(x.wo);
         // The view-side terms (layer albedos, lobe weights) once per camera vertex, not
-        // per merge: f and the camera side's own density share them.
-        let at = bsdf.at(wo_l);
+        // per merge: f and the camera side's own density share them; computed at the
+        // first record found, as most queries find none.
+        let mut at_once = None;
         let m_max = max_depth + 1 - c as u32;
         let vertex = c;
         let mut sum = Rgb::ZERO;
         map.grid.for_each_within(
             x.p,
-            |i| map.records[i as usize].p,
+            |i| map.positions[i as usize],
             |i| {
                 let y = &map.records[i as usize];
                 // Another surface within r (an edge, a corner, a face seen at a grazing
@@ -151,6 +167,7 @@ pub(crate) fn merge_camera_path(
                 if (wi_l.z > 0.0) != (cos_g > 0.0) {
                     return;
                 }
+                let at = at_once.get_or_insert_with(|| bsdf.at(wo_l));
                 let f = at.eval(wi_l);
                 if f == Rgb::ZERO {
                     return;
@@ -167,7 +184,7 @@ pub(crate) fn merge_camera_path(
                     // Scattering events: this vertex and the c - 1 before it, m - 1 on the light side.
                     let first = match (vertex, ledger.light_passes) {
                         (1, true) => {
-                            let (d, g) = crate::integrator::light_passes::shares_at(&at, wi_l);
+                            let (d, g) = crate::integrator::light_passes::shares_at(at, wi_l);
                             First::Surface(d, g)
                         }
                         _ => *first,

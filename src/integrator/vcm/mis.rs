@@ -16,7 +16,8 @@
 //!   b_c² + η² μ^c, and S_C η² = v / b_c² + a_{m+1}² D^{c-1} / b_c²,
 //!
 //! with v the flag "the connection strategy there can make the path" and μ "merging
-//! there can". `PathDensities::merge_weight` is the same weight in the ratio form; the
+//! there can" (never at z₁, `bdpt::mis::MIN_MERGE_VERTEX`; on the camera side every vertex
+//! is beyond the merge, so μ^c depends on connectibility alone). `PathDensities::merge_weight` is the same weight in the ratio form; the
 //! test checks one against the other.
 
 /// 0 (a delta density) counts as 1, as in `bdpt::mis`.
@@ -70,14 +71,15 @@ impl Recursion {
     }
 
     /// Moves on to the next vertex: its density `dens` from this side, its own
-    /// connectibility `conn` (its sampled lobe is not delta), and `rev`, the density of
-    /// the last vertex from the other side (sampled from the next one).
+    /// connectibility `conn` (its sampled lobe is not delta), `rev`, the density of the
+    /// last vertex from the other side (sampled from the next one), and `merge`: merging
+    /// is a strategy there by its index (`bdpt::mis::MIN_MERGE_VERTEX`).
     #[inline]
-    pub fn push(&mut self, dens: f32, conn: bool, rev: f32) {
+    pub fn push(&mut self, dens: f32, conn: bool, rev: f32, merge: bool) {
         let d = remap0(dens);
         let r = remap0(rev);
         let v = if self.conn && conn { 1.0 } else { 0.0 };
-        let mu = if conn { self.eta2 } else { 0.0 };
+        let mu = if conn && merge { self.eta2 } else { 0.0 };
         self.sum = (v + r * r * self.sum) / (d * d) + mu;
         self.conn = conn;
     }
@@ -98,7 +100,7 @@ pub fn merge_weight(eta: f32, l: Side, b_prev: f32, c: Side, a_next: f32) -> f32
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::integrator::bdpt::mis::PathDensities;
+    use crate::integrator::bdpt::mis::{MIN_MERGE_VERTEX, PathDensities};
 
     /// The recursive merge weight equals the ratio form's (`PathDensities::merge_weight`)
     /// for random densities, delta vertices and path lengths; and with merging, the
@@ -143,14 +145,15 @@ mod tests {
                 // Light side: z₀ … z_m.
                 let mut lr = Recursion::start(eta, d.a[0], d.connectible[0], Some(d.light_hittable));
                 for i in 1..m {
-                    lr.push(d.a[i], d.connectible[i], d.b[i - 1]);
+                    lr.push(d.a[i], d.connectible[i], d.b[i - 1], i >= MIN_MERGE_VERTEX);
                 }
                 let l = lr.side(d.a[m]);
                 // Camera side: z_k (camera) … z_m, camera vertex c is z_{k-c}.
                 let mut cr = Recursion::start(eta, 0.0, d.connectible[k], None);
                 for c in 1..k - m {
                     let j = k - c;
-                    cr.push(d.b[j], d.connectible[j], if c >= 2 { d.a[j + 1] } else { 0.0 });
+                    // z_j is beyond the merge, so merging is a strategy there when connectible.
+                    cr.push(d.b[j], d.connectible[j], if c >= 2 { d.a[j + 1] } else { 0.0 }, true);
                 }
                 let c = cr.side(d.b[m]);
                 let b_prev = d.b[m - 1];

@@ -6,10 +6,12 @@
 //!
 //! Each iteration takes one sample per pixel (sample index = iteration):
 //! 1. **Light pass**: one light subpath per pixel (BDPT's `light_subpath`, the same
-//!    stream BDPT takes for that sample); its non-delta surface vertices are stored with
-//!    the light side of their recursive MIS quantities (`merge::MergeRecord`) in a hash grid
-//!    of cell 2r (`grid.rs`), and the whole subpath is kept for its pixel's connections
-//!    (`light_store.rs`: each light subpath is traced once).
+//!    stream BDPT takes for that sample); its non-delta surface vertices from the second
+//!    on (z_m, m ≥ 2: direct light is the connections', `bdpt::mis::MIN_MERGE_VERTEX`) are
+//!    stored with the light side of their recursive MIS quantities (`merge::MergeRecord`)
+//!    in a hash grid of cell 2r (`grid.rs`, records in its bucket order), and the whole
+//!    subpath is kept for its pixel's connections (`light_store.rs`: each light subpath is
+//!    traced once).
 //! 2. **Camera pass**: per pixel, BDPT's camera sample (camera subpath, emission found by
 //!    it (s = 0), light sampling (s = 1), connections to the pixel's own light subpath
 //!    (s, t ≥ 2) and light tracing (t = 1), splatted), all weighted over connections *and*
