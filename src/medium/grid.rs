@@ -66,6 +66,10 @@ pub struct GridMedium {
     pub majorant: Vec<f32>,
     /// The node-graph program that gives the coefficients instead of the fields and shader.
     pub procedural: Option<Box<super::procedural_source::ProceduralSource>>,
+    /// The world's textured volume: the medium fills all space, the box being where it is
+    /// tracked point by point; outside it a ray sees the coefficients of the box point where
+    /// it enters or leaves (`tracking.rs`, `Piece`).
+    pub unbounded: bool,
 }
 
 impl Field {
@@ -167,6 +171,7 @@ impl GridMedium {
             cells,
             majorant: Vec::new(),
             procedural: None,
+            unbounded: false,
         };
         g.majorant = g.build_majorant();
         g
