@@ -61,8 +61,18 @@ def medium_extension(blender_material):
     if output is None or not output.inputs["Volume"].is_linked:
         return None, warnings
     node = linked_node(output.inputs["Volume"])
-    what = f"material '{blender_material.name}'"
-    graph = _volume_graph(blender_material, node, what, warnings)
+    value = varying_medium(blender_material, node, f"material '{blender_material.name}'", warnings)
+    if value is None:
+        return None, warnings
+    value["surface"] = bool(output.inputs["Surface"].is_linked)
+    return value, warnings
+
+
+def varying_medium(owner, node, what, warnings):
+    """The `CAUSTIC_materials_medium` value (without `surface`) of volume shader `node` in
+    the node tree of `owner` (a material, or the world), with its node graph when its inputs
+    vary over space; None (with a warning) for a node that is not a volume shader."""
+    graph = _volume_graph(owner, node, what, warnings)
     if graph is None:
         value = volume_medium(node, what, warnings)
     elif node.type == "EMISSION":
@@ -74,12 +84,9 @@ def medium_extension(blender_material):
         constant = []
         value = volume_medium(node, what, constant)
         warnings.extend(w for w in constant if "input is linked" not in w)
-    if value is None:
-        return None, warnings
-    if graph is not None:
+    if value is not None and graph is not None:
         value["graph"], value["graph_shader"] = graph
-    value["surface"] = bool(output.inputs["Surface"].is_linked)
-    return value, warnings
+    return value
 
 
 # Inputs of each volume shader that a link can make vary over the medium.
@@ -102,13 +109,13 @@ def _varies(node):
     return False
 
 
-def _volume_graph(blender_material, node, what, warnings):
+def _volume_graph(owner, node, what, warnings):
     """(graph value, shader index) of a volume shader whose inputs vary (an Emission node on
     the Volume output always), or None. A graph with an image is not exported (the medium has
     no image lookups): the constant medium is used, with a warning."""
     if node.type not in _VARYING_INPUTS or not (node.type == "EMISSION" or _varies(node)):
         return None
-    graph, index = build_volume_graph(blender_material, node, GraphContext())
+    graph, index = build_volume_graph(owner, node, GraphContext())
     if graph.images:
         warnings.append(f"{what}: an Image Texture feeds the {node.name} node on the Volume output; image "
                         "lookups in a volume are not supported and its inputs' own values are used")
