@@ -42,7 +42,7 @@ def world_extension(scene, folder, writer=None):
         graph_value, graph_warnings = _world_graph(world, writer)
         if graph_value is not None:
             value, warnings = graph_value, graph_warnings
-    medium = _world_volume(world, warnings)
+    medium = _world_volume(world, warnings, writer)
     if medium is not None:
         # A world without a surface is black; its fog still counts.
         value = value or {"color": [0.0, 0.0, 0.0], "strength": 0.0}
@@ -53,7 +53,7 @@ def world_extension(scene, folder, writer=None):
     return value, warnings
 
 
-def _world_volume(world, warnings):
+def _world_volume(world, warnings, writer=None):
     """The medium of the World Output's Volume input, or None: constant, or with its node
     graph when its inputs vary over space (a texture on the Density), which Cycles evaluates
     per point in a world volume too. An Emission node alone would glow along every unbounded
@@ -69,7 +69,7 @@ def _world_volume(world, warnings):
     what = f"world '{world.name}'"
     if node.type == "EMISSION":
         return volume_medium(node, what, warnings)
-    return varying_medium(world, node, what, warnings)
+    return varying_medium(world, node, what, warnings, writer)
 
 
 def _world_surface(world, folder, warnings):

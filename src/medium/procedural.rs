@@ -132,7 +132,7 @@ mod tests {
                         "Color": {"value": [0.8, 0.5, 0.3, 1.0]}}}],
             "output": {}}))
         .unwrap();
-        let volume = compile_volume("noise", &ext, 2).unwrap();
+        let volume = compile_volume("noise", &ext, 2, &[]).unwrap();
         let source = ProceduralSource { volume, object: ObjectData::default() };
         procedural_medium("noise".into(), Vec3::splat(-1.0), Vec3::ONE, source)
     }
@@ -254,7 +254,7 @@ mod tests {
                         "Emission Strength": {"value": 0.5}}}],
             "output": {}}))
         .unwrap();
-        let volume = compile_volume("fog", &ext, 2).unwrap();
+        let volume = compile_volume("fog", &ext, 2, &[]).unwrap();
         let source = ProceduralSource { volume, object: crate::shader::geom::NO_OBJECT };
         world_fog_medium(Vec3::splat(-1.0), Vec3::ONE, source)
     }
@@ -323,6 +323,44 @@ mod tests {
             assert!(matches!(out.0, FreeFlight::Pass { weight } if weight == Rgb::ONE), "{:?}", out.0);
             // No attenuation, so the unbounded emission diverges and is left out.
             assert!(e.is_finite());
+        }
+    }
+
+    /// An Image Texture on Generated coordinates feeds a Principled Volume's Density: the
+    /// medium reads the program's own image (a 2 × 1 float image, 0.25 and 1.0, Closest,
+    /// Extend) where Cycles maps Generated (here, with no texture space, the position in
+    /// Blender's axes: u = x): σt = Density × (Color 0.5 + 0.5 × absorption factor 1).
+    #[test]
+    fn image_textured_density() {
+        let ext: NodesExt = serde_json::from_value(json!({"version": 1, "nodes": [
+            {"name": "Coords", "type": "ShaderNodeTexCoord", "inputs": {}},
+            {"name": "Img", "type": "ShaderNodeTexImage",
+             "props": {"image": 0, "interpolation": "Closest", "extension": "EXTEND"},
+             "inputs": {"Vector": {"value": [0.0, 0.0, 0.0], "link": [0, "Generated"]}}},
+            {"name": "PV", "type": "ShaderNodeVolumePrincipled",
+             "inputs": {"Density": {"value": 1.0, "link": [1, "Color"]}}}],
+            "output": {}}))
+        .unwrap();
+        let mut volume = compile_volume("img", &ext, 2, &[0]).unwrap();
+        volume.textures = vec![crate::scene::Texture {
+            name: "density".into(),
+            width: 2,
+            height: 1,
+            texels: Vec::new(),
+            hdr: vec![glam::Vec4::new(0.25, 0.25, 0.25, 1.0), glam::Vec4::ONE],
+            srgb: false,
+            wrap_s: crate::scene::texture::Wrap::Repeat,
+            wrap_t: crate::scene::texture::Wrap::Repeat,
+            nearest: false,
+            mean: Vec3::ZERO,
+        }];
+        let source = ProceduralSource { volume, object: crate::shader::geom::NO_OBJECT };
+        let g = procedural_medium("img".into(), Vec3::ZERO, Vec3::ONE, source);
+        for (x, want) in [(0.2f32, 0.25f32), (0.45, 0.25), (0.55, 1.0), (0.9, 1.0)] {
+            let p = g.index_from_world.transform_point3(Vec3::new(x, 0.5, -0.3));
+            let c = g.coefficients(p, false);
+            let sigma_t = c.sigma_a + c.sigma_s;
+            assert!((sigma_t - Rgb::splat(want)).abs().max_element() < 1e-6, "x = {x}: σt {sigma_t}, want {want}");
         }
     }
 }

@@ -38,7 +38,7 @@ impl ProceduralSource {
             tangent: Vec4::ZERO,
             backfacing: false,
             object: &self.object,
-            textures: &[],
+            textures: &self.volume.textures,
             mesh: &crate::scene::mesh::EMPTY_MESH,
             tri: 0,
             // The Light Path node in a volume is not modelled: read as a camera ray's.

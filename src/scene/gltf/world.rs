@@ -66,8 +66,7 @@ impl Loader<'_> {
                     let Some(shader) = m.graph_shader else {
                         return Err(self.err(format!("{what} needs graph_shader (the volume shader node)")));
                     };
-                    let v = crate::shader::compile::volume::compile_volume("world", graph, shader)
-                        .map_err(|e| self.err(format!("{what}: {e}")))?;
+                    let v = self.volume_program("world", graph, shader, what)?;
                     for w in &v.warnings {
                         self.warn(format!("{what}: {w}"));
                     }
