@@ -94,9 +94,9 @@ def varying_medium(owner, node, what, warnings, writer=None):
 
 # Inputs of each volume shader that a link can make vary over the medium.
 _VARYING_INPUTS = {
-    "PRINCIPLED_VOLUME": ("Density", "Color", "Absorption Color", "Emission Strength", "Emission Color",
-                          "Blackbody Intensity", "Blackbody Tint", "Temperature"),
-    "VOLUME_SCATTER": ("Density", "Color"),
+    "PRINCIPLED_VOLUME": ("Density", "Color", "Absorption Color", "Anisotropy", "Emission Strength",
+                          "Emission Color", "Blackbody Intensity", "Blackbody Tint", "Temperature"),
+    "VOLUME_SCATTER": ("Density", "Color", "Anisotropy"),
     "VOLUME_ABSORPTION": ("Density", "Color"),
     "EMISSION": ("Color", "Strength"),
 }

@@ -307,6 +307,21 @@ impl GridMedium {
         out
     }
 
+    /// The phase function at world point `p`, a scattering point: a procedural medium's
+    /// graph can vary its Anisotropy (read there; outside an unbounded medium's box, at the
+    /// nearest box point), other media have one phase function.
+    #[inline]
+    pub fn phase_at(&self, p: Vec3) -> HenyeyGreenstein {
+        match &self.procedural {
+            Some(src) if src.volume.anisotropy_reg.is_some() => {
+                let (lo, hi) = self.domain();
+                let q = self.index_from_world.transform_point3(p).clamp(lo, hi);
+                HenyeyGreenstein::new(src.anisotropy_at(self.world_from_index.transform_point3(q)))
+            }
+            _ => self.phase,
+        }
+    }
+
     /// True when the shader emits anywhere (Emission Strength or blackbody).
     pub fn may_emit(&self) -> bool {
         self.shader.emission.max_element() > CLOSURE_WEIGHT_CUTOFF

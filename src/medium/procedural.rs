@@ -363,4 +363,28 @@ mod tests {
             assert!((sigma_t - Rgb::splat(want)).abs().max_element() < 1e-6, "x = {x}: σt {sigma_t}, want {want}");
         }
     }
+
+    /// A linked Anisotropy that varies (0.8 × Gradient on x over the box [0, 1]³): the phase
+    /// function at a scattering point is the graph's there, clamped to the box outside it;
+    /// the medium's own phase keeps the shader's value (0.1).
+    #[test]
+    fn anisotropy_varies_per_point() {
+        let ext: NodesExt = serde_json::from_value(json!({"version": 1, "nodes": [
+            {"name": "Gradient", "type": "ShaderNodeTexGradient", "props": {"gradient_type": "LINEAR"}, "inputs": {}},
+            {"name": "Math", "type": "ShaderNodeMath", "props": {"operation": "MULTIPLY"},
+             "inputs": {"Value": {"value": 0.5, "link": [0, "Fac"]}, "Value_001": {"value": 0.8}}},
+            {"name": "PV", "type": "ShaderNodeVolumePrincipled",
+             "inputs": {"Density": {"value": 2.0}, "Anisotropy": {"value": 0.1, "link": [1, "Value"]}}}],
+            "output": {}}))
+        .unwrap();
+        let volume = compile_volume("aniso", &ext, 2, &[]).unwrap();
+        assert!(volume.anisotropy_reg.is_some() && volume.warnings.is_empty(), "{:?}", volume.warnings);
+        let source = ProceduralSource { volume, object: crate::shader::geom::NO_OBJECT };
+        let g = procedural_medium("aniso".into(), Vec3::ZERO, Vec3::ONE, source);
+        assert!((g.phase.g - 0.1).abs() < 1e-6);
+        for (x, want) in [(0.25f32, 0.2f32), (0.75, 0.6), (3.0, 0.8 * g.world_corners()[7].x.min(1.0))] {
+            let got = g.phase_at(Vec3::new(x, 0.5, -0.5)).g;
+            assert!((got - want).abs() < 1e-5, "x = {x}: g = {got}, want {want}");
+        }
+    }
 }

@@ -20,13 +20,10 @@ structure moves light between them; each quadrant's bound is derived the same wa
 import bpy
 import pytest
 
-import scenes
-from test_cycles_agreement import MODEL_ALLOWANCE, SIGMAS, add_rectangle, build
-from test_textured_volume import region_means
+from test_cycles_agreement import add_rectangle, build
+from test_textured_volume import assert_regions_match, render_both
 
 pytestmark = pytest.mark.needs_binary
-
-SEEDS = (1, 2)
 
 
 def noise_fog_world(name):
@@ -65,23 +62,7 @@ def add_fog_and_area_light(scene):
 def test_noise_world_fog_matches_cycles(addon, empty_scene, tmp_path):
     scene = empty_scene
     build(scene, add_fog_and_area_light)
-    images = {engine: [scenes.render_rgb(scene, engine, s, str(tmp_path / f"{engine}_{s}.exr")) for s in SEEDS]
-              for engine in ("CYCLES", "CAUSTIC")}
-    failures = []
-    for label, (rows, cols) in (("image", (1, 1)), ("quadrant", (2, 2))):
-        means = region_means(images, rows, cols)
-        for i, (ours, theirs) in enumerate(zip(means["CAUSTIC"], means["CYCLES"])):
-            for k, channel in enumerate("RGB"):
-                (m_c, v_c), (m_y, v_y) = ours[k], theirs[k]
-                sigma = (v_c + v_y) ** 0.5
-                bound = SIGMAS * sigma + MODEL_ALLOWANCE * m_y
-                name = f"{label} {i} {channel}" if rows > 1 else f"{label} {channel}"
-                print(f"\n[caustic/cycles] world fog {name:12s} ratio {m_c / m_y:.4f}  caustic {m_c:.5f}  "
-                      f"cycles {m_y:.5f}  bound {bound:.2e}")
-                assert m_y > 1e-3, f"{name}: the Cycles reference is black: the scene is broken"
-                if abs(m_c - m_y) > bound:
-                    failures.append(f"{name}: Caustic/Cycles = {m_c / m_y:.4f} exceeds 5 sigma + 1 %")
-    assert not failures, "; ".join(failures)
+    assert_regions_match(render_both(scene, tmp_path), "world fog")
 
 
 def test_textured_world_volume_exports_its_graph(addon, empty_scene, tmp_path):

@@ -58,8 +58,11 @@ pub struct VolumeProgram {
     pub kind: VolumeKind,
     /// Its inputs' registers.
     pub regs: VolumeRegs,
-    /// Anisotropy (constant: the phase function is one per medium).
+    /// Anisotropy: the shader's own value (the medium's phase function where it does not vary).
     pub anisotropy: f32,
+    /// The register of a linked Anisotropy that varies over the medium, read at each
+    /// scattering point.
+    pub anisotropy_reg: Option<Reg>,
     /// Generated coordinates are read (the mesh's texture space is needed).
     pub uses_generated: bool,
     /// Warnings (without the material's name; the loader adds it).
@@ -132,9 +135,9 @@ pub fn compile_volume(name: &str, ext: &NodesExt, shader: usize, images: &[u32])
             temperature: zero,
         },
     };
-    let anisotropy = match kind {
-        VolumeKind::Principled | VolumeKind::Scatter => constant(&mut c, s, "Anisotropy")?,
-        _ => 0.0,
+    let (anisotropy, anisotropy_reg) = match kind {
+        VolumeKind::Principled | VolumeKind::Scatter => anisotropy(&mut c, s)?,
+        _ => (0.0, None),
     };
     let mut prog = c.prog;
     prog.init = c.init;
@@ -145,21 +148,27 @@ pub fn compile_volume(name: &str, ext: &NodesExt, shader: usize, images: &[u32])
         kind,
         regs,
         anisotropy,
+        anisotropy_reg,
         uses_generated: c.uses_generated,
         warnings: c.warnings,
         textures: Vec::new(),
     })
 }
 
-/// The value of input `id` of node `i`, which must not vary over the medium (a linked one
-/// is read at the medium's first point would be wrong: it is named in a warning and its
-/// own value used).
-fn constant(c: &mut Compiler, i: usize, id: &str) -> Result<f32, String> {
-    let linked = matches!(c.source(i, id)?, Some(Sock { ty, reg }) if ty == Ty::Closure || !c.is_const(reg, 1));
-    if linked {
-        c.warn(i, format!("a varying {id} is not supported (one phase function per medium): its own value is used"));
+/// The shader's Anisotropy: its own value, and the register of a linked one that varies
+/// over the medium (the phase function is then looked up at each scattering point,
+/// `GridMedium::phase_at`). A closure linked into it is named in a warning and its own value
+/// used.
+fn anisotropy(c: &mut Compiler, i: usize) -> Result<(f32, Option<Reg>), String> {
+    let own = c.value(i, "Anisotropy").and_then(|v| v.as_f64()).map_or(0.0, |v| v as f32);
+    match c.source(i, "Anisotropy")? {
+        Some(Sock { ty: Ty::Closure, .. }) => {
+            c.warn(i, "a shader linked into Anisotropy is not a value: its own value is used");
+            Ok((own, None))
+        }
+        Some(Sock { reg, .. }) if !c.is_const(reg, 1) => Ok((own, Some(c.float(i, "Anisotropy", 0.0)?))),
+        _ => Ok((own, None)),
     }
-    Ok(c.value(i, id).and_then(|v| v.as_f64()).map_or(0.0, |v| v as f32))
 }
 
 #[cfg(test)]
