@@ -319,7 +319,8 @@ mod tests {
         assert_eq!(ratio_tracking(&g, Vec3::new(-0.5, 0.0, 0.0), Vec3::NEG_X, f32::INFINITY, &mut rng), Rgb::ONE);
         for _ in 0..100 {
             let mut e = Rgb::ZERO;
-            let out = delta_tracking(&g, Vec3::new(-0.5, 0.0, 0.0), Vec3::NEG_X, f32::INFINITY, Rgb::ONE, &mut rng, &mut e);
+            let out =
+                delta_tracking(&g, Vec3::new(-0.5, 0.0, 0.0), Vec3::NEG_X, f32::INFINITY, Rgb::ONE, &mut rng, &mut e);
             assert!(matches!(out.0, FreeFlight::Pass { weight } if weight == Rgb::ONE), "{:?}", out.0);
             // No attenuation, so the unbounded emission diverges and is left out.
             assert!(e.is_finite());

@@ -286,13 +286,7 @@ pub fn delta_tracking(
 /// over an unbounded stretch in a channel the stretch does not attenuate is infinite and
 /// left out (Cycles' integral diverges there too).
 #[inline]
-fn held_flight(
-    h: &Held,
-    beta: Rgb,
-    w: &mut Rgb,
-    rng: &mut WalkRng,
-    emitted: &mut Rgb,
-) -> Option<(FreeFlight, Rgb)> {
+fn held_flight(h: &Held, beta: Rgb, w: &mut Rgb, rng: &mut WalkRng, emitted: &mut Rgb) -> Option<(FreeFlight, Rgb)> {
     let len = h.t1 - h.t0;
     let e = h.medium.emitted(len);
     if e.is_finite() {
