@@ -16,6 +16,9 @@
 //! over the tentative collisions. Both end paths whose weight (largest magnitude) has
 //! fallen under [`ROULETTE_BELOW`] by Russian roulette.
 //!
+//! An unbounded grid (the world's textured fog) is tracked so inside its box; outside it
+//! a ray crosses homogeneous stretches, sampled exactly (`held_stretches`).
+//!
 //! The random numbers are a [`WalkRng`]: from the path's sample for free flights, from
 //! a hash of the ray for shadow rays (which have no sample dimensions to spare), so a
 //! render stays deterministic.
@@ -100,8 +103,8 @@ fn box_span(g: &GridMedium, o: Vec3, d: Vec3) -> (f32, f32) {
 }
 
 /// A stretch [t0, t1) of a ray outside an unbounded grid's box, with the homogeneous
-/// medium it sees there: the coefficients of `anchor`, the box point where the ray enters
-/// or leaves the box (or, for a ray that never meets it, the box point nearest its origin).
+/// medium it sees there: the coefficients at the box point where the ray enters or leaves
+/// the box (or, for a ray that never meets it, at the box point nearest its origin).
 struct Held {
     t0: f32,
     t1: f32,
