@@ -259,7 +259,10 @@ def complete_material(gltf2_material, blender_material, export_settings, state, 
     if _present(gltf2_material, "KHR_materials_transmission") and not _present(gltf2_material, "KHR_materials_volume"):
         _set_extension(gltf2_material, "KHR_materials_volume", {"thicknessFactor": 1.0})
         state.solid_materials.append(blender_material.name if blender_material else "?")
-    for name, build in ((SUBSURFACE_EXTENSION, subsurface_extension), (MEDIUM_EXTENSION, medium_extension)):
+    # A volume graph's images are written as the surface graphs' are.
+    writer = state.image_writer(export_settings["gltf_filedirectory"])
+    for name, build in ((SUBSURFACE_EXTENSION, subsurface_extension),
+                        (MEDIUM_EXTENSION, lambda m: medium_extension(m, writer))):
         value, warnings = build(blender_material)
         state.warnings.extend(warnings)
         if value is not None:

@@ -50,9 +50,11 @@ def subsurface_extension(blender_material):
     return value, warnings
 
 
-def medium_extension(blender_material):
+def medium_extension(blender_material, writer=None):
     """The `CAUSTIC_materials_medium` value of a material's Volume output (None without one),
-    and warnings naming what cannot be exported. Coefficients as Cycles builds them (contract)."""
+    and warnings naming what cannot be exported. Coefficients as Cycles builds them (contract).
+    A varying volume's images are written by `writer` (node_images.ImageWriter); without one
+    a graph with images is not exported (warning)."""
     warnings = []
     tree = getattr(blender_material, "node_tree", None)
     if tree is None:
@@ -61,8 +63,19 @@ def medium_extension(blender_material):
     if output is None or not output.inputs["Volume"].is_linked:
         return None, warnings
     node = linked_node(output.inputs["Volume"])
-    what = f"material '{blender_material.name}'"
-    graph = _volume_graph(blender_material, node, what, warnings)
+    value = varying_medium(blender_material, node, f"material '{blender_material.name}'", warnings, writer)
+    if value is None:
+        return None, warnings
+    value["surface"] = bool(output.inputs["Surface"].is_linked)
+    return value, warnings
+
+
+def varying_medium(owner, node, what, warnings, writer=None):
+    """The `CAUSTIC_materials_medium` value (without `surface`) of volume shader `node` in
+    the node tree of `owner` (a material, or the world), with its node graph when its inputs
+    vary over space (its images written by `writer`); None (with a warning) for a node that
+    is not a volume shader."""
+    graph = _volume_graph(owner, node, what, warnings, writer)
     if graph is None:
         value = volume_medium(node, what, warnings)
     elif node.type == "EMISSION":
@@ -74,19 +87,16 @@ def medium_extension(blender_material):
         constant = []
         value = volume_medium(node, what, constant)
         warnings.extend(w for w in constant if "input is linked" not in w)
-    if value is None:
-        return None, warnings
-    if graph is not None:
+    if value is not None and graph is not None:
         value["graph"], value["graph_shader"] = graph
-    value["surface"] = bool(output.inputs["Surface"].is_linked)
-    return value, warnings
+    return value
 
 
 # Inputs of each volume shader that a link can make vary over the medium.
 _VARYING_INPUTS = {
-    "PRINCIPLED_VOLUME": ("Density", "Color", "Absorption Color", "Emission Strength", "Emission Color",
-                          "Blackbody Intensity", "Blackbody Tint", "Temperature"),
-    "VOLUME_SCATTER": ("Density", "Color"),
+    "PRINCIPLED_VOLUME": ("Density", "Color", "Absorption Color", "Anisotropy", "Emission Strength",
+                          "Emission Color", "Blackbody Intensity", "Blackbody Tint", "Temperature"),
+    "VOLUME_SCATTER": ("Density", "Color", "Anisotropy"),
     "VOLUME_ABSORPTION": ("Density", "Color"),
     "EMISSION": ("Color", "Strength"),
 }
@@ -102,19 +112,24 @@ def _varies(node):
     return False
 
 
-def _volume_graph(blender_material, node, what, warnings):
+def _volume_graph(owner, node, what, warnings, writer):
     """(graph value, shader index) of a volume shader whose inputs vary (an Emission node on
-    the Volume output always), or None. A graph with an image is not exported (the medium has
-    no image lookups): the constant medium is used, with a warning."""
+    the Volume output always), or None. Its images are written by `writer`; without a writer
+    (the viewport's comparison of a material's extras) a graph with images is not exported:
+    the constant medium is used, with a warning."""
     if node.type not in _VARYING_INPUTS or not (node.type == "EMISSION" or _varies(node)):
         return None
-    graph, index = build_volume_graph(blender_material, node, GraphContext())
-    if graph.images:
-        warnings.append(f"{what}: an Image Texture feeds the {node.name} node on the Volume output; image "
-                        "lookups in a volume are not supported and its inputs' own values are used")
+    graph, index = build_volume_graph(owner, node, GraphContext())
+    if graph.images and writer is None:
+        warnings.append(f"{what}: an Image Texture feeds the {node.name} node on the Volume output; its "
+                        "images cannot be written here and its inputs' own values are used")
         return None
     warnings.extend(graph.warnings)
-    return {"version": 1, "nodes": graph.nodes, "output": {}}, index
+    if writer is None:
+        return {"version": 1, "nodes": graph.nodes, "output": {}}, index
+    value = writer.graph_value(graph, what, warnings)
+    value["output"] = {}
+    return value, index
 
 
 def volume_uses_generated(blender_material):

@@ -9,7 +9,7 @@ import os
 
 import bpy
 
-from .media import volume_medium
+from .media import varying_medium, volume_medium
 from .node_graph import GraphContext, build_world_graph, has_aov_outputs
 from .nodes import linked_node
 from .visibility import world_visibility
@@ -51,7 +51,7 @@ def world_extension(scene, folder, writer=None, depsgraph=None):
     if aovs and writer is not None and graph_value is None:
         warnings.append(f"world '{world.name}': its AOV Output nodes are not rendered (the World Output's "
                         "Surface is not linked)")
-    medium = _world_volume(world, warnings)
+    medium = _world_volume(world, warnings, writer)
     if medium is not None:
         # A world without a surface is black; its fog still counts.
         value = value or {"color": [0.0, 0.0, 0.0], "strength": 0.0}
@@ -62,8 +62,11 @@ def world_extension(scene, folder, writer=None, depsgraph=None):
     return value, warnings
 
 
-def _world_volume(world, warnings):
-    """The medium of the World Output's Volume input, or None."""
+def _world_volume(world, warnings, writer=None):
+    """The medium of the World Output's Volume input, or None: constant, or with its node
+    graph when its inputs vary over space (a texture on the Density), which Cycles evaluates
+    per point in a world volume too. An Emission node alone would glow along every unbounded
+    ray: it is not exported (warning)."""
     tree = world.node_tree if getattr(world, "use_nodes", True) else None
     if tree is None:
         return None
@@ -71,7 +74,11 @@ def _world_volume(world, warnings):
     output = next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
     if output is None or not output.inputs["Volume"].is_linked:
         return None
-    return volume_medium(linked_node(output.inputs["Volume"]), f"world '{world.name}'", warnings)
+    node = linked_node(output.inputs["Volume"])
+    what = f"world '{world.name}'"
+    if node.type == "EMISSION":
+        return volume_medium(node, what, warnings)
+    return varying_medium(world, node, what, warnings, writer)
 
 
 def _world_surface(world, folder, warnings):

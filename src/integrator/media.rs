@@ -69,7 +69,8 @@ fn grid_segment(
         *l += beta * emitted;
     }
     match flight {
-        FreeFlight::Scatter { t, weight } => (Some((t, g.phase)), pass, weight),
+        // A graph's Anisotropy may vary: the phase function of the scattering point.
+        FreeFlight::Scatter { t, weight } => (Some((t, g.phase_at(org + dir * t))), pass, weight),
         FreeFlight::Pass { weight } => (None, pass, weight),
     }
 }

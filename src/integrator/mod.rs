@@ -153,6 +153,7 @@ impl<'a> SceneContext<'a> {
             spheres,
             suns,
             has_media: scene.world_medium.is_some()
+                || scene.world_grid.is_some()
                 || scene.materials.iter().any(|m| m.medium.is_some() || m.subsurface.is_some()),
             constant_bsdfs: (0..scene.materials.len() as u32).map(|m| scene.constant_bsdf(m)).collect(),
             camera_media: MediumStack::default(),
@@ -378,7 +379,10 @@ impl<'a> SceneContext<'a> {
                 }
             }
             // Outside every mesh medium: the world's volume, if any.
-            None => self.scene.world_medium.as_ref().map(Medium::Homogeneous),
+            None => match self.scene.world_grid {
+                Some(g) => Some(Medium::Grid(&self.scene.grids[g as usize])),
+                None => self.scene.world_medium.as_ref().map(Medium::Homogeneous),
+            },
         }
     }
 

@@ -66,6 +66,10 @@ pub struct GridMedium {
     pub majorant: Vec<f32>,
     /// The node-graph program that gives the coefficients instead of the fields and shader.
     pub procedural: Option<Box<super::procedural_source::ProceduralSource>>,
+    /// The world's textured volume: the medium fills all space, the box being where it is
+    /// tracked point by point; outside it a ray sees the coefficients of the box point where
+    /// it enters or leaves (`tracking.rs`, `Piece`).
+    pub unbounded: bool,
 }
 
 impl Field {
@@ -167,6 +171,7 @@ impl GridMedium {
             cells,
             majorant: Vec::new(),
             procedural: None,
+            unbounded: false,
         };
         g.majorant = g.build_majorant();
         g
@@ -300,6 +305,21 @@ impl GridMedium {
             }
         }
         out
+    }
+
+    /// The phase function at world point `p`, a scattering point: a procedural medium's
+    /// graph can vary its Anisotropy (read there; outside an unbounded medium's box, at the
+    /// nearest box point), other media have one phase function.
+    #[inline]
+    pub fn phase_at(&self, p: Vec3) -> HenyeyGreenstein {
+        match &self.procedural {
+            Some(src) if src.volume.anisotropy_reg.is_some() => {
+                let (lo, hi) = self.domain();
+                let q = self.index_from_world.transform_point3(p).clamp(lo, hi);
+                HenyeyGreenstein::new(src.anisotropy_at(self.world_from_index.transform_point3(q)))
+            }
+            _ => self.phase,
+        }
     }
 
     /// True when the shader emits anywhere (Emission Strength or blackbody).

@@ -22,11 +22,10 @@ pub struct ProceduralSource {
 }
 
 impl ProceduralSource {
-    /// The shader's inputs at world point `p` (glTF axes), as a Principled Volume with
-    /// constant fields.
+    /// The shading point the program sees at world point `p` (glTF axes).
     #[inline]
-    pub fn shader_at(&self, p: Vec3) -> VolumeShader {
-        let g = Geom {
+    fn geom(&self, p: Vec3) -> Geom<'_> {
+        Geom {
             p,
             n: Vec3::Y,
             ng: Vec3::Y,
@@ -38,13 +37,20 @@ impl ProceduralSource {
             tangent: Vec4::ZERO,
             backfacing: false,
             object: &self.object,
-            textures: &[],
+            textures: &self.volume.textures,
             mesh: &crate::scene::mesh::EMPTY_MESH,
             tri: 0,
             // The Light Path node in a volume is not modelled: read as a camera ray's.
             path: LightPath::CAMERA_RAY,
             view: &NO_VIEW,
-        };
+        }
+    }
+
+    /// The shader's inputs at world point `p` (glTF axes), as a Principled Volume with
+    /// constant fields.
+    #[inline]
+    pub fn shader_at(&self, p: Vec3) -> VolumeShader {
+        let g = self.geom(p);
         let prog = &self.volume.program;
         let r = &self.volume.regs;
         with_registers(|regs| {
@@ -73,6 +79,20 @@ impl ProceduralSource {
                 blackbody_tint: v(r.blackbody_tint).max(Vec3::ZERO),
                 temperature: f(r.temperature),
             }
+        })
+    }
+
+    /// The phase function's anisotropy at world point `p` (a scattering point): the graph's
+    /// value there when a linked Anisotropy varies, else the shader's own.
+    #[inline]
+    pub fn anisotropy_at(&self, p: Vec3) -> f32 {
+        let Some(reg) = self.volume.anisotropy_reg else {
+            return self.volume.anisotropy;
+        };
+        let g = self.geom(p);
+        with_registers(|regs| {
+            self.volume.program.run(&g, regs, &mut Closures::default());
+            regs[reg as usize]
         })
     }
 

@@ -16,6 +16,9 @@
 //! over the tentative collisions. Both end paths whose weight (largest magnitude) has
 //! fallen under [`ROULETTE_BELOW`] by Russian roulette.
 //!
+//! An unbounded grid (the world's textured fog) is tracked so inside its box; outside it
+//! a ray crosses homogeneous stretches, sampled exactly (`held_stretches`).
+//!
 //! The random numbers are a [`WalkRng`]: from the path's sample for free flights, from
 //! a hash of the ray for shadow rays (which have no sample dimensions to spare), so a
 //! render stays deterministic.
@@ -78,6 +81,64 @@ pub fn ray_rng(org: Vec3, dir: Vec3) -> WalkRng {
     WalkRng(h)
 }
 
+/// Where a ray (index-space origin `o`, direction `d`; t is the world distance) is inside
+/// the grid's domain: (t_in, t_out), unclipped (t_in < 0 when it starts inside), empty
+/// (t_in ≥ t_out) when it misses.
+#[inline]
+fn box_span(g: &GridMedium, o: Vec3, d: Vec3) -> (f32, f32) {
+    let (lo, hi) = g.domain();
+    let (mut t0, mut t1) = (f32::NEG_INFINITY, f32::INFINITY);
+    for a in 0..3 {
+        if d[a] == 0.0 {
+            if o[a] < lo[a] || o[a] > hi[a] {
+                return (f32::INFINITY, f32::NEG_INFINITY);
+            }
+            continue;
+        }
+        let (ta, tb) = ((lo[a] - o[a]) / d[a], (hi[a] - o[a]) / d[a]);
+        t0 = t0.max(ta.min(tb));
+        t1 = t1.min(ta.max(tb));
+    }
+    (t0, t1)
+}
+
+/// A stretch [t0, t1) of a ray outside an unbounded grid's box, with the homogeneous
+/// medium it sees there: the coefficients at the box point where the ray enters or leaves
+/// the box (or, for a ray that never meets it, at the box point nearest its origin).
+struct Held {
+    t0: f32,
+    t1: f32,
+    medium: HomogeneousMedium,
+}
+
+/// The stretches of a ray outside the box of an unbounded grid (the world's textured
+/// volume), before and after the box; none for a bounded grid, whose medium is empty there.
+/// The box holds the scene's surfaces and cameras, so these stretches are where paths
+/// leave the scene: Cycles evaluates the graph along them to infinity, which no finite
+/// majorant bounds; holding the boundary's coefficients keeps their transmittance,
+/// emission and scattering exact for a medium that is constant outside the box (contract).
+#[inline]
+fn held_stretches(g: &GridMedium, org: Vec3, dir: Vec3, t_max: f32, with_emission: bool) -> [Option<Held>; 2] {
+    if !g.unbounded || !(t_max > 0.0) {
+        return [None, None];
+    }
+    let o = g.index_from_world.transform_point3(org);
+    let d = g.index_from_world.transform_vector3(dir);
+    let (lo, hi) = g.domain();
+    let held = |t0: f32, t1: f32, anchor: Vec3| {
+        let c = g.coefficients(anchor.clamp(lo, hi), with_emission);
+        let medium = HomogeneousMedium { sigma_a: c.sigma_a, sigma_s: c.sigma_s, phase: g.phase, emission: c.emission };
+        (t1 > t0).then_some(Held { t0, t1, medium })
+    };
+    let (t_in, t_out) = box_span(g, o, d);
+    if !(t_in < t_out) || t_out <= 0.0 {
+        return [held(0.0, t_max, o), None];
+    }
+    let before = if t_in > 0.0 { held(0.0, t_in.min(t_max), o + d * t_in) } else { None };
+    let after = if t_out < t_max { held(t_out, t_max, o + d * t_out) } else { None };
+    [before, after]
+}
+
 /// The majorant cells a ray crosses, as (t_enter, t_exit, majorant), in order.
 pub struct MajorantWalk<'a> {
     g: &'a GridMedium,
@@ -94,20 +155,9 @@ impl<'a> MajorantWalk<'a> {
     pub fn new(g: &'a GridMedium, org: Vec3, dir: Vec3, t_max: f32) -> Self {
         let o = g.index_from_world.transform_point3(org);
         let d = g.index_from_world.transform_vector3(dir);
-        let (lo, hi) = g.domain();
-        // Slab test against the domain in index space (t is still the world distance).
-        let (mut t0, mut t1) = (0.0f32, t_max);
-        for a in 0..3 {
-            if d[a] == 0.0 {
-                if o[a] < lo[a] || o[a] > hi[a] {
-                    t1 = -1.0;
-                }
-                continue;
-            }
-            let (ta, tb) = ((lo[a] - o[a]) / d[a], (hi[a] - o[a]) / d[a]);
-            t0 = t0.max(ta.min(tb));
-            t1 = t1.min(ta.max(tb));
-        }
+        let (lo, _) = g.domain();
+        let (t_in, t_out) = box_span(g, o, d);
+        let (t0, t1) = (t_in.max(0.0), t_out.min(t_max));
         let mut walk =
             MajorantWalk { g, cell: [0; 3], step: [0; 3], next: [f32::INFINITY; 3], delta: [0.0; 3], t: t0, t_end: t1 };
         if !(t0 < t1) {
@@ -189,6 +239,12 @@ pub fn delta_tracking(
 ) -> (FreeFlight, Rgb) {
     let mut w = Rgb::ONE;
     let index = |t: f32| g.index_from_world.transform_point3(org + dir * t);
+    let [before, after] = held_stretches(g, org, dir, t_max, true);
+    if let Some(h) = &before
+        && let Some(event) = held_flight(h, beta, &mut w, rng, emitted)
+    {
+        return event;
+    }
     for (t0, t1, mu) in MajorantWalk::new(g, org, dir, t_max) {
         if !(mu > 0.0) {
             continue;
@@ -219,12 +275,49 @@ pub fn delta_tracking(
             }
         }
     }
+    if let Some(h) = &after
+        && let Some(event) = held_flight(h, beta, &mut w, rng, emitted)
+    {
+        return event;
+    }
     (FreeFlight::Pass { weight: w }, w)
+}
+
+/// The free flight across a held stretch (homogeneous: exact sampling) for a path that
+/// reached it with tracking weight `w`: its emission's expectation is added, and a scatter
+/// inside it is returned as [`delta_tracking`] returns one; a pass multiplies `w`. Emission
+/// over an unbounded stretch in a channel the stretch does not attenuate is infinite and
+/// left out (Cycles' integral diverges there too).
+#[inline]
+fn held_flight(h: &Held, beta: Rgb, w: &mut Rgb, rng: &mut WalkRng, emitted: &mut Rgb) -> Option<(FreeFlight, Rgb)> {
+    let len = h.t1 - h.t0;
+    let e = h.medium.emitted(len);
+    if e.is_finite() {
+        *emitted += *w * e;
+    }
+    let bw = beta * *w;
+    match h.medium.sample_free_flight(len, bw, rng.next_f32(), rng.next_f32()) {
+        FreeFlight::Scatter { t, weight } => {
+            let pass = *w * h.medium.pass_weight(t, bw);
+            Some((FreeFlight::Scatter { t: h.t0 + t, weight: *w * weight }, pass))
+        }
+        FreeFlight::Pass { weight } => {
+            *w *= weight;
+            None
+        }
+    }
 }
 
 /// Transmittance through grid `g` from `org` along unit `dir` over `t_max`: ratio tracking.
 pub fn ratio_tracking(g: &GridMedium, org: Vec3, dir: Vec3, t_max: f32, rng: &mut WalkRng) -> Rgb {
     let mut tr = Rgb::ONE;
+    let [before, after] = held_stretches(g, org, dir, t_max, false);
+    for h in before.iter().chain(&after) {
+        tr *= h.medium.transmittance(h.t1 - h.t0);
+    }
+    if tr == Rgb::ZERO {
+        return tr;
+    }
     for (t0, t1, mu) in MajorantWalk::new(g, org, dir, t_max) {
         if !(mu > 0.0) {
             continue;

@@ -222,6 +222,9 @@ pub struct Scene {
     /// The medium filling the scene outside every mesh medium (Blender's World Volume);
     /// camera rays and lights start in it.
     pub world_medium: Option<crate::medium::HomogeneousMedium>,
+    /// The world's volume when a node graph gives it (`grids` index; `world_medium` is then
+    /// None): textured fog filling the scene.
+    pub world_grid: Option<u32>,
     /// Volume objects' grid media (`Material::grid` indexes this).
     pub grids: Vec<crate::medium::GridMedium>,
     /// Per light (indexed as `lights`): false for a light whose Cast Shadow is off, whose

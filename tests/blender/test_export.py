@@ -414,9 +414,10 @@ def test_subsurface_and_volume_materials(empty_scene, captured, addon):
     assert "CAUSTIC_materials_subsurface" in gltf["extensionsUsed"]
 
 
-def test_unsupported_volume_node_is_named(empty_scene, addon):
+def test_unsupported_volume_node_is_named(empty_scene, addon, tmp_path):
     import importlib
     export = importlib.import_module(addon.__name__ + ".export")
+    node_images = importlib.import_module(addon.__name__ + ".export.node_images")
     mat, node = _volume_only("Diffuse", "ShaderNodeBsdfDiffuse")
     value, warnings = export.medium_extension(mat)
     assert value is None
@@ -427,11 +428,19 @@ def test_unsupported_volume_node_is_named(empty_scene, addon):
     smoke.node_tree.links.new(noise.outputs[0], pv.inputs["Density"])
     value, warnings = export.medium_extension(smoke)
     assert value is not None and "graph" in value and warnings == [], warnings
-    # An image has no lookup in a volume: named, and the constant medium is written.
+    # An image: written by the export's image writer into the graph's images (the renderer
+    # reads it per point, test_textured_volume.py); without a writer (the viewport's
+    # comparison of a material's extras) named, and the constant medium is written.
     imaged, pv = _volume_only("Imaged", "ShaderNodeVolumePrincipled")
     image = imaged.node_tree.nodes.new("ShaderNodeTexImage")
     image.image = bpy.data.images.new("Puff", 4, 4)
     imaged.node_tree.links.new(image.outputs["Alpha"], pv.inputs["Density"])
+    value, warnings = export.medium_extension(imaged, node_images.ImageWriter(str(tmp_path)))
+    assert warnings == [], warnings
+    assert len(value["graph"]["images"]) == 1
+    (tex,) = [n for n in value["graph"]["nodes"] if n["type"] == "ShaderNodeTexImage"]
+    assert tex["props"]["image"] == 0
+    assert (tmp_path / value["graph"]["images"][0]["uri"]).is_file()
     value, warnings = export.medium_extension(imaged)
     assert value is not None and "graph" not in value
     assert any("Imaged" in w and "Image Texture" in w for w in warnings), warnings

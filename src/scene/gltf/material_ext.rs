@@ -163,8 +163,7 @@ impl Loader<'_> {
                 let Some(shader) = ext.graph_shader else {
                     return Err(self.err(format!("{what} needs graph_shader (the volume shader node)")));
                 };
-                let v = crate::shader::compile::volume::compile_volume(&name, graph, shader)
-                    .map_err(|e| self.err(format!("{what}: {e}")))?;
+                let v = self.volume_program(&name, graph, shader, &what)?;
                 for w in &v.warnings {
                     self.warn(format!("{what}: {w}"));
                 }

@@ -471,7 +471,7 @@ impl<'a> Loader<'a> {
             }
         }
         self.profile.mesh = phase.elapsed().as_secs_f64() - self.profile.tangents;
-        let (world, world_medium) = self.world(&value, &doc, &buffers)?;
+        let (world, world_volume) = self.world(&value, &doc, &buffers)?;
         let world_power = world.as_ref().map(|w| {
             // Power through the scene's bounding disk: irradiance π L over π R².
             std::f32::consts::PI * w.mean_luminance() * std::f32::consts::PI * scene_radius * scene_radius
@@ -540,6 +540,20 @@ impl<'a> Loader<'a> {
             self.warn("no camera in the file: framing the scene's bounds from +Z with a 40° camera");
             cameras.push(frame_bounds(lo, hi));
         }
+        let (world_medium, world_grid) = match world_volume {
+            world::WorldMedium::None => (None, None),
+            world::WorldMedium::Homogeneous(m) => (Some(m), None),
+            world::WorldMedium::Graph(volume) => {
+                // The fog's box holds the surfaces and every camera (paths start there).
+                let (flo, fhi) = cameras.iter().fold((lo, hi), |(a, b), c| (a.min(c.position), b.max(c.position)));
+                let source = crate::medium::procedural_source::ProceduralSource {
+                    volume: *volume,
+                    object: crate::shader::geom::NO_OBJECT,
+                };
+                grids.push(crate::medium::procedural::world_fog_medium(flo, fhi, source));
+                (None, Some(grids.len() as u32 - 1))
+            }
+        };
         let glowing_media = world_medium.as_ref().is_some_and(|m| m.emission != glam::Vec3::ZERO)
             || materials.iter().any(|m| m.medium.as_ref().is_some_and(|m| m.emission != glam::Vec3::ZERO))
             || grids.iter().any(|g| g.may_emit());
@@ -649,6 +663,7 @@ impl<'a> Loader<'a> {
             cameras,
             world,
             world_medium,
+            world_grid,
             grids,
             light_casts_shadow,
             light_lights_catcher,

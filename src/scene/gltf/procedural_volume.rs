@@ -1,17 +1,40 @@
 //! Materials whose Volume output has a node graph (`CAUSTIC_materials_medium.graph`): once
 //! the meshes are placed, each becomes a procedural grid medium (`medium::procedural`) over
 //! the box of the triangles that wear it, in the space of the object that wears it, and the
-//! material points to it (`Material::grid`), as a volume object's box does.
+//! material points to it (`Material::grid`), as a volume object's box does. The graph's
+//! images are decoded for its program alone (`Loader::volume_program`).
 
 use super::Loader;
 use crate::medium::GridMedium;
 use crate::medium::procedural::procedural_medium;
 use crate::medium::procedural_source::ProceduralSource;
 use crate::scene::{Material, Mesh};
+use crate::shader::compile::volume::{VolumeProgram, compile_volume};
 use crate::shader::geom::{NO_OBJECT, ObjectData};
 use glam::Vec3;
 
 impl Loader<'_> {
+    /// A Volume output's graph (`CAUSTIC_materials_medium.graph`, of a material or the world)
+    /// compiled, its images decoded as the surface graphs' are and kept by the program alone
+    /// (they leave the scene's list, as the world graph's do). `what` names it in errors.
+    pub(super) fn volume_program(
+        &mut self,
+        name: &str,
+        graph: &crate::shader::graph::NodesExt,
+        shader: usize,
+        what: &str,
+    ) -> crate::error::Result<VolumeProgram> {
+        let first = self.textures.len();
+        let mut images = Vec::with_capacity(graph.images.len());
+        for (k, img) in graph.images.iter().enumerate() {
+            images.push(self.node_image(name, k, img)? - first as u32);
+        }
+        let textures = self.textures.split_off(first);
+        let mut v = compile_volume(name, graph, shader, &images).map_err(|e| self.err(format!("{what}: {e}")))?;
+        v.textures = textures;
+        Ok(v)
+    }
+
     /// Turns each material's volume program into a grid medium appended to `grids`.
     pub(super) fn procedural_media(
         &mut self,

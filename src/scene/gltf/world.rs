@@ -6,6 +6,16 @@ use crate::error::Result;
 use crate::medium::HomogeneousMedium;
 use glam::Vec3;
 
+/// Blender's World Volume as `CAUSTIC_world.medium` gives it.
+pub(super) enum WorldMedium {
+    /// No world volume.
+    None,
+    /// Constant coefficients.
+    Homogeneous(HomogeneousMedium),
+    /// A node graph evaluated per point (`medium::procedural::world_fog_medium`).
+    Graph(Box<crate::shader::compile::volume::VolumeProgram>),
+}
+
 impl Loader<'_> {
     /// The world's Ray Visibility (`visibility` in `CAUSTIC_world`): the ray kinds that see
     /// it, camera included; every kind without the extension or the field.
@@ -27,10 +37,10 @@ impl Loader<'_> {
         value: &serde_json::Value,
         doc: &gltf::Document,
         buffers: &[Vec<u8>],
-    ) -> Result<(Option<crate::light::Environment>, Option<HomogeneousMedium>)> {
+    ) -> Result<(Option<crate::light::Environment>, WorldMedium)> {
         let scene_index = value.get("scene").and_then(|s| s.as_u64()).unwrap_or(0) as usize;
         let Some(ext) = value.pointer(&format!("/scenes/{scene_index}/extensions/CAUSTIC_world")) else {
-            return Ok((None, None));
+            return Ok((None, WorldMedium::None));
         };
         let w: WorldExt =
             serde_json::from_value(ext.clone()).map_err(|e| self.err(format!("CAUSTIC_world is malformed: {e}")))?;
@@ -40,7 +50,7 @@ impl Loader<'_> {
         }
         let _ = (doc, buffers);
         let medium = match &w.medium {
-            None => None,
+            None => WorldMedium::None,
             Some(m) => {
                 if !m.surface {
                     return Err(
@@ -48,14 +58,29 @@ impl Loader<'_> {
                     );
                 }
                 let medium = self.homogeneous_medium("CAUSTIC_world medium", m)?;
-                // Radiance gathered along an unbounded ray is E/σt: infinite where σt = 0.
-                let st = medium.sigma_t();
-                if (0..3).any(|c| medium.emission[c] > 0.0 && st[c] <= 0.0) {
-                    return Err(self.err(
-                        "CAUSTIC_world medium: emission in a colour channel the medium does not attenuate would be infinite",
-                    ));
+                if let Some(graph) = &m.graph {
+                    // Textured fog: the graph gives the coefficients at each point (the
+                    // constant fields are not read), built into a grid once the scene's
+                    // bounds are known (`world_fog_medium`).
+                    let what = "CAUSTIC_world medium.graph";
+                    let Some(shader) = m.graph_shader else {
+                        return Err(self.err(format!("{what} needs graph_shader (the volume shader node)")));
+                    };
+                    let v = self.volume_program("world", graph, shader, what)?;
+                    for w in &v.warnings {
+                        self.warn(format!("{what}: {w}"));
+                    }
+                    WorldMedium::Graph(Box::new(v))
+                } else {
+                    // Radiance gathered along an unbounded ray is E/σt: infinite where σt = 0.
+                    let st = medium.sigma_t();
+                    if (0..3).any(|c| medium.emission[c] > 0.0 && st[c] <= 0.0) {
+                        return Err(self.err(
+                            "CAUSTIC_world medium: emission in a colour channel the medium does not attenuate would be infinite",
+                        ));
+                    }
+                    WorldMedium::Homogeneous(medium)
                 }
-                Some(medium)
             }
         };
         if let Some(nodes) = &w.nodes {

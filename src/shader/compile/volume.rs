@@ -10,7 +10,7 @@
 use super::{Compiler, Sock, Ty, check_and_sort};
 use crate::shader::geom::Reg;
 use crate::shader::graph::NodesExt;
-use crate::shader::instructions::{Op, Program};
+use crate::shader::instructions::Program;
 use glam::Vec3;
 use std::collections::HashSet;
 
@@ -58,18 +58,24 @@ pub struct VolumeProgram {
     pub kind: VolumeKind,
     /// Its inputs' registers.
     pub regs: VolumeRegs,
-    /// Anisotropy (constant: the phase function is one per medium).
+    /// Anisotropy: the shader's own value (the medium's phase function where it does not vary).
     pub anisotropy: f32,
+    /// The register of a linked Anisotropy that varies over the medium, read at each
+    /// scattering point.
+    pub anisotropy_reg: Option<Reg>,
     /// Generated coordinates are read (the mesh's texture space is needed).
     pub uses_generated: bool,
     /// Warnings (without the material's name; the loader adds it).
     pub warnings: Vec<String>,
+    /// The graph's images, which its Image Texture nodes index (the loader decodes them
+    /// into the medium's own list, as the world graph's).
+    pub textures: Vec<crate::scene::Texture>,
 }
 
-/// Compiles the volume graph `ext` whose shader node is `shader`, for material `name`.
-/// Image Texture nodes are refused (the medium has no access to the scene's images); errors
-/// name the node.
-pub fn compile_volume(name: &str, ext: &NodesExt, shader: usize) -> Result<VolumeProgram, String> {
+/// Compiles the volume graph `ext` whose shader node is `shader`, for material `name`;
+/// `images[k]` is graph image k's index in the list the caller puts in
+/// [`VolumeProgram::textures`]. Errors name the node.
+pub fn compile_volume(name: &str, ext: &NodesExt, shader: usize, images: &[u32]) -> Result<VolumeProgram, String> {
     let order = check_and_sort(ext)?;
     let Some(node) = ext.nodes.get(shader) else {
         return Err(format!("the volume shader is node {shader} but the graph has {} nodes", ext.nodes.len()));
@@ -81,9 +87,6 @@ pub fn compile_volume(name: &str, ext: &NodesExt, shader: usize) -> Result<Volum
         "ShaderNodeEmission" => VolumeKind::Emission,
         other => return Err(format!("node '{}' ({other}) is not a volume shader Caustic renders", node.name)),
     };
-    if let Some(n) = ext.nodes.iter().find(|n| n.kind == "ShaderNodeTexImage") {
-        return Err(format!("node '{}': an Image Texture in a volume's graph is not supported", n.name));
-    }
     let mut used = HashSet::new();
     for n in &ext.nodes {
         for i in n.inputs.values() {
@@ -92,7 +95,7 @@ pub fn compile_volume(name: &str, ext: &NodesExt, shader: usize) -> Result<Volum
             }
         }
     }
-    let mut c = Compiler::new(ext, &[], name, used);
+    let mut c = Compiler::new(ext, images, name, used);
     for &i in order.iter().filter(|&&i| i != shader) {
         c.node(i)?;
     }
@@ -132,38 +135,51 @@ pub fn compile_volume(name: &str, ext: &NodesExt, shader: usize) -> Result<Volum
             temperature: zero,
         },
     };
-    let anisotropy = match kind {
-        VolumeKind::Principled | VolumeKind::Scatter => constant(&mut c, s, "Anisotropy")?,
-        _ => 0.0,
+    let (anisotropy, anisotropy_reg) = match kind {
+        VolumeKind::Principled | VolumeKind::Scatter => anisotropy(&mut c, s)?,
+        _ => (0.0, None),
     };
     let mut prog = c.prog;
     prog.init = c.init;
     prog.ops = c.ops;
     prog.surface_end = prog.ops.len();
-    if prog.ops.iter().any(|op| matches!(op, Op::Image(_))) {
-        return Err("an image lookup in a volume's graph is not supported".into());
-    }
-    Ok(VolumeProgram { program: prog, kind, regs, anisotropy, uses_generated: c.uses_generated, warnings: c.warnings })
+    Ok(VolumeProgram {
+        program: prog,
+        kind,
+        regs,
+        anisotropy,
+        anisotropy_reg,
+        uses_generated: c.uses_generated,
+        warnings: c.warnings,
+        textures: Vec::new(),
+    })
 }
 
-/// The value of input `id` of node `i`, which must not vary over the medium (a linked one
-/// is read at the medium's first point would be wrong: it is named in a warning and its
-/// own value used).
-fn constant(c: &mut Compiler, i: usize, id: &str) -> Result<f32, String> {
-    let linked = matches!(c.source(i, id)?, Some(Sock { ty, reg }) if ty == Ty::Closure || !c.is_const(reg, 1));
-    if linked {
-        c.warn(i, format!("a varying {id} is not supported (one phase function per medium): its own value is used"));
+/// The shader's Anisotropy: its own value, and the register of a linked one that varies
+/// over the medium (the phase function is then looked up at each scattering point,
+/// `GridMedium::phase_at`). A closure linked into it is named in a warning and its own value
+/// used.
+fn anisotropy(c: &mut Compiler, i: usize) -> Result<(f32, Option<Reg>), String> {
+    let own = c.value(i, "Anisotropy").and_then(|v| v.as_f64()).map_or(0.0, |v| v as f32);
+    match c.source(i, "Anisotropy")? {
+        Some(Sock { ty: Ty::Closure, .. }) => {
+            c.warn(i, "a shader linked into Anisotropy is not a value: its own value is used");
+            Ok((own, None))
+        }
+        Some(Sock { reg, .. }) if !c.is_const(reg, 1) => Ok((own, Some(c.float(i, "Anisotropy", 0.0)?))),
+        _ => Ok((own, None)),
     }
-    Ok(c.value(i, id).and_then(|v| v.as_f64()).map_or(0.0, |v| v as f32))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::shader::instructions::Op;
     use serde_json::json;
 
     /// A Noise Texture into a Math node into the Principled Volume's Density compiles; the
-    /// shader's own Anisotropy is read; an Image Texture is refused.
+    /// shader's own Anisotropy is read; an Image Texture compiles to an image lookup of the
+    /// image it names, and one naming an image the graph does not list is refused.
     #[test]
     fn principled_volume_with_a_texture() {
         let ext: NodesExt = serde_json::from_value(json!({"version": 1, "nodes": [
@@ -175,17 +191,19 @@ mod tests {
              "inputs": {"Density": {"value": 1.0, "link": [1, "Value"]}, "Anisotropy": {"value": 0.3}}}],
             "output": {}}))
         .unwrap();
-        let v = compile_volume("m", &ext, 2).unwrap();
+        let v = compile_volume("m", &ext, 2, &[]).unwrap();
         assert_eq!(v.kind, VolumeKind::Principled);
         assert!((v.anisotropy - 0.3).abs() < 1e-6);
         assert!(v.uses_generated, "the Noise Texture's unlinked Vector is Generated");
         assert!(!v.program.ops.is_empty());
         let img: NodesExt = serde_json::from_value(json!({"version": 1, "nodes": [
-            {"name": "Img", "type": "ShaderNodeTexImage", "inputs": {}},
+            {"name": "Img", "type": "ShaderNodeTexImage", "props": {"image": 0}, "inputs": {}},
             {"name": "PV", "type": "ShaderNodeVolumeScatter", "inputs": {"Density": {"link": [0, "Alpha"]}}}],
             "output": {}}))
         .unwrap();
-        assert!(compile_volume("m", &img, 1).unwrap_err().contains("Image Texture"));
-        assert!(compile_volume("m", &img, 0).unwrap_err().contains("not a volume shader"));
+        let v = compile_volume("m", &img, 1, &[0]).unwrap();
+        assert!(v.program.ops.iter().any(|op| matches!(op, Op::Image(t) if t.texture == Some(0))));
+        assert!(compile_volume("m", &img, 1, &[]).unwrap_err().contains("not in the graph's images"));
+        assert!(compile_volume("m", &img, 0, &[0]).unwrap_err().contains("not a volume shader"));
     }
 }
