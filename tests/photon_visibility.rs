@@ -7,8 +7,9 @@
 //! light (max depth 4). Each case changes one rule: the light's Cast Shadow off (the floor
 //! under the blocker is lit directly, and so is the blocker's top: photons pass the blocker
 //! and scatter at both), the blocker hidden from diffuse rays (it still casts its direct
-//! shadow, but the floor's and the wall's gather rays pass it) or the light hidden from
-//! diffuse rays (its light reaches only through NEE and the glossy rest). A point light is a
+//! shadow, but the floor's and the wall's diffuse rays pass it, and its own bounce light
+//! reaches them only through their glossy layer), the blocker seen by shadow rays alone, or
+//! the light hidden from diffuse rays (it lights only the materials' glossy layer). A point light is a
 //! delta light, which the path tracer takes by next-event estimation alone with weight 1,
 //! so its image is the reference without MIS shares in the way. Each case checks that its
 //! rule matters: the path tracer's image without it leaves the case's bounds.
@@ -68,7 +69,16 @@ fn scene(dir: &Path, file: &str, light: &Value, blocker_vis: &Value) -> PathBuf 
 
 /// The cases, each with the rule it sets.
 fn cases() -> Vec<Case> {
-    vec![Case { name: "cast shadow off", light: json!({"cast_shadow": false}), blocker: json!({}) }]
+    vec![
+        Case { name: "cast shadow off", light: json!({"cast_shadow": false}), blocker: json!({}) },
+        Case { name: "blocker hidden from diffuse rays", light: json!({}), blocker: json!({"diffuse": false}) },
+        Case {
+            name: "blocker seen by shadow rays only",
+            light: json!({}),
+            blocker: json!({"camera": false, "diffuse": false, "glossy": false, "transmission": false}),
+        },
+        Case { name: "light hidden from diffuse rays", light: json!({"diffuse_visible": false}), blocker: json!({}) },
+    ]
 }
 
 /// Jensen and SPPM each agree with the path tracer on every case, and each case's rule
@@ -96,8 +106,8 @@ fn photon_integrators_match_the_path_tracer() {
         let label = format!("{}: without the rule", case.name);
         assert!(!disagreeing(&label, &regs, &plain, &reference, alpha).is_empty(), "{label}: it changes nothing");
         let others: [(&str, &[&str]); 2] = [
-            ("photon", &["--integrator", "photon", "--spp", "16", "--photons", "100000", "--max-radius", "0.02"]),
-            ("sppm", &["--integrator", "sppm", "--sppm-iterations", "128", "--sppm-radius", "0.02"]),
+            ("photon", &["--integrator", "photon", "--spp", "32", "--photons", "400000", "--max-radius", "0.02"]),
+            ("sppm", &["--integrator", "sppm", "--sppm-iterations", "256", "--sppm-radius", "0.02"]),
         ];
         for (name, flags) in others {
             let m = means(&ruled, flags);

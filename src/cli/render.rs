@@ -98,9 +98,10 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         run_warnings.push(w);
     }
     let hidden = &scene.ray_visibility.hidden_objects;
-    if !hidden.is_empty() && !matches!(res.integrator, IntegratorKind::Path) {
-        // Light subpaths and photons learn the kind of each segment only at its far end,
-        // so they cannot skip hidden objects yet: the object stays visible to every ray.
+    if !hidden.is_empty() && matches!(res.integrator, IntegratorKind::Bdpt | IntegratorKind::Vcm) {
+        // Light subpaths learn the kind of each segment only at its far end, so they cannot
+        // skip hidden objects yet: the object stays visible to every ray (photons carry the
+        // kinds that may read them: `integrator::photon::visibility`).
         let w = format!(
             "ray visibility of object(s) {} is not honoured by this integrator: every ray sees them (the path \
              integrator renders them as Cycles)",
@@ -118,7 +119,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         .filter(|(m, _)| **m != crate::scene::visibility::RayMask::ALL)
         .map(|(_, r)| format!("'{}'", r.name))
         .collect();
-    if !hidden_lights.is_empty() && !matches!(res.integrator, IntegratorKind::Path) {
+    if !hidden_lights.is_empty() && matches!(res.integrator, IntegratorKind::Bdpt | IntegratorKind::Vcm) {
         // Like the objects' ray visibility: only the path tracer knows each ray's kind.
         let w = format!(
             "ray visibility of light(s) {} is not honoured by this integrator: they light every kind of bounce \
@@ -248,9 +249,9 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     let ctx = SceneContext::with_light_sampler(&scene, &accel, res.light_sampler)
         .with_motion(motion_accel.as_ref())
         .with_camera_at(scene.cameras[res.camera].position);
-    // Only the path tracer gives every ray its kind (see the warning above); every
-    // integrator honours light and shadow linking (`integrator::linking`).
-    let ctx = if matches!(res.integrator, IntegratorKind::Path) { ctx.with_ray_visibility() } else { ctx };
+    // The path tracer and the photon integrators give every ray its kind (see the warning
+    // above); every integrator honours light and shadow linking (`integrator::linking`).
+    let ctx = if crate::cli::settings::honours_ray_visibility(res.integrator) { ctx.with_ray_visibility() } else { ctx };
     let ctx = ctx.with_light_linking();
     // The shadow catcher's pass sees the scene apart (settings keep its sums for the path
     // tracer only).
@@ -710,3 +711,4 @@ fn charge_render(budget: &MemoryBudget, args: &RenderArgs, res: &Resolved, scene
         IntegratorKind::Path => Ok(()),
     }
 }
+

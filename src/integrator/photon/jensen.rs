@@ -438,7 +438,10 @@ impl JensenIntegrator {
                 }
                 let mapped = (c.roles[0] != Rgb::ZERO || (b > 0 && c.roles[b] != Rgb::ZERO)) && split.has_diffuse(&at);
                 if mapped {
-                    let f_d = |p: &super::Photon| split.diffuse(&at, sp.frame.to_local(p.wi()));
+                    // Each photon through the classes its kinds allow (`visibility.rs`).
+                    let f_d = |p: &super::Photon| {
+                        super::visibility::map_weight(split, &at, wo_local.z, sp.frame.to_local(p.wi()), p.kinds())
+                    };
                     // Every map read is indirect light (a photon has left its light and
                     // bounced at least once); at the first vertex it is filed by the class
                     // of each photon's direction (`map_read`), later by the first event's.
