@@ -112,7 +112,8 @@ fn photon_integrators_match_the_path_tracer() {
         for (name, flags) in others {
             let m = means(&ruled, flags);
             let label = format!("{}: {name}", case.name);
-            failed.extend(disagreeing(&label, &regs, &m, &reference, alpha).into_iter().map(|r| format!("{label} {r}")));
+            failed
+                .extend(disagreeing(&label, &regs, &m, &reference, alpha).into_iter().map(|r| format!("{label} {r}")));
         }
     }
     assert!(failed.is_empty(), "disagree with the path tracer: {failed:?}");

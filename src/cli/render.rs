@@ -130,7 +130,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         run_warnings.push(w);
     }
     let catchers = &scene.ray_visibility.catcher_objects;
-    if !catchers.is_empty() && !matches!(res.integrator, IntegratorKind::Path) {
+    if !catchers.is_empty() && !crate::cli::settings::splits_at_catchers(res.integrator) {
         // Splitting needs a camera path that can be followed twice from the catcher.
         let w = format!(
             "shadow catcher object(s) {} are rendered as ordinary objects by this integrator (the path \
@@ -251,10 +251,11 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         .with_camera_at(scene.cameras[res.camera].position);
     // The path tracer and the photon integrators give every ray its kind (see the warning
     // above); every integrator honours light and shadow linking (`integrator::linking`).
-    let ctx = if crate::cli::settings::honours_ray_visibility(res.integrator) { ctx.with_ray_visibility() } else { ctx };
+    let ctx =
+        if crate::cli::settings::honours_ray_visibility(res.integrator) { ctx.with_ray_visibility() } else { ctx };
     let ctx = ctx.with_light_linking();
-    // The shadow catcher's pass sees the scene apart (settings keep its sums for the path
-    // tracer only).
+    // The shadow catcher's pass sees the scene apart (settings keep its sums for the
+    // integrators that split, `settings::splits_at_catchers`).
     let ctx = if res.passes.catcher_sums() {
         let pass = SceneContext::with_light_sampler(&scene, &accel, res.light_sampler)
             .with_camera_at(scene.cameras[res.camera].position)
@@ -711,4 +712,3 @@ fn charge_render(budget: &MemoryBudget, args: &RenderArgs, res: &Resolved, scene
         IntegratorKind::Path => Ok(()),
     }
 }
-
