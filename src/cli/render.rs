@@ -98,13 +98,13 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         run_warnings.push(w);
     }
     let hidden = &scene.ray_visibility.hidden_objects;
-    if !hidden.is_empty() && matches!(res.integrator, IntegratorKind::Bdpt | IntegratorKind::Vcm) {
+    if !hidden.is_empty() && !crate::cli::settings::honours_ray_visibility(res.integrator) {
         // Light subpaths learn the kind of each segment only at its far end, so they cannot
         // skip hidden objects yet: the object stays visible to every ray (photons carry the
         // kinds that may read them: `integrator::photon::visibility`).
         let w = format!(
-            "ray visibility of object(s) {} is not honoured by this integrator: every ray sees them (the path \
-             integrator renders them as Cycles)",
+            "ray visibility of object(s) {} is not honoured by this integrator: every ray sees them (the path, \
+             photon and SPPM integrators render them as Cycles)",
             hidden.iter().map(|o| format!("'{}'", o.name)).collect::<Vec<_>>().join(", ")
         );
         reporter.warning(&w);
@@ -119,11 +119,11 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         .filter(|(m, _)| **m != crate::scene::visibility::RayMask::ALL)
         .map(|(_, r)| format!("'{}'", r.name))
         .collect();
-    if !hidden_lights.is_empty() && matches!(res.integrator, IntegratorKind::Bdpt | IntegratorKind::Vcm) {
-        // Like the objects' ray visibility: only the path tracer knows each ray's kind.
+    if !hidden_lights.is_empty() && !crate::cli::settings::honours_ray_visibility(res.integrator) {
+        // Like the objects' ray visibility: light subpaths do not know each ray's kind.
         let w = format!(
             "ray visibility of light(s) {} is not honoured by this integrator: they light every kind of bounce \
-             (the path integrator renders them as Cycles)",
+             (the path, photon and SPPM integrators render them as Cycles)",
             hidden_lights.join(", ")
         );
         reporter.warning(&w);
@@ -133,8 +133,8 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     if !catchers.is_empty() && !crate::cli::settings::splits_at_catchers(res.integrator) {
         // Splitting needs a camera path that can be followed twice from the catcher.
         let w = format!(
-            "shadow catcher object(s) {} are rendered as ordinary objects by this integrator (the path \
-             integrator renders them as Cycles)",
+            "shadow catcher object(s) {} are rendered as ordinary objects by this integrator (the path and \
+             photon integrators render them as Cycles)",
             catchers.iter().map(|n| format!("'{n}'")).collect::<Vec<_>>().join(", ")
         );
         reporter.warning(&w);
