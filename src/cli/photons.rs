@@ -55,7 +55,8 @@ pub fn run_photons(args: &PhotonsArgs, reporter: &Reporter, stop: &AtomicBool) -
         Accel::build(&tris)
     });
     // Photons honour light and shadow linking, as `caustic render`'s maps.
-    let ctx = SceneContext::new(&scene, &accel).with_light_linking();
+    // Photons carry the kinds of camera ray that may read them, as in `caustic render`.
+    let ctx = SceneContext::new(&scene, &accel).with_ray_visibility().with_light_linking();
     reporter.phase("photons", t0.elapsed().as_secs_f64());
     let (maps, ms) = pool.install(|| trace_maps(&ctx, &p, seed, max_depth, hash, reporter, stop));
     if stop.load(Ordering::Relaxed) {

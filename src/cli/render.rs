@@ -87,23 +87,24 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     scene.set_view(res.camera, res.resolution.0, res.resolution.1);
     let mut run_warnings = Vec::new();
     let shadowless = scene.light_casts_shadow.iter().filter(|c| !**c).count();
-    if shadowless > 0 && !matches!(res.integrator, IntegratorKind::Path) {
-        // Cycles skips the shadow ray of such a light; light tracing and photons follow
-        // the light's own paths, which occluders still stop.
+    if shadowless > 0 && matches!(res.integrator, IntegratorKind::Bdpt | IntegratorKind::Vcm) {
+        // Cycles skips the shadow ray of such a light; light tracing follows the light's
+        // own paths, which occluders still stop (photons pass them: `integrator::linking`).
         let w = format!(
             "{shadowless} light(s) with Cast Shadow off: only next-event estimation ignores occluders; this integrator's \
-             light-tracing or photon paths from them are still blocked (the path integrator renders them as Cycles)"
+             light-tracing paths from them are still blocked (the path integrator renders them as Cycles)"
         );
         reporter.warning(&w);
         run_warnings.push(w);
     }
     let hidden = &scene.ray_visibility.hidden_objects;
-    if !hidden.is_empty() && !matches!(res.integrator, IntegratorKind::Path) {
-        // Light subpaths and photons learn the kind of each segment only at its far end,
-        // so they cannot skip hidden objects yet: the object stays visible to every ray.
+    if !hidden.is_empty() && !crate::cli::settings::honours_ray_visibility(res.integrator) {
+        // Light subpaths learn the kind of each segment only at its far end, so they cannot
+        // skip hidden objects yet: the object stays visible to every ray (photons carry the
+        // kinds that may read them: `integrator::photon::visibility`).
         let w = format!(
-            "ray visibility of object(s) {} is not honoured by this integrator: every ray sees them (the path \
-             integrator renders them as Cycles)",
+            "ray visibility of object(s) {} is not honoured by this integrator: every ray sees them (the path, \
+             photon and SPPM integrators render them as Cycles)",
             hidden.iter().map(|o| format!("'{}'", o.name)).collect::<Vec<_>>().join(", ")
         );
         reporter.warning(&w);
@@ -118,22 +119,22 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         .filter(|(m, _)| **m != crate::scene::visibility::RayMask::ALL)
         .map(|(_, r)| format!("'{}'", r.name))
         .collect();
-    if !hidden_lights.is_empty() && !matches!(res.integrator, IntegratorKind::Path) {
-        // Like the objects' ray visibility: only the path tracer knows each ray's kind.
+    if !hidden_lights.is_empty() && !crate::cli::settings::honours_ray_visibility(res.integrator) {
+        // Like the objects' ray visibility: light subpaths do not know each ray's kind.
         let w = format!(
             "ray visibility of light(s) {} is not honoured by this integrator: they light every kind of bounce \
-             (the path integrator renders them as Cycles)",
+             (the path, photon and SPPM integrators render them as Cycles)",
             hidden_lights.join(", ")
         );
         reporter.warning(&w);
         run_warnings.push(w);
     }
     let catchers = &scene.ray_visibility.catcher_objects;
-    if !catchers.is_empty() && !matches!(res.integrator, IntegratorKind::Path) {
+    if !catchers.is_empty() && !crate::cli::settings::splits_at_catchers(res.integrator) {
         // Splitting needs a camera path that can be followed twice from the catcher.
         let w = format!(
-            "shadow catcher object(s) {} are rendered as ordinary objects by this integrator (the path \
-             integrator renders them as Cycles)",
+            "shadow catcher object(s) {} are rendered as ordinary objects by this integrator (the path and \
+             photon integrators render them as Cycles)",
             catchers.iter().map(|n| format!("'{n}'")).collect::<Vec<_>>().join(", ")
         );
         reporter.warning(&w);
@@ -263,12 +264,13 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     let ctx = SceneContext::with_light_sampler(&scene, &accel, res.light_sampler)
         .with_motion(motion_accel.as_ref())
         .with_camera_at(scene.cameras[res.camera].position);
-    // Only the path tracer gives every ray its kind (see the warning above); every
-    // integrator honours light and shadow linking (`integrator::linking`).
-    let ctx = if matches!(res.integrator, IntegratorKind::Path) { ctx.with_ray_visibility() } else { ctx };
+    // The path tracer and the photon integrators give every ray its kind (see the warning
+    // above); every integrator honours light and shadow linking (`integrator::linking`).
+    let ctx =
+        if crate::cli::settings::honours_ray_visibility(res.integrator) { ctx.with_ray_visibility() } else { ctx };
     let ctx = ctx.with_light_linking();
-    // The shadow catcher's pass sees the scene apart (settings keep its sums for the path
-    // tracer only).
+    // The shadow catcher's pass sees the scene apart (settings keep its sums for the
+    // integrators that split, `settings::splits_at_catchers`).
     let ctx = if res.passes.catcher_sums() {
         let pass = SceneContext::with_light_sampler(&scene, &accel, res.light_sampler)
             .with_camera_at(scene.cameras[res.camera].position)

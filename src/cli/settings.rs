@@ -317,12 +317,12 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
         // its last slot): a chunk keeps each pixel's whole first-seen list for the merge.
         passes.set_cryptomatte_exact();
     }
-    if !scene.ray_visibility.catcher_objects.is_empty() && integrator == IntegratorKind::Path {
+    if !scene.ray_visibility.catcher_objects.is_empty() && splits_at_catchers(integrator) {
         passes = passes.with_catcher_sums();
     }
-    if passes.contains(crate::passes::Pass::ShadowCatcher) && integrator != IntegratorKind::Path {
+    if passes.contains(crate::passes::Pass::ShadowCatcher) && !splits_at_catchers(integrator) {
         return Err(Error::Usage(format!(
-            "the Shadow Catcher pass is rendered by the path integrator only, not by '{}'",
+            "the Shadow Catcher pass is rendered by the path and photon integrators only, not by '{}'",
             integrator.name()
         )));
     }
@@ -364,4 +364,16 @@ fn resolve_adaptive(args: &RenderArgs, st: &scene::SceneSettings) -> Result<Opti
         return Err(Error::Usage(format!("--min-samples {min_samples} is absurd (at most {MAX_SPP})")));
     }
     Ok((threshold > 0.0).then(|| Adaptive::new(threshold, min_samples)))
+}
+
+/// True when `integrator` renders the Ray Visibility of objects, lights and the world (the
+/// path tracer's rays; photons through the kinds they carry, `integrator::photon::visibility`).
+pub fn honours_ray_visibility(integrator: IntegratorKind) -> bool {
+    matches!(integrator, IntegratorKind::Path | IntegratorKind::Photon | IntegratorKind::Sppm)
+}
+
+/// True when `integrator` splits camera paths at shadow catchers (`integrator::catcher`:
+/// the path tracer, and Jensen's camera paths, whose catcher pass is path traced).
+pub fn splits_at_catchers(integrator: IntegratorKind) -> bool {
+    matches!(integrator, IntegratorKind::Path | IntegratorKind::Photon)
 }

@@ -19,6 +19,10 @@
 //!   block it: it scatters at each one it lights and also goes on through it, as far as the
 //!   first blocker, so that every surface on that segment gets the light's direct photons
 //!   (light linking adds light; it need not conserve the light's power).
+//! - **Cast Shadow off** (`SceneContext::casts_shadow`): next-event estimation skips the
+//!   shadow ray, so the light reaches every point as if nothing stood in the way. Its
+//!   photons are those of a shadow-linked light without blockers: they scatter at every
+//!   surface on their first segment and go on through each.
 
 use super::SceneContext;
 use crate::scene::linking::NO_OBJECT;
@@ -91,7 +95,8 @@ pub fn light_subpaths_leave(ctx: &SceneContext, light: usize) -> bool {
 pub struct FirstEvent {
     /// The light lights it: the photon is stored and scatters there.
     pub scatters: bool,
-    /// It does not block the light (shadow linking): the photon also goes on through it.
+    /// It does not block the light (shadow linking, or the light's Cast Shadow is off):
+    /// the photon also goes on through it.
     pub passes: bool,
 }
 
@@ -100,7 +105,8 @@ pub struct FirstEvent {
 pub fn photon_first_event(ctx: &SceneContext, light: usize, receiver: u32) -> FirstEvent {
     FirstEvent {
         scatters: ctx.links(light, receiver),
-        passes: receiver != NO_OBJECT && ctx.shadow_linked(light) && !ctx.blocks(light, receiver),
+        passes: receiver != NO_OBJECT
+            && (!ctx.casts_shadow(light) || (ctx.shadow_linked(light) && !ctx.blocks(light, receiver))),
     }
 }
 

@@ -333,6 +333,13 @@ impl<'a> SceneContext<'a> {
         self.scene.ray_visibility.is_holdout(tri)
     }
 
+    /// The kinds of ray that see triangle `tri`'s object (every kind unless the context
+    /// honours ray visibility): photons read it (`photon::visibility`).
+    #[inline]
+    pub fn object_rays(&self, tri: u32) -> RayMask {
+        self.visibility.get(tri as usize).copied().unwrap_or(RayMask::ALL)
+    }
+
     /// True when rays of kind `ray` see triangle `tri`.
     #[inline]
     fn sees(&self, ray: RayMask, tri: u32) -> bool {

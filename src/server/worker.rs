@@ -204,7 +204,7 @@ fn run(job: Job, out: &Output, stop: &AtomicBool) -> Option<Arc<Integrator>> {
     // objects' ray visibility; light linking for all.
     let ctx = SceneContext::with_light_sampler(&job.scene, &job.accel, s.light_sampler)
         .with_camera_at(job.view.camera.position);
-    let ctx = if matches!(s.integrator, IntegratorKind::Path) { ctx.with_ray_visibility() } else { ctx };
+    let ctx = if crate::cli::settings::honours_ray_visibility(s.integrator) { ctx.with_ray_visibility() } else { ctx };
     let ctx = ctx.with_light_linking();
     let integrator = match &job.integrator {
         Some(i) => i.clone(),

@@ -35,6 +35,11 @@
 //! map reads are indirect, split by class at the first vertex (`map_read.rs`) and by the
 //! photons' light groups; media and subsurface parts file through `PathIntegrator::*_filed`.
 //!
+//! Shadow catchers (`integrator::catcher`): the camera chain splits where its camera
+//! segment ends on a catcher, as the path tracer's; the catcher pass is the path tracer's
+//! walk from there in the scene of catchers only (no photon map holds that scene's light).
+//! Light groups of a split path still file (the path tracer's stop at the split).
+//!
 //! Depth: a photon with hit index j read at the camera path's n-th scattering event
 //! makes a path of (j - 1) + n events; only those within `max_depth` are counted, so
 //! the result converges to the path tracer's at the same maximum depth. At a contact (a
@@ -56,6 +61,7 @@ use super::lobes::Split;
 use super::map_read::{self, Want};
 use crate::film::CameraSample;
 use crate::integrator::SceneContext;
+use crate::integrator::catcher::{self, Split as CatcherSplit};
 use crate::integrator::filing::Filing;
 use crate::integrator::light_passes::{Tally, shares_at};
 use crate::integrator::nee::surface_nee_at;
@@ -227,7 +233,21 @@ impl JensenIntegrator {
             e_medium: Rgb::ONE,
             tally: Tally::default(),
         };
-        out.radiance = self.walk(ctx, chain, sampler, &depth_of, &mut out, stats);
+        let mut split = CatcherSplit::new(ctx.catcher.is_some());
+        out.radiance = self.walk(ctx, chain, sampler, &depth_of, &mut out, stats, &mut split);
+        if let (Some(pass_ctx), Some((pre, _))) = (ctx.catcher.as_deref(), split.at) {
+            // The catcher pass (`integrator::catcher`): the same camera segment again in the
+            // scene of catchers only, path traced (no photon map holds that scene's light):
+            // consistent as the photon estimate of Combined is, unbiased on its own.
+            let pass = self.continuation().continue_path(pass_ctx, pre, sampler, stats);
+            let behind = match self.transparent_background {
+                true => Rgb::ZERO,
+                false => pre.escaped_radiance(ctx).map_or(Rgb::ZERO, |le| pre.beta * le),
+            };
+            catcher::record(&mut out.aov, &split, out.radiance, pass, behind);
+        } else if split.allowed {
+            catcher::record(&mut out.aov, &split, out.radiance, Rgb::ZERO, Rgb::ZERO);
+        }
         out
     }
 
@@ -238,9 +258,11 @@ impl JensenIntegrator {
     }
 
     /// Follows one chain of rays (module doc: the roles), returning the radiance it
-    /// brings. The camera's chain fills `out`'s first-hit values; gather chains that start
-    /// at depth ≥ 1 leave them alone. Every chain files its light passes (by its tally)
-    /// and light groups into `out` when they are asked.
+    /// brings. The camera's chain fills `out`'s first-hit values and notes in `split` where
+    /// it finds a shadow catcher first (when allowed); gather chains that start at depth ≥ 1
+    /// leave them alone. Every chain files its light passes (by its tally) and light groups
+    /// into `out` when they are asked.
+    #[allow(clippy::too_many_arguments)]
     fn walk(
         &self,
         ctx: &SceneContext,
@@ -249,6 +271,7 @@ impl JensenIntegrator {
         depth_of: &dyn Fn(Vec3) -> f32,
         out: &mut CameraSample,
         stats: &mut RayStats,
+        split: &mut CatcherSplit,
     ) -> Rgb {
         let b = self.gather_role();
         let max_r2 = self.max_radius * self.max_radius;
@@ -259,6 +282,9 @@ impl JensenIntegrator {
             let [u_light, u_lx, u_ly, u_lobe] = sampler.next_4d();
             let [u_dx, u_dy, u_rr, u_channel] = sampler.next_4d();
             let u_dist = if ctx.has_media { sampler.next_4d()[0] } else { 0.0 };
+            // The camera segment as it starts, should it end on a shadow catcher (its
+            // throughput is the camera role's).
+            let pre = (split.allowed && c.st.depth == 0).then(|| PathState { beta: c.total(), ..c.st });
 
             // Along the ray, with a unit throughput: the segment's weight then scales every
             // role. Lights crossed count as emission found (MIS and plain weights).
@@ -334,6 +360,9 @@ impl JensenIntegrator {
                 Step::Escaped => {
                     // The world and sun disks.
                     let seen_directly = c.st.depth == 0;
+                    if split.allowed && seen_directly {
+                        split.background = c.st.escaped_radiance(ctx).map_or(Rgb::ZERO, |le| c.total() * le);
+                    }
                     if grouping {
                         // As the path tracer: the world seen through a transparent film too.
                         c.each_found(|st| {
@@ -364,6 +393,13 @@ impl JensenIntegrator {
             if c.st.depth == 0 && ctx.is_holdout(hit.tri) {
                 out.alpha = 0.0;
                 break;
+            }
+            // A shadow catcher seen by the camera ray: the path splits here (the catcher
+            // pass follows in `li`); what it gathered so far is the matte's.
+            if let Some(pre) = pre
+                && ctx.is_catcher(hit.tri)
+            {
+                split.at = Some((pre, radiance));
             }
             let wo = -c.st.dir;
             let sp = ctx.shade(&s, wo);
@@ -443,7 +479,10 @@ impl JensenIntegrator {
                     // At a contact (a glass resting on a floor) paths get direct light only
                     // (`contact.rs`): photons straight from their lights.
                     let jmax = if contact::at_contact(ctx, &s, c.st.ray) { 1 } else { jmax };
-                    let f_d = |p: &super::Photon| split.diffuse(&at, sp.frame.to_local(p.wi()));
+                    // Each photon through the classes its kinds allow (`visibility.rs`).
+                    let f_d = |p: &super::Photon| {
+                        super::visibility::map_weight(split, &at, wo_local.z, sp.frame.to_local(p.wi()), p.kinds())
+                    };
                     // Every map read is indirect light (a photon has left its light and
                     // bounced at least once); at the first vertex it is filed by the class
                     // of each photon's direction (`map_read`), later by the first event's.
@@ -520,7 +559,7 @@ impl JensenIntegrator {
                                 continue;
                             }
                             // Starting at depth ≥ 1, the chain leaves the first-hit values alone.
-                            radiance += self.walk(ctx, g, sampler, depth_of, out, stats);
+                            radiance += self.walk(ctx, g, sampler, depth_of, out, stats, &mut CatcherSplit::new(false));
                         }
                     }
                 }

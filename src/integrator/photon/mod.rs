@@ -13,7 +13,8 @@
 //!   camera paths follow by sampling (glossy: below the roughness threshold, specular);
 //! - `jensen.rs`: the rendering pass of Jensen's method (NEE + caustic map + final gather);
 //! - `sppm.rs`: SPPM with its own iteration driver;
-//! - `io.rs`: the photon-map file (`caustic photons`, `--photon-map`).
+//! - `io.rs`: the photon-map file (`caustic photons`, `--photon-map`);
+//! - `visibility.rs`: Ray Visibility for photons (the kinds of camera ray that may read one).
 //!
 //! Every parameter's default lives in [`PhotonSettings`] (`Default`), read by `cli.rs`.
 //!
@@ -27,8 +28,9 @@
 //! A stored photon is 32 bytes: position and RGB power as f32, the incident direction as
 //! a 16:16 octahedral code, and one word holding the surface normal (10:10 octahedral),
 //! the photon's hit index (1 = first surface hit after leaving the light, i.e. direct
-//! light) and a flag for caustic paths (L S+ D). The kd-tree's split planes are kept
-//! apart from the photons (`kdtree.rs`).
+//! light), a flag for caustic paths (L S+ D) and the surface kinds of camera ray that may
+//! not read it (`visibility.rs`; zero, as in maps written before, when every kind may).
+//! The kd-tree's split planes are kept apart from the photons (`kdtree.rs`).
 
 // `!(x > 0.0)` is deliberate throughout: it is also true for NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -44,7 +46,9 @@ pub mod sppm;
 pub mod sppm_extras;
 pub mod sppm_passes;
 pub mod trace;
+pub mod visibility;
 
+use crate::scene::visibility::RayMask;
 use glam::{Vec2, Vec3};
 
 pub use kdtree::PhotonMap;
@@ -60,7 +64,8 @@ pub struct Photon {
     /// Unit direction towards where the photon came from (octahedral 16:16).
     dir: u32,
     /// Normal (octahedral 10:10, bits 0-19), hit index (bits 20-27), caustic flag
-    /// (bit 28); bits 29-31 unused.
+    /// (bit 28), the surface kinds that may not read it (bits 29-31: diffuse, glossy,
+    /// transmission).
     meta: u32,
 }
 
@@ -124,6 +129,22 @@ impl Photon {
     #[inline]
     pub fn caustic(&self) -> bool {
         (self.meta >> 28) & 1 == 1
+    }
+
+    /// This photon, readable only by the surface kinds of camera ray in `kinds`
+    /// (`visibility.rs`). The kinds' bits are 2, 4 and 8: shifted to bits 29-31.
+    #[inline]
+    pub fn with_kinds(mut self, kinds: RayMask) -> Self {
+        let hidden = (visibility::SURFACE_KINDS.0 & !kinds.0) as u32;
+        self.meta = (self.meta & !(7 << 29)) | ((hidden >> 1) << 29);
+        self
+    }
+
+    /// The surface kinds of camera ray that may read this photon.
+    #[inline]
+    pub fn kinds(&self) -> RayMask {
+        let hidden = (((self.meta >> 29) & 7) << 1) as u8;
+        RayMask(visibility::SURFACE_KINDS.0 & !hidden)
     }
 
     /// The raw words, for the map file.
@@ -269,6 +290,10 @@ mod tests {
             assert!((ph.wi() - wi).length() < 1e-4, "{wi} {}", ph.wi());
             assert!((ph.normal() - n).length() < 5e-3, "{n} {}", ph.normal());
             assert_eq!((ph.depth(), ph.caustic()), (7, true));
+            assert_eq!(ph.kinds(), visibility::SURFACE_KINDS);
+            let glossy = ph.with_kinds(RayMask::GLOSSY);
+            assert_eq!((glossy.kinds(), glossy.depth(), glossy.caustic()), (RayMask::GLOSSY, 7, true));
+            assert_eq!(glossy.with_kinds(RayMask::ALL), ph);
         }
         assert_eq!(std::mem::size_of::<Photon>(), 32);
     }

@@ -397,7 +397,9 @@ fn render(
                     map.for_each_within(vp.p, r2, |ph, idx, _| {
                         if ph.depth() <= jmax && ph.normal_within_60(vp.ng) {
                             let wi = vp.frame.to_local(ph.wi());
-                            let c = vp.split.diffuse(&at, wi) * ph.power();
+                            // Through the classes the photon's kinds allow (`visibility.rs`).
+                            let c = super::visibility::map_weight(vp.split, &at, vp.wo_local.z, wi, ph.kinds())
+                                * ph.power();
                             phi += c;
                             m += 1;
                             if split_on {

@@ -28,6 +28,10 @@
 //! flagged photons estimate exactly the light a camera vertex's diffuse-like part does
 //! not get from the global map through a gather ray.
 //!
+//! Ray Visibility (`visibility.rs`): each photon carries the kinds of camera ray that may
+//! read or continue its segment; it may pass objects hidden from some of them, is stored
+//! with them, and scatters only through the classes they allow.
+//!
 //! Random numbers: photon i of pass `pass` draws from the Owen-scrambled Sobol stream
 //! (seed, salt, pass, i), so the maps depend on (seed, i) only, never on threads; the
 //! photons are traced in fixed chunks in parallel and concatenated in chunk order.
@@ -38,10 +42,11 @@
 use super::Photon;
 use super::contact;
 use super::lobes::Split;
+use super::visibility::{self, PHOTON_KINDS, SURFACE_KINDS};
 use crate::integrator::SceneContext;
 use crate::integrator::linking;
 use crate::integrator::path::PathIntegrator;
-use crate::integrator::walk::{PathState, Step};
+use crate::integrator::walk::{MAX_TRANSPARENT_HITS, PathState, Step};
 use crate::light::emit::Emitters;
 use crate::math::offset_ray_origin;
 use crate::math::{Rgb, luminance};
@@ -50,6 +55,7 @@ use crate::sampling::PixelSampler;
 use crate::sampling::warp::cosine_hemisphere;
 use crate::scene::light_groups::NONE;
 use crate::scene::linking::NO_OBJECT;
+use crate::scene::visibility::RayMask;
 use glam::Vec2;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -173,16 +179,17 @@ pub fn trace_one(
     let e = emitters.emit(ctx.scene, u_light, u_side, Vec2::new(u_px, u_py), Vec2::new(u_dx, u_dy), job.count)?;
     // A shadow-linked light's photon may go on through surfaces that do not block it
     // (`linking`): each such continuation is traced after the path it split from.
-    let mut pending = Some(PathState::photon(e.org, e.dir, e.power));
-    while let Some(path) = pending.take() {
-        follow(ctx, job, &mut s, e.light, path, &mut pending, out, st);
+    let mut pending = Some((PathState::photon(e.org, e.dir, e.power), visibility::of_light(ctx, e.light)));
+    while let Some((path, kinds)) = pending.take() {
+        follow(ctx, job, &mut s, e.light, path, kinds, &mut pending, out, st);
     }
     Some(e.light)
 }
 
 /// Follows a photon of light `light` from its state `path` (at its light, or passing a
-/// surface on its first segment), storing its hits in `out`; a continuation through a
-/// surface that does not block the light goes to `pending`.
+/// surface on its first segment) readable by the camera-ray kinds `kinds`
+/// (`visibility.rs`), storing its hits in `out`; a continuation through a surface that
+/// does not block the light goes to `pending`.
 #[allow(clippy::too_many_arguments)]
 #[inline]
 fn follow(
@@ -191,7 +198,8 @@ fn follow(
     s: &mut PixelSampler,
     light: usize,
     mut path: PathState,
-    pending: &mut Option<PathState>,
+    mut kinds: RayMask,
+    pending: &mut Option<(PathState, RayMask)>,
     out: &mut Vec<Photon>,
     st: &mut TraceStats,
 ) {
@@ -215,6 +223,10 @@ fn follow(
                 if path.depth == 0 && !linking::photon_first_event(ctx, light, NO_OBJECT).scatters {
                     return;
                 }
+                // The camera side leaves a medium event by a volume ray.
+                if !kinds.meets(RayMask::AFTER_VOLUME) {
+                    return;
+                }
                 // Russian roulette on the event's weight (the single-scattering albedo
                 // for a grey medium), as on surfaces.
                 let q = weight.max_element().min(1.0);
@@ -229,19 +241,50 @@ fn follow(
                 }
                 path.org = p;
                 path.dir = phase.sample(path.dir, Vec2::new(u_px, u_py)).0;
+                kinds = PHOTON_KINDS;
                 continue;
             }
             Step::Surface { s, .. } => s,
         };
+        // Ray Visibility: stop here, or go on through an object hidden from some of the
+        // kinds (`visibility.rs`: each with probability ½ when both can be); the light's
+        // own segment is the camera side's shadow ray, which objects hidden from shadow
+        // rays let through.
+        let mask = ctx.object_rays(sh.tri);
+        let through = match path.depth {
+            0 if mask.meets(RayMask::SHADOW) => RayMask(0),
+            0 => kinds,
+            _ => RayMask(kinds.0 & !mask.0),
+        };
+        let stops = kinds.meets(SURFACE_KINDS);
+        if through.0 != 0 {
+            let pass = !stops || {
+                path.beta *= 2.0;
+                s.next_4d()[0] < 0.5
+            };
+            if pass {
+                path.transparent_hits += 1;
+                if path.transparent_hits > MAX_TRANSPARENT_HITS {
+                    return;
+                }
+                path.org = offset_ray_origin(sh.p, -sh.ng);
+                path.media = ctx.medium_after(&sh, path.dir, path.media);
+                kinds = through;
+                continue;
+            }
+        } else if !stops {
+            return;
+        }
         if path.depth == 0 {
             // Light linking reads the first event (module doc of `linking`).
             let first = linking::photon_first_event(ctx, light, sh.tri);
             if first.passes {
-                *pending = Some(PathState {
+                let on = PathState {
                     org: offset_ray_origin(sh.p, -sh.ng),
                     media: ctx.medium_after(&sh, path.dir, path.media),
                     ..path
-                });
+                };
+                *pending = Some((on, kinds));
             }
             if !first.scatters {
                 return;
@@ -263,7 +306,7 @@ fn follow(
                 MapKind::Caustic => caustic,
             };
             if store {
-                out.push(Photon::new(sh.p, path.beta, wo, sh.ng, path.depth, caustic));
+                out.push(Photon::new(sh.p, path.beta, wo, sh.ng, path.depth, caustic).with_kinds(kinds));
                 st.stored += 1;
             }
         }
@@ -282,8 +325,9 @@ fn follow(
             let u = s.next_4d();
             let [v_dx, v_dy, v_rr, _] = s.next_4d();
             if u[0] < q_sss {
-                // A subsurface walk is not glossy: the caustic map has no use for it.
-                if job.kind == MapKind::Caustic {
+                // A subsurface walk is not glossy: the caustic map has no use for it. The
+                // camera side leaves it by a diffuse ray (as the path tracer).
+                if job.kind == MapKind::Caustic || !kinds.meets(RayMask::DIFFUSE) {
                     return;
                 }
                 let walker = PathIntegrator::default();
@@ -309,6 +353,7 @@ fn follow(
                 }
                 path.org = offset_ray_origin(se.p, n_g);
                 path.dir = wi;
+                kinds = visibility::of_object(ctx, exit.hit.tri);
                 continue;
             }
         }
@@ -323,13 +368,31 @@ fn follow(
             return;
         }
         let correction = (wo_local.z * cos_i_g / (cos_o_g * bs.wi.z)).abs();
+        // Ray Visibility: only the classes whose camera rays may continue this photon.
+        let reflected = bs.wi.z * wo_local.z > 0.0;
+        let excluded = if visibility::all_surface(kinds) {
+            Default::default()
+        } else if bs.delta {
+            if !kinds.meets(RayMask::after_bounce(bs.kind, !reflected)) {
+                return;
+            }
+            Default::default()
+        } else {
+            match visibility::excluded(kinds, reflected) {
+                Some(ex) => ex,
+                None => return,
+            }
+        };
         // Photons carry flux, which scatters by the adjoint BSDF f(wi, wo): it differs from
         // f(wo, wi) where a clear coat scales the layers below by its albedo seen from the
         // eye's side (as Cycles), which is not reciprocal, and across a refraction, whose
         // camera-side value follows Cycles' convention (no η², `bsdf::dielectric`): the
         // adjoint is 1/η² of it (and takes rough glass's multiple-scattering compensation
         // from the photon's side).
-        let f = if !bs.delta {
+        let f = if !excluded.none() {
+            // A reflection's adjoint is f seen from the photon's outgoing side.
+            sp.bsdf.at(bs.wi).eval_visible(wo_local, excluded)
+        } else if !bs.delta {
             sp.bsdf.eval_adjoint(wo_local, bs.wi)
         } else if bs.wi.z * wo_local.z < 0.0 {
             bs.f * sp.bsdf.refraction_adjoint_scale()
@@ -342,7 +405,7 @@ fn follow(
         // adjoint's diffuse part for a reflection, as f above).
         if glossy_only {
             let split = Split::of(&sp.bsdf);
-            let f_d = if bs.delta {
+            let f_d = if bs.delta || (excluded.diffuse && split == Split::ByClass) {
                 Rgb::ZERO
             } else if split == Split::AllDiffuse {
                 f
@@ -378,5 +441,6 @@ fn follow(
         path.media = ctx.medium_after(&sh, wi, path.media);
         path.org = offset_ray_origin(sh.p, if cos_i_g > 0.0 { sh.ng } else { -sh.ng });
         path.dir = wi;
+        kinds = visibility::of_object(ctx, sh.tri);
     }
 }
