@@ -87,9 +87,9 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     scene.set_view(res.camera, res.resolution.0, res.resolution.1);
     let mut run_warnings = Vec::new();
     let shadowless = scene.light_casts_shadow.iter().filter(|c| !**c).count();
-    if shadowless > 0 && !matches!(res.integrator, IntegratorKind::Path) {
-        // Cycles skips the shadow ray of such a light; light tracing and photons follow
-        // the light's own paths, which occluders still stop.
+    if shadowless > 0 && !matches!(res.integrator, IntegratorKind::Path | IntegratorKind::Bdpt | IntegratorKind::Vcm) {
+        // Cycles skips the shadow ray of such a light; photons follow the light's own
+        // paths, which occluders still stop (BDPT and VCM: `integrator::linking`).
         let w = format!(
             "{shadowless} light(s) with Cast Shadow off: only next-event estimation ignores occluders; this integrator's \
              light-tracing or photon paths from them are still blocked (the path integrator renders them as Cycles)"

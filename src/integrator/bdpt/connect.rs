@@ -85,8 +85,8 @@ impl BdptIntegrator {
                     Light::Triangle { tri } => !ctx.is_holdout(*tri),
                     _ => true,
                 };
-                // A shadow-linked light seen by the camera is s = 0's alone (`linking`).
-                if !visible || ctx.shadow_linked(lp.light as usize) {
+                // A shadow-linked or shadowless light seen by the camera is s = 0's alone (`linking`).
+                if !visible || linking::own_shadows(ctx, lp.light as usize) {
                     return;
                 }
                 lights::emitted(ctx.scene, &lp, w) * y.abs_cos_geo(w)
@@ -215,16 +215,21 @@ impl BdptIntegrator {
             if f == Rgb::ZERO || ls.li == Rgb::ZERO || !consistent {
                 return none;
             }
-            stats.shadow += 1;
-            let tr = crate::integrator::media::light_transmittance_of(
-                ctx,
-                x.p,
-                Some(hit.ng),
-                &ls,
-                media_leaving(ctx, &x, ls.wi),
-                Some(index),
-                crate::scene::light_path::LightPath::SHADOW_RAY,
-            );
+            // Cast Shadow off: no shadow ray, as the path tracer's next-event estimation.
+            let tr = if ctx.casts_shadow(index) {
+                stats.shadow += 1;
+                crate::integrator::media::light_transmittance_of(
+                    ctx,
+                    x.p,
+                    Some(hit.ng),
+                    &ls,
+                    media_leaving(ctx, &x, ls.wi),
+                    Some(index),
+                    crate::scene::light_path::LightPath::SHADOW_RAY,
+                )
+            } else {
+                Rgb::ONE
+            };
             if tr == Rgb::ZERO {
                 return none;
             }

@@ -133,7 +133,8 @@ pub(crate) fn segment_transmittance(ctx: &SceneContext, a: &Vertex, b: &Vertex, 
 }
 
 /// [`segment_transmittance`] of a segment to a point of light `light` (shadow linking:
-/// only its blockers stop it).
+/// only its blockers stop it; Cast Shadow off: nothing does, as next-event estimation's
+/// skipped shadow ray).
 #[inline]
 pub(crate) fn segment_transmittance_of(
     ctx: &SceneContext,
@@ -142,6 +143,9 @@ pub(crate) fn segment_transmittance_of(
     stack: MediumStack,
     light: Option<usize>,
 ) -> Rgb {
+    if light.is_some_and(|l| !ctx.casts_shadow(l)) {
+        return Rgb::ONE;
+    }
     let d = b.p - a.p;
     let dist = d.length();
     if !(dist > 0.0) {
