@@ -60,8 +60,9 @@ CRYPTOMATTE_LAYERS = (
     ("use_pass_cryptomatte_material", "cryptomatte_material", "CryptoMaterial"),
     ("use_pass_cryptomatte_asset", "cryptomatte_asset", "CryptoAsset"),
 )
-# The Shadow Catcher pass: the path integrator splits paths at catchers.
-PATH_ONLY_TOKENS = frozenset({"shadow_catcher"})
+# The Shadow Catcher pass: the path, BDPT and VCM integrators split camera paths at catchers.
+CATCHER_TOKENS = frozenset({"shadow_catcher"})
+CATCHER_INTEGRATORS = frozenset({"path", "bdpt", "vcm"})
 # Data passes traced from the camera ray's first hit, by every integrator but SPPM.
 DATA_TOKENS = frozenset(("mist", "position", "uv", "ambient_occlusion", "object_index", "material_index", "vector")
                         + tuple(token for _, token, _ in CRYPTOMATTE_LAYERS))
@@ -117,8 +118,8 @@ def pass_request(view_layer, integrator, chunked=False, motion_blur=False):
     for token, name in rows:
         if token == "vector" and motion_blur:
             warnings.append("the Vector pass needs motion blur off (as in Cycles); it stays black")
-        elif token in PATH_ONLY_TOKENS and integrator != "path":
-            warnings.append(f"the {name} pass is rendered by the path integrator only; "
+        elif token in CATCHER_TOKENS and integrator not in CATCHER_INTEGRATORS:
+            warnings.append(f"the {name} pass is rendered by the path, BDPT and VCM integrators only; "
                             f"it stays black with '{integrator}'")
         elif token in LIGHT_TOKENS and integrator not in LIGHT_INTEGRATORS:
             warnings.append(f"the {name} pass is rendered by the path, BDPT, VCM and photon integrators only; "

@@ -45,7 +45,12 @@ fn scene(dir: &Path, shadows: bool) -> PathBuf {
     g.node(json!({"translation": [0.8, 1.8, -4.0], "rotation": [-h, 0.0, 0.0, h],
         "extensions": {"CAUSTIC_lights_area": {"shape": "square", "size": [0.6, 0.6], "power": 30.0}}}));
     let flags = json!({"CAUSTIC_lights_punctual": {"cast_shadow": shadows}});
-    g.punctual_with(json!({"type": "point", "intensity": 4000.0}), [-0.3, 1.5, -3.0], [0.0, 0.0, 0.0, 1.0], flags.clone());
+    g.punctual_with(
+        json!({"type": "point", "intensity": 4000.0}),
+        [-0.3, 1.5, -3.0],
+        [0.0, 0.0, 0.0, 1.0],
+        flags.clone(),
+    );
     // From behind the camera's right shoulder, low: the blocker's shadow falls on the wall.
     let (sx, sy) = (0.2f32, -0.25f32);
     let c = (1.0 - sx * sx - sy * sy).sqrt();

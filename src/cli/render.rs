@@ -129,8 +129,11 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         run_warnings.push(w);
     }
     let catchers = &scene.ray_visibility.catcher_objects;
-    if !catchers.is_empty() && !matches!(res.integrator, IntegratorKind::Path) {
-        // Splitting needs a camera path that can be followed twice from the catcher.
+    if !catchers.is_empty()
+        && !matches!(res.integrator, IntegratorKind::Path | IntegratorKind::Bdpt | IntegratorKind::Vcm)
+    {
+        // Splitting needs a camera path that can be followed twice from the catcher: the
+        // photon maps' gather paths are not camera paths.
         let w = format!(
             "shadow catcher object(s) {} are rendered as ordinary objects by this integrator (the path \
              integrator renders them as Cycles)",
@@ -252,8 +255,8 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     // integrator honours light and shadow linking (`integrator::linking`).
     let ctx = if matches!(res.integrator, IntegratorKind::Path) { ctx.with_ray_visibility() } else { ctx };
     let ctx = ctx.with_light_linking();
-    // The shadow catcher's pass sees the scene apart (settings keep its sums for the path
-    // tracer only).
+    // The shadow catcher's pass sees the scene apart (settings keep its sums for the
+    // integrators that split camera paths: path, BDPT, VCM).
     let ctx = if res.passes.catcher_sums() {
         let pass = SceneContext::with_light_sampler(&scene, &accel, res.light_sampler)
             .with_camera_at(scene.cameras[res.camera].position)

@@ -328,12 +328,14 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
         // its last slot): a chunk keeps each pixel's whole first-seen list for the merge.
         passes.set_cryptomatte_exact();
     }
-    if !scene.ray_visibility.catcher_objects.is_empty() && integrator == IntegratorKind::Path {
+    // The integrators that split camera paths at shadow catchers (`integrator::catcher`).
+    let splits = matches!(integrator, IntegratorKind::Path | IntegratorKind::Bdpt | IntegratorKind::Vcm);
+    if !scene.ray_visibility.catcher_objects.is_empty() && splits {
         passes = passes.with_catcher_sums();
     }
-    if passes.contains(crate::passes::Pass::ShadowCatcher) && integrator != IntegratorKind::Path {
+    if passes.contains(crate::passes::Pass::ShadowCatcher) && !splits {
         return Err(Error::Usage(format!(
-            "the Shadow Catcher pass is rendered by the path integrator only, not by '{}'",
+            "the Shadow Catcher pass is rendered by the path, BDPT and VCM integrators only, not by '{}'",
             integrator.name()
         )));
     }

@@ -144,14 +144,27 @@ impl BdptIntegrator {
         }
         dens.a[k] = 0.0; // unused (t = 0 is not a strategy)
         let wgt = self.mis(dens.weight(s));
-        if !self.ledger.any() {
+        if !self.ledger.any() && ctx.catcher.is_none() {
             film.splats.add(film.filter, pos, c * wgt);
             return;
         }
         // The camera side's first scattering event is this light vertex (none for s = 1).
-        let (parts, n) = passes::parts(s - 1, first, false, c * wgt);
-        let n = if self.ledger.light_passes { n } else { 0 };
-        let group = self.ledger.group_of_subpath(ctx, &scratch.light);
+        let (light_parts, n) = passes::parts(s - 1, first, false, c * wgt);
+        let mut n = if self.ledger.light_passes { n } else { 0 };
+        // The light passes' parts, then room for the matte's.
+        let mut parts = [(0, Rgb::ZERO); 4];
+        parts[..3].copy_from_slice(&light_parts);
+        let mut group = self.ledger.group_of_subpath(ctx, &scratch.light);
+        if ctx.catcher.is_some() {
+            // Shadow catcher (`catcher`): a path the camera sees on a catcher split there;
+            // it is Combined's and files no light group, any other goes to the matte too.
+            if Self::seen_on_catcher(ctx, &y) {
+                group = crate::scene::light_groups::NONE;
+            } else {
+                parts[n] = (crate::passes::slot::CATCHER_MATTE, c * wgt);
+                n += 1;
+            }
+        }
         film.splats.add_filed(film.filter, pos, c * wgt, &parts[..n], group);
     }
 
