@@ -1,5 +1,7 @@
 //! Cast Shadow off in BDPT and VCM (`src/integrator/linking.rs`: a light whose blocker set
-//! is empty): they converge to the path tracer's image region by region, and do not warn.
+//! is empty), and objects hidden from camera rays alone (`src/cli/render.rs`,
+//! `bidirectional_sees`): they converge to the path tracer's image region by region, and do
+//! not warn; an object hidden from another kind still warns.
 //!
 //! The scene: a floor, a back wall and a small quad hanging over the floor ("Blocker"),
 //! seen from the front, with indirect light (max depth 4). A point light above the blocker
@@ -30,6 +32,13 @@ const RES: (usize, usize) = (32, 32);
 
 /// The scene of the module doc; `shadows`: the point light and the sun cast shadows.
 fn scene(dir: &Path, shadows: bool) -> PathBuf {
+    scene_with(dir, shadows, None)
+}
+
+/// [`scene`], with a standing panel (right of the middle, in front of the wall, lit by the
+/// point light and shadowing the floor behind it) of Ray Visibility `vis`
+/// (`CAUSTIC_object_visibility`).
+fn scene_with(dir: &Path, shadows: bool, vis: Option<serde_json::Value>) -> PathBuf {
     let mut g = GltfBuilder::new();
     let grey = g
         .material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0.6, 0.6, 0.6, 1], "metallicFactor": 0.0},
@@ -39,6 +48,10 @@ fn scene(dir: &Path, shadows: bool) -> PathBuf {
     quad(&mut g, [[-2.0, -1.0, -6.0], [2.0, -1.0, -6.0], [2.0, 2.0, -6.0], [-2.0, 2.0, -6.0]]);
     let blocker = quad(&mut g, [[-1.2, 0.3, -3.5], [0.2, 0.3, -3.5], [0.2, 0.3, -4.5], [-1.2, 0.3, -4.5]]);
     g.node_name(blocker, "Blocker");
+    if let Some(v) = &vis {
+        let panel = quad(&mut g, [[0.2, -1.0, -3.2], [1.2, -1.0, -3.2], [1.2, 0.2, -3.2], [0.2, 0.2, -3.2]]);
+        g.node_ext(panel, "CAUSTIC_object_visibility", v.clone());
+    }
     g.use_ext("CAUSTIC_lights_area");
     // Facing down: -Z turned by -90° about X.
     let h = std::f32::consts::FRAC_1_SQRT_2;
@@ -61,7 +74,13 @@ fn scene(dir: &Path, shadows: bool) -> PathBuf {
         flags,
     );
     g.camera([0.0, 0.3, 0.0], [0.0, 0.0, 0.0, 1.0], 0.9);
-    g.write(dir, &format!("shadows_{shadows}.gltf"))
+    g.write(
+        dir,
+        &format!(
+            "shadows_{shadows}_{}.gltf",
+            vis.map_or(String::new(), |v| v.to_string().replace(['"', ':', '{', '}', ','], "_"))
+        ),
+    )
 }
 
 /// BDPT and VCM agree with the path tracer on lights with Cast Shadow off.
@@ -123,5 +142,72 @@ fn bdpt_and_vcm_do_not_warn_about_cast_shadow() {
         assert_eq!(r.code, Some(0), "{integrator}: {}", r.stderr);
         let w: Vec<String> = r.warnings().into_iter().filter(|m| m.contains("Cast Shadow")).collect();
         assert!(w.is_empty(), "{integrator}: {w:?}");
+    }
+}
+
+/// A panel hidden from camera rays (the lights cast shadows): the camera sees the floor and
+/// wall through it, its shadows and the light it reflects stay. BDPT and VCM agree with the path tracer; without the flag the
+/// path tracer's image leaves those bounds (the blocker is seen). Bounds as above, Šidák's
+/// split over the flag check and two integrators, five regions each.
+#[test]
+fn bdpt_and_vcm_match_the_path_tracer_with_an_object_hidden_from_the_camera() {
+    let dir = temp_dir();
+    let hidden = scene_with(dir.path(), true, Some(json!({"camera": false})));
+    let regs = regions(RES.0, RES.1);
+    let r = format!("{}x{}", RES.0, RES.1);
+    let common = ["--resolution", r.as_str(), "--max-depth", "4"];
+    let means = |path: &Path, extra: &[&str]| {
+        let mut a = common.to_vec();
+        a.extend_from_slice(extra);
+        region_means(path, dir.path(), &a, 6, &regs, LIMIT)
+    };
+    let path_tracer = ["--integrator", "path", "--spp", "64"];
+    let reference = means(&hidden, &path_tracer);
+    let alpha = sidak(regs.len() * 3);
+    let seen = means(&scene_with(dir.path(), true, Some(json!({}))), &path_tracer);
+    assert!(
+        !disagreeing("seen by the camera", &regs, &seen, &reference, alpha).is_empty(),
+        "hiding the blocker from the camera changes nothing in this scene"
+    );
+    let others: [(&str, &[&str]); 2] = [
+        ("bdpt", &["--integrator", "bdpt", "--spp", "16"]),
+        ("vcm", &["--integrator", "vcm", "--spp", "16", "--vcm-radius", "0.02"]),
+    ];
+    let mut failed = Vec::new();
+    for (name, flags) in others {
+        let m = means(&hidden, flags);
+        failed.extend(disagreeing(name, &regs, &m, &reference, alpha).into_iter().map(|r| format!("{name} {r}")));
+    }
+    assert!(failed.is_empty(), "disagree with the path tracer: {failed:?}");
+}
+
+/// Hidden from the camera alone, the blocker is honoured without a warning; hidden from
+/// glossy rays, BDPT and VCM still warn that they do not honour it.
+#[test]
+fn bdpt_and_vcm_warn_only_about_kinds_they_do_not_honour() {
+    let dir = temp_dir();
+    for (vis, warns) in [(json!({"camera": false}), false), (json!({"glossy": false}), true)] {
+        let path = scene_with(dir.path(), true, Some(vis.clone()));
+        for integrator in ["bdpt", "vcm"] {
+            let out = dir.path().join(format!("{integrator}.exr"));
+            let args = [
+                "render",
+                path.to_str().unwrap(),
+                "-o",
+                out.to_str().unwrap(),
+                "--progress",
+                "json",
+                "--resolution",
+                "4x4",
+                "--spp",
+                "1",
+                "--integrator",
+                integrator,
+            ];
+            let r = run(&args, LIMIT);
+            assert_eq!(r.code, Some(0), "{integrator}: {}", r.stderr);
+            let w = r.warnings().into_iter().any(|m| m.contains("ray visibility of object(s)"));
+            assert_eq!(w, warns, "{integrator} with {vis}: {:?}", r.warnings());
+        }
     }
 }

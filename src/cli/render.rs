@@ -98,7 +98,10 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         run_warnings.push(w);
     }
     let hidden = &scene.ray_visibility.hidden_objects;
-    if !hidden.is_empty() && !matches!(res.integrator, IntegratorKind::Path) {
+    if !hidden.is_empty()
+        && !matches!(res.integrator, IntegratorKind::Path)
+        && !bidirectional_sees(&scene, res.integrator)
+    {
         // Light subpaths and photons learn the kind of each segment only at its far end,
         // so they cannot skip hidden objects yet: the object stays visible to every ray.
         let w = format!(
@@ -253,7 +256,13 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         .with_camera_at(scene.cameras[res.camera].position);
     // Only the path tracer gives every ray its kind (see the warning above); every
     // integrator honours light and shadow linking (`integrator::linking`).
-    let ctx = if matches!(res.integrator, IntegratorKind::Path) { ctx.with_ray_visibility() } else { ctx };
+    let ctx = if matches!(res.integrator, IntegratorKind::Path) {
+        ctx.with_ray_visibility()
+    } else if bidirectional_sees(&scene, res.integrator) {
+        ctx.with_object_visibility()
+    } else {
+        ctx
+    };
     let ctx = ctx.with_light_linking();
     // The shadow catcher's pass sees the scene apart (settings keep its sums for the
     // integrators that split camera paths: path, BDPT, VCM).
@@ -712,4 +721,15 @@ fn charge_render(budget: &MemoryBudget, args: &RenderArgs, res: &Resolved, scene
         // The path tracer keeps nothing per pixel beyond the film.
         IntegratorKind::Path => Ok(()),
     }
+}
+
+/// True when `integrator` is BDPT or VCM and every object hidden from some kind of ray is
+/// hidden from camera rays alone: no segment a light subpath traces is a camera ray, so they
+/// honour it (camera subpaths and light tracing's segment to the camera pass such objects).
+/// Other kinds would need the light-side strategies weighed by the kind each segment gets at
+/// its camera-side end.
+fn bidirectional_sees(scene: &crate::scene::Scene, integrator: IntegratorKind) -> bool {
+    use crate::scene::visibility::RayMask;
+    matches!(integrator, IntegratorKind::Bdpt | IntegratorKind::Vcm)
+        && scene.ray_visibility.hidden_objects.iter().all(|o| o.mask.0 | RayMask::CAMERA.0 == RayMask::ALL.0)
 }

@@ -265,6 +265,8 @@ impl BdptIntegrator {
             pdf_sa = if bs.delta { 0.0 } else { bs.pdf };
             prev_delta = bs.delta;
             path.light_path = path.light_path.bounced(bs.kind, transmitted, bs.delta);
+            // The next segment's kind (camera rays pass objects hidden from the camera alone).
+            path.ray = crate::scene::visibility::RayMask::after_bounce(bs.kind, transmitted);
             path.media = ctx.medium_after(&s, wi, medium);
             if (t - 1) as u32 >= self.rr_depth {
                 let survive = path.beta.max_element().min(0.95);
