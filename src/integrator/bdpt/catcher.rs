@@ -39,7 +39,7 @@ impl BdptIntegrator {
                     false => pre.escaped_radiance(ctx).map_or(Rgb::ZERO, |le| pre.beta * le),
                 };
                 // The path tracer files nothing of a split path in the light groups.
-                out.groups = scratch.groups_at_split;
+                out.groups = *scratch.groups_at_split;
                 (pass, behind)
             }
             _ => (Rgb::ZERO, Rgb::ZERO),

@@ -183,11 +183,12 @@ pub struct BdptScratch {
     pub(crate) dens: Box<PathDensities>,
     /// The class of the camera subpath's first scattering event (`passes`).
     pub(crate) first: First,
-    /// Where the camera subpath split at a shadow catcher (`catcher`).
-    pub(crate) split: crate::integrator::catcher::Split,
+    /// Where the camera subpath split at a shadow catcher (`catcher`; boxed: it holds a
+    /// path state, and tiles keep this scratch inline).
+    pub(crate) split: Box<crate::integrator::catcher::Split>,
     /// The camera sample's light groups when it split: a split path files nothing in them
-    /// from the catcher on, as the path tracer's (`catcher`).
-    pub(crate) groups_at_split: crate::scene::light_groups::GroupSums,
+    /// from the catcher on, as the path tracer's (`catcher`). Boxed: the sums are large.
+    pub(crate) groups_at_split: Box<crate::scene::light_groups::GroupSums>,
 }
 
 impl BdptScratch {

@@ -35,7 +35,7 @@ impl BdptIntegrator {
         // Solid-angle density of the direction just sampled (0 after a delta lobe).
         let mut pdf_sa = if camera.is_orthographic() { 1.0 } else { camera.pdf_dir((-camera.camera().back).dot(dir)) };
         let mut prev_delta = false;
-        scratch.split = crate::integrator::catcher::Split::new(ctx.catcher.is_some());
+        *scratch.split = crate::integrator::catcher::Split::new(ctx.catcher.is_some());
         stats.camera += 1;
         loop {
             let [u_lobe, u_dx, u_dy, u_rr] = sampler.next_4d();
@@ -164,7 +164,7 @@ impl BdptIntegrator {
                 && ctx.is_catcher(hit.tri)
             {
                 scratch.split.at = Some((pre, *radiance));
-                scratch.groups_at_split = out.groups;
+                *scratch.groups_at_split = out.groups;
             }
             let wo = -dir;
             let mat = &ctx.scene.materials[s.material as usize];
