@@ -670,7 +670,10 @@ impl Film {
                     if let Some(c) = img.catcher.get_mut(i) {
                         for (k, v) in c.iter_mut().enumerate() {
                             let at = slot::CATCHER_PASS + k;
-                            *v = (from_fixed(acc[(t.slots & ((1u64 << at) - 1)).count_ones() as usize]) * inv) as f32;
+                            // The matte's splats (bidirectional integrators) join its sums.
+                            let sum =
+                                from_fixed(acc[(t.slots & ((1u64 << at) - 1)).count_ones() as usize]) + splat_at(at);
+                            *v = (sum * inv) as f32;
                         }
                     }
                     let per = layout.slots as usize;

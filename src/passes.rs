@@ -184,7 +184,8 @@ pub mod slot {
 const _: () = assert!(slot::COUNT <= 64);
 
 /// The light-pass slots that light-tracing splats add to: every light pass but the Colour
-/// passes (a splat has no camera sample whose first hit's albedo it could give).
+/// passes (a splat has no camera sample whose first hit's albedo it could give), and the
+/// shadow catcher's matte (a splat of a path that did not split at a catcher).
 pub const SPLAT_SLOTS: u64 = {
     let starts = [
         slot::DIFF_DIR,
@@ -197,6 +198,7 @@ pub const SPLAT_SLOTS: u64 = {
         slot::VOL_IND,
         slot::EMIT,
         slot::ENV,
+        slot::CATCHER_MATTE,
     ];
     let mut mask = 0u64;
     let mut i = 0;

@@ -150,8 +150,8 @@ fn opaque_film_shows_the_world_darkened_by_the_shadow() {
 }
 
 /// Chunks of a scene with a catcher carry the catcher's sums: two chunks merged give the
-/// single render's Combined and Shadow Catcher pass bit for bit; the other integrators render
-/// the catcher as an ordinary object with a warning.
+/// single render's Combined and Shadow Catcher pass bit for bit; the photon integrators render
+/// the catcher as an ordinary object with a warning (BDPT and VCM split: `shadow_catcher_integrators.rs`).
 #[test]
 fn chunks_merge_exactly_and_other_integrators_warn() {
     let dir = temp_dir();
@@ -188,7 +188,9 @@ fn chunks_merge_exactly_and_other_integrators_warn() {
             "-o",
             out.to_str().unwrap(),
             "--integrator",
-            "bdpt",
+            "photon",
+            "--photons",
+            "1000",
             "--spp",
             "1",
             "--progress",

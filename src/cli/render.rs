@@ -86,22 +86,17 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     let res = resolve(args, &scene)?;
     scene.set_view(res.camera, res.resolution.0, res.resolution.1);
     let mut run_warnings = Vec::new();
-    let shadowless = scene.light_casts_shadow.iter().filter(|c| !**c).count();
-    if shadowless > 0 && matches!(res.integrator, IntegratorKind::Bdpt | IntegratorKind::Vcm) {
-        // Cycles skips the shadow ray of such a light; light tracing follows the light's
-        // own paths, which occluders still stop (photons pass them: `integrator::linking`).
-        let w = format!(
-            "{shadowless} light(s) with Cast Shadow off: only next-event estimation ignores occluders; this integrator's \
-             light-tracing paths from them are still blocked (the path integrator renders them as Cycles)"
-        );
-        reporter.warning(&w);
-        run_warnings.push(w);
-    }
+    // Cast Shadow off is rendered by every integrator: next-event estimation skips the
+    // shadow ray; BDPT/VCM take such a light by light sampling alone and photons pass every
+    // surface on its first segment (`integrator::linking`).
     let hidden = &scene.ray_visibility.hidden_objects;
-    if !hidden.is_empty() && !crate::cli::settings::honours_ray_visibility(res.integrator) {
+    if !hidden.is_empty()
+        && !crate::cli::settings::honours_ray_visibility(res.integrator)
+        && !bidirectional_sees(&scene, res.integrator)
+    {
         // Light subpaths learn the kind of each segment only at its far end, so they cannot
-        // skip hidden objects yet: the object stays visible to every ray (photons carry the
-        // kinds that may read them: `integrator::photon::visibility`).
+        // skip hidden objects yet (but for the camera's kind): the object stays visible to
+        // every ray (photons carry the kinds that may read them: `integrator::photon::visibility`).
         let w = format!(
             "ray visibility of object(s) {} is not honoured by this integrator: every ray sees them (the path, \
              photon and SPPM integrators render them as Cycles)",
@@ -264,10 +259,16 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     let ctx = SceneContext::with_light_sampler(&scene, &accel, res.light_sampler)
         .with_motion(motion_accel.as_ref())
         .with_camera_at(scene.cameras[res.camera].position);
-    // The path tracer and the photon integrators give every ray its kind (see the warning
-    // above); every integrator honours light and shadow linking (`integrator::linking`).
-    let ctx =
-        if crate::cli::settings::honours_ray_visibility(res.integrator) { ctx.with_ray_visibility() } else { ctx };
+    // The path tracer and the photon integrators give every ray its kind, BDPT and VCM the
+    // camera's (see the warning above); every integrator honours light and shadow linking
+    // (`integrator::linking`).
+    let ctx = if crate::cli::settings::honours_ray_visibility(res.integrator) {
+        ctx.with_ray_visibility()
+    } else if bidirectional_sees(&scene, res.integrator) {
+        ctx.with_object_visibility()
+    } else {
+        ctx
+    };
     let ctx = ctx.with_light_linking();
     // The shadow catcher's pass sees the scene apart (settings keep its sums for the
     // integrators that split, `settings::splits_at_catchers`).
@@ -732,4 +733,15 @@ fn charge_render(budget: &MemoryBudget, args: &RenderArgs, res: &Resolved, scene
         // The path tracer keeps nothing per pixel beyond the film.
         IntegratorKind::Path => Ok(()),
     }
+}
+
+/// True when `integrator` is BDPT or VCM and every object hidden from some kind of ray is
+/// hidden from camera rays alone: no segment a light subpath traces is a camera ray, so they
+/// honour it (camera subpaths and light tracing's segment to the camera pass such objects).
+/// Other kinds would need the light-side strategies weighed by the kind each segment gets at
+/// its camera-side end.
+fn bidirectional_sees(scene: &crate::scene::Scene, integrator: IntegratorKind) -> bool {
+    use crate::scene::visibility::RayMask;
+    matches!(integrator, IntegratorKind::Bdpt | IntegratorKind::Vcm)
+        && scene.ray_visibility.hidden_objects.iter().all(|o| o.mask.0 | RayMask::CAMERA.0 == RayMask::ALL.0)
 }

@@ -9,8 +9,11 @@
 //! and counts one catcher sample. The film turns these sums into Cycles' passes
 //! (`crate::shadow_catcher`).
 //!
-//! The path tracer and Jensen's camera paths split (Jensen's catcher pass is the path
-//! tracer's walk from the split); the other integrators render catchers as ordinary
+//! The path tracer splits, and so do BDPT and VCM (`bdpt::catcher`): their camera subpath
+//! splits where its first segment ends on a catcher and the catcher pass is the path
+//! tracer's walk from that state; their light-tracing splats go to the matte unless the
+//! vertex the camera sees is on a catcher. Jensen's camera paths split too (its catcher
+//! pass is the path tracer's walk from the split). SPPM renders catchers as ordinary
 //! objects (a warning says so).
 
 use super::SceneContext;
@@ -32,6 +35,13 @@ pub struct Split {
     /// The world seen directly by the camera ray (throughput included), for Cycles'
     /// background pass under an opaque film.
     pub background: Rgb,
+}
+
+impl Default for Split {
+    /// A path that never splits.
+    fn default() -> Self {
+        Split::new(false)
+    }
 }
 
 impl Split {

@@ -14,15 +14,22 @@
 //!   estimation cannot go (from the camera, after a delta lobe). BDPT and VCM do the same:
 //!   s = 1 takes these paths whole, s = 0 takes the ones s = 1 cannot make, and light
 //!   subpaths of such a light stop at their light vertex (no s ≥ 2, no t = 1, no merging).
+//! - **Cast Shadow off** is shadow linking with an empty blocker set: nothing stops the
+//!   segment x₀x₁ (nor do media dim it), so the same strategies take it ([`own_shadows`]).
+//!   The path tracer (Cycles) skips the shadow ray of next-event estimation but weighs it
+//!   by MIS as usual against the BSDF-sampled ray, which occluders still stop: where x₀x₁ is
+//!   blocked it keeps only next-event estimation's share. BDPT and VCM take the whole
+//!   unshadowed light there (s = 1 with weight 1), so they agree with the path tracer
+//!   exactly for delta lights (points, spots, suns: next-event estimation's weight is 1)
+//!   and where the segment is open, and are brighter than it in the shadow of an area light
+//!   by the BSDF-sampled share the path tracer loses.
 //! - **Photons** stand for x₀x₁x₂…: a photon whose first event is not on a receiver of its
 //!   light is dropped there. A shadow-linked light's photon passes the surfaces that do not
 //!   block it: it scatters at each one it lights and also goes on through it, as far as the
 //!   first blocker, so that every surface on that segment gets the light's direct photons
-//!   (light linking adds light; it need not conserve the light's power).
-//! - **Cast Shadow off** (`SceneContext::casts_shadow`): next-event estimation skips the
-//!   shadow ray, so the light reaches every point as if nothing stood in the way. Its
-//!   photons are those of a shadow-linked light without blockers: they scatter at every
-//!   surface on their first segment and go on through each.
+//!   (light linking adds light; it need not conserve the light's power). A light with
+//!   Cast Shadow off is again a shadow-linked light without blockers: its photons scatter
+//!   at every surface on their first segment and go on through each.
 
 use super::SceneContext;
 use crate::scene::linking::NO_OBJECT;
@@ -56,10 +63,10 @@ impl Gate {
 #[inline]
 pub fn found(ctx: &SceneContext, light: usize, from: Option<(u32, bool)>) -> Gate {
     match from {
-        None if ctx.shadow_linked(light) => Gate::Whole,
+        None if own_shadows(ctx, light) => Gate::Whole,
         None => Gate::Mis,
         Some((receiver, _)) if !ctx.links(light, receiver) => Gate::Drop,
-        Some((_, delta)) if ctx.shadow_linked(light) => {
+        Some((_, delta)) if own_shadows(ctx, light) => {
             if delta {
                 Gate::Whole
             } else {
@@ -75,7 +82,7 @@ pub fn found(ctx: &SceneContext, light: usize, from: Option<(u32, bool)>) -> Gat
 pub fn sampled(ctx: &SceneContext, light: usize, receiver: u32) -> Gate {
     if !ctx.links(light, receiver) {
         Gate::Drop
-    } else if ctx.shadow_linked(light) {
+    } else if own_shadows(ctx, light) {
         Gate::Whole
     } else {
         Gate::Mis
@@ -83,10 +90,18 @@ pub fn sampled(ctx: &SceneContext, light: usize, receiver: u32) -> Gate {
 }
 
 /// True when light subpaths from light `light` go on past their light vertex (false for a
-/// shadow-linked light, whose paths s = 0 and s = 1 take whole).
+/// shadow-linked light or one with Cast Shadow off, whose paths s = 0 and s = 1 take whole).
 #[inline]
 pub fn light_subpaths_leave(ctx: &SceneContext, light: usize) -> bool {
-    !ctx.shadow_linked(light)
+    !own_shadows(ctx, light)
+}
+
+/// True when the segment from light `light` to the first vertex is stopped by a rule of
+/// the light's own rather than by whatever lies between: shadow linking's blockers, or
+/// none at all (Cast Shadow off). Only a shadow ray from that vertex can test it.
+#[inline]
+pub fn own_shadows(ctx: &SceneContext, light: usize) -> bool {
+    ctx.shadow_linked(light) || !ctx.casts_shadow(light)
 }
 
 /// What a photon of light `light` does at its first event, on `receiver` (a triangle or

@@ -98,9 +98,25 @@ pub fn light_transmittance_of(
     p: Vec3,
     ng: Option<Vec3>,
     ls: &LightSample,
+    stack: MediumStack,
+    light: Option<usize>,
+    path: LightPath,
+) -> Rgb {
+    light_transmittance_as(ctx, p, ng, ls, stack, light, path, RayMask::SHADOW)
+}
+
+/// [`light_transmittance_of`] along a segment that rays of kind `ray` trace (objects hidden
+/// from it are passed): BDPT's light-tracing segment to the camera is a camera ray.
+#[allow(clippy::too_many_arguments)]
+pub fn light_transmittance_as(
+    ctx: &SceneContext,
+    p: Vec3,
+    ng: Option<Vec3>,
+    ls: &LightSample,
     mut stack: MediumStack,
     light: Option<usize>,
     mut path: LightPath,
+    ray: RayMask,
 ) -> Rgb {
     let org = match ng {
         Some(n) => offset_ray_origin(p, if ls.wi.dot(n) >= 0.0 { n } else { -n }),
@@ -122,7 +138,7 @@ pub fn light_transmittance_of(
     // Cycles measures each hit's Ray Length along the one shadow ray.
     let mut travelled = 0.0;
     for _ in 0..MAX_SHADOW_CROSSINGS {
-        let hit = ctx.intersect_as(org, dir, remaining, RayMask::SHADOW);
+        let hit = ctx.intersect_as(org, dir, remaining, ray);
         let seg = hit.map_or(remaining, |h| h.t);
         if let Some(m) = ctx.medium(&stack)
             && m.attenuates()

@@ -215,9 +215,15 @@ impl<'a> SceneContext<'a> {
     /// hidden from their kind. Only walkers that give every ray its kind may ask for it
     /// (the path tracer); the others see every object with every ray.
     pub fn with_ray_visibility(mut self) -> Self {
-        let scene = self.scene;
         // Lights' own ray visibility (`scene::light_visibility`) goes with the objects'.
-        self.light_rays = &scene.light_rays;
+        self.light_rays = &self.scene.light_rays;
+        self.with_object_visibility()
+    }
+
+    /// Honours the objects' ray visibility alone (not the lights'): BDPT and VCM, for
+    /// objects hidden from camera rays only (`bdpt::vertex`'s camera segments).
+    pub fn with_object_visibility(mut self) -> Self {
+        let scene = self.scene;
         let vis = &scene.ray_visibility.per_triangle;
         if vis.is_empty() {
             return self;
@@ -342,7 +348,7 @@ impl<'a> SceneContext<'a> {
 
     /// True when rays of kind `ray` see triangle `tri`.
     #[inline]
-    fn sees(&self, ray: RayMask, tri: u32) -> bool {
+    pub(crate) fn sees(&self, ray: RayMask, tri: u32) -> bool {
         self.visibility.get(tri as usize).is_none_or(|m| ray.meets(*m))
     }
 

@@ -120,6 +120,20 @@ impl PathIntegrator {
         out
     }
 
+    /// The shadow catcher's pass (`catcher`) from `pre`, the state that walked a camera
+    /// segment ending on a catcher, in the catcher pass's context `pass_ctx`: how BDPT and
+    /// VCM, which split their camera subpaths too, estimate it.
+    pub(crate) fn catcher_pass(
+        &self,
+        pass_ctx: &SceneContext,
+        pre: PathState,
+        sampler: &mut PixelSampler,
+        stats: &mut RayStats,
+    ) -> Rgb {
+        let mut scratch = CameraSample::default();
+        self.trace(pass_ctx, pre, sampler, |_| 0.0, stats, &mut scratch, &mut Split::new(false), None)
+    }
+
     /// Radiance brought back by a path continued from `st` (depth ≥ 1), times its
     /// throughput: how the photon integrators path-trace what they do not map (media).
     pub fn continue_path(

@@ -4,6 +4,7 @@
 use super::vertex::*;
 use super::*;
 use crate::integrator::linking::{self, Gate};
+use crate::scene::visibility::RayMask;
 
 impl BdptIntegrator {
     /// Every strategy with s ≥ 1; returns the camera-side sum, splats t = 1. `sampler` is
@@ -81,12 +82,16 @@ impl BdptIntegrator {
                 let visible = match &ctx.scene.lights[lp.light as usize] {
                     Light::Area(a) => a.camera_visible,
                     Light::Sphere { camera_visible, .. } => *camera_visible,
-                    // An emissive holdout seen by the camera shows nothing either.
-                    Light::Triangle { tri } => !ctx.is_holdout(*tri),
+                    // An emissive holdout seen by the camera shows nothing either, nor an
+                    // emissive object hidden from camera rays.
+                    Light::Triangle { tri } => !ctx.is_holdout(*tri) && ctx.sees(RayMask::CAMERA, *tri),
                     _ => true,
                 };
-                // A shadow-linked light seen by the camera is s = 0's alone (`linking`).
-                if !visible || ctx.shadow_linked(lp.light as usize) {
+                // A shadow-linked or shadowless light seen by the camera is s = 0's alone
+                // (`linking`); a point or spot light is seen by no camera ray (Cycles shows
+                // none, and the path tracer's camera rays cannot hit a point).
+                let point = lights::is_delta(ctx.scene, lp.light as usize);
+                if !visible || point || linking::own_shadows(ctx, lp.light as usize) {
                     return;
                 }
                 lights::emitted(ctx.scene, &lp, w) * y.abs_cos_geo(w)
@@ -95,7 +100,9 @@ impl BdptIntegrator {
                 let (Some(bsdf), Some(hit)) = (y.bsdf, y.hit) else { return };
                 // The camera sees this vertex directly (the segment is tested below): on a
                 // holdout it shows nothing, as camera rays that hit it do.
-                if ctx.is_holdout(hit.tri) {
+                // Nor does it see a vertex on an object hidden from camera rays (the
+                // camera subpath passes such objects, so no strategy makes these paths).
+                if ctx.is_holdout(hit.tri) || !ctx.sees(RayMask::CAMERA, hit.tri) {
                     return;
                 }
                 let (wo_l, wi_l) = (y.frame.to_local(y.wo), y.frame.to_local(w));
@@ -123,7 +130,8 @@ impl BdptIntegrator {
         if near > 0.0 {
             cam_vertex.p = cam_p - w * (near / cos_cam);
         }
-        let tr = segment_transmittance(ctx, &y, &cam_vertex, media_leaving(ctx, &y, w));
+        // In camera order the segment is a camera ray: objects hidden from the camera do not block it.
+        let tr = segment_transmittance_as(ctx, &y, &cam_vertex, media_leaving(ctx, &y, w), None, RayMask::CAMERA);
         if tr == Rgb::ZERO {
             return;
         }
@@ -144,14 +152,27 @@ impl BdptIntegrator {
         }
         dens.a[k] = 0.0; // unused (t = 0 is not a strategy)
         let wgt = self.mis(dens.weight(s));
-        if !self.ledger.any() {
+        if !self.ledger.any() && ctx.catcher.is_none() {
             film.splats.add(film.filter, pos, c * wgt);
             return;
         }
         // The camera side's first scattering event is this light vertex (none for s = 1).
-        let (parts, n) = passes::parts(s - 1, first, false, c * wgt);
-        let n = if self.ledger.light_passes { n } else { 0 };
-        let group = self.ledger.group_of_subpath(ctx, &scratch.light);
+        let (light_parts, n) = passes::parts(s - 1, first, false, c * wgt);
+        let mut n = if self.ledger.light_passes { n } else { 0 };
+        // The light passes' parts, then room for the matte's.
+        let mut parts = [(0, Rgb::ZERO); 4];
+        parts[..3].copy_from_slice(&light_parts);
+        let mut group = self.ledger.group_of_subpath(ctx, &scratch.light);
+        if ctx.catcher.is_some() {
+            // Shadow catcher (`catcher`): a path the camera sees on a catcher split there;
+            // it is Combined's and files no light group, any other goes to the matte too.
+            if Self::seen_on_catcher(ctx, &y) {
+                group = crate::scene::light_groups::NONE;
+            } else {
+                parts[n] = (crate::passes::slot::CATCHER_MATTE, c * wgt);
+                n += 1;
+            }
+        }
         film.splats.add_filed(film.filter, pos, c * wgt, &parts[..n], group);
     }
 
@@ -215,16 +236,21 @@ impl BdptIntegrator {
             if f == Rgb::ZERO || ls.li == Rgb::ZERO || !consistent {
                 return none;
             }
-            stats.shadow += 1;
-            let tr = crate::integrator::media::light_transmittance_of(
-                ctx,
-                x.p,
-                Some(hit.ng),
-                &ls,
-                media_leaving(ctx, &x, ls.wi),
-                Some(index),
-                crate::scene::light_path::LightPath::SHADOW_RAY,
-            );
+            // Cast Shadow off: no shadow ray, as the path tracer's next-event estimation.
+            let tr = if ctx.casts_shadow(index) {
+                stats.shadow += 1;
+                crate::integrator::media::light_transmittance_of(
+                    ctx,
+                    x.p,
+                    Some(hit.ng),
+                    &ls,
+                    media_leaving(ctx, &x, ls.wi),
+                    Some(index),
+                    crate::scene::light_path::LightPath::SHADOW_RAY,
+                )
+            } else {
+                Rgb::ONE
+            };
             if tr == Rgb::ZERO {
                 return none;
             }

@@ -165,6 +165,7 @@ impl BdptIntegrator {
     }
 }
 
+pub mod catcher;
 pub mod connect;
 pub mod passes;
 pub mod subpath;
@@ -182,6 +183,12 @@ pub struct BdptScratch {
     pub(crate) dens: Box<PathDensities>,
     /// The class of the camera subpath's first scattering event (`passes`).
     pub(crate) first: First,
+    /// Where the camera subpath split at a shadow catcher (`catcher`; boxed: it holds a
+    /// path state, and tiles keep this scratch inline).
+    pub(crate) split: Box<crate::integrator::catcher::Split>,
+    /// The camera sample's light groups when it split: a split path files nothing in them
+    /// from the catcher on, as the path tracer's (`catcher`). Boxed: the sums are large.
+    pub(crate) groups_at_split: Box<crate::scene::light_groups::GroupSums>,
 }
 
 impl BdptScratch {
@@ -193,6 +200,8 @@ impl BdptScratch {
             light: Vec::with_capacity(n),
             dens: Box::default(),
             first: First::default(),
+            split: Default::default(),
+            groups_at_split: Default::default(),
         }
     }
 }
@@ -245,6 +254,7 @@ impl BdptIntegrator {
         let mut cs = connection_sampler(seed, px, py, index);
         radiance += self.connect_all(ctx, &mut cs, film, scratch, &mut out, stats);
         out.radiance = radiance;
+        self.file_catcher(ctx, sampler, scratch, &mut out, stats);
         out
     }
 }

@@ -35,11 +35,14 @@ impl BdptIntegrator {
         // Solid-angle density of the direction just sampled (0 after a delta lobe).
         let mut pdf_sa = if camera.is_orthographic() { 1.0 } else { camera.pdf_dir((-camera.camera().back).dot(dir)) };
         let mut prev_delta = false;
+        *scratch.split = crate::integrator::catcher::Split::new(ctx.catcher.is_some());
         stats.camera += 1;
         loop {
             let [u_lobe, u_dx, u_dy, u_rr] = sampler.next_4d();
             let [u_alpha, u_channel, u_dist, _] = sampler.next_4d();
             let i = cam.len() - 1; // the vertex the ray leaves from
+            // The camera segment's state, where a shadow catcher at its end splits the path.
+            let pre = (i == 0 && scratch.split.allowed).then_some(path);
 
             // The shared step: the medium segment (its emission counts only when every
             // strategy does), emitters crossed on the way (area and sphere lights do not
@@ -108,6 +111,10 @@ impl BdptIntegrator {
                     break;
                 }
                 Step::Escaped => {
+                    if pre.is_some() {
+                        // The world behind the film, for the approximate catcher's composite.
+                        scratch.split.background = path.escaped_radiance(ctx).map_or(Rgb::ZERO, |le| path.beta * le);
+                    }
                     // The world seen directly through a transparent film is not in Combined,
                     // but Environment and its light group show it (as the path tracer's).
                     let hidden = i == 0 && self.transparent_background;
@@ -150,6 +157,14 @@ impl BdptIntegrator {
             if i == 0 && ctx.is_holdout(hit.tri) {
                 out.alpha = 0.0;
                 break;
+            }
+            // A shadow catcher seen by the camera ray: the path splits here (`catcher`);
+            // what it gathered so far is the matte's.
+            if let Some(pre) = pre
+                && ctx.is_catcher(hit.tri)
+            {
+                scratch.split.at = Some((pre, *radiance));
+                *scratch.groups_at_split = out.groups;
             }
             let wo = -dir;
             let mat = &ctx.scene.materials[s.material as usize];
@@ -250,6 +265,8 @@ impl BdptIntegrator {
             pdf_sa = if bs.delta { 0.0 } else { bs.pdf };
             prev_delta = bs.delta;
             path.light_path = path.light_path.bounced(bs.kind, transmitted, bs.delta);
+            // The next segment's kind (camera rays pass objects hidden from the camera alone).
+            path.ray = crate::scene::visibility::RayMask::after_bounce(bs.kind, transmitted);
             path.media = ctx.medium_after(&s, wi, medium);
             if (t - 1) as u32 >= self.rr_depth {
                 let survive = path.beta.max_element().min(0.95);

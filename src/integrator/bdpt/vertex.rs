@@ -2,6 +2,7 @@
 //! Veach's shading-normal correction.
 
 use super::*;
+use crate::scene::visibility::RayMask;
 
 /// What a vertex is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -133,7 +134,8 @@ pub(crate) fn segment_transmittance(ctx: &SceneContext, a: &Vertex, b: &Vertex, 
 }
 
 /// [`segment_transmittance`] of a segment to a point of light `light` (shadow linking:
-/// only its blockers stop it).
+/// only its blockers stop it; Cast Shadow off: nothing does, as next-event estimation's
+/// skipped shadow ray).
 #[inline]
 pub(crate) fn segment_transmittance_of(
     ctx: &SceneContext,
@@ -141,6 +143,24 @@ pub(crate) fn segment_transmittance_of(
     b: &Vertex,
     stack: MediumStack,
     light: Option<usize>,
+) -> Rgb {
+    if light.is_some_and(|l| !ctx.casts_shadow(l)) {
+        return Rgb::ONE;
+    }
+    segment_transmittance_as(ctx, a, b, stack, light, RayMask::SHADOW)
+}
+
+/// [`segment_transmittance_of`] along a segment that rays of kind `ray` trace in camera
+/// order (objects hidden from that kind are passed): the shadow rays of connections, or the
+/// camera ray of light tracing (t = 1).
+#[inline]
+pub(crate) fn segment_transmittance_as(
+    ctx: &SceneContext,
+    a: &Vertex,
+    b: &Vertex,
+    stack: MediumStack,
+    light: Option<usize>,
+    ray: RayMask,
 ) -> Rgb {
     let d = b.p - a.p;
     let dist = d.length();
@@ -158,7 +178,7 @@ pub(crate) fn segment_transmittance_of(
     };
     let target = LightSample { wi, dist, li: Rgb::ZERO, pdf: 0.0, delta: false, point: b.p, normal };
     let ng = (a.ng != Vec3::ZERO).then_some(a.ng);
-    crate::integrator::media::light_transmittance_of(
+    crate::integrator::media::light_transmittance_as(
         ctx,
         a.p,
         ng,
@@ -166,6 +186,7 @@ pub(crate) fn segment_transmittance_of(
         stack,
         light,
         crate::scene::light_path::LightPath::SHADOW_RAY,
+        ray,
     )
 }
 

@@ -239,6 +239,8 @@ impl VcmIntegrator {
                                 let merged =
                                     merge_camera_path(&scratch.cam, map_ref, camera_connectible, max_depth, passes);
                                 s.radiance += merged;
+                                // Merges are camera-side: a split sample's are Combined's only.
+                                self.bdpt.file_catcher(ctx, &mut sampler, &scratch, &mut s, &mut rs);
                                 s
                             } else {
                                 self.bdpt.li(ctx, &ray, &mut sampler, pixel_sample, &mut target, &mut scratch, &mut rs)
