@@ -150,8 +150,8 @@ fn opaque_film_shows_the_world_darkened_by_the_shadow() {
 }
 
 /// Chunks of a scene with a catcher carry the catcher's sums: two chunks merged give the
-/// single render's Combined and Shadow Catcher pass bit for bit; the photon integrators render
-/// the catcher as an ordinary object with a warning (BDPT and VCM split: `shadow_catcher_integrators.rs`).
+/// single render's Combined and Shadow Catcher pass bit for bit; SPPM renders the catcher as an
+/// ordinary object with a warning (BDPT and VCM split: `shadow_catcher_integrators.rs`).
 #[test]
 fn chunks_merge_exactly_and_other_integrators_warn() {
     let dir = temp_dir();
@@ -188,7 +188,7 @@ fn chunks_merge_exactly_and_other_integrators_warn() {
             "-o",
             out.to_str().unwrap(),
             "--integrator",
-            "photon",
+            "sppm",
             "--photons",
             "1000",
             "--spp",
