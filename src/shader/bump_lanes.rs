@@ -22,7 +22,8 @@ use super::ops;
 use super::program::bump_offsets;
 use super::texture::noise::{NoiseKind, NoiseParams};
 use super::texture::noise_lanes::noise_fbm_3d_lanes;
-use super::texture_nodes::TexOp;
+use super::texture::voronoi_texture_lanes;
+use super::texture_nodes::{TexOp, set_voronoi, voronoi_params};
 use std::cell::RefCell;
 
 thread_local! {
@@ -115,47 +116,65 @@ impl Program {
     #[inline]
     fn lane_step(&self, op: &Op, g: [&Geom; 3], r: [&mut [f32]; 3], out: &mut Closures) {
         if let Op::Math { op, a, b, c, out, clamp } = *op {
-            for file in r {
-                let v = ops::math(op, file[a as usize], file[b as usize], file[c as usize]);
+            let at = |k: u32| [r[0][k as usize], r[1][k as usize], r[2][k as usize]];
+            let v = ops::math_lanes(op, at(a), at(b), at(c));
+            for (file, v) in r.into_iter().zip(v) {
                 file[out as usize] = if clamp { v.clamp(0.0, 1.0) } else { v };
             }
             return;
         }
         if let Op::Texture(t) = op
             && let TexOp::Noise { dims: 3, kind: NoiseKind::Fbm, normalize, inputs: i, fac, color: None } = **t
+            && same_settings(&r, &i[2..])
         {
-            // The lane form needs the same settings in every lane (they are constants or
-            // position-independent links nearly always; otherwise each lane runs alone).
-            let same = i[2..].iter().all(|&k| {
-                let k = k as usize;
-                r[0][k].to_bits() == r[1][k].to_bits() && r[0][k].to_bits() == r[2][k].to_bits()
-            });
-            if same {
-                let f = |k: usize| r[0][i[k] as usize];
-                let prm = NoiseParams {
-                    dims: 3,
-                    kind: NoiseKind::Fbm,
-                    normalize,
-                    scale: f(2),
-                    detail: f(3),
-                    roughness: f(4),
-                    lacunarity: f(5),
-                    offset: f(6),
-                    gain: f(7),
-                    distortion: f(8),
-                };
-                let p = [v3(r[0], i[0]), v3(r[1], i[0]), v3(r[2], i[0])];
-                let v = noise_fbm_3d_lanes(p, &prm);
-                for (file, v) in r.into_iter().zip(v) {
-                    file[fac as usize] = v;
-                }
-                return;
+            let f = |k: usize| r[0][i[k] as usize];
+            let prm = NoiseParams {
+                dims: 3,
+                kind: NoiseKind::Fbm,
+                normalize,
+                scale: f(2),
+                detail: f(3),
+                roughness: f(4),
+                lacunarity: f(5),
+                offset: f(6),
+                gain: f(7),
+                distortion: f(8),
+            };
+            let p = [v3(r[0], i[0]), v3(r[1], i[0]), v3(r[2], i[0])];
+            let v = noise_fbm_3d_lanes(p, &prm);
+            for (file, v) in r.into_iter().zip(v) {
+                file[fac as usize] = v;
             }
+            return;
+        }
+        if let Op::Texture(t) = op
+            && let TexOp::Voronoi { dims: 3, feature, metric, normalize, color, inputs: i, outputs: o } = **t
+            && same_settings(&r, &i[2..])
+        {
+            let prm = voronoi_params(3, feature, metric, normalize, &i, r[0]);
+            let p = [v3(r[0], i[0]), v3(r[1], i[0]), v3(r[2], i[0])];
+            let w = [r[0][i[1] as usize], r[1][i[1] as usize], r[2][i[1] as usize]];
+            let v = voronoi_texture_lanes(p, w, &prm, color);
+            for (file, v) in r.into_iter().zip(&v) {
+                set_voronoi(file, &o, v);
+            }
+            return;
         }
         for (file, g) in r.into_iter().zip(g) {
             self.dispatch(op, g, file, out);
         }
     }
+}
+
+/// Whether registers `regs` hold the same bits in the three files: a lane form needs the
+/// node's settings alike at the three points (they are constants or position-independent
+/// links nearly always; otherwise each lane runs alone).
+#[inline]
+fn same_settings(r: &[&mut [f32]; 3], regs: &[u32]) -> bool {
+    regs.iter().all(|&k| {
+        let k = k as usize;
+        r[0][k].to_bits() == r[1][k].to_bits() && r[0][k].to_bits() == r[2][k].to_bits()
+    })
 }
 
 #[cfg(test)]

@@ -156,11 +156,27 @@ pub fn geom_at<'a>(
     b1: f32,
     b2: f32,
 ) -> Geom<'a> {
+    let [i0, i1, i2] = mesh.triangles[tri as usize].map(|i| i as usize);
+    let ng =
+        (mesh.positions[i1] - mesh.positions[i0]).cross(mesh.positions[i2] - mesh.positions[i0]).normalize_or(Vec3::Z);
+    geom_at_ng(mesh, objects, textures, tri, b1, b2, ng)
+}
+
+/// [`geom_at`] with the triangle's unit geometric normal `ng` already known (the Bump
+/// node's offset points: `program::bump_offsets` has it for the triangle's frame).
+pub(super) fn geom_at_ng<'a>(
+    mesh: &'a Mesh,
+    objects: &'a [ObjectData],
+    textures: &'a [Texture],
+    tri: u32,
+    b1: f32,
+    b2: f32,
+    ng: Vec3,
+) -> Geom<'a> {
     let m = mesh;
     let [i0, i1, i2] = m.triangles[tri as usize].map(|i| i as usize);
     let b0 = 1.0 - b1 - b2;
     let p = m.positions[i0] * b0 + m.positions[i1] * b1 + m.positions[i2] * b2;
-    let ng = (m.positions[i1] - m.positions[i0]).cross(m.positions[i2] - m.positions[i0]).normalize_or(Vec3::Z);
     let ns = (m.normals[i0] * b0 + m.normals[i1] * b1 + m.normals[i2] * b2).normalize_or(ng);
     let uv = [m.uv0[i0] * b0 + m.uv0[i1] * b1 + m.uv0[i2] * b2, m.uv1[i0] * b0 + m.uv1[i1] * b1 + m.uv1[i2] * b2];
     let color = m.colors[i0] * b0 + m.colors[i1] * b1 + m.colors[i2] * b2;

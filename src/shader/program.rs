@@ -9,7 +9,7 @@
 // The operations themselves are in `instructions.rs`; the shading point in `geom.rs`.
 
 use super::closure::Closures;
-use super::geom::{Geom, Reg, from_blender, geom_at, set3, to_blender, v3};
+use super::geom::{Geom, Reg, from_blender, geom_at_ng, set3, to_blender, v3};
 use super::instructions::{BumpOp, ColorSpace, CurveKind, InputKind, MappingKind, Op, Program};
 use super::ops;
 use crate::math::{Frame, luminance};
@@ -421,9 +421,11 @@ pub(super) fn bump_offsets<'a>(g: &Geom<'a>) -> Option<BumpOffsets<'a>> {
     let m = g.mesh;
     let (p0, p1, p2) = (m.positions[i0 as usize], m.positions[i1 as usize], m.positions[i2 as usize]);
     let (e1, e2) = (p1 - p0, p2 - p0);
-    let ng = e1.cross(e2);
+    // geom_at's normal for this triangle (the same expression), computed once for the frame
+    // and both offset points.
+    let ng = e1.cross(e2).normalize_or(Vec3::Z);
     let (ex, ey) = {
-        let f = Frame::from_normal(ng.normalize_or(Vec3::Z));
+        let f = Frame::from_normal(ng);
         (f.s, f.t)
     };
     let eps = 1e-4 * g.p.abs().max_element().max(1.0);
@@ -440,7 +442,7 @@ pub(super) fn bump_offsets<'a>(g: &Geom<'a>) -> Option<BumpOffsets<'a>> {
     };
     let offset_geom = |d: Vec3| {
         let (b1, b2) = bary(g.p + d);
-        let mut g2 = geom_at(m, std::slice::from_ref(g.object), g.textures, g.tri, b1, b2);
+        let mut g2 = geom_at_ng(m, std::slice::from_ref(g.object), g.textures, g.tri, b1, b2, ng);
         g2.object = g.object;
         g2.wo = g.wo;
         g2.backfacing = g.backfacing;

@@ -91,23 +91,29 @@ pub fn shade_nodes(scene: &Scene, prog: &Program, s: &SurfaceHit, wo: Vec3, doub
         }
     }
     let frame = Frame::from_normal(n);
-    let mut mix = c.mix;
-    mix.scale(keep);
+    // The mixture is copied out of the closures only where it becomes the BSDF (callgrind:
+    // a copy of ~80 instructions a shading point that a lone Principled BSDF threw away).
+    let scaled = |c: &Closures| {
+        let mut mix = c.mix;
+        mix.scale(keep);
+        mix
+    };
     let bsdf = if c.pbr_w > 0.0 {
         let mut params = c.principled_params(!s.front);
         params.coat_normal = c.coat_normal_world().map(|m| frame.to_local(if m.dot(s.ng) < 0.0 { -m } else { m }));
         let pbr = PbrBsdf::from_params(&params);
         let w = c.pbr_w * keep;
-        if mix.n == 0 && (w - 1.0).abs() < 1e-6 {
+        if c.mix.n == 0 && (w - 1.0).abs() < 1e-6 {
             // A lone Principled BSDF is the glTF material: the same code path.
             Bsdf::Pbr(pbr)
         } else {
+            let mut mix = scaled(&c);
             mix.pbr = pbr;
             mix.pbr_weight = w;
             Bsdf::Mix(mix)
         }
     } else {
-        Bsdf::Mix(mix)
+        Bsdf::Mix(scaled(&c))
     };
     let emitted = if s.front || double_sided { c.emission * keep } else { Rgb::ZERO };
     ShadingPoint { bsdf, frame, emitted }

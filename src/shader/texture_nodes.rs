@@ -3,11 +3,45 @@
 
 use super::geom::{Reg, set3, v3};
 use super::texture::{
-    BrickParams, GradientKind, NoiseKind, NoiseParams, VoronoiFeature, VoronoiMetric, VoronoiParams, WaveDirection,
-    WaveKind, WaveParams, WaveProfile, brick_texture, checker_texture, gradient_texture, magic_texture, noise_fac,
-    noise_texture, voronoi_texture, voronoi_texture_without_color, wave_texture, white_noise_texture,
+    BrickParams, GradientKind, NoiseKind, NoiseParams, VoronoiFeature, VoronoiMetric, VoronoiOut, VoronoiParams,
+    WaveDirection, WaveKind, WaveParams, WaveProfile, brick_texture, checker_texture, gradient_texture, magic_texture,
+    noise_fac, noise_texture, voronoi_texture, voronoi_texture_without_color, wave_texture, white_noise_texture,
 };
 use glam::Vec3;
+
+/// The Voronoi node's settings from its input registers `i` (Vector and W aside).
+pub(super) fn voronoi_params(
+    dims: u8,
+    feature: VoronoiFeature,
+    metric: VoronoiMetric,
+    normalize: bool,
+    i: &[Reg; 9],
+    r: &[f32],
+) -> VoronoiParams {
+    let f = |k: usize| r[i[k] as usize];
+    VoronoiParams {
+        dims,
+        feature,
+        metric,
+        normalize,
+        scale: f(2),
+        detail: f(3),
+        roughness: f(4),
+        lacunarity: f(5),
+        smoothness: f(6),
+        exponent: f(7),
+        randomness: f(8),
+    }
+}
+
+/// Writes the Voronoi node's outputs to their registers `o`.
+pub(super) fn set_voronoi(r: &mut [f32], o: &[Reg; 5], out: &VoronoiOut) {
+    r[o[0] as usize] = out.distance;
+    set3(r, o[1], out.color);
+    set3(r, o[2], out.position);
+    r[o[3] as usize] = out.w;
+    r[o[4] as usize] = out.radius;
+}
 
 /// A texture node compiled (boxed in `Op::Texture` to keep the op list compact).
 #[derive(Clone, Debug)]
@@ -88,30 +122,13 @@ impl TexOp {
                 set3(r, color, c);
             }
             TexOp::Voronoi { dims, feature, metric, normalize, color, inputs: i, outputs: o } => {
-                let f = |k: usize| r[i[k] as usize];
-                let prm = VoronoiParams {
-                    dims,
-                    feature,
-                    metric,
-                    normalize,
-                    scale: f(2),
-                    detail: f(3),
-                    roughness: f(4),
-                    lacunarity: f(5),
-                    smoothness: f(6),
-                    exponent: f(7),
-                    randomness: f(8),
-                };
+                let prm = voronoi_params(dims, feature, metric, normalize, &i, r);
                 let out = if color {
-                    voronoi_texture(v3(r, i[0]), f(1), &prm)
+                    voronoi_texture(v3(r, i[0]), r[i[1] as usize], &prm)
                 } else {
-                    voronoi_texture_without_color(v3(r, i[0]), f(1), &prm)
+                    voronoi_texture_without_color(v3(r, i[0]), r[i[1] as usize], &prm)
                 };
-                r[o[0] as usize] = out.distance;
-                set3(r, o[1], out.color);
-                set3(r, o[2], out.position);
-                r[o[3] as usize] = out.w;
-                r[o[4] as usize] = out.radius;
+                set_voronoi(r, &o, &out);
             }
             TexOp::Wave { kind, direction, profile, inputs: i, fac, color } => {
                 let f = |k: usize| r[i[k] as usize];

@@ -15,7 +15,7 @@ mod vector;
 pub use colour::{Blend, blend, bright_contrast, gamma, hsl_to_rgb, hsv_to_rgb, hue_sat_val, rgb_to_hsl, rgb_to_hsv};
 pub use map_range::{RangeInterp, map_range};
 pub use math::{
-    MathOp, compatible_signf, math, pingpongf, safe_divide, safe_floored_modulo, safe_logf, safe_modulo, safe_powf,
-    smoothminf, wrapf,
+    MathOp, compatible_signf, math, math_lanes, pingpongf, safe_divide, safe_floored_modulo, safe_logf, safe_modulo,
+    safe_powf, smoothminf, wrapf,
 };
 pub use vector::{VecOp, safe_normalize, vector_math};

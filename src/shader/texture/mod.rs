@@ -28,7 +28,8 @@ pub use gradient::{GradientKind, gradient_texture};
 pub use magic::magic_texture;
 pub use noise::{NoiseKind, NoiseParams, noise_fac, noise_texture};
 pub use voronoi::{
-    VoronoiFeature, VoronoiMetric, VoronoiOut, VoronoiParams, voronoi_texture, voronoi_texture_without_color,
+    VoronoiFeature, VoronoiMetric, VoronoiOut, VoronoiParams, voronoi_texture, voronoi_texture_lanes,
+    voronoi_texture_without_color,
 };
 pub use wave::{WaveDirection, WaveKind, WaveParams, WaveProfile, wave_texture};
 pub use white_noise::white_noise_texture;

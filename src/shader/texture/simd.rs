@@ -453,58 +453,139 @@ pub(crate) unsafe fn voronoi_cells_3d(
     metric: LaneMetric,
     out: &mut Cells27,
 ) {
+    for g in 0..4 {
+        let p = cell_points(cell, g, randomness);
+        let d = cell_distances(&p, local, metric);
+        store_group(out, g, &p, d);
+    }
+}
+
+/// [`voronoi_cells_3d`] for three shading points in the same cell (the Bump node's three
+/// heights): the feature points once, into `out` with the first point's distances; the
+/// second's and third's distances into `more`. Same requirements as [`voronoi_cells_3d`]
+/// for every `local`.
+///
+/// # Safety
+/// The CPU must support AVX2 (`has_avx2`).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+pub(crate) unsafe fn voronoi_cells_3d_lanes(
+    cell: [i32; 3],
+    local: [[f32; 3]; 3],
+    randomness: f32,
+    metric: LaneMetric,
+    out: &mut Cells27,
+    more: &mut [[f32; 32]; 2],
+) {
+    for g in 0..4 {
+        let p = cell_points(cell, g, randomness);
+        store_group(out, g, &p, cell_distances(&p, local[0], metric));
+        for (d, local) in more.iter_mut().zip(&local[1..]) {
+            // SAFETY: each row has 32 f32, lanes 8g..8g+8 are within it.
+            unsafe { _mm256_storeu_ps(d[8 * g..].as_mut_ptr(), cell_distances(&p, *local, metric)) };
+        }
+    }
+}
+
+/// The feature points of cells `8g..8g + 8` (scan order) around `cell`, per axis, relative
+/// to `cell`: offset + PCG3D hash × randomness.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+fn cell_points(cell: [i32; 3], g: usize, randomness: f32) -> [__m256; 3] {
     let (mul, inc) = (_mm256_set1_epi32(1664525), _mm256_set1_epi32(1013904223));
     let mask = _mm256_set1_epi32(0x7FFF_FFFF);
     let to_unit = _mm256_set1_ps(1.0 / 2147483648.0);
     let r = _mm256_set1_ps(randomness);
+    let lanes = 8 * g..8 * g + 8;
+    // SAFETY (loads): each row of CELL_OFFSETS has 32 i32, lanes is within it.
+    let off: [__m256i; 3] =
+        core::array::from_fn(|k| unsafe { _mm256_loadu_si256(CELL_OFFSETS[k][lanes.clone()].as_ptr().cast()) });
+    // hash_pcg3d_i on cell + offset (wrapping, as cell_index adds).
+    let [mut x, mut y, mut z] = core::array::from_fn(|k| {
+        let key = _mm256_add_epi32(_mm256_set1_epi32(cell[k]), off[k]);
+        _mm256_add_epi32(_mm256_mullo_epi32(key, mul), inc)
+    });
+    x = _mm256_add_epi32(x, _mm256_mullo_epi32(y, z));
+    y = _mm256_add_epi32(y, _mm256_mullo_epi32(z, x));
+    z = _mm256_add_epi32(z, _mm256_mullo_epi32(x, y));
+    x = _mm256_xor_si256(x, _mm256_srai_epi32::<16>(x));
+    y = _mm256_xor_si256(y, _mm256_srai_epi32::<16>(y));
+    z = _mm256_xor_si256(z, _mm256_srai_epi32::<16>(z));
+    x = _mm256_add_epi32(x, _mm256_mullo_epi32(y, z));
+    y = _mm256_add_epi32(y, _mm256_mullo_epi32(z, x));
+    z = _mm256_add_epi32(z, _mm256_mullo_epi32(x, y));
+    let h = [x, y, z];
+    // point = offset + hash × randomness.
+    core::array::from_fn(|k| {
+        let unit = _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_and_si256(h[k], mask)), to_unit);
+        _mm256_add_ps(_mm256_cvtepi32_ps(off[k]), _mm256_mul_ps(unit, r))
+    })
+}
+
+/// The distances of eight feature points `p` to `local` in `metric` (diff = point − local
+/// per axis, as `Vec3` subtracts).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+fn cell_distances(p: &[__m256; 3], local: [f32; 3], metric: LaneMetric) -> __m256 {
     let sign = _mm256_set1_ps(-0.0);
-    for g in 0..4 {
-        let lanes = 8 * g..8 * g + 8;
-        // SAFETY (loads): each row of CELL_OFFSETS has 32 i32, lanes is within it.
-        let off: [__m256i; 3] =
-            core::array::from_fn(|k| unsafe { _mm256_loadu_si256(CELL_OFFSETS[k][lanes.clone()].as_ptr().cast()) });
-        // hash_pcg3d_i on cell + offset (wrapping, as cell_index adds).
-        let [mut x, mut y, mut z] = core::array::from_fn(|k| {
-            let key = _mm256_add_epi32(_mm256_set1_epi32(cell[k]), off[k]);
-            _mm256_add_epi32(_mm256_mullo_epi32(key, mul), inc)
-        });
-        x = _mm256_add_epi32(x, _mm256_mullo_epi32(y, z));
-        y = _mm256_add_epi32(y, _mm256_mullo_epi32(z, x));
-        z = _mm256_add_epi32(z, _mm256_mullo_epi32(x, y));
-        x = _mm256_xor_si256(x, _mm256_srai_epi32::<16>(x));
-        y = _mm256_xor_si256(y, _mm256_srai_epi32::<16>(y));
-        z = _mm256_xor_si256(z, _mm256_srai_epi32::<16>(z));
-        x = _mm256_add_epi32(x, _mm256_mullo_epi32(y, z));
-        y = _mm256_add_epi32(y, _mm256_mullo_epi32(z, x));
-        z = _mm256_add_epi32(z, _mm256_mullo_epi32(x, y));
-        let h = [x, y, z];
-        // point = offset + hash × randomness; diff = point − local (per axis, as Vec3 does).
-        let p: [__m256; 3] = core::array::from_fn(|k| {
-            let unit = _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_and_si256(h[k], mask)), to_unit);
-            _mm256_add_ps(_mm256_cvtepi32_ps(off[k]), _mm256_mul_ps(unit, r))
-        });
-        let e: [__m256; 3] = core::array::from_fn(|k| _mm256_sub_ps(p[k], _mm256_set1_ps(local[k])));
-        let d = match metric {
-            LaneMetric::EuclideanSquared | LaneMetric::Euclidean => {
-                let sq = |v: __m256| _mm256_mul_ps(v, v);
-                let s = _mm256_add_ps(_mm256_add_ps(sq(e[0]), sq(e[1])), sq(e[2]));
-                if metric == LaneMetric::Euclidean { _mm256_sqrt_ps(s) } else { s }
-            }
-            LaneMetric::Manhattan => {
-                let a: [__m256; 3] = core::array::from_fn(|k| _mm256_andnot_ps(sign, e[k]));
-                _mm256_add_ps(_mm256_add_ps(a[0], a[1]), a[2])
-            }
-            LaneMetric::Chebychev => {
-                let a: [__m256; 3] = core::array::from_fn(|k| _mm256_andnot_ps(sign, e[k]));
-                _mm256_max_ps(_mm256_max_ps(a[0], a[1]), a[2])
-            }
-        };
-        // SAFETY (stores): each output row has 32 f32, lanes is within it.
-        unsafe {
-            _mm256_storeu_ps(out.x[lanes.clone()].as_mut_ptr(), p[0]);
-            _mm256_storeu_ps(out.y[lanes.clone()].as_mut_ptr(), p[1]);
-            _mm256_storeu_ps(out.z[lanes.clone()].as_mut_ptr(), p[2]);
-            _mm256_storeu_ps(out.d[lanes].as_mut_ptr(), d);
+    let e: [__m256; 3] = core::array::from_fn(|k| _mm256_sub_ps(p[k], _mm256_set1_ps(local[k])));
+    match metric {
+        LaneMetric::EuclideanSquared | LaneMetric::Euclidean => {
+            let sq = |v: __m256| _mm256_mul_ps(v, v);
+            let s = _mm256_add_ps(_mm256_add_ps(sq(e[0]), sq(e[1])), sq(e[2]));
+            if metric == LaneMetric::Euclidean { _mm256_sqrt_ps(s) } else { s }
+        }
+        LaneMetric::Manhattan => {
+            let a: [__m256; 3] = core::array::from_fn(|k| _mm256_andnot_ps(sign, e[k]));
+            _mm256_add_ps(_mm256_add_ps(a[0], a[1]), a[2])
+        }
+        LaneMetric::Chebychev => {
+            let a: [__m256; 3] = core::array::from_fn(|k| _mm256_andnot_ps(sign, e[k]));
+            _mm256_max_ps(_mm256_max_ps(a[0], a[1]), a[2])
         }
     }
+}
+
+/// Stores group `g`'s points and distances into lanes `8g..8g + 8` of `out`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+fn store_group(out: &mut Cells27, g: usize, p: &[__m256; 3], d: __m256) {
+    // SAFETY (stores): each output row has 32 f32, lanes 8g..8g+8 are within it.
+    unsafe {
+        _mm256_storeu_ps(out.x[8 * g..].as_mut_ptr(), p[0]);
+        _mm256_storeu_ps(out.y[8 * g..].as_mut_ptr(), p[1]);
+        _mm256_storeu_ps(out.z[8 * g..].as_mut_ptr(), p[2]);
+        _mm256_storeu_ps(out.d[8 * g..].as_mut_ptr(), d);
+    }
+}
+
+/// The first of the 27 cells (scan order) at the smallest distance `d[..27]`, as F1's scan
+/// with strict `<` from `f32::MAX` picks it: the minimum by a tree of `min`s, then the lowest
+/// lane equal to it. `None` when no distance is below `f32::MAX` (the scan keeps its zeros).
+/// The distances must not be NaN (the kernel's are not: its inputs are finite), so `min` is
+/// the exact minimum whatever its order and `==` finds the scan's cell.
+///
+/// # Safety
+/// The CPU must support AVX2 (`has_avx2`).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+pub(crate) unsafe fn first_min_27(d: &[f32; 32]) -> Option<usize> {
+    // SAFETY (loads): d has 32 f32, four vectors of eight.
+    let v: [__m256; 4] = core::array::from_fn(|g| unsafe { _mm256_loadu_ps(d[8 * g..].as_ptr()) });
+    // Lanes 27 to 31 (the last vector's 3 to 7) are not cells of the neighbourhood.
+    let pad = _mm256_castsi256_ps(_mm256_setr_epi32(0, 0, 0, -1, -1, -1, -1, -1));
+    let last = _mm256_blendv_ps(v[3], _mm256_set1_ps(f32::INFINITY), pad);
+    let m = _mm256_min_ps(_mm256_min_ps(v[0], v[1]), _mm256_min_ps(v[2], last));
+    let m = _mm256_min_ps(m, _mm256_permute2f128_ps::<1>(m, m));
+    let m = _mm256_min_ps(m, _mm256_shuffle_ps::<0b01_00_11_10>(m, m));
+    let m = _mm256_min_ps(m, _mm256_shuffle_ps::<0b10_11_00_01>(m, m));
+    if _mm256_cvtss_f32(m) >= f32::MAX {
+        return None;
+    }
+    let eq = |x: __m256| _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_EQ_OQ>(x, m)) as u32;
+    let bits = eq(v[0]) | eq(v[1]) << 8 | eq(v[2]) << 16 | eq(last) << 24;
+    Some(bits.trailing_zeros() as usize)
 }

@@ -11,7 +11,7 @@
 use glam::{Vec2, Vec3, Vec4};
 
 use super::perlin::mix;
-use super::voronoi_coord::{Coord, euclidean};
+use super::voronoi_coord::{Coord, euclidean, f1_scan_lanes};
 pub(super) use super::voronoi_settings::Params;
 pub use super::voronoi_settings::{VoronoiFeature, VoronoiMetric};
 
@@ -70,7 +70,12 @@ struct Octave {
 fn f1<T: Coord>(prm: &Params, coord: T) -> Octave {
     let cell = coord.floor();
     let local = coord - cell;
-    let (target_offset, target_position) = T::f1_scan(prm, cell, local);
+    f1_octave(prm, cell, local, T::f1_scan(prm, cell, local))
+}
+
+/// F1's outputs from the scan's pick (offset and feature point of the closest cell).
+#[inline(always)]
+fn f1_octave<T: Coord>(prm: &Params, cell: T, local: T, (target_offset, target_position): (T, T)) -> Octave {
     Octave {
         distance: T::distance(target_position, local, prm),
         color: if prm.color { T::hash_color(cell, target_offset) } else { Vec3::ZERO },
@@ -203,6 +208,12 @@ fn fractal<T: Coord>(prm: &Params, coord: T) -> Octave {
             }
         }
     }
+    finish(prm, out, max_amplitude)
+}
+
+/// The end of [`fractal`]: normalisation and the position back to the input's space.
+#[inline(always)]
+fn finish(prm: &Params, mut out: Octave, max_amplitude: f32) -> Octave {
     if prm.normalize {
         out.distance /= max_amplitude * prm.max_distance;
         out.color *= 1.0 / max_amplitude;
@@ -263,21 +274,31 @@ fn evaluate<T: Coord>(prm: &mut Params, coord: T) -> VoronoiOut {
         }
         VoronoiFeature::NSphereRadius => VoronoiOut { radius: n_sphere_radius(prm, coord), ..VoronoiOut::default() },
         _ => {
-            // The largest F1 distance of a jittered grid: the distance to the far corner of
-            // the cell's reach (in 1-D plainly 0.5 + 0.5 randomness); twice that for F2.
-            let reach = 0.5 + 0.5 * prm.randomness;
-            let max_distance = if T::DIMS == 1 { reach } else { T::distance(T::splat(0.0), T::splat(reach), prm) };
-            let factor = if prm.feature == VoronoiFeature::F2 { 2.0 } else { 1.0 };
-            prm.max_distance = max_distance * factor;
-            let out = fractal(prm, coord);
-            VoronoiOut {
-                distance: out.distance,
-                color: out.color,
-                position: out.position.truncate(),
-                w: out.position.w,
-                radius: 0.0,
-            }
+            set_max_distance::<T>(prm);
+            output(fractal(prm, coord))
         }
+    }
+}
+
+/// The largest F1 distance of a jittered grid: the distance to the far corner of the cell's
+/// reach (in 1-D plainly 0.5 + 0.5 randomness); twice that for F2.
+#[inline(always)]
+fn set_max_distance<T: Coord>(prm: &mut Params) {
+    let reach = 0.5 + 0.5 * prm.randomness;
+    let max_distance = if T::DIMS == 1 { reach } else { T::distance(T::splat(0.0), T::splat(reach), prm) };
+    let factor = if prm.feature == VoronoiFeature::F2 { 2.0 } else { 1.0 };
+    prm.max_distance = max_distance * factor;
+}
+
+/// The node's outputs from F1, F2 or smooth F1's sum.
+#[inline(always)]
+fn output(out: Octave) -> VoronoiOut {
+    VoronoiOut {
+        distance: out.distance,
+        color: out.color,
+        position: out.position.truncate(),
+        w: out.position.w,
+        radius: 0.0,
     }
 }
 
@@ -292,8 +313,47 @@ pub fn voronoi_texture_without_color(p: Vec3, w: f32, prm: &VoronoiParams) -> Vo
     node(p, w, prm, false)
 }
 
+/// [`voronoi_texture`] (or, without `color`, [`voronoi_texture_without_color`]) at three
+/// points (the Bump node's three heights), each lane the same numbers as one call. 3-D F1 of
+/// one octave at three points of one cell (nearly always: they lie 10⁻⁴ apart) hashes the
+/// cell's neighbours once (`voronoi_coord::f1_scan_lanes`); anything else is three calls.
+pub fn voronoi_texture_lanes(p: [Vec3; 3], w: [f32; 3], prm: &VoronoiParams, color: bool) -> [VoronoiOut; 3] {
+    let mut params = params(prm, color);
+    let single = params.detail == 0.0 || params.roughness == 0.0;
+    if prm.dims == 3 && prm.feature == VoronoiFeature::F1 && single {
+        // As `node` then `fractal`'s single octave scale the point (`× 1.0` is exact).
+        let coord = p.map(|p| p * prm.scale);
+        let cell = coord.map(Coord::floor);
+        let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+        if bits(cell[0]) == bits(cell[1]) && bits(cell[0]) == bits(cell[2]) {
+            let local = coord.map(|c| c - cell[0]);
+            if let Some(picks) = f1_scan_lanes(&params, cell[0], local) {
+                set_max_distance::<Vec3>(&mut params);
+                return core::array::from_fn(|l| {
+                    output(finish(&params, f1_octave(&params, cell[0], local[l], picks[l]), 1.0))
+                });
+            }
+        }
+    }
+    core::array::from_fn(|l| node(p[l], w[l], prm, color))
+}
+
 fn node(p: Vec3, w: f32, prm: &VoronoiParams, color: bool) -> VoronoiOut {
-    let mut params = Params {
+    let mut params = params(prm, color);
+    let p = p * prm.scale;
+    let w = w * prm.scale;
+    match prm.dims {
+        1 => evaluate(&mut params, w),
+        2 => evaluate(&mut params, Vec2::new(p.x, p.y)),
+        4 => evaluate(&mut params, p.extend(w)),
+        _ => evaluate(&mut params, p),
+    }
+}
+
+/// The node's settings as the kernel takes them (clamped, smoothness halved).
+#[inline(always)]
+fn params(prm: &VoronoiParams, color: bool) -> Params {
+    Params {
         feature: prm.feature,
         metric: prm.metric,
         normalize: prm.normalize,
@@ -306,13 +366,69 @@ fn node(p: Vec3, w: f32, prm: &VoronoiParams, color: bool) -> VoronoiOut {
         randomness: prm.randomness.clamp(0.0, 1.0),
         max_distance: 0.0,
         color,
-    };
-    let p = p * prm.scale;
-    let w = w * prm.scale;
-    match prm.dims {
-        1 => evaluate(&mut params, w),
-        2 => evaluate(&mut params, Vec2::new(p.x, p.y)),
-        4 => evaluate(&mut params, p.extend(w)),
-        _ => evaluate(&mut params, p),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn bits(o: &VoronoiOut) -> [u32; 9] {
+        let [a, b, c] = o.color.to_array().map(f32::to_bits);
+        let [x, y, z] = o.position.to_array().map(f32::to_bits);
+        [o.distance.to_bits(), a, b, c, x, y, z, o.w.to_bits(), o.radius.to_bits()]
+    }
+
+    /// The three-point form gives each point what one call gives, bit for bit: points of one
+    /// cell (the shared kernel: offsets 10⁻⁴ apart, as the Bump node's) and of neighbouring
+    /// cells (offsets of a cell's size), every metric and feature, one octave and several,
+    /// randomness 0 (ties: the first cell wins) to 1, with and without Color, far from the
+    /// origin and at a zero scale.
+    #[test]
+    fn lanes_are_one_call_per_point() {
+        let mut state = 0x9e37_79b9u32;
+        let mut next = || {
+            state = state.wrapping_mul(1664525).wrapping_add(1013904223);
+            (state >> 8) as f32 / (1u32 << 24) as f32
+        };
+        let metrics =
+            [VoronoiMetric::Euclidean, VoronoiMetric::Manhattan, VoronoiMetric::Chebychev, VoronoiMetric::Minkowski];
+        let features = [VoronoiFeature::F1, VoronoiFeature::F1, VoronoiFeature::F2, VoronoiFeature::SmoothF1];
+        let mut shared = 0;
+        for k in 0..12_000 {
+            let range = [2.0, 50.0, 4.0e5][k % 3];
+            let p0 = Vec3::new(next() * 2.0 - 1.0, next() * 2.0 - 1.0, next() * 2.0 - 1.0) * range;
+            let step = if k % 5 == 0 { 0.4 } else { 1e-4 };
+            let d = |s: f32| Vec3::new(s, -0.5 * s, 0.25 * s) * step;
+            let p = [p0, p0 + d(1.0), p0 + d(-1.3)];
+            let prm = VoronoiParams {
+                dims: 3,
+                feature: features[k % 4],
+                metric: metrics[k / 4 % 4],
+                normalize: k % 7 < 3,
+                scale: [8.0, 1.5, 0.0, -3.0][k / 16 % 4],
+                detail: [0.0, 0.0, 1.5][k % 3],
+                roughness: [0.5, 0.0][k / 3 % 2],
+                lacunarity: 2.0,
+                smoothness: 0.5,
+                exponent: 1.5,
+                randomness: [1.0, 0.0, 0.3, next()][k / 2 % 4],
+            };
+            let color = k % 2 == 0;
+            let w = [0.0, 0.3, -0.7];
+            let got = voronoi_texture_lanes(p, w, &prm, color);
+            for l in 0..3 {
+                let want = if color {
+                    voronoi_texture(p[l], w[l], &prm)
+                } else {
+                    voronoi_texture_without_color(p[l], w[l], &prm)
+                };
+                assert_eq!(bits(&got[l]), bits(&want), "lane {l} of {p:?}, {prm:?}, color {color}");
+            }
+            let cells = p.map(|p| (p * prm.scale).floor());
+            shared += usize::from(prm.feature == VoronoiFeature::F1 && cells[0] == cells[1] && cells[0] == cells[2]);
+        }
+        // The shared-cell path was taken often (not only the per-point fallback).
+        assert!(shared > 1000, "{shared} shared-cell cases");
     }
 }

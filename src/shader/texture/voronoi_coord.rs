@@ -13,7 +13,7 @@ use super::hash::{
 };
 use super::simd::Cells27;
 #[cfg(target_arch = "x86_64")]
-use super::simd::{LaneMetric, has_avx2, voronoi_cells_3d};
+use super::simd::{LaneMetric, first_min_27, has_avx2, voronoi_cells_3d, voronoi_cells_3d_lanes};
 use super::voronoi_settings::{Params, VoronoiMetric};
 
 /// A Voronoi coordinate of 1 to 4 dimensions.
@@ -299,17 +299,10 @@ impl Coord for Vec3 {
     #[inline(always)]
     fn f1_scan(prm: &Params, cell: Self, local: Self) -> (Self, Self) {
         match cells_3d(prm, cell, local, false) {
-            Some(c) => {
-                let mut min_distance = f32::MAX;
-                let mut target = (Vec3::ZERO, Vec3::ZERO);
-                for (i, &d) in c.d[..27].iter().enumerate() {
-                    if d < min_distance {
-                        min_distance = d;
-                        target = (OFFSETS_3D[i], Vec3::new(c.x[i], c.y[i], c.z[i]));
-                    }
-                }
-                target
-            }
+            Some(c) => match first_min(&c.d) {
+                Some(i) => (OFFSETS_3D[i], Vec3::new(c.x[i], c.y[i], c.z[i])),
+                None => (Vec3::ZERO, Vec3::ZERO),
+            },
             None => scan_f1(prm, cell, local),
         }
     }
@@ -330,6 +323,65 @@ impl Coord for Vec3 {
             }
             None => scan_f2(prm, cell, local),
         }
+    }
+}
+
+/// The cell F1's scan picks among the kernel's 27 (`simd::first_min_27`). Callgrind
+/// (`bench/node_graph.py`): the scalar loop over the 27 distances cost ~150 instructions.
+#[inline(always)]
+fn first_min(d: &[f32; 32]) -> Option<usize> {
+    #[cfg(target_arch = "x86_64")]
+    {
+        // SAFETY: distances come only from the kernels, run only when the CPU has AVX2
+        // (`cells_3d`, `f1_scan_lanes`); they are not NaN (finite local and randomness).
+        unsafe { first_min_27(d) }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let mut best = None;
+        let mut min_distance = f32::MAX;
+        for (i, &d) in d[..27].iter().enumerate() {
+            if d < min_distance {
+                min_distance = d;
+                best = Some(i);
+            }
+        }
+        best
+    }
+}
+
+/// `Coord::f1_scan` at three points of one cell (`local`, each relative to `cell`): the
+/// feature points hashed once, three distance passes (`simd::voronoi_cells_3d_lanes`); each
+/// pick is the one `f1_scan` makes for that point. None where the kernel does not apply
+/// (no AVX2, Minkowski, a point or the randomness not finite): then scan each point alone.
+pub(super) fn f1_scan_lanes(prm: &Params, cell: Vec3, local: [Vec3; 3]) -> Option<[(Vec3, Vec3); 3]> {
+    #[cfg(target_arch = "x86_64")]
+    {
+        let metric = match prm.metric {
+            VoronoiMetric::Euclidean => LaneMetric::EuclideanSquared,
+            VoronoiMetric::Manhattan => LaneMetric::Manhattan,
+            VoronoiMetric::Chebychev => LaneMetric::Chebychev,
+            VoronoiMetric::Minkowski => return None,
+        };
+        if !(has_avx2() && local.iter().all(|l| l.is_finite()) && prm.randomness.is_finite()) {
+            return None;
+        }
+        let mut c = Cells27 { x: [0.0; 32], y: [0.0; 32], z: [0.0; 32], d: [0.0; 32] };
+        let mut more = [[0.0; 32]; 2];
+        let index = cell_index(cell.to_array(), [0.0; 3]);
+        let locals = local.map(|l| l.to_array());
+        // SAFETY: the CPU has AVX2; every local and the randomness are finite.
+        unsafe { voronoi_cells_3d_lanes(index, locals, prm.randomness, metric, &mut c, &mut more) };
+        let pick = |d: &[f32; 32]| match first_min(d) {
+            Some(i) => (OFFSETS_3D[i], Vec3::new(c.x[i], c.y[i], c.z[i])),
+            None => (Vec3::ZERO, Vec3::ZERO),
+        };
+        Some([pick(&c.d), pick(&more[0]), pick(&more[1])])
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let _ = (prm, cell, local);
+        None
     }
 }
 
