@@ -343,7 +343,7 @@ pub fn read(path: &Path) -> Result<Chunk> {
             extra.push(u32s(&format!("CausticSum.{q}.{k}"))?);
         }
     }
-    let mut film = Film::with_passes(w, h, crate::render::TILE_SIZE, info.passes);
+    let mut film = Film::with_passes(w, h, crate::render::job::TILE_SIZE, info.passes);
     film.light_paths = info.light_paths;
     for y in 0..h {
         for x in 0..w {
@@ -411,7 +411,7 @@ pub fn read(path: &Path) -> Result<Chunk> {
 /// sums (SPPM without extra passes: its chunks are independent estimates, merged weighted by
 /// iterations).
 pub fn film_from_image(img: &FilmImage) -> Film {
-    let mut film = Film::new(img.width, img.height, crate::render::TILE_SIZE);
+    let mut film = Film::new(img.width, img.height, crate::render::job::TILE_SIZE);
     set_means(&mut film, img);
     film
 }

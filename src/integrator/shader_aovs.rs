@@ -50,7 +50,10 @@ pub fn fill(
     for k in 0..=MAX_TRANSPARENT_HITS {
         let Some(hit) = ctx.intersect_as(org, ray.dir, tmax, RayMask::CAMERA) else {
             if let Some(world) = &aovs.world_graph {
-                world.write_aovs(ray.dir, path.at(f32::MAX), &aovs.world, &mut out.shader_aovs);
+                let sums = &mut out.shader_aovs;
+                world.with_aov_registers(ray.dir, path.at(f32::MAX), |prog, regs| {
+                    crate::shader::aov::add_targets(prog, &aovs.world, regs, sums)
+                });
             }
             return;
         };

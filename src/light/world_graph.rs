@@ -13,7 +13,6 @@
 
 use crate::math::Rgb;
 use crate::scene::light_path::LightPath;
-use crate::scene::shader_aovs::{AovSums, AovTarget};
 use crate::scene::texture::Texture;
 use crate::shader::closure::Closures;
 use crate::shader::geom::{Geom, NO_OBJECT, from_blender};
@@ -83,16 +82,17 @@ impl WorldGraph {
         if e.is_finite() { e.max(Vec3::ZERO) } else { Vec3::ZERO }
     }
 
-    /// Adds the values of the graph's AOV Output nodes `targets` for a camera ray of path
-    /// state `path` leaving the scene along `d` to `sums`, as Cycles' background shader
-    /// writes them where the camera sees the world (`crate::shader::aov`).
-    pub fn write_aovs(&self, d: Vec3, path: LightPath, targets: &[AovTarget], sums: &mut AovSums) {
+    /// Runs the graph and its AOV Output nodes for a camera ray of path state `path` leaving
+    /// the scene along `d`, and hands the program and its registers to `read` (the caller
+    /// files the AOV values, `crate::shader::aov`), as Cycles' background shader writes them
+    /// where the camera sees the world.
+    pub fn with_aov_registers(&self, d: Vec3, path: LightPath, read: impl FnOnce(&Program, &[f32])) {
         let g = self.geom(d, path);
         with_registers(|regs| {
             let mut closures = Closures::default();
             self.program.run(&g, regs, &mut closures);
             self.program.run_aovs(&g, regs);
-            crate::shader::aov::add_targets(&self.program, targets, regs, sums);
+            read(&self.program, regs);
         });
     }
 

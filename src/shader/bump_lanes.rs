@@ -17,7 +17,7 @@
 
 use super::closure::Closures;
 use super::geom::{Geom, v3};
-use super::instructions::{Op, Program};
+use super::instructions::{LaneBump, Op, Program};
 use super::ops;
 use super::program::bump_offsets;
 use super::texture::noise::{NoiseKind, NoiseParams};
@@ -29,45 +29,6 @@ use std::cell::RefCell;
 thread_local! {
     /// The two offset lanes' register files, one after the other.
     static LANES: RefCell<Vec<f32>> = const { RefCell::new(Vec::new()) };
-}
-
-/// Where a program's lane-form Bump sits: `ops[start..at]` in runs of height operations
-/// (run in lanes) and others (run at the centre only); the Bump itself is `ops[at]`.
-#[derive(Clone, Debug, Default)]
-pub struct LaneBump {
-    start: usize,
-    at: usize,
-    /// Consecutive operations `(from, to, height)`, covering `start..at` in order.
-    runs: Vec<(usize, usize, bool)>,
-}
-
-impl LaneBump {
-    /// The first Bump among the surface's operations `ops[..end]`, when its height's
-    /// operations hold no Bump (a nested one keeps `Program::bump`'s passes).
-    pub fn find(ops: &[Op], end: usize) -> Option<LaneBump> {
-        let at = ops[..end].iter().position(|op| matches!(op, Op::Bump(_)))?;
-        let Op::Bump(b) = &ops[at] else { return None };
-        let start = b.sub.first()?.0 as usize;
-        let mut in_height = vec![false; at.saturating_sub(start)];
-        for &(a, z) in &b.sub {
-            let (a, z) = (a as usize, z as usize);
-            if z > at || a < start {
-                return None;
-            }
-            if ops[a..z].iter().any(|op| matches!(op, Op::Bump(_))) {
-                return None;
-            }
-            in_height[a - start..z - start].fill(true);
-        }
-        let mut runs: Vec<(usize, usize, bool)> = Vec::new();
-        for (k, &h) in in_height.iter().enumerate() {
-            match runs.last_mut() {
-                Some(last) if last.2 == h => last.1 = start + k + 1,
-                _ => runs.push((start + k, start + k + 1, h)),
-            }
-        }
-        Some(LaneBump { start, at, runs })
-    }
 }
 
 impl Program {

@@ -2,7 +2,6 @@
 //! register file, their tables (ramps, curves) and the compiled `Program` that holds
 //! them. Evaluation is in `program.rs`.
 
-use super::bump_lanes::LaneBump;
 use super::closure::ClosureOp;
 use super::geom::Reg;
 use super::image_node::ImageOp;
@@ -384,4 +383,45 @@ pub struct AovOutput {
     pub color: Reg,
     /// Register of its Value input.
     pub value: Reg,
+}
+
+/// Where a program's lane-form Bump sits: `ops[start..at]` in runs of height operations
+/// (run in lanes) and others (run at the centre only); the Bump itself is `ops[at]`.
+#[derive(Clone, Debug, Default)]
+pub struct LaneBump {
+    /// The first operation of the Bump's height.
+    pub(super) start: usize,
+    /// The Bump operation's index.
+    pub(super) at: usize,
+    /// Consecutive operations `(from, to, height)`, covering `start..at` in order.
+    pub(super) runs: Vec<(usize, usize, bool)>,
+}
+
+impl LaneBump {
+    /// The first Bump among the surface's operations `ops[..end]`, when its height's
+    /// operations hold no Bump (a nested one keeps `Program::bump`'s passes).
+    pub fn find(ops: &[Op], end: usize) -> Option<LaneBump> {
+        let at = ops[..end].iter().position(|op| matches!(op, Op::Bump(_)))?;
+        let Op::Bump(b) = &ops[at] else { return None };
+        let start = b.sub.first()?.0 as usize;
+        let mut in_height = vec![false; at.saturating_sub(start)];
+        for &(a, z) in &b.sub {
+            let (a, z) = (a as usize, z as usize);
+            if z > at || a < start {
+                return None;
+            }
+            if ops[a..z].iter().any(|op| matches!(op, Op::Bump(_))) {
+                return None;
+            }
+            in_height[a - start..z - start].fill(true);
+        }
+        let mut runs: Vec<(usize, usize, bool)> = Vec::new();
+        for (k, &h) in in_height.iter().enumerate() {
+            match runs.last_mut() {
+                Some(last) if last.2 == h => last.1 = start + k + 1,
+                _ => runs.push((start + k, start + k + 1, h)),
+            }
+        }
+        Some(LaneBump { start, at, runs })
+    }
 }

@@ -452,7 +452,7 @@ fn render(
     // A chunk's sums: the side film's exact ones, and the means times the iterations of
     // what SPPM reduces per pixel (Combined, the light passes and groups).
     let film = sppm.keep_sums.then(|| {
-        let mut film = side.unwrap_or_else(|| Film::with_passes(w, h, crate::render::TILE_SIZE, job.passes));
+        let mut film = side.unwrap_or_else(|| Film::with_passes(w, h, crate::render::job::TILE_SIZE, job.passes));
         crate::chunk::set_means(&mut film, &image);
         if split_on {
             super::sppm_passes::into_film(&mut film, job.passes, &sums, st.iterations, area);

@@ -111,7 +111,7 @@ pub fn compile(name: &str, ext: &NodesExt, images: &[u32]) -> Result<Compiled, S
     prog.init = c.init;
     prog.ops = c.ops;
     prog.surface_end = surface_end;
-    prog.lane_bump = crate::shader::bump_lanes::LaneBump::find(&prog.ops, surface_end);
+    prog.lane_bump = crate::shader::instructions::LaneBump::find(&prog.ops, surface_end);
     prog.constant_emission = constant_emission(&prog);
     Ok(Compiled { program: prog, warnings: c.warnings, uses_generated: c.uses_generated })
 }

@@ -69,7 +69,7 @@ pub struct VolumeProgram {
     pub warnings: Vec<String>,
     /// The graph's images, which its Image Texture nodes index (the loader decodes them
     /// into the medium's own list, as the world graph's).
-    pub textures: Vec<crate::scene::Texture>,
+    pub textures: Vec<crate::scene::texture::Texture>,
 }
 
 /// Compiles the volume graph `ext` whose shader node is `shader`, for material `name`;
