@@ -322,7 +322,7 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
     }
     if passes.contains(crate::passes::Pass::ShadowCatcher) && !splits_at_catchers(integrator) {
         return Err(Error::Usage(format!(
-            "the Shadow Catcher pass is rendered by the path and photon integrators only, not by '{}'",
+            "the Shadow Catcher pass is rendered by the path, photon and SPPM integrators only, not by '{}'",
             integrator.name()
         )));
     }
@@ -373,7 +373,7 @@ pub fn honours_ray_visibility(integrator: IntegratorKind) -> bool {
 }
 
 /// True when `integrator` splits camera paths at shadow catchers (`integrator::catcher`:
-/// the path tracer, and Jensen's camera paths, whose catcher pass is path traced).
+/// the path tracer, and Jensen's and SPPM's camera paths, whose catcher pass is path traced).
 pub fn splits_at_catchers(integrator: IntegratorKind) -> bool {
-    matches!(integrator, IntegratorKind::Path | IntegratorKind::Photon)
+    matches!(integrator, IntegratorKind::Path | IntegratorKind::Photon | IntegratorKind::Sppm)
 }

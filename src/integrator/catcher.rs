@@ -9,8 +9,8 @@
 //! and counts one catcher sample. The film turns these sums into Cycles' passes
 //! (`crate::shadow_catcher`).
 //!
-//! The path tracer and Jensen's camera paths split (Jensen's catcher pass is the path
-//! tracer's walk from the split); the other integrators render catchers as ordinary
+//! The path tracer and Jensen's and SPPM's camera paths split (their catcher pass is the
+//! path tracer's walk from the split; SPPM's matte, `photon::sppm_catcher`); the other integrators render catchers as ordinary
 //! objects (a warning says so).
 
 use super::SceneContext;
