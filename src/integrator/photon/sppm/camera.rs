@@ -85,7 +85,7 @@ pub(super) fn camera_path(
         let mut crossed_any = false;
         let depth_before = st.depth;
         // The camera segment as it starts, should it end on a shadow catcher.
-        let pre = (caught.allowed && st.depth == 0).then(|| PathState { beta, ..st });
+        let pre = (caught.allowed && st.depth == 0).then_some(PathState { beta, ..st });
         st.beta = Rgb::ONE;
         let out_groups = &mut out.groups;
         let (step, crossed_l) = st.advance_with(
