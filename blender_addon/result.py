@@ -60,9 +60,10 @@ CRYPTOMATTE_LAYERS = (
     ("use_pass_cryptomatte_material", "cryptomatte_material", "CryptoMaterial"),
     ("use_pass_cryptomatte_asset", "cryptomatte_asset", "CryptoAsset"),
 )
-# The Shadow Catcher pass: the path, BDPT, VCM and photon (Jensen) integrators split camera paths at catchers.
+# The Shadow Catcher pass: every integrator splits camera paths at catchers (the set stays for
+# an integrator that may not).
 CATCHER_TOKENS = frozenset({"shadow_catcher"})
-CATCHER_INTEGRATORS = frozenset({"path", "bdpt", "vcm", "photon"})
+CATCHER_INTEGRATORS = frozenset({"path", "bdpt", "vcm", "photon", "sppm"})
 
 # The binary's `--passes` token for one `Combined_<group>` pass per light group of the scene (whose
 # groups the exporter writes, export/light_groups.py).
@@ -115,7 +116,7 @@ def pass_request(view_layer, integrator, motion_blur=False):
         if token == "vector" and motion_blur:
             warnings.append("the Vector pass needs motion blur off (as in Cycles); it stays black")
         elif token in CATCHER_TOKENS and integrator not in CATCHER_INTEGRATORS:
-            warnings.append(f"the {name} pass is rendered by the path, BDPT, VCM and photon integrators only; "
+            warnings.append(f"the {name} pass is rendered by the path, BDPT, VCM, photon and SPPM integrators only; "
                             f"it stays black with '{integrator}'")
         elif token in LIGHT_TOKENS and integrator not in LIGHT_INTEGRATORS:
             warnings.append(f"the {name} pass is rendered by the path, BDPT, VCM and photon integrators only; "

@@ -80,7 +80,7 @@ fn sppm_state_counts_against_the_budget() {
     assert_refused(&r, dir.path(), &["film", "set by --memory-limit"]);
     // With the film allowed, SPPM's own state is what goes over: 100 MiB covers
     // the 168 B/pixel film of 512² (42 MiB) but not the per-pixel state on top.
-    let per_pixel = caustic::integrator::photon::sppm::bytes_per_pixel(false);
+    let per_pixel = caustic::integrator::photon::sppm::bytes_per_pixel(false, false);
     let pixels = 512u64 * 512;
     let film = pixels * caustic::memory::film_bytes_per_pixel();
     let limit = film + 64 * 1024 + pixels * per_pixel / 2;

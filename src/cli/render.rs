@@ -124,17 +124,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         reporter.warning(&w);
         run_warnings.push(w);
     }
-    let catchers = &scene.ray_visibility.catcher_objects;
-    if !catchers.is_empty() && !crate::cli::settings::splits_at_catchers(res.integrator) {
-        // Splitting needs a camera path that can be followed twice from the catcher.
-        let w = format!(
-            "shadow catcher object(s) {} are rendered as ordinary objects by this integrator (the path and \
-             photon integrators render them as Cycles)",
-            catchers.iter().map(|n| format!("'{n}'")).collect::<Vec<_>>().join(", ")
-        );
-        reporter.warning(&w);
-        run_warnings.push(w);
-    }
+    // Every integrator splits camera paths at shadow catchers (`integrator::catcher`).
     if res.passes.asks_shader_aovs() && scene.shader_aovs.channels == 0 {
         let w = "the shader AOVs were asked for, but the scene declares none: none is written".to_string();
         reporter.warning(&w);
@@ -698,6 +688,7 @@ fn charge_render(budget: &MemoryBudget, args: &RenderArgs, res: &Resolved, scene
                 format!("SPPM's per-pixel state for {pixels} pixels"),
                 pixels.saturating_mul(photon::sppm::bytes_per_pixel(
                     res.passes.any_light() || res.passes.light_groups() > 0,
+                    photon::sppm_catcher::wanted(res.passes),
                 )),
             )?;
             let per_iter = res.photon.sppm_photons.unwrap_or_else(|| photon::default_sppm_photons(pixels));

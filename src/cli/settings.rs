@@ -322,7 +322,7 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
     }
     if passes.contains(crate::passes::Pass::ShadowCatcher) && !splits_at_catchers(integrator) {
         return Err(Error::Usage(format!(
-            "the Shadow Catcher pass is rendered by the path, BDPT, VCM and photon integrators only, not by '{}'",
+            "the Shadow Catcher pass is rendered by the path, BDPT, VCM, photon and SPPM integrators only, not by '{}'",
             integrator.name()
         )));
     }
@@ -373,7 +373,15 @@ pub fn honours_ray_visibility(integrator: IntegratorKind) -> bool {
 }
 
 /// True when `integrator` splits camera paths at shadow catchers (`integrator::catcher`:
-/// the path tracer; BDPT's, VCM's and Jensen's camera paths, whose catcher pass is path traced).
+/// the path tracer; BDPT's, VCM's, Jensen's and SPPM's camera paths, whose catcher pass is path
+/// traced). Every integrator does; the function names the rule the settings and warnings share.
 pub fn splits_at_catchers(integrator: IntegratorKind) -> bool {
-    matches!(integrator, IntegratorKind::Path | IntegratorKind::Bdpt | IntegratorKind::Vcm | IntegratorKind::Photon)
+    matches!(
+        integrator,
+        IntegratorKind::Path
+            | IntegratorKind::Bdpt
+            | IntegratorKind::Vcm
+            | IntegratorKind::Photon
+            | IntegratorKind::Sppm
+    )
 }

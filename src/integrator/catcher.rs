@@ -12,9 +12,10 @@
 //! The path tracer splits, and so do BDPT and VCM (`bdpt::catcher`): their camera subpath
 //! splits where its first segment ends on a catcher and the catcher pass is the path
 //! tracer's walk from that state; their light-tracing splats go to the matte unless the
-//! vertex the camera sees is on a catcher. Jensen's camera paths split too (its catcher
-//! pass is the path tracer's walk from the split). SPPM renders catchers as ordinary
-//! objects (a warning says so).
+//! vertex the camera sees is on a catcher. Jensen's and SPPM's camera paths split too
+//! (their catcher pass is the path tracer's walk from the split; SPPM's matte,
+//! `photon::sppm_catcher`). Only the viewport (`caustic serve`) renders catchers as
+//! ordinary objects (docs/contract.md says so).
 
 use super::SceneContext;
 use super::walk::PathState;

@@ -43,6 +43,7 @@ pub mod kdtree;
 pub mod lobes;
 pub mod map_read;
 pub mod sppm;
+pub mod sppm_catcher;
 pub mod sppm_extras;
 pub mod sppm_passes;
 pub mod trace;

@@ -36,6 +36,10 @@
 //! a filter-distributed offset per pixel and iteration, so the filter is applied), AOVs
 //! other than those of the first hit.
 //!
+//! Shadow catchers (`sppm_catcher.rs`): the camera pass splits at a catcher as the path
+//! tracer's; the catcher pass is path traced from the split, and a second τ keeps the flux
+//! that paths which did not split gathered, for the matte.
+//!
 //! Chunks (`--sample-offset N`): iterations take sample indices and photon passes N, N+1, …,
 //! but each chunk is a whole SPPM run of its own (radii start again; the per-pixel state
 //! of earlier iterations is not carried over): chunks are independent consistent
@@ -48,12 +52,14 @@
 
 use super::kdtree::KnnResult;
 use super::lobes::Split;
+use super::sppm_catcher::{CatcherSample, CatcherSums};
 use super::sppm_passes::{GatherSplit, SplitSums};
 use super::trace::{MapKind, TraceJob, trace_photons};
 use super::{PhotonMap, PhotonSettings, default_sppm_photons};
 use crate::bsdf::Bsdf;
 use crate::film::{CameraSample, DEPTH_BACKGROUND, Film, FilmImage};
 use crate::integrator::SceneContext;
+use crate::integrator::catcher::Split as CatcherSplit;
 use crate::integrator::light_passes::shares_at;
 use crate::light::emit::Emitters;
 use crate::math::{Frame, Rgb};
@@ -150,13 +156,16 @@ struct VisiblePoint {
 
 /// Bytes of SPPM's per-pixel state (progressive sums, this iteration's visible point and
 /// its pending camera sample; with light passes or groups, `split`, their camera sample and
-/// sums too), for the memory budget.
-pub fn bytes_per_pixel(split: bool) -> u64 {
+/// sums too; with the shadow catcher's sums, `catcher`, its sample and sums), for the memory
+/// budget.
+pub fn bytes_per_pixel(split: bool, catcher: bool) -> u64 {
     let split = if split { std::mem::size_of::<CameraSample>() + std::mem::size_of::<SplitSums>() } else { 0 };
+    let catcher = if catcher { std::mem::size_of::<CatcherSample>() + std::mem::size_of::<CatcherSums>() } else { 0 };
     (std::mem::size_of::<PixelState>()
         + std::mem::size_of::<Option<VisiblePoint>>()
         + std::mem::size_of::<Pending>()
-        + split) as u64
+        + split
+        + catcher) as u64
 }
 
 /// Counters of an SPPM render.
@@ -252,6 +261,14 @@ fn render(
     let (row_len, per_row) = if split_on { (npix, w as usize) } else { (h as usize, 1) };
     let mut samples = vec![CameraSample::default(); row_len];
     let mut sums = vec![SplitSums::default(); if split_on { npix } else { h as usize }];
+    // The shadow catcher's sums (`sppm_catcher`), kept as the film keeps them: per pixel when
+    // kept, one placeholder per row otherwise (so that the rows still zip).
+    let catch_on = super::sppm_catcher::wanted(job.passes);
+    let (catch_len, catch_row) = if catch_on { (npix, w as usize) } else { (h as usize, 1) };
+    let mut catch_samples = vec![CatcherSample::default(); catch_len];
+    let mut catch_sums = vec![CatcherSums::default(); catch_len];
+    let continuation =
+        crate::integrator::path::PathIntegrator { max_depth, transparent_background, ..Default::default() };
     let mut rays = RayStats::default();
     let mut st = SppmStats::default();
     let rays_done = AtomicU64::new(0);
@@ -282,8 +299,9 @@ fn render(
             .zip(vps.par_chunks_mut(w as usize))
             .zip(pending.par_chunks_mut(w as usize))
             .zip(samples.par_chunks_mut(per_row))
+            .zip(catch_samples.par_chunks_mut(catch_row))
             .enumerate()
-            .map(|(row, (((srow, vrow), prow), crow))| {
+            .map(|(row, ((((srow, vrow), prow), crow), cat_row))| {
                 let mut rs = RayStats::default();
                 let mut bad = 0u64;
                 if should_stop(it) {
@@ -304,12 +322,24 @@ fn render(
                         *out = CameraSample::default();
                     }
                     let flags = Flags { transparent_background, passes, grouping };
+                    let mut caught = CatcherSplit::new(catch_on && ctx.catcher.is_some());
                     let (ld, point, first_t) =
-                        camera_path(ctx, &ray, &mut sampler, max_depth, pend, camera, &mut rs, flags, out);
+                        camera_path(ctx, &ray, &mut sampler, max_depth, pend, camera, &mut rs, flags, out, &mut caught);
                     pend.ld = ld;
                     if !ld.is_finite() {
                         pend.bad = true;
                         bad += 1;
+                    }
+                    if catch_on {
+                        cat_row[i] = super::sppm_catcher::sample(
+                            ctx,
+                            &caught,
+                            ld,
+                            pend.bad,
+                            &continuation,
+                            &mut sampler,
+                            &mut rs,
+                        );
                     }
                     *vp = point;
                     if state.r == 0.0 && first_t.is_finite() {
@@ -368,7 +398,9 @@ fn render(
             .zip(pending.par_chunks(w as usize))
             .zip(samples.par_chunks(per_row))
             .zip(sums.par_chunks_mut(per_row))
-            .for_each(|((((srow, vrow), prow), crow), sumrow)| {
+            .zip(catch_samples.par_chunks(catch_row))
+            .zip(catch_sums.par_chunks_mut(catch_row))
+            .for_each(|((((((srow, vrow), prow), crow), sumrow), cat_row), cat_sums)| {
                 for (i, ((state, vp), pend)) in srow.iter_mut().zip(vrow).zip(prow).enumerate() {
                     let first = state.r == 0.0;
                     pend.apply(state);
@@ -377,6 +409,9 @@ fn render(
                         && !pend.bad
                     {
                         sum.add_sample(&crow[i]);
+                    }
+                    if catch_on {
+                        cat_sums[i].add_sample(&cat_row[i]);
                     }
                     let Some(vp) = vp else { continue };
                     if !(state.r > 0.0) {
@@ -422,6 +457,9 @@ fn render(
                     if let Some(sum) = sum {
                         sum.add_gather(vp.beta, &gs, ratio);
                     }
+                    if catch_on {
+                        cat_sums[i].add_gather(&cat_row[i], contrib, ratio);
+                    }
                     state.n = n_new;
                     state.r = r_new;
                 }
@@ -449,6 +487,9 @@ fn render(
     }
     // The passes of the camera ray alone, over the completed iterations.
     let side = super::sppm_extras::fill(ctx, camera, job, st.iterations, &mut image, &mut rays);
+    if catch_on {
+        super::sppm_catcher::write(&mut image, job.passes, &catch_sums, st.iterations, area);
+    }
     // A chunk's sums: the side film's exact ones, and the means times the iterations of
     // what SPPM reduces per pixel (Combined, the light passes and groups).
     let film = sppm.keep_sums.then(|| {
@@ -456,6 +497,9 @@ fn render(
         crate::chunk::set_means(&mut film, &image);
         if split_on {
             super::sppm_passes::into_film(&mut film, job.passes, &sums, st.iterations, area);
+        }
+        if catch_on {
+            super::sppm_catcher::into_film(&mut film, &catch_sums, st.iterations, area);
         }
         film
     });

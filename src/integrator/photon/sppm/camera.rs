@@ -4,6 +4,7 @@
 use super::{Pending, VisiblePoint};
 use crate::film::CameraSample;
 use crate::integrator::SceneContext;
+use crate::integrator::catcher::Split as CatcherSplit;
 use crate::integrator::filing::Filing;
 use crate::integrator::light_passes::{Tally, shares_at};
 use crate::integrator::nee::surface_nee_at;
@@ -40,7 +41,8 @@ pub(super) struct Flags {
 /// (NEE with MIS at every non-delta vertex, the BSDF-sampled ray finding emission).
 /// Returns the emission and direct light collected, the visible point, and the first hit
 /// distance; the sample's coverage and first-hit passes go to `pend`, its light passes and
-/// light groups (as `flags` asks) to `out`.
+/// light groups (as `flags` asks) to `out`. Where its camera segment ends on a shadow
+/// catcher it notes the split in `caught` (when allowed; `sppm_catcher`), and goes on.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn camera_path(
     ctx: &SceneContext,
@@ -52,6 +54,7 @@ pub(super) fn camera_path(
     stats: &mut RayStats,
     flags: Flags,
     out: &mut CameraSample,
+    caught: &mut CatcherSplit,
 ) -> (Rgb, Option<VisiblePoint>, f32) {
     let Flags { transparent_background, passes, grouping } = flags;
     let groups = &ctx.scene.light_groups;
@@ -81,6 +84,8 @@ pub(super) fn camera_path(
         let mut medium_l = Rgb::ZERO;
         let mut crossed_any = false;
         let depth_before = st.depth;
+        // The camera segment as it starts, should it end on a shadow catcher.
+        let pre = (caught.allowed && st.depth == 0).then_some(PathState { beta, ..st });
         st.beta = Rgb::ONE;
         let out_groups = &mut out.groups;
         let (step, crossed_l) = st.advance_with(
@@ -147,6 +152,9 @@ pub(super) fn camera_path(
                 break;
             }
             Step::Escaped => {
+                if caught.allowed && st.depth == 0 {
+                    caught.background = st.escaped_radiance(ctx).map_or(Rgb::ZERO, |le| e * le);
+                }
                 let shown = !(st.depth == 0 && transparent_background);
                 if grouping {
                     // As the path tracer: the world seen through a transparent film too.
@@ -176,6 +184,13 @@ pub(super) fn camera_path(
         if st.depth == 0 && ctx.is_holdout(hit.tri) {
             pend.alpha = alpha_before;
             return (l, None, first_t);
+        }
+        // A shadow catcher seen by the camera ray: the path splits here (the catcher pass
+        // follows in `sppm_catcher::sample`); what it collected so far is the matte's.
+        if let Some(pre) = pre
+            && ctx.is_catcher(hit.tri)
+        {
+            caught.at = Some((pre, l));
         }
         let wo = -st.dir;
         let sp = ctx.shade(&s, wo);
