@@ -23,8 +23,8 @@
 
 mod common;
 
-use common::agreement::{disagreeing, region_means, regions, sidak};
-use common::{GltfBuilder, run, temp_dir};
+use common::agreement::{Seeded, disagreeing, regions, sidak};
+use common::{GltfBuilder, quick_render_warnings, temp_dir};
 use serde_json::json;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -98,13 +98,14 @@ fn every_integrator_matches_the_path_tracer_on_a_linked_scene() {
     let linked = scene(dir.path(), None);
     let regs = regions(RES.0, RES.1);
     let r = format!("{}x{}", RES.0, RES.1);
-    let common = ["--resolution", r.as_str(), "--max-depth", "4"];
-    let seeds = 6;
-    let means = |path: &Path, extra: &[&str]| {
-        let mut a = common.to_vec();
-        a.extend_from_slice(extra);
-        region_means(path, dir.path(), &a, seeds, &regs, LIMIT)
+    let seeded = Seeded {
+        dir: dir.path(),
+        common: vec!["--resolution", &r, "--max-depth", "4"],
+        seeds: 6,
+        regions: &regs,
+        limit: LIMIT,
     };
+    let means = |path: &Path, extra: &[&str]| seeded.means(path, extra);
     let path_tracer = ["--integrator", "path", "--spp", "64"];
     let reference = means(&linked, &path_tracer);
     // Each emitter's rules matter: without them the path tracer's image leaves the linked
@@ -121,11 +122,7 @@ fn every_integrator_matches_the_path_tracer_on_a_linked_scene() {
         ("photon", &["--integrator", "photon", "--spp", "16", "--photons", "100000", "--max-radius", "0.02"]),
         ("sppm", &["--integrator", "sppm", "--sppm-iterations", "16", "--sppm-radius", "0.02"]),
     ];
-    let mut failed = Vec::new();
-    for (name, flags) in others {
-        let m = means(&linked, flags);
-        failed.extend(disagreeing(name, &regs, &m, &reference, alpha).into_iter().map(|r| format!("{name} {r}")));
-    }
+    let failed = seeded.disagreeing_others(&linked, &reference, &others, alpha);
     assert!(failed.is_empty(), "disagree with the path tracer: {failed:?}");
 }
 
@@ -136,27 +133,9 @@ fn no_integrator_warns_about_linking() {
     let path = scene(dir.path(), None);
     for integrator in ["path", "bdpt", "vcm", "photon", "sppm"] {
         let out = dir.path().join(format!("{integrator}.exr"));
-        let args = [
-            "render",
-            path.to_str().unwrap(),
-            "-o",
-            out.to_str().unwrap(),
-            "--progress",
-            "json",
-            "--resolution",
-            "4x4",
-            "--spp",
-            "1",
-            "--sppm-iterations",
-            "1",
-            "--integrator",
-            integrator,
-            "--photons",
-            "1000",
-        ];
-        let r = run(&args, LIMIT);
-        assert_eq!(r.code, Some(0), "{integrator}: {}", r.stderr);
-        let linking: Vec<String> = r.warnings().into_iter().filter(|m| m.contains("linking")).collect();
+        let flags = ["--integrator", integrator, "--sppm-iterations", "1", "--photons", "1000"];
+        let linking: Vec<String> =
+            quick_render_warnings(&path, &out, &flags, LIMIT).into_iter().filter(|m| m.contains("linking")).collect();
         assert!(linking.is_empty(), "{integrator}: {linking:?}");
     }
 }

@@ -22,8 +22,8 @@
 
 mod common;
 
-use common::agreement::{disagreeing, region_means, regions, sidak};
-use common::{GltfBuilder, run, temp_dir};
+use common::agreement::{Seeded, disagreeing, regions, sidak};
+use common::{GltfBuilder, quick_render_warnings, temp_dir};
 use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -88,13 +88,14 @@ fn photon_integrators_match_the_path_tracer() {
     let dir = temp_dir();
     let regs = regions(RES.0, RES.1);
     let r = format!("{}x{}", RES.0, RES.1);
-    let common = ["--resolution", r.as_str(), "--max-depth", "4"];
-    let seeds = 6;
-    let means = |path: &Path, extra: &[&str]| {
-        let mut a = common.to_vec();
-        a.extend_from_slice(extra);
-        region_means(path, dir.path(), &a, seeds, &regs, LIMIT)
+    let seeded = Seeded {
+        dir: dir.path(),
+        common: vec!["--resolution", &r, "--max-depth", "4"],
+        seeds: 6,
+        regions: &regs,
+        limit: LIMIT,
     };
+    let means = |path: &Path, extra: &[&str]| seeded.means(path, extra);
     let cases = cases();
     let alpha = sidak(regs.len() * 3 * cases.len());
     let path_tracer = ["--integrator", "path", "--spp", "64"];
@@ -109,12 +110,8 @@ fn photon_integrators_match_the_path_tracer() {
             ("photon", &["--integrator", "photon", "--spp", "32", "--photons", "400000", "--max-radius", "0.02"]),
             ("sppm", &["--integrator", "sppm", "--sppm-iterations", "256", "--sppm-radius", "0.02"]),
         ];
-        for (name, flags) in others {
-            let m = means(&ruled, flags);
-            let label = format!("{}: {name}", case.name);
-            failed
-                .extend(disagreeing(&label, &regs, &m, &reference, alpha).into_iter().map(|r| format!("{label} {r}")));
-        }
+        let case_failed = seeded.disagreeing_others(&ruled, &reference, &others, alpha);
+        failed.extend(case_failed.into_iter().map(|r| format!("{}: {r}", case.name)));
     }
     assert!(failed.is_empty(), "disagree with the path tracer: {failed:?}");
 }
@@ -127,28 +124,8 @@ fn no_photon_integrator_warns_about_the_rules() {
         let path = scene(dir.path(), &format!("w{k}.gltf"), &case.light, &case.blocker);
         for integrator in ["photon", "sppm"] {
             let out = dir.path().join(format!("{integrator}.exr"));
-            let args = [
-                "render",
-                path.to_str().unwrap(),
-                "-o",
-                out.to_str().unwrap(),
-                "--progress",
-                "json",
-                "--resolution",
-                "4x4",
-                "--spp",
-                "1",
-                "--sppm-iterations",
-                "1",
-                "--integrator",
-                integrator,
-                "--photons",
-                "1000",
-            ];
-            let r = run(&args, LIMIT);
-            assert_eq!(r.code, Some(0), "{integrator}: {}", r.stderr);
-            let warned: Vec<String> = r
-                .warnings()
+            let flags = ["--integrator", integrator, "--sppm-iterations", "1", "--photons", "1000"];
+            let warned: Vec<String> = quick_render_warnings(&path, &out, &flags, LIMIT)
                 .into_iter()
                 .filter(|m| m.contains("Cast Shadow") || m.contains("ray visibility") || m.contains("shadow catcher"))
                 .collect();

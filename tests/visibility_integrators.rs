@@ -21,8 +21,8 @@
 
 mod common;
 
-use common::agreement::{disagreeing, region_means, regions, sidak};
-use common::{GltfBuilder, run, temp_dir};
+use common::agreement::{Seeded, disagreeing, regions, sidak};
+use common::{GltfBuilder, quick_render_warnings, temp_dir};
 use serde_json::json;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -90,13 +90,14 @@ fn bdpt_and_vcm_match_the_path_tracer_without_cast_shadow() {
     let shadowless = scene(dir.path(), false);
     let regs = regions(RES.0, RES.1);
     let r = format!("{}x{}", RES.0, RES.1);
-    let common = ["--resolution", r.as_str(), "--max-depth", "4"];
-    let seeds = 6;
-    let means = |path: &Path, extra: &[&str]| {
-        let mut a = common.to_vec();
-        a.extend_from_slice(extra);
-        region_means(path, dir.path(), &a, seeds, &regs, LIMIT)
+    let seeded = Seeded {
+        dir: dir.path(),
+        common: vec!["--resolution", &r, "--max-depth", "4"],
+        seeds: 6,
+        regions: &regs,
+        limit: LIMIT,
     };
+    let means = |path: &Path, extra: &[&str]| seeded.means(path, extra);
     let path_tracer = ["--integrator", "path", "--spp", "64"];
     let reference = means(&shadowless, &path_tracer);
     let alpha = sidak(regs.len() * 3);
@@ -109,11 +110,7 @@ fn bdpt_and_vcm_match_the_path_tracer_without_cast_shadow() {
         ("bdpt", &["--integrator", "bdpt", "--spp", "16"]),
         ("vcm", &["--integrator", "vcm", "--spp", "16", "--vcm-radius", "0.02"]),
     ];
-    let mut failed = Vec::new();
-    for (name, flags) in others {
-        let m = means(&shadowless, flags);
-        failed.extend(disagreeing(name, &regs, &m, &reference, alpha).into_iter().map(|r| format!("{name} {r}")));
-    }
+    let failed = seeded.disagreeing_others(&shadowless, &reference, &others, alpha);
     assert!(failed.is_empty(), "disagree with the path tracer: {failed:?}");
 }
 
@@ -124,23 +121,8 @@ fn bdpt_and_vcm_do_not_warn_about_cast_shadow() {
     let path = scene(dir.path(), false);
     for integrator in ["path", "bdpt", "vcm"] {
         let out = dir.path().join(format!("{integrator}.exr"));
-        let args = [
-            "render",
-            path.to_str().unwrap(),
-            "-o",
-            out.to_str().unwrap(),
-            "--progress",
-            "json",
-            "--resolution",
-            "4x4",
-            "--spp",
-            "1",
-            "--integrator",
-            integrator,
-        ];
-        let r = run(&args, LIMIT);
-        assert_eq!(r.code, Some(0), "{integrator}: {}", r.stderr);
-        let w: Vec<String> = r.warnings().into_iter().filter(|m| m.contains("Cast Shadow")).collect();
+        let warnings = quick_render_warnings(&path, &out, &["--integrator", integrator], LIMIT);
+        let w: Vec<String> = warnings.into_iter().filter(|m| m.contains("Cast Shadow")).collect();
         assert!(w.is_empty(), "{integrator}: {w:?}");
     }
 }
@@ -155,12 +137,14 @@ fn bdpt_and_vcm_match_the_path_tracer_with_an_object_hidden_from_the_camera() {
     let hidden = scene_with(dir.path(), true, Some(json!({"camera": false})));
     let regs = regions(RES.0, RES.1);
     let r = format!("{}x{}", RES.0, RES.1);
-    let common = ["--resolution", r.as_str(), "--max-depth", "4"];
-    let means = |path: &Path, extra: &[&str]| {
-        let mut a = common.to_vec();
-        a.extend_from_slice(extra);
-        region_means(path, dir.path(), &a, 6, &regs, LIMIT)
+    let seeded = Seeded {
+        dir: dir.path(),
+        common: vec!["--resolution", &r, "--max-depth", "4"],
+        seeds: 6,
+        regions: &regs,
+        limit: LIMIT,
     };
+    let means = |path: &Path, extra: &[&str]| seeded.means(path, extra);
     let path_tracer = ["--integrator", "path", "--spp", "64"];
     let reference = means(&hidden, &path_tracer);
     let alpha = sidak(regs.len() * 3);
@@ -173,11 +157,7 @@ fn bdpt_and_vcm_match_the_path_tracer_with_an_object_hidden_from_the_camera() {
         ("bdpt", &["--integrator", "bdpt", "--spp", "16"]),
         ("vcm", &["--integrator", "vcm", "--spp", "16", "--vcm-radius", "0.02"]),
     ];
-    let mut failed = Vec::new();
-    for (name, flags) in others {
-        let m = means(&hidden, flags);
-        failed.extend(disagreeing(name, &regs, &m, &reference, alpha).into_iter().map(|r| format!("{name} {r}")));
-    }
+    let failed = seeded.disagreeing_others(&hidden, &reference, &others, alpha);
     assert!(failed.is_empty(), "disagree with the path tracer: {failed:?}");
 }
 
@@ -190,24 +170,9 @@ fn bdpt_and_vcm_warn_only_about_kinds_they_do_not_honour() {
         let path = scene_with(dir.path(), true, Some(vis.clone()));
         for integrator in ["bdpt", "vcm"] {
             let out = dir.path().join(format!("{integrator}.exr"));
-            let args = [
-                "render",
-                path.to_str().unwrap(),
-                "-o",
-                out.to_str().unwrap(),
-                "--progress",
-                "json",
-                "--resolution",
-                "4x4",
-                "--spp",
-                "1",
-                "--integrator",
-                integrator,
-            ];
-            let r = run(&args, LIMIT);
-            assert_eq!(r.code, Some(0), "{integrator}: {}", r.stderr);
-            let w = r.warnings().into_iter().any(|m| m.contains("ray visibility of object(s)"));
-            assert_eq!(w, warns, "{integrator} with {vis}: {:?}", r.warnings());
+            let warnings = quick_render_warnings(&path, &out, &["--integrator", integrator], LIMIT);
+            let w = warnings.iter().any(|m| m.contains("ray visibility of object(s)"));
+            assert_eq!(w, warns, "{integrator} with {vis}: {warnings:?}");
         }
     }
 }

@@ -53,8 +53,9 @@ pub fn render(
 ) -> RenderResult {
     match integrator {
         Integrator::Sppm(s) => {
-            // SPPM gives the base passes and those of the camera ray alone (`sppm_extras`);
-            // the settings refuse the light passes for it.
+            // SPPM renders by iterations over the whole image, not by tiles: it fills every
+            // pass itself (light passes `sppm_passes`, camera-ray passes `sppm_extras`,
+            // catcher `sppm_catcher`).
             let mut r = s.render(ctx, camera, job, stop, on_progress);
             r.image.passes = job.passes;
             r

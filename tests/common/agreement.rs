@@ -91,3 +91,46 @@ pub fn regions(w: usize, h: usize) -> Vec<(String, Vec<usize>)> {
     }
     out
 }
+
+/// Renders of one size and depth compared region by region: `common` flags first, then
+/// each call's own; K = `seeds` independent seeds per estimate.
+pub struct Seeded<'a> {
+    /// Where the renders are written.
+    pub dir: &'a Path,
+    /// Flags every render takes (resolution, depth).
+    pub common: Vec<&'a str>,
+    /// Seeds per estimate.
+    pub seeds: u32,
+    /// The regions compared.
+    pub regions: &'a [(String, Vec<usize>)],
+    /// Time limit of one render.
+    pub limit: Duration,
+}
+
+impl Seeded<'_> {
+    /// Per-seed means of each region of `scene` rendered with `extra`.
+    pub fn means(&self, scene: &Path, extra: &[&str]) -> Vec<Vec<f64>> {
+        let mut a = self.common.clone();
+        a.extend_from_slice(extra);
+        region_means(scene, self.dir, &a, self.seeds, self.regions, self.limit)
+    }
+
+    /// "name region" for each region where an integrator of `others` (name, flags)
+    /// rendering `scene` disagrees with `reference` at level `alpha`.
+    pub fn disagreeing_others(
+        &self,
+        scene: &Path,
+        reference: &[Vec<f64>],
+        others: &[(&str, &[&str])],
+        alpha: f64,
+    ) -> Vec<String> {
+        let mut failed = Vec::new();
+        for (name, flags) in others {
+            let m = self.means(scene, flags);
+            failed.extend(
+                disagreeing(name, self.regions, &m, reference, alpha).into_iter().map(|r| format!("{name} {r}")),
+            );
+        }
+        failed
+    }
+}

@@ -366,6 +366,17 @@ pub fn render_image(scene: &Path, out: &Path, extra: &[&str], limit: Duration) -
     caustic::output::read_combined(out).unwrap().2
 }
 
+/// The warnings of a 4×4, one-sample render of `scene` to `out` with `extra` flags (an
+/// integrator's), asserting that it succeeds: enough to see what an integrator refuses to honour.
+pub fn quick_render_warnings(scene: &Path, out: &Path, extra: &[&str], limit: Duration) -> Vec<String> {
+    let mut args = vec!["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--progress", "json"];
+    args.extend_from_slice(&["--resolution", "4x4", "--spp", "1"]);
+    args.extend_from_slice(extra);
+    let r = run(&args, limit);
+    assert_eq!(r.code, Some(0), "{extra:?}: {}", r.stderr);
+    r.warnings()
+}
+
 /// Mean and standard error of a set of independent estimates.
 pub fn mean_se(v: &[f64]) -> (f64, f64) {
     let n = v.len() as f64;
