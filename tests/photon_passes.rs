@@ -134,35 +134,10 @@ fn scene(dir: &Path) -> PathBuf {
 /// Each light pass and light group of Jensen's photon mapping agrees with the path tracer's.
 #[test]
 fn jensen_passes_and_groups_match_the_path_tracer() {
-    let dir = temp_dir();
-    let path = scene(dir.path());
-    let regs = regions(RES.0, RES.1);
-    let r = format!("{}x{}", RES.0, RES.1);
-    let tokens = format!("{LIGHT},light_groups");
-    let common = ["--resolution", r.as_str(), "--max-depth", "4", "--passes", tokens.as_str()];
-    let passes: Vec<String> = ["Diffuse Direct", "Diffuse Indirect", "Glossy Direct", "Glossy Indirect", "Emission"]
-        .into_iter()
-        .chain(["Environment", "Combined_key", "Combined_fill"])
-        .map(String::from)
-        .collect();
-    let seeds = 6;
-    let means = |extra: &[&str]| {
-        let mut a = common.to_vec();
-        a.extend_from_slice(extra);
-        pass_region_means(&path, dir.path(), &a, seeds, &regs, &passes, LIMIT)
-    };
-    let reference = means(&["--integrator", "path", "--spp", "64"]);
-    let photon = means(&["--integrator", "photon", "--spp", "16", "--photons", "100000", "--max-radius", "0.02"]);
-    let alpha = sidak(regs.len() * passes.len());
-    let mut failed = Vec::new();
-    for (p, name) in passes.iter().enumerate() {
-        let total: f64 = reference[p][0].iter().sum();
-        assert!(total > 0.0, "the scene puts no light in {name}");
-        failed.extend(
-            disagreeing(name, &regs, &photon[p], &reference[p], alpha).into_iter().map(|r| format!("{name} {r}")),
-        );
-    }
-    assert!(failed.is_empty(), "Jensen's passes disagree with the path tracer's: {failed:?}");
+    passes_match_the_path_tracer(
+        "Jensen",
+        &["--integrator", "photon", "--spp", "16", "--photons", "100000", "--max-radius", "0.02"],
+    );
 }
 
 /// SPPM's light passes and the groups of every emitter sum to Combined: glass and caustics,
@@ -227,36 +202,10 @@ fn sppm_passes_and_groups_sum_to_combined() {
 /// kernel's blur is at most the one bounded in the module doc.
 #[test]
 fn sppm_passes_and_groups_match_the_path_tracer() {
-    let dir = temp_dir();
-    let path = scene(dir.path());
-    let regs = regions(RES.0, RES.1);
-    let r = format!("{}x{}", RES.0, RES.1);
-    let tokens = format!("{LIGHT},light_groups");
-    let common = ["--resolution", r.as_str(), "--max-depth", "4", "--passes", tokens.as_str()];
-    let passes: Vec<String> = ["Diffuse Direct", "Diffuse Indirect", "Glossy Direct", "Glossy Indirect", "Emission"]
-        .into_iter()
-        .chain(["Environment", "Combined_key", "Combined_fill"])
-        .map(String::from)
-        .collect();
-    let seeds = 6;
-    let means = |extra: &[&str]| {
-        let mut a = common.to_vec();
-        a.extend_from_slice(extra);
-        pass_region_means(&path, dir.path(), &a, seeds, &regs, &passes, LIMIT)
-    };
-    let reference = means(&["--integrator", "path", "--spp", "64"]);
-    let sppm =
-        means(&["--integrator", "sppm", "--sppm-iterations", "32", "--sppm-photons", "20000", "--sppm-radius", "0.02"]);
-    let alpha = sidak(regs.len() * passes.len());
-    let mut failed = Vec::new();
-    for (p, name) in passes.iter().enumerate() {
-        let total: f64 = reference[p][0].iter().sum();
-        assert!(total > 0.0, "the scene puts no light in {name}");
-        failed.extend(
-            disagreeing(name, &regs, &sppm[p], &reference[p], alpha).into_iter().map(|r| format!("{name} {r}")),
-        );
-    }
-    assert!(failed.is_empty(), "SPPM's passes disagree with the path tracer's: {failed:?}");
+    passes_match_the_path_tracer(
+        "SPPM",
+        &["--integrator", "sppm", "--sppm-iterations", "32", "--sppm-photons", "20000", "--sppm-radius", "0.02"],
+    );
 }
 
 /// SPPM's data passes and Cryptomatte (`sppm_extras.rs`) are the path tracer's bit for bit
@@ -408,4 +357,38 @@ fn sppm_chunks_merge_passes_by_iterations() {
             assert!(bits_equal(v, &a[name]), "{name}: the lone chunk's merge is not its image");
         }
     }
+}
+
+/// Each light pass and group of `integrator` rendered with `flags` agrees, region by region,
+/// with the path tracer's on the passes scene.
+fn passes_match_the_path_tracer(integrator: &str, flags: &[&str]) {
+    let dir = temp_dir();
+    let path = scene(dir.path());
+    let regs = regions(RES.0, RES.1);
+    let r = format!("{}x{}", RES.0, RES.1);
+    let tokens = format!("{LIGHT},light_groups");
+    let common = ["--resolution", r.as_str(), "--max-depth", "4", "--passes", tokens.as_str()];
+    let passes: Vec<String> = ["Diffuse Direct", "Diffuse Indirect", "Glossy Direct", "Glossy Indirect", "Emission"]
+        .into_iter()
+        .chain(["Environment", "Combined_key", "Combined_fill"])
+        .map(String::from)
+        .collect();
+    let seeds = 6;
+    let means = |extra: &[&str]| {
+        let mut a = common.to_vec();
+        a.extend_from_slice(extra);
+        pass_region_means(&path, dir.path(), &a, seeds, &regs, &passes, LIMIT)
+    };
+    let reference = means(&["--integrator", "path", "--spp", "64"]);
+    let other = means(flags);
+    let alpha = sidak(regs.len() * passes.len());
+    let mut failed = Vec::new();
+    for (p, name) in passes.iter().enumerate() {
+        let total: f64 = reference[p][0].iter().sum();
+        assert!(total > 0.0, "the scene puts no light in {name}");
+        failed.extend(
+            disagreeing(name, &regs, &other[p], &reference[p], alpha).into_iter().map(|r| format!("{name} {r}")),
+        );
+    }
+    assert!(failed.is_empty(), "{integrator}'s passes disagree with the path tracer's: {failed:?}");
 }
