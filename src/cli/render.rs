@@ -183,7 +183,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
                 m.objects.iter().map(|o| format!("'{o}'")).collect::<Vec<_>>().join(", ")
             )),
             IntegratorKind::Photon => Some(
-                "motion blur with photon mapping: camera paths are blurred, but the photon maps are traced with                  every object where it is at the frame"
+                "motion blur with photon mapping: camera paths are blurred, but the photon maps are traced with every object where it is at the frame"
                     .to_string(),
             ),
             IntegratorKind::Vcm => Some(
@@ -192,7 +192,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
                     .to_string(),
             ),
             IntegratorKind::Bdpt if camera_moves => Some(
-                "motion blur with BDPT: the light-tracing strategy (t = 1) splats through the camera as it is at                  the frame, not as it moves"
+                "motion blur with BDPT: the light-tracing strategy (t = 1) splats through the camera as it is at the frame, not as it moves"
                     .to_string(),
             ),
             _ => None,
