@@ -178,14 +178,14 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         }
         let camera_moves = scene.cameras[res.camera].motion.is_some();
         let w = match res.integrator {
-            IntegratorKind::Sppm => Some(format!(
-                "motion blur is not rendered by SPPM: {} and the camera render sharp, where they are at the frame (the path and BDPT integrators blur them)",
+            // Photons fly at times over the shutter (`photon::trace`): exact where only the
+            // camera moves, since the light on still surfaces does not depend on the time.
+            IntegratorKind::Sppm | IntegratorKind::Photon if !m.objects.is_empty() => Some(format!(
+                "motion blur with photon mapping: the photons fly at times spread over the shutter, so the \
+                 surfaces of {} gather the photons that reached the places they pass at any time of the \
+                 exposure (still surfaces, and the shadows and caustics cast on them, blur exactly)",
                 m.objects.iter().map(|o| format!("'{o}'")).collect::<Vec<_>>().join(", ")
             )),
-            IntegratorKind::Photon => Some(
-                "motion blur with photon mapping: camera paths are blurred, but the photon maps are traced with every object where it is at the frame"
-                    .to_string(),
-            ),
             IntegratorKind::Vcm => Some(
                 "motion blur with VCM: merging joins light and camera subpaths traced at different shutter \
                  times (each pixel's at its own), and light tracing splats through the camera as it is at the frame"

@@ -274,6 +274,7 @@ fn render(
     let rays_done = AtomicU64::new(0);
     let mut nan = 0u64;
     let alpha = settings.sppm_alpha;
+    let shutter = ctx.scene.motion.as_ref().and_then(|m| m.shutter).filter(|_| ctx.blurs_motion);
     // The automatic radius's upper bound (the footprint rule's clamp).
     let r_max = 5e-2 * scene_r;
     // An iteration stops early on a signal, or when the time limit passes during any but the
@@ -314,7 +315,11 @@ fn render(
                     let off = job.filter.sample(sampler.next_2d());
                     let (fx, fy) = (px as f32 + 0.5 + off.x, py as f32 + 0.5 + off.y);
                     let u_lens = if camera.has_lens() { sampler.next_2d() } else { Vec2::ZERO };
-                    let ray = camera.sample_clipped(fx, fy, u_lens);
+                    // Motion blur: the visible point at the sample's time, drawn as the path
+                    // tracer draws it; the photons fly at times over the shutter (`trace`).
+                    let time = shutter.map(|s| s.time(sampler.next_2d().x, py, job.height));
+                    let ray = camera.sample_clipped_at(fx, fy, u_lens, time);
+                    let _time = crate::motion::TimeScope::enter(time);
                     let (org, dir) = (ray.org, ray.dir);
                     *pend = Pending::default();
                     let out = &mut crow[if split_on { i } else { 0 }];

@@ -161,6 +161,17 @@ pub fn trace_photons(
     (photons, groups, stats)
 }
 
+/// A photon's time (frames) when the render blurs motion: drawn as a camera sample's, on a
+/// scanline drawn uniformly, so that under a rolling shutter the photons cover the times of
+/// every row. None for a still scene (no time is drawn, the maps are those of the frame).
+#[inline]
+fn photon_time(ctx: &SceneContext, u_time: f32, u_row: f32) -> Option<f32> {
+    // Rows of a virtual frame fine enough that the scan times are continuous in effect.
+    const ROWS: u32 = 1 << 16;
+    let shutter = ctx.scene.motion.as_ref().and_then(|m| m.shutter).filter(|_| ctx.blurs_motion)?;
+    Some(shutter.time(u_time, ((u_row * ROWS as f32) as u32).min(ROWS - 1), ROWS))
+}
+
 /// Traces photon `i` of the job, appending what it stores to `out`; returns the light
 /// that emitted it (None: no photon left a light).
 #[inline]
@@ -174,8 +185,11 @@ pub fn trace_one(
 ) -> Option<usize> {
     let mut s = PixelSampler::new(job.seed, salt(job.kind), job.pass ^ ((i >> 32) as u32), i as u32);
     let [u_light, u_side, u_px, u_py] = s.next_4d();
-    let [u_dx, u_dy, _, _] = s.next_4d();
+    let [u_dx, u_dy, u_time, u_row] = s.next_4d();
     st.emitted += 1;
+    // Under motion blur each photon flies at its own time over the shutter, so that the maps
+    // hold the light of the whole exposure (`photon_time`).
+    let _time = crate::motion::TimeScope::enter(photon_time(ctx, u_time, u_row));
     let e = emitters.emit(ctx.scene, u_light, u_side, Vec2::new(u_px, u_py), Vec2::new(u_dx, u_dy), job.count)?;
     // A shadow-linked light's photon may go on through surfaces that do not block it
     // (`linking`): each such continuation is traced after the path it split from.
