@@ -176,7 +176,6 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
                     .into(),
             ));
         }
-        let camera_moves = scene.cameras[res.camera].motion.is_some();
         let w = match res.integrator {
             // Photons fly at times over the shutter (`photon::trace`): exact where only the
             // camera moves, since the light on still surfaces does not depend on the time.
@@ -188,11 +187,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
             )),
             IntegratorKind::Vcm => Some(
                 "motion blur with VCM: merging joins light and camera subpaths traced at different shutter \
-                 times (each pixel's at its own), and light tracing splats through the camera as it is at the frame"
-                    .to_string(),
-            ),
-            IntegratorKind::Bdpt if camera_moves => Some(
-                "motion blur with BDPT: the light-tracing strategy (t = 1) splats through the camera as it is at the frame, not as it moves"
+                 times (each pixel's at its own)"
                     .to_string(),
             ),
             _ => None,

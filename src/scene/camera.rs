@@ -315,6 +315,21 @@ impl CameraRays {
         inside.then_some((Vec2::new(x, y), z, dist))
     }
 
+    /// [`project`](Self::project) by the camera as it is at time `t` (frames): `p` and the
+    /// aperture point `eye` (where the moved camera's ray starts) are carried back by the
+    /// camera's rigid motion to the frame its rays are made in, which keeps the cosine and
+    /// the distance. A still camera projects as at the frame.
+    #[inline]
+    pub fn project_at(&self, p: Vec3, eye: Vec3, margin: f32, t: f32) -> Option<(Vec2, f32, f32)> {
+        match &self.cam.motion {
+            Some(m) => {
+                let back = m.delta(t).inverse();
+                self.project(back.transform_point3(p), back.transform_point3(eye), margin)
+            }
+            None => self.project(p, eye, margin),
+        }
+    }
+
     /// Area of one pixel on the image plane at distance 1 (perspective).
     #[inline]
     pub fn pixel_area(&self) -> f32 {
@@ -424,6 +439,39 @@ mod tests {
                 assert!((cos - dir.dot(-cam.back)).abs() < 1e-5 && (dist - t).abs() < 1e-4 * t);
             }
         }
+    }
+
+    /// `project_at` inverts `sample_clipped_at` for a moving, turning camera: a point on a
+    /// ray made at time t lands on the film position the ray was made for (at the frame's
+    /// projection it would not: checked too, so that the test sees the motion).
+    #[test]
+    fn project_at_inverts_a_moving_cameras_rays() {
+        let reference = Mat4::IDENTITY;
+        let steps = [
+            Mat4::from_rotation_translation(glam::Quat::from_rotation_y(-0.2), Vec3::new(-0.5, 0.1, 0.0)),
+            Mat4::from_rotation_translation(glam::Quat::from_rotation_y(0.3), Vec3::new(0.6, 0.0, 0.2)),
+        ];
+        let mut cam = Camera::from_matrix("c".into(), &reference, Projection::Perspective { yfov: 0.8, aspect: None });
+        cam.lens = Some(Lens { radius: 0.1, focus_distance: 4.0, blades: 0, rotation: 0.0, ratio: 1.0 });
+        cam.motion = Some(crate::motion::CameraMotion::new(vec![-0.5, 0.5], &steps, &reference));
+        let rays = CameraRays::new(&cam, 64, 48);
+        let mut rng = Pcg32::new(11);
+        let mut moved = 0;
+        for _ in 0..200 {
+            let (x, y) = (rng.next_f32() * 64.0, rng.next_f32() * 48.0);
+            let u = Vec2::new(rng.next_f32(), rng.next_f32());
+            let time = rng.next_f32() - 0.5;
+            let ray = rays.sample_clipped_at(x, y, u, Some(time));
+            let d = 1.0 + 10.0 * rng.next_f32();
+            let p = ray.org + ray.dir * d;
+            let (pos, _, dist) = rays.project_at(p, ray.org, 0.0, time).expect("in frame");
+            assert!((pos - Vec2::new(x, y)).length() < 2e-3, "at t {time}: {pos} vs ({x}, {y})");
+            assert!((dist - d).abs() < 1e-4 * d);
+            if rays.project(p, ray.org, 1e6).is_none_or(|(q, _, _)| (q - pos).length() > 0.5) {
+                moved += 1;
+            }
+        }
+        assert!(moved > 150, "the frame's projection differs for most samples: {moved}");
     }
 
     /// The aperture's samples stay inside its polygon's circle, scaled by radius and ratio.

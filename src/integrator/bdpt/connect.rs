@@ -64,7 +64,10 @@ impl BdptIntegrator {
         // The camera subpath's aperture point is a uniform lens sample independent of this
         // light subpath: connecting to it is the t = 1 strategy through a thin lens.
         let cam_p = scratch.cam[0].p;
-        let Some((pos, cos_cam, dist)) = camera.project(y.p, cam_p, 0.5 * film.filter.width) else {
+        // Through the camera where it is at the sample's time (under motion blur the light
+        // subpath shares the camera sample's time, `crate::motion`).
+        let t = crate::motion::ray_time();
+        let Some((pos, cos_cam, dist)) = camera.project_at(y.p, cam_p, 0.5 * film.filter.width, t) else {
             return;
         };
         // Only what lies between the clipping planes is seen, as by camera rays.
