@@ -125,3 +125,67 @@ fn shadow_rays_pass_an_occluder_mixed_by_is_shadow_ray() {
         assert!(p[0] == 0.0 && (p[3] - 1.0).abs() < 1e-6, "the occluder seen from above: {p:?}");
     }
 }
+
+/// A world of strength 1 + 3 × Is Camera Ray (Cycles' trick of a backdrop that does not
+/// light the scene): the camera sees 4 where it sees the world, while a white-diffuse
+/// (albedo 0.8) quad facing the camera, alone under the world, is lit by strength 1 over its
+/// hemisphere: radiance 0.8 (4 × 0.8 if the lighting read the camera's flag, and the
+/// camera's view 1 if it read light sampling's, as before). Every integrator: camera rays
+/// read their own state in all of them.
+#[test]
+fn world_seen_by_the_camera_reads_is_camera_ray() {
+    for integrator in ["path", "bdpt", "vcm", "photon", "sppm"] {
+        let dir = temp_dir();
+        let mut g = GltfBuilder::new();
+        g.use_ext("CAUSTIC_materials_nodes");
+        let white = g.material(node_material(
+            "white",
+            json!([{"name": "Diffuse", "type": "ShaderNodeBsdfDiffuse", "inputs": {"Color": {"value": [0.8, 0.8, 0.8, 1]}}}]),
+            json!([0, "BSDF"]),
+        ));
+        g.mesh(&[[-3., -3., 0.], [0., -3., 0.], [0., 3., 0.], [-3., 3., 0.]], &[0, 1, 2, 0, 2, 3], white);
+        g.camera([0.0, 0.0, 5.0], [0.0, 0.0, 0.0, 1.0], 0.5);
+        let nodes = json!([
+            {"name": "Light Path", "type": "ShaderNodeLightPath"},
+            {"name": "Strength", "type": "ShaderNodeMath", "props": {"operation": "MULTIPLY_ADD"},
+             "inputs": {"Value": {"link": [0, "Is Camera Ray"]}, "Value_001": {"value": 3.0}, "Value_002": {"value": 1.0}}},
+            {"name": "Background", "type": "ShaderNodeBackground",
+             "inputs": {"Color": {"value": [1, 1, 1, 1]}, "Strength": {"link": [1, "Value"]}}}
+        ]);
+        g.world(json!({"nodes": {"version": 1, "nodes": nodes, "output": {"surface": [2, "Background"]}}}));
+        // An opaque film: the camera sees the world (a transparent one shows none of it).
+        g.settings(json!({"transparent": false}));
+        let scene = g.write(dir.path(), "world.gltf");
+        let px = render_image(
+            &scene,
+            &dir.path().join("o.exr"),
+            &[
+                "--resolution",
+                "8x8",
+                "--spp",
+                "64",
+                "--max-depth",
+                "1",
+                "--filter",
+                "box",
+                "--filter-width",
+                "1",
+                "--integrator",
+                integrator,
+            ],
+            LIMIT,
+        );
+        let (mut quad, mut sky) = (Vec::new(), Vec::new());
+        for (i, p) in px.iter().enumerate() {
+            if i % 8 < 4 { quad.push(p[0] as f64) } else { sky.push(p[0] as f64) }
+        }
+        for s in &sky {
+            // The camera ray's own evaluation: f32 rounding only.
+            assert!((s - 4.0).abs() < 1e-4, "{integrator}: the camera sees the world at {s}, want 4");
+        }
+        // The quad: a mean over 32 pixels × 64 samples; 5 standard errors from the pixels' spread.
+        let (m, se) = mean_se(&quad);
+        eprintln!("{integrator}: quad {m:.4} ± {se:.4}");
+        assert!((m - 0.8).abs() <= 5.0 * se + 2e-3, "{integrator}: the quad is {m}, want 0.8 (± {se})");
+    }
+}

@@ -124,6 +124,17 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         reporter.warning(&w);
         run_warnings.push(w);
     }
+    let world_reads_path = scene.world.as_ref().and_then(|w| w.graph.as_ref()).is_some_and(|g| g.reads_light_path());
+    if world_reads_path && res.integrator != IntegratorKind::Path {
+        // Camera rays read their own state in every integrator; light subpaths and photons
+        // leave the world before any camera ray exists, so they read light sampling's.
+        let w = "the world's Light Path node: with this integrator, rays that bounced read it as light sampling \
+                 does (Is Camera Ray 0, Ray Depth 1), where Cycles' bounced rays read their own state (camera \
+                 rays read theirs; the path tracer reads every ray's)"
+            .to_string();
+        reporter.warning(&w);
+        run_warnings.push(w);
+    }
     // Every integrator splits camera paths at shadow catchers (`integrator::catcher`).
     if res.passes.asks_shader_aovs() && scene.shader_aovs.channels == 0 {
         let w = "the shader AOVs were asked for, but the scene declares none: none is written".to_string();

@@ -405,6 +405,13 @@ impl<'a> SceneContext<'a> {
         self.scene.world.as_ref().map_or(Rgb::ZERO, |w| w.radiance(d))
     }
 
+    /// [`world_radiance`](Self::world_radiance) seen by a ray of path state `path` escaping
+    /// along `d` (differs where the world's graph reads the Light Path node).
+    #[inline]
+    pub fn world_radiance_for(&self, d: Vec3, path: &crate::scene::light_path::LightPath) -> Rgb {
+        self.scene.world.as_ref().map_or(Rgb::ZERO, |w| w.radiance_for(d, path))
+    }
+
     /// Density with which light sampling (world choice included) picks direction `d`.
     #[inline]
     pub fn world_pdf(&self, d: Vec3) -> f32 {

@@ -326,8 +326,11 @@ impl PathState {
     #[inline]
     pub fn escaped_radiance_each(&self, ctx: &SceneContext, mut each: impl FnMut(Option<usize>, Rgb)) -> Option<Rgb> {
         // The world's own Ray Visibility (Cycles' World > Ray Visibility).
-        let le =
-            if ctx.world_seen_by(self.depth == 0, &self.light_path) { ctx.world_radiance(self.dir) } else { Rgb::ZERO };
+        let le = if ctx.world_seen_by(self.depth == 0, &self.light_path) {
+            ctx.world_radiance_for(self.dir, &self.light_path)
+        } else {
+            Rgb::ZERO
+        };
         let sun =
             ctx.sun_emission_each(self.dir, self.prev_pdf, self.depth == 0, self.prev_tri, &self.light_path, |i, c| {
                 each(Some(i), c)

@@ -152,6 +152,16 @@ impl Environment {
         }
     }
 
+    /// Radiance arriving from `d` along a ray of path state `path`: as [`radiance`](Self::radiance)
+    /// unless the world's graph reads the Light Path node, which then reads that state.
+    #[inline]
+    pub fn radiance_for(&self, d: Vec3, path: &crate::scene::light_path::LightPath) -> Rgb {
+        match &self.graph {
+            Some(g) if g.reads_light_path() => g.radiance_for(d, *path) * self.color,
+            _ => self.radiance(d),
+        }
+    }
+
     /// Samples a direction toward the world: (direction, radiance, solid-angle pdf).
     #[inline]
     pub fn sample(&self, u: Vec2) -> Option<(Vec3, Rgb, f32)> {

@@ -34,6 +34,8 @@ pub const MAX_BAKE_WIDTH: usize = 4096;
 #[derive(Clone, Debug)]
 pub struct WorldGraph {
     program: Arc<Program>,
+    /// The graph reads the Light Path node: a ray then sees the world with its own state.
+    reads_light_path: bool,
     /// The graph's images (its Image/Environment Texture nodes index these).
     textures: Arc<Vec<Texture>>,
 }
@@ -41,7 +43,14 @@ pub struct WorldGraph {
 impl WorldGraph {
     /// The graph and its own images.
     pub fn new(program: Program, textures: Vec<Texture>) -> WorldGraph {
-        WorldGraph { program: Arc::new(program), textures: Arc::new(textures) }
+        let reads_light_path =
+            program.ops.iter().any(|op| matches!(op, Op::Input { what: InputKind::LightPath(_), .. }));
+        WorldGraph { program: Arc::new(program), textures: Arc::new(textures), reads_light_path }
+    }
+
+    /// True when the graph reads the Light Path node (what a ray sees then depends on it).
+    pub fn reads_light_path(&self) -> bool {
+        self.reads_light_path
     }
 
     /// The compiled program.
@@ -72,10 +81,16 @@ impl WorldGraph {
         }
     }
 
-    /// Radiance arriving from glTF direction `d` (unit, pointing away from the scene).
+    /// Radiance arriving from glTF direction `d` (unit, pointing away from the scene), as
+    /// light sampling sees it (the baked table's and next-event estimation's reading).
     pub fn radiance(&self, d: Vec3) -> Rgb {
-        // The world is baked for every ray alike: it is lit as light sampling sees it.
-        let g = self.geom(d, LightPath::LIGHT_EMISSION);
+        self.radiance_for(d, LightPath::LIGHT_EMISSION)
+    }
+
+    /// Radiance arriving from `d` along a ray of path state `path` (Cycles shades the
+    /// background with the escaping ray's flags: a camera ray reads Is Camera Ray 1).
+    pub fn radiance_for(&self, d: Vec3, path: LightPath) -> Rgb {
+        let g = self.geom(d, path);
         let mut out = Closures::default();
         with_registers(|regs| self.program.run(&g, regs, &mut out));
         let e = out.emission;

@@ -296,7 +296,13 @@ impl BdptIntegrator {
         each: &mut dyn FnMut(Option<usize>, Rgb),
     ) {
         let from = found_from(cam);
-        let le = ctx.world_radiance(dir);
+        // A camera ray (the camera vertex alone) sees the world with its own state, which s = 0
+        // alone makes (no other strategy reaches the camera from a light at infinity); later
+        // escapes read the world as light sampling does, as the other strategies do (warned).
+        let le = match cam.len() {
+            1 => ctx.world_radiance_for(dir, &crate::scene::light_path::LightPath::CAMERA_RAY),
+            _ => ctx.world_radiance(dir),
+        };
         if le != Rgb::ZERO {
             let world = ctx.scene.lights.iter().position(|l| matches!(l, Light::World));
             let pdf_dir = ctx.scene.world.as_ref().map_or(0.0, |e| e.pdf(dir));

@@ -160,19 +160,8 @@ impl Loader<'_> {
             matches!(op, crate::shader::instructions::Op::Closure(c)
                 if !matches!(c.kind, crate::shader::closure::ClosureKind::Emission))
         });
-        let light_path = prog.ops.iter().any(|op| {
-            matches!(
-                op,
-                crate::shader::instructions::Op::Input {
-                    what: crate::shader::instructions::InputKind::LightPath(_),
-                    ..
-                }
-            )
-        });
-        if light_path {
-            // The world is one table for every ray: what the camera sees is what lights the scene.
-            self.warn("world: the Light Path node reads as for light sampling (Is Camera Ray 0, Ray Depth 1) for every ray, the camera's too (its AOV Output nodes alone read the camera ray's)");
-        }
+        // A graph reading the Light Path node is evaluated per escaping ray with the ray's
+        // state (`WorldGraph::radiance_for`); the table holds light sampling's reading.
         let camera = prog.ops.iter().any(|op| {
             use crate::shader::instructions::{InputKind, Op};
             matches!(op, Op::Input { what: InputKind::Camera | InputKind::Window, .. })
