@@ -20,43 +20,91 @@ pub struct Case {
     /// The world's `visibility`: `Some` adds a grey world (and makes the floor and wall a
     /// rough metal, so that glossy rays carry most of its light); `None`: no world.
     pub world: Option<Value>,
+    /// A square area light (0.6 wide, facing down) in the point light's place.
+    pub area: bool,
 }
 
 impl Case {
     /// The same scene without the case's rule (the world kept, seen by every ray).
     pub fn without_rule(&self) -> Case {
-        Case { name: self.name, light: json!({}), blocker: json!({}), world: self.world.as_ref().map(|_| json!({})) }
+        Case {
+            name: self.name,
+            light: json!({}),
+            blocker: json!({}),
+            world: self.world.as_ref().map(|_| json!({})),
+            area: self.area,
+        }
     }
 }
 
 /// The cases of the light's Cast Shadow and the objects' and light's Ray Visibility.
 pub fn cases() -> Vec<Case> {
     vec![
-        Case { name: "cast shadow off", light: json!({"cast_shadow": false}), blocker: json!({}), world: None },
+        Case {
+            name: "cast shadow off",
+            light: json!({"cast_shadow": false}),
+            blocker: json!({}),
+            world: None,
+            area: false,
+        },
         Case {
             name: "blocker hidden from diffuse rays",
             light: json!({}),
             blocker: json!({"diffuse": false}),
             world: None,
+            area: false,
         },
         Case {
             name: "blocker seen by shadow rays only",
             light: json!({}),
             blocker: json!({"camera": false, "diffuse": false, "glossy": false, "transmission": false}),
             world: None,
+            area: false,
         },
         Case {
             name: "light hidden from diffuse rays",
             light: json!({"diffuse_visible": false}),
             blocker: json!({}),
             world: None,
+            area: false,
         },
     ]
 }
 
 /// A case of the world's Ray Visibility: hidden from glossy rays over rough metal.
 pub fn world_hidden_from_glossy() -> Case {
-    Case { name: "world hidden from glossy rays", light: json!({}), blocker: json!({}), world: Some(json!({"glossy": false})) }
+    Case {
+        name: "world hidden from glossy rays",
+        light: json!({}),
+        blocker: json!({}),
+        world: Some(json!({"glossy": false})),
+        area: false,
+    }
+}
+
+/// The blocker hidden from transmission rays under an area light: no material here
+/// transmits, so the rule changes nothing in expectation, but every path that meets the
+/// blocker is a restricted one (`bdpt::visibility`), weighed by s = 0 against s = 1 alone.
+pub fn blocker_hidden_from_transmission_under_an_area_light() -> Case {
+    Case {
+        name: "blocker hidden from transmission rays, area light",
+        light: json!({}),
+        blocker: json!({"transmission": false}),
+        world: None,
+        area: true,
+    }
+}
+
+/// An area light (in the point light's place) hidden from diffuse rays: it lights the
+/// glossy layer alone, found by BSDF sampling and light sampling both.
+pub fn area_light_hidden_from_diffuse() -> Case {
+    Case {
+        name: "area light hidden from diffuse rays",
+        light: json!({"diffuse_visible": false}),
+        blocker: json!({}),
+        world: None,
+        area: true,
+    }
 }
 
 /// The scene (module doc) of `case`, written to `dir/file`.
@@ -82,7 +130,17 @@ pub fn scene(dir: &Path, file: &str, case: &Case) -> PathBuf {
     }
     let point = json!({"type": "point", "intensity": 4000.0});
     let at = ([-0.5, 1.5, -4.0], [0.0, 0.0, 0.0, 1.0]);
-    if case.light.as_object().is_some_and(|o| !o.is_empty()) {
+    if case.area {
+        g.use_ext("CAUSTIC_lights_area");
+        // Facing down: -Z turned by -90° about X.
+        let h = std::f32::consts::FRAC_1_SQRT_2;
+        let mut area = json!({"shape": "square", "size": [0.6, 0.6], "power": 300.0});
+        for (k, v) in case.light.as_object().into_iter().flatten() {
+            area[k] = v.clone();
+        }
+        g.node(json!({"translation": at.0, "rotation": [-h, 0.0, 0.0, h],
+            "extensions": {"CAUSTIC_lights_area": area}}));
+    } else if case.light.as_object().is_some_and(|o| !o.is_empty()) {
         g.use_ext("CAUSTIC_lights_punctual");
         g.punctual_with(point, at.0, at.1, json!({"CAUSTIC_lights_punctual": case.light}));
     } else {

@@ -259,9 +259,8 @@ impl BdptIntegrator {
                 return none;
             }
             let p_light = pmf * ls.pdf;
-            let restricted = x.restricted
-                || self.restriction.light(index)
-                || self.restriction.crosses(x.p, ls.wi, ls.dist);
+            let restricted =
+                x.restricted || self.restriction.light(index) || self.restriction.crosses(x.p, ls.wi, ls.dist);
             let w = if gate != Gate::Mis {
                 1.0
             } else if restricted {

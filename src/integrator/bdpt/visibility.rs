@@ -91,8 +91,7 @@ impl Restriction {
         let ids: Vec<usize> = (0..objects.len()).filter(|&t| objects[t]).collect();
         let accel = (!ids.is_empty()).then(|| {
             let m = &scene.mesh;
-            let tris: Vec<[Vec3; 3]> =
-                ids.iter().map(|&t| m.triangles[t].map(|i| m.positions[i as usize])).collect();
+            let tris: Vec<[Vec3; 3]> = ids.iter().map(|&t| m.triangles[t].map(|i| m.positions[i as usize])).collect();
             Accel::build(&tris)
         });
         let objects = if ids.is_empty() { Vec::new() } else { objects };
@@ -102,7 +101,8 @@ impl Restriction {
             .enumerate()
             .map(|(i, l)| {
                 let own = scene.light_rays.get(i).is_some_and(|m| m.0 & LIGHT_BOUNCE_KINDS.0 != LIGHT_BOUNCE_KINDS.0);
-                let object = matches!(l, Light::Triangle { tri } if objects.get(*tri as usize).copied().unwrap_or(false));
+                let object =
+                    matches!(l, Light::Triangle { tri } if objects.get(*tri as usize).copied().unwrap_or(false));
                 own || object
             })
             .collect();
