@@ -98,3 +98,52 @@ fn bdpt_and_vcm_do_not_warn_about_ray_visibility() {
         }
     }
 }
+
+/// Under motion blur BDPT and VCM judge a moving restricted object where it is at the frame,
+/// and say so naming it; a still one, or the path tracer, says nothing.
+#[test]
+fn bdpt_and_vcm_warn_about_moving_restricted_objects() {
+    let dir = temp_dir();
+    let d = dir.path();
+    let write = |name: &str, moves: bool| {
+        let mut g = common::GltfBuilder::new();
+        let grey = g.material(serde_json::json!({"pbrMetallicRoughness": {"baseColorFactor": [0.6, 0.6, 0.6, 1]}}));
+        let floor = g.mesh(
+            &[[-2.0, -1.0, -1.0], [2.0, -1.0, -1.0], [2.0, -1.0, -5.0], [-2.0, -1.0, -5.0]],
+            &[0, 1, 2, 0, 2, 3],
+            grey,
+        );
+        g.node_name(floor, "Floor");
+        let q = g.mesh(
+            &[[-0.3, -0.3, -3.0], [0.3, -0.3, -3.0], [0.3, 0.3, -3.0], [-0.3, 0.3, -3.0]],
+            &[0, 1, 2, 0, 2, 3],
+            grey,
+        );
+        g.node_name(q, "Ghost");
+        g.node_ext(q, "CAUSTIC_object_visibility", serde_json::json!({"diffuse": false}));
+        let shift = |x: f32| serde_json::json!([1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, x, 0, 0, 1]);
+        g.scene_ext(
+            "CAUSTIC_motion",
+            serde_json::json!({"times": [-0.5, 0.5], "shutter": {"open": -0.5, "close": 0.5}}),
+        );
+        if moves {
+            g.node_ext(
+                q,
+                "CAUSTIC_motion",
+                serde_json::json!({"matrix": shift(0.0), "matrices": [shift(-0.2), shift(0.2)]}),
+            );
+        }
+        g.punctual(serde_json::json!({"type": "point", "intensity": 1000.0}), [0.0, 1.5, -3.0], [0.0, 0.0, 0.0, 1.0]);
+        g.camera([0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0], 0.9);
+        g.write(d, name)
+    };
+    for (moves, integrator, warns) in
+        [(true, "bdpt", true), (true, "vcm", true), (true, "path", false), (false, "bdpt", false)]
+    {
+        let scene = write(&format!("m_{moves}.gltf"), moves);
+        let out = d.join(format!("{integrator}.exr"));
+        let warnings = quick_render_warnings(&scene, &out, &["--integrator", integrator], LIMIT);
+        let said = warnings.iter().any(|w| w.contains("ray visibility of moving object(s) 'Ghost'"));
+        assert_eq!(said, warns, "{integrator}, moving {moves}: {warnings:?}");
+    }
+}

@@ -170,6 +170,17 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
             reporter.warning(&w);
             run_warnings.push(w);
         }
+        // BDPT and VCM test which paths meet a restricted object on its triangles at the
+        // frame (`integrator::bdpt::visibility`).
+        let moving = crate::integrator::bdpt::visibility::moving_restricted(&scene, m);
+        if matches!(res.integrator, IntegratorKind::Bdpt | IntegratorKind::Vcm) && !moving.is_empty() {
+            let w = format!(
+                "motion blur with BDPT/VCM: the ray visibility of moving object(s) {} is judged where they are at                  the frame, so paths that pass near them as they move may be weighed for the wrong strategies",
+                moving.iter().map(|o| format!("'{o}'")).collect::<Vec<_>>().join(", ")
+            );
+            reporter.warning(&w);
+            run_warnings.push(w);
+        }
     }
     charge_render(&budget, args, &res, &scene)?;
     // Loaded before rendering, so that a missing library costs no render time.

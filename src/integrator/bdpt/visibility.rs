@@ -40,7 +40,9 @@
 //! this integrator's light choice (`BdptLights::pick_any`) may differ from the path
 //! tracer's (a light tree), so there they agree only as far as those weights do. For
 //! delta lights (next-event estimation alone) and wherever both rays see the same
-//! objects, they agree exactly.
+//! objects, they agree exactly. Under motion blur a moving restricted object is tested
+//! where it is at the frame (`moving_restricted`, warned): near its path the split into the
+//! two sets is then not exact.
 
 use crate::accel::Accel;
 use crate::light::Light;
@@ -147,6 +149,18 @@ impl Restriction {
         let dist = d.length();
         dist > 0.0 && self.crosses(a, d / dist, dist)
     }
+}
+
+/// The names of the restricted objects of `scene` that move under `motion`'s blur: their
+/// triangles are tested where they are at the frame (`Restriction` keeps no swept shape).
+pub fn moving_restricted<'a>(scene: &'a Scene, motion: &crate::motion::SceneMotion) -> Vec<&'a str> {
+    scene
+        .ray_visibility
+        .hidden_objects
+        .iter()
+        .filter(|o| restricted_object(o.mask) && o.triangles.clone().any(|t| motion.moving(t as u32).is_some()))
+        .map(|o| o.name.as_str())
+        .collect()
 }
 
 impl super::BdptIntegrator {
