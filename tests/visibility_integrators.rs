@@ -1,7 +1,7 @@
 //! Cast Shadow off in BDPT and VCM (`src/integrator/linking.rs`: a light whose blocker set
-//! is empty), and objects hidden from camera rays alone (`src/cli/render.rs`,
-//! `bidirectional_sees`): they converge to the path tracer's image region by region, and do
-//! not warn; an object hidden from another kind still warns.
+//! is empty), and objects hidden from camera rays alone (exact in every strategy,
+//! `src/integrator/bdpt/visibility.rs`): they converge to the path tracer's image region by
+//! region, and do not warn (other kinds: `tests/bidirectional_visibility.rs`).
 //!
 //! The scene: a floor, a back wall and a small quad hanging over the floor ("Blocker"),
 //! seen from the front, with indirect light (max depth 4). A point light above the blocker
@@ -159,20 +159,4 @@ fn bdpt_and_vcm_match_the_path_tracer_with_an_object_hidden_from_the_camera() {
     ];
     let failed = seeded.disagreeing_others(&hidden, &reference, &others, alpha);
     assert!(failed.is_empty(), "disagree with the path tracer: {failed:?}");
-}
-
-/// Hidden from the camera alone, the blocker is honoured without a warning; hidden from
-/// glossy rays, BDPT and VCM still warn that they do not honour it.
-#[test]
-fn bdpt_and_vcm_warn_only_about_kinds_they_do_not_honour() {
-    let dir = temp_dir();
-    for (vis, warns) in [(json!({"camera": false}), false), (json!({"glossy": false}), true)] {
-        let path = scene_with(dir.path(), true, Some(vis.clone()));
-        for integrator in ["bdpt", "vcm"] {
-            let out = dir.path().join(format!("{integrator}.exr"));
-            let warnings = quick_render_warnings(&path, &out, &["--integrator", integrator], LIMIT);
-            let w = warnings.iter().any(|m| m.contains("ray visibility of object(s)"));
-            assert_eq!(w, warns, "{integrator} with {vis}: {warnings:?}");
-        }
-    }
 }

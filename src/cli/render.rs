@@ -89,41 +89,10 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     // Cast Shadow off is rendered by every integrator: next-event estimation skips the
     // shadow ray; BDPT/VCM take such a light by light sampling alone and photons pass every
     // surface on its first segment (`integrator::linking`).
-    let hidden = &scene.ray_visibility.hidden_objects;
-    if !hidden.is_empty()
-        && !crate::cli::settings::honours_ray_visibility(res.integrator)
-        && !bidirectional_sees(&scene, res.integrator)
-    {
-        // Light subpaths learn the kind of each segment only at its far end, so they cannot
-        // skip hidden objects yet (but for the camera's kind): the object stays visible to
-        // every ray (photons carry the kinds that may read them: `integrator::photon::visibility`).
-        let w = format!(
-            "ray visibility of object(s) {} is not honoured by this integrator: every ray sees them (the path, \
-             photon and SPPM integrators render them as Cycles)",
-            hidden.iter().map(|o| format!("'{}'", o.name)).collect::<Vec<_>>().join(", ")
-        );
-        reporter.warning(&w);
-        run_warnings.push(w);
-    }
-    // Only lights (not emissive triangles) have their own flags, and their reports come
-    // first, one per light, in the lights' order.
-    let hidden_lights: Vec<_> = scene
-        .light_rays
-        .iter()
-        .zip(&scene.report.lights)
-        .filter(|(m, _)| **m != crate::scene::visibility::RayMask::ALL)
-        .map(|(_, r)| format!("'{}'", r.name))
-        .collect();
-    if !hidden_lights.is_empty() && !crate::cli::settings::honours_ray_visibility(res.integrator) {
-        // Like the objects' ray visibility: light subpaths do not know each ray's kind.
-        let w = format!(
-            "ray visibility of light(s) {} is not honoured by this integrator: they light every kind of bounce \
-             (the path, photon and SPPM integrators render them as Cycles)",
-            hidden_lights.join(", ")
-        );
-        reporter.warning(&w);
-        run_warnings.push(w);
-    }
+    // Ray Visibility of objects, lights and the world is rendered by every integrator: the
+    // path tracer's rays carry their kind, photons the kinds that may read them
+    // (`integrator::photon::visibility`), BDPT and VCM leave the paths that meet a hidden
+    // kind to their camera side (`integrator::bdpt::visibility`).
     let world_reads_path = scene.world.as_ref().and_then(|w| w.graph.as_ref()).is_some_and(|g| g.reads_light_path());
     if world_reads_path && res.integrator != IntegratorKind::Path {
         // Camera rays read their own state in every integrator; light subpaths and photons
@@ -207,6 +176,17 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
             reporter.warning(&w);
             run_warnings.push(w);
         }
+        // BDPT and VCM test which paths meet a restricted object on its triangles at the
+        // frame (`integrator::bdpt::visibility`).
+        let moving = crate::integrator::bdpt::visibility::moving_restricted(&scene, m);
+        if matches!(res.integrator, IntegratorKind::Bdpt | IntegratorKind::Vcm) && !moving.is_empty() {
+            let w = format!(
+                "motion blur with BDPT/VCM: the ray visibility of moving object(s) {} is judged where they are at                  the frame, so paths that pass near them as they move may be weighed for the wrong strategies",
+                moving.iter().map(|o| format!("'{o}'")).collect::<Vec<_>>().join(", ")
+            );
+            reporter.warning(&w);
+            run_warnings.push(w);
+        }
     }
     charge_render(&budget, args, &res, &scene)?;
     // Loaded before rendering, so that a missing library costs no render time.
@@ -255,17 +235,9 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     let ctx = SceneContext::with_light_sampler(&scene, &accel, res.light_sampler)
         .with_motion(motion_accel.as_ref())
         .with_camera_at(scene.cameras[res.camera].position);
-    // The path tracer and the photon integrators give every ray its kind, BDPT and VCM the
-    // camera's (see the warning above); every integrator honours light and shadow linking
+    // Every integrator honours Ray Visibility (above) and light and shadow linking
     // (`integrator::linking`).
-    let ctx = if crate::cli::settings::honours_ray_visibility(res.integrator) {
-        ctx.with_ray_visibility()
-    } else if bidirectional_sees(&scene, res.integrator) {
-        ctx.with_object_visibility()
-    } else {
-        ctx
-    };
-    let ctx = ctx.with_light_linking();
+    let ctx = ctx.with_ray_visibility().with_light_linking();
     // The shadow catcher's pass sees the scene apart (settings keep its sums for the
     // integrators that split, `settings::splits_at_catchers`).
     let ctx = if res.passes.catcher_sums() {
@@ -730,15 +702,4 @@ fn charge_render(budget: &MemoryBudget, args: &RenderArgs, res: &Resolved, scene
         // The path tracer keeps nothing per pixel beyond the film.
         IntegratorKind::Path => Ok(()),
     }
-}
-
-/// True when `integrator` is BDPT or VCM and every object hidden from some kind of ray is
-/// hidden from camera rays alone: no segment a light subpath traces is a camera ray, so they
-/// honour it (camera subpaths and light tracing's segment to the camera pass such objects).
-/// Other kinds would need the light-side strategies weighed by the kind each segment gets at
-/// its camera-side end.
-fn bidirectional_sees(scene: &crate::scene::Scene, integrator: IntegratorKind) -> bool {
-    use crate::scene::visibility::RayMask;
-    matches!(integrator, IntegratorKind::Bdpt | IntegratorKind::Vcm)
-        && scene.ray_visibility.hidden_objects.iter().all(|o| o.mask.0 | RayMask::CAMERA.0 == RayMask::ALL.0)
 }

@@ -366,12 +366,6 @@ fn resolve_adaptive(args: &RenderArgs, st: &scene::SceneSettings) -> Result<Opti
     Ok((threshold > 0.0).then(|| Adaptive::new(threshold, min_samples)))
 }
 
-/// True when `integrator` renders the Ray Visibility of objects, lights and the world (the
-/// path tracer's rays; photons through the kinds they carry, `integrator::photon::visibility`).
-pub fn honours_ray_visibility(integrator: IntegratorKind) -> bool {
-    matches!(integrator, IntegratorKind::Path | IntegratorKind::Photon | IntegratorKind::Sppm)
-}
-
 /// True when `integrator` splits camera paths at shadow catchers (`integrator::catcher`:
 /// the path tracer; BDPT's, VCM's, Jensen's and SPPM's camera paths, whose catcher pass is path
 /// traced). Every integrator does; the function names the rule the settings and warnings share.

@@ -212,16 +212,16 @@ impl<'a> SceneContext<'a> {
     }
 
     /// Honours the objects' ray visibility (`Scene::ray_visibility`): rays pass objects
-    /// hidden from their kind. Only walkers that give every ray its kind may ask for it
-    /// (the path tracer); the others see every object with every ray.
+    /// hidden from their kind. Every integrator asks for it (BDPT and VCM through
+    /// `bdpt::visibility`).
     pub fn with_ray_visibility(mut self) -> Self {
         // Lights' own ray visibility (`scene::light_visibility`) goes with the objects'.
         self.light_rays = &self.scene.light_rays;
         self.with_object_visibility()
     }
 
-    /// Honours the objects' ray visibility alone (not the lights'): BDPT and VCM, for
-    /// objects hidden from camera rays only (`bdpt::vertex`'s camera segments).
+    /// Honours the objects' ray visibility alone (not the lights'; `with_ray_visibility`
+    /// adds them).
     pub fn with_object_visibility(mut self) -> Self {
         let scene = self.scene;
         let vis = &scene.ray_visibility.per_triangle;

@@ -200,11 +200,11 @@ fn reduced(view: &View, r: u32) -> View {
 fn run(job: Job, out: &Output, stop: &AtomicBool) -> Option<Arc<Integrator>> {
     let t0 = Instant::now();
     let s = &job.settings;
-    // As `caustic render` builds it: the media around the camera, and for the path tracer the
-    // objects' ray visibility; light linking for all.
+    // As `caustic render` builds it: the media around the camera, Ray Visibility and light
+    // linking for all.
     let ctx = SceneContext::with_light_sampler(&job.scene, &job.accel, s.light_sampler)
         .with_camera_at(job.view.camera.position);
-    let ctx = if crate::cli::settings::honours_ray_visibility(s.integrator) { ctx.with_ray_visibility() } else { ctx };
+    let ctx = ctx.with_ray_visibility();
     let ctx = ctx.with_light_linking();
     let integrator = match &job.integrator {
         Some(i) => i.clone(),

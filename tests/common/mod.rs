@@ -5,6 +5,7 @@
 pub mod agreement;
 pub mod pass_checks;
 pub mod serve;
+pub mod visibility_cases;
 
 use base64::Engine;
 use serde_json::{Value, json};

@@ -133,6 +133,10 @@ impl BdptIntegrator {
         if near > 0.0 {
             cam_vertex.p = cam_p - w * (near / cos_cam);
         }
+        // A segment that meets a restricted object: the camera side's path (`visibility`).
+        if self.restriction.between(y.p, cam_vertex.p) {
+            return;
+        }
         // In camera order the segment is a camera ray: objects hidden from the camera do not block it.
         let tr = segment_transmittance_as(ctx, &y, &cam_vertex, media_leaving(ctx, &y, w), None, RayMask::CAMERA);
         if tr == Rgb::ZERO {
@@ -235,7 +239,7 @@ impl BdptIntegrator {
             };
             let wi_l = x.frame.to_local(ls.wi);
             let consistent = (wi_l.z > 0.0) == (ls.wi.dot(hit.ng) > 0.0);
-            let f = bsdf.eval(wo_l, wi_l) * wi_l.z.abs();
+            let f = Self::eval_lit(ctx, &bsdf, index, wo_l, wi_l) * wi_l.z.abs();
             if f == Rgb::ZERO || ls.li == Rgb::ZERO || !consistent {
                 return none;
             }
@@ -258,8 +262,13 @@ impl BdptIntegrator {
                 return none;
             }
             let p_light = pmf * ls.pdf;
+            let restricted =
+                x.restricted || self.restriction.light(index) || self.restriction.crosses(x.p, ls.wi, ls.dist);
             let w = if gate != Gate::Mis {
                 1.0
+            } else if restricted {
+                // Made by s = 0 and s = 1 alone (`visibility`), as next-event estimation weighs it.
+                if ls.delta { 1.0 } else { power_heuristic(p_light, bsdf.pdf(wo_l, wi_l)) }
             } else if self.lights.starts(index) {
                 self.weight_s1_infinite(ctx, t, index, &ls, camera, scratch)
             } else if ls.delta {
@@ -288,7 +297,7 @@ impl BdptIntegrator {
         if (wi_l.z > 0.0) != (wi.dot(hit.ng) > 0.0) {
             return none;
         }
-        let f = bsdf.eval(wo_l, wi_l) * wi_l.z.abs();
+        let f = Self::eval_lit(ctx, &bsdf, index, wo_l, wi_l) * wi_l.z.abs();
         if f == Rgb::ZERO {
             return none;
         }
@@ -308,6 +317,16 @@ impl BdptIntegrator {
         }
         if gate == Gate::Whole {
             return (contribution * tr * self.mis(1.0), self.first_toward(&bsdf, wo_l, wi_l), index);
+        }
+        if x.restricted || self.restriction.light(index) || self.restriction.between(x.p, lp.p) {
+            // Made by s = 0 and s = 1 alone (`visibility`): BSDF sampling against this
+            // light sample, as next-event estimation weighs it.
+            let w = if lights::is_delta(ctx.scene, index) {
+                1.0
+            } else {
+                power_heuristic(pmf * lp.pdf_pos * dist2 / cos_y, bsdf.pdf(wo_l, wi_l))
+            };
+            return (contribution * tr * self.mis(w), self.first_toward(&bsdf, wo_l, wi_l), index);
         }
         // MIS with the light-origin density of light subpaths.
         y.pdf_fwd = self.lights.pmf_origin(index) * lp.pdf_pos;
@@ -330,6 +349,14 @@ impl BdptIntegrator {
         }
         let w = self.mis(dens.weight(1));
         (contribution * tr * w, self.first_toward(&bsdf, wo_l, wi_l), index)
+    }
+
+    /// The BSDF at a camera vertex toward light `index`, without the closure classes the
+    /// light's Ray Visibility hides it from (as next-event estimation's, `nee`).
+    #[inline]
+    fn eval_lit(ctx: &SceneContext, bsdf: &crate::bsdf::Bsdf, index: usize, wo: Vec3, wi: Vec3) -> Rgb {
+        let ex = ctx.light_excludes(index);
+        if ex.none() { bsdf.eval(wo, wi) } else { bsdf.at(wo).eval_visible(wi, ex) }
     }
 
     /// The class of the BSDF from local `wo` toward local `wi`, when light passes are kept.
@@ -395,6 +422,10 @@ impl BdptIntegrator {
     ) -> Rgb {
         let x = scratch.cam[t - 1];
         let y = scratch.light[s - 1];
+        // A restricted path: the camera side's (`visibility`).
+        if x.restricted {
+            return Rgb::ZERO;
+        }
         let (Some(bx), Some(hx), Some(by), Some(hy)) = (x.bsdf, x.hit, y.bsdf, y.hit) else {
             return Rgb::ZERO;
         };
@@ -417,6 +448,9 @@ impl BdptIntegrator {
         let fy = by.eval_adjoint(wo_y, wi_y) * wi_y.z.abs() * shading_correction(&hy, &y.frame, y.wo, -w);
         let c = x.beta * fx * fy * y.beta / dist2;
         if c == Rgb::ZERO {
+            return Rgb::ZERO;
+        }
+        if self.restriction.between(x.p, y.p) {
             return Rgb::ZERO;
         }
         stats.shadow += 1;

@@ -30,6 +30,9 @@
 //! subsurface part of a material at a camera vertex is path traced from it. The two sets of
 //! paths are disjoint, so the sum is unbiased; what BDPT does not yet offer is light
 //! subpaths scattering in media (a volumetric caustic seen in fog is path traced).
+//!
+//! Ray Visibility: paths that meet an object or light hidden from some kind of ray are made
+//! by s = 0 and s = 1 alone, as the path tracer makes them (`visibility`).
 
 pub mod mis;
 
@@ -87,6 +90,9 @@ pub struct BdptIntegrator {
     pub delta_geometry: bool,
     /// The light passes and light groups to file contributions into (`passes`).
     pub ledger: Ledger,
+    /// The objects and lights whose Ray Visibility leaves their paths to the camera side
+    /// (`visibility`).
+    pub restriction: Arc<visibility::Restriction>,
 }
 
 impl BdptIntegrator {
@@ -106,6 +112,7 @@ impl BdptIntegrator {
             lights: Arc::new(BdptLights::new(scene)),
             delta_geometry: false,
             ledger: Ledger::default(),
+            restriction: Arc::new(visibility::Restriction::new(scene)),
         }
     }
 
@@ -170,6 +177,7 @@ pub mod connect;
 pub mod passes;
 pub mod subpath;
 pub mod vertex;
+pub mod visibility;
 
 use passes::First;
 pub use passes::Ledger;

@@ -37,12 +37,15 @@ impl BdptIntegrator {
         let mut prev_delta = false;
         *scratch.split = crate::integrator::catcher::Split::new(ctx.catcher.is_some());
         stats.camera += 1;
+        // The path so far meets a restricted object (`visibility`).
+        let mut restricted = false;
         loop {
             let [u_lobe, u_dx, u_dy, u_rr] = sampler.next_4d();
             let [u_alpha, u_channel, u_dist, _] = sampler.next_4d();
             let i = cam.len() - 1; // the vertex the ray leaves from
             // The camera segment's state, where a shadow catcher at its end splits the path.
             let pre = (i == 0 && scratch.split.allowed).then_some(path);
+            let org0 = path.org;
 
             // The shared step: the medium segment (its emission counts only when every
             // strategy does), emitters crossed on the way (area and sphere lights do not
@@ -59,9 +62,10 @@ impl BdptIntegrator {
                     &mut scratch.dens,
                     (st.org, st.dir, t_event),
                     w,
-                    (pdf_sa, prev_delta),
+                    (pdf_sa, prev_delta, restricted),
                     camera,
                     (&mut *out, first),
+                    &st.light_path,
                 )
             };
             let (step, crossed) =
@@ -80,6 +84,13 @@ impl BdptIntegrator {
                 }
             }
             let (dir, beta, medium) = (path.dir, path.beta, path.media);
+            // The segment just traced, from its start (after the last pass-through).
+            restricted |= match &step {
+                Step::Surface { hit, s } => self.restriction.object(hit.tri) || self.restriction.between(org0, s.p),
+                Step::Passed => self.restriction.between(org0, path.org),
+                Step::Escaped => self.restriction.crosses(org0, dir, f32::INFINITY),
+                Step::End | Step::Medium { .. } => false,
+            };
             let (hit, s) = match step {
                 Step::End => break,
                 Step::Passed => continue,
@@ -138,6 +149,7 @@ impl BdptIntegrator {
                             cam,
                             &mut scratch.dens,
                             (prev_delta, pdf_sa),
+                            (restricted, &path.light_path),
                             camera,
                             &mut each,
                         );
@@ -203,6 +215,7 @@ impl BdptIntegrator {
             }
             let mut v = Vertex::surface(&s, &sp, wo, beta, medium);
             v.emitted = sp.emitted;
+            v.restricted = restricted;
             v.pdf_fwd = if prev_delta { self.delta_area(&v, cam[i].p) } else { v.area_density(pdf_sa, cam[i].p) };
             cam.push(v);
             let t = cam.len();
@@ -214,7 +227,11 @@ impl BdptIntegrator {
             {
                 let gate = linking::found(ctx, index, found_from(&cam[..t - 1]));
                 if gate != Gate::Drop {
-                    let w = if gate == Gate::Mis {
+                    let w = if gate == Gate::Mis && (restricted || self.restriction.light(index)) {
+                        // Made by s = 0 and s = 1 alone (`visibility`).
+                        let p_light = self.light_sample_density(ctx, index, cam[t - 2].p, s.p, s.ng);
+                        self.camera_only_weight(t - 2, prev_delta, pdf_sa, p_light)
+                    } else if gate == Gate::Mis {
                         self.weight_s0(ctx, cam, &mut scratch.dens, index, camera)
                     } else {
                         1.0
@@ -292,22 +309,30 @@ impl BdptIntegrator {
         cam: &mut Vec<Vertex>,
         dens: &mut PathDensities,
         (prev_delta, pdf_sa): (bool, f32),
+        (restricted, path): (bool, &crate::scene::light_path::LightPath),
         camera: &CameraRays,
         each: &mut dyn FnMut(Option<usize>, Rgb),
     ) {
         let from = found_from(cam);
-        // A camera ray (the camera vertex alone) sees the world with its own state, which s = 0
-        // alone makes (no other strategy reaches the camera from a light at infinity); later
-        // escapes read the world as light sampling does, as the other strategies do (warned).
-        let le = match cam.len() {
-            1 => ctx.world_radiance_for(dir, &crate::scene::light_path::LightPath::CAMERA_RAY),
-            _ => ctx.world_radiance(dir),
+        let i = cam.len() - 1;
+        // The world's Ray Visibility (the camera's flag included): rays of a hidden kind miss it.
+        // A camera ray sees the world with its own state, which s = 0 alone makes (no other
+        // strategy reaches the camera from a light at infinity); later escapes read the world
+        // as light sampling does, as the other strategies do (warned).
+        let le = match (ctx.world_seen_by(i == 0, path), i) {
+            (false, _) => Rgb::ZERO,
+            (true, 0) => ctx.world_radiance_for(dir, path),
+            (true, _) => ctx.world_radiance(dir),
         };
         if le != Rgb::ZERO {
             let world = ctx.scene.lights.iter().position(|l| matches!(l, Light::World));
             let pdf_dir = ctx.scene.world.as_ref().map_or(0.0, |e| e.pdf(dir));
             let gate = world.map_or(Gate::Mis, |w| linking::found(ctx, w, from));
             let w = match world {
+                // Made by s = 0 and s = 1 alone (`visibility`).
+                Some(w) if gate == Gate::Mis && (restricted || self.restriction.light(w)) => {
+                    self.camera_only_weight(i, prev_delta, pdf_sa, self.lights.pmf_any(w) * pdf_dir)
+                }
                 Some(w) if gate == Gate::Mis => {
                     self.weight_escaped(ctx, cam, dens, w, dir, pdf_dir, (prev_delta, pdf_sa), camera)
                 }
@@ -322,7 +347,13 @@ impl BdptIntegrator {
             {
                 let gate = linking::found(ctx, index, from);
                 let pdf_dir = uniform_cone_pdf(*cos_half);
-                let w = if gate == Gate::Mis {
+                let own = restricted || self.restriction.light(index);
+                if own && !ctx.light_seen_by(index, path) {
+                    continue;
+                }
+                let w = if gate == Gate::Mis && own {
+                    self.camera_only_weight(i, prev_delta, pdf_sa, self.lights.pmf_any(index) * pdf_dir)
+                } else if gate == Gate::Mis {
                     self.weight_escaped(ctx, cam, dens, index, dir, pdf_dir, (prev_delta, pdf_sa), camera)
                 } else {
                     1.0
@@ -382,9 +413,10 @@ impl BdptIntegrator {
         dens: &mut PathDensities,
         (org, dir, tmax): (Vec3, Vec3, f32),
         beta: Rgb,
-        (pdf_sa, prev_delta): (f32, bool),
+        (pdf_sa, prev_delta, restricted): (f32, bool, bool),
         camera: &CameraRays,
         (out, first): (&mut CameraSample, First),
+        path: &crate::scene::light_path::LightPath,
     ) -> Rgb {
         let i = cam.len() - 1;
         let from = found_from(cam);
@@ -432,6 +464,10 @@ impl BdptIntegrator {
                     if !(t > 0.0 && t < tmax) || (q - *center).length_squared() > radius * radius {
                         continue;
                     }
+                    // Camera-side only already; a light hidden from the last bounce's kind is not found.
+                    if !ctx.light_seen_by(index, path) {
+                        continue;
+                    }
                     let dist = (q - prev_p).length();
                     let p_light = self.lights.pmf_any(index)
                         * area_to_solid_angle(1.0 / (std::f32::consts::PI * radius * radius), dist, -denom);
@@ -446,6 +482,20 @@ impl BdptIntegrator {
                 _ => continue,
             };
             let q = org + dir * t;
+            // Made by s = 0 and s = 1 alone (`visibility`): a light hidden from the last
+            // bounce's kind is not found, else BSDF sampling is weighed against light sampling.
+            if restricted || self.restriction.light(index) || self.restriction.crosses(org, dir, t) {
+                if !ctx.light_seen_by(index, path) {
+                    continue;
+                }
+                let p_light = self.light_sample_density(ctx, index, cam[i].p, q, n);
+                let c = beta * le * self.mis(gate.weight(self.camera_only_weight(i, prev_delta, pdf_sa, p_light)));
+                sum += c;
+                if self.ledger.any() {
+                    self.ledger.file(out, i, first, false, self.ledger.group_of_light(ctx, index), c);
+                }
+                continue;
+            }
             let mut v = Vertex::new(Kind::Light, q);
             v.ng = n;
             v.wo = -dir;
@@ -559,6 +609,10 @@ impl BdptIntegrator {
         let Some((index, pmf)) = self.lights.pick_origin(u_pick) else {
             return;
         };
+        // A restricted light's paths are the camera side's (`visibility`).
+        if self.restriction.light(index) {
+            return;
+        }
         let Some((v0, org, dir, beta, pdf_dir)) = self.light_start(ctx, index, pmf, u_side, [u_px, u_py, u_dx, u_dy])
         else {
             return;
@@ -579,9 +633,18 @@ impl BdptIntegrator {
             // The shared step, with media that only attenuate: light subpaths carry the
             // paths without medium vertices.
             let no_lights = |_: &PathState, _: f32, _: Rgb| Rgb::ZERO;
+            let org0 = path.org;
             let (step, _) = path.advance_with(ctx, None, || u_alpha, no_lights, &mut ignored, stats);
+            // A segment that meets a restricted object makes restricted paths only, which
+            // the camera side takes (`visibility`): the subpath stops before it.
             let s = match step {
-                Step::Surface { s, .. } => s,
+                Step::Surface { hit, s } => {
+                    if self.restriction.object(hit.tri) || self.restriction.between(org0, s.p) {
+                        break;
+                    }
+                    s
+                }
+                Step::Passed if self.restriction.between(org0, path.org) => break,
                 Step::Passed => continue,
                 Step::End | Step::Escaped | Step::Medium { .. } => break,
             };

@@ -45,6 +45,9 @@ pub(crate) struct Vertex {
     pub(crate) light: Option<LightPoint>,
     /// Emission of a surface toward `wo` (emissive triangles).
     pub(crate) emitted: Rgb,
+    /// Camera vertices: the camera subpath up to here (its segments and vertices) meets a
+    /// restricted object (`visibility`), so only s = 0 and s = 1 make paths through it.
+    pub(crate) restricted: bool,
 }
 
 impl Vertex {
@@ -64,6 +67,7 @@ impl Vertex {
             medium: MediumStack::default(),
             light: None,
             emitted: Rgb::ZERO,
+            restricted: false,
         }
     }
 

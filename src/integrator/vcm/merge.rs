@@ -128,6 +128,10 @@ pub(crate) fn merge_camera_path(
             break;
         }
         let x = &cam[c];
+        // A restricted camera prefix: its paths are the camera side's (`bdpt::visibility`).
+        if x.restricted {
+            continue;
+        }
         // By reference: a BSDF is 672 bytes, and most camera vertices merge nothing.
         let (Some(bsdf), Some(hit)) = (&x.bsdf, &x.hit) else { continue };
         if bsdf.is_delta() {
