@@ -124,6 +124,17 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         reporter.warning(&w);
         run_warnings.push(w);
     }
+    // Photons leave emitters whose graph reads the Light Path node without a camera path
+    // (`light::path_emitters`); BDPT and VCM take those emitters from the camera side.
+    let photon_name = match res.integrator {
+        IntegratorKind::Photon => Some("photon mapping"),
+        IntegratorKind::Sppm => Some("SPPM"),
+        _ => None,
+    };
+    if let Some(w) = photon_name.and_then(|name| crate::light::path_emitters::photon_warning(&scene, name)) {
+        reporter.warning(&w);
+        run_warnings.push(w);
+    }
     // Every integrator splits camera paths at shadow catchers (`integrator::catcher`).
     if res.passes.asks_shader_aovs() && scene.shader_aovs.channels == 0 {
         let w = "the shader AOVs were asked for, but the scene declares none: none is written".to_string();

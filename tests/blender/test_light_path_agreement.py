@@ -22,6 +22,10 @@ Path output, so that an engine that ignored the ray's kind renders a visibly dif
   estimation from medium points, which Cycles also shades with the path's counters (a point
   scattered once already sees Ray Depth 2); evaluated without the path (Ray Depth 1 at every
   medium point, before the fix) the fog's glow beyond the first bounce is lost.
+
+BDPT and VCM render the emitter cases too: their light subpaths cannot know the camera path, so
+they take such an emitter by the camera-side strategies alone, weighed as the path tracer weighs
+them (`src/integrator/bdpt/path_emitters.rs`).
 """
 
 import bpy
@@ -131,3 +135,19 @@ def test_light_path_matches_cycles(empty_scene, tmp_path, case):
     empty_scene.caustic.threads = 0
     scenes.match_cycles(empty_scene, SAMPLES, BOUNCES)
     compare(empty_scene, tmp_path, case)
+
+
+# The cases whose emitter reads the Light Path node (the others switch BSDFs only).
+EMITTER_CASES = ["ray_depth_emitter", "is_camera_ray"]
+
+
+@pytest.mark.parametrize("integrator", ["bdpt", "vcm"])
+@pytest.mark.parametrize("case", EMITTER_CASES)
+def test_light_path_emitters_match_cycles_bidirectionally(empty_scene, tmp_path, case, integrator):
+    build, make = CASES[case]
+    build(empty_scene, make(case) if make else None)
+    scenes.small_render_settings(empty_scene, W, H, samples=SAMPLES)
+    empty_scene.caustic.threads = 0
+    empty_scene.caustic.integrator = integrator
+    scenes.match_cycles(empty_scene, SAMPLES, BOUNCES)
+    compare(empty_scene, tmp_path, f"{case} ({integrator})")

@@ -214,7 +214,9 @@ impl BdptIntegrator {
             {
                 let gate = linking::found(ctx, index, found_from(&cam[..t - 1]));
                 if gate != Gate::Drop {
-                    let w = if gate == Gate::Mis {
+                    let w = if gate == Gate::Mis && self.lights.reads_path(index) {
+                        self.weight_s0_path_emitter(ctx, cam, index, prev_delta, pdf_sa)
+                    } else if gate == Gate::Mis {
                         self.weight_s0(ctx, cam, &mut scratch.dens, index, camera)
                     } else {
                         1.0
