@@ -11,7 +11,9 @@
 //! "Hidden" emits 2 × (1 − Is Camera Ray) + 3 × Is Diffuse Ray: black to the camera (light
 //! tracing would show it), 2 to next-event estimation and 5 to a ray bounced off a diffuse
 //! surface, so its light is the sum of the two strategies' MIS-weighted shares (as in
-//! Cycles): only an integrator weighing them as the path tracer does agrees.
+//! Cycles): only an integrator weighing them as the path tracer does agrees. A plain
+//! emissive patch low on the back wall starts light subpaths (so VCM merges, and light
+//! tracing and connections run beside the camera-side strategies of the other two).
 //!
 //! Bounds (`common::agreement`): K seeds per estimate, Welch's test per region, Šidák's
 //! split over every comparison of the test (two integrators, five regions each).
@@ -73,6 +75,7 @@ fn hidden() -> Value {
 fn scene(dir: &Path, left: Value, right: Value) -> PathBuf {
     let mut g = GltfBuilder::new();
     g.use_ext("CAUSTIC_materials_nodes");
+    g.use_ext("KHR_materials_emissive_strength");
     let grey = g
         .material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0.7, 0.7, 0.7, 1], "metallicFactor": 0.0},
             "doubleSided": true}));
@@ -83,6 +86,9 @@ fn scene(dir: &Path, left: Value, right: Value) -> PathBuf {
     let right = g.material(right);
     quad(&mut g, [[-1.5, 0.6, -3.5], [-0.3, 0.6, -3.5], [-0.3, 0.6, -4.7], [-1.5, 0.6, -4.7]], left);
     quad(&mut g, [[0.3, 0.6, -3.5], [1.5, 0.6, -3.5], [1.5, 0.6, -4.7], [0.3, 0.6, -4.7]], right);
+    let patch = g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1], "metallicFactor": 0.0},
+        "emissiveFactor": [1, 1, 1], "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 4.0}}}));
+    quad(&mut g, [[-0.4, -0.8, -5.9], [0.4, -0.8, -5.9], [0.4, -0.4, -5.9], [-0.4, -0.4, -5.9]], patch);
     g.camera([0.0, 1.2, 0.0], look_rotation([0.0, -0.35, -1.0]), 1.0);
     g.write(dir, "light_path_emitters.gltf")
 }
