@@ -99,7 +99,13 @@ fn bidirectional_integrators_match_the_path_tracer() {
     let path = scene(dir.path(), ramp(), hidden());
     let regs = regions(RES.0, RES.1);
     let r = format!("{}x{}", RES.0, RES.1);
-    let seeded = Seeded { dir: dir.path(), common: vec!["--resolution", &r, "--max-depth", "4"], seeds: 6, regions: &regs, limit: LIMIT };
+    let seeded = Seeded {
+        dir: dir.path(),
+        common: vec!["--resolution", &r, "--max-depth", "4"],
+        seeds: 6,
+        regions: &regs,
+        limit: LIMIT,
+    };
     let reference = seeded.means(&path, &["--integrator", "path", "--spp", "64"]);
     let others: [(&str, &[&str]); 2] = [
         ("bdpt", &["--integrator", "bdpt", "--spp", "32"]),

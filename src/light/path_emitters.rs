@@ -14,11 +14,8 @@ use crate::scene::light_path::PathOutput;
 
 /// Per light: an emissive triangle whose material's emission may read the Light Path node.
 pub fn reading_light_path(scene: &Scene) -> Vec<bool> {
-    let per_material: Vec<bool> = scene
-        .materials
-        .iter()
-        .map(|m| m.nodes.as_ref().is_some_and(|p| p.emission_reads_light_path()))
-        .collect();
+    let per_material: Vec<bool> =
+        scene.materials.iter().map(|m| m.nodes.as_ref().is_some_and(|p| p.emission_reads_light_path())).collect();
     scene
         .lights
         .iter()
