@@ -145,3 +145,43 @@ fn photon_integrators_name_emitters_their_photons_approximate() {
         assert!(!w.iter().any(|w| w.contains("Light Path")), "{integrator}: {w:?}");
     }
 }
+
+/// A floor whose BSDF is switched by a Light Path output: the integrators that scatter on
+/// it from the light side name it when their vertices read that output otherwise than the
+/// path tracer's rays (BDPT and VCM for Is Camera Ray, which light tracing shows as the
+/// camera's first hit; all four for Is Diffuse Ray), and the path tracer never does.
+#[test]
+fn light_side_integrators_name_bsdfs_switched_by_the_light_path_node() {
+    let dir = temp_dir();
+    let switched = |name: &str, output: &str| {
+        node_material(
+            name,
+            json!([
+                {"name": "Light Path", "type": "ShaderNodeLightPath"},
+                {"name": "Grey", "type": "ShaderNodeBsdfDiffuse", "inputs": {"Color": {"value": [0.5, 0.5, 0.5, 1]}}},
+                {"name": "Green", "type": "ShaderNodeBsdfDiffuse", "inputs": {"Color": {"value": [0.1, 0.8, 0.1, 1]}}},
+                {"name": "Mix", "type": "ShaderNodeMixShader",
+                 "inputs": {"Fac": {"link": [0, output]}, "Shader": {"link": [1, "BSDF"]},
+                            "Shader_001": {"link": [2, "BSDF"]}}}
+            ]),
+            json!([3, "Shader"]),
+        )
+    };
+    let path = scene(dir.path(), switched("ByCamera", "Is Camera Ray"), switched("ByDiffuse", "Is Diffuse Ray"));
+    let out = dir.path().join("w.exr");
+    for (integrator, names) in [
+        ("bdpt", &["ByCamera", "ByDiffuse"][..]),
+        ("vcm", &["ByCamera", "ByDiffuse"]),
+        ("photon", &["ByDiffuse"]),
+        ("sppm", &["ByDiffuse"]),
+    ] {
+        let w = quick_render_warnings(&path, &out, &["--integrator", integrator], LIMIT);
+        let named: Vec<_> = w.iter().filter(|w| w.contains("BSDF or transparency")).collect();
+        assert_eq!(named.len(), 1, "{integrator}: {w:?}");
+        for m in ["ByCamera", "ByDiffuse"] {
+            assert_eq!(named[0].contains(&format!("'{m}'")), names.contains(&m), "{integrator} {m}: {}", named[0]);
+        }
+    }
+    let w = quick_render_warnings(&path, &out, &["--integrator", "path"], LIMIT);
+    assert!(!w.iter().any(|w| w.contains("Light Path")), "path: {w:?}");
+}

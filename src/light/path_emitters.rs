@@ -67,3 +67,62 @@ pub fn photon_warning(scene: &Scene, integrator: &str) -> Option<String> {
         )
     })
 }
+
+/// The integrators that shade surfaces from the light side, for
+/// [`scattering_warning`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LightSide {
+    /// BDPT and VCM: light subpaths, whose vertices light tracing shows to the camera.
+    Subpaths,
+    /// Jensen's photon mapping and SPPM: photons, read at camera vertices.
+    Photons,
+}
+
+impl LightSide {
+    /// The outputs a light-side vertex reads as the path tracer's ray there does: Is Shadow
+    /// Ray (0 on both; connections' shadow rays set it), and for photons Is Camera Ray
+    /// too (a photon's vertices lie beyond the camera's first hit, which the camera path
+    /// shades itself; light tracing shows a light subpath's vertex as that first hit).
+    fn exact(self, o: PathOutput) -> bool {
+        o == PathOutput::IsShadow || (self == LightSide::Photons && o == PathOutput::IsCamera)
+    }
+}
+
+/// A warning naming each node material whose scattering (BSDFs, transparency,
+/// displacement) reads a Light Path output that `side`'s vertices cannot read as the path
+/// tracer's rays do (`integrator`: its name in the message); `None` when there is none.
+pub fn scattering_warning(scene: &Scene, integrator: &str, side: LightSide) -> Option<String> {
+    let named: Vec<String> = scene
+        .materials
+        .iter()
+        .filter_map(|m| {
+            let prog = m.nodes.as_ref()?;
+            let outputs: Vec<&str> = prog
+                .scattering_light_path
+                .iter()
+                .filter(|o| !side.exact(**o))
+                .filter_map(|o| PathOutput::ALL.iter().find(|(_, x)| x == o).map(|(n, _)| *n))
+                .collect();
+            (!outputs.is_empty()).then(|| format!("'{}' ({})", m.name, outputs.join(", ")))
+        })
+        .collect();
+    if named.is_empty() {
+        return None;
+    }
+    let what = match side {
+        LightSide::Subpaths => {
+            "shades a light subpath's vertices on them with the light subpath's own state (its last bounce's \
+             kind and depth, no camera path), so light reaching the camera through them by light tracing, \
+             connections or merging is approximated"
+        }
+        LightSide::Photons => {
+            "scatters photons on them with the photon's own state (its last bounce's kind and depth, no camera \
+             path), so the light the photons carry through them is approximated"
+        }
+    };
+    Some(format!(
+        "the BSDF or transparency of material(s) {} reads the Light Path node: {integrator} {what}; camera paths \
+         shade them as the path tracer does",
+        named.join(", ")
+    ))
+}

@@ -370,6 +370,9 @@ pub struct Program {
     pub aovs: Vec<AovOutput>,
     /// The first Bump, run with its three heights as lanes (`shader::bump_lanes`).
     pub lane_bump: Option<LaneBump>,
+    /// The Light Path outputs that change the scattering (BSDFs, transparency,
+    /// displacement), not only the emission (`compile::light_path_use`).
+    pub scattering_light_path: Vec<PathOutput>,
 }
 
 impl Program {

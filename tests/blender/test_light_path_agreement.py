@@ -163,7 +163,7 @@ def camera_only_glow(name):
 # Scenes whose emitter reads the Light Path node and whose BSDFs do not. (A BSDF switched by
 # the Light Path node, as "is_camera_ray"'s, is not yet rendered as Cycles by BDPT and VCM:
 # a light subpath's vertex is shaded without the camera path's state, so light tracing
-# shows the sphere's red diffuse side to the camera: R 1.013x Cycles'.)
+# shows the sphere's red diffuse side to the camera: R 1.013x Cycles'; the material is named in a warning.)
 EMITTER_CASES = {
     "ray_depth_emitter": CASES["ray_depth_emitter"],
     "ray_depth_emitter_in_fog": CASES["ray_depth_emitter_in_fog"],
