@@ -1,6 +1,7 @@
 //! The Light Path node through the binary, in scenes whose answer is exact: an emitter
 //! seen only by camera rays, and an occluder that shadow rays pass (a Mix Shader by Is
-//! Shadow Ray), for the integrators that shade with the ray's state.
+//! Shadow Ray), for the integrators that shade with the ray's state (BDPT and VCM take
+//! emitters that read it from the camera side).
 
 mod common;
 
@@ -18,12 +19,12 @@ fn node_material(name: &str, nodes: Value, surface: Value) -> Value {
 /// A closed white furnace whose walls are Add(Emission × Is Camera Ray, Diffuse white):
 /// the camera sees each wall's emission Le, and nothing else emits toward a bounced ray,
 /// so every pixel is exactly Le (every wall would add Le per bounce if the flag were
-/// ignored: (D + 1) Le with D = 3 scattering events). BDPT is not in the list: its light
-/// strategies see the emission as light sampling does (0), but share the MIS weight.
+/// ignored: (D + 1) Le with D = 3 scattering events). BDPT and VCM take such emitters by
+/// the camera path alone (`bdpt::path_emitters`): s = 0 at the first hit, with weight 1.
 #[test]
 fn emission_seen_only_by_camera_rays() {
     let le = 0.75;
-    for integrator in ["path", "sppm", "photon"] {
+    for integrator in ["path", "sppm", "photon", "bdpt", "vcm"] {
         let dir = temp_dir();
         let mut g = GltfBuilder::new();
         g.use_ext("CAUSTIC_materials_nodes");

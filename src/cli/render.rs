@@ -104,6 +104,29 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         reporter.warning(&w);
         run_warnings.push(w);
     }
+    // Photons leave emitters whose graph reads the Light Path node without a camera path
+    // (`light::path_emitters`); BDPT and VCM take those emitters from the camera side.
+    let photon_name = match res.integrator {
+        IntegratorKind::Photon => Some("photon mapping"),
+        IntegratorKind::Sppm => Some("SPPM"),
+        _ => None,
+    };
+    if let Some(w) = photon_name.and_then(|name| crate::light::path_emitters::photon_warning(&scene, name)) {
+        reporter.warning(&w);
+        run_warnings.push(w);
+    }
+    // Nor do they know it where they scatter on a material whose BSDF reads the node.
+    let light_side = match res.integrator {
+        IntegratorKind::Bdpt => Some(("BDPT", crate::light::path_emitters::LightSide::Subpaths)),
+        IntegratorKind::Vcm => Some(("VCM", crate::light::path_emitters::LightSide::Subpaths)),
+        _ => photon_name.map(|n| (n, crate::light::path_emitters::LightSide::Photons)),
+    };
+    if let Some(w) =
+        light_side.and_then(|(name, side)| crate::light::path_emitters::scattering_warning(&scene, name, side))
+    {
+        reporter.warning(&w);
+        run_warnings.push(w);
+    }
     // Every integrator splits camera paths at shadow catchers (`integrator::catcher`).
     if res.passes.asks_shader_aovs() && scene.shader_aovs.channels == 0 {
         let w = "the shader AOVs were asked for, but the scene declares none: none is written".to_string();

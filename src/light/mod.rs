@@ -10,6 +10,7 @@
 pub mod emit;
 pub mod environment;
 pub mod origin;
+pub mod path_emitters;
 pub mod sample;
 pub mod sampler;
 pub mod tree;

@@ -45,12 +45,18 @@ pub struct LightPoint {
 /// The light-side view of the scene's lights for bidirectional path tracing.
 #[derive(Clone, Debug)]
 pub struct BdptLights {
-    /// Light choice for light sampling at a camera vertex (s = 1): every light, by power.
+    /// Light choice for light sampling at a camera vertex (s = 1): every light but those
+    /// reading the Light Path node, by power.
     all: Distribution1D,
     /// Light choice for light subpaths: the lights that start them, by power.
     origin: Distribution1D,
     /// Per light: starts light subpaths.
     starts: Vec<bool>,
+    /// Per light: an emitter whose graph reads the Light Path node (`path_emitters`):
+    /// taken by the camera side alone, out of both choices above.
+    reads_path: Vec<bool>,
+    /// Some light reads it (asked at every camera vertex).
+    any_reads_path: bool,
     /// The scene's bounding sphere (centre, radius): lights at infinity start light
     /// subpaths on a disk of this radius.
     bounds: (Vec3, f32),
@@ -75,12 +81,18 @@ impl BdptLights {
     pub fn new(scene: &Scene) -> Self {
         let emitters = Emitters::new(scene);
         let lum: Vec<f32> = emitters.power.iter().map(|p| luminance(*p).max(0.0)).collect();
-        let starts: Vec<bool> = scene.lights.iter().map(starts_subpaths).collect();
+        let reads_path = super::path_emitters::reading_light_path(scene);
+        let starts: Vec<bool> = scene.lights.iter().zip(&reads_path).map(|(l, &r)| starts_subpaths(l) && !r).collect();
         let origin: Vec<f32> = lum.iter().zip(&starts).map(|(&l, &f)| if f { l } else { 0.0 }).collect();
+        // Emitters reading the Light Path node are sampled at camera vertices as the path
+        // tracer samples them (its own light choice), not by this one.
+        let all: Vec<f32> = lum.iter().zip(&reads_path).map(|(&l, &r)| if r { 0.0 } else { l }).collect();
         BdptLights {
-            all: Distribution1D::new(&lum),
+            all: Distribution1D::new(&all),
             origin: Distribution1D::new(&origin),
             starts,
+            any_reads_path: reads_path.iter().any(|&r| r),
+            reads_path,
             bounds: scene.bounding_sphere(),
         }
     }
@@ -94,6 +106,18 @@ impl BdptLights {
     #[inline]
     pub fn starts(&self, i: usize) -> bool {
         self.starts[i]
+    }
+
+    /// Whether light `i` is an emitter whose graph reads the Light Path node.
+    #[inline]
+    pub fn reads_path(&self, i: usize) -> bool {
+        self.reads_path[i]
+    }
+
+    /// True when some emitter's graph reads the Light Path node.
+    #[inline]
+    pub fn any_reads_path(&self) -> bool {
+        self.any_reads_path
     }
 
     /// The scene's bounding sphere (centre, radius), which the disk of lights at infinity covers.

@@ -370,6 +370,27 @@ pub struct Program {
     pub aovs: Vec<AovOutput>,
     /// The first Bump, run with its three heights as lanes (`shader::bump_lanes`).
     pub lane_bump: Option<LaneBump>,
+    /// The Light Path outputs that change the scattering (BSDFs, transparency,
+    /// displacement), not only the emission (`compile::light_path_use`).
+    pub scattering_light_path: Vec<PathOutput>,
+}
+
+impl Program {
+    /// The Light Path node's outputs that shading a surface reads (the AOV Output nodes'
+    /// tail, run for camera rays alone, is left out), in program order, repeats included.
+    pub fn light_path_outputs(&self) -> impl Iterator<Item = PathOutput> + '_ {
+        self.ops[..self.surface_end.min(self.ops.len())].iter().filter_map(|op| match op {
+            Op::Input { what: InputKind::LightPath(o), .. } => Some(*o),
+            _ => None,
+        })
+    }
+
+    /// True when the graph's emission may change with the ray that finds it: it emits, not
+    /// a constant, and the surface reads the Light Path node (conservatively: the node may
+    /// feed only the BSDF or the alpha).
+    pub fn emission_reads_light_path(&self) -> bool {
+        self.emits && self.constant_emission.is_none() && self.light_path_outputs().next().is_some()
+    }
 }
 
 /// One AOV Output node of a material.

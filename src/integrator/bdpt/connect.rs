@@ -34,6 +34,13 @@ impl BdptIntegrator {
             if t - 1 <= self.max_depth as usize && self.allowed(1, t) {
                 sum += self.connect_light_sample(ctx, t, [u_pick, u_x, u_y], film.camera, scratch, out, stats);
             }
+            // s = 1 toward emitters that read the Light Path node (`path_emitters`).
+            if self.lights.any_reads_path() {
+                let [u_pick, u_x, u_y, _] = sampler.next_4d();
+                if t - 1 <= self.max_depth as usize && self.allowed(1, t) {
+                    sum += self.connect_path_emitter(ctx, t, [u_pick, u_x, u_y], scratch, out, stats);
+                }
+            }
             for s in 2..=n_light {
                 if s + t - 2 > self.max_depth as usize || !self.allowed(s, t) {
                     continue;
@@ -225,6 +232,11 @@ impl BdptIntegrator {
         let Some((index, pmf)) = self.lights.pick_any(u[0]) else {
             return none;
         };
+        // `connect_path_emitter`'s (chosen here only by the uniform choice of a scene
+        // whose other lights have no power).
+        if self.lights.reads_path(index) {
+            return none;
+        }
         let gate = linking::sampled(ctx, index, hit.tri);
         if gate == Gate::Drop {
             return none;

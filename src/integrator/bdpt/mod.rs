@@ -16,7 +16,9 @@
 //! own distribution (a vertex at infinity, `Kind::Infinite`: its light-side density is the
 //! direction's, the next vertex's the disk's times the cosine there, and the camera side
 //! reaches it with a solid-angle density; t = 1 cannot see it). Paths from soft point
-//! lights are made by s = 0 and s = 1 only, weighted as the path tracer weights them.
+//! lights are made by s = 0 and s = 1 only, weighted as the path tracer weights them, and
+//! so are paths from emitters whose node graph reads the Light Path node (their radiance
+//! depends on the camera path: `path_emitters`).
 //!
 //! Light subpaths carry the adjoint of the camera's BSDF: a refraction, whose camera-side
 //! value follows Cycles' convention (no η², `bsdf::dielectric`), scales them by 1/η², and
@@ -175,6 +177,7 @@ impl BdptIntegrator {
 pub mod catcher;
 pub mod connect;
 pub mod passes;
+pub mod path_emitters;
 pub mod subpath;
 pub mod vertex;
 pub mod visibility;

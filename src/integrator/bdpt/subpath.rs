@@ -227,7 +227,11 @@ impl BdptIntegrator {
             {
                 let gate = linking::found(ctx, index, found_from(&cam[..t - 1]));
                 if gate != Gate::Drop {
-                    let w = if gate == Gate::Mis && (restricted || self.restriction.light(index)) {
+                    let w = if gate == Gate::Mis && self.lights.reads_path(index) {
+                        // Light subpaths never start on it: s = 1 is the path tracer's own
+                        // next-event estimation (`path_emitters`).
+                        self.weight_s0_path_emitter(ctx, cam, index, prev_delta, pdf_sa)
+                    } else if gate == Gate::Mis && (restricted || self.restriction.light(index)) {
                         // Made by s = 0 and s = 1 alone (`visibility`).
                         let p_light = self.light_sample_density(ctx, index, cam[t - 2].p, s.p, s.ng);
                         self.camera_only_weight(t - 2, prev_delta, pdf_sa, p_light)

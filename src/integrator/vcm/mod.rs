@@ -27,8 +27,9 @@
 //!
 //! What is approximated or left out (as BDPT): light subpaths start at every light but soft
 //! point lights (the world and suns on a disk beyond the scene, as BDPT's; soft point
-//! lights are reached by s = 0 and s = 1, weighted as the path tracer weights them, and
-//! never merged); paths with a vertex in a medium are path
+//! lights, and emitters whose node graph reads the Light Path node, are reached by s = 0
+//! and s = 1, weighted as the path tracer weights them, and never merged:
+//! `bdpt::path_emitters`); paths with a vertex in a medium are path
 //! traced from the camera side (light subpaths cross media attenuated, without scattering:
 //! no volume merging), and the subsurface part of a camera vertex's material is path
 //! traced. Merges are found by distance alone (a thin wall's other side within r leaks,

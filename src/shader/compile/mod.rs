@@ -14,6 +14,7 @@
 mod aov;
 mod closures;
 mod converters;
+mod light_path_use;
 mod sources;
 pub mod volume;
 
@@ -113,6 +114,7 @@ pub fn compile(name: &str, ext: &NodesExt, images: &[u32]) -> Result<Compiled, S
     prog.surface_end = surface_end;
     prog.lane_bump = crate::shader::instructions::LaneBump::find(&prog.ops, surface_end);
     prog.constant_emission = constant_emission(&prog);
+    prog.scattering_light_path = light_path_use::scattering_outputs(ext);
     Ok(Compiled { program: prog, warnings: c.warnings, uses_generated: c.uses_generated })
 }
 

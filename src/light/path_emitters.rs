@@ -1,0 +1,128 @@
+//! Emitters whose node graph reads the Light Path node. The path tracer evaluates such an
+//! emitter with the state of the path that finds it (`scene::light_path`: a camera ray, a
+//! bounce's kind and depth, next-event estimation from a shading point); a path that starts
+//! on the light has no such state. BDPT and VCM therefore take these emitters by the
+//! camera-side strategies alone (`integrator::bdpt::path_emitters`); photons, which must
+//! start on them, read them as light sampling without a path does
+//! (`LightPath::LIGHT_EMISSION`: no flag, Ray Depth 1, the other depths 0, Ray Length 0),
+//! which is exact only for the outputs that read the same for a photon as for every ray
+//! that finds the emitter after the camera's: Is Camera Ray and Is Shadow Ray (both 0).
+
+use crate::light::Light;
+use crate::scene::Scene;
+use crate::scene::light_path::PathOutput;
+
+/// Per light: an emissive triangle whose material's emission may read the Light Path node.
+pub fn reading_light_path(scene: &Scene) -> Vec<bool> {
+    let per_material: Vec<bool> =
+        scene.materials.iter().map(|m| m.nodes.as_ref().is_some_and(|p| p.emission_reads_light_path())).collect();
+    scene
+        .lights
+        .iter()
+        .map(|l| match l {
+            Light::Triangle { tri } => per_material[scene.mesh.tri_material[*tri as usize] as usize],
+            _ => false,
+        })
+        .collect()
+}
+
+/// The Light Path outputs a photon reads as the rays that find the emitter do.
+fn exact_for_photons(o: PathOutput) -> bool {
+    matches!(o, PathOutput::IsCamera | PathOutput::IsShadow)
+}
+
+/// For the photon integrators (`integrator`: their name in the message): a warning naming
+/// each emitting material that reads an output of the Light Path node that its photons
+/// cannot read as the path tracer's rays do, and what is approximated; `None` when there
+/// is none.
+pub fn photon_warning(scene: &Scene, integrator: &str) -> Option<String> {
+    let reads = reading_light_path(scene);
+    let mut seen = vec![false; scene.materials.len()];
+    let mut named = Vec::new();
+    for (l, _) in scene.lights.iter().zip(&reads).filter(|(_, r)| **r) {
+        let Light::Triangle { tri } = l else { continue };
+        let m = scene.mesh.tri_material[*tri as usize] as usize;
+        if std::mem::replace(&mut seen[m], true) {
+            continue;
+        }
+        let Some(prog) = scene.materials[m].nodes.as_ref() else { continue };
+        let mut outputs: Vec<&str> = Vec::new();
+        for o in prog.light_path_outputs().filter(|o| !exact_for_photons(*o)) {
+            let name = PathOutput::ALL.iter().find(|(_, x)| *x == o).map_or("?", |(n, _)| *n);
+            if !outputs.contains(&name) {
+                outputs.push(name);
+            }
+        }
+        if !outputs.is_empty() {
+            named.push(format!("'{}' ({})", scene.materials[m].name, outputs.join(", ")));
+        }
+    }
+    (!named.is_empty()).then(|| {
+        format!(
+            "emission of material(s) {} reads the Light Path node: {integrator}'s photons leave the emitter \
+             without a camera path and read it as light sampling without a path does (no ray flag, Ray Depth 1, \
+             the other depths and Ray Length 0), so the light they carry from it is approximated; its emission \
+             seen by camera paths and its direct light (next-event estimation) are as the path tracer's",
+            named.join(", ")
+        )
+    })
+}
+
+/// The integrators that shade surfaces from the light side, for
+/// [`scattering_warning`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LightSide {
+    /// BDPT and VCM: light subpaths, whose vertices light tracing shows to the camera.
+    Subpaths,
+    /// Jensen's photon mapping and SPPM: photons, read at camera vertices.
+    Photons,
+}
+
+impl LightSide {
+    /// The outputs a light-side vertex reads as the path tracer's ray there does: Is Shadow
+    /// Ray (0 on both; connections' shadow rays set it), and for photons Is Camera Ray
+    /// too (a photon's vertices lie beyond the camera's first hit, which the camera path
+    /// shades itself; light tracing shows a light subpath's vertex as that first hit).
+    fn exact(self, o: PathOutput) -> bool {
+        o == PathOutput::IsShadow || (self == LightSide::Photons && o == PathOutput::IsCamera)
+    }
+}
+
+/// A warning naming each node material whose scattering (BSDFs, transparency,
+/// displacement) reads a Light Path output that `side`'s vertices cannot read as the path
+/// tracer's rays do (`integrator`: its name in the message); `None` when there is none.
+pub fn scattering_warning(scene: &Scene, integrator: &str, side: LightSide) -> Option<String> {
+    let named: Vec<String> = scene
+        .materials
+        .iter()
+        .filter_map(|m| {
+            let prog = m.nodes.as_ref()?;
+            let outputs: Vec<&str> = prog
+                .scattering_light_path
+                .iter()
+                .filter(|o| !side.exact(**o))
+                .filter_map(|o| PathOutput::ALL.iter().find(|(_, x)| x == o).map(|(n, _)| *n))
+                .collect();
+            (!outputs.is_empty()).then(|| format!("'{}' ({})", m.name, outputs.join(", ")))
+        })
+        .collect();
+    if named.is_empty() {
+        return None;
+    }
+    let what = match side {
+        LightSide::Subpaths => {
+            "shades a light subpath's vertices on them with the light subpath's own state (its last bounce's \
+             kind and depth, no camera path), so light reaching the camera through them by light tracing, \
+             connections or merging is approximated"
+        }
+        LightSide::Photons => {
+            "scatters photons on them with the photon's own state (its last bounce's kind and depth, no camera \
+             path), so the light the photons carry through them is approximated"
+        }
+    };
+    Some(format!(
+        "the BSDF or transparency of material(s) {} reads the Light Path node: {integrator} {what}; camera paths \
+         shade them as the path tracer does",
+        named.join(", ")
+    ))
+}
