@@ -167,6 +167,7 @@ impl BdptIntegrator {
 
 pub mod catcher;
 pub mod connect;
+pub mod contact;
 pub mod passes;
 pub mod subpath;
 pub mod vertex;

@@ -45,6 +45,8 @@ pub(crate) struct Vertex {
     pub(crate) light: Option<LightPoint>,
     /// Emission of a surface toward `wo` (emissive triangles).
     pub(crate) emitted: Rgb,
+    /// The surface is at a contact (`contact`: a glass resting on a floor).
+    pub(crate) contact: bool,
 }
 
 impl Vertex {
@@ -64,6 +66,7 @@ impl Vertex {
             medium: MediumStack::default(),
             light: None,
             emitted: Rgb::ZERO,
+            contact: false,
         }
     }
 
