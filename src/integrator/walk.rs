@@ -273,7 +273,8 @@ impl PathState {
     /// triangle left, among the still triangles; when it finds one facing the other way,
     /// the ray starts there.
     /// Moving triangles and strands are not looked for; walkers that do not record the
-    /// triangle left (`prev_tri`: BDPT's subpaths, photon tracing) do not look.
+    /// triangle left (`prev_tri`: BDPT's light subpaths, photon tracing) do not look
+    /// (`bdpt::contact`, `photon::contact` say what they do at a contact instead).
     #[inline]
     fn coincident_hit(&mut self, ctx: &SceneContext) -> Option<Hit> {
         // No triangle left: a camera ray, a medium event, a strand (`CURVE_BIT` ids).

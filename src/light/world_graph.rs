@@ -15,7 +15,7 @@ use crate::math::Rgb;
 use crate::scene::light_path::LightPath;
 use crate::scene::texture::Texture;
 use crate::shader::closure::Closures;
-use crate::shader::geom::{Geom, NO_OBJECT, from_blender};
+use crate::shader::geom::{Geom, NO_OBJECT, NO_VIEW, ViewData, from_blender};
 use crate::shader::instructions::{InputKind, Op, Program};
 use crate::shader::program::with_registers;
 use crate::shader::texture_nodes::TexOp;
@@ -38,6 +38,9 @@ pub struct WorldGraph {
     reads_light_path: bool,
     /// The graph's images (its Image/Environment Texture nodes index these).
     textures: Arc<Vec<Texture>>,
+    /// The render camera as Texture Coordinate Camera and Window see a direction
+    /// ([`with_view`](Self::with_view); none until the camera is known: both give 0).
+    view: ViewData,
 }
 
 impl WorldGraph {
@@ -45,12 +48,28 @@ impl WorldGraph {
     pub fn new(program: Program, textures: Vec<Texture>) -> WorldGraph {
         let reads_light_path =
             program.ops.iter().any(|op| matches!(op, Op::Input { what: InputKind::LightPath(_), .. }));
-        WorldGraph { program: Arc::new(program), textures: Arc::new(textures), reads_light_path }
+        WorldGraph { program: Arc::new(program), textures: Arc::new(textures), reads_light_path, view: NO_VIEW }
     }
 
     /// True when the graph reads the Light Path node (what a ray sees then depends on it).
     pub fn reads_light_path(&self) -> bool {
         self.reads_light_path
+    }
+
+    /// Whether the graph reads the render camera (Texture Coordinate Camera or Window).
+    pub fn reads_view(&self) -> bool {
+        self.program.ops.iter().any(|op| matches!(op, Op::Input { what: InputKind::Camera | InputKind::Window, .. }))
+    }
+
+    /// The graph seen from the render camera `view` (`CameraRays::shader_view`). Cycles
+    /// shades the background at P = the ray's direction and adds the camera's position for
+    /// Camera (every ray) and for a perspective camera's Window: so Camera is the direction
+    /// in camera space and Window the frame position it projects to, for every ray alike
+    /// (a bounce's direction too, not only the camera's): `ViewData::background`. Under an
+    /// orthographic camera Window reads the direction as a world point, as Cycles for
+    /// every ray but camera rays (whose origin it reads; warned at load).
+    pub fn with_view(&self, view: ViewData) -> WorldGraph {
+        WorldGraph { view: ViewData { background: true, ..view }, ..self.clone() }
     }
 
     /// The compiled program.
@@ -76,8 +95,7 @@ impl WorldGraph {
             mesh: &crate::scene::mesh::EMPTY_MESH,
             tri: u32::MAX,
             path,
-            // Baked before the render's camera is known: Camera and Window give 0 (warned).
-            view: &crate::shader::geom::NO_VIEW,
+            view: &self.view,
         }
     }
 

@@ -359,6 +359,7 @@ impl CameraRays {
             plane_inv_size: Vec2::ONE / (2.0 * self.half),
             ortho: self.ortho,
             known: true,
+            background: false,
         }
     }
 

@@ -290,7 +290,22 @@ impl Scene {
     /// Coordinate Camera and Window).
     pub fn set_view(&mut self, camera: usize, width: u32, height: u32) {
         if let Some(c) = self.cameras.get(camera) {
-            self.view = camera::CameraRays::new(c, width, height).shader_view();
+            self.apply_view(camera::CameraRays::new(c, width, height).shader_view());
+        }
+    }
+
+    /// Sets the render camera shader graphs read (`view`); a world graph reading it
+    /// (Texture Coordinate Camera, Window) is baked again for it, so that its sampling
+    /// table follows what it shows.
+    pub fn apply_view(&mut self, view: crate::shader::geom::ViewData) {
+        self.view = view;
+        if let Some(graph) = self.world.as_ref().and_then(|w| w.graph.as_ref()).filter(|g| g.reads_view())
+            && let Some(env) = crate::light::Environment::from_graph(graph.with_view(view))
+        {
+            self.world = Some(env);
+        }
+        if let Some(g) = self.shader_aovs.world_graph.as_mut().filter(|g| g.reads_view()) {
+            *g = g.with_view(view);
         }
     }
 

@@ -279,7 +279,7 @@ impl Server {
         let shader_view =
             crate::scene::camera::CameraRays::new(&view.camera, view.resolution.0, view.resolution.1).shader_view();
         if l.scene.view != shader_view {
-            Arc::make_mut(&mut l.scene).view = shader_view;
+            Arc::make_mut(&mut l.scene).apply_view(shader_view);
         }
         let job = Job {
             scene: l.scene.clone(),

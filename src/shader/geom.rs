@@ -92,16 +92,24 @@ pub struct ViewData {
     pub plane_inv_size: Vec2,
     /// Parallel projection.
     pub ortho: bool,
-    /// False where no render camera is known (a world graph, a scene shaded without one):
-    /// both outputs then give 0, with a warning at load for the world.
+    /// False where no render camera is known (a scene shaded without one): both outputs
+    /// then give 0.
     pub known: bool,
+    /// The shading point is a direction leaving the scene (the world, `WorldGraph::with_view`):
+    /// Cycles adds the camera's position to it for Camera, and for Window under a
+    /// perspective camera, so both see the direction from the camera.
+    pub background: bool,
 }
 
 impl ViewData {
     /// Camera space of a world point (the Camera output).
     #[inline]
     pub fn camera(&self, p: Vec3) -> Vec3 {
-        if self.known { self.world_to_camera.transform_point3(p) } else { Vec3::ZERO }
+        match (self.known, self.background) {
+            (false, _) => Vec3::ZERO,
+            (true, false) => self.world_to_camera.transform_point3(p),
+            (true, true) => self.world_to_camera.transform_vector3(p),
+        }
     }
 
     /// Normalised frame coordinates of a world point (the Window output): (0, 0) at the
@@ -113,7 +121,11 @@ impl ViewData {
         if !self.known {
             return Vec3::ZERO;
         }
-        let c = self.world_to_camera.transform_point3(p);
+        let c = if self.background && !self.ortho {
+            self.world_to_camera.transform_vector3(p)
+        } else {
+            self.world_to_camera.transform_point3(p)
+        };
         let s = if self.ortho {
             Vec2::new(c.x, c.y)
         } else if c.z != 0.0 {
@@ -138,6 +150,7 @@ pub static NO_VIEW: ViewData = ViewData {
     plane_inv_size: Vec2::ONE,
     ortho: false,
     known: false,
+    background: false,
 };
 
 /// The default instance data (identity transform) for triangles without one.
@@ -217,4 +230,39 @@ pub(super) fn set3(r: &mut [f32], i: Reg, v: Vec3) {
     r[i] = v.x;
     r[i + 1] = v.y;
     r[i + 2] = v.z;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A camera at (5, 1, 2) looking down -Z with a square frame of half-size 0.5 on the plane
+    /// at distance 1: a world point is seen from the camera, a direction (the world) as if the
+    /// camera stood at the origin, as Cycles adds the camera's position to the background's P.
+    #[test]
+    fn background_directions_are_seen_from_the_camera() {
+        // Cycles' camera space: z forward, so glTF's -Z maps to +z (y up, x right).
+        let rot =
+            Mat4::from_cols_array(&[1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0, 0.0, 1.0]);
+        let world_to_camera = rot * Mat4::from_translation(-Vec3::new(5.0, 1.0, 2.0));
+        let point = ViewData {
+            world_to_camera,
+            plane_min: Vec2::splat(-0.5),
+            plane_inv_size: Vec2::ONE,
+            ortho: false,
+            known: true,
+            background: false,
+        };
+        let world = ViewData { background: true, ..point };
+        let d = Vec3::new(0.25, -0.25, -1.0);
+        // The direction's own camera-space vector and its frame position, whatever the position.
+        assert_eq!(world.camera(d), Vec3::new(0.25, -0.25, 1.0));
+        assert_eq!(world.window(d), Vec3::new(0.75, 0.25, 0.0));
+        // A point at the camera's position plus the direction reads the same as a point.
+        let p = Vec3::new(5.0, 1.0, 2.0) + d;
+        assert_eq!(point.camera(p), world.camera(d));
+        assert_eq!(point.window(p), world.window(d));
+        // Without a known camera both give 0.
+        assert_eq!(ViewData { known: false, ..world }.window(d), Vec3::ZERO);
+    }
 }

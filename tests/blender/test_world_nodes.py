@@ -11,7 +11,8 @@ convention, a wrong pattern or a biased sampler all move blocks far beyond the b
 Worlds: Blender 5.0's default Sky Texture (Multiple Scattering; the sun behind the camera, so
 that the floor is lit by the disc through the sampler and the sky is seen), a Mix Shader of
 two Backgrounds whose factor is a Gradient Texture on the world's Generated coordinates (the
-direction), and a Noise Texture's colour as the Background.
+direction), a Noise Texture's colour as the Background, and Texture Coordinate Camera and Window
+(the render camera's view of the direction) through Gradients and Separate XYZ.
 """
 
 import math
@@ -74,7 +75,35 @@ def noise_world(tree, output):
     tree.links.new(bg.outputs[0], output.inputs["Surface"])
 
 
-WORLDS = {"sky": sky_world, "gradient_mix": gradient_mix_world, "noise": noise_world}
+def camera_window_world(tree, output):
+    """Texture Coordinate Camera and Window: Cycles shades the background at the ray's direction
+    plus the camera's position, so Camera is the direction in camera space and Window (a
+    perspective camera) the frame position it projects to, for every ray: the camera sees a
+    left-to-right ramp (Window x), a bottom-to-top one (Window y) and Camera x's right half,
+    and the floor is lit by what those give the directions above it."""
+    coords = tree.nodes.new("ShaderNodeTexCoord")
+    window_x = tree.nodes.new("ShaderNodeTexGradient")  # linear: clamp(x, 0, 1)
+    camera_x = tree.nodes.new("ShaderNodeTexGradient")
+    split = tree.nodes.new("ShaderNodeSeparateXYZ")
+    window_y = tree.nodes.new("ShaderNodeMath")
+    window_y.operation = "MULTIPLY"
+    window_y.use_clamp = True
+    window_y.inputs[1].default_value = 1.0
+    combine = tree.nodes.new("ShaderNodeCombineColor")
+    tree.links.new(coords.outputs["Window"], window_x.inputs["Vector"])
+    tree.links.new(coords.outputs["Camera"], camera_x.inputs["Vector"])
+    tree.links.new(coords.outputs["Window"], split.inputs[0])
+    tree.links.new(split.outputs["Y"], window_y.inputs[0])
+    tree.links.new(window_x.outputs["Fac"], combine.inputs[0])
+    tree.links.new(window_y.outputs[0], combine.inputs[1])
+    tree.links.new(camera_x.outputs["Fac"], combine.inputs[2])
+    bg = background(tree, strength=1.0)
+    tree.links.new(combine.outputs[0], bg.inputs["Color"])
+    tree.links.new(bg.outputs[0], output.inputs["Surface"])
+
+
+WORLDS = {"sky": sky_world, "gradient_mix": gradient_mix_world, "noise": noise_world,
+          "camera_window": camera_window_world}
 
 
 def build(scene, surface):

@@ -1,6 +1,7 @@
 //! Joining the subpaths: every strategy (s, t), light tracing to the camera (t = 1), a
 //! fresh light sample (s = 1) and shadow rays between vertices.
 
+use super::contact::{self, LightEnd};
 use super::vertex::*;
 use super::*;
 use crate::integrator::linking::{self, Gate};
@@ -131,6 +132,13 @@ impl BdptIntegrator {
         }
         let importance = 1.0 / (camera.pixel_area() * cos_cam * cos_cam * cos_cam);
         let mut c = y.beta * f * (importance / (dist * dist));
+        if s == 2
+            && y.contact
+            && let Some(end) = LightEnd::of(&scratch.light[0])
+        {
+            // The path tracer's share of the light at a contact (`contact`).
+            c *= contact::trap_weight(ctx, &y, w, end);
+        }
         if c == Rgb::ZERO {
             return;
         }
@@ -276,18 +284,20 @@ impl BdptIntegrator {
             let p_light = pmf * ls.pdf;
             let restricted =
                 x.restricted || self.restriction.light(index) || self.restriction.crosses(x.p, ls.wi, ls.dist);
-            let w = if gate != Gate::Mis {
-                1.0
-            } else if restricted {
-                // Made by s = 0 and s = 1 alone (`visibility`), as next-event estimation weighs it.
-                if ls.delta { 1.0 } else { power_heuristic(p_light, bsdf.pdf(wo_l, wi_l)) }
-            } else if self.lights.starts(index) {
-                self.weight_s1_infinite(ctx, t, index, &ls, camera, scratch)
-            } else if ls.delta {
-                1.0
-            } else {
-                power_heuristic(p_light, bsdf.pdf(wo_l, wi_l))
-            };
+            let trap = contact::trap_weight(ctx, &x, x.wo, LightEnd::Direction { light: index, d: ls.wi });
+            let w = trap
+                * if gate != Gate::Mis {
+                    1.0
+                } else if restricted {
+                    // Made by s = 0 and s = 1 alone (`visibility`), as next-event estimation weighs it.
+                    if ls.delta { 1.0 } else { power_heuristic(p_light, bsdf.pdf(wo_l, wi_l)) }
+                } else if self.lights.starts(index) {
+                    self.weight_s1_infinite(ctx, t, index, &ls, camera, scratch)
+                } else if ls.delta {
+                    1.0
+                } else {
+                    power_heuristic(p_light, bsdf.pdf(wo_l, wi_l))
+                };
             let c = x.beta * f * tr * ls.li * (self.mis(gate.weight(w)) / p_light);
             return (c, self.first_toward(&bsdf, wo_l, wi_l), index);
         }
@@ -327,8 +337,9 @@ impl BdptIntegrator {
         if tr == Rgb::ZERO {
             return none;
         }
+        let trap = contact::trap_weight(ctx, &x, x.wo, LightEnd::Point { light: index, q: lp.p, n: lp.n });
         if gate == Gate::Whole {
-            return (contribution * tr * self.mis(1.0), self.first_toward(&bsdf, wo_l, wi_l), index);
+            return (contribution * tr * (trap * self.mis(1.0)), self.first_toward(&bsdf, wo_l, wi_l), index);
         }
         if x.restricted || self.restriction.light(index) || self.restriction.between(x.p, lp.p) {
             // Made by s = 0 and s = 1 alone (`visibility`): BSDF sampling against this
@@ -359,7 +370,7 @@ impl BdptIntegrator {
             };
             dens.a[2] = prev.area_density(pdf, x.p);
         }
-        let w = self.mis(dens.weight(1));
+        let w = self.mis(dens.weight(1)) * trap;
         (contribution * tr * w, self.first_toward(&bsdf, wo_l, wi_l), index)
     }
 
@@ -441,7 +452,9 @@ impl BdptIntegrator {
         let (Some(bx), Some(hx), Some(by), Some(hy)) = (x.bsdf, x.hit, y.bsdf, y.hit) else {
             return Rgb::ZERO;
         };
-        if bx.is_delta() || by.is_delta() {
+        // No connection leaves a camera vertex at a contact, nor joins a light vertex that
+        // reached one after a scattering (`contact`; light subpaths do not store those).
+        if bx.is_delta() || by.is_delta() || x.contact || (y.contact && s > 2) {
             return Rgb::ZERO;
         }
         let d = y.p - x.p;
@@ -458,7 +471,14 @@ impl BdptIntegrator {
         }
         let fx = bx.eval(wo_x, wi_x) * wi_x.z.abs();
         let fy = by.eval_adjoint(wo_y, wi_y) * wi_y.z.abs() * shading_correction(&hy, &y.frame, y.wo, -w);
-        let c = x.beta * fx * fy * y.beta / dist2;
+        let mut c = x.beta * fx * fy * y.beta / dist2;
+        if s == 2
+            && y.contact
+            && let Some(end) = LightEnd::of(&scratch.light[0])
+        {
+            // The path tracer's share of the light at a contact (`contact`).
+            c *= contact::trap_weight(ctx, &y, -w, end);
+        }
         if c == Rgb::ZERO {
             return Rgb::ZERO;
         }

@@ -53,6 +53,10 @@ pub struct PathDensities {
     /// Vertex merging's η = N π r² (light subpaths per iteration × the merging disk's
     /// area); 0 without merging (BDPT).
     pub eta_vm: f32,
+    /// Vertices at a contact at the light end, z₁ … z_c (`bdpt::contact`): with c ≥ 1 no
+    /// camera ray from z₁ finds the light (j = 0), with c ≥ 2 only light sampling at z₁
+    /// (j = 1) makes the path.
+    pub contacts: usize,
 }
 
 impl Default for PathDensities {
@@ -64,6 +68,7 @@ impl Default for PathDensities {
             n: 0,
             light_hittable: true,
             eta_vm: 0.0,
+            contacts: 0,
         }
     }
 }
@@ -82,14 +87,25 @@ impl PathDensities {
             return false; // t = 0: the camera cannot be hit
         }
         let light_end = if j == 0 { self.light_hittable } else { self.connectible[j - 1] };
-        light_end && self.connectible[j]
+        light_end && self.connectible[j] && self.contact_allows(j)
+    }
+
+    /// Whether the contacts at the light end (`contacts`) leave strategy `j` able to make
+    /// the path (`bdpt::contact`).
+    #[inline]
+    pub fn contact_allows(&self, j: usize) -> bool {
+        match self.contacts {
+            0 => true,
+            1 => j != 0,
+            _ => j == 1,
+        }
     }
 
     /// Whether vertex merging can produce the path at z_m (an interior, connectible vertex,
     /// m ≥ `MIN_MERGE_VERTEX`).
     #[inline]
     pub fn mergeable(&self, m: usize) -> bool {
-        self.eta_vm > 0.0 && m >= MIN_MERGE_VERTEX && m + 1 < self.n && self.connectible[m]
+        self.eta_vm > 0.0 && m >= MIN_MERGE_VERTEX && m + 1 < self.n && self.connectible[m] && self.contacts < 2
     }
 
     /// (P_m / p_m)²: vertex merging at z_m against connection strategy m.
@@ -135,6 +151,11 @@ impl PathDensities {
     /// Power-heuristic weight of strategy `s`.
     #[inline]
     pub fn weight(&self, s: usize) -> f32 {
+        // A strategy the contacts rule out gives nothing (it makes no such path, except
+        // where the walk's look back and the vertex's contact test disagree).
+        if !self.contact_allows(s) {
+            return 0.0;
+        }
         let w = (1.0 / self.total(s, 1.0)) as f32;
         if w.is_finite() { w } else { 0.0 }
     }
@@ -179,6 +200,43 @@ mod tests {
             }
             let sum: f64 = valid.iter().map(|&j| d.weight(j) as f64).sum();
             assert!((sum - 1.0).abs() < 1e-4, "trial {trial}: n {n}, Σw = {sum}");
+        }
+    }
+
+    /// With contacts at the light end (`bdpt::contact`) the strategies they leave share
+    /// the path (weights and merges sum to 1) and the others get 0: s = 0 for one contact,
+    /// all but s = 1 for more.
+    #[test]
+    fn contacts_leave_their_strategies() {
+        let mut state = 0x0bad_cafeu64;
+        let mut rnd = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((state >> 40) as f32 + 0.5) / (1u64 << 24) as f32
+        };
+        for trial in 0..2000 {
+            let n = 3 + trial % 12;
+            let contacts = 1 + trial % 3;
+            let eta_vm = if trial % 2 == 0 { 0.0 } else { (rnd() * 8.0 - 4.0).exp() };
+            let mut d = PathDensities { n, contacts, eta_vm, ..Default::default() };
+            for i in 0..n {
+                d.a[i] = (rnd() * 20.0 - 10.0).exp();
+                d.b[i] = (rnd() * 20.0 - 10.0).exp();
+                d.connectible[i] = true;
+            }
+            let mut sum = 0.0f64;
+            for j in 0..n {
+                let w = d.weight(j) as f64;
+                match (contacts, j) {
+                    (_, 0) => assert_eq!(w, 0.0, "trial {trial}: s = 0 at a contact"),
+                    (2.., 2..) => assert_eq!(w, 0.0, "trial {trial}: s = {j} beyond a contact's chain"),
+                    _ => sum += w,
+                }
+                if d.mergeable(j) {
+                    assert!(contacts == 1, "trial {trial}: a merge through a contact's chain");
+                    sum += d.merge_weight(j) as f64;
+                }
+            }
+            assert!((sum - 1.0).abs() < 1e-4, "trial {trial}: n {n}, contacts {contacts}, Σw = {sum}");
         }
     }
 

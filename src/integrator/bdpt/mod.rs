@@ -176,6 +176,7 @@ impl BdptIntegrator {
 
 pub mod catcher;
 pub mod connect;
+pub mod contact;
 pub mod passes;
 pub mod path_emitters;
 pub mod subpath;

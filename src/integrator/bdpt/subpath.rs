@@ -216,6 +216,7 @@ impl BdptIntegrator {
             let mut v = Vertex::surface(&s, &sp, wo, beta, medium);
             v.emitted = sp.emitted;
             v.restricted = restricted;
+            v.contact = super::contact::on_contact(ctx, &s);
             v.pdf_fwd = if prev_delta { self.delta_area(&v, cam[i].p) } else { v.area_density(pdf_sa, cam[i].p) };
             cam.push(v);
             let t = cam.len();
@@ -298,6 +299,9 @@ impl BdptIntegrator {
             }
             path.org = offset_ray_origin(s.p, if transmitted { -s.ng } else { s.ng });
             path.dir = wi;
+            // The walk looks back across the surface left, as the path tracer's (`contact`).
+            path.prev_p = s.p;
+            path.prev_tri = hit.tri;
             stats.bounce += 1;
         }
     }
@@ -596,6 +600,8 @@ impl BdptIntegrator {
             Some(v) => v.light.is_some_and(|lp| !lights::is_delta(ctx.scene, lp.light as usize)),
             None => true,
         };
+        dens.contacts =
+            super::contact::light_end_contacts(s + t, |j| if j < s { &light[j] } else { &cam[t - 1 - (j - s)] });
     }
 
     /// Traces the light subpath into `scratch.light`.
@@ -657,10 +663,17 @@ impl BdptIntegrator {
             if i == 0 && !ctx.links(index, s.tri) {
                 break;
             }
+            // A contact is reached only straight from the light (`contact`): arriving after
+            // a scattering, the light subpath ends there unstored.
+            let contact = super::contact::on_contact(ctx, &s);
+            if contact && i > 0 {
+                break;
+            }
             let (dir, beta, medium) = (path.dir, path.beta, path.media);
             let wo = -dir;
             let sp = ctx.shade(&s, wo);
             let mut v = Vertex::surface(&s, &sp, wo, beta, medium);
+            v.contact = contact;
             v.pdf_fwd = if i == 0 && infinite {
                 v.density_from_infinity(light[0].p, self.lights.disk_pdf())
             } else if prev_delta {
@@ -681,6 +694,16 @@ impl BdptIntegrator {
             let transmitted = bs.wi.z < 0.0;
             if transmitted != (wi.dot(s.ng) < 0.0) {
                 break;
+            }
+            // From a contact only through a lobe a shadow ray sees (`contact`), carrying
+            // the path tracer's share of the light there.
+            if contact {
+                if bs.delta {
+                    break;
+                }
+                if let Some(end) = super::contact::LightEnd::of(&light[0]) {
+                    path.beta *= super::contact::trap_weight(ctx, &light[light.len() - 1], wi, end);
+                }
             }
             let f = if bs.delta {
                 if transmitted { bs.f * sp.bsdf.refraction_adjoint_scale() } else { bs.f }

@@ -48,6 +48,8 @@ pub(crate) struct Vertex {
     /// Camera vertices: the camera subpath up to here (its segments and vertices) meets a
     /// restricted object (`visibility`), so only s = 0 and s = 1 make paths through it.
     pub(crate) restricted: bool,
+    /// The surface is at a contact (`contact`: a glass resting on a floor).
+    pub(crate) contact: bool,
 }
 
 impl Vertex {
@@ -68,6 +70,7 @@ impl Vertex {
             light: None,
             emitted: Rgb::ZERO,
             restricted: false,
+            contact: false,
         }
     }
 

@@ -80,7 +80,8 @@ pub(crate) fn push_records(scene: &Scene, light: &[Vertex], eta: f32, out: &mut 
     let Some(lp) = light.first().and_then(|v| v.light) else {
         return;
     };
-    let hittable = !lights::is_delta(scene, lp.light as usize);
+    // A camera ray from z₁ at a contact cannot find the light (`bdpt::contact`): no s = 0.
+    let hittable = !lights::is_delta(scene, lp.light as usize) && !light.get(1).is_some_and(|v| v.contact);
     let mut rec = Recursion::start(eta, light[0].pdf_fwd, !light[0].delta, Some(hittable));
     for i in 1..light.len() {
         let v = &light[i];
@@ -134,7 +135,9 @@ pub(crate) fn merge_camera_path(
         }
         // By reference: a BSDF is 672 bytes, and most camera vertices merge nothing.
         let (Some(bsdf), Some(hit)) = (&x.bsdf, &x.hit) else { continue };
-        if bsdf.is_delta() {
+        // Nothing merges at a contact: light arrives there only straight from its light
+        // (`bdpt::contact`), which merging never carries.
+        if bsdf.is_delta() || x.contact {
             continue;
         }
         let cam_side = rec.side(x.pdf_fwd);

@@ -124,6 +124,9 @@ mod tests {
                 d.connectible[i] = !delta;
             }
             d.connectible[n - 1] = rnd() < 0.8;
+            // A contact at z₁ (`bdpt::contact`) takes s = 0 away: the light side starts
+            // without it.
+            d.contacts = usize::from(rnd() < 0.3);
             // Σ weights = 1 over connections and merges.
             let mut sum = 0.0f64;
             for j in 0..n {
@@ -143,7 +146,7 @@ mod tests {
                     continue;
                 }
                 // Light side: z₀ … z_m.
-                let mut lr = Recursion::start(eta, d.a[0], d.connectible[0], Some(d.light_hittable));
+                let mut lr = Recursion::start(eta, d.a[0], d.connectible[0], Some(d.light_hittable && d.contacts == 0));
                 for i in 1..m {
                     lr.push(d.a[i], d.connectible[i], d.b[i - 1], i >= MIN_MERGE_VERTEX);
                 }

@@ -84,7 +84,8 @@ impl Loader<'_> {
             }
         };
         if let Some(nodes) = &w.nodes {
-            return Ok((Some(self.world_graph(nodes)?), medium));
+            let ortho = doc.cameras().any(|c| matches!(c.projection(), gltf::camera::Projection::Orthographic(_)));
+            return Ok((Some(self.world_graph(nodes, ortho)?), medium));
         }
         let image = match &w.image {
             None => None,
@@ -141,7 +142,13 @@ impl Loader<'_> {
 impl Loader<'_> {
     /// The world's node graph compiled, its images decoded into its own textures, and its
     /// radiance baked into the sampling table (`light::world_graph`).
-    fn world_graph(&mut self, nodes: &crate::shader::graph::NodesExt) -> Result<crate::light::Environment> {
+    /// `ortho`: the document has an orthographic camera (the Window output then differs from
+    /// Cycles' for camera rays, warned).
+    fn world_graph(
+        &mut self,
+        nodes: &crate::shader::graph::NodesExt,
+        ortho: bool,
+    ) -> Result<crate::light::Environment> {
         const NAME: &str = "world";
         let first = self.textures.len();
         let mut images = Vec::with_capacity(nodes.images.len());
@@ -166,9 +173,11 @@ impl Loader<'_> {
             use crate::shader::instructions::{InputKind, Op};
             matches!(op, Op::Input { what: InputKind::Camera | InputKind::Window, .. })
         });
-        if camera {
-            // The world's table is baked at load, before the render's camera is chosen.
-            self.warn("world: Texture Coordinate Camera and Window are not supported on the world: they give 0");
+        if camera && ortho {
+            // Camera and Window are the render camera's view of the direction (`Scene::set_view`
+            // bakes the world again for it); Cycles reads a camera ray's origin for Window
+            // under an orthographic camera, which the world's direction alone cannot give.
+            self.warn("world: Texture Coordinate Window under an orthographic camera reads the direction as a point for camera rays too (Cycles reads the ray's origin there)");
         }
         if lobes || prog.transparent {
             self.warn("world: a BSDF or Transparent shader on the World Output renders nothing (black, as in Cycles)");
