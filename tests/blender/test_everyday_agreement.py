@@ -9,7 +9,9 @@ model allowance (both derived there). What each case found before its fix is in 
 
 import math
 
+import bmesh
 import bpy
+import numpy as np
 import pytest
 
 import scenes
@@ -34,8 +36,58 @@ def lights_with_temperature(scene):
         obj.data.temperature = temperature
 
 
+def checker_image(name):
+    """An 8x8 two-colour checker (8-bit, sRGB, as a painted or PNG texture is), packed."""
+    image = bpy.data.images.new(name, 8, 8)
+    y, x = np.mgrid[0:8, 0:8]
+    odd = ((x + y) % 2 == 1)[..., None]
+    pixels = np.where(odd, (0.9, 0.2, 0.1, 1.0), (0.1, 0.3, 0.9, 1.0)).astype(np.float32)
+    image.pixels.foreach_set(pixels.ravel())
+    image.pack()
+    return image
+
+
+def textured_sphere(scene, projection, interpolation, coordinates):
+    """A smooth sphere filling most of the frame whose Principled base colour is the checker
+    magnified (a texel spans several pixels, so filtering decides much of the image), lit by
+    a sun."""
+    mesh = bpy.data.meshes.new("Ball")
+    bm = bmesh.new()
+    bmesh.ops.create_uvsphere(bm, u_segments=24, v_segments=12, radius=1.0)
+    bm.to_mesh(mesh)
+    bm.free()
+    for poly in mesh.polygons:
+        poly.use_smooth = True
+    mat = scenes.diffuse_material("Checker", 0.8)
+    tree = mat.node_tree
+    tex = tree.nodes.new("ShaderNodeTexImage")
+    tex.image = checker_image("Checker")
+    tex.projection, tex.projection_blend, tex.interpolation = projection, 0.2, interpolation
+    tree.links.new(tree.nodes.new("ShaderNodeTexCoord").outputs[coordinates], tex.inputs["Vector"])
+    tree.links.new(tex.outputs["Color"], tree.nodes["Principled BSDF"].inputs["Base Color"])
+    mesh.materials.append(mat)
+    ball = bpy.data.objects.new("Ball", mesh)
+    ball.location = (-0.2, 0.1, 1.0)  # filling most of the frame
+    scene.collection.objects.link(ball)
+    scenes.light(scene, "Sun", "SUN", rotation_deg=(25.0, 10.0, 0.0), energy=2.0, angle=0.0)
+
+
+def image_linear_box_projection(scene):
+    """Before: Caustic decoded the 8-bit sRGB texels and then blended them, Cycles blends the
+    stored sRGB values and decodes after: between the checker's colours Caustic was lighter
+    (red and blue 1.38 of Cycles in this scene; now 1.0000)."""
+    textured_sphere(scene, "BOX", "Linear", "Object")
+
+
+def image_cubic_flat(scene):
+    """The same for Cubic (B-spline) filtering, which blends more texels (before: 1.45)."""
+    textured_sphere(scene, "FLAT", "Cubic", "Generated")
+
+
 CASES = {
     "lights_with_temperature": lights_with_temperature,
+    "image_linear_box_projection": image_linear_box_projection,
+    "image_cubic_flat": image_cubic_flat,
 }
 
 
