@@ -42,6 +42,14 @@ pub struct CameraSample {
     pub shader_aovs: AovSums,
 }
 
+impl CameraSample {
+    /// The sample of a panoramic camera's position outside its lens (`CameraRay::is_blind`):
+    /// no light and opaque, as Cycles leaves a camera ray of length 0.
+    pub fn blind() -> Self {
+        CameraSample { alpha: 1.0, depth: f32::INFINITY, ..Default::default() }
+    }
+}
+
 /// Sums for one pixel, fixed point (units of 2^-64, see `crate::fixed`).
 #[derive(Clone, Copy, Debug)]
 pub struct PixelAccum {

@@ -9,6 +9,7 @@ out of it or writes differently from what Cycles renders (docs/contract.md):
 | `camera.py` | lens shift and depth of field: `CAUSTIC_camera` |
 | `lights.py` | area lights (`CAUSTIC_lights_area`), light shapes (`CAUSTIC_lights_punctual`), spot |
 |  | angles, light node trees' strength and colour |
+| `light_temperature.py` | punctual lights' temperature folded into their colour while the exporter runs (it fails on it) |
 | `world.py` | the world's Background and environment image: `CAUSTIC_world` |
 | `materials.py` | shader nodes the exporter cannot read, solid glass, coat, warnings |
 | `node_graph.py` | a material's whole shader graph for the renderer: `CAUSTIC_materials_nodes` |
@@ -47,6 +48,7 @@ from .shader_aovs import shader_aov_settings  # noqa: F401
 from .state import ExportState, exporting
 from .motion import add_deformation, sample_motion
 from .shape_keys import shape_keys_exported
+from .light_temperature import temperatures_baked
 from .unsupported import scene_warnings
 from .volumes import VOLUME_EXTENSION, attach_volumes  # noqa: F401
 from .world import WORLD_EXTENSION, world_extension  # noqa: F401
@@ -115,7 +117,7 @@ def export_scene(depsgraph, folder, settings, motion=True, viewport=False, only=
     try:
         with exporting(state), bpy.context.temp_override(scene=scene, view_layer=view_layer), \
                 hooks_enabled(), shape_keys_exported(depsgraph, state.warnings, viewport), \
-                render_depsgraph(depsgraph):
+                temperatures_baked(state.warnings), render_depsgraph(depsgraph):
             bpy.ops.export_scene.gltf(**_exporter_options(filepath, viewport))
     except RuntimeError as err:
         # The operator's error carries the exporter's whole traceback; its last line says why.

@@ -1,5 +1,5 @@
-"""The camera: lens shift and depth of field, which Blender's glTF exporter drops
-(contract: `CAUSTIC_camera`)."""
+"""The camera: lens shift, depth of field and panoramic cameras, which Blender's glTF exporter
+drops (contract: `CAUSTIC_camera`)."""
 
 CAMERA_EXTENSION = "CAUSTIC_camera"
 
@@ -13,6 +13,9 @@ def camera_extension(blender_object, resolution, pixel_aspect=(1.0, 1.0)):
     aperture radius = focal length / (2 f-stop) (focal length in mm, scene units in metres;
     1 / (2 f-stop) for an orthographic camera), focus distance along the viewing axis (to the
     focus object's origin when there is one).
+    A panoramic camera, for which the exporter writes no glTF camera at all, goes out whole:
+    its type and settings (`panorama_extension`), its clip start and end, and its shift unscaled
+    (Cycles moves a panoramic camera's unit viewplane by the shift itself).
     Returns (value or None, warnings).
     """
     cam = blender_object.data
@@ -26,11 +29,12 @@ def camera_extension(blender_object, resolution, pixel_aspect=(1.0, 1.0)):
     else:
         shift = [cam.shift_x * yr / xr, cam.shift_y]
     value = {}
+    if cam.type == "PANO":
+        shift = [cam.shift_x, cam.shift_y]
+        value["panorama"] = panorama_extension(cam, xr, yr)
+        value["clip"] = [float(cam.clip_start), float(cam.clip_end)]
     if cam.shift_x != 0.0 or cam.shift_y != 0.0:
         value["shift"] = [float(s) for s in shift]
-    if cam.type == "PANO":
-        warnings.append(f"camera '{blender_object.name}': panoramic cameras are not supported; "
-                        "rendered as the exporter's perspective camera")
     dof = cam.dof
     if dof.use_dof:
         fstop = max(float(dof.aperture_fstop), 1e-5)
@@ -53,3 +57,37 @@ def camera_extension(blender_object, resolution, pixel_aspect=(1.0, 1.0)):
         if dof.aperture_ratio != 1.0:
             value["aperture_ratio"] = float(dof.aperture_ratio)
     return (value or None), warnings
+
+
+def panorama_extension(cam, xr, yr):
+    """`CAUSTIC_camera.panorama`: the panoramic type and the settings Cycles reads for it
+    (blender/camera.cpp). The equisolid and polynomial fisheyes' sensor is fitted to the frame
+    as Cycles fits it: the fitted side keeps the sensor size, the other follows the frame's
+    aspect (`xr`, `yr`: resolution times pixel aspect); Auto takes the sensor width and fits it
+    to the longer side."""
+    kind = cam.panorama_type.lower()
+    value = {"type": kind}
+    if kind in ("fisheye_equidistant", "fisheye_equisolid", "fisheye_lens_polynomial"):
+        value["fov"] = float(cam.fisheye_fov)
+    if kind in ("fisheye_equisolid", "fisheye_lens_polynomial"):
+        if cam.sensor_fit == "AUTO":
+            horizontal, size = xr > yr, cam.sensor_width
+        elif cam.sensor_fit == "HORIZONTAL":
+            horizontal, size = True, cam.sensor_width
+        else:
+            horizontal, size = False, cam.sensor_height
+        value["sensor"] = [float(size), float(size * yr / xr)] if horizontal else [float(size * xr / yr), float(size)]
+    if kind == "fisheye_equisolid":
+        value["lens"] = float(cam.fisheye_lens)
+    elif kind == "fisheye_lens_polynomial":
+        value["polynomial"] = [float(getattr(cam, f"fisheye_polynomial_k{i}")) for i in range(5)]
+    elif kind == "equirectangular":
+        value["latitude"] = [float(cam.latitude_min), float(cam.latitude_max)]
+        value["longitude"] = [float(cam.longitude_min), float(cam.longitude_max)]
+    elif kind == "central_cylindrical":
+        radius = float(cam.central_cylindrical_radius)
+        value["u_range"] = [float(cam.central_cylindrical_range_u_min), float(cam.central_cylindrical_range_u_max)]
+        # Cycles divides the height range by the cylinder's radius (blender/camera.cpp).
+        value["v_range"] = [float(cam.central_cylindrical_range_v_min) / radius,
+                            float(cam.central_cylindrical_range_v_max) / radius]
+    return value

@@ -42,6 +42,9 @@ pub fn fill(
     pixel_sample: (u32, u32, u32, u32),
     stats: &mut RayStats,
 ) {
+    if ray.is_blind() {
+        return; // outside a panoramic camera's lens: nothing seen
+    }
     let org = if ray.near > 0.0 { ray.org + ray.dir * ray.near } else { ray.org };
     let Some(hit) = ctx.intersect(org, ray.dir, ray.far - ray.near) else {
         return; // the defaults: mist 1, everything else 0

@@ -646,6 +646,9 @@ impl Integrator {
         pixel_sample: (u32, u32, u32, u32),
         stats: &mut RayStats,
     ) -> CameraSample {
+        if ray.is_blind() {
+            return CameraSample::blind();
+        }
         match (self, scratch) {
             (Integrator::Path(p), _) => p.li(ctx, ray, sampler, |q| camera.depth(q), stats),
             (Integrator::Photon(p), _) => p.li(ctx, ray, sampler, |q| camera.depth(q), stats),

@@ -43,6 +43,9 @@ pub fn fill(
     pixel_sample: (u32, u32, u32, u32),
     stats: &mut RayStats,
 ) {
+    if ray.is_blind() {
+        return; // outside a panoramic camera's lens: nothing seen
+    }
     let aovs = &ctx.scene.shader_aovs;
     let mut org = if ray.near > 0.0 { ray.org + ray.dir * ray.near } else { ray.org };
     let mut tmax = ray.far - ray.near;

@@ -1,6 +1,8 @@
 //! Cameras: glTF perspective and orthographic projections, placed by their node, with
-//! Blender's lens shift and a thin lens for depth of field (`CAUSTIC_camera`).
+//! Blender's lens shift and a thin lens for depth of field (`CAUSTIC_camera`), and Blender's
+//! panoramic cameras (`panorama.rs`).
 
+use super::panorama::Panorama;
 use crate::sampling::warp::{concentric_disk, regular_polygon};
 use glam::{Mat4, Vec2, Vec3};
 
@@ -47,6 +49,9 @@ pub enum Projection {
         /// Half height of the view.
         ymag: f32,
     },
+    /// One of Blender's panoramic cameras: clipping distances run along each ray, light
+    /// tracing cannot reach it (no projection onto the film is implemented).
+    Panoramic(Panorama),
 }
 
 /// A camera; it looks down its local -Z with +Y up, as glTF cameras do.
@@ -97,6 +102,13 @@ impl CameraRay {
     pub fn unclipped(org: Vec3, dir: Vec3) -> Self {
         CameraRay { org, dir, near: 0.0, far: f32::INFINITY }
     }
+
+    /// True for a panoramic camera's sample outside its lens (a fisheye's circle, a mirror
+    /// ball): no direction, so no path; Cycles gives such a sample no light (black, opaque).
+    #[inline]
+    pub fn is_blind(&self) -> bool {
+        self.dir == Vec3::ZERO
+    }
 }
 
 impl Camera {
@@ -126,6 +138,7 @@ impl Camera {
         match self.projection {
             Projection::Perspective { aspect, .. } => aspect,
             Projection::Orthographic { xmag, ymag } => Some(xmag / ymag),
+            Projection::Panoramic(_) => None,
         }
     }
 }
@@ -141,6 +154,9 @@ pub struct CameraRays {
     width: f32,
     height: f32,
     ortho: bool,
+    /// The panoramic projection, if the camera has one (then `half` and `center` only serve
+    /// the shader's Window coordinates, and `cam.shift` offsets the viewplane unscaled).
+    pano: Option<Panorama>,
 }
 
 impl CameraRays {
@@ -150,15 +166,17 @@ impl CameraRays {
     /// aspect into it), else the image's.
     pub fn new(cam: &Camera, width: u32, height: u32) -> Self {
         let image_aspect = width as f32 / height as f32;
-        let (half, ortho) = match cam.projection {
+        let (half, ortho, pano) = match cam.projection {
             Projection::Perspective { yfov, aspect } => {
                 let h = (0.5 * yfov).tan();
-                (Vec2::new(h * aspect.unwrap_or(image_aspect), h), false)
+                (Vec2::new(h * aspect.unwrap_or(image_aspect), h), false, None)
             }
-            Projection::Orthographic { xmag, ymag } => (Vec2::new(xmag, ymag), true),
+            Projection::Orthographic { xmag, ymag } => (Vec2::new(xmag, ymag), true, None),
+            // Cycles' panoramic viewplane: the unit square over the frame.
+            Projection::Panoramic(p) => (Vec2::splat(0.5), false, Some(p)),
         };
         let center = cam.shift * 2.0 * half;
-        CameraRays { cam: cam.clone(), half, center, width: width as f32, height: height as f32, ortho }
+        CameraRays { cam: cam.clone(), half, center, width: width as f32, height: height as f32, ortho, pano }
     }
 
     /// True when rays need an aperture sample (depth of field).
@@ -179,6 +197,9 @@ impl CameraRays {
     /// [`sample_ray`](Self::sample_ray); this is the pinhole ray (footprints, tests).
     #[inline]
     pub fn ray(&self, x: f32, y: f32) -> (Vec3, Vec3) {
+        if let Some(p) = &self.pano {
+            return self.panoramic(p, x, y, Vec2::ZERO).unwrap_or((self.cam.position, Vec3::ZERO));
+        }
         let s = self.plane(x, y);
         let c = &self.cam;
         if self.ortho {
@@ -195,6 +216,9 @@ impl CameraRays {
         let Some(lens) = &self.cam.lens else {
             return self.ray(x, y);
         };
+        if let Some(p) = &self.pano {
+            return self.panoramic(p, x, y, lens.sample(u_lens)).unwrap_or((self.cam.position, Vec3::ZERO));
+        }
         let s = self.plane(x, y);
         let c = &self.cam;
         let a = lens.sample(u_lens);
@@ -210,12 +234,32 @@ impl CameraRays {
         }
     }
 
+    /// A panoramic camera's ray through film position (x, y) from the aperture point `a`
+    /// (camera units): world-space (origin, unit direction), None outside the lens.
+    fn panoramic(&self, p: &Panorama, x: f32, y: f32, a: Vec2) -> Option<(Vec3, Vec3)> {
+        // Cycles' raster y runs up the frame; the shift moves the unit viewplane unscaled.
+        let (u, v) = (x / self.width + self.cam.shift.x, 1.0 - y / self.height + self.cam.shift.y);
+        let fd = self.cam.lens.map_or(1.0, |l| l.focus_distance);
+        let (o, d) = p.ray(u, v, a, fd)?;
+        let c = &self.cam;
+        let world = |w: Vec3| {
+            let l = p.to_local(w);
+            c.right * l.x + c.up * l.y + c.back * l.z
+        };
+        Some((c.position + world(o), world(d).normalize()))
+    }
+
     /// [`sample_ray`](Self::sample_ray) with the distances along it at which it crosses the
-    /// clipping planes (as Cycles clips: planes perpendicular to the viewing axis).
+    /// clipping planes (as Cycles clips: planes perpendicular to the viewing axis; a
+    /// panoramic camera's clipping distances run along the ray). A panoramic camera's
+    /// position outside its lens gives a [blind](CameraRay::is_blind) ray.
     #[inline]
     pub fn sample_clipped(&self, x: f32, y: f32, u_lens: Vec2) -> CameraRay {
         let (org, dir) = self.sample_ray(x, y, u_lens);
         let (near, far) = self.cam.clip;
+        if self.pano.is_some() {
+            return CameraRay { org, dir, near, far };
+        }
         if near == 0.0 && far == f32::INFINITY {
             return CameraRay::unclipped(org, dir);
         }
@@ -250,6 +294,9 @@ impl CameraRays {
             Some(m) => m.delta(t).inverse().transform_point3(p),
             None => p,
         };
+        if self.pano.is_some() {
+            return None; // no panoramic projection onto the film: the Vector pass is zero
+        }
         let w = p - c.position;
         let s = if self.ortho {
             Vec2::new(w.dot(c.right), w.dot(c.up))
@@ -269,15 +316,21 @@ impl CameraRays {
         self.cam.clip
     }
 
-    /// Camera-space depth (distance along the viewing axis) of a world point.
+    /// Camera-space depth (distance along the viewing axis) of a world point; a panoramic
+    /// camera's is the distance from the camera (Cycles' `camera_z_depth`).
     #[inline]
     pub fn depth(&self, p: Vec3) -> f32 {
+        if self.pano.is_some() {
+            return (p - self.cam.position).length();
+        }
         (self.cam.position - p).dot(self.cam.back)
     }
 
-    /// True for an orthographic camera (a delta in direction: light tracing cannot reach it).
-    pub fn is_orthographic(&self) -> bool {
-        self.ortho
+    /// Whether light tracing can connect to the camera ([`project`](Self::project) finds
+    /// film positions): not an orthographic camera (a delta in direction) nor a panoramic
+    /// one (no projection onto its film is implemented), whose paths come from the camera.
+    pub fn light_tracing_reaches(&self) -> bool {
+        !self.ortho && self.pano.is_none()
     }
 
     /// Where a world point appears on a perspective camera's film when seen from the
@@ -289,7 +342,7 @@ impl CameraRays {
     /// in focus, projected from the lens centre, which inverts [`sample_ray`](Self::sample_ray).
     #[inline]
     pub fn project(&self, p: Vec3, eye: Vec3, margin: f32) -> Option<(Vec2, f32, f32)> {
-        if self.ortho {
+        if !self.light_tracing_reaches() {
             return None;
         }
         let c = &self.cam;
@@ -340,7 +393,7 @@ impl CameraRays {
     /// positions are uniform over the whole frame (the density bidirectional MIS uses).
     #[inline]
     pub fn pdf_dir(&self, cos_theta: f32) -> f32 {
-        if self.ortho || !(cos_theta > 0.0) {
+        if !self.light_tracing_reaches() || !(cos_theta > 0.0) {
             return 0.0;
         }
         1.0 / (4.0 * self.half.x * self.half.y * cos_theta * cos_theta * cos_theta)

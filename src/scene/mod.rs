@@ -12,6 +12,7 @@ pub mod light_visibility;
 pub mod linking;
 pub mod material;
 pub mod mesh;
+pub mod panorama;
 pub mod shader_aovs;
 pub mod shading;
 pub mod texture;
@@ -24,6 +25,7 @@ use serde::Serialize;
 pub use camera::{Camera, Lens, Projection};
 pub use material::{AlphaMode, Material};
 pub use mesh::Mesh;
+pub use panorama::Panorama;
 pub use texture::{TexRef, Texture};
 
 /// Render settings stored in the scene (`scenes[i].extras.caustic`), all optional;

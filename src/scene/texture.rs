@@ -1,5 +1,10 @@
 //! Decoded textures and their lookup: wrap modes, bilinear or nearest filtering,
 //! sRGB decoding, `KHR_texture_transform`.
+//!
+//! An 8-bit sRGB image is filtered as stored and decoded after, as Cycles does (it keeps such
+//! images sRGB-encoded, `compress_as_srgb`, and converts the interpolated value in
+//! `svm_image_texture`): between a dark and a light texel the blend is darker than a blend of
+//! decoded texels.
 
 use glam::{Mat3, Vec2, Vec3, Vec4};
 
@@ -58,6 +63,12 @@ fn srgb_table() -> &'static [f32; 256] {
     })
 }
 
+/// sRGB → linear for one encoded value in [0, 1] (the table's formula, for filtered values).
+#[inline]
+fn srgb_to_linear(c: f32) -> f32 {
+    if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
+}
+
 /// Texel index `i` of a row or column of `n` texels under wrap `mode`.
 #[inline]
 pub fn wrap(i: i64, n: u32, mode: Wrap) -> u32 {
@@ -93,6 +104,30 @@ impl Texture {
         }
     }
 
+    /// RGBA of texel (x, y) as stored, wrapped by the sampler's modes: an 8-bit sRGB image's
+    /// RGB still encoded (filter these, then [`decode`](Self::decode)).
+    #[inline]
+    pub fn stored_texel(&self, x: i64, y: i64) -> Vec4 {
+        let x = wrap(x, self.width, self.wrap_s);
+        let y = wrap(y, self.height, self.wrap_t);
+        let i = (y * self.width + x) as usize;
+        if !self.hdr.is_empty() {
+            return self.hdr[i];
+        }
+        let t = self.texels[i];
+        Vec4::new(t[0] as f32, t[1] as f32, t[2] as f32, t[3] as f32) / 255.0
+    }
+
+    /// Linear RGBA of a value filtered from [`stored_texel`](Self::stored_texel)s.
+    #[inline]
+    pub fn decode(&self, v: Vec4) -> Vec4 {
+        if self.srgb && self.hdr.is_empty() {
+            Vec4::new(srgb_to_linear(v.x), srgb_to_linear(v.y), srgb_to_linear(v.z), v.w)
+        } else {
+            v
+        }
+    }
+
     /// Filtered linear RGBA at texture coordinate `uv`.
     #[inline]
     pub fn lookup(&self, uv: Vec2) -> Vec4 {
@@ -107,9 +142,9 @@ impl Texture {
         let (x0, y0) = (x.floor(), y.floor());
         let (fx, fy) = (x - x0, y - y0);
         let (x0, y0) = (x0 as i64, y0 as i64);
-        let a = self.texel(x0, y0).lerp(self.texel(x0 + 1, y0), fx);
-        let b = self.texel(x0, y0 + 1).lerp(self.texel(x0 + 1, y0 + 1), fx);
-        a.lerp(b, fy)
+        let a = self.stored_texel(x0, y0).lerp(self.stored_texel(x0 + 1, y0), fx);
+        let b = self.stored_texel(x0, y0 + 1).lerp(self.stored_texel(x0 + 1, y0 + 1), fx);
+        self.decode(a.lerp(b, fy))
     }
 
     /// Mean linear RGB over the image (for light power estimates).
@@ -186,6 +221,19 @@ mod tests {
         assert_eq!(tex(Wrap::Clamp).lookup(Vec2::new(1.25, 0.5)).x, 1.0);
         assert_eq!(tex(Wrap::Mirror).lookup(Vec2::new(1.25, 0.5)).x, 1.0);
         assert_eq!(tex(Wrap::Mirror).lookup(Vec2::new(1.75, 0.5)).x, 0.0);
+    }
+
+    #[test]
+    fn srgb_images_are_filtered_encoded_and_decoded_after() {
+        // Half way between black and white: Cycles blends the encoded 0 and 1 and decodes
+        // 0.5 (0.214), where blending the decoded texels would give 0.5.
+        let t = Texture { srgb: true, nearest: false, wrap_s: Wrap::Clamp, ..tex(Wrap::Clamp) };
+        let mid = t.lookup(Vec2::new(0.5, 0.5));
+        let want = ((0.5f32 + 0.055) / 1.055).powf(2.4);
+        assert!((mid.x - want).abs() < 1e-6, "{} vs {want}", mid.x);
+        assert_eq!(mid.w, 1.0, "alpha is linear");
+        // A texel centre is the table's value exactly.
+        assert_eq!(t.lookup(Vec2::new(0.75, 0.5)), t.texel(1, 0));
     }
 
     #[test]

@@ -1,7 +1,8 @@
 //! The Image Texture node: Blender's projections (Flat, Box with its blend, Sphere, Tube),
 //! interpolations (Closest, Linear, Cubic B-spline; Smart as Cubic) and extensions
 //! (Repeat, Extend, Clip, Mirror), as Cycles' `svm/image.h` and its CPU image lookup.
-//! Texels are the scene's decoded textures (8-bit, sRGB decoded by `Texture::texel`).
+//! Texels are the scene's textures; an 8-bit sRGB image is filtered as stored and decoded
+//! after (`Texture::decode`), as Cycles' `svm_image_texture` converts the interpolated value.
 
 use super::geom::Reg;
 use crate::scene::texture::{Texture, Wrap, wrap};
@@ -63,6 +64,8 @@ pub struct ImageOp {
     pub alpha: Reg,
 }
 
+/// Texel (x, y) under the node's extension, as stored (`Texture::stored_texel`: an 8-bit sRGB
+/// image's RGB still encoded; `lookup` decodes after filtering, as Cycles).
 fn texel(t: &Texture, x: i64, y: i64, ext: Extension) -> Vec4 {
     let (w, h) = (t.width as i64, t.height as i64);
     let (x, y) = match ext {
@@ -77,7 +80,7 @@ fn texel(t: &Texture, x: i64, y: i64, ext: Extension) -> Vec4 {
         Extension::Mirror => (wrap(x, t.width, Wrap::Mirror) as i64, wrap(y, t.height, Wrap::Mirror) as i64),
     };
     // In range: the texture's own wrap mode leaves the index unchanged.
-    t.texel(x, y)
+    t.stored_texel(x, y)
 }
 
 /// Cubic B-spline weights for fraction t.
@@ -102,7 +105,7 @@ pub fn lookup(t: &Texture, uv: Vec2, interp: Interp, ext: Extension) -> Vec4 {
     }
     // Texel rows are stored top first: Blender's v = 1 is row 0.
     let (fx, fy) = (uv.x * t.width as f32, (1.0 - uv.y) * t.height as f32);
-    match interp {
+    let stored = match interp {
         Interp::Closest => texel(t, fx.floor() as i64, fy.floor() as i64, ext),
         Interp::Linear => {
             let (x, y) = (fx - 0.5, fy - 0.5);
@@ -126,7 +129,8 @@ pub fn lookup(t: &Texture, uv: Vec2, interp: Interp, ext: Extension) -> Vec4 {
             }
             c
         }
-    }
+    };
+    t.decode(stored)
 }
 
 /// Cycles' box-projection weights for the object-space normal `n` and `blend`.

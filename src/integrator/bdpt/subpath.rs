@@ -33,7 +33,8 @@ impl BdptIntegrator {
         cam.push(v0);
         let mut path = PathState::camera(ray, ctx.camera_media);
         // Solid-angle density of the direction just sampled (0 after a delta lobe).
-        let mut pdf_sa = if camera.is_orthographic() { 1.0 } else { camera.pdf_dir((-camera.camera().back).dot(dir)) };
+        let mut pdf_sa =
+            if !camera.light_tracing_reaches() { 1.0 } else { camera.pdf_dir((-camera.camera().back).dot(dir)) };
         let mut prev_delta = false;
         *scratch.split = crate::integrator::catcher::Split::new(ctx.catcher.is_some());
         stats.camera += 1;
@@ -594,7 +595,7 @@ impl BdptIntegrator {
             let j = s + m;
             dens.a[j] = v.pdf_rev;
             dens.b[j] = v.pdf_fwd;
-            dens.connectible[j] = if v.kind == Kind::Camera { !camera.is_orthographic() } else { !v.delta };
+            dens.connectible[j] = if v.kind == Kind::Camera { camera.light_tracing_reaches() } else { !v.delta };
         }
         dens.light_hittable = match light.first() {
             Some(v) => v.light.is_some_and(|lp| !lights::is_delta(ctx.scene, lp.light as usize)),

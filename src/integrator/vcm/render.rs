@@ -121,7 +121,7 @@ impl VcmIntegrator {
         let want_aovs = job.passes.shader_aov_channels() > 0;
         let shutter = ctx.scene.motion.as_ref().and_then(|m| m.shutter).filter(|_| ctx.blurs_motion);
         let max_depth = self.bdpt.max_depth;
-        let camera_connectible = !camera.is_orthographic();
+        let camera_connectible = camera.light_tracing_reaches();
         let mut map = MergeMap::default();
         let mut rows: Vec<LightRow> = (0..h)
             .map(|_| LightRow {
@@ -220,7 +220,9 @@ impl VcmIntegrator {
                             let _time = crate::motion::TimeScope::enter(time);
                             let mut target = FilmTarget { camera, filter: &job.filter, splats: &mut buf };
                             let pixel_sample = (job.seed, px, py, index);
-                            let mut s = if merging {
+                            let mut s = if ray.is_blind() {
+                                CameraSample::blind()
+                            } else if merging {
                                 // The pixel's light subpath from the light pass, not traced again.
                                 let row = &rows_ref[(py - y0) as usize].subpaths;
                                 let light = (row, (px - x0) as usize);

@@ -193,6 +193,32 @@ pub(super) struct CameraExt {
     #[serde(default)]
     pub(super) blade_rotation: f32,
     pub(super) aperture_ratio: Option<f32>,
+    /// A panoramic camera, which glTF cannot say (the node then has no glTF camera).
+    pub(super) panorama: Option<PanoramaExt>,
+    /// A panoramic camera's clip start and end (Blender's), along each ray.
+    pub(super) clip: Option<[f32; 2]>,
+}
+
+/// `CAUSTIC_camera.panorama`: Blender's panoramic camera type and the settings it reads.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct PanoramaExt {
+    #[serde(rename = "type")]
+    pub(super) kind: String,
+    /// Fisheyes' field of view (radians).
+    pub(super) fov: Option<f32>,
+    /// The equisolid fisheye's focal length (mm).
+    pub(super) lens: Option<f32>,
+    /// The sensor's width and height (mm) as fitted to the frame (equisolid, polynomial).
+    pub(super) sensor: Option<[f32; 2]>,
+    /// Equirectangular: minimum and maximum latitude and longitude (radians).
+    pub(super) latitude: Option<[f32; 2]>,
+    pub(super) longitude: Option<[f32; 2]>,
+    /// The lens polynomial's k0..k4.
+    pub(super) polynomial: Option<[f32; 5]>,
+    /// Central cylindrical: the angle's range (radians) and the height's over the radius.
+    pub(super) u_range: Option<[f32; 2]>,
+    pub(super) v_range: Option<[f32; 2]>,
 }
 
 /// `CAUSTIC_lights_punctual` on a light's node: Blender's light shape parameters.

@@ -398,6 +398,10 @@ impl<'a> Loader<'a> {
                 let blender = node.extension_value("CAUSTIC_camera").cloned();
                 cameras.push(self.camera(&c, &node_name, world, blender)?);
                 camera_nodes.push(*node_index);
+            } else if let Some(v) = node.extension_value("CAUSTIC_camera").filter(|v| v.get("panorama").is_some()) {
+                // A panoramic camera: the exporter wrote no glTF camera for it.
+                cameras.push(self.panoramic_camera(&node_name, world, v.clone())?);
+                camera_nodes.push(*node_index);
             }
             if let Some(l) = node.light() {
                 let blender = node.extension_value("CAUSTIC_lights_punctual").cloned();
@@ -621,6 +625,7 @@ impl<'a> Loader<'a> {
                     kind: match c.projection {
                         Projection::Perspective { .. } => "perspective".into(),
                         Projection::Orthographic { .. } => "orthographic".into(),
+                        Projection::Panoramic(p) => format!("panoramic {p:?}"),
                     },
                     shift: (c.shift != Vec2::ZERO).then(|| c.shift.to_array()),
                     depth_of_field: c.lens.map(|l| {

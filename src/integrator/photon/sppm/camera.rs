@@ -56,6 +56,11 @@ pub(super) fn camera_path(
     out: &mut CameraSample,
     caught: &mut CatcherSplit,
 ) -> (Rgb, Option<VisiblePoint>, f32) {
+    if ray.is_blind() {
+        // Outside a panoramic camera's lens: no path, black and opaque (`CameraSample::blind`).
+        pend.alpha += 1.0;
+        return (Rgb::ZERO, None, f32::INFINITY);
+    }
     let Flags { transparent_background, passes, grouping } = flags;
     let groups = &ctx.scene.light_groups;
     let mut tally = Tally::default();
