@@ -10,6 +10,7 @@
 //! ends within 1e-4 of the origin and its error is not bounded, and the triangle test
 //! settles the sign of a distance that its f32 rounding cannot decide in f64.
 
+mod clearance;
 mod planes;
 pub mod touching;
 mod traverse;
