@@ -190,4 +190,3 @@ mod tests {
         assert_eq!((tr.x, tr.z), (1.0, 1.0));
     }
 }
-
