@@ -56,7 +56,7 @@ fn main() {
     println!(
         "{{\"triangles\": {}, \"flagged\": {}, \"touching_seconds\": {flag_s:.3}, \"accel_build_seconds_with_flags\": {build_s:.3}, \"bvh_core_seconds\": {:.3}}}",
         tris.len(),
-        flags.iter().filter(|&&f| f).count(),
+        flags.slot.iter().filter(|&&k| k != caustic::accel::touching::NEVER).count(),
         accel.build_time.as_secs_f64()
     );
 }

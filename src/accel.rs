@@ -10,6 +10,7 @@
 //! ends within 1e-4 of the origin and its error is not bounded, and the triangle test
 //! settles the sign of a distance that its f32 rounding cannot decide in f64.
 
+mod clearance;
 mod planes;
 pub mod touching;
 mod traverse;
@@ -46,10 +47,10 @@ pub struct Accel {
     /// Triangles placed anew since the build (`relocate`), in a BVH of their own; None for
     /// every render but the viewport's after an object moved or was shown again.
     moved: Option<Box<Accel>>,
-    /// Per scene triangle: another surface lies within the look back's reach
-    /// (`touching`); ids beyond it (moving triangles, anything after `relocate`) count as
-    /// touching.
-    touching: Vec<bool>,
+    /// Per scene triangle: whether and where another surface lies within the look back's
+    /// reach (`touching`); ids beyond it (moving triangles, anything after `relocate`)
+    /// count as touching everywhere.
+    touching: touching::Touching,
     /// Core build time.
     pub build_time: Duration,
 }
@@ -62,11 +63,11 @@ impl Accel {
         for id in &mut accel.ids {
             *id = ids[*id as usize];
         }
-        let mut touching = vec![true; ids.iter().max().map_or(0, |&m| m as usize + 1)];
-        for (&id, &t) in ids.iter().zip(&accel.touching) {
-            touching[id as usize] = t;
+        let mut slot = vec![touching::ALWAYS; ids.iter().max().map_or(0, |&m| m as usize + 1)];
+        for (&id, &t) in ids.iter().zip(&accel.touching.slot) {
+            slot[id as usize] = t;
         }
-        accel.touching = touching;
+        accel.touching.slot = slot;
         accel
     }
 
@@ -113,7 +114,7 @@ impl Accel {
         let ids: Vec<u32> = placed.iter().map(|(id, _)| *id).collect();
         self.moved = (!placed.is_empty()).then(|| Box::new(Accel::build_with_ids(&corners, &ids)));
         // Moved triangles may now rest on others: every triangle looks back again.
-        self.touching.clear();
+        self.touching.slot.clear();
         self.build_time = start.elapsed();
     }
 
@@ -121,7 +122,15 @@ impl Accel {
     /// anything: a triangle facing the other way lies within its reach.
     #[inline]
     pub fn touches(&self, tri: u32) -> bool {
-        self.touching.get(tri as usize).copied().unwrap_or(true)
+        self.touching.slot.get(tri as usize).is_none_or(|&k| k != touching::NEVER)
+    }
+
+    /// [`touches`](Self::touches) at point `p` of scene triangle `tri` (the point a ray
+    /// leaves): whether an opposite-facing triangle's box lies within the look back's
+    /// reach of it.
+    #[inline]
+    pub fn touches_at(&self, tri: u32, p: Vec3) -> bool {
+        self.touching.slot.get(tri as usize).is_none_or(|&k| self.touching.may_touch_at(k, p))
     }
 
     /// Closest hit along a unit-direction ray in (0, tmax); `accept(tri, b1, b2)`

@@ -20,7 +20,7 @@ use obvhs::cwbvh::node::CwBvhNode;
 #[derive(Clone, Copy)]
 #[repr(C, align(32))]
 pub(crate) struct NodePlanes {
-    planes: [[f32; 8]; 6],
+    pub(super) planes: [[f32; 8]; 6],
 }
 
 /// The largest f32 not above `x`.

@@ -454,6 +454,17 @@ impl<'a> SceneContext<'a> {
         self.accel.intersect_except(org, dir, tmax, skip, &self.masked, self.accepts(ray))
     }
 
+    /// A radius (at most `cap`) around `p` that no surface a closest-hit query can return
+    /// comes within (`Accel::clearance`); 0 with moving triangles or strands, which it does not see.
+    /// The subsurface walk skips the query for steps inside it.
+    #[inline]
+    pub fn clearance(&self, p: Vec3, cap: f32) -> f32 {
+        match (self.motion, &self.scene.curves.bvh) {
+            (None, None) => self.accel.clearance(p, cap),
+            _ => 0.0,
+        }
+    }
+
     /// The hit filter of a ray of kind `ray`: visibility and alpha masks.
     #[inline]
     fn accepts(&self, ray: RayMask) -> impl Fn(u32, f32, f32) -> bool + '_ {

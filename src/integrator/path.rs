@@ -692,6 +692,7 @@ impl PathIntegrator {
         let mut rng = WalkRng::new(u[3], s.tri);
         crate::medium::walk::random_walk(
             |o, d, t| ctx.intersect(o, d, t),
+            |p, cap| ctx.clearance(p, cap),
             offset_ray_origin(s.p, -s.ng),
             entry,
             &walk,

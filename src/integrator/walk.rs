@@ -281,8 +281,9 @@ impl PathState {
         if self.prev_tri == NO_OBJECT || self.prev_tri as usize >= ctx.scene.mesh.triangles.len() {
             return None;
         }
-        // No triangle facing the other way within reach: the look back would find none.
-        if !ctx.accel.touches(self.prev_tri) {
+        // No triangle facing the other way within reach of the point left: the look back
+        // would find none.
+        if !ctx.accel.touches_at(self.prev_tri, self.prev_p) {
             return None;
         }
         let offset = self.org - self.prev_p;
