@@ -72,10 +72,34 @@ fn glass_caustic_vcm_matches_path_tracing() {
 
 /// Under the HDRI sky (an importance-sampled image with a sun in it) light subpaths start
 /// on a disk beyond the scene, in directions drawn from the sky: their vertices are
-/// connected and merged, and VCM agrees with the path tracer.
+/// connected and merged, and VCM agrees with the path tracer. Here the pilot gives a light
+/// subpath to a share of the camera samples only (`light_subpath_share_follows_the_scene`),
+/// so this also checks the weights with sample counts below 1.
 #[test]
 fn hdri_sky_vcm_matches_path_tracing() {
     vcm_matches_path("hdri", &root().join("scenes/hdri_sky.gltf"), (48, 27), (8, 32), 8, &[]);
+}
+
+/// The share of camera samples with a light subpath (`vcm::share`): under the sky, where
+/// the light subpaths give little, below 1; on the Cornell box, where light tracing and
+/// merging carry much of the image, 1 (and then the images are those of before the rule).
+#[test]
+fn light_subpath_share_follows_the_scene() {
+    let dir = temp_dir();
+    let share = |scene: &str, res: &str| {
+        let out = dir.path().join("s.exr");
+        let scene = root().join(scene);
+        let (s, o) = (scene.to_str().unwrap(), out.to_str().unwrap());
+        let args =
+            ["render", s, "-o", o, "--integrator", "vcm", "--resolution", res, "--spp", "1", "--progress", "json"];
+        let r = run(&args, LIMIT);
+        assert_eq!(r.code, Some(0), "{}", r.stderr);
+        let st = r.summary().unwrap()["stats"].clone();
+        st["photons"]["vcm"]["light_share"].as_f64().unwrap_or_else(|| panic!("no light_share: {st}"))
+    };
+    let sky = share("scenes/hdri_sky.gltf", "48x27");
+    assert!((1.0 / 16.0..0.7).contains(&sky), "hdri sky: {sky}");
+    assert_eq!(share("scenes/cornell_box.gltf", "48x48"), 1.0);
 }
 
 /// Media and subsurface scattering (scenes/subsurface.gltf: a random-walk marble blob and

@@ -33,7 +33,9 @@ impl BdptIntegrator {
             // s = 1: a fresh light point sampled for this camera vertex.
             let [u_pick, u_x, u_y, _] = sampler.next_4d();
             if t - 1 <= self.max_depth as usize && self.allowed(1, t) {
+                let rays = stats.total();
                 sum += self.connect_light_sample(ctx, t, [u_pick, u_x, u_y], film.camera, scratch, out, stats);
+                scratch.tally.s1_rays += stats.total() - rays;
             }
             // s = 1 toward emitters that read the Light Path node (`path_emitters`).
             if self.lights.any_reads_path() {
@@ -46,7 +48,9 @@ impl BdptIntegrator {
                 if s + t - 2 > self.max_depth as usize || !self.allowed(s, t) {
                     continue;
                 }
-                sum += self.connect_vertices(ctx, s, t, film.camera, scratch, out, stats);
+                let c = self.connect_vertices(ctx, s, t, film.camera, scratch, out, stats);
+                scratch.tally.light += c;
+                sum += c;
             }
         }
         sum
@@ -174,6 +178,7 @@ impl BdptIntegrator {
         }
         dens.a[k] = 0.0; // unused (t = 0 is not a strategy)
         let wgt = self.mis(dens.weight(s));
+        scratch.tally.splat += crate::math::luminance(c * wgt) as f64;
         if !self.ledger.any() && ctx.catcher.is_none() {
             film.splats.add(film.filter, pos, c * wgt);
             return;

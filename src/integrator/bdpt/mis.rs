@@ -23,6 +23,12 @@
 //! is P_m = p_m · a_m · η with η = N π r² (`eta_vm`; 0 for BDPT, which has no merging).
 //! Merging is not a strategy at z₁ (`MIN_MERGE_VERTEX`): direct light is left to the
 //! connections, as photon mapping leaves it to shadow rays.
+//!
+//! VCM may trace a light subpath for a fraction f of the pixels only (`light_share`, 1 in
+//! BDPT): the strategies that take the pixel's light subpath (s ≥ 2, and t = 1) then have
+//! f samples per camera sample, so their densities count f times (Georgiev et al.'s sample
+//! counts n_s p_s in the power heuristic), and `weight` returns the weight over f, which is
+//! what a sample taken with probability f must carry to stay unbiased.
 
 /// Most vertices a path may have (subpath lengths are bounded accordingly).
 pub const MAX_PATH_VERTICES: usize = 130;
@@ -57,6 +63,9 @@ pub struct PathDensities {
     /// camera ray from z₁ finds the light (j = 0), with c ≥ 2 only light sampling at z₁
     /// (j = 1) makes the path.
     pub contacts: usize,
+    /// Light subpaths per camera sample f (0 < f ≤ 1): the sample count of every strategy
+    /// that takes the pixel's light subpath (s ≥ 2, or t = 1); 1 in BDPT.
+    pub light_share: f32,
 }
 
 impl Default for PathDensities {
@@ -69,6 +78,7 @@ impl Default for PathDensities {
             light_hittable: true,
             eta_vm: 0.0,
             contacts: 0,
+            light_share: 1.0,
         }
     }
 }
@@ -108,6 +118,14 @@ impl PathDensities {
         self.eta_vm > 0.0 && m >= MIN_MERGE_VERTEX && m + 1 < self.n && self.connectible[m] && self.contacts < 2
     }
 
+    /// Samples per camera sample of connection strategy `j`: f when it takes the pixel's
+    /// light subpath (j ≥ 2 light vertices, or j = k: t = 1), else 1 (s = 0, and s = 1's
+    /// light point of its own).
+    #[inline]
+    fn count(&self, j: usize) -> f64 {
+        if j >= 2 || j + 1 == self.n { self.light_share as f64 } else { 1.0 }
+    }
+
     /// (P_m / p_m)²: vertex merging at z_m against connection strategy m.
     #[inline]
     fn merge_ratio2(&self, m: usize) -> f64 {
@@ -116,39 +134,43 @@ impl PathDensities {
     }
 
     /// `own` + Σ over every strategy that can make the path (connections, and merges
-    /// when `eta_vm` > 0) of (density / p_s)², the connection strategy s itself left out
-    /// (BDPT's sums are added in the order they always were: weights stay bit for bit).
+    /// when `eta_vm` > 0) of (density / (c p_s))², the connection strategy s itself left out
+    /// (connections' densities times their `count`; BDPT's sums are added in the order they
+    /// always were, and its counts are 1: weights stay bit for bit).
     #[inline]
-    fn total(&self, s: usize, own: f64) -> f64 {
+    fn total(&self, s: usize, own: f64, c: f64) -> f64 {
         let k = self.n - 1;
+        let inv_c2 = 1.0 / (c * c);
         let mut sum = own;
         if self.mergeable(s) {
-            sum += self.merge_ratio2(s);
+            sum += self.merge_ratio2(s) * inv_c2;
         }
         let mut r = 1.0f64;
         for j in (0..s).rev() {
             r *= remap0(self.b[j]) as f64 / remap0(self.a[j]) as f64;
             if self.valid(j) {
-                sum += r * r;
+                let n = self.count(j);
+                sum += r * r * (n * n * inv_c2);
             }
             if self.mergeable(j) {
-                sum += r * r * self.merge_ratio2(j);
+                sum += r * r * self.merge_ratio2(j) * inv_c2;
             }
         }
         r = 1.0;
         for j in s + 1..=k {
             r *= remap0(self.a[j - 1]) as f64 / remap0(self.b[j - 1]) as f64;
             if self.valid(j) {
-                sum += r * r;
+                let n = self.count(j);
+                sum += r * r * (n * n * inv_c2);
             }
             if self.mergeable(j) {
-                sum += r * r * self.merge_ratio2(j);
+                sum += r * r * self.merge_ratio2(j) * inv_c2;
             }
         }
         sum
     }
 
-    /// Power-heuristic weight of strategy `s`.
+    /// Power-heuristic weight of strategy `s`, over its sample count (see the module's doc).
     #[inline]
     pub fn weight(&self, s: usize) -> f32 {
         // A strategy the contacts rule out gives nothing (it makes no such path, except
@@ -156,7 +178,8 @@ impl PathDensities {
         if !self.contact_allows(s) {
             return 0.0;
         }
-        let w = (1.0 / self.total(s, 1.0)) as f32;
+        let c = self.count(s);
+        let w = (1.0 / (self.total(s, 1.0, c) * c)) as f32;
         if w.is_finite() { w } else { 0.0 }
     }
 
@@ -164,8 +187,9 @@ impl PathDensities {
     /// merging integrator computes it recursively (`vcm::mis`), this is its reference.
     pub fn merge_weight(&self, m: usize) -> f32 {
         let x2 = self.merge_ratio2(m);
-        let own = if self.valid(m) { 1.0 } else { 0.0 };
-        let w = (x2 / self.total(m, own)) as f32;
+        let c = self.count(m);
+        let own = if self.valid(m) { c * c } else { 0.0 };
+        let w = (x2 / self.total(m, own, 1.0)) as f32;
         if w.is_finite() { w } else { 0.0 }
     }
 }
@@ -185,7 +209,9 @@ mod tests {
         };
         for trial in 0..2000 {
             let n = 2 + trial % 20;
-            let mut d = PathDensities { n, light_hittable: rnd() < 0.7, ..Default::default() };
+            // Every third path with fewer light subpaths than camera samples.
+            let light_share = if trial % 3 == 0 { 0.02 + 0.98 * rnd() } else { 1.0 };
+            let mut d = PathDensities { n, light_hittable: rnd() < 0.7, light_share, ..Default::default() };
             for i in 0..n {
                 // Densities over many orders of magnitude, some delta (0).
                 let delta = i > 0 && i < n - 1 && rnd() < 0.2;
@@ -198,7 +224,8 @@ mod tests {
             if valid.is_empty() {
                 continue;
             }
-            let sum: f64 = valid.iter().map(|&j| d.weight(j) as f64).sum();
+            // A weight is over its strategy's sample count: times the count, they sum to 1.
+            let sum: f64 = valid.iter().map(|&j| d.weight(j) as f64 * d.count(j)).sum();
             assert!((sum - 1.0).abs() < 1e-4, "trial {trial}: n {n}, Σw = {sum}");
         }
     }

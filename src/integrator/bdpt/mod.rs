@@ -201,6 +201,23 @@ pub struct BdptScratch {
     /// The camera sample's light groups when it split: a split path files nothing in them
     /// from the catcher on, as the path tracer's (`catcher`). Boxed: the sums are large.
     pub(crate) groups_at_split: Box<crate::scene::light_groups::GroupSums>,
+    /// What the strategies that take the light subpath gave (VCM's pilot reads it). Boxed:
+    /// tiles keep this scratch inline.
+    pub(crate) tally: Box<Tally>,
+}
+
+/// Sums over the camera samples of one scratch: the weighted contributions of the
+/// connections s ≥ 2, t ≥ 2, the luminance of the light tracing splats (t = 1), and
+/// the rays the s = 1 light samples cast. VCM's pilot splits the image and its cost between
+/// the camera side and the light subpath with them (`vcm::share`).
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Tally {
+    /// Σ weighted contributions of s ≥ 2, t ≥ 2 (for the current camera sample: reset by the reader).
+    pub light: Rgb,
+    /// Σ luminance of the weighted t = 1 splats.
+    pub splat: f64,
+    /// Rays cast by s = 1's light samples.
+    pub s1_rays: u64,
 }
 
 impl BdptScratch {
@@ -214,6 +231,7 @@ impl BdptScratch {
             first: First::default(),
             split: Default::default(),
             groups_at_split: Default::default(),
+            tally: Box::default(),
         }
     }
 }

@@ -15,7 +15,9 @@
 //! - camera side, camera vertex c (c = 0 the camera): D⁰ = 0, D^c = (v^c + a_{c-1}² D^{c-1}) /
 //!   b_c² + η² μ^c, and S_C η² = v / b_c² + a_{m+1}² D^{c-1} / b_c²,
 //!
-//! with v the flag "the connection strategy there can make the path" and μ "merging
+//! with v the flag "the connection strategy there can make the path" times its sample count
+//! squared (f², `PathDensities::light_share`, for the strategies that take the pixel's light
+//! subpath: every one on the camera side, light vertex counts j ≥ 2 on the light side) and μ "merging
 //! there can" (never at z₁, `bdpt::mis::MIN_MERGE_VERTEX`; on the camera side every vertex
 //! is beyond the merge, so μ^c depends on connectibility alone). `PathDensities::merge_weight` is the same weight in the ratio form; the
 //! test checks one against the other.
@@ -46,20 +48,44 @@ pub struct Recursion {
     sum: f64,
     /// The last vertex is connectible.
     conn: bool,
+    /// f²: the squared sample count of the strategies that take the pixel's light subpath.
+    share2: f64,
+    /// Light side: the index of the last vertex (its strategies' counts depend on it);
+    /// None on the camera side, whose strategies all take the light subpath.
+    light_index: Option<usize>,
 }
 
 impl Recursion {
     /// Starts at a light point (`first_dens` a₀, `light_hittable` Some(a camera path can
     /// find it): the running sum is v₀ / a₀²) or at the camera (`light_hittable` None: the
     /// sum starts at 0); `first_conn`: the start is connectible (the camera: light
-    /// subpaths can reach it, i.e. not orthographic).
-    pub fn start(eta: f32, first_dens: f32, first_conn: bool, light_hittable: Option<bool>) -> Self {
+    /// subpaths can reach it, i.e. not orthographic); `light_share`: light subpaths per
+    /// camera sample (`PathDensities::light_share`).
+    pub fn start(eta: f32, light_share: f32, first_dens: f32, first_conn: bool, light_hittable: Option<bool>) -> Self {
         let d = remap0(first_dens);
         let sum = match light_hittable {
             Some(h) if h && first_conn => 1.0 / (d * d),
             _ => 0.0,
         };
-        Recursion { eta2: (eta as f64) * (eta as f64), sum, conn: first_conn }
+        let f = light_share as f64;
+        Recursion {
+            eta2: (eta as f64) * (eta as f64),
+            sum,
+            conn: first_conn,
+            share2: f * f,
+            light_index: light_hittable.map(|_| 0),
+        }
+    }
+
+    /// The squared sample count of the connection strategy that joins the last vertex to
+    /// the next one: on the light side it has j = index + 1 light vertices (s = 1 has a
+    /// light point of its own, `PathDensities::count`).
+    #[inline]
+    fn next_count2(&self) -> f64 {
+        match self.light_index {
+            Some(i) if i + 1 < 2 => 1.0,
+            _ => self.share2,
+        }
     }
 
     /// The merge share at the next vertex, whose density from this subpath's side is `dens`.
@@ -67,7 +93,7 @@ impl Recursion {
     pub fn side(&self, dens: f32) -> Side {
         let d = remap0(dens);
         let inv2 = 1.0 / (d * d);
-        Side { e: if self.conn { inv2 as f32 } else { 0.0 }, f: (self.sum * inv2) as f32 }
+        Side { e: if self.conn { (self.next_count2() * inv2) as f32 } else { 0.0 }, f: (self.sum * inv2) as f32 }
     }
 
     /// Moves on to the next vertex: its density `dens` from this side, its own
@@ -78,10 +104,11 @@ impl Recursion {
     pub fn push(&mut self, dens: f32, conn: bool, rev: f32, merge: bool) {
         let d = remap0(dens);
         let r = remap0(rev);
-        let v = if self.conn && conn { 1.0 } else { 0.0 };
+        let v = if self.conn && conn { self.next_count2() } else { 0.0 };
         let mu = if conn && merge { self.eta2 } else { 0.0 };
         self.sum = (v + r * r * self.sum) / (d * d) + mu;
         self.conn = conn;
+        self.light_index = self.light_index.map(|i| i + 1);
     }
 }
 
@@ -116,7 +143,10 @@ mod tests {
         for trial in 0..3000 {
             let n = 3 + trial % 12;
             let eta = (rnd() * 8.0 - 4.0).exp();
-            let mut d = PathDensities { n, light_hittable: rnd() < 0.7, eta_vm: eta, ..Default::default() };
+            // Every third path with fewer light subpaths than camera samples.
+            let f = if trial % 3 == 0 { 0.02 + 0.98 * rnd() } else { 1.0 };
+            let mut d =
+                PathDensities { n, light_hittable: rnd() < 0.7, eta_vm: eta, light_share: f, ..Default::default() };
             for i in 0..n {
                 let delta = i > 0 && i < n - 1 && rnd() < 0.2;
                 d.a[i] = if delta { 0.0 } else { (rnd() * 12.0 - 6.0).exp() };
@@ -127,11 +157,12 @@ mod tests {
             // A contact at z₁ (`bdpt::contact`) takes s = 0 away: the light side starts
             // without it.
             d.contacts = usize::from(rnd() < 0.3);
-            // Σ weights = 1 over connections and merges.
+            // Σ weights = 1 over connections (each over its count: times it) and merges.
             let mut sum = 0.0f64;
             for j in 0..n {
                 if d.valid(j) {
-                    sum += d.weight(j) as f64;
+                    let count = if j >= 2 || j + 1 == n { f as f64 } else { 1.0 };
+                    sum += d.weight(j) as f64 * count;
                 }
                 if d.mergeable(j) {
                     sum += d.merge_weight(j) as f64;
@@ -146,13 +177,13 @@ mod tests {
                     continue;
                 }
                 // Light side: z₀ … z_m.
-                let mut lr = Recursion::start(eta, d.a[0], d.connectible[0], Some(d.light_hittable && d.contacts == 0));
+                let mut lr = Recursion::start(eta, f, d.a[0], d.connectible[0], Some(d.light_hittable && d.contacts == 0));
                 for i in 1..m {
                     lr.push(d.a[i], d.connectible[i], d.b[i - 1], i >= MIN_MERGE_VERTEX);
                 }
                 let l = lr.side(d.a[m]);
                 // Camera side: z_k (camera) … z_m, camera vertex c is z_{k-c}.
-                let mut cr = Recursion::start(eta, 0.0, d.connectible[k], None);
+                let mut cr = Recursion::start(eta, f, 0.0, d.connectible[k], None);
                 for c in 1..k - m {
                     let j = k - c;
                     // z_j is beyond the merge, so merging is a strategy there when connectible.

@@ -6,7 +6,11 @@
 //!
 //! Each iteration takes one sample per pixel (sample index = iteration):
 //! 1. **Light pass**: one light subpath per pixel (BDPT's `light_subpath`, the same
-//!    stream BDPT takes for that sample); its non-delta surface vertices from the second
+//!    stream BDPT takes for that sample), or for a share f of the pixels, chosen per sample
+//!    by a stream of its own, where a pilot found that the light subpaths give little for
+//!    their cost (`share.rs`: under a sky f ≈ 0.3; the strategies that take the light
+//!    subpath count f samples in the weights, `bdpt::mis::PathDensities::light_share`, and
+//!    η = f N π r²); its non-delta surface vertices from the second
 //!    on (z_m, m ≥ 2: direct light is the connections', `bdpt::mis::MIN_MERGE_VERTEX`) are
 //!    stored with the light side of their recursive MIS quantities (`merge::MergeRecord`)
 //!    in a hash grid of cell 2r (`grid.rs`, records in its bucket order), and the whole
@@ -17,7 +21,7 @@
 //!    (s, t ≥ 2) and light tracing (t = 1), splatted), all weighted over connections *and*
 //!    merges (`bdpt::mis` with η); then each non-delta camera vertex merges with the stored
 //!    vertices within r (`merge.rs`, weights in recursive form, `mis.rs`), the kernel
-//!    normalised by N π r² (N light subpaths per iteration = pixels of the window).
+//!    normalised by f N π r² (f N light subpaths expected per iteration, N the window's pixels).
 //!
 //! Radius: r_i = r₀ · i^((α−1)/2), i = 1, 2, … the global iteration (so chunks of samples
 //! continue the schedule, and merged chunks equal a single render), α = 0.75; r₀ is
@@ -42,6 +46,7 @@ pub(crate) mod light_store;
 pub mod merge;
 pub mod mis;
 pub mod render;
+pub mod share;
 
 use crate::integrator::bdpt::BdptIntegrator;
 
