@@ -87,6 +87,10 @@ pub struct BdptIntegrator {
     pub delta_geometry: bool,
     /// The light passes and light groups to file contributions into (`passes`).
     pub ledger: Ledger,
+    /// VCM's volume merging (`vcm::volume_merge`): light subpaths record the segments they
+    /// cross in media after delta bounces alone, the camera subpath its first medium
+    /// vertex, and the path tracer continued from there leaves out what merging makes.
+    pub volume_merging: bool,
 }
 
 impl BdptIntegrator {
@@ -106,6 +110,7 @@ impl BdptIntegrator {
             lights: Arc::new(BdptLights::new(scene)),
             delta_geometry: false,
             ledger: Ledger::default(),
+            volume_merging: false,
         }
     }
 
@@ -133,6 +138,7 @@ impl BdptIntegrator {
             light_passes: false,
             // Passes and groups are filed through `Filing` into the camera sample.
             light_groups: false,
+            merged_delta_light: false,
         }
     }
 
@@ -189,6 +195,10 @@ pub struct BdptScratch {
     /// The camera sample's light groups when it split: a split path files nothing in them
     /// from the catcher on, as the path tracer's (`catcher`). Boxed: the sums are large.
     pub(crate) groups_at_split: Box<crate::scene::light_groups::GroupSums>,
+    /// With `volume_merging`: the light subpath's segments in media after delta bounces.
+    pub(crate) volume_segments: Vec<crate::integrator::vcm::volume_merge::LightSegment>,
+    /// With `volume_merging`: the camera subpath's first medium vertex, if it merges.
+    pub(crate) medium_vertex: Option<crate::integrator::vcm::volume_merge::MediumVertex>,
 }
 
 impl BdptScratch {
@@ -202,6 +212,8 @@ impl BdptScratch {
             first: First::default(),
             split: Default::default(),
             groups_at_split: Default::default(),
+            volume_segments: Vec::new(),
+            medium_vertex: None,
         }
     }
 }

@@ -41,6 +41,7 @@ pub(crate) mod light_store;
 pub mod merge;
 pub mod mis;
 pub mod render;
+pub mod volume_merge;
 
 use crate::integrator::bdpt::BdptIntegrator;
 
@@ -87,6 +88,7 @@ impl VcmIntegrator {
     ) -> Self {
         let bdpt = BdptIntegrator {
             delta_geometry: mode == VcmMode::Full,
+            volume_merging: mode == VcmMode::Full,
             ..BdptIntegrator::new(scene, max_depth, transparent_background, None)
         };
         VcmIntegrator { bdpt, mode, radius }

@@ -6,6 +6,7 @@
 
 use super::light_store::RowSubpaths;
 use super::merge::{MergeMap, MergeRecord, merge_camera_path, push_records};
+use super::volume_merge::{self, VolumeMap, VolumeRecord};
 use super::{VCM_ALPHA, VCM_RADIUS_FOOTPRINTS, VcmIntegrator, VcmMode};
 use crate::film::{CameraSample, Film, SplatPool};
 use crate::integrator::bdpt::{BdptScratch, FilmTarget, connection_sampler, light_sampler};
@@ -31,6 +32,8 @@ pub struct VcmStats {
     pub radius_final: f32,
     /// Light vertices stored for merging, over all iterations.
     pub merge_records: u64,
+    /// Light points stored in media for volume merging, over all iterations.
+    pub volume_records: u64,
 }
 
 /// The automatic initial radius: `VCM_RADIUS_FOOTPRINTS` times the median pixel footprint
@@ -64,6 +67,8 @@ pub fn initial_radius(ctx: &SceneContext, camera: &CameraRays, window: [u32; 4])
 /// Per-row working memory of the light pass, kept across iterations.
 struct LightRow {
     records: Vec<MergeRecord>,
+    /// Its light points in media (`volume_merge`).
+    volume: Vec<VolumeRecord>,
     /// The row's light subpaths, for its pixels' connections in the camera pass.
     subpaths: RowSubpaths,
     scratch: BdptScratch,
@@ -123,9 +128,11 @@ impl VcmIntegrator {
         let max_depth = self.bdpt.max_depth;
         let camera_connectible = !camera.is_orthographic();
         let mut map = MergeMap::default();
+        let mut volume_map = VolumeMap::default();
         let mut rows: Vec<LightRow> = (0..h)
             .map(|_| LightRow {
                 records: Vec::new(),
+                volume: Vec::new(),
                 subpaths: RowSubpaths::default(),
                 scratch: BdptScratch::new(max_depth),
             })
@@ -155,6 +162,7 @@ impl VcmIntegrator {
                     .map(|(row, lr)| {
                         let mut rs = RayStats::default();
                         lr.records.clear();
+                        lr.volume.clear();
                         lr.subpaths.clear();
                         let py = y0 + row as u32;
                         for px in x0..x1 {
@@ -171,6 +179,8 @@ impl VcmIntegrator {
                             let mut ls = light_sampler(job.seed, px, py, index);
                             self.bdpt.light_subpath(ctx, &mut ls, &mut lr.scratch, &mut rs);
                             push_records(ctx.scene, &lr.scratch.light, eta, &mut lr.records);
+                            let salt = volume_merge::salt(job.seed, px, py, index);
+                            volume_merge::deposit(ctx, &lr.scratch.volume_segments, salt, &mut lr.volume);
                             lr.subpaths.push(&lr.scratch.light);
                         }
                         rs
@@ -185,6 +195,12 @@ impl VcmIntegrator {
                 }
                 map.build(radius, npix);
                 st.merge_records += map.records.len() as u64;
+                volume_map.records.clear();
+                for lr in &rows {
+                    volume_map.records.extend_from_slice(&lr.volume);
+                }
+                volume_map.build(radius, npix);
+                st.volume_records += volume_map.records.len() as u64;
                 st.radius_final = radius;
                 if over(it) {
                     break;
@@ -193,6 +209,7 @@ impl VcmIntegrator {
             // 2. Camera pass: BDPT's sample with merge-aware weights, then the merges.
             let eta = if merging { map.eta } else { 0.0 };
             let map_ref = &map;
+            let volume_ref = &volume_map;
             let rows_ref = &rows;
             let tile_stats: Vec<(RayStats, u64, u64)> = film
                 .tiles
@@ -239,6 +256,11 @@ impl VcmIntegrator {
                                 let merged =
                                     merge_camera_path(&scratch.cam, map_ref, camera_connectible, max_depth, passes);
                                 s.radiance += merged;
+                                if let Some(x) = scratch.medium_vertex {
+                                    let passes = ledger.any().then_some((ctx, ledger, &mut s));
+                                    let merged = volume_ref.merge(&x, max_depth, passes);
+                                    s.radiance += merged;
+                                }
                                 // Merges are camera-side: a split sample's are Combined's only.
                                 self.bdpt.file_catcher(ctx, &mut sampler, &scratch, &mut s, &mut rs);
                                 s
