@@ -587,8 +587,8 @@ pub enum Integrator {
 pub enum TileScratch {
     /// Nothing to keep.
     None,
-    /// Bidirectional: this tile's light-tracing splats and subpath vertices.
-    Bdpt(SplatBuffer, bdpt::BdptScratch),
+    /// Bidirectional: this tile's light-tracing splats and subpath vertices (boxed: once a tile).
+    Bdpt(SplatBuffer, Box<bdpt::BdptScratch>),
 }
 
 impl TileScratch {
@@ -615,7 +615,7 @@ impl Integrator {
     /// Working memory for one tile of the progressive loop.
     pub fn tile_scratch(&self, splats: &SplatPool) -> TileScratch {
         match self {
-            Integrator::Bdpt(b) => TileScratch::Bdpt(splats.take(), bdpt::BdptScratch::new(b.max_depth)),
+            Integrator::Bdpt(b) => TileScratch::Bdpt(splats.take(), Box::new(bdpt::BdptScratch::new(b.max_depth))),
             _ => TileScratch::None,
         }
     }

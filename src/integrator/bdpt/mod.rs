@@ -197,8 +197,9 @@ pub struct BdptScratch {
     pub(crate) groups_at_split: Box<crate::scene::light_groups::GroupSums>,
     /// With `volume_merging`: the light subpath's segments in media after delta bounces.
     pub(crate) volume_segments: Vec<crate::integrator::vcm::volume_merge::LightSegment>,
-    /// With `volume_merging`: the camera subpath's first medium vertex, if it merges.
-    pub(crate) medium_vertex: Option<crate::integrator::vcm::volume_merge::MediumVertex>,
+    /// With `volume_merging`: the camera subpath's first medium vertex, if it merges
+    /// (boxed, as `split`: tiles keep this scratch inline).
+    pub(crate) medium_vertex: Box<Option<crate::integrator::vcm::volume_merge::MediumVertex>>,
 }
 
 impl BdptScratch {
@@ -213,7 +214,7 @@ impl BdptScratch {
             split: Default::default(),
             groups_at_split: Default::default(),
             volume_segments: Vec::new(),
-            medium_vertex: None,
+            medium_vertex: Box::default(),
         }
     }
 }

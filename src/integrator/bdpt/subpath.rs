@@ -5,8 +5,8 @@ use super::vertex::*;
 use super::*;
 use crate::integrator::filing::Filing;
 use crate::integrator::linking::{self, Gate};
-use crate::integrator::walk::{PathState, Step};
 use crate::integrator::vcm::volume_merge::{LightSegment, MediumVertex};
+use crate::integrator::walk::{PathState, Step};
 use crate::light::emit::infinite_ray;
 
 impl BdptIntegrator {
@@ -26,7 +26,7 @@ impl BdptIntegrator {
     ) {
         let cam = &mut scratch.cam;
         cam.clear();
-        scratch.medium_vertex = None;
+        *scratch.medium_vertex = None;
         // The camera vertex is the aperture point; the ray starts at the near clipping plane.
         let (org, dir) = (ray.org, ray.dir);
         let mut v0 = Vertex::new(Kind::Camera, org);
@@ -102,14 +102,8 @@ impl BdptIntegrator {
                             // VCM merges here what reached this point through delta bounces
                             // alone (`vcm::volume_merge`): the path tracer leaves it out.
                             continuation.merged_delta_light = true;
-                            scratch.medium_vertex = Some(MediumVertex {
-                                p,
-                                dir,
-                                phase,
-                                beta,
-                                events_before: i as u32,
-                                first,
-                            });
+                            *scratch.medium_vertex =
+                                Some(MediumVertex { p, dir, phase, beta, events_before: i as u32, first });
                         }
                         *radiance += continuation.scatter_in_medium_filed(
                             ctx,

@@ -256,7 +256,7 @@ impl VcmIntegrator {
                                 let merged =
                                     merge_camera_path(&scratch.cam, map_ref, camera_connectible, max_depth, passes);
                                 s.radiance += merged;
-                                if let Some(x) = scratch.medium_vertex {
+                                if let Some(x) = *scratch.medium_vertex {
                                     let passes = ledger.any().then_some((ctx, ledger, &mut s));
                                     let merged = volume_ref.merge(&x, max_depth, passes);
                                     s.radiance += merged;

@@ -130,13 +130,7 @@ pub(crate) fn deposit(ctx: &SceneContext, segments: &[LightSegment], salt: u32, 
         if !(beta.is_finite() && beta.max_element() > 0.0) {
             continue;
         }
-        out.push(VolumeRecord {
-            p: seg.org + seg.dir * t,
-            dir: seg.dir,
-            beta,
-            bounces: seg.bounces,
-            light: seg.light,
-        });
+        out.push(VolumeRecord { p: seg.org + seg.dir * t, dir: seg.dir, beta, bounces: seg.bounces, light: seg.light });
     }
 }
 
