@@ -64,6 +64,10 @@ pub struct PathIntegrator {
     /// File contributions by the light group of the emitter that gave them
     /// (`scene::light_groups`; only when asked).
     pub light_groups: bool,
+    /// Emission found after delta bounces alone from where the path starts is left out
+    /// for lights whose light subpaths VCM merges in media (`vcm::volume_merge`): VCM
+    /// continues its camera paths from a medium vertex with this set.
+    pub merged_delta_light: bool,
 }
 
 impl Default for PathIntegrator {
@@ -74,6 +78,7 @@ impl Default for PathIntegrator {
             transparent_background: true,
             light_passes: false,
             light_groups: false,
+            merged_delta_light: false,
         }
     }
 }
@@ -263,6 +268,12 @@ impl PathIntegrator {
             None => (self.light_passes && st.depth == 0, Tally::default(), self.light_groups && st.depth == 0),
         };
         let groups = &ctx.scene.light_groups;
+        // Delta bounces since the start while every bounce was one (`merged_delta_light`).
+        let mut delta_chain = self.merged_delta_light.then_some(0u32);
+        let merged = |chain: Option<u32>, light: Option<usize>| {
+            chain.is_some_and(|k| k > 0)
+                && light.is_some_and(|l| crate::integrator::vcm::volume_merge::merges_light(ctx, l))
+        };
         loop {
             // Bounce dimensions, drawn up front so that their positions are fixed.
             let [u_light, u_lx, u_ly, u_lobe] = sampler.next_4d();
@@ -274,6 +285,7 @@ impl PathIntegrator {
             let pre = if split.allowed && st.depth == 0 { Some(st) } else { None };
             let before = radiance;
             let depth_before = st.depth;
+            let mut left_out = Rgb::ZERO;
             let (step, crossed) = st.advance_each(
                 ctx,
                 [u_channel, u_dist],
@@ -282,11 +294,14 @@ impl PathIntegrator {
                 &mut radiance,
                 stats,
                 |light, c| {
-                    if grouping {
+                    if merged(delta_chain, Some(light)) {
+                        left_out += c;
+                    } else if grouping {
                         out.groups.add(groups.of_light(light), c);
                     }
                 },
             );
+            radiance -= left_out;
             if passes && radiance != before {
                 // Crossed lights and medium emission (the difference keeps Combined's sum as it was).
                 tally.found(out, depth_before, radiance - before, false);
@@ -328,6 +343,7 @@ impl PathIntegrator {
                     if !st.survives(self.rr_depth, u_rr) {
                         break;
                     }
+                    delta_chain = None;
                     st.org = p;
                     st.dir = wi;
                     st.ray = RayMask::AFTER_VOLUME;
@@ -335,6 +351,24 @@ impl PathIntegrator {
                     st.prev_tri = NO_OBJECT;
                     stats.bounce += 1;
                     continue;
+                }
+                Step::Escaped if delta_chain.is_some_and(|k| k > 0) => {
+                    // Past the first event: only what VCM does not merge (`merged_delta_light`).
+                    let world = ctx.scene.lights.iter().position(|l| matches!(l, crate::light::Light::World));
+                    let mut le = Rgb::ZERO;
+                    st.escaped_radiance_each(ctx, |light, c| {
+                        if !merged(delta_chain, light.or(world)) {
+                            le += c;
+                            if grouping {
+                                out.groups.add(light.map_or(groups.world, |i| groups.of_light(i)), st.beta * c);
+                            }
+                        }
+                    });
+                    radiance += st.beta * le;
+                    if passes {
+                        tally.found(out, st.depth, st.beta * le, true);
+                    }
+                    break;
                 }
                 Step::Escaped => {
                     // The world, weighted against light sampling. (Leaving from inside a
@@ -400,7 +434,7 @@ impl PathIntegrator {
             }
 
             // Emission found by the path, weighted against light sampling.
-            if sp.emitted != Rgb::ZERO {
+            if sp.emitted != Rgb::ZERO && !merged(delta_chain, ctx.lights.light_of_triangle(hit.tri)) {
                 let c = st.surface_emission(ctx, &hit, &s, &sp);
                 radiance += c;
                 if grouping {
@@ -455,6 +489,7 @@ impl PathIntegrator {
                 && let Some(ss) = mat.subsurface
             {
                 // Subsurface: enter, walk, leave through a Lambertian exit.
+                delta_chain = None;
                 let Some(exit) = self.subsurface(ctx, &s, &sp, wo, &ss, st.beta, [u_dx, u_dy, u_lobe, u_walk]) else {
                     break;
                 };
@@ -525,6 +560,7 @@ impl PathIntegrator {
             if !st.beta.is_finite() || st.beta == Rgb::ZERO {
                 break;
             }
+            delta_chain = delta_chain.filter(|_| bs.delta).map(|k| k + 1);
             // After a delta lobe, emission found next is not MIS-weighted (0 = "specular").
             st.prev_pdf = if bs.delta { 0.0 } else { pdf };
             st.prev_p = s.p;

@@ -95,6 +95,10 @@ pub struct BdptIntegrator {
     /// The objects and lights whose Ray Visibility leaves their paths to the camera side
     /// (`visibility`).
     pub restriction: Arc<visibility::Restriction>,
+    /// VCM's volume merging (`vcm::volume_merge`): light subpaths record the segments they
+    /// cross in media after delta bounces alone, the camera subpath its first medium
+    /// vertex, and the path tracer continued from there leaves out what merging makes.
+    pub volume_merging: bool,
 }
 
 impl BdptIntegrator {
@@ -115,6 +119,7 @@ impl BdptIntegrator {
             delta_geometry: false,
             ledger: Ledger::default(),
             restriction: Arc::new(visibility::Restriction::new(scene)),
+            volume_merging: false,
         }
     }
 
@@ -142,6 +147,7 @@ impl BdptIntegrator {
             light_passes: false,
             // Passes and groups are filed through `Filing` into the camera sample.
             light_groups: false,
+            merged_delta_light: false,
         }
     }
 
@@ -204,6 +210,11 @@ pub struct BdptScratch {
     /// What the strategies that take the light subpath gave (VCM's pilot reads it). Boxed:
     /// tiles keep this scratch inline.
     pub(crate) tally: Box<Tally>,
+    /// With `volume_merging`: the light subpath's segments in media after delta bounces.
+    pub(crate) volume_segments: Vec<crate::integrator::vcm::volume_merge::LightSegment>,
+    /// With `volume_merging`: the camera subpath's first medium vertex, if it merges
+    /// (boxed, as `split`: tiles keep this scratch inline).
+    pub(crate) medium_vertex: Box<Option<crate::integrator::vcm::volume_merge::MediumVertex>>,
 }
 
 /// Sums over the camera samples of one scratch: the weighted contributions of the
@@ -232,6 +243,8 @@ impl BdptScratch {
             split: Default::default(),
             groups_at_split: Default::default(),
             tally: Box::default(),
+            volume_segments: Vec::new(),
+            medium_vertex: Box::default(),
         }
     }
 }

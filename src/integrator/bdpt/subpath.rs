@@ -5,6 +5,7 @@ use super::vertex::*;
 use super::*;
 use crate::integrator::filing::Filing;
 use crate::integrator::linking::{self, Gate};
+use crate::integrator::vcm::volume_merge::{LightSegment, MediumVertex};
 use crate::integrator::walk::{PathState, Step};
 use crate::light::emit::infinite_ray;
 
@@ -25,6 +26,7 @@ impl BdptIntegrator {
     ) {
         let cam = &mut scratch.cam;
         cam.clear();
+        *scratch.medium_vertex = None;
         // The camera vertex is the aperture point; the ray starts at the near clipping plane.
         let (org, dir) = (ray.org, ray.dir);
         let mut v0 = Vertex::new(Kind::Camera, org);
@@ -107,7 +109,15 @@ impl BdptIntegrator {
                         let first = if i == 0 { First::Volume } else { first };
                         let tally = self.ledger.light_passes.then(|| first.tally(0));
                         let filing = Filing { tally, groups: self.ledger.light_groups, out: &mut *out };
-                        *radiance += self.continuation().scatter_in_medium_filed(
+                        let mut continuation = self.continuation();
+                        if self.volume_merging {
+                            // VCM merges here what reached this point through delta bounces
+                            // alone (`vcm::volume_merge`): the path tracer leaves it out.
+                            continuation.merged_delta_light = true;
+                            *scratch.medium_vertex =
+                                Some(MediumVertex { p, dir, phase, beta, events_before: i as u32, first });
+                        }
+                        *radiance += continuation.scatter_in_medium_filed(
                             ctx,
                             p,
                             dir,
@@ -615,6 +625,8 @@ impl BdptIntegrator {
     ) {
         let light = &mut scratch.light;
         light.clear();
+        let segments = &mut scratch.volume_segments;
+        segments.clear();
         let [u_pick, u_side, u_px, u_py] = ls.next_4d();
         let [u_dx, u_dy, _, _] = ls.next_4d();
         let Some((index, pmf)) = self.lights.pick_origin(u_pick) else {
@@ -642,8 +654,24 @@ impl BdptIntegrator {
             let [u_lobe, u_x, u_y, u_rr] = ls.next_4d();
             let [u_alpha, _, _, _] = ls.next_4d();
             // The shared step, with media that only attenuate: light subpaths carry the
-            // paths without medium vertices.
-            let no_lights = |_: &PathState, _: f32, _: Rgb| Rgb::ZERO;
+            // paths without medium vertices. VCM's volume merging records the segments
+            // crossed in a medium after delta bounces alone (`vcm::volume_merge`).
+            let bounces = light.len() as u32 - 1;
+            let record = self.volume_merging && bounces >= 1 && light[1..].iter().all(|v| v.delta);
+            let no_lights = |st: &PathState, t_event: f32, _: Rgb| {
+                if record && ctx.medium(&st.media).is_some() {
+                    segments.push(LightSegment {
+                        org: st.org,
+                        dir: st.dir,
+                        t_end: t_event,
+                        media: st.media,
+                        beta: st.beta,
+                        bounces,
+                        light: index as u32,
+                    });
+                }
+                Rgb::ZERO
+            };
             let org0 = path.org;
             let (step, _) = path.advance_with(ctx, None, || u_alpha, no_lights, &mut ignored, stats);
             // A segment that meets a restricted object makes restricted paths only, which

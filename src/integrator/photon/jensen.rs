@@ -139,6 +139,7 @@ impl JensenIntegrator {
             transparent_background: self.transparent_background,
             light_passes: false,
             light_groups: false,
+            merged_delta_light: false,
         }
     }
 

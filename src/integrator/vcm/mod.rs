@@ -34,9 +34,10 @@
 //! lights, and emitters whose node graph reads the Light Path node, are reached by s = 0
 //! and s = 1, weighted as the path tracer weights them, and never merged:
 //! `bdpt::path_emitters`); paths with a vertex in a medium are path
-//! traced from the camera side (light subpaths cross media attenuated, without scattering:
-//! no volume merging), and the subsurface part of a camera vertex's material is path
-//! traced. Merges are found by distance alone (a thin wall's other side within r leaks,
+//! traced from the camera side (light subpaths cross media attenuated, without scattering),
+//! except those whose light reached the camera subpath's first medium vertex through delta
+//! bounces alone, which are merged there (`volume_merge.rs`); the subsurface part of a
+//! camera vertex's material is path traced. Merges are found by distance alone (a thin wall's other side within r leaks,
 //! vanishing with r); light and camera subpaths of different pixels are traced at their
 //! own shutter times, so merges join paths of different times under motion blur. Only the
 //! Combined pass and the data passes are rendered (light passes are refused by settings).
@@ -47,6 +48,7 @@ pub mod merge;
 pub mod mis;
 pub mod render;
 pub mod share;
+pub mod volume_merge;
 
 use crate::integrator::bdpt::BdptIntegrator;
 
@@ -93,6 +95,7 @@ impl VcmIntegrator {
     ) -> Self {
         let bdpt = BdptIntegrator {
             delta_geometry: mode == VcmMode::Full,
+            volume_merging: mode == VcmMode::Full,
             ..BdptIntegrator::new(scene, max_depth, transparent_background, None)
         };
         VcmIntegrator { bdpt, mode, radius }

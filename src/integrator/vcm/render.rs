@@ -6,6 +6,7 @@
 
 use super::light_store::RowSubpaths;
 use super::merge::{MergeMap, MergeRecord, merge_camera_path, push_records};
+use super::volume_merge::{self, VolumeMap, VolumeRecord};
 use super::share::PilotSums;
 use super::{VCM_ALPHA, VCM_RADIUS_FOOTPRINTS, VcmIntegrator, VcmMode};
 use crate::film::{CameraSample, Film, SplatPool};
@@ -34,6 +35,8 @@ pub struct VcmStats {
     pub light_share: f32,
     /// Light vertices stored for merging, over all iterations.
     pub merge_records: u64,
+    /// Light points stored in media for volume merging, over all iterations.
+    pub volume_records: u64,
 }
 
 /// The automatic initial radius: `VCM_RADIUS_FOOTPRINTS` times the median pixel footprint
@@ -129,6 +132,8 @@ struct IterationOut {
 /// Per-row working memory of the light pass, kept across iterations.
 struct LightRow {
     records: Vec<MergeRecord>,
+    /// Its light points in media (`volume_merge`).
+    volume: Vec<VolumeRecord>,
     /// The row's light subpaths, for its pixels' connections in the camera pass.
     subpaths: RowSubpaths,
     scratch: BdptScratch,
@@ -180,7 +185,7 @@ impl VcmIntegrator {
         setup: &Setup,
         pass: Pass,
         rows: &mut [LightRow],
-        map: &mut MergeMap,
+        (map, volume_map): (&mut MergeMap, &mut VolumeMap),
         film: Option<&mut Film>,
         splats: &SplatPool,
         over: &(dyn Fn() -> bool + Sync),
@@ -203,6 +208,7 @@ impl VcmIntegrator {
                 .map(|(row, lr)| {
                     let mut rs = RayStats::default();
                     lr.records.clear();
+                    lr.volume.clear();
                     lr.subpaths.clear();
                     let py = y0 + row as u32;
                     for px in x0..x1 {
@@ -223,6 +229,8 @@ impl VcmIntegrator {
                         let mut ls = light_sampler(job.seed, px, py, index);
                         self.bdpt.light_subpath(ctx, &mut ls, &mut lr.scratch, &mut rs);
                         push_records(ctx.scene, &lr.scratch.light, (eta, share), &mut lr.records);
+                        let salt = volume_merge::salt(job.seed, px, py, index);
+                        volume_merge::deposit(ctx, &lr.scratch.volume_segments, salt, &mut lr.volume);
                         lr.subpaths.push(&lr.scratch.light);
                     }
                     rs
@@ -237,6 +245,11 @@ impl VcmIntegrator {
                 map.records.extend_from_slice(&lr.records);
             }
             map.build(radius, cameras, share);
+            volume_map.records.clear();
+            for lr in rows.iter() {
+                volume_map.records.extend_from_slice(&lr.volume);
+            }
+            volume_map.build(radius, share * cameras as f32);
             if over() {
                 out.interrupted = true;
                 return out;
@@ -249,6 +262,7 @@ impl VcmIntegrator {
         let max_depth = self.bdpt.max_depth;
         let cut = AtomicBool::new(false);
         let (map_ref, rows_ref, cut_ref) = (&*map, &*rows, &cut);
+        let volume_ref = &*volume_map;
         // The pilot's tiles: a film's layout without its pixels.
         let mut pilot_tiles;
         let tiles = match film {
@@ -306,8 +320,12 @@ impl VcmIntegrator {
                             );
                             let ledger = self.bdpt.ledger;
                             let passes = (ledger.any() && !pilot).then_some((ctx, ledger, scratch.first, &mut s));
-                            let merged =
+                            let mut merged =
                                 merge_camera_path(&scratch.cam, map_ref, camera_connectible, max_depth, passes);
+                            if let Some(x) = *scratch.medium_vertex {
+                                let passes = (ledger.any() && !pilot).then_some((ctx, ledger, &mut s));
+                                merged += volume_ref.merge(&x, max_depth, passes);
+                            }
                             s.radiance += merged;
                             if pilot {
                                 let light = luminance(parts.light + merged) as f64;
@@ -390,9 +408,11 @@ impl VcmIntegrator {
         };
         let max_depth = self.bdpt.max_depth;
         let mut map = MergeMap::default();
+        let mut volume_map = VolumeMap::default();
         let mut rows: Vec<LightRow> = (0..h)
             .map(|_| LightRow {
                 records: Vec::new(),
+                volume: Vec::new(),
                 subpaths: RowSubpaths::default(),
                 scratch: BdptScratch::new(max_depth),
             })
@@ -407,7 +427,7 @@ impl VcmIntegrator {
         if merging && self.bdpt.strategy.is_none() {
             let pass = Pass { index: PILOT_INDEX, radius: r0, share: 1.0, step: 2 };
             let pool = SplatPool::with_passes(job.window, job.passes);
-            let out = self.iteration(&setup, pass, &mut rows, &mut map, None, &pool, &|| false);
+            let out = self.iteration(&setup, pass, &mut rows, (&mut map, &mut volume_map), None, &pool, &|| false);
             rays.add(&out.rays);
             st.light_share = out.pilot.light_share(npix);
         }
@@ -418,11 +438,12 @@ impl VcmIntegrator {
             let index = job.sample_offset + it;
             let radius = r0 * ((index + 1) as f32).powf(0.5 * (VCM_ALPHA - 1.0));
             let pass = Pass { index, radius, share: st.light_share, step: 1 };
-            let out = self.iteration(&setup, pass, &mut rows, &mut map, Some(&mut film), &splats, &|| over(it));
+            let out = self.iteration(&setup, pass, &mut rows, (&mut map, &mut volume_map), Some(&mut film), &splats, &|| over(it));
             rays.add(&out.rays);
             nan += out.bad;
             if merging {
                 st.merge_records += map.records.len() as u64;
+                st.volume_records += volume_map.records.len() as u64;
                 st.radius_final = radius;
             }
             // Each camera sample counts as a light path (f of them traced one, weighted 1 / f).
