@@ -177,7 +177,8 @@ mod tests {
                     continue;
                 }
                 // Light side: z₀ … z_m.
-                let mut lr = Recursion::start(eta, f, d.a[0], d.connectible[0], Some(d.light_hittable && d.contacts == 0));
+                let mut lr =
+                    Recursion::start(eta, f, d.a[0], d.connectible[0], Some(d.light_hittable && d.contacts == 0));
                 for i in 1..m {
                     lr.push(d.a[i], d.connectible[i], d.b[i - 1], i >= MIN_MERGE_VERTEX);
                 }

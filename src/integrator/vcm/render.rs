@@ -6,8 +6,8 @@
 
 use super::light_store::RowSubpaths;
 use super::merge::{MergeMap, MergeRecord, merge_camera_path, push_records};
-use super::volume_merge::{self, VolumeMap, VolumeRecord};
 use super::share::PilotSums;
+use super::volume_merge::{self, VolumeMap, VolumeRecord};
 use super::{VCM_ALPHA, VCM_RADIUS_FOOTPRINTS, VcmIntegrator, VcmMode};
 use crate::film::{CameraSample, Film, SplatPool};
 use crate::integrator::bdpt::{BdptScratch, FilmTarget, connection_sampler, light_sampler};
@@ -438,7 +438,10 @@ impl VcmIntegrator {
             let index = job.sample_offset + it;
             let radius = r0 * ((index + 1) as f32).powf(0.5 * (VCM_ALPHA - 1.0));
             let pass = Pass { index, radius, share: st.light_share, step: 1 };
-            let out = self.iteration(&setup, pass, &mut rows, (&mut map, &mut volume_map), Some(&mut film), &splats, &|| over(it));
+            let out =
+                self.iteration(&setup, pass, &mut rows, (&mut map, &mut volume_map), Some(&mut film), &splats, &|| {
+                    over(it)
+                });
             rays.add(&out.rays);
             nan += out.bad;
             if merging {
