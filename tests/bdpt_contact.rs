@@ -22,7 +22,7 @@
 mod common;
 
 use common::GltfBuilder;
-use common::agreement::{Seeded, disagreeing, regions, sidak};
+use common::agreement::{Seeded, regions, sidak};
 use common::{look_rotation, temp_dir};
 use serde_json::json;
 use std::path::{Path, PathBuf};
@@ -69,25 +69,12 @@ fn bdpt_and_vcm_match_the_path_tracer_at_a_contact() {
     let middle = (0..w * h).filter(|i| (i % w).abs_diff(w / 2) < w / 6 && (i / w).abs_diff(h / 2) < h / 6).collect();
     regs.push(("middle".to_string(), middle));
     let r = format!("{}x{}", RES.0, RES.1);
-    let seeded = Seeded {
-        dir: dir.path(),
-        common: vec!["--resolution", &r, "--max-depth", "4"],
-        seeds: 6,
-        regions: &regs,
-        limit: LIMIT,
-    };
+    let seeded = Seeded::six(dir.path(), &r, "4", &regs, LIMIT);
     let path_tracer = ["--integrator", "path", "--spp", "64"];
     let reference = seeded.means(&resting, &path_tracer);
     let alpha = sidak(regs.len() * 3);
     let lifted = seeded.means(&scene(dir.path(), 0.05), &path_tracer);
-    assert!(
-        !disagreeing("lifted", &regs, &lifted, &reference, alpha).is_empty(),
-        "lifting the glass changes nothing in this scene"
-    );
-    let others: [(&str, &[&str]); 2] = [
-        ("bdpt", &["--integrator", "bdpt", "--spp", "16"]),
-        ("vcm", &["--integrator", "vcm", "--spp", "16", "--vcm-radius", "0.01"]),
-    ];
-    let failed = seeded.disagreeing_others(&resting, &reference, &others, alpha);
+    seeded.assert_rule_matters("the glass lifted", &lifted, &reference, alpha);
+    let failed = seeded.bidirectional_disagreeing(&resting, &reference, "16", "0.01", alpha);
     assert!(failed.is_empty(), "disagree with the path tracer: {failed:?}");
 }

@@ -23,7 +23,7 @@
 
 mod common;
 
-use common::agreement::{Seeded, disagreeing, regions, sidak};
+use common::agreement::{Seeded, regions, sidak};
 use common::visibility_cases::{
     Case, area_light_hidden_from_diffuse, blocker_hidden_from_transmission_under_an_area_light, cases, scene,
     world_hidden_from_glossy,
@@ -52,13 +52,7 @@ fn bdpt_and_vcm_match_the_path_tracer_on_ray_visibility() {
     let dir = temp_dir();
     let regs = regions(RES.0, RES.1);
     let r = format!("{}x{}", RES.0, RES.1);
-    let seeded = Seeded {
-        dir: dir.path(),
-        common: vec!["--resolution", &r, "--max-depth", "4"],
-        seeds: 6,
-        regions: &regs,
-        limit: LIMIT,
-    };
+    let seeded = Seeded::six(dir.path(), &r, "4", &regs, LIMIT);
     let means = |path: &Path, extra: &[&str]| seeded.means(path, extra);
     let cases = visibility_cases();
     let alpha = sidak(regs.len() * 3 * cases.len());
@@ -70,13 +64,9 @@ fn bdpt_and_vcm_match_the_path_tracer_on_ray_visibility() {
         if *matters {
             let plain = means(&scene(dir.path(), &format!("plain{k}.gltf"), &case.without_rule()), &path_tracer);
             let label = format!("{}: without the rule", case.name);
-            assert!(!disagreeing(&label, &regs, &plain, &reference, alpha).is_empty(), "{label}: it changes nothing");
+            seeded.assert_rule_matters(&label, &plain, &reference, alpha);
         }
-        let others: [(&str, &[&str]); 2] = [
-            ("bdpt", &["--integrator", "bdpt", "--spp", "16"]),
-            ("vcm", &["--integrator", "vcm", "--spp", "16", "--vcm-radius", "0.02"]),
-        ];
-        let case_failed = seeded.disagreeing_others(&ruled, &reference, &others, alpha);
+        let case_failed = seeded.bidirectional_disagreeing(&ruled, &reference, "16", "0.02", alpha);
         failed.extend(case_failed.into_iter().map(|r| format!("{}: {r}", case.name)));
     }
     assert!(failed.is_empty(), "disagree with the path tracer: {failed:?}");

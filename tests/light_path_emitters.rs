@@ -99,20 +99,10 @@ fn bidirectional_integrators_match_the_path_tracer() {
     let path = scene(dir.path(), ramp(), hidden());
     let regs = regions(RES.0, RES.1);
     let r = format!("{}x{}", RES.0, RES.1);
-    let seeded = Seeded {
-        dir: dir.path(),
-        common: vec!["--resolution", &r, "--max-depth", "4"],
-        seeds: 6,
-        regions: &regs,
-        limit: LIMIT,
-    };
+    let seeded = Seeded::six(dir.path(), &r, "4", &regs, LIMIT);
     let reference = seeded.means(&path, &["--integrator", "path", "--spp", "64"]);
-    let others: [(&str, &[&str]); 2] = [
-        ("bdpt", &["--integrator", "bdpt", "--spp", "32"]),
-        ("vcm", &["--integrator", "vcm", "--spp", "32", "--vcm-radius", "0.02"]),
-    ];
-    let alpha = sidak(regs.len() * others.len());
-    let failed = seeded.disagreeing_others(&path, &reference, &others, alpha);
+    let alpha = sidak(regs.len() * 2);
+    let failed = seeded.bidirectional_disagreeing(&path, &reference, "32", "0.02", alpha);
     assert!(failed.is_empty(), "disagree with the path tracer: {failed:?}");
 }
 

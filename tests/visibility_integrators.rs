@@ -21,7 +21,7 @@
 
 mod common;
 
-use common::agreement::{Seeded, disagreeing, regions, sidak};
+use common::agreement::{Seeded, regions, sidak};
 use common::{GltfBuilder, quick_render_warnings, temp_dir};
 use serde_json::json;
 use std::path::{Path, PathBuf};
@@ -90,27 +90,14 @@ fn bdpt_and_vcm_match_the_path_tracer_without_cast_shadow() {
     let shadowless = scene(dir.path(), false);
     let regs = regions(RES.0, RES.1);
     let r = format!("{}x{}", RES.0, RES.1);
-    let seeded = Seeded {
-        dir: dir.path(),
-        common: vec!["--resolution", &r, "--max-depth", "4"],
-        seeds: 6,
-        regions: &regs,
-        limit: LIMIT,
-    };
+    let seeded = Seeded::six(dir.path(), &r, "4", &regs, LIMIT);
     let means = |path: &Path, extra: &[&str]| seeded.means(path, extra);
     let path_tracer = ["--integrator", "path", "--spp", "64"];
     let reference = means(&shadowless, &path_tracer);
     let alpha = sidak(regs.len() * 3);
     let shadowed = means(&scene(dir.path(), true), &path_tracer);
-    assert!(
-        !disagreeing("with shadows", &regs, &shadowed, &reference, alpha).is_empty(),
-        "Cast Shadow changes nothing in this scene"
-    );
-    let others: [(&str, &[&str]); 2] = [
-        ("bdpt", &["--integrator", "bdpt", "--spp", "16"]),
-        ("vcm", &["--integrator", "vcm", "--spp", "16", "--vcm-radius", "0.02"]),
-    ];
-    let failed = seeded.disagreeing_others(&shadowless, &reference, &others, alpha);
+    seeded.assert_rule_matters("with shadows", &shadowed, &reference, alpha);
+    let failed = seeded.bidirectional_disagreeing(&shadowless, &reference, "16", "0.02", alpha);
     assert!(failed.is_empty(), "disagree with the path tracer: {failed:?}");
 }
 
@@ -137,26 +124,13 @@ fn bdpt_and_vcm_match_the_path_tracer_with_an_object_hidden_from_the_camera() {
     let hidden = scene_with(dir.path(), true, Some(json!({"camera": false})));
     let regs = regions(RES.0, RES.1);
     let r = format!("{}x{}", RES.0, RES.1);
-    let seeded = Seeded {
-        dir: dir.path(),
-        common: vec!["--resolution", &r, "--max-depth", "4"],
-        seeds: 6,
-        regions: &regs,
-        limit: LIMIT,
-    };
+    let seeded = Seeded::six(dir.path(), &r, "4", &regs, LIMIT);
     let means = |path: &Path, extra: &[&str]| seeded.means(path, extra);
     let path_tracer = ["--integrator", "path", "--spp", "64"];
     let reference = means(&hidden, &path_tracer);
     let alpha = sidak(regs.len() * 3);
     let seen = means(&scene_with(dir.path(), true, Some(json!({}))), &path_tracer);
-    assert!(
-        !disagreeing("seen by the camera", &regs, &seen, &reference, alpha).is_empty(),
-        "hiding the blocker from the camera changes nothing in this scene"
-    );
-    let others: [(&str, &[&str]); 2] = [
-        ("bdpt", &["--integrator", "bdpt", "--spp", "16"]),
-        ("vcm", &["--integrator", "vcm", "--spp", "16", "--vcm-radius", "0.02"]),
-    ];
-    let failed = seeded.disagreeing_others(&hidden, &reference, &others, alpha);
+    seeded.assert_rule_matters("seen by the camera", &seen, &reference, alpha);
+    let failed = seeded.bidirectional_disagreeing(&hidden, &reference, "16", "0.02", alpha);
     assert!(failed.is_empty(), "disagree with the path tracer: {failed:?}");
 }

@@ -107,7 +107,39 @@ pub struct Seeded<'a> {
     pub limit: Duration,
 }
 
-impl Seeded<'_> {
+impl<'a> Seeded<'a> {
+    /// Six seeds per estimate of `resolution` ("WxH") images at `max_depth` over `regions`.
+    pub fn six(
+        dir: &'a Path,
+        resolution: &'a str,
+        max_depth: &'a str,
+        regions: &'a [(String, Vec<usize>)],
+        limit: Duration,
+    ) -> Self {
+        Seeded { dir, common: vec!["--resolution", resolution, "--max-depth", max_depth], seeds: 6, regions, limit }
+    }
+
+    /// Asserts that `reference` is what the rule under test makes: `without` (the scene
+    /// without the rule) disagrees with it in some region (`what` names the change).
+    pub fn assert_rule_matters(&self, what: &str, without: &[Vec<f64>], reference: &[Vec<f64>], alpha: f64) {
+        assert!(!disagreeing(what, self.regions, without, reference, alpha).is_empty(), "{what}: it changes nothing");
+    }
+
+    /// The regions where BDPT or VCM (`spp` samples; VCM with `--vcm-radius vcm_radius`)
+    /// rendering `scene` disagree with `reference` at level `alpha`.
+    pub fn bidirectional_disagreeing(
+        &self,
+        scene: &Path,
+        reference: &[Vec<f64>],
+        spp: &str,
+        vcm_radius: &str,
+        alpha: f64,
+    ) -> Vec<String> {
+        let bdpt = ["--integrator", "bdpt", "--spp", spp];
+        let vcm = ["--integrator", "vcm", "--spp", spp, "--vcm-radius", vcm_radius];
+        self.disagreeing_others(scene, reference, &[("bdpt", &bdpt), ("vcm", &vcm)], alpha)
+    }
+
     /// Per-seed means of each region of `scene` rendered with `extra`.
     pub fn means(&self, scene: &Path, extra: &[&str]) -> Vec<Vec<f64>> {
         let mut a = self.common.clone();
