@@ -96,6 +96,18 @@ pub fn light_subpaths_leave(ctx: &SceneContext, light: usize) -> bool {
     !own_shadows(ctx, light)
 }
 
+/// True when light subpaths start on light `light` and go on past it, so that VCM's volume
+/// merging makes the paths that reach it from a medium vertex through delta bounces alone
+/// (`vcm::volume_merge`) and the path tracer continued there leaves them out: not a soft
+/// point light, an emitter reading the Light Path node (`bdpt::path_emitters`), a
+/// shadow-linked light or one with Cast Shadow off.
+#[inline]
+pub fn merged_in_media(ctx: &SceneContext, light: usize) -> bool {
+    ctx.scene.lights.get(light).is_some_and(|l| {
+        crate::light::origin::starts_subpaths(l) && !crate::light::path_emitters::reads_light_path(ctx.scene, l)
+    }) && light_subpaths_leave(ctx, light)
+}
+
 /// True when the segment from light `light` to the first vertex is stopped by a rule of
 /// the light's own rather than by whatever lies between: shadow linking's blockers, or
 /// none at all (Cast Shadow off). Only a shadow ray from that vertex can test it.

@@ -271,8 +271,7 @@ impl PathIntegrator {
         // Delta bounces since the start while every bounce was one (`merged_delta_light`).
         let mut delta_chain = self.merged_delta_light.then_some(0u32);
         let merged = |chain: Option<u32>, light: Option<usize>| {
-            chain.is_some_and(|k| k > 0)
-                && light.is_some_and(|l| crate::integrator::vcm::volume_merge::merges_light(ctx, l))
+            chain.is_some_and(|k| k > 0) && light.is_some_and(|l| crate::integrator::linking::merged_in_media(ctx, l))
         };
         loop {
             // Bounce dimensions, drawn up front so that their positions are fixed.

@@ -14,16 +14,19 @@ use crate::scene::light_path::PathOutput;
 
 /// Per light: an emissive triangle whose material's emission may read the Light Path node.
 pub fn reading_light_path(scene: &Scene) -> Vec<bool> {
-    let per_material: Vec<bool> =
-        scene.materials.iter().map(|m| m.nodes.as_ref().is_some_and(|p| p.emission_reads_light_path())).collect();
-    scene
-        .lights
-        .iter()
-        .map(|l| match l {
-            Light::Triangle { tri } => per_material[scene.mesh.tri_material[*tri as usize] as usize],
-            _ => false,
-        })
-        .collect()
+    scene.lights.iter().map(|l| reads_light_path(scene, l)).collect()
+}
+
+/// True for an emissive triangle whose material's emission may read the Light Path node.
+#[inline]
+pub fn reads_light_path(scene: &Scene, l: &Light) -> bool {
+    match l {
+        Light::Triangle { tri } => scene.materials[scene.mesh.tri_material[*tri as usize] as usize]
+            .nodes
+            .as_ref()
+            .is_some_and(|p| p.emission_reads_light_path()),
+        _ => false,
+    }
 }
 
 /// The Light Path outputs a photon reads as the rays that find the emitter do.

@@ -9,7 +9,7 @@
 //! camera subpath's first medium vertex x the path tracer takes over (`bdpt::subpath`). The
 //! paths x → S+ → emitter (one or more delta bounces, then a light that starts light
 //! subpaths) are this module's alone: the path tracer continued from x leaves that emission
-//! out (`PathIntegrator::merged_delta_light`, `merges_light`), and volume merging makes them
+//! out (`PathIntegrator::merged_delta_light`, `integrator::linking::merged_in_media`), and volume merging makes them
 //! with weight 1. Those paths are the ones the path tracer finds only by hitting the light
 //! through the glass (noisy for small lights, impossible for point lights), and no other
 //! strategy can make them, so the split is the whole of the MIS between the two: every
@@ -42,8 +42,6 @@ use crate::film::CameraSample;
 use crate::integrator::SceneContext;
 use crate::integrator::bdpt::Ledger;
 use crate::integrator::bdpt::passes::First;
-use crate::integrator::linking;
-use crate::light::origin::starts_subpaths;
 use crate::math::Rgb;
 use crate::medium::tracking::delta_tracking;
 use crate::medium::{HenyeyGreenstein, HomogeneousMedium, Medium, MediumStack, WalkRng, sample_channel, transmittance};
@@ -98,15 +96,6 @@ pub struct VolumeRecord {
     pub bounces: u32,
     /// The light its subpath started at (light groups).
     pub light: u32,
-}
-
-/// True when volume merging makes the paths x → S+ → light `index` (its light subpaths
-/// start and leave the light: not a soft point light, not shadow-linked or Cast Shadow
-/// off, whose light subpaths stop at the light), so the path tracer continued from a
-/// medium vertex leaves them out.
-#[inline]
-pub fn merges_light(ctx: &SceneContext, index: usize) -> bool {
-    ctx.scene.lights.get(index).is_some_and(starts_subpaths) && linking::light_subpaths_leave(ctx, index)
 }
 
 /// A seed for one light subpath's collisions: the render's seed, the pixel and the
