@@ -188,6 +188,7 @@ pub mod path_emitters;
 pub mod subpath;
 pub mod vertex;
 pub mod visibility;
+pub mod volume_records;
 
 use passes::First;
 pub use passes::Ledger;
@@ -211,10 +212,10 @@ pub struct BdptScratch {
     /// tiles keep this scratch inline.
     pub(crate) tally: Box<Tally>,
     /// With `volume_merging`: the light subpath's segments in media after delta bounces.
-    pub(crate) volume_segments: Vec<crate::integrator::vcm::volume_merge::LightSegment>,
+    pub(crate) volume_segments: Vec<volume_records::LightSegment>,
     /// With `volume_merging`: the camera subpath's first medium vertex, if it merges
     /// (boxed, as `split`: tiles keep this scratch inline).
-    pub(crate) medium_vertex: Box<Option<crate::integrator::vcm::volume_merge::MediumVertex>>,
+    pub(crate) medium_vertex: Box<Option<volume_records::MediumVertex>>,
 }
 
 /// Sums over the camera samples of one scratch: the weighted contributions of the

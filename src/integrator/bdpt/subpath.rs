@@ -2,10 +2,10 @@
 //! the way) and the light subpath.
 
 use super::vertex::*;
+use super::volume_records::{LightSegment, MediumVertex};
 use super::*;
 use crate::integrator::filing::Filing;
 use crate::integrator::linking::{self, Gate};
-use crate::integrator::vcm::volume_merge::{LightSegment, MediumVertex};
 use crate::integrator::walk::{PathState, Step};
 use crate::light::emit::infinite_ray;
 
