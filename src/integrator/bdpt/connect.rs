@@ -5,6 +5,7 @@ use super::contact::{self, LightEnd};
 use super::vertex::*;
 use super::*;
 use crate::integrator::linking::{self, Gate};
+use crate::scene::light_path::LightPath;
 use crate::scene::visibility::RayMask;
 
 impl BdptIntegrator {
@@ -268,21 +269,7 @@ impl BdptIntegrator {
             if f == Rgb::ZERO || ls.li == Rgb::ZERO || !consistent {
                 return none;
             }
-            // Cast Shadow off: no shadow ray, as the path tracer's next-event estimation.
-            let tr = if ctx.casts_shadow(index) {
-                stats.shadow += 1;
-                crate::integrator::media::light_transmittance_of(
-                    ctx,
-                    x.p,
-                    Some(hit.ng),
-                    &ls,
-                    media_leaving(ctx, &x, ls.wi),
-                    Some(index),
-                    crate::scene::light_path::LightPath::SHADOW_RAY,
-                )
-            } else {
-                Rgb::ONE
-            };
+            let tr = shadow_transmittance(ctx, &x, hit.ng, &ls, index, LightPath::SHADOW_RAY, stats);
             if tr == Rgb::ZERO {
                 return none;
             }
@@ -519,4 +506,31 @@ impl BdptIntegrator {
         }
         c * tr * wgt
     }
+}
+
+/// Transmittance of next-event estimation's shadow ray from camera vertex `x` (geometric
+/// normal `ng`) to light `index`'s sample `ls`, the ray read by the Light Path node as
+/// `path`; 1 without a ray for a light with Cast Shadow off, as the path tracer's.
+pub(super) fn shadow_transmittance(
+    ctx: &SceneContext,
+    x: &Vertex,
+    ng: Vec3,
+    ls: &crate::light::LightSample,
+    index: usize,
+    path: LightPath,
+    stats: &mut RayStats,
+) -> Rgb {
+    if !ctx.casts_shadow(index) {
+        return Rgb::ONE;
+    }
+    stats.shadow += 1;
+    crate::integrator::media::light_transmittance_of(
+        ctx,
+        x.p,
+        Some(ng),
+        ls,
+        media_leaving(ctx, x, ls.wi),
+        Some(index),
+        path,
+    )
 }

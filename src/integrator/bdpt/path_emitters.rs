@@ -83,21 +83,7 @@ impl BdptIntegrator {
         if f == Rgb::ZERO || ls.li == Rgb::ZERO || !consistent {
             return Rgb::ZERO;
         }
-        // Cast Shadow off: no shadow ray, as the path tracer's next-event estimation.
-        let tr = if ctx.casts_shadow(index) {
-            stats.shadow += 1;
-            crate::integrator::media::light_transmittance_of(
-                ctx,
-                x.p,
-                Some(hit.ng),
-                &ls,
-                media_leaving(ctx, x, ls.wi),
-                Some(index),
-                hit.light_path.shadow(),
-            )
-        } else {
-            Rgb::ONE
-        };
+        let tr = super::connect::shadow_transmittance(ctx, x, hit.ng, &ls, index, hit.light_path.shadow(), stats);
         if tr == Rgb::ZERO {
             return Rgb::ZERO;
         }
