@@ -11,7 +11,8 @@
 //! ray crosses them and the path goes on.
 //!
 //! Media (scenes with `SceneContext::has_media`, which draw one more block of four
-//! dimensions per bounce): inside a medium the path samples a free flight
+//! dimensions per bounce; skipped, its place kept, when every medium is vacuum,
+//! `SceneContext::media_act`): inside a medium the path samples a free flight
 //! (`HomogeneousMedium::sample_free_flight`); at a scattering event it does NEE with
 //! the phase function (MIS against phase sampling) and shadow rays that cross volume
 //! boundaries and attenuate through media (`media::light_transmittance`), then samples
