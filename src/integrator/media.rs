@@ -32,6 +32,10 @@ pub fn medium_segment(
     u: [f32; 2],
     l: &mut Rgb,
 ) -> (Option<(f32, HenyeyGreenstein)>, Rgb, Rgb) {
+    if !ctx.media_act {
+        // Vacuum everywhere: the weights below would be exactly 1 and nothing emitted.
+        return (None, Rgb::ONE, Rgb::ONE);
+    }
     let m = match ctx.medium(media) {
         None => return (None, Rgb::ONE, Rgb::ONE),
         Some(Medium::Grid(g)) => return grid_segment(g, ray, t_surface, beta, u, l),

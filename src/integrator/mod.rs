@@ -73,6 +73,14 @@ pub struct SceneContext<'a> {
     /// Some material has a medium or subsurface scattering (paths then track media and
     /// shadow rays step through volume boundaries).
     pub has_media: bool,
+    /// Some medium changes light along a ray (absorbs, scatters or emits; a grid or a
+    /// volume graph), or a material has subsurface scattering or a volume boundary
+    /// without a surface. False when every medium is vacuum (a glTF glass's
+    /// `KHR_materials_volume` without attenuation, as Blender's exporter writes for every
+    /// transmissive material): the media stack then changes nothing, so ray segments and
+    /// shadow rays skip it with the same numbers (vacuum's weights are exactly 1), and
+    /// walkers skip drawing the media dimensions they keep in their layout (`has_media`).
+    pub media_act: bool,
     /// The mesh media around the camera, which camera paths start in (`with_camera_at`).
     pub camera_media: MediumStack,
     /// Some material's Transparent BSDF is coloured: shadow rays then take the per-channel
@@ -155,6 +163,15 @@ impl<'a> SceneContext<'a> {
             has_media: scene.world_medium.is_some()
                 || scene.world_grid.is_some()
                 || scene.materials.iter().any(|m| m.medium.is_some() || m.subsurface.is_some()),
+            media_act: scene.world_medium.is_some()
+                || scene.world_grid.is_some()
+                || scene.materials.iter().any(|m| {
+                    m.medium.is_some_and(|h| h.attenuates() || h.emission != Rgb::ZERO)
+                        || m.grid.is_some()
+                        || m.volume_program.is_some()
+                        || m.subsurface.is_some()
+                        || m.null_surface
+                }),
             constant_bsdfs: (0..scene.materials.len() as u32).map(|m| scene.constant_bsdf(m)).collect(),
             camera_media: MediumStack::default(),
             tinted_shadows: scene.materials.iter().any(|m| m.nodes.as_ref().is_some_and(|p| p.tinted_transparency)),

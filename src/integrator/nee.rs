@@ -95,8 +95,8 @@ pub fn surface_nee_at(
 pub const NO_LIGHT: usize = usize::MAX;
 
 /// Transmittance of a shadow ray from surface `s` to a sample of light `light`: through
-/// media and volume boundaries (and tinted Transparent BSDFs) when the scene has any, else
-/// plain visibility; with shadow linking only the light's blockers stop it.
+/// media and volume boundaries (and tinted Transparent BSDFs) when the scene has any that
+/// act (`SceneContext::media_act`), else plain visibility; with shadow linking only the light's blockers stop it.
 #[inline]
 pub fn shadow_transmittance(
     ctx: &SceneContext,
@@ -105,7 +105,7 @@ pub fn shadow_transmittance(
     media: MediumStack,
     light: usize,
 ) -> Rgb {
-    if ctx.has_media || ctx.tinted_shadows {
+    if ctx.media_act || ctx.tinted_shadows {
         media::light_transmittance_of(
             ctx,
             s.p,
@@ -196,7 +196,7 @@ pub fn exit_nee_light(
         if cos > 0.0 && ls.wi.dot(n_g) > 0.0 && ls.li != Rgb::ZERO {
             let tr = if !ctx.casts_shadow(index) {
                 Rgb::ONE
-            } else if ctx.has_media || ctx.tinted_shadows {
+            } else if ctx.media_act || ctx.tinted_shadows {
                 stats.shadow += 1;
                 media::light_transmittance_of(ctx, se.p, Some(n_g), &ls, media, Some(index), se.light_path.shadow())
             } else {

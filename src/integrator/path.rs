@@ -11,7 +11,8 @@
 //! ray crosses them and the path goes on.
 //!
 //! Media (scenes with `SceneContext::has_media`, which draw one more block of four
-//! dimensions per bounce): inside a medium the path samples a free flight
+//! dimensions per bounce; skipped, its place kept, when every medium is vacuum,
+//! `SceneContext::media_act`): inside a medium the path samples a free flight
 //! (`HomogeneousMedium::sample_free_flight`); at a scattering event it does NEE with
 //! the phase function (MIS against phase sampling) and shadow rays that cross volume
 //! boundaries and attenuate through media (`media::light_transmittance`), then samples
@@ -277,7 +278,15 @@ impl PathIntegrator {
             // Bounce dimensions, drawn up front so that their positions are fixed.
             let [u_light, u_lx, u_ly, u_lobe] = sampler.next_4d();
             let [u_dx, u_dy, u_rr, u_alpha] = sampler.next_4d();
-            let [u_channel, u_dist, u_sss, u_walk] = if ctx.has_media { sampler.next_4d() } else { [0.0; 4] };
+            // (Media that are all vacuum keep their place in the layout but are not drawn.)
+            let [u_channel, u_dist, u_sss, u_walk] = match (ctx.has_media, ctx.media_act) {
+                (true, true) => sampler.next_4d(),
+                (true, false) => {
+                    sampler.skip_4d();
+                    [0.0; 4]
+                }
+                (false, _) => [0.0; 4],
+            };
             let (u_light_pt, u_dir) = (Vec2::new(u_lx, u_ly), Vec2::new(u_dx, u_dy));
 
             // Along the ray: medium, crossed lights, pass-through surfaces.

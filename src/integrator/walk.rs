@@ -211,9 +211,12 @@ impl PathState {
 
         // The medium along this segment: emission, then where the next event is.
         let (scatter, crossed_w, segment_weight) = match u_medium {
-            Some(u) => medium_segment(ctx, &self.media, (self.org, self.dir), t_surface, self.beta, u, radiance),
+            Some(u) if ctx.media_act => {
+                medium_segment(ctx, &self.media, (self.org, self.dir), t_surface, self.beta, u, radiance)
+            }
+            Some(_) => (None, Rgb::ONE, Rgb::ONE),
             None => match (ctx.medium(&self.media), hit) {
-                (Some(m), Some(h)) => (None, Rgb::ONE, m.transmittance_along(self.org, self.dir, h.t)),
+                (Some(m), Some(h)) if ctx.media_act => (None, Rgb::ONE, m.transmittance_along(self.org, self.dir, h.t)),
                 _ => (None, Rgb::ONE, Rgb::ONE),
             },
         };

@@ -22,6 +22,8 @@ type SetTable = [[[u32; 4]; 16]; 4];
 /// The nibble tables of every dimension set (256 KiB, built once on first use).
 pub struct SobolTables {
     sets: Vec<SetTable>,
+    /// The CPU has SSE4.1 and SSSE3 (checked once here rather than at every point).
+    sse41: bool,
 }
 
 impl std::fmt::Debug for SobolTables {
@@ -52,25 +54,44 @@ impl SobolTables {
                 t
             })
             .collect();
-        SobolTables { sets }
+        #[cfg(target_arch = "x86_64")]
+        let sse41 = is_x86_feature_detected!("sse4.1") && is_x86_feature_detected!("ssse3");
+        #[cfg(not(target_arch = "x86_64"))]
+        let sse41 = false;
+        SobolTables { sets, sse41 }
+    }
+
+    /// The crate's shuffled (Owen-scrambled, bit-reversed) sample index under `seed`: the
+    /// same for every dimension set, so a sample's stream computes it once
+    /// (`PixelSampler`; the scalar bit reversal and hash were 3 % of the glass scene's
+    /// instructions when every point redid them).
+    #[inline]
+    pub fn shuffled_index(sample_index: u32, seed: u32) -> u32 {
+        owen_scramble_rev(sample_index.reverse_bits(), hash(seed ^ 0x79c68e4a))
     }
 
     /// `sobol_burley::sample_4d(sample_index, dimension_set, seed)`, bit for bit
     /// (`sample_index` < 2^16, `dimension_set` < `NUM_DIMENSION_SETS_4D`).
     #[inline]
     pub fn sample_4d(&self, sample_index: u32, dimension_set: u32, seed: u32) -> [f32; 4] {
-        #[cfg(target_arch = "x86_64")]
-        if is_x86_feature_detected!("sse4.1") && is_x86_feature_detected!("ssse3") {
-            // SAFETY: the CPU has the features the function is compiled for.
-            return unsafe { self.sample_4d_sse41(sample_index, dimension_set, seed) };
-        }
-        self.sample_4d_portable(sample_index, dimension_set, seed)
+        self.sample_4d_shuffled(Self::shuffled_index(sample_index, seed), dimension_set, seed)
     }
 
-    /// `sample_4d` with the crate's own four-lane steps.
+    /// [`sample_4d`](Self::sample_4d) from the index as [`shuffled_index`](Self::shuffled_index)
+    /// gives it for `seed`.
     #[inline]
-    fn sample_4d_portable(&self, sample_index: u32, dimension_set: u32, seed: u32) -> [f32; 4] {
-        let rev = owen_scramble_rev(sample_index.reverse_bits(), hash(seed ^ 0x79c68e4a));
+    pub fn sample_4d_shuffled(&self, rev: u32, dimension_set: u32, seed: u32) -> [f32; 4] {
+        #[cfg(target_arch = "x86_64")]
+        if self.sse41 {
+            // SAFETY: the CPU has the features the function is compiled for.
+            return unsafe { self.sample_4d_sse41(rev, dimension_set, seed) };
+        }
+        self.sample_4d_portable(rev, dimension_set, seed)
+    }
+
+    /// `sample_4d_shuffled` with the crate's own four-lane steps.
+    #[inline]
+    fn sample_4d_portable(&self, rev: u32, dimension_set: u32, seed: u32) -> [f32; 4] {
         let t = &self.sets[dimension_set as usize];
         let part = |k: usize| Int4::from(t[k][((rev >> (28 - 4 * k)) & 15) as usize]);
         let sobol = part(0) ^ part(1) ^ part(2) ^ part(3);
@@ -82,7 +103,7 @@ impl SobolTables {
         owen_scramble_int4_rev(sobol, hash_int4(scramble)).reverse_bits().to_f32_norm()
     }
 
-    /// `sample_4d` on CPUs with SSE4.1 (checked at run time): the crate, built for plain
+    /// `sample_4d_shuffled` on CPUs with SSE4.1 (checked at run time): the crate, built for plain
     /// x86_64, emulates its six four-lane multiplications with two 64-bit products, three
     /// shuffles and two masks each, and reverses bits in five shift-and-mask rounds
     /// (callgrind/perf: `next_4d` was 10.5 % of the glass scene's render). Here each
@@ -90,9 +111,8 @@ impl SobolTables {
     /// lookups and a byte shuffle: the same integers, so the same points bit for bit.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "sse4.1,ssse3")]
-    fn sample_4d_sse41(&self, sample_index: u32, dimension_set: u32, seed: u32) -> [f32; 4] {
+    fn sample_4d_sse41(&self, rev: u32, dimension_set: u32, seed: u32) -> [f32; 4] {
         use std::arch::x86_64::*;
-        let rev = owen_scramble_rev(sample_index.reverse_bits(), hash(seed ^ 0x79c68e4a));
         let t = &self.sets[dimension_set as usize];
         let part = |k: usize| {
             let entry = &t[k][((rev >> (28 - 4 * k)) & 15) as usize];
@@ -153,7 +173,7 @@ mod tests {
                 let want = sobol_burley::sample_4d(index, set, seed).map(f32::to_bits);
                 assert_eq!(tables.sample_4d(index, set, seed).map(f32::to_bits), want, "set {set} index {index}");
                 assert_eq!(
-                    tables.sample_4d_portable(index, set, seed).map(f32::to_bits),
+                    tables.sample_4d_portable(SobolTables::shuffled_index(index, seed), set, seed).map(f32::to_bits),
                     want,
                     "set {set} index {index}"
                 );
