@@ -632,10 +632,8 @@ impl BdptIntegrator {
         let Some((index, pmf)) = self.lights.pick_origin(u_pick) else {
             return;
         };
-        // A restricted light's paths are the camera side's (`visibility`).
-        if self.restriction.light(index) {
-            return;
-        }
+        // A restricted light's paths are the camera side's (`visibility`): never picked.
+        debug_assert!(!self.restriction.light(index));
         let Some((v0, org, dir, beta, pdf_dir)) = self.light_start(ctx, index, pmf, u_side, [u_px, u_py, u_dx, u_dy])
         else {
             return;

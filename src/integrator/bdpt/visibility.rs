@@ -36,8 +36,9 @@
 //!   two densities (BSDF sampling against this integrator's light sampling), as next-event
 //!   estimation and BSDF sampling are. Every other strategy (s ≥ 2, t = 1, merging)
 //!   gives it nothing: light subpaths stop before a segment that crosses or ends on a
-//!   restricted object, restricted lights start none, connections and merges test the
-//!   camera prefix (`Vertex::restricted`) and the joining segment.
+//!   restricted object, restricted lights start none (the light-origin choice leaves them
+//!   out, `BdptLights::new`, so no subpath is wasted on them), connections and merges test
+//!   the camera prefix (`Vertex::restricted`) and the joining segment.
 //! - An unrestricted path meets no restricted object, so every kind of ray sees the same
 //!   scene along it and every strategy evaluates the same function of it: the usual
 //!   weights over every strategy, unchanged. The two sets are disjoint and each path's
