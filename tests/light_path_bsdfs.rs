@@ -130,7 +130,9 @@ fn bdpt_and_vcm_match_the_path_tracer_with_bsdfs_switched_by_the_light_path_node
         for integrator in ["bdpt", "vcm"] {
             let out = dir.path().join("w.exr");
             let w = quick_render_warnings(&ruled, &out, &["--integrator", integrator], LIMIT);
-            warned.extend(w.into_iter().filter(|w| w.contains("Light Path")).map(|w| format!("{name} {integrator}: {w}")));
+            warned.extend(
+                w.into_iter().filter(|w| w.contains("Light Path")).map(|w| format!("{name} {integrator}: {w}")),
+            );
         }
     }
     assert!(failed.is_empty(), "disagree with the path tracer: {failed:?}");

@@ -160,12 +160,7 @@ fn light_side_integrators_name_bsdfs_switched_by_the_light_path_node() {
     };
     let path = scene(dir.path(), switched("ByCamera", "Is Camera Ray"), switched("ByDiffuse", "Is Diffuse Ray"));
     let out = dir.path().join("w.exr");
-    for (integrator, names) in [
-        ("bdpt", &[][..]),
-        ("vcm", &[]),
-        ("photon", &["ByDiffuse"]),
-        ("sppm", &["ByDiffuse"]),
-    ] {
+    for (integrator, names) in [("bdpt", &[][..]), ("vcm", &[]), ("photon", &["ByDiffuse"]), ("sppm", &["ByDiffuse"])] {
         let w = quick_render_warnings(&path, &out, &["--integrator", integrator], LIMIT);
         let named: Vec<_> = w.iter().filter(|w| w.contains("BSDF or transparency")).collect();
         if names.is_empty() {

@@ -184,6 +184,7 @@ impl BdptIntegrator {
 pub mod catcher;
 pub mod connect;
 pub mod contact;
+pub mod found_lights;
 pub mod passes;
 pub mod path_emitters;
 pub mod subpath;

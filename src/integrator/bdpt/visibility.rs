@@ -255,10 +255,7 @@ mod tests {
         let switched = Program { scattering_light_path: vec![PathOutput::IsCamera], ..Program::default() };
         scene.materials = vec![
             crate::scene::material::Material::default(),
-            crate::scene::material::Material {
-                nodes: Some(std::sync::Arc::new(switched)),
-                ..Default::default()
-            },
+            crate::scene::material::Material { nodes: Some(std::sync::Arc::new(switched)), ..Default::default() },
         ];
         scene.mesh.positions = vec![
             Vec3::new(-1.0, -1.0, 1.0),
