@@ -213,9 +213,23 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         // BDPT and VCM test which paths meet a restricted object on its triangles at the
         // frame (`integrator::bdpt::visibility`).
         let moving = crate::integrator::bdpt::visibility::moving_restricted(&scene, m);
-        if matches!(res.integrator, IntegratorKind::Bdpt | IntegratorKind::Vcm) && !moving.is_empty() {
+        let bidirectional = matches!(res.integrator, IntegratorKind::Bdpt | IntegratorKind::Vcm);
+        if bidirectional && !moving.is_empty() {
             let w = format!(
-                "motion blur with BDPT/VCM: the ray visibility of moving object(s) {} is judged where they are at                  the frame, so paths that pass near them as they move may be weighed for the wrong strategies",
+                "motion blur with BDPT/VCM: the ray visibility of moving object(s) {} is judged where they are at \
+                 the frame, so paths that pass near them as they move may be weighed for the wrong strategies",
+                moving.iter().map(|o| format!("'{o}'")).collect::<Vec<_>>().join(", ")
+            );
+            reporter.warning(&w);
+            run_warnings.push(w);
+        }
+        // The same test finds the triangles of materials whose BSDF reads the Light Path node.
+        let moving = crate::integrator::bdpt::visibility::moving_switched(&scene, m);
+        if bidirectional && !moving.is_empty() {
+            let w = format!(
+                "motion blur with BDPT/VCM: the moving triangles of material(s) {}, whose BSDF or transparency reads \
+                 the Light Path node, are judged where they are at the frame, so paths that pass near them as they \
+                 move may be weighed for the wrong strategies",
                 moving.iter().map(|o| format!("'{o}'")).collect::<Vec<_>>().join(", ")
             );
             reporter.warning(&w);

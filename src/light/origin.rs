@@ -48,7 +48,7 @@ pub struct BdptLights {
     /// Light choice for light sampling at a camera vertex (s = 1): every light but those
     /// reading the Light Path node, by power.
     all: Distribution1D,
-    /// Light choice for light subpaths: the lights that start them, by power.
+    /// Light choice for light subpaths: the lights that start them (not restricted ones), by power.
     origin: Distribution1D,
     /// Per light: starts light subpaths.
     starts: Vec<bool>,
@@ -77,12 +77,21 @@ pub fn starts_subpaths(l: &Light) -> bool {
 }
 
 impl BdptLights {
-    /// Selection distributions from the lights' exact emitted power.
-    pub fn new(scene: &Scene) -> Self {
+    /// Selection distributions from the lights' exact emitted power. `restricted(i)`: light
+    /// `i`'s paths are made by the camera side alone (`integrator::bdpt::visibility`), so it
+    /// starts no light subpath and the origin choice leaves it out (a subpath started there
+    /// would end at once); the strategies that weigh its paths never ask its origin density.
+    pub fn new(scene: &Scene, restricted: impl Fn(usize) -> bool) -> Self {
         let emitters = Emitters::new(scene);
         let lum: Vec<f32> = emitters.power.iter().map(|p| luminance(*p).max(0.0)).collect();
         let reads_path = super::path_emitters::reading_light_path(scene);
-        let starts: Vec<bool> = scene.lights.iter().zip(&reads_path).map(|(l, &r)| starts_subpaths(l) && !r).collect();
+        let starts: Vec<bool> = scene
+            .lights
+            .iter()
+            .zip(&reads_path)
+            .enumerate()
+            .map(|(i, (l, &r))| starts_subpaths(l) && !r && !restricted(i))
+            .collect();
         let origin: Vec<f32> = lum.iter().zip(&starts).map(|(&l, &f)| if f { l } else { 0.0 }).collect();
         // Emitters reading the Light Path node are sampled at camera vertices as the path
         // tracer samples them (its own light choice), not by this one.

@@ -75,7 +75,9 @@ pub fn photon_warning(scene: &Scene, integrator: &str) -> Option<String> {
 /// [`scattering_warning`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum LightSide {
-    /// BDPT and VCM: light subpaths, whose vertices light tracing shows to the camera.
+    /// BDPT and VCM: light subpaths, whose vertices light tracing shows to the camera. Paths
+    /// through such triangles are made by the camera side alone (`bdpt::visibility`); the
+    /// warning names the materials of strands, which that rule does not cover.
     Subpaths,
     /// Jensen's photon mapping and SPPM: photons, read at camera vertices.
     Photons,
@@ -95,10 +97,15 @@ impl LightSide {
 /// displacement) reads a Light Path output that `side`'s vertices cannot read as the path
 /// tracer's rays do (`integrator`: its name in the message); `None` when there is none.
 pub fn scattering_warning(scene: &Scene, integrator: &str, side: LightSide) -> Option<String> {
+    // BDPT and VCM leave the paths through such triangles to the camera side
+    // (`integrator::bdpt::visibility`); only strands, which that test does not see, remain.
+    let on_strands = |m: usize| scene.curves.strands.iter().any(|s| s.material as usize == m);
     let named: Vec<String> = scene
         .materials
         .iter()
-        .filter_map(|m| {
+        .enumerate()
+        .filter(|(i, _)| side == LightSide::Photons || on_strands(*i))
+        .filter_map(|(_, m)| {
             let prog = m.nodes.as_ref()?;
             let outputs: Vec<&str> = prog
                 .scattering_light_path
@@ -114,9 +121,10 @@ pub fn scattering_warning(scene: &Scene, integrator: &str, side: LightSide) -> O
     }
     let what = match side {
         LightSide::Subpaths => {
-            "shades a light subpath's vertices on them with the light subpath's own state (its last bounce's \
-             kind and depth, no camera path), so light reaching the camera through them by light tracing, \
-             connections or merging is approximated"
+            "shades a light subpath's vertices on their strands (hair, curves) with the light subpath's own \
+             state (its last bounce's kind and depth, no camera path), so light reaching the camera through \
+             those strands by light tracing, connections or merging is approximated (their triangles' paths \
+             are left to the camera side, exact)"
         }
         LightSide::Photons => {
             "scatters photons on them with the photon's own state (its last bounce's kind and depth, no camera \

@@ -25,7 +25,8 @@ Path output, so that an engine that ignored the ray's kind renders a visibly dif
 
 BDPT and VCM render the emitter cases too: their light subpaths cannot know the camera path, so
 they take such an emitter by the camera-side strategies alone, weighed as the path tracer weighs
-them (`src/integrator/bdpt/path_emitters.rs`).
+them (`src/integrator/bdpt/path_emitters.rs`); and Is Camera Ray's and Is Diffuse Ray's switched
+BSDFs, whose paths they leave to the camera side likewise (`src/integrator/bdpt/visibility.rs`).
 """
 
 import bpy
@@ -160,14 +161,17 @@ def camera_only_glow(name):
     return mat
 
 
-# Scenes whose emitter reads the Light Path node and whose BSDFs do not. (A BSDF switched by
-# the Light Path node, as "is_camera_ray"'s, is not yet rendered as Cycles by BDPT and VCM:
-# a light subpath's vertex is shaded without the camera path's state, so light tracing
-# shows the sphere's red diffuse side to the camera: R 1.013x Cycles'; the material is named in a warning.)
+# Scenes whose emitter or BSDF reads the Light Path node. A BSDF switched by the node makes
+# its triangles restricted in BDPT and VCM (`src/integrator/bdpt/visibility.rs`): the paths
+# that meet them are made by the camera side alone, as the path tracer makes them. Before
+# that rule "is_camera_ray" rendered R 1.013x Cycles' in both (light tracing showed the
+# sphere's red diffuse side to the camera) and the material was named in a warning.
 EMITTER_CASES = {
     "ray_depth_emitter": CASES["ray_depth_emitter"],
     "ray_depth_emitter_in_fog": CASES["ray_depth_emitter_in_fog"],
     "camera_only_glow": (sphere_scene, lambda _case: camera_only_glow("Glow")),
+    "is_camera_ray": CASES["is_camera_ray"],
+    "is_diffuse_ray": CASES["is_diffuse_ray"],
 }
 
 

@@ -110,15 +110,16 @@ impl BdptIntegrator {
         transparent_background: bool,
         strategy: Option<Strategy>,
     ) -> Self {
+        let restriction = Arc::new(visibility::Restriction::new(scene));
         BdptIntegrator {
             max_depth,
             rr_depth: super::path::PathIntegrator::default().rr_depth,
             transparent_background,
             strategy,
-            lights: Arc::new(BdptLights::new(scene)),
+            lights: Arc::new(BdptLights::new(scene, |i| restriction.light(i))),
             delta_geometry: false,
             ledger: Ledger::default(),
-            restriction: Arc::new(visibility::Restriction::new(scene)),
+            restriction,
             volume_merging: false,
         }
     }
@@ -183,6 +184,7 @@ impl BdptIntegrator {
 pub mod catcher;
 pub mod connect;
 pub mod contact;
+pub mod found_lights;
 pub mod passes;
 pub mod path_emitters;
 pub mod subpath;

@@ -1,5 +1,5 @@
 //! Ray Visibility (objects, lights, the world: `scene::visibility`,
-//! `scene::light_visibility`) in BDPT and VCM.
+//! `scene::light_visibility`) and BSDFs switched by the Light Path node in BDPT and VCM.
 //!
 //! In camera order every segment of a path is a ray of one kind, set at its camera-side
 //! end: the camera, the lobe the vertex scattered with (diffuse, glossy, transmission), or
@@ -13,6 +13,15 @@
 //!   glossy, transmission or shadow rays; an object hidden from every kind is passed by
 //!   every ray alike, one hidden from the camera alone is the camera segment's business,
 //!   exact in every strategy, and volume rays belong to the path-traced medium vertices).
+//!   The triangles of a material whose scattering (BSDFs, Mix factors, transparency,
+//!   displacement) reads the Light Path node are restricted too (`switched_materials`):
+//!   a vertex there is shaded with the path's state (Is Camera Ray, a bounce's kind, Ray
+//!   Depth), set in camera order by the camera-side prefix, which a light subpath's vertex
+//!   does not have. (The rule of the Light Path node's issue 19 chose this set, s = 0 and
+//!   s = 1, over every strategy whose light subpath ends before the first such vertex: it
+//!   is the tested machinery below, and light subpaths that stop there lose little where
+//!   the switched vertex is diffuse; caustics through a switched glass are left to the
+//!   path tracer's variance.)
 //!   A **restricted light** is one whose Ray Visibility hides it from a surface bounce
 //!   kind (the world included), or an emissive triangle of a restricted object.
 //! - A path is **restricted** when a segment of it crosses or ends on a restricted
@@ -27,8 +36,9 @@
 //!   two densities (BSDF sampling against this integrator's light sampling), as next-event
 //!   estimation and BSDF sampling are. Every other strategy (s ≥ 2, t = 1, merging)
 //!   gives it nothing: light subpaths stop before a segment that crosses or ends on a
-//!   restricted object, restricted lights start none, connections and merges test the
-//!   camera prefix (`Vertex::restricted`) and the joining segment.
+//!   restricted object, restricted lights start none (the light-origin choice leaves them
+//!   out, `BdptLights::new`, so no subpath is wasted on them), connections and merges test
+//!   the camera prefix (`Vertex::restricted`) and the joining segment.
 //! - An unrestricted path meets no restricted object, so every kind of ray sees the same
 //!   scene along it and every strategy evaluates the same function of it: the usual
 //!   weights over every strategy, unchanged. The two sets are disjoint and each path's
@@ -89,7 +99,13 @@ impl Restriction {
     /// The restricted objects and lights of `scene`.
     pub fn new(scene: &Scene) -> Self {
         let vis = &scene.ray_visibility.per_triangle;
-        let objects: Vec<bool> = vis.iter().map(|m| restricted_object(*m)).collect();
+        let switched = switched_materials(scene);
+        let objects: Vec<bool> = (0..scene.mesh.triangles.len())
+            .map(|t| {
+                vis.get(t).is_some_and(|m| restricted_object(*m))
+                    || switched.get(scene.mesh.tri_material[t] as usize).copied().unwrap_or(false)
+            })
+            .collect();
         let ids: Vec<usize> = (0..objects.len()).filter(|&t| objects[t]).collect();
         let accel = (!ids.is_empty()).then(|| {
             let m = &scene.mesh;
@@ -151,6 +167,28 @@ impl Restriction {
     }
 }
 
+/// Per material: its scattering (BSDFs, Mix factors, transparency, displacement) reads
+/// the Light Path node (`Program::scattering_light_path`), so its triangles are restricted:
+/// a vertex on it (or a segment through it) reads the path's state, which only the camera
+/// side knows in camera order.
+pub fn switched_materials(scene: &Scene) -> Vec<bool> {
+    scene.materials.iter().map(|m| m.nodes.as_ref().is_some_and(|p| !p.scattering_light_path.is_empty())).collect()
+}
+
+/// The names of the materials whose scattering reads the Light Path node (restricted,
+/// [`switched_materials`]) on triangles that move under `motion`'s blur, tested where they
+/// are at the frame as [`moving_restricted`]'s objects are.
+pub fn moving_switched<'a>(scene: &'a Scene, motion: &crate::motion::SceneMotion) -> Vec<&'a str> {
+    let switched = switched_materials(scene);
+    let mut moving = vec![false; switched.len()];
+    for (t, &m) in scene.mesh.tri_material.iter().enumerate() {
+        if switched.get(m as usize).copied().unwrap_or(false) && motion.moving(t as u32).is_some() {
+            moving[m as usize] = true;
+        }
+    }
+    scene.materials.iter().zip(moving).filter(|(_, m)| *m).map(|(m, _)| m.name.as_str()).collect()
+}
+
 /// The names of the restricted objects of `scene` that move under `motion`'s blur: their
 /// triangles are tested where they are at the frame (`Restriction` keeps no swept shape).
 pub fn moving_restricted<'a>(scene: &'a Scene, motion: &crate::motion::SceneMotion) -> Vec<&'a str> {
@@ -205,6 +243,62 @@ mod tests {
             assert!(restricted_object(without(k)), "{k:?}");
         }
         assert!(restricted_object(RayMask::SHADOW));
+    }
+
+    /// The triangles of a material whose scattering reads the Light Path node are
+    /// restricted objects, and an emissive one a restricted light; a plain material's are not.
+    #[test]
+    fn bsdfs_switched_by_the_light_path_node_are_restricted() {
+        use crate::scene::light_path::PathOutput;
+        use crate::shader::instructions::Program;
+        let mut scene = Scene::default();
+        let switched = Program { scattering_light_path: vec![PathOutput::IsCamera], ..Program::default() };
+        scene.materials = vec![
+            crate::scene::material::Material::default(),
+            crate::scene::material::Material { nodes: Some(std::sync::Arc::new(switched)), ..Default::default() },
+        ];
+        scene.mesh.positions = vec![
+            Vec3::new(-1.0, -1.0, 1.0),
+            Vec3::new(1.0, -1.0, 1.0),
+            Vec3::new(0.0, 1.0, 1.0),
+            Vec3::new(-1.0, -1.0, -1.0),
+            Vec3::new(1.0, -1.0, -1.0),
+            Vec3::new(0.0, 1.0, -1.0),
+        ];
+        scene.mesh.triangles = vec![[0, 1, 2], [3, 4, 5]];
+        scene.mesh.tri_material = vec![0, 1];
+        scene.lights = vec![Light::Triangle { tri: 0 }, Light::Triangle { tri: 1 }];
+        assert_eq!(switched_materials(&scene), vec![false, true]);
+        let r = Restriction::new(&scene);
+        assert!(!r.none());
+        assert!(!r.object(0) && r.object(1));
+        assert!(!r.light(0) && r.light(1));
+        // Only the switched triangle (z = -1) is found by the segment tests.
+        assert!(!r.between(Vec3::ZERO, Vec3::new(0.0, 0.0, 2.0)));
+        assert!(r.between(Vec3::ZERO, Vec3::new(0.0, 0.0, -2.0)));
+    }
+
+    /// A restricted path's set is s = 0 (BSDF sampling, `camera_only_weight`) and s = 1
+    /// (light sampling, weighed by the power heuristic against the BSDF's density, as
+    /// `connect` does): over random paths' densities the two weights sum to 1, and s = 0
+    /// takes it whole where s = 1 cannot make it (a camera ray, a delta bounce).
+    #[test]
+    fn restricted_paths_weights_sum_to_one() {
+        let bdpt = super::super::BdptIntegrator::new(&Scene::default(), 4, false, None);
+        let mut state = 0x5eed_1234u64;
+        let mut rnd = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((state >> 40) as f32 + 0.5) / (1u64 << 24) as f32
+        };
+        for trial in 0..4000 {
+            let pdf_sa = (rnd() * 20.0 - 10.0).exp();
+            let p_light = (rnd() * 20.0 - 10.0).exp();
+            let (i, prev_delta) = (1 + trial % 5, trial % 7 == 0);
+            let s0 = bdpt.camera_only_weight(i, prev_delta, pdf_sa, p_light) as f64;
+            let s1 = if prev_delta { 0.0 } else { crate::integrator::power_heuristic(p_light, pdf_sa) as f64 };
+            assert!((s0 + s1 - 1.0).abs() < 1e-5, "trial {trial}: {s0} + {s1}");
+            assert_eq!(bdpt.camera_only_weight(0, false, pdf_sa, p_light), 1.0);
+        }
     }
 
     #[test]
