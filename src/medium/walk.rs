@@ -188,7 +188,9 @@ fn exp3(x: Vec3A) -> Vec3A {
 fn pow2(n: Vec3A) -> Vec3A {
     #[cfg(target_arch = "x86_64")]
     {
-        use std::arch::x86_64::{__m128, _mm_add_epi32, _mm_castsi128_ps, _mm_cvttps_epi32, _mm_set1_epi32, _mm_slli_epi32};
+        use std::arch::x86_64::{
+            __m128, _mm_add_epi32, _mm_castsi128_ps, _mm_cvttps_epi32, _mm_set1_epi32, _mm_slli_epi32,
+        };
         let v: __m128 = n.into();
         // SAFETY: SSE2 is part of x86-64; the lanes are integers in [-126, 0], so the
         // truncating conversion is exact and the biased exponent lies in [1, 127].
