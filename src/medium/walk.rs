@@ -46,7 +46,7 @@ pub struct WalkExit {
 /// the same bit for bit.
 pub fn random_walk(
     intersect: impl Fn(Vec3, Vec3, f32) -> Option<Hit>,
-    clearance: impl Fn(Vec3, f32) -> f32,
+    mut clearance: impl FnMut(Vec3, f32) -> f32,
     mut org: Vec3,
     mut dir: Vec3,
     m: &WalkMedium,
