@@ -247,11 +247,10 @@ mod tests {
             let before = near;
             let r = accel.clearance_near(p, cap, &mut near);
             assert_eq!(r, accel.clearance(p, cap), "at {p}, cap {cap}, hint {before}");
-            if near != before || before == NO_TRIANGLE {
-                if near != NO_TRIANGLE {
-                    let d = point_triangle_squared(p.as_dvec3(), &accel.tris[near as usize]).sqrt() as f32;
-                    assert!(d <= cap && d * (1.0 - 1e-4) - 1e-5 * p.abs().max_element().max(1.0) <= r + 1e-6);
-                }
+            // A new nearest was found: it lies within the cap, at the radius (less the margin).
+            if near != before && near != NO_TRIANGLE {
+                let d = point_triangle_squared(p.as_dvec3(), &accel.tris[near as usize]).sqrt() as f32;
+                assert!(d <= cap && d * (1.0 - 1e-4) - 1e-5 * p.abs().max_element().max(1.0) <= r + 1e-6);
             }
         }
         let mut out_of_range = u32::MAX - 1;
