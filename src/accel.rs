@@ -11,6 +11,7 @@
 //! settles the sign of a distance that its f32 rounding cannot decide in f64.
 
 mod clearance;
+pub use clearance::NO_TRIANGLE;
 mod planes;
 pub mod touching;
 mod traverse;

@@ -19,6 +19,9 @@ use glam::{DVec3, Vec3, Vec3A};
 /// `traverse::STACK_DEPTH` (32) deep.
 const STACK: usize = 8 * 32;
 
+/// No triangle: a search without a hint (`Accel::clearance_near`).
+pub const NO_TRIANGLE: u32 = u32::MAX;
+
 impl Accel {
     /// A radius r ≤ `cap` such that no triangle of this BVH (nor of its relocated side
     /// BVH) comes within r of `p` (0 when one touches it). Beyond `cap` the search does
@@ -33,22 +36,41 @@ impl Accel {
     /// search's ε-level errors with room, the absolute part the f32 rounding (≤ a few ε
     /// |p|∞ = 4e-7 |p|∞) of the caller's squared distances and of the walk's end points.
     pub fn clearance(&self, p: Vec3, cap: f32) -> f32 {
-        let mut d2 = self.nearest_squared(p, f64::from(cap).powi(2));
+        let mut near = NO_TRIANGLE;
+        self.clearance_near(p, cap, &mut near)
+    }
+
+    /// [`clearance`](Self::clearance), starting from the triangle `near` (the last
+    /// search's nearest, `NO_TRIANGLE` for none), which becomes this search's nearest.
+    /// A walk's next search is a few mean free paths from its last: that triangle's
+    /// distance bounds the search from its start, so it prunes boxes a nearest-first
+    /// search would otherwise open before reaching it. The minimum is the same (the
+    /// hint is one of the candidates), so the radius is the same bit for bit.
+    pub fn clearance_near(&self, p: Vec3, cap: f32, near: &mut u32) -> f32 {
+        let mut d2 = self.nearest_squared(p, f64::from(cap).powi(2), near);
         if let Some(moved) = &self.moved {
-            d2 = d2.min(moved.nearest_squared(p, d2));
+            let mut none = NO_TRIANGLE;
+            d2 = d2.min(moved.nearest_squared(p, d2, &mut none));
         }
         let r = (d2.sqrt() as f32) * (1.0 - 1e-4) - 1e-5 * p.abs().max_element().max(1.0);
         if r > 0.0 { r } else { 0.0 }
     }
 
     /// The squared distance from `p` to the nearest triangle, or `cap2` when none is
-    /// nearer than √cap2.
-    fn nearest_squared(&self, p: Vec3, cap2: f64) -> f64 {
+    /// nearer than √cap2; `near` is a triangle to start from and becomes the nearest
+    /// found (unchanged when none is nearer than √cap2).
+    fn nearest_squared(&self, p: Vec3, cap2: f64, near: &mut u32) -> f64 {
         let mut best = cap2;
         if self.bvh.nodes.is_empty() {
             return best;
         }
         let pd = p.as_dvec3();
+        if let Some(tri) = self.tris.get(*near as usize) {
+            let d2 = point_triangle_squared(pd, tri);
+            if d2 < best {
+                best = d2;
+            }
+        }
         let pa = Vec3A::from(p);
         // Uninitialised: zeroing it cost ~3 % of a search.
         let mut stack = [std::mem::MaybeUninit::<(u32, f32)>::uninit(); STACK];
@@ -80,7 +102,10 @@ impl Accel {
                         let start = node.primitive_base_idx + u32::from(meta & 0b1_1111);
                         let count = 8 - (meta >> 5).leading_zeros();
                         for id in start..start + count {
-                            best = best.min(point_triangle_squared(pd, &self.tris[id as usize]));
+                            let d2 = point_triangle_squared(pd, &self.tris[id as usize]);
+                            if d2 < best {
+                                (best, *near) = (d2, id);
+                            }
                         }
                     }
                 }
@@ -199,6 +224,37 @@ mod tests {
         // A cap below the distance is the radius, less the margin.
         let p = Vec3::new(20.0, 0.0, 0.0);
         assert_eq!(accel.clearance(p, 1.0), 1.0 * (1.0 - 1e-4) - 1e-5 * 20.0);
+    }
+
+    /// A search started from a hint (the last search's nearest, as a walk asks along its
+    /// way) gives the same radius as one without, under a cap too, and leaves the hint at
+    /// a triangle that far; a hint beyond the cap or out of range changes nothing.
+    #[test]
+    fn a_hint_changes_no_radius() {
+        let mut s = 9u64;
+        let mut tris = Vec::new();
+        for _ in 0..2000 {
+            let c = Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s)) * 6.0 - 3.0;
+            let d = |s: &mut u64| Vec3::new(lcg(s), lcg(s), lcg(s)) * 0.2 - 0.1;
+            tris.push([c + d(&mut s), c + d(&mut s), c + d(&mut s)]);
+        }
+        let accel = Accel::build(&tris);
+        let mut near = NO_TRIANGLE;
+        let mut p = Vec3::ZERO;
+        for _ in 0..500 {
+            p += (Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s)) - 0.5) * 0.3;
+            let cap = if lcg(&mut s) < 0.5 { f32::INFINITY } else { 0.2 };
+            let before = near;
+            let r = accel.clearance_near(p, cap, &mut near);
+            assert_eq!(r, accel.clearance(p, cap), "at {p}, cap {cap}, hint {before}");
+            // A new nearest was found: it lies within the cap, at the radius (less the margin).
+            if near != before && near != NO_TRIANGLE {
+                let d = point_triangle_squared(p.as_dvec3(), &accel.tris[near as usize]).sqrt() as f32;
+                assert!(d <= cap && d * (1.0 - 1e-4) - 1e-5 * p.abs().max_element().max(1.0) <= r + 1e-6);
+            }
+        }
+        let mut out_of_range = u32::MAX - 1;
+        assert_eq!(accel.clearance_near(p, 1.0, &mut out_of_range), accel.clearance(p, 1.0));
     }
 
     /// The point-triangle distance in each Voronoi region of a right triangle.

@@ -475,9 +475,10 @@ impl<'a> SceneContext<'a> {
     /// comes within (`Accel::clearance`); 0 with moving triangles or strands, which it does not see.
     /// The subsurface walk skips the query for steps inside it.
     #[inline]
-    pub fn clearance(&self, p: Vec3, cap: f32) -> f32 {
+    /// `near` is the last search's nearest triangle (`Accel::clearance_near`).
+    pub fn clearance(&self, p: Vec3, cap: f32, near: &mut u32) -> f32 {
         match (self.motion, &self.scene.curves.bvh) {
-            (None, None) => self.accel.clearance(p, cap),
+            (None, None) => self.accel.clearance_near(p, cap, near),
             _ => 0.0,
         }
     }

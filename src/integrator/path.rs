@@ -734,9 +734,10 @@ impl PathIntegrator {
         }
         let walk = WalkMedium::new(albedo, mfp, ss.anisotropy);
         let mut rng = WalkRng::new(u[3], s.tri);
+        let mut near = crate::accel::NO_TRIANGLE;
         crate::medium::walk::random_walk(
             |o, d, t| ctx.intersect(o, d, t),
-            |p, cap| ctx.clearance(p, cap),
+            |p, cap| ctx.clearance(p, cap, &mut near),
             offset_ray_origin(s.p, -s.ng),
             entry,
             &walk,

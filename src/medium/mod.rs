@@ -254,69 +254,100 @@ impl WalkRng {
 /// anisotropy by a degree-7 fit in g of each of its six coefficients; these are the
 /// coefficients Cycles uses (`subsurface_random_walk_remap`), so the same colour gives
 /// the same medium as in Blender.
-// The fit's coefficients as published, all their digits.
-#[allow(clippy::excessive_precision, clippy::unreadable_literal)]
 pub fn single_scattering_albedo(a: f32, g: f32) -> f32 {
-    // Polynomial in g, lowest degree first.
-    let poly = |c: &[f32; 8]| c.iter().rev().fold(0.0f32, |acc, &k| acc * g + k);
-    const A: [f32; 8] = [
-        1.8260523782,
-        -1.28451056436,
-        -1.79904629312,
-        9.19393289202,
-        -22.8215585862,
-        32.0234874259,
-        -23.6264803333,
-        7.21067002658,
-    ];
-    const B_EXP: [f32; 8] = [
-        0.0,
-        31.1491581433,
-        -201.847017512,
-        841.576016723,
-        -2018.09288505,
-        2731.71560286,
-        -1935.41424244,
-        559.009054474,
-    ];
-    const C: [f32; 8] = [
-        1.09686102424,
-        -0.394704063468,
-        1.05258115941,
-        -8.83963712726,
-        28.8643230661,
-        -46.8802913581,
-        38.5402837518,
-        -12.7181042538,
-    ];
-    const D: [f32; 8] = [
-        0.496310210422,
-        0.360146581622,
-        -2.15139309747,
-        17.8896899217,
-        -55.2984010333,
-        82.065982243,
-        -58.5106008578,
-        15.8478295021,
-    ];
-    const E_EXP: [f32; 8] =
-        [0.0, 76.7316253952, -594.356773233, 2448.8834203, -5576.68528998, 7116.60171912, -4763.54467887, 1303.5318055];
-    const F: [f32; 8] = [
-        2.40602999408,
-        -2.51814844609,
-        9.18494908356,
-        -79.2191708682,
-        259.082868209,
-        -403.613804597,
-        302.85712436,
-        -87.4370473567,
-    ];
-    let b = 4.98511194385 + 0.127355959438 * poly(&B_EXP).exp();
-    let e = 4.23190299701 + 0.00310603949088 * poly(&E_EXP).exp();
-    let blend = a.max(0.0).powf(0.25);
-    let alpha =
-        (1.0 - blend) * poly(&A) * (b * a).atan().powf(poly(&C)) + blend * poly(&D) * (e * a).atan().powf(poly(&F));
-    alpha.clamp(0.0, 0.999_999)
+    AlbedoFit::new(g).alpha(a)
+}
+
+/// [`single_scattering_albedo`]'s six coefficients at one anisotropy g: a walk medium
+/// fits its three channels with one set (callgrind on the subsurface bench scene: the
+/// polynomials and their two exponentials, per channel, were a third of the fit's cost).
+struct AlbedoFit {
+    a: f32,
+    b: f32,
+    c: f32,
+    d: f32,
+    e: f32,
+    f: f32,
+}
+
+impl AlbedoFit {
+    // The fit's coefficients as published, all their digits.
+    #[allow(clippy::excessive_precision, clippy::unreadable_literal)]
+    fn new(g: f32) -> Self {
+        // Polynomial in g, lowest degree first.
+        let poly = |c: &[f32; 8]| c.iter().rev().fold(0.0f32, |acc, &k| acc * g + k);
+        const A: [f32; 8] = [
+            1.8260523782,
+            -1.28451056436,
+            -1.79904629312,
+            9.19393289202,
+            -22.8215585862,
+            32.0234874259,
+            -23.6264803333,
+            7.21067002658,
+        ];
+        const B_EXP: [f32; 8] = [
+            0.0,
+            31.1491581433,
+            -201.847017512,
+            841.576016723,
+            -2018.09288505,
+            2731.71560286,
+            -1935.41424244,
+            559.009054474,
+        ];
+        const C: [f32; 8] = [
+            1.09686102424,
+            -0.394704063468,
+            1.05258115941,
+            -8.83963712726,
+            28.8643230661,
+            -46.8802913581,
+            38.5402837518,
+            -12.7181042538,
+        ];
+        const D: [f32; 8] = [
+            0.496310210422,
+            0.360146581622,
+            -2.15139309747,
+            17.8896899217,
+            -55.2984010333,
+            82.065982243,
+            -58.5106008578,
+            15.8478295021,
+        ];
+        const E_EXP: [f32; 8] = [
+            0.0,
+            76.7316253952,
+            -594.356773233,
+            2448.8834203,
+            -5576.68528998,
+            7116.60171912,
+            -4763.54467887,
+            1303.5318055,
+        ];
+        const F: [f32; 8] = [
+            2.40602999408,
+            -2.51814844609,
+            9.18494908356,
+            -79.2191708682,
+            259.082868209,
+            -403.613804597,
+            302.85712436,
+            -87.4370473567,
+        ];
+        let b = 4.98511194385 + 0.127355959438 * poly(&B_EXP).exp();
+        let e = 4.23190299701 + 0.00310603949088 * poly(&E_EXP).exp();
+        AlbedoFit { a: poly(&A), b, c: poly(&C), d: poly(&D), e, f: poly(&F) }
+    }
+
+    /// α for the multiple-scattering albedo `a`.
+    fn alpha(&self, a: f32) -> f32 {
+        let blend = a.max(0.0).powf(0.25);
+        let alpha = (1.0 - blend) * self.a * (self.b * a).atan().powf(self.c)
+            + blend * self.d * (self.e * a).atan().powf(self.f);
+        alpha.clamp(0.0, 0.999_999)
+    }
 }
 
 /// Lowest single-scattering albedo used by a walk: below it (colours darker than about
@@ -346,8 +377,9 @@ impl WalkMedium {
         let mut alpha = Rgb::ZERO;
         let mut sigma_t = Rgb::ZERO;
         let mut scale = Rgb::ONE;
+        let fit = AlbedoFit::new(g);
         for c in 0..3 {
-            let a = single_scattering_albedo(albedo[c].clamp(0.0, 1.0), g);
+            let a = fit.alpha(albedo[c].clamp(0.0, 1.0));
             sigma_t[c] = 1.0 / (mfp[c].max(1e-16) * (1.0 - g));
             if a < MIN_WALK_ALBEDO {
                 scale[c] = a / MIN_WALK_ALBEDO;
