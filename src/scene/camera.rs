@@ -356,7 +356,7 @@ impl CameraRays {
     /// not a strategy; one would have to solve for the film position and aperture point
     /// together.)
     pub fn light_tracing_reaches(&self) -> bool {
-        !self.ortho && !(self.pano.is_some() && self.cam.lens.is_some())
+        !(self.ortho || self.pano.is_some() && self.cam.lens.is_some())
     }
 
     /// A panoramic camera's film position of the camera-relative world vector `w` through
