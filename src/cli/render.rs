@@ -93,17 +93,6 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     // path tracer's rays carry their kind, photons the kinds that may read them
     // (`integrator::photon::visibility`), BDPT and VCM leave the paths that meet a hidden
     // kind to their camera side (`integrator::bdpt::visibility`).
-    if res.passes.contains(crate::passes::Pass::Vector)
-        && matches!(scene.cameras[res.camera].projection, crate::scene::Projection::Panoramic(_))
-    {
-        // The Vector pass projects points through the camera (`motion::vector`), which a
-        // panoramic camera's frame mapping does not invert yet.
-        let w = "the Vector pass is written as 0 under a panoramic camera (its motion in pixels needs the \
-                 panorama's inverse mapping)"
-            .to_string();
-        reporter.warning(&w);
-        run_warnings.push(w);
-    }
     let world_reads_path = scene.world.as_ref().and_then(|w| w.graph.as_ref()).is_some_and(|g| g.reads_light_path());
     if world_reads_path && res.integrator != IntegratorKind::Path {
         // Camera rays read their own state in every integrator; light subpaths and photons

@@ -65,4 +65,31 @@ mod tests {
         // A static scene has no motion.
         assert_eq!(motion_vector(None, &rays, &hit, p), [0.0; 4]);
     }
+
+    /// A still point seen by an equirectangular camera turning left about its up axis by
+    /// `a` per frame moves right on the film by W a / 2π pixels per frame (the panorama's
+    /// longitude is linear in x): the vectors are −W a / 2π in x and 0 in y.
+    #[test]
+    fn a_turning_panoramic_camera_moves_points_by_its_angle() {
+        use crate::scene::panorama::Panorama;
+        use std::f32::consts::PI;
+        let a = 0.2f32;
+        let reference = Mat4::IDENTITY;
+        let steps = [Mat4::from_rotation_y(-a), Mat4::IDENTITY, Mat4::from_rotation_y(a)];
+        let mut cam = Camera::from_matrix(
+            "c".into(),
+            &reference,
+            Projection::Panoramic(Panorama::Equirectangular { range: [-2.0 * PI, PI, -PI, PI] }),
+        );
+        cam.motion = Some(crate::motion::CameraMotion::new(vec![-1.0, 0.0, 1.0], &steps, &reference));
+        let rays = CameraRays::new(&cam, 128, 64);
+        let hit = Hit { tri: 0, t: 3.0, b1: 0.25, b2: 0.25 };
+        let want = -128.0 * a / (2.0 * PI);
+        for p in [Vec3::new(0.0, 0.0, -3.0), Vec3::new(-2.0, 0.5, -1.0), Vec3::new(1.0, -0.3, 2.0)] {
+            let v = motion_vector(None, &rays, &hit, p);
+            for (got, want) in v.iter().zip([want, 0.0, want, 0.0]) {
+                assert!((got - want).abs() < 1e-3, "{p}: {v:?} vs {want}");
+            }
+        }
+    }
 }

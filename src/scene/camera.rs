@@ -49,8 +49,8 @@ pub enum Projection {
         /// Half height of the view.
         ymag: f32,
     },
-    /// One of Blender's panoramic cameras: clipping distances run along each ray, light
-    /// tracing cannot reach it (no projection onto the film is implemented).
+    /// One of Blender's panoramic cameras: clipping distances run along each ray; light
+    /// tracing reaches it through a pinhole (`CameraRays::project`).
     Panoramic(Panorama),
 }
 
@@ -109,6 +109,27 @@ impl CameraRay {
     pub fn is_blind(&self) -> bool {
         self.dir == Vec3::ZERO
     }
+}
+
+/// Where light tracing finds a world point on the film ([`CameraRays::project`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Projected {
+    /// Film position in pixels from the top-left corner of the full frame.
+    pub pos: Vec2,
+    /// The same direction's second film position, where a panorama that goes all the way
+    /// round sees it again across the seam within the margin (a border pixel's filter).
+    pub wrapped: Option<Vec2>,
+    /// Distance from the eye.
+    pub dist: f32,
+    /// Depth (as the clipping planes measure it) per unit of distance: cos θ to the viewing
+    /// axis for a perspective camera, 1 for a panorama (clipped along the ray).
+    pub depth_per_dist: f32,
+    /// Solid-angle density at the eye of a camera ray's direction toward the point when
+    /// film positions are uniform over the frame (bidirectional MIS).
+    pub pdf_dir: f32,
+    /// The camera's importance toward the point per pixel, times the cosine at the camera:
+    /// what a light path's contribution is multiplied by, over the distance squared.
+    pub importance: f32,
 }
 
 impl Camera {
@@ -294,10 +315,10 @@ impl CameraRays {
             Some(m) => m.delta(t).inverse().transform_point3(p),
             None => p,
         };
-        if self.pano.is_some() {
-            return None; // no panoramic projection onto the film: the Vector pass is zero
-        }
         let w = p - c.position;
+        if let Some(pano) = &self.pano {
+            return self.panoramic_raster(pano, w).map(|(r, _)| r);
+        }
         let s = if self.ortho {
             Vec2::new(w.dot(c.right), w.dot(c.up))
         } else {
@@ -328,22 +349,42 @@ impl CameraRays {
 
     /// Whether light tracing can connect to the camera ([`project`](Self::project) finds
     /// film positions): not an orthographic camera (a delta in direction) nor a panoramic
-    /// one (no projection onto its film is implemented), whose paths come from the camera.
+    /// one with depth of field, whose paths come from the camera. (A panorama's aperture
+    /// turns with the direction, Cycles' `camera_sample_panorama`: the disk lies across each
+    /// pixel's own ray, so the rays through one aperture point reach a given world point from
+    /// no film position in general, and connecting to the camera subpath's aperture point is
+    /// not a strategy; one would have to solve for the film position and aperture point
+    /// together.)
     pub fn light_tracing_reaches(&self) -> bool {
-        !self.ortho && self.pano.is_none()
+        !(self.ortho || self.pano.is_some() && self.cam.lens.is_some())
     }
 
-    /// Where a world point appears on a perspective camera's film when seen from the
-    /// point `eye` on the aperture (the camera position for a pinhole): (film position in
-    /// pixels from the top-left corner of the full frame, cos θ to the viewing axis at
-    /// `eye`, distance from `eye`), or None behind the camera, more than `margin` pixels
-    /// outside the frame (a pixel filter reaches that far), or for an orthographic camera.
-    /// Through a thin lens the film position is where the ray eye → p crosses the plane
-    /// in focus, projected from the lens centre, which inverts [`sample_ray`](Self::sample_ray).
+    /// A panoramic camera's film position of the camera-relative world vector `w` through
+    /// the pinhole (Cycles' `direction_to_panorama`): (pixels from the top-left corner of
+    /// the full frame, the panorama's direction in its own space); None where the
+    /// projection sees no such direction.
     #[inline]
-    pub fn project(&self, p: Vec3, eye: Vec3, margin: f32) -> Option<(Vec2, f32, f32)> {
+    fn panoramic_raster(&self, p: &Panorama, w: Vec3) -> Option<(Vec2, Vec3)> {
+        let c = &self.cam;
+        let d = p.from_local(Vec3::new(w.dot(c.right), w.dot(c.up), w.dot(c.back))).try_normalize()?;
+        let uv = p.inverse(d)? - c.shift;
+        Some((Vec2::new(uv.x * self.width, (1.0 - uv.y) * self.height), d))
+    }
+
+    /// Where a world point appears on the film when seen from the point `eye` on the
+    /// aperture (the camera position for a pinhole), or None behind a perspective camera,
+    /// where a panorama sees nothing, more than `margin` pixels outside the frame (a pixel
+    /// filter reaches that far), or where light tracing does not
+    /// [reach](Self::light_tracing_reaches) the camera. Through a thin lens the film
+    /// position is where the ray eye → p crosses the plane in focus, projected from the lens
+    /// centre, which inverts [`sample_ray`](Self::sample_ray).
+    #[inline]
+    pub fn project(&self, p: Vec3, eye: Vec3, margin: f32) -> Option<Projected> {
         if !self.light_tracing_reaches() {
             return None;
+        }
+        if let Some(pano) = &self.pano {
+            return self.project_panoramic(pano, p - eye, margin);
         }
         let c = &self.cam;
         let d = p - eye;
@@ -364,8 +405,52 @@ impl CameraRays {
         let s = Vec2::new(sx, sy) - self.center;
         let x = (s.x / self.half.x + 1.0) * 0.5 * self.width;
         let y = (1.0 - s.y / self.half.y) * 0.5 * self.height;
-        let inside = (-margin..self.width + margin).contains(&x) && (-margin..self.height + margin).contains(&y);
-        inside.then_some((Vec2::new(x, y), z, dist))
+        let pos = Vec2::new(x, y);
+        self.inside(pos, margin).then(|| Projected {
+            pos,
+            wrapped: None,
+            dist,
+            depth_per_dist: z,
+            pdf_dir: self.pdf_dir(z),
+            importance: 1.0 / (self.pixel_area() * z * z * z),
+        })
+    }
+
+    /// Within `margin` pixels of the frame.
+    #[inline]
+    fn inside(&self, pos: Vec2, margin: f32) -> bool {
+        (-margin..self.width + margin).contains(&pos.x) && (-margin..self.height + margin).contains(&pos.y)
+    }
+
+    /// [`project`](Self::project) for a panoramic camera through its pinhole: the film
+    /// density is the panorama's (`Panorama::density`, per unit of the 1 × 1 viewplane),
+    /// the importance per pixel that density times the pixel count.
+    fn project_panoramic(&self, pano: &Panorama, w: Vec3, margin: f32) -> Option<Projected> {
+        let dist = w.length();
+        if !(dist > 0.0) {
+            return None;
+        }
+        let (pos, d) = self.panoramic_raster(pano, w)?;
+        let pdf_dir = pano.density(d);
+        if !(pdf_dir > 0.0) {
+            return None;
+        }
+        // A panorama all the way round sees a direction again one period along u.
+        let wrapped = pano.u_period().and_then(|period| {
+            let step = period * self.width;
+            [pos - Vec2::new(step, 0.0), pos + Vec2::new(step, 0.0)].into_iter().find(|q| self.inside(*q, margin))
+        });
+        let pos = match (self.inside(pos, margin), wrapped) {
+            (true, _) => pos,
+            (false, Some(q)) => return Some(self.panoramic_projected(q, None, dist, pdf_dir)),
+            (false, None) => return None,
+        };
+        Some(self.panoramic_projected(pos, wrapped, dist, pdf_dir))
+    }
+
+    #[inline]
+    fn panoramic_projected(&self, pos: Vec2, wrapped: Option<Vec2>, dist: f32, pdf_dir: f32) -> Projected {
+        Projected { pos, wrapped, dist, depth_per_dist: 1.0, pdf_dir, importance: self.width * self.height * pdf_dir }
     }
 
     /// [`project`](Self::project) by the camera as it is at time `t` (frames): `p` and the
@@ -373,7 +458,7 @@ impl CameraRays {
     /// camera's rigid motion to the frame its rays are made in, which keeps the cosine and
     /// the distance. A still camera projects as at the frame.
     #[inline]
-    pub fn project_at(&self, p: Vec3, eye: Vec3, margin: f32, t: f32) -> Option<(Vec2, f32, f32)> {
+    pub fn project_at(&self, p: Vec3, eye: Vec3, margin: f32, t: f32) -> Option<Projected> {
         match &self.cam.motion {
             Some(m) => {
                 let back = m.delta(t).inverse();
@@ -389,14 +474,30 @@ impl CameraRays {
         4.0 * self.half.x * self.half.y / (self.width * self.height)
     }
 
-    /// Solid-angle density of a camera ray's direction at cos θ from the axis when film
-    /// positions are uniform over the whole frame (the density bidirectional MIS uses).
+    /// Solid-angle density of a perspective camera ray's direction at cos θ from the axis
+    /// when film positions are uniform over the whole frame (the density bidirectional MIS
+    /// uses).
     #[inline]
-    pub fn pdf_dir(&self, cos_theta: f32) -> f32 {
+    fn pdf_dir(&self, cos_theta: f32) -> f32 {
         if !self.light_tracing_reaches() || !(cos_theta > 0.0) {
             return 0.0;
         }
         1.0 / (4.0 * self.half.x * self.half.y * cos_theta * cos_theta * cos_theta)
+    }
+
+    /// Solid-angle density of the camera ray direction `dir` (unit, world space, from a
+    /// pinhole or a thin lens' aperture) when film positions are uniform over the whole
+    /// frame; 0 where light tracing does not reach the camera.
+    #[inline]
+    pub fn pdf_dir_of(&self, dir: Vec3) -> f32 {
+        if !self.light_tracing_reaches() {
+            return 0.0;
+        }
+        let c = &self.cam;
+        match &self.pano {
+            Some(p) => p.density(p.from_local(Vec3::new(dir.dot(c.right), dir.dot(c.up), dir.dot(c.back)))),
+            None => self.pdf_dir(-c.back.dot(dir)),
+        }
     }
 
     /// The camera and frame as shader graphs read them (Cycles' `worldtocamera` and
@@ -488,7 +589,8 @@ mod tests {
                 let u = Vec2::new(rng.next_f32(), rng.next_f32());
                 let (org, dir) = rays.sample_ray(x, y, u);
                 let t = 0.5 + 20.0 * rng.next_f32();
-                let (pos, cos, dist) = rays.project(org + dir * t, org, 0.0).expect("in frame");
+                let pr = rays.project(org + dir * t, org, 0.0).expect("in frame");
+                let (pos, cos, dist) = (pr.pos, pr.depth_per_dist, pr.dist);
                 assert!((pos - Vec2::new(x, y)).length() < 2e-3, "{shift} {lens:?}: {pos} vs ({x}, {y})");
                 assert!((cos - dir.dot(-cam.back)).abs() < 1e-5 && (dist - t).abs() < 1e-4 * t);
             }
@@ -518,14 +620,122 @@ mod tests {
             let ray = rays.sample_clipped_at(x, y, u, Some(time));
             let d = 1.0 + 10.0 * rng.next_f32();
             let p = ray.org + ray.dir * d;
-            let (pos, _, dist) = rays.project_at(p, ray.org, 0.0, time).expect("in frame");
+            let pr = rays.project_at(p, ray.org, 0.0, time).expect("in frame");
+            let (pos, dist) = (pr.pos, pr.dist);
             assert!((pos - Vec2::new(x, y)).length() < 2e-3, "at t {time}: {pos} vs ({x}, {y})");
             assert!((dist - d).abs() < 1e-4 * d);
-            if rays.project(p, ray.org, 1e6).is_none_or(|(q, _, _)| (q - pos).length() > 0.5) {
+            if rays.project(p, ray.org, 1e6).is_none_or(|q| (q.pos - pos).length() > 0.5) {
                 moved += 1;
             }
         }
         assert!(moved > 150, "the frame's projection differs for most samples: {moved}");
+    }
+
+    /// Panoramic cameras of every type, turned and shifted.
+    fn panoramas() -> Vec<(Panorama, Vec2)> {
+        use std::f32::consts::PI;
+        let sensor = Vec2::new(36.0, 24.0);
+        vec![
+            (Panorama::Equirectangular { range: [-2.0 * PI, PI, -PI, PI] }, Vec2::ZERO),
+            (Panorama::Equirectangular { range: [-1.5, 0.6, -1.2, 2.2] }, Vec2::new(0.1, -0.05)),
+            (Panorama::EquiangularCubemapFace, Vec2::ZERO),
+            (Panorama::Mirrorball, Vec2::ZERO),
+            (Panorama::FisheyeEquidistant { fov: PI }, Vec2::new(-0.1, 0.1)),
+            (Panorama::FisheyeEquisolid { lens: 10.5, fov: PI, sensor }, Vec2::ZERO),
+            (
+                Panorama::FisheyeLensPolynomial { k: [-1.2e-5, -0.0196, -1.0e-5, 3.0e-6, -6.0e-9], fov: PI, sensor },
+                Vec2::ZERO,
+            ),
+            (Panorama::CentralCylindrical { range: [PI, -PI, -1.0, 1.0] }, Vec2::ZERO),
+        ]
+    }
+
+    /// `project` through a panoramic camera's pinhole returns the film position a ray was
+    /// made for (2e-2 px on a 64 × 48 frame: the f32 angle round trip, about 1e-4 of the
+    /// frame; a wrong axis, sign or shift is off by pixels), its distance, a depth equal to
+    /// the distance (clipping runs along the ray), and the density `pdf_dir_of` gives.
+    #[test]
+    fn project_inverts_panoramic_rays() {
+        let m = Mat4::from_rotation_translation(
+            glam::Quat::from_euler(glam::EulerRot::XYZ, 0.3, -0.7, 0.2),
+            Vec3::new(1.0, 2.0, -3.0),
+        );
+        let mut rng = Pcg32::new(17);
+        for (p, shift) in panoramas() {
+            let mut cam = Camera::from_matrix("c".into(), &m, Projection::Panoramic(p));
+            cam.shift = shift;
+            let rays = CameraRays::new(&cam, 64, 48);
+            assert!(rays.light_tracing_reaches());
+            let mut seen = 0;
+            for _ in 0..400 {
+                let (x, y) = (0.5 + rng.next_f32() * 63.0, 0.5 + rng.next_f32() * 47.0);
+                let (org, dir) = rays.sample_ray(x, y, Vec2::ZERO);
+                if dir == Vec3::ZERO {
+                    continue;
+                }
+                let film = Vec2::new(x / 64.0 + shift.x, 1.0 - y / 48.0 + shift.y);
+                if matches!(p, Panorama::Mirrorball) && (2.0 * film - Vec2::ONE).length() > 0.98 {
+                    continue; // the rim is ill-conditioned
+                }
+                let t = 0.5 + 20.0 * rng.next_f32();
+                let pr = rays.project(org + dir * t, org, 0.0).unwrap_or_else(|| panic!("{p:?} at ({x}, {y})"));
+                assert!((pr.pos - Vec2::new(x, y)).length() < 2e-2, "{p:?}: {} vs ({x}, {y})", pr.pos);
+                assert!((pr.dist - t).abs() < 1e-4 * t && pr.depth_per_dist == 1.0);
+                assert!((pr.pdf_dir / rays.pdf_dir_of(dir) - 1.0).abs() < 1e-3);
+                assert!((pr.importance - pr.pdf_dir * 64.0 * 48.0).abs() <= 1e-3 * pr.importance);
+                seen += 1;
+            }
+            assert!(seen > 250, "{p:?}: {seen}");
+        }
+    }
+
+    /// A panorama all the way round sees a direction near its seam from both sides: within
+    /// the margin the second film position is one frame width away.
+    #[test]
+    fn a_full_panorama_projects_across_its_seam() {
+        use std::f32::consts::PI;
+        let p = Panorama::Equirectangular { range: [-2.0 * PI, PI, -PI, PI] };
+        let cam = Camera::from_matrix("c".into(), &Mat4::IDENTITY, Projection::Panoramic(p));
+        let rays = CameraRays::new(&cam, 64, 32);
+        let (org, dir) = rays.ray(0.3, 16.0);
+        let pr = rays.project(org + dir * 2.0, org, 1.0).expect("seen");
+        assert!((pr.pos - Vec2::new(0.3, 16.0)).length() < 1e-3, "{}", pr.pos);
+        assert!((pr.wrapped.expect("across the seam") - Vec2::new(64.3, 16.0)).length() < 1e-3);
+        let (org, dir) = rays.ray(32.0, 16.0);
+        assert!(rays.project(org + dir * 2.0, org, 1.0).unwrap().wrapped.is_none());
+    }
+
+    /// The panoramic film density is the Jacobian of the frame's directions: 1 / density
+    /// integrated over the frame (uniform film positions) is the solid angle the frame sees,
+    /// which uniform directions over the sphere measure independently (those `project`
+    /// finds inside the frame). 100 000 samples each: both estimates' relative standard
+    /// errors stay below 0.5 %; bound 3 %. A density off by a constant, a missing sin θ or
+    /// a wrong fisheye radius misses by far more.
+    #[test]
+    fn panoramic_density_integrates_to_the_frames_solid_angle() {
+        let mut rng = Pcg32::new(23);
+        let n = 100_000;
+        for (p, shift) in panoramas() {
+            let mut cam = Camera::from_matrix("c".into(), &Mat4::IDENTITY, Projection::Panoramic(p));
+            cam.shift = shift;
+            let rays = CameraRays::new(&cam, 64, 48);
+            let mut by_film = 0.0f64;
+            for _ in 0..n {
+                let (org, dir) = rays.ray(rng.next_f32() * 64.0, rng.next_f32() * 48.0);
+                if dir != Vec3::ZERO {
+                    let _ = org;
+                    by_film += 1.0 / rays.pdf_dir_of(dir) as f64;
+                }
+            }
+            let by_film = by_film / n as f64;
+            let mut hits = 0usize;
+            for _ in 0..n {
+                let d = crate::sampling::warp::uniform_sphere(Vec2::new(rng.next_f32(), rng.next_f32()));
+                hits += rays.project(d, Vec3::ZERO, 0.0).is_some() as usize;
+            }
+            let by_sphere = hits as f64 / n as f64 * 4.0 * std::f64::consts::PI;
+            assert!((by_film / by_sphere - 1.0).abs() < 0.03, "{p:?}: {by_film} vs {by_sphere} sr");
+        }
     }
 
     /// The aperture's samples stay inside its polygon's circle, scaled by radius and ratio.

@@ -69,6 +69,36 @@ fn fisheye(theta: f32, u: f32, v: f32, r: f32) -> Vec3 {
     Vec3::new(c, -cos_phi * s, sin_phi * s)
 }
 
+/// The sensor radius (mm) at which a lens polynomial reaches the angle `theta` from the axis,
+/// θ = −(k0 + k1 r + … + k4 r⁴), by Newton's method from the linear term's root (as Cycles
+/// solves it); the last iterate where it does not converge.
+fn lens_polynomial_newton(k: &[f32; 5], theta: f32) -> f32 {
+    let target = -theta;
+    let f = |r: f32| k[0] + r * (k[1] + r * (k[2] + r * (k[3] + r * k[4]))) - target;
+    let df = |r: f32| k[1] + r * (2.0 * k[2] + r * (3.0 * k[3] + r * 4.0 * k[4]));
+    let mut r = if k[1] != 0.0 { (target - k[0]) / k[1] } else { 0.0 };
+    for _ in 0..30 {
+        let s = df(r);
+        if s == 0.0 {
+            break;
+        }
+        let step = f(r) / s;
+        r -= step;
+        if step.abs() <= 1e-7 * r.abs().max(1e-3) {
+            break;
+        }
+    }
+    r
+}
+
+/// [`lens_polynomial_newton`] where it converged to a radius that reaches `theta`.
+fn lens_polynomial_radius(k: &[f32; 5], theta: f32) -> Option<f32> {
+    let r = lens_polynomial_newton(k, theta);
+    let residual = k[0] + r * (k[1] + r * (k[2] + r * (k[3] + r * k[4]))) + theta;
+    // A bias k0 puts θ = 0 a hair off the centre (at r < 0): kept, at the centre.
+    (r.is_finite() && r >= -1e-3 && residual.abs() <= 1e-4 * theta.abs().max(1e-2)).then_some(r.max(0.0))
+}
+
 impl Panorama {
     /// The direction (not normalised) in panorama space for viewplane coordinates (u, v),
     /// or None where the lens sees nothing.
@@ -119,6 +149,161 @@ impl Panorama {
                 let (s, c) = angle.sin_cos();
                 Some(Vec3::new(c, s, z))
             }
+        }
+    }
+
+    /// The inverse of [`direction`](Self::direction): the viewplane coordinates (u, v) that
+    /// see the direction `d` of panorama space, or None where no position of the projection
+    /// does (behind a cube face, beyond a fisheye's field of view, a cylinder's poles). The
+    /// (u, v) may lie outside the frame.
+    pub fn inverse(&self, d: Vec3) -> Option<Vec2> {
+        let d = d.try_normalize()?;
+        let seen = match *self {
+            Panorama::Equirectangular { .. } | Panorama::Mirrorball => true,
+            Panorama::EquiangularCubemapFace => d.x > 0.0,
+            Panorama::FisheyeEquidistant { fov }
+            | Panorama::FisheyeEquisolid { fov, .. }
+            | Panorama::FisheyeLensPolynomial { fov, .. } => d.x.clamp(-1.0, 1.0).acos() <= 0.5 * fov,
+            Panorama::CentralCylindrical { .. } => d.x.hypot(d.y) > 0.0,
+        };
+        if let Panorama::FisheyeLensPolynomial { k, .. } = *self {
+            lens_polynomial_radius(&k, d.x.clamp(-1.0, 1.0).acos())?;
+        }
+        seen.then(|| self.uv(d))
+    }
+
+    /// Cycles' `direction_to_panorama`: viewplane coordinates for the unit direction `d`
+    /// of panorama space, also where the projection does not see it (what the Texture
+    /// Coordinate node's Window output gives there).
+    pub fn uv(&self, d: Vec3) -> Vec2 {
+        match *self {
+            Panorama::Equirectangular { range } => {
+                let phi = d.y.atan2(d.x);
+                let theta = d.z.clamp(-1.0, 1.0).acos();
+                Vec2::new((phi - range[1]) / range[0], (theta - range[3]) / range[2])
+            }
+            Panorama::EquiangularCubemapFace => {
+                // Angles linear in u and v.
+                let k = 2.0 / std::f32::consts::PI;
+                Vec2::new(0.5 - d.y.atan2(d.x) * k, 0.5 + d.z.atan2(d.x) * k)
+            }
+            Panorama::Mirrorball => {
+                // The reflection d = 2 (n·I) n − I puts the normal along d + I (I = −Y).
+                let n = (d - Vec3::Y).try_normalize().unwrap_or(Vec3::ZERO);
+                Vec2::new(0.5 * (n.x + 1.0), 0.5 * (n.z + 1.0))
+            }
+            Panorama::FisheyeEquidistant { fov } => {
+                let theta = d.x.clamp(-1.0, 1.0).acos();
+                Self::fisheye_uv(d, theta / fov, Vec2::ONE)
+            }
+            Panorama::FisheyeEquisolid { lens, sensor, .. } => {
+                let theta = d.x.clamp(-1.0, 1.0).acos();
+                Self::fisheye_uv(d, 2.0 * lens * (0.5 * theta).sin(), sensor)
+            }
+            Panorama::FisheyeLensPolynomial { k, sensor, .. } => {
+                let theta = d.x.clamp(-1.0, 1.0).acos();
+                let r = lens_polynomial_newton(&k, theta);
+                Self::fisheye_uv(d, r, sensor)
+            }
+            Panorama::CentralCylindrical { range } => {
+                let angle = d.y.atan2(d.x);
+                let h = d.z / d.x.hypot(d.y);
+                Vec2::new((angle - range[0]) / (range[1] - range[0]), (h - range[2]) / (range[3] - range[2]))
+            }
+        }
+    }
+
+    /// A fisheye's (u, v) for the unit direction `d` at distance `r` (in units of `size`)
+    /// from the frame's centre, along d's azimuth around the view axis.
+    #[inline]
+    fn fisheye_uv(d: Vec3, r: f32, size: Vec2) -> Vec2 {
+        let s = d.y.hypot(d.z);
+        let (c, sn) = if s > 0.0 { (-d.y / s, d.z / s) } else { (1.0, 0.0) };
+        Vec2::new(r * c / size.x + 0.5, r * sn / size.y + 0.5)
+    }
+
+    /// The film density at the unit direction `d` of panorama space: |d(u, v) / dω|, the
+    /// area of viewplane (the frame is 1 × 1) per steradian, which is the solid-angle
+    /// density of a camera ray's direction when film positions are uniform over the frame
+    /// (light tracing's importance). Zero where [`inverse`](Self::inverse) is None.
+    pub fn density(&self, d: Vec3) -> f32 {
+        let Some(d) = d.try_normalize() else { return 0.0 };
+        match *self {
+            Panorama::Equirectangular { range } => {
+                // dω = sin θ dθ dφ, dφ = range[0] du, dθ = range[2] dv.
+                let sin_theta = d.x.hypot(d.y);
+                1.0 / ((range[0] * range[2]).abs() * sin_theta)
+            }
+            Panorama::EquiangularCubemapFace => {
+                if !(d.x > 0.0) {
+                    return 0.0;
+                }
+                // The plane x = 1: dω = da db / (1 + a² + b²)^(3/2), u and v linear in atan a, atan b.
+                let (a, b) = (d.y / d.x, d.z / d.x);
+                let k = 2.0 / std::f32::consts::PI;
+                (1.0 + a * a + b * b).powf(1.5) * k * k / ((1.0 + a * a) * (1.0 + b * b))
+            }
+            // The disk's area element (ρ dρ dφ, ρ = sin α) over the reflected directions'
+            // (sin 2α · 2 dα dφ), a quarter for u, v = (x + 1) / 2: a constant.
+            Panorama::Mirrorball => 1.0 / 16.0,
+            Panorama::FisheyeEquidistant { fov } => {
+                let theta = d.x.clamp(-1.0, 1.0).acos();
+                if theta > 0.5 * fov {
+                    return 0.0;
+                }
+                // r = θ / fov: r dr dφ over sin θ dθ dφ.
+                let ratio = if theta > 1e-4 { theta / theta.sin() } else { 1.0 };
+                ratio / (fov * fov)
+            }
+            Panorama::FisheyeEquisolid { lens, fov, sensor } => {
+                let theta = d.x.clamp(-1.0, 1.0).acos();
+                if theta > 0.5 * fov {
+                    return 0.0;
+                }
+                // r = 2 f sin(θ / 2): r dr = f² sin θ dθ, an equal-area projection.
+                lens * lens / (sensor.x * sensor.y)
+            }
+            Panorama::FisheyeLensPolynomial { k, fov, sensor } => {
+                let theta = d.x.clamp(-1.0, 1.0).acos();
+                if theta > 0.5 * fov {
+                    return 0.0;
+                }
+                let Some(r) = lens_polynomial_radius(&k, theta) else { return 0.0 };
+                let slope = (k[1] + r * (2.0 * k[2] + r * (3.0 * k[3] + r * 4.0 * k[4]))).abs();
+                // r dr dφ over sin θ |dθ/dr| dr dφ; r / sin θ → 1 / |θ'(0)| on the axis.
+                let r_over_sin = if theta > 1e-4 { r / theta.sin() } else { 1.0 / k[1].abs() };
+                r_over_sin / (slope * sensor.x * sensor.y)
+            }
+            Panorama::CentralCylindrical { range } => {
+                let rho = d.x.hypot(d.y);
+                if !(rho > 0.0) {
+                    return 0.0;
+                }
+                // The cylinder of radius 1: dω = d(angle) dh / (1 + h²)^(3/2).
+                let h = d.z / rho;
+                (1.0 + h * h).powf(1.5) / ((range[1] - range[0]) * (range[3] - range[2])).abs()
+            }
+        }
+    }
+
+    /// How far along u the projection repeats itself (it goes round the up axis), in
+    /// frames: a direction seen at u is seen again at u ± the period; None for the others.
+    pub fn u_period(&self) -> Option<f32> {
+        let per_u = match *self {
+            Panorama::Equirectangular { range } => range[0],
+            Panorama::CentralCylindrical { range } => range[1] - range[0],
+            _ => return None,
+        };
+        (per_u != 0.0).then(|| std::f32::consts::TAU / per_u.abs())
+    }
+
+    /// Panorama space of a vector in the Blender camera's frame: the inverse of
+    /// [`to_local`](Self::to_local).
+    #[inline]
+    pub fn from_local(&self, l: Vec3) -> Vec3 {
+        match self {
+            Panorama::Mirrorball => Vec3::new(l.x, l.z, l.y),
+            _ => Vec3::new(-l.z, -l.x, l.y),
         }
     }
 
@@ -204,6 +389,100 @@ mod tests {
         let d = local(&Panorama::Mirrorball, 0.5, 1.0 - 1e-7);
         assert!((d - Vec3::Z).length() < 1e-2, "{d}");
         assert!(Panorama::Mirrorball.direction(0.0, 0.0).is_none());
+    }
+
+    /// Every projection with the values of Blender's defaults or near them, partial ranges
+    /// and a shifted polynomial included.
+    fn all() -> Vec<Panorama> {
+        let sensor = Vec2::new(36.0, 24.0);
+        vec![
+            FULL,
+            Panorama::Equirectangular { range: [-1.5, 0.6, -1.2, 2.2] },
+            Panorama::EquiangularCubemapFace,
+            Panorama::Mirrorball,
+            Panorama::FisheyeEquidistant { fov: PI },
+            Panorama::FisheyeEquidistant { fov: 1.2 * PI },
+            Panorama::FisheyeEquisolid { lens: 10.5, fov: PI, sensor },
+            Panorama::FisheyeLensPolynomial { k: [-1.2e-5, -0.0196, -1.0e-5, 3.0e-6, -6.0e-9], fov: PI, sensor },
+            Panorama::CentralCylindrical { range: [PI, -PI, -1.0, 1.0] },
+            Panorama::CentralCylindrical { range: [1.0, -0.5, -2.0, 0.5] },
+        ]
+    }
+
+    /// `inverse` returns the (u, v) that `direction` was made from, at many points of each
+    /// projection's frame (1e-3 of the frame: f32 angles near the poles and a fisheye's rim
+    /// lose about that much; a wrong axis or sign is off by a large part of the frame).
+    #[test]
+    fn inverse_round_trips_direction() {
+        let mut rng = crate::sampling::chi2::Pcg32::new(5);
+        for p in all() {
+            let mut seen = 0;
+            for _ in 0..2000 {
+                let (u, v) = (0.002 + 0.996 * rng.next_f32(), 0.002 + 0.996 * rng.next_f32());
+                let Some(d) = p.direction(u, v) else { continue };
+                // The mirror ball's rim and a fisheye's circle are ill-conditioned: stay inside.
+                if matches!(p, Panorama::Mirrorball) && (2.0 * u - 1.0).hypot(2.0 * v - 1.0) > 0.98 {
+                    continue;
+                }
+                let back = p.inverse(d).unwrap_or_else(|| panic!("{p:?}: no inverse at ({u}, {v}) for {d}"));
+                assert!((back - Vec2::new(u, v)).length() < 1e-3, "{p:?}: ({u}, {v}) -> {d} -> {back}");
+                // Through the camera's frame and back.
+                assert!((p.from_local(p.to_local(d)) - d).length() < 1e-6);
+                seen += 1;
+            }
+            assert!(seen > 1000, "{p:?}: {seen}");
+        }
+    }
+
+    /// `density` is |d(u, v) / dω|: the inverse of the solid angle that a small square of the
+    /// viewplane sees, by central differences of `direction` (relative 2e-3: the differences'
+    /// truncation at step 1e-3 and f32 rounding; a missing sin θ or a wrong constant is off
+    /// by far more away from the frame's centre).
+    #[test]
+    fn density_is_the_jacobian_of_the_inverse() {
+        let mut rng = crate::sampling::chi2::Pcg32::new(9);
+        let h = 1e-3;
+        for p in all() {
+            let mut checked = 0;
+            for _ in 0..500 {
+                let (u, v) = (0.05 + 0.9 * rng.next_f32(), 0.05 + 0.9 * rng.next_f32());
+                let dir = |u: f32, v: f32| p.direction(u, v).map(|d| d.normalize().as_dvec3());
+                let (Some(d), Some(du0), Some(du1), Some(dv0), Some(dv1)) =
+                    (dir(u, v), dir(u - h, v), dir(u + h, v), dir(u, v - h), dir(u, v + h))
+                else {
+                    continue;
+                };
+                // Near the poles of an equirectangular frame the density has no bound; near
+                // the mirror ball's rim the differences straddle a square root's kink.
+                if d.z.abs() > 0.98 && matches!(p, Panorama::Equirectangular { .. })
+                    || matches!(p, Panorama::Mirrorball) && (2.0 * u - 1.0).hypot(2.0 * v - 1.0) > 0.95
+                    // A fisheye's azimuth comes from acos(x / r) (as in Cycles), whose f32
+                    // rounding near ±1 (the horizontal axis) swamps differences of 1e-3.
+                    || matches!(p, Panorama::FisheyeEquidistant { .. } | Panorama::FisheyeEquisolid { .. } | Panorama::FisheyeLensPolynomial { .. })
+                        && d.z.abs() < 0.05 * d.y.hypot(d.z)
+                {
+                    continue;
+                }
+                let area = ((du1 - du0) / (2.0 * h as f64)).cross((dv1 - dv0) / (2.0 * h as f64)).length();
+                let want = 1.0 / area;
+                let got = p.density(d.as_vec3()) as f64;
+                assert!((got / want - 1.0).abs() < 2e-3, "{p:?} at ({u}, {v}): {got} vs {want}");
+                checked += 1;
+            }
+            assert!(checked > 200, "{p:?}: {checked}");
+        }
+    }
+
+    /// Directions no position sees have no inverse and no density.
+    #[test]
+    fn unseen_directions_have_no_inverse() {
+        let fe = Panorama::FisheyeEquidistant { fov: PI };
+        let behind = Vec3::new(-0.5, 0.3, 0.2);
+        assert!(fe.inverse(behind).is_none() && fe.density(behind) == 0.0);
+        let cube = Panorama::EquiangularCubemapFace;
+        assert!(cube.inverse(behind).is_none() && cube.density(behind) == 0.0);
+        let cyl = Panorama::CentralCylindrical { range: [PI, -PI, -1.0, 1.0] };
+        assert!(cyl.inverse(Vec3::Z).is_none() && cyl.density(Vec3::Z) == 0.0);
     }
 
     #[test]

@@ -80,12 +80,13 @@ impl BdptIntegrator {
         // Through the camera where it is at the sample's time (under motion blur the light
         // subpath shares the camera sample's time, `crate::motion`).
         let t = crate::motion::ray_time();
-        let Some((pos, cos_cam, dist)) = camera.project_at(y.p, cam_p, 0.5 * film.filter.width, t) else {
+        let Some(proj) = camera.project_at(y.p, cam_p, 0.5 * film.filter.width, t) else {
             return;
         };
+        let (pos, dist) = (proj.pos, proj.dist);
         // Only what lies between the clipping planes is seen, as by camera rays.
         let (near, far) = camera.clip();
-        let depth = dist * cos_cam;
+        let depth = dist * proj.depth_per_dist;
         if depth < near || depth > far {
             return;
         }
@@ -135,8 +136,7 @@ impl BdptIntegrator {
         if f == Rgb::ZERO {
             return;
         }
-        let importance = 1.0 / (camera.pixel_area() * cos_cam * cos_cam * cos_cam);
-        let mut c = y.beta * f * (importance / (dist * dist));
+        let mut c = y.beta * f * (proj.importance / (dist * dist));
         if s == 2
             && y.contact
             && let Some(end) = LightEnd::of(&scratch.light[0])
@@ -151,7 +151,7 @@ impl BdptIntegrator {
         // The segment ends where the camera ray would start: on the near clipping plane.
         let mut cam_vertex = scratch.cam[0];
         if near > 0.0 {
-            cam_vertex.p = cam_p - w * (near / cos_cam);
+            cam_vertex.p = cam_p - w * (near / proj.depth_per_dist);
         }
         // A segment that meets a restricted object: the camera side's path (`visibility`).
         if self.restriction.between(y.p, cam_vertex.p) {
@@ -169,7 +169,7 @@ impl BdptIntegrator {
         let k = s; // index of the camera vertex
         dens.connectible[s - 1] = true;
         // b[s-1]: the camera generating y.
-        dens.b[s - 1] = y.area_density(camera.pdf_dir(cos_cam), cam_p);
+        dens.b[s - 1] = y.area_density(proj.pdf_dir, cam_p);
         if s >= 2
             && let Some(bsdf) = y.bsdf
         {
@@ -182,6 +182,10 @@ impl BdptIntegrator {
         scratch.tally.splat += crate::math::luminance(c * wgt) as f64;
         if !self.ledger.any() && ctx.catcher.is_none() {
             film.splats.add(film.filter, pos, c * wgt);
+            // A panorama all the way round: the border pixels across the seam see it too.
+            if let Some(q) = proj.wrapped {
+                film.splats.add(film.filter, q, c * wgt);
+            }
             return;
         }
         // The camera side's first scattering event is this light vertex (none for s = 1).
@@ -202,6 +206,9 @@ impl BdptIntegrator {
             }
         }
         film.splats.add_filed(film.filter, pos, c * wgt, &parts[..n], group);
+        if let Some(q) = proj.wrapped {
+            film.splats.add_filed(film.filter, q, c * wgt, &parts[..n], group);
+        }
     }
 
     /// s = 1: light sampling at camera vertex `cam[t-1]`.

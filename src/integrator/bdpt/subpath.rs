@@ -36,8 +36,7 @@ impl BdptIntegrator {
         cam.push(v0);
         let mut path = PathState::camera(ray, ctx.camera_media);
         // Solid-angle density of the direction just sampled (0 after a delta lobe).
-        let mut pdf_sa =
-            if !camera.light_tracing_reaches() { 1.0 } else { camera.pdf_dir((-camera.camera().back).dot(dir)) };
+        let mut pdf_sa = if !camera.light_tracing_reaches() { 1.0 } else { camera.pdf_dir_of(dir) };
         let mut prev_delta = false;
         *scratch.split = crate::integrator::catcher::Split::new(ctx.catcher.is_some());
         stats.camera += 1;
