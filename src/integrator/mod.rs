@@ -677,7 +677,14 @@ impl Integrator {
         stats: &mut RayStats,
     ) -> CameraSample {
         if ray.is_blind() {
-            return CameraSample::blind();
+            // BDPT still splats the sample's light subpath (`BdptIntegrator::li_blind`).
+            return match (self, scratch) {
+                (Integrator::Bdpt(b), TileScratch::Bdpt(buf, vertices)) => {
+                    let mut target = bdpt::FilmTarget { camera, filter, splats: buf };
+                    b.li_blind(ctx, ray, pixel_sample, &mut target, vertices, stats)
+                }
+                _ => CameraSample::blind(),
+            };
         }
         match (self, scratch) {
             (Integrator::Path(p), _) => p.li(ctx, ray, sampler, |q| camera.depth(q), stats),

@@ -303,4 +303,47 @@ impl BdptIntegrator {
         self.file_catcher(ctx, sampler, scratch, &mut out, stats);
         out
     }
+
+    /// A camera sample outside a panoramic camera's lens (`CameraRay::is_blind`): black and
+    /// opaque, but its light subpath is still traced and splatted through the camera
+    /// (t = 1). Splats are normalised by every camera sample, blind ones included, so
+    /// leaving their light subpaths out darkened light tracing by the lens's share of the
+    /// frame (π/4 for a fisheye's circle in a square frame).
+    #[allow(clippy::too_many_arguments)]
+    pub fn li_blind(
+        &self,
+        ctx: &SceneContext,
+        ray: &CameraRay,
+        light_stream: (u32, u32, u32, u32),
+        film: &mut FilmTarget,
+        scratch: &mut BdptScratch,
+        stats: &mut RayStats,
+    ) -> CameraSample {
+        if !film.camera.light_tracing_reaches() {
+            return CameraSample::blind();
+        }
+        let (seed, px, py, index) = light_stream;
+        let mut ls = light_sampler(seed, px, py, index);
+        self.light_subpath(ctx, &mut ls, scratch, stats);
+        self.splat_blind(ctx, ray, light_stream, film, scratch, stats);
+        CameraSample::blind()
+    }
+
+    /// The t = 1 strategies of the light subpath in `scratch.light` for a blind camera
+    /// sample: the camera subpath is its camera vertex alone, so `connect_all` makes only
+    /// the splats.
+    pub(crate) fn splat_blind(
+        &self,
+        ctx: &SceneContext,
+        ray: &CameraRay,
+        (seed, px, py, index): (u32, u32, u32, u32),
+        film: &mut FilmTarget,
+        scratch: &mut BdptScratch,
+        stats: &mut RayStats,
+    ) {
+        self.camera_vertex_alone(ctx, ray, scratch);
+        let mut cs = connection_sampler(seed, px, py, index);
+        let mut out = CameraSample::blind();
+        self.connect_all(ctx, &mut cs, film, scratch, &mut out, stats);
+    }
 }

@@ -11,6 +11,18 @@ use crate::integrator::walk::{PathState, Step};
 use crate::light::emit::infinite_ray;
 
 impl BdptIntegrator {
+    /// Starts the camera subpath in `scratch` with its camera vertex alone: the aperture
+    /// point the camera ray leaves from (the ray itself starts at the near clipping plane).
+    pub(crate) fn camera_vertex_alone(&self, ctx: &SceneContext, ray: &CameraRay, scratch: &mut BdptScratch) {
+        scratch.cam.clear();
+        *scratch.medium_vertex = None;
+        let mut v0 = Vertex::new(Kind::Camera, ray.org);
+        v0.pdf_fwd = 1.0;
+        v0.medium = ctx.camera_media;
+        scratch.cam.push(v0);
+        *scratch.split = crate::integrator::catcher::Split::new(ctx.catcher.is_some());
+    }
+
     /// Traces the camera subpath into `scratch.cam`, adding every s = 0 contribution
     /// (emitters found by the path) to `radiance`.
     #[allow(clippy::too_many_arguments)]
@@ -25,20 +37,13 @@ impl BdptIntegrator {
         radiance: &mut Rgb,
         stats: &mut RayStats,
     ) {
+        self.camera_vertex_alone(ctx, ray, scratch);
         let cam = &mut scratch.cam;
-        cam.clear();
-        *scratch.medium_vertex = None;
-        // The camera vertex is the aperture point; the ray starts at the near clipping plane.
-        let (org, dir) = (ray.org, ray.dir);
-        let mut v0 = Vertex::new(Kind::Camera, org);
-        v0.pdf_fwd = 1.0;
-        v0.medium = ctx.camera_media;
-        cam.push(v0);
+        let dir = ray.dir;
         let mut path = PathState::camera(ray, ctx.camera_media);
         // Solid-angle density of the direction just sampled (0 after a delta lobe).
         let mut pdf_sa = if !camera.light_tracing_reaches() { 1.0 } else { camera.pdf_dir_of(dir) };
         let mut prev_delta = false;
-        *scratch.split = crate::integrator::catcher::Split::new(ctx.catcher.is_some());
         stats.camera += 1;
         // The path so far meets a restricted object (`visibility`).
         let mut restricted = false;

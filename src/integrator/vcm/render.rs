@@ -300,8 +300,16 @@ impl VcmIntegrator {
                         let _time = crate::motion::TimeScope::enter(time);
                         let mut target = FilmTarget { camera, filter: &job.filter, splats: &mut buf };
                         let pixel_sample = (job.seed, px, py, index);
-                        let mut s = if ray.is_blind() {
+                        let mut s = if ray.is_blind() && merging {
+                            // Black and opaque, but its light subpath still splats (t = 1).
+                            if camera.light_tracing_reaches() {
+                                let row = &rows_ref[(py - y0) as usize].subpaths;
+                                row.restore(ctx, (px - x0) as usize, &mut scratch.light);
+                                self.bdpt.splat_blind(ctx, &ray, pixel_sample, &mut target, &mut scratch, &mut to.rays);
+                            }
                             CameraSample::blind()
+                        } else if ray.is_blind() {
+                            self.bdpt.li_blind(ctx, &ray, pixel_sample, &mut target, &mut scratch, &mut to.rays)
                         } else if merging {
                             // The pixel's light subpath from the light pass, not traced again.
                             let row = &rows_ref[(py - y0) as usize].subpaths;
