@@ -4,7 +4,7 @@
 
 use super::{
     DELTA_SUN_COS, EmitterTriangle, Light, LightSample, area_to_solid_angle, intersect_sphere, sample_triangle,
-    sphere_cos_max, spot_attenuation, sun_radiance,
+    sphere_cos_max, sphere_mask, spot_attenuation, sun_radiance,
 };
 use crate::math::Frame;
 use crate::sampling::warp::{concentric_disk, uniform_cone, uniform_cone_pdf};
@@ -96,8 +96,9 @@ impl Light {
                     normal: Vec3::ZERO,
                 })
             }
-            Light::Sphere { center, radius, radiance, soft: true, .. } => {
-                // A disk of the sphere's radius facing the shading point.
+            Light::Sphere { center, radius, radiance, soft: true, spot, .. } => {
+                // A disk of the sphere's radius facing the shading point (masked by a
+                // spot's cone along the sampled ray).
                 let n = (p - *center).normalize_or(Vec3::Y);
                 let d2 = concentric_disk(u) * *radius;
                 let f = Frame::from_normal(n);
@@ -108,21 +109,37 @@ impl Light {
                     return None;
                 }
                 let wi = d / dist;
+                let mask = sphere_mask(spot, *center, *radius, p, -wi);
+                if !(mask > 0.0) {
+                    return None;
+                }
                 let pdf = area_to_solid_angle(1.0 / (std::f32::consts::PI * radius * radius), dist, (-wi).dot(n));
-                (pdf > 0.0).then_some(LightSample { wi, dist, li: *radiance, pdf, delta: false, point: q, normal: n })
+                (pdf > 0.0).then_some(LightSample {
+                    wi,
+                    dist,
+                    li: *radiance * mask,
+                    pdf,
+                    delta: false,
+                    point: q,
+                    normal: n,
+                })
             }
-            Light::Sphere { center, radius, radiance, soft: false, .. } => {
+            Light::Sphere { center, radius, radiance, soft: false, spot, .. } => {
                 let to_c = *center - p;
                 let dist = to_c.length();
                 let cos_max = sphere_cos_max(dist, *radius)?;
                 let wi = Frame::from_normal(to_c / dist).to_world(uniform_cone(u, cos_max));
+                let mask = sphere_mask(spot, *center, *radius, p, -wi);
+                if !(mask > 0.0) {
+                    return None;
+                }
                 // Rounding can make a ray at the cone's edge miss: use the tangent point.
                 let t = intersect_sphere(p, wi, *center, *radius, f32::INFINITY).unwrap_or(dist * cos_max);
                 let q = p + wi * t;
                 Some(LightSample {
                     wi,
                     dist: t,
-                    li: *radiance,
+                    li: *radiance * mask,
                     pdf: uniform_cone_pdf(cos_max),
                     delta: false,
                     point: q,
