@@ -67,7 +67,7 @@ pub struct SceneContext<'a> {
     /// Light index of the world, if it is a light.
     world_light: Option<usize>,
     /// Sphere lights: (centre, radius, radiance, soft, camera-visible, spot cone, light index).
-    spheres: Vec<(Vec3, f32, Rgb, bool, bool, Option<crate::light::SpotCone>, usize)>,
+    spheres: Vec<SphereEntry>,
     /// Suns with a size: (unit direction toward the sun, cos half angle, radiance, light index).
     suns: Vec<(Vec3, f32, Rgb, usize)>,
     /// Some material has a medium or subsurface scattering (paths then track media and
@@ -86,6 +86,10 @@ pub struct SceneContext<'a> {
     /// renders whose BVH holds every triangle where it is at the frame (server, bench).
     pub blurs_motion: bool,
 }
+
+/// A sphere light as crossed by rays: (centre, radius, radiance, soft, camera-visible, spot
+/// cone, light index).
+type SphereEntry = (Vec3, f32, Rgb, bool, bool, Option<crate::light::SpotCone>, usize);
 
 /// Power heuristic (β = 2) of Veach; 0 when the weights are not finite.
 #[inline]
