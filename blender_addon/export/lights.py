@@ -71,20 +71,19 @@ def area_light_extension(blender_object):
 def punctual_light_extension(blender_object):
     """Blender's light shape parameters that KHR_lights_punctual cannot say, or None.
 
-    radius: a point light's `shadow_soft_size` (a sphere light in Cycles, or with soft falloff a
-    disk facing the shading point); angle: a sun's
-    angular diameter; spot_blend: applied with Cycles' smoothstep instead of glTF's ramp.
+    radius: a point or spot light's `shadow_soft_size` (a sphere light in Cycles, or with soft
+    falloff a disk facing the shading point; a spot's masked by its cone), with its Soft Falloff
+    and Ray Visibility > Camera; angle: a sun's angular diameter; spot_blend: applied with
+    Cycles' smoothstep instead of glTF's ramp.
     """
     light = blender_object.data
     value = {}
-    if light.type == "POINT" and light.shadow_soft_size > 0.0:
+    if light.type in ("POINT", "SPOT") and light.shadow_soft_size > 0.0:
         value["radius"] = float(light.shadow_soft_size)
         value["camera_visible"] = bool(blender_object.visible_camera)
         value["soft_falloff"] = bool(getattr(light, "use_soft_falloff", False))
-    elif light.type == "SPOT":
+    if light.type == "SPOT":
         value["spot_blend"] = float(light.spot_blend)
-        if light.shadow_soft_size > 0.0:
-            value["radius"] = float(light.shadow_soft_size)
     elif light.type == "SUN" and light.angle > 0.0:
         value["angle"] = float(light.angle)
     if not light.use_shadow:

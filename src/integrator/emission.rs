@@ -3,7 +3,7 @@
 //! by the light's linking and ray visibility.
 
 use super::{SceneContext, power_heuristic};
-use crate::light::{area_to_solid_angle, intersect_sphere, sphere_cos_max};
+use crate::light::{area_to_solid_angle, intersect_sphere, sphere_cos_max, sphere_mask};
 use crate::math::Rgb;
 use crate::sampling::warp::uniform_cone_pdf;
 use crate::scene::light_path::LightPath;
@@ -77,9 +77,14 @@ impl<'a> SceneContext<'a> {
                 any = true;
             }
         }
-        for &(center, radius, radiance, soft, camera_visible, index) in &self.spheres {
+        for &(center, radius, radiance, soft, camera_visible, spot, index) in &self.spheres {
             let seen = if camera_ray { camera_visible } else { self.bounce_finds(index, receiver, path) };
             if !seen || (prev_pdf > 0.0 && self.shadow_linked(index)) {
+                continue;
+            }
+            // A spot's cone masks the ray's direction (receivers inside the sphere unmasked).
+            let radiance = radiance * sphere_mask(&spot, center, radius, prev_p, -dir);
+            if radiance == Rgb::ZERO {
                 continue;
             }
             if soft {

@@ -66,8 +66,8 @@ pub struct SceneContext<'a> {
     area_lights: Vec<(AreaLight, usize)>,
     /// Light index of the world, if it is a light.
     world_light: Option<usize>,
-    /// Sphere lights: (centre, radius, radiance, soft, camera-visible, light index).
-    spheres: Vec<(Vec3, f32, Rgb, bool, bool, usize)>,
+    /// Sphere lights: (centre, radius, radiance, soft, camera-visible, spot cone, light index).
+    spheres: Vec<SphereEntry>,
     /// Suns with a size: (unit direction toward the sun, cos half angle, radiance, light index).
     suns: Vec<(Vec3, f32, Rgb, usize)>,
     /// Some material has a medium or subsurface scattering (paths then track media and
@@ -94,6 +94,10 @@ pub struct SceneContext<'a> {
     /// renders whose BVH holds every triangle where it is at the frame (server, bench).
     pub blurs_motion: bool,
 }
+
+/// A sphere light as crossed by rays: (centre, radius, radiance, soft, camera-visible, spot
+/// cone, light index).
+type SphereEntry = (Vec3, f32, Rgb, bool, bool, Option<crate::light::SpotCone>, usize);
 
 /// Power heuristic (β = 2) of Veach; 0 when the weights are not finite.
 #[inline]
@@ -126,8 +130,8 @@ impl<'a> SceneContext<'a> {
                 Light::Triangle { tri } => tri_to_light[*tri as usize] = i as u32,
                 Light::Area(a) => area_lights.push((*a, i)),
                 Light::World => world_light = Some(i),
-                Light::Sphere { center, radius, radiance, soft, camera_visible } => {
-                    spheres.push((*center, *radius, *radiance, *soft, *camera_visible, i))
+                Light::Sphere { center, radius, radiance, soft, camera_visible, spot } => {
+                    spheres.push((*center, *radius, *radiance, *soft, *camera_visible, *spot, i))
                 }
                 Light::Directional { direction, irradiance, cos_half } if *cos_half < DELTA_SUN_COS => {
                     suns.push((-*direction, *cos_half, sun_radiance(*irradiance, *cos_half), i))

@@ -6,6 +6,8 @@
 //! |---|---|---|---|
 //! | point | the light | uniform sphere | 4π I / (p_l N) |
 //! | spot | the light | exactly ∝ glTF's falloff inside the outer cone | Φ_spot / (p_l N) |
+//! | sphere (point with a radius) | its surface, or its centre with soft falloff | cosine-weighted, or uniform sphere | 4π² r² L / (p_l N) |
+//! | spot with a radius | as the sphere, or with soft falloff its centre | as the sphere, or uniform in the outer cone | × the cone's attenuation of the direction |
 //! | directional | uniform on a disk of the scene's bounding-sphere radius, outside it, facing the photon's direction | the light's (uniform in its cone for a sun with a size) | π R² E · 2/(1 + cos θ) / (p_l N) |
 //! | world | the same disk, facing the direction | from the world's importance map, density p(ω) | π R² L(ω) / (p(ω) p_l N) |
 //! | area (CAUSTIC) | uniform | cosine-weighted, one-sided | π A L / (p_l N) |
@@ -112,7 +114,9 @@ impl Emitters {
                     let (a, b, _, _) = spot_power_factor(*cos_inner, *cos_outer);
                     *intensity * (2.0 * PI * (a + b))
                 }
-                Light::Sphere { radius, radiance, .. } => *radiance * (4.0 * PI * PI * radius * radius),
+                Light::Sphere { radius, radiance, spot, .. } => {
+                    *radiance * (4.0 * PI * PI * radius * radius * spot.map_or(1.0, |c| c.power_share()))
+                }
                 // π R² through the disk times ∫ L dω = 4π L̄ over the sphere.
                 Light::World => match &scene.world {
                     Some(w) => Rgb::splat(w.mean_luminance() * 4.0 * PI * PI * radius * radius),
@@ -189,6 +193,33 @@ impl Emitters {
                     org: *position,
                     dir: Frame::from_normal(*direction).to_world(local),
                     power: *intensity * (atten * omega / (pmf * n as f32)),
+                })
+            }
+            Light::Sphere { center, radius, radiance, soft: false, spot: Some(cone), .. } => {
+                // The sphere's photons, each weighted by the cone's attenuation of its
+                // direction (whose mean over the photons is the power's share).
+                let nrm = uniform_sphere(u_pos);
+                let dir = Frame::from_normal(nrm).to_world(cosine_hemisphere(u_dir));
+                let unmasked = *radiance * (4.0 * PI * PI * radius * radius / (pmf * n as f32));
+                Some(EmittedPhoton {
+                    light: index,
+                    org: *center + nrm * (*radius * 1.0001),
+                    dir,
+                    power: unmasked * cone.attenuation(dir),
+                })
+            }
+            Light::Sphere { center, radius, radiance, soft: true, spot: Some(cone), .. } => {
+                // A soft spot with a radius: as a soft point light, far away a point spot of
+                // the disk's intensity π r² L, its photons uniform in the outer cone weighted
+                // by the attenuation.
+                let local = crate::sampling::warp::uniform_cone(u_dir, cone.cos_outer);
+                let atten = crate::light::spot_attenuation(local.z, cone.cos_inner, cone.cos_outer, cone.smooth);
+                let omega = 2.0 * PI * (1.0 - cone.cos_outer);
+                Some(EmittedPhoton {
+                    light: index,
+                    org: *center,
+                    dir: Frame::from_normal(cone.direction).to_world(local),
+                    power: *radiance * (PI * radius * radius * atten * omega / (pmf * n as f32)),
                 })
             }
             Light::Sphere { center, radius, soft, .. } => {

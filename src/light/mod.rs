@@ -291,6 +291,8 @@ pub enum Light {
         soft: bool,
         /// Seen by camera rays.
         camera_visible: bool,
+        /// Blender's spot with a radius: the cone that masks the sphere's emission.
+        spot: Option<SpotCone>,
     },
     /// Planar area light.
     Area(AreaLight),
@@ -330,6 +332,55 @@ pub struct EmitterTriangle {
     pub p: [Vec3; 3],
     /// Emitting on both sides.
     pub two_sided: bool,
+}
+
+/// The cone of Blender's spot with a radius, which Cycles renders as its sphere (or soft
+/// falloff disk) light masked by the spot's attenuation of each emitted ray's direction (from
+/// the sampled point of the light to the receiver, so the cone's edge blurs by the light's
+/// size, as in Cycles); receivers inside the sphere are not masked, as Cycles leaves them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SpotCone {
+    /// Unit direction the spot points to.
+    pub direction: Vec3,
+    /// cos of the inner cone angle (glTF's falloff only).
+    pub cos_inner: f32,
+    /// cos of the outer cone angle (zero beyond).
+    pub cos_outer: f32,
+    /// Blender's smoothstep factor, as `Light::Spot`'s; None for glTF's falloff.
+    pub smooth: Option<f32>,
+}
+
+impl SpotCone {
+    /// The attenuation of light leaving in unit direction `w`.
+    #[inline]
+    pub fn attenuation(&self, w: Vec3) -> f32 {
+        spot_attenuation(w.dot(self.direction), self.cos_inner, self.cos_outer, self.smooth)
+    }
+
+    /// The mask of a ray leaving a sphere light (`center`, `radius`) in unit direction `w`
+    /// toward receiver `p`.
+    #[inline]
+    pub fn mask(&self, center: Vec3, radius: f32, p: Vec3, w: Vec3) -> f32 {
+        if (p - center).length_squared() <= radius * radius { 1.0 } else { self.attenuation(w) }
+    }
+
+    /// The share of the sphere's power the cone lets out (the attenuation's mean over
+    /// directions: every direction leaves the sphere through the same projected area), for
+    /// light selection: the cone's solid angle over 4π, times the blend ramp's mean
+    /// (∫ smoothstep over the ramp is half its width); glTF's ramp is bounded by the cone.
+    pub fn power_share(&self) -> f32 {
+        let cone = 0.5 * (1.0 - self.cos_outer);
+        match self.smooth {
+            Some(k) => cone * (1.0 - 0.5 * (1.0 / (k * (1.0 - self.cos_outer))).min(1.0)),
+            None => cone,
+        }
+    }
+}
+
+/// Optional spot mask of a sphere light (1 without a cone): see [`SpotCone::mask`].
+#[inline]
+pub fn sphere_mask(spot: &Option<SpotCone>, center: Vec3, radius: f32, p: Vec3, w: Vec3) -> f32 {
+    spot.as_ref().map_or(1.0, |s| s.mask(center, radius, p, w))
 }
 
 /// A spot's attenuation: Blender's smoothstep when `smooth` is set, else glTF's.

@@ -3,7 +3,8 @@
 //! direction (needed by the MIS weights of every strategy).
 //!
 //! Every light but Blender's soft-falloff point light (a disk that turns to face each
-//! receiver: no fixed surface to start from) starts light subpaths. Lights with a fixed
+//! receiver: no fixed surface to start from) and spot with a radius (its cone masks by the
+//! receiver's direction from the centre) starts light subpaths. Lights with a fixed
 //! emitting surface or point ("finite": point, spot, area, emissive triangle, a point
 //! light with a radius and without soft falloff) start them there; the world and suns
 //! (lights at infinity) start them on a disk beyond the scene's bounding sphere, facing a
@@ -11,7 +12,8 @@
 //! (`emit::infinite_ray`). Such a light vertex lies at infinity: its density from the
 //! light side is the light's choice times the direction's solid-angle density, the next
 //! vertex's is the disk's area density times the cosine there, and a camera path reaches
-//! it with the BSDF's solid-angle density (no distance). Soft point lights are reached
+//! it with the BSDF's solid-angle density (no distance). Soft point lights and spots with a
+//! radius are reached
 //! only from the camera side: by a camera path that crosses them (s = 0) and by light
 //! sampling at a camera vertex (s = 1), weighted between those two strategies exactly as
 //! the path tracer weights them.
@@ -66,14 +68,17 @@ pub struct BdptLights {
 pub fn is_finite(l: &Light) -> bool {
     match l {
         Light::Point { .. } | Light::Spot { .. } | Light::Area(_) | Light::Triangle { .. } => true,
-        Light::Sphere { soft, .. } => !soft,
+        Light::Sphere { soft, spot, .. } => !soft && spot.is_none(),
         Light::Directional { .. } | Light::World => false,
     }
 }
 
-/// True for lights that start light subpaths (all but soft-falloff point lights).
+/// True for lights that start light subpaths: all but soft-falloff point lights and spots
+/// with a radius, whose emission toward a receiver depends on where the receiver lies (the
+/// disk turns to face it; the cone masks by the direction from the centre), not on the
+/// emitted ray alone.
 pub fn starts_subpaths(l: &Light) -> bool {
-    !matches!(l, Light::Sphere { soft: true, .. })
+    !matches!(l, Light::Sphere { soft: true, .. } | Light::Sphere { spot: Some(_), .. })
 }
 
 impl BdptLights {
@@ -194,7 +199,7 @@ pub fn sample_point(scene: &Scene, index: usize, u: Vec2) -> Option<LightPoint> 
             pdf_pos: 1.0 / a.area,
             two_sided: false,
         }),
-        Light::Sphere { center, radius, radiance, soft: false, .. } => {
+        Light::Sphere { center, radius, radiance, soft: false, spot: None, .. } => {
             let n = uniform_sphere(u);
             Some(LightPoint {
                 light,
@@ -223,7 +228,7 @@ pub fn sample_point(scene: &Scene, index: usize, u: Vec2) -> Option<LightPoint> 
                 two_sided: et.two_sided,
             })
         }
-        Light::Sphere { soft: true, .. } | Light::Directional { .. } | Light::World => None,
+        Light::Sphere { .. } | Light::Directional { .. } | Light::World => None,
     }
 }
 
@@ -233,7 +238,7 @@ pub fn pdf_point(scene: &Scene, index: usize) -> f32 {
     match &scene.lights[index] {
         Light::Point { .. } | Light::Spot { .. } => 1.0,
         Light::Area(a) => 1.0 / a.area,
-        Light::Sphere { radius, soft: false, .. } => 1.0 / (4.0 * PI * radius * radius),
+        Light::Sphere { radius, soft: false, spot: None, .. } => 1.0 / (4.0 * PI * radius * radius),
         Light::Triangle { tri } => {
             let m = &scene.mesh;
             let [a, b, c] = m.triangles[*tri as usize].map(|i| m.positions[i as usize]);

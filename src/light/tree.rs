@@ -232,9 +232,16 @@ pub fn scene_light_bounds(scene: &Scene) -> Vec<Option<LightBounds>> {
                 let theta = cos_outer.clamp(-1.0, 1.0).acos();
                 Some(LightBounds::new(*position, *position, *direction, phi, theta, 0.0, false))
             }
-            Light::Sphere { center, radius, .. } => {
+            Light::Sphere { center, radius, spot: None, .. } => {
                 let r = Vec3::splat(*radius);
                 Some(LightBounds::new(*center - r, *center + r, Vec3::Z, phi, PI, half_pi, false))
+            }
+            Light::Sphere { center, radius, spot: Some(cone), .. } => {
+                // The mask is zero where the direction from the centre leaves the outer
+                // cone (outside the sphere, whose box the importance treats as all around).
+                let r = Vec3::splat(*radius);
+                let theta = cone.cos_outer.clamp(-1.0, 1.0).acos();
+                Some(LightBounds::new(*center - r, *center + r, cone.direction, phi, theta, 0.0, false))
             }
             Light::Area(a) => {
                 let corners = [a.ax + a.ay, a.ax - a.ay, -a.ax + a.ay, -a.ax - a.ay].map(|c| a.center + c);

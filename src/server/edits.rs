@@ -254,7 +254,9 @@ fn refresh_powers(scene: &mut Scene) {
         *p = match l {
             Light::Point { intensity, .. } => 4.0 * PI * lum(*intensity),
             Light::Spot { intensity, cos_outer, .. } => 2.0 * PI * (1.0 - cos_outer) * lum(*intensity),
-            Light::Sphere { radius, radiance, .. } => 4.0 * PI * PI * radius * radius * lum(*radiance),
+            Light::Sphere { radius, radiance, spot, .. } => {
+                4.0 * PI * PI * radius * radius * lum(*radiance) * spot.map_or(1.0, |c| c.power_share())
+            }
             Light::Directional { irradiance, .. } => PI * r * r * lum(*irradiance),
             Light::Area(a) => lum(a.radiance) * a.area * PI,
             Light::World => scene.world.as_ref().map_or(0.0, |w| PI * w.mean_luminance() * PI * r * r),
@@ -302,9 +304,13 @@ pub fn light(scene: &mut Scene, e: &LightEdit) -> Result<Invalidates, String> {
             *direction = dir.unwrap_or(*direction);
             *irradiance = emission.unwrap_or(*irradiance);
         }
-        Light::Sphere { center, radiance, .. } => {
+        Light::Sphere { center, radiance, spot, .. } => {
             *center = pos.unwrap_or(*center);
             *radiance = emission.unwrap_or(*radiance);
+            // A spot with a radius turns with its object.
+            if let Some(cone) = spot {
+                cone.direction = dir.unwrap_or(cone.direction);
+            }
         }
         Light::Area(a) => {
             if let Some(m) = m {

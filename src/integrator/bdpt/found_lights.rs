@@ -150,7 +150,7 @@ impl BdptIntegrator {
                         _ => continue,
                     }
                 }
-                Light::Sphere { center, radius, radiance, soft: false, camera_visible } => {
+                Light::Sphere { center, radius, radiance, soft: false, camera_visible, spot: None } => {
                     if i == 0 && !camera_visible {
                         continue;
                     }
@@ -159,31 +159,44 @@ impl BdptIntegrator {
                         None => continue,
                     }
                 }
-                Light::Sphere { center, radius, radiance, soft: true, camera_visible } => {
-                    // Camera-side only: a disk facing the previous vertex.
+                Light::Sphere { center, radius, radiance, soft, camera_visible, spot } => {
+                    // Camera-side only (`lights::starts_subpaths`): a soft point light's disk
+                    // facing the previous vertex, or a spot's sphere masked along the ray.
                     if i == 0 && !camera_visible {
                         continue;
                     }
                     let prev_p = cam[i].p;
-                    let n = (prev_p - *center).normalize_or(Vec3::Y);
-                    let denom = n.dot(dir);
-                    if denom >= 0.0 {
+                    let mask = crate::light::sphere_mask(spot, *center, *radius, prev_p, -dir);
+                    if !(mask > 0.0) {
                         continue;
                     }
-                    let t = n.dot(*center - org) / denom;
-                    let q = org + dir * t;
-                    if !(t > 0.0 && t < tmax) || (q - *center).length_squared() > radius * radius {
-                        continue;
-                    }
+                    let density = if *soft {
+                        let n = (prev_p - *center).normalize_or(Vec3::Y);
+                        let denom = n.dot(dir);
+                        if denom >= 0.0 {
+                            continue;
+                        }
+                        let t = n.dot(*center - org) / denom;
+                        let q = org + dir * t;
+                        if !(t > 0.0 && t < tmax) || (q - *center).length_squared() > radius * radius {
+                            continue;
+                        }
+                        let dist = (q - prev_p).length();
+                        area_to_solid_angle(1.0 / (std::f32::consts::PI * radius * radius), dist, -denom)
+                    } else {
+                        if intersect_sphere(org, dir, *center, *radius, tmax).is_none() {
+                            continue;
+                        }
+                        crate::light::sphere_cos_max((*center - prev_p).length(), *radius)
+                            .map_or(0.0, crate::sampling::warp::uniform_cone_pdf)
+                    };
                     // Camera-side only already; a light hidden from the last bounce's kind is not found.
                     if !ctx.light_seen_by(index, path) {
                         continue;
                     }
-                    let dist = (q - prev_p).length();
-                    let p_light = self.lights.pmf_any(index)
-                        * area_to_solid_angle(1.0 / (std::f32::consts::PI * radius * radius), dist, -denom);
+                    let p_light = self.lights.pmf_any(index) * density;
                     let w = gate.weight(self.camera_only_weight(i, prev_delta, pdf_sa, p_light));
-                    let c = beta * *radiance * w;
+                    let c = beta * *radiance * (mask * w);
                     sum += c;
                     if self.ledger.any() {
                         self.ledger.file(out, i, first, false, self.ledger.group_of_light(ctx, index), c);

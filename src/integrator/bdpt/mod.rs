@@ -11,12 +11,12 @@
 //! - s, t ≥ 2: a shadow ray joins the two subpaths.
 //!
 //! Each contribution is weighted by `mis::PathDensities::weight`. Light subpaths start at
-//! every light but soft-falloff point lights (`lights::starts_subpaths`): the world and
+//! every light but soft-falloff point lights and spots with a radius (`lights::starts_subpaths`): the world and
 //! suns on a disk beyond the scene's bounding sphere facing a direction from the light's
 //! own distribution (a vertex at infinity, `Kind::Infinite`: its light-side density is the
 //! direction's, the next vertex's the disk's times the cosine there, and the camera side
 //! reaches it with a solid-angle density; t = 1 cannot see it). Paths from soft point
-//! lights are made by s = 0 and s = 1 only, weighted as the path tracer weights them, and
+//! lights and spots with a radius are made by s = 0 and s = 1 only, weighted as the path tracer weights them, and
 //! so are paths from emitters whose node graph reads the Light Path node (their radiance
 //! depends on the camera path: `path_emitters`).
 //!

@@ -30,8 +30,8 @@
 //! (SPPM's rule, made one radius for the whole image). The estimate is consistent: merging's bias vanishes as r → 0.
 //!
 //! What is approximated or left out (as BDPT): light subpaths start at every light but soft
-//! point lights (the world and suns on a disk beyond the scene, as BDPT's; soft point
-//! lights, and emitters whose node graph reads the Light Path node, are reached by s = 0
+//! point lights and spots with a radius (the world and suns on a disk beyond the scene, as BDPT's;
+//! those, and emitters whose node graph reads the Light Path node, are reached by s = 0
 //! and s = 1, weighted as the path tracer weights them, and never merged:
 //! `bdpt::path_emitters`); paths with a vertex in a medium are path
 //! traced from the camera side (light subpaths cross media attenuated, without scattering),

@@ -5,7 +5,7 @@ use super::emission::{MeanPyramid, pyramid_bytes};
 use super::extensions::{AreaLightExt, BlenderLight, light_rays};
 use super::{LUMENS_PER_WATT, Loader};
 use crate::error::Result;
-use crate::light::{AreaLight, AreaShape, Light};
+use crate::light::{AreaLight, AreaShape, Light, SpotCone};
 use crate::math::luminance;
 use crate::scene::{LightReport, Material, Mesh};
 use glam::{Mat4, Vec3};
@@ -52,9 +52,6 @@ impl Loader<'_> {
             return Err(self.err(format!("light '{name}': CAUSTIC_lights_punctual values must be finite and ≥ 0")));
         }
         use gltf::khr_lights_punctual::Kind;
-        if bl.radius > 0.0 && matches!(l.kind(), Kind::Spot { .. }) {
-            self.warn(format!("light '{name}': a spot's radius is not supported; rendered as a point spot"));
-        }
         let (light, kind) = match l.kind() {
             Kind::Point if bl.radius > 0.0 => {
                 // The sphere radiates the point's power: L = P / (4π² r²), P = 4π I.
@@ -67,6 +64,7 @@ impl Loader<'_> {
                         radiance,
                         soft: bl.soft_falloff,
                         camera_visible: bl.camera_visible,
+                        spot: None,
                     },
                     "point",
                 )
@@ -85,17 +83,24 @@ impl Loader<'_> {
                 if outer != outer_cone_angle || inner != inner_cone_angle {
                     self.warn(format!("light '{name}': spot cone angles were clamped to 0 ≤ inner ≤ outer ≤ π/2"));
                 }
-                (
-                    Light::Spot {
-                        position,
-                        direction: forward,
-                        intensity: radiometric,
-                        cos_inner: inner.cos(),
-                        cos_outer: outer.cos(),
-                        smooth: bl.spot_blend.map(|b| 1.0 / ((1.0 - outer.cos()) * b).max(1e-12)),
-                    },
-                    "spot",
-                )
+                let (cos_inner, cos_outer) = (inner.cos(), outer.cos());
+                let smooth = bl.spot_blend.map(|b| 1.0 / ((1.0 - cos_outer) * b).max(1e-12));
+                let light = if bl.radius > 0.0 {
+                    // Cycles' spot with a radius: the point light's sphere (or soft-falloff
+                    // disk) of the same intensity, masked by the cone (`SpotCone`).
+                    let r = bl.radius;
+                    Light::Sphere {
+                        center: position,
+                        radius: r,
+                        radiance: radiometric / (std::f32::consts::PI * r * r),
+                        soft: bl.soft_falloff,
+                        camera_visible: bl.camera_visible,
+                        spot: Some(SpotCone { direction: forward, cos_inner, cos_outer, smooth }),
+                    }
+                } else {
+                    Light::Spot { position, direction: forward, intensity: radiometric, cos_inner, cos_outer, smooth }
+                };
+                (light, "spot")
             }
         };
         Ok((
@@ -268,7 +273,9 @@ pub(super) fn punctual_power(l: &Light, scene_radius: f32) -> f32 {
         // A spot's power is bounded by its cone; Blender's spots have a point's
         // intensity, so use the cone's solid angle.
         Light::Spot { intensity, cos_outer, .. } => 2.0 * PI * (1.0 - cos_outer) * luminance(*intensity),
-        Light::Sphere { radius, radiance, .. } => 4.0 * PI * PI * radius * radius * luminance(*radiance),
+        Light::Sphere { radius, radiance, spot, .. } => {
+            4.0 * PI * PI * radius * radius * luminance(*radiance) * spot.map_or(1.0, |c| c.power_share())
+        }
         Light::Directional { irradiance, .. } => PI * scene_radius * scene_radius * luminance(*irradiance),
         Light::Area(a) => luminance(a.radiance) * a.area * PI,
         Light::Triangle { .. } | Light::World => 0.0,
