@@ -115,6 +115,15 @@ class CausticRenderSettings(bpy.types.PropertyGroup):
         min=0,
         max=1024,
     )
+    transparent_max_bounces: IntProperty(
+        name="Transparent Max Bounces",
+        description="Maximum number of alpha-transparent surfaces a path passes, as Cycles' "
+        "Transparent Max Bounces: past them the path ends, and shadow rays crossing more "
+        "are blocked",
+        default=8,
+        min=0,
+        max=1024,
+    )
     seed: IntProperty(
         name="Seed",
         description="Seed of the sample pattern",

@@ -93,6 +93,7 @@ class CAUSTIC_PT_render(CausticButtonsPanel, bpy.types.Panel):
         col.prop(settings, "time_limit")
         layout.prop(settings, "use_denoising")
         layout.prop(settings, "max_bounces")
+        layout.prop(settings, "transparent_max_bounces", text="Transparent Bounces")
         layout.prop(settings, "light_sampler")
         layout.prop(settings, "seed")
         layout.prop(settings, "threads")

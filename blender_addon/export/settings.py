@@ -9,6 +9,7 @@ def render_settings(scene, resolution, camera_name):
         "spp": int(props.samples),
         # Blender counts bounces, the renderer counts scattering events (contract).
         "max_depth": int(props.max_bounces) + 1,
+        "transparent_max_bounces": int(props.transparent_max_bounces),
         "seed": int(props.seed),
         "integrator": props.integrator,
         "light_sampler": props.light_sampler,

@@ -141,6 +141,8 @@ pub fn light_transmittance_as(
     let mut tr = Rgb::ONE;
     // Cycles measures each hit's Ray Length along the one shadow ray.
     let mut travelled = 0.0;
+    let crossings_left = ctx.transparent_crossings_left(path);
+    let mut crossings = 0u32;
     for _ in 0..MAX_SHADOW_CROSSINGS {
         let hit = ctx.intersect_as(org, dir, remaining, ray);
         let seg = hit.map_or(remaining, |h| h.t);
@@ -159,6 +161,11 @@ pub fn light_transmittance_as(
         } else if mat.null_surface {
             stack = ctx.medium_after(&s, dir, stack);
         } else if mat.alpha_mode == AlphaMode::Blend {
+            // Opaque past the crossings the path's transparent bounces leave (Cycles).
+            if crossings == crossings_left {
+                return Rgb::ZERO;
+            }
+            crossings += 1;
             tr *= ctx.scene.transmission(h.tri, h.b1, h.b2, path.at(travelled + h.t));
             path = path.passed_transparent();
         } else {

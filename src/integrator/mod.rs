@@ -83,6 +83,11 @@ pub struct SceneContext<'a> {
     pub media_act: bool,
     /// The mesh media around the camera, which camera paths start in (`with_camera_at`).
     pub camera_media: MediumStack,
+    /// Cycles' Transparent Max Bounces (`SceneSettings::transparent_max_bounces`): a path
+    /// that has passed this many alpha surfaces ends at the next surface after its
+    /// emission, and a shadow ray from a point reached through `n` of them is opaque when
+    /// it crosses more than `max - n` (`integrate_shadow_max_transparent_hits`).
+    pub transparent_max: u32,
     /// Some material's Transparent BSDF is coloured: shadow rays then take the per-channel
     /// route (`media::light_transmittance`), as with media.
     pub tinted_shadows: bool,
@@ -98,6 +103,9 @@ pub struct SceneContext<'a> {
 /// A sphere light as crossed by rays: (centre, radius, radiance, soft, camera-visible, spot
 /// cone, light index).
 type SphereEntry = (Vec3, f32, Rgb, bool, bool, Option<crate::light::SpotCone>, usize);
+
+/// Cycles' default Transparent Max Bounces, taken when the file does not say.
+pub const DEFAULT_TRANSPARENT_MAX: u32 = 8;
 
 /// Power heuristic (β = 2) of Veach; 0 when the weights are not finite.
 #[inline]
@@ -178,6 +186,7 @@ impl<'a> SceneContext<'a> {
                 }),
             constant_bsdfs: (0..scene.materials.len() as u32).map(|m| scene.constant_bsdf(m)).collect(),
             camera_media: MediumStack::default(),
+            transparent_max: scene.settings.transparent_max_bounces.unwrap_or(DEFAULT_TRANSPARENT_MAX),
             tinted_shadows: scene.materials.iter().any(|m| m.nodes.as_ref().is_some_and(|p| p.tinted_transparency)),
             motion: None,
             blurs_motion: false,
@@ -512,11 +521,22 @@ impl<'a> SceneContext<'a> {
     /// shadow linking only its blockers stop it.
     #[inline]
     pub fn transmittance_of(&self, org: Vec3, dir: Vec3, tmax: f32, light: Option<usize>, path: LightPath) -> f32 {
+        // Cycles makes the ray opaque when it crosses more alpha surfaces than the path's
+        // transparent bounces leave (each one counts, whatever its alpha there).
+        let crossings_left = self.transparent_crossings_left(path);
+        let crossings = std::cell::Cell::new(0u32);
         let transparency = |tri: u32, b1: f32, b2: f32| {
             if !self.sees(RayMask::SHADOW, tri) || light.is_some_and(|l| !self.blocks(l, tri)) {
                 return 1.0;
             }
-            match self.scene.materials[self.scene.mesh.tri_material[tri as usize] as usize].alpha_mode {
+            let mode = self.scene.materials[self.scene.mesh.tri_material[tri as usize] as usize].alpha_mode;
+            if mode != AlphaMode::Opaque {
+                crossings.set(crossings.get() + 1);
+                if crossings.get() > crossings_left {
+                    return 0.0;
+                }
+            }
+            match mode {
                 AlphaMode::Mask(cutoff) => {
                     if self.scene.shadow_alpha(tri, b1, b2, path, org) >= cutoff {
                         0.0
@@ -546,6 +566,23 @@ impl<'a> SceneContext<'a> {
             }
             _ => tr,
         }
+    }
+
+    /// How many alpha surfaces a shadow ray of state `path` may cross before Cycles makes
+    /// it opaque: Transparent Max Bounces less the path's transparent bounces (Blender 5.0;
+    /// older Cycles sources subtract one more, which renders two layers' shadows darker
+    /// than bpy 5.0.1 does: `test_alpha_layers_agreement.py`).
+    #[inline]
+    pub fn transparent_crossings_left(&self, path: LightPath) -> u32 {
+        self.transparent_max.saturating_sub(u32::from(path.transparent))
+    }
+
+    /// A path of state `path` ends at the surface it has reached, after its emission:
+    /// it has passed Transparent Max Bounces alpha surfaces (Cycles'
+    /// `PATH_RAY_TERMINATE_ON_NEXT_SURFACE`).
+    #[inline]
+    pub fn ends_at_surface(&self, path: LightPath) -> bool {
+        u32::from(path.transparent) >= self.transparent_max
     }
 
     /// Samples light `index` from point `p` (the light's own `sample_li`).

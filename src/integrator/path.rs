@@ -453,7 +453,8 @@ impl PathIntegrator {
                 }
             }
 
-            if st.depth >= self.max_depth {
+            // Past Transparent Max Bounces a path ends here, after the emission (Cycles).
+            if st.depth >= self.max_depth || ctx.ends_at_surface(st.light_path) {
                 break;
             }
 

@@ -252,6 +252,11 @@ impl PathState {
         if mat.alpha_mode == AlphaMode::Blend && self.transparent_hits < MAX_TRANSPARENT_HITS {
             let (alpha, tint) = ctx.scene.pass_through(hit.tri, hit.b1, hit.b2, self.light_path.at(hit.t));
             if u_alpha() >= alpha {
+                // Past Transparent Max Bounces the path ends at this surface (Cycles): what
+                // it would pass to is not seen.
+                if ctx.ends_at_surface(self.light_path) {
+                    return (Step::End, lights);
+                }
                 self.transparent_hits += 1;
                 self.light_path = self.light_path.passed_transparent();
                 self.beta *= tint;

@@ -305,6 +305,25 @@ pub enum Light {
     World,
 }
 
+impl Light {
+    /// The box of the points a light emits from (a point or spot light's position, a
+    /// sphere's ball, an area light's rectangle or disk); None for lights without a place
+    /// (suns, the world) and for emissive triangles, which lie among the surfaces.
+    pub fn extent(&self) -> Option<(Vec3, Vec3)> {
+        match self {
+            Light::Point { position, .. } | Light::Spot { position, .. } => Some((*position, *position)),
+            Light::Sphere { center, radius, .. } => {
+                Some((*center - Vec3::splat(*radius), *center + Vec3::splat(*radius)))
+            }
+            Light::Area(a) => {
+                let corners = [a.ax + a.ay, a.ax - a.ay, -a.ax + a.ay, -a.ax - a.ay].map(|c| a.center + c);
+                Some(corners.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), c| (lo.min(*c), hi.max(*c))))
+            }
+            Light::Directional { .. } | Light::Triangle { .. } | Light::World => None,
+        }
+    }
+}
+
 /// A point sampled on a light, as seen from a shading point.
 #[derive(Clone, Copy, Debug)]
 pub struct LightSample {

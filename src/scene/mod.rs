@@ -41,6 +41,10 @@ pub struct SceneSettings {
     pub time_limit: Option<f64>,
     /// Maximum scattering events per path.
     pub max_depth: Option<u32>,
+    /// Cycles' Transparent Max Bounces: alpha pass-throughs a path may make (it ends at
+    /// the next surface after the last), and with them those its shadow rays may cross
+    /// (default `integrator::DEFAULT_TRANSPARENT_MAX`, Blender's).
+    pub transparent_max_bounces: Option<u32>,
     /// Random seed.
     pub seed: Option<u32>,
     /// Worker threads.

@@ -112,7 +112,7 @@ def match_cycles(scene, samples, bounces):
     """Render settings under which Cycles and Caustic compute the same image: `bounces` for
     every kind of bounce in both (Caustic's Max Bounces), no denoising, adaptive sampling,
     clamping or light threshold, caustics on, Filter Glossy 0, Blackman-Harris 1.5 px, CPU."""
-    scene.caustic.max_bounces = bounces
+    scene.caustic.max_bounces = scene.caustic.transparent_max_bounces = bounces
     c = scene.cycles
     c.device = "CPU"
     c.samples = samples

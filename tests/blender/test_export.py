@@ -149,6 +149,7 @@ def test_scene_extras_carry_render_settings(light_scene, captured):
         "resolution": [8, 6],
         "spp": 7,
         "max_depth": 6,
+        "transparent_max_bounces": 8,
         "seed": 42,
         "integrator": "path",
         "light_sampler": "tree",

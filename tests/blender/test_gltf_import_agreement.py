@@ -241,10 +241,10 @@ def cycles_images(gltf_path, tmp_path, thin_film=None):
     scene.world = None  # the file has no world: black, as Caustic reads it
     scenes.small_render_settings(scene, W, H, samples=SAMPLES)
     scenes.match_cycles(scene, SAMPLES, BOUNCES)
-    # A glTF file has no bounce settings and Caustic passes alpha-blended surfaces without
-    # counting them as bounces (up to 128 crossings); Cycles' limit of BOUNCES transparent
-    # crossings would turn the shadow of a blended sphere (two crossings) opaque behind it.
-    scene.cycles.transparent_max_bounces = 128
+    # A glTF file has no bounce settings: Caustic takes Cycles' default Transparent Max
+    # Bounces, 8; Cycles' limit of BOUNCES would turn the shadow of a blended sphere seen
+    # through its own front (two crossings each) opaque.
+    scene.cycles.transparent_max_bounces = 8
     return [scenes.render_rgb(scene, "CYCLES", s, str(tmp_path / f"cycles_{s}.exr")) for s in SEEDS]
 
 

@@ -420,7 +420,7 @@ impl JensenIntegrator {
                     c.tally.found(out, c.st.depth, le, false);
                 }
             }
-            if c.st.depth >= self.max_depth {
+            if c.st.depth >= self.max_depth || ctx.ends_at_surface(c.st.light_path) {
                 break;
             }
             let wo_local = sp.frame.to_local(wo);

@@ -548,8 +548,12 @@ impl<'a> Loader<'a> {
             world::WorldMedium::None => (None, None),
             world::WorldMedium::Homogeneous(m) => (Some(m), None),
             world::WorldMedium::Graph(volume) => {
-                // The fog's box holds the surfaces and every camera (paths start there).
+                // The fog's box holds the surfaces, every camera (paths start there) and
+                // every light with a place (light paths start there, shadow rays end there):
+                // outside it the fog is held at the boundary's coefficients.
                 let (flo, fhi) = cameras.iter().fold((lo, hi), |(a, b), c| (a.min(c.position), b.max(c.position)));
+                let (flo, fhi) =
+                    lights.iter().filter_map(Light::extent).fold((flo, fhi), |(a, b), (l, h)| (a.min(l), b.max(h)));
                 let source = crate::medium::procedural_source::ProceduralSource {
                     volume: *volume,
                     object: crate::shader::geom::NO_OBJECT,

@@ -220,7 +220,7 @@ pub(super) fn camera_path(
             }
         }
         // The ray a diffuse-only visible point sent was for its emission alone (above).
-        if st.depth >= max_depth || beta == Rgb::ZERO {
+        if st.depth >= max_depth || beta == Rgb::ZERO || ctx.ends_at_surface(st.light_path) {
             break;
         }
         let wo_local = sp.frame.to_local(wo);
