@@ -115,9 +115,13 @@ impl BdptIntegrator {
                         let tally = self.ledger.light_passes.then(|| first.tally(0));
                         let filing = Filing { tally, groups: self.ledger.light_groups, out: &mut *out };
                         let mut continuation = self.continuation();
-                        if self.volume_merging {
-                            // VCM merges here what reached this point through delta bounces
-                            // alone (`vcm::volume_merge`): the path tracer leaves it out.
+                        // VCM merges here what reached this point through delta bounces
+                        // alone (`vcm::volume_merge`): the path tracer leaves it out. Not in
+                        // a scene with restricted objects or lights (`visibility`): their
+                        // light subpaths stop before such a segment or never start, so the
+                        // path tracer keeps every path there (exact; what it cannot find,
+                        // point lights through mirrors, stays missing as in BDPT and Cycles).
+                        if self.volume_merging && self.restriction.none() {
                             continuation.merged_delta_light = true;
                             *scratch.medium_vertex =
                                 Some(MediumVertex { p, dir, phase, beta, events_before: i as u32, first });
@@ -433,7 +437,8 @@ impl BdptIntegrator {
             // paths without medium vertices. VCM's volume merging records the segments
             // crossed in a medium after delta bounces alone (`vcm::volume_merge`).
             let bounces = light.len() as u32 - 1;
-            let record = self.volume_merging && bounces >= 1 && light[1..].iter().all(|v| v.delta);
+            let record =
+                self.volume_merging && self.restriction.none() && bounces >= 1 && light[1..].iter().all(|v| v.delta);
             let no_lights = |st: &PathState, t_event: f32, _: Rgb| {
                 if record && ctx.medium(&st.media).is_some() {
                     segments.push(LightSegment {

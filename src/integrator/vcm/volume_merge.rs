@@ -17,6 +17,10 @@
 //! tracer's hits would need the merge's density in the path tracer's continuation; the
 //! split gives merging every such path, which for small lights is what the heuristic
 //! would do anyway.)
+//! In a scene with restricted objects or lights (`bdpt::visibility`: Ray Visibility, BSDFs
+//! switched by the Light Path node) volume merging is off and the path tracer keeps these
+//! paths: light subpaths stop before a restricted segment and never start on a restricted
+//! light, so merging could not make all of them.
 //!
 //! Light side. Every segment a light subpath crosses in a medium after delta bounces alone
 //! (z₁ … z_k delta, k ≥ 1; the segment from the light itself is direct light, the path
