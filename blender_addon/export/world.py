@@ -9,7 +9,7 @@ import os
 
 import bpy
 
-from .media import varying_medium, volume_medium
+from .media import varying_medium
 from .node_graph import GraphContext, build_world_graph, has_aov_outputs
 from .nodes import linked_node
 from .visibility import world_visibility
@@ -65,8 +65,9 @@ def world_extension(scene, folder, writer=None, depsgraph=None):
 def _world_volume(world, warnings, writer=None):
     """The medium of the World Output's Volume input, or None: constant, or with its node
     graph when its inputs vary over space (a texture on the Density), which Cycles evaluates
-    per point in a world volume too. An Emission node alone would glow along every unbounded
-    ray: it is not exported (warning)."""
+    per point in a world volume too. Emission added to an absorbing or scattering shader (Add
+    Shader) is folded into that shader's medium (`_emitting_medium`); an Emission node alone
+    is not exported (warning: Cycles renders it as infinite radiance)."""
     tree = world.node_tree if getattr(world, "use_nodes", True) else None
     if tree is None:
         return None
@@ -76,9 +77,95 @@ def _world_volume(world, warnings, writer=None):
         return None
     node = linked_node(output.inputs["Volume"])
     what = f"world '{world.name}'"
-    if node.type == "EMISSION":
-        return volume_medium(node, what, warnings)
+    if node.type in {"EMISSION", "ADD_SHADER"}:
+        return _emitting_medium(world, node, what, warnings, writer)
     return varying_medium(world, node, what, warnings, writer)
+
+
+# Measured with bpy 5.0.1 (CPU, 64x48): an Emission of strength 0.1 alone on the World Volume
+# makes every pixel inf, whatever the camera's clip end (10, 100 or 1000) -- Cycles integrates
+# the emission over rays that escape to FLT_MAX with nothing attenuating it
+# (`volume_emission_integrate`: E * t).
+_INFINITE = "Cycles renders it as infinite radiance (every pixel inf)"
+
+
+def _emission_leaves(node, what, warnings):
+    """(summed emitted radiance per unit length of the Emission nodes, the other shader nodes)
+    under an Add Shader tree (or one node), or None when an Emission's input is linked (warned)."""
+    if node is None or node.mute:
+        return [0.0, 0.0, 0.0], []
+    if node.type == "ADD_SHADER":
+        total, others = [0.0, 0.0, 0.0], []
+        for sock in node.inputs:
+            part = _emission_leaves(linked_node(sock), what, warnings)
+            if part is None:
+                return None
+            total = [a + b for a, b in zip(total, part[0])]
+            others += part[1]
+        return total, others
+    if node.type == "EMISSION":
+        if node.inputs["Color"].is_linked or node.inputs["Strength"].is_linked:
+            warnings.append(f"{what}: the {node.name} node on the World Volume has a linked input, which "
+                            "Caustic does not read there; the volume is left out")
+            return None
+        strength = max(float(node.inputs["Strength"].default_value), 0.0)
+        return [max(float(c), 0.0) * strength for c in node.inputs["Color"].default_value[:3]], []
+    return [0.0, 0.0, 0.0], [node]
+
+
+def _emitting_medium(world, node, what, warnings, writer):
+    """The medium of an Emission node added to one absorbing or scattering shader on the World
+    Volume (its emission is summed into that shader's), or None with a warning: an Emission
+    alone, or emission in a colour channel the medium does not attenuate, which Cycles
+    integrates over unbounded rays to infinity; several non-emission shaders added together."""
+    leaves = _emission_leaves(node, what, warnings)
+    if leaves is None:
+        return None
+    emission, others = leaves
+    if not others:
+        if max(emission) > 0.0:
+            warnings.append(f"{what}: an Emission on the World Volume with nothing absorbing or scattering "
+                            f"glows along every ray that leaves the scene; {_INFINITE}; the volume is left out")
+        return None
+    if len(others) > 1:
+        names = ", ".join(f"'{n.name}'" for n in others)
+        warnings.append(f"{what}: the Add Shader on the World Volume adds several volume shaders ({names}), "
+                        "which Caustic does not combine; the volume is left out")
+        return None
+    value = varying_medium(world, others[0], what, warnings, writer)
+    if value is None or max(emission) <= 0.0:
+        return value
+    if "graph" in value:
+        return _graph_with_emission(value, others[0], emission, what, warnings)
+    own = value.get("emission", [0.0, 0.0, 0.0])
+    value["emission"] = [a + b for a, b in zip(own, emission)]
+    density = value["density"]
+    sigma_t = [density * (s + a) for s, a in zip(value["scatter_color"], value["absorption_color"])]
+    if any(e > 0.0 and st <= 0.0 for e, st in zip(value["emission"], sigma_t)):
+        warnings.append(f"{what}: the World Volume emits in a colour channel its {others[0].name} node does "
+                        f"not attenuate, so the light along rays that leave the scene is unbounded; {_INFINITE} "
+                        "in that channel; the volume is left out")
+        return None
+    return value
+
+
+def _graph_with_emission(value, shader, emission, what, warnings):
+    """`value` (a medium with a graph) whose Principled Volume also emits `emission`: its
+    Emission Color and Strength, unlinked, become their product plus `emission`. Another
+    shader in the graph has no emission input: the volume is left out (warning)."""
+    entry = value["graph"]["nodes"][value["graph_shader"]]
+    inputs = entry["inputs"]
+    color, strength = inputs.get("Emission Color", {}), inputs.get("Emission Strength", {})
+    if shader.type != "PRINCIPLED_VOLUME" or "link" in color or "link" in strength:
+        warnings.append(f"{what}: an Emission added to the textured {shader.name} node on the World Volume "
+                        "is only read with a Principled Volume whose own Emission inputs are not linked; "
+                        "the volume is left out")
+        return None
+    own = [float(c) * float(strength.get("value", 0.0)) for c in color.get("value", [1.0, 1.0, 1.0])[:3]]
+    total = [a + b for a, b in zip(own, emission)]
+    inputs["Emission Color"] = dict(color, value=total + [1.0])
+    inputs["Emission Strength"] = dict(strength, value=1.0)
+    return value
 
 
 def _world_surface(world, folder, warnings):

@@ -72,11 +72,12 @@ impl Loader<'_> {
                     }
                     WorldMedium::Graph(Box::new(v))
                 } else {
-                    // Radiance gathered along an unbounded ray is E/σt: infinite where σt = 0.
+                    // Radiance gathered along an unbounded ray is E/σt: infinite where σt = 0
+                    // (Cycles 5.0 integrates E·t to FLT_MAX there: every pixel is inf).
                     let st = medium.sigma_t();
                     if (0..3).any(|c| medium.emission[c] > 0.0 && st[c] <= 0.0) {
                         return Err(self.err(
-                            "CAUSTIC_world medium: emission in a colour channel the medium does not attenuate would be infinite",
+                            "CAUSTIC_world medium: emission in a colour channel the medium does not attenuate is infinite along every ray that leaves the scene (Cycles renders it as inf)",
                         ));
                     }
                     WorldMedium::Homogeneous(medium)

@@ -1,0 +1,152 @@
+"""An Emission node on the World Volume, against Cycles (issue 20).
+
+What Cycles 5.0 renders (measured with bpy 5.0.1, CPU, 64x48, a cube and a camera, world
+surface black):
+* an Emission of strength 0.1 alone: every pixel inf, at camera clip ends 10, 100 and 1000
+  alike. Rays that leave the scene run to FLT_MAX (the clip end bounds no world volume) and
+  `volume_emission_integrate` gives E * t where nothing attenuates. Caustic leaves such a
+  volume out with a warning that says so (`test_emission_alone_is_left_out_with_cycles_inf`).
+* an Emission added to a Volume Absorption (Add Shader): finite, E / sigma_t along escaping
+  rays (E 0.1, sigma_a 0.01: 8.96 at the top of the image, whatever the clip end);
+* an Emission added to a Principled Volume whose Density is a Noise Texture: finite.
+
+Both renderers render test_cycles_agreement's floor and box (no lamp: the world volume is the
+only light) with the bound derived there and in test_textured_volume.py: the image means per
+colour channel and per quadrant agree within 5 sigma of the two renderers' noise (two seeds,
+8x8 blocks) plus the 1 % model allowance.
+
+Measured on bpy 5.0.1 (Caustic/Cycles):
+* Emission + Absorption: path image R 1.0000, G 0.9999, B 0.9999, quadrants 0.9997-1.0003
+  (bound about 1 % of the mean); BDPT and VCM 0.9997-0.9998. Before (the exporter left an
+  Add Shader on the World Volume out, with a warning) the image was black: ratio 0.0000.
+  Photon mapping (0.98) and SPPM (0.98 here; 0.73 with a scattering Principled Volume) miss
+  part of an emitting medium's light on diffuse surfaces (its own issue), and are not checked.
+* Emission + Noise-textured Principled Volume: 1.035-1.057 per channel and quadrant at 128 samples
+  (bound about 1.5 %), 1.035-1.056 at the test's 32 (bound about 2 %), from the fog box's held stretches: beyond the box a ray holds the boundary
+  point's coefficients, and the emission E/sigma_t held there is brighter than Cycles' graph
+  followed to infinity (the same fog without the texture, constant Principled Volume +
+  Emission: 0.9991-0.9998; the textured fog inside a closed room, where no ray leaves the
+  box: 1.0022-1.0031, within the bound). Kept as a strict expected failure until the held
+  stretches follow the graph.
+"""
+
+import importlib
+
+import bpy
+import pytest
+
+import scenes
+
+from test_cycles_agreement import build
+from test_textured_volume import assert_regions_match, render_both
+
+pytestmark = pytest.mark.needs_binary
+
+EMISSION = (1.0, 0.9, 0.8, 1.0)
+NOISE_SAMPLES = 32
+
+
+def emission_world(name, other=None):
+    """A world with a black surface whose Volume is Emission (strength 0.1, tinted), alone or
+    added (Add Shader) to the volume shader node `other(tree)` makes."""
+    world = bpy.data.worlds.new(name)
+    world.use_nodes = True
+    tree = world.node_tree
+    tree.nodes["Background"].inputs["Strength"].default_value = 0.0
+    emission = tree.nodes.new("ShaderNodeEmission")
+    emission.inputs["Color"].default_value = EMISSION
+    emission.inputs["Strength"].default_value = 0.1
+    out = emission.outputs[0]
+    if other is not None:
+        add = tree.nodes.new("ShaderNodeAddShader")
+        tree.links.new(out, add.inputs[0])
+        tree.links.new(other(tree).outputs[0], add.inputs[1])
+        out = add.outputs[0]
+    tree.links.new(out, tree.nodes["World Output"].inputs["Volume"])
+    return world
+
+
+def absorption(tree):
+    """Volume Absorption: sigma_a = 0.2 x (1 - colour) = (0.1, 0.08, 0.06)."""
+    node = tree.nodes.new("ShaderNodeVolumeAbsorption")
+    node.inputs["Density"].default_value = 0.2
+    node.inputs["Color"].default_value = (0.5, 0.6, 0.7, 1.0)
+    return node
+
+
+def noise_principled(tree):
+    """A scattering Principled Volume whose Density is 0.3 x ColorRamp(Noise on Object
+    coordinates) from 0.3 to 1 (never 0, so the held stretches beyond the fog's box emit a
+    finite E / sigma_t)."""
+    coords = tree.nodes.new("ShaderNodeTexCoord")
+    noise = tree.nodes.new("ShaderNodeTexNoise")
+    noise.inputs["Scale"].default_value = 0.8
+    ramp = tree.nodes.new("ShaderNodeValToRGB")
+    ramp.color_ramp.elements[0].position = 0.4
+    ramp.color_ramp.elements[0].color = (0.3, 0.3, 0.3, 1.0)
+    ramp.color_ramp.elements[1].position = 0.6
+    scale = tree.nodes.new("ShaderNodeMath")
+    scale.operation = "MULTIPLY"
+    scale.inputs[1].default_value = 0.3
+    node = tree.nodes.new("ShaderNodeVolumePrincipled")
+    node.inputs["Color"].default_value = (0.9, 0.7, 0.5, 1.0)
+    tree.links.new(coords.outputs["Object"], noise.inputs["Vector"])
+    tree.links.new(noise.outputs["Fac"], ramp.inputs["Fac"])
+    tree.links.new(ramp.outputs["Color"], scale.inputs[0])
+    tree.links.new(scale.outputs["Value"], node.inputs["Density"])
+    return node
+
+
+@pytest.mark.parametrize("integrator", ["path", "bdpt", "vcm"])
+def test_emission_plus_absorption_matches_cycles(addon, empty_scene, tmp_path, integrator):
+    """Emission + Volume Absorption on the World Volume: E / sigma_t along escaping rays.
+    Measured: see the module doc."""
+    scene = empty_scene
+    build(scene, lambda s: setattr(s, "world", emission_world("EmitAbsorb", absorption)))
+    scene.caustic.integrator = integrator
+    assert_regions_match(render_both(scene, tmp_path), "emission + absorption")
+
+
+def test_emission_plus_noise_fog_in_a_closed_room_matches_cycles(addon, empty_scene, tmp_path):
+    """Emission + the Noise-textured Principled Volume inside a closed grey room (a 12 m cube
+    around the floor and box): no ray leaves the fog's box, so the graph is tracked point by
+    point everywhere and the emission folded into the Principled Volume's graph is checked
+    alone. Measured: see the module doc."""
+    scene = empty_scene
+
+    def add(s):
+        s.world = emission_world("EmitNoiseRoom", noise_principled)
+        scenes.cube(s, "Room", 12.0, (0.0, 0.0, 0.0), material=scenes.diffuse_material("Wall", 0.3))
+
+    build(scene, add)
+    scene.caustic.samples = NOISE_SAMPLES
+    scene.cycles.samples = NOISE_SAMPLES
+    assert_regions_match(render_both(scene, tmp_path), "emission + noise fog, closed room")
+
+
+@pytest.mark.xfail(strict=True, reason="held stretches beyond the fog box: 1.03-1.06x Cycles (module doc)")
+def test_emission_plus_noise_fog_matches_cycles(addon, empty_scene, tmp_path):
+    """Emission + a Principled Volume with a Noise density (textured fog): the emission is
+    folded into the Principled Volume's graph. Measured: see the module doc."""
+    scene = empty_scene
+    build(scene, lambda s: setattr(s, "world", emission_world("EmitNoise", noise_principled)))
+    # 32 samples (Cycles tracks this fog slowly): the bound, derived from the noise, widens.
+    scene.caustic.samples = NOISE_SAMPLES
+    scene.cycles.samples = NOISE_SAMPLES
+    assert_regions_match(render_both(scene, tmp_path), "emission + noise fog")
+
+
+def test_emission_alone_is_left_out_with_cycles_inf(addon, empty_scene, tmp_path):
+    """An Emission alone on the World Volume is not exported; the warning names the world and
+    says what Cycles renders (inf). Emission + Absorption exports one medium with both."""
+    world_mod = importlib.import_module(addon.__name__ + ".export.world")
+    empty_scene.world = emission_world("Alone")
+    value, warnings = world_mod.world_extension(empty_scene, str(tmp_path))
+    assert value is None or "medium" not in value
+    assert len(warnings) == 1 and "world 'Alone'" in warnings[0] and "inf" in warnings[0], warnings
+    empty_scene.world = emission_world("Both", absorption)
+    value, warnings = world_mod.world_extension(empty_scene, str(tmp_path))
+    assert warnings == []
+    medium = value["medium"]
+    assert medium["emission"] == pytest.approx([0.1, 0.09, 0.08])
+    assert medium["density"] * medium["absorption_color"][0] == pytest.approx(0.1)
