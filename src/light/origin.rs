@@ -3,8 +3,9 @@
 //! direction (needed by the MIS weights of every strategy).
 //!
 //! Every light but Blender's soft-falloff point light (a disk that turns to face each
-//! receiver: no fixed surface to start from) and spot with a radius (its cone masks by the
-//! receiver's direction from the centre) starts light subpaths. Lights with a fixed
+//! receiver: no fixed surface to start from) and spot with a radius (its mask leaves
+//! receivers inside the sphere unmasked, which a light subpath cannot know; the soft one
+//! has no fixed surface either) starts light subpaths. Lights with a fixed
 //! emitting surface or point ("finite": point, spot, area, emissive triangle, a point
 //! light with a radius and without soft falloff) start them there; the world and suns
 //! (lights at infinity) start them on a disk beyond the scene's bounding sphere, facing a
@@ -75,7 +76,7 @@ pub fn is_finite(l: &Light) -> bool {
 
 /// True for lights that start light subpaths: all but soft-falloff point lights and spots
 /// with a radius, whose emission toward a receiver depends on where the receiver lies (the
-/// disk turns to face it; the cone masks by the direction from the centre), not on the
+/// disk turns to face it; the cone leaves receivers inside the sphere unmasked), not on the
 /// emitted ray alone.
 pub fn starts_subpaths(l: &Light) -> bool {
     !matches!(l, Light::Sphere { soft: true, .. } | Light::Sphere { spot: Some(_), .. })

@@ -17,11 +17,10 @@
 //!   displacement) reads the Light Path node are restricted too (`switched_materials`):
 //!   a vertex there is shaded with the path's state (Is Camera Ray, a bounce's kind, Ray
 //!   Depth), set in camera order by the camera-side prefix, which a light subpath's vertex
-//!   does not have. (The rule of the Light Path node's issue 19 chose this set, s = 0 and
-//!   s = 1, over every strategy whose light subpath ends before the first such vertex: it
-//!   is the tested machinery below, and light subpaths that stop there lose little where
-//!   the switched vertex is diffuse; caustics through a switched glass are left to the
-//!   path tracer's variance.)
+//!   does not have. (Why s = 0 and s = 1 alone rather than every strategy whose light
+//!   subpath ends before the first such vertex: it is the tested machinery below, and
+//!   little is lost where the switched vertex is diffuse; caustics through a switched
+//!   glass keep the path tracer's variance.)
 //!   A **restricted light** is one whose Ray Visibility hides it from a surface bounce
 //!   kind (the world included), or an emissive triangle of a restricted object.
 //! - A path is **restricted** when a segment of it crosses or ends on a restricted
