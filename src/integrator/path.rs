@@ -739,6 +739,8 @@ impl PathIntegrator {
         crate::medium::walk::random_walk(
             |o, d, t| ctx.intersect(o, d, t),
             |p, cap| ctx.clearance(p, cap, &mut near),
+            s.p,
+            n,
             offset_ray_origin(s.p, -s.ng),
             entry,
             &walk,
