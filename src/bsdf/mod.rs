@@ -85,13 +85,14 @@ impl Bsdf {
     }
 
     /// Colour and roughness of the diffuse base, which a subsurface walk takes as its
-    /// albedo and entry roughness.
+    /// albedo and entry roughness, and the IOR of its entry: the specular layer's, the
+    /// material's IOR adjusted by the specular factor (Cycles' `bssrdf->ior = eta`).
     #[inline]
-    pub fn subsurface_base(&self) -> (Rgb, f32) {
+    pub fn subsurface_base(&self) -> (Rgb, f32, f32) {
         match self {
-            Bsdf::Pbr(b) => (b.base, b.roughness),
-            Bsdf::Mix(m) => (m.pbr.base, m.pbr.roughness),
-            Bsdf::Hair(h) => (h.albedo(), 1.0),
+            Bsdf::Pbr(b) => (b.base, b.roughness, b.layer_eta()),
+            Bsdf::Mix(m) => (m.pbr.base, m.pbr.roughness, m.pbr.layer_eta()),
+            Bsdf::Hair(h) => (h.albedo(), 1.0, 1.0),
         }
     }
 

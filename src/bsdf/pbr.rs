@@ -193,6 +193,13 @@ impl PbrBsdf {
         Self::without_base(p).with_base(p.base)
     }
 
+    /// The dielectric layer's η: the IOR whose F0 is the IOR's F0 × specularFactor
+    /// (Blender's IOR adjusted by Specular IOR Level), 1 without a layer.
+    #[inline]
+    pub fn layer_eta(&self) -> f32 {
+        self.layer_eta
+    }
+
     /// The material from every parameter but `p.base`, which `with_base` then supplies:
     /// a material whose other factors are the same at every hit builds this once, and
     /// the base colour (times the vertex colour) is all that varies.

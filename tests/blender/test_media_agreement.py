@@ -26,8 +26,9 @@ import math
 import bpy
 import pytest
 
-from test_cycles_agreement import assert_mean_matches_cycles
-from test_material_agreement import build, principled
+import scenes
+from test_cycles_agreement import MODEL_ALLOWANCE, assert_mean_matches_cycles
+from test_material_agreement import SAMPLES, build, principled, uv_sphere
 
 pytestmark = pytest.mark.needs_binary
 
@@ -77,3 +78,32 @@ def test_medium_mean_matches_cycles(empty_scene, tmp_path, medium):
     make, allowance = MEDIA[medium]
     build_backlit(scene, make())
     assert_mean_matches_cycles(scene, tmp_path, medium, allowance)
+
+
+def test_subsurface_entry_ior_matches_cycles(empty_scene, tmp_path):
+    """A walk enters at the specular layer's IOR, Blender's IOR adjusted by Specular IOR Level
+    (Cycles' `bssrdf->ior = eta`): at level 0 the entry is nearly straight (1.01). Before,
+    Caustic refracted at the IOR itself (1.5), which sends walks deeper, and the short-radius
+    channels came out dark: Caustic/Cycles R 0.977, G 0.939, B 0.922 in this scene (the
+    benchmark's subsurface Suzanne on its floor 0.995/0.982/0.983); after, 0.9964/1.0001/0.9989
+    (the Suzanne 0.999/0.997/0.999).
+
+    A sphere alone (no floor, no world), so that no light reaches it after a diffuse bounce,
+    where Cycles turns subsurface into diffuse (PATH_RAY_DIFFUSE_ANCESTOR), and no specular
+    layer (level 0): the walk alone decides the image, per channel. The bound is the agreement
+    tests' 5 sigma + MODEL_ALLOWANCE (the light-unit baseline, test_cycles_agreement.py)."""
+    scene = empty_scene
+    scenes.small_render_settings(scene, 64, 48, samples=SAMPLES)
+    mat = principled("Skin", **{"Base Color": (0.8, 0.55, 0.45, 1), "Roughness": 0.5,
+                                "Subsurface Weight": 1.0, "Subsurface Radius": (1.0, 0.35, 0.2),
+                                "Subsurface Scale": 0.15, "Specular IOR Level": 0.0})
+    mat.node_tree.nodes["Principled BSDF"].subsurface_method = "RANDOM_WALK"
+    uv_sphere(scene, "Ball", 0.7, (0.0, 0.0, 0.75), mat)
+    scenes.light(scene, "Back", "AREA", location=(0.0, 1.6, 3.0), rotation_deg=(-35, 0, 0),
+                 shape="SQUARE", size=1.0, energy=250.0)
+    scenes.light(scene, "Fill", "AREA", location=(-1.5, -2.0, 1.5), rotation_deg=(60, 0, -35),
+                 shape="SQUARE", size=1.0, energy=40.0)
+    scenes.camera(scene, (0.0, -3.2, 1.3), (82.0, 0.0, 0.0), lens=60.0)
+    scene.caustic.threads = 0
+    scenes.match_cycles(scene, SAMPLES, 8)
+    assert_mean_matches_cycles(scene, tmp_path, "subsurface entry IOR", MODEL_ALLOWANCE, per_channel=True)
