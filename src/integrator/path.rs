@@ -709,7 +709,8 @@ impl PathIntegrator {
             // straight (1.01), not at its IOR (1.5 bent walks deeper: 2-8 % darker on a
             // subsurface Suzanne against Cycles).
             SubsurfaceMethod::RandomWalk => {
-                (ss.radius * (0.25 * std::f32::consts::FRAC_1_PI), false, base_roughness, layer_eta.clamp(1.01, 3.8))
+                let eta = if ss.enter_at_ior { ss.ior } else { layer_eta };
+                (ss.radius * (0.25 * std::f32::consts::FRAC_1_PI), false, base_roughness, eta.clamp(1.01, 3.8))
             }
             SubsurfaceMethod::RandomWalkSkin => {
                 let r = Rgb::new(

@@ -214,10 +214,13 @@ pub struct Subsurface {
     pub radius: Rgb,
     /// Subsurface Anisotropy (Henyey-Greenstein g).
     pub anisotropy: f32,
-    /// Subsurface IOR (used by the skin method).
+    /// Subsurface IOR (used by the skin method, and by `enter_at_ior`).
     pub ior: f32,
     /// Method.
     pub method: SubsurfaceMethod,
+    /// The walk enters at `ior` (a Subsurface Scattering node: no specular layer above),
+    /// not at the Principled BSDF's specular layer's IOR.
+    pub enter_at_ior: bool,
 }
 
 /// The texture fields of a material (`&Material` or `&mut Material`): the thirteen

@@ -373,6 +373,26 @@ pub struct Program {
     /// The Light Path outputs that change the scattering (BSDFs, transparency,
     /// displacement), not only the emission (`compile::light_path_use`).
     pub scattering_light_path: Vec<PathOutput>,
+    /// The subsurface walk the graph's closures ask for (the first such closure's).
+    pub subsurface: Option<GraphSubsurface>,
+}
+
+/// The subsurface walk a graph's Principled BSDF (with a Subsurface Weight) or Subsurface
+/// Scattering node asks for: its parameters are constants, as a material has one walk
+/// medium (the loader makes the material's `Subsurface` of it).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GraphSubsurface {
+    /// Radius × Scale per channel (scene units).
+    pub radius: [f32; 3],
+    /// Henyey-Greenstein anisotropy.
+    pub anisotropy: f32,
+    /// The Subsurface IOR (Principled) or the node's IOR.
+    pub ior: f32,
+    /// Random Walk (Skin).
+    pub skin: bool,
+    /// The walk enters at `ior` (the Subsurface Scattering node, which has no specular layer),
+    /// not at the Principled BSDF's specular layer's IOR.
+    pub enter_at_ior: bool,
 }
 
 impl Program {

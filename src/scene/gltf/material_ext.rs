@@ -202,6 +202,7 @@ impl Loader<'_> {
                     anisotropy: ext.anisotropy.clamp(0.0, 0.9),
                     ior: ext.ior.clamp(1.01, 3.8),
                     method,
+                    enter_at_ior: false,
                 });
             }
         }

@@ -55,7 +55,11 @@ pub(crate) fn graph_material(
         double_sided: true,
         medium: if keep_medium { mat.medium } else { None },
         null_surface: mat.null_surface,
-        subsurface: mat.subsurface,
+        // The graph's own closures say what walk they need (a Principled BSDF behind a Mix
+        // Shader, a Subsurface Scattering node), which `CAUSTIC_materials_subsurface` (written
+        // for a Principled BSDF on the output alone) does not; the graph's wins, so a graph
+        // edited in the viewport keeps its walk current.
+        subsurface: prog.subsurface.and_then(graph_subsurface).or(mat.subsurface),
         ..Material::default()
     };
     out.metallic = 0.0;
@@ -71,6 +75,22 @@ pub(crate) fn graph_material(
     };
     out.nodes = Some(Arc::new(prog));
     out
+}
+
+/// The material's walk from the one its graph asks for; None when no channel has a radius.
+fn graph_subsurface(g: crate::shader::instructions::GraphSubsurface) -> Option<crate::scene::material::Subsurface> {
+    g.radius.iter().any(|&r| r > 0.0).then(|| crate::scene::material::Subsurface {
+        weight: 1.0,
+        radius: glam::Vec3::from(g.radius),
+        anisotropy: g.anisotropy.clamp(0.0, 0.9),
+        ior: g.ior.clamp(1.01, 3.8),
+        method: if g.skin {
+            crate::scene::material::SubsurfaceMethod::RandomWalkSkin
+        } else {
+            crate::scene::material::SubsurfaceMethod::RandomWalk
+        },
+        enter_at_ior: g.enter_at_ior,
+    })
 }
 
 impl Loader<'_> {

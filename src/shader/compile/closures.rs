@@ -2,6 +2,7 @@
 //! operations, and the Displacement output as bump.
 
 use super::*;
+use crate::shader::instructions::GraphSubsurface;
 
 impl Compiler<'_> {
     /// The Displacement output rendered as bump: a Displacement node's (Height − Midlevel)
@@ -146,39 +147,129 @@ impl Compiler<'_> {
                 if !self.is_const(p.emission_strength, 1) || self.init[p.emission_strength as usize] != 0.0 {
                     self.prog.emits = true;
                 }
-                let normal = self.normal(i, "Normal")?;
-                let zero = self.konst_f(0.0);
-                let op = ClosureOp {
-                    kind: ClosureKind::Principled(Box::new(p)),
-                    w,
-                    color: zero,
-                    roughness: zero,
-                    ior: zero,
-                    strength: zero,
-                    normal,
-                };
-                if !self.normals.contains(&normal) {
-                    self.normals.push(normal);
+                if !self.is_const(p.subsurface, 1) || self.init[p.subsurface as usize] > 0.0 {
+                    let method = self.prop_str(i, "subsurface_method", "RANDOM_WALK");
+                    let ids = ["Subsurface Radius", "Subsurface Scale", "Subsurface Anisotropy", "Subsurface IOR"];
+                    self.subsurface(i, ids, method, false)?;
                 }
-                self.ops.push(Op::Closure(Box::new(op)));
-                self.closure_ops += 1;
+                self.principled_closure(i, p, w)?;
+            }
+            "ShaderNodeSubsurfaceScattering" => {
+                // Cycles' BSSRDF closure of weight and albedo Color: Caustic's Principled with
+                // the whole diffuse base below the surface and no specular layer, entering at the
+                // node's IOR with its Roughness (Random Walk; Skin's entry is fully rough).
+                self.principled += 1;
+                let zero = self.konst_f(0.0);
+                let one = self.konst_f(1.0);
+                let white = self.konst_v(Vec3::ONE);
+                let method = self.prop_str(i, "falloff", "RANDOM_WALK");
+                let p = PrincipledRegs {
+                    base: self.vec(i, "Color", Vec3::splat(0.8))?,
+                    metallic: zero,
+                    roughness: self.float(i, "Roughness", 1.0)?,
+                    ior: self.float(i, "IOR", 1.4)?,
+                    alpha: one,
+                    subsurface: one,
+                    spec_level: zero,
+                    spec_tint: white,
+                    transmission: zero,
+                    coat: zero,
+                    coat_roughness: zero,
+                    coat_ior: self.konst_f(1.5),
+                    coat_tint: white,
+                    coat_normal: None,
+                    sheen: zero,
+                    sheen_roughness: zero,
+                    sheen_tint: white,
+                    emission: white,
+                    emission_strength: zero,
+                    thin_film_thickness: zero,
+                    thin_film_ior: self.konst_f(1.33),
+                };
+                self.subsurface(i, ["Radius", "Scale", "Anisotropy", "IOR"], method, true)?;
+                self.principled_closure(i, p, w)?;
             }
             _ => self.simple_closure(i, kind, w)?,
         }
         Ok(())
     }
 
+    /// Records the subsurface walk of node `i` from its inputs `ids` (radius, scale,
+    /// anisotropy, IOR) and its `method`: the first closure's is the material's (one walk
+    /// medium a material); one that differs, or parameters that vary over the surface, are
+    /// named in a warning.
+    fn subsurface(&mut self, i: usize, ids: [&str; 4], method: &str, enter_at_ior: bool) -> Result<(), String> {
+        let radius = self.vec(i, ids[0], Vec3::new(1.0, 0.2, 0.1))?;
+        let scale = self.float(i, ids[1], 0.05)?;
+        let anisotropy = self.float(i, ids[2], 0.0)?;
+        let ior = self.float(i, ids[3], 1.4)?;
+        if !(self.is_const(radius, 3)
+            && self.is_const(scale, 1)
+            && self.is_const(anisotropy, 1)
+            && self.is_const(ior, 1))
+        {
+            self.warn(
+                i,
+                "a linked subsurface radius, scale, anisotropy or IOR is rendered at its value where it is \
+                 constant, else at Blender's default (a material has one walk medium)",
+            );
+        }
+        let at =
+            |c: &Self, r: Reg, k: usize, default: f32| if c.is_const(r, 1) { c.init[r as usize + k] } else { default };
+        let default_radius = [1.0, 0.2, 0.1];
+        let radius =
+            if self.is_const(radius, 3) { [0, 1, 2].map(|k| self.init[radius as usize + k]) } else { default_radius };
+        let scale = at(self, scale, 0, 0.05).max(0.0);
+        if method == "BURLEY" {
+            self.warn(i, "subsurface method Christensen-Burley is rendered as Random Walk");
+        }
+        let spec = GraphSubsurface {
+            radius: radius.map(|r| r.max(0.0) * scale),
+            anisotropy: at(self, anisotropy, 0, 0.0),
+            ior: at(self, ior, 0, 1.4),
+            skin: method == "RANDOM_WALK_SKIN",
+            enter_at_ior,
+        };
+        match self.prog.subsurface {
+            None => self.prog.subsurface = Some(spec),
+            Some(first) if first != spec => self.warn(
+                i,
+                "its subsurface parameters differ from another subsurface closure's: the material's walk uses \
+                 the first one's (one walk medium a material)",
+            ),
+            Some(_) => {}
+        }
+        Ok(())
+    }
+
+    /// Pushes the Principled closure `p` of node `i` with weight `w`.
+    fn principled_closure(&mut self, i: usize, p: PrincipledRegs, w: Option<Reg>) -> Result<(), String> {
+        let normal = self.normal(i, "Normal")?;
+        let zero = self.konst_f(0.0);
+        let op = ClosureOp {
+            kind: ClosureKind::Principled(Box::new(p)),
+            w,
+            color: zero,
+            roughness: zero,
+            ior: zero,
+            strength: zero,
+            normal,
+        };
+        if !self.normals.contains(&normal) {
+            self.normals.push(normal);
+        }
+        self.ops.push(Op::Closure(Box::new(op)));
+        self.closure_ops += 1;
+        Ok(())
+    }
+
     fn simple_closure(&mut self, i: usize, kind: &str, w: Option<Reg>) -> Result<(), String> {
         let zero = self.konst_f(0.0);
         let (ck, color) = match kind {
-            "ShaderNodeBsdfDiffuse" | "ShaderNodeSubsurfaceScattering" => {
-                if kind == "ShaderNodeSubsurfaceScattering" {
-                    self.warn(i, "rendered as a Diffuse BSDF of its colour (no subsurface scattering)");
-                } else {
-                    let r = self.float(i, "Roughness", 0.0)?;
-                    if !self.is_const(r, 1) || self.init[r as usize] != 0.0 {
-                        self.warn(i, "Oren-Nayar roughness is not rendered (Lambertian)");
-                    }
+            "ShaderNodeBsdfDiffuse" => {
+                let r = self.float(i, "Roughness", 0.0)?;
+                if !self.is_const(r, 1) || self.init[r as usize] != 0.0 {
+                    self.warn(i, "Oren-Nayar roughness is not rendered (Lambertian)");
                 }
                 (ClosureKind::Diffuse, self.vec(i, "Color", Vec3::splat(0.8))?)
             }

@@ -538,6 +538,39 @@ mod tests {
         assert_eq!(c.program.constant_emission, Some(Vec3::new(4.0, 0.5, 0.25)));
     }
 
+    /// The walk a graph asks for: a Principled BSDF's subsurface behind a Mix Shader, a
+    /// Subsurface Scattering node's (entering at its IOR, Skin from its falloff), none for a
+    /// Principled without Subsurface Weight; two that differ are named in a warning.
+    #[test]
+    fn graphs_carry_their_subsurface_walk() {
+        let mix = |a: usize, b: usize, ka: &str, kb: &str| {
+            json!({"name": "Mix", "type": "ShaderNodeMixShader",
+                   "inputs": {"Fac": {"value": 0.3}, "Shader": {"link": [a, ka]}, "Shader_001": {"link": [b, kb]}}})
+        };
+        let principled = json!({"name": "P", "type": "ShaderNodeBsdfPrincipled", "props": {"subsurface_method": "RANDOM_WALK"},
+            "inputs": {"Subsurface Weight": {"value": 1.0}, "Subsurface Radius": {"value": [1.0, 0.5, 0.25]},
+                       "Subsurface Scale": {"value": 0.2}, "Subsurface IOR": {"value": 1.3}}});
+        let diffuse = json!({"name": "D", "type": "ShaderNodeBsdfDiffuse"});
+        let c = compiled(json!([principled, diffuse, mix(0, 1, "BSDF", "BSDF")]), json!([2, "Shader"]));
+        let s = c.program.subsurface.expect("the Principled's walk");
+        assert_eq!(s.radius, [0.2, 0.1, 0.05]);
+        assert_eq!((s.ior, s.skin, s.enter_at_ior), (1.3, false, false));
+
+        let sss = json!({"name": "S", "type": "ShaderNodeSubsurfaceScattering", "props": {"falloff": "RANDOM_WALK_SKIN"},
+            "inputs": {"Radius": {"value": [2.0, 1.0, 1.0]}, "Scale": {"value": 0.5}, "IOR": {"value": 1.45}}});
+        let c = compiled(json!([sss.clone()]), json!([0, "BSSRDF"]));
+        let s = c.program.subsurface.expect("the node's walk");
+        assert_eq!(s.radius, [1.0, 0.5, 0.5]);
+        assert_eq!((s.ior, s.skin, s.enter_at_ior), (1.45, true, true));
+        assert!(c.warnings.is_empty(), "{:?}", c.warnings);
+
+        let c = compiled(json!([{"name": "P", "type": "ShaderNodeBsdfPrincipled"}]), json!([0, "BSDF"]));
+        assert_eq!(c.program.subsurface, None);
+
+        let c = compiled(json!([principled, sss, mix(0, 1, "BSDF", "BSSRDF")]), json!([2, "Shader"]));
+        assert!(c.warnings.iter().any(|w| w.contains("differ from another subsurface closure")), "{:?}", c.warnings);
+    }
+
     /// More small lobes than a mixture holds is named at load; two Principled BSDFs too.
     #[test]
     fn capacity_and_merged_principled_are_warned() {
