@@ -506,9 +506,7 @@ impl PathIntegrator {
                 // base colour is the walk's to give (Cycles divides it out the same way).
                 st.beta *= exit.weight;
                 st.depth += 1;
-                let se = ctx.scene.surface(&exit.hit, exit.org, exit.dir);
-                // The exit's normals on the outside (the walk came from the inside).
-                let (n_g, n_s) = (-se.ng, -se.ns);
+                let (se, n_g, n_s) = (exit.se, exit.n_g, exit.n_s);
                 if st.depth >= self.max_depth || !st.beta.is_finite() || st.beta == Rgb::ZERO {
                     break;
                 }
@@ -642,8 +640,7 @@ impl PathIntegrator {
         if depth >= self.max_depth || !beta.is_finite() || beta == Rgb::ZERO {
             return Rgb::ZERO;
         }
-        let se = ctx.scene.surface(&exit.hit, exit.org, exit.dir);
-        let (n_g, n_s) = (-se.ng, -se.ns);
+        let (se, n_g, n_s) = (exit.se, exit.n_g, exit.n_s);
         let [v_light, v_lx, v_ly, v_rr] = sampler.next_4d();
         let [v_dx, v_dy, _, _] = sampler.next_4d();
         let (le, light) = exit_nee_light(ctx, &se, n_g, n_s, media, v_light, Vec2::new(v_lx, v_ly), stats);
@@ -700,9 +697,26 @@ impl PathIntegrator {
         ss: &Subsurface,
         beta: Rgb,
         u: [f32; 4],
-    ) -> Option<crate::medium::walk::WalkExit> {
+    ) -> Option<SubsurfaceExit> {
         let n = sp.frame.n;
         let (albedo, base_roughness, layer_eta) = sp.bsdf.subsurface_base();
+        // Channels whose radius is too small to walk reflect diffusely at the entry, as
+        // Cycles' bssrdf_setup turns them into a diffuse BSDF (BSSRDF_MIN_RADIUS): one of
+        // the two is chosen by the share of channels that walk, and each weighs only its own.
+        let walks = Rgb::new(
+            (ss.radius.x >= MIN_WALK_RADIUS) as u8 as f32,
+            (ss.radius.y >= MIN_WALK_RADIUS) as u8 as f32,
+            (ss.radius.z >= MIN_WALK_RADIUS) as u8 as f32,
+        );
+        let p_walk = walks.element_sum() / 3.0;
+        let mut u = u;
+        if p_walk < 1.0 {
+            if u[2] >= p_walk {
+                let thin = (Rgb::ONE - walks) * albedo.clamp(Rgb::ZERO, Rgb::ONE) / (1.0 - p_walk);
+                return Some(SubsurfaceExit { se: *s, n_g: s.ng, n_s: n, weight: thin });
+            }
+            u[2] /= p_walk;
+        }
         let (mfp, diffuse_entry, roughness, ior) = match ss.method {
             // The entry refracts at the specular layer's IOR, as Cycles' (`eta`, after the
             // Specular IOR Level's adjustment): a Principled BSDF with level 0 enters almost
@@ -740,7 +754,9 @@ impl PathIntegrator {
         let walk = WalkMedium::new(albedo, mfp, ss.anisotropy);
         let mut rng = WalkRng::new(u[3], s.tri);
         let mut near = crate::accel::NO_TRIANGLE;
-        crate::medium::walk::random_walk(
+        // The channels that do not walk have no throughput in it (their free flights are
+        // never drawn, as Cycles' zero-weight channels).
+        let exit = crate::medium::walk::random_walk(
             |o, d, t| ctx.intersect(o, d, t),
             |p, cap| ctx.clearance(p, cap, &mut near),
             s.p,
@@ -748,8 +764,27 @@ impl PathIntegrator {
             offset_ray_origin(s.p, -s.ng),
             entry,
             &walk,
-            beta,
+            beta * walks,
             &mut rng,
-        )
+        )?;
+        let se = ctx.scene.surface(&exit.hit, exit.org, exit.dir);
+        // The walk came from the inside: the exit's normals on the outside.
+        Some(SubsurfaceExit { se, n_g: -se.ng, n_s: -se.ns, weight: exit.weight * walks / p_walk })
     }
+}
+
+/// Below this radius (scene units) a channel does not walk but reflects diffusely at the
+/// entry (Cycles' BSSRDF_MIN_RADIUS).
+const MIN_WALK_RADIUS: f32 = 1e-8;
+
+/// Where the subsurface part of a material leaves the surface.
+pub struct SubsurfaceExit {
+    /// The exit point: the walk's, or the entry itself for the channels too thin to walk.
+    pub se: SurfaceHit,
+    /// Its geometric normal on the outside.
+    pub n_g: Vec3,
+    /// Its shading normal on the outside (the Lambertian exit's).
+    pub n_s: Vec3,
+    /// The part's throughput factor (per unit of its selection weight).
+    pub weight: Rgb,
 }

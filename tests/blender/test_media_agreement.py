@@ -167,3 +167,18 @@ def test_graph_subsurface_matches_cycles(empty_scene, tmp_path, variant):
     uv_sphere(scene, "Ball", 0.7, (0.0, 0.0, 0.75), _graph_subsurface(variant))
     _backlit_sphere_lights(scene)
     assert_mean_matches_cycles(scene, tmp_path, variant, MODEL_ALLOWANCE, per_channel=True)
+
+
+def test_subsurface_zero_radius_channel_matches_cycles(empty_scene, tmp_path):
+    """A channel whose Subsurface Radius is 0 reflects diffusely at the entry, as Cycles turns
+    it into a diffuse BSDF (bssrdf_setup, BSSRDF_MIN_RADIUS). Before, the walk ran that channel
+    with an infinite extinction and lost it: blue 0.2645 of Cycles (its specular reflection
+    alone); after R 0.9960, G 0.9969, B 1.0000. Scene and bound as
+    test_subsurface_entry_ior_matches_cycles."""
+    scene = empty_scene
+    scenes.small_render_settings(scene, 64, 48, samples=SAMPLES)
+    mat = principled("Skin", **{"Base Color": (0.8, 0.55, 0.45, 1), "Roughness": 0.5, "Subsurface Weight": 1.0,
+                                "Subsurface Radius": (1.0, 0.35, 0.0), "Subsurface Scale": 0.15})
+    uv_sphere(scene, "Ball", 0.7, (0.0, 0.0, 0.75), mat)
+    _backlit_sphere_lights(scene)
+    assert_mean_matches_cycles(scene, tmp_path, "zero radius channel", MODEL_ALLOWANCE, per_channel=True)

@@ -359,15 +359,14 @@ fn follow(
                 if path.depth >= job.max_depth {
                     return;
                 }
-                let se = ctx.scene.surface(&exit.hit, exit.org, exit.dir);
-                let (n_g, n_s) = (-se.ng, -se.ns);
+                let (se, n_g, n_s) = (exit.se, exit.n_g, exit.n_s);
                 let wi = crate::math::Frame::from_normal(n_s).to_world(cosine_hemisphere(Vec2::new(v_dx, v_dy)));
                 if wi.dot(n_g) <= 0.0 {
                     return;
                 }
                 path.org = offset_ray_origin(se.p, n_g);
                 path.dir = wi;
-                kinds = visibility::of_object(ctx, exit.hit.tri);
+                kinds = visibility::of_object(ctx, se.tri);
                 continue;
             }
         }

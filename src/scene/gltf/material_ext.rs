@@ -195,7 +195,8 @@ impl Loader<'_> {
                     "material '{name}': subsurface weight was clamped to [0, 1] and anisotropy to [0, 0.9] (as Cycles)"
                 ));
             }
-            if ext.weight > 0.0 && ext.radius.iter().any(|&r| r > 0.0) {
+            // Zero radii stay: those channels reflect diffusely (the walk's rule), as Cycles'.
+            if ext.weight > 0.0 {
                 subsurface = Some(Subsurface {
                     weight: ext.weight.min(1.0),
                     radius: Vec3::from(ext.radius),

@@ -77,9 +77,10 @@ pub(crate) fn graph_material(
     out
 }
 
-/// The material's walk from the one its graph asks for; None when no channel has a radius.
+/// The material's walk from the one its graph asks for (zero radii too: those channels
+/// reflect diffusely, the walk's rule).
 fn graph_subsurface(g: crate::shader::instructions::GraphSubsurface) -> Option<crate::scene::material::Subsurface> {
-    g.radius.iter().any(|&r| r > 0.0).then(|| crate::scene::material::Subsurface {
+    Some(crate::scene::material::Subsurface {
         weight: 1.0,
         radius: glam::Vec3::from(g.radius),
         anisotropy: g.anisotropy.clamp(0.0, 0.9),
