@@ -118,10 +118,10 @@ pub fn random_walk(
         // as Cycles does; a hit beyond t only tells where that side is.
         let reach = if step == 0 { t.max(10.0 / sigma_t.min_element()) } else { t };
         let found = if clear { None } else { intersect(org, dir, reach) };
-        if step == 0 {
-            if let Some(h) = &found {
-                opposite = Some((org + dir * h.t - entry).dot(-n));
-            }
+        if step == 0
+            && let Some(h) = &found
+        {
+            opposite = Some((org + dir * h.t - entry).dot(-n));
         }
         let exit = found.filter(|h| step > 0 || h.t < t);
         let t = exit.as_ref().map_or(t, |h| h.t);
