@@ -249,7 +249,7 @@ fn render(
     let iterations = settings.sppm_iterations.max(1);
     let per_iter = settings.sppm_photons.unwrap_or_else(|| default_sppm_photons(npix as u64)).max(1);
     let (_, scene_r) = ctx.scene.bounding_sphere();
-    let emitters = Emitters::new(ctx.scene);
+    let emitters = Emitters::new(ctx.scene).with_media(ctx.scene);
     let mut states = vec![PixelState::default(); npix];
     let mut vps: Vec<Option<VisiblePoint>> = vec![None; npix];
     let mut pending = vec![Pending::default(); npix];
