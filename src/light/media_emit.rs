@@ -175,6 +175,17 @@ impl MediaEmitters {
     }
 }
 
+/// True when some medium of `scene` emits (the media [`MediaEmitters::new`] looks at).
+pub fn any(scene: &Scene) -> bool {
+    let glows = |m: &crate::medium::HomogeneousMedium| m.emission != Rgb::ZERO;
+    scene.world_medium.as_ref().is_some_and(glows)
+        || scene.world_grid.is_some_and(|g| scene.grids[g as usize].may_emit())
+        || scene.materials.iter().any(|m| match m.grid {
+            Some(g) => scene.grids[g as usize].may_emit(),
+            None => m.medium.as_ref().is_some_and(glows),
+        })
+}
+
 /// The box the world's fog emits photons from: the one `procedural::world_fog_medium`
 /// tracks the textured fog in (the surfaces, the cameras and every light with a place,
 /// grown by half its extent on each side).

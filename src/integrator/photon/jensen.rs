@@ -602,7 +602,9 @@ impl JensenIntegrator {
             let gather_glossy = if b > 0 { c.roles[b] * w_g } else { Rgb::ZERO };
             c.e_mis = nee_beta * w_all;
             c.e_plain = if b >= 2 { gather_glossy } else { Rgb::ZERO };
-            c.e_medium = c.e_mis + c.e_plain;
+            // Without glowing media that weight multiplies nothing; it keeps its old
+            // value there, since roulette reads every weight (the same draws bit for bit).
+            c.e_medium = c.e_mis + if ctx.media_emit { c.e_plain } else { gather_glossy };
             c.roles = next;
             if !(c.largest() > 0.0) || !c.bounce(ctx, &s, &sp, wo_local, &bs, n_select, stats) {
                 break;
