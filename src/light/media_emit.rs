@@ -284,3 +284,98 @@ fn cell_emission(grid: &GridMedium, lo: Vec3, hi: Vec3) -> (f32, f32) {
     }
     (bound, if count > 0 { (sum / count as f64).max(0.0) as f32 } else { 0.0 })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::medium::grid::{Field, VolumeShader};
+    use crate::medium::{HomogeneousMedium, WalkRng};
+    use crate::scene::material::Material;
+    use glam::Affine3A;
+
+    /// The photons' mean power over N draws and its standard error, per channel.
+    fn photon_sum(scene: &Scene, n: u32) -> (glam::DVec3, glam::DVec3) {
+        let media = MediaEmitters::new(scene);
+        let mut rng = WalkRng::new(0.25, 7);
+        let (mut sum, mut sq) = (glam::DVec3::ZERO, glam::DVec3::ZERO);
+        for i in 0..n {
+            let u_cell = (i as f32 + rng.next_f32()) / n as f32;
+            let u_pos = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+            let u_dir = Vec2::new(rng.next_f32(), rng.next_f32());
+            // Power per photon as if it were the only one (scale 1): its mean is Φ.
+            let p = media.emit(scene, rng.next_f32(), u_cell, u_pos, u_dir, 1.0).map_or(Rgb::ZERO, |m| m.power);
+            let p = p.as_dvec3();
+            sum += p;
+            sq += p * p;
+        }
+        let mean = sum / n as f64;
+        let var = ((sq / n as f64 - mean * mean) / (n as f64 - 1.0)).max(glam::DVec3::ZERO);
+        (mean, glam::DVec3::new(var.x.sqrt(), var.y.sqrt(), var.z.sqrt()))
+    }
+
+    /// A volume object's fire: the photons' power averages 4π ∫ E dV, with ∫ E dV exact (E is
+    /// trilinear in each unit cell of index space between voxel centres, so its integral there
+    /// is the mean of the cell's corners), within 5 standard errors per channel.
+    #[test]
+    fn grid_photons_carry_the_emitted_power() {
+        let dims = [4u32, 3, 5];
+        let temps: Vec<f32> = (0..60).map(|i| 0.3 + ((i * 7) % 11) as f32 * 0.15).collect();
+        let shader = VolumeShader {
+            density: 0.5,
+            color: Rgb::splat(0.8),
+            absorption_color: Rgb::ZERO,
+            anisotropy: 0.0,
+            emission: Rgb::new(0.1, 0.2, 0.05),
+            blackbody_intensity: 1.0,
+            blackbody_tint: Rgb::ONE,
+            temperature: 1000.0,
+        };
+        let place =
+            Affine3A::from_translation(Vec3::new(1.0, -2.0, 0.5)) * Affine3A::from_scale(Vec3::new(0.3, 0.2, 0.25));
+        let temperature = Field { values: temps, components: 1 };
+        let grid = GridMedium::new("fire".into(), dims, place, [None, Some(temperature), None], shader);
+        let det = grid.world_from_index.matrix3.determinant().abs() as f64;
+        let mut exact = glam::DVec3::ZERO;
+        for z in -1..dims[2] as i32 {
+            for y in -1..dims[1] as i32 {
+                for x in -1..dims[0] as i32 {
+                    for c in 0..8 {
+                        let q = Vec3::new((x + (c & 1)) as f32, (y + (c >> 1 & 1)) as f32, (z + (c >> 2 & 1)) as f32);
+                        exact += grid.coefficients(q, true).emission.as_dvec3() / 8.0;
+                    }
+                }
+            }
+        }
+        exact *= 4.0 * std::f64::consts::PI * det;
+        let scene = Scene {
+            grids: vec![grid],
+            materials: vec![Material {
+                medium: Some(HomogeneousMedium::absorbing(Rgb::ZERO)),
+                grid: Some(0),
+                ..Material::default()
+            }],
+            ..Scene::default()
+        };
+        let (mean, se) = photon_sum(&scene, 400_000);
+        for c in 0..3 {
+            assert!((mean[c] - exact[c]).abs() <= 5.0 * se[c], "channel {c}: {} ± {} vs {}", mean[c], se[c], exact[c]);
+        }
+    }
+
+    /// The world's glowing fog: every photon carries 4π E V of the fog's box exactly.
+    #[test]
+    fn world_fog_photons_carry_the_box_power() {
+        let e = Rgb::new(0.3, 0.2, 0.1);
+        let scene = Scene {
+            world_medium: Some(HomogeneousMedium { emission: e, ..HomogeneousMedium::absorbing(Rgb::splat(0.5)) }),
+            bounds: (Vec3::new(-1.0, 0.0, -2.0), Vec3::new(1.0, 1.0, 2.0)),
+            ..Scene::default()
+        };
+        let (lo, hi) = world_fog_box(&scene);
+        assert_eq!((lo, hi), (Vec3::new(-2.0, -0.5, -4.0), Vec3::new(2.0, 1.5, 4.0)));
+        let (mean, se) = photon_sum(&scene, 1000);
+        let want = e.as_dvec3() * (4.0 * std::f64::consts::PI * 64.0);
+        assert!((mean - want).abs().max_element() < 1e-4 * want.max_element(), "{mean} vs {want}");
+        assert!(se.max_element() < 1e-4 * want.max_element(), "photons of unequal power: {se}");
+    }
+}

@@ -31,7 +31,9 @@
 //! `--sppm-radius` for every pixel.
 //! Media: photons scatter in media (`trace.rs`); a camera path that scatters in a
 //! medium is path traced from there (no volume photon map), one that passes through
-//! media to a surface carries their transmittance. The subsurface part of a visible
+//! media to a surface carries their transmittance. Emitting media send photons too
+//! (`light::media_emit`): their first hits are not stored either, since the visible point's
+//! next ray (`e`, the whole BSDF) sees a medium's emission along it. The subsurface part of a visible
 //! point's material is path traced; its BSDF part reads the photons. Not handled: the world light, the pixel filter (one sample at
 //! a filter-distributed offset per pixel and iteration, so the filter is applied), AOVs
 //! other than those of the first hit.
