@@ -116,16 +116,24 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         run_warnings.push(w);
     }
     // Photons start in emitting media too (`light::media_emit`), but in the world's fog only
-    // within the box that holds the scene: the fog's light from beyond it reaches surfaces
-    // straight (camera-side rays run to infinity), not after a scattering or a bounce.
-    let world_fog_emits = scene.world_medium.as_ref().is_some_and(|m| m.emission != crate::math::Rgb::ZERO)
-        || scene.world_grid.is_some_and(|g| scene.grids[g as usize].may_emit());
-    if let Some(name) = photon_name.filter(|_| world_fog_emits) {
+    // within the box that holds the scene, and a homogeneous fog's light from beyond it
+    // enters through the box's faces before it scatters: exact where the fog does not
+    // scatter, short of the light it scatters beyond the box where it does; a textured
+    // fog's light from beyond reaches surfaces only straight (camera-side rays).
+    let beyond = match (&scene.world_medium, scene.world_grid) {
+        (Some(m), _) if m.emission != crate::math::Rgb::ZERO && m.scatters() => {
+            Some("the light the fog beyond that box scatters before it enters is missing")
+        }
+        (_, Some(g)) if scene.grids[g as usize].may_emit() => Some(
+            "the fog's light from beyond that box reaches surfaces straight but not after a scattering or a bounce",
+        ),
+        _ => None,
+    };
+    if let Some((name, beyond)) = photon_name.zip(beyond) {
         let w = format!(
-            "the World Volume emits: {name}'s photons start in it only within the box of the scene's surfaces, \
-             cameras and lights grown by half on each side, so the fog's light from beyond that box reaches \
-             surfaces straight but not after a scattering or a bounce (nothing is missing where surfaces close \
-             the scene in); the path tracer, BDPT and VCM render it all"
+            "the World Volume emits: {name}'s photons start in it within the box of the scene's surfaces, cameras \
+             and lights grown by half on each side, so {beyond} (nothing is missing where surfaces close the scene \
+             in); the path tracer, BDPT and VCM render it all"
         );
         reporter.warning(&w);
         run_warnings.push(w);

@@ -13,6 +13,7 @@
 //! |---|---|---|
 //! | homogeneous in a mesh | the box of the mesh's triangles; a point outside the mesh carries nothing (the tracer's inside test) | uniform in the box |
 //! | world fog, homogeneous | the box of the textured world fog (`procedural::world_fog_medium`): surfaces, cameras and lights, grown by half on each side | uniform in the box |
+//! | its light from beyond the box | the box's faces | uniform by area, cosine-weighted inward |
 //! | grid (volume object, textured fog in a mesh or the world) | the grid's domain, clipped majorant cells | a cell by a bound of its emission × its volume, uniform in the cell |
 //!
 //! A voxel grid's cell bound is the largest emission at the voxels whose trilinear support
@@ -20,17 +21,22 @@
 //! a procedural grid's is sampled at the cell's lattice points, doubled, with a floor of a
 //! hundredth of the mean so that no emitting cell has density 0.
 //!
-//! Left out: the world fog beyond its box. Its light reaches surfaces straight (the
-//! camera side's rays integrate it to infinity) but not after scattering in the fog or
-//! bouncing off a surface, which only photons carry; a point at distance d inside the box
-//! misses at most e^(−σt d) of that part from each direction.
+//! The homogeneous world fog beyond its box meets no surface (the box holds them all), so
+//! the radiance its emission sends into the box before any scattering is E/σt exactly:
+//! photons enter through the box's faces, cosine-weighted inward, carrying π A E/σt in all
+//! (A the box's area). Photons that leave the box fly on in the fog and may scatter back.
+//!
+//! Left out: the light a scattering world fog emits beyond its box and scatters there
+//! before it enters (nothing for a fog that only absorbs), and a textured world fog's
+//! light from beyond its box (its held stretches), which reaches surfaces straight (the
+//! camera side's rays run to infinity) but not after a scattering or a bounce.
 
 use crate::light::Light;
 use crate::math::{Rgb, luminance};
 use crate::medium::grid::CELL;
 use crate::medium::{GridMedium, MediumStack};
 use crate::sampling::Distribution1D;
-use crate::sampling::warp::uniform_sphere;
+use crate::sampling::warp::{cosine_hemisphere, uniform_sphere};
 use crate::scene::Scene;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
@@ -43,6 +49,9 @@ enum Region {
     Uniform { lo: Vec3, hi: Vec3, e: Rgb },
     /// Grid `grid`'s index-space cells, drawn by `dist`; `det` turns index volume into world volume.
     Grid { grid: u32, cells: Vec<(Vec3, Vec3)>, dist: Distribution1D, det: f32 },
+    /// The faces of the box [lo, hi], radiance `l` entering through them (cosine-weighted
+    /// inward): the unbounded fog's light from beyond the box before it scatters there.
+    Inflow { lo: Vec3, hi: Vec3, l: Rgb },
 }
 
 /// One emitting medium: its region and the mesh material whose inside holds it (None: the world's).
@@ -93,6 +102,13 @@ impl MediaEmitters {
             let (lo, hi) = world_fog_box(scene);
             let v = (hi - lo).element_product();
             add(Region::Uniform { lo, hi, e: m.emission }, None, 4.0 * PI * luminance(m.emission).abs() * v);
+            // Beyond the box the fog meets no surface (the box holds them all), so the light
+            // its emission there sends into the box before any scattering is exactly E/σt
+            // (the loader refuses emission in a channel σt leaves at 0).
+            let l = m.emission / m.sigma_t();
+            if l.is_finite() {
+                add(Region::Inflow { lo, hi, l }, None, PI * luminance(l).abs() * box_area(lo, hi));
+            }
         }
         if let Some(g) = scene.world_grid.filter(|&g| scene.grids[g as usize].may_emit()) {
             let (region, watts) = grid_region(scene, g);
@@ -158,6 +174,17 @@ impl MediaEmitters {
                 let v = (hi - lo).element_product() * det;
                 (g.world_from_index.transform_point3(q), e * (4.0 * PI * v * scale / (pmf * p_cell)))
             }
+            Region::Inflow { lo, hi, l } => {
+                let (org, dir) = box_inflow(*lo, *hi, u_cell, u_pos, u_dir);
+                let power = *l * (PI * box_area(*lo, *hi) * scale / pmf);
+                return (power != Rgb::ZERO && power.is_finite()).then_some(MediumPhoton {
+                    org,
+                    dir,
+                    power,
+                    media: MediumStack::default(),
+                    inside: None,
+                });
+            }
         };
         if power == Rgb::ZERO || !power.is_finite() {
             return None;
@@ -195,6 +222,39 @@ pub fn world_fog_box(scene: &Scene) -> (Vec3, Vec3) {
     let (lo, hi) = scene.lights.iter().filter_map(Light::extent).fold((lo, hi), |(a, b), (l, h)| (a.min(l), b.max(h)));
     let grow = (hi - lo).max(Vec3::splat(1e-3)) * 0.5;
     (lo - grow, hi + grow)
+}
+
+/// Surface area of the box [lo, hi].
+fn box_area(lo: Vec3, hi: Vec3) -> f32 {
+    let d = hi - lo;
+    2.0 * (d.x * d.y + d.y * d.z + d.z * d.x)
+}
+
+/// A point on the faces of the box [lo, hi] (a face by its area with `u_face`, uniform on it
+/// with `u_pos`) and a cosine-weighted direction into the box (`u_dir`): density
+/// cos θ / (π A) per unit area and solid angle.
+#[inline]
+fn box_inflow(lo: Vec3, hi: Vec3, u_face: f32, u_pos: Vec3, u_dir: Vec2) -> (Vec3, Vec3) {
+    let d = hi - lo;
+    let areas = [d.y * d.z, d.y * d.z, d.z * d.x, d.z * d.x, d.x * d.y, d.x * d.y];
+    let total: f32 = areas.iter().sum();
+    let mut u = u_face * total;
+    let mut face = 5;
+    for (i, a) in areas.iter().enumerate() {
+        if u < *a {
+            face = i;
+            break;
+        }
+        u -= a;
+    }
+    let axis = face / 2;
+    let mut p = lo + d * u_pos;
+    // Face 2k is the low side of axis k (inward normal +axis), 2k + 1 the high side.
+    let (at, sign) = if face % 2 == 0 { (lo[axis], 1.0) } else { (hi[axis], -1.0) };
+    p[axis] = at;
+    let mut n = Vec3::ZERO;
+    n[axis] = sign;
+    (p, crate::math::Frame::from_normal(n).to_world(cosine_hemisphere(u_dir)))
 }
 
 /// The box of the triangles of material `m` and the volume they enclose (the divergence
@@ -362,7 +422,8 @@ mod tests {
         }
     }
 
-    /// The world's glowing fog: every photon carries 4π E V of the fog's box exactly.
+    /// The world's glowing fog (grey): its box emits 4π E V and its faces let in π A E/σt
+    /// (the fog beyond them); by power both shares give every photon that sum exactly.
     #[test]
     fn world_fog_photons_carry_the_box_power() {
         let e = Rgb::new(0.3, 0.2, 0.1);
@@ -374,7 +435,7 @@ mod tests {
         let (lo, hi) = world_fog_box(&scene);
         assert_eq!((lo, hi), (Vec3::new(-2.0, -0.5, -4.0), Vec3::new(2.0, 1.5, 4.0)));
         let (mean, se) = photon_sum(&scene, 1000);
-        let want = e.as_dvec3() * (4.0 * std::f64::consts::PI * 64.0);
+        let want = e.as_dvec3() * (4.0 * std::f64::consts::PI * 64.0 + std::f64::consts::PI * 112.0 / 0.5);
         assert!((mean - want).abs().max_element() < 1e-4 * want.max_element(), "{mean} vs {want}");
         assert!(se.max_element() < 1e-4 * want.max_element(), "photons of unequal power: {se}");
     }
