@@ -610,8 +610,8 @@ fn world_volume_emission_reaches_equilibrium() {
         eprintln!("{integrator}: L = {mean:.4} ± {se:.4} (expected 2)");
         assert!((mean - 2.0).abs() <= 5.0 * se + 1e-4, "{integrator}: L = {mean} ± {se}, expected E/σa = 2");
     }
-    // The photon integrators say that photons do not start in the emitting fog; the others
-    // have nothing to say.
+    // The photon integrators say that their photons start in the emitting fog only within
+    // the scene's box; the others have nothing to say.
     for (integrator, warns) in [("path", false), ("photon", true), ("sppm", true)] {
         let out = dir.path().join(format!("w_{integrator}.exr"));
         let w = common::quick_render_warnings(&path, &out, &["--integrator", integrator], LIMIT);

@@ -115,16 +115,25 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         reporter.warning(&w);
         run_warnings.push(w);
     }
-    // Photons start at lights, not in media: the light an emitting World Volume gives surfaces
-    // is partly missing (tests/blender/test_world_emission_volume.py's scene: photon mapping
-    // and SPPM 0.98x in an absorbing fog; in a scattering one 0.99x and 0.73x).
-    let world_fog_emits = scene.world_medium.as_ref().is_some_and(|m| m.emission.max_element() > 0.0)
-        || scene.world_grid.is_some_and(|g| scene.grids[g as usize].may_emit());
-    if let Some(name) = photon_name.filter(|_| world_fog_emits) {
+    // Photons start in emitting media too (`light::media_emit`), but in the world's fog only
+    // within the box that holds the scene, and a homogeneous fog's light from beyond it
+    // enters through the box's faces before it scatters: exact where the fog does not
+    // scatter, short of the light it scatters beyond the box where it does; a textured
+    // fog's light from beyond reaches surfaces only straight (camera-side rays).
+    let beyond = match (&scene.world_medium, scene.world_grid) {
+        (Some(m), _) if m.emission != crate::math::Rgb::ZERO && m.scatters() => {
+            Some("the light the fog beyond that box scatters before it enters is missing")
+        }
+        (_, Some(g)) if scene.grids[g as usize].may_emit() => Some(
+            "the fog's light from beyond that box reaches surfaces straight but not after a scattering or a bounce",
+        ),
+        _ => None,
+    };
+    if let Some((name, beyond)) = photon_name.zip(beyond) {
         let w = format!(
-            "the World Volume emits: {name}'s photons start at lights, not in media, so part of the light the \
-             fog gives surfaces is missing (against Cycles: 0.98x in an absorbing fog, SPPM 0.73x in a \
-             scattering one); the path tracer, BDPT and VCM render it"
+            "the World Volume emits: {name}'s photons start in it within the box of the scene's surfaces, cameras \
+             and lights grown by half on each side, so {beyond} (nothing is missing where surfaces close the scene \
+             in); the path tracer, BDPT and VCM render it all"
         );
         reporter.warning(&w);
         run_warnings.push(w);

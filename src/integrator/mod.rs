@@ -81,6 +81,8 @@ pub struct SceneContext<'a> {
     /// shadow rays skip it with the same numbers (vacuum's weights are exactly 1), and
     /// walkers skip drawing the media dimensions they keep in their layout (`has_media`).
     pub media_act: bool,
+    /// Some medium emits: photons start in media too (`light::media_emit`).
+    pub media_emit: bool,
     /// The mesh media around the camera, which camera paths start in (`with_camera_at`).
     pub camera_media: MediumStack,
     /// Cycles' Transparent Max Bounces (`SceneSettings::transparent_max_bounces`): a path
@@ -175,6 +177,7 @@ impl<'a> SceneContext<'a> {
             has_media: scene.world_medium.is_some()
                 || scene.world_grid.is_some()
                 || scene.materials.iter().any(|m| m.medium.is_some() || m.subsurface.is_some()),
+            media_emit: crate::light::media_emit::any(scene),
             media_act: scene.world_medium.is_some()
                 || scene.world_grid.is_some()
                 || scene.materials.iter().any(|m| {

@@ -60,6 +60,8 @@ pub struct Emitters {
     total_lum: f32,
     center: Vec3,
     radius: f32,
+    /// Emitting media, when the photon integrators asked for them (`with_media`).
+    pub media: crate::light::media_emit::MediaEmitters,
 }
 
 /// Exact RGB power of a spot: 2π I ∫ falloff(c) dc over c in [cos_outer, 1].
@@ -140,7 +142,18 @@ impl Emitters {
             .collect();
         let lum: Vec<f32> = power.iter().map(|p| luminance(*p)).collect();
         let total_lum = lum.iter().map(|&x| x as f64).sum::<f64>() as f32;
-        Emitters { power, dist: Distribution1D::new(&lum), total_lum, center, radius }
+        Emitters { power, dist: Distribution1D::new(&lum), total_lum, center, radius, media: Default::default() }
+    }
+
+    /// These lights and the scene's emitting media as photon sources (`media_emit`).
+    pub fn with_media(mut self, scene: &Scene) -> Self {
+        self.media = crate::light::media_emit::MediaEmitters::new(scene);
+        self
+    }
+
+    /// Sum of the lights' power (luminance, W), by which they share photons with media.
+    pub fn total_luminance(&self) -> f32 {
+        self.total_lum
     }
 
     /// Sum of the lights' power (RGB).

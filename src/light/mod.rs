@@ -9,6 +9,7 @@
 
 pub mod emit;
 pub mod environment;
+pub mod media_emit;
 pub mod origin;
 pub mod path_emitters;
 pub mod sample;

@@ -78,7 +78,7 @@ impl PhotonMaps {
         stop: &AtomicBool,
         progress: &(dyn Fn(u64, u64, f64) + Sync),
     ) -> (Self, MapStats) {
-        let emitters = Emitters::new(ctx.scene);
+        let emitters = Emitters::new(ctx.scene).with_media(ctx.scene);
         let total = photons + caustic_photons;
         let t0 = Instant::now();
         // Photons carry their light's group whenever the scene has light groups (a byte

@@ -50,10 +50,11 @@
 //! bounce (final gather, at most `MAX_DIFFUSE_BOUNCES`), maximum depth as the path
 //! tracer's. Media: a chain that scatters in a medium is path traced from there (media
 //! have no photon map); crossing media, chains carry their transmittance; the subsurface
-//! part of a material is path traced, its BSDF part as above. Not handled: shadow photons
+//! part of a material is path traced, its BSDF part as above. Emitting media send photons
+//! as lights do (`light::media_emit`), and the chain sees their emission along its rays
+//! as a light no NEE samples (weight 1 where a light's would take MIS). Not handled: shadow photons
 //! (measured not to pay off: shadow rays are ~2 % of the render, less than the lookups
-//! that would skip them; docs/benchmarks.md), photon-map irradiance caching, emissive
-//! media seen through a map read (their light is in no map).
+//! that would skip them; docs/benchmarks.md), photon-map irradiance caching.
 
 use super::contact;
 use super::io::PhotonMaps;
@@ -595,12 +596,15 @@ impl JensenIntegrator {
             }
             // Emission the ray finds: the roles that did NEE here see it through the
             // whole BSDF with MIS; the gather role's glossy share sees it plainly when no
-            // caustic map stands for it (b ≥ 2: the vertex before is path traced), and
-            // media's emission (in no map) always.
+            // caustic map stands for it (b ≥ 2: the vertex before is path traced). Media's
+            // emission follows the same rule with no MIS (no NEE samples it): their
+            // photons are in the maps as the lights' are (`light::media_emit`).
             let gather_glossy = if b > 0 { c.roles[b] * w_g } else { Rgb::ZERO };
             c.e_mis = nee_beta * w_all;
             c.e_plain = if b >= 2 { gather_glossy } else { Rgb::ZERO };
-            c.e_medium = c.e_mis + gather_glossy;
+            // Without glowing media that weight multiplies nothing; it keeps its old
+            // value there, since roulette reads every weight (the same draws bit for bit).
+            c.e_medium = c.e_mis + if ctx.media_emit { c.e_plain } else { gather_glossy };
             c.roles = next;
             if !(c.largest() > 0.0) || !c.bounce(ctx, &s, &sp, wo_local, &bs, n_select, stats) {
                 break;
@@ -637,7 +641,7 @@ struct Chain {
     e_mis: Rgb,
     /// Weight of emission the next ray finds with no MIS (no NEE was made for it).
     e_plain: Rgb,
-    /// Weight of media's emission along the next ray (no map holds it).
+    /// Weight of media's emission along the next ray (`e_mis` + `e_plain`, without MIS).
     e_medium: Rgb,
     /// The light passes' filing of what this chain brings (the first event's class).
     tally: Tally,

@@ -23,7 +23,10 @@
 //! volume photon map). Camera paths and Jensen's gather rays that scatter in a medium are
 //! path traced from that vertex on, and the subsurface part of a material at a camera or
 //! gather vertex is path traced (`PathIntegrator::subsurface_from`) while its BSDF part
-//! reads the maps (`jensen.rs`, `sppm.rs`).
+//! reads the maps (`jensen.rs`, `sppm.rs`). Emitting media send photons beside the lights,
+//! sharing the photons by power (`light::media_emit`); camera paths see their emission
+//! along each ray as that of a light no NEE samples, so the maps' depth rules (direct
+//! light not read at the first vertex, SPPM's first hits not stored) hold for them too.
 //!
 //! A stored photon is 32 bytes: position and RGB power as f32, the incident direction as
 //! a 16:16 octahedral code, and one word holding the surface normal (10:10 octahedral),

@@ -31,7 +31,9 @@
 //! `--sppm-radius` for every pixel.
 //! Media: photons scatter in media (`trace.rs`); a camera path that scatters in a
 //! medium is path traced from there (no volume photon map), one that passes through
-//! media to a surface carries their transmittance. The subsurface part of a visible
+//! media to a surface carries their transmittance. Emitting media send photons too
+//! (`light::media_emit`): their first hits are not stored either, since the visible point's
+//! next ray (`e`, the whole BSDF) sees a medium's emission along it. The subsurface part of a visible
 //! point's material is path traced; its BSDF part reads the photons. Not handled: the world light, the pixel filter (one sample at
 //! a filter-distributed offset per pixel and iteration, so the filter is applied), AOVs
 //! other than those of the first hit.
@@ -249,7 +251,7 @@ fn render(
     let iterations = settings.sppm_iterations.max(1);
     let per_iter = settings.sppm_photons.unwrap_or_else(|| default_sppm_photons(npix as u64)).max(1);
     let (_, scene_r) = ctx.scene.bounding_sphere();
-    let emitters = Emitters::new(ctx.scene);
+    let emitters = Emitters::new(ctx.scene).with_media(ctx.scene);
     let mut states = vec![PixelState::default(); npix];
     let mut vps: Vec<Option<VisiblePoint>> = vec![None; npix];
     let mut pending = vec![Pending::default(); npix];

@@ -56,7 +56,7 @@ use crate::sampling::warp::cosine_hemisphere;
 use crate::scene::light_groups::NONE;
 use crate::scene::linking::NO_OBJECT;
 use crate::scene::visibility::RayMask;
-use glam::Vec2;
+use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
@@ -190,17 +190,59 @@ pub fn trace_one(
     // Under motion blur each photon flies at its own time over the shutter, so that the maps
     // hold the light of the whole exposure (`photon_time`).
     let _time = crate::motion::TimeScope::enter(photon_time(ctx, u_time, u_row));
-    let e = emitters.emit(ctx.scene, u_light, u_side, Vec2::new(u_px, u_py), Vec2::new(u_dx, u_dy), job.count)?;
+    // Lights and emitting media share the photons by power (`light::media_emit`); without
+    // emitting media the lights take every photon and `u_light` as it is.
+    let media_lum = emitters.media.total_luminance();
+    let (mut u_light, mut light_share) = (u_light, 1.0f32);
+    if media_lum > 0.0 {
+        let p_media = media_lum / (media_lum + emitters.total_luminance());
+        light_share = 1.0 - p_media;
+        if u_light >= light_share {
+            let u = ((u_light - light_share) / p_media).min(ONE_BELOW);
+            let [u_cell, u_x, u_y, u_z] = s.next_4d();
+            let scale = 1.0 / (p_media * job.count as f32);
+            let m =
+                emitters.media.emit(ctx.scene, u, u_cell, Vec3::new(u_x, u_y, u_z), Vec2::new(u_dx, u_dy), scale)?;
+            if let Some(material) = m.inside
+                && !inside_mesh(ctx, m.org, m.dir, material)
+            {
+                return None;
+            }
+            let path = PathState { media: m.media, ..PathState::photon(m.org, m.dir, m.power) };
+            follow(ctx, job, &mut s, None, path, PHOTON_KINDS, &mut None, out, st);
+            return None;
+        }
+        u_light = (u_light / light_share).min(ONE_BELOW);
+    }
+    let mut e = emitters.emit(ctx.scene, u_light, u_side, Vec2::new(u_px, u_py), Vec2::new(u_dx, u_dy), job.count)?;
+    if light_share < 1.0 {
+        e.power /= light_share;
+    }
     // A shadow-linked light's photon may go on through surfaces that do not block it
     // (`linking`): each such continuation is traced after the path it split from.
     let mut pending = Some((PathState::photon(e.org, e.dir, e.power), visibility::of_light(ctx, e.light)));
     while let Some((path, kinds)) = pending.take() {
-        follow(ctx, job, &mut s, e.light, path, kinds, &mut pending, out, st);
+        follow(ctx, job, &mut s, Some(e.light), path, kinds, &mut pending, out, st);
     }
     Some(e.light)
 }
 
-/// Follows a photon of light `light` from its state `path` (at its light, or passing a
+/// The largest f32 below 1: a rescaled sample stays in [0, 1).
+const ONE_BELOW: f32 = 1.0 - f32::EPSILON / 2.0;
+
+/// True when `p` is inside the mesh of `material`: the first surface along `dir` is that
+/// material's, met from its back (a photon of the mesh's medium drawn in its box starts
+/// there only then; one outside carries nothing, which keeps the estimate unbiased).
+#[inline]
+fn inside_mesh(ctx: &SceneContext, p: Vec3, dir: Vec3, material: u32) -> bool {
+    ctx.intersect(p, dir, f32::INFINITY).is_some_and(|hit| {
+        let s = ctx.scene.surface(&hit, p, dir);
+        s.material == material && !s.front
+    })
+}
+
+/// Follows a photon of light `light` (None: of an emitting medium, which light linking
+/// and shadow rays do not concern) from its state `path` (at its light, or passing a
 /// surface on its first segment) readable by the camera-ray kinds `kinds`
 /// (`visibility.rs`), storing its hits in `out`; a continuation through a surface that
 /// does not block the light goes to `pending`.
@@ -210,7 +252,7 @@ fn follow(
     ctx: &SceneContext,
     job: &TraceJob,
     s: &mut PixelSampler,
-    light: usize,
+    light: Option<usize>,
     mut path: PathState,
     mut kinds: RayMask,
     pending: &mut Option<(PathState, RayMask)>,
@@ -234,7 +276,10 @@ fn follow(
             Step::End | Step::Escaped => return,
             Step::Passed => continue,
             Step::Medium { p, phase, weight } => {
-                if path.depth == 0 && !linking::photon_first_event(ctx, light, NO_OBJECT).scatters {
+                if let Some(light) = light
+                    && path.depth == 0
+                    && !linking::photon_first_event(ctx, light, NO_OBJECT).scatters
+                {
                     return;
                 }
                 // The camera side leaves a medium event by a volume ray.
@@ -265,9 +310,11 @@ fn follow(
         // own segment is the camera side's shadow ray, which objects hidden from shadow
         // rays let through.
         let mask = ctx.object_rays(sh.tri);
+        // A medium's light reaches surfaces by the camera side's BSDF-sampled rays, never
+        // by shadow rays: its first segment is as any later one.
         let through = match path.depth {
-            0 if mask.meets(RayMask::SHADOW) => RayMask(0),
-            0 => kinds,
+            0 if light.is_some() && mask.meets(RayMask::SHADOW) => RayMask(0),
+            0 if light.is_some() => kinds,
             _ => RayMask(kinds.0 & !mask.0),
         };
         let stops = kinds.meets(SURFACE_KINDS);
@@ -289,7 +336,9 @@ fn follow(
         } else if !stops {
             return;
         }
-        if path.depth == 0 {
+        if let Some(light) = light
+            && path.depth == 0
+        {
             // Light linking reads the first event (module doc of `linking`).
             let first = linking::photon_first_event(ctx, light, sh.tri);
             if first.passes {
