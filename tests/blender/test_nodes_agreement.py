@@ -270,6 +270,26 @@ def bump(tree):
     return node.outputs["Normal"]
 
 
+def displaced(name):
+    """A maker: a grey Diffuse BSDF and a Noise texture's Fac through a Displacement node into
+    the Material Output's Displacement (Cycles' default method for it is bump only). Before:
+    the compiler did not know the Displacement node, warned "not supported" and rendered the
+    plane flat: mean 1.273 of Cycles, all 108 blocks over their bound (worst 37x). After: mean
+    0.9999, worst block 0.48x its bound."""
+    mat = new_material(name)
+    tree = mat.node_tree
+    bsdf = tree.nodes.new("ShaderNodeBsdfDiffuse")
+    bsdf.inputs["Color"].default_value = (0.7, 0.7, 0.7, 1.0)
+    tree.links.new(bsdf.outputs["BSDF"], tree.nodes["Material Output"].inputs["Surface"])
+    noise = tree.nodes.new("ShaderNodeTexNoise")
+    noise.inputs["Scale"].default_value = 5.0
+    node = tree.nodes.new("ShaderNodeDisplacement")
+    node.inputs["Scale"].default_value = 0.7
+    tree.links.new(noise.outputs["Fac"], node.inputs["Height"])
+    tree.links.new(node.outputs["Displacement"], tree.nodes["Material Output"].inputs["Displacement"])
+    return mat
+
+
 def normal_map(tree):
     """A tangent-space image of stripes tilted 35 degrees along +U and +V (as the fidelity test)."""
     size = 16
@@ -465,6 +485,7 @@ CASES = {
     "image_float": (flat_scene, float_image, None),
     "bump": (flat_scene, grey_with_normal(bump), None),
     "normal_map": (flat_scene, grey_with_normal(normal_map), None),
+    "displacement_as_bump": (flat_scene, displaced, None),
     "mix_shader_fresnel": (sphere_scene, shader_pair("ShaderNodeMixShader", fresnel), None),
     "mix_shader_layer_weight": (sphere_scene, shader_pair("ShaderNodeMixShader", layer_weight("Facing")), None),
     "add_shader_layer_weight": (sphere_scene, shader_pair("ShaderNodeAddShader", layer_weight("Fresnel")), None),

@@ -279,6 +279,34 @@ impl Compiler<'_> {
                 }
                 self.ops.push(Op::Bump(Box::new(BumpOp { strength, distance, invert, height, normal, out, sub })));
             }
+            "ShaderNodeDisplacement" => {
+                // Linked to the Material Output, it is rendered as bump by `displacement` from
+                // its inputs; only another node reading the vector needs it here. Cycles'
+                // vector is the normal times (Height − Midlevel) × Scale.
+                let read_by_nodes = self.ext.nodes.iter().any(|n| {
+                    n.inputs.values().any(|d| d.link.as_ref().is_some_and(|l| l.0 == i && l.1 == "Displacement"))
+                });
+                if read_by_nodes {
+                    let h = self.float(i, "Height", 0.0)?;
+                    let mid = self.float(i, "Midlevel", 0.5)?;
+                    let scale = self.float(i, "Scale", 1.0)?;
+                    let centred = self.alloc(1);
+                    self.ops.push(Op::Math { op: MathOp::Subtract, a: h, b: mid, c: mid, out: centred, clamp: false });
+                    let amount = self.alloc(1);
+                    self.ops.push(Op::Math {
+                        op: MathOp::Multiply,
+                        a: centred,
+                        b: scale,
+                        c: scale,
+                        out: amount,
+                        clamp: false,
+                    });
+                    let n = self.alloc(3);
+                    self.ops.push(Op::Input { what: InputKind::Normal, out: n });
+                    let (vout, fout) = (self.out(i, "Displacement", Ty::Vector), self.alloc(1));
+                    self.ops.push(Op::VecMath { op: VecOp::Scale, a: n, b: n, c: n, s: amount, vout, fout });
+                }
+            }
             "ShaderNodeTexVoronoi" => {
                 let d = self.prop_str(i, "voronoi_dimensions", "3D");
                 let dims = noise_dims(d).ok_or_else(|| self.err(i, format!("unknown dimensions '{d}'")))?;
