@@ -84,10 +84,30 @@ def image_cubic_flat(scene):
     textured_sphere(scene, "FLAT", "Cubic", "Generated")
 
 
+def metallic_physical_conductor(scene):
+    """The cube as a Metallic BSDF with the Physical Conductor Fresnel (its default IOR and
+    Extinction) under a sun and a grey world, so its reflections show. Before: the export
+    failed ("KeyError: Base Color", whose socket is unavailable in that mode) and so did F12.
+    After: rendered with Schlick's Fresnel from the conductor's reflectance at normal
+    incidence (named in a warning)."""
+    mat = scenes.shader_node_material("Conductor", "ShaderNodeBsdfMetallic", Roughness=0.3)
+    mat.node_tree.nodes["Metallic BSDF"].fresnel_type = "PHYSICAL_CONDUCTOR"
+    box = scene.objects["Box"]
+    box.data.materials.clear()
+    box.data.materials.append(mat)
+    scenes.light(scene, "Sun", "SUN", rotation_deg=(25.0, 10.0, 0.0), energy=2.0, angle=0.0)
+    world = bpy.data.worlds.new("Grey")
+    if world.node_tree is None:
+        world.use_nodes = True
+    world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.3, 0.3, 0.3, 1.0)
+    scene.world = world
+
+
 CASES = {
     "lights_with_temperature": lights_with_temperature,
     "image_linear_box_projection": image_linear_box_projection,
     "image_cubic_flat": image_cubic_flat,
+    "metallic_physical_conductor": metallic_physical_conductor,
 }
 
 
