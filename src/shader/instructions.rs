@@ -212,6 +212,11 @@ pub enum Op {
         g: Reg,
         out: Reg,
     },
+    /// Blackbody: the colour of temperature `t` (kelvin), Cycles' fit clamped at 0.
+    Blackbody {
+        t: Reg,
+        out: Reg,
+    },
     BrightContrast {
         c: Reg,
         bright: Reg,

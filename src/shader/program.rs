@@ -175,6 +175,9 @@ impl Program {
                 set3(r, out, x * (1.0 - t) + (Vec3::ONE - x) * t);
             }
             Op::Gamma { c, g, out } => set3(r, out, ops::gamma(v3(r, c), r[g as usize])),
+            Op::Blackbody { t, out } => {
+                set3(r, out, crate::medium::blackbody::blackbody_rgb(r[t as usize]).max(glam::Vec3::ZERO))
+            }
             Op::BrightContrast { c, bright, contrast, out } => {
                 set3(r, out, ops::bright_contrast(v3(r, c), r[bright as usize], r[contrast as usize]))
             }

@@ -290,6 +290,27 @@ def displaced(name):
     return mat
 
 
+def blackbody_gradient(name):
+    """A maker: an Emission shader (strength 1) whose colour is a Blackbody node's, its
+    temperature 700 K to 13000 K across the plane (a Gradient through a Map Range), so every
+    band of Cycles' fit and both clamped ends are seen. Before: the node was "not supported",
+    its colour 0, and the plane black (mean 0 of Cycles' in every channel)."""
+    mat = new_material(name)
+    tree = mat.node_tree
+    gradient = tree.nodes.new("ShaderNodeTexGradient")
+    to_kelvin = tree.nodes.new("ShaderNodeMapRange")
+    to_kelvin.inputs["To Min"].default_value = 700.0
+    to_kelvin.inputs["To Max"].default_value = 13000.0
+    blackbody = tree.nodes.new("ShaderNodeBlackbody")
+    emission = tree.nodes.new("ShaderNodeEmission")
+    emission.inputs["Strength"].default_value = 1.0
+    tree.links.new(gradient.outputs["Fac"], to_kelvin.inputs["Value"])
+    tree.links.new(to_kelvin.outputs["Result"], blackbody.inputs["Temperature"])
+    tree.links.new(blackbody.outputs["Color"], emission.inputs["Color"])
+    tree.links.new(emission.outputs["Emission"], tree.nodes["Material Output"].inputs["Surface"])
+    return mat
+
+
 def normal_map(tree):
     """A tangent-space image of stripes tilted 35 degrees along +U and +V (as the fidelity test)."""
     size = 16
@@ -486,6 +507,7 @@ CASES = {
     "bump": (flat_scene, grey_with_normal(bump), None),
     "normal_map": (flat_scene, grey_with_normal(normal_map), None),
     "displacement_as_bump": (flat_scene, displaced, None),
+    "blackbody": (flat_scene, blackbody_gradient, None),
     "mix_shader_fresnel": (sphere_scene, shader_pair("ShaderNodeMixShader", fresnel), None),
     "mix_shader_layer_weight": (sphere_scene, shader_pair("ShaderNodeMixShader", layer_weight("Facing")), None),
     "add_shader_layer_weight": (sphere_scene, shader_pair("ShaderNodeAddShader", layer_weight("Fresnel")), None),
