@@ -311,6 +311,20 @@ def blackbody_gradient(name):
     return mat
 
 
+def ambient_occlusion_open(name):
+    """A maker: a Diffuse BSDF coloured by an Ambient Occlusion node's Color output (its Color
+    input orange), on the flat plane with nothing above it, where Cycles' occlusion is none
+    (AO 1) everywhere. Caustic does not trace the node's rays and renders it unoccluded (warned),
+    which this open scene makes exact. Before: an unknown node, colour 0, the plane black (mean
+    0 of Cycles'). After: 1.0005."""
+    mat = new_material(name)
+    tree = mat.node_tree
+    node = tree.nodes.new("ShaderNodeAmbientOcclusion")
+    node.inputs["Color"].default_value = (0.8, 0.4, 0.2, 1.0)
+    diffuse_from(mat, node.outputs["Color"])
+    return mat
+
+
 def normal_map(tree):
     """A tangent-space image of stripes tilted 35 degrees along +U and +V (as the fidelity test)."""
     size = 16
@@ -508,6 +522,7 @@ CASES = {
     "normal_map": (flat_scene, grey_with_normal(normal_map), None),
     "displacement_as_bump": (flat_scene, displaced, None),
     "blackbody": (flat_scene, blackbody_gradient, None),
+    "ambient_occlusion_open": (flat_scene, ambient_occlusion_open, None),
     "mix_shader_fresnel": (sphere_scene, shader_pair("ShaderNodeMixShader", fresnel), None),
     "mix_shader_layer_weight": (sphere_scene, shader_pair("ShaderNodeMixShader", layer_weight("Facing")), None),
     "add_shader_layer_weight": (sphere_scene, shader_pair("ShaderNodeAddShader", layer_weight("Fresnel")), None),

@@ -279,6 +279,31 @@ impl Compiler<'_> {
                 }
                 self.ops.push(Op::Bump(Box::new(BumpOp { strength, distance, invert, height, normal, out, sub })));
             }
+            "ShaderNodeAmbientOcclusion" => {
+                // Occlusion needs rays traced from inside the shader, which the program does
+                // not do: unoccluded is closer to Cycles than the 0 (black) of an unknown node.
+                self.warn(i, "ambient occlusion is not traced: rendered unoccluded (AO 1, the Color input passed through)");
+                let c = self.vec(i, "Color", Vec3::ONE)?;
+                let out = self.out(i, "Color", Ty::Color);
+                self.ops.push(Op::Copy3 { src: c, out });
+                let one = self.konst_f(1.0);
+                self.alias(i, "AO", one, Ty::Float);
+            }
+            "ShaderNodeBevel" => {
+                // Likewise traced in Cycles: the normal without the rounding.
+                self.warn(i, "the bevel is not traced: the unbevelled normal is used");
+                let n = match self.normal(i, "Normal")? {
+                    Some(n) => n,
+                    None => {
+                        self.all_const = false;
+                        let n = self.alloc(3);
+                        self.ops.push(Op::Input { what: InputKind::Normal, out: n });
+                        n
+                    }
+                };
+                let out = self.out(i, "Normal", Ty::Vector);
+                self.ops.push(Op::Copy3 { src: n, out });
+            }
             "ShaderNodeDisplacement" => {
                 // Linked to the Material Output, it is rendered as bump by `displacement` from
                 // its inputs; only another node reading the vector needs it here. Cycles'
