@@ -292,6 +292,18 @@ pub enum Op {
         scale: Reg,
         out: Reg,
     },
+    /// Vector Rotate: `v` turned about `center` by `angle` around `axis` (kind 0), the X, Y
+    /// or Z axis (kinds 1-3), or by the Euler angles `rot` (kind 4); `invert` turns back.
+    VectorRotate {
+        kind: u8,
+        invert: bool,
+        v: Reg,
+        center: Reg,
+        axis: Reg,
+        angle: Reg,
+        rot: Reg,
+        out: Reg,
+    },
     /// Normal Map: tangent (0), object (1) or world (2) space.
     NormalMap {
         space: u8,

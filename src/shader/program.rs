@@ -226,6 +226,24 @@ impl Program {
                 }
                 r[facing as usize] = 1.0 - f;
             }
+            Op::VectorRotate { kind, invert, v, center, axis, angle, rot, out } => {
+                let (x, c) = (v3(r, v), v3(r, center));
+                let y = if kind == 4 {
+                    let m = mapping_rotation(v3(r, rot));
+                    (if invert { m.transpose() } else { m }) * (x - c) + c
+                } else {
+                    let a = match kind {
+                        1 => Vec3::X,
+                        2 => Vec3::Y,
+                        3 => Vec3::Z,
+                        _ => v3(r, axis),
+                    };
+                    let len = a.length();
+                    let angle = if invert { -r[angle as usize] } else { r[angle as usize] };
+                    if len != 0.0 { ops::rotate_around_axis(x - c, a / len, angle) + c } else { x }
+                };
+                set3(r, out, y);
+            }
             Op::Mapping { kind, v, loc, rot, rotation, scale, out } => {
                 let x = v3(r, v);
                 let m = match rotation {

@@ -145,6 +145,21 @@ def mapped(coordinate, target=None):
     return vector
 
 
+def rotated(rotation_type, invert=False, **inputs):
+    """A `vector` maker: Generated coordinates through a Vector Rotate node. Before: the node
+    was "not supported" and gave 0, so the texture read one point: a flat colour (0.428 and
+    0.368 of Cycles' mean, 76 and 87 of 108 blocks over). After: 0.9995 and 1.0003."""
+    def make(tree):
+        node = tree.nodes.new("ShaderNodeVectorRotate")
+        node.rotation_type = rotation_type
+        node.invert = invert
+        for key, value in inputs.items():
+            node.inputs[key].default_value = value
+        tree.links.new(tree.nodes.new("ShaderNodeTexCoord").outputs["Generated"], node.inputs["Vector"])
+        return node.outputs["Vector"]
+    return make
+
+
 def noise_into(make_converter, output="Fac"):
     """A maker: Noise Texture `output` -> the converter chain `make_converter(tree, socket)` ->
     colour."""
@@ -522,6 +537,13 @@ CASES = {
     "normal_map": (flat_scene, grey_with_normal(normal_map), None),
     "displacement_as_bump": (flat_scene, displaced, None),
     "blackbody": (flat_scene, blackbody_gradient, None),
+    "vector_rotate_axis": (flat_scene, texture("ShaderNodeTexChecker", inputs={"Scale": 3.0},
+                                               vector=rotated("AXIS_ANGLE", Center=(0.5, 0.5, 0.5),
+                                                              Axis=(0.3, 0.2, 1.0), Angle=0.6)), None),
+    "vector_rotate_euler_inverted": (flat_scene, texture("ShaderNodeTexChecker", inputs={"Scale": 3.0},
+                                                         vector=rotated("EULER_XYZ", invert=True,
+                                                                        Center=(0.2, 0.4, 0.5),
+                                                                        Rotation=(0.3, -0.2, 0.9))), None),
     "ambient_occlusion_open": (flat_scene, ambient_occlusion_open, None),
     "mix_shader_fresnel": (sphere_scene, shader_pair("ShaderNodeMixShader", fresnel), None),
     "mix_shader_layer_weight": (sphere_scene, shader_pair("ShaderNodeMixShader", layer_weight("Facing")), None),

@@ -202,6 +202,24 @@ impl Compiler<'_> {
                 let out = self.out(i, "Vector", Ty::Vector);
                 self.ops.push(Op::Mapping { kind, v, loc, rot, rotation, scale, out });
             }
+            "ShaderNodeVectorRotate" => {
+                let kind = match self.prop_str(i, "rotation_type", "AXIS_ANGLE") {
+                    "AXIS_ANGLE" => 0,
+                    "X_AXIS" => 1,
+                    "Y_AXIS" => 2,
+                    "Z_AXIS" => 3,
+                    "EULER_XYZ" => 4,
+                    other => return Err(self.err(i, format!("unknown rotation type '{other}'"))),
+                };
+                let invert = self.prop_bool(i, "invert", false);
+                let v = self.vec(i, "Vector", Vec3::ZERO)?;
+                let center = self.vec(i, "Center", Vec3::ZERO)?;
+                let axis = self.vec(i, "Axis", Vec3::Z)?;
+                let angle = self.float(i, "Angle", 0.0)?;
+                let rot = self.vec(i, "Rotation", Vec3::ZERO)?;
+                let out = self.out(i, "Vector", Ty::Vector);
+                self.ops.push(Op::VectorRotate { kind, invert, v, center, axis, angle, rot, out });
+            }
             "ShaderNodeNormalMap" => {
                 let space = match self.prop_str(i, "space", "TANGENT") {
                     "TANGENT" => 0,
