@@ -160,6 +160,44 @@ def rotated(rotation_type, invert=False, **inputs):
     return make
 
 
+def tilted_flat_scene(scene, material):
+    """The flat scene's plane seen from the side at 50 degrees (so depth changes across it)."""
+    flat_scene(scene, material)
+    camera = scene.camera
+    camera.location = (0.0, -2.6, 2.2)
+    camera.rotation_euler = (math.radians(50.0), 0.0, 0.0)
+    camera.data.lens = 35.0
+
+
+def camera_data(name):
+    """A maker: a Diffuse colour of Camera Data's outputs, red the fraction of 2 x View Z Depth,
+    green of 2 x View Distance, blue the View Vector's x (0.5 + x). Before: the node was "not
+    supported" and gave 0: red and green black (0.0000 of Cycles' mean), blue a flat 0.5
+    (its mean 0.9997, but 50 of 108 blocks over). After: 1.0015, 0.9994, 0.9999."""
+    mat = new_material(name)
+    tree = mat.node_tree
+    node = tree.nodes.new("ShaderNodeCameraData")
+    combine = tree.nodes.new("ShaderNodeCombineXYZ")
+    for output, socket in (("View Z Depth", "X"), ("View Distance", "Y")):
+        double = tree.nodes.new("ShaderNodeMath")
+        double.operation = "MULTIPLY"
+        double.inputs[1].default_value = 2.0
+        fraction = tree.nodes.new("ShaderNodeMath")
+        fraction.operation = "FRACT"
+        tree.links.new(node.outputs[output], double.inputs[0])
+        tree.links.new(double.outputs[0], fraction.inputs[0])
+        tree.links.new(fraction.outputs[0], combine.inputs[socket])
+    split = tree.nodes.new("ShaderNodeSeparateXYZ")
+    half = tree.nodes.new("ShaderNodeMath")
+    half.operation = "ADD"
+    half.inputs[1].default_value = 0.5
+    tree.links.new(node.outputs["View Vector"], split.inputs["Vector"])
+    tree.links.new(split.outputs["X"], half.inputs[0])
+    tree.links.new(half.outputs[0], combine.inputs["Z"])
+    diffuse_from(mat, combine.outputs["Vector"])
+    return mat
+
+
 def noise_into(make_converter, output="Fac"):
     """A maker: Noise Texture `output` -> the converter chain `make_converter(tree, socket)` ->
     colour."""
@@ -537,6 +575,7 @@ CASES = {
     "normal_map": (flat_scene, grey_with_normal(normal_map), None),
     "displacement_as_bump": (flat_scene, displaced, None),
     "blackbody": (flat_scene, blackbody_gradient, None),
+    "camera_data": (tilted_flat_scene, camera_data, None),
     "vector_rotate_axis": (flat_scene, texture("ShaderNodeTexChecker", inputs={"Scale": 3.0},
                                                vector=rotated("AXIS_ANGLE", Center=(0.5, 0.5, 0.5),
                                                               Axis=(0.3, 0.2, 1.0), Angle=0.6)), None),

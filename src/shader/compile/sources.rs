@@ -202,6 +202,26 @@ impl Compiler<'_> {
                 let out = self.out(i, "Vector", Ty::Vector);
                 self.ops.push(Op::Mapping { kind, v, loc, rot, rotation, scale, out });
             }
+            "ShaderNodeCameraData" => {
+                // Cycles' svm_node_camera: the point in camera space (Texture Coordinate's
+                // Camera, +Z ahead), its direction, its Z and its length.
+                self.all_const = false;
+                let c = self.alloc(3);
+                self.ops.push(Op::Input { what: InputKind::Camera, out: c });
+                let z = self.konst_v(Vec3::Z);
+                for (id, op, ty) in [
+                    ("View Vector", VecOp::Normalize, Ty::Vector),
+                    ("View Z Depth", VecOp::Dot, Ty::Float),
+                    ("View Distance", VecOp::Length, Ty::Float),
+                ] {
+                    if !self.is_used(i, id) {
+                        continue;
+                    }
+                    let out = self.out(i, id, ty);
+                    let (vout, fout) = if ty == Ty::Vector { (out, self.alloc(1)) } else { (self.alloc(3), out) };
+                    self.ops.push(Op::VecMath { op, a: c, b: z, c: z, s: z, vout, fout });
+                }
+            }
             "ShaderNodeVectorRotate" => {
                 let kind = match self.prop_str(i, "rotation_type", "AXIS_ANGLE") {
                     "AXIS_ANGLE" => 0,
