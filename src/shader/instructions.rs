@@ -304,6 +304,15 @@ pub enum Op {
         rot: Reg,
         out: Reg,
     },
+    /// Vector Transform of a point (kind 0), vector (1) or normal (2, normalised after, as
+    /// Cycles) between world (0), object (1) and camera (2) space.
+    VectorTransform {
+        kind: u8,
+        from: u8,
+        to: u8,
+        v: Reg,
+        out: Reg,
+    },
     /// Normal Map: tangent (0), object (1) or world (2) space.
     NormalMap {
         space: u8,

@@ -13,7 +13,7 @@ use super::geom::{Geom, Reg, from_blender, geom_at_ng, set3, to_blender, v3};
 use super::instructions::{BumpOp, ColorSpace, CurveKind, InputKind, MappingKind, Op, Program};
 use super::ops;
 use crate::math::{Frame, luminance};
-use glam::{EulerRot, Mat3, Vec3, Vec4};
+use glam::{EulerRot, Mat3, Mat4, Vec3, Vec4};
 use std::cell::RefCell;
 
 thread_local! {
@@ -225,6 +225,23 @@ impl Program {
                     f = f.powf(b);
                 }
                 r[facing as usize] = 1.0 - f;
+            }
+            Op::VectorTransform { kind, from, to, v, out } => {
+                // Through world space in glTF axes: Blender's world and object spaces are
+                // its axes, Cycles' camera space is the same in both.
+                let apply = |m: Mat4, x: Vec3| if kind == 0 { m.transform_point3(x) } else { m.transform_vector3(x) };
+                let x = v3(r, v);
+                let world = match from {
+                    0 => from_blender(x),
+                    1 => apply(g.object.world_to_object.inverse(), from_blender(x)),
+                    _ => apply(g.view.world_to_camera.inverse(), x),
+                };
+                let y = match to {
+                    0 => to_blender(world),
+                    1 => to_blender(apply(g.object.world_to_object, world)),
+                    _ => apply(g.view.world_to_camera, world),
+                };
+                set3(r, out, if kind == 2 { ops::safe_normalize(y) } else { y });
             }
             Op::VectorRotate { kind, invert, v, center, axis, angle, rot, out } => {
                 let (x, c) = (v3(r, v), v3(r, center));

@@ -198,6 +198,43 @@ def camera_data(name):
     return mat
 
 
+def turned_flat_scene(scene, material):
+    """The tilted view of the flat scene with the plane turned 0.4 rad about Z, scaled 1.3
+    and moved, so object, world and camera space all differ."""
+    tilted_flat_scene(scene, material)
+    plane = scene.objects["Plane"]
+    plane.rotation_euler = (0.0, 0.0, 0.4)
+    plane.scale = (1.3, 1.3, 1.3)
+    plane.location = (0.2, 0.1, 0.0)
+
+
+def transformed(vector_type, convert_from, convert_to, source):
+    """A maker: a Diffuse colour of |Vector Transform (`vector_type`, `convert_from` to
+    `convert_to`) of Geometry's `source`| through a Checker (a point) or as it is (a
+    direction, its absolute value). Before: the node was "not supported" and gave 0 (a flat
+    checker colour, 0.406 of Cycles' mean; black for the directions). After: 1.0007 (world to
+    object point), 0.9996-1.0005 (world to camera vector), 0.9998-1.0001 (object to world
+    normal)."""
+    def make(name):
+        mat = new_material(name)
+        tree = mat.node_tree
+        node = tree.nodes.new("ShaderNodeVectorTransform")
+        node.vector_type, node.convert_from, node.convert_to = vector_type, convert_from, convert_to
+        tree.links.new(tree.nodes.new("ShaderNodeNewGeometry").outputs[source], node.inputs["Vector"])
+        if vector_type == "POINT":
+            checker = tree.nodes.new("ShaderNodeTexChecker")
+            checker.inputs["Scale"].default_value = 2.0
+            tree.links.new(node.outputs["Vector"], checker.inputs["Vector"])
+            diffuse_from(mat, checker.outputs["Color"])
+        else:
+            absolute = tree.nodes.new("ShaderNodeVectorMath")
+            absolute.operation = "ABSOLUTE"
+            tree.links.new(node.outputs["Vector"], absolute.inputs[0])
+            diffuse_from(mat, absolute.outputs["Vector"])
+        return mat
+    return make
+
+
 def noise_into(make_converter, output="Fac"):
     """A maker: Noise Texture `output` -> the converter chain `make_converter(tree, socket)` ->
     colour."""
@@ -576,6 +613,11 @@ CASES = {
     "displacement_as_bump": (flat_scene, displaced, None),
     "blackbody": (flat_scene, blackbody_gradient, None),
     "camera_data": (tilted_flat_scene, camera_data, None),
+    "vector_transform_world_to_object": (turned_flat_scene, transformed("POINT", "WORLD", "OBJECT", "Position"), None),
+    "vector_transform_world_to_camera": (turned_flat_scene, transformed("VECTOR", "WORLD", "CAMERA", "Incoming"),
+                                         None),
+    "vector_transform_object_to_world": (turned_flat_scene, transformed("NORMAL", "OBJECT", "WORLD", "Incoming"),
+                                         None),
     "vector_rotate_axis": (flat_scene, texture("ShaderNodeTexChecker", inputs={"Scale": 3.0},
                                                vector=rotated("AXIS_ANGLE", Center=(0.5, 0.5, 0.5),
                                                               Axis=(0.3, 0.2, 1.0), Angle=0.6)), None),

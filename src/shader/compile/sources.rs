@@ -222,6 +222,25 @@ impl Compiler<'_> {
                     self.ops.push(Op::VecMath { op, a: c, b: z, c: z, s: z, vout, fout });
                 }
             }
+            "ShaderNodeVectorTransform" => {
+                let kind = match self.prop_str(i, "vector_type", "VECTOR") {
+                    "POINT" => 0,
+                    "VECTOR" => 1,
+                    "NORMAL" => 2,
+                    other => return Err(self.err(i, format!("unknown vector type '{other}'"))),
+                };
+                let space = |c: &Self, key: &str| match c.prop_str(i, key, "WORLD") {
+                    "WORLD" => Ok(0),
+                    "OBJECT" => Ok(1),
+                    "CAMERA" => Ok(2),
+                    other => Err(c.err(i, format!("unknown space '{other}'"))),
+                };
+                let (from, to) = (space(self, "convert_from")?, space(self, "convert_to")?);
+                self.all_const = false;
+                let v = self.vec(i, "Vector", Vec3::new(0.5, 0.5, 0.5))?;
+                let out = self.out(i, "Vector", Ty::Vector);
+                self.ops.push(Op::VectorTransform { kind, from, to, v, out });
+            }
             "ShaderNodeVectorRotate" => {
                 let kind = match self.prop_str(i, "rotation_type", "AXIS_ANGLE") {
                     "AXIS_ANGLE" => 0,
