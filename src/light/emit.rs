@@ -219,7 +219,8 @@ impl Emitters {
                 let bound = cone.cos_bound();
                 let local = crate::sampling::warp::uniform_cone(u_dir, bound);
                 let dir = Frame::from_normal(cone.direction).to_world(local);
-                let cos = if cone.axes.is_some() { crate::light::spot_cos(cone.direction, &cone.axes, dir) } else { local.z };
+                let cos =
+                    if cone.axes.is_some() { crate::light::spot_cos(cone.direction, &cone.axes, dir) } else { local.z };
                 let atten = crate::light::spot_attenuation(cos, cone.cos_inner, cone.cos_outer, cone.smooth);
                 let omega = 2.0 * PI * (1.0 - bound);
                 Some(EmittedPhoton {

@@ -407,6 +407,10 @@ impl SpotCone {
     }
 }
 
+/// A light object's axes that are not orthogonal (a sheared parent).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ShearedAxes;
+
 /// A spot cone stretched by its light object's non-uniform scale, as Cycles measures a
 /// direction against it (`spot_light_to_local`): the direction's components along the
 /// object's X and Y axes and the spot's direction, each divided by that axis' scale, then
@@ -428,7 +432,7 @@ impl SpotAxes {
     /// The axes of a spot whose object's X, Y and Z axes (with their scale) are `x`, `y`,
     /// `z` and whose unit direction is `direction`; None when the scale is uniform (the round
     /// cone) or the axes are not orthogonal (a sheared parent; the caller warns).
-    pub fn from_object_axes(x: Vec3, y: Vec3, z: Vec3, direction: Vec3) -> Result<Option<Self>, ()> {
+    pub fn from_object_axes(x: Vec3, y: Vec3, z: Vec3, direction: Vec3) -> Result<Option<Self>, ShearedAxes> {
         let (sx, sy, sz) = (x.length(), y.length(), z.length());
         let (lo, hi) = (sx.min(sy).min(sz), sx.max(sy).max(sz));
         if !(lo > 0.0) || hi <= lo * (1.0 + 1e-5) {
@@ -436,7 +440,7 @@ impl SpotAxes {
         }
         let (xn, yn, zn) = (x / sx, y / sy, z / sz);
         if xn.dot(yn).abs().max(xn.dot(zn).abs()).max(yn.dot(zn).abs()) > 1e-4 {
-            return Err(());
+            return Err(ShearedAxes);
         }
         Ok(Some(SpotAxes { u: xn / sx, v: yn / sy, d: direction / sz, widening: sx.max(sy) / sz }))
     }
@@ -613,7 +617,7 @@ mod tests {
         let dir = -Vec3::Z;
         assert_eq!(SpotAxes::from_object_axes(Vec3::X * 2.0, Vec3::Y * 2.0, Vec3::Z * 2.0, dir), Ok(None));
         let sheared = SpotAxes::from_object_axes(Vec3::X, Vec3::new(0.3, 1.0, 0.0), Vec3::Z * 2.0, dir);
-        assert_eq!(sheared, Err(()));
+        assert_eq!(sheared, Err(ShearedAxes));
         let cos_outer = 30f32.to_radians().cos();
         let tan = 30f32.to_radians().tan();
         let wide = SpotAxes::from_object_axes(Vec3::X * 2.0, Vec3::Y, Vec3::Z, dir).unwrap();
@@ -624,7 +628,8 @@ mod tests {
         let long = SpotAxes::from_object_axes(Vec3::X, Vec3::Y, Vec3::Z * 2.0, dir).unwrap();
         assert!(long.unwrap().cos(at(0.45 * tan, 0.0)) > cos_outer);
         assert!(long.unwrap().cos(at(0.55 * tan, 0.0)) < cos_outer);
-        for axes in [wide, long, SpotAxes::from_object_axes(Vec3::X * 3.0, Vec3::Y * 0.5, Vec3::Z * 0.7, dir).unwrap()] {
+        for axes in [wide, long, SpotAxes::from_object_axes(Vec3::X * 3.0, Vec3::Y * 0.5, Vec3::Z * 0.7, dir).unwrap()]
+        {
             let bound = spot_cos_bound(cos_outer, &axes);
             let mut closest = 1.0f32;
             for i in 0..200 {

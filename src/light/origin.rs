@@ -293,11 +293,7 @@ pub fn pdf_direction(scene: &Scene, lp: &LightPoint, w: Vec3) -> f32 {
         Light::Spot { direction, cos_outer, axes, .. } => {
             // Uniform in the round cone that holds the (stretched) outer cone.
             let bound = crate::light::spot_cos_bound(*cos_outer, axes);
-            if w.dot(*direction) > bound {
-                uniform_cone_pdf(bound)
-            } else {
-                0.0
-            }
+            if w.dot(*direction) > bound { uniform_cone_pdf(bound) } else { 0.0 }
         }
         _ => {
             let c = w.dot(lp.n);

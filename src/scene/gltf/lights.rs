@@ -90,13 +90,15 @@ impl Loader<'_> {
                 // ignore the node's scale, as its spec says.
                 let axes = if smooth.is_some() {
                     let axis = |v: Vec3| world.transform_vector3(v);
-                    SpotAxes::from_object_axes(axis(Vec3::X), axis(Vec3::Y), axis(Vec3::Z), forward).unwrap_or_else(|()| {
-                        self.warn(format!(
+                    SpotAxes::from_object_axes(axis(Vec3::X), axis(Vec3::Y), axis(Vec3::Z), forward).unwrap_or_else(
+                        |_| {
+                            self.warn(format!(
                             "light '{name}': its object's axes are sheared (a parent's non-uniform scale): the spot \
                              cone is not stretched by the scale as in Cycles"
                         ));
-                        None
-                    })
+                            None
+                        },
+                    )
                 } else {
                     None
                 };

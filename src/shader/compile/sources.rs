@@ -339,7 +339,10 @@ impl Compiler<'_> {
             "ShaderNodeAmbientOcclusion" => {
                 // Occlusion needs rays traced from inside the shader, which the program does
                 // not do: unoccluded is closer to Cycles than the 0 (black) of an unknown node.
-                self.warn(i, "ambient occlusion is not traced: rendered unoccluded (AO 1, the Color input passed through)");
+                self.warn(
+                    i,
+                    "ambient occlusion is not traced: rendered unoccluded (AO 1, the Color input passed through)",
+                );
                 let c = self.vec(i, "Color", Vec3::ONE)?;
                 let out = self.out(i, "Color", Ty::Color);
                 self.ops.push(Op::Copy3 { src: c, out });

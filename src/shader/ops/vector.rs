@@ -89,9 +89,15 @@ pub fn rotate_around_axis(p: Vec3, axis: Vec3, angle: f32) -> Vec3 {
     let (s, c) = angle.sin_cos();
     let t = 1.0 - c;
     Vec3::new(
-        ((c + t * axis.x * axis.x) * p.x) + ((t * axis.x * axis.y - axis.z * s) * p.y) + ((t * axis.x * axis.z + axis.y * s) * p.z),
-        ((t * axis.x * axis.y + axis.z * s) * p.x) + ((c + t * axis.y * axis.y) * p.y) + ((t * axis.y * axis.z - axis.x * s) * p.z),
-        ((t * axis.x * axis.z - axis.y * s) * p.x) + ((t * axis.y * axis.z + axis.x * s) * p.y) + ((c + t * axis.z * axis.z) * p.z),
+        ((c + t * axis.x * axis.x) * p.x)
+            + ((t * axis.x * axis.y - axis.z * s) * p.y)
+            + ((t * axis.x * axis.z + axis.y * s) * p.z),
+        ((t * axis.x * axis.y + axis.z * s) * p.x)
+            + ((c + t * axis.y * axis.y) * p.y)
+            + ((t * axis.y * axis.z - axis.x * s) * p.z),
+        ((t * axis.x * axis.z - axis.y * s) * p.x)
+            + ((t * axis.y * axis.z + axis.x * s) * p.y)
+            + ((c + t * axis.z * axis.z) * p.z),
     )
 }
 
