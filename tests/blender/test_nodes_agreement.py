@@ -235,6 +235,24 @@ def transformed(vector_type, convert_from, convert_to, source):
     return make
 
 
+def falloff_emitter(name):
+    """A maker: an Emission whose Strength is a Light Falloff node's Linear output (Strength
+    1.5, Smooth 0.3): the emitted light grows with the length of the ray that finds it (the
+    camera's and each shading point's distance). Before: the node was "not supported" and
+    gave 0, so the emitter was black and lit nothing (0.366/0.490/0.658 of Cycles' mean in
+    this scene, 49 of 108 blocks over). After: 0.9997-0.9999."""
+    mat = new_material(name)
+    tree = mat.node_tree
+    falloff = tree.nodes.new("ShaderNodeLightFalloff")
+    falloff.inputs["Strength"].default_value = 1.5
+    falloff.inputs["Smooth"].default_value = 0.3
+    emission = tree.nodes.new("ShaderNodeEmission")
+    emission.inputs["Color"].default_value = (1.0, 0.6, 0.3, 1.0)
+    tree.links.new(falloff.outputs["Linear"], emission.inputs["Strength"])
+    tree.links.new(emission.outputs["Emission"], tree.nodes["Material Output"].inputs["Surface"])
+    return mat
+
+
 def noise_into(make_converter, output="Fac"):
     """A maker: Noise Texture `output` -> the converter chain `make_converter(tree, socket)` ->
     colour."""
@@ -613,6 +631,7 @@ CASES = {
     "displacement_as_bump": (flat_scene, displaced, None),
     "blackbody": (flat_scene, blackbody_gradient, None),
     "camera_data": (tilted_flat_scene, camera_data, None),
+    "light_falloff_emitter": (sphere_scene, falloff_emitter, None),
     "vector_transform_world_to_object": (turned_flat_scene, transformed("POINT", "WORLD", "OBJECT", "Position"), None),
     "vector_transform_world_to_camera": (turned_flat_scene, transformed("VECTOR", "WORLD", "CAMERA", "Incoming"),
                                          None),

@@ -202,6 +202,34 @@ impl Compiler<'_> {
                 let out = self.out(i, "Vector", Ty::Vector);
                 self.ops.push(Op::Mapping { kind, v, loc, rot, rotation, scale, out });
             }
+            "ShaderNodeLightFalloff" => {
+                // Cycles' svm_node_light_falloff: Strength times the ray's length to the power
+                // 0, 1 and 2, smoothed by length² / (Smooth + length²) when Smooth > 0.
+                self.all_const = false;
+                let strength = self.float(i, "Strength", 100.0)?;
+                let smooth = self.float(i, "Smooth", 0.0)?;
+                let len = self.alloc(1);
+                self.ops.push(Op::Input { what: InputKind::LightPath(PathOutput::RayLength), out: len });
+                let math = |c: &mut Self, op: MathOp, a: Reg, b: Reg| {
+                    let out = c.alloc(1);
+                    c.ops.push(Op::Math { op, a, b, c: b, out, clamp: false });
+                    out
+                };
+                let squared = math(self, MathOp::Multiply, len, len);
+                let smoothless = self.is_const(smooth, 1) && !(self.init[smooth as usize] > 0.0);
+                let base = if smoothless {
+                    strength
+                } else {
+                    let wider = math(self, MathOp::Add, smooth, squared);
+                    let share = math(self, MathOp::Divide, squared, wider);
+                    math(self, MathOp::Multiply, strength, share)
+                };
+                let linear = math(self, MathOp::Multiply, base, len);
+                let constant = math(self, MathOp::Multiply, base, squared);
+                self.alias(i, "Quadratic", base, Ty::Float);
+                self.alias(i, "Linear", linear, Ty::Float);
+                self.alias(i, "Constant", constant, Ty::Float);
+            }
             "ShaderNodeCameraData" => {
                 // Cycles' svm_node_camera: the point in camera space (Texture Coordinate's
                 // Camera, +Z ahead), its direction, its Z and its length.
