@@ -35,6 +35,7 @@ import bpy
 
 from ..errors import CausticError
 from .curves import add_curves
+from .instance_random import add_instance_randoms
 from .camera import CAMERA_EXTENSION, camera_extension  # noqa: F401  (public names)
 from .depsgraph import render_depsgraph
 from .gltf_hooks import glTF2ExportUserExtension, hooks_enabled  # noqa: F401
@@ -135,6 +136,10 @@ def export_scene(depsgraph, folder, settings, motion=True, viewport=False, only=
         add_curves(filepath, depsgraph, state.warnings)
     except (OSError, ValueError, KeyError, AttributeError) as err:
         raise CausticError(f"exporting hair and curves failed: {err!r}") from None
+    try:
+        add_instance_randoms(filepath, depsgraph)
+    except (OSError, ValueError, KeyError) as err:
+        raise CausticError(f"writing the instances' random numbers failed: {err!r}") from None
     try:
         add_deformation(filepath, state.motion)
     except (OSError, ValueError, KeyError) as err:

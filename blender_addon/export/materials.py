@@ -117,10 +117,15 @@ def shader_node_material(blender_material):
         return ({"base": [0.8, 0.8, 0.8], "metallic": 0.0, "roughness": 1.0, "specular": 0.0, "fallback": True},
                 None, warnings)
     what = f"material '{name}'"
-    color_name = "Base Color" if node.type == "BSDF_METALLIC" else "Color"
-    color_socket = node.inputs[color_name]
-    linked_color = color_socket if color_socket.is_linked else None
-    base = [float(c) for c in color_socket.default_value[:3]] if linked_color is None else [1.0, 1.0, 1.0]
+    if node.type == "BSDF_METALLIC" and getattr(node, "fresnel_type", "F82") == "PHYSICAL_CONDUCTOR":
+        # Its Base Color is unavailable (Blender 5.0's `inputs[...]` does not find it).
+        base, conductor_warnings = conductor_reflectance(node, what)
+        warnings += conductor_warnings
+        linked_color = None
+    else:
+        color_socket = node.inputs["Base Color" if node.type == "BSDF_METALLIC" else "Color"]
+        linked_color = color_socket if color_socket.is_linked else None
+        base = [float(c) for c in color_socket.default_value[:3]] if linked_color is None else [1.0, 1.0, 1.0]
     roughness = float(_value(node, "Roughness", what, warnings, 0.5)) if "Roughness" in node.inputs else 1.0
     for socket_name in ("Normal", "Anisotropy"):
         socket = node.inputs.get(socket_name)
@@ -131,15 +136,30 @@ def shader_node_material(blender_material):
             warnings.append(f"{what}: Diffuse BSDF roughness (Oren-Nayar) is not rendered; Lambertian instead")
         return {"base": base, "metallic": 0.0, "roughness": 1.0, "specular": 0.0}, linked_color, warnings
     if node.type in {"BSDF_GLOSSY", "BSDF_METALLIC"}:
-        if node.type == "BSDF_METALLIC" and getattr(node, "fresnel_type", "F82") != "F82":
-            warnings.append(f"{what}: Metallic BSDF's physical conductor (IOR, extinction) is rendered "
-                            "with its Base Color as the reflectance at normal incidence")
         return {"base": base, "metallic": 1.0, "roughness": roughness}, linked_color, warnings
     ior = float(_value(node, "IOR", what, warnings, 1.5))
     if node.type == "BSDF_REFRACTION":
         warnings.append(f"{what}: Refraction BSDF is rendered as glass (it also reflects, by Fresnel)")
     return ({"base": base, "metallic": 0.0, "roughness": roughness, "transmission": 1.0, "ior": ior},
             linked_color, warnings)
+
+
+def conductor_reflectance(node, what):
+    """A physical-conductor Metallic BSDF's reflectance at normal incidence per channel,
+    ((n - 1)^2 + k^2) / ((n + 1)^2 + k^2) from its IOR n and Extinction k, which Caustic's
+    Schlick Fresnel starts from; and warnings (a linked IOR or Extinction is read unlinked)."""
+    warnings = [f"{what}: Metallic BSDF's physical conductor is rendered with Schlick's Fresnel from its "
+                "reflectance at normal incidence (Cycles' exact conductor Fresnel differs towards grazing angles)"]
+    values = {}
+    for socket_name in ("IOR", "Extinction"):
+        socket = next(s for s in node.inputs if s.identifier == socket_name)
+        if socket.is_linked:
+            warnings.append(f"{what}: the Metallic BSDF's linked {socket_name} is not rendered; "
+                            "its unlinked value is used")
+        values[socket_name] = [float(c) for c in socket.default_value[:3]]
+    base = [((n - 1.0) ** 2 + k * k) / ((n + 1.0) ** 2 + k * k)
+            for n, k in zip(values["IOR"], values["Extinction"])]
+    return base, warnings
 
 
 def _shaders_in(node, depth=0):

@@ -196,15 +196,19 @@ impl Emitters {
             Light::Point { position, .. } => {
                 Some(EmittedPhoton { light: index, org: *position, dir: uniform_sphere(u_dir), power: phi })
             }
-            Light::Spot { position, direction, intensity, cos_inner, cos_outer, smooth: Some(k) } => {
-                // Blender's smoothstep: uniform in the outer cone, weighted by the falloff.
-                let local = crate::sampling::warp::uniform_cone(u_dir, *cos_outer);
-                let atten = crate::light::spot_attenuation(local.z, *cos_inner, *cos_outer, Some(*k));
-                let omega = 2.0 * PI * (1.0 - cos_outer);
+            Light::Spot { position, direction, intensity, cos_inner, cos_outer, smooth: Some(k), axes } => {
+                // Blender's smoothstep: uniform in the round cone holding the outer cone,
+                // weighted by the falloff.
+                let bound = crate::light::spot_cos_bound(*cos_outer, axes);
+                let local = crate::sampling::warp::uniform_cone(u_dir, bound);
+                let dir = Frame::from_normal(*direction).to_world(local);
+                let cos = if axes.is_some() { crate::light::spot_cos(*direction, axes, dir) } else { local.z };
+                let atten = crate::light::spot_attenuation(cos, *cos_inner, *cos_outer, Some(*k));
+                let omega = 2.0 * PI * (1.0 - bound);
                 Some(EmittedPhoton {
                     light: index,
                     org: *position,
-                    dir: Frame::from_normal(*direction).to_world(local),
+                    dir,
                     power: *intensity * (atten * omega / (pmf * n as f32)),
                 })
             }
@@ -225,13 +229,17 @@ impl Emitters {
                 // A soft spot with a radius: as a soft point light, far away a point spot of
                 // the disk's intensity π r² L, its photons uniform in the outer cone weighted
                 // by the attenuation.
-                let local = crate::sampling::warp::uniform_cone(u_dir, cone.cos_outer);
-                let atten = crate::light::spot_attenuation(local.z, cone.cos_inner, cone.cos_outer, cone.smooth);
-                let omega = 2.0 * PI * (1.0 - cone.cos_outer);
+                let bound = cone.cos_bound();
+                let local = crate::sampling::warp::uniform_cone(u_dir, bound);
+                let dir = Frame::from_normal(cone.direction).to_world(local);
+                let cos =
+                    if cone.axes.is_some() { crate::light::spot_cos(cone.direction, &cone.axes, dir) } else { local.z };
+                let atten = crate::light::spot_attenuation(cos, cone.cos_inner, cone.cos_outer, cone.smooth);
+                let omega = 2.0 * PI * (1.0 - bound);
                 Some(EmittedPhoton {
                     light: index,
                     org: *center,
-                    dir: Frame::from_normal(cone.direction).to_world(local),
+                    dir,
                     power: *radiance * (PI * radius * radius * atten * omega / (pmf * n as f32)),
                 })
             }

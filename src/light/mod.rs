@@ -268,6 +268,9 @@ pub enum Light {
         /// Blender's spot blend as Cycles applies it: smoothstep((cos θ - cos_outer) × smooth),
         /// smooth = 1 / ((1 - cos_outer) blend); None for glTF's falloff.
         smooth: Option<f32>,
+        /// The cone stretched by the light object's non-uniform scale (Blender's); None for a
+        /// round cone.
+        axes: Option<SpotAxes>,
     },
     /// Sun-like light from one direction, or from a cone of directions (Blender's sun angle).
     Directional {
@@ -368,13 +371,21 @@ pub struct SpotCone {
     pub cos_outer: f32,
     /// Blender's smoothstep factor, as `Light::Spot`'s; None for glTF's falloff.
     pub smooth: Option<f32>,
+    /// The cone stretched by the object's scale, as `Light::Spot`'s.
+    pub axes: Option<SpotAxes>,
 }
 
 impl SpotCone {
     /// The attenuation of light leaving in unit direction `w`.
     #[inline]
     pub fn attenuation(&self, w: Vec3) -> f32 {
-        spot_attenuation(w.dot(self.direction), self.cos_inner, self.cos_outer, self.smooth)
+        spot_attenuation(spot_cos(self.direction, &self.axes, w), self.cos_inner, self.cos_outer, self.smooth)
+    }
+
+    /// cos of the round cone around `direction` that holds every direction lit.
+    #[inline]
+    pub fn cos_bound(&self) -> f32 {
+        spot_cos_bound(self.cos_outer, &self.axes)
     }
 
     /// The mask of a ray leaving a sphere light (`center`, `radius`) in unit direction `w`
@@ -394,6 +405,78 @@ impl SpotCone {
             Some(k) => cone * (1.0 - 0.5 * (1.0 / (k * (1.0 - self.cos_outer))).min(1.0)),
             None => cone,
         }
+    }
+}
+
+/// A light object's axes that are not orthogonal (a sheared parent).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ShearedAxes;
+
+/// A spot cone stretched by its light object's non-uniform scale, as Cycles measures a
+/// direction against it (`spot_light_to_local`): the direction's components along the
+/// object's X and Y axes and the spot's direction, each divided by that axis' scale, then
+/// normalised; its z is the cosine the attenuation reads. A wider X or Y widens the cone
+/// that way; a longer Z narrows it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SpotAxes {
+    /// The object's unit X axis over its scale.
+    pub u: Vec3,
+    /// The object's unit Y axis over its scale.
+    pub v: Vec3,
+    /// The spot's unit direction over the Z scale.
+    pub d: Vec3,
+    /// max(s_x, s_y) / s_z: how much the tangent of the cone's widest half angle grows.
+    pub widening: f32,
+}
+
+impl SpotAxes {
+    /// The axes of a spot whose object's X, Y and Z axes (with their scale) are `x`, `y`,
+    /// `z` and whose unit direction is `direction`; None when the scale is uniform (the round
+    /// cone) or the axes are not orthogonal (a sheared parent; the caller warns).
+    pub fn from_object_axes(x: Vec3, y: Vec3, z: Vec3, direction: Vec3) -> Result<Option<Self>, ShearedAxes> {
+        let (sx, sy, sz) = (x.length(), y.length(), z.length());
+        let (lo, hi) = (sx.min(sy).min(sz), sx.max(sy).max(sz));
+        if !(lo > 0.0) || hi <= lo * (1.0 + 1e-5) {
+            return Ok(None);
+        }
+        let (xn, yn, zn) = (x / sx, y / sy, z / sz);
+        if xn.dot(yn).abs().max(xn.dot(zn).abs()).max(yn.dot(zn).abs()) > 1e-4 {
+            return Err(ShearedAxes);
+        }
+        Ok(Some(SpotAxes { u: xn / sx, v: yn / sy, d: direction / sz, widening: sx.max(sy) / sz }))
+    }
+
+    /// The cosine Cycles' attenuation reads for unit direction `w` leaving the spot.
+    #[inline]
+    pub fn cos(&self, w: Vec3) -> f32 {
+        let local = Vec3::new(w.dot(self.u), w.dot(self.v), w.dot(self.d));
+        let len = local.length();
+        if len > 0.0 { local.z / len } else { 0.0 }
+    }
+}
+
+/// The cosine a spot's attenuation reads for unit direction `w` leaving it.
+#[inline]
+pub fn spot_cos(direction: Vec3, axes: &Option<SpotAxes>, w: Vec3) -> f32 {
+    match axes {
+        None => w.dot(direction),
+        Some(a) => a.cos(w),
+    }
+}
+
+/// cos of the round cone around a spot's direction that holds every direction it lights:
+/// the outer cone, or for stretched axes the one whose tangent is the outer cone's times
+/// the widening (an axis' component shrinks by at most the largest X/Y scale, the axial one
+/// grows by the Z scale).
+#[inline]
+pub fn spot_cos_bound(cos_outer: f32, axes: &Option<SpotAxes>) -> f32 {
+    match axes {
+        None => cos_outer,
+        Some(a) if cos_outer > 0.0 => {
+            let tan = (1.0 - cos_outer * cos_outer).max(0.0).sqrt() / cos_outer * a.widening;
+            1.0 / (1.0 + tan * tan).sqrt()
+        }
+        Some(_) => 0.0,
     }
 }
 
@@ -524,6 +607,42 @@ mod tests {
                 },
             );
             assert_chi2(r);
+        }
+    }
+
+    /// A spot stretched by its object's scale: uniform scale keeps the round cone; X scale 2
+    /// lights the X side twice as far in tangent (Cycles' formula), Z scale 2 half as far;
+    /// every lit direction lies in the bounding cone, and some lie near its edge.
+    #[test]
+    fn stretched_spot_cone() {
+        let dir = -Vec3::Z;
+        assert_eq!(SpotAxes::from_object_axes(Vec3::X * 2.0, Vec3::Y * 2.0, Vec3::Z * 2.0, dir), Ok(None));
+        let sheared = SpotAxes::from_object_axes(Vec3::X, Vec3::new(0.3, 1.0, 0.0), Vec3::Z * 2.0, dir);
+        assert_eq!(sheared, Err(ShearedAxes));
+        let cos_outer = 30f32.to_radians().cos();
+        let tan = 30f32.to_radians().tan();
+        let wide = SpotAxes::from_object_axes(Vec3::X * 2.0, Vec3::Y, Vec3::Z, dir).unwrap();
+        let at = |tan_x: f32, tan_y: f32| Vec3::new(tan_x, tan_y, -1.0).normalize();
+        assert!(wide.unwrap().cos(at(1.9 * tan, 0.0)) > cos_outer);
+        assert!(wide.unwrap().cos(at(2.1 * tan, 0.0)) < cos_outer);
+        assert!(wide.unwrap().cos(at(0.0, 1.1 * tan)) < cos_outer);
+        let long = SpotAxes::from_object_axes(Vec3::X, Vec3::Y, Vec3::Z * 2.0, dir).unwrap();
+        assert!(long.unwrap().cos(at(0.45 * tan, 0.0)) > cos_outer);
+        assert!(long.unwrap().cos(at(0.55 * tan, 0.0)) < cos_outer);
+        for axes in [wide, long, SpotAxes::from_object_axes(Vec3::X * 3.0, Vec3::Y * 0.5, Vec3::Z * 0.7, dir).unwrap()]
+        {
+            let bound = spot_cos_bound(cos_outer, &axes);
+            let mut closest = 1.0f32;
+            for i in 0..200 {
+                for j in 0..200 {
+                    let w = at((i as f32 - 100.0) / 20.0, (j as f32 - 100.0) / 20.0);
+                    if spot_cos(dir, &axes, w) > cos_outer {
+                        assert!(w.dot(dir) > bound - 1e-6, "{w} is lit outside the bound");
+                        closest = closest.min(w.dot(dir) - bound);
+                    }
+                }
+            }
+            assert!(closest < 0.01, "the bound is loose by {closest}");
         }
     }
 }

@@ -275,8 +275,8 @@ pub fn is_delta(scene: &Scene, index: usize) -> bool {
 pub fn emitted(scene: &Scene, lp: &LightPoint, w: Vec3) -> Rgb {
     match &scene.lights[lp.light as usize] {
         Light::Point { .. } => lp.le,
-        Light::Spot { direction, cos_inner, cos_outer, smooth, .. } => {
-            lp.le * spot_attenuation(w.dot(*direction), *cos_inner, *cos_outer, *smooth)
+        Light::Spot { direction, cos_inner, cos_outer, smooth, axes, .. } => {
+            lp.le * spot_attenuation(crate::light::spot_cos(*direction, axes, w), *cos_inner, *cos_outer, *smooth)
         }
         _ => {
             let c = w.dot(lp.n);
@@ -290,12 +290,10 @@ pub fn emitted(scene: &Scene, lp: &LightPoint, w: Vec3) -> Rgb {
 pub fn pdf_direction(scene: &Scene, lp: &LightPoint, w: Vec3) -> f32 {
     match &scene.lights[lp.light as usize] {
         Light::Point { .. } => 1.0 / (4.0 * PI),
-        Light::Spot { direction, cos_outer, .. } => {
-            if w.dot(*direction) > *cos_outer {
-                uniform_cone_pdf(*cos_outer)
-            } else {
-                0.0
-            }
+        Light::Spot { direction, cos_outer, axes, .. } => {
+            // Uniform in the round cone that holds the (stretched) outer cone.
+            let bound = crate::light::spot_cos_bound(*cos_outer, axes);
+            if w.dot(*direction) > bound { uniform_cone_pdf(bound) } else { 0.0 }
         }
         _ => {
             let c = w.dot(lp.n);
@@ -317,8 +315,8 @@ pub fn pdf_direction(scene: &Scene, lp: &LightPoint, w: Vec3) -> f32 {
 pub fn sample_direction(scene: &Scene, lp: &LightPoint, u_side: f32, u: Vec2) -> Vec3 {
     match &scene.lights[lp.light as usize] {
         Light::Point { .. } => uniform_sphere(u),
-        Light::Spot { direction, cos_outer, .. } => {
-            Frame::from_normal(*direction).to_world(uniform_cone(u, *cos_outer))
+        Light::Spot { direction, cos_outer, axes, .. } => {
+            Frame::from_normal(*direction).to_world(uniform_cone(u, crate::light::spot_cos_bound(*cos_outer, axes)))
         }
         _ => {
             let n = if lp.two_sided && u_side >= 0.5 { -lp.n } else { lp.n };
@@ -344,11 +342,26 @@ mod tests {
             cos_inner: 0.9,
             cos_outer: 0.6,
             smooth: None,
+            axes: None,
         });
         scene.lights.push(Light::Point { position: Vec3::ZERO, intensity: Rgb::ONE });
+        // A Blender spot stretched by its object's scale: sampled in the cone that holds it.
+        let stretched_dir = Vec3::new(0.3, 0.1, 0.9).normalize();
+        let f = Frame::from_normal(stretched_dir);
+        scene.lights.push(Light::Spot {
+            position: Vec3::ZERO,
+            direction: stretched_dir,
+            intensity: Rgb::ONE,
+            cos_inner: 0.6,
+            cos_outer: 0.6,
+            smooth: Some(5.0),
+            axes: crate::light::SpotAxes::from_object_axes(f.s * 2.0, f.t * 0.5, -stretched_dir * 1.5, stretched_dir)
+                .unwrap(),
+        });
         let n = Vec3::new(0.2, -0.5, 0.8).normalize();
         let cases = [
             (0u32, Vec3::ZERO, false, "spot"),
+            (2, Vec3::ZERO, false, "stretched spot"),
             (1, Vec3::ZERO, false, "point"),
             (1, n, false, "one-sided surface"),
             (1, n, true, "two-sided surface"),

@@ -4,7 +4,7 @@
 
 use super::{
     DELTA_SUN_COS, EmitterTriangle, Light, LightSample, area_to_solid_angle, intersect_sphere, sample_triangle,
-    sphere_cos_max, sphere_mask, spot_attenuation, sun_radiance,
+    sphere_cos_max, sphere_mask, spot_attenuation, spot_cos, sun_radiance,
 };
 use crate::math::Frame;
 use crate::sampling::warp::{concentric_disk, uniform_cone, uniform_cone_pdf};
@@ -54,7 +54,7 @@ impl Light {
                     normal: Vec3::ZERO,
                 })
             }
-            Light::Spot { position, direction, intensity, cos_inner, cos_outer, smooth } => {
+            Light::Spot { position, direction, intensity, cos_inner, cos_outer, smooth, axes } => {
                 let d = *position - p;
                 let dist2 = d.length_squared();
                 let dist = dist2.sqrt();
@@ -62,7 +62,7 @@ impl Light {
                     return None;
                 }
                 let wi = d / dist;
-                let falloff = spot_attenuation((-wi).dot(*direction), *cos_inner, *cos_outer, *smooth);
+                let falloff = spot_attenuation(spot_cos(*direction, axes, -wi), *cos_inner, *cos_outer, *smooth);
                 (falloff > 0.0).then(|| LightSample {
                     wi,
                     dist,
@@ -245,6 +245,7 @@ mod tests {
                 cos_inner: cos_outer,
                 cos_outer,
                 smooth: Some(1.0 / ((1.0 - cos_outer) * 0.2)),
+                axes: None,
             }),
         }
     }

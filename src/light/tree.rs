@@ -227,9 +227,10 @@ pub fn scene_light_bounds(scene: &Scene) -> Vec<Option<LightBounds>> {
             Light::Point { position, .. } => {
                 Some(LightBounds::new(*position, *position, Vec3::Z, phi, PI, half_pi, false))
             }
-            Light::Spot { position, direction, cos_outer, .. } => {
-                // Zero beyond the outer cone for glTF's falloff and Blender's smoothstep alike.
-                let theta = cos_outer.clamp(-1.0, 1.0).acos();
+            Light::Spot { position, direction, cos_outer, axes, .. } => {
+                // Zero beyond the outer cone for glTF's falloff and Blender's smoothstep alike
+                // (beyond the round cone that holds it when the object's scale stretches it).
+                let theta = crate::light::spot_cos_bound(*cos_outer, axes).clamp(-1.0, 1.0).acos();
                 Some(LightBounds::new(*position, *position, *direction, phi, theta, 0.0, false))
             }
             Light::Sphere { center, radius, spot: None, .. } => {
@@ -240,7 +241,7 @@ pub fn scene_light_bounds(scene: &Scene) -> Vec<Option<LightBounds>> {
                 // The mask is zero where the direction from the centre leaves the outer
                 // cone (outside the sphere, whose box the importance treats as all around).
                 let r = Vec3::splat(*radius);
-                let theta = cone.cos_outer.clamp(-1.0, 1.0).acos();
+                let theta = cone.cos_bound().clamp(-1.0, 1.0).acos();
                 Some(LightBounds::new(*center - r, *center + r, cone.direction, phi, theta, 0.0, false))
             }
             Light::Area(a) => {

@@ -212,6 +212,11 @@ pub enum Op {
         g: Reg,
         out: Reg,
     },
+    /// Blackbody: the colour of temperature `t` (kelvin), Cycles' fit clamped at 0.
+    Blackbody {
+        t: Reg,
+        out: Reg,
+    },
     BrightContrast {
         c: Reg,
         bright: Reg,
@@ -285,6 +290,27 @@ pub enum Op {
         rot: Reg,
         rotation: Option<u32>,
         scale: Reg,
+        out: Reg,
+    },
+    /// Vector Rotate: `v` turned about `center` by `angle` around `axis` (kind 0), the X, Y
+    /// or Z axis (kinds 1-3), or by the Euler angles `rot` (kind 4); `invert` turns back.
+    VectorRotate {
+        kind: u8,
+        invert: bool,
+        v: Reg,
+        center: Reg,
+        axis: Reg,
+        angle: Reg,
+        rot: Reg,
+        out: Reg,
+    },
+    /// Vector Transform of a point (kind 0), vector (1) or normal (2, normalised after, as
+    /// Cycles) between world (0), object (1) and camera (2) space.
+    VectorTransform {
+        kind: u8,
+        from: u8,
+        to: u8,
+        v: Reg,
         out: Reg,
     },
     /// Normal Map: tangent (0), object (1) or world (2) space.

@@ -13,7 +13,7 @@ use super::geom::{Geom, Reg, from_blender, geom_at_ng, set3, to_blender, v3};
 use super::instructions::{BumpOp, ColorSpace, CurveKind, InputKind, MappingKind, Op, Program};
 use super::ops;
 use crate::math::{Frame, luminance};
-use glam::{EulerRot, Mat3, Vec3, Vec4};
+use glam::{EulerRot, Mat3, Mat4, Vec3, Vec4};
 use std::cell::RefCell;
 
 thread_local! {
@@ -175,6 +175,9 @@ impl Program {
                 set3(r, out, x * (1.0 - t) + (Vec3::ONE - x) * t);
             }
             Op::Gamma { c, g, out } => set3(r, out, ops::gamma(v3(r, c), r[g as usize])),
+            Op::Blackbody { t, out } => {
+                set3(r, out, crate::medium::blackbody::blackbody_rgb(r[t as usize]).max(glam::Vec3::ZERO))
+            }
             Op::BrightContrast { c, bright, contrast, out } => {
                 set3(r, out, ops::bright_contrast(v3(r, c), r[bright as usize], r[contrast as usize]))
             }
@@ -222,6 +225,41 @@ impl Program {
                     f = f.powf(b);
                 }
                 r[facing as usize] = 1.0 - f;
+            }
+            Op::VectorTransform { kind, from, to, v, out } => {
+                // Through world space in glTF axes: Blender's world and object spaces are
+                // its axes, Cycles' camera space is the same in both.
+                let apply = |m: Mat4, x: Vec3| if kind == 0 { m.transform_point3(x) } else { m.transform_vector3(x) };
+                let x = v3(r, v);
+                let world = match from {
+                    0 => from_blender(x),
+                    1 => apply(g.object.world_to_object.inverse(), from_blender(x)),
+                    _ => apply(g.view.world_to_camera.inverse(), x),
+                };
+                let y = match to {
+                    0 => to_blender(world),
+                    1 => to_blender(apply(g.object.world_to_object, world)),
+                    _ => apply(g.view.world_to_camera, world),
+                };
+                set3(r, out, if kind == 2 { ops::safe_normalize(y) } else { y });
+            }
+            Op::VectorRotate { kind, invert, v, center, axis, angle, rot, out } => {
+                let (x, c) = (v3(r, v), v3(r, center));
+                let y = if kind == 4 {
+                    let m = mapping_rotation(v3(r, rot));
+                    (if invert { m.transpose() } else { m }) * (x - c) + c
+                } else {
+                    let a = match kind {
+                        1 => Vec3::X,
+                        2 => Vec3::Y,
+                        3 => Vec3::Z,
+                        _ => v3(r, axis),
+                    };
+                    let len = a.length();
+                    let angle = if invert { -r[angle as usize] } else { r[angle as usize] };
+                    if len != 0.0 { ops::rotate_around_axis(x - c, a / len, angle) + c } else { x }
+                };
+                set3(r, out, y);
             }
             Op::Mapping { kind, v, loc, rot, rotation, scale, out } => {
                 let x = v3(r, v);

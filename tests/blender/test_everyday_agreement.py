@@ -84,10 +84,67 @@ def image_cubic_flat(scene):
     textured_sphere(scene, "FLAT", "Cubic", "Generated")
 
 
+def metallic_physical_conductor(scene):
+    """The cube as a Metallic BSDF with the Physical Conductor Fresnel (its default IOR and
+    Extinction) under a sun and a grey world, so its reflections show. Before: the export
+    failed ("KeyError: Base Color", whose socket is unavailable in that mode) and so did F12.
+    After: rendered with Schlick's Fresnel from the conductor's reflectance at normal
+    incidence (named in a warning)."""
+    mat = scenes.shader_node_material("Conductor", "ShaderNodeBsdfMetallic", Roughness=0.3)
+    mat.node_tree.nodes["Metallic BSDF"].fresnel_type = "PHYSICAL_CONDUCTOR"
+    box = scene.objects["Box"]
+    box.data.materials.clear()
+    box.data.materials.append(mat)
+    scenes.light(scene, "Sun", "SUN", rotation_deg=(25.0, 10.0, 0.0), energy=2.0, angle=0.0)
+    world = bpy.data.worlds.new("Grey")
+    if world.node_tree is None:
+        world.use_nodes = True
+    world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.3, 0.3, 0.3, 1.0)
+    scene.world = world
+
+
+def instances_with_random_colour(scene):
+    """A 5x5 Geometry Nodes scatter of small spheres over the floor, coloured red to blue by
+    Object Info Random through a ColorRamp (the usual variation of scattered objects), under a
+    sun. Before: the exporter names every instance "GN Instance" and the renderer hashed that
+    name, so all 25 had one colour: red 1.115, blue 0.891 of Cycles. After (1.0008, 1.0001, 1.0003): each instance's
+    depsgraph random_id is written (`CAUSTIC_random_id`), as Cycles reads it."""
+    mat = bpy.data.materials.new("Varied")
+    if mat.node_tree is None:
+        mat.use_nodes = True
+    tree = mat.node_tree
+    info = tree.nodes.new("ShaderNodeObjectInfo")
+    ramp = tree.nodes.new("ShaderNodeValToRGB")
+    ramp.color_ramp.elements[0].color = (1.0, 0.0, 0.0, 1.0)
+    ramp.color_ramp.elements[1].color = (0.0, 0.0, 1.0, 1.0)
+    tree.links.new(info.outputs["Random"], ramp.inputs["Fac"])
+    tree.links.new(ramp.outputs["Color"], tree.nodes["Principled BSDF"].inputs["Base Color"])
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=4, y_subdivisions=4, size=2.4, location=(-0.3, 0.2, 0.25))
+    grid = bpy.context.active_object
+    group = bpy.data.node_groups.new("Scatter", "GeometryNodeTree")
+    group.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    group.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    nodes, links = group.nodes, group.links
+    on_points = nodes.new("GeometryNodeInstanceOnPoints")
+    sphere = nodes.new("GeometryNodeMeshIcoSphere")
+    sphere.inputs["Radius"].default_value = 0.22
+    sphere.inputs["Subdivisions"].default_value = 2
+    set_material = nodes.new("GeometryNodeSetMaterial")
+    set_material.inputs["Material"].default_value = mat
+    links.new(nodes.new("NodeGroupInput").outputs[0], on_points.inputs["Points"])
+    links.new(sphere.outputs["Mesh"], set_material.inputs["Geometry"])
+    links.new(set_material.outputs[0], on_points.inputs["Instance"])
+    links.new(on_points.outputs[0], nodes.new("NodeGroupOutput").inputs[0])
+    grid.modifiers.new("Scatter", "NODES").node_group = group
+    scenes.light(scene, "Sun", "SUN", rotation_deg=(25.0, 10.0, 0.0), energy=2.0, angle=0.0)
+
+
 CASES = {
     "lights_with_temperature": lights_with_temperature,
     "image_linear_box_projection": image_linear_box_projection,
     "image_cubic_flat": image_cubic_flat,
+    "metallic_physical_conductor": metallic_physical_conductor,
+    "instances_with_random_colour": instances_with_random_colour,
 }
 
 

@@ -5,7 +5,7 @@ use super::emission::{MeanPyramid, pyramid_bytes};
 use super::extensions::{AreaLightExt, BlenderLight, light_rays};
 use super::{LUMENS_PER_WATT, Loader};
 use crate::error::Result;
-use crate::light::{AreaLight, AreaShape, Light, SpotCone};
+use crate::light::{AreaLight, AreaShape, Light, SpotAxes, SpotCone};
 use crate::math::luminance;
 use crate::scene::{LightReport, Material, Mesh};
 use glam::{Mat4, Vec3};
@@ -85,6 +85,23 @@ impl Loader<'_> {
                 }
                 let (cos_inner, cos_outer) = (inner.cos(), outer.cos());
                 let smooth = bl.spot_blend.map(|b| 1.0 / ((1.0 - cos_outer) * b).max(1e-12));
+                // Cycles stretches a Blender spot's cone by its object's scale (the node's
+                // local frame is the light object's, scale included); glTF's own spots
+                // ignore the node's scale, as its spec says.
+                let axes = if smooth.is_some() {
+                    let axis = |v: Vec3| world.transform_vector3(v);
+                    SpotAxes::from_object_axes(axis(Vec3::X), axis(Vec3::Y), axis(Vec3::Z), forward).unwrap_or_else(
+                        |_| {
+                            self.warn(format!(
+                            "light '{name}': its object's axes are sheared (a parent's non-uniform scale): the spot \
+                             cone is not stretched by the scale as in Cycles"
+                        ));
+                            None
+                        },
+                    )
+                } else {
+                    None
+                };
                 let light = if bl.radius > 0.0 {
                     // Cycles' spot with a radius: the point light's sphere (or soft-falloff
                     // disk) of the same intensity, masked by the cone (`SpotCone`).
@@ -95,10 +112,18 @@ impl Loader<'_> {
                         radiance: radiometric / (std::f32::consts::PI * r * r),
                         soft: bl.soft_falloff,
                         camera_visible: bl.camera_visible,
-                        spot: Some(SpotCone { direction: forward, cos_inner, cos_outer, smooth }),
+                        spot: Some(SpotCone { direction: forward, cos_inner, cos_outer, smooth, axes }),
                     }
                 } else {
-                    Light::Spot { position, direction: forward, intensity: radiometric, cos_inner, cos_outer, smooth }
+                    Light::Spot {
+                        position,
+                        direction: forward,
+                        intensity: radiometric,
+                        cos_inner,
+                        cos_outer,
+                        smooth,
+                        axes,
+                    }
                 };
                 (light, "spot")
             }

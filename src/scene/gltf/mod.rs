@@ -378,7 +378,8 @@ impl<'a> Loader<'a> {
                     if graphs {
                         let texspace = value.pointer(&format!("/meshes/{}/extras/CAUSTIC_texspace", m.index()));
                         let color = value.pointer(&format!("/nodes/{node_index}/extras/CAUSTIC_object_color"));
-                        objects.push(shader_graph::object_data(world, &node_name, texspace, color));
+                        let random_id = value.pointer(&format!("/nodes/{node_index}/extras/CAUSTIC_random_id"));
+                        objects.push(shader_graph::object_data(world, &node_name, texspace, color, random_id));
                         let o = objects.len() as u32 - 1;
                         mesh.tri_object.resize(mesh.triangles.len(), o);
                         object = Some(o);

@@ -248,14 +248,16 @@ pub(crate) fn mean_node_emission(
 }
 
 /// What a shader graph reads of an instance: its inverse world matrix and location, a
-/// per-object random number, the mesh's texture space (`CAUSTIC_texspace` extras) and the
-/// object's colour (the node's `CAUSTIC_object_color` extras; white without them, as
-/// Blender's default, or when they are not 4 finite numbers).
+/// per-object random number (from the node's `CAUSTIC_random_id` extras, an instance's
+/// number in Blender's depsgraph, else the hash of its name), the mesh's texture space
+/// (`CAUSTIC_texspace` extras) and the object's colour (the node's `CAUSTIC_object_color`
+/// extras; white without them, as Blender's default, or when they are not 4 finite numbers).
 pub(super) fn object_data(
     world: &glam::Mat4,
     node_name: &str,
     texspace: Option<&serde_json::Value>,
     color: Option<&serde_json::Value>,
+    random_id: Option<&serde_json::Value>,
 ) -> crate::shader::geom::ObjectData {
     let vec3 = |v: Option<&serde_json::Value>| -> Option<glam::Vec3> {
         let a = v?.as_array()?;
@@ -268,7 +270,10 @@ pub(super) fn object_data(
     crate::shader::geom::ObjectData {
         world_to_object: world.inverse(),
         location: world.w_axis.truncate(),
-        random: object_random(node_name),
+        random: match random_id.and_then(|v| v.as_u64()).and_then(|v| u32::try_from(v).ok()) {
+            Some(id) => random_from_id(id),
+            None => object_random(node_name),
+        },
         texspace,
         color: color
             .and_then(|c| c.as_array())
@@ -288,7 +293,11 @@ pub(super) fn object_data(
 /// renders 0.053860776 in Cycles). The glTF node's name is the Blender object's name.
 fn object_random(name: &str) -> f32 {
     let h = name.bytes().fold(0u32, |i, c| i.wrapping_mul(37).wrapping_add(c as u32));
-    let id = crate::shader::texture::hash::hash_uint2(h, 0);
+    random_from_id(crate::shader::texture::hash::hash_uint2(h, 0))
+}
+
+/// Cycles' Random from an object's random id: the id times 2⁻³² in f32.
+fn random_from_id(id: u32) -> f32 {
     id as f32 * (1.0 / 4_294_967_296.0)
 }
 
@@ -305,14 +314,25 @@ mod object_random_tests {
         assert_eq!(object_random("Würfel.001"), 0.053_860_776);
     }
 
+    /// An instance's Random from its depsgraph id in the node's extras (2³¹ gives ½); an id
+    /// that is not a u32 falls back to the name's hash.
+    #[test]
+    fn instance_random_from_extras() {
+        let world = glam::Mat4::IDENTITY;
+        let id = serde_json::json!(2_147_483_648u64);
+        assert_eq!(super::object_data(&world, "A", None, None, Some(&id)).random, 0.5);
+        let bad = serde_json::json!(-1);
+        assert_eq!(super::object_data(&world, "A", None, None, Some(&bad)).random, object_random("A"));
+    }
+
     /// Object Info Color/Alpha from the node's extras; white without them or when malformed.
     #[test]
     fn object_color_from_extras() {
         let world = glam::Mat4::IDENTITY;
         let c = serde_json::json!([0.2, 0.4, 0.6, 0.5]);
-        assert_eq!(super::object_data(&world, "A", None, Some(&c)).color, glam::Vec4::new(0.2, 0.4, 0.6, 0.5));
-        assert_eq!(super::object_data(&world, "A", None, None).color, glam::Vec4::ONE);
+        assert_eq!(super::object_data(&world, "A", None, Some(&c), None).color, glam::Vec4::new(0.2, 0.4, 0.6, 0.5));
+        assert_eq!(super::object_data(&world, "A", None, None, None).color, glam::Vec4::ONE);
         let bad = serde_json::json!([0.2, "x", 0.6, 1]);
-        assert_eq!(super::object_data(&world, "A", None, Some(&bad)).color, glam::Vec4::ONE);
+        assert_eq!(super::object_data(&world, "A", None, Some(&bad), None).color, glam::Vec4::ONE);
     }
 }

@@ -146,6 +146,11 @@ impl Compiler<'_> {
                 let out = self.out(i, "Color", Ty::Color);
                 self.ops.push(Op::Gamma { c, g, out });
             }
+            "ShaderNodeBlackbody" => {
+                let t = self.float(i, "Temperature", 1500.0)?;
+                let out = self.out(i, "Color", Ty::Color);
+                self.ops.push(Op::Blackbody { t, out });
+            }
             "ShaderNodeBrightContrast" => {
                 let c = self.vec(i, "Color", Vec3::ONE)?;
                 let bright = self.float(i, "Bright", 0.0)?;

@@ -202,6 +202,91 @@ impl Compiler<'_> {
                 let out = self.out(i, "Vector", Ty::Vector);
                 self.ops.push(Op::Mapping { kind, v, loc, rot, rotation, scale, out });
             }
+            "ShaderNodeLightFalloff" => {
+                // Cycles' svm_node_light_falloff: Strength times the ray's length to the power
+                // 0, 1 and 2, smoothed by length² / (Smooth + length²) when Smooth > 0.
+                self.all_const = false;
+                let strength = self.float(i, "Strength", 100.0)?;
+                let smooth = self.float(i, "Smooth", 0.0)?;
+                let len = self.alloc(1);
+                self.ops.push(Op::Input { what: InputKind::LightPath(PathOutput::RayLength), out: len });
+                let math = |c: &mut Self, op: MathOp, a: Reg, b: Reg| {
+                    let out = c.alloc(1);
+                    c.ops.push(Op::Math { op, a, b, c: b, out, clamp: false });
+                    out
+                };
+                let squared = math(self, MathOp::Multiply, len, len);
+                let smoothless = self.is_const(smooth, 1) && !(self.init[smooth as usize] > 0.0);
+                let base = if smoothless {
+                    strength
+                } else {
+                    let wider = math(self, MathOp::Add, smooth, squared);
+                    let share = math(self, MathOp::Divide, squared, wider);
+                    math(self, MathOp::Multiply, strength, share)
+                };
+                let linear = math(self, MathOp::Multiply, base, len);
+                let constant = math(self, MathOp::Multiply, base, squared);
+                self.alias(i, "Quadratic", base, Ty::Float);
+                self.alias(i, "Linear", linear, Ty::Float);
+                self.alias(i, "Constant", constant, Ty::Float);
+            }
+            "ShaderNodeCameraData" => {
+                // Cycles' svm_node_camera: the point in camera space (Texture Coordinate's
+                // Camera, +Z ahead), its direction, its Z and its length.
+                self.all_const = false;
+                let c = self.alloc(3);
+                self.ops.push(Op::Input { what: InputKind::Camera, out: c });
+                let z = self.konst_v(Vec3::Z);
+                for (id, op, ty) in [
+                    ("View Vector", VecOp::Normalize, Ty::Vector),
+                    ("View Z Depth", VecOp::Dot, Ty::Float),
+                    ("View Distance", VecOp::Length, Ty::Float),
+                ] {
+                    if !self.is_used(i, id) {
+                        continue;
+                    }
+                    let out = self.out(i, id, ty);
+                    let (vout, fout) = if ty == Ty::Vector { (out, self.alloc(1)) } else { (self.alloc(3), out) };
+                    self.ops.push(Op::VecMath { op, a: c, b: z, c: z, s: z, vout, fout });
+                }
+            }
+            "ShaderNodeVectorTransform" => {
+                let kind = match self.prop_str(i, "vector_type", "VECTOR") {
+                    "POINT" => 0,
+                    "VECTOR" => 1,
+                    "NORMAL" => 2,
+                    other => return Err(self.err(i, format!("unknown vector type '{other}'"))),
+                };
+                let space = |c: &Self, key: &str| match c.prop_str(i, key, "WORLD") {
+                    "WORLD" => Ok(0),
+                    "OBJECT" => Ok(1),
+                    "CAMERA" => Ok(2),
+                    other => Err(c.err(i, format!("unknown space '{other}'"))),
+                };
+                let (from, to) = (space(self, "convert_from")?, space(self, "convert_to")?);
+                self.all_const = false;
+                let v = self.vec(i, "Vector", Vec3::new(0.5, 0.5, 0.5))?;
+                let out = self.out(i, "Vector", Ty::Vector);
+                self.ops.push(Op::VectorTransform { kind, from, to, v, out });
+            }
+            "ShaderNodeVectorRotate" => {
+                let kind = match self.prop_str(i, "rotation_type", "AXIS_ANGLE") {
+                    "AXIS_ANGLE" => 0,
+                    "X_AXIS" => 1,
+                    "Y_AXIS" => 2,
+                    "Z_AXIS" => 3,
+                    "EULER_XYZ" => 4,
+                    other => return Err(self.err(i, format!("unknown rotation type '{other}'"))),
+                };
+                let invert = self.prop_bool(i, "invert", false);
+                let v = self.vec(i, "Vector", Vec3::ZERO)?;
+                let center = self.vec(i, "Center", Vec3::ZERO)?;
+                let axis = self.vec(i, "Axis", Vec3::Z)?;
+                let angle = self.float(i, "Angle", 0.0)?;
+                let rot = self.vec(i, "Rotation", Vec3::ZERO)?;
+                let out = self.out(i, "Vector", Ty::Vector);
+                self.ops.push(Op::VectorRotate { kind, invert, v, center, axis, angle, rot, out });
+            }
             "ShaderNodeNormalMap" => {
                 let space = match self.prop_str(i, "space", "TANGENT") {
                     "TANGENT" => 0,
@@ -278,6 +363,62 @@ impl Compiler<'_> {
                     sub.push((hmark as u32, self.ops.len() as u32));
                 }
                 self.ops.push(Op::Bump(Box::new(BumpOp { strength, distance, invert, height, normal, out, sub })));
+            }
+            "ShaderNodeAmbientOcclusion" => {
+                // Occlusion needs rays traced from inside the shader, which the program does
+                // not do: unoccluded is closer to Cycles than the 0 (black) of an unknown node.
+                self.warn(
+                    i,
+                    "ambient occlusion is not traced: rendered unoccluded (AO 1, the Color input passed through)",
+                );
+                let c = self.vec(i, "Color", Vec3::ONE)?;
+                let out = self.out(i, "Color", Ty::Color);
+                self.ops.push(Op::Copy3 { src: c, out });
+                let one = self.konst_f(1.0);
+                self.alias(i, "AO", one, Ty::Float);
+            }
+            "ShaderNodeBevel" => {
+                // Likewise traced in Cycles: the normal without the rounding.
+                self.warn(i, "the bevel is not traced: the unbevelled normal is used");
+                let n = match self.normal(i, "Normal")? {
+                    Some(n) => n,
+                    None => {
+                        self.all_const = false;
+                        let n = self.alloc(3);
+                        self.ops.push(Op::Input { what: InputKind::Normal, out: n });
+                        n
+                    }
+                };
+                let out = self.out(i, "Normal", Ty::Vector);
+                self.ops.push(Op::Copy3 { src: n, out });
+            }
+            "ShaderNodeDisplacement" => {
+                // Linked to the Material Output, it is rendered as bump by `displacement` from
+                // its inputs; only another node reading the vector needs it here. Cycles'
+                // vector is the normal times (Height − Midlevel) × Scale.
+                let read_by_nodes = self.ext.nodes.iter().any(|n| {
+                    n.inputs.values().any(|d| d.link.as_ref().is_some_and(|l| l.0 == i && l.1 == "Displacement"))
+                });
+                if read_by_nodes {
+                    let h = self.float(i, "Height", 0.0)?;
+                    let mid = self.float(i, "Midlevel", 0.5)?;
+                    let scale = self.float(i, "Scale", 1.0)?;
+                    let centred = self.alloc(1);
+                    self.ops.push(Op::Math { op: MathOp::Subtract, a: h, b: mid, c: mid, out: centred, clamp: false });
+                    let amount = self.alloc(1);
+                    self.ops.push(Op::Math {
+                        op: MathOp::Multiply,
+                        a: centred,
+                        b: scale,
+                        c: scale,
+                        out: amount,
+                        clamp: false,
+                    });
+                    let n = self.alloc(3);
+                    self.ops.push(Op::Input { what: InputKind::Normal, out: n });
+                    let (vout, fout) = (self.out(i, "Displacement", Ty::Vector), self.alloc(1));
+                    self.ops.push(Op::VecMath { op: VecOp::Scale, a: n, b: n, c: n, s: amount, vout, fout });
+                }
             }
             "ShaderNodeTexVoronoi" => {
                 let d = self.prop_str(i, "voronoi_dimensions", "3D");

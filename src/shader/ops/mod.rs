@@ -18,4 +18,4 @@ pub use math::{
     MathOp, compatible_signf, math, math_lanes, pingpongf, safe_divide, safe_floored_modulo, safe_logf, safe_modulo,
     safe_powf, smoothminf, wrapf,
 };
-pub use vector::{VecOp, safe_normalize, vector_math};
+pub use vector::{VecOp, rotate_around_axis, safe_normalize, vector_math};

@@ -82,6 +82,25 @@ impl VecOp {
     }
 }
 
+/// `p` turned by `angle` counter-clockwise around the unit `axis` (Rodrigues' matrix written
+/// out as Cycles' `rotate_around_axis`, term by term).
+#[inline]
+pub fn rotate_around_axis(p: Vec3, axis: Vec3, angle: f32) -> Vec3 {
+    let (s, c) = angle.sin_cos();
+    let t = 1.0 - c;
+    Vec3::new(
+        ((c + t * axis.x * axis.x) * p.x)
+            + ((t * axis.x * axis.y - axis.z * s) * p.y)
+            + ((t * axis.x * axis.z + axis.y * s) * p.z),
+        ((t * axis.x * axis.y + axis.z * s) * p.x)
+            + ((c + t * axis.y * axis.y) * p.y)
+            + ((t * axis.y * axis.z - axis.x * s) * p.z),
+        ((t * axis.x * axis.z - axis.y * s) * p.x)
+            + ((t * axis.y * axis.z + axis.x * s) * p.y)
+            + ((c + t * axis.z * axis.z) * p.z),
+    )
+}
+
 /// a / |a|, zero for the zero vector.
 #[inline]
 pub fn safe_normalize(a: Vec3) -> Vec3 {

@@ -1,0 +1,118 @@
+"""Object Info's Random of instances (`CAUSTIC_random_id`, docs/contract.md).
+
+Cycles gives an instance the random number Blender's depsgraph made for it
+(`DepsgraphObjectInstance.random_id`, from the instancer and the instance's persistent id) and
+a real object the hash of its name. Blender's glTF exporter names every Geometry Nodes instance
+"GN Instance" and every particle or vertex/face instance after the instanced object, so the
+renderer's name hash gave all instances of one instancer the same number: a scatter coloured
+by Random rendered in one colour. After the exporter has run, `add_instance_randoms` writes
+each instance node's `random_id` into its extras.
+
+The exporter makes an instancer's instance nodes children of its node, from
+`depsgraph.object_instances` (`io_scene_gltf2/blender/exp/tree.py`: Duplis and Geometry Nodes
+instances). Each child is matched to the instance at its world position (glTF's Y-up of
+Blender's), so the exporter's order need not be relied on; children at one position take the
+instances there in order.
+"""
+
+import json
+
+import numpy as np
+
+RANDOM_EXTRA = "CAUSTIC_random_id"
+# Positions of one instance in Blender and in the glTF file agree to float32 rounding of the
+# exporter's decomposed TRS; farther apart is another instance.
+_MATCH_TOLERANCE = 1e-4
+
+
+def _node_matrix(node):
+    """A glTF node's local matrix (column-major `matrix` or TRS), as a 4x4 array."""
+    if "matrix" in node:
+        return np.array(node["matrix"], dtype=np.float64).reshape(4, 4).T
+    x, y, z, w = node.get("rotation", [0.0, 0.0, 0.0, 1.0])
+    rotation = np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+    ])
+    m = np.eye(4)
+    m[:3, :3] = rotation * np.array(node.get("scale", [1.0, 1.0, 1.0]))
+    m[:3, 3] = node.get("translation", [0.0, 0.0, 0.0])
+    return m
+
+
+def _world_positions(doc):
+    """Each glTF node's world position (Y-up), by node index."""
+    nodes = doc.get("nodes", [])
+    parent = {}
+    for i, node in enumerate(nodes):
+        for child in node.get("children", []):
+            parent[child] = i
+    positions = {}
+    for i in range(len(nodes)):
+        m, j = np.eye(4), i
+        while j is not None:
+            m = _node_matrix(nodes[j]) @ m
+            j = parent.get(j)
+        positions[i] = m[:3, 3]
+    return positions
+
+
+def _instances_by_instancer(depsgraph):
+    """{instancer object name: [(Y-up world position, random_id)]} over the depsgraph's
+    instances."""
+    found = {}
+    for inst in depsgraph.object_instances:
+        if not inst.is_instance or inst.parent is None:
+            continue
+        t = inst.matrix_world.translation
+        found.setdefault(inst.parent.original.name, []).append(
+            (np.array([t.x, t.z, -t.y], dtype=np.float64), int(inst.random_id) & 0xFFFFFFFF))
+    return found
+
+
+def _grid_key(p, cell):
+    return tuple(int(np.floor(c / cell)) for c in p)
+
+
+def add_instance_randoms(gltf_path, depsgraph):
+    """Write `CAUSTIC_random_id` on every instance node of the written glTF file (module doc);
+    returns how many nodes got one."""
+    instances = _instances_by_instancer(depsgraph)
+    if not instances:
+        return 0
+    with open(gltf_path, encoding="utf-8") as f:
+        doc = json.load(f)
+    nodes = doc.get("nodes", [])
+    positions = None
+    written = 0
+    for node in nodes:
+        candidates = instances.get(node.get("name"))
+        if not candidates or not node.get("children"):
+            continue
+        if positions is None:
+            positions = _world_positions(doc)
+        # Candidates in cells a few tolerances wide: a child looks in its cell's neighbours.
+        cell = 4.0 * _MATCH_TOLERANCE * max(1.0, max(np.abs(q).max() for q, _ in candidates))
+        grid = {}
+        for k, (q, _) in enumerate(candidates):
+            grid.setdefault(_grid_key(q, cell), []).append(k)
+        taken = [False] * len(candidates)
+        offsets = [(a, b, c) for a in (-1, 0, 1) for b in (-1, 0, 1) for c in (-1, 0, 1)]
+        for child in node["children"]:
+            p = positions[child]
+            key = _grid_key(p, cell)
+            near = sorted(k for o in offsets for k in grid.get(tuple(x + d for x, d in zip(key, o)), ())
+                          if np.abs(p - candidates[k][0]).max() <= cell / 4.0)
+            if near:
+                # The exporter writes a vertex- or face-instanced object twice (as a dupli and
+                # as a Geometry Nodes instance, on top of each other): the second copy takes
+                # the number of the first.
+                k = next((k for k in near if not taken[k]), near[0])
+                taken[k] = True
+                nodes[child].setdefault("extras", {})[RANDOM_EXTRA] = candidates[k][1]
+                written += 1
+    if written:
+        with open(gltf_path, "w", encoding="utf-8") as f:
+            json.dump(doc, f)
+    return written
