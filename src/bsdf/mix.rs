@@ -24,6 +24,7 @@
 use super::dielectric::{DielectricBsdf, SMOOTH_ROUGHNESS};
 use super::microfacet::{Ggx, reflect, schlick_weight};
 use super::microfiber::Microfiber;
+use super::oren_nayar::OrenNayar;
 use super::{BsdfSample, LobeKind, PbrBsdf, albedo::specular_albedo};
 use crate::math::{Rgb, luminance};
 use crate::sampling::warp::{cosine_hemisphere, cosine_hemisphere_pdf};
@@ -47,6 +48,9 @@ pub enum GlossyFresnel {
 pub enum Lobe {
     /// Lambertian reflection.
     Diffuse,
+    /// Rough diffuse reflection: Fujii's improved Oren-Nayar with OpenPBR's energy-preserving
+    /// multiple-scattering term, as Cycles' Diffuse BSDF with a roughness (`oren_nayar.rs`).
+    OrenNayar(OrenNayar),
     /// Lambertian transmission to the other side (Translucent BSDF).
     Translucent,
     /// GGX reflection with multiple-scattering compensation (Glossy, Metallic).
@@ -104,10 +108,16 @@ impl Lobe {
         Rgb::ONE + fms * (1.0 / e - 1.0)
     }
 
+    /// A rough diffuse lobe of Oren-Nayar σ `sigma` for the colour `albedo` (in [0, 1]),
+    /// whose multiple scattering depends on it.
+    pub fn oren_nayar(sigma: f32, albedo: Rgb) -> Self {
+        Lobe::OrenNayar(OrenNayar::new(sigma, albedo))
+    }
+
     /// Albedo estimate at wo (wo.z > 0) for choosing the lobe.
     fn albedo(&self, wo: Vec3) -> f32 {
         match self {
-            Lobe::Diffuse | Lobe::Translucent => 1.0,
+            Lobe::Diffuse | Lobe::Translucent | Lobe::OrenNayar(_) => 1.0,
             Lobe::Glossy { fresnel, .. } => match fresnel {
                 GlossyFresnel::Constant => 1.0,
                 GlossyFresnel::Schlick(f0) => luminance(*f0 + (Rgb::ONE - *f0) * schlick_weight(wo.z)),
@@ -121,6 +131,7 @@ impl Lobe {
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
         match self {
             Lobe::Diffuse => Rgb::splat(if wi.z > 0.0 { FRAC_1_PI } else { 0.0 }),
+            Lobe::OrenNayar(o) => o.eval(wo, wi),
             Lobe::Translucent => Rgb::splat(if wi.z < 0.0 { FRAC_1_PI } else { 0.0 }),
             Lobe::Glossy { ggx, roughness, fresnel, fms } => {
                 if wi.z <= 0.0 || *roughness < SMOOTH_ROUGHNESS {
@@ -143,7 +154,7 @@ impl Lobe {
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         match self {
             Lobe::Sheen { roughness } => Microfiber::at(wo, *roughness).density(wi),
-            Lobe::Diffuse => {
+            Lobe::Diffuse | Lobe::OrenNayar(_) => {
                 if wi.z > 0.0 {
                     cosine_hemisphere_pdf(wi.z)
                 } else {
@@ -171,7 +182,7 @@ impl Lobe {
     /// Samples wi (wo.z > 0); the value is f (delta lobes: the delta's weight / cos).
     fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
         let wi = match self {
-            Lobe::Diffuse => cosine_hemisphere(u),
+            Lobe::Diffuse | Lobe::OrenNayar(_) => cosine_hemisphere(u),
             Lobe::Sheen { roughness } => Microfiber::at(wo, *roughness).sample(u)?,
             Lobe::Translucent => {
                 let w = cosine_hemisphere(u);
@@ -202,7 +213,7 @@ impl Lobe {
         let pdf = self.pdf(wo, wi);
         let kind = match self {
             Lobe::Glossy { .. } | Lobe::Dielectric(_) => LobeKind::Glossy,
-            Lobe::Diffuse | Lobe::Sheen { .. } | Lobe::Translucent => LobeKind::Diffuse,
+            Lobe::Diffuse | Lobe::OrenNayar(_) | Lobe::Sheen { .. } | Lobe::Translucent => LobeKind::Diffuse,
         };
         (pdf > 0.0).then(|| BsdfSample { wi, f: self.eval(wo, wi), pdf, delta: false, kind })
     }
@@ -443,6 +454,7 @@ mod tests {
         a.push(Rgb::new(0.5, 0.4, 0.3), Lobe::Diffuse);
         a.push(Rgb::splat(0.3), Lobe::glossy(0.3, GlossyFresnel::Constant));
         a.push(Rgb::splat(0.2), Lobe::Translucent);
+        a.push(Rgb::new(0.3, 0.2, 0.1), Lobe::oren_nayar(0.8, Rgb::new(0.7, 0.5, 0.3)));
         let mut b = MixBsdf::new();
         b.push(Rgb::splat(0.5), Lobe::Dielectric(DielectricBsdf::new(1.5, 0.4, false, Rgb::ONE).with_multiscatter()));
         b.push(Rgb::splat(0.3), Lobe::Sheen { roughness: 0.5 });
@@ -451,7 +463,7 @@ mod tests {
         let mut c = MixBsdf::new();
         c.push(Rgb::splat(0.6), Lobe::glossy(0.7, GlossyFresnel::Schlick(Rgb::new(0.9, 0.6, 0.3))));
         c.push(Rgb::splat(0.4), Lobe::Dielectric(DielectricBsdf::new(1.0 / 1.33, 0.5, false, Rgb::ONE)));
-        vec![("diffuse+glossy+translucent", a), ("glass+sheen+principled", b), ("metal+leaving glass", c)]
+        vec![("diffuse+glossy+translucent+oren-nayar", a), ("glass+sheen+principled", b), ("metal+leaving glass", c)]
     }
 
     /// The mixture's sampling matches its pdf (the pdf of the whole mixture).

@@ -15,6 +15,7 @@ pub mod microfacet;
 pub mod microfiber;
 mod microfiber_table;
 pub mod mix;
+pub mod oren_nayar;
 pub mod pbr;
 pub mod sheen;
 pub mod thin_film;

@@ -57,7 +57,7 @@ pub struct PrincipledRegs {
 /// Which closure.
 #[derive(Clone, Debug)]
 pub enum ClosureKind {
-    /// Diffuse BSDF (and Subsurface Scattering, approximated).
+    /// Diffuse BSDF: Lambertian, or Oren-Nayar for a roughness above 0.
     Diffuse,
     /// Glossy (constant Fresnel) or Metallic (Schlick), with multiscatter compensation or not.
     Glossy {
@@ -191,7 +191,12 @@ impl ClosureOp {
             }
         };
         match &self.kind {
-            ClosureKind::Diffuse => push(color() * w, Lobe::Diffuse),
+            ClosureKind::Diffuse => {
+                // Cycles takes a roughness below 1e-5 as Lambertian.
+                let sigma = rough();
+                let lobe = if sigma < 1e-5 { Lobe::Diffuse } else { Lobe::oren_nayar(sigma, color().min(Vec3::ONE)) };
+                push(color() * w, lobe)
+            }
             ClosureKind::Translucent => push(color() * w, Lobe::Translucent),
             ClosureKind::Sheen => push(color() * w, Lobe::Sheen { roughness: rough() }),
             ClosureKind::Glossy { metallic, multiscatter } => {

@@ -17,7 +17,7 @@ impl MixBsdf {
             return f;
         }
         for k in 0..self.n as usize {
-            if matches!(self.lobes[k], Lobe::Diffuse | Lobe::Translucent | Lobe::Sheen { .. }) {
+            if matches!(self.lobes[k], Lobe::Diffuse | Lobe::OrenNayar(_) | Lobe::Translucent | Lobe::Sheen { .. }) {
                 f += self.weights[k] * self.lobes[k].eval(wo, wi);
             }
         }
@@ -54,7 +54,9 @@ impl MixBsdf {
         for k in 0..self.n as usize {
             let w = self.weights[k];
             match &self.lobes[k] {
-                Lobe::Diffuse | Lobe::Translucent | Lobe::Sheen { .. } => c[0] += w * self.lobes[k].albedo(wo),
+                Lobe::Diffuse | Lobe::OrenNayar(_) | Lobe::Translucent | Lobe::Sheen { .. } => {
+                    c[0] += w * self.lobes[k].albedo(wo)
+                }
                 Lobe::Glossy { .. } => c[1] += w * self.lobes[k].albedo(wo),
                 Lobe::Dielectric(d) => {
                     let f = fresnel_dielectric(wo.z, d.eta);

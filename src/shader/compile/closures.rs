@@ -290,13 +290,7 @@ impl Compiler<'_> {
     fn simple_closure(&mut self, i: usize, kind: &str, w: Option<Reg>) -> Result<(), String> {
         let zero = self.konst_f(0.0);
         let (ck, color) = match kind {
-            "ShaderNodeBsdfDiffuse" => {
-                let r = self.float(i, "Roughness", 0.0)?;
-                if !self.is_const(r, 1) || self.init[r as usize] != 0.0 {
-                    self.warn(i, "Oren-Nayar roughness is not rendered (Lambertian)");
-                }
-                (ClosureKind::Diffuse, self.vec(i, "Color", Vec3::splat(0.8))?)
-            }
+            "ShaderNodeBsdfDiffuse" => (ClosureKind::Diffuse, self.vec(i, "Color", Vec3::splat(0.8))?),
             "ShaderNodeBsdfGlossy" | "ShaderNodeBsdfAnisotropic" => {
                 let dist = self.prop_str(i, "distribution", "MULTI_GGX");
                 if dist != "MULTI_GGX" && dist != "GGX" {
@@ -371,6 +365,8 @@ impl Compiler<'_> {
         let roughness = match ck {
             ClosureKind::Glossy { .. } | ClosureKind::Glass => self.float(i, "Roughness", 0.5)?,
             ClosureKind::Sheen => self.float(i, "Roughness", 0.5)?,
+            // Oren-Nayar's σ (0: Lambertian).
+            ClosureKind::Diffuse => self.float(i, "Roughness", 0.0)?,
             _ => zero,
         };
         let ior = if matches!(ck, ClosureKind::Glass) { self.float(i, "IOR", 1.5)? } else { zero };
