@@ -59,7 +59,7 @@ pub(crate) fn graph_material(
         // Shader, a Subsurface Scattering node), which `CAUSTIC_materials_subsurface` (written
         // for a Principled BSDF on the output alone) does not; the graph's wins, so a graph
         // edited in the viewport keeps its walk current.
-        subsurface: prog.subsurface.and_then(graph_subsurface).or(mat.subsurface),
+        subsurface: prog.subsurface.map(graph_subsurface).or(mat.subsurface),
         ..Material::default()
     };
     out.metallic = 0.0;
@@ -79,8 +79,8 @@ pub(crate) fn graph_material(
 
 /// The material's walk from the one its graph asks for (zero radii too: those channels
 /// reflect diffusely, the walk's rule).
-fn graph_subsurface(g: crate::shader::instructions::GraphSubsurface) -> Option<crate::scene::material::Subsurface> {
-    Some(crate::scene::material::Subsurface {
+fn graph_subsurface(g: crate::shader::instructions::GraphSubsurface) -> crate::scene::material::Subsurface {
+    crate::scene::material::Subsurface {
         weight: 1.0,
         radius: glam::Vec3::from(g.radius),
         anisotropy: g.anisotropy.clamp(0.0, 0.9),
@@ -91,7 +91,7 @@ fn graph_subsurface(g: crate::shader::instructions::GraphSubsurface) -> Option<c
             crate::scene::material::SubsurfaceMethod::RandomWalk
         },
         enter_at_ior: g.enter_at_ior,
-    })
+    }
 }
 
 impl Loader<'_> {

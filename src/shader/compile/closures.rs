@@ -238,19 +238,18 @@ impl Compiler<'_> {
                  constant, else at Blender's default (a material has one walk medium)",
             );
         }
-        let at =
-            |c: &Self, r: Reg, k: usize, default: f32| if c.is_const(r, 1) { c.init[r as usize + k] } else { default };
+        let at = |c: &Self, r: Reg, default: f32| if c.is_const(r, 1) { c.init[r as usize] } else { default };
         let default_radius = [1.0, 0.2, 0.1];
         let radius =
             if self.is_const(radius, 3) { [0, 1, 2].map(|k| self.init[radius as usize + k]) } else { default_radius };
-        let scale = at(self, scale, 0, 0.05).max(0.0);
+        let scale = at(self, scale, 0.05).max(0.0);
         if method == "BURLEY" {
             self.warn(i, "subsurface method Christensen-Burley is rendered as Random Walk");
         }
         let spec = GraphSubsurface {
             radius: radius.map(|r| r.max(0.0) * scale),
-            anisotropy: at(self, anisotropy, 0, 0.0),
-            ior: at(self, ior, 0, 1.4),
+            anisotropy: at(self, anisotropy, 0.0),
+            ior: at(self, ior, 1.4),
             skin: method == "RANDOM_WALK_SKIN",
             enter_at_ior,
         };
