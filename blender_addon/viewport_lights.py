@@ -77,7 +77,9 @@ def light_snapshot(obj):
                               for k in tree.links)))
     # To 5 digits: a turned light's scale, taken out of its matrix, drifts in the 7th.
     scale = tuple(round(float(x), 5) for x in obj.matrix_world.to_scale())
-    return shape, flags, nodes, scale, light.users
+    # A light turned into a portal (or back) is no longer the loaded light: reload.
+    portal = bool(getattr(getattr(light, "cycles", None), "is_portal", False))
+    return shape, flags, nodes, scale, light.users, portal
 
 
 def loaded_name(obj):

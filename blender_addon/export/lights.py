@@ -65,6 +65,9 @@ def area_light_extension(blender_object):
     if not _lights_catcher(blender_object):
         value["shadow_catcher"] = False
     value.update(light_ray_visibility(blender_object))
+    if getattr(getattr(light, "cycles", None), "is_portal", False):
+        # Cycles' Portal: a window that steers the world's light sampling; it emits nothing.
+        value["portal"] = True
     return value, warnings
 
 

@@ -445,11 +445,21 @@ impl<'a> SceneContext<'a> {
         self.scene.world.as_ref().map_or(Rgb::ZERO, |w| w.radiance_for(d, path))
     }
 
-    /// Density with which light sampling (world choice included) picks direction `d`.
+    /// [`world_pdf`](Self::world_pdf) of the world's map alone, without its portals (BDPT's
+    /// and VCM's world connections, `sample_light_unguided`).
     #[inline]
-    pub fn world_pdf(&self, d: Vec3) -> f32 {
+    pub fn world_map_pdf(&self, d: Vec3) -> f32 {
         match (self.world_light, &self.scene.world) {
             (Some(i), Some(w)) => self.lights.infinite_pmf(i) * w.pdf(d),
+            _ => 0.0,
+        }
+    }
+
+    /// Density with which light sampling at `p` (world choice included) picks direction `d`.
+    #[inline]
+    pub fn world_pdf(&self, p: Vec3, d: Vec3) -> f32 {
+        match (self.world_light, &self.scene.world) {
+            (Some(i), Some(w)) => self.lights.infinite_pmf(i) * w.pdf_from(p, d),
             _ => 0.0,
         }
     }
@@ -592,6 +602,13 @@ impl<'a> SceneContext<'a> {
     #[inline]
     pub fn sample_light(&self, index: usize, p: Vec3, u: Vec2) -> Option<LightSample> {
         self.scene.lights[index].sample_li(self.scene, p, u)
+    }
+
+    /// [`sample_light_from`](Self::sample_light_from) with the world sampled by its map
+    /// alone (BDPT's and VCM's connections: `Light::sample_li_unguided`).
+    #[inline]
+    pub fn sample_light_unguided(&self, index: usize, p: Vec3, u: Vec2, path: LightPath) -> Option<LightSample> {
+        self.scene.lights[index].sample_li_unguided(self.scene, p, u, path)
     }
 
     /// [`sample_light`](Self::sample_light) from a shading point reached by `path` (an

@@ -348,7 +348,11 @@ impl PathState {
         if le == Rgb::ZERO && sun == Rgb::ZERO {
             return None;
         }
-        let w = if self.prev_pdf == 0.0 { 1.0 } else { power_heuristic(self.prev_pdf, ctx.world_pdf(self.dir)) };
+        let w = if self.prev_pdf == 0.0 {
+            1.0
+        } else {
+            power_heuristic(self.prev_pdf, ctx.world_pdf(self.prev_p, self.dir))
+        };
         each(None, le * w);
         Some(le * w + sun)
     }

@@ -11,6 +11,7 @@
 //! Blender's axes b = (x, -z, y) of the glTF direction, u = 0.5 - atan2(b.y, b.x) / 2π and
 //! v = 0.5 + asin(b.z) / π, with v = 1 at the image's top row.
 
+use super::{AreaLight, area_to_solid_angle};
 use crate::math::{Rgb, luminance};
 use crate::sampling::Distribution1D;
 use crate::sampling::warp::{UNIFORM_SPHERE_PDF, uniform_sphere};
@@ -98,7 +99,15 @@ pub struct Environment {
     /// A world node graph: the radiance of every direction (`image` is then its baked
     /// table, which only steers sampling).
     pub graph: Option<super::world_graph::WorldGraph>,
+    /// Blender's light portals (area lights marked Portal): windows through which light
+    /// sampling also aims at the world from points on their inner side. They emit nothing
+    /// and change only the noise, never the mean.
+    pub portals: Vec<AreaLight>,
 }
+
+/// Share of world light samples aimed through portals where a portal faces the point
+/// (Cycles' portal and map methods weigh one each).
+const PORTAL_SHARE: f32 = 0.5;
 
 impl Environment {
     /// The world of a node graph: its radiance baked into a table for sampling (`bake_width`
@@ -107,13 +116,19 @@ impl Environment {
     pub fn from_graph(graph: super::world_graph::WorldGraph) -> Option<Environment> {
         if let Some(c) = graph.program().constant_emission {
             let color = if c.is_finite() { c.max(Vec3::ZERO) } else { return None };
-            return Some(Environment { color, image: None, rotation: 0.0, graph: None });
+            return Some(Environment { color, image: None, rotation: 0.0, graph: None, portals: Vec::new() });
         }
-        let unrotated = Environment { color: Rgb::ONE, image: None, rotation: 0.0, graph: None };
+        let unrotated = Environment { color: Rgb::ONE, image: None, rotation: 0.0, graph: None, portals: Vec::new() };
         let width = graph.bake_width();
         let texels = graph.bake(width, |uv| unrotated.uv_to_dir(uv));
         let image = EnvImage::new(width, width / 2, texels)?;
-        Some(Environment { color: Rgb::ONE, image: Some(image), rotation: 0.0, graph: Some(graph) })
+        Some(Environment {
+            color: Rgb::ONE,
+            image: Some(image),
+            rotation: 0.0,
+            graph: Some(graph),
+            portals: Vec::new(),
+        })
     }
 
     /// Image coordinates of a glTF direction.
@@ -196,6 +211,69 @@ impl Environment {
         if cos_lat < 1e-6 { 0.0 } else { p / (2.0 * PI * PI * cos_lat) }
     }
 
+    /// A portal lies on `p`'s side when `p` is in front of it, where its light would go
+    /// (Cycles' side test, with its 1e-4 margin).
+    #[inline]
+    fn portal_faces(portal: &AreaLight, p: Vec3) -> bool {
+        portal.normal.dot(p - portal.center) > 1e-4
+    }
+
+    /// Solid-angle density of the portal method from `p` choosing `d` (a portal chosen
+    /// uniformly among those facing `p`, a point uniformly on it), and how many face `p`.
+    #[inline]
+    fn portal_pdf(&self, p: Vec3, d: Vec3) -> (f32, usize) {
+        let (mut sum, mut facing) = (0.0f32, 0usize);
+        for portal in &self.portals {
+            if !Self::portal_faces(portal, p) {
+                continue;
+            }
+            facing += 1;
+            if let Some(t) = portal.intersect(p, d, f32::INFINITY) {
+                sum += area_to_solid_angle(1.0 / portal.area, t, portal.normal.dot(d).abs());
+            }
+        }
+        if facing == 0 { (0.0, 0) } else { (sum / facing as f32, facing) }
+    }
+
+    /// Samples a direction toward the world from the point `p`: as [`sample`](Self::sample),
+    /// or with portals facing `p` half the time through one of them (Cycles' portal
+    /// method), with the density of the mixture.
+    #[inline]
+    pub fn sample_from(&self, p: Vec3, u: Vec2) -> Option<(Vec3, Rgb, f32)> {
+        if self.portals.is_empty() {
+            return self.sample(u);
+        }
+        let facing = self.portals.iter().filter(|q| Self::portal_faces(q, p)).count();
+        if facing == 0 {
+            return self.sample(u);
+        }
+        let d = if u.x < PORTAL_SHARE {
+            // Rescaled: u.x picks the method, then the portal; u.y and the rest the point.
+            let ux = u.x / PORTAL_SHARE * facing as f32;
+            let k = (ux as usize).min(facing - 1);
+            let portal = self.portals.iter().filter(|q| Self::portal_faces(q, p)).nth(k)?;
+            let q = portal.sample_point(Vec2::new(ux - k as f32, u.y));
+            (q - p).try_normalize()?
+        } else {
+            let ux = (u.x - PORTAL_SHARE) / (1.0 - PORTAL_SHARE);
+            self.sample(Vec2::new(ux.min(1.0 - f32::EPSILON), u.y))?.0
+        };
+        let pdf = self.pdf_from(p, d);
+        (pdf > 0.0 && pdf.is_finite()).then(|| (d, self.radiance(d), pdf))
+    }
+
+    /// Solid-angle density with which [`sample_from`](Self::sample_from) at `p` chooses `d`.
+    #[inline]
+    pub fn pdf_from(&self, p: Vec3, d: Vec3) -> f32 {
+        if self.portals.is_empty() {
+            return self.pdf(d);
+        }
+        match self.portal_pdf(p, d) {
+            (_, 0) => self.pdf(d),
+            (portal, _) => PORTAL_SHARE * portal + (1.0 - PORTAL_SHARE) * self.pdf(d),
+        }
+    }
+
     /// Solid-angle density of `sample` choosing direction `d`.
     #[inline]
     pub fn pdf(&self, d: Vec3) -> f32 {
@@ -251,15 +329,52 @@ mod tests {
     #[test]
     fn chi2_environment_image() {
         for rotation in [0.0f32, 1.3] {
-            let env = Environment { color: Rgb::ONE, image: Some(test_image()), rotation, graph: None };
+            let env =
+                Environment { color: Rgb::ONE, image: Some(test_image()), rotation, graph: None, portals: Vec::new() };
             let t = ChiSquareTest::new(&format!("environment map rot={rotation}"));
             assert_chi2(t.run_with_pdf(|u| env.sample(u).map(|(d, _, p)| (d, p)), |d| env.pdf(d)));
         }
     }
 
+    /// Portals as a scene has them: two facing the origin, one behind the first (a ray
+    /// through the first passes the second too, so the densities sum), one facing away
+    /// (never chosen, and a point behind every portal samples the map alone).
+    fn portals() -> Vec<AreaLight> {
+        use crate::light::AreaShape;
+        let quad = |shape, c: [f32; 3], ax: [f32; 3], ay: [f32; 3], emit: [f32; 3]| {
+            AreaLight::new(shape, Vec3::from(c), Vec3::from(ax), Vec3::from(ay), Vec3::from(emit), Rgb::ZERO).unwrap()
+        };
+        vec![
+            quad(AreaShape::Rectangle, [0.0, 0.0, -2.0], [0.8, 0.0, 0.0], [0.0, 0.5, 0.0], [0.0, 0.0, 1.0]),
+            quad(AreaShape::Ellipse, [1.5, 0.5, 0.0], [0.0, 0.6, 0.0], [0.0, 0.0, 0.4], [-1.0, 0.0, 0.0]),
+            quad(AreaShape::Rectangle, [0.2, 0.1, -3.0], [1.5, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]),
+            quad(AreaShape::Rectangle, [0.0, -2.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]),
+        ]
+    }
+
+    /// World sampling through portals (the portal method mixed with the map's or the
+    /// uniform sphere's) draws directions with the density `pdf_from` gives, from a point
+    /// facing three portals and from one behind them all.
+    #[test]
+    fn chi2_environment_through_portals() {
+        for (label, image) in [("image", Some(test_image())), ("constant", None)] {
+            let env = Environment { color: Rgb::ONE, image, rotation: 0.3, graph: None, portals: portals() };
+            for p in [Vec3::ZERO, Vec3::new(0.1, -0.2, -5.0)] {
+                let t = ChiSquareTest::new(&format!("portals, {label} world, from {p}"));
+                assert_chi2(t.run_with_pdf(|u| env.sample_from(p, u).map(|(d, _, q)| (d, q)), |d| env.pdf_from(p, d)));
+            }
+        }
+        // The origin faces the first three: half the density goes through them.
+        let env = Environment { color: Rgb::ONE, image: None, rotation: 0.0, graph: None, portals: portals() };
+        let through_both = env.pdf_from(Vec3::ZERO, -Vec3::Z);
+        let (one, two) = (1.0 / (4.0 * 0.8 * 0.5) * 4.0, 1.0 / (4.0 * 1.5 * 1.0) * 9.0);
+        let want = 0.5 * (one + two) / 3.0 + 0.5 * UNIFORM_SPHERE_PDF;
+        assert!((through_both - want).abs() < 1e-4 * want, "{through_both} vs {want}");
+    }
+
     #[test]
     fn uv_direction_round_trip_and_blender_axes() {
-        let env = Environment { color: Rgb::ONE, image: None, rotation: 0.7, graph: None };
+        let env = Environment { color: Rgb::ONE, image: None, rotation: 0.7, graph: None, portals: Vec::new() };
         for &(u, v) in &[(0.1f32, 0.2f32), (0.5, 0.5), (0.9, 0.8), (0.3, 0.95)] {
             let d = env.uv_to_dir(Vec2::new(u, v));
             let back = env.dir_to_uv(d);
@@ -267,7 +382,7 @@ mod tests {
         }
         // Unrotated: Blender's -X (glTF -X) is the image centre u = 0.5... per the formula
         // u = 0.5 - atan2(y, x)/2π: +X is u = 0.5, +Y (glTF -Z) is u = 0.25; up is v = 1.
-        let env = Environment { color: Rgb::ONE, image: None, rotation: 0.0, graph: None };
+        let env = Environment { color: Rgb::ONE, image: None, rotation: 0.0, graph: None, portals: Vec::new() };
         assert!((env.dir_to_uv(Vec3::X) - Vec2::new(0.5, 0.5)).length() < 1e-5);
         assert!((env.dir_to_uv(-Vec3::Z) - Vec2::new(0.25, 0.5)).length() < 1e-5);
         assert!((env.dir_to_uv(Vec3::Y).y - 1.0).abs() < 1e-5);

@@ -26,7 +26,27 @@ impl EmitterTriangle {
     }
 }
 
+/// A world light sample from `p` toward `wi`.
+#[inline]
+fn world_sample(p: Vec3, wi: Vec3, li: crate::math::Rgb, pdf: f32) -> LightSample {
+    LightSample { wi, dist: f32::INFINITY, li, pdf, delta: false, point: p + wi, normal: Vec3::ZERO }
+}
+
 impl Light {
+    /// [`sample_li_from`](Self::sample_li_from) with the world sampled by its map alone,
+    /// its portals left out: BDPT and VCM weigh a world connection against light subpaths
+    /// that leave the world by the map, whose density must be the connection's too.
+    #[inline]
+    pub fn sample_li_unguided(&self, scene: &Scene, p: Vec3, u: Vec2, path: LightPath) -> Option<LightSample> {
+        match self {
+            Light::World => {
+                let (wi, li, pdf) = scene.world.as_ref()?.sample(u)?;
+                Some(world_sample(p, wi, li, pdf))
+            }
+            _ => self.sample_li_from(scene, p, u, path),
+        }
+    }
+
     /// Samples a point of this light as seen from `p` for next-event estimation: the
     /// direction, distance, incident radiance and its solid-angle density. An emissive
     /// node graph is evaluated as for light sampling without a path behind it.
@@ -168,8 +188,8 @@ impl Light {
             }
             Light::World => {
                 let env = scene.world.as_ref()?;
-                let (wi, li, pdf) = env.sample(u)?;
-                Some(LightSample { wi, dist: f32::INFINITY, li, pdf, delta: false, point: p + wi, normal: Vec3::ZERO })
+                let (wi, li, pdf) = env.sample_from(p, u)?;
+                Some(world_sample(p, wi, li, pdf))
             }
             Light::Triangle { tri } => {
                 let et = EmitterTriangle::of(scene, *tri);

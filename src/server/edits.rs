@@ -367,7 +367,9 @@ pub fn world(scene: &mut Scene, color: [f32; 3]) -> Result<Invalidates, String> 
             return Err("the world is a shader graph: its colour cannot be edited, send load instead".into());
         }
         Some(w) => w.color = c,
-        None => scene.world = Some(Environment { color: c, image: None, rotation: 0.0, graph: None }),
+        None => {
+            scene.world = Some(Environment { color: c, image: None, rotation: 0.0, graph: None, portals: Vec::new() })
+        }
     }
     // Lights at infinity sit beside the tree; the order among lights is free, so a world
     // that becomes a light is added last, and one that turns black keeps its slot with power

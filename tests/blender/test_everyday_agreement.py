@@ -139,12 +139,26 @@ def instances_with_random_colour(scene):
     scenes.light(scene, "Sun", "SUN", rotation_deg=(25.0, 10.0, 0.0), energy=2.0, angle=0.0)
 
 
+def portal_over_the_scene(scene):
+    """An area light marked Portal above the scene under a grey-blue world. Before: it
+    was exported as an ordinary area light of 200 W (R 11.97, G 10.75, B 9.78 of Cycles);
+    a portal emits nothing and only steers the world's light sampling (after: 1.0001)."""
+    world = bpy.data.worlds.new("Sky")
+    if world.node_tree is None:
+        world.use_nodes = True
+    world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.4, 0.45, 0.5, 1.0)
+    scene.world = world
+    portal = scenes.light(scene, "Portal", "AREA", location=(0.0, 0.0, 2.0), energy=200.0, size=1.0)
+    portal.data.cycles.is_portal = True
+
+
 CASES = {
     "lights_with_temperature": lights_with_temperature,
     "image_linear_box_projection": image_linear_box_projection,
     "image_cubic_flat": image_cubic_flat,
     "metallic_physical_conductor": metallic_physical_conductor,
     "instances_with_random_colour": instances_with_random_colour,
+    "portal_over_the_scene": portal_over_the_scene,
 }
 
 

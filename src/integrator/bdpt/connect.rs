@@ -267,7 +267,8 @@ impl BdptIntegrator {
             // The world, a sun or a soft point light: light sampling as the path tracer
             // does; weighted over every strategy for lights that start light subpaths,
             // else against BSDF sampling only.
-            let Some(ls) = ctx.sample_light(index, x.p, Vec2::new(u[1], u[2])) else {
+            let Some(ls) = ctx.sample_light_unguided(index, x.p, Vec2::new(u[1], u[2]), LightPath::LIGHT_EMISSION)
+            else {
                 return none;
             };
             let wi_l = x.frame.to_local(ls.wi);

@@ -128,7 +128,7 @@ pub(crate) fn trap_weight(ctx: &SceneContext, z1: &Vertex, to_z2: Vec3, end: Lig
             _ => return 1.0,
         },
         LightEnd::Direction { d, .. } => match ctx.scene.lights[light] {
-            Light::World => (ctx.world_pdf(d), d),
+            Light::World => (ctx.world_map_pdf(d), d),
             Light::Directional { cos_half, .. } => {
                 (ctx.lights.pmf(hit.p, n_select, light) * uniform_cone_pdf(cos_half), d)
             }

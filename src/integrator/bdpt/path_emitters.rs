@@ -74,7 +74,7 @@ impl BdptIntegrator {
             return Rgb::ZERO;
         }
         // The emitter as next-event estimation from this vertex sees it.
-        let Some(ls) = ctx.sample_light_from(index, x.p, Vec2::new(u[1], u[2]), hit.light_path) else {
+        let Some(ls) = ctx.sample_light_unguided(index, x.p, Vec2::new(u[1], u[2]), hit.light_path) else {
             return Rgb::ZERO;
         };
         let (wo_l, wi_l) = (x.frame.to_local(x.wo), x.frame.to_local(ls.wi));

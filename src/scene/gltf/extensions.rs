@@ -32,6 +32,9 @@ pub(super) struct AreaLightExt {
     pub(super) transmission_visible: bool,
     #[serde(default = "yes")]
     pub(super) volume_scatter_visible: bool,
+    /// Cycles' Portal: the light emits nothing and steers the world's light sampling.
+    #[serde(default)]
+    pub(super) portal: bool,
 }
 
 /// The kinds of ray that see a light whose Ray Visibility flags beyond Camera are these

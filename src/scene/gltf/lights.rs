@@ -21,6 +21,14 @@ pub(crate) fn triangle_light_power(mesh: &Mesh, tri: u32, radiance: f32, double_
     radiance * area * std::f32::consts::PI * sides
 }
 
+/// What a `CAUSTIC_lights_area` node becomes.
+pub(super) enum AreaResult {
+    /// An emitting area light and its report.
+    Light(Light, LightReport),
+    /// A portal (Cycles' Portal): it steers the world's light sampling and emits nothing.
+    Portal(AreaLight),
+}
+
 impl Loader<'_> {
     pub(super) fn punctual_light(
         &mut self,
@@ -147,12 +155,14 @@ impl Loader<'_> {
         ))
     }
 
+    /// An area light of `CAUSTIC_lights_area` on node `name`: a light with its report, or
+    /// a portal of the world; None (warned) when its area is zero.
     pub(super) fn area_light(
         &mut self,
         ext: &serde_json::Value,
         name: &str,
         world: &Mat4,
-    ) -> Result<Option<(Light, LightReport)>> {
+    ) -> Result<Option<AreaResult>> {
         let a: AreaLightExt = serde_json::from_value(ext.clone())
             .map_err(|e| self.err(format!("node '{name}': CAUSTIC_lights_area is malformed: {e}")))?;
         let shape = match a.shape.as_str() {
@@ -190,10 +200,20 @@ impl Loader<'_> {
         let ax = world.transform_vector3(Vec3::X * (0.5 * sx));
         let ay = world.transform_vector3(Vec3::Y * (0.5 * sy));
         let emit = world.transform_vector3(-Vec3::Z);
+        if a.portal {
+            // A window for the world's light sampling: its shape and facing only.
+            return match AreaLight::new(shape, center, ax, ay, emit, Vec3::ZERO) {
+                Some(l) => Ok(Some(AreaResult::Portal(l))),
+                None => {
+                    self.warn(format!("portal '{name}' has zero area and was skipped"));
+                    Ok(None)
+                }
+            };
+        }
         match AreaLight::new(shape, center, ax, ay, emit, color * a.power)
             .map(|l| AreaLight { camera_visible: a.camera_visible, ..l }.with_spread(a.spread))
         {
-            Some(l) => Ok(Some((
+            Some(l) => Ok(Some(AreaResult::Light(
                 Light::Area(l),
                 LightReport {
                     kind: "area".into(),

@@ -455,8 +455,17 @@ impl<'a> Loader<'a> {
         }
         let scene_radius = ((hi - lo).length() * 0.5).max(1e-3);
 
+        let mut portals = Vec::new();
         for (ext, name, world, rule) in area_lights {
-            if let Some((light, rep)) = self.area_light(&ext, &name, &world)? {
+            let (light, rep) = match self.area_light(&ext, &name, &world)? {
+                Some(lights::AreaResult::Light(light, rep)) => (light, rep),
+                Some(lights::AreaResult::Portal(p)) => {
+                    portals.push(p);
+                    continue;
+                }
+                None => continue,
+            };
+            {
                 if !rep.cast_shadow {
                     shadowless.push(lights.len());
                 }
@@ -476,7 +485,12 @@ impl<'a> Loader<'a> {
             }
         }
         self.profile.mesh = phase.elapsed().as_secs_f64() - self.profile.tangents;
-        let (world, world_volume) = self.world(&value, &doc, &buffers)?;
+        let (mut world, world_volume) = self.world(&value, &doc, &buffers)?;
+        match &mut world {
+            Some(w) => w.portals = portals,
+            None if !portals.is_empty() => self.warn("the scene has portals but no world: they do nothing"),
+            None => {}
+        }
         let world_power = world.as_ref().map(|w| {
             // Power through the scene's bounding disk: irradiance π L over π R².
             std::f32::consts::PI * w.mean_luminance() * std::f32::consts::PI * scene_radius * scene_radius

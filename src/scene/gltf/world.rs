@@ -136,7 +136,10 @@ impl Loader<'_> {
                 )
             }
         };
-        Ok((Some(crate::light::Environment { color, image, rotation: w.rotation, graph: None }), medium))
+        Ok((
+            Some(crate::light::Environment { color, image, rotation: w.rotation, graph: None, portals: Vec::new() }),
+            medium,
+        ))
     }
 }
 
