@@ -320,6 +320,8 @@ fn bad_media_are_refused() {
         ("CAUSTIC_materials_medium", json!({"scatter_color": [1.0, -0.5, 1.0]})),
         ("CAUSTIC_materials_medium", json!({"anisotropy": 2.0})),
         ("CAUSTIC_materials_medium", json!({"sigma": 1.0})),
+        ("CAUSTIC_materials_medium", json!({"phase": "SCHLICK"})),
+        ("CAUSTIC_materials_medium", json!({"phase": "MIE", "phase_diameter": "big"})),
         ("CAUSTIC_materials_subsurface", json!({"radius": [1.0, -1.0, 1.0]})),
         ("CAUSTIC_materials_subsurface", json!({"radius": [1.0, 1.0, 1.0], "method": "burley"})),
     ] {

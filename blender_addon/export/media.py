@@ -157,6 +157,25 @@ def _density(node, what, warnings):
     return float(_value(node, "Density", what, warnings, 1.0))
 
 
+# The Volume Scatter inputs each phase function reads beside Anisotropy -> the contract's keys.
+_PHASE_INPUTS = {"DRAINE": (("Alpha", "phase_alpha", 0.5),),
+                 "FOURNIER_FORAND": (("IOR", "phase_ior", 1.33), ("Backscatter", "phase_backscatter", 0.1)),
+                 "MIE": (("Diameter", "phase_diameter", 20.0),)}
+
+
+def scatter_phase(node, what, warnings):
+    """A Volume Scatter node's Phase (Blender 5.0: Henyey-Greenstein, Fournier-Forand, Draine,
+    Rayleigh, Mie) and the inputs it reads, as the contract's `phase*` keys; Henyey-Greenstein
+    writes nothing (the default)."""
+    phase = getattr(node, "phase", "HENYEY_GREENSTEIN")
+    if phase == "HENYEY_GREENSTEIN":
+        return {}
+    value = {"phase": phase}
+    for name, key, default in _PHASE_INPUTS.get(phase, ()):
+        value[key] = float(_value(node, name, what, warnings, default))
+    return value
+
+
 def volume_medium(node, what, warnings):
     """The medium coefficients of a volume shader node (Principled Volume, Volume Scatter,
     Volume Absorption) as `CAUSTIC_materials_medium` has them, or None (with a warning) for
@@ -184,10 +203,7 @@ def volume_medium(node, what, warnings):
         value["scatter_color"] = [max(c, 0.0) for c in rgb("Color", (0.8, 0.8, 0.8))]
         value["absorption_color"] = [0.0, 0.0, 0.0]
         value["anisotropy"] = float(_value(node, "Anisotropy", what, warnings, 0.0))
-        phase = getattr(node, "phase", "HENYEY_GREENSTEIN")
-        if phase != "HENYEY_GREENSTEIN":
-            warnings.append(f"{what}: the {node.name} node's {phase} phase function is rendered as "
-                            "Henyey-Greenstein")
+        value.update(scatter_phase(node, what, warnings))
     elif node.type == "VOLUME_ABSORPTION":
         value["density"] = max(_density(node, what, warnings), 0.0)
         value["scatter_color"] = [0.0, 0.0, 0.0]

@@ -17,6 +17,7 @@ import sys
 
 import bpy
 
+from .media import scatter_phase
 from .nodes import linked_node, material_output, socket, value as _value
 
 VOLUME_EXTENSION = "CAUSTIC_volume"
@@ -86,10 +87,7 @@ def volume_shader(blender_material, what, warnings):
         # (1 - sqrt(absorption colour)) is 0.
         shader.update(density=num("Density", 1.0), color=rgb("Color", (0.8,) * 3),
                       absorption_color=[1.0, 1.0, 1.0], anisotropy=num("Anisotropy", 0.0))
-        phase = getattr(node, "phase", "HENYEY_GREENSTEIN")
-        if phase != "HENYEY_GREENSTEIN":
-            warnings.append(f"{mat_what}: the {node.name} node's {phase} phase function is rendered as "
-                            "Henyey-Greenstein")
+        shader.update(scatter_phase(node, mat_what, warnings))
     elif node.type == "VOLUME_ABSORPTION":
         # sigma_a = (1 - colour) x density: colour 0 and absorption colour c^2 give it.
         c = rgb("Color", (0.8,) * 3)

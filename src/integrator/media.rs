@@ -8,7 +8,7 @@ use super::SceneContext;
 use crate::light::LightSample;
 use crate::math::{Rgb, offset_ray_origin};
 use crate::medium::tracking::delta_tracking;
-use crate::medium::{FreeFlight, GridMedium, HenyeyGreenstein, Medium, MediumStack, WalkRng};
+use crate::medium::{FreeFlight, GridMedium, Medium, MediumStack, Phase, WalkRng};
 use crate::scene::AlphaMode;
 use crate::scene::light_path::LightPath;
 use crate::scene::visibility::RayMask;
@@ -31,7 +31,7 @@ pub fn medium_segment(
     beta: Rgb,
     u: [f32; 2],
     l: &mut Rgb,
-) -> (Option<(f32, HenyeyGreenstein)>, Rgb, Rgb) {
+) -> (Option<(f32, Phase)>, Rgb, Rgb) {
     if !ctx.media_act {
         // Vacuum everywhere: the weights below would be exactly 1 and nothing emitted.
         return (None, Rgb::ONE, Rgb::ONE);
@@ -65,7 +65,7 @@ fn grid_segment(
     beta: Rgb,
     u: [f32; 2],
     l: &mut Rgb,
-) -> (Option<(f32, HenyeyGreenstein)>, Rgb, Rgb) {
+) -> (Option<(f32, Phase)>, Rgb, Rgb) {
     let mut rng = WalkRng::new(u[1], u[0].to_bits());
     let mut emitted = Rgb::ZERO;
     let (flight, pass) = delta_tracking(g, org, dir, t_surface, beta, &mut rng, &mut emitted);

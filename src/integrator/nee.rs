@@ -7,7 +7,7 @@ use super::{SceneContext, media, power_heuristic};
 use crate::bsdf::BsdfAt;
 use crate::light::LightSample;
 use crate::math::Rgb;
-use crate::medium::{HenyeyGreenstein, MediumStack};
+use crate::medium::{MediumStack, Phase};
 use crate::render::job::RayStats;
 use crate::scene::light_path::LightPath;
 use crate::scene::linking::NO_OBJECT;
@@ -129,7 +129,7 @@ pub fn medium_nee_light(
     ctx: &SceneContext,
     p: Vec3,
     dir: Vec3,
-    phase: HenyeyGreenstein,
+    phase: Phase,
     media: MediumStack,
     path: LightPath,
     u_light: f32,

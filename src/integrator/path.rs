@@ -38,7 +38,7 @@ use crate::bsdf::dielectric::refract;
 use crate::bsdf::microfacet::Ggx;
 use crate::film::CameraSample;
 use crate::math::{Frame, Rgb, offset_ray_origin};
-use crate::medium::{HenyeyGreenstein, MediumStack, WalkMedium, WalkRng, skin_mean_free_path};
+use crate::medium::{MediumStack, Phase, WalkMedium, WalkRng, skin_mean_free_path};
 use crate::render::job::RayStats;
 use crate::sampling::PixelSampler;
 use crate::sampling::warp::{cosine_hemisphere, cosine_hemisphere_pdf};
@@ -181,7 +181,7 @@ impl PathIntegrator {
         ctx: &SceneContext,
         p: Vec3,
         dir: Vec3,
-        phase: HenyeyGreenstein,
+        phase: Phase,
         media: MediumStack,
         beta: Rgb,
         depth: u32,
@@ -199,7 +199,7 @@ impl PathIntegrator {
         ctx: &SceneContext,
         p: Vec3,
         dir: Vec3,
-        phase: HenyeyGreenstein,
+        phase: Phase,
         media: MediumStack,
         beta: Rgb,
         depth: u32,

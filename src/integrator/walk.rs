@@ -10,7 +10,7 @@ use super::SceneContext;
 use super::media::medium_segment;
 use crate::accel::Hit;
 use crate::math::{Rgb, offset_ray_origin};
-use crate::medium::{HenyeyGreenstein, MediumStack};
+use crate::medium::{MediumStack, Phase};
 use crate::render::job::RayStats;
 use crate::scene::AlphaMode;
 use crate::scene::camera::CameraRay;
@@ -74,7 +74,7 @@ pub enum Step {
         /// Position of the event.
         p: Vec3,
         /// The medium's phase function.
-        phase: HenyeyGreenstein,
+        phase: Phase,
         /// The free flight's weight (already in the throughput): photon tracing's
         /// Russian roulette is taken on it.
         weight: Rgb,

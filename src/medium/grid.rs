@@ -19,7 +19,7 @@
 //! hull of its active voxels; here the domain is the grid's whole box, which differs only
 //! where uniform Emission Strength glows in inactive space.
 
-use super::HenyeyGreenstein;
+use super::Phase;
 use super::blackbody::{CLOSURE_WEIGHT_CUTOFF, blackbody_emission, blackbody_scale};
 pub use super::coefficients::{PointCoefficients, VolumeShader};
 use crate::math::Rgb;
@@ -58,7 +58,7 @@ pub struct GridMedium {
     /// The shader.
     pub shader: VolumeShader,
     /// Phase function.
-    pub phase: HenyeyGreenstein,
+    pub phase: Phase,
     /// Majorant cells per axis.
     pub cells: [u32; 3],
     /// Per cell, a bound of max-channel σt (or the emission floor) over the cell; for a
@@ -167,7 +167,7 @@ impl GridMedium {
             temperature,
             color,
             shader,
-            phase: HenyeyGreenstein::new(shader.anisotropy),
+            phase: Phase::hg(shader.anisotropy),
             cells,
             majorant: Vec::new(),
             procedural: None,
@@ -311,12 +311,12 @@ impl GridMedium {
     /// graph can vary its Anisotropy (read there; outside an unbounded medium's box, at the
     /// nearest box point), other media have one phase function.
     #[inline]
-    pub fn phase_at(&self, p: Vec3) -> HenyeyGreenstein {
+    pub fn phase_at(&self, p: Vec3) -> Phase {
         match &self.procedural {
             Some(src) if src.volume.anisotropy_reg.is_some() => {
                 let (lo, hi) = self.domain();
                 let q = self.index_from_world.transform_point3(p).clamp(lo, hi);
-                HenyeyGreenstein::new(src.anisotropy_at(self.world_from_index.transform_point3(q)))
+                self.phase.with_anisotropy(src.anisotropy_at(self.world_from_index.transform_point3(q)))
             }
             _ => self.phase,
         }

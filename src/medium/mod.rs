@@ -23,7 +23,7 @@ pub mod walk;
 
 use crate::math::Rgb;
 pub use grid::GridMedium;
-pub use phase::HenyeyGreenstein;
+pub use phase::{FournierForand, HenyeyGreenstein, Mie, Phase};
 pub use tracking::Medium;
 
 /// A homogeneous medium: coefficients per scene unit.
@@ -34,7 +34,7 @@ pub struct HomogeneousMedium {
     /// Scattering coefficient σs.
     pub sigma_s: Rgb,
     /// Phase function.
-    pub phase: HenyeyGreenstein,
+    pub phase: Phase,
     /// Emitted radiance per unit length (Blender's volume emission).
     pub emission: Rgb,
 }
@@ -84,7 +84,7 @@ pub fn sample_channel(weights: Rgb, u: f32) -> (usize, Rgb) {
 impl HomogeneousMedium {
     /// A purely absorbing medium (glTF `KHR_materials_volume`, Beer-Lambert).
     pub fn absorbing(sigma_a: Rgb) -> Self {
-        HomogeneousMedium { sigma_a, sigma_s: Rgb::ZERO, phase: HenyeyGreenstein::new(0.0), emission: Rgb::ZERO }
+        HomogeneousMedium { sigma_a, sigma_s: Rgb::ZERO, phase: Phase::hg(0.0), emission: Rgb::ZERO }
     }
 
     /// Extinction σt = σa + σs.
@@ -462,7 +462,7 @@ mod tests {
         let m = HomogeneousMedium {
             sigma_a: Rgb::new(0.1, 0.5, 2.0),
             sigma_s: Rgb::new(1.0, 0.3, 0.2),
-            phase: HenyeyGreenstein::new(0.0),
+            phase: Phase::hg(0.0),
             emission: Rgb::ZERO,
         };
         let t_max = 1.3;
@@ -507,7 +507,7 @@ mod tests {
         let m = HomogeneousMedium {
             sigma_a: Rgb::new(0.0, 1.0, 1e-7),
             sigma_s: Rgb::ZERO,
-            phase: HenyeyGreenstein::new(0.0),
+            phase: Phase::hg(0.0),
             emission: Rgb::ONE,
         };
         let e = m.emitted(2.0);

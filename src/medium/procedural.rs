@@ -56,6 +56,7 @@ pub fn procedural_medium(name: String, lo: Vec3, hi: Vec3, source: ProceduralSou
         temperature: 0.0,
     };
     let mut g = GridMedium::new(name, [DIMS; 3], world_from_index, [None, None, None], shader);
+    g.phase = source.volume.phase;
     g.procedural = Some(Box::new(source));
     let (majorant, emits) = sampled_majorant(&g);
     g.majorant = majorant;
@@ -382,9 +383,13 @@ mod tests {
         assert!(volume.anisotropy_reg.is_some() && volume.warnings.is_empty(), "{:?}", volume.warnings);
         let source = ProceduralSource { volume, object: crate::shader::geom::NO_OBJECT };
         let g = procedural_medium("aniso".into(), Vec3::ZERO, Vec3::ONE, source);
-        assert!((g.phase.g - 0.1).abs() < 1e-6);
+        let hg_g = |p: crate::medium::Phase| match p {
+            crate::medium::Phase::HenyeyGreenstein(h) => h.g,
+            other => panic!("not Henyey-Greenstein: {other:?}"),
+        };
+        assert!((hg_g(g.phase) - 0.1).abs() < 1e-6);
         for (x, want) in [(0.25f32, 0.2f32), (0.75, 0.6), (3.0, 0.8 * g.world_corners()[7].x.min(1.0))] {
-            let got = g.phase_at(Vec3::new(x, 0.5, -0.5)).g;
+            let got = hg_g(g.phase_at(Vec3::new(x, 0.5, -0.5)));
             assert!((got - want).abs() < 1e-5, "x = {x}: g = {got}, want {want}");
         }
     }

@@ -24,7 +24,7 @@
 //! render stays deterministic.
 
 use super::grid::GridMedium;
-use super::{FreeFlight, HenyeyGreenstein, HomogeneousMedium, WalkRng};
+use super::{FreeFlight, HomogeneousMedium, Phase, WalkRng};
 use crate::math::Rgb;
 use glam::Vec3;
 
@@ -53,7 +53,7 @@ impl Medium<'_> {
 
     /// The phase function.
     #[inline]
-    pub fn phase(&self) -> HenyeyGreenstein {
+    pub fn phase(&self) -> Phase {
         match self {
             Medium::Homogeneous(m) => m.phase,
             Medium::Grid(g) => g.phase,

@@ -5,7 +5,7 @@
 
 use crate::integrator::bdpt::passes::First;
 use crate::math::Rgb;
-use crate::medium::{HenyeyGreenstein, MediumStack};
+use crate::medium::{MediumStack, Phase};
 use glam::Vec3;
 
 /// A segment a light subpath crossed in a medium after delta bounces alone.
@@ -35,7 +35,7 @@ pub(crate) struct MediumVertex {
     /// Unit direction the camera subpath arrived along.
     pub dir: Vec3,
     /// The phase function there.
-    pub phase: HenyeyGreenstein,
+    pub phase: Phase,
     /// The camera subpath's throughput (σ_s · Tr / p of the free flight included).
     pub beta: Rgb,
     /// Scattering events before it (surfaces of the camera subpath).

@@ -200,7 +200,7 @@ impl VolumeMap {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::medium::HenyeyGreenstein;
+    use crate::medium::Phase;
 
     /// The homogeneous collision's stored weight integrates the segment's light: over many
     /// draws, the mean of β·Tr/p restricted to t < t_end equals ∫₀^t_end Tr(t) dt per channel
@@ -210,7 +210,7 @@ mod tests {
         let m = HomogeneousMedium {
             sigma_a: Rgb::new(0.2, 0.5, 0.1),
             sigma_s: Rgb::new(1.0, 0.5, 2.0),
-            phase: HenyeyGreenstein::new(0.3),
+            phase: Phase::hg(0.3),
             emission: Rgb::ZERO,
         };
         let t_end = 0.8f32;

@@ -85,6 +85,18 @@ pub(super) struct MediumExt {
     pub(super) temperature: f32,
     #[serde(default = "yes")]
     pub(super) surface: bool,
+    /// Blender's Volume Scatter Phase by its enum name (docs/contract.md), and the inputs the
+    /// non-Henyey-Greenstein ones read.
+    #[serde(default = "hg_phase")]
+    pub(super) phase: String,
+    #[serde(default = "phase_alpha")]
+    pub(super) phase_alpha: f32,
+    #[serde(default = "phase_ior")]
+    pub(super) phase_ior: f32,
+    #[serde(default = "phase_backscatter")]
+    pub(super) phase_backscatter: f32,
+    #[serde(default = "phase_diameter")]
+    pub(super) phase_diameter: f32,
     /// The Volume output's node graph when the shader's inputs vary over the medium (a
     /// texture on the Density): its coefficients are then the graph's (docs/contract.md).
     #[serde(default)]
@@ -92,6 +104,31 @@ pub(super) struct MediumExt {
     /// The volume shader node's index in `graph`.
     #[serde(default)]
     pub(super) graph_shader: Option<usize>,
+}
+
+/// Blender's default Volume Scatter Phase.
+pub(super) fn hg_phase() -> String {
+    "HENYEY_GREENSTEIN".into()
+}
+
+/// The Volume Scatter node's default Alpha (Draine).
+pub(super) fn phase_alpha() -> f32 {
+    0.5
+}
+
+/// The Volume Scatter node's default IOR (Fournier-Forand).
+pub(super) fn phase_ior() -> f32 {
+    1.33
+}
+
+/// The Volume Scatter node's default Backscatter (Fournier-Forand).
+pub(super) fn phase_backscatter() -> f32 {
+    0.1
+}
+
+/// The Volume Scatter node's default Diameter in µm (Mie).
+pub(super) fn phase_diameter() -> f32 {
+    20.0
 }
 
 /// The Principled Volume's default Temperature.

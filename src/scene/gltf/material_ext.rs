@@ -6,7 +6,7 @@
 use super::Loader;
 use super::extensions::{MediumExt, SubsurfaceExt};
 use crate::error::{Error, Result};
-use crate::medium::{HenyeyGreenstein, HomogeneousMedium};
+use crate::medium::{HomogeneousMedium, Phase};
 use crate::scene::Material;
 use crate::scene::material::{Subsurface, SubsurfaceMethod};
 use glam::Vec3;
@@ -41,6 +41,20 @@ pub(super) const HANDLED_MATERIAL_EXTENSIONS: &[&str] = &[
 ];
 
 impl Loader<'_> {
+    /// A medium's phase function from its `phase` name and [anisotropy, alpha, ior,
+    /// backscatter, diameter]: a clear error for an unknown name or a number that is not finite.
+    pub(super) fn phase(&self, what: &str, kind: &str, values: [f32; 5]) -> Result<Phase> {
+        if values.iter().any(|v| !v.is_finite()) {
+            return Err(self.err(format!("{what}: the phase function's parameters must be finite")));
+        }
+        let [g, alpha, ior, backscatter, diameter] = values;
+        Phase::from_blender(kind, g, alpha, ior, backscatter, diameter).ok_or_else(|| {
+            self.err(format!(
+                "{what}: phase '{kind}' is unknown (HENYEY_GREENSTEIN, RAYLEIGH, DRAINE, FOURNIER_FORAND, MIE)"
+            ))
+        })
+    }
+
     /// The homogeneous medium a `CAUSTIC_materials_medium` value describes (also the world's
     /// volume), checked: finite, non-negative density and colours, anisotropy in [-1, 1].
     pub(super) fn homogeneous_medium(&self, what: &str, ext: &MediumExt) -> Result<HomogeneousMedium> {
@@ -56,10 +70,15 @@ impl Loader<'_> {
         if !(-1.0..=1.0).contains(&ext.anisotropy) {
             return Err(self.err(format!("{what}: anisotropy {} is outside [-1, 1]", ext.anisotropy)));
         }
+        let phase = self.phase(
+            what,
+            &ext.phase,
+            [ext.anisotropy, ext.phase_alpha, ext.phase_ior, ext.phase_backscatter, ext.phase_diameter],
+        )?;
         Ok(HomogeneousMedium {
             sigma_a: Vec3::from(ext.absorption_color) * ext.density,
             sigma_s: Vec3::from(ext.scatter_color) * ext.density,
-            phase: HenyeyGreenstein::new(ext.anisotropy),
+            phase,
             // A mesh or the world has no temperature grid: the Temperature alone, as Cycles.
             emission: Vec3::from(ext.emission)
                 + crate::medium::blackbody::blackbody_emission(

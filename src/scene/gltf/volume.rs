@@ -55,6 +55,18 @@ struct ShaderExt {
     blackbody_intensity: f32,
     blackbody_tint: [f32; 3],
     temperature: f32,
+    /// Blender's Volume Scatter Phase by its enum name (docs/contract.md), and the inputs the
+    /// non-Henyey-Greenstein ones read.
+    #[serde(default = "super::extensions::hg_phase")]
+    phase: String,
+    #[serde(default = "super::extensions::phase_alpha")]
+    phase_alpha: f32,
+    #[serde(default = "super::extensions::phase_ior")]
+    phase_ior: f32,
+    #[serde(default = "super::extensions::phase_backscatter")]
+    phase_backscatter: f32,
+    #[serde(default = "super::extensions::phase_diameter")]
+    phase_diameter: f32,
 }
 
 /// The box's faces as corner indices (bit 0: x, bit 1: y, bit 2: z); each triangle is
@@ -140,7 +152,14 @@ impl Loader<'_> {
             blackbody_tint: Vec3::from(s.blackbody_tint),
             temperature: s.temperature,
         };
-        Ok(GridMedium::new(v.name.clone(), file.dims, world, fields, shader))
+        let phase = self.phase(
+            what,
+            &s.phase,
+            [s.anisotropy, s.phase_alpha, s.phase_ior, s.phase_backscatter, s.phase_diameter],
+        )?;
+        let mut medium = GridMedium::new(v.name.clone(), file.dims, world, fields, shader);
+        medium.phase = phase;
+        Ok(medium)
     }
 }
 

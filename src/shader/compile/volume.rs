@@ -8,6 +8,7 @@
 //! feeds it, in the node-graph format, with `shader` naming the shader node's index.
 
 use super::{Compiler, Sock, Ty, check_and_sort};
+use crate::medium::Phase;
 use crate::shader::geom::Reg;
 use crate::shader::graph::NodesExt;
 use crate::shader::instructions::Program;
@@ -63,6 +64,9 @@ pub struct VolumeProgram {
     /// The register of a linked Anisotropy that varies over the medium, read at each
     /// scattering point.
     pub anisotropy_reg: Option<Reg>,
+    /// The phase function: a Volume Scatter's Phase with its own inputs' values (Anisotropy
+    /// applied at each point where it varies), else Henyey-Greenstein of `anisotropy`.
+    pub phase: Phase,
     /// Generated coordinates are read (the mesh's texture space is needed).
     pub uses_generated: bool,
     /// Warnings (without the material's name; the loader adds it).
@@ -139,6 +143,10 @@ pub fn compile_volume(name: &str, ext: &NodesExt, shader: usize, images: &[u32])
         VolumeKind::Principled | VolumeKind::Scatter => anisotropy(&mut c, s)?,
         _ => (0.0, None),
     };
+    let phase = match kind {
+        VolumeKind::Scatter => scatter_phase(&mut c, s, anisotropy),
+        _ => Phase::hg(anisotropy),
+    };
     let mut prog = c.prog;
     prog.init = c.init;
     prog.ops = c.ops;
@@ -149,10 +157,33 @@ pub fn compile_volume(name: &str, ext: &NodesExt, shader: usize, images: &[u32])
         regs,
         anisotropy,
         anisotropy_reg,
+        phase,
         uses_generated: c.uses_generated,
         warnings: c.warnings,
         textures: Vec::new(),
     })
+}
+
+/// A Volume Scatter node's phase function from its `phase` property and its inputs' own
+/// values; a linked Alpha, IOR, Backscatter or Diameter is named in a warning (its own value
+/// is used), as is an unknown phase (rendered as Henyey-Greenstein).
+fn scatter_phase(c: &mut Compiler, i: usize, anisotropy: f32) -> Phase {
+    let kind = c.prop_str(i, "phase", "HENYEY_GREENSTEIN").to_string();
+    let mut own = |id: &str, default: f32| {
+        if c.source(i, id).ok().flatten().is_some() && kind != "HENYEY_GREENSTEIN" {
+            c.warn(i, format!("a link into {id} is not read by the phase function: its own value is used"));
+        }
+        c.value(i, id).and_then(|v| v.as_f64()).map_or(default, |v| v as f32)
+    };
+    let (alpha, ior, backscatter, diameter) =
+        (own("Alpha", 0.5), own("IOR", 1.33), own("Backscatter", 0.1), own("Diameter", 20.0));
+    match Phase::from_blender(&kind, anisotropy, alpha, ior, backscatter, diameter) {
+        Some(p) => p,
+        None => {
+            c.warn(i, format!("phase '{kind}' is unknown: rendered as Henyey-Greenstein"));
+            Phase::hg(anisotropy)
+        }
+    }
 }
 
 /// The shader's Anisotropy: its own value, and the register of a linked one that varies
