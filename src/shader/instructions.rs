@@ -53,6 +53,10 @@ pub enum InputKind {
     ObjectColor,
     /// Object Info Alpha.
     ObjectAlpha,
+    /// Object Info Object Index (the object's Pass Index).
+    ObjectIndex,
+    /// Object Info Material Index (the material's Pass Index, `Program::material_index`).
+    MaterialIndex,
     /// One output of the Light Path node.
     LightPath(PathOutput),
 }
@@ -401,6 +405,12 @@ pub struct Program {
     pub scattering_light_path: Vec<PathOutput>,
     /// The subsurface walk the graph's closures ask for (the first such closure's).
     pub subsurface: Option<GraphSubsurface>,
+    /// The graph has a Holdout closure: camera rays that reach it lose its weight from the
+    /// film's alpha (`ShadingPoint::holdout`).
+    pub holdout: bool,
+    /// Object Info's Material Index: the material's Pass Index (`CAUSTIC_material_pass`),
+    /// set by the loader after compiling.
+    pub material_index: f32,
 }
 
 /// The subsurface walk a graph's Principled BSDF (with a Subsurface Weight) or Subsurface

@@ -436,6 +436,14 @@ impl Program {
                 r[out as usize] = obj.color.w;
                 return;
             }
+            InputKind::ObjectIndex => {
+                r[out as usize] = obj.pass_index;
+                return;
+            }
+            InputKind::MaterialIndex => {
+                r[out as usize] = self.material_index;
+                return;
+            }
             InputKind::LightPath(o) => {
                 r[out as usize] = g.path.output(o);
                 return;

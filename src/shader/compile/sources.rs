@@ -173,9 +173,10 @@ impl Compiler<'_> {
                             self.ops.push(Op::Input { what, out });
                         }
                         _ => {
-                            self.warn(i, format!("the {id} output is not supported: it gives 0"));
-                            let r = self.konst_f(0.0);
-                            self.alias(i, id, r, ty);
+                            let out = self.out(i, id, ty);
+                            let what =
+                                if id == "Object Index" { InputKind::ObjectIndex } else { InputKind::MaterialIndex };
+                            self.ops.push(Op::Input { what, out });
                         }
                     }
                 }
