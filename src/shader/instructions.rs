@@ -53,6 +53,9 @@ pub enum InputKind {
     ObjectColor,
     /// Object Info Alpha.
     ObjectAlpha,
+    /// Geometry Parametric: the point's weights of the triangle's first and second corners
+    /// (Cycles' `(1 − u − v, u, 0)`).
+    Parametric,
     /// Object Info Object Index (the object's Pass Index).
     ObjectIndex,
     /// Object Info Material Index (the material's Pass Index, `Program::material_index`).

@@ -436,6 +436,7 @@ impl Program {
                 r[out as usize] = obj.color.w;
                 return;
             }
+            InputKind::Parametric => parametric(g),
             InputKind::ObjectIndex => {
                 r[out as usize] = obj.pass_index;
                 return;
@@ -451,6 +452,29 @@ impl Program {
         };
         set3(r, out, v);
     }
+}
+
+/// Geometry Parametric at `g`: Cycles' `(1 − u − v, u, 0)` for its hit barycentrics (u, v) on
+/// the triangle's corners a, b, c (P = a + u (b − a) + v (c − a)), i.e. the weights of the
+/// first and second corners, which keep Blender's corner order through the glTF file. They
+/// are solved from the point (the least-squares solution in the triangle's plane); 0 off a
+/// triangle (a strand).
+fn parametric(g: &Geom) -> Vec3 {
+    let Some(&[i0, i1, i2]) = g.mesh.triangles.get(g.tri as usize) else {
+        return Vec3::ZERO;
+    };
+    let m = g.mesh;
+    let p0 = m.positions[i0 as usize];
+    let (e1, e2, d) = (m.positions[i1 as usize] - p0, m.positions[i2 as usize] - p0, g.p - p0);
+    let (a, b, c) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+    let (d1, d2) = (d.dot(e1), d.dot(e2));
+    let det = a * c - b * b;
+    if !(det > 0.0) {
+        return Vec3::ZERO;
+    }
+    let u = (c * d1 - b * d2) / det;
+    let v = (a * d2 - b * d1) / det;
+    Vec3::new(1.0 - u - v, u, 0.0)
 }
 
 /// The Bump node's two offset points: the offsets `d` in the triangle's plane and the

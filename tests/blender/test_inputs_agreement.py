@@ -129,3 +129,55 @@ def test_object_and_material_index_match_cycles(empty_scene, tmp_path):
     bpy.data.objects["Plane"].pass_index = 4
     settings(scene)
     compare_rgba(scene, tmp_path, "pass indices")
+
+
+def geometry_output(output):
+    """Diffuse colour from one output of the Geometry node, plus (0, 0, 0.3) (so that no
+    channel is black: Parametric's third is 0)."""
+    def make(name):
+        mat = new_material(name)
+        tree = mat.node_tree
+        node = tree.nodes.new("ShaderNodeNewGeometry")
+        add = tree.nodes.new("ShaderNodeVectorMath")
+        add.operation = "ADD"
+        add.inputs[1].default_value = (0.0, 0.0, 0.3)
+        tree.links.new(node.outputs[output], add.inputs[0])
+        diffuse_from(mat, add.outputs[0])
+        return mat
+    return make
+
+
+GEOMETRY = {"parametric_plane": (flat_scene, "Parametric"), "parametric_sphere": (sphere_scene, "Parametric")}
+
+
+@pytest.mark.parametrize("case", list(GEOMETRY))
+def test_geometry_output_matches_cycles(empty_scene, tmp_path, case):
+    build, output = GEOMETRY[case]
+    scene = empty_scene
+    build(scene, geometry_output(output)(case))
+    settings(scene)
+    compare_rgba(scene, tmp_path, case)
+
+
+def test_named_colour_attribute_matches_cycles(empty_scene, tmp_path):
+    """An Attribute node into a Diffuse BSDF naming one of two colour attributes (not the
+    active one): the glTF exporter's own choice wrote a fake white COLOR_0 (it sees only what a
+    Principled BSDF reads), which Caustic read, with a warning: R, G, B 2.0608, 2.5125,
+    2.3470 x Cycles'. The export now asks for the one attribute the graphs read by name
+    (`node_graph.single_colour_attribute`): 0.9999 each, no warning."""
+    mat = new_material("Named")
+    attr = mat.node_tree.nodes.new("ShaderNodeAttribute")
+    attr.attribute_name = "Second"
+    diffuse_from(mat, attr.outputs["Color"])
+    scene = empty_scene
+    flat_scene(scene, mat)
+    mesh = bpy.data.objects["Plane"].data
+    first = mesh.color_attributes.new("First", "FLOAT_COLOR", "POINT")
+    second = mesh.color_attributes.new("Second", "FLOAT_COLOR", "POINT")
+    corners = [(0.9, 0.2, 0.1, 1.0), (0.2, 0.8, 0.3, 1.0), (0.1, 0.3, 0.9, 1.0), (0.7, 0.7, 0.2, 1.0)]
+    for i in range(len(mesh.vertices)):
+        first.data[i].color = (1.0, 0.0, 1.0, 1.0)
+        second.data[i].color = corners[i % 4]
+    mesh.color_attributes.active_color_name = "First"
+    settings(scene)
+    compare_rgba(scene, tmp_path, "named colour attribute")

@@ -81,7 +81,7 @@ impl Compiler<'_> {
                     ("Tangent", Some(InputKind::Tangent), Ty::Vector),
                     ("True Normal", Some(InputKind::TrueNormal), Ty::Vector),
                     ("Incoming", Some(InputKind::Incoming), Ty::Vector),
-                    ("Parametric", None, Ty::Vector),
+                    ("Parametric", Some(InputKind::Parametric), Ty::Vector),
                     ("Backfacing", Some(InputKind::Backfacing), Ty::Float),
                     ("Pointiness", None, Ty::Float),
                     ("Random Per Island", None, Ty::Float),
