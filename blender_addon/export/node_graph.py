@@ -371,6 +371,8 @@ class _Builder:
             props["value"] = float(node.outputs[0].default_value)
         elif node.bl_idname == "ShaderNodeRGB":
             props["color"] = plain(node.outputs[0].default_value)
+        elif node.bl_idname == "ShaderNodeNormal":
+            props["direction"] = plain(node.outputs["Normal"].default_value)
         self._tex_coord(node, name, props)
         self._warn_colour_attribute(node, name, props)
         return props

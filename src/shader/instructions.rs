@@ -224,6 +224,17 @@ pub enum Op {
         t: Reg,
         out: Reg,
     },
+    /// Wavelength: the colour of wavelength `lambda` (nm), `ops::wavelength_to_rgb`.
+    Wavelength {
+        lambda: Reg,
+        out: Reg,
+    },
+    /// Wireframe without Pixel Size: 1 within `size` / 2 of one of the shaded triangle's
+    /// edges, else 0 (Cycles' `wireframe`).
+    Wireframe {
+        size: Reg,
+        out: Reg,
+    },
     BrightContrast {
         c: Reg,
         bright: Reg,

@@ -178,6 +178,8 @@ impl Program {
             Op::Blackbody { t, out } => {
                 set3(r, out, crate::medium::blackbody::blackbody_rgb(r[t as usize]).max(glam::Vec3::ZERO))
             }
+            Op::Wavelength { lambda, out } => set3(r, out, ops::wavelength_to_rgb(r[lambda as usize])),
+            Op::Wireframe { size, out } => r[out as usize] = wireframe(g, r[size as usize]),
             Op::BrightContrast { c, bright, contrast, out } => {
                 set3(r, out, ops::bright_contrast(v3(r, c), r[bright as usize], r[contrast as usize]))
             }
@@ -452,6 +454,28 @@ impl Program {
         };
         set3(r, out, v);
     }
+}
+
+/// The Wireframe node's Fac at `g` without Pixel Size (Cycles' `wireframe`): 1 where the
+/// point lies within `size` / 2 of one of its triangle's three edges (the triangulated mesh's,
+/// as Cycles), each neighbour drawing its own half; 0 off a triangle (a strand).
+fn wireframe(g: &Geom, size: f32) -> f32 {
+    let Some(&[i0, i1, i2]) = g.mesh.triangles.get(g.tri as usize) else {
+        return 0.0;
+    };
+    let co = [i0, i1, i2].map(|i| g.mesh.positions[i as usize]);
+    let half = 0.5 * size;
+    let width2 = half * half;
+    for i in 0..3 {
+        let i2 = if i > 0 { i - 1 } else { 2 };
+        let (dir, edge) = (g.p - co[i], co[i] - co[i2]);
+        let crs = edge.cross(dir);
+        // |crs|² / |edge|² is the squared distance to the edge's line.
+        if crs.dot(crs) < edge.dot(edge) * width2 {
+            return 1.0;
+        }
+    }
+    0.0
 }
 
 /// Geometry Parametric at `g`: Cycles' `(1 − u − v, u, 0)` for its hit barycentrics (u, v) on

@@ -181,3 +181,65 @@ def test_named_colour_attribute_matches_cycles(empty_scene, tmp_path):
     mesh.color_attributes.active_color_name = "First"
     settings(scene)
     compare_rgba(scene, tmp_path, "named colour attribute")
+
+
+def wavelength_gradient(name):
+    """Diffuse colour from a Wavelength node swept from 370 to 790 nm across the plane
+    (Generated X through Map Range: both ends black, the whole table between)."""
+    mat = new_material(name)
+    tree = mat.node_tree
+    coords = tree.nodes.new("ShaderNodeTexCoord")
+    split = tree.nodes.new("ShaderNodeSeparateXYZ")
+    sweep = tree.nodes.new("ShaderNodeMapRange")
+    sweep.inputs["To Min"].default_value = 370.0
+    sweep.inputs["To Max"].default_value = 790.0
+    wavelength = tree.nodes.new("ShaderNodeWavelength")
+    tree.links.new(coords.outputs["Generated"], split.inputs[0])
+    tree.links.new(split.outputs["X"], sweep.inputs["Value"])
+    tree.links.new(sweep.outputs["Result"], wavelength.inputs["Wavelength"])
+    diffuse_from(mat, wavelength.outputs["Color"])
+    return mat
+
+
+def normal_dot(name):
+    """Diffuse grey from the Normal node's Dot of its direction with the shading normal,
+    plus 0.2 (where it is negative the grey is 0 in both renderers)."""
+    mat = new_material(name)
+    tree = mat.node_tree
+    geometry = tree.nodes.new("ShaderNodeNewGeometry")
+    normal = tree.nodes.new("ShaderNodeNormal")
+    normal.outputs["Normal"].default_value = (0.3, -0.5, 0.8)
+    lift = tree.nodes.new("ShaderNodeMath")
+    lift.inputs[1].default_value = 0.2
+    tree.links.new(geometry.outputs["Normal"], normal.inputs["Normal"])
+    tree.links.new(normal.outputs["Dot"], lift.inputs[0])
+    diffuse_from(mat, lift.outputs[0])
+    return mat
+
+
+def wireframe(name):
+    """Diffuse colour mixed from blue to orange by Wireframe (Size 0.05, no Pixel Size)."""
+    mat = new_material(name)
+    tree = mat.node_tree
+    wire = tree.nodes.new("ShaderNodeWireframe")
+    wire.inputs["Size"].default_value = 0.05
+    mix = tree.nodes.new("ShaderNodeMix")
+    mix.data_type = "RGBA"
+    mix.inputs["A"].default_value = (0.1, 0.2, 0.6, 1.0)
+    mix.inputs["B"].default_value = (0.9, 0.5, 0.1, 1.0)
+    tree.links.new(wire.outputs["Fac"], mix.inputs["Factor"])
+    diffuse_from(mat, mix.outputs["Result"])
+    return mat
+
+
+CONVERTERS = {"wavelength": (flat_scene, wavelength_gradient), "normal_dot": (sphere_scene, normal_dot),
+              "wireframe": (sphere_scene, wireframe)}
+
+
+@pytest.mark.parametrize("case", list(CONVERTERS))
+def test_converter_node_matches_cycles(empty_scene, tmp_path, case):
+    build, make = CONVERTERS[case]
+    scene = empty_scene
+    build(scene, make(case))
+    settings(scene)
+    compare_rgba(scene, tmp_path, case)

@@ -132,6 +132,52 @@ impl Compiler<'_> {
                     }
                 }
             }
+            "ShaderNodeWireframe" => {
+                self.all_const = false;
+                if self.prop_bool(i, "use_pixel_size", false) {
+                    self.warn(i, "Pixel Size is not supported (no ray differentials): the size is in scene units");
+                }
+                let size = self.float(i, "Size", 0.01)?;
+                let out = self.out(i, "Fac", Ty::Float);
+                self.ops.push(Op::Wireframe { size, out });
+            }
+            "ShaderNodeNormal" => {
+                // Normal: the node's direction (Blender axes, the add-on's `direction`),
+                // normalised; Dot: its dot with the normalised input (Cycles' svm_node_normal).
+                let d = self.desc(i).props.get("direction").and_then(Value::as_array).map(|a| {
+                    let f = |k: usize| a.get(k).and_then(Value::as_f64).unwrap_or(0.0) as f32;
+                    Vec3::new(f(0), f(1), f(2))
+                });
+                let d = d.unwrap_or(Vec3::Z).normalize_or_zero();
+                let dir = self.konst_v(d);
+                self.alias(i, "Normal", dir, Ty::Vector);
+                if self.is_used(i, "Dot") {
+                    let n = self.vec(i, "Normal", Vec3::Z)?;
+                    let unit = self.alloc(3);
+                    let zero = self.konst_f(0.0);
+                    let scratch = self.alloc(1);
+                    self.ops.push(Op::VecMath {
+                        op: VecOp::Normalize,
+                        a: n,
+                        b: n,
+                        c: n,
+                        s: zero,
+                        vout: unit,
+                        fout: scratch,
+                    });
+                    let out = self.out(i, "Dot", Ty::Float);
+                    let vscratch = self.alloc(3);
+                    self.ops.push(Op::VecMath {
+                        op: VecOp::Dot,
+                        a: dir,
+                        b: unit,
+                        c: unit,
+                        s: zero,
+                        vout: vscratch,
+                        fout: out,
+                    });
+                }
+            }
             "ShaderNodeFresnel" => {
                 let ior = self.float(i, "IOR", 1.5)?;
                 let n = self.normal(i, "Normal")?;
