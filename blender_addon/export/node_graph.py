@@ -279,6 +279,11 @@ class _Builder:
             return None
         if node.type == "TEX_COORD" and out.identifier == "Generated":
             self.uses_generated = True
+        # Radial tangents (the Tangent node's, Geometry's Tangent) turn about the Generated
+        # coordinates' centre, as Cycles.
+        if (node.type == "NEW_GEOMETRY" and out.identifier == "Tangent") or \
+                (node.type == "TANGENT" and node.direction_type == "RADIAL"):
+            self.uses_generated = True
         return ("link", self.add(scope, node), out.identifier)
 
     def _value_or_link(self, scope, sock, depth):

@@ -23,8 +23,13 @@ pub enum InputKind {
     Incoming,
     /// Backfacing as 0/1.
     Backfacing,
-    /// Tangent (from the mesh's tangents; zero without).
+    /// Tangent node, UV Map: the mesh's tangent (of `Program::tangent_uv`'s set) made
+    /// perpendicular to the shading normal; zero without.
     Tangent,
+    /// Tangent node, Radial about axis 0 (X), 1 (Y) or 2 (Z) of the Generated coordinates, and
+    /// Geometry's Tangent (radial about Z, Cycles' `primitive_tangent`): to the world by the
+    /// object's normal transform, made perpendicular to the shading normal.
+    Radial(u8),
     /// Texture coordinates of a set, (u, 1 − v, 0) as Blender's.
     Uv(u8),
     /// Generated: object position in the texture space, or the object's bounds-free fallback.

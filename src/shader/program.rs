@@ -9,7 +9,7 @@
 // The operations themselves are in `instructions.rs`; the shading point in `geom.rs`.
 
 use super::closure::Closures;
-use super::geom::{Geom, Reg, from_blender, geom_at_ng, set3, to_blender, v3};
+use super::geom::{Geom, ObjectData, Reg, from_blender, geom_at_ng, set3, to_blender, v3};
 use super::instructions::{BumpOp, ColorSpace, CurveKind, InputKind, MappingKind, Op, Program};
 use super::ops;
 use crate::math::{Frame, luminance};
@@ -393,24 +393,29 @@ impl Program {
                 r[out as usize] = g.backfacing as u8 as f32;
                 return;
             }
-            InputKind::Tangent => to_blender(g.tangent.truncate().normalize_or_zero()),
+            InputKind::Tangent => {
+                let t = g.tangent.truncate();
+                if t == Vec3::ZERO { Vec3::ZERO } else { to_blender(perpendicular(t, g.n)) }
+            }
+            InputKind::Radial(axis) => {
+                let q = generated(obj, g.p) - Vec3::splat(0.5);
+                let t = match axis {
+                    0 => Vec3::new(0.0, -q.z, q.y),
+                    1 => Vec3::new(-q.z, 0.0, q.x),
+                    _ => Vec3::new(-q.y, q.x, 0.0),
+                };
+                // Object (Blender axes) to world (glTF axes) as a normal: the transpose of
+                // world → object.
+                let t = obj.world_to_object.transpose().transform_vector3(from_blender(t));
+                to_blender(perpendicular(t, g.n))
+            }
             InputKind::Uv(set) => {
                 let uv = g.uv[set.min(1) as usize];
                 Vec3::new(uv.x, 1.0 - uv.y, 0.0)
             }
             InputKind::Object => to_blender(obj.world_to_object.transform_point3(g.p)),
             InputKind::ObjectMatrix(i) => to_blender(self.matrices[i as usize].transform_point3(g.p)),
-            InputKind::Generated => {
-                let p = to_blender(obj.world_to_object.transform_point3(g.p));
-                match obj.texspace {
-                    Some((loc, size)) => {
-                        let d = |a: f32, b: f32| if b != 0.0 { a / (2.0 * b) } else { 0.0 };
-                        let q = p - loc;
-                        Vec3::new(d(q.x, size.x), d(q.y, size.y), d(q.z, size.z)) + Vec3::splat(0.5)
-                    }
-                    None => p,
-                }
-            }
+            InputKind::Generated => generated(obj, g.p),
             InputKind::ObjectNormal => {
                 // Normals go to object space by the inverse transpose of world→object.
                 let m = obj.world_to_object.inverse().transpose();
@@ -454,6 +459,26 @@ impl Program {
         };
         set3(r, out, v);
     }
+}
+
+/// Texture Coordinate Generated of world point `p` (Blender axes): the object's position in
+/// its texture space, 0..1 over the box (the object position without one).
+fn generated(obj: &ObjectData, p: Vec3) -> Vec3 {
+    let p = to_blender(obj.world_to_object.transform_point3(p));
+    match obj.texspace {
+        Some((loc, size)) => {
+            let d = |a: f32, b: f32| if b != 0.0 { a / (2.0 * b) } else { 0.0 };
+            let q = p - loc;
+            Vec3::new(d(q.x, size.x), d(q.y, size.y), d(q.z, size.z)) + Vec3::splat(0.5)
+        }
+        None => p,
+    }
+}
+
+/// Cycles' `cross(N, normalize(cross(t, N)))`: `t` made perpendicular to the normal `n`, unit
+/// (0 where `t` is along `n`).
+fn perpendicular(t: Vec3, n: Vec3) -> Vec3 {
+    n.cross(t.cross(n).normalize_or_zero())
 }
 
 /// The Wireframe node's Fac at `g` without Pixel Size (Cycles' `wireframe`): 1 where the

@@ -243,3 +243,55 @@ def test_converter_node_matches_cycles(empty_scene, tmp_path, case):
     build(scene, make(case))
     settings(scene)
     compare_rgba(scene, tmp_path, case)
+
+
+def tangent_colour(direction_type="RADIAL", axis="Z", geometry=False):
+    """Diffuse colour |tangent| x 0.8 + 0.1 (Vector Math Absolute, then Multiply Add), from a
+    Tangent node (`direction_type`, `axis`) or Geometry's Tangent."""
+    def make(name):
+        mat = new_material(name)
+        tree = mat.node_tree
+        if geometry:
+            source = tree.nodes.new("ShaderNodeNewGeometry").outputs["Tangent"]
+        else:
+            node = tree.nodes.new("ShaderNodeTangent")
+            node.direction_type, node.axis = direction_type, axis
+            if direction_type == "UV_MAP":
+                node.uv_map = "UVMap"
+            source = node.outputs["Tangent"]
+        absolute = tree.nodes.new("ShaderNodeVectorMath")
+        absolute.operation = "ABSOLUTE"
+        scale = tree.nodes.new("ShaderNodeVectorMath")
+        scale.operation = "MULTIPLY_ADD"
+        scale.inputs[1].default_value = (0.8, 0.8, 0.8)
+        scale.inputs[2].default_value = (0.1, 0.1, 0.1)
+        tree.links.new(source, absolute.inputs[0])
+        tree.links.new(absolute.outputs[0], scale.inputs[0])
+        diffuse_from(mat, scale.outputs[0])
+        return mat
+    return make
+
+
+def uv_sphere_scene(scene, material):
+    """`sphere_scene` with the ball unwrapped (a UV map named UVMap, Blender's sphere unwrap)."""
+    sphere_scene(scene, material)
+    ball = bpy.data.objects["Ball"]
+    if ball.data.uv_layers.get("UVMap") is None:
+        ball.data.uv_layers.new(name="UVMap")
+    ball.rotation_euler = (0.4, 0.3, 0.0)
+
+
+TANGENTS = {"tangent_radial_z": tangent_colour(), "tangent_radial_x": tangent_colour(axis="X"),
+            "tangent_uv_map": tangent_colour("UV_MAP"), "geometry_tangent": tangent_colour(geometry=True)}
+
+
+# Geometry's Tangent on the unwrapped plane: radial about Z (Cycles), not the UV tangent (+X).
+TANGENTS["geometry_tangent_plane"] = tangent_colour(geometry=True)
+
+
+@pytest.mark.parametrize("case", list(TANGENTS))
+def test_tangent_matches_cycles(empty_scene, tmp_path, case):
+    scene = empty_scene
+    (flat_scene if case.endswith("_plane") else uv_sphere_scene)(scene, TANGENTS[case](case))
+    settings(scene)
+    compare_rgba(scene, tmp_path, case)

@@ -78,7 +78,7 @@ impl Compiler<'_> {
                 for (id, what, ty) in [
                     ("Position", Some(InputKind::Position), Ty::Vector),
                     ("Normal", Some(InputKind::Normal), Ty::Vector),
-                    ("Tangent", Some(InputKind::Tangent), Ty::Vector),
+                    ("Tangent", Some(InputKind::Radial(2)), Ty::Vector),
                     ("True Normal", Some(InputKind::TrueNormal), Ty::Vector),
                     ("Incoming", Some(InputKind::Incoming), Ty::Vector),
                     ("Parametric", Some(InputKind::Parametric), Ty::Vector),
@@ -90,8 +90,8 @@ impl Compiler<'_> {
                         continue;
                     }
                     let out = self.out(i, id, ty);
-                    if what == Some(InputKind::Tangent) {
-                        self.prog.tangent_uv.get_or_insert(0);
+                    if what == Some(InputKind::Radial(2)) {
+                        self.uses_generated = true;
                     }
                     match what {
                         Some(what) => self.ops.push(Op::Input { what, out }),
@@ -131,6 +131,28 @@ impl Compiler<'_> {
                         self.ops.push(Op::Avg { v: c, out });
                     }
                 }
+            }
+            "ShaderNodeTangent" => {
+                self.all_const = false;
+                let what = match self.prop_str(i, "direction_type", "RADIAL") {
+                    "UV_MAP" => {
+                        let set = self.tex_coord(i) as u32;
+                        if *self.prog.tangent_uv.get_or_insert(set) != set {
+                            self.warn(i, "a second UV map's tangents: the first one's are read");
+                        }
+                        InputKind::Tangent
+                    }
+                    _ => {
+                        self.uses_generated = true;
+                        InputKind::Radial(match self.prop_str(i, "axis", "Z") {
+                            "X" => 0,
+                            "Y" => 1,
+                            _ => 2,
+                        })
+                    }
+                };
+                let out = self.out(i, "Tangent", Ty::Vector);
+                self.ops.push(Op::Input { what, out });
             }
             "ShaderNodeWireframe" => {
                 self.all_const = false;
