@@ -631,3 +631,25 @@ fn holdout_takes_its_weight_from_alpha_in_every_integrator() {
         }
     }
 }
+
+/// An Attribute node is read as COLOR_0 with a warning, unless the add-on marked it as the
+/// attribute it exported as COLOR_0 by name (`props.color_0`).
+#[test]
+fn an_attribute_exported_as_colour_0_is_not_warned_about() {
+    for marked in [false, true] {
+        let mut props = json!({"attribute_name": "Col", "attribute_type": "GEOMETRY"});
+        if marked {
+            props["color_0"] = json!(true);
+        }
+        let nodes = json!([
+            {"name": "Attribute", "type": "ShaderNodeAttribute", "props": props},
+            {"name": "Emission", "type": "ShaderNodeEmission",
+             "inputs": {"Color": {"link": [0, "Color"]}, "Strength": {"value": 1.0}}}
+        ]);
+        let dir = temp_dir();
+        let scene = plane_scene(dir.path(), "a.gltf", node_material("painted", nodes, json!([1, "Emission"])));
+        let warnings = quick_render_warnings(&scene, &dir.path().join("o.exr"), &[], LIMIT);
+        let warned = warnings.iter().any(|w| w.contains("'Col'") && w.contains("COLOR_0"));
+        assert_eq!(warned, !marked, "marked {marked}: {warnings:?}");
+    }
+}

@@ -401,6 +401,7 @@ class _Builder:
         meshes = self.context.meshes
         if geometry and attribute == self.context.colour_attribute and meshes and \
                 all(mesh.color_attributes.get(attribute) is not None for mesh in meshes):
+            props["color_0"] = True  # the renderer's COLOR_0 is this attribute: no warning there
             return
         self.warn(name, f"attribute '{attribute}' is not exported by name (glTF's COLOR_n sets are unnamed); "
                   "the renderer cannot read it as Cycles does")

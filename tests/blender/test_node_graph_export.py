@@ -520,6 +520,8 @@ def test_the_one_colour_attribute_the_graphs_read_is_colour_0(addon, empty_scene
     obj.data.color_attributes.active_color_name = "First"
     gltf, state, folder = export(addon, empty_scene, tmp_path)
     assert not any("'Named'" in w and "COLOR_n" in w for w in state.warnings), state.warnings
+    # ... nor in the renderer: the node is marked as COLOR_0's.
+    assert by_name(graph_of(gltf, "Named"))["Attribute"][1]["props"]["color_0"] is True
     prim = gltf["meshes"][0]["primitives"][0]
     accessor = gltf["accessors"][prim["attributes"]["COLOR_0"]]
     view = gltf["bufferViews"][accessor["bufferView"]]

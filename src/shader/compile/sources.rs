@@ -111,7 +111,8 @@ impl Compiler<'_> {
                         }
                     }
                 } else {
-                    if kind == "ShaderNodeAttribute" {
+                    // `color_0`: the add-on exported this attribute as COLOR_0 by name.
+                    if kind == "ShaderNodeAttribute" && !self.prop_bool(i, "color_0", false) {
                         self.warn(i, format!("attribute '{name}' is read as the mesh's colour attribute (COLOR_0)"));
                     }
                     for (id, what, ty) in [
