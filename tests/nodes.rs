@@ -601,3 +601,55 @@ fn an_unknown_node_type_is_a_warning_and_gives_zero() {
     // 0 + 0.25 with an unlinked (white) colour.
     assert!(px.iter().all(|p| (p[0] - 0.25).abs() < 1e-5), "{:?}", px[0]);
 }
+
+/// A Holdout closure: a camera ray takes its weight from the film's alpha and the rest of the
+/// closures shade on (Cycles' `integrate_surface_holdout`), in every integrator. The plane is
+/// a Mix Shader of Holdout and a white Emission of strength 1 at factor `fac`: colour and
+/// alpha are 1 − `fac` at every pixel (no noise: the camera sees the emission directly);
+/// Holdout alone (`fac` 1) ends the path: colour and alpha 0.
+#[test]
+fn holdout_takes_its_weight_from_alpha_in_every_integrator() {
+    for fac in [0.5f32, 1.0] {
+        let nodes = json!([
+            {"name": "Emission", "type": "ShaderNodeEmission",
+             "inputs": {"Color": {"value": [1, 1, 1, 1]}, "Strength": {"value": 1.0}}},
+            {"name": "Holdout", "type": "ShaderNodeHoldout"},
+            {"name": "Mix", "type": "ShaderNodeMixShader",
+             "inputs": {"Fac": {"value": fac}, "Shader": {"link": [0, "Emission"]}, "Shader_001": {"link": [1, "Holdout"]}}}
+        ]);
+        let dir = temp_dir();
+        let scene = plane_scene(dir.path(), "h.gltf", node_material("held", nodes, json!([2, "Shader"])));
+        for integrator in ["path", "photon", "sppm", "bdpt", "vcm"] {
+            let args = ["--integrator", integrator, "--resolution", "4x4", "--spp", "4"];
+            let px = render_image(&scene, &dir.path().join(format!("{integrator}.exr")), &args, LIMIT);
+            let want = 1.0 - fac;
+            for p in &px {
+                for (k, v) in p.iter().enumerate() {
+                    assert!((v - want).abs() < 1e-4, "{integrator}, factor {fac}: channel {k} is {v}, not {want}");
+                }
+            }
+        }
+    }
+}
+
+/// An Attribute node is read as COLOR_0 with a warning, unless the add-on marked it as the
+/// attribute it exported as COLOR_0 by name (`props.color_0`).
+#[test]
+fn an_attribute_exported_as_colour_0_is_not_warned_about() {
+    for marked in [false, true] {
+        let mut props = json!({"attribute_name": "Col", "attribute_type": "GEOMETRY"});
+        if marked {
+            props["color_0"] = json!(true);
+        }
+        let nodes = json!([
+            {"name": "Attribute", "type": "ShaderNodeAttribute", "props": props},
+            {"name": "Emission", "type": "ShaderNodeEmission",
+             "inputs": {"Color": {"link": [0, "Color"]}, "Strength": {"value": 1.0}}}
+        ]);
+        let dir = temp_dir();
+        let scene = plane_scene(dir.path(), "a.gltf", node_material("painted", nodes, json!([1, "Emission"])));
+        let warnings = quick_render_warnings(&scene, &dir.path().join("o.exr"), &[], LIMIT);
+        let warned = warnings.iter().any(|w| w.contains("'Col'") && w.contains("COLOR_0"));
+        assert_eq!(warned, !marked, "marked {marked}: {warnings:?}");
+    }
+}

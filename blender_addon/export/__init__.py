@@ -48,6 +48,7 @@ from .light_groups import light_group_settings  # noqa: F401
 from .shader_aovs import shader_aov_settings  # noqa: F401
 from .state import ExportState, exporting
 from .motion import add_deformation, sample_motion
+from .node_graph import single_colour_attribute
 from .shape_keys import shape_keys_exported
 from .light_temperature import temperatures_baked
 from .unsupported import scene_warnings
@@ -55,11 +56,15 @@ from .volumes import VOLUME_EXTENSION, attach_volumes  # noqa: F401
 from .world import WORLD_EXTENSION, world_extension  # noqa: F401
 
 
-def _exporter_options(filepath, viewport=False):
+def _exporter_options(filepath, viewport=False, colour_attribute=None):
     """Exporter settings for a renderer: the current frame's state, everything renderable (in
     the viewport: everything visible there, as Cycles' viewport shows objects disabled in
-    renders and hides those hidden in the viewport)."""
+    renders and hides those hidden in the viewport); `colour_attribute`: the one colour
+    attribute the graphs read, written as COLOR_0 by name (else the exporter's choice)."""
+    by_name = {} if colour_attribute is None else dict(export_vertex_color="NAME",
+                                                       export_vertex_color_name=colour_attribute)
     return dict(
+        **by_name,
         filepath=filepath,
         check_existing=False,
         export_format="GLTF_SEPARATE",
@@ -106,6 +111,7 @@ def export_scene(depsgraph, folder, settings, motion=True, viewport=False, only=
     state.depsgraph = depsgraph
     state.material_override = view_layer.material_override
     state.only = only
+    state.colour_attribute = single_colour_attribute(depsgraph)
     # The exporter takes object transforms from the original objects, which only the viewport
     # depsgraph updates; during an animation render it still holds the previous frame.
     scene_eval = depsgraph.scene_eval
@@ -119,7 +125,7 @@ def export_scene(depsgraph, folder, settings, motion=True, viewport=False, only=
         with exporting(state), bpy.context.temp_override(scene=scene, view_layer=view_layer), \
                 hooks_enabled(), shape_keys_exported(depsgraph, state.warnings, viewport), \
                 temperatures_baked(state.warnings), render_depsgraph(depsgraph):
-            bpy.ops.export_scene.gltf(**_exporter_options(filepath, viewport))
+            bpy.ops.export_scene.gltf(**_exporter_options(filepath, viewport, state.colour_attribute))
     except RuntimeError as err:
         # The operator's error carries the exporter's whole traceback; its last line says why.
         lines = [line.strip() for line in str(err).splitlines() if line.strip()]

@@ -363,7 +363,7 @@ def graph_of(blender_material, state):
     key = blender_material.as_pointer()
     if key not in state.graphs:
         meshes = list(_meshes_by_material(state).get(blender_material.original.as_pointer(), {}).values())
-        state.graphs[key] = build_graph(blender_material, GraphContext(state.depsgraph, meshes))
+        state.graphs[key] = build_graph(blender_material, GraphContext(state.depsgraph, meshes, state.colour_attribute))
     return state.graphs[key]
 
 

@@ -52,13 +52,48 @@ _GENERATED_DEFAULT = {"TEX_NOISE", "TEX_VORONOI", "TEX_WAVE", "TEX_CHECKER", "TE
                       "TEX_BRICK", "TEX_WHITE_NOISE", "TEX_GABOR"}
 
 
-class GraphContext:
-    """What the walk needs from the scene: the depsgraph (object matrices) and the meshes that
-    use the material (UV map numbers)."""
+def colour_attributes_read(tree, seen=None):
+    """The attribute names the tree's Attribute (geometry) and Color Attribute nodes read, its
+    groups' included; '' for a Color Attribute node reading the active one."""
+    seen = set() if seen is None else seen
+    if tree is None or tree.as_pointer() in seen:
+        return set()
+    seen.add(tree.as_pointer())
+    names = set()
+    for node in tree.nodes:
+        if node.bl_idname == "ShaderNodeAttribute" and node.attribute_type == "GEOMETRY":
+            names.add(node.attribute_name)
+        elif node.bl_idname == "ShaderNodeVertexColor":
+            names.add(node.layer_name)
+        elif node.bl_idname == "ShaderNodeGroup":
+            names |= colour_attributes_read(node.node_tree, seen)
+    return names
 
-    def __init__(self, depsgraph=None, meshes=()):
+
+def single_colour_attribute(depsgraph):
+    """The one colour attribute name the node trees of the depsgraph's materials read (Attribute
+    and Color Attribute nodes), else None (none, several, or a Color Attribute node reading the
+    active one): the export then asks the glTF exporter for it by name as COLOR_0."""
+    names, seen = set(), set()
+    for obj in depsgraph.objects:
+        for slot in getattr(obj, "material_slots", ()):
+            mat = slot.material
+            if mat is not None and mat.node_tree is not None:
+                names |= colour_attributes_read(mat.node_tree, seen)
+    override = depsgraph.view_layer.material_override
+    if override is not None and override.node_tree is not None:
+        names |= colour_attributes_read(override.node_tree, seen)
+    return next(iter(names)) if len(names) == 1 and "" not in names else None
+
+
+class GraphContext:
+    """What the walk needs from the scene: the depsgraph (object matrices), the meshes that
+    use the material (UV map numbers) and the colour attribute exported as COLOR_0 by name."""
+
+    def __init__(self, depsgraph=None, meshes=(), colour_attribute=None):
         self.depsgraph = depsgraph
         self.meshes = list(meshes)
+        self.colour_attribute = colour_attribute
 
     @property
     def with_aovs(self):
@@ -244,6 +279,11 @@ class _Builder:
             return None
         if node.type == "TEX_COORD" and out.identifier == "Generated":
             self.uses_generated = True
+        # Radial tangents (the Tangent node's, Geometry's Tangent) turn about the Generated
+        # coordinates' centre, as Cycles.
+        if (node.type == "NEW_GEOMETRY" and out.identifier == "Tangent") or \
+                (node.type == "TANGENT" and node.direction_type == "RADIAL"):
+            self.uses_generated = True
         return ("link", self.add(scope, node), out.identifier)
 
     def _value_or_link(self, scope, sock, depth):
@@ -336,20 +376,32 @@ class _Builder:
             props["value"] = float(node.outputs[0].default_value)
         elif node.bl_idname == "ShaderNodeRGB":
             props["color"] = plain(node.outputs[0].default_value)
+        elif node.bl_idname == "ShaderNodeNormal":
+            props["direction"] = plain(node.outputs["Normal"].default_value)
         self._tex_coord(node, name, props)
         self._warn_colour_attribute(node, name, props)
         return props
 
     def _warn_colour_attribute(self, node, name, props):
-        """Name a node that reads a colour (or other non-UV) attribute: the exporter writes
-        COLOR_n sets without their names (and in its own order), so the contract cannot say
-        which set a name is (checked on io_scene_gltf2 5.0.21: two colour attributes and a
-        Color Attribute node gave COLOR_0..COLOR_2)."""
+        """Name a node that reads a colour (or other non-UV) attribute the renderer cannot tell
+        apart: glTF's COLOR_n sets carry no names, and the exporter's own choice of COLOR_0
+        (Export Vertex Color "Material") sees only what its Principled BSDF reads (checked on
+        io_scene_gltf2 5.0.21: an Attribute node into a Diffuse BSDF got a fake white COLOR_0,
+        and two colour attributes and a Color Attribute node gave COLOR_0..COLOR_2). When the
+        scene's graphs read one named colour attribute alone, the export asks for it by name
+        (`single_colour_attribute`), which makes it COLOR_0 of every mesh that has it: a node
+        reading it on such meshes is read as Cycles reads it."""
+        geometry = True
         if node.bl_idname == "ShaderNodeVertexColor":
             attribute = node.layer_name or "(active)"
         elif node.bl_idname == "ShaderNodeAttribute" and "tex_coord" not in props:
-            attribute = node.attribute_name
+            attribute, geometry = node.attribute_name, node.attribute_type == "GEOMETRY"
         else:
+            return
+        meshes = self.context.meshes
+        if geometry and attribute == self.context.colour_attribute and meshes and \
+                all(mesh.color_attributes.get(attribute) is not None for mesh in meshes):
+            props["color_0"] = True  # the renderer's COLOR_0 is this attribute: no warning there
             return
         self.warn(name, f"attribute '{attribute}' is not exported by name (glTF's COLOR_n sets are unnamed); "
                   "the renderer cannot read it as Cycles does")

@@ -31,6 +31,7 @@ class ExportState:
         self._image_writer = None
         self.motion = None  # motion.Motion: the steps of moving objects, or None
         self.only = None  # names of the only objects to export (object_filter.py), or None: all
+        self.colour_attribute = None  # the colour attribute exported as COLOR_0 by name, or None
         # The exporter logs and swallows hook exceptions: the hooks record them here and
         # export_scene raises them afterwards.
         self.errors = []

@@ -43,6 +43,6 @@ impl Scene {
     /// with the hair parameters of its material.
     pub fn shade_hair(&self, params: &HairParams, s: &SurfaceHit, wo: Vec3) -> ShadingPoint {
         let frame = hair_frame(s.tangent.truncate(), wo);
-        ShadingPoint { bsdf: Bsdf::Hair(params.at(s.uv[1].x)), frame, emitted: Rgb::ZERO }
+        ShadingPoint { bsdf: Bsdf::Hair(params.at(s.uv[1].x)), frame, emitted: Rgb::ZERO, holdout: 0.0 }
     }
 }

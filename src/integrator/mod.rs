@@ -372,6 +372,18 @@ impl<'a> SceneContext<'a> {
         self.scene.ray_visibility.is_holdout(tri)
     }
 
+    /// A node graph's Holdout seen by a camera ray (through pass-throughs only) with
+    /// throughput `beta`: the film alpha this sample leaves there, 1 − h × mean(beta) for the
+    /// holdout weight h, and whether the path ends (h = 1, the surface wholly held out: no
+    /// colour, no data passes). Cycles' `integrate_surface_holdout`, which writes the same
+    /// transparency whether or not the film is transparent; the rest of the closures
+    /// (weights 1 − h in a Mix Shader) shade on.
+    #[inline]
+    pub fn holdout_alpha(sp: &ShadingPoint, beta: Rgb) -> (f32, bool) {
+        let h = sp.holdout;
+        (1.0 - h * (beta.x + beta.y + beta.z) / 3.0, (h - 1.0).abs() <= 1e-6)
+    }
+
     /// The kinds of ray that see triangle `tri`'s object (every kind unless the context
     /// honours ray visibility): photons read it (`photon::visibility`).
     #[inline]

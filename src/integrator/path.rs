@@ -435,7 +435,11 @@ impl PathIntegrator {
             let mat = &ctx.scene.materials[s.material as usize];
             let sp = ctx.shade(&s, wo);
             if st.depth == 0 {
-                out.alpha = 1.0;
+                let (alpha, held) = SceneContext::holdout_alpha(&sp, st.beta);
+                out.alpha = alpha;
+                if held {
+                    break;
+                }
                 out.depth = depth_of(s.p);
                 out.normal = sp.frame.n;
                 out.albedo = sp.bsdf.albedo();

@@ -41,4 +41,8 @@ pub struct ShadingPoint {
     pub frame: Frame,
     /// Emitted radiance toward the ray's origin.
     pub emitted: Rgb,
+    /// A node graph's Holdout weight: what a camera ray (through pass-throughs only) takes
+    /// from the film's alpha here, times its throughput; 1 ends the path (Cycles'
+    /// `integrate_surface_holdout`). 0 for every other material.
+    pub holdout: f32,
 }

@@ -98,6 +98,12 @@ impl PassIds {
         [ob, self.material_index.get(material as usize).copied().unwrap_or(0.0)]
     }
 
+    /// The pass index of material `material` (0 for one without ids).
+    #[inline]
+    pub fn material_index(&self, material: u32) -> f32 {
+        self.material_index.get(material as usize).copied().unwrap_or(0.0)
+    }
+
     /// Cryptomatte ids (object, material, asset; `Kind::index` order) at triangle `tri`.
     #[inline]
     pub fn crypto(&self, tri: u32, material: u32) -> [u32; 3] {

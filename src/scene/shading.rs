@@ -152,7 +152,7 @@ impl Scene {
             if n == s.ns {
                 let base = if mat.unlit { Rgb::ZERO } else { mat.base_color.truncate() * s.color.truncate() };
                 let bsdf = c.bsdf[side].with_base(base);
-                return ShadingPoint { bsdf: Bsdf::Pbr(bsdf), frame: Frame::from_normal(n), emitted };
+                return ShadingPoint { bsdf: Bsdf::Pbr(bsdf), frame: Frame::from_normal(n), emitted, holdout: 0.0 };
             }
         }
         let (params, frame) = self.pbr_params(s, wo);
@@ -160,7 +160,7 @@ impl Scene {
             Some(c) if params.same_but_base(&c.params[side]) => c.bsdf[side].with_base(params.base),
             _ => PbrBsdf::from_params(&params),
         };
-        ShadingPoint { bsdf: Bsdf::Pbr(bsdf), frame, emitted }
+        ShadingPoint { bsdf: Bsdf::Pbr(bsdf), frame, emitted, holdout: 0.0 }
     }
 
     /// The BSDF of material `m` built once per side, when the material reads no texture

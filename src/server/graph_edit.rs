@@ -87,7 +87,10 @@ impl GraphEdit {
         for &i in &indices {
             let m = &scene.materials[i as usize];
             // The loaded material kept its medium already (`graph_material` at load).
-            let mut new = graph_material(m, program.clone(), true);
+            let mut program = program.clone();
+            // Object Info's Material Index stays the loaded material's Pass Index.
+            program.material_index = scene.pass_ids.material_index(i);
+            let mut new = graph_material(m, program, true);
             if let Some((mean, n)) = mean_node_emission(&scene.mesh, &scene.objects, &scene.textures, &new, i) {
                 new.emissive = mean;
                 warnings.push(format!(

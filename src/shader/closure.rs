@@ -76,6 +76,8 @@ pub enum ClosureKind {
     Emission,
     /// Transparent BSDF.
     Transparent,
+    /// Holdout: its weight cuts the surface out of the film's alpha for camera rays.
+    Holdout,
     /// Principled BSDF.
     Principled(Box<PrincipledRegs>),
 }
@@ -112,6 +114,8 @@ pub struct Closures {
     pub emission: Rgb,
     /// Transparent weight.
     pub transparent: Rgb,
+    /// Holdout weight (Cycles' `surface_shader_apply_holdout`: the Holdout closures' sum).
+    pub holdout: f32,
     /// The first linked closure normal (Blender axes).
     pub normal: Option<Vec3>,
     /// The first linked coat normal (Blender axes).
@@ -136,6 +140,7 @@ impl Default for Closures {
             pbr_w: 0.0,
             emission: Rgb::ZERO,
             transparent: Rgb::ZERO,
+            holdout: 0.0,
             normal: None,
             coat_normal: None,
             dropped: false,
@@ -220,6 +225,7 @@ impl ClosureOp {
             }
             ClosureKind::Emission => out.emission += color() * (r[self.strength as usize] * w),
             ClosureKind::Transparent => out.transparent += color() * w,
+            ClosureKind::Holdout => out.holdout += w,
             ClosureKind::Principled(p) => principled(p, r, w, out),
         }
     }

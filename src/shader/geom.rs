@@ -37,6 +37,8 @@ pub struct ObjectData {
     pub texspace: Option<(Vec3, Vec3)>,
     /// Object Info Color (RGB) and Alpha: the object's viewport colour (`Object.color`).
     pub color: Vec4,
+    /// Object Info's Object Index: the object's Pass Index (`CAUSTIC_object_pass`).
+    pub pass_index: f32,
 }
 
 impl Default for ObjectData {
@@ -154,8 +156,14 @@ pub static NO_VIEW: ViewData = ViewData {
 };
 
 /// The default instance data (identity transform) for triangles without one.
-pub static NO_OBJECT: ObjectData =
-    ObjectData { world_to_object: Mat4::IDENTITY, location: Vec3::ZERO, random: 0.0, texspace: None, color: Vec4::ONE };
+pub static NO_OBJECT: ObjectData = ObjectData {
+    world_to_object: Mat4::IDENTITY,
+    location: Vec3::ZERO,
+    random: 0.0,
+    texspace: None,
+    color: Vec4::ONE,
+    pass_index: 0.0,
+};
 
 /// The shading point at barycentrics of a triangle without a ray: the viewer is taken
 /// along the normal (Fresnel-driven transparency or emission then uses normal incidence),

@@ -23,8 +23,13 @@ pub enum InputKind {
     Incoming,
     /// Backfacing as 0/1.
     Backfacing,
-    /// Tangent (from the mesh's tangents; zero without).
+    /// Tangent node, UV Map: the mesh's tangent (of `Program::tangent_uv`'s set) made
+    /// perpendicular to the shading normal; zero without.
     Tangent,
+    /// Tangent node, Radial about axis 0 (X), 1 (Y) or 2 (Z) of the Generated coordinates, and
+    /// Geometry's Tangent (radial about Z, Cycles' `primitive_tangent`): to the world by the
+    /// object's normal transform, made perpendicular to the shading normal.
+    Radial(u8),
     /// Texture coordinates of a set, (u, 1 − v, 0) as Blender's.
     Uv(u8),
     /// Generated: object position in the texture space, or the object's bounds-free fallback.
@@ -53,6 +58,13 @@ pub enum InputKind {
     ObjectColor,
     /// Object Info Alpha.
     ObjectAlpha,
+    /// Geometry Parametric: the point's weights of the triangle's first and second corners
+    /// (Cycles' `(1 − u − v, u, 0)`).
+    Parametric,
+    /// Object Info Object Index (the object's Pass Index).
+    ObjectIndex,
+    /// Object Info Material Index (the material's Pass Index, `Program::material_index`).
+    MaterialIndex,
     /// One output of the Light Path node.
     LightPath(PathOutput),
 }
@@ -215,6 +227,17 @@ pub enum Op {
     /// Blackbody: the colour of temperature `t` (kelvin), Cycles' fit clamped at 0.
     Blackbody {
         t: Reg,
+        out: Reg,
+    },
+    /// Wavelength: the colour of wavelength `lambda` (nm), `ops::wavelength_to_rgb`.
+    Wavelength {
+        lambda: Reg,
+        out: Reg,
+    },
+    /// Wireframe without Pixel Size: 1 within `size` / 2 of one of the shaded triangle's
+    /// edges, else 0 (Cycles' `wireframe`).
+    Wireframe {
+        size: Reg,
         out: Reg,
     },
     BrightContrast {
@@ -401,6 +424,12 @@ pub struct Program {
     pub scattering_light_path: Vec<PathOutput>,
     /// The subsurface walk the graph's closures ask for (the first such closure's).
     pub subsurface: Option<GraphSubsurface>,
+    /// The graph has a Holdout closure: camera rays that reach it lose its weight from the
+    /// film's alpha (`ShadingPoint::holdout`).
+    pub holdout: bool,
+    /// Object Info's Material Index: the material's Pass Index (`CAUSTIC_material_pass`),
+    /// set by the loader after compiling.
+    pub material_index: f32,
 }
 
 /// The subsurface walk a graph's Principled BSDF (with a Subsurface Weight) or Subsurface

@@ -9,7 +9,7 @@
 // The operations themselves are in `instructions.rs`; the shading point in `geom.rs`.
 
 use super::closure::Closures;
-use super::geom::{Geom, Reg, from_blender, geom_at_ng, set3, to_blender, v3};
+use super::geom::{Geom, ObjectData, Reg, from_blender, geom_at_ng, set3, to_blender, v3};
 use super::instructions::{BumpOp, ColorSpace, CurveKind, InputKind, MappingKind, Op, Program};
 use super::ops;
 use crate::math::{Frame, luminance};
@@ -178,6 +178,8 @@ impl Program {
             Op::Blackbody { t, out } => {
                 set3(r, out, crate::medium::blackbody::blackbody_rgb(r[t as usize]).max(glam::Vec3::ZERO))
             }
+            Op::Wavelength { lambda, out } => set3(r, out, ops::wavelength_to_rgb(r[lambda as usize])),
+            Op::Wireframe { size, out } => r[out as usize] = wireframe(g, r[size as usize]),
             Op::BrightContrast { c, bright, contrast, out } => {
                 set3(r, out, ops::bright_contrast(v3(r, c), r[bright as usize], r[contrast as usize]))
             }
@@ -391,24 +393,29 @@ impl Program {
                 r[out as usize] = g.backfacing as u8 as f32;
                 return;
             }
-            InputKind::Tangent => to_blender(g.tangent.truncate().normalize_or_zero()),
+            InputKind::Tangent => {
+                let t = g.tangent.truncate();
+                if t == Vec3::ZERO { Vec3::ZERO } else { to_blender(perpendicular(t, g.n)) }
+            }
+            InputKind::Radial(axis) => {
+                let q = generated(obj, g.p) - Vec3::splat(0.5);
+                let t = match axis {
+                    0 => Vec3::new(0.0, -q.z, q.y),
+                    1 => Vec3::new(-q.z, 0.0, q.x),
+                    _ => Vec3::new(-q.y, q.x, 0.0),
+                };
+                // Object (Blender axes) to world (glTF axes) as a normal: the transpose of
+                // world → object.
+                let t = obj.world_to_object.transpose().transform_vector3(from_blender(t));
+                to_blender(perpendicular(t, g.n))
+            }
             InputKind::Uv(set) => {
                 let uv = g.uv[set.min(1) as usize];
                 Vec3::new(uv.x, 1.0 - uv.y, 0.0)
             }
             InputKind::Object => to_blender(obj.world_to_object.transform_point3(g.p)),
             InputKind::ObjectMatrix(i) => to_blender(self.matrices[i as usize].transform_point3(g.p)),
-            InputKind::Generated => {
-                let p = to_blender(obj.world_to_object.transform_point3(g.p));
-                match obj.texspace {
-                    Some((loc, size)) => {
-                        let d = |a: f32, b: f32| if b != 0.0 { a / (2.0 * b) } else { 0.0 };
-                        let q = p - loc;
-                        Vec3::new(d(q.x, size.x), d(q.y, size.y), d(q.z, size.z)) + Vec3::splat(0.5)
-                    }
-                    None => p,
-                }
-            }
+            InputKind::Generated => generated(obj, g.p),
             InputKind::ObjectNormal => {
                 // Normals go to object space by the inverse transpose of world→object.
                 let m = obj.world_to_object.inverse().transpose();
@@ -436,6 +443,15 @@ impl Program {
                 r[out as usize] = obj.color.w;
                 return;
             }
+            InputKind::Parametric => parametric(g),
+            InputKind::ObjectIndex => {
+                r[out as usize] = obj.pass_index;
+                return;
+            }
+            InputKind::MaterialIndex => {
+                r[out as usize] = self.material_index;
+                return;
+            }
             InputKind::LightPath(o) => {
                 r[out as usize] = g.path.output(o);
                 return;
@@ -443,6 +459,71 @@ impl Program {
         };
         set3(r, out, v);
     }
+}
+
+/// Texture Coordinate Generated of world point `p` (Blender axes): the object's position in
+/// its texture space, 0..1 over the box (the object position without one).
+fn generated(obj: &ObjectData, p: Vec3) -> Vec3 {
+    let p = to_blender(obj.world_to_object.transform_point3(p));
+    match obj.texspace {
+        Some((loc, size)) => {
+            let d = |a: f32, b: f32| if b != 0.0 { a / (2.0 * b) } else { 0.0 };
+            let q = p - loc;
+            Vec3::new(d(q.x, size.x), d(q.y, size.y), d(q.z, size.z)) + Vec3::splat(0.5)
+        }
+        None => p,
+    }
+}
+
+/// Cycles' `cross(N, normalize(cross(t, N)))`: `t` made perpendicular to the normal `n`, unit
+/// (0 where `t` is along `n`).
+fn perpendicular(t: Vec3, n: Vec3) -> Vec3 {
+    n.cross(t.cross(n).normalize_or_zero())
+}
+
+/// The Wireframe node's Fac at `g` without Pixel Size (Cycles' `wireframe`): 1 where the
+/// point lies within `size` / 2 of one of its triangle's three edges (the triangulated mesh's,
+/// as Cycles), each neighbour drawing its own half; 0 off a triangle (a strand).
+fn wireframe(g: &Geom, size: f32) -> f32 {
+    let Some(&[i0, i1, i2]) = g.mesh.triangles.get(g.tri as usize) else {
+        return 0.0;
+    };
+    let co = [i0, i1, i2].map(|i| g.mesh.positions[i as usize]);
+    let half = 0.5 * size;
+    let width2 = half * half;
+    for i in 0..3 {
+        let i2 = if i > 0 { i - 1 } else { 2 };
+        let (dir, edge) = (g.p - co[i], co[i] - co[i2]);
+        let crs = edge.cross(dir);
+        // |crs|² / |edge|² is the squared distance to the edge's line.
+        if crs.dot(crs) < edge.dot(edge) * width2 {
+            return 1.0;
+        }
+    }
+    0.0
+}
+
+/// Geometry Parametric at `g`: Cycles' `(1 − u − v, u, 0)` for its hit barycentrics (u, v) on
+/// the triangle's corners a, b, c (P = a + u (b − a) + v (c − a)), i.e. the weights of the
+/// first and second corners, which keep Blender's corner order through the glTF file. They
+/// are solved from the point (the least-squares solution in the triangle's plane); 0 off a
+/// triangle (a strand).
+fn parametric(g: &Geom) -> Vec3 {
+    let Some(&[i0, i1, i2]) = g.mesh.triangles.get(g.tri as usize) else {
+        return Vec3::ZERO;
+    };
+    let m = g.mesh;
+    let p0 = m.positions[i0 as usize];
+    let (e1, e2, d) = (m.positions[i1 as usize] - p0, m.positions[i2 as usize] - p0, g.p - p0);
+    let (a, b, c) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+    let (d1, d2) = (d.dot(e1), d.dot(e2));
+    let det = a * c - b * b;
+    if !(det > 0.0) {
+        return Vec3::ZERO;
+    }
+    let u = (c * d1 - b * d2) / det;
+    let v = (a * d2 - b * d1) / det;
+    Vec3::new(1.0 - u - v, u, 0.0)
 }
 
 /// The Bump node's two offset points: the offsets `d` in the triangle's plane and the

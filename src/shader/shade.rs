@@ -116,7 +116,7 @@ pub fn shade_nodes(scene: &Scene, prog: &Program, s: &SurfaceHit, wo: Vec3, doub
         Bsdf::Mix(scaled(&c))
     };
     let emitted = if s.front || double_sided { c.emission * keep } else { Rgb::ZERO };
-    ShadingPoint { bsdf, frame, emitted }
+    ShadingPoint { bsdf, frame, emitted, holdout: c.holdout * keep }
 }
 
 /// The probability that a path passes a surface whose Transparent weight is `t`: the mean of

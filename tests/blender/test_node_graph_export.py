@@ -10,6 +10,7 @@ trees, a plain Principled material unchanged, and the Khronos validator on a gra
 import json
 import math
 import os
+import struct
 import subprocess
 
 import bpy
@@ -482,18 +483,53 @@ def test_file_images_are_rewritten_and_missing_ones_named(addon, empty_scene, tm
 
 def test_colour_attribute_nodes_are_named_in_a_warning(addon, empty_scene, tmp_path):
     """glTF's COLOR_n sets carry no names, so a Color Attribute node's attribute cannot be told
-    apart: exported as a node, and named in a warning rather than read silently as COLOR_0."""
+    apart where the graphs read several: exported as a node, and named in a warning rather
+    than read silently as COLOR_0."""
     mat = new_material("Painted")
     tree = mat.node_tree
     paint = tree.nodes.new("ShaderNodeVertexColor")
     paint.layer_name = "Paint"
-    diffuse_from(mat, paint.outputs["Color"])
+    bsdf = diffuse_from(mat, paint.outputs["Color"])
+    wet = tree.nodes.new("ShaderNodeAttribute")
+    wet.attribute_name = "Wet"
+    tree.links.new(wet.outputs["Fac"], bsdf.inputs["Roughness"])
     obj = uv_plane(empty_scene, "P", mat)
     obj.data.color_attributes.new("Paint", "BYTE_COLOR", "CORNER")
+    obj.data.color_attributes.new("Wet", "BYTE_COLOR", "CORNER")
     gltf, state, _ = export(addon, empty_scene, tmp_path)
     nodes = by_name(graph_of(gltf, "Painted"))
     assert nodes["Color Attribute"][1]["props"]["layer_name"] == "Paint"
     assert any("'Painted'" in w and "'Paint'" in w and "COLOR_n" in w for w in state.warnings), state.warnings
+
+
+def test_the_one_colour_attribute_the_graphs_read_is_colour_0(addon, empty_scene, tmp_path):
+    """Where the scene's graphs read one colour attribute alone, the export asks the glTF
+    exporter for it by name, which writes it as COLOR_0 (its own choice, Export Vertex Color
+    "Material", sees only what a Principled BSDF reads: a fake white COLOR_0 here, with
+    First and Second as COLOR_1 and COLOR_2). No warning then: there was one for any name
+    (e.g. 'Col'), and the renderer read the fake white."""
+    mat = new_material("Named")
+    attr = mat.node_tree.nodes.new("ShaderNodeAttribute")
+    attr.attribute_name = "Second"
+    diffuse_from(mat, attr.outputs["Color"])
+    obj = uv_plane(empty_scene, "P", mat)
+    for attribute, colour in (("First", (1.0, 0.0, 0.0, 1.0)), ("Second", (0.0, 1.0, 0.0, 1.0))):
+        layer = obj.data.color_attributes.new(attribute, "FLOAT_COLOR", "POINT")
+        for item in layer.data:
+            item.color = colour
+    obj.data.color_attributes.active_color_name = "First"
+    gltf, state, folder = export(addon, empty_scene, tmp_path)
+    assert not any("'Named'" in w and "COLOR_n" in w for w in state.warnings), state.warnings
+    # ... nor in the renderer: the node is marked as COLOR_0's.
+    assert by_name(graph_of(gltf, "Named"))["Attribute"][1]["props"]["color_0"] is True
+    prim = gltf["meshes"][0]["primitives"][0]
+    accessor = gltf["accessors"][prim["attributes"]["COLOR_0"]]
+    view = gltf["bufferViews"][accessor["bufferView"]]
+    with open(os.path.join(folder, gltf["buffers"][view["buffer"]]["uri"]), "rb") as f:
+        f.seek(view.get("byteOffset", 0) + accessor.get("byteOffset", 0))
+        raw = f.read(6)
+    assert accessor["componentType"] == 5123 and accessor["normalized"], accessor  # unsigned short
+    assert struct.unpack("<3H", raw) == (0, 65535, 0), "COLOR_0 is not Second"
 
 
 def shader_node_types():

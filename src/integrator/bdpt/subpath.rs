@@ -201,6 +201,12 @@ impl BdptIntegrator {
             let wo = -dir;
             let mat = &ctx.scene.materials[s.material as usize];
             let sp = ctx.shade(&s, wo);
+            // A Holdout closure seen by the camera ray (the path tracer's rule).
+            let (alpha, held) = SceneContext::holdout_alpha(&sp, beta);
+            if i == 0 && held {
+                out.alpha = alpha;
+                break;
+            }
             // Subsurface scattering is path traced from here (the BSDF holds the rest of
             // the material: its diffuse base is already reduced by the subsurface weight).
             if mat.subsurface.is_some() && self.strategy.is_none() && (i as u32) < self.max_depth {
@@ -228,7 +234,7 @@ impl BdptIntegrator {
                 }
             }
             if i == 0 {
-                out.alpha = 1.0;
+                out.alpha = alpha;
                 out.depth = camera.depth(s.p);
                 out.normal = sp.frame.n;
                 out.albedo = sp.bsdf.albedo();

@@ -406,7 +406,11 @@ impl JensenIntegrator {
             let wo = -c.st.dir;
             let sp = ctx.shade(&s, wo);
             if c.st.depth == 0 {
-                out.alpha = 1.0;
+                let (alpha, held) = SceneContext::holdout_alpha(&sp, c.total());
+                out.alpha = alpha;
+                if held {
+                    break;
+                }
                 out.depth = depth_of(s.p);
                 out.normal = sp.frame.n;
                 out.albedo = sp.bsdf.albedo();

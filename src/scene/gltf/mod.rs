@@ -379,7 +379,9 @@ impl<'a> Loader<'a> {
                         let texspace = value.pointer(&format!("/meshes/{}/extras/CAUSTIC_texspace", m.index()));
                         let color = value.pointer(&format!("/nodes/{node_index}/extras/CAUSTIC_object_color"));
                         let random_id = value.pointer(&format!("/nodes/{node_index}/extras/CAUSTIC_random_id"));
-                        objects.push(shader_graph::object_data(world, &node_name, texspace, color, random_id));
+                        let pass =
+                            value.pointer(&format!("/nodes/{node_index}/extensions/CAUSTIC_object_pass/pass_index"));
+                        objects.push(shader_graph::object_data(world, &node_name, texspace, color, random_id, pass));
                         let o = objects.len() as u32 - 1;
                         mesh.tri_object.resize(mesh.triangles.len(), o);
                         object = Some(o);

@@ -35,7 +35,13 @@ impl Loader<'_> {
             self.warn(format!("material '{name}': {w}"));
         }
         let keep_medium = features.iter().any(|f| f == "CAUSTIC_materials_medium");
-        *mat = graph_material(mat, compiled.program, keep_medium);
+        let mut program = compiled.program;
+        // Object Info's Material Index (`pass_ids.rs` checks the extension's shape).
+        program.material_index = m
+            .extension_value("CAUSTIC_material_pass")
+            .and_then(|v| v.get("pass_index")?.as_u64())
+            .map_or(0.0, |v| v as f32);
+        *mat = graph_material(mat, program, keep_medium);
         Ok(())
     }
 }
@@ -251,13 +257,16 @@ pub(crate) fn mean_node_emission(
 /// per-object random number (from the node's `CAUSTIC_random_id` extras, an instance's
 /// number in Blender's depsgraph, else the hash of its name), the mesh's texture space
 /// (`CAUSTIC_texspace` extras) and the object's colour (the node's `CAUSTIC_object_color`
-/// extras; white without them, as Blender's default, or when they are not 4 finite numbers).
+/// extras; white without them, as Blender's default, or when they are not 4 finite numbers)
+/// and its Pass Index (`CAUSTIC_object_pass`'s `pass_index`, checked by `pass_ids.rs`; 0
+/// without it).
 pub(super) fn object_data(
     world: &glam::Mat4,
     node_name: &str,
     texspace: Option<&serde_json::Value>,
     color: Option<&serde_json::Value>,
     random_id: Option<&serde_json::Value>,
+    pass_index: Option<&serde_json::Value>,
 ) -> crate::shader::geom::ObjectData {
     let vec3 = |v: Option<&serde_json::Value>| -> Option<glam::Vec3> {
         let a = v?.as_array()?;
@@ -283,6 +292,7 @@ pub(super) fn object_data(
                 v.filter(|v| v.iter().all(|x| x.is_finite())).map(|v| glam::Vec4::new(v[0], v[1], v[2], v[3]))
             })
             .unwrap_or(glam::Vec4::ONE),
+        pass_index: pass_index.and_then(|v| v.as_u64()).map_or(0.0, |v| v as f32),
     }
 }
 
@@ -320,9 +330,9 @@ mod object_random_tests {
     fn instance_random_from_extras() {
         let world = glam::Mat4::IDENTITY;
         let id = serde_json::json!(2_147_483_648u64);
-        assert_eq!(super::object_data(&world, "A", None, None, Some(&id)).random, 0.5);
+        assert_eq!(super::object_data(&world, "A", None, None, Some(&id), None).random, 0.5);
         let bad = serde_json::json!(-1);
-        assert_eq!(super::object_data(&world, "A", None, None, Some(&bad)).random, object_random("A"));
+        assert_eq!(super::object_data(&world, "A", None, None, Some(&bad), None).random, object_random("A"));
     }
 
     /// Object Info Color/Alpha from the node's extras; white without them or when malformed.
@@ -330,9 +340,12 @@ mod object_random_tests {
     fn object_color_from_extras() {
         let world = glam::Mat4::IDENTITY;
         let c = serde_json::json!([0.2, 0.4, 0.6, 0.5]);
-        assert_eq!(super::object_data(&world, "A", None, Some(&c), None).color, glam::Vec4::new(0.2, 0.4, 0.6, 0.5));
-        assert_eq!(super::object_data(&world, "A", None, None, None).color, glam::Vec4::ONE);
+        assert_eq!(
+            super::object_data(&world, "A", None, Some(&c), None, None).color,
+            glam::Vec4::new(0.2, 0.4, 0.6, 0.5)
+        );
+        assert_eq!(super::object_data(&world, "A", None, None, None, None).color, glam::Vec4::ONE);
         let bad = serde_json::json!([0.2, "x", 0.6, 1]);
-        assert_eq!(super::object_data(&world, "A", None, Some(&bad), None).color, glam::Vec4::ONE);
+        assert_eq!(super::object_data(&world, "A", None, Some(&bad), None, None).color, glam::Vec4::ONE);
     }
 }

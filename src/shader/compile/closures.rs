@@ -119,7 +119,10 @@ impl Compiler<'_> {
                 }
             }
             "ShaderNodeHoldout" => {
-                self.warn(i, "Holdout is not rendered (film alpha is not cut out); it contributes nothing");
+                // No colour; camera rays' alpha loses its weight (`Program::holdout`).
+                self.prog.holdout = true;
+                let zero = self.konst_f(0.0);
+                self.push_closure(ClosureKind::Holdout, w, zero, zero, zero, zero, None);
             }
             "ShaderNodeBsdfPrincipled" => {
                 self.principled += 1;
@@ -389,7 +392,9 @@ impl Compiler<'_> {
         normal: Option<Reg>,
     ) {
         self.closure_ops += 1;
-        if !matches!(kind, ClosureKind::Emission | ClosureKind::Transparent) && !self.normals.contains(&normal) {
+        if !matches!(kind, ClosureKind::Emission | ClosureKind::Transparent | ClosureKind::Holdout)
+            && !self.normals.contains(&normal)
+        {
             self.normals.push(normal);
         }
         self.ops.push(Op::Closure(Box::new(ClosureOp { kind, w, color, roughness, ior, strength, normal })));

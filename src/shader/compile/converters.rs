@@ -146,6 +146,11 @@ impl Compiler<'_> {
                 let out = self.out(i, "Color", Ty::Color);
                 self.ops.push(Op::Gamma { c, g, out });
             }
+            "ShaderNodeWavelength" => {
+                let lambda = self.float(i, "Wavelength", 500.0)?;
+                let out = self.out(i, "Color", Ty::Color);
+                self.ops.push(Op::Wavelength { lambda, out });
+            }
             "ShaderNodeBlackbody" => {
                 let t = self.float(i, "Temperature", 1500.0)?;
                 let out = self.out(i, "Color", Ty::Color);

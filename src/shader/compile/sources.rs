@@ -78,10 +78,10 @@ impl Compiler<'_> {
                 for (id, what, ty) in [
                     ("Position", Some(InputKind::Position), Ty::Vector),
                     ("Normal", Some(InputKind::Normal), Ty::Vector),
-                    ("Tangent", Some(InputKind::Tangent), Ty::Vector),
+                    ("Tangent", Some(InputKind::Radial(2)), Ty::Vector),
                     ("True Normal", Some(InputKind::TrueNormal), Ty::Vector),
                     ("Incoming", Some(InputKind::Incoming), Ty::Vector),
-                    ("Parametric", None, Ty::Vector),
+                    ("Parametric", Some(InputKind::Parametric), Ty::Vector),
                     ("Backfacing", Some(InputKind::Backfacing), Ty::Float),
                     ("Pointiness", None, Ty::Float),
                     ("Random Per Island", None, Ty::Float),
@@ -90,8 +90,8 @@ impl Compiler<'_> {
                         continue;
                     }
                     let out = self.out(i, id, ty);
-                    if what == Some(InputKind::Tangent) {
-                        self.prog.tangent_uv.get_or_insert(0);
+                    if what == Some(InputKind::Radial(2)) {
+                        self.uses_generated = true;
                     }
                     match what {
                         Some(what) => self.ops.push(Op::Input { what, out }),
@@ -111,7 +111,8 @@ impl Compiler<'_> {
                         }
                     }
                 } else {
-                    if kind == "ShaderNodeAttribute" {
+                    // `color_0`: the add-on exported this attribute as COLOR_0 by name.
+                    if kind == "ShaderNodeAttribute" && !self.prop_bool(i, "color_0", false) {
                         self.warn(i, format!("attribute '{name}' is read as the mesh's colour attribute (COLOR_0)"));
                     }
                     for (id, what, ty) in [
@@ -130,6 +131,74 @@ impl Compiler<'_> {
                         let out = self.out(i, "Fac", Ty::Float);
                         self.ops.push(Op::Avg { v: c, out });
                     }
+                }
+            }
+            "ShaderNodeTangent" => {
+                self.all_const = false;
+                let what = match self.prop_str(i, "direction_type", "RADIAL") {
+                    "UV_MAP" => {
+                        let set = self.tex_coord(i) as u32;
+                        if *self.prog.tangent_uv.get_or_insert(set) != set {
+                            self.warn(i, "a second UV map's tangents: the first one's are read");
+                        }
+                        InputKind::Tangent
+                    }
+                    _ => {
+                        self.uses_generated = true;
+                        InputKind::Radial(match self.prop_str(i, "axis", "Z") {
+                            "X" => 0,
+                            "Y" => 1,
+                            _ => 2,
+                        })
+                    }
+                };
+                let out = self.out(i, "Tangent", Ty::Vector);
+                self.ops.push(Op::Input { what, out });
+            }
+            "ShaderNodeWireframe" => {
+                self.all_const = false;
+                if self.prop_bool(i, "use_pixel_size", false) {
+                    self.warn(i, "Pixel Size is not supported (no ray differentials): the size is in scene units");
+                }
+                let size = self.float(i, "Size", 0.01)?;
+                let out = self.out(i, "Fac", Ty::Float);
+                self.ops.push(Op::Wireframe { size, out });
+            }
+            "ShaderNodeNormal" => {
+                // Normal: the node's direction (Blender axes, the add-on's `direction`),
+                // normalised; Dot: its dot with the normalised input (Cycles' svm_node_normal).
+                let d = self.desc(i).props.get("direction").and_then(Value::as_array).map(|a| {
+                    let f = |k: usize| a.get(k).and_then(Value::as_f64).unwrap_or(0.0) as f32;
+                    Vec3::new(f(0), f(1), f(2))
+                });
+                let d = d.unwrap_or(Vec3::Z).normalize_or_zero();
+                let dir = self.konst_v(d);
+                self.alias(i, "Normal", dir, Ty::Vector);
+                if self.is_used(i, "Dot") {
+                    let n = self.vec(i, "Normal", Vec3::Z)?;
+                    let unit = self.alloc(3);
+                    let zero = self.konst_f(0.0);
+                    let scratch = self.alloc(1);
+                    self.ops.push(Op::VecMath {
+                        op: VecOp::Normalize,
+                        a: n,
+                        b: n,
+                        c: n,
+                        s: zero,
+                        vout: unit,
+                        fout: scratch,
+                    });
+                    let out = self.out(i, "Dot", Ty::Float);
+                    let vscratch = self.alloc(3);
+                    self.ops.push(Op::VecMath {
+                        op: VecOp::Dot,
+                        a: dir,
+                        b: unit,
+                        c: unit,
+                        s: zero,
+                        vout: vscratch,
+                        fout: out,
+                    });
                 }
             }
             "ShaderNodeFresnel" => {
@@ -173,9 +242,10 @@ impl Compiler<'_> {
                             self.ops.push(Op::Input { what, out });
                         }
                         _ => {
-                            self.warn(i, format!("the {id} output is not supported: it gives 0"));
-                            let r = self.konst_f(0.0);
-                            self.alias(i, id, r, ty);
+                            let out = self.out(i, id, ty);
+                            let what =
+                                if id == "Object Index" { InputKind::ObjectIndex } else { InputKind::MaterialIndex };
+                            self.ops.push(Op::Input { what, out });
                         }
                     }
                 }

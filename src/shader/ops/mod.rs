@@ -1,7 +1,7 @@
 //! The pure functions of Blender's converter nodes, as Cycles computes them
 //! (`kernel/svm/math_util.h`, `color_util.h`, `map_range.h`, `util/color.h`): Math and
 //! Vector Math (every operation, with Cycles' "safe" variants), the colour blend modes,
-//! Map Range, colour-space conversions (HSV, HSL), Hue/Saturation/Value.
+//! Map Range, colour-space conversions (HSV, HSL), Hue/Saturation/Value, Wavelength.
 
 //!
 //! One file per family; the names are re-exported here so callers write `ops::math`,
@@ -11,6 +11,7 @@ mod colour;
 mod map_range;
 mod math;
 mod vector;
+mod wavelength;
 
 pub use colour::{Blend, blend, bright_contrast, gamma, hsl_to_rgb, hsv_to_rgb, hue_sat_val, rgb_to_hsl, rgb_to_hsv};
 pub use map_range::{RangeInterp, map_range};
@@ -19,3 +20,4 @@ pub use math::{
     safe_powf, smoothminf, wrapf,
 };
 pub use vector::{VecOp, rotate_around_axis, safe_normalize, vector_math};
+pub use wavelength::wavelength_to_rgb;

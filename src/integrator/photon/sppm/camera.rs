@@ -200,8 +200,13 @@ pub(super) fn camera_path(
         let wo = -st.dir;
         let sp = ctx.shade(&s, wo);
         if st.depth == 0 {
+            let (alpha, held) = SceneContext::holdout_alpha(&sp, beta);
+            if held {
+                pend.alpha = alpha_before + alpha;
+                return (l, None, first_t);
+            }
             first_t = s.t;
-            pend.alpha += 1.0;
+            pend.alpha += alpha;
             let z = camera.depth(s.p);
             pend.depth = z;
             pend.normal = sp.frame.n;
