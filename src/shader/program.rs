@@ -398,17 +398,7 @@ impl Program {
             }
             InputKind::Object => to_blender(obj.world_to_object.transform_point3(g.p)),
             InputKind::ObjectMatrix(i) => to_blender(self.matrices[i as usize].transform_point3(g.p)),
-            InputKind::Generated => {
-                let p = to_blender(obj.world_to_object.transform_point3(g.p));
-                match obj.texspace {
-                    Some((loc, size)) => {
-                        let d = |a: f32, b: f32| if b != 0.0 { a / (2.0 * b) } else { 0.0 };
-                        let q = p - loc;
-                        Vec3::new(d(q.x, size.x), d(q.y, size.y), d(q.z, size.z)) + Vec3::splat(0.5)
-                    }
-                    None => p,
-                }
-            }
+            InputKind::Generated => g.generated(),
             InputKind::ObjectNormal => {
                 // Normals go to object space by the inverse transpose of world→object.
                 let m = obj.world_to_object.inverse().transpose();

@@ -145,22 +145,18 @@ impl Compiler<'_> {
                     emission_strength: self.float(i, "Emission Strength", 0.0)?,
                     thin_film_thickness: self.float(i, "Thin Film Thickness", 0.0)?,
                     thin_film_ior: self.float(i, "Thin Film IOR", 1.33)?,
+                    diffuse_roughness: self.float(i, "Diffuse Roughness", 0.0)?,
+                    anisotropic: self.float(i, "Anisotropic", 0.0)?,
+                    anisotropic_rotation: self.float(i, "Anisotropic Rotation", 0.0)?,
+                    tangent: match self.source(i, "Tangent")? {
+                        Some(_) => Some(self.vec(i, "Tangent", Vec3::ZERO)?),
+                        None => None,
+                    },
                 };
-                for id in ["Anisotropic", "Diffuse Roughness"] {
-                    let nonzero = self.source(i, id)?.is_some()
-                        || self.value(i, id).and_then(Value::as_f64).is_some_and(|v| v != 0.0);
-                    if nonzero {
-                        self.warn(i, format!("'{id}' is not rendered"));
-                    }
-                }
-                let transmission_varies = self.source(i, "Transmission Weight")?.is_some()
-                    || self.value(i, "Transmission Weight").and_then(Value::as_f64).is_some_and(|v| v > 0.0 && v < 1.0);
-                if transmission_varies {
-                    self.warn(
-                        i,
-                        "partial transmission tints transmitted light by the base colour at each crossing \
-                         (Cycles: by its square root)",
-                    );
+                let anisotropic = !self.is_const(p.anisotropic, 1) || self.init[p.anisotropic as usize] != 0.0;
+                if anisotropic && p.tangent.is_none() {
+                    // Cycles' default tangent: radial in the Generated coordinates.
+                    self.uses_generated = true;
                 }
                 if !self.is_const(p.alpha, 1) || self.init[p.alpha as usize] < 1.0 {
                     self.prog.transparent = true;
@@ -209,6 +205,10 @@ impl Compiler<'_> {
                     emission_strength: zero,
                     thin_film_thickness: zero,
                     thin_film_ior: self.konst_f(1.33),
+                    diffuse_roughness: zero,
+                    anisotropic: zero,
+                    anisotropic_rotation: zero,
+                    tangent: None,
                 };
                 self.subsurface(i, ["Radius", "Scale", "Anisotropy", "IOR"], method, true)?;
                 self.principled_closure(i, p, w)?;
