@@ -463,7 +463,18 @@ mod tests {
         let mut c = MixBsdf::new();
         c.push(Rgb::splat(0.6), Lobe::glossy(0.7, GlossyFresnel::Schlick(Rgb::new(0.9, 0.6, 0.3))));
         c.push(Rgb::splat(0.4), Lobe::Dielectric(DielectricBsdf::new(1.0 / 1.33, 0.5, false, Rgb::ONE)));
-        vec![("diffuse+glossy+translucent+oren-nayar", a), ("glass+sheen+principled", b), ("metal+leaving glass", c)]
+        let mut d = MixBsdf::new();
+        d.push(Rgb::splat(0.5), Lobe::Diffuse);
+        d.push(
+            Rgb::splat(0.5),
+            Lobe::Dielectric(DielectricBsdf::new(1.0 / 1.5, 0.4, false, Rgb::ONE).refraction_only()),
+        );
+        vec![
+            ("diffuse+glossy+translucent+oren-nayar", a),
+            ("glass+sheen+principled", b),
+            ("metal+leaving glass", c),
+            ("diffuse+leaving refraction", d),
+        ]
     }
 
     /// The mixture's sampling matches its pdf (the pdf of the whole mixture).

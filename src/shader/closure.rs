@@ -19,8 +19,8 @@
 //!   a constant Fresnel, the colour, and Cycles' multiscatter compensation; Metallic →
 //!   GGX with Schlick's Fresnel of F0 = Base Color (edge tint and the physical-conductor
 //!   mode are approximated, warned at load); Glass → a dielectric interface whose
-//!   reflection and transmission the colour tints; Refraction → the same interface
-//!   (Cycles' has no reflection: warned); Translucent → Lambertian transmission; Sheen →
+//!   reflection and transmission the colour tints; Refraction → the interface's refraction
+//!   alone, without Fresnel weighting (Cycles' Refraction BSDF); Translucent → Lambertian transmission; Sheen →
 //!   Cycles' microfiber sheen (its Ashikhmin distribution is warned about at load), as is
 //!   the Principled BSDF's sheen; Emission → emitted radiance Color × Strength; Transparent → pass-through
 //!   by coverage (`Scene::pass_through`: probability its colour's mean, weight colour / mean;
@@ -77,8 +77,10 @@ pub enum ClosureKind {
         /// Multiscatter GGX.
         multiscatter: bool,
     },
-    /// Glass or Refraction BSDF.
+    /// Glass BSDF.
     Glass,
+    /// Refraction BSDF: the glass's refraction alone.
+    Refraction,
     /// Translucent BSDF.
     Translucent,
     /// Sheen BSDF.
@@ -230,11 +232,17 @@ impl ClosureOp {
                 }
                 push(weight, lobe);
             }
-            ClosureKind::Glass => {
+            ClosureKind::Glass | ClosureKind::Refraction => {
                 let ior = r[self.ior as usize];
                 let ior = if ior.is_finite() && ior > 0.0 { ior } else { 1.5 };
                 let eta = if g.backfacing { 1.0 / ior } else { ior };
-                let d = DielectricBsdf::new(eta, rough(), false, Rgb::ONE).with_multiscatter();
+                let d = DielectricBsdf::new(eta, rough(), false, Rgb::ONE);
+                // Cycles' Refraction BSDF has no Fresnel and no multiple-scattering compensation.
+                let d = if matches!(self.kind, ClosureKind::Refraction) {
+                    d.refraction_only()
+                } else {
+                    d.with_multiscatter()
+                };
                 push(color() * w, Lobe::Dielectric(d));
             }
             ClosureKind::Emission => out.emission += color() * (r[self.strength as usize] * w),

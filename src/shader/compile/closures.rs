@@ -326,11 +326,14 @@ impl Compiler<'_> {
                 let dist = self.prop_str(i, "distribution", "MULTI_GGX");
                 (ClosureKind::Glossy { metallic: true, multiscatter: dist == "MULTI_GGX" }, colour)
             }
-            "ShaderNodeBsdfGlass" | "ShaderNodeBsdfRefraction" => {
-                if kind == "ShaderNodeBsdfRefraction" {
-                    self.warn(i, "rendered as a Glass BSDF (Cycles' Refraction BSDF does not reflect)");
+            "ShaderNodeBsdfGlass" => (ClosureKind::Glass, self.vec(i, "Color", Vec3::ONE)?),
+            "ShaderNodeBsdfRefraction" => {
+                // Blender's default for this node is Beckmann (Caustic has GGX microfacets only).
+                let dist = self.prop_str(i, "distribution", "BECKMANN");
+                if dist != "GGX" {
+                    self.warn(i, format!("distribution {dist} is rendered as GGX"));
                 }
-                (ClosureKind::Glass, self.vec(i, "Color", Vec3::ONE)?)
+                (ClosureKind::Refraction, self.vec(i, "Color", Vec3::ONE)?)
             }
             "ShaderNodeBsdfTranslucent" => (ClosureKind::Translucent, self.vec(i, "Color", Vec3::splat(0.8))?),
             "ShaderNodeBsdfSheen" => {
@@ -362,13 +365,16 @@ impl Compiler<'_> {
             _ => unreachable!("closure kinds are listed in is_closure_node"),
         };
         let roughness = match ck {
-            ClosureKind::Glossy { .. } | ClosureKind::Glass => self.float(i, "Roughness", 0.5)?,
+            ClosureKind::Glossy { .. } | ClosureKind::Glass | ClosureKind::Refraction => {
+                self.float(i, "Roughness", 0.5)?
+            }
             ClosureKind::Sheen => self.float(i, "Roughness", 0.5)?,
             // Oren-Nayar's σ (0: Lambertian).
             ClosureKind::Diffuse => self.float(i, "Roughness", 0.0)?,
             _ => zero,
         };
-        let ior = if matches!(ck, ClosureKind::Glass) { self.float(i, "IOR", 1.5)? } else { zero };
+        let ior =
+            if matches!(ck, ClosureKind::Glass | ClosureKind::Refraction) { self.float(i, "IOR", 1.5)? } else { zero };
         let normal = if matches!(ck, ClosureKind::Transparent) { None } else { self.normal(i, "Normal")? };
         if !matches!(ck, ClosureKind::Transparent) {
             self.small_lobes += 1;
