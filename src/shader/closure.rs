@@ -17,8 +17,8 @@
 //!   warned at load; the first anisotropic one's tangent is the frame's).
 //! * Diffuse → Lambert, or Cycles' Oren-Nayar for a roughness; Glossy → GGX with
 //!   a constant Fresnel, the colour, and Cycles' multiscatter compensation; Metallic →
-//!   GGX with Schlick's Fresnel of F0 = Base Color (edge tint and the physical-conductor
-//!   mode are approximated, warned at load); Glass → a dielectric interface whose
+//!   GGX with Cycles' F82-tint Fresnel of F0 = Base Color and its Edge Tint (the
+//!   physical-conductor mode is approximated by Schlick's, warned at load); Glass → a dielectric interface whose
 //!   reflection and transmission the colour tints; Refraction → the interface's refraction
 //!   alone, without Fresnel weighting (Cycles' Refraction BSDF); Translucent → Lambertian transmission; Sheen →
 //!   Cycles' microfiber sheen (its Ashikhmin distribution is warned about at load), as is
@@ -76,6 +76,8 @@ pub enum ClosureKind {
         metallic: bool,
         /// Multiscatter GGX.
         multiscatter: bool,
+        /// The Metallic BSDF's Edge Tint (F82-tint), when not a constant white.
+        edge_tint: Option<Reg>,
     },
     /// Glass BSDF.
     Glass,
@@ -220,9 +222,14 @@ impl ClosureOp {
             }
             ClosureKind::Translucent => push(color() * w, Lobe::Translucent),
             ClosureKind::Sheen => push(color() * w, Lobe::Sheen { roughness: rough() }),
-            ClosureKind::Glossy { metallic, multiscatter } => {
+            ClosureKind::Glossy { metallic, multiscatter, edge_tint } => {
                 let (weight, fresnel) = if *metallic {
-                    (Rgb::splat(w), GlossyFresnel::Schlick(color().min(Vec3::ONE)))
+                    let f0 = color().min(Vec3::ONE);
+                    let fresnel = match edge_tint {
+                        Some(t) => GlossyFresnel::f82_tint(f0, v3(r, *t).clamp(Vec3::ZERO, Vec3::ONE)),
+                        None => GlossyFresnel::Schlick(f0),
+                    };
+                    (Rgb::splat(w), fresnel)
                 } else {
                     (color() * w, GlossyFresnel::Constant)
                 };

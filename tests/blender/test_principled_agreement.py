@@ -1,5 +1,7 @@
 """Caustic and Cycles agree on the Principled BSDF's inputs that only the node-graph path
-renders (`CAUSTIC_materials_nodes`, src/shader/closure.rs) and on the Refraction BSDF (issue 19).
+renders (`CAUSTIC_materials_nodes`, src/shader/closure.rs: Anisotropic with Cycles' default
+tangent, Diffuse Roughness, Base Color above 1, partial Transmission), on the Refraction BSDF
+and on the Metallic BSDF's Edge Tint (issue 19).
 
 Each material drives the input under test from a Value node: Blender's glTF exporter drops
 that link, so the add-on exports the material as a node graph (the path under test) and
@@ -131,3 +133,22 @@ def test_refraction_bsdf_matches_cycles(empty_scene, tmp_path):
     scene.caustic.threads = 0
     scenes.match_cycles(scene, SAMPLES, BOUNCES)
     assert_mean_matches_cycles(scene, tmp_path, "refraction", MODEL_ALLOWANCE, per_channel=True)
+
+
+def test_metallic_edge_tint_matches_cycles(empty_scene, tmp_path):
+    """A Metallic BSDF (F82 Tint mode) with Base Color (0.9, 0.6, 0.3) and Edge Tint (0.3, 0.6,
+    1.0), Roughness 0.3, on a plane seen at 80° from its normal reflecting a disk light: near 82°
+    Cycles' F82-tint Fresnel is Schlick's times the tint. Before, Caustic rendered Schlick's of
+    the base colour with a warning: R 2.9199, G 1.6576, B 1.0032 of Cycles; now R 1.0005,
+    G 1.0021, B 1.0032."""
+    scene = empty_scene
+    scenes.small_render_settings(scene, W, H, samples=SAMPLES)
+    mat = driven("ShaderNodeBsdfMetallic", {"Roughness": 0.3},
+                 **{"Base Color": (0.9, 0.6, 0.3, 1), "Edge Tint": (0.3, 0.6, 1.0, 1)})
+    scenes.plane(scene, "Sheet", 6.0, material=mat)
+    scenes.light(scene, "Key", "AREA", location=(0.0, 4.0, 0.7), rotation_deg=(-80.07, 0, 0), shape="DISK",
+                 size=0.6, energy=200.0)
+    scenes.camera(scene, (0.0, -4.0, 0.7), (80.07, 0.0, 0.0), lens=50.0)
+    scene.caustic.threads = 0
+    scenes.match_cycles(scene, SAMPLES, BOUNCES)
+    assert_mean_matches_cycles(scene, tmp_path, "edge tint", MODEL_ALLOWANCE, per_channel=True)

@@ -301,11 +301,12 @@ impl Compiler<'_> {
                     self.warn(i, "anisotropy is not rendered (isotropic GGX)");
                 }
                 (
-                    ClosureKind::Glossy { metallic: false, multiscatter: dist == "MULTI_GGX" },
+                    ClosureKind::Glossy { metallic: false, multiscatter: dist == "MULTI_GGX", edge_tint: None },
                     self.vec(i, "Color", Vec3::splat(0.8))?,
                 )
             }
             "ShaderNodeBsdfMetallic" => {
+                let mut edge_tint = None;
                 let colour = if self.prop_str(i, "fresnel_type", "F82") == "PHYSICAL_CONDUCTOR" {
                     self.warn(
                         i,
@@ -319,12 +320,12 @@ impl Compiler<'_> {
                 } else {
                     let tint = self.vec(i, "Edge Tint", Vec3::ONE)?;
                     if !self.is_const(tint, 3) || (0..3).any(|k| self.init[tint as usize + k] != 1.0) {
-                        self.warn(i, "Edge Tint is not rendered (Schlick's Fresnel of F0 = Base Color)");
+                        edge_tint = Some(tint);
                     }
                     self.vec(i, "Base Color", Vec3::splat(0.8))?
                 };
                 let dist = self.prop_str(i, "distribution", "MULTI_GGX");
-                (ClosureKind::Glossy { metallic: true, multiscatter: dist == "MULTI_GGX" }, colour)
+                (ClosureKind::Glossy { metallic: true, multiscatter: dist == "MULTI_GGX", edge_tint }, colour)
             }
             "ShaderNodeBsdfGlass" => (ClosureKind::Glass, self.vec(i, "Color", Vec3::ONE)?),
             "ShaderNodeBsdfRefraction" => {
