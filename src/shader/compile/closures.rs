@@ -153,6 +153,16 @@ impl Compiler<'_> {
                         None => None,
                     },
                 };
+                let metal = !self.is_const(p.metallic, 1) || self.init[p.metallic as usize] > 0.0;
+                let tinted =
+                    !self.is_const(p.spec_tint, 3) || (0..3).any(|k| self.init[p.spec_tint as usize + k] != 1.0);
+                if metal && tinted {
+                    self.warn(
+                        i,
+                        "Specular Tint does not tint the metal's edge (Cycles' F82 tint): the metal is Schlick's \
+                         Fresnel of the base colour",
+                    );
+                }
                 let anisotropic = !self.is_const(p.anisotropic, 1) || self.init[p.anisotropic as usize] != 0.0;
                 if anisotropic && p.tangent.is_none() {
                     // Cycles' default tangent: radial in the Generated coordinates.
