@@ -356,6 +356,12 @@ class _Builder:
             vector = node.inputs.get("Vector")
             if vector is not None and _available(vector) and "link" not in entry["inputs"].get("Vector", {}):
                 self.uses_generated = True
+        if node.type == "BSDF_PRINCIPLED" and "link" not in entry["inputs"].get("Tangent", {}):
+            # Cycles' default Tangent (the Geometry node's, radial around the object's Z axis)
+            # reads Generated coordinates where the BSDF is anisotropic.
+            anisotropic = entry["inputs"].get("Anisotropic", {})
+            if "link" in anisotropic or anisotropic.get("value", 0.0) != 0.0:
+                self.uses_generated = True
 
     def props(self, node, name):
         """The node's own settings (everything not inherited from ShaderNode), contract's shapes."""

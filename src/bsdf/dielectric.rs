@@ -30,6 +30,12 @@
 //! so the BTDF is no longer reciprocal: [`DielectricBsdf::adjoint_ratio`] corrects the
 //! generalised reciprocity that light paths rely on.
 //!
+//! Refraction only ([`DielectricBsdf::refraction_only`]), Cycles' Refraction BSDF: no reflection
+//! lobe and no Fresnel weighting (a refracted sample keeps its whole weight, as Cycles'
+//! `MicrofacetFresnel::NONE`), except where the microfacet reflects totally (no refraction
+//! there: the light is lost). Every sample refracts; its density is the visible normal's
+//! through the refraction Jacobian, and microfacets that reflect totally give no sample.
+//!
 //! Not handled: dispersion of rough glass (one IOR for all wavelengths), absorption
 //! inside (the integrator applies `KHR_materials_volume` along the path).
 
@@ -72,6 +78,8 @@ pub struct DielectricBsdf {
     /// Kulla & Conty's F_ms per channel of the multiple-scattering compensation; zero
     /// when it is off (smooth, or not asked for).
     ms_fms: Rgb,
+    /// Cycles' Refraction BSDF: refraction alone, unweighted by Fresnel (module doc).
+    refract_only: bool,
 }
 
 /// Wavelengths (nm) that stand for the R, G and B channels in dispersion: the peaks of
@@ -99,6 +107,35 @@ impl DielectricBsdf {
             eta_rgb: None,
             roughness,
             ms_fms: Rgb::ZERO,
+            refract_only: false,
+        }
+    }
+
+    /// The same interface refracting only, as Cycles' Refraction BSDF (module doc): a solid's
+    /// interface (not thin), without multiple-scattering compensation (Cycles has none for it).
+    pub fn refraction_only(mut self) -> Self {
+        self.refract_only = true;
+        self.thin = false;
+        self.ms_fms = Rgb::ZERO;
+        self
+    }
+
+    /// Refracts only (Cycles' Refraction BSDF).
+    pub fn refracts_only(&self) -> bool {
+        self.refract_only
+    }
+
+    /// What a refraction through a microfacet at cos θ to wo keeps, before the tint: 1 − F,
+    /// or, refracting only, 1 unless the microfacet reflects totally.
+    #[inline]
+    fn transmittance(&self, cos: f32) -> f32 {
+        let f = fresnel_dielectric(cos, self.eta);
+        if !self.refract_only {
+            1.0 - f
+        } else if f >= 1.0 {
+            0.0
+        } else {
+            1.0
         }
     }
 
@@ -173,15 +210,15 @@ impl DielectricBsdf {
         if self.thin { 2.0 * r / (1.0 + r) } else { r }
     }
 
-    /// Fraction reflected at `wo` for sampling decisions (exact when smooth).
+    /// Fraction reflected at `wo` for sampling decisions (exact when smooth; 0 refracting only).
     pub fn reflect_probability(&self, wo: Vec3) -> f32 {
-        self.reflectance(wo.z)
+        if self.refract_only { 0.0 } else { self.reflectance(wo.z) }
     }
 
     /// f(wo, wi) of the non-delta part (zero when smooth).
     #[inline]
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
-        if self.smooth || wo.z <= 0.0 || wi.z == 0.0 {
+        if self.smooth || wo.z <= 0.0 || wi.z == 0.0 || (self.refract_only && wi.z > 0.0) {
             return Rgb::ZERO;
         }
         if wi.z > 0.0 || self.thin {
@@ -197,9 +234,9 @@ impl DielectricBsdf {
             return Rgb::ZERO;
         };
         let (dot_o, dot_i) = (wo.dot(m), wi.dot(m));
-        let f = fresnel_dielectric(dot_o, self.eta);
+        let t = self.transmittance(dot_o);
         let denom = dot_i + dot_o / self.eta;
-        let value = self.ggx.d(m) * (1.0 - f) * self.ggx.g2(wo, Vec3::new(wi.x, wi.y, -wi.z)) * (dot_i * dot_o).abs()
+        let value = self.ggx.d(m) * t * self.ggx.g2(wo, Vec3::new(wi.x, wi.y, -wi.z)) * (dot_i * dot_o).abs()
             / (denom * denom * wi.z.abs() * wo.z);
         // Cycles' convention (module doc): Walter's radiance BTDF times η².
         self.tint * self.multiscatter(wo) * value
@@ -227,7 +264,7 @@ impl DielectricBsdf {
     /// Density of `sample` for the non-delta part.
     #[inline]
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        if self.smooth || wo.z <= 0.0 || wi.z == 0.0 {
+        if self.smooth || wo.z <= 0.0 || wi.z == 0.0 || (self.refract_only && wi.z > 0.0) {
             return 0.0;
         }
         if wi.z > 0.0 || self.thin {
@@ -241,7 +278,8 @@ impl DielectricBsdf {
             return 0.0;
         };
         let (dot_o, dot_i) = (wo.dot(m), wi.dot(m));
-        let t = 1.0 - fresnel_dielectric(dot_o, self.eta);
+        // Refracting only, every sample refracts (but not through totally reflecting facets).
+        let t = self.transmittance(dot_o);
         let denom = dot_i + dot_o / self.eta;
         t * self.ggx.pdf_visible_normal(wo, m) * dot_i.abs() / (denom * denom)
     }
@@ -251,6 +289,11 @@ impl DielectricBsdf {
     pub fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
         if wo.z <= 0.0 {
             return None;
+        }
+        if self.smooth && self.refract_only {
+            // All of it refracts, unless it reflects totally (then nothing: Cycles' closure).
+            let wi = refract(wo, Vec3::Z, self.eta)?;
+            return Some(BsdfSample { wi, f: self.tint / wi.z.abs(), pdf: 1.0, delta: true, kind: LobeKind::Glossy });
         }
         if self.smooth {
             let r = self.reflectance(wo.z);
@@ -287,7 +330,7 @@ impl DielectricBsdf {
             return Some(BsdfSample { wi, f, pdf: t, delta: true, kind: LobeKind::Glossy });
         }
         let m = self.ggx.sample_visible_normal(wo, u);
-        let r = self.reflectance(wo.dot(m));
+        let r = if self.refract_only { 0.0 } else { self.reflectance(wo.dot(m)) };
         let wi = if uc < r {
             reflect(wo, m)
         } else if self.thin {
@@ -368,6 +411,50 @@ mod tests {
                     }
                 }
             }
+        }
+    }
+
+    /// Refracting only (Cycles' Refraction BSDF): sampling matches the density, rough, entering
+    /// and leaving (where facets reflect totally and give no sample).
+    #[test]
+    fn chi2_refraction_only() {
+        for &eta in &[1.5f32, 1.0 / 1.5, 1.33] {
+            for &roughness in &[0.3f32, 0.8] {
+                for &theta in &[0.2f32, 0.9, 1.3] {
+                    let b = DielectricBsdf::new(eta, roughness, false, Rgb::ONE).refraction_only();
+                    let wo = Vec3::new(theta.sin(), 0.0, theta.cos());
+                    let mut rng = Pcg32::new(13);
+                    let t = ChiSquareTest::new(&format!("refraction only η={eta} r={roughness} θ={theta}"));
+                    assert_chi2(
+                        t.run_with_pdf(|u| b.sample(wo, rng.next_f32(), u).map(|s| (s.wi, s.pdf)), |wi| b.pdf(wo, wi)),
+                    );
+                }
+            }
+        }
+    }
+
+    /// Refracting only: nothing is reflected; a smooth interface passes all of the light (the
+    /// weight is the tint, no 1 − F), and none beyond the critical angle; a sampled rough
+    /// refraction's value is `eval` and its weight is the tint (Fresnel-free).
+    #[test]
+    fn refraction_only_keeps_the_whole_weight() {
+        let tint = Rgb::new(0.9, 0.5, 0.2);
+        let smooth = DielectricBsdf::new(1.5, 0.0, false, tint).refraction_only();
+        let wo = Vec3::new(0.8f32.sin(), 0.0, 0.8f32.cos());
+        let s = smooth.sample(wo, 0.01, Vec2::ZERO).unwrap();
+        assert!(s.wi.z < 0.0 && s.delta);
+        assert!((s.f * s.wi.z.abs() / s.pdf - tint).abs().max_element() < 1e-6);
+        let inside = DielectricBsdf::new(1.0 / 1.5, 0.0, false, tint).refraction_only();
+        let beyond = 45f32.to_radians();
+        assert!(inside.sample(Vec3::new(beyond.sin(), 0.0, beyond.cos()), 0.5, Vec2::ZERO).is_none());
+        let rough = DielectricBsdf::new(1.5, 0.4, false, tint).refraction_only();
+        assert_eq!(rough.reflect_probability(wo), 0.0);
+        assert_eq!(rough.eval(wo, Vec3::new(-0.3, 0.1, 0.95).normalize()), Rgb::ZERO);
+        let mut rng = Pcg32::new(2);
+        for _ in 0..100 {
+            let Some(s) = rough.sample(wo, rng.next_f32(), Vec2::new(rng.next_f32(), rng.next_f32())) else { continue };
+            assert!(s.wi.z < 0.0);
+            assert!((s.f - rough.eval(wo, s.wi)).abs().max_element() < 1e-5);
         }
     }
 

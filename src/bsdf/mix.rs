@@ -41,6 +41,43 @@ pub enum GlossyFresnel {
     Constant,
     /// Schlick's with this F0 (the Metallic BSDF's base colour; its weight is grey).
     Schlick(Rgb),
+    /// Cycles' F82-tint (Kutz et al., "Novel aspects of the Adobe Standard Material"):
+    /// Schlick's minus b cos θ (1 − cos θ)⁶, saturated, with b chosen so that at cos θ = 1/7
+    /// (about 82°) it is Schlick's times the tint (the Metallic BSDF's Edge Tint).
+    F82Tint {
+        /// Normal-incidence reflectance (the base colour).
+        f0: Rgb,
+        /// The (1 − cos)⁶ term's factor from the tint.
+        b: Rgb,
+    },
+}
+
+impl GlossyFresnel {
+    /// The Metallic BSDF's F82-tint Fresnel of colour `f0` and edge tint `tint` (both in
+    /// [0, 1]): Schlick's when the tint is white, as Cycles (`fresnel_f82tint_B`).
+    pub fn f82_tint(f0: Rgb, tint: Rgb) -> Self {
+        if tint == Rgb::ONE {
+            return GlossyFresnel::Schlick(f0);
+        }
+        let f = 6.0f32 / 7.0;
+        let f5 = f * f * f * f * f;
+        let schlick = f0 + (Rgb::ONE - f0) * f5;
+        GlossyFresnel::F82Tint { f0, b: schlick * (7.0 / (f5 * f)) * (Rgb::ONE - tint) }
+    }
+
+    /// The reflectance at cos θ to the microfacet normal.
+    #[inline]
+    fn at(&self, cos: f32) -> Rgb {
+        match self {
+            GlossyFresnel::Constant => Rgb::ONE,
+            GlossyFresnel::Schlick(f0) => *f0 + (Rgb::ONE - *f0) * schlick_weight(cos),
+            GlossyFresnel::F82Tint { f0, b } => {
+                let s = (1.0 - cos).clamp(0.0, 1.0);
+                let s5 = s * s * s * s * s;
+                (*f0 + (Rgb::ONE - *f0) * s5 - *b * (cos * s5 * s)).clamp(Rgb::ZERO, Rgb::ONE)
+            }
+        }
+    }
 }
 
 /// One closure of a mixture, with unit weight (the mixture holds the weights).
@@ -81,6 +118,8 @@ impl Lobe {
         let f_avg = match fresnel {
             GlossyFresnel::Constant => Rgb::ONE,
             GlossyFresnel::Schlick(f0) => f0 + (Rgb::ONE - f0) / 21.0,
+            // Cycles' fresnel_f82_Fss: the cosine-weighted average of the F82-tint curve.
+            GlossyFresnel::F82Tint { f0, b } => (f0 + (Rgb::ONE - f0) / 21.0 - b / 126.0).clamp(Rgb::ZERO, Rgb::ONE),
         };
         let fms = if roughness < SMOOTH_ROUGHNESS {
             Rgb::ZERO
@@ -121,6 +160,7 @@ impl Lobe {
             Lobe::Glossy { fresnel, .. } => match fresnel {
                 GlossyFresnel::Constant => 1.0,
                 GlossyFresnel::Schlick(f0) => luminance(*f0 + (Rgb::ONE - *f0) * schlick_weight(wo.z)),
+                GlossyFresnel::F82Tint { .. } => luminance(fresnel.at(wo.z)).max(1e-3),
             },
             Lobe::Dielectric(_) => 1.0,
             Lobe::Sheen { roughness } => Microfiber::at(wo, *roughness).albedo().max(1e-3),
@@ -139,10 +179,7 @@ impl Lobe {
                 }
                 let h = (wo + wi).normalize();
                 let spec = ggx.d(h) * ggx.g2(wo, wi) / (4.0 * wo.z * wi.z);
-                let f = match fresnel {
-                    GlossyFresnel::Constant => Rgb::ONE,
-                    GlossyFresnel::Schlick(f0) => *f0 + (Rgb::ONE - *f0) * schlick_weight(wo.dot(h).max(0.0)),
-                };
+                let f = fresnel.at(wo.dot(h).max(0.0));
                 f * Self::glossy_ms(*fms, *roughness, wo.z) * spec
             }
             Lobe::Dielectric(d) => d.eval(wo, wi),
@@ -191,10 +228,7 @@ impl Lobe {
             Lobe::Glossy { ggx, roughness, fresnel, fms } => {
                 if *roughness < SMOOTH_ROUGHNESS {
                     let wi = Vec3::new(-wo.x, -wo.y, wo.z);
-                    let f = match fresnel {
-                        GlossyFresnel::Constant => Rgb::ONE,
-                        GlossyFresnel::Schlick(f0) => *f0 + (Rgb::ONE - *f0) * schlick_weight(wo.z),
-                    };
+                    let f = fresnel.at(wo.z);
                     return Some(BsdfSample {
                         wi,
                         f: f * Self::glossy_ms(*fms, *roughness, wo.z) / wi.z,
@@ -463,7 +497,21 @@ mod tests {
         let mut c = MixBsdf::new();
         c.push(Rgb::splat(0.6), Lobe::glossy(0.7, GlossyFresnel::Schlick(Rgb::new(0.9, 0.6, 0.3))));
         c.push(Rgb::splat(0.4), Lobe::Dielectric(DielectricBsdf::new(1.0 / 1.33, 0.5, false, Rgb::ONE)));
-        vec![("diffuse+glossy+translucent+oren-nayar", a), ("glass+sheen+principled", b), ("metal+leaving glass", c)]
+        let mut d = MixBsdf::new();
+        d.push(
+            Rgb::splat(0.5),
+            Lobe::glossy(0.4, GlossyFresnel::f82_tint(Rgb::new(0.9, 0.6, 0.3), Rgb::new(0.5, 0.8, 1.0))),
+        );
+        d.push(
+            Rgb::splat(0.5),
+            Lobe::Dielectric(DielectricBsdf::new(1.0 / 1.5, 0.4, false, Rgb::ONE).refraction_only()),
+        );
+        vec![
+            ("diffuse+glossy+translucent+oren-nayar", a),
+            ("glass+sheen+principled", b),
+            ("metal+leaving glass", c),
+            ("f82 metal+leaving refraction", d),
+        ]
     }
 
     /// The mixture's sampling matches its pdf (the pdf of the whole mixture).
@@ -526,5 +574,23 @@ mod tests {
             let mean = sum / n as f64;
             assert!((mean - 1.0).abs() < 0.02, "θ={theta}: albedo {mean}");
         }
+    }
+}
+
+#[cfg(test)]
+mod f82_tests {
+    use super::*;
+
+    /// F82-tint: F0 at normal incidence, 1 at grazing, Schlick's times the tint at cos = 1/7
+    /// (Cycles' construction); a white tint is Schlick's.
+    #[test]
+    fn f82_tint_is_schlick_times_tint_at_82_degrees() {
+        let (f0, tint) = (Rgb::new(0.9, 0.6, 0.3), Rgb::new(0.5, 0.8, 1.0));
+        let f = GlossyFresnel::f82_tint(f0, tint);
+        assert!((f.at(1.0) - f0).abs().max_element() < 1e-6);
+        assert!((f.at(0.0) - Rgb::ONE).abs().max_element() < 1e-6);
+        let schlick = GlossyFresnel::Schlick(f0).at(1.0 / 7.0);
+        assert!((f.at(1.0 / 7.0) - schlick * tint).abs().max_element() < 1e-5, "{:?}", f.at(1.0 / 7.0));
+        assert_eq!(GlossyFresnel::f82_tint(f0, Rgb::ONE), GlossyFresnel::Schlick(f0));
     }
 }

@@ -47,6 +47,13 @@
 //! compensation, come from the anisotropic table (`aniso_albedo.rs`), which depends on the
 //! view's azimuth too. The glass stays isotropic, as in Cycles' Principled BSDF.
 //!
+//! Blender's Principled BSDF adds three things Cycles does its own way: a Diffuse Roughness
+//! makes the diffuse base Cycles' Oren-Nayar (Fujii's, with its multiple-scattering term,
+//! `oren_nayar.rs`) under the same layer weight; the diffuse base takes a base colour above 1
+//! as given (the metal, glass and subsurface take it clamped); and the glass transmits
+//! √(base colour) at each crossing and an anisotropic lobe's albedo is read at Cycles' isotropic
+//! proxy (`PbrParams::cycles_principled`; glTF's glass tints by the colour).
+//!
 //! The shading frame's normal is the one the specular lobes see, which the caller may have
 //! bent towards the geometric normal to keep mirror reflections above the surface (as
 //! Cycles does, `scene::bent_normal`). Cycles leaves its diffuse closure on the unbent
@@ -67,6 +74,7 @@ use super::dielectric::{DielectricBsdf, SMOOTH_ROUGHNESS};
 use super::fresnel_layer::{eta_z, f0_of, fresnel_s, layer_albedo, layer_eta};
 use super::microfacet::{Ggx, schlick_weight};
 use super::microfiber::Microfiber;
+use super::oren_nayar::OrenNayar;
 use super::sheen::{charlie_brdf, sheen_albedo_table};
 use super::thin_film::film_reflectance;
 use crate::math::{Frame, Rgb, luminance};
@@ -88,8 +96,17 @@ pub fn f0_from_ior(ior: f32) -> f32 {
 /// spec and Blender's Principled BSDF mix them.
 #[derive(Clone, Copy, Debug)]
 pub struct PbrBsdf {
-    /// Base colour (linear).
+    /// Base colour (linear), clamped to [0, 1]: the metal's F0 and the glass tint.
     pub base: Rgb,
+    /// The diffuse base's colour: the base colour unclamped above (Cycles weights its
+    /// Principled diffuse closure by the base colour as given).
+    pub diffuse: Rgb,
+    /// Blender's Diffuse Roughness σ (0: Lambertian).
+    diffuse_roughness: f32,
+    /// The diffuse base's rough lobe for this base colour, when σ is above Cycles' cutoff.
+    oren: Option<OrenNayar>,
+    /// The glass transmits √base (Blender's Principled BSDF as Cycles) instead of the base colour.
+    cycles_principled: bool,
     /// Metalness in [0, 1].
     pub metallic: f32,
     /// Perceptual roughness in [0, 1] (for the albedo table).
@@ -237,7 +254,9 @@ impl PbrBsdf {
                 // The table covers widths up to 1 (glTF's mapping stays within it).
                 let ggx = Ggx::anisotropic(ax.clamp(0.0, 1.0), ay.clamp(0.0, 1.0));
                 let (ax, ay) = ggx.alphas();
-                (ggx, Some((ax.sqrt(), ay.sqrt())), ax.max(ay).sqrt() < SMOOTH_ROUGHNESS)
+                // Cycles reads its isotropic table at the roughness (αx αy)^¼ (`roughness` below).
+                let aniso = (!p.cycles_principled).then(|| (ax.sqrt(), ay.sqrt()));
+                (ggx, aniso, ax.max(ay).sqrt() < SMOOTH_ROUGHNESS)
             }
             None => (Ggx::from_roughness(roughness), None, roughness < SMOOTH_ROUGHNESS),
         };
@@ -245,8 +264,19 @@ impl PbrBsdf {
         if p.dispersion > 0.0 && p.dispersion.is_finite() && !p.thin {
             glass = glass.with_dispersion(ior, p.dispersion);
         }
+        let roughness = match p.anisotropy {
+            Some(_) if p.cycles_principled && aniso.is_none() => {
+                let (ax, ay) = ggx.alphas();
+                (ax * ay).sqrt().sqrt()
+            }
+            _ => roughness,
+        };
         PbrBsdf {
             base: Rgb::ZERO,
+            diffuse: Rgb::ZERO,
+            diffuse_roughness: if p.diffuse_roughness.is_finite() { p.diffuse_roughness.clamp(0.0, 1.0) } else { 0.0 },
+            oren: None,
+            cycles_principled: p.cycles_principled,
             metallic: p.metallic.clamp(0.0, 1.0),
             roughness,
             specular,
@@ -301,15 +331,19 @@ impl PbrBsdf {
         self
     }
 
-    /// This material with base colour `base` (clamped to [0, 1]): the glass part's tint
-    /// and the base colour's multiple-scattering terms are the only ones that read it.
-    /// Built as one struct update from `self`, so that the caller's copy of this large
-    /// BSDF lands where it is returned (separate copies showed in the profile).
+    /// This material with base colour `base`: the diffuse base takes it as given (above 1
+    /// too, as Cycles), the metal, the glass part's tint and the multiple-scattering terms
+    /// clamped to [0, 1]. Built as one struct update from `self`, so that the caller's copy
+    /// of this large BSDF lands where it is returned (separate copies showed in the profile).
     #[inline(always)]
     pub fn with_base(&self, base: Rgb) -> Self {
-        let base = base.clamp(Vec3::ZERO, Vec3::ONE);
+        let diffuse = if base.is_finite() { base.max(Vec3::ZERO) } else { Vec3::ZERO };
+        let base = diffuse.min(Vec3::ONE);
         let mut glass = self.glass;
-        glass.tint = base;
+        glass.tint = if self.cycles_principled { Vec3::new(base.x.sqrt(), base.y.sqrt(), base.z.sqrt()) } else { base };
+        // Cycles' Principled diffuse: Lambert below a roughness of 1e-5 (CLOSURE_WEIGHT_CUTOFF),
+        // Oren-Nayar whose energy term takes the colour clamped.
+        let oren = (self.diffuse_roughness >= 1e-5).then(|| OrenNayar::new(self.diffuse_roughness, base));
         if self.glass_ms {
             glass = glass.with_multiscatter();
         }
@@ -320,7 +354,7 @@ impl PbrBsdf {
         } else {
             self.metal_fms
         };
-        PbrBsdf { base, glass, metal_fms, ..*self }
+        PbrBsdf { base, diffuse, oren, glass, metal_fms, ..*self }
     }
 
     /// (A, B) of the reflection lobes' albedo E = F0·A + B seen from local direction `w`.
@@ -498,7 +532,7 @@ impl PbrBsdf {
             * self.metallic
             * luminance((self.base + (Vec3::ONE - self.base) * schlick_weight(wo.z)) * at.metal_ms);
         let spec = below * opaque * e;
-        let diffuse = below * opaque * Self::base_weight(at.eo) * luminance(self.base) * (1.0 - self.subsurface);
+        let diffuse = below * opaque * Self::base_weight(at.eo) * luminance(self.diffuse) * (1.0 - self.subsurface);
         let glass = if self.transmission > 0.0 {
             let r = self.glass.reflect_probability(wo);
             let ms = luminance(self.glass.multiscatter(wo));
@@ -569,6 +603,23 @@ impl PbrBsdf {
         }
     }
 
+    /// The diffuse base's f(wo, wi) times `weight`: the colour over π (Lambert) or the
+    /// Oren-Nayar lobe in the diffuse base's own frame, times [`diffuse_cos_ratio`]. Lambert's
+    /// product keeps the order it always had (the golden images are bit-exact).
+    #[inline]
+    pub(super) fn diffuse_f(&self, wo: Vec3, wi: Vec3, weight: f32) -> Rgb {
+        match &self.oren {
+            None => self.diffuse * (weight * std::f32::consts::FRAC_1_PI * self.diffuse_cos_ratio(wi)),
+            Some(o) => {
+                let shape = match &self.diffuse_frame {
+                    Some(f) => o.eval(f.to_local(wo), f.to_local(wi)),
+                    None => o.eval(wo, wi),
+                };
+                self.diffuse * shape * (weight * self.diffuse_cos_ratio(wi))
+            }
+        }
+    }
+
     /// The diffuse base's cosine over the shading frame's (the integrators multiply by the
     /// latter, and the base reflects by its own normal's, 0 below its own horizon), times
     /// its bump shadowing.
@@ -607,7 +658,7 @@ impl PbrBsdf {
     pub fn is_delta(&self) -> bool {
         let dielectric = 1.0 - self.metallic;
         let opaque = dielectric * (1.0 - self.transmission);
-        let rough = (opaque > 0.0 && luminance(self.base) > 0.0 && self.subsurface < 1.0)
+        let rough = (opaque > 0.0 && luminance(self.diffuse) > 0.0 && self.subsurface < 1.0)
             || (!self.smooth && (self.metallic > 0.0 || (opaque > 0.0 && self.layer)))
             || (self.transmission > 0.0 && dielectric > 0.0 && !self.glass.smooth)
             || (self.coat > 0.0 && !self.smooth_coat)
@@ -736,7 +787,7 @@ impl PbrBsdf {
     /// Albedo for the denoiser: the colour a white light would reflect, roughly.
     pub fn albedo(&self) -> Rgb {
         let f0 = (self.f0 * self.specular).min(1.0);
-        let dielectric = self.base * (1.0 - f0) + Vec3::splat(f0);
+        let dielectric = self.diffuse * (1.0 - f0) + Vec3::splat(f0);
         let below = dielectric * (1.0 - self.metallic) + self.base * self.metallic;
         let below = below * (1.0 - self.sheen_max * 0.5) + self.sheen_color * 0.5;
         below * self.coat_transmittance(Vec3::Z) * (1.0 - self.coat * self.coat_f0)

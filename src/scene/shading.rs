@@ -341,6 +341,8 @@ impl Scene {
             diffuse_normal: (n != unbent).then(|| frame.to_local(unbent)),
             smooth_normal: (unbent != s.ns).then(|| frame.to_local(s.ns)),
             anisotropy,
+            diffuse_roughness: 0.0,
+            cycles_principled: false,
             thin_film: mat.iridescence.map(|i| {
                 let factor = i.factor * i.factor_tex.map_or(1.0, |t| lookup(&t).x);
                 let g = i.thickness_tex.map_or(1.0, |t| lookup(&t).y);

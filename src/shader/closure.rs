@@ -7,14 +7,20 @@
 //!   is Cycles' F0 = 2L F0(IOR) × tint with the shape of that F0's IOR; Coat Weight, Roughness,
 //!   IOR, Tint; Sheen Weight × Sheen Tint; Subsurface Weight; Emission Color × Strength; Thin
 //!   Film Thickness and IOR on the dielectric layer (`bsdf/thin_film.rs`);
-//!   Alpha as a Transparent part of weight 1 − Alpha). Several Principled BSDFs in one
-//!   mixture are merged into one by their weights (an approximation: warned at load).
-//! * Diffuse → Lambert (Oren-Nayar roughness is warned about at load); Glossy → GGX with
+//!   Alpha as a Transparent part of weight 1 − Alpha; Diffuse Roughness as Cycles' Oren-Nayar
+//!   diffuse base; Anisotropic as Cycles' widths r²/aspect, r² × aspect, aspect = √(1 − 0.9 a),
+//!   along the Tangent (unlinked: Cycles' radial tangent around the object's Z axis,
+//!   `Geom::radial_tangent`) turned by Anisotropic Rotation × 2π around the normal, which
+//!   becomes the shading frame's X axis; Base Color above 1 on the diffuse base; the glass
+//!   tinted by √Base Color at each crossing: `PbrParams::cycles_principled`). Several
+//!   Principled BSDFs in one mixture are merged into one by their weights (an approximation:
+//!   warned at load; the first anisotropic one's tangent is the frame's).
+//! * Diffuse → Lambert, or Cycles' Oren-Nayar for a roughness; Glossy → GGX with
 //!   a constant Fresnel, the colour, and Cycles' multiscatter compensation; Metallic →
-//!   GGX with Schlick's Fresnel of F0 = Base Color (edge tint and the physical-conductor
-//!   mode are approximated, warned at load); Glass → a dielectric interface whose
-//!   reflection and transmission the colour tints; Refraction → the same interface
-//!   (Cycles' has no reflection: warned); Translucent → Lambertian transmission; Sheen →
+//!   GGX with Cycles' F82-tint Fresnel of F0 = Base Color and its Edge Tint (the
+//!   physical-conductor mode is approximated by Schlick's, warned at load); Glass → a dielectric interface whose
+//!   reflection and transmission the colour tints; Refraction → the interface's refraction
+//!   alone, without Fresnel weighting (Cycles' Refraction BSDF); Translucent → Lambertian transmission; Sheen →
 //!   Cycles' microfiber sheen (its Ashikhmin distribution is warned about at load), as is
 //!   the Principled BSDF's sheen; Emission → emitted radiance Color × Strength; Transparent → pass-through
 //!   by coverage (`Scene::pass_through`: probability its colour's mean, weight colour / mean;
@@ -52,6 +58,11 @@ pub struct PrincipledRegs {
     pub emission_strength: Reg,
     pub thin_film_thickness: Reg,
     pub thin_film_ior: Reg,
+    pub diffuse_roughness: Reg,
+    pub anisotropic: Reg,
+    pub anisotropic_rotation: Reg,
+    /// The Tangent input when linked (Blender axes); unlinked, Cycles' radial tangent.
+    pub tangent: Option<Reg>,
 }
 
 /// Which closure.
@@ -65,9 +76,13 @@ pub enum ClosureKind {
         metallic: bool,
         /// Multiscatter GGX.
         multiscatter: bool,
+        /// The Metallic BSDF's Edge Tint (F82-tint), when not a constant white.
+        edge_tint: Option<Reg>,
     },
-    /// Glass or Refraction BSDF.
+    /// Glass BSDF.
     Glass,
+    /// Refraction BSDF: the glass's refraction alone.
+    Refraction,
     /// Translucent BSDF.
     Translucent,
     /// Sheen BSDF.
@@ -120,6 +135,10 @@ pub struct Closures {
     pub normal: Option<Vec3>,
     /// The first linked coat normal (Blender axes).
     pub coat_normal: Option<Vec3>,
+    /// Σ w × Anisotropic of the Principled BSDFs.
+    pub anisotropic: f32,
+    /// The first anisotropic Principled BSDF's tangent, rotated (world glTF axes).
+    pub tangent: Option<Vec3>,
     /// Lobes past the mixture's capacity were dropped.
     pub dropped: bool,
 }
@@ -143,6 +162,8 @@ impl Default for Closures {
             holdout: 0.0,
             normal: None,
             coat_normal: None,
+            anisotropic: 0.0,
+            tangent: None,
             dropped: false,
         }
     }
@@ -172,6 +193,8 @@ fn zero_params() -> PbrParams {
         dispersion: 0.0,
         subsurface: 0.0,
         anisotropy: None,
+        diffuse_roughness: 0.0,
+        cycles_principled: true,
         thin_film: None,
     }
 }
@@ -204,9 +227,14 @@ impl ClosureOp {
             }
             ClosureKind::Translucent => push(color() * w, Lobe::Translucent),
             ClosureKind::Sheen => push(color() * w, Lobe::Sheen { roughness: rough() }),
-            ClosureKind::Glossy { metallic, multiscatter } => {
+            ClosureKind::Glossy { metallic, multiscatter, edge_tint } => {
                 let (weight, fresnel) = if *metallic {
-                    (Rgb::splat(w), GlossyFresnel::Schlick(color().min(Vec3::ONE)))
+                    let f0 = color().min(Vec3::ONE);
+                    let fresnel = match edge_tint {
+                        Some(t) => GlossyFresnel::f82_tint(f0, v3(r, *t).clamp(Vec3::ZERO, Vec3::ONE)),
+                        None => GlossyFresnel::Schlick(f0),
+                    };
+                    (Rgb::splat(w), fresnel)
                 } else {
                     (color() * w, GlossyFresnel::Constant)
                 };
@@ -216,22 +244,35 @@ impl ClosureOp {
                 }
                 push(weight, lobe);
             }
-            ClosureKind::Glass => {
+            ClosureKind::Glass | ClosureKind::Refraction => {
                 let ior = r[self.ior as usize];
                 let ior = if ior.is_finite() && ior > 0.0 { ior } else { 1.5 };
                 let eta = if g.backfacing { 1.0 / ior } else { ior };
-                let d = DielectricBsdf::new(eta, rough(), false, Rgb::ONE).with_multiscatter();
+                let d = DielectricBsdf::new(eta, rough(), false, Rgb::ONE);
+                // Cycles' Refraction BSDF has no Fresnel and no multiple-scattering compensation.
+                let d = if matches!(self.kind, ClosureKind::Refraction) {
+                    d.refraction_only()
+                } else {
+                    d.with_multiscatter()
+                };
                 push(color() * w, Lobe::Dielectric(d));
             }
             ClosureKind::Emission => out.emission += color() * (r[self.strength as usize] * w),
             ClosureKind::Transparent => out.transparent += color() * w,
             ClosureKind::Holdout => out.holdout += w,
-            ClosureKind::Principled(p) => principled(p, r, w, out),
+            ClosureKind::Principled(p) => principled(p, r, g, self.normal, w, out),
         }
     }
 }
 
-fn principled(p: &PrincipledRegs, r: &[f32], w: f32, out: &mut Closures) {
+/// Rotates `v` by `angle` radians around the unit `axis` (right-handed, Rodrigues; Cycles'
+/// `rotate_around_axis`).
+fn rotate_around_axis(v: Vec3, axis: Vec3, angle: f32) -> Vec3 {
+    let (sin, cos) = angle.sin_cos();
+    v * cos + axis.cross(v) * sin + axis * (axis.dot(v) * (1.0 - cos))
+}
+
+fn principled(p: &PrincipledRegs, r: &[f32], g: &Geom, normal: Option<Reg>, w: f32, out: &mut Closures) {
     let f = |i: Reg| r[i as usize];
     let alpha = f(p.alpha).clamp(0.0, 1.0);
     if alpha < 1.0 {
@@ -249,7 +290,9 @@ fn principled(p: &PrincipledRegs, r: &[f32], w: f32, out: &mut Closures) {
     }
     let level = f(p.spec_level).max(0.0);
     let acc = &mut out.pbr;
-    acc.base += v3(r, p.base).clamp(Vec3::ZERO, Vec3::ONE) * w;
+    // Above 1 too: the diffuse base takes it as given (the BSDF clamps it elsewhere).
+    acc.base += v3(r, p.base).max(Vec3::ZERO) * w;
+    acc.diffuse_roughness += f(p.diffuse_roughness).clamp(0.0, 1.0) * w;
     acc.metallic += f(p.metallic).clamp(0.0, 1.0) * w;
     acc.roughness += f(p.roughness).clamp(0.0, 1.0) * w;
     acc.ior += f(p.ior).max(1.0) * w;
@@ -263,6 +306,22 @@ fn principled(p: &PrincipledRegs, r: &[f32], w: f32, out: &mut Closures) {
     acc.sheen_color += v3(r, p.sheen_tint).clamp(Vec3::ZERO, Vec3::ONE) * (f(p.sheen).clamp(0.0, 1.0) * w);
     acc.sheen_roughness += f(p.sheen_roughness).clamp(0.0, 1.0) * w;
     acc.subsurface += f(p.subsurface).clamp(0.0, 1.0) * w;
+    // Cycles' anisotropy: the tangent (linked, else radial around the object's Z axis) turned
+    // around the closure normal by Anisotropic Rotation × 2π; the first one's is the frame's.
+    let anisotropic = f(p.anisotropic).clamp(0.0, 1.0);
+    if anisotropic > 0.0 {
+        out.anisotropic += anisotropic * w;
+        if out.tangent.is_none() {
+            let t = match p.tangent {
+                Some(t) => from_blender(v3(r, t)),
+                None => g.radial_tangent(),
+            };
+            let n = normal.and_then(|n| from_blender(v3(r, n)).try_normalize()).unwrap_or(g.n);
+            let rotation = f(p.anisotropic_rotation);
+            let t = if rotation != 0.0 { rotate_around_axis(t, n, rotation * std::f32::consts::TAU) } else { t };
+            out.tangent = t.try_normalize();
+        }
+    }
     // The first Principled BSDF's film, whole (films do not average).
     let thickness = f(p.thin_film_thickness);
     if acc.thin_film.is_none() && thickness > 0.1 {
@@ -301,9 +360,29 @@ impl Closures {
             microfiber_sheen: true,
             dispersion: 0.0,
             subsurface: p.subsurface * s,
-            anisotropy: None,
+            anisotropy: self.anisotropy(p.roughness * s, self.anisotropic * s),
+            diffuse_roughness: p.diffuse_roughness * s,
+            // Cycles' Principled glass: √base at each crossing.
+            cycles_principled: true,
             thin_film: p.thin_film,
         }
+    }
+
+    /// Cycles' anisotropic GGX widths for `roughness` and Anisotropic `a`: with
+    /// aspect = √(1 − 0.9 a), αx = roughness² / aspect along the tangent, αy = roughness² ×
+    /// aspect across (widths above 1 are clamped to 1 by the BSDF). None without a tangent.
+    fn anisotropy(&self, roughness: f32, a: f32) -> Option<(f32, f32)> {
+        if !(a > 0.0) || self.tangent.is_none() {
+            return None;
+        }
+        let alpha = roughness * roughness;
+        let aspect = (1.0 - 0.9 * a.min(1.0)).sqrt();
+        Some((alpha / aspect, alpha * aspect))
+    }
+
+    /// The tangent of an anisotropic Principled BSDF (world glTF axes).
+    pub fn tangent_world(&self) -> Option<Vec3> {
+        if self.anisotropic > 0.0 { self.tangent } else { None }
     }
 
     /// The closure normal in world (glTF) axes, if a closure had one linked.
@@ -319,3 +398,30 @@ impl Closures {
 
 /// Capacity of the mixture, for the loader's warning.
 pub const CAPACITY: usize = MAX_LOBES;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Anisotropic Rotation turns the tangent right-handedly around the normal, as Cycles'
+    /// `rotate_around_axis`: a quarter turn about Z takes X to Y; the normal's part stays.
+    #[test]
+    fn rotation_is_right_handed() {
+        let r = rotate_around_axis(Vec3::X, Vec3::Z, std::f32::consts::FRAC_PI_2);
+        assert!((r - Vec3::Y).abs().max_element() < 1e-6, "{r:?}");
+        let v = Vec3::new(0.3, -0.5, 0.8);
+        let r = rotate_around_axis(v, Vec3::Z, 1.1);
+        assert!((r.z - v.z).abs() < 1e-6 && (r.length() - v.length()).abs() < 1e-6);
+    }
+
+    /// Cycles' widths: aspect √(1 − 0.9 a), αx = r²/aspect, αy = r² aspect; none without a tangent.
+    #[test]
+    fn anisotropic_widths_are_cycles() {
+        let mut c = Closures { tangent: Some(Vec3::X), anisotropic: 0.8, ..Closures::default() };
+        let (ax, ay) = c.anisotropy(0.3, 0.8).unwrap();
+        let aspect = (1.0f32 - 0.72).sqrt();
+        assert!((ax - 0.09 / aspect).abs() < 1e-6 && (ay - 0.09 * aspect).abs() < 1e-6);
+        c.tangent = None;
+        assert!(c.anisotropy(0.3, 0.8).is_none());
+    }
+}

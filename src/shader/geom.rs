@@ -80,6 +80,37 @@ pub struct Geom<'a> {
     pub view: &'a ViewData,
 }
 
+impl Geom<'_> {
+    /// The Texture Coordinate node's Generated output (Blender axes): the object-space point
+    /// mapped by the mesh's texture space to [0, 1]³, the object-space point without one.
+    #[inline]
+    pub fn generated(&self) -> Vec3 {
+        let p = to_blender(self.object.world_to_object.transform_point3(self.p));
+        match self.object.texspace {
+            Some((loc, size)) => {
+                let d = |a: f32, b: f32| if b != 0.0 { a / (2.0 * b) } else { 0.0 };
+                let q = p - loc;
+                Vec3::new(d(q.x, size.x), d(q.y, size.y), d(q.z, size.z)) + Vec3::splat(0.5)
+            }
+            None => p,
+        }
+    }
+
+    /// Cycles' default tangent where a closure's Tangent input is unlinked (the Geometry
+    /// node's Tangent that Cycles links there, `primitive_tangent`): radial around the object's
+    /// Z axis through the texture space's centre, (−(g.y − ½), g.x − ½, 0) of the Generated
+    /// point g, carried to the world as a normal is and made perpendicular to the shading
+    /// normal. World glTF axes; zero on the axis itself.
+    #[inline]
+    pub fn radial_tangent(&self) -> Vec3 {
+        let g = self.generated();
+        let t = from_blender(Vec3::new(-(g.y - 0.5), g.x - 0.5, 0.0));
+        // A normal's object-to-world map: the transpose of world-to-object.
+        let t = glam::Mat3::from_mat4(self.object.world_to_object).transpose() * t;
+        self.n.cross(t.cross(self.n).normalize_or_zero())
+    }
+}
+
 /// The render camera as the Texture Coordinate node's Camera and Window outputs read it
 /// (Cycles' `worldtocamera` and `worldtondc`), made from the camera and frame the render
 /// uses (`CameraRays::shader_view`).

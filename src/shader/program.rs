@@ -9,7 +9,7 @@
 // The operations themselves are in `instructions.rs`; the shading point in `geom.rs`.
 
 use super::closure::Closures;
-use super::geom::{Geom, ObjectData, Reg, from_blender, geom_at_ng, set3, to_blender, v3};
+use super::geom::{Geom, Reg, from_blender, geom_at_ng, set3, to_blender, v3};
 use super::instructions::{BumpOp, ColorSpace, CurveKind, InputKind, MappingKind, Op, Program};
 use super::ops;
 use crate::math::{Frame, luminance};
@@ -398,7 +398,7 @@ impl Program {
                 if t == Vec3::ZERO { Vec3::ZERO } else { to_blender(perpendicular(t, g.n)) }
             }
             InputKind::Radial(axis) => {
-                let q = generated(obj, g.p) - Vec3::splat(0.5);
+                let q = g.generated() - Vec3::splat(0.5);
                 let t = match axis {
                     0 => Vec3::new(0.0, -q.z, q.y),
                     1 => Vec3::new(-q.z, 0.0, q.x),
@@ -415,7 +415,7 @@ impl Program {
             }
             InputKind::Object => to_blender(obj.world_to_object.transform_point3(g.p)),
             InputKind::ObjectMatrix(i) => to_blender(self.matrices[i as usize].transform_point3(g.p)),
-            InputKind::Generated => generated(obj, g.p),
+            InputKind::Generated => g.generated(),
             InputKind::ObjectNormal => {
                 // Normals go to object space by the inverse transpose of world→object.
                 let m = obj.world_to_object.inverse().transpose();
@@ -458,20 +458,6 @@ impl Program {
             }
         };
         set3(r, out, v);
-    }
-}
-
-/// Texture Coordinate Generated of world point `p` (Blender axes): the object's position in
-/// its texture space, 0..1 over the box (the object position without one).
-fn generated(obj: &ObjectData, p: Vec3) -> Vec3 {
-    let p = to_blender(obj.world_to_object.transform_point3(p));
-    match obj.texspace {
-        Some((loc, size)) => {
-            let d = |a: f32, b: f32| if b != 0.0 { a / (2.0 * b) } else { 0.0 };
-            let q = p - loc;
-            Vec3::new(d(q.x, size.x), d(q.y, size.y), d(q.z, size.z)) + Vec3::splat(0.5)
-        }
-        None => p,
     }
 }
 

@@ -90,7 +90,11 @@ pub fn shade_nodes(scene: &Scene, prog: &Program, s: &SurfaceHit, wo: Vec3, doub
             n = s.ng;
         }
     }
-    let frame = Frame::from_normal(n);
+    // An anisotropic Principled BSDF's widths lie along its tangent: the frame's X axis.
+    let frame = match c.tangent_world() {
+        Some(t) => Frame::from_normal_tangent(n, t),
+        None => Frame::from_normal(n),
+    };
     // The mixture is copied out of the closures only where it becomes the BSDF (callgrind:
     // a copy of ~80 instructions a shading point that a lone Principled BSDF threw away).
     let scaled = |c: &Closures| {

@@ -60,8 +60,13 @@ impl MixBsdf {
                 Lobe::Glossy { .. } => c[1] += w * self.lobes[k].albedo(wo),
                 Lobe::Dielectric(d) => {
                     let f = fresnel_dielectric(wo.z, d.eta);
-                    c[1] += w * f;
-                    c[2] += w * d.tint * (1.0 - f);
+                    if d.refracts_only() {
+                        // Cycles' Refraction BSDF: all of it refracts, unless it reflects totally.
+                        c[2] += w * d.tint * if f >= 1.0 { 0.0 } else { 1.0 };
+                    } else {
+                        c[1] += w * f;
+                        c[2] += w * d.tint * (1.0 - f);
+                    }
                 }
             }
         }

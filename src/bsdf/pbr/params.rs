@@ -6,7 +6,8 @@ use glam::Vec3;
 /// The glTF material's factors at a shading point (textures already applied).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PbrParams {
-    /// Base colour.
+    /// Base colour. Only the diffuse base reads it above 1 (as Cycles' Principled BSDF);
+    /// the metal's F0, the glass tint and the subsurface albedo take it clamped to [0, 1].
     pub base: Rgb,
     /// Metalness.
     pub metallic: f32,
@@ -55,6 +56,15 @@ pub struct PbrParams {
     /// Anisotropic widths (αx, αy) of the metal's and the specular layer's GGX along the
     /// shading frame's X and Y axes, replacing roughness² there.
     pub anisotropy: Option<(f32, f32)>,
+    /// Blender's Diffuse Roughness σ of the diffuse base: Cycles' Oren-Nayar (`oren_nayar.rs`)
+    /// above 1e-5, Lambert's below.
+    pub diffuse_roughness: f32,
+    /// Blender's Principled BSDF as Cycles' closure builds it (the shader-graph path): the glass
+    /// transmits √(base colour) at each crossing (two crossings of a solid give the colour;
+    /// glTF's transmits the colour), and anisotropic lobes take their albedo (layering and
+    /// multiple-scattering compensation) from the isotropic table at the widths' geometric
+    /// mean, Cycles' proxy, instead of the anisotropic table.
+    pub cycles_principled: bool,
     /// A thin film on the dielectric layer: (thickness in nm, film IOR, weight) — Blender's
     /// Thin Film (weight 1), glTF's `KHR_materials_iridescence` (iridescenceFactor).
     pub thin_film: Option<(f32, f32, f32)>,
@@ -93,6 +103,8 @@ impl PbrParams {
             diffuse_normal: None,
             smooth_normal: None,
             anisotropy: None,
+            diffuse_roughness: 0.0,
+            cycles_principled: false,
             thin_film: None,
         }
     }

@@ -26,7 +26,11 @@ impl PbrAt<'_> {
         let mut f = Rgb::ZERO;
         if opaque > 0.0 {
             let diffuse_weight = super::PbrBsdf::base_weight(self.eo) * (1.0 - b.subsurface);
-            f = b.base * (diffuse_weight * FRAC_1_PI * b.diffuse_cos_ratio(wi) * opaque);
+            f = match b.oren {
+                // Lambert's product in the order it always had (bit-exact golden images).
+                None => b.diffuse * (diffuse_weight * FRAC_1_PI * b.diffuse_cos_ratio(wi) * opaque),
+                Some(_) => b.diffuse_f(wo, wi, diffuse_weight * opaque),
+            };
         }
         (f * scaling + b.sheen_eval(&self.fiber, wo, wi)) * self.under
     }
@@ -64,7 +68,7 @@ impl PbrAt<'_> {
         let below = self.under * self.sheen_o;
         let dielectric = 1.0 - b.metallic;
         let opaque = dielectric * (1.0 - b.transmission);
-        let diffuse = b.base * (super::PbrBsdf::base_weight(self.eo) * opaque) * below
+        let diffuse = b.diffuse * (super::PbrBsdf::base_weight(self.eo) * opaque) * below
             + b.sheen_color * (self.es / b.sheen_max.max(1e-6)) * self.under;
         // The multiple-scattering compensation makes the metal's albedo its Fresnel colour.
         let metal = b.base + (Vec3::ONE - b.base) * schlick_weight(wo.z);

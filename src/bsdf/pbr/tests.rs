@@ -111,6 +111,25 @@ fn materials_with(base: Vec3) -> Vec<(String, PbrBsdf)> {
         };
         v.push((format!("anisotropic m={metallic} r={roughness} s={strength}"), PbrBsdf::from_params(&p)));
     }
+    // Blender's Principled BSDF as Cycles builds it: a rough diffuse base (Oren-Nayar), on its
+    // own normal too; anisotropic lobes with Cycles' albedo proxy; glass tinted by √base.
+    for (sigma, metallic, transmission, aniso, normal) in
+        [(1.0f32, 0.0f32, 0.0f32, false, false), (0.5, 0.3, 0.0, true, false), (0.8, 0.0, 0.5, false, true)]
+    {
+        let a = 0.4f32 * 0.4;
+        let aspect = (1.0f32 - 0.9 * 0.8).sqrt();
+        let p = PbrParams {
+            diffuse_roughness: sigma,
+            cycles_principled: true,
+            transmission,
+            eta: 1.5,
+            thin: false,
+            anisotropy: aniso.then_some((a / aspect, a * aspect)),
+            diffuse_normal: normal.then_some(Vec3::new(0.5, 0.1, 0.86)),
+            ..PbrParams::opaque(base, metallic, 0.4)
+        };
+        v.push((format!("principled σ={sigma} m={metallic} t={transmission} aniso={aniso}"), PbrBsdf::from_params(&p)));
+    }
     // A diffuse base on its own (unbent) normal below a bent frame, tilted and turned away.
     for (nx, nz, metallic) in [(0.6f32, 0.8f32, 0.0f32), (0.95, -0.3, 0.3)] {
         let p = PbrParams {
@@ -746,4 +765,28 @@ fn white_furnace_microfiber_sheen() {
             );
         }
     }
+}
+
+/// Blender's Principled BSDF (`cycles_principled`): without a specular layer the diffuse base
+/// is the base colour (above 1 too) times the Oren-Nayar lobe of the clamped colour, as
+/// Cycles weights its closure; the glass transmits √base; the metal takes the base clamped.
+#[test]
+fn principled_diffuse_base_is_cycles_oren_nayar() {
+    let base = Vec3::new(1.6, 0.8, 0.3);
+    let p = PbrParams {
+        specular: 0.0,
+        diffuse_roughness: 0.7,
+        cycles_principled: true,
+        ..PbrParams::opaque(base, 0.0, 0.5)
+    };
+    let b = PbrBsdf::from_params(&p);
+    let on = OrenNayar::new(0.7, base.min(Vec3::ONE));
+    let wo = Vec3::new(0.3, 0.2, 0.93).normalize();
+    let wi = Vec3::new(-0.6, 0.1, 0.79).normalize();
+    let f = b.eval(wo, wi);
+    let expect = base * on.eval(wo, wi);
+    assert!((f - expect).abs().max_element() < 1e-5, "{f:?} vs {expect:?}");
+    let glass = PbrBsdf::from_params(&PbrParams { transmission: 1.0, eta: 1.5, thin: false, ..p });
+    assert!((glass.glass.tint - Vec3::new(1.0, 0.8f32.sqrt(), 0.3f32.sqrt())).abs().max_element() < 1e-6);
+    assert_eq!(glass.base, Vec3::new(1.0, 0.8, 0.3));
 }

@@ -9,7 +9,6 @@ use crate::bsdf::{BsdfSample, LobeKind};
 use crate::math::{Frame, Rgb};
 use crate::sampling::warp::cosine_hemisphere;
 use glam::{Vec2, Vec3};
-use std::f32::consts::FRAC_1_PI;
 
 /// A [`PbrBsdf`] seen from one outgoing direction ([`PbrBsdf::at`]): evaluates f(wo, wi)
 /// for many wi with the wo-only terms (coat transmittance, layer and sheen albedos at wo)
@@ -176,7 +175,7 @@ impl PbrAt<'_> {
             // Cycles' layer: its Fresnel and compensation, the base under 1 − max(albedo at wo).
             let f_layer = if b.layer && spec > 0.0 { b.layer_fresnel(cos_h) * self.layer_ms } else { Rgb::ZERO };
             let diffuse_weight = PbrBsdf::base_weight(self.eo) * (1.0 - b.subsurface);
-            f += (b.base * (diffuse_weight * FRAC_1_PI * b.diffuse_cos_ratio(wi)) + f_layer * spec) * opaque;
+            f += (b.diffuse_f(wo, wi, diffuse_weight) + f_layer * spec) * opaque;
         }
         if b.metallic > 0.0 {
             f += (b.base + (Vec3::ONE - b.base) * fw) * self.metal_ms * (spec * b.metallic);

@@ -148,22 +148,28 @@ impl Compiler<'_> {
                     emission_strength: self.float(i, "Emission Strength", 0.0)?,
                     thin_film_thickness: self.float(i, "Thin Film Thickness", 0.0)?,
                     thin_film_ior: self.float(i, "Thin Film IOR", 1.33)?,
+                    diffuse_roughness: self.float(i, "Diffuse Roughness", 0.0)?,
+                    anisotropic: self.float(i, "Anisotropic", 0.0)?,
+                    anisotropic_rotation: self.float(i, "Anisotropic Rotation", 0.0)?,
+                    tangent: match self.source(i, "Tangent")? {
+                        Some(_) => Some(self.vec(i, "Tangent", Vec3::ZERO)?),
+                        None => None,
+                    },
                 };
-                for id in ["Anisotropic", "Diffuse Roughness"] {
-                    let nonzero = self.source(i, id)?.is_some()
-                        || self.value(i, id).and_then(Value::as_f64).is_some_and(|v| v != 0.0);
-                    if nonzero {
-                        self.warn(i, format!("'{id}' is not rendered"));
-                    }
-                }
-                let transmission_varies = self.source(i, "Transmission Weight")?.is_some()
-                    || self.value(i, "Transmission Weight").and_then(Value::as_f64).is_some_and(|v| v > 0.0 && v < 1.0);
-                if transmission_varies {
+                let metal = !self.is_const(p.metallic, 1) || self.init[p.metallic as usize] > 0.0;
+                let tinted =
+                    !self.is_const(p.spec_tint, 3) || (0..3).any(|k| self.init[p.spec_tint as usize + k] != 1.0);
+                if metal && tinted {
                     self.warn(
                         i,
-                        "partial transmission tints transmitted light by the base colour at each crossing \
-                         (Cycles: by its square root)",
+                        "Specular Tint does not tint the metal's edge (Cycles' F82 tint): the metal is Schlick's \
+                         Fresnel of the base colour",
                     );
+                }
+                let anisotropic = !self.is_const(p.anisotropic, 1) || self.init[p.anisotropic as usize] != 0.0;
+                if anisotropic && p.tangent.is_none() {
+                    // Cycles' default tangent: radial in the Generated coordinates.
+                    self.uses_generated = true;
                 }
                 if !self.is_const(p.alpha, 1) || self.init[p.alpha as usize] < 1.0 {
                     self.prog.transparent = true;
@@ -212,6 +218,10 @@ impl Compiler<'_> {
                     emission_strength: zero,
                     thin_film_thickness: zero,
                     thin_film_ior: self.konst_f(1.33),
+                    diffuse_roughness: zero,
+                    anisotropic: zero,
+                    anisotropic_rotation: zero,
+                    tangent: None,
                 };
                 self.subsurface(i, ["Radius", "Scale", "Anisotropy", "IOR"], method, true)?;
                 self.principled_closure(i, p, w)?;
@@ -304,11 +314,12 @@ impl Compiler<'_> {
                     self.warn(i, "anisotropy is not rendered (isotropic GGX)");
                 }
                 (
-                    ClosureKind::Glossy { metallic: false, multiscatter: dist == "MULTI_GGX" },
+                    ClosureKind::Glossy { metallic: false, multiscatter: dist == "MULTI_GGX", edge_tint: None },
                     self.vec(i, "Color", Vec3::splat(0.8))?,
                 )
             }
             "ShaderNodeBsdfMetallic" => {
+                let mut edge_tint = None;
                 let colour = if self.prop_str(i, "fresnel_type", "F82") == "PHYSICAL_CONDUCTOR" {
                     self.warn(
                         i,
@@ -322,18 +333,21 @@ impl Compiler<'_> {
                 } else {
                     let tint = self.vec(i, "Edge Tint", Vec3::ONE)?;
                     if !self.is_const(tint, 3) || (0..3).any(|k| self.init[tint as usize + k] != 1.0) {
-                        self.warn(i, "Edge Tint is not rendered (Schlick's Fresnel of F0 = Base Color)");
+                        edge_tint = Some(tint);
                     }
                     self.vec(i, "Base Color", Vec3::splat(0.8))?
                 };
                 let dist = self.prop_str(i, "distribution", "MULTI_GGX");
-                (ClosureKind::Glossy { metallic: true, multiscatter: dist == "MULTI_GGX" }, colour)
+                (ClosureKind::Glossy { metallic: true, multiscatter: dist == "MULTI_GGX", edge_tint }, colour)
             }
-            "ShaderNodeBsdfGlass" | "ShaderNodeBsdfRefraction" => {
-                if kind == "ShaderNodeBsdfRefraction" {
-                    self.warn(i, "rendered as a Glass BSDF (Cycles' Refraction BSDF does not reflect)");
+            "ShaderNodeBsdfGlass" => (ClosureKind::Glass, self.vec(i, "Color", Vec3::ONE)?),
+            "ShaderNodeBsdfRefraction" => {
+                // Blender's default for this node is Beckmann (Caustic has GGX microfacets only).
+                let dist = self.prop_str(i, "distribution", "BECKMANN");
+                if dist != "GGX" {
+                    self.warn(i, format!("distribution {dist} is rendered as GGX"));
                 }
-                (ClosureKind::Glass, self.vec(i, "Color", Vec3::ONE)?)
+                (ClosureKind::Refraction, self.vec(i, "Color", Vec3::ONE)?)
             }
             "ShaderNodeBsdfTranslucent" => (ClosureKind::Translucent, self.vec(i, "Color", Vec3::splat(0.8))?),
             "ShaderNodeBsdfSheen" => {
@@ -365,13 +379,16 @@ impl Compiler<'_> {
             _ => unreachable!("closure kinds are listed in is_closure_node"),
         };
         let roughness = match ck {
-            ClosureKind::Glossy { .. } | ClosureKind::Glass => self.float(i, "Roughness", 0.5)?,
+            ClosureKind::Glossy { .. } | ClosureKind::Glass | ClosureKind::Refraction => {
+                self.float(i, "Roughness", 0.5)?
+            }
             ClosureKind::Sheen => self.float(i, "Roughness", 0.5)?,
             // Oren-Nayar's σ (0: Lambertian).
             ClosureKind::Diffuse => self.float(i, "Roughness", 0.0)?,
             _ => zero,
         };
-        let ior = if matches!(ck, ClosureKind::Glass) { self.float(i, "IOR", 1.5)? } else { zero };
+        let ior =
+            if matches!(ck, ClosureKind::Glass | ClosureKind::Refraction) { self.float(i, "IOR", 1.5)? } else { zero };
         let normal = if matches!(ck, ClosureKind::Transparent) { None } else { self.normal(i, "Normal")? };
         if !matches!(ck, ClosureKind::Transparent) {
             self.small_lobes += 1;
