@@ -1522,6 +1522,33 @@ def hostile_makers():
     add(lambda: tri_bad("bad/sparse_float_indices.gltf", "sparse indices of componentType FLOAT",
                         sparse_float_indices, ["sparse"]))
 
+    def draco(data, view=None):
+        """The triangle's primitive as KHR_draco_mesh_compression over `data` (a buffer of its
+        own) or over bufferView `view`."""
+        def mutate(root):
+            root["buffers"].append({"byteLength": len(data), "uri": "data:application/octet-stream;base64,"
+                                    + base64.b64encode(data).decode("ascii")})
+            root["bufferViews"].append({"buffer": len(root["buffers"]) - 1, "byteLength": len(data)})
+            name = "KHR_draco_mesh_compression"
+            root.setdefault("extensionsUsed", []).append(name)
+            root.setdefault("extensionsRequired", []).append(name)
+            prim = root["meshes"][0]["primitives"][0]
+            prim["extensions"] = {name: {"bufferView": len(root["bufferViews"]) - 1 if view is None else view,
+                                         "attributes": {"POSITION": 0, "NORMAL": 1}}}
+        return mutate
+    # A Draco header (version 2.2, triangular mesh, edgebreaker) followed by noise.
+    corrupt = b"DRACO" + bytes([2, 2, 1, 1, 0, 0]) + bytes((i * 97 + 13) % 256 for i in range(64))
+
+    def draco_bad(rel_path, description, mutate):
+        mutant(rel_path, mutate)
+        return bad(rel_path, description, contains=["mesh 0", "KHR_draco_mesh_compression"])
+    add(lambda: draco_bad("bad/draco_corrupt.gltf", "KHR_draco_mesh_compression over a corrupt bitstream",
+                          draco(corrupt)))
+    add(lambda: draco_bad("bad/draco_view_out_of_range.gltf", "KHR_draco_mesh_compression naming bufferView 99",
+                          draco(corrupt, view=99)))
+    add(lambda: draco_bad("bad/draco_not_draco.gltf", "KHR_draco_mesh_compression over bytes without the DRACO magic",
+                          draco(bytes(range(40)))))
+
     def billion_vertices(root):
         # A sparse accessor needs no base data: a few bytes declare 2e9 vertices (144 GB once
         # flattened), which the memory budget refuses before anything is read (exit 7).

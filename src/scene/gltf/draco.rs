@@ -140,7 +140,8 @@ impl Loader<'_> {
         let view_index = ext.get("bufferView").and_then(Value::as_u64);
         let view = view_index.and_then(|v| value.pointer(&format!("/bufferViews/{v}")));
         let Some(view) = view else {
-            return Err(self.err(format!("{what}: bufferView {:?} is not a valid index", ext.get("bufferView"))));
+            let named = ext.get("bufferView").map_or_else(|| "(missing)".to_string(), Value::to_string);
+            return Err(self.err(format!("{what}: bufferView {named} is not a valid index")));
         };
         let view_index = view_index.unwrap_or_default();
         let buffer = view.get("buffer").and_then(Value::as_u64).and_then(|b| buffers.get(b as usize));
@@ -196,13 +197,20 @@ impl Loader<'_> {
         }));
         let mesh = match decoded {
             Ok(Ok(mesh)) => mesh,
-            Ok(Err(e)) => return Err(self.err(format!("{what}: the Draco data cannot be decoded: {e}"))),
+            Ok(Err(e)) => {
+                return Err(self.err(format!(
+                    "{what}: the Draco data cannot be decoded: {e} (the accessors declare {points} vertices and \
+                     {corners} indices)"
+                )));
+            }
             Err(_) => return Err(self.err(format!("{what}: the Draco data cannot be decoded (decoder failure)"))),
         };
+        // Encoders drop vertices no triangle uses: fewer than declared is fine (the
+        // rewritten accessors take the decoded counts), more is refused.
         let n = mesh.num_points();
-        if n as u64 != points {
+        if n as u64 > points {
             return Err(self.err(format!(
-                "{what}: the Draco data holds {n} vertices, but the POSITION accessor declares {points}"
+                "{what}: the Draco data holds {n} vertices, but the POSITION accessor declares only {points}"
             )));
         }
         let mut new_prim = prim.clone();
@@ -210,16 +218,17 @@ impl Loader<'_> {
         // Indices: every face's corners, in the accessor's type (a 32-bit list when the
         // primitive declares none), each below the vertex count.
         let faces = mesh.faces();
-        if indices.is_some() && (faces.len() as u64).saturating_mul(3) != corners {
+        if (faces.len() as u64).saturating_mul(3) > corners {
             return Err(self.err(format!(
-                "{what}: the Draco data holds {} triangles, but the indices accessor declares {corners} indices",
+                "{what}: the Draco data holds {} triangles, but the indices accessor declares only {corners} indices",
                 faces.len()
             )));
         }
-        let (index_accessor, acc) = match &indices {
+        let (index_accessor, mut acc) = match &indices {
             Some((i, acc)) => (Some(*i), acc.clone()),
-            None => (None, json!({ "componentType": 5125, "count": faces.len() * 3, "type": "SCALAR" })),
+            None => (None, json!({ "componentType": 5125, "type": "SCALAR" })),
         };
+        acc["count"] = json!(faces.len() * 3);
         let ty = acc.get("componentType").and_then(Value::as_u64).unwrap_or(0);
         let size = match ty {
             5121 => 1,
@@ -250,12 +259,14 @@ impl Loader<'_> {
             let Some(attribute) = attribute else {
                 return Err(self.err(format!("{what}: {name}'s Draco attribute id {id} is not in the Draco data")));
             };
-            if count(&acc) != n as u64 {
+            if count(&acc) < n as u64 {
                 return Err(self.err(format!(
                     "{what}: {name}'s accessor declares {} elements for {n} decoded vertices",
                     count(&acc)
                 )));
             }
+            let mut acc = acc;
+            acc["count"] = json!(n);
             let ty = acc.get("componentType").and_then(Value::as_u64).unwrap_or(0);
             let comps = acc.get("type").and_then(Value::as_str).and_then(components);
             let (Some((size, range)), Some(comps)) = (component(ty), comps) else {
