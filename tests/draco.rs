@@ -10,8 +10,7 @@ use base64::Engine;
 use caustic::memory::MemoryBudget;
 use common::*;
 use draco_core::{
-    DataType, EncoderBuffer, EncoderOptions, FaceIndex, GeometryAttributeType, MeshEncoder, PointAttribute,
-    PointIndex,
+    DataType, EncoderBuffer, EncoderOptions, FaceIndex, GeometryAttributeType, MeshEncoder, PointAttribute, PointIndex,
 };
 use serde_json::{Value, json};
 use std::path::Path;
@@ -194,7 +193,9 @@ fn compressed_sphere_loads_the_same_triangles_within_quantization() {
     // Quantization: 14 bits over the range 2, half a step of error at most per coordinate.
     let step = 2.0 / ((1 << POSITION_BITS) - 1) as f32;
     let bounds = |m: &caustic::scene::Mesh| {
-        m.positions.iter().fold((glam::Vec3::INFINITY, glam::Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)))
+        m.positions
+            .iter()
+            .fold((glam::Vec3::INFINITY, glam::Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)))
     };
     let ((alo, ahi), (blo, bhi)) = (bounds(ma), bounds(mb));
     let delta = (alo - blo).abs().max((ahi - bhi).abs()).max_element();
@@ -254,13 +255,22 @@ fn compressed_sphere_renders_the_same_image() {
 fn inconsistent_draco_primitives_are_refused_naming_the_mesh() {
     let s = sphere(4, 8);
     let good = compressed(&s);
-    let cases: Vec<(&str, Box<dyn Fn(&mut Value)>, &str)> = vec![
-        ("missing attribute id", Box::new(|d| d["meshes"][0]["primitives"][0]["extensions"][EXT]["attributes"]["NORMAL"] = json!(7)), "id 7"),
+    type Mutation = Box<dyn Fn(&mut Value)>;
+    let cases: Vec<(&str, Mutation, &str)> = vec![
+        (
+            "missing attribute id",
+            Box::new(|d| d["meshes"][0]["primitives"][0]["extensions"][EXT]["attributes"]["NORMAL"] = json!(7)),
+            "id 7",
+        ),
         ("POSITION count", Box::new(|d| d["accessors"][0]["count"] = json!(3)), "POSITION accessor declares only 3"),
         ("indices count", Box::new(|d| d["accessors"][4]["count"] = json!(6)), "declare 45 vertices and 6 indices"),
         ("component count", Box::new(|d| d["accessors"][2]["type"] = json!("VEC3")), "components"),
         ("not a triangle list", Box::new(|d| d["meshes"][0]["primitives"][0]["mode"] = json!(5)), "mode 5"),
-        ("morph targets", Box::new(|d| d["meshes"][0]["primitives"][0]["targets"] = json!([{ "POSITION": 1 }])), "morph"),
+        (
+            "morph targets",
+            Box::new(|d| d["meshes"][0]["primitives"][0]["targets"] = json!([{ "POSITION": 1 }])),
+            "morph",
+        ),
         ("short view", Box::new(|d| d["bufferViews"][0]["byteLength"] = json!(1 << 20)), "outside"),
     ];
     for (what, mutate, needle) in cases {

@@ -255,7 +255,8 @@ impl Loader<'_> {
         for (name, id) in &attributes {
             let (acc_index, acc) = accessor(prim.pointer(&format!("/attributes/{name}")), name)
                 .map_err(|_| self.err(format!("{what}: names attribute {name}, which the primitive does not have")))?;
-            let attribute = id.as_u64().and_then(|id| u32::try_from(id).ok()).and_then(|id| mesh.attribute_by_unique_id(id));
+            let attribute =
+                id.as_u64().and_then(|id| u32::try_from(id).ok()).and_then(|id| mesh.attribute_by_unique_id(id));
             let Some(attribute) = attribute else {
                 return Err(self.err(format!("{what}: {name}'s Draco attribute id {id} is not in the Draco data")));
             };
@@ -315,7 +316,8 @@ impl Loader<'_> {
                 }
                 file.bytes.resize(file.bytes.len() + (stride - elem), 0);
             }
-            let mut view = json!({ "buffer": buffer_index, "byteOffset": start, "byteLength": file.bytes.len() - start });
+            let mut view =
+                json!({ "buffer": buffer_index, "byteOffset": start, "byteLength": file.bytes.len() - start });
             if stride != elem {
                 view["byteStride"] = json!(stride);
             }
@@ -329,7 +331,6 @@ impl Loader<'_> {
         }
         Ok(new_prim)
     }
-
 }
 
 /// What the decode adds to the file: the new buffer's bytes and index, and the

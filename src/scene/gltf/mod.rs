@@ -28,6 +28,7 @@ mod lights;
 mod material_ext;
 mod materials;
 mod mesh;
+mod meshopt;
 mod motion;
 mod nodes;
 mod pass_ids;
@@ -257,6 +258,8 @@ impl<'a> Loader<'a> {
         // The crate's own validation indexes arrays with the file's indices unchecked
         // (a dangling accessor index panics inside it): check every reference first.
         check_references(&value).map_err(|e| self.err(e))?;
+
+        self.check_meshopt_fallback(&value)?;
 
         // 4. Draco-compressed primitives decoded into a buffer of their own, read by
         // rewritten accessors: the crate refuses their accessors without a bufferView, so
