@@ -1143,11 +1143,11 @@ def make_bad_inf_position():
 
 def make_bad_unsupported_required_ext():
     b = triangle_builder()
-    b.use_extension("EXT_meshopt_compression", required=True)
+    b.use_extension("KHR_texture_basisu", required=True)
     b.write_gltf("bad/unsupported_required_ext.gltf", "datauri")
     return bad("bad/unsupported_required_ext.gltf", "extensionsRequired "
-               "['EXT_meshopt_compression']: refused, naming it",
-               contains=["ext_meshopt_compression"])
+               "['KHR_texture_basisu']: refused, naming it",
+               contains=["khr_texture_basisu"])
 
 
 def make_bad_unknown_required_ext():
@@ -1550,8 +1550,8 @@ def hostile_makers():
                           draco(bytes(range(40)))))
 
     def meshopt_empty_fallback(root):
-        # gltfpack's layout: the compressed bytes in buffer 0, the views' fallback in a
-        # buffer without data; the triangle's POSITION view reads the latter.
+        # gltfpack's layout: the compressed bytes in buffer 0 (here the triangle's own
+        # floats, not a meshopt stream), the views' fallback in a buffer without data.
         name = "EXT_meshopt_compression"
         root.setdefault("extensionsUsed", []).append(name)
         root["buffers"].append({"byteLength": 36, "extensions": {name: {"fallback": True}}})
@@ -1560,8 +1560,8 @@ def hostile_makers():
                                      "mode": "ATTRIBUTES", "count": 3}}
         view["buffer"] = len(root["buffers"]) - 1
         view["byteOffset"] = 0
-    add(lambda: draco_bad("bad/meshopt_empty_fallback.gltf", "EXT_meshopt_compression (optional) whose fallback "
-                          "buffer holds no data", meshopt_empty_fallback, "EXT_meshopt_compression"))
+    add(lambda: draco_bad("bad/meshopt_corrupt.gltf", "EXT_meshopt_compression over bytes that are not meshopt data "
+                          "(the fallback buffer holds none)", meshopt_empty_fallback, "EXT_meshopt_compression"))
 
     def billion_vertices(root):
         # A sparse accessor needs no base data: a few bytes declare 2e9 vertices (144 GB once

@@ -79,6 +79,7 @@ pub const SUPPORTED_REQUIRED: &[&str] = &[
     "KHR_materials_pbrSpecularGlossiness",
     "KHR_mesh_quantization",
     "KHR_draco_mesh_compression",
+    "EXT_meshopt_compression",
     "EXT_texture_webp",
     "EXT_mesh_gpu_instancing",
     "CAUSTIC_lights_area",
@@ -259,18 +260,24 @@ impl<'a> Loader<'a> {
         // (a dangling accessor index panics inside it): check every reference first.
         check_references(&value).map_err(|e| self.err(e))?;
 
-        self.check_meshopt_fallback(&value)?;
-
-        // 4. Draco-compressed primitives decoded into a buffer of their own, read by
-        // rewritten accessors: the crate refuses their accessors without a bufferView, so
+        // 4. Compressed geometry decoded into buffers of the loader's own: meshopt's views
+        // pointed at theirs (the fallback buffers never read), then Draco's primitives read by
+        // rewritten accessors. The crate refuses Draco's accessors without a bufferView, so
         // this reads the buffers through a document of the buffers alone.
         let mut draco_buffers = None;
-        if draco::present(&value) {
+        let meshopt = meshopt::present(&value);
+        if meshopt || draco::present(&value) {
+            if meshopt {
+                meshopt::empty_fallbacks(&mut value);
+            }
             let only_buffers = serde_json::json!({
                 "asset": value["asset"],
                 "buffers": value.get("buffers").cloned().unwrap_or_else(|| serde_json::json!([])),
             });
             let mut buffers = self.load_buffers(&self.typed_document(&only_buffers)?, bin.take())?;
+            if meshopt {
+                self.decode_meshopt(&mut value, &mut buffers)?;
+            }
             self.decode_draco(&mut value, &mut buffers)?;
             draco_buffers = Some(buffers);
         }

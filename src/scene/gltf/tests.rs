@@ -99,6 +99,7 @@ fn every_extension_caustic_renders_may_be_required() {
         "KHR_materials_sheen",
         "KHR_materials_dispersion",
         "KHR_draco_mesh_compression",
+        "EXT_meshopt_compression",
         "KHR_materials_emissive_strength",
         "KHR_materials_unlit",
         "KHR_materials_anisotropy",
