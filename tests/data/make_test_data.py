@@ -1143,11 +1143,11 @@ def make_bad_inf_position():
 
 def make_bad_unsupported_required_ext():
     b = triangle_builder()
-    b.use_extension("KHR_draco_mesh_compression", required=True)
+    b.use_extension("KHR_texture_basisu", required=True)
     b.write_gltf("bad/unsupported_required_ext.gltf", "datauri")
     return bad("bad/unsupported_required_ext.gltf", "extensionsRequired "
-               "['KHR_draco_mesh_compression']: refused, naming it",
-               contains=["khr_draco_mesh_compression"])
+               "['KHR_texture_basisu']: refused, naming it",
+               contains=["khr_texture_basisu"])
 
 
 def make_bad_unknown_required_ext():
@@ -1521,6 +1521,47 @@ def hostile_makers():
                                           "values": {"bufferView": 0}}
     add(lambda: tri_bad("bad/sparse_float_indices.gltf", "sparse indices of componentType FLOAT",
                         sparse_float_indices, ["sparse"]))
+
+    def draco(data, view=None):
+        """The triangle's primitive as KHR_draco_mesh_compression over `data` (a buffer of its
+        own) or over bufferView `view`."""
+        def mutate(root):
+            root["buffers"].append({"byteLength": len(data), "uri": "data:application/octet-stream;base64,"
+                                    + base64.b64encode(data).decode("ascii")})
+            root["bufferViews"].append({"buffer": len(root["buffers"]) - 1, "byteLength": len(data)})
+            name = "KHR_draco_mesh_compression"
+            root.setdefault("extensionsUsed", []).append(name)
+            root.setdefault("extensionsRequired", []).append(name)
+            prim = root["meshes"][0]["primitives"][0]
+            prim["extensions"] = {name: {"bufferView": len(root["bufferViews"]) - 1 if view is None else view,
+                                         "attributes": {"POSITION": 0, "NORMAL": 1}}}
+        return mutate
+    # A Draco header (version 2.2, triangular mesh, edgebreaker) followed by noise.
+    corrupt = b"DRACO" + bytes([2, 2, 1, 1, 0, 0]) + bytes((i * 97 + 13) % 256 for i in range(64))
+
+    def draco_bad(rel_path, description, mutate, extension="KHR_draco_mesh_compression"):
+        mutant(rel_path, mutate)
+        return bad(rel_path, description, contains=["mesh 0", extension])
+    add(lambda: draco_bad("bad/draco_corrupt.gltf", "KHR_draco_mesh_compression over a corrupt bitstream",
+                          draco(corrupt)))
+    add(lambda: draco_bad("bad/draco_view_out_of_range.gltf", "KHR_draco_mesh_compression naming bufferView 99",
+                          draco(corrupt, view=99)))
+    add(lambda: draco_bad("bad/draco_not_draco.gltf", "KHR_draco_mesh_compression over bytes without the DRACO magic",
+                          draco(bytes(range(40)))))
+
+    def meshopt_empty_fallback(root):
+        # gltfpack's layout: the compressed bytes in buffer 0 (here the triangle's own
+        # floats, not a meshopt stream), the views' fallback in a buffer without data.
+        name = "EXT_meshopt_compression"
+        root.setdefault("extensionsUsed", []).append(name)
+        root["buffers"].append({"byteLength": 36, "extensions": {name: {"fallback": True}}})
+        view = root["bufferViews"][root["accessors"][0]["bufferView"]]
+        view["extensions"] = {name: {"buffer": 0, "byteOffset": 0, "byteLength": 16, "byteStride": 12,
+                                     "mode": "ATTRIBUTES", "count": 3}}
+        view["buffer"] = len(root["buffers"]) - 1
+        view["byteOffset"] = 0
+    add(lambda: draco_bad("bad/meshopt_corrupt.gltf", "EXT_meshopt_compression over bytes that are not meshopt data "
+                          "(the fallback buffer holds none)", meshopt_empty_fallback, "EXT_meshopt_compression"))
 
     def billion_vertices(root):
         # A sparse accessor needs no base data: a few bytes declare 2e9 vertices (144 GB once

@@ -17,6 +17,7 @@ mod buffers;
 mod cameras;
 mod curves;
 mod deformation;
+mod draco;
 mod emission;
 mod extensions;
 mod gpu_instancing;
@@ -27,6 +28,7 @@ mod lights;
 mod material_ext;
 mod materials;
 mod mesh;
+mod meshopt;
 mod motion;
 mod nodes;
 mod pass_ids;
@@ -76,6 +78,8 @@ pub const SUPPORTED_REQUIRED: &[&str] = &[
     "KHR_materials_iridescence",
     "KHR_materials_pbrSpecularGlossiness",
     "KHR_mesh_quantization",
+    "KHR_draco_mesh_compression",
+    "EXT_meshopt_compression",
     "EXT_texture_webp",
     "EXT_mesh_gpu_instancing",
     "CAUSTIC_lights_area",
@@ -201,10 +205,22 @@ impl<'a> Loader<'a> {
         }
     }
 
+    /// The typed document of `value`, with the crate's index validation. The crate refuses
+    /// every required extension outside its own few features, including those Caustic
+    /// reads from the raw JSON: they were checked before, so it does not see the list.
+    fn typed_document(&self, value: &serde_json::Value) -> Result<gltf::Document> {
+        let mut for_crate = value.clone();
+        if let Some(root) = for_crate.as_object_mut() {
+            root.remove("extensionsRequired");
+        }
+        let root: json::Root = serde_json::from_value(for_crate).map_err(|e| self.err(format!("invalid glTF: {e}")))?;
+        gltf::Document::from_json(root).map_err(|e| self.err(format!("invalid glTF: {}", describe_validation(&e))))
+    }
+
     fn load(mut self, bytes: &[u8]) -> Result<Scene> {
         let start = Instant::now();
         // 1. Container: GLB or JSON.
-        let (json_bytes, bin): (Vec<u8>, Option<Vec<u8>>) = if bytes.starts_with(b"glTF") {
+        let (json_bytes, mut bin): (Vec<u8>, Option<Vec<u8>>) = if bytes.starts_with(b"glTF") {
             let glb = gltf::binary::Glb::from_slice(bytes)
                 .map_err(|e| self.err(format!("malformed GLB container: {e} (truncated or corrupt file?)")))?;
             (glb.json.into_owned(), glb.bin.map(|b| b.into_owned()))
@@ -244,19 +260,34 @@ impl<'a> Loader<'a> {
         // (a dangling accessor index panics inside it): check every reference first.
         check_references(&value).map_err(|e| self.err(e))?;
 
-        // 4. Typed document with the crate's index validation. The crate refuses every
-        // required extension outside its own few features, including those Caustic reads
-        // from the raw JSON: they were checked above, so it does not see the list.
-        let mut for_crate = value.clone();
-        if let Some(root) = for_crate.as_object_mut() {
-            root.remove("extensionsRequired");
+        // 4. Compressed geometry decoded into buffers of the loader's own: meshopt's views
+        // pointed at theirs (the fallback buffers never read), then Draco's primitives read by
+        // rewritten accessors. The crate refuses Draco's accessors without a bufferView, so
+        // this reads the buffers through a document of the buffers alone.
+        let mut draco_buffers = None;
+        let meshopt = meshopt::present(&value);
+        if meshopt || draco::present(&value) {
+            if meshopt {
+                meshopt::empty_fallbacks(&mut value);
+            }
+            let only_buffers = serde_json::json!({
+                "asset": value["asset"],
+                "buffers": value.get("buffers").cloned().unwrap_or_else(|| serde_json::json!([])),
+            });
+            let mut buffers = self.load_buffers(&self.typed_document(&only_buffers)?, bin.take())?;
+            if meshopt {
+                self.decode_meshopt(&mut value, &mut buffers)?;
+            }
+            self.decode_draco(&mut value, &mut buffers)?;
+            draco_buffers = Some(buffers);
         }
-        let root: json::Root = serde_json::from_value(for_crate).map_err(|e| self.err(format!("invalid glTF: {e}")))?;
-        let doc = gltf::Document::from_json(root)
-            .map_err(|e| self.err(format!("invalid glTF: {}", describe_validation(&e))))?;
 
-        // 5. Buffers.
-        let buffers = self.load_buffers(&doc, bin)?;
+        // 5. Typed document with the crate's index validation, and buffers.
+        let doc = self.typed_document(&value)?;
+        let buffers = match draco_buffers {
+            Some(buffers) => buffers,
+            None => self.load_buffers(&doc, bin)?,
+        };
         self.check_views_and_accessors(&doc, &buffers)?;
         if doc.extensions_used().any(|e| e == "KHR_mesh_quantization") {
             self.quantization = quantized::Quantization::Allowed;
