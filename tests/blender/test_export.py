@@ -605,6 +605,16 @@ def test_unrendered_features_are_named(addon, empty_scene, tmp_path):
     squashed.data.shape_keys.key_blocks["Squash"].value = 1.0
     warnings = unsupported.scene_warnings(bpy.context.evaluated_depsgraph_get())
     assert not any("shape keys" in line for line in warnings), warnings
+    # A light's and the world's Cycles Max Bounces are not rendered: named (the default, 1024,
+    # limits nothing and is not).
+    bounded = scenes.light(scene, "Bounded", "POINT", location=(0, 0, 5), energy=10.0)
+    assert not any("Max Bounces" in line for line in unsupported.object_warnings(bounded))
+    bounded.data.cycles.max_bounces = 2
+    assert any("'Bounded'" in line and "Max Bounces (2)" in line for line in unsupported.object_warnings(bounded))
+    scene.world = bpy.data.worlds.new("Bounded sky")
+    scene.world.cycles.max_bounces = 3
+    world_warnings = unsupported.scene_warnings(bpy.context.evaluated_depsgraph_get())
+    assert any("'Bounded sky'" in line and "Max Bounces (3)" in line for line in world_warnings), world_warnings
     dots = bpy.data.objects.new("Dots", bpy.data.pointclouds.new("DotsData"))
     assert any("'Dots'" in line and "point clouds" in line for line in unsupported.object_warnings(dots))
     # Volume objects render (export/volumes.py); one without a .vdb file is named there.
