@@ -314,7 +314,7 @@ fn principled(p: &PrincipledRegs, r: &[f32], g: &Geom, normal: Option<Reg>, w: f
         if out.tangent.is_none() {
             let t = match p.tangent {
                 Some(t) => from_blender(v3(r, t)),
-                None => g.radial_tangent(),
+                None => g.radial_tangent(2),
             };
             let n = normal.and_then(|n| from_blender(v3(r, n)).try_normalize()).unwrap_or(g.n);
             let rotation = f(p.anisotropic_rotation);

@@ -96,15 +96,20 @@ impl Geom<'_> {
         }
     }
 
-    /// Cycles' default tangent where a closure's Tangent input is unlinked (the Geometry
-    /// node's Tangent that Cycles links there, `primitive_tangent`): radial around the object's
-    /// Z axis through the texture space's centre, (−(g.y − ½), g.x − ½, 0) of the Generated
-    /// point g, carried to the world as a normal is and made perpendicular to the shading
-    /// normal. World glTF axes; zero on the axis itself.
+    /// Cycles' radial tangent around the object's X, Y or Z axis (`axis` 0, 1, 2) through the
+    /// texture space's centre: for Z, (−(g.y − ½), g.x − ½, 0) of the Generated point g,
+    /// carried to the world as a normal is and made perpendicular to the shading normal. The
+    /// Tangent node's Radial outputs, and around Z the default where a closure's Tangent input
+    /// is unlinked (the Geometry node's Tangent that Cycles links there, `primitive_tangent`).
+    /// World glTF axes; zero on the axis itself.
     #[inline]
-    pub fn radial_tangent(&self) -> Vec3 {
-        let g = self.generated();
-        let t = from_blender(Vec3::new(-(g.y - 0.5), g.x - 0.5, 0.0));
+    pub fn radial_tangent(&self, axis: u8) -> Vec3 {
+        let q = self.generated() - Vec3::splat(0.5);
+        let t = from_blender(match axis {
+            0 => Vec3::new(0.0, -q.z, q.y),
+            1 => Vec3::new(-q.z, 0.0, q.x),
+            _ => Vec3::new(-q.y, q.x, 0.0),
+        });
         // A normal's object-to-world map: the transpose of world-to-object.
         let t = glam::Mat3::from_mat4(self.object.world_to_object).transpose() * t;
         self.n.cross(t.cross(self.n).normalize_or_zero())

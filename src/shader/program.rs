@@ -397,18 +397,7 @@ impl Program {
                 let t = g.tangent.truncate();
                 if t == Vec3::ZERO { Vec3::ZERO } else { to_blender(perpendicular(t, g.n)) }
             }
-            InputKind::Radial(axis) => {
-                let q = g.generated() - Vec3::splat(0.5);
-                let t = match axis {
-                    0 => Vec3::new(0.0, -q.z, q.y),
-                    1 => Vec3::new(-q.z, 0.0, q.x),
-                    _ => Vec3::new(-q.y, q.x, 0.0),
-                };
-                // Object (Blender axes) to world (glTF axes) as a normal: the transpose of
-                // world → object.
-                let t = obj.world_to_object.transpose().transform_vector3(from_blender(t));
-                to_blender(perpendicular(t, g.n))
-            }
+            InputKind::Radial(axis) => to_blender(g.radial_tangent(axis)),
             InputKind::Uv(set) => {
                 let uv = g.uv[set.min(1) as usize];
                 Vec3::new(uv.x, 1.0 - uv.y, 0.0)
