@@ -26,6 +26,9 @@ pub struct CameraSample {
     pub radiance: Rgb,
     /// 1 when the path hit geometry (coverage), else 0.
     pub alpha: f32,
+    /// The share of the sample a holdout took (a Holdout shader or a holdout object seen by
+    /// the camera ray): Cycles keeps it out of alpha on an opaque film too.
+    pub held: f32,
     /// Camera-space depth of the first hit (infinite when none).
     pub depth: f32,
     /// World-space shading normal of the first hit.
@@ -47,6 +50,12 @@ impl CameraSample {
     /// no light and opaque, as Cycles leaves a camera ray of length 0.
     pub fn blind() -> Self {
         CameraSample { alpha: 1.0, depth: f32::INFINITY, ..Default::default() }
+    }
+
+    /// Alpha under an opaque film (Film → Transparent off): the world counts as seen, so
+    /// everything but the held-out share, as Cycles.
+    pub fn make_opaque(&mut self) {
+        self.alpha = 1.0 - self.held;
     }
 }
 
@@ -250,17 +259,6 @@ pub struct FilmImage {
 
 /// Number of the shadow catcher's sums per pixel.
 pub const CATCHER_SUMS: usize = slot::COUNT - slot::CATCHER_PASS;
-
-impl FilmImage {
-    /// Alpha 1 wherever a sample was taken (Blender's Film → Transparent off).
-    pub fn make_opaque(&mut self) {
-        for (p, &n) in self.combined.iter_mut().zip(&self.samples) {
-            if n > 0 {
-                p[3] = 1.0;
-            }
-        }
-    }
-}
 
 /// Depth written where no geometry was hit (Cycles' value).
 pub const DEPTH_BACKGROUND: f32 = 1e10;

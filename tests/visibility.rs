@@ -259,6 +259,50 @@ fn a_holdout_shows_nothing_with_alpha_zero() {
     }
 }
 
+/// Under an opaque film (Film → Transparent off) Cycles counts the world as seen but keeps a
+/// holdout's share out of alpha: a holdout quad (±9.4 px) with nothing behind it and no world
+/// has alpha exactly 0 where it covers the pixel and 1 around it, where camera rays miss
+/// everything, in every integrator. (The film used to set alpha 1 wherever it had sampled.)
+#[test]
+fn a_holdout_keeps_alpha_zero_under_an_opaque_film() {
+    let dir = temp_dir();
+    let d = dir.path();
+    let mut g = GltfBuilder::new();
+    let grey =
+        g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1], "metallicFactor": 0.0}}));
+    let held = quad(&mut g, -2.0, 0.3, true, grey);
+    g.node_ext(held, "CAUSTIC_object_visibility", json!({"holdout": true}));
+    g.punctual(json!({"type": "point", "intensity": 683.0}), [0.0, 0.0, -1.0], [0.0, 0.0, 0.0, 1.0]);
+    g.settings(json!({"transparent": false}));
+    g.camera([0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0], 0.5);
+    let scene = g.write(d, "held.gltf");
+    for integrator in ["path", "photon", "sppm", "bdpt", "vcm"] {
+        let args = [
+            "--resolution",
+            "32x32",
+            "--spp",
+            "4",
+            "--filter",
+            "box",
+            "--filter-width",
+            "1",
+            "--integrator",
+            integrator,
+            "--photons",
+            "1000",
+        ];
+        let px = render_image(&scene, &d.join(format!("{integrator}.exr")), &args, LIMIT);
+        let ring = |i: usize| ((i % W) as f32 - 15.5).abs().max(((i / W) as f32 - 15.5).abs());
+        for (i, p) in px.iter().enumerate() {
+            if ring(i) < 9.0 {
+                assert_eq!(p[3], 0.0, "{integrator}: alpha on the holdout at pixel {i}");
+            } else if ring(i) > 10.0 {
+                assert_eq!(p[3], 1.0, "{integrator}: alpha around the holdout at pixel {i}");
+            }
+        }
+    }
+}
+
 /// A holdout quad lit from the front by a point light between it and the camera: BDPT's and
 /// VCM's light tracing reaches the camera from the lit quad, and must show none of it where
 /// the camera sees the holdout (colour and alpha exactly 0, as camera rays that hit it).

@@ -88,9 +88,6 @@ pub fn run_merge(args: &MergeArgs, reporter: &Reporter) -> Result<()> {
     img.aov_specs.clone_from(&info.shader_aovs);
     // The Cryptomatte manifests of the frame (every chunk has the same).
     img.metadata = metadata;
-    if !info.transparent {
-        img.make_opaque();
-    }
     crate::shadow_catcher::resolve(&mut img, info.transparent);
     match args.chunk {
         true => output::write_chunk(&args.output, &img, args.half, &film, &merged)?,

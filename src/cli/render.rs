@@ -458,9 +458,6 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
                 img.metadata.clone_from(&crypto_header);
                 img.light_group_names.clone_from(&group_names);
                 img.aov_specs.clone_from(&aov_specs);
-                if !res.transparent {
-                    img.make_opaque();
-                }
                 crate::shadow_catcher::resolve(&mut img, res.transparent);
                 match write(&img, Some(film), spp, film.light_paths) {
                     Ok(()) => reporter.image(&out_str, spp, false),
@@ -483,9 +480,6 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     result.image.metadata = crypto_header;
     result.image.light_group_names = group_names;
     result.image.aov_specs = aov_specs;
-    if !res.transparent {
-        result.image.make_opaque();
-    }
     crate::shadow_catcher::resolve(&mut result.image, res.transparent);
 
     if let Some(d) = &denoiser {

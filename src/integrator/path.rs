@@ -123,6 +123,9 @@ impl PathIntegrator {
         } else if split.allowed {
             catcher::record(&mut out.aov, &split, out.radiance, Rgb::ZERO, Rgb::ZERO);
         }
+        if !self.transparent_background {
+            out.make_opaque();
+        }
         out
     }
 
@@ -421,6 +424,7 @@ impl PathIntegrator {
             // as Cycles' holdout (indirect rays see the object as it is).
             if st.depth == 0 && ctx.is_holdout(hit.tri) {
                 out.alpha = 0.0;
+                out.held = 1.0;
                 break;
             }
             // A shadow catcher seen by a camera ray: the path splits here (the catcher
@@ -437,6 +441,7 @@ impl PathIntegrator {
             if st.depth == 0 {
                 let (alpha, held) = SceneContext::holdout_alpha(&sp, st.beta);
                 out.alpha = alpha;
+                out.held = 1.0 - alpha;
                 if held {
                     break;
                 }

@@ -165,9 +165,6 @@ fn build_integrator(ctx: &SceneContext, s: &RenderSettings, stop: &AtomicBool) -
 
 /// The frame message of an image of `view`'s window.
 fn send_frame(out: &Output, img: &mut FilmImage, job: &Job, view: &View, spp: u32, t0: Instant) {
-    if !job.settings.transparent {
-        img.make_opaque();
-    }
     let s = &job.settings;
     let payload = encode_pixels(&img.combined, s.format);
     out.send(

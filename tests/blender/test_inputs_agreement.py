@@ -13,8 +13,11 @@ Cycles' mean (`MODEL_ALLOWANCE`, derived in test_cycles_agreement.py). Nothing i
   Diffuse BSDF at 0.5 (half cut out, half the diffuse's colour), over a floor filling the view.
   Measured Caustic/Cycles alpha: before (a warned no-op: the sphere black but opaque) 1.5258
   (holdout) and 1.2082 (mix), after 1.0000 and 1.0000 (R, G, B 0.9994-0.9995 both times).
-  With Film > Transparent off Cycles cuts alpha the same (0.8277 for the mix): Caustic's film
-  makes every sampled pixel opaque there, a known difference kept failing below.
+  With Film > Transparent off Cycles cuts alpha the same (0.8277 for the mix; the world counts
+  as seen, the holdout's share does not): Caustic's film made every sampled pixel opaque there
+  (alpha 1.2082 x Cycles'); now each integrator's camera sample keeps its held-out share
+  (`CameraSample::held`) and an opaque film's alpha is 1 less it. A holdout object under an
+  opaque film likewise.
 * Object Info's Object Index and Material Index (the objects' and materials' Pass Index): a
   flat plane coloured (0.1 x Object Index, 0.1 x Material Index, 0.3). Before (both gave 0 with
   a warning), red and green were 0 x Cycles'; after, 0.9999 and 0.9999.
@@ -84,22 +87,23 @@ def holdout_and_diffuse(name):
     return mat
 
 
-HOLDOUTS = {"holdout": (holdout, True), "holdout_mix": (holdout_and_diffuse, True),
-            "holdout_opaque_film": (holdout_and_diffuse, False)}
-# Known differences, kept failing on purpose (strict: a fix turns them into errors to remove).
-KNOWN_DIFFERENCES = {
-    "holdout_opaque_film": "with Film > Transparent off Cycles still takes holdouts (shader and object) from "
-                           "alpha; Caustic's film sets alpha 1 wherever it sampled (`FilmImage::make_opaque`): "
-                           "alpha 1.2082 x Cycles'",
-}
+def diffuse_held_object(name):
+    """An orange Diffuse BSDF on a sphere whose object is a Holdout (`Object.is_holdout`)."""
+    return holdout_and_diffuse(name)
 
 
-@pytest.mark.parametrize("case", [pytest.param(c, marks=pytest.mark.xfail(strict=True, reason=KNOWN_DIFFERENCES[c]))
-                                  if c in KNOWN_DIFFERENCES else c for c in HOLDOUTS])
+# case: (material, film transparent, the sphere object a holdout)
+HOLDOUTS = {"holdout": (holdout, True, False), "holdout_mix": (holdout_and_diffuse, True, False),
+            "holdout_opaque_film": (holdout_and_diffuse, False, False),
+            "holdout_object_opaque_film": (diffuse_held_object, False, True)}
+
+
+@pytest.mark.parametrize("case", HOLDOUTS)
 def test_holdout_shader_matches_cycles(empty_scene, tmp_path, case):
-    make, transparent = HOLDOUTS[case]
+    make, transparent, held_object = HOLDOUTS[case]
     scene = empty_scene
     sphere_scene(scene, make(case))
+    scene.objects["Ball"].is_holdout = held_object
     settings(scene)
     scene.render.film_transparent = transparent
     compare_rgba(scene, tmp_path, case)

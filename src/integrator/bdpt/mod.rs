@@ -301,6 +301,9 @@ impl BdptIntegrator {
         radiance += self.connect_all(ctx, &mut cs, film, scratch, &mut out, stats);
         out.radiance = radiance;
         self.file_catcher(ctx, sampler, scratch, &mut out, stats);
+        if !self.transparent_background {
+            out.make_opaque();
+        }
         out
     }
 

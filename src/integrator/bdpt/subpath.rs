@@ -188,6 +188,7 @@ impl BdptIntegrator {
             // 0, as the path tracer's (Cycles'); later vertices see the object as it is.
             if i == 0 && ctx.is_holdout(hit.tri) {
                 out.alpha = 0.0;
+                out.held = 1.0;
                 break;
             }
             // A shadow catcher seen by the camera ray: the path splits here (`catcher`);
@@ -205,6 +206,7 @@ impl BdptIntegrator {
             let (alpha, held) = SceneContext::holdout_alpha(&sp, beta);
             if i == 0 && held {
                 out.alpha = alpha;
+                out.held = 1.0 - alpha;
                 break;
             }
             // Subsurface scattering is path traced from here (the BSDF holds the rest of
@@ -235,6 +237,7 @@ impl BdptIntegrator {
             }
             if i == 0 {
                 out.alpha = alpha;
+                out.held = 1.0 - alpha;
                 out.depth = camera.depth(s.p);
                 out.normal = sp.frame.n;
                 out.albedo = sp.bsdf.albedo();

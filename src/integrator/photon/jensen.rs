@@ -250,6 +250,9 @@ impl JensenIntegrator {
         } else if split.allowed {
             catcher::record(&mut out.aov, &split, out.radiance, Rgb::ZERO, Rgb::ZERO);
         }
+        if !self.transparent_background {
+            out.make_opaque();
+        }
         out
     }
 
@@ -394,6 +397,7 @@ impl JensenIntegrator {
             // A holdout seen by a camera ray: nothing, alpha 0 (as the path tracer).
             if c.st.depth == 0 && ctx.is_holdout(hit.tri) {
                 out.alpha = 0.0;
+                out.held = 1.0;
                 break;
             }
             // A shadow catcher seen by the camera ray: the path splits here (the catcher
@@ -408,6 +412,7 @@ impl JensenIntegrator {
             if c.st.depth == 0 {
                 let (alpha, held) = SceneContext::holdout_alpha(&sp, c.total());
                 out.alpha = alpha;
+                out.held = 1.0 - alpha;
                 if held {
                     break;
                 }

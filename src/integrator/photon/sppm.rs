@@ -110,6 +110,8 @@ struct Pending {
     ld: Vec3,
     /// Coverage of this sample (0 or 1, plus crossed emitters as in `PixelState::alpha`).
     alpha: f32,
+    /// The share of the sample a holdout took (`CameraSample::held`).
+    held: f32,
     /// Camera depth of the first hit (0: none).
     depth: f32,
     normal: Vec3,
@@ -333,6 +335,10 @@ fn render(
                     let (ld, point, first_t) =
                         camera_path(ctx, &ray, &mut sampler, max_depth, pend, camera, &mut rs, flags, out, &mut caught);
                     pend.ld = ld;
+                    if !transparent_background {
+                        // An opaque film: the world counts as seen (`CameraSample::make_opaque`).
+                        pend.alpha = 1.0 - pend.held;
+                    }
                     if !ld.is_finite() {
                         pend.bad = true;
                         bad += 1;

@@ -172,6 +172,9 @@ impl VcmIntegrator {
         parts.camera_rays = camera_rays + s1_rays;
         parts.light_rays = stats.total() - rays - s1_rays;
         out.radiance = radiance;
+        if !self.bdpt.transparent_background {
+            out.make_opaque();
+        }
         out
     }
 

@@ -188,6 +188,7 @@ pub(super) fn camera_path(
         // A holdout seen by a camera ray: nothing, alpha 0 (as the path tracer).
         if st.depth == 0 && ctx.is_holdout(hit.tri) {
             pend.alpha = alpha_before;
+            pend.held = 1.0;
             return (l, None, first_t);
         }
         // A shadow catcher seen by the camera ray: the path splits here (the catcher pass
@@ -201,6 +202,7 @@ pub(super) fn camera_path(
         let sp = ctx.shade(&s, wo);
         if st.depth == 0 {
             let (alpha, held) = SceneContext::holdout_alpha(&sp, beta);
+            pend.held = 1.0 - alpha;
             if held {
                 pend.alpha = alpha_before + alpha;
                 return (l, None, first_t);
