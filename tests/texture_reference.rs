@@ -548,3 +548,75 @@ fn brick_matches_blender() {
         |_, _, _| false,
     );
 }
+
+fn gabor_params(case: &Case) -> GaborParams {
+    let orientation = case
+        .inputs
+        .get("Orientation 3D")
+        .and_then(Value::as_array)
+        .map_or(Vec3::new(std::f32::consts::SQRT_2, std::f32::consts::SQRT_2, 0.0), |c| {
+            Vec3::new(c[0].as_f64().unwrap() as f32, c[1].as_f64().unwrap() as f32, c[2].as_f64().unwrap() as f32)
+        });
+    GaborParams {
+        kind: match case.prop_str("gabor_type") {
+            "2D" => GaborKind::TwoD,
+            "3D" => GaborKind::ThreeD,
+            other => panic!("unknown Gabor type {other}"),
+        },
+        scale: case.input("Scale", 5.0),
+        frequency: case.input("Frequency", 2.0),
+        anisotropy: case.input("Anisotropy", 1.0),
+        orientation_2d: case.input("Orientation 2D", std::f32::consts::FRAC_PI_4),
+        orientation_3d: orientation,
+    }
+}
+
+/// The largest difference rounding can make in the Gabor phasor's components: each of the
+/// cells' 8 impulses within reach (9 cells in 2D, 27 in 3D) adds a kernel of magnitude ≤ 1
+/// whose wave angle 2π f (d · o), |d| < 1, |o| = 1, may round differently by a few ulps of
+/// 2π f, and whose envelope (exp, cos of π |d|² ≤ π) by a few ulps of 1; 8 ulps each.
+fn gabor_phasor_rounding(prm: &GaborParams) -> f32 {
+    let kernels = 8.0 * if prm.kind == GaborKind::TwoD { 9.0 } else { 27.0 };
+    let angle = 2.0 * std::f32::consts::PI * prm.frequency.max(0.001);
+    kernels * 8.0 * f32::EPSILON * (angle + 1.0)
+}
+
+/// Gabor (Blender 5.0's sparse convolution noise): Value and Intensity within the phasor's
+/// rounding bound over the node's normalisation (6 σ, as `gabor_texture`); Phase within the
+/// same error turned into an angle by the phasor's length, and either side of the ±π cut.
+#[test]
+fn gabor_matches_blender() {
+    let reference = load();
+    compare(
+        &reference,
+        "gabor",
+        |case, p, _| {
+            let (value, phase, intensity) = gabor_texture(p, &gabor_params(case));
+            [("Value", value), ("Phase", phase), ("Intensity", intensity)]
+                .into_iter()
+                .filter(|(name, _)| case.outputs.contains_key(*name))
+                .map(|(name, v)| (name, Out::Scalar(v)))
+                .collect()
+        },
+        |case, name, p, _, blender| {
+            let prm = gabor_params(case);
+            let deviation = match prm.kind {
+                GaborKind::TwoD => (8.0f32 * 0.5 * 0.25).sqrt(),
+                GaborKind::ThreeD => (8.0f32 * 0.5 / (4.0 * std::f32::consts::SQRT_2)).sqrt(),
+            };
+            let norm = 6.0 * deviation;
+            let rounding = gabor_phasor_rounding(&prm);
+            match name {
+                // Value = ½ + y / (2 norm): half the component's error over the norm.
+                "Value" => 0.5 * rounding / norm + 4.0 * f32::EPSILON,
+                "Intensity" => rounding / norm + 4.0 * f32::EPSILON * blender.max(1.0),
+                _ => {
+                    let length = gabor_texture(p, &prm).2 * norm;
+                    let turn = (rounding / length.max(1e-30)) / (2.0 * std::f32::consts::PI) + 4.0 * f32::EPSILON;
+                    if blender < turn || blender > 1.0 - turn { 1.0 } else { turn }
+                }
+            }
+        },
+        |_, _, _| false,
+    );
+}

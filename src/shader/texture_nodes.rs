@@ -3,9 +3,10 @@
 
 use super::geom::{Reg, set3, v3};
 use super::texture::{
-    BrickParams, GradientKind, NoiseKind, NoiseParams, VoronoiFeature, VoronoiMetric, VoronoiOut, VoronoiParams,
-    WaveDirection, WaveKind, WaveParams, WaveProfile, brick_texture, checker_texture, gradient_texture, magic_texture,
-    noise_fac, noise_texture, voronoi_texture, voronoi_texture_without_color, wave_texture, white_noise_texture,
+    BrickParams, GaborKind, GaborParams, GradientKind, NoiseKind, NoiseParams, VoronoiFeature, VoronoiMetric,
+    VoronoiOut, VoronoiParams, WaveDirection, WaveKind, WaveParams, WaveProfile, brick_texture, checker_texture,
+    gabor_texture, gradient_texture, magic_texture, noise_fac, noise_texture, voronoi_texture,
+    voronoi_texture_without_color, wave_texture, white_noise_texture,
 };
 use glam::Vec3;
 
@@ -84,6 +85,9 @@ pub enum TexOp {
         color: Reg,
         fac: Reg,
     },
+    /// Gabor Texture: Vector, Scale, Frequency, Anisotropy, Orientation 2D, Orientation 3D;
+    /// outputs Value, Phase, Intensity.
+    Gabor { kind: GaborKind, inputs: [Reg; 6], outputs: [Reg; 3] },
     /// Sky Texture (Single or Multiple Scattering, precomputed at load): Vector; output Color.
     Sky { sky: std::sync::Arc<super::sky::Sky>, vector: Reg, color: Reg },
 }
@@ -115,6 +119,21 @@ impl TexOp {
                     }
                     None => r[fac as usize] = noise_fac(v3(r, i[0]), f(1), &prm),
                 }
+            }
+            TexOp::Gabor { kind, inputs: i, outputs: o } => {
+                let f = |k: usize| r[i[k] as usize];
+                let prm = GaborParams {
+                    kind,
+                    scale: f(1),
+                    frequency: f(2),
+                    anisotropy: f(3),
+                    orientation_2d: f(4),
+                    orientation_3d: v3(r, i[5]),
+                };
+                let (value, phase, intensity) = gabor_texture(v3(r, i[0]), &prm);
+                r[o[0] as usize] = value;
+                r[o[1] as usize] = phase;
+                r[o[2] as usize] = intensity;
             }
             TexOp::WhiteNoise { dims, vector, w, value, color } => {
                 let (v, c) = white_noise_texture(dims, v3(r, vector), r[w as usize]);

@@ -142,6 +142,19 @@ def cases():
                        Mortar=(0.0, 0.1, 0.3, 1.0))
         out.append(("brick", "ShaderNodeTexBrick", props, sockets,
                     [("Color", vec), ("Fac", "FLOAT")]))
+
+    # Gabor: both kinds, anisotropic (the given orientation), partly and fully isotropic
+    # (random orientations), a frequency below 1 and a clamped anisotropy above 1.
+    gabors = [
+        ("2D", {"Scale": 1.3, "Frequency": 2.2, "Anisotropy": 1.0, "Orientation 2D": 0.6}),
+        ("2D", {"Scale": 2.1, "Frequency": 0.7, "Anisotropy": 0.3, "Orientation 2D": -1.1}),
+        ("3D", {"Scale": 1.1, "Frequency": 1.9, "Anisotropy": 1.4, "Orientation 3D": (0.3, 0.5, 0.8)}),
+        ("3D", {"Scale": 0.9, "Frequency": 3.1, "Anisotropy": 0.45, "Orientation 3D": (-0.6, 0.2, 0.4)}),
+        ("3D", {"Scale": 1.7, "Frequency": 1.2, "Anisotropy": 0.0, "Orientation 3D": (1.0, 0.0, 0.0)}),
+    ]
+    for kind, sockets in gabors:
+        out.append(("gabor", "ShaderNodeTexGabor", {"gabor_type": kind}, sockets,
+                    [("Value", "FLOAT"), ("Phase", "FLOAT"), ("Intensity", "FLOAT")]))
     return out
 
 
@@ -200,6 +213,12 @@ def cycles_cases():
                  "Brick Width": 0.7, "Row Height": 0.3, "Color1": (0.8, 0.8, 0.8, 1.0),
                  "Color2": (0.2, 0.2, 0.2, 1.0), "Mortar": (0.0, 0.1, 0.3, 1.0)},
                 [("Color", vec), ("Fac", "FLOAT")]))
+    out.append(("gabor", "ShaderNodeTexGabor", {"gabor_type": "3D"},
+                {"Scale": 0.9, "Frequency": 3.1, "Anisotropy": 0.45, "Orientation 3D": (-0.6, 0.2, 0.4)},
+                [("Value", "FLOAT"), ("Phase", "FLOAT"), ("Intensity", "FLOAT")]))
+    out.append(("gabor", "ShaderNodeTexGabor", {"gabor_type": "2D"},
+                {"Scale": 2.1, "Frequency": 0.7, "Anisotropy": 0.3, "Orientation 2D": -1.1},
+                [("Value", "FLOAT")]))
     return out
 
 

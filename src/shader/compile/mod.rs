@@ -24,6 +24,7 @@ use crate::shader::graph::{NodeDesc, NodesExt, check_and_sort};
 use crate::shader::image_node::{Extension, ImageOp, Interp, Projection};
 use crate::shader::instructions::{BumpOp, ColorSpace, CurveKind, CurveTable, InputKind, MappingKind, Op, Program};
 use crate::shader::ops::{Blend, MathOp, RangeInterp, VecOp};
+use crate::shader::texture::GaborKind;
 use crate::shader::texture_nodes::{
     TexOp, dims as noise_dims, gradient_kind, noise_kind, voronoi_feature, voronoi_metric, wave_settings,
 };

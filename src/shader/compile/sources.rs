@@ -554,6 +554,27 @@ impl Compiler<'_> {
                 let fac = self.out(i, "Fac", Ty::Float);
                 self.ops.push(Op::Texture(Box::new(TexOp::Checker { inputs, color, fac })));
             }
+            "ShaderNodeTexGabor" => {
+                let kind = match self.prop_str(i, "gabor_type", "2D") {
+                    "2D" => GaborKind::TwoD,
+                    "3D" => GaborKind::ThreeD,
+                    other => return Err(self.err(i, format!("unknown Gabor type '{other}'"))),
+                };
+                let inputs = [
+                    self.vec_implicit(i, "Vector", InputKind::Generated)?,
+                    self.float(i, "Scale", 5.0)?,
+                    self.float(i, "Frequency", 2.0)?,
+                    self.float(i, "Anisotropy", 1.0)?,
+                    self.float(i, "Orientation 2D", std::f32::consts::FRAC_PI_4)?,
+                    self.vec(i, "Orientation 3D", Vec3::new(std::f32::consts::SQRT_2, std::f32::consts::SQRT_2, 0.0))?,
+                ];
+                let outputs = [
+                    self.out(i, "Value", Ty::Float),
+                    self.out(i, "Phase", Ty::Float),
+                    self.out(i, "Intensity", Ty::Float),
+                ];
+                self.ops.push(Op::Texture(Box::new(TexOp::Gabor { kind, inputs, outputs })));
+            }
             "ShaderNodeTexGradient" => {
                 let g = self.prop_str(i, "gradient_type", "LINEAR");
                 let kind = gradient_kind(g).ok_or_else(|| self.err(i, format!("unknown gradient type '{g}'")))?;

@@ -9,6 +9,7 @@ mod cell_offsets;
 pub mod checker;
 pub mod float_ops;
 pub mod fractal;
+pub mod gabor;
 pub mod gradient;
 pub mod hash;
 pub mod magic;
@@ -24,6 +25,7 @@ pub mod white_noise;
 
 pub use brick::{BrickParams, brick_texture};
 pub use checker::checker_texture;
+pub use gabor::{GaborKind, GaborParams, gabor_texture};
 pub use gradient::{GradientKind, gradient_texture};
 pub use magic::magic_texture;
 pub use noise::{NoiseKind, NoiseParams, noise_fac, noise_texture};
