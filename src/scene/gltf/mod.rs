@@ -17,6 +17,7 @@ mod buffers;
 mod cameras;
 mod curves;
 mod deformation;
+mod displace;
 mod draco;
 mod emission;
 mod extensions;
@@ -341,6 +342,7 @@ impl<'a> Loader<'a> {
         let mut light_rules: Vec<(usize, Links)> = Vec::new();
         let mut node_rules: HashMap<u32, Links> = HashMap::new();
         let mut instances_out = Vec::new();
+        let mut undisplaced = displace::Undisplaced::default();
         // (node, name, end of its triangles) of each mesh instance, for the pass ids.
         let mut id_spans = Vec::new();
         // Joints' world matrices, for skinned meshes only (joints may lie outside the scene).
@@ -416,6 +418,22 @@ impl<'a> Loader<'a> {
                         let o = objects.len() as u32 - 1;
                         mesh.tri_object.resize(mesh.triangles.len(), o);
                         object = Some(o);
+                        let domain = displace::NormalsDomain::parse(
+                            value.pointer(&format!("/meshes/{}/extras/CAUSTIC_normals_domain", m.index())),
+                        )
+                        .map_err(|e| self.err(format!("mesh {}: {e}", m.index())))?;
+                        let (verts, tris) = (v0 as usize..mesh.positions.len(), first..mesh.triangles.len());
+                        self.displace_instance(
+                            &mut mesh,
+                            verts,
+                            tris,
+                            &objects,
+                            world,
+                            &materials,
+                            domain,
+                            &mut undisplaced,
+                            &node_name,
+                        )?;
                     }
                     id_spans.push((*node_index, node_name.clone(), mesh.triangles.len() as u32));
                     span_nodes.push(*node_index);
@@ -619,8 +637,17 @@ impl<'a> Loader<'a> {
         if degenerate > 0 {
             self.warn(format!("{degenerate} degenerate (zero-area) triangle(s) were dropped"));
         }
-        let motion =
-            self.motion(&value, &doc, &buffers, &mesh, &instances_out, &span_nodes, &mut cameras, &camera_nodes)?;
+        let motion = self.motion(
+            &value,
+            &doc,
+            &buffers,
+            &mesh,
+            &undisplaced,
+            &instances_out,
+            &span_nodes,
+            &mut cameras,
+            &camera_nodes,
+        )?;
         if let Some(m) = motion.as_ref().filter(|m| m.blurs()) {
             // The scene's bounds hold every moving triangle at every step.
             for p in m.corners.iter().flatten() {
