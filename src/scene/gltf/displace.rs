@@ -56,17 +56,28 @@ impl NormalsDomain {
     }
 }
 
-/// The positions before displacement, for the vertices moved so far (a vertex past the end
-/// was not moved): deformation motion finds its source vertices by them.
+/// The positions before displacement while the instances load, up to the last vertex moved
+/// (a vertex past the end was not moved).
 #[derive(Clone, Debug, Default)]
-pub(super) struct Undisplaced(pub(super) Vec<Vec3>);
+pub(super) struct Undisplaced(Vec<Vec3>);
 
 impl Undisplaced {
-    /// Vertex `k`'s position before displacement.
-    #[inline]
-    pub(super) fn at(&self, mesh: &Mesh, k: usize) -> Vec3 {
-        self.0.get(k).copied().unwrap_or(mesh.positions[k])
+    /// Completes the list to every vertex of `mesh` and gives it to `Mesh::undisplaced` (left
+    /// empty when nothing moved).
+    pub(super) fn finish(self, mesh: &mut Mesh) {
+        let mut u = self.0;
+        if !u.is_empty() {
+            u.extend_from_slice(&mesh.positions[u.len()..]);
+            mesh.undisplaced = u;
+        }
     }
+}
+
+/// Vertex `k`'s position before true displacement (deformation motion finds its source
+/// vertices by them).
+#[inline]
+pub(super) fn undisplaced_at(mesh: &Mesh, k: usize) -> Vec3 {
+    mesh.undisplaced.get(k).copied().unwrap_or(mesh.positions[k])
 }
 
 /// The unit normal of triangle `t` (zero when degenerate).
@@ -197,6 +208,9 @@ impl Loader<'_> {
         let pre = (domain == NormalsDomain::Corner).then(|| averaged(mesh, &|_| true));
         if undisplaced.0.len() < verts.end {
             let from = undisplaced.0.len();
+            // The copy (`Mesh::undisplaced`) grows to every vertex loaded so far.
+            let bytes = ((verts.end - from) * std::mem::size_of::<Vec3>()) as u64;
+            self.budget.charge(format!("the undisplaced positions of object '{instance}'"), bytes)?;
             undisplaced.0.extend_from_slice(&mesh.positions[from..verts.end]);
         }
         for k in verts.clone() {
@@ -368,6 +382,12 @@ mod tests {
             // Left half: U = (x + 1) / 2; right half: U = 0.75 + x / 2, but x = 0 is the seam.
             let u = if k < 9 || p.x == 0.0 { (p.x + 1.0) / 2.0 } else { 0.75 + p.x / 2.0 };
             assert!((p.z - u).abs() < 1e-6, "vertex {k} at {p}: z {} vs U {u}", p.z);
+        }
+        // Generated reads the undisplaced point (Cycles' orco): Blender's Y is glTF's -z, 0 here.
+        assert!(m.undisplaced.iter().all(|p| p.z == 0.0));
+        for t in 0..m.triangles.len() as u32 {
+            let g = crate::shader::geom::geom_at(m, &s.objects, &[], t, 0.3, 0.2);
+            assert!(g.p.z > 0.0 && g.generated().y.abs() < 1e-6, "triangle {t}: {} at {}", g.generated(), g.p);
         }
     }
 

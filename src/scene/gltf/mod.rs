@@ -480,6 +480,7 @@ impl<'a> Loader<'a> {
             }
         }
         ray_visibility.finish(mesh.triangles.len());
+        undisplaced.finish(&mut mesh);
         let curves = self.curves(&value, &doc, &buffers, &mut materials, default_material)?;
         if linked {
             linking.curve_object = curves::object_ids(&value, &doc).into_iter().map(|(_, id)| id).collect();
@@ -637,17 +638,8 @@ impl<'a> Loader<'a> {
         if degenerate > 0 {
             self.warn(format!("{degenerate} degenerate (zero-area) triangle(s) were dropped"));
         }
-        let motion = self.motion(
-            &value,
-            &doc,
-            &buffers,
-            &mesh,
-            &undisplaced,
-            &instances_out,
-            &span_nodes,
-            &mut cameras,
-            &camera_nodes,
-        )?;
+        let motion =
+            self.motion(&value, &doc, &buffers, &mesh, &instances_out, &span_nodes, &mut cameras, &camera_nodes)?;
         if let Some(m) = motion.as_ref().filter(|m| m.blurs()) {
             // The scene's bounds hold every moving triangle at every step.
             for p in m.corners.iter().flatten() {

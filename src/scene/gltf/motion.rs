@@ -73,7 +73,6 @@ impl Loader<'_> {
         doc: &gltf::Document,
         buffers: &[Vec<u8>],
         mesh: &Mesh,
-        undisplaced: &super::displace::Undisplaced,
         spans: &[InstanceSpan],
         span_nodes: &[usize],
         cameras: &mut [Camera],
@@ -178,7 +177,7 @@ impl Loader<'_> {
                 Some(d) => {
                     let v = s.vertices.start as usize..s.vertices.end as usize;
                     // Found by their positions before true displacement (`displace.rs`).
-                    let frame: Vec<Vec3> = v.map(|k| undisplaced.at(mesh, k)).collect();
+                    let frame: Vec<Vec3> = v.map(|k| super::displace::undisplaced_at(mesh, k)).collect();
                     match d.vertex_map(&s.world, &frame) {
                         Some(map) => Some((d, map)),
                         None => {
@@ -259,7 +258,7 @@ impl Loader<'_> {
                             // displaces every motion step by the frame's offset.
                             let c = v.map(|k| {
                                 span.world.transform_point3(def.at(map[k - v0], *i, *f)) + mesh.positions[k]
-                                    - undisplaced.at(mesh, k)
+                                    - super::displace::undisplaced_at(mesh, k)
                             });
                             (c, normal_turn(frame, c))
                         }
