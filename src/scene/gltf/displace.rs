@@ -419,7 +419,8 @@ mod tests {
     /// A normals domain that is not Blender's is refused, naming the mesh.
     #[test]
     fn an_unknown_normals_domain_is_an_error() {
-        let e = seamed_result("DISPLACEMENT", Some("EDGE")).err().expect("refused").to_string();
+        let Err(e) = seamed_result("DISPLACEMENT", Some("EDGE")) else { panic!("an unknown domain loaded") };
+        let e = e.to_string();
         assert!(e.contains("mesh 0") && e.contains("CAUSTIC_normals_domain \"EDGE\""), "{e}");
     }
 }
