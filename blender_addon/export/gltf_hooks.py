@@ -37,7 +37,8 @@ class glTF2ExportUserExtension:
     def gather_node_hook(self, gltf2_node, blender_object, export_settings):
         """Attach CAUSTIC_camera to a camera's node, CAUSTIC_lights_area to an area light's node,
         CAUSTIC_lights_punctual to the other lights', CAUSTIC_texspace to a mesh whose
-        node graphs read Generated coordinates, and CAUSTIC_object_visibility to a mesh node
+        node graphs read Generated coordinates, CAUSTIC_normals_domain to a mesh that a material
+        displaces, and CAUSTIC_object_visibility to a mesh node
         whose object some kind of ray does not see or that is a holdout, CAUSTIC_object_pass to a mesh
         node with a Pass Index or a parent, CAUSTIC_light_linking to an emitter with a receiver
         collection, and CAUSTIC_motion to a moving object's node."""
@@ -68,6 +69,7 @@ class glTF2ExportUserExtension:
                 return
             if blender_object.type == "MESH":
                 meshes.add_texspace(gltf2_node.mesh, blender_object, state)
+                meshes.add_normals_domain(gltf2_node.mesh, blender_object, state)
                 meshes.add_object_color(gltf2_node, blender_object, state)
                 return
             if blender_object.type != "LIGHT":

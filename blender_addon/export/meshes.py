@@ -25,6 +25,7 @@ from .materials import complete_material, graph_of, uses_graph
 from .media import volume_uses_generated
 
 TEXSPACE_EXTRA = "CAUSTIC_texspace"
+NORMALS_DOMAIN_EXTRA = "CAUSTIC_normals_domain"
 OBJECT_COLOR_EXTRA = "CAUSTIC_object_color"
 
 DEFAULT_SURFACE_NAME = "Blender default surface"
@@ -126,6 +127,30 @@ def add_texspace(gltf2_mesh, blender_object, state):
     extras[TEXSPACE_EXTRA] = {"location": [float(v) for v in mesh.texspace_location],
                               "size": [float(v) for v in mesh.texspace_size]}
     gltf2_mesh.extras = extras
+
+
+def add_normals_domain(gltf2_mesh, blender_object, state):
+    """Put the evaluated mesh's normals domain (`Mesh.normals_domain`: POINT, FACE or CORNER) in
+    the glTF mesh's extras when a material of the object moves it (true displacement, contract):
+    the renderer recomputes the displaced normals by it, as Cycles does by the mesh's smooth
+    flags and corner normals, which the exported vertex normals do not tell apart on a plane.
+    A Subdivision Surface modifier with adaptive subdivision is named: Caustic does not dice."""
+    if gltf2_mesh is None or blender_object is None or blender_object.type != "MESH":
+        return
+    materials = [slot.material for slot in blender_object.material_slots]
+    if not any(m is not None and uses_graph(m, state) and graph_of(m, state).true_displacement for m in materials):
+        return
+    mesh = blender_object.data
+    if state.depsgraph is not None:
+        mesh = blender_object.evaluated_get(state.depsgraph).data
+    extras = gltf2_mesh.extras if isinstance(gltf2_mesh.extras, dict) else {}
+    extras[NORMALS_DOMAIN_EXTRA] = str(mesh.normals_domain)
+    gltf2_mesh.extras = extras
+    for modifier in blender_object.modifiers:
+        if modifier.type == "SUBSURF" and modifier.show_render and getattr(modifier, "use_adaptive_subdivision", False):
+            state.warnings.append(
+                f"object '{blender_object.name}': modifier '{modifier.name}' uses adaptive subdivision (dicing "
+                "rate), which Caustic does not dice: the exported mesh is displaced at its vertices as it is")
 
 
 def add_object_color(gltf2_node, blender_object, state):

@@ -106,16 +106,25 @@ class Graph:
     """A built graph: the contract's value without `images`, the Blender images it uses (in
     index order), whether it reads Generated coordinates, and warnings."""
 
-    def __init__(self, nodes, output, images, uses_generated, warnings):
+    def __init__(self, nodes, output, images, uses_generated, warnings, displacement_method="BUMP"):
         self.nodes = nodes
         self.output = output
         self.images = images
         self.uses_generated = uses_generated
         self.warnings = warnings
+        self.displacement_method = displacement_method
+
+    @property
+    def true_displacement(self):
+        """Whether the Displacement output moves the mesh (method DISPLACEMENT or BOTH)."""
+        return self.output.get("displacement") is not None and self.displacement_method != "BUMP"
 
     def value(self, image_entries):
         """The extension's value, with the `images` entries the caller wrote."""
-        return {"version": GRAPH_VERSION, "nodes": self.nodes, "output": self.output, "images": image_entries}
+        value = {"version": GRAPH_VERSION, "nodes": self.nodes, "output": self.output, "images": image_entries}
+        if self.true_displacement:
+            value["displacement_method"] = self.displacement_method
+        return value
 
 
 def _valid_link(sock):
@@ -470,11 +479,11 @@ class _Builder:
                 self.add(scope, node)
         while self.todo:
             self.fill(*self.todo.pop())
-        if displacement is not None and self.material.displacement_method != "BUMP":
-            self.warn(output.name, f"displacement method {self.material.displacement_method}: Caustic "
-                      "renders the Displacement output as bump only (the surface is not moved)")
+        # A world has no displacement method; a material's moves the mesh at load when it is
+        # DISPLACEMENT or BOTH (the renderer's `scene::gltf::displace`, contract).
+        method = getattr(self.material, "displacement_method", "BUMP")
         return Graph(self.nodes, {"surface": surface, "displacement": displacement}, self.images,
-                     self.uses_generated, self.warnings)
+                     self.uses_generated, self.warnings, method)
 
     def _output_link(self, output, socket_name):
         sock = output.inputs.get(socket_name)

@@ -26,6 +26,10 @@ pub struct Mesh {
     /// Instance (index into `Scene::objects`) of each triangle; empty when no material
     /// reads instance data (shader graphs' Object coordinates, Object Info).
     pub tri_object: Vec<u32>,
+    /// World-space positions before true displacement (`scene::gltf::displace`), which the
+    /// Generated coordinate reads as Cycles reads the undisplaced orco; empty when no
+    /// material moved the mesh.
+    pub undisplaced: Vec<Vec3>,
 }
 
 /// No triangles: the mesh a shader graph is evaluated against where there is no surface
@@ -40,4 +44,5 @@ pub static EMPTY_MESH: Mesh = Mesh {
     triangles: Vec::new(),
     tri_material: Vec::new(),
     tri_object: Vec::new(),
+    undisplaced: Vec::new(),
 };

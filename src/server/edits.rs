@@ -178,6 +178,9 @@ pub fn transform(scene: &mut Scene, name: &str, matrix: &[f32; 16]) -> Result<In
     let mesh = &mut scene.mesh;
     for v in span.vertices.start as usize..span.vertices.end as usize {
         mesh.positions[v] = delta.transform_point3(mesh.positions[v]);
+        if let Some(u) = mesh.undisplaced.get_mut(v) {
+            *u = delta.transform_point3(*u);
+        }
         mesh.normals[v] = (normal_m * mesh.normals[v]).normalize_or(mesh.normals[v]);
         if let Some(t) = mesh.tangents.get_mut(v)
             && t.truncate() != Vec3::ZERO

@@ -7,7 +7,7 @@
 //! What the running scene cannot take without loading again is refused with an error ending
 //! in "send load", before anything changes: an image the scene does not hold (or holds in
 //! another colour space), tangents or texture space the loaded mesh was not given for this
-//! graph, and emission on a material whose triangles are not lights. A malformed graph is an
+//! graph, true displacement (the mesh was moved at load) in the new graph or the old, and emission on a material whose triangles are not lights. A malformed graph is an
 //! error too; the scene is then unchanged.
 
 use super::edits::Invalidates;
@@ -48,6 +48,13 @@ pub fn prepare(scene: &Scene, name: &str, nodes: &serde_json::Value) -> Result<G
     let uses = |t: usize| indices.contains(&scene.mesh.tri_material[t]);
     let used_tris = || (0..scene.mesh.triangles.len()).filter(|&t| uses(t));
     let old = scene.materials[indices[0] as usize].nodes.as_ref().expect("checked");
+    // True displacement moved the mesh at load (`scene::gltf::displace`): a graph that has it,
+    // or had it, changes the geometry, which only loading again rebuilds.
+    if prog.true_displacement.is_some() || old.true_displacement.is_some() {
+        return Err(format!(
+            "material '{name}': its true displacement (method DISPLACEMENT or BOTH) moves the mesh at load; send load"
+        ));
+    }
     if prog.tangent_uv.is_some() && prog.tangent_uv != old.tangent_uv {
         return Err(format!(
             "material '{name}': the graph now reads tangents the loaded mesh was not given; send load"

@@ -98,6 +98,16 @@ pub fn merge(scene: &mut Scene, mut add: Scene) -> Result<Merged, String> {
 
     // Geometry: vertices as they are, triangles shifted to the appended vertices.
     let (m, a) = (&mut scene.mesh, &mut add.mesh);
+    // Undisplaced positions (Generated coordinates) for both or neither.
+    if !m.undisplaced.is_empty() || !a.undisplaced.is_empty() {
+        if m.undisplaced.is_empty() {
+            m.undisplaced = m.positions.clone();
+        }
+        if a.undisplaced.is_empty() {
+            a.undisplaced = a.positions.clone();
+        }
+        m.undisplaced.append(&mut a.undisplaced);
+    }
     m.positions.append(&mut a.positions);
     m.normals.append(&mut a.normals);
     m.tangents.append(&mut a.tangents);

@@ -85,7 +85,7 @@ impl Geom<'_> {
     /// mapped by the mesh's texture space to [0, 1]³, the object-space point without one.
     #[inline]
     pub fn generated(&self) -> Vec3 {
-        let p = to_blender(self.object.world_to_object.transform_point3(self.p));
+        let p = to_blender(self.object.world_to_object.transform_point3(self.undisplaced_p()));
         match self.object.texspace {
             Some((loc, size)) => {
                 let d = |a: f32, b: f32| if b != 0.0 { a / (2.0 * b) } else { 0.0 };
@@ -94,6 +94,27 @@ impl Geom<'_> {
             }
             None => p,
         }
+    }
+
+    /// The point where it was before true displacement moved its triangle (`Mesh::undisplaced`),
+    /// at the same barycentrics; the point itself where nothing was moved.
+    #[inline]
+    fn undisplaced_p(&self) -> Vec3 {
+        let m = self.mesh;
+        if m.undisplaced.is_empty() {
+            return self.p;
+        }
+        let Some(&[i0, i1, i2]) = m.triangles.get(self.tri as usize) else { return self.p };
+        let [a, b, c] = [i0, i1, i2].map(|i| m.positions[i as usize]);
+        let (e1, e2, d) = (b - a, c - a, self.p - a);
+        let n = e1.cross(e2);
+        let nn = n.length_squared();
+        if !(nn > 0.0) {
+            return self.p;
+        }
+        let (b1, b2) = (d.cross(e2).dot(n) / nn, e1.cross(d).dot(n) / nn);
+        let u = [i0, i1, i2].map(|i| m.undisplaced[i as usize]);
+        u[0] * (1.0 - b1 - b2) + u[1] * b1 + u[2] * b2
     }
 
     /// Cycles' radial tangent around the object's X, Y or Z axis (`axis` 0, 1, 2) through the

@@ -21,6 +21,10 @@ pub struct NodesExt {
     /// Images the add-on wrote beside the glTF.
     #[serde(default)]
     pub images: Vec<ImageDesc>,
+    /// The material's Settings > Displacement method: "BUMP" (the default), "DISPLACEMENT"
+    /// (the mesh is moved, no bump) or "BOTH" (moved, and bumped in shading).
+    #[serde(default)]
+    pub displacement_method: Option<String>,
 }
 
 /// One node.
@@ -59,7 +63,7 @@ pub struct OutputDesc {
     /// Surface: `[node, output]`.
     #[serde(default)]
     pub surface: Option<(usize, String)>,
-    /// Displacement (rendered as bump).
+    /// Displacement (bump, true displacement or both: `NodesExt::displacement_method`).
     #[serde(default)]
     pub displacement: Option<(usize, String)>,
 }

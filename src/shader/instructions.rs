@@ -410,6 +410,9 @@ pub struct Program {
     pub constant_emission: Option<Vec3>,
     /// The Displacement output's bumped normal (Blender axes), the default closure normal.
     pub displacement_normal: Option<Reg>,
+    /// True displacement (method "DISPLACEMENT" or "BOTH"): what the loader moves each mesh
+    /// vertex by (`scene::gltf::displace`).
+    pub true_displacement: Option<std::sync::Arc<TrueDisplacement>>,
     /// Mesh tangents are read (tangent-space Normal Map, Geometry Tangent), from this UV set.
     pub tangent_uv: Option<u32>,
     /// `ops[..surface_end]` shade the surface; the rest compute only what AOV Output nodes
@@ -430,6 +433,22 @@ pub struct Program {
     /// Object Info's Material Index: the material's Pass Index (`CAUSTIC_material_pass`),
     /// set by the loader after compiling.
     pub material_index: f32,
+}
+
+/// A material's true displacement: the Displacement node's (Height − Midlevel) × Scale computed
+/// by a program of its own (the graph compiled for the Displacement output alone), run once at
+/// each mesh vertex as Cycles' `GeometryManager::displace` runs the displacement shader.
+#[derive(Clone, Debug)]
+pub struct TrueDisplacement {
+    /// The program; it runs no closures.
+    pub program: Program,
+    /// The register of the displacement amount along the normal.
+    pub height: Reg,
+    /// The node's space is Object: the amount is along the object-space normal and scaled by
+    /// the object's transform (Cycles' `svm_node_displacement`); else along the world normal.
+    pub object_space: bool,
+    /// "BOTH": the surface is also bumped in shading (the main program's displacement normal).
+    pub bump: bool,
 }
 
 /// The subsurface walk a graph's Principled BSDF (with a Subsurface Weight) or Subsurface

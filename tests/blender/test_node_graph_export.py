@@ -420,7 +420,8 @@ def test_graph_scene_passes_the_khronos_validator(addon, empty_scene, tmp_path):
 
 def test_displacement_output_is_exported_and_unknown_settings_named(addon, empty_scene, tmp_path):
     """A Principled material with only a Displacement (through a Bump-less Displacement node) gets
-    a graph whose output names both sockets; the displacement method is named when not bump."""
+    a graph whose output names both sockets and the displacement method when not bump (the
+    renderer moves the mesh), and the mesh its normals domain; adaptive subdivision is named."""
     mat = scenes.diffuse_material("Displaced", 0.5)
     tree = mat.node_tree
     noise = tree.nodes.new("ShaderNodeTexNoise")
@@ -428,13 +429,22 @@ def test_displacement_output_is_exported_and_unknown_settings_named(addon, empty
     tree.links.new(noise.outputs["Fac"], disp.inputs["Height"])
     tree.links.new(disp.outputs["Displacement"], tree.nodes["Material Output"].inputs["Displacement"])
     mat.displacement_method = "BOTH"
-    uv_plane(empty_scene, "P", mat)
+    plane = uv_plane(empty_scene, "P", mat)
+    subsurf = plane.modifiers.new("Subdivision", "SUBSURF")
+    subsurf.use_adaptive_subdivision = True
     gltf, state, _ = export(addon, empty_scene, tmp_path)
     graph = graph_of(gltf, "Displaced")
     nodes = by_name(graph)
     assert graph["output"]["displacement"] == [nodes["Displacement"][0], "Displacement"]
     assert graph["output"]["surface"] == [nodes["Principled BSDF"][0], "BSDF"]
-    assert any("Displaced" in w and "bump only" in w for w in state.warnings), state.warnings
+    assert graph["displacement_method"] == "BOTH"
+    assert not any("bump only" in w for w in state.warnings), state.warnings
+    assert [m["extras"]["CAUSTIC_normals_domain"] for m in gltf["meshes"]] == ["FACE"]
+    assert any("'P'" in w and "adaptive subdivision" in w for w in state.warnings), state.warnings
+    mat.displacement_method = "BUMP"
+    gltf, state, _ = export(addon, empty_scene, tmp_path)
+    assert "displacement_method" not in graph_of(gltf, "Displaced")
+    assert all("CAUSTIC_normals_domain" not in (m.get("extras") or {}) for m in gltf["meshes"])
     assert math.isclose(nodes["Displacement"][1]["inputs"]["Scale"]["value"], disp.inputs["Scale"].default_value,
                         rel_tol=1e-6)
 

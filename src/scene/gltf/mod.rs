@@ -17,6 +17,7 @@ mod buffers;
 mod cameras;
 mod curves;
 mod deformation;
+mod displace;
 mod draco;
 mod emission;
 mod extensions;
@@ -341,6 +342,7 @@ impl<'a> Loader<'a> {
         let mut light_rules: Vec<(usize, Links)> = Vec::new();
         let mut node_rules: HashMap<u32, Links> = HashMap::new();
         let mut instances_out = Vec::new();
+        let mut undisplaced = displace::Undisplaced::default();
         // (node, name, end of its triangles) of each mesh instance, for the pass ids.
         let mut id_spans = Vec::new();
         // Joints' world matrices, for skinned meshes only (joints may lie outside the scene).
@@ -416,6 +418,22 @@ impl<'a> Loader<'a> {
                         let o = objects.len() as u32 - 1;
                         mesh.tri_object.resize(mesh.triangles.len(), o);
                         object = Some(o);
+                        let domain = displace::NormalsDomain::parse(
+                            value.pointer(&format!("/meshes/{}/extras/CAUSTIC_normals_domain", m.index())),
+                        )
+                        .map_err(|e| self.err(format!("mesh {}: {e}", m.index())))?;
+                        let (verts, tris) = (v0 as usize..mesh.positions.len(), first..mesh.triangles.len());
+                        self.displace_instance(
+                            &mut mesh,
+                            verts,
+                            tris,
+                            &objects,
+                            world,
+                            &materials,
+                            domain,
+                            &mut undisplaced,
+                            &node_name,
+                        )?;
                     }
                     id_spans.push((*node_index, node_name.clone(), mesh.triangles.len() as u32));
                     span_nodes.push(*node_index);
@@ -462,6 +480,7 @@ impl<'a> Loader<'a> {
             }
         }
         ray_visibility.finish(mesh.triangles.len());
+        undisplaced.finish(&mut mesh);
         let curves = self.curves(&value, &doc, &buffers, &mut materials, default_material)?;
         if linked {
             linking.curve_object = curves::object_ids(&value, &doc).into_iter().map(|(_, id)| id).collect();

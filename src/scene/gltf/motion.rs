@@ -176,7 +176,9 @@ impl Loader<'_> {
             let deform = match node_deform.get(&n) {
                 Some(d) => {
                     let v = s.vertices.start as usize..s.vertices.end as usize;
-                    match d.vertex_map(&s.world, &mesh.positions[v]) {
+                    // Found by their positions before true displacement (`displace.rs`).
+                    let frame: Vec<Vec3> = v.map(|k| super::displace::undisplaced_at(mesh, k)).collect();
+                    match d.vertex_map(&s.world, &frame) {
                         Some(map) => Some((d, map)),
                         None => {
                             self.warn(format!(
@@ -252,13 +254,19 @@ impl Loader<'_> {
                     // The deformed corners at the frame's transform, then the transform's motion.
                     let (at_frame, turn) = match deform {
                         Some((def, map)) => {
-                            let c = v.map(|k| span.world.transform_point3(def.at(map[k - v0], *i, *f)));
+                            // Each step moves by the vertex's displacement too, as Cycles
+                            // displaces every motion step by the frame's offset.
+                            let c = v.map(|k| {
+                                span.world.transform_point3(def.at(map[k - v0], *i, *f)) + mesh.positions[k]
+                                    - super::displace::undisplaced_at(mesh, k)
+                            });
                             (c, normal_turn(frame, c))
                         }
                         None => (frame, glam::Quat::IDENTITY),
                     };
                     motion.corners.push(at_frame.map(|p| d.transform_point3(p)));
-                    motion.normals.push(v.map(|k| (*n * (turn * mesh.normals[k])).normalize_or(Vec3::Z)));
+                    // A zero normal (the geometric one) stays zero.
+                    motion.normals.push(v.map(|k| (*n * (turn * mesh.normals[k])).normalize_or_zero()));
                 }
             }
         }

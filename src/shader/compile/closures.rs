@@ -1,24 +1,35 @@
 //! Compiling the Surface output: the closure tree flattened into weights and closure
-//! operations, and the Displacement output as bump.
+//! operations, and the Displacement output as bump or as true displacement's height.
 
 use super::*;
 use crate::shader::instructions::GraphSubsurface;
 
 impl Compiler<'_> {
-    /// The Displacement output rendered as bump: a Displacement node's (Height − Midlevel)
-    /// × Scale is the height of a bump of distance 1 on the shading normal, which closures
-    /// without a linked normal take (as Cycles' "bump only" displacement method).
+    /// The Displacement output: through a Displacement node, (Height − Midlevel) × Scale. As
+    /// bump (methods "BUMP" and "BOTH") it is the height of a bump of distance 1 on the shading
+    /// normal, which closures without a linked normal take (as Cycles' bump); compiled for true
+    /// displacement alone (`height_only`) it is the register the loader moves vertices by.
     pub(super) fn displacement(&mut self, i: usize, out: &str) -> Result<(), String> {
         if self.unknown[i] {
             return Ok(());
         }
         if self.desc(i).kind != "ShaderNodeDisplacement" {
-            self.warn(i, format!("the Displacement output from '{out}' is rendered only through a Displacement node"));
+            if !self.height_only {
+                self.warn(
+                    i,
+                    format!("the Displacement output from '{out}' is rendered only through a Displacement node"),
+                );
+            }
             return Ok(());
         }
-        let Some(src) = self.desc(i).inputs.get("Height").and_then(|d| d.link.clone()) else {
+        let src = self.desc(i).inputs.get("Height").and_then(|d| d.link.clone());
+        // An unlinked height bumps nothing, but still moves the surface by a constant.
+        if src.is_none() && !self.height_only {
             return Ok(());
-        };
+        }
+        if !self.height_only && self.desc(i).inputs.get("Normal").is_some_and(|d| d.link.is_some()) {
+            self.warn(i, "the Displacement node's Normal input is not read: it displaces along the shading normal");
+        }
         let mark = self.ops.len();
         let h = self.float(i, "Height", 0.0)?;
         let mid = self.float(i, "Midlevel", 0.5)?;
@@ -27,8 +38,17 @@ impl Compiler<'_> {
         self.ops.push(Op::Math { op: MathOp::Subtract, a: h, b: mid, c: mid, out: centred, clamp: false });
         let height = self.alloc(1);
         self.ops.push(Op::Math { op: MathOp::Multiply, a: centred, b: scale, c: scale, out: height, clamp: false });
-        if self.desc(i).props.get("space").and_then(Value::as_str).is_some_and(|s| s != "OBJECT") {
-            self.warn(i, "world-space displacement is rendered as object-space bump");
+        let object_space = self.desc(i).props.get("space").and_then(Value::as_str).is_none_or(|s| s == "OBJECT");
+        if self.height_only {
+            self.displacement_height = Some((height, object_space));
+            return Ok(());
+        }
+        let Some(src) = src else { return Ok(()) };
+        if self.method == Method::Displacement {
+            return Ok(());
+        }
+        if !object_space {
+            self.warn(i, "world-space displacement is bumped as object-space bump");
         }
         // The bump re-runs the height's nodes and the two operations above.
         let mut sub = self.upstream_ranges(src.0);

@@ -59,11 +59,63 @@ pub struct Compiled {
     pub warnings: Vec<String>,
     /// Texture Coordinate Generated is read (the mesh's texture space is needed).
     pub uses_generated: bool,
+    /// Compiled for the Displacement output alone: the amount's register and whether it is
+    /// in object space.
+    displacement_height: Option<(Reg, bool)>,
+}
+
+/// The material's Displacement method (`NodesExt::displacement_method`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Method {
+    Bump,
+    Displacement,
+    Both,
+}
+
+impl Method {
+    fn parse(s: Option<&str>) -> Result<Self, String> {
+        match s {
+            None | Some("BUMP") => Ok(Method::Bump),
+            Some("DISPLACEMENT") => Ok(Method::Displacement),
+            Some("BOTH") => Ok(Method::Both),
+            Some(other) => Err(format!("displacement_method '{other}' is not one of BUMP, DISPLACEMENT, BOTH")),
+        }
+    }
 }
 
 /// Compiles `ext` for material `name`, whose `images` are scene textures `images[i]`;
 /// errors name the node.
 pub fn compile(name: &str, ext: &NodesExt, images: &[u32]) -> Result<Compiled, String> {
+    let method = Method::parse(ext.displacement_method.as_deref())?;
+    let mut compiled = compile_with(name, ext, images, method, false)?;
+    if method != Method::Bump && ext.output.displacement.is_some() {
+        // The displacement's own program: the graph with the Displacement output alone, so that
+        // moving a vertex runs no closure and shading runs no more than before.
+        let mut alone = ext.clone();
+        alone.output.surface = None;
+        let h = compile_with(name, &alone, images, method, true)?;
+        if let Some((height, object_space)) = h.displacement_height {
+            compiled.program.true_displacement =
+                Some(std::sync::Arc::new(crate::shader::instructions::TrueDisplacement {
+                    program: h.program,
+                    height,
+                    object_space,
+                    bump: method == Method::Both,
+                }));
+        }
+    }
+    Ok(compiled)
+}
+
+/// [`compile`] for one displacement `method`; `height_only` compiles the Displacement output
+/// alone into `Compiled::displacement_height` (no bump).
+fn compile_with(
+    name: &str,
+    ext: &NodesExt,
+    images: &[u32],
+    method: Method,
+    height_only: bool,
+) -> Result<Compiled, String> {
     let order = check_and_sort(ext)?;
     let mut used = HashSet::new();
     for n in &ext.nodes {
@@ -77,6 +129,7 @@ pub fn compile(name: &str, ext: &NodesExt, images: &[u32]) -> Result<Compiled, S
         used.insert((l.0, l.1.clone()));
     }
     let mut c = Compiler::new(ext, images, name, used);
+    (c.method, c.height_only) = (method, height_only);
     let surface = reachable_from_outputs(ext);
     for &i in order.iter().filter(|&&i| surface[i]) {
         c.node(i)?;
@@ -116,7 +169,12 @@ pub fn compile(name: &str, ext: &NodesExt, images: &[u32]) -> Result<Compiled, S
     prog.lane_bump = crate::shader::instructions::LaneBump::find(&prog.ops, surface_end);
     prog.constant_emission = constant_emission(&prog);
     prog.scattering_light_path = light_path_use::scattering_outputs(ext);
-    Ok(Compiled { program: prog, warnings: c.warnings, uses_generated: c.uses_generated })
+    Ok(Compiled {
+        program: prog,
+        warnings: c.warnings,
+        uses_generated: c.uses_generated,
+        displacement_height: c.displacement_height,
+    })
 }
 
 /// Which nodes the Surface and Displacement outputs read (the rest feed AOV Output nodes).
@@ -194,6 +252,12 @@ struct Compiler<'a> {
     small_lobes: usize,
     principled: usize,
     uses_generated: bool,
+    /// The material's displacement method.
+    method: Method,
+    /// Compiling the Displacement output alone for true displacement.
+    height_only: bool,
+    /// Set by `displacement` when `height_only`.
+    displacement_height: Option<(Reg, bool)>,
 }
 
 impl<'a> Compiler<'a> {
@@ -218,6 +282,9 @@ impl<'a> Compiler<'a> {
             small_lobes: 0,
             principled: 0,
             uses_generated: false,
+            method: Method::Bump,
+            height_only: false,
+            displacement_height: None,
         }
     }
 }
