@@ -38,9 +38,12 @@ fn mesh_of(g: &mut GltfBuilder, quads: &[(Vec<[f32; 3]>, Vec<u32>)], material: u
     g.mesh(&pos, &idx, material)
 }
 
+/// Each pixel's RGB with its centre (x, y).
+type Pixels = Vec<([f32; 3], f32, f32)>;
+
 /// Renders `g` seen from (0, 0, 5) looking down −Z, framing [-1, 1]², and returns each
 /// pixel's RGB with its centre (x, y), and the run's warnings.
-fn render(mut g: GltfBuilder, spp: u32) -> (Vec<([f32; 3], f32, f32)>, Vec<String>) {
+fn render(mut g: GltfBuilder, spp: u32) -> (Pixels, Vec<String>) {
     g.orthographic([0.0, 0.0, 5.0], [0.0, 0.0, 0.0, 1.0], 1.0, 1.0);
     g.settings(json!({"filter": "box", "filter_width": 0.001}));
     let dir = temp_dir();
