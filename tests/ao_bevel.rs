@@ -223,3 +223,24 @@ fn bevel_tilts_a_box_edge_toward_the_bisector_as_the_radius_grows() {
     assert!(t[3].1 > t[2].1 + 0.02 && t[2].1 > 0.0, "s = 0.375: {t:?}");
     assert!(t[3].0 < std::f64::consts::FRAC_1_SQRT_2, "past the bisector: {t:?}");
 }
+
+/// The traced nodes draw their numbers from a hash of the hit, not from a thread's state:
+/// the same file for one thread and two (`tests/determinism.rs` for the rest of a render).
+#[test]
+fn traced_nodes_render_the_same_file_for_any_thread_count() {
+    let mut g = ao_scene(false, false);
+    let m = g.material(bevel_material(0.3));
+    g.cube([-0.5, -0.5, 0.0], [0.0, 0.0, 0.3], m);
+    g.orthographic([0.0, 0.0, 5.0], [0.0, 0.0, 0.0, 1.0], 1.0, 1.0);
+    let dir = temp_dir();
+    let scene = g.write(dir.path(), "s.gltf");
+    let files: Vec<Vec<u8>> = ["1", "2"]
+        .iter()
+        .map(|threads| {
+            let out = dir.path().join(format!("t{threads}.exr"));
+            render_image(&scene, &out, &["--resolution", "64x64", "--spp", "4", "--threads", threads], LIMIT);
+            std::fs::read(&out).unwrap()
+        })
+        .collect();
+    assert!(files[0] == files[1], "two threads wrote a different file from one");
+}
