@@ -180,6 +180,28 @@ impl Accel {
         }
     }
 
+    /// Calls `f` with every triangle hit in (0, tmax), in no order, until it returns false
+    /// (the shader's local queries, `integrator::shader_rays`); false when `f` stopped it.
+    pub fn visit_hits(&self, org: Vec3, dir: Vec3, tmax: f32, f: &mut dyn FnMut(Hit) -> bool) -> bool {
+        let rt = RayTransform::new(org, dir);
+        let dir_a = obvhs_direction(dir);
+        let ray = PlaneRay::new(&NodeRay::new(org, dir_a));
+        let mut go = true;
+        traverse_planes(&self.bvh, &self.planes, &ray, octant_inv4(dir_a), tmax, |id, _| {
+            if let Some((t, b1, b2)) = rt.intersect(&self.tris[id], 0.0, tmax)
+                && !f(Hit { tri: self.ids[id], t, b1, b2 })
+            {
+                go = false;
+                return None;
+            }
+            Some(tmax)
+        });
+        match &self.moved {
+            Some(m) if go => m.visit_hits(org, dir, tmax, f),
+            _ => go,
+        }
+    }
+
     /// Fraction of light that passes along the segment (0, tmax): 0 at the first
     /// opaque triangle; `transparency(tri, b1, b2)` gives the pass-through fraction of
     /// triangles flagged in `maybe_transparent`, and the fractions multiply.

@@ -15,6 +15,7 @@ pub mod nee;
 pub mod path;
 pub mod photon;
 pub mod shader_aovs;
+mod shader_rays;
 pub mod vcm;
 pub mod walk;
 
@@ -397,10 +398,12 @@ impl<'a> SceneContext<'a> {
         self.visibility.get(tri as usize).is_none_or(|m| ray.meets(*m))
     }
 
-    /// The material at a hit (`Scene::shade`), with texture-free materials' BSDFs built once.
+    /// The material at a hit (`Scene::shade`), with texture-free materials' BSDFs built once
+    /// and a node graph's Ambient Occlusion and Bevel nodes traced in this context's scene.
     #[inline]
     pub fn shade(&self, s: &SurfaceHit, wo: Vec3) -> ShadingPoint {
-        self.scene.shade_with(s, wo, self.constant_bsdfs.get(s.material as usize).and_then(Option::as_ref))
+        let constant = self.constant_bsdfs.get(s.material as usize).and_then(Option::as_ref);
+        self.scene.shade_with(s, wo, constant, Some(self))
     }
 
     /// The media a path is in after leaving surface `s` in direction `wi`: crossing the

@@ -71,7 +71,7 @@ pub fn fill(
             if let Some(prog) = &mat.nodes {
                 let targets = aovs.of_material(s.material);
                 if !targets.is_empty() {
-                    crate::shader::aov::write(ctx.scene, prog, targets, &s, -ray.dir, &mut out.shader_aovs);
+                    crate::shader::aov::write(ctx.scene, prog, targets, &s, -ray.dir, &mut out.shader_aovs, Some(ctx));
                 }
             }
             match mat.alpha_mode {

@@ -113,17 +113,25 @@ impl Scene {
         }
     }
 
-    /// Evaluates the material at a hit: BSDF, shading frame and emission.
+    /// Evaluates the material at a hit: BSDF, shading frame and emission (a node graph's
+    /// Ambient Occlusion and Bevel nodes untraced: `SceneContext::shade` traces them).
     #[inline]
     pub fn shade(&self, s: &SurfaceHit, wo: Vec3) -> ShadingPoint {
-        self.shade_with(s, wo, None)
+        self.shade_with(s, wo, None, None)
     }
 
     /// `shade`, taking the BSDF from `constant` (the material's `constant_bsdf`) when the
     /// hit's parameters are the ones it was built from but for the base colour: the same
-    /// BSDF bit for bit, without rebuilding what does not change from hit to hit.
+    /// BSDF bit for bit, without rebuilding what does not change from hit to hit. `rays`:
+    /// the scene's rays for a node graph's Ambient Occlusion and Bevel nodes.
     #[inline]
-    pub fn shade_with(&self, s: &SurfaceHit, wo: Vec3, constant: Option<&ConstantBsdf>) -> ShadingPoint {
+    pub fn shade_with(
+        &self,
+        s: &SurfaceHit,
+        wo: Vec3,
+        constant: Option<&ConstantBsdf>,
+        rays: Option<&dyn crate::shader::geom::SceneRays>,
+    ) -> ShadingPoint {
         let mat = &self.materials[s.material as usize];
         if let Some(hair) = &mat.hair
             && crate::curves::is_curve(s.tri)
@@ -131,7 +139,7 @@ impl Scene {
             return self.shade_hair(hair, s, wo);
         }
         if let Some(prog) = &mat.nodes {
-            return crate::shader::shade::shade_nodes(self, prog, s, wo, mat.double_sided);
+            return crate::shader::shade::shade_nodes(self, prog, s, wo, mat.double_sided, rays);
         }
         let emitted = if mat.is_emissive() && (s.front || mat.double_sided) {
             mat.emission(&self.textures, s.uv, s.color)
@@ -426,7 +434,7 @@ mod tests {
                     t: 1.0,
                     light_path: LightPath::CAMERA_RAY,
                 };
-                let (want, got) = (scene.shade(&s, wo), scene.shade_with(&s, wo, Some(&constant)));
+                let (want, got) = (scene.shade(&s, wo), scene.shade_with(&s, wo, Some(&constant), None));
                 let want = format!("{:?} {:?} {:?}", want.bsdf, want.frame, want.emitted);
                 let got = format!("{:?} {:?} {:?}", got.bsdf, got.frame, got.emitted);
                 assert_eq!(got, want, "material {m}, hit {i}");

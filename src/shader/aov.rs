@@ -7,9 +7,10 @@
 
 use super::closure::Closures;
 use super::geom::Geom;
+use super::geom::SceneRays;
 use super::instructions::Program;
 use super::program::with_registers;
-use super::shade::geom_of;
+use super::shade::traced_geom_of;
 use crate::scene::Scene;
 use crate::scene::hit::SurfaceHit;
 use crate::scene::shader_aovs::{AovKind, AovSums, AovTarget};
@@ -25,9 +26,18 @@ impl Program {
 }
 
 /// Adds the AOV values of material program `prog` at hit `s` seen from `wo` to `sums`, for
-/// its AOV Output nodes `targets` (`crate::scene::shader_aovs`).
-pub fn write(scene: &Scene, prog: &Program, targets: &[AovTarget], s: &SurfaceHit, wo: Vec3, sums: &mut AovSums) {
-    let g = geom_of(scene, s, wo);
+/// its AOV Output nodes `targets` (`crate::scene::shader_aovs`); `rays`: the scene's rays
+/// for its AO and Bevel nodes.
+pub fn write(
+    scene: &Scene,
+    prog: &Program,
+    targets: &[AovTarget],
+    s: &SurfaceHit,
+    wo: Vec3,
+    sums: &mut AovSums,
+    rays: Option<&dyn SceneRays>,
+) {
+    let g = traced_geom_of(scene, prog, s, wo, rays);
     with_registers(|regs| {
         let mut closures = Closures::default();
         prog.run(&g, regs, &mut closures);

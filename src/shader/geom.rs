@@ -4,6 +4,7 @@
 //! `shader/`: it imports none of its siblings, so the node operations, the program and
 //! the shading dispatch all build on it without a circle.
 
+use crate::accel::Hit;
 use crate::scene::light_path::LightPath;
 use crate::scene::mesh::Mesh;
 use crate::scene::texture::Texture;
@@ -78,6 +79,40 @@ pub struct Geom<'a> {
     pub path: LightPath,
     /// The render camera (Texture Coordinate Camera and Window).
     pub view: &'a ViewData,
+    /// The scene's rays for the Ambient Occlusion and Bevel nodes (`shader::trace`); none
+    /// where Cycles does not trace them either (lights, the world, volumes, alpha).
+    pub rays: Rays<'a>,
+}
+
+/// The ray queries a shader graph's Ambient Occlusion and Bevel nodes make against the
+/// scene (`integrator::SceneContext` answers them with its BVH).
+pub trait SceneRays: Sync {
+    /// True when a ray from `org` along unit `dir` meets, in (0, `tmax`), a surface that
+    /// shadow rays see, passing triangle `skip` (the one it leaves).
+    fn occluded(&self, org: Vec3, dir: Vec3, tmax: f32, skip: u32) -> bool;
+    /// Calls `f` with each hit in (0, `tmax`) of the triangles of instance `object`
+    /// (`Mesh::tri_object`) but `skip`, in no order, until it returns false.
+    fn local_hits(&self, org: Vec3, dir: Vec3, tmax: f32, object: u32, skip: u32, f: &mut dyn FnMut(Hit) -> bool);
+    /// The world's Ambient Occlusion Distance, which an AO node with an unlinked Distance
+    /// of 0 takes (Cycles' `NODE_AO_GLOBAL_RADIUS`).
+    fn ao_distance(&self) -> f32;
+}
+
+/// What a shading point may trace: the scene's queries and the point's random seed (a
+/// hash of the hit, so that renders stay the same for any thread count; Bump's offset
+/// points keep the centre's seed so that their heights differ by the geometry alone).
+#[derive(Clone, Copy, Default)]
+pub struct Rays<'a> {
+    /// The queries; None: the nodes give their untraced values (AO 1, the normal).
+    pub query: Option<&'a dyn SceneRays>,
+    /// The random seed.
+    pub seed: u32,
+}
+
+impl std::fmt::Debug for Rays<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Rays").field("traced", &self.query.is_some()).field("seed", &self.seed).finish()
+    }
 }
 
 impl Geom<'_> {
@@ -278,6 +313,7 @@ pub(super) fn geom_at_ng<'a>(
         tri,
         path: LightPath::LIGHT_EMISSION,
         view: &NO_VIEW,
+        rays: Rays::default(),
     }
 }
 

@@ -7,6 +7,7 @@ use super::geom::Reg;
 use super::image_node::ImageOp;
 use super::ops::{Blend, MathOp, RangeInterp, VecOp};
 use super::texture_nodes::TexOp;
+use super::trace::{AoOp, BevelOp};
 use crate::scene::light_path::PathOutput;
 use glam::{Mat3, Mat4, Vec3};
 
@@ -358,6 +359,10 @@ pub enum Op {
     Image(Box<ImageOp>),
     /// A Bump node (or the Displacement output as bump).
     Bump(Box<BumpOp>),
+    /// An Ambient Occlusion node (shader/trace.rs).
+    Ao(Box<AoOp>),
+    /// A Bevel node (shader/trace.rs).
+    Bevel(Box<BevelOp>),
 }
 
 /// A Bump node: the height's operations re-run at two offset positions.
@@ -433,6 +438,9 @@ pub struct Program {
     /// Object Info's Material Index: the material's Pass Index (`CAUSTIC_material_pass`),
     /// set by the loader after compiling.
     pub material_index: f32,
+    /// The graph has an Ambient Occlusion or Bevel node: its shading points get the scene's
+    /// rays and a seed (`shader::trace`).
+    pub traces: bool,
 }
 
 /// A material's true displacement: the Displacement node's (Height − Midlevel) × Scale computed

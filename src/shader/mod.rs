@@ -14,3 +14,4 @@ pub mod program;
 pub mod shade;
 pub mod sky;
 pub mod texture_nodes;
+pub mod trace;

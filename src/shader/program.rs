@@ -320,6 +320,8 @@ impl Program {
             Op::Texture(ref t) => t.run(r),
             Op::Image(ref t) => t.run(r, g.textures),
             Op::Bump(ref b) => self.bump(b, g, r, out),
+            Op::Ao(ref a) => a.run(g, r),
+            Op::Bevel(ref b) => b.run(g, r),
         }
     }
 
@@ -542,6 +544,7 @@ pub(super) fn bump_offsets<'a>(g: &Geom<'a>) -> Option<BumpOffsets<'a>> {
         g2.backfacing = g.backfacing;
         g2.path = g.path;
         g2.view = g.view;
+        g2.rays = g.rays;
         g2.p = g.p + d;
         if g2.n.dot(g.n) < 0.0 {
             g2.n = -g2.n;

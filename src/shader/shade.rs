@@ -4,7 +4,7 @@
 //! rays (`Scene::pass_through`, `Scene::transmission`).
 
 use super::closure::Closures;
-use super::geom::{Geom, NO_OBJECT, ObjectData, ViewData, geom_at};
+use super::geom::{Geom, NO_OBJECT, ObjectData, Rays, SceneRays, ViewData, geom_at};
 use super::instructions::Program;
 use super::program::with_registers;
 use crate::bsdf::{Bsdf, PbrBsdf};
@@ -44,12 +44,28 @@ pub(super) fn geom_of<'a>(scene: &'a Scene, s: &SurfaceHit, wo: Vec3) -> Geom<'a
         tri: s.tri,
         path: s.light_path,
         view: &scene.view,
+        rays: Rays::default(),
     }
 }
 
-/// Runs `prog` at the hit `s` seen from `wo`.
-fn evaluate(scene: &Scene, prog: &Program, s: &SurfaceHit, wo: Vec3) -> Closures {
-    let g = geom_of(scene, s, wo);
+/// [`geom_of`] with the scene's rays `rays` for a program that traces (`Program::traces`).
+pub(super) fn traced_geom_of<'a>(
+    scene: &'a Scene,
+    prog: &Program,
+    s: &SurfaceHit,
+    wo: Vec3,
+    rays: Option<&'a dyn SceneRays>,
+) -> Geom<'a> {
+    let mut g = geom_of(scene, s, wo);
+    if prog.traces {
+        g.rays = Rays { query: rays, seed: super::trace::seed_of(s.p, wo, s.light_path.depth) };
+    }
+    g
+}
+
+/// Runs `prog` at the hit `s` seen from `wo`, tracing its AO and Bevel nodes with `rays`.
+fn evaluate(scene: &Scene, prog: &Program, s: &SurfaceHit, wo: Vec3, rays: Option<&dyn SceneRays>) -> Closures {
+    let g = traced_geom_of(scene, prog, s, wo, rays);
     let mut out = Closures::default();
     with_registers(|regs| {
         prog.run(&g, regs, &mut out);
@@ -64,9 +80,16 @@ fn evaluate(scene: &Scene, prog: &Program, s: &SurfaceHit, wo: Vec3) -> Closures
 }
 
 /// The shading point of a node material (`Scene::shade` calls this when the material
-/// has a program).
-pub fn shade_nodes(scene: &Scene, prog: &Program, s: &SurfaceHit, wo: Vec3, double_sided: bool) -> ShadingPoint {
-    let c = evaluate(scene, prog, s, wo);
+/// has a program); `rays`: the scene's rays for its AO and Bevel nodes.
+pub fn shade_nodes(
+    scene: &Scene,
+    prog: &Program,
+    s: &SurfaceHit,
+    wo: Vec3,
+    double_sided: bool,
+    rays: Option<&dyn SceneRays>,
+) -> ShadingPoint {
+    let c = evaluate(scene, prog, s, wo, rays);
     // The Transparent part is taken by coverage (Scene::alpha) before the surface is
     // shaded: what is shaded here is the rest, renormalised.
     let t = pass_fraction(c.transparent);

@@ -422,9 +422,9 @@ def blackbody_gradient(name):
 def ambient_occlusion_open(name):
     """A maker: a Diffuse BSDF coloured by an Ambient Occlusion node's Color output (its Color
     input orange), on the flat plane with nothing above it, where Cycles' occlusion is none
-    (AO 1) everywhere. Caustic does not trace the node's rays and renders it unoccluded (warned),
-    which this open scene makes exact. Before: an unknown node, colour 0, the plane black (mean
-    0 of Cycles'). After: 1.0005."""
+    (AO 1) everywhere; Caustic traces the node's rays too (`src/shader/trace.rs`; occluded
+    scenes in test_ao_bevel_agreement.py). Before: an unknown node, colour 0, the plane black
+    (mean 0 of Cycles'). Untraced (AO 1): 1.0005."""
     mat = new_material(name)
     tree = mat.node_tree
     node = tree.nodes.new("ShaderNodeAmbientOcclusion")

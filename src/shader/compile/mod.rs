@@ -201,6 +201,8 @@ fn constant_emission(prog: &Program) -> Option<Vec3> {
                 | Op::NormalMap { .. }
                 | Op::Bump(_)
                 | Op::Image(_)
+                | Op::Ao(_)
+                | Op::Bevel(_)
         )
     });
     if varying {
@@ -228,6 +230,7 @@ fn dummy_geom(o: &ObjectData) -> Geom<'_> {
         tri: 0,
         path: crate::scene::light_path::LightPath::LIGHT_EMISSION,
         view: &crate::shader::geom::NO_VIEW,
+        rays: crate::shader::geom::Rays::default(),
     }
 }
 
@@ -528,7 +531,13 @@ impl<'a> Compiler<'a> {
         let pure = self.ops[mark..].iter().all(|op| {
             !matches!(
                 op,
-                Op::Input { .. } | Op::Fresnel { .. } | Op::LayerWeight { .. } | Op::NormalMap { .. } | Op::Bump(_)
+                Op::Input { .. }
+                    | Op::Fresnel { .. }
+                    | Op::LayerWeight { .. }
+                    | Op::NormalMap { .. }
+                    | Op::Bump(_)
+                    | Op::Ao(_)
+                    | Op::Bevel(_)
             )
         });
         if self.all_const && pure && self.ops.len() > mark {

@@ -5,8 +5,23 @@
 use super::*;
 use crate::scene::light_path::PathOutput;
 use crate::shader::sky::{Sky, SkyModel, SkyParams};
+use crate::shader::trace::{AoOp, BevelOp};
+
+/// The most rays an Ambient Occlusion or Bevel node casts a shading point (Blender's
+/// Samples slider stops at 128).
+const MAX_TRACE_SAMPLES: u64 = 128;
 
 impl Compiler<'_> {
+    /// An Ambient Occlusion or Bevel node's Samples (`default` when absent), at most
+    /// `MAX_TRACE_SAMPLES` (more is warned).
+    fn samples(&mut self, i: usize, default: u64) -> u32 {
+        let n = self.desc(i).props.get("samples").and_then(Value::as_u64).unwrap_or(default);
+        if n > MAX_TRACE_SAMPLES {
+            self.warn(i, format!("Samples {n} is above Blender's {MAX_TRACE_SAMPLES}: {MAX_TRACE_SAMPLES} are traced"));
+        }
+        n.min(MAX_TRACE_SAMPLES) as u32
+    }
+
     /// An Image or Environment Texture node's image (None, with a warning: magenta, as
     /// Cycles) and its interpolation.
     fn image_and_interpolation(&mut self, i: usize) -> Result<(Option<u32>, Interp), String> {
@@ -435,32 +450,40 @@ impl Compiler<'_> {
                 self.ops.push(Op::Bump(Box::new(BumpOp { strength, distance, invert, height, normal, out, sub })));
             }
             "ShaderNodeAmbientOcclusion" => {
-                // Occlusion needs rays traced from inside the shader, which the program does
-                // not do: unoccluded is closer to Cycles than the 0 (black) of an unknown node.
-                self.warn(
-                    i,
-                    "ambient occlusion is not traced: rendered unoccluded (AO 1, the Color input passed through)",
-                );
-                let c = self.vec(i, "Color", Vec3::ONE)?;
-                let out = self.out(i, "Color", Ty::Color);
-                self.ops.push(Op::Copy3 { src: c, out });
-                let one = self.konst_f(1.0);
-                self.alias(i, "AO", one, Ty::Float);
+                // Traced at each shading point (`shader::trace`): never folded, as it reads
+                // the scene around the point.
+                self.all_const = false;
+                self.prog.traces = true;
+                let samples = self.samples(i, 16);
+                let distance_linked = self.desc(i).inputs.get("Distance").is_some_and(|d| d.link.is_some());
+                let distance = self.float(i, "Distance", 1.0)?;
+                // Cycles' NODE_AO_GLOBAL_RADIUS: an unlinked 0 takes the world's AO distance.
+                let global_distance = !distance_linked && self.init[distance as usize] == 0.0;
+                let normal = self.normal(i, "Normal")?;
+                let color = self.vec(i, "Color", Vec3::ONE)?;
+                let color_out = self.out(i, "Color", Ty::Color);
+                let ao_out = self.out(i, "AO", Ty::Float);
+                self.ops.push(Op::Ao(Box::new(AoOp {
+                    samples,
+                    inside: self.prop_bool(i, "inside", false),
+                    only_local: self.prop_bool(i, "only_local", false),
+                    global_distance,
+                    distance,
+                    normal,
+                    color,
+                    color_out,
+                    ao_out,
+                })));
             }
             "ShaderNodeBevel" => {
-                // Likewise traced in Cycles: the normal without the rounding.
-                self.warn(i, "the bevel is not traced: the unbevelled normal is used");
-                let n = match self.normal(i, "Normal")? {
-                    Some(n) => n,
-                    None => {
-                        self.all_const = false;
-                        let n = self.alloc(3);
-                        self.ops.push(Op::Input { what: InputKind::Normal, out: n });
-                        n
-                    }
-                };
+                // Traced like the AO node (`shader::trace`).
+                self.all_const = false;
+                self.prog.traces = true;
+                let samples = self.samples(i, 8);
+                let radius = self.float(i, "Radius", 0.05)?;
+                let normal = self.normal(i, "Normal")?;
                 let out = self.out(i, "Normal", Ty::Vector);
-                self.ops.push(Op::Copy3 { src: n, out });
+                self.ops.push(Op::Bevel(Box::new(BevelOp { samples, radius, normal, out })));
             }
             "ShaderNodeDisplacement" => {
                 // Linked to the Material Output, it is rendered as bump by `displacement` from
