@@ -96,6 +96,7 @@ impl WorldGraph {
             tri: u32::MAX,
             path,
             view: &self.view,
+            point: None,
         }
     }
 

@@ -43,6 +43,7 @@ impl ProceduralSource {
             // The Light Path node in a volume is not modelled: read as a camera ray's.
             path: LightPath::CAMERA_RAY,
             view: &NO_VIEW,
+            point: None,
         }
     }
 

@@ -78,6 +78,8 @@ pub struct Geom<'a> {
     pub path: LightPath,
     /// The render camera (Texture Coordinate Camera and Window).
     pub view: &'a ViewData,
+    /// A point cloud's point (Point Info), None elsewhere (Cycles' Point Info gives 0 there).
+    pub point: Option<crate::points::PointInfo>,
 }
 
 impl Geom<'_> {
@@ -257,6 +259,7 @@ pub(super) fn geom_at_ng<'a>(
         tri,
         path: LightPath::LIGHT_EMISSION,
         view: &NO_VIEW,
+        point: None,
     }
 }
 

@@ -169,6 +169,7 @@ fn dummy_geom(o: &ObjectData) -> Geom<'_> {
         tri: 0,
         path: crate::scene::light_path::LightPath::LIGHT_EMISSION,
         view: &crate::shader::geom::NO_VIEW,
+        point: None,
     }
 }
 
