@@ -193,6 +193,15 @@ impl Loader<'_> {
                     copy
                 }
             };
+            let m = &materials[material as usize];
+            if m.is_emissive() || m.nodes.as_ref().is_some_and(|p| p.emits) {
+                warnings.push(format!(
+                    "{what}: material '{}' emits: points are not sampled as lights (nor in Cycles), so their \
+                     light reaches other surfaces only by rays that hit them, and photons (Jensen, SPPM) do \
+                     not carry it",
+                    m.name
+                ));
+            }
             let world = match obj.matrix {
                 Some(m) => {
                     let m = Mat4::from_cols_array(&m);
@@ -254,4 +263,116 @@ pub(super) fn object_ids(value: &serde_json::Value, doc: &gltf::Document, curves
             (name, id)
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::tests::load_triangle_after;
+    use crate::points::{POINT_BITS, is_point};
+    use serde_json::json;
+
+    /// Three points after the unit triangle: centres (bytes 36..72), radii (72..84), indices
+    /// (84..96); `object` is the extension's object, its accessors 1, 2 and 3.
+    fn load(object: serde_json::Value, radii: [f32; 3]) -> crate::error::Result<crate::scene::Scene> {
+        let mut extra: Vec<u8> = Vec::new();
+        for c in [[0.0f32, 0.0, 2.0], [1.0, 0.0, 2.0], [2.0, 0.0, 2.0]] {
+            extra.extend(c.iter().flat_map(|f| f.to_le_bytes()));
+        }
+        extra.extend(radii.iter().flat_map(|f| f.to_le_bytes()));
+        extra.extend([0u32, 5, 9].iter().flat_map(|i| i.to_le_bytes()));
+        load_triangle_after(
+            &extra,
+            json!({
+                "bufferViews": [{"buffer": 0, "byteLength": 36}, {"buffer": 0, "byteOffset": 36, "byteLength": 36},
+                    {"buffer": 0, "byteOffset": 72, "byteLength": 12}, {"buffer": 0, "byteOffset": 84, "byteLength": 12}],
+                "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                        "min": [0, 0, 0], "max": [1, 1, 0]},
+                    {"bufferView": 1, "componentType": 5126, "count": 3, "type": "VEC3"},
+                    {"bufferView": 2, "componentType": 5126, "count": 3, "type": "SCALAR"},
+                    {"bufferView": 3, "componentType": 5125, "count": 3, "type": "SCALAR"}],
+                "extensionsUsed": ["CAUSTIC_points"],
+                "extensions": {"CAUSTIC_points": {"objects": [object]}}
+            }),
+        )
+    }
+
+    /// Point Info at each point: its centre, radius and Cycles' Random of its index in its
+    /// Blender point cloud (`indices` when given, else its position), read through a hit.
+    #[test]
+    fn point_info_reads_each_point_and_its_blender_index() {
+        let hash =
+            |i: u32| crate::shader::texture::hash::uint_to_float_incl(crate::shader::texture::hash::hash_uint2(i, 0));
+        for (indices, want) in [(None, [0, 1, 2]), (Some(3), [0, 5, 9])] {
+            let mut obj = json!({"name": "dots", "positions": 1, "radii": 2});
+            if let Some(a) = indices {
+                obj["indices"] = json!(a);
+            }
+            let scene = load(obj, [0.1, 0.2, 0.3]).unwrap();
+            assert_eq!(scene.report.points, 3);
+            for (k, x) in [0.0f32, 1.0, 2.0].into_iter().enumerate() {
+                let org = glam::Vec3::new(x, 0.0, 5.0);
+                let bvh = scene.points.bvh.as_ref().unwrap();
+                let hit = bvh.intersect(&scene.points.spheres, org, -glam::Vec3::Z, f32::INFINITY, |_| true).unwrap();
+                assert!(is_point(hit.tri) && hit.tri & POINT_BITS == POINT_BITS);
+                let info = scene.points.info(hit.tri);
+                assert_eq!(info.centre, glam::Vec3::new(x, 0.0, 2.0));
+                assert_eq!(info.radius, [0.1, 0.2, 0.3][k]);
+                assert_eq!(info.random, hash(want[k]), "point {k}");
+                let s = scene.surface(&hit, org, -glam::Vec3::Z);
+                assert!((s.p.z - (2.0 + info.radius)).abs() < 1e-6 && s.ng == glam::Vec3::Z && s.front);
+            }
+        }
+    }
+
+    /// Bad points are refused with the object's name: radii ≤ 0 or NaN, mismatched counts,
+    /// an indices accessor of the wrong type or count, a bad matrix, a missing accessor.
+    #[test]
+    fn bad_points_are_refused_by_name() {
+        let obj = json!({"name": "dots", "positions": 1, "radii": 2});
+        let with = |k: &str, v: serde_json::Value| {
+            let mut o = obj.clone();
+            o[k] = v;
+            o
+        };
+        let singular = json!([1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]);
+        for (object, radii, what) in [
+            (obj.clone(), [0.1, 0.0, 0.3], "point 1 has radius 0"),
+            (obj.clone(), [0.1, 0.2, -1.0], "point 2 has radius -1"),
+            (obj.clone(), [f32::NAN, 0.2, 0.3], "point 0 has radius NaN"),
+            (obj.clone(), [0.1, f32::INFINITY, 0.3], "point 1 has radius inf"),
+            (with("radii", json!(0)), [0.1; 3], "radii accessor 0 is F32 Vec3"),
+            (with("indices", json!(2)), [0.1; 3], "indices accessor 2 is F32 Scalar; it must be U32 Scalar"),
+            (with("positions", json!(7)), [0.1; 3], "positions accessor 7 does not exist"),
+            (with("matrix", singular), [0.1; 3], "its matrix is not an invertible finite transform"),
+            (with("material", json!(3)), [0.1; 3], "material 3 does not exist"),
+            (with("colour", json!(1)), [0.1; 3], "CAUSTIC_points is malformed"),
+        ] {
+            let err = load(object, radii).err().map(|e| e.to_string()).unwrap_or_default();
+            assert!(err.contains(what), "{what}: {err}");
+            if what != "CAUSTIC_points is malformed" {
+                assert!(err.contains("point cloud 'dots'"), "{err}");
+            }
+        }
+        // Counts that differ: the first two positions, three radii.
+        let mut extra: Vec<u8> = Vec::new();
+        for f in [0.0f32, 0.0, 2.0, 1.0, 0.0, 2.0, 0.1, 0.2, 0.3] {
+            extra.extend(f.to_le_bytes());
+        }
+        let err = load_triangle_after(
+            &extra,
+            json!({
+                "bufferViews": [{"buffer": 0, "byteLength": 36}, {"buffer": 0, "byteOffset": 36, "byteLength": 24},
+                    {"buffer": 0, "byteOffset": 60, "byteLength": 12}],
+                "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                        "min": [0, 0, 0], "max": [1, 1, 0]},
+                    {"bufferView": 1, "componentType": 5126, "count": 2, "type": "VEC3"},
+                    {"bufferView": 2, "componentType": 5126, "count": 3, "type": "SCALAR"}],
+                "extensions": {"CAUSTIC_points": {"objects": [obj]}}
+            }),
+        )
+        .err()
+        .map(|e| e.to_string())
+        .unwrap_or_default();
+        assert!(err.contains("point cloud 'dots': 3 radii for 2 positions"), "{err}");
+    }
 }
