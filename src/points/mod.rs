@@ -34,6 +34,40 @@ pub fn is_point(prim: u32) -> bool {
     prim & POINT_BITS == POINT_BITS
 }
 
+/// A warning for the integrators that trace light from the lights (`integrator`: its name),
+/// naming the materials of points that transmit (glass, refraction, translucency,
+/// transmission); None when no point's material does. Cycles refracts a ray where it enters a
+/// point and lets it leave unrefracted (`sphere.rs`): light followed from the lights does not
+/// retrace that path backwards, so what those integrators carry through such points differs
+/// from the path tracer's (and Cycles') image.
+pub fn transmission_warning(scene: &crate::scene::Scene, integrator: &str) -> Option<String> {
+    use crate::shader::closure::ClosureKind;
+    use crate::shader::instructions::Op;
+    let mut named: Vec<String> = Vec::new();
+    for o in &scene.points.objects {
+        let m = &scene.materials[o.material as usize];
+        let graph = m.nodes.as_ref().is_some_and(|p| {
+            p.transmits
+                || p.ops.iter().any(|op| {
+                    matches!(op, Op::Closure(c)
+                        if matches!(c.kind, ClosureKind::Glass | ClosureKind::Refraction | ClosureKind::Translucent))
+                })
+        });
+        let name = format!("'{}'", m.name);
+        if (graph || (m.nodes.is_none() && m.transmission > 0.0)) && !named.contains(&name) {
+            named.push(name);
+        }
+    }
+    (!named.is_empty()).then(|| {
+        format!(
+            "point clouds of material(s) {} transmit: as in Cycles a ray refracts where it enters a point and \
+             leaves it unrefracted, which light traced from the lights does not retrace backwards, so {integrator} \
+             renders the light passing through them differently from the path tracer (and Cycles)",
+            named.join(", ")
+        )
+    })
+}
+
 /// One point cloud object: a run of consecutive points in load order.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PointObject {

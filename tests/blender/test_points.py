@@ -252,3 +252,29 @@ def test_point_export_edge_cases(addon, empty_scene, tmp_path):
     assert any("'Bare'" in w and "attribute 'Col'" in w for w in state.warnings), state.warnings
     names = [o["name"] for o in doc["extensions"]["CAUSTIC_points"]["objects"]]
     assert sorted(names) == ["Bare", "Dots"]
+
+
+def test_viewport_reloads_for_points(addon, empty_scene):
+    """The running scene's points come only with a whole export: a mesh whose Geometry Nodes
+    make points is not merged alone, and hiding, showing, moving or changing an object whose
+    points the scene holds reloads it."""
+    object_filter = importlib.import_module(addon.__name__ + ".export.object_filter")
+    points = importlib.import_module(addon.__name__ + ".export.points")
+    viewport = importlib.import_module(addon.__name__ + ".viewport")
+    scene = empty_scene
+    lit_floor(scene)
+    grid = gn_points(scene, scenes.diffuse_material("Light", 0.8))
+    floor = scene.objects["Floor"]
+    assert object_filter.mergeable(floor) and not object_filter.mergeable(grid)
+    owners = points.point_owners(bpy.context.evaluated_depsgraph_get())
+    assert owners == {"Grid"}
+    before = {"Floor", "Grid", "Camera"}
+    assert viewport.touches_points([], before, before - {"Grid"}, owners)
+    assert not viewport.touches_points([], before, before - {"Floor"}, owners)
+
+    class Update:
+        def __init__(self, obj, transform):
+            self.id, self.is_updated_transform, self.is_updated_geometry = obj, transform, False
+
+    assert viewport.touches_points([Update(grid, True)], before, before, owners)
+    assert not viewport.touches_points([Update(floor, True)], before, before, owners)
