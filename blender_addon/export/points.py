@@ -103,7 +103,7 @@ def _radii(data, n, what, warnings):
     return np.full(n, DEFAULT_POINT_RADIUS)
 
 
-def _material(owner, obj, override):
+def _material(obj, override):
     """Cycles' shader of a point cloud: the view layer's override, else the first slot's material."""
     if override is not None:
         return override
@@ -177,7 +177,7 @@ def scene_clouds(depsgraph, warnings):
         matrix = (_AXES @ m @ _AXES.T).T.reshape(-1)
         random_id = int(instance.random_id) & 0xFFFFFFFF if instance.is_instance else None
         centres = np.stack([centres[:, 0], centres[:, 2], -centres[:, 1]], axis=1)
-        clouds.append(Cloud(name, owner_name, _material(owner, obj, override), centres, radii, indices,
+        clouds.append(Cloud(name, owner_name, _material(obj, override), centres, radii, indices,
                             [float(x) for x in matrix], random_id))
     if clouds and depsgraph.scene.render.use_motion_blur:
         warnings.append("point clouds are rendered without motion blur: their points are where they are "

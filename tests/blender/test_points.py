@@ -269,7 +269,8 @@ def test_point_export_edge_cases(addon, empty_scene, tmp_path):
     attr_mat = bare.data.materials[0]
     attr = attr_mat.node_tree.nodes.new("ShaderNodeAttribute")
     attr.attribute_name = "Col"
-    attr_mat.node_tree.links.new(attr.outputs["Color"], attr_mat.node_tree.nodes["Principled BSDF"].inputs["Base Color"])
+    principled = attr_mat.node_tree.nodes["Principled BSDF"]
+    attr_mat.node_tree.links.new(attr.outputs["Color"], principled.inputs["Base Color"])
     empty = bpy.data.objects.new("Empty cloud", bpy.data.pointclouds.new("Nothing"))
     scene.collection.objects.link(empty)
     warnings = []
