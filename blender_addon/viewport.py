@@ -23,6 +23,7 @@ import mathutils
 from . import export, runner, viewport_graphs, viewport_lights
 from .errors import CausticError
 from .export.object_filter import foreign_meshes, mergeable
+from .export.points import point_owners
 from .server_client import ServerClient, ServerError, frame_pixels
 
 # Blender's world axes (Z up) to glTF's (Y up), as the glTF exporter converts them.
@@ -300,6 +301,19 @@ def edits_from_updates(updates, objects_before, objects_now, known=None, lights=
     return edits
 
 
+def touches_points(updates, objects_before, objects_now, owners):
+    """Whether an update moves, changes, hides or shows an object whose point clouds the running
+    scene holds (`owners`): their points come only with a whole export."""
+    if owners and objects_before is not None and (objects_before ^ objects_now) & owners:
+        return True
+    for u in updates if owners else ():
+        data = getattr(u.id, "original", u.id)
+        if isinstance(data, bpy.types.Object) and data.name in owners \
+                and (u.is_updated_transform or u.is_updated_geometry):
+            return True
+    return False
+
+
 def rendered_objects(depsgraph):
     """Names of the objects the depsgraph renders."""
     return {inst.object.name for inst in depsgraph.object_instances}
@@ -367,6 +381,7 @@ class Viewport:
         self.known = None
         self.lights = None
         self.exported = None
+        self.point_owners = set()  # objects whose point clouds the loaded scene holds
         self.fingerprints = {}
         self.graphs = None  # node-graph materials of the loaded scene: name -> graph_extras
         self.images = {}  # the last export's node-graph images: pointer -> entry
@@ -398,6 +413,7 @@ class Viewport:
                        for m in loaded.get("materials", [])
                        if m.get("nodes") and m["name"] in bpy.data.materials}
         self.exported = rendered_objects(depsgraph)
+        self.point_owners = point_owners(depsgraph)
         self.fingerprints = {}
         if old:
             shutil.rmtree(old, ignore_errors=True)
@@ -450,6 +466,7 @@ class Viewport:
         try:
             objects = rendered_objects(depsgraph)
             first = self.objects is None or self.client is None or not self.client.alive()
+            first = first or touches_points(depsgraph.updates, self.objects, objects, self.point_owners)
             edits = [RELOAD] if first else edits_from_updates(depsgraph.updates, self.objects, objects, self.known,
                                                                       self.lights, self.exported, self.fingerprints,
                                                                       self.graphs)

@@ -26,6 +26,7 @@ pub mod memory;
 pub mod motion;
 pub mod output;
 pub mod passes;
+pub mod points;
 pub mod progress;
 pub mod render;
 pub mod sampling;

@@ -186,82 +186,112 @@ fn a_sun_is_shadowed_only_by_its_blockers() {
     assert_eq!(only_quad, unlit, "a rule listing the quad: its shadow");
 }
 
-/// Strands are lit as their object (`object` in `CAUSTIC_curves`): white strands over a black
-/// floor, under a sun whose receivers are the strands' object ("Hair", which has no node) or
-/// exclude it. Direct light only: including the strands changes no pixel from the unlinked
-/// render (bit for bit), excluding them leaves the image black (the floor reflects nothing).
+/// Strands and points are lit as their object (`object` in `CAUSTIC_curves`, `CAUSTIC_points`):
+/// white strands (or spheres) over a black floor, under a sun whose receivers are their object
+/// ("Hair", "Dots", which have no node) or exclude it. Direct light only: including them changes
+/// no pixel from the unlinked render (bit for bit), excluding them leaves the image black (the
+/// floor reflects nothing).
 #[test]
-fn strands_are_lit_as_their_object() {
+fn strands_and_points_are_lit_as_their_object() {
     let dir = temp_dir();
     let d = dir.path();
-    let scene = |name: &str, rule: Option<Value>| {
-        let mut g = GltfBuilder::new();
-        let black = g
-            .material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1], "metallicFactor": 0.0},
-            "extensions": {"KHR_materials_specular": {"specularFactor": 0.0}}}));
-        let white =
-            g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1], "metallicFactor": 0.0}}));
-        g.use_ext("KHR_materials_specular");
-        let (z, h) = (-4.0, 3.0);
-        g.mesh(&[[-h, -h, z], [h, -h, z], [h, h, z], [-h, h, z]], &[0, 1, 2, 0, 2, 3], black);
-        hair_rows(&mut g, white);
-        let sun = g.punctual(json!({"type": "directional", "intensity": 683.0}), [0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]);
-        if let Some(r) = rule {
-            g.node_ext(sun, "CAUSTIC_light_linking", r);
-        }
-        g.camera([0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0], 0.5);
-        g.write(d, name)
-    };
-    let plain = render(&scene("plain.gltf", None), &d.join("plain.exr"));
-    assert!(plain.iter().any(|p| p[0] > 0.1), "the strands are lit");
-    let included = render(&scene("in.gltf", Some(json!({"receivers": ["Hair"], "include": true}))), &d.join("in.exr"));
-    assert_eq!(plain, included, "the sun lights the strands it includes as without a rule");
-    let excluded =
-        render(&scene("out.gltf", Some(json!({"receivers": ["Hair"], "include": false}))), &d.join("out.exr"));
-    assert!(excluded.iter().all(|p| p[..3] == [0.0; 3]), "the sun does not light strands it excludes");
+    for (object, add) in OBJECTS {
+        let scene = |name: &str, rule: Option<Value>| {
+            let mut g = GltfBuilder::new();
+            let black = g
+                .material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1], "metallicFactor": 0.0},
+                "extensions": {"KHR_materials_specular": {"specularFactor": 0.0}}}));
+            let white = g.material(
+                json!({"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1], "metallicFactor": 0.0}}),
+            );
+            g.use_ext("KHR_materials_specular");
+            let (z, h) = (-4.0, 3.0);
+            g.mesh(&[[-h, -h, z], [h, -h, z], [h, h, z], [-h, h, z]], &[0, 1, 2, 0, 2, 3], black);
+            add(&mut g, white);
+            let sun =
+                g.punctual(json!({"type": "directional", "intensity": 683.0}), [0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]);
+            if let Some(r) = rule {
+                g.node_ext(sun, "CAUSTIC_light_linking", r);
+            }
+            g.camera([0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0], 0.5);
+            g.write(d, &format!("{object}_{name}"))
+        };
+        let plain = render(&scene("plain.gltf", None), &d.join("plain.exr"));
+        assert!(plain.iter().any(|p| p[0] > 0.1), "{object}: lit");
+        let included =
+            render(&scene("in.gltf", Some(json!({"receivers": [object], "include": true}))), &d.join("in.exr"));
+        assert_eq!(plain, included, "{object}: the sun lights what it includes as without a rule");
+        let excluded =
+            render(&scene("out.gltf", Some(json!({"receivers": [object], "include": false}))), &d.join("out.exr"));
+        assert!(excluded.iter().all(|p| p[..3] == [0.0; 3]), "{object}: the sun does not light what it excludes");
+    }
 }
 
-/// Strands block a shadow-linked light as their object: white strands over a white floor under
-/// a sun shining straight down (direct light only). Without a rule the strands shadow the floor
-/// (some pixels see only shadowed floor: exactly 0); a blocker rule that lists their object
-/// changes no pixel (bit for bit: the sun is a delta light, the rule changes no number but the
-/// shadow test); a rule that excludes it removes their shadows: no pixel is black, and none is
-/// darker than without the rule (the same samples, only shadow tests turned to lit).
+/// Strands and points block a shadow-linked light as their object: white strands (or spheres)
+/// over a white floor under a sun shining straight down (direct light only). Without a rule they
+/// shadow the floor (some pixels see only shadowed floor: exactly 0); a blocker rule that lists
+/// their object changes no pixel (bit for bit: the sun is a delta light, the rule changes no
+/// number but the shadow test); a rule that excludes it removes their shadows: no pixel is
+/// black, and none is darker than without the rule (the same samples, only shadow tests turned
+/// to lit).
 #[test]
-fn strands_block_as_their_object() {
+fn strands_and_points_block_as_their_object() {
     let dir = temp_dir();
     let d = dir.path();
-    let scene = |name: &str, rule: Option<Value>| {
-        let mut g = GltfBuilder::new();
-        let white =
-            g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1], "metallicFactor": 0.0}}));
-        let (z, h) = (-4.0, 3.0);
-        let floor = g.mesh(&[[-h, -h, z], [h, -h, z], [h, h, z], [-h, h, z]], &[0, 1, 2, 0, 2, 3], white);
-        g.node_name(floor, "Floor");
-        hair_rows(&mut g, white);
-        let sun = g.punctual(json!({"type": "directional", "intensity": 683.0}), [0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]);
-        if let Some(r) = rule {
-            g.node_ext(sun, "CAUSTIC_light_linking", r);
+    for (object, add) in OBJECTS {
+        let scene = |name: &str, rule: Option<Value>| {
+            let mut g = GltfBuilder::new();
+            let white = g.material(
+                json!({"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1], "metallicFactor": 0.0}}),
+            );
+            let (z, h) = (-4.0, 3.0);
+            let floor = g.mesh(&[[-h, -h, z], [h, -h, z], [h, h, z], [-h, h, z]], &[0, 1, 2, 0, 2, 3], white);
+            g.node_name(floor, "Floor");
+            add(&mut g, white);
+            let sun =
+                g.punctual(json!({"type": "directional", "intensity": 683.0}), [0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]);
+            if let Some(r) = rule {
+                g.node_ext(sun, "CAUSTIC_light_linking", r);
+            }
+            g.camera([0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0], 0.5);
+            g.write(d, &format!("{object}_{name}"))
+        };
+        let plain = render(&scene("plain.gltf", None), &d.join("plain.exr"));
+        assert!(plain.iter().any(|p| p[..3] == [0.0; 3]), "{object}: shadows the floor without a rule");
+        let listed = render(
+            &scene("listed.gltf", Some(json!({"blockers": [object], "blockers_include": true}))),
+            &d.join("listed.exr"),
+        );
+        assert_eq!(plain, listed, "{object}: a blocker shadows as without a rule");
+        let left_out = render(
+            &scene("left_out.gltf", Some(json!({"blockers": [object], "blockers_include": false}))),
+            &d.join("left_out.exr"),
+        );
+        assert!(left_out.iter().all(|p| p[0] > 0.0), "{object}: no blocker, no shadow");
+        assert!(
+            left_out.iter().zip(&plain).all(|(a, b)| a[0] >= b[0] && a[1] >= b[1] && a[2] >= b[2]),
+            "{object}: leaving it out of the blockers only lights shadowed samples"
+        );
+    }
+}
+
+/// Adds an object of strands or points with a material to a scene.
+type AddObject = fn(&mut GltfBuilder, usize);
+
+/// The objects the linking tests above put in front of their floor, by name.
+const OBJECTS: [(&str, AddObject); 2] = [("Hair", hair_rows), ("Dots", dot_rows)];
+
+/// Eight rows of eight spheres of radius 0.1 at z = -3, one unit in front of the floors the
+/// tests above put at z = -4, as the object "Dots".
+fn dot_rows(g: &mut GltfBuilder, material: usize) {
+    let (mut centres, mut radii) = (Vec::new(), Vec::new());
+    for k in 0..8 {
+        for j in 0..8 {
+            centres.push([-1.4 + 0.4 * j as f32, -1.4 + 0.4 * k as f32, -3.0]);
+            radii.push(0.1);
         }
-        g.camera([0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0], 0.5);
-        g.write(d, name)
-    };
-    let plain = render(&scene("plain.gltf", None), &d.join("plain.exr"));
-    assert!(plain.iter().any(|p| p[..3] == [0.0; 3]), "the strands shadow the floor without a rule");
-    let listed = render(
-        &scene("listed.gltf", Some(json!({"blockers": ["Hair"], "blockers_include": true}))),
-        &d.join("listed.exr"),
-    );
-    assert_eq!(plain, listed, "strands whose object is a blocker shadow as without a rule");
-    let left_out = render(
-        &scene("left_out.gltf", Some(json!({"blockers": ["Hair"], "blockers_include": false}))),
-        &d.join("left_out.exr"),
-    );
-    assert!(left_out.iter().all(|p| p[0] > 0.0), "strands that are no blockers cast no shadow");
-    assert!(
-        left_out.iter().zip(&plain).all(|(a, b)| a[0] >= b[0] && a[1] >= b[1] && a[2] >= b[2]),
-        "leaving the strands out of the blockers only lights shadowed samples"
-    );
+    }
+    g.points("Dots", material, &centres, &radii);
 }
 
 /// Eight straight strands of radius 0.05 in a row at z = -3, one unit in front of the floors

@@ -24,6 +24,7 @@ out of it or writes differently from what Cycles renders (docs/contract.md):
 | `view_layer.py` | the view layer's excluded collections left out of the exporter's tree (instances kept); the Material Override is applied in `meshes.py` |
 | `volumes.py` | volume objects: their grids from the .vdb into `caustic_volumes/*.cvol`, `CAUSTIC_volume` |
 | `curves.py` | hair particle systems and Curves objects: `CAUSTIC_curves`, appended after the exporter ran |
+| `points.py` | point clouds (Point Cloud objects, Geometry Nodes' points): `CAUSTIC_points`, appended after it |
 | `motion.py` | motion blur and the Vector pass: the scene evaluated at the motion steps, `CAUSTIC_motion` |
 | `object_filter.py` | the viewport's export of a few objects alone (added objects, edited meshes) |
 | `unsupported.py` | warnings naming what Caustic cannot render yet (motion blur, hair, holdout, ...) |
@@ -35,6 +36,7 @@ import bpy
 
 from ..errors import CausticError
 from .curves import add_curves
+from .points import add_points
 from .instance_random import add_instance_randoms
 from .camera import CAMERA_EXTENSION, camera_extension  # noqa: F401  (public names)
 from .depsgraph import render_depsgraph
@@ -98,8 +100,8 @@ def export_scene(depsgraph, folder, settings, motion=True, viewport=False, only=
     `motion`: export motion blur's (or the Vector pass's) steps; the viewport renders without.
     `viewport`: the objects visible in the viewport, not those enabled for renders.
     `only`: a set of object names to export alone (the viewport's added objects and edited
-    meshes, object_filter.py): no world, hair, volumes or scene-wide warnings, which the
-    running scene already has.
+    meshes, object_filter.py): no world, hair, point clouds, volumes or scene-wide warnings,
+    which the running scene already has.
 
     Raises CausticError when the exporter fails or one of Caustic's hooks failed.
     """
@@ -142,6 +144,10 @@ def export_scene(depsgraph, folder, settings, motion=True, viewport=False, only=
         add_curves(filepath, depsgraph, state.warnings)
     except (OSError, ValueError, KeyError, AttributeError) as err:
         raise CausticError(f"exporting hair and curves failed: {err!r}") from None
+    try:
+        add_points(filepath, depsgraph, state)
+    except (OSError, ValueError, KeyError, AttributeError) as err:
+        raise CausticError(f"exporting point clouds failed: {err!r}") from None
     try:
         add_instance_randoms(filepath, depsgraph)
     except (OSError, ValueError, KeyError) as err:

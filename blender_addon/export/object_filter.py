@@ -25,11 +25,13 @@ def keep_only(vtree, names):
 
 
 def mergeable(obj):
-    """Whether the server can merge `obj` exported alone: a mesh object without hair (strands and
-    volumes, lights and curves objects come with a whole export, `load`)."""
+    """Whether the server can merge `obj` exported alone: a mesh object without hair or points
+    (strands, point clouds and volumes, lights and curves objects come with a whole export,
+    `load`)."""
+    from .points import makes_points
     if obj is None or obj.type != "MESH":
         return False
-    return not any(p.settings.type == "HAIR" for p in obj.particle_systems)
+    return not any(p.settings.type == "HAIR" for p in obj.particle_systems) and not makes_points(obj)
 
 
 def foreign_meshes(path, names, loaded):

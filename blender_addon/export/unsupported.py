@@ -1,6 +1,7 @@
 """What Caustic cannot render yet, named: scene features that would otherwise be dropped without
-a word (point clouds; a light's or the world's Cycles Max Bounces). Each warning names the object and says what the render does instead.
-(Shape keys on a mesh without modifiers are exported deformed by shape_keys.py.)"""
+a word (a light's or the world's Cycles Max Bounces). Each warning names the object and says what
+the render does instead. (Shape keys on a mesh without modifiers are exported deformed by
+shape_keys.py; point clouds are rendered, and what of them is not is named by points.py.)"""
 
 
 def scene_warnings(depsgraph):
@@ -37,8 +38,6 @@ def object_warnings(obj):
     """Warnings for one object's features that Caustic does not render."""
     what = f"object '{obj.name}'"
     warnings = []
-    if obj.type == "POINTCLOUD":
-        warnings.append(f"{what}: point clouds are not rendered")
     if obj.type == "LIGHT":
         bounces = _cycles_max_bounces(obj.data)
         if bounces is not None:

@@ -22,6 +22,8 @@ pub fn run_info(args: &InfoArgs) -> Result<()> {
             "strands": r.strands,
             "curve_segments": r.curve_segments,
             "curve_bytes": r.curve_bytes,
+            "points": r.points,
+            "point_bytes": r.point_bytes,
             "emissive_triangles": scene.lights.iter().filter(|l| matches!(l, crate::light::Light::Triangle { .. })).count(),
             "punctual_lights": scene.lights.iter().filter(|l| !matches!(l, crate::light::Light::Triangle { .. } | crate::light::Light::Area(_))).count(),
             "area_lights": scene.lights.iter().filter(|l| matches!(l, crate::light::Light::Area(_))).count(),
@@ -51,6 +53,9 @@ pub fn run_info(args: &InfoArgs) -> Result<()> {
             r.curve_segments,
             r.curve_bytes as f64 / (1u64 << 20) as f64
         );
+    }
+    if r.points > 0 {
+        outln!("  points: {} ({:.1} MiB with their BVH)", r.points, r.point_bytes as f64 / (1u64 << 20) as f64);
     }
     outln!("  bounds: {:?} .. {:?}", r.bounds[0], r.bounds[1]);
     if !r.extensions_used.is_empty() {

@@ -150,6 +150,16 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         reporter.warning(&w);
         run_warnings.push(w);
     }
+    // Light traced from the lights crosses glass points by another path than Cycles' camera rays.
+    let light_tracing = match res.integrator {
+        IntegratorKind::Bdpt => Some("BDPT"),
+        IntegratorKind::Vcm => Some("VCM"),
+        _ => photon_name,
+    };
+    if let Some(w) = light_tracing.and_then(|name| crate::points::transmission_warning(&scene, name)) {
+        reporter.warning(&w);
+        run_warnings.push(w);
+    }
     // Every integrator splits camera paths at shadow catchers (`integrator::catcher`).
     if res.passes.asks_shader_aovs() && scene.shader_aovs.channels == 0 {
         let w = "the shader AOVs were asked for, but the scene declares none: none is written".to_string();

@@ -26,10 +26,11 @@ use glam::{Vec2, Vec3, Vec4, Vec4Swizzles};
 /// Set in `Hit::tri` for a curve segment's hit.
 pub const CURVE_BIT: u32 = 1 << 31;
 
-/// True when a hit's primitive id is a curve segment's.
+/// True when a hit's primitive id is a curve segment's (not a point's, whose id has this bit
+/// and the next: `points::POINT_BITS`).
 #[inline(always)]
 pub fn is_curve(prim: u32) -> bool {
-    prim & CURVE_BIT != 0
+    prim & crate::points::POINT_BITS == CURVE_BIT
 }
 
 /// One strand: a run of consecutive control points, root first.

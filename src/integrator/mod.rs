@@ -311,10 +311,14 @@ impl<'a> SceneContext<'a> {
         if !self.linking {
             return true;
         }
-        // A strand's receiver is its curves object's object.
+        // A strand's receiver is its curves object's object, a point's its point cloud's.
         if receiver != crate::scene::linking::NO_OBJECT && crate::curves::is_curve(receiver) {
             let object = self.scene.curves.object_of_prim(receiver);
             return self.scene.light_linking.lights_curves(light, object);
+        }
+        if receiver != crate::scene::linking::NO_OBJECT && crate::points::is_point(receiver) {
+            let (object, _) = self.scene.points.object_of_prim(receiver);
+            return self.scene.light_linking.lights_points(light, object);
         }
         self.scene.light_linking.lights(light, receiver)
     }
@@ -408,10 +412,14 @@ impl<'a> SceneContext<'a> {
 
     /// The media a path is in after leaving surface `s` in direction `wi`: crossing the
     /// boundary of a solid with a medium enters or leaves it (the nesting rule is
-    /// `MediumStack`'s); reflection and thin surfaces keep the current media.
+    /// `MediumStack`'s); reflection and thin surfaces keep the current media, and so do
+    /// points, whose back a ray never meets (a glass point refracts, no more).
     #[inline]
     pub fn medium_after(&self, s: &SurfaceHit, wi: Vec3, mut stack: MediumStack) -> MediumStack {
-        if wi.dot(s.ng) < 0.0 && self.scene.materials[s.material as usize].medium.is_some() {
+        if wi.dot(s.ng) < 0.0
+            && self.scene.materials[s.material as usize].medium.is_some()
+            && !crate::points::is_point(s.tri)
+        {
             if s.front {
                 stack.enter(s.material);
             } else {
@@ -497,9 +505,15 @@ impl<'a> SceneContext<'a> {
                 m.intersect(org, dir, hit.map_or(tmax, |h| h.t), t, &self.masked, self.accepts(ray)).or(hit)
             }
         };
-        // Strands, in their own BVH, up to the triangle hit: the nearer wins.
-        match &self.scene.curves.bvh {
+        // Strands and points, in their own BVHs, up to the nearest hit so far: the nearer wins.
+        let hit = match &self.scene.curves.bvh {
             Some(curves) => curves.intersect(&self.scene.curves.points, org, dir, hit.map_or(tmax, |h| h.t)).or(hit),
+            None => hit,
+        };
+        match &self.scene.points.bvh {
+            Some(points) => {
+                points.intersect(&self.scene.points.spheres, org, dir, hit.map_or(tmax, |h| h.t), |_| true).or(hit)
+            }
             None => hit,
         }
     }
@@ -513,13 +527,14 @@ impl<'a> SceneContext<'a> {
     }
 
     /// A radius (at most `cap`) around `p` that no surface a closest-hit query can return
-    /// comes within (`Accel::clearance`); 0 with moving triangles or strands, which it does not see.
+    /// comes within (`Accel::clearance`); 0 with moving triangles, strands or points, which it
+    /// does not see.
     /// The subsurface walk skips the query for steps inside it.
     #[inline]
     /// `near` is the last search's nearest triangle (`Accel::clearance_near`).
     pub fn clearance(&self, p: Vec3, cap: f32, near: &mut u32) -> f32 {
-        match (self.motion, &self.scene.curves.bvh) {
-            (None, None) => self.accel.clearance_near(p, cap, near),
+        match (self.motion, &self.scene.curves.bvh, &self.scene.points.bvh) {
+            (None, None, None) => self.accel.clearance_near(p, cap, near),
             _ => 0.0,
         }
     }
@@ -584,13 +599,24 @@ impl<'a> SceneContext<'a> {
             }
             _ => tr,
         };
-        // Strands are opaque; with shadow linking only the light's blockers among them count.
+        // Strands and points are opaque; with shadow linking only the light's blockers among
+        // them count.
+        let linked = light.filter(|&l| self.shadow_linked(l));
         let points = &self.scene.curves.points;
-        match (&self.scene.curves.bvh, light.filter(|&l| self.shadow_linked(l))) {
+        let tr = match (&self.scene.curves.bvh, linked) {
             (Some(curves), None) if tr > 0.0 && curves.occluded(points, org, dir, tmax) => 0.0,
             (Some(curves), Some(l)) if tr > 0.0 => {
                 let blocker = |segment: u32| self.blocks(l, crate::curves::CURVE_BIT | segment);
                 if curves.occluded_by(points, org, dir, tmax, blocker) { 0.0 } else { tr }
+            }
+            _ => tr,
+        };
+        let spheres = &self.scene.points.spheres;
+        match (&self.scene.points.bvh, linked) {
+            (Some(points), None) if tr > 0.0 && points.occluded_by(spheres, org, dir, tmax, |_| true) => 0.0,
+            (Some(points), Some(l)) if tr > 0.0 => {
+                let blocker = |slot: u32| self.blocks(l, crate::points::POINT_BITS | slot);
+                if points.occluded_by(spheres, org, dir, tmax, blocker) { 0.0 } else { tr }
             }
             _ => tr,
         }
@@ -654,10 +680,14 @@ impl<'a> SceneContext<'a> {
         if !self.linking {
             return true;
         }
-        // A strand blocks as its curves object's object.
+        // A strand blocks as its curves object's object, a point as its point cloud's.
         if tri != crate::scene::linking::NO_OBJECT && crate::curves::is_curve(tri) {
             let object = self.scene.curves.object_of_prim(tri);
             return self.scene.light_linking.blocks_curves(light, object);
+        }
+        if tri != crate::scene::linking::NO_OBJECT && crate::points::is_point(tri) {
+            let (object, _) = self.scene.points.object_of_prim(tri);
+            return self.scene.light_linking.blocks_points(light, object);
         }
         self.scene.light_linking.blocks(light, tri)
     }

@@ -98,8 +98,12 @@ impl LightSide {
 /// tracer's rays do (`integrator`: its name in the message); `None` when there is none.
 pub fn scattering_warning(scene: &Scene, integrator: &str, side: LightSide) -> Option<String> {
     // BDPT and VCM leave the paths through such triangles to the camera side
-    // (`integrator::bdpt::visibility`); only strands, which that test does not see, remain.
-    let on_strands = |m: usize| scene.curves.strands.iter().any(|s| s.material as usize == m);
+    // (`integrator::bdpt::visibility`); only strands and points, which that test does not
+    // see, remain.
+    let on_strands = |m: usize| {
+        scene.curves.strands.iter().any(|s| s.material as usize == m)
+            || scene.points.objects.iter().any(|o| o.material as usize == m)
+    };
     let named: Vec<String> = scene
         .materials
         .iter()
@@ -121,9 +125,9 @@ pub fn scattering_warning(scene: &Scene, integrator: &str, side: LightSide) -> O
     }
     let what = match side {
         LightSide::Subpaths => {
-            "shades a light subpath's vertices on their strands (hair, curves) with the light subpath's own \
+            "shades a light subpath's vertices on their strands (hair, curves) and points with the light subpath's own \
              state (its last bounce's kind and depth, no camera path), so light reaching the camera through \
-             those strands by light tracing, connections or merging is approximated (their triangles' paths \
+             those strands and points by light tracing, connections or merging is approximated (their triangles' paths \
              are left to the camera side, exact)"
         }
         LightSide::Photons => {

@@ -97,6 +97,7 @@ impl WorldGraph {
             path,
             view: &self.view,
             rays: crate::shader::geom::Rays::default(),
+            point: None,
         }
     }
 

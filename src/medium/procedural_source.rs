@@ -44,6 +44,7 @@ impl ProceduralSource {
             path: LightPath::CAMERA_RAY,
             view: &NO_VIEW,
             rays: crate::shader::geom::Rays::default(),
+            point: None,
         }
     }
 

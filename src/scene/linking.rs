@@ -41,6 +41,10 @@ pub struct LightLinking {
     /// Per curves object (`Curves::objects`), its object's id: the node of the same name
     /// (a hair system's emitter mesh), else one past the nodes by its index; empty without rules.
     pub curve_object: Vec<u32>,
+    /// Per point cloud object (`Points::objects`), its object's id: the node of its Blender
+    /// object's name (a mesh whose Geometry Nodes made the points), else one past the nodes
+    /// and the curves objects by its index; empty without rules.
+    pub point_object: Vec<u32>,
 }
 
 impl LightLinking {
@@ -60,6 +64,24 @@ impl LightLinking {
             Some(Some(rule)) => {
                 rule.lights(self.curve_object.get(curves_object as usize).copied().unwrap_or(NO_OBJECT))
             }
+            _ => true,
+        }
+    }
+
+    /// True when light `light` lights the points of point cloud object `object`.
+    #[inline]
+    pub fn lights_points(&self, light: usize, object: usize) -> bool {
+        match self.rules.get(light) {
+            Some(Some(rule)) => rule.lights(self.point_object.get(object).copied().unwrap_or(NO_OBJECT)),
+            _ => true,
+        }
+    }
+
+    /// True when the points of point cloud object `object` cast light `light`'s shadows.
+    #[inline]
+    pub fn blocks_points(&self, light: usize, object: usize) -> bool {
+        match self.blockers.get(light) {
+            Some(Some(rule)) => rule.lights(self.point_object.get(object).copied().unwrap_or(NO_OBJECT)),
             _ => true,
         }
     }
@@ -107,6 +129,7 @@ mod tests {
             blockers: vec![Some(include), None],
             emitters: vec![],
             curve_object: vec![5],
+            point_object: vec![3, 2],
         };
         assert!(l.lights(0, 1) && l.lights(1, 0) && !l.lights(1, 1) && !l.lights(1, NO_OBJECT));
         // Light 0's shadows come from object 2 only; light 1 is blocked by everything.
@@ -114,6 +137,10 @@ mod tests {
         assert!(l.shadow_linked(0) && !l.shadow_linked(1) && !l.shadow_linked(7));
         // Strands of curves object 0 belong to object 5, which light 1 includes.
         assert!(l.lights_curves(1, 0) && !l.lights_curves(1, 1) && l.lights_curves(0, 3));
+        // Points of point cloud object 1 belong to object 2, which light 1 includes and which
+        // blocks light 0; those of object 0 (object 3) neither.
+        assert!(l.lights_points(1, 1) && !l.lights_points(1, 0) && l.lights_points(0, 0));
+        assert!(l.blocks_points(0, 1) && !l.blocks_points(0, 0) && l.blocks_points(1, 0));
         // Light 0's blockers are objects 2 and 5: the strands of curves object 0 (object 5)
         // block it, those of an object it does not list do not; light 1 has no blocker rule.
         assert!(l.blocks_curves(0, 0) && !l.blocks_curves(0, 1) && l.blocks_curves(1, 1));

@@ -122,6 +122,10 @@ pub struct LoadReport {
     pub curve_segments: usize,
     /// Bytes the strands and their BVH hold.
     pub curve_bytes: usize,
+    /// Points of point clouds (`CAUSTIC_points`).
+    pub points: usize,
+    /// Bytes the points and their BVH hold.
+    pub point_bytes: usize,
     /// `extensionsUsed` of the file.
     pub extensions_used: Vec<String>,
     /// One entry per material.
@@ -213,6 +217,8 @@ pub struct Scene {
     pub mesh: Mesh,
     /// Hair and curves (`CAUSTIC_curves`), with their own BVH; empty without them.
     pub curves: crate::curves::Curves,
+    /// Point clouds (`CAUSTIC_points`): a sphere per point, with their own BVH; empty without them.
+    pub points: crate::points::Points,
     /// Materials; triangles index into this.
     pub materials: Vec<Material>,
     /// Textures; materials index into this.

@@ -65,6 +65,9 @@ impl Scene {
             }
             return s;
         }
+        if crate::points::is_point(hit.tri) {
+            return self.points.surface(hit, org, dir);
+        }
         let m = &self.mesh;
         let [i0, i1, i2] = m.triangles[hit.tri as usize].map(|i| i as usize);
         let (b1, b2) = (hit.b1, hit.b2);

@@ -37,6 +37,9 @@ fn refusal(scene: &Scene, add: &Scene) -> Option<String> {
     if !add.curves.is_empty() {
         return Some("it holds hair or curves".into());
     }
+    if !add.points.is_empty() {
+        return Some("it holds point clouds".into());
+    }
     if add.motion.is_some() {
         return Some("it holds motion blur steps".into());
     }

@@ -82,6 +82,8 @@ pub struct Geom<'a> {
     /// The scene's rays for the Ambient Occlusion and Bevel nodes (`shader::trace`); none
     /// where Cycles does not trace them either (lights, the world, volumes, alpha).
     pub rays: Rays<'a>,
+    /// A point cloud's point (Point Info), None elsewhere (Cycles' Point Info gives 0 there).
+    pub point: Option<crate::points::PointInfo>,
 }
 
 /// The ray queries a shader graph's Ambient Occlusion and Bevel nodes make against the
@@ -314,6 +316,7 @@ pub(super) fn geom_at_ng<'a>(
         path: LightPath::LIGHT_EMISSION,
         view: &NO_VIEW,
         rays: Rays::default(),
+        point: None,
     }
 }
 

@@ -68,6 +68,12 @@ pub enum InputKind {
     MaterialIndex,
     /// One output of the Light Path node.
     LightPath(PathOutput),
+    /// Point Info Position: the point's centre (Blender axes); 0 off a point.
+    PointPosition,
+    /// Point Info Radius: the point's radius; 0 off a point.
+    PointRadius,
+    /// Point Info Random: Cycles' per-point random number; 0 off a point.
+    PointRandom,
 }
 
 /// Curve tables' kinds.

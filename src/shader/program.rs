@@ -447,6 +447,15 @@ impl Program {
                 r[out as usize] = g.path.output(o);
                 return;
             }
+            InputKind::PointPosition => g.point.map_or(Vec3::ZERO, |p| to_blender(p.centre)),
+            InputKind::PointRadius => {
+                r[out as usize] = g.point.map_or(0.0, |p| p.radius);
+                return;
+            }
+            InputKind::PointRandom => {
+                r[out as usize] = g.point.map_or(0.0, |p| p.random);
+                return;
+            }
         };
         set3(r, out, v);
     }

@@ -17,9 +17,16 @@ use crate::scene::texture::Texture;
 use glam::Vec3;
 
 impl Scene {
-    /// The instance data of a triangle.
+    /// The instance data of a triangle, or of a point's point cloud.
     #[inline]
     pub fn object_of(&self, tri: u32) -> &ObjectData {
+        if crate::points::is_point(tri) && !self.points.objects.is_empty() {
+            let (o, _) = self.points.object_of_prim(tri);
+            return match self.points.objects[o].object {
+                Some(k) => self.objects.get(k as usize).unwrap_or(&NO_OBJECT),
+                None => &NO_OBJECT,
+            };
+        }
         match self.mesh.tri_object.get(tri as usize) {
             Some(&o) => self.objects.get(o as usize).unwrap_or(&NO_OBJECT),
             None => &NO_OBJECT,
@@ -45,6 +52,7 @@ pub(super) fn geom_of<'a>(scene: &'a Scene, s: &SurfaceHit, wo: Vec3) -> Geom<'a
         path: s.light_path,
         view: &scene.view,
         rays: Rays::default(),
+        point: crate::points::is_point(s.tri).then(|| scene.points.info(s.tri)),
     }
 }
 

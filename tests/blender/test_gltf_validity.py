@@ -1,7 +1,7 @@
 """The add-on's exports pass the Khronos glTF validator with no errors.
 
 Each test scene of the add-on suite (every light type, the materials of the agreement tests,
-a textured material, the uniform and image worlds, the render-test scene) is exported exactly
+a textured material, the uniform and image worlds, the render-test scene, point clouds) is exported exactly
 as a render does (an F12 render with the contract's stand-in binary, the temporary folder kept
 with CAUSTIC_KEEP_TEMP), and `scene.gltf` with its .bin and images goes through the validator
 (npm `gltf-validator`, installed into .tools/ by scripts/setup_validator.sh; a missing install
@@ -67,8 +67,18 @@ def textured(scene, tmp_path):
     links.new(tex.outputs["Color"], nodes["Principled BSDF"].inputs["Base Color"])
 
 
+def point_clouds(scene, tmp_path):
+    """test_points' scenes at once: Geometry Nodes' points in a Point Info material (appended as
+    a node graph) and a Point Cloud object (CAUSTIC_points and its buffer)."""
+    import test_points
+    test_points.lit_floor(scene)
+    test_points.gn_points(scene, test_points.point_info_material())
+    test_points.point_cloud_object(scene, scenes.diffuse_material("Light", 0.8), count=8)
+
+
 SCENES = {
     "all_lights": all_lights,
+    "point_clouds": point_clouds,
     "render_scene": render_scene,
     "textured": textured,
     "world_uniform": lambda scene, tmp_path: lights.build(scene, uniform_world),

@@ -245,6 +245,25 @@ impl GltfBuilder {
         }));
     }
 
+    /// Adds a `CAUSTIC_points` point cloud: a sphere per centre (world, glTF axes) and radius.
+    pub fn points(&mut self, name: &str, material: usize, centres: &[[f32; 3]], radii: &[f32]) {
+        let bytes = |v: &[f32]| v.iter().flat_map(|c| c.to_le_bytes()).collect::<Vec<u8>>();
+        let flat: Vec<f32> = centres.iter().flatten().copied().collect();
+        let pv = self.push_view(&bytes(&flat), 34962);
+        let rv = self.push_view(&bytes(radii), 34962);
+        let acc = self.doc["accessors"].as_array_mut().unwrap();
+        let first = acc.len();
+        acc.push(json!({"bufferView": pv, "componentType": 5126, "count": centres.len(), "type": "VEC3"}));
+        acc.push(json!({"bufferView": rv, "componentType": 5126, "count": radii.len(), "type": "SCALAR"}));
+        self.use_ext("CAUSTIC_points");
+        let root = self.doc.as_object_mut().unwrap();
+        let exts = root.entry("extensions").or_insert(json!({}));
+        let points = exts.as_object_mut().unwrap().entry("CAUSTIC_points").or_insert(json!({"objects": []}));
+        points["objects"].as_array_mut().unwrap().push(json!({
+            "name": name, "material": material, "positions": first, "radii": first + 1
+        }));
+    }
+
     /// Adds a KHR_lights_punctual light on a node.
     pub fn punctual(&mut self, light: Value, translation: [f32; 3], rotation: [f32; 4]) -> usize {
         self.punctual_with(light, translation, rotation, json!({}))

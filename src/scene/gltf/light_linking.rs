@@ -1,8 +1,9 @@
 //! `CAUSTIC_light_linking` on an emitter's node: its receivers and blockers as object ids
-//! (glTF node indices, and strands' objects without a node, `curves::object_ids`).
+//! (glTF node indices, and strands' and points' objects without a node, `curves::object_ids`,
+//! `points::object_ids`).
 
 use super::extensions::LightLinkingExt;
-use super::{Links, Loader, curves};
+use super::{Links, Loader, curves, points};
 use crate::error::Result;
 use crate::scene::linking::ReceiverRule;
 
@@ -20,7 +21,9 @@ impl Loader<'_> {
     ) -> Result<Links> {
         let ext: LightLinkingExt = serde_json::from_value(ext.clone())
             .map_err(|e| self.err(format!("node {node_index} ('{node_name}'): bad CAUSTIC_light_linking: {e}")))?;
-        let strand_objects = curves::object_ids(value, doc);
+        let mut strand_objects = curves::object_ids(value, doc);
+        // Points of an object that has no node of its own (a Point Cloud object).
+        strand_objects.extend(points::object_ids(value, doc, strand_objects.len()));
         let rule = |names: &Option<Vec<String>>, include: bool| {
             names.as_ref().map(|names| {
                 let mut objects: Vec<u32> = doc

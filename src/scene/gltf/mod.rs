@@ -33,6 +33,7 @@ mod meshopt;
 mod motion;
 mod nodes;
 mod pass_ids;
+mod points;
 mod pose;
 mod procedural_volume;
 mod quantized;
@@ -482,14 +483,19 @@ impl<'a> Loader<'a> {
         ray_visibility.finish(mesh.triangles.len());
         undisplaced.finish(&mut mesh);
         let curves = self.curves(&value, &doc, &buffers, &mut materials, default_material)?;
+        let points =
+            self.points(&value, &doc, &buffers, &mut materials, default_material, graphs.then_some(&mut objects))?;
         if linked {
             linking.curve_object = curves::object_ids(&value, &doc).into_iter().map(|(_, id)| id).collect();
+            linking.point_object =
+                points::object_ids(&value, &doc, curves.objects.len()).into_iter().map(|(_, id)| id).collect();
         }
-        // Strands alone are a scene (their BVH stands beside an empty triangle BVH).
-        if mesh.triangles.is_empty() && curves.is_empty() {
-            return Err(
-                self.err("nothing to render: the scene has no triangles and no curves (no mesh, or only points/lines)")
-            );
+        // Strands or points alone are a scene (their BVHs stand beside an empty triangle BVH).
+        if mesh.triangles.is_empty() && curves.is_empty() && points.is_empty() {
+            return Err(self.err(
+                "nothing to render: the scene has no triangles, no curves and no point clouds (no mesh, or only \
+                 glTF points/lines)",
+            ));
         }
 
         // Bounds.
@@ -501,7 +507,7 @@ impl<'a> Loader<'a> {
             }
         }
         self.procedural_media(&mut grids, &mesh, &objects, &mut materials);
-        for p in &curves.points {
+        for p in curves.points.iter().chain(&points.spheres) {
             lo = lo.min(p.truncate() - p.w);
             hi = hi.max(p.truncate() + p.w);
         }
@@ -684,6 +690,8 @@ impl<'a> Loader<'a> {
             strands: curves.strands.len(),
             curve_segments: curves.segments(),
             curve_bytes: curves.bytes(),
+            points: points.spheres.len(),
+            point_bytes: points.bytes(),
             extensions_used: doc.extensions_used().map(str::to_string).collect(),
             materials: material_reports,
             lights: light_reports,
@@ -732,6 +740,7 @@ impl<'a> Loader<'a> {
             pass_ids,
             mesh,
             curves,
+            points,
             materials,
             textures: self.textures,
             lights,

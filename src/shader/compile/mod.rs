@@ -231,6 +231,7 @@ fn dummy_geom(o: &ObjectData) -> Geom<'_> {
         path: crate::scene::light_path::LightPath::LIGHT_EMISSION,
         view: &crate::shader::geom::NO_VIEW,
         rays: crate::shader::geom::Rays::default(),
+        point: None,
     }
 }
 

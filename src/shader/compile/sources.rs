@@ -1,6 +1,6 @@
 //! Compiling the nodes that read the shading point or the scene: inputs (Texture
-//! Coordinate, UV Map, Geometry, Attribute, Fresnel, Layer Weight, Object Info), Mapping,
-//! Normal Map, Bump, and the texture nodes (procedural and image).
+//! Coordinate, UV Map, Geometry, Attribute, Fresnel, Layer Weight, Object Info, Point Info),
+//! Mapping, Normal Map, Bump, and the texture nodes (procedural and image).
 
 use super::*;
 use crate::scene::light_path::PathOutput;
@@ -262,6 +262,21 @@ impl Compiler<'_> {
                                 if id == "Object Index" { InputKind::ObjectIndex } else { InputKind::MaterialIndex };
                             self.ops.push(Op::Input { what, out });
                         }
+                    }
+                }
+            }
+            "ShaderNodePointInfo" => {
+                // Cycles' svm_node_point_info and the ATTR_STD_POINT_RANDOM attribute: the
+                // point's centre and radius, its random number; 0 off a point cloud.
+                self.all_const = false;
+                for (id, what, ty) in [
+                    ("Position", InputKind::PointPosition, Ty::Vector),
+                    ("Radius", InputKind::PointRadius, Ty::Float),
+                    ("Random", InputKind::PointRandom, Ty::Float),
+                ] {
+                    if self.is_used(i, id) {
+                        let out = self.out(i, id, ty);
+                        self.ops.push(Op::Input { what, out });
                     }
                 }
             }
