@@ -162,6 +162,7 @@ mod tests {
             triangles: vec![[0, 1, 2]],
             tri_material: vec![0],
             tri_object: vec![0],
+            attributes: Vec::new(),
         }
     }
 

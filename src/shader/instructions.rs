@@ -8,6 +8,7 @@ use super::image_node::ImageOp;
 use super::ops::{Blend, MathOp, RangeInterp, VecOp};
 use super::texture_nodes::TexOp;
 use crate::scene::light_path::PathOutput;
+use crate::scene::mesh::AttributeKey;
 use glam::{Mat3, Mat4, Vec3};
 
 /// Which geometric quantity an `Input` op reads (each in Blender axes).
@@ -67,6 +68,23 @@ pub enum InputKind {
     MaterialIndex,
     /// One output of the Light Path node.
     LightPath(PathOutput),
+    /// One output of an attribute read by name (`Program::attributes[slot]`): the Attribute
+    /// node's, the Color Attribute node's, Geometry's Pointiness and Random Per Island.
+    Attribute { slot: u32, out: AttributeOutput },
+}
+
+/// Which output of an attribute an `InputKind::Attribute` reads (`scene::mesh::AttributeValue`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AttributeOutput {
+    /// Color and Vector.
+    Vector,
+    /// Fac.
+    Fac,
+    /// Alpha.
+    Alpha,
+    /// The Color Attribute node's Alpha: 0 where the attribute is not found (Cycles'
+    /// `svm_node_vertex_color`), not the Attribute node's 1.
+    ColorAlpha,
 }
 
 /// Curve tables' kinds.
@@ -430,6 +448,9 @@ pub struct Program {
     /// Object Info's Material Index: the material's Pass Index (`CAUSTIC_material_pass`),
     /// set by the loader after compiling.
     pub material_index: f32,
+    /// The attributes the graph reads by name (`InputKind::Attribute`'s slots), each with the
+    /// node that reads it first (messages: a mesh without it).
+    pub attributes: Vec<(AttributeKey, String)>,
 }
 
 /// The subsurface walk a graph's Principled BSDF (with a Subsurface Weight) or Subsurface
