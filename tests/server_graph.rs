@@ -1,7 +1,7 @@
 //! The `material_graph` request of `caustic serve`: a node-graph material's new graph,
 //! applied in place, renders bit for bit as the scene loaded with that graph; a graph the
 //! running scene cannot take (malformed, an image it does not hold, emission where it has
-//! no lights) gets an error reply and the scene stays as it was.
+//! no lights, an attribute it did not keep) gets an error reply and the scene stays as it was.
 
 mod common;
 
@@ -92,8 +92,9 @@ fn a_graph_edit_renders_as_the_scene_loaded_with_it() {
     s.finish();
 }
 
-/// Malformed graphs, unknown materials, a plain material, an image the scene does not hold
-/// and emission on a material without lights are refused; the picture stays as loaded.
+/// Malformed graphs, unknown materials, a plain material, an image the scene does not hold,
+/// emission on a material without lights and an attribute read by name that the loaded mesh
+/// does not keep are refused; the picture stays as loaded.
 #[test]
 fn refused_graphs_leave_the_scene_unchanged() {
     let dir = temp_dir();
@@ -108,6 +109,11 @@ fn refused_graphs_leave_the_scene_unchanged() {
     let (_, lamp) = graphs(5.0, 1.0);
     let mut cyclic = floor.clone();
     cyclic["nodes"][0]["inputs"] = json!({"Vector": {"link": [1, "Color"]}});
+    // The floor's noise scaled by an attribute the loaded graphs did not read (the mesh kept none).
+    let mut wet = floor.clone();
+    wet["nodes"].as_array_mut().unwrap().push(json!({"name": "Wet", "type": "ShaderNodeAttribute",
+        "props": {"attribute_name": "wet", "attribute_type": "GEOMETRY"}}));
+    wet["nodes"][1]["inputs"]["Scale"] = json!({"link": [3, "Fac"]});
     let cases = [
         (edit("floor", json!({"version": 1, "nodes": "x"})), "CAUSTIC_materials_nodes is malformed"),
         (edit("floor", json!({"version": 1, "nodes": [], "output": {}, "extra": 1})), "malformed"),
@@ -116,6 +122,7 @@ fn refused_graphs_leave_the_scene_unchanged() {
         (edit("grey", floor.clone()), "send load"),
         (edit("floor", image), "not in the loaded scene; send load"),
         (edit("floor", lamp), "no lights; send load"),
+        (edit("floor", wet), "reads attribute 'wet', which the loaded mesh was not given; send load"),
     ];
     for (bytes, want) in cases {
         let msg = s.error_for(&bytes);

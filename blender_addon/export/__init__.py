@@ -16,6 +16,8 @@ out of it or writes differently from what Cycles renders (docs/contract.md):
 | `node_images.py` | the graphs' images, written beside the glTF in `caustic_nodes/` |
 | `media.py` | subsurface and the Volume output: `CAUSTIC_materials_subsurface`, `CAUSTIC_materials_medium` |
 | `meshes.py` | TEXCOORD_n for textured meshes without a UV map; `CAUSTIC_texspace` extras |
+| `attributes.py` | attributes read by name as Cycles reads them: `_CAUSTIC_*` vertex attributes (named, |
+|  | Pointiness, Random Per Island), `CAUSTIC_object_attributes` node extras, View Layer constants |
 | `nodes.py` | reading shader node trees (shared) |
 | `gltf_objects.py` | building the exporter's glTF objects (extensions, accessors) |
 | `gltf_hooks.py` | the hook class the exporter calls, and making sure it finds it |
@@ -149,7 +151,7 @@ def export_scene(depsgraph, folder, settings, motion=True, viewport=False, only=
     except (OSError, ValueError, KeyError, AttributeError) as err:
         raise CausticError(f"exporting point clouds failed: {err!r}") from None
     try:
-        add_instance_randoms(filepath, depsgraph)
+        add_instance_randoms(filepath, depsgraph, state.object_names, state.instancer_names, state.warnings)
     except (OSError, ValueError, KeyError) as err:
         raise CausticError(f"writing the instances' random numbers failed: {err!r}") from None
     try:

@@ -14,7 +14,7 @@ from contextlib import contextmanager
 
 import bpy
 
-from . import materials, meshes, object_filter, view_layer
+from . import attributes, materials, meshes, object_filter, view_layer
 from .camera import CAMERA_EXTENSION, camera_extension
 from .gltf_objects import attach_extension
 from .lights import (AREA_LIGHT_EXTENSION, PUNCTUAL_EXTENSION, area_light_extension,
@@ -41,7 +41,8 @@ class glTF2ExportUserExtension:
         displaces, and CAUSTIC_object_visibility to a mesh node
         whose object some kind of ray does not see or that is a holdout, CAUSTIC_object_pass to a mesh
         node with a Pass Index or a parent, CAUSTIC_light_linking to an emitter with a receiver
-        collection, and CAUSTIC_motion to a moving object's node."""
+        collection, CAUSTIC_motion to a moving object's node, and the Object and Instancer
+        attributes its materials read to a mesh node's extras (attributes.py)."""
         state = current()
         if state is None or blender_object is None:
             return
@@ -67,6 +68,12 @@ class glTF2ExportUserExtension:
                 if value:
                     attach_extension(gltf2_node, CAMERA_EXTENSION, value)
                 return
+            if gltf2_node.mesh is not None:
+                values = attributes.object_attributes(blender_object, state)
+                if values:
+                    extras = gltf2_node.extras if isinstance(gltf2_node.extras, dict) else {}
+                    extras[attributes.OBJECT_EXTRA] = values
+                    gltf2_node.extras = extras
             if blender_object.type == "MESH":
                 meshes.add_texspace(gltf2_node.mesh, blender_object, state)
                 meshes.add_normals_domain(gltf2_node.mesh, blender_object, state)
@@ -102,6 +109,17 @@ class glTF2ExportUserExtension:
         except Exception as err:
             state.errors.append(f"mesh '{getattr(blender_mesh, 'name', '?')}': {err!r}")
 
+    def gather_attributes_change(self, blender_attributes, export_settings):
+        """Add the mesh attributes the mesh's materials read by name (attributes.py) to the
+        attributes the exporter is about to write."""
+        state = current()
+        if state is None:
+            return
+        try:
+            attributes.add_mesh_attributes(blender_attributes, state)
+        except Exception as err:
+            state.errors.append(f"mesh attributes: {err!r}")
+
     def gather_material_hook(self, gltf2_material, blender_material, export_settings):
         """Translate what the exporter cannot read and add Caustic's material extensions (materials.py)."""
         state = current()
@@ -109,6 +127,8 @@ class glTF2ExportUserExtension:
             return
         try:
             materials.complete_material(gltf2_material, blender_material, export_settings, state)
+            if materials.uses_graph(blender_material, state):
+                attributes.note_requests(blender_material, state)
             ids = material_pass_extension(blender_material)
             if ids:
                 attach_extension(gltf2_material, MATERIAL_PASS_EXTENSION, ids)

@@ -20,6 +20,7 @@ modifier or shape keys are named in a warning (checked on bpy 5.0.1: an Array mo
 original mesh's texture space, so its copies repeat the pattern in Cycles).
 """
 
+from .attributes import note_requests
 from .gltf_objects import constant_uv_accessor
 from .materials import complete_material, graph_of, uses_graph
 from .media import volume_uses_generated
@@ -43,6 +44,7 @@ def apply_material_override(gltf2_mesh, state, export_settings):
         if not complete_material(material, override, export_settings, state, force_graph=True):
             state.warnings.append(f"material override '{override.name}' has no shader graph Caustic reads: "
                                   "rendered as Blender's default surface")
+        note_requests(override, state)
         state.override_material = material
     for prim in gltf2_mesh.primitives or []:
         prim.material = state.override_material

@@ -20,6 +20,8 @@ exporter reads); a material it can express keeps today's export unchanged.
 
 import bpy
 
+from .attributes import view_layer_rgba
+
 GRAPH_EXTENSION = "CAUSTIC_materials_nodes"
 GRAPH_VERSION = 1
 
@@ -394,32 +396,30 @@ class _Builder:
         elif node.bl_idname == "ShaderNodeNormal":
             props["direction"] = plain(node.outputs["Normal"].default_value)
         self._tex_coord(node, name, props)
-        self._warn_colour_attribute(node, name, props)
+        self._colour_0(node, props)
+        if node.bl_idname == "ShaderNodeAttribute" and node.attribute_type == "VIEW_LAYER":
+            props["view_layer_value"] = view_layer_rgba(self.context.depsgraph, node.attribute_name)
         return props
 
-    def _warn_colour_attribute(self, node, name, props):
-        """Name a node that reads a colour (or other non-UV) attribute the renderer cannot tell
-        apart: glTF's COLOR_n sets carry no names, and the exporter's own choice of COLOR_0
-        (Export Vertex Color "Material") sees only what its Principled BSDF reads (checked on
-        io_scene_gltf2 5.0.21: an Attribute node into a Diffuse BSDF got a fake white COLOR_0,
-        and two colour attributes and a Color Attribute node gave COLOR_0..COLOR_2). When the
-        scene's graphs read one named colour attribute alone, the export asks for it by name
-        (`single_colour_attribute`), which makes it COLOR_0 of every mesh that has it: a node
-        reading it on such meshes is read as Cycles reads it."""
-        geometry = True
+    def _colour_0(self, node, props):
+        """Mark (`color_0`) a node that reads the colour attribute exported as COLOR_0: when the
+        scene's graphs read one named colour attribute alone, the export asks the glTF exporter
+        for it by name (`single_colour_attribute`), which makes it COLOR_0 of every mesh that has
+        it (its own choice, Export Vertex Color "Material", sees only what its Principled BSDF
+        reads: checked on io_scene_gltf2 5.0.21, an Attribute node into a Diffuse BSDF got a fake
+        white COLOR_0). Every other attribute read by name is exported under its own name
+        (attributes.py)."""
         if node.bl_idname == "ShaderNodeVertexColor":
-            attribute = node.layer_name or "(active)"
-        elif node.bl_idname == "ShaderNodeAttribute" and "tex_coord" not in props:
-            attribute, geometry = node.attribute_name, node.attribute_type == "GEOMETRY"
+            attribute = node.layer_name
+        elif node.bl_idname == "ShaderNodeAttribute" and "tex_coord" not in props and \
+                node.attribute_type == "GEOMETRY":
+            attribute = node.attribute_name
         else:
             return
         meshes = self.context.meshes
-        if geometry and attribute == self.context.colour_attribute and meshes and \
+        if attribute and attribute == self.context.colour_attribute and meshes and \
                 all(mesh.color_attributes.get(attribute) is not None for mesh in meshes):
-            props["color_0"] = True  # the renderer's COLOR_0 is this attribute: no warning there
-            return
-        self.warn(name, f"attribute '{attribute}' is not exported by name (glTF's COLOR_n sets are unnamed); "
-                  "the renderer cannot read it as Cycles does")
+            props["color_0"] = True
 
     def _pointer_prop(self, node, name, key, value, props):
         if key == "color_ramp":

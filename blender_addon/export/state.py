@@ -32,6 +32,8 @@ class ExportState:
         self.motion = None  # motion.Motion: the steps of moving objects, or None
         self.only = None  # names of the only objects to export (object_filter.py), or None: all
         self.colour_attribute = None  # the colour attribute exported as COLOR_0 by name, or None
+        self.object_names = set()  # Object attributes the graphs read (attributes.py)
+        self.instancer_names = set()  # Instancer attributes the graphs read (attributes.py)
         # The exporter logs and swallows hook exceptions: the hooks record them here and
         # export_scene raises them afterwards.
         self.errors = []

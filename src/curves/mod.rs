@@ -174,6 +174,7 @@ impl Curves {
             color: Vec4::ONE,
             material: strand.material,
             tri: hit.tri,
+            bary: glam::Vec2::ZERO,
             front: true,
             t: hit.t,
             // The walker sets the ray's state (`advance_with`), as for triangles.

@@ -94,6 +94,7 @@ impl WorldGraph {
             // No surface: a Bump in a world graph finds none and keeps the normal.
             mesh: &crate::scene::mesh::EMPTY_MESH,
             tri: u32::MAX,
+            bary: Vec2::ZERO,
             path,
             view: &self.view,
             rays: crate::shader::geom::Rays::default(),

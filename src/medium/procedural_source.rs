@@ -40,6 +40,7 @@ impl ProceduralSource {
             textures: &self.volume.textures,
             mesh: &crate::scene::mesh::EMPTY_MESH,
             tri: 0,
+            bary: Vec2::ZERO,
             // The Light Path node in a volume is not modelled: read as a camera ray's.
             path: LightPath::CAMERA_RAY,
             view: &NO_VIEW,

@@ -190,6 +190,7 @@ impl Points {
             color: Vec4::ONE,
             material: self.objects[o].material,
             tri: hit.tri,
+            bary: Vec2::ZERO,
             front: true,
             t: hit.t,
             // The walker sets the ray's state (`advance_with`), as for triangles.

@@ -25,6 +25,9 @@ pub struct SurfaceHit {
     pub material: u32,
     /// Triangle index.
     pub tri: u32,
+    /// Barycentrics (b1, b2) of the hit: the weights of the triangle's second and third
+    /// vertices (named attributes are interpolated by them).
+    pub bary: Vec2,
     /// True when the ray hit the front (counter-clockwise) face.
     pub front: bool,
     /// Hit distance.

@@ -6,8 +6,9 @@
 //!
 //! What the running scene cannot take without loading again is refused with an error ending
 //! in "send load", before anything changes: an image the scene does not hold (or holds in
-//! another colour space), tangents or texture space the loaded mesh was not given for this
-//! graph, true displacement (the mesh was moved at load) in the new graph or the old, and emission on a material whose triangles are not lights. A malformed graph is an
+//! another colour space), tangents, texture space or an attribute read by name the loaded mesh
+//! was not given for this graph, true displacement (the mesh was moved at load) in the new
+//! graph or the old, and emission on a material whose triangles are not lights. A malformed graph is an
 //! error too; the scene is then unchanged.
 
 use super::edits::Invalidates;
@@ -68,6 +69,18 @@ pub fn prepare(scene: &Scene, name: &str, nodes: &serde_json::Value) -> Result<G
     {
         return Err(format!(
             "material '{name}': the graph now reads Generated coordinates, whose texture space the loaded mesh lacks; send load"
+        ));
+    }
+    // The loaded mesh keeps the attributes the loaded graphs read (`Mesh::attributes`): one
+    // this material did not read, and that no other graph kept, was not exported or kept.
+    if let Some((key, _)) = prog
+        .attributes
+        .iter()
+        .find(|(k, _)| scene.mesh.attribute(k).is_none() && !old.attributes.iter().any(|(o, _)| o == k))
+    {
+        return Err(format!(
+            "material '{name}': the graph now reads {}, which the loaded mesh was not given; send load",
+            key.describe()
         ));
     }
     let lit: std::collections::HashSet<u32> = scene

@@ -117,6 +117,7 @@ pub fn merge(scene: &mut Scene, mut add: Scene) -> Result<Merged, String> {
     m.uv0.append(&mut a.uv0);
     m.uv1.append(&mut a.uv1);
     m.colors.append(&mut a.colors);
+    m.append_attributes(a, v0 as usize);
     m.triangles.extend(a.triangles.iter().map(|t| t.map(|v| v + v0)));
     m.tri_material.extend(a.tri_material.iter().map(|x| x + m0));
     // A triangle without instance data reads NO_OBJECT (`Scene::object_of`): index past the list.

@@ -163,6 +163,7 @@ mod tests {
             tri_material: vec![0],
             tri_object: vec![0],
             undisplaced: Vec::new(),
+            attributes: Vec::new(),
         }
     }
 

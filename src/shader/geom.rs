@@ -75,6 +75,9 @@ pub struct Geom<'a> {
     pub mesh: &'a Mesh,
     /// The shaded triangle.
     pub tri: u32,
+    /// Barycentrics (b1, b2) of the point in the triangle (its second and third vertices'
+    /// weights), for the attributes read by name.
+    pub bary: Vec2,
     /// The ray that reached the point (the Light Path node).
     pub path: LightPath,
     /// The render camera (Texture Coordinate Camera and Window).
@@ -118,6 +121,13 @@ impl std::fmt::Debug for Rays<'_> {
 }
 
 impl Geom<'_> {
+    /// Attribute `key` at the point, None where its triangle does not have it (off a mesh
+    /// too: the world, a strand).
+    #[inline]
+    pub fn attribute(&self, key: &crate::scene::mesh::AttributeKey) -> Option<crate::scene::mesh::AttributeValue> {
+        self.mesh.attribute_at(key, self.tri, self.bary.x, self.bary.y)
+    }
+
     /// The Texture Coordinate node's Generated output (Blender axes): the object-space point
     /// mapped by the mesh's texture space to [0, 1]³, the object-space point without one.
     #[inline]
@@ -313,6 +323,7 @@ pub(super) fn geom_at_ng<'a>(
         textures,
         mesh,
         tri,
+        bary: Vec2::new(b1, b2),
         path: LightPath::LIGHT_EMISSION,
         view: &NO_VIEW,
         rays: Rays::default(),

@@ -9,6 +9,7 @@ use super::ops::{Blend, MathOp, RangeInterp, VecOp};
 use super::texture_nodes::TexOp;
 use super::trace::{AoOp, BevelOp};
 use crate::scene::light_path::PathOutput;
+use crate::scene::mesh::AttributeKey;
 use glam::{Mat3, Mat4, Vec3};
 
 /// Which geometric quantity an `Input` op reads (each in Blender axes).
@@ -74,6 +75,23 @@ pub enum InputKind {
     PointRadius,
     /// Point Info Random: Cycles' per-point random number; 0 off a point.
     PointRandom,
+    /// One output of an attribute read by name (`Program::attributes[slot]`): the Attribute
+    /// node's, the Color Attribute node's, Geometry's Pointiness and Random Per Island.
+    Attribute { slot: u32, out: AttributeOutput },
+}
+
+/// Which output of an attribute an `InputKind::Attribute` reads (`scene::mesh::AttributeValue`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AttributeOutput {
+    /// Color and Vector.
+    Vector,
+    /// Fac.
+    Fac,
+    /// Alpha.
+    Alpha,
+    /// The Color Attribute node's Alpha: 0 where the attribute is not found (Cycles'
+    /// `svm_node_vertex_color`), not the Attribute node's 1.
+    ColorAlpha,
 }
 
 /// Curve tables' kinds.
@@ -447,6 +465,9 @@ pub struct Program {
     /// The graph has an Ambient Occlusion or Bevel node: its shading points get the scene's
     /// rays and a seed (`shader::trace`).
     pub traces: bool,
+    /// The attributes the graph reads by name (`InputKind::Attribute`'s slots), each with the
+    /// node that reads it first (messages: a mesh without it).
+    pub attributes: Vec<(AttributeKey, String)>,
 }
 
 /// A material's true displacement: the Displacement node's (Height − Midlevel) × Scale computed

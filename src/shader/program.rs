@@ -10,7 +10,7 @@
 
 use super::closure::Closures;
 use super::geom::{Geom, Reg, from_blender, geom_at_ng, set3, to_blender, v3};
-use super::instructions::{BumpOp, ColorSpace, CurveKind, InputKind, MappingKind, Op, Program};
+use super::instructions::{AttributeOutput, BumpOp, ColorSpace, CurveKind, InputKind, MappingKind, Op, Program};
 use super::ops;
 use crate::math::{Frame, luminance};
 use glam::{EulerRot, Mat3, Mat4, Vec3, Vec4};
@@ -455,6 +455,25 @@ impl Program {
             InputKind::PointRandom => {
                 r[out as usize] = g.point.map_or(0.0, |p| p.random);
                 return;
+            }
+            InputKind::Attribute { slot, out: which } => {
+                let found = self.attributes.get(slot as usize).and_then(|(key, _)| g.attribute(key));
+                let a = found.unwrap_or(crate::scene::mesh::NOT_FOUND);
+                match which {
+                    AttributeOutput::Vector => a.vector,
+                    AttributeOutput::Fac => {
+                        r[out as usize] = a.fac;
+                        return;
+                    }
+                    AttributeOutput::Alpha => {
+                        r[out as usize] = a.alpha;
+                        return;
+                    }
+                    AttributeOutput::ColorAlpha => {
+                        r[out as usize] = found.map_or(0.0, |a| a.alpha);
+                        return;
+                    }
+                }
             }
         };
         set3(r, out, v);

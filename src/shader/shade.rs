@@ -49,6 +49,7 @@ pub(super) fn geom_of<'a>(scene: &'a Scene, s: &SurfaceHit, wo: Vec3) -> Geom<'a
         textures: &scene.textures,
         mesh: &scene.mesh,
         tri: s.tri,
+        bary: s.bary,
         path: s.light_path,
         view: &scene.view,
         rays: Rays::default(),

@@ -1,7 +1,8 @@
 """The add-on's exports pass the Khronos glTF validator with no errors.
 
 Each test scene of the add-on suite (every light type, the materials of the agreement tests,
-a textured material, the uniform and image worlds, the render-test scene, point clouds) is exported exactly
+a textured material, the uniform and image worlds, the render-test scene, point clouds, meshes
+with attributes read by name) is exported exactly
 as a render does (an F12 render with the contract's stand-in binary, the temporary folder kept
 with CAUSTIC_KEEP_TEMP), and `scene.gltf` with its .bin and images goes through the validator
 (npm `gltf-validator`, installed into .tools/ by scripts/setup_validator.sh; a missing install
@@ -76,6 +77,12 @@ def point_clouds(scene, tmp_path):
     test_points.point_cloud_object(scene, scenes.diffuse_material("Light", 0.8), count=8)
 
 
+def attribute_case(name, scene):
+    """A scene of test_attributes_agreement.py (imported here: it imports this module)."""
+    from test_attributes_agreement import CASES
+    CASES[name](scene)
+
+
 SCENES = {
     "all_lights": all_lights,
     "point_clouds": point_clouds,
@@ -85,6 +92,9 @@ SCENES = {
     "world_hdri": lambda scene, tmp_path: lights.build(scene, hdri_world(tmp_path, 0.7)),
     **{f"material_{name}": (lambda make: lambda scene, tmp_path: build_material_scene(scene, make()))(make)
        for name, (make, _) in MATERIALS.items()},
+    # Attributes read by name: `_CAUSTIC_*` vertex attributes (application-specific semantics).
+    **{f"attributes_{name}": (lambda name: lambda scene, tmp_path: attribute_case(name, scene))(name)
+       for name in ("face_float", "corner_colours", "pointiness", "random_per_island", "object_properties")},
 }
 
 

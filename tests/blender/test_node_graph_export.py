@@ -491,10 +491,11 @@ def test_file_images_are_rewritten_and_missing_ones_named(addon, empty_scene, tm
     assert any("Files" in w and "'Missing'" in w and "no pixels" in w for w in state.warnings), state.warnings
 
 
-def test_colour_attribute_nodes_are_named_in_a_warning(addon, empty_scene, tmp_path):
-    """glTF's COLOR_n sets carry no names, so a Color Attribute node's attribute cannot be told
-    apart where the graphs read several: exported as a node, and named in a warning rather
-    than read silently as COLOR_0."""
+def test_colour_attributes_are_exported_by_name(addon, empty_scene, tmp_path):
+    """glTF's COLOR_n sets carry no names: where the graphs read several colour attributes
+    (a Color Attribute node's and an Attribute node's), each is a vertex attribute of its own
+    name (`_CAUSTIC_ATTR_` and the name in hex, attributes.py), one value per vertex, and
+    nothing is warned (each used to be named in a warning, read as COLOR_0)."""
     mat = new_material("Painted")
     tree = mat.node_tree
     paint = tree.nodes.new("ShaderNodeVertexColor")
@@ -509,7 +510,14 @@ def test_colour_attribute_nodes_are_named_in_a_warning(addon, empty_scene, tmp_p
     gltf, state, _ = export(addon, empty_scene, tmp_path)
     nodes = by_name(graph_of(gltf, "Painted"))
     assert nodes["Color Attribute"][1]["props"]["layer_name"] == "Paint"
-    assert any("'Painted'" in w and "'Paint'" in w and "COLOR_n" in w for w in state.warnings), state.warnings
+    assert "color_0" not in nodes["Attribute"][1]["props"]
+    assert not any("'Painted'" in w and "attribute" in w for w in state.warnings), state.warnings
+    prim = gltf["meshes"][0]["primitives"][0]
+    for name in ("Paint", "Wet"):
+        semantic = "_CAUSTIC_ATTR_" + name.encode().hex().upper()
+        accessor = gltf["accessors"][prim["attributes"][semantic]]
+        assert (accessor["type"], accessor["componentType"]) == ("VEC4", 5126), accessor
+        assert accessor["count"] == gltf["accessors"][prim["attributes"]["POSITION"]]["count"]
 
 
 def test_the_one_colour_attribute_the_graphs_read_is_colour_0(addon, empty_scene, tmp_path):

@@ -42,8 +42,10 @@ impl Loader<'_> {
             vertices = vertices.saturating_add(v.saturating_mul(copies));
             triangles = triangles.saturating_add(t.saturating_mul(copies));
         }
+        // Attributes read by name take up to five floats a vertex each (`Mesh::attributes`).
+        let per_vertex = memory::MESH_BYTES_PER_VERTEX + self.attribute_keys.len() as u64 * 20;
         let bytes = vertices
-            .saturating_mul(memory::MESH_BYTES_PER_VERTEX)
+            .saturating_mul(per_vertex)
             .saturating_add(triangles.saturating_mul(memory::MESH_BYTES_PER_TRIANGLE));
         self.budget.charge(format!("the mesh ({triangles} triangles and {vertices} vertices after instancing)"), bytes)
     }
@@ -59,6 +61,7 @@ impl Loader<'_> {
         buffers: &[Vec<u8>],
         materials: &[Material],
         default_material: u32,
+        per_object: &super::attributes::ObjectAttributes,
         out: &mut Mesh,
     ) -> Result<usize> {
         let mesh_name =
@@ -261,6 +264,19 @@ impl Loader<'_> {
                 out.uv1.push(uv1.as_ref().map(|u| u[i]).unwrap_or(Vec2::ZERO));
                 out.colors.push(colors.as_ref().map(|c| c[i]).unwrap_or(Vec4::ONE));
             }
+            let plain_name = m.name().map(str::to_string).unwrap_or_else(|| format!("mesh {}", m.index()));
+            let material_of = (material_index, &materials[material_index as usize]);
+            self.primitive_attributes(
+                &prim,
+                buffers,
+                &what,
+                &plain_name,
+                material_of,
+                per_object,
+                base as usize,
+                nv,
+                out,
+            )?;
             let first_tri = out.triangles.len();
             for t in tris {
                 let p = t.map(|i| out.positions[(base + i) as usize]);

@@ -13,6 +13,7 @@
 //! and generates tangents; `cameras.rs`, `lights.rs` and `world.rs` the rest;
 //! `extensions.rs` holds the serde shapes of the `CAUSTIC_*` extensions.
 
+mod attributes;
 mod buffers;
 mod cameras;
 mod curves;
@@ -174,6 +175,11 @@ struct Loader<'a> {
     quantization: quantized::Quantization,
     /// The world graph, when it has AOV Output nodes (for `ShaderAovs::resolve`).
     world_aovs: Option<crate::light::world_graph::WorldGraph>,
+    /// The attributes the materials' graphs read by name (only those are kept on the mesh).
+    attribute_keys: std::collections::HashSet<crate::scene::mesh::AttributeKey>,
+    /// (material, attribute) → the meshes of that material's primitives without it, for the
+    /// warnings after the mesh is built (`attributes::warn_missing`).
+    attribute_gaps: HashMap<(u32, crate::scene::mesh::AttributeKey), Vec<String>>,
 }
 
 /// An emitter's light linking rules: receivers, blockers (`CAUSTIC_light_linking`).
@@ -193,6 +199,8 @@ impl<'a> Loader<'a> {
             files_read: Default::default(),
             quantization: quantized::Quantization::Core,
             world_aovs: None,
+            attribute_keys: Default::default(),
+            attribute_gaps: HashMap::new(),
         }
     }
 
@@ -309,6 +317,7 @@ impl<'a> Loader<'a> {
         }
         let default_material = self.default_material(&value, &mut materials)?;
         self.profile.materials = phase.elapsed().as_secs_f64() - self.profile.decode_textures;
+        self.attribute_keys = attributes::keys_read(&materials);
 
         // 7. Node graph to instances.
         let phase = Instant::now();
@@ -387,8 +396,17 @@ impl<'a> Loader<'a> {
                     let (v0, t0) = (mesh.positions.len() as u32, mesh.triangles.len() as u32);
                     let first = t0 as usize;
                     let pose = self.node_pose(&node, &m, &worlds, &buffers)?;
-                    degenerate +=
-                        self.append_mesh(&m, world, &pose, &buffers, &materials, default_material, &mut mesh)?;
+                    let per_object = self.object_attributes(&value, *node_index, &node_name)?;
+                    degenerate += self.append_mesh(
+                        &m,
+                        world,
+                        &pose,
+                        &buffers,
+                        &materials,
+                        default_material,
+                        &per_object,
+                        &mut mesh,
+                    )?;
                     if let Some(ext) = node.extension_value("CAUSTIC_object_visibility") {
                         let vis: ObjectVisibilityExt = serde_json::from_value(ext.clone()).map_err(|e| {
                             self.err(format!("node {node_index} ('{node_name}'): bad CAUSTIC_object_visibility: {e}"))
@@ -482,6 +500,7 @@ impl<'a> Loader<'a> {
         }
         ray_visibility.finish(mesh.triangles.len());
         undisplaced.finish(&mut mesh);
+        self.finish_attributes(&mut mesh, &materials);
         let curves = self.curves(&value, &doc, &buffers, &mut materials, default_material)?;
         let points =
             self.points(&value, &doc, &buffers, &mut materials, default_material, graphs.then_some(&mut objects))?;

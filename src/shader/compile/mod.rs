@@ -228,6 +228,7 @@ fn dummy_geom(o: &ObjectData) -> Geom<'_> {
         textures: &[],
         mesh: &crate::scene::mesh::EMPTY_MESH,
         tri: 0,
+        bary: Vec2::ZERO,
         path: crate::scene::light_path::LightPath::LIGHT_EMISSION,
         view: &crate::shader::geom::NO_VIEW,
         rays: crate::shader::geom::Rays::default(),
@@ -647,6 +648,86 @@ mod tests {
 
         let c = compiled(json!([principled, sss, mix(0, 1, "BSDF", "BSSRDF")]), json!([2, "Shader"]));
         assert!(c.warnings.iter().any(|w| w.contains("differ from another subsurface closure")), "{:?}", c.warnings);
+    }
+
+    /// Attribute nodes read their attribute by key (`Program::attributes`), one slot per key
+    /// whichever nodes read it, each slot naming its first reader; a Color Attribute node
+    /// without a name reads the render colour; Geometry's Pointiness and Random Per Island take
+    /// a slot only where linked; a View Layer attribute folds to constants (Color its RGB, Fac
+    /// their average, Alpha its A); an unknown attribute type is refused naming the node.
+    #[test]
+    fn attributes_compile_to_slots_and_view_layer_constants() {
+        use crate::scene::mesh::AttributeKey as K;
+        let attribute = |name: &str, kind: &str| {
+            json!({"name": format!("{kind}:{name}"), "type": "ShaderNodeAttribute",
+                   "props": {"attribute_name": name, "attribute_type": kind}})
+        };
+        let c = compiled(
+            json!([
+                attribute("wet", "GEOMETRY"),
+                attribute("wet", "GEOMETRY"),
+                attribute("tint", "OBJECT"),
+                attribute("tint", "INSTANCER"),
+                {"name": "Paint", "type": "ShaderNodeVertexColor", "props": {"layer_name": ""}},
+                {"name": "Geometry", "type": "ShaderNodeNewGeometry"},
+                {"name": "Sum", "type": "ShaderNodeMath", "props": {"operation": "ADD"},
+                 "inputs": {"Value": {"link": [0, "Fac"]}, "Value_001": {"link": [1, "Alpha"]}}},
+                {"name": "Mix", "type": "ShaderNodeMix", "props": {"data_type": "RGBA"},
+                 "inputs": {"Factor_Float": {"link": [5, "Pointiness"]}, "A_Color": {"link": [2, "Color"]},
+                            "B_Color": {"link": [3, "Color"]}}},
+                {"name": "E", "type": "ShaderNodeEmission",
+                 "inputs": {"Color": {"link": [7, "Result_Color"]}, "Strength": {"link": [6, "Value"]}}},
+                {"name": "E2", "type": "ShaderNodeEmission", "inputs": {"Strength": {"link": [4, "Alpha"]}}},
+                {"name": "Add", "type": "ShaderNodeAddShader",
+                 "inputs": {"Shader": {"link": [8, "Emission"]}, "Shader_001": {"link": [9, "Emission"]}}}
+            ]),
+            json!([10, "Shader"]),
+        );
+        let keys: Vec<&K> = c.program.attributes.iter().map(|(k, _)| k).collect();
+        let want = [
+            K::Named("wet".into()),
+            K::Object("tint".into()),
+            K::Instancer("tint".into()),
+            K::RenderColor,
+            K::Pointiness,
+        ];
+        assert_eq!(keys.len(), want.len(), "{keys:?}");
+        for k in &want {
+            assert!(keys.contains(&k), "{k:?} not in {keys:?}");
+        }
+        assert!(!keys.contains(&&K::RandomPerIsland), "Random Per Island is not linked");
+        let wet = c.program.attributes.iter().find(|(k, _)| *k == K::Named("wet".into())).unwrap();
+        assert_eq!(wet.1, "node 'GEOMETRY:wet' (ShaderNodeAttribute)");
+        assert!(c.warnings.is_empty(), "{:?}", c.warnings);
+
+        let c = compiled(
+            json!([
+                {"name": "Layer", "type": "ShaderNodeAttribute",
+                 "props": {"attribute_name": "level", "attribute_type": "VIEW_LAYER", "view_layer_value": [0.3, 0.6, 0.9, 0.5]}},
+                {"name": "E", "type": "ShaderNodeEmission",
+                 "inputs": {"Color": {"link": [0, "Color"]}, "Strength": {"link": [0, "Alpha"]}}}
+            ]),
+            json!([1, "Emission"]),
+        );
+        assert!(c.program.attributes.is_empty());
+        assert_eq!(c.program.constant_emission, Some(Vec3::new(0.3, 0.6, 0.9) * 0.5));
+        let c = compiled(
+            json!([
+                {"name": "Layer", "type": "ShaderNodeAttribute", "props": {"attribute_name": "level", "attribute_type": "VIEW_LAYER"}},
+                {"name": "E", "type": "ShaderNodeEmission", "inputs": {"Strength": {"link": [0, "Fac"]}}}
+            ]),
+            json!([1, "Emission"]),
+        );
+        assert_eq!(c.program.constant_emission, Some(Vec3::ZERO));
+        assert!(c.warnings.iter().any(|w| w.contains("'Layer'") && w.contains("not in the file")), "{:?}", c.warnings);
+
+        let ext: NodesExt = serde_json::from_value(json!({"version": 1, "nodes": [
+            {"name": "Odd", "type": "ShaderNodeAttribute", "props": {"attribute_name": "x", "attribute_type": "SIDEWAYS"}},
+            {"name": "E", "type": "ShaderNodeEmission", "inputs": {"Strength": {"link": [0, "Fac"]}}}
+        ], "output": {"surface": [1, "Emission"]}}))
+        .unwrap();
+        let err = compile("m", &ext, &[]).err().expect("an unknown type is refused");
+        assert!(err.contains("'Odd'") && err.contains("SIDEWAYS"), "{err}");
     }
 
     /// More small lobes than a mixture holds is named at load; two Principled BSDFs too.

@@ -4,6 +4,8 @@
 
 use super::*;
 use crate::scene::light_path::PathOutput;
+use crate::scene::mesh::AttributeKey;
+use crate::shader::instructions::AttributeOutput;
 use crate::shader::sky::{Sky, SkyModel, SkyParams};
 use crate::shader::trace::{AoOp, BevelOp};
 
@@ -20,6 +22,52 @@ impl Compiler<'_> {
             self.warn(i, format!("Samples {n} is above Blender's {MAX_TRACE_SAMPLES}: {MAX_TRACE_SAMPLES} are traced"));
         }
         n.min(MAX_TRACE_SAMPLES) as u32
+    }
+
+    /// The input that reads output `which` of attribute `key` for node `i` (its slot in
+    /// `Program::attributes`, shared by every node reading the key).
+    fn attribute_input(&mut self, i: usize, key: AttributeKey, which: AttributeOutput) -> InputKind {
+        let slot = match self.prog.attributes.iter().position(|(k, _)| *k == key) {
+            Some(s) => s,
+            None => {
+                let node = format!("node '{}' ({})", self.desc(i).name, self.desc(i).kind);
+                self.prog.attributes.push((key, node));
+                self.prog.attributes.len() - 1
+            }
+        };
+        InputKind::Attribute { slot: slot as u32, out: which }
+    }
+
+    /// An Attribute node of the View Layer type: constants, as Cycles folds them
+    /// (`resolve_view_layer_attributes`): the value the add-on looked up on the view layer, the
+    /// scene and the world (`view_layer_value`, RGBA; 0 where none has it) gives Color and
+    /// Vector its RGB, Fac their average and Alpha its A. Cycles sets a float input linked to
+    /// Color to the average too (not the luminance of a colour link): Color is typed a vector
+    /// here, whose float conversion is the average.
+    fn view_layer_attribute(&mut self, i: usize) -> Result<(), String> {
+        let value = match self.desc(i).props.get("view_layer_value") {
+            Some(v) => {
+                let nums: Option<Vec<f32>> =
+                    v.as_array().map(|a| a.iter().filter_map(Value::as_f64).map(|x| x as f32).collect());
+                match nums {
+                    Some(n) if n.len() == 4 && n.iter().all(|x| x.is_finite()) => Vec4::from_slice(&n),
+                    _ => return Err(self.err(i, "view_layer_value must be four finite numbers")),
+                }
+            }
+            None => {
+                self.warn(i, "the View Layer attribute's value is not in the file: it gives 0");
+                Vec4::ZERO
+            }
+        };
+        let rgb = value.truncate();
+        let rgb_reg = self.konst_v(rgb);
+        self.alias(i, "Color", rgb_reg, Ty::Vector);
+        self.alias(i, "Vector", rgb_reg, Ty::Vector);
+        let fac = self.konst_f((rgb.x + rgb.y + rgb.z) / 3.0);
+        self.alias(i, "Fac", fac, Ty::Float);
+        let alpha = self.konst_f(value.w);
+        self.alias(i, "Alpha", alpha, Ty::Float);
+        Ok(())
     }
 
     /// An Image or Environment Texture node's image (None, with a warning: magenta, as
@@ -98,6 +146,7 @@ impl Compiler<'_> {
                     ("Incoming", Some(InputKind::Incoming), Ty::Vector),
                     ("Parametric", Some(InputKind::Parametric), Ty::Vector),
                     ("Backfacing", Some(InputKind::Backfacing), Ty::Float),
+                    // Per-vertex and per-face attributes the add-on computes as Cycles' sync does.
                     ("Pointiness", None, Ty::Float),
                     ("Random Per Island", None, Ty::Float),
                 ] {
@@ -108,15 +157,18 @@ impl Compiler<'_> {
                     if what == Some(InputKind::Radial(2)) {
                         self.uses_generated = true;
                     }
-                    match what {
-                        Some(what) => self.ops.push(Op::Input { what, out }),
-                        None => self.warn(i, format!("the {id} output is not supported: it gives 0")),
-                    }
+                    let what = what.unwrap_or_else(|| {
+                        let key =
+                            if id == "Pointiness" { AttributeKey::Pointiness } else { AttributeKey::RandomPerIsland };
+                        self.attribute_input(i, key, AttributeOutput::Fac)
+                    });
+                    self.ops.push(Op::Input { what, out });
                 }
             }
             "ShaderNodeAttribute" | "ShaderNodeVertexColor" => {
                 self.all_const = false;
                 let name = self.prop_str(i, "attribute_name", self.prop_str(i, "layer_name", "")).to_string();
+                let attribute_type = self.prop_str(i, "attribute_type", "GEOMETRY");
                 if let Some(set) = self.desc(i).props.get("tex_coord").and_then(Value::as_u64) {
                     // A UV map read as an attribute.
                     for id in ["Vector", "Color"] {
@@ -125,11 +177,35 @@ impl Compiler<'_> {
                             self.ops.push(Op::Input { what: InputKind::Uv(set.min(1) as u8), out });
                         }
                     }
+                } else if !self.prop_bool(i, "color_0", false) {
+                    // Read by name (docs/contract.md, "Attributes"), or a View Layer constant.
+                    let key = match (kind, attribute_type) {
+                        ("ShaderNodeVertexColor", _) if name.is_empty() => AttributeKey::RenderColor,
+                        ("ShaderNodeVertexColor", _) | (_, "GEOMETRY") => AttributeKey::Named(name),
+                        (_, "OBJECT") => AttributeKey::Object(name),
+                        (_, "INSTANCER") => AttributeKey::Instancer(name),
+                        (_, "VIEW_LAYER") => return self.view_layer_attribute(i).map(|()| true),
+                        (_, other) => return Err(self.err(i, format!("unknown attribute type '{other}'"))),
+                    };
+                    let alpha = if kind == "ShaderNodeVertexColor" {
+                        AttributeOutput::ColorAlpha
+                    } else {
+                        AttributeOutput::Alpha
+                    };
+                    for (id, which, ty) in [
+                        ("Color", AttributeOutput::Vector, Ty::Color),
+                        ("Vector", AttributeOutput::Vector, Ty::Vector),
+                        ("Fac", AttributeOutput::Fac, Ty::Float),
+                        ("Alpha", alpha, Ty::Float),
+                    ] {
+                        if self.is_used(i, id) {
+                            let what = self.attribute_input(i, key.clone(), which);
+                            let out = self.out(i, id, ty);
+                            self.ops.push(Op::Input { what, out });
+                        }
+                    }
                 } else {
                     // `color_0`: the add-on exported this attribute as COLOR_0 by name.
-                    if kind == "ShaderNodeAttribute" && !self.prop_bool(i, "color_0", false) {
-                        self.warn(i, format!("attribute '{name}' is read as the mesh's colour attribute (COLOR_0)"));
-                    }
                     for (id, what, ty) in [
                         ("Color", InputKind::VertexColor, Ty::Color),
                         ("Vector", InputKind::VertexColor, Ty::Vector),

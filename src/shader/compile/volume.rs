@@ -9,6 +9,7 @@
 
 use super::{Compiler, Sock, Ty, check_and_sort};
 use crate::medium::Phase;
+use crate::scene::mesh::AttributeKey;
 use crate::shader::geom::Reg;
 use crate::shader::graph::NodesExt;
 use crate::shader::instructions::Program;
@@ -147,6 +148,16 @@ pub fn compile_volume(name: &str, ext: &NodesExt, shader: usize, images: &[u32])
         VolumeKind::Scatter => scatter_phase(&mut c, s, anisotropy),
         _ => Phase::hg(anisotropy),
     };
+    // Inside a medium there is no triangle: mesh attributes are not found there, as in
+    // Cycles; an object's attributes are, which the medium does not carry.
+    for (key, node) in &c.prog.attributes {
+        if matches!(key, AttributeKey::Object(_) | AttributeKey::Instancer(_)) {
+            c.warnings.push(format!(
+                "{node}: {} reads 0 in a volume shader (Cycles reads the object's value there)",
+                key.describe()
+            ));
+        }
+    }
     let mut prog = c.prog;
     prog.init = c.init;
     prog.ops = c.ops;
