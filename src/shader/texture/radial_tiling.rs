@@ -43,8 +43,10 @@ pub struct RadialTilingUse {
 /// Roundness and the `normalize` setting, clamped as Cycles does (at least 2 sides,
 /// roundness in [0, 1]). Outputs not asked for by `used` are 0.
 pub fn radial_tiling(coord: Vec2, sides: f32, roundness: f32, normalize: bool, used: RadialTilingUse) -> RadialTiling {
-    // `max` and `max(0).min(1)` take the number over a NaN, as Cycles' fmaxf and clamp.
+    // `max` and `max(0).min(1)` take the number over a NaN, as Cycles' fmaxf and clamp
+    // (`f32::clamp` would keep the NaN).
     let sides = sides.max(2.0);
+    #[allow(clippy::manual_clamp)]
     let roundness = roundness.max(0.0).min(1.0);
     let mut out = RadialTiling { coordinates: Vec3::ZERO, segment_id: 0.0, width: 0.0, rotation: 0.0 };
     if used.segment {
@@ -472,6 +474,14 @@ mod tests {
         assert_eq!(o.segment_id, -4.0);
         assert!((o.rotation + 3.6249144).abs() < 1e-5, "{o:?}");
         assert!((o.coordinates.y - 1.9942653).abs() < 1e-5, "{o:?}");
+    }
+
+    /// A NaN Sides or Roundness reads as 2 sides and roundness 0, as Cycles' fmaxf and clamp.
+    #[test]
+    fn nan_settings_clamp_as_cycles() {
+        let c = Vec2::new(0.3, 0.7);
+        assert_eq!(radial_tiling(c, f32::NAN, 0.0, true, ALL), radial_tiling(c, 2.0, 0.0, true, ALL));
+        assert_eq!(radial_tiling(c, 5.0, f32::NAN, true, ALL), radial_tiling(c, 5.0, 0.0, true, ALL));
     }
 
     /// At the origin the parameter is 0 (½ normalised) and the distance 0 (−1 unnormalised).
