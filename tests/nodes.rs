@@ -214,6 +214,53 @@ fn noise_texture_node_gives_the_function_value() {
     }
 }
 
+/// The Radial Tiling node is wired to its function: Position's Blender x and z (the plane's
+/// axes) → Radial Tiling (6.5 sides, roundness 0.3, normalised) → Emission gives Segment
+/// Coordinates at each pixel centre; a second graph gives (Segment ID, Width, Rotation).
+#[test]
+fn radial_tiling_node_gives_the_function_value() {
+    use caustic::shader::texture::{RadialTilingUse, radial_tiling};
+    let graph = |emitted: Value| {
+        json!([
+            {"name": "Geometry", "type": "ShaderNodeNewGeometry"},
+            {"name": "Split", "type": "ShaderNodeSeparateXYZ", "inputs": {"Vector": {"link": [0, "Position"]}}},
+            {"name": "Plane", "type": "ShaderNodeCombineXYZ",
+             "inputs": {"X": {"link": [1, "X"]}, "Y": {"link": [1, "Z"]}, "Z": {"value": 0.0}}},
+            {"name": "Tiling", "type": "ShaderNodeRadialTiling", "props": {"normalize": true},
+             "inputs": {"Vector": {"link": [2, "Vector"], "value": [0.0, 0.0]}, "Sides": {"value": 6.5},
+                        "Roundness": {"value": 0.3}}},
+            {"name": "Outputs", "type": "ShaderNodeCombineXYZ",
+             "inputs": {"X": {"link": [3, "Segment ID"]}, "Y": {"link": [3, "Segment Width"]},
+                        "Z": {"link": [3, "Segment Rotation"]}}},
+            {"name": "Emission", "type": "ShaderNodeEmission", "inputs": {"Color": {"link": emitted}, "Strength": {"value": 1.0}}}
+        ])
+    };
+    let coordinates =
+        render_plane(node_material("radial", graph(json!([3, "Segment Coordinates"])), json!([5, "Emission"])), 4);
+    let others = render_plane(node_material("radial", graph(json!([4, "Vector"])), json!([5, "Emission"])), 4);
+    let all = RadialTilingUse { segment: true, segment_id: true };
+    let segment = std::f32::consts::TAU / 6.5;
+    for ((c, x, y), (o, _, _)) in coordinates.into_iter().zip(others) {
+        let angle = y.atan2(x).rem_euclid(std::f32::consts::TAU);
+        let from_divider = (angle - (angle / segment).round() * segment).abs().min(std::f32::consts::TAU - angle);
+        // The samples lie within 0.0005 pixel (1.25e-4) of the centre: the pixels nearest the
+        // origin (0.18 from it) see the parameter move by < 1e-3 there; none is near a divider.
+        assert!(from_divider > 1e-2, "pixel ({x}, {y}) is at a divider");
+        let want = radial_tiling(glam::Vec2::new(x, y), 6.5, 0.3, true, all);
+        assert!(
+            (c[0] - want.coordinates.x).abs() < 2e-3 && (c[1] - want.coordinates.y).abs() < 2e-3,
+            "({x}, {y}): {c:?} vs {:?}",
+            want.coordinates
+        );
+        assert_eq!(c[2], 0.0);
+        assert_eq!(o[0], want.segment_id, "({x}, {y})");
+        assert!(
+            (o[1] - want.width).abs() < 1e-6 && (o[2] - want.rotation).abs() < 1e-6,
+            "({x}, {y}): {o:?} vs {want:?}"
+        );
+    }
+}
+
 /// Image Texture (Closest, Repeat) on UV: each quadrant of the plane shows one texel of a
 /// 2×2 sRGB PNG, decoded to linear; a ColorRamp on UV's u gives u back through its table.
 #[test]
@@ -550,6 +597,16 @@ fn bad_links_and_values_are_refused() {
         (
             json!([{"name": "E", "type": "ShaderNodeEmission", "inputs": {"Strength": {"value": [1, 2, 3]}}}]),
             "expects a number",
+        ),
+        (
+            json!([{"name": "R", "type": "ShaderNodeRadialTiling", "props": {"normalize": "yes"}},
+                   {"name": "E", "type": "ShaderNodeEmission", "inputs": {"Strength": {"link": [0, "Segment ID"]}}}]),
+            "'normalize' must be true or false",
+        ),
+        (
+            json!([{"name": "R", "type": "ShaderNodeRadialTiling", "inputs": {"Vector": {"value": [1.0]}}},
+                   {"name": "E", "type": "ShaderNodeEmission", "inputs": {"Strength": {"link": [0, "Segment ID"]}}}]),
+            "expects 2 or 3 numbers",
         ),
     ];
     for (nodes, want) in cases {

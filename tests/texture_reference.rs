@@ -620,3 +620,91 @@ fn gabor_matches_blender() {
         |_, _, _| false,
     );
 }
+
+/// Every output of the Radial Tiling node at `p` (x and y read) in `case`'s settings.
+fn radial_tiling_at(case: &Case, p: Vec3) -> RadialTiling {
+    let used = RadialTilingUse { segment: true, segment_id: true };
+    radial_tiling(
+        glam::Vec2::new(p.x, p.y),
+        case.input("Sides", 5.0),
+        case.input("Roundness", 0.0),
+        case.prop_bool("normalize"),
+        used,
+    )
+}
+
+/// The rounding of the point's angle from its segment's divider in either implementation:
+/// `atan2` (an ulp or two of its value, at most π: one ulp of 2π), the full turn added below
+/// the axis (half an ulp of 2π), whole segments taken off (the product and the difference,
+/// half an ulp of 2π each), and geometry nodes' π / sides in double where Cycles' is in
+/// float (the segment angle's half ulp times the segment count, at most an ulp of 2π):
+/// about 4 ulps of 2π.
+const RADIAL_ANGLE_ROUNDING: f32 = 4.0 * std::f32::consts::TAU * f32::EPSILON;
+
+/// Whether `p` lies within the angle's rounding of a segment divider (the angles k 2π / sides
+/// and the x axis), where Segment ID, Rotation and Coordinates jump and either side is right.
+fn near_radial_divider(case: &Case, p: Vec3) -> bool {
+    let sides = case.input("Sides", 5.0).max(2.0);
+    let angle = p.y.atan2(p.x).rem_euclid(std::f32::consts::TAU);
+    let segment = std::f32::consts::TAU / sides;
+    let from_divider = angle - (angle / segment).round() * segment;
+    let to_turn = std::f32::consts::TAU - angle;
+    // Dividers are multiples of the segment angle whose count is near a whole number.
+    from_divider.abs() <= 4.0 * RADIAL_ANGLE_ROUNDING
+        || angle <= 4.0 * RADIAL_ANGLE_ROUNDING
+        || to_turn <= 4.0 * RADIAL_ANGLE_ROUNDING
+}
+
+/// Radial Tiling (Blender 5.0): every output of every case within a bound derived from the
+/// angle's rounding: how far our own output moves when the point turns by
+/// `RADIAL_ANGLE_ROUNDING` either way (steep near the corners, where tangents grow, and far
+/// out, where the coordinates are ~1000), plus 32 ulps of the value for the two dozen
+/// operations after the angle (tangents, square roots, the normalisers; half an ulp each,
+/// libm's within an ulp). Points within four times the angle's rounding of a divider (a
+/// jump of Segment ID, Rotation and Coordinates) are excluded. Sides 2 with a roundness
+/// between 0 and 1 is NaN in Blender too (cos π/2 in a denominator), and agrees as NaN.
+#[test]
+fn radial_tiling_matches_blender() {
+    let reference = load();
+    let outputs = |o: &RadialTiling| {
+        [
+            ("Segment Coordinates", Out::Color(o.coordinates)),
+            ("Segment ID", Out::Scalar(o.segment_id)),
+            ("Segment Width", Out::Scalar(o.width)),
+            ("Segment Rotation", Out::Scalar(o.rotation)),
+        ]
+    };
+    compare(
+        &reference,
+        "radial_tiling",
+        |case, p, _| {
+            outputs(&radial_tiling_at(case, p))
+                .into_iter()
+                .filter(|(name, _)| case.outputs.contains_key(*name))
+                .collect()
+        },
+        |case, name, p, _, blender| {
+            let here = radial_tiling_at(case, p);
+            let mut moved = 0.0f32;
+            for turn in [-RADIAL_ANGLE_ROUNDING, RADIAL_ANGLE_ROUNDING] {
+                let (s, c) = turn.sin_cos();
+                let q = Vec3::new(p.x * c - p.y * s, p.x * s + p.y * c, p.z);
+                let there = radial_tiling_at(case, q);
+                let (a, b) = (outputs(&here), outputs(&there));
+                for ((n, x), (_, y)) in a.iter().zip(&b) {
+                    if *n != name {
+                        continue;
+                    }
+                    let d = match (x, y) {
+                        (Out::Scalar(x), Out::Scalar(y)) => (x - y).abs(),
+                        (Out::Color(x), Out::Color(y)) => (*x - *y).abs().max_element(),
+                        _ => unreachable!(),
+                    };
+                    moved = moved.max(d);
+                }
+            }
+            moved + 32.0 * f32::EPSILON * blender.abs().max(1.0)
+        },
+        |case, p, _| near_radial_divider(case, p),
+    );
+}

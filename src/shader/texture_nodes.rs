@@ -3,12 +3,12 @@
 
 use super::geom::{Reg, set3, v3};
 use super::texture::{
-    BrickParams, GaborKind, GaborParams, GradientKind, NoiseKind, NoiseParams, VoronoiFeature, VoronoiMetric,
-    VoronoiOut, VoronoiParams, WaveDirection, WaveKind, WaveParams, WaveProfile, brick_texture, checker_texture,
-    gabor_texture, gradient_texture, magic_texture, noise_fac, noise_texture, voronoi_texture,
-    voronoi_texture_without_color, wave_texture, white_noise_texture,
+    BrickParams, GaborKind, GaborParams, GradientKind, NoiseKind, NoiseParams, RadialTilingUse, VoronoiFeature,
+    VoronoiMetric, VoronoiOut, VoronoiParams, WaveDirection, WaveKind, WaveParams, WaveProfile, brick_texture,
+    checker_texture, gabor_texture, gradient_texture, magic_texture, noise_fac, noise_texture, radial_tiling,
+    voronoi_texture, voronoi_texture_without_color, wave_texture, white_noise_texture,
 };
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 /// The Voronoi node's settings from its input registers `i` (Vector and W aside).
 pub(super) fn voronoi_params(
@@ -88,6 +88,9 @@ pub enum TexOp {
     /// Gabor Texture: Vector, Scale, Frequency, Anisotropy, Orientation 2D, Orientation 3D;
     /// outputs Value, Phase, Intensity.
     Gabor { kind: GaborKind, inputs: [Reg; 6], outputs: [Reg; 3] },
+    /// Radial Tiling: Vector (x and y read), Sides, Roundness; outputs Segment Coordinates,
+    /// Segment ID, Segment Width, Segment Rotation (`used`: which are linked and computed).
+    RadialTiling { normalize: bool, used: RadialTilingUse, inputs: [Reg; 3], outputs: [Reg; 4] },
     /// Sky Texture (Single or Multiple Scattering, precomputed at load): Vector; output Color.
     Sky { sky: std::sync::Arc<super::sky::Sky>, vector: Reg, color: Reg },
 }
@@ -134,6 +137,14 @@ impl TexOp {
                 r[o[0] as usize] = value;
                 r[o[1] as usize] = phase;
                 r[o[2] as usize] = intensity;
+            }
+            TexOp::RadialTiling { normalize, used, inputs: i, outputs: o } => {
+                let v = v3(r, i[0]);
+                let out = radial_tiling(Vec2::new(v.x, v.y), r[i[1] as usize], r[i[2] as usize], normalize, used);
+                set3(r, o[0], out.coordinates);
+                r[o[1] as usize] = out.segment_id;
+                r[o[2] as usize] = out.width;
+                r[o[3] as usize] = out.rotation;
             }
             TexOp::WhiteNoise { dims, vector, w, value, color } => {
                 let (v, c) = white_noise_texture(dims, v3(r, vector), r[w as usize]);

@@ -109,6 +109,48 @@ def texture(kind, output="Color", props=None, inputs=None, vector=None):
     return make
 
 
+def object_coordinates(tree):
+    """Texture Coordinate's Object output: on the 2x2 plane, x and y in [-1, 1] around the
+    centre (Radial Tiling has no implicit coordinate: unlinked, its Vector is the origin)."""
+    return tree.nodes.new("ShaderNodeTexCoord").outputs["Object"]
+
+
+def radial_coordinates(name):
+    """A Diffuse BSDF coloured by Radial Tiling's normalised Segment Coordinates (6.5 sides,
+    roundness 0.3: the irregular seventh segment and its rounded corners), plus 0.5 in blue
+    (their z is 0, and every channel is compared)."""
+    mat = new_material(name)
+    tree = mat.node_tree
+    node = tree.nodes.new("ShaderNodeRadialTiling")
+    node.normalize = True
+    by_id(node.inputs, "Sides").default_value = 6.5
+    by_id(node.inputs, "Roundness").default_value = 0.3
+    tree.links.new(object_coordinates(tree), node.inputs["Vector"])
+    lift = tree.nodes.new("ShaderNodeVectorMath")
+    lift.operation = "ADD"
+    tree.links.new(node.outputs["Segment Coordinates"], lift.inputs[0])
+    by_id(lift.inputs, "Vector_001").default_value = (0.0, 0.0, 0.5)
+    diffuse_from(mat, lift.outputs["Vector"])
+    return mat
+
+
+def radial_segment_ids(name):
+    """A Diffuse BSDF coloured by Radial Tiling's Segment ID (5.5 sides, roundness 0.4) over
+    6, so that the colour stays in [0, 1): five regular segments and a narrower sixth."""
+    mat = new_material(name)
+    tree = mat.node_tree
+    node = tree.nodes.new("ShaderNodeRadialTiling")
+    by_id(node.inputs, "Sides").default_value = 5.5
+    by_id(node.inputs, "Roundness").default_value = 0.4
+    tree.links.new(object_coordinates(tree), node.inputs["Vector"])
+    scale = tree.nodes.new("ShaderNodeMath")
+    scale.operation = "DIVIDE"
+    tree.links.new(node.outputs["Segment ID"], scale.inputs[0])
+    scale.inputs[1].default_value = 6.0
+    diffuse_from(mat, scale.outputs["Value"])
+    return mat
+
+
 def snapped_generated(tree, step=0.125):
     """Generated coordinates snapped to a grid (Vector Math SNAP): a cell pattern for White Noise.
 
@@ -589,6 +631,8 @@ CASES = {
                                      inputs={"Scale": 4.0, "Frequency": 2.5, "Anisotropy": 0.6}), None),
     "gabor_3d_intensity": (flat_scene, texture("ShaderNodeTexGabor", output="Intensity", props={"gabor_type": "3D"},
                                                inputs={"Scale": 3.0, "Anisotropy": 0.0}), None),
+    "radial_tiling_coordinates": (flat_scene, radial_coordinates, None),
+    "radial_tiling_segment_id": (flat_scene, radial_segment_ids, None),
     "object_info_color": (coloured_flat_scene, texture("ShaderNodeObjectInfo", output="Color"), None),
     "white_noise_cells": (flat_scene, texture("ShaderNodeTexWhiteNoise", vector=snapped_generated), None),
     "color_ramp_ease": (flat_scene, noise_into(ramp("EASE")), None),

@@ -155,6 +155,24 @@ def cases():
     for kind, sockets in gabors:
         out.append(("gabor", "ShaderNodeTexGabor", {"gabor_type": kind}, sockets,
                     [("Value", "FLOAT"), ("Phase", "FLOAT"), ("Intensity", "FLOAT")]))
+
+    # Radial Tiling (2-D: the position's x and y): whole sides (2, whose straight "polygon"
+    # is not normalised, 3, 5) and fractional ones (an irregular last segment: 6.5, 2.3);
+    # roundness 0 (sharp), between (bevels; on fractional sides the irregular corner's
+    # circle) and 1 (circles); normalize on and off; sides and roundness outside their
+    # ranges (clamped to 2 and [0, 1]).
+    radial = [
+        (5.0, 0.0, False), (5.0, 0.0, True), (3.0, 0.3, False), (3.0, 0.3, True),
+        (5.0, 1.0, True), (6.0, 0.7, False), (2.0, 0.0, True), (2.0, 0.5, False),
+        (6.5, 0.0, False), (6.5, 0.0, True), (6.5, 0.3, False), (6.5, 0.3, True),
+        (6.5, 1.0, False), (2.3, 0.6, True), (3.7, 1.0, True), (1.0, 1.4, False),
+        (4.0, -0.5, True),
+    ]
+    for sides, roundness, normalize in radial:
+        out.append(("radial_tiling", "ShaderNodeRadialTiling", {"normalize": normalize},
+                    {"Sides": sides, "Roundness": roundness},
+                    [("Segment Coordinates", vec), ("Segment ID", "FLOAT"),
+                     ("Segment Width", "FLOAT"), ("Segment Rotation", "FLOAT")]))
     return out
 
 
@@ -219,6 +237,13 @@ def cycles_cases():
     out.append(("gabor", "ShaderNodeTexGabor", {"gabor_type": "2D"},
                 {"Scale": 2.1, "Frequency": 0.7, "Anisotropy": 0.3, "Orientation 2D": -1.1},
                 [("Value", "FLOAT")]))
+    out.append(("radial_tiling", "ShaderNodeRadialTiling", {"normalize": True},
+                {"Sides": 6.5, "Roundness": 0.3},
+                [("Segment Coordinates", vec), ("Segment ID", "FLOAT"), ("Segment Width", "FLOAT"),
+                 ("Segment Rotation", "FLOAT")]))
+    out.append(("radial_tiling", "ShaderNodeRadialTiling", {"normalize": False},
+                {"Sides": 5.0, "Roundness": 0.0},
+                [("Segment Coordinates", vec), ("Segment ID", "FLOAT")]))
     return out
 
 

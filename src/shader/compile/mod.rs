@@ -24,7 +24,7 @@ use crate::shader::graph::{NodeDesc, NodesExt, check_and_sort};
 use crate::shader::image_node::{Extension, ImageOp, Interp, Projection};
 use crate::shader::instructions::{BumpOp, ColorSpace, CurveKind, CurveTable, InputKind, MappingKind, Op, Program};
 use crate::shader::ops::{Blend, MathOp, RangeInterp, VecOp};
-use crate::shader::texture::GaborKind;
+use crate::shader::texture::{GaborKind, RadialTilingUse};
 use crate::shader::texture_nodes::{
     TexOp, dims as noise_dims, gradient_kind, noise_kind, voronoi_feature, voronoi_metric, wave_settings,
 };
@@ -440,6 +440,30 @@ impl<'a> Compiler<'a> {
                 v
             }
             Some(other) => return Err(self.err(i, format!("input '{id}' expects 3 or 4 numbers, not {other}"))),
+        };
+        Ok(self.konst_v(v))
+    }
+
+    /// A 2-D vector input (Blender 5's two-dimensional sockets, whose value is 2 numbers; a
+    /// constant through a group socket may arrive as 3): linked (converted, z kept for the
+    /// node to ignore), else its value with z 0, else the origin.
+    fn vec_xy(&mut self, i: usize, id: &str) -> Result<Reg, String> {
+        if let Some(s) = self.source(i, id)? {
+            return self.convert_vec(i, id, s);
+        }
+        let v = match self.value(i, id) {
+            None => Vec3::ZERO,
+            Some(Value::Array(a)) if a.len() == 2 || a.len() == 3 => {
+                let mut v = Vec3::ZERO;
+                for (k, x) in a.iter().enumerate() {
+                    v[k] =
+                        x.as_f64().map(|x| x as f32).filter(|x| x.is_finite()).ok_or_else(|| {
+                            self.err(i, format!("input '{id}' expects 2 or 3 finite numbers, not {x}"))
+                        })?;
+                }
+                v
+            }
+            Some(other) => return Err(self.err(i, format!("input '{id}' expects 2 or 3 numbers, not {other}"))),
         };
         Ok(self.konst_v(v))
     }

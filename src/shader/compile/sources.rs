@@ -689,6 +689,33 @@ impl Compiler<'_> {
                 ];
                 self.ops.push(Op::Texture(Box::new(TexOp::Gabor { kind, inputs, outputs })));
             }
+            "ShaderNodeRadialTiling" => {
+                let normalize = match self.desc(i).props.get("normalize") {
+                    None => false,
+                    Some(Value::Bool(b)) => *b,
+                    Some(other) => {
+                        return Err(self.err(i, format!("property 'normalize' must be true or false, not {other}")));
+                    }
+                };
+                // Cycles' Vector has no implicit coordinate: unlinked, it is the socket's
+                // value (the origin by default), and the node folds to constants.
+                let inputs =
+                    [self.vec_xy(i, "Vector")?, self.float(i, "Sides", 5.0)?, self.float(i, "Roundness", 0.0)?];
+                let outputs = [
+                    self.out(i, "Segment Coordinates", Ty::Vector),
+                    self.out(i, "Segment ID", Ty::Float),
+                    self.out(i, "Segment Width", Ty::Float),
+                    self.out(i, "Segment Rotation", Ty::Float),
+                ];
+                // Coordinates, Width and Rotation come from one computation, the ID from another.
+                let used = RadialTilingUse {
+                    segment: ["Segment Coordinates", "Segment Width", "Segment Rotation"]
+                        .iter()
+                        .any(|id| self.is_used(i, id)),
+                    segment_id: self.is_used(i, "Segment ID"),
+                };
+                self.ops.push(Op::Texture(Box::new(TexOp::RadialTiling { normalize, used, inputs, outputs })));
+            }
             "ShaderNodeTexGradient" => {
                 let g = self.prop_str(i, "gradient_type", "LINEAR");
                 let kind = gradient_kind(g).ok_or_else(|| self.err(i, format!("unknown gradient type '{g}'")))?;

@@ -16,6 +16,7 @@ pub mod magic;
 pub mod noise;
 pub mod noise_lanes;
 pub mod perlin;
+pub mod radial_tiling;
 pub(crate) mod simd;
 pub mod voronoi;
 mod voronoi_coord;
@@ -29,6 +30,7 @@ pub use gabor::{GaborKind, GaborParams, gabor_texture};
 pub use gradient::{GradientKind, gradient_texture};
 pub use magic::magic_texture;
 pub use noise::{NoiseKind, NoiseParams, noise_fac, noise_texture};
+pub use radial_tiling::{RadialTiling, RadialTilingUse, radial_tiling};
 pub use voronoi::{
     VoronoiFeature, VoronoiMetric, VoronoiOut, VoronoiParams, voronoi_texture, voronoi_texture_lanes,
     voronoi_texture_without_color,
