@@ -75,6 +75,8 @@ def varying_medium(owner, node, what, warnings, writer=None):
     the node tree of `owner` (a material, or the world), with its node graph when its inputs
     vary over space (its images written by `writer`); None (with a warning) for a node that
     is not a volume shader."""
+    if node.type in TREE_NODES:
+        return tree_medium(owner, node, what, warnings, writer)
     graph = _volume_graph(owner, node, what, warnings, writer)
     if graph is None:
         value = volume_medium(node, what, warnings)
@@ -100,6 +102,32 @@ _VARYING_INPUTS = {
     "VOLUME_ABSORPTION": ("Density", "Color"),
     "EMISSION": ("Color", "Strength"),
 }
+
+
+# Volume output nodes whose shaders the renderer reads from the node graph whatever their
+# inputs: Mix and Add Shader trees (their shaders' coefficients summed by weight, as Cycles
+# sums volume closures) and Volume Coefficients. A tree whose inputs are all constant is
+# folded into one homogeneous medium by the renderer.
+TREE_NODES = {"MIX_SHADER", "ADD_SHADER", "VOLUME_COEFFICIENTS"}
+
+
+def tree_medium(owner, node, what, warnings, writer=None):
+    """The `CAUSTIC_materials_medium` value (without `surface`) of the shader tree under
+    `node`: an empty constant part and the tree's graph, or None (warning) when its images
+    cannot be written here."""
+    graph, index = build_volume_graph(owner, node, GraphContext())
+    if graph.images and writer is None:
+        warnings.append(f"{what}: an Image Texture feeds the {node.name} node on the Volume output; its "
+                        "images cannot be written here and the volume is left out")
+        return None
+    warnings.extend(graph.warnings)
+    if writer is None:
+        value = {"version": 1, "nodes": graph.nodes, "output": {}}
+    else:
+        value = writer.graph_value(graph, what, warnings)
+        value["output"] = {}
+    return {"density": 0.0, "scatter_color": [0.0] * 3, "absorption_color": [0.0] * 3, "anisotropy": 0.0,
+            "graph": value, "graph_shader": index}
 
 
 def _varies(node):
@@ -140,7 +168,8 @@ def volume_uses_generated(blender_material):
     if output is None or not output.inputs["Volume"].is_linked:
         return False
     node = linked_node(output.inputs["Volume"])
-    if node.type not in _VARYING_INPUTS or not (node.type == "EMISSION" or _varies(node)):
+    if node.type not in TREE_NODES and (
+            node.type not in _VARYING_INPUTS or not (node.type == "EMISSION" or _varies(node))):
         return False
     return build_volume_graph(blender_material, node, GraphContext())[0].uses_generated
 

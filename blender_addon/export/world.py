@@ -9,7 +9,7 @@ import os
 
 import bpy
 
-from .media import varying_medium
+from .media import TREE_NODES, tree_medium, varying_medium
 from .node_graph import GraphContext, build_world_graph, has_aov_outputs
 from .nodes import linked_node
 from .visibility import world_visibility
@@ -117,7 +117,8 @@ def _emitting_medium(world, node, what, warnings, writer):
     """The medium of an Emission node added to one absorbing or scattering shader on the World
     Volume (its emission is summed into that shader's), or None with a warning: an Emission
     alone, or emission in a colour channel the medium does not attenuate, which Cycles
-    integrates over unbounded rays to infinity; several non-emission shaders added together."""
+    integrates over unbounded rays to infinity. Several shaders added or mixed go to the renderer
+    as one tree (`tree_medium`), which sums them, Emission included."""
     leaves = _emission_leaves(node, what, warnings)
     if leaves is None:
         return None
@@ -127,11 +128,9 @@ def _emitting_medium(world, node, what, warnings, writer):
             warnings.append(f"{what}: an Emission on the World Volume with nothing absorbing or scattering "
                             f"glows along every ray that leaves the scene; {_INFINITE}; the volume is left out")
         return None
-    if len(others) > 1:
-        names = ", ".join(f"'{n.name}'" for n in others)
-        warnings.append(f"{what}: the Add Shader on the World Volume adds several volume shaders ({names}), "
-                        "which Caustic does not combine; the volume is left out")
-        return None
+    if len(others) > 1 or any(n.type in TREE_NODES for n in others):
+        # Several shaders added (or mixed): the renderer sums the whole tree, Emission included.
+        return tree_medium(world, node, what, warnings, writer)
     value = varying_medium(world, others[0], what, warnings, writer)
     if value is None or max(emission) <= 0.0:
         return value

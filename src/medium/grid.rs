@@ -313,6 +313,11 @@ impl GridMedium {
     #[inline]
     pub fn phase_at(&self, p: Vec3) -> Phase {
         match &self.procedural {
+            Some(src) if src.volume.phase_pair.is_some() => {
+                let (lo, hi) = self.domain();
+                let q = self.index_from_world.transform_point3(p).clamp(lo, hi);
+                src.phase_at(self.world_from_index.transform_point3(q))
+            }
             Some(src) if src.volume.anisotropy_reg.is_some() => {
                 let (lo, hi) = self.domain();
                 let q = self.index_from_world.transform_point3(p).clamp(lo, hi);

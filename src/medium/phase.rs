@@ -335,6 +335,17 @@ pub enum Phase {
     FournierForand(FournierForand),
     /// Approximate Mie for water droplets.
     Mie(Mie),
+    /// Two Henyey-Greenstein lobes mixed: a volume whose shader tree adds two scattering
+    /// shaders of different anisotropy (a dual-lobe cloud), each weighted by its share of
+    /// the scattering.
+    HgPair {
+        /// The first lobe's mean cosine.
+        g1: f32,
+        /// The second lobe's mean cosine.
+        g2: f32,
+        /// The second lobe's weight in [0, 1].
+        w2: f32,
+    },
 }
 
 impl Default for Phase {
@@ -370,6 +381,12 @@ impl Phase {
         })
     }
 
+    /// Two Henyey-Greenstein lobes, the second of weight `w2` (clamped to [0, 1]).
+    pub fn hg_pair(g1: f32, g2: f32, w2: f32) -> Self {
+        let w2 = if w2.is_finite() { w2.clamp(0.0, 1.0) } else { 0.0 };
+        Phase::HgPair { g1: HenyeyGreenstein::new(g1).g, g2: HenyeyGreenstein::new(g2).g, w2 }
+    }
+
     /// Henyey-Greenstein of mean cosine `g`.
     pub fn hg(g: f32) -> Self {
         Phase::HenyeyGreenstein(HenyeyGreenstein::new(g))
@@ -392,6 +409,14 @@ impl Phase {
         }
     }
 
+    /// A pair of lobes with the second's weight set to `w2`; other functions unchanged.
+    pub fn with_pair_weight(self, w2: f32) -> Self {
+        match self {
+            Phase::HgPair { g1, g2, .. } => Phase::hg_pair(g1, g2, w2),
+            other => other,
+        }
+    }
+
     /// Value (= density) for cos θ between the travel directions before and after.
     #[inline]
     pub fn eval_cos(&self, cos_theta: f32) -> f32 {
@@ -403,6 +428,10 @@ impl Phase {
             Phase::Mie(m) => {
                 (1.0 - m.w) * HenyeyGreenstein { g: m.g_hg }.eval_cos(cos_theta)
                     + m.w * draine(cos_theta, m.g_d, m.alpha)
+            }
+            Phase::HgPair { g1, g2, w2 } => {
+                (1.0 - w2) * HenyeyGreenstein { g: *g1 }.eval_cos(cos_theta)
+                    + w2 * HenyeyGreenstein { g: *g2 }.eval_cos(cos_theta)
             }
         }
     }
@@ -437,6 +466,17 @@ impl Phase {
                 // ~1e-6 rad), so that `eval` gives the same; the exact one where it rounds to dir.
                 let pdf = self.eval(dir, wi);
                 return (wi, if pdf > 0.0 { pdf } else { ff.eval_sin2(s) });
+            }
+            Phase::HgPair { g1, g2, w2 } => {
+                // u.x picks the lobe, then is stretched back over [0, 1); the density is
+                // the mixture's.
+                let (g, v) = if u.x < *w2 {
+                    (*g2, (u.x / w2).min(1.0 - f32::EPSILON))
+                } else {
+                    (*g1, ((u.x - w2) / (1.0 - w2)).min(1.0 - f32::EPSILON))
+                };
+                let (wi, _) = HenyeyGreenstein { g }.sample(dir, Vec2::new(v, u.y));
+                return (wi, self.eval(dir, wi));
             }
             Phase::Mie(m) => {
                 // u.x picks the component, then is stretched back over [0, 1).
@@ -526,6 +566,8 @@ mod tests {
             ("mie d=0.8".into(), Phase::Mie(Mie::new(0.8))),
             ("mie d=3".into(), Phase::Mie(Mie::new(3.0))),
             ("mie d=20".into(), Phase::Mie(Mie::new(20.0))),
+            ("hg pair 0.8/-0.4 w=0.3".into(), Phase::hg_pair(0.8, -0.4, 0.3)),
+            ("hg pair 0/0.6 w=0.9".into(), Phase::hg_pair(0.0, 0.6, 0.9)),
         ];
         for (name, p) in cases {
             let r = ChiSquareTest::new(&name).run_with_pdf(|u| Some(p.sample(dir, u)), |w| p.eval(dir, w));
@@ -563,6 +605,7 @@ mod tests {
         };
         for (name, p, tol) in [
             ("rayleigh", Phase::Rayleigh, 1e-4),
+            ("hg pair 0.8/-0.4/0.3", Phase::hg_pair(0.8, -0.4, 0.3), 1e-4),
             ("draine 0.5/1", Phase::draine(0.5, 1.0), 1e-4),
             ("draine -0.3/4", Phase::draine(-0.3, 4.0), 1e-4),
             ("draine 0.7/250", Phase::draine(0.7, 250.0), 1e-4),
@@ -578,6 +621,10 @@ mod tests {
             if let Phase::Draine { g, alpha } = p {
                 let (g, a) = (g as f64, alpha as f64);
                 let want = g * (1.0 + a * (3.0 + 2.0 * g * g) / 5.0) / (1.0 + a * (1.0 + 2.0 * g * g) / 3.0);
+                assert!((mean - want).abs() < 1e-4, "{name}: mean cosine {mean} vs {want}");
+            }
+            if let Phase::HgPair { g1, g2, w2 } = p {
+                let want = ((1.0 - w2) * g1 + w2 * g2) as f64;
                 assert!((mean - want).abs() < 1e-4, "{name}: mean cosine {mean} vs {want}");
             }
         }

@@ -127,7 +127,8 @@ fn held_stretches(g: &GridMedium, org: Vec3, dir: Vec3, t_max: f32, with_emissio
     let (lo, hi) = g.domain();
     let held = |t0: f32, t1: f32, anchor: Vec3| {
         let c = g.coefficients(anchor.clamp(lo, hi), with_emission);
-        let medium = HomogeneousMedium { sigma_a: c.sigma_a, sigma_s: c.sigma_s, phase: g.phase, emission: c.emission };
+        let phase = g.phase_at(g.world_from_index.transform_point3(anchor.clamp(lo, hi)));
+        let medium = HomogeneousMedium { sigma_a: c.sigma_a, sigma_s: c.sigma_s, phase, emission: c.emission };
         (t1 > t0).then_some(Held { t0, t1, medium })
     };
     let (t_in, t_out) = box_span(g, o, d);

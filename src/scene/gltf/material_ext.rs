@@ -186,7 +186,12 @@ impl Loader<'_> {
                 for w in &v.warnings {
                     self.warn(format!("{what}: {w}"));
                 }
-                mat.volume_program = Some(Box::new(v));
+                // A tree of constant shaders (Mix and Add Shader of volume shaders, Volume
+                // Coefficients) is one homogeneous medium.
+                match crate::medium::procedural_source::constant_medium(Box::new(v)) {
+                    Ok(h) => medium = Some(h),
+                    Err(v) => mat.volume_program = Some(v),
+                }
             }
         }
         let mut subsurface = None;

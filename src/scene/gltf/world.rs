@@ -57,7 +57,8 @@ impl Loader<'_> {
                         self.err("CAUSTIC_world: a world medium has no surface to leave out (\"surface\": false)")
                     );
                 }
-                let medium = self.homogeneous_medium("CAUSTIC_world medium", m)?;
+                let mut medium = self.homogeneous_medium("CAUSTIC_world medium", m)?;
+                let mut program = None;
                 if let Some(graph) = &m.graph {
                     // Textured fog: the graph gives the coefficients at each point (the
                     // constant fields are not read), built into a grid once the scene's
@@ -70,7 +71,14 @@ impl Loader<'_> {
                     for w in &v.warnings {
                         self.warn(format!("{what}: {w}"));
                     }
-                    WorldMedium::Graph(Box::new(v))
+                    // A tree of constant shaders is one homogeneous fog.
+                    match crate::medium::procedural_source::constant_medium(Box::new(v)) {
+                        Ok(h) => medium = h,
+                        Err(v) => program = Some(v),
+                    }
+                }
+                if let Some(v) = program {
+                    WorldMedium::Graph(v)
                 } else {
                     // Radiance gathered along an unbounded ray is E/σt: infinite where σt = 0
                     // (Cycles 5.0 integrates E·t to FLT_MAX there: every pixel is inf).
