@@ -100,3 +100,17 @@ def test_environment_texture_on_a_surface_is_exported_without_warning(addon, emp
     types = {n["type"] for g in graphs for n in g["nodes"]}
     assert "ShaderNodeTexEnvironment" in types, types
     assert not state.warnings, state.warnings
+
+
+def test_a_nodes_own_texture_mapping_is_named_in_a_warning(addon, empty_scene, tmp_path):
+    """Cycles turns the vector by a texture node's own (sidebar) Texture Mapping; the graph does
+    not carry it, so the add-on names the node (an identity mapping, the default, says nothing:
+    see the test above)."""
+    from test_node_graph_export import export
+
+    build(empty_scene, "equirectangular_reflection_linear")
+    tex = next(n for n in bpy.data.materials["equirectangular_reflection_linear"].node_tree.nodes
+               if n.bl_idname == "ShaderNodeTexEnvironment")
+    tex.texture_mapping.rotation[2] = 0.5
+    _, state, _ = export(addon, empty_scene, tmp_path)
+    assert any("Texture Mapping" in w and tex.name in w for w in state.warnings), state.warnings
