@@ -54,6 +54,15 @@ _GENERATED_DEFAULT = {"TEX_NOISE", "TEX_VORONOI", "TEX_WAVE", "TEX_CHECKER", "TE
                       "TEX_BRICK", "TEX_WHITE_NOISE", "TEX_GABOR"}
 
 
+def _identity_mapping(mapping):
+    """Whether a node's Texture Mapping leaves the vector as it is (Cycles' TextureMapping::skip:
+    no translation, rotation or scaling, axes in place, no min/max; the vector type alone
+    changes nothing then)."""
+    return (tuple(mapping.translation) == (0.0, 0.0, 0.0) and tuple(mapping.rotation) == (0.0, 0.0, 0.0)
+            and tuple(mapping.scale) == (1.0, 1.0, 1.0) and not mapping.use_min and not mapping.use_max
+            and (mapping.mapping_x, mapping.mapping_y, mapping.mapping_z) == ("X", "Y", "Z"))
+
+
 def colour_attributes_read(tree, seen=None):
     """The attribute names the tree's Attribute (geometry) and Color Attribute nodes read, its
     groups' included; '' for a Color Attribute node reading the active one."""
@@ -397,6 +406,12 @@ class _Builder:
             props["direction"] = plain(node.outputs["Normal"].default_value)
         self._tex_coord(node, name, props)
         self._colour_0(node, props)
+        mapping = getattr(node, "texture_mapping", None)
+        if mapping is not None and not _identity_mapping(mapping):
+            # Cycles applies a texture node's own (legacy, sidebar) Texture Mapping before the
+            # lookup; the graph has no field for it yet.
+            self.warn(name, "its own Texture Mapping (node sidebar: location, rotation, scale, axes, "
+                            "min/max) is not applied; a Mapping node in front of it is")
         if node.bl_idname == "ShaderNodeAttribute" and node.attribute_type == "VIEW_LAYER":
             props["view_layer_value"] = view_layer_rgba(self.context.depsgraph, node.attribute_name)
         return props

@@ -345,4 +345,31 @@ mod tests {
         let sky_pdf = env.pdf(Vec3::new(0.3, 0.8, 0.5).normalize());
         assert!(env.pdf(sun) > 1e3 * sky_pdf, "sun pdf {} vs sky {sky_pdf}", env.pdf(sun));
     }
+
+    /// The legacy skies' settings outside Blender's ranges (where Cycles' fits are undefined)
+    /// are refused naming the node; valid ones compile without a warning.
+    #[test]
+    fn legacy_sky_settings_are_checked() {
+        let compile_sky = |props: serde_json::Value| {
+            let ext: NodesExt = serde_json::from_value(json!({"version": 1, "nodes": [
+                {"name": "Sky", "type": "ShaderNodeTexSky", "props": props,
+                 "inputs": {"Vector": {"value": [0.0, 0.0, 0.0]}}},
+                {"name": "Background", "type": "ShaderNodeBackground",
+                 "inputs": {"Color": {"link": [0, "Color"]}, "Strength": {"value": 1.0}}}
+            ], "output": {"surface": [1, "Background"]}}))
+            .unwrap();
+            compile("world", &ext, &[]).map(|c| c.warnings).map_err(|e| e.to_string())
+        };
+        let ok = compile_sky(json!({"sky_type": "HOSEK_WILKIE", "sun_direction": [0.2, 0.3, 0.9], "turbidity": 4.0}));
+        assert_eq!(ok, Ok(Vec::new()));
+        for (props, says) in [
+            (json!({"sky_type": "PREETHAM", "sun_direction": [0.0, 0.0, 0.0]}), "must not be zero"),
+            (json!({"sky_type": "HOSEK_WILKIE", "turbidity": 0.5}), "turbidity must be in [1, 10]"),
+            (json!({"sky_type": "HOSEK_WILKIE", "ground_albedo": 1.5}), "ground albedo in [0, 1]"),
+            (json!({"sky_type": "PREETHAM", "sun_direction": [0.0, 1.0]}), "must be 3 numbers"),
+        ] {
+            let e = compile_sky(props.clone()).expect_err(&props.to_string());
+            assert!(e.contains("Sky") && e.contains(says), "{props}: {e}");
+        }
+    }
 }

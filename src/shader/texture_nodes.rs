@@ -91,7 +91,7 @@ pub enum TexOp {
     /// Radial Tiling: Vector (x and y read), Sides, Roundness; outputs Segment Coordinates,
     /// Segment ID, Segment Width, Segment Rotation (`used`: which are linked and computed).
     RadialTiling { normalize: bool, used: RadialTilingUse, inputs: [Reg; 3], outputs: [Reg; 4] },
-    /// Sky Texture (Single or Multiple Scattering, precomputed at load): Vector; output Color.
+    /// Sky Texture (any of its four models, precomputed at load): Vector; output Color.
     Sky { sky: std::sync::Arc<super::sky::Sky>, vector: Reg, color: Reg },
 }
 

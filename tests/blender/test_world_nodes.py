@@ -11,8 +11,10 @@ convention, a wrong pattern or a biased sampler all move blocks far beyond the b
 Worlds: Blender 5.0's default Sky Texture (Multiple Scattering; the sun behind the camera, so
 that the floor is lit by the disc through the sampler and the sky is seen), a Mix Shader of
 two Backgrounds whose factor is a Gradient Texture on the world's Generated coordinates (the
-direction), a Noise Texture's colour as the Background, and Texture Coordinate Camera and Window
-(the render camera's view of the direction) through Gradients and Separate XYZ.
+direction), a Noise Texture's colour as the Background, Texture Coordinate Camera and Window
+(the render camera's view of the direction) through Gradients and Separate XYZ, and the legacy
+Preetham and Hosek / Wilkie skies (older scenes' worlds; main before issue 19 rendered them
+black: Caustic/Cycles 0).
 """
 
 import math
@@ -53,6 +55,21 @@ def sky_world(tree, output):
     bg = background(tree, strength=0.1)
     tree.links.new(sky.outputs["Color"], bg.inputs["Color"])
     tree.links.new(bg.outputs[0], output.inputs["Surface"])
+
+
+def legacy_sky_world(sky_type, **settings):
+    """A Preetham or Hosek / Wilkie sky as the Background: the sun low and to the right of the
+    view (+X, ahead along +Y), so that the camera sees its glow and the floor is lit by it."""
+    def surface(tree, output):
+        sky = tree.nodes.new("ShaderNodeTexSky")
+        sky.sky_type = sky_type
+        sky.sun_direction = (0.6, 0.5, 0.35)
+        for key, value in settings.items():
+            setattr(sky, key, value)
+        bg = background(tree, strength=1.0)
+        tree.links.new(sky.outputs["Color"], bg.inputs["Color"])
+        tree.links.new(bg.outputs[0], output.inputs["Surface"])
+    return surface
 
 
 def gradient_mix_world(tree, output):
@@ -103,7 +120,9 @@ def camera_window_world(tree, output):
 
 
 WORLDS = {"sky": sky_world, "gradient_mix": gradient_mix_world, "noise": noise_world,
-          "camera_window": camera_window_world}
+          "camera_window": camera_window_world,
+          "sky_preetham": legacy_sky_world("PREETHAM", turbidity=3.0),
+          "sky_hosek": legacy_sky_world("HOSEK_WILKIE", turbidity=4.5, ground_albedo=0.5)}
 
 
 def build(scene, surface):

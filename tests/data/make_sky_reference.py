@@ -4,8 +4,9 @@ Run with the project's real bpy (5.0.1):
 
     .venv/bin/python tests/data/make_sky_reference.py
 
-Blender 5.0's Sky Texture has no usable Vector input (the socket is unavailable): it reads
-the direction itself. So Cycles renders the world through an equirectangular panoramic camera,
+Blender 5.0's Sky Texture reads the direction itself in the Single and Multiple Scattering
+models (the Vector socket is unavailable); for Preetham and Hosek / Wilkie the unlinked Vector
+is the same direction (Generated, on the world). So Cycles renders the world through an equirectangular panoramic camera,
 W x H pixels, one sample per pixel with a 0.01 px pixel filter (the same sample position in
 every render of a pixel): first a world whose Background colour is 0.5 Generated + 0.5
 (Generated is the direction on the world), which gives each pixel's direction, then one world
@@ -36,7 +37,20 @@ CASES = [
     ("single_settings", {"sky_type": "SINGLE_SCATTERING", "sun_size": math.radians(8.0),
                          "sun_elevation": math.radians(10.0), "sun_rotation": 0.5, "altitude": 500.0,
                          "air_density": 1.5, "aerosol_density": 2.0, "ozone_density": 0.5}),
+    # The legacy models (Blender 2.7x-2.9x scenes), read from sun_direction, turbidity and
+    # ground_albedo: a mid sun and a low one, whole and fractional turbidities (Hosek blends
+    # the two nearest rows), albedos between the dataset's 0 and 1.
+    ("preetham_default", {"sky_type": "PREETHAM"}),
+    ("preetham_low_sun", {"sky_type": "PREETHAM", "sun_direction": (0.6, -0.7, 0.12), "turbidity": 5.5}),
+    ("hosek_default", {"sky_type": "HOSEK_WILKIE"}),
+    ("hosek_settings", {"sky_type": "HOSEK_WILKIE", "sun_direction": (-0.4, 0.3, 0.5), "turbidity": 6.3,
+                        "ground_albedo": 0.7}),
+    ("hosek_low_sun", {"sky_type": "HOSEK_WILKIE", "sun_direction": (0.2, 0.9, 0.05), "turbidity": 2.0,
+                       "ground_albedo": 0.1}),
 ]
+# The legacy models' settings, in the props of their cases only (so that the physical
+# cases' entries stay as they were).
+LEGACY_KEYS = ("sun_direction", "turbidity", "ground_albedo")
 
 
 def build_scene():
@@ -107,6 +121,8 @@ def main():
     keys = ("sky_type", "sun_disc", "sun_size", "sun_intensity", "sun_elevation", "sun_rotation", "altitude",
             "air_density", "aerosol_density", "ozone_density")
     defaults = {k: getattr(sky, k) for k in keys}
+    defaults.update({k: tuple(v) if k == "sun_direction" else v
+                     for k, v in ((k, getattr(sky, k)) for k in LEGACY_KEYS)})
     cases = []
     with tempfile.TemporaryDirectory() as tmp:
         show_direction()
@@ -119,8 +135,10 @@ def main():
                 setattr(sky, k, v)
             for k, v in settings.items():
                 setattr(sky, k, v)
-            props = {k: getattr(sky, k) for k in keys}
-            props = {k: (v if isinstance(v, (str, bool)) else float(v)) for k, v in props.items()}
+            case_keys = keys + (LEGACY_KEYS if settings["sky_type"] in ("PREETHAM", "HOSEK_WILKIE") else ())
+            props = {k: getattr(sky, k) for k in case_keys}
+            props = {k: (v if isinstance(v, (str, bool)) else [float(x) for x in v] if k == "sun_direction"
+                         else float(v)) for k, v in props.items()}
             rgb = render(scene, str(pathlib.Path(tmp) / f"{name}.exr"))
             samples = [[round(float(v), 7) for v in d[j, i]] + [float(v) for v in rgb[j, i]]
                        for j in range(H) for i in range(W)]

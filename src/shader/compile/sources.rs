@@ -760,23 +760,29 @@ impl Compiler<'_> {
             }
             "ShaderNodeTexSky" => {
                 let model = match self.prop_str(i, "sky_type", "MULTIPLE_SCATTERING") {
-                    "SINGLE_SCATTERING" => Some(SkyModel::Single),
-                    "MULTIPLE_SCATTERING" => Some(SkyModel::Multiple),
-                    "PREETHAM" | "HOSEK_WILKIE" => None,
+                    "SINGLE_SCATTERING" => SkyModel::Single,
+                    "MULTIPLE_SCATTERING" => SkyModel::Multiple,
+                    "PREETHAM" => SkyModel::Preetham,
+                    "HOSEK_WILKIE" => SkyModel::HosekWilkie,
                     other => return Err(self.err(i, format!("unknown sky type '{other}'"))),
                 };
                 let vector = self.vec_implicit(i, "Vector", InputKind::Generated)?;
                 let color = self.out(i, "Color", Ty::Color);
-                let Some(model) = model else {
-                    let t = self.prop_str(i, "sky_type", "");
-                    self.warn(
-                        i,
-                        format!("the {t} sky model is not supported (Single and Multiple Scattering are): it gives 0"),
-                    );
-                    return Ok(true);
-                };
                 let num =
                     |c: &Self, k: &str, d: f64| c.desc(i).props.get(k).and_then(Value::as_f64).unwrap_or(d) as f32;
+                let sun_direction = match self.desc(i).props.get("sun_direction") {
+                    None => Vec3::Z,
+                    Some(v) => {
+                        let parts = v
+                            .as_array()
+                            .filter(|a| a.len() == 3)
+                            .and_then(|a| a.iter().map(|x| x.as_f64().map(|x| x as f32)).collect::<Option<Vec<f32>>>());
+                        let Some(p) = parts else {
+                            return Err(self.err(i, "the sky's sun_direction must be 3 numbers"));
+                        };
+                        Vec3::new(p[0], p[1], p[2])
+                    }
+                };
                 let params = SkyParams {
                     model,
                     sun_disc: self.prop_bool(i, "sun_disc", true),
@@ -788,13 +794,30 @@ impl Compiler<'_> {
                     air: num(self, "air_density", 1.0),
                     aerosol: num(self, "aerosol_density", 1.0),
                     ozone: num(self, "ozone_density", 1.0),
+                    sun_direction,
+                    turbidity: num(self, "turbidity", 2.2),
+                    ground_albedo: num(self, "ground_albedo", 0.3),
                 };
                 let finite = [params.sun_size, params.sun_intensity, params.sun_elevation, params.sun_rotation]
                     .into_iter()
                     .chain([params.altitude, params.air, params.aerosol, params.ozone])
-                    .all(f32::is_finite);
+                    .chain([params.turbidity, params.ground_albedo])
+                    .all(f32::is_finite)
+                    && params.sun_direction.is_finite();
                 if !finite {
                     return Err(self.err(i, "the sky's settings must be finite numbers"));
+                }
+                if matches!(model, SkyModel::Preetham | SkyModel::HosekWilkie) {
+                    // Blender's ranges: outside them Cycles' fits are undefined (Hosek's
+                    // table has no row below turbidity 1).
+                    if !(1.0..=10.0).contains(&params.turbidity) || !(0.0..=1.0).contains(&params.ground_albedo) {
+                        return Err(
+                            self.err(i, "the sky's turbidity must be in [1, 10] and its ground albedo in [0, 1]")
+                        );
+                    }
+                    if params.sun_direction.length_squared() == 0.0 {
+                        return Err(self.err(i, "the sky's sun direction must not be zero"));
+                    }
                 }
                 let sky = std::sync::Arc::new(Sky::new(&params));
                 self.ops.push(Op::Texture(Box::new(TexOp::Sky { sky, vector, color })));

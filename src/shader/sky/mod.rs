@@ -1,4 +1,4 @@
-//! Blender's Sky Texture, Single Scattering and Multiple Scattering models, computed by the
+//! Blender's Sky Texture. Single Scattering and Multiple Scattering models are computed by the
 //! same method as Blender 5.0 (`intern/sky/`, `intern/cycles/kernel/svm/sky.h`): at load, the
 //! sky seen from the altitude is integrated into a 512 × 256 table of CIE XYZ (the sun at
 //! azimuth 0, elevation rows denser toward the horizon), and the sun disc's colour at its
@@ -13,8 +13,9 @@
 //!   table, 64 in-scattering steps; the ground is the atmosphere seen toward it.
 //!
 //! XYZ becomes linear Rec.709 by the D65 matrix (Blender's scene-linear space), clamped at
-//! zero, as Cycles' `xyz_to_rgb_clamped`. Preetham and Hosek / Wilkie are not computed
-//! (the compiler warns). Directions are Blender's axes (Z up), as the graph's vectors.
+//! zero, as Cycles' `xyz_to_rgb_clamped`. The legacy Preetham and Hosek / Wilkie models are
+//! closed-form fits (`analytic.rs`, Hosek's coefficients in `hosek.rs`). Directions are
+//! Blender's axes (Z up), as the graph's vectors.
 //! Arithmetic is f32 in Blender's order, so the table matches to rounding.
 
 use glam::{Vec3, Vec4};
@@ -25,13 +26,17 @@ pub const TABLE_WIDTH: usize = 512;
 /// Height of the sky table.
 pub const TABLE_HEIGHT: usize = 256;
 
-/// Which of Blender's physical sky models.
+/// Which of Blender's sky models.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SkyModel {
     /// `SINGLE_SCATTERING` (Nishita).
     Single,
     /// `MULTIPLE_SCATTERING` (Blender 5.0's default).
     Multiple,
+    /// `PREETHAM` (legacy, closed form).
+    Preetham,
+    /// `HOSEK_WILKIE` (legacy, fitted coefficients).
+    HosekWilkie,
 }
 
 /// The node's settings, as Blender stores them.
@@ -57,11 +62,56 @@ pub struct SkyParams {
     pub aerosol: f32,
     /// Ozone density multiplier.
     pub ozone: f32,
+    /// Preetham and Hosek / Wilkie: direction toward the sun (Blender axes, not zero).
+    pub sun_direction: Vec3,
+    /// Preetham and Hosek / Wilkie: turbidity, in [1, 10].
+    pub turbidity: f32,
+    /// Hosek / Wilkie: ground albedo, in [0, 1].
+    pub ground_albedo: f32,
 }
 
-/// A precomputed sky: the table and the sun disc.
+/// A precomputed Sky Texture of any model.
 #[derive(Clone, Debug)]
-pub struct Sky {
+pub enum Sky {
+    /// Single or Multiple Scattering: a table and a sun disc.
+    Physical(PhysicalSky),
+    /// Preetham or Hosek / Wilkie.
+    Analytic(AnalyticSky),
+}
+
+impl Sky {
+    /// Precomputes the model the settings name.
+    pub fn new(p: &SkyParams) -> Sky {
+        let analytic = |m| Sky::Analytic(AnalyticSky::new(m, p.sun_direction, p.turbidity, p.ground_albedo));
+        match p.model {
+            SkyModel::Single | SkyModel::Multiple => Sky::Physical(PhysicalSky::new(p)),
+            SkyModel::Preetham => analytic(AnalyticModel::Preetham),
+            SkyModel::HosekWilkie => analytic(AnalyticModel::HosekWilkie),
+        }
+    }
+
+    /// The sun disc's centre (Blender axes), when one is drawn and above the ground (the
+    /// analytic models draw none).
+    pub fn sun_direction(&self) -> Option<Vec3> {
+        match self {
+            Sky::Physical(s) => s.sun_direction(),
+            Sky::Analytic(_) => None,
+        }
+    }
+
+    /// Linear Rec.709 radiance toward `dir` (Blender axes).
+    #[inline]
+    pub fn radiance(&self, dir: Vec3) -> Vec3 {
+        match self {
+            Sky::Physical(s) => s.radiance(dir),
+            Sky::Analytic(s) => s.radiance(dir),
+        }
+    }
+}
+
+/// A precomputed Single or Multiple Scattering sky: the table and the sun disc.
+#[derive(Clone, Debug)]
+pub struct PhysicalSky {
     model: SkyModel,
     /// CIE XYZ, row 0 first (row 0 is straight down for Multiple Scattering).
     table: Vec<Vec3>,
@@ -99,21 +149,22 @@ fn wrap_sun(elevation: f32, rotation: f32) -> (f32, f32) {
     (e, two_pi - r)
 }
 
-impl Sky {
+impl PhysicalSky {
     /// Integrates the table and the disc (≈ 0.1–0.5 s of one core per model).
-    pub fn new(p: &SkyParams) -> Sky {
+    fn new(p: &SkyParams) -> PhysicalSky {
         let (e, r) = wrap_sun(p.sun_elevation, p.sun_rotation);
         let (table, (sun_bottom, sun_top)) = match p.model {
             SkyModel::Single => (
                 single::table(e, p.altitude, p.air, p.aerosol, p.ozone),
                 single::sun(e, p.sun_size, p.altitude, p.air, p.aerosol),
             ),
-            SkyModel::Multiple => {
+            // Multiple Scattering (the analytic models are `AnalyticSky`'s).
+            _ => {
                 let m = multiple::Atmosphere::new(p.air, p.aerosol, p.ozone);
                 (m.table(e, p.altitude), m.sun(e, p.sun_size, p.altitude))
             }
         };
-        Sky {
+        PhysicalSky {
             model: p.model,
             table,
             sun_bottom,
@@ -224,6 +275,14 @@ mod single;
 /// Blender's Multiple Scattering (`sky_multiple_scattering.cpp`, after García Liñán).
 mod multiple;
 
+/// Preetham and Hosek / Wilkie.
+mod analytic;
+
+/// Hosek & Wilkie's coefficients and their configuration.
+mod hosek;
+
+use analytic::{AnalyticModel, AnalyticSky};
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -240,6 +299,9 @@ mod tests {
             air: 1.0,
             aerosol: 1.0,
             ozone: 1.0,
+            sun_direction: Vec3::Z,
+            turbidity: 2.2,
+            ground_albedo: 0.3,
         }
     }
 
@@ -277,6 +339,8 @@ mod tests {
         SkyParams {
             model: match props["sky_type"].as_str().unwrap() {
                 "SINGLE_SCATTERING" => SkyModel::Single,
+                "PREETHAM" => SkyModel::Preetham,
+                "HOSEK_WILKIE" => SkyModel::HosekWilkie,
                 _ => SkyModel::Multiple,
             },
             sun_disc: props["sun_disc"].as_bool().unwrap(),
@@ -288,17 +352,28 @@ mod tests {
             air: f("air_density"),
             aerosol: f("aerosol_density"),
             ozone: f("ozone_density"),
+            // Absent from the physical cases' props (made before the analytic ones): defaults.
+            sun_direction: props
+                .get("sun_direction")
+                .map_or(Vec3::Z, |v| Vec3::from_array(std::array::from_fn(|k| v[k].as_f64().unwrap() as f32))),
+            turbidity: props.get("turbidity").map_or(2.2, |v| v.as_f64().unwrap() as f32),
+            ground_albedo: props.get("ground_albedo").map_or(0.3, |v| v.as_f64().unwrap() as f32),
         }
     }
 
-    /// Cycles' values of four skies at 2048 directions each (`tests/data/sky_reference.json`,
-    /// made by `make_sky_reference.py` with real bpy 5.0.1).
+    /// Cycles' values of nine skies at 2048 directions each (`tests/data/sky_reference.json`,
+    /// made by `make_sky_reference.py` with real bpy 5.0.1): four physical, two Preetham,
+    /// three Hosek / Wilkie.
     ///
-    /// Tolerance, per direction: 1 % of Cycles' value plus 1e-4 of the case's mean (f32
-    /// integrations of 32-64 steps in both, summed in other orders, differ by ~1e-5
-    /// relative; Cycles keeps its table as half floats where the device asks, 2^-11 = 5e-4
-    /// relative, doubled), plus how much the model itself changes within the direction's
-    /// uncertainty (the EXR's f32 direction: 1e-6 rad), which covers the sun disc's edge.
+    /// Tolerance, per direction: a relative part of Cycles' value plus 1e-4 of the case's
+    /// mean, plus how much the model itself changes within the direction's uncertainty (the
+    /// EXR's f32 direction: 1e-6 rad), which covers the sun disc's edge. The relative part:
+    /// * physical models, 1 %: f32 integrations of 32-64 steps in both, summed in other
+    ///   orders, differ by ~1e-5 relative; Cycles keeps its table as half floats where the
+    ///   device asks, 2^-11 = 5e-4 relative, doubled;
+    /// * analytic models, 0.1 %: no table, closed forms in f32 in both (~1e-6), but Cycles'
+    ///   XYZ → RGB matrix comes from its colour configuration, whose entries are given to 4–5
+    ///   digits (up to 5e-4 relative from the exact D65 matrix used here), doubled.
     #[test]
     fn matches_cycles_at_reference_directions() {
         let path = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/sky_reference.json");
@@ -306,7 +381,8 @@ mod tests {
         let mut failed = Vec::new();
         for case in data["cases"].as_array().unwrap() {
             let name = case["name"].as_str().unwrap();
-            let sky = Sky::new(&params_of(&case["props"]));
+            let params = params_of(&case["props"]);
+            let sky = Sky::new(&params);
             let samples: Vec<[f32; 6]> = case["samples"]
                 .as_array()
                 .unwrap()
@@ -322,7 +398,11 @@ mod tests {
             // (`sky.h`: (1 + 2.5 z)³ × the table at v = 0.508) gives Caustic's numbers, so
             // 5.0.1's build differs there; the band is checked against the measured range
             // so that a change shows.
-            let single = sky.model == SkyModel::Single;
+            let single = params.model == SkyModel::Single;
+            let relative = match params.model {
+                SkyModel::Single | SkyModel::Multiple => 0.01,
+                SkyModel::Preetham | SkyModel::HosekWilkie => 0.001,
+            };
             let single_ground = |d: Vec3| single && d.z < 0.0 && d.z >= -0.4;
             let mut ground_ratio = (f32::MAX, 0.0f32);
             for s in &samples {
@@ -335,7 +415,7 @@ mod tests {
                         wiggle = wiggle.max((sky.radiance((d + axis * (sign * 1e-6)).normalize()) - ours).abs());
                     }
                 }
-                let bound = reference.abs() * 0.01 + mean * 1e-4 + wiggle;
+                let bound = reference.abs() * relative + mean * 1e-4 + wiggle;
                 let excess = ((ours - reference).abs() / bound.max(Vec3::splat(1e-12))).max_element();
                 if single_ground(d) {
                     // Known deviation, measured and not hidden: see below.
