@@ -372,6 +372,9 @@ class _Builder:
             elif source is not None and "value" in item:
                 item["value"] = convert(source[1], source[2], sock.type)
             entry["inputs"][sock.identifier] = item
+        mapping = getattr(node, "texture_mapping", None)
+        if mapping is not None and not _identity_mapping(mapping):
+            self._texture_mapping(node, entry, mapping)
         if node.type in _GENERATED_DEFAULT:
             vector = node.inputs.get("Vector")
             if vector is not None and _available(vector) and "link" not in entry["inputs"].get("Vector", {}):
@@ -382,6 +385,58 @@ class _Builder:
             anisotropic = entry["inputs"].get("Anisotropic", {})
             if "link" in anisotropic or anisotropic.get("value", 0.0) != 0.0:
                 self.uses_generated = True
+
+    def _synthetic(self, name, kind, props=None, inputs=None):
+        """Appends a node the add-on makes (not in Blender's tree); its index."""
+        self.nodes.append({"name": name, "type": kind, "props": props or {}, "inputs": inputs or {}})
+        return len(self.nodes) - 1
+
+    def _texture_mapping(self, node, entry, mapping):
+        """A texture node's own (legacy, sidebar) Texture Mapping, which Cycles applies to the
+        vector before the lookup (`TextureMapping::compile`): the axes picked first (X/Y/Z or
+        none), then Location, Rotation and Scale as the Mapping node of the same vector type
+        (Cycles' Point, Texture, Vector and Normal transforms are that node's), then the
+        Minimum and Maximum clamps. Written as nodes in front of the texture's Vector."""
+        vector = entry["inputs"].get("Vector")
+        name = entry["name"]
+        if vector is None:
+            return
+        if "link" in vector:
+            source = vector["link"]
+        elif node.type in _GENERATED_DEFAULT:
+            source = [self._synthetic(f"{name}/Texture Coordinate", "ShaderNodeTexCoord"), "Generated"]
+            self.uses_generated = True
+        elif node.bl_idname == "ShaderNodeTexImage":
+            source = [self._synthetic(f"{name}/Texture Coordinate", "ShaderNodeTexCoord"), "UV"]
+        elif node.bl_idname == "ShaderNodeTexEnvironment":
+            source = [self._synthetic(f"{name}/Geometry", "ShaderNodeNewGeometry"), "Position"]
+        else:
+            self.warn(name, "its own Texture Mapping (node sidebar) is not applied to its default vector; "
+                            "a Mapping node in front of it is")
+            return
+        axes = (mapping.mapping_x, mapping.mapping_y, mapping.mapping_z)
+        if axes != ("X", "Y", "Z"):
+            split = self._synthetic(f"{name}/Texture Mapping axes", "ShaderNodeSeparateXYZ",
+                                    inputs={"Vector": {"value": [0.0, 0.0, 0.0], "link": source}})
+            picks = {}
+            for target, axis in zip("XYZ", axes):
+                picks[target] = {"value": 0.0} if axis == "NONE" else {"value": 0.0, "link": [split, axis]}
+            source = [self._synthetic(f"{name}/Texture Mapping axes'", "ShaderNodeCombineXYZ", inputs=picks), "Vector"]
+        source = [self._synthetic(
+            f"{name}/Texture Mapping", "ShaderNodeMapping", props={"vector_type": mapping.vector_type},
+            inputs={"Vector": {"value": [0.0, 0.0, 0.0], "link": source},
+                    "Location": {"value": plain(mapping.translation)},
+                    "Rotation": {"value": plain(mapping.rotation)},
+                    "Scale": {"value": plain(mapping.scale)}}), "Vector"]
+        for use, bound, operation in ((mapping.use_min, mapping.min, "MAXIMUM"),
+                                      (mapping.use_max, mapping.max, "MINIMUM")):
+            if use:
+                source = [self._synthetic(
+                    f"{name}/Texture Mapping {operation.lower()}", "ShaderNodeVectorMath",
+                    props={"operation": operation},
+                    inputs={"Vector": {"value": [0.0, 0.0, 0.0], "link": source},
+                            "Vector_001": {"value": plain(bound)}}), "Vector"]
+        entry["inputs"]["Vector"] = dict(vector, link=source)
 
     def props(self, node, name):
         """The node's own settings (everything not inherited from ShaderNode), contract's shapes."""
@@ -406,12 +461,6 @@ class _Builder:
             props["direction"] = plain(node.outputs["Normal"].default_value)
         self._tex_coord(node, name, props)
         self._colour_0(node, props)
-        mapping = getattr(node, "texture_mapping", None)
-        if mapping is not None and not _identity_mapping(mapping):
-            # Cycles applies a texture node's own (legacy, sidebar) Texture Mapping before the
-            # lookup; the graph has no field for it yet.
-            self.warn(name, "its own Texture Mapping (node sidebar: location, rotation, scale, axes, "
-                            "min/max) is not applied; a Mapping node in front of it is")
         if node.bl_idname == "ShaderNodeAttribute" and node.attribute_type == "VIEW_LAYER":
             props["view_layer_value"] = view_layer_rgba(self.context.depsgraph, node.attribute_name)
         return props
