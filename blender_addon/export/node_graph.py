@@ -539,6 +539,17 @@ def build_world_graph(world, context):
     return builder.run(output, with_aovs=context.with_aovs)
 
 
+def build_light_graph(light, what, context):
+    """The Light Output's Surface graph of a light datablock (a `Graph`, contract: `nodes` of
+    the light extensions), warnings naming `what`; None without a Cycles Light Output."""
+    output = cycles_output(light)
+    if output is None:
+        return None
+    builder = _Builder(light, context)
+    builder.what = what
+    return builder.run(output)
+
+
 def build_volume_graph(material, shader_node, context):
     """The graph of a Volume output's shader node and what feeds it (a `Graph` whose output is
     empty; contract: `CAUSTIC_materials_medium.graph`), and the shader node's index in it."""

@@ -7,6 +7,7 @@
 use super::vertex::*;
 use super::*;
 use crate::integrator::linking::{self, Gate};
+use crate::light::light_graph::graph_factor;
 
 impl BdptIntegrator {
     /// What a camera subpath escaping along `dir` from its last vertex sees: the world and
@@ -170,7 +171,7 @@ impl BdptIntegrator {
                     if !(mask > 0.0) {
                         continue;
                     }
-                    let density = if *soft {
+                    let (density, q) = if *soft {
                         let n = (prev_p - *center).normalize_or(Vec3::Y);
                         let denom = n.dot(dir);
                         if denom >= 0.0 {
@@ -182,13 +183,14 @@ impl BdptIntegrator {
                             continue;
                         }
                         let dist = (q - prev_p).length();
-                        area_to_solid_angle(1.0 / (std::f32::consts::PI * radius * radius), dist, -denom)
+                        (area_to_solid_angle(1.0 / (std::f32::consts::PI * radius * radius), dist, -denom), q)
                     } else {
-                        if intersect_sphere(org, dir, *center, *radius, tmax).is_none() {
+                        let Some(t) = intersect_sphere(org, dir, *center, *radius, tmax) else {
                             continue;
-                        }
-                        crate::light::sphere_cos_max((*center - prev_p).length(), *radius)
-                            .map_or(0.0, crate::sampling::warp::uniform_cone_pdf)
+                        };
+                        let density = crate::light::sphere_cos_max((*center - prev_p).length(), *radius)
+                            .map_or(0.0, crate::sampling::warp::uniform_cone_pdf);
+                        (density, org + dir * t)
                     };
                     // Camera-side only already; a light hidden from the last bounce's kind is not found.
                     if !ctx.light_seen_by(index, path) {
@@ -196,7 +198,9 @@ impl BdptIntegrator {
                     }
                     let p_light = self.lights.pmf_any(index) * density;
                     let w = gate.weight(self.camera_only_weight(i, prev_delta, pdf_sa, p_light));
-                    let c = beta * *radiance * (mask * w);
+                    let n_q = if *soft { Vec3::ZERO } else { (q - *center) / *radius };
+                    let f = graph_factor(ctx.scene, index, q, n_q, prev_p, *path);
+                    let c = beta * *radiance * f * (mask * w);
                     sum += c;
                     if self.ledger.any() {
                         self.ledger.file(out, i, first, false, self.ledger.group_of_light(ctx, index), c);
@@ -206,6 +210,7 @@ impl BdptIntegrator {
                 _ => continue,
             };
             let q = org + dir * t;
+            let le = le * graph_factor(ctx.scene, index, q, n, cam[i].p, *path);
             // Made by s = 0 and s = 1 alone (`visibility`): a light hidden from the last
             // bounce's kind is not found, else BSDF sampling is weighed against light sampling.
             if restricted || self.restriction.light(index) || self.restriction.crosses(org, dir, t) {

@@ -1,0 +1,46 @@
+"""A light's node tree as its whole graph (contract: `nodes` of `CAUSTIC_lights_area` and
+`CAUSTIC_lights_punctual`), in the shape of `CAUSTIC_materials_nodes`.
+
+Cycles multiplies a light's emission by its Light Output's Surface shader evaluated at each
+emission (a Blackbody colour, Light Falloff, a texture on the light's coordinates, an IES
+profile). An Emission node whose Strength and Color are unlinked is two numbers, which
+`lights.light_node_factors` folds into the light's power and colour; any other tree goes to
+the renderer as its graph, and the light's power and colour are then its own (without the
+tree), which the renderer multiplies by the graph's value (`light::light_graph`).
+"""
+
+from .node_graph import GraphContext, build_light_graph
+
+
+def _surface_shader(light):
+    """The unmuted node on the light's Cycles output Surface, through reroutes, or None."""
+    from .lights import _emission_node
+    return _emission_node(light)
+
+
+def needs_graph(light):
+    """Whether the light's node tree is more than an Emission node with unlinked inputs."""
+    if not getattr(light, "use_nodes", False) or light.node_tree is None:
+        return False
+    node = _surface_shader(light)
+    if node is None:
+        return False  # nothing on the output: `light_node_factors` names it
+    if node.type != "EMISSION" or node.mute:
+        return True
+    return any(node.inputs[name].is_linked for name in ("Strength", "Color"))
+
+
+def light_graph(blender_object, writer, depsgraph=None):
+    """(the `nodes` value, warnings) of the light object's node tree, or (None, []) when
+    `needs_graph` is false or no writer is given (a preview without files)."""
+    light = blender_object.data
+    if writer is None or not needs_graph(light):
+        return None, []
+    what = f"light '{blender_object.name}'"
+    graph = build_light_graph(light, what, GraphContext(depsgraph))
+    if graph is None or graph.output["surface"] is None:
+        return None, []
+    warnings = list(graph.warnings)
+    value = writer.graph_value(graph, what, warnings)
+    value["output"] = {"surface": graph.output["surface"]}
+    return value, warnings
