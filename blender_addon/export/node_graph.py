@@ -439,6 +439,8 @@ class _Builder:
         elif key == "object":
             if value is not None:
                 props["object_matrix"] = object_matrix(value, self.context.depsgraph)
+        elif key == "ies":
+            pass  # an IES Texture's text: written beside the glTF by light_nodes.py
         elif value is not None:
             self.warn(name, f"its setting '{key}' ({type(value).__name__}) is not exported")
 

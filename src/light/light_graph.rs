@@ -48,15 +48,24 @@ pub struct LightGraph {
     program: Arc<Program>,
     /// The graph's images.
     textures: Arc<Vec<Texture>>,
-    /// The light object as Object coordinates and Object Info see it.
-    object: ObjectData,
+    /// The light object as Object coordinates and Object Info see it (shared: the graph is
+    /// kept small, as lights are loaded by value).
+    object: Arc<ObjectData>,
 }
 
 impl LightGraph {
     /// Light `name`'s graph, its images and the light object's world matrix (glTF axes).
     pub fn new(name: &str, program: Program, textures: Vec<Texture>, world: Mat4) -> LightGraph {
-        let object =
-            ObjectData { world_to_object: world.inverse(), location: world.transform_point3(Vec3::ZERO), ..NO_OBJECT };
+        // The light node's local frame is the Blender light's own (the exporter's light
+        // correction and its Y-up swap cancel), while the graph turns object-space vectors
+        // from glTF to Blender axes: the frame is given in glTF axes so that Object and
+        // Normal coordinates come out in the light's Blender frame (−Z its direction).
+        let blender_to_gltf = Mat4::from_cols(Vec4::X, -Vec4::Z, Vec4::Y, Vec4::W);
+        let object = Arc::new(ObjectData {
+            world_to_object: blender_to_gltf * world.inverse(),
+            location: world.transform_point3(Vec3::ZERO),
+            ..NO_OBJECT
+        });
         LightGraph { name: name.into(), program: Arc::new(program), textures: Arc::new(textures), object }
     }
 

@@ -16,6 +16,10 @@ Cases:
   evaluated per emission (a varying graph).
 * area_linked_strength: an area light whose Strength is Light Falloff's Quadratic output with
   Smooth 2: strength × d² / (d² + 2) per emission.
+* point_ies_internal: an IES Texture (a small asymmetric type C profile in a text datablock)
+  into a point light's Strength, the light turned 30° about Z (the profile's horizontal angle is
+  read in the light's frame);
+* spot_ies_external: the same profile from a file, Strength 1.3, on a tilted spot.
 
 Measured on bpy 5.0.1 (Caustic/Cycles, R G B; before = main's add-on and binary, which read
 only an Emission node's unlinked values and named a linked socket in a warning):
@@ -23,11 +27,18 @@ only an Emission node's unlinked values and named a linked socket in a warning):
 * spot_math_strength: before 0.333 (the Strength's unlinked 1 instead of 3), now 0.9999;
 * point_light_falloff: before 0.0001 (the exporter's intensity from the Falloff's Strength),
   now 0.9999;
-* area_linked_strength: before 0.870, now 1.0000.
+* area_linked_strength: before 0.870, now 1.0000;
+* point_ies_internal: before 0.0277 (the Strength's unlinked 1 instead of the profile's ~70:
+  main named the link in a warning), now 1.0214 (xfail, see `_IES_GAP`);
+* spot_ies_external: before 0.0180, now 1.0340 (xfail).
 (`CAUSTIC_BINARY=... python -m pytest -q tests/blender/test_light_nodes.py -s`; the before
 figures from a copy of main's blender_addon/ and tests/blender/ with this file added.)
 """
 
+import os
+import tempfile
+
+import bpy
 import pytest
 
 import scenes
@@ -83,16 +94,74 @@ def area_linked_strength(scene):
     tree.links.new(falloff.outputs["Quadratic"], emission.inputs["Strength"])
 
 
+# A small type C profile (LM-63-2002), asymmetric in the horizontal angle so that its
+# orientation in the light's frame matters: vertical angles 0-90 (nothing upwards), horizontal
+# 0, 90, 180, 270 and 360 (= 0), in candela.
+IES_PROFILE = """IESNA:LM-63-2002
+[TEST] Caustic light-node test profile
+TILT=NONE
+1 1000 1 5 5 1 2 0 0 0
+1 1 100
+0 22.5 45 67.5 90
+0 90 180 270 360
+1000 900 600 250 0
+600 500 300 100 0
+300 280 200 80 0
+600 500 300 100 0
+1000 900 600 250 0
+"""
+
+
+def _ies_tree(obj):
+    """IES Texture's Fac into the Emission Strength of `obj`'s light; returns the IES node."""
+    tree, emission = _tree(obj.data)
+    ies = tree.nodes.new("ShaderNodeTexIES")
+    tree.links.new(ies.outputs["Fac"], emission.inputs["Strength"])
+    return ies
+
+
+def point_ies_internal(scene):
+    obj = scenes.light(scene, "Downlight", "POINT", location=(0.2, -0.3, 2.6), rotation_deg=(0.0, 0.0, 30.0),
+                       energy=8.0)
+    ies = _ies_tree(obj)
+    text = bpy.data.texts.new("profile.ies")
+    text.write(IES_PROFILE)
+    ies.mode = "INTERNAL"
+    ies.ies = text
+
+
+def spot_ies_external(scene):
+    obj = scenes.light(scene, "Wallwasher", "SPOT", location=(-0.3, 0.2, 2.8), rotation_deg=(12.0, 0.0, -20.0),
+                       energy=10.0, spot_size=1.8, spot_blend=0.2)
+    ies = _ies_tree(obj)
+    path = os.path.join(tempfile.mkdtemp(prefix="caustic-ies-"), "wallwasher.ies")
+    with open(path, "w") as f:
+        f.write(IES_PROFILE)
+    ies.mode = "EXTERNAL"
+    ies.filepath = path
+    ies.inputs["Strength"].default_value = 1.3
+
+
+# The IES cases render 2-4 % brighter than Cycles (below); the profile's values themselves
+# match Cycles' node (an emissive plane reading the IES Texture at fixed vectors renders
+# 600 cd x 4pi/177.83 at 45 degrees, as `shader::ies` computes), so the difference lies in how
+# Cycles feeds a light's IES node, which is not found yet. strict: a fix makes them pass and
+# fail here, so that the mark is removed.
+_IES_GAP = pytest.mark.xfail(strict=True, reason="IES lights render 1.02-1.04x Cycles (issue 19, open)")
+
 CASES = {
     "point_blackbody": point_blackbody,
     "spot_math_strength": spot_math_strength,
     "point_light_falloff": point_light_falloff,
     "area_linked_strength": area_linked_strength,
+    "point_ies_internal": point_ies_internal,
+    "spot_ies_external": spot_ies_external,
 }
+PARAMS = [pytest.param(name, add, id=name, marks=_IES_GAP if "ies" in name else ()) for name, add in CASES.items()]
 
 
-@pytest.mark.parametrize("case", list(CASES))
-def test_light_node_tree_matches_cycles(empty_scene, tmp_path, case):
+@pytest.mark.parametrize("case,add", PARAMS)
+def test_light_node_tree_matches_cycles(empty_scene, tmp_path, case, add):
     scene = empty_scene
-    build(scene, CASES[case])
+    build(scene, add)
     assert_mean_matches_cycles(scene, tmp_path, case, MODEL_ALLOWANCE, per_channel=True)

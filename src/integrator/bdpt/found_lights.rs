@@ -115,6 +115,19 @@ impl BdptIntegrator {
         if i == 0 || prev_delta { self.mis(1.0) } else { self.mis(power_heuristic(pdf_sa, p_light)) }
     }
 
+    /// The probability with which the camera side's light sampling at vertex `v` picks light
+    /// `index`: BDPT's light choice, or for a light taken by the camera side alone because its
+    /// emission depends on the receiver (`light::path_emitters`: a varying node tree) the path
+    /// tracer's, which its s = 1 uses (`connect_path_emitter`).
+    #[inline]
+    fn camera_side_pmf(&self, ctx: &SceneContext, index: usize, v: &Vertex) -> f32 {
+        if self.lights.reads_path(index) {
+            ctx.lights.pmf(v.p, super::path_emitters::selection_normal(v), index)
+        } else {
+            self.lights.pmf_any(index)
+        }
+    }
+
     /// s = 0 contributions of area and sphere lights crossed by the segment from the last
     /// camera vertex (they do not block: the path goes on, as in Cycles).
     #[allow(clippy::too_many_arguments)]
@@ -196,7 +209,7 @@ impl BdptIntegrator {
                     if !ctx.light_seen_by(index, path) {
                         continue;
                     }
-                    let p_light = self.lights.pmf_any(index) * density;
+                    let p_light = self.camera_side_pmf(ctx, index, &cam[i]) * density;
                     let w = gate.weight(self.camera_only_weight(i, prev_delta, pdf_sa, p_light));
                     let n_q = if *soft { Vec3::ZERO } else { (q - *center) / *radius };
                     let f = graph_factor(ctx.scene, index, q, n_q, prev_p, *path);
@@ -213,11 +226,24 @@ impl BdptIntegrator {
             let le = le * graph_factor(ctx.scene, index, q, n, cam[i].p, *path);
             // Made by s = 0 and s = 1 alone (`visibility`): a light hidden from the last
             // bounce's kind is not found, else BSDF sampling is weighed against light sampling.
-            if restricted || self.restriction.light(index) || self.restriction.crosses(org, dir, t) {
+            let varying = self.lights.reads_path(index);
+            if varying || restricted || self.restriction.light(index) || self.restriction.crosses(org, dir, t) {
                 if !ctx.light_seen_by(index, path) {
                     continue;
                 }
-                let p_light = self.light_sample_density(ctx, index, cam[i].p, q, n);
+                let p_light = if varying {
+                    // A light whose node tree varies: its s = 1 is the path tracer's own
+                    // next-event estimation (`path_emitters`), with the path tracer's density.
+                    match l {
+                        Light::Sphere { center, radius, .. } => {
+                            crate::light::sphere_cos_max((*center - cam[i].p).length(), *radius)
+                                .map_or(0.0, |c| self.camera_side_pmf(ctx, index, &cam[i]) * uniform_cone_pdf(c))
+                        }
+                        _ => ctx.light_pdf(index, cam[i].p, super::path_emitters::selection_normal(&cam[i]), q, n),
+                    }
+                } else {
+                    self.light_sample_density(ctx, index, cam[i].p, q, n)
+                };
                 let c = beta * le * self.mis(gate.weight(self.camera_only_weight(i, prev_delta, pdf_sa, p_light)));
                 sum += c;
                 if self.ledger.any() {

@@ -12,6 +12,23 @@ use crate::shader::instructions::Op;
 use glam::Mat4;
 
 impl Loader<'_> {
+    /// `nodes` with each IES Texture node's `ies_file` (a path beside the glTF, contract) read
+    /// into its `ies_text`, which the compiler parses; a file that cannot be read is an error
+    /// naming the light and node.
+    fn with_ies_profiles(&mut self, what: &str, nodes: &NodesExt) -> Result<NodesExt> {
+        let mut nodes = nodes.clone();
+        for node in nodes.nodes.iter_mut().filter(|n| n.kind == "ShaderNodeTexIES") {
+            let Some(file) = node.props.get("ies_file") else { continue };
+            let Some(file) = file.as_str().map(str::to_string) else {
+                return Err(self.err(format!("{what}: node '{}': ies_file is not a string", node.name)));
+            };
+            let bytes = self.resolve_uri(&file, &format!("{what}: node '{}': IES file", node.name))?;
+            let text = String::from_utf8_lossy(&bytes).into_owned();
+            node.props.insert("ies_text".into(), serde_json::Value::String(text));
+        }
+        Ok(nodes)
+    }
+
     /// Light `light` (named `name`, object matrix `world`) with its node tree `nodes`: a
     /// constant graph's emission multiplied into it, or the light and its varying graph.
     pub(super) fn light_with_nodes(
@@ -22,6 +39,7 @@ impl Loader<'_> {
         world: &Mat4,
     ) -> Result<(Light, Option<LightGraph>)> {
         let what = format!("light '{name}'");
+        let nodes = &self.with_ies_profiles(&what, nodes)?;
         let first = self.textures.len();
         let mut images = Vec::with_capacity(nodes.images.len());
         for (k, img) in nodes.images.iter().enumerate() {
