@@ -15,6 +15,7 @@ strength); any other change to the world (its nodes, links, image, volume) reloa
 
 import mathutils
 
+from .export.light_nodes import needs_graph
 from .export.lights import light_node_factors
 
 RELOAD = "reload"
@@ -68,10 +69,12 @@ def light_snapshot(obj):
     shape = tuple((p, rounded(getattr(light, p, None))) for p in _SHAPE_PROPERTIES)
     flags = tuple((p, rounded(getattr(obj, p, None))) for p in _OBJECT_PROPERTIES)
     tree = light.node_tree if getattr(light, "use_nodes", False) else None
+    # A tree sent as its graph (`export.light_nodes`) carries its Emission's values too.
+    graph = needs_graph(light)
     nodes = None
     if tree is not None:
         nodes = (tuple(sorted((n.name, n.type, tuple((i.identifier, rounded(getattr(i, "default_value", None)))
-                                                     for i in n.inputs if n.type != "EMISSION"))
+                                                     for i in n.inputs if n.type != "EMISSION" or graph))
                               for n in tree.nodes)),
                  tuple(sorted((k.from_node.name, k.from_socket.identifier, k.to_node.name, k.to_socket.identifier)
                               for k in tree.links)))

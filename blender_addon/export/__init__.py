@@ -9,6 +9,7 @@ out of it or writes differently from what Cycles renders (docs/contract.md):
 | `camera.py` | lens shift and depth of field: `CAUSTIC_camera` |
 | `lights.py` | area lights (`CAUSTIC_lights_area`), light shapes (`CAUSTIC_lights_punctual`), spot |
 |  | angles, light node trees' strength and colour |
+| `light_nodes.py` | a light node tree beyond an Emission's two numbers as its graph (`nodes`), IES files in `caustic_ies/` |
 | `light_temperature.py` | punctual lights' temperature folded into their colour while the exporter runs (it fails on it) |
 | `world.py` | the world's Background and environment image: `CAUSTIC_world` |
 | `materials.py` | shader nodes the exporter cannot read, solid glass, coat, warnings |

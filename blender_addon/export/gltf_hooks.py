@@ -81,14 +81,15 @@ class glTF2ExportUserExtension:
                 return
             if blender_object.type != "LIGHT":
                 return
+            writer = state.image_writer(export_settings["gltf_filedirectory"])
             if blender_object.data.type != "AREA":
                 separate_spot_angles(gltf2_node)
-                scale_punctual_light(gltf2_node, blender_object, state)
-                value = punctual_light_extension(blender_object)
+                value = punctual_light_extension(blender_object, writer, state.depsgraph, state.warnings)
+                scale_punctual_light(gltf2_node, blender_object, state, graph=bool(value and "nodes" in value))
                 if value:
                     attach_extension(gltf2_node, PUNCTUAL_EXTENSION, value)
                 return
-            value, warnings = area_light_extension(blender_object)
+            value, warnings = area_light_extension(blender_object, writer, state.depsgraph)
             attach_extension(gltf2_node, AREA_LIGHT_EXTENSION, value)
             state.area_lights.append(gltf2_node.name)
             state.warnings.extend(warnings)

@@ -17,10 +17,13 @@
   Color of the Emission node on the light's output (`light_node_factors`). The exporter instead
   replaces the colour by the node's and ignores the Strength (it uses it *instead of* the power
   for a sun); `scale_punctual_light` corrects what it wrote, `area_light_extension` applies the
-  factors. A linked Strength or Color, or another shader, is named in a warning.
+  factors. Any other tree (a linked Strength or Color, another shader) goes as its graph
+  (`light_nodes`, the extensions' `nodes`), and the light keeps its own power and colour.
 """
 
 import math
+
+from .light_nodes import light_graph
 
 AREA_LIGHT_EXTENSION = "CAUSTIC_lights_area"
 PUNCTUAL_EXTENSION = "CAUSTIC_lights_punctual"
@@ -29,8 +32,10 @@ PUNCTUAL_EXTENSION = "CAUSTIC_lights_punctual"
 _AREA_SHAPES = {"SQUARE": "square", "RECTANGLE": "rectangle", "DISK": "disk", "ELLIPSE": "ellipse"}
 
 
-def area_light_extension(blender_object):
-    """The `CAUSTIC_lights_area` value for an area light object, and warnings about what it drops."""
+def area_light_extension(blender_object, writer=None, depsgraph=None):
+    """The `CAUSTIC_lights_area` value for an area light object, and warnings about what it drops;
+    with `writer` (node_images.ImageWriter) a node tree beyond an Emission's two numbers goes as
+    its graph (`light_nodes`)."""
     light = blender_object.data
     warnings = []
     shape = _AREA_SHAPES[light.shape]
@@ -49,14 +54,20 @@ def area_light_extension(blender_object):
     if not light.normalize:
         power *= light.area(matrix_world=blender_object.matrix_world)
 
-    strength, node_color, node_warnings = light_node_factors(blender_object)
-    warnings += node_warnings
-    power *= strength
-    color = [c * n for c, n in zip(color, node_color)]
+    graph, graph_warnings = light_graph(blender_object, writer, depsgraph)
+    if graph is None:
+        strength, node_color, node_warnings = light_node_factors(blender_object)
+        warnings += node_warnings
+        power *= strength
+        color = [c * n for c, n in zip(color, node_color)]
+    else:
+        warnings += graph_warnings
     value = {"shape": shape, "size": [float(s) for s in size], "power": float(power),
              "color": [float(c) for c in color],
              # Ray Visibility > Camera (Blender hides lights from the camera by default).
              "camera_visible": bool(blender_object.visible_camera)}
+    if graph is not None:
+        value["nodes"] = graph
     # Spread (full angle, radians); 180° is Blender's default and no narrowing.
     if light.spread < math.pi - 1e-4:
         value["spread"] = float(light.spread)
@@ -71,8 +82,10 @@ def area_light_extension(blender_object):
     return value, warnings
 
 
-def punctual_light_extension(blender_object):
-    """Blender's light shape parameters that KHR_lights_punctual cannot say, or None.
+def punctual_light_extension(blender_object, writer=None, depsgraph=None, warnings=None):
+    """Blender's light shape parameters that KHR_lights_punctual cannot say, or None; with
+    `writer`, a node tree beyond an Emission's two numbers as its graph (`nodes`, its warnings
+    appended to `warnings`).
 
     radius: a point or spot light's `shadow_soft_size` (a sphere light in Cycles, or with soft
     falloff a disk facing the shading point; a spot's masked by its cone), with its Soft Falloff
@@ -94,6 +107,11 @@ def punctual_light_extension(blender_object):
     if not _lights_catcher(blender_object):
         value["shadow_catcher"] = False
     value.update(light_ray_visibility(blender_object))
+    graph, graph_warnings = light_graph(blender_object, writer, depsgraph)
+    if graph is not None:
+        value["nodes"] = graph
+        if warnings is not None:
+            warnings.extend(graph_warnings)
     return value or None
 
 
@@ -179,14 +197,21 @@ def light_node_factors(blender_object):
     return strength, color, warnings
 
 
-def scale_punctual_light(gltf2_node, blender_object, state):
+def scale_punctual_light(gltf2_node, blender_object, state, graph=False):
     """Make the exporter's KHR_lights_punctual light what Cycles renders for a light with a node
-    tree (module doc); warnings go to the state."""
+    tree (module doc); warnings go to the state. `graph`: the tree goes as its graph, so the
+    light gets its own colour and intensity, without the tree's."""
     ext = (gltf2_node.extensions or {}).get("KHR_lights_punctual")
     child = ext.extension.get("light") if ext is not None and isinstance(ext.extension, dict) else None
     value = getattr(child, "extension", None)
     light = blender_object.data
     if not isinstance(value, dict) or not getattr(light, "use_nodes", False) or light.node_tree is None:
+        return
+    if graph:
+        if id(value) not in state.scaled_lights:
+            state.scaled_lights.add(id(value))
+            value["color"] = _light_color(light)
+            value["intensity"] = _own_intensity(light)
         return
     strength, node_color, warnings = light_node_factors(blender_object)
     if id(value) in state.scaled_lights:  # a light dict the exporter shares between objects
@@ -205,6 +230,17 @@ def scale_punctual_light(gltf2_node, blender_object, state):
         return
     if "intensity" in value:
         value["intensity"] = float(value["intensity"]) * (float(light.energy) if light.type == "SUN" else strength)
+
+
+# The exporter's SPEC lighting mode: lm per W (`io_scene_gltf2`'s PBR_WATTS_TO_LUMENS).
+_LUMENS_PER_WATT = 683.0
+
+
+def _own_intensity(light):
+    """The KHR_lights_punctual intensity the exporter writes for the light without a node tree
+    (SPEC mode): a sun's W/m² as lux, a point's or spot's W as candela (W / 4π), × 2^exposure."""
+    power = float(light.energy) * 2.0 ** float(getattr(light, "exposure", 0.0)) * _LUMENS_PER_WATT
+    return power if light.type == "SUN" else power / (4.0 * math.pi)
 
 
 def _has_falloff_upstream(sock):

@@ -503,6 +503,8 @@ class _Builder:
         elif key == "object":
             if value is not None:
                 props["object_matrix"] = object_matrix(value, self.context.depsgraph)
+        elif key == "ies":
+            pass  # an IES Texture's text: written beside the glTF by light_nodes.py
         elif value is not None:
             self.warn(name, f"its setting '{key}' ({type(value).__name__}) is not exported")
 
@@ -601,6 +603,17 @@ def build_world_graph(world, context):
     builder.what = f"world '{world.name}'"
     # Cycles' background shader writes the world's AOVs where the camera sees the world.
     return builder.run(output, with_aovs=context.with_aovs)
+
+
+def build_light_graph(light, what, context):
+    """The Light Output's Surface graph of a light datablock (a `Graph`, contract: `nodes` of
+    the light extensions), warnings naming `what`; None without a Cycles Light Output."""
+    output = cycles_output(light)
+    if output is None:
+        return None
+    builder = _Builder(light, context)
+    builder.what = what
+    return builder.run(output)
 
 
 def build_volume_graph(material, shader_node, context):

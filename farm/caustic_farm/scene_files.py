@@ -1,8 +1,8 @@
 """What a scene needs on a worker: the scene file and every file it refers to, by content.
 
 A glTF names its buffers and images by relative URIs, and Caustic's extensions name more
-files (`CAUSTIC_world.image`, the node graphs' `images[].uri`, `CAUSTIC_volume`'s grid
-files, `volumes[].uri`). These files travel to the workers keyed by their SHA-256, so a file shared by many frames (one `.bin` under 100
+files (`CAUSTIC_world.image`, the node graphs' `images[].uri`, an IES Texture node's
+`ies_file`, `CAUSTIC_volume`'s grid files, `volumes[].uri`). These files travel to the workers keyed by their SHA-256, so a file shared by many frames (one `.bin` under 100
 animated `.gltf` files) travels once, and a worker rebuilds each scene's folder from the
 content it already holds.
 """
@@ -41,10 +41,11 @@ def read_gltf_json(path):
 
 
 def _uris(node, out):
-    """Collects every `uri` string (and `CAUSTIC_world`'s `image`) found anywhere in the JSON."""
+    """Collects every `uri` and `ies_file` string (and `CAUSTIC_world`'s `image`) found anywhere
+    in the JSON."""
     if isinstance(node, dict):
         for key, value in node.items():
-            if key == "uri" and isinstance(value, str):
+            if key in ("uri", "ies_file") and isinstance(value, str):
                 out.append(value)
             elif key == "CAUSTIC_world" and isinstance(value, dict) and isinstance(value.get("image"), str):
                 out.append(value["image"])

@@ -3,6 +3,7 @@
 //! by the light's linking and ray visibility.
 
 use super::{SceneContext, power_heuristic};
+use crate::light::light_graph::graph_factor;
 use crate::light::{area_to_solid_angle, intersect_sphere, sphere_cos_max, sphere_mask};
 use crate::math::Rgb;
 use crate::sampling::warp::uniform_cone_pdf;
@@ -71,7 +72,8 @@ impl<'a> SceneContext<'a> {
                 } else {
                     power_heuristic(prev_pdf, self.light_pdf(*index, prev_p, prev_n, org + dir * t, a.normal))
                 };
-                let c = a.radiance * (w * a.spread_attenuation((-dir).dot(a.normal)));
+                let f = graph_factor(self.scene, *index, org + dir * t, a.normal, prev_p, *path);
+                let c = a.radiance * f * (w * a.spread_attenuation((-dir).dot(a.normal)));
                 sum += c;
                 each(*index, c);
                 any = true;
@@ -107,10 +109,11 @@ impl<'a> SceneContext<'a> {
                         * area_to_solid_angle(1.0 / (std::f32::consts::PI * radius * radius), dist, -denom);
                     power_heuristic(prev_pdf, light_pdf)
                 };
+                let radiance = radiance * graph_factor(self.scene, index, q, Vec3::ZERO, prev_p, *path);
                 sum += radiance * w;
                 each(index, radiance * w);
                 any = true;
-            } else if intersect_sphere(org, dir, center, radius, tmax).is_some() {
+            } else if let Some(t) = intersect_sphere(org, dir, center, radius, tmax) {
                 let w = if prev_pdf == 0.0 {
                     1.0
                 } else {
@@ -118,6 +121,8 @@ impl<'a> SceneContext<'a> {
                         .map_or(0.0, |c| self.lights.pmf(prev_p, prev_n, index) * uniform_cone_pdf(c));
                     power_heuristic(prev_pdf, light_pdf)
                 };
+                let q = org + dir * t;
+                let radiance = radiance * graph_factor(self.scene, index, q, (q - center) / radius, prev_p, *path);
                 sum += radiance * w;
                 each(index, radiance * w);
                 any = true;
@@ -160,6 +165,7 @@ impl<'a> SceneContext<'a> {
                 } else {
                     power_heuristic(prev_pdf, self.lights.infinite_pmf(index) * uniform_cone_pdf(cos_half))
                 };
+                let radiance = radiance * graph_factor(self.scene, index, to_sun, Vec3::ZERO, Vec3::ZERO, *path);
                 sum += radiance * w;
                 each(index, radiance * w);
             }

@@ -104,7 +104,7 @@ pub fn light_subpaths_leave(ctx: &SceneContext, light: usize) -> bool {
 #[inline]
 pub fn merged_in_media(ctx: &SceneContext, light: usize) -> bool {
     ctx.scene.lights.get(light).is_some_and(|l| {
-        crate::light::origin::starts_subpaths(l) && !crate::light::path_emitters::reads_light_path(ctx.scene, l)
+        crate::light::origin::starts_subpaths(l) && !crate::light::path_emitters::reads_light_path(ctx.scene, light)
     }) && light_subpaths_leave(ctx, light)
 }
 

@@ -642,21 +642,38 @@ impl<'a> SceneContext<'a> {
     /// Samples light `index` from point `p` (the light's own `sample_li`).
     #[inline]
     pub fn sample_light(&self, index: usize, p: Vec3, u: Vec2) -> Option<LightSample> {
-        self.scene.lights[index].sample_li(self.scene, p, u)
+        let s = self.scene.lights[index].sample_li(self.scene, p, u);
+        self.with_light_graph(index, p, s, LightPath::LIGHT_EMISSION)
+    }
+
+    /// Sample `s` of light `index` from `p` with its varying node tree's factor
+    /// (`light::light_graph`), evaluated for a ray of state `path`.
+    #[inline]
+    fn with_light_graph(&self, index: usize, p: Vec3, s: Option<LightSample>, path: LightPath) -> Option<LightSample> {
+        match (s, self.scene.light_graphs.get(index)) {
+            (Some(mut s), Some(Some(_))) => {
+                let f = crate::light::light_graph::graph_factor(self.scene, index, s.point, s.normal, p, path);
+                s.li *= f;
+                Some(s)
+            }
+            (s, _) => s,
+        }
     }
 
     /// [`sample_light_from`](Self::sample_light_from) with the world sampled by its map
     /// alone (BDPT's and VCM's connections: `Light::sample_li_unguided`).
     #[inline]
     pub fn sample_light_unguided(&self, index: usize, p: Vec3, u: Vec2, path: LightPath) -> Option<LightSample> {
-        self.scene.lights[index].sample_li_unguided(self.scene, p, u, path)
+        let s = self.scene.lights[index].sample_li_unguided(self.scene, p, u, path);
+        self.with_light_graph(index, p, s, path.emission(0.0))
     }
 
     /// [`sample_light`](Self::sample_light) from a shading point reached by `path` (an
     /// emissive node graph's Light Path node reads it, as Cycles' light sampling does).
     #[inline]
     pub fn sample_light_from(&self, index: usize, p: Vec3, u: Vec2, path: LightPath) -> Option<LightSample> {
-        self.scene.lights[index].sample_li_from(self.scene, p, u, path)
+        let s = self.scene.lights[index].sample_li_from(self.scene, p, u, path);
+        self.with_light_graph(index, p, s, path.emission(0.0))
     }
 
     /// Solid-angle density with which `sample_light` (including the light choice, made

@@ -9,6 +9,7 @@
 
 pub mod emit;
 pub mod environment;
+pub mod light_graph;
 pub mod media_emit;
 pub mod origin;
 pub mod path_emitters;
@@ -310,6 +311,25 @@ pub enum Light {
 }
 
 impl Light {
+    /// The light with its emission multiplied by `f` (a constant node tree's value; emissive
+    /// triangles and the world carry their own graphs and are returned as they are).
+    pub fn scaled(self, f: Rgb) -> Light {
+        match self {
+            Light::Point { position, intensity } => Light::Point { position, intensity: intensity * f },
+            Light::Spot { intensity, position, direction, cos_inner, cos_outer, smooth, axes } => {
+                Light::Spot { intensity: intensity * f, position, direction, cos_inner, cos_outer, smooth, axes }
+            }
+            Light::Directional { direction, irradiance, cos_half } => {
+                Light::Directional { direction, irradiance: irradiance * f, cos_half }
+            }
+            Light::Sphere { center, radius, radiance, soft, camera_visible, spot } => {
+                Light::Sphere { center, radius, radiance: radiance * f, soft, camera_visible, spot }
+            }
+            Light::Area(a) => Light::Area(AreaLight { radiance: a.radiance * f, ..a }),
+            Light::Triangle { .. } | Light::World => self,
+        }
+    }
+
     /// The box of the points a light emits from (a point or spot light's position, a
     /// sphere's ball, an area light's rectangle or disk); None for lights without a place
     /// (suns, the world) and for emissive triangles, which lie among the surfaces.

@@ -12,15 +12,22 @@ use crate::light::Light;
 use crate::scene::Scene;
 use crate::scene::light_path::PathOutput;
 
-/// Per light: an emissive triangle whose material's emission may read the Light Path node.
+/// Per light: an emissive triangle whose material's emission may read the Light Path node,
+/// or a light whose node tree varies over it.
 pub fn reading_light_path(scene: &Scene) -> Vec<bool> {
-    scene.lights.iter().map(|l| reads_light_path(scene, l)).collect()
+    (0..scene.lights.len()).map(|i| reads_light_path(scene, i)).collect()
 }
 
-/// True for an emissive triangle whose material's emission may read the Light Path node.
+/// True for light `index` when it is an emissive triangle whose material's emission may
+/// read the Light Path node, or a light whose node tree varies over it
+/// (`light::light_graph`): its emission depends on the receiver (the direction, Light
+/// Falloff's distance), which a light subpath leaving it does not know yet.
 #[inline]
-pub fn reads_light_path(scene: &Scene, l: &Light) -> bool {
-    match l {
+pub fn reads_light_path(scene: &Scene, index: usize) -> bool {
+    if scene.light_graphs.get(index).is_some_and(Option::is_some) {
+        return true;
+    }
+    match &scene.lights[index] {
         Light::Triangle { tri } => scene.materials[scene.mesh.tri_material[*tri as usize] as usize]
             .nodes
             .as_ref()
@@ -60,7 +67,23 @@ pub fn photon_warning(scene: &Scene, integrator: &str) -> Option<String> {
             named.push(format!("'{}' ({})", scene.materials[m].name, outputs.join(", ")));
         }
     }
-    (!named.is_empty()).then(|| {
+    let lights: Vec<String> = scene
+        .light_graphs
+        .iter()
+        .flatten()
+        .filter(|g| g.reads_ray_length())
+        .map(|g| format!("'{}'", g.name()))
+        .collect();
+    let lights = (!lights.is_empty()).then(|| {
+        format!(
+            "the node tree of light(s) {} reads the ray's length (Light Falloff): {integrator}'s photons leave \
+             the light before their first segment's length is known and read a Ray Length of 1, so the light \
+             they carry from it is approximated; its direct light (next-event estimation) and its emission seen \
+             by camera paths are as the path tracer's",
+            lights.join(", ")
+        )
+    });
+    let materials = (!named.is_empty()).then(|| {
         format!(
             "emission of material(s) {} reads the Light Path node: {integrator}'s photons leave the emitter \
              without a camera path and read it as light sampling without a path does (no ray flag, Ray Depth 1, \
@@ -68,7 +91,11 @@ pub fn photon_warning(scene: &Scene, integrator: &str) -> Option<String> {
              seen by camera paths and its direct light (next-event estimation) are as the path tracer's",
             named.join(", ")
         )
-    })
+    });
+    match (materials, lights) {
+        (Some(m), Some(l)) => Some(format!("{m}; {l}")),
+        (m, l) => m.or(l),
+    }
 }
 
 /// The integrators that shade surfaces from the light side, for

@@ -227,6 +227,9 @@ pub struct Scene {
     pub lights: Vec<Light>,
     /// Power (luminance, W) of each light, for light selection.
     pub light_power: Vec<f32>,
+    /// Each light's node tree that varies over it, by light index (shorter than `lights`
+    /// or None: the light has none; constant trees are folded into the light at load).
+    pub light_graphs: Vec<Option<crate::light::light_graph::LightGraph>>,
     /// Cameras in node order.
     pub cameras: Vec<Camera>,
     /// The world light (`CAUSTIC_world`), if any.

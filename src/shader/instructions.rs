@@ -249,6 +249,14 @@ pub enum Op {
         g: Reg,
         out: Reg,
     },
+    /// IES Texture: Strength × the profile toward `vector` (the light's frame, Blender axes;
+    /// Cycles' `svm_node_ies`); without a profile 100 × Strength, as Cycles for a missing file.
+    Ies {
+        profile: Option<std::sync::Arc<crate::shader::ies::IesProfile>>,
+        vector: Reg,
+        strength: Reg,
+        out: Reg,
+    },
     /// Blackbody: the colour of temperature `t` (kelvin), Cycles' fit clamped at 0.
     Blackbody {
         t: Reg,

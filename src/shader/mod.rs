@@ -7,6 +7,7 @@ pub mod closure;
 pub mod compile;
 pub mod geom;
 pub mod graph;
+pub mod ies;
 pub mod image_node;
 pub mod instructions;
 pub mod ops;

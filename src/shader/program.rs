@@ -178,6 +178,10 @@ impl Program {
             Op::Blackbody { t, out } => {
                 set3(r, out, crate::medium::blackbody::blackbody_rgb(r[t as usize]).max(glam::Vec3::ZERO))
             }
+            Op::Ies { ref profile, vector, strength, out } => {
+                let f = profile.as_ref().map_or(100.0, |p| p.eval_direction(v3(r, vector)));
+                r[out as usize] = r[strength as usize] * f;
+            }
             Op::Wavelength { lambda, out } => set3(r, out, ops::wavelength_to_rgb(r[lambda as usize])),
             Op::Wireframe { size, out } => r[out as usize] = wireframe(g, r[size as usize]),
             Op::BrightContrast { c, bright, contrast, out } => {

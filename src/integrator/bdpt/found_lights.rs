@@ -7,6 +7,7 @@
 use super::vertex::*;
 use super::*;
 use crate::integrator::linking::{self, Gate};
+use crate::light::light_graph::graph_factor;
 
 impl BdptIntegrator {
     /// What a camera subpath escaping along `dir` from its last vertex sees: the world and
@@ -114,6 +115,19 @@ impl BdptIntegrator {
         if i == 0 || prev_delta { self.mis(1.0) } else { self.mis(power_heuristic(pdf_sa, p_light)) }
     }
 
+    /// The probability with which the camera side's light sampling at vertex `v` picks light
+    /// `index`: BDPT's light choice, or for a light taken by the camera side alone because its
+    /// emission depends on the receiver (`light::path_emitters`: a varying node tree) the path
+    /// tracer's, which its s = 1 uses (`connect_path_emitter`).
+    #[inline]
+    fn camera_side_pmf(&self, ctx: &SceneContext, index: usize, v: &Vertex) -> f32 {
+        if self.lights.reads_path(index) {
+            ctx.lights.pmf(v.p, super::path_emitters::selection_normal(v), index)
+        } else {
+            self.lights.pmf_any(index)
+        }
+    }
+
     /// s = 0 contributions of area and sphere lights crossed by the segment from the last
     /// camera vertex (they do not block: the path goes on, as in Cycles).
     #[allow(clippy::too_many_arguments)]
@@ -170,7 +184,7 @@ impl BdptIntegrator {
                     if !(mask > 0.0) {
                         continue;
                     }
-                    let density = if *soft {
+                    let (density, q) = if *soft {
                         let n = (prev_p - *center).normalize_or(Vec3::Y);
                         let denom = n.dot(dir);
                         if denom >= 0.0 {
@@ -182,21 +196,24 @@ impl BdptIntegrator {
                             continue;
                         }
                         let dist = (q - prev_p).length();
-                        area_to_solid_angle(1.0 / (std::f32::consts::PI * radius * radius), dist, -denom)
+                        (area_to_solid_angle(1.0 / (std::f32::consts::PI * radius * radius), dist, -denom), q)
                     } else {
-                        if intersect_sphere(org, dir, *center, *radius, tmax).is_none() {
+                        let Some(t) = intersect_sphere(org, dir, *center, *radius, tmax) else {
                             continue;
-                        }
-                        crate::light::sphere_cos_max((*center - prev_p).length(), *radius)
-                            .map_or(0.0, crate::sampling::warp::uniform_cone_pdf)
+                        };
+                        let density = crate::light::sphere_cos_max((*center - prev_p).length(), *radius)
+                            .map_or(0.0, crate::sampling::warp::uniform_cone_pdf);
+                        (density, org + dir * t)
                     };
                     // Camera-side only already; a light hidden from the last bounce's kind is not found.
                     if !ctx.light_seen_by(index, path) {
                         continue;
                     }
-                    let p_light = self.lights.pmf_any(index) * density;
+                    let p_light = self.camera_side_pmf(ctx, index, &cam[i]) * density;
                     let w = gate.weight(self.camera_only_weight(i, prev_delta, pdf_sa, p_light));
-                    let c = beta * *radiance * (mask * w);
+                    let n_q = if *soft { Vec3::ZERO } else { (q - *center) / *radius };
+                    let f = graph_factor(ctx.scene, index, q, n_q, prev_p, *path);
+                    let c = beta * *radiance * f * (mask * w);
                     sum += c;
                     if self.ledger.any() {
                         self.ledger.file(out, i, first, false, self.ledger.group_of_light(ctx, index), c);
@@ -206,13 +223,27 @@ impl BdptIntegrator {
                 _ => continue,
             };
             let q = org + dir * t;
+            let le = le * graph_factor(ctx.scene, index, q, n, cam[i].p, *path);
             // Made by s = 0 and s = 1 alone (`visibility`): a light hidden from the last
             // bounce's kind is not found, else BSDF sampling is weighed against light sampling.
-            if restricted || self.restriction.light(index) || self.restriction.crosses(org, dir, t) {
+            let varying = self.lights.reads_path(index);
+            if varying || restricted || self.restriction.light(index) || self.restriction.crosses(org, dir, t) {
                 if !ctx.light_seen_by(index, path) {
                     continue;
                 }
-                let p_light = self.light_sample_density(ctx, index, cam[i].p, q, n);
+                let p_light = if varying {
+                    // A light whose node tree varies: its s = 1 is the path tracer's own
+                    // next-event estimation (`path_emitters`), with the path tracer's density.
+                    match l {
+                        Light::Sphere { center, radius, .. } => {
+                            crate::light::sphere_cos_max((*center - cam[i].p).length(), *radius)
+                                .map_or(0.0, |c| self.camera_side_pmf(ctx, index, &cam[i]) * uniform_cone_pdf(c))
+                        }
+                        _ => ctx.light_pdf(index, cam[i].p, super::path_emitters::selection_normal(&cam[i]), q, n),
+                    }
+                } else {
+                    self.light_sample_density(ctx, index, cam[i].p, q, n)
+                };
                 let c = beta * le * self.mis(gate.weight(self.camera_only_weight(i, prev_delta, pdf_sa, p_light)));
                 sum += c;
                 if self.ledger.any() {

@@ -105,7 +105,7 @@ impl BdptIntegrator {
 /// The receiver normal the path tracer gives light selection at a surface vertex: zero
 /// where the BSDF transmits (lights below count too), else the geometric normal.
 #[inline]
-fn selection_normal(v: &Vertex) -> Vec3 {
+pub(super) fn selection_normal(v: &Vertex) -> Vec3 {
     match v.bsdf {
         Some(b) if !b.transmits() => v.ng,
         _ => Vec3::ZERO,

@@ -218,6 +218,20 @@ pub fn trace_one(
     if light_share < 1.0 {
         e.power /= light_share;
     }
+    // A light's varying node tree weighs the photon by its value along the photon's
+    // direction (the direction is drawn from the light's own emission, so the weighted
+    // power stays unbiased); the photon does not know its first segment's length yet, and
+    // reads a Ray Length of 1 (warned: `path_emitters::photon_warning`).
+    if ctx.scene.light_graphs.get(e.light).is_some_and(Option::is_some) {
+        e.power *= crate::light::light_graph::graph_factor(
+            ctx.scene,
+            e.light,
+            e.org,
+            Vec3::ZERO,
+            e.org + e.dir,
+            crate::scene::light_path::LightPath::LIGHT_EMISSION,
+        );
+    }
     // A shadow-linked light's photon may go on through surfaces that do not block it
     // (`linking`): each such continuation is traced after the path it split from.
     let mut pending = Some((PathState::photon(e.org, e.dir, e.power), visibility::of_light(ctx, e.light)));

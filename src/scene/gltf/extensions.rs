@@ -35,6 +35,10 @@ pub(super) struct AreaLightExt {
     /// Cycles' Portal: the light emits nothing and steers the world's light sampling.
     #[serde(default)]
     pub(super) portal: bool,
+    /// The light's node tree (`light::light_graph`); its Emission's factors are not in
+    /// `power` and `color` then.
+    #[serde(default)]
+    pub(super) nodes: Option<crate::shader::graph::NodesExt>,
 }
 
 /// The kinds of ray that see a light whose Ray Visibility flags beyond Camera are these
@@ -289,6 +293,10 @@ pub(super) struct BlenderLight {
     pub(super) transmission_visible: bool,
     #[serde(default = "yes")]
     pub(super) volume_scatter_visible: bool,
+    /// The light's node tree (`light::light_graph`); the glTF light's colour and intensity
+    /// are then the light's own, without its Emission's factors.
+    #[serde(default)]
+    pub(super) nodes: Option<crate::shader::graph::NodesExt>,
 }
 
 impl Default for BlenderLight {
@@ -305,6 +313,7 @@ impl Default for BlenderLight {
             glossy_visible: true,
             transmission_visible: true,
             volume_scatter_visible: true,
+            nodes: None,
         }
     }
 }

@@ -5,6 +5,7 @@ use super::emission::{MeanPyramid, pyramid_bytes};
 use super::extensions::{AreaLightExt, BlenderLight, light_rays};
 use super::{LUMENS_PER_WATT, Loader};
 use crate::error::Result;
+use crate::light::light_graph::LightGraph;
 use crate::light::{AreaLight, AreaShape, Light, SpotAxes, SpotCone};
 use crate::math::luminance;
 use crate::scene::{LightReport, Material, Mesh};
@@ -23,8 +24,8 @@ pub(crate) fn triangle_light_power(mesh: &Mesh, tri: u32, radiance: f32, double_
 
 /// What a `CAUSTIC_lights_area` node becomes.
 pub(super) enum AreaResult {
-    /// An emitting area light and its report.
-    Light(Light, LightReport),
+    /// An emitting area light, its report and its varying node tree.
+    Light(Light, LightReport, Option<LightGraph>),
     /// A portal (Cycles' Portal): it steers the world's light sampling and emits nothing.
     Portal(AreaLight),
 }
@@ -36,7 +37,7 @@ impl Loader<'_> {
         node_name: &str,
         world: &Mat4,
         blender: Option<serde_json::Value>,
-    ) -> Result<(Light, LightReport)> {
+    ) -> Result<(Light, LightReport, Option<LightGraph>)> {
         let name = l.name().map(str::to_string).unwrap_or_else(|| node_name.to_string());
         let intensity = l.intensity();
         let color = Vec3::from(l.color());
@@ -136,6 +137,10 @@ impl Loader<'_> {
                 (light, "spot")
             }
         };
+        let (light, graph) = match &bl.nodes {
+            Some(nodes) => self.light_with_nodes(light, &name, nodes, world)?,
+            None => (light, None),
+        };
         Ok((
             light,
             LightReport {
@@ -152,6 +157,7 @@ impl Loader<'_> {
                     bl.volume_scatter_visible,
                 ),
             },
+            graph,
         ))
     }
 
@@ -213,23 +219,30 @@ impl Loader<'_> {
         match AreaLight::new(shape, center, ax, ay, emit, color * a.power)
             .map(|l| AreaLight { camera_visible: a.camera_visible, ..l }.with_spread(a.spread))
         {
-            Some(l) => Ok(Some(AreaResult::Light(
-                Light::Area(l),
-                LightReport {
-                    kind: "area".into(),
-                    name: name.into(),
-                    power: 0.0,
-                    triangles: 0,
-                    cast_shadow: a.cast_shadow,
-                    lights_catcher: a.shadow_catcher,
-                    rays: light_rays(
-                        a.diffuse_visible,
-                        a.glossy_visible,
-                        a.transmission_visible,
-                        a.volume_scatter_visible,
-                    ),
-                },
-            ))),
+            Some(l) => {
+                let (light, graph) = match &a.nodes {
+                    Some(nodes) => self.light_with_nodes(Light::Area(l), name, nodes, world)?,
+                    None => (Light::Area(l), None),
+                };
+                Ok(Some(AreaResult::Light(
+                    light,
+                    LightReport {
+                        kind: "area".into(),
+                        name: name.into(),
+                        power: 0.0,
+                        triangles: 0,
+                        cast_shadow: a.cast_shadow,
+                        lights_catcher: a.shadow_catcher,
+                        rays: light_rays(
+                            a.diffuse_visible,
+                            a.glossy_visible,
+                            a.transmission_visible,
+                            a.volume_scatter_visible,
+                        ),
+                    },
+                    graph,
+                )))
+            }
             None => {
                 self.warn(format!("area light '{name}' has zero area and was skipped"));
                 Ok(None)

@@ -26,6 +26,7 @@ mod gpu_instancing;
 mod iridescence;
 mod light_groups;
 mod light_linking;
+mod light_nodes;
 mod lights;
 mod material_ext;
 mod materials;
@@ -331,6 +332,8 @@ impl<'a> Loader<'a> {
         let mut lights = Vec::new();
         // The node name of each light from a node, for its light group.
         let mut light_nodes: Vec<Option<String>> = Vec::new();
+        // Lights whose node tree varies over them, by light index (`light::light_graph`).
+        let mut light_graphs: Vec<(usize, crate::light::light_graph::LightGraph)> = Vec::new();
         // Lights whose Cast Shadow is off, by index in `lights`.
         let mut shadowless = Vec::new();
         let mut no_catcher = Vec::new();
@@ -476,7 +479,10 @@ impl<'a> Loader<'a> {
             }
             if let Some(l) = node.light() {
                 let blender = node.extension_value("CAUSTIC_lights_punctual").cloned();
-                let (light, rep) = self.punctual_light(&l, &node_name, world, blender)?;
+                let (light, rep, graph) = self.punctual_light(&l, &node_name, world, blender)?;
+                if let Some(g) = graph {
+                    light_graphs.push((lights.len(), g));
+                }
                 if !rep.cast_shadow {
                     shadowless.push(lights.len());
                 }
@@ -535,7 +541,12 @@ impl<'a> Loader<'a> {
         let mut portals = Vec::new();
         for (ext, name, world, rule) in area_lights {
             let (light, rep) = match self.area_light(&ext, &name, &world)? {
-                Some(lights::AreaResult::Light(light, rep)) => (light, rep),
+                Some(lights::AreaResult::Light(light, rep, graph)) => {
+                    if let Some(g) = graph {
+                        light_graphs.push((lights.len(), g));
+                    }
+                    (light, rep)
+                }
                 Some(lights::AreaResult::Portal(p)) => {
                     portals.push(p);
                     continue;
@@ -573,6 +584,13 @@ impl<'a> Loader<'a> {
             std::f32::consts::PI * w.mean_luminance() * std::f32::consts::PI * scene_radius * scene_radius
         });
         let mut light_power: Vec<f32> = lights.iter().map(|l| punctual_power(l, scene_radius)).collect();
+        let mut light_graphs_by_index = Vec::new();
+        for (i, g) in light_graphs {
+            // Selection by the graph's value at a typical receiver (`LightGraph::selection_factor`).
+            light_power[i] *= g.selection_factor(&lights[i], scene_radius);
+            light_graphs_by_index.resize(i + 1, None);
+            light_graphs_by_index[i] = Some(g);
+        }
         if let Some(power) = world_power {
             if power > 0.0 {
                 // The world's Ray Visibility goes with the lights' (`scene::light_visibility`).
@@ -764,6 +782,7 @@ impl<'a> Loader<'a> {
             textures: self.textures,
             lights,
             light_power,
+            light_graphs: light_graphs_by_index,
             cameras,
             world,
             world_medium,

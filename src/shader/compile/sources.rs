@@ -657,6 +657,24 @@ impl Compiler<'_> {
                 let color = self.out(i, "Color", Ty::Color);
                 self.ops.push(Op::Texture(Box::new(TexOp::Wave { kind, direction, profile, inputs, fac, color })));
             }
+            "ShaderNodeTexIES" => {
+                // Cycles' IES node reads the texture Normal by default: on a light, the
+                // direction toward the receiver in the light's frame.
+                let vector = self.vec_implicit(i, "Vector", InputKind::ObjectNormal)?;
+                let strength = self.float(i, "Strength", 1.0)?;
+                let profile = match self.desc(i).props.get("ies_text").and_then(Value::as_str) {
+                    Some(text) => Some(std::sync::Arc::new(
+                        crate::shader::ies::IesProfile::parse(text)
+                            .map_err(|e| self.err(i, format!("its IES profile is malformed: {e}")))?,
+                    )),
+                    None => {
+                        self.warn(i, "it has no IES profile: it gives 100 × Strength, as Cycles for a missing file");
+                        None
+                    }
+                };
+                let out = self.out(i, "Fac", Ty::Float);
+                self.ops.push(Op::Ies { profile, vector, strength, out });
+            }
             "ShaderNodeTexChecker" => {
                 let inputs = [
                     self.vec_implicit(i, "Vector", InputKind::Generated)?,
