@@ -27,7 +27,7 @@ use super::microfiber::Microfiber;
 use super::oren_nayar::OrenNayar;
 use super::{BsdfSample, LobeKind, PbrBsdf, albedo::specular_albedo};
 use crate::math::{Rgb, luminance};
-use crate::sampling::warp::{cosine_hemisphere, cosine_hemisphere_pdf};
+use crate::sampling::warp::{cosine_hemisphere, cosine_hemisphere_pdf, uniform_cone, uniform_cone_pdf};
 use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
 
@@ -101,6 +101,85 @@ pub enum Lobe {
         /// Roughness.
         roughness: f32,
     },
+    /// The Toon BSDF as Cycles' `bsdf_toon.h`: f cos θ constant inside a cone of half-angle
+    /// Size × π/2 around the normal (Diffuse) or wo's mirror direction (Glossy), falling
+    /// linearly to 0 over a further Smooth × π/2, sampled uniformly over the cone that holds it.
+    Toon(Toon),
+}
+
+/// Cycles' toon lobe (see [`Lobe::Toon`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Toon {
+    /// Half-angle of the full-intensity cone (radians).
+    size: f32,
+    /// Width of the linear fall-off beyond it (radians).
+    smooth: f32,
+    /// Around wo's mirror direction (Glossy) instead of the normal (Diffuse).
+    glossy: bool,
+}
+
+impl Toon {
+    /// Cycles' setup: Size clamped to [10⁻⁵, 1] and Smooth to [0, 1], both × π/2.
+    pub fn new(size: f32, smooth: f32, glossy: bool) -> Self {
+        let half_pi = std::f32::consts::FRAC_PI_2;
+        let size = if size.is_finite() { size.clamp(1e-5, 1.0) } else { 1.0 };
+        let smooth = if smooth.is_finite() { smooth.clamp(0.0, 1.0) } else { 0.0 };
+        Toon { size: size * half_pi, smooth: smooth * half_pi, glossy }
+    }
+
+    /// The cosine of the sampled cone's half-angle, min(size + smooth, π/2).
+    #[inline]
+    fn cos_cone(&self) -> f32 {
+        (self.size + self.smooth).min(std::f32::consts::FRAC_PI_2).cos()
+    }
+
+    /// The cone's axis for wo.
+    #[inline]
+    fn axis(&self, wo: Vec3) -> Vec3 {
+        if self.glossy { Vec3::new(-wo.x, -wo.y, wo.z) } else { Vec3::Z }
+    }
+
+    /// f cos θ / the cone's density at angle `angle` from the axis: 1 inside, then linear.
+    #[inline]
+    fn intensity(&self, angle: f32) -> f32 {
+        if angle < self.size {
+            1.0
+        } else if self.smooth != 0.0 && angle < self.size + self.smooth {
+            1.0 - (angle - self.size) / self.smooth
+        } else {
+            0.0
+        }
+    }
+
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        let cos = self.axis(wo).dot(wi);
+        if wi.z <= 0.0 || cos < self.cos_cone() {
+            return 0.0;
+        }
+        uniform_cone_pdf(self.cos_cone())
+    }
+
+    fn eval(&self, wo: Vec3, wi: Vec3) -> f32 {
+        if wi.z <= 0.0 {
+            return 0.0;
+        }
+        let cos = self.axis(wo).dot(wi).clamp(-1.0, 1.0);
+        if cos < self.cos_cone() {
+            return 0.0;
+        }
+        // Cycles' value is f cos θ; Caustic's lobes return f.
+        uniform_cone_pdf(self.cos_cone()) * self.intensity(cos.max(0.0).acos()) / wi.z
+    }
+
+    fn sample(&self, wo: Vec3, u: Vec2) -> Vec3 {
+        let local = uniform_cone(u, self.cos_cone());
+        let axis = self.axis(wo);
+        if axis.z >= 1.0 - 1e-7 {
+            return local;
+        }
+        let f = crate::math::Frame::from_normal(axis);
+        f.to_world(local)
+    }
 }
 
 impl Lobe {
@@ -174,6 +253,7 @@ impl Lobe {
             },
             Lobe::Dielectric(_) => 1.0,
             Lobe::Sheen { roughness } => Microfiber::at(wo, *roughness).albedo().max(1e-3),
+            Lobe::Toon(_) => 1.0,
         }
     }
 
@@ -194,6 +274,7 @@ impl Lobe {
             }
             Lobe::Dielectric(d) => d.eval(wo, wi),
             Lobe::Sheen { roughness } => Rgb::splat(Microfiber::at(wo, *roughness).f(wi)),
+            Lobe::Toon(t) => Rgb::splat(t.eval(wo, wi)),
         }
     }
 
@@ -223,6 +304,7 @@ impl Lobe {
                 ggx.pdf_visible_normal(wo, h) / (4.0 * wo.dot(h).max(1e-8))
             }
             Lobe::Dielectric(d) => d.pdf(wo, wi),
+            Lobe::Toon(t) => t.pdf(wo, wi),
         }
     }
 
@@ -250,14 +332,19 @@ impl Lobe {
                 reflect(wo, ggx.sample_visible_normal(wo, u))
             }
             Lobe::Dielectric(d) => return d.sample(wo, uc, u),
+            Lobe::Toon(t) => t.sample(wo, u),
         };
         if wi.z == 0.0 {
             return None;
         }
         let pdf = self.pdf(wo, wi);
         let kind = match self {
-            Lobe::Glossy { .. } | Lobe::Dielectric(_) => LobeKind::Glossy,
-            Lobe::Diffuse | Lobe::OrenNayar(_) | Lobe::Sheen { .. } | Lobe::Translucent => LobeKind::Diffuse,
+            Lobe::Glossy { .. } | Lobe::Dielectric(_) | Lobe::Toon(Toon { glossy: true, .. }) => LobeKind::Glossy,
+            Lobe::Diffuse
+            | Lobe::OrenNayar(_)
+            | Lobe::Sheen { .. }
+            | Lobe::Translucent
+            | Lobe::Toon(Toon { glossy: false, .. }) => LobeKind::Diffuse,
         };
         (pdf > 0.0).then(|| BsdfSample { wi, f: self.eval(wo, wi), pdf, delta: false, kind })
     }
@@ -529,8 +616,13 @@ mod tests {
             Lobe::Dielectric(DielectricBsdf::new(1.0 / 1.45, 0.4, false, Rgb::ONE).with_beckmann()),
         );
         f.push(Rgb::splat(0.5), Lobe::glossy_widths(0.36, 0.36, true, GlossyFresnel::Constant));
+        let mut g = MixBsdf::new();
+        g.push(Rgb::splat(0.5), Lobe::Toon(Toon::new(0.5, 0.2, false)));
+        g.push(Rgb::splat(0.3), Lobe::Toon(Toon::new(0.2, 0.1, true)));
+        g.push(Rgb::splat(0.2), Lobe::Toon(Toon::new(0.9, 0.5, true)));
         vec![
             ("diffuse+glossy+translucent+oren-nayar", a),
+            ("toon diffuse+toon glossy", g),
             ("anisotropic beckmann+anisotropic ggx+beckmann refraction", e),
             ("leaving beckmann glass+beckmann glossy", f),
             ("glass+sheen+principled", b),
@@ -660,6 +752,39 @@ mod beckmann_tests {
                 assert!(mean <= 1.0 + 4.0 * se + fit, "{name} θ={theta}: {mean} ± {se}");
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod toon_tests {
+    use super::*;
+    use crate::sampling::chi2::Pcg32;
+
+    /// A Toon lobe without Smooth whose cone stays above the horizon is a white furnace: every
+    /// sample's weight f cos / pdf is 1 (Cycles' value is the cone's density); with Smooth the
+    /// mean is the cone-averaged linear fall-off, below 1.
+    #[test]
+    fn toon_weights_are_its_intensity() {
+        let wo = Vec3::new(0.0, 0.0, 1.0);
+        for lobe in [Toon::new(0.5, 0.0, false), Toon::new(0.3, 0.0, true)] {
+            let mut rng = Pcg32::new(4);
+            for _ in 0..1000 {
+                let wi = lobe.sample(wo, Vec2::new(rng.next_f32(), rng.next_f32()));
+                let weight = lobe.eval(wo, wi) * wi.z / lobe.pdf(wo, wi);
+                assert!((weight - 1.0).abs() < 1e-4, "{lobe:?}: {weight}");
+            }
+        }
+        let smooth = Toon::new(0.3, 0.4, false);
+        let mut rng = Pcg32::new(4);
+        let n = 20_000;
+        let mean: f32 = (0..n)
+            .map(|_| {
+                let wi = smooth.sample(wo, Vec2::new(rng.next_f32(), rng.next_f32()));
+                smooth.eval(wo, wi) * wi.z / smooth.pdf(wo, wi)
+            })
+            .sum::<f32>()
+            / n as f32;
+        assert!(mean < 1.0 && mean > 0.3, "{mean}");
     }
 }
 

@@ -23,7 +23,7 @@
 //!   GGX with Cycles' F82-tint Fresnel of F0 = Base Color and its Edge Tint (the
 //!   physical-conductor mode is approximated by Schlick's, warned at load); Glass → a dielectric interface whose
 //!   reflection and transmission the colour tints; Refraction → the interface's refraction
-//!   alone, without Fresnel weighting (Cycles' Refraction BSDF); Translucent → Lambertian transmission; Sheen →
+//!   alone, without Fresnel weighting (Cycles' Refraction BSDF); Translucent → Lambertian transmission; Toon → Cycles' toon lobe (`Lobe::Toon`); Sheen →
 //!   Cycles' microfiber sheen (its Ashikhmin distribution is warned about at load), as is
 //!   the Principled BSDF's sheen; Emission → emitted radiance Color × Strength; Transparent → pass-through
 //!   by coverage (`Scene::pass_through`: probability its colour's mean, weight colour / mean;
@@ -31,7 +31,7 @@
 
 use super::geom::{Geom, Reg, from_blender, v3};
 use crate::bsdf::dielectric::DielectricBsdf;
-use crate::bsdf::mix::{GlossyFresnel, Lobe, MAX_LOBES, MixBsdf};
+use crate::bsdf::mix::{GlossyFresnel, Lobe, MAX_LOBES, MixBsdf, Toon};
 use crate::bsdf::pbr::PbrParams;
 use crate::math::Rgb;
 use glam::Vec3;
@@ -100,6 +100,11 @@ pub enum ClosureKind {
     },
     /// Translucent BSDF.
     Translucent,
+    /// Toon BSDF (Size in `roughness`, Smooth in `strength`).
+    Toon {
+        /// The Glossy component (else Diffuse).
+        glossy: bool,
+    },
     /// Sheen BSDF.
     Sheen,
     /// Emission.
@@ -292,6 +297,10 @@ impl ClosureOp {
                 push(color() * w, lobe)
             }
             ClosureKind::Translucent => push(color() * w, Lobe::Translucent),
+            ClosureKind::Toon { glossy } => {
+                let lobe = Lobe::Toon(Toon::new(r[self.roughness as usize], r[self.strength as usize], *glossy));
+                push(color() * w, lobe)
+            }
             ClosureKind::Sheen => push(color() * w, Lobe::Sheen { roughness: rough() }),
             ClosureKind::Glossy { metallic, multiscatter, edge_tint, beckmann, aniso } => {
                 let (weight, fresnel) = if *metallic {

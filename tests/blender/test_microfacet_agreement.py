@@ -1,7 +1,7 @@
 """Caustic and Cycles agree on the microfacet options of Blender's BSDF nodes (issue 19): the
 Beckmann distribution of the Glossy, Refraction and Glass BSDFs, the Glass BSDF's single-
 scattering "GGX", the Glossy BSDF's Anisotropy along Cycles' default tangent, and the
-Principled metal's Specular Tint (Cycles' F82 tint of the metal).
+Principled metal's Specular Tint (Cycles' F82 tint of the metal); and the Toon BSDF.
 
 Glossy, Glass and Refraction BSDFs are always exported as node graphs (the glTF exporter does
 not read them); a Principled metal with a Specular Tint is too (the add-on's `needs_graph`).
@@ -77,6 +77,22 @@ def grazing_scene(scene, material):
     scenes.camera(scene, (0.0, -4.0, 0.7), (80.07, 0.0, 0.0), lens=50.0)
 
 
+def lit_sphere_scene(scene, material):
+    """A sphere of `material` on a grey floor under a disk light beside the camera."""
+    scenes.plane(scene, "Floor", 10.0, material=scenes.diffuse_material("Grey", 0.5))
+    uv_sphere(scene, "Ball", 0.6, (0.0, 0.0, 0.6), material)
+    scenes.light(scene, "Disk", "AREA", location=(0.8, -0.5, 3.0), shape="DISK", size=0.8, energy=400.0)
+    scenes.camera(scene, (0.0, -2.2, 3.2), (35.0, 0.0, 0.0), lens=30.0)
+
+
+def toon(component, size, smooth):
+    """A Toon BSDF of `component` (DIFFUSE or GLOSSY)."""
+    mat = scenes.shader_node_material("Toon" + component, "ShaderNodeBsdfToon", Color=(0.9, 0.6, 0.3, 1), Size=size,
+                                      Smooth=smooth)
+    next(n for n in mat.node_tree.nodes if n.bl_idname == "ShaderNodeBsdfToon").component = component
+    return mat
+
+
 def tinted_metal():
     """A plain Principled metal (no links) with a coloured Specular Tint."""
     mat = bpy.data.materials.new("TintedMetal")
@@ -112,6 +128,9 @@ CASES = {
     # Before: Schlick's Fresnel of the base colour (a warning where the add-on wrote a graph, else
     # silently through glTF): R 2.9199, G 1.6576, B 1.0032; now R 1.0005, G 1.0021, B 1.0032.
     "principled_metal_specular_tint": (grazing_scene, tinted_metal),
+    # The Toon BSDF (Cycles' bsdf_toon.h). Before: an unsupported node, black with a warning.
+    "toon_diffuse": (lit_sphere_scene, lambda: toon("DIFFUSE", 0.5, 0.2)),
+    "toon_glossy": (lit_sphere_scene, lambda: toon("GLOSSY", 0.3, 0.1)),
 }
 
 

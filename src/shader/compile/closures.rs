@@ -369,6 +369,15 @@ impl Compiler<'_> {
                 (ClosureKind::Refraction { beckmann }, self.vec(i, "Color", Vec3::ONE)?)
             }
             "ShaderNodeBsdfTranslucent" => (ClosureKind::Translucent, self.vec(i, "Color", Vec3::splat(0.8))?),
+            "ShaderNodeBsdfToon" => {
+                let glossy = self.prop_str(i, "component", "DIFFUSE") == "GLOSSY";
+                let color = self.vec(i, "Color", Vec3::splat(0.8))?;
+                let (size, smooth) = (self.float(i, "Size", 0.5)?, self.float(i, "Smooth", 0.0)?);
+                let normal = self.normal(i, "Normal")?;
+                self.small_lobes += 1;
+                self.push_closure(ClosureKind::Toon { glossy }, w, color, size, zero, smooth, normal);
+                return Ok(());
+            }
             "ShaderNodeBsdfSheen" => {
                 let dist = self.prop_str(i, "distribution", "MICROFIBER");
                 if dist != "MICROFIBER" {

@@ -314,6 +314,7 @@ fn is_closure_node(kind: &str) -> bool {
             | "ShaderNodeBsdfGlass"
             | "ShaderNodeBsdfRefraction"
             | "ShaderNodeBsdfTranslucent"
+            | "ShaderNodeBsdfToon"
             | "ShaderNodeBsdfTransparent"
             | "ShaderNodeBsdfSheen"
             | "ShaderNodeEmission"
@@ -706,6 +707,12 @@ mod tests {
             json!([2, "Shader"]),
         );
         assert!(two.warnings.iter().any(|w| w.contains("2 anisotropic closures")), "{:?}", two.warnings);
+        let toon = compiled(
+            json!([{"name": "T", "type": "ShaderNodeBsdfToon", "props": {"component": "GLOSSY"}, "inputs": {}}]),
+            json!([0, "BSDF"]),
+        );
+        assert!(toon.warnings.is_empty(), "{:?}", toon.warnings);
+        assert!(matches!(kinds(&toon)[0], ClosureKind::Toon { glossy: true }));
     }
 
     /// The walk a graph asks for: a Principled BSDF's subsurface behind a Mix Shader, a
