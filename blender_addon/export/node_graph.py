@@ -379,10 +379,12 @@ class _Builder:
             vector = node.inputs.get("Vector")
             if vector is not None and _available(vector) and "link" not in entry["inputs"].get("Vector", {}):
                 self.uses_generated = True
-        if node.type == "BSDF_PRINCIPLED" and "link" not in entry["inputs"].get("Tangent", {}):
+        anisotropy_input = {"BSDF_PRINCIPLED": "Anisotropic", "BSDF_ANISOTROPIC": "Anisotropy",
+                            "BSDF_GLOSSY": "Anisotropy", "BSDF_METALLIC": "Anisotropy"}.get(node.type)
+        if anisotropy_input is not None and "link" not in entry["inputs"].get("Tangent", {}):
             # Cycles' default Tangent (the Geometry node's, radial around the object's Z axis)
             # reads Generated coordinates where the BSDF is anisotropic.
-            anisotropic = entry["inputs"].get("Anisotropic", {})
+            anisotropic = entry["inputs"].get(anisotropy_input, {})
             if "link" in anisotropic or anisotropic.get("value", 0.0) != 0.0:
                 self.uses_generated = True
 
@@ -642,6 +644,8 @@ def needs_graph(material, graph):
         return True  # the exporter reads every image as UV-mapped
     if _raw_walk_has_group_or_mute(cycles_output(material)):
         return True
+    if any(_tinted_metal(n) for n in graph.nodes):
+        return True
     for entry in graph.nodes:
         for identifier, item in entry["inputs"].items():
             if "link" not in item:
@@ -650,6 +654,17 @@ def needs_graph(material, graph):
             if not _exporter_reads_link(entry, identifier, source, item["link"][1]):
                 return True
     return False
+
+
+def _tinted_metal(entry):
+    """Whether a Principled BSDF's metal has a Specular Tint, which Cycles renders as the metal's
+    F82 tint and glTF cannot express (KHR_materials_specular tints the dielectric only)."""
+    if entry["type"] != "ShaderNodeBsdfPrincipled":
+        return False
+    metallic, tint = entry["inputs"].get("Metallic", {}), entry["inputs"].get("Specular Tint", {})
+    metal = "link" in metallic or metallic.get("value", 0.0) != 0.0
+    tinted = "link" in tint or any(c != 1.0 for c in tint.get("value", [1.0, 1.0, 1.0])[:3])
+    return metal and tinted
 
 
 def _exporter_reads_link(entry, identifier, source, output_identifier):

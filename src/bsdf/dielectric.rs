@@ -120,6 +120,14 @@ impl DielectricBsdf {
         self
     }
 
+    /// The same interface on Beckmann's microfacets (Cycles' "Beckmann" Glass and Refraction
+    /// BSDFs), which Cycles does not compensate for multiple scattering.
+    pub fn with_beckmann(mut self) -> Self {
+        self.ggx = self.ggx.with_beckmann();
+        self.ms_fms = Rgb::ZERO;
+        self
+    }
+
     /// Refracts only (Cycles' Refraction BSDF).
     pub fn refracts_only(&self) -> bool {
         self.refract_only
@@ -142,7 +150,7 @@ impl DielectricBsdf {
     /// The same interface with the energy that single-scattering GGX loses restored
     /// (module doc); a smooth interface loses none.
     pub fn with_multiscatter(mut self) -> Self {
-        if !self.smooth {
+        if !self.smooth && !self.ggx.beckmann {
             self.ms_fms = self.fms(self.eta);
         }
         self
@@ -414,6 +422,31 @@ mod tests {
         }
     }
 
+    /// Beckmann's interface (Cycles' "Beckmann" Glass and Refraction BSDFs): sampling matches
+    /// the density, entering and leaving, glass and refracting only.
+    #[test]
+    fn chi2_beckmann_dielectric() {
+        for &eta in &[1.5f32, 1.0 / 1.5] {
+            for &roughness in &[0.3f32, 0.8] {
+                for &refract_only in &[false, true] {
+                    for &theta in &[0.2f32, 1.2] {
+                        let b = DielectricBsdf::new(eta, roughness, false, Rgb::ONE).with_beckmann();
+                        let b = if refract_only { b.refraction_only() } else { b };
+                        let wo = Vec3::new(theta.sin(), 0.0, theta.cos());
+                        let mut rng = Pcg32::new(17);
+                        let t = ChiSquareTest::new(&format!(
+                            "Beckmann dielectric η={eta} r={roughness} refract_only={refract_only} θ={theta}"
+                        ));
+                        assert_chi2(t.run_with_pdf(
+                            |u| b.sample(wo, rng.next_f32(), u).map(|s| (s.wi, s.pdf)),
+                            |wi| b.pdf(wo, wi),
+                        ));
+                    }
+                }
+            }
+        }
+    }
+
     /// Refracting only (Cycles' Refraction BSDF): sampling matches the density, rough, entering
     /// and leaving (where facets reflect totally and give no sample).
     #[test]
@@ -500,14 +533,16 @@ mod tests {
     }
 
     /// The rough interface's albedo (reflection + transmission; Cycles' convention has no
-    /// η² in a refraction's weight) is at most 1, within 5 standard errors.
+    /// η² in a refraction's weight) is at most 1, within 5 standard errors (Beckmann's: and
+    /// its Λ fit).
     #[test]
     fn rough_albedo_at_most_one() {
         let n = 100_000;
         for &eta in &[1.5f32, 1.0 / 1.5] {
             for &roughness in &[0.3f32, 1.0] {
-                for &theta in &[0.1f32, 1.0, 1.45] {
+                for (theta, beckmann) in [(0.1f32, false), (1.0, false), (1.45, false), (0.1, true), (1.45, true)] {
                     let b = DielectricBsdf::new(eta, roughness, false, Rgb::ONE);
+                    let b = if beckmann { b.with_beckmann() } else { b };
                     let wo = Vec3::new(theta.sin(), 0.0, theta.cos());
                     let mut rng = Pcg32::new(5);
                     let (mut sum, mut sum2) = (0f64, 0f64);
@@ -522,7 +557,10 @@ mod tests {
                     }
                     let mean = sum / n as f64;
                     let se = ((sum2 / n as f64 - mean * mean).max(0.0) / n as f64).sqrt();
-                    assert!(mean <= 1.0 + 5.0 * se, "η={eta} r={roughness} θ={theta}: {mean} ± {se}");
+                    // Cycles' rational Λ for Beckmann's G2 lies up to 0.4 % below the exact Λ of the
+                    // sampled density (`beckmann::tests::lambda_fit_is_close`): up to that much gain.
+                    let fit = if beckmann { 4e-3 } else { 0.0 };
+                    assert!(mean <= 1.0 + 5.0 * se + fit, "η={eta} r={roughness} θ={theta} {beckmann}: {mean} ± {se}");
                 }
             }
         }

@@ -1,8 +1,10 @@
 //! The GGX / Trowbridge-Reitz microfacet distribution with Smith masking, isotropic or
 //! anisotropic (widths αx along the local X axis, αy along Y), and Heitz's (2018) sampling
 //! of the distribution of visible normals. The isotropic case keeps its own formulas (the
-//! anisotropic ones with αx = αy are the same function, rounded differently).
+//! anisotropic ones with αx = αy are the same function, rounded differently). The same
+//! type holds Beckmann's distribution (`beckmann.rs`) for Blender's BSDFs that choose it.
 
+use super::beckmann;
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
@@ -10,25 +12,33 @@ use std::f32::consts::PI;
 /// mirror for all practical purposes.
 pub const MIN_ALPHA: f32 = 1e-3;
 
-/// GGX with roughness α (= perceptual roughness², as glTF and Blender define it).
+/// GGX with roughness α (= perceptual roughness², as glTF and Blender define it), or
+/// Beckmann's distribution of the same widths.
 #[derive(Clone, Copy, Debug)]
 pub struct Ggx {
     /// Width α (along X when anisotropic).
     pub alpha: f32,
     /// Width along Y when it differs from `alpha` (anisotropic).
     pub alpha_y: Option<f32>,
+    /// Beckmann's distribution instead of GGX (Cycles' "Beckmann").
+    pub beckmann: bool,
 }
 
 impl Ggx {
     /// The distribution for a glTF/Blender perceptual roughness in [0, 1].
     pub fn from_roughness(roughness: f32) -> Self {
-        Ggx { alpha: (roughness * roughness).max(MIN_ALPHA), alpha_y: None }
+        Ggx { alpha: (roughness * roughness).max(MIN_ALPHA), alpha_y: None, beckmann: false }
     }
 
     /// An anisotropic distribution of widths αx (along local X) and αy (along Y).
     pub fn anisotropic(alpha_x: f32, alpha_y: f32) -> Self {
         let (ax, ay) = (alpha_x.max(MIN_ALPHA), alpha_y.max(MIN_ALPHA));
-        Ggx { alpha: ax, alpha_y: (ax != ay).then_some(ay) }
+        Ggx { alpha: ax, alpha_y: (ax != ay).then_some(ay), beckmann: false }
+    }
+
+    /// The same widths with Beckmann's distribution.
+    pub fn with_beckmann(self) -> Self {
+        Ggx { beckmann: true, ..self }
     }
 
     /// The widths (αx, αy).
@@ -43,6 +53,10 @@ impl Ggx {
         if m.z <= 0.0 {
             return 0.0;
         }
+        if self.beckmann {
+            let (ax, ay) = self.alphas();
+            return beckmann::d(ax, ay, m);
+        }
         if let Some(ay) = self.alpha_y {
             let ax = self.alpha;
             let (x, y) = (m.x / ax, m.y / ay);
@@ -54,12 +68,16 @@ impl Ggx {
         a2 / (PI * t * t)
     }
 
-    /// Smith's Λ(w).
+    /// Smith's Λ(w) (Beckmann: Cycles' rational approximation, what its images show).
     #[inline]
     pub fn lambda(&self, w: Vec3) -> f32 {
         let cos2 = w.z * w.z;
         if cos2 >= 1.0 {
             return 0.0;
+        }
+        if self.beckmann {
+            let (ax, ay) = self.alphas();
+            return beckmann::lambda_cycles(ax, ay, w);
         }
         if let Some(ay) = self.alpha_y {
             // α projected on w's azimuth: tan²θ α² = ((αx wx)² + (αy wy)²) / wz².
@@ -83,19 +101,29 @@ impl Ggx {
         1.0 / (1.0 + self.lambda(wo) + self.lambda(wi))
     }
 
-    /// Density of visible normals D_wo(m) = G1(wo) max(0, wo·m) D(m) / wo.z.
+    /// Density of visible normals D_wo(m) = G1(wo) max(0, wo·m) D(m) / wo.z (Beckmann's with
+    /// the exact Λ: the density of what `sample_visible_normal` draws).
     #[inline]
     pub fn pdf_visible_normal(&self, wo: Vec3, m: Vec3) -> f32 {
         if wo.z <= 0.0 {
             return 0.0;
         }
-        self.g1(wo) * wo.dot(m).max(0.0) * self.d(m) / wo.z
+        let g1 = if self.beckmann {
+            let (ax, ay) = self.alphas();
+            1.0 / (1.0 + beckmann::lambda_exact(ax, ay, wo))
+        } else {
+            self.g1(wo)
+        };
+        g1 * wo.dot(m).max(0.0) * self.d(m) / wo.z
     }
 
     /// Samples a visible normal for `wo` (wo.z > 0).
     #[inline]
     pub fn sample_visible_normal(&self, wo: Vec3, u: Vec2) -> Vec3 {
         let (a, ay) = self.alphas();
+        if self.beckmann {
+            return beckmann::sample_visible_normal(a, ay, wo, u);
+        }
         // Stretch the view so the distribution becomes the hemisphere of radius 1.
         let vh = Vec3::new(a * wo.x, ay * wo.y, wo.z).normalize();
         let len2 = vh.x * vh.x + vh.y * vh.y;
@@ -125,6 +153,25 @@ pub fn schlick_weight(cos: f32) -> f32 {
     let m = (1.0 - cos).clamp(0.0, 1.0);
     let m2 = m * m;
     m2 * m2 * m
+}
+
+/// Cycles' F82-tint factor b (Kutz et al., "Novel aspects of the Adobe Standard Material"):
+/// the (1 − cos)⁶ term's weight that makes [`f82_tint`] at cos θ = 1/7 (about 82°) Schlick's
+/// times `tint`; zero for a white tint.
+#[inline]
+pub fn f82_tint_b(f0: Vec3, tint: Vec3) -> Vec3 {
+    let f = 6.0f32 / 7.0;
+    let f5 = f * f * f * f * f;
+    let schlick = f0 + (Vec3::ONE - f0) * f5;
+    schlick * (7.0 / (f5 * f)) * (Vec3::ONE - tint)
+}
+
+/// The F82-tint reflectance at cos θ: Schlick's of `f0` minus b cos θ (1 − cos θ)⁶, saturated.
+#[inline]
+pub fn f82_tint(f0: Vec3, b: Vec3, cos: f32) -> Vec3 {
+    let s = (1.0 - cos).clamp(0.0, 1.0);
+    let s5 = s * s * s * s * s;
+    (f0 + (Vec3::ONE - f0) * s5 - b * (cos * s5 * s)).clamp(Vec3::ZERO, Vec3::ONE)
 }
 
 /// Unpolarised Fresnel reflectance of a dielectric interface for cosine `cos_i` of the
@@ -186,20 +233,33 @@ mod tests {
         }
     }
 
+    /// Beckmann's visible normals, isotropic and anisotropic, from normal to grazing views.
+    #[test]
+    fn chi2_beckmann_visible_normals() {
+        for (ax, ay) in [(0.2f32, 0.2f32), (0.5, 0.5), (1.0, 1.0), (0.05, 0.4), (0.6, 0.1)] {
+            for (theta, phi) in [(0.0f32, 0.0f32), (0.8, 0.7), (1.4, 2.0)] {
+                let b = Ggx::anisotropic(ax, ay).with_beckmann();
+                let wo = Vec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos());
+                let t = ChiSquareTest::new(&format!("Beckmann visible normals α=({ax}, {ay}) θ={theta} φ={phi}"));
+                assert_chi2(t.run(|u| Some(b.sample_visible_normal(wo, u)), |m| b.pdf_visible_normal(wo, m)));
+            }
+        }
+    }
+
     /// The anisotropic formulas with αx = αy are the isotropic function, and the visible
     /// normals integrate to 1 for any view (∫ D_wo(m) dm = 1 checks D and Λ together):
     /// a midpoint quadrature over (cos θm, φm) on a 400 × 400 grid.
     #[test]
     fn anisotropic_d_and_lambda_are_consistent() {
-        let iso = Ggx { alpha: 0.3, alpha_y: None };
-        let same = Ggx { alpha: 0.3, alpha_y: Some(0.3) };
+        let iso = Ggx { alpha: 0.3, alpha_y: None, beckmann: false };
+        let same = Ggx { alpha: 0.3, alpha_y: Some(0.3), beckmann: false };
         for m in [Vec3::new(0.2, 0.1, 0.97).normalize(), Vec3::new(0.7, -0.4, 0.3).normalize()] {
             assert!((iso.d(m) - same.d(m)).abs() <= 1e-5 * iso.d(m));
             assert!((iso.lambda(m) - same.lambda(m)).abs() <= 1e-5 * iso.lambda(m).max(1e-3));
         }
         let n = 400;
-        for (ax, ay) in [(0.2f32, 0.5f32), (0.8, 0.15)] {
-            let ggx = Ggx::anisotropic(ax, ay);
+        for (ax, ay, beckmann) in [(0.2f32, 0.5f32, false), (0.8, 0.15, false), (0.2, 0.5, true), (0.8, 0.15, true)] {
+            let ggx = Ggx { beckmann, ..Ggx::anisotropic(ax, ay) };
             for wo in [Vec3::Z, Vec3::new(0.6, 0.3, 0.74).normalize()] {
                 let mut sum = 0.0f64;
                 for i in 0..n {
@@ -223,8 +283,10 @@ mod tests {
     /// ∫ D(m) cos θm dm = 1: the projected microfacet area equals the macro surface.
     #[test]
     fn d_is_normalised() {
-        for roughness in [0.3f32, 0.6, 1.0] {
-            let ggx = Ggx::from_roughness(roughness);
+        for (roughness, beckmann) in
+            [(0.3f32, false), (0.6, false), (1.0, false), (0.3, true), (0.6, true), (1.0, true)]
+        {
+            let ggx = Ggx { beckmann, ..Ggx::from_roughness(roughness) };
             let n = 2000;
             let mut sum = 0.0f64;
             for i in 0..n {

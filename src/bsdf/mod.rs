@@ -5,6 +5,7 @@
 pub mod albedo;
 mod albedo_table;
 pub mod aniso_albedo;
+mod beckmann;
 pub mod dielectric;
 mod exclude;
 pub mod fresnel_layer;

@@ -72,7 +72,7 @@ pub use super::albedo::F0_DIELECTRIC;
 use super::aniso_albedo::aniso_albedo;
 use super::dielectric::{DielectricBsdf, SMOOTH_ROUGHNESS};
 use super::fresnel_layer::{eta_z, f0_of, fresnel_s, layer_albedo, layer_eta};
-use super::microfacet::{Ggx, schlick_weight};
+use super::microfacet::{Ggx, f82_tint, f82_tint_b, schlick_weight};
 use super::microfiber::Microfiber;
 use super::oren_nayar::OrenNayar;
 use super::sheen::{charlie_brdf, sheen_albedo_table};
@@ -146,6 +146,10 @@ pub struct PbrBsdf {
     layer_fms: Rgb,
     /// F_ms per channel of the metal's multiple-scattering compensation (zero: off).
     metal_fms: Rgb,
+    /// The metal's F82 tint (Cycles' Principled: Specular Tint; white: Schlick's Fresnel).
+    metal_tint: Rgb,
+    /// The F82-tint factor b of the metal for this base colour (zero: Schlick's).
+    metal_b: Rgb,
     /// Mean albedo E_avg = A_avg + B_avg of the reflection lobes (the metal's F_ms needs it).
     e_avg: f32,
     /// The glass part restores multiple scattering (its F_ms depends on the base colour).
@@ -297,6 +301,9 @@ impl PbrBsdf {
             smooth_coat: p.coat_roughness < SMOOTH_ROUGHNESS,
             layer_fms: Rgb::ZERO,
             metal_fms: Rgb::ZERO,
+            // Cycles' Principled metal: F82 tint of min(Specular Tint, 1); glTF's is Schlick's.
+            metal_tint: if p.cycles_principled { spec_color.min(Vec3::ONE) } else { Vec3::ONE },
+            metal_b: Rgb::ZERO,
             e_avg: 0.0,
             // Only materials that show the glass pay for its table.
             glass_ms: p.transmission > 0.0 && p.metallic < 1.0,
@@ -347,14 +354,27 @@ impl PbrBsdf {
         if self.glass_ms {
             glass = glass.with_multiscatter();
         }
+        let metal_b = if self.metal_tint == Vec3::ONE { Vec3::ZERO } else { f82_tint_b(base, self.metal_tint) };
         let metal_fms = if self.metallic > 0.0 && !self.smooth {
             let e_avg = self.e_avg;
-            let f_avg = base + (Vec3::ONE - base) / 21.0;
+            // Cycles' fresnel_f82_Fss: the cosine-weighted average of the F82-tint curve.
+            let f_avg = (base + (Vec3::ONE - base) / 21.0 - metal_b / 126.0).clamp(Vec3::ZERO, Vec3::ONE);
             f_avg * e_avg / (Vec3::ONE - f_avg * (1.0 - e_avg)).max(Vec3::splat(1e-6))
         } else {
             self.metal_fms
         };
-        PbrBsdf { base, diffuse, oren, glass, metal_fms, ..*self }
+        PbrBsdf { base, diffuse, oren, glass, metal_fms, metal_b, ..*self }
+    }
+
+    /// The metal's Fresnel at cos θ to the microfacet normal: Schlick's of the base colour, or
+    /// Cycles' F82 tint when it has one.
+    #[inline]
+    pub(super) fn metal_fresnel(&self, cos: f32) -> Rgb {
+        if self.metal_b == Vec3::ZERO {
+            self.base + (Vec3::ONE - self.base) * schlick_weight(cos)
+        } else {
+            f82_tint(self.base, self.metal_b, cos)
+        }
     }
 
     /// (A, B) of the reflection lobes' albedo E = F0·A + B seen from local direction `w`.
@@ -528,9 +548,7 @@ impl PbrBsdf {
         let below = under * (1.0 - es);
         let dielectric = 1.0 - self.metallic;
         let opaque = dielectric * (1.0 - self.transmission);
-        let metal = below
-            * self.metallic
-            * luminance((self.base + (Vec3::ONE - self.base) * schlick_weight(wo.z)) * at.metal_ms);
+        let metal = below * self.metallic * luminance(self.metal_fresnel(wo.z) * at.metal_ms);
         let spec = below * opaque * e;
         let diffuse = below * opaque * Self::base_weight(at.eo) * luminance(self.diffuse) * (1.0 - self.subsurface);
         let glass = if self.transmission > 0.0 {

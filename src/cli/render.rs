@@ -55,7 +55,8 @@ fn may_show_rough_glass(m: &crate::scene::material::Material) -> bool {
     let graph_glass = m.nodes.as_ref().is_some_and(|p| {
         p.ops.iter().any(|op| {
             matches!(op, Op::Closure(c) if match c.kind {
-                ClosureKind::Glass => true,
+                // Only Multiscatter GGX glass reads the table.
+                ClosureKind::Glass { multiscatter, beckmann } => multiscatter && !beckmann,
                 ClosureKind::Principled(_) => p.transmits,
                 _ => false,
             })

@@ -50,7 +50,7 @@ pub fn transmission_warning(scene: &crate::scene::Scene, integrator: &str) -> Op
             p.transmits
                 || p.ops.iter().any(|op| {
                     matches!(op, Op::Closure(c)
-                        if matches!(c.kind, ClosureKind::Glass | ClosureKind::Refraction | ClosureKind::Translucent))
+                        if matches!(c.kind, ClosureKind::Glass { .. } | ClosureKind::Refraction { .. } | ClosureKind::Translucent))
                 })
         });
         let name = format!("'{}'", m.name);

@@ -16,11 +16,14 @@
 //!   Principled BSDFs in one mixture are merged into one by their weights (an approximation:
 //!   warned at load; the first anisotropic one's tangent is the frame's).
 //! * Diffuse → Lambert, or Cycles' Oren-Nayar for a roughness; Glossy → GGX with
-//!   a constant Fresnel, the colour, and Cycles' multiscatter compensation; Metallic →
+//!   a constant Fresnel, the colour, and Cycles' multiscatter compensation ("GGX": none;
+//!   "Beckmann": Beckmann's distribution, uncompensated, as Glass and Refraction take it too;
+//!   Glass "GGX" is single scattering), anisotropic along its Tangent by Cycles' Glossy widths
+//!   ([`AnisoMapping`]; Metallic by the Principled BSDF's); Metallic →
 //!   GGX with Cycles' F82-tint Fresnel of F0 = Base Color and its Edge Tint (the
 //!   physical-conductor mode is approximated by Schlick's, warned at load); Glass → a dielectric interface whose
 //!   reflection and transmission the colour tints; Refraction → the interface's refraction
-//!   alone, without Fresnel weighting (Cycles' Refraction BSDF); Translucent → Lambertian transmission; Sheen →
+//!   alone, without Fresnel weighting (Cycles' Refraction BSDF); Translucent → Lambertian transmission; Toon → Cycles' toon lobe (`Lobe::Toon`); Sheen →
 //!   Cycles' microfiber sheen (its Ashikhmin distribution is warned about at load), as is
 //!   the Principled BSDF's sheen; Emission → emitted radiance Color × Strength; Transparent → pass-through
 //!   by coverage (`Scene::pass_through`: probability its colour's mean, weight colour / mean;
@@ -28,7 +31,7 @@
 
 use super::geom::{Geom, Reg, from_blender, v3};
 use crate::bsdf::dielectric::DielectricBsdf;
-use crate::bsdf::mix::{GlossyFresnel, Lobe, MAX_LOBES, MixBsdf};
+use crate::bsdf::mix::{GlossyFresnel, Lobe, MAX_LOBES, MixBsdf, Toon};
 use crate::bsdf::pbr::PbrParams;
 use crate::math::Rgb;
 use glam::Vec3;
@@ -78,13 +81,30 @@ pub enum ClosureKind {
         multiscatter: bool,
         /// The Metallic BSDF's Edge Tint (F82-tint), when not a constant white.
         edge_tint: Option<Reg>,
+        /// Beckmann's distribution instead of GGX.
+        beckmann: bool,
+        /// The Anisotropy, Rotation and Tangent inputs, when the lobe may be anisotropic.
+        aniso: Option<AnisoRegs>,
     },
     /// Glass BSDF.
-    Glass,
+    Glass {
+        /// Beckmann's distribution instead of GGX.
+        beckmann: bool,
+        /// Multiscatter GGX (Cycles' default); plain "GGX" is single scattering.
+        multiscatter: bool,
+    },
     /// Refraction BSDF: the glass's refraction alone.
-    Refraction,
+    Refraction {
+        /// Beckmann's distribution (Blender's default for this node) instead of GGX.
+        beckmann: bool,
+    },
     /// Translucent BSDF.
     Translucent,
+    /// Toon BSDF (Size in `roughness`, Smooth in `strength`).
+    Toon {
+        /// The Glossy component (else Diffuse).
+        glossy: bool,
+    },
     /// Sheen BSDF.
     Sheen,
     /// Emission.
@@ -95,6 +115,57 @@ pub enum ClosureKind {
     Holdout,
     /// Principled BSDF.
     Principled(Box<PrincipledRegs>),
+}
+
+/// How a node maps its Anisotropy to widths (Cycles' `svm_node_closure_bsdf`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum AnisoMapping {
+    /// The Glossy BSDF: a in [−0.99, 0.99], αx = α(1 − a), αy = α/(1 − a) (a < 0: α/(1 + a),
+    /// α(1 + a)); isotropic for |a| ≤ 10⁻⁴.
+    Glossy,
+    /// The Metallic and Principled BSDFs: a in [0, 1], aspect √(1 − 0.9a), αx = α/aspect,
+    /// αy = α × aspect.
+    Aspect,
+}
+
+/// Registers of an anisotropic lobe's inputs.
+#[derive(Clone, Copy, Debug)]
+pub struct AnisoRegs {
+    /// Anisotropy.
+    pub anisotropy: Reg,
+    /// Rotation (turns around the normal).
+    pub rotation: Reg,
+    /// The Tangent input when linked (Blender axes); unlinked, Cycles' radial tangent.
+    pub tangent: Option<Reg>,
+    /// The node's mapping to widths.
+    pub mapping: AnisoMapping,
+}
+
+impl AnisoMapping {
+    /// The widths (αx along the tangent, αy) for isotropic width `alpha` and anisotropy `a`;
+    /// None where the node is isotropic.
+    pub fn widths(self, alpha: f32, a: f32) -> Option<(f32, f32)> {
+        match self {
+            AnisoMapping::Glossy => {
+                let a = a.clamp(-0.99, 0.99);
+                if !(a.abs() > 1e-4) {
+                    None
+                } else if a < 0.0 {
+                    Some((alpha / (1.0 + a), alpha * (1.0 + a)))
+                } else {
+                    Some((alpha * (1.0 - a), alpha / (1.0 - a)))
+                }
+            }
+            AnisoMapping::Aspect => {
+                let a = a.clamp(0.0, 1.0);
+                if !(a > 0.0) {
+                    return None;
+                }
+                let aspect = (1.0 - 0.9 * a).sqrt();
+                Some((alpha / aspect, alpha * aspect))
+            }
+        }
+    }
 }
 
 /// A closure node compiled: its kind, weight and inputs.
@@ -137,7 +208,7 @@ pub struct Closures {
     pub coat_normal: Option<Vec3>,
     /// Σ w × Anisotropic of the Principled BSDFs.
     pub anisotropic: f32,
-    /// The first anisotropic Principled BSDF's tangent, rotated (world glTF axes).
+    /// The first anisotropic closure's tangent, rotated (world glTF axes).
     pub tangent: Option<Vec3>,
     /// Lobes past the mixture's capacity were dropped.
     pub dropped: bool,
@@ -226,8 +297,12 @@ impl ClosureOp {
                 push(color() * w, lobe)
             }
             ClosureKind::Translucent => push(color() * w, Lobe::Translucent),
+            ClosureKind::Toon { glossy } => {
+                let lobe = Lobe::Toon(Toon::new(r[self.roughness as usize], r[self.strength as usize], *glossy));
+                push(color() * w, lobe)
+            }
             ClosureKind::Sheen => push(color() * w, Lobe::Sheen { roughness: rough() }),
-            ClosureKind::Glossy { metallic, multiscatter, edge_tint } => {
+            ClosureKind::Glossy { metallic, multiscatter, edge_tint, beckmann, aniso } => {
                 let (weight, fresnel) = if *metallic {
                     let f0 = color().min(Vec3::ONE);
                     let fresnel = match edge_tint {
@@ -238,22 +313,41 @@ impl ClosureOp {
                 } else {
                     (color() * w, GlossyFresnel::Constant)
                 };
-                let mut lobe = Lobe::glossy(rough(), fresnel);
+                let alpha = rough() * rough();
+                // Anisotropic widths lie along the tangent, which becomes the frame's X axis
+                // when this is the first anisotropic closure (else the first one's rules).
+                let widths = aniso.and_then(|a| {
+                    let widths = a.mapping.widths(alpha, r[a.anisotropy as usize])?;
+                    if out.tangent.is_none() {
+                        out.tangent = closure_tangent(a.tangent, r[a.rotation as usize], self.normal, r, g);
+                    }
+                    Some(widths)
+                });
+                let mut lobe = match widths {
+                    Some((ax, ay)) => Lobe::glossy_widths(ax, ay, *beckmann, fresnel),
+                    None if *beckmann => Lobe::glossy_widths(alpha, alpha, true, fresnel),
+                    None => Lobe::glossy(rough(), fresnel),
+                };
                 if !*multiscatter && let Lobe::Glossy { fms, .. } = &mut lobe {
                     *fms = Rgb::ZERO;
                 }
-                push(weight, lobe);
+                if !out.mix.push(weight, lobe) {
+                    out.dropped = true;
+                }
             }
-            ClosureKind::Glass | ClosureKind::Refraction => {
+            ClosureKind::Glass { .. } | ClosureKind::Refraction { .. } => {
                 let ior = r[self.ior as usize];
                 let ior = if ior.is_finite() && ior > 0.0 { ior } else { 1.5 };
                 let eta = if g.backfacing { 1.0 / ior } else { ior };
                 let d = DielectricBsdf::new(eta, rough(), false, Rgb::ONE);
-                // Cycles' Refraction BSDF has no Fresnel and no multiple-scattering compensation.
-                let d = if matches!(self.kind, ClosureKind::Refraction) {
-                    d.refraction_only()
-                } else {
-                    d.with_multiscatter()
+                // Cycles' Refraction BSDF has no Fresnel and no multiple-scattering compensation;
+                // its Glass compensates only as "Multiscatter GGX" (no Beckmann table).
+                let d = match self.kind {
+                    ClosureKind::Refraction { beckmann: true } => d.with_beckmann().refraction_only(),
+                    ClosureKind::Refraction { beckmann: false } => d.refraction_only(),
+                    ClosureKind::Glass { beckmann: true, .. } => d.with_beckmann(),
+                    ClosureKind::Glass { multiscatter: true, .. } => d.with_multiscatter(),
+                    _ => d,
                 };
                 push(color() * w, Lobe::Dielectric(d));
             }
@@ -270,6 +364,19 @@ impl ClosureOp {
 fn rotate_around_axis(v: Vec3, axis: Vec3, angle: f32) -> Vec3 {
     let (sin, cos) = angle.sin_cos();
     v * cos + axis.cross(v) * sin + axis * (axis.dot(v) * (1.0 - cos))
+}
+
+/// An anisotropic closure's tangent (world glTF axes): the Tangent input (linked) or Cycles'
+/// radial tangent around the object's Z axis, turned by `rotation` × 2π around the closure
+/// normal.
+fn closure_tangent(tangent: Option<Reg>, rotation: f32, normal: Option<Reg>, r: &[f32], g: &Geom) -> Option<Vec3> {
+    let t = match tangent {
+        Some(t) => from_blender(v3(r, t)),
+        None => g.radial_tangent(2),
+    };
+    let n = normal.and_then(|n| from_blender(v3(r, n)).try_normalize()).unwrap_or(g.n);
+    let t = if rotation != 0.0 { rotate_around_axis(t, n, rotation * std::f32::consts::TAU) } else { t };
+    t.try_normalize()
 }
 
 fn principled(p: &PrincipledRegs, r: &[f32], g: &Geom, normal: Option<Reg>, w: f32, out: &mut Closures) {
@@ -312,14 +419,7 @@ fn principled(p: &PrincipledRegs, r: &[f32], g: &Geom, normal: Option<Reg>, w: f
     if anisotropic > 0.0 {
         out.anisotropic += anisotropic * w;
         if out.tangent.is_none() {
-            let t = match p.tangent {
-                Some(t) => from_blender(v3(r, t)),
-                None => g.radial_tangent(2),
-            };
-            let n = normal.and_then(|n| from_blender(v3(r, n)).try_normalize()).unwrap_or(g.n);
-            let rotation = f(p.anisotropic_rotation);
-            let t = if rotation != 0.0 { rotate_around_axis(t, n, rotation * std::f32::consts::TAU) } else { t };
-            out.tangent = t.try_normalize();
+            out.tangent = closure_tangent(p.tangent, f(p.anisotropic_rotation), normal, r, g);
         }
     }
     // The first Principled BSDF's film, whole (films do not average).
@@ -380,9 +480,10 @@ impl Closures {
         Some((alpha / aspect, alpha * aspect))
     }
 
-    /// The tangent of an anisotropic Principled BSDF (world glTF axes).
+    /// The tangent of the first anisotropic closure (world glTF axes): only anisotropic
+    /// closures set one.
     pub fn tangent_world(&self) -> Option<Vec3> {
-        if self.anisotropic > 0.0 { self.tangent } else { None }
+        self.tangent
     }
 
     /// The closure normal in world (glTF) axes, if a closure had one linked.

@@ -118,12 +118,11 @@ def test_refraction_bsdf_matches_cycles(empty_scene, tmp_path):
     bright emitting wall: Cycles' closure refracts only, with no Fresnel weighting (all of the
     light goes through, but where a facet reflects totally). Before, Caustic rendered it as a
     Glass BSDF with a warning: R 0.9458, G 0.9598, B 0.9779 of Cycles; now R 0.9966, G 0.9973,
-    B 0.9982. (With the node's default Beckmann distribution, which Caustic renders as GGX with
-    a warning, Caustic is 0.90-0.98 of Cycles at roughness 0.2-0.5.)"""
+    B 0.9982. (The node's default Beckmann distribution: test_microfacet_agreement.py.)"""
     scene = empty_scene
     scenes.small_render_settings(scene, W, H, samples=SAMPLES)
     mat = driven("ShaderNodeBsdfRefraction", {"Roughness": 0.3}, Color=(0.9, 0.7, 0.5, 1), IOR=1.45)
-    # GGX, which Caustic renders (the node's default is Beckmann: warned, rendered as GGX).
+    # GGX (the node's default is Beckmann, tested in test_microfacet_agreement.py).
     next(n for n in mat.node_tree.nodes if n.bl_idname == "ShaderNodeBsdfRefraction").distribution = "GGX"
     uv_sphere(scene, "Ball", 0.8, (0.0, 0.0, 0.8), mat)
     wall = scenes.plane(scene, "Wall", 8.0, material=scenes.emission_material("Glow", (1.0, 1.0, 1.0), 2.0))

@@ -3,7 +3,7 @@
 //! and Metallic glossy, Glass reflection glossy and its refraction transmission; the
 //! Principled part splits as [`PbrAt`](crate::bsdf::PbrAt) does.
 
-use super::{Lobe, MixBsdf, upper};
+use super::{Lobe, MixBsdf, Toon, upper};
 use crate::bsdf::microfacet::fresnel_dielectric;
 use crate::math::Rgb;
 use glam::Vec3;
@@ -17,7 +17,14 @@ impl MixBsdf {
             return f;
         }
         for k in 0..self.n as usize {
-            if matches!(self.lobes[k], Lobe::Diffuse | Lobe::OrenNayar(_) | Lobe::Translucent | Lobe::Sheen { .. }) {
+            if matches!(
+                self.lobes[k],
+                Lobe::Diffuse
+                    | Lobe::OrenNayar(_)
+                    | Lobe::Translucent
+                    | Lobe::Sheen { .. }
+                    | Lobe::Toon(Toon { glossy: false, .. })
+            ) {
                 f += self.weights[k] * self.lobes[k].eval(wo, wi);
             }
         }
@@ -54,10 +61,12 @@ impl MixBsdf {
         for k in 0..self.n as usize {
             let w = self.weights[k];
             match &self.lobes[k] {
-                Lobe::Diffuse | Lobe::OrenNayar(_) | Lobe::Translucent | Lobe::Sheen { .. } => {
-                    c[0] += w * self.lobes[k].albedo(wo)
-                }
-                Lobe::Glossy { .. } => c[1] += w * self.lobes[k].albedo(wo),
+                Lobe::Diffuse
+                | Lobe::OrenNayar(_)
+                | Lobe::Translucent
+                | Lobe::Sheen { .. }
+                | Lobe::Toon(Toon { glossy: false, .. }) => c[0] += w * self.lobes[k].albedo(wo),
+                Lobe::Glossy { .. } | Lobe::Toon(Toon { glossy: true, .. }) => c[1] += w * self.lobes[k].albedo(wo),
                 Lobe::Dielectric(d) => {
                     let f = fresnel_dielectric(wo.z, d.eta);
                     if d.refracts_only() {

@@ -3,7 +3,7 @@
 //! value, density and sampled bounce that next-event estimation and the path share.
 
 use super::PbrBsdf;
-use crate::bsdf::microfacet::{reflect, schlick_weight};
+use crate::bsdf::microfacet::reflect;
 use crate::bsdf::microfiber::Microfiber;
 use crate::bsdf::{BsdfSample, LobeKind};
 use crate::math::{Frame, Rgb};
@@ -86,7 +86,7 @@ impl PbrAt<'_> {
                 let mu = wo_up.z;
                 let under = self.under * this.sheen_scaling_from(self.sheen_o, mu);
                 let opaque = (1.0 - this.metallic) * (1.0 - this.transmission);
-                let metal = (this.base + (Vec3::ONE - this.base) * schlick_weight(mu)) * this.metallic;
+                let metal = this.metal_fresnel(mu) * this.metallic;
                 let refl = (metal + self.eo * opaque) * under;
                 let wi = Vec3::new(-wo_up.x, -wo_up.y, wo_up.z);
                 return Some(BsdfSample {
@@ -167,7 +167,6 @@ impl PbrAt<'_> {
         }
         let h = (wo + wi).normalize();
         let cos_h = wo.dot(h).max(0.0);
-        let fw = schlick_weight(cos_h);
         // Smooth reflection is a delta lobe: sampled only, never evaluated.
         let spec = if b.smooth { 0.0 } else { b.ggx.d(h) * b.ggx.g2(wo, wi) / (4.0 * wo.z * wi.z) };
         let opaque = dielectric * (1.0 - b.transmission);
@@ -178,7 +177,7 @@ impl PbrAt<'_> {
             f += (b.diffuse_f(wo, wi, diffuse_weight) + f_layer * spec) * opaque;
         }
         if b.metallic > 0.0 {
-            f += (b.base + (Vec3::ONE - b.base) * fw) * self.metal_ms * (spec * b.metallic);
+            f += b.metal_fresnel(cos_h) * self.metal_ms * (spec * b.metallic);
         }
         f = (f * scaling + b.sheen_eval(&self.fiber, wo, wi)) * under;
         if b.coat > 0.0 && !b.smooth_coat {

@@ -176,17 +176,10 @@ impl Compiler<'_> {
                         None => None,
                     },
                 };
-                let metal = !self.is_const(p.metallic, 1) || self.init[p.metallic as usize] > 0.0;
-                let tinted =
-                    !self.is_const(p.spec_tint, 3) || (0..3).any(|k| self.init[p.spec_tint as usize + k] != 1.0);
-                if metal && tinted {
-                    self.warn(
-                        i,
-                        "Specular Tint does not tint the metal's edge (Cycles' F82 tint): the metal is Schlick's \
-                         Fresnel of the base colour",
-                    );
-                }
                 let anisotropic = !self.is_const(p.anisotropic, 1) || self.init[p.anisotropic as usize] != 0.0;
+                if anisotropic {
+                    self.anisotropic += 1;
+                }
                 if anisotropic && p.tangent.is_none() {
                     // Cycles' default tangent: radial in the Generated coordinates.
                     self.uses_generated = true;
@@ -325,16 +318,17 @@ impl Compiler<'_> {
             "ShaderNodeBsdfDiffuse" => (ClosureKind::Diffuse, self.vec(i, "Color", Vec3::splat(0.8))?),
             "ShaderNodeBsdfGlossy" | "ShaderNodeBsdfAnisotropic" => {
                 let dist = self.prop_str(i, "distribution", "MULTI_GGX");
-                if dist != "MULTI_GGX" && dist != "GGX" {
-                    self.warn(i, format!("distribution {dist} is rendered as GGX"));
+                if dist == "ASHIKHMIN_SHIRLEY" {
+                    self.warn(
+                        i,
+                        "distribution Ashikhmin-Shirley is rendered as GGX (Cycles renders its own \
+                         Ashikhmin-Shirley lobe)",
+                    );
                 }
-                let an = self.source(i, "Anisotropy")?.is_some()
-                    || self.value(i, "Anisotropy").and_then(Value::as_f64).is_some_and(|v| v != 0.0);
-                if an {
-                    self.warn(i, "anisotropy is not rendered (isotropic GGX)");
-                }
+                let aniso = self.aniso(i, AnisoMapping::Glossy)?;
+                let (beckmann, multiscatter) = (dist == "BECKMANN", dist == "MULTI_GGX");
                 (
-                    ClosureKind::Glossy { metallic: false, multiscatter: dist == "MULTI_GGX", edge_tint: None },
+                    ClosureKind::Glossy { metallic: false, multiscatter, edge_tint: None, beckmann, aniso },
                     self.vec(i, "Color", Vec3::splat(0.8))?,
                 )
             }
@@ -357,19 +351,33 @@ impl Compiler<'_> {
                     }
                     self.vec(i, "Base Color", Vec3::splat(0.8))?
                 };
+                self.warn_thin_film(i);
                 let dist = self.prop_str(i, "distribution", "MULTI_GGX");
-                (ClosureKind::Glossy { metallic: true, multiscatter: dist == "MULTI_GGX", edge_tint }, colour)
+                let aniso = self.aniso(i, AnisoMapping::Aspect)?;
+                let (beckmann, multiscatter) = (dist == "BECKMANN", dist == "MULTI_GGX");
+                (ClosureKind::Glossy { metallic: true, multiscatter, edge_tint, beckmann, aniso }, colour)
             }
-            "ShaderNodeBsdfGlass" => (ClosureKind::Glass, self.vec(i, "Color", Vec3::ONE)?),
+            "ShaderNodeBsdfGlass" => {
+                let dist = self.prop_str(i, "distribution", "MULTI_GGX");
+                self.warn_thin_film(i);
+                let kind = ClosureKind::Glass { beckmann: dist == "BECKMANN", multiscatter: dist == "MULTI_GGX" };
+                (kind, self.vec(i, "Color", Vec3::ONE)?)
+            }
             "ShaderNodeBsdfRefraction" => {
-                // Blender's default for this node is Beckmann (Caustic has GGX microfacets only).
-                let dist = self.prop_str(i, "distribution", "BECKMANN");
-                if dist != "GGX" {
-                    self.warn(i, format!("distribution {dist} is rendered as GGX"));
-                }
-                (ClosureKind::Refraction, self.vec(i, "Color", Vec3::ONE)?)
+                // Blender's default for this node is Beckmann.
+                let beckmann = self.prop_str(i, "distribution", "BECKMANN") == "BECKMANN";
+                (ClosureKind::Refraction { beckmann }, self.vec(i, "Color", Vec3::ONE)?)
             }
             "ShaderNodeBsdfTranslucent" => (ClosureKind::Translucent, self.vec(i, "Color", Vec3::splat(0.8))?),
+            "ShaderNodeBsdfToon" => {
+                let glossy = self.prop_str(i, "component", "DIFFUSE") == "GLOSSY";
+                let color = self.vec(i, "Color", Vec3::splat(0.8))?;
+                let (size, smooth) = (self.float(i, "Size", 0.5)?, self.float(i, "Smooth", 0.0)?);
+                let normal = self.normal(i, "Normal")?;
+                self.small_lobes += 1;
+                self.push_closure(ClosureKind::Toon { glossy }, w, color, size, zero, smooth, normal);
+                return Ok(());
+            }
             "ShaderNodeBsdfSheen" => {
                 let dist = self.prop_str(i, "distribution", "MICROFIBER");
                 if dist != "MICROFIBER" {
@@ -399,7 +407,7 @@ impl Compiler<'_> {
             _ => unreachable!("closure kinds are listed in is_closure_node"),
         };
         let roughness = match ck {
-            ClosureKind::Glossy { .. } | ClosureKind::Glass | ClosureKind::Refraction => {
+            ClosureKind::Glossy { .. } | ClosureKind::Glass { .. } | ClosureKind::Refraction { .. } => {
                 self.float(i, "Roughness", 0.5)?
             }
             ClosureKind::Sheen => self.float(i, "Roughness", 0.5)?,
@@ -407,14 +415,46 @@ impl Compiler<'_> {
             ClosureKind::Diffuse => self.float(i, "Roughness", 0.0)?,
             _ => zero,
         };
-        let ior =
-            if matches!(ck, ClosureKind::Glass | ClosureKind::Refraction) { self.float(i, "IOR", 1.5)? } else { zero };
+        let ior = if matches!(ck, ClosureKind::Glass { .. } | ClosureKind::Refraction { .. }) {
+            self.float(i, "IOR", 1.5)?
+        } else {
+            zero
+        };
         let normal = if matches!(ck, ClosureKind::Transparent) { None } else { self.normal(i, "Normal")? };
         if !matches!(ck, ClosureKind::Transparent) {
             self.small_lobes += 1;
         }
         self.push_closure(ck, w, color, roughness, ior, zero, normal);
         Ok(())
+    }
+
+    /// The Anisotropy, Rotation and Tangent inputs of node `i`, or None when its Anisotropy is
+    /// a constant that leaves it isotropic; an unlinked Tangent reads Generated coordinates
+    /// (Cycles' radial tangent).
+    fn aniso(&mut self, i: usize, mapping: AnisoMapping) -> Result<Option<AnisoRegs>, String> {
+        let anisotropy = self.float(i, "Anisotropy", 0.0)?;
+        if self.is_const(anisotropy, 1) && mapping.widths(1.0, self.init[anisotropy as usize]).is_none() {
+            return Ok(None);
+        }
+        let rotation = self.float(i, "Rotation", 0.0)?;
+        let tangent = match self.source(i, "Tangent")? {
+            Some(_) => Some(self.vec(i, "Tangent", Vec3::ZERO)?),
+            None => {
+                self.uses_generated = true;
+                None
+            }
+        };
+        self.anisotropic += 1;
+        Ok(Some(AnisoRegs { anisotropy, rotation, tangent, mapping }))
+    }
+
+    /// Names a thin film on a node whose film Caustic does not render.
+    fn warn_thin_film(&mut self, i: usize) {
+        let linked = self.desc(i).inputs.get("Thin Film Thickness").is_some_and(|d| d.link.is_some());
+        let thick = self.value(i, "Thin Film Thickness").and_then(Value::as_f64).is_some_and(|v| v > 0.1);
+        if linked || thick {
+            self.warn(i, "its thin film is not rendered");
+        }
     }
 
     #[allow(clippy::too_many_arguments)]

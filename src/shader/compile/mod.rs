@@ -18,7 +18,7 @@ mod light_path_use;
 mod sources;
 pub mod volume;
 
-use crate::shader::closure::{CAPACITY, ClosureKind, ClosureOp, Closures, PrincipledRegs};
+use crate::shader::closure::{AnisoMapping, AnisoRegs, CAPACITY, ClosureKind, ClosureOp, Closures, PrincipledRegs};
 use crate::shader::geom::{Geom, ObjectData, Reg};
 use crate::shader::graph::{NodeDesc, NodesExt, check_and_sort};
 use crate::shader::image_node::{Extension, ImageOp, Interp, Projection};
@@ -156,6 +156,12 @@ fn compile_with(
             "the BSDFs have different Normal inputs: the mixture shades all of them with the first linked one".into(),
         );
     }
+    if c.anisotropic > 1 {
+        c.warnings.push(format!(
+            "{} anisotropic closures are mixed: all lie along the first one's tangent (one shading frame a point)",
+            c.anisotropic
+        ));
+    }
     if c.principled > 1 {
         c.warnings.push(format!(
             "{} Principled BSDFs are mixed: rendered as one Principled BSDF with their parameters averaged by weight",
@@ -256,6 +262,8 @@ struct Compiler<'a> {
     normals: Vec<Option<Reg>>,
     small_lobes: usize,
     principled: usize,
+    /// Closures that may be anisotropic (their tangent is the shading frame's X axis).
+    anisotropic: usize,
     uses_generated: bool,
     /// The material's displacement method.
     method: Method,
@@ -286,6 +294,7 @@ impl<'a> Compiler<'a> {
             normals: Vec::new(),
             small_lobes: 0,
             principled: 0,
+            anisotropic: 0,
             uses_generated: false,
             method: Method::Bump,
             height_only: false,
@@ -305,6 +314,7 @@ fn is_closure_node(kind: &str) -> bool {
             | "ShaderNodeBsdfGlass"
             | "ShaderNodeBsdfRefraction"
             | "ShaderNodeBsdfTranslucent"
+            | "ShaderNodeBsdfToon"
             | "ShaderNodeBsdfTransparent"
             | "ShaderNodeBsdfSheen"
             | "ShaderNodeEmission"
@@ -639,6 +649,70 @@ mod tests {
         assert_eq!(c.program.ops.len(), 1, "{:?}", c.program.ops);
         assert!(matches!(c.program.ops[0], Op::Closure(_)));
         assert_eq!(c.program.constant_emission, Some(Vec3::new(4.0, 0.5, 0.25)));
+    }
+
+    /// The microfacet options compile to Cycles' closures without a warning (Beckmann and
+    /// single-scattering GGX on Glossy, Glass and Refraction — the last's default Beckmann —,
+    /// the Glossy BSDF's Anisotropy along the radial tangent, which reads Generated); what is
+    /// still not rendered is named: Ashikhmin-Shirley, a thin film, and a second anisotropic
+    /// closure's own tangent.
+    #[test]
+    fn microfacet_options_compile_as_cycles() {
+        let kinds = |c: &Compiled| -> Vec<ClosureKind> {
+            c.program
+                .ops
+                .iter()
+                .filter_map(|op| if let Op::Closure(c) = op { Some(c.kind.clone()) } else { None })
+                .collect()
+        };
+        let node = |kind: &str, dist: Option<&str>, inputs: Value| {
+            let props = dist.map_or(json!({}), |d| json!({"distribution": d}));
+            json!({"name": "N", "type": kind, "props": props, "inputs": inputs})
+        };
+        let glossy =
+            compiled(json!([node("ShaderNodeBsdfAnisotropic", Some("BECKMANN"), json!({}))]), json!([0, "BSDF"]));
+        assert!(glossy.warnings.is_empty(), "{:?}", glossy.warnings);
+        assert!(matches!(
+            kinds(&glossy)[0],
+            ClosureKind::Glossy { beckmann: true, multiscatter: false, aniso: None, .. }
+        ));
+        let refraction = compiled(json!([node("ShaderNodeBsdfRefraction", None, json!({}))]), json!([0, "BSDF"]));
+        assert!(refraction.warnings.is_empty(), "{:?}", refraction.warnings);
+        assert!(matches!(kinds(&refraction)[0], ClosureKind::Refraction { beckmann: true }));
+        let glass = compiled(json!([node("ShaderNodeBsdfGlass", Some("GGX"), json!({}))]), json!([0, "BSDF"]));
+        assert!(matches!(kinds(&glass)[0], ClosureKind::Glass { beckmann: false, multiscatter: false }));
+        let aniso = compiled(
+            json!([node("ShaderNodeBsdfAnisotropic", Some("MULTI_GGX"), json!({"Anisotropy": {"value": 0.5}}))]),
+            json!([0, "BSDF"]),
+        );
+        assert!(aniso.warnings.is_empty() && aniso.uses_generated, "{:?}", aniso.warnings);
+        assert!(matches!(kinds(&aniso)[0], ClosureKind::Glossy { aniso: Some(_), multiscatter: true, .. }));
+        let ashikhmin = compiled(
+            json!([node("ShaderNodeBsdfAnisotropic", Some("ASHIKHMIN_SHIRLEY"), json!({}))]),
+            json!([0, "BSDF"]),
+        );
+        assert!(ashikhmin.warnings.iter().any(|w| w.contains("Ashikhmin-Shirley")), "{:?}", ashikhmin.warnings);
+        let film = compiled(
+            json!([node("ShaderNodeBsdfGlass", None, json!({"Thin Film Thickness": {"value": 300.0}}))]),
+            json!([0, "BSDF"]),
+        );
+        assert!(film.warnings.iter().any(|w| w.contains("thin film")), "{:?}", film.warnings);
+        let two = compiled(
+            json!([
+                node("ShaderNodeBsdfAnisotropic", None, json!({"Anisotropy": {"value": 0.5}})),
+                node("ShaderNodeBsdfMetallic", None, json!({"Anisotropy": {"value": 0.5}})),
+                {"name": "Add", "type": "ShaderNodeAddShader",
+                 "inputs": {"Shader": {"link": [0, "BSDF"]}, "Shader_001": {"link": [1, "BSDF"]}}}
+            ]),
+            json!([2, "Shader"]),
+        );
+        assert!(two.warnings.iter().any(|w| w.contains("2 anisotropic closures")), "{:?}", two.warnings);
+        let toon = compiled(
+            json!([{"name": "T", "type": "ShaderNodeBsdfToon", "props": {"component": "GLOSSY"}, "inputs": {}}]),
+            json!([0, "BSDF"]),
+        );
+        assert!(toon.warnings.is_empty(), "{:?}", toon.warnings);
+        assert!(matches!(kinds(&toon)[0], ClosureKind::Toon { glossy: true }));
     }
 
     /// The walk a graph asks for: a Principled BSDF's subsurface behind a Mix Shader, a
