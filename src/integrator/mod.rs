@@ -356,6 +356,13 @@ impl<'a> SceneContext<'a> {
         }
     }
 
+    /// True when next-event estimation from a point whose path has made `bounce` bounces
+    /// (`LightPath::depth`) takes light `light`: its Max Bounces (`scene::light_bounces`).
+    #[inline]
+    pub fn nee_within_bounces(&self, light: usize, bounce: u16) -> bool {
+        crate::scene::light_bounces::nee_allowed(&self.scene.light_max_bounces, light, bounce)
+    }
+
     /// True when light `light` lights volume scattering events (Ray Visibility > Volume
     /// Scatter); always unless the context honours it.
     #[inline]

@@ -22,7 +22,9 @@
 //!   little is lost where the switched vertex is diffuse; caustics through a switched
 //!   glass keep the path tracer's variance.)
 //!   A **restricted light** is one whose Ray Visibility hides it from a surface bounce
-//!   kind (the world included), or an emissive triangle of a restricted object.
+//!   kind (the world included), one with a Max Bounces (`scene::light_bounces`: light
+//!   sampling past it gives nothing, BSDF-sampled hits keep their weight against it, as
+//!   Cycles), or an emissive triangle of a restricted object.
 //! - A path is **restricted** when a segment of it crosses or ends on a restricted
 //!   object (the test is geometric, on the triangles alone: alpha and pass-through are
 //!   ignored, so every strategy answers it alike for the same segment), or its light is
@@ -56,6 +58,7 @@
 use crate::accel::Accel;
 use crate::light::Light;
 use crate::scene::Scene;
+use crate::scene::light_bounces::NO_LIMIT;
 use crate::scene::visibility::RayMask;
 use glam::Vec3;
 
@@ -118,9 +121,11 @@ impl Restriction {
             .enumerate()
             .map(|(i, l)| {
                 let own = scene.light_rays.get(i).is_some_and(|m| m.0 & LIGHT_BOUNCE_KINDS.0 != LIGHT_BOUNCE_KINDS.0);
+                // A Max Bounces: light sampling stops past it, BSDF-sampled hits do not.
+                let bounded = scene.light_max_bounces.get(i).is_some_and(|&m| m != NO_LIMIT);
                 let object =
                     matches!(l, Light::Triangle { tri } if objects.get(*tri as usize).copied().unwrap_or(false));
-                own || object
+                own || bounded || object
             })
             .collect();
         Restriction { accel, unmasked: vec![false; ids.len()], objects, lights }

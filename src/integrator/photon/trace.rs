@@ -218,6 +218,11 @@ pub fn trace_one(
     if light_share < 1.0 {
         e.power /= light_share;
     }
+    // A light of Max Bounces 0 lights no path past its first bounce, and every photon read
+    // is such light (`scene::light_bounces`): its photons carry nothing.
+    if ctx.scene.light_max_bounces.get(e.light) == Some(&0) {
+        return Some(e.light);
+    }
     // A shadow-linked light's photon may go on through surfaces that do not block it
     // (`linking`): each such continuation is traced after the path it split from.
     let mut pending = Some((PathState::photon(e.org, e.dir, e.power), visibility::of_light(ctx, e.light)));
