@@ -6,8 +6,10 @@
 //!
 //! A point hit travels through the integrators as an `accel::Hit` whose `tri` has
 //! [`POINT_BITS`] set (the rest is the sphere's slot in BVH order). Like a strand's, such an id
-//! indexes no per-triangle table: those the integrators read for a hit (lights, light linking,
-//! holdout, ray visibility) are read with `get`, which gives "none" for it.
+//! indexes no per-triangle table: those the integrators read for a hit (lights, light linking)
+//! are read with `get`, which gives "none" for it; the object's Ray Visibility and Holdout are
+//! looked up by the slot's object (`rays_of`, `holdout_of`), as `SceneContext::sees` and
+//! `is_holdout` do for a point's id.
 //!
 //! Memory: 16 bytes per point (centre, radius), 4 for its index in load order (its object
 //! and Point Info's Random), and the BVH's nodes (`Points::bytes`; about 10 bytes a point,
@@ -32,6 +34,28 @@ pub const MAX_POINTS: usize = 1 << 30;
 #[inline(always)]
 pub fn is_point(prim: u32) -> bool {
     prim & POINT_BITS == POINT_BITS
+}
+
+/// A warning for BDPT and VCM (`integrator`: its name) naming the point cloud objects hidden
+/// from a kind of ray a surface path traces (diffuse, glossy, transmission, shadow): their
+/// restricted paths (`integrator::bdpt::visibility`) are found among triangles only, so paths
+/// that meet such points are weighed over every strategy, whose light subpaths do not know the
+/// rays' kinds. Hidden from the camera alone, or a holdout, is exact; None when no object is
+/// hidden from more.
+pub fn visibility_warning(scene: &crate::scene::Scene, integrator: &str) -> Option<String> {
+    let named: Vec<String> = scene
+        .points
+        .objects
+        .iter()
+        .filter(|o| crate::integrator::bdpt::visibility::restricted_object(o.rays))
+        .map(|o| format!("'{}'", o.name))
+        .collect();
+    (!named.is_empty()).then(|| {
+        format!(
+            "the Ray Visibility of point cloud(s) {} (hidden from diffuse, glossy, transmission or shadow rays) is              not followed by {integrator}: paths that meet them are weighed by every strategy as if every ray saw              them (the path tracer, Jensen and SPPM follow it; hidden from the camera alone and Holdout are exact)",
+            named.join(", ")
+        )
+    })
 }
 
 /// A warning for the integrators that trace light from the lights (`integrator`: its name),
@@ -84,12 +108,25 @@ pub struct PointObject {
     /// Each point's index in its Blender point cloud, when the file gives them (points were
     /// left out); the index among the object's points without.
     pub indices: Option<Vec<u32>>,
+    /// The kinds of ray that see the object (its Ray Visibility, as a mesh's).
+    pub rays: crate::scene::visibility::RayMask,
+    /// The object is a holdout: camera rays that reach it see nothing, alpha 0.
+    pub holdout: bool,
 }
 
 impl PointObject {
     /// An object of `count` points from load-order index `first`, with material `material`.
     pub fn new(name: &str, first: u32, count: u32, material: u32) -> Self {
-        PointObject { name: name.to_string(), first, count, material, object: None, indices: None }
+        PointObject {
+            name: name.to_string(),
+            first,
+            count,
+            material,
+            object: None,
+            indices: None,
+            rays: crate::scene::visibility::RayMask::ALL,
+            holdout: false,
+        }
     }
 }
 
@@ -162,6 +199,24 @@ impl Points {
         let k = self.index[Self::slot(prim)];
         let o = self.objects.partition_point(|obj| obj.first <= k) - 1;
         (o, k - self.objects[o].first)
+    }
+
+    /// True when some object is hidden from some kind of ray or is a holdout (the per-hit
+    /// lookups below are needed only then).
+    pub fn restricted(&self) -> bool {
+        self.objects.iter().any(|o| o.rays != crate::scene::visibility::RayMask::ALL || o.holdout)
+    }
+
+    /// The kinds of ray that see the object of a point hit's primitive id.
+    #[inline]
+    pub fn rays_of(&self, prim: u32) -> crate::scene::visibility::RayMask {
+        self.objects[self.object_of_prim(prim).0].rays
+    }
+
+    /// True when the object of a point hit's primitive id is a holdout.
+    #[inline]
+    pub fn holdout_of(&self, prim: u32) -> bool {
+        self.objects[self.object_of_prim(prim).0].holdout
     }
 
     /// Point Info at a point hit's primitive id.
