@@ -150,16 +150,6 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         reporter.warning(&w);
         run_warnings.push(w);
     }
-    // Points' Ray Visibility: BDPT's and VCM's restricted paths are found among triangles only.
-    let bidirectional_name = match res.integrator {
-        IntegratorKind::Bdpt => Some("BDPT"),
-        IntegratorKind::Vcm => Some("VCM"),
-        _ => None,
-    };
-    if let Some(w) = bidirectional_name.and_then(|name| crate::points::visibility_warning(&scene, name)) {
-        reporter.warning(&w);
-        run_warnings.push(w);
-    }
     // Lights' Max Bounces: photons do not know the camera bounces they will be read at.
     if let Some(w) = photon_name.and_then(|name| crate::scene::light_bounces::photon_warning(&scene, name)) {
         reporter.warning(&w);

@@ -36,28 +36,6 @@ pub fn is_point(prim: u32) -> bool {
     prim & POINT_BITS == POINT_BITS
 }
 
-/// A warning for BDPT and VCM (`integrator`: its name) naming the point cloud objects hidden
-/// from a kind of ray a surface path traces (diffuse, glossy, transmission, shadow): their
-/// restricted paths (`integrator::bdpt::visibility`) are found among triangles only, so paths
-/// that meet such points are weighed over every strategy, whose light subpaths do not know the
-/// rays' kinds. Hidden from the camera alone, or a holdout, is exact; None when no object is
-/// hidden from more.
-pub fn visibility_warning(scene: &crate::scene::Scene, integrator: &str) -> Option<String> {
-    let named: Vec<String> = scene
-        .points
-        .objects
-        .iter()
-        .filter(|o| crate::integrator::bdpt::visibility::restricted_object(o.rays))
-        .map(|o| format!("'{}'", o.name))
-        .collect();
-    (!named.is_empty()).then(|| {
-        format!(
-            "the Ray Visibility of point cloud(s) {} (hidden from diffuse, glossy, transmission or shadow rays) is              not followed by {integrator}: paths that meet them are weighed by every strategy as if every ray saw              them (the path tracer, Jensen and SPPM follow it; hidden from the camera alone and Holdout are exact)",
-            named.join(", ")
-        )
-    })
-}
-
 /// A warning for the integrators that trace light from the lights (`integrator`: its name),
 /// naming the materials of points that transmit (glass, refraction, translucency,
 /// transmission); None when no point's material does. Cycles refracts a ray where it enters a
