@@ -13,6 +13,8 @@
   next double (Caustic uses `spot_blend` instead anyway).
 * Ray Visibility: Camera goes out as `camera_visible`; Diffuse, Glossy, Transmission and
   Volume Scatter as `*_visible` keys, only when off (`light_ray_visibility`).
+* Cycles' Max Bounces of a light goes out as `max_bounces`, only when it limits anything
+  (below Cycles' default 1024, `cycles_max_bounces`).
 * Light node trees: Cycles multiplies the light's power by the Strength and its colour by the
   Color of the Emission node on the light's output (`light_node_factors`). The exporter instead
   replaces the colour by the node's and ignores the Strength (it uses it *instead of* the power
@@ -76,6 +78,9 @@ def area_light_extension(blender_object, writer=None, depsgraph=None):
     if not _lights_catcher(blender_object):
         value["shadow_catcher"] = False
     value.update(light_ray_visibility(blender_object))
+    bounces = cycles_max_bounces(light)
+    if bounces is not None:
+        value["max_bounces"] = bounces
     if getattr(getattr(light, "cycles", None), "is_portal", False):
         # Cycles' Portal: a window that steers the world's light sampling; it emits nothing.
         value["portal"] = True
@@ -112,7 +117,22 @@ def punctual_light_extension(blender_object, writer=None, depsgraph=None, warnin
         value["nodes"] = graph
         if warnings is not None:
             warnings.extend(graph_warnings)
+    bounces = cycles_max_bounces(light)
+    if bounces is not None:
+        value["max_bounces"] = bounces
     return value or None
+
+
+# Cycles' default Max Bounces of a light and of the world: no limit of their own.
+_UNLIMITED_BOUNCES = 1024
+
+
+def cycles_max_bounces(datablock):
+    """A light's or world's Cycles Max Bounces when it limits anything, else None: past it
+    Cycles' next-event estimation leaves the light out (`light_select_reached_max_bounces`)."""
+    settings = getattr(datablock, "cycles", None)
+    bounces = int(getattr(settings, "max_bounces", _UNLIMITED_BOUNCES))
+    return bounces if bounces < _UNLIMITED_BOUNCES else None
 
 
 # Blender's Ray Visibility of a light object beyond Camera -> the extensions' keys.

@@ -22,10 +22,12 @@ the file: world-space centres and a radius per point, in a binary buffer of thei
   which for a point cloud is the object-space point, Cycles having no texture space for it) and
   the instance's depsgraph random id (Object Info Random).
 
-Not rendered, each named in a warning: an object's Ray Visibility, Holdout and Shadow Catcher
-(every ray sees the points, as strands), per-point attributes read by an Attribute node (only
-Point Info's outputs reach the shader), and motion blur (the points are where they are at the
-frame).
+* The object's Ray Visibility and Holdout (an Indirect Only collection hides it from the camera)
+  as `visibility`, `CAUSTIC_object_visibility`'s keys (export/visibility.py).
+
+Not rendered, each named in a warning: an object's Shadow Catcher (the loader names it),
+per-point attributes read by an Attribute node (only Point Info's outputs reach the shader), and
+motion blur (the points are where they are at the frame).
 """
 
 import json
@@ -39,15 +41,12 @@ BUFFER_NAME = "scene_points.bin"
 DEFAULT_POINT_RADIUS = 0.01
 # Blender's Z-up axes to glTF's Y-up: (x, y, z) -> (x, z, -y).
 _AXES = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, -1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]])
-# Ray visibility flags that Cycles honours on point clouds and Caustic does not.
-_RAY_FLAGS = ("visible_camera", "visible_diffuse", "visible_glossy", "visible_transmission",
-              "visible_volume_scatter", "visible_shadow")
 
 
 class Cloud:
     """One point cloud instance: centres (N, 3) world glTF axes, radii (N,), indices (N,) or None."""
 
-    def __init__(self, name, object_name, material, centres, radii, indices, matrix, random_id):
+    def __init__(self, name, object_name, material, centres, radii, indices, matrix, random_id, visibility=None):
         self.name = name
         self.object_name = object_name  # the Blender object, for light linking and messages
         self.material = material
@@ -56,6 +55,7 @@ class Cloud:
         self.indices = None if indices is None else np.asarray(indices, dtype=np.uint32)
         self.matrix = matrix  # object to world, glTF axes, column-major (16 floats)
         self.random_id = random_id  # the depsgraph's random id of an instance, else None
+        self.visibility = visibility  # CAUSTIC_object_visibility's keys (Ray Visibility, Holdout), or None
 
 
 def owner_of(instance):
@@ -111,22 +111,12 @@ def _material(obj, override):
     return slots[0].material if len(slots) else None
 
 
-def _object_warnings(owner, what, view_layer):
-    """Warnings for what Caustic does not render of a point cloud's object."""
-    from .visibility import is_holdout, is_indirect_only
-    original = getattr(owner, "original", owner)
-    warnings = []
-    hidden = [flag[len("visible_"):].replace("_", " ") for flag in _RAY_FLAGS if not getattr(original, flag, True)]
-    if hidden:
-        warnings.append(f"{what}: its Ray Visibility ({', '.join(hidden)} off) is not rendered on points: every ray "
-                        "sees them")
-    if is_holdout(original, view_layer):
-        warnings.append(f"{what}: Holdout is not rendered on points: they are shaded as an ordinary surface")
-    elif is_indirect_only(original, view_layer):
-        warnings.append(f"{what}: an Indirect Only collection is not rendered on points: the camera sees them")
-    if getattr(original, "is_shadow_catcher", False):
-        warnings.append(f"{what}: Shadow Catcher is not rendered on points: they are shaded as an ordinary surface")
-    return warnings
+def _object_visibility_in(owner, view_layer):
+    """The object's Ray Visibility, Holdout (an Indirect Only collection hides it from the camera)
+    and Shadow Catcher flag as `CAUSTIC_object_visibility`'s keys, or None (the loader names a
+    catcher, which points do not render)."""
+    from .visibility import object_visibility_extension
+    return object_visibility_extension(getattr(owner, "original", owner), view_layer)
 
 
 def scene_clouds(depsgraph, warnings):
@@ -148,9 +138,7 @@ def scene_clouds(depsgraph, warnings):
         names[owner_name] = count + 1
         name = owner_name if count == 0 else f"{owner_name} {count}"
         what = f"point cloud of object '{owner_name}'"
-        if owner_name not in warned:
-            warned.add(owner_name)
-            warnings.extend(_object_warnings(owner, what, view_layer))
+        visibility = _object_visibility_in(owner, view_layer)
         positions = np.empty(n * 3, dtype=np.float32)
         data.attributes["position"].data.foreach_get("vector", positions)
         positions = positions.reshape(-1, 3).astype(np.float64)
@@ -178,7 +166,7 @@ def scene_clouds(depsgraph, warnings):
         random_id = int(instance.random_id) & 0xFFFFFFFF if instance.is_instance else None
         centres = np.stack([centres[:, 0], centres[:, 2], -centres[:, 1]], axis=1)
         clouds.append(Cloud(name, owner_name, _material(obj, override), centres, radii, indices,
-                            [float(x) for x in matrix], random_id))
+                            [float(x) for x in matrix], random_id, visibility))
     if clouds and depsgraph.scene.render.use_motion_blur:
         warnings.append("point clouds are rendered without motion blur: their points are where they are "
                         "at the frame")
@@ -271,6 +259,8 @@ def add_points(gltf_path, depsgraph, state):
             entry["indices"] = accessor(c.indices.astype(np.uint32), 5125, "SCALAR")
         if c.random_id is not None:
             entry["randomId"] = c.random_id
+        if c.visibility:
+            entry["visibility"] = c.visibility
         material = _gltf_material(doc, c.material, state, folder, state.warnings, what)
         if material is not None:
             entry["material"] = material

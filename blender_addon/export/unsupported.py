@@ -1,7 +1,8 @@
 """What Caustic cannot render yet, named: scene features that would otherwise be dropped without
-a word (a light's or the world's Cycles Max Bounces). Each warning names the object and says what
-the render does instead. (Shape keys on a mesh without modifiers are exported deformed by
-shape_keys.py; point clouds are rendered, and what of them is not is named by points.py.)"""
+a word. Each warning names the object and says what the render does instead. Nothing of the
+scene-wide kind is left at present: a light's and the world's Max Bounces are exported
+(lights.py, world.py); shape keys on a mesh without modifiers are exported deformed by
+shape_keys.py; point clouds are rendered, and what of them is not is named by points.py."""
 
 
 def scene_warnings(depsgraph):
@@ -15,33 +16,10 @@ def scene_warnings(depsgraph):
             continue
         seen.add(original.name)
         warnings += object_warnings(original)
-    world = depsgraph.scene.world
-    bounces = _cycles_max_bounces(world)
-    if bounces is not None:
-        warnings.append(f"world '{world.name}': its Max Bounces ({bounces}) is not read: "
-                        "the world lights paths of every length")
     return warnings
-
-
-# Cycles' default Max Bounces of a light and of the world: no limit of their own.
-_UNLIMITED_BOUNCES = 1024
-
-
-def _cycles_max_bounces(datablock):
-    """A light's or world's Cycles Max Bounces when it limits anything, else None."""
-    settings = getattr(datablock, "cycles", None)
-    bounces = getattr(settings, "max_bounces", _UNLIMITED_BOUNCES)
-    return int(bounces) if bounces < _UNLIMITED_BOUNCES else None
 
 
 def object_warnings(obj):
-    """Warnings for one object's features that Caustic does not render."""
-    what = f"object '{obj.name}'"
-    warnings = []
-    if obj.type == "LIGHT":
-        bounces = _cycles_max_bounces(obj.data)
-        if bounces is not None:
-            warnings.append(f"{what}: the light's Max Bounces ({bounces}) is not read: "
-                            "it lights paths of every length")
-    return warnings
-
+    """Warnings for one object's features that Caustic does not render (none at present)."""
+    del obj
+    return []

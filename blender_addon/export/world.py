@@ -9,6 +9,7 @@ import os
 
 import bpy
 
+from .lights import cycles_max_bounces
 from .media import TREE_NODES, tree_medium, varying_medium
 from .node_graph import GraphContext, build_world_graph, has_aov_outputs
 from .nodes import linked_node
@@ -59,6 +60,12 @@ def world_extension(scene, folder, writer=None, depsgraph=None):
     hidden = world_visibility(world)
     if value is not None and hidden is not None:
         value["visibility"] = hidden
+    # Max Bounces limits the world's light sampling, which Cycles does only with the world's
+    # Sampling on (its background light); with Sampling None the limit changes nothing.
+    bounces = cycles_max_bounces(world)
+    sampled = getattr(getattr(world, "cycles", None), "sampling_method", "AUTOMATIC") != "NONE"
+    if value is not None and bounces is not None and sampled:
+        value["max_bounces"] = bounces
     return value, warnings
 
 

@@ -151,6 +151,11 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         reporter.warning(&w);
         run_warnings.push(w);
     }
+    // Lights' Max Bounces: photons do not know the camera bounces they will be read at.
+    if let Some(w) = photon_name.and_then(|name| crate::scene::light_bounces::photon_warning(&scene, name)) {
+        reporter.warning(&w);
+        run_warnings.push(w);
+    }
     // Light traced from the lights crosses glass points by another path than Cycles' camera rays.
     let light_tracing = match res.integrator {
         IntegratorKind::Bdpt => Some("BDPT"),

@@ -50,6 +50,9 @@ pub struct SceneContext<'a> {
     /// Which rays see each triangle (empty: every ray sees every triangle, or the
     /// integrator does not honour ray visibility; see `with_ray_visibility`).
     visibility: std::borrow::Cow<'a, [RayMask]>,
+    /// Some point cloud object is hidden from some kind of ray and the context honours ray
+    /// visibility (`with_object_visibility`): point hits look their object's mask up.
+    point_rays: bool,
     /// Light linking is honoured (`with_light_linking`).
     linking: bool,
     /// Per light, the kinds of ray that see it (`Scene::light_rays`; empty: every ray sees
@@ -166,6 +169,7 @@ impl<'a> SceneContext<'a> {
             masked: (0..n).map(|t| matches!(mode(t), AlphaMode::Mask(_))).collect(),
             transparent: (0..n).map(|t| mode(t) != AlphaMode::Opaque).collect(),
             visibility: std::borrow::Cow::Borrowed(&[]),
+            point_rays: false,
             linking: false,
             light_rays: &[],
             catcher_only: false,
@@ -258,6 +262,7 @@ impl<'a> SceneContext<'a> {
     /// adds them).
     pub fn with_object_visibility(mut self) -> Self {
         let scene = self.scene;
+        self.point_rays = scene.points.objects.iter().any(|o| o.rays != RayMask::ALL);
         let vis = &scene.ray_visibility.per_triangle;
         if vis.is_empty() {
             return self;
@@ -356,6 +361,13 @@ impl<'a> SceneContext<'a> {
         }
     }
 
+    /// True when next-event estimation from a point whose path has made `bounce` bounces
+    /// (`LightPath::depth`) takes light `light`: its Max Bounces (`scene::light_bounces`).
+    #[inline]
+    pub fn nee_within_bounces(&self, light: usize, bounce: u16) -> bool {
+        crate::scene::light_bounces::nee_allowed(&self.scene.light_max_bounces, light, bounce)
+    }
+
     /// True when light `light` lights volume scattering events (Ray Visibility > Volume
     /// Scatter); always unless the context honours it.
     #[inline]
@@ -374,6 +386,9 @@ impl<'a> SceneContext<'a> {
     /// with nothing seen (colour and alpha 0), as Cycles' holdout.
     #[inline]
     pub fn is_holdout(&self, tri: u32) -> bool {
+        if crate::points::is_point(tri) {
+            return self.scene.points.holdout_of(tri);
+        }
         self.scene.ray_visibility.is_holdout(tri)
     }
 
@@ -393,12 +408,18 @@ impl<'a> SceneContext<'a> {
     /// honours ray visibility): photons read it (`photon::visibility`).
     #[inline]
     pub fn object_rays(&self, tri: u32) -> RayMask {
+        if self.point_rays && crate::points::is_point(tri) {
+            return self.scene.points.rays_of(tri);
+        }
         self.visibility.get(tri as usize).copied().unwrap_or(RayMask::ALL)
     }
 
-    /// True when rays of kind `ray` see triangle `tri`.
+    /// True when rays of kind `ray` see triangle `tri` (or the point of a point hit's id).
     #[inline]
     pub(crate) fn sees(&self, ray: RayMask, tri: u32) -> bool {
+        if self.point_rays && crate::points::is_point(tri) {
+            return ray.meets(self.scene.points.rays_of(tri));
+        }
         self.visibility.get(tri as usize).is_none_or(|m| ray.meets(*m))
     }
 
@@ -512,7 +533,9 @@ impl<'a> SceneContext<'a> {
         };
         match &self.scene.points.bvh {
             Some(points) => {
-                points.intersect(&self.scene.points.spheres, org, dir, hit.map_or(tmax, |h| h.t), |_| true).or(hit)
+                // Points hidden from the ray's kind are passed (their object's Ray Visibility).
+                let seen = |slot: u32| self.sees(ray, crate::points::POINT_BITS | slot);
+                points.intersect(&self.scene.points.spheres, org, dir, hit.map_or(tmax, |h| h.t), seen).or(hit)
             }
             None => hit,
         }
@@ -612,10 +635,12 @@ impl<'a> SceneContext<'a> {
             _ => tr,
         };
         let spheres = &self.scene.points.spheres;
+        // Points hidden from shadow rays let them through.
+        let shadows = |slot: u32| self.sees(RayMask::SHADOW, crate::points::POINT_BITS | slot);
         match (&self.scene.points.bvh, linked) {
-            (Some(points), None) if tr > 0.0 && points.occluded_by(spheres, org, dir, tmax, |_| true) => 0.0,
+            (Some(points), None) if tr > 0.0 && points.occluded_by(spheres, org, dir, tmax, shadows) => 0.0,
             (Some(points), Some(l)) if tr > 0.0 => {
-                let blocker = |slot: u32| self.blocks(l, crate::points::POINT_BITS | slot);
+                let blocker = |slot: u32| shadows(slot) && self.blocks(l, crate::points::POINT_BITS | slot);
                 if points.occluded_by(spheres, org, dir, tmax, blocker) { 0.0 } else { tr }
             }
             _ => tr,

@@ -62,7 +62,8 @@ pub fn surface_nee_at(
     };
     // Light linking: a light chosen for a surface it does not light gives nothing (the
     // choice keeps its density, so the estimate of the linked lights is unchanged).
-    if !ctx.links(index, s.tri) {
+    // So does a light past its Max Bounces (Cycles skips the estimate, keeping the choice).
+    if !ctx.links(index, s.tri) || !ctx.nee_within_bounces(index, s.light_path.depth) {
         return (Rgb::ZERO, Vec3::ZERO, index);
     }
     let Some(ls) = ctx.sample_light_from(index, s.p, u_light_pt, s.light_path) else {
@@ -138,6 +139,7 @@ pub fn medium_nee_light(
 ) -> (Rgb, usize) {
     if let Some((index, pmf)) = ctx.lights.sample(p, Vec3::ZERO, u_light)
         && ctx.links(index, NO_OBJECT)
+        && ctx.nee_within_bounces(index, path.depth)
         && ctx.light_seen_in_volume(index)
         && let Some(ls) = ctx.sample_light_from(index, p, u_light_pt, path)
     {
@@ -188,6 +190,7 @@ pub fn exit_nee_light(
 ) -> (Rgb, usize) {
     if let Some((index, pmf)) = ctx.lights.sample(se.p, n_g, u_light)
         && ctx.links(index, se.tri)
+        && ctx.nee_within_bounces(index, se.light_path.depth)
         // The exit is a diffuse closure (Cycles' BSSRDF exit).
         && !ctx.light_excludes(index).diffuse
         && let Some(ls) = ctx.sample_light_from(index, se.p, u_pt, se.light_path)

@@ -6,8 +6,10 @@
 //!
 //! A point hit travels through the integrators as an `accel::Hit` whose `tri` has
 //! [`POINT_BITS`] set (the rest is the sphere's slot in BVH order). Like a strand's, such an id
-//! indexes no per-triangle table: those the integrators read for a hit (lights, light linking,
-//! holdout, ray visibility) are read with `get`, which gives "none" for it.
+//! indexes no per-triangle table: those the integrators read for a hit (lights, light linking)
+//! are read with `get`, which gives "none" for it; the object's Ray Visibility and Holdout are
+//! looked up by the slot's object (`rays_of`, `holdout_of`), as `SceneContext::sees` and
+//! `is_holdout` do for a point's id.
 //!
 //! Memory: 16 bytes per point (centre, radius), 4 for its index in load order (its object
 //! and Point Info's Random), and the BVH's nodes (`Points::bytes`; about 10 bytes a point,
@@ -84,12 +86,25 @@ pub struct PointObject {
     /// Each point's index in its Blender point cloud, when the file gives them (points were
     /// left out); the index among the object's points without.
     pub indices: Option<Vec<u32>>,
+    /// The kinds of ray that see the object (its Ray Visibility, as a mesh's).
+    pub rays: crate::scene::visibility::RayMask,
+    /// The object is a holdout: camera rays that reach it see nothing, alpha 0.
+    pub holdout: bool,
 }
 
 impl PointObject {
     /// An object of `count` points from load-order index `first`, with material `material`.
     pub fn new(name: &str, first: u32, count: u32, material: u32) -> Self {
-        PointObject { name: name.to_string(), first, count, material, object: None, indices: None }
+        PointObject {
+            name: name.to_string(),
+            first,
+            count,
+            material,
+            object: None,
+            indices: None,
+            rays: crate::scene::visibility::RayMask::ALL,
+            holdout: false,
+        }
     }
 }
 
@@ -162,6 +177,24 @@ impl Points {
         let k = self.index[Self::slot(prim)];
         let o = self.objects.partition_point(|obj| obj.first <= k) - 1;
         (o, k - self.objects[o].first)
+    }
+
+    /// True when some object is hidden from some kind of ray or is a holdout (the per-hit
+    /// lookups below are needed only then).
+    pub fn restricted(&self) -> bool {
+        self.objects.iter().any(|o| o.rays != crate::scene::visibility::RayMask::ALL || o.holdout)
+    }
+
+    /// The kinds of ray that see the object of a point hit's primitive id.
+    #[inline]
+    pub fn rays_of(&self, prim: u32) -> crate::scene::visibility::RayMask {
+        self.objects[self.object_of_prim(prim).0].rays
+    }
+
+    /// True when the object of a point hit's primitive id is a holdout.
+    #[inline]
+    pub fn holdout_of(&self, prim: u32) -> bool {
+        self.objects[self.object_of_prim(prim).0].holdout
     }
 
     /// Point Info at a point hit's primitive id.

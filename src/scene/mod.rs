@@ -6,6 +6,7 @@ pub mod camera;
 pub mod gltf;
 pub mod hit;
 pub mod ids;
+pub mod light_bounces;
 pub mod light_groups;
 pub mod light_path;
 pub mod light_visibility;
@@ -191,6 +192,9 @@ pub struct LightReport {
     /// The kinds of ray that see the light (its Ray Visibility, `light_visibility`).
     #[serde(skip)]
     pub rays: visibility::RayMask,
+    /// Cycles' Max Bounces of the light (`light_bounces`; `NO_LIMIT`: none).
+    #[serde(skip)]
+    pub max_bounces: u32,
 }
 
 /// A camera in the report.
@@ -251,6 +255,8 @@ pub struct Scene {
     /// Per light: the kinds of ray that see it (Blender's Ray Visibility of a light,
     /// `light_visibility`); empty when every ray sees every light.
     pub light_rays: Vec<visibility::RayMask>,
+    /// Per light: Cycles' Max Bounces (`light_bounces`); empty when no light has one.
+    pub light_max_bounces: Vec<u32>,
     /// Which rays see each triangle (Blender's per-object Ray Visibility).
     pub ray_visibility: visibility::RayVisibility,
     /// Which objects each light lights (Blender's light linking receivers).

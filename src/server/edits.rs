@@ -388,6 +388,9 @@ pub fn world(scene: &mut Scene, color: [f32; 3]) -> Result<Invalidates, String> 
         if !scene.light_rays.is_empty() {
             scene.light_rays.push(crate::scene::visibility::RayMask::ALL);
         }
+        if !scene.light_max_bounces.is_empty() {
+            scene.light_max_bounces.push(crate::scene::light_bounces::NO_LIMIT);
+        }
     }
     refresh_powers(scene);
     Ok(Invalidates::Shading)

@@ -160,6 +160,8 @@ pub fn merge(scene: &mut Scene, mut add: Scene) -> Result<Merged, String> {
     let rays = pick(&add.light_rays, &kept, RayMask::ALL);
     append_table(&mut scene.light_lights_catcher, nl0, &catcher, kept.len(), true);
     append_table(&mut scene.light_rays, nl0, &rays, kept.len(), RayMask::ALL);
+    // Emissive triangles have no Max Bounces (Cycles).
+    append_table(&mut scene.light_max_bounces, nl0, &[], kept.len(), crate::scene::light_bounces::NO_LIMIT);
     scene.report.lights.extend(add.report.lights.into_iter().filter(|r| r.kind == "emissive"));
 
     // Light groups by name: the second file's group numbers are its own.

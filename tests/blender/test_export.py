@@ -606,16 +606,19 @@ def test_unrendered_features_are_named(addon, empty_scene, tmp_path):
     squashed.data.shape_keys.key_blocks["Squash"].value = 1.0
     warnings = unsupported.scene_warnings(bpy.context.evaluated_depsgraph_get())
     assert not any("shape keys" in line for line in warnings), warnings
-    # A light's and the world's Cycles Max Bounces are not rendered: named (the default, 1024,
-    # limits nothing and is not).
+    # A light's and the world's Cycles Max Bounces are exported (`max_bounces`, rendered since
+    # test_max_bounces.py), not named; the default, 1024, limits nothing and is not written.
     bounded = scenes.light(scene, "Bounded", "POINT", location=(0, 0, 5), energy=10.0)
-    assert not any("Max Bounces" in line for line in unsupported.object_warnings(bounded))
+    assert "max_bounces" not in (lights.punctual_light_extension(bounded) or {})
     bounded.data.cycles.max_bounces = 2
-    assert any("'Bounded'" in line and "Max Bounces (2)" in line for line in unsupported.object_warnings(bounded))
+    assert lights.punctual_light_extension(bounded)["max_bounces"] == 2
+    assert unsupported.object_warnings(bounded) == []
     scene.world = bpy.data.worlds.new("Bounded sky")
     scene.world.cycles.max_bounces = 3
     world_warnings = unsupported.scene_warnings(bpy.context.evaluated_depsgraph_get())
-    assert any("'Bounded sky'" in line and "Max Bounces (3)" in line for line in world_warnings), world_warnings
+    assert not any("Max Bounces" in line for line in world_warnings), world_warnings
+    world = importlib.import_module(addon.__name__ + ".export.world")
+    assert world.world_extension(scene, str(tmp_path))[0]["max_bounces"] == 3
     # Point clouds render (export/points.py, tests/blender/test_points.py): no longer named here;
     # what of them is not rendered is named by points.py.
     dots = bpy.data.objects.new("Dots", bpy.data.pointclouds.new("DotsData"))

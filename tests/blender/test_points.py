@@ -128,6 +128,49 @@ def test_point_cloud_with_radius_attribute_matches_cycles(empty_scene, tmp_path)
     assert_mean_matches_cycles(scene, tmp_path, "radius attribute", MODEL_ALLOWANCE)
 
 
+# A point cloud object's Ray Visibility and Holdout (exported as `visibility`, rendered by the
+# path tracer as a mesh's): each case's flags, and whether it leaves alpha (Film Transparent).
+VISIBILITY_CASES = {
+    "camera": ({"visible_camera": False}, False),
+    "shadow": ({"visible_shadow": False}, False),
+    "diffuse": ({"visible_diffuse": False}, False),
+    "holdout": ({"is_holdout": True}, True),
+}
+
+
+@pytest.mark.needs_binary
+@pytest.mark.parametrize("case", list(VISIBILITY_CASES))
+def test_point_visibility_matches_cycles(empty_scene, tmp_path, case):
+    """The Point Cloud object of (2) with one Ray Visibility flag off, or a holdout (per channel,
+    alpha too, with Film Transparent). Each case also checks that the flag matters: Caustic's mean
+    with the flag cleared differs from its mean with it by more than the bound (before: the flag
+    was not read, a warning named it)."""
+    from test_cycles_agreement import SIGMAS, mean_and_variance
+    import math
+    scene = empty_scene
+    lit_floor(scene)
+    dots = point_cloud_object(scene, scenes.diffuse_material("Light", 0.8))
+    flags, transparent = VISIBILITY_CASES[case]
+    for prop, value in flags.items():
+        setattr(dots, prop, value)
+    scene.render.film_transparent = transparent
+    ratios = assert_mean_matches_cycles(scene, tmp_path, f"points {case}", MODEL_ALLOWANCE, per_channel=True)
+
+    def caustic(label):
+        images = [scenes.render_rgb(scene, "CAUSTIC", s, str(tmp_path / f"{label}_{s}.exr")).mean(axis=2)
+                  for s in SEEDS]
+        return mean_and_variance(*images)
+
+    m_flag, v_flag = caustic("flag")
+    for prop, value in flags.items():
+        setattr(dots, prop, not value)
+    m_plain, v_plain = caustic("plain")
+    bound = SIGMAS * math.sqrt(v_flag + v_plain) + MODEL_ALLOWANCE * m_flag
+    after = sum(ratios.values()) / len(ratios)
+    print(f"\n[caustic/cycles] points {case}: before (flag not read) {after * m_plain / m_flag:.4f} -> after {ratios}")
+    assert abs(m_plain - m_flag) > bound, f"{case}: the flag changes the image by less than the bound"
+
+
 @pytest.mark.needs_binary
 def test_point_info_matches_cycles(empty_scene, tmp_path):
     scene = empty_scene
@@ -253,8 +296,9 @@ def test_points_are_exported(addon, empty_scene, tmp_path):
 
 def test_point_export_edge_cases(addon, empty_scene, tmp_path):
     """No `radius` attribute: Cycles' 0.01; radius 0 points left out with their indices kept;
-    an empty point cloud exports nothing; what is not rendered (ray visibility, holdout,
-    non-uniform scale, an attribute read by the material) is named."""
+    an empty point cloud exports nothing; ray visibility and holdout are exported as the object's
+    `visibility`; what is not rendered (non-uniform scale, an attribute read by the material) is
+    named."""
     points = importlib.import_module(addon.__name__ + ".export.points")
     scene = empty_scene
     lit_floor(scene)
@@ -283,13 +327,16 @@ def test_point_export_edge_cases(addon, empty_scene, tmp_path):
     assert clouds["Bare"].indices is None
     text = "\n".join(warnings)
     assert any("'Dots'" in w and "2 of its 4 points" in w for w in warnings), text
-    assert any("'Dots'" in w and "shadow off" in w for w in warnings), text
+    assert clouds["Dots"].visibility == {"shadow": False}
+    assert clouds["Bare"].visibility == {"holdout": True}
+    assert not any("shadow off" in w or "Holdout" in w for w in warnings), text
     assert any("'Dots'" in w and "non-uniform scale" in w for w in warnings), text
-    assert any("'Bare'" in w and "Holdout" in w for w in warnings), text
     doc, state = _export(addon, scene, tmp_path)
     assert any("'Bare'" in w and "attribute 'Col'" in w for w in state.warnings), state.warnings
     names = [o["name"] for o in doc["extensions"]["CAUSTIC_points"]["objects"]]
     assert sorted(names) == ["Bare", "Dots"]
+    written = {o["name"]: o.get("visibility") for o in doc["extensions"]["CAUSTIC_points"]["objects"]}
+    assert written == {"Dots": {"shadow": False}, "Bare": {"holdout": True}}
 
 
 def test_viewport_reloads_for_points(addon, empty_scene):

@@ -259,7 +259,9 @@ impl BdptIntegrator {
             return none;
         }
         let gate = linking::sampled(ctx, index, hit.tri);
-        if gate == Gate::Drop {
+        // A light past its Max Bounces at this vertex: chosen, nothing (`scene::light_bounces`;
+        // such a light is restricted, so s = 0 weighs its hits as the path tracer does).
+        if gate == Gate::Drop || !ctx.nee_within_bounces(index, hit.light_path.depth) {
             return none;
         }
         let wo_l = x.frame.to_local(x.wo);

@@ -21,8 +21,12 @@
 //!   subpath ends before the first such vertex: it is the tested machinery below, and
 //!   little is lost where the switched vertex is diffuse; caustics through a switched
 //!   glass keep the path tracer's variance.)
+//!   A point cloud object hidden from such a kind is restricted too (its spheres in a BVH
+//!   of their own, tested as the triangles are).
 //!   A **restricted light** is one whose Ray Visibility hides it from a surface bounce
-//!   kind (the world included), or an emissive triangle of a restricted object.
+//!   kind (the world included), one with a Max Bounces (`scene::light_bounces`: light
+//!   sampling past it gives nothing, BSDF-sampled hits keep their weight against it, as
+//!   Cycles), or an emissive triangle of a restricted object.
 //! - A path is **restricted** when a segment of it crosses or ends on a restricted
 //!   object (the test is geometric, on the triangles alone: alpha and pass-through are
 //!   ignored, so every strategy answers it alike for the same segment), or its light is
@@ -56,6 +60,7 @@
 use crate::accel::Accel;
 use crate::light::Light;
 use crate::scene::Scene;
+use crate::scene::light_bounces::NO_LIMIT;
 use crate::scene::visibility::RayMask;
 use glam::Vec3;
 
@@ -83,6 +88,12 @@ pub struct Restriction {
     objects: Vec<bool>,
     /// Per light: restricted.
     lights: Vec<bool>,
+    /// The restricted point cloud objects' spheres (in `point_bvh`'s order) and their BVH
+    /// (None: no point cloud object is restricted).
+    point_spheres: Vec<glam::Vec4>,
+    point_bvh: Option<crate::points::bvh::PointBvh>,
+    /// Per scene sphere slot: its object is restricted (empty: none is).
+    point_slots: Vec<bool>,
 }
 
 impl std::fmt::Debug for Restriction {
@@ -118,23 +129,45 @@ impl Restriction {
             .enumerate()
             .map(|(i, l)| {
                 let own = scene.light_rays.get(i).is_some_and(|m| m.0 & LIGHT_BOUNCE_KINDS.0 != LIGHT_BOUNCE_KINDS.0);
+                // A Max Bounces: light sampling stops past it, BSDF-sampled hits do not.
+                let bounded = scene.light_max_bounces.get(i).is_some_and(|&m| m != NO_LIMIT);
                 let object =
                     matches!(l, Light::Triangle { tri } if objects.get(*tri as usize).copied().unwrap_or(false));
-                own || object
+                own || bounded || object
             })
             .collect();
-        Restriction { accel, unmasked: vec![false; ids.len()], objects, lights }
+        // Point cloud objects hidden from a surface path's kind: their spheres in a BVH of their own.
+        let points = &scene.points;
+        let point_slots: Vec<bool> = if points.objects.iter().any(|o| restricted_object(o.rays)) {
+            (0..points.spheres.len() as u32)
+                .map(|slot| restricted_object(points.rays_of(crate::points::POINT_BITS | slot)))
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let restricted: Vec<glam::Vec4> =
+            point_slots.iter().zip(&points.spheres).filter(|(r, _)| **r).map(|(_, s)| *s).collect();
+        let (point_bvh, point_spheres) = if restricted.is_empty() {
+            (None, Vec::new())
+        } else {
+            let (bvh, order) = crate::points::bvh::PointBvh::build(&restricted);
+            (Some(bvh), order.iter().map(|&k| restricted[k as usize]).collect())
+        };
+        Restriction { accel, unmasked: vec![false; ids.len()], objects, lights, point_spheres, point_bvh, point_slots }
     }
 
     /// True when the scene has no restricted object or light (no test is needed).
     #[inline]
     pub fn none(&self) -> bool {
-        self.accel.is_none() && !self.lights.iter().any(|&r| r)
+        self.accel.is_none() && self.point_bvh.is_none() && !self.lights.iter().any(|&r| r)
     }
 
     /// True when triangle `tri` belongs to a restricted object.
     #[inline]
     pub fn object(&self, tri: u32) -> bool {
+        if crate::points::is_point(tri) {
+            return self.point_slots.get((tri & !crate::points::POINT_BITS) as usize).copied().unwrap_or(false);
+        }
         self.objects.get(tri as usize).copied().unwrap_or(false)
     }
 
@@ -148,16 +181,19 @@ impl Restriction {
     /// a ray that escapes) crosses or ends on a restricted triangle.
     #[inline]
     pub fn crosses(&self, org: Vec3, dir: Vec3, tmax: f32) -> bool {
-        match &self.accel {
-            None => false,
-            Some(a) => a.intersect(org, dir, tmax, &self.unmasked, |_, _, _| true).is_some(),
-        }
+        let points =
+            self.point_bvh.as_ref().is_some_and(|b| b.occluded_by(&self.point_spheres, org, dir, tmax, |_| true));
+        points
+            || match &self.accel {
+                None => false,
+                Some(a) => a.intersect(org, dir, tmax, &self.unmasked, |_, _, _| true).is_some(),
+            }
     }
 
     /// True when the segment from `a` to `b` crosses or ends on a restricted triangle.
     #[inline]
     pub fn between(&self, a: Vec3, b: Vec3) -> bool {
-        if self.accel.is_none() {
+        if self.accel.is_none() && self.point_bvh.is_none() {
             return false;
         }
         let d = b - a;
@@ -308,6 +344,9 @@ mod tests {
             unmasked: vec![false],
             objects: vec![true],
             lights: vec![false],
+            point_spheres: Vec::new(),
+            point_bvh: None,
+            point_slots: Vec::new(),
         };
         assert!(r.between(Vec3::ZERO, Vec3::new(0.0, 0.0, 2.0)));
         assert!(!r.between(Vec3::ZERO, Vec3::new(0.0, 0.0, 0.5)));
@@ -315,5 +354,24 @@ mod tests {
         assert!(r.crosses(Vec3::ZERO, Vec3::Z, f32::INFINITY));
         assert!(!r.crosses(Vec3::ZERO, -Vec3::Z, f32::INFINITY));
         assert!(r.object(0) && !r.object(1) && !r.light(0) && !r.none());
+    }
+
+    #[test]
+    fn segments_find_restricted_points() {
+        let sphere = glam::Vec4::new(0.0, 0.0, 2.0, 0.5);
+        let (bvh, _) = crate::points::bvh::PointBvh::build(&[sphere]);
+        let r = Restriction {
+            accel: None,
+            unmasked: Vec::new(),
+            objects: Vec::new(),
+            lights: Vec::new(),
+            point_spheres: vec![sphere],
+            point_bvh: Some(bvh),
+            point_slots: vec![true],
+        };
+        assert!(r.between(Vec3::ZERO, Vec3::new(0.0, 0.0, 4.0)));
+        assert!(!r.between(Vec3::ZERO, Vec3::new(0.0, 0.0, 1.0)));
+        assert!(!r.crosses(Vec3::ZERO, -Vec3::Z, f32::INFINITY));
+        assert!(r.object(crate::points::POINT_BITS) && !r.object(crate::points::POINT_BITS | 1) && !r.none());
     }
 }

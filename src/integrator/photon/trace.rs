@@ -218,6 +218,11 @@ pub fn trace_one(
     if light_share < 1.0 {
         e.power /= light_share;
     }
+    // A light of Max Bounces 0 lights no path past its first bounce, and every photon read
+    // is such light (`scene::light_bounces`): its photons carry nothing.
+    if ctx.scene.light_max_bounces.get(e.light) == Some(&0) {
+        return Some(e.light);
+    }
     // A light's varying node tree weighs the photon by its value along the photon's
     // direction (the direction is drawn from the light's own emission, so the weighted
     // power stays unbiased); the photon does not know its first segment's length yet, and

@@ -32,6 +32,8 @@ pub(super) struct AreaLightExt {
     pub(super) transmission_visible: bool,
     #[serde(default = "yes")]
     pub(super) volume_scatter_visible: bool,
+    /// Cycles' Max Bounces of the light (`scene::light_bounces`); absent: no limit.
+    pub(super) max_bounces: Option<u32>,
     /// Cycles' Portal: the light emits nothing and steers the world's light sampling.
     #[serde(default)]
     pub(super) portal: bool,
@@ -197,6 +199,8 @@ pub(super) struct WorldExt {
     pub(super) nodes: Option<crate::shader::graph::NodesExt>,
     /// The world's Ray Visibility (Cycles' World > Ray Visibility); absent: every ray.
     pub(super) visibility: Option<WorldVisibilityExt>,
+    /// Cycles' Max Bounces of the world (`scene::light_bounces`); absent: no limit.
+    pub(super) max_bounces: Option<u32>,
 }
 
 /// `visibility` in `CAUSTIC_world`: which rays see the world (each true when absent).
@@ -297,6 +301,8 @@ pub(super) struct BlenderLight {
     /// are then the light's own, without its Emission's factors.
     #[serde(default)]
     pub(super) nodes: Option<crate::shader::graph::NodesExt>,
+    /// Cycles' Max Bounces of the light (`scene::light_bounces`); absent: no limit.
+    pub(super) max_bounces: Option<u32>,
 }
 
 impl Default for BlenderLight {
@@ -314,6 +320,7 @@ impl Default for BlenderLight {
             transmission_visible: true,
             volume_scatter_visible: true,
             nodes: None,
+            max_bounces: None,
         }
     }
 }

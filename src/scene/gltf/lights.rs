@@ -156,6 +156,7 @@ impl Loader<'_> {
                     bl.transmission_visible,
                     bl.volume_scatter_visible,
                 ),
+                max_bounces: crate::scene::light_bounces::from_file(bl.max_bounces),
             },
             graph,
         ))
@@ -239,6 +240,7 @@ impl Loader<'_> {
                             a.transmission_visible,
                             a.volume_scatter_visible,
                         ),
+                        max_bounces: crate::scene::light_bounces::from_file(a.max_bounces),
                     },
                     graph,
                 )))
@@ -314,6 +316,8 @@ impl Loader<'_> {
                 cast_shadow: true,
                 lights_catcher: true,
                 rays: crate::scene::visibility::RayMask::ALL,
+                // Cycles gives emissive objects no Max Bounces.
+                max_bounces: crate::scene::light_bounces::NO_LIMIT,
             });
         }
         Ok(())

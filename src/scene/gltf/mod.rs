@@ -338,6 +338,8 @@ impl<'a> Loader<'a> {
         let mut shadowless = Vec::new();
         let mut no_catcher = Vec::new();
         let mut hidden_lights = Vec::new();
+        // Lights with a Max Bounces of their own: (index in `lights`, limit).
+        let mut bounded_lights = Vec::new();
         let mut light_reports = Vec::new();
         let mut used_meshes = std::collections::HashSet::new();
         let mut instance_count = 0;
@@ -492,6 +494,9 @@ impl<'a> Loader<'a> {
                 if rep.rays != crate::scene::visibility::RayMask::ALL {
                     hidden_lights.push((lights.len(), rep.rays));
                 }
+                if rep.max_bounces != crate::scene::light_bounces::NO_LIMIT {
+                    bounded_lights.push((lights.len(), rep.max_bounces));
+                }
                 if let Some(r) = &rule {
                     light_rules.push((lights.len(), r.clone()));
                 }
@@ -563,6 +568,9 @@ impl<'a> Loader<'a> {
                 if rep.rays != crate::scene::visibility::RayMask::ALL {
                     hidden_lights.push((lights.len(), rep.rays));
                 }
+                if rep.max_bounces != crate::scene::light_bounces::NO_LIMIT {
+                    bounded_lights.push((lights.len(), rep.max_bounces));
+                }
                 if let Some(r) = rule {
                     light_rules.push((lights.len(), r));
                 }
@@ -598,6 +606,16 @@ impl<'a> Loader<'a> {
                 if rays != crate::scene::visibility::RayMask::ALL {
                     hidden_lights.push((lights.len(), rays));
                 }
+                // Cycles samples the world as a light only where it varies over directions (an
+                // image, a graph) or has portals (`test_enabled_lights`): a constant colour is
+                // found by BSDF-sampled rays alone, which the limit never stops.
+                let sampled =
+                    world.as_ref().is_some_and(|w| w.image.is_some() || w.graph.is_some() || !w.portals.is_empty());
+                let max_bounces =
+                    if sampled { self.world_max_bounces(&value)? } else { crate::scene::light_bounces::NO_LIMIT };
+                if max_bounces != crate::scene::light_bounces::NO_LIMIT {
+                    bounded_lights.push((lights.len(), max_bounces));
+                }
                 lights.push(Light::World);
                 light_power.push(power);
                 light_reports.push(LightReport {
@@ -608,6 +626,7 @@ impl<'a> Loader<'a> {
                     cast_shadow: true,
                     lights_catcher: true,
                     rays,
+                    max_bounces,
                 });
             } else {
                 self.warn("the world is black: it lights nothing");
@@ -766,6 +785,7 @@ impl<'a> Loader<'a> {
                 light_rays[i] = mask;
             }
         }
+        let light_max_bounces = crate::scene::light_bounces::table(&bounded_lights, lights.len());
         let mut light_lights_catcher = Vec::new();
         if !no_catcher.is_empty() {
             light_lights_catcher = vec![true; lights.len()];
@@ -791,6 +811,7 @@ impl<'a> Loader<'a> {
             light_casts_shadow,
             light_lights_catcher,
             light_rays,
+            light_max_bounces,
             ray_visibility,
             light_linking: linking,
             settings,

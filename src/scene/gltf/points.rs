@@ -40,6 +40,9 @@ struct PointsObjectExt {
     /// when absent.
     #[serde(default, rename = "randomId")]
     random_id: Option<u32>,
+    /// The object's Ray Visibility and Holdout, as `CAUSTIC_object_visibility` on a mesh.
+    #[serde(default)]
+    visibility: Option<super::extensions::ObjectVisibilityExt>,
 }
 
 /// The extension's root.
@@ -214,6 +217,15 @@ impl Loader<'_> {
             };
             let mut object = PointObject::new(&obj.name, first, n as u32, material);
             object.indices = indices;
+            if let Some(v) = &obj.visibility {
+                object.rays = v.mask();
+                object.holdout = v.holdout;
+                if v.shadow_catcher {
+                    warnings.push(format!(
+                        "{what}: Shadow Catcher is not rendered on points: they are shaded as an ordinary surface"
+                    ));
+                }
+            }
             if let Some(objects) = objects.as_deref_mut() {
                 let random_id = obj.random_id.map(serde_json::Value::from);
                 objects.push(super::shader_graph::object_data(

@@ -29,6 +29,18 @@ impl Loader<'_> {
         Ok(w.visibility.map_or(crate::scene::visibility::RayMask::ALL, |v| v.mask()))
     }
 
+    /// The world's Max Bounces (`max_bounces` in `CAUSTIC_world`, `scene::light_bounces`);
+    /// no limit without the extension or the field.
+    pub(super) fn world_max_bounces(&self, value: &serde_json::Value) -> Result<u32> {
+        let scene_index = value.get("scene").and_then(|s| s.as_u64()).unwrap_or(0) as usize;
+        let Some(ext) = value.pointer(&format!("/scenes/{scene_index}/extensions/CAUSTIC_world")) else {
+            return Ok(crate::scene::light_bounces::NO_LIMIT);
+        };
+        let w: WorldExt =
+            serde_json::from_value(ext.clone()).map_err(|e| self.err(format!("CAUSTIC_world is malformed: {e}")))?;
+        Ok(crate::scene::light_bounces::from_file(w.max_bounces))
+    }
+
     /// `scenes[i].extensions.CAUSTIC_world`: a colour × strength, or an equirectangular
     /// image (.hdr, .exr, .png, .jpg) × colour × strength, rotated about the up axis; and
     /// the homogeneous medium that fills the scene (Blender's World Volume).
