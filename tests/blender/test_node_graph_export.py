@@ -353,7 +353,9 @@ def test_plain_principled_writes_no_graph_and_procedural_warnings_are_replaced(a
 def test_light_node_tree_strength_and_colour_multiply_the_light(addon, empty_scene, tmp_path):
     """Cycles multiplies a light's power by its node tree's Emission Strength and its colour by the
     Emission Color: the exported point light's intensity and colour, and the area light's power
-    and colour, carry both; a linked Strength is named in a warning and its own value used."""
+    and colour, carry both; a linked Strength sends the whole tree as the light's graph
+    (`CAUSTIC_lights_punctual.nodes`, evaluated by the renderer), the light keeping its own
+    power and colour, with no warning."""
     uv_plane(empty_scene, "Floor", scenes.diffuse_material("Grey", 0.5))
     plain = scenes.light(empty_scene, "Plain", "POINT", location=(0, 0, 3), energy=300.0, color=(1.0, 0.5, 0.25))
     noded = scenes.light(empty_scene, "Noded", "POINT", location=(1, 0, 3), energy=300.0, color=(1.0, 0.5, 0.25))
@@ -370,9 +372,10 @@ def test_light_node_tree_strength_and_colour_multiply_the_light(addon, empty_sce
     tree.links.new(value.outputs[0], next(n for n in tree.nodes if n.type == "EMISSION").inputs["Strength"])
 
     gltf, state, _ = export(addon, empty_scene, tmp_path)
-    lights = {}
+    lights, graphs = {}, {}
     for node in gltf["nodes"]:
         ext = node.get("extensions", {})
+        graphs[node["name"]] = ext.get("CAUSTIC_lights_punctual", {}).get("nodes")
         if "KHR_lights_punctual" in ext:
             index = ext["KHR_lights_punctual"]["light"]
             lights[node["name"]] = gltf["extensions"]["KHR_lights_punctual"]["lights"][index]
@@ -383,9 +386,11 @@ def test_light_node_tree_strength_and_colour_multiply_the_light(addon, empty_sce
     assert lights["Plain"]["color"] == pytest.approx([1.0, 0.5, 0.25], abs=1e-6)
     assert lights["AreaNoded"]["power"] == pytest.approx(400.0, rel=1e-6)
     assert lights["AreaNoded"]["color"] == pytest.approx([1.0, 0.8, 0.6], abs=1e-6)
-    assert any("Linked" in w and "Strength" in w and "linked" in w for w in state.warnings), state.warnings
-    # A linked Strength: the socket's own value (0.5) is used, as the warning says.
-    assert lights["Linked"]["intensity"] == pytest.approx(lights["Plain"]["intensity"] / 3.0 * 0.5, rel=1e-6)
+    assert not any("Linked" in w for w in state.warnings), state.warnings
+    assert graphs["Linked"] is not None and graphs["Noded"] is None and graphs["Plain"] is None
+    assert {"ShaderNodeValue", "ShaderNodeEmission"} <= {n["type"] for n in graphs["Linked"]["nodes"]}
+    # The light's own power (100 W of the Plain light's 300 W) and colour; the graph scales it.
+    assert lights["Linked"]["intensity"] == pytest.approx(lights["Plain"]["intensity"] / 3.0, rel=1e-6)
 
 
 def test_graph_scene_passes_the_khronos_validator(addon, empty_scene, tmp_path):
