@@ -115,19 +115,28 @@ def tree_medium(owner, node, what, warnings, writer=None):
     """The `CAUSTIC_materials_medium` value (without `surface`) of the shader tree under
     `node`: an empty constant part and the tree's graph, or None (warning) when its images
     cannot be written here."""
+    graph = _graph_of(owner, node, what, warnings, writer, "the volume is left out")
+    if graph is None:
+        return None
+    return {"density": 0.0, "scatter_color": [0.0] * 3, "absorption_color": [0.0] * 3, "anisotropy": 0.0,
+            "graph": graph[0], "graph_shader": graph[1]}
+
+
+def _graph_of(owner, node, what, warnings, writer, instead):
+    """(graph value, root index) of the Volume output's graph under `node`, its images written
+    by `writer`; without a writer (the viewport's comparison of a material's extras) a graph with
+    images is not exported: None, with a warning ending in `instead` (what happens then)."""
     graph, index = build_volume_graph(owner, node, GraphContext())
     if graph.images and writer is None:
         warnings.append(f"{what}: an Image Texture feeds the {node.name} node on the Volume output; its "
-                        "images cannot be written here and the volume is left out")
+                        f"images cannot be written here and {instead}")
         return None
     warnings.extend(graph.warnings)
     if writer is None:
-        value = {"version": 1, "nodes": graph.nodes, "output": {}}
-    else:
-        value = writer.graph_value(graph, what, warnings)
-        value["output"] = {}
-    return {"density": 0.0, "scatter_color": [0.0] * 3, "absorption_color": [0.0] * 3, "anisotropy": 0.0,
-            "graph": value, "graph_shader": index}
+        return {"version": 1, "nodes": graph.nodes, "output": {}}, index
+    value = writer.graph_value(graph, what, warnings)
+    value["output"] = {}
+    return value, index
 
 
 def _varies(node):
@@ -147,17 +156,7 @@ def _volume_graph(owner, node, what, warnings, writer):
     the constant medium is used, with a warning."""
     if node.type not in _VARYING_INPUTS or not (node.type == "EMISSION" or _varies(node)):
         return None
-    graph, index = build_volume_graph(owner, node, GraphContext())
-    if graph.images and writer is None:
-        warnings.append(f"{what}: an Image Texture feeds the {node.name} node on the Volume output; its "
-                        "images cannot be written here and its inputs' own values are used")
-        return None
-    warnings.extend(graph.warnings)
-    if writer is None:
-        return {"version": 1, "nodes": graph.nodes, "output": {}}, index
-    value = writer.graph_value(graph, what, warnings)
-    value["output"] = {}
-    return value, index
+    return _graph_of(owner, node, what, warnings, writer, "its inputs' own values are used")
 
 
 def volume_uses_generated(blender_material):
