@@ -215,18 +215,22 @@ impl IesProfile {
         Ok((h, v, rows))
     }
 
-    /// The value at horizontal angle `h` and vertical angle `v` (radians), as Cycles'
-    /// `kernel_ies_interp`: 0 outside the grid, Catmull-Rom in both angles, wrapping where
-    /// the grid covers the full turn or reaches a pole, negative results clamped to 0.
+    /// The value at horizontal angle `h` and vertical angle `v` (radians), as Blender 5.0's
+    /// Cycles renders it: 0 outside the grid, Catmull-Rom in the vertical angle and then the
+    /// horizontal one, negative results clamped to 0. Where a spline's outer point falls off
+    /// the grid, Cycles' source (`kernel_ies_interp`) wraps or takes 0; Blender 5.0's Cycles
+    /// measures otherwise (an emissive plane reading the node at fixed vectors, values in
+    /// `cycles_lookups_at_the_grids_ends`): the 0° end of the vertical angle wraps; past the
+    /// other ends the spline repeats its nearer point (the 360° row is not wrapped to 0°:
+    /// `2π − 1e-7` rounds to 2π in f32), except past the last vertical angle, where it
+    /// repeats the farther one.
     pub fn eval(&self, h: f32, v: f32) -> f32 {
         let (hs, vs) = (&self.h, &self.v);
         let (h_num, v_num) = (hs.len(), vs.len());
         if !(v >= vs[0] && v < vs[v_num - 1] && h >= hs[0] && h < hs[h_num - 1]) {
             return 0.0;
         }
-        let wrap_h = hs[0] < 1e-7 && hs[h_num - 1] > std::f32::consts::TAU - 1e-7;
         let wrap_vlow = vs[0] < 1e-7;
-        let wrap_vhigh = vs[v_num - 1] > std::f32::consts::PI - 1e-7;
         // The cell holding the angle: the last index whose next angle is not below it.
         let hi = hs[1..].iter().position(|&a| a >= h).unwrap_or(h_num - 2);
         let vi = vs[1..].iter().position(|&a| a >= v).unwrap_or(v_num - 2);
@@ -239,33 +243,15 @@ impl IesProfile {
             } else if wrap_vlow {
                 at(1)
             } else {
-                0.0
+                at(vi)
             };
-            let d = if vi + 2 < v_num {
-                at(vi + 2)
-            } else if wrap_vhigh {
-                at(v_num - 2)
-            } else {
-                0.0
-            };
+            let d = if vi + 2 < v_num { at(vi + 2) } else { at(vi + 1) };
             catmull_rom(a, at(vi), at(vi + 1), d, vf)
         };
-        let a = if hi > 0 {
-            column(hi - 1)
-        } else if wrap_h {
-            // The 360° row repeats the 0° one: the row before 0° is the one before 360°.
-            column(h_num - 2)
-        } else {
-            0.0
-        };
-        let d = if hi + 2 < h_num {
-            column(hi + 2)
-        } else if wrap_h {
-            column(1)
-        } else {
-            0.0
-        };
-        catmull_rom(a, column(hi), column(hi + 1), d, hf).max(0.0)
+        let (b, c) = (column(hi), column(hi + 1));
+        let a = if hi > 0 { column(hi - 1) } else { b };
+        let d = if hi + 2 < h_num { column(hi + 2) } else { b };
+        catmull_rom(a, b, c, d, hf).max(0.0)
     }
 
     /// The value toward unit direction `dir` in the light's frame (Blender axes): vertical
@@ -302,13 +288,46 @@ mod tests {
             assert!((got - cd * k).abs() <= 1e-4 * cd * k, "{deg}°: {got} vs {}", cd * k);
         }
         // Straight down from the light: vertical angle 0, horizontal angle atan2(0, 0) + π = π,
-        // halfway between the 0° and 360° rows. Cycles' full-turn test (last angle > 2π − 1e-7
-        // in f32) fails for 360° × π/180 (2π − 1e-7 rounds to 2π), so the rows beyond are 0 and
-        // Catmull-Rom of (0, 1000, 1000, 0) at ½ overshoots to 1125 cd, as in Cycles.
+        // halfway between the 0° and 360° rows, which are the same row: with the ends
+        // repeated, Catmull-Rom of (1000, 1000, 1000, 1000) is 1000 cd (with zeros past the
+        // ends, as Cycles' source reads, 1125: an overshoot Blender 5.0's Cycles does not render).
         let down = p.eval_direction(glam::Vec3::new(0.0, 0.0, -1.0));
-        assert!((down - 1125.0 * k).abs() < 1e-3, "{down} vs {}", 1125.0 * k);
+        assert!((down - 1000.0 * k).abs() < 1e-3, "{down} vs {}", 1000.0 * k);
         // Beyond the last vertical angle (90°): 0, as in Cycles.
         assert_eq!(p.eval_direction(glam::Vec3::new(0.0, 0.3, 1.0)), 0.0);
+    }
+
+    /// Blender 5.0.1's Cycles read at fixed vectors (an emissive plane whose Strength is the
+    /// node's Fac, the pixel over the node at a grid point for scale), in candela: five
+    /// distinct rows (0°, 90°, 180°, 270°, 360°: 1000, 500, 200, 300, 700, flat in the
+    /// vertical angle) at 45° and 315°; one row over 0-45-90° (1000, 800, 600) and one over
+    /// 90-135-180° (600, 800, 1000) between their angles. The values Cycles' source gives
+    /// instead (wrapping 0°/360°, or 0 past an end) are 812.5, 518.75, 725, 725 and 925.
+    #[test]
+    fn cycles_lookups_at_the_grids_ends() {
+        let k = CANDELA_TO_WATT as f32;
+        let file = |v: &str, h: &str, rows: &str, nv: usize, nh: usize| {
+            IesProfile::parse(&format!(
+                "IESNA:LM-63-2002\n[TEST] t\nTILT=NONE\n1 1000 1 {nv} {nh} 1 2 0 0 0\n1 1 100\n{v}\n{h}\n{rows}\n"
+            ))
+            .unwrap()
+        };
+        let rows =
+            file("0 45 90", "0 90 180 270 360", "1000 1000 1000 500 500 500 200 200 200 300 300 300 700 700 700", 3, 5);
+        let low = file("0 45 90", "0", "1000 800 600", 3, 1);
+        let high = file("90 135 180", "0", "600 800 1000", 3, 1);
+        let rad = |d: f32| d.to_radians();
+        for (p, h, v, cd) in [
+            (&rows, 45.0, 45.0, 768.75),
+            (&rows, 315.0, 45.0, 531.25),
+            (&low, 90.0, 67.5, 687.5),
+            (&low, 90.0, 22.5, 925.0),
+            (&high, 90.0, 112.5, 687.5),
+            (&high, 90.0, 157.5, 912.5),
+        ] {
+            let got = p.eval(rad(h), rad(v)) / k;
+            assert!((got - cd).abs() < 0.02, "h {h} v {v}: {got} cd, Cycles {cd}");
+        }
     }
 
     /// Halfway between 30° and 60°: Catmull-Rom of (1000, 800, 400, 0) at x = ½, by hand:

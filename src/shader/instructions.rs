@@ -42,6 +42,11 @@ pub enum InputKind {
     ObjectMatrix(u32),
     /// Object-space normal.
     ObjectNormal,
+    /// The incoming direction (toward the viewer) turned into object space as a normal:
+    /// Cycles' implicit Vector of the IES Texture (`LINK_TEXTURE_INCOMING`: Geometry's
+    /// Incoming through a world-to-object Normal transform), on a light the direction from
+    /// the light toward the lit point in the light's frame.
+    ObjectIncoming,
     /// Reflection of the view direction about the normal (world).
     Reflection,
     /// Texture Coordinate Camera: the position in the render camera's space.

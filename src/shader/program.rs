@@ -416,6 +416,10 @@ impl Program {
                 let m = obj.world_to_object.inverse().transpose();
                 to_blender(m.transform_vector3(g.n).normalize_or_zero())
             }
+            InputKind::ObjectIncoming => {
+                let m = obj.world_to_object.inverse().transpose();
+                to_blender(m.transform_vector3(g.wo).normalize_or_zero())
+            }
             InputKind::Reflection => {
                 let n = g.n;
                 to_blender(2.0 * n.dot(g.wo) * n - g.wo)

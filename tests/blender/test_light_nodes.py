@@ -20,6 +20,8 @@ Cases:
   into a point light's Strength, the light turned 30° about Z (the profile's horizontal angle is
   read in the light's frame);
 * spot_ies_external: the same profile from a file, Strength 1.3, on a tilted spot.
+* sphere_ies: the profile on a point light of radius 0.3 with Soft Falloff off (a sphere light,
+  whose surface normal differs from the direction to the lit point that the IES node reads).
 
 Measured on bpy 5.0.1 (Caustic/Cycles, R G B; before = main's add-on and binary, which read
 only an Emission node's unlinked values and named a linked socket in a warning):
@@ -29,8 +31,11 @@ only an Emission node's unlinked values and named a linked socket in a warning):
   now 0.9999;
 * area_linked_strength: before 0.870, now 1.0000;
 * point_ies_internal: before 0.0277 (the Strength's unlinked 1 instead of the profile's ~70:
-  main named the link in a warning), now 1.0214 (xfail, see `_IES_GAP`);
-* spot_ies_external: before 0.0180, now 1.0340 (xfail).
+  main named the link in a warning), then 1.0214 (the lookup past the grid's ends as Cycles'
+  source reads, not as Blender 5.0 renders: `shader::ies` tests), now 0.9999;
+* spot_ies_external: before 0.0180, then 1.0340, now 1.0000;
+* sphere_ies: before 0.6764 (the sphere's normal as the IES vector; Cycles reads the incoming
+  direction in the light's frame), now 0.9997.
 (`CAUSTIC_BINARY=... python -m pytest -q tests/blender/test_light_nodes.py -s`; the before
 figures from a copy of main's blender_addon/ and tests/blender/ with this file added.)
 """
@@ -130,6 +135,16 @@ def point_ies_internal(scene):
     ies.ies = text
 
 
+def sphere_ies(scene):
+    obj = scenes.light(scene, "Globe", "POINT", location=(0.3, -0.2, 2.8), rotation_deg=(0.0, 0.0, 30.0),
+                       energy=8.0, shadow_soft_size=0.3, use_soft_falloff=False)
+    ies = _ies_tree(obj)
+    text = bpy.data.texts.new("globe.ies")
+    text.write(IES_PROFILE)
+    ies.mode = "INTERNAL"
+    ies.ies = text
+
+
 def spot_ies_external(scene):
     obj = scenes.light(scene, "Wallwasher", "SPOT", location=(-0.3, 0.2, 2.8), rotation_deg=(12.0, 0.0, -20.0),
                        energy=10.0, spot_size=1.8, spot_blend=0.2)
@@ -142,13 +157,6 @@ def spot_ies_external(scene):
     ies.inputs["Strength"].default_value = 1.3
 
 
-# The IES cases render 2-4 % brighter than Cycles (below); the profile's values themselves
-# match Cycles' node (an emissive plane reading the IES Texture at fixed vectors renders
-# 600 cd x 4pi/177.83 at 45 degrees, as `shader::ies` computes), so the difference lies in how
-# Cycles feeds a light's IES node, which is not found yet. strict: a fix makes them pass and
-# fail here, so that the mark is removed.
-_IES_GAP = pytest.mark.xfail(strict=True, reason="IES lights render 1.02-1.04x Cycles (issue 19, open)")
-
 CASES = {
     "point_blackbody": point_blackbody,
     "spot_math_strength": spot_math_strength,
@@ -156,8 +164,9 @@ CASES = {
     "area_linked_strength": area_linked_strength,
     "point_ies_internal": point_ies_internal,
     "spot_ies_external": spot_ies_external,
+    "sphere_ies": sphere_ies,
 }
-PARAMS = [pytest.param(name, add, id=name, marks=_IES_GAP if "ies" in name else ()) for name, add in CASES.items()]
+PARAMS = [pytest.param(name, add, id=name) for name, add in CASES.items()]
 
 
 @pytest.mark.parametrize("case,add", PARAMS)

@@ -658,9 +658,10 @@ impl Compiler<'_> {
                 self.ops.push(Op::Texture(Box::new(TexOp::Wave { kind, direction, profile, inputs, fac, color })));
             }
             "ShaderNodeTexIES" => {
-                // Cycles' IES node reads the texture Normal by default: on a light, the
-                // direction toward the receiver in the light's frame.
-                let vector = self.vec_implicit(i, "Vector", InputKind::ObjectNormal)?;
+                // Cycles' IES node reads the Incoming direction in object space by default
+                // (`LINK_TEXTURE_INCOMING`): on a light, the direction toward the receiver in
+                // the light's frame, also from a sphere light, whose normal differs from it.
+                let vector = self.vec_implicit(i, "Vector", InputKind::ObjectIncoming)?;
                 let strength = self.float(i, "Strength", 1.0)?;
                 let profile = match self.desc(i).props.get("ies_text").and_then(Value::as_str) {
                     Some(text) => Some(std::sync::Arc::new(
@@ -668,7 +669,7 @@ impl Compiler<'_> {
                             .map_err(|e| self.err(i, format!("its IES profile is malformed: {e}")))?,
                     )),
                     None => {
-                        self.warn(i, "it has no IES profile: it gives 100 × Strength, as Cycles for a missing file");
+                        self.warn(i, "it has no IES profile (only a light's IES Texture is exported with its profile): it gives 100 × Strength, as Cycles for a missing file");
                         None
                     }
                 };
