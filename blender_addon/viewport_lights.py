@@ -2,7 +2,8 @@
 
 A light's colour, power, exposure, temperature or Emission-node factors and its placement are
 sent as a `light` edit; anything else about it (type, size, shape, spot cone, radius, angle,
-spread, shadows, visibility, a scaled object, a light data shared by several objects) changes
+spread, shadows, visibility, Max Bounces, light group and linking, a scaled object, a light
+data shared by several objects) changes
 what the exporter writes beyond the emission and reloads the scene. The edit's emission is the
 loaded one (the server reports it in its own unit at `load`) times the ratio of the light's
 Blender powers now and at the export, per channel: the exporter's unit conversions are linear,
@@ -10,13 +11,15 @@ so this is exactly what exporting again would load, without repeating them here.
 
 A world whose Surface is a Background node (a plain colour, or an Environment Texture as the
 exporter writes it) gets `world` edits of colour × strength (an image world's multiplier: the
-strength); any other change to the world (its nodes, links, image, volume) reloads.
+strength); any other change to the world (its nodes, links, image, volume, Ray Visibility, Max
+Bounces, light group) reloads.
 """
 
 import mathutils
 
 from .export.light_nodes import needs_graph
 from .export.lights import light_node_factors
+from .export.visibility import WORLD_FLAGS
 
 RELOAD = "reload"
 
@@ -29,7 +32,23 @@ AXES = mathutils.Matrix(((1, 0, 0, 0), (0, 0, 1, 0), (0, -1, 0, 0), (0, 0, 0, 1)
 _SHAPE_PROPERTIES = ("type", "shape", "size", "size_y", "spot_size", "spot_blend", "shadow_soft_size", "angle",
                      "spread", "use_shadow", "normalize", "use_soft_falloff", "use_nodes")
 _OBJECT_PROPERTIES = ("visible_camera", "visible_diffuse", "visible_glossy", "visible_transmission",
-                      "visible_volume_scatter", "is_shadow_catcher")
+                      "visible_volume_scatter", "is_shadow_catcher", "lightgroup")
+# Cycles' own settings of a light or world datablock that the exporter writes (Max Bounces),
+# like the world's Ray Visibility: a change to any reloads.
+_CYCLES_PROPERTIES = ("max_bounces",)
+
+
+def _cycles_settings(datablock):
+    """The datablock's Cycles settings the exporter reads (a tuple that compares)."""
+    cycles = getattr(datablock, "cycles", None)
+    return tuple((p, rounded(getattr(cycles, p, None))) for p in _CYCLES_PROPERTIES)
+
+
+def _linking(obj):
+    """The light's light and shadow linking collections (by name)."""
+    linking = getattr(obj, "light_linking", None)
+    return tuple(getattr(getattr(linking, p, None), "name", None)
+                 for p in ("receiver_collection", "blocker_collection"))
 
 
 def _flat(m):
@@ -82,7 +101,7 @@ def light_snapshot(obj):
     scale = tuple(round(float(x), 5) for x in obj.matrix_world.to_scale())
     # A light turned into a portal (or back) is no longer the loaded light: reload.
     portal = bool(getattr(getattr(light, "cycles", None), "is_portal", False))
-    return shape, flags, nodes, scale, light.users, portal
+    return shape, flags, nodes, scale, light.users, portal, _cycles_settings(light), _linking(obj)
 
 
 def loaded_name(obj):
@@ -149,7 +168,7 @@ def world_snapshot(world):
         return None
     tree = world.node_tree if getattr(world, "use_nodes", True) else None
     if tree is None:
-        return "no nodes"
+        return "no nodes", _cycles_settings(world)
     bg = _background(world)
     nodes = tuple(sorted(
         (n.name, n.type, getattr(getattr(n, "image", None), "name", None),
@@ -158,7 +177,9 @@ def world_snapshot(world):
         for n in tree.nodes))
     links = tuple(sorted((k.from_node.name, k.from_socket.identifier, k.to_node.name, k.to_socket.identifier)
                          for k in tree.links))
-    return nodes, links
+    flags = getattr(world, "cycles_visibility", None)
+    visibility = tuple(bool(getattr(flags, key, True)) for key in WORLD_FLAGS)
+    return nodes, links, _cycles_settings(world), visibility, getattr(world, "lightgroup", "")
 
 
 def world_request(world, state):

@@ -53,7 +53,7 @@ def is_holdout(blender_object, view_layer=None):
 
 # Cycles' World > Ray Visibility (`world.cycles_visibility`) and the key in `CAUSTIC_world`'s
 # `visibility`, per kind of ray (its Shadow flag has no effect on a world and is not read).
-_WORLD_FLAGS = ("camera", "diffuse", "glossy", "transmission", "scatter")
+WORLD_FLAGS = ("camera", "diffuse", "glossy", "transmission", "scatter")
 
 
 def world_visibility(world):
@@ -61,5 +61,5 @@ def world_visibility(world):
     flags = getattr(world, "cycles_visibility", None)
     if flags is None:
         return None
-    value = {key: False for key in _WORLD_FLAGS if not getattr(flags, key, True)}
+    value = {key: False for key in WORLD_FLAGS if not getattr(flags, key, True)}
     return value or None

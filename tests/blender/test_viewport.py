@@ -453,6 +453,32 @@ def test_light_changes_beyond_emission_and_placement_reload(vp, empty_scene, upd
     assert viewport.edits_from_updates(updates, names, names, {}, state) == [viewport.RELOAD]
     # Without a light state (nothing loaded yet), any light change reloads.
     assert viewport.edits_from_updates(updates, names, names, {}, None) == [viewport.RELOAD]
+    # Cycles' Max Bounces of the light, which the exporter writes, is not in an edit either.
+    state = lights_mod.LightState(empty_scene, [{"name": "Lamp", "kind": "point", "emission": [1.0, 1.0, 1.0]}])
+    updates.clear()
+    lamp.data.cycles.max_bounces = 2
+    # A Python-defined property set from a script tags nothing; the panel's edit does.
+    lamp.data.update_tag()
+    _settle()
+    assert viewport.edits_from_updates(updates, names, names, {}, state) == [viewport.RELOAD]
+
+
+def test_world_settings_beyond_its_colour_reload(vp, empty_scene):
+    """The world's Max Bounces and Ray Visibility, which the exporter writes, are not in a
+    world edit: changing either reloads; its Background colour stays an edit."""
+    viewport, _ = vp
+    world = bpy.data.worlds.new("Sky")
+    world.use_nodes = True
+    empty_scene.world = world
+    lights_mod = sys.modules[viewport.__name__ + "_lights"]
+    state = lights_mod.LightState(empty_scene, [])
+    world.node_tree.nodes["Background"].inputs["Strength"].default_value = 2.0
+    assert lights_mod.world_request(world, state)["type"] == "world"
+    world.cycles.max_bounces = 3
+    assert lights_mod.world_request(world, state) == lights_mod.RELOAD
+    world.cycles.max_bounces = 1024
+    world.cycles_visibility.camera = False
+    assert lights_mod.world_request(world, state) == lights_mod.RELOAD
 
 
 def test_hiding_and_showing_are_visibility_edits(vp, empty_scene, updates):
