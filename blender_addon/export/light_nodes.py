@@ -49,9 +49,7 @@ def light_graph(blender_object, writer, depsgraph=None):
     if graph is None or graph.output["surface"] is None:
         return None, []
     warnings = list(graph.warnings)
-    for entry in graph.nodes:
-        if entry["type"] == "ShaderNodeTexIES":
-            _write_ies(light, entry, writer.gltf_folder, what, warnings)
+    write_ies_profiles(light, graph.nodes, writer.gltf_folder, what, warnings)
     value = writer.graph_value(graph, what, warnings)
     value["output"] = {"surface": graph.output["surface"]}
     return value, warnings
@@ -74,13 +72,21 @@ def _ies_bytes(node, what, warnings):
         return None
 
 
-def _write_ies(light, entry, folder, what, warnings):
+def write_ies_profiles(owner, nodes, folder, what, warnings):
+    """Write the profiles of the IES Texture entries among `nodes` (a graph's written node
+    entries) of `owner`'s node tree (a light or a material) beside the glTF."""
+    for entry in nodes:
+        if entry["type"] == "ShaderNodeTexIES":
+            _write_ies(owner, entry, folder, what, warnings)
+
+
+def _write_ies(owner, entry, folder, what, warnings):
     """Write the profile of the graph's IES Texture `entry` into `<folder>/caustic_ies/` (named
     by its content's hash, so a profile used twice is written once) as its `ies_file`."""
     props = entry["props"]
     for key in ("mode", "filepath", "ies"):
         props.pop(key, None)
-    node = light.node_tree.nodes.get(entry["name"])
+    node = owner.node_tree.nodes.get(entry["name"])
     if node is None or node.bl_idname != "ShaderNodeTexIES":
         warnings.append(f"{what}, node '{entry['name']}': an IES Texture inside a node group is not "
                         "exported (Caustic renders 100 × Strength, as Cycles for a missing profile)")

@@ -24,6 +24,7 @@ import math
 
 from .gltf_objects import optional_extension
 from .node_graph import GRAPH_EXTENSION, GraphContext, build_graph, needs_graph
+from .light_nodes import write_ies_profiles
 from .media import MEDIUM_EXTENSION, SUBSURFACE_EXTENSION, medium_extension, subsurface_extension
 from .nodes import procedural_source, surface_node, value as _value
 
@@ -401,7 +402,9 @@ def _node_graph(gltf2_material, blender_material, export_settings, state, force=
         return False
     state.warnings.extend(graph.warnings)
     writer = state.image_writer(export_settings["gltf_filedirectory"])
-    value = writer.graph_value(graph, f"material '{blender_material.name}'", state.warnings)
+    what = f"material '{blender_material.name}'"
+    value = writer.graph_value(graph, what, state.warnings)
+    write_ies_profiles(blender_material, value["nodes"], export_settings["gltf_filedirectory"], what, state.warnings)
     _set_extension(gltf2_material, GRAPH_EXTENSION, value)
     return True
 

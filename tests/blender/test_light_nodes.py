@@ -174,3 +174,29 @@ def test_light_node_tree_matches_cycles(empty_scene, tmp_path, case, add):
     scene = empty_scene
     build(scene, add)
     assert_mean_matches_cycles(scene, tmp_path, case, MODEL_ALLOWANCE, per_channel=True)
+
+
+def test_ies_texture_in_a_material_matches_cycles(empty_scene, tmp_path):
+    """An IES Texture in a material (its Fac into an Emission's Strength on the box, turned so
+    the profile's asymmetry shows): the profile goes beside the glTF as a light's does, and
+    the node reads the incoming direction in the box's frame. Before: the profile was not
+    exported and the box glowed 100 x Strength (warned): 2.547x Cycles' mean; now 0.9999."""
+    def add(scene):
+        scenes.light(scene, "Sun", "SUN", rotation_deg=(20.0, 10.0, 0.0), energy=2.0)
+        box = bpy.data.objects["Box"]
+        box.rotation_euler = (0.3, 0.2, 0.7)
+        mat = scenes.shader_node_material("Beacon", "ShaderNodeEmission")
+        tree = mat.node_tree
+        emission = next(n for n in tree.nodes if n.type == "EMISSION")
+        ies = tree.nodes.new("ShaderNodeTexIES")
+        text = bpy.data.texts.new("beacon.ies")
+        text.write(IES_PROFILE)
+        ies.mode = "INTERNAL"
+        ies.ies = text
+        ies.inputs["Strength"].default_value = 0.02
+        tree.links.new(ies.outputs["Fac"], emission.inputs["Strength"])
+        box.data.materials.clear()
+        box.data.materials.append(mat)
+
+    build(empty_scene, add)
+    assert_mean_matches_cycles(empty_scene, tmp_path, "material_ies", MODEL_ALLOWANCE, per_channel=True)

@@ -14,8 +14,8 @@ use glam::Mat4;
 impl Loader<'_> {
     /// `nodes` with each IES Texture node's `ies_file` (a path beside the glTF, contract) read
     /// into its `ies_text`, which the compiler parses; a file that cannot be read is an error
-    /// naming the light and node.
-    fn with_ies_profiles(&mut self, what: &str, nodes: &NodesExt) -> Result<NodesExt> {
+    /// naming the light (or material) and node.
+    pub(super) fn with_ies_profiles(&mut self, what: &str, nodes: &NodesExt) -> Result<NodesExt> {
         let mut nodes = nodes.clone();
         for node in nodes.nodes.iter_mut().filter(|n| n.kind == "ShaderNodeTexIES") {
             let Some(file) = node.props.get("ies_file") else { continue };

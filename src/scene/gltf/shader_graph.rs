@@ -25,6 +25,7 @@ impl Loader<'_> {
         features.push("CAUSTIC_materials_nodes".into());
         let ext: NodesExt = serde_json::from_value(v.clone())
             .map_err(|e| self.err(format!("material '{name}': CAUSTIC_materials_nodes is malformed: {e}")))?;
+        let ext = self.with_ies_profiles(&format!("material '{name}'"), &ext)?;
         let mut images = Vec::with_capacity(ext.images.len());
         for (k, img) in ext.images.iter().enumerate() {
             images.push(self.node_image(&name, k, img)?);

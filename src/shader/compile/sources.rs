@@ -669,7 +669,7 @@ impl Compiler<'_> {
                             .map_err(|e| self.err(i, format!("its IES profile is malformed: {e}")))?,
                     )),
                     None => {
-                        self.warn(i, "it has no IES profile (only a light's IES Texture is exported with its profile): it gives 100 × Strength, as Cycles for a missing file");
+                        self.warn(i, "it has no IES profile: it gives 100 × Strength, as Cycles for a missing file");
                         None
                     }
                 };
