@@ -23,9 +23,9 @@ Measured (pytest -s, 32 samples, seeds 1 and 2; Caustic/Cycles image mean, block
   worst 1.22x at the same block (23, 23)); Filter Width 1: 1.0014 (0/192, worst 0.25x).
 The low-detail 128x96 block is not the footprint's: it was over before too, and it stays over
 (1.47x) at 128 samples and any seeds; it lies in a smooth dark valley at the frame's bottom
-edge, where the bumped normal tilts steeply (Distance 0.3 x the Noise gradient), 3-5 % darker pixel by pixel
-than Cycles (a difference of the steeply tilted normal's shading, its own issue). It is kept
-as a strict known difference.
+edge, where the bumped normal tilts steeply (Distance 0.3 x the Noise gradient), 3-5 % darker
+pixel by pixel than Cycles (a difference of the steeply tilted normal's shading, its own
+issue). It is kept as a strict known difference.
 """
 
 import math
