@@ -355,10 +355,10 @@ impl PathIntegrator {
                         break;
                     }
                     delta_chain = None;
+                    st.light_path = st.light_path.moved(p.distance(st.org)).scattered_in_volume();
                     st.org = p;
                     st.dir = wi;
                     st.ray = RayMask::AFTER_VOLUME;
-                    st.light_path = st.light_path.scattered_in_volume();
                     st.prev_tri = NO_OBJECT;
                     stats.bounce += 1;
                     continue;
@@ -550,7 +550,9 @@ impl PathIntegrator {
                 st.dir = wi;
                 st.ray = RayMask::DIFFUSE;
                 // Cycles continues from a subsurface exit as from a diffuse reflection.
-                st.light_path = st.light_path.bounced(LobeKind::Diffuse, false, false);
+                // The footprint of the entry point carries to the exit (Cycles' subsurface
+                // ray keeps `sd->dP`).
+                st.light_path = st.light_path.moved(s.light_path.ray_length).bounced(LobeKind::Diffuse, false, false);
                 st.prev_tri = se.tri;
                 stats.bounce += 1;
                 continue;
@@ -593,7 +595,7 @@ impl PathIntegrator {
             st.org = offset_ray_origin(s.p, if transmitted { -s.ng } else { s.ng });
             st.dir = wi;
             st.ray = RayMask::after_bounce(bs.kind, transmitted);
-            st.light_path = st.light_path.bounced(bs.kind, transmitted, bs.delta);
+            st.light_path = st.light_path.moved(s.light_path.ray_length).bounced(bs.kind, transmitted, bs.delta);
             st.prev_tri = hit.tri;
             stats.bounce += 1;
         }

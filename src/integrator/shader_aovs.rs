@@ -49,7 +49,7 @@ pub fn fill(
     let aovs = &ctx.scene.shader_aovs;
     let mut org = if ray.near > 0.0 { ray.org + ray.dir * ray.near } else { ray.org };
     let mut tmax = ray.far - ray.near;
-    let mut path = LightPath::CAMERA_RAY;
+    let mut path = LightPath::camera(ray.footprint.moved(ray.near.max(0.0)));
     for k in 0..=MAX_TRANSPARENT_HITS {
         let Some(hit) = ctx.intersect_as(org, ray.dir, tmax, RayMask::CAMERA) else {
             if let Some(world) = &aovs.world_graph {
@@ -83,7 +83,7 @@ pub fn fill(
         if !mat.null_surface && (alpha >= aovs.alpha_threshold || pass_number(pixel_sample, k) < alpha) {
             return;
         }
-        path = path.passed_transparent();
+        path = path.moved(hit.t).passed_transparent();
         org = offset_ray_origin(s.p, -s.ng);
         tmax -= hit.t;
     }

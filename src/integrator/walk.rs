@@ -121,7 +121,8 @@ impl PathState {
             transparent_hits: 0,
             ray: RayMask::CAMERA,
             prev_tri: NO_OBJECT,
-            light_path: LightPath::CAMERA_RAY,
+            // The ray starts at the near plane: its footprint has grown to there.
+            light_path: LightPath::camera(ray.footprint.moved(ray.near.max(0.0))),
         }
     }
 
@@ -244,6 +245,7 @@ impl PathState {
             self.media = ctx.medium_after(&s, self.dir, self.media);
             self.org = offset_ray_origin(s.p, -s.ng);
             self.tmax = tmax - hit.t;
+            self.light_path = self.light_path.moved(hit.t);
             stats.bounce += 1;
             return (Step::Passed, lights);
         }
@@ -258,7 +260,7 @@ impl PathState {
                     return (Step::End, lights);
                 }
                 self.transparent_hits += 1;
-                self.light_path = self.light_path.passed_transparent();
+                self.light_path = self.light_path.moved(hit.t).passed_transparent();
                 self.beta *= tint;
                 self.org = offset_ray_origin(s.p, -s.ng);
                 self.tmax = tmax - hit.t;
@@ -438,7 +440,8 @@ impl PathState {
         self.prev_tri = s.tri;
         self.media = ctx.medium_after(s, wi, self.media);
         self.ray = RayMask::after_bounce(bs.kind, wi.dot(s.ng) <= 0.0);
-        self.light_path = self.light_path.bounced(bs.kind, wi.dot(s.ng) <= 0.0, bs.delta);
+        self.light_path =
+            self.light_path.moved(s.light_path.ray_length).bounced(bs.kind, wi.dot(s.ng) <= 0.0, bs.delta);
         self.org = offset_ray_origin(s.p, if wi.dot(s.ng) > 0.0 { s.ng } else { -s.ng });
         self.dir = wi;
         stats.bounce += 1;

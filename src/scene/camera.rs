@@ -83,6 +83,8 @@ pub struct Camera {
     pub motion: Option<crate::motion::CameraMotion>,
 }
 
+pub use super::light_path::RayFootprint;
+
 /// A camera ray: from `org` along `dir`, seeing what lies between the distances `near`
 /// and `far` along it (the clipping planes met along this ray).
 #[derive(Clone, Copy, Debug)]
@@ -95,12 +97,15 @@ pub struct CameraRay {
     pub near: f32,
     /// Distance along the ray to the far clipping plane (infinite without one).
     pub far: f32,
+    /// The ray's footprint (Cycles' compact ray differential, `ray->dP` and `ray->dD`):
+    /// zero for a ray without a pixel (light tracing, tests).
+    pub footprint: RayFootprint,
 }
 
 impl CameraRay {
     /// A ray that sees everything in front of it (no clipping).
     pub fn unclipped(org: Vec3, dir: Vec3) -> Self {
-        CameraRay { org, dir, near: 0.0, far: f32::INFINITY }
+        CameraRay { org, dir, near: 0.0, far: f32::INFINITY, footprint: RayFootprint::ZERO }
     }
 
     /// True for a panoramic camera's sample outside its lens (a fisheye's circle, a mirror
@@ -277,18 +282,52 @@ impl CameraRays {
     #[inline]
     pub fn sample_clipped(&self, x: f32, y: f32, u_lens: Vec2) -> CameraRay {
         let (org, dir) = self.sample_ray(x, y, u_lens);
+        let footprint = self.footprint(x, y);
         let (near, far) = self.cam.clip;
         if self.pano.is_some() {
-            return CameraRay { org, dir, near, far };
+            return CameraRay { org, dir, near, far, footprint };
         }
         if near == 0.0 && far == f32::INFINITY {
-            return CameraRay::unclipped(org, dir);
+            return CameraRay { footprint, ..CameraRay::unclipped(org, dir) };
         }
         let cos = -dir.dot(self.cam.back);
         if !(cos > 0.0) {
-            return CameraRay { org, dir, near: 0.0, far: 0.0 };
+            return CameraRay { org, dir, near: 0.0, far: 0.0, footprint };
         }
-        CameraRay { org, dir, near: near / cos, far: far / cos }
+        CameraRay { org, dir, near: near / cos, far: far / cos, footprint }
+    }
+
+    /// The compact ray differential of the pixel ray through film position (x, y), as
+    /// Cycles' camera makes it (`camera_sample_perspective`/`_orthographic`/`_panorama`,
+    /// `differential_make_compact`): the mean of the direction changes to the next pixel
+    /// right and down for a perspective or panoramic camera (the pinhole's: Cycles ignores
+    /// the aperture here too), the mean pixel size for an orthographic one, whose rays are
+    /// parallel.
+    pub fn footprint(&self, x: f32, y: f32) -> RayFootprint {
+        let (px, py) = (2.0 * self.half.x / self.width, 2.0 * self.half.y / self.height);
+        if self.pano.is_some() {
+            // A neighbour outside a fisheye's circle has no direction: the other one counts.
+            let d = self.ray(x, y).1;
+            let (nx, ny) = (self.ray(x + 1.0, y).1, self.ray(x, y + 1.0).1);
+            let spread = match (nx != Vec3::ZERO, ny != Vec3::ZERO) {
+                _ if d == Vec3::ZERO => 0.0,
+                (true, true) => 0.5 * ((nx - d).length() + (ny - d).length()),
+                (true, false) => (nx - d).length(),
+                (false, true) => (ny - d).length(),
+                (false, false) => 0.0,
+            };
+            return RayFootprint { dp: 0.0, dd: spread };
+        }
+        if self.ortho {
+            return RayFootprint { dp: 0.5 * (px + py), dd: 0.0 };
+        }
+        let s = self.plane(x, y);
+        let c = &self.cam;
+        let d = c.right * s.x + c.up * s.y - c.back;
+        let n = d.normalize();
+        let dx = (d + c.right * px).normalize() - n;
+        let dy = (d - c.up * py).normalize() - n;
+        RayFootprint { dp: 0.0, dd: 0.5 * (dx.length() + dy.length()) }
     }
 
     /// [`sample_clipped`](Self::sample_clipped) by the camera as it is at time `t`
@@ -514,6 +553,7 @@ impl CameraRays {
             ortho: self.ortho,
             known: true,
             background: false,
+            pixel: 0.5 * (2.0 * self.half.x / self.width + 2.0 * self.half.y / self.height),
         }
     }
 
@@ -560,6 +600,48 @@ mod tests {
                 assert!((c.x - (p - cam.position).dot(cam.right)).abs() < 1e-4);
             }
         }
+    }
+
+    /// A pinhole camera ray's footprint `t` along it is the pixel's size there: at the
+    /// frame's centre, one pixel of the image plane at distance 1 (2 tan(fov/2) / height)
+    /// times t, as Cycles' `camera_sample_perspective` makes `dD` (the chord of an angle of
+    /// 1/48 rad differs from it by under 1e-4 relative; f32 rounding of the normalised
+    /// directions adds ~1e-7 / 0.0167, so 1e-3 relative); off centre it shrinks as the
+    /// plane's pixel subtends less angle (cos² across, cos along the row: between the two);
+    /// clipping moves the origin's footprint to the near plane; the orthographic ray keeps
+    /// one pixel's width at every distance, the shader view's light-side rule matches both.
+    #[test]
+    fn camera_footprint_is_the_pixel_at_distance() {
+        let m = Mat4::from_translation(Vec3::new(0.5, 1.0, 4.0));
+        let yfov = 2.0 * (0.4f32).atan();
+        let cam = Camera::from_matrix("c".into(), &m, Projection::Perspective { yfov, aspect: None });
+        let rays = CameraRays::new(&cam, 64, 48);
+        let pixel = 2.0 * 0.4 / 48.0;
+        let f = rays.sample_clipped(32.0, 24.0, Vec2::ZERO).footprint;
+        assert_eq!(f.dp, 0.0);
+        for t in [0.5f32, 3.0, 40.0] {
+            let want = pixel * t;
+            assert!((f.at(t) - want).abs() <= 1e-3 * want, "{} vs {want} at {t}", f.at(t));
+            // The shader view's rule for light-side points: the same at the frame's centre.
+            let p = cam.position - cam.back * t;
+            assert!((rays.shader_view().footprint_at(p) - want).abs() <= 1e-3 * want);
+        }
+        // At the frame's corner (tan = 0.4 · (5/3, 1)): cos² = 1 / (1 + 0.444 + 0.16).
+        let corner = rays.sample_clipped(0.0, 0.0, Vec2::ZERO).footprint;
+        let c2 = 1.0 / (1.0 + (0.4f32 * 64.0 / 48.0).powi(2) + 0.16);
+        assert!(corner.dd < f.dd && corner.dd > pixel * c2, "{} {}", corner.dd, pixel * c2);
+        // With a near clip, the path's first ray starts there with the footprint reached.
+        let mut clipped = cam.clone();
+        clipped.clip = (0.7, 100.0);
+        let r = CameraRays::new(&clipped, 64, 48).sample_clipped(32.0, 24.0, Vec2::ZERO);
+        assert!((r.footprint.moved(r.near).at(1.3) - f.at(2.0)).abs() < 1e-6);
+        // Orthographic: parallel rays, one pixel (2 ymag / height) wide at any distance.
+        let ortho = Camera::from_matrix("o".into(), &m, Projection::Orthographic { xmag: 2.0, ymag: 1.5 });
+        let o = CameraRays::new(&ortho, 64, 48);
+        let f = o.sample_clipped(10.0, 30.0, Vec2::ZERO).footprint;
+        let want = 2.0 * 1.5 / 48.0;
+        assert!((f.at(0.0) - want).abs() < 1e-6 && (f.at(50.0) - want).abs() < 1e-6);
+        assert!((o.shader_view().footprint_at(Vec3::new(3.0, -2.0, 1.0)) - want).abs() < 1e-6);
     }
 
     /// `project` from a ray's aperture point returns the film position the ray was made

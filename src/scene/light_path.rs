@@ -23,6 +23,47 @@ pub struct LightPath {
     pub transparent: u16,
     /// Distance from the ray's origin to the shading point.
     pub ray_length: f32,
+    /// The ray's footprint (the Bump node's offsets).
+    pub footprint: PathFootprint,
+}
+
+/// Where a shading point's footprint comes from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PathFootprint {
+    /// The ray's own compact differential, carried from the camera along the path.
+    Ray(RayFootprint),
+    /// A path from a light: the footprint a camera ray would have at the point
+    /// (`ViewData::footprint_at`).
+    FromCamera,
+}
+
+/// Cycles' compact ray differential: the radius of one pixel's footprint at the ray's
+/// origin (`dp`, world units) and its growth per unit of distance along the ray (`dd`),
+/// so that the footprint `t` along the ray is `dp + t dd` (`differential_transfer_compact`).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RayFootprint {
+    /// Radius at the origin.
+    pub dp: f32,
+    /// Growth per unit distance (the pixel's angular spread).
+    pub dd: f32,
+}
+
+impl RayFootprint {
+    /// No footprint: the Bump node falls back to its fixed floor offset.
+    pub const ZERO: RayFootprint = RayFootprint { dp: 0.0, dd: 0.0 };
+
+    /// The footprint's radius `t` along the ray.
+    #[inline]
+    pub fn at(self, t: f32) -> f32 {
+        self.dp + t * self.dd
+    }
+
+    /// The footprint of a ray leaving the point `t` along this one: Cycles' bounce keeps the
+    /// spread and starts from the radius reached (`ray->dP = sd->dP`, `dD` untouched).
+    #[inline]
+    pub fn moved(self, t: f32) -> RayFootprint {
+        RayFootprint { dp: self.at(t), dd: self.dd }
+    }
 }
 
 impl LightPath {
@@ -54,10 +95,11 @@ impl LightPath {
         transmission: 0,
         transparent: 0,
         ray_length: 0.0,
+        footprint: PathFootprint::Ray(RayFootprint::ZERO),
     };
 
     /// A path leaving a light (photons, BDPT's light subpaths): no Cycles ray kind.
-    pub const FROM_LIGHT: LightPath = LightPath { flags: 0, ..Self::CAMERA_RAY };
+    pub const FROM_LIGHT: LightPath = LightPath { flags: 0, footprint: PathFootprint::FromCamera, ..Self::CAMERA_RAY };
 
     /// Emission evaluated without a ray: light sampling of emissive triangles and their
     /// power at load (Cycles evaluates them with `PATH_RAY_EMISSION` only).
@@ -107,6 +149,34 @@ impl LightPath {
     #[inline]
     pub fn at(self, ray_length: f32) -> LightPath {
         LightPath { ray_length, ..self }
+    }
+
+    /// A camera ray with footprint `f`.
+    #[inline]
+    pub fn camera(f: RayFootprint) -> LightPath {
+        LightPath { footprint: PathFootprint::Ray(f), ..Self::CAMERA_RAY }
+    }
+
+    /// The same path with its ray's origin moved `t` along it (a bounce or a pass-through
+    /// there): the footprint reached there becomes the next ray's, as Cycles' bounce sets
+    /// `ray->dP = sd->dP` and keeps `ray->dD`.
+    #[inline]
+    pub fn moved(self, t: f32) -> LightPath {
+        let footprint = match self.footprint {
+            PathFootprint::Ray(f) => PathFootprint::Ray(f.moved(t)),
+            PathFootprint::FromCamera => PathFootprint::FromCamera,
+        };
+        LightPath { footprint, ..self }
+    }
+
+    /// The footprint's radius at the shading point (`ray_length` along the ray), None for
+    /// a path from a light.
+    #[inline]
+    pub fn footprint_radius(&self) -> Option<f32> {
+        match self.footprint {
+            PathFootprint::Ray(f) => Some(f.at(self.ray_length)),
+            PathFootprint::FromCamera => None,
+        }
     }
 
     /// The shadow ray of next-event estimation from a shading point reached by this path:
@@ -200,6 +270,25 @@ mod tests {
 
     fn out(p: &LightPath, name: &str) -> f32 {
         p.output(PathOutput::ALL.iter().find(|(n, _)| *n == name).unwrap().1)
+    }
+
+    /// The footprint along a path as Cycles' compact differentials carry it: a camera ray
+    /// of spread dd reaches r = dd t at its hit; a bounce (or a pass-through) there starts
+    /// the next ray from r with the same spread (`ray->dP = sd->dP`, `dD` kept), so the
+    /// footprint is the spread times the whole path's length; the Light Path flags do not
+    /// touch it; a path from a light has none of its own (the camera's rule).
+    #[test]
+    fn footprint_grows_along_the_path_as_cycles() {
+        let cam = LightPath::camera(RayFootprint { dp: 0.0, dd: 0.01 });
+        let hit = cam.at(2.0);
+        assert_eq!(hit.footprint_radius(), Some(0.02));
+        let next = hit.moved(hit.ray_length).bounced(LobeKind::Diffuse, false, false);
+        assert_eq!(next.at(3.0).footprint_radius(), Some(0.01 * 5.0));
+        let passed = next.at(3.0).moved(3.0).passed_transparent();
+        assert!((passed.at(1.0).footprint_radius().unwrap() - 0.06).abs() < 1e-7);
+        assert_eq!(LightPath::FROM_LIGHT.at(4.0).moved(4.0).footprint_radius(), None);
+        // No camera footprint: zero, the Bump node's floor then.
+        assert_eq!(LightPath::CAMERA_RAY.at(7.0).footprint_radius(), Some(0.0));
     }
 
     /// The flags and counters along camera → transparent → diffuse → refraction → shadow,

@@ -38,7 +38,7 @@ impl Program {
             return self.steps(&self.ops[..end], g, r, out);
         };
         self.steps(&self.ops[..l.start], g, r, out);
-        let Some(off) = bump_offsets(g) else {
+        let Some(off) = bump_offsets(g, b.filter_width) else {
             // A degenerate triangle: the height at the centre only, as `Program::bump`.
             return self.steps(&self.ops[l.start..end], g, r, out);
         };

@@ -205,9 +205,25 @@ pub struct ViewData {
     /// Cycles adds the camera's position to it for Camera, and for Window under a
     /// perspective camera, so both see the direction from the camera.
     pub background: bool,
+    /// One pixel's mean size on the image plane (distance 1, or world units for an
+    /// orthographic camera): the footprint rule of light-side shading points.
+    pub pixel: f32,
 }
 
 impl ViewData {
+    /// The footprint a camera ray would have at world point `p`: the rule for shading points
+    /// that no camera ray reached (light subpaths, photons), which Cycles does not have
+    /// (it shades surfaces from camera paths only). The pinhole's pixel spread times the
+    /// distance from the camera, one pixel for an orthographic camera; 0 without a camera.
+    #[inline]
+    pub fn footprint_at(&self, p: Vec3) -> f32 {
+        match (self.known, self.ortho) {
+            (false, _) => 0.0,
+            (true, true) => self.pixel,
+            (true, false) => self.pixel * self.world_to_camera.transform_point3(p).length(),
+        }
+    }
+
     /// Camera space of a world point (the Camera output).
     #[inline]
     pub fn camera(&self, p: Vec3) -> Vec3 {
@@ -257,6 +273,7 @@ pub static NO_VIEW: ViewData = ViewData {
     ortho: false,
     known: false,
     background: false,
+    pixel: 0.0,
 };
 
 /// The default instance data (identity transform) for triangles without one.
@@ -367,6 +384,7 @@ mod tests {
             ortho: false,
             known: true,
             background: false,
+            pixel: 0.0,
         };
         let world = ViewData { background: true, ..point };
         let d = Vec3::new(0.25, -0.25, -1.0);

@@ -411,6 +411,9 @@ pub struct BumpOp {
     pub distance: Reg,
     /// Invert the height.
     pub invert: bool,
+    /// The Filter Width: the offsets are this many ray footprints (Cycles reads it when
+    /// compiling, so it is a constant).
+    pub filter_width: f32,
     /// The height at the shading point.
     pub height: Reg,
     /// The Normal input when linked (Blender axes).

@@ -12,7 +12,7 @@ use super::closure::Closures;
 use super::geom::{Geom, Reg, from_blender, geom_at_ng, set3, to_blender, v3};
 use super::instructions::{AttributeOutput, BumpOp, ColorSpace, CurveKind, InputKind, MappingKind, Op, Program};
 use super::ops;
-use crate::math::{Frame, luminance};
+use crate::math::luminance;
 use glam::{EulerRot, Mat3, Mat4, Vec3, Vec4};
 use std::cell::RefCell;
 
@@ -330,13 +330,13 @@ impl Program {
     }
 
     /// The Bump node: Cycles' surface-gradient formula (`svm_node_set_bump`) with the
-    /// heights at P + dx and P + dy, dx and dy a small orthogonal pair in the triangle's
-    /// plane. Cycles takes them from the ray's footprint (times the Filter Width); without
-    /// ray differentials the pair is 10⁻⁴ of max(1, |P|) long (above f32's resolution of
-    /// P, below any texture detail), which is the limit the footprint tends to for fine
-    /// pixels: N' = normalize(N − Distance ∇h) blended with N by Strength.
+    /// heights at P + dx and P + dy, dx and dy an orthogonal pair in the triangle's plane
+    /// as long as the ray's footprint times the Filter Width (`bump_offsets`): N' =
+    /// normalize(N − Distance ∇h) blended with N by Strength, ∇h the finite difference
+    /// over that step, which smooths away height detail finer than the footprint as
+    /// Cycles' does.
     fn bump(&self, b: &BumpOp, g: &Geom, r: &mut [f32], out: &mut Closures) {
-        let Some(off) = bump_offsets(g) else {
+        let Some(off) = bump_offsets(g, b.filter_width) else {
             return self.bump_finish(b, g, r, None);
         };
         let run_sub = |g2: &Geom, r: &mut [f32], out: &mut Closures| {
@@ -546,9 +546,27 @@ pub(super) struct BumpOffsets<'a> {
     pub geom: [Geom<'a>; 2],
 }
 
-/// The points at which a Bump evaluates its height besides `g` (`Program::bump`'s pair);
-/// None for a degenerate triangle or a point without one.
-pub(super) fn bump_offsets<'a>(g: &Geom<'a>) -> Option<BumpOffsets<'a>> {
+/// The length of a Bump's offsets at `g`: the ray's footprint there (Cycles' compact
+/// differential `sd->dP`; for a path from a light, the camera's footprint at the point)
+/// times the Filter Width `fw`, as Cycles offsets by `dP.dx × fw`. The fixed 10⁻⁴ of
+/// max(1, |P|) (above f32's resolution of P, below any texture detail) is the floor where
+/// the footprint is zero or not finite (no camera: shading without a ray, tests). None
+/// for a Filter Width ≤ 0, where Cycles' normal is the input normal (its gradient is 0).
+pub fn bump_step(g: &Geom, fw: f32) -> Option<f32> {
+    if !(fw > 0.0) {
+        return None;
+    }
+    let floor = 1e-4 * g.p.abs().max_element().max(1.0);
+    let footprint = g.path.footprint_radius().unwrap_or_else(|| g.view.footprint_at(g.p));
+    let step = footprint * fw;
+    Some(if step.is_finite() { step.max(floor) } else { floor })
+}
+
+/// The points at which a Bump of Filter Width `fw` evaluates its height besides `g`
+/// (`Program::bump`'s pair, `bump_step` long); None for a degenerate triangle, a point
+/// without one, or a Filter Width ≤ 0.
+pub(super) fn bump_offsets<'a>(g: &Geom<'a>, fw: f32) -> Option<BumpOffsets<'a>> {
+    let eps = bump_step(g, fw)?;
     let &[i0, i1, i2] = g.mesh.triangles.get(g.tri as usize)?;
     let m = g.mesh;
     let (p0, p1, p2) = (m.positions[i0 as usize], m.positions[i1 as usize], m.positions[i2 as usize]);
@@ -556,11 +574,10 @@ pub(super) fn bump_offsets<'a>(g: &Geom<'a>) -> Option<BumpOffsets<'a>> {
     // geom_at's normal for this triangle (the same expression), computed once for the frame
     // and both offset points.
     let ng = e1.cross(e2).normalize_or(Vec3::Z);
-    let (ex, ey) = {
-        let f = Frame::from_normal(ng);
-        (f.s, f.t)
-    };
-    let eps = 1e-4 * g.p.abs().max_element().max(1.0);
+    // Cycles' pair: `differential_from_compact(sd->Ng, sd->dP)`, the frame of
+    // `make_orthonormals` around the geometric normal on the viewer's side (Blender axes).
+    let (ex, ey) = cycles_orthonormals(to_blender(if ng.dot(g.ng) < 0.0 { -ng } else { ng }));
+    let (ex, ey) = (from_blender(ex), from_blender(ey));
     // Barycentrics of a point of the plane: solve p − p0 = b1 e1 + b2 e2.
     let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
     let den = d11 * d22 - d12 * d12;
@@ -590,4 +607,16 @@ pub(super) fn bump_offsets<'a>(g: &Geom<'a>) -> Option<BumpOffsets<'a>> {
     };
     let d = [ex * eps, ey * eps];
     Some(BumpOffsets { d, geom: [offset_geom(d[0]), offset_geom(d[1])] })
+}
+
+/// Cycles' `make_orthonormals(n)`: a unit tangent from (1, 1, 1) × n (from (−1, 1, 1) × n
+/// where n lies along (1, 1, 1)) and n × it, for unit `n`.
+fn cycles_orthonormals(n: Vec3) -> (Vec3, Vec3) {
+    let a = if n.x != n.y || n.x != n.z {
+        Vec3::new(n.z - n.y, n.x - n.z, n.y - n.x)
+    } else {
+        Vec3::new(n.z - n.y, n.x + n.z, -n.y - n.x)
+    }
+    .normalize();
+    (a, n.cross(a))
 }

@@ -315,7 +315,7 @@ impl BdptIntegrator {
             }
             pdf_sa = if bs.delta { 0.0 } else { bs.pdf };
             prev_delta = bs.delta;
-            path.light_path = path.light_path.bounced(bs.kind, transmitted, bs.delta);
+            path.light_path = path.light_path.moved(s.light_path.ray_length).bounced(bs.kind, transmitted, bs.delta);
             // The next segment's kind (camera rays pass objects hidden from the camera alone).
             path.ray = crate::scene::visibility::RayMask::after_bounce(bs.kind, transmitted);
             path.media = ctx.medium_after(&s, wi, medium);

@@ -58,6 +58,8 @@ impl Compiler<'_> {
             strength: one,
             distance: one,
             invert: false,
+            // Cycles' bump for the Displacement output is a Bump node with its defaults.
+            filter_width: super::BUMP_FILTER_WIDTH,
             height,
             normal: None,
             out: out_n,

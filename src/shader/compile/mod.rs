@@ -32,6 +32,9 @@ use glam::{Mat4, Vec2, Vec3, Vec4};
 use serde_json::Value;
 use std::collections::HashSet;
 
+/// Blender 5.0's Bump node Filter Width default (Cycles' `BumpNode` socket default).
+pub(crate) const BUMP_FILTER_WIDTH: f32 = 0.1;
+
 /// Socket types.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Ty {
@@ -409,6 +412,24 @@ impl<'a> Compiler<'a> {
             i,
             format!("input '{id}' links to output '{out}', which node '{}' does not have", self.desc(src).name),
         ))
+    }
+
+    /// A Bump node's Filter Width: its value (Cycles compiles it into the offset
+    /// evaluations as a constant, so a link is not followed: warned, the socket's own value
+    /// taken); Blender's default where the file has none (older add-ons).
+    fn filter_width(&mut self, i: usize) -> Result<f32, String> {
+        let v = match self.value(i, "Filter Width") {
+            None => BUMP_FILTER_WIDTH,
+            Some(Value::Number(n)) => n.as_f64().unwrap_or(0.0) as f32,
+            Some(other) => return Err(self.err(i, format!("input 'Filter Width' expects a number, not {other}"))),
+        };
+        if !v.is_finite() {
+            return Err(self.err(i, "input 'Filter Width' is not a finite number".to_string()));
+        }
+        if self.desc(i).inputs.get("Filter Width").is_some_and(|d| d.link.is_some()) {
+            self.warn(i, format!("a linked Filter Width is read as its own value {v} (Cycles reads it so)"));
+        }
+        Ok(v)
     }
 
     fn value(&self, i: usize, id: &str) -> Option<&'a Value> {

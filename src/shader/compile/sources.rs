@@ -513,6 +513,7 @@ impl Compiler<'_> {
                 let strength = self.float(i, "Strength", 1.0)?;
                 let distance = self.float(i, "Distance", 1.0)?;
                 let invert = self.prop_bool(i, "invert", false);
+                let filter_width = self.filter_width(i)?;
                 let normal = self.normal(i, "Normal")?;
                 let Some(src) = self.desc(i).inputs.get("Height").and_then(|d| d.link.clone()) else {
                     // An unlinked height is flat: the normal passes through.
@@ -538,7 +539,16 @@ impl Compiler<'_> {
                 if self.ops.len() > hmark {
                     sub.push((hmark as u32, self.ops.len() as u32));
                 }
-                self.ops.push(Op::Bump(Box::new(BumpOp { strength, distance, invert, height, normal, out, sub })));
+                self.ops.push(Op::Bump(Box::new(BumpOp {
+                    strength,
+                    distance,
+                    invert,
+                    filter_width,
+                    height,
+                    normal,
+                    out,
+                    sub,
+                })));
             }
             "ShaderNodeAmbientOcclusion" => {
                 // Traced at each shading point (`shader::trace`): never folded, as it reads

@@ -320,7 +320,7 @@ pub(super) fn camera_path(
         st.depth += 1;
         st.media = ctx.medium_after(&s, wi, st.media);
         st.ray = RayMask::after_bounce(bs.kind, ci < 0.0);
-        st.light_path = s.light_path.bounced(bs.kind, ci < 0.0, bs.delta);
+        st.light_path = s.light_path.moved(s.light_path.ray_length).bounced(bs.kind, ci < 0.0, bs.delta);
         st.org = offset_ray_origin(s.p, if ci > 0.0 { s.ng } else { -s.ng });
         st.dir = wi;
         stats.bounce += 1;
