@@ -199,6 +199,7 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
         (Some(f), _) => f,
         (None, None) | (None, Some("blackman-harris")) => FilterKind::BlackmanHarris,
         (None, Some("box")) => FilterKind::Box,
+        (None, Some("gaussian")) => FilterKind::Gaussian,
         (None, Some(other)) => {
             return Err(Error::Usage(format!("unknown filter '{other}' in the scene settings")));
         }
@@ -207,13 +208,17 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
         // Blender's default filter size is 1.5 px, over which Cycles spreads its
         // Blackman-Harris window twice as wide (film.cpp: width *= 2): a 3 px window.
         FilterKind::BlackmanHarris => 3.0,
+        // Cycles spreads its Gaussian over three times the filter width (film.cpp).
+        FilterKind::Gaussian => 4.5,
         FilterKind::Box => 1.0,
     });
-    if !(filter_width > 0.0 && filter_width <= 16.0) {
-        return Err(Error::Usage(format!("filter width {filter_width} must be in (0, 16] pixels")));
+    // 32 px holds Cycles' widest window: the Gaussian over three times Filter Width's maximum, 10.
+    if !(filter_width > 0.0 && filter_width <= 32.0) {
+        return Err(Error::Usage(format!("filter width {filter_width} must be in (0, 32] pixels")));
     }
     let filter = match filter_kind {
         FilterKind::BlackmanHarris => Filter::blackman_harris(filter_width),
+        FilterKind::Gaussian => Filter::gaussian(filter_width),
         FilterKind::Box => Filter::box_filter(filter_width),
     };
     if let Some(i) = args.interim

@@ -52,7 +52,7 @@ pub struct SceneSettings {
     pub threads: Option<usize>,
     /// Integrator name.
     pub integrator: Option<String>,
-    /// Pixel filter: "blackman-harris" or "box".
+    /// Pixel filter: "blackman-harris", "gaussian" or "box".
     pub filter: Option<String>,
     /// Filter width in pixels.
     pub filter_width: Option<f32>,
