@@ -163,7 +163,30 @@ class CAUSTIC_PT_light_spot(CausticButtonsPanel, bpy.types.Panel):
         col.prop(light, "show_cone")
 
 
-classes = (CAUSTIC_PT_render, CAUSTIC_PT_light, CAUSTIC_PT_light_spot)
+class CAUSTIC_PT_film(CausticButtonsPanel, bpy.types.Panel):
+    """Film: exposure, pixel filter and transparency, kept where Cycles keeps them (its scene
+    settings), so a .blend made for Cycles renders alike (export/settings.py)."""
+
+    bl_label = "Film"
+    bl_context = "render"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        scene = context.scene
+        cycles = getattr(scene, "cycles", None)
+        if cycles is not None:
+            layout.prop(cycles, "film_exposure")
+            layout.prop(cycles, "pixel_filter_type", text="Pixel Filter")
+            sub = layout.column()
+            sub.active = cycles.pixel_filter_type != "BOX"  # Cycles' Box is always one pixel
+            sub.prop(cycles, "filter_width", text="Width")
+        layout.prop(scene.render, "film_transparent", text="Transparent")
+
+
+classes = (CAUSTIC_PT_render, CAUSTIC_PT_film, CAUSTIC_PT_light, CAUSTIC_PT_light_spot)
 
 
 def _compat_panels():

@@ -158,17 +158,47 @@ def test_scene_extras_carry_render_settings(light_scene, captured):
         "camera": "Camera",
         "transparent": bool(light_scene.render.film_transparent),
         "filter": "blackman-harris",
-        "filter_width": 2.0 * light_scene.render.filter_size,
+        "filter_width": 2.0 * light_scene.cycles.filter_width,
     }
 
 
 def test_film_transparent_and_filter_reach_the_renderer(light_scene, captured):
+    """The Film panel's pixel filter is Cycles' (scene.cycles), spread as Cycles spreads it:
+    Blackman-Harris twice the Width, Gaussian three times, Box always one pixel. Before,
+    the add-on read Blender's render.filter_size, which Cycles ignores, and always wrote
+    Blackman-Harris."""
     light_scene.render.film_transparent = True
-    light_scene.render.filter_size = 2.25
-    (gltf,) = captured()
+    light_scene.cycles.filter_width = 2.25
+    light_scene.render.filter_size = 0.5  # Eevee's, not Cycles': no effect
+    gltf = captured()[-1]
     settings = gltf["scenes"][gltf.get("scene", 0)]["extras"]["caustic"]
     assert settings["transparent"] is True
-    assert settings["filter_width"] == 4.5  # Cycles' window is twice the filter size
+    assert (settings["filter"], settings["filter_width"]) == ("blackman-harris", 4.5)
+    light_scene.cycles.pixel_filter_type = "GAUSSIAN"
+    gltf = captured()[-1]
+    settings = gltf["scenes"][gltf.get("scene", 0)]["extras"]["caustic"]
+    assert (settings["filter"], settings["filter_width"]) == ("gaussian", 6.75)
+    light_scene.cycles.pixel_filter_type = "BOX"
+    gltf = captured()[-1]
+    settings = gltf["scenes"][gltf.get("scene", 0)]["extras"]["caustic"]
+    assert (settings["filter"], settings["filter_width"]) == ("box", 1.0)
+
+
+def test_transparent_glass_is_named(light_scene, addon):
+    """Film > Transparent Glass (Cycles lets the transparent background show through smooth
+    glass) is not rendered: the settings' warnings name it, and only when the film is
+    transparent (Cycles ignores it otherwise)."""
+    settings = importlib.import_module(addon.__name__ + ".export.settings")
+    layer = light_scene.view_layers[0]
+
+    def warnings():
+        return settings.layer_render_settings(light_scene, layer, [], (16, 12), "Camera")[1]
+
+    light_scene.cycles.film_transparent_glass = True
+    light_scene.render.film_transparent = False
+    assert not any("Transparent Glass" in w for w in warnings())
+    light_scene.render.film_transparent = True
+    assert any("Transparent Glass" in w for w in warnings())
 
 
 def test_command_line_repeats_settings(light_scene, captured, fake_binary):
