@@ -17,6 +17,11 @@ def render_settings(scene, resolution, camera_name):
         "transparent": bool(scene.render.film_transparent),
         **pixel_filter(scene),
     }
+    cycles = getattr(scene, "cycles", None)
+    if scene.render.film_transparent and cycles is not None and cycles.film_transparent_glass:
+        # Film → Transparent Glass: the background stays transparent behind glass at most
+        # this rough (the binary's path tracer; the other integrators warn).
+        settings["transparent_glass"] = float(cycles.film_transparent_roughness)
     if props.integrator == "sppm":
         settings["sppm_iterations"] = int(props.samples)
     if props.integrator == "photon":
@@ -85,8 +90,4 @@ def layer_render_settings(scene, view_layer, objects, resolution, camera_name):
     aovs, warnings = shader_aov_settings(view_layer)
     if aovs is not None:
         settings["shader_aovs"] = aovs
-    cycles = getattr(scene, "cycles", None)
-    if scene.render.film_transparent and cycles is not None and cycles.film_transparent_glass:
-        warnings.append("Film > Transparent Glass is not rendered: glass stays opaque in the alpha (Cycles lets "
-                        "the transparent background show through smooth glass)")
     return settings, warnings

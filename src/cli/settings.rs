@@ -35,6 +35,8 @@ pub struct Resolved {
     pub filter: Filter,
     /// Transparent background.
     pub transparent: bool,
+    /// Transparent Glass's roughness threshold (with a transparent background only).
+    pub transparent_glass: Option<f32>,
     /// Algorithm.
     pub integrator: IntegratorKind,
     /// Photon-mapping settings.
@@ -221,6 +223,13 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
         FilterKind::Gaussian => Filter::gaussian(filter_width),
         FilterKind::Box => Filter::box_filter(filter_width),
     };
+    // Cycles' Roughness Threshold is a fraction in [0, 1]; only a transparent film uses it.
+    let transparent_glass = match st.transparent_glass {
+        Some(t) if !(0.0..=1.0).contains(&t) => {
+            return Err(Error::Usage(format!("transparent_glass {t} must be a roughness threshold in [0, 1]")));
+        }
+        t => t.filter(|_| st.transparent.unwrap_or(true)),
+    };
     if let Some(i) = args.interim
         && !(i > 0.0 && i.is_finite())
     {
@@ -349,6 +358,7 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
         max_depth,
         filter,
         transparent: st.transparent.unwrap_or(true),
+        transparent_glass,
         integrator,
         photon,
         light_sampler,

@@ -61,6 +61,10 @@ pub struct SceneSettings {
     /// Transparent background (alpha = coverage); false gives alpha 1 everywhere, as
     /// Blender's Film → Transparent off. Default true.
     pub transparent: Option<bool>,
+    /// Film → Transparent Glass's Roughness Threshold: with a transparent background, a
+    /// camera path refracted only by glass at most this rough (Cycles' rule) leaves the
+    /// background transparent. Absent: glass is opaque in the alpha.
+    pub transparent_glass: Option<f32>,
     // Photon mapping ("photon" and "sppm" integrators); defaults in
     // `integrator::photon::PhotonSettings`, meanings as the CLI flags of the same name.
     /// Photons emitted for the global map.

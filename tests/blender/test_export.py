@@ -184,21 +184,17 @@ def test_film_transparent_and_filter_reach_the_renderer(light_scene, captured):
     assert (settings["filter"], settings["filter_width"]) == ("box", 1.0)
 
 
-def test_transparent_glass_is_named(light_scene, addon):
-    """Film > Transparent Glass (Cycles lets the transparent background show through smooth
-    glass) is not rendered: the settings' warnings name it, and only when the film is
-    transparent (Cycles ignores it otherwise)."""
-    settings = importlib.import_module(addon.__name__ + ".export.settings")
-    layer = light_scene.view_layers[0]
-
-    def warnings():
-        return settings.layer_render_settings(light_scene, layer, [], (16, 12), "Camera")[1]
-
+def test_transparent_glass_reaches_the_renderer(light_scene, captured):
+    """Film > Transparent Glass goes as its Roughness Threshold, only with a transparent film
+    (Cycles ignores it otherwise)."""
     light_scene.cycles.film_transparent_glass = True
+    light_scene.cycles.film_transparent_roughness = 0.25
     light_scene.render.film_transparent = False
-    assert not any("Transparent Glass" in w for w in warnings())
+    gltf = captured()[-1]
+    assert "transparent_glass" not in gltf["scenes"][gltf.get("scene", 0)]["extras"]["caustic"]
     light_scene.render.film_transparent = True
-    assert any("Transparent Glass" in w for w in warnings())
+    gltf = captured()[-1]
+    assert gltf["scenes"][gltf.get("scene", 0)]["extras"]["caustic"]["transparent_glass"] == 0.25
 
 
 def test_command_line_repeats_settings(light_scene, captured, fake_binary):
