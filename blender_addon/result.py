@@ -78,9 +78,10 @@ UNSUPPORTED = (
 )
 
 # The passes the Film panel's Exposure scales, as Cycles' (scene/pass.cpp: `use_exposure`): the
-# light passes, Combined's colour (not its alpha) and each light group's Combined_<group>.
+# light passes, Combined's colour (not its alpha) before denoising too, and each light group's
+# Combined_<group>.
 EXPOSED_PASSES = frozenset({
-    "Combined", "Emission", "Environment", "Shadow Catcher",
+    "Combined", "Noisy Image", "Emission", "Environment", "Shadow Catcher",
     *(f"{kind} {part}" for kind in ("Diffuse", "Glossy", "Transmission", "Volume")
       for part in ("Direct", "Indirect")),
 })
