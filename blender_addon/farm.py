@@ -127,6 +127,10 @@ def _export_frames(context, frames, folder):
             settings, warnings = export.layer_render_settings(scene, view_layer, depsgraph.objects,
                                                               (window.width, window.height),
                                                               camera.name if camera else None)
+            if export.film_exposure(scene) != 1.0:
+                # F12 applies it when loading the image (result.load); these files are the binary's.
+                warnings.append(f"Film Exposure {export.film_exposure(scene):g} is not applied to the farm's "
+                                "EXR files (F12 applies it)")
             for warning in warnings + strip_unfarmable(settings, scene):
                 print(f"Caustic farm: frame {f}: {warning}")
             sub = os.path.join(folder, f"frame_{f:05d}")

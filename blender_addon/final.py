@@ -70,10 +70,11 @@ def _stats_text(message):
 class _Session:
     """One frame's render: the engine, its render result and what the binary reported."""
 
-    def __init__(self, engine, render_result, out_path):
+    def __init__(self, engine, render_result, out_path, exposure=1.0):
         self.engine = engine
         self.render_result = render_result
         self.out_path = out_path
+        self.exposure = exposure  # the Film panel's, applied to every image loaded
         self.progress_seen = False
         self.last_phase = None  # the binary's phase, for the stats line and tests
 
@@ -98,7 +99,7 @@ class _Session:
     def _show_interim(self, path):
         # The binary replaces the file atomically; a failed interim load only delays the picture.
         try:
-            result.load(self.render_result, path)
+            result.load(self.render_result, path, self.exposure)
         except CausticError as err:
             print(f"Caustic: interim image not shown: {err}")
             return
@@ -147,7 +148,7 @@ def render_frame(engine, depsgraph):
         render_result = engine.begin_result(0, 0, width, height, layer=depsgraph.view_layer.name)
         failed = True
         try:
-            session = _Session(engine, render_result, out_path)
+            session = _Session(engine, render_result, out_path, export.film_exposure(scene))
             engine._caustic_session = session  # lets tests see the progress state
             on_message = (lambda m: farm.on_frame_message(engine, m)) if on_farm else session.on_message
             outcome = runner.run(argv, on_message, engine.should_stop,
@@ -156,7 +157,7 @@ def render_frame(engine, depsgraph):
             if message:
                 raise CausticError(message)
             if outcome.has_image:
-                result.load(render_result, out_path)
+                result.load(render_result, out_path, session.exposure)
                 result.store_metadata(engine, out_path, depsgraph.view_layer.name)
             if outcome.summary:
                 _report_summary(engine, outcome.summary)

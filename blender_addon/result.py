@@ -77,6 +77,15 @@ UNSUPPORTED = (
     ("", "use_pass_shadow", "Shadow"),
 )
 
+# The passes the Film panel's Exposure scales, as Cycles' (scene/pass.cpp: `use_exposure`): the
+# light passes, Combined's colour (not its alpha) before denoising too, and each light group's
+# Combined_<group>.
+EXPOSED_PASSES = frozenset({
+    "Combined", "Noisy Image", "Emission", "Environment", "Shadow Catcher",
+    *(f"{kind} {part}" for kind in ("Diffuse", "Glossy", "Transmission", "Volume")
+      for part in ("Direct", "Indirect")),
+})
+
 # The binary writes normals and positions in glTF axes (Y up); Blender's passes are in Blender's
 # world axes (Z up), as Cycles writes them: blender = (x, -z, y).
 _AXIS_PASSES = ("Normal", "Denoising Normal", "Position")
@@ -186,8 +195,9 @@ def exr_size(path):
     return x1 - x0 + 1, y1 - y0 + 1
 
 
-def load(result, path):
-    """Load the EXR at `path` into the first layer of `result` (sizes must match)."""
+def load(result, path, exposure=1.0):
+    """Load the EXR at `path` into the first layer of `result` (sizes must match), its light
+    passes times the Film panel's `exposure` (export.film_exposure)."""
     layer = result.layers[0]
     combined = layer.passes.find_by_name("Combined", "")
     width, height = exr_size(path)
@@ -203,6 +213,10 @@ def load(result, path):
         render_pass = layer.passes.find_by_name(name, "")
         if render_pass is not None and render_pass.channels == 3:
             _gltf_to_blender_axes(render_pass)
+    if exposure != 1.0:
+        for render_pass in layer.passes:
+            if render_pass.name in EXPOSED_PASSES or render_pass.name.startswith("Combined_"):
+                _scale_colour(render_pass, exposure)
 
 
 def store_metadata(engine, path, view_layer_name):
@@ -309,3 +323,13 @@ def _gltf_to_blender_axes(render_pass):
     converted[:, 1] = -xyz[:, 2]
     converted[:, 2] = xyz[:, 1]
     render_pass.rect.foreach_set(converted.ravel())
+
+
+def _scale_colour(render_pass, factor):
+    """Multiply a pass's colour channels by `factor` (a fourth channel, alpha, is kept)."""
+    channels = render_pass.channels
+    pixels = np.empty(len(render_pass.rect) * channels, dtype=np.float32)
+    render_pass.rect.foreach_get(pixels)
+    values = pixels.reshape(-1, channels)
+    values[:, :3] *= np.float32(factor)
+    render_pass.rect.foreach_set(pixels)

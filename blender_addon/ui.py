@@ -163,7 +163,37 @@ class CAUSTIC_PT_light_spot(CausticButtonsPanel, bpy.types.Panel):
         col.prop(light, "show_cone")
 
 
-classes = (CAUSTIC_PT_render, CAUSTIC_PT_light, CAUSTIC_PT_light_spot)
+class CAUSTIC_PT_film(CausticButtonsPanel, bpy.types.Panel):
+    """Film: exposure, pixel filter, transparency and transparent glass, kept where Cycles keeps them (its scene
+    settings), so a .blend made for Cycles renders alike (export/settings.py)."""
+
+    bl_label = "Film"
+    bl_context = "render"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        scene = context.scene
+        cycles = getattr(scene, "cycles", None)
+        if cycles is not None:
+            layout.prop(cycles, "film_exposure")
+            layout.prop(cycles, "pixel_filter_type", text="Pixel Filter")
+            sub = layout.column()
+            sub.active = cycles.pixel_filter_type != "BOX"  # Cycles' Box is always one pixel
+            sub.prop(cycles, "filter_width", text="Width")
+        layout.prop(scene.render, "film_transparent", text="Transparent")
+        if cycles is not None:
+            sub = layout.column()
+            sub.active = scene.render.film_transparent
+            sub.prop(cycles, "film_transparent_glass", text="Transparent Glass")
+            sub = sub.column()
+            sub.active = scene.render.film_transparent and cycles.film_transparent_glass
+            sub.prop(cycles, "film_transparent_roughness", text="Roughness Threshold")
+
+
+classes = (CAUSTIC_PT_render, CAUSTIC_PT_film, CAUSTIC_PT_light, CAUSTIC_PT_light_spot)
 
 
 def _compat_panels():

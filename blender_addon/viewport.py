@@ -542,9 +542,11 @@ class Viewport:
         from gpu_extras.presets import draw_texture_2d
 
         header, payload = frame
-        key = (header["generation"], header["samples"], header["width"], header["height"])
+        exposure = export.film_exposure(scene)
+        key = (header["generation"], header["samples"], header["width"], header["height"], exposure)
         if key != self.texture_key:
             px = frame_pixels(header, payload)
+            px[..., :3] *= exposure  # the Film panel's Exposure, as F12 applies it (result.load)
             buf = gpu.types.Buffer("FLOAT", px.size, px.ravel())
             self.texture = gpu.types.GPUTexture((header["width"], header["height"]), format="RGBA16F", data=buf)
             self.texture_key = key

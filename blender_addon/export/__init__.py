@@ -48,7 +48,7 @@ from .lights import (AREA_LIGHT_EXTENSION, PUNCTUAL_EXTENSION, area_light_extens
                      punctual_light_extension)
 from .materials import COAT_EXTENSION, principled_extras, shader_node_material  # noqa: F401
 from .media import MEDIUM_EXTENSION, SUBSURFACE_EXTENSION, medium_extension, subsurface_extension  # noqa: F401
-from .settings import layer_render_settings, render_settings  # noqa: F401
+from .settings import film_exposure, layer_render_settings, render_settings  # noqa: F401
 from .light_groups import light_group_settings  # noqa: F401
 from .shader_aovs import shader_aov_settings  # noqa: F401
 from .state import ExportState, exporting

@@ -15,11 +15,13 @@ def render_settings(scene, resolution, camera_name):
         "light_sampler": props.light_sampler,
         # Film → Transparent off means an opaque background (alpha 1), as in Cycles.
         "transparent": bool(scene.render.film_transparent),
-        # Blender's pixel filter (Blackman-Harris, as Cycles' default). Cycles spreads the
-        # window over twice the filter size (film.cpp: width *= 2 for Blackman-Harris).
-        "filter": "blackman-harris",
-        "filter_width": 2.0 * float(scene.render.filter_size),
+        **pixel_filter(scene),
     }
+    cycles = getattr(scene, "cycles", None)
+    if scene.render.film_transparent and cycles is not None and cycles.film_transparent_glass:
+        # Film → Transparent Glass: the background stays transparent behind glass at most
+        # this rough (the binary's path tracer; the other integrators warn).
+        settings["transparent_glass"] = float(cycles.film_transparent_roughness)
     if props.integrator == "sppm":
         settings["sppm_iterations"] = int(props.samples)
     if props.integrator == "photon":
@@ -48,6 +50,30 @@ def render_settings(scene, resolution, camera_name):
         settings["mist"] = [float(mist.start), float(mist.depth), falloff]
         settings["ao_distance"] = float(world.light_settings.distance)
     return settings
+
+
+# Cycles' pixel filters (scene.cycles.pixel_filter_type) as the contract's names, and how much
+# wider than Blender's Filter Width Cycles spreads each one's window (scene/film.cpp: Blackman-
+# Harris twice, Gaussian three times; the Box is always one pixel, blender/sync.cpp).
+_FILTERS = {"BLACKMAN_HARRIS": ("blackman-harris", 2.0), "GAUSSIAN": ("gaussian", 3.0), "BOX": ("box", None)}
+
+
+def pixel_filter(scene):
+    """The contract's `filter` and `filter_width` from the Film panel's Pixel Filter, which
+    Blender keeps in the Cycles settings (Caustic's Film panel is Cycles'): the same .blend
+    filters alike in both renderers."""
+    cycles = getattr(scene, "cycles", None)
+    if cycles is None:  # Cycles disabled: Blender's own filter size, Cycles' default type
+        return {"filter": "blackman-harris", "filter_width": 2.0 * float(scene.render.filter_size)}
+    name, spread = _FILTERS[cycles.pixel_filter_type]
+    return {"filter": name, "filter_width": 1.0 if spread is None else spread * float(cycles.filter_width)}
+
+
+def film_exposure(scene):
+    """The Film panel's Exposure, a plain factor on the light passes (Cycles' film_exposure);
+    1 without Cycles' settings."""
+    cycles = getattr(scene, "cycles", None)
+    return 1.0 if cycles is None else float(cycles.film_exposure)
 
 
 def layer_render_settings(scene, view_layer, objects, resolution, camera_name):

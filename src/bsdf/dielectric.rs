@@ -96,6 +96,15 @@ pub fn dispersed_ior(ior: f32, dispersion: f32, lambda: f32) -> f32 {
 }
 
 impl DielectricBsdf {
+    /// αx·αy of its microfacets, 0 when smooth (Cycles' specular roughness squared).
+    pub fn alpha2(&self) -> f32 {
+        if self.smooth {
+            return 0.0;
+        }
+        let (x, y) = self.ggx.alphas();
+        x * y
+    }
+
     /// An interface from glTF parameters.
     pub fn new(eta: f32, roughness: f32, thin: bool, tint: Rgb) -> Self {
         DielectricBsdf {

@@ -515,6 +515,17 @@ impl MixBsdf {
             || self.lobes[..self.n as usize].iter().any(|l| matches!(l, Lobe::Translucent | Lobe::Dielectric(_)))
     }
 
+    /// [`Bsdf::glass_alpha2`]: the roughest refracting lobe's αx·αy (the sampled one is not
+    /// known after a mixture's sample), infinite when none refracts.
+    pub fn glass_alpha2(&self) -> f32 {
+        let pbr = (self.pbr_weight > 0.0 && self.pbr.transmits()).then(|| self.pbr.glass.alpha2());
+        let lobes = self.lobes[..self.n as usize].iter().filter_map(|l| match l {
+            Lobe::Dielectric(d) => Some(d.alpha2()),
+            _ => None,
+        });
+        lobes.chain(pbr).reduce(f32::max).unwrap_or(f32::INFINITY)
+    }
+
     /// 1/η² of the refracting part: the Principled's glass, else the first dielectric lobe
     /// (a mixture of two glasses of different IOR is warned at load; the first one's η
     /// applies to the adjoint correction).

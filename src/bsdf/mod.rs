@@ -192,6 +192,18 @@ impl Bsdf {
         }
     }
 
+    /// How rough the glossy transmission is, as Cycles' Film → Transparent Glass compares
+    /// it with its threshold (its specular roughness squared): αx·αy of the refracting lobe,
+    /// 0 when smooth; the roughest of several refracting lobes; infinite for hair.
+    #[inline]
+    pub fn glass_alpha2(&self) -> f32 {
+        match self {
+            Bsdf::Pbr(b) => b.glass.alpha2(),
+            Bsdf::Mix(m) => m.glass_alpha2(),
+            Bsdf::Hair(_) => f32::INFINITY,
+        }
+    }
+
     /// True when some light may pass through to the other side.
     #[inline]
     pub fn transmits(&self) -> bool {

@@ -249,6 +249,8 @@ pub enum FilterKind {
     BlackmanHarris,
     /// Box.
     Box,
+    /// Gaussian (Cycles' table: standard deviation a twelfth of the window).
+    Gaussian,
 }
 
 /// `caustic render`.
@@ -323,7 +325,7 @@ pub struct RenderArgs {
     /// Pixel filter [default: the scene's, else blackman-harris].
     #[arg(long, value_enum)]
     pub filter: Option<FilterKind>,
-    /// Filter window in pixels [default: the scene's, else 3 for Blackman-Harris (Blender's 1.5 px filter size, which Cycles spans twice as wide), 1 for box].
+    /// Filter window in pixels [default: the scene's, else 3 for Blackman-Harris (Blender's 1.5 px filter width, which Cycles spans twice as wide), 4.5 for Gaussian (three times as wide), 1 for box].
     #[arg(long)]
     pub filter_width: Option<f32>,
     /// Memory budget: a size (8G, 512M), a share of the available memory (50%), or none [default: 90% of the available memory].

@@ -105,6 +105,14 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         reporter.warning(&w);
         run_warnings.push(w);
     }
+    if res.transparent_glass.is_some() && res.integrator != IntegratorKind::Path {
+        let w = format!(
+            "Film > Transparent Glass is rendered by the path tracer only: with {}, glass stays opaque in the alpha",
+            res.integrator.name()
+        );
+        reporter.warning(&w);
+        run_warnings.push(w);
+    }
     // Photons leave emitters whose graph reads the Light Path node without a camera path
     // (`light::path_emitters`); BDPT and VCM take those emitters from the camera side.
     let photon_name = match res.integrator {
@@ -335,6 +343,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         IntegratorKind::Path => Integrator::Path(PathIntegrator {
             light_passes: res.passes.any_light(),
             light_groups: res.passes.light_groups() > 0,
+            glass_threshold: res.transparent_glass,
             ..PathIntegrator::new(res.max_depth, res.transparent)
         }),
         IntegratorKind::Sppm => {

@@ -35,6 +35,8 @@ pub struct Resolved {
     pub filter: Filter,
     /// Transparent background.
     pub transparent: bool,
+    /// Transparent Glass's roughness threshold (with a transparent background only).
+    pub transparent_glass: Option<f32>,
     /// Algorithm.
     pub integrator: IntegratorKind,
     /// Photon-mapping settings.
@@ -199,6 +201,7 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
         (Some(f), _) => f,
         (None, None) | (None, Some("blackman-harris")) => FilterKind::BlackmanHarris,
         (None, Some("box")) => FilterKind::Box,
+        (None, Some("gaussian")) => FilterKind::Gaussian,
         (None, Some(other)) => {
             return Err(Error::Usage(format!("unknown filter '{other}' in the scene settings")));
         }
@@ -207,14 +210,25 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
         // Blender's default filter size is 1.5 px, over which Cycles spreads its
         // Blackman-Harris window twice as wide (film.cpp: width *= 2): a 3 px window.
         FilterKind::BlackmanHarris => 3.0,
+        // Cycles spreads its Gaussian over three times the filter width (film.cpp).
+        FilterKind::Gaussian => 4.5,
         FilterKind::Box => 1.0,
     });
-    if !(filter_width > 0.0 && filter_width <= 16.0) {
-        return Err(Error::Usage(format!("filter width {filter_width} must be in (0, 16] pixels")));
+    // 32 px holds Cycles' widest window: the Gaussian over three times Filter Width's maximum, 10.
+    if !(filter_width > 0.0 && filter_width <= 32.0) {
+        return Err(Error::Usage(format!("filter width {filter_width} must be in (0, 32] pixels")));
     }
     let filter = match filter_kind {
         FilterKind::BlackmanHarris => Filter::blackman_harris(filter_width),
+        FilterKind::Gaussian => Filter::gaussian(filter_width),
         FilterKind::Box => Filter::box_filter(filter_width),
+    };
+    // Cycles' Roughness Threshold is a fraction in [0, 1]; only a transparent film uses it.
+    let transparent_glass = match st.transparent_glass {
+        Some(t) if !(0.0..=1.0).contains(&t) => {
+            return Err(Error::Usage(format!("transparent_glass {t} must be a roughness threshold in [0, 1]")));
+        }
+        t => t.filter(|_| st.transparent.unwrap_or(true)),
     };
     if let Some(i) = args.interim
         && !(i > 0.0 && i.is_finite())
@@ -344,6 +358,7 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
         max_depth,
         filter,
         transparent: st.transparent.unwrap_or(true),
+        transparent_glass,
         integrator,
         photon,
         light_sampler,

@@ -60,6 +60,11 @@ pub struct PathIntegrator {
     /// Camera rays that miss show nothing (alpha 0) instead of the world, as Blender's
     /// Film → Transparent; the world still lights the scene.
     pub transparent_background: bool,
+    /// Film → Transparent Glass's roughness threshold: a camera path that only refracted
+    /// through glass whose αx·αy is at most its fourth power (a perceptual roughness, squared
+    /// to α and once more for the product, as Cycles' `background.cpp`) and then escapes
+    /// leaves its throughput's share of the pixel transparent, the world unseen.
+    pub glass_threshold: Option<f32>,
     /// Classify contributions into the light passes (`light_passes.rs`; only when asked).
     pub light_passes: bool,
     /// File contributions by the light group of the emitter that gave them
@@ -77,6 +82,7 @@ impl Default for PathIntegrator {
             max_depth: 13,
             rr_depth: 3,
             transparent_background: true,
+            glass_threshold: None,
             light_passes: false,
             light_groups: false,
             merged_delta_light: false,
@@ -274,6 +280,10 @@ impl PathIntegrator {
         let groups = &ctx.scene.light_groups;
         // Delta bounces since the start while every bounce was one (`merged_delta_light`).
         let mut delta_chain = self.merged_delta_light.then_some(0u32);
+        // Cycles' PATH_RAY_TRANSPARENT_BACKGROUND past the first hit: a camera path that has
+        // only refracted through glass under the Transparent Glass threshold (see below).
+        let glass_limit = self.glass_threshold.filter(|_| self.transparent_background && st.depth == 0);
+        let mut see_through = glass_limit.is_some();
         let merged = |chain: Option<u32>, light: Option<usize>| {
             chain.is_some_and(|k| k > 0) && light.is_some_and(|l| crate::integrator::linking::merged_in_media(ctx, l))
         };
@@ -347,6 +357,7 @@ impl PathIntegrator {
                     }
                     // The phase function is its own density: the throughput is unchanged.
                     let (wi, pdf) = phase.sample(st.dir, u_dir);
+                    see_through = false;
                     st.prev_pdf = pdf;
                     st.prev_p = p;
                     st.prev_n = Vec3::ZERO;
@@ -386,7 +397,14 @@ impl PathIntegrator {
                     // medium means its mesh is open: the segment's weight is then zero in
                     // every channel the medium attenuates.)
                     let seen_directly = st.depth == 0;
-                    if split.allowed && seen_directly {
+                    if see_through && !seen_directly {
+                        // The world behind transparent glass: what the throughput carries
+                        // is transparent (Cycles' `transparent += average(throughput)`).
+                        out.alpha = (out.alpha - st.beta.element_sum() / 3.0).max(0.0);
+                    }
+                    // Seen directly or through transparent glass: behind the film.
+                    let behind_film = seen_directly || see_through;
+                    if split.allowed && st.depth == 0 {
                         split.background = st.escaped_radiance(ctx).map_or(Rgb::ZERO, |le| st.beta * le);
                     }
                     // The world's and the suns' groups (Cycles files the world seen through a
@@ -399,7 +417,7 @@ impl PathIntegrator {
                     if grouping {
                         st.escaped_radiance_each(ctx, |light, c| file(light, c, out));
                     }
-                    if !(seen_directly && self.transparent_background)
+                    if !(behind_film && self.transparent_background)
                         && let Some(le) = st.escaped_radiance(ctx)
                     {
                         radiance += st.beta * le;
@@ -410,7 +428,7 @@ impl PathIntegrator {
                             tally.found(out, st.depth, st.beta * le, true);
                         }
                     } else if passes
-                        && seen_directly
+                        && behind_film
                         && let Some(le) = st.escaped_radiance(ctx)
                     {
                         // Cycles' Environment pass shows the world behind a transparent film too.
@@ -508,6 +526,7 @@ impl PathIntegrator {
             {
                 // Subsurface: enter, walk, leave through a Lambertian exit.
                 delta_chain = None;
+                see_through = false;
                 let Some(exit) = self.subsurface(ctx, &s, &sp, wo, &ss, st.beta, [u_dx, u_dy, u_lobe, u_walk]) else {
                     break;
                 };
@@ -597,6 +616,11 @@ impl PathIntegrator {
             st.ray = RayMask::after_bounce(bs.kind, transmitted);
             st.light_path = st.light_path.moved(s.light_path.ray_length).bounced(bs.kind, transmitted, bs.delta);
             st.prev_tri = hit.tri;
+            // Transparent Glass: only a glossy refraction through glass at most the threshold
+            // rough keeps the background transparent (Cycles' LABEL_TRANSMIT_TRANSPARENT).
+            see_through &= glass_limit.is_some_and(|t| {
+                transmitted && bs.kind == LobeKind::Glossy && sp.bsdf.glass_alpha2() <= (t * t) * (t * t)
+            });
             stats.bounce += 1;
         }
         radiance

@@ -52,7 +52,7 @@ pub struct SceneSettings {
     pub threads: Option<usize>,
     /// Integrator name.
     pub integrator: Option<String>,
-    /// Pixel filter: "blackman-harris" or "box".
+    /// Pixel filter: "blackman-harris", "gaussian" or "box".
     pub filter: Option<String>,
     /// Filter width in pixels.
     pub filter_width: Option<f32>,
@@ -61,6 +61,10 @@ pub struct SceneSettings {
     /// Transparent background (alpha = coverage); false gives alpha 1 everywhere, as
     /// Blender's Film → Transparent off. Default true.
     pub transparent: Option<bool>,
+    /// Film → Transparent Glass's Roughness Threshold: with a transparent background, a
+    /// camera path refracted only by glass at most this rough (Cycles' rule) leaves the
+    /// background transparent. Absent: glass is opaque in the alpha.
+    pub transparent_glass: Option<f32>,
     // Photon mapping ("photon" and "sppm" integrators); defaults in
     // `integrator::photon::PhotonSettings`, meanings as the CLI flags of the same name.
     /// Photons emitted for the global map.

@@ -564,6 +564,7 @@ fn resolve_settings(scene: &Scene, s: &SettingsEdit) -> Result<RenderSettings, S
         seed: res.job_seed,
         filter: res.filter,
         transparent: res.transparent,
+        transparent_glass: res.transparent_glass,
         photon: res.photon,
         light_sampler: res.light_sampler,
         format: s.frame_format.unwrap_or_default(),

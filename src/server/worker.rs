@@ -59,6 +59,8 @@ pub struct RenderSettings {
     pub filter: Filter,
     /// Film → Transparent.
     pub transparent: bool,
+    /// Film → Transparent Glass's roughness threshold (the path tracer's).
+    pub transparent_glass: Option<f32>,
     /// Photon settings.
     pub photon: PhotonSettings,
     /// Light selection.
@@ -132,7 +134,10 @@ impl Worker {
 /// stopped while tracing.
 fn build_integrator(ctx: &SceneContext, s: &RenderSettings, stop: &AtomicBool) -> Option<Integrator> {
     Some(match s.integrator {
-        IntegratorKind::Path => Integrator::Path(PathIntegrator::new(s.max_depth, s.transparent)),
+        IntegratorKind::Path => Integrator::Path(PathIntegrator {
+            glass_threshold: s.transparent_glass,
+            ..PathIntegrator::new(s.max_depth, s.transparent)
+        }),
         IntegratorKind::Bdpt => Integrator::Bdpt(BdptIntegrator::new(ctx.scene, s.max_depth, s.transparent, None)),
         IntegratorKind::Photon => {
             // The map is never written to a file, so it carries no scene hash (0).

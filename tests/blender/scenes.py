@@ -125,7 +125,7 @@ def match_cycles(scene, samples, bounces):
     c.caustics_reflective = c.caustics_refractive = True
     c.blur_glossy = 0.0
     c.pixel_filter_type = "BLACKMAN_HARRIS"
-    scene.render.filter_size = 1.5
+    c.filter_width = 1.5
 
 
 def render_rgb(scene, engine, seed, path):

@@ -87,7 +87,8 @@ def test_interim_images_are_loaded(scene, addon, monkeypatch):
     result_module = sys.modules[addon.__name__ + ".result"]
     loads = []
     real_load = result_module.load
-    monkeypatch.setattr(result_module, "load", lambda res, path: (loads.append(path), real_load(res, path)))
+    monkeypatch.setattr(result_module, "load",
+                        lambda res, path, exposure=1.0: (loads.append(path), real_load(res, path, exposure)))
     scene.caustic.samples = 40  # the stand-in takes 0.05 s per sample: two interim images
     bpy.ops.render.render(write_still=True)
     assert len(loads) >= 2  # interim(s) + final

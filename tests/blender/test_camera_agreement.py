@@ -1,4 +1,5 @@
-"""Caustic and Cycles frame and blur the same .blend alike: lens shift and depth of field.
+"""Caustic and Cycles frame and blur the same .blend alike: lens shift, depth of field, and the
+Film panel's Exposure and Pixel Filter.
 
 Blender's glTF exporter drops both; the add-on sends them in `CAUSTIC_camera` (docs/contract.md).
 Scene: three emissive cubes at three depths (in front of, at and behind the plane in focus),
@@ -89,6 +90,42 @@ def ortho_shift_dof(cam, scene):
     d.aperture_fstop = 2.0  # an orthographic aperture's radius is 1 / (2 f-stop) (Cycles)
 
 
+def film_exposure(cam, scene):
+    """The Film panel's Exposure, a factor on the image (Cycles' film_exposure). Before: not
+    applied, Caustic/Cycles mean 0.589 (1 / 1.7) on every cube; after: 1.000-1.002."""
+    scene.cycles.film_exposure = 1.7
+
+
+def small_cubes(cam, scene):
+    """A 16 mm lens: the cubes span about a pixel, so the filter decides their second moments;
+    more samples, as so few lit pixels make the moments noisy (still under a second a render)."""
+    cam.data.lens = 16.0
+    scene.caustic.samples = scene.cycles.samples = 8 * SAMPLES
+
+
+def filter_box(cam, scene):
+    """Cycles' Box pixel filter (always one pixel wide). Before: the add-on always sent
+    Blackman-Harris over twice render.filter_size (a setting Cycles ignores): the far cube's
+    xx was 0.4076 against Cycles' 0.3279; after: 0.3269."""
+    small_cubes(cam, scene)
+    scene.cycles.pixel_filter_type = "BOX"
+
+
+def filter_gaussian_wide(cam, scene):
+    """Cycles' Gaussian over 3 x Filter Width 2.5 (standard deviation 0.625 px). Before: the
+    add-on sent Blackman-Harris over 3 px (far cube xx 0.4076 vs Cycles' 0.6286; after 0.6233)."""
+    small_cubes(cam, scene)
+    scene.cycles.pixel_filter_type = "GAUSSIAN"
+    scene.cycles.filter_width = 2.5
+
+
+def filter_blackman_harris_wide(cam, scene):
+    """Blackman-Harris with Filter Width 3 (a 6 px window). Before: the add-on read
+    render.filter_size (1.5): far cube xx 0.4076 vs Cycles' 0.9213 (after: 0.9191)."""
+    small_cubes(cam, scene)
+    scene.cycles.filter_width = 3.0
+
+
 CASES = {
     "shift_landscape": (64, 48, shift),
     "shift_portrait": (48, 64, shift),
@@ -96,6 +133,10 @@ CASES = {
     "dof_round": (64, 48, dof_round),
     "dof_blades_focus_object": (64, 48, dof_blades_focus_object),
     "ortho_shift_dof": (64, 48, ortho_shift_dof),
+    "film_exposure": (64, 48, film_exposure),
+    "filter_box": (64, 48, filter_box),
+    "filter_gaussian_wide": (64, 48, filter_gaussian_wide),
+    "filter_blackman_harris_wide": (64, 48, filter_blackman_harris_wide),
 }
 
 

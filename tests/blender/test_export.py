@@ -158,17 +158,43 @@ def test_scene_extras_carry_render_settings(light_scene, captured):
         "camera": "Camera",
         "transparent": bool(light_scene.render.film_transparent),
         "filter": "blackman-harris",
-        "filter_width": 2.0 * light_scene.render.filter_size,
+        "filter_width": 2.0 * light_scene.cycles.filter_width,
     }
 
 
 def test_film_transparent_and_filter_reach_the_renderer(light_scene, captured):
+    """The Film panel's pixel filter is Cycles' (scene.cycles), spread as Cycles spreads it:
+    Blackman-Harris twice the Width, Gaussian three times, Box always one pixel. Before,
+    the add-on read Blender's render.filter_size, which Cycles ignores, and always wrote
+    Blackman-Harris."""
     light_scene.render.film_transparent = True
-    light_scene.render.filter_size = 2.25
-    (gltf,) = captured()
+    light_scene.cycles.filter_width = 2.25
+    light_scene.render.filter_size = 0.5  # Eevee's, not Cycles': no effect
+    gltf = captured()[-1]
     settings = gltf["scenes"][gltf.get("scene", 0)]["extras"]["caustic"]
     assert settings["transparent"] is True
-    assert settings["filter_width"] == 4.5  # Cycles' window is twice the filter size
+    assert (settings["filter"], settings["filter_width"]) == ("blackman-harris", 4.5)
+    light_scene.cycles.pixel_filter_type = "GAUSSIAN"
+    gltf = captured()[-1]
+    settings = gltf["scenes"][gltf.get("scene", 0)]["extras"]["caustic"]
+    assert (settings["filter"], settings["filter_width"]) == ("gaussian", 6.75)
+    light_scene.cycles.pixel_filter_type = "BOX"
+    gltf = captured()[-1]
+    settings = gltf["scenes"][gltf.get("scene", 0)]["extras"]["caustic"]
+    assert (settings["filter"], settings["filter_width"]) == ("box", 1.0)
+
+
+def test_transparent_glass_reaches_the_renderer(light_scene, captured):
+    """Film > Transparent Glass goes as its Roughness Threshold, only with a transparent film
+    (Cycles ignores it otherwise)."""
+    light_scene.cycles.film_transparent_glass = True
+    light_scene.cycles.film_transparent_roughness = 0.25
+    light_scene.render.film_transparent = False
+    gltf = captured()[-1]
+    assert "transparent_glass" not in gltf["scenes"][gltf.get("scene", 0)]["extras"]["caustic"]
+    light_scene.render.film_transparent = True
+    gltf = captured()[-1]
+    assert gltf["scenes"][gltf.get("scene", 0)]["extras"]["caustic"]["transparent_glass"] == 0.25
 
 
 def test_command_line_repeats_settings(light_scene, captured, fake_binary):

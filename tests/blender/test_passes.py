@@ -199,3 +199,26 @@ def test_no_extra_passes_without_flags(empty_scene, tmp_path):
     scene.caustic.samples = 2
     p = render_passes(scene, "CAUSTIC", 1, str(tmp_path / "plain.exr"))
     assert sorted(p) == ["Combined"]
+
+
+def test_film_exposure_scales_the_light_passes_only(empty_scene, tmp_path):
+    """The Film panel's Exposure multiplies what Cycles multiplies (scene/pass.cpp's
+    use_exposure): Combined's colour, the light passes, Emission and Environment; not
+    Combined's alpha, the Color passes or Depth. The binary's image is the same for both
+    renders (same seed), so the ratios are exact up to float32 rounding."""
+    scene = empty_scene
+    build(scene)
+    layer = scene.view_layers[0]
+    enable_light_passes(layer)
+    layer.use_pass_z = True
+    scene.caustic.samples = 4
+    plain = render_passes(scene, "CAUSTIC", 1, str(tmp_path / "plain.exr"))
+    scene.cycles.film_exposure = 2.5
+    exposed = render_passes(scene, "CAUSTIC", 1, str(tmp_path / "exposed.exr"))
+    # render_passes stacks channels in name order: Combined is A, B, G, R.
+    np.testing.assert_allclose(exposed["Combined"][..., 1:], 2.5 * plain["Combined"][..., 1:], rtol=1e-6)
+    np.testing.assert_array_equal(exposed["Combined"][..., 0], plain["Combined"][..., 0])
+    for name in ("Diffuse Direct", "Glossy Indirect", "Emission", "Environment"):
+        np.testing.assert_allclose(exposed[name], 2.5 * plain[name], rtol=1e-6, err_msg=name)
+    for name in ("Diffuse Color", "Glossy Color", "Depth"):
+        np.testing.assert_array_equal(exposed[name], plain[name], err_msg=name)

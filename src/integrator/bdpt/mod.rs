@@ -145,6 +145,7 @@ impl BdptIntegrator {
             max_depth: self.max_depth,
             rr_depth: self.rr_depth,
             transparent_background: self.transparent_background,
+            glass_threshold: None,
             light_passes: false,
             // Passes and groups are filed through `Filing` into the camera sample.
             light_groups: false,

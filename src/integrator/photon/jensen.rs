@@ -138,6 +138,7 @@ impl JensenIntegrator {
             max_depth: self.max_depth,
             rr_depth: self.rr_depth,
             transparent_background: self.transparent_background,
+            glass_threshold: None,
             light_passes: false,
             light_groups: false,
             merged_delta_light: false,
