@@ -236,7 +236,7 @@ def _safe_name(name, used):
     return candidate
 
 
-def _grid_file(obj, volume, what, folder, used, warnings):
+def _grid_file(obj, volume, what, folder, warnings):
     """(path of a .vdb holding the object's evaluated grids, whether it is a copy to delete):
     the volume's own file where nothing changed its grids; else the grids Blender holds in
     memory (made or changed by modifiers or geometry nodes) saved by `VolumeGrids.save`. None
@@ -252,11 +252,12 @@ def _grid_file(obj, volume, what, folder, used, warnings):
     except RuntimeError:
         loaded = False
     if not loaded or len(grids) == 0:
-        warnings.append(f"{what}: its grids could not be loaded ({grids.error_message or 'no grids'}); "
-                        "the volume is left out")
+        warnings.append(f"{what}: it has no grids to read (no .vdb file, and Blender holds none in memory"
+                        f"{': ' + grids.error_message if grids.error_message else ''}); the volume is left out")
         return None, False
     os.makedirs(os.path.join(folder, FOLDER), exist_ok=True)
-    path = os.path.join(folder, FOLDER, _safe_name(obj.original.name, used) + ".vdb")
+    # Read and deleted before the next object's: one name serves them all.
+    path = os.path.join(folder, FOLDER, "_saved_grids.vdb")
     try:
         saved = grids.save(filepath=path)
     except RuntimeError as err:
@@ -302,7 +303,7 @@ def volume_extension(depsgraph, folder):
         shader, attributes = (_principled_defaults(), {}) if graph else volume_shader(material, what, warnings)
         if shader is None:
             continue
-        filepath, temporary = _grid_file(obj, volume, what, folder, used, warnings)
+        filepath, temporary = _grid_file(obj, volume, what, folder, warnings)
         if filepath is None:
             continue
         vdb = _openvdb()
