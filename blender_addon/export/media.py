@@ -149,6 +149,12 @@ def _varies(node):
     return False
 
 
+def is_varying(node):
+    """Whether volume shader `node` needs its node graph: a shader tree, or an input linked to
+    something that does not fold to a constant."""
+    return node.type in TREE_NODES or _varies(node)
+
+
 def _volume_graph(owner, node, what, warnings, writer):
     """(graph value, shader index) of a volume shader whose inputs vary (an Emission node on
     the Volume output always), or None. Its images are written by `writer`; without a writer

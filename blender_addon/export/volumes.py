@@ -1,13 +1,16 @@
 """Volume objects (OpenVDB grids: smoke, fire, clouds): the grids their shader reads are copied
 from the .vdb into a Caustic grid file (`caustic_volumes/*.cvol`, little-endian, layout in
 docs/contract.md) beside the glTF, and the object is named in the root `CAUSTIC_volume` with
-its placement and its volume shader's parameters (Principled Volume; Volume Scatter, Volume
-Absorption and Emission are written as the Principled Volume that renders the same).
+its placement and its volume shader: the parameters of one Principled Volume (Volume Scatter,
+Volume Absorption and Emission are written as the Principled Volume that renders the same), or,
+for a shader tree or inputs linked through nodes, the Volume output's node graph, whose
+Attribute nodes read the grids by name (the Principled Volume's attribute fields written as
+Attribute and Math nodes).
 
 The .vdb is read with the `openvdb` module that bpy bundles. Grids that exist only in memory
-(made by modifiers or geometry nodes, with no file) and non-linear (frustum) grid transforms
-cannot be read that way; such objects are left out with a warning naming them.
-"""
+(made or changed by modifiers or geometry nodes) are first saved to a .vdb by Blender
+(`VolumeGrids.save`). Non-linear (frustum) grid transforms cannot be placed; such grids are
+ignored with a warning naming them."""
 
 import math
 import os
@@ -17,7 +20,7 @@ import sys
 
 import bpy
 
-from .media import scatter_phase
+from .media import is_varying, scatter_phase, tree_medium
 from .nodes import linked_node, material_output, socket, value as _value
 
 VOLUME_EXTENSION = "CAUSTIC_volume"
@@ -106,6 +109,79 @@ def volume_shader(blender_material, what, warnings):
     return shader, attributes
 
 
+def volume_graph(blender_material, what, warnings, writer):
+    """(graph value, root index) of a volume object's material whose Volume output needs its
+    node graph (a shader tree, or inputs linked through nodes: contract, `CAUSTIC_volume.graph`);
+    None when `volume_shader` describes it; False when it is left out (warned)."""
+    tree = getattr(blender_material, "node_tree", None) if blender_material is not None else None
+    output = material_output(tree) if tree is not None else None
+    if output is None or not output.inputs["Volume"].is_linked:
+        return None
+    node = linked_node(output.inputs["Volume"])
+    if not is_varying(node):
+        return None
+    value = tree_medium(blender_material, node, f"{what}, material '{blender_material.name}'", warnings, writer)
+    if value is None:
+        return False
+    return value["graph"], value["graph_shader"]
+
+
+def graph_grid_names(graph):
+    """The grid names a volume graph reads: its Attribute nodes' (Geometry type) and its
+    Principled Volumes' Density, Color and Temperature Attribute fields."""
+    names = []
+    for entry in graph["nodes"]:
+        if entry["type"] == "ShaderNodeAttribute" and entry["props"].get("attribute_type", "GEOMETRY") == "GEOMETRY":
+            names.append(entry["props"].get("attribute_name", ""))
+        if entry["type"] == "ShaderNodeVolumePrincipled":
+            names.extend(entry["inputs"].get(f, {}).get("value", "") for f, _ in _ATTRIBUTE_FIELDS)
+    return [n for n in dict.fromkeys(names) if isinstance(n, str) and n]
+
+
+# The Principled Volume's attribute fields and the input each multiplies.
+_ATTRIBUTE_FIELDS = (("Density Attribute", "Density"), ("Color Attribute", "Color"),
+                     ("Temperature Attribute", "Temperature"))
+
+
+def apply_attribute_fields(graph, present):
+    """Cycles' Principled Volume multiplies its Density, Color and Temperature (the last by the
+    grid's value clamped at 0) by the grids its attribute fields name, where the object has them
+    (`svm_node_principled_volume`); a name the object lacks changes nothing. Written into
+    `graph` as Attribute and Math nodes in front of those inputs; `present` holds the names of
+    the object's grids."""
+    nodes = graph["nodes"]
+
+    def add(entry):
+        nodes.append(entry)
+        return len(nodes) - 1
+
+    for entry in list(nodes):
+        if entry["type"] != "ShaderNodeVolumePrincipled":
+            continue
+        for field, target in _ATTRIBUTE_FIELDS:
+            name = entry["inputs"].pop(field, {}).get("value", "")
+            if not isinstance(name, str) or name not in present:
+                continue
+            base = f"{entry['name']}/{field}"
+            attr = add({"name": base, "type": "ShaderNodeAttribute", "inputs": {},
+                        "props": {"attribute_name": name, "attribute_type": "GEOMETRY"}})
+            item = dict(entry["inputs"].get(target, {}))
+            if target == "Color":
+                item["value"] = list(item.get("value", [0.5, 0.5, 0.5]))[:3]
+                mul = add({"name": base + " x", "type": "ShaderNodeVectorMath", "props": {"operation": "MULTIPLY"},
+                           "inputs": {"Vector": item, "Vector_001": {"value": [0.0] * 3, "link": [attr, "Color"]}}})
+                entry["inputs"][target] = {"value": entry["inputs"].get(target, {}).get("value"), "link": [mul, "Vector"]}
+                continue
+            source = [attr, "Fac"]
+            if target == "Temperature":
+                source = [add({"name": base + " max 0", "type": "ShaderNodeMath", "props": {"operation": "MAXIMUM"},
+                               "inputs": {"Value": {"value": 0.0, "link": source}, "Value_001": {"value": 0.0}}}),
+                          "Value"]
+            mul = add({"name": base + " x", "type": "ShaderNodeMath", "props": {"operation": "MULTIPLY"},
+                       "inputs": {"Value": item, "Value_001": {"value": 0.0, "link": source}}})
+            entry["inputs"][target] = {"value": item.get("value", 0.0), "link": [mul, "Value"]}
+
+
 def _matmul(a, b):
     return [[sum(a[i][k] * b[k][j] for k in range(4)) for j in range(4)] for i in range(4)]
 
@@ -160,10 +236,60 @@ def _safe_name(name, used):
     return candidate
 
 
+def _grid_file(obj, volume, what, folder, warnings):
+    """(path of a .vdb holding the object's evaluated grids, whether it is a copy to delete):
+    the volume's own file where nothing changed its grids; else the grids Blender holds in
+    memory (made or changed by modifiers or geometry nodes) saved by `VolumeGrids.save`. None
+    (warned) when neither can be read."""
+    filepath = volume.grids.frame_filepath if volume.filepath else ""
+    filepath = bpy.path.abspath(filepath, library=volume.original.library) if filepath else ""
+    modified = any(m.show_render for m in obj.original.modifiers) or obj.original.type != "VOLUME"
+    if filepath and os.path.isfile(filepath) and not modified:
+        return filepath, False
+    grids = volume.grids
+    try:
+        loaded = grids.is_loaded or grids.load()
+    except RuntimeError:
+        loaded = False
+    if not loaded or len(grids) == 0:
+        warnings.append(f"{what}: it has no grids to read (no .vdb file, and Blender holds none in memory"
+                        f"{': ' + grids.error_message if grids.error_message else ''}); the volume is left out")
+        return None, False
+    os.makedirs(os.path.join(folder, FOLDER), exist_ok=True)
+    # Read and deleted before the next object's: one name serves them all.
+    path = os.path.join(folder, FOLDER, "_saved_grids.vdb")
+    try:
+        saved = grids.save(filepath=path)
+    except RuntimeError as err:
+        saved, message = False, str(err)
+    else:
+        message = grids.error_message
+    if not saved or not os.path.isfile(path):
+        warnings.append(f"{what}: its grids could not be saved for Caustic ({message}); the volume is left out")
+        return None, False
+    return path, True
+
+
+def _usable(grid, kind, chosen, what, warnings):
+    """Whether `grid` can join `chosen` as `kind` (a scalar, or a colour for "color" and "any"),
+    warning why not."""
+    if grid.valueTypeName not in ("float", "double", "vec3s", "vec3d") or \
+            (kind not in ("color", "any") and grid.valueTypeName.startswith("vec3")):
+        warnings.append(f"{what}: grid '{grid.name}' ({grid.valueTypeName}) cannot be the {kind}; it is ignored")
+        return False
+    if not grid.transform.isLinear or (chosen and not _same_transform(grid.transform, chosen[0].transform)):
+        warnings.append(f"{what}: grid '{grid.name}' has a transform Caustic cannot place with the others; "
+                        "it is ignored")
+        return False
+    return True
+
+
 def volume_extension(depsgraph, folder):
     """The root `CAUSTIC_volume` value for the depsgraph's volume objects (None without any),
     writing their grid files into `folder`/caustic_volumes; and warnings."""
+    from .node_images import ImageWriter
     warnings, volumes, used = [], [], set()
+    writer = ImageWriter(folder)
     for instance in depsgraph.object_instances:
         obj = instance.object
         if obj.type != "VOLUME":
@@ -171,14 +297,14 @@ def volume_extension(depsgraph, folder):
         what = f"object '{obj.original.name}'"
         volume = obj.data
         material = next((m for m in volume.materials if m is not None), None)
-        shader, attributes = volume_shader(material, what, warnings)
+        graph = volume_graph(material, what, warnings, writer)
+        if graph is False:
+            continue
+        shader, attributes = (_principled_defaults(), {}) if graph else volume_shader(material, what, warnings)
         if shader is None:
             continue
-        filepath = volume.grids.frame_filepath if volume.filepath else ""
-        filepath = bpy.path.abspath(filepath, library=volume.original.library) if filepath else ""
-        if not filepath or not os.path.isfile(filepath):
-            warnings.append(f"{what}: its grids have no .vdb file Caustic can read (made by modifiers or geometry "
-                            "nodes, or the file is missing); the volume is left out")
+        filepath, temporary = _grid_file(obj, volume, what, folder, warnings)
+        if filepath is None:
             continue
         vdb = _openvdb()
         try:
@@ -186,45 +312,49 @@ def volume_extension(depsgraph, folder):
         except Exception as err:  # the module raises its own types for unreadable files
             warnings.append(f"{what}: cannot read '{filepath}' ({err}); the volume is left out")
             continue
+        finally:
+            if temporary:
+                os.remove(filepath)
         by_name = {g.name: g for g in file_grids}
-        chosen, names = [], {}
-        for kind in ("density", "temperature", "color"):
-            name = attributes.get(kind) or ""
+        chosen, names, present = [], {}, set()
+        wanted = [("any", n) for n in graph_grid_names(graph[0])] if graph else \
+            [(kind, attributes.get(kind) or "") for kind in ("density", "temperature", "color")]
+        for kind, name in wanted:
             grid = by_name.get(name) if name else None
-            if grid is None:
+            if grid is None or not _usable(grid, kind, chosen, what, warnings):
                 continue
-            if grid.valueTypeName not in ("float", "double", "vec3s", "vec3d") or \
-                    (kind != "color" and grid.valueTypeName.startswith("vec3")):
-                warnings.append(f"{what}: grid '{name}' ({grid.valueTypeName}) cannot be the {kind}; it is ignored")
-                continue
-            if not grid.transform.isLinear or (chosen and not _same_transform(grid.transform, chosen[0].transform)):
-                warnings.append(f"{what}: grid '{name}' has a transform Caustic cannot place with the others; "
-                                "it is ignored")
-                continue
-            if grid.activeVoxelCount() == 0:
-                continue
-            if grid not in chosen:
-                chosen.append(grid)
             names[kind] = name
+            present.add(name)
+            if grid.activeVoxelCount() > 0 and grid not in chosen:
+                chosen.append(grid)
+        if graph and not chosen:
+            # A graph that reads no grid with voxels (constant shaders) fills the box of the
+            # object's grids, as Cycles fills their active voxels.
+            chosen = [g for g in file_grids if g.activeVoxelCount() > 0 and g.transform.isLinear
+                      and g.valueTypeName in ("float", "double")][:1]
         if not chosen:
-            warnings.append(f"{what}: none of the grids its shader reads ({', '.join(n for n in attributes.values() if n) or 'none'}) "
-                            f"has active voxels in '{filepath}'; the volume is left out")
+            read = ", ".join(n for _, n in wanted if n) or "none"
+            warnings.append(f"{what}: none of the grids its shader reads ({read}) has active voxels in "
+                            f"'{filepath}'; the volume is left out")
             continue
         os.makedirs(os.path.join(folder, FOLDER), exist_ok=True)
         uri = f"{FOLDER}/{_safe_name(obj.original.name, used)}.cvol"
         write_grid_file(os.path.join(folder, uri), chosen)
         world = _matmul([list(r) for r in _TO_GLTF], [list(r) for r in instance.matrix_world])
-        volumes.append({
+        entry = {
             "name": obj.original.name,
             "uri": uri,
             "matrix": [world[r][c] for c in range(4) for r in range(4)],
-            "density_grid": names.get("density"),
-            "temperature_grid": names.get("temperature"),
-            "color_grid": names.get("color"),
+            "density_grid": None if graph else names.get("density"),
+            "temperature_grid": None if graph else names.get("temperature"),
+            "color_grid": None if graph else names.get("color"),
             "shader": shader,
-        })
-        if any(m.show_render for m in obj.original.modifiers):
-            warnings.append(f"{what}: its modifiers are not applied to the grids read from the .vdb file")
+        }
+        if graph:
+            # Grids named but without voxels still count as the object's (they read 0).
+            apply_attribute_fields(graph[0], present)
+            entry["graph"], entry["graph_shader"] = graph
+        volumes.append(entry)
     return ({"volumes": volumes} if volumes else None), warnings
 
 

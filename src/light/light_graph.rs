@@ -117,6 +117,7 @@ impl LightGraph {
             view: &NO_VIEW,
             rays: crate::shader::geom::Rays::default(),
             point: None,
+            grid_values: None,
         };
         let mut out = Closures::default();
         with_registers(|regs| self.program.run(&g, regs, &mut out));

@@ -75,7 +75,7 @@ pub struct GridMedium {
 impl Field {
     /// The value at voxel (x, y, z), component `c`; zero outside the grid.
     #[inline]
-    fn at(&self, dims: [u32; 3], x: i64, y: i64, z: i64, c: usize) -> f32 {
+    pub(crate) fn at(&self, dims: [u32; 3], x: i64, y: i64, z: i64, c: usize) -> f32 {
         if x < 0 || y < 0 || z < 0 || x >= dims[0] as i64 || y >= dims[1] as i64 || z >= dims[2] as i64 {
             return 0.0;
         }

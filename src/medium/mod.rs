@@ -19,6 +19,7 @@ pub mod phase;
 pub mod procedural;
 pub mod procedural_source;
 pub mod tracking;
+pub mod volume_grids;
 pub mod walk;
 
 use crate::math::Rgb;

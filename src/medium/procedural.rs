@@ -83,7 +83,7 @@ pub fn world_fog_medium(lo: Vec3, hi: Vec3, source: ProceduralSource) -> GridMed
 
 /// Per cell: [`MAJORANT_MARGIN`] × the largest max-channel σt at the cell's lattice points,
 /// at least one expected collision per cell crossing; and whether any point emits.
-fn sampled_majorant(g: &GridMedium) -> (Vec<f32>, bool) {
+pub(super) fn sampled_majorant(g: &GridMedium) -> (Vec<f32>, bool) {
     let src = g.procedural.as_deref().expect("a procedural medium");
     let [nx, ny, nz] = g.cells;
     let cell_len =
@@ -134,7 +134,7 @@ mod tests {
             "output": {}}))
         .unwrap();
         let volume = compile_volume("noise", &ext, 2, &[]).unwrap();
-        let source = ProceduralSource { volume, object: ObjectData::default() };
+        let source = ProceduralSource { volume, object: ObjectData::default(), grids: None };
         procedural_medium("noise".into(), Vec3::splat(-1.0), Vec3::ONE, source)
     }
 
@@ -256,7 +256,7 @@ mod tests {
             "output": {}}))
         .unwrap();
         let volume = compile_volume("fog", &ext, 2, &[]).unwrap();
-        let source = ProceduralSource { volume, object: crate::shader::geom::NO_OBJECT };
+        let source = ProceduralSource { volume, object: crate::shader::geom::NO_OBJECT, grids: None };
         world_fog_medium(Vec3::splat(-1.0), Vec3::ONE, source)
     }
 
@@ -356,7 +356,7 @@ mod tests {
             nearest: false,
             mean: Vec3::ZERO,
         }];
-        let source = ProceduralSource { volume, object: crate::shader::geom::NO_OBJECT };
+        let source = ProceduralSource { volume, object: crate::shader::geom::NO_OBJECT, grids: None };
         let g = procedural_medium("img".into(), Vec3::ZERO, Vec3::ONE, source);
         for (x, want) in [(0.2f32, 0.25f32), (0.45, 0.25), (0.55, 1.0), (0.9, 1.0)] {
             let p = g.index_from_world.transform_point3(Vec3::new(x, 0.5, -0.3));
@@ -381,7 +381,7 @@ mod tests {
         .unwrap();
         let volume = compile_volume("aniso", &ext, 2, &[]).unwrap();
         assert!(volume.anisotropy_reg.is_some() && volume.warnings.is_empty(), "{:?}", volume.warnings);
-        let source = ProceduralSource { volume, object: crate::shader::geom::NO_OBJECT };
+        let source = ProceduralSource { volume, object: crate::shader::geom::NO_OBJECT, grids: None };
         let g = procedural_medium("aniso".into(), Vec3::ZERO, Vec3::ONE, source);
         let hg_g = |p: crate::medium::Phase| match p {
             crate::medium::Phase::HenyeyGreenstein(h) => h.g,

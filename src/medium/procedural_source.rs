@@ -7,6 +7,7 @@ use super::coefficients::PointCoefficients;
 use super::{HomogeneousMedium, Phase};
 use crate::math::Rgb;
 use crate::scene::light_path::LightPath;
+use crate::scene::mesh::AttributeValue;
 use crate::shader::closure::Closures;
 use crate::shader::compile::volume::{VolumeKind, VolumeProgram, VolumeRegs};
 use crate::shader::geom::{Geom, NO_VIEW, ObjectData};
@@ -20,12 +21,16 @@ pub struct ProceduralSource {
     pub volume: VolumeProgram,
     /// The object whose space Object and Generated coordinates are in.
     pub object: ObjectData,
+    /// A volume object's grids, which its Attribute nodes read by name (`volume_grids.rs`);
+    /// None for a mesh's or the world's volume.
+    pub grids: Option<super::volume_grids::VolumeGrids>,
 }
 
 impl ProceduralSource {
-    /// The shading point the program sees at world point `p` (glTF axes).
+    /// The shading point the program sees at world point `p` (glTF axes), reading `grid_values`
+    /// for its attributes when given (a volume object's voxel).
     #[inline]
-    fn geom(&self, p: Vec3) -> Geom<'_> {
+    fn geom<'a>(&'a self, p: Vec3, grid_values: Option<&'a [Option<AttributeValue>]>) -> Geom<'a> {
         Geom {
             p,
             n: Vec3::Y,
@@ -47,6 +52,7 @@ impl ProceduralSource {
             view: &NO_VIEW,
             rays: crate::shader::geom::Rays::default(),
             point: None,
+            grid_values,
         }
     }
 
@@ -57,20 +63,51 @@ impl ProceduralSource {
         let Some(reg) = self.volume.anisotropy_reg else {
             return self.volume.anisotropy;
         };
-        let g = self.geom(p);
-        with_registers(|regs| {
-            self.volume.program.run(&g, regs, &mut Closures::default());
-            regs[reg as usize]
-        })
+        let run = |values: Option<&[Option<AttributeValue>]>| {
+            let g = self.geom(p, values);
+            with_registers(|regs| {
+                self.volume.program.run(&g, regs, &mut Closures::default());
+                regs[reg as usize]
+            })
+        };
+        // A volume object's: the nearest voxel's (Cycles' stochastic lookup picks one voxel).
+        match &self.grids {
+            Some(grids) => grids.nearest(p, |v| run(Some(v))),
+            None => run(None),
+        }
     }
 
     /// The coefficients at world point `p` (emission only when `with_emission`): each
     /// volume shader's as Cycles' SVM builds them (`svm_node_principled_volume`,
     /// `svm_node_closure_volume`, `svm_node_volume_coefficients`, the volume's Emission)
     /// for its inputs' values there, summed by the shaders' weights.
+    /// A volume object's are the blend of those at the voxels around `p` by their trilinear
+    /// weights (`volume_grids.rs`).
     #[inline]
     pub fn coefficients(&self, p: Vec3, with_emission: bool) -> PointCoefficients {
-        let g = self.geom(p);
+        let Some(grids) = &self.grids else {
+            return self.coefficients_with(p, None, with_emission);
+        };
+        let mut total = PointCoefficients { sigma_a: Rgb::ZERO, sigma_s: Rgb::ZERO, emission: Rgb::ZERO };
+        grids.each_corner(p, |w, values| {
+            let c = self.coefficients_with(p, Some(values), with_emission);
+            total.sigma_a += c.sigma_a * w;
+            total.sigma_s += c.sigma_s * w;
+            total.emission += c.emission * w;
+        });
+        total
+    }
+
+    /// The coefficients at world point `p` with the attributes `grid_values` (a voxel's), or
+    /// the mesh's where None.
+    #[inline]
+    pub fn coefficients_with(
+        &self,
+        p: Vec3,
+        grid_values: Option<&[Option<AttributeValue>]>,
+        with_emission: bool,
+    ) -> PointCoefficients {
+        let g = self.geom(p, grid_values);
         let prog = &self.volume.program;
         with_registers(|regs| {
             let mut sink = Closures::default();
@@ -97,11 +134,18 @@ impl ProceduralSource {
         let Some((a, b)) = self.volume.phase_pair else {
             return self.volume.phase;
         };
-        let g = self.geom(p);
-        let w2 = with_registers(|regs| {
-            self.volume.program.run(&g, regs, &mut Closures::default());
-            pair_weight(&self.volume, regs, a, b)
-        });
+        let run = |values: Option<&[Option<AttributeValue>]>| {
+            let g = self.geom(p, values);
+            with_registers(|regs| {
+                self.volume.program.run(&g, regs, &mut Closures::default());
+                pair_weight(&self.volume, regs, a, b)
+            })
+        };
+        // A volume object's: the nearest voxel's, as `anisotropy_at`.
+        let w2 = match &self.grids {
+            Some(grids) => grids.nearest(p, |v| run(Some(v))),
+            None => run(None),
+        };
         self.volume.phase.with_pair_weight(w2)
     }
 }
@@ -178,7 +222,7 @@ pub fn constant_medium(volume: Box<VolumeProgram>) -> Result<HomogeneousMedium, 
     if !volume.constant {
         return Err(volume);
     }
-    let source = ProceduralSource { volume: *volume, object: crate::shader::geom::NO_OBJECT };
+    let source = ProceduralSource { volume: *volume, object: crate::shader::geom::NO_OBJECT, grids: None };
     let c = source.coefficients(Vec3::ZERO, true);
     Ok(HomogeneousMedium {
         sigma_a: c.sigma_a,

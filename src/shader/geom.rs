@@ -87,6 +87,10 @@ pub struct Geom<'a> {
     pub rays: Rays<'a>,
     /// A point cloud's point (Point Info), None elsewhere (Cycles' Point Info gives 0 there).
     pub point: Option<crate::points::PointInfo>,
+    /// A volume object's grids at the voxel being read, one value per attribute slot of the
+    /// program (None: the grid is not there); the Attribute node reads these instead of the
+    /// mesh's (`medium::procedural_source`).
+    pub grid_values: Option<&'a [Option<crate::scene::mesh::AttributeValue>]>,
 }
 
 /// The ray queries a shader graph's Ambient Occlusion and Bevel nodes make against the
@@ -345,6 +349,7 @@ pub(super) fn geom_at_ng<'a>(
         view: &NO_VIEW,
         rays: Rays::default(),
         point: None,
+        grid_values: None,
     }
 }
 

@@ -465,7 +465,10 @@ impl Program {
                 return;
             }
             InputKind::Attribute { slot, out: which } => {
-                let found = self.attributes.get(slot as usize).and_then(|(key, _)| g.attribute(key));
+                let found = match g.grid_values {
+                    Some(values) => values.get(slot as usize).copied().flatten(),
+                    None => self.attributes.get(slot as usize).and_then(|(key, _)| g.attribute(key)),
+                };
                 let a = found.unwrap_or(crate::scene::mesh::NOT_FOUND);
                 match which {
                     AttributeOutput::Vector => a.vector,

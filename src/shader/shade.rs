@@ -54,6 +54,7 @@ pub(super) fn geom_of<'a>(scene: &'a Scene, s: &SurfaceHit, wo: Vec3) -> Geom<'a
         view: &scene.view,
         rays: Rays::default(),
         point: crate::points::is_point(s.tri).then(|| scene.points.info(s.tri)),
+        grid_values: None,
     }
 }
 

@@ -686,6 +686,7 @@ impl<'a> Loader<'a> {
                 let source = crate::medium::procedural_source::ProceduralSource {
                     volume: *volume,
                     object: crate::shader::geom::NO_OBJECT,
+                    grids: None,
                 };
                 grids.push(crate::medium::procedural::world_fog_medium(flo, fhi, source));
                 (None, Some(grids.len() as u32 - 1))

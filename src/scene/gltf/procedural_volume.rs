@@ -77,7 +77,7 @@ impl Loader<'_> {
                 ));
             }
             let obj = object.and_then(|o| objects.get(o as usize)).copied().unwrap_or(NO_OBJECT);
-            let source = ProceduralSource { volume: *volume, object: obj };
+            let source = ProceduralSource { volume: *volume, object: obj, grids: None };
             grids.push(procedural_medium(mat.name.clone(), lo, hi, source));
             mat.grid = Some(grids.len() as u32 - 1);
         }

@@ -8,7 +8,10 @@ use super::Loader;
 use crate::error::Result;
 use crate::medium::grid::{Field, VolumeShader};
 use crate::medium::grid_file::GridFile;
+use crate::medium::procedural_source::ProceduralSource;
+use crate::medium::volume_grids::{MAX_GRID_SLOTS, VolumeGrids, graph_grid_medium, reads_only_grids};
 use crate::medium::{GridMedium, HomogeneousMedium};
+use crate::scene::mesh::AttributeKey;
 use crate::scene::{Material, Mesh};
 use glam::{Affine3A, Mat4, Vec2, Vec3, Vec4};
 use serde::Deserialize;
@@ -39,8 +42,15 @@ struct VolumeExt {
     temperature_grid: Option<String>,
     #[serde(default)]
     color_grid: Option<String>,
-    /// The Principled Volume's parameters.
+    /// The Principled Volume's parameters (unused where `graph` is given).
     shader: ShaderExt,
+    /// The material's Volume output as a node graph (`CAUSTIC_materials_medium.graph`'s
+    /// format), whose Attribute nodes read the file's grids by name.
+    #[serde(default)]
+    graph: Option<crate::shader::graph::NodesExt>,
+    /// The graph's shader-tree root node.
+    #[serde(default)]
+    graph_shader: Option<usize>,
 }
 
 /// The Principled Volume's inputs (docs/contract.md).
@@ -142,6 +152,9 @@ impl Loader<'_> {
         if !(det.abs() > 1e-30) || !det.is_finite() {
             return Err(self.err(format!("{what}: the grid's transform is singular (determinant {det})")));
         }
+        if let Some(graph) = &v.graph {
+            return self.graph_volume(what, v, graph, &file, world);
+        }
         let shader = VolumeShader {
             density: s.density,
             color: Vec3::from(s.color),
@@ -160,6 +173,47 @@ impl Loader<'_> {
         let mut medium = GridMedium::new(v.name.clone(), file.dims, world, fields, shader);
         medium.phase = phase;
         Ok(medium)
+    }
+}
+
+impl Loader<'_> {
+    /// A volume object whose material is a node graph: the graph compiled, each attribute
+    /// it reads by name given the file's grid of that name (none: Cycles' not-found 0).
+    fn graph_volume(
+        &mut self,
+        what: &str,
+        v: &VolumeExt,
+        graph: &crate::shader::graph::NodesExt,
+        file: &GridFile,
+        world: Affine3A,
+    ) -> Result<GridMedium> {
+        let Some(root) = v.graph_shader else {
+            return Err(self.err(format!("{what}: a graph needs graph_shader")));
+        };
+        let mut volume = self.volume_program(&v.name, graph, root, what)?;
+        for w in std::mem::take(&mut volume.warnings) {
+            self.warn(format!("{what}: {w}"));
+        }
+        let slots: Vec<_> = volume
+            .program
+            .attributes
+            .iter()
+            .map(|(key, _)| match key {
+                AttributeKey::Named(name) => {
+                    file.grid(name).map(|g| Field { values: g.values.clone(), components: g.components })
+                }
+                _ => None,
+            })
+            .collect();
+        if slots.len() > MAX_GRID_SLOTS {
+            return Err(self.err(format!(
+                "{what}: its graph reads {} attributes; at most {MAX_GRID_SLOTS} are supported",
+                slots.len()
+            )));
+        }
+        let grids = VolumeGrids { dims: file.dims, index_from_world: world.inverse(), slots };
+        let source = ProceduralSource { volume, object: crate::shader::geom::NO_OBJECT, grids: Some(grids) };
+        Ok(graph_grid_medium(v.name.clone(), file.dims, world, source, reads_only_grids(graph)))
     }
 }
 

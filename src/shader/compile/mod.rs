@@ -242,6 +242,7 @@ fn dummy_geom(o: &ObjectData) -> Geom<'_> {
         view: &crate::shader::geom::NO_VIEW,
         rays: crate::shader::geom::Rays::default(),
         point: None,
+        grid_values: None,
     }
 }
 
