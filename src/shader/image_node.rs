@@ -100,9 +100,9 @@ pub fn lookup(t: &Texture, uv: Vec2, interp: Interp, ext: Extension) -> Vec4 {
     if !uv.is_finite() {
         return Vec4::ZERO;
     }
-    if ext == Extension::Clip && (uv.x < 0.0 || uv.y < 0.0 || uv.x > 1.0 || uv.y > 1.0) {
-        return Vec4::ZERO;
-    }
+    // Clip has no cut at the image's edge: texels outside are 0 (`texel`), so the linear and
+    // cubic filters fade out over half a texel and a texel and a half past it, as Cycles'
+    // `interp_linear`/`interp_cubic` (they only skip points whose texels are all outside).
     // Texel rows are stored top first: Blender's v = 1 is row 0.
     let (fx, fy) = (uv.x * t.width as f32, (1.0 - uv.y) * t.height as f32);
     let stored = match interp {
@@ -284,6 +284,22 @@ mod tests {
         // The cubic B-spline keeps a constant image constant (its weights sum to 1).
         let w: f32 = bspline(0.3).iter().sum();
         assert!((w - 1.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn clip_fades_out_past_the_edge_as_cycles() {
+        let t = tex();
+        // A quarter texel past the right edge, on the top row's centre: the linear filter
+        // weighs the edge texel (green) 1/4 against the transparent black outside, as Cycles'
+        // `interp_linear`; an edge cut at u = 1 gave 0 (2.5 % of the probe image's mean).
+        let fringe = lookup(&t, Vec2::new(1.0 + 0.125, 0.75), Interp::Linear, Extension::Clip);
+        assert!((fringe - Vec4::new(0.0, 0.25, 0.0, 0.25)).abs().max_element() < 1e-6, "{fringe}");
+        // Past half a texel every texel the filter reads is outside.
+        assert_eq!(lookup(&t, Vec2::new(1.3, 0.75), Interp::Linear, Extension::Clip), Vec4::ZERO);
+        // The cubic B-spline reaches a texel and a half out.
+        let cubic = lookup(&t, Vec2::new(1.5, 0.75), Interp::Cubic, Extension::Clip);
+        assert!(cubic.y > 0.0 && cubic.y < 0.1, "{cubic}");
+        assert_eq!(lookup(&t, Vec2::new(1.0, 0.75), Interp::Closest, Extension::Clip), Vec4::ZERO);
     }
 
     #[test]
