@@ -21,6 +21,7 @@ exporter reads); a material it can express keeps today's export unchanged.
 import bpy
 
 from .attributes import view_layer_rgba
+from .image_frames import SequenceFrame
 
 GRAPH_EXTENSION = "CAUSTIC_materials_nodes"
 GRAPH_VERSION = 1
@@ -272,6 +273,11 @@ class _Builder:
     def warn(self, node_name, text):
         self.warnings.append(f"{self.what}, node '{node_name}': {text}")
 
+    def warn_once(self, node_name, text):
+        """`warn`, unless this very warning was given already (a node read by several inputs)."""
+        if f"{self.what}, node '{node_name}': {text}" not in self.warnings:
+            self.warn(node_name, text)
+
     # --- resolving sockets to sources: ("link", index, identifier) | ("value", v, type) | None ---
 
     def input_source(self, scope, sock, depth=0):
@@ -296,6 +302,11 @@ class _Builder:
         if node.type == "GROUP_INPUT":
             return self._group_input(scope, node, out, depth)
         if node.type == "FRAME":
+            return None
+        if node.type == "SHADERTORGB":
+            # EEVEE-only: Cycles' sync makes no node of it, so the input it feeds keeps its own value.
+            self.warn_once(node.name, "Shader to RGB is EEVEE-only: as in Cycles, the input it feeds keeps its "
+                                      "own value")
             return None
         if node.type == "TEX_COORD" and out.identifier == "Generated":
             self.uses_generated = True
@@ -497,6 +508,10 @@ class _Builder:
                 self.warn(name, "the image texture has no image; Cycles renders it magenta, Caustic as "
                           "the renderer's missing-image colour")
                 return
+            if value.source == "SEQUENCE":
+                depsgraph = self.context.depsgraph
+                scene = depsgraph.scene if depsgraph is not None else bpy.context.scene
+                value = SequenceFrame(value, node.image_user, scene.frame_current)
             pointer = value.as_pointer()
             if pointer not in self.image_index:
                 self.image_index[pointer] = len(self.images)
@@ -644,6 +659,8 @@ def needs_graph(material, graph):
         return True  # the exporter reads every image as UV-mapped
     if _raw_walk_has_group_or_mute(cycles_output(material)):
         return True
+    if any(_foreign_colour_space(graph, n) for n in graph.nodes):
+        return True  # the exporter copies the file; the graph's image is converted (node_images.py)
     if any(_tinted_metal(n) for n in graph.nodes):
         return True
     for entry in graph.nodes:
@@ -653,7 +670,25 @@ def needs_graph(material, graph):
             source = graph.nodes[item["link"][0]]
             if not _exporter_reads_link(entry, identifier, source, item["link"][1]):
                 return True
+            if item["link"][1] == "Alpha" and _alpha_ignored(graph, source):
+                return True  # the exporter reads the stored alpha; the graph's image writes 1
     return False
+
+
+def _foreign_colour_space(graph, entry):
+    """Whether `entry` is an Image Texture whose image is in a colour space glTF cannot say
+    (neither sRGB nor data: ACEScg, AgX Log, ...)."""
+    index = entry["props"].get("image") if entry["type"] == "ShaderNodeTexImage" else None
+    if index is None:
+        return False
+    settings = graph.images[index].colorspace_settings
+    return not settings.is_data and settings.name not in {"sRGB", "Non-Color", "Linear Rec.709"}
+
+
+def _alpha_ignored(graph, entry):
+    """Whether `entry` is an Image Texture whose image's Alpha mode is None (Cycles reads 1)."""
+    index = entry["props"].get("image") if entry["type"] == "ShaderNodeTexImage" else None
+    return index is not None and graph.images[index].alpha_mode == "NONE"
 
 
 def _tinted_metal(entry):
