@@ -21,7 +21,7 @@ exporter reads); a material it can express keeps today's export unchanged.
 import bpy
 
 from .attributes import view_layer_rgba
-from .image_frames import SequenceFrame
+from .image_frames import sequence_frame, udim_tiles
 
 GRAPH_EXTENSION = "CAUSTIC_materials_nodes"
 GRAPH_VERSION = 1
@@ -511,12 +511,13 @@ class _Builder:
             if value.source == "SEQUENCE":
                 depsgraph = self.context.depsgraph
                 scene = depsgraph.scene if depsgraph is not None else bpy.context.scene
-                value = SequenceFrame(value, node.image_user, scene.frame_current)
-            pointer = value.as_pointer()
-            if pointer not in self.image_index:
-                self.image_index[pointer] = len(self.images)
-                self.images.append(value)
-            props[key] = self.image_index[pointer]
+                value = sequence_frame(value, node.image_user, scene.frame_current)
+            if value.source == "TILED" and node.type == "TEX_IMAGE":
+                tiles = [[tile.part, self._image(tile)] for tile in udim_tiles(value)]
+                props["tiles"] = tiles
+                props[key] = tiles[0][1]
+                return
+            props[key] = self._image(value)
         elif key == "object":
             if value is not None:
                 props["object_matrix"] = object_matrix(value, self.context.depsgraph)
@@ -524,6 +525,14 @@ class _Builder:
             pass  # an IES Texture's text: written beside the glTF by light_nodes.py
         elif value is not None:
             self.warn(name, f"its setting '{key}' ({type(value).__name__}) is not exported")
+
+    def _image(self, image):
+        """The index of `image` (a Blender image or a file stand-in) in the graph's images."""
+        pointer = image.as_pointer()
+        if pointer not in self.image_index:
+            self.image_index[pointer] = len(self.images)
+            self.images.append(image)
+        return self.image_index[pointer]
 
     def _tex_coord(self, node, name, props):
         """`tex_coord`: the TEXCOORD_n of the UV map the node reads — a named map (UV Map, Normal
@@ -657,6 +666,8 @@ def needs_graph(material, graph):
         return True
     if any(n["type"] == "ShaderNodeTexImage" and n["props"].get("projection", "FLAT") != "FLAT" for n in graph.nodes):
         return True  # the exporter reads every image as UV-mapped
+    if any("tiles" in n["props"] for n in graph.nodes):
+        return True  # the exporter writes a UDIM image's first tile only
     if _raw_walk_has_group_or_mute(cycles_output(material)):
         return True
     if any(_foreign_colour_space(graph, n) for n in graph.nodes):

@@ -19,7 +19,7 @@ import re
 import bpy
 import numpy as np
 
-from .image_frames import SequenceFrame
+from .image_frames import FileStandIn
 
 FOLDER = "caustic_nodes"
 # The colour spaces the renderer decodes itself (docs/contract.md, `images`).
@@ -59,15 +59,17 @@ class ImageWriter:
                     node["props"]["image"] = renumber[image]
                 else:
                     del node["props"]["image"]
+            if "tiles" in node["props"]:  # a tile without pixels reads as missing, as Cycles' absent tile
+                node["props"]["tiles"] = [[n, renumber[k]] for n, k in node["props"]["tiles"] if k in renumber]
         value = graph.value(entries)
         value["nodes"] = nodes
         return value
 
     def _write(self, image, what, warnings):
-        if isinstance(image, SequenceFrame):
+        if isinstance(image, FileStandIn):
             temp = image.load()
             if temp is None:
-                warnings.append(f"{what}: image sequence '{image.name}' has no file for frame {image.frame} "
+                warnings.append(f"{what}: image '{image.name}' has no file for {image.label} "
                                 f"({image.path}); Caustic renders the renderer's missing-image colour")
                 return None
             try:

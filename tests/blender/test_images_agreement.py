@@ -30,6 +30,9 @@ pytest -s; after: 0.9984-1.0022, no block over its bound):
 * clip_edge: Extension Clip, the image shown at half size in the middle of the plane: Cycles'
   linear filter fades out over half a texel past the edge, where Caustic cut at the edge:
   0.9886 0.9884 0.9913 (13 of 108 blocks over), silently.
+* udim_tiles: a UDIM image of two tiles on UVs that span both: only the first tile was
+  exported (with a warning) and repeated: 1.7459 1.7430 0.0258 (52 of 108 blocks over); now
+  each tile is its own image, picked as Cycles' `kernel_image_udim_map`.
 """
 
 import os
@@ -146,6 +149,36 @@ def clipped(folder, name):
     return mat
 
 
+def udim(folder, name):
+    """A UDIM image of two tiles, 1001 (the pattern, blue 0.1) and 1002 (darker, blue 0.9),
+    from files `<name>.1001.png` and `<name>.1002.png`."""
+    for tile, scale, blue in ((1001, 1.0, 0.1), (1002, 0.4, 0.9)):
+        img = bpy.data.images.new(f"{name}_{tile}", SIZE, SIZE, alpha=True)
+        px = pattern()
+        px[..., :2] *= scale
+        px[..., 2] = blue
+        img.pixels.foreach_set(px.ravel())
+        img.filepath_raw = os.path.join(folder, f"{name}.{tile}.png")
+        img.file_format = "PNG"
+        img.save()
+        bpy.data.images.remove(img)
+    img = bpy.data.images.load(os.path.join(folder, f"{name}.1001.png"))
+    img.source = "TILED"
+    img.filepath = os.path.join(folder, f"{name}.<UDIM>.png")
+    if 1002 not in [t.number for t in img.tiles]:
+        img.tiles.new(tile_number=1002)
+    img.reload()
+    return img
+
+
+def udim_scene(scene, material):
+    """The flat scene with the plane's U running 0 to 2: tiles 1001 and 1002."""
+    nodes.flat_scene(scene, material)
+    mesh = scene.objects["Plane"].data
+    for i, loop in enumerate(mesh.loops):
+        mesh.uv_layers["UVMap"].data[i].uv = [(0, 0), (2, 0), (2, 1), (0, 1)][loop.vertex_index]
+
+
 def with_alpha_mode(mode):
     def make(folder, name):
         img = image_file(os.path.join(folder, f"{name}.png"), alpha=True)
@@ -176,6 +209,7 @@ CASES = {
     "alpha_none": (floor_scene, principled_image(with_alpha_mode("NONE"), alpha=True)),
     "sequence_offset": (nodes.flat_scene, sequence_material),
     "clip_edge": (nodes.flat_scene, clipped),
+    "udim_tiles": (udim_scene, diffuse_image(udim)),
 }
 
 
