@@ -21,6 +21,7 @@ exporter reads); a material it can express keeps today's export unchanged.
 import bpy
 
 from .attributes import view_layer_rgba
+from .image_frames import sequence_frame, udim_tiles
 
 GRAPH_EXTENSION = "CAUSTIC_materials_nodes"
 GRAPH_VERSION = 1
@@ -272,6 +273,11 @@ class _Builder:
     def warn(self, node_name, text):
         self.warnings.append(f"{self.what}, node '{node_name}': {text}")
 
+    def warn_once(self, node_name, text):
+        """`warn`, unless this very warning was given already (a node read by several inputs)."""
+        if f"{self.what}, node '{node_name}': {text}" not in self.warnings:
+            self.warn(node_name, text)
+
     # --- resolving sockets to sources: ("link", index, identifier) | ("value", v, type) | None ---
 
     def input_source(self, scope, sock, depth=0):
@@ -296,6 +302,11 @@ class _Builder:
         if node.type == "GROUP_INPUT":
             return self._group_input(scope, node, out, depth)
         if node.type == "FRAME":
+            return None
+        if node.type == "SHADERTORGB":
+            # EEVEE-only: Cycles' sync makes no node of it, so the input it feeds keeps its own value.
+            self.warn_once(node.name, "Shader to RGB is EEVEE-only: as in Cycles, the input it feeds keeps its "
+                                      "own value")
             return None
         if node.type == "TEX_COORD" and out.identifier == "Generated":
             self.uses_generated = True
@@ -497,11 +508,16 @@ class _Builder:
                 self.warn(name, "the image texture has no image; Cycles renders it magenta, Caustic as "
                           "the renderer's missing-image colour")
                 return
-            pointer = value.as_pointer()
-            if pointer not in self.image_index:
-                self.image_index[pointer] = len(self.images)
-                self.images.append(value)
-            props[key] = self.image_index[pointer]
+            if value.source == "SEQUENCE":
+                depsgraph = self.context.depsgraph
+                scene = depsgraph.scene if depsgraph is not None else bpy.context.scene
+                value = sequence_frame(value, node.image_user, scene.frame_current)
+            if value.source == "TILED" and node.type == "TEX_IMAGE":
+                tiles = [[tile.part, self._image(tile)] for tile in udim_tiles(value)]
+                props["tiles"] = tiles
+                props[key] = tiles[0][1]
+                return
+            props[key] = self._image(value)
         elif key == "object":
             if value is not None:
                 props["object_matrix"] = object_matrix(value, self.context.depsgraph)
@@ -509,6 +525,14 @@ class _Builder:
             pass  # an IES Texture's text: written beside the glTF by light_nodes.py
         elif value is not None:
             self.warn(name, f"its setting '{key}' ({type(value).__name__}) is not exported")
+
+    def _image(self, image):
+        """The index of `image` (a Blender image or a file stand-in) in the graph's images."""
+        pointer = image.as_pointer()
+        if pointer not in self.image_index:
+            self.image_index[pointer] = len(self.images)
+            self.images.append(image)
+        return self.image_index[pointer]
 
     def _tex_coord(self, node, name, props):
         """`tex_coord`: the TEXCOORD_n of the UV map the node reads — a named map (UV Map, Normal
@@ -642,8 +666,12 @@ def needs_graph(material, graph):
         return True
     if any(n["type"] == "ShaderNodeTexImage" and n["props"].get("projection", "FLAT") != "FLAT" for n in graph.nodes):
         return True  # the exporter reads every image as UV-mapped
+    if any("tiles" in n["props"] for n in graph.nodes):
+        return True  # the exporter writes a UDIM image's first tile only
     if _raw_walk_has_group_or_mute(cycles_output(material)):
         return True
+    if any(_foreign_colour_space(graph, n) for n in graph.nodes):
+        return True  # the exporter copies the file; the graph's image is converted (node_images.py)
     if any(_tinted_metal(n) for n in graph.nodes):
         return True
     for entry in graph.nodes:
@@ -653,7 +681,25 @@ def needs_graph(material, graph):
             source = graph.nodes[item["link"][0]]
             if not _exporter_reads_link(entry, identifier, source, item["link"][1]):
                 return True
+            if item["link"][1] == "Alpha" and _alpha_ignored(graph, source):
+                return True  # the exporter reads the stored alpha; the graph's image writes 1
     return False
+
+
+def _foreign_colour_space(graph, entry):
+    """Whether `entry` is an Image Texture whose image is in a colour space glTF cannot say
+    (neither sRGB nor data: ACEScg, AgX Log, ...)."""
+    index = entry["props"].get("image") if entry["type"] == "ShaderNodeTexImage" else None
+    if index is None:
+        return False
+    settings = graph.images[index].colorspace_settings
+    return not settings.is_data and settings.name not in {"sRGB", "Non-Color", "Linear Rec.709"}
+
+
+def _alpha_ignored(graph, entry):
+    """Whether `entry` is an Image Texture whose image's Alpha mode is None (Cycles reads 1)."""
+    index = entry["props"].get("image") if entry["type"] == "ShaderNodeTexImage" else None
+    return index is not None and graph.images[index].alpha_mode == "NONE"
 
 
 def _tinted_metal(entry):

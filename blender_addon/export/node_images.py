@@ -3,8 +3,13 @@
 
 Every image (packed, generated or from a file) is written from the pixels Blender holds, so the
 renderer reads the same numbers Cycles does: 8-bit images as PNG, float images as OpenEXR, the
-values as stored (no view transform, no colour conversion) and the colour space recorded by
-name. An image is written once per export however many materials use it.
+values as stored (no view transform) and the colour space recorded by name. Blender holds a
+float image (OpenEXR, Radiance HDR, 16-bit PNG) already converted to the scene's linear space
+when its colour space is not data: an sRGB one is encoded back (Cycles filters it encoded),
+any other is recorded as linear; an 8-bit image in a space
+the contract does not name (ACEScg, AgX Log, ...) is converted to linear by Blender's colour
+management and written as float. An image is written once per export however many materials
+use it.
 """
 
 import copy
@@ -14,7 +19,11 @@ import re
 import bpy
 import numpy as np
 
+from .image_frames import FileStandIn
+
 FOLDER = "caustic_nodes"
+# The colour spaces the renderer decodes itself (docs/contract.md, `images`).
+CONTRACT_SPACES = {"sRGB", "Non-Color", "Linear Rec.709"}
 
 
 class ImageWriter:
@@ -50,11 +59,23 @@ class ImageWriter:
                     node["props"]["image"] = renumber[image]
                 else:
                     del node["props"]["image"]
+            if "tiles" in node["props"]:  # a tile without pixels reads as missing, as Cycles' absent tile
+                node["props"]["tiles"] = [[n, renumber[k]] for n, k in node["props"]["tiles"] if k in renumber]
         value = graph.value(entries)
         value["nodes"] = nodes
         return value
 
     def _write(self, image, what, warnings):
+        if isinstance(image, FileStandIn):
+            temp = image.load()
+            if temp is None:
+                warnings.append(f"{what}: image '{image.name}' has no file for {image.label} "
+                                f"({image.path}); Caustic renders the renderer's missing-image colour")
+                return None
+            try:
+                return self._write(temp, what, warnings)
+            finally:
+                bpy.data.images.remove(temp)
         if image.source in {"SEQUENCE", "MOVIE"}:
             warnings.append(f"{what}: image '{image.name}' is a {image.source.lower()}; its current frame is used")
         if image.source == "TILED":
@@ -76,16 +97,31 @@ class ImageWriter:
             rgba[..., :3] = pixels[..., :3] if channels >= 3 else pixels[..., :1]  # 1-2 channels: grey
             if channels == 2:
                 rgba[..., 3] = pixels[..., 1]
+        if image.alpha_mode == "NONE":
+            # Cycles ignores the stored alpha of an image whose Alpha mode is None: it reads 1.
+            rgba[..., 3] = 1.0  # `rgba` is this function's own array
         is_float = bool(image.is_float)
+        colorspace = image.colorspace_settings.name
+        if image.colorspace_settings.is_data:
+            colorspace = "Non-Color"
+        elif is_float and colorspace == "sRGB":
+            # Blender decoded it on loading (module doc); Cycles filters an sRGB image encoded
+            # and decodes after, so the encoded values go back into the file.
+            rgba[..., :3] = _srgb_encode(rgba[..., :3])
+        elif is_float:
+            colorspace = "Linear Rec.709"  # Blender converted it on loading (module doc)
+        elif colorspace not in CONTRACT_SPACES:
+            linear = _to_scene_linear(rgba, colorspace, self.gltf_folder)
+            if linear is None:
+                warnings.append(f"{what}: image '{image.name}' is in colour space '{colorspace}', which Blender "
+                                "could not convert to linear; the renderer reads it as linear")
+            else:
+                rgba, is_float, colorspace = linear, True, "Linear Rec.709"
         suffix = ".exr" if is_float else ".png"
         filename = self._unique(image.name, suffix)
         os.makedirs(os.path.join(self.gltf_folder, FOLDER), exist_ok=True)
         path = os.path.join(self.gltf_folder, FOLDER, filename)
         _save(rgba, is_float, path)
-        colorspace = image.colorspace_settings.name
-        if colorspace not in {"sRGB", "Non-Color", "Linear Rec.709"}:
-            warnings.append(f"{what}: image '{image.name}' is in colour space '{colorspace}', which the contract "
-                            "does not name (sRGB, Non-Color, Linear Rec.709); the renderer may read it as linear")
         return {"uri": f"{FOLDER}/{filename}", "colorspace": colorspace, "alpha": image.alpha_mode}
 
     def _unique(self, name, suffix):
@@ -104,6 +140,51 @@ def _load(image):
     except RuntimeError:
         return False
     return image.has_data and image.size[0] > 0
+
+
+def _srgb_encode(linear):
+    """Linear values to sRGB's encoding (the inverse of the piecewise decode Blender and the
+    renderer use; the linear segment continued below 0, the power curve past 1)."""
+    return np.where(linear <= 0.0031308, linear * 12.92,
+                    1.055 * np.power(np.maximum(linear, 0.0031308), 1.0 / 2.4) - 0.055).astype(np.float32)
+
+
+def _to_scene_linear(rgba, colorspace, folder):
+    """8-bit RGBA pixels stored in `colorspace`, converted to Blender's scene linear space (float
+    RGBA), or None when Blender cannot convert them. Blender's colour management does the
+    conversion, as it does for Cycles: a temporary image tagged with the space is saved as
+    OpenEXR (a linear format: no view transform) through a temporary scene's output settings
+    and read back as stored. Alpha is left out of the conversion (saved as 1, put back after),
+    since Blender premultiplies on the way."""
+    height, width, _ = rgba.shape
+    opaque = rgba.copy()
+    opaque[..., 3] = 1.0
+    path = os.path.join(folder, "caustic-colorspace.exr")
+    temp = bpy.data.images.new("caustic-colorspace", width, height, alpha=True)
+    scene = bpy.data.scenes.new("caustic-colorspace")
+    try:
+        temp.colorspace_settings.name = colorspace
+        temp.pixels.foreach_set(opaque.ravel())
+        out = scene.render.image_settings
+        out.file_format, out.color_depth, out.color_mode = "OPEN_EXR", "32", "RGBA"
+        temp.save_render(path, scene=scene)
+        back = bpy.data.images.load(path, check_existing=False)
+        try:
+            back.colorspace_settings.name = "Linear Rec.709"  # as written: read without conversion
+            linear = np.empty(width * height * 4, dtype=np.float32)
+            back.pixels.foreach_get(linear)
+        finally:
+            bpy.data.images.remove(back)
+    except (RuntimeError, TypeError, ValueError):
+        return None
+    finally:
+        bpy.data.images.remove(temp)
+        bpy.data.scenes.remove(scene)
+        if os.path.exists(path):
+            os.remove(path)
+    linear = linear.reshape(height, width, 4)
+    linear[..., 3] = rgba[..., 3]
+    return linear
 
 
 def _save(rgba, is_float, path):

@@ -1,10 +1,10 @@
 //! Decoded textures and their lookup: wrap modes, bilinear or nearest filtering,
 //! sRGB decoding, `KHR_texture_transform`.
 //!
-//! An 8-bit sRGB image is filtered as stored and decoded after, as Cycles does (it keeps such
-//! images sRGB-encoded, `compress_as_srgb`, and converts the interpolated value in
-//! `svm_image_texture`): between a dark and a light texel the blend is darker than a blend of
-//! decoded texels.
+//! An sRGB image, 8-bit or float (a 16-bit PNG, an OpenEXR tagged sRGB), is filtered as stored
+//! and decoded after, as Cycles does (it keeps every sRGB image encoded, `compress_as_srgb`,
+//! and converts the interpolated value in `svm_image_texture`): between a dark and a light
+//! texel the blend is darker than a blend of decoded texels.
 
 use glam::{Mat3, Vec2, Vec3, Vec4};
 
@@ -63,10 +63,12 @@ fn srgb_table() -> &'static [f32; 256] {
     })
 }
 
-/// sRGB → linear for one encoded value in [0, 1] (the table's formula, for filtered values).
+/// sRGB → linear for one encoded value (the table's formula, for filtered values): as
+/// Cycles' `color_srgb_to_linear`, negative values (a float image's) give 0 and values past 1
+/// continue the power curve.
 #[inline]
 fn srgb_to_linear(c: f32) -> f32 {
-    if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
+    if c <= 0.04045 { c.max(0.0) / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
 }
 
 /// Texel index `i` of a row or column of `n` texels under wrap `mode`.
@@ -93,7 +95,7 @@ impl Texture {
         let y = wrap(y, self.height, self.wrap_t);
         let i = (y * self.width + x) as usize;
         if !self.hdr.is_empty() {
-            return self.hdr[i];
+            return self.decode(self.hdr[i]);
         }
         let t = self.texels[i];
         if self.srgb {
@@ -104,8 +106,8 @@ impl Texture {
         }
     }
 
-    /// RGBA of texel (x, y) as stored, wrapped by the sampler's modes: an 8-bit sRGB image's
-    /// RGB still encoded (filter these, then [`decode`](Self::decode)).
+    /// RGBA of texel (x, y) as stored, wrapped by the sampler's modes: an sRGB image's RGB
+    /// still encoded (filter these, then [`decode`](Self::decode)).
     #[inline]
     pub fn stored_texel(&self, x: i64, y: i64) -> Vec4 {
         let x = wrap(x, self.width, self.wrap_s);
@@ -121,11 +123,7 @@ impl Texture {
     /// Linear RGBA of a value filtered from [`stored_texel`](Self::stored_texel)s.
     #[inline]
     pub fn decode(&self, v: Vec4) -> Vec4 {
-        if self.srgb && self.hdr.is_empty() {
-            Vec4::new(srgb_to_linear(v.x), srgb_to_linear(v.y), srgb_to_linear(v.z), v.w)
-        } else {
-            v
-        }
+        if self.srgb { Vec4::new(srgb_to_linear(v.x), srgb_to_linear(v.y), srgb_to_linear(v.z), v.w) } else { v }
     }
 
     /// Filtered linear RGBA at texture coordinate `uv`.
@@ -234,6 +232,26 @@ mod tests {
         assert_eq!(mid.w, 1.0, "alpha is linear");
         // A texel centre is the table's value exactly.
         assert_eq!(t.lookup(Vec2::new(0.75, 0.5)), t.texel(1, 0));
+    }
+
+    #[test]
+    fn float_srgb_images_are_filtered_encoded_and_decoded_after() {
+        // A 16-bit PNG or an OpenEXR tagged sRGB keeps its encoded floats, as Cycles'
+        // `compress_as_srgb` does for every sRGB image: the blend of 0 and 1 decodes 0.5.
+        let hdr = vec![Vec4::new(0.0, 0.0, 0.0, 1.0), Vec4::new(1.0, 1.0, 1.0, 1.0)];
+        let t =
+            Texture { srgb: true, nearest: false, wrap_s: Wrap::Clamp, texels: Vec::new(), hdr, ..tex(Wrap::Clamp) };
+        let mid = t.lookup(Vec2::new(0.5, 0.5));
+        let want = ((0.5f32 + 0.055) / 1.055).powf(2.4);
+        assert!((mid.x - want).abs() < 1e-6, "{} vs {want}", mid.x);
+        // Texels are decoded too (`texel`: Closest, the mean), and negative values give 0.
+        assert_eq!(t.texel(1, 0), Vec4::ONE);
+        let negative = Texture { hdr: vec![Vec4::new(-0.5, 0.02, 2.0, 1.0)], width: 1, ..t.clone() };
+        let v = negative.texel(0, 0);
+        assert!(
+            v.x == 0.0 && (v.y - 0.02 / 12.92).abs() < 1e-7 && (v.z - (2.055f32 / 1.055).powf(2.4)).abs() < 1e-4,
+            "{v}"
+        );
     }
 
     #[test]

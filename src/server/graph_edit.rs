@@ -147,11 +147,9 @@ fn held_images(scene: &Scene, name: &str, ext: &NodesExt) -> Result<Vec<u32>, St
             return Err(format!("{what} is not in the loaded scene; send load"));
         };
         let tex = &scene.textures[t];
-        // 8-bit texels keep their encoding flag; float ones were decoded to linear at load,
-        // so only a linear request is known to match them (an sRGB float image reloads).
+        // Texels keep their encoding flag (8-bit and float sRGB images are decoded after filtering).
         let srgb = colorspace_is_srgb(&img.colorspace).unwrap_or(false);
-        let matches = if tex.hdr.is_empty() { tex.srgb == srgb } else { !srgb };
-        if !matches {
+        if tex.srgb != srgb {
             return Err(format!("{what} was loaded in another colour space; send load"));
         }
         out.push(t as u32);

@@ -46,6 +46,8 @@ pub enum Projection {
 pub struct ImageOp {
     /// Index into `Scene::textures` (None: the node has no image; Cycles' magenta).
     pub texture: Option<u32>,
+    /// A UDIM image's tiles: (tile number, index into `Scene::textures`); empty otherwise.
+    pub tiles: Vec<(u32, u32)>,
     /// Interpolation.
     pub interp: Interp,
     /// Extension.
@@ -83,6 +85,22 @@ fn texel(t: &Texture, x: i64, y: i64, ext: Extension) -> Vec4 {
     t.stored_texel(x, y)
 }
 
+/// Cycles' colour of a missing image or UDIM tile (magenta).
+const MISSING: Vec4 = Vec4::new(1.0, 0.0, 1.0, 1.0);
+
+/// The UDIM tile under `uv` and `uv` within it, as Cycles' `kernel_image_udim_map`: the tile
+/// of the truncated coordinates (1001 + 10 v + u; u in 0..10, v from 0), None where it is not
+/// one of `tiles` (Cycles' missing image).
+fn udim_tile(tiles: &[(u32, u32)], uv: Vec2) -> Option<(u32, Vec2)> {
+    let (tx, ty) = (uv.x as i64, uv.y as i64);
+    if tx < 0 || ty < 0 || tx >= 10 {
+        return None;
+    }
+    let number = 1001 + 10 * ty + tx;
+    let &(_, texture) = tiles.iter().find(|&&(n, _)| n as i64 == number)?;
+    Some((texture, uv - Vec2::new(tx as f32, ty as f32)))
+}
+
 /// Cubic B-spline weights for fraction t.
 fn bspline(t: f32) -> [f32; 4] {
     let t2 = t * t;
@@ -100,9 +118,9 @@ pub fn lookup(t: &Texture, uv: Vec2, interp: Interp, ext: Extension) -> Vec4 {
     if !uv.is_finite() {
         return Vec4::ZERO;
     }
-    if ext == Extension::Clip && (uv.x < 0.0 || uv.y < 0.0 || uv.x > 1.0 || uv.y > 1.0) {
-        return Vec4::ZERO;
-    }
+    // Clip has no cut at the image's edge: texels outside are 0 (`texel`), so the linear and
+    // cubic filters fade out over half a texel and a texel and a half past it, as Cycles'
+    // `interp_linear`/`interp_cubic` (they only skip points whose texels are all outside).
     // Texel rows are stored top first: Blender's v = 1 is row 0.
     let (fx, fy) = (uv.x * t.width as f32, (1.0 - uv.y) * t.height as f32);
     let stored = match interp {
@@ -176,10 +194,17 @@ impl ImageOp {
         let v = |i: Reg| Vec3::new(r[i as usize], r[i as usize + 1], r[i as usize + 2]);
         let co = v(self.vector);
         let c = match self.texture.and_then(|i| textures.get(i as usize)) {
-            None => Vec4::new(1.0, 0.0, 1.0, 1.0),
+            None => MISSING,
             Some(t) => {
                 let at = |uv: Vec2| lookup(t, uv, self.interp, self.extension);
                 match self.projection {
+                    Projection::Flat if !self.tiles.is_empty() => match udim_tile(&self.tiles, Vec2::new(co.x, co.y)) {
+                        Some((k, uv)) => match textures.get(k as usize) {
+                            Some(tile) => lookup(tile, uv, self.interp, self.extension),
+                            None => MISSING,
+                        },
+                        None => MISSING,
+                    },
                     Projection::Flat => at(Vec2::new(co.x, co.y)),
                     Projection::Sphere => {
                         let p = (co - Vec3::splat(0.5)) * 2.0;
@@ -284,6 +309,34 @@ mod tests {
         // The cubic B-spline keeps a constant image constant (its weights sum to 1).
         let w: f32 = bspline(0.3).iter().sum();
         assert!((w - 1.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn clip_fades_out_past_the_edge_as_cycles() {
+        let t = tex();
+        // A quarter texel past the right edge, on the top row's centre: the linear filter
+        // weighs the edge texel (green) 1/4 against the transparent black outside, as Cycles'
+        // `interp_linear`; an edge cut at u = 1 gave 0 (2.5 % of the probe image's mean).
+        let fringe = lookup(&t, Vec2::new(1.0 + 0.125, 0.75), Interp::Linear, Extension::Clip);
+        assert!((fringe - Vec4::new(0.0, 0.25, 0.0, 0.25)).abs().max_element() < 1e-6, "{fringe}");
+        // Past half a texel every texel the filter reads is outside.
+        assert_eq!(lookup(&t, Vec2::new(1.3, 0.75), Interp::Linear, Extension::Clip), Vec4::ZERO);
+        // The cubic B-spline reaches a texel and a half out.
+        let cubic = lookup(&t, Vec2::new(1.5, 0.75), Interp::Cubic, Extension::Clip);
+        assert!(cubic.y > 0.0 && cubic.y < 0.1, "{cubic}");
+        assert_eq!(lookup(&t, Vec2::new(1.0, 0.75), Interp::Closest, Extension::Clip), Vec4::ZERO);
+    }
+
+    #[test]
+    fn udim_tiles_are_found_by_the_truncated_coordinates() {
+        let tiles = [(1001, 7), (1002, 8), (1011, 9)];
+        assert_eq!(udim_tile(&tiles, Vec2::new(1.25, 0.5)), Some((8, Vec2::new(0.25, 0.5))));
+        assert_eq!(udim_tile(&tiles, Vec2::new(0.5, 1.75)), Some((9, Vec2::new(0.5, 0.75))));
+        // Truncation, as Cycles' (int) cast: just below 0 is still tile 1001.
+        assert_eq!(udim_tile(&tiles, Vec2::new(-0.25, 0.5)), Some((7, Vec2::new(-0.25, 0.5))));
+        assert_eq!(udim_tile(&tiles, Vec2::new(2.5, 0.5)), None, "tile 1003 is absent");
+        assert_eq!(udim_tile(&tiles, Vec2::new(10.5, 0.5)), None, "u past the tenth column");
+        assert_eq!(udim_tile(&tiles, Vec2::new(-1.5, 0.5)), None);
     }
 
     #[test]

@@ -598,6 +598,9 @@ def test_every_shader_node_type_exports(addon, empty_scene, tmp_path):
         if kind == "ShaderNodeBsdfPrincipled":  # alone on the output: the exporter's own material
             assert graph is None
             continue
+        if kind == "ShaderNodeShaderToRGB":  # EEVEE-only: left out as Cycles, its input keeps its value
+            assert graph is None or kind not in {n["type"] for n in graph["nodes"]}, graph
+            continue
         assert graph is not None, kind
         assert kind in {n["type"] for n in graph["nodes"]}, (kind, graph["nodes"])
 

@@ -572,6 +572,24 @@ def add_object_target(scene):
     target.scale = (0.7, 0.7, 0.7)
 
 
+def shader_to_rgb(name):
+    """A maker: an Emission whose Color is a Shader to RGB node's of an orange Diffuse BSDF.
+    Shader to RGB is EEVEE-only: Cycles makes no node of it, so the Emission's own Color
+    (white, 0.5) stands. Before: the node was "not supported" and gave 0 (black: 0.0000 of
+    Cycles' mean). After: 1.0000."""
+    mat = new_material(name)
+    tree = mat.node_tree
+    diffuse = tree.nodes.new("ShaderNodeBsdfDiffuse")
+    diffuse.inputs["Color"].default_value = (0.8, 0.4, 0.2, 1.0)
+    convert = tree.nodes.new("ShaderNodeShaderToRGB")
+    tree.links.new(diffuse.outputs["BSDF"], convert.inputs["Shader"])
+    emission = tree.nodes.new("ShaderNodeEmission")
+    emission.inputs["Color"].default_value = (0.5, 0.5, 0.5, 1.0)
+    tree.links.new(convert.outputs["Color"], emission.inputs["Color"])
+    tree.links.new(emission.outputs["Emission"], tree.nodes["Material Output"].inputs["Surface"])
+    return mat
+
+
 def coloured_flat_scene(scene, material):
     """The flat scene with the plane's object colour set (Object Info Color reads it)."""
     flat_scene(scene, material)
@@ -704,6 +722,7 @@ CASES = {
     # A bare Emission shader (a light panel's usual material) is a graph too: it must still light
     # the floor, i.e. be a light source for next-event estimation, not only seen by the camera.
     "emission": (sphere_scene, single_shader("ShaderNodeEmission", Color=(1.0, 0.6, 0.3, 1.0), Strength=3.0), None),
+    "shader_to_rgb": (flat_scene, shader_to_rgb, None),
 }
 # Cycles ends a path at its transparent-bounce limit counting every crossing, so a camera ray
 # through the transparent sphere (two crossings) needs more than BOUNCES to reach the floor;

@@ -131,14 +131,14 @@ impl Loader<'_> {
             .decode()
             .map_err(|e| self.err(format!("{what}: cannot decode: {e}")))?;
         // 8-bit images stay 8-bit (4 B a texel); anything finer (EXR, HDR, 16-bit PNG) is
-        // kept as linear f32 (16 B), as Cycles keeps a float image.
+        // kept as f32 (16 B), as Cycles keeps a float image; an sRGB one stays encoded, to be
+        // decoded after filtering (`Texture::decode`), as Cycles' `compress_as_srgb`.
         let float = !matches!(
             decoded.color(),
             image::ColorType::L8 | image::ColorType::La8 | image::ColorType::Rgb8 | image::ColorType::Rgba8
         );
         self.budget.charge(format!("{what} ({w}×{h})"), texels * if float { 16 } else { 4 })?;
         let (texels, hdr) = if float {
-            let decode = |v: f32| if srgb { srgb_to_linear(v) } else { v };
             let hdr = decoded
                 .to_rgba32f()
                 .pixels()
@@ -146,7 +146,7 @@ impl Loader<'_> {
                     let [r, g, b, a] = p.0;
                     // A NaN or infinite texel (a broken EXR) would poison every sum it enters.
                     let clean = |v: f32| if v.is_finite() { v } else { 0.0 };
-                    glam::Vec4::new(clean(decode(r)), clean(decode(g)), clean(decode(b)), clean(a))
+                    glam::Vec4::new(clean(r), clean(g), clean(b), clean(a))
                 })
                 .collect();
             (Vec::new(), hdr)
@@ -159,8 +159,7 @@ impl Loader<'_> {
             width: w,
             height: h,
             texels,
-            // Float texels are linear already.
-            srgb: srgb && hdr.is_empty(),
+            srgb,
             hdr,
             wrap_s: crate::scene::texture::Wrap::Repeat,
             wrap_t: crate::scene::texture::Wrap::Repeat,
@@ -181,12 +180,6 @@ pub(crate) fn colorspace_is_srgb(name: &str) -> Option<bool> {
         "Non-Color" | "Linear Rec.709" | "Linear" => Some(false),
         _ => None,
     }
-}
-
-/// The sRGB transfer function decoded for a float value (Blender's piecewise curve,
-/// continued past 1 for HDR values).
-fn srgb_to_linear(c: f32) -> f32 {
-    if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
 }
 
 /// Triangles sampled per material for the estimate of a varying emission.

@@ -91,6 +91,25 @@ impl Compiler<'_> {
         Ok((texture, interp))
     }
 
+    /// An Image Texture node's UDIM tiles (`props.tiles`: [tile number, graph image] pairs) as
+    /// (tile number, scene texture) pairs; empty for an image without tiles.
+    fn udim_tiles(&self, i: usize) -> Result<Vec<(u32, u32)>, String> {
+        let Some(list) = self.desc(i).props.get("tiles") else { return Ok(Vec::new()) };
+        let bad = || self.err(i, "tiles must be [tile number 1001..=1100+, image index] pairs".to_string());
+        let list = list.as_array().ok_or_else(bad)?;
+        list.iter()
+            .map(|pair| {
+                let pair = pair.as_array().filter(|p| p.len() == 2).ok_or_else(bad)?;
+                let number = pair[0].as_u64().filter(|n| (1001..=u32::MAX as u64).contains(n)).ok_or_else(bad)?;
+                let k = pair[1].as_u64().ok_or_else(bad)?;
+                let texture = *self.images.get(k as usize).ok_or_else(|| {
+                    self.err(i, format!("tile image {k} is not in the graph's images ({})", self.images.len()))
+                })?;
+                Ok((number as u32, texture))
+            })
+            .collect()
+    }
+
     /// Emits an input, vector or texture node; false for an unknown type.
     pub(super) fn source_node(&mut self, i: usize, kind: &str) -> Result<bool, String> {
         match kind {
@@ -865,6 +884,7 @@ impl Compiler<'_> {
                 self.all_const = false;
                 let op = ImageOp {
                     texture,
+                    tiles: Vec::new(),
                     interp,
                     extension: Extension::Repeat,
                     projection,
@@ -904,7 +924,11 @@ impl Compiler<'_> {
                 let color = self.out(i, "Color", Ty::Color);
                 let alpha = self.out(i, "Alpha", Ty::Float);
                 self.all_const = false;
-                let op = ImageOp { texture, interp, extension, projection, blend, vector, normal, color, alpha };
+                let tiles = self.udim_tiles(i)?;
+                if !tiles.is_empty() && projection != Projection::Flat {
+                    self.warn(i, "a UDIM image with a projection other than Flat reads its first tile only");
+                }
+                let op = ImageOp { texture, tiles, interp, extension, projection, blend, vector, normal, color, alpha };
                 self.ops.push(Op::Image(Box::new(op)));
             }
             _ => return Ok(false),
