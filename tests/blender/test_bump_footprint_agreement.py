@@ -21,11 +21,16 @@ Measured (pytest -s, 32 samples, seeds 1 and 2; Caustic/Cycles image mean, block
 * after (footprint x Filter Width in Cycles' frame): high detail 1.0000 (0/192, worst 0.40x)
   and 0.9993 (0/768, worst 0.42x); low detail 1.0014 (0/192, worst 0.22x) and 1.0015 (1/768,
   worst 1.22x at the same block (23, 23)); Filter Width 1: 1.0014 (0/192, worst 0.25x).
-The low-detail 128x96 block is not the footprint's: it was over before too, and it stays over
-(1.47x) at 128 samples and any seeds; it lies in a smooth dark valley at the frame's bottom
-edge, where the bumped normal tilts steeply (Distance 0.3 x the Noise gradient), 3-5 % darker
-pixel by pixel than Cycles (a difference of the steeply tilted normal's shading, its own
-issue). It is kept as a strict known difference.
+The low-detail 128x96 block was not the footprint's: it lies in a smooth dark valley at the
+frame's bottom edge, where the bumped normal tilts so steeply that the viewer's mirror image about
+it points below the surface. Cycles bends the Principled BSDF's specular normal towards the
+geometric one there (`maybe_ensure_valid_specular_reflection`), the diffuse keeping the bumped
+normal under the bump terminator term; Caustic's node path did neither (the two were not measured
+separately: the terminator term only darkens, so the bend is what restores the specular
+lobe lost below the surface). Before: the block 0.969 of Cycles (0.2821 against 0.2911). With both, as Cycles
+(`shader/shade.rs`): 1.0003, 0/768 blocks over, worst 0.18x.
+A Filter Width linked to a Value node of 1 (socket 0.1): Cycles folds the constant into the width;
+main read the socket's 0.1: 0.8797 (190/192 blocks over, worst 3.57x); now 1.0003 (0/192).
 """
 
 import math
