@@ -10,6 +10,7 @@ use super::program::with_registers;
 use crate::bsdf::{Bsdf, PbrBsdf};
 use crate::math::{Frame, Rgb};
 use crate::scene::Scene;
+use crate::scene::bent_normal::valid_reflection_normal;
 use crate::scene::hit::{ShadingPoint, SurfaceHit};
 use crate::scene::light_path::LightPath;
 use crate::scene::mesh::Mesh;
@@ -116,11 +117,24 @@ pub fn shade_nodes(
         }
         None => s.ns,
     };
-    let cos_o = n.dot(wo);
-    if cos_o < 1e-3 {
-        n = (n + wo * (1e-3 - cos_o)).normalize_or(s.ng);
-        if n.dot(wo) <= 0.0 {
-            n = s.ng;
+    // Cycles keeps a Principled BSDF's reflection valid by bending its specular normal
+    // towards the geometric one (`maybe_ensure_valid_specular_reflection`), while its diffuse
+    // closure keeps the unbent normal and is shadowed by the bump terminator term against the
+    // interpolated normal. Without the bend, a steeply bumped normal sends the specular lobe
+    // below the surface, where it is lost (a valley 3-5 % darker than Cycles). Only a graph
+    // whose closures are all Principled gets this: the other closures share the frame and
+    // would turn with it (their Diffuse BSDFs must not).
+    let principled_only = c.pbr_w > 0.0 && c.mix.n == 0;
+    let unbent = n;
+    if principled_only {
+        n = valid_reflection_normal(s.ng, wo, n);
+    } else {
+        let cos_o = n.dot(wo);
+        if cos_o < 1e-3 {
+            n = (n + wo * (1e-3 - cos_o)).normalize_or(s.ng);
+            if n.dot(wo) <= 0.0 {
+                n = s.ng;
+            }
         }
     }
     // An anisotropic Principled BSDF's widths lie along its tangent: the frame's X axis.
@@ -138,6 +152,10 @@ pub fn shade_nodes(
     let bsdf = if c.pbr_w > 0.0 {
         let mut params = c.principled_params(!s.front);
         params.coat_normal = c.coat_normal_world().map(|m| frame.to_local(if m.dot(s.ng) < 0.0 { -m } else { m }));
+        if principled_only {
+            params.diffuse_normal = (n != unbent).then(|| frame.to_local(unbent));
+            params.smooth_normal = (unbent != s.ns).then(|| frame.to_local(s.ns));
+        }
         let pbr = PbrBsdf::from_params(&params);
         let w = c.pbr_w * keep;
         if c.mix.n == 0 && (w - 1.0).abs() < 1e-6 {

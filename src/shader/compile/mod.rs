@@ -330,6 +330,17 @@ fn is_closure_node(kind: &str) -> bool {
     )
 }
 
+/// The display name of an EEVEE-only shader node, which Cycles' sync leaves out of its graph
+/// (the inputs it feeds read nothing: a black shader, a zero value); None for any other type.
+/// Shader to RGB is handled by the add-on (the input it feeds keeps its own value).
+fn eevee_only(kind: &str) -> Option<&'static str> {
+    match kind {
+        "ShaderNodeEeveeSpecular" => Some("Specular BSDF"),
+        "ShaderNodeShaderToRGB" => Some("Shader to RGB"),
+        _ => None,
+    }
+}
+
 fn closure_output(kind: &str) -> &'static str {
     match kind {
         "ShaderNodeEmission" => "Emission",
@@ -415,22 +426,52 @@ impl<'a> Compiler<'a> {
         ))
     }
 
-    /// A Bump node's Filter Width: its value (Cycles compiles it into the offset
-    /// evaluations as a constant, so a link is not followed: warned, the socket's own value
-    /// taken); Blender's default where the file has none (older add-ons).
+    /// A Bump node's Filter Width. Cycles compiles it into the offset evaluations as a
+    /// constant: a link whose value folds to a constant (a Value node, math on constants)
+    /// gives that constant, as Cycles' constant folding does; a link that varies over the
+    /// surface is not followed (warned) and the socket's own value is taken, as Cycles
+    /// takes it (both measured in Blender 5.0). Blender's default where the file has none
+    /// (older add-ons).
     fn filter_width(&mut self, i: usize) -> Result<f32, String> {
-        let v = match self.value(i, "Filter Width") {
+        let own = match self.value(i, "Filter Width") {
             None => BUMP_FILTER_WIDTH,
             Some(Value::Number(n)) => n.as_f64().unwrap_or(0.0) as f32,
             Some(other) => return Err(self.err(i, format!("input 'Filter Width' expects a number, not {other}"))),
         };
+        let v = match self.source(i, "Filter Width")? {
+            None => own,
+            Some(s) => match self.folded_float(s) {
+                Some(v) => v,
+                None => {
+                    self.warn(
+                        i,
+                        format!(
+                            "a Filter Width linked to a value that varies over the surface is read as the \
+                             socket's own value {own}, as Cycles reads it"
+                        ),
+                    );
+                    own
+                }
+            },
+        };
         if !v.is_finite() {
             return Err(self.err(i, "input 'Filter Width' is not a finite number".to_string()));
         }
-        if self.desc(i).inputs.get("Filter Width").is_some_and(|d| d.link.is_some()) {
-            self.warn(i, format!("a linked Filter Width is read as its own value {v} (Cycles reads it so)"));
-        }
         Ok(v)
+    }
+
+    /// The value of a constant socket as a float input reads it (Cycles' colour and vector
+    /// to float conversions); None when it varies or is a shader.
+    fn folded_float(&self, s: Sock) -> Option<f32> {
+        let r = s.reg as usize;
+        match s.ty {
+            Ty::Float if self.is_const(s.reg, 1) => Some(self.init[r]),
+            Ty::Color if self.is_const(s.reg, 3) => {
+                Some(crate::math::luminance(Vec3::new(self.init[r], self.init[r + 1], self.init[r + 2])))
+            }
+            Ty::Vector if self.is_const(s.reg, 3) => Some((self.init[r] + self.init[r + 1] + self.init[r + 2]) / 3.0),
+            _ => None,
+        }
     }
 
     fn value(&self, i: usize, id: &str) -> Option<&'a Value> {
@@ -582,7 +623,11 @@ impl<'a> Compiler<'a> {
         self.ranges[i] = (mark as u32, self.ops.len() as u32);
         if !known {
             self.unknown[i] = true;
-            self.warn(i, "this node type is not supported: its outputs are 0");
+            let msg = match eevee_only(kind) {
+                Some(what) => format!("{what} is EEVEE-only: Cycles renders nothing of it either (its output is 0)"),
+                None => "this node type is not supported: its outputs are 0".to_string(),
+            };
+            self.warn(i, msg);
             return Ok(());
         }
         // Fold a node whose inputs are all constant and that reads nothing of the point.
@@ -869,5 +914,51 @@ mod tests {
         let c = compiled(Value::Array(nodes), json!([last.0, last.1]));
         assert!(c.warnings.iter().any(|w| w.contains("5 BSDF lobes")), "{:?}", c.warnings);
         assert!(c.warnings.iter().any(|w| w.contains("2 Principled BSDFs")), "{:?}", c.warnings);
+    }
+
+    /// A Bump's Filter Width linked to a constant (a Value node, math on it) is that constant,
+    /// as Cycles folds it; linked to a value that varies over the surface, the socket's own
+    /// value, named in a warning, as Cycles reads it (both measured in Blender 5.0).
+    #[test]
+    fn a_linked_filter_width_is_read_as_cycles_reads_it() {
+        let with_width = |width: Value| {
+            compiled(
+                json!([
+                    {"name": "tc", "type": "ShaderNodeTexCoord"},
+                    {"name": "noise", "type": "ShaderNodeTexNoise", "inputs": {"Vector": {"link": [0, "Object"]}}},
+                    {"name": "V", "type": "ShaderNodeValue", "props": {"value": 0.5}, "inputs": {}},
+                    {"name": "M", "type": "ShaderNodeMath", "props": {"operation": "MULTIPLY"},
+                     "inputs": {"Value": {"link": [2, "Value"]}, "Value_001": {"value": 2.0}}},
+                    {"name": "bump", "type": "ShaderNodeBump",
+                     "inputs": {"Height": {"link": [1, "Fac"]}, "Filter Width": width}},
+                    {"name": "D", "type": "ShaderNodeBsdfDiffuse", "inputs": {"Normal": {"link": [4, "Normal"]}}}
+                ]),
+                json!([5, "BSDF"]),
+            )
+        };
+        let width_of = |c: &Compiled| {
+            c.program.ops.iter().find_map(|op| if let Op::Bump(b) = op { Some(b.filter_width) } else { None }).unwrap()
+        };
+        let folded = with_width(json!({"value": 0.1, "link": [3, "Value"]}));
+        assert_eq!(width_of(&folded), 1.0);
+        assert!(folded.warnings.is_empty(), "{:?}", folded.warnings);
+        let varying = with_width(json!({"value": 0.3, "link": [1, "Fac"]}));
+        assert_eq!(width_of(&varying), 0.3);
+        assert!(varying.warnings.iter().any(|w| w.contains("varies over the surface")), "{:?}", varying.warnings);
+        assert_eq!(width_of(&with_width(json!({"value": 0.7}))), 0.7);
+    }
+
+    /// EEVEE-only shader nodes are named as such: Cycles leaves them out of its graph, so it
+    /// renders nothing of them either.
+    #[test]
+    fn eevee_only_nodes_are_named_as_eevee_only() {
+        let c = compiled(json!([{"name": "S", "type": "ShaderNodeEeveeSpecular", "inputs": {}}]), json!([0, "BSDF"]));
+        assert!(
+            c.warnings
+                .iter()
+                .any(|w| w.contains("Specular BSDF is EEVEE-only") && w.contains("Cycles renders nothing")),
+            "{:?}",
+            c.warnings
+        );
     }
 }
