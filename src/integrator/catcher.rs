@@ -21,6 +21,7 @@ use super::SceneContext;
 use super::walk::PathState;
 use crate::math::Rgb;
 use crate::passes::{Aov, slot};
+use crate::sampling::PixelSampler;
 use crate::scene::Scene;
 use crate::scene::visibility::RayMask;
 use std::borrow::Cow;
@@ -36,6 +37,10 @@ pub struct Split {
     /// The world seen directly by the camera ray (throughput included), for Cycles'
     /// background pass under an opaque film.
     pub background: Rgb,
+    /// The sample stream where the split camera segment began: the catcher pass replays
+    /// it, as Cycles' split copies the path's random state, so that with nothing on the
+    /// catcher both paths draw the same lights and bounces and the catcher stays clear.
+    pub stream: Option<PixelSampler>,
 }
 
 impl Default for Split {
@@ -48,7 +53,7 @@ impl Default for Split {
 impl Split {
     /// A path that splits when `allowed` and finds a catcher.
     pub fn new(allowed: bool) -> Self {
-        Split { allowed, at: None, background: Rgb::ZERO }
+        Split { allowed, at: None, background: Rgb::ZERO, stream: None }
     }
 }
 

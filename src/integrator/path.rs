@@ -120,7 +120,9 @@ impl PathIntegrator {
             // The catcher pass: the same camera segment again, in the scene of catchers
             // only; its own first-hit values are not the pixel's.
             let mut scratch = CameraSample::default();
-            let pass = self.trace(pass_ctx, pre, sampler, |_| 0.0, stats, &mut scratch, &mut Split::new(false), None);
+            let mut replay = split.stream.unwrap_or(*sampler);
+            let pass =
+                self.trace(pass_ctx, pre, &mut replay, |_| 0.0, stats, &mut scratch, &mut Split::new(false), None);
             let behind = match self.transparent_background {
                 true => Rgb::ZERO,
                 false => pre.escaped_radiance(ctx).map_or(Rgb::ZERO, |le| pre.beta * le),
@@ -288,6 +290,8 @@ impl PathIntegrator {
             chain.is_some_and(|k| k > 0) && light.is_some_and(|l| crate::integrator::linking::merged_in_media(ctx, l))
         };
         loop {
+            // Where a camera segment that may split at a catcher starts in the stream.
+            let stream = (split.allowed && st.depth == 0).then_some(*sampler);
             // Bounce dimensions, drawn up front so that their positions are fixed.
             let [u_light, u_lx, u_ly, u_lobe] = sampler.next_4d();
             let [u_dx, u_dy, u_rr, u_alpha] = sampler.next_4d();
@@ -451,6 +455,7 @@ impl PathIntegrator {
                 && ctx.is_catcher(hit.tri)
             {
                 split.at = Some((pre, radiance));
+                split.stream = stream;
                 grouping = false;
             }
             let wo = -st.dir;

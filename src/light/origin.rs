@@ -278,6 +278,9 @@ pub fn emitted(scene: &Scene, lp: &LightPoint, w: Vec3) -> Rgb {
         Light::Spot { direction, cos_inner, cos_outer, smooth, axes, .. } => {
             lp.le * spot_attenuation(crate::light::spot_cos(*direction, axes, w), *cos_inner, *cos_outer, *smooth)
         }
+        // Blender's Spread narrows an area light's emission (1 without spread, 0 behind);
+        // light subpaths leave cosine-distributed, so the falloff weighs what they carry.
+        Light::Area(a) => lp.le * a.spread_attenuation(w.dot(lp.n)),
         _ => {
             let c = w.dot(lp.n);
             if c > 0.0 || (lp.two_sided && c < 0.0) { lp.le } else { Rgb::ZERO }

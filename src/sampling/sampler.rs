@@ -10,7 +10,7 @@ use glam::Vec2;
 
 /// The Sobol stream of one pixel sample; dimensions are drawn four at a time
 /// (`sobol_burley::sample_4d`'s points, computed from `sobol.rs`' tables).
-#[derive(Clone, Debug)]
+#[derive(Clone, Copy, Debug)]
 pub struct PixelSampler {
     pixel_seed: u32,
     index: u32,

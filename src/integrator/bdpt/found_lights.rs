@@ -160,7 +160,10 @@ impl BdptIntegrator {
                         continue;
                     }
                     match a.intersect(org, dir, tmax) {
-                        Some(t) if (-dir).dot(a.normal) > 0.0 => (t, a.normal, a.radiance),
+                        // Spread's falloff toward the camera vertex, as the path tracer's `emission`.
+                        Some(t) if (-dir).dot(a.normal) > 0.0 => {
+                            (t, a.normal, a.radiance * a.spread_attenuation((-dir).dot(a.normal)))
+                        }
                         _ => continue,
                     }
                 }
