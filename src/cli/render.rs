@@ -174,6 +174,16 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         reporter.warning(&w);
         run_warnings.push(w);
     }
+    // Spots enclosing surfaces: lit from the whole sphere, where Cycles drops some of it.
+    if let Some(w) = crate::light::inside::spot_warning(&scene) {
+        reporter.warning(&w);
+        run_warnings.push(w);
+    }
+    // They emit from sphere lights outward only; Cycles lights the surfaces inside them too.
+    if let Some(w) = light_tracing.and_then(|name| crate::light::inside::warning(&scene, name)) {
+        reporter.warning(&w);
+        run_warnings.push(w);
+    }
     // Every integrator splits camera paths at shadow catchers (`integrator::catcher`).
     if res.passes.asks_shader_aovs() && scene.shader_aovs.channels == 0 {
         let w = "the shader AOVs were asked for, but the scene declares none: none is written".to_string();

@@ -4,7 +4,7 @@
 
 use super::{SceneContext, power_heuristic};
 use crate::light::light_graph::graph_factor;
-use crate::light::{area_to_solid_angle, intersect_sphere, sphere_cos_max, sphere_mask};
+use crate::light::{area_to_solid_angle, intersect_sphere_light, sphere_light_pdf, sphere_mask};
 use crate::math::Rgb;
 use crate::sampling::warp::uniform_cone_pdf;
 use crate::scene::light_path::LightPath;
@@ -113,12 +113,13 @@ impl<'a> SceneContext<'a> {
                 sum += radiance * w;
                 each(index, radiance * w);
                 any = true;
-            } else if let Some(t) = intersect_sphere(org, dir, center, radius, tmax) {
+            } else if let Some(t) = intersect_sphere_light(org, dir, center, radius, tmax) {
+                // From inside the ball the ray finds the far side, as Cycles' does.
                 let w = if prev_pdf == 0.0 {
                     1.0
                 } else {
-                    let light_pdf = sphere_cos_max((center - prev_p).length(), radius)
-                        .map_or(0.0, |c| self.lights.pmf(prev_p, prev_n, index) * uniform_cone_pdf(c));
+                    let light_pdf =
+                        self.lights.pmf(prev_p, prev_n, index) * sphere_light_pdf((center - prev_p).length(), radius);
                     power_heuristic(prev_pdf, light_pdf)
                 };
                 let q = org + dir * t;

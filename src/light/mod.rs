@@ -9,6 +9,7 @@
 
 pub mod emit;
 pub mod environment;
+pub mod inside;
 pub mod light_graph;
 pub mod media_emit;
 pub mod origin;
@@ -541,6 +542,33 @@ pub fn intersect_sphere(o: Vec3, d: Vec3, center: Vec3, radius: f32, tmax: f32) 
     }
     let t = -b - disc.sqrt();
     (t > 0.0 && t < tmax).then_some(t)
+}
+
+/// Distance along unit `d` from `o` to a sphere light as Cycles finds it: the near side
+/// from outside, the far side from a ray origin inside the ball (lights are not closed
+/// surfaces to Cycles: a point inside a sphere light sees its emission all around).
+#[inline]
+pub fn intersect_sphere_light(o: Vec3, d: Vec3, center: Vec3, radius: f32, tmax: f32) -> Option<f32> {
+    let oc = o - center;
+    let c = oc.length_squared() - radius * radius;
+    if c > 0.0 {
+        return intersect_sphere(o, d, center, radius, tmax);
+    }
+    let b = oc.dot(d);
+    // Inside, the discriminant b² - c is never negative: the far root is always there.
+    let t = -b + (b * b - c).max(0.0).sqrt();
+    (t > 0.0 && t < tmax).then_some(t)
+}
+
+/// Solid-angle density of next-event estimation's directions from a point inside a sphere
+/// light: uniform over the sphere of directions (1 / 4π).
+pub const INSIDE_SPHERE_PDF: f32 = crate::sampling::warp::UNIFORM_SPHERE_PDF;
+
+/// Next-event estimation's solid-angle density of a sphere light's directions from a point
+/// `dist` from its centre: the cone of its cap from outside, uniform from inside.
+#[inline]
+pub fn sphere_light_pdf(dist: f32, radius: f32) -> f32 {
+    sphere_cos_max(dist, radius).map_or(INSIDE_SPHERE_PDF, crate::sampling::warp::uniform_cone_pdf)
 }
 
 /// Cosine of the half angle a sphere subtends from a point at distance `dist` (None inside).

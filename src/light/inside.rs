@@ -1,0 +1,138 @@
+//! Sphere lights that enclose surfaces. Cycles lights a point inside a sphere light's ball
+//! from every direction (`light/point.h`: the sphere's far side is seen from inside), which
+//! the path tracer follows (`sample.rs`, `integrator::emission`). The integrators that start
+//! paths on the lights emit from the sphere outward only, and BDPT's and VCM's camera-side
+//! strategies weigh such paths against those light subpaths: for them this light is named.
+
+use crate::light::Light;
+use crate::scene::Scene;
+use glam::Vec3;
+
+/// Squared distance from `p` to the triangle `a b c` (the closest point found by the
+/// region of the triangle's plane `p` projects into).
+fn distance2_to_triangle(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> f32 {
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return ap.length_squared();
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return bp.length_squared();
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return (p - (a + ab * (d1 / (d1 - d3)))).length_squared();
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return cp.length_squared();
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return (p - (a + ac * (d2 / (d2 - d6)))).length_squared();
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0 {
+        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return (p - (b + (c - b) * w)).length_squared();
+    }
+    let denom = 1.0 / (va + vb + vc);
+    (p - (a + ab * (vb * denom) + ac * (vc * denom))).length_squared()
+}
+
+/// Indices of the sphere lights (Soft Falloff off) whose ball holds part of a mesh surface.
+pub fn enclosing_spheres(scene: &Scene) -> Vec<usize> {
+    let m = &scene.mesh;
+    scene
+        .lights
+        .iter()
+        .enumerate()
+        .filter_map(|(i, l)| match l {
+            Light::Sphere { center, radius, soft: false, .. } => {
+                let r2 = radius * radius;
+                m.triangles
+                    .iter()
+                    .any(|t| {
+                        let [a, b, c] = t.map(|v| m.positions[v as usize]);
+                        distance2_to_triangle(*center, a, b, c) < r2
+                    })
+                    .then_some(i)
+            }
+            _ => None,
+        })
+        .collect()
+}
+
+/// The warning for `integrator` (BDPT, VCM, Jensen's photon mapping, SPPM) when a sphere
+/// light encloses surfaces, naming the lights; None otherwise.
+pub fn warning(scene: &Scene, integrator: &str) -> Option<String> {
+    let lights = enclosing_spheres(scene);
+    let name = |i: usize| scene.report.lights.get(i).map_or_else(|| format!("light {i}"), |r| format!("'{}'", r.name));
+    (!lights.is_empty()).then(|| {
+        format!(
+            "sphere light(s) {} (Soft Falloff off) enclose surfaces, which Cycles lights from inside the sphere: \
+             {integrator} emits from the sphere outward only, so the light inside differs from the path tracer's \
+             (and Cycles'); render with the path tracer",
+            lights.into_iter().map(name).collect::<Vec<_>>().join(", ")
+        )
+    })
+}
+
+/// The warning for every integrator when a spot with a radius (Soft Falloff off) encloses
+/// surfaces: Caustic lights them from every direction unmasked, by next-event estimation
+/// and BSDF-sampled rays alike, where Cycles' BSDF-sampled rays find a spot's sphere only
+/// moving toward its centre (`spot_light_intersect` is one-sided) while its next-event
+/// estimation samples all around: Cycles drops those rays' MIS share, so it renders the
+/// surfaces inside darker (by an amount that depends on its sampling densities).
+pub fn spot_warning(scene: &Scene) -> Option<String> {
+    let name = |i: usize| scene.report.lights.get(i).map_or_else(|| format!("light {i}"), |r| format!("'{}'", r.name));
+    let spots: Vec<String> = enclosing_spheres(scene)
+        .into_iter()
+        .filter(|&i| matches!(scene.lights[i], Light::Sphere { spot: Some(_), .. }))
+        .map(name)
+        .collect();
+    (!spots.is_empty()).then(|| {
+        format!(
+            "spot light(s) {} with a radius (Soft Falloff off) enclose surfaces: Caustic lights them from the whole \
+             sphere, Cycles drops the share of its BSDF-sampled rays that leave the spot's centre, so they render \
+             brighter than in Cycles (1.16x the image mean in tests/blender/test_sphere_light_inside.py)",
+            spots.join(", ")
+        )
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The closest point of a triangle in each of its seven regions, against brute force
+    /// over a fine barycentric grid.
+    #[test]
+    fn distance_to_triangle_matches_brute_force() {
+        let (a, b, c) = (Vec3::new(0.0, 0.0, 0.0), Vec3::new(2.0, 0.0, 0.0), Vec3::new(0.5, 1.5, 0.3));
+        let n = 400;
+        for p in [
+            Vec3::new(-1.0, -1.0, 0.5),
+            Vec3::new(3.0, -0.5, -0.2),
+            Vec3::new(0.4, 3.0, 1.0),
+            Vec3::new(1.0, -1.0, 0.0),
+            Vec3::new(-1.0, 1.0, 0.0),
+            Vec3::new(2.0, 1.5, 0.4),
+            Vec3::new(0.8, 0.5, 1.0),
+        ] {
+            let mut best = f32::INFINITY;
+            for i in 0..=n {
+                for j in 0..=(n - i) {
+                    let (u, v) = (i as f32 / n as f32, j as f32 / n as f32);
+                    best = best.min((p - (a + (b - a) * u + (c - a) * v)).length_squared());
+                }
+            }
+            let got = distance2_to_triangle(p, a, b, c);
+            // The grid's spacing (≤ 2/400 per axis) bounds brute force's excess distance.
+            assert!(got <= best + 1e-6 && best.sqrt() - got.sqrt() < 0.02, "{p}: {got} vs {best}");
+        }
+    }
+}
