@@ -423,27 +423,27 @@ mod tests {
     /// The majorant built slab by slab, with voxels where every grid reads zero given the
     /// graph's background value, equals its definition cell for cell (the largest σt of the
     /// graph run at every voxel whose support reaches the cell, each voxel run alone), on a
-    /// sparse grid whose graph is not zero at zero (Map Range 0 ↦ 0.7) and a second grid that
-    /// is non-zero where the first is zero, over dims that leave a last cell layer past the
-    /// ring of background voxels.
+    /// sparse grid whose graph is largest where both grids are zero (a falling Map Range of the
+    /// first, minus the second, into a Scatter and an Absorption), over dims that leave a last cell layer past the ring of background
+    /// voxels.
     #[test]
     fn the_slab_majorant_is_the_per_voxel_definition() {
         let dims = [19u32, 9, 17];
         let n = (dims[0] * dims[1] * dims[2]) as usize;
         let mut s = 0x2545_f491_4f6c_dd1du64;
-        let sparse = |s: &mut u64| if uniform(s) < 0.8 { 0.0 } else { 4.0 * uniform(s) - 1.0 };
+        let sparse = |s: &mut u64| if uniform(s) < 0.8 { 0.0 } else { 2.5 * uniform(s) + 0.5 };
         let a: Vec<f32> = (0..n).map(|_| sparse(&mut s)).collect();
         let b: Vec<f32> = (0..n).map(|_| sparse(&mut s)).collect();
         let nodes = json!([
             attribute("a"),
             attribute("b"),
             {"name": "Range", "type": "ShaderNodeMapRange",
-             "inputs": {"Value": {"value": 0.0, "link": [0, "Fac"]}, "From Min": {"value": -1.0}, "From Max": {"value": 3.0},
-                        "To Min": {"value": 0.2}, "To Max": {"value": 2.2}}},
-            {"name": "Mul", "type": "ShaderNodeMath", "props": {"operation": "MULTIPLY"},
-             "inputs": {"Value": {"value": 0.0, "link": [1, "Fac"]}, "Value_001": {"value": 0.0, "link": [1, "Fac"]}}},
+             "inputs": {"Value": {"value": 0.0, "link": [0, "Fac"]}, "From Min": {"value": 0.0}, "From Max": {"value": 3.0},
+                        "To Min": {"value": 2.0}, "To Max": {"value": 0.1}}},
+            {"name": "Sub", "type": "ShaderNodeMath", "props": {"operation": "SUBTRACT"},
+             "inputs": {"Value": {"value": 0.0, "link": [2, "Result"]}, "Value_001": {"value": 0.0, "link": [1, "Fac"]}}},
             {"name": "S", "type": "ShaderNodeVolumeScatter",
-             "inputs": {"Density": {"value": 1.0, "link": [2, "Result"]}, "Color": {"value": [0.9, 0.6, 0.3, 1.0]}}},
+             "inputs": {"Density": {"value": 1.0, "link": [3, "Value"]}, "Color": {"value": [0.9, 0.6, 0.3, 1.0]}}},
             {"name": "A", "type": "ShaderNodeVolumeAbsorption",
              "inputs": {"Density": {"value": 1.0, "link": [3, "Value"]}, "Color": {"value": [0.2, 0.5, 0.9, 1.0]}}},
             {"name": "Add", "type": "ShaderNodeAddShader",
