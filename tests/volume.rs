@@ -221,3 +221,84 @@ fn homogeneous_blackbody_emission_reaches_equilibrium() {
         }
     }
 }
+
+/// An Attribute node reading grid `name` into a Volume Scatter's Density through Math
+/// Power `power`: the graph of a volume object (`CAUSTIC_volume.graph`).
+fn attribute_nodes(names: &[String], power: f32) -> Value {
+    let mut nodes: Vec<Value> = names
+        .iter()
+        .map(|n| json!({"name": n, "type": "ShaderNodeAttribute", "props": {"attribute_name": n, "attribute_type": "GEOMETRY"}, "inputs": {}}))
+        .collect();
+    // The attributes summed, raised to `power`.
+    let mut last = (0usize, "Fac");
+    for i in 1..names.len() {
+        nodes.push(json!({"name": format!("Add{i}"), "type": "ShaderNodeMath", "props": {"operation": "ADD"},
+            "inputs": {"Value": {"value": 0.0, "link": [last.0, last.1]}, "Value_001": {"value": 0.0, "link": [i, "Fac"]}}}));
+        last = (nodes.len() - 1, "Value");
+    }
+    nodes.push(json!({"name": "Pow", "type": "ShaderNodeMath", "props": {"operation": "POWER"},
+        "inputs": {"Value": {"value": 0.0, "link": [last.0, last.1]}, "Value_001": {"value": power}}}));
+    let pow = nodes.len() - 1;
+    nodes.push(json!({"name": "S", "type": "ShaderNodeVolumeScatter",
+        "inputs": {"Density": {"value": 1.0, "link": [pow, "Value"]}, "Color": {"value": [0.8, 0.8, 0.8, 1.0]}}}));
+    let root = nodes.len() - 1;
+    json!({"name": "Smoke", "uri": "v.cvol", "matrix": identity(), "density_grid": null, "shader": shader(),
+           "graph": {"version": 1, "output": {}, "nodes": nodes}, "graph_shader": root})
+}
+
+/// A file of `count` 2×2×2 grids named g0, g1, … of value `value`.
+fn grids_file(count: usize, value: f32) -> GridFile {
+    let mut f = density_file([2, 2, 2], vec![value; 8]);
+    f.grids = (0..count).map(|i| NamedGrid { name: format!("g{i}"), components: 1, values: vec![value; 8] }).collect();
+    f
+}
+
+/// A volume object's graph on bad input: a NaN voxel and a file of more grids than the format
+/// holds are refused naming the object and the grid (exit 3); a graph reading more attributes
+/// than a voxel holds, and one whose extinction overflows to infinity at a voxel, are refused
+/// naming the object; a graph naming a grid the file lacks renders it as 0 with a warning
+/// naming the object and the grid; a file of 16 grids (the most a graph reads) renders.
+#[test]
+fn bad_graph_volumes_are_refused_or_named() {
+    let names = |n: usize| (0..n).map(|i| format!("g{i}")).collect::<Vec<_>>();
+    let mut nan = grids_file(2, 1.0);
+    nan.grids[1].values[5] = f32::INFINITY;
+    let cases: [(&str, GridFile, Value, &str); 4] = [
+        (
+            "infinite voxel",
+            nan,
+            attribute_nodes(&names(2), 1.0),
+            "'Smoke': volume grid file 'v.cvol': grid 'g1': voxel (1, 0, 1) is inf",
+        ),
+        (
+            "17 grids",
+            grids_file(17, 1.0),
+            attribute_nodes(&names(2), 1.0),
+            "'Smoke': volume grid file 'v.cvol': 17 grids (1..=16",
+        ),
+        (
+            "17 attributes",
+            grids_file(16, 1.0),
+            attribute_nodes(&names(17), 1.0),
+            "'Smoke': its graph reads 17 attributes",
+        ),
+        (
+            "overflow",
+            grids_file(1, 1e20),
+            attribute_nodes(&names(1), 3.0),
+            "'Smoke': its graph gives a non-finite extinction inf at voxel",
+        ),
+    ];
+    for (what, file, v, needle) in cases {
+        let r = render_with_file(&file.to_bytes(), v);
+        assert_eq!(r.code, Some(3), "{what}: {}", r.stderr);
+        let msg = r.error_message().unwrap_or_default();
+        assert!(msg.contains(needle), "{what}: {msg}");
+    }
+    let mut wanted = names(16);
+    wanted[15] = "heat".into();
+    let r = render_with_file(&grids_file(16, 0.5).to_bytes(), attribute_nodes(&wanted, 1.0));
+    assert_eq!(r.code, Some(0), "{}", r.stderr);
+    assert!(r.stderr.contains("'Smoke': its graph reads the grid 'heat', which is not in 'v.cvol'"), "{}", r.stderr);
+    assert!(!r.stderr.contains("'g14'"), "{}", r.stderr);
+}

@@ -142,7 +142,7 @@ def export_scene(depsgraph, folder, settings, motion=True, viewport=False, only=
     if only is not None:
         return filepath, state
     state.warnings.extend(scene_warnings(depsgraph))
-    state.warnings.extend(attach_volumes(depsgraph, folder, filepath))
+    state.warnings.extend(attach_volumes(depsgraph, folder, filepath, state.image_writer(folder)))
     try:
         add_curves(filepath, depsgraph, state.warnings)
     except (OSError, ValueError, KeyError, AttributeError) as err:

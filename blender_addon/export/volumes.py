@@ -27,6 +27,7 @@ VOLUME_EXTENSION = "CAUSTIC_volume"
 FOLDER = "caustic_volumes"
 MAGIC = b"CAUSTICV"
 VERSION = 1
+MAX_GRIDS = 16  # grids per file (src/medium/grid_file.rs)
 
 # Blender (Z up) to glTF (Y up): (x, y, z) -> (x, z, -y), as the glTF exporter converts.
 _TO_GLTF = ((1.0, 0.0, 0.0, 0.0), (0.0, 0.0, 1.0, 0.0), (0.0, -1.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))
@@ -284,12 +285,14 @@ def _usable(grid, kind, chosen, what, warnings):
     return True
 
 
-def volume_extension(depsgraph, folder):
+def volume_extension(depsgraph, folder, writer=None):
     """The root `CAUSTIC_volume` value for the depsgraph's volume objects (None without any),
-    writing their grid files into `folder`/caustic_volumes; and warnings."""
+    writing their grid files into `folder`/caustic_volumes; and warnings. `writer` is the
+    export's image writer: one writer names every image file, so that two images whose names
+    clean to the same file name do not overwrite each other (a surface would read the other)."""
     from .node_images import ImageWriter
     warnings, volumes, used = [], [], set()
-    writer = ImageWriter(folder)
+    writer = writer if writer is not None else ImageWriter(folder)
     for instance in depsgraph.object_instances:
         obj = instance.object
         if obj.type != "VOLUME":
@@ -327,6 +330,12 @@ def volume_extension(depsgraph, folder):
             present.add(name)
             if grid.activeVoxelCount() > 0 and grid not in chosen:
                 chosen.append(grid)
+        if len(chosen) > MAX_GRIDS:
+            # The grid file holds MAX_GRIDS grids (the most a graph reads, src/medium/grid_file.rs).
+            dropped = ", ".join(f"'{g.name}'" for g in chosen[MAX_GRIDS:])
+            warnings.append(f"{what}: its shader reads {len(chosen)} grids; Caustic holds {MAX_GRIDS}, so {dropped} "
+                            "read 0")
+            chosen = chosen[:MAX_GRIDS]
         if graph and not chosen:
             # A graph that reads no grid with voxels (constant shaders) fills the box of the
             # object's grids, as Cycles fills their active voxels.
@@ -358,11 +367,12 @@ def volume_extension(depsgraph, folder):
     return ({"volumes": volumes} if volumes else None), warnings
 
 
-def attach_volumes(depsgraph, folder, gltf_path):
+def attach_volumes(depsgraph, folder, gltf_path, writer=None):
     """Writes the volume objects' grid files and adds `CAUSTIC_volume` to the exported glTF at
-    `gltf_path` (the exporter has no hook for a root extension of our own); returns warnings."""
+    `gltf_path` (the exporter has no hook for a root extension of our own); returns warnings.
+    `writer`: the export's image writer (`volume_extension`)."""
     import json
-    value, warnings = volume_extension(depsgraph, folder)
+    value, warnings = volume_extension(depsgraph, folder, writer)
     if value is None:
         return warnings
     with open(gltf_path, encoding="utf-8") as f:

@@ -30,8 +30,9 @@ pub const VERSION: u32 = 1;
 /// Largest side (voxels) accepted: far beyond a production smoke simulation (~1000),
 /// small enough that index arithmetic in f32 stays exact.
 pub const MAX_SIDE: u32 = 1 << 15;
-/// Most grids per file.
-pub const MAX_GRIDS: u32 = 8;
+/// Most grids per file: as many as a volume object's graph reads
+/// (`volume_grids::MAX_GRID_SLOTS`), so that every grid it names can be in the file.
+pub const MAX_GRIDS: u32 = 16;
 
 /// One named grid of a file.
 #[derive(Clone, Debug)]
@@ -127,7 +128,7 @@ impl GridFile {
             }
             headers.push((name, components));
         }
-        // Sides ≤ 2^15 and ≤ 8 grids of ≤ 3 components: the product fits in u64.
+        // Sides ≤ 2^15 and ≤ 16 grids of ≤ 3 components: the product fits in u64.
         let voxels = dims.iter().map(|&d| d as u64).product::<u64>();
         let values: u64 = headers.iter().map(|(_, c)| voxels * *c as u64).sum();
         budget.charge(format!("volume grids of '{uri}' ({}×{}×{} voxels)", dims[0], dims[1], dims[2]), values * 4)?;

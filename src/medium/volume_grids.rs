@@ -149,13 +149,14 @@ impl VolumeGrids {
 /// The grid medium of volume object `name`: `dims` voxels placed by `world_from_index`, its
 /// coefficients the graph of `source` (whose `grids` are the object's) at each point; the
 /// majorant the voxel bound where `grid_only` (the graph reads nothing else), else sampled.
+/// Err names the first voxel where the graph's extinction is not finite.
 pub fn graph_grid_medium(
     name: String,
     dims: [u32; 3],
     world_from_index: Affine3A,
     source: ProceduralSource,
     grid_only: bool,
-) -> GridMedium {
+) -> Result<GridMedium, String> {
     let shader = VolumeShader {
         density: 1.0,
         color: Rgb::ONE,
@@ -169,62 +170,106 @@ pub fn graph_grid_medium(
     let mut g = GridMedium::new(name, dims, world_from_index, [None, None, None], shader);
     g.phase = source.volume.phase;
     g.procedural = Some(Box::new(source));
-    let (majorant, emits) = if grid_only { voxel_majorant(&g) } else { super::procedural::sampled_majorant(&g) };
+    let (majorant, emits) = if grid_only { voxel_majorant(&g)? } else { super::procedural::sampled_majorant(&g) };
     g.majorant = majorant;
     if emits {
         // `may_emit` reads the shader: mark the medium as emitting somewhere.
         g.shader.emission = Rgb::ONE;
     }
-    g
+    Ok(g)
+}
+
+/// Bytes [`voxel_majorant`] holds while it runs over a `dims` grid: one slab of CELL + 1
+/// voxel layers (σt and the emission flag per voxel), charged by the loader.
+pub fn majorant_scratch_bytes(dims: [u32; 3]) -> u64 {
+    (dims[0] as u64 + 2) * (dims[1] as u64 + 2) * (CELL as u64 + 1) * std::mem::size_of::<(f32, bool)>() as u64
+}
+
+/// Whether every slot reads the grids' zero background at this voxel.
+fn all_zero(values: &[Option<AttributeValue>]) -> bool {
+    values.iter().flatten().all(|v| v.vector == Vec3::ZERO)
 }
 
 /// Per cell: the largest max-channel σt of the graph over the voxels whose trilinear support
 /// reaches the cell (the voxels just outside the grid read its zero background), times
 /// 1 + [`ROUNDING`]; raised to one expected collision per cell crossing where one of those
 /// voxels emits, so that the tracking visits glowing space that does not attenuate (as
-/// `GridMedium::build_majorant`). And whether any voxel emits. The graph runs once per voxel.
-pub(super) fn voxel_majorant(g: &GridMedium) -> (Vec<f32>, bool) {
+/// `GridMedium::build_majorant`). And whether any voxel emits.
+///
+/// Cost: the graph is a function of the voxel's values alone, so it runs once for every voxel
+/// where all its grids read zero (a smoke's empty space, the ring of background voxels), and
+/// once per other voxel, in parallel. The voxels are visited one slab of cell layers at a time
+/// (CELL + 1 voxel layers, the top one kept as the next slab's bottom), so the scratch is
+/// [`majorant_scratch_bytes`], not a value per voxel of the grid.
+pub(super) fn voxel_majorant(g: &GridMedium) -> Result<(Vec<f32>, bool), String> {
     let src = g.procedural.as_deref().expect("a graph medium");
     let grids = src.grids.as_ref().expect("a volume object's grids");
     // Voxels −1 ..= dims along each axis: the domain's and one background voxel around it.
     let ext = g.dims.map(|d| d as usize + 2);
-    let per_voxel: Vec<(f32, bool)> = (0..ext[0] * ext[1] * ext[2])
-        .into_par_iter()
-        .map(|i| {
-            let v = [i % ext[0], i / ext[0] % ext[1], i / (ext[0] * ext[1])].map(|x| x as i64 - 1);
-            let p = g.world_from_index.transform_point3(Vec3::new(v[0] as f32, v[1] as f32, v[2] as f32));
-            let c = grids.at_voxel(v, |values| src.coefficients_with(p, Some(values), true));
-            ((c.sigma_a + c.sigma_s).max_element().max(0.0), c.emission.abs().max_element() > 0.0)
-        })
-        .collect();
+    let run = |v: [i64; 3], values: &[Option<AttributeValue>]| -> Result<(f32, bool), String> {
+        let p = g.world_from_index.transform_point3(Vec3::new(v[0] as f32, v[1] as f32, v[2] as f32));
+        let c = src.coefficients_with(p, Some(values), true);
+        let sigma = (c.sigma_a + c.sigma_s).max_element();
+        if !sigma.is_finite() || !c.emission.is_finite() {
+            let what =
+                if sigma.is_finite() { format!("emission {}", c.emission) } else { format!("extinction {sigma}") };
+            return Err(format!(
+                "its graph gives a non-finite {what} at voxel {v:?} (grid values {:?}); Caustic cannot bound it",
+                values.iter().map(|v| v.map(|v| v.vector)).collect::<Vec<_>>()
+            ));
+        }
+        Ok((sigma.max(0.0), c.emission.abs().max_element() > 0.0))
+    };
+    let background = grids.at_voxel([-1, -1, -1], |values| run([-1, -1, -1], values))?;
+    let layer = ext[0] * ext[1];
     let voxel = (0..3).map(|a| g.world_from_index.matrix3.col(a).length()).fold(f32::INFINITY, f32::min);
     let emission_floor = 1.0 / (CELL as f32 * voxel.max(1e-30));
     let [nx, ny, nz] = g.cells;
     let mut out = Vec::with_capacity((nx * ny * nz) as usize);
-    for cz in 0..nz {
-        for cy in 0..ny {
-            for cx in 0..nx {
+    let mut emits_anywhere = false;
+    // Slab voxel layers 0..=CELL are index z = cz·CELL − 1 + 0..=CELL (clamped to the ring).
+    let mut slab: Vec<(f32, bool)> = vec![(0.0, false); layer * (CELL as usize + 1)];
+    for cz in 0..nz as usize {
+        let z0 = cz * CELL as usize;
+        let first = if cz == 0 { 0 } else { 1 };
+        if cz > 0 {
+            slab.copy_within(CELL as usize * layer.., 0);
+        }
+        // The last cell layer may start past the ring (no voxel reaches it: majorant 0).
+        let layers = (CELL as usize + 1).min(ext[2].saturating_sub(z0));
+        if layers > first {
+            slab[first * layer..layers * layer].par_chunks_mut(ext[0]).enumerate().try_for_each(|(row, out)| {
+                let (y, z) = (row % ext[1], z0 + first + row / ext[1]);
+                for (x, o) in out.iter_mut().enumerate() {
+                    let v = [x, y, z].map(|i| i as i64 - 1);
+                    *o = grids.at_voxel(v, |values| if all_zero(values) { Ok(background) } else { run(v, values) })?;
+                }
+                Ok::<(), String>(())
+            })?;
+        }
+        for cy in 0..ny as usize {
+            for cx in 0..nx as usize {
                 // Cell c spans index [c·CELL − 1, (c + 1)·CELL − 1]: its points blend voxels
                 // in that range (a point on the upper face gives the next voxel weight 0).
-                let lo = [cx, cy, cz].map(|c| (c * CELL) as usize);
-                let hi = [0, 1, 2].map(|a| (lo[a] + CELL as usize).min(ext[a] - 1));
+                let lo = [cx * CELL as usize, cy * CELL as usize];
+                let hi = [0, 1].map(|a| (lo[a] + CELL as usize).min(ext[a] - 1));
                 let (mut m, mut emits) = (0.0f32, false);
-                for z in lo[2]..=hi[2] {
+                for z in 0..layers {
                     for y in lo[1]..=hi[1] {
                         for x in lo[0]..=hi[0] {
-                            let (s, e) = per_voxel[x + ext[0] * (y + ext[1] * z)];
+                            let (s, e) = slab[z * layer + y * ext[0] + x];
                             m = m.max(s);
                             emits |= e;
                         }
                     }
                 }
                 m *= 1.0 + ROUNDING;
+                emits_anywhere |= emits;
                 out.push(if emits { m.max(emission_floor) } else { m });
             }
         }
     }
-    let emits = per_voxel.iter().any(|v| v.1);
-    (out, emits)
+    Ok((out, emits_anywhere))
 }
 
 #[cfg(test)]
@@ -254,7 +299,7 @@ mod tests {
         let world_from_index = Affine3A::IDENTITY;
         let grids = VolumeGrids { dims, index_from_world: world_from_index.inverse(), slots };
         let source = ProceduralSource { volume, object: NO_OBJECT, grids: Some(grids) };
-        graph_grid_medium("m".into(), dims, world_from_index, source, reads_only_grids(&ext))
+        graph_grid_medium("m".into(), dims, world_from_index, source, reads_only_grids(&ext)).unwrap()
     }
 
     fn attribute(name: &str) -> Value {
@@ -373,6 +418,91 @@ mod tests {
             }
         }
         assert!(tightest > 0.9999, "the bound is loose: the densest voxel reaches {tightest} of it");
+    }
+
+    /// The majorant built slab by slab, with voxels where every grid reads zero given the
+    /// graph's background value, equals its definition cell for cell (the largest σt of the
+    /// graph run at every voxel whose support reaches the cell, each voxel run alone), on a
+    /// sparse grid whose graph is largest where both grids are zero (a falling Map Range of the
+    /// first, minus the second, into a Scatter and an Absorption), over dims that leave a last cell layer past the ring of background
+    /// voxels.
+    #[test]
+    fn the_slab_majorant_is_the_per_voxel_definition() {
+        let dims = [19u32, 9, 17];
+        let n = (dims[0] * dims[1] * dims[2]) as usize;
+        let mut s = 0x2545_f491_4f6c_dd1du64;
+        let sparse = |s: &mut u64| if uniform(s) < 0.8 { 0.0 } else { 2.5 * uniform(s) + 0.5 };
+        let a: Vec<f32> = (0..n).map(|_| sparse(&mut s)).collect();
+        let b: Vec<f32> = (0..n).map(|_| sparse(&mut s)).collect();
+        let nodes = json!([
+            attribute("a"),
+            attribute("b"),
+            {"name": "Range", "type": "ShaderNodeMapRange",
+             "inputs": {"Value": {"value": 0.0, "link": [0, "Fac"]}, "From Min": {"value": 0.0}, "From Max": {"value": 3.0},
+                        "To Min": {"value": 2.0}, "To Max": {"value": 0.1}}},
+            {"name": "Sub", "type": "ShaderNodeMath", "props": {"operation": "SUBTRACT"},
+             "inputs": {"Value": {"value": 0.0, "link": [2, "Result"]}, "Value_001": {"value": 0.0, "link": [1, "Fac"]}}},
+            {"name": "S", "type": "ShaderNodeVolumeScatter",
+             "inputs": {"Density": {"value": 1.0, "link": [3, "Value"]}, "Color": {"value": [0.9, 0.6, 0.3, 1.0]}}},
+            {"name": "A", "type": "ShaderNodeVolumeAbsorption",
+             "inputs": {"Density": {"value": 1.0, "link": [3, "Value"]}, "Color": {"value": [0.2, 0.5, 0.9, 1.0]}}},
+            {"name": "Add", "type": "ShaderNodeAddShader",
+             "inputs": {"Shader": {"link": [4, "Volume"]}, "Shader_001": {"link": [5, "Volume"]}}},
+        ]);
+        let g = medium(
+            nodes,
+            &[("a", Field { values: a, components: 1 }), ("b", Field { values: b, components: 1 })],
+            dims,
+        );
+        let src = g.procedural.as_deref().unwrap();
+        let grids = src.grids.as_ref().unwrap();
+        let sigma = |v: [i64; 3]| {
+            let c = grids.at_voxel(v, |values| src.coefficients_with(Vec3::ZERO, Some(values), true));
+            (c.sigma_a + c.sigma_s).max_element().max(0.0)
+        };
+        let background = sigma([-1, -1, -1]);
+        assert!(background > 0.1, "the graph is {background} at zero: the test needs it non-zero");
+        let [nx, ny, nz] = g.cells;
+        for cz in 0..nz {
+            for cy in 0..ny {
+                for cx in 0..nx {
+                    let mut want = 0.0f32;
+                    for z in cz as i64 * 8 - 1..=(cz as i64 * 8 + 7).min(dims[2] as i64) {
+                        for y in cy as i64 * 8 - 1..=(cy as i64 * 8 + 7).min(dims[1] as i64) {
+                            for x in cx as i64 * 8 - 1..=(cx as i64 * 8 + 7).min(dims[0] as i64) {
+                                want = want.max(sigma([x, y, z]));
+                            }
+                        }
+                    }
+                    let got = g.cell_majorant([cx, cy, cz]);
+                    assert_eq!(got, want * (1.0 + ROUNDING), "cell ({cx}, {cy}, {cz})");
+                }
+            }
+        }
+    }
+
+    /// A graph whose extinction overflows at a voxel (1e20 cubed) cannot be bounded: an
+    /// error naming the voxel, never an infinite majorant.
+    #[test]
+    fn a_non_finite_extinction_is_refused() {
+        let mut values = vec![1.0f32; 8];
+        values[6] = 1e20;
+        let ext: NodesExt = serde_json::from_value(json!({"version": 1, "output": {}, "nodes": [
+            attribute("density"),
+            {"name": "Pow", "type": "ShaderNodeMath", "props": {"operation": "POWER"},
+             "inputs": {"Value": {"value": 0.0, "link": [0, "Fac"]}, "Value_001": {"value": 3.0}}},
+            {"name": "S", "type": "ShaderNodeVolumeScatter",
+             "inputs": {"Density": {"value": 1.0, "link": [1, "Value"]}, "Color": {"value": [1.0, 1.0, 1.0, 1.0]}}}]}))
+        .unwrap();
+        let volume = compile_volume("m", &ext, 2, &[]).unwrap();
+        let grids = VolumeGrids {
+            dims: [2, 2, 2],
+            index_from_world: Affine3A::IDENTITY,
+            slots: vec![Some(Field { values, components: 1 })],
+        };
+        let source = ProceduralSource { volume, object: NO_OBJECT, grids: Some(grids) };
+        let err = graph_grid_medium("m".into(), [2, 2, 2], Affine3A::IDENTITY, source, true).unwrap_err();
+        assert!(err.contains("non-finite extinction inf at voxel [0, 1, 1]"), "{err}");
     }
 
     /// A graph that reads the position (a Noise texture) is not bounded by its voxels: the

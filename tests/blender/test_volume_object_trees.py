@@ -234,3 +234,35 @@ def test_principled_attribute_fields_become_nodes(addon, empty_scene, tmp_path):
     assert "link" in principled["inputs"]["Density"] and "link" in principled["inputs"]["Temperature"]
     assert "link" not in principled["inputs"]["Color"]
     assert not any("Attribute" in key for key in principled["inputs"])
+
+
+def test_volume_and_surface_images_share_one_writer(addon, empty_scene, tmp_path):
+    """Two images whose names clean to one file name ("a b" and "a_b"): one read by a surface
+    material, the other by a volume object's graph. With one writer for the export the volume's
+    image gets a file of its own; with a writer of its own (before) it was written over the
+    surface's file, which the surface then read."""
+    import importlib
+    path = tmp_path / "v.vdb"
+    write_vdb(addon, path, {"density": sphere_field()})
+    mat, tree = _material("Textured")
+    image = bpy.data.images.new("a b", 4, 4)
+    image.pixels.foreach_set(np.full(64, 0.25, dtype=np.float32))
+    tex = tree.nodes.new("ShaderNodeTexImage")
+    tex.image = image
+    p = _node(tree, "ShaderNodeVolumePrincipled")
+    tree.links.new(tex.outputs["Color"], p.inputs["Color"])
+    tree.links.new(_scaled_attribute(tree, "density", 4.0).outputs[0], p.inputs["Density"])
+    _output(tree, p)
+    volume_object(empty_scene, "Smoke", path, mat, (0.0, 0.0, 0.0))
+    other = bpy.data.images.new("a_b", 4, 4)
+    other.pixels.foreach_set(np.full(64, 0.75, dtype=np.float32))
+    node_images = importlib.import_module(addon.__name__ + ".export.node_images")
+    volumes = importlib.import_module(addon.__name__ + ".export.volumes")
+    out = tmp_path / "out"
+    writer = node_images.ImageWriter(str(out))
+    surface = writer.entry(other, "surface", [])
+    value, warnings = volumes.volume_extension(bpy.context.evaluated_depsgraph_get(), str(out), writer)
+    assert warnings == []
+    (v,) = value["volumes"]
+    (volume_image,) = v["graph"]["images"]
+    assert volume_image["uri"] != surface["uri"], (volume_image, surface)

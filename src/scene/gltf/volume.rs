@@ -9,7 +9,9 @@ use crate::error::Result;
 use crate::medium::grid::{Field, VolumeShader};
 use crate::medium::grid_file::GridFile;
 use crate::medium::procedural_source::ProceduralSource;
-use crate::medium::volume_grids::{MAX_GRID_SLOTS, VolumeGrids, graph_grid_medium, reads_only_grids};
+use crate::medium::volume_grids::{
+    MAX_GRID_SLOTS, VolumeGrids, graph_grid_medium, majorant_scratch_bytes, reads_only_grids,
+};
 use crate::medium::{GridMedium, HomogeneousMedium};
 use crate::scene::mesh::AttributeKey;
 use crate::scene::{Material, Mesh};
@@ -129,7 +131,7 @@ impl Loader<'_> {
             return Err(self.err(format!("{what}: anisotropy {} is outside [-1, 1]", s.anisotropy)));
         }
         let bytes = self.resolve_uri(&v.uri, what)?;
-        let file = GridFile::parse(&bytes, &v.uri, self.file, self.budget)?;
+        let mut file = GridFile::parse(&bytes, &v.uri, self.file, self.budget).map_err(|e| name_volume(e, what))?;
         drop(bytes);
         let take = |name: &Option<String>, kind: &str| -> Result<Option<Field>> {
             let Some(name) = name else { return Ok(None) };
@@ -153,7 +155,7 @@ impl Loader<'_> {
             return Err(self.err(format!("{what}: the grid's transform is singular (determinant {det})")));
         }
         if let Some(graph) = &v.graph {
-            return self.graph_volume(what, v, graph, &file, world);
+            return self.graph_volume(what, v, graph, &mut file, world);
         }
         let shader = VolumeShader {
             density: s.density,
@@ -184,7 +186,7 @@ impl Loader<'_> {
         what: &str,
         v: &VolumeExt,
         graph: &crate::shader::graph::NodesExt,
-        file: &GridFile,
+        file: &mut GridFile,
         world: Affine3A,
     ) -> Result<GridMedium> {
         let Some(root) = v.graph_shader else {
@@ -194,26 +196,47 @@ impl Loader<'_> {
         for w in std::mem::take(&mut volume.warnings) {
             self.warn(format!("{what}: {w}"));
         }
-        let slots: Vec<_> = volume
-            .program
-            .attributes
-            .iter()
-            .map(|(key, _)| match key {
-                AttributeKey::Named(name) => {
-                    file.grid(name).map(|g| Field { values: g.values.clone(), components: g.components })
-                }
-                _ => None,
-            })
-            .collect();
-        if slots.len() > MAX_GRID_SLOTS {
+        if volume.program.attributes.len() > MAX_GRID_SLOTS {
             return Err(self.err(format!(
                 "{what}: its graph reads {} attributes; at most {MAX_GRID_SLOTS} are supported",
-                slots.len()
+                volume.program.attributes.len()
             )));
+        }
+        let mut slots = Vec::with_capacity(volume.program.attributes.len());
+        for (key, _) in &volume.program.attributes {
+            let AttributeKey::Named(name) = key else {
+                slots.push(None);
+                continue;
+            };
+            // Moved out of the file, not copied: the budget charged these voxels once.
+            let grid = file.grids.iter_mut().find(|g| g.name == *name);
+            if grid.is_none() {
+                self.warn(format!(
+                    "{what}: its graph reads the grid '{name}', which is not in '{}' (the object has no such \
+                     grid, or it has no active voxels); it reads 0, as in Cycles",
+                    v.uri
+                ));
+            }
+            slots.push(grid.map(|g| Field { values: std::mem::take(&mut g.values), components: g.components }));
+        }
+        let grid_only = reads_only_grids(graph);
+        if grid_only {
+            self.budget.check_peak(format!("{what}: majorant scratch"), majorant_scratch_bytes(file.dims))?;
         }
         let grids = VolumeGrids { dims: file.dims, index_from_world: world.inverse(), slots };
         let source = ProceduralSource { volume, object: crate::shader::geom::NO_OBJECT, grids: Some(grids) };
-        Ok(graph_grid_medium(v.name.clone(), file.dims, world, source, reads_only_grids(graph)))
+        graph_grid_medium(v.name.clone(), file.dims, world, source, grid_only)
+            .map_err(|m| self.err(format!("{what}: {m}")))
+    }
+}
+
+/// A grid file's scene error with the volume object named in front (the file's own names only its uri).
+fn name_volume(e: crate::error::Error, what: &str) -> crate::error::Error {
+    match e {
+        crate::error::Error::Scene { file, message } => {
+            crate::error::Error::Scene { file, message: format!("{what}: {message}") }
+        }
+        other => other,
     }
 }
 
