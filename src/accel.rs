@@ -12,6 +12,7 @@
 
 mod clearance;
 pub use clearance::NO_TRIANGLE;
+pub(crate) use clearance::point_triangle_squared;
 mod planes;
 pub mod touching;
 mod traverse;

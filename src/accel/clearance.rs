@@ -148,7 +148,7 @@ fn box_distances(planes: &NodePlanes, p: Vec3A) -> [f32; 8] {
 
 /// Squared distance from `p` to the triangle `v` (the closest point by the triangle's
 /// Voronoi regions, Ericson's Real-Time Collision Detection 5.1.5), in f64.
-fn point_triangle_squared(p: DVec3, v: &[Vec3A; 3]) -> f64 {
+pub(crate) fn point_triangle_squared(p: DVec3, v: &[Vec3A; 3]) -> f64 {
     let [a, b, c] = v.map(|x| Vec3::from(x).as_dvec3());
     let (ab, ac, ap) = (b - a, c - a, p - a);
     let (d1, d2) = (ab.dot(ap), ac.dot(ap));
