@@ -83,6 +83,17 @@ def image_file(path, fmt="PNG", depth="8", colorspace=None, alpha=False, float_b
     return loaded
 
 
+def _save_png(px, path):
+    """RGBA pixels `px` (rows bottom to top) written as an 8-bit PNG file at `path`, as Blender
+    saves an image datablock (the frames of a sequence, the tiles of a UDIM set)."""
+    img = bpy.data.images.new(os.path.basename(path), SIZE, SIZE, alpha=True)
+    img.pixels.foreach_set(px.ravel())
+    img.filepath_raw = path
+    img.file_format = "PNG"
+    img.save()
+    bpy.data.images.remove(img)
+
+
 def diffuse_image(make_image):
     """A maker: a Diffuse BSDF coloured by an Image Texture of `make_image(folder, name)`."""
     def make(folder, name):
@@ -114,14 +125,9 @@ def principled_image(make_image, alpha=False):
 def sequence(folder, name):
     """Two frames (red 0.2 and 0.4) of a sequence; the node shows the second one at frame 1."""
     for frame in (1, 2):
-        img = bpy.data.images.new(f"{name}{frame}", SIZE, SIZE, alpha=True)
         px = pattern()
         px[..., 0] = 0.2 * frame
-        img.pixels.foreach_set(px.ravel())
-        img.filepath_raw = os.path.join(folder, f"{name}_{frame:04d}.png")
-        img.file_format = "PNG"
-        img.save()
-        bpy.data.images.remove(img)
+        _save_png(px, os.path.join(folder, f"{name}_{frame:04d}.png"))
     img = bpy.data.images.load(os.path.join(folder, f"{name}_0001.png"))
     img.source = "SEQUENCE"
     return img
@@ -153,15 +159,10 @@ def udim(folder, name):
     """A UDIM image of two tiles, 1001 (the pattern, blue 0.1) and 1002 (darker, blue 0.9),
     from files `<name>.1001.png` and `<name>.1002.png`."""
     for tile, scale, blue in ((1001, 1.0, 0.1), (1002, 0.4, 0.9)):
-        img = bpy.data.images.new(f"{name}_{tile}", SIZE, SIZE, alpha=True)
         px = pattern()
         px[..., :2] *= scale
         px[..., 2] = blue
-        img.pixels.foreach_set(px.ravel())
-        img.filepath_raw = os.path.join(folder, f"{name}.{tile}.png")
-        img.file_format = "PNG"
-        img.save()
-        bpy.data.images.remove(img)
+        _save_png(px, os.path.join(folder, f"{name}.{tile}.png"))
     img = bpy.data.images.load(os.path.join(folder, f"{name}.1001.png"))
     img.source = "TILED"
     img.filepath = os.path.join(folder, f"{name}.<UDIM>.png")
