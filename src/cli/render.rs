@@ -105,9 +105,10 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         reporter.warning(&w);
         run_warnings.push(w);
     }
-    if res.transparent_glass.is_some() && res.integrator != IntegratorKind::Path {
+    if res.transparent_glass.is_some() && matches!(res.integrator, IntegratorKind::Photon | IntegratorKind::Sppm) {
         let w = format!(
-            "Film > Transparent Glass is rendered by the path tracer only: with {}, glass stays opaque in the alpha",
+            "Film > Transparent Glass is rendered by the path tracer, BDPT and VCM only: with {}, glass stays \
+             opaque in the alpha",
             res.integrator.name()
         );
         reporter.warning(&w);
@@ -366,6 +367,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         IntegratorKind::Bdpt => Integrator::Bdpt(BdptIntegrator {
             ledger,
             ..BdptIntegrator::new(&scene, res.max_depth, res.transparent, args.bdpt_strategy)
+                .with_transparent_glass(&scene, res.transparent_glass)
         }),
         IntegratorKind::Vcm => {
             let mut vcm = crate::integrator::vcm::VcmIntegrator::new(
@@ -375,7 +377,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
                 args.vcm_mode.map_or(crate::integrator::vcm::VcmMode::Full, Into::into),
                 args.vcm_radius,
             );
-            vcm.bdpt.ledger = ledger;
+            vcm.bdpt = BdptIntegrator { ledger, ..vcm.bdpt.with_transparent_glass(&scene, res.transparent_glass) };
             Integrator::Vcm(vcm)
         }
         IntegratorKind::Photon => {
