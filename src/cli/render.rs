@@ -105,15 +105,6 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         reporter.warning(&w);
         run_warnings.push(w);
     }
-    if res.transparent_glass.is_some() && matches!(res.integrator, IntegratorKind::Photon | IntegratorKind::Sppm) {
-        let w = format!(
-            "Film > Transparent Glass is rendered by the path tracer, BDPT and VCM only: with {}, glass stays \
-             opaque in the alpha",
-            res.integrator.name()
-        );
-        reporter.warning(&w);
-        run_warnings.push(w);
-    }
     // Photons leave emitters whose graph reads the Light Path node without a camera path
     // (`light::path_emitters`); BDPT and VCM take those emitters from the camera side.
     let photon_name = match res.integrator {
@@ -361,6 +352,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
             // A chunk keeps SPPM's sums of Combined and of every pass (`sppm_passes::into_film`).
             Integrator::Sppm(SppmIntegrator {
                 keep_sums: args.chunk,
+                glass_threshold: res.transparent_glass,
                 ..SppmIntegrator::new(res.max_depth, res.photon.clone(), res.transparent)
             })
         }
@@ -427,6 +419,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
             Integrator::Photon(JensenIntegrator {
                 light_passes: res.passes.any_light(),
                 light_groups: res.passes.light_groups() > 0,
+                glass_threshold: res.transparent_glass,
                 ..JensenIntegrator::new(maps, &res.photon, scene_r, res.max_depth, res.transparent)
             })
         }

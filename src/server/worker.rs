@@ -158,7 +158,10 @@ fn build_integrator(ctx: &SceneContext, s: &RenderSettings, stop: &AtomicBool) -
                 return None;
             }
             let (_, r) = ctx.scene.bounding_sphere();
-            Integrator::Photon(JensenIntegrator::new(maps, &s.photon, r, s.max_depth, s.transparent))
+            Integrator::Photon(JensenIntegrator {
+                glass_threshold: s.transparent_glass,
+                ..JensenIntegrator::new(maps, &s.photon, r, s.max_depth, s.transparent)
+            })
         }
         IntegratorKind::Vcm => Integrator::Vcm(
             crate::integrator::vcm::VcmIntegrator::new(
