@@ -168,7 +168,7 @@ pub(super) fn camera_path(
                     caught.background = st.escaped_radiance(ctx).map_or(Rgb::ZERO, |le| e * le);
                 }
                 let through_glass = see_through && st.depth > 0;
-                let shown = !(st.depth == 0 && transparent_background) && !through_glass;
+                let shown = !(through_glass || (st.depth == 0 && transparent_background));
                 if through_glass {
                     // What the throughput carries is transparent (Cycles' `transparent +=
                     // average(throughput)`).
