@@ -105,14 +105,6 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         reporter.warning(&w);
         run_warnings.push(w);
     }
-    if res.transparent_glass.is_some() && res.integrator != IntegratorKind::Path {
-        let w = format!(
-            "Film > Transparent Glass is rendered by the path tracer only: with {}, glass stays opaque in the alpha",
-            res.integrator.name()
-        );
-        reporter.warning(&w);
-        run_warnings.push(w);
-    }
     // Photons leave emitters whose graph reads the Light Path node without a camera path
     // (`light::path_emitters`); BDPT and VCM take those emitters from the camera side.
     let photon_name = match res.integrator {
@@ -360,12 +352,14 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
             // A chunk keeps SPPM's sums of Combined and of every pass (`sppm_passes::into_film`).
             Integrator::Sppm(SppmIntegrator {
                 keep_sums: args.chunk,
+                glass_threshold: res.transparent_glass,
                 ..SppmIntegrator::new(res.max_depth, res.photon.clone(), res.transparent)
             })
         }
         IntegratorKind::Bdpt => Integrator::Bdpt(BdptIntegrator {
             ledger,
             ..BdptIntegrator::new(&scene, res.max_depth, res.transparent, args.bdpt_strategy)
+                .with_transparent_glass(&scene, res.transparent_glass)
         }),
         IntegratorKind::Vcm => {
             let mut vcm = crate::integrator::vcm::VcmIntegrator::new(
@@ -375,7 +369,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
                 args.vcm_mode.map_or(crate::integrator::vcm::VcmMode::Full, Into::into),
                 args.vcm_radius,
             );
-            vcm.bdpt.ledger = ledger;
+            vcm.bdpt = BdptIntegrator { ledger, ..vcm.bdpt.with_transparent_glass(&scene, res.transparent_glass) };
             Integrator::Vcm(vcm)
         }
         IntegratorKind::Photon => {
@@ -425,6 +419,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
             Integrator::Photon(JensenIntegrator {
                 light_passes: res.passes.any_light(),
                 light_groups: res.passes.light_groups() > 0,
+                glass_threshold: res.transparent_glass,
                 ..JensenIntegrator::new(maps, &res.photon, scene_r, res.max_depth, res.transparent)
             })
         }

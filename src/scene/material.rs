@@ -328,6 +328,25 @@ impl Material {
 }
 
 impl Material {
+    /// True when the material may refract (a Glass or Refraction closure, a Principled BSDF
+    /// whose Transmission Weight may be nonzero, glTF transmission): a hint from its
+    /// parameters alone, never false for a material that refracts somewhere.
+    pub fn may_refract(&self) -> bool {
+        use crate::shader::closure::ClosureKind;
+        use crate::shader::instructions::Op;
+        match &self.nodes {
+            Some(p) => {
+                p.transmits
+                    || p.ops.iter().any(|op| {
+                        matches!(op, Op::Closure(c) if matches!(c.kind, ClosureKind::Glass { .. } | ClosureKind::Refraction { .. }))
+                    })
+            }
+            None => self.transmission > 0.0 || self.transmission_tex.is_some(),
+        }
+    }
+}
+
+impl Material {
     /// Emitted radiance at a point with texture coordinates `uv` (sets 0 and 1) and vertex
     /// colour `color` (which only an unlit material's emission, its base colour, uses).
     #[inline]

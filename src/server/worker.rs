@@ -138,7 +138,10 @@ fn build_integrator(ctx: &SceneContext, s: &RenderSettings, stop: &AtomicBool) -
             glass_threshold: s.transparent_glass,
             ..PathIntegrator::new(s.max_depth, s.transparent)
         }),
-        IntegratorKind::Bdpt => Integrator::Bdpt(BdptIntegrator::new(ctx.scene, s.max_depth, s.transparent, None)),
+        IntegratorKind::Bdpt => Integrator::Bdpt(
+            BdptIntegrator::new(ctx.scene, s.max_depth, s.transparent, None)
+                .with_transparent_glass(ctx.scene, s.transparent_glass),
+        ),
         IntegratorKind::Photon => {
             // The map is never written to a file, so it carries no scene hash (0).
             let (maps, _) = PhotonMaps::trace(
@@ -155,15 +158,21 @@ fn build_integrator(ctx: &SceneContext, s: &RenderSettings, stop: &AtomicBool) -
                 return None;
             }
             let (_, r) = ctx.scene.bounding_sphere();
-            Integrator::Photon(JensenIntegrator::new(maps, &s.photon, r, s.max_depth, s.transparent))
+            Integrator::Photon(JensenIntegrator {
+                glass_threshold: s.transparent_glass,
+                ..JensenIntegrator::new(maps, &s.photon, r, s.max_depth, s.transparent)
+            })
         }
-        IntegratorKind::Vcm => Integrator::Vcm(crate::integrator::vcm::VcmIntegrator::new(
-            ctx.scene,
-            s.max_depth,
-            s.transparent,
-            crate::integrator::vcm::VcmMode::Full,
-            None,
-        )),
+        IntegratorKind::Vcm => Integrator::Vcm(
+            crate::integrator::vcm::VcmIntegrator::new(
+                ctx.scene,
+                s.max_depth,
+                s.transparent,
+                crate::integrator::vcm::VcmMode::Full,
+                None,
+            )
+            .with_transparent_glass(ctx.scene, s.transparent_glass),
+        ),
         IntegratorKind::Sppm => unreachable!("the server refuses SPPM before rendering"),
     })
 }

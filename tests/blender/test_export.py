@@ -620,6 +620,15 @@ def test_unrendered_features_are_named(addon, empty_scene, tmp_path):
 
     warnings = unsupported.scene_warnings(bpy.context.evaluated_depsgraph_get())
     text = "\n".join(warnings)
+    assert not any("Working Space" in line for line in warnings), text
+    # Blender 5.0's working space other than Rec.709 is named (images, Blackbody and skies
+    # are decoded to Rec.709 primaries).
+    bpy.ops.wm.set_working_color_space(working_space="ACEScg", convert_colors=False)
+    try:
+        spaced = unsupported.scene_warnings(bpy.context.evaluated_depsgraph_get())
+        assert any("Working Space" in line and "ACEScg" in line for line in spaced), spaced
+    finally:
+        bpy.ops.wm.set_working_color_space(working_space="Linear Rec.709", convert_colors=False)
     assert not any("motion blur" in line for line in warnings), text
     assert not any("ShyLight" in line for line in warnings), text
     lights = importlib.import_module(addon.__name__ + ".export.lights")

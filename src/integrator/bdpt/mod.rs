@@ -99,6 +99,8 @@ pub struct BdptIntegrator {
     /// cross in media after delta bounces alone, the camera subpath its first medium
     /// vertex, and the path tracer continued from there leaves out what merging makes.
     pub volume_merging: bool,
+    /// Film → Transparent Glass's roughness threshold (`with_transparent_glass`).
+    pub glass_threshold: Option<f32>,
 }
 
 impl BdptIntegrator {
@@ -121,6 +123,26 @@ impl BdptIntegrator {
             ledger: Ledger::default(),
             restriction,
             volume_merging: false,
+            glass_threshold: None,
+        }
+    }
+
+    /// Film → Transparent Glass under roughness `threshold` (None: off), as the path tracer
+    /// renders it: a camera path that has only refracted through such glass leaves the world
+    /// behind it transparent. Which paths those are depends on the camera prefix alone, so
+    /// the triangles of every material that may refract are restricted (`visibility`): paths
+    /// meeting them are made by s = 0 and s = 1 and weighed as the path tracer weighs them.
+    /// Nothing changes without a transparent film.
+    pub fn with_transparent_glass(self, scene: &crate::scene::Scene, threshold: Option<f32>) -> Self {
+        if threshold.is_none() || !self.transparent_background {
+            return self;
+        }
+        let restriction = Arc::new(visibility::Restriction::build(scene, true));
+        BdptIntegrator {
+            lights: Arc::new(BdptLights::new(scene, |i| restriction.light(i))),
+            restriction,
+            glass_threshold: threshold,
+            ..self
         }
     }
 

@@ -47,6 +47,11 @@ impl BdptIntegrator {
         stats.camera += 1;
         // The path so far meets a restricted object (`visibility`).
         let mut restricted = false;
+        // Film → Transparent Glass: the path has only refracted through glass under the
+        // threshold (the path tracer's rule; such glass is restricted, so these paths are
+        // the camera side's and weighed as the path tracer weighs them).
+        let glass_limit = self.glass_threshold.filter(|_| self.transparent_background);
+        let mut see_through = glass_limit.is_some();
         loop {
             let [u_lobe, u_dx, u_dy, u_rr] = sampler.next_4d();
             let [u_alpha, u_channel, u_dist, _] = sampler.next_4d();
@@ -146,9 +151,16 @@ impl BdptIntegrator {
                         // The world behind the film, for the approximate catcher's composite.
                         scratch.split.background = path.escaped_radiance(ctx).map_or(Rgb::ZERO, |le| path.beta * le);
                     }
-                    // The world seen directly through a transparent film is not in Combined,
-                    // but Environment and its light group show it (as the path tracer's).
-                    let hidden = i == 0 && self.transparent_background;
+                    // The world seen directly (or through transparent glass) with a
+                    // transparent film is not in Combined, but Environment and its light
+                    // group show it (as the path tracer's).
+                    let through_glass = see_through && i > 0;
+                    let hidden = (i == 0 && self.transparent_background) || through_glass;
+                    if through_glass {
+                        // What the throughput carries is transparent (Cycles' `transparent
+                        // += average(throughput)`).
+                        out.alpha = (out.alpha - beta.element_sum() / 3.0).max(0.0);
+                    }
                     if self.allowed(0, i + 2) && (!hidden || self.ledger.any()) {
                         let (ledger, groups) = (self.ledger, &ctx.scene.light_groups);
                         let mut sum = Rgb::ZERO;
@@ -316,6 +328,9 @@ impl BdptIntegrator {
             pdf_sa = if bs.delta { 0.0 } else { bs.pdf };
             prev_delta = bs.delta;
             path.light_path = path.light_path.moved(s.light_path.ray_length).bounced(bs.kind, transmitted, bs.delta);
+            see_through &= glass_limit.is_some_and(|t| {
+                transmitted && bs.kind == crate::bsdf::LobeKind::Glossy && sp.bsdf.glass_alpha2() <= (t * t) * (t * t)
+            });
             // The next segment's kind (camera rays pass objects hidden from the camera alone).
             path.ray = crate::scene::visibility::RayMask::after_bounce(bs.kind, transmitted);
             path.media = ctx.medium_after(&s, wi, medium);

@@ -108,8 +108,20 @@ impl std::fmt::Debug for Restriction {
 impl Restriction {
     /// The restricted objects and lights of `scene`.
     pub fn new(scene: &Scene) -> Self {
+        Self::build(scene, false)
+    }
+
+    /// The restricted objects and lights of `scene`, with the triangles of every material
+    /// that may refract when `glass` (Film → Transparent Glass: whether the world behind is
+    /// shown depends on the camera prefix, as with the Light Path node).
+    pub fn build(scene: &Scene, glass: bool) -> Self {
         let vis = &scene.ray_visibility.per_triangle;
-        let switched = switched_materials(scene);
+        let mut switched = switched_materials(scene);
+        if glass {
+            for (s, m) in switched.iter_mut().zip(&scene.materials) {
+                *s |= m.may_refract();
+            }
+        }
         let objects: Vec<bool> = (0..scene.mesh.triangles.len())
             .map(|t| {
                 vis.get(t).is_some_and(|m| restricted_object(*m))

@@ -104,6 +104,8 @@ pub struct JensenIntegrator {
     pub light_passes: bool,
     /// File contributions by their emitter's light group (only when asked).
     pub light_groups: bool,
+    /// Film → Transparent Glass's roughness threshold (the path tracer's rule).
+    pub glass_threshold: Option<f32>,
 }
 
 impl JensenIntegrator {
@@ -128,6 +130,7 @@ impl JensenIntegrator {
             transparent_background,
             light_passes: false,
             light_groups: false,
+            glass_threshold: None,
         }
     }
 
@@ -284,6 +287,12 @@ impl JensenIntegrator {
         let mut radiance = Rgb::ZERO;
         let (passes, grouping) = (self.light_passes, self.light_groups);
         let groups = &ctx.scene.light_groups;
+        // Film → Transparent Glass: a camera chain that has only refracted through glass
+        // under the threshold leaves the world it meets transparent (the path tracer's
+        // rule). Glass has no diffuse-like part, so such a chain carries the camera role
+        // alone: what it finds is the camera's.
+        let glass_limit = self.glass_threshold.filter(|_| self.transparent_background && c.st.depth == 0);
+        let mut see_through = glass_limit.is_some();
         loop {
             let [u_light, u_lx, u_ly, u_lobe] = sampler.next_4d();
             let [u_dx, u_dy, u_rr, u_channel] = sampler.next_4d();
@@ -378,13 +387,20 @@ impl JensenIntegrator {
                             });
                         });
                     }
-                    if !(seen_directly && self.transparent_background) || passes {
+                    let through_glass = see_through && !seen_directly;
+                    if through_glass {
+                        // What the throughput carries is transparent (Cycles' `transparent
+                        // += average(throughput)`).
+                        out.alpha = (out.alpha - c.total().element_sum() / 3.0).max(0.0);
+                    }
+                    let hidden = (seen_directly && self.transparent_background) || through_glass;
+                    if !hidden || passes {
                         let le = c.found(|st| st.escaped_radiance(ctx).map_or(Rgb::ZERO, |le| st.beta * le));
                         if passes {
                             // The Environment pass shows the world behind a transparent film too.
                             c.tally.found(out, c.st.depth, le, true);
                         }
-                        if !(seen_directly && self.transparent_background) {
+                        if !hidden {
                             if seen_directly && le != Rgb::ZERO {
                                 out.alpha = 1.0;
                             }
@@ -619,6 +635,11 @@ impl JensenIntegrator {
             if !(c.largest() > 0.0) || !c.bounce(ctx, &s, &sp, wo_local, &bs, n_select, stats) {
                 break;
             }
+            see_through &= glass_limit.is_some_and(|t| {
+                bs.wi.z * wo_local.z < 0.0
+                    && bs.kind == crate::bsdf::LobeKind::Glossy
+                    && sp.bsdf.glass_alpha2() <= (t * t) * (t * t)
+            });
             // Russian roulette on the whole chain, by its largest weight.
             if c.st.depth >= self.rr_depth {
                 // Refraction keeps 1 − F of the throughput (Cycles' convention): the chain's

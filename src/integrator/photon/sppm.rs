@@ -194,12 +194,14 @@ pub struct SppmIntegrator {
     pub transparent_background: bool,
     /// Return the image's sums as a film (`RenderResult::film`) for a chunk (`--chunk`).
     pub keep_sums: bool,
+    /// Film → Transparent Glass's roughness threshold (the path tracer's rule).
+    pub glass_threshold: Option<f32>,
 }
 
 impl SppmIntegrator {
     /// SPPM with the given settings.
     pub fn new(max_depth: u32, settings: PhotonSettings, transparent_background: bool) -> Self {
-        SppmIntegrator { max_depth, settings, transparent_background, keep_sums: false }
+        SppmIntegrator { max_depth, settings, transparent_background, keep_sums: false, glass_threshold: None }
     }
 
     /// Parameters, for logs and the summary.
@@ -330,7 +332,7 @@ fn render(
                     if split_on {
                         *out = CameraSample::default();
                     }
-                    let flags = Flags { transparent_background, passes, grouping };
+                    let flags = Flags { transparent_background, passes, grouping, glass: sppm.glass_threshold };
                     let mut caught = CatcherSplit::new(catch_on && ctx.catcher.is_some());
                     let (ld, point, first_t) =
                         camera_path(ctx, &ray, &mut sampler, max_depth, pend, camera, &mut rs, flags, out, &mut caught);

@@ -101,6 +101,12 @@ impl VcmIntegrator {
         VcmIntegrator { bdpt, mode, radius }
     }
 
+    /// Film → Transparent Glass under `threshold`, as BDPT renders it
+    /// (`BdptIntegrator::with_transparent_glass`).
+    pub fn with_transparent_glass(self, scene: &crate::scene::Scene, threshold: Option<f32>) -> Self {
+        VcmIntegrator { bdpt: self.bdpt.with_transparent_glass(scene, threshold), ..self }
+    }
+
     /// Human-readable description.
     pub fn describe(&self) -> String {
         format!(

@@ -33,6 +33,8 @@ pub(super) struct Flags {
     pub(super) passes: bool,
     /// File the light groups into the camera sample.
     pub(super) grouping: bool,
+    /// Film → Transparent Glass's roughness threshold (None: off).
+    pub(super) glass: Option<f32>,
 }
 
 /// Follows a camera ray through glossy and specular bounces to its visible point, the
@@ -61,7 +63,12 @@ pub(super) fn camera_path(
         pend.alpha += 1.0;
         return (Rgb::ZERO, None, f32::INFINITY);
     }
-    let Flags { transparent_background, passes, grouping } = flags;
+    let Flags { transparent_background, passes, grouping, glass } = flags;
+    // Film → Transparent Glass: the path has only refracted through glass under the
+    // threshold, so the world it meets stays transparent (the path tracer's rule; no
+    // visible point lies on such a path, as glass has no diffuse-like part).
+    let glass_limit = glass.filter(|_| transparent_background);
+    let mut see_through = glass_limit.is_some();
     let groups = &ctx.scene.light_groups;
     let mut tally = Tally::default();
     let mut l = Rgb::ZERO;
@@ -160,7 +167,13 @@ pub(super) fn camera_path(
                 if caught.allowed && st.depth == 0 {
                     caught.background = st.escaped_radiance(ctx).map_or(Rgb::ZERO, |le| e * le);
                 }
-                let shown = !(st.depth == 0 && transparent_background);
+                let through_glass = see_through && st.depth > 0;
+                let shown = !(through_glass || (st.depth == 0 && transparent_background));
+                if through_glass {
+                    // What the throughput carries is transparent (Cycles' `transparent +=
+                    // average(throughput)`).
+                    pend.alpha = (pend.alpha - e.element_sum() / 3.0).max(alpha_before);
+                }
                 if grouping {
                     // As the path tracer: the world seen through a transparent film too.
                     st.escaped_radiance_each(ctx, |light, c| {
@@ -321,6 +334,9 @@ pub(super) fn camera_path(
         st.media = ctx.medium_after(&s, wi, st.media);
         st.ray = RayMask::after_bounce(bs.kind, ci < 0.0);
         st.light_path = s.light_path.moved(s.light_path.ray_length).bounced(bs.kind, ci < 0.0, bs.delta);
+        see_through &= glass_limit.is_some_and(|t| {
+            co * ci < 0.0 && bs.kind == crate::bsdf::LobeKind::Glossy && sp.bsdf.glass_alpha2() <= (t * t) * (t * t)
+        });
         st.org = offset_ray_origin(s.p, if ci > 0.0 { s.ng } else { -s.ng });
         st.dir = wi;
         stats.bounce += 1;
