@@ -311,12 +311,16 @@ impl PathIntegrator {
             let before = radiance;
             let depth_before = st.depth;
             let mut left_out = Rgb::ZERO;
+            // What the segment finds (crossed lights, medium emission), clamped as one
+            // contribution (Cycles clamps each; they differ only for a ray that crosses two
+            // emitters past the clamp).
+            let mut found = Rgb::ZERO;
             let (step, crossed) = st.advance_each(
                 ctx,
                 [u_channel, u_dist],
                 || u_alpha,
                 true,
-                &mut radiance,
+                &mut found,
                 stats,
                 |light, c| {
                     if merged(delta_chain, Some(light)) {
@@ -326,7 +330,7 @@ impl PathIntegrator {
                     }
                 },
             );
-            radiance -= left_out;
+            radiance += ctx.light_paths.found(found - left_out, depth_before);
             if passes && radiance != before {
                 // Crossed lights and medium emission (the difference keeps Combined's sum as it was).
                 tally.found(out, depth_before, radiance - before, false);
@@ -345,12 +349,14 @@ impl PathIntegrator {
                         out.alpha = 1.0;
                         out.depth = depth_of(p);
                     }
-                    if st.depth >= self.max_depth {
+                    // Max Bounces, or a kind's bounces spent (Cycles' segment is then
+                    // attenuation only: a free flight ending here leaves the same mean).
+                    if st.depth >= self.max_depth || ctx.light_paths.spent(st.light_path) {
                         break;
                     }
                     let (le, light) =
                         medium_nee_light(ctx, p, st.dir, phase, st.media, st.light_path, u_light, u_light_pt, stats);
-                    let c = st.beta * le;
+                    let c = ctx.light_paths.estimated(st.beta * le, st.depth);
                     radiance += c;
                     if grouping {
                         out.groups.add(groups.of_light(light), c);
@@ -390,9 +396,10 @@ impl PathIntegrator {
                             }
                         }
                     });
-                    radiance += st.beta * le;
+                    let c = ctx.light_paths.found(st.beta * le, st.depth);
+                    radiance += c;
                     if passes {
-                        tally.found(out, st.depth, st.beta * le, true);
+                        tally.found(out, st.depth, c, true);
                     }
                     break;
                 }
@@ -424,12 +431,13 @@ impl PathIntegrator {
                     if !(behind_film && self.transparent_background)
                         && let Some(le) = st.escaped_radiance(ctx)
                     {
-                        radiance += st.beta * le;
+                        let c = ctx.light_paths.found(st.beta * le, st.depth);
+                        radiance += c;
                         if seen_directly {
                             out.alpha = 1.0;
                         }
                         if passes {
-                            tally.found(out, st.depth, st.beta * le, true);
+                            tally.found(out, st.depth, c, true);
                         }
                     } else if passes
                         && behind_film
@@ -475,7 +483,7 @@ impl PathIntegrator {
 
             // Emission found by the path, weighted against light sampling.
             if sp.emitted != Rgb::ZERO && !merged(delta_chain, ctx.lights.light_of_triangle(hit.tri)) {
-                let c = st.surface_emission(ctx, &hit, &s, &sp);
+                let c = ctx.light_paths.found(st.surface_emission(ctx, &hit, &s, &sp), st.depth);
                 radiance += c;
                 if grouping {
                     out.groups.add(groups.of_tri(hit.tri), c);
@@ -485,8 +493,10 @@ impl PathIntegrator {
                 }
             }
 
-            // Past Transparent Max Bounces a path ends here, after the emission (Cycles).
-            if st.depth >= self.max_depth || ctx.ends_at_surface(st.light_path) {
+            // Past Transparent Max Bounces, Max Bounces or a kind's bounces (Light Paths) a
+            // path ends here, after the emission (Cycles).
+            if st.depth >= self.max_depth || ctx.ends_at_surface(st.light_path) || ctx.light_paths.spent(st.light_path)
+            {
                 break;
             }
 
@@ -517,6 +527,7 @@ impl PathIntegrator {
                     u_light_pt,
                     stats,
                 );
+                let c = ctx.light_paths.estimated(c, st.depth);
                 radiance += c;
                 if grouping {
                     out.groups.add(groups.of_light(light), c);
@@ -549,7 +560,8 @@ impl PathIntegrator {
                     tally.subsurface();
                 }
                 let (le, light) = exit_nee_light(ctx, &se, n_g, n_s, st.media, v_light, Vec2::new(v_lx, v_ly), stats);
-                let c = st.beta * le;
+                // Cycles counts no bounce at the entry: the exit's estimate is at the entry's.
+                let c = ctx.light_paths.estimated(st.beta * le, st.depth - 1);
                 radiance += c;
                 if grouping {
                     out.groups.add(groups.of_light(light), c);

@@ -561,6 +561,8 @@ fn resolve_settings(scene: &Scene, s: &SettingsEdit) -> Result<RenderSettings, S
         integrator: res.integrator,
         spp: res.spp,
         max_depth: res.max_depth,
+        light_paths: res.light_paths,
+        transparent_max: res.transparent_max,
         seed: res.job_seed,
         filter: res.filter,
         transparent: res.transparent,
