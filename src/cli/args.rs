@@ -137,6 +137,9 @@ pub struct LightPathArgs {
     /// Cycles' Clamp Indirect: largest indirect-light sample value, 0 = off [default: the scene's, else 0].
     #[arg(long)]
     pub clamp_indirect: Option<f32>,
+    /// Cycles' Filter Glossy: glossy lobes met after unlikely bounces are blurred, 0 = off [default: the scene's, else 0].
+    #[arg(long)]
+    pub filter_glossy: Option<f32>,
 }
 
 /// Photon-mapping flags (shared by `render` and `photons`); defaults in

@@ -330,8 +330,14 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     if stop.load(Ordering::Relaxed) {
         return Err(Error::InterruptedEmpty);
     }
+    // Only the path tracer follows the per-kind limits, clamps and Filter Glossy (the others
+    // are warned above): their path-traced parts (media, the catcher pass) follow none either.
+    let light_paths = match res.integrator {
+        IntegratorKind::Path => res.light_paths,
+        _ => crate::integrator::light_paths::LightPaths::UNLIMITED,
+    };
     let ctx = SceneContext::with_light_sampler(&scene, &accel, res.light_sampler)
-        .with_light_paths(res.light_paths, res.transparent_max)
+        .with_light_paths(light_paths, res.transparent_max)
         .with_motion(motion_accel.as_ref())
         .with_camera_at(scene.cameras[res.camera].position);
     // Every integrator honours Ray Visibility (above) and light and shadow linking
@@ -341,7 +347,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     // integrators that split, `settings::splits_at_catchers`).
     let ctx = if res.passes.catcher_sums() {
         let pass = SceneContext::with_light_sampler(&scene, &accel, res.light_sampler)
-            .with_light_paths(res.light_paths, res.transparent_max)
+            .with_light_paths(light_paths, res.transparent_max)
             .with_camera_at(scene.cameras[res.camera].position)
             .with_light_linking();
         ctx.with_shadow_catcher(crate::integrator::catcher::pass_context(pass, true))
@@ -614,10 +620,7 @@ fn light_paths_warnings(res: &Resolved) -> Vec<String> {
         }
         let clamps = res.light_paths.clamps_on();
         if !clamps.is_empty() {
-            out.push(format!(
-                "Light Paths > {}: {name} does not clamp samples; the path tracer does",
-                clamps.join(", ")
-            ));
+            out.push(format!("Light Paths > {}: {name} does not follow it; the path tracer does", clamps.join(", ")));
         }
     }
     out

@@ -378,8 +378,8 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
 }
 
 /// Resolves Cycles' Light Paths settings (flag > scene > a plain glTF run's: no per-kind
-/// limit, no clamp, 8 transparent bounces), checks the clamps, and names the settings not
-/// rendered yet (Filter Glossy on, a caustics switch off).
+/// limit, no clamp or Filter Glossy, 8 transparent bounces), checks the clamps, and names
+/// the settings not rendered yet (a caustics switch off).
 fn resolve_light_paths(
     args: &RenderArgs,
     st: &scene::SceneSettings,
@@ -400,17 +400,11 @@ fn resolve_light_paths(
         volume: a.volume_max_bounces.or(st.volume_max_bounces).unwrap_or(u.volume),
         clamp_direct: clamp(a.clamp_direct, st.clamp_direct, "clamp-direct")?,
         clamp_indirect: clamp(a.clamp_indirect, st.clamp_indirect, "clamp-indirect")?,
+        filter_glossy: clamp(a.filter_glossy, st.filter_glossy, "filter-glossy")?,
     };
     let transparent_max =
         a.transparent_max_bounces.or(st.transparent_max_bounces).unwrap_or(crate::integrator::DEFAULT_TRANSPARENT_MAX);
     let mut unrendered = Vec::new();
-    match st.filter_glossy {
-        Some(f) if !(f >= 0.0 && f.is_finite()) => {
-            return Err(Error::Usage(format!("filter_glossy {f} must be a finite number ≥ 0 (0 = off)")));
-        }
-        Some(f) if f > 0.0 => unrendered.push(format!("Filter Glossy {f}")),
-        _ => {}
-    }
     if st.caustics_reflective == Some(false) {
         unrendered.push("Reflective Caustics off".to_string());
     }

@@ -15,6 +15,10 @@
 //! is direct when it belongs to bounce 0: next-event estimation at the first vertex, and
 //! emission found by the camera ray or by the ray leaving the first vertex (Cycles writes
 //! emission at `bounce - 1`); everything else is indirect. 0 turns a clamp off.
+//!
+//! Filter Glossy (`surface_shader_prepare_closures`): a path keeps the least density of its
+//! non-singular bounces (BSDF or phase function; `min_ray_pdf`); at each vertex where that
+//! over Filter Glossy is below 1, every microfacet lobe is widened (`Bsdf::blur`).
 
 use crate::math::Rgb;
 use crate::scene::SceneSettings;
@@ -35,6 +39,9 @@ pub struct LightPaths {
     pub clamp_direct: f32,
     /// Clamp Indirect (0: off).
     pub clamp_indirect: f32,
+    /// Filter Glossy (0: off): `Bsdf::blur` at each vertex past the first, by the least
+    /// density of the path's bounces so far (Cycles' `min_ray_pdf`).
+    pub filter_glossy: f32,
 }
 
 /// A limit that never ends a path.
@@ -49,6 +56,7 @@ impl LightPaths {
         volume: NO_LIMIT,
         clamp_direct: 0.0,
         clamp_indirect: 0.0,
+        filter_glossy: 0.0,
     };
 
     /// The file's values (`scenes[i].extras.caustic`), unchecked: absent keys limit and clamp
@@ -62,6 +70,7 @@ impl LightPaths {
             volume: st.volume_max_bounces.unwrap_or(u.volume),
             clamp_direct: st.clamp_direct.unwrap_or(0.0),
             clamp_indirect: st.clamp_indirect.unwrap_or(0.0),
+            filter_glossy: st.filter_glossy.unwrap_or(0.0),
         }
     }
 
@@ -94,9 +103,13 @@ impl LightPaths {
         .collect()
     }
 
-    /// The clamps that are on, by their panel names.
+    /// The clamps and Filter Glossy when on, by their panel names (what only the path
+    /// tracer follows besides the per-kind limits).
     pub fn clamps_on(&self) -> Vec<&'static str> {
         let mut on = Vec::new();
+        if self.filter_glossy > 0.0 {
+            on.push("Filter Glossy");
+        }
         if self.clamp_direct > 0.0 {
             on.push("Clamp Direct");
         }

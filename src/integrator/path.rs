@@ -286,6 +286,9 @@ impl PathIntegrator {
         // only refracted through glass under the Transparent Glass threshold (see below).
         let glass_limit = self.glass_threshold.filter(|_| self.transparent_background && st.depth == 0);
         let mut see_through = glass_limit.is_some();
+        // Filter Glossy's least density of the path's non-singular bounces (Cycles'
+        // `min_ray_pdf`; a continued path starts without one).
+        let mut min_pdf = f32::MAX;
         let merged = |chain: Option<u32>, light: Option<usize>| {
             chain.is_some_and(|k| k > 0) && light.is_some_and(|l| crate::integrator::linking::merged_in_media(ctx, l))
         };
@@ -367,6 +370,7 @@ impl PathIntegrator {
                     }
                     // The phase function is its own density: the throughput is unchanged.
                     let (wi, pdf) = phase.sample(st.dir, u_dir);
+                    min_pdf = min_pdf.min(pdf);
                     see_through = false;
                     st.prev_pdf = pdf;
                     st.prev_p = p;
@@ -468,7 +472,10 @@ impl PathIntegrator {
             }
             let wo = -st.dir;
             let mat = &ctx.scene.materials[s.material as usize];
-            let sp = ctx.shade(&s, wo);
+            let mut sp = ctx.shade(&s, wo);
+            if ctx.light_paths.filter_glossy > 0.0 {
+                sp.bsdf.blur(ctx.light_paths.filter_glossy, min_pdf);
+            }
             if st.depth == 0 {
                 let (alpha, held) = SceneContext::holdout_alpha(&sp, st.beta);
                 out.alpha = alpha;
@@ -576,6 +583,7 @@ impl PathIntegrator {
                     break;
                 }
                 st.prev_pdf = cosine_hemisphere_pdf(local.z);
+                min_pdf = min_pdf.min(st.prev_pdf);
                 st.prev_p = se.p;
                 st.prev_n = n_g;
                 st.depth += 1;
@@ -617,6 +625,10 @@ impl PathIntegrator {
             delta_chain = delta_chain.filter(|_| bs.delta).map(|k| k + 1);
             // After a delta lobe, emission found next is not MIS-weighted (0 = "specular").
             st.prev_pdf = if bs.delta { 0.0 } else { pdf };
+            // A singular bounce leaves Filter Glossy's density alone (Cycles' is 10⁶ times the lobe's).
+            if !bs.delta {
+                min_pdf = min_pdf.min(pdf);
+            }
             st.prev_p = s.p;
             st.prev_n = n_select;
             st.depth += 1;

@@ -58,7 +58,7 @@ pub struct SceneSettings {
     pub clamp_direct: Option<f32>,
     /// Cycles' Clamp Indirect (0 or absent: off).
     pub clamp_indirect: Option<f32>,
-    /// Cycles' Filter Glossy (0 or absent: off); not rendered yet, named in a warning.
+    /// Cycles' Filter Glossy (0 or absent: off).
     pub filter_glossy: Option<f32>,
     /// Cycles' Reflective Caustics (absent: on); off is not rendered yet, named in a warning.
     pub caustics_reflective: Option<bool>,

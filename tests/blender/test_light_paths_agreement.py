@@ -71,9 +71,9 @@ def floor_and_box(scene, floor=None):
     scenes.cube(scene, "Box", 1.0, (0.3, -0.2, 0.5), material=scenes.diffuse_material("Light", 0.8))
 
 
-def metal(name):
+def metal(name, roughness=0.3):
     return scenes.shader_node_material(name, "ShaderNodeBsdfPrincipled", **{
-        "Base Color": (0.9, 0.9, 0.9, 1.0), "Metallic": 1.0, "Roughness": 0.3})
+        "Base Color": (0.9, 0.9, 0.9, 1.0), "Metallic": 1.0, "Roughness": roughness})
 
 
 def room(scene):
@@ -86,6 +86,15 @@ def room(scene):
 def glossy(scene):
     floor_and_box(scene, floor=metal("Metal floor"))
     scenes.plane(scene, "Ceiling", 10.0, z=4.5, material=metal("Metal ceiling"))
+    point_light(scene)
+
+
+def mirror_ceiling(scene):
+    # A smooth metal ceiling above the point light: unblurred, no path can reach the light off
+    # it (a delta mirror and a delta light); blurred after the floor's diffuse bounce, next-
+    # event estimation at the ceiling finds it.
+    floor_and_box(scene)
+    scenes.plane(scene, "Ceiling", 10.0, z=4.5, material=metal("Mirror", roughness=0.0))
     point_light(scene)
 
 
@@ -129,6 +138,7 @@ CASES = {
     "transmission_2": (glass_stack, 8, {"transmission_bounces": 2}, {"transmission_bounces": 8}),
     "volume_0": (fog_cube, 8, {"volume_bounces": 0}, {"volume_bounces": 8}),
     "volume_2": (fog_cube, 8, {"volume_bounces": 2}, {"volume_bounces": 8}),
+    "filter_glossy": (mirror_ceiling, 2, {"blur_glossy": 1.0}, {"blur_glossy": 0.0}),
     "clamp_direct": (agreement, 1, {"sample_clamp_direct": 0.3}, {"sample_clamp_direct": 0.0}),
     "clamp_indirect": (agreement, 1, {"sample_clamp_indirect": 0.5}, {"sample_clamp_indirect": 0.0}),
 }
