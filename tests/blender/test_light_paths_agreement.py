@@ -19,6 +19,9 @@ Cases:
   Transmission Bounces 2.
 * volume_0, volume_2: a scattering cube (Volume Scatter, albedo 0.95) on the floor, Volume
   Bounces 0 (single scattering) and 2.
+* filter_glossy: the agreement scene under a smooth metal ceiling, Filter Glossy 1 (Cycles'
+  default): after the floor's diffuse bounce the mirror is blurred, so next-event estimation
+  there finds the point light, which no path finds off a delta mirror.
 * clamp_direct, clamp_indirect: the agreement scene (diffuse floor and cube under a point light)
   under a grey ceiling, at Max Bounces 1, with Clamp Direct 0.3 or Clamp Indirect 0.5.
 
@@ -36,8 +39,13 @@ clamp MIS-weighted contributions whose split between light and BSDF sampling dif
 the renderers (e.g. the light tree's selection probabilities): there the clamped means may
 differ while the unclamped ones agree.
 
-Not tested here because not rendered yet (the binary names them in a warning): Filter Glossy
-and the caustics switches.
+Not tested here because not rendered yet (the binary names them in a warning): the caustics
+switches.
+
+Measured (bpy 5.0.1, Caustic/Cycles per channel, before -> after): room_defaults 1.3647 ->
+0.9993, glossy_1 1.1152 -> 0.9950, transmission_2 1.8596 -> 0.9995, volume_0 1.1109 -> 0.9999,
+volume_2 1.0402 -> 0.9998, filter_glossy 0.7553 -> 1.0002, clamp_direct 1.3452 -> 1.0000,
+clamp_indirect 1.2367 -> 0.9998.
 """
 
 import math
