@@ -175,6 +175,26 @@ mod tests {
         assert_eq!(lp.estimated(Rgb::new(0.2, 0.2, 0.2), 1), Rgb::new(0.2, 0.2, 0.2));
     }
 
+    /// Filter Glossy widens a mirror only after a bounce whose density over the filter is
+    /// below 1 (a diffuse bounce's is at most 1/π): there it is no longer a delta lobe, and a
+    /// rough lobe is never narrowed.
+    #[test]
+    fn filter_glossy_blurs_a_mirror_after_an_unlikely_bounce() {
+        use crate::bsdf::{Bsdf, PbrBsdf};
+        let mirror = Bsdf::Pbr(PbrBsdf::new(Rgb::ONE, 1.0, 0.0));
+        assert!(mirror.is_delta());
+        for (filter, min_pdf, delta) in [(1.0, f32::MAX, true), (0.0, 0.1, true), (1.0, 1.5, true), (1.0, 0.3, false)] {
+            let mut b = mirror;
+            b.blur(filter, min_pdf);
+            assert_eq!(b.is_delta(), delta, "filter {filter}, min pdf {min_pdf}");
+        }
+        let rough = Bsdf::Pbr(PbrBsdf::new(Rgb::ONE, 1.0, 0.9));
+        let mut b = rough;
+        b.blur(1.0, 0.3);
+        let (wo, wi) = (glam::Vec3::new(0.3, 0.0, 0.95).normalize(), glam::Vec3::new(-0.2, 0.1, 0.97).normalize());
+        assert_eq!(b.eval(wo, wi), rough.eval(wo, wi), "α 0.81 is above the blur's 0.42");
+    }
+
     #[test]
     fn only_limits_below_max_bounces_are_named() {
         let lp = LightPaths { diffuse: 4, glossy: 4, transmission: 12, volume: 0, ..LightPaths::UNLIMITED };
