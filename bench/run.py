@@ -264,8 +264,8 @@ class Bench:
         c.caustics_reflective = c.caustics_refractive = True
         c.blur_glossy = 0.0
         c.pixel_filter_type = "BLACKMAN_HARRIS"
+        # Caustic renders Cycles' Light Paths (above): no bounce setting of its own.
         p = scene.caustic
-        p.max_bounces = b
         p.threads = self.threads
         p.seed = TEST_SEED
 

@@ -108,22 +108,6 @@ class CausticRenderSettings(bpy.types.PropertyGroup):
         subtype="TIME_ABSOLUTE",
         unit="TIME_ABSOLUTE",
     )
-    max_bounces: IntProperty(
-        name="Max Bounces",
-        description="Maximum number of bounces (0 = direct light only, as in Cycles)",
-        default=12,
-        min=0,
-        max=1024,
-    )
-    transparent_max_bounces: IntProperty(
-        name="Transparent Max Bounces",
-        description="Maximum number of alpha-transparent surfaces a path passes, as Cycles' "
-        "Transparent Max Bounces: past them the path ends, and shadow rays crossing more "
-        "are blocked",
-        default=8,
-        min=0,
-        max=1024,
-    )
     seed: IntProperty(
         name="Seed",
         description="Seed of the sample pattern",

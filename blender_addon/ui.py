@@ -63,7 +63,7 @@ class CausticButtonsPanel:
 
 
 class CAUSTIC_PT_render(CausticButtonsPanel, bpy.types.Panel):
-    """Render settings: integrator, samples, time limit, bounces, light sampling, seed, threads."""
+    """Render settings: integrator, samples, time limit, light sampling, seed, threads (bounces: Light Paths)."""
 
     bl_label = "Caustic"
     bl_context = "render"
@@ -92,8 +92,6 @@ class CAUSTIC_PT_render(CausticButtonsPanel, bpy.types.Panel):
         sub.prop(settings, "adaptive_min_samples", text="Min Samples")
         col.prop(settings, "time_limit")
         layout.prop(settings, "use_denoising")
-        layout.prop(settings, "max_bounces")
-        layout.prop(settings, "transparent_max_bounces", text="Transparent Bounces")
         layout.prop(settings, "light_sampler")
         layout.prop(settings, "seed")
         layout.prop(settings, "threads")
@@ -193,7 +191,41 @@ class CAUSTIC_PT_film(CausticButtonsPanel, bpy.types.Panel):
             sub.prop(cycles, "film_transparent_roughness", text="Roughness Threshold")
 
 
-classes = (CAUSTIC_PT_render, CAUSTIC_PT_film, CAUSTIC_PT_light, CAUSTIC_PT_light_spot)
+class CAUSTIC_PT_light_paths(CausticButtonsPanel, bpy.types.Panel):
+    """Light Paths: Cycles' own settings (bounce limits, clamping, caustics), drawn here so that
+    one value serves both renderers and a .blend made for Cycles renders alike
+    (export/settings.py `light_paths`)."""
+
+    bl_label = "Light Paths"
+    bl_context = "render"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    @classmethod
+    def poll(cls, context):
+        return getattr(context.scene, "cycles", None) is not None and super().poll(context)
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        cycles = context.scene.cycles
+        col = layout.column(align=True)
+        col.prop(cycles, "max_bounces", text="Total")
+        col.prop(cycles, "diffuse_bounces", text="Diffuse")
+        col.prop(cycles, "glossy_bounces", text="Glossy")
+        col.prop(cycles, "transmission_bounces", text="Transmission")
+        col.prop(cycles, "volume_bounces", text="Volume")
+        col.prop(cycles, "transparent_max_bounces", text="Transparent")
+        col = layout.column(align=True)
+        col.prop(cycles, "sample_clamp_direct", text="Clamp Direct")
+        col.prop(cycles, "sample_clamp_indirect", text="Clamp Indirect")
+        layout.prop(cycles, "blur_glossy", text="Filter Glossy")
+        col = layout.column(heading="Caustics", align=True)
+        col.prop(cycles, "caustics_reflective", text="Reflective")
+        col.prop(cycles, "caustics_refractive", text="Refractive")
+
+
+classes = (CAUSTIC_PT_render, CAUSTIC_PT_light_paths, CAUSTIC_PT_film, CAUSTIC_PT_light, CAUSTIC_PT_light_spot)
 
 
 def _compat_panels():

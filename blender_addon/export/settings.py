@@ -7,9 +7,7 @@ def render_settings(scene, resolution, camera_name):
     settings = {
         "resolution": [int(resolution[0]), int(resolution[1])],
         "spp": int(props.samples),
-        # Blender counts bounces, the renderer counts scattering events (contract).
-        "max_depth": int(props.max_bounces) + 1,
-        "transparent_max_bounces": int(props.transparent_max_bounces),
+        **light_paths(scene),
         "seed": int(props.seed),
         "integrator": props.integrator,
         "light_sampler": props.light_sampler,
@@ -67,6 +65,47 @@ def pixel_filter(scene):
         return {"filter": "blackman-harris", "filter_width": 2.0 * float(scene.render.filter_size)}
     name, spread = _FILTERS[cycles.pixel_filter_type]
     return {"filter": name, "filter_width": 1.0 if spread is None else spread * float(cycles.filter_width)}
+
+
+# Cycles' Light Paths defaults (Blender 5.0), taken when Cycles' settings are absent (Cycles
+# disabled): a .blend renders as Cycles would render it once Cycles is enabled.
+_LIGHT_PATHS_DEFAULTS = {
+    "max_bounces": 12,
+    "diffuse_bounces": 4,
+    "glossy_bounces": 4,
+    "transmission_bounces": 12,
+    "volume_bounces": 0,
+    "transparent_max_bounces": 8,
+    "sample_clamp_direct": 0.0,
+    "sample_clamp_indirect": 10.0,
+    "blur_glossy": 1.0,
+    "caustics_reflective": True,
+    "caustics_refractive": True,
+}
+
+
+def light_paths(scene):
+    """The contract's Light Paths keys from Cycles' Light Paths panel (Caustic's panel draws
+    Cycles' properties, as its Film panel does): one source of truth for both renderers."""
+    cycles = getattr(scene, "cycles", None)
+
+    def get(name):
+        return _LIGHT_PATHS_DEFAULTS[name] if cycles is None else getattr(cycles, name)
+
+    return {
+        # Blender counts bounces, the renderer counts scattering events (contract).
+        "max_depth": int(get("max_bounces")) + 1,
+        "diffuse_max_bounces": int(get("diffuse_bounces")),
+        "glossy_max_bounces": int(get("glossy_bounces")),
+        "transmission_max_bounces": int(get("transmission_bounces")),
+        "volume_max_bounces": int(get("volume_bounces")),
+        "transparent_max_bounces": int(get("transparent_max_bounces")),
+        "clamp_direct": float(get("sample_clamp_direct")),
+        "clamp_indirect": float(get("sample_clamp_indirect")),
+        "filter_glossy": float(get("blur_glossy")),
+        "caustics_reflective": bool(get("caustics_reflective")),
+        "caustics_refractive": bool(get("caustics_refractive")),
+    }
 
 
 def film_exposure(scene):

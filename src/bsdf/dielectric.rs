@@ -105,6 +105,20 @@ impl DielectricBsdf {
         x * y
     }
 
+    /// Filter Glossy's blur (`Bsdf::blur`): microfacets at least `alpha` wide; a smooth
+    /// interface becomes rough past the smooth threshold. The multiple-scattering compensation
+    /// stays the original roughness's, as Cycles does not recompute it.
+    pub fn blur(&mut self, alpha: f32) {
+        if (self.eta - 1.0).abs() < INVISIBLE_ETA {
+            return;
+        }
+        self.ggx = self.ggx.blurred(alpha);
+        let (x, y) = self.ggx.alphas();
+        if x.max(y).sqrt() >= SMOOTH_ROUGHNESS {
+            self.smooth = false;
+        }
+    }
+
     /// An interface from glTF parameters.
     pub fn new(eta: f32, roughness: f32, thin: bool, tint: Rgb) -> Self {
         DielectricBsdf {

@@ -36,6 +36,14 @@ impl Ggx {
         Ggx { alpha: ax, alpha_y: (ax != ay).then_some(ay), beckmann: false }
     }
 
+    /// The widths raised to at least `alpha` each (Cycles' `bsdf_microfacet_blur`, Filter
+    /// Glossy).
+    pub fn blurred(self, alpha: f32) -> Self {
+        let (x, y) = self.alphas();
+        let (x, y) = (x.max(alpha), y.max(alpha));
+        Ggx { alpha: x, alpha_y: (x != y).then_some(y), beckmann: self.beckmann }
+    }
+
     /// The same widths with Beckmann's distribution.
     pub fn with_beckmann(self) -> Self {
         Ggx { beckmann: true, ..self }

@@ -504,6 +504,27 @@ impl MixBsdf {
         (pdf > 0.0).then(|| BsdfSample { wi: s.wi, f: self.eval(wo, s.wi), pdf, delta: false, kind: s.kind })
     }
 
+    /// Filter Glossy's blur (`Bsdf::blur`): the Principled part and every glossy and
+    /// dielectric lobe at least `alpha` wide (Cycles' `bsdf_blur` touches microfacet
+    /// closures only); compensations stay the original roughness's, as in Cycles.
+    pub fn blur(&mut self, alpha: f32) {
+        if self.pbr_weight > 0.0 {
+            self.pbr.blur(alpha);
+        }
+        for lobe in &mut self.lobes[..self.n as usize] {
+            match lobe {
+                Lobe::Glossy { ggx, roughness, .. } => {
+                    *ggx = ggx.blurred(alpha);
+                    let (x, y) = ggx.alphas();
+                    // `roughness` decides smoothness at evaluation; the fms keeps the original.
+                    *roughness = roughness.max(x.max(y).sqrt());
+                }
+                Lobe::Dielectric(d) => d.blur(alpha),
+                _ => {}
+            }
+        }
+    }
+
     /// True when every lobe in use is a delta lobe.
     pub fn is_delta(&self) -> bool {
         (self.pbr_weight <= 0.0 || self.pbr.is_delta()) && self.lobes[..self.n as usize].iter().all(Lobe::smooth)

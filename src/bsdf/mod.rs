@@ -138,6 +138,25 @@ impl Bsdf {
         }
     }
 
+    /// Cycles' Filter Glossy at a vertex reached by a path whose least likely bounce had
+    /// density `min_pdf`: with `blur_pdf = min_pdf / filter_glossy` below 1, every microfacet
+    /// lobe is widened to α ≥ ½ √(1 − blur_pdf) (`surface_shader_prepare_closures`,
+    /// `bsdf_microfacet_blur`). Hair is not blurred here (Cycles blurs it too).
+    pub fn blur(&mut self, filter_glossy: f32, min_pdf: f32) {
+        if !(filter_glossy > 0.0) {
+            return;
+        }
+        let blur_pdf = min_pdf / filter_glossy;
+        if blur_pdf < 1.0 {
+            let alpha = (1.0 - blur_pdf).sqrt() * 0.5;
+            match self {
+                Bsdf::Pbr(b) => b.blur(alpha),
+                Bsdf::Mix(m) => m.blur(alpha),
+                Bsdf::Hair(_) => {}
+            }
+        }
+    }
+
     /// True when every lobe is a delta lobe (light sampling cannot help).
     #[inline]
     pub fn is_delta(&self) -> bool {

@@ -672,6 +672,21 @@ impl PbrBsdf {
         self.transmission > 0.0 && self.metallic < 1.0
     }
 
+    /// Filter Glossy's blur (`Bsdf::blur`): every microfacet lobe (metal and specular layer,
+    /// glass, coat) at least `alpha` wide, smooth ones rough past the smooth threshold; the
+    /// albedo tables and compensations stay the original roughness's (Cycles recomputes none).
+    pub fn blur(&mut self, alpha: f32) {
+        let rough = |g: Ggx| {
+            let (x, y) = g.alphas();
+            x.max(y).sqrt() >= SMOOTH_ROUGHNESS
+        };
+        self.ggx = self.ggx.blurred(alpha);
+        self.smooth &= !rough(self.ggx);
+        self.coat_ggx = self.coat_ggx.blurred(alpha);
+        self.smooth_coat &= !rough(self.coat_ggx);
+        self.glass.blur(alpha);
+    }
+
     /// True when every lobe is a delta lobe (smooth clear glass): no light sampling helps.
     pub fn is_delta(&self) -> bool {
         let dielectric = 1.0 - self.metallic;

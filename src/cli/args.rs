@@ -112,6 +112,36 @@ pub struct PhotonsArgs {
     pub debug_delay: Vec<String>,
 }
 
+/// Cycles' Light Paths settings beyond Max Bounces (`--max-depth`); defaults in
+/// `integrator::light_paths` and `cli::settings::resolve`.
+#[derive(Args, Debug, Default, Clone)]
+pub struct LightPathArgs {
+    /// Cycles' Diffuse Bounces: a path ends after one more diffuse reflection [default: the scene's, else unlimited].
+    #[arg(long)]
+    pub diffuse_max_bounces: Option<u32>,
+    /// Cycles' Glossy Bounces [default: the scene's, else unlimited].
+    #[arg(long)]
+    pub glossy_max_bounces: Option<u32>,
+    /// Cycles' Transmission Bounces [default: the scene's, else unlimited].
+    #[arg(long)]
+    pub transmission_max_bounces: Option<u32>,
+    /// Cycles' Volume Bounces (0 = single scattering) [default: the scene's, else unlimited].
+    #[arg(long)]
+    pub volume_max_bounces: Option<u32>,
+    /// Cycles' Transparent Max Bounces [default: the scene's, else 8].
+    #[arg(long)]
+    pub transparent_max_bounces: Option<u32>,
+    /// Cycles' Clamp Direct: largest direct-light sample value, 0 = off [default: the scene's, else 0].
+    #[arg(long)]
+    pub clamp_direct: Option<f32>,
+    /// Cycles' Clamp Indirect: largest indirect-light sample value, 0 = off [default: the scene's, else 0].
+    #[arg(long)]
+    pub clamp_indirect: Option<f32>,
+    /// Cycles' Filter Glossy: glossy lobes met after unlikely bounces are blurred, 0 = off [default: the scene's, else 0].
+    #[arg(long)]
+    pub filter_glossy: Option<f32>,
+}
+
 /// Photon-mapping flags (shared by `render` and `photons`); defaults in
 /// `integrator::photon::PhotonSettings` and [`resolve_photon`].
 #[derive(Args, Debug, Default, Clone)]
@@ -270,6 +300,9 @@ pub struct RenderArgs {
     /// Maximum scattering events per path (1 = direct light only) [default: 13 = Blender's 12 bounces].
     #[arg(long)]
     pub max_depth: Option<u32>,
+    /// Cycles' Light Paths limits and clamps (flags over the scene's).
+    #[command(flatten)]
+    pub light_paths: LightPathArgs,
     /// Random seed [default: 0].
     #[arg(long)]
     pub seed: Option<u32>,

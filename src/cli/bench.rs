@@ -26,6 +26,7 @@ pub fn run_bench(args: &BenchArgs, stop: &AtomicBool) -> Result<()> {
         spp: Some(args.spp),
         resolution: Some(args.resolution),
         max_depth: None,
+        light_paths: Default::default(),
         seed: None,
         threads: args.threads,
         time_limit: None,

@@ -105,6 +105,10 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         reporter.warning(&w);
         run_warnings.push(w);
     }
+    for w in light_paths_warnings(&res) {
+        reporter.warning(&w);
+        run_warnings.push(w);
+    }
     // Photons leave emitters whose graph reads the Light Path node without a camera path
     // (`light::path_emitters`); BDPT and VCM take those emitters from the camera side.
     let photon_name = match res.integrator {
@@ -318,7 +322,14 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     if stop.load(Ordering::Relaxed) {
         return Err(Error::InterruptedEmpty);
     }
+    // Only the path tracer follows the per-kind limits, clamps and Filter Glossy (the others
+    // are warned above): their path-traced parts (media, the catcher pass) follow none either.
+    let light_paths = match res.integrator {
+        IntegratorKind::Path => res.light_paths,
+        _ => crate::integrator::light_paths::LightPaths::UNLIMITED,
+    };
     let ctx = SceneContext::with_light_sampler(&scene, &accel, res.light_sampler)
+        .with_light_paths(light_paths, res.transparent_max)
         .with_motion(motion_accel.as_ref())
         .with_camera_at(scene.cameras[res.camera].position);
     // Every integrator honours Ray Visibility (above) and light and shadow linking
@@ -328,6 +339,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     // integrators that split, `settings::splits_at_catchers`).
     let ctx = if res.passes.catcher_sums() {
         let pass = SceneContext::with_light_sampler(&scene, &accel, res.light_sampler)
+            .with_light_paths(light_paths, res.transparent_max)
             .with_camera_at(scene.cameras[res.camera].position)
             .with_light_linking();
         ctx.with_shadow_catcher(crate::integrator::catcher::pass_context(pass, true))
@@ -581,6 +593,34 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
 /// The chunk identity of this render: the scene's source hash (the glTF and every file it
 /// read) and a hash of every setting that changes what a sample computes (not the sample
 /// range, threads or output).
+/// Warnings naming the Light Paths settings this render does not follow: Filter Glossy and
+/// the caustics switches (no integrator yet), and, for the integrators other than the path
+/// tracer, the per-kind bounce limits that could end a path before Max Bounces and the
+/// clamps (BDPT and VCM weigh whole paths made of a camera and a light subpath, photons do
+/// not know the camera path they will be read at; Cycles has neither).
+fn light_paths_warnings(res: &Resolved) -> Vec<String> {
+    let mut out: Vec<String> = res
+        .unrendered_light_paths
+        .iter()
+        .map(|s| format!("Light Paths > {s} is not rendered yet: paths are followed as if it were off"))
+        .collect();
+    if res.integrator != IntegratorKind::Path {
+        let name = res.integrator.name();
+        let limits = res.light_paths.limits_below(res.max_depth);
+        if !limits.is_empty() {
+            out.push(format!(
+                "Light Paths > {}: {name} does not follow per-kind bounce limits (only Max Bounces); the path tracer does",
+                limits.join(", ")
+            ));
+        }
+        let clamps = res.light_paths.clamps_on();
+        if !clamps.is_empty() {
+            out.push(format!("Light Paths > {}: {name} does not follow it; the path tracer does", clamps.join(", ")));
+        }
+    }
+    out
+}
+
 fn chunk_info(args: &RenderArgs, res: &Resolved, scene: &Scene) -> ChunkInfo {
     // SPPM's iteration count is its chunk's sample count, not an identity.
     let photon = PhotonSettings { sppm_iterations: 0, ..res.photon.clone() };

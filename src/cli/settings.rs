@@ -31,6 +31,12 @@ pub struct Resolved {
     pub job_seed: u32,
     /// Max depth.
     pub max_depth: u32,
+    /// Cycles' per-kind bounce limits and clamps (flag > scene > none).
+    pub light_paths: crate::integrator::light_paths::LightPaths,
+    /// Cycles' Transparent Max Bounces (flag > scene > 8).
+    pub transparent_max: u32,
+    /// The scene's Light Paths settings that no integrator renders yet, by their panel names.
+    pub unrendered_light_paths: Vec<String>,
     /// Filter.
     pub filter: Filter,
     /// Transparent background.
@@ -190,6 +196,7 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
     if max_depth > MAX_DEPTH {
         return Err(Error::Usage(format!("--max-depth {max_depth} is absurd (at most {MAX_DEPTH})")));
     }
+    let (light_paths, transparent_max, unrendered_light_paths) = resolve_light_paths(args, st)?;
     let cores = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
     let threads = match args.threads.or(st.threads) {
         None => cores,
@@ -356,6 +363,9 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
         threads,
         job_seed: args.seed.or(st.seed).unwrap_or(0),
         max_depth,
+        light_paths,
+        transparent_max,
+        unrendered_light_paths,
         filter,
         transparent: st.transparent.unwrap_or(true),
         transparent_glass,
@@ -365,6 +375,43 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
         sample_offset,
         adaptive,
     })
+}
+
+/// Resolves Cycles' Light Paths settings (flag > scene > a plain glTF run's: no per-kind
+/// limit, no clamp or Filter Glossy, 8 transparent bounces), checks the clamps, and names
+/// the settings not rendered yet (a caustics switch off).
+fn resolve_light_paths(
+    args: &RenderArgs,
+    st: &scene::SceneSettings,
+) -> Result<(crate::integrator::light_paths::LightPaths, u32, Vec<String>)> {
+    use crate::integrator::light_paths::LightPaths;
+    let a = &args.light_paths;
+    let u = LightPaths::UNLIMITED;
+    let clamp = |flag: Option<f32>, file: Option<f32>, name: &str| match flag.or(file) {
+        Some(c) if !(c >= 0.0 && c.is_finite()) => {
+            Err(Error::Usage(format!("--{name} {c} must be a finite number ≥ 0 (0 = off)")))
+        }
+        c => Ok(c.unwrap_or(0.0)),
+    };
+    let lp = LightPaths {
+        diffuse: a.diffuse_max_bounces.or(st.diffuse_max_bounces).unwrap_or(u.diffuse),
+        glossy: a.glossy_max_bounces.or(st.glossy_max_bounces).unwrap_or(u.glossy),
+        transmission: a.transmission_max_bounces.or(st.transmission_max_bounces).unwrap_or(u.transmission),
+        volume: a.volume_max_bounces.or(st.volume_max_bounces).unwrap_or(u.volume),
+        clamp_direct: clamp(a.clamp_direct, st.clamp_direct, "clamp-direct")?,
+        clamp_indirect: clamp(a.clamp_indirect, st.clamp_indirect, "clamp-indirect")?,
+        filter_glossy: clamp(a.filter_glossy, st.filter_glossy, "filter-glossy")?,
+    };
+    let transparent_max =
+        a.transparent_max_bounces.or(st.transparent_max_bounces).unwrap_or(crate::integrator::DEFAULT_TRANSPARENT_MAX);
+    let mut unrendered = Vec::new();
+    if st.caustics_reflective == Some(false) {
+        unrendered.push("Reflective Caustics off".to_string());
+    }
+    if st.caustics_refractive == Some(false) {
+        unrendered.push("Refractive Caustics off".to_string());
+    }
+    Ok((lp, transparent_max, unrendered))
 }
 
 /// Resolves adaptive sampling (flag > scene > off) and checks its range (Cycles' panel:

@@ -9,6 +9,7 @@ pub mod data_passes;
 mod emission;
 pub mod filing;
 pub mod light_passes;
+pub mod light_paths;
 pub mod linking;
 pub mod media;
 pub mod nee;
@@ -94,6 +95,9 @@ pub struct SceneContext<'a> {
     /// emission, and a shadow ray from a point reached through `n` of them is opaque when
     /// it crosses more than `max - n` (`integrate_shadow_max_transparent_hits`).
     pub transparent_max: u32,
+    /// Cycles' per-kind bounce limits and sample clamps (`light_paths`); the CLI sets the
+    /// resolved ones (flags over the file's).
+    pub light_paths: light_paths::LightPaths,
     /// Some material's Transparent BSDF is coloured: shadow rays then take the per-channel
     /// route (`media::light_transmittance`), as with media.
     pub tinted_shadows: bool,
@@ -195,6 +199,7 @@ impl<'a> SceneContext<'a> {
             constant_bsdfs: (0..scene.materials.len() as u32).map(|m| scene.constant_bsdf(m)).collect(),
             camera_media: MediumStack::default(),
             transparent_max: scene.settings.transparent_max_bounces.unwrap_or(DEFAULT_TRANSPARENT_MAX),
+            light_paths: light_paths::LightPaths::from_settings(&scene.settings),
             tinted_shadows: scene.materials.iter().any(|m| m.nodes.as_ref().is_some_and(|p| p.tinted_transparency)),
             motion: None,
             blurs_motion: false,
@@ -207,6 +212,14 @@ impl<'a> SceneContext<'a> {
     pub fn with_motion(mut self, motion: Option<&'a crate::motion::accel::MotionAccel>) -> Self {
         self.motion = motion;
         self.blurs_motion = self.scene.motion.as_ref().is_some_and(|m| m.blurs());
+        self
+    }
+
+    /// This context with the resolved Light Paths limits and clamps and Transparent Max
+    /// Bounces (the command line's over the file's, which `new` took).
+    pub fn with_light_paths(mut self, lp: light_paths::LightPaths, transparent_max: u32) -> Self {
+        self.light_paths = lp;
+        self.transparent_max = transparent_max;
         self
     }
 

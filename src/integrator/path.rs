@@ -286,6 +286,9 @@ impl PathIntegrator {
         // only refracted through glass under the Transparent Glass threshold (see below).
         let glass_limit = self.glass_threshold.filter(|_| self.transparent_background && st.depth == 0);
         let mut see_through = glass_limit.is_some();
+        // Filter Glossy's least density of the path's non-singular bounces (Cycles'
+        // `min_ray_pdf`; a continued path starts without one).
+        let mut min_pdf = f32::MAX;
         let merged = |chain: Option<u32>, light: Option<usize>| {
             chain.is_some_and(|k| k > 0) && light.is_some_and(|l| crate::integrator::linking::merged_in_media(ctx, l))
         };
@@ -311,12 +314,16 @@ impl PathIntegrator {
             let before = radiance;
             let depth_before = st.depth;
             let mut left_out = Rgb::ZERO;
+            // What the segment finds (crossed lights, medium emission), clamped as one
+            // contribution (Cycles clamps each; they differ only for a ray that crosses two
+            // emitters past the clamp).
+            let mut found = Rgb::ZERO;
             let (step, crossed) = st.advance_each(
                 ctx,
                 [u_channel, u_dist],
                 || u_alpha,
                 true,
-                &mut radiance,
+                &mut found,
                 stats,
                 |light, c| {
                     if merged(delta_chain, Some(light)) {
@@ -326,7 +333,7 @@ impl PathIntegrator {
                     }
                 },
             );
-            radiance -= left_out;
+            radiance += ctx.light_paths.found(found - left_out, depth_before);
             if passes && radiance != before {
                 // Crossed lights and medium emission (the difference keeps Combined's sum as it was).
                 tally.found(out, depth_before, radiance - before, false);
@@ -345,12 +352,14 @@ impl PathIntegrator {
                         out.alpha = 1.0;
                         out.depth = depth_of(p);
                     }
-                    if st.depth >= self.max_depth {
+                    // Max Bounces, or a kind's bounces spent (Cycles' segment is then
+                    // attenuation only: a free flight ending here leaves the same mean).
+                    if st.depth >= self.max_depth || ctx.light_paths.spent(st.light_path) {
                         break;
                     }
                     let (le, light) =
                         medium_nee_light(ctx, p, st.dir, phase, st.media, st.light_path, u_light, u_light_pt, stats);
-                    let c = st.beta * le;
+                    let c = ctx.light_paths.estimated(st.beta * le, st.depth);
                     radiance += c;
                     if grouping {
                         out.groups.add(groups.of_light(light), c);
@@ -361,6 +370,7 @@ impl PathIntegrator {
                     }
                     // The phase function is its own density: the throughput is unchanged.
                     let (wi, pdf) = phase.sample(st.dir, u_dir);
+                    min_pdf = min_pdf.min(pdf);
                     see_through = false;
                     st.prev_pdf = pdf;
                     st.prev_p = p;
@@ -390,9 +400,10 @@ impl PathIntegrator {
                             }
                         }
                     });
-                    radiance += st.beta * le;
+                    let c = ctx.light_paths.found(st.beta * le, st.depth);
+                    radiance += c;
                     if passes {
-                        tally.found(out, st.depth, st.beta * le, true);
+                        tally.found(out, st.depth, c, true);
                     }
                     break;
                 }
@@ -424,12 +435,13 @@ impl PathIntegrator {
                     if !(behind_film && self.transparent_background)
                         && let Some(le) = st.escaped_radiance(ctx)
                     {
-                        radiance += st.beta * le;
+                        let c = ctx.light_paths.found(st.beta * le, st.depth);
+                        radiance += c;
                         if seen_directly {
                             out.alpha = 1.0;
                         }
                         if passes {
-                            tally.found(out, st.depth, st.beta * le, true);
+                            tally.found(out, st.depth, c, true);
                         }
                     } else if passes
                         && behind_film
@@ -460,7 +472,10 @@ impl PathIntegrator {
             }
             let wo = -st.dir;
             let mat = &ctx.scene.materials[s.material as usize];
-            let sp = ctx.shade(&s, wo);
+            let mut sp = ctx.shade(&s, wo);
+            if ctx.light_paths.filter_glossy > 0.0 {
+                sp.bsdf.blur(ctx.light_paths.filter_glossy, min_pdf);
+            }
             if st.depth == 0 {
                 let (alpha, held) = SceneContext::holdout_alpha(&sp, st.beta);
                 out.alpha = alpha;
@@ -475,7 +490,7 @@ impl PathIntegrator {
 
             // Emission found by the path, weighted against light sampling.
             if sp.emitted != Rgb::ZERO && !merged(delta_chain, ctx.lights.light_of_triangle(hit.tri)) {
-                let c = st.surface_emission(ctx, &hit, &s, &sp);
+                let c = ctx.light_paths.found(st.surface_emission(ctx, &hit, &s, &sp), st.depth);
                 radiance += c;
                 if grouping {
                     out.groups.add(groups.of_tri(hit.tri), c);
@@ -485,8 +500,10 @@ impl PathIntegrator {
                 }
             }
 
-            // Past Transparent Max Bounces a path ends here, after the emission (Cycles).
-            if st.depth >= self.max_depth || ctx.ends_at_surface(st.light_path) {
+            // Past Transparent Max Bounces, Max Bounces or a kind's bounces (Light Paths) a
+            // path ends here, after the emission (Cycles).
+            if st.depth >= self.max_depth || ctx.ends_at_surface(st.light_path) || ctx.light_paths.spent(st.light_path)
+            {
                 break;
             }
 
@@ -517,6 +534,7 @@ impl PathIntegrator {
                     u_light_pt,
                     stats,
                 );
+                let c = ctx.light_paths.estimated(c, st.depth);
                 radiance += c;
                 if grouping {
                     out.groups.add(groups.of_light(light), c);
@@ -549,7 +567,8 @@ impl PathIntegrator {
                     tally.subsurface();
                 }
                 let (le, light) = exit_nee_light(ctx, &se, n_g, n_s, st.media, v_light, Vec2::new(v_lx, v_ly), stats);
-                let c = st.beta * le;
+                // Cycles counts no bounce at the entry: the exit's estimate is at the entry's.
+                let c = ctx.light_paths.estimated(st.beta * le, st.depth - 1);
                 radiance += c;
                 if grouping {
                     out.groups.add(groups.of_light(light), c);
@@ -564,6 +583,7 @@ impl PathIntegrator {
                     break;
                 }
                 st.prev_pdf = cosine_hemisphere_pdf(local.z);
+                min_pdf = min_pdf.min(st.prev_pdf);
                 st.prev_p = se.p;
                 st.prev_n = n_g;
                 st.depth += 1;
@@ -605,6 +625,10 @@ impl PathIntegrator {
             delta_chain = delta_chain.filter(|_| bs.delta).map(|k| k + 1);
             // After a delta lobe, emission found next is not MIS-weighted (0 = "specular").
             st.prev_pdf = if bs.delta { 0.0 } else { pdf };
+            // A singular bounce leaves Filter Glossy's density alone (Cycles' is 10⁶ times the lobe's).
+            if !bs.delta {
+                min_pdf = min_pdf.min(pdf);
+            }
             st.prev_p = s.p;
             st.prev_n = n_select;
             st.depth += 1;

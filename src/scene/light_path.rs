@@ -21,6 +21,8 @@ pub struct LightPath {
     pub transmission: u16,
     /// Transparent surfaces passed so far (on a shadow ray, also those the ray passed).
     pub transparent: u16,
+    /// Scattering events in volumes so far (Cycles' `volume_bounce`: Volume Bounces).
+    pub volume: u16,
     /// Distance from the ray's origin to the shading point.
     pub ray_length: f32,
     /// The ray's footprint (the Bump node's offsets).
@@ -94,6 +96,7 @@ impl LightPath {
         glossy: 0,
         transmission: 0,
         transparent: 0,
+        volume: 0,
         ray_length: 0.0,
         footprint: PathFootprint::Ray(RayFootprint::ZERO),
     };
@@ -136,7 +139,12 @@ impl LightPath {
     /// The state after a scattering event in a volume.
     #[inline]
     pub fn scattered_in_volume(self) -> LightPath {
-        LightPath { flags: Self::VOLUME_SCATTER, depth: self.depth.saturating_add(1), ..self }
+        LightPath {
+            flags: Self::VOLUME_SCATTER,
+            depth: self.depth.saturating_add(1),
+            volume: self.volume.saturating_add(1),
+            ..self
+        }
     }
 
     /// The state after passing a transparent surface (flags kept, as Cycles).

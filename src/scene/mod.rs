@@ -46,6 +46,24 @@ pub struct SceneSettings {
     /// the next surface after the last), and with them those its shadow rays may cross
     /// (default `integrator::DEFAULT_TRANSPARENT_MAX`, Blender's).
     pub transparent_max_bounces: Option<u32>,
+    /// Cycles' Diffuse Bounces (default: unlimited, Max Bounces alone).
+    pub diffuse_max_bounces: Option<u32>,
+    /// Cycles' Glossy Bounces (default: unlimited).
+    pub glossy_max_bounces: Option<u32>,
+    /// Cycles' Transmission Bounces (default: unlimited).
+    pub transmission_max_bounces: Option<u32>,
+    /// Cycles' Volume Bounces (default: unlimited).
+    pub volume_max_bounces: Option<u32>,
+    /// Cycles' Clamp Direct (0 or absent: off).
+    pub clamp_direct: Option<f32>,
+    /// Cycles' Clamp Indirect (0 or absent: off).
+    pub clamp_indirect: Option<f32>,
+    /// Cycles' Filter Glossy (0 or absent: off).
+    pub filter_glossy: Option<f32>,
+    /// Cycles' Reflective Caustics (absent: on); off is not rendered yet, named in a warning.
+    pub caustics_reflective: Option<bool>,
+    /// Cycles' Refractive Caustics (absent: on); off is not rendered yet, named in a warning.
+    pub caustics_refractive: Option<bool>,
     /// Random seed.
     pub seed: Option<u32>,
     /// Worker threads.

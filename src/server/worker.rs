@@ -53,6 +53,10 @@ pub struct RenderSettings {
     pub spp: Option<u32>,
     /// Maximum scattering events.
     pub max_depth: u32,
+    /// Cycles' per-kind bounce limits and clamps.
+    pub light_paths: crate::integrator::light_paths::LightPaths,
+    /// Cycles' Transparent Max Bounces.
+    pub transparent_max: u32,
     /// Seed.
     pub seed: u32,
     /// Pixel filter.
@@ -214,6 +218,7 @@ fn run(job: Job, out: &Output, stop: &AtomicBool) -> Option<Arc<Integrator>> {
     // As `caustic render` builds it: the media around the camera, Ray Visibility and light
     // linking for all.
     let ctx = SceneContext::with_light_sampler(&job.scene, &job.accel, s.light_sampler)
+        .with_light_paths(s.light_paths, s.transparent_max)
         .with_camera_at(job.view.camera.position);
     let ctx = ctx.with_ray_visibility();
     let ctx = ctx.with_light_linking();

@@ -97,7 +97,9 @@ def small_render_settings(scene, width=32, height=24, samples=4):
     r.image_settings.color_depth = "32"
     r.image_settings.color_mode = "RGBA"
     scene.caustic.samples = samples
-    scene.caustic.max_bounces = 4
+    # Cycles' Max Bounces, which Caustic renders too (its other Light Paths settings keep
+    # Cycles' defaults in both renderers).
+    scene.cycles.max_bounces = 4
     scene.caustic.threads = 2
 
 
@@ -110,9 +112,8 @@ def plane_and_cube_scene(scene):
 
 def match_cycles(scene, samples, bounces):
     """Render settings under which Cycles and Caustic compute the same image: `bounces` for
-    every kind of bounce in both (Caustic's Max Bounces), no denoising, adaptive sampling,
+    every kind of bounce (Cycles' Light Paths, which Caustic renders too), no denoising, adaptive sampling,
     clamping or light threshold, caustics on, Filter Glossy 0, Blackman-Harris 1.5 px, CPU."""
-    scene.caustic.max_bounces = scene.caustic.transparent_max_bounces = bounces
     c = scene.cycles
     c.device = "CPU"
     c.samples = samples

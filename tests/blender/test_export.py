@@ -72,7 +72,7 @@ def light_scene(empty_scene):
                  spot_blend=0.2, shadow_soft_size=0.0)
     scenes.light(scene, "Sun", "SUN", rotation_deg=(30, 0, 0), energy=3.0, angle=0.0)
     scene.caustic.samples = 7
-    scene.caustic.max_bounces = 5
+    scene.cycles.max_bounces = 5
     scene.caustic.seed = 42
     scene.caustic.threads = 2
     scene.caustic.time_limit = 12.5
@@ -149,7 +149,17 @@ def test_scene_extras_carry_render_settings(light_scene, captured):
         "resolution": [8, 6],
         "spp": 7,
         "max_depth": 6,
+        # Cycles' Light Paths defaults but Max Bounces (Caustic's panel draws Cycles' own).
+        "diffuse_max_bounces": 4,
+        "glossy_max_bounces": 4,
+        "transmission_max_bounces": 12,
+        "volume_max_bounces": 0,
         "transparent_max_bounces": 8,
+        "clamp_direct": 0.0,
+        "clamp_indirect": 10.0,
+        "filter_glossy": 1.0,
+        "caustics_reflective": True,
+        "caustics_refractive": True,
         "seed": 42,
         "integrator": "path",
         "light_sampler": "tree",

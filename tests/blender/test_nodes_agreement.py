@@ -850,7 +850,6 @@ def build_case(scene, case):
     scenes.match_cycles(scene, SAMPLES, BOUNCES)
     if case in TRANSPARENT_BOUNCES:
         scene.cycles.transparent_max_bounces = TRANSPARENT_BOUNCES[case]
-        scene.caustic.transparent_max_bounces = TRANSPARENT_BOUNCES[case]
 
 
 # Known differences, kept failing on purpose (strict: a fix turns them into errors to remove):

@@ -1,0 +1,204 @@
+//! Cycles' Light Paths panel beyond Max Bounces (which stays the integrators' `max_depth`):
+//! the per-kind bounce limits and the sample clamp, as Cycles 5.0's kernel applies them.
+//!
+//! Bounce limits (`path_state_next`): a bounce of a kind raises that kind's counter; once a
+//! counter exceeds its limit (the kernel's `max_*_bounce` is the setting + 1, compared with
+//! `>=`), the path is flagged `PATH_RAY_TERMINATE_AFTER_TRANSPARENT`: it still passes
+//! transparent surfaces and finds the emission where it lands (MIS-weighted as usual), but
+//! it does no next-event estimation there and does not bounce again — the same end as Max
+//! Bounces, which every walker already applies after the emission. Reflections count as
+//! diffuse or glossy by the sampled lobe (singular ones glossy), every crossing of a surface
+//! as transmission, scattering in a volume as volume.
+//!
+//! Clamping (`film_clamp_light`): each contribution written to the film is scaled down so
+//! that |r| + |g| + |b| is at most 3 × the limit (the colour's ratios kept). A contribution
+//! is direct when it belongs to bounce 0: next-event estimation at the first vertex, and
+//! emission found by the camera ray or by the ray leaving the first vertex (Cycles writes
+//! emission at `bounce - 1`); everything else is indirect. 0 turns a clamp off.
+//!
+//! Filter Glossy (`surface_shader_prepare_closures`): a path keeps the least density of its
+//! non-singular bounces (BSDF or phase function; `min_ray_pdf`); at each vertex where that
+//! over Filter Glossy is below 1, every microfacet lobe is widened (`Bsdf::blur`).
+
+use crate::math::Rgb;
+use crate::scene::SceneSettings;
+use crate::scene::light_path::LightPath;
+
+/// The per-kind bounce limits and the clamps of one render.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LightPaths {
+    /// Diffuse Bounces (`NO_LIMIT`: unlimited).
+    pub diffuse: u32,
+    /// Glossy Bounces.
+    pub glossy: u32,
+    /// Transmission Bounces.
+    pub transmission: u32,
+    /// Volume Bounces.
+    pub volume: u32,
+    /// Clamp Direct (0: off).
+    pub clamp_direct: f32,
+    /// Clamp Indirect (0: off).
+    pub clamp_indirect: f32,
+    /// Filter Glossy (0: off): `Bsdf::blur` at each vertex past the first, by the least
+    /// density of the path's bounces so far (Cycles' `min_ray_pdf`).
+    pub filter_glossy: f32,
+}
+
+/// A limit that never ends a path.
+pub const NO_LIMIT: u32 = u32::MAX;
+
+impl LightPaths {
+    /// No per-kind limit and no clamp: a plain glTF run (Max Bounces alone ends paths).
+    pub const UNLIMITED: LightPaths = LightPaths {
+        diffuse: NO_LIMIT,
+        glossy: NO_LIMIT,
+        transmission: NO_LIMIT,
+        volume: NO_LIMIT,
+        clamp_direct: 0.0,
+        clamp_indirect: 0.0,
+        filter_glossy: 0.0,
+    };
+
+    /// The file's values (`scenes[i].extras.caustic`), unchecked: absent keys limit and clamp
+    /// nothing (the CLI checks them, flags first, in `cli::settings::resolve`).
+    pub fn from_settings(st: &SceneSettings) -> LightPaths {
+        let u = LightPaths::UNLIMITED;
+        LightPaths {
+            diffuse: st.diffuse_max_bounces.unwrap_or(u.diffuse),
+            glossy: st.glossy_max_bounces.unwrap_or(u.glossy),
+            transmission: st.transmission_max_bounces.unwrap_or(u.transmission),
+            volume: st.volume_max_bounces.unwrap_or(u.volume),
+            clamp_direct: st.clamp_direct.unwrap_or(0.0),
+            clamp_indirect: st.clamp_indirect.unwrap_or(0.0),
+            filter_glossy: st.filter_glossy.unwrap_or(0.0),
+        }
+    }
+
+    /// The path of state `path` has spent a kind's bounces: it ends at the next surface,
+    /// after that surface's emission (or, in a medium, at its next scattering event, which
+    /// in expectation leaves it attenuated as Cycles' absorption-only segment does).
+    #[inline]
+    pub fn spent(&self, path: LightPath) -> bool {
+        u32::from(path.diffuse) > self.diffuse
+            || u32::from(path.glossy) > self.glossy
+            || u32::from(path.transmission) > self.transmission
+            || u32::from(path.volume) > self.volume
+    }
+
+    /// Some per-kind limit can end a path of at most `max_depth` events earlier than Max
+    /// Bounces does (for the integrators that honour only Max Bounces, to warn).
+    pub fn limits_below(&self, max_depth: u32) -> Vec<&'static str> {
+        // A kind limited to `n` bounces ends a path after n + 1 of them: only a limit
+        // below max_depth - 1 (= Max Bounces) can matter.
+        let max_bounces = max_depth.saturating_sub(1);
+        [
+            ("Diffuse Bounces", self.diffuse),
+            ("Glossy Bounces", self.glossy),
+            ("Transmission Bounces", self.transmission),
+            ("Volume Bounces", self.volume),
+        ]
+        .into_iter()
+        .filter(|&(_, n)| n < max_bounces)
+        .map(|(name, _)| name)
+        .collect()
+    }
+
+    /// The clamps and Filter Glossy when on, by their panel names (what only the path
+    /// tracer follows besides the per-kind limits).
+    pub fn clamps_on(&self) -> Vec<&'static str> {
+        let mut on = Vec::new();
+        if self.filter_glossy > 0.0 {
+            on.push("Filter Glossy");
+        }
+        if self.clamp_direct > 0.0 {
+            on.push("Clamp Direct");
+        }
+        if self.clamp_indirect > 0.0 {
+            on.push("Clamp Indirect");
+        }
+        on
+    }
+
+    /// Emission found by a ray after `depth` scattering events, clamped (direct for depth ≤ 1).
+    #[inline]
+    pub fn found(&self, c: Rgb, depth: u32) -> Rgb {
+        self.clamp(c, depth <= 1)
+    }
+
+    /// Next-event estimation at a vertex after `depth` events, clamped (direct for depth 0).
+    #[inline]
+    pub fn estimated(&self, c: Rgb, depth: u32) -> Rgb {
+        self.clamp(c, depth == 0)
+    }
+
+    /// `c` scaled so that its absolute channel sum is at most 3 × the clamp.
+    #[inline]
+    fn clamp(&self, c: Rgb, direct: bool) -> Rgb {
+        let limit = if direct { self.clamp_direct } else { self.clamp_indirect };
+        if limit <= 0.0 {
+            return c;
+        }
+        let sum = c.abs().element_sum();
+        if sum > 3.0 * limit { c * (3.0 * limit / sum) } else { c }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bsdf::LobeKind;
+
+    #[test]
+    fn a_kind_is_spent_one_bounce_past_its_limit() {
+        let lp = LightPaths { diffuse: 1, glossy: 0, ..LightPaths::UNLIMITED };
+        let once = LightPath::CAMERA_RAY.bounced(LobeKind::Diffuse, false, false);
+        assert!(!lp.spent(once));
+        assert!(lp.spent(once.bounced(LobeKind::Diffuse, false, false)));
+        // Glossy 0: the first glossy bounce already ends the path at the next surface.
+        assert!(lp.spent(LightPath::CAMERA_RAY.bounced(LobeKind::Glossy, false, false)));
+        // A transmission is not a glossy bounce, a volume scattering is neither.
+        assert!(!lp.spent(LightPath::CAMERA_RAY.bounced(LobeKind::Glossy, true, false)));
+        let vol = LightPaths { volume: 0, ..LightPaths::UNLIMITED };
+        assert!(!vol.spent(once));
+        assert!(vol.spent(LightPath::CAMERA_RAY.scattered_in_volume()));
+    }
+
+    #[test]
+    fn clamping_keeps_the_colour_and_splits_direct_from_indirect() {
+        let lp = LightPaths { clamp_direct: 0.0, clamp_indirect: 0.5, ..LightPaths::UNLIMITED };
+        let c = Rgb::new(3.0, 2.0, 1.0);
+        assert_eq!(lp.estimated(c, 0), c);
+        assert_eq!(lp.found(c, 1), c);
+        let k = lp.found(c, 2);
+        assert!((k.element_sum() - 1.5).abs() < 1e-6);
+        assert!((k.x / k.z - 3.0).abs() < 1e-5);
+        assert_eq!(lp.estimated(Rgb::new(0.2, 0.2, 0.2), 1), Rgb::new(0.2, 0.2, 0.2));
+    }
+
+    /// Filter Glossy widens a mirror only after a bounce whose density over the filter is
+    /// below 1 (a diffuse bounce's is at most 1/π): there it is no longer a delta lobe, and a
+    /// rough lobe is never narrowed.
+    #[test]
+    fn filter_glossy_blurs_a_mirror_after_an_unlikely_bounce() {
+        use crate::bsdf::{Bsdf, PbrBsdf};
+        let mirror = Bsdf::Pbr(PbrBsdf::new(Rgb::ONE, 1.0, 0.0));
+        assert!(mirror.is_delta());
+        for (filter, min_pdf, delta) in [(1.0, f32::MAX, true), (0.0, 0.1, true), (1.0, 1.5, true), (1.0, 0.3, false)] {
+            let mut b = mirror;
+            b.blur(filter, min_pdf);
+            assert_eq!(b.is_delta(), delta, "filter {filter}, min pdf {min_pdf}");
+        }
+        let rough = Bsdf::Pbr(PbrBsdf::new(Rgb::ONE, 1.0, 0.9));
+        let mut b = rough;
+        b.blur(1.0, 0.3);
+        let (wo, wi) = (glam::Vec3::new(0.3, 0.0, 0.95).normalize(), glam::Vec3::new(-0.2, 0.1, 0.97).normalize());
+        assert_eq!(b.eval(wo, wi), rough.eval(wo, wi), "α 0.81 is above the blur's 0.42");
+    }
+
+    #[test]
+    fn only_limits_below_max_bounces_are_named() {
+        let lp = LightPaths { diffuse: 4, glossy: 4, transmission: 12, volume: 0, ..LightPaths::UNLIMITED };
+        assert_eq!(lp.limits_below(13), vec!["Diffuse Bounces", "Glossy Bounces", "Volume Bounces"]);
+        assert!(LightPaths::UNLIMITED.limits_below(13).is_empty());
+    }
+}
