@@ -358,6 +358,40 @@ impl Lobe {
     }
 }
 
+/// A mixture's small lobes as a shader graph gathers them (weights and lobes; the frames
+/// come when the mixture is built): small enough that a graph whose closures are one
+/// Principled BSDF does not copy a whole [`MixBsdf`] a shading point.
+#[derive(Clone, Copy, Debug)]
+pub struct Lobes {
+    /// Number in use.
+    pub n: u8,
+    /// Their weights.
+    pub weights: [Rgb; MAX_LOBES],
+    /// The lobes.
+    pub lobes: [Lobe; MAX_LOBES],
+}
+
+impl Lobes {
+    /// None.
+    pub const EMPTY: Lobes = Lobes { n: 0, weights: [Rgb::ZERO; MAX_LOBES], lobes: [Lobe::Diffuse; MAX_LOBES] };
+
+    /// Adds a lobe; false when full (the lobe is dropped). A black or non-finite weight adds
+    /// nothing.
+    pub fn push(&mut self, weight: Rgb, lobe: Lobe) -> bool {
+        if weight.max_element() <= 0.0 || !weight.is_finite() {
+            return true;
+        }
+        let n = self.n as usize;
+        if n >= MAX_LOBES {
+            return false;
+        }
+        self.weights[n] = weight;
+        self.lobes[n] = lobe;
+        self.n += 1;
+        true
+    }
+}
+
 /// Principled BSDFs a mixture holds in full, each with its own frame.
 pub const MAX_PBR: usize = 2;
 
@@ -460,21 +494,24 @@ impl MixBsdf {
         }
     }
 
-    /// Adds a lobe; false when the mixture is full (the lobe is dropped).
+    /// Adds a lobe in the mixture's frame; false when the mixture is full (the lobe is dropped).
     pub fn push(&mut self, weight: Rgb, lobe: Lobe) -> bool {
-        if weight.max_element() <= 0.0 || !weight.is_finite() {
-            return true;
-        }
         let n = self.n as usize;
-        if n >= MAX_LOBES {
-            return false;
+        let mut l = Lobes { n: self.n, weights: self.weights, lobes: self.lobes };
+        let kept = l.push(weight, lobe);
+        if l.n as usize > n {
+            (self.n, self.weights, self.lobes) = (l.n, l.weights, l.lobes);
+            self.frames[n] = None;
+            self.bump[n] = 0.0;
         }
-        self.weights[n] = weight;
-        self.lobes[n] = lobe;
-        self.frames[n] = None;
-        self.bump[n] = 0.0;
-        self.n += 1;
-        true
+        kept
+    }
+
+    /// Takes the small lobes `l`, in the mixture's frame (its own are replaced).
+    pub fn set_lobes(&mut self, l: &Lobes) {
+        (self.n, self.weights, self.lobes) = (l.n, l.weights, l.lobes);
+        self.frames = [None; MAX_LOBES];
+        self.bump = [0.0; MAX_LOBES];
     }
 
     /// Scales every weight (a Transparent part's complement is divided out by the caller).

@@ -33,7 +33,7 @@
 
 use super::geom::{Geom, Reg, from_blender, v3};
 use crate::bsdf::dielectric::DielectricBsdf;
-use crate::bsdf::mix::{GlossyFresnel, Lobe, MAX_LOBES, MAX_PBR, MixBsdf, Toon};
+use crate::bsdf::mix::{GlossyFresnel, Lobe, Lobes, MAX_LOBES, MAX_PBR, MixBsdf, Toon};
 use crate::bsdf::pbr::PbrParams;
 use crate::math::Rgb;
 use glam::Vec3;
@@ -193,7 +193,7 @@ pub struct ClosureOp {
 #[derive(Clone, Copy, Debug)]
 pub struct Closures {
     /// Small lobes with weights.
-    pub mix: MixBsdf,
+    pub mix: Lobes,
     /// Per Principled slot, Σ w × parameters (the Principled BSDFs past the last slot are
     /// merged into it).
     pub pbr: [PbrParams; MAX_PBR],
@@ -230,8 +230,8 @@ pub struct Closures {
 
 /// An empty mixture, built once: `MixBsdf::new` builds its placeholder Principled BSDFs
 /// (albedo table lookups, ~760 instructions each; callgrind, `bench/node_graph.py`), which
-/// every shading point paid before its closures replaced them. A copy is ~90.
-fn empty_mix() -> MixBsdf {
+/// every mixture would pay before its closures replaced them. A copy is far less.
+pub fn empty_mix() -> MixBsdf {
     static EMPTY: std::sync::LazyLock<MixBsdf> = std::sync::LazyLock::new(MixBsdf::new);
     *EMPTY
 }
@@ -239,7 +239,7 @@ fn empty_mix() -> MixBsdf {
 impl Default for Closures {
     fn default() -> Self {
         Closures {
-            mix: empty_mix(),
+            mix: Lobes::EMPTY,
             pbr: [zero_params(); MAX_PBR],
             pbr_w: [0.0; MAX_PBR],
             principled: 0,

@@ -3,7 +3,7 @@
 //! graph's transparency for `Scene::alpha`, and its colour for the pass-through and shadow
 //! rays (`Scene::pass_through`, `Scene::transmission`).
 
-use super::closure::Closures;
+use super::closure::{Closures, empty_mix};
 use super::geom::{Geom, NO_OBJECT, ObjectData, Rays, SceneRays, ViewData, geom_at};
 use super::instructions::Program;
 use super::program::with_registers;
@@ -155,7 +155,7 @@ pub fn shade_nodes(
             // A lone Principled BSDF is the glTF material: the same code path.
             Bsdf::Pbr(pbr)
         } else {
-            let mut mix = c.mix;
+            let mut mix = empty_mix();
             mix.pbr[0] = pbr;
             mix.pbr_weights[0] = w;
             Bsdf::Mix(mix)
@@ -187,7 +187,8 @@ fn within(outer: &Frame, inner: Frame) -> Option<Frame> {
 fn mixture(c: &Closures, s: &SurfaceHit, wo: Vec3, frame: &Frame, keep: f32) -> MixBsdf {
     let facing = |m: Vec3| if m.dot(s.ng) < 0.0 { -m } else { m };
     let default_n = c.default_normal_world().map_or(s.ns, facing);
-    let mut mix = c.mix;
+    let mut mix = empty_mix();
+    mix.set_lobes(&c.mix);
     mix.scale(keep);
     mix.ns = frame.to_local(s.ns);
     for j in 0..MAX_PBR {
