@@ -58,10 +58,13 @@ pub enum LobeKind {
 
 /// The scattering function at a surface point.
 ///
-/// The mixture makes the enum 508 bytes (228 for `Pbr` alone); boxing it would allocate per
-/// shading point. Measured (callgrind, Cornell box 96×72, 8 spp, 1 thread): `render::render`
-/// executes 0.13 % fewer instructions than before the variant existed, so materials without a
-/// graph do not pay for it; SPPM's visible points grow by the difference.
+/// The mixture makes the enum 1472 bytes (436 for `Pbr` alone; 764 while a mixture held one
+/// Principled BSDF and shared one frame); boxing it would allocate per shading point.
+/// Measured (callgrind, Cornell box 96×72, 8 spp, 1 thread): `render::render` executed 0.13 %
+/// fewer instructions than before the variant existed, and 0.04 % fewer again after the
+/// mixture grew to two Principled BSDFs and a frame a closure (1,087,234,848 →
+/// 1,086,826,579), so materials without a graph do not pay for it; SPPM's visible points and
+/// BDPT's vertices grow by the difference.
 #[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug)]
 pub enum Bsdf {
@@ -93,7 +96,10 @@ impl Bsdf {
     pub fn subsurface_base(&self) -> (Rgb, f32, f32) {
         match self {
             Bsdf::Pbr(b) => (b.base, b.roughness, b.layer_eta()),
-            Bsdf::Mix(m) => (m.pbr.base, m.pbr.roughness, m.pbr.layer_eta()),
+            Bsdf::Mix(m) => {
+                let p = m.subsurface_part();
+                (p.base, p.roughness, p.layer_eta())
+            }
             Bsdf::Hair(h) => (h.albedo(), 1.0, 1.0),
         }
     }

@@ -248,11 +248,8 @@ impl PbrBsdf {
             (n.z < 1.0 - 1e-6).then(|| Frame::from_normal(n))
         });
         let diffuse_n = diffuse_frame.map_or(Vec3::Z, |f| f.n);
-        let bump = p.smooth_normal.and_then(|ns| ns.try_normalize()).and_then(|ns| {
-            // The deviation of the normal the diffuse base uses from the interpolated one.
-            let cos_d = ns.dot(diffuse_n).abs().min(1.0);
-            (cos_d < 1.0 && cos_d > 0.0).then(|| (ns, (0.125 * (1.0 / (cos_d * cos_d) - 1.0)).min(1.0)))
-        });
+        let bump =
+            p.smooth_normal.and_then(|ns| ns.try_normalize()).and_then(|ns| Some((ns, bump_alpha2(ns, diffuse_n)?)));
         let (ggx, aniso, smooth) = match p.anisotropy.filter(|(x, y)| x.is_finite() && y.is_finite()) {
             Some((ax, ay)) => {
                 // The table covers widths up to 1 (glTF's mapping stays within it).
@@ -844,6 +841,15 @@ pub(super) fn bump_shadowing(ns: Vec3, n: Vec3, wi: Vec3, alpha2: f32) -> f32 {
     }
     let tan2 = 1.0 / (cos_i * cos_i) - 1.0;
     2.0 / (1.0 + (1.0 + alpha2 * tan2).sqrt())
+}
+
+/// The bump terminator's GGX α² for a diffuse lobe on unit normal `n` over the interpolated
+/// unit normal `ns`: the deviation θd read as a roughness, min(tan²θd / 8, 1); None where
+/// they agree (or are perpendicular).
+#[inline]
+pub fn bump_alpha2(ns: Vec3, n: Vec3) -> Option<f32> {
+    let cos_d = ns.dot(n).abs().min(1.0);
+    (cos_d < 1.0 && cos_d > 0.0).then(|| (0.125 * (1.0 / (cos_d * cos_d) - 1.0)).min(1.0))
 }
 
 /// Mirrors both directions to the upper hemisphere when `wo` is below it, which makes

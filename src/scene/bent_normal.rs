@@ -9,8 +9,9 @@
 //! small angle above the surface; [`valid_reflection_normal`] does the same.
 //!
 //! Cycles bends the normal of its glossy, metal and glass closures and keeps the diffuse one
-//! on the unbent normal; Caustic's glTF BSDF has one shading frame, so the diffuse base turns
-//! with it (it differs only where the viewer's mirror image would be below the surface).
+//! on the unbent normal; Caustic's glTF BSDF gives its diffuse base the unbent normal as a
+//! frame of its own (`PbrBsdf::diffuse_frame`), and a node graph's mixture gives every
+//! closure its own frame (`shader::shade`).
 
 use glam::Vec3;
 

@@ -12,9 +12,11 @@
 //!   along the Tangent (unlinked: Cycles' radial tangent around the object's Z axis,
 //!   `Geom::radial_tangent`) turned by Anisotropic Rotation × 2π around the normal, which
 //!   becomes the shading frame's X axis; Base Color above 1 on the diffuse base; the glass
-//!   tinted by √Base Color at each crossing: `PbrParams::cycles_principled`). Several
-//!   Principled BSDFs in one mixture are merged into one by their weights (an approximation:
-//!   warned at load; the first anisotropic one's tangent is the frame's).
+//!   tinted by √Base Color at each crossing: `PbrParams::cycles_principled`). Two
+//!   Principled BSDFs in one mixture are each rendered in full, each with its own normal
+//!   and tangent; a third and those after it are merged into the second by their weights
+//!   (an approximation, warned at load). Every closure records its own Normal input (and an
+//!   anisotropic one its tangent), from which `shader::shade` builds its frame.
 //! * Diffuse → Lambert, or Cycles' Oren-Nayar for a roughness; Glossy → GGX with
 //!   a constant Fresnel, the colour, and Cycles' multiscatter compensation ("GGX": none;
 //!   "Beckmann": Beckmann's distribution, uncompensated, as Glass and Refraction take it too;
@@ -31,7 +33,7 @@
 
 use super::geom::{Geom, Reg, from_blender, v3};
 use crate::bsdf::dielectric::DielectricBsdf;
-use crate::bsdf::mix::{GlossyFresnel, Lobe, MAX_LOBES, MixBsdf, Toon};
+use crate::bsdf::mix::{GlossyFresnel, Lobe, Lobes, MAX_LOBES, MAX_PBR, MixBsdf, Toon};
 use crate::bsdf::pbr::PbrParams;
 use crate::math::Rgb;
 use glam::Vec3;
@@ -191,33 +193,45 @@ pub struct ClosureOp {
 #[derive(Clone, Copy, Debug)]
 pub struct Closures {
     /// Small lobes with weights.
-    pub mix: MixBsdf,
-    /// Σ w × Principled parameters.
-    pub pbr: PbrParams,
-    /// Σ w of the Principled BSDFs.
-    pub pbr_w: f32,
+    pub mix: Lobes,
+    /// Per Principled slot, Σ w × parameters (the Principled BSDFs past the last slot are
+    /// merged into it).
+    pub pbr: [PbrParams; MAX_PBR],
+    /// Per Principled slot, Σ w.
+    pub pbr_w: [f32; MAX_PBR],
+    /// Principled BSDFs met with a weight.
+    pub principled: u8,
     /// Emitted radiance.
     pub emission: Rgb,
     /// Transparent weight.
     pub transparent: Rgb,
     /// Holdout weight (Cycles' `surface_shader_apply_holdout`: the Holdout closures' sum).
     pub holdout: f32,
-    /// The first linked closure normal (Blender axes).
+    /// The first linked closure normal (Blender axes): the mixture's shading frame.
     pub normal: Option<Vec3>,
-    /// The first linked coat normal (Blender axes).
-    pub coat_normal: Option<Vec3>,
-    /// Σ w × Anisotropic of the Principled BSDFs.
-    pub anisotropic: f32,
-    /// The first anisotropic closure's tangent, rotated (world glTF axes).
-    pub tangent: Option<Vec3>,
+    /// The normal of closures without a linked one when not the interpolated normal: the
+    /// Material Output's bump displacement (Blender axes).
+    pub default_normal: Option<Vec3>,
+    /// Each small lobe's linked normal (Blender axes).
+    pub lobe_normals: [Option<Vec3>; MAX_LOBES],
+    /// Each small lobe's tangent when anisotropic (world glTF axes).
+    pub lobe_tangents: [Option<Vec3>; MAX_LOBES],
+    /// Each Principled slot's linked normal (its first BSDF's, Blender axes).
+    pub pbr_normals: [Option<Vec3>; MAX_PBR],
+    /// Each Principled slot's linked coat normal (Blender axes).
+    pub coat_normals: [Option<Vec3>; MAX_PBR],
+    /// Per Principled slot, Σ w × Anisotropic.
+    pub anisotropic: [f32; MAX_PBR],
+    /// Each Principled slot's tangent, rotated (world glTF axes), when anisotropic.
+    pub tangents: [Option<Vec3>; MAX_PBR],
     /// Lobes past the mixture's capacity were dropped.
     pub dropped: bool,
 }
 
-/// An empty mixture, built once: `MixBsdf::new` builds its placeholder Principled BSDF
-/// (albedo table lookups, ~760 instructions; callgrind, `bench/node_graph.py`), which every
-/// shading point paid before its closures replaced it. A copy is ~90.
-fn empty_mix() -> MixBsdf {
+/// An empty mixture, built once: `MixBsdf::new` builds its placeholder Principled BSDFs
+/// (albedo table lookups, ~760 instructions each; callgrind, `bench/node_graph.py`), which
+/// every mixture would pay before its closures replaced them. A copy is far less.
+pub fn empty_mix() -> MixBsdf {
     static EMPTY: std::sync::LazyLock<MixBsdf> = std::sync::LazyLock::new(MixBsdf::new);
     *EMPTY
 }
@@ -225,16 +239,21 @@ fn empty_mix() -> MixBsdf {
 impl Default for Closures {
     fn default() -> Self {
         Closures {
-            mix: empty_mix(),
-            pbr: zero_params(),
-            pbr_w: 0.0,
+            mix: Lobes::EMPTY,
+            pbr: [zero_params(); MAX_PBR],
+            pbr_w: [0.0; MAX_PBR],
+            principled: 0,
             emission: Rgb::ZERO,
             transparent: Rgb::ZERO,
             holdout: 0.0,
             normal: None,
-            coat_normal: None,
-            anisotropic: 0.0,
-            tangent: None,
+            default_normal: None,
+            lobe_normals: [None; MAX_LOBES],
+            lobe_tangents: [None; MAX_LOBES],
+            pbr_normals: [None; MAX_PBR],
+            coat_normals: [None; MAX_PBR],
+            anisotropic: [0.0; MAX_PBR],
+            tangents: [None; MAX_PBR],
             dropped: false,
         }
     }
@@ -284,9 +303,14 @@ impl ClosureOp {
         }
         let color = || v3(r, self.color).max(Vec3::ZERO);
         let rough = || r[self.roughness as usize].clamp(0.0, 1.0);
-        let mut push = |weight: Rgb, lobe: Lobe| {
+        let normal = self.normal.map(|n| v3(r, n));
+        let mut push = |weight: Rgb, lobe: Lobe, tangent: Option<Vec3>| {
+            let k = out.mix.n as usize;
             if !out.mix.push(weight, lobe) {
                 out.dropped = true;
+            } else if out.mix.n as usize > k {
+                out.lobe_normals[k] = normal;
+                out.lobe_tangents[k] = tangent;
             }
         };
         match &self.kind {
@@ -294,14 +318,14 @@ impl ClosureOp {
                 // Cycles takes a roughness below 1e-5 as Lambertian.
                 let sigma = rough();
                 let lobe = if sigma < 1e-5 { Lobe::Diffuse } else { Lobe::oren_nayar(sigma, color().min(Vec3::ONE)) };
-                push(color() * w, lobe)
+                push(color() * w, lobe, None)
             }
-            ClosureKind::Translucent => push(color() * w, Lobe::Translucent),
+            ClosureKind::Translucent => push(color() * w, Lobe::Translucent, None),
             ClosureKind::Toon { glossy } => {
                 let lobe = Lobe::Toon(Toon::new(r[self.roughness as usize], r[self.strength as usize], *glossy));
-                push(color() * w, lobe)
+                push(color() * w, lobe, None)
             }
-            ClosureKind::Sheen => push(color() * w, Lobe::Sheen { roughness: rough() }),
+            ClosureKind::Sheen => push(color() * w, Lobe::Sheen { roughness: rough() }, None),
             ClosureKind::Glossy { metallic, multiscatter, edge_tint, beckmann, aniso } => {
                 let (weight, fresnel) = if *metallic {
                     let f0 = color().min(Vec3::ONE);
@@ -314,13 +338,11 @@ impl ClosureOp {
                     (color() * w, GlossyFresnel::Constant)
                 };
                 let alpha = rough() * rough();
-                // Anisotropic widths lie along the tangent, which becomes the frame's X axis
-                // when this is the first anisotropic closure (else the first one's rules).
+                // Anisotropic widths lie along the closure's tangent: its frame's X axis.
+                let mut tangent = None;
                 let widths = aniso.and_then(|a| {
                     let widths = a.mapping.widths(alpha, r[a.anisotropy as usize])?;
-                    if out.tangent.is_none() {
-                        out.tangent = closure_tangent(a.tangent, r[a.rotation as usize], self.normal, r, g);
-                    }
+                    tangent = closure_tangent(a.tangent, r[a.rotation as usize], self.normal, r, g);
                     Some(widths)
                 });
                 let mut lobe = match widths {
@@ -331,9 +353,7 @@ impl ClosureOp {
                 if !*multiscatter && let Lobe::Glossy { fms, .. } = &mut lobe {
                     *fms = Rgb::ZERO;
                 }
-                if !out.mix.push(weight, lobe) {
-                    out.dropped = true;
-                }
+                push(weight, lobe, tangent);
             }
             ClosureKind::Glass { .. } | ClosureKind::Refraction { .. } => {
                 let ior = r[self.ior as usize];
@@ -349,7 +369,7 @@ impl ClosureOp {
                     ClosureKind::Glass { multiscatter: true, .. } => d.with_multiscatter(),
                     _ => d,
                 };
-                push(color() * w, Lobe::Dielectric(d));
+                push(color() * w, Lobe::Dielectric(d), None);
             }
             ClosureKind::Emission => out.emission += color() * (r[self.strength as usize] * w),
             ClosureKind::Transparent => out.transparent += color() * w,
@@ -390,13 +410,16 @@ fn principled(p: &PrincipledRegs, r: &[f32], g: &Geom, normal: Option<Reg>, w: f
     if w <= 0.0 {
         return;
     }
-    if out.coat_normal.is_none()
-        && let Some(n) = p.coat_normal
-    {
-        out.coat_normal = Some(v3(r, n));
+    // Each Principled BSDF has a slot of its own, in full; those past the last slot are
+    // merged into it by weighted parameters (warned at load).
+    let slot = (out.principled as usize).min(MAX_PBR - 1);
+    out.principled = out.principled.saturating_add(1);
+    if out.pbr_w[slot] <= 0.0 {
+        out.pbr_normals[slot] = normal.map(|n| v3(r, n));
+        out.coat_normals[slot] = p.coat_normal.map(|n| v3(r, n));
     }
     let level = f(p.spec_level).max(0.0);
-    let acc = &mut out.pbr;
+    let acc = &mut out.pbr[slot];
     // Above 1 too: the diffuse base takes it as given (the BSDF clamps it elsewhere).
     acc.base += v3(r, p.base).max(Vec3::ZERO) * w;
     acc.diffuse_roughness += f(p.diffuse_roughness).clamp(0.0, 1.0) * w;
@@ -413,29 +436,29 @@ fn principled(p: &PrincipledRegs, r: &[f32], g: &Geom, normal: Option<Reg>, w: f
     acc.sheen_color += v3(r, p.sheen_tint).clamp(Vec3::ZERO, Vec3::ONE) * (f(p.sheen).clamp(0.0, 1.0) * w);
     acc.sheen_roughness += f(p.sheen_roughness).clamp(0.0, 1.0) * w;
     acc.subsurface += f(p.subsurface).clamp(0.0, 1.0) * w;
-    // Cycles' anisotropy: the tangent (linked, else radial around the object's Z axis) turned
-    // around the closure normal by Anisotropic Rotation × 2π; the first one's is the frame's.
-    let anisotropic = f(p.anisotropic).clamp(0.0, 1.0);
-    if anisotropic > 0.0 {
-        out.anisotropic += anisotropic * w;
-        if out.tangent.is_none() {
-            out.tangent = closure_tangent(p.tangent, f(p.anisotropic_rotation), normal, r, g);
-        }
-    }
-    // The first Principled BSDF's film, whole (films do not average).
+    // The slot's first Principled BSDF's film, whole (films do not average).
     let thickness = f(p.thin_film_thickness);
     if acc.thin_film.is_none() && thickness > 0.1 {
         acc.thin_film = Some((thickness, f(p.thin_film_ior).max(1e-5), 1.0));
     }
-    out.pbr_w += w;
+    // Cycles' anisotropy: the tangent (linked, else radial around the object's Z axis) turned
+    // around the closure normal by Anisotropic Rotation × 2π; the slot's first one's.
+    let anisotropic = f(p.anisotropic).clamp(0.0, 1.0);
+    if anisotropic > 0.0 {
+        out.anisotropic[slot] += anisotropic * w;
+        if out.tangents[slot].is_none() {
+            out.tangents[slot] = closure_tangent(p.tangent, f(p.anisotropic_rotation), normal, r, g);
+        }
+    }
+    out.pbr_w[slot] += w;
 }
 
 impl Closures {
-    /// The merged Principled parameters (weights divided out), for a point on the side
+    /// Principled slot `j`'s parameters (weights divided out), for a point on the side
     /// given by `backfacing`.
-    pub fn principled_params(&self, backfacing: bool) -> PbrParams {
-        let s = 1.0 / self.pbr_w;
-        let p = &self.pbr;
+    pub fn principled_params(&self, j: usize, backfacing: bool) -> PbrParams {
+        let s = 1.0 / self.pbr_w[j];
+        let p = &self.pbr[j];
         let ior = p.ior * s;
         PbrParams {
             base: p.base * s,
@@ -460,7 +483,7 @@ impl Closures {
             microfiber_sheen: true,
             dispersion: 0.0,
             subsurface: p.subsurface * s,
-            anisotropy: self.anisotropy(p.roughness * s, self.anisotropic * s),
+            anisotropy: anisotropy(self.tangents[j].is_some(), p.roughness * s, self.anisotropic[j] * s),
             diffuse_roughness: p.diffuse_roughness * s,
             // Cycles' Principled glass: √base at each crossing.
             cycles_principled: true,
@@ -468,33 +491,47 @@ impl Closures {
         }
     }
 
-    /// Cycles' anisotropic GGX widths for `roughness` and Anisotropic `a`: with
-    /// aspect = √(1 − 0.9 a), αx = roughness² / aspect along the tangent, αy = roughness² ×
-    /// aspect across (widths above 1 are clamped to 1 by the BSDF). None without a tangent.
-    fn anisotropy(&self, roughness: f32, a: f32) -> Option<(f32, f32)> {
-        if !(a > 0.0) || self.tangent.is_none() {
-            return None;
-        }
-        let alpha = roughness * roughness;
-        let aspect = (1.0 - 0.9 * a.min(1.0)).sqrt();
-        Some((alpha / aspect, alpha * aspect))
-    }
-
-    /// The tangent of the first anisotropic closure (world glTF axes): only anisotropic
-    /// closures set one.
-    pub fn tangent_world(&self) -> Option<Vec3> {
-        self.tangent
-    }
-
     /// The closure normal in world (glTF) axes, if a closure had one linked.
     pub fn normal_world(&self) -> Option<Vec3> {
-        self.normal.map(from_blender).and_then(|n| n.try_normalize())
+        world(self.normal)
     }
 
-    /// The coat normal in world axes.
-    pub fn coat_normal_world(&self) -> Option<Vec3> {
-        self.coat_normal.map(from_blender).and_then(|n| n.try_normalize())
+    /// The normal of closures without a linked one (world axes), when not the interpolated one.
+    pub fn default_normal_world(&self) -> Option<Vec3> {
+        world(self.default_normal)
     }
+
+    /// Small lobe `k`'s linked normal in world axes.
+    pub fn lobe_normal_world(&self, k: usize) -> Option<Vec3> {
+        world(self.lobe_normals[k])
+    }
+
+    /// Principled slot `j`'s linked normal in world axes.
+    pub fn pbr_normal_world(&self, j: usize) -> Option<Vec3> {
+        world(self.pbr_normals[j])
+    }
+
+    /// Principled slot `j`'s coat normal in world axes.
+    pub fn coat_normal_world(&self, j: usize) -> Option<Vec3> {
+        world(self.coat_normals[j])
+    }
+}
+
+/// A normal in Blender axes to world (glTF) axes, unit.
+fn world(n: Option<Vec3>) -> Option<Vec3> {
+    n.map(from_blender).and_then(|n| n.try_normalize())
+}
+
+/// Cycles' anisotropic GGX widths for `roughness` and Anisotropic `a`: with
+/// aspect = √(1 − 0.9 a), αx = roughness² / aspect along the tangent, αy = roughness² ×
+/// aspect across (widths above 1 are clamped to 1 by the BSDF). None without a tangent.
+fn anisotropy(tangent: bool, roughness: f32, a: f32) -> Option<(f32, f32)> {
+    if !(a > 0.0) || !tangent {
+        return None;
+    }
+    let alpha = roughness * roughness;
+    let aspect = (1.0 - 0.9 * a.min(1.0)).sqrt();
+    Some((alpha / aspect, alpha * aspect))
 }
 
 /// Capacity of the mixture, for the loader's warning.
@@ -518,11 +555,9 @@ mod tests {
     /// Cycles' widths: aspect √(1 − 0.9 a), αx = r²/aspect, αy = r² aspect; none without a tangent.
     #[test]
     fn anisotropic_widths_are_cycles() {
-        let mut c = Closures { tangent: Some(Vec3::X), anisotropic: 0.8, ..Closures::default() };
-        let (ax, ay) = c.anisotropy(0.3, 0.8).unwrap();
+        let (ax, ay) = anisotropy(true, 0.3, 0.8).unwrap();
         let aspect = (1.0f32 - 0.72).sqrt();
         assert!((ax - 0.09 / aspect).abs() < 1e-6 && (ay - 0.09 * aspect).abs() < 1e-6);
-        c.tangent = None;
-        assert!(c.anisotropy(0.3, 0.8).is_none());
+        assert!(anisotropy(false, 0.3, 0.8).is_none());
     }
 }

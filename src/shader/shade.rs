@@ -3,10 +3,12 @@
 //! graph's transparency for `Scene::alpha`, and its colour for the pass-through and shadow
 //! rays (`Scene::pass_through`, `Scene::transmission`).
 
-use super::closure::Closures;
+use super::closure::{Closures, empty_mix};
 use super::geom::{Geom, NO_OBJECT, ObjectData, Rays, SceneRays, ViewData, geom_at};
 use super::instructions::Program;
 use super::program::with_registers;
+use crate::bsdf::mix::{Lobe, MAX_PBR, MixBsdf};
+use crate::bsdf::pbr::bump_alpha2;
 use crate::bsdf::{Bsdf, PbrBsdf};
 use crate::math::{Frame, Rgb};
 use crate::scene::Scene;
@@ -80,11 +82,11 @@ fn evaluate(scene: &Scene, prog: &Program, s: &SurfaceHit, wo: Vec3, rays: Optio
     let mut out = Closures::default();
     with_registers(|regs| {
         prog.run(&g, regs, &mut out);
-        if out.normal.is_none()
-            && let Some(n) = prog.displacement_normal
-        {
+        if let Some(n) = prog.displacement_normal {
             let n = n as usize;
-            out.normal = Some(Vec3::new(regs[n], regs[n + 1], regs[n + 2]));
+            let n = Vec3::new(regs[n], regs[n + 1], regs[n + 2]);
+            out.default_normal = Some(n);
+            out.normal = out.normal.or(Some(n));
         }
     });
     out
@@ -105,26 +107,24 @@ pub fn shade_nodes(
     // shaded: what is shaded here is the rest, renormalised.
     let t = pass_fraction(c.transparent);
     let keep = if t > 0.0 && t < 1.0 { 1.0 / (1.0 - t) } else { 1.0 };
-    // Shading normal: the closures' linked normal, else the interpolated one, on the
-    // viewer's side and bent toward the viewer as the glTF path does.
-    let mut n = match c.normal_world() {
-        Some(m) => {
-            if m.dot(s.ng) < 0.0 {
-                -m
-            } else {
-                m
-            }
-        }
-        None => s.ns,
-    };
+    // Shading normal: the closures' first linked normal, else the interpolated one, on the
+    // viewer's side and bent toward the viewer as the glTF path does. In a mixture it is only
+    // the frame the integrators see: each closure has its own normal within it.
+    let facing = |m: Vec3| if m.dot(s.ng) < 0.0 { -m } else { m };
+    let principled_only = c.pbr_w[0] > 0.0 && c.pbr_w[1] <= 0.0 && c.mix.n == 0;
+    // A mixture's frame is the normal of closures without a Normal input (the interpolated
+    // one, or the Material Output's bump): the integrators decide reflection against
+    // transmission by it and the geometric normal, which a bumped closure's normal would
+    // get wrong for the others (a smooth Diffuse mixed with a bumped Glossy lost the light
+    // its own normal sees above the surface but the bumped one puts below: 6.5 % in red).
+    let mut n = if principled_only { c.normal_world() } else { c.default_normal_world() }.map_or(s.ns, facing);
     // Cycles keeps a Principled BSDF's reflection valid by bending its specular normal
     // towards the geometric one (`maybe_ensure_valid_specular_reflection`), while its diffuse
     // closure keeps the unbent normal and is shadowed by the bump terminator term against the
     // interpolated normal. Without the bend, a steeply bumped normal sends the specular lobe
-    // below the surface, where it is lost (a valley 3-5 % darker than Cycles). Only a graph
-    // whose closures are all Principled gets this: the other closures share the frame and
-    // would turn with it (their Diffuse BSDFs must not).
-    let principled_only = c.pbr_w > 0.0 && c.mix.n == 0;
+    // below the surface, where it is lost (a valley 3-5 % darker than Cycles). A lone
+    // Principled BSDF is the glTF material, in the bent frame; a mixture's closures each
+    // get Cycles' rule in their own frames (`mixture`).
     let unbent = n;
     if principled_only {
         n = valid_reflection_normal(s.ng, wo, n);
@@ -137,41 +137,96 @@ pub fn shade_nodes(
             }
         }
     }
-    // An anisotropic Principled BSDF's widths lie along its tangent: the frame's X axis.
-    let frame = match c.tangent_world() {
-        Some(t) => Frame::from_normal_tangent(n, t),
-        None => Frame::from_normal(n),
-    };
-    // The mixture is copied out of the closures only where it becomes the BSDF (callgrind:
-    // a copy of ~80 instructions a shading point that a lone Principled BSDF threw away).
-    let scaled = |c: &Closures| {
-        let mut mix = c.mix;
-        mix.scale(keep);
-        mix
-    };
-    let bsdf = if c.pbr_w > 0.0 {
-        let mut params = c.principled_params(!s.front);
-        params.coat_normal = c.coat_normal_world().map(|m| frame.to_local(if m.dot(s.ng) < 0.0 { -m } else { m }));
-        if principled_only {
-            params.diffuse_normal = (n != unbent).then(|| frame.to_local(unbent));
-            params.smooth_normal = (unbent != s.ns).then(|| frame.to_local(s.ns));
-        }
+    let bsdf;
+    let frame;
+    if principled_only {
+        // An anisotropic Principled BSDF's widths lie along its tangent: the frame's X axis.
+        frame = match c.tangents[0] {
+            Some(t) => Frame::from_normal_tangent(n, t),
+            None => Frame::from_normal(n),
+        };
+        let mut params = c.principled_params(0, !s.front);
+        params.coat_normal = c.coat_normal_world(0).map(|m| frame.to_local(facing(m)));
+        params.diffuse_normal = (n != unbent).then(|| frame.to_local(unbent));
+        params.smooth_normal = (unbent != s.ns).then(|| frame.to_local(s.ns));
         let pbr = PbrBsdf::from_params(&params);
-        let w = c.pbr_w * keep;
-        if c.mix.n == 0 && (w - 1.0).abs() < 1e-6 {
+        let w = c.pbr_w[0] * keep;
+        bsdf = if (w - 1.0).abs() < 1e-6 {
             // A lone Principled BSDF is the glTF material: the same code path.
             Bsdf::Pbr(pbr)
         } else {
-            let mut mix = scaled(&c);
-            mix.pbr = pbr;
-            mix.pbr_weight = w;
+            let mut mix = empty_mix();
+            mix.pbr[0] = pbr;
+            mix.pbr_weights[0] = w;
             Bsdf::Mix(mix)
-        }
+        };
     } else {
-        Bsdf::Mix(scaled(&c))
-    };
+        frame = Frame::from_normal(n);
+        bsdf = Bsdf::Mix(mixture(&c, s, wo, &frame, keep));
+    }
     let emitted = if s.front || double_sided { c.emission * keep } else { Rgb::ZERO };
     ShadingPoint { bsdf, frame, emitted, holdout: c.holdout * keep }
+}
+
+/// `inner` (world axes) within `outer`: None where they are the same frame.
+#[inline]
+fn within(outer: &Frame, inner: Frame) -> Option<Frame> {
+    if inner.n == outer.n && inner.s == outer.s {
+        return None;
+    }
+    Some(Frame { s: outer.to_local(inner.s), t: outer.to_local(inner.t), n: outer.to_local(inner.n) })
+}
+
+/// The mixture of closures `c` at hit `s` seen from `wo`, each closure in its own frame
+/// within `frame`, weights times `keep`, as Cycles sets each closure up: its Normal input
+/// (else the interpolated normal, or the Material Output's bump) on the viewer's side;
+/// microfacet closures (Glossy, Metallic, Glass, Refraction, each Principled BSDF's specular
+/// lobes) on that normal bent to keep the mirror reflection above the surface; diffuse-class
+/// closures (Diffuse, Sheen, Toon Diffuse, each Principled BSDF's diffuse base) on the unbent
+/// normal, shadowed by the bump terminator term where it is not the interpolated normal.
+fn mixture(c: &Closures, s: &SurfaceHit, wo: Vec3, frame: &Frame, keep: f32) -> MixBsdf {
+    let facing = |m: Vec3| if m.dot(s.ng) < 0.0 { -m } else { m };
+    let default_n = c.default_normal_world().map_or(s.ns, facing);
+    let mut mix = empty_mix();
+    mix.set_lobes(&c.mix);
+    mix.scale(keep);
+    mix.ns = frame.to_local(s.ns);
+    for j in 0..MAX_PBR {
+        if c.pbr_w[j] <= 0.0 {
+            continue;
+        }
+        let m = c.pbr_normal_world(j).map_or(default_n, facing);
+        let bent = valid_reflection_normal(s.ng, wo, m);
+        let own = match c.tangents[j] {
+            Some(t) => Frame::from_normal_tangent(bent, t),
+            None => Frame::from_normal(bent),
+        };
+        let mut params = c.principled_params(j, !s.front);
+        params.coat_normal = c.coat_normal_world(j).map(|m| own.to_local(facing(m)));
+        params.diffuse_normal = (bent != m).then(|| own.to_local(m));
+        params.smooth_normal = (m != s.ns).then(|| own.to_local(s.ns));
+        mix.pbr[j] = PbrBsdf::from_params(&params);
+        mix.pbr_weights[j] = c.pbr_w[j] * keep;
+        mix.pbr_frames[j] = within(frame, own);
+    }
+    for k in 0..mix.n as usize {
+        let m = c.lobe_normal_world(k).map_or(default_n, facing);
+        let lobe = &mix.lobes[k];
+        let nk = if matches!(lobe, Lobe::Glossy { .. } | Lobe::Dielectric(_)) {
+            valid_reflection_normal(s.ng, wo, m)
+        } else {
+            m
+        };
+        mix.frames[k] = match c.lobe_tangents[k] {
+            Some(t) => within(frame, Frame::from_normal_tangent(nk, t)),
+            None if nk != frame.n => within(frame, Frame::from_normal(nk)),
+            None => None,
+        };
+        if lobe.bump_shadowed() && m != s.ns {
+            mix.bump[k] = bump_alpha2(s.ns, m).unwrap_or(0.0);
+        }
+    }
+    mix
 }
 
 /// The probability that a path passes a surface whose Transparent weight is `t`: the mean of

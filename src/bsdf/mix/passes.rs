@@ -1,9 +1,10 @@
 //! A mixture split by Cycles' closure classes for the light passes: Diffuse,
 //! Translucent and Sheen closures are diffuse (Cycles' `CLOSURE_IS_BSDF_DIFFUSE`), Glossy
-//! and Metallic glossy, Glass reflection glossy and its refraction transmission; the
-//! Principled part splits as [`PbrAt`](crate::bsdf::PbrAt) does.
+//! and Metallic glossy, Glass reflection glossy and its refraction transmission; each
+//! Principled part splits as [`PbrAt`](crate::bsdf::PbrAt) does. Every part is seen in its
+//! own frame, as in [`MixBsdf::eval`].
 
-use super::{Lobe, MixBsdf, Toon, upper};
+use super::{Lobe, MAX_PBR, MixBsdf, Toon, into_frame, upper};
 use crate::bsdf::microfacet::fresnel_dielectric;
 use crate::math::Rgb;
 use glam::Vec3;
@@ -11,62 +12,48 @@ use glam::Vec3;
 impl MixBsdf {
     /// The diffuse-class part of [`eval`](Self::eval).
     pub fn eval_diffuse(&self, wo: Vec3, wi: Vec3) -> Rgb {
-        let mut f = if self.pbr_weight > 0.0 { self.pbr.at(wo).eval_diffuse(wi) * self.pbr_weight } else { Rgb::ZERO };
-        let (wo, wi, _) = upper(wo, wi);
-        if wo.z <= 0.0 {
-            return f;
-        }
-        for k in 0..self.n as usize {
-            if matches!(
-                self.lobes[k],
-                Lobe::Diffuse
-                    | Lobe::OrenNayar(_)
-                    | Lobe::Translucent
-                    | Lobe::Sheen { .. }
-                    | Lobe::Toon(Toon { glossy: false, .. })
-            ) {
-                f += self.weights[k] * self.lobes[k].eval(wo, wi);
-            }
-        }
-        f
+        self.eval_by(wo, wi, |p, wo, wi| p.at(wo).eval_diffuse(wi), Lobe::is_diffuse_class)
     }
 
-    /// The glass part of [`eval`](Self::eval): the Principled part's and the Glass and
+    /// The glass part of [`eval`](Self::eval): the Principled parts' and the Glass and
     /// Refraction lobes'.
     pub fn eval_glass(&self, wo: Vec3, wi: Vec3) -> Rgb {
-        let mut f = if self.pbr_weight > 0.0 { self.pbr.at(wo).eval_glass(wi) * self.pbr_weight } else { Rgb::ZERO };
-        let (wo, wi, _) = upper(wo, wi);
-        if wo.z <= 0.0 {
-            return f;
-        }
-        for k in 0..self.n as usize {
-            if matches!(self.lobes[k], Lobe::Dielectric(_)) {
-                f += self.weights[k] * self.lobes[k].eval(wo, wi);
-            }
-        }
-        f
+        self.eval_by(wo, wi, |p, wo, wi| p.at(wo).eval_glass(wi), |l| matches!(l, Lobe::Dielectric(_)))
     }
 
     /// Albedo seen from wo per class (diffuse, glossy, transmission), for the Colour passes.
     pub fn class_albedo(&self, wo: Vec3) -> [Rgb; 3] {
-        let mut c = if self.pbr_weight > 0.0 {
-            self.pbr.at(wo).class_albedo().map(|v| v * self.pbr_weight)
-        } else {
-            [Rgb::ZERO; 3]
-        };
+        let mut c = [Rgb::ZERO; 3];
+        for j in 0..MAX_PBR {
+            let w = self.pbr_weights[j];
+            if w > 0.0 {
+                let a = self.pbr[j].at(into_frame(&self.pbr_frames[j], wo)).class_albedo();
+                for (c, a) in c.iter_mut().zip(a) {
+                    *c += a * w;
+                }
+            }
+        }
         let (wo, _, _) = upper(wo, Vec3::Z);
         if wo.z <= 0.0 {
             return c;
         }
         for k in 0..self.n as usize {
             let w = self.weights[k];
-            match &self.lobes[k] {
+            let wo = into_frame(&self.frames[k], wo);
+            let l = &self.lobes[k];
+            if wo.z <= 0.0 {
+                if l.view_free() {
+                    c[0] += w;
+                }
+                continue;
+            }
+            match l {
                 Lobe::Diffuse
                 | Lobe::OrenNayar(_)
                 | Lobe::Translucent
                 | Lobe::Sheen { .. }
-                | Lobe::Toon(Toon { glossy: false, .. }) => c[0] += w * self.lobes[k].albedo(wo),
-                Lobe::Glossy { .. } | Lobe::Toon(Toon { glossy: true, .. }) => c[1] += w * self.lobes[k].albedo(wo),
+                | Lobe::Toon(Toon { glossy: false, .. }) => c[0] += w * l.albedo(wo),
+                Lobe::Glossy { .. } | Lobe::Toon(Toon { glossy: true, .. }) => c[1] += w * l.albedo(wo),
                 Lobe::Dielectric(d) => {
                     let f = fresnel_dielectric(wo.z, d.eta);
                     if d.refracts_only() {

@@ -179,9 +179,6 @@ impl Compiler<'_> {
                     },
                 };
                 let anisotropic = !self.is_const(p.anisotropic, 1) || self.init[p.anisotropic as usize] != 0.0;
-                if anisotropic {
-                    self.anisotropic += 1;
-                }
                 if anisotropic && p.tangent.is_none() {
                     // Cycles' default tangent: radial in the Generated coordinates.
                     self.uses_generated = true;
@@ -306,9 +303,6 @@ impl Compiler<'_> {
             strength: zero,
             normal,
         };
-        if !self.normals.contains(&normal) {
-            self.normals.push(normal);
-        }
         self.ops.push(Op::Closure(Box::new(op)));
         self.closure_ops += 1;
         Ok(())
@@ -446,7 +440,6 @@ impl Compiler<'_> {
                 None
             }
         };
-        self.anisotropic += 1;
         Ok(Some(AnisoRegs { anisotropy, rotation, tangent, mapping }))
     }
 
@@ -471,11 +464,6 @@ impl Compiler<'_> {
         normal: Option<Reg>,
     ) {
         self.closure_ops += 1;
-        if !matches!(kind, ClosureKind::Emission | ClosureKind::Transparent | ClosureKind::Holdout)
-            && !self.normals.contains(&normal)
-        {
-            self.normals.push(normal);
-        }
         self.ops.push(Op::Closure(Box::new(ClosureOp { kind, w, color, roughness, ior, strength, normal })));
     }
 }

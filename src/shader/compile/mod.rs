@@ -18,6 +18,7 @@ mod light_path_use;
 mod sources;
 pub mod volume;
 
+use crate::bsdf::mix::MAX_PBR;
 use crate::shader::closure::{AnisoMapping, AnisoRegs, CAPACITY, ClosureKind, ClosureOp, Closures, PrincipledRegs};
 use crate::shader::geom::{Geom, ObjectData, Reg};
 use crate::shader::graph::{NodeDesc, NodesExt, check_and_sort};
@@ -149,26 +150,17 @@ fn compile_with(
     }
     if c.small_lobes > CAPACITY {
         c.warnings.push(format!(
-            "the surface can mix {} BSDF lobes; Caustic holds {CAPACITY} (and one Principled BSDF) per shading point: \
-             the lobes past that are dropped where all are present",
+            "the surface can mix {} BSDF lobes; Caustic holds {CAPACITY} (and {MAX_PBR} Principled BSDFs) per shading \
+             point: the lobes past that are dropped where all are present",
             c.small_lobes
         ));
     }
-    if c.normals.len() > 1 {
-        c.warnings.push(
-            "the BSDFs have different Normal inputs: the mixture shades all of them with the first linked one".into(),
-        );
-    }
-    if c.anisotropic > 1 {
+    if c.principled > MAX_PBR {
         c.warnings.push(format!(
-            "{} anisotropic closures are mixed: all lie along the first one's tangent (one shading frame a point)",
-            c.anisotropic
-        ));
-    }
-    if c.principled > 1 {
-        c.warnings.push(format!(
-            "{} Principled BSDFs are mixed: rendered as one Principled BSDF with their parameters averaged by weight",
-            c.principled
+            "{} Principled BSDFs are mixed: Caustic renders {MAX_PBR} in full per shading point; the ones past the \
+             first {} are rendered as one Principled BSDF with their parameters averaged by weight",
+            c.principled,
+            MAX_PBR - 1
         ));
     }
     let mut prog = c.prog;
@@ -262,12 +254,8 @@ struct Compiler<'a> {
     all_const: bool,
     used: HashSet<(usize, String)>,
     closure_ops: usize,
-    /// The distinct Normal inputs of the BSDF closures (None: the shading normal).
-    normals: Vec<Option<Reg>>,
     small_lobes: usize,
     principled: usize,
-    /// Closures that may be anisotropic (their tangent is the shading frame's X axis).
-    anisotropic: usize,
     uses_generated: bool,
     /// The material's displacement method.
     method: Method,
@@ -295,10 +283,8 @@ impl<'a> Compiler<'a> {
             all_const: true,
             used,
             closure_ops: 0,
-            normals: Vec::new(),
             small_lobes: 0,
             principled: 0,
-            anisotropic: 0,
             uses_generated: false,
             method: Method::Bump,
             height_only: false,
@@ -721,8 +707,8 @@ mod tests {
     /// The microfacet options compile to Cycles' closures without a warning (Beckmann and
     /// single-scattering GGX on Glossy, Glass and Refraction — the last's default Beckmann —,
     /// the Glossy BSDF's Anisotropy along the radial tangent, which reads Generated); what is
-    /// still not rendered is named: Ashikhmin-Shirley, a thin film, and a second anisotropic
-    /// closure's own tangent.
+    /// still not rendered is named: Ashikhmin-Shirley and a thin film; two anisotropic
+    /// closures each keep their own tangent.
     #[test]
     fn microfacet_options_compile_as_cycles() {
         let kinds = |c: &Compiled| -> Vec<ClosureKind> {
@@ -773,7 +759,8 @@ mod tests {
             ]),
             json!([2, "Shader"]),
         );
-        assert!(two.warnings.iter().any(|w| w.contains("2 anisotropic closures")), "{:?}", two.warnings);
+        // Each closure lies along its own tangent (its own frame in the mixture): no warning.
+        assert!(two.warnings.is_empty(), "{:?}", two.warnings);
         let toon = compiled(
             json!([{"name": "T", "type": "ShaderNodeBsdfToon", "props": {"component": "GLOSSY"}, "inputs": {}}]),
             json!([0, "BSDF"]),
@@ -895,7 +882,8 @@ mod tests {
         assert!(err.contains("'Odd'") && err.contains("SIDEWAYS"), "{err}");
     }
 
-    /// More small lobes than a mixture holds is named at load; two Principled BSDFs too.
+    /// More small lobes than a mixture holds is named at load; more Principled BSDFs than it
+    /// holds in full (three) too.
     #[test]
     fn capacity_and_merged_principled_are_warned() {
         let mut nodes = Vec::new();
@@ -904,16 +892,17 @@ mod tests {
         }
         nodes.push(json!({"name": "P1", "type": "ShaderNodeBsdfPrincipled"}));
         nodes.push(json!({"name": "P2", "type": "ShaderNodeBsdfPrincipled"}));
-        // Add shaders chaining all seven.
+        nodes.push(json!({"name": "P3", "type": "ShaderNodeBsdfPrincipled"}));
+        // Add shaders chaining all eight.
         let mut last = (0usize, "BSDF".to_string());
-        for k in 1..7 {
+        for k in 1..8 {
             nodes.push(json!({"name": format!("Add{k}"), "type": "ShaderNodeAddShader",
                 "inputs": {"Shader": {"link": [last.0, last.1]}, "Shader_001": {"link": [k, "BSDF"]}}}));
             last = (nodes.len() - 1, "Shader".into());
         }
         let c = compiled(Value::Array(nodes), json!([last.0, last.1]));
         assert!(c.warnings.iter().any(|w| w.contains("5 BSDF lobes")), "{:?}", c.warnings);
-        assert!(c.warnings.iter().any(|w| w.contains("2 Principled BSDFs")), "{:?}", c.warnings);
+        assert!(c.warnings.iter().any(|w| w.contains("3 Principled BSDFs")), "{:?}", c.warnings);
     }
 
     /// A Bump's Filter Width linked to a constant (a Value node, math on it) is that constant,
