@@ -326,7 +326,11 @@ class Bench:
                 "--seed", str(seed), "--threads", str(threads or self.threads),
                 "--integrator", integrator,
                 "--filter", "blackman-harris", "--filter-width", repr(CAUSTIC_BH_WIDTH),
-                "--spp", str(spp if spp else CAUSTIC_MAX_SPP)]
+                "--spp", str(spp if spp else CAUSTIC_MAX_SPP),
+                # What an F12 sends for the suite's view layers (Combined alone, Blender's
+                # default), which is all Cycles renders here; without it the binary writes
+                # its legacy Depth, Normal, denoising and sample-count passes too.
+                "--passes", "none"]
         if time_limit:
             argv += ["--time-limit", repr(float(time_limit))]
         argv += list(extra)

@@ -59,6 +59,12 @@ impl CameraSample {
     }
 }
 
+/// True when the first hit's normal and albedo sums are read with `passes`: the Normal and
+/// Denoising passes (a denoiser needs them too: the caller adds that).
+pub fn needs_guides(passes: PassSet) -> bool {
+    [Pass::Normal, Pass::DenoisingNormal, Pass::DenoisingAlbedo].into_iter().any(|p| passes.contains(p))
+}
+
 /// Sums for one pixel, fixed point (units of 2^-64, see `crate::fixed`).
 #[derive(Clone, Copy, Debug)]
 pub struct PixelAccum {
@@ -87,6 +93,14 @@ impl PixelAccum {
     /// finite or beyond the fixed-point range.
     #[inline]
     pub fn add(&mut self, s: &CameraSample) -> bool {
+        self.add_guided(s, true)
+    }
+
+    /// [`add`](Self::add), summing the normal and albedo only when `guides` (they are six
+    /// of a sample's ten fixed-point conversions, which nothing reads unless a pass shows
+    /// them or the denoiser takes them: [`needs_guides`]).
+    #[inline]
+    pub fn add_guided(&mut self, s: &CameraSample, guides: bool) -> bool {
         let rgb = s.radiance.to_array();
         if !in_range(rgb) {
             return false;
@@ -94,8 +108,10 @@ impl PixelAccum {
         add3(&mut self.rgb, rgb);
         self.alpha = self.alpha.wrapping_add(to_fixed(s.alpha));
         self.depth = self.depth.min(s.depth);
-        add3(&mut self.normal, s.normal.to_array());
-        add3(&mut self.albedo, s.albedo.to_array());
+        if guides {
+            add3(&mut self.normal, s.normal.to_array());
+            add3(&mut self.albedo, s.albedo.to_array());
+        }
         self.n += 1;
         true
     }
@@ -124,6 +140,8 @@ pub struct Tile {
     pub h: u32,
     /// Row-major sums.
     pub pixels: Vec<PixelAccum>,
+    /// The pixels sum the first hit's normal and albedo (else those sums stay zero).
+    pub guides: bool,
     /// The [`slot`]s of the extra passes kept (bit mask; `PassSet::slots`).
     pub slots: u64,
     /// Row-major extra-pass sums, `slots.count_ones()` per pixel in slot order: fixed
@@ -157,7 +175,7 @@ impl Tile {
     #[inline]
     pub fn add(&mut self, i: usize, s: &CameraSample) -> bool {
         if self.slots == 0 && self.crypto_layout.is_empty() && self.sums_stride() == 0 {
-            return self.pixels[i].add(s);
+            return self.pixels[i].add_guided(s, self.guides);
         }
         let mut m = self.slots & !FIRST_SAMPLE_SLOTS;
         while m != 0 {
@@ -173,7 +191,7 @@ impl Tile {
         }
         // Position and the indices are the pixel's first sample's, as Cycles' sample 0.
         let first = self.pixels[i].n == 0;
-        if !self.pixels[i].add(s) {
+        if !self.pixels[i].add_guided(s, self.guides) {
             return false;
         }
         if !self.crypto_layout.is_empty() {
@@ -470,6 +488,7 @@ impl Film {
                     w,
                     h,
                     pixels: vec![PixelAccum::default(); n],
+                    guides: true,
                     slots,
                     extra: vec![0; n * stride],
                     crypto_layout,
@@ -490,6 +509,14 @@ impl Film {
             light_paths: 0,
             splat_extra: Vec::new(),
             passes,
+        }
+    }
+
+    /// Sums the first hit's normal and albedo (the default) or leaves them zero (`keep`
+    /// false: for a render whose passes and denoiser do not read them, [`needs_guides`]).
+    pub fn keep_guides(&mut self, keep: bool) {
+        for t in &mut self.tiles {
+            t.guides = keep;
         }
     }
 
@@ -745,6 +772,30 @@ fn extra_pixel(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A film that keeps no guides sums the same radiance, alpha and depth and leaves the
+    /// normal and albedo at zero; the default keeps them.
+    #[test]
+    fn guides_are_summed_only_when_kept() {
+        let s = CameraSample {
+            radiance: Vec3::new(0.25, 0.5, 2.0),
+            alpha: 1.0,
+            depth: 3.0,
+            normal: Vec3::new(0.0, 0.6, 0.8),
+            albedo: Vec3::new(0.8, 0.7, 0.1),
+            ..Default::default()
+        };
+        let mut kept = Film::with_passes(2, 2, 2, PassSet::default());
+        let mut skipped = Film::with_passes(2, 2, 2, PassSet::default());
+        skipped.keep_guides(false);
+        assert!(kept.tiles[0].add(1, &s) && skipped.tiles[0].add(1, &s));
+        let (a, b) = (kept.pixel(1, 0), skipped.pixel(1, 0));
+        assert_eq!((a.rgb, a.alpha, a.depth.to_bits(), a.n), (b.rgb, b.alpha, b.depth.to_bits(), b.n));
+        assert_eq!(a.normal, [0, to_fixed(0.6), to_fixed(0.8)]);
+        assert_eq!(a.albedo, [to_fixed(0.8), to_fixed(0.7), to_fixed(0.1)]);
+        assert_eq!((b.normal, b.albedo), ([0; 3], [0; 3]));
+        assert!(needs_guides(PassSet::legacy()) && !needs_guides(PassSet::default()));
+    }
 
     /// The sampled offsets follow the Blackman-Harris profile: the centre bin is about
     /// as dense as the formula says relative to a bin near the edge.

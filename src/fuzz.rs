@@ -138,6 +138,7 @@ pub fn run_one(bytes: &[u8], base_dir: &Path) -> Outcome {
             adaptive: None,
             passes: crate::passes::ALL.into_iter().collect(),
             data: Default::default(),
+            guides: true,
         };
         let integrator = Integrator::Path(PathIntegrator { light_passes: true, ..PathIntegrator::new(4, true) });
         let stop = AtomicBool::new(false);

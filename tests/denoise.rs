@@ -91,6 +91,30 @@ fn denoising_lowers_the_error_and_keeps_the_noisy_image() {
     assert!(after < 0.5 * before, "RMSE {before} before denoising, {after} after");
 }
 
+/// A render that writes Combined alone (the add-on's default `--passes none`) skips the
+/// normal and albedo sums, except for the denoiser: it must get the same guides as a render
+/// that writes them, so the denoised image is the same bit for bit.
+#[test]
+fn denoising_keeps_its_guides_without_their_passes() {
+    let Some(lib) = library() else {
+        assert!(std::env::var_os("CI").is_none(), "CI has no Open Image Denoise: bpy's copy is missing");
+        eprintln!("skipped: no Open Image Denoise (set CAUSTIC_OIDN or run scripts/setup_python.sh for bpy's copy)");
+        return;
+    };
+    let dir = temp_dir();
+    let scene = flat_lit(dir.path());
+    let lib = lib.to_str().unwrap();
+    let with_passes = dir.path().join("w.exr");
+    let combined_only = dir.path().join("c.exr");
+    render_image(&scene, &with_passes, &["--spp", "4", "--denoise", "--oidn", lib], LIMIT);
+    render_image(&scene, &combined_only, &["--spp", "4", "--denoise", "--oidn", lib, "--passes", "none"], LIMIT);
+    for c in ["R", "G", "B", "A"] {
+        let a = channel(&with_passes, &format!("Combined.{c}"));
+        let b = channel(&combined_only, &format!("Combined.{c}"));
+        assert!(a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()), "denoised Combined.{c} differs");
+    }
+}
+
 #[test]
 fn denoising_without_the_library_is_refused_before_rendering() {
     let dir = temp_dir();

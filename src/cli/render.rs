@@ -448,6 +448,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         adaptive: res.adaptive,
         passes: res.passes,
         data: res.data,
+        guides: crate::film::needs_guides(res.passes) || denoiser.is_some(),
     };
     // What every chunk of this frame must agree on (`--chunk`); the ranges are filled in per write.
     let chunk_info = match args.chunk {

@@ -37,6 +37,8 @@ pub struct RenderJob {
     pub passes: crate::passes::PassSet,
     /// Mist and AO settings of the data passes.
     pub data: crate::passes::DataSettings,
+    /// The film sums the first hit's normal and albedo (`film::needs_guides`, or a denoiser).
+    pub guides: bool,
 }
 
 /// What came out.

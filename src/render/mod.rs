@@ -78,6 +78,7 @@ fn progressive(
 ) -> RenderResult {
     let [x0, y0, x1, y1] = job.window;
     let mut film = Film::with_passes(x1 - x0, y1 - y0, TILE_SIZE, job.passes);
+    film.keep_guides(job.guides);
     // Adaptive sampling: the class-A half sums and converged flags, one tile per film tile.
     let mut adaptive = AdaptiveFilm::new(&film, job.adaptive);
     let pixels = ((x1 - x0) as u64) * ((y1 - y0) as u64);

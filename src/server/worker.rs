@@ -242,6 +242,7 @@ fn run(job: Job, out: &Output, stop: &AtomicBool) -> Option<Arc<Integrator>> {
             // The viewport shows Combined only.
             passes: crate::passes::PassSet::legacy(),
             data: Default::default(),
+            guides: false,
         };
         let on_progress = |p: &render::Progress| {
             out.send(

@@ -2,7 +2,7 @@
 //! sheen albedo at wo, the metal's multiscatter factor) computed once per vertex, then the
 //! value, density and sampled bounce that next-event estimation and the path share.
 
-use super::PbrBsdf;
+use super::{LobeChoice, PbrBsdf};
 use crate::bsdf::microfacet::reflect;
 use crate::bsdf::microfiber::Microfiber;
 use crate::bsdf::{BsdfSample, LobeKind};
@@ -38,6 +38,8 @@ pub struct PbrAt<'a> {
     pub(super) es: f32,
     /// The microfiber sheen seen from wo, when the sheen is one.
     pub(super) fiber: Option<Microfiber>,
+    /// How `sample` chooses among the lobes at wo (`PbrBsdf::lobes`), computed once.
+    pub(super) c: LobeChoice,
 }
 
 impl PbrAt<'_> {
@@ -48,7 +50,7 @@ impl PbrAt<'_> {
         if self.wo.z <= 0.0 || wi.z == 0.0 {
             return 0.0;
         }
-        self.b.pdf_with(&self.b.lobes(self), self.wo, wi)
+        self.b.pdf_with(&self.c, self.wo, wi)
     }
 
     /// [`PbrBsdf::sample`] from the view-side terms computed once.
@@ -61,7 +63,7 @@ impl PbrAt<'_> {
             return None;
         }
         let this = self.b;
-        let c = this.lobes(self);
+        let c = &self.c;
         let diffuse = uc >= c.glass + c.metal + c.spec && uc < c.glass + c.metal + c.spec + c.diffuse + c.sheen;
         let wi_up = if uc < c.glass {
             let s = this.glass.sample(wo_up, uc / c.glass, u)?;
@@ -135,7 +137,7 @@ impl PbrAt<'_> {
         // The density and value from the lobe choice and wo-terms of this call (the same
         // numbers `pdf` and `eval` would recompute: the profile had the albedo-table
         // lookups at wo three times per sampled bounce).
-        let pdf = this.pdf_with(&c, wo_up, wi_up);
+        let pdf = this.pdf_with(c, wo_up, wi_up);
         if !(pdf > 0.0) {
             return None;
         }
