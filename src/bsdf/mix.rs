@@ -713,12 +713,14 @@ impl MixBsdf {
         (pdf > 0.0).then(|| BsdfSample { wi, f: self.eval(wo, wi), pdf, delta: false, kind: s.kind })
     }
 
-    /// Filter Glossy's blur (`Bsdf::blur`): the Principled part and every glossy and
+    /// Filter Glossy's blur (`Bsdf::blur`): the Principled parts and every glossy and
     /// dielectric lobe at least `alpha` wide (Cycles' `bsdf_blur` touches microfacet
     /// closures only); compensations stay the original roughness's, as in Cycles.
     pub fn blur(&mut self, alpha: f32) {
-        if self.pbr_weight > 0.0 {
-            self.pbr.blur(alpha);
+        for (pbr, &w) in self.pbr.iter_mut().zip(&self.pbr_weights) {
+            if w > 0.0 {
+                pbr.blur(alpha);
+            }
         }
         for lobe in &mut self.lobes[..self.n as usize] {
             match lobe {
