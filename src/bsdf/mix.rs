@@ -22,7 +22,7 @@
 //! directions. Translucent sends light to the side opposite wo.
 
 use super::dielectric::{DielectricBsdf, SMOOTH_ROUGHNESS};
-use super::microfacet::{Ggx, f82_tint, f82_tint_b, reflect, schlick_weight};
+use super::microfacet::{Ggx, conductor_fresnel, f82_b_through, f82_tint, f82_tint_b, reflect, schlick_weight};
 use super::microfiber::Microfiber;
 use super::oren_nayar::OrenNayar;
 use super::{BsdfSample, LobeKind, PbrBsdf, albedo::specular_albedo};
@@ -50,6 +50,13 @@ pub enum GlossyFresnel {
         /// The (1 − cos)⁶ term's factor from the tint.
         b: Rgb,
     },
+    /// Cycles' physical conductor: the exact Fresnel of the complex index n + ik per channel.
+    Conductor {
+        /// Real part (the Metallic BSDF's IOR).
+        n: Rgb,
+        /// Imaginary part (its Extinction).
+        k: Rgb,
+    },
 }
 
 impl GlossyFresnel {
@@ -69,6 +76,7 @@ impl GlossyFresnel {
             GlossyFresnel::Constant => Rgb::ONE,
             GlossyFresnel::Schlick(f0) => *f0 + (Rgb::ONE - *f0) * schlick_weight(cos),
             GlossyFresnel::F82Tint { f0, b } => f82_tint(*f0, *b, cos),
+            GlossyFresnel::Conductor { n, k } => conductor_fresnel(cos, *n, *k),
         }
     }
 }
@@ -209,6 +217,13 @@ impl Lobe {
             GlossyFresnel::Schlick(f0) => f0 + (Rgb::ONE - f0) / 21.0,
             // Cycles' fresnel_f82_Fss: the cosine-weighted average of the F82-tint curve.
             GlossyFresnel::F82Tint { f0, b } => (f0 + (Rgb::ONE - f0) / 21.0 - b / 126.0).clamp(Rgb::ZERO, Rgb::ONE),
+            // Cycles' fresnel_conductor_Fss: the F82 curve through the exact values at 0 and
+            // cos θ = 1/7, averaged as above.
+            GlossyFresnel::Conductor { n, k } => {
+                let f0 = conductor_fresnel(1.0, n, k);
+                let b = f82_b_through(f0, conductor_fresnel(1.0 / 7.0, n, k));
+                (f0 + (Rgb::ONE - f0) / 21.0 - b / 126.0).clamp(Rgb::ZERO, Rgb::ONE)
+            }
         };
         let fms = if roughness < SMOOTH_ROUGHNESS {
             Rgb::ZERO
@@ -249,7 +264,9 @@ impl Lobe {
             Lobe::Glossy { fresnel, .. } => match fresnel {
                 GlossyFresnel::Constant => 1.0,
                 GlossyFresnel::Schlick(f0) => luminance(*f0 + (Rgb::ONE - *f0) * schlick_weight(wo.z)),
-                GlossyFresnel::F82Tint { .. } => luminance(fresnel.at(wo.z)).max(1e-3),
+                GlossyFresnel::F82Tint { .. } | GlossyFresnel::Conductor { .. } => {
+                    luminance(fresnel.at(wo.z)).max(1e-3)
+                }
             },
             Lobe::Dielectric(_) => 1.0,
             Lobe::Sheen { roughness } => Microfiber::at(wo, *roughness).albedo().max(1e-3),

@@ -21,7 +21,7 @@
 //!   Glass "GGX" is single scattering), anisotropic along its Tangent by Cycles' Glossy widths
 //!   ([`AnisoMapping`]; Metallic by the Principled BSDF's); Metallic →
 //!   GGX with Cycles' F82-tint Fresnel of F0 = Base Color and its Edge Tint (the
-//!   physical-conductor mode is approximated by Schlick's, warned at load); Glass → a dielectric interface whose
+//!   physical-conductor mode with Cycles' exact conductor Fresnel); Glass → a dielectric interface whose
 //!   reflection and transmission the colour tints; Refraction → the interface's refraction
 //!   alone, without Fresnel weighting (Cycles' Refraction BSDF); Translucent → Lambertian transmission; Toon → Cycles' toon lobe (`Lobe::Toon`); Sheen →
 //!   Cycles' microfiber sheen (its Ashikhmin distribution is warned about at load), as is
@@ -81,6 +81,9 @@ pub enum ClosureKind {
         multiscatter: bool,
         /// The Metallic BSDF's Edge Tint (F82-tint), when not a constant white.
         edge_tint: Option<Reg>,
+        /// The physical-conductor Metallic BSDF's Extinction k (the colour register holds its
+        /// IOR n): Cycles' exact conductor Fresnel.
+        extinction: Option<Reg>,
         /// Beckmann's distribution instead of GGX.
         beckmann: bool,
         /// The Anisotropy, Rotation and Tangent inputs, when the lobe may be anisotropic.
@@ -302,12 +305,15 @@ impl ClosureOp {
                 push(color() * w, lobe)
             }
             ClosureKind::Sheen => push(color() * w, Lobe::Sheen { roughness: rough() }),
-            ClosureKind::Glossy { metallic, multiscatter, edge_tint, beckmann, aniso } => {
+            ClosureKind::Glossy { metallic, multiscatter, edge_tint, extinction, beckmann, aniso } => {
                 let (weight, fresnel) = if *metallic {
                     let f0 = color().min(Vec3::ONE);
-                    let fresnel = match edge_tint {
-                        Some(t) => GlossyFresnel::f82_tint(f0, v3(r, *t).clamp(Vec3::ZERO, Vec3::ONE)),
-                        None => GlossyFresnel::Schlick(f0),
+                    let fresnel = match (extinction, edge_tint) {
+                        (Some(k), _) => {
+                            GlossyFresnel::Conductor { n: color().max(Vec3::ZERO), k: v3(r, *k).max(Vec3::ZERO) }
+                        }
+                        (None, Some(t)) => GlossyFresnel::f82_tint(f0, v3(r, *t).clamp(Vec3::ZERO, Vec3::ONE)),
+                        (None, None) => GlossyFresnel::Schlick(f0),
                     };
                     (Rgb::splat(w), fresnel)
                 } else {

@@ -724,6 +724,28 @@ CASES = {
     "emission": (sphere_scene, single_shader("ShaderNodeEmission", Color=(1.0, 0.6, 0.3, 1.0), Strength=3.0), None),
     "shader_to_rgb": (flat_scene, shader_to_rgb, None),
 }
+def physical_conductor(name):
+    """A maker: a smooth Metallic BSDF (roughness 0.05) in Physical Conductor mode with Blender's
+    default IOR and Extinction. Before: Schlick's Fresnel from the reflectance at normal
+    incidence (warned), R/G/B 1.0209/1.0197/1.0180 of Cycles' mean, inside this test's noise
+    bound (a smooth metal's reflections are noisy: 0.43x); after, Cycles' exact conductor
+    Fresnel: 1.0069/1.0070/1.0070, no warning. The formula itself is checked against complex
+    arithmetic in `bsdf::microfacet`'s `conductor_fresnel_limits`."""
+    mat = scenes.shader_node_material(name, "ShaderNodeBsdfMetallic")
+    node = next(n for n in mat.node_tree.nodes if n.type != "OUTPUT_MATERIAL")
+    node.fresnel_type = "PHYSICAL_CONDUCTOR"
+    by_id(node.inputs, "Roughness").default_value = 0.05
+    return mat
+
+
+# An unlinked White Noise Vector is (0, 0, 0) in Cycles (not Generated, as for the other
+# textures): one flat colour. Before: Caustic read Generated, per-pixel noise, R/G/B
+# 0.5813/0.8010/0.5035 of Cycles' mean and all 108 blocks over; after 0.9999 each, none.
+CASES["white_noise_unlinked_color"] = (flat_scene, texture("ShaderNodeTexWhiteNoise", output="Color",
+                                                           props={"noise_dimensions": "2D"}), None)
+CASES["metallic_physical_conductor"] = (sphere_scene, physical_conductor, None)
+
+
 # Cycles ends a path at its transparent-bounce limit counting every crossing, so a camera ray
 # through the transparent sphere (two crossings) needs more than BOUNCES to reach the floor;
 # a limit that never binds makes both renderers see the floor through it.
