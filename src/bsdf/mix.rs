@@ -21,6 +21,7 @@
 //! Lobes are two-sided like [`PbrBsdf`]: wo below the shading plane mirrors both
 //! directions. Translucent sends light to the side opposite wo.
 
+use super::ashikhmin_shirley::AshikhminShirley;
 use super::dielectric::{DielectricBsdf, SMOOTH_ROUGHNESS};
 use super::microfacet::{Ggx, conductor_fresnel, f82_b_through, f82_tint, f82_tint_b, reflect, schlick_weight};
 use super::microfiber::Microfiber;
@@ -113,6 +114,8 @@ pub enum Lobe {
     /// Size × π/2 around the normal (Diffuse) or wo's mirror direction (Glossy), falling
     /// linearly to 0 over a further Smooth × π/2, sampled uniformly over the cone that holds it.
     Toon(Toon),
+    /// The Glossy BSDF's Ashikhmin-Shirley distribution, white (`ashikhmin_shirley.rs`).
+    AshikhminShirley(AshikhminShirley),
 }
 
 /// Cycles' toon lobe (see [`Lobe::Toon`]).
@@ -238,6 +241,7 @@ impl Lobe {
         match self {
             Lobe::Glossy { roughness, .. } => *roughness < SMOOTH_ROUGHNESS,
             Lobe::Dielectric(d) => d.smooth,
+            Lobe::AshikhminShirley(a) => a.smooth,
             _ => false,
         }
     }
@@ -270,7 +274,7 @@ impl Lobe {
             },
             Lobe::Dielectric(_) => 1.0,
             Lobe::Sheen { roughness } => Microfiber::at(wo, *roughness).albedo().max(1e-3),
-            Lobe::Toon(_) => 1.0,
+            Lobe::Toon(_) | Lobe::AshikhminShirley(_) => 1.0,
         }
     }
 
@@ -292,6 +296,7 @@ impl Lobe {
             Lobe::Dielectric(d) => d.eval(wo, wi),
             Lobe::Sheen { roughness } => Rgb::splat(Microfiber::at(wo, *roughness).f(wi)),
             Lobe::Toon(t) => Rgb::splat(t.eval(wo, wi)),
+            Lobe::AshikhminShirley(a) => Rgb::splat(a.eval(wo, wi)),
         }
     }
 
@@ -322,6 +327,7 @@ impl Lobe {
             }
             Lobe::Dielectric(d) => d.pdf(wo, wi),
             Lobe::Toon(t) => t.pdf(wo, wi),
+            Lobe::AshikhminShirley(a) => a.pdf(wo, wi),
         }
     }
 
@@ -350,13 +356,26 @@ impl Lobe {
             }
             Lobe::Dielectric(d) => return d.sample(wo, uc, u),
             Lobe::Toon(t) => t.sample(wo, u),
+            Lobe::AshikhminShirley(a) => {
+                let wi = a.sample(wo, u);
+                if a.smooth {
+                    // Cycles' singular case: a mirror of weight 1.
+                    let delta =
+                        BsdfSample { wi, f: Rgb::splat(1.0 / wi.z), pdf: 1.0, delta: true, kind: LobeKind::Glossy };
+                    return Some(delta);
+                }
+                wi
+            }
         };
         if wi.z == 0.0 {
             return None;
         }
         let pdf = self.pdf(wo, wi);
         let kind = match self {
-            Lobe::Glossy { .. } | Lobe::Dielectric(_) | Lobe::Toon(Toon { glossy: true, .. }) => LobeKind::Glossy,
+            Lobe::Glossy { .. }
+            | Lobe::AshikhminShirley(_)
+            | Lobe::Dielectric(_)
+            | Lobe::Toon(Toon { glossy: true, .. }) => LobeKind::Glossy,
             Lobe::Diffuse
             | Lobe::OrenNayar(_)
             | Lobe::Sheen { .. }

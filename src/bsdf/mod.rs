@@ -5,6 +5,7 @@
 pub mod albedo;
 mod albedo_table;
 pub mod aniso_albedo;
+pub mod ashikhmin_shirley;
 mod beckmann;
 pub mod dielectric;
 mod exclude;

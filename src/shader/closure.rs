@@ -18,6 +18,7 @@
 //! * Diffuse → Lambert, or Cycles' Oren-Nayar for a roughness; Glossy → GGX with
 //!   a constant Fresnel, the colour, and Cycles' multiscatter compensation ("GGX": none;
 //!   "Beckmann": Beckmann's distribution, uncompensated, as Glass and Refraction take it too;
+//!   "Ashikhmin-Shirley": Cycles' lobe of that name, `bsdf::ashikhmin_shirley`;
 //!   Glass "GGX" is single scattering), anisotropic along its Tangent by Cycles' Glossy widths
 //!   ([`AnisoMapping`]; Metallic by the Principled BSDF's); Metallic →
 //!   GGX with Cycles' F82-tint Fresnel of F0 = Base Color and its Edge Tint (the
@@ -30,6 +31,7 @@
 //!   shadow rays `Scene::transmission`).
 
 use super::geom::{Geom, Reg, from_blender, v3};
+use crate::bsdf::ashikhmin_shirley::AshikhminShirley;
 use crate::bsdf::dielectric::DielectricBsdf;
 use crate::bsdf::mix::{GlossyFresnel, Lobe, MAX_LOBES, MixBsdf, Toon};
 use crate::bsdf::pbr::PbrParams;
@@ -86,6 +88,8 @@ pub enum ClosureKind {
         extinction: Option<Reg>,
         /// Beckmann's distribution instead of GGX.
         beckmann: bool,
+        /// The Glossy BSDF's Ashikhmin-Shirley distribution instead of GGX.
+        ashikhmin: bool,
         /// The Anisotropy, Rotation and Tangent inputs, when the lobe may be anisotropic.
         aniso: Option<AnisoRegs>,
     },
@@ -305,7 +309,7 @@ impl ClosureOp {
                 push(color() * w, lobe)
             }
             ClosureKind::Sheen => push(color() * w, Lobe::Sheen { roughness: rough() }),
-            ClosureKind::Glossy { metallic, multiscatter, edge_tint, extinction, beckmann, aniso } => {
+            ClosureKind::Glossy { metallic, multiscatter, edge_tint, extinction, beckmann, ashikhmin, aniso } => {
                 let (weight, fresnel) = if *metallic {
                     let f0 = color().min(Vec3::ONE);
                     let fresnel = match (extinction, edge_tint) {
@@ -330,6 +334,10 @@ impl ClosureOp {
                     Some(widths)
                 });
                 let mut lobe = match widths {
+                    _ if *ashikhmin => {
+                        let (ax, ay) = widths.unwrap_or((alpha, alpha));
+                        Lobe::AshikhminShirley(AshikhminShirley::new(ax, ay))
+                    }
                     Some((ax, ay)) => Lobe::glossy_widths(ax, ay, *beckmann, fresnel),
                     None if *beckmann => Lobe::glossy_widths(alpha, alpha, true, fresnel),
                     None => Lobe::glossy(rough(), fresnel),

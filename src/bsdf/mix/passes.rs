@@ -66,7 +66,9 @@ impl MixBsdf {
                 | Lobe::Translucent
                 | Lobe::Sheen { .. }
                 | Lobe::Toon(Toon { glossy: false, .. }) => c[0] += w * self.lobes[k].albedo(wo),
-                Lobe::Glossy { .. } | Lobe::Toon(Toon { glossy: true, .. }) => c[1] += w * self.lobes[k].albedo(wo),
+                Lobe::Glossy { .. } | Lobe::AshikhminShirley(_) | Lobe::Toon(Toon { glossy: true, .. }) => {
+                    c[1] += w * self.lobes[k].albedo(wo)
+                }
                 Lobe::Dielectric(d) => {
                     let f = fresnel_dielectric(wo.z, d.eta);
                     if d.refracts_only() {

@@ -296,15 +296,9 @@ impl Compiler<'_> {
             "ShaderNodeBsdfDiffuse" => (ClosureKind::Diffuse, self.vec(i, "Color", Vec3::splat(0.8))?),
             "ShaderNodeBsdfGlossy" | "ShaderNodeBsdfAnisotropic" => {
                 let dist = self.prop_str(i, "distribution", "MULTI_GGX");
-                if dist == "ASHIKHMIN_SHIRLEY" {
-                    self.warn(
-                        i,
-                        "distribution Ashikhmin-Shirley is rendered as GGX (Cycles renders its own \
-                         Ashikhmin-Shirley lobe)",
-                    );
-                }
                 let aniso = self.aniso(i, AnisoMapping::Glossy)?;
                 let (beckmann, multiscatter) = (dist == "BECKMANN", dist == "MULTI_GGX");
+                let ashikhmin = dist == "ASHIKHMIN_SHIRLEY";
                 (
                     ClosureKind::Glossy {
                         metallic: false,
@@ -312,6 +306,7 @@ impl Compiler<'_> {
                         edge_tint: None,
                         extinction: None,
                         beckmann,
+                        ashikhmin,
                         aniso,
                     },
                     self.vec(i, "Color", Vec3::splat(0.8))?,
@@ -335,7 +330,18 @@ impl Compiler<'_> {
                 let dist = self.prop_str(i, "distribution", "MULTI_GGX");
                 let aniso = self.aniso(i, AnisoMapping::Aspect)?;
                 let (beckmann, multiscatter) = (dist == "BECKMANN", dist == "MULTI_GGX");
-                (ClosureKind::Glossy { metallic: true, multiscatter, edge_tint, extinction, beckmann, aniso }, colour)
+                (
+                    ClosureKind::Glossy {
+                        metallic: true,
+                        multiscatter,
+                        edge_tint,
+                        extinction,
+                        beckmann,
+                        ashikhmin: false,
+                        aniso,
+                    },
+                    colour,
+                )
             }
             "ShaderNodeBsdfGlass" => {
                 let dist = self.prop_str(i, "distribution", "MULTI_GGX");
