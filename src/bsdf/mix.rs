@@ -26,6 +26,7 @@ use super::dielectric::{DielectricBsdf, SMOOTH_ROUGHNESS};
 use super::microfacet::{Ggx, conductor_fresnel, f82_b_through, f82_tint, f82_tint_b, reflect, schlick_weight};
 use super::microfiber::Microfiber;
 use super::oren_nayar::OrenNayar;
+use super::velvet::Velvet;
 use super::{BsdfSample, LobeKind, PbrBsdf, albedo::specular_albedo};
 use crate::math::{Rgb, luminance};
 use crate::sampling::warp::{cosine_hemisphere, cosine_hemisphere_pdf, uniform_cone, uniform_cone_pdf};
@@ -116,6 +117,8 @@ pub enum Lobe {
     Toon(Toon),
     /// The Glossy BSDF's Ashikhmin-Shirley distribution, white (`ashikhmin_shirley.rs`).
     AshikhminShirley(AshikhminShirley),
+    /// The Sheen BSDF's Ashikhmin distribution (Velvet), white (`velvet.rs`).
+    Velvet(Velvet),
 }
 
 /// Cycles' toon lobe (see [`Lobe::Toon`]).
@@ -274,7 +277,7 @@ impl Lobe {
             },
             Lobe::Dielectric(_) => 1.0,
             Lobe::Sheen { roughness } => Microfiber::at(wo, *roughness).albedo().max(1e-3),
-            Lobe::Toon(_) | Lobe::AshikhminShirley(_) => 1.0,
+            Lobe::Toon(_) | Lobe::AshikhminShirley(_) | Lobe::Velvet(_) => 1.0,
         }
     }
 
@@ -297,6 +300,7 @@ impl Lobe {
             Lobe::Sheen { roughness } => Rgb::splat(Microfiber::at(wo, *roughness).f(wi)),
             Lobe::Toon(t) => Rgb::splat(t.eval(wo, wi)),
             Lobe::AshikhminShirley(a) => Rgb::splat(a.eval(wo, wi)),
+            Lobe::Velvet(v) => Rgb::splat(v.eval(wo, wi)),
         }
     }
 
@@ -328,6 +332,7 @@ impl Lobe {
             Lobe::Dielectric(d) => d.pdf(wo, wi),
             Lobe::Toon(t) => t.pdf(wo, wi),
             Lobe::AshikhminShirley(a) => a.pdf(wo, wi),
+            Lobe::Velvet(v) => v.pdf(wi),
         }
     }
 
@@ -356,6 +361,7 @@ impl Lobe {
             }
             Lobe::Dielectric(d) => return d.sample(wo, uc, u),
             Lobe::Toon(t) => t.sample(wo, u),
+            Lobe::Velvet(v) => v.sample(u),
             Lobe::AshikhminShirley(a) => {
                 let wi = a.sample(wo, u);
                 if a.smooth {
@@ -379,6 +385,7 @@ impl Lobe {
             Lobe::Diffuse
             | Lobe::OrenNayar(_)
             | Lobe::Sheen { .. }
+            | Lobe::Velvet(_)
             | Lobe::Translucent
             | Lobe::Toon(Toon { glossy: false, .. }) => LobeKind::Diffuse,
         };

@@ -21,6 +21,7 @@ pub mod oren_nayar;
 pub mod pbr;
 pub mod sheen;
 pub mod thin_film;
+pub mod velvet;
 
 use crate::math::Rgb;
 use glam::{Vec2, Vec3};

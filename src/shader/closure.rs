@@ -25,7 +25,7 @@
 //!   physical-conductor mode with Cycles' exact conductor Fresnel); Glass → a dielectric interface whose
 //!   reflection and transmission the colour tints; Refraction → the interface's refraction
 //!   alone, without Fresnel weighting (Cycles' Refraction BSDF); Translucent → Lambertian transmission; Toon → Cycles' toon lobe (`Lobe::Toon`); Sheen →
-//!   Cycles' microfiber sheen (its Ashikhmin distribution is warned about at load), as is
+//!   Cycles' microfiber sheen (its Ashikhmin distribution: Cycles' velvet, `bsdf::velvet`), as is
 //!   the Principled BSDF's sheen; Emission → emitted radiance Color × Strength; Transparent → pass-through
 //!   by coverage (`Scene::pass_through`: probability its colour's mean, weight colour / mean;
 //!   shadow rays `Scene::transmission`).
@@ -35,6 +35,7 @@ use crate::bsdf::ashikhmin_shirley::AshikhminShirley;
 use crate::bsdf::dielectric::DielectricBsdf;
 use crate::bsdf::mix::{GlossyFresnel, Lobe, MAX_LOBES, MixBsdf, Toon};
 use crate::bsdf::pbr::PbrParams;
+use crate::bsdf::velvet::Velvet;
 use crate::math::Rgb;
 use glam::Vec3;
 
@@ -112,8 +113,11 @@ pub enum ClosureKind {
         /// The Glossy component (else Diffuse).
         glossy: bool,
     },
-    /// Sheen BSDF.
-    Sheen,
+    /// Sheen BSDF: Microfiber, or its Ashikhmin distribution (Cycles' velvet).
+    Sheen {
+        /// The Ashikhmin (velvet) distribution.
+        velvet: bool,
+    },
     /// Emission.
     Emission,
     /// Transparent BSDF.
@@ -308,7 +312,8 @@ impl ClosureOp {
                 let lobe = Lobe::Toon(Toon::new(r[self.roughness as usize], r[self.strength as usize], *glossy));
                 push(color() * w, lobe)
             }
-            ClosureKind::Sheen => push(color() * w, Lobe::Sheen { roughness: rough() }),
+            ClosureKind::Sheen { velvet: false } => push(color() * w, Lobe::Sheen { roughness: rough() }),
+            ClosureKind::Sheen { velvet: true } => push(color() * w, Lobe::Velvet(Velvet::new(rough()))),
             ClosureKind::Glossy { metallic, multiscatter, edge_tint, extinction, beckmann, ashikhmin, aniso } => {
                 let (weight, fresnel) = if *metallic {
                     let f0 = color().min(Vec3::ONE);

@@ -23,6 +23,7 @@ impl MixBsdf {
                     | Lobe::OrenNayar(_)
                     | Lobe::Translucent
                     | Lobe::Sheen { .. }
+                    | Lobe::Velvet(_)
                     | Lobe::Toon(Toon { glossy: false, .. })
             ) {
                 f += self.weights[k] * self.lobes[k].eval(wo, wi);
@@ -65,6 +66,7 @@ impl MixBsdf {
                 | Lobe::OrenNayar(_)
                 | Lobe::Translucent
                 | Lobe::Sheen { .. }
+                | Lobe::Velvet(_)
                 | Lobe::Toon(Toon { glossy: false, .. }) => c[0] += w * self.lobes[k].albedo(wo),
                 Lobe::Glossy { .. } | Lobe::AshikhminShirley(_) | Lobe::Toon(Toon { glossy: true, .. }) => {
                     c[1] += w * self.lobes[k].albedo(wo)

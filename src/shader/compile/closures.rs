@@ -366,10 +366,11 @@ impl Compiler<'_> {
             }
             "ShaderNodeBsdfSheen" => {
                 let dist = self.prop_str(i, "distribution", "MICROFIBER");
-                if dist != "MICROFIBER" {
+                let velvet = dist == "ASHIKHMIN";
+                if !velvet && dist != "MICROFIBER" {
                     self.warn(i, format!("distribution {dist} is rendered as Microfiber"));
                 }
-                (ClosureKind::Sheen, self.vec(i, "Color", Vec3::splat(0.8))?)
+                (ClosureKind::Sheen { velvet }, self.vec(i, "Color", Vec3::splat(0.8))?)
             }
             "ShaderNodeBsdfTransparent" => {
                 let c = self.vec(i, "Color", Vec3::ONE)?;
@@ -396,7 +397,7 @@ impl Compiler<'_> {
             ClosureKind::Glossy { .. } | ClosureKind::Glass { .. } | ClosureKind::Refraction { .. } => {
                 self.float(i, "Roughness", 0.5)?
             }
-            ClosureKind::Sheen => self.float(i, "Roughness", 0.5)?,
+            ClosureKind::Sheen { .. } => self.float(i, "Roughness", 0.5)?,
             // Oren-Nayar's σ (0: Lambertian).
             ClosureKind::Diffuse => self.float(i, "Roughness", 0.0)?,
             _ => zero,
