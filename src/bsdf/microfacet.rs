@@ -174,12 +174,42 @@ pub fn f82_tint_b(f0: Vec3, tint: Vec3) -> Vec3 {
     schlick * (7.0 / (f5 * f)) * (Vec3::ONE - tint)
 }
 
+/// The F82-tint factor b whose curve passes through `f82` at cos θ = 1/7 (Cycles'
+/// `fresnel_f82_B`, which fits the model to a physical conductor).
+#[inline]
+pub fn f82_b_through(f0: Vec3, f82: Vec3) -> Vec3 {
+    let f = 6.0f32 / 7.0;
+    let f5 = f * f * f * f * f;
+    (f0 + (Vec3::ONE - f0) * f5 - f82) * (7.0 / (f5 * f))
+}
+
 /// The F82-tint reflectance at cos θ: Schlick's of `f0` minus b cos θ (1 − cos θ)⁶, saturated.
 #[inline]
 pub fn f82_tint(f0: Vec3, b: Vec3, cos: f32) -> Vec3 {
     let s = (1.0 - cos).clamp(0.0, 1.0);
     let s5 = s * s * s * s * s;
     (f0 + (Vec3::ONE - f0) * s5 - b * (cos * s5 * s)).clamp(Vec3::ZERO, Vec3::ONE)
+}
+
+/// Unpolarised Fresnel reflectance of a conductor of complex index n + ik (per channel) for
+/// cosine `cos` of the incident direction, exact (the s and p reflectances averaged), as
+/// Cycles' physical-conductor Metallic BSDF (`fresnel_conductor`).
+#[inline]
+pub fn conductor_fresnel(cos: f32, n: Vec3, k: Vec3) -> Vec3 {
+    let c2 = cos.clamp(0.0, 1.0).powi(2);
+    let s2 = 1.0 - c2;
+    let (n2, k2) = (n * n, k * k);
+    // a² + b² = |(n + ik)² − sin²θ|, a its real square root's real part.
+    let t0 = n2 - k2 - Vec3::splat(s2);
+    let ab2 = (t0 * t0 + 4.0 * n2 * k2).powf(0.5);
+    let a = (0.5 * (ab2 + t0)).max(Vec3::ZERO).powf(0.5);
+    let t1 = ab2 + Vec3::splat(c2);
+    let t2 = 2.0 * cos.clamp(0.0, 1.0) * a;
+    let rs = (t1 - t2) / (t1 + t2).max(Vec3::splat(1e-20));
+    let t3 = c2 * ab2 + Vec3::splat(s2 * s2);
+    let t4 = t2 * s2;
+    let rp = rs * (t3 - t4) / (t3 + t4).max(Vec3::splat(1e-20));
+    (0.5 * (rs + rp)).clamp(Vec3::ZERO, Vec3::ONE)
 }
 
 /// Unpolarised Fresnel reflectance of a dielectric interface for cosine `cos_i` of the
@@ -215,6 +245,39 @@ pub fn refract(w: Vec3, n: Vec3, eta: f32) -> Option<Vec3> {
 mod tests {
     use super::*;
     use crate::sampling::chi2::{ChiSquareTest, assert_chi2};
+
+    #[test]
+    fn conductor_fresnel_limits() {
+        // Normal incidence: ((n − 1)² + k²) / ((n + 1)² + k²); k = 0: the dielectric's;
+        // grazing: 1 (the limits the exact formula must meet whatever its algebra).
+        let (n, k) = (Vec3::new(0.18, 1.3, 2.757), Vec3::new(3.42, 0.0, 3.867));
+        let f0 = (n - 1.0) * (n - 1.0) + k * k;
+        let f0 = f0 / ((n + 1.0) * (n + 1.0) + k * k);
+        assert!((conductor_fresnel(1.0, n, k) - f0).abs().max_element() < 1e-6);
+        for cos in [0.05f32, 0.3, 0.7, 1.0] {
+            let f = conductor_fresnel(cos, Vec3::splat(1.5), Vec3::ZERO);
+            assert!((f.x - fresnel_dielectric(cos, 1.5)).abs() < 1e-5, "{cos}: {f}");
+        }
+        assert!((conductor_fresnel(0.0, n, k) - Vec3::ONE).abs().max_element() < 1e-6);
+        // Gold's (n, k) at 45°, from the complex Fresnel equations evaluated in f64:
+        // rs = |cos − w|² / |cos + w|², rp = |m cos − w|² / |m cos + w|², w = sqrt(m − sin²), m = (n + ik)².
+        let gold = conductor_fresnel(std::f32::consts::FRAC_1_SQRT_2, Vec3::splat(0.18), Vec3::splat(3.42));
+        let reference = complex_fresnel(std::f64::consts::FRAC_1_SQRT_2, 0.18, 3.42);
+        assert!((gold.x as f64 - reference).abs() < 1e-5, "{} against {reference}", gold.x);
+    }
+
+    /// The unpolarised conductor Fresnel straight from complex arithmetic (f64).
+    fn complex_fresnel(cos: f64, n: f64, k: f64) -> f64 {
+        let (mr, mi) = (n * n - k * k, 2.0 * n * k);
+        let (zr, zi) = (mr - (1.0 - cos * cos), mi);
+        let r = (zr * zr + zi * zi).sqrt();
+        let (wr, wi) = (((r + zr) / 2.0).sqrt(), ((r - zr) / 2.0).sqrt().copysign(zi));
+        let abs2 = |a: f64, b: f64| a * a + b * b;
+        let rs = abs2(cos - wr, -wi) / abs2(cos + wr, wi);
+        let (pr, pi) = (mr * cos, mi * cos);
+        let rp = abs2(pr - wr, pi - wi) / abs2(pr + wr, pi + wi);
+        (rs + rp) / 2.0
+    }
 
     #[test]
     fn chi2_visible_normals() {

@@ -28,11 +28,13 @@
 //! Lobes are two-sided like [`PbrBsdf`]: wo below the mixture's shading plane mirrors both
 //! directions. Translucent sends light to the side opposite wo.
 
+use super::ashikhmin_shirley::AshikhminShirley;
 use super::dielectric::{DielectricBsdf, SMOOTH_ROUGHNESS};
-use super::microfacet::{Ggx, f82_tint, f82_tint_b, reflect, schlick_weight};
+use super::microfacet::{Ggx, conductor_fresnel, f82_b_through, f82_tint, f82_tint_b, reflect, schlick_weight};
 use super::microfiber::Microfiber;
 use super::oren_nayar::OrenNayar;
 use super::pbr::bump_shadowing;
+use super::velvet::Velvet;
 use super::{BsdfSample, LobeKind, PbrBsdf, albedo::specular_albedo};
 use crate::math::{Frame, Rgb, luminance};
 use crate::sampling::warp::{cosine_hemisphere, cosine_hemisphere_pdf, uniform_cone, uniform_cone_pdf};
@@ -58,6 +60,13 @@ pub enum GlossyFresnel {
         /// The (1 − cos)⁶ term's factor from the tint.
         b: Rgb,
     },
+    /// Cycles' physical conductor: the exact Fresnel of the complex index n + ik per channel.
+    Conductor {
+        /// Real part (the Metallic BSDF's IOR).
+        n: Rgb,
+        /// Imaginary part (its Extinction).
+        k: Rgb,
+    },
 }
 
 impl GlossyFresnel {
@@ -77,6 +86,7 @@ impl GlossyFresnel {
             GlossyFresnel::Constant => Rgb::ONE,
             GlossyFresnel::Schlick(f0) => *f0 + (Rgb::ONE - *f0) * schlick_weight(cos),
             GlossyFresnel::F82Tint { f0, b } => f82_tint(*f0, *b, cos),
+            GlossyFresnel::Conductor { n, k } => conductor_fresnel(cos, *n, *k),
         }
     }
 }
@@ -113,6 +123,10 @@ pub enum Lobe {
     /// Size × π/2 around the normal (Diffuse) or wo's mirror direction (Glossy), falling
     /// linearly to 0 over a further Smooth × π/2, sampled uniformly over the cone that holds it.
     Toon(Toon),
+    /// The Glossy BSDF's Ashikhmin-Shirley distribution, white (`ashikhmin_shirley.rs`).
+    AshikhminShirley(AshikhminShirley),
+    /// The Sheen BSDF's Ashikhmin distribution (Velvet), white (`velvet.rs`).
+    Velvet(Velvet),
 }
 
 /// Cycles' toon lobe (see [`Lobe::Toon`]).
@@ -217,6 +231,13 @@ impl Lobe {
             GlossyFresnel::Schlick(f0) => f0 + (Rgb::ONE - f0) / 21.0,
             // Cycles' fresnel_f82_Fss: the cosine-weighted average of the F82-tint curve.
             GlossyFresnel::F82Tint { f0, b } => (f0 + (Rgb::ONE - f0) / 21.0 - b / 126.0).clamp(Rgb::ZERO, Rgb::ONE),
+            // Cycles' fresnel_conductor_Fss: the F82 curve through the exact values at 0 and
+            // cos θ = 1/7, averaged as above.
+            GlossyFresnel::Conductor { n, k } => {
+                let f0 = conductor_fresnel(1.0, n, k);
+                let b = f82_b_through(f0, conductor_fresnel(1.0 / 7.0, n, k));
+                (f0 + (Rgb::ONE - f0) / 21.0 - b / 126.0).clamp(Rgb::ZERO, Rgb::ONE)
+            }
         };
         let fms = if roughness < SMOOTH_ROUGHNESS {
             Rgb::ZERO
@@ -231,6 +252,7 @@ impl Lobe {
         match self {
             Lobe::Glossy { roughness, .. } => *roughness < SMOOTH_ROUGHNESS,
             Lobe::Dielectric(d) => d.smooth,
+            Lobe::AshikhminShirley(a) => a.smooth,
             _ => false,
         }
     }
@@ -257,11 +279,13 @@ impl Lobe {
             Lobe::Glossy { fresnel, .. } => match fresnel {
                 GlossyFresnel::Constant => 1.0,
                 GlossyFresnel::Schlick(f0) => luminance(*f0 + (Rgb::ONE - *f0) * schlick_weight(wo.z)),
-                GlossyFresnel::F82Tint { .. } => luminance(fresnel.at(wo.z)).max(1e-3),
+                GlossyFresnel::F82Tint { .. } | GlossyFresnel::Conductor { .. } => {
+                    luminance(fresnel.at(wo.z)).max(1e-3)
+                }
             },
             Lobe::Dielectric(_) => 1.0,
             Lobe::Sheen { roughness } => Microfiber::at(wo, *roughness).albedo().max(1e-3),
-            Lobe::Toon(_) => 1.0,
+            Lobe::Toon(_) | Lobe::AshikhminShirley(_) | Lobe::Velvet(_) => 1.0,
         }
     }
 
@@ -283,6 +307,8 @@ impl Lobe {
             Lobe::Dielectric(d) => d.eval(wo, wi),
             Lobe::Sheen { roughness } => Rgb::splat(Microfiber::at(wo, *roughness).f(wi)),
             Lobe::Toon(t) => Rgb::splat(t.eval(wo, wi)),
+            Lobe::AshikhminShirley(a) => Rgb::splat(a.eval(wo, wi)),
+            Lobe::Velvet(v) => Rgb::splat(v.eval(wo, wi)),
         }
     }
 
@@ -313,6 +339,8 @@ impl Lobe {
             }
             Lobe::Dielectric(d) => d.pdf(wo, wi),
             Lobe::Toon(t) => t.pdf(wo, wi),
+            Lobe::AshikhminShirley(a) => a.pdf(wo, wi),
+            Lobe::Velvet(v) => v.pdf(wi),
         }
     }
 
@@ -341,16 +369,31 @@ impl Lobe {
             }
             Lobe::Dielectric(d) => return d.sample(wo, uc, u),
             Lobe::Toon(t) => t.sample(wo, u),
+            Lobe::Velvet(v) => v.sample(u),
+            Lobe::AshikhminShirley(a) => {
+                let wi = a.sample(wo, u);
+                if a.smooth {
+                    // Cycles' singular case: a mirror of weight 1.
+                    let delta =
+                        BsdfSample { wi, f: Rgb::splat(1.0 / wi.z), pdf: 1.0, delta: true, kind: LobeKind::Glossy };
+                    return Some(delta);
+                }
+                wi
+            }
         };
         if wi.z == 0.0 {
             return None;
         }
         let pdf = self.pdf(wo, wi);
         let kind = match self {
-            Lobe::Glossy { .. } | Lobe::Dielectric(_) | Lobe::Toon(Toon { glossy: true, .. }) => LobeKind::Glossy,
+            Lobe::Glossy { .. }
+            | Lobe::AshikhminShirley(_)
+            | Lobe::Dielectric(_)
+            | Lobe::Toon(Toon { glossy: true, .. }) => LobeKind::Glossy,
             Lobe::Diffuse
             | Lobe::OrenNayar(_)
             | Lobe::Sheen { .. }
+            | Lobe::Velvet(_)
             | Lobe::Translucent
             | Lobe::Toon(Toon { glossy: false, .. }) => LobeKind::Diffuse,
         };
@@ -459,6 +502,7 @@ impl Lobe {
                 | Lobe::OrenNayar(_)
                 | Lobe::Translucent
                 | Lobe::Sheen { .. }
+                | Lobe::Velvet(_)
                 | Lobe::Toon(Toon { glossy: false, .. })
         )
     }
@@ -730,6 +774,7 @@ impl MixBsdf {
                     // `roughness` decides smoothness at evaluation; the fms keeps the original.
                     *roughness = roughness.max(x.max(y).sqrt());
                 }
+                Lobe::AshikhminShirley(a) => *a = a.blurred(alpha),
                 Lobe::Dielectric(d) => d.blur(alpha),
                 _ => {}
             }

@@ -5,6 +5,7 @@
 pub mod albedo;
 mod albedo_table;
 pub mod aniso_albedo;
+pub mod ashikhmin_shirley;
 mod beckmann;
 pub mod dielectric;
 mod exclude;
@@ -20,6 +21,7 @@ pub mod oren_nayar;
 pub mod pbr;
 pub mod sheen;
 pub mod thin_film;
+pub mod velvet;
 
 use crate::math::Rgb;
 use glam::{Vec2, Vec3};

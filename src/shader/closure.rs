@@ -20,21 +20,24 @@
 //! * Diffuse → Lambert, or Cycles' Oren-Nayar for a roughness; Glossy → GGX with
 //!   a constant Fresnel, the colour, and Cycles' multiscatter compensation ("GGX": none;
 //!   "Beckmann": Beckmann's distribution, uncompensated, as Glass and Refraction take it too;
+//!   "Ashikhmin-Shirley": Cycles' lobe of that name, `bsdf::ashikhmin_shirley`;
 //!   Glass "GGX" is single scattering), anisotropic along its Tangent by Cycles' Glossy widths
 //!   ([`AnisoMapping`]; Metallic by the Principled BSDF's); Metallic →
 //!   GGX with Cycles' F82-tint Fresnel of F0 = Base Color and its Edge Tint (the
-//!   physical-conductor mode is approximated by Schlick's, warned at load); Glass → a dielectric interface whose
+//!   physical-conductor mode with Cycles' exact conductor Fresnel); Glass → a dielectric interface whose
 //!   reflection and transmission the colour tints; Refraction → the interface's refraction
 //!   alone, without Fresnel weighting (Cycles' Refraction BSDF); Translucent → Lambertian transmission; Toon → Cycles' toon lobe (`Lobe::Toon`); Sheen →
-//!   Cycles' microfiber sheen (its Ashikhmin distribution is warned about at load), as is
+//!   Cycles' microfiber sheen (its Ashikhmin distribution: Cycles' velvet, `bsdf::velvet`), as is
 //!   the Principled BSDF's sheen; Emission → emitted radiance Color × Strength; Transparent → pass-through
 //!   by coverage (`Scene::pass_through`: probability its colour's mean, weight colour / mean;
 //!   shadow rays `Scene::transmission`).
 
 use super::geom::{Geom, Reg, from_blender, v3};
+use crate::bsdf::ashikhmin_shirley::AshikhminShirley;
 use crate::bsdf::dielectric::DielectricBsdf;
 use crate::bsdf::mix::{GlossyFresnel, Lobe, Lobes, MAX_LOBES, MAX_PBR, MixBsdf, Toon};
 use crate::bsdf::pbr::PbrParams;
+use crate::bsdf::velvet::Velvet;
 use crate::math::Rgb;
 use glam::Vec3;
 
@@ -83,8 +86,13 @@ pub enum ClosureKind {
         multiscatter: bool,
         /// The Metallic BSDF's Edge Tint (F82-tint), when not a constant white.
         edge_tint: Option<Reg>,
+        /// The physical-conductor Metallic BSDF's Extinction k (the colour register holds its
+        /// IOR n): Cycles' exact conductor Fresnel.
+        extinction: Option<Reg>,
         /// Beckmann's distribution instead of GGX.
         beckmann: bool,
+        /// The Glossy BSDF's Ashikhmin-Shirley distribution instead of GGX.
+        ashikhmin: bool,
         /// The Anisotropy, Rotation and Tangent inputs, when the lobe may be anisotropic.
         aniso: Option<AnisoRegs>,
     },
@@ -107,8 +115,11 @@ pub enum ClosureKind {
         /// The Glossy component (else Diffuse).
         glossy: bool,
     },
-    /// Sheen BSDF.
-    Sheen,
+    /// Sheen BSDF: Microfiber, or its Ashikhmin distribution (Cycles' velvet).
+    Sheen {
+        /// The Ashikhmin (velvet) distribution.
+        velvet: bool,
+    },
     /// Emission.
     Emission,
     /// Transparent BSDF.
@@ -325,13 +336,17 @@ impl ClosureOp {
                 let lobe = Lobe::Toon(Toon::new(r[self.roughness as usize], r[self.strength as usize], *glossy));
                 push(color() * w, lobe, None)
             }
-            ClosureKind::Sheen => push(color() * w, Lobe::Sheen { roughness: rough() }, None),
-            ClosureKind::Glossy { metallic, multiscatter, edge_tint, beckmann, aniso } => {
+            ClosureKind::Sheen { velvet: false } => push(color() * w, Lobe::Sheen { roughness: rough() }, None),
+            ClosureKind::Sheen { velvet: true } => push(color() * w, Lobe::Velvet(Velvet::new(rough())), None),
+            ClosureKind::Glossy { metallic, multiscatter, edge_tint, extinction, beckmann, ashikhmin, aniso } => {
                 let (weight, fresnel) = if *metallic {
                     let f0 = color().min(Vec3::ONE);
-                    let fresnel = match edge_tint {
-                        Some(t) => GlossyFresnel::f82_tint(f0, v3(r, *t).clamp(Vec3::ZERO, Vec3::ONE)),
-                        None => GlossyFresnel::Schlick(f0),
+                    let fresnel = match (extinction, edge_tint) {
+                        (Some(k), _) => {
+                            GlossyFresnel::Conductor { n: color().max(Vec3::ZERO), k: v3(r, *k).max(Vec3::ZERO) }
+                        }
+                        (None, Some(t)) => GlossyFresnel::f82_tint(f0, v3(r, *t).clamp(Vec3::ZERO, Vec3::ONE)),
+                        (None, None) => GlossyFresnel::Schlick(f0),
                     };
                     (Rgb::splat(w), fresnel)
                 } else {
@@ -346,6 +361,10 @@ impl ClosureOp {
                     Some(widths)
                 });
                 let mut lobe = match widths {
+                    _ if *ashikhmin => {
+                        let (ax, ay) = widths.unwrap_or((alpha, alpha));
+                        Lobe::AshikhminShirley(AshikhminShirley::new(ax, ay))
+                    }
                     Some((ax, ay)) => Lobe::glossy_widths(ax, ay, *beckmann, fresnel),
                     None if *beckmann => Lobe::glossy_widths(alpha, alpha, true, fresnel),
                     None => Lobe::glossy(rough(), fresnel),

@@ -212,7 +212,7 @@ fn mixture(c: &Closures, s: &SurfaceHit, wo: Vec3, frame: &Frame, keep: f32) -> 
     for k in 0..mix.n as usize {
         let m = c.lobe_normal_world(k).map_or(default_n, facing);
         let lobe = &mix.lobes[k];
-        let nk = if matches!(lobe, Lobe::Glossy { .. } | Lobe::Dielectric(_)) {
+        let nk = if matches!(lobe, Lobe::Glossy { .. } | Lobe::AshikhminShirley(_) | Lobe::Dielectric(_)) {
             valid_reflection_normal(s.ng, wo, m)
         } else {
             m

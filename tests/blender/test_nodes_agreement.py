@@ -724,6 +724,63 @@ CASES = {
     "emission": (sphere_scene, single_shader("ShaderNodeEmission", Color=(1.0, 0.6, 0.3, 1.0), Strength=3.0), None),
     "shader_to_rgb": (flat_scene, shader_to_rgb, None),
 }
+def physical_conductor(name):
+    """A maker: a smooth Metallic BSDF (roughness 0.05) in Physical Conductor mode with Blender's
+    default IOR and Extinction. Before: Schlick's Fresnel from the reflectance at normal
+    incidence (warned), R/G/B 1.0209/1.0197/1.0180 of Cycles' mean, inside this test's noise
+    bound (a smooth metal's reflections are noisy: 0.43x); after, Cycles' exact conductor
+    Fresnel: 1.0069/1.0070/1.0070, no warning. The formula itself is checked against complex
+    arithmetic in `bsdf::microfacet`'s `conductor_fresnel_limits`."""
+    mat = scenes.shader_node_material(name, "ShaderNodeBsdfMetallic")
+    node = next(n for n in mat.node_tree.nodes if n.type != "OUTPUT_MATERIAL")
+    node.fresnel_type = "PHYSICAL_CONDUCTOR"
+    by_id(node.inputs, "Roughness").default_value = 0.05
+    return mat
+
+
+# An unlinked White Noise Vector is (0, 0, 0) in Cycles (not Generated, as for the other
+# textures): one flat colour. Before: Caustic read Generated, per-pixel noise, R/G/B
+# 0.5813/0.8010/0.5035 of Cycles' mean and all 108 blocks over; after 0.9999 each, none.
+CASES["white_noise_unlinked_color"] = (flat_scene, texture("ShaderNodeTexWhiteNoise", output="Color",
+                                                           props={"noise_dimensions": "2D"}), None)
+CASES["metallic_physical_conductor"] = (sphere_scene, physical_conductor, None)
+
+
+def ashikhmin_shirley(anisotropy):
+    """A maker: a Glossy BSDF (roughness 0.4) with Cycles' Ashikhmin-Shirley distribution and
+    `anisotropy` (along Cycles' radial tangent). Before: rendered as GGX (warned): 1.0303 of
+    Cycles' mean, 6 of 108 blocks over (isotropic, roughness 0.3), 1.0574 and 7 blocks
+    (anisotropy 0.6); after, Cycles' lobe (`bsdf/ashikhmin_shirley.rs`): 1.0021 and 0.9994,
+    no block over."""
+    def make(name):
+        mat = scenes.shader_node_material(name, "ShaderNodeBsdfGlossy")
+        node = next(n for n in mat.node_tree.nodes if n.type != "OUTPUT_MATERIAL")
+        node.distribution = "ASHIKHMIN_SHIRLEY"
+        by_id(node.inputs, "Roughness").default_value = 0.4 if anisotropy else 0.3
+        by_id(node.inputs, "Anisotropy").default_value = anisotropy
+        return mat
+    return make
+
+
+CASES["glossy_ashikhmin_shirley"] = (sphere_scene, ashikhmin_shirley(0.0), None)
+CASES["glossy_ashikhmin_shirley_anisotropic"] = (sphere_scene, ashikhmin_shirley(0.6), None)
+
+
+def velvet(name):
+    """A maker: a Sheen BSDF (orange) with its Ashikhmin distribution (the Velvet BSDF of older
+    files). Before: rendered as Microfiber (warned): R/G/B 0.9014/0.9504/0.9617 of Cycles'
+    mean, 32 of 108 blocks over; after, Cycles' velvet (`bsdf/velvet.rs`): 0.9998/0.9997/0.9996,
+    none."""
+    mat = scenes.shader_node_material(name, "ShaderNodeBsdfSheen")
+    node = next(n for n in mat.node_tree.nodes if n.type != "OUTPUT_MATERIAL")
+    node.distribution = "ASHIKHMIN"
+    by_id(node.inputs, "Color").default_value = (0.9, 0.4, 0.3, 1.0)
+    return mat
+
+
+CASES["sheen_ashikhmin_velvet"] = (sphere_scene, velvet, None)
+
+
 # Cycles ends a path at its transparent-bounce limit counting every crossing, so a camera ray
 # through the transparent sphere (two crossings) needs more than BOUNCES to reach the floor;
 # a limit that never binds makes both renderers see the floor through it.

@@ -52,8 +52,11 @@ impl MixBsdf {
                 | Lobe::OrenNayar(_)
                 | Lobe::Translucent
                 | Lobe::Sheen { .. }
+                | Lobe::Velvet(_)
                 | Lobe::Toon(Toon { glossy: false, .. }) => c[0] += w * l.albedo(wo),
-                Lobe::Glossy { .. } | Lobe::Toon(Toon { glossy: true, .. }) => c[1] += w * l.albedo(wo),
+                Lobe::Glossy { .. } | Lobe::AshikhminShirley(_) | Lobe::Toon(Toon { glossy: true, .. }) => {
+                    c[1] += w * l.albedo(wo)
+                }
                 Lobe::Dielectric(d) => {
                     let f = fresnel_dielectric(wo.z, d.eta);
                     if d.refracts_only() {

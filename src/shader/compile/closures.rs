@@ -69,30 +69,6 @@ impl Compiler<'_> {
         Ok(())
     }
 
-    /// A conductor's reflectance at normal incidence from its complex IOR n + ik per channel,
-    /// ((n − 1)² + k²) / ((n + 1)² + k²): folded when both are constant.
-    fn conductor_f0(&mut self, n: Reg, k: Reg) -> Reg {
-        let f0 = |n: f32, k: f32| ((n - 1.0) * (n - 1.0) + k * k) / ((n + 1.0) * (n + 1.0) + k * k);
-        if self.is_const(n, 3) && self.is_const(k, 3) {
-            let v = |r: Reg, c: usize| self.init[r as usize + c];
-            return self.konst_v(Vec3::new(f0(v(n, 0), v(k, 0)), f0(v(n, 1), v(k, 1)), f0(v(n, 2), v(k, 2))));
-        }
-        let one = self.konst_v(Vec3::ONE);
-        let vec_op = |c: &mut Self, op: VecOp, a: Reg, b: Reg| {
-            let (vout, fout) = (c.alloc(3), c.alloc(1));
-            c.ops.push(Op::VecMath { op, a, b, c: b, s: b, vout, fout });
-            vout
-        };
-        let below = vec_op(self, VecOp::Subtract, n, one);
-        let above = vec_op(self, VecOp::Add, n, one);
-        let k2 = vec_op(self, VecOp::Multiply, k, k);
-        let below2 = vec_op(self, VecOp::Multiply, below, below);
-        let above2 = vec_op(self, VecOp::Multiply, above, above);
-        let num = vec_op(self, VecOp::Add, below2, k2);
-        let den = vec_op(self, VecOp::Add, above2, k2);
-        vec_op(self, VecOp::Divide, num, den)
-    }
-
     /// Flattens the closure tree under output `out` of node `i` with weight `w`.
     pub(super) fn closure(&mut self, i: usize, out: &str, w: Option<Reg>) -> Result<(), String> {
         if self.closure_ops >= MAX_CLOSURE_OPS {
@@ -314,32 +290,29 @@ impl Compiler<'_> {
             "ShaderNodeBsdfDiffuse" => (ClosureKind::Diffuse, self.vec(i, "Color", Vec3::splat(0.8))?),
             "ShaderNodeBsdfGlossy" | "ShaderNodeBsdfAnisotropic" => {
                 let dist = self.prop_str(i, "distribution", "MULTI_GGX");
-                if dist == "ASHIKHMIN_SHIRLEY" {
-                    self.warn(
-                        i,
-                        "distribution Ashikhmin-Shirley is rendered as GGX (Cycles renders its own \
-                         Ashikhmin-Shirley lobe)",
-                    );
-                }
                 let aniso = self.aniso(i, AnisoMapping::Glossy)?;
                 let (beckmann, multiscatter) = (dist == "BECKMANN", dist == "MULTI_GGX");
+                let ashikhmin = dist == "ASHIKHMIN_SHIRLEY";
                 (
-                    ClosureKind::Glossy { metallic: false, multiscatter, edge_tint: None, beckmann, aniso },
+                    ClosureKind::Glossy {
+                        metallic: false,
+                        multiscatter,
+                        edge_tint: None,
+                        extinction: None,
+                        beckmann,
+                        ashikhmin,
+                        aniso,
+                    },
                     self.vec(i, "Color", Vec3::splat(0.8))?,
                 )
             }
             "ShaderNodeBsdfMetallic" => {
-                let mut edge_tint = None;
+                let (mut edge_tint, mut extinction) = (None, None);
                 let colour = if self.prop_str(i, "fresnel_type", "F82") == "PHYSICAL_CONDUCTOR" {
-                    self.warn(
-                        i,
-                        "the physical conductor is rendered with Schlick's Fresnel from its reflectance at normal \
-                         incidence (Cycles' exact conductor Fresnel differs towards grazing angles)",
-                    );
-                    // Blender's defaults; the add-on writes no Base Color, which is unavailable.
-                    let n = self.vec(i, "IOR", Vec3::new(2.757, 2.513, 2.231))?;
-                    let k = self.vec(i, "Extinction", Vec3::new(3.867, 3.404, 3.009))?;
-                    self.conductor_f0(n, k)
+                    // Blender's defaults; the colour register holds the IOR n, as the lobe's
+                    // exact conductor Fresnel takes n and k.
+                    extinction = Some(self.vec(i, "Extinction", Vec3::new(3.867, 3.404, 3.009))?);
+                    self.vec(i, "IOR", Vec3::new(2.757, 2.513, 2.231))?
                 } else {
                     let tint = self.vec(i, "Edge Tint", Vec3::ONE)?;
                     if !self.is_const(tint, 3) || (0..3).any(|k| self.init[tint as usize + k] != 1.0) {
@@ -351,7 +324,18 @@ impl Compiler<'_> {
                 let dist = self.prop_str(i, "distribution", "MULTI_GGX");
                 let aniso = self.aniso(i, AnisoMapping::Aspect)?;
                 let (beckmann, multiscatter) = (dist == "BECKMANN", dist == "MULTI_GGX");
-                (ClosureKind::Glossy { metallic: true, multiscatter, edge_tint, beckmann, aniso }, colour)
+                (
+                    ClosureKind::Glossy {
+                        metallic: true,
+                        multiscatter,
+                        edge_tint,
+                        extinction,
+                        beckmann,
+                        ashikhmin: false,
+                        aniso,
+                    },
+                    colour,
+                )
             }
             "ShaderNodeBsdfGlass" => {
                 let dist = self.prop_str(i, "distribution", "MULTI_GGX");
@@ -376,10 +360,11 @@ impl Compiler<'_> {
             }
             "ShaderNodeBsdfSheen" => {
                 let dist = self.prop_str(i, "distribution", "MICROFIBER");
-                if dist != "MICROFIBER" {
+                let velvet = dist == "ASHIKHMIN";
+                if !velvet && dist != "MICROFIBER" {
                     self.warn(i, format!("distribution {dist} is rendered as Microfiber"));
                 }
-                (ClosureKind::Sheen, self.vec(i, "Color", Vec3::splat(0.8))?)
+                (ClosureKind::Sheen { velvet }, self.vec(i, "Color", Vec3::splat(0.8))?)
             }
             "ShaderNodeBsdfTransparent" => {
                 let c = self.vec(i, "Color", Vec3::ONE)?;
@@ -406,7 +391,7 @@ impl Compiler<'_> {
             ClosureKind::Glossy { .. } | ClosureKind::Glass { .. } | ClosureKind::Refraction { .. } => {
                 self.float(i, "Roughness", 0.5)?
             }
-            ClosureKind::Sheen => self.float(i, "Roughness", 0.5)?,
+            ClosureKind::Sheen { .. } => self.float(i, "Roughness", 0.5)?,
             // Oren-Nayar's σ (0: Lambertian).
             ClosureKind::Diffuse => self.float(i, "Roughness", 0.0)?,
             _ => zero,

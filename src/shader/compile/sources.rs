@@ -522,7 +522,10 @@ impl Compiler<'_> {
             }
             "ShaderNodeTexWhiteNoise" => {
                 let dims = self.noise_dims(i)?;
-                let vector = self.vec_implicit(i, "Vector", InputKind::Generated)?;
+                // Unlike the other textures, an unlinked White Noise Vector is not Generated but
+                // the socket's value, (0, 0, 0) (Cycles' `SOCKET_IN_POINT(vector, zero)`;
+                // measured: Cycles renders the unlinked node one flat colour).
+                let vector = self.vec(i, "Vector", Vec3::ZERO)?;
                 let w = self.float(i, "W", 0.0)?;
                 let value = self.out(i, "Value", Ty::Float);
                 let color = self.out(i, "Color", Ty::Color);
