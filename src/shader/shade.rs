@@ -148,7 +148,9 @@ pub fn shade_nodes(
         let mut params = c.principled_params(0, !s.front);
         params.coat_normal = c.coat_normal_world(0).map(|m| frame.to_local(facing(m)));
         params.diffuse_normal = (n != unbent).then(|| frame.to_local(unbent));
-        params.smooth_normal = (unbent != s.ns).then(|| frame.to_local(s.ns));
+        // The terminator's reference as in `mixture`: Cycles' sd->N.
+        let reference = c.default_normal_world().map_or(s.ns, facing);
+        params.smooth_normal = (unbent != reference).then(|| frame.to_local(reference));
         let pbr = PbrBsdf::from_params(&params);
         let w = c.pbr_w[0] * keep;
         bsdf = if (w - 1.0).abs() < 1e-6 {
@@ -187,10 +189,15 @@ fn within(outer: &Frame, inner: Frame) -> Option<Frame> {
 fn mixture(c: &Closures, s: &SurfaceHit, wo: Vec3, frame: &Frame, keep: f32) -> MixBsdf {
     let facing = |m: Vec3| if m.dot(s.ng) < 0.0 { -m } else { m };
     let default_n = c.default_normal_world().map_or(s.ns, facing);
+    // The bump terminator's reference is Cycles' sd->N: the interpolated normal, or the
+    // Material Output's bump, which Cycles writes into sd->N before the surface runs (a
+    // displaced "Displacement and Bump" surface is not shadowed by its own bump: with the
+    // interpolated normal as reference it came out 0.9635 of Cycles, 15 blocks off).
+    let reference = default_n;
     let mut mix = empty_mix();
     mix.set_lobes(&c.mix);
     mix.scale(keep);
-    mix.ns = frame.to_local(s.ns);
+    mix.ns = frame.to_local(reference);
     for j in 0..MAX_PBR {
         if c.pbr_w[j] <= 0.0 {
             continue;
@@ -204,7 +211,7 @@ fn mixture(c: &Closures, s: &SurfaceHit, wo: Vec3, frame: &Frame, keep: f32) -> 
         let mut params = c.principled_params(j, !s.front);
         params.coat_normal = c.coat_normal_world(j).map(|m| own.to_local(facing(m)));
         params.diffuse_normal = (bent != m).then(|| own.to_local(m));
-        params.smooth_normal = (m != s.ns).then(|| own.to_local(s.ns));
+        params.smooth_normal = (m != reference).then(|| own.to_local(reference));
         mix.pbr[j] = PbrBsdf::from_params(&params);
         mix.pbr_weights[j] = c.pbr_w[j] * keep;
         mix.pbr_frames[j] = within(frame, own);
@@ -222,8 +229,8 @@ fn mixture(c: &Closures, s: &SurfaceHit, wo: Vec3, frame: &Frame, keep: f32) -> 
             None if nk != frame.n => within(frame, Frame::from_normal(nk)),
             None => None,
         };
-        if lobe.bump_shadowed() && m != s.ns {
-            mix.bump[k] = bump_alpha2(s.ns, m).unwrap_or(0.0);
+        if lobe.bump_shadowed() && m != reference {
+            mix.bump[k] = bump_alpha2(reference, m).unwrap_or(0.0);
         }
     }
     mix
