@@ -14,6 +14,7 @@ server is one process per viewport, started lazily, restarted (with a report) wh
 and stopped when Blender frees the engine.
 """
 
+import json
 import shutil
 import tempfile
 
@@ -319,6 +320,14 @@ def rendered_objects(depsgraph):
     return {inst.object.name for inst in depsgraph.object_instances}
 
 
+def scene_settings_key(scene):
+    """The render settings a running view was loaded with, as one string: the Caustic panel's
+    and Cycles' Light Paths and Film settings the export writes (not the resolution, which is
+    the view's own). A change of any reloads, as Cycles restarts its viewport render: the
+    loaded scene carries them, and no edit does."""
+    return json.dumps(export.render_settings(scene, (1, 1), None), sort_keys=True)
+
+
 def view_settings(scene):
     """The settings request of the viewport: the scene's, with SPPM (no progressive frames)
     shown by Jensen's photon mapping, which the panel's photon counts also drive."""
@@ -374,6 +383,7 @@ class Viewport:
         self.client = None
         self.folder = None
         self.objects = None
+        self.settings_key = None  # scene_settings_key at the last export
         self.last_camera = None
         self.texture = None
         self.texture_generation = None
@@ -401,6 +411,7 @@ class Viewport:
         settings = export.render_settings(scene, (scene.render.resolution_x, scene.render.resolution_y), None)
         old, self.folder = self.folder, tempfile.mkdtemp(prefix="caustic-view-")
         path, state = export.export_scene(depsgraph, self.folder, settings, motion=False, viewport=True)
+        self.settings_key = scene_settings_key(scene)
         self.known = {m.name: material_snapshot(m) for m in bpy.data.materials}
         for warning in state.warnings:
             self.engine.report({"WARNING"}, f"Caustic: {warning}")
@@ -467,6 +478,7 @@ class Viewport:
             objects = rendered_objects(depsgraph)
             first = self.objects is None or self.client is None or not self.client.alive()
             first = first or touches_points(depsgraph.updates, self.objects, objects, self.point_owners)
+            first = first or scene_settings_key(depsgraph.scene) != self.settings_key
             edits = [RELOAD] if first else edits_from_updates(depsgraph.updates, self.objects, objects, self.known,
                                                                       self.lights, self.exported, self.fingerprints,
                                                                       self.graphs)

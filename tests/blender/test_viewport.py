@@ -463,6 +463,25 @@ def test_light_changes_beyond_emission_and_placement_reload(vp, empty_scene, upd
     assert viewport.edits_from_updates(updates, names, names, {}, state) == [viewport.RELOAD]
 
 
+def test_render_settings_changes_reload(vp, empty_scene):
+    """The Light Paths, Film and Caustic panels' settings travel with the loaded scene, not in
+    an edit: the view reloads when any of them changes (before, a running view kept its bounce
+    limits and samples until some object change reloaded it); the resolution, which the view
+    sets itself, does not count."""
+    viewport, _ = vp
+    key = viewport.scene_settings_key(empty_scene)
+    empty_scene.render.resolution_x += 10
+    assert viewport.scene_settings_key(empty_scene) == key
+    for setting, value in [("diffuse_bounces", 1), ("sample_clamp_indirect", 2.5), ("blur_glossy", 0.0)]:
+        before = getattr(empty_scene.cycles, setting)
+        setattr(empty_scene.cycles, setting, value)
+        assert viewport.scene_settings_key(empty_scene) != key, setting
+        setattr(empty_scene.cycles, setting, before)
+        assert viewport.scene_settings_key(empty_scene) == key, setting
+    empty_scene.caustic.samples += 1
+    assert viewport.scene_settings_key(empty_scene) != key
+
+
 def test_world_settings_beyond_its_colour_reload(vp, empty_scene):
     """The world's Max Bounces and Ray Visibility, which the exporter writes, are not in a
     world edit: changing either reloads; its Background colour stays an edit."""
