@@ -5,8 +5,9 @@ Every image (packed, generated or from a file) is written from the pixels Blende
 renderer reads the same numbers Cycles does: 8-bit images as PNG, float images as OpenEXR, the
 values as stored (no view transform) and the colour space recorded by name. Blender holds a
 float image (OpenEXR, Radiance HDR, 16-bit PNG) already converted to the scene's linear space
-when its colour space is not data: an sRGB one is encoded back (Cycles filters it encoded),
-any other is recorded as linear; an 8-bit image in a space
+when its colour space is not data: an sRGB one is encoded back (Cycles filters it encoded)
+under a Linear Rec.709 working space, any other (and every one under another working space) is
+recorded as in the working space, which the renderer leaves as it is; an 8-bit image in a space
 the contract does not name (ACEScg, AgX Log, ...) is converted to linear by Blender's colour
 management and written as float. An image is written once per export however many materials
 use it.
@@ -20,6 +21,7 @@ import bpy
 import numpy as np
 
 from .image_frames import FileStandIn
+from .settings import REC709, working_space_name
 
 FOLDER = "caustic_nodes"
 # The colour spaces the renderer decodes itself (docs/contract.md, `images`).
@@ -102,21 +104,24 @@ class ImageWriter:
             rgba[..., 3] = 1.0  # `rgba` is this function's own array
         is_float = bool(image.is_float)
         colorspace = image.colorspace_settings.name
+        # Blender's scene linear space: the working space (Blender 5.0), which the renderer
+        # leaves as it is.
+        scene_linear = working_space_name()
         if image.colorspace_settings.is_data:
             colorspace = "Non-Color"
-        elif is_float and colorspace == "sRGB":
+        elif is_float and colorspace == "sRGB" and scene_linear == REC709:
             # Blender decoded it on loading (module doc); Cycles filters an sRGB image encoded
             # and decodes after, so the encoded values go back into the file.
             rgba[..., :3] = _srgb_encode(rgba[..., :3])
         elif is_float:
-            colorspace = "Linear Rec.709"  # Blender converted it on loading (module doc)
+            colorspace = scene_linear  # Blender converted it on loading (module doc)
         elif colorspace not in CONTRACT_SPACES:
             linear = _to_scene_linear(rgba, colorspace, self.gltf_folder)
             if linear is None:
                 warnings.append(f"{what}: image '{image.name}' is in colour space '{colorspace}', which Blender "
                                 "could not convert to linear; the renderer reads it as linear")
             else:
-                rgba, is_float, colorspace = linear, True, "Linear Rec.709"
+                rgba, is_float, colorspace = linear, True, scene_linear
         suffix = ".exr" if is_float else ".png"
         filename = self._unique(image.name, suffix)
         os.makedirs(os.path.join(self.gltf_folder, FOLDER), exist_ok=True)

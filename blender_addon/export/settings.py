@@ -1,5 +1,30 @@
 """The render settings: the Caustic panel's values as `scenes[i].extras.caustic` (contract)."""
 
+import bpy
+import mathutils
+
+# Blender's default working space: what Caustic computes in when the key is absent.
+REC709 = "Linear Rec.709"
+
+
+def working_space_name():
+    """Color Management > Working Space (Blender 5.0; Linear Rec.709 before it)."""
+    colorspace = getattr(bpy.data, "colorspace", None)
+    if colorspace is None:
+        return REC709
+    return getattr(colorspace, "working_space", REC709) or REC709
+
+
+def working_space():
+    """`working_space` for a working space other than Linear Rec.709: its name and the linear
+    Rec.709 -> working space matrix (rows), Blender's own OCIO transform (mathutils), which the
+    binary applies to what it decodes or computes as RGB itself; None for Rec.709."""
+    name = working_space_name()
+    if name == REC709:
+        return None
+    cols = [mathutils.Color(v).from_rec709_linear_to_scene_linear() for v in ((1, 0, 0), (0, 1, 0), (0, 0, 1))]
+    return {"name": name, "from_rec709": [[float(cols[j][i]) for j in range(3)] for i in range(3)]}
+
 
 def render_settings(scene, resolution, camera_name):
     """The `extras.caustic` object for a scene: the Caustic panel's values in contract keys."""
@@ -40,6 +65,9 @@ def render_settings(scene, resolution, camera_name):
         settings["threads"] = int(props.threads)
     if camera_name:
         settings["camera"] = camera_name
+    space = working_space()
+    if space is not None:
+        settings["working_space"] = space
     world = scene.world
     if world is not None:
         # The Mist and AO passes' settings live on the world, as in Cycles.

@@ -1,38 +1,45 @@
 """What Caustic cannot render yet, named: scene features that would otherwise be dropped without
-a word. Each warning names the object and says what the render does instead. Of the
-scene-wide kind one is left: Blender 5.0's Color Management > Working Space other than Linear
-Rec.709 (`working_space_warnings`). A light's and the world's Max Bounces are exported
-(lights.py, world.py); shape keys on a mesh without modifiers are exported deformed by
-shape_keys.py; point clouds are rendered, and what of them is not is named by points.py."""
+a word. Each warning names the object and says what the render does instead. Blender 5.0's
+Color Management > Working Space is exported (settings.py `working_space`) and followed by the
+binary but for a Principled Volume's blackbody (`working_space_warnings`). A light's and the
+world's Max Bounces are exported (lights.py, world.py); shape keys on a mesh without modifiers
+are exported deformed by shape_keys.py; point clouds are rendered, and what of them is not is
+named by points.py."""
 
 import bpy
 
-# The working space Caustic renders in: every colour it computes or decodes itself is given in
-# Rec.709 primaries.
-RENDER_SPACE = "Linear Rec.709"
+from .settings import REC709, working_space_name
 
 
-def working_space_warnings():
-    """Blender 5.0 lets a .blend choose its scene-linear working space (Rec.709, Rec.2020,
-    ACEScg). Colours the .blend holds (material inputs, light colours) are already in it and
-    render alike, and the EXR is read back as that space; but what Caustic turns into RGB itself
-    (decoded image textures and world images, Blackbody, Wavelength, light temperatures, the
-    Sky Texture) comes out in Rec.709 primaries where Cycles converts it to the working space
-    (measured: an sRGB image texture under ACEScg 0.42-0.94 of Cycles per channel, a 2500 K
-    Blackbody light 1.35 / 0.90 / 0.56)."""
-    colorspace = getattr(bpy.data, "colorspace", None)
-    space = getattr(colorspace, "working_space", RENDER_SPACE) if colorspace is not None else RENDER_SPACE
-    if not space or space == RENDER_SPACE:
+def working_space_warnings(depsgraph):
+    """Under a working space other than Linear Rec.709 the binary gives image textures,
+    Blackbody, Wavelength, the Sky Texture and luminance in it, as Cycles; a Principled
+    Volume's blackbody emission (Blackbody Intensity, Temperature) stays in Rec.709 primaries
+    (medium/blackbody.rs is not given the space): each material that has one is named."""
+    space = working_space_name()
+    if space == REC709:
         return []
-    return [f"Color Management > Working Space is '{space}': Caustic decodes image textures and computes "
-            f"Blackbody, Wavelength, light temperature and Sky Texture colours in {RENDER_SPACE} primaries, "
-            f"not in '{space}' as Cycles does, so those colours differ from Cycles' (other colours are "
-            f"rendered as they are); set the Working Space to {RENDER_SPACE} to match Cycles"]
+    names = set()
+    for instance in depsgraph.object_instances:
+        obj = instance.instance_object if instance.is_instance else instance.object
+        for slot in getattr(obj, "material_slots", []):
+            mat = slot.material
+            if mat is None or not mat.use_nodes or mat.node_tree is None or mat.name in names:
+                continue
+            for node in mat.node_tree.nodes:
+                if node.bl_idname != "ShaderNodeVolumePrincipled" or node.mute:
+                    continue
+                intensity = node.inputs["Blackbody Intensity"]
+                if intensity.is_linked or intensity.default_value > 0.0:
+                    names.add(mat.name)
+    return [f"material '{name}': its Principled Volume's blackbody emission is computed in {REC709} "
+            f"primaries, not in the Working Space '{space}' as Cycles does (its colour differs)"
+            for name in sorted(names)]
 
 
 def scene_warnings(depsgraph):
     """Warnings for everything in the render depsgraph's scene that Caustic does not render."""
-    warnings = working_space_warnings()
+    warnings = working_space_warnings(depsgraph)
     seen = set()
     for instance in depsgraph.object_instances:
         obj = instance.instance_object if instance.is_instance else instance.object

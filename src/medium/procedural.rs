@@ -354,6 +354,7 @@ mod tests {
             wrap_s: crate::scene::texture::Wrap::Repeat,
             wrap_t: crate::scene::texture::Wrap::Repeat,
             nearest: false,
+            to_working: None,
             mean: Vec3::ZERO,
         }];
         let source = ProceduralSource { volume, object: crate::shader::geom::NO_OBJECT, grids: None };

@@ -18,6 +18,7 @@ pub mod shader_aovs;
 pub mod shading;
 pub mod texture;
 pub mod visibility;
+pub mod working_space;
 
 use crate::light::Light;
 use glam::Vec3;
@@ -124,6 +125,8 @@ pub struct SceneSettings {
     pub light_groups: Option<light_groups::LightGroupSpec>,
     /// The view layer's shader AOVs (`shader_aovs`).
     pub shader_aovs: Option<shader_aovs::ShaderAovSpec>,
+    /// Color Management > Working Space when not linear Rec.709 (`working_space`).
+    pub working_space: Option<working_space::WorkingSpaceSettings>,
 }
 
 /// Counts and per-material features for `caustic info`.

@@ -5,6 +5,10 @@
 //! and decoded after, as Cycles does (it keeps every sRGB image encoded, `compress_as_srgb`,
 //! and converts the interpolated value in `svm_image_texture`): between a dark and a light
 //! texel the blend is darker than a blend of decoded texels.
+//!
+//! A colour image in a scene whose working space is not Rec.709 (`to_working`) is decoded and
+//! converted texel by texel before filtering, as Cycles converts such an image to float scene
+//! linear on load (its sRGB is no longer the built-in space it keeps encoded).
 
 use glam::{Mat3, Vec2, Vec3, Vec4};
 
@@ -45,6 +49,9 @@ pub struct Texture {
     pub wrap_t: Wrap,
     /// Nearest-texel lookup (glTF magFilter NEAREST) instead of bilinear.
     pub nearest: bool,
+    /// Linear Rec.709 → the scene's working space, for a colour image in a scene whose
+    /// working space is not Rec.709 (`scene::working_space`); `None` for data images.
+    pub to_working: Option<Mat3>,
     /// Mean linear RGB over the image, computed once by [`Texture::with_mean`] (emitters
     /// ask for it per triangle and per photon).
     pub mean: Vec3,
@@ -94,22 +101,31 @@ impl Texture {
         let x = wrap(x, self.width, self.wrap_s);
         let y = wrap(y, self.height, self.wrap_t);
         let i = (y * self.width + x) as usize;
-        if !self.hdr.is_empty() {
-            return self.decode(self.hdr[i]);
-        }
-        let t = self.texels[i];
-        if self.srgb {
-            let table = srgb_table();
-            Vec4::new(table[t[0] as usize], table[t[1] as usize], table[t[2] as usize], t[3] as f32 / 255.0)
+        let linear = if !self.hdr.is_empty() {
+            self.decode_srgb(self.hdr[i])
         } else {
-            Vec4::new(t[0] as f32, t[1] as f32, t[2] as f32, t[3] as f32) / 255.0
+            let t = self.texels[i];
+            if self.srgb {
+                let table = srgb_table();
+                Vec4::new(table[t[0] as usize], table[t[1] as usize], table[t[2] as usize], t[3] as f32 / 255.0)
+            } else {
+                Vec4::new(t[0] as f32, t[1] as f32, t[2] as f32, t[3] as f32) / 255.0
+            }
+        };
+        match self.to_working {
+            Some(m) => (m * linear.truncate()).extend(linear.w),
+            None => linear,
         }
     }
 
-    /// RGBA of texel (x, y) as stored, wrapped by the sampler's modes: an sRGB image's RGB
-    /// still encoded (filter these, then [`decode`](Self::decode)).
+    /// RGBA of texel (x, y) as filtered, wrapped by the sampler's modes: an sRGB image's RGB
+    /// still encoded (filter these, then [`decode`](Self::decode)); with `to_working` the
+    /// texel in the working space already.
     #[inline]
     pub fn stored_texel(&self, x: i64, y: i64) -> Vec4 {
+        if self.to_working.is_some() {
+            return self.texel(x, y);
+        }
         let x = wrap(x, self.width, self.wrap_s);
         let y = wrap(y, self.height, self.wrap_t);
         let i = (y * self.width + x) as usize;
@@ -123,6 +139,12 @@ impl Texture {
     /// Linear RGBA of a value filtered from [`stored_texel`](Self::stored_texel)s.
     #[inline]
     pub fn decode(&self, v: Vec4) -> Vec4 {
+        if self.to_working.is_some() { v } else { self.decode_srgb(v) }
+    }
+
+    /// sRGB → linear of an encoded value; others as they are.
+    #[inline]
+    fn decode_srgb(&self, v: Vec4) -> Vec4 {
         if self.srgb { Vec4::new(srgb_to_linear(v.x), srgb_to_linear(v.y), srgb_to_linear(v.z), v.w) } else { v }
     }
 
@@ -208,9 +230,22 @@ mod tests {
             wrap_s: wrap_mode,
             wrap_t: Wrap::Clamp,
             nearest: true,
+            to_working: None,
             mean: Vec3::ZERO,
         }
         .with_mean()
+    }
+
+    #[test]
+    fn working_space_images_are_decoded_converted_then_filtered() {
+        // Under a working space other than Rec.709 Cycles converts an sRGB image to float scene
+        // linear on load: the blend of black and white decodes to 0.5, then the matrix applies.
+        let m = Mat3::from_cols(Vec3::new(0.6, 0.07, 0.02), Vec3::new(0.34, 0.92, 0.11), Vec3::new(0.05, 0.01, 0.87));
+        let t = Texture { srgb: true, nearest: false, to_working: Some(m), ..tex(Wrap::Clamp) };
+        let mid = t.lookup(Vec2::new(0.5, 0.5));
+        assert!((mid.truncate() - m * Vec3::splat(0.5)).abs().max_element() < 1e-6, "{mid}");
+        assert_eq!(t.texel(1, 0).truncate(), m * Vec3::ONE);
+        assert_eq!(t.texel(1, 0).w, 1.0);
     }
 
     #[test]

@@ -15,7 +15,9 @@ use super::edits::Invalidates;
 use crate::light::Light;
 use crate::math::luminance;
 use crate::scene::Scene;
-use crate::scene::gltf::{colorspace_is_srgb, graph_material, mean_node_emission, triangle_light_power};
+use crate::scene::gltf::{
+    colorspace_converts, colorspace_is_srgb, graph_material, mean_node_emission, triangle_light_power,
+};
 use crate::shader::graph::NodesExt;
 
 /// A checked, compiled graph edit, ready to apply (`prepare` reads the scene while it
@@ -43,7 +45,8 @@ pub fn prepare(scene: &Scene, name: &str, nodes: &serde_json::Value) -> Result<G
     let ext: NodesExt = serde_json::from_value(nodes.clone())
         .map_err(|e| format!("material '{name}': CAUSTIC_materials_nodes is malformed: {e}"))?;
     let images = held_images(scene, name, &ext)?;
-    let compiled = crate::shader::compile::compile(name, &ext, &images)
+    let space = crate::scene::working_space::WorkingSpace::of(scene.settings.working_space.as_ref())?;
+    let compiled = crate::shader::compile::compile_in(name, &ext, &images, space)
         .map_err(|e| format!("material '{name}': CAUSTIC_materials_nodes: {e}"))?;
     let prog = &compiled.program;
     let uses = |t: usize| indices.contains(&scene.mesh.tri_material[t]);
@@ -148,8 +151,10 @@ fn held_images(scene: &Scene, name: &str, ext: &NodesExt) -> Result<Vec<u32>, St
         };
         let tex = &scene.textures[t];
         // Texels keep their encoding flag (8-bit and float sRGB images are decoded after filtering).
-        let srgb = colorspace_is_srgb(&img.colorspace).unwrap_or(false);
-        if tex.srgb != srgb {
+        let working = scene.settings.working_space.as_ref().map(|w| w.name.as_str());
+        let srgb = working != Some(img.colorspace.as_str()) && colorspace_is_srgb(&img.colorspace).unwrap_or(false);
+        let converts = colorspace_converts(&img.colorspace, working);
+        if tex.srgb != srgb || tex.to_working.is_some() != converts {
             return Err(format!("{what} was loaded in another colour space; send load"));
         }
         out.push(t as u32);

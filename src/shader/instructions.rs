@@ -441,6 +441,9 @@ pub struct Program {
     pub matrices: Vec<Mat4>,
     /// Mapping nodes' rotation matrices, built once when their Rotation is constant.
     pub rotations: Vec<Mat3>,
+    /// The scene's working colour space: Blackbody and Wavelength are given in it, colour →
+    /// float weighs by its luminance.
+    pub space: crate::scene::working_space::WorkingSpace,
     /// The graph has a Transparent part (alpha must be evaluated).
     pub transparent: bool,
     /// A Transparent BSDF's colour may not be grey: pass-throughs and shadow rays carry it

@@ -12,7 +12,6 @@ use super::closure::Closures;
 use super::geom::{Geom, Reg, from_blender, geom_at_ng, set3, to_blender, v3};
 use super::instructions::{AttributeOutput, BumpOp, ColorSpace, CurveKind, InputKind, MappingKind, Op, Program};
 use super::ops;
-use crate::math::luminance;
 use glam::{EulerRot, Mat3, Mat4, Vec3, Vec4};
 use std::cell::RefCell;
 
@@ -176,13 +175,15 @@ impl Program {
             }
             Op::Gamma { c, g, out } => set3(r, out, ops::gamma(v3(r, c), r[g as usize])),
             Op::Blackbody { t, out } => {
-                set3(r, out, crate::medium::blackbody::blackbody_rgb(r[t as usize]).max(glam::Vec3::ZERO))
+                // Cycles clamps after `rec709_to_rgb`, in the working space.
+                let rgb = self.space.from_rec709(crate::medium::blackbody::blackbody_rgb(r[t as usize]));
+                set3(r, out, rgb.max(glam::Vec3::ZERO))
             }
             Op::Ies { ref profile, vector, strength, out } => {
                 let f = profile.as_ref().map_or(100.0, |p| p.eval_direction(v3(r, vector)));
                 r[out as usize] = r[strength as usize] * f;
             }
-            Op::Wavelength { lambda, out } => set3(r, out, ops::wavelength_to_rgb(r[lambda as usize])),
+            Op::Wavelength { lambda, out } => set3(r, out, ops::wavelength_to_rgb(r[lambda as usize], &self.space)),
             Op::Wireframe { size, out } => r[out as usize] = wireframe(g, r[size as usize]),
             Op::BrightContrast { c, bright, contrast, out } => {
                 set3(r, out, ops::bright_contrast(v3(r, c), r[bright as usize], r[contrast as usize]))
@@ -192,7 +193,7 @@ impl Program {
                 out,
                 ops::hue_sat_val(v3(r, c), r[hue as usize], r[sat as usize], r[val as usize], r[fac as usize]),
             ),
-            Op::Lum { c, out } => r[out as usize] = luminance(v3(r, c)),
+            Op::Lum { c, out } => r[out as usize] = self.space.luminance(v3(r, c)),
             Op::Avg { v, out } => {
                 let x = v3(r, v);
                 r[out as usize] = (x.x + x.y + x.z) / 3.0;

@@ -631,12 +631,19 @@ def test_unrendered_features_are_named(addon, empty_scene, tmp_path):
     warnings = unsupported.scene_warnings(bpy.context.evaluated_depsgraph_get())
     text = "\n".join(warnings)
     assert not any("Working Space" in line for line in warnings), text
-    # Blender 5.0's working space other than Rec.709 is named (images, Blackbody and skies
-    # are decoded to Rec.709 primaries).
+    # Blender 5.0's working space other than Rec.709 is exported and followed; what is not (a
+    # Principled Volume's blackbody) is named by material.
     bpy.ops.wm.set_working_color_space(working_space="ACEScg", convert_colors=False)
     try:
         spaced = unsupported.scene_warnings(bpy.context.evaluated_depsgraph_get())
-        assert any("Working Space" in line and "ACEScg" in line for line in spaced), spaced
+        assert not any("Working Space" in line for line in spaced), spaced
+        fire = bpy.data.materials.new("Fire")
+        fire.use_nodes = True
+        volume = fire.node_tree.nodes.new("ShaderNodeVolumePrincipled")
+        volume.inputs["Blackbody Intensity"].default_value = 1.0
+        scenes.cube(scene, "Flame", 1.0, (14, 0, 0), material=fire)
+        spaced = unsupported.scene_warnings(bpy.context.evaluated_depsgraph_get())
+        assert any("'Fire'" in line and "Working Space 'ACEScg'" in line for line in spaced), spaced
     finally:
         bpy.ops.wm.set_working_color_space(working_space="Linear Rec.709", convert_colors=False)
     assert not any("motion blur" in line for line in warnings), text

@@ -137,6 +137,7 @@ mod tests {
             wrap_s: Wrap::Repeat,
             wrap_t: Wrap::Repeat,
             nearest: false,
+            to_working: None,
             mean: Vec3::ZERO,
         }
         .with_mean()

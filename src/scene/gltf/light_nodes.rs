@@ -47,7 +47,7 @@ impl Loader<'_> {
         }
         // The graph's images belong to the light alone: they leave the scene's list.
         let textures = self.textures.split_off(first);
-        let compiled = crate::shader::compile::compile(&what, nodes, &images)
+        let compiled = crate::shader::compile::compile_in(&what, nodes, &images, self.space)
             .map_err(|e| self.err(format!("{what}: its node tree: {e}")))?;
         for w in &compiled.warnings {
             self.warn(format!("{what}: {w}"));

@@ -41,7 +41,7 @@ mod procedural_volume;
 mod quantized;
 mod shader_graph;
 pub(crate) use lights::triangle_light_power;
-pub(crate) use shader_graph::{colorspace_is_srgb, graph_material, mean_node_emission};
+pub(crate) use shader_graph::{colorspace_converts, colorspace_is_srgb, graph_material, mean_node_emission};
 mod spec_gloss;
 mod textures;
 mod validate;
@@ -181,6 +181,9 @@ struct Loader<'a> {
     /// (material, attribute) → the meshes of that material's primitives without it, for the
     /// warnings after the mesh is built (`attributes::warn_missing`).
     attribute_gaps: HashMap<(u32, crate::scene::mesh::AttributeKey), Vec<String>>,
+    /// The scene's working colour space (`extras.caustic.working_space`) and its name.
+    space: crate::scene::working_space::WorkingSpace,
+    space_name: Option<String>,
 }
 
 /// An emitter's light linking rules: receivers, blockers (`CAUSTIC_light_linking`).
@@ -202,6 +205,8 @@ impl<'a> Loader<'a> {
             world_aovs: None,
             attribute_keys: Default::default(),
             attribute_gaps: HashMap::new(),
+            space: Default::default(),
+            space_name: None,
         }
     }
 
@@ -267,6 +272,9 @@ impl<'a> Loader<'a> {
             }
         }
         let settings = self.parse_settings(&value)?;
+        self.space = crate::scene::working_space::WorkingSpace::of(settings.working_space.as_ref())
+            .map_err(|e| self.err(format!("scene extras 'caustic': {e}")))?;
+        self.space_name = settings.working_space.as_ref().map(|w| w.name.clone());
         // The crate's own validation indexes arrays with the file's indices unchecked
         // (a dangling accessor index panics inside it): check every reference first.
         check_references(&value).map_err(|e| self.err(e))?;

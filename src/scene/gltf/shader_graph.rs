@@ -6,7 +6,7 @@
 use super::Loader;
 use crate::error::Result;
 use crate::scene::{AlphaMode, Material};
-use crate::shader::compile::compile;
+use crate::shader::compile::compile_in;
 use crate::shader::graph::NodesExt;
 use std::sync::Arc;
 
@@ -30,7 +30,7 @@ impl Loader<'_> {
         for (k, img) in ext.images.iter().enumerate() {
             images.push(self.node_image(&name, k, img)?);
         }
-        let compiled = compile(&name, &ext, &images)
+        let compiled = compile_in(&name, &ext, &images, self.space)
             .map_err(|e| self.err(format!("material '{name}': CAUSTIC_materials_nodes: {e}")))?;
         for w in compiled.warnings {
             self.warn(format!("material '{name}': {w}"));
@@ -110,10 +110,17 @@ impl Loader<'_> {
         img: &crate::shader::graph::ImageDesc,
     ) -> Result<u32> {
         let what = format!("material '{material}': CAUSTIC_materials_nodes image {k} '{}'", img.uri);
-        let srgb = colorspace_is_srgb(&img.colorspace).unwrap_or_else(|| {
-            self.warn(format!("{what}: colour space '{}' is read as linear (not converted)", img.colorspace));
+        let working = self.space_name.clone();
+        let working = working.as_deref();
+        let srgb = if working == Some(img.colorspace.as_str()) {
             false
-        });
+        } else {
+            colorspace_is_srgb(&img.colorspace).unwrap_or_else(|| {
+                self.warn(format!("{what}: colour space '{}' is read as linear (not converted)", img.colorspace));
+                false
+            })
+        };
+        let to_working = if colorspace_converts(&img.colorspace, working) { self.space.matrix() } else { None };
         let bytes = self.resolve_uri(&img.uri, &what)?;
         let reader = image::ImageReader::new(std::io::Cursor::new(&bytes))
             .with_guessed_format()
@@ -164,6 +171,7 @@ impl Loader<'_> {
             wrap_s: crate::scene::texture::Wrap::Repeat,
             wrap_t: crate::scene::texture::Wrap::Repeat,
             nearest: false,
+            to_working,
             mean: glam::Vec3::ZERO,
         }
         .with_mean();
@@ -180,6 +188,13 @@ pub(crate) fn colorspace_is_srgb(name: &str) -> Option<bool> {
         "Non-Color" | "Linear Rec.709" | "Linear" => Some(false),
         _ => None,
     }
+}
+
+/// Whether a graph image in colour space `name` is colour in linear Rec.709 once decoded, to be
+/// taken into a `working` space other than Rec.709 (Cycles converts every image to scene
+/// linear but Non-Color ones and those already in it); unknown spaces were warned of.
+pub(crate) fn colorspace_converts(name: &str, working: Option<&str>) -> bool {
+    working.is_some_and(|w| w != name) && matches!(name, "sRGB" | "Linear Rec.709" | "Linear")
 }
 
 /// Triangles sampled per material for the estimate of a varying emission.

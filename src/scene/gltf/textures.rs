@@ -106,6 +106,9 @@ impl Loader<'_> {
                     wrap_s: wrap(sampler.wrap_s()),
                     wrap_t: wrap(sampler.wrap_t()),
                     nearest,
+                    // glTF's sRGB textures are its colour ones (base, emissive, specular and
+                    // sheen colour); data textures stay as they are.
+                    to_working: if srgb { self.space.matrix() } else { None },
                     mean: glam::Vec3::ZERO,
                 }
                 .with_mean(),

@@ -146,9 +146,14 @@ impl Loader<'_> {
                 let decode = |c: f32| {
                     if srgb { if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) } } else { c }
                 };
+                // A colour image, in the working space as Cycles converts it on load.
+                let space = self.space;
                 let texels: Vec<Vec3> = rgb
                     .pixels()
-                    .map(|p| Vec3::new(decode(p.0[0]), decode(p.0[1]), decode(p.0[2])).max(Vec3::ZERO))
+                    .map(|p| {
+                        let linear = Vec3::new(decode(p.0[0]), decode(p.0[1]), decode(p.0[2])).max(Vec3::ZERO);
+                        space.from_rec709(linear).max(Vec3::ZERO)
+                    })
                     .collect();
                 Some(
                     crate::light::environment::EnvImage::new(width as usize, height as usize, texels)
@@ -181,7 +186,7 @@ impl Loader<'_> {
         }
         // The graph's images belong to the world alone: they leave the scene's list.
         let textures = self.textures.split_off(first);
-        let compiled = crate::shader::compile::compile(NAME, nodes, &images)
+        let compiled = crate::shader::compile::compile_in(NAME, nodes, &images, self.space)
             .map_err(|e| self.err(format!("CAUSTIC_world nodes: {e}")))?;
         for w in &compiled.warnings {
             self.warn(format!("world: {w}"));

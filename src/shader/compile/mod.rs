@@ -19,6 +19,7 @@ mod sources;
 pub mod volume;
 
 use crate::bsdf::mix::MAX_PBR;
+use crate::scene::working_space::WorkingSpace;
 use crate::shader::closure::{AnisoMapping, AnisoRegs, CAPACITY, ClosureKind, ClosureOp, Closures, PrincipledRegs};
 use crate::shader::geom::{Geom, ObjectData, Reg};
 use crate::shader::graph::{NodeDesc, NodesExt, check_and_sort};
@@ -90,14 +91,20 @@ impl Method {
 /// Compiles `ext` for material `name`, whose `images` are scene textures `images[i]`;
 /// errors name the node.
 pub fn compile(name: &str, ext: &NodesExt, images: &[u32]) -> Result<Compiled, String> {
+    compile_in(name, ext, images, WorkingSpace::default())
+}
+
+/// [`compile`] for a scene whose working colour space is `space` (what the graph computes as
+/// RGB itself is given in it, colour → float weighs by its luminance).
+pub fn compile_in(name: &str, ext: &NodesExt, images: &[u32], space: WorkingSpace) -> Result<Compiled, String> {
     let method = Method::parse(ext.displacement_method.as_deref())?;
-    let mut compiled = compile_with(name, ext, images, method, false)?;
+    let mut compiled = compile_with(name, ext, images, method, false, space)?;
     if method != Method::Bump && ext.output.displacement.is_some() {
         // The displacement's own program: the graph with the Displacement output alone, so that
         // moving a vertex runs no closure and shading runs no more than before.
         let mut alone = ext.clone();
         alone.output.surface = None;
-        let h = compile_with(name, &alone, images, method, true)?;
+        let h = compile_with(name, &alone, images, method, true, space)?;
         if let Some((height, object_space)) = h.displacement_height {
             compiled.program.true_displacement =
                 Some(std::sync::Arc::new(crate::shader::instructions::TrueDisplacement {
@@ -119,6 +126,7 @@ fn compile_with(
     images: &[u32],
     method: Method,
     height_only: bool,
+    space: WorkingSpace,
 ) -> Result<Compiled, String> {
     let order = check_and_sort(ext)?;
     let mut used = HashSet::new();
@@ -133,6 +141,7 @@ fn compile_with(
         used.insert((l.0, l.1.clone()));
     }
     let mut c = Compiler::new(ext, images, name, used);
+    c.prog.space = space;
     (c.method, c.height_only) = (method, height_only);
     let surface = reachable_from_outputs(ext);
     for &i in order.iter().filter(|&&i| surface[i]) {
@@ -453,7 +462,7 @@ impl<'a> Compiler<'a> {
         match s.ty {
             Ty::Float if self.is_const(s.reg, 1) => Some(self.init[r]),
             Ty::Color if self.is_const(s.reg, 3) => {
-                Some(crate::math::luminance(Vec3::new(self.init[r], self.init[r + 1], self.init[r + 2])))
+                Some(self.prog.space.luminance(Vec3::new(self.init[r], self.init[r + 1], self.init[r + 2])))
             }
             Ty::Vector if self.is_const(s.reg, 3) => Some((self.init[r] + self.init[r + 1] + self.init[r + 2]) / 3.0),
             _ => None,

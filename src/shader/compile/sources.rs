@@ -870,7 +870,7 @@ impl Compiler<'_> {
                         return Err(self.err(i, "the sky's sun direction must not be zero"));
                     }
                 }
-                let sky = std::sync::Arc::new(Sky::new(&params));
+                let sky = std::sync::Arc::new(Sky::new_in(&params, self.prog.space));
                 self.ops.push(Op::Texture(Box::new(TexOp::Sky { sky, vector, color })));
             }
             "ShaderNodeTexEnvironment" => {

@@ -39,7 +39,7 @@ const CIE: [[f32; 3]; 81] = [
 
 /// The Wavelength node's Color for `lambda_nm`. As Cycles: the table index is truncated
 /// toward zero (so just under 380 nm extrapolates the first step), black outside.
-pub fn wavelength_to_rgb(lambda_nm: f32) -> Vec3 {
+pub fn wavelength_to_rgb(lambda_nm: f32, space: &crate::scene::working_space::WorkingSpace) -> Vec3 {
     let ii = (lambda_nm - 380.0) * (1.0 / 5.0);
     // Cycles' float_to_int: truncation (NaN gives 0 here, out of range there: both black
     // only in Cycles; a NaN wavelength is not a case a graph makes on purpose).
@@ -50,7 +50,7 @@ pub fn wavelength_to_rgb(lambda_nm: f32) -> Vec3 {
     let t = ii - i as f32;
     let (a, b) = (Vec3::from(CIE[i as usize]), Vec3::from(CIE[i as usize + 1]));
     let xyz = (1.0 - t) * a + t * b;
-    crate::shader::sky::xyz_to_rgb_clamped(xyz) * (1.0 / 2.52)
+    space.xyz_to_rgb_clamped(xyz) * (1.0 / 2.52)
 }
 
 #[cfg(test)]
@@ -61,12 +61,12 @@ mod tests {
     fn table_points_and_range() {
         // 555 nm is row 35: (0.5121, 1.0, 0.0057) through the matrix, over 2.52.
         let xyz = Vec3::new(0.5121, 1.0, 0.0057);
-        assert_eq!(wavelength_to_rgb(555.0), crate::shader::sky::xyz_to_rgb_clamped(xyz) / 2.52);
-        assert_eq!(wavelength_to_rgb(780.0), Vec3::ZERO);
-        assert_eq!(wavelength_to_rgb(370.0), Vec3::ZERO);
+        assert_eq!(wavelength_to_rgb(555.0, &Default::default()), crate::shader::sky::xyz_to_rgb_clamped(xyz) / 2.52);
+        assert_eq!(wavelength_to_rgb(780.0, &Default::default()), Vec3::ZERO);
+        assert_eq!(wavelength_to_rgb(370.0, &Default::default()), Vec3::ZERO);
         // Between rows: the linear mix of both.
-        let mid = wavelength_to_rgb(557.5);
-        let (a, b) = (wavelength_to_rgb(555.0), wavelength_to_rgb(560.0));
+        let mid = wavelength_to_rgb(557.5, &Default::default());
+        let (a, b) = (wavelength_to_rgb(555.0, &Default::default()), wavelength_to_rgb(560.0, &Default::default()));
         // (green, positive in all three: the clamp at 0 would break the mix elsewhere).
         assert!((mid.y - 0.5 * (a.y + b.y)).abs() < 1e-6, "{mid} {a} {b}");
     }

@@ -10,8 +10,6 @@
 use glam::Vec3;
 use std::f32::consts::{FRAC_PI_2, PI};
 
-use super::xyz_to_rgb_clamped;
-
 /// Which of the two analytic models.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum AnalyticModel {
@@ -25,6 +23,8 @@ pub enum AnalyticModel {
 #[derive(Clone, Debug)]
 pub struct AnalyticSky {
     model: AnalyticModel,
+    /// The space the radiance is given in (`Sky::new_in`).
+    pub(super) space: crate::scene::working_space::WorkingSpace,
     /// Sun's zenith angle (Hosek: clamped to the horizon).
     sun_theta: f32,
     /// Sun's azimuth in Cycles' convention, atan2(x, y).
@@ -46,14 +46,14 @@ impl AnalyticSky {
         match model {
             AnalyticModel::Preetham => {
                 let (scale, config) = preetham(theta, turbidity);
-                AnalyticSky { model, sun_theta: theta, sun_phi: phi, scale, config }
+                AnalyticSky { model, space: Default::default(), sun_theta: theta, sun_phi: phi, scale, config }
             }
             AnalyticModel::HosekWilkie => {
                 // Cycles clamps the sun to the horizon for this model only.
                 let theta = theta.clamp(0.0, FRAC_PI_2);
                 let elevation = FRAC_PI_2 - theta;
                 let (scale, config) = super::hosek::configuration(turbidity.clamp(1.0, 10.0), ground_albedo, elevation);
-                AnalyticSky { model, sun_theta: theta, sun_phi: phi, scale, config }
+                AnalyticSky { model, space: Default::default(), sun_theta: theta, sun_phi: phi, scale, config }
             }
         }
     }
@@ -74,7 +74,7 @@ impl AnalyticSky {
                 let x = sx * perez(&self.config[1], theta, gamma);
                 let y = sz * perez(&self.config[2], theta, gamma);
                 let big_y = sy * perez(&self.config[0], theta, gamma);
-                xyz_to_rgb_clamped(xyy_to_xyz(x, y, big_y))
+                self.space.xyz_to_rgb_clamped(xyy_to_xyz(x, y, big_y))
             }
             AnalyticModel::HosekWilkie => {
                 let xyz = Vec3::from_array(std::array::from_fn(|c| {
@@ -82,7 +82,7 @@ impl AnalyticSky {
                 }));
                 // The dataset's XYZ is radiometric (W m⁻² sr⁻¹ per the CIE functions): Cycles
                 // scales it by 2π/683.
-                xyz_to_rgb_clamped(xyz) * (2.0 * PI / 683.0)
+                self.space.xyz_to_rgb_clamped(xyz) * (2.0 * PI / 683.0)
             }
         }
     }

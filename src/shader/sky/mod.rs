@@ -18,6 +18,7 @@
 //! Blender's axes (Z up), as the graph's vectors.
 //! Arithmetic is f32 in Blender's order, so the table matches to rounding.
 
+use crate::scene::working_space::WorkingSpace;
 use glam::{Vec3, Vec4};
 use std::f32::consts::{FRAC_PI_2, PI};
 
@@ -82,9 +83,19 @@ pub enum Sky {
 impl Sky {
     /// Precomputes the model the settings name.
     pub fn new(p: &SkyParams) -> Sky {
-        let analytic = |m| Sky::Analytic(AnalyticSky::new(m, p.sun_direction, p.turbidity, p.ground_albedo));
+        Sky::new_in(p, WorkingSpace::default())
+    }
+
+    /// Precomputes the model the settings name, its radiance given in working `space`
+    /// (Cycles converts the model's XYZ by the scene's `xyz_to_rgb`).
+    pub fn new_in(p: &SkyParams, space: WorkingSpace) -> Sky {
+        let analytic = |m| {
+            let mut sky = AnalyticSky::new(m, p.sun_direction, p.turbidity, p.ground_albedo);
+            sky.space = space;
+            Sky::Analytic(sky)
+        };
         match p.model {
-            SkyModel::Single | SkyModel::Multiple => Sky::Physical(PhysicalSky::new(p)),
+            SkyModel::Single | SkyModel::Multiple => Sky::Physical(PhysicalSky { space, ..PhysicalSky::new(p) }),
             SkyModel::Preetham => analytic(AnalyticModel::Preetham),
             SkyModel::HosekWilkie => analytic(AnalyticModel::HosekWilkie),
         }
@@ -113,6 +124,8 @@ impl Sky {
 #[derive(Clone, Debug)]
 pub struct PhysicalSky {
     model: SkyModel,
+    /// The space the radiance is given in.
+    space: WorkingSpace,
     /// CIE XYZ, row 0 first (row 0 is straight down for Multiple Scattering).
     table: Vec<Vec3>,
     sun_bottom: Vec3,
@@ -165,6 +178,7 @@ impl PhysicalSky {
             }
         };
         PhysicalSky {
+            space: WorkingSpace::default(),
             model: p.model,
             table,
             sun_bottom,
@@ -204,7 +218,7 @@ impl PhysicalSky {
             // Limb darkening with Blender's coefficient 0.6.
             let q = sun_angle / half;
             let limb = 1.0 - 0.6 * (1.0 - (1.0 - q * q).sqrt());
-            sun = xyz_to_rgb_clamped(xyz) * limb;
+            sun = self.space.xyz_to_rgb_clamped(xyz) * limb;
         }
         let x = ((-phi - FRAC_PI_2 + self.sun_rotation) / (2.0 * PI)).rem_euclid(1.0);
         let sky = if self.model == SkyModel::Single && dir.z < 0.0 {
@@ -214,12 +228,12 @@ impl PhysicalSky {
                 Vec3::ZERO
             } else {
                 let fade = (1.0 + dir.z * 2.5).powi(3);
-                xyz_to_rgb_clamped(self.lookup(x, 0.508)) * fade
+                self.space.xyz_to_rgb_clamped(self.lookup(x, 0.508)) * fade
             }
         } else {
             // Undo the table's denser rows near the horizon.
             let y = (dir_elevation.abs() / FRAC_PI_2).sqrt() * 1.0f32.copysign(dir_elevation) * 0.5 + 0.5;
-            xyz_to_rgb_clamped(self.lookup(x, y))
+            self.space.xyz_to_rgb_clamped(self.lookup(x, y))
         };
         sun * self.sun_intensity + sky
     }
@@ -245,10 +259,7 @@ impl PhysicalSky {
 /// CIE XYZ (D65) to linear Rec.709, negative parts clamped (Cycles' `xyz_to_rgb_clamped`
 /// with Blender's default scene-linear space).
 pub fn xyz_to_rgb_clamped(xyz: Vec3) -> Vec3 {
-    let r = 3.240_454_2 * xyz.x - 1.537_138_5 * xyz.y - 0.498_531_4 * xyz.z;
-    let g = -0.969_266 * xyz.x + 1.876_010_8 * xyz.y + 0.041_556 * xyz.z;
-    let b = 0.055_643_4 * xyz.x - 0.204_025_9 * xyz.y + 1.057_225_2 * xyz.z;
-    Vec3::new(r, g, b).max(Vec3::ZERO)
+    crate::scene::working_space::WorkingSpace::default().xyz_to_rgb_clamped(xyz)
 }
 
 /// Cycles' `spherical_to_direction`.
