@@ -149,9 +149,12 @@ def shader_node_material(blender_material):
 def conductor_reflectance(node, what):
     """A physical-conductor Metallic BSDF's reflectance at normal incidence per channel,
     ((n - 1)^2 + k^2) / ((n + 1)^2 + k^2) from its IOR n and Extinction k, which Caustic's
-    Schlick Fresnel starts from; and warnings (a linked IOR or Extinction is read unlinked)."""
-    warnings = [f"{what}: Metallic BSDF's physical conductor is rendered with Schlick's Fresnel from its "
-                "reflectance at normal incidence (Cycles' exact conductor Fresnel differs towards grazing angles)"]
+    glTF approximation's Schlick Fresnel starts from; and warnings. The approximation is rendered
+    only where the material's node graph is not (the graph renders Cycles' exact conductor
+    Fresnel, and the approximation's warnings are dropped then)."""
+    warnings = [f"{what}: Metallic BSDF's physical conductor is rendered from its glTF approximation, Schlick's "
+                "Fresnel from its reflectance at normal incidence (Cycles' exact conductor Fresnel differs towards "
+                "grazing angles)"]
     values = {}
     for socket_name in ("IOR", "Extinction"):
         socket = next(s for s in node.inputs if s.identifier == socket_name)

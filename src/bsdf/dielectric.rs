@@ -80,6 +80,9 @@ pub struct DielectricBsdf {
     ms_fms: Rgb,
     /// Cycles' Refraction BSDF: refraction alone, unweighted by Fresnel (module doc).
     refract_only: bool,
+    /// Scale of the reflection (Cycles' `reflection_tint`): 0 once Reflective Caustics
+    /// dropped it, sampling unchanged (the dropped half then carries no weight).
+    reflect_scale: f32,
 }
 
 /// Wavelengths (nm) that stand for the R, G and B channels in dispersion: the peaks of
@@ -131,6 +134,7 @@ impl DielectricBsdf {
             roughness,
             ms_fms: Rgb::ZERO,
             refract_only: false,
+            reflect_scale: 1.0,
         }
     }
 
@@ -149,6 +153,17 @@ impl DielectricBsdf {
         self.ggx = self.ggx.with_beckmann();
         self.ms_fms = Rgb::ZERO;
         self
+    }
+
+    /// Drops the reflection (`reflective`) and the refraction (`refractive`) as Cycles'
+    /// caustics switches zero the glass's `reflection_tint` and `transmission_tint`.
+    pub fn drop_caustics(&mut self, reflective: bool, refractive: bool) {
+        if reflective {
+            self.reflect_scale = 0.0;
+        }
+        if refractive {
+            self.tint = Rgb::ZERO;
+        }
     }
 
     /// Refracts only (Cycles' Refraction BSDF).
@@ -258,7 +273,8 @@ impl DielectricBsdf {
             let m = (wo + wr).normalize();
             let f = self.reflectance(wo.dot(m));
             let spec = self.ggx.d(m) * self.ggx.g2(wo, wr) / (4.0 * wo.z * wr.z);
-            let value = if wi.z > 0.0 { Rgb::splat(f * spec) } else { self.tint * ((1.0 - f) * spec) };
+            let value =
+                if wi.z > 0.0 { Rgb::splat(f * spec * self.reflect_scale) } else { self.tint * ((1.0 - f) * spec) };
             return value * self.multiscatter(wo);
         }
         let Some(m) = self.half_vector_transmission(wo, wi) else {
@@ -330,7 +346,8 @@ impl DielectricBsdf {
             let r = self.reflectance(wo.z);
             if uc < r {
                 let wi = Vec3::new(-wo.x, -wo.y, wo.z);
-                return Some(BsdfSample { wi, f: Rgb::splat(r / wi.z), pdf: r, delta: true, kind: LobeKind::Glossy });
+                let f = Rgb::splat(r * self.reflect_scale / wi.z);
+                return Some(BsdfSample { wi, f, pdf: r, delta: true, kind: LobeKind::Glossy });
             }
             let t = 1.0 - r;
             if self.thin {

@@ -781,6 +781,33 @@ impl MixBsdf {
         }
     }
 
+    /// Drops the caustic closures (`Bsdf::drop_caustics`): with `reflective`, the Glossy,
+    /// Metallic, Ashikhmin-Shirley and glossy Toon lobes and the glass's reflection; with
+    /// `refractive`, the Refraction lobes and the glass's refraction; a glass losing both is
+    /// gone. The Principled parts drop theirs layer by layer.
+    pub fn drop_caustics(&mut self, reflective: bool, refractive: bool) {
+        for (pbr, &w) in self.pbr.iter_mut().zip(&self.pbr_weights) {
+            if w > 0.0 {
+                pbr.drop_caustics(reflective, refractive);
+            }
+        }
+        for (lobe, weight) in self.lobes[..self.n as usize].iter_mut().zip(&mut self.weights) {
+            let gone = match lobe {
+                Lobe::Glossy { .. } | Lobe::AshikhminShirley(_) => reflective,
+                Lobe::Toon(t) => t.glossy && reflective,
+                Lobe::Dielectric(d) if d.refracts_only() => refractive,
+                Lobe::Dielectric(d) => {
+                    d.drop_caustics(reflective, refractive);
+                    reflective && refractive
+                }
+                _ => false,
+            };
+            if gone {
+                *weight = Rgb::ZERO;
+            }
+        }
+    }
+
     /// True when every lobe in use is a delta lobe.
     pub fn is_delta(&self) -> bool {
         self.parts().all(|(_, p, _, _)| p.is_delta()) && self.lobes[..self.n as usize].iter().all(Lobe::smooth)

@@ -165,6 +165,20 @@ impl Bsdf {
         }
     }
 
+    /// Drops the reflective (`reflective`) and refractive (`refractive`) closures, as Cycles
+    /// does at a point reached by a diffuse bounce with a caustics switch off
+    /// (`LightPaths::drops_caustics`). Hair keeps its lobes (Cycles tests no switch there).
+    pub fn drop_caustics(&mut self, reflective: bool, refractive: bool) {
+        if !(reflective || refractive) {
+            return;
+        }
+        match self {
+            Bsdf::Pbr(b) => b.drop_caustics(reflective, refractive),
+            Bsdf::Mix(m) => m.drop_caustics(reflective, refractive),
+            Bsdf::Hair(_) => {}
+        }
+    }
+
     /// True when every lobe is a delta lobe (light sampling cannot help).
     #[inline]
     pub fn is_delta(&self) -> bool {

@@ -182,6 +182,10 @@ pub struct PbrBsdf {
     microfiber: bool,
     /// Fraction of the diffuse base left to subsurface scattering (not in this BSDF).
     pub subsurface: f32,
+    /// The metal lobe was dropped (Reflective Caustics off); the rest keeps 1 − metallic.
+    metal_dropped: bool,
+    /// The coat's reflection was dropped (Reflective Caustics off); its tint still filters.
+    coat_dropped: bool,
 }
 
 /// Probabilities of the lobes for one `wo`: metal, dielectric specular, diffuse, glass.
@@ -322,6 +326,8 @@ impl PbrBsdf {
             sheen_max: sheen_color.max_element(),
             microfiber: p.microfiber_sheen,
             subsurface: p.subsurface.clamp(0.0, 1.0),
+            metal_dropped: false,
+            coat_dropped: false,
         }
         .with_layer_avg()
     }
@@ -373,7 +379,9 @@ impl PbrBsdf {
     /// Cycles' F82 tint when it has one.
     #[inline]
     pub(super) fn metal_fresnel(&self, cos: f32) -> Rgb {
-        if self.metal_b == Vec3::ZERO {
+        if self.metal_dropped {
+            Rgb::ZERO
+        } else if self.metal_b == Vec3::ZERO {
             self.base + (Vec3::ONE - self.base) * schlick_weight(cos)
         } else {
             f82_tint(self.base, self.metal_b, cos)
@@ -450,7 +458,7 @@ impl PbrBsdf {
     /// Directional albedo of the coat seen from `wo` (weight included).
     #[inline]
     fn coat_albedo(&self, wo: Vec3) -> f32 {
-        if self.coat > 0.0 {
+        if self.coat > 0.0 && !self.coat_dropped {
             let mu = self.coat_mu(wo);
             if mu <= 0.0 {
                 return 0.0;
@@ -668,6 +676,20 @@ impl PbrBsdf {
         }
         let h = (wo + wi).normalize();
         self.sheen_color * charlie_brdf(h.z, wo.z, wi.z, self.sheen_roughness)
+    }
+
+    /// Drops the caustic closures as Cycles' Principled BSDF does after a diffuse bounce with
+    /// a caustics switch off (`svm_node_closure_bsdf`): `reflective` drops the coat's
+    /// reflection (its tint still filters), the metal (the rest keeps 1 − metallic), the
+    /// specular layer with its film (the base then unattenuated by it) and the glass's
+    /// reflection; `refractive` the glass's refraction. Sheen, diffuse and subsurface stay.
+    pub fn drop_caustics(&mut self, reflective: bool, refractive: bool) {
+        if reflective {
+            self.coat_dropped = true;
+            self.metal_dropped = true;
+            self.layer = false;
+        }
+        self.glass.drop_caustics(reflective, refractive);
     }
 
     /// True when some light may pass through to the other side (a transmission lobe).

@@ -594,17 +594,13 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
 /// The chunk identity of this render: the scene's source hash (the glTF and every file it
 /// read) and a hash of every setting that changes what a sample computes (not the sample
 /// range, threads or output).
-/// Warnings naming the Light Paths settings this render does not follow: Filter Glossy and
-/// the caustics switches (no integrator yet), and, for the integrators other than the path
-/// tracer, the per-kind bounce limits that could end a path before Max Bounces and the
-/// clamps (BDPT and VCM weigh whole paths made of a camera and a light subpath, photons do
-/// not know the camera path they will be read at; Cycles has neither).
+/// Warnings naming the Light Paths settings this render does not follow: for the integrators
+/// other than the path tracer, the per-kind bounce limits that could end a path before Max
+/// Bounces, the clamps, Filter Glossy and a caustics switch off (BDPT and VCM weigh whole
+/// paths made of a camera and a light subpath, photons do not know the camera path they will
+/// be read at; Cycles has neither).
 fn light_paths_warnings(res: &Resolved) -> Vec<String> {
-    let mut out: Vec<String> = res
-        .unrendered_light_paths
-        .iter()
-        .map(|s| format!("Light Paths > {s} is not rendered yet: paths are followed as if it were off"))
-        .collect();
+    let mut out = Vec::new();
     if res.integrator != IntegratorKind::Path {
         let name = res.integrator.name();
         let limits = res.light_paths.limits_below(res.max_depth);
@@ -617,6 +613,13 @@ fn light_paths_warnings(res: &Resolved) -> Vec<String> {
         let clamps = res.light_paths.clamps_on();
         if !clamps.is_empty() {
             out.push(format!("Light Paths > {}: {name} does not follow it; the path tracer does", clamps.join(", ")));
+        }
+        let caustics = res.light_paths.caustics_off();
+        if !caustics.is_empty() {
+            out.push(format!(
+                "Light Paths > {}: {name} renders caustics regardless; the path tracer follows it",
+                caustics.join(", ")
+            ));
         }
     }
     out

@@ -35,8 +35,6 @@ pub struct Resolved {
     pub light_paths: crate::integrator::light_paths::LightPaths,
     /// Cycles' Transparent Max Bounces (flag > scene > 8).
     pub transparent_max: u32,
-    /// The scene's Light Paths settings that no integrator renders yet, by their panel names.
-    pub unrendered_light_paths: Vec<String>,
     /// Filter.
     pub filter: Filter,
     /// Transparent background.
@@ -196,7 +194,7 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
     if max_depth > MAX_DEPTH {
         return Err(Error::Usage(format!("--max-depth {max_depth} is absurd (at most {MAX_DEPTH})")));
     }
-    let (light_paths, transparent_max, unrendered_light_paths) = resolve_light_paths(args, st)?;
+    let (light_paths, transparent_max) = resolve_light_paths(args, st)?;
     let cores = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
     let threads = match args.threads.or(st.threads) {
         None => cores,
@@ -365,7 +363,6 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
         max_depth,
         light_paths,
         transparent_max,
-        unrendered_light_paths,
         filter,
         transparent: st.transparent.unwrap_or(true),
         transparent_glass,
@@ -378,12 +375,11 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
 }
 
 /// Resolves Cycles' Light Paths settings (flag > scene > a plain glTF run's: no per-kind
-/// limit, no clamp or Filter Glossy, 8 transparent bounces), checks the clamps, and names
-/// the settings not rendered yet (a caustics switch off).
+/// limit, no clamp or Filter Glossy, caustics on, 8 transparent bounces) and checks the clamps.
 fn resolve_light_paths(
     args: &RenderArgs,
     st: &scene::SceneSettings,
-) -> Result<(crate::integrator::light_paths::LightPaths, u32, Vec<String>)> {
+) -> Result<(crate::integrator::light_paths::LightPaths, u32)> {
     use crate::integrator::light_paths::LightPaths;
     let a = &args.light_paths;
     let u = LightPaths::UNLIMITED;
@@ -401,17 +397,12 @@ fn resolve_light_paths(
         clamp_direct: clamp(a.clamp_direct, st.clamp_direct, "clamp-direct")?,
         clamp_indirect: clamp(a.clamp_indirect, st.clamp_indirect, "clamp-indirect")?,
         filter_glossy: clamp(a.filter_glossy, st.filter_glossy, "filter-glossy")?,
+        caustics_reflective: st.caustics_reflective.unwrap_or(true),
+        caustics_refractive: st.caustics_refractive.unwrap_or(true),
     };
     let transparent_max =
         a.transparent_max_bounces.or(st.transparent_max_bounces).unwrap_or(crate::integrator::DEFAULT_TRANSPARENT_MAX);
-    let mut unrendered = Vec::new();
-    if st.caustics_reflective == Some(false) {
-        unrendered.push("Reflective Caustics off".to_string());
-    }
-    if st.caustics_refractive == Some(false) {
-        unrendered.push("Refractive Caustics off".to_string());
-    }
-    Ok((lp, transparent_max, unrendered))
+    Ok((lp, transparent_max))
 }
 
 /// Resolves adaptive sampling (flag > scene > off) and checks its range (Cycles' panel:

@@ -19,6 +19,12 @@
 //! Filter Glossy (`surface_shader_prepare_closures`): a path keeps the least density of its
 //! non-singular bounces (BSDF or phase function; `min_ray_pdf`); at each vertex where that
 //! over Filter Glossy is below 1, every microfacet lobe is widened (`Bsdf::blur`).
+//!
+//! Caustics (`svm_node_closure_bsdf` under `__CAUSTICS_TRICKS__`): with Reflective or
+//! Refractive Caustics off, a shading point reached by a ray whose last bounce was diffuse
+//! (`PATH_RAY_DIFFUSE`: cleared by every other bounce, kept by transparent pass-throughs)
+//! drops its reflective or refractive closures (`Bsdf::drop_caustics`), for its next-event
+//! estimate and its bounce alike.
 
 use crate::math::Rgb;
 use crate::scene::SceneSettings;
@@ -42,6 +48,10 @@ pub struct LightPaths {
     /// Filter Glossy (0: off): `Bsdf::blur` at each vertex past the first, by the least
     /// density of the path's bounces so far (Cycles' `min_ray_pdf`).
     pub filter_glossy: f32,
+    /// Reflective Caustics (false: glossy reflection dropped after a diffuse bounce).
+    pub caustics_reflective: bool,
+    /// Refractive Caustics (false: refraction dropped after a diffuse bounce).
+    pub caustics_refractive: bool,
 }
 
 /// A limit that never ends a path.
@@ -57,6 +67,8 @@ impl LightPaths {
         clamp_direct: 0.0,
         clamp_indirect: 0.0,
         filter_glossy: 0.0,
+        caustics_reflective: true,
+        caustics_refractive: true,
     };
 
     /// The file's values (`scenes[i].extras.caustic`), unchecked: absent keys limit and clamp
@@ -71,6 +83,8 @@ impl LightPaths {
             clamp_direct: st.clamp_direct.unwrap_or(0.0),
             clamp_indirect: st.clamp_indirect.unwrap_or(0.0),
             filter_glossy: st.filter_glossy.unwrap_or(0.0),
+            caustics_reflective: st.caustics_reflective.unwrap_or(true),
+            caustics_refractive: st.caustics_refractive.unwrap_or(true),
         }
     }
 
@@ -117,6 +131,28 @@ impl LightPaths {
             on.push("Clamp Indirect");
         }
         on
+    }
+
+    /// Which closures a shading point reached along `path` drops: (reflective, refractive),
+    /// each when its switch is off and the path's last bounce was diffuse (Cycles'
+    /// `PATH_RAY_DIFFUSE` test in `svm_node_closure_bsdf`).
+    #[inline]
+    pub fn drops_caustics(&self, path: LightPath) -> (bool, bool) {
+        let after_diffuse = path.flags & LightPath::DIFFUSE != 0;
+        (after_diffuse && !self.caustics_reflective, after_diffuse && !self.caustics_refractive)
+    }
+
+    /// The caustics switches that are off, by their panel names (for the integrators that
+    /// do not follow them, to warn).
+    pub fn caustics_off(&self) -> Vec<&'static str> {
+        let mut off = Vec::new();
+        if !self.caustics_reflective {
+            off.push("Reflective Caustics off");
+        }
+        if !self.caustics_refractive {
+            off.push("Refractive Caustics off");
+        }
+        off
     }
 
     /// Emission found by a ray after `depth` scattering events, clamped (direct for depth ≤ 1).
@@ -193,6 +229,49 @@ mod tests {
         b.blur(1.0, 0.3);
         let (wo, wi) = (glam::Vec3::new(0.3, 0.0, 0.95).normalize(), glam::Vec3::new(-0.2, 0.1, 0.97).normalize());
         assert_eq!(b.eval(wo, wi), rough.eval(wo, wi), "α 0.81 is above the blur's 0.42");
+    }
+
+    /// Cycles' `PATH_RAY_DIFFUSE`: set by a diffuse bounce (reflected or translucent), kept
+    /// by a pass-through, cleared by any other bounce; camera rays never drop closures.
+    #[test]
+    fn caustics_drop_only_after_a_diffuse_bounce() {
+        let lp = LightPaths { caustics_reflective: false, ..LightPaths::UNLIMITED };
+        let diffuse = LightPath::CAMERA_RAY.bounced(LobeKind::Diffuse, false, false);
+        assert_eq!(lp.drops_caustics(LightPath::CAMERA_RAY), (false, false));
+        assert_eq!(lp.drops_caustics(diffuse), (true, false));
+        assert_eq!(lp.drops_caustics(diffuse.passed_transparent()), (true, false));
+        assert_eq!(lp.drops_caustics(LightPath::CAMERA_RAY.bounced(LobeKind::Diffuse, true, false)), (true, false));
+        assert_eq!(lp.drops_caustics(diffuse.bounced(LobeKind::Glossy, false, false)), (false, false));
+        assert_eq!(lp.drops_caustics(diffuse.scattered_in_volume()), (false, false));
+        assert_eq!(LightPaths::UNLIMITED.drops_caustics(diffuse), (false, false));
+    }
+
+    /// With Reflective Caustics dropped, a half-metallic Principled BSDF is its diffuse base
+    /// alone, unattenuated by the specular layer it lost: f = (1 − metallic) × base / π
+    /// (Cycles: the metal and specular closures are not allocated, the weight keeps
+    /// 1 − metallic); a metal is black, and a smooth glass keeps its refraction alone.
+    #[test]
+    fn dropped_reflection_leaves_the_diffuse_base() {
+        use crate::bsdf::{Bsdf, PbrBsdf};
+        use glam::{Vec2, Vec3};
+        let base = Rgb::new(0.8, 0.5, 0.2);
+        let mut b = Bsdf::Pbr(PbrBsdf::new(base, 0.5, 0.4));
+        b.drop_caustics(true, false);
+        let (wo, wi) = (Vec3::new(0.3, 0.0, 0.95).normalize(), Vec3::new(-0.2, 0.1, 0.97).normalize());
+        let expect = base * (0.5 / std::f32::consts::PI);
+        assert!((b.eval(wo, wi) - expect).abs().max_element() < 1e-5, "{:?} vs {expect:?}", b.eval(wo, wi));
+        let mut metal = Bsdf::Pbr(PbrBsdf::new(base, 1.0, 0.4));
+        metal.drop_caustics(true, false);
+        assert_eq!(metal.eval(wo, wi), Rgb::ZERO);
+        let mut params = crate::bsdf::pbr::PbrParams::opaque(Rgb::ONE, 0.0, 0.0);
+        params.transmission = 1.0;
+        let mut glass = Bsdf::Pbr(PbrBsdf::from_params(&params));
+        glass.drop_caustics(false, true);
+        for uc in [0.01, 0.5, 0.99] {
+            if let Some(s) = glass.sample(wo, uc, Vec2::splat(0.5)) {
+                assert!(s.wi.z > 0.0 || s.f == Rgb::ZERO, "refraction dropped: {s:?}");
+            }
+        }
     }
 
     #[test]

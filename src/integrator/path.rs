@@ -473,6 +473,8 @@ impl PathIntegrator {
             let wo = -st.dir;
             let mat = &ctx.scene.materials[s.material as usize];
             let mut sp = ctx.shade(&s, wo);
+            let (no_reflective, no_refractive) = ctx.light_paths.drops_caustics(st.light_path);
+            sp.bsdf.drop_caustics(no_reflective, no_refractive);
             if ctx.light_paths.filter_glossy > 0.0 {
                 sp.bsdf.blur(ctx.light_paths.filter_glossy, min_pdf);
             }

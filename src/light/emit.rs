@@ -300,7 +300,8 @@ impl Emitters {
                 } else if mat.nodes.is_some() {
                     // A node graph's emission relative to the material's estimate the
                     // power was computed with (exact when the emission is constant).
-                    let local = scene.emission_at(*tri, b.x, b.y);
+                    // A photon carries no negative light (Cycles' light tracing has none).
+                    let local = scene.emission_at(*tri, b.x, b.y).max(Rgb::ZERO);
                     let e = mat.emissive;
                     factor = Rgb::new(ratio(local.x, e.x), ratio(local.y, e.y), ratio(local.z, e.z));
                 } else if mat.unlit {

@@ -224,7 +224,8 @@ pub fn sample_point(scene: &Scene, index: usize, u: Vec2) -> Option<LightPoint> 
                 light,
                 p: q,
                 n,
-                le: scene.emission_at(*tri, b.x, b.y) * coverage,
+                // A light subpath carries no negative light.
+                le: scene.emission_at(*tri, b.x, b.y).max(Rgb::ZERO) * coverage,
                 pdf_pos: 1.0 / area,
                 two_sided: et.two_sided,
             })

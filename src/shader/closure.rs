@@ -390,7 +390,9 @@ impl ClosureOp {
                 };
                 push(color() * w, Lobe::Dielectric(d), None);
             }
-            ClosureKind::Emission => out.emission += color() * (r[self.strength as usize] * w),
+            // Cycles' `emission_setup` keeps a negative colour (it subtracts light), unlike
+            // `bsdf_alloc`, which clamps every BSDF weight at 0 as `color()` does.
+            ClosureKind::Emission => out.emission += v3(r, self.color) * (r[self.strength as usize] * w),
             ClosureKind::Transparent => out.transparent += color() * w,
             ClosureKind::Holdout => out.holdout += w,
             ClosureKind::Principled(p) => principled(p, r, g, self.normal, w, out),
@@ -425,7 +427,8 @@ fn principled(p: &PrincipledRegs, r: &[f32], g: &Geom, normal: Option<Reg>, w: f
         out.transparent += Rgb::splat(w * (1.0 - alpha));
     }
     let w = w * alpha;
-    out.emission += v3(r, p.emission).max(Vec3::ZERO) * (f(p.emission_strength) * w);
+    // Unclamped, as Cycles' `emission_setup` (a BSDF's weight is clamped at 0, emission's not).
+    out.emission += v3(r, p.emission) * (f(p.emission_strength) * w);
     if w <= 0.0 {
         return;
     }

@@ -446,6 +446,9 @@ pub struct Program {
     pub space: crate::scene::working_space::WorkingSpace,
     /// The graph has a Transparent part (alpha must be evaluated).
     pub transparent: bool,
+    /// A Curves Info node is read: 0 on meshes and points as Cycles, not rendered on strands
+    /// (the curves loader names it there).
+    pub reads_curves_info: bool,
     /// A Transparent BSDF's colour may not be grey: pass-throughs and shadow rays carry it
     /// per channel (`Scene::pass_through`, `Scene::transmission`).
     pub tinted_transparency: bool,

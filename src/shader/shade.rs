@@ -299,7 +299,10 @@ pub fn node_emission(
     g.path = path;
     let mut out = Closures::default();
     with_registers(|regs| prog.run(&g, regs, &mut out));
-    out.emission.max(Vec3::ZERO)
+    // Negative too, as Cycles evaluates it for light sampling: what a ray finds and what
+    // next-event estimation finds must agree under MIS. Powers and paths started at lights,
+    // which cannot carry negative light, clamp it themselves.
+    out.emission
 }
 
 impl Scene {

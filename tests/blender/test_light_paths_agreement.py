@@ -39,13 +39,16 @@ clamp MIS-weighted contributions whose split between light and BSDF sampling dif
 the renderers (e.g. the light tree's selection probabilities): there the clamped means may
 differ while the unclamped ones agree.
 
-Not tested here because not rendered yet (the binary names them in a warning): the caustics
-switches.
+* caustics_refractive, caustics_reflective, caustics_both: a glass sphere (Principled,
+  Transmission 1) and a metal sphere (Principled, Metallic 1, Roughness 0.2) in a closed diffuse
+  room lit by an area light, with Refractive, Reflective or both Caustics off: Cycles drops the
+  glass's refraction, the glass's reflection and the metal, at points reached by a diffuse bounce.
 
 Measured (bpy 5.0.1, Caustic/Cycles per channel, before -> after): room_defaults 1.3647 ->
 0.9993, glossy_1 1.1152 -> 0.9950, transmission_2 1.8596 -> 0.9995, volume_0 1.1109 -> 0.9999,
 volume_2 1.0402 -> 0.9998, filter_glossy 0.7553 -> 1.0002, clamp_direct 1.3452 -> 1.0000,
-clamp_indirect 1.2367 -> 0.9998.
+clamp_indirect 1.2367 -> 0.9998, caustics_refractive 1.4482 -> 1.0000, caustics_reflective
+1.0619 -> 0.9942, caustics_both 1.5597 -> 0.9998.
 """
 
 import math
@@ -130,6 +133,25 @@ def fog_cube(scene):
     point_light(scene)
 
 
+def uv_sphere(scene, name, radius, center, material):
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=32, ring_count=16, radius=radius, location=center)
+    obj = bpy.context.active_object
+    obj.name = name
+    bpy.ops.object.shade_smooth()
+    obj.data.materials.append(material)
+
+
+def caustics_room(scene):
+    # The camera sees the spheres too (a camera ray keeps every closure) and the floor around
+    # them, lit through the glass and off the metal: only those paths change.
+    scenes.cube(scene, "Room", 6.0, (0.0, 0.0, 2.9), material=scenes.diffuse_material("Walls", 0.8))
+    glass = scenes.shader_node_material("Glass", "ShaderNodeBsdfPrincipled", **{
+        "Base Color": (1.0, 1.0, 1.0, 1.0), "Roughness": 0.0, "Transmission Weight": 1.0, "IOR": 1.5})
+    uv_sphere(scene, "Glass ball", 0.6, (-0.7, 0.0, 0.5), glass)
+    uv_sphere(scene, "Metal ball", 0.6, (0.7, 0.0, 0.5), metal("Metal", roughness=0.2))
+    scenes.light(scene, "Area", "AREA", location=(0.0, 0.0, 5.0), energy=600.0, size=1.0)
+
+
 def agreement(scene):
     floor_and_box(scene)
     # A grey ceiling just above the light (test_max_bounces.py's): the floor's indirect light
@@ -149,6 +171,10 @@ CASES = {
     "filter_glossy": (mirror_ceiling, 2, {"blur_glossy": 1.0}, {"blur_glossy": 0.0}),
     "clamp_direct": (agreement, 1, {"sample_clamp_direct": 0.3}, {"sample_clamp_direct": 0.0}),
     "clamp_indirect": (agreement, 1, {"sample_clamp_indirect": 0.5}, {"sample_clamp_indirect": 0.0}),
+    "caustics_refractive": (caustics_room, 8, {"caustics_refractive": False}, {"caustics_refractive": True}),
+    "caustics_reflective": (caustics_room, 8, {"caustics_reflective": False}, {"caustics_reflective": True}),
+    "caustics_both": (caustics_room, 8, {"caustics_reflective": False, "caustics_refractive": False},
+                      {"caustics_reflective": True, "caustics_refractive": True}),
 }
 
 

@@ -461,6 +461,29 @@ def blackbody_gradient(name):
     return mat
 
 
+def negative_emission(name):
+    """A maker: an Emission shader whose blue runs from -0.3 to 1 across the plane (a Gradient
+    through a Map Range into Combine Color), red and green 0.5. Cycles keeps a negative emission
+    colour (`emission_setup`; only BSDF weights are clamped at 0, in `bsdf_alloc`). Before: Caustic
+    clamped it at 0, blue 1.10 of Cycles' mean."""
+    mat = new_material(name)
+    tree = mat.node_tree
+    gradient = tree.nodes.new("ShaderNodeTexGradient")
+    to_blue = tree.nodes.new("ShaderNodeMapRange")
+    to_blue.inputs["To Min"].default_value = -0.3
+    to_blue.inputs["To Max"].default_value = 1.0
+    combine = tree.nodes.new("ShaderNodeCombineColor")
+    combine.inputs["Red"].default_value = 0.5
+    combine.inputs["Green"].default_value = 0.5
+    emission = tree.nodes.new("ShaderNodeEmission")
+    emission.inputs["Strength"].default_value = 1.0
+    tree.links.new(gradient.outputs["Fac"], to_blue.inputs["Value"])
+    tree.links.new(to_blue.outputs["Result"], combine.inputs["Blue"])
+    tree.links.new(combine.outputs["Color"], emission.inputs["Color"])
+    tree.links.new(emission.outputs["Emission"], tree.nodes["Material Output"].inputs["Surface"])
+    return mat
+
+
 def ambient_occlusion_open(name):
     """A maker: a Diffuse BSDF coloured by an Ambient Occlusion node's Color output (its Color
     input orange), on the flat plane with nothing above it, where Cycles' occlusion is none
@@ -696,6 +719,7 @@ CASES = {
     "normal_map": (flat_scene, grey_with_normal(normal_map), None),
     "displacement_as_bump": (flat_scene, displaced, None),
     "blackbody": (flat_scene, blackbody_gradient, None),
+    "negative_emission": (flat_scene, negative_emission, None),
     "camera_data": (tilted_flat_scene, camera_data, None),
     "light_falloff_emitter": (sphere_scene, falloff_emitter, None),
     "vector_transform_world_to_object": (turned_flat_scene, transformed("POINT", "WORLD", "OBJECT", "Position"), None),

@@ -182,7 +182,7 @@ impl PbrAt<'_> {
             f += b.metal_fresnel(cos_h) * self.metal_ms * (spec * b.metallic);
         }
         f = (f * scaling + b.sheen_eval(&self.fiber, wo, wi)) * under;
-        if b.coat > 0.0 && !b.smooth_coat {
+        if b.coat > 0.0 && !b.smooth_coat && !b.coat_dropped {
             f += Rgb::splat(b.coat_eval(wo, wi));
         }
         f

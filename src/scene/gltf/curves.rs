@@ -175,6 +175,13 @@ impl Loader<'_> {
                 Some(&copy) => copy,
                 None => {
                     let m = &materials[material as usize];
+                    if m.nodes.as_ref().is_some_and(|p| p.reads_curves_info) {
+                        warnings.push(format!(
+                            "{what}: material '{}' reads Curves Info, which strands do not render yet (its outputs \
+                             are 0 there, as on meshes)",
+                            m.name
+                        ));
+                    }
                     let copy = if m.alpha_mode != AlphaMode::Opaque
                         || m.medium.is_some()
                         || m.null_surface

@@ -256,7 +256,9 @@ pub(crate) fn mean_node_emission(
             1.0 / 3.0,
             1.0 / 3.0,
             crate::scene::light_path::LightPath::LIGHT_EMISSION,
-        );
+        )
+        // A power: negative emission (which rays still find) gives none.
+        .max(glam::Vec3::ZERO);
         n += 1;
     }
     Some(((sum / n as f32).max(glam::Vec3::splat(1e-6)), n))

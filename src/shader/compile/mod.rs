@@ -272,6 +272,8 @@ struct Compiler<'a> {
     height_only: bool,
     /// Set by `displacement` when `height_only`.
     displacement_height: Option<(Reg, bool)>,
+    /// Compiling a volume graph (Volume Info reads grids there, which it does not render).
+    volume: bool,
 }
 
 impl<'a> Compiler<'a> {
@@ -298,6 +300,7 @@ impl<'a> Compiler<'a> {
             method: Method::Bump,
             height_only: false,
             displacement_height: None,
+            volume: false,
         }
     }
 }
@@ -782,6 +785,26 @@ mod tests {
     /// The walk a graph asks for: a Principled BSDF's subsurface behind a Mix Shader, a
     /// Subsurface Scattering node's (entering at its IOR, Skin from its falloff), none for a
     /// Principled without Subsurface Weight; two that differ are named in a warning.
+    /// Curves Info and Volume Info on a surface give Cycles' 0 without a warning (a mesh has
+    /// no curve or volume attributes); Curves Info is flagged for the strands' loader to name.
+    #[test]
+    fn curves_and_volume_info_are_zero_on_surfaces() {
+        let c = compiled(
+            json!([
+                {"name": "H", "type": "ShaderNodeHairInfo"},
+                {"name": "V", "type": "ShaderNodeVolumeInfo"},
+                {"name": "A", "type": "ShaderNodeMath", "props": {"operation": "ADD"},
+                 "inputs": {"Value": {"link": [0, "Intercept"]}, "Value_001": {"link": [1, "Density"]}}},
+                {"name": "E", "type": "ShaderNodeEmission",
+                 "inputs": {"Color": {"link": [0, "Tangent Normal"]}, "Strength": {"link": [2, "Value"]}}}
+            ]),
+            json!([3, "Emission"]),
+        );
+        assert!(c.warnings.is_empty(), "{:?}", c.warnings);
+        assert!(c.program.reads_curves_info);
+        assert_eq!(c.program.constant_emission, Some(Vec3::ZERO));
+    }
+
     #[test]
     fn graphs_carry_their_subsurface_walk() {
         let mix = |a: usize, b: usize, ka: &str, kb: &str| {

@@ -140,6 +140,32 @@ impl Compiler<'_> {
                     }
                 }
             }
+            // Cycles' values away from curves are 0 (no curve primitive, no curve attributes):
+            // Caustic's too, so only strands (`gltf/curves.rs`) and volume graphs warn.
+            "ShaderNodeHairInfo" | "ShaderNodeVolumeInfo" => {
+                let volume_info = kind == "ShaderNodeVolumeInfo";
+                if volume_info && self.volume {
+                    return Ok(false);
+                }
+                let outputs: &[(&str, Ty)] = if volume_info {
+                    &[("Color", Ty::Color), ("Density", Ty::Float), ("Flame", Ty::Float), ("Temperature", Ty::Float)]
+                } else {
+                    &[
+                        ("Is Strand", Ty::Float),
+                        ("Intercept", Ty::Float),
+                        ("Length", Ty::Float),
+                        ("Thickness", Ty::Float),
+                        ("Tangent Normal", Ty::Vector),
+                        ("Random", Ty::Float),
+                    ]
+                };
+                for &(id, ty) in outputs {
+                    if self.is_used(i, id) {
+                        self.out(i, id, ty);
+                        self.prog.reads_curves_info |= !volume_info;
+                    }
+                }
+            }
             "ShaderNodeLightPath" => {
                 self.all_const = false;
                 for (id, o) in PathOutput::ALL {

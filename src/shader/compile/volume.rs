@@ -157,6 +157,7 @@ pub fn compile_volume(name: &str, ext: &NodesExt, shader: usize, images: &[u32])
     let mut tree = vec![false; ext.nodes.len()];
     mark_tree(ext, shader, &mut tree);
     let mut c = Compiler::new(ext, images, name, used);
+    c.volume = true;
     for &i in order.iter().filter(|&&i| !tree[i]) {
         c.node(i)?;
     }
