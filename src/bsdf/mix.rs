@@ -421,18 +421,31 @@ impl Lobes {
     /// Adds a lobe; false when full (the lobe is dropped). A black or non-finite weight adds
     /// nothing.
     pub fn push(&mut self, weight: Rgb, lobe: Lobe) -> bool {
-        if weight.max_element() <= 0.0 || !weight.is_finite() {
-            return true;
-        }
-        let n = self.n as usize;
-        if n >= MAX_LOBES {
-            return false;
-        }
-        self.weights[n] = weight;
-        self.lobes[n] = lobe;
-        self.n += 1;
-        true
+        push_lobe(&mut self.n, &mut self.weights, &mut self.lobes, weight, lobe)
     }
+}
+
+/// Appends (`weight`, `lobe`) to the first `n` of `weights` and `lobes`: false when they are
+/// full (the lobe is dropped); a black or non-finite weight adds nothing.
+#[inline]
+fn push_lobe(
+    n: &mut u8,
+    weights: &mut [Rgb; MAX_LOBES],
+    lobes: &mut [Lobe; MAX_LOBES],
+    weight: Rgb,
+    lobe: Lobe,
+) -> bool {
+    if weight.max_element() <= 0.0 || !weight.is_finite() {
+        return true;
+    }
+    let k = *n as usize;
+    if k >= MAX_LOBES {
+        return false;
+    }
+    weights[k] = weight;
+    lobes[k] = lobe;
+    *n += 1;
+    true
 }
 
 /// Principled BSDFs a mixture holds in full, each with its own frame.
@@ -540,13 +553,11 @@ impl MixBsdf {
 
     /// Adds a lobe in the mixture's frame; false when the mixture is full (the lobe is dropped).
     pub fn push(&mut self, weight: Rgb, lobe: Lobe) -> bool {
-        let n = self.n as usize;
-        let mut l = Lobes { n: self.n, weights: self.weights, lobes: self.lobes };
-        let kept = l.push(weight, lobe);
-        if l.n as usize > n {
-            (self.n, self.weights, self.lobes) = (l.n, l.weights, l.lobes);
-            self.frames[n] = None;
-            self.bump[n] = 0.0;
+        let k = self.n as usize;
+        let kept = push_lobe(&mut self.n, &mut self.weights, &mut self.lobes, weight, lobe);
+        if self.n as usize > k {
+            self.frames[k] = None;
+            self.bump[k] = 0.0;
         }
         kept
     }
@@ -898,6 +909,7 @@ impl MixBsdf {
         a
     }
 }
+
 impl Default for MixBsdf {
     fn default() -> Self {
         Self::new()

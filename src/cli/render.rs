@@ -323,11 +323,8 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         return Err(Error::InterruptedEmpty);
     }
     // Only the path tracer follows the per-kind limits, clamps and Filter Glossy (the others
-    // are warned above): their path-traced parts (media, the catcher pass) follow none either.
-    let light_paths = match res.integrator {
-        IntegratorKind::Path => res.light_paths,
-        _ => crate::integrator::light_paths::LightPaths::UNLIMITED,
-    };
+    // are warned above).
+    let light_paths = res.followed_light_paths();
     let ctx = SceneContext::with_light_sampler(&scene, &accel, res.light_sampler)
         .with_light_paths(light_paths, res.transparent_max)
         .with_motion(motion_accel.as_ref())

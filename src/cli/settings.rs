@@ -57,6 +57,18 @@ pub struct Resolved {
     pub data: crate::passes::DataSettings,
 }
 
+impl Resolved {
+    /// The Light Paths settings the render follows: the resolved ones for the path tracer,
+    /// none for the other integrators (warned by name; their path-traced parts, media and the
+    /// catcher pass, follow none either).
+    pub fn followed_light_paths(&self) -> crate::integrator::light_paths::LightPaths {
+        match self.integrator {
+            IntegratorKind::Path => self.light_paths,
+            _ => crate::integrator::light_paths::LightPaths::UNLIMITED,
+        }
+    }
+}
+
 /// Resolves the photon-mapping settings (flag > scene > default) and checks them.
 pub fn resolve_photon(a: &PhotonArgs, st: &scene::SceneSettings) -> Result<PhotonSettings> {
     let d = PhotonSettings::default();

@@ -10,7 +10,7 @@ use glam::{Mat3, Vec3};
 /// Linear Rec.709 luminance weights (Caustic's `math::luminance`).
 pub const REC709_LUMINANCE: Vec3 = Vec3::new(0.2126, 0.7152, 0.0722);
 
-/// CIE XYZ (D65) to linear Rec.709 (columns), as `shader::sky::xyz_to_rgb_clamped`.
+/// CIE XYZ (D65) to linear Rec.709 (columns), as [`WorkingSpace::xyz_to_rgb_clamped`] writes it out.
 pub const XYZ_TO_REC709: Mat3 = Mat3::from_cols(
     Vec3::new(3.240_454_2, -0.969_266, 0.055_643_4),
     Vec3::new(-1.537_138_5, 1.876_010_8, -0.204_025_9),
@@ -92,11 +92,6 @@ impl WorkingSpace {
         if self.from_rec709.is_none() { crate::math::luminance(c) } else { self.luminance.dot(c) }
     }
 
-    /// CIE XYZ (D65) to the working space (Cycles' `xyz_to_rgb`).
-    pub fn xyz_to_rgb(&self) -> Mat3 {
-        self.xyz_to_rgb
-    }
-
     /// CIE XYZ (D65) to the working space, negative parts clamped (Cycles'
     /// `xyz_to_rgb_clamped`: clamped in the working space, not in Rec.709).
     #[inline]
@@ -156,7 +151,7 @@ mod tests {
         assert_eq!(WorkingSpace::new(&id).unwrap(), WorkingSpace::default());
         let c = Vec3::new(0.1, 0.2, 0.3);
         assert_eq!(WorkingSpace::default().from_rec709(c), c);
-        assert_eq!(WorkingSpace::default().xyz_to_rgb(), XYZ_TO_REC709);
+        assert_eq!(WorkingSpace::default().xyz_to_rgb, XYZ_TO_REC709);
         let flat = WorkingSpaceSettings { name: "x".into(), from_rec709: [[1.0, 0.0, 0.0]; 3] };
         assert!(WorkingSpace::new(&flat).unwrap_err().contains("not invertible"));
         let nan = WorkingSpaceSettings { name: "x".into(), from_rec709: [[f32::NAN; 3]; 3] };

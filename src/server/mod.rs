@@ -562,10 +562,7 @@ fn resolve_settings(scene: &Scene, s: &SettingsEdit) -> Result<RenderSettings, S
         spp: res.spp,
         max_depth: res.max_depth,
         // As `caustic render`: only the path tracer follows them.
-        light_paths: match res.integrator {
-            IntegratorKind::Path => res.light_paths,
-            _ => crate::integrator::light_paths::LightPaths::UNLIMITED,
-        },
+        light_paths: res.followed_light_paths(),
         transparent_max: res.transparent_max,
         seed: res.job_seed,
         filter: res.filter,

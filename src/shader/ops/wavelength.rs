@@ -61,7 +61,10 @@ mod tests {
     fn table_points_and_range() {
         // 555 nm is row 35: (0.5121, 1.0, 0.0057) through the matrix, over 2.52.
         let xyz = Vec3::new(0.5121, 1.0, 0.0057);
-        assert_eq!(wavelength_to_rgb(555.0, &Default::default()), crate::shader::sky::xyz_to_rgb_clamped(xyz) / 2.52);
+        assert_eq!(
+            wavelength_to_rgb(555.0, &Default::default()),
+            crate::scene::working_space::WorkingSpace::default().xyz_to_rgb_clamped(xyz) / 2.52
+        );
         assert_eq!(wavelength_to_rgb(780.0, &Default::default()), Vec3::ZERO);
         assert_eq!(wavelength_to_rgb(370.0, &Default::default()), Vec3::ZERO);
         // Between rows: the linear mix of both.

@@ -256,12 +256,6 @@ impl PhysicalSky {
     }
 }
 
-/// CIE XYZ (D65) to linear Rec.709, negative parts clamped (Cycles' `xyz_to_rgb_clamped`
-/// with Blender's default scene-linear space).
-pub fn xyz_to_rgb_clamped(xyz: Vec3) -> Vec3 {
-    crate::scene::working_space::WorkingSpace::default().xyz_to_rgb_clamped(xyz)
-}
-
 /// Cycles' `spherical_to_direction`.
 fn spherical_to_direction(theta: f32, phi: f32) -> Vec3 {
     Vec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos())
