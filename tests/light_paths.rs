@@ -59,6 +59,26 @@ fn a_diffuse_limit_in_a_diffuse_room_is_max_bounces() {
     assert_ne!(unlimited, max2, "the limit matters in this room");
 }
 
+/// Transparent Max Bounces 0 ends only paths that have passed an alpha surface (Cycles sets
+/// its "terminate on the next surface" flag at a transparent bounce): in a room without alpha
+/// surfaces the image is the one of the default limit bit for bit, in every integrator that
+/// follows the limit; it was black.
+#[test]
+fn transparent_max_bounces_zero_leaves_opaque_paths_alone() {
+    let dir = temp_dir();
+    let d = dir.path();
+    let plain = room(d, "p.gltf", json!({}));
+    for integrator in ["path", "photon", "sppm"] {
+        let base = ["--resolution", "24x16", "--spp", "4", "--max-depth", "4", "--integrator", integrator];
+        let default = render_image(&plain, &d.join(format!("{integrator}_8.exr")), &base, LIMIT);
+        let mut zero = base.to_vec();
+        zero.extend_from_slice(&["--transparent-max-bounces", "0"]);
+        let at_zero = render_image(&plain, &d.join(format!("{integrator}_0.exr")), &zero, LIMIT);
+        assert!(default.iter().any(|p| p[0] > 0.0), "{integrator}: the room is lit");
+        assert_eq!(bits(&at_zero), bits(&default), "{integrator}: Transparent Max Bounces 0 without alpha surfaces");
+    }
+}
+
 /// A flag wins over the scene's key; Clamp Indirect 0.01 darkens the room (its indirect
 /// samples are far above it), Clamp Direct alone leaves the indirect light as it was.
 #[test]

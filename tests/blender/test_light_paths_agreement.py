@@ -39,6 +39,12 @@ clamp MIS-weighted contributions whose split between light and BSDF sampling dif
 the renderers (e.g. the light tree's selection probabilities): there the clamped means may
 differ while the unclamped ones agree.
 
+* transparent_0: the agreement scene (Max Bounces 2) under a half-transparent quad, Transparent
+  Max Bounces 0: a path that passes the quad ends at the next surface after its emission (none
+  here), one that passes no alpha surface shades on, as Cycles sets its "terminate on the next
+  surface" flag only at a transparent bounce. Before, Caustic ended every path at its first
+  surface and rendered the image black (ratio 0), which the "before" figure here (the setting
+  at 8) does not show.
 * caustics_refractive, caustics_reflective, caustics_both: a glass sphere (Principled,
   Transmission 1) and a metal sphere (Principled, Metallic 1, Roughness 0.2) in a closed diffuse
   room lit by an area light, with Refractive, Reflective or both Caustics off: Cycles drops the
@@ -48,7 +54,8 @@ Measured (bpy 5.0.1, Caustic/Cycles per channel, before -> after): room_defaults
 0.9993, glossy_1 1.1152 -> 0.9950, transmission_2 1.8596 -> 0.9995, volume_0 1.1109 -> 0.9999,
 volume_2 1.0402 -> 0.9998, filter_glossy 0.7553 -> 1.0002, clamp_direct 1.3452 -> 1.0000,
 clamp_indirect 1.2367 -> 0.9998, caustics_refractive 1.4482 -> 1.0000, caustics_reflective
-1.0619 -> 0.9942, caustics_both 1.5597 -> 0.9998.
+1.0619 -> 0.9942, caustics_both 1.5597 -> 0.9998; transparent_0 0.0000 (main's binary) ->
+1.0000.
 """
 
 import math
@@ -160,6 +167,18 @@ def agreement(scene):
     point_light(scene)
 
 
+def veiled(scene):
+    """The agreement scene under a half-transparent orange quad (Principled Alpha 0.5) that
+    covers part of the view."""
+    agreement(scene)
+    mat = scenes.diffuse_material("Veil", 0.8)
+    bsdf = mat.node_tree.nodes["Principled BSDF"]
+    bsdf.inputs["Base Color"].default_value = (0.9, 0.6, 0.3, 1.0)
+    bsdf.inputs["Alpha"].default_value = 0.5
+    veil = scenes.plane(scene, "Veil", 1.2, z=1.4, material=mat)
+    veil.location.x = -0.6
+
+
 # case: (scene, max bounces, {Cycles property: value under test}, {property: neutral value}).
 CASES = {
     "room_defaults": (room, None, dict(CYCLES_DEFAULTS),
@@ -171,6 +190,7 @@ CASES = {
     "filter_glossy": (mirror_ceiling, 2, {"blur_glossy": 1.0}, {"blur_glossy": 0.0}),
     "clamp_direct": (agreement, 1, {"sample_clamp_direct": 0.3}, {"sample_clamp_direct": 0.0}),
     "clamp_indirect": (agreement, 1, {"sample_clamp_indirect": 0.5}, {"sample_clamp_indirect": 0.0}),
+    "transparent_0": (veiled, 2, {"transparent_max_bounces": 0}, {"transparent_max_bounces": 8}),
     "caustics_refractive": (caustics_room, 8, {"caustics_refractive": False}, {"caustics_refractive": True}),
     "caustics_reflective": (caustics_room, 8, {"caustics_reflective": False}, {"caustics_reflective": True}),
     "caustics_both": (caustics_room, 8, {"caustics_reflective": False, "caustics_refractive": False},
