@@ -213,7 +213,7 @@ fn homogeneous_blackbody_emission_reaches_equilibrium() {
         "absorption_color": [sigma_a, sigma_a, sigma_a], "blackbody_intensity": 1.0, "blackbody_tint": tint, "temperature": t}}));
     let path = g.write(dir.path(), "glow.gltf");
     let image = render_image(&path, &dir.path().join("glow.exr"), &["--resolution", "4x4", "--spp", "4"], LIMIT);
-    let e = caustic::medium::blackbody::blackbody_emission(t, 1.0, glam::Vec3::from(tint));
+    let e = caustic::medium::blackbody::blackbody_emission(t, 1.0, glam::Vec3::from(tint), &Default::default());
     for p in &image {
         for c in 0..3 {
             let want = e[c] / sigma_a;

@@ -181,6 +181,8 @@ def corner_values(mesh, kind, name, corner_verts, warnings, what):
     data = data.reshape(-1, width)
     if attribute.data_type == "BYTE_COLOR":
         data[:, :3] = srgb_to_linear(data[:, :3])
+        if attribute.domain == "CORNER":
+            data[:, :3] = _corner_bytes_converted(data[:, :3])
     domain = attribute.domain
     if domain == "EDGE":
         data, domain = _edges_to_points(mesh, data, attribute.data_type == "BOOLEAN"), "POINT"
@@ -198,6 +200,21 @@ def corner_values(mesh, kind, name, corner_verts, warnings, what):
                         "infinite values, written as 0")
         values = np.where(bad, np.float32(0.0), values)
     return np.ascontiguousarray(values, dtype=np.float32)
+
+
+def _corner_bytes_converted(linear):
+    """Byte colours of the corner domain as Cycles 5.0.1 reads them under a working space other
+    than Linear Rec.709: decoded from sRGB and converted from Rec.709 to the working space (what
+    the attribute API's `color` gives), where the point domain's are taken as they decode
+    (measured on an emitting plane under ACEScg: a byte colour set to (0.9, 0.3, 0.1) renders
+    (0.91, 0.30, 0.10) in the point domain and (0.66, 0.34, 0.14) in the corner domain;
+    `byte_color_*` cases of test_working_space_agreement.py)."""
+    from .settings import working_space
+    space = working_space()
+    if space is None:
+        return linear
+    to_working = np.array(space["from_rec709"], dtype=np.float64)
+    return (linear.astype(np.float64) @ to_working.T).astype(np.float32)
 
 
 def srgb_to_linear(c):

@@ -495,7 +495,8 @@ class _Builder:
             return
         meshes = self.context.meshes
         if attribute and attribute == self.context.colour_attribute and meshes and \
-                all(mesh.color_attributes.get(attribute) is not None for mesh in meshes):
+                all(mesh.color_attributes.get(attribute) is not None for mesh in meshes) and \
+                not _byte_colours_converted(meshes, attribute):
             props["color_0"] = True
 
     def _pointer_prop(self, node, name, key, value, props):
@@ -742,3 +743,14 @@ def _raw_walk_has_group_or_mute(output):
                 return True
             todo.extend(s for s in node.inputs if s.is_linked)
     return False
+
+
+def _byte_colours_converted(meshes, attribute):
+    """True when a byte colour attribute must go under its own name rather than as the glTF
+    exporter's COLOR_0: under a working space other than Linear Rec.709 the exporter writes
+    every byte colour converted to the working space, which Cycles does in the corner domain
+    only (attributes.corner_values applies its rule)."""
+    from .settings import REC709, working_space_name
+    if working_space_name() == REC709:
+        return False
+    return any(mesh.color_attributes.get(attribute).data_type == "BYTE_COLOR" for mesh in meshes)

@@ -1,9 +1,10 @@
 //! Blackbody emission as Cycles computes it for the Principled Volume: the colour of a
 //! temperature from Cycles' piecewise fit (`svm_math_blackbody_color_rec709`, the table
-//! in `kernel/tables.h`; Rec.709 is Caustic's working space, so no conversion follows) and
-//! the Stefan-Boltzmann intensity the node scales it by.
+//! in `kernel/tables.h`), converted from Rec.709 into the scene's working space as Cycles'
+//! `rec709_to_rgb` does, and the Stefan-Boltzmann intensity the node scales it by.
 
 use crate::math::Rgb;
+use crate::scene::working_space::WorkingSpace;
 
 /// Below this a closure's weight is dropped, as Cycles' `CLOSURE_WEIGHT_CUTOFF`.
 pub const CLOSURE_WEIGHT_CUTOFF: f32 = 1e-5;
@@ -66,8 +67,9 @@ pub fn blackbody_rgb(t: f32) -> Rgb {
 /// Emitted radiance per unit length of the Principled Volume's blackbody term at
 /// temperature `t` (kelvin): σ/π · lerp(1, T⁴, intensity) × colour × tint, with Cycles'
 /// σ = 5.670373e-8 · 1e-6 (its unit scale); zero when the intensity is under
-/// [`CLOSURE_WEIGHT_CUTOFF`] or `blackbody_intensity` is.
-pub fn blackbody_emission(t: f32, blackbody_intensity: f32, tint: Rgb) -> Rgb {
+/// [`CLOSURE_WEIGHT_CUTOFF`] or `blackbody_intensity` is. The colour is in `space` (not
+/// clamped: Cycles keeps the negative channels there too).
+pub fn blackbody_emission(t: f32, blackbody_intensity: f32, tint: Rgb, space: &WorkingSpace) -> Rgb {
     if !(blackbody_intensity > CLOSURE_WEIGHT_CUTOFF) {
         return Rgb::ZERO;
     }
@@ -75,7 +77,7 @@ pub fn blackbody_emission(t: f32, blackbody_intensity: f32, tint: Rgb) -> Rgb {
     if !(intensity > CLOSURE_WEIGHT_CUTOFF) {
         return Rgb::ZERO;
     }
-    tint * intensity * blackbody_rgb(t.max(0.0))
+    tint * intensity * space.from_rec709(blackbody_rgb(t.max(0.0)))
 }
 
 /// σ/π · lerp(1, T⁴, intensity): increasing in `t` for a positive intensity, so a
@@ -108,9 +110,9 @@ mod tests {
     /// Cold voxels emit nothing (the cutoff), hot ones by T⁴.
     #[test]
     fn intensity_follows_stefan_boltzmann() {
-        assert_eq!(blackbody_emission(0.0, 1.0, Rgb::ONE), Rgb::ZERO);
+        assert_eq!(blackbody_emission(0.0, 1.0, Rgb::ONE, &WorkingSpace::default()), Rgb::ZERO);
         let (a, b) = (blackbody_scale(1000.0, 1.0), blackbody_scale(2000.0, 1.0));
         assert!((b / a - 16.0).abs() < 1e-3);
-        assert!(blackbody_emission(1500.0, 1.0, Rgb::ONE).x > 0.0);
+        assert!(blackbody_emission(1500.0, 1.0, Rgb::ONE, &WorkingSpace::default()).x > 0.0);
     }
 }

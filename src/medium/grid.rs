@@ -57,6 +57,8 @@ pub struct GridMedium {
     pub color: Option<Field>,
     /// The shader.
     pub shader: VolumeShader,
+    /// The working space its blackbody colour is given in (Rec.709 until the loader sets it).
+    pub space: crate::scene::working_space::WorkingSpace,
     /// Phase function.
     pub phase: Phase,
     /// Majorant cells per axis.
@@ -167,6 +169,7 @@ impl GridMedium {
             temperature,
             color,
             shader,
+            space: Default::default(),
             phase: Phase::hg(shader.anisotropy),
             cells,
             majorant: Vec::new(),
@@ -241,8 +244,9 @@ impl GridMedium {
         if sh.blackbody_intensity > CLOSURE_WEIGHT_CUTOFF {
             // Not clamped: Cycles keeps the fit's negative channels (colours outside Rec.709,
             // below about 980 K in green) in a volume's emission.
-            let glow =
-                |t: f32| blackbody_emission(sh.temperature * t.max(0.0), sh.blackbody_intensity, sh.blackbody_tint);
+            let glow = |t: f32| {
+                blackbody_emission(sh.temperature * t.max(0.0), sh.blackbody_intensity, sh.blackbody_tint, &self.space)
+            };
             emission += match &self.temperature {
                 // Cycles looks the temperature up stochastically (one voxel, picked with its
                 // trilinear weight), so its mean emission is the blend of the voxels' emission,

@@ -133,7 +133,7 @@ mod tests {
                         "Color": {"value": [0.8, 0.5, 0.3, 1.0]}}}],
             "output": {}}))
         .unwrap();
-        let volume = compile_volume("noise", &ext, 2, &[]).unwrap();
+        let volume = compile_volume("noise", &ext, 2, &[], Default::default()).unwrap();
         let source = ProceduralSource { volume, object: ObjectData::default(), grids: None };
         procedural_medium("noise".into(), Vec3::splat(-1.0), Vec3::ONE, source)
     }
@@ -255,7 +255,7 @@ mod tests {
                         "Emission Strength": {"value": 0.5}}}],
             "output": {}}))
         .unwrap();
-        let volume = compile_volume("fog", &ext, 2, &[]).unwrap();
+        let volume = compile_volume("fog", &ext, 2, &[], Default::default()).unwrap();
         let source = ProceduralSource { volume, object: crate::shader::geom::NO_OBJECT, grids: None };
         world_fog_medium(Vec3::splat(-1.0), Vec3::ONE, source)
     }
@@ -343,7 +343,7 @@ mod tests {
              "inputs": {"Density": {"value": 1.0, "link": [1, "Color"]}}}],
             "output": {}}))
         .unwrap();
-        let mut volume = compile_volume("img", &ext, 2, &[0]).unwrap();
+        let mut volume = compile_volume("img", &ext, 2, &[0], Default::default()).unwrap();
         volume.textures = vec![crate::scene::Texture {
             name: "density".into(),
             width: 2,
@@ -380,7 +380,7 @@ mod tests {
              "inputs": {"Density": {"value": 2.0}, "Anisotropy": {"value": 0.1, "link": [1, "Value"]}}}],
             "output": {}}))
         .unwrap();
-        let volume = compile_volume("aniso", &ext, 2, &[]).unwrap();
+        let volume = compile_volume("aniso", &ext, 2, &[], Default::default()).unwrap();
         assert!(volume.anisotropy_reg.is_some() && volume.warnings.is_empty(), "{:?}", volume.warnings);
         let source = ProceduralSource { volume, object: crate::shader::geom::NO_OBJECT, grids: None };
         let g = procedural_medium("aniso".into(), Vec3::ZERO, Vec3::ONE, source);

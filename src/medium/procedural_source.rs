@@ -118,7 +118,7 @@ impl ProceduralSource {
                 if w == 0.0 {
                     continue;
                 }
-                closure_coefficients(cl.kind, &cl.regs, w, regs, with_emission, &mut total);
+                closure_coefficients(cl.kind, &cl.regs, w, regs, with_emission, &prog.space, &mut total);
             }
             total
         })
@@ -157,7 +157,7 @@ fn pair_weight(volume: &VolumeProgram, regs: &[f32], a: usize, b: usize) -> f32 
         let cl = &volume.closures[k];
         let w = cl.weight.map_or(1.0, |w| regs[w as usize]);
         let mut c = PointCoefficients { sigma_a: Rgb::ZERO, sigma_s: Rgb::ZERO, emission: Rgb::ZERO };
-        closure_coefficients(cl.kind, &cl.regs, w, regs, false, &mut c);
+        closure_coefficients(cl.kind, &cl.regs, w, regs, false, &volume.program.space, &mut c);
         c.sigma_s.element_sum()
     };
     let (sa, sb) = (scattering(a), scattering(b));
@@ -165,7 +165,7 @@ fn pair_weight(volume: &VolumeProgram, regs: &[f32], a: usize, b: usize) -> f32 
 }
 
 /// Adds one volume shader's coefficients, weighted by `w`, to `total` (`regs` after the
-/// program ran).
+/// program ran; a blackbody's colour in `space`).
 #[inline]
 fn closure_coefficients(
     kind: VolumeKind,
@@ -173,6 +173,7 @@ fn closure_coefficients(
     w: f32,
     regs: &[f32],
     with_emission: bool,
+    space: &crate::scene::working_space::WorkingSpace,
     total: &mut PointCoefficients,
 ) {
     let f = |i: u32| regs[i as usize];
@@ -211,7 +212,7 @@ fn closure_coefficients(
     }
     if kind == VolumeKind::Principled {
         let t = f(r.temperature).max(0.0);
-        let bb = blackbody_emission(t, f(r.blackbody_intensity).max(0.0), v(r.blackbody_tint).max(Rgb::ZERO));
+        let bb = blackbody_emission(t, f(r.blackbody_intensity).max(0.0), v(r.blackbody_tint).max(Rgb::ZERO), space);
         total.emission += bb * w;
     }
 }
@@ -261,7 +262,7 @@ mod tests {
              "inputs": {"Fac": {"value": 0.25}, "Shader": {"link": [2, "Shader"]}, "Shader_001": {"link": [3, "Volume"]}}}],
             "output": {}}))
         .unwrap();
-        let v = compile_volume("m", &ext, 4, &[]).unwrap();
+        let v = compile_volume("m", &ext, 4, &[], Default::default()).unwrap();
         assert!(v.warnings.is_empty(), "{:?}", v.warnings);
         let h = constant_medium(Box::new(v)).expect("a constant tree");
         // Weights 0.75 (the pair) and 0.25 (Principled).
@@ -280,7 +281,8 @@ mod tests {
                         "Emission Coefficients": {"value": [0.0, 0.5, 0.0]}}}],
             "output": {}}))
         .unwrap();
-        let h = constant_medium(Box::new(compile_volume("c", &coeffs, 0, &[]).unwrap())).expect("constant");
+        let h = constant_medium(Box::new(compile_volume("c", &coeffs, 0, &[], Default::default()).unwrap()))
+            .expect("constant");
         assert_eq!(
             (h.sigma_a, h.sigma_s, h.emission),
             (Vec3::new(0.1, 0.2, 0.3), Vec3::new(1.0, 2.0, 3.0), Vec3::new(0.0, 0.5, 0.0))
@@ -298,7 +300,8 @@ mod tests {
              "inputs": {"Shader": {"link": [0, "Volume"]}, "Shader_001": {"link": [1, "Volume"]}}}],
             "output": {}}))
         .unwrap();
-        let h = constant_medium(Box::new(compile_volume("p", &pair, 2, &[]).unwrap())).expect("constant");
+        let h = constant_medium(Box::new(compile_volume("p", &pair, 2, &[], Default::default()).unwrap()))
+            .expect("constant");
         let Phase::HgPair { g1, g2, w2 } = h.phase else { panic!("{:?}", h.phase) };
         assert!((g1 - 0.7).abs() < 1e-6 && (g2 + 0.3).abs() < 1e-6 && (w2 - 0.4 / 1.4).abs() < 1e-6, "{:?}", h.phase);
     }

@@ -283,7 +283,7 @@ mod tests {
     /// shader the last node), its attributes read from `grids` by name.
     fn medium(nodes: Value, grids: &[(&str, Field)], dims: [u32; 3]) -> GridMedium {
         let ext: NodesExt = serde_json::from_value(json!({"version": 1, "nodes": nodes, "output": {}})).unwrap();
-        let volume = compile_volume("m", &ext, ext.nodes.len() - 1, &[]).unwrap();
+        let volume = compile_volume("m", &ext, ext.nodes.len() - 1, &[], Default::default()).unwrap();
         assert!(volume.warnings.is_empty(), "{:?}", volume.warnings);
         let slots = volume
             .program
@@ -494,7 +494,7 @@ mod tests {
             {"name": "S", "type": "ShaderNodeVolumeScatter",
              "inputs": {"Density": {"value": 1.0, "link": [1, "Value"]}, "Color": {"value": [1.0, 1.0, 1.0, 1.0]}}}]}))
         .unwrap();
-        let volume = compile_volume("m", &ext, 2, &[]).unwrap();
+        let volume = compile_volume("m", &ext, 2, &[], Default::default()).unwrap();
         let grids = VolumeGrids {
             dims: [2, 2, 2],
             index_from_world: Affine3A::IDENTITY,

@@ -1,7 +1,9 @@
 """Blender 5.0's Color Management > Working Space (ACEScg, Linear Rec.2020) rendered as Cycles
 renders it (issues 19 and 20): what Caustic decodes or computes as RGB itself (colour image
-textures, Blackbody, Wavelength, the Sky Texture, luminance) is given in the working space by
-the add-on's matrix (`extras.caustic.working_space`), data images are not converted.
+textures, Blackbody, Wavelength, the Sky Texture, luminance, a Principled Volume's blackbody)
+is given in the working space by the add-on's matrix (`extras.caustic.working_space`), data
+images are not converted; byte colour attributes as Cycles 5.0.1 reads them (decoded in the
+point domain, decoded and converted in the corner domain).
 
 Each case is the agreement scene of test_cycles_agreement.py with one feature added, checked
 per channel by `assert_mean_matches_cycles` (two seeds per renderer, 5 sigma from 8x8-pixel
@@ -148,6 +150,87 @@ def luminance_links(scene):
     sun(scene)
 
 
+def volume_blackbody(scene):
+    """The box is a fire: a Principled Volume with Blackbody Intensity 1 at 1500 K (no surface).
+    The medium's blackbody colour is the working space's, as Cycles' `rec709_to_rgb`. Before
+    (the add-on warning that it stays in Rec.709) under ACEScg 1.053 / 0.991 / 0.994 (Rec.2020
+    1.050 / 0.991 / 0.995); after 1.0002.
+    The box floats 5 cm above the floor: with its bottom face in the floor's plane the two
+    renderers light the floor under it differently (Cycles 5.0.1 not at all through an
+    orthographic view from above, Caustic a little: the floor's rays look back for the face
+    they start on), a contact of a volume-only boundary that neither renders as a medium
+    standing on a floor would light it."""
+    bpy.data.objects["Box"].location.z += 0.05
+    tree = bpy.data.materials["Light"].node_tree
+    tree.nodes.remove(tree.nodes["Principled BSDF"])
+    volume = tree.nodes.new("ShaderNodeVolumePrincipled")
+    volume.inputs["Density"].default_value = 0.5
+    volume.inputs["Blackbody Intensity"].default_value = 1.0
+    volume.inputs["Temperature"].default_value = 1500.0
+    tree.links.new(volume.outputs["Volume"], tree.nodes["Material Output"].inputs["Volume"])
+    sun(scene)
+
+
+def volume_blackbody_graph(scene):
+    """The same fire with its Density from a Noise texture and an extra Emission Color from a
+    Blackbody node at 3000 K (a volume graph: Blackbody computed in the working space there
+    too). Before under ACEScg 1.111 / 0.979 / 0.970 (Rec.2020 1.106 / 0.979 / 0.976); after
+    0.999-0.9998."""
+    volume_blackbody(scene)
+    tree = bpy.data.materials["Light"].node_tree
+    volume = tree.nodes["Principled Volume"]
+    noise = tree.nodes.new("ShaderNodeTexNoise")
+    noise.inputs["Scale"].default_value = 2.0
+    tree.links.new(noise.outputs["Fac"], volume.inputs["Density"])
+    bb = tree.nodes.new("ShaderNodeBlackbody")
+    bb.inputs["Temperature"].default_value = 3000.0
+    tree.links.new(bb.outputs["Color"], volume.inputs["Emission Color"])
+    volume.inputs["Emission Strength"].default_value = 0.5
+
+
+def byte_colors(domain):
+    """The floor's base colour from a byte colour attribute of `domain` (sRGB bytes) read by
+    a Color Attribute node. Cycles 5.0.1 converts the point domain's decoded bytes to the
+    working space and takes the corner domain's as they decode (attributes.py
+    `_corner_bytes_converted`). Before (the glTF exporter's COLOR_0, converted in both domains)
+    under ACEScg: point 1.308 / 0.959 / 1.112, corner 0.9999-1.0001; after 0.9999-1.0001."""
+    def case(scene):
+        mesh = bpy.data.objects["Floor"].data
+        attr = mesh.color_attributes.new("Paint", "BYTE_COLOR", domain)
+        for i, d in enumerate(attr.data):
+            d.color = (0.9, 0.3, 0.1, 1.0) if i % 2 else (0.2, 0.8, 0.3, 1.0)
+        tree = bpy.data.materials["Grey"].node_tree
+        node = tree.nodes.new("ShaderNodeVertexColor")
+        node.layer_name = "Paint"
+        tree.links.new(node.outputs["Color"], tree.nodes["Principled BSDF"].inputs["Base Color"])
+        sun(scene)
+    return case
+
+
+def byte_colors_beside_float(scene):
+    """Byte colours of both domains beside a float colour attribute, mixed (each goes under its
+    own name, not as COLOR_0). Before under ACEScg (both decoded, neither converted): 1.141 /
+    0.982 / 0.950; after 0.9999-1.0000."""
+    mesh = bpy.data.objects["Floor"].data
+    tree = bpy.data.materials["Grey"].node_tree
+    mix = tree.nodes.new("ShaderNodeMix")
+    mix.data_type = "RGBA"
+    mix.inputs["Factor"].default_value = 0.5
+    for k, (name, kind, domain) in enumerate((("Point", "BYTE_COLOR", "POINT"), ("Corner", "BYTE_COLOR", "CORNER"))):
+        attr = mesh.color_attributes.new(name, kind, domain)
+        for i, d in enumerate(attr.data):
+            d.color = (0.9, 0.3, 0.1, 1.0) if (i + k) % 2 else (0.2, 0.8, 0.3, 1.0)
+        node = tree.nodes.new("ShaderNodeVertexColor")
+        node.layer_name = name
+        tree.links.new(node.outputs["Color"], mix.inputs[6 + k])
+    mesh.color_attributes.new("Float", "FLOAT_COLOR", "POINT")
+    tree.links.new(mix.outputs[2], tree.nodes["Principled BSDF"].inputs["Base Color"])
+    box = bpy.data.materials["Light"].node_tree
+    node = box.nodes.new("ShaderNodeVertexColor")
+    node.layer_name = "Float"
+    sun(scene)
+
+
 CASES = {
     "srgb_texture": srgb_texture,
     "exr_texture": exr_texture,
@@ -156,6 +239,11 @@ CASES = {
     "wavelength_emission": wavelength_emission,
     "sky_world": sky_world,
     "luminance_links": luminance_links,
+    "volume_blackbody": volume_blackbody,
+    "volume_blackbody_graph": volume_blackbody_graph,
+    "byte_color_point": byte_colors("POINT"),
+    "byte_color_corner": byte_colors("CORNER"),
+    "byte_colors_beside_float": byte_colors_beside_float,
 }
 
 

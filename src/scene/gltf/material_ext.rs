@@ -85,6 +85,7 @@ impl Loader<'_> {
                     ext.temperature,
                     ext.blackbody_intensity,
                     Vec3::from(ext.blackbody_tint),
+                    &self.space,
                 ),
         })
     }

@@ -30,7 +30,8 @@ impl Loader<'_> {
             images.push(self.node_image(name, k, img)? - first as u32);
         }
         let textures = self.textures.split_off(first);
-        let mut v = compile_volume(name, graph, shader, &images).map_err(|e| self.err(format!("{what}: {e}")))?;
+        let mut v =
+            compile_volume(name, graph, shader, &images, self.space).map_err(|e| self.err(format!("{what}: {e}")))?;
         v.textures = textures;
         Ok(v)
     }

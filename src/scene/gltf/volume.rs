@@ -174,6 +174,7 @@ impl Loader<'_> {
         )?;
         let mut medium = GridMedium::new(v.name.clone(), file.dims, world, fields, shader);
         medium.phase = phase;
+        medium.space = self.space;
         Ok(medium)
     }
 }

@@ -137,8 +137,15 @@ fn mark_tree(ext: &NodesExt, i: usize, tree: &mut [bool]) {
 
 /// Compiles the volume graph `ext` whose shader tree's root is node `shader`, for material
 /// `name`; `images[k]` is graph image k's index in the list the caller puts in
-/// [`VolumeProgram::textures`]. Errors name the node.
-pub fn compile_volume(name: &str, ext: &NodesExt, shader: usize, images: &[u32]) -> Result<VolumeProgram, String> {
+/// [`VolumeProgram::textures`]; what the graph computes as RGB (Blackbody, Wavelength, the
+/// Principled Volume's blackbody) is in `space`. Errors name the node.
+pub fn compile_volume(
+    name: &str,
+    ext: &NodesExt,
+    shader: usize,
+    images: &[u32],
+    space: crate::scene::working_space::WorkingSpace,
+) -> Result<VolumeProgram, String> {
     let order = check_and_sort(ext)?;
     let Some(node) = ext.nodes.get(shader) else {
         return Err(format!("the volume shader is node {shader} but the graph has {} nodes", ext.nodes.len()));
@@ -158,6 +165,7 @@ pub fn compile_volume(name: &str, ext: &NodesExt, shader: usize, images: &[u32])
     mark_tree(ext, shader, &mut tree);
     let mut c = Compiler::new(ext, images, name, used);
     c.volume = true;
+    c.prog.space = space;
     for &i in order.iter().filter(|&&i| !tree[i]) {
         c.node(i)?;
     }
@@ -407,7 +415,7 @@ mod tests {
              "inputs": {"Density": {"value": 1.0, "link": [1, "Value"]}, "Anisotropy": {"value": 0.3}}}],
             "output": {}}))
         .unwrap();
-        let v = compile_volume("m", &ext, 2, &[]).unwrap();
+        let v = compile_volume("m", &ext, 2, &[], Default::default()).unwrap();
         assert_eq!(v.closures.len(), 1);
         assert_eq!(v.closures[0].kind, VolumeKind::Principled);
         assert!(!v.constant, "the Density follows a Noise Texture");
@@ -419,10 +427,12 @@ mod tests {
             {"name": "PV", "type": "ShaderNodeVolumeScatter", "inputs": {"Density": {"link": [0, "Alpha"]}}}],
             "output": {}}))
         .unwrap();
-        let v = compile_volume("m", &img, 1, &[0]).unwrap();
+        let v = compile_volume("m", &img, 1, &[0], Default::default()).unwrap();
         assert!(v.program.ops.iter().any(|op| matches!(op, Op::Image(t) if t.texture == Some(0))));
-        assert!(compile_volume("m", &img, 1, &[]).unwrap_err().contains("not in the graph's images"));
-        assert!(compile_volume("m", &img, 0, &[0]).unwrap_err().contains("not a volume shader"));
+        assert!(
+            compile_volume("m", &img, 1, &[], Default::default()).unwrap_err().contains("not in the graph's images")
+        );
+        assert!(compile_volume("m", &img, 0, &[0], Default::default()).unwrap_err().contains("not a volume shader"));
     }
 
     /// Volume Scatter and Volume Absorption added, mixed by a constant factor with a Volume
@@ -449,7 +459,7 @@ mod tests {
              "inputs": {"Shader": {"link": [4, "Shader"]}, "Shader_001": {"link": [5, "BSDF"]}}}],
             "output": {}}))
         .unwrap();
-        let v = compile_volume("m", &ext, 7, &[]).unwrap();
+        let v = compile_volume("m", &ext, 7, &[], Default::default()).unwrap();
         let kinds: Vec<_> = v.closures.iter().map(|c| c.kind).collect();
         assert_eq!(kinds, [VolumeKind::Scatter, VolumeKind::Absorption, VolumeKind::Coefficients]);
         assert!(v.constant);
@@ -467,7 +477,7 @@ mod tests {
         let mut three = ext.clone();
         three.nodes[1].kind = "ShaderNodeVolumeScatter".into();
         three.nodes[1].inputs.insert("Anisotropy".into(), serde_json::from_value(json!({"value": -0.5})).unwrap());
-        let v = compile_volume("m", &three, 7, &[]).unwrap();
+        let v = compile_volume("m", &three, 7, &[], Default::default()).unwrap();
         assert_eq!(v.phase_pair, None);
         assert!(v.warnings.iter().any(|w| w.contains("phase function differs")), "{:?}", v.warnings);
 
@@ -478,7 +488,7 @@ mod tests {
             .unwrap(),
         );
         varying.nodes[4].inputs.get_mut("Fac").unwrap().link = Some((8, "Fac".into()));
-        let v = compile_volume("m", &varying, 7, &[]).unwrap();
+        let v = compile_volume("m", &varying, 7, &[], Default::default()).unwrap();
         assert!(!v.constant);
         assert!(v.program.ops.iter().any(|op| matches!(op, Op::MixWeight { .. })));
     }
