@@ -24,7 +24,8 @@ from .light_linking import LIGHT_LINKING_EXTENSION, light_linking_extension
 from .pass_ids import (MATERIAL_PASS_EXTENSION, OBJECT_PASS_EXTENSION, material_pass_extension,
                        object_pass_extension)
 from .motion import MOTION_EXTENSION
-from .visibility import OBJECT_VISIBILITY_EXTENSION, object_visibility_extension
+from .visibility import (OBJECT_SHADING_EXTENSION, OBJECT_VISIBILITY_EXTENSION, object_shading_extension,
+                         object_shading_warnings, object_visibility_extension)
 from .world import WORLD_EXTENSION, world_extension
 
 # The add-on's package (this module lives in its `export` subpackage).
@@ -58,6 +59,12 @@ class glTF2ExportUserExtension:
                 hidden = object_visibility_extension(blender_object, view_layer)
                 if hidden:
                     attach_extension(gltf2_node, OBJECT_VISIBILITY_EXTENSION, hidden)
+                shading = object_shading_extension(blender_object)
+                if shading:
+                    attach_extension(gltf2_node, OBJECT_SHADING_EXTENSION, shading)
+                for warning in object_shading_warnings(blender_object):
+                    if warning not in state.warnings:
+                        state.warnings.append(warning)
                 ids = object_pass_extension(blender_object)
                 if ids:
                     attach_extension(gltf2_node, OBJECT_PASS_EXTENSION, ids)

@@ -27,6 +27,28 @@ def object_visibility_extension(blender_object, view_layer=None):
     return value or None
 
 
+OBJECT_SHADING_EXTENSION = "CAUSTIC_object_shading"
+
+
+def object_shading_extension(blender_object):
+    """Object > Shading settings Cycles renders: the Shadow Terminator's Geometry Offset
+    (Blender's default 0.1: shadow rays of smooth-shaded triangles leave from the smooth patch
+    near the terminator); None when it is 0. Its Shading Offset is named in `warnings` when
+    set (not rendered)."""
+    original = getattr(blender_object, "original", blender_object)
+    offset = float(getattr(original, "shadow_terminator_geometry_offset", 0.0))
+    return {"shadow_terminator_offset": offset} if offset > 0.0 else None
+
+
+def object_shading_warnings(blender_object):
+    """What of Object > Shading is not rendered: the Shadow Terminator's Shading Offset."""
+    original = getattr(blender_object, "original", blender_object)
+    if float(getattr(original, "shadow_terminator_shading_offset", 0.0)) > 1.0:
+        return [f"object '{original.name}': its Shadow Terminator Shading Offset is not rendered "
+                "(Caustic shades as with 0)"]
+    return []
+
+
 def is_indirect_only(blender_object, view_layer=None):
     """Whether an Indirect Only collection of `view_layer` holds the object there."""
     if view_layer is None:

@@ -109,6 +109,19 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         reporter.warning(&w);
         run_warnings.push(w);
     }
+    // BDPT's and VCM's connections and light sampling shadow from the flat triangle.
+    if matches!(res.integrator, IntegratorKind::Bdpt | IntegratorKind::Vcm)
+        && !scene.ray_visibility.terminator.is_empty()
+    {
+        let w = format!(
+            "Object > Shading > Shadow Terminator > Geometry Offset: {} shadows smooth-shaded triangles from the flat \
+             triangle (coarse smooth meshes darker at their terminator than in Cycles); the path tracer and the photon \
+             integrators follow it",
+            res.integrator.name()
+        );
+        reporter.warning(&w);
+        run_warnings.push(w);
+    }
     // Photons leave emitters whose graph reads the Light Path node without a camera path
     // (`light::path_emitters`); BDPT and VCM take those emitters from the camera side.
     let photon_name = match res.integrator {

@@ -73,7 +73,12 @@ pub fn surface_nee_at(
     // A light hidden from some kinds of ray lights only the other classes' closures.
     let excluded = ctx.light_excludes(index);
     let f = if excluded.none() { at.eval(wi_local) } else { at.eval_visible(wi_local, excluded) } * wi_local.z.abs();
-    let consistent = (wi_local.z > 0.0) == (ls.wi.dot(s.ng) > 0.0);
+    // A light above the shading normal's horizon but below the triangle's plane: Cycles
+    // traces it from the smooth patch where the object has a Shadow Terminator offset (the
+    // triangle itself may then block it), which lights a coarse smooth mesh up to its
+    // shading terminator; without one such a light is behind the surface.
+    let consistent =
+        (wi_local.z > 0.0) == (ls.wi.dot(s.ng) > 0.0) || (wi_local.z > 0.0 && terminator_cutoff(ctx, s) > 0.0);
     if f == Rgb::ZERO || ls.li == Rgb::ZERO || !consistent {
         return (Rgb::ZERO, wi_local, index);
     }
@@ -106,10 +111,11 @@ pub fn shadow_transmittance(
     media: MediumStack,
     light: usize,
 ) -> Rgb {
+    let p = terminator_origin(ctx, s, ls.wi);
     if ctx.media_act || ctx.tinted_shadows {
         media::light_transmittance_of(
             ctx,
-            s.p,
+            p,
             Some(s.ng),
             ls,
             ctx.medium_after(s, ls.wi, media),
@@ -117,8 +123,35 @@ pub fn shadow_transmittance(
             s.light_path.shadow(),
         )
     } else {
-        Rgb::splat(ctx.visibility_of(s.p, s.ng, ls, Some(light), s.light_path.shadow()))
+        Rgb::splat(ctx.visibility_of(p, s.ng, ls, Some(light), s.light_path.shadow()))
     }
+}
+
+/// Where a shadow ray toward `wi` leaves surface `s`: moved onto the smooth patch of its
+/// triangle by its object's Shadow Terminator Geometry Offset, as Cycles' next-event
+/// estimation does (`scene::terminator`).
+#[inline]
+fn terminator_origin(ctx: &SceneContext, s: &SurfaceHit, wi: Vec3) -> Vec3 {
+    let cutoff = terminator_cutoff(ctx, s);
+    if !(cutoff > 0.0) {
+        return s.p;
+    }
+    crate::scene::terminator::shadow_ray_origin(&ctx.scene.mesh, s.tri, s.bary, s.p, s.ns, s.ng, wi, cutoff)
+}
+
+/// The Shadow Terminator Geometry Offset of the triangle `s` lies on (0 for none, and for
+/// strands, points and moving triangles, which keep their origin).
+#[inline]
+fn terminator_cutoff(ctx: &SceneContext, s: &SurfaceHit) -> f32 {
+    let scene = ctx.scene;
+    let cutoff = scene.ray_visibility.terminator_offset(s.tri);
+    if !(cutoff > 0.0) || crate::curves::is_curve(s.tri) || crate::points::is_point(s.tri) {
+        return 0.0;
+    }
+    if scene.motion.as_ref().is_some_and(|mo| mo.blurs() && mo.moving(s.tri).is_some()) {
+        return 0.0;
+    }
+    cutoff
 }
 
 /// Light arriving at medium point `p` by NEE, times the phase function (MIS against

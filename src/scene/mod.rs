@@ -16,6 +16,7 @@ pub mod mesh;
 pub mod panorama;
 pub mod shader_aovs;
 pub mod shading;
+pub mod terminator;
 pub mod texture;
 pub mod visibility;
 pub mod working_space;

@@ -68,6 +68,9 @@ pub struct RayVisibility {
     pub catcher: Vec<bool>,
     /// Names of the shadow catcher objects, for warnings.
     pub catcher_objects: Vec<String>,
+    /// Per triangle: its object's Shadow Terminator Geometry Offset (`scene::terminator`).
+    /// Empty when no object has one.
+    pub terminator: Vec<f32>,
 }
 
 /// An object that some kind of ray does not see.
@@ -119,6 +122,21 @@ impl RayVisibility {
         self.holdout.get(tri as usize).copied().unwrap_or(false)
     }
 
+    /// Gives triangles `range` (one object's, just appended; `total` so far) the object's
+    /// Shadow Terminator Geometry Offset.
+    pub fn mark_terminator(&mut self, range: std::ops::Range<usize>, total: usize, offset: f32) {
+        if offset > 0.0 {
+            self.terminator.resize(total, 0.0);
+            self.terminator[range].fill(offset);
+        }
+    }
+
+    /// Triangle `tri`'s Shadow Terminator Geometry Offset (0: none).
+    #[inline]
+    pub fn terminator_offset(&self, tri: u32) -> f32 {
+        self.terminator.get(tri as usize).copied().unwrap_or(0.0)
+    }
+
     /// Marks triangles `range` (one object's, just appended; `total` so far) as a shadow catcher.
     pub fn mark_catcher(&mut self, name: &str, range: std::ops::Range<usize>, total: usize) {
         self.catcher.resize(total, false);
@@ -143,6 +161,9 @@ impl RayVisibility {
         }
         if !self.catcher.is_empty() {
             self.catcher.resize(total, false);
+        }
+        if !self.terminator.is_empty() {
+            self.terminator.resize(total, 0.0);
         }
     }
 }

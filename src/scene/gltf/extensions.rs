@@ -366,6 +366,16 @@ impl ObjectVisibilityExt {
     }
 }
 
+/// `CAUSTIC_object_shading` on a mesh's node: Blender's Object > Shading settings that
+/// Cycles renders (docs/contract.md).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct ObjectShadingExt {
+    /// Shadow Terminator > Geometry Offset (≥ 0; Blender's default 0.1).
+    #[serde(default)]
+    pub(super) shadow_terminator_offset: f32,
+}
+
 /// `CAUSTIC_light_linking` on an emitter's node (a light or an emissive mesh): the objects it
 /// lights, by node name (docs/contract.md).
 #[derive(Deserialize)]

@@ -433,6 +433,21 @@ impl<'a> Loader<'a> {
                             ray_visibility.mark_catcher(&node_name, first..total, total);
                         }
                     }
+                    if let Some(ext) = node.extension_value("CAUSTIC_object_shading") {
+                        let shading: extensions::ObjectShadingExt =
+                            serde_json::from_value(ext.clone()).map_err(|e| {
+                                self.err(format!("node {node_index} ('{node_name}'): bad CAUSTIC_object_shading: {e}"))
+                            })?;
+                        let offset = shading.shadow_terminator_offset;
+                        if !(offset.is_finite() && offset >= 0.0) {
+                            return Err(self.err(format!(
+                                "node {node_index} ('{node_name}'): CAUSTIC_object_shading's shadow_terminator_offset \
+                                 {offset} is not a finite number ≥ 0"
+                            )));
+                        }
+                        let total = mesh.triangles.len();
+                        ray_visibility.mark_terminator(first..total, total, offset);
+                    }
                     if linked {
                         linking.tri_object.resize(mesh.triangles.len(), *node_index as u32);
                     }
