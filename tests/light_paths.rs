@@ -59,6 +59,20 @@ fn a_diffuse_limit_in_a_diffuse_room_is_max_bounces() {
     assert_ne!(unlimited, max2, "the limit matters in this room");
 }
 
+/// Transparent Max Bounces 0 ends only the paths that passed an alpha surface (Cycles sets
+/// its terminate flag in the transparent pass alone): in a room without one it changes
+/// nothing. Before, every path ended at its first surface and the image was black.
+#[test]
+fn transparent_zero_leaves_opaque_paths_alone() {
+    let dir = temp_dir();
+    let d = dir.path();
+    let plain = room(d, "p.gltf", json!({}));
+    let zero = room(d, "z.gltf", json!({"transparent_max_bounces": 0}));
+    let a = bits(&render_image(&plain, &d.join("p.exr"), &ARGS, LIMIT));
+    let b = bits(&render_image(&zero, &d.join("z.exr"), &ARGS, LIMIT));
+    assert_eq!(a, b);
+}
+
 /// A flag wins over the scene's key; Clamp Indirect 0.01 darkens the room (its indirect
 /// samples are far above it), Clamp Direct alone leaves the indirect light as it was.
 #[test]

@@ -671,10 +671,11 @@ impl<'a> SceneContext<'a> {
 
     /// A path of state `path` ends at the surface it has reached, after its emission:
     /// it has passed Transparent Max Bounces alpha surfaces (Cycles'
-    /// `PATH_RAY_TERMINATE_ON_NEXT_SURFACE`).
+    /// `PATH_RAY_TERMINATE_ON_NEXT_SURFACE`, set only by a transparent pass: at 0 a path
+    /// that passed none goes on).
     #[inline]
     pub fn ends_at_surface(&self, path: LightPath) -> bool {
-        u32::from(path.transparent) >= self.transparent_max
+        path.transparent > 0 && u32::from(path.transparent) >= self.transparent_max
     }
 
     /// Samples light `index` from point `p` (the light's own `sample_li`).
