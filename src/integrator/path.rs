@@ -184,8 +184,8 @@ impl PathIntegrator {
     }
 
     /// Radiance scattered at a point `p` in a medium of phase function `phase` toward a
-    /// path arriving along `dir` with throughput `beta` after `depth` events: NEE there,
-    /// then the path continued by phase sampling.
+    /// path arriving along `dir` with throughput `beta` after `depth` events (the caller
+    /// checks `depth` < Max Bounces): NEE there, then the path continued by phase sampling.
     #[allow(clippy::too_many_arguments)]
     pub fn scatter_in_medium(
         &self,
@@ -249,7 +249,11 @@ impl PathIntegrator {
             prev_tri: NO_OBJECT,
             light_path: path.scattered_in_volume(),
         };
-        if st.depth < self.max_depth && st.survives(self.rr_depth, u_rr) {
+        // The phase-sampled ray is traced even past Max Bounces (as `trace` does after its
+        // last event): the emission it finds, crossed lights, media and the surface it hits,
+        // is the other half of the MIS estimate whose light-sampled half NEE gave above; the
+        // continued path ends at its next event.
+        if st.survives(self.rr_depth, u_rr) {
             stats.bounce += 1;
             radiance += self.continue_path_filed(ctx, st, sampler, stats, filing);
         }
