@@ -188,7 +188,13 @@ fn h_function_solver_is_accurate() {
 /// Renders the top face of a thick box in a uniform world of radiance 1, from a
 /// camera at `elevation` (radians above the horizon), and returns the pixels with the
 /// cosine of each pixel's view angle to the face.
-fn semi_infinite_view(g: GltfBuilder, elevation: f32, spp: &str) -> Vec<([f32; 4], f64)> {
+fn semi_infinite_view(
+    g: GltfBuilder,
+    elevation: f32,
+    spp: &str,
+    max_depth: &str,
+    extra: &[&str],
+) -> Vec<([f32; 4], f64)> {
     let dir = temp_dir();
     let mut g = g;
     let view = Vec3::new(0.0, -elevation.sin(), -elevation.cos());
@@ -198,22 +204,21 @@ fn semi_infinite_view(g: GltfBuilder, elevation: f32, spp: &str) -> Vec<([f32; 4
     g.settings(json!({"transparent": false}));
     let path = g.write(dir.path(), "semi.gltf");
     let (w, h) = (16u32, 16u32);
-    let px = render(
-        &path,
-        &dir.path().join("s.exr"),
-        &[
-            "--resolution",
-            &format!("{w}x{h}"),
-            "--spp",
-            spp,
-            "--max-depth",
-            "1024",
-            "--filter",
-            "box",
-            "--filter-width",
-            "0.00001",
-        ],
-    );
+    let resolution = format!("{w}x{h}");
+    let mut args = vec![
+        "--resolution",
+        &resolution,
+        "--spp",
+        spp,
+        "--max-depth",
+        max_depth,
+        "--filter",
+        "box",
+        "--filter-width",
+        "0.00001",
+    ];
+    args.extend_from_slice(extra);
+    let px = render(&path, &dir.path().join("s.exr"), &args);
     let scene = caustic::scene::gltf::load(&path).unwrap();
     let cam = CameraRays::new(&scene.cameras[0], w, h);
     let mut out = Vec::new();
@@ -239,7 +244,7 @@ fn semi_infinite_medium_reflectance() {
     let sigma_a = albedo.map(|a| ((1.0 - a) * st) as f32);
     let m = medium_material(&mut g, sigma_s, sigma_a, false);
     g.cube([-10.0, -4.0, -10.0], [10.0, 0.0, 10.0], m);
-    let px = semi_infinite_view(g, 0.9, "64");
+    let px = semi_infinite_view(g, 0.9, "64", "1024", &[]);
     for (c, &a) in albedo.iter().enumerate() {
         let h = HFunction::new(a);
         let v: Vec<f64> = px.iter().map(|(p, _)| p[c] as f64).collect();
@@ -263,6 +268,20 @@ fn semi_infinite_medium_reflectance() {
 /// and this read 1.5% dark).
 #[test]
 fn subsurface_walk_reflectance() {
+    subsurface_walk_reflectance_at("1024", &[]);
+}
+
+/// The same walk under Max Bounces 0 and a clamp on indirect light so small that it would
+/// blacken anything indirect: the same image. Cycles counts no bounce for the walk
+/// (`subsurface_bounce` moves no counter; the exit is never terminated), so the exit's
+/// estimate and the world found by its diffuse bounce are bounce 0's, direct. Before, the
+/// walk counted as an event: at --max-depth 1 the box was black.
+#[test]
+fn a_subsurface_walk_is_no_bounce() {
+    subsurface_walk_reflectance_at("1", &["--clamp-indirect", "1e-6"]);
+}
+
+fn subsurface_walk_reflectance_at(max_depth: &str, extra: &[&str]) {
     let colour = [0.1f32, 0.3, 0.5];
     let mut g = GltfBuilder::new();
     g.use_ext("CAUSTIC_materials_subsurface");
@@ -277,7 +296,7 @@ fn subsurface_walk_reflectance() {
         }
     }));
     g.cube([-10.0, -2.0, -10.0], [10.0, 0.0, 10.0], m);
-    let px = semi_infinite_view(g, 0.9, "256");
+    let px = semi_infinite_view(g, 0.9, "256", max_depth, extra);
     let eta = 1.01f64;
     for c in 0..3 {
         let alpha = caustic::medium::single_scattering_albedo(colour[c], 0.0) as f64;

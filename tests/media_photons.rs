@@ -128,3 +128,46 @@ fn photon_integrators_gather_emitting_media() {
     }
     assert!(failed.is_empty(), "disagree with the path tracer: {failed:?}");
 }
+
+/// The glowing cube under a small emitting quad facing it (a light that MIS weighs), at Max
+/// Bounces 0 and 1: where the photon integrators' camera paths scatter in the medium at their
+/// last event, the path tracer's `scatter_in_medium` traces the phase-sampled ray as `trace`
+/// does, for the medium's glow and the quad's MIS-weighted light it finds. Before, it stopped
+/// there: next-event estimation's half of the MIS estimate alone, and no glow.
+fn lit_glowing_cube(g: &mut GltfBuilder) {
+    glowing_cube(g);
+    g.use_ext("KHR_materials_emissive_strength");
+    let lamp = g.material(json!({
+        "pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1], "metallicFactor": 0.0},
+        "emissiveFactor": [1.0, 1.0, 1.0],
+        "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 4.0}}
+    }));
+    // Facing down (−y) over the cube.
+    g.mesh(&[[-0.5, 2.0, -1.4], [0.5, 2.0, -1.4], [0.5, 2.0, -0.4], [-0.5, 2.0, -0.4]], &[0, 1, 2, 0, 2, 3], lamp);
+}
+
+#[test]
+fn the_last_event_in_a_medium_keeps_its_phase_ray() {
+    const FEW: u32 = 6;
+    let dir = temp_dir();
+    let d = dir.path();
+    let scene = room(d, "lit.gltf", lit_glowing_cube);
+    let regions = regions(16, 16);
+    let jensen = ["--integrator", "photon", "--spp", "16", "--photons", "20000", "--max-radius", "0.05"];
+    let sppm = ["--integrator", "sppm", "--sppm-iterations", "32", "--sppm-radius", "0.05"];
+    let depths = ["1", "2"];
+    let alpha = sidak(depths.len() * 2 * regions.len());
+    let mut failed = Vec::new();
+    for depth in depths {
+        let common = vec!["--resolution", "16x16", "--max-depth", depth];
+        let seeded = Seeded { dir: d, common, seeds: FEW, regions: &regions, limit: LIMIT };
+        let reference = seeded.means(&scene, &["--spp", "128"]);
+        assert!(reference[0].iter().all(|&m| m > 1e-3), "the scene is black");
+        for (name, flags) in [("PM", &jensen[..]), ("SPPM", &sppm[..])] {
+            let m = seeded.means(&scene, flags);
+            let tag = format!("max depth {depth} {name}");
+            failed.extend(disagreeing(&tag, &regions, &m, &reference, alpha).into_iter().map(|r| format!("{tag} {r}")));
+        }
+    }
+    assert!(failed.is_empty(), "disagree with the path tracer: {failed:?}");
+}

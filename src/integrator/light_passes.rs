@@ -28,9 +28,6 @@ enum First {
 #[derive(Clone, Copy, Debug)]
 pub struct Tally {
     first: First,
-    /// Depth of the vertex whose next-event estimate is direct (0; 1 after a subsurface
-    /// walk from the first hit, whose exit stands for the first event).
-    direct_depth: u32,
 }
 
 /// Diffuse and glossy shares of a BSDF value `f` whose diffuse-class part is `fd`, for a
@@ -50,17 +47,17 @@ pub fn shares_at(at: &BsdfAt, wi: Vec3) -> (Rgb, Rgb) {
 
 impl Default for Tally {
     fn default() -> Self {
-        Tally { first: First::None, direct_depth: 0 }
+        Tally { first: First::None }
     }
 }
 
 impl Tally {
     /// The tally of a camera path handed over after its first event, whose class is
-    /// `first` (a surface's diffuse and glossy shares; None: in a medium), and whose
-    /// next-event estimate at depth `direct_depth` is the direct one (BDPT's continuations).
-    pub fn continued(first: Option<(Rgb, Rgb)>, direct_depth: u32) -> Self {
+    /// `first` (a surface's diffuse and glossy shares; None: in a medium) (BDPT's
+    /// continuations).
+    pub fn continued(first: Option<(Rgb, Rgb)>) -> Self {
         let first = first.map_or(First::Volume, |(d, g)| First::Surface(d, g));
-        Tally { first, direct_depth }
+        Tally { first }
     }
 
     /// The first event was a surface bounce with these shares.
@@ -89,11 +86,11 @@ impl Tally {
         }
     }
 
-    /// The first event was a subsurface walk: diffuse, and its exit's estimate is direct.
+    /// The first event was a subsurface walk: diffuse (the walk adds no depth, so its
+    /// exit's estimate is the direct one, as Cycles').
     pub fn subsurface(&mut self) {
         if self.first == First::None {
             self.first = First::Surface(Rgb::ONE, Rgb::ZERO);
-            self.direct_depth = 1;
         }
     }
 
@@ -109,14 +106,14 @@ impl Tally {
         if depth == 0 {
             out.aov.add3(if world { slot::ENV } else { slot::EMIT }, c);
         } else {
-            self.file(out, depth == self.direct_depth + 1, self.first, c);
+            self.file(out, depth == 1, self.first, c);
         }
     }
 
     /// Next-event estimate `c` at a vertex after `depth` events; `shares`: the BSDF's at
     /// the light direction (None in a medium or at a subsurface exit).
     pub fn estimated(&self, out: &mut CameraSample, depth: u32, c: Rgb, shares: Option<(Rgb, Rgb)>) {
-        let direct = depth == self.direct_depth;
+        let direct = depth == 0;
         let class = match (direct && depth == 0, shares) {
             (true, Some((d, g))) => First::Surface(d, g),
             (true, None) => First::Volume,

@@ -184,8 +184,8 @@ impl PathIntegrator {
     }
 
     /// Radiance scattered at a point `p` in a medium of phase function `phase` toward a
-    /// path arriving along `dir` with throughput `beta` after `depth` events: NEE there,
-    /// then the path continued by phase sampling.
+    /// path arriving along `dir` with throughput `beta` after `depth` events (the caller
+    /// checks `depth` < Max Bounces): NEE there, then the path continued by phase sampling.
     #[allow(clippy::too_many_arguments)]
     pub fn scatter_in_medium(
         &self,
@@ -249,7 +249,11 @@ impl PathIntegrator {
             prev_tri: NO_OBJECT,
             light_path: path.scattered_in_volume(),
         };
-        if st.depth < self.max_depth && st.survives(self.rr_depth, u_rr) {
+        // The phase-sampled ray is traced even past Max Bounces (as `trace` does after its
+        // last event): the emission it finds, crossed lights, media and the surface it hits,
+        // is the other half of the MIS estimate whose light-sampled half NEE gave above; the
+        // continued path ends at its next event.
+        if st.survives(self.rr_depth, u_rr) {
             stats.bounce += 1;
             radiance += self.continue_path_filed(ctx, st, sampler, stats, filing);
         }
@@ -557,10 +561,12 @@ impl PathIntegrator {
                 };
                 // Chosen with probability q = its weight: the weight over q is 1, and the
                 // base colour is the walk's to give (Cycles divides it out the same way).
+                // The walk is no event: Cycles' `subsurface_bounce` moves no counter, and its
+                // exit is never terminated, so the exit lights at the entry's depth and only
+                // its diffuse bounce counts (Max Bounces, Diffuse Bounces, the clamps).
                 st.beta *= exit.weight;
-                st.depth += 1;
                 let (se, n_g, n_s) = (exit.se, exit.n_g, exit.n_s);
-                if st.depth >= self.max_depth || !st.beta.is_finite() || st.beta == Rgb::ZERO {
+                if !st.beta.is_finite() || st.beta == Rgb::ZERO {
                     break;
                 }
                 let [v_light, v_lx, v_ly, _] = sampler.next_4d();
@@ -569,14 +575,12 @@ impl PathIntegrator {
                     tally.subsurface();
                 }
                 let (le, light) = exit_nee_light(ctx, &se, n_g, n_s, st.media, v_light, Vec2::new(v_lx, v_ly), stats);
-                // Cycles counts no bounce at the entry: the exit's estimate is at the entry's.
-                let c = ctx.light_paths.estimated(st.beta * le, st.depth - 1);
+                let c = ctx.light_paths.estimated(st.beta * le, st.depth);
                 radiance += c;
                 if grouping {
                     out.groups.add(groups.of_light(light), c);
                 }
                 if passes {
-                    // A walk from the first hit makes this exit's estimate the direct one.
                     tally.estimated(out, st.depth, c, Some((Rgb::ONE, Rgb::ZERO)));
                 }
                 let local = cosine_hemisphere(Vec2::new(v_dx, v_dy));
@@ -660,7 +664,8 @@ impl PathIntegrator {
     /// Radiance of the subsurface part of the material at `s` seen along `wo`, per unit
     /// of its weight (`PbrBsdf::subsurface_weight`): enter, walk, leave through the
     /// Lambertian exit and path trace on. For integrators that handle the rest of the
-    /// material otherwise (the photon integrators); `depth` counts the events before `s`.
+    /// material otherwise (the photon integrators); `depth` counts the events before `s`,
+    /// and the walk adds none (the exit's diffuse bounce does).
     #[allow(clippy::too_many_arguments)]
     pub fn subsurface_from(
         &self,
@@ -701,9 +706,9 @@ impl PathIntegrator {
         let Some(exit) = self.subsurface(ctx, s, sp, wo, &ss, beta, u) else {
             return Rgb::ZERO;
         };
+        // The walk is no event (as the path tracer's, Cycles'): the exit lights at `depth`.
         let beta = beta * exit.weight;
-        let depth = depth + 1;
-        if depth >= self.max_depth || !beta.is_finite() || beta == Rgb::ZERO {
+        if !beta.is_finite() || beta == Rgb::ZERO {
             return Rgb::ZERO;
         }
         let (se, n_g, n_s) = (exit.se, exit.n_g, exit.n_s);
@@ -716,8 +721,8 @@ impl PathIntegrator {
                 f.out.groups.add(ctx.scene.light_groups.of_light(light), radiance);
             }
             if let Some(t) = f.tally.as_mut() {
-                // As the path tracer: the walk is a diffuse event, its exit's estimate
-                // direct when the walk started at the first hit.
+                // As the path tracer: the walk is the first event's diffuse class, its
+                // exit's estimate direct when the walk started at the first hit.
                 t.subsurface();
                 t.estimated(f.out, depth, radiance, Some((Rgb::ONE, Rgb::ZERO)));
             }

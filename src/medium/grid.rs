@@ -72,6 +72,9 @@ pub struct GridMedium {
     /// tracked point by point; outside it a ray sees the coefficients of the box point where
     /// it enters or leaves (`tracking.rs`, `Piece`).
     pub unbounded: bool,
+    /// An unbounded grid's majorant beyond its box, where rays follow the graph for a while
+    /// (`tracking.rs`): the largest cell's, a sampled estimate of the graph's range.
+    pub outer_majorant: f32,
 }
 
 impl Field {
@@ -175,6 +178,7 @@ impl GridMedium {
             majorant: Vec::new(),
             procedural: None,
             unbounded: false,
+            outer_majorant: 0.0,
         };
         g.majorant = g.build_majorant();
         g

@@ -70,14 +70,15 @@ pub fn procedural_medium(name: String, lo: Vec3, hi: Vec3, source: ProceduralSou
 /// The world's textured volume (Blender's World Volume with a node graph): a procedural
 /// grid medium over the box [lo, hi] of the scene's surfaces and cameras, grown on each side
 /// by half its extent so that paths leaving the scene still cross varying fog for a
-/// while, marked `unbounded`: outside the box a ray sees the coefficients of the box point
-/// where it enters or leaves it (`tracking.rs`). Object and Generated coordinates are the
+/// while, marked `unbounded`: outside the box a free flight follows the graph for a while,
+/// then holds the coefficients it reached (`tracking.rs`). Object and Generated coordinates are the
 /// position, as Cycles gives them in a world volume (measured with Blender 5.0: a Gradient
 /// on either matches one on the position).
 pub fn world_fog_medium(lo: Vec3, hi: Vec3, source: ProceduralSource) -> GridMedium {
     let grow = (hi - lo).max(Vec3::splat(1e-3)) * 0.5;
     let mut g = procedural_medium("world".into(), lo - grow, hi + grow, source);
     g.unbounded = true;
+    g.outer_majorant = g.majorant.iter().copied().fold(0.0, f32::max);
     g
 }
 
@@ -260,7 +261,8 @@ mod tests {
         world_fog_medium(Vec3::splat(-1.0), Vec3::ONE, source)
     }
 
-    /// Rays through the world's fog that start outside its box, leave it, or never meet it:
+    /// Rays through the world's fog that start outside its box, leave it, or never meet it
+    /// (beyond the box the graph is followed, then held where it is constant along them):
     /// ratio tracking, delta tracking's pass and scatter weights and its emission average to
     /// the closed-form field's quadrature (σt = 0.4 clamp(x, 0, 1) in every channel, σs = colour
     /// × that, E = 0.5); unbounded rays are exactly dark where the fog is dense at infinity and
@@ -276,6 +278,9 @@ mod tests {
             ("enters then leaves", Vec3::new(5.0, 0.3, -0.2), Vec3::NEG_X, 7.5),
             ("misses the box", Vec3::new(3.0, 0.0, 0.0), Vec3::Y, 4.0),
             ("oblique, out through +x", Vec3::new(-0.5, 0.2, 0.1), Vec3::new(1.0, 0.4, -0.3).normalize(), 5.0),
+            // Out through +y at x = 0.8, into fog that thickens beyond the box (to x = 1):
+            // the graph followed there, which the boundary's held σt 0.32 missed.
+            ("out through +y, thickening", Vec3::new(0.2, 0.0, 0.0), Vec3::new(0.3, 1.0, 0.0).normalize(), 6.0),
         ];
         for (label, org, dir, t_max) in rays {
             let density = |s: f32| 0.4 * (org.x + dir.x * s).clamp(0.0, 1.0) as f64;

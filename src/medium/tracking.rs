@@ -16,8 +16,9 @@
 //! over the tentative collisions. Both end paths whose weight (largest magnitude) has
 //! fallen under [`ROULETTE_BELOW`] by Russian roulette.
 //!
-//! An unbounded grid (the world's textured fog) is tracked so inside its box; outside it
-//! a ray crosses homogeneous stretches, sampled exactly (`held_stretches`).
+//! An unbounded grid (the world's textured fog) is tracked so inside its box; outside it a
+//! ray tracks the graph on for [`FOLLOWED_DEPTH`] optical depths and then crosses a
+//! homogeneous stretch, sampled exactly (`held_stretches`, `Beyond`).
 //!
 //! The random numbers are a [`WalkRng`]: from the path's sample for free flights, from
 //! a hash of the ray for shadow rays (which have no sample dimensions to spare), so a
@@ -105,6 +106,7 @@ fn box_span(g: &GridMedium, o: Vec3, d: Vec3) -> (f32, f32) {
 /// A stretch [t0, t1) of a ray outside an unbounded grid's box, with the homogeneous
 /// medium it sees there: the coefficients at the box point where the ray enters or leaves
 /// the box (or, for a ray that never meets it, at the box point nearest its origin).
+#[derive(Clone, Copy)]
 struct Held {
     t0: f32,
     t1: f32,
@@ -117,6 +119,7 @@ struct Held {
 /// leave the scene: Cycles evaluates the graph along them to infinity, which no finite
 /// majorant bounds; holding the boundary's coefficients keeps their transmittance,
 /// emission and scattering exact for a medium that is constant outside the box (contract).
+/// Rays follow the graph into them first ([`Beyond`]).
 #[inline]
 fn held_stretches(g: &GridMedium, org: Vec3, dir: Vec3, t_max: f32, with_emission: bool) -> [Option<Held>; 2] {
     if !g.unbounded || !(t_max > 0.0) {
@@ -239,49 +242,135 @@ pub fn delta_tracking(
     emitted: &mut Rgb,
 ) -> (FreeFlight, Rgb) {
     let mut w = Rgb::ONE;
-    let index = |t: f32| g.index_from_world.transform_point3(org + dir * t);
+    let ray = Ray { g, org, dir };
     let [before, after] = held_stretches(g, org, dir, t_max, true);
     if let Some(h) = &before
-        && let Some(event) = held_flight(h, beta, &mut w, rng, emitted)
+        && let Some(event) = beyond_flight(&ray, h, beta, &mut w, rng, emitted)
     {
         return event;
     }
     for (t0, t1, mu) in MajorantWalk::new(g, org, dir, t_max) {
-        if !(mu > 0.0) {
-            continue;
-        }
-        let mut t = t0;
-        loop {
-            t -= (1.0 - rng.next_f32()).ln() / mu;
-            if t >= t1 {
-                break;
-            }
-            let c = g.coefficients(index(t), true);
-            *emitted += w * c.emission / mu;
-            // Negative where σt exceeds a sampled majorant (module doc).
-            let sigma_n = Rgb::splat(mu) - c.sigma_a - c.sigma_s;
-            let bw = (beta * w).abs();
-            let (ps, pn) = ((c.sigma_s * bw).element_sum(), (sigma_n.abs() * bw).element_sum());
-            if !(ps + pn > 0.0) {
-                // Only absorption at the majorant: the path ends here.
-                return (FreeFlight::Pass { weight: Rgb::ZERO }, Rgb::ZERO);
-            }
-            let p_scatter = ps / (ps + pn);
-            if rng.next_f32() < p_scatter {
-                return (FreeFlight::Scatter { t, weight: w * c.sigma_s / (mu * p_scatter) }, w);
-            }
-            w *= sigma_n / (mu * (1.0 - p_scatter));
-            if !roulette(&mut w, rng) {
-                return (FreeFlight::Pass { weight: Rgb::ZERO }, Rgb::ZERO);
-            }
+        if let Some(event) = track(&ray, t0, t1, mu, beta, &mut w, rng, emitted) {
+            return event;
         }
     }
     if let Some(h) = &after
-        && let Some(event) = held_flight(h, beta, &mut w, rng, emitted)
+        && let Some(event) = beyond_flight(&ray, h, beta, &mut w, rng, emitted)
     {
         return event;
     }
     (FreeFlight::Pass { weight: w }, w)
+}
+
+/// A ray through grid `g` (world space).
+struct Ray<'a> {
+    g: &'a GridMedium,
+    org: Vec3,
+    dir: Vec3,
+}
+
+impl Ray<'_> {
+    /// The index-space point at distance `t`.
+    #[inline]
+    fn index(&self, t: f32) -> Vec3 {
+        self.g.index_from_world.transform_point3(self.org + self.dir * t)
+    }
+}
+
+/// Spectral tracking over [t0, t1) against majorant `mu` for a path of throughput `beta`
+/// that reached t0 with tracking weight `w`: the event that ends the flight (a scattering,
+/// or weight zero once absorbed or ended by roulette), None when it passes t1 (`w` updated).
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn track(
+    ray: &Ray,
+    t0: f32,
+    t1: f32,
+    mu: f32,
+    beta: Rgb,
+    w: &mut Rgb,
+    rng: &mut WalkRng,
+    emitted: &mut Rgb,
+) -> Option<(FreeFlight, Rgb)> {
+    if !(mu > 0.0) {
+        return None;
+    }
+    let mut t = t0;
+    loop {
+        t -= (1.0 - rng.next_f32()).ln() / mu;
+        if t >= t1 {
+            return None;
+        }
+        let c = ray.g.coefficients(ray.index(t), true);
+        *emitted += *w * c.emission / mu;
+        // Negative where σt exceeds a sampled majorant (module doc).
+        let sigma_n = Rgb::splat(mu) - c.sigma_a - c.sigma_s;
+        let bw = (beta * *w).abs();
+        let (ps, pn) = ((c.sigma_s * bw).element_sum(), (sigma_n.abs() * bw).element_sum());
+        if !(ps + pn > 0.0) {
+            // Only absorption at the majorant: the path ends here.
+            return Some((FreeFlight::Pass { weight: Rgb::ZERO }, Rgb::ZERO));
+        }
+        let p_scatter = ps / (ps + pn);
+        if rng.next_f32() < p_scatter {
+            return Some((FreeFlight::Scatter { t, weight: *w * c.sigma_s / (mu * p_scatter) }, *w));
+        }
+        *w *= sigma_n / (mu * (1.0 - p_scatter));
+        if !roulette(w, rng) {
+            return Some((FreeFlight::Pass { weight: Rgb::ZERO }, Rgb::ZERO));
+        }
+    }
+}
+
+/// Optical depth, at the box boundary's least σt, over which a free flight beyond an
+/// unbounded grid's box follows the graph before holding the coefficients it reached:
+/// e^−13.8 = 10⁻⁶ of the light there is left to the held rest, for a fog as dense beyond
+/// as at its boundary.
+const FOLLOWED_DEPTH: f32 = 13.8;
+
+/// How a stretch `h` beyond an unbounded grid's box is crossed: the graph tracked point by
+/// point over [h.t0, t_far) against majorant `mu` (the cells' largest, or the boundary's σt:
+/// unbiased for any), as Cycles follows it to infinity, for the first [`FOLLOWED_DEPTH`];
+/// then `rest`, held at the coefficients of the point reached. A stretch whose boundary does
+/// not attenuate some channel is held whole (its unbounded emission diverges, as Cycles').
+struct Beyond {
+    t_far: f32,
+    mu: f32,
+    rest: Option<Held>,
+}
+
+fn beyond(ray: &Ray, h: &Held, with_emission: bool) -> Beyond {
+    let sigma_t = h.medium.sigma_a + h.medium.sigma_s;
+    let least = sigma_t.min_element();
+    if !(least > 0.0) {
+        return Beyond { t_far: h.t0, mu: 0.0, rest: Some(*h) };
+    }
+    let t_far = (h.t0 + FOLLOWED_DEPTH / least).min(h.t1);
+    let mu = sigma_t.max_element().max(ray.g.outer_majorant);
+    let rest = (t_far < h.t1).then(|| {
+        let far = ray.index(t_far);
+        let c = ray.g.coefficients(far, with_emission);
+        let phase = ray.g.phase_at(ray.g.world_from_index.transform_point3(far));
+        let medium = HomogeneousMedium { sigma_a: c.sigma_a, sigma_s: c.sigma_s, phase, emission: c.emission };
+        Held { t0: t_far, t1: h.t1, medium }
+    });
+    Beyond { t_far, mu, rest }
+}
+
+/// The free flight across the stretch `h` beyond an unbounded grid's box ([`Beyond`]).
+fn beyond_flight(
+    ray: &Ray,
+    h: &Held,
+    beta: Rgb,
+    w: &mut Rgb,
+    rng: &mut WalkRng,
+    emitted: &mut Rgb,
+) -> Option<(FreeFlight, Rgb)> {
+    let b = beyond(ray, h, true);
+    if let Some(event) = track(ray, h.t0, b.t_far, b.mu, beta, w, rng, emitted) {
+        return Some(event);
+    }
+    b.rest.and_then(|rest| held_flight(&rest, beta, w, rng, emitted))
 }
 
 /// The free flight across a held stretch (homogeneous: exact sampling) for a path that
@@ -312,32 +401,49 @@ fn held_flight(h: &Held, beta: Rgb, w: &mut Rgb, rng: &mut WalkRng, emitted: &mu
 /// Transmittance through grid `g` from `org` along unit `dir` over `t_max`: ratio tracking.
 pub fn ratio_tracking(g: &GridMedium, org: Vec3, dir: Vec3, t_max: f32, rng: &mut WalkRng) -> Rgb {
     let mut tr = Rgb::ONE;
+    let ray = Ray { g, org, dir };
     let [before, after] = held_stretches(g, org, dir, t_max, false);
-    for h in before.iter().chain(&after) {
-        tr *= h.medium.transmittance(h.t1 - h.t0);
+    let followed = [&before, &after].map(|h| h.as_ref().map(|h| (h.t0, beyond(&ray, h, false))));
+    // The held rests first: one that is opaque (an unbounded stretch to the world through fog)
+    // ends the ray without tracking.
+    for (_, b) in followed.iter().flatten() {
+        if let Some(rest) = &b.rest {
+            tr *= rest.medium.transmittance(rest.t1 - rest.t0);
+        }
     }
     if tr == Rgb::ZERO {
         return tr;
     }
-    for (t0, t1, mu) in MajorantWalk::new(g, org, dir, t_max) {
-        if !(mu > 0.0) {
-            continue;
-        }
-        let mut t = t0;
-        loop {
-            t -= (1.0 - rng.next_f32()).ln() / mu;
-            if t >= t1 {
-                break;
-            }
-            let c = g.coefficients(g.index_from_world.transform_point3(org + dir * t), false);
-            // Negative where σt exceeds a sampled majorant: kept, so the mean stays exact.
-            tr *= Rgb::ONE - (c.sigma_a + c.sigma_s) / mu;
-            if !roulette(&mut tr, rng) {
-                return Rgb::ZERO;
-            }
+    let cells = MajorantWalk::new(g, org, dir, t_max);
+    let spans = followed.iter().flatten().map(|(t0, b)| (*t0, b.t_far, b.mu)).chain(cells);
+    for (t0, t1, mu) in spans {
+        if !ratio_track(&ray, t0, t1, mu, &mut tr, rng) {
+            return Rgb::ZERO;
         }
     }
     tr
+}
+
+/// Ratio tracking over [t0, t1) against majorant `mu`, multiplying `tr`; false once roulette
+/// ends it.
+#[inline]
+fn ratio_track(ray: &Ray, t0: f32, t1: f32, mu: f32, tr: &mut Rgb, rng: &mut WalkRng) -> bool {
+    if !(mu > 0.0) {
+        return true;
+    }
+    let mut t = t0;
+    loop {
+        t -= (1.0 - rng.next_f32()).ln() / mu;
+        if t >= t1 {
+            return true;
+        }
+        let c = ray.g.coefficients(ray.index(t), false);
+        // Negative where σt exceeds a sampled majorant: kept, so the mean stays exact.
+        *tr *= Rgb::ONE - (c.sigma_a + c.sigma_s) / mu;
+        if !roulette(tr, rng) {
+            return false;
+        }
+    }
 }
 
 #[cfg(test)]

@@ -31,13 +31,13 @@ pub(crate) enum First {
 
 impl First {
     /// The path tracer's tally for a continuation of a camera path whose first event is of
-    /// this class and whose estimate at depth `direct_depth` is direct.
-    pub(crate) fn tally(self, direct_depth: u32) -> crate::integrator::light_passes::Tally {
+    /// this class.
+    pub(crate) fn tally(self) -> crate::integrator::light_passes::Tally {
         let shares = match self {
             First::Surface(d, g) => Some((d, g)),
             First::Volume => None,
         };
-        crate::integrator::light_passes::Tally::continued(shares, direct_depth)
+        crate::integrator::light_passes::Tally::continued(shares)
     }
 }
 

@@ -117,7 +117,7 @@ impl BdptIntegrator {
                     if self.strategy.is_none() && (i as u32) < self.max_depth && beta.is_finite() && beta != Rgb::ZERO {
                         // The first event is this medium vertex, or the surface before.
                         let first = if i == 0 { First::Volume } else { first };
-                        let tally = self.ledger.light_passes.then(|| first.tally(0));
+                        let tally = self.ledger.light_passes.then(|| first.tally());
                         let filing = Filing { tally, groups: self.ledger.light_groups, out: &mut *out };
                         let mut continuation = self.continuation();
                         // VCM merges here what reached this point through delta bounces
@@ -229,8 +229,8 @@ impl BdptIntegrator {
                     // From the first hit the walk is the first event (diffuse) and its exit's
                     // estimate the direct one; later, all of it is indirect.
                     let tally = self.ledger.light_passes.then(|| match i {
-                        0 => First::Surface(Rgb::ONE, Rgb::ZERO).tally(1),
-                        _ => first.tally(0),
+                        0 => First::Surface(Rgb::ONE, Rgb::ZERO).tally(),
+                        _ => first.tally(),
                     });
                     let filing = Filing { tally, groups: self.ledger.light_groups, out: &mut *out };
                     *radiance += self.continuation().subsurface_from_filed(

@@ -421,12 +421,10 @@ fn follow(
                 if !(q > 0.0) || v_rr >= q || !exit.weight.is_finite() {
                     return;
                 }
+                // The walk is no event (the camera side's count, as Cycles'): the exit's
+                // diffuse bounce alone leads to the next hit.
                 path.beta *= exit.weight / q;
-                path.depth += 1;
                 glossy_only = false;
-                if path.depth >= job.max_depth {
-                    return;
-                }
                 let (se, n_g, n_s) = (exit.se, exit.n_g, exit.n_s);
                 let wi = crate::math::Frame::from_normal(n_s).to_world(cosine_hemisphere(Vec2::new(v_dx, v_dy)));
                 if wi.dot(n_g) <= 0.0 {
