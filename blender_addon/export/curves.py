@@ -321,7 +321,7 @@ def strand_material(doc, material, state, folder, what):
     if material is None:
         return None
     graph = needs_graph(material)
-    index = graph_material(doc, material, state, folder, state.warnings, what) if graph else \
+    index = graph_material(doc, material, state, folder, state.warnings, what, strands=True) if graph else \
         _gltf_material(doc, material, state.warnings, what)
     node = surface_node(material)
     if not graph and node is not None and node.type == "BSDF_HAIR_PRINCIPLED":
