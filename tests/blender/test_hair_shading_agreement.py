@@ -10,13 +10,14 @@ its 1 % model allowance, per channel, as test_hair.py's Principled Hair cases, w
 geometry (ribbons along the Catmull-Rom curve) already brings within it.
 """
 
+import importlib
+import json
+
 import bpy
 import pytest
 
 from test_cycles_agreement import MODEL_ALLOWANCE, assert_mean_matches_cycles
 from test_hair import furry_sphere
-
-pytestmark = pytest.mark.needs_binary
 
 
 def _strand_material(sphere, name, kind):
@@ -128,6 +129,7 @@ CASES = {
 }
 
 
+@pytest.mark.needs_binary
 @pytest.mark.parametrize("case", list(CASES))
 def test_hair_shading_matches_cycles(empty_scene, tmp_path, case):
     scene = empty_scene
@@ -135,3 +137,43 @@ def test_hair_shading_matches_cycles(empty_scene, tmp_path, case):
     CASES[case](sphere)
     ratios = assert_mean_matches_cycles(scene, tmp_path, case, MODEL_ALLOWANCE, per_channel=True)
     print(f"\n[hair shading] {case} Caustic/Cycles {ratios}")
+
+
+def test_strand_graphs_are_exported(addon, empty_scene, tmp_path):
+    """A strand-only material that reads Curves Info goes as its node graph (no warning names
+    Curves Info or replaced inputs); a Principled Hair BSDF with Random Color too, one without
+    as the compact CAUSTIC_materials_hair; a second hair system on the emitter numbers its
+    strands on from the first's (Cycles' Random), and a scaled emitter's Length is in object
+    space (lengthScale)."""
+    export = importlib.import_module(addon.__name__ + ".export")
+    curves = importlib.import_module(addon.__name__ + ".export.curves")
+    scene = empty_scene
+    sphere = furry_sphere(scene)
+    _principled_intercept(sphere)
+    sphere.scale = (2.0, 2.0, 2.0)
+    second = sphere.modifiers.new("Hair2", "PARTICLE_SYSTEM").particle_system.settings
+    second.type = "HAIR"
+    second.count = 10
+    second.material = 3
+    melanin, _, node = _strand_material(sphere, "Melanin", "ShaderNodeBsdfHairPrincipled")
+    sphere.particle_systems[0].settings.material = 2
+    node.parametrization = "MELANIN"
+    settings = export.render_settings(scene, (64, 48), "Camera")
+    path, state = export.export_scene(bpy.context.evaluated_depsgraph_get(), str(tmp_path), settings)
+    with open(path) as f:
+        doc = json.load(f)
+    first, other = doc["extensions"][curves.CURVES_EXTENSION]["objects"]
+    material = doc["materials"][first["material"]]
+    assert material["name"] == "InterceptPrincipled" and "CAUSTIC_materials_nodes" in material["extensions"]
+    assert not any("Curves Info" in w or "linked inputs" in w for w in state.warnings), state.warnings
+    assert "randomBase" not in first and other["randomBase"] == doc["accessors"][first["counts"]]["count"]
+    assert first["lengthScale"] == pytest.approx(0.5) and first.get("keyStep", 1) == 1
+    hair = doc["materials"][other["material"]]
+    assert curves.HAIR_EXTENSION in hair["extensions"] and "CAUSTIC_materials_nodes" not in hair["extensions"]
+    node.inputs["Random Color"].default_value = 0.3
+    path, state = export.export_scene(bpy.context.evaluated_depsgraph_get(), str(tmp_path / "again"), settings)
+    with open(path) as f:
+        doc = json.load(f)
+    hair = doc["materials"][doc["extensions"][curves.CURVES_EXTENSION]["objects"][1]["material"]]
+    assert "CAUSTIC_materials_nodes" in hair["extensions"] and curves.HAIR_EXTENSION not in hair["extensions"]
+    assert melanin.name == hair["name"]
