@@ -144,7 +144,7 @@ def export_scene(depsgraph, folder, settings, motion=True, viewport=False, only=
     state.warnings.extend(scene_warnings(depsgraph))
     state.warnings.extend(attach_volumes(depsgraph, folder, filepath, state.image_writer(folder)))
     try:
-        add_curves(filepath, depsgraph, state.warnings)
+        add_curves(filepath, depsgraph, state)
     except (OSError, ValueError, KeyError, AttributeError) as err:
         raise CausticError(f"exporting hair and curves failed: {err!r}") from None
     try:

@@ -58,6 +58,19 @@ class Strands:
         self.poly = False
         # Drawn as ray-facing ribbons (set by `scene_strands` from the scene's Curves Shape).
         self.ribbon = False
+        # Curves Info: Cycles' index of the first strand in its hair geometry (Random hashes
+        # it), object-space length per world length (Length), points per key interval
+        # (Intercept and Length run along Cycles' keys, not the subdivided points).
+        self.random_base = 0
+        self.length_scale = 1.0
+        self.key_step = 1
+
+
+def _length_scale(matrix):
+    """Object-space length per world length of a (uniformly scaled) object matrix."""
+    m = np.array(matrix, dtype=np.float64)
+    scale = abs(np.linalg.det(m[:3, :3])) ** (1.0 / 3.0)
+    return 1.0 / scale if scale > 0 else 1.0
 
 
 def _to_gltf_axes(p):
@@ -143,7 +156,10 @@ def particle_strands(obj, modifier, warnings):
     material = slots[min(max(part.material - 1, 0), len(slots) - 1)].material if len(slots) else None
     points = _to_gltf_axes(pts.reshape(-1, 3))
     counts = np.full(total, steps, dtype=np.uint32)
-    return Strands(f"{obj.name}/{psys.name}", material, points, radii.reshape(-1), counts, uvs, obj.name)
+    strands = Strands(f"{obj.name}/{psys.name}", material, points, radii.reshape(-1), counts, uvs, obj.name)
+    # Cycles measures Length in the emitter's object space.
+    strands.length_scale = _length_scale(obj.matrix_world)
+    return strands
 
 
 def curves_object_strands(obj, warnings):
@@ -196,6 +212,8 @@ def curves_object_strands(obj, warnings):
     material = obj.material_slots[0].material if len(obj.material_slots) else None
     strands = Strands(obj.name, material, points, radii, counts, uvs)
     strands.poly = poly
+    strands.length_scale = 1.0 / scale if scale > 0 else 1.0
+    strands.key_step = 1 if poly else SUBDIVISIONS
     return strands
 
 
@@ -217,6 +235,8 @@ def scene_strands(depsgraph, warnings):
             if s is not None:
                 out.append(s)
             continue
+        # Cycles puts an emitter's hair systems in one geometry, numbering their strands on.
+        first = 0
         for modifier in getattr(obj, "modifiers", ()):
             if modifier.type != "PARTICLE_SYSTEM" or not modifier.show_render:
                 continue
@@ -224,6 +244,8 @@ def scene_strands(depsgraph, warnings):
             if settings.type == "HAIR" and settings.render_type == "PATH":
                 s = particle_strands(obj, modifier, warnings)
                 if s is not None:
+                    s.random_base = first
+                    first += len(s.counts)
                     out.append(s)
     for s in out:
         s.ribbon = ribbons and not s.poly
@@ -272,6 +294,45 @@ def _gltf_material(doc, material, warnings, what):
     return len(materials) - 1
 
 
+def needs_graph(material):
+    """True when strands must render `material` as its node graph: a surface other than a
+    Principled, Diffuse or Principled Hair BSDF with constant inputs (Curves Info, a texture, a
+    mixture), or a Principled Hair BSDF with Random Color or Random Roughness."""
+    from .nodes import socket, surface_node
+    node = surface_node(material)
+    if node is None:
+        return False
+    if any(s.is_linked for s in node.inputs if s.enabled):
+        return True
+    if node.type == "BSDF_HAIR_PRINCIPLED":
+        randomised = any(socket(node, name).enabled and socket(node, name).default_value > 0.0
+                         for name in ("Random Color", "Random Roughness"))
+        return randomised
+    return node.type not in ("BSDF_PRINCIPLED", "BSDF_DIFFUSE")
+
+
+def strand_material(doc, material, state, folder, what):
+    """The glTF index of the strands' `material` (None for Blender's default surface): the
+    exporter's material of that name, else its node graph where `needs_graph`, else one
+    appended from its BSDF's constant inputs (with `CAUSTIC_materials_hair` for a Principled
+    Hair BSDF: the compact form, no graph evaluated per hit)."""
+    from .nodes import surface_node
+    from .points import _gltf_material as graph_material
+    if material is None:
+        return None
+    graph = needs_graph(material)
+    index = graph_material(doc, material, state, folder, state.warnings, what, strands=True) if graph else \
+        _gltf_material(doc, material, state.warnings, what)
+    node = surface_node(material)
+    if not graph and node is not None and node.type == "BSDF_HAIR_PRINCIPLED":
+        gltf_material = doc["materials"][index]
+        gltf_material.setdefault("extensions", {})[HAIR_EXTENSION] = hair_parameters(
+            node, f"{what}: material '{material.name}'", state.warnings)
+        if HAIR_EXTENSION not in used_extensions(doc):
+            used_extensions(doc).append(HAIR_EXTENSION)
+    return index
+
+
 def _sigma_from_reflectance(color, radial):
     """Cycles' `sigma_from_reflectance`: the absorption giving the fibre colour `color`."""
     x = radial
@@ -315,8 +376,9 @@ def used_extensions(doc):
     return doc.setdefault("extensionsUsed", [])
 
 
-def add_curves(gltf_path, depsgraph, warnings):
+def add_curves(gltf_path, depsgraph, state):
     """Append the scene's strands to the written glTF file; returns the number of strands."""
+    warnings = state.warnings
     strands = scene_strands(depsgraph, warnings)
     if not strands:
         return 0
@@ -339,13 +401,9 @@ def add_curves(gltf_path, depsgraph, warnings):
 
     objects = []
     total = 0
-    from .nodes import surface_node
+    folder = os.path.dirname(gltf_path)
     for s in strands:
         what = f"hair '{s.name}'"
-        node = surface_node(s.material) if s.material is not None else None
-        if node is not None and node.type == "BSDF_HAIR":
-            warnings.append(f"{what}: material '{s.material.name}': the (non-principled) Hair BSDF is not rendered; "
-                            "the strands are shaded as a surface with the material's glTF values")
         entry = {
             "name": s.name,
             "object": s.object_name,
@@ -357,18 +415,17 @@ def add_curves(gltf_path, depsgraph, warnings):
             entry["rootUvs"] = accessor(s.uvs.astype(np.float32), 5126, "VEC2")
         if s.ribbon:
             entry["shape"] = "ribbon"
-        material = _gltf_material(doc, s.material, warnings, what)
+        if s.random_base:
+            entry["randomBase"] = int(s.random_base)
+        if s.length_scale != 1.0:
+            entry["lengthScale"] = float(s.length_scale)
+        if s.key_step != 1:
+            entry["keyStep"] = int(s.key_step)
+        material = strand_material(doc, s.material, state, folder, what)
         if material is not None:
             entry["material"] = material
-            if node is not None and node.type == "BSDF_HAIR_PRINCIPLED":
-                gltf_material = doc["materials"][material]
-                gltf_material.setdefault("extensions", {})[HAIR_EXTENSION] = hair_parameters(
-                    node, f"{what}: material '{s.material.name}'", warnings)
-                if HAIR_EXTENSION not in used_extensions(doc):
-                    used_extensions(doc).append(HAIR_EXTENSION)
         objects.append(entry)
         total += len(s.counts)
-    folder = os.path.dirname(gltf_path)
     with open(os.path.join(folder, BUFFER_NAME), "wb") as f:
         f.write(blob)
     doc["buffers"].append({"uri": BUFFER_NAME, "byteLength": len(blob)})

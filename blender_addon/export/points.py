@@ -173,8 +173,9 @@ def scene_clouds(depsgraph, warnings):
     return clouds
 
 
-def _attribute_warnings(graph, what):
-    """Warnings for the graph's Attribute and Color Attribute nodes, which points do not feed."""
+def _attribute_warnings(graph, what, strands=False):
+    """Warnings for the graph's Attribute and Color Attribute nodes, which points (or strands:
+    `strands`) do not feed."""
     out = []
     for node in graph.nodes:
         if node["type"] not in ("ShaderNodeAttribute", "ShaderNodeVertexColor"):
@@ -183,13 +184,16 @@ def _attribute_warnings(graph, what):
         if "tex_coord" in props:
             continue  # a UV map: 0 on points, as Cycles (points have none)
         name = props.get("attribute_name") or props.get("layer_name") or ""
-        out.append(f"{what}: the attribute '{name}' is not exported for points: it reads white (1)")
+        if strands:
+            out.append(f"{what}: the attribute '{name}' is not exported for strands: it reads 0")
+        else:
+            out.append(f"{what}: the attribute '{name}' is not exported for points: it reads white (1)")
     return out
 
 
-def _gltf_material(doc, material, state, folder, warnings, what):
-    """The glTF index of `material` for points: the exporter's material of that name when it wrote
-    one, else one appended as its node graph; None for Blender's default surface."""
+def _gltf_material(doc, material, state, folder, warnings, what, strands=False):
+    """The glTF index of `material` for points (or strands): the exporter's material of that name
+    when it wrote one, else one appended as its node graph; None for Blender's default surface."""
     from .curves import _gltf_material as constant_material
     from .materials import graph_of
     from .node_graph import GRAPH_EXTENSION
@@ -200,7 +204,7 @@ def _gltf_material(doc, material, state, folder, warnings, what):
     index = next((i for i, m in enumerate(materials) if m.get("name") == material.name), None)
     graph = graph_of(material, state)
     if graph is not None:
-        warnings.extend(_attribute_warnings(graph, what))
+        warnings.extend(_attribute_warnings(graph, what, strands))
     if index is not None:
         return index
     if graph is None:

@@ -40,6 +40,7 @@ impl BsdfAt<'_> {
             BsdfAt::Pbr(b) => b.eval_glass(wi),
             BsdfAt::Mix(m, wo) => m.eval_glass(*wo, wi),
             BsdfAt::Hair(h, wo) => h.eval(*wo, wi),
+            BsdfAt::HairLobes(h, wo) => h.eval(*wo, wi),
         }
     }
 
@@ -48,7 +49,7 @@ impl BsdfAt<'_> {
     fn wo(&self) -> Vec3 {
         match self {
             BsdfAt::Pbr(b) => b.wo_local(),
-            BsdfAt::Mix(_, wo) | BsdfAt::Hair(_, wo) => *wo,
+            BsdfAt::Mix(_, wo) | BsdfAt::Hair(_, wo) | BsdfAt::HairLobes(_, wo) => *wo,
         }
     }
 }

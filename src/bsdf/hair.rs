@@ -79,6 +79,8 @@ pub struct HairBsdf {
     pub h: f32,
     /// Radial roughness as given (for the albedo).
     radial: f32,
+    /// The closure's weight (a shader graph's mix weights; 1 from `CAUSTIC_materials_hair`).
+    pub weight: Rgb,
 }
 
 /// Absorption of melanin concentrations (Cycles' `sigma_from_concentration`).
@@ -123,14 +125,20 @@ impl HairBsdf {
             eta: eta.max(1.0 + 1e-4),
             h: h.clamp(-1.0, 1.0),
             radial,
+            weight: Rgb::ONE,
         }
+    }
+
+    /// The same fibre scaled by a closure weight.
+    pub fn weighted(self, weight: Rgb) -> Self {
+        HairBsdf { weight, ..self }
     }
 
     /// Colour of the fibre as the Denoising Albedo (Cycles' inverse of `sigma_from_color`).
     pub fn albedo(&self) -> Rgb {
         let f = roughness_factor(self.radial);
         let per = |s: f32| (-s.max(0.0).sqrt() * f).exp();
-        Rgb::new(per(self.sigma.x), per(self.sigma.y), per(self.sigma.z))
+        Rgb::new(per(self.sigma.x), per(self.sigma.y), per(self.sigma.z)) * self.weight
     }
 
     /// The attenuations Ap and the lobe-choice weights (their grey values, normalised) for wo.
@@ -187,7 +195,7 @@ impl HairBsdf {
         if c < 1e-7 {
             return Rgb::ZERO;
         }
-        self.value_and_pdf(&self.lobes(wo), wi).0 / c
+        self.value_and_pdf(&self.lobes(wo), wi).0 * self.weight / c
     }
 
     /// Density with which `sample` picks wi.
@@ -231,7 +239,7 @@ impl HairBsdf {
         if !(pdf > 0.0) || c < 1e-7 {
             return None;
         }
-        Some((wi, value / c, pdf, p))
+        Some((wi, value * self.weight / c, pdf, p))
     }
 }
 

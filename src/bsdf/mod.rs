@@ -12,6 +12,7 @@ mod exclude;
 pub mod fresnel_layer;
 pub mod glass_albedo;
 pub mod hair;
+pub mod hair_lobes;
 mod layer_table;
 pub mod microfacet;
 pub mod microfiber;
@@ -26,6 +27,7 @@ pub mod velvet;
 use crate::math::Rgb;
 use glam::{Vec2, Vec3};
 pub use hair::HairBsdf;
+pub use hair_lobes::HairLobes;
 pub use mix::MixBsdf;
 pub use pbr::{PbrAt, PbrBsdf};
 
@@ -76,6 +78,8 @@ pub enum Bsdf {
     Mix(MixBsdf),
     /// The Principled Hair BSDF (Chiang) of a strand (`hair.rs`).
     Hair(HairBsdf),
+    /// The (non-principled) Hair BSDF's lobes of a strand (`hair_lobes.rs`).
+    HairLobes(HairLobes),
 }
 
 impl Bsdf {
@@ -87,7 +91,7 @@ impl Bsdf {
         match self {
             Bsdf::Pbr(b) => b.subsurface_weight(wo),
             Bsdf::Mix(m) => m.subsurface_weight(wo),
-            Bsdf::Hair(_) => 0.0,
+            Bsdf::Hair(_) | Bsdf::HairLobes(_) => 0.0,
         }
     }
 
@@ -103,6 +107,7 @@ impl Bsdf {
                 (p.base, p.roughness, p.layer_eta())
             }
             Bsdf::Hair(h) => (h.albedo(), 1.0, 1.0),
+            Bsdf::HairLobes(h) => (h.albedo(), 1.0, 1.0),
         }
     }
 
@@ -113,6 +118,7 @@ impl Bsdf {
             Bsdf::Pbr(b) => b.eval(wo, wi),
             Bsdf::Mix(m) => m.eval(wo, wi),
             Bsdf::Hair(h) => h.eval(wo, wi),
+            Bsdf::HairLobes(h) => h.eval(wo, wi),
         }
     }
 
@@ -123,6 +129,7 @@ impl Bsdf {
             Bsdf::Pbr(b) => BsdfAt::Pbr(b.at(wo)),
             Bsdf::Mix(m) => BsdfAt::Mix(m, wo),
             Bsdf::Hair(h) => BsdfAt::Hair(h, wo),
+            Bsdf::HairLobes(h) => BsdfAt::HairLobes(h, wo),
         }
     }
 
@@ -133,6 +140,7 @@ impl Bsdf {
             Bsdf::Pbr(b) => b.pdf(wo, wi),
             Bsdf::Mix(m) => m.pdf(wo, wi),
             Bsdf::Hair(h) => h.pdf(wo, wi),
+            Bsdf::HairLobes(h) => h.pdf(wo, wi),
         }
     }
 
@@ -143,6 +151,7 @@ impl Bsdf {
             Bsdf::Pbr(b) => b.sample(wo, uc, u),
             Bsdf::Mix(m) => m.sample(wo, uc, u),
             Bsdf::Hair(h) => hair_sample(h, wo, uc, u),
+            Bsdf::HairLobes(h) => lobes_sample(h, wo, uc, u),
         }
     }
 
@@ -160,7 +169,7 @@ impl Bsdf {
             match self {
                 Bsdf::Pbr(b) => b.blur(alpha),
                 Bsdf::Mix(m) => m.blur(alpha),
-                Bsdf::Hair(_) => {}
+                Bsdf::Hair(_) | Bsdf::HairLobes(_) => {}
             }
         }
     }
@@ -175,7 +184,7 @@ impl Bsdf {
         match self {
             Bsdf::Pbr(b) => b.drop_caustics(reflective, refractive),
             Bsdf::Mix(m) => m.drop_caustics(reflective, refractive),
-            Bsdf::Hair(_) => {}
+            Bsdf::Hair(_) | Bsdf::HairLobes(_) => {}
         }
     }
 
@@ -185,7 +194,7 @@ impl Bsdf {
         match self {
             Bsdf::Pbr(b) => b.is_delta(),
             Bsdf::Mix(m) => m.is_delta(),
-            Bsdf::Hair(_) => false,
+            Bsdf::Hair(_) | Bsdf::HairLobes(_) => false,
         }
     }
 
@@ -211,7 +220,7 @@ impl Bsdf {
         match self {
             Bsdf::Pbr(b) => b.refraction_adjoint_ratio(wo, wi),
             Bsdf::Mix(m) => m.refraction_adjoint_ratio(wo, wi),
-            Bsdf::Hair(_) => Rgb::ONE,
+            Bsdf::Hair(_) | Bsdf::HairLobes(_) => Rgb::ONE,
         }
     }
 
@@ -229,7 +238,7 @@ impl Bsdf {
             }
             Bsdf::Mix(m) => m.refraction_adjoint_scale(),
             // Light leaves the fibre into the medium it came from: no change of η.
-            Bsdf::Hair(_) => 1.0,
+            Bsdf::Hair(_) | Bsdf::HairLobes(_) => 1.0,
         }
     }
 
@@ -241,7 +250,7 @@ impl Bsdf {
         match self {
             Bsdf::Pbr(b) => b.glass.alpha2(),
             Bsdf::Mix(m) => m.glass_alpha2(),
-            Bsdf::Hair(_) => f32::INFINITY,
+            Bsdf::Hair(_) | Bsdf::HairLobes(_) => f32::INFINITY,
         }
     }
 
@@ -251,7 +260,7 @@ impl Bsdf {
         match self {
             Bsdf::Pbr(b) => b.transmits(),
             Bsdf::Mix(m) => m.transmits(),
-            Bsdf::Hair(_) => true,
+            Bsdf::Hair(_) | Bsdf::HairLobes(_) => true,
         }
     }
 
@@ -261,6 +270,7 @@ impl Bsdf {
             Bsdf::Pbr(b) => b.albedo(),
             Bsdf::Mix(m) => m.albedo(),
             Bsdf::Hair(h) => h.albedo(),
+            Bsdf::HairLobes(h) => h.albedo(),
         }
     }
 }
@@ -276,6 +286,8 @@ pub enum BsdfAt<'a> {
     Mix(&'a MixBsdf, Vec3),
     /// A hair fibre and wo.
     Hair(&'a HairBsdf, Vec3),
+    /// The Hair BSDF's lobes and wo.
+    HairLobes(&'a HairLobes, Vec3),
 }
 
 impl BsdfAt<'_> {
@@ -286,6 +298,7 @@ impl BsdfAt<'_> {
             BsdfAt::Pbr(b) => b.eval(wi),
             BsdfAt::Mix(m, wo) => m.eval(*wo, wi),
             BsdfAt::Hair(h, wo) => h.eval(*wo, wi),
+            BsdfAt::HairLobes(h, wo) => h.eval(*wo, wi),
         }
     }
 
@@ -296,6 +309,7 @@ impl BsdfAt<'_> {
             BsdfAt::Pbr(b) => b.pdf(wi),
             BsdfAt::Mix(m, wo) => m.pdf(*wo, wi),
             BsdfAt::Hair(h, wo) => h.pdf(*wo, wi),
+            BsdfAt::HairLobes(h, wo) => h.pdf(*wo, wi),
         }
     }
 
@@ -306,6 +320,7 @@ impl BsdfAt<'_> {
             BsdfAt::Pbr(b) => b.sample(uc, u),
             BsdfAt::Mix(m, wo) => m.sample(*wo, uc, u),
             BsdfAt::Hair(h, wo) => hair_sample(h, *wo, uc, u),
+            BsdfAt::HairLobes(h, wo) => lobes_sample(h, *wo, uc, u),
         }
     }
 
@@ -317,7 +332,7 @@ impl BsdfAt<'_> {
             BsdfAt::Pbr(b) => b.eval_diffuse(wi),
             BsdfAt::Mix(m, wo) => m.eval_diffuse(*wo, wi),
             // Cycles labels every hair lobe glossy.
-            BsdfAt::Hair(..) => Rgb::ZERO,
+            BsdfAt::Hair(..) | BsdfAt::HairLobes(..) => Rgb::ZERO,
         }
     }
 
@@ -328,6 +343,8 @@ impl BsdfAt<'_> {
             BsdfAt::Pbr(b) => b.class_albedo(),
             BsdfAt::Mix(m, wo) => m.class_albedo(*wo),
             BsdfAt::Hair(h, _) => [Rgb::ZERO, h.albedo(), Rgb::ZERO],
+            // Cycles labels the Hair BSDF's lobes glossy (reflection and transmission alike).
+            BsdfAt::HairLobes(h, _) => [Rgb::ZERO, h.albedo(), Rgb::ZERO],
         }
     }
 }
@@ -335,5 +352,11 @@ impl BsdfAt<'_> {
 /// A hair sample as a `BsdfSample`: every lobe is glossy (Cycles' labels), none is a delta.
 #[inline]
 fn hair_sample(h: &HairBsdf, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
+    h.sample(wo, uc, u).map(|(wi, f, pdf, _)| BsdfSample { wi, f, pdf, delta: false, kind: LobeKind::Glossy })
+}
+
+/// A Hair BSDF sample as a `BsdfSample`: both lobes are glossy (Cycles' labels), none a delta.
+#[inline]
+fn lobes_sample(h: &HairLobes, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
     h.sample(wo, uc, u).map(|(wi, f, pdf, _)| BsdfSample { wi, f, pdf, delta: false, kind: LobeKind::Glossy })
 }

@@ -15,6 +15,7 @@
 //! docs/benchmarks.md).
 
 pub mod bvh;
+pub mod info;
 pub mod ribbon;
 pub mod round_cone;
 pub mod shade;
@@ -61,6 +62,8 @@ pub struct Curves {
     pub object_names: Vec<String>,
     /// Per curves object, true when it is drawn as ray-facing ribbons (`ribbon.rs`).
     pub ribbons: Vec<bool>,
+    /// Per curves object, what Curves Info needs beyond the points (`info.rs`).
+    pub info: Vec<info::ObjectInfo>,
     /// The segments' BVH; None until `build` (and when there are no strands).
     pub bvh: Option<bvh::CurveBvh>,
 }
@@ -95,7 +98,7 @@ impl Curves {
 
     /// The strand holding control point `first` of a segment.
     #[inline]
-    fn strand_of(&self, point: u32) -> &Strand {
+    pub(crate) fn strand_of(&self, point: u32) -> &Strand {
         let i = self.strands.partition_point(|s| s.first <= point) - 1;
         &self.strands[i]
     }
@@ -174,7 +177,8 @@ impl Curves {
             color: Vec4::ONE,
             material: strand.material,
             tri: hit.tri,
-            bary: glam::Vec2::ZERO,
+            // The axial parameter on the segment, which Curves Info reads (`info.rs`).
+            bary: glam::Vec2::new(s, 0.0),
             front: true,
             t: hit.t,
             // The walker sets the ray's state (`advance_with`), as for triangles.

@@ -6,6 +6,7 @@ use crate::bsdf::hair::HairParams;
 use crate::math::{Frame, Rgb};
 use crate::scene::Scene;
 use crate::scene::hit::{ShadingPoint, SurfaceHit};
+use crate::shader::closure::Closures;
 use glam::Vec3;
 
 /// The hair frame for a fibre along unit `x` seen from `wo`: x along the fibre, z in the
@@ -36,6 +37,24 @@ pub fn as_fibre(s: &mut SurfaceHit, axis: Vec3, wo: Vec3) {
     s.p = axis;
     s.ng = z;
     s.ns = z;
+}
+
+/// The shading point of strand hit `s` (a fibre, `as_fibre`) from a graph's hair closures `c`,
+/// weights times `keep`: the Principled Hair BSDFs (their parameters averaged by weight), else
+/// the Hair BSDF's lobes (a graph with both renders the Principled Hair BSDFs, warned at load).
+pub fn hair_closures(c: &Closures, s: &SurfaceHit, wo: Vec3, keep: f32, emitted: Rgb) -> ShadingPoint {
+    let frame = hair_frame(s.tangent.truncate(), wo);
+    let bsdf = match c.hair_params() {
+        Some(params) => Bsdf::Hair(params.at(s.uv[1].x).weighted(Rgb::splat(c.hair_w * keep))),
+        None => {
+            let mut lobes = c.hair_lobes.at(s.uv[1].x);
+            for l in &mut lobes.lobes {
+                l.weight *= keep;
+            }
+            Bsdf::HairLobes(lobes)
+        }
+    };
+    ShadingPoint { bsdf, frame, emitted, holdout: c.holdout * keep }
 }
 
 impl Scene {

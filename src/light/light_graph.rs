@@ -117,6 +117,7 @@ impl LightGraph {
             view: &NO_VIEW,
             rays: crate::shader::geom::Rays::default(),
             point: None,
+            curve: None,
             grid_values: None,
         };
         let mut out = Closures::default();

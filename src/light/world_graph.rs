@@ -99,6 +99,7 @@ impl WorldGraph {
             view: &self.view,
             rays: crate::shader::geom::Rays::default(),
             point: None,
+            curve: None,
             grid_values: None,
         }
     }

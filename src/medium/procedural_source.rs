@@ -52,6 +52,7 @@ impl ProceduralSource {
             view: &NO_VIEW,
             rays: crate::shader::geom::Rays::default(),
             point: None,
+            curve: None,
             grid_values,
         }
     }

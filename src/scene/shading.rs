@@ -60,7 +60,8 @@ impl Scene {
     pub fn surface(&self, hit: &Hit, org: Vec3, dir: Vec3) -> SurfaceHit {
         if crate::curves::is_curve(hit.tri) {
             let mut s = self.curves.surface(hit, org, dir);
-            if self.materials[s.material as usize].hair.is_some() {
+            let m = &self.materials[s.material as usize];
+            if m.hair.is_some() || m.nodes.as_ref().is_some_and(|p| p.hair) {
                 crate::curves::shade::as_fibre(&mut s, self.curves.axis_point(hit), -dir);
             }
             return s;
@@ -137,8 +138,10 @@ impl Scene {
         rays: Option<&dyn crate::shader::geom::SceneRays>,
     ) -> ShadingPoint {
         let mat = &self.materials[s.material as usize];
+        // A graph with hair closures wins over the compact parameters.
         if let Some(hair) = &mat.hair
             && crate::curves::is_curve(s.tri)
+            && !mat.nodes.as_ref().is_some_and(|p| p.hair)
         {
             return self.shade_hair(hair, s, wo);
         }

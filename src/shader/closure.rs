@@ -35,6 +35,8 @@
 use super::geom::{Geom, Reg, from_blender, v3};
 use crate::bsdf::ashikhmin_shirley::AshikhminShirley;
 use crate::bsdf::dielectric::DielectricBsdf;
+use crate::bsdf::hair::{HairParams, sigma_from_color, sigma_from_melanin};
+use crate::bsdf::hair_lobes::{HairLobe, HairLobes};
 use crate::bsdf::mix::{GlossyFresnel, Lobe, Lobes, MAX_LOBES, MAX_PBR, MixBsdf, Toon};
 use crate::bsdf::pbr::PbrParams;
 use crate::bsdf::velvet::Velvet;
@@ -71,6 +73,40 @@ pub struct PrincipledRegs {
     pub anisotropic_rotation: Reg,
     /// The Tangent input when linked (Blender axes); unlinked, Cycles' radial tangent.
     pub tangent: Option<Reg>,
+}
+
+/// How a Principled Hair BSDF gets its absorption (its Parametrization).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum HairColouring {
+    /// Absorption Coefficient.
+    Absorption,
+    /// Melanin concentration, redness and tint.
+    Melanin,
+    /// Direct colouring.
+    Color,
+}
+
+/// Registers of a Principled Hair BSDF's inputs.
+#[derive(Clone, Debug)]
+#[allow(missing_docs)]
+pub struct HairRegs {
+    pub colouring: HairColouring,
+    pub color: Reg,
+    pub melanin: Reg,
+    pub redness: Reg,
+    pub tint: Reg,
+    pub absorption: Reg,
+    pub roughness: Reg,
+    pub radial: Reg,
+    pub coat: Reg,
+    pub ior: Reg,
+    pub offset: Reg,
+    pub random_color: Reg,
+    pub random_roughness: Reg,
+    pub random: Reg,
+    /// The Random input is linked (else a strand's own random number, the input's value
+    /// elsewhere).
+    pub random_linked: bool,
 }
 
 /// Which closure.
@@ -128,6 +164,14 @@ pub enum ClosureKind {
     Holdout,
     /// Principled BSDF.
     Principled(Box<PrincipledRegs>),
+    /// Principled Hair BSDF (Chiang): strands only.
+    PrincipledHair(Box<HairRegs>),
+    /// Hair BSDF, one component (Offset in `ior`, RoughnessU in `roughness`, RoughnessV in
+    /// `strength`): strands only.
+    HairLobe {
+        /// The Transmission component (else Reflection).
+        transmission: bool,
+    },
 }
 
 /// How a node maps its Anisotropy to widths (Cycles' `svm_node_closure_bsdf`).
@@ -237,6 +281,12 @@ pub struct Closures {
     pub tangents: [Option<Vec3>; MAX_PBR],
     /// Lobes past the mixture's capacity were dropped.
     pub dropped: bool,
+    /// Σ w of the Principled Hair BSDFs.
+    pub hair_w: f32,
+    /// Σ w × their parameters (absorption, roughnesses, coat, offset, IOR).
+    pub hair: HairParams,
+    /// The Hair BSDF's lobes.
+    pub hair_lobes: HairLobes,
 }
 
 /// An empty mixture, built once: `MixBsdf::new` builds its placeholder Principled BSDFs
@@ -266,6 +316,16 @@ impl Default for Closures {
             anisotropic: [0.0; MAX_PBR],
             tangents: [None; MAX_PBR],
             dropped: false,
+            hair_w: 0.0,
+            hair: HairParams {
+                sigma: [0.0; 3],
+                roughness: 0.0,
+                radial_roughness: 0.0,
+                coat: 0.0,
+                offset: 0.0,
+                ior: 0.0,
+            },
+            hair_lobes: HairLobes::EMPTY,
         }
     }
 }
@@ -396,6 +456,14 @@ impl ClosureOp {
             ClosureKind::Transparent => out.transparent += color() * w,
             ClosureKind::Holdout => out.holdout += w,
             ClosureKind::Principled(p) => principled(p, r, g, self.normal, w, out),
+            ClosureKind::PrincipledHair(p) => principled_hair(p, r, g, w, out),
+            ClosureKind::HairLobe { transmission } => out.hair_lobes.push(HairLobe::new(
+                color() * w,
+                *transmission,
+                r[self.ior as usize],
+                r[self.roughness as usize],
+                r[self.strength as usize],
+            )),
         }
     }
 }
@@ -418,6 +486,37 @@ fn closure_tangent(tangent: Option<Reg>, rotation: f32, normal: Option<Reg>, r: 
     let n = normal.and_then(|n| from_blender(v3(r, n)).try_normalize()).unwrap_or(g.n);
     let t = if rotation != 0.0 { rotate_around_axis(t, n, rotation * std::f32::consts::TAU) } else { t };
     t.try_normalize()
+}
+
+/// Adds a Principled Hair BSDF of weight `w`, its inputs as Cycles' `svm_node_principled_hair`
+/// reads them: Random (linked, else the strand's) spreads the roughnesses by Random Roughness
+/// and, for melanin, the concentration by Random Color, each by ±half the amount.
+fn principled_hair(p: &HairRegs, r: &[f32], g: &Geom, w: f32, out: &mut Closures) {
+    let f = |i: Reg| r[i as usize];
+    let random = if p.random_linked { f(p.random) } else { g.curve.map_or(f(p.random), |c| c.random) };
+    let spread = |amount: f32| 1.0 + 2.0 * (random - 0.5) * amount;
+    let by_random = spread(f(p.random_roughness));
+    let roughness = f(p.roughness) * by_random;
+    let radial = f(p.radial) * by_random;
+    let sigma = match p.colouring {
+        HairColouring::Absorption => v3(r, p.absorption),
+        HairColouring::Melanin => {
+            let melanin = f(p.melanin) * spread(f(p.random_color).clamp(0.0, 1.0));
+            sigma_from_melanin(melanin, f(p.redness), v3(r, p.tint), radial)
+        }
+        HairColouring::Color => sigma_from_color(v3(r, p.color), radial),
+    }
+    .max(Vec3::ZERO);
+    let h = &mut out.hair;
+    for (k, s) in h.sigma.iter_mut().enumerate() {
+        *s += sigma[k] * w;
+    }
+    h.roughness += roughness.clamp(0.0, 1.0) * w;
+    h.radial_roughness += radial.clamp(0.0, 1.0) * w;
+    h.coat += f(p.coat).clamp(0.0, 1.0) * w;
+    h.offset += f(p.offset) * w;
+    h.ior += f(p.ior) * w;
+    out.hair_w += w;
 }
 
 fn principled(p: &PrincipledRegs, r: &[f32], g: &Geom, normal: Option<Reg>, w: f32, out: &mut Closures) {
@@ -476,6 +575,28 @@ fn principled(p: &PrincipledRegs, r: &[f32], g: &Geom, normal: Option<Reg>, w: f
 }
 
 impl Closures {
+    /// The Principled Hair BSDFs' parameters (weights divided out); None without one.
+    pub fn hair_params(&self) -> Option<HairParams> {
+        if !(self.hair_w > 0.0) {
+            return None;
+        }
+        let s = 1.0 / self.hair_w;
+        let h = &self.hair;
+        Some(HairParams {
+            sigma: h.sigma.map(|x| x * s),
+            roughness: h.roughness * s,
+            radial_roughness: h.radial_roughness * s,
+            coat: h.coat * s,
+            offset: h.offset * s,
+            ior: (h.ior * s).max(1.0 + 1e-4),
+        })
+    }
+
+    /// True when hair closures have a weight here (a strand is then shaded with them alone).
+    pub fn has_hair(&self) -> bool {
+        self.hair_w > 0.0 || self.hair_lobes.n > 0
+    }
+
     /// Principled slot `j`'s parameters (weights divided out), for a point on the side
     /// given by `backfacing`.
     pub fn principled_params(&self, j: usize, backfacing: bool) -> PbrParams {

@@ -87,6 +87,8 @@ pub struct Geom<'a> {
     pub rays: Rays<'a>,
     /// A point cloud's point (Point Info), None elsewhere (Cycles' Point Info gives 0 there).
     pub point: Option<crate::points::PointInfo>,
+    /// A strand's Curves Info (when the program reads it), None elsewhere (0, as Cycles).
+    pub curve: Option<crate::curves::info::CurveInfo>,
     /// A volume object's grids at the voxel being read, one value per attribute slot of the
     /// program (None: the grid is not there); the Attribute node reads these instead of the
     /// mesh's (`medium::procedural_source`).
@@ -349,6 +351,7 @@ pub(super) fn geom_at_ng<'a>(
         view: &NO_VIEW,
         rays: Rays::default(),
         point: None,
+        curve: None,
         grid_values: None,
     }
 }

@@ -80,9 +80,28 @@ pub enum InputKind {
     PointRadius,
     /// Point Info Random: Cycles' per-point random number; 0 off a point.
     PointRandom,
+    /// One output of Curves Info: Cycles' values on a strand, 0 elsewhere (`curves::info`).
+    Curve(CurveOutput),
     /// One output of an attribute read by name (`Program::attributes[slot]`): the Attribute
     /// node's, the Color Attribute node's, Geometry's Pointiness and Random Per Island.
     Attribute { slot: u32, out: AttributeOutput },
+}
+
+/// Which output of Curves Info an `InputKind::Curve` reads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CurveOutput {
+    /// Is Strand: 1 on a strand.
+    IsStrand,
+    /// Intercept: 0 at the root, 1 at the tip.
+    Intercept,
+    /// Length of the strand.
+    Length,
+    /// Thickness: twice the radius.
+    Thickness,
+    /// Tangent Normal (a vector).
+    TangentNormal,
+    /// Random: Cycles' per-strand number.
+    Random,
 }
 
 /// Which output of an attribute an `InputKind::Attribute` reads (`scene::mesh::AttributeValue`).
@@ -446,9 +465,12 @@ pub struct Program {
     pub space: crate::scene::working_space::WorkingSpace,
     /// The graph has a Transparent part (alpha must be evaluated).
     pub transparent: bool,
-    /// A Curves Info node is read: 0 on meshes and points as Cycles, not rendered on strands
-    /// (the curves loader names it there).
+    /// A Curves Info node is read, or a Principled Hair BSDF's strand random number: a strand's
+    /// shading point then computes it (`curves::info`).
     pub reads_curves_info: bool,
+    /// The surface has hair closures (Principled Hair, Hair BSDF): strands are then shaded as
+    /// fibres (`curves::shade`), with those closures alone.
+    pub hair: bool,
     /// A Transparent BSDF's colour may not be grey: pass-throughs and shadow rays carry it
     /// per channel (`Scene::pass_through`, `Scene::transmission`).
     pub tinted_transparency: bool,

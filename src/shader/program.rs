@@ -10,7 +10,9 @@
 
 use super::closure::Closures;
 use super::geom::{Geom, Reg, from_blender, geom_at_ng, set3, to_blender, v3};
-use super::instructions::{AttributeOutput, BumpOp, ColorSpace, CurveKind, InputKind, MappingKind, Op, Program};
+use super::instructions::{
+    AttributeOutput, BumpOp, ColorSpace, CurveKind, CurveOutput, InputKind, MappingKind, Op, Program,
+};
 use super::ops;
 use glam::{EulerRot, Mat3, Mat4, Vec3, Vec4};
 use std::cell::RefCell;
@@ -464,6 +466,21 @@ impl Program {
             InputKind::PointRandom => {
                 r[out as usize] = g.point.map_or(0.0, |p| p.random);
                 return;
+            }
+            InputKind::Curve(o) => {
+                let c = g.curve;
+                if o == CurveOutput::TangentNormal {
+                    c.map_or(Vec3::ZERO, |c| to_blender(c.tangent_normal))
+                } else {
+                    r[out as usize] = c.map_or(0.0, |c| match o {
+                        CurveOutput::IsStrand => 1.0,
+                        CurveOutput::Intercept => c.intercept,
+                        CurveOutput::Length => c.length,
+                        CurveOutput::Thickness => c.thickness,
+                        _ => c.random,
+                    });
+                    return;
+                }
             }
             InputKind::Attribute { slot, out: which } => {
                 let found = match g.grid_values {

@@ -57,6 +57,7 @@ pub(super) fn geom_of<'a>(scene: &'a Scene, s: &SurfaceHit, wo: Vec3) -> Geom<'a
         view: &scene.view,
         rays: Rays::default(),
         point: crate::points::is_point(s.tri).then(|| scene.points.info(s.tri)),
+        curve: None,
         grid_values: None,
     }
 }
@@ -70,6 +71,9 @@ pub(super) fn traced_geom_of<'a>(
     rays: Option<&'a dyn SceneRays>,
 ) -> Geom<'a> {
     let mut g = geom_of(scene, s, wo);
+    if prog.reads_curves_info && crate::curves::is_curve(s.tri) {
+        g.curve = Some(scene.curves.info(s, wo));
+    }
     if prog.traces {
         g.rays = Rays { query: rays, seed: super::trace::seed_of(s.p, wo, s.light_path.depth) };
     }
@@ -107,6 +111,10 @@ pub fn shade_nodes(
     // shaded: what is shaded here is the rest, renormalised.
     let t = pass_fraction(c.transparent);
     let keep = if t > 0.0 && t < 1.0 { 1.0 / (1.0 - t) } else { 1.0 };
+    if crate::curves::is_curve(s.tri) && c.has_hair() {
+        let emitted = c.emission * keep;
+        return crate::curves::shade::hair_closures(&c, s, wo, keep, emitted);
+    }
     // Shading normal: the closures' first linked normal, else the interpolated one, on the
     // viewer's side and bent toward the viewer as the glTF path does. In a mixture it is only
     // the frame the integrators see: each closure has its own normal within it.

@@ -54,7 +54,7 @@ impl Split {
                     Split::ByClass
                 }
             }
-            Bsdf::Mix(_) | Bsdf::Hair(_) => Split::ByClass,
+            Bsdf::Mix(_) | Bsdf::Hair(_) | Bsdf::HairLobes(_) => Split::ByClass,
         }
     }
 

@@ -34,6 +34,23 @@ struct CurvesObjectExt {
     /// How a ray meets the strands: round (the default) or ray-facing ribbons.
     #[serde(default)]
     shape: CurveShape,
+    /// Cycles' index of the first strand in its hair geometry (Curves Info Random).
+    #[serde(default, rename = "randomBase")]
+    random_base: u32,
+    /// Object-space length per world-space length (Curves Info Length).
+    #[serde(default = "one", rename = "lengthScale")]
+    length_scale: f32,
+    /// Points per interval between Cycles' keys (Curves Info Intercept and Length).
+    #[serde(default = "one_u32", rename = "keyStep")]
+    key_step: u32,
+}
+
+fn one() -> f32 {
+    1.0
+}
+
+fn one_u32() -> u32 {
+    1
 }
 
 /// The strands' shape, as Cycles' Curves Shape.
@@ -61,6 +78,26 @@ const BYTES_PER_POINT: u64 = 16 + 4 + 20;
 const BYTES_PER_STRAND: u64 = size_of::<Strand>() as u64;
 
 impl Loader<'_> {
+    /// Names each material whose node graph has hair closures (Principled Hair, Hair BSDF) and
+    /// that triangles wear: those closures render on strands only (Cycles shades a mesh with
+    /// them too), so they are black there.
+    pub(super) fn warn_hair_on_triangles(&mut self, mesh: &crate::scene::mesh::Mesh, materials: &[Material]) {
+        let mut worn = vec![false; materials.len()];
+        for &m in &mesh.tri_material {
+            if let Some(w) = worn.get_mut(m as usize) {
+                *w = true;
+            }
+        }
+        for (m, worn) in materials.iter().zip(worn) {
+            if worn && m.nodes.as_ref().is_some_and(|p| p.hair) {
+                self.warn(format!(
+                    "material '{}': its hair BSDFs render on strands only; on meshes they are black",
+                    m.name
+                ));
+            }
+        }
+    }
+
     /// Reads `CAUSTIC_curves`, if present, and builds the strands' BVH. A strand whose
     /// material has transparency, a volume or subsurface scattering gets an opaque copy of it
     /// (with a warning naming both): strands are opaque surfaces.
@@ -175,13 +212,6 @@ impl Loader<'_> {
                 Some(&copy) => copy,
                 None => {
                     let m = &materials[material as usize];
-                    if m.nodes.as_ref().is_some_and(|p| p.reads_curves_info) {
-                        warnings.push(format!(
-                            "{what}: material '{}' reads Curves Info, which strands do not render yet (its outputs \
-                             are 0 there, as on meshes)",
-                            m.name
-                        ));
-                    }
                     let copy = if m.alpha_mode != AlphaMode::Opaque
                         || m.medium.is_some()
                         || m.null_surface
@@ -243,6 +273,17 @@ impl Loader<'_> {
             curves.objects.push(obj.name.clone());
             curves.object_names.push(obj.object.clone().unwrap_or_else(|| obj.name.clone()));
             curves.ribbons.push(obj.shape == CurveShape::Ribbon);
+            if !(obj.length_scale.is_finite() && obj.length_scale > 0.0) || obj.key_step == 0 {
+                return Err(self.err(format!(
+                    "{what}: lengthScale must be finite and > 0 and keyStep >= 1 (got {} and {})",
+                    obj.length_scale, obj.key_step
+                )));
+            }
+            curves.info.push(crate::curves::info::ObjectInfo {
+                random_base: obj.random_base,
+                length_scale: obj.length_scale,
+                key_step: obj.key_step,
+            });
         }
         for w in warnings {
             self.warn(w);

@@ -2,6 +2,7 @@
 //! operations, and the Displacement output as bump or as true displacement's height.
 
 use super::*;
+use crate::shader::closure::{HairColouring, HairRegs};
 use crate::shader::instructions::GraphSubsurface;
 
 impl Compiler<'_> {
@@ -214,8 +215,82 @@ impl Compiler<'_> {
                 self.subsurface(i, ["Radius", "Scale", "Anisotropy", "IOR"], method, true)?;
                 self.principled_closure(i, p, w)?;
             }
+            "ShaderNodeBsdfHairPrincipled" => self.principled_hair(i, w)?,
+            "ShaderNodeBsdfHair" => {
+                // Cycles' Hair BSDF: Color, Offset, RoughnessU and RoughnessV in the op's colour,
+                // IOR, roughness and strength registers.
+                self.prog.hair = true;
+                self.hair_lobes += 1;
+                let transmission = match self.prop_str(i, "component", "Reflection") {
+                    "Reflection" => false,
+                    "Transmission" => true,
+                    other => return Err(self.err(i, format!("unknown hair component '{other}'"))),
+                };
+                if self.source(i, "Tangent")?.is_some() {
+                    self.warn(i, "the Hair BSDF's Tangent input is not read: strands take their own direction");
+                }
+                let color = self.vec(i, "Color", Vec3::splat(0.8))?;
+                let offset = self.float(i, "Offset", 0.0)?;
+                let (u, v) = (self.float(i, "RoughnessU", 0.1)?, self.float(i, "RoughnessV", 1.0)?);
+                self.push_closure(ClosureKind::HairLobe { transmission }, w, color, u, offset, v, None);
+            }
             _ => self.simple_closure(i, kind, w)?,
         }
+        Ok(())
+    }
+
+    /// The Principled Hair BSDF (Chiang; the Huang model warned and rendered as Chiang), its
+    /// inputs read at each strand point as Cycles' `svm_node_principled_hair` reads them.
+    fn principled_hair(&mut self, i: usize, w: Option<Reg>) -> Result<(), String> {
+        self.prog.hair = true;
+        self.hair_principled += 1;
+        if self.prop_str(i, "model", "CHIANG") == "HUANG" {
+            self.warn(
+                i,
+                "the Principled Hair BSDF's Huang model is rendered as the Chiang model (the same colour, roughness, \
+                 IOR and offset; no aspect ratio or lobe weights)",
+            );
+        }
+        let colouring = match self.prop_str(i, "parametrization", "COLOR") {
+            "ABSORPTION" => HairColouring::Absorption,
+            "MELANIN" => HairColouring::Melanin,
+            "COLOR" => HairColouring::Color,
+            other => return Err(self.err(i, format!("unknown hair parametrization '{other}'"))),
+        };
+        // Blender's defaults, for the inputs a parametrization hides (they are not written).
+        let regs = HairRegs {
+            colouring,
+            color: self.vec(i, "Color", Vec3::new(0.017513, 0.005763, 0.002059))?,
+            melanin: self.float(i, "Melanin", 0.8)?,
+            redness: self.float(i, "Melanin Redness", 1.0)?,
+            tint: self.vec(i, "Tint", Vec3::ONE)?,
+            absorption: self.vec(i, "Absorption Coefficient", Vec3::new(0.245531, 0.52, 1.365))?,
+            roughness: self.float(i, "Roughness", 0.3)?,
+            radial: self.float(i, "Radial Roughness", 0.3)?,
+            coat: self.float(i, "Coat", 0.0)?,
+            ior: self.float(i, "IOR", 1.55)?,
+            offset: self.float(i, "Offset", 2f32.to_radians())?,
+            random_color: self.float(i, "Random Color", 0.0)?,
+            random_roughness: self.float(i, "Random Roughness", 0.0)?,
+            random: self.float(i, "Random", 0.0)?,
+            random_linked: self.source(i, "Random")?.is_some(),
+        };
+        // Unlinked, Random is the strand's own number (Cycles' ATTR_STD_CURVE_RANDOM).
+        if !regs.random_linked {
+            self.prog.reads_curves_info = true;
+        }
+        let zero = self.konst_f(0.0);
+        let op = ClosureOp {
+            kind: ClosureKind::PrincipledHair(Box::new(regs)),
+            w,
+            color: zero,
+            roughness: zero,
+            ior: zero,
+            strength: zero,
+            normal: None,
+        };
+        self.ops.push(Op::Closure(Box::new(op)));
+        self.closure_ops += 1;
         Ok(())
     }
 

@@ -172,6 +172,24 @@ fn compile_with(
             MAX_PBR - 1
         ));
     }
+    if c.hair_principled > 1 {
+        c.warnings.push(format!(
+            "{} Principled Hair BSDFs are mixed: strands render them as one, with their parameters averaged by weight",
+            c.hair_principled
+        ));
+    }
+    if c.hair_principled > 0 && c.hair_lobes > 0 {
+        c.warnings.push(
+            "Principled Hair and Hair BSDFs are mixed: strands render the Principled Hair BSDFs alone".to_string(),
+        );
+    }
+    if c.prog.hair && (c.small_lobes > 0 || c.principled > 0) {
+        c.warnings.push(
+            "hair BSDFs are mixed with other BSDFs: strands render the hair BSDFs alone, other surfaces the other \
+             BSDFs alone"
+                .to_string(),
+        );
+    }
     let mut prog = c.prog;
     prog.init = c.init;
     prog.ops = c.ops;
@@ -243,6 +261,7 @@ fn dummy_geom(o: &ObjectData) -> Geom<'_> {
         view: &crate::shader::geom::NO_VIEW,
         rays: crate::shader::geom::Rays::default(),
         point: None,
+        curve: None,
         grid_values: None,
     }
 }
@@ -265,6 +284,10 @@ struct Compiler<'a> {
     closure_ops: usize,
     small_lobes: usize,
     principled: usize,
+    /// Principled Hair BSDFs in the surface.
+    hair_principled: usize,
+    /// Hair BSDFs in the surface.
+    hair_lobes: usize,
     uses_generated: bool,
     /// The material's displacement method.
     method: Method,
@@ -296,6 +319,8 @@ impl<'a> Compiler<'a> {
             closure_ops: 0,
             small_lobes: 0,
             principled: 0,
+            hair_principled: 0,
+            hair_lobes: 0,
             uses_generated: false,
             method: Method::Bump,
             height_only: false,
@@ -325,6 +350,8 @@ fn is_closure_node(kind: &str) -> bool {
             | "ShaderNodeAddShader"
             | "ShaderNodeHoldout"
             | "ShaderNodeSubsurfaceScattering"
+            | "ShaderNodeBsdfHairPrincipled"
+            | "ShaderNodeBsdfHair"
     )
 }
 
@@ -786,7 +813,8 @@ mod tests {
     /// Subsurface Scattering node's (entering at its IOR, Skin from its falloff), none for a
     /// Principled without Subsurface Weight; two that differ are named in a warning.
     /// Curves Info and Volume Info on a surface give Cycles' 0 without a warning (a mesh has
-    /// no curve or volume attributes); Curves Info is flagged for the strands' loader to name.
+    /// no curve or volume attributes); Curves Info is read per shading point (a strand's
+    /// values, `tests/curves.rs`), so the emission is no longer a constant.
     #[test]
     fn curves_and_volume_info_are_zero_on_surfaces() {
         let c = compiled(
@@ -802,7 +830,7 @@ mod tests {
         );
         assert!(c.warnings.is_empty(), "{:?}", c.warnings);
         assert!(c.program.reads_curves_info);
-        assert_eq!(c.program.constant_emission, Some(Vec3::ZERO));
+        assert_eq!(c.program.constant_emission, None);
     }
 
     #[test]

@@ -140,29 +140,36 @@ impl Compiler<'_> {
                     }
                 }
             }
-            // Cycles' values away from curves are 0 (no curve primitive, no curve attributes):
-            // Caustic's too, so only strands (`gltf/curves.rs`) and volume graphs warn.
-            "ShaderNodeHairInfo" | "ShaderNodeVolumeInfo" => {
-                let volume_info = kind == "ShaderNodeVolumeInfo";
-                if volume_info && self.volume {
+            // Curves Info: Cycles' values on a strand (`curves::info`), 0 away from curves (no
+            // curve primitive, no curve attributes), as Cycles gives there.
+            "ShaderNodeHairInfo" => {
+                use crate::shader::instructions::CurveOutput as C;
+                for (id, o, ty) in [
+                    ("Is Strand", C::IsStrand, Ty::Float),
+                    ("Intercept", C::Intercept, Ty::Float),
+                    ("Length", C::Length, Ty::Float),
+                    ("Thickness", C::Thickness, Ty::Float),
+                    ("Tangent Normal", C::TangentNormal, Ty::Vector),
+                    ("Random", C::Random, Ty::Float),
+                ] {
+                    if self.is_used(i, id) {
+                        self.all_const = false;
+                        let out = self.out(i, id, ty);
+                        self.ops.push(Op::Input { what: InputKind::Curve(o), out });
+                        self.prog.reads_curves_info = true;
+                    }
+                }
+            }
+            // Volume Info away from a volume: 0, as Cycles (volume graphs read it elsewhere).
+            "ShaderNodeVolumeInfo" => {
+                if self.volume {
                     return Ok(false);
                 }
-                let outputs: &[(&str, Ty)] = if volume_info {
-                    &[("Color", Ty::Color), ("Density", Ty::Float), ("Flame", Ty::Float), ("Temperature", Ty::Float)]
-                } else {
-                    &[
-                        ("Is Strand", Ty::Float),
-                        ("Intercept", Ty::Float),
-                        ("Length", Ty::Float),
-                        ("Thickness", Ty::Float),
-                        ("Tangent Normal", Ty::Vector),
-                        ("Random", Ty::Float),
-                    ]
-                };
-                for &(id, ty) in outputs {
+                for (id, ty) in
+                    [("Color", Ty::Color), ("Density", Ty::Float), ("Flame", Ty::Float), ("Temperature", Ty::Float)]
+                {
                     if self.is_used(i, id) {
                         self.out(i, id, ty);
-                        self.prog.reads_curves_info |= !volume_info;
                     }
                 }
             }
