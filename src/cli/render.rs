@@ -356,7 +356,8 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     } else {
         ctx
     };
-    let camera = CameraRays::new(&scene.cameras[res.camera], res.resolution.0, res.resolution.1);
+    let camera = CameraRays::new(&scene.cameras[res.camera], res.resolution.0, res.resolution.1)
+        .with_footprints(scene.reads_footprint());
     let mut photon_stats = serde_json::Value::Null;
     // What BDPT and VCM file their contributions into besides Combined.
     let ledger = crate::integrator::bdpt::Ledger {

@@ -825,7 +825,8 @@ impl Integrator {
         matches!(self, Integrator::Bdpt(_)) as u64
     }
 
-    /// One camera sample along `ray` of pixel sample `(seed, px, py, index)`.
+    /// One camera sample along `ray` of pixel sample `(seed, px, py, index)`, written over
+    /// `out` (the path tracer fills it in place: no per-sample copy of the record).
     #[allow(clippy::too_many_arguments)]
     #[inline]
     pub fn sample(
@@ -838,27 +839,29 @@ impl Integrator {
         sampler: &mut PixelSampler,
         pixel_sample: (u32, u32, u32, u32),
         stats: &mut RayStats,
-    ) -> CameraSample {
+        out: &mut CameraSample,
+    ) {
         if ray.is_blind() {
             // BDPT still splats the sample's light subpath (`BdptIntegrator::li_blind`).
-            return match (self, scratch) {
+            *out = match (self, scratch) {
                 (Integrator::Bdpt(b), TileScratch::Bdpt(buf, vertices)) => {
                     let mut target = bdpt::FilmTarget { camera, filter, splats: buf };
                     b.li_blind(ctx, ray, pixel_sample, &mut target, vertices, stats)
                 }
                 _ => CameraSample::blind(),
             };
+            return;
         }
         match (self, scratch) {
-            (Integrator::Path(p), _) => p.li(ctx, ray, sampler, |q| camera.depth(q), stats),
-            (Integrator::Photon(p), _) => p.li(ctx, ray, sampler, |q| camera.depth(q), stats),
+            (Integrator::Path(p), _) => p.li(ctx, ray, sampler, |q| camera.depth(q), stats, out),
+            (Integrator::Photon(p), _) => *out = p.li(ctx, ray, sampler, |q| camera.depth(q), stats),
             (Integrator::Bdpt(b), TileScratch::Bdpt(buf, vertices)) => {
                 let mut target = bdpt::FilmTarget { camera, filter, splats: buf };
-                b.li(ctx, ray, sampler, pixel_sample, &mut target, vertices, stats)
+                *out = b.li(ctx, ray, sampler, pixel_sample, &mut target, vertices, stats)
             }
             // SPPM and VCM render whole iterations (`render::render` never asks them for
             // samples); BDPT always has its scratch (`tile_scratch`).
-            (Integrator::Sppm(_) | Integrator::Vcm(_) | Integrator::Bdpt(_), _) => CameraSample::default(),
+            (Integrator::Sppm(_) | Integrator::Vcm(_) | Integrator::Bdpt(_), _) => *out = CameraSample::default(),
         }
     }
 }

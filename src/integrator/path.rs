@@ -101,7 +101,8 @@ impl PathIntegrator {
         format!("path (max depth {}, russian roulette from depth {})", self.max_depth, self.rr_depth)
     }
 
-    /// Radiance arriving at the camera along a ray.
+    /// Radiance arriving at the camera along a ray, written over `out` (the caller's sample,
+    /// reset here: filled in place, the ~1 KiB record is not copied out per sample).
     pub fn li(
         &self,
         ctx: &SceneContext,
@@ -109,13 +110,14 @@ impl PathIntegrator {
         sampler: &mut PixelSampler,
         depth_of: impl Fn(Vec3) -> f32,
         stats: &mut RayStats,
-    ) -> CameraSample {
-        let mut out = CameraSample { depth: f32::INFINITY, ..Default::default() };
+        out: &mut CameraSample,
+    ) {
+        *out = CameraSample { depth: f32::INFINITY, ..Default::default() };
         stats.camera += 1;
         // Camera rays start in vacuum, with no MIS for what they hit first.
         let st = PathState::camera(ray, ctx.camera_media);
         let mut split = Split::new(ctx.catcher.is_some());
-        out.radiance = self.trace(ctx, st, sampler, depth_of, stats, &mut out, &mut split, None);
+        out.radiance = self.trace(ctx, st, sampler, depth_of, stats, out, &mut split, None);
         if let (Some(pass_ctx), Some((pre, _))) = (ctx.catcher.as_deref(), split.at) {
             // The catcher pass: the same camera segment again, in the scene of catchers
             // only; its own first-hit values are not the pixel's.
@@ -134,7 +136,6 @@ impl PathIntegrator {
         if !self.transparent_background {
             out.make_opaque();
         }
-        out
     }
 
     /// The shadow catcher's pass (`catcher`) from `pre`, the state that walked a camera

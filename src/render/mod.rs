@@ -13,7 +13,7 @@ pub mod job;
 
 pub use job::{Progress, RayStats, RenderJob, RenderResult, TILE_SIZE};
 
-use crate::film::{Film, SplatPool};
+use crate::film::{CameraSample, Film, SplatPool};
 use crate::integrator::{Integrator, SceneContext, data_passes};
 use crate::sampling::PixelSampler;
 use crate::scene::camera::CameraRays;
@@ -149,6 +149,8 @@ fn progressive(
                     let mut ts = TileStats::default();
                     // Per-tile working memory (bidirectional: splat buffer, subpath vertices).
                     let mut scratch = integrator.tile_scratch(&splats);
+                    // One sample record for the tile, which each sample overwrites.
+                    let mut s = CameraSample::default();
                     for ty in 0..tile.h {
                         for tx in 0..tile.w {
                             if stop.load(Ordering::Relaxed) || timed_out.load(Ordering::Relaxed) {
@@ -177,7 +179,7 @@ fn progressive(
                                 let ray = camera.sample_clipped_at(fx, fy, u_lens, time);
                                 // Every ray of this sample (bounces, shadow rays, BDPT's light subpath) at its time.
                                 let _time = crate::motion::TimeScope::enter(time);
-                                let mut s = integrator.sample(
+                                integrator.sample(
                                     ctx,
                                     camera,
                                     &job.filter,
@@ -186,6 +188,7 @@ fn progressive(
                                     &mut sampler,
                                     (job.seed, px, py, i),
                                     &mut ts.rays,
+                                    &mut s,
                                 );
                                 if want_data {
                                     let pixel_sample = (job.seed, px, py, i);

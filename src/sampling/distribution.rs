@@ -61,6 +61,11 @@ impl Distribution1D {
         lo + self.cdf[lo..hi].partition_point(|&c| c <= u)
     }
 
+    /// The CDF: `len() + 1` entries from 0 to 1, item i between entries i and i + 1.
+    pub fn cdf(&self) -> &[f32] {
+        &self.cdf
+    }
+
     /// Number of items.
     pub fn len(&self) -> usize {
         self.weights.len()

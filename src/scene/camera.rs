@@ -183,6 +183,9 @@ pub struct CameraRays {
     /// The panoramic projection, if the camera has one (then `half` and `center` only serve
     /// the shader's Window coordinates, and `cam.shift` offsets the viewplane unscaled).
     pano: Option<Panorama>,
+    /// Rays carry their footprint: off where nothing reads it (no Bump node in the scene,
+    /// `Scene::reads_footprint`), which spares each camera ray its two extra directions.
+    footprints: bool,
 }
 
 impl CameraRays {
@@ -202,7 +205,23 @@ impl CameraRays {
             Projection::Panoramic(p) => (Vec2::splat(0.5), false, Some(p)),
         };
         let center = cam.shift * 2.0 * half;
-        CameraRays { cam: cam.clone(), half, center, width: width as f32, height: height as f32, ortho, pano }
+        CameraRays {
+            cam: cam.clone(),
+            half,
+            center,
+            width: width as f32,
+            height: height as f32,
+            ortho,
+            pano,
+            footprints: true,
+        }
+    }
+
+    /// These rays with footprints computed (`on`) or left zero: only a Bump node reads them
+    /// (`Scene::reads_footprint`), so a scene without one renders the same either way.
+    pub fn with_footprints(mut self, on: bool) -> Self {
+        self.footprints = on;
+        self
     }
 
     /// True when rays need an aperture sample (depth of field).
@@ -282,7 +301,7 @@ impl CameraRays {
     #[inline]
     pub fn sample_clipped(&self, x: f32, y: f32, u_lens: Vec2) -> CameraRay {
         let (org, dir) = self.sample_ray(x, y, u_lens);
-        let footprint = self.footprint(x, y);
+        let footprint = if self.footprints { self.footprint(x, y) } else { RayFootprint::ZERO };
         let (near, far) = self.cam.clip;
         if self.pano.is_some() {
             return CameraRay { org, dir, near, far, footprint };

@@ -356,6 +356,12 @@ impl Scene {
         }
     }
 
+    /// True when some material's graph has a Bump, the one reader of a camera ray's
+    /// footprint (`CameraRays::with_footprints`).
+    pub fn reads_footprint(&self) -> bool {
+        self.materials.iter().any(|m| m.nodes.as_ref().is_some_and(|p| p.reads_footprint()))
+    }
+
     /// Centre and radius of a sphere bounding the scene.
     pub fn bounding_sphere(&self) -> (Vec3, f32) {
         let c = (self.bounds.0 + self.bounds.1) * 0.5;

@@ -175,6 +175,8 @@ mod tests {
             serde_json::from_value(json!({"version": 1, "nodes": nodes, "output": {"surface": [0, "BSDF"]}})).unwrap();
         let lanes = compile("m", &ext, &[]).unwrap().program;
         assert_eq!(lanes.lane_bump.is_some(), expect_lanes);
+        // A Bump reads the footprint: the camera must compute it (`CameraRays::with_footprints`).
+        assert!(lanes.reads_footprint());
         let mut passes = lanes.clone();
         passes.lane_bump = None;
         let mesh = triangle();
@@ -203,6 +205,18 @@ mod tests {
             tilted += ((n - super::super::geom::to_blender(g.n)).length() > 1e-4) as usize;
         }
         tilted
+    }
+
+    /// A graph without a Bump does not read the footprint: its camera rays skip it.
+    #[test]
+    fn no_bump_no_footprint() {
+        let nodes = json!([
+            {"name": "bsdf", "type": "ShaderNodeBsdfPrincipled", "inputs": {"Roughness": {"link": [1, "Fac"]}}},
+            {"name": "noise", "type": "ShaderNodeTexNoise"}
+        ]);
+        let ext: NodesExt =
+            serde_json::from_value(json!({"version": 1, "nodes": nodes, "output": {"surface": [0, "BSDF"]}})).unwrap();
+        assert!(!compile("m", &ext, &[]).unwrap().program.reads_footprint());
     }
 
     /// The 3-D fBm Noise with distortion (its lane form) and a Voronoi and Math chain (one

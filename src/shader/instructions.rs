@@ -564,6 +564,12 @@ impl Program {
     pub fn emission_reads_light_path(&self) -> bool {
         self.emits && self.constant_emission.is_none() && self.light_path_outputs().next().is_some()
     }
+
+    /// True when a Bump (node or Displacement output) reads the ray's footprint, anywhere in
+    /// the graph (the AOV Output tail included): the one reader of camera footprints.
+    pub fn reads_footprint(&self) -> bool {
+        self.ops.iter().any(|op| matches!(op, Op::Bump(_)))
+    }
 }
 
 /// One AOV Output node of a material.
