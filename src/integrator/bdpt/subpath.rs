@@ -335,7 +335,7 @@ impl BdptIntegrator {
             path.ray = crate::scene::visibility::RayMask::after_bounce(bs.kind, transmitted);
             path.media = ctx.medium_after(&s, wi, medium);
             if (t - 1) as u32 >= self.rr_depth {
-                let survive = path.beta.max_element().min(0.95);
+                let survive = path.beta.abs().max_element().min(0.95);
                 if u_rr >= survive {
                     break;
                 }
@@ -449,7 +449,8 @@ impl BdptIntegrator {
             return;
         }
         let infinite = v0.kind == Kind::Infinite;
-        let beta_ref = beta.max_element();
+        // By size: a negative emitter's subpaths carry negative light.
+        let beta_ref = beta.abs().max_element();
         let mut pdf_sa = pdf_dir;
         let mut prev_delta = false;
         let mut path = PathState::photon(org, dir, beta);
@@ -559,7 +560,7 @@ impl BdptIntegrator {
             if (light.len() - 1) as u32 >= self.rr_depth {
                 // Light throughput carries the light's power: survive in proportion to
                 // what is left of the first segment's.
-                let survive = (path.beta.max_element() / beta_ref).min(0.95);
+                let survive = (path.beta.abs().max_element() / beta_ref).min(0.95);
                 if !(survive > 0.0) || u_rr >= survive {
                     break;
                 }
