@@ -257,6 +257,9 @@ impl BdptIntegrator {
             let mut v = Vertex::surface(&s, &sp, wo, beta, medium);
             v.emitted = sp.emitted;
             v.restricted = restricted;
+            if i >= 1 {
+                v.classes = cam[i].classes_toward(dir);
+            }
             v.contact = super::contact::on_contact(ctx, &s);
             v.pdf_fwd = if prev_delta { self.delta_area(&v, cam[i].p) } else { v.area_density(pdf_sa, cam[i].p) };
             cam.push(v);
@@ -289,6 +292,19 @@ impl BdptIntegrator {
                         self.ledger.file(out, t - 2, first, false, g, c);
                     }
                 }
+            }
+            // Light Paths' bounce limits (`bounces`), after this vertex's emission: the path
+            // tracer stops here, or the paths through it are the camera side's.
+            match self.ends_after(&cam[t - 1]) {
+                None => {
+                    cam[t - 1].spent = true;
+                    break;
+                }
+                Some(true) => {
+                    restricted = true;
+                    cam[t - 1].restricted = true;
+                }
+                Some(false) => {}
             }
             // Scattering events so far: t - 2; a vertex at the depth limit only emits.
             if t - 1 > self.max_depth as usize || t >= mis::MAX_PATH_VERTICES / 2 {
@@ -509,6 +525,10 @@ impl BdptIntegrator {
             let sp = ctx.shade(&s, wo);
             let mut v = Vertex::surface(&s, &sp, wo, beta, medium);
             v.contact = contact;
+            // The light's neighbour light[1] is never counted (`bounces`).
+            if i >= 2 {
+                v.classes = light[i].classes_toward(dir);
+            }
             v.pdf_fwd = if i == 0 && infinite {
                 v.density_from_infinity(light[0].p, self.lights.disk_pdf())
             } else if prev_delta {
