@@ -141,6 +141,11 @@ pub struct Toon {
 }
 
 impl Toon {
+    /// The Glossy Toon (around wo's mirror direction), not the Diffuse one.
+    pub fn is_glossy(&self) -> bool {
+        self.glossy
+    }
+
     /// Cycles' setup: Size clamped to [10⁻⁵, 1] and Smooth to [0, 1], both × π/2.
     pub fn new(size: f32, smooth: f32, glossy: bool) -> Self {
         let half_pi = std::f32::consts::FRAC_PI_2;

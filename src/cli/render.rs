@@ -105,7 +105,11 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         reporter.warning(&w);
         run_warnings.push(w);
     }
-    for w in light_paths_warnings(&res) {
+    // Media and subsurface scattering: the parts BDPT and VCM continue with the path tracer.
+    let path_traced_parts = scene.world_medium.is_some()
+        || scene.world_grid.is_some()
+        || scene.materials.iter().any(|m| m.medium.is_some() || m.subsurface.is_some());
+    for w in light_paths_warnings(&res, path_traced_parts) {
         reporter.warning(&w);
         run_warnings.push(w);
     }
@@ -383,6 +387,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
             ledger,
             ..BdptIntegrator::new(&scene, res.max_depth, res.transparent, args.bdpt_strategy)
                 .with_transparent_glass(&scene, res.transparent_glass)
+                .with_bounce_limits(res.bounce_limits())
         }),
         IntegratorKind::Vcm => {
             let mut vcm = crate::integrator::vcm::VcmIntegrator::new(
@@ -392,7 +397,10 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
                 args.vcm_mode.map_or(crate::integrator::vcm::VcmMode::Full, Into::into),
                 args.vcm_radius,
             );
-            vcm.bdpt = BdptIntegrator { ledger, ..vcm.bdpt.with_transparent_glass(&scene, res.transparent_glass) };
+            vcm.bdpt = BdptIntegrator {
+                ledger,
+                ..vcm.bdpt.with_transparent_glass(&scene, res.transparent_glass).with_bounce_limits(res.bounce_limits())
+            };
             Integrator::Vcm(vcm)
         }
         IntegratorKind::Photon => {
@@ -607,15 +615,24 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
 /// range, threads or output).
 /// Warnings naming the Light Paths settings this render does not follow: for the integrators
 /// other than the path tracer, the per-kind bounce limits that could end a path before Max
-/// Bounces, the clamps, Filter Glossy and a caustics switch off (BDPT and VCM weigh whole
-/// paths made of a camera and a light subpath, photons do not know the camera path they will
-/// be read at; Cycles has neither).
-fn light_paths_warnings(res: &Resolved) -> Vec<String> {
+/// Bounces (BDPT and VCM follow them, `bdpt::bounces`, but for the paths they continue with
+/// the path tracer, without them, in media and through subsurface scattering:
+/// `path_traced_parts`), the clamps, Filter Glossy and a caustics switch off (BDPT and
+/// VCM weigh whole paths made of a camera and a light subpath, photons do not know the camera
+/// path they will be read at; Cycles has neither).
+fn light_paths_warnings(res: &Resolved, path_traced_parts: bool) -> Vec<String> {
     let mut out = Vec::new();
     if res.integrator != IntegratorKind::Path {
         let name = res.integrator.name();
         let limits = res.light_paths.limits_below(res.max_depth);
-        if !limits.is_empty() {
+        let bidirectional = matches!(res.integrator, IntegratorKind::Bdpt | IntegratorKind::Vcm);
+        if !limits.is_empty() && bidirectional && path_traced_parts {
+            out.push(format!(
+                "Light Paths > {}: {name} follows them except past a vertex in a medium or a subsurface walk, \
+                 where it continues the path with the path tracer without them; the path tracer follows them",
+                limits.join(", ")
+            ));
+        } else if !limits.is_empty() && !bidirectional {
             out.push(format!(
                 "Light Paths > {}: {name} does not follow per-kind bounce limits (only Max Bounces); the path tracer does",
                 limits.join(", ")

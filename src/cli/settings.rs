@@ -67,6 +67,22 @@ impl Resolved {
             _ => crate::integrator::light_paths::LightPaths::UNLIMITED,
         }
     }
+
+    /// The per-kind bounce limits BDPT and VCM follow themselves (`bdpt::bounces`; none for
+    /// the other integrators, whose context holds `followed_light_paths`).
+    pub fn bounce_limits(&self) -> crate::integrator::light_paths::LightPaths {
+        use crate::integrator::light_paths::LightPaths;
+        match self.integrator {
+            IntegratorKind::Bdpt | IntegratorKind::Vcm => LightPaths {
+                diffuse: self.light_paths.diffuse,
+                glossy: self.light_paths.glossy,
+                transmission: self.light_paths.transmission,
+                volume: self.light_paths.volume,
+                ..LightPaths::UNLIMITED
+            },
+            _ => LightPaths::UNLIMITED,
+        }
+    }
 }
 
 /// Resolves the photon-mapping settings (flag > scene > default) and checks them.

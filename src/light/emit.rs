@@ -13,7 +13,9 @@
 //! | area (CAUSTIC) | uniform | cosine-weighted, one-sided | π A L / (p_l N) |
 //! | emissive triangle | uniform | cosine-weighted, both sides when double-sided | π A L(x) s / (p_l N), s = sides |
 //!
-//! with p_l the light's selection probability (luminance of its power over the total)
+//! with p_l the light's selection probability (luminance of its power over the total; a
+//! negative emitter's power is |Φ|, as Cycles' light tree takes |emission|, and its photons
+//! carry the sign through the local emission's factor)
 //! and N the photons emitted. With every photon carrying Φ_l / (p_l N) and p_l ∝ Φ_l
 //! exactly, each photon carries the same luminance, Φ_total / N, so the sum over N
 //! photons is the total power up to rounding, for every light type. The only
@@ -300,8 +302,9 @@ impl Emitters {
                 } else if mat.nodes.is_some() {
                     // A node graph's emission relative to the material's estimate the
                     // power was computed with (exact when the emission is constant).
-                    // A photon carries no negative light (Cycles' light tracing has none).
-                    let local = scene.emission_at(*tri, b.x, b.y).max(Rgb::ZERO);
+                    // Signed: a negative emitter's photons carry negative power (the power
+                    // it was picked by is |emission|), so they subtract its light.
+                    let local = scene.emission_at(*tri, b.x, b.y);
                     let e = mat.emissive;
                     factor = Rgb::new(ratio(local.x, e.x), ratio(local.y, e.y), ratio(local.z, e.z));
                 } else if mat.unlit {

@@ -224,8 +224,9 @@ pub fn sample_point(scene: &Scene, index: usize, u: Vec2) -> Option<LightPoint> 
                 light,
                 p: q,
                 n,
-                // A light subpath carries no negative light.
-                le: scene.emission_at(*tri, b.x, b.y).max(Rgb::ZERO) * coverage,
+                // Signed: a negative emitter's subpaths carry negative light, which the
+                // camera side's strategies find signed too (its power is |emission|).
+                le: scene.emission_at(*tri, b.x, b.y) * coverage,
                 pdf_pos: 1.0 / area,
                 two_sided: et.two_sided,
             })

@@ -563,6 +563,7 @@ fn resolve_settings(scene: &Scene, s: &SettingsEdit) -> Result<RenderSettings, S
         max_depth: res.max_depth,
         // As `caustic render`: only the path tracer follows them.
         light_paths: res.followed_light_paths(),
+        bounce_limits: res.bounce_limits(),
         transparent_max: res.transparent_max,
         seed: res.job_seed,
         filter: res.filter,

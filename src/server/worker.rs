@@ -55,6 +55,8 @@ pub struct RenderSettings {
     pub max_depth: u32,
     /// Cycles' per-kind bounce limits and clamps.
     pub light_paths: crate::integrator::light_paths::LightPaths,
+    /// The per-kind bounce limits BDPT follows itself (`Resolved::bounce_limits`).
+    pub bounce_limits: crate::integrator::light_paths::LightPaths,
     /// Cycles' Transparent Max Bounces.
     pub transparent_max: u32,
     /// Seed.
@@ -144,7 +146,8 @@ fn build_integrator(ctx: &SceneContext, s: &RenderSettings, stop: &AtomicBool) -
         }),
         IntegratorKind::Bdpt => Integrator::Bdpt(
             BdptIntegrator::new(ctx.scene, s.max_depth, s.transparent, None)
-                .with_transparent_glass(ctx.scene, s.transparent_glass),
+                .with_transparent_glass(ctx.scene, s.transparent_glass)
+                .with_bounce_limits(s.bounce_limits),
         ),
         IntegratorKind::Photon => {
             // The map is never written to a file, so it carries no scene hash (0).

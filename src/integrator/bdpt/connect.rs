@@ -33,6 +33,10 @@ impl BdptIntegrator {
         for t in 2..=n_cam {
             // s = 1: a fresh light point sampled for this camera vertex.
             let [u_pick, u_x, u_y, _] = sampler.next_4d();
+            // Past Light Paths' bounce limits (`bounces`): no path goes on from here.
+            if scratch.cam[t - 1].spent {
+                break;
+            }
             if t - 1 <= self.max_depth as usize && self.allowed(1, t) {
                 let rays = stats.total();
                 sum += self.connect_light_sample(ctx, t, [u_pick, u_x, u_y], film.camera, scratch, out, stats);
@@ -91,6 +95,10 @@ impl BdptIntegrator {
             return;
         }
         let w = (cam_p - y.p) / dist;
+        // Light Paths' bounce limits (`bounces`): light[2..s] counted, light[1] never.
+        if s >= 3 && !self.kept(y.classes_toward(w)) {
+            return;
+        }
         let mut first = First::default();
         // What the light vertex sends toward the camera (times the cosine at it).
         let f = match (y.kind, y.light) {
@@ -466,6 +474,11 @@ impl BdptIntegrator {
         }
         let dist = dist2.sqrt();
         let w = d / dist; // from x toward y
+        // Light Paths' bounce limits (`bounces`): both ends counted, light[1] never.
+        let light_side = if s >= 3 { y.classes_toward(-w) } else { bounces::Classes::default() };
+        if !self.kept(x.classes_toward(w).plus(light_side)) {
+            return Rgb::ZERO;
+        }
         let (wo_x, wi_x) = (x.frame.to_local(x.wo), x.frame.to_local(w));
         let (wo_y, wi_y) = (y.frame.to_local(y.wo), y.frame.to_local(-w));
         if (wi_x.z > 0.0) != (w.dot(hx.ng) > 0.0) || (wi_y.z > 0.0) != ((-w).dot(hy.ng) > 0.0) {

@@ -101,6 +101,8 @@ pub struct BdptIntegrator {
     pub volume_merging: bool,
     /// Film → Transparent Glass's roughness threshold (`with_transparent_glass`).
     pub glass_threshold: Option<f32>,
+    /// Light Paths' per-kind bounce limits (`bounces`; the clamps and the rest unused).
+    pub light_paths: crate::integrator::light_paths::LightPaths,
 }
 
 impl BdptIntegrator {
@@ -124,7 +126,39 @@ impl BdptIntegrator {
             restriction,
             volume_merging: false,
             glass_threshold: None,
+            light_paths: crate::integrator::light_paths::LightPaths::UNLIMITED,
         }
+    }
+
+    /// Light Paths' per-kind bounce limits `lp` followed (`bounces`). VCM's volume merging
+    /// is left off where one can end a path before Max Bounces: the path tracer continued
+    /// from the medium vertex then keeps every path there.
+    pub fn with_bounce_limits(self, lp: crate::integrator::light_paths::LightPaths) -> Self {
+        let binding = !lp.limits_below(self.max_depth).is_empty();
+        BdptIntegrator { light_paths: lp, volume_merging: self.volume_merging && !binding, ..self }
+    }
+
+    /// What the bounce limits make of paths that end right after camera vertex `x` (s = 0
+    /// from its ray, s = 1 at it), and so of every path through it: None when they drop
+    /// them; Some(true) when they are the camera side's alone, kept by the classes its
+    /// subpath sampled (`bounces`), which keep this one.
+    #[inline]
+    pub(crate) fn ends_after(&self, x: &Vertex) -> Option<bool> {
+        match x.classes.verdict(&self.light_paths) {
+            bounces::Verdict::Kept => Some(false),
+            bounces::Verdict::Dropped => None,
+            bounces::Verdict::Ambiguous => {
+                let spent = x.hit.is_some_and(|h| self.light_paths.spent(h.light_path));
+                (!spent).then_some(true)
+            }
+        }
+    }
+
+    /// Whether a path whose counted bounces are `c` is made by every strategy (false: the
+    /// bounce limits drop it, or leave it to the camera side: `bounces`).
+    #[inline]
+    pub(crate) fn kept(&self, c: bounces::Classes) -> bool {
+        c.verdict(&self.light_paths) == bounces::Verdict::Kept
     }
 
     /// Film → Transparent Glass under roughness `threshold` (None: off), as the path tracer
@@ -204,6 +238,7 @@ impl BdptIntegrator {
     }
 }
 
+pub mod bounces;
 pub mod catcher;
 pub mod connect;
 pub mod contact;

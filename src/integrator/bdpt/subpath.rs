@@ -257,6 +257,9 @@ impl BdptIntegrator {
             let mut v = Vertex::surface(&s, &sp, wo, beta, medium);
             v.emitted = sp.emitted;
             v.restricted = restricted;
+            if i >= 1 {
+                v.classes = cam[i].classes_toward(dir);
+            }
             v.contact = super::contact::on_contact(ctx, &s);
             v.pdf_fwd = if prev_delta { self.delta_area(&v, cam[i].p) } else { v.area_density(pdf_sa, cam[i].p) };
             cam.push(v);
@@ -289,6 +292,19 @@ impl BdptIntegrator {
                         self.ledger.file(out, t - 2, first, false, g, c);
                     }
                 }
+            }
+            // Light Paths' bounce limits (`bounces`), after this vertex's emission: the path
+            // tracer stops here, or the paths through it are the camera side's.
+            match self.ends_after(&cam[t - 1]) {
+                None => {
+                    cam[t - 1].spent = true;
+                    break;
+                }
+                Some(true) => {
+                    restricted = true;
+                    cam[t - 1].restricted = true;
+                }
+                Some(false) => {}
             }
             // Scattering events so far: t - 2; a vertex at the depth limit only emits.
             if t - 1 > self.max_depth as usize || t >= mis::MAX_PATH_VERTICES / 2 {
@@ -335,7 +351,7 @@ impl BdptIntegrator {
             path.ray = crate::scene::visibility::RayMask::after_bounce(bs.kind, transmitted);
             path.media = ctx.medium_after(&s, wi, medium);
             if (t - 1) as u32 >= self.rr_depth {
-                let survive = path.beta.max_element().min(0.95);
+                let survive = path.beta.abs().max_element().min(0.95);
                 if u_rr >= survive {
                     break;
                 }
@@ -449,7 +465,8 @@ impl BdptIntegrator {
             return;
         }
         let infinite = v0.kind == Kind::Infinite;
-        let beta_ref = beta.max_element();
+        // By size: a negative emitter's subpaths carry negative light.
+        let beta_ref = beta.abs().max_element();
         let mut pdf_sa = pdf_dir;
         let mut prev_delta = false;
         let mut path = PathState::photon(org, dir, beta);
@@ -508,6 +525,10 @@ impl BdptIntegrator {
             let sp = ctx.shade(&s, wo);
             let mut v = Vertex::surface(&s, &sp, wo, beta, medium);
             v.contact = contact;
+            // The light's neighbour light[1] is never counted (`bounces`).
+            if i >= 2 {
+                v.classes = light[i].classes_toward(dir);
+            }
             v.pdf_fwd = if i == 0 && infinite {
                 v.density_from_infinity(light[0].p, self.lights.disk_pdf())
             } else if prev_delta {
@@ -559,7 +580,7 @@ impl BdptIntegrator {
             if (light.len() - 1) as u32 >= self.rr_depth {
                 // Light throughput carries the light's power: survive in proportion to
                 // what is left of the first segment's.
-                let survive = (path.beta.max_element() / beta_ref).min(0.95);
+                let survive = (path.beta.abs().max_element() / beta_ref).min(0.95);
                 if !(survive > 0.0) || u_rr >= survive {
                     break;
                 }

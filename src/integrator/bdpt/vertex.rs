@@ -50,6 +50,13 @@ pub(crate) struct Vertex {
     pub(crate) restricted: bool,
     /// The surface is at a contact (`contact`: a glass resting on a floor).
     pub(crate) contact: bool,
+    /// The bounces its own subpath counted before it (`bounces`: camera vertices from the
+    /// first hit on, light vertices from the third, the light's neighbour never).
+    pub(crate) classes: super::bounces::Classes,
+    /// How its BSDF reflects (surfaces).
+    pub(crate) reflection: super::bounces::Reflection,
+    /// Camera vertices: the bounce limits drop every path that goes on from here.
+    pub(crate) spent: bool,
 }
 
 impl Vertex {
@@ -71,6 +78,9 @@ impl Vertex {
             emitted: Rgb::ZERO,
             restricted: false,
             contact: false,
+            classes: Default::default(),
+            reflection: Default::default(),
+            spent: false,
         }
     }
 
@@ -90,8 +100,17 @@ impl Vertex {
             wo,
             beta,
             medium,
+            reflection: super::bounces::Reflection::of(&sp.bsdf),
             ..Vertex::new(Kind::Surface, s.p)
         }
+    }
+
+    /// The class counts of a path through this surface vertex that goes on toward unit
+    /// direction `w` from it: its own subpath's counts and its bounce between `wo` and `w`,
+    /// a crossing when they lie on opposite sides of the surface.
+    #[inline]
+    pub(crate) fn classes_toward(&self, w: Vec3) -> super::bounces::Classes {
+        self.classes.with_bounce(self.reflection, self.ng.dot(self.wo) * self.ng.dot(w) < 0.0)
     }
 
     /// |cos| between the vertex's normal and `w` (1 for points and the camera).

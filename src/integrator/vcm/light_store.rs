@@ -31,6 +31,8 @@ pub(crate) struct StoredVertex {
     delta: bool,
     medium: MediumStack,
     light: Option<LightPoint>,
+    /// The bounces its light subpath counted before it (`bdpt::bounces`).
+    classes: crate::integrator::bdpt::bounces::Classes,
 }
 
 /// One light subpath per pixel of a row, in one flat array reused across iterations.
@@ -68,6 +70,7 @@ impl RowSubpaths {
                 delta: v.delta,
                 medium: v.medium,
                 light: v.light,
+                classes: v.classes,
             }
         }));
         self.starts.push(self.verts.len() as u32);
@@ -93,6 +96,7 @@ impl RowSubpaths {
             v.delta = s.delta;
             v.medium = s.medium;
             v.light = s.light;
+            v.classes = s.classes;
             v
         }));
     }

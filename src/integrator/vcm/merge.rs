@@ -6,6 +6,7 @@ use super::mis::{Recursion, Side, merge_weight};
 use crate::film::CameraSample;
 use crate::integrator::SceneContext;
 use crate::integrator::bdpt::Ledger;
+use crate::integrator::bdpt::bounces::Verdict;
 use crate::integrator::bdpt::mis::MIN_MERGE_VERTEX;
 use crate::integrator::bdpt::passes::First;
 use crate::integrator::bdpt::vertex::Vertex;
@@ -35,6 +36,8 @@ pub struct MergeRecord {
     pub m: u32,
     /// The light its subpath started at (light groups).
     pub light: u32,
+    /// The bounces its light subpath counts before it (`bdpt::bounces`).
+    pub(crate) classes: crate::integrator::bdpt::bounces::Classes,
 }
 
 /// What one iteration's merging needs: the stored vertices, their grid, and the constants.
@@ -98,6 +101,7 @@ pub(crate) fn push_records(scene: &Scene, light: &[Vertex], (eta, share): (f32, 
                 side: rec.side(v.pdf_fwd),
                 g: light[i - 1].area_density(1.0, v.p),
                 m: i as u32,
+                classes: v.classes,
                 light: lp.light,
             });
         }
@@ -118,6 +122,7 @@ pub(crate) fn merge_camera_path(
     map: &MergeMap,
     camera_connectible: bool,
     max_depth: u32,
+    limits: &crate::integrator::light_paths::LightPaths,
     mut passes: Option<(&SceneContext, Ledger, First, &mut CameraSample)>,
 ) -> Rgb {
     let mut total = Rgb::ZERO;
@@ -133,8 +138,9 @@ pub(crate) fn merge_camera_path(
             break;
         }
         let x = &cam[c];
-        // A restricted camera prefix: its paths are the camera side's (`bdpt::visibility`).
-        if x.restricted {
+        // A restricted camera prefix: its paths are the camera side's (`bdpt::visibility`,
+        // `bdpt::bounces`); past the bounce limits, none goes on.
+        if x.restricted || x.spent {
             continue;
         }
         // By reference: a BSDF is 672 bytes, and most camera vertices merge nothing.
@@ -170,6 +176,10 @@ pub(crate) fn merge_camera_path(
                 }
                 let c = y.ng.dot(hit.ng);
                 if c * c < 0.25 {
+                    return;
+                }
+                // Light Paths' bounce limits (`bdpt::bounces`): the merged vertex (m ≥ 2) counts.
+                if !x.classes_toward(y.wo).plus(y.classes).verdict(limits).eq(&Verdict::Kept) {
                     return;
                 }
                 let wi_l = x.frame.to_local(y.wo);

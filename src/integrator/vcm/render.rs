@@ -331,8 +331,14 @@ impl VcmIntegrator {
                             );
                             let ledger = self.bdpt.ledger;
                             let passes = (ledger.any() && !pilot).then_some((ctx, ledger, scratch.first, &mut s));
-                            let mut merged =
-                                merge_camera_path(&scratch.cam, map_ref, camera_connectible, max_depth, passes);
+                            let mut merged = merge_camera_path(
+                                &scratch.cam,
+                                map_ref,
+                                camera_connectible,
+                                max_depth,
+                                &self.bdpt.light_paths,
+                                passes,
+                            );
                             if let Some(x) = *scratch.medium_vertex {
                                 let passes = (ledger.any() && !pilot).then_some((ctx, ledger, &mut s));
                                 merged += volume_ref.merge(&x, max_depth, passes);

@@ -84,7 +84,8 @@ pub(crate) fn deposit(ctx: &SceneContext, segments: &[LightSegment], salt: u32, 
     for (n, seg) in segments.iter().enumerate() {
         let mut rng = WalkRng::new(f32::from_bits(salt), n as u32 ^ 0x5bd1_e995);
         let Some((t, beta)) = collision(ctx, seg, &mut rng) else { continue };
-        if !(beta.is_finite() && beta.max_element() > 0.0) {
+        // By size: a negative emitter's light vertices carry negative light.
+        if !(beta.is_finite() && beta.abs().max_element() > 0.0) {
             continue;
         }
         out.push(VolumeRecord { p: seg.org + seg.dir * t, dir: seg.dir, beta, bounces: seg.bounces, light: seg.light });

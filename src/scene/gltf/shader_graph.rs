@@ -73,7 +73,9 @@ pub(crate) fn graph_material(
     out.alpha_mode = if prog.transparent { AlphaMode::Blend } else { AlphaMode::Opaque };
     out.emissive = if prog.emits {
         match prog.constant_emission {
-            Some(e) => e.max(glam::Vec3::ZERO),
+            // A selection weight: |emission|, as Cycles' `estimate_emission` (a negative
+            // emitter subtracts light and is sampled like any other).
+            Some(e) => e.abs(),
             // Estimated per material once the mesh is known (`mean_node_emission`).
             None => glam::Vec3::splat(1.0),
         }
@@ -202,7 +204,7 @@ const EMISSION_SAMPLES: usize = 4096;
 
 impl Loader<'_> {
     /// Node materials whose emission varies over the surface get an estimate of their
-    /// mean radiance in `emissive` (the light list's powers and photon emission use it;
+    /// mean |radiance| in `emissive` (the light list's powers and photon emission use it;
     /// the radiance itself is always evaluated exactly, `Scene::emission_at`): the mean of
     /// the graph's emission at the centroids of up to 4096 of the material's triangles
     /// (evenly strided). A material whose samples are all black keeps a tiny positive
@@ -257,8 +259,9 @@ pub(crate) fn mean_node_emission(
             1.0 / 3.0,
             crate::scene::light_path::LightPath::LIGHT_EMISSION,
         )
-        // A power: negative emission (which rays still find) gives none.
-        .max(glam::Vec3::ZERO);
+        // A selection weight: negative emission (which subtracts light) counts by its size,
+        // as Cycles' light tree takes |emission|; every path carries the sign itself.
+        .abs();
         n += 1;
     }
     Some(((sum / n as f32).max(glam::Vec3::splat(1e-6)), n))
