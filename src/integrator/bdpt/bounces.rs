@@ -77,7 +77,8 @@ impl Reflection {
                 }
                 dg
             }
-            Bsdf::Hair(_) => (true, true),
+            // Strands: their class follows the fibre's lobes, which only the camera side samples.
+            Bsdf::Hair(_) | Bsdf::HairLobes(_) => (true, true),
         };
         match (diffuse, glossy) {
             (true, true) => Reflection::Mixed,
