@@ -1,7 +1,7 @@
 //! The light pass's subpaths kept for the camera pass's connections, so that each light
 //! subpath is traced once per iteration (for the grid and for its pixel's connections).
 //!
-//! A BDPT vertex is about 1 KB, most of it the BSDF (`size_of::<Bsdf>()` is 764 bytes);
+//! A BDPT vertex is most of a kilobyte, nearly all of it the BSDF (`size_of::<Bsdf>()`);
 //! stored for every pixel that would be gigabytes at full HD. A stored vertex keeps
 //! everything but the BSDF and the shading frame, which the camera pass rebuilds by
 //! shading the stored hit again from the stored direction: shading is a pure function of
