@@ -673,7 +673,7 @@ def needs_graph(material, graph):
         return True
     if any(_foreign_colour_space(graph, n) for n in graph.nodes):
         return True  # the exporter copies the file; the graph's image is converted (node_images.py)
-    if any(_tinted_metal(n) for n in graph.nodes):
+    if any(_tinted_metal(n) or _beyond_gltf_principled(n) for n in graph.nodes):
         return True
     for entry in graph.nodes:
         for identifier, item in entry["inputs"].items():
@@ -712,6 +712,15 @@ def _tinted_metal(entry):
     metal = "link" in metallic or metallic.get("value", 0.0) != 0.0
     tinted = "link" in tint or any(c != 1.0 for c in tint.get("value", [1.0, 1.0, 1.0])[:3])
     return metal and tinted
+
+
+def _beyond_gltf_principled(entry):
+    """Whether a Principled BSDF has a constant Diffuse Roughness or Anisotropic, which the
+    graph renders as Cycles (Oren-Nayar; widths along Cycles' default radial tangent) and glTF
+    cannot say (a Lambertian base; the anisotropy along the UV tangents)."""
+    if entry["type"] != "ShaderNodeBsdfPrincipled":
+        return False
+    return any(entry["inputs"].get(name, {}).get("value", 0.0) != 0.0 for name in ("Diffuse Roughness", "Anisotropic"))
 
 
 def _exporter_reads_link(entry, identifier, source, output_identifier):
