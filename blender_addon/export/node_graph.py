@@ -673,6 +673,8 @@ def needs_graph(material, graph):
         return True
     if any(_foreign_colour_space(graph, n) for n in graph.nodes):
         return True  # the exporter copies the file; the graph's image is converted (node_images.py)
+    if any(_associated_alpha(graph, n) for n in graph.nodes):
+        return True  # glTF filters straight colour; Cycles the colour times alpha (contract, `images`)
     if any(_tinted_metal(n) or _beyond_gltf_principled(n) for n in graph.nodes):
         return True
     for entry in graph.nodes:
@@ -701,6 +703,22 @@ def _alpha_ignored(graph, entry):
     """Whether `entry` is an Image Texture whose image's Alpha mode is None (Cycles reads 1)."""
     index = entry["props"].get("image") if entry["type"] == "ShaderNodeTexImage" else None
     return index is not None and graph.images[index].alpha_mode == "NONE"
+
+
+def _associated_alpha(graph, entry):
+    """Whether `entry` is an Image Texture whose image the renderer holds with associated alpha,
+    as Cycles (contract, `images`): a colour image with an alpha channel, 8-bit in Straight or
+    Premultiplied mode or float in Premultiplied mode. Cycles filters its colour times alpha and
+    divides back only when the node's Alpha is linked, so a transparent texel's colour never
+    bleeds into its neighbours and an unlinked Alpha darkens the colour; glTF's texture is
+    straight."""
+    index = entry["props"].get("image") if entry["type"] == "ShaderNodeTexImage" else None
+    if index is None:
+        return False
+    image = graph.images[index]
+    if getattr(image, "depth", 0) not in {32, 64, 128} or image.colorspace_settings.is_data:
+        return False  # no alpha channel (RGBA is 32, 64 or 128 bits a pixel), or data
+    return image.alpha_mode == "PREMUL" or image.alpha_mode == "STRAIGHT" and not image.is_float
 
 
 def _tinted_metal(entry):
