@@ -76,12 +76,8 @@ def principled_extras(blender_material, graph=False):
         tint = [float(c) for c in value("Coat Tint", (1, 1, 1, 1))[:3]]
         if abs(ior - 1.5) > 1e-6 or any(abs(c - 1.0) > 1e-6 for c in tint):
             coat = {"ior": ior, "tint": tint}
-    # A node graph renders both as Cycles (src/shader/closure.rs); glTF carries neither.
-    if not graph and value("Diffuse Roughness", 0.0) > 0.0:
-        warnings.append(f"material '{name}': Diffuse Roughness is not rendered (Caustic's diffuse is Lambertian)")
-    if not graph and value("Anisotropic", 0.0) > 0.0:
-        warnings.append(f"material '{name}': the anisotropy direction follows the UV tangents (MikkTSpace); "
-                        "Cycles' default Tangent is radial around the object's Z axis (the same on a UV sphere)")
+    # Diffuse Roughness and Anisotropic, which glTF cannot say as Cycles renders them, send the
+    # material to its node graph (node_graph.needs_graph), so they need no word here.
     return coat, warnings
 
 

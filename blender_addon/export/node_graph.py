@@ -673,7 +673,9 @@ def needs_graph(material, graph):
         return True
     if any(_foreign_colour_space(graph, n) for n in graph.nodes):
         return True  # the exporter copies the file; the graph's image is converted (node_images.py)
-    if any(_tinted_metal(n) for n in graph.nodes):
+    if any(_associated_alpha(graph, n) for n in graph.nodes):
+        return True  # glTF filters straight colour; Cycles the colour times alpha (contract, `images`)
+    if any(_tinted_metal(n) or _beyond_gltf_principled(n) for n in graph.nodes):
         return True
     for entry in graph.nodes:
         for identifier, item in entry["inputs"].items():
@@ -703,6 +705,22 @@ def _alpha_ignored(graph, entry):
     return index is not None and graph.images[index].alpha_mode == "NONE"
 
 
+def _associated_alpha(graph, entry):
+    """Whether `entry` is an Image Texture whose image the renderer holds with associated alpha,
+    as Cycles (contract, `images`): a colour image with an alpha channel, 8-bit in Straight or
+    Premultiplied mode or float in Premultiplied mode. Cycles filters its colour times alpha and
+    divides back only when the node's Alpha is linked, so a transparent texel's colour never
+    bleeds into its neighbours and an unlinked Alpha darkens the colour; glTF's texture is
+    straight."""
+    index = entry["props"].get("image") if entry["type"] == "ShaderNodeTexImage" else None
+    if index is None:
+        return False
+    image = graph.images[index]
+    if getattr(image, "depth", 0) not in {32, 64, 128} or image.colorspace_settings.is_data:
+        return False  # no alpha channel (RGBA is 32, 64 or 128 bits a pixel), or data
+    return image.alpha_mode == "PREMUL" or image.alpha_mode == "STRAIGHT" and not image.is_float
+
+
 def _tinted_metal(entry):
     """Whether a Principled BSDF's metal has a Specular Tint, which Cycles renders as the metal's
     F82 tint and glTF cannot express (KHR_materials_specular tints the dielectric only)."""
@@ -712,6 +730,15 @@ def _tinted_metal(entry):
     metal = "link" in metallic or metallic.get("value", 0.0) != 0.0
     tinted = "link" in tint or any(c != 1.0 for c in tint.get("value", [1.0, 1.0, 1.0])[:3])
     return metal and tinted
+
+
+def _beyond_gltf_principled(entry):
+    """Whether a Principled BSDF has a constant Diffuse Roughness or Anisotropic, which the
+    graph renders as Cycles (Oren-Nayar; widths along Cycles' default radial tangent) and glTF
+    cannot say (a Lambertian base; the anisotropy along the UV tangents)."""
+    if entry["type"] != "ShaderNodeBsdfPrincipled":
+        return False
+    return any(entry["inputs"].get(name, {}).get("value", 0.0) != 0.0 for name in ("Diffuse Roughness", "Anisotropic"))
 
 
 def _exporter_reads_link(entry, identifier, source, output_identifier):

@@ -99,10 +99,15 @@ class ImageWriter:
             rgba[..., :3] = pixels[..., :3] if channels >= 3 else pixels[..., :1]  # 1-2 channels: grey
             if channels == 2:
                 rgba[..., 3] = pixels[..., 1]
+        is_float = bool(image.is_float)
         if image.alpha_mode == "NONE":
             # Cycles ignores the stored alpha of an image whose Alpha mode is None: it reads 1.
             rgba[..., 3] = 1.0  # `rgba` is this function's own array
-        is_float = bool(image.is_float)
+        elif image.alpha_mode == "PREMUL" and not is_float:
+            # Blender gives a premultiplied 8-bit image's pixels divided by alpha; Cycles reads
+            # its stored bytes (and associates them again, as every 8-bit colour image): write
+            # those (exact for a premultiplied file, whose colour never exceeds its alpha).
+            rgba[..., :3] *= rgba[..., 3:4]
         colorspace = image.colorspace_settings.name
         # Blender's scene linear space: the working space (Blender 5.0), which the renderer
         # leaves as it is.

@@ -360,6 +360,7 @@ mod tests {
             wrap_t: crate::scene::texture::Wrap::Repeat,
             nearest: false,
             to_working: None,
+            associated: false,
             mean: Vec3::ZERO,
         }];
         let source = ProceduralSource { volume, object: crate::shader::geom::NO_OBJECT, grids: None };

@@ -52,9 +52,40 @@ pub struct Texture {
     /// Linear Rec.709 → the scene's working space, for a colour image in a scene whose
     /// working space is not Rec.709 (`scene::working_space`); `None` for data images.
     pub to_working: Option<Mat3>,
+    /// RGB are associated with alpha (multiplied by it), as Cycles holds a graph's colour
+    /// image (`ImageOp::alpha_read` divides them back): 8-bit texels, which Blender holds
+    /// straight, premultiplied on load ([`premultiply`]); float ones as Blender holds them
+    /// (associated already).
+    pub associated: bool,
     /// Mean linear RGB over the image, computed once by [`Texture::with_mean`] (emitters
     /// ask for it per triangle and per photon).
     pub mean: Vec3,
+}
+
+/// Whether a shader graph's image is held with associated alpha, as Cycles holds it: a colour
+/// image (not data) whose Blender alpha mode is Straight or Premultiplied (Channel Packed and
+/// None keep their RGB as stored; `ImageManager` associates only colour images,
+/// `ImageTextureNode::compile` unassociates the same ones). Not a `float` image in Straight
+/// mode (a 16-bit PNG): Cycles associates it after converting it to linear, which its
+/// sRGB-encoded file cannot reproduce, so it stays straight (measured closer to Cycles).
+pub fn associates_alpha(data: bool, alpha_mode: Option<&str>, float: bool) -> bool {
+    !data
+        && match alpha_mode {
+            Some("STRAIGHT") => !float,
+            Some("PREMUL") => true,
+            _ => false,
+        }
+}
+
+/// Cycles' association of an 8-bit image (straight in Blender) on load (`load_byte_pixels`): each stored
+/// (still sRGB-encoded) byte times alpha / 255, truncated.
+pub fn premultiply(texels: &mut [[u8; 4]]) {
+    for t in texels {
+        let a = t[3] as u32;
+        for c in &mut t[..3] {
+            *c = (*c as u32 * a / 255) as u8;
+        }
+    }
 }
 
 /// sRGB → linear table for 8-bit values.
@@ -231,6 +262,7 @@ mod tests {
             wrap_t: Wrap::Clamp,
             nearest: true,
             to_working: None,
+            associated: false,
             mean: Vec3::ZERO,
         }
         .with_mean()
@@ -246,6 +278,21 @@ mod tests {
         assert!((mid.truncate() - m * Vec3::splat(0.5)).abs().max_element() < 1e-6, "{mid}");
         assert_eq!(t.texel(1, 0).truncate(), m * Vec3::ONE);
         assert_eq!(t.texel(1, 0).w, 1.0);
+    }
+
+    #[test]
+    fn premultiply_truncates_as_cycles_byte_loader() {
+        let mut t = vec![[255, 128, 1, 128], [200, 100, 50, 255], [9, 9, 9, 0]];
+        premultiply(&mut t);
+        // 255·128/255 = 128, 128·128/255 = 64.25 → 64, 1·128/255 → 0; opaque and clear texels.
+        assert_eq!(t, vec![[128, 64, 0, 128], [200, 100, 50, 255], [0, 0, 0, 0]]);
+        assert!(associates_alpha(false, Some("STRAIGHT"), false) && associates_alpha(false, Some("PREMUL"), false));
+        assert!(associates_alpha(false, Some("PREMUL"), true) && !associates_alpha(false, Some("STRAIGHT"), true));
+        assert!(!associates_alpha(true, Some("STRAIGHT"), false));
+        assert!(
+            !associates_alpha(false, Some("CHANNEL_PACKED"), false) && !associates_alpha(false, Some("NONE"), false)
+        );
+        assert!(!associates_alpha(false, None, false));
     }
 
     #[test]

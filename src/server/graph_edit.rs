@@ -18,6 +18,7 @@ use crate::scene::Scene;
 use crate::scene::gltf::{
     colorspace_converts, colorspace_is_srgb, graph_material, mean_node_emission, triangle_light_power,
 };
+use crate::scene::texture::associates_alpha;
 use crate::shader::graph::NodesExt;
 
 /// A checked, compiled graph edit, ready to apply (`prepare` reads the scene while it
@@ -156,6 +157,10 @@ fn held_images(scene: &Scene, name: &str, ext: &NodesExt) -> Result<Vec<u32>, St
         let converts = colorspace_converts(&img.colorspace, working);
         if tex.srgb != srgb || tex.to_working.is_some() != converts {
             return Err(format!("{what} was loaded in another colour space; send load"));
+        }
+        let associated = associates_alpha(img.colorspace == "Non-Color", img.alpha.as_deref(), !tex.hdr.is_empty());
+        if tex.associated != associated {
+            return Err(format!("{what} was loaded with another alpha mode; send load"));
         }
         out.push(t as u32);
     }

@@ -64,6 +64,9 @@ pub struct ImageOp {
     pub color: Reg,
     /// Alpha output.
     pub alpha: Reg,
+    /// The Alpha output is read: an associated image's colour is divided back by its alpha
+    /// (Cycles' `NODE_IMAGE_ALPHA_UNASSOCIATE`); unread, the colour stays associated.
+    pub alpha_read: bool,
 }
 
 /// Texel (x, y) under the node's extension, as stored (`Texture::stored_texel`: an 8-bit sRGB
@@ -113,8 +116,9 @@ fn bspline(t: f32) -> [f32; 4] {
     ]
 }
 
-/// The image at Blender texture coordinate `uv` (v up).
-pub fn lookup(t: &Texture, uv: Vec2, interp: Interp, ext: Extension) -> Vec4 {
+/// The image at Blender texture coordinate `uv` (v up); with `unassociate` an associated
+/// image's filtered colour is divided by its filtered alpha (`ImageOp::alpha_read`).
+pub fn lookup(t: &Texture, uv: Vec2, interp: Interp, ext: Extension, unassociate: bool) -> Vec4 {
     if !uv.is_finite() {
         return Vec4::ZERO;
     }
@@ -147,6 +151,12 @@ pub fn lookup(t: &Texture, uv: Vec2, interp: Interp, ext: Extension) -> Vec4 {
             }
             c
         }
+    };
+    // As Cycles' `svm_image_texture`: filtered, unassociated, then decoded from sRGB.
+    let stored = if unassociate && t.associated && stored.w != 0.0 && stored.w != 1.0 {
+        (stored.truncate() / stored.w).extend(stored.w)
+    } else {
+        stored
     };
     t.decode(stored)
 }
@@ -196,11 +206,11 @@ impl ImageOp {
         let c = match self.texture.and_then(|i| textures.get(i as usize)) {
             None => MISSING,
             Some(t) => {
-                let at = |uv: Vec2| lookup(t, uv, self.interp, self.extension);
+                let at = |uv: Vec2| lookup(t, uv, self.interp, self.extension, self.alpha_read);
                 match self.projection {
                     Projection::Flat if !self.tiles.is_empty() => match udim_tile(&self.tiles, Vec2::new(co.x, co.y)) {
                         Some((k, uv)) => match textures.get(k as usize) {
-                            Some(tile) => lookup(tile, uv, self.interp, self.extension),
+                            Some(tile) => lookup(tile, uv, self.interp, self.extension, self.alpha_read),
                             None => MISSING,
                         },
                         None => MISSING,
@@ -290,6 +300,7 @@ mod tests {
             wrap_t: Wrap::Repeat,
             nearest: false,
             to_working: None,
+            associated: false,
             mean: Vec3::ZERO,
         }
     }
@@ -298,18 +309,52 @@ mod tests {
     fn blender_v_is_up_and_extensions_behave() {
         let t = tex();
         // Blender's (0.25, 0.75) is the top-left texel.
-        assert_eq!(lookup(&t, Vec2::new(0.25, 0.75), Interp::Closest, Extension::Repeat), Vec4::new(1., 0., 0., 1.));
-        assert_eq!(lookup(&t, Vec2::new(0.25, 0.25), Interp::Closest, Extension::Repeat), Vec4::new(0., 0., 1., 1.));
+        assert_eq!(
+            lookup(&t, Vec2::new(0.25, 0.75), Interp::Closest, Extension::Repeat, false),
+            Vec4::new(1., 0., 0., 1.)
+        );
+        assert_eq!(
+            lookup(&t, Vec2::new(0.25, 0.25), Interp::Closest, Extension::Repeat, false),
+            Vec4::new(0., 0., 1., 1.)
+        );
         // Repeat wraps, Clip is transparent black outside, Extend holds the edge.
-        assert_eq!(lookup(&t, Vec2::new(1.25, 0.75), Interp::Closest, Extension::Repeat), Vec4::new(1., 0., 0., 1.));
-        assert_eq!(lookup(&t, Vec2::new(1.25, 0.75), Interp::Closest, Extension::Clip), Vec4::ZERO);
-        assert_eq!(lookup(&t, Vec2::new(1.25, 0.75), Interp::Closest, Extension::Extend), Vec4::new(0., 1., 0., 1.));
+        assert_eq!(
+            lookup(&t, Vec2::new(1.25, 0.75), Interp::Closest, Extension::Repeat, false),
+            Vec4::new(1., 0., 0., 1.)
+        );
+        assert_eq!(lookup(&t, Vec2::new(1.25, 0.75), Interp::Closest, Extension::Clip, false), Vec4::ZERO);
+        assert_eq!(
+            lookup(&t, Vec2::new(1.25, 0.75), Interp::Closest, Extension::Extend, false),
+            Vec4::new(0., 1., 0., 1.)
+        );
         // Linear at the centre averages the four texels.
-        let c = lookup(&t, Vec2::new(0.5, 0.5), Interp::Linear, Extension::Repeat);
+        let c = lookup(&t, Vec2::new(0.5, 0.5), Interp::Linear, Extension::Repeat, false);
         assert!((c - Vec4::new(0.5, 0.5, 0.5, 1.0)).abs().max_element() < 1e-6, "{c}");
         // The cubic B-spline keeps a constant image constant (its weights sum to 1).
         let w: f32 = bspline(0.3).iter().sum();
         assert!((w - 1.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn an_associated_image_is_filtered_associated_and_divided_back_only_for_a_read_alpha() {
+        // Straight texels: opaque red beside a transparent white, premultiplied on load.
+        let mut texels = vec![[255, 0, 0, 255], [255, 255, 255, 0]];
+        crate::scene::texture::premultiply(&mut texels);
+        assert_eq!(texels, vec![[255, 0, 0, 255], [0, 0, 0, 0]]);
+        let t = Texture { width: 2, height: 1, texels, associated: true, ..tex() };
+        // Halfway between the texels: the filtered (associated) value is (0.5, 0, 0, 0.5).
+        let uv = Vec2::new(0.5, 0.5);
+        let unread = lookup(&t, uv, Interp::Linear, Extension::Extend, false);
+        assert!((unread - Vec4::new(0.5, 0.0, 0.0, 0.5)).abs().max_element() < 1e-6, "{unread}");
+        // Divided back: pure red, with no white bled in from the transparent texel.
+        let read = lookup(&t, uv, Interp::Linear, Extension::Extend, true);
+        assert!((read - Vec4::new(1.0, 0.0, 0.0, 0.5)).abs().max_element() < 1e-6, "{read}");
+        // Alpha 0 is left as it is (Cycles divides only for 0 < alpha < 1).
+        let clear = lookup(&t, Vec2::new(0.75, 0.5), Interp::Closest, Extension::Extend, true);
+        assert_eq!(clear, Vec4::ZERO);
+        // An image that is not associated (data, Channel Packed) is never divided.
+        let plain = Texture { associated: false, ..t };
+        assert_eq!(lookup(&plain, uv, Interp::Linear, Extension::Extend, true), unread);
     }
 
     #[test]
@@ -318,14 +363,14 @@ mod tests {
         // A quarter texel past the right edge, on the top row's centre: the linear filter
         // weighs the edge texel (green) 1/4 against the transparent black outside, as Cycles'
         // `interp_linear`; an edge cut at u = 1 gave 0 (2.5 % of the probe image's mean).
-        let fringe = lookup(&t, Vec2::new(1.0 + 0.125, 0.75), Interp::Linear, Extension::Clip);
+        let fringe = lookup(&t, Vec2::new(1.0 + 0.125, 0.75), Interp::Linear, Extension::Clip, false);
         assert!((fringe - Vec4::new(0.0, 0.25, 0.0, 0.25)).abs().max_element() < 1e-6, "{fringe}");
         // Past half a texel every texel the filter reads is outside.
-        assert_eq!(lookup(&t, Vec2::new(1.3, 0.75), Interp::Linear, Extension::Clip), Vec4::ZERO);
+        assert_eq!(lookup(&t, Vec2::new(1.3, 0.75), Interp::Linear, Extension::Clip, false), Vec4::ZERO);
         // The cubic B-spline reaches a texel and a half out.
-        let cubic = lookup(&t, Vec2::new(1.5, 0.75), Interp::Cubic, Extension::Clip);
+        let cubic = lookup(&t, Vec2::new(1.5, 0.75), Interp::Cubic, Extension::Clip, false);
         assert!(cubic.y > 0.0 && cubic.y < 0.1, "{cubic}");
-        assert_eq!(lookup(&t, Vec2::new(1.0, 0.75), Interp::Closest, Extension::Clip), Vec4::ZERO);
+        assert_eq!(lookup(&t, Vec2::new(1.0, 0.75), Interp::Closest, Extension::Clip, false), Vec4::ZERO);
     }
 
     #[test]

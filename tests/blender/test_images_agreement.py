@@ -33,6 +33,15 @@ pytest -s; after: 0.9984-1.0022, no block over its bound):
 * udim_tiles: a UDIM image of two tiles on UVs that span both: only the first tile was
   exported (with a warning) and repeated: 1.7459 1.7430 0.0258 (52 of 108 blocks over); now
   each tile is its own image, picked as Cycles' `kernel_image_udim_map`.
+* alpha_*: images with an alpha channel, which Cycles holds with associated alpha (colour
+  times alpha, filtered so, divided back only where the node's Alpha is linked). Straight and
+  Premultiplied 8-bit PNGs on Base Color alone: glTF's straight texture, 1.2387 1.8392 1.8608
+  (97 of 108 blocks over) and 1.1116 1.1873 1.1924 (85), silently; a leaf cutout (an opaque
+  disc in white transparent texels) into Base Color and Alpha over a floor: the white bled
+  into the edge, 1.0821 1.0327 1.0785 (36), silently; an OpenEXR on Base Color alone (held
+  associated by Blender, read straight): 0.6482 0.5946 0.6482 (108). Channel Packed (never
+  associated) and a 16-bit PNG leaf (a float image in Straight mode, which stays straight:
+  `associates_alpha` in src/scene/texture.rs) agreed before and still do.
 """
 
 import os
@@ -188,6 +197,29 @@ def with_alpha_mode(mode):
     return make
 
 
+def premultiplied(folder, name):
+    """The alpha pattern saved premultiplied (colour times alpha, as a premultiplied file holds
+    it), Alpha mode Premultiplied."""
+    px = pattern(alpha=True)
+    px[..., :3] *= px[..., 3:4]
+    path = os.path.join(folder, f"{name}.png")
+    _save_png(px, path)
+    img = bpy.data.images.load(path)
+    img.alpha_mode = "PREMUL"
+    return img
+
+
+def cutout(folder, name):
+    """A leaf card as painted: an opaque green disc in a transparent surround whose colour is
+    white (8-bit PNG, Alpha mode Straight), so a straight filter bleeds white into the edge."""
+    y, x = np.mgrid[0:SIZE, 0:SIZE]
+    inside = ((x - 7.5) ** 2 + (y - 7.5) ** 2 < 36)[..., None]
+    px = np.where(inside, (0.2, 0.7, 0.1, 1.0), (1.0, 1.0, 1.0, 0.0)).astype(np.float32)
+    path = os.path.join(folder, f"{name}.png")
+    _save_png(px, path)
+    return bpy.data.images.load(path)
+
+
 def floor_scene(scene, material):
     """The flat scene's plane 0.3 above a grey floor, which shows through its alpha."""
     nodes.flat_scene(scene, material)
@@ -208,6 +240,15 @@ CASES = {
     "acescg_principled": (nodes.flat_scene, principled_image(
         lambda folder, name: image_file(os.path.join(folder, f"{name}.png"), colorspace="ACEScg"))),
     "alpha_none": (floor_scene, principled_image(with_alpha_mode("NONE"), alpha=True)),
+    "alpha_straight_colour_only": (nodes.flat_scene, principled_image(with_alpha_mode("STRAIGHT"))),
+    "alpha_premultiplied_colour_only": (nodes.flat_scene, principled_image(premultiplied)),
+    "alpha_channel_packed_colour_only": (nodes.flat_scene, principled_image(with_alpha_mode("CHANNEL_PACKED"))),
+    "alpha_cutout_leaf": (floor_scene, principled_image(cutout, alpha=True)),
+    "alpha_png16_leaf": (floor_scene, principled_image(
+        lambda folder, name: image_file(os.path.join(folder, f"{name}.png"), depth="16", alpha=True), alpha=True)),
+    "alpha_exr_colour_only": (nodes.flat_scene, principled_image(
+        lambda folder, name: image_file(os.path.join(folder, f"{name}.exr"), "OPEN_EXR", "32", alpha=True,
+                                        float_buffer=True))),
     "sequence_offset": (nodes.flat_scene, sequence_material),
     "clip_edge": (nodes.flat_scene, clipped),
     "udim_tiles": (udim_scene, diffuse_image(udim)),

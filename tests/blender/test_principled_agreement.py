@@ -1,7 +1,8 @@
 """Caustic and Cycles agree on the Principled BSDF's inputs that only the node-graph path
 renders (`CAUSTIC_materials_nodes`, src/shader/closure.rs: Anisotropic with Cycles' default
 tangent, Diffuse Roughness, Base Color above 1, partial Transmission), on the Refraction BSDF
-and on the Metallic BSDF's Edge Tint (issue 19).
+and on the Metallic BSDF's Edge Tint (issue 19). Anisotropic and Diffuse Roughness are also
+checked as constants, which send the material to its graph by their values alone.
 
 Each material drives the input under test from a Value node: Blender's glTF exporter drops
 that link, so the add-on exports the material as a node graph (the path under test) and
@@ -41,18 +42,32 @@ def driven(kind, driven_inputs, **inputs):
     return mat
 
 
-def test_anisotropic_principled_matches_cycles(empty_scene, tmp_path):
+def principled(linked, driven_inputs, **inputs):
+    """A Principled BSDF material with `driven_inputs` from Value nodes (`linked`) or set as
+    constants, as a user sets them (then only the values themselves can send the material to
+    its node graph)."""
+    if linked:
+        return driven("ShaderNodeBsdfPrincipled", driven_inputs, **inputs)
+    return scenes.shader_node_material("PrincipledConstant", "ShaderNodeBsdfPrincipled", **inputs, **driven_inputs)
+
+
+@pytest.mark.parametrize("linked", [True, False], ids=["linked", "constant"])
+def test_anisotropic_principled_matches_cycles(empty_scene, tmp_path, linked):
     """Brushed metal: a Principled BSDF with Metallic 1, Roughness 0.3, Anisotropic 0.8 on a
     plane, whose unlinked Tangent is Cycles' default (radial around the object's Z axis), under
     a small disk light. A long lens frames the highlight closely, so that its shape (stretched
     along the tangent, narrowed across it) decides how much of it the image holds. Before,
     Caustic rendered it isotropic with a warning: R 1.1383, G 1.1395, B 1.1418 of Cycles (with
     the anisotropic albedo table for the multiple-scattering compensation instead of Cycles'
-    isotropic proxy: R 1.029, G 1.020, B 1.011); now R 0.9999, G 1.0002, B 1.0005."""
+    isotropic proxy: R 1.029, G 1.020, B 1.011); now R 0.9999, G 1.0002, B 1.0005.
+    A constant Anisotropic (no Value node, as a user sets it) still went through glTF, which
+    rendered this plane as the isotropic case above (R/G/B 1.1383/1.1395/1.1418 of Cycles, with a
+    warning about UV tangents); now it sends the material to its node graph: R/G/B
+    0.9999/1.0002/1.0005."""
     scene = empty_scene
     scenes.small_render_settings(scene, W, H, samples=SAMPLES)
-    mat = driven("ShaderNodeBsdfPrincipled", {"Anisotropic": 0.8},
-                 **{"Base Color": (0.9, 0.6, 0.3, 1), "Metallic": 1.0, "Roughness": 0.3})
+    mat = principled(linked, {"Anisotropic": 0.8},
+                     **{"Base Color": (0.9, 0.6, 0.3, 1), "Metallic": 1.0, "Roughness": 0.3})
     scenes.plane(scene, "Brushed", 6.0, material=mat)
     # The mirror image of the light seen from the camera lies at (1, 0, 0), where the radial
     # tangent points along +Y, the camera's view direction on the plane.
@@ -75,12 +90,15 @@ def lone_sphere(scene, material):
     scenes.match_cycles(scene, SAMPLES, BOUNCES)
 
 
-def test_principled_diffuse_roughness_matches_cycles(empty_scene, tmp_path):
+@pytest.mark.parametrize("linked", [True, False], ids=["linked", "constant"])
+def test_principled_diffuse_roughness_matches_cycles(empty_scene, tmp_path, linked):
     """Diffuse Roughness 1: the Principled BSDF's diffuse base is Cycles' Oren-Nayar (the Diffuse
     BSDF's rough lobe) under the specular layer. Before, Caustic rendered it Lambertian with a
-    warning: R 0.7631, G 0.8192, B 0.8296 of Cycles; now 1.0009 in each."""
-    lone_sphere(empty_scene, driven("ShaderNodeBsdfPrincipled", {"Diffuse Roughness": 1.0},
-                                    **{"Base Color": (0.7, 0.3, 0.2, 1), "Roughness": 0.5}))
+    warning: R 0.7631, G 0.8192, B 0.8296 of Cycles; now 1.0009 in each. A constant Diffuse
+    Roughness (no Value node, as a user sets it) still went through glTF, Lambertian with that
+    warning: R/G/B 0.7631/0.8192/0.8296; now it sends the material to its node graph: 1.0010 in each."""
+    lone_sphere(empty_scene, principled(linked, {"Diffuse Roughness": 1.0},
+                                        **{"Base Color": (0.7, 0.3, 0.2, 1), "Roughness": 0.5}))
     assert_mean_matches_cycles(empty_scene, tmp_path, "diffuse roughness", MODEL_ALLOWANCE, per_channel=True)
 
 

@@ -138,6 +138,7 @@ mod tests {
             wrap_t: Wrap::Repeat,
             nearest: false,
             to_working: None,
+            associated: false,
             mean: Vec3::ZERO,
         }
         .with_mean()

@@ -5,6 +5,7 @@
 
 use super::Loader;
 use crate::error::Result;
+use crate::scene::texture::{associates_alpha, premultiply};
 use crate::scene::{AlphaMode, Material};
 use crate::shader::compile::compile_in;
 use crate::shader::graph::NodesExt;
@@ -147,6 +148,7 @@ impl Loader<'_> {
             image::ColorType::L8 | image::ColorType::La8 | image::ColorType::Rgb8 | image::ColorType::Rgba8
         );
         self.budget.charge(format!("{what} ({w}×{h})"), texels * if float { 16 } else { 4 })?;
+        let associated = associates_alpha(img.colorspace == "Non-Color", img.alpha.as_deref(), float);
         let (texels, hdr) = if float {
             let hdr = decoded
                 .to_rgba32f()
@@ -160,7 +162,13 @@ impl Loader<'_> {
                 .collect();
             (Vec::new(), hdr)
         } else {
-            (decoded.to_rgba8().pixels().map(|p| p.0).collect(), Vec::new())
+            let mut texels: Vec<[u8; 4]> = decoded.to_rgba8().pixels().map(|p| p.0).collect();
+            // Blender holds 8-bit images straight whatever their alpha mode, and Cycles
+            // associates them on load (`load_byte_pixels`).
+            if associated {
+                premultiply(&mut texels);
+            }
+            (texels, Vec::new())
         };
         self.profile.decode_textures += start.elapsed().as_secs_f64();
         let tex = crate::scene::Texture {
@@ -174,6 +182,7 @@ impl Loader<'_> {
             wrap_t: crate::scene::texture::Wrap::Repeat,
             nearest: false,
             to_working,
+            associated,
             mean: glam::Vec3::ZERO,
         }
         .with_mean();

@@ -109,6 +109,7 @@ impl Loader<'_> {
                     // glTF's sRGB textures are its colour ones (base, emissive, specular and
                     // sheen colour); data textures stay as they are.
                     to_working: if srgb { self.space.matrix() } else { None },
+                    associated: false,
                     mean: glam::Vec3::ZERO,
                 }
                 .with_mean(),

@@ -929,6 +929,7 @@ impl Compiler<'_> {
                     normal: vector,
                     color,
                     alpha,
+                    alpha_read: self.is_used(i, "Alpha"),
                 };
                 self.ops.push(Op::Image(Box::new(op)));
             }
@@ -964,7 +965,20 @@ impl Compiler<'_> {
                 if !tiles.is_empty() && projection != Projection::Flat {
                     self.warn(i, "a UDIM image with a projection other than Flat reads its first tile only");
                 }
-                let op = ImageOp { texture, tiles, interp, extension, projection, blend, vector, normal, color, alpha };
+                let alpha_read = self.is_used(i, "Alpha");
+                let op = ImageOp {
+                    texture,
+                    tiles,
+                    interp,
+                    extension,
+                    projection,
+                    blend,
+                    vector,
+                    normal,
+                    color,
+                    alpha,
+                    alpha_read,
+                };
                 self.ops.push(Op::Image(Box::new(op)));
             }
             _ => return Ok(false),
