@@ -70,7 +70,9 @@ fn every_request_kind_is_served() {
 
 /// Light edits: a point light's emission scales the picture linearly (the only light; the
 /// same samples are taken, so the ratio is 2 up to the f32 rounding of each sample, far
-/// below the 1e-4 allowed), moving it away darkens it, and a black world changes nothing.
+/// below the 1e-4 allowed), moving it away darkens it, and a black world changes nothing; a
+/// negative emission (Blender's power turned negative) negates the picture, as Cycles
+/// renders a negative light, and a non-finite one is refused.
 #[test]
 fn light_edits_change_the_picture() {
     let dir = common::temp_dir();
@@ -99,11 +101,17 @@ fn light_edits_change_the_picture() {
         json!({"type": "light", "name": name,
         "matrix": [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,3,0,1]}),
     );
+    let negative = mean_after(&mut s, json!({"type": "light", "name": name, "emission": [-2.0, -2.0, -2.0]}));
+    // 1e39 is past f32: the edit reads it as infinite (JSON has no NaN or infinity).
+    s.send(json!({"type": "light", "name": name, "emission": [1e39, 1.0, 1.0]}));
+    let r = s.reply();
+    assert!(r["type"] == "error" && r["message"].as_str().unwrap().contains("finite"), "{r}");
     for ch in 0..3 {
         assert!(a[ch] > 0.0);
         assert!((b[ch] / a[ch] - 2.0).abs() < 1e-4, "emission ×2 gave ×{}", b[ch] / a[ch]);
         assert_eq!(b[ch], c[ch], "a black world changed the picture");
         assert!(far[ch] < b[ch], "a light moved from 1 to 3 above the floor did not darken it");
+        assert!((negative[ch] / far[ch] + 1.0).abs() < 1e-4, "emission ×−1 gave ×{}", negative[ch] / far[ch]);
     }
     s.finish();
 }

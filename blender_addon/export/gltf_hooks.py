@@ -17,7 +17,7 @@ import bpy
 from . import attributes, materials, meshes, object_filter, view_layer
 from .camera import CAMERA_EXTENSION, camera_extension
 from .gltf_objects import attach_extension
-from .lights import (AREA_LIGHT_EXTENSION, PUNCTUAL_EXTENSION, area_light_extension,
+from .lights import (AREA_LIGHT_EXTENSION, PUNCTUAL_EXTENSION, area_light_extension, carry_negative_intensity,
                      punctual_light_extension, scale_punctual_light, separate_spot_angles)
 from .state import current
 from .light_linking import LIGHT_LINKING_EXTENSION, light_linking_extension
@@ -93,6 +93,7 @@ class glTF2ExportUserExtension:
                 separate_spot_angles(gltf2_node)
                 value = punctual_light_extension(blender_object, writer, state.depsgraph, state.warnings)
                 scale_punctual_light(gltf2_node, blender_object, state, graph=bool(value and "nodes" in value))
+                value = carry_negative_intensity(gltf2_node, value, state)
                 if value:
                     attach_extension(gltf2_node, PUNCTUAL_EXTENSION, value)
                 return

@@ -8,6 +8,10 @@
   local -Z, object scale in the node's scale), so no compensation is needed.
 * Point, spot and sun: KHR_lights_punctual cannot say a radius, a sun's angle or Cycles' spot
   blend; they go in `CAUSTIC_lights_punctual`.
+* A negative power (Cycles subtracts the light; its light tree picks it by |energy|): the area
+  light's `power` keeps the sign; KHR_lights_punctual's intensity must not be negative (the
+  exporter writes it signed), so it becomes the size and `CAUSTIC_lights_punctual` says
+  `negative` (`carry_negative_intensity`).
 * A spot with blend 0 gets innerConeAngle == outerConeAngle from the exporter, which the glTF
   validator calls an error (glTF wants inner < outer): the inner angle is moved down to the
   next double (Caustic uses `spot_blend` instead anyway).
@@ -154,12 +158,41 @@ def _lights_catcher(blender_object):
     return bool(getattr(getattr(blender_object, "original", blender_object), "is_shadow_catcher", True))
 
 
-def separate_spot_angles(gltf2_node):
-    """Make a spot's innerConeAngle strictly smaller than its outerConeAngle (glTF's rule)."""
+def _khr_light(gltf2_node):
+    """The KHR_lights_punctual light dict the exporter wrote for the node (shared by the objects
+    of one light datablock), or None."""
     ext = (gltf2_node.extensions or {}).get("KHR_lights_punctual")
     child = ext.extension.get("light") if ext is not None and isinstance(ext.extension, dict) else None
     light = getattr(child, "extension", None)
-    spot = light.get("spot") if isinstance(light, dict) else None
+    return light if isinstance(light, dict) else None
+
+
+def carry_negative_intensity(gltf2_node, value, state):
+    """The node's `CAUSTIC_lights_punctual` value (`value`, or a new dict) with `negative` when the
+    light's power is negative (Cycles subtracts such a light). The exporter writes Blender's signed
+    intensity, which KHR_lights_punctual forbids and Caustic refuses: the intensity becomes its
+    size, once per light dict (`state.negative_lights`), and every node of it says `negative`."""
+    light = _khr_light(gltf2_node)
+    if light is None:
+        return value
+    key = id(light)
+    if key not in state.negative_lights:
+        intensity = light.get("intensity")
+        negative = isinstance(intensity, (int, float)) and intensity < 0.0
+        state.negative_lights[key] = negative
+        if negative:
+            light["intensity"] = -float(intensity)
+    if not state.negative_lights[key]:
+        return value
+    value = dict(value or {})
+    value["negative"] = True
+    return value
+
+
+def separate_spot_angles(gltf2_node):
+    """Make a spot's innerConeAngle strictly smaller than its outerConeAngle (glTF's rule)."""
+    light = _khr_light(gltf2_node)
+    spot = light.get("spot") if light is not None else None
     if isinstance(spot, dict):
         inner, outer = spot.get("innerConeAngle"), spot.get("outerConeAngle")
         if isinstance(inner, float) and isinstance(outer, float) and inner >= outer > 0.0:
@@ -221,11 +254,9 @@ def scale_punctual_light(gltf2_node, blender_object, state, graph=False):
     """Make the exporter's KHR_lights_punctual light what Cycles renders for a light with a node
     tree (module doc); warnings go to the state. `graph`: the tree goes as its graph, so the
     light gets its own colour and intensity, without the tree's."""
-    ext = (gltf2_node.extensions or {}).get("KHR_lights_punctual")
-    child = ext.extension.get("light") if ext is not None and isinstance(ext.extension, dict) else None
-    value = getattr(child, "extension", None)
+    value = _khr_light(gltf2_node)
     light = blender_object.data
-    if not isinstance(value, dict) or not getattr(light, "use_nodes", False) or light.node_tree is None:
+    if value is None or not getattr(light, "use_nodes", False) or light.node_tree is None:
         return
     if graph:
         if id(value) not in state.scaled_lights:

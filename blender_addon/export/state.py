@@ -28,6 +28,7 @@ class ExportState:
         self.material_override = None  # the view layer's Material Override (a Blender material)
         self.override_material = None  # its glTF material, built once, given to every primitive
         self.scaled_lights = set()  # ids of KHR light dicts already scaled by a light node tree
+        self.negative_lights = {}  # id of a KHR light dict -> its power was negative (lights.py)
         self._image_writer = None
         self.motion = None  # motion.Motion: the steps of moving objects, or None
         self.only = None  # names of the only objects to export (object_filter.py), or None: all

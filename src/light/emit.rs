@@ -14,8 +14,9 @@
 //! | emissive triangle | uniform | cosine-weighted, both sides when double-sided | π A L(x) s / (p_l N), s = sides |
 //!
 //! with p_l the light's selection probability (luminance of its power over the total; a
-//! negative emitter's power is |Φ|, as Cycles' light tree takes |emission|, and its photons
-//! carry the sign through the local emission's factor)
+//! negative emitter is picked by |Φ|, as Cycles' light tree takes |emission|: a negative
+//! light's photons carry the sign of its power, an emissive triangle's that of its local
+//! emission's factor)
 //! and N the photons emitted. With every photon carrying Φ_l / (p_l N) and p_l ∝ Φ_l
 //! exactly, each photon carries the same luminance, Φ_total / N, so the sum over N
 //! photons is the total power up to rounding, for every light type. The only
@@ -33,7 +34,7 @@
 //! sphere).
 
 use crate::light::{Light, sample_triangle};
-use crate::math::{Frame, Rgb, luminance};
+use crate::math::{Frame, Rgb};
 use crate::sampling::Distribution1D;
 use crate::sampling::warp::{concentric_disk, cosine_hemisphere, uniform_cone, uniform_cone_pdf, uniform_sphere};
 use crate::scene::Scene;
@@ -56,7 +57,8 @@ pub struct EmittedPhoton {
 /// The lights as photon sources.
 #[derive(Clone, Debug)]
 pub struct Emitters {
-    /// Exact emitted power of each scene light (RGB, W).
+    /// Exact emitted power of each scene light (RGB, W): signed for a negative light; an
+    /// emissive triangle's from its |emission| (its photons take the local emission's sign).
     pub power: Vec<Rgb>,
     dist: Distribution1D,
     total_lum: f32,
@@ -142,7 +144,7 @@ impl Emitters {
                 }
             })
             .collect();
-        let lum: Vec<f32> = power.iter().map(|p| luminance(*p)).collect();
+        let lum: Vec<f32> = power.iter().map(|p| crate::light::selection_weight(*p)).collect();
         let total_lum = lum.iter().map(|&x| x as f64).sum::<f64>() as f32;
         Emitters { power, dist: Distribution1D::new(&lum), total_lum, center, radius, media: Default::default() }
     }

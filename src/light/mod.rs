@@ -27,6 +27,14 @@ use std::f32::consts::PI;
 pub use environment::Environment;
 pub use sampler::{LightSampler, LightSamplerKind};
 
+/// A light's weight in light selection from its power (RGB, W): the size of its luminance,
+/// so a negative light, which subtracts light, is picked as often as a positive one of its
+/// size, as Cycles' light tree takes |energy|; every path carries the sign in the emission.
+#[inline]
+pub fn selection_weight(power: Rgb) -> f32 {
+    crate::math::luminance(power).abs()
+}
+
 /// A sun whose half angle has a cosine at least this is a delta light.
 pub const DELTA_SUN_COS: f32 = 1.0 - 1e-7;
 

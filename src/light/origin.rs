@@ -21,7 +21,7 @@
 
 use super::emit::Emitters;
 use crate::light::{Light, spot_attenuation};
-use crate::math::{Frame, Rgb, luminance};
+use crate::math::{Frame, Rgb};
 use crate::sampling::Distribution1D;
 use crate::sampling::warp::{cosine_hemisphere, uniform_cone, uniform_cone_pdf, uniform_sphere};
 use crate::scene::Scene;
@@ -89,7 +89,7 @@ impl BdptLights {
     /// would end at once); the strategies that weigh its paths never ask its origin density.
     pub fn new(scene: &Scene, restricted: impl Fn(usize) -> bool) -> Self {
         let emitters = Emitters::new(scene);
-        let lum: Vec<f32> = emitters.power.iter().map(|p| luminance(*p).max(0.0)).collect();
+        let lum: Vec<f32> = emitters.power.iter().map(|p| crate::light::selection_weight(*p)).collect();
         let reads_path = super::path_emitters::reading_light_path(scene);
         let starts: Vec<bool> = scene
             .lights

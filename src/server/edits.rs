@@ -7,7 +7,7 @@
 
 use super::protocol::{CameraEdit, LightEdit, MaterialEdit};
 use crate::light::{AreaLight, Environment, Light};
-use crate::math::{Rgb, luminance};
+use crate::math::Rgb;
 use crate::scene::{Camera, Projection, Scene};
 use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 
@@ -248,24 +248,18 @@ pub(super) fn recompute_bounds(scene: &mut Scene) {
     refresh_powers(scene);
 }
 
-/// Light-selection powers, as the loader computes them, for the lights an edit can change.
+/// Light-selection powers, as the loader computes them (`punctual_power`: by size, a negative
+/// light's too), for the lights an edit can change.
 fn refresh_powers(scene: &mut Scene) {
     use std::f32::consts::PI;
     let (_, r) = scene.bounding_sphere();
-    let lum = luminance;
     for (l, p) in scene.lights.iter().zip(scene.light_power.iter_mut()) {
         *p = match l {
-            Light::Point { intensity, .. } => 4.0 * PI * lum(*intensity),
-            Light::Spot { intensity, cos_outer, .. } => 2.0 * PI * (1.0 - cos_outer) * lum(*intensity),
-            Light::Sphere { radius, radiance, spot, .. } => {
-                4.0 * PI * PI * radius * radius * lum(*radiance) * spot.map_or(1.0, |c| c.power_share())
-            }
-            Light::Directional { irradiance, .. } => PI * r * r * lum(*irradiance),
-            Light::Area(a) => lum(a.radiance) * a.area * PI,
             Light::World => scene.world.as_ref().map_or(0.0, |w| PI * w.mean_luminance() * PI * r * r),
             // Emissive triangles keep their loaded power: a rigid move keeps it; a scaled
             // one only makes their selection probability less ideal, never biased.
             Light::Triangle { .. } => *p,
+            _ => crate::scene::gltf::punctual_power(l, r),
         };
     }
 }
@@ -280,10 +274,12 @@ pub fn light(scene: &mut Scene, e: &LightEdit) -> Result<Invalidates, String> {
         .position(|r| r.name == e.name && r.kind != "emissive" && r.kind != "world")
         .filter(|&i| i < scene.lights.len())
         .ok_or_else(|| format!("no light named '{}'", e.name))?;
+    // A negative emission subtracts light, as Cycles renders a light of negative power (the
+    // client scales the loaded emission by the ratio of its powers, which may change sign).
     if let Some(c) = e.emission
-        && !c.iter().all(|x| *x >= 0.0 && x.is_finite())
+        && !c.iter().all(|x| x.is_finite())
     {
-        return Err(format!("emission {c:?} must be finite and non-negative"));
+        return Err(format!("emission {c:?} must be finite"));
     }
     let m = match e.matrix {
         Some(a) if !finite(&a) => return Err("the matrix must be finite".into()),

@@ -31,7 +31,9 @@ VALIDATOR = os.path.join(REPO, ".tools", "node_modules", "gltf-validator", "pack
 
 
 def all_lights(scene, tmp_path):
-    """test_export's light scene: four area-light shapes, point, spot and sun."""
+    """test_export's light scene: four area-light shapes, point, spot and sun; and a point light
+    of negative power (the exporter writes a negative intensity, which glTF forbids: the add-on
+    makes it the size, with CAUSTIC_lights_punctual's `negative`)."""
     scenes.small_render_settings(scene, 16, 12, samples=2)
     scenes.plane(scene, "Floor", 4.0, material=scenes.diffuse_material("Grey", 0.5))
     scenes.camera(scene, (0, -4, 3), (60, 0, 0))
@@ -40,6 +42,7 @@ def all_lights(scene, tmp_path):
                      shape=shape, size=size, size_y=size_y, energy=energy, color=color)
     for add in lights.LIGHTS.values():
         add(scene)
+    scenes.light(scene, "Minus", "POINT", location=(-1.0, 0.5, 1.5), energy=-20.0)
 
 
 def render_scene(scene, tmp_path):

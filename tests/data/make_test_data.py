@@ -1433,9 +1433,37 @@ def hostile_makers():
     add(lambda: tri_bad("bad/area_light_unknown_shape.gltf", "CAUSTIC_lights_area shape 'triangle'",
                         with_ext("node", "CAUSTIC_lights_area", {"shape": "triangle", "size": [1, 1], "power": 10}),
                         ["shape", "triangle"]))
-    add(lambda: tri_bad("bad/area_light_negative_power.gltf", "CAUSTIC_lights_area power -10",
-                        with_ext("node", "CAUSTIC_lights_area", {"shape": "square", "size": [1], "power": -10}),
+    # 1e39 is past f32: the loader reads it as infinite (JSON has no NaN or infinity).
+    add(lambda: tri_bad("bad/area_light_infinite_power.gltf", "CAUSTIC_lights_area power 1e39 (infinite in f32)",
+                        with_ext("node", "CAUSTIC_lights_area", {"shape": "square", "size": [1], "power": -1e39}),
                         ["power"]))
+
+    def punctual_intensity(value, negative=False):
+        def mutate(root):
+            root["extensions"]["KHR_lights_punctual"]["lights"][0]["intensity"] = value
+            if negative:
+                root.setdefault("extensionsUsed", []).append("CAUSTIC_lights_punctual")
+                root["nodes"][2].setdefault("extensions", {})["CAUSTIC_lights_punctual"] = {"negative": True}
+        return mutate
+
+    def negative_intensity():
+        # KHR_lights_punctual's intensity is never negative (a negative light says so with
+        # CAUSTIC_lights_punctual's `negative`): the error names the light.
+        mutant("bad/punctual_negative_intensity.gltf", punctual_intensity(-3.0))
+        return bad("bad/punctual_negative_intensity.gltf", "KHR_lights_punctual intensity -3 on the sun",
+                   contains=["'sun'", "intensity", "negative"])
+    add(negative_intensity)
+
+    def infinite_negative_intensity():
+        mutant("bad/punctual_infinite_negative.gltf", punctual_intensity(1e39, negative=True))
+        return bad("bad/punctual_infinite_negative.gltf",
+                   "intensity 1e39 (infinite in f32) on a sun with CAUSTIC_lights_punctual negative",
+                   contains=["'sun'", "finite"])
+    add(infinite_negative_intensity)
+    add(lambda: tri_ok("negative_sun.gltf", "a sun with CAUSTIC_lights_punctual negative: it subtracts light",
+                       [], punctual_intensity(3.0, negative=True)))
+    add(lambda: tri_ok("negative_area_light.gltf", "CAUSTIC_lights_area power -10: it subtracts light", [],
+                       with_ext("node", "CAUSTIC_lights_area", {"shape": "square", "size": [1], "power": -10})))
     add(lambda: tri_bad("bad/area_light_no_size.gltf", "CAUSTIC_lights_area with an empty size",
                         with_ext("node", "CAUSTIC_lights_area", {"shape": "square", "size": [], "power": 10}),
                         ["size"]))

@@ -303,6 +303,10 @@ pub(super) struct BlenderLight {
     pub(super) nodes: Option<crate::shader::graph::NodesExt>,
     /// Cycles' Max Bounces of the light (`scene::light_bounces`); absent: no limit.
     pub(super) max_bounces: Option<u32>,
+    /// Blender's power is negative (the light subtracts light, as in Cycles): the glTF
+    /// intensity, which `KHR_lights_punctual` keeps non-negative, is its size.
+    #[serde(default)]
+    pub(super) negative: bool,
 }
 
 impl Default for BlenderLight {
@@ -321,6 +325,7 @@ impl Default for BlenderLight {
             volume_scatter_visible: true,
             nodes: None,
             max_bounces: None,
+            negative: false,
         }
     }
 }

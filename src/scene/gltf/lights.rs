@@ -41,20 +41,28 @@ impl Loader<'_> {
         let name = l.name().map(str::to_string).unwrap_or_else(|| node_name.to_string());
         let intensity = l.intensity();
         let color = Vec3::from(l.color());
+        // glTF's intensity is never negative; Blender's negative power comes as its size with
+        // CAUSTIC_lights_punctual's `negative`.
         if !(intensity >= 0.0 && intensity.is_finite() && color.is_finite()) || color.min_element() < 0.0 {
-            return Err(self.err(format!("light '{name}': intensity and color must be finite and non-negative")));
+            return Err(self.err(format!(
+                "light '{name}': intensity and color must be finite and non-negative (a light that subtracts \
+                 light says so with CAUSTIC_lights_punctual's 'negative')"
+            )));
         }
         if l.range().is_some() {
             self.warn(format!("light '{name}': 'range' is ignored (Caustic's lights fall off physically, as Cycles')"));
         }
         let position = world.transform_point3(Vec3::ZERO);
         let forward = world.transform_vector3(-Vec3::Z).normalize_or(-Vec3::Z);
-        let radiometric = color * (intensity / LUMENS_PER_WATT);
         let bl: BlenderLight = match blender {
             None => BlenderLight::default(),
             Some(v) => serde_json::from_value(v)
                 .map_err(|e| self.err(format!("light '{name}': CAUSTIC_lights_punctual is malformed: {e}")))?,
         };
+        // A negative light subtracts its light, as Cycles renders a negative strength: the
+        // emission carries the sign, light selection takes its size (`punctual_power`).
+        let sign = if bl.negative { -1.0 } else { 1.0 };
+        let radiometric = color * (sign * intensity / LUMENS_PER_WATT);
         if !(bl.radius.is_finite() && bl.radius >= 0.0 && bl.angle.is_finite() && bl.angle >= 0.0)
             || bl.spot_blend.is_some_and(|b| !(b.is_finite() && b >= 0.0))
         {
@@ -184,11 +192,11 @@ impl Loader<'_> {
         let sx = *a.size.first().ok_or_else(|| self.err(format!("node '{name}': CAUSTIC_lights_area has no size")))?;
         let sy = if matches!(a.shape.as_str(), "square" | "disk") { sx } else { a.size.get(1).copied().unwrap_or(sx) };
         let color = Vec3::from(a.color);
-        if !(a.power >= 0.0 && a.power.is_finite() && color.is_finite() && sx.is_finite() && sy.is_finite())
-            || color.min_element() < 0.0
+        // A negative power subtracts light, as Cycles renders a negative strength.
+        if !(a.power.is_finite() && color.is_finite() && sx.is_finite() && sy.is_finite()) || color.min_element() < 0.0
         {
             return Err(self.err(format!(
-                "node '{name}': CAUSTIC_lights_area power, color and size must be finite and non-negative"
+                "node '{name}': CAUSTIC_lights_area power, color and size must be finite, color non-negative"
             )));
         }
         if !(a.spread > 0.0 && a.spread <= std::f32::consts::PI + 1e-4) {
@@ -327,8 +335,16 @@ impl Loader<'_> {
 /// Least power of a textured emissive triangle, as a share of what the image's mean gives.
 const MIN_POWER_SHARE: f32 = 0.01;
 
-/// Power used for light selection and reported by `info` (luminance, W).
-pub(super) fn punctual_power(l: &Light, scene_radius: f32) -> f32 {
+/// Power used for light selection (luminance, W): its size, so a negative light is picked as
+/// often as a positive one of the same size, as Cycles' light tree takes |energy| (the
+/// server's light edits share it).
+pub(crate) fn punctual_power(l: &Light, scene_radius: f32) -> f32 {
+    // The luminance's size, as `light::selection_weight` takes it.
+    signed_power(l, scene_radius).abs()
+}
+
+/// The light's power (luminance, W) with the sign of its emission, as `info` reports it.
+pub(super) fn signed_power(l: &Light, scene_radius: f32) -> f32 {
     use std::f32::consts::PI;
     match l {
         Light::Point { intensity, .. } => 4.0 * PI * luminance(*intensity),

@@ -40,7 +40,7 @@ mod pose;
 mod procedural_volume;
 mod quantized;
 mod shader_graph;
-pub(crate) use lights::triangle_light_power;
+pub(crate) use lights::{punctual_power, triangle_light_power};
 pub(crate) use shader_graph::{colorspace_converts, colorspace_is_srgb, graph_material, mean_node_emission};
 mod spec_gloss;
 mod textures;
@@ -58,7 +58,6 @@ use cameras::frame_bounds;
 use extensions::ObjectVisibilityExt;
 use glam::{Vec2, Vec3};
 use gltf::json;
-use lights::punctual_power;
 use std::collections::HashMap;
 use std::path::Path;
 use std::time::Instant;
@@ -656,8 +655,9 @@ impl<'a> Loader<'a> {
                 self.warn("the world is black: it lights nothing");
             }
         }
-        for (rep, p) in light_reports.iter_mut().zip(&light_power) {
-            rep.power = *p;
+        for ((rep, p), l) in light_reports.iter_mut().zip(&light_power).zip(&lights) {
+            // Signed: a negative light (selected by its size) reports its negative power.
+            rep.power = p.copysign(lights::signed_power(l, scene_radius));
         }
 
         // Emissive triangles are lights, one each, grouped by material in the report.
