@@ -7,6 +7,7 @@
 mod common;
 
 use common::agreement::{Seeded, regions, sidak};
+use common::serve::{Server, f32_pixels, generation};
 use common::{GltfBuilder, look_rotation, render_image, run, temp_dir};
 use serde_json::json;
 use std::path::{Path, PathBuf};
@@ -82,6 +83,27 @@ fn a_world_without_camera_renders_from_the_made_camera() {
     let scene = world_only(d, "world.gltf", false);
     let px = render_image(&scene, &d.join("out.exr"), &["--resolution", "8x8", "--spp", "4"], LIMIT);
     assert_world_colour("no camera", &px);
+}
+
+/// `caustic serve` (the Rendered viewport) loads a world-only scene and renders the world's
+/// colour; a world edit recomputes the world's power from the derived bounds and shows the
+/// new colour (the same rounding bound as above).
+#[test]
+fn the_viewport_server_renders_a_world_only_scene() {
+    let dir = temp_dir();
+    let scene = world_only(dir.path(), "world.gltf", true);
+    let mut s = Server::start();
+    s.ok(json!({"type": "settings", "spp": 4, "frame_format": "f32", "reduce": 1}));
+    let loaded = s.ok(json!({"type": "load", "path": scene}));
+    assert_eq!(loaded["triangles"], 0, "{loaded}");
+    let g = generation(&s.ok(json!({"type": "render_start"})));
+    let px: Vec<[f32; 4]> = f32_pixels(&s.frame(g, true).1).chunks(4).map(|c| [c[0], c[1], c[2], c[3]]).collect();
+    assert_world_colour("served", &px);
+    let g = generation(&s.ok(json!({"type": "world", "color": [0.5, 0.5, 0.5]})));
+    let px = f32_pixels(&s.frame(g, true).1);
+    let tol = 4.0 * 16.0 * f32::EPSILON / 2.0;
+    assert!(px.chunks(4).all(|p| p[..3].iter().all(|v| (v / p[0] - 1.0).abs() <= tol) && p[0] > 0.0), "not grey");
+    s.finish();
 }
 
 /// Chunks of a world-only scene merge into the single render bit for bit, and `caustic info`

@@ -173,3 +173,35 @@ def test_camera_without_world_is_black_as_in_cycles(empty_scene, tmp_path):
     setup(scene)
     assert scene.world is None
     assert_pixels(render_both(scene, tmp_path), [0.0, 0.0, 0.0], 1e-5, "no world")
+
+
+def test_the_rendered_viewport_shows_the_world_then_an_added_object(addon, empty_scene):
+    """The Rendered viewport of a world-only scene (the server loads a scene without
+    geometry): its converged frame is the world's colour, within half-float rounding (the
+    viewport's frames are half floats: 2⁻¹¹ relative at most, which dwarfs the film's own
+    1e-6); an object added afterwards is merged into it (`objects`) and darkens the frame."""
+    import sys
+    from test_viewport import _apply_live, _converged, _Engine
+    viewport = sys.modules[f"{addon.__name__}.viewport"]
+    scene = empty_scene
+    setup(scene, samples=4)
+    constant_world(scene)
+    v = viewport.Viewport(_Engine())
+    try:
+        v.update(bpy.context, bpy.context.evaluated_depsgraph_get())
+        frame = _converged(v)[..., :3]
+        want = np.array([c * WORLD_STRENGTH for c in WORLD_RGB])
+        worst = float((np.abs(frame - want) / want).max())
+        print(f"\n[viewport] world only: worst relative error {worst:.2e}")
+        assert worst <= 2.0 ** -11
+
+        def add():
+            scenes.cube(scene, "Added", 1.5, (0.0, 0.0, 1.0), material=scenes.diffuse_material("Dark", 0.05))
+
+        sent = _apply_live(v, add)
+        assert "objects" in sent or "load" in sent, sent
+        after = _converged(v)[..., :3]
+        assert not [r for r in v.engine.reports if r[0] == {"ERROR"}], v.engine.reports
+        assert after.mean() < 0.95 * frame.mean(), f"the added cube is not seen: {after.mean()} vs {frame.mean()}"
+    finally:
+        v.free()
