@@ -596,13 +596,8 @@ impl<'a> Loader<'a> {
         // broken export than an intent (the add-on writes Blender's missing world as a black
         // one, so a camera-only .blend renders black as in Cycles). A world, a world fog or a
         // light, even black or invisible to the camera, is a scene Cycles renders.
-        if mesh.triangles.is_empty()
-            && curves.is_empty()
-            && points.is_empty()
-            && world.is_none()
-            && matches!(world_volume, world::WorldMedium::None)
-            && lights.is_empty()
-        {
+        let geometryless = mesh.triangles.is_empty() && curves.is_empty() && points.is_empty();
+        if geometryless && world.is_none() && matches!(world_volume, world::WorldMedium::None) && lights.is_empty() {
             return Err(self.err(
                 "nothing to render: the scene has no geometry (no triangles, curves or point clouds; glTF points \
                  and lines are not rendered), no world (CAUSTIC_world) and no lights",
@@ -706,9 +701,16 @@ impl<'a> Loader<'a> {
                 // The fog's box holds the surfaces, every camera (paths start there) and
                 // every light with a place (light paths start there, shadow rays end there):
                 // outside it the fog is held at the boundary's coefficients.
-                let (flo, fhi) = cameras.iter().fold((lo, hi), |(a, b), c| (a.min(c.position), b.max(c.position)));
-                let (flo, fhi) =
-                    lights.iter().filter_map(Light::extent).fold((flo, fhi), |(a, b), (l, h)| (a.min(l), b.max(h)));
+                let (flo, fhi) = crate::scene::bounds::world_fog(lo, hi, geometryless, &cameras, &lights);
+                if geometryless {
+                    // Cycles follows the graph to infinity; with nothing but cameras and
+                    // lights to bound it, most of what the camera sees is held fog.
+                    self.warn(
+                        "the world fog's node graph is followed within the box of the cameras and lights (at least 2 \
+                         units a side: the scene has no geometry to bound it) and a little beyond; farther, the fog \
+                         keeps the coefficients it reached",
+                    );
+                }
                 let source = crate::medium::procedural_source::ProceduralSource {
                     volume: *volume,
                     object: crate::shader::geom::NO_OBJECT,
