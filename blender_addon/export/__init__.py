@@ -58,7 +58,7 @@ from .shape_keys import shape_keys_exported
 from .light_temperature import temperatures_baked
 from .unsupported import scene_warnings
 from .volumes import VOLUME_EXTENSION, attach_volumes  # noqa: F401
-from .world import WORLD_EXTENSION, world_extension  # noqa: F401
+from .world import WORLD_EXTENSION, add_black_world_if_empty, world_extension  # noqa: F401
 
 
 def _exporter_options(filepath, viewport=False, colour_attribute=None):
@@ -159,4 +159,8 @@ def export_scene(depsgraph, folder, settings, motion=True, viewport=False, only=
         add_deformation(filepath, state.motion)
     except (OSError, ValueError, KeyError) as err:
         raise CausticError(f"exporting deformation motion failed: {err!r}") from None
+    try:
+        add_black_world_if_empty(filepath, scene)
+    except (OSError, ValueError, KeyError, IndexError) as err:
+        raise CausticError(f"writing the missing world failed: {err!r}") from None
     return filepath, state

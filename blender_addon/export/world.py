@@ -5,6 +5,7 @@ textures, Mix/Add Shader of backgrounds, converters) as its whole node graph (`n
 shape of `CAUSTIC_materials_nodes`), and so is a world with AOV Output nodes when the view layer
 has shader AOVs (Cycles writes them where the camera sees the world)."""
 
+import json
 import os
 
 import bpy
@@ -67,6 +68,41 @@ def world_extension(scene, folder, writer=None, depsgraph=None):
     if value is not None and bounces is not None and sampled:
         value["max_bounces"] = bounces
     return value, warnings
+
+
+# What makes a written glTF more than a camera: geometry and lights, on nodes or the root.
+_SEEN_NODE_KEYS = ("mesh",)
+_SEEN_NODE_EXTENSIONS = ("KHR_lights_punctual", "CAUSTIC_lights_area")
+_SEEN_ROOT_EXTENSIONS = ("CAUSTIC_curves", "CAUSTIC_points")
+
+
+def add_black_world_if_empty(gltf_path, scene):
+    """Write Blender's missing world as a black `CAUSTIC_world` into a glTF that has nothing
+    else to see (no mesh, curves, points or light); returns True when it did.
+
+    Cycles renders a scene without a World black. The binary refuses a file with no geometry,
+    no world and no lights (nothing to render, more likely a broken file than an intent), so a
+    .blend with only a camera (every object hidden, or no world at all) says its black world
+    explicitly; any other file keeps no world, which the binary reads as black too.
+    """
+    if scene.world is not None:
+        return False
+    with open(gltf_path, encoding="utf-8") as f:
+        doc = json.load(f)
+    if any(key in node for node in doc.get("nodes", []) for key in _SEEN_NODE_KEYS):
+        return False
+    if any(ext in node.get("extensions", {}) for node in doc.get("nodes", []) for ext in _SEEN_NODE_EXTENSIONS):
+        return False
+    if any(ext in doc.get("extensions", {}) for ext in _SEEN_ROOT_EXTENSIONS):
+        return False
+    target = doc.get("scenes", [{}])[doc.get("scene", 0)]
+    target.setdefault("extensions", {})[WORLD_EXTENSION] = {"color": [0.0, 0.0, 0.0], "strength": 0.0}
+    used = doc.setdefault("extensionsUsed", [])
+    if WORLD_EXTENSION not in used:
+        used.append(WORLD_EXTENSION)
+    with open(gltf_path, "w", encoding="utf-8") as f:
+        json.dump(doc, f)
+    return True
 
 
 def _world_volume(world, warnings, writer=None):

@@ -31,7 +31,6 @@
 //! light from beyond its box (its held stretches), which reaches surfaces straight (the
 //! camera side's rays run to infinity) but not after a scattering or a bounce.
 
-use crate::light::Light;
 use crate::math::{Rgb, luminance};
 use crate::medium::grid::CELL;
 use crate::medium::{GridMedium, MediumStack};
@@ -218,8 +217,8 @@ pub fn any(scene: &Scene) -> bool {
 /// grown by half its extent on each side).
 pub fn world_fog_box(scene: &Scene) -> (Vec3, Vec3) {
     let (lo, hi) = scene.bounds;
-    let (lo, hi) = scene.cameras.iter().fold((lo, hi), |(a, b), c| (a.min(c.position), b.max(c.position)));
-    let (lo, hi) = scene.lights.iter().filter_map(Light::extent).fold((lo, hi), |(a, b), (l, h)| (a.min(l), b.max(h)));
+    let geometryless = scene.mesh.triangles.is_empty() && scene.curves.is_empty() && scene.points.is_empty();
+    let (lo, hi) = crate::scene::bounds::world_fog(lo, hi, geometryless, &scene.cameras, &scene.lights);
     let grow = (hi - lo).max(Vec3::splat(1e-3)) * 0.5;
     (lo - grow, hi + grow)
 }

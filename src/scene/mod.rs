@@ -2,6 +2,7 @@
 //! these types only; `gltf/` is the one module that reads glTF.
 
 pub mod bent_normal;
+pub mod bounds;
 pub mod camera;
 pub mod gltf;
 pub mod hit;

@@ -235,16 +235,11 @@ pub fn visibility(
 }
 
 /// The scene's bounds after vertices moved or were added (directional and world lights'
-/// powers and photon radii read them).
+/// powers and photon radii read them), as the loader derives them (`scene::bounds`).
 pub(super) fn recompute_bounds(scene: &mut Scene) {
-    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-    for t in &scene.mesh.triangles {
-        for &i in t {
-            lo = lo.min(scene.mesh.positions[i as usize]);
-            hi = hi.max(scene.mesh.positions[i as usize]);
-        }
-    }
-    scene.bounds = (lo, hi);
+    let s = &*scene;
+    let bounds = crate::scene::bounds::of_scene(&s.mesh, &s.curves, &s.points, &s.cameras, &s.lights);
+    scene.bounds = bounds;
     refresh_powers(scene);
 }
 

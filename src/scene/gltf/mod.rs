@@ -56,7 +56,7 @@ use crate::memory::MemoryBudget;
 use crate::scene::linking::{LightLinking, ReceiverRule};
 use cameras::frame_bounds;
 use extensions::ObjectVisibilityExt;
-use glam::{Vec2, Vec3};
+use glam::Vec2;
 use gltf::json;
 use std::collections::HashMap;
 use std::path::Path;
@@ -543,29 +543,6 @@ impl<'a> Loader<'a> {
             linking.point_object =
                 points::object_ids(&value, &doc, curves.objects.len()).into_iter().map(|(_, id)| id).collect();
         }
-        // Strands or points alone are a scene (their BVHs stand beside an empty triangle BVH).
-        if mesh.triangles.is_empty() && curves.is_empty() && points.is_empty() {
-            return Err(self.err(
-                "nothing to render: the scene has no triangles, no curves and no point clouds (no mesh, or only \
-                 glTF points/lines)",
-            ));
-        }
-
-        // Bounds.
-        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-        for t in &mesh.triangles {
-            for &i in t {
-                lo = lo.min(mesh.positions[i as usize]);
-                hi = hi.max(mesh.positions[i as usize]);
-            }
-        }
-        self.procedural_media(&mut grids, &mesh, &objects, &mut materials);
-        for p in curves.points.iter().chain(&points.spheres) {
-            lo = lo.min(p.truncate() - p.w);
-            hi = hi.max(p.truncate() + p.w);
-        }
-        let scene_radius = ((hi - lo).length() * 0.5).max(1e-3);
-
         let mut portals = Vec::new();
         for (ext, name, world, rule) in area_lights {
             let (light, rep) = match self.area_light(&ext, &name, &world)? {
@@ -603,8 +580,28 @@ impl<'a> Loader<'a> {
                 light_reports.push(rep);
             }
         }
+        self.procedural_media(&mut grids, &mesh, &objects, &mut materials);
+        // Strands or points alone are a scene (their BVHs stand beside an empty triangle BVH),
+        // and so is no geometry at all: Cycles renders the world's background (and a world
+        // fog lit by the lights) there. Its box is then the cameras' and the placed lights'
+        // (`scene::bounds`); the default camera, if the file has none, is made from it below.
+        let (mut lo, mut hi) = crate::scene::bounds::of_scene(&mesh, &curves, &points, &cameras, &lights);
+        let scene_radius = ((hi - lo).length() * 0.5).max(1e-3);
+
         self.profile.mesh = phase.elapsed().as_secs_f64() - self.profile.tangents;
         let (mut world, world_volume) = self.world(&value, &doc, &buffers)?;
+        // A file with no geometry, no world and no lights holds nothing that could be seen:
+        // glTF's default would be a black image by construction, which is far likelier a
+        // broken export than an intent (the add-on writes Blender's missing world as a black
+        // one, so a camera-only .blend renders black as in Cycles). A world, a world fog or a
+        // light, even black or invisible to the camera, is a scene Cycles renders.
+        let geometryless = mesh.triangles.is_empty() && curves.is_empty() && points.is_empty();
+        if geometryless && world.is_none() && matches!(world_volume, world::WorldMedium::None) && lights.is_empty() {
+            return Err(self.err(
+                "nothing to render: the scene has no geometry (no triangles, curves or point clouds; glTF points \
+                 and lines are not rendered), no world (CAUSTIC_world) and no lights",
+            ));
+        }
         match &mut world {
             Some(w) => w.portals = portals,
             None if !portals.is_empty() => self.warn("the scene has portals but no world: they do nothing"),
@@ -704,9 +701,16 @@ impl<'a> Loader<'a> {
                 // The fog's box holds the surfaces, every camera (paths start there) and
                 // every light with a place (light paths start there, shadow rays end there):
                 // outside it the fog is held at the boundary's coefficients.
-                let (flo, fhi) = cameras.iter().fold((lo, hi), |(a, b), c| (a.min(c.position), b.max(c.position)));
-                let (flo, fhi) =
-                    lights.iter().filter_map(Light::extent).fold((flo, fhi), |(a, b), (l, h)| (a.min(l), b.max(h)));
+                let (flo, fhi) = crate::scene::bounds::world_fog(lo, hi, geometryless, &cameras, &lights);
+                if geometryless {
+                    // Cycles follows the graph to infinity; with nothing but cameras and
+                    // lights to bound it, most of what the camera sees is held fog.
+                    self.warn(
+                        "the world fog's node graph is followed within the box of the cameras and lights (at least 2 \
+                         units a side: the scene has no geometry to bound it) and a little beyond; farther, the fog \
+                         keeps the coefficients it reached",
+                    );
+                }
                 let source = crate::medium::procedural_source::ProceduralSource {
                     volume: *volume,
                     object: crate::shader::geom::NO_OBJECT,
