@@ -97,7 +97,9 @@ impl LightGraph {
     }
 
     /// The graph's emission at `at` for a ray of path state `path` (Light Path's outputs;
-    /// its ray length is the distance to the receiver). Non-finite or negative values give 0.
+    /// its ray length is the distance to the receiver). A negative value subtracts light, as
+    /// Cycles' `emission_setup` keeps the sign (and as a light of negative power does);
+    /// non-finite values give 0.
     pub fn emission(&self, at: &LightPoint, path: LightPath) -> Rgb {
         let g = Geom {
             p: at.p,
@@ -123,13 +125,14 @@ impl LightGraph {
         let mut out = Closures::default();
         with_registers(|regs| self.program.run(&g, regs, &mut out));
         let e = out.emission;
-        if e.is_finite() { e.max(Vec3::ZERO) } else { Vec3::ZERO }
+        if e.is_finite() { e } else { Vec3::ZERO }
     }
 
     /// The factor that scales the light's power for light selection: the graph's luminance
     /// toward a receiver at a quarter of the scene's radius along the light's axis (its
-    /// emitting normal, a spot's or sun's direction, else down), at least 1e-3 so that no
-    /// light that emits elsewhere is never chosen.
+    /// emitting normal, a spot's or sun's direction, else down), by size (a light is picked
+    /// by |power|, as Cycles' light tree), at least 1e-3 so that no light that emits
+    /// elsewhere is never chosen.
     pub fn selection_factor(&self, light: &Light, scene_radius: f32) -> f32 {
         let (q, axis) = match light {
             Light::Point { position, .. } => (*position, -Vec3::Y),
@@ -142,7 +145,7 @@ impl LightGraph {
         let receiver = q + axis * (0.25 * scene_radius);
         let n = if let Light::Area(a) = light { a.normal } else { Vec3::ZERO };
         let at = light_point(light, q, n, receiver);
-        crate::math::luminance(self.emission(&at, LightPath::LIGHT_EMISSION)).max(1e-3)
+        crate::math::luminance(self.emission(&at, LightPath::LIGHT_EMISSION)).abs().max(1e-3)
     }
 
     /// The graph's value when it is constant, None when it varies.
@@ -223,6 +226,36 @@ mod tests {
         let bb = crate::medium::blackbody::blackbody_rgb(3000.0);
         assert!((c - bb * 3.0).abs().max_element() < 1e-5, "{c} vs {}", bb * 3.0);
         assert!(bb.x > bb.y && bb.y > bb.z, "3000 K is reddish: {bb}");
+    }
+
+    /// A negative strength keeps its sign, constant or varying (Cycles' `emission_setup`
+    /// does not clamp), and light selection weighs it by size.
+    #[test]
+    fn a_negative_strength_subtracts_light() {
+        let constant = graph(
+            json!([
+                {"name": "Math", "type": "ShaderNodeMath", "props": {"operation": "MULTIPLY"},
+                 "inputs": {"Value": {"value": -2.0}, "Value_001": {"value": 1.5}}},
+                {"name": "Emission", "type": "ShaderNodeEmission",
+                 "inputs": {"Color": {"value": [1.0, 0.5, 0.25, 1.0]}, "Strength": {"link": [0, "Value"]}}}
+            ]),
+            json!([1, "Emission"]),
+        );
+        let c = constant.constant().expect("a constant graph");
+        assert!((c - Vec3::new(-3.0, -1.5, -0.75)).abs().max_element() < 1e-6, "{c}");
+        let varying = graph(
+            json!([
+                {"name": "Falloff", "type": "ShaderNodeLightFalloff",
+                 "inputs": {"Strength": {"value": -4.0}, "Smooth": {"value": 0.0}}},
+                {"name": "Emission", "type": "ShaderNodeEmission",
+                 "inputs": {"Color": {"value": [1.0, 1.0, 1.0, 1.0]}, "Strength": {"link": [0, "Quadratic"]}}}
+            ]),
+            json!([1, "Emission"]),
+        );
+        let at = LightPoint { p: Vec3::ZERO, n: Vec3::X, to_receiver: Vec3::X, dist: 2.0, uv: Vec2::ZERO };
+        assert_eq!(varying.emission(&at, LightPath::LIGHT_EMISSION), Vec3::splat(-4.0));
+        let light = Light::Point { position: Vec3::ZERO, intensity: Vec3::ONE };
+        assert!((varying.selection_factor(&light, 1.0) - 4.0).abs() < 1e-5);
     }
 
     /// Light Falloff reads the ray length: the graph varies, and its Linear output is the

@@ -13,6 +13,8 @@ light of each kind (a -40 W point of radius 0.25, a -60 W spot, a -0.4 W/m² sun
 darkens part of it. Bounds: test_nodes_agreement.py's `compare` (image mean per channel within
 5 sigma + 1 %, 4x4 blocks within 5 sigma + 2 %, sigma from two seeds per engine; derived there).
 The path tracer renders every kind; BDPT, VCM and Jensen's photon mapping the point light.
+`point_graph`: a positive light made negative by its node tree's Strength (Light Falloff, kept as
+a per-point graph), which Caustic clamped at 0 before (rendered as no light).
 """
 
 import importlib
@@ -39,15 +41,30 @@ def floor_scene(scene, negative):
     scenes.plane(scene, "Floor", 10.0, material=grey)
     scenes.mesh_object(scene, "Wall", [(-5, 1.5, 0), (5, 1.5, 0), (5, 1.5, 4), (-5, 1.5, 4)], [(0, 1, 2, 3)], grey)
     scenes.light(scene, "Key", "AREA", location=(-0.8, 0.0, 3.0), shape="DISK", size=1.0, energy=300.0)
-    props = dict(NEGATIVE[negative])
-    kind = props.pop("kind")
-    scenes.light(scene, "Minus", kind, **props)
+    if negative == "point_graph":
+        # A positive point light whose node tree makes it negative where Caustic evaluates the
+        # tree per shading point (Light Falloff reads the ray length, so nothing folds it into
+        # the power): Quadratic of Strength -1 is -1 at every distance (Smooth 0), so it
+        # renders as the -40 W point light. Cycles keeps the emission's sign (emission_setup).
+        obj = scenes.light(scene, "Minus", "POINT", location=(0.7, 0.3, 1.2), energy=40.0)
+        obj.data.use_nodes = True
+        tree = obj.data.node_tree
+        emission = next(n for n in tree.nodes if n.type == "EMISSION")
+        falloff = tree.nodes.new("ShaderNodeLightFalloff")
+        falloff.inputs["Strength"].default_value = -1.0
+        falloff.inputs["Smooth"].default_value = 0.0
+        tree.links.new(falloff.outputs["Quadratic"], emission.inputs["Strength"])
+    else:
+        props = dict(NEGATIVE[negative])
+        kind = props.pop("kind")
+        scenes.light(scene, "Minus", kind, **props)
     scenes.camera(scene, (0.0, -2.5, 4.0), (32.0, 0.0, 0.0), lens=35.0)
 
 
 @pytest.mark.needs_binary
 @pytest.mark.parametrize("negative,integrator", [(k, "path") for k in NEGATIVE]
-                         + [("point", i) for i in ("bdpt", "vcm", "photon")])
+                         + [("point", i) for i in ("bdpt", "vcm", "photon")]
+                         + [("point_graph", i) for i in ("path", "bdpt")])
 def test_negative_light_matches_cycles(empty_scene, tmp_path, negative, integrator):
     floor_scene(empty_scene, negative)
     scenes.small_render_settings(empty_scene, W, H, samples=SAMPLES)
