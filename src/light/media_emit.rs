@@ -428,13 +428,16 @@ mod tests {
         let e = Rgb::new(0.3, 0.2, 0.1);
         let scene = Scene {
             world_medium: Some(HomogeneousMedium { emission: e, ..HomogeneousMedium::absorbing(Rgb::splat(0.5)) }),
-            bounds: (Vec3::new(-1.0, 0.0, -2.0), Vec3::new(1.0, 1.0, 2.0)),
+            // At least 2 units a side, so that the floor a scene without geometry gets
+            // (`scene::bounds::world_fog`) leaves it as it is.
+            bounds: (Vec3::new(-1.0, 0.0, -2.0), Vec3::new(1.0, 2.0, 2.0)),
             ..Scene::default()
         };
         let (lo, hi) = world_fog_box(&scene);
-        assert_eq!((lo, hi), (Vec3::new(-2.0, -0.5, -4.0), Vec3::new(2.0, 1.5, 4.0)));
+        assert_eq!((lo, hi), (Vec3::new(-2.0, -1.0, -4.0), Vec3::new(2.0, 3.0, 4.0)));
         let (mean, se) = photon_sum(&scene, 1000);
-        let want = e.as_dvec3() * (4.0 * std::f64::consts::PI * 64.0 + std::f64::consts::PI * 112.0 / 0.5);
+        // The grown box is 4 × 4 × 8: volume 128, area 160.
+        let want = e.as_dvec3() * (4.0 * std::f64::consts::PI * 128.0 + std::f64::consts::PI * 160.0 / 0.5);
         assert!((mean - want).abs().max_element() < 1e-4 * want.max_element(), "{mean} vs {want}");
         assert!(se.max_element() < 1e-4 * want.max_element(), "photons of unequal power: {se}");
     }
