@@ -166,7 +166,7 @@ pub fn light_transmittance_as(
                 return Rgb::ZERO;
             }
             crossings += 1;
-            tr *= ctx.scene.transmission(h.tri, h.b1, h.b2, path.at(travelled + h.t));
+            tr *= ctx.scene.transmission(h.tri, h.b1, h.b2, path.at(travelled + h.t), dir);
             path = path.passed_transparent();
         } else {
             return Rgb::ZERO;

@@ -617,13 +617,13 @@ impl<'a> SceneContext<'a> {
             }
             match mode {
                 AlphaMode::Mask(cutoff) => {
-                    if self.scene.shadow_alpha(tri, b1, b2, path, org) >= cutoff {
+                    if self.scene.shadow_alpha(tri, b1, b2, path, org, dir) >= cutoff {
                         0.0
                     } else {
                         1.0
                     }
                 }
-                AlphaMode::Blend => (1.0 - self.scene.shadow_alpha(tri, b1, b2, path, org)).clamp(0.0, 1.0),
+                AlphaMode::Blend => (1.0 - self.scene.shadow_alpha(tri, b1, b2, path, org, dir)).clamp(0.0, 1.0),
                 AlphaMode::Opaque => 0.0,
             }
         };

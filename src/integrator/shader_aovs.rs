@@ -75,7 +75,7 @@ pub fn fill(
                 }
             }
             match mat.alpha_mode {
-                AlphaMode::Blend => ctx.scene.pass_through(hit.tri, hit.b1, hit.b2, s.light_path).0,
+                AlphaMode::Blend => ctx.scene.pass_through(hit.tri, hit.b1, hit.b2, s.light_path, ray.dir).0,
                 _ => 1.0,
             }
         };

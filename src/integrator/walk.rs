@@ -252,7 +252,7 @@ impl PathState {
         // Stochastic transparency: pass straight through with probability 1 - alpha, the
         // throughput tinted by a coloured Transparent BSDF (weight colour / (1 - alpha)).
         if mat.alpha_mode == AlphaMode::Blend && self.transparent_hits < MAX_TRANSPARENT_HITS {
-            let (alpha, tint) = ctx.scene.pass_through(hit.tri, hit.b1, hit.b2, self.light_path.at(hit.t));
+            let (alpha, tint) = ctx.scene.pass_through(hit.tri, hit.b1, hit.b2, self.light_path.at(hit.t), self.dir);
             if u_alpha() >= alpha {
                 // Past Transparent Max Bounces the path ends at this surface (Cycles): what
                 // it would pass to is not seen.

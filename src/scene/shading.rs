@@ -33,7 +33,7 @@ impl Scene {
     pub fn alpha(&self, tri: u32, b1: f32, b2: f32) -> f32 {
         let mat = &self.materials[self.mesh.tri_material[tri as usize] as usize];
         if let Some(prog) = &mat.nodes {
-            return crate::shader::shade::node_alpha(self, prog, tri, b1, b2, LightPath::LIGHT_EMISSION, None);
+            return crate::shader::shade::node_alpha(self, prog, tri, b1, b2, LightPath::LIGHT_EMISSION, None, None);
         }
         let (uv, color) = self.attributes(tri, b1, b2);
         let mut a = mat.base_color.w * color.w;

@@ -253,7 +253,11 @@ fn pass_fraction(t: Rgb) -> f32 {
 }
 
 /// The graph's Transparent weight at barycentrics, for a ray of state `path` (its length
-/// measured from `org` when given).
+/// measured from `org` when given) travelling along `dir` when known: the graph then sees
+/// the surface from the ray's side, as Cycles' shadow and transparent-bounce evaluation
+/// does (Fresnel, Layer Weight, Incoming and Backfacing read it); unknown (light sampling's
+/// coverage), along the normal.
+#[allow(clippy::too_many_arguments)]
 fn node_transparent(
     scene: &Scene,
     prog: &Program,
@@ -262,17 +266,28 @@ fn node_transparent(
     b2: f32,
     path: LightPath,
     org: Option<Vec3>,
+    dir: Option<Vec3>,
 ) -> Rgb {
     let mut g = geom_at(&scene.mesh, &scene.objects, &scene.textures, tri, b1, b2);
     g.view = &scene.view;
     g.path = org.map_or(path, |o| path.at((g.p - o).length()));
+    if let Some(d) = dir {
+        // As `geom_of` for a shaded hit: normals on the side the ray came from.
+        g.wo = -d.normalize_or(-g.n);
+        if g.ng.dot(g.wo) < 0.0 {
+            g.backfacing = true;
+            g.ng = -g.ng;
+            g.n = -g.n;
+        }
+    }
     let mut out = Closures::default();
     with_registers(|regs| prog.run(&g, regs, &mut out));
     out.transparent
 }
 
 /// The graph's opacity at barycentrics (1 − the mean of its Transparent weight) for a ray
-/// of state `path` (from `org`, when its length is not in `path`).
+/// of state `path` (from `org`, when its length is not in `path`) along `dir` when known.
+#[allow(clippy::too_many_arguments)]
 pub fn node_alpha(
     scene: &Scene,
     prog: &Program,
@@ -281,8 +296,9 @@ pub fn node_alpha(
     b2: f32,
     path: LightPath,
     org: Option<Vec3>,
+    dir: Option<Vec3>,
 ) -> f32 {
-    1.0 - pass_fraction(node_transparent(scene, prog, tri, b1, b2, path, org))
+    1.0 - pass_fraction(node_transparent(scene, prog, tri, b1, b2, path, org, dir))
 }
 
 /// The emission of a node material at barycentrics, seen along the normal, for the render
@@ -318,44 +334,47 @@ impl Scene {
     /// with probability 1 − alpha) and the throughput weight of passing, transmission /
     /// (1 − alpha): 1 unless a node graph's Transparent colour is tinted, whose expected
     /// weight is then that colour (Cycles' transparent bounce carries the closure's colour).
-    /// `path`: the ray that reached the surface (the Light Path node).
+    /// `path`: the ray that reached the surface (the Light Path node), along `dir`.
     #[inline]
-    pub fn pass_through(&self, tri: u32, b1: f32, b2: f32, path: LightPath) -> (f32, Rgb) {
+    pub fn pass_through(&self, tri: u32, b1: f32, b2: f32, path: LightPath, dir: Vec3) -> (f32, Rgb) {
         let mat = &self.materials[self.mesh.tri_material[tri as usize] as usize];
         match &mat.nodes {
             Some(prog) if prog.tinted_transparency => {
-                let t = node_transparent(self, prog, tri, b1, b2, path, None);
+                let t = node_transparent(self, prog, tri, b1, b2, path, None, Some(dir));
                 let p = pass_fraction(t);
                 let tint = if p > 0.0 { t.clamp(Rgb::ZERO, Rgb::ONE) / p } else { Rgb::ONE };
                 (1.0 - p, tint)
             }
-            Some(prog) => (node_alpha(self, prog, tri, b1, b2, path, None), Rgb::ONE),
+            Some(prog) => (node_alpha(self, prog, tri, b1, b2, path, None, Some(dir)), Rgb::ONE),
             None => (self.alpha(tri, b1, b2), Rgb::ONE),
         }
     }
 
     /// What a BLEND surface lets through at barycentrics per channel, for shadow rays:
     /// 1 − alpha, or a tinted node graph's Transparent colour (each channel in [0, 1]).
-    /// `path`: the shadow ray's state with its length to the surface.
+    /// `path`: the shadow ray's state with its length to the surface, along `dir`.
     #[inline]
-    pub fn transmission(&self, tri: u32, b1: f32, b2: f32, path: LightPath) -> Rgb {
+    pub fn transmission(&self, tri: u32, b1: f32, b2: f32, path: LightPath, dir: Vec3) -> Rgb {
         let mat = &self.materials[self.mesh.tri_material[tri as usize] as usize];
         match &mat.nodes {
             Some(prog) if prog.tinted_transparency => {
-                node_transparent(self, prog, tri, b1, b2, path, None).clamp(Rgb::ZERO, Rgb::ONE)
+                node_transparent(self, prog, tri, b1, b2, path, None, Some(dir)).clamp(Rgb::ZERO, Rgb::ONE)
             }
-            Some(prog) => Rgb::splat((1.0 - node_alpha(self, prog, tri, b1, b2, path, None)).clamp(0.0, 1.0)),
+            Some(prog) => {
+                Rgb::splat((1.0 - node_alpha(self, prog, tri, b1, b2, path, None, Some(dir))).clamp(0.0, 1.0))
+            }
             None => Rgb::splat((1.0 - self.alpha(tri, b1, b2)).clamp(0.0, 1.0)),
         }
     }
 
     /// Alpha of a triangle's material at barycentrics as a shadow ray of state `path` from
-    /// `org` sees it (a node graph may read the Light Path node; other materials do not).
+    /// `org` along `dir` sees it (a node graph may read the Light Path node and the ray's
+    /// direction; other materials do not).
     #[inline]
-    pub fn shadow_alpha(&self, tri: u32, b1: f32, b2: f32, path: LightPath, org: Vec3) -> f32 {
+    pub fn shadow_alpha(&self, tri: u32, b1: f32, b2: f32, path: LightPath, org: Vec3, dir: Vec3) -> f32 {
         let mat = &self.materials[self.mesh.tri_material[tri as usize] as usize];
         match &mat.nodes {
-            Some(prog) => node_alpha(self, prog, tri, b1, b2, path, Some(org)),
+            Some(prog) => node_alpha(self, prog, tri, b1, b2, path, Some(org), Some(dir)),
             None => self.alpha(tri, b1, b2),
         }
     }
