@@ -98,16 +98,22 @@ def test_missing_binary_reports_an_error(scene, monkeypatch, capfd):
 
 
 def test_broken_scene_reports_the_binarys_message(empty_scene, tmp_path, capfd):
-    """A scene the renderer refuses (here: nothing but a camera and a light, so no triangles):
-    the binary's JSON error message, not a generic exit code, reaches the operator's report."""
+    """A scene the renderer refuses (here: absurd settings, two billion photons, whose maps the
+    memory budget refuses before allocating; a camera and a light alone no longer serve, since
+    they render as Cycles renders them): the binary's JSON error message, not a generic exit
+    code, reaches the operator's report."""
     scenes.small_render_settings(empty_scene, W, H, samples=1)
     scenes.camera(empty_scene, (0, -3, 5), (30, 0, 0))
     scenes.light(empty_scene, "Sun", "SUN", energy=1.0)
+    scenes.plane(empty_scene, "Floor", 4.0)
+    empty_scene.caustic.integrator = "photon"
+    empty_scene.caustic.photons = 2_000_000_000
     empty_scene.render.filepath = str(tmp_path / "out.exr")
     with pytest.raises(RuntimeError) as err:
         bpy.ops.render.render(write_still=True)
     message = str(err.value)
     assert message.startswith("Error: Caustic: ")
+    assert "not enough memory: photon maps" in message, message
     assert "exit code" not in message  # the binary's own words, not the add-on's fallback
     assert "Traceback" not in capfd.readouterr().err
 
