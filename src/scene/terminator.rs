@@ -36,26 +36,19 @@ pub fn smooth_surface_offset(mesh: &Mesh, tri: u32, bary: Vec2, ng: Vec3) -> Vec
     let b = (n2 - n1).dot(v1 - v2);
     let c = (n1 - n0).dot(v1 - v0);
     let mut h = a * u * (u - 1.0) + (a + b + c) * u * v + b * v * (v - 1.0);
-    if n.dot(ng) > 0.0 {
-        // Bounded by the corners' tangent planes (the local linear envelope).
-        let reach = |vi: Vec3, ni: Vec3, va: Vec3, vb: Vec3| {
-            let e = (va - vi).dot(ni).max((vb - vi).dot(ni)).max(0.0);
-            ((vi - p).dot(ni) + e).max(0.0)
-        };
-        let h0 = reach(v0, n0, v1, v2);
-        let h1 = reach(v1, n1, v0, v2);
-        let h2 = reach(v2, n2, v0, v1);
-        h = h0.min(h1).min(h2).max(h * 0.5);
-    } else {
-        let reach = |vi: Vec3, ni: Vec3, va: Vec3, vb: Vec3| {
-            let e = (vi - va).dot(ni).max((vi - vb).dot(ni)).max(0.0);
-            ((p - vi).dot(ni) + e).max(0.0)
-        };
-        let h0 = reach(v0, n0, v1, v2);
-        let h1 = reach(v1, n1, v0, v2);
-        let h2 = reach(v2, n2, v0, v1);
-        h = (-h0.min(h1).min(h2)).min(h * 0.5);
-    }
+    // Bounded by the corners' tangent planes (the local linear envelope), on the side the
+    // shading normal points to: below the flat triangle the same bound with the normals
+    // negated (exact: a negated vector negates its dot products bit for bit).
+    let side = if n.dot(ng) > 0.0 { 1.0 } else { -1.0 };
+    let reach = |vi: Vec3, ni: Vec3, va: Vec3, vb: Vec3| {
+        let ni = ni * side;
+        let e = (va - vi).dot(ni).max((vb - vi).dot(ni)).max(0.0);
+        ((vi - p).dot(ni) + e).max(0.0)
+    };
+    let h0 = reach(v0, n0, v1, v2);
+    let h1 = reach(v1, n1, v0, v2);
+    let h2 = reach(v2, n2, v0, v1);
+    h = side * h0.min(h1).min(h2).max(side * h * 0.5);
     n * h
 }
 
