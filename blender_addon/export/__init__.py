@@ -51,6 +51,7 @@ from .media import MEDIUM_EXTENSION, SUBSURFACE_EXTENSION, medium_extension, sub
 from .settings import film_exposure, layer_render_settings, render_settings  # noqa: F401
 from .light_groups import light_group_settings  # noqa: F401
 from .shader_aovs import shader_aov_settings  # noqa: F401
+from . import nonfinite
 from .state import ExportState, exporting
 from .motion import add_deformation, sample_motion
 from .node_graph import single_colour_attribute
@@ -126,6 +127,7 @@ def export_scene(depsgraph, folder, settings, motion=True, viewport=False, only=
             state.motion = sample_motion(scene, view_layer)
         if state.motion is not None:
             state.warnings.extend(state.motion.warnings)
+    state.nonfinite = nonfinite.scan(depsgraph)
     try:
         with exporting(state), bpy.context.temp_override(scene=scene, view_layer=view_layer), \
                 hooks_enabled(), shape_keys_exported(depsgraph, state.warnings, viewport), \

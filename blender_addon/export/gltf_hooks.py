@@ -14,7 +14,7 @@ from contextlib import contextmanager
 
 import bpy
 
-from . import attributes, materials, meshes, object_filter, view_layer
+from . import attributes, materials, meshes, nonfinite, object_filter, view_layer
 from .camera import CAMERA_EXTENSION, camera_extension
 from .gltf_objects import attach_extension
 from .lights import (AREA_LIGHT_EXTENSION, PUNCTUAL_EXTENSION, area_light_extension, carry_negative_intensity,
@@ -85,6 +85,7 @@ class glTF2ExportUserExtension:
                 meshes.add_texspace(gltf2_node.mesh, blender_object, state)
                 meshes.add_normals_domain(gltf2_node.mesh, blender_object, state)
                 meshes.add_object_color(gltf2_node, blender_object, state)
+                nonfinite.drop_nonfinite_triangles(gltf2_node.mesh, blender_object, state)
                 return
             if blender_object.type != "LIGHT":
                 return

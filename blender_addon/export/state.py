@@ -35,6 +35,8 @@ class ExportState:
         self.colour_attribute = None  # the colour attribute exported as COLOR_0 by name, or None
         self.object_names = set()  # Object attributes the graphs read (attributes.py)
         self.instancer_names = set()  # Instancer attributes the graphs read (attributes.py)
+        self.nonfinite = {}  # object name -> (NaN vertices, ambiguous), found before the export (nonfinite.py)
+        self.nonfinite_meshes = set()  # ids of glTF meshes whose NaN-vertex triangles were dropped (nonfinite.py)
         # The exporter logs and swallows hook exceptions: the hooks record them here and
         # export_scene raises them afterwards.
         self.errors = []

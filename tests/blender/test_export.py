@@ -11,6 +11,7 @@ import json
 import math
 
 import bpy
+import numpy as np
 import pytest
 from mathutils import Matrix, Quaternion
 
@@ -328,6 +329,53 @@ def test_object_ray_visibility_is_exported(empty_scene, captured):
         assert node_by_name(gltf, name)["extensions"]["CAUSTIC_object_visibility"] == {"holdout": True}
     assert "CAUSTIC_object_visibility" not in node_by_name(gltf, "Plain").get("extensions", {})
     assert "CAUSTIC_object_visibility" in gltf["extensionsUsed"]
+
+
+def _nan_tent(scene, name, x, origin_vertex=False):
+    """A pyramid whose apex is NaN (a Geometry Nodes division by zero would make one), with its
+    square base as two more triangles; optionally one base corner exactly at the origin."""
+    base = [(-1, -1, 0.5), (1, -1, 0.5), (1, 1, 0.5), (-1, 1, 0.5)]
+    if origin_vertex:
+        base[0] = (0.0, 0.0, 0.0)
+    obj = scenes.mesh_object(scene, name, base + [(0, 0, 1.5)],
+                             [(0, 1, 4), (1, 2, 4), (2, 3, 4), (3, 0, 4), (0, 1, 2), (0, 2, 3)])
+    obj.location.x = x
+    obj.data.vertices[4].co = (float("nan"),) * 3
+    return obj
+
+
+def test_nonfinite_vertices_drop_their_triangles(empty_scene, addon, tmp_path):
+    """Cycles leaves out a triangle with a non-finite corner; Blender's exporter writes such a
+    vertex at the origin (nonfinite.py). The four sides of the NaN-apexed pyramid are exported
+    degenerate, its base intact, with a warning naming the object; where a finite vertex is at
+    the origin too, nothing is dropped and the warning says so."""
+    scene = empty_scene
+    scenes.small_render_settings(scene, 8, 6, samples=1)
+    scenes.camera(scene, (0, -6, 4), (55, 0, 0))
+    _nan_tent(scene, "Tent", 0.0)
+    _nan_tent(scene, "Corner", 3.0, origin_vertex=True)
+    export = importlib.import_module(addon.__name__ + ".export")
+    settings = export.render_settings(scene, (8, 6), "Camera")
+    path, state = export.export_scene(bpy.context.evaluated_depsgraph_get(), str(tmp_path), settings)
+    with open(path) as f:
+        gltf = json.load(f)
+
+    def triangles(name):
+        prim = gltf["meshes"][node_by_name(gltf, name)["mesh"]]["primitives"][0]
+        acc = gltf["accessors"][prim["indices"]]
+        view = gltf["bufferViews"][acc["bufferView"]]
+        data = (tmp_path / gltf["buffers"][view["buffer"]]["uri"]).read_bytes()
+        start = view.get("byteOffset", 0) + acc.get("byteOffset", 0)
+        dtype = {5121: np.uint8, 5123: np.uint16, 5125: np.uint32}[acc["componentType"]]
+        return np.frombuffer(data[start:start + acc["count"] * np.dtype(dtype).itemsize], dtype).reshape(-1, 3)
+
+    tent = triangles("Tent")
+    degenerate = [len(set(t.tolist())) == 1 for t in tent]
+    assert sum(degenerate) == 4 and len(tent) == 6, tent
+    assert not any(len(set(t.tolist())) == 1 for t in triangles("Corner"))
+    assert any("'Tent'" in w and "non-finite" in w and "4 triangles" in w for w in state.warnings), state.warnings
+    assert any("'Corner'" in w and "non-finite" in w and "cannot be told apart" in w for w in state.warnings), \
+        state.warnings
 
 
 def test_shadow_terminator_offset_is_exported(empty_scene, addon, tmp_path):
