@@ -22,6 +22,7 @@ import bpy
 
 from .attributes import view_layer_rgba
 from .image_frames import sequence_frame, udim_tiles
+from .node_images import png_with_alpha
 
 GRAPH_EXTENSION = "CAUSTIC_materials_nodes"
 GRAPH_VERSION = 1
@@ -718,6 +719,8 @@ def _associated_alpha(graph, entry):
     image = graph.images[index]
     if getattr(image, "depth", 0) not in {32, 64, 128} or image.colorspace_settings.is_data:
         return False  # no alpha channel (RGBA is 32, 64 or 128 bits a pixel), or data
+    if png_with_alpha(image):
+        return True  # Cycles associates a 16-bit PNG too (node_images.py)
     return image.alpha_mode == "PREMUL" or image.alpha_mode == "STRAIGHT" and not image.is_float
 
 

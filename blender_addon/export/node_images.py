@@ -9,8 +9,9 @@ when its colour space is not data: an sRGB one is encoded back (Cycles filters i
 under a Linear Rec.709 working space, any other (and every one under another working space) is
 recorded as in the working space, which the renderer leaves as it is; an 8-bit image in a space
 the contract does not name (ACEScg, AgX Log, ...) is converted to linear by Blender's colour
-management and written as float. An image is written once per export however many materials
-use it.
+management and written as float. A 16-bit PNG with alpha (Straight or Premultiplied) is
+written as Cycles holds it, its stored values times alpha, marked Premultiplied
+(`_png16_associated`). An image is written once per export however many materials use it.
 """
 
 import copy
@@ -112,7 +113,11 @@ class ImageWriter:
         # Blender's scene linear space: the working space (Blender 5.0), which the renderer
         # leaves as it is.
         scene_linear = working_space_name()
-        if image.colorspace_settings.is_data:
+        alpha_mode = image.alpha_mode
+        if is_float and channels == 4 and png_with_alpha(image):
+            rgba, colorspace = _png16_associated(rgba, alpha_mode, colorspace, scene_linear)
+            alpha_mode = "PREMUL"  # written associated (module doc)
+        elif image.colorspace_settings.is_data:
             colorspace = "Non-Color"
         elif is_float and colorspace == "sRGB" and scene_linear == REC709:
             # Blender decoded it on loading (module doc); Cycles filters an sRGB image encoded
@@ -132,7 +137,7 @@ class ImageWriter:
         os.makedirs(os.path.join(self.gltf_folder, FOLDER), exist_ok=True)
         path = os.path.join(self.gltf_folder, FOLDER, filename)
         _save(rgba, is_float, path)
-        return {"uri": f"{FOLDER}/{filename}", "colorspace": colorspace, "alpha": image.alpha_mode}
+        return {"uri": f"{FOLDER}/{filename}", "colorspace": colorspace, "alpha": alpha_mode}
 
     def _unique(self, name, suffix):
         stem = re.sub(r"[^A-Za-z0-9._-]+", "_", os.path.splitext(name)[0]) or "image"
@@ -150,6 +155,35 @@ def _load(image):
     except RuntimeError:
         return False
     return image.has_data and image.size[0] > 0
+
+
+def png_with_alpha(image):
+    """Whether `image` is a 16-bit PNG colour image with alpha in Straight or Premultiplied mode,
+    which Cycles associates in the file's own encoding (module doc)."""
+    return (image.is_float and image.file_format == "PNG" and image.alpha_mode in {"STRAIGHT", "PREMUL"}
+            and not image.colorspace_settings.is_data)
+
+
+def _png16_associated(rgba, alpha_mode, colorspace, scene_linear):
+    """A 16-bit PNG's pixels as Cycles holds them: the stored values times alpha, and the colour
+    space they are in. Cycles reads the file itself (a PNG is straight by definition, so it
+    associates in either alpha mode: measured on bpy 5.0.1, Straight and Premultiplied render
+    alike) and decodes sRGB after filtering. Blender's pixels are the decoded straight colour times
+    alpha, the straight colour being the stored one (Straight) or the stored one over alpha
+    (Premultiplied); undone here. A texel of alpha 0 keeps colour 0, as it does in Cycles. Under another working space, or in another colour space, the
+    association is done on Blender's linear values (exact for a linear file)."""
+    alpha = rgba[..., 3:4]
+    safe = np.where(alpha > 0.0, alpha, 1.0)
+    straight = np.where(alpha > 0.0, rgba[..., :3] / safe, 0.0)
+    out = rgba.copy()
+    if colorspace == "sRGB" and scene_linear == REC709:
+        stored = _srgb_encode(straight)
+    else:
+        stored, colorspace = straight, scene_linear
+    if alpha_mode == "PREMUL":
+        stored = stored * alpha
+    out[..., :3] = stored * alpha
+    return out, colorspace
 
 
 def _srgb_encode(linear):

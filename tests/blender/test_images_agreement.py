@@ -40,8 +40,11 @@ pytest -s; after: 0.9984-1.0022, no block over its bound):
   disc in white transparent texels) into Base Color and Alpha over a floor: the white bled
   into the edge, 1.0821 1.0327 1.0785 (36), silently; an OpenEXR on Base Color alone (held
   associated by Blender, read straight): 0.6482 0.5946 0.6482 (108). Channel Packed (never
-  associated) and a 16-bit PNG leaf (a float image in Straight mode, which stays straight:
-  `associates_alpha` in src/scene/texture.rs) agreed before and still do.
+  associated) and a 16-bit PNG leaf (its Alpha linked) agreed before and still do.
+* alpha_png16_*: a 16-bit PNG with alpha on Base Color alone. Cycles reads the file itself and
+  associates it in its sRGB encoding in either alpha mode; the add-on wrote Blender's pixels
+  (linear, associated) re-encoded: Straight 1.2257 1.8271 1.8505 (97 of 108 blocks over),
+  Premultiplied 1.5869 10.5287 11.6448 (99); now the stored values times alpha are written (node_images.py).
 """
 
 import os
@@ -197,6 +200,15 @@ def with_alpha_mode(mode):
     return make
 
 
+def png16_alpha(mode):
+    """The alpha pattern as a 16-bit PNG in Alpha mode `mode`."""
+    def make(folder, name):
+        img = image_file(os.path.join(folder, f"{name}.png"), depth="16", alpha=True)
+        img.alpha_mode = mode
+        return img
+    return make
+
+
 def premultiplied(folder, name):
     """The alpha pattern saved premultiplied (colour times alpha, as a premultiplied file holds
     it), Alpha mode Premultiplied."""
@@ -246,6 +258,8 @@ CASES = {
     "alpha_cutout_leaf": (floor_scene, principled_image(cutout, alpha=True)),
     "alpha_png16_leaf": (floor_scene, principled_image(
         lambda folder, name: image_file(os.path.join(folder, f"{name}.png"), depth="16", alpha=True), alpha=True)),
+    "alpha_png16_colour_only": (nodes.flat_scene, principled_image(png16_alpha("STRAIGHT"))),
+    "alpha_png16_premultiplied_colour_only": (nodes.flat_scene, principled_image(png16_alpha("PREMUL"))),
     "alpha_exr_colour_only": (nodes.flat_scene, principled_image(
         lambda folder, name: image_file(os.path.join(folder, f"{name}.exr"), "OPEN_EXR", "32", alpha=True,
                                         float_buffer=True))),
