@@ -91,3 +91,102 @@ fn an_unlit_quad_shows_base_colour_times_vertex_colour_under_any_light() {
         }
     }
 }
+
+/// A grey floor lit by a sun at 45° from -x, and above it an unlit quad (base colour `base`)
+/// whose shadow, if it cast one, would fall on the visible floor right of it; camera looking
+/// straight down (16×16, 0.6 rad field: the floor spans ±0.93 at z = 0).
+fn floor_under_unlit_quad(dir: &std::path::Path, base: [f32; 3], with_quad: bool) -> std::path::PathBuf {
+    let mut g = common::GltfBuilder::new();
+    let grey = g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1.0],
+        "metallicFactor": 0.0, "roughnessFactor": 1.0}}));
+    let flat = g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [base[0], base[1], base[2], 1.0]},
+        "extensions": {"KHR_materials_unlit": {}}}));
+    g.use_ext("KHR_materials_unlit");
+    // glTF is Y up: the floor is y = 0 (facing +Y), the quad at y = 1 spans x in [-0.9, -0.1].
+    g.mesh(&[[-2.0, 0.0, -2.0], [-2.0, 0.0, 2.0], [2.0, 0.0, 2.0], [2.0, 0.0, -2.0]], &[0, 1, 2, 0, 2, 3], grey);
+    if with_quad {
+        g.mesh(
+            &[[-0.9, 1.0, -0.25], [-0.9, 1.0, 0.25], [-0.1, 1.0, 0.25], [-0.1, 1.0, -0.25]],
+            &[0, 1, 2, 0, 2, 3],
+            flat,
+        );
+    }
+    // Looking down -Y: a rotation of -90° about X.
+    let h = std::f32::consts::FRAC_1_SQRT_2;
+    g.camera([0.0, 3.0, 0.0], [-h, 0.0, 0.0, h], 0.6);
+    // The sun shines along its node's -Z, turned to travel along (1, -1, 0)/√2 (90° about the
+    // axis (-1, -1, 0)/√2): its shadow of the quad, if any, lies at x in [0.1, 0.9].
+    let q = [-0.5, -0.5, 0.0, h];
+    g.punctual(json!({"type": "directional", "intensity": 683.0 * 2.0}), [0.0, 5.0, 0.0], q);
+    g.write(dir, if with_quad { "floor_unlit.gltf" } else { "floor.gltf" })
+}
+
+#[test]
+fn an_unlit_surface_casts_no_shadow_and_lights_nothing_in_every_integrator() {
+    // Blender's glTF importer renders KHR_materials_unlit as Emission to camera rays and
+    // Transparent to every other ray (materials.rs): Cycles shows the colour, the floor gets the
+    // whole sun and no glow. Before, the quad was an emitter that cast a shadow: the region
+    // checked below was lit by the quad's emission alone (a few percent of the sun's).
+    let dir = temp_dir();
+    let base = [0.9f32, 0.45, 0.1];
+    let render = |path: &std::path::Path, integrator: &str| {
+        let out = dir.path().join(format!("{integrator}.exr"));
+        let r = run(
+            &[
+                "render",
+                path.to_str().unwrap(),
+                "-o",
+                out.to_str().unwrap(),
+                "--resolution",
+                "16x16",
+                "--spp",
+                "64",
+                "--integrator",
+                integrator,
+                "--progress",
+                "none",
+            ],
+            Duration::from_secs(120),
+        );
+        assert_eq!(r.code, Some(0), "{integrator}: {}", r.stderr);
+        let (w, _, px) = caustic::output::read_combined(&out).unwrap();
+        (w as usize, px)
+    };
+    // The floor alone, path traced: what the floor must look like with the quad there too.
+    let (w, bare) = render(&floor_under_unlit_quad(dir.path(), base, false), "path");
+    let path = floor_under_unlit_quad(dir.path(), base, true);
+    for integrator in ["path", "bdpt", "vcm", "photon", "sppm"] {
+        let (_, px) = render(&path, integrator);
+        let at = |x: usize, y: usize| px[y * w + x];
+        // The quad fills columns 0..=4 of rows 6..=9 with its colour alone, whatever the
+        // integrator: camera rays are the only ones that see it and it reflects nothing
+        // (f32 rounding of the film's average: 1e-4 relative).
+        for y in 6..=9 {
+            for x in 0..=4 {
+                let p = at(x, y);
+                for c in 0..3 {
+                    assert!((p[c] - base[c]).abs() <= 1e-4 * base[c], "{integrator}: quad pixel ({x}, {y}) = {p:?}");
+                }
+            }
+        }
+        // Where its shadow would fall (columns 10..=13, rows 6..=9, two filter radii inside)
+        // the floor is as without the quad. The path tracer draws the same samples there, so
+        // it is the same up to f32 (1e-4); the others estimate it (light tracing, photons):
+        // their mean must be within 10 % — the shadow the quad cast took nearly all of it.
+        let (mut sum, mut want) = (0.0, 0.0);
+        for y in 6..=9 {
+            for x in 10..=13 {
+                let (got, bare) = (at(x, y)[1], bare[y * w + x][1]);
+                sum += got;
+                want += bare;
+                if integrator == "path" {
+                    assert!(
+                        (got - bare).abs() <= 1e-4 * bare,
+                        "path: floor ({x}, {y}) = {got}, without the quad {bare}"
+                    );
+                }
+            }
+        }
+        assert!((sum - want).abs() <= 0.1 * want, "{integrator}: the floor where the shadow was: {sum}, want {want}");
+    }
+}

@@ -150,6 +150,17 @@ impl RayVisibility {
         self.catcher.get(tri as usize).copied().unwrap_or(false)
     }
 
+    /// Hides the triangles for which `camera_only` is true from every ray but camera rays (a
+    /// `KHR_materials_unlit` surface: `scene::gltf::materials`), on top of their object's mask.
+    pub fn camera_only(&mut self, total: usize, camera_only: impl Fn(usize) -> bool) {
+        for tri in (0..total).filter(|&t| camera_only(t)) {
+            if self.per_triangle.is_empty() {
+                self.per_triangle.resize(total, RayMask::ALL);
+            }
+            self.per_triangle[tri] = RayMask(self.per_triangle[tri].0 & RayMask::CAMERA.0);
+        }
+    }
+
     /// Pads the tables to `total` triangles once every object is loaded (objects appended
     /// after the last marked one are seen by every ray and are no holdouts).
     pub fn finish(&mut self, total: usize) {

@@ -13,6 +13,7 @@ glTF features whose meaning the loader must get right:
 * `gpu_instancing`: EXT_mesh_gpu_instancing, three scaled copies of the sphere;
 * `skin`: a skinned sphere whose joint moves it sideways and whose own node transform (which
   glTF says to ignore) would push it out of view.
+* `unlit`: KHR_materials_unlit as Blender's importer builds it (seen by camera rays alone);
 * and the core features an asset most often has: emission with KHR_materials_emissive_strength,
   clear coat, rough metal, rough glass (transmission, IOR, volume), a base colour texture under
   KHR_texture_transform with a nearest sampler, alpha BLEND.
@@ -216,6 +217,11 @@ CASES = {
         "metallicFactor": 0.0, "roughnessFactor": 0.5}}, {"texture": True}),
     "alpha_blend": ({"pbrMetallicRoughness": {"baseColorFactor": [0.2, 0.4, 0.9, 0.5], "metallicFactor": 0.0,
                                               "roughnessFactor": 0.5}, "alphaMode": "BLEND"}, {}),
+    # Blender's importer makes an unlit material Emission for camera rays and Transparent for
+    # the others: it shows its colour, casts no shadow and lights nothing. Before Caustic did
+    # the same it was a light that shadowed the floor: R/G/B 1.050/0.999/0.902.
+    "unlit": ({"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.4, 0.1, 1]},
+               "extensions": {"KHR_materials_unlit": {}}}, {}),
     "gpu_instancing": ({"pbrMetallicRoughness": {"baseColorFactor": [0.7, 0.5, 0.2, 1], "metallicFactor": 0.0,
                                                  "roughnessFactor": 0.5}}, {"instanced": True}),
     "morph": ({"pbrMetallicRoughness": {"baseColorFactor": [0.2, 0.6, 0.3, 1], "metallicFactor": 0.0,

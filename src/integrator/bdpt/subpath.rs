@@ -293,6 +293,16 @@ impl BdptIntegrator {
                     }
                 }
             }
+            // s = 0 on an emitter that is no light (an unlit surface, seen by camera rays
+            // alone): no other strategy reaches it, so it counts in full.
+            if sp.emitted != Rgb::ZERO && self.allowed(0, t) && ctx.lights.light_of_triangle(hit.tri).is_none() {
+                let c = beta * sp.emitted * self.mis(1.0);
+                *radiance += c;
+                if self.ledger.any() {
+                    let g = if self.ledger.light_groups { ctx.scene.light_groups.of_tri(hit.tri) } else { 0 };
+                    self.ledger.file(out, t - 2, first, false, g, c);
+                }
+            }
             // Light Paths' bounce limits (`bounces`), after this vertex's emission: the path
             // tracer stops here, or the paths through it are the camera side's.
             match self.ends_after(&cam[t - 1]) {

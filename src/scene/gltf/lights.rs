@@ -277,7 +277,8 @@ impl Loader<'_> {
         for (ti, tri) in mesh.triangles.iter().enumerate() {
             let mi = mesh.tri_material[ti];
             let mat = &materials[mi as usize];
-            if !mat.is_emissive() {
+            // An unlit surface shows its colour to the camera alone: no light (`mod.rs`).
+            if !mat.is_emissive() || mat.unlit {
                 continue;
             }
             // The image's mean bounds what the per-triangle mean may miss (a bright texel

@@ -131,7 +131,10 @@ impl Loader<'_> {
         if m.extension_value("KHR_materials_unlit").is_some() {
             // The spec: the base colour (factor × texture × vertex colour) is the surface's
             // colour, every other lighting property is ignored; alpha and doubleSided apply.
-            // Rendered as emission of that colour over a surface that reflects nothing.
+            // Rendered as emission of that colour over a surface that reflects nothing, seen
+            // by camera rays alone and no light, as Blender's importer builds it (Emission for
+            // camera rays, Transparent for the others: "so it won't glow"): the sample model
+            // UnlitTest's README allows shadows, lit panels on the object itself it does not.
             features.push("KHR_materials_unlit".into());
             mat.unlit = true;
             mat.emissive = mat.base_color.truncate();

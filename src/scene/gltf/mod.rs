@@ -531,6 +531,10 @@ impl<'a> Loader<'a> {
                 area_lights.push((ext.clone(), node_name.clone(), *world, rule));
             }
         }
+        // An unlit surface is seen by camera rays alone, as Blender's glTF importer builds it
+        // (its Light Path trick: Emission for camera rays, Transparent for every other ray):
+        // it shows its colour, casts no shadow and lights nothing (`materials.rs`).
+        ray_visibility.camera_only(mesh.triangles.len(), |t| materials[mesh.tri_material[t] as usize].unlit);
         ray_visibility.finish(mesh.triangles.len());
         undisplaced.finish(&mut mesh);
         self.finish_attributes(&mut mesh, &materials);
@@ -723,7 +727,10 @@ impl<'a> Loader<'a> {
         let glowing_media = world_medium.as_ref().is_some_and(|m| m.emission != glam::Vec3::ZERO)
             || materials.iter().any(|m| m.medium.as_ref().is_some_and(|m| m.emission != glam::Vec3::ZERO))
             || grids.iter().any(|g| g.may_emit());
-        if lights.is_empty() && !glowing_media {
+        // Unlit surfaces show their colour without light (and are no lights themselves).
+        let unlit_seen =
+            mesh.tri_material.iter().any(|&m| materials[m as usize].unlit && materials[m as usize].is_emissive());
+        if lights.is_empty() && !glowing_media && !unlit_seen {
             self.warn("the scene has no lights, no emissive materials and no emitting media: the image will be black");
         }
         if degenerate > 0 {
