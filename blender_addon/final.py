@@ -113,10 +113,10 @@ def render_frame(engine, depsgraph):
     binary = runner.find_binary()
 
     camera = engine.camera_override or scene.camera
-    settings, aov_warnings = export.layer_render_settings(scene, depsgraph.view_layer, depsgraph.objects,
+    settings, layer_warnings = export.layer_render_settings(scene, depsgraph.view_layer, depsgraph.objects,
                                                          (window.width, window.height),
                                                          camera.name if camera else None)
-    for warning in aov_warnings:
+    for warning in layer_warnings:
         engine.report({"WARNING"}, f"Caustic: {warning}")
     on_farm = scene.caustic.use_farm
     if on_farm:

@@ -157,4 +157,30 @@ def layer_render_settings(scene, view_layer, objects, resolution, camera_name):
     aovs, warnings = shader_aov_settings(view_layer)
     if aovs is not None:
         settings["shader_aovs"] = aovs
+    layer_samples(scene, view_layer, settings)
+    warnings += light_paths_warnings(scene)
     return settings, warnings
+
+
+def layer_samples(scene, view_layer, settings):
+    """The view layer's own Samples (View Layer > Override > Samples, 0: the scene's), as Cycles'
+    Layer Samples setting takes it: Use replaces the scene's count, Bounded caps it, Ignore
+    leaves it (Cycles' `BlenderSync::get_layer_samples`)."""
+    cycles = getattr(scene, "cycles", None)
+    samples = int(getattr(view_layer, "samples", 0))
+    mode = getattr(cycles, "use_layer_samples", "USE") if cycles is not None else "USE"
+    if samples <= 0 or mode == "IGNORE":
+        return
+    spp = samples if mode == "USE" else min(samples, settings["spp"])
+    settings["spp"] = spp
+    if "sppm_iterations" in settings:
+        settings["sppm_iterations"] = spp
+
+
+def light_paths_warnings(scene):
+    """What of Cycles' Light Paths panel Caustic does not render, named."""
+    cycles = getattr(scene, "cycles", None)
+    if cycles is not None and getattr(cycles, "use_fast_gi", False):
+        return ["Light Paths > Fast GI Approximation is not rendered: Caustic traces full global illumination "
+                "(brighter where Cycles replaces indirect light by ambient occlusion)"]
+    return []

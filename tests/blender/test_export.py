@@ -195,6 +195,38 @@ def test_film_transparent_and_filter_reach_the_renderer(light_scene, captured):
     assert (settings["filter"], settings["filter_width"]) == ("box", 1.0)
 
 
+def test_view_layer_samples_override_as_cycles(light_scene, captured):
+    """View Layer > Override > Samples, as Cycles' Layer Samples takes it: Use replaces the
+    scene's count, Bounded caps it, Ignore leaves it (before, every layer rendered the scene's
+    count: a layer meant for 16 spp took the scene's 7 here, or 512 in a production file)."""
+    light_scene.view_layers[0].samples = 3
+
+    def spp():
+        gltf = captured()[-1]
+        return gltf["scenes"][gltf.get("scene", 0)]["extras"]["caustic"]["spp"]
+
+    light_scene.cycles.use_layer_samples = "USE"
+    assert spp() == 3
+    light_scene.cycles.use_layer_samples = "IGNORE"
+    assert spp() == 7
+    light_scene.cycles.use_layer_samples = "BOUNDED"
+    assert spp() == 3
+    light_scene.view_layers[0].samples = 50
+    assert spp() == 7
+
+
+def test_fast_gi_is_named(light_scene, addon):
+    """Light Paths > Fast GI Approximation (ambient occlusion in place of indirect light) is not
+    rendered: a warning says so."""
+    export = importlib.import_module(addon.__name__ + ".export")
+    layer = light_scene.view_layers[0]
+    _, warnings = export.layer_render_settings(light_scene, layer, [], (8, 6), "Camera")
+    assert not any("Fast GI" in w for w in warnings), warnings
+    light_scene.cycles.use_fast_gi = True
+    _, warnings = export.layer_render_settings(light_scene, layer, [], (8, 6), "Camera")
+    assert any("Fast GI" in w for w in warnings), warnings
+
+
 def test_transparent_glass_reaches_the_renderer(light_scene, captured):
     """Film > Transparent Glass goes as its Roughness Threshold, only with a transparent film
     (Cycles ignores it otherwise)."""
