@@ -9,7 +9,7 @@ import os
 import shutil
 import tempfile
 
-from . import export, farm, result, runner
+from . import export, farm, result, runner, views
 from .frame import FrameWindow
 from .errors import CausticError
 
@@ -130,45 +130,74 @@ def render_frame(engine, depsgraph):
             engine.report({"WARNING"}, f"Caustic: {warning}")
         if engine.should_stop():
             return
-        out_path = os.path.join(folder, "out.exr")
         passes, pass_warnings = result.pass_request(depsgraph.view_layer, settings["integrator"],
                                                     motion_blur=depsgraph.scene.render.use_motion_blur)
         for warning in pass_warnings:
             engine.report({"WARNING"}, f"Caustic: {warning}")
-        # Denoising is a command-line option, not a scene setting: farm chunks cannot be denoised.
-        argv = command_line(binary, gltf_path, out_path, settings, window, passes,
-                            denoise=scene.caustic.use_denoising and not on_farm)
-        argv += result.cryptomatte_arguments(depsgraph.view_layer, passes)
-        if on_farm:
-            argv, warnings = farm.frame_command(farm.preferences(), binary, gltf_path, out_path, argv,
-                                                settings["spp"])
-            for warning in warnings:
-                engine.report({"WARNING"}, f"Caustic: {warning}")
-        width, height = window.size
-        render_result = engine.begin_result(0, 0, width, height, layer=depsgraph.view_layer.name)
-        failed = True
-        try:
-            session = _Session(engine, render_result, out_path, export.film_exposure(scene))
-            engine._caustic_session = session  # lets tests see the progress state
-            on_message = (lambda m: farm.on_frame_message(engine, m)) if on_farm else session.on_message
-            outcome = runner.run(argv, on_message, engine.should_stop,
-                                 log_path=os.path.join(folder, "stdout.log"), json_on_stdout=on_farm)
-            message = outcome.error_message()
-            if message:
-                raise CausticError(message)
-            if outcome.has_image:
-                result.load(render_result, out_path, session.exposure)
-                result.store_metadata(engine, out_path, depsgraph.view_layer.name)
-            if outcome.summary:
-                _report_summary(engine, outcome.summary)
-            failed = False
-        finally:
-            engine.end_result(render_result, cancel=failed)
+        view_names = views.active_views(scene) if camera is not None else [""]
+        if on_farm and view_names != [""]:
+            raise CausticError("Stereoscopy renders on this machine only: turn off Render on Farm for a "
+                               "multi-view render")
+        for view in view_names:
+            if engine.should_stop():
+                return
+            view_path = gltf_path
+            if view:
+                view_path = os.path.join(folder, f"scene_{view}.gltf")
+                offset, shift_x, warnings = views.view_camera(engine, camera, view)
+                for warning in warnings:
+                    engine.report({"WARNING"}, f"Caustic: {warning}")
+                try:
+                    views.gltf_for_view(gltf_path, view_path, camera, offset, shift_x, (window.width, window.height),
+                                        (scene.render.pixel_aspect_x, scene.render.pixel_aspect_y))
+                except (OSError, ValueError, KeyError) as err:
+                    raise CausticError(f"view '{view}': {err}") from None
+            _render_view(engine, depsgraph, settings, window, binary, view_path, view, passes,
+                         os.path.join(folder, f"out{'_' + view if view else ''}.exr"), on_farm)
     finally:
         if os.environ.get(KEEP_TEMP_ENV):
             print(f"Caustic: kept {folder}")
         else:
             shutil.rmtree(folder, ignore_errors=True)
+
+
+def _render_view(engine, depsgraph, settings, window, binary, gltf_path, view, passes, out_path, on_farm):
+    """Run the binary on one view's glTF and load its image into the result's `view` ("" for a
+    single-view render)."""
+    scene = depsgraph.scene
+    # Denoising is a command-line option, not a scene setting: farm chunks cannot be denoised.
+    argv = command_line(binary, gltf_path, out_path, settings, window, passes,
+                        denoise=scene.caustic.use_denoising and not on_farm)
+    argv += result.cryptomatte_arguments(depsgraph.view_layer, passes)
+    if view:
+        argv += ["--view", view]  # the channels Blender's multi-view result reads
+    if on_farm:
+        argv, warnings = farm.frame_command(farm.preferences(), binary, gltf_path, out_path, argv,
+                                            settings["spp"])
+        for warning in warnings:
+            engine.report({"WARNING"}, f"Caustic: {warning}")
+    width, height = window.size
+    render_result = engine.begin_result(0, 0, width, height, layer=depsgraph.view_layer.name, view=view)
+    failed = True
+    try:
+        session = _Session(engine, render_result, out_path, export.film_exposure(scene))
+        engine._caustic_session = session  # lets tests see the progress state
+        on_message = (lambda m: farm.on_frame_message(engine, m)) if on_farm else session.on_message
+        folder = os.path.dirname(out_path)
+        outcome = runner.run(argv, on_message, engine.should_stop,
+                             log_path=os.path.join(folder, f"stdout{'_' + view if view else ''}.log"),
+                             json_on_stdout=on_farm)
+        message = outcome.error_message()
+        if message:
+            raise CausticError(message)
+        if outcome.has_image:
+            result.load(render_result, out_path, session.exposure)
+            result.store_metadata(engine, out_path, depsgraph.view_layer.name)
+        if outcome.summary:
+            _report_summary(engine, outcome.summary)
+        failed = False
+    finally:
+        engine.end_result(render_result, cancel=failed)
 
 
 def _report_summary(engine, summary):

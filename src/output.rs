@@ -57,16 +57,29 @@ pub fn check_writable(out: &Path) -> Result<()> {
 
 /// Writes the image as a single-part EXR, float or half, through a temp file + rename.
 pub fn write_exr(out: &Path, img: &FilmImage, half: bool) -> Result<()> {
-    write_exr_with(out, img, half, None)
+    write_exr_with(out, img, half, None, None)
+}
+
+/// Writes the image as [`write_exr`] does with every channel named for Blender's view `view`
+/// of a multi-view render (`Combined.left.R`): Blender's render result reads a view's passes
+/// under those names.
+pub fn write_exr_in_view(out: &Path, img: &FilmImage, half: bool, view: &str) -> Result<()> {
+    write_exr_with(out, img, half, None, Some(view))
 }
 
 /// Writes the image as [`write_exr`] does, plus a chunk's sums and info (`crate::chunk`)
 /// in the same file, so that the chunk is replaced atomically as a whole.
 pub fn write_chunk(out: &Path, img: &FilmImage, half: bool, film: &Film, info: &ChunkInfo) -> Result<()> {
-    write_exr_with(out, img, half, Some((film, info)))
+    write_exr_with(out, img, half, Some((film, info)), None)
 }
 
-fn write_exr_with(out: &Path, img: &FilmImage, half: bool, chunk: Option<(&Film, &ChunkInfo)>) -> Result<()> {
+fn write_exr_with(
+    out: &Path,
+    img: &FilmImage,
+    half: bool,
+    chunk: Option<(&Film, &ChunkInfo)>,
+    view: Option<&str>,
+) -> Result<()> {
     let (w, h) = (img.width as usize, img.height as usize);
     let make = |data: Vec<f32>| -> FlatSamples {
         if half { FlatSamples::F16(data.into_iter().map(f16::from_f32).collect()) } else { FlatSamples::F32(data) }
@@ -165,6 +178,11 @@ fn write_exr_with(out: &Path, img: &FilmImage, half: bool, chunk: Option<(&Film,
             .other
             .insert(Text::from(key.as_str()), AttributeValue::Text(Text::from_slice_unchecked(value.as_bytes())));
     }
+    if let Some(view) = view {
+        for channel in list.iter_mut() {
+            channel.name = Text::from(in_view(&channel.name.to_string(), view).as_str());
+        }
+    }
     if let Some((film, info)) = chunk {
         list.extend(crate::chunk::channels(film));
         let (name, value) = crate::chunk::attribute(info);
@@ -193,6 +211,14 @@ fn write_exr_with(out: &Path, img: &FilmImage, half: bool, chunk: Option<(&Film,
         let _ = std::fs::remove_file(&tmp);
         Error::io(out, format!("cannot move the finished file into place: {e}"))
     })
+}
+
+/// `<Pass>.<Channel>` as Blender names it in view `view`: `<Pass>.<view>.<Channel>`.
+fn in_view(name: &str, view: &str) -> String {
+    match name.rsplit_once('.') {
+        Some((pass, channel)) => format!("{pass}.{view}.{channel}"),
+        None => format!("{view}.{name}"),
+    }
 }
 
 /// Reads back the Combined RGBA of an EXR written by [`write_exr`] (for tests and tools).

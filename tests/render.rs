@@ -326,6 +326,54 @@ fn crop_equals_window_of_full_frame() {
     }
 }
 
+/// `--view left` names every channel for Blender's view (`<Pass>.left.<Channel>`, which a
+/// multi-view render result reads) and changes nothing else: the same pixels as without it.
+#[test]
+fn view_names_the_channels_and_keeps_the_pixels() {
+    let dir = temp_dir();
+    let args = ["--resolution", "16x12", "--spp", "4", "--passes", "z,normal"];
+    let plain = dir.path().join("plain.exr");
+    let left = dir.path().join("left.exr");
+    render(&cornell(), &plain, &args);
+    let r = run(
+        &[
+            &[
+                "render",
+                cornell().to_str().unwrap(),
+                "-o",
+                left.to_str().unwrap(),
+                "--view",
+                "left",
+                "--progress",
+                "none",
+            ][..],
+            &args[..],
+        ]
+        .concat(),
+        LIMIT,
+    );
+    assert_eq!(r.code, Some(0), "{}", r.stderr);
+    let channels = |path: &Path| {
+        let image = exr::prelude::read_all_flat_layers_from_file(path).unwrap();
+        let layer = &image.layer_data[0];
+        layer.channel_data.list.iter().map(|c| (c.name.to_string(), c.sample_data.clone())).collect::<Vec<_>>()
+    };
+    let (a, b) = (channels(&plain), channels(&left));
+    let names: Vec<&str> = b.iter().map(|(n, _)| n.as_str()).collect();
+    for want in ["Combined.left.R", "Combined.left.A", "Depth.left.Z", "Normal.left.X"] {
+        assert!(names.contains(&want), "{want} missing from {names:?}");
+    }
+    assert_eq!(a.len(), b.len());
+    for (n, data) in &a {
+        let (pass, channel) = n.rsplit_once('.').unwrap();
+        let named = format!("{pass}.left.{channel}");
+        let other = &b.iter().find(|(m, _)| *m == named).unwrap_or_else(|| panic!("{named} missing")).1;
+        assert!(format!("{data:?}") == format!("{other:?}"), "{n}: pixels differ");
+    }
+    let bad = run(&["render", cornell().to_str().unwrap(), "-o", left.to_str().unwrap(), "--view", "a.b"], LIMIT);
+    assert_eq!(bad.code, Some(2), "a view name with a dot is a usage error: {}", bad.stderr);
+}
+
 #[test]
 fn settings_errors_are_usage_errors() {
     let dir = temp_dir();

@@ -150,7 +150,7 @@ fn an_unlit_surface_casts_no_shadow_and_lights_nothing_in_every_integrator() {
         );
         assert_eq!(r.code, Some(0), "{integrator}: {}", r.stderr);
         let (w, _, px) = caustic::output::read_combined(&out).unwrap();
-        (w as usize, px)
+        (w, px)
     };
     // The floor alone, path traced: what the floor must look like with the quad there too.
     let (w, bare) = render(&floor_under_unlit_quad(dir.path(), base, false), "path");

@@ -321,6 +321,9 @@ pub struct RenderArgs {
     /// Write half floats instead of 32-bit floats (Depth stays 32-bit).
     #[arg(long)]
     pub half: bool,
+    /// Name the channels for Blender's view NAME of a multi-view render (`Combined.NAME.R`, ...).
+    #[arg(long, value_name = "NAME", value_parser = parse_view, conflicts_with = "chunk")]
+    pub view: Option<String>,
     /// Progress display [default: bar on a terminal, else none].
     #[arg(long, value_enum)]
     pub progress: Option<ProgressMode>,
@@ -411,6 +414,15 @@ fn parse_resolution(s: &str) -> std::result::Result<(u32, u32), String> {
     let w: u32 = w.trim().parse().map_err(|_| format!("bad width in '{s}'"))?;
     let h: u32 = h.trim().parse().map_err(|_| format!("bad height in '{s}'"))?;
     Ok((w, h))
+}
+
+/// A view name for `--view`: letters, digits, `_` and `-` (it goes between dots in a channel name).
+fn parse_view(s: &str) -> Result<String, String> {
+    if !s.is_empty() && s.len() <= 64 && s.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-') {
+        Ok(s.to_string())
+    } else {
+        Err(format!("'{s}' is not a view name (1 to 64 letters, digits, '_' or '-')"))
+    }
 }
 
 fn parse_crop(s: &str) -> std::result::Result<[u32; 4], String> {

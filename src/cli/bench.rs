@@ -33,6 +33,7 @@ pub fn run_bench(args: &BenchArgs, stop: &AtomicBool) -> Result<()> {
         camera: None,
         crop: None,
         half: false,
+        view: None,
         progress: Some(ProgressMode::None),
         integrator: Some(args.integrator),
         photon_map: None,

@@ -476,7 +476,10 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     };
     let write = |img: &crate::film::FilmImage, film: Option<&crate::film::Film>, spp: u32, light_paths: u64| {
         match &chunk_info {
-            None => output::write_exr(&args.output, img, args.half),
+            None => match &args.view {
+                Some(view) => output::write_exr_in_view(&args.output, img, args.half, view),
+                None => output::write_exr(&args.output, img, args.half),
+            },
             Some(info) => {
                 let info = ChunkInfo {
                     samples: vec![[res.sample_offset, res.sample_offset + spp]],
