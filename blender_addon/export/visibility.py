@@ -33,19 +33,24 @@ OBJECT_SHADING_EXTENSION = "CAUSTIC_object_shading"
 def object_shading_extension(blender_object):
     """Object > Shading settings Cycles renders: the Shadow Terminator's Geometry Offset
     (Blender's default 0.1: shadow rays of smooth-shaded triangles leave from the smooth patch
-    near the terminator); None when it is 0. Its Shading Offset is named in `warnings` when
-    set (not rendered)."""
+    near the terminator) and Shading Offset (the cosine to the light remapped so the terminator
+    moves towards the light); None when both are 0. A Shading Offset of 2 or more, for which
+    Cycles' frequency multiplier 1 / (1 - offset / 2) is not above 1, does nothing in Cycles
+    and is not written."""
     original = getattr(blender_object, "original", blender_object)
+    value = {}
     offset = float(getattr(original, "shadow_terminator_geometry_offset", 0.0))
-    return {"shadow_terminator_offset": offset} if offset > 0.0 else None
+    if offset > 0.0:
+        value["shadow_terminator_offset"] = offset
+    shading = float(getattr(original, "shadow_terminator_shading_offset", 0.0))
+    if 0.0 < shading < 2.0:
+        value["shading_offset"] = shading
+    return value or None
 
 
 def object_shading_warnings(blender_object):
-    """What of Object > Shading is not rendered: the Shadow Terminator's Shading Offset."""
-    original = getattr(blender_object, "original", blender_object)
-    if float(getattr(original, "shadow_terminator_shading_offset", 0.0)) > 1.0:
-        return [f"object '{original.name}': its Shadow Terminator Shading Offset is not rendered "
-                "(Caustic shades as with 0)"]
+    """What of Object > Shading is not rendered (nothing at present: both offsets are)."""
+    del blender_object
     return []
 
 

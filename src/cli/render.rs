@@ -126,6 +126,22 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         reporter.warning(&w);
         run_warnings.push(w);
     }
+    // The Shading Offset remaps the cosine of light sampled and traced from the camera side
+    // (`scene::terminator::shift_cos_in`); BDPT's and VCM's other strategies and the photon
+    // maps' estimates do not carry it.
+    if !scene.ray_visibility.shading_frequency.is_empty() && res.integrator != IntegratorKind::Path {
+        let w = format!(
+            "Object > Shading > Shadow Terminator > Shading Offset: {} applies it to {}; the path tracer renders \
+             it as Cycles does",
+            res.integrator.name(),
+            match res.integrator {
+                IntegratorKind::Bdpt | IntegratorKind::Vcm => "no strategy",
+                _ => "light sampling and traced bounces only, not to the photon estimates",
+            }
+        );
+        reporter.warning(&w);
+        run_warnings.push(w);
+    }
     // Photons leave emitters whose graph reads the Light Path node without a camera path
     // (`light::path_emitters`); BDPT and VCM take those emitters from the camera side.
     let photon_name = match res.integrator {

@@ -72,7 +72,14 @@ pub fn surface_nee_at(
     let wi_local = sp.frame.to_local(ls.wi);
     // A light hidden from some kinds of ray lights only the other classes' closures.
     let excluded = ctx.light_excludes(index);
-    let f = if excluded.none() { at.eval(wi_local) } else { at.eval_visible(wi_local, excluded) } * wi_local.z.abs();
+    let mut f =
+        if excluded.none() { at.eval(wi_local) } else { at.eval_visible(wi_local, excluded) } * wi_local.z.abs();
+    // Shadow Terminator Shading Offset: the cosine to a light on the normal's side remapped
+    // (`scene::terminator::shift_cos_in`), as Cycles' `bsdf_eval`.
+    let k = ctx.scene.ray_visibility.shading_frequency(s.tri);
+    if k > 1.0 && wi_local.z >= 0.0 {
+        f *= crate::scene::terminator::shift_cos_in(wi_local.z, k);
+    }
     // A light above the shading normal's horizon but below the triangle's plane: Cycles
     // traces it from the smooth patch where the object has a Shadow Terminator offset (the
     // triangle itself may then block it), which lights a coarse smooth mesh up to its

@@ -6,6 +6,11 @@
 //! neighbouring flat triangles of a coarse smooth mesh do not shadow it. A flat-shaded
 //! triangle (its corners' normals all its own) gets no offset: the patch is the triangle.
 
+//!
+//! Its Shading Offset (`shift_cos_in`) pushes the terminator towards the light instead: the
+//! BSDF's cosine with the light is remapped to cos(k θ), k > 1, so light from beyond
+//! θ = π / (2k) adds nothing (Cycles' `bsdf_eval` and `bsdf_sample`, from appleseed).
+
 use crate::scene::mesh::Mesh;
 use glam::{Vec2, Vec3};
 
@@ -79,6 +84,21 @@ pub fn shadow_ray_origin(
     if amount > 0.0 { p + smooth_surface_offset(mesh, tri, bary, side) * amount } else { p }
 }
 
+/// The factor Cycles' Shading Offset applies to a BSDF value for light at cosine `cos_in` to
+/// the shading normal (on its side), with frequency multiplier `k` (> 1): max(cos(k θ), 0) /
+/// cos θ, which replaces the cosine term by cos(k θ); 1 for `k` ≤ 1, 0 at or below the horizon.
+#[inline]
+pub fn shift_cos_in(cos_in: f32, k: f32) -> f32 {
+    if k <= 1.0 {
+        return 1.0;
+    }
+    if cos_in <= 0.0 {
+        return 0.0;
+    }
+    let cos_in = cos_in.min(1.0);
+    (cos_in.acos() * k).cos().max(0.0) / cos_in
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -126,5 +146,20 @@ mod tests {
         let o = shadow_ray_origin(&smooth, 0, Vec2::splat(1.0 / 3.0), p, ng, ng, grazing, 0.1);
         assert!(o.length() > p.length() + 0.05, "a grazing light: the whole offset");
         assert_eq!(shadow_ray_origin(&smooth, 0, Vec2::splat(1.0 / 3.0), p, ng, ng, grazing, 0.0), p, "offset 0");
+    }
+
+    #[test]
+    fn shading_offset_remaps_the_cosine_to_cos_k_theta() {
+        // Offset 0.5: k = 1 / (1 - 0.25) = 4/3; the terminator moves from 90° to 67.5°.
+        let k = 1.0 / (1.0 - 0.5 * 0.5);
+        for deg in [0.0f32, 20.0, 45.0, 60.0, 67.0, 68.0, 80.0, 89.9] {
+            let theta = deg.to_radians();
+            let got = shift_cos_in(theta.cos(), k) * theta.cos();
+            let want = (k * theta).cos().max(0.0);
+            assert!((got - want).abs() < 1e-5, "{deg}°: {got} vs {want}");
+        }
+        assert_eq!(shift_cos_in(0.3, 1.0), 1.0, "no offset: unchanged");
+        assert_eq!(shift_cos_in(0.0, k), 0.0, "at the horizon: nothing (not 0 / 0)");
+        assert_eq!(shift_cos_in(-0.2, k), 0.0);
     }
 }

@@ -71,6 +71,9 @@ pub struct RayVisibility {
     /// Per triangle: its object's Shadow Terminator Geometry Offset (`scene::terminator`).
     /// Empty when no object has one.
     pub terminator: Vec<f32>,
+    /// Per triangle: the frequency multiplier of its object's Shadow Terminator Shading Offset
+    /// (`scene::terminator::shift_cos_in`; 1: none). Empty when no object has one.
+    pub shading_frequency: Vec<f32>,
 }
 
 /// An object that some kind of ray does not see.
@@ -131,6 +134,22 @@ impl RayVisibility {
         }
     }
 
+    /// Gives triangles `range` (one object's, just appended; `total` so far) the object's
+    /// Shadow Terminator Shading Offset (in [0, 2): Cycles' frequency multiplier
+    /// 1 / (1 − offset / 2), `object.cpp`).
+    pub fn mark_shading_offset(&mut self, range: std::ops::Range<usize>, total: usize, offset: f32) {
+        if offset > 0.0 {
+            self.shading_frequency.resize(total, 1.0);
+            self.shading_frequency[range].fill(1.0 / (1.0 - 0.5 * offset));
+        }
+    }
+
+    /// Triangle `tri`'s Shading Offset frequency multiplier (1: none).
+    #[inline]
+    pub fn shading_frequency(&self, tri: u32) -> f32 {
+        self.shading_frequency.get(tri as usize).copied().unwrap_or(1.0)
+    }
+
     /// Triangle `tri`'s Shadow Terminator Geometry Offset (0: none).
     #[inline]
     pub fn terminator_offset(&self, tri: u32) -> f32 {
@@ -175,6 +194,9 @@ impl RayVisibility {
         }
         if !self.terminator.is_empty() {
             self.terminator.resize(total, 0.0);
+        }
+        if !self.shading_frequency.is_empty() {
+            self.shading_frequency.resize(total, 1.0);
         }
     }
 }

@@ -184,6 +184,7 @@ pub fn merge(scene: &mut Scene, mut add: Scene) -> Result<Merged, String> {
     append_table(&mut v.holdout, t0 as usize, &av.holdout, nt, false);
     append_table(&mut v.catcher, t0 as usize, &av.catcher, nt, false);
     append_table(&mut v.terminator, t0 as usize, &av.terminator, nt, 0.0);
+    append_table(&mut v.shading_frequency, t0 as usize, &av.shading_frequency, nt, 1.0);
     v.hidden_objects.extend(av.hidden_objects.iter().map(|h| HiddenObject {
         name: h.name.clone(),
         triangles: h.triangles.start + t0 as usize..h.triangles.end + t0 as usize,

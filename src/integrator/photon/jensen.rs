@@ -599,7 +599,12 @@ impl JensenIntegrator {
             let Some(bs) = at.sample(u_lobe, Vec2::new(u_dx, u_dy)) else {
                 break;
             };
-            let cos_over_pdf = bs.wi.z.abs() / bs.pdf;
+            let mut cos_over_pdf = bs.wi.z.abs() / bs.pdf;
+            // Shading Offset on a reflected sample, as the path tracer (`path.rs`).
+            let k = ctx.scene.ray_visibility.shading_frequency(s.tri);
+            if k > 1.0 && bs.wi.z * wo_local.z > 0.0 {
+                cos_over_pdf *= crate::scene::terminator::shift_cos_in(bs.wi.z.abs(), k);
+            }
             let w_all = bs.f * cos_over_pdf;
             if !w_all.is_finite() {
                 break;

@@ -379,6 +379,9 @@ pub(super) struct ObjectShadingExt {
     /// Shadow Terminator > Geometry Offset (≥ 0; Blender's default 0.1).
     #[serde(default)]
     pub(super) shadow_terminator_offset: f32,
+    /// Shadow Terminator > Shading Offset (in [0, 2); Blender's default 0).
+    #[serde(default)]
+    pub(super) shading_offset: f32,
 }
 
 /// `CAUSTIC_light_linking` on an emitter's node (a light or an emissive mesh): the objects it

@@ -444,8 +444,16 @@ impl<'a> Loader<'a> {
                                  {offset} is not a finite number ≥ 0"
                             )));
                         }
+                        let shading_offset = shading.shading_offset;
+                        if !(shading_offset.is_finite() && (0.0..2.0).contains(&shading_offset)) {
+                            return Err(self.err(format!(
+                                "node {node_index} ('{node_name}'): CAUSTIC_object_shading's shading_offset \
+                                 {shading_offset} is not a number in [0, 2)"
+                            )));
+                        }
                         let total = mesh.triangles.len();
                         ray_visibility.mark_terminator(first..total, total, offset);
+                        ray_visibility.mark_shading_offset(first..total, total, shading_offset);
                     }
                     if linked {
                         linking.tri_object.resize(mesh.triangles.len(), *node_index as u32);
