@@ -70,6 +70,7 @@ pub const SUPPORTED_REQUIRED: &[&str] = &[
     "KHR_materials_emissive_strength",
     "KHR_texture_transform",
     "KHR_materials_transmission",
+    "KHR_materials_diffuse_transmission",
     "KHR_materials_ior",
     "KHR_materials_volume",
     "KHR_materials_clearcoat",
