@@ -94,7 +94,9 @@ mod tests {
                 let wo = Vec3::new(theta.sin(), 0.0, theta.cos());
                 let mut rng = Pcg32::new(5);
                 let t = ChiSquareTest::new(&format!("diffuse transmission t={factor} r={roughness} θ={theta}"));
-                assert_chi2(t.run_with_pdf(|u| b.sample(wo, rng.next_f32(), u).map(|s| (s.wi, s.pdf)), |wi| b.pdf(wo, wi)));
+                assert_chi2(
+                    t.run_with_pdf(|u| b.sample(wo, rng.next_f32(), u).map(|s| (s.wi, s.pdf)), |wi| b.pdf(wo, wi)),
+                );
             }
         }
     }
@@ -116,7 +118,10 @@ mod tests {
                     let [(r, r_se), (t, t_se)] = sampled_albedo(&b, wo, n, 11);
                     let total = r.x + t.x;
                     let bound = 5.0 * (r_se.x + t_se.x) + 1.25 * LAYER_TABLE_ERROR + TABLE_ERROR;
-                    eprintln!("t={factor} r={roughness} θ={theta}: R {:.4} + T {:.4} = {total:.4} (bound {bound:.4})", r.x, t.x);
+                    eprintln!(
+                        "t={factor} r={roughness} θ={theta}: R {:.4} + T {:.4} = {total:.4} (bound {bound:.4})",
+                        r.x, t.x
+                    );
                     assert!((total - 1.0).abs() <= bound, "t={factor} r={roughness} θ={theta}: albedo {total}");
                     let expected_t = f64::from(factor * PbrBsdf::base_weight(b.at(wo).eo));
                     assert!(
@@ -147,7 +152,12 @@ mod tests {
             let [(e, e_se), _] = sampled_albedo(&layer, wo, n, 3);
             let expected = (1.0 - e.x) / std::f64::consts::PI;
             let bound = (5.0 * e_se.x + 1.25 * LAYER_TABLE_ERROR + TABLE_ERROR) / std::f64::consts::PI;
-            eprintln!("θ={theta}: f_t·π {:.4}, 1 − E_layer {:.4} ± {:.4}", f.x as f64 * std::f64::consts::PI, 1.0 - e.x, e_se.x);
+            eprintln!(
+                "θ={theta}: f_t·π {:.4}, 1 − E_layer {:.4} ± {:.4}",
+                f.x as f64 * std::f64::consts::PI,
+                1.0 - e.x,
+                e_se.x
+            );
             assert!((f.x as f64 - expected).abs() <= bound, "θ={theta}: f_t {} vs {expected}", f.x);
             // Without a specular layer (specularFactor 0) the sheet is a pure Lambertian BTDF.
             let bare = sheet(Vec3::ONE, 1.0, Vec3::ONE, 1.0, 0.0);

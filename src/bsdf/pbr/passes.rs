@@ -71,8 +71,8 @@ impl PbrAt<'_> {
         let opaque = dielectric * (1.0 - b.transmission);
         let base = super::PbrBsdf::base_weight(self.eo) * opaque;
         let dt = b.diffuse_transmission;
-        let diffuse = b.diffuse * (base * (1.0 - dt)) * below
-            + b.sheen_color * (self.es / b.sheen_max.max(1e-6)) * self.under;
+        let diffuse =
+            b.diffuse * (base * (1.0 - dt)) * below + b.sheen_color * (self.es / b.sheen_max.max(1e-6)) * self.under;
         // The diffuse base's Lambertian transmission counts as transmission here (Cycles would
         // call it diffuse, a Translucent closure): the photon integrators read their maps on
         // the viewer's side only, so a transmitting lobe must show as one to be followed.

@@ -67,7 +67,8 @@ impl PbrAt<'_> {
         let diffuse =
             uc >= c.glass + c.metal + c.spec && uc < c.glass + c.metal + c.spec + c.diffuse + c.dtrans + c.sheen;
         // The diffuse base's Lambertian transmission chose wi (below the surface).
-        let dtrans = uc >= c.glass + c.metal + c.spec + c.diffuse && uc < c.glass + c.metal + c.spec + c.diffuse + c.dtrans;
+        let dtrans =
+            uc >= c.glass + c.metal + c.spec + c.diffuse && uc < c.glass + c.metal + c.spec + c.diffuse + c.dtrans;
         let wi_up = if uc < c.glass {
             let s = this.glass.sample(wo_up, uc / c.glass, u)?;
             if s.delta {

@@ -86,6 +86,7 @@ pub const SUPPORTED_REQUIRED: &[&str] = &[
     "EXT_meshopt_compression",
     "EXT_texture_webp",
     "EXT_mesh_gpu_instancing",
+    "KHR_node_visibility",
     "CAUSTIC_lights_area",
     "CAUSTIC_lights_punctual",
     "CAUSTIC_materials_nodes",
@@ -100,6 +101,11 @@ pub const SUPPORTED_REQUIRED: &[&str] = &[
     "CAUSTIC_volume",
     "CAUSTIC_motion",
 ];
+
+/// Extensions accepted in `extensionsRequired` though Caustic cannot render them, because
+/// what they carry can be left out with a warning naming it: `KHR_texture_basisu` (a KTX2
+/// texture without a fallback is dropped from its material, `textures::basisu_only_textures`).
+pub const DEGRADED_REQUIRED: &[&str] = &["KHR_texture_basisu"];
 
 /// glTF's photometric units to Blender's radiometric ones: Blender's exporter writes
 /// W × 683 lm/W (its PBR_WATTS_TO_LUMENS), so dividing gives Blender's watts back.
@@ -168,6 +174,8 @@ struct Loader<'a> {
     textures: Vec<Texture>,
     texture_cache: HashMap<TexKey, u32>,
     images: HashMap<usize, DecodedImage>,
+    /// Textures whose only image is KTX2 (`KHR_texture_basisu` without a fallback).
+    basisu_only: std::collections::HashSet<usize>,
     profile: LoadProfile,
     /// External files read so far (URI, content hash), for `Scene::source_hash`; a cell
     /// because files are read through `&self`.
@@ -199,6 +207,7 @@ impl<'a> Loader<'a> {
             textures: Vec::new(),
             texture_cache: HashMap::new(),
             images: HashMap::new(),
+            basisu_only: Default::default(),
             profile: LoadProfile::default(),
             files_read: Default::default(),
             quantization: quantized::Quantization::Core,
@@ -253,6 +262,7 @@ impl<'a> Loader<'a> {
             return Err(self.err("invalid glTF: the JSON root is not an object"));
         }
         textures::prefer_webp_sources(&mut value);
+        self.basisu_only = textures::basisu_only_textures(&mut value);
         let version = value.pointer("/asset/version").and_then(|v| v.as_str()).unwrap_or("");
         if !version.starts_with("2.") {
             return Err(self.err(format!(
@@ -261,8 +271,11 @@ impl<'a> Loader<'a> {
         }
         // 3. Required extensions we cannot honour are refused by name.
         if let Some(req) = value.get("extensionsRequired").and_then(|v| v.as_array()) {
-            let unsupported: Vec<&str> =
-                req.iter().filter_map(|v| v.as_str()).filter(|name| !SUPPORTED_REQUIRED.contains(name)).collect();
+            let unsupported: Vec<&str> = req
+                .iter()
+                .filter_map(|v| v.as_str())
+                .filter(|name| !SUPPORTED_REQUIRED.contains(name) && !DEGRADED_REQUIRED.contains(name))
+                .collect();
             if !unsupported.is_empty() {
                 return Err(self.err(format!(
                     "the file requires unsupported extension(s): {} (Caustic supports {})",
@@ -387,9 +400,19 @@ impl<'a> Loader<'a> {
         }
         // The node of each instance span and of each camera, for `CAUSTIC_motion`.
         let (mut span_nodes, mut camera_nodes) = (Vec::new(), Vec::new());
-        for (node_index, world) in &instances {
+        // Nodes whose meshes or lights `KHR_node_visibility` hides, named in one note.
+        let mut hidden_nodes = Vec::new();
+        for (node_index, world, visible) in &instances {
             let node = doc.nodes().nth(*node_index).expect("validated index");
             let node_name = node.name().map(str::to_string).unwrap_or_else(|| format!("node {node_index}"));
+            let visible = *visible;
+            if !visible
+                && (node.mesh().is_some()
+                    || node.light().is_some()
+                    || node.extension_value("CAUSTIC_lights_area").is_some())
+            {
+                hidden_nodes.push(format!("'{node_name}'"));
+            }
             if !world.is_finite() {
                 return Err(self.err(format!("node {node_index} ('{node_name}'): transform is not finite")));
             }
@@ -400,7 +423,7 @@ impl<'a> Loader<'a> {
                 }
                 None => None,
             };
-            if let Some(m) = node.mesh() {
+            if let Some(m) = node.mesh().filter(|_| visible) {
                 used_meshes.insert(m.index());
                 // EXT_mesh_gpu_instancing draws the mesh once per row of its attributes.
                 let copies = self.mesh_copies(&doc, &node, &node_name, world, &buffers)?;
@@ -502,7 +525,7 @@ impl<'a> Loader<'a> {
                 cameras.push(self.panoramic_camera(&node_name, world, v.clone())?);
                 camera_nodes.push(*node_index);
             }
-            if let Some(l) = node.light() {
+            if let Some(l) = node.light().filter(|_| visible) {
                 let blender = node.extension_value("CAUSTIC_lights_punctual").cloned();
                 let (light, rep, graph) = self.punctual_light(&l, &node_name, world, blender)?;
                 if let Some(g) = graph {
@@ -528,9 +551,15 @@ impl<'a> Loader<'a> {
                 lights.push(light);
                 light_reports.push(rep);
             }
-            if let Some(ext) = node.extension_value("CAUSTIC_lights_area") {
+            if let Some(ext) = node.extension_value("CAUSTIC_lights_area").filter(|_| visible) {
                 area_lights.push((ext.clone(), node_name.clone(), *world, rule));
             }
+        }
+        if !hidden_nodes.is_empty() {
+            self.warn(format!(
+                "KHR_node_visibility hides node(s) {}: their meshes and lights are not rendered (cameras stay usable)",
+                hidden_nodes.join(", ")
+            ));
         }
         ray_visibility.finish(mesh.triangles.len());
         undisplaced.finish(&mut mesh);
