@@ -133,3 +133,54 @@ fn a_leaf_over_a_floor_renders_alike_in_every_integrator() {
     let failed = seeded.disagreeing_others(&leaf, &reference, &others, alpha);
     assert!(failed.is_empty(), "disagree with the path tracer: {failed:?}");
 }
+
+/// With `KHR_materials_volume` the transmitted light enters the volume: a wide slab (a closed
+/// box 200 × 200 × T) of factor 1, colour white and no specular layer (specularFactor 0) that
+/// absorbs with σa = ln 2 / T inside (attenuationColor 0.5 at attenuationDistance T), lit from
+/// straight below by a sun of irradiance E = 1 and seen from above. The bottom face sends
+/// E/π into the slab in every direction; light crossing it at cosine μ keeps e^(−τ/μ)
+/// (τ = σa T = ln 2), and the top face, which transmits all it gets (factor 1), shows
+/// L = (1/π)·2E∫₀¹ e^(−τ/μ) μ dμ = 2E·E₃(τ)/π, E₃ the exponential integral (by quadrature
+/// here); the thin slab (no volume) shows E/π. Light reaching the sides travels 100 units:
+/// e^(−346), nothing. The path tracer's pixels are independent: its mean is within 5
+/// standard errors of L, and far from the thin slab's value (the volume matters).
+#[test]
+fn light_through_a_volumes_surface_enters_the_volume() {
+    let dir = temp_dir();
+    let t = 0.2f32;
+    let slab = |volume: bool| {
+        let mut g = GltfBuilder::new();
+        g.use_ext("KHR_materials_diffuse_transmission");
+        g.use_ext("KHR_materials_specular");
+        let mut ext = json!({"KHR_materials_diffuse_transmission": {"diffuseTransmissionFactor": 1.0},
+                             "KHR_materials_specular": {"specularFactor": 0.0}});
+        if volume {
+            g.use_ext("KHR_materials_volume");
+            ext["KHR_materials_volume"] =
+                json!({"thicknessFactor": t, "attenuationColor": [0.5, 0.5, 0.5], "attenuationDistance": t});
+        }
+        let m = g.material(json!({
+            "pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 1], "metallicFactor": 0.0, "roughnessFactor": 1.0},
+            "extensions": ext
+        }));
+        g.cube([-100.0, -100.0, 0.0], [100.0, 100.0, t], m);
+        g.punctual(json!({"type": "directional", "intensity": 683.0}), [0.0, 0.0, -3.0], [1.0, 0.0, 0.0, 0.0]);
+        g.orthographic([0.0, 0.0, 3.0], [0.0, 0.0, 0.0, 1.0], 1.0, 1.0);
+        g.write(dir.path(), if volume { "thick.gltf" } else { "thin.gltf" })
+    };
+    let tau = std::f64::consts::LN_2;
+    // E₃(τ) = ∫₀¹ e^(−τ/μ) μ dμ by the midpoint rule on 10⁵ cells (error ~1e-10).
+    let n = 100_000;
+    let e3: f64 = (0..n).map(|i| (i as f64 + 0.5) / n as f64).map(|mu| (-tau / mu).exp() * mu).sum::<f64>() / n as f64;
+    let expected = 2.0 * e3 / std::f64::consts::PI;
+    for (volume, want) in [(false, 1.0 / std::f64::consts::PI), (true, expected)] {
+        let scene = slab(volume);
+        let args = ["--integrator", "path", "--resolution", "32x32", "--spp", "64", "--max-depth", "8"];
+        let px = render_image(&scene, &dir.path().join("slab.exr"), &args, LIMIT);
+        let v: Vec<f64> = px.iter().map(|p| p[0] as f64).collect();
+        let (mean, se) = common::mean_se(&v);
+        eprintln!("slab, volume {volume}: mean {mean:.5} ± {se:.5}, expected {want:.5}");
+        assert!((mean - want).abs() <= 5.0 * se + 1e-5 * want, "volume {volume}: {mean} vs {want}");
+    }
+    assert!(expected < 0.6 / std::f64::consts::PI, "the volume absorbs: {expected}");
+}

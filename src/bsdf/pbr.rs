@@ -772,8 +772,7 @@ impl PbrBsdf {
         let dielectric = 1.0 - self.metallic;
         let opaque = dielectric * (1.0 - self.transmission);
         let dt_color = luminance(self.diffuse_transmission_color) * self.diffuse_transmission;
-        let rough = (opaque > 0.0 && luminance(self.diffuse) > 0.0 && self.subsurface < 1.0)
-            || (opaque > 0.0 && dt_color > 0.0 && self.subsurface < 1.0)
+        let rough = (opaque > 0.0 && (luminance(self.diffuse) > 0.0 || dt_color > 0.0) && self.subsurface < 1.0)
             || (!self.smooth && (self.metallic > 0.0 || (opaque > 0.0 && self.layer)))
             || (self.transmission > 0.0 && dielectric > 0.0 && !self.glass.smooth)
             || (self.coat > 0.0 && !self.smooth_coat)
@@ -920,7 +919,10 @@ impl PbrBsdf {
     /// Albedo for the denoiser: the colour a white light would reflect, roughly.
     pub fn albedo(&self) -> Rgb {
         let f0 = (self.f0 * self.specular).min(1.0);
-        let dielectric = self.diffuse * (1.0 - f0) + Vec3::splat(f0);
+        // The diffuse base's colour, shared with its Lambertian transmission by the factor.
+        let dt = self.diffuse_transmission;
+        let base = self.diffuse * (1.0 - dt) + self.diffuse_transmission_color * dt;
+        let dielectric = base * (1.0 - f0) + Vec3::splat(f0);
         let below = dielectric * (1.0 - self.metallic) + self.base * self.metallic;
         let below = below * (1.0 - self.sheen_max * 0.5) + self.sheen_color * 0.5;
         below * self.coat_transmittance(Vec3::Z) * (1.0 - self.coat * self.coat_f0)
