@@ -208,6 +208,11 @@ impl Bsdf {
     pub fn eval_adjoint(&self, wo: Vec3, wi: Vec3) -> Rgb {
         if wo.z * wi.z >= 0.0 {
             self.eval(wi, wo)
+        } else if let Bsdf::Pbr(b) = self
+            && b.transmits_diffusely()
+        {
+            // Lambertian transmission crosses no interface of another η: its adjoint is f(wi, wo).
+            b.crossing_adjoint(wo, wi, self.refraction_adjoint_scale())
         } else {
             self.eval(wo, wi) * self.refraction_adjoint_scale() * self.refraction_adjoint_ratio(wo, wi)
         }

@@ -182,18 +182,26 @@ pub struct PbrBsdf {
     microfiber: bool,
     /// Fraction of the diffuse base left to subsurface scattering (not in this BSDF).
     pub subsurface: f32,
+    /// `KHR_materials_diffuse_transmission` diffuseTransmissionFactor: the share of the
+    /// diffuse base that is a Lambertian BTDF into the other hemisphere instead of a BRDF.
+    pub diffuse_transmission: f32,
+    /// diffuseTransmissionColorFactor: the colour of that BTDF (clamped to [0, 1]).
+    pub diffuse_transmission_color: Rgb,
     /// The metal lobe was dropped (Reflective Caustics off); the rest keeps 1 − metallic.
     metal_dropped: bool,
     /// The coat's reflection was dropped (Reflective Caustics off); its tint still filters.
     coat_dropped: bool,
 }
 
-/// Probabilities of the lobes for one `wo`: metal, dielectric specular, diffuse, glass.
+/// Probabilities of the lobes for one `wo`: metal, dielectric specular, diffuse, diffuse
+/// transmission, glass, coat, sheen.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct LobeChoice {
     metal: f32,
     spec: f32,
     diffuse: f32,
+    /// The diffuse base's Lambertian transmission (`KHR_materials_diffuse_transmission`).
+    dtrans: f32,
     glass: f32,
     coat: f32,
     sheen: f32,
@@ -204,7 +212,7 @@ pub(super) struct LobeChoice {
 impl LobeChoice {
     /// No energy towards wo: the specular lobe alone, as a fallback that is never sampled.
     const NONE: LobeChoice =
-        LobeChoice { metal: 0.0, spec: 1.0, diffuse: 0.0, glass: 0.0, coat: 0.0, sheen: 0.0, fiber: None };
+        LobeChoice { metal: 0.0, spec: 1.0, diffuse: 0.0, dtrans: 0.0, glass: 0.0, coat: 0.0, sheen: 0.0, fiber: None };
 }
 
 impl PbrBsdf {
@@ -326,6 +334,16 @@ impl PbrBsdf {
             sheen_max: sheen_color.max_element(),
             microfiber: p.microfiber_sheen,
             subsurface: p.subsurface.clamp(0.0, 1.0),
+            diffuse_transmission: if p.diffuse_transmission.is_finite() {
+                p.diffuse_transmission.clamp(0.0, 1.0)
+            } else {
+                0.0
+            },
+            diffuse_transmission_color: if p.diffuse_transmission_color.is_finite() {
+                p.diffuse_transmission_color.clamp(Vec3::ZERO, Vec3::ONE)
+            } else {
+                Vec3::ONE
+            },
             metal_dropped: false,
             coat_dropped: false,
         }
@@ -561,7 +579,20 @@ impl PbrBsdf {
         let opaque = dielectric * (1.0 - self.transmission);
         let metal = below * self.metallic * luminance(self.metal_fresnel(wo.z) * at.metal_ms);
         let spec = below * opaque * e;
+        let dt = self.diffuse_transmission;
         let diffuse = below * opaque * Self::base_weight(at.eo) * luminance(self.diffuse) * (1.0 - self.subsurface);
+        // Multiplied by 1 − 0 = 1 without the extension: every other material samples as before.
+        let diffuse = diffuse * (1.0 - dt);
+        let dtrans = if dt > 0.0 {
+            below
+                * opaque
+                * Self::base_weight(at.eo)
+                * luminance(self.diffuse_transmission_color)
+                * (1.0 - self.subsurface)
+                * dt
+        } else {
+            0.0
+        };
         let glass = if self.transmission > 0.0 {
             let r = self.glass.reflect_probability(wo);
             let ms = luminance(self.glass.multiscatter(wo));
@@ -571,12 +602,13 @@ impl PbrBsdf {
         };
         let coat = ec;
         let sheen = under * es;
-        let total = metal + spec + diffuse + glass + coat + sheen;
+        let total = metal + spec + diffuse + glass + coat + sheen + dtrans;
         if total > 0.0 {
             LobeChoice {
                 metal: metal / total,
                 spec: spec / total,
                 diffuse: diffuse / total,
+                dtrans: dtrans / total,
                 glass: glass / total,
                 coat: coat / total,
                 sheen: sheen / total,
@@ -692,9 +724,32 @@ impl PbrBsdf {
         self.glass.drop_caustics(reflective, refractive);
     }
 
-    /// True when some light may pass through to the other side (a transmission lobe).
+    /// True when some light may pass through to the other side (a transmission lobe: the
+    /// glass, or the diffuse base's Lambertian transmission).
     pub fn transmits(&self) -> bool {
-        self.transmission > 0.0 && self.metallic < 1.0
+        (self.transmission > 0.0 && self.metallic < 1.0) || self.transmits_diffusely()
+    }
+
+    /// True when the diffuse base transmits some light (`KHR_materials_diffuse_transmission`).
+    #[inline]
+    pub fn transmits_diffusely(&self) -> bool {
+        self.diffuse_transmission > 0.0
+            && self.metallic < 1.0
+            && self.transmission < 1.0
+            && self.subsurface < 1.0
+            && self.diffuse_transmission_color.max_element() > 0.0
+    }
+
+    /// The adjoint of a transmitted pair (wo, wi on opposite sides): the glass's part as
+    /// `Bsdf::eval_adjoint` takes it (1/η² of the camera-side value, `scale`, times rough
+    /// glass's compensation ratio) and the Lambertian transmission's seen from wi, f(wi, wo):
+    /// it changes no η (a sheet scattering, not a refraction), and like the diffuse base its
+    /// only non-reciprocal terms are the layer weights seen from the viewer's side.
+    pub fn crossing_adjoint(&self, wo: Vec3, wi: Vec3, scale: f32) -> Rgb {
+        let at = self.view(wo);
+        let dt = at.eval_diffuse_transmission(wi);
+        let glass = (at.eval(wi) - dt).max(Rgb::ZERO) * scale * self.refraction_adjoint_ratio(wo, wi);
+        glass + self.view(wi).eval_diffuse_transmission(wo)
     }
 
     /// Filter Glossy's blur (`Bsdf::blur`): every microfacet lobe (metal and specular layer,
@@ -716,7 +771,8 @@ impl PbrBsdf {
     pub fn is_delta(&self) -> bool {
         let dielectric = 1.0 - self.metallic;
         let opaque = dielectric * (1.0 - self.transmission);
-        let rough = (opaque > 0.0 && luminance(self.diffuse) > 0.0 && self.subsurface < 1.0)
+        let dt_color = luminance(self.diffuse_transmission_color) * self.diffuse_transmission;
+        let rough = (opaque > 0.0 && (luminance(self.diffuse) > 0.0 || dt_color > 0.0) && self.subsurface < 1.0)
             || (!self.smooth && (self.metallic > 0.0 || (opaque > 0.0 && self.layer)))
             || (self.transmission > 0.0 && dielectric > 0.0 && !self.glass.smooth)
             || (self.coat > 0.0 && !self.smooth_coat)
@@ -828,6 +884,9 @@ impl PbrBsdf {
             if c.coat > 0.0 && !self.smooth_coat {
                 pdf += c.coat * self.coat_pdf(wo, wi);
             }
+        } else if c.dtrans > 0.0 {
+            // The Lambertian transmission's cosine-weighted directions around −Z.
+            pdf += c.dtrans * cosine_hemisphere_pdf(-wi.z);
         }
         pdf
     }
@@ -860,7 +919,10 @@ impl PbrBsdf {
     /// Albedo for the denoiser: the colour a white light would reflect, roughly.
     pub fn albedo(&self) -> Rgb {
         let f0 = (self.f0 * self.specular).min(1.0);
-        let dielectric = self.diffuse * (1.0 - f0) + Vec3::splat(f0);
+        // The diffuse base's colour, shared with its Lambertian transmission by the factor.
+        let dt = self.diffuse_transmission;
+        let base = self.diffuse * (1.0 - dt) + self.diffuse_transmission_color * dt;
+        let dielectric = base * (1.0 - f0) + Vec3::splat(f0);
         let below = dielectric * (1.0 - self.metallic) + self.base * self.metallic;
         let below = below * (1.0 - self.sheen_max * 0.5) + self.sheen_color * 0.5;
         below * self.coat_transmittance(Vec3::Z) * (1.0 - self.coat * self.coat_f0)
@@ -902,6 +964,7 @@ fn flip_to_upper(wo: Vec3, wi: Vec3) -> (Vec3, Vec3) {
     if wo.z < 0.0 { (Vec3::new(wo.x, wo.y, -wo.z), Vec3::new(wi.x, wi.y, -wi.z)) } else { (wo, wi) }
 }
 
+mod diffuse_transmission;
 mod params;
 mod passes;
 mod view;

@@ -65,6 +65,15 @@ pub struct Material {
     pub transmission: f32,
     /// Transmission texture (R channel).
     pub transmission_tex: Option<TexRef>,
+    /// `KHR_materials_diffuse_transmission` diffuseTransmissionFactor: the share of the
+    /// diffuse base that transmits, Lambertian, to the other side.
+    pub diffuse_transmission: f32,
+    /// diffuseTransmissionTexture (A channel): multiplies the factor.
+    pub diffuse_transmission_tex: Option<TexRef>,
+    /// diffuseTransmissionColorFactor: the transmitted light's colour.
+    pub diffuse_transmission_color: Rgb,
+    /// diffuseTransmissionColorTexture (sRGB, RGB): multiplies the colour.
+    pub diffuse_transmission_color_tex: Option<TexRef>,
     /// `KHR_materials_clearcoat` clearcoatFactor.
     pub coat: f32,
     /// clearcoatTexture (R).
@@ -165,6 +174,10 @@ impl Default for Material {
             ior: 1.5,
             transmission: 0.0,
             transmission_tex: None,
+            diffuse_transmission: 0.0,
+            diffuse_transmission_tex: None,
+            diffuse_transmission_color: Rgb::ONE,
+            diffuse_transmission_color_tex: None,
             medium: None,
             null_surface: false,
             grid: None,
@@ -223,7 +236,7 @@ pub struct Subsurface {
     pub enter_at_ior: bool,
 }
 
-/// The texture fields of a material (`&Material` or `&mut Material`): the thirteen
+/// The texture fields of a material (`&Material` or `&mut Material`): the fifteen
 /// `Option<TexRef>` fields and the iridescence, whose two textures sit inside it. The fields
 /// are destructured without `..`, so a field added to `Material` does not compile until it is
 /// named here as a texture or not (and so can never be missed by what relies on the list,
@@ -253,6 +266,10 @@ macro_rules! texture_fields {
             ior: _,
             transmission: _,
             transmission_tex,
+            diffuse_transmission: _,
+            diffuse_transmission_tex,
+            diffuse_transmission_color: _,
+            diffuse_transmission_color_tex,
             coat: _,
             coat_tex,
             coat_roughness: _,
@@ -294,6 +311,8 @@ macro_rules! texture_fields {
                 coat_normal_tex,
                 sheen_color_tex,
                 sheen_roughness_tex,
+                diffuse_transmission_tex,
+                diffuse_transmission_color_tex,
             ],
             iridescence,
         )
@@ -302,14 +321,14 @@ macro_rules! texture_fields {
 
 impl Material {
     /// Every texture the material's glTF parameters read, in one place (`texture_fields`).
-    pub fn textures(&self) -> [Option<TexRef>; 15] {
+    pub fn textures(&self) -> [Option<TexRef>; 17] {
         let (fields, iridescence) = texture_fields!(self);
-        let mut all = [None; 15];
+        let mut all = [None; 17];
         for (a, f) in all.iter_mut().zip(fields) {
             *a = *f;
         }
-        all[13] = iridescence.as_ref().and_then(|i| i.factor_tex);
-        all[14] = iridescence.as_ref().and_then(|i| i.thickness_tex);
+        all[15] = iridescence.as_ref().and_then(|i| i.factor_tex);
+        all[16] = iridescence.as_ref().and_then(|i| i.thickness_tex);
         all
     }
 

@@ -299,6 +299,14 @@ impl Scene {
         if let Some(t) = &mat.transmission_tex {
             transmission *= lookup(t).x;
         }
+        let mut diffuse_transmission = mat.diffuse_transmission;
+        if let Some(t) = &mat.diffuse_transmission_tex {
+            diffuse_transmission *= lookup(t).w;
+        }
+        let mut diffuse_transmission_color = mat.diffuse_transmission_color;
+        if let Some(t) = &mat.diffuse_transmission_color_tex {
+            diffuse_transmission_color *= lookup(t).truncate();
+        }
         let thin = mat.medium.is_none();
         // Entering or leaving is decided by the geometric normal; a thin sheet is the
         // same from both sides.
@@ -364,6 +372,8 @@ impl Scene {
                 let g = i.thickness_tex.map_or(1.0, |t| lookup(&t).y);
                 (i.thickness_min + (i.thickness_max - i.thickness_min) * g, i.ior, factor)
             }),
+            diffuse_transmission,
+            diffuse_transmission_color,
         };
         // An unlit surface only shows its colour (the emission above): it reflects nothing.
         let params =

@@ -357,6 +357,8 @@ fn zero_params() -> PbrParams {
         diffuse_roughness: 0.0,
         cycles_principled: true,
         thin_film: None,
+        diffuse_transmission: 0.0,
+        diffuse_transmission_color: Rgb::ZERO,
     }
 }
 
@@ -631,6 +633,9 @@ impl Closures {
             // Cycles' Principled glass: √base at each crossing.
             cycles_principled: true,
             thin_film: p.thin_film,
+            // Blender's Principled BSDF has no diffuse transmission.
+            diffuse_transmission: 0.0,
+            diffuse_transmission_color: Rgb::ONE,
         }
     }
 

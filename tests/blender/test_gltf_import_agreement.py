@@ -14,6 +14,13 @@ glTF features whose meaning the loader must get right:
 * `skin`: a skinned sphere whose joint moves it sideways and whose own node transform (which
   glTF says to ignore) would push it out of view.
 * `unlit`: KHR_materials_unlit as Blender's importer builds it (seen by camera rays alone);
+* `diffuse_transmission`: KHR_materials_diffuse_transmission (factor 0.6, a green colour) on a
+  base without a specular layer (KHR_materials_specular specularFactor 0). Blender 5.0's importer
+  drops the extension, so the reference replaces the imported material by the model's closures
+  built by hand: a Diffuse BSDF of the base colour mixed with a Translucent BSDF of the
+  transmission colour by the factor (Cycles' Translucent is the Lambertian BTDF). Caustic/Cycles
+  R 1.5092 G 1.1660 B 1.2393 before the extension was read (warned, rendered as an opaque
+  Lambertian of the base colour) -> 1.0005 / 1.0003 / 1.0005 (sigma 0.06-0.14 %).
 * and the core features an asset most often has: emission with KHR_materials_emissive_strength,
   clear coat, rough metal, rough glass (transmission, IOR, volume), a base colour texture under
   KHR_texture_transform with a nearest sampler, alpha BLEND.
@@ -198,6 +205,13 @@ CASES = {
                      "extensions": {"KHR_materials_iridescence": {"iridescenceFactor": 1.0, "iridescenceIor": 1.33,
                                                                   "iridescenceThicknessMaximum": 420.0}}},
                     {"thin_film": (420.0, 1.33)}),
+    "diffuse_transmission": ({"pbrMetallicRoughness": {"baseColorFactor": [0.6, 0.4, 0.2, 1], "metallicFactor": 0.0,
+                                                       "roughnessFactor": 1.0},
+                              "extensions": {"KHR_materials_specular": {"specularFactor": 0.0},
+                                             "KHR_materials_diffuse_transmission": {
+                                                 "diffuseTransmissionFactor": 0.6,
+                                                 "diffuseTransmissionColorFactor": [0.3, 0.8, 0.1]}}},
+                             {"translucent": (0.6, (0.6, 0.4, 0.2), (0.3, 0.8, 0.1))}),
     "emissive": ({"pbrMetallicRoughness": {"baseColorFactor": [0.2, 0.2, 0.2, 1], "metallicFactor": 0.0},
                   "emissiveFactor": [1.0, 0.5, 0.2],
                   "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 2.0}}}, {}),
@@ -231,16 +245,36 @@ CASES = {
 }
 
 
-def cycles_images(gltf_path, tmp_path, thin_film=None):
+def _translucent(material, factor, base, colour):
+    """The subject's material replaced by KHR_materials_diffuse_transmission's model without a
+    specular layer: Mix Shader(factor) of a Diffuse BSDF (base) and a Translucent BSDF (colour)."""
+    tree = material.node_tree
+    tree.nodes.clear()
+    diffuse = tree.nodes.new("ShaderNodeBsdfDiffuse")
+    diffuse.inputs["Color"].default_value = (*base, 1.0)
+    translucent = tree.nodes.new("ShaderNodeBsdfTranslucent")
+    translucent.inputs["Color"].default_value = (*colour, 1.0)
+    mix = tree.nodes.new("ShaderNodeMixShader")
+    mix.inputs["Fac"].default_value = factor
+    out = tree.nodes.new("ShaderNodeOutputMaterial")
+    tree.links.new(diffuse.outputs["BSDF"], mix.inputs[1])
+    tree.links.new(translucent.outputs["BSDF"], mix.inputs[2])
+    tree.links.new(mix.outputs["Shader"], out.inputs["Surface"])
+
+
+def cycles_images(gltf_path, tmp_path, thin_film=None, translucent=None):
     """Blender imports the file; Cycles renders it with both seeds (rows bottom to top).
     `thin_film` (thickness nm, IOR): set on the subject's Principled BSDF, which the importer
-    leaves without the file's KHR_materials_iridescence."""
+    leaves without the file's KHR_materials_iridescence. `translucent` (factor, base, colour):
+    the subject's material built as KHR_materials_diffuse_transmission's closures."""
     bpy.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)
     scene = bpy.context.scene
     bpy.ops.import_scene.gltf(filepath=str(gltf_path))
     if thin_film is not None:
         node = next(n for n in bpy.data.materials["Subject"].node_tree.nodes if n.type == "BSDF_PRINCIPLED")
         node.inputs["Thin Film Thickness"].default_value, node.inputs["Thin Film IOR"].default_value = thin_film
+    if translucent is not None:
+        _translucent(bpy.data.materials["Subject"], *translucent)
     cameras = [o for o in scene.objects if o.type == "CAMERA"]
     assert len(cameras) == 1, [o.name for o in scene.objects]
     scene.camera = cameras[0]
@@ -292,9 +326,10 @@ def test_binary_on_gltf_matches_cycles_on_its_import(addon, tmp_path, case):
     material, geometry = CASES[case][:2]
     geometry = dict(geometry)
     thin_film = geometry.pop("thin_film", None)
+    translucent = geometry.pop("translucent", None)
     gltf_path = tmp_path / f"{case}.gltf"
     build(gltf_path, material, **geometry)
-    cycles = cycles_images(gltf_path, tmp_path, thin_film)
+    cycles = cycles_images(gltf_path, tmp_path, thin_film, translucent)
     caustic, log = caustic_images(gltf_path, tmp_path)
     assert "not played" not in log and "ignored" not in log, log
     failures = []

@@ -68,6 +68,11 @@ pub struct PbrParams {
     /// A thin film on the dielectric layer: (thickness in nm, film IOR, weight) — Blender's
     /// Thin Film (weight 1), glTF's `KHR_materials_iridescence` (iridescenceFactor).
     pub thin_film: Option<(f32, f32, f32)>,
+    /// `KHR_materials_diffuse_transmission` diffuseTransmissionFactor (0: none): the share of
+    /// the diffuse base that transmits to the other side, Lambertian.
+    pub diffuse_transmission: f32,
+    /// diffuseTransmissionColorFactor (times its texture): that transmission's colour.
+    pub diffuse_transmission_color: Rgb,
 }
 
 impl PbrParams {
@@ -106,6 +111,8 @@ impl PbrParams {
             diffuse_roughness: 0.0,
             cycles_principled: false,
             thin_film: None,
+            diffuse_transmission: 0.0,
+            diffuse_transmission_color: Rgb::ONE,
         }
     }
 }

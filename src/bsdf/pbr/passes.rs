@@ -25,7 +25,8 @@ impl PbrAt<'_> {
         let opaque = (1.0 - b.metallic) * (1.0 - b.transmission);
         let mut f = Rgb::ZERO;
         if opaque > 0.0 {
-            let diffuse_weight = super::PbrBsdf::base_weight(self.eo) * (1.0 - b.subsurface);
+            let diffuse_weight =
+                super::PbrBsdf::base_weight(self.eo) * (1.0 - b.subsurface) * (1.0 - b.diffuse_transmission);
             f = match b.oren {
                 // Lambert's product in the order it always had (bit-exact golden images).
                 None => b.diffuse * (diffuse_weight * FRAC_1_PI * b.diffuse_cos_ratio(wi) * opaque),
@@ -68,15 +69,21 @@ impl PbrAt<'_> {
         let below = self.under * self.sheen_o;
         let dielectric = 1.0 - b.metallic;
         let opaque = dielectric * (1.0 - b.transmission);
-        let diffuse = b.diffuse * (super::PbrBsdf::base_weight(self.eo) * opaque) * below
-            + b.sheen_color * (self.es / b.sheen_max.max(1e-6)) * self.under;
+        let base = super::PbrBsdf::base_weight(self.eo) * opaque;
+        let dt = b.diffuse_transmission;
+        let diffuse =
+            b.diffuse * (base * (1.0 - dt)) * below + b.sheen_color * (self.es / b.sheen_max.max(1e-6)) * self.under;
+        // The diffuse base's Lambertian transmission counts as transmission here (Cycles would
+        // call it diffuse, a Translucent closure): the photon integrators read their maps on
+        // the viewer's side only, so a transmitting lobe must show as one to be followed.
+        let diffuse_transmission = b.diffuse_transmission_color * (base * dt * (1.0 - b.subsurface)) * below;
         // The multiple-scattering compensation makes the metal's albedo its Fresnel colour.
         let metal = b.base + (Vec3::ONE - b.base) * schlick_weight(wo.z);
         let f_glass = fresnel_dielectric(wo.z, b.glass.eta);
         let glass = dielectric * b.transmission;
         let glossy =
             (self.eo * opaque + metal * b.metallic + Rgb::splat(f_glass * glass)) * below + Rgb::splat(self.ec);
-        let transmission = b.glass.tint * ((1.0 - f_glass) * glass) * below;
+        let transmission = b.glass.tint * ((1.0 - f_glass) * glass) * below + diffuse_transmission;
         [diffuse, glossy, transmission]
     }
 }

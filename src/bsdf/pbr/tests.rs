@@ -139,6 +139,32 @@ fn materials_with(base: Vec3) -> Vec<(String, PbrBsdf)> {
         };
         v.push((format!("diffuse normal ({nx}, 0.1, {nz}) m={metallic}"), PbrBsdf::from_params(&p)));
     }
+    // KHR_materials_diffuse_transmission: alone, half, under sheen and coat, beside glass,
+    // with a metal, without a specular layer.
+    for (t, metallic, transmission, sheen, coat, specular) in [
+        (1.0f32, 0.0f32, 0.0f32, 0.0f32, 0.0f32, 1.0f32),
+        (0.5, 0.0, 0.0, 0.0, 0.0, 1.0),
+        (0.6, 0.3, 0.0, 0.5, 0.0, 1.0),
+        (0.8, 0.0, 0.4, 0.0, 0.0, 1.0),
+        (0.7, 0.0, 0.0, 0.0, 0.8, 1.0),
+        (0.6, 0.0, 0.0, 0.0, 0.0, 0.0),
+    ] {
+        let p = PbrParams {
+            diffuse_transmission: t,
+            diffuse_transmission_color: Vec3::new(0.3, 0.9, 0.2),
+            transmission,
+            sheen_color: Vec3::splat(sheen),
+            sheen_roughness: 0.4,
+            coat,
+            coat_roughness: 0.3,
+            specular,
+            ..PbrParams::opaque(base, metallic, 0.5)
+        };
+        v.push((
+            format!("diffuse transmission={t} m={metallic} t={transmission} sheen={sheen} coat={coat} s={specular}"),
+            PbrBsdf::from_params(&p),
+        ));
+    }
     v
 }
 

@@ -64,7 +64,11 @@ impl PbrAt<'_> {
         }
         let this = self.b;
         let c = &self.c;
-        let diffuse = uc >= c.glass + c.metal + c.spec && uc < c.glass + c.metal + c.spec + c.diffuse + c.sheen;
+        let diffuse =
+            uc >= c.glass + c.metal + c.spec && uc < c.glass + c.metal + c.spec + c.diffuse + c.dtrans + c.sheen;
+        // The diffuse base's Lambertian transmission chose wi (below the surface).
+        let dtrans =
+            uc >= c.glass + c.metal + c.spec + c.diffuse && uc < c.glass + c.metal + c.spec + c.diffuse + c.dtrans;
         let wi_up = if uc < c.glass {
             let s = this.glass.sample(wo_up, uc / c.glass, u)?;
             if s.delta {
@@ -105,7 +109,10 @@ impl PbrAt<'_> {
                 Some(f) => f.to_world(cosine_hemisphere(u)),
                 None => cosine_hemisphere(u),
             }
-        } else if uc < c.glass + c.metal + c.spec + c.diffuse + c.sheen {
+        } else if dtrans {
+            let w = cosine_hemisphere(u);
+            Vec3::new(w.x, w.y, -w.z)
+        } else if uc < c.glass + c.metal + c.spec + c.diffuse + c.dtrans + c.sheen {
             match &c.fiber {
                 Some(m) => m.sample(u)?,
                 None => cosine_hemisphere(u),
@@ -131,7 +138,7 @@ impl PbrAt<'_> {
             }
             cf.to_world(reflect(wo_c, this.coat_ggx.sample_visible_normal(wo_c, u)))
         };
-        if wi_up.z == 0.0 || (uc >= c.glass && wi_up.z < 0.0) {
+        if wi_up.z == 0.0 || (uc >= c.glass && !dtrans && wi_up.z < 0.0) {
             return None;
         }
         // The density and value from the lobe choice and wo-terms of this call (the same
@@ -165,7 +172,7 @@ impl PbrAt<'_> {
             f += b.glass.eval(wo, wi) * (dielectric * b.transmission);
         }
         if wi.z < 0.0 {
-            return f * (under * scaling);
+            return f * (under * scaling) + self.diffuse_transmission_up(wi);
         }
         let h = (wo + wi).normalize();
         let cos_h = wo.dot(h).max(0.0);
@@ -175,7 +182,8 @@ impl PbrAt<'_> {
         if opaque > 0.0 {
             // Cycles' layer: its Fresnel and compensation, the base under 1 − max(albedo at wo).
             let f_layer = if b.layer && spec > 0.0 { b.layer_fresnel(cos_h) * self.layer_ms } else { Rgb::ZERO };
-            let diffuse_weight = PbrBsdf::base_weight(self.eo) * (1.0 - b.subsurface);
+            // What diffuse transmission leaves to the reflecting base (a factor of 1 without it).
+            let diffuse_weight = PbrBsdf::base_weight(self.eo) * (1.0 - b.subsurface) * (1.0 - b.diffuse_transmission);
             f += (b.diffuse_f(wo, wi, diffuse_weight) + f_layer * spec) * opaque;
         }
         if b.metallic > 0.0 {

@@ -16,6 +16,7 @@ pub(super) const HANDLED_MATERIAL_EXTENSIONS: &[&str] = &[
     "KHR_materials_emissive_strength",
     "KHR_materials_specular",
     "KHR_materials_transmission",
+    "KHR_materials_diffuse_transmission",
     "KHR_materials_ior",
     "KHR_materials_volume",
     "KHR_materials_clearcoat",
@@ -379,6 +380,30 @@ impl Loader<'_> {
                 specular_color_tex = self.raw_texture(doc, t, true, buffers, &name)?;
             }
         }
+        let (mut diffuse_transmission, mut diffuse_transmission_tex) = (0.0, None);
+        let (mut diffuse_transmission_color, mut diffuse_transmission_color_tex) = (Vec3::ONE, None);
+        if let Some(d) = m.extension_value("KHR_materials_diffuse_transmission").cloned() {
+            features.push("KHR_materials_diffuse_transmission".into());
+            let factor = num(&d, "diffuseTransmissionFactor", 0.0)?;
+            diffuse_transmission = factor.clamp(0.0, 1.0);
+            if diffuse_transmission != factor {
+                self.warn(format!("material '{name}': diffuseTransmissionFactor {factor} was clamped to [0, 1]"));
+            }
+            diffuse_transmission_color = color3(&d, "diffuseTransmissionColorFactor", Vec3::ONE)?;
+            if diffuse_transmission_color.max_element() > 1.0 {
+                self.warn(format!(
+                    "material '{name}': diffuseTransmissionColorFactor {diffuse_transmission_color} was clamped to [0, 1]"
+                ));
+                diffuse_transmission_color = diffuse_transmission_color.min(Vec3::ONE);
+            }
+            // The factor is the texture's A channel, the colour its sRGB RGB (the spec).
+            if let Some(t) = d.get("diffuseTransmissionTexture") {
+                diffuse_transmission_tex = self.raw_texture(doc, t, false, buffers, &name)?;
+            }
+            if let Some(t) = d.get("diffuseTransmissionColorTexture") {
+                diffuse_transmission_color_tex = self.raw_texture(doc, t, true, buffers, &name)?;
+            }
+        }
         if let Some(exts) = m.extensions() {
             for key in exts.keys() {
                 if HANDLED_MATERIAL_EXTENSIONS.contains(&key.as_str()) {
@@ -395,6 +420,10 @@ impl Loader<'_> {
         mat.ior = ior;
         mat.transmission = transmission;
         mat.transmission_tex = transmission_tex;
+        mat.diffuse_transmission = diffuse_transmission;
+        mat.diffuse_transmission_tex = diffuse_transmission_tex;
+        mat.diffuse_transmission_color = diffuse_transmission_color;
+        mat.diffuse_transmission_color_tex = diffuse_transmission_color_tex;
         mat.medium = medium;
         mat.null_surface = null_surface;
         mat.subsurface = subsurface;

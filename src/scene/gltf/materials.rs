@@ -53,7 +53,7 @@ impl Loader<'_> {
             features.push("KHR_materials_emissive_strength".into());
         }
         let base_color_tex =
-            self.info_texture(doc, pbr.base_color_texture(), true, buffers, &mut features, "baseColorTexture")?;
+            self.info_texture(doc, pbr.base_color_texture(), true, buffers, &mut features, "baseColorTexture", &name)?;
         let metallic_roughness_tex = self.info_texture(
             doc,
             pbr.metallic_roughness_texture(),
@@ -61,10 +61,12 @@ impl Loader<'_> {
             buffers,
             &mut features,
             "metallicRoughnessTexture",
+            &name,
         )?;
         let emissive_tex =
-            self.info_texture(doc, m.emissive_texture(), true, buffers, &mut features, "emissiveTexture")?;
+            self.info_texture(doc, m.emissive_texture(), true, buffers, &mut features, "emissiveTexture", &name)?;
         let (normal_tex, normal_scale) = match m.normal_texture() {
+            Some(n) if self.undecodable(&n.texture(), &name) => (None, 1.0),
             Some(n) => {
                 let mut transform = Mat3::IDENTITY;
                 let mut tex_coord = n.tex_coord();
@@ -275,6 +277,32 @@ mod tests {
         assert!(material(blender, 0).0.sheen_microfiber);
         let bad = json!({"name": "b", "extensions": {"CAUSTIC_materials_sheen": {"model": "velvet"}}});
         assert!(error(bad, 0).contains("model 'velvet'"));
+    }
+
+    #[test]
+    fn diffuse_transmission_factor_colour_and_textures() {
+        let (m, scene) = material(
+            json!({"name": "leaf", "extensions": {"KHR_materials_diffuse_transmission": {
+                "diffuseTransmissionFactor": 0.6, "diffuseTransmissionColorFactor": [0.3, 0.8, 0.1],
+                "diffuseTransmissionTexture": {"index": 0}, "diffuseTransmissionColorTexture": {"index": 1}}}}),
+            2,
+        );
+        assert_eq!((m.diffuse_transmission, m.diffuse_transmission_color), (0.6, Vec3::new(0.3, 0.8, 0.1)));
+        assert_eq!(texel_id(&scene, m.diffuse_transmission_tex), 0);
+        assert!(!scene.textures[m.diffuse_transmission_tex.unwrap().texture as usize].srgb, "the factor is data (A)");
+        assert_eq!(texel_id(&scene, m.diffuse_transmission_color_tex), 1);
+        assert!(scene.textures[m.diffuse_transmission_color_tex.unwrap().texture as usize].srgb, "the colour is sRGB");
+        assert!(scene.warnings.iter().all(|w| !w.contains("diffuse_transmission")), "{:?}", scene.warnings);
+        let (m, scene) = material(
+            json!({"name": "l", "extensions": {"KHR_materials_diffuse_transmission": {
+                "diffuseTransmissionFactor": 1.5, "diffuseTransmissionColorFactor": [2.0, 0.5, 0.5]}}}),
+            0,
+        );
+        assert_eq!((m.diffuse_transmission, m.diffuse_transmission_color), (1.0, Vec3::new(1.0, 0.5, 0.5)));
+        assert_eq!(scene.warnings.iter().filter(|w| w.contains("clamped")).count(), 2, "{:?}", scene.warnings);
+        let bad = json!({"name": "l", "extensions": {"KHR_materials_diffuse_transmission": {
+            "diffuseTransmissionColorFactor": [1.0, 0.5]}}});
+        assert!(error(bad, 0).contains("diffuseTransmissionColorFactor must be 3 finite numbers"));
     }
 
     #[test]

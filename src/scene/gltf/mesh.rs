@@ -17,11 +17,12 @@ impl Loader<'_> {
     /// instance copies its mesh's vertices and triangles), before any of it is read:
     /// accessor counts are known from the JSON alone, and a sparse accessor or a shared
     /// subtree can declare far more than the file holds.
-    pub(super) fn charge_mesh(&self, doc: &gltf::Document, instances: &[(usize, Mat4)]) -> Result<()> {
+    pub(super) fn charge_mesh(&self, doc: &gltf::Document, instances: &[(usize, Mat4, bool)]) -> Result<()> {
         use gltf::mesh::Mode;
         let mut per_mesh: HashMap<usize, (u64, u64)> = HashMap::new();
         let (mut vertices, mut triangles) = (0u64, 0u64);
-        for (node_index, _) in instances {
+        // Hidden nodes (`KHR_node_visibility`) add no triangles.
+        for (node_index, _, _) in instances.iter().filter(|i| i.2) {
             let Some(node) = doc.nodes().nth(*node_index) else { continue };
             let Some(m) = node.mesh() else { continue };
             let copies = super::gpu_instancing::copies(&node, doc);

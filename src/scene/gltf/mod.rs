@@ -70,6 +70,7 @@ pub const SUPPORTED_REQUIRED: &[&str] = &[
     "KHR_materials_emissive_strength",
     "KHR_texture_transform",
     "KHR_materials_transmission",
+    "KHR_materials_diffuse_transmission",
     "KHR_materials_ior",
     "KHR_materials_volume",
     "KHR_materials_clearcoat",
@@ -85,6 +86,7 @@ pub const SUPPORTED_REQUIRED: &[&str] = &[
     "EXT_meshopt_compression",
     "EXT_texture_webp",
     "EXT_mesh_gpu_instancing",
+    "KHR_node_visibility",
     "CAUSTIC_lights_area",
     "CAUSTIC_lights_punctual",
     "CAUSTIC_materials_nodes",
@@ -99,6 +101,11 @@ pub const SUPPORTED_REQUIRED: &[&str] = &[
     "CAUSTIC_volume",
     "CAUSTIC_motion",
 ];
+
+/// Extensions accepted in `extensionsRequired` though Caustic cannot render them, because
+/// what they carry can be left out with a warning naming it: `KHR_texture_basisu` (a KTX2
+/// texture without a fallback is dropped from its material, `textures::basisu_only_textures`).
+pub const DEGRADED_REQUIRED: &[&str] = &["KHR_texture_basisu"];
 
 /// glTF's photometric units to Blender's radiometric ones: Blender's exporter writes
 /// W × 683 lm/W (its PBR_WATTS_TO_LUMENS), so dividing gives Blender's watts back.
@@ -167,6 +174,8 @@ struct Loader<'a> {
     textures: Vec<Texture>,
     texture_cache: HashMap<TexKey, u32>,
     images: HashMap<usize, DecodedImage>,
+    /// Textures whose only image is KTX2 (`KHR_texture_basisu` without a fallback).
+    basisu_only: std::collections::HashSet<usize>,
     profile: LoadProfile,
     /// External files read so far (URI, content hash), for `Scene::source_hash`; a cell
     /// because files are read through `&self`.
@@ -198,6 +207,7 @@ impl<'a> Loader<'a> {
             textures: Vec::new(),
             texture_cache: HashMap::new(),
             images: HashMap::new(),
+            basisu_only: Default::default(),
             profile: LoadProfile::default(),
             files_read: Default::default(),
             quantization: quantized::Quantization::Core,
@@ -252,6 +262,7 @@ impl<'a> Loader<'a> {
             return Err(self.err("invalid glTF: the JSON root is not an object"));
         }
         textures::prefer_webp_sources(&mut value);
+        self.basisu_only = textures::basisu_only_textures(&mut value);
         let version = value.pointer("/asset/version").and_then(|v| v.as_str()).unwrap_or("");
         if !version.starts_with("2.") {
             return Err(self.err(format!(
@@ -260,8 +271,11 @@ impl<'a> Loader<'a> {
         }
         // 3. Required extensions we cannot honour are refused by name.
         if let Some(req) = value.get("extensionsRequired").and_then(|v| v.as_array()) {
-            let unsupported: Vec<&str> =
-                req.iter().filter_map(|v| v.as_str()).filter(|name| !SUPPORTED_REQUIRED.contains(name)).collect();
+            let unsupported: Vec<&str> = req
+                .iter()
+                .filter_map(|v| v.as_str())
+                .filter(|name| !SUPPORTED_REQUIRED.contains(name) && !DEGRADED_REQUIRED.contains(name))
+                .collect();
             if !unsupported.is_empty() {
                 return Err(self.err(format!(
                     "the file requires unsupported extension(s): {} (Caustic supports {})",
@@ -386,9 +400,19 @@ impl<'a> Loader<'a> {
         }
         // The node of each instance span and of each camera, for `CAUSTIC_motion`.
         let (mut span_nodes, mut camera_nodes) = (Vec::new(), Vec::new());
-        for (node_index, world) in &instances {
+        // Nodes whose meshes or lights `KHR_node_visibility` hides, named in one note.
+        let mut hidden_nodes = Vec::new();
+        for (node_index, world, visible) in &instances {
             let node = doc.nodes().nth(*node_index).expect("validated index");
             let node_name = node.name().map(str::to_string).unwrap_or_else(|| format!("node {node_index}"));
+            let visible = *visible;
+            if !visible
+                && (node.mesh().is_some()
+                    || node.light().is_some()
+                    || node.extension_value("CAUSTIC_lights_area").is_some())
+            {
+                hidden_nodes.push(format!("'{node_name}'"));
+            }
             if !world.is_finite() {
                 return Err(self.err(format!("node {node_index} ('{node_name}'): transform is not finite")));
             }
@@ -399,7 +423,7 @@ impl<'a> Loader<'a> {
                 }
                 None => None,
             };
-            if let Some(m) = node.mesh() {
+            if let Some(m) = node.mesh().filter(|_| visible) {
                 used_meshes.insert(m.index());
                 // EXT_mesh_gpu_instancing draws the mesh once per row of its attributes.
                 let copies = self.mesh_copies(&doc, &node, &node_name, world, &buffers)?;
@@ -509,7 +533,7 @@ impl<'a> Loader<'a> {
                 cameras.push(self.panoramic_camera(&node_name, world, v.clone())?);
                 camera_nodes.push(*node_index);
             }
-            if let Some(l) = node.light() {
+            if let Some(l) = node.light().filter(|_| visible) {
                 let blender = node.extension_value("CAUSTIC_lights_punctual").cloned();
                 let (light, rep, graph) = self.punctual_light(&l, &node_name, world, blender)?;
                 if let Some(g) = graph {
@@ -535,7 +559,7 @@ impl<'a> Loader<'a> {
                 lights.push(light);
                 light_reports.push(rep);
             }
-            if let Some(ext) = node.extension_value("CAUSTIC_lights_area") {
+            if let Some(ext) = node.extension_value("CAUSTIC_lights_area").filter(|_| visible) {
                 area_lights.push((ext.clone(), node_name.clone(), *world, rule));
             }
         }
@@ -543,6 +567,12 @@ impl<'a> Loader<'a> {
         // (its Light Path trick: Emission for camera rays, Transparent for every other ray):
         // it shows its colour, casts no shadow and lights nothing (`materials.rs`).
         ray_visibility.camera_only(mesh.triangles.len(), |t| materials[mesh.tri_material[t] as usize].unlit);
+        if !hidden_nodes.is_empty() {
+            self.warn(format!(
+                "KHR_node_visibility hides node(s) {}: their meshes and lights are not rendered (cameras stay usable)",
+                hidden_nodes.join(", ")
+            ));
+        }
         ray_visibility.finish(mesh.triangles.len());
         undisplaced.finish(&mut mesh);
         self.finish_attributes(&mut mesh, &materials);

@@ -6,9 +6,15 @@ use crate::error::Result;
 use glam::Mat4;
 
 impl Loader<'_> {
-    /// Walks the scene's node trees; returns (node, world matrix) for every node
-    /// reached, refusing cycles.
-    pub(super) fn instances(&mut self, doc: &gltf::Document, value: &serde_json::Value) -> Result<Vec<(usize, Mat4)>> {
+    /// Walks the scene's node trees; returns (node, world matrix, visible) for every node
+    /// reached, refusing cycles. `KHR_node_visibility`: a node is visible when its own
+    /// `visible` (default true) and every ancestor's are; a hidden node's meshes and lights
+    /// are not rendered, its camera stays usable (the extension's rule).
+    pub(super) fn instances(
+        &mut self,
+        doc: &gltf::Document,
+        value: &serde_json::Value,
+    ) -> Result<Vec<(usize, Mat4, bool)>> {
         let n = doc.nodes().count();
         // Cycle check over the children graph (iterative three-colour DFS).
         let children: Vec<Vec<usize>> = doc.nodes().map(|nd| nd.children().map(|c| c.index()).collect()).collect();
@@ -78,17 +84,24 @@ impl Loader<'_> {
             }
         }
         let mut out = Vec::new();
-        let mut stack: Vec<(usize, Mat4)> = roots.into_iter().rev().map(|r| (r, Mat4::IDENTITY)).collect();
-        while let Some((node, parent)) = stack.pop() {
+        let mut stack: Vec<(usize, Mat4, bool)> = roots.into_iter().rev().map(|r| (r, Mat4::IDENTITY, true)).collect();
+        while let Some((node, parent, parent_visible)) = stack.pop() {
             let nd = doc.nodes().nth(node).expect("validated index");
             let local = Mat4::from_cols_array_2d(&nd.transform().matrix());
             let world = parent * local;
-            out.push((node, world));
+            let own = match nd.extension_value("KHR_node_visibility").and_then(|v| v.get("visible")) {
+                None => true,
+                Some(v) => v.as_bool().ok_or_else(|| {
+                    self.err(format!("node {node}: KHR_node_visibility's visible is not a boolean ({v})"))
+                })?,
+            };
+            let visible = parent_visible && own;
+            out.push((node, world, visible));
             if out.len() > MAX_INSTANCES {
                 return Err(self.err(format!("more than {MAX_INSTANCES} node instances: shared subtrees explode")));
             }
             for c in children[node].iter().rev() {
-                stack.push((*c, world));
+                stack.push((*c, world, visible));
             }
         }
         Ok(out)

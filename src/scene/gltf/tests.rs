@@ -93,6 +93,8 @@ fn every_extension_caustic_renders_may_be_required() {
     for name in [
         "KHR_materials_clearcoat",
         "KHR_materials_transmission",
+        "KHR_materials_diffuse_transmission",
+        "KHR_node_visibility",
         "KHR_materials_volume",
         "KHR_materials_ior",
         "KHR_materials_specular",
@@ -126,8 +128,8 @@ fn every_extension_caustic_renders_may_be_required() {
 #[test]
 fn unknown_required_extensions_are_refused_by_name() {
     for unknown in [
-        &["KHR_texture_basisu"][..],
-        &["KHR_materials_clearcoat", "EXT_meshopt_compression", "KHR_materials_diffuse_transmission"],
+        &["KHR_texture_video"][..],
+        &["KHR_materials_clearcoat", "EXT_meshopt_compression", "KHR_materials_volume_scatter"],
     ] {
         let msg = load_requiring(unknown).expect_err("refused").to_string();
         for name in unknown.iter().filter(|n| !SUPPORTED_REQUIRED.contains(n)) {
@@ -168,4 +170,88 @@ fn caustic_default_material_names_the_material_for_primitives_without_one() {
         let msg = load_triangle(&[], root).expect_err("refused").to_string();
         assert!(msg.contains(want), "{msg}");
     }
+}
+
+/// A KTX2 image's bytes (the file identifier and nothing more: Caustic must never decode it).
+fn ktx2_uri() -> String {
+    let magic = [0xABu8, 0x4B, 0x54, 0x58, 0x20, 0x32, 0x30, 0xBB, 0x0D, 0x0A, 0x1A, 0x0A];
+    format!("data:image/ktx2;base64,{}", base64::engine::general_purpose::STANDARD.encode(magic))
+}
+
+#[test]
+fn khr_texture_basisu_renders_the_fallback_or_drops_the_texture_by_name() {
+    // With a PNG fallback (green) as the core source: that image is the texture, quietly.
+    let root = json!({
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "material": 0}]}],
+        "materials": [{"name": "leafy", "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}],
+        "textures": [{"source": 0, "extensions": {"KHR_texture_basisu": {"source": 1}}}],
+        "images": [{"uri": image_uri([0, 255, 0], false)}, {"uri": ktx2_uri()}]
+    });
+    let scene = load_triangle(&[], root).expect("loads");
+    assert_eq!(scene.textures.len(), 1);
+    assert!(scene.textures[0].texels.iter().all(|t| t[..3] == [0, 255, 0]));
+    assert!(scene.materials[0].base_color_tex.is_some());
+    assert!(scene.warnings.iter().all(|w| !w.contains("KTX2")), "{:?}", scene.warnings);
+    // Without a fallback (the extension required): no texture, a warning naming texture and
+    // material, the factor alone.
+    let root = json!({
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "material": 0}]}],
+        "materials": [{"name": "leafy", "pbrMetallicRoughness": {"baseColorFactor": [0.2, 0.6, 0.1, 1],
+            "baseColorTexture": {"index": 0}}, "normalTexture": {"index": 0},
+            "extensions": {"KHR_materials_sheen": {"sheenColorFactor": [1, 1, 1], "sheenColorTexture": {"index": 0}}}}],
+        "textures": [{"name": "bark", "extensions": {"KHR_texture_basisu": {"source": 0}}}],
+        "images": [{"uri": ktx2_uri()}]
+    });
+    let scene = load_triangle(&["KHR_texture_basisu"], root).expect("a file requiring it loads");
+    let m = &scene.materials[0];
+    assert!(m.base_color_tex.is_none() && m.normal_tex.is_none() && m.sheen_color_tex.is_none());
+    assert!(scene.textures.is_empty(), "the KTX2 image is never decoded");
+    assert_eq!(m.base_color, glam::Vec4::new(0.2, 0.6, 0.1, 1.0));
+    let w: Vec<&String> = scene.warnings.iter().filter(|w| w.contains("KTX2")).collect();
+    assert_eq!(w.len(), 1, "one warning for the three uses: {:?}", scene.warnings);
+    assert!(w[0].contains("material 'leafy'") && w[0].contains("texture 0 ('bark')"), "{}", w[0]);
+}
+
+#[test]
+fn khr_materials_variants_renders_the_default_material_quietly() {
+    let root = json!({
+        "extensionsUsed": ["KHR_materials_variants"],
+        "extensions": {"KHR_materials_variants": {"variants": [{"name": "red"}, {"name": "blue"}]}},
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "material": 0,
+            "extensions": {"KHR_materials_variants": {"mappings": [{"material": 1, "variants": [0]},
+                {"material": 2, "variants": [1]}]}}}]}],
+        "materials": [{"name": "default"}, {"name": "red"}, {"name": "blue"}]
+    });
+    let scene = load_triangle(&[], root).expect("loads");
+    assert_eq!(scene.materials[scene.mesh.tri_material[0] as usize].name, "default");
+    assert!(scene.warnings.iter().all(|w| !w.contains("variants")), "{:?}", scene.warnings);
+}
+
+#[test]
+fn khr_node_visibility_hides_a_subtree_but_not_its_camera() {
+    // Node 0 (hidden) holds a mesh, a child with a mesh marked visible (hidden by its parent)
+    // and a child camera; node 3 is a visible mesh; node 4 a hidden light.
+    let root = json!({
+        "extensionsUsed": ["KHR_node_visibility", "KHR_lights_punctual"],
+        "extensions": {"KHR_lights_punctual": {"lights": [{"type": "point", "intensity": 100.0}]}},
+        "cameras": [{"type": "perspective", "perspective": {"yfov": 0.8, "znear": 0.1}}],
+        "nodes": [
+            {"name": "hidden", "mesh": 0, "children": [1, 2], "extensions": {"KHR_node_visibility": {"visible": false}}},
+            {"name": "child", "mesh": 0, "translation": [0, 0, 1], "extensions": {"KHR_node_visibility": {"visible": true}}},
+            {"name": "cam", "camera": 0, "translation": [0, 0, 5]},
+            {"name": "shown", "mesh": 0, "translation": [0, 0, 2]},
+            {"name": "lamp", "extensions": {"KHR_lights_punctual": {"light": 0}, "KHR_node_visibility": {"visible": false}}}
+        ],
+        "scenes": [{"nodes": [0, 3, 4]}]
+    });
+    let scene = load_triangle(&[], root).expect("loads");
+    assert_eq!(scene.mesh.triangles.len(), 1, "only 'shown' is drawn");
+    assert!(scene.mesh.positions.iter().all(|p| p.z == 2.0), "{:?}", scene.mesh.positions);
+    assert_eq!(scene.cameras.len(), 1, "the hidden node's camera stays usable");
+    assert!(scene.lights.is_empty(), "the hidden light lights nothing");
+    let note = scene.warnings.iter().find(|w| w.contains("KHR_node_visibility")).expect("a note");
+    assert!(note.contains("'hidden'") && note.contains("'child'") && note.contains("'lamp'"), "{note}");
+    let bad = json!({"nodes": [{"mesh": 0, "extensions": {"KHR_node_visibility": {"visible": "no"}}}]});
+    let msg = load_triangle(&[], bad).expect_err("refused").to_string();
+    assert!(msg.contains("visible is not a boolean"), "{msg}");
 }

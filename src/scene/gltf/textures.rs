@@ -23,7 +23,45 @@ pub(super) fn prefer_webp_sources(root: &mut serde_json::Value) {
     }
 }
 
+/// `KHR_texture_basisu`: a texture whose core `source` is a PNG or JPEG has it as the fallback
+/// for viewers without Basis Universal, and Caustic reads it (the extension's KTX2 image is
+/// never decoded). A texture with the extension's source alone gets that source as its core
+/// one, so that the document parses and its references are checked, and is returned here:
+/// Caustic cannot decode KTX2, so the materials drop such a texture with a warning naming it
+/// (`Loader::undecodable`). Done on the raw JSON, as [`prefer_webp_sources`].
+pub(super) fn basisu_only_textures(root: &mut serde_json::Value) -> std::collections::HashSet<usize> {
+    let mut out = std::collections::HashSet::new();
+    let Some(textures) = root.get_mut("textures").and_then(|t| t.as_array_mut()) else {
+        return out;
+    };
+    for (i, t) in textures.iter_mut().enumerate() {
+        let ktx2 = t.pointer("/extensions/KHR_texture_basisu/source").cloned();
+        if let (Some(source), Some(obj)) = (ktx2, t.as_object_mut())
+            && !obj.contains_key("source")
+        {
+            obj.insert("source".into(), source);
+            out.insert(i);
+        }
+    }
+    out
+}
+
 impl Loader<'_> {
+    /// True (with a warning naming the texture and `material`) when `texture` is a KTX2 image
+    /// without a fallback (`basisu_only_textures`): the material then renders without it.
+    pub(super) fn undecodable(&mut self, texture: &gltf::Texture, material: &str) -> bool {
+        if !self.basisu_only.contains(&texture.index()) {
+            return false;
+        }
+        let name = texture.name().or_else(|| texture.source().name()).map(|n| format!(" ('{n}')")).unwrap_or_default();
+        self.warn(format!(
+            "material '{material}': texture {}{name} is a KTX2 image (KHR_texture_basisu) without a PNG or JPEG \
+             fallback, which Caustic cannot decode: the material renders without that texture (its factor alone)",
+            texture.index()
+        ));
+        true
+    }
+
     pub(super) fn image(&mut self, doc: &gltf::Document, index: usize, buffers: &[Vec<u8>]) -> Result<DecodedImage> {
         if let Some(img) = self.images.get(&index) {
             return Ok(img.clone());
@@ -124,6 +162,7 @@ impl Loader<'_> {
         Ok(TexRef { texture: index, tex_coord: tex_coord.min(1), transform })
     }
 
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn info_texture(
         &mut self,
         doc: &gltf::Document,
@@ -132,8 +171,12 @@ impl Loader<'_> {
         buffers: &[Vec<u8>],
         features: &mut Vec<String>,
         label: &str,
+        material: &str,
     ) -> Result<Option<TexRef>> {
         let Some(info) = info else { return Ok(None) };
+        if self.undecodable(&info.texture(), material) {
+            return Ok(None);
+        }
         let mut tex_coord = info.tex_coord();
         let mut transform = Mat3::IDENTITY;
         if let Some(t) = info.texture_transform() {
@@ -178,6 +221,9 @@ impl Loader<'_> {
             if let Some(tc) = t.get("texCoord").and_then(|v| v.as_u64()) {
                 tex_coord = tc as u32;
             }
+        }
+        if self.undecodable(&texture, material) {
+            return Ok(None);
         }
         self.texture(doc, texture, tex_coord, transform, srgb, buffers).map(Some)
     }
