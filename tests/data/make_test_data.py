@@ -1143,11 +1143,11 @@ def make_bad_inf_position():
 
 def make_bad_unsupported_required_ext():
     b = triangle_builder()
-    b.use_extension("KHR_texture_basisu", required=True)
+    b.use_extension("EXT_texture_avif", required=True)
     b.write_gltf("bad/unsupported_required_ext.gltf", "datauri")
     return bad("bad/unsupported_required_ext.gltf", "extensionsRequired "
-               "['KHR_texture_basisu']: refused, naming it",
-               contains=["khr_texture_basisu"])
+               "['EXT_texture_avif']: refused, naming it",
+               contains=["ext_texture_avif"])
 
 
 def make_bad_unknown_required_ext():
