@@ -672,6 +672,8 @@ def needs_graph(material, graph):
         return True  # the exporter writes a UDIM image's first tile only
     if _raw_walk_has_group_or_mute(cycles_output(material)):
         return True
+    if _ignored_link_into(material, graph):
+        return True  # the exporter follows it (and drops the socket's value); Cycles does not
     if any(_foreign_colour_space(graph, n) for n in graph.nodes):
         return True  # the exporter copies the file; the graph's image is converted (node_images.py)
     if any(_associated_alpha(graph, n) for n in graph.nodes):
@@ -688,6 +690,21 @@ def needs_graph(material, graph):
             if item["link"][1] == "Alpha" and _alpha_ignored(graph, source):
                 return True  # the exporter reads the stored alpha; the graph's image writes 1
     return False
+
+
+def _ignored_link_into(material, graph):
+    """Whether a link that Cycles ignores (invalid, muted, or from or to a socket the nodes'
+    settings made unavailable, as a Voronoi's Distance in N-Sphere Radius mode) ends on a node
+    of `graph`: the glTF exporter follows such a link to a Base Color and, finding no image,
+    drops the socket's own value (white instead of Cycles' 0.8)."""
+    tree = getattr(material, "node_tree", None)
+    if tree is None:
+        return False
+    names = {entry["name"] for entry in graph.nodes}
+    return any(link.to_node.name in names
+               and not (link.is_valid and not link.is_muted and _available(link.from_socket)
+                        and _available(link.to_socket))
+               for link in tree.links)
 
 
 def _foreign_colour_space(graph, entry):

@@ -158,7 +158,7 @@ def layer_render_settings(scene, view_layer, objects, resolution, camera_name):
     if aovs is not None:
         settings["shader_aovs"] = aovs
     layer_samples(scene, view_layer, settings)
-    warnings += light_paths_warnings(scene)
+    warnings += light_paths_warnings(scene) + texture_limit_warnings(scene)
     return settings, warnings
 
 
@@ -184,3 +184,18 @@ def light_paths_warnings(scene):
         return ["Light Paths > Fast GI Approximation is not rendered: Caustic traces full global illumination "
                 "(brighter where Cycles replaces indirect light by ambient occlusion)"]
     return []
+
+
+def texture_limit_warnings(scene):
+    """A warning naming the images Simplify's render Texture Limit would shrink in Cycles
+    (halved until their longer side fits): Caustic renders them at full size."""
+    cycles = getattr(scene, "cycles", None)
+    limit = getattr(cycles, "texture_limit_render", "OFF") if scene.render.use_simplify else "OFF"
+    if limit == "OFF":
+        return []
+    import bpy
+    names = sorted(i.name for i in bpy.data.images if i.users and max(i.size[:2], default=0) > int(limit))
+    if not names:
+        return []
+    return [f"Simplify's Texture Limit ({limit} px) is not applied: image(s) {', '.join(names)} render at full "
+            "size (Cycles scales them down)"]

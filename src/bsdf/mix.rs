@@ -784,11 +784,18 @@ impl MixBsdf {
         }
         for lobe in &mut self.lobes[..self.n as usize] {
             match lobe {
-                Lobe::Glossy { ggx, roughness, .. } => {
+                Lobe::Glossy { ggx, roughness, fms, .. } => {
                     *ggx = ggx.blurred(alpha);
-                    let (x, y) = ggx.alphas();
-                    // `roughness` decides smoothness at evaluation; the fms keeps the original.
-                    *roughness = roughness.max(x.max(y).sqrt());
+                    // `roughness` decides smoothness at evaluation and is the axis of the
+                    // multiple-scattering factor, which Cycles computes at setup from the
+                    // unblurred width: a lobe with that factor (rough already) keeps it, a
+                    // smooth one (no factor) turns rough. Read at the blurred width, the
+                    // factor added up to 20 % to a blurred Multiscatter GGX mirror (a glossy
+                    // floor lighting a diffuse ball: 1.011 of Cycles' mean).
+                    if *fms == Rgb::ZERO {
+                        let (x, y) = ggx.alphas();
+                        *roughness = roughness.max(x.max(y).sqrt());
+                    }
                 }
                 Lobe::AshikhminShirley(a) => *a = a.blurred(alpha),
                 Lobe::Dielectric(d) => d.blur(alpha),
@@ -1061,6 +1068,34 @@ mod tests {
             }
             let mean = sum / n as f64;
             assert!((mean - 1.0).abs() < 0.02, "θ={theta}: albedo {mean}");
+        }
+    }
+}
+
+#[cfg(test)]
+mod blur_tests {
+    use super::*;
+
+    /// Filter Glossy widens a compensated GGX lobe and nothing else: its multiple-scattering
+    /// factor stays the unblurred roughness's (Cycles scales the closure's weight at setup,
+    /// before `bsdf_blur`), so blurred f / the blurred single-scattering f is that factor.
+    #[test]
+    fn blur_keeps_the_multiscatter_factor_of_the_unblurred_lobe() {
+        let lobe = Lobe::glossy(0.3, GlossyFresnel::Constant);
+        let Lobe::Glossy { fms, .. } = lobe else { unreachable!() };
+        assert!(fms != Rgb::ZERO);
+        let mut m = MixBsdf::new();
+        m.push(Rgb::ONE, lobe);
+        m.blur(0.42);
+        let Lobe::Glossy { ggx, roughness, .. } = m.lobes[0] else { unreachable!() };
+        assert!(ggx.alphas().0 > 0.4, "the width is blurred");
+        let single = Lobe::Glossy { ggx, roughness, fresnel: GlossyFresnel::Constant, fms: Rgb::ZERO };
+        let wo = Vec3::new(0.5, 0.0, 0.6).normalize();
+        for wi in [Vec3::new(-0.3, 0.1, 0.9), Vec3::new(-0.7, -0.2, 0.4), Vec3::new(0.1, 0.5, 0.8)] {
+            let wi = wi.normalize();
+            let factor = m.lobes[0].eval(wo, wi) / single.eval(wo, wi);
+            let want = Lobe::glossy_ms(fms, 0.3, wo.z);
+            assert!((factor - want).abs().max_element() < 1e-5, "{factor:?} against {want:?}");
         }
     }
 }

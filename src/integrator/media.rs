@@ -168,6 +168,8 @@ pub fn light_transmittance_as(
             crossings += 1;
             tr *= ctx.scene.transmission(h.tri, h.b1, h.b2, path.at(travelled + h.t), dir);
             path = path.passed_transparent();
+            // The shadow ray enters or leaves its medium too (Cycles' transparent shadows).
+            stack = ctx.medium_after(&s, dir, stack);
         } else {
             return Rgb::ZERO;
         }

@@ -262,6 +262,9 @@ impl PathState {
                 self.transparent_hits += 1;
                 self.light_path = self.light_path.moved(hit.t).passed_transparent();
                 self.beta *= tint;
+                // Crossing enters or leaves the material's medium, as Cycles' transparent
+                // bounce does (a Transparent surface around glowing fog showed nothing).
+                self.media = ctx.medium_after(&s, self.dir, self.media);
                 self.org = offset_ray_origin(s.p, -s.ng);
                 self.tmax = tmax - hit.t;
                 stats.bounce += 1;

@@ -291,11 +291,12 @@ pub enum Op {
         lambda: Reg,
         out: Reg,
     },
-    /// Wireframe without Pixel Size: 1 within `size` / 2 of one of the shaded triangle's
-    /// edges, else 0 (Cycles' `wireframe`).
+    /// Wireframe: 1 within `size` / 2 of one of the shaded triangle's edges, else 0 (Cycles'
+    /// `wireframe`); with `pixel_size` the size is in pixels, times the ray's footprint.
     Wireframe {
         size: Reg,
         out: Reg,
+        pixel_size: bool,
     },
     BrightContrast {
         c: Reg,
@@ -565,10 +566,11 @@ impl Program {
         self.emits && self.constant_emission.is_none() && self.light_path_outputs().next().is_some()
     }
 
-    /// True when a Bump (node or Displacement output) reads the ray's footprint, anywhere in
-    /// the graph (the AOV Output tail included): the one reader of camera footprints.
+    /// True when a Bump (node or Displacement output) or a Wireframe with Pixel Size reads
+    /// the ray's footprint, anywhere in the graph (the AOV Output tail included): the readers
+    /// of camera footprints.
     pub fn reads_footprint(&self) -> bool {
-        self.ops.iter().any(|op| matches!(op, Op::Bump(_)))
+        self.ops.iter().any(|op| matches!(op, Op::Bump(_) | Op::Wireframe { pixel_size: true, .. }))
     }
 }
 

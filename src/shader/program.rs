@@ -186,7 +186,10 @@ impl Program {
                 r[out as usize] = r[strength as usize] * f;
             }
             Op::Wavelength { lambda, out } => set3(r, out, ops::wavelength_to_rgb(r[lambda as usize], &self.space)),
-            Op::Wireframe { size, out } => r[out as usize] = wireframe(g, r[size as usize]),
+            Op::Wireframe { size, out, pixel_size } => {
+                let size = r[size as usize];
+                r[out as usize] = wireframe(g, if pixel_size { size * pixel_width(g) } else { size });
+            }
             Op::BrightContrast { c, bright, contrast, out } => {
                 set3(r, out, ops::bright_contrast(v3(r, c), r[bright as usize], r[contrast as usize]))
             }
@@ -515,7 +518,25 @@ fn perpendicular(t: Vec3, n: Vec3) -> Vec3 {
     n.cross(t.cross(n).normalize_or_zero())
 }
 
-/// The Wireframe node's Fac at `g` without Pixel Size (Cycles' `wireframe`): 1 where the
+/// One pixel's width at `g` for the Wireframe node's Pixel Size, as Cycles measures it: the
+/// compact differential `sd->dP` (the ray's footprint; for a path from a light, the camera's
+/// footprint at the point) spread along `make_orthonormals(Ng)`'s two axes, each projected on
+/// the plane facing the viewer, their lengths averaged (`svm_wireframe.h`).
+fn pixel_width(g: &Geom) -> f32 {
+    let footprint = g.path.footprint_radius().unwrap_or_else(|| g.view.footprint_at(g.p));
+    let Some(&[i0, i1, i2]) = g.mesh.triangles.get(g.tri as usize) else {
+        return footprint;
+    };
+    let m = g.mesh;
+    let p0 = m.positions[i0 as usize];
+    let ng = (m.positions[i1 as usize] - p0).cross(m.positions[i2 as usize] - p0).normalize_or(Vec3::Z);
+    let (ex, ey) = cycles_orthonormals(to_blender(if ng.dot(g.ng) < 0.0 { -ng } else { ng }));
+    let wi = to_blender(g.wo);
+    let across = |e: Vec3| (1.0 - e.dot(wi).powi(2)).max(0.0).sqrt();
+    footprint * 0.5 * (across(ex) + across(ey))
+}
+
+/// The Wireframe node's Fac at `g` for a width `size` in scene units (Cycles' `wireframe`): 1 where the
 /// point lies within `size` / 2 of one of its triangle's three edges (the triangulated mesh's,
 /// as Cycles), each neighbour drawing its own half; 0 off a triangle (a strand).
 fn wireframe(g: &Geom, size: f32) -> f32 {

@@ -236,8 +236,19 @@ def wireframe(name):
     return mat
 
 
+def wireframe_pixel_size(name):
+    """`wireframe` with Pixel Size on and Size 0.5 (pixels): Cycles scales the width by the
+    ray's footprint (`svm_wireframe.h`). Caustic/Cycles R/G/B before (0.5 read as scene units,
+    with a warning) 1.1736/1.0824/0.8302, after 1.0024/1.0009/0.9970."""
+    mat = wireframe(name)
+    wire = mat.node_tree.nodes["Wireframe"]
+    wire.use_pixel_size = True
+    wire.inputs["Size"].default_value = 0.5
+    return mat
+
+
 CONVERTERS = {"wavelength": (flat_scene, wavelength_gradient), "normal_dot": (sphere_scene, normal_dot),
-              "wireframe": (sphere_scene, wireframe)}
+              "wireframe": (sphere_scene, wireframe), "wireframe_pixel_size": (sphere_scene, wireframe_pixel_size)}
 
 
 @pytest.mark.parametrize("case", list(CONVERTERS))

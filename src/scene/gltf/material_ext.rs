@@ -426,6 +426,14 @@ impl Loader<'_> {
         mat.diffuse_transmission_color_tex = diffuse_transmission_color_tex;
         mat.medium = medium;
         mat.null_surface = null_surface;
+        if null_surface {
+            // No surface, no surface emission (Cycles renders nothing of an unlinked Surface
+            // output). Blender's glTF exporter writes a volume's Emission node as
+            // emissiveFactor, which made the boundary's triangles lights that NEE sampled
+            // though camera rays crossed them unseen: 1.37x Cycles in a cube glowing alone.
+            mat.emissive = glam::Vec3::ZERO;
+            mat.emissive_tex = None;
+        }
         mat.subsurface = subsurface;
         mat.coat = coat;
         mat.coat_tex = coat_tex;

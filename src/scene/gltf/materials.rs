@@ -417,6 +417,25 @@ mod tests {
     }
 
     #[test]
+    fn a_medium_without_surface_emits_nothing_from_its_boundary() {
+        // Blender's glTF exporter writes a Volume output's Emission node as emissiveFactor;
+        // with no surface the boundary must not become an emitter (its triangles lights).
+        let (m, _) = material(
+            json!({"emissiveFactor": [0.8, 0.32, 0.08], "extensions": {
+                "CAUSTIC_materials_medium": {"density": 0.0, "emission": [0.8, 0.32, 0.08], "surface": false}}}),
+            0,
+        );
+        assert!(m.null_surface && !m.is_emissive() && m.emissive_tex.is_none());
+        assert_eq!(m.medium.expect("medium").emission, Vec3::new(0.8, 0.32, 0.08));
+        let (m, _) = material(
+            json!({"emissiveFactor": [0.8, 0.32, 0.08], "extensions": {
+                "CAUSTIC_materials_medium": {"density": 0.0, "emission": [0.8, 0.32, 0.08], "surface": true}}}),
+            0,
+        );
+        assert!(m.is_emissive(), "a surface keeps its own emission");
+    }
+
+    #[test]
     fn caustic_medium_and_subsurface() {
         let (m, _) = material(
             json!({"extensions": {

@@ -441,7 +441,19 @@ impl Compiler<'_> {
                 }
                 (ClosureKind::Sheen { velvet }, self.vec(i, "Color", Vec3::splat(0.8))?)
             }
-            "ShaderNodeBsdfTransparent" => {
+            // Cycles' Ray Portal with its Position and Direction unlinked (the hit point, the
+            // ray's own direction: `bsdf_ray_portal_setup`) continues the ray straight on,
+            // tinted by its colour, and adds its weight to the transparency shadow rays see:
+            // a Transparent BSDF. A linked one would teleport the ray, which is not followed.
+            "ShaderNodeBsdfTransparent" | "ShaderNodeBsdfRayPortal" => {
+                let linked = |id: &str| self.desc(i).inputs.get(id).is_some_and(|d| d.link.is_some());
+                if kind == "ShaderNodeBsdfRayPortal" && (linked("Position") || linked("Direction")) {
+                    self.warn(
+                        i,
+                        "a linked Position or Direction is not followed (rays are not moved): rendered as a \
+                         Transparent BSDF, rays continuing straight through",
+                    );
+                }
                 let c = self.vec(i, "Color", Vec3::ONE)?;
                 if !self.is_const(c, 3) || {
                     let v = &self.init[c as usize..c as usize + 3];

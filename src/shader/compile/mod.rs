@@ -343,6 +343,7 @@ fn is_closure_node(kind: &str) -> bool {
             | "ShaderNodeBsdfTranslucent"
             | "ShaderNodeBsdfToon"
             | "ShaderNodeBsdfTransparent"
+            | "ShaderNodeBsdfRayPortal"
             | "ShaderNodeBsdfSheen"
             | "ShaderNodeEmission"
             | "ShaderNodeBackground"

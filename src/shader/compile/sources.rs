@@ -300,12 +300,10 @@ impl Compiler<'_> {
             }
             "ShaderNodeWireframe" => {
                 self.all_const = false;
-                if self.prop_bool(i, "use_pixel_size", false) {
-                    self.warn(i, "Pixel Size is not supported (no ray differentials): the size is in scene units");
-                }
+                let pixel_size = self.prop_bool(i, "use_pixel_size", false);
                 let size = self.float(i, "Size", 0.01)?;
                 let out = self.out(i, "Fac", Ty::Float);
-                self.ops.push(Op::Wireframe { size, out });
+                self.ops.push(Op::Wireframe { size, out, pixel_size });
             }
             "ShaderNodeNormal" => {
                 // Normal: the node's direction (Blender axes, the add-on's `direction`),
