@@ -836,6 +836,12 @@ impl MixBsdf {
         self.parts().all(|(_, p, _, _)| p.is_delta()) && self.lobes[..self.n as usize].iter().all(Lobe::smooth)
     }
 
+    /// True when some lobe is a Translucent BSDF (a diffuse-class closure that sends light to
+    /// the other side).
+    pub fn has_translucent(&self) -> bool {
+        self.lobes[..self.n as usize].iter().any(|l| matches!(l, Lobe::Translucent))
+    }
+
     /// True when some lobe transmits.
     pub fn transmits(&self) -> bool {
         self.parts().any(|(_, p, _, _)| p.transmits())
