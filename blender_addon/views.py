@@ -17,6 +17,8 @@ import json
 
 from mathutils import Matrix, Quaternion, Vector
 
+from .export.camera import lens_shift
+
 
 def active_views(scene):
     """Names of the views to render: every enabled view under Stereoscopy, else one nameless
@@ -57,7 +59,7 @@ def gltf_for_view(gltf_path, out_path, camera, offset, shift_x, resolution, pixe
     for key in ("translation", "rotation", "scale"):
         node.pop(key, None)
     node["matrix"] = [float(local[r][c]) for c in range(4) for r in range(4)]
-    shift = _shift(camera.data, shift_x, resolution, pixel_aspect)
+    shift = lens_shift(camera.data, shift_x, resolution, pixel_aspect)
     ext = node.setdefault("extensions", {})
     value = copy.deepcopy(ext.get("CAUSTIC_camera", {}))
     if shift is not None:
@@ -93,17 +95,3 @@ def _node_matrix(node):
     s = node.get("scale", [1.0, 1.0, 1.0])
     return Matrix.Translation(t) @ Quaternion((w, x, y, z)).to_matrix().to_4x4() @ Matrix.Diagonal((*s, 1.0))
 
-
-def _shift(cam, shift_x, resolution, pixel_aspect):
-    """The contract's shift for `cam` with Shift X `shift_x` (as `camera_extension` writes it),
-    or None when both are 0."""
-    xr = float(resolution[0]) * float(pixel_aspect[0])
-    yr = float(resolution[1]) * float(pixel_aspect[1])
-    if shift_x == 0.0 and cam.shift_y == 0.0:
-        return None
-    if cam.type == "PANO":
-        return [shift_x, float(cam.shift_y)]
-    horizontal = xr > yr if cam.sensor_fit == "AUTO" else cam.sensor_fit == "HORIZONTAL"
-    if horizontal:
-        return [shift_x, float(cam.shift_y) * xr / yr]
-    return [shift_x * yr / xr, float(cam.shift_y)]

@@ -4,7 +4,7 @@
 mod common;
 
 use base64::Engine;
-use common::{run, temp_dir};
+use common::{render_image, run, temp_dir};
 use serde_json::json;
 use std::time::Duration;
 
@@ -131,26 +131,8 @@ fn an_unlit_surface_casts_no_shadow_and_lights_nothing_in_every_integrator() {
     let base = [0.9f32, 0.45, 0.1];
     let render = |path: &std::path::Path, integrator: &str| {
         let out = dir.path().join(format!("{integrator}.exr"));
-        let r = run(
-            &[
-                "render",
-                path.to_str().unwrap(),
-                "-o",
-                out.to_str().unwrap(),
-                "--resolution",
-                "16x16",
-                "--spp",
-                "64",
-                "--integrator",
-                integrator,
-                "--progress",
-                "none",
-            ],
-            Duration::from_secs(120),
-        );
-        assert_eq!(r.code, Some(0), "{integrator}: {}", r.stderr);
-        let (w, _, px) = caustic::output::read_combined(&out).unwrap();
-        (w, px)
+        let args = ["--resolution", "16x16", "--spp", "64", "--integrator", integrator];
+        (16usize, render_image(path, &out, &args, Duration::from_secs(120)))
     };
     // The floor alone, path traced: what the floor must look like with the quad there too.
     let (w, bare) = render(&floor_under_unlit_quad(dir.path(), base, false), "path");

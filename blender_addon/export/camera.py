@@ -4,6 +4,21 @@ drops (contract: `CAUSTIC_camera`)."""
 CAMERA_EXTENSION = "CAUSTIC_camera"
 
 
+def lens_shift(cam, shift_x, resolution, pixel_aspect):
+    """The contract's `shift` of camera data `cam` with Shift X `shift_x` (its own, or a
+    stereo eye's), or None when both shifts are 0 (see `camera_extension`)."""
+    if shift_x == 0.0 and cam.shift_y == 0.0:
+        return None
+    if cam.type == "PANO":
+        return [float(shift_x), float(cam.shift_y)]
+    xr = float(resolution[0]) * float(pixel_aspect[0])
+    yr = float(resolution[1]) * float(pixel_aspect[1])
+    horizontal = xr > yr if cam.sensor_fit == "AUTO" else cam.sensor_fit == "HORIZONTAL"
+    if horizontal:
+        return [float(shift_x), float(cam.shift_y) * xr / yr]
+    return [float(shift_x) * yr / xr, float(cam.shift_y)]
+
+
 def camera_extension(blender_object, resolution, pixel_aspect=(1.0, 1.0)):
     """Blender's lens shift and depth of field for a camera object (`CAUSTIC_camera`), and warnings.
 
@@ -22,19 +37,13 @@ def camera_extension(blender_object, resolution, pixel_aspect=(1.0, 1.0)):
     warnings = []
     xr = float(resolution[0]) * float(pixel_aspect[0])
     yr = float(resolution[1]) * float(pixel_aspect[1])
-    fit = cam.sensor_fit
-    horizontal = xr > yr if fit == "AUTO" else fit == "HORIZONTAL"
-    if horizontal:
-        shift = [cam.shift_x, cam.shift_y * xr / yr]
-    else:
-        shift = [cam.shift_x * yr / xr, cam.shift_y]
     value = {}
     if cam.type == "PANO":
-        shift = [cam.shift_x, cam.shift_y]
         value["panorama"] = panorama_extension(cam, xr, yr)
         value["clip"] = [float(cam.clip_start), float(cam.clip_end)]
-    if cam.shift_x != 0.0 or cam.shift_y != 0.0:
-        value["shift"] = [float(s) for s in shift]
+    shift = lens_shift(cam, cam.shift_x, resolution, pixel_aspect)
+    if shift is not None:
+        value["shift"] = shift
     dof = cam.dof
     if dof.use_dof:
         fstop = max(float(dof.aperture_fstop), 1e-5)

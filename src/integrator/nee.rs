@@ -76,9 +76,8 @@ pub fn surface_nee_at(
         if excluded.none() { at.eval(wi_local) } else { at.eval_visible(wi_local, excluded) } * wi_local.z.abs();
     // Shadow Terminator Shading Offset: the cosine to a light on the normal's side remapped
     // (`scene::terminator::shift_cos_in`), as Cycles' `bsdf_eval`.
-    let k = ctx.scene.ray_visibility.shading_frequency(s.tri);
-    if k > 1.0 && wi_local.z >= 0.0 {
-        f *= crate::scene::terminator::shift_cos_in(wi_local.z, k);
+    if wi_local.z >= 0.0 {
+        f *= ctx.scene.ray_visibility.shading_offset_factor(s.tri, wi_local.z);
     }
     // A light above the shading normal's horizon but below the triangle's plane: Cycles
     // traces it from the smooth patch where the object has a Shadow Terminator offset (the

@@ -627,9 +627,8 @@ impl PathIntegrator {
             }
             st.beta *= bs.f * (bs.wi.z.abs() / pdf);
             // Shading Offset on a reflected sample, as Cycles' `bsdf_sample` (not on transmission).
-            let k = ctx.scene.ray_visibility.shading_frequency(s.tri);
-            if k > 1.0 && !transmitted {
-                st.beta *= crate::scene::terminator::shift_cos_in(bs.wi.z, k);
+            if !transmitted {
+                st.beta *= ctx.scene.ray_visibility.shading_offset_factor(s.tri, bs.wi.z);
             }
             if !st.beta.is_finite() || st.beta == Rgb::ZERO {
                 break;

@@ -144,10 +144,15 @@ impl RayVisibility {
         }
     }
 
-    /// Triangle `tri`'s Shading Offset frequency multiplier (1: none).
+    /// The factor triangle `tri`'s Shading Offset puts on a BSDF value for light at cosine
+    /// `cos_in` to the shading normal on the viewer's side (`scene::terminator::shift_cos_in`):
+    /// 1 without an offset.
     #[inline]
-    pub fn shading_frequency(&self, tri: u32) -> f32 {
-        self.shading_frequency.get(tri as usize).copied().unwrap_or(1.0)
+    pub fn shading_offset_factor(&self, tri: u32, cos_in: f32) -> f32 {
+        match self.shading_frequency.get(tri as usize) {
+            Some(&k) if k > 1.0 => crate::scene::terminator::shift_cos_in(cos_in, k),
+            _ => 1.0,
+        }
     }
 
     /// Triangle `tri`'s Shadow Terminator Geometry Offset (0: none).

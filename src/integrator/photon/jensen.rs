@@ -601,9 +601,8 @@ impl JensenIntegrator {
             };
             let mut cos_over_pdf = bs.wi.z.abs() / bs.pdf;
             // Shading Offset on a reflected sample, as the path tracer (`path.rs`).
-            let k = ctx.scene.ray_visibility.shading_frequency(s.tri);
-            if k > 1.0 && bs.wi.z * wo_local.z > 0.0 {
-                cos_over_pdf *= crate::scene::terminator::shift_cos_in(bs.wi.z.abs(), k);
+            if bs.wi.z * wo_local.z > 0.0 {
+                cos_over_pdf *= ctx.scene.ray_visibility.shading_offset_factor(s.tri, bs.wi.z.abs());
             }
             let w_all = bs.f * cos_over_pdf;
             if !w_all.is_finite() {

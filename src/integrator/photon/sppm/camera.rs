@@ -314,9 +314,8 @@ pub(super) fn camera_path(
         }
         let mut w = bs.f * (bs.wi.z.abs() / bs.pdf);
         // Shading Offset on a reflected sample, as the path tracer (`path.rs`).
-        let k = ctx.scene.ray_visibility.shading_frequency(s.tri);
-        if k > 1.0 && bs.wi.z * wo_local.z > 0.0 {
-            w *= crate::scene::terminator::shift_cos_in(bs.wi.z.abs(), k);
+        if bs.wi.z * wo_local.z > 0.0 {
+            w *= ctx.scene.ray_visibility.shading_offset_factor(s.tri, bs.wi.z.abs());
         }
         e = beta * w;
         beta = if is_vp && !glossy {
