@@ -404,6 +404,37 @@ fn settings_errors_are_usage_errors() {
     assert!(r.error_message().unwrap_or_default().contains("nonexistent-dir"));
 }
 
+/// SPPM takes one sample per pixel an iteration, so `--spp` sets its iteration count (it was
+/// ignored: 64 iterations whatever it said); flags of another integrator are named, not
+/// dropped silently.
+#[test]
+fn sppm_counts_spp_and_foreign_flags_are_warned() {
+    let dir = temp_dir();
+    let out = dir.path().join("s.exr");
+    let scene = cornell();
+    let render = |extra: &[&str]| {
+        let mut args = vec!["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap(), "--progress", "json"];
+        args.extend_from_slice(&["--resolution", "8x8"]);
+        args.extend_from_slice(extra);
+        let r = run(&args, LIMIT);
+        assert_eq!(r.code, Some(0), "{extra:?}: {}", r.stderr);
+        r.summary().unwrap()
+    };
+    let s = render(&["--integrator", "sppm", "--spp", "3", "--sppm-photons", "500"]);
+    assert_eq!(s["spp"], 3, "{s}");
+    assert!(!s["warnings"].to_string().contains("ignores"), "{s}");
+    let s = render(&["--integrator", "sppm", "--sppm-iterations", "2", "--sppm-photons", "500", "--spp", "5"]);
+    assert_eq!(s["spp"], 2, "{s}");
+    assert!(s["warnings"].to_string().contains("--spp 5 is ignored"), "{s}");
+    let s = render(&["--spp", "1", "--photons", "1000", "--sppm-radius", "0.1"]);
+    let w = s["warnings"].to_string();
+    assert!(w.contains("--photons is read by photon only; the path integrator ignores it"), "{w}");
+    assert!(w.contains("--sppm-radius is read by sppm only"), "{w}");
+    let s = render(&["--integrator", "sppm", "--spp", "1", "--sppm-photons", "500", "--k", "5", "--gather-rays", "2"]);
+    let w = s["warnings"].to_string();
+    assert!(w.contains("--gather-rays") && !w.contains("--k "), "{w}");
+}
+
 #[test]
 fn sigterm_writes_partial_image() {
     use std::io::BufRead;

@@ -109,6 +109,10 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     let path_traced_parts = scene.world_medium.is_some()
         || scene.world_grid.is_some()
         || scene.materials.iter().any(|m| m.medium.is_some() || m.subsurface.is_some());
+    for w in foreign_flag_warnings(&args.photon, args.spp, res.integrator) {
+        reporter.warning(&w);
+        run_warnings.push(w);
+    }
     for w in light_paths_warnings(&res, path_traced_parts) {
         reporter.warning(&w);
         run_warnings.push(w);
@@ -639,6 +643,44 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
 /// `path_traced_parts`), the clamps, Filter Glossy and a caustics switch off (BDPT and
 /// VCM weigh whole paths made of a camera and a light subpath, photons do not know the camera
 /// path they will be read at; Cycles has neither).
+/// The photon-mapping flags given for an integrator that does not read them (the photon
+/// integrator's map flags, SPPM's own; `--k` both read), and an `--spp` that SPPM's
+/// `--sppm-iterations` overrides: named rather than ignored silently.
+fn foreign_flag_warnings(
+    p: &crate::cli::args::PhotonArgs,
+    spp: Option<u32>,
+    integrator: IntegratorKind,
+) -> Vec<String> {
+    use IntegratorKind::{Photon, Sppm};
+    let mut out = Vec::new();
+    if let (Sppm, Some(s), Some(i)) = (integrator, spp, p.sppm_iterations)
+        && s != i
+    {
+        out.push(format!("--spp {s} is ignored: SPPM renders --sppm-iterations {i} (one sample per pixel each)"));
+    }
+    let given = [
+        ("--photons", p.photons.is_some(), &[Photon][..]),
+        ("--caustic-photons", p.caustic_photons.is_some(), &[Photon]),
+        ("--k", p.k.is_some(), &[Photon, Sppm]),
+        ("--caustic-k", p.caustic_k.is_some(), &[Photon]),
+        ("--max-radius", p.max_radius.is_some(), &[Photon]),
+        ("--gather-rays", p.gather_rays.is_some(), &[Photon]),
+        ("--diffuse-bounces", p.diffuse_bounces.is_some(), &[Photon]),
+        ("--sppm-iterations", p.sppm_iterations.is_some(), &[Sppm]),
+        ("--sppm-photons", p.sppm_photons.is_some(), &[Sppm]),
+        ("--sppm-radius", p.sppm_radius.is_some(), &[Sppm]),
+    ];
+    given
+        .iter()
+        .filter(|(_, set, readers)| *set && !readers.contains(&integrator))
+        .map(|(flag, _, readers)| {
+            let names: Vec<&str> = readers.iter().map(|k| k.name()).collect();
+            format!("{flag} is read by {} only; the {} integrator ignores it", names.join(" and "), integrator.name())
+        })
+        .for_each(|w| out.push(w));
+    out
+}
+
 fn light_paths_warnings(res: &Resolved, path_traced_parts: bool) -> Vec<String> {
     let mut out = Vec::new();
     if res.integrator != IntegratorKind::Path {

@@ -287,13 +287,21 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
         })?,
     };
     let mut photon = resolve_photon(&args.photon, st)?;
-    // SPPM with a time limit and no iteration count iterates until the time is up, as the
-    // path tracer samples until then without --spp.
-    if integrator == IntegratorKind::Sppm
-        && time_limit.is_some()
-        && args.photon.sppm_iterations.or(st.sppm_iterations).is_none()
-    {
-        photon.sppm_iterations = MAX_SPP;
+    if integrator == IntegratorKind::Sppm {
+        // An SPPM iteration takes one camera sample per pixel, so a sample count is an
+        // iteration count: `--spp` counts iterations unless `--sppm-iterations` says otherwise
+        // (a flag before the scene's settings, as everywhere; both given, the iterations win,
+        // warned by the render); before, `--spp` was ignored.
+        match (args.photon.sppm_iterations, args.spp) {
+            (None, Some(s)) => photon.sppm_iterations = s,
+            (None, None) if st.sppm_iterations.is_none() => match spp {
+                Some(s) => photon.sppm_iterations = s,
+                // With a time limit and no count SPPM iterates until the time is up, as the
+                // path tracer samples until then without --spp.
+                None => photon.sppm_iterations = MAX_SPP,
+            },
+            _ => {}
+        }
     }
     if integrator != IntegratorKind::Path && max_depth > photon::MAX_PHOTON_DEPTH {
         return Err(Error::Usage(format!(
