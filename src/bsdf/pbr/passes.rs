@@ -1,7 +1,8 @@
 //! The glTF material split by Cycles' closure classes for the light passes: the diffuse
-//! part of f (the diffuse base and the sheen, which Cycles counts as diffuse) and the
+//! part of f (the diffuse base, its Lambertian transmission and the sheen, which Cycles
+//! counts as diffuse: Blender's importer makes the transmission a Translucent BSDF) and the
 //! albedo of each class seen from wo (the Colour passes). Everything else the material
-//! reflects is glossy (metal, specular layer, coat, glass reflection), and what it
+//! reflects is glossy (metal, specular layer, coat, glass reflection), and what its glass
 //! transmits is transmission.
 
 use super::PbrAt;
@@ -11,14 +12,17 @@ use glam::Vec3;
 use std::f32::consts::FRAC_1_PI;
 
 impl PbrAt<'_> {
-    /// The diffuse-class part of [`eval`](Self::eval): the diffuse base and the sheen, with
-    /// the same layer, sheen and coat scaling.
+    /// The diffuse-class part of [`eval`](Self::eval): the diffuse base, its Lambertian
+    /// transmission and the sheen, with the same layer, sheen and coat scaling.
     #[inline]
     pub fn eval_diffuse(&self, wi: Vec3) -> Rgb {
         let b = self.b;
         let wo = self.wo;
         let wi = if self.flip { Vec3::new(wi.x, wi.y, -wi.z) } else { wi };
-        if wo.z <= 0.0 || wi.z <= 0.0 {
+        if wi.z < 0.0 {
+            return self.diffuse_transmission_up(wi);
+        }
+        if wo.z <= 0.0 || wi.z == 0.0 {
             return Rgb::ZERO;
         }
         let scaling = b.sheen_scaling_from(self.sheen_o, wi.z);
@@ -71,19 +75,26 @@ impl PbrAt<'_> {
         let opaque = dielectric * (1.0 - b.transmission);
         let base = super::PbrBsdf::base_weight(self.eo) * opaque;
         let dt = b.diffuse_transmission;
-        let diffuse =
-            b.diffuse * (base * (1.0 - dt)) * below + b.sheen_color * (self.es / b.sheen_max.max(1e-6)) * self.under;
-        // The diffuse base's Lambertian transmission counts as transmission here (Cycles would
-        // call it diffuse, a Translucent closure): the photon integrators read their maps on
-        // the viewer's side only, so a transmitting lobe must show as one to be followed.
+        // The diffuse base's Lambertian transmission is diffuse, as Cycles files the
+        // Translucent closure Blender's importer makes of it (the photon integrators follow
+        // it by sampling all the same: `photon::lobes`).
         let diffuse_transmission = b.diffuse_transmission_color * (base * dt * (1.0 - b.subsurface)) * below;
+        let diffuse = b.diffuse * (base * (1.0 - dt)) * below
+            + b.sheen_color * (self.es / b.sheen_max.max(1e-6)) * self.under
+            + diffuse_transmission;
         // The multiple-scattering compensation makes the metal's albedo its Fresnel colour.
         let metal = b.base + (Vec3::ONE - b.base) * schlick_weight(wo.z);
         let f_glass = fresnel_dielectric(wo.z, b.glass.eta);
         let glass = dielectric * b.transmission;
         let glossy =
             (self.eo * opaque + metal * b.metallic + Rgb::splat(f_glass * glass)) * below + Rgb::splat(self.ec);
-        let transmission = b.glass.tint * ((1.0 - f_glass) * glass) * below + diffuse_transmission;
+        let transmission = b.glass.tint * ((1.0 - f_glass) * glass) * below;
         [diffuse, glossy, transmission]
+    }
+
+    /// True when the material transmits diffusely (`KHR_materials_diffuse_transmission`).
+    #[inline]
+    pub fn transmits_diffusely(&self) -> bool {
+        self.b.transmits_diffusely()
     }
 }

@@ -726,6 +726,11 @@ fn class_split_of_f_and_albedo() {
             let wi = cosine_hemisphere(Vec2::new(rng.next_f32(), rng.next_f32()));
             let (f, fd) = (at.eval(wi), at.eval_diffuse(wi));
             assert!((fd - f).max_element() <= 1e-5 * f.max_element().max(1e-3), "{name}: {fd} above {f}");
+            // Through the surface the diffuse class is the Lambertian transmission alone.
+            let below = -wi;
+            let (f_t, fd_t) = (at.eval(below), at.eval_diffuse(below));
+            assert!((fd_t - f_t).max_element() <= 1e-5 * f_t.max_element().max(1e-3), "{name}: {fd_t} above {f_t}");
+            assert_eq!(fd_t, at.eval_diffuse_transmission(below), "{name}");
             // Sheen is diffuse-class (as Cycles'), even over a metal.
             if b.metallic == 1.0 && b.sheen_max == 0.0 {
                 assert_eq!(fd, Rgb::ZERO, "{name}");
@@ -739,6 +744,21 @@ fn class_split_of_f_and_albedo() {
     let wi = Vec3::new(-0.4, 0.1, 0.9).normalize();
     assert_eq!(at.eval_diffuse(wi), at.eval(wi));
     assert_eq!(at.class_albedo()[1], Rgb::ZERO);
+    // glTF's diffuse transmission is diffuse-class on both sides (a Translucent closure to
+    // Cycles), so its light and albedo go to the Diffuse passes, none to Transmission.
+    let leaf = PbrBsdf::from_params(&PbrParams {
+        specular: 0.0,
+        diffuse_transmission: 0.6,
+        diffuse_transmission_color: Vec3::new(0.3, 0.9, 0.2),
+        ..PbrParams::opaque(Vec3::splat(0.5), 0.0, 1.0)
+    });
+    let at = leaf.at(wo);
+    let through = Vec3::new(0.2, -0.1, -0.97).normalize();
+    assert!(at.eval(through).min_element() > 0.0);
+    assert_eq!(at.eval_diffuse(through), at.eval(through));
+    let [d, g, t] = at.class_albedo();
+    assert_eq!((g, t), (Rgb::ZERO, Rgb::ZERO));
+    assert!((d - (Vec3::splat(0.5) * 0.4 + Vec3::new(0.3, 0.9, 0.2) * 0.6)).abs().max_element() < 1e-5, "{d}");
 }
 
 /// White furnace of Blender's sheen: white fibres over a white Lambertian base (no specular

@@ -100,19 +100,25 @@ impl Split {
             Split::AllDiffuse => (true, false),
             Split::ByClass => {
                 let [d, g, t] = at.class_albedo();
-                let translucent = matches!(at, BsdfAt::Mix(m, _) if m.has_translucent());
+                let translucent = match at {
+                    BsdfAt::Mix(m, _) => m.has_translucent(),
+                    BsdfAt::Pbr(b) => b.transmits_diffusely(),
+                    _ => false,
+                };
                 (d.max_element() > 0.0, (g + t).max_element() > 0.0 || translucent)
             }
         }
     }
 }
 
-/// Whether `wi` is on the viewer's side of the mixture's frame (always for the other BSDFs,
-/// whose diffuse-class part reflects only): the photon maps stand for light from that side.
+/// Whether `wi` is on the viewer's side of the BSDF's frame (always for hair, whose
+/// diffuse-class part is empty): the photon maps stand for light from that side, so a
+/// diffuse-class lobe that transmits (Translucent, glTF's diffuse transmission) is followed.
 #[inline]
 fn reflects(at: &BsdfAt, wi: Vec3) -> bool {
     match at {
         BsdfAt::Mix(_, wo) => wo.z * wi.z > 0.0,
+        BsdfAt::Pbr(b) => b.wo_local().z * wi.z > 0.0,
         _ => true,
     }
 }
@@ -153,5 +159,29 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// glTF's diffuse transmission is diffuse-class (the light passes file it as Cycles'
+    /// Translucent), but its light comes from behind, where the maps hold nothing: it must
+    /// stay a followed lobe, read from the maps on the viewer's side only.
+    #[test]
+    fn diffuse_transmission_is_followed() {
+        use crate::bsdf::pbr::PbrParams;
+        let b = Bsdf::Pbr(PbrBsdf::from_params(&PbrParams {
+            diffuse_transmission: 0.8,
+            ..PbrParams::opaque(Rgb::new(0.6, 0.4, 0.2), 0.0, 1.0)
+        }));
+        let wo = Vec3::new(0.3, 0.1, 0.9).normalize();
+        let at = b.at(wo);
+        let split = Split::of(&b);
+        assert_eq!(split, Split::ByClass);
+        assert_eq!(split.parts(&at), (true, true));
+        let through = Vec3::new(-0.2, 0.3, -0.93).normalize();
+        let f = at.eval(through);
+        assert!(at.eval_diffuse(through).min_element() > 0.0);
+        assert_eq!(split.diffuse(&at, through), Rgb::ZERO);
+        assert_eq!(split.diffuse_of_sample(&at, through, f, false), Rgb::ZERO);
+        let above = Vec3::new(-0.2, 0.3, 0.93).normalize();
+        assert!(split.diffuse(&at, above).min_element() > 0.0);
     }
 }
