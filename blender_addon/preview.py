@@ -54,7 +54,7 @@ class PreviewServer:
             camera = engine.camera_override or scene.camera
             if camera is None:
                 raise CausticError("the preview scene has no camera")
-            settings = export.render_settings(scene, (window.width, window.height), camera.name)
+            settings = export.render_settings(scene, (window.width, window.height), camera.name, viewport=True)
             folder = tempfile.mkdtemp(prefix="caustic-preview-")
             try:
                 path, _ = export.export_scene(depsgraph, folder, settings, motion=False)

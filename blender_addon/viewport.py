@@ -325,7 +325,7 @@ def scene_settings_key(scene):
     and Cycles' Light Paths and Film settings the export writes (not the resolution, which is
     the view's own). A change of any reloads, as Cycles restarts its viewport render: the
     loaded scene carries them, and no edit does."""
-    return json.dumps(export.render_settings(scene, (1, 1), None), sort_keys=True)
+    return json.dumps(export.render_settings(scene, (1, 1), None, viewport=True), sort_keys=True)
 
 
 def view_settings(scene):
@@ -408,7 +408,7 @@ class Viewport:
     def _reload(self, depsgraph):
         """Export the scene as F12 does and load it."""
         scene = depsgraph.scene
-        settings = export.render_settings(scene, (scene.render.resolution_x, scene.render.resolution_y), None)
+        settings = export.render_settings(scene, (scene.render.resolution_x, scene.render.resolution_y), None, viewport=True)
         old, self.folder = self.folder, tempfile.mkdtemp(prefix="caustic-view-")
         path, state = export.export_scene(depsgraph, self.folder, settings, motion=False, viewport=True)
         self.settings_key = scene_settings_key(scene)
@@ -433,7 +433,7 @@ class Viewport:
         """Export the objects `names` alone, as F12 exports them, and merge them into the
         running scene (`objects`): added ones join it, changed ones replace their old selves."""
         scene = depsgraph.scene
-        settings = export.render_settings(scene, (scene.render.resolution_x, scene.render.resolution_y), None)
+        settings = export.render_settings(scene, (scene.render.resolution_x, scene.render.resolution_y), None, viewport=True)
         folder = tempfile.mkdtemp(prefix="objects-", dir=self.folder)
         try:
             path, state = export.export_scene(depsgraph, folder, settings, motion=False, viewport=True,

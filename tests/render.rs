@@ -524,6 +524,23 @@ fn time_limit_and_interim_images() {
     assert!(r.elapsed < Duration::from_secs(20));
 }
 
+/// Simplify's Texture Limit must be a size: 0 is refused by name, not read as "no limit".
+#[test]
+fn texture_limit_zero_is_refused() {
+    let dir = temp_dir();
+    let mut g = GltfBuilder::new();
+    let m = g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1]}}));
+    g.cube([-1.0, -1.0, -3.0], [1.0, 1.0, -2.0], m);
+    g.camera([0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0], 0.8);
+    g.settings(json!({"texture_limit": 0}));
+    let path = g.write(dir.path(), "limit.gltf");
+    let out = dir.path().join("l.exr");
+    let r = run(&["render", path.to_str().unwrap(), "-o", out.to_str().unwrap(), "--progress", "json"], LIMIT);
+    assert_ne!(r.code, Some(0));
+    assert!(r.error_message().unwrap_or_default().contains("texture_limit"), "{}", r.stderr);
+    assert!(!out.exists());
+}
+
 #[test]
 fn unlit_scene_warns_about_black_image() {
     let dir = temp_dir();

@@ -26,8 +26,10 @@ def working_space():
     return {"name": name, "from_rec709": [[float(cols[j][i]) for j in range(3)] for i in range(3)]}
 
 
-def render_settings(scene, resolution, camera_name):
-    """The `extras.caustic` object for a scene: the Caustic panel's values in contract keys."""
+def render_settings(scene, resolution, camera_name, viewport=False):
+    """The `extras.caustic` object for a scene: the Caustic panel's values in contract keys
+    (`viewport`: for the Rendered viewport or a material preview, which take Simplify's
+    viewport Texture Limit, as Cycles' interactive renders do)."""
     props = scene.caustic
     settings = {
         "resolution": [int(resolution[0]), int(resolution[1])],
@@ -40,6 +42,9 @@ def render_settings(scene, resolution, camera_name):
         "transparent": bool(scene.render.film_transparent),
         **pixel_filter(scene),
     }
+    limit = texture_limit(scene, viewport)
+    if limit is not None:
+        settings["texture_limit"] = limit
     cycles = getattr(scene, "cycles", None)
     if scene.render.film_transparent and cycles is not None and cycles.film_transparent_glass:
         # Film → Transparent Glass: the background stays transparent behind glass at most
@@ -158,7 +163,7 @@ def layer_render_settings(scene, view_layer, objects, resolution, camera_name):
     if aovs is not None:
         settings["shader_aovs"] = aovs
     layer_samples(scene, view_layer, settings)
-    warnings += light_paths_warnings(scene) + texture_limit_warnings(scene)
+    warnings += light_paths_warnings(scene)
     return settings, warnings
 
 
@@ -186,16 +191,12 @@ def light_paths_warnings(scene):
     return []
 
 
-def texture_limit_warnings(scene):
-    """A warning naming the images Simplify's render Texture Limit would shrink in Cycles
-    (halved until their longer side fits): Caustic renders them at full size."""
+def texture_limit(scene, viewport=False):
+    """Simplify's Texture Limit in pixels, or None: Cycles shrinks every image whose longer side
+    passes it on load (`texture_limit_render` for F12, `texture_limit` for interactive renders),
+    and only while Simplify is on; the binary shrinks them the same way."""
     cycles = getattr(scene, "cycles", None)
-    limit = getattr(cycles, "texture_limit_render", "OFF") if scene.render.use_simplify else "OFF"
-    if limit == "OFF":
-        return []
-    import bpy
-    names = sorted(i.name for i in bpy.data.images if i.users and max(i.size[:2], default=0) > int(limit))
-    if not names:
-        return []
-    return [f"Simplify's Texture Limit ({limit} px) is not applied: image(s) {', '.join(names)} render at full "
-            "size (Cycles scales them down)"]
+    if cycles is None or not scene.render.use_simplify:
+        return None
+    limit = getattr(cycles, "texture_limit" if viewport else "texture_limit_render", "OFF")
+    return None if limit == "OFF" else int(limit)

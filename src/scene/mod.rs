@@ -19,6 +19,7 @@ pub mod shader_aovs;
 pub mod shading;
 pub mod terminator;
 pub mod texture;
+pub mod texture_limit;
 pub mod visibility;
 pub mod working_space;
 
@@ -127,6 +128,9 @@ pub struct SceneSettings {
     pub light_groups: Option<light_groups::LightGroupSpec>,
     /// The view layer's shader AOVs (`shader_aovs`).
     pub shader_aovs: Option<shader_aovs::ShaderAovSpec>,
+    /// Simplify > Texture Limit (render), in pixels: images whose longer side passes it are
+    /// shrunk on load as Cycles shrinks them (`texture_limit`).
+    pub texture_limit: Option<u32>,
     /// Color Management > Working Space when not linear Rec.709 (`working_space`).
     pub working_space: Option<working_space::WorkingSpaceSettings>,
 }

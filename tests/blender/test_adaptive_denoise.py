@@ -92,16 +92,20 @@ def test_noisy_image_is_declared_with_denoising(scene, addon):
     assert "Noisy Image" not in declared()
 
 
-def test_simplify_texture_limit_is_named_when_it_would_shrink_an_image(scene, addon):
-    """Caustic does not apply Simplify's render Texture Limit (Cycles halves larger images until
-    they fit): a warning names the images it would shrink, and none is given below the limit."""
+def test_simplify_texture_limit_goes_to_the_binary(scene, addon):
+    """Simplify's Texture Limit reaches the binary as `texture_limit` (the render one for F12,
+    the viewport one for interactive renders, as Cycles takes them), only while Simplify is
+    on, and no longer as a warning (the binary shrinks images as Cycles: test_images_agreement)."""
     export = module(addon, "export")
     view_layer = scene.view_layers[0]
-    image = bpy.data.images.new("Big", 256, 64)
-    image.use_fake_user = True
-    scene.render.use_simplify = True
     scene.cycles.texture_limit_render = "128"
-    warnings = export.layer_render_settings(scene, view_layer, [], (W, H), None)[1]
-    assert any("Texture Limit (128 px)" in w and "Big" in w for w in warnings), warnings
-    scene.cycles.texture_limit_render = "256"
-    assert not any("Texture Limit" in w for w in export.layer_render_settings(scene, view_layer, [], (W, H), None)[1])
+    scene.cycles.texture_limit = "512"
+    settings, warnings = export.layer_render_settings(scene, view_layer, [], (W, H), None)
+    assert "texture_limit" not in settings
+    scene.render.use_simplify = True
+    settings, warnings = export.layer_render_settings(scene, view_layer, [], (W, H), None)
+    assert settings["texture_limit"] == 128
+    assert not any("Texture Limit" in w for w in warnings), warnings
+    assert export.render_settings(scene, (W, H), None, viewport=True)["texture_limit"] == 512
+    scene.cycles.texture_limit_render = "OFF"
+    assert "texture_limit" not in export.layer_render_settings(scene, view_layer, [], (W, H), None)[0]

@@ -41,6 +41,13 @@ pytest -s; after: 0.9984-1.0022, no block over its bound):
   into the edge, 1.0821 1.0327 1.0785 (36), silently; an OpenEXR on Base Color alone (held
   associated by Blender, read straight): 0.6482 0.5946 0.6482 (108). Channel Packed (never
   associated) and a 16-bit PNG leaf (its Alpha linked) agreed before and still do.
+* texture_limit_*: Simplify's render Texture Limit (128 px) on a 300x130 image whose green is
+  a 1-texel checker: Cycles scales it by 1/4 on load, averaging 4x4 texels in their stored
+  (sRGB) encoding, so the checker turns a flat 0.5 encoded (0.21 linear), where the full-size
+  image, filtered between its dark and light texels before decoding, renders brighter. Caustic
+  rendered the full size (warned): Diffuse (node graph) 1.0007 1.1147 1.0346 (12 of 108 blocks
+  over), Principled Base Color (glTF texture) 1.0007 1.0862 1.0272 (7); now the binary shrinks
+  every image as Cycles does (`scene/texture_limit.rs`).
 * alpha_png16_*: a 16-bit PNG with alpha on Base Color alone. Cycles reads the file itself and
   associates it in its sRGB encoding in either alpha mode; the add-on wrote Blender's pixels
   (linear, associated) re-encoded: Straight 1.2257 1.8271 1.8505 (97 of 108 blocks over),
@@ -93,6 +100,32 @@ def image_file(path, fmt="PNG", depth="8", colorspace=None, alpha=False, float_b
     if colorspace is not None:
         loaded.colorspace_settings.name = colorspace
     return loaded
+
+
+def fine_checker(folder, name, width=300, height=130):
+    """A `width` x `height` image (sRGB PNG): red rising across, green a 1-texel checker of
+    0.05/0.95, blue rising up; large enough for Simplify's smallest Texture Limit (128)."""
+    px = np.ones((height, width, 4), dtype=np.float32)
+    px[..., 0] = ((np.arange(width) + 0.5) / width)[None, :]
+    px[..., 1] = ((np.arange(width)[None, :] + np.arange(height)[:, None]) % 2) * 0.9 + 0.05
+    px[..., 2] = ((np.arange(height) + 0.5) / height)[:, None]
+    path = os.path.join(folder, f"{name}.png")
+    img = bpy.data.images.new(os.path.basename(path), width, height, alpha=True)
+    img.pixels.foreach_set(px.ravel())
+    img.filepath_raw = path
+    img.file_format = "PNG"
+    img.save()
+    bpy.data.images.remove(img)
+    return bpy.data.images.load(path)
+
+
+def simplified(build, limit="128"):
+    """`build` with Simplify on and its render Texture Limit at `limit`."""
+    def make(scene, material):
+        build(scene, material)
+        scene.render.use_simplify = True
+        scene.cycles.texture_limit_render = limit
+    return make
 
 
 def _save_png(px, path):
@@ -266,6 +299,8 @@ CASES = {
     "sequence_offset": (nodes.flat_scene, sequence_material),
     "clip_edge": (nodes.flat_scene, clipped),
     "udim_tiles": (udim_scene, diffuse_image(udim)),
+    "texture_limit_graph": (simplified(nodes.flat_scene), diffuse_image(fine_checker)),
+    "texture_limit_gltf": (simplified(nodes.flat_scene), principled_image(fine_checker)),
 }
 
 

@@ -192,6 +192,8 @@ struct Loader<'a> {
     /// The scene's working colour space (`extras.caustic.working_space`) and its name.
     space: crate::scene::working_space::WorkingSpace,
     space_name: Option<String>,
+    /// Simplify's Texture Limit (`extras.caustic.texture_limit`), applied to every image.
+    texture_limit: Option<u32>,
 }
 
 /// An emitter's light linking rules: receivers, blockers (`CAUSTIC_light_linking`).
@@ -216,6 +218,7 @@ impl<'a> Loader<'a> {
             attribute_gaps: HashMap::new(),
             space: Default::default(),
             space_name: None,
+            texture_limit: None,
         }
     }
 
@@ -288,6 +291,10 @@ impl<'a> Loader<'a> {
         self.space = crate::scene::working_space::WorkingSpace::of(settings.working_space.as_ref())
             .map_err(|e| self.err(format!("scene extras 'caustic': {e}")))?;
         self.space_name = settings.working_space.as_ref().map(|w| w.name.clone());
+        if settings.texture_limit == Some(0) {
+            return Err(self.err("scene extras 'caustic': texture_limit 0 is not a size (leave it out for no limit)"));
+        }
+        self.texture_limit = settings.texture_limit;
         // The crate's own validation indexes arrays with the file's indices unchecked
         // (a dangling accessor index panics inside it): check every reference first.
         check_references(&value).map_err(|e| self.err(e))?;

@@ -170,6 +170,16 @@ impl Loader<'_> {
             }
             (texels, Vec::new())
         };
+        // Simplify's Texture Limit shrinks what Cycles holds: associated bytes or floats.
+        let (mut w, mut h, mut texels, mut hdr) = (w, h, texels, hdr);
+        if let Some(limit) = self.texture_limit {
+            use crate::scene::texture_limit::{shrink_f32, shrink_u8};
+            if let Some((sw, sh, small)) = shrink_u8(&texels, w, h, limit).filter(|_| !texels.is_empty()) {
+                (w, h, texels) = (sw, sh, small);
+            } else if let Some((sw, sh, small)) = shrink_f32(&hdr, w, h, limit).filter(|_| !hdr.is_empty()) {
+                (w, h, hdr) = (sw, sh, small);
+            }
+        }
         self.profile.decode_textures += start.elapsed().as_secs_f64();
         let tex = crate::scene::Texture {
             name: img.uri.clone(),

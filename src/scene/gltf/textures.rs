@@ -104,7 +104,13 @@ impl Loader<'_> {
             .decode()
             .map_err(|e| self.err(format!("texture {label}: cannot decode: {e}")))?
             .to_rgba8();
-        let texels: Vec<[u8; 4]> = decoded.pixels().map(|p| p.0).collect();
+        let mut texels: Vec<[u8; 4]> = decoded.pixels().map(|p| p.0).collect();
+        let (mut w, mut h) = (w, h);
+        if let Some((sw, sh, small)) =
+            self.texture_limit.and_then(|l| crate::scene::texture_limit::shrink_u8(&texels, w, h, l))
+        {
+            (w, h, texels) = (sw, sh, small);
+        }
         self.profile.decode_textures += decode_start.elapsed().as_secs_f64();
         let entry = (w, h, std::sync::Arc::new(texels));
         self.images.insert(index, entry.clone());

@@ -142,16 +142,25 @@ impl Loader<'_> {
                     image::ColorType::Rgb8 | image::ColorType::Rgba8 | image::ColorType::L8 | image::ColorType::La8
                 );
                 let rgb = decoded.to_rgb32f();
+                let (mut width, mut height) = (width, height);
+                let mut stored: Vec<glam::Vec4> =
+                    rgb.pixels().map(|p| glam::Vec4::new(p.0[0], p.0[1], p.0[2], 1.0)).collect();
+                // Simplify's Texture Limit shrinks the stored values, as Cycles does.
+                if let Some((sw, sh, small)) =
+                    self.texture_limit.and_then(|l| crate::scene::texture_limit::shrink_f32(&stored, width, height, l))
+                {
+                    (width, height, stored) = (sw, sh, small);
+                }
                 self.profile.decode_textures += decode_start.elapsed().as_secs_f64();
                 let decode = |c: f32| {
                     if srgb { if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) } } else { c }
                 };
                 // A colour image, in the working space as Cycles converts it on load.
                 let space = self.space;
-                let texels: Vec<Vec3> = rgb
-                    .pixels()
+                let texels: Vec<Vec3> = stored
+                    .iter()
                     .map(|p| {
-                        let linear = Vec3::new(decode(p.0[0]), decode(p.0[1]), decode(p.0[2])).max(Vec3::ZERO);
+                        let linear = Vec3::new(decode(p.x), decode(p.y), decode(p.z)).max(Vec3::ZERO);
                         space.from_rec709(linear).max(Vec3::ZERO)
                     })
                     .collect();
