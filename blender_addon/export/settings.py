@@ -45,6 +45,9 @@ def render_settings(scene, resolution, camera_name, viewport=False):
     limit = texture_limit(scene, viewport)
     if limit is not None:
         settings["texture_limit"] = limit
+    gi = fast_gi(scene, viewport)
+    if gi is not None:
+        settings["fast_gi"] = gi
     cycles = getattr(scene, "cycles", None)
     if scene.render.film_transparent and cycles is not None and cycles.film_transparent_glass:
         # Film → Transparent Glass: the background stays transparent behind glass at most
@@ -163,7 +166,7 @@ def layer_render_settings(scene, view_layer, objects, resolution, camera_name):
     if aovs is not None:
         settings["shader_aovs"] = aovs
     layer_samples(scene, view_layer, settings)
-    warnings += light_paths_warnings(scene)
+    warnings += fast_gi_warnings(settings, objects)
     return settings, warnings
 
 
@@ -182,13 +185,33 @@ def layer_samples(scene, view_layer, settings):
         settings["sppm_iterations"] = spp
 
 
-def light_paths_warnings(scene):
-    """What of Cycles' Light Paths panel Caustic does not render, named."""
+def fast_gi(scene, viewport=False):
+    """Light Paths > Fast GI Approximation as Cycles' sync reads it: the method, AO Bounces
+    (Render, or Viewport for interactive renders) and World > Ambient Occlusion's Factor and
+    Distance; None when it is off or the scene has no world (Cycles' factor is then 0)."""
     cycles = getattr(scene, "cycles", None)
-    if cycles is not None and getattr(cycles, "use_fast_gi", False):
-        return ["Light Paths > Fast GI Approximation is not rendered: Caustic traces full global illumination "
-                "(brighter where Cycles replaces indirect light by ambient occlusion)"]
-    return []
+    if cycles is None or not getattr(cycles, "use_fast_gi", False) or scene.world is None:
+        return None
+    light = scene.world.light_settings
+    return {
+        "method": "add" if cycles.fast_gi_method == "ADD" else "replace",
+        "bounces": int(cycles.ao_bounces if viewport else cycles.ao_bounces_render),
+        "factor": float(light.ao_factor),
+        "distance": float(light.distance),
+    }
+
+
+def fast_gi_warnings(settings, objects):
+    """What of Fast GI the binary does not follow, named: an object's own AO Distance
+    (Object > Visibility), which Cycles takes for rays leaving that object (Replace)."""
+    gi = settings.get("fast_gi")
+    if gi is None or gi["method"] != "replace":
+        return []
+    names = sorted(o.name for o in objects if getattr(getattr(o, "cycles", None), "ao_distance", 0.0) > 0.0)
+    if not names:
+        return []
+    return [f"Fast GI: the AO Distance of object(s) {', '.join(names)} is not applied (the world's "
+            f"{gi['distance']:g} is used for rays leaving them)"]
 
 
 def texture_limit(scene, viewport=False):

@@ -109,6 +109,15 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     let path_traced_parts = scene.world_medium.is_some()
         || scene.world_grid.is_some()
         || scene.materials.iter().any(|m| m.medium.is_some() || m.subsurface.is_some());
+    // Fast GI is the path tracer's (Cycles has no other integrator to approximate).
+    if res.fast_gi.is_some() && res.integrator != IntegratorKind::Path {
+        let w = format!(
+            "Light Paths > Fast GI Approximation is rendered by the path tracer only: {} traces full global illumination",
+            res.integrator.name()
+        );
+        reporter.warning(&w);
+        run_warnings.push(w);
+    }
     for w in foreign_flag_warnings(&args.photon, args.spp, res.integrator) {
         reporter.warning(&w);
         run_warnings.push(w);
@@ -369,6 +378,10 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
     // Every integrator honours Ray Visibility (above) and light and shadow linking
     // (`integrator::linking`).
     let ctx = ctx.with_ray_visibility().with_light_linking();
+    // Fast GI's Replace with a uniform world: the world is found by rays alone, as Cycles.
+    let unsampled_world = res.integrator == IntegratorKind::Path
+        && crate::integrator::fast_gi::cycles_skips_world_sampling(res.fast_gi, &scene);
+    let ctx = if unsampled_world { ctx.without_world_sampling() } else { ctx };
     // The shadow catcher's pass sees the scene apart (settings keep its sums for the
     // integrators that split, `settings::splits_at_catchers`).
     let ctx = if res.passes.catcher_sums() {
@@ -376,6 +389,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
             .with_light_paths(light_paths, res.transparent_max)
             .with_camera_at(scene.cameras[res.camera].position)
             .with_light_linking();
+        let pass = if unsampled_world { pass.without_world_sampling() } else { pass };
         ctx.with_shadow_catcher(crate::integrator::catcher::pass_context(pass, true))
     } else {
         ctx
@@ -393,6 +407,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
             light_passes: res.passes.any_light(),
             light_groups: res.passes.light_groups() > 0,
             glass_threshold: res.transparent_glass,
+            fast_gi: res.fast_gi,
             ..PathIntegrator::new(res.max_depth, res.transparent)
         }),
         IntegratorKind::Sppm => {

@@ -55,6 +55,8 @@ pub struct Resolved {
     pub passes: crate::passes::PassSet,
     /// Data-pass settings (mist, AO distance).
     pub data: crate::passes::DataSettings,
+    /// Light Paths > Fast GI Approximation (the path tracer renders it).
+    pub fast_gi: Option<crate::integrator::fast_gi::FastGi>,
 }
 
 impl Resolved {
@@ -382,6 +384,11 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
         )));
     }
     let data = crate::passes::DataSettings::resolve(st.mist, st.ao_distance)?;
+    let fast_gi = match &st.fast_gi {
+        None => None,
+        Some(f) => crate::integrator::fast_gi::FastGi::from_settings(f)
+            .map_err(|e| Error::Usage(format!("scene settings: {e}")))?,
+    };
     if adaptive.is_some() {
         // Where adaptive sampling stopped each pixel is part of its result (Cycles writes it too).
         passes.insert(crate::passes::Pass::SampleCount);
@@ -407,6 +414,7 @@ pub fn resolve(args: &RenderArgs, scene: &Scene) -> Result<Resolved> {
         light_sampler,
         sample_offset,
         adaptive,
+        fast_gi,
     })
 }
 

@@ -7,6 +7,7 @@ pub mod bdpt;
 pub mod catcher;
 pub mod data_passes;
 mod emission;
+pub mod fast_gi;
 pub mod filing;
 pub mod light_passes;
 pub mod light_paths;
@@ -71,6 +72,9 @@ pub struct SceneContext<'a> {
     area_lights: Vec<(AreaLight, usize)>,
     /// Light index of the world, if it is a light.
     world_light: Option<usize>,
+    /// The world is not light-sampled: next-event estimation skips it and what rays find
+    /// of it is not MIS-weighted (`fast_gi::cycles_skips_world_sampling`).
+    world_unsampled: bool,
     /// Sphere lights: (centre, radius, radiance, soft, camera-visible, spot cone, light index).
     spheres: Vec<SphereEntry>,
     /// Suns with a size: (unit direction toward the sun, cos half angle, radiance, light index).
@@ -181,6 +185,7 @@ impl<'a> SceneContext<'a> {
             catcher: None,
             area_lights,
             world_light,
+            world_unsampled: false,
             spheres,
             suns,
             has_media: scene.world_medium.is_some()
@@ -378,7 +383,17 @@ impl<'a> SceneContext<'a> {
     /// (`LightPath::depth`) takes light `light`: its Max Bounces (`scene::light_bounces`).
     #[inline]
     pub fn nee_within_bounces(&self, light: usize, bounce: u16) -> bool {
+        if self.world_unsampled && self.world_light == Some(light) {
+            return false;
+        }
         crate::scene::light_bounces::nee_allowed(&self.scene.light_max_bounces, light, bounce)
+    }
+
+    /// The context with the world left out of light sampling: found by rays alone, at full
+    /// weight (as Cycles treats a world without spatial variation, `fast_gi`).
+    pub fn without_world_sampling(mut self) -> Self {
+        self.world_unsampled = true;
+        self
     }
 
     /// True when light `light` lights volume scattering events (Ray Visibility > Volume
@@ -515,6 +530,9 @@ impl<'a> SceneContext<'a> {
     /// Density with which light sampling at `p` (world choice included) picks direction `d`.
     #[inline]
     pub fn world_pdf(&self, p: Vec3, d: Vec3) -> f32 {
+        if self.world_unsampled {
+            return 0.0;
+        }
         match (self.world_light, &self.scene.world) {
             (Some(i), Some(w)) => self.lights.infinite_pmf(i) * w.pdf_from(p, d),
             _ => 0.0,

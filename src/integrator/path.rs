@@ -74,6 +74,8 @@ pub struct PathIntegrator {
     /// for lights whose light subpaths VCM merges in media (`vcm::volume_merge`): VCM
     /// continues its camera paths from a medium vertex with this set.
     pub merged_delta_light: bool,
+    /// Light Paths > Fast GI Approximation (`fast_gi`; the path tracer's own paths only).
+    pub fast_gi: Option<super::fast_gi::FastGi>,
 }
 
 impl Default for PathIntegrator {
@@ -86,6 +88,7 @@ impl Default for PathIntegrator {
             light_passes: false,
             light_groups: false,
             merged_delta_light: false,
+            fast_gi: None,
         }
     }
 }
@@ -314,6 +317,14 @@ impl PathIntegrator {
             };
             let (u_light_pt, u_dir) = (Vec2::new(u_lx, u_ly), Vec2::new(u_dx, u_dy));
 
+            // Fast GI (Replace): past its bounces the ray is an occlusion test that sees at
+            // most the AO distance (`fast_gi`).
+            let occlusion = self.fast_gi.filter(|g| g.occlusion_ray(&st.light_path));
+            if let Some(g) = occlusion {
+                st.tmax = st.tmax.min(g.distance);
+            }
+            let world_factor = occlusion.map_or(1.0, |g| g.world_factor());
+
             // Along the ray: medium, crossed lights, pass-through surfaces.
             let pre = if split.allowed && st.depth == 0 { Some(st) } else { None };
             let before = radiance;
@@ -350,7 +361,8 @@ impl PathIntegrator {
                 Step::End => break,
                 Step::Passed => continue,
                 Step::Medium { p, phase, .. } => {
-                    if !st.beta.is_finite() || st.beta == Rgb::ZERO {
+                    // An occlusion test ends at a volume event (Cycles lights the event first).
+                    if !st.beta.is_finite() || st.beta == Rgb::ZERO || occlusion.is_some() {
                         break;
                     }
                     if st.depth == 0 {
@@ -429,16 +441,17 @@ impl PathIntegrator {
                     }
                     // The world's and the suns' groups (Cycles files the world seen through a
                     // transparent film in its group too, as in the Environment pass).
+                    // Fast GI's occlusion test sees the world (not the suns) times its factor.
                     let beta = st.beta;
                     let file = |light: Option<usize>, c: Rgb, out: &mut CameraSample| {
                         let g = light.map_or(groups.world, |i| groups.of_light(i));
-                        out.groups.add(g, beta * c);
+                        out.groups.add(g, beta * c * if light.is_none() { world_factor } else { 1.0 });
                     };
                     if grouping {
                         st.escaped_radiance_each(ctx, |light, c| file(light, c, out));
                     }
                     if !(behind_film && self.transparent_background)
-                        && let Some(le) = st.escaped_radiance(ctx)
+                        && let Some(le) = escaped_scaled(&st, ctx, world_factor)
                     {
                         let c = ctx.light_paths.found(st.beta * le, st.depth);
                         radiance += c;
@@ -508,8 +521,11 @@ impl PathIntegrator {
             }
 
             // Past Transparent Max Bounces, Max Bounces or a kind's bounces (Light Paths) a
-            // path ends here, after the emission (Cycles).
-            if st.depth >= self.max_depth || ctx.ends_at_surface(st.light_path) || ctx.light_paths.spent(st.light_path)
+            // path ends here, after the emission (Cycles), as does Fast GI's occlusion test.
+            if st.depth >= self.max_depth
+                || ctx.ends_at_surface(st.light_path)
+                || ctx.light_paths.spent(st.light_path)
+                || occlusion.is_some()
             {
                 break;
             }
@@ -549,6 +565,13 @@ impl PathIntegrator {
                 if passes && c != Rgb::ZERO {
                     tally.estimated(out, st.depth, c, Some(shares_at(&at, wi_light)));
                 }
+            }
+            // Fast GI (Add): ambient occlusion at every surface, in Combined only.
+            if let Some(g) = self.fast_gi
+                && let Some(factor) = g.additive()
+            {
+                let c = additive_ao(ctx, &s, &sp, &at, wo, factor, g.distance, u_dir, st.light_path, stats);
+                radiance += ctx.light_paths.estimated(st.beta * c, st.depth);
             }
 
             if u_sss < q_sss
@@ -863,4 +886,51 @@ pub struct SubsurfaceExit {
     pub n_s: Vec3,
     /// The part's throughput factor (per unit of its selection weight).
     pub weight: Rgb,
+}
+
+/// What a ray that escapes finds, with the world's part (not the suns') times `world_factor`
+/// (Fast GI's occlusion test).
+#[inline]
+fn escaped_scaled(st: &PathState, ctx: &SceneContext, world_factor: f32) -> Option<Rgb> {
+    if world_factor == 1.0 {
+        return st.escaped_radiance(ctx);
+    }
+    let mut world = Rgb::ZERO;
+    let total = st.escaped_radiance_each(ctx, |light, c| {
+        if light.is_none() {
+            world = c;
+        }
+    })?;
+    Some(total - world * (1.0 - world_factor))
+}
+
+/// Fast GI's additive ambient occlusion at `s` per unit throughput (Cycles'
+/// `integrate_surface_ao`): the diffuse closures' weight times `factor` when one cosine ray
+/// about the shading normal, drawn with the BSDF's numbers `u`, leaves within `distance`
+/// unblocked (transparent surfaces let part of it through).
+#[allow(clippy::too_many_arguments)]
+fn additive_ao(
+    ctx: &SceneContext,
+    s: &SurfaceHit,
+    sp: &ShadingPoint,
+    at: &crate::bsdf::BsdfAt,
+    wo: Vec3,
+    factor: f32,
+    distance: f32,
+    u: Vec2,
+    path: LightPath,
+    stats: &mut RayStats,
+) -> Rgb {
+    let weight = at.class_albedo()[0] * factor;
+    if weight == Rgb::ZERO {
+        return Rgb::ZERO;
+    }
+    let n = if sp.frame.n.dot(wo) < 0.0 { -sp.frame.n } else { sp.frame.n };
+    let ng = if s.ng.dot(n) < 0.0 { -s.ng } else { s.ng };
+    let wi = Frame::from_normal(n).to_world(cosine_hemisphere(u));
+    if wi.dot(ng) <= 0.0 {
+        return Rgb::ZERO;
+    }
+    stats.shadow += 1;
+    weight * ctx.transmittance(offset_ray_origin(s.p, ng), wi, distance, path.shadow())
 }

@@ -128,6 +128,9 @@ pub struct SceneSettings {
     pub light_groups: Option<light_groups::LightGroupSpec>,
     /// The view layer's shader AOVs (`shader_aovs`).
     pub shader_aovs: Option<shader_aovs::ShaderAovSpec>,
+    /// Light Paths > Fast GI Approximation with World > Ambient Occlusion
+    /// (`integrator::fast_gi`).
+    pub fast_gi: Option<crate::integrator::fast_gi::FastGiSettings>,
     /// Simplify > Texture Limit (render), in pixels: images whose longer side passes it are
     /// shrunk on load as Cycles shrinks them (`texture_limit`).
     pub texture_limit: Option<u32>,

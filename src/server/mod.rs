@@ -569,6 +569,7 @@ fn resolve_settings(scene: &Scene, s: &SettingsEdit) -> Result<RenderSettings, S
         filter: res.filter,
         transparent: res.transparent,
         transparent_glass: res.transparent_glass,
+        fast_gi: res.fast_gi,
         photon: res.photon,
         light_sampler: res.light_sampler,
         format: s.frame_format.unwrap_or_default(),

@@ -67,6 +67,8 @@ pub struct RenderSettings {
     pub transparent: bool,
     /// Film → Transparent Glass's roughness threshold (the path tracer's).
     pub transparent_glass: Option<f32>,
+    /// Light Paths > Fast GI Approximation (the path tracer's).
+    pub fast_gi: Option<crate::integrator::fast_gi::FastGi>,
     /// Photon settings.
     pub photon: PhotonSettings,
     /// Light selection.
@@ -142,6 +144,7 @@ fn build_integrator(ctx: &SceneContext, s: &RenderSettings, stop: &AtomicBool) -
     Some(match s.integrator {
         IntegratorKind::Path => Integrator::Path(PathIntegrator {
             glass_threshold: s.transparent_glass,
+            fast_gi: s.fast_gi,
             ..PathIntegrator::new(s.max_depth, s.transparent)
         }),
         IntegratorKind::Bdpt => Integrator::Bdpt(
@@ -225,6 +228,12 @@ fn run(job: Job, out: &Output, stop: &AtomicBool) -> Option<Arc<Integrator>> {
         .with_camera_at(job.view.camera.position);
     let ctx = ctx.with_ray_visibility();
     let ctx = ctx.with_light_linking();
+    let ctx = match s.integrator == IntegratorKind::Path
+        && crate::integrator::fast_gi::cycles_skips_world_sampling(s.fast_gi, &job.scene)
+    {
+        true => ctx.without_world_sampling(),
+        false => ctx,
+    };
     let integrator = match &job.integrator {
         Some(i) => i.clone(),
         None => Arc::new(build_integrator(&ctx, s, stop)?),

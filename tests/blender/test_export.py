@@ -215,18 +215,6 @@ def test_view_layer_samples_override_as_cycles(light_scene, captured):
     assert spp() == 7
 
 
-def test_fast_gi_is_named(light_scene, addon):
-    """Light Paths > Fast GI Approximation (ambient occlusion in place of indirect light) is not
-    rendered: a warning says so."""
-    export = importlib.import_module(addon.__name__ + ".export")
-    layer = light_scene.view_layers[0]
-    _, warnings = export.layer_render_settings(light_scene, layer, [], (8, 6), "Camera")
-    assert not any("Fast GI" in w for w in warnings), warnings
-    light_scene.cycles.use_fast_gi = True
-    _, warnings = export.layer_render_settings(light_scene, layer, [], (8, 6), "Camera")
-    assert any("Fast GI" in w for w in warnings), warnings
-
-
 def test_transparent_glass_reaches_the_renderer(light_scene, captured):
     """Film > Transparent Glass goes as its Roughness Threshold, only with a transparent film
     (Cycles ignores it otherwise)."""

@@ -206,6 +206,8 @@ impl BdptIntegrator {
             // Passes and groups are filed through `Filing` into the camera sample.
             light_groups: false,
             merged_delta_light: false,
+            // Fast GI is the path tracer's own (warned for the others).
+            fast_gi: None,
         }
     }
 

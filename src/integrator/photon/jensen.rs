@@ -145,6 +145,8 @@ impl JensenIntegrator {
             light_passes: false,
             light_groups: false,
             merged_delta_light: false,
+            // Fast GI is the path tracer's own (warned for the others).
+            fast_gi: None,
         }
     }
 
