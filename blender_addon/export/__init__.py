@@ -56,6 +56,7 @@ from .state import ExportState, exporting
 from .motion import add_deformation, sample_motion
 from .node_graph import single_colour_attribute
 from .shape_keys import shape_keys_exported
+from .light_normalize import normalize_baked
 from .light_temperature import temperatures_baked
 from .unsupported import scene_warnings
 from .volumes import VOLUME_EXTENSION, attach_volumes  # noqa: F401
@@ -131,7 +132,7 @@ def export_scene(depsgraph, folder, settings, motion=True, viewport=False, only=
     try:
         with exporting(state), bpy.context.temp_override(scene=scene, view_layer=view_layer), \
                 hooks_enabled(), shape_keys_exported(depsgraph, state.warnings, viewport), \
-                temperatures_baked(state.warnings), render_depsgraph(depsgraph):
+                temperatures_baked(state.warnings), normalize_baked(state.warnings), render_depsgraph(depsgraph):
             bpy.ops.export_scene.gltf(**_exporter_options(filepath, viewport, state.colour_attribute))
     except RuntimeError as err:
         # The operator's error carries the exporter's whole traceback; its last line says why.

@@ -36,6 +36,21 @@ def lights_with_temperature(scene):
         obj.data.temperature = temperature
 
 
+def lights_not_normalized(scene):
+    """A point, a spot and a sun with Normalize off (Cycles: power x the light's area, 4pi r^2
+    or the sun's solid angle). Before: Blender's glTF exporter failed on them
+    ("PointLight.area(): was called with invalid keyword argument(s) (world_matrix)") and so
+    did the render."""
+    for name, kind, location, rotation, energy, props in [
+        ("Bulb", "POINT", (0.6, -0.4, 3.0), (0, 0, 0), 400.0, {"shadow_soft_size": 0.5}),
+        ("Cone", "SPOT", (-0.5, 0.3, 3.2), (5, -8, 0), 600.0,
+         {"spot_size": math.radians(70.0), "spot_blend": 0.2, "shadow_soft_size": 0.3}),
+        ("Sky", "SUN", (0, 0, 5), (30, 15, 0), 20.0, {"angle": 0.3}),
+    ]:
+        obj = scenes.light(scene, name, kind, location=location, rotation_deg=rotation, energy=energy, **props)
+        obj.data.normalize = False
+
+
 def checker_image(name):
     """An 8x8 two-colour checker (8-bit, sRGB, as a painted or PNG texture is), packed."""
     image = bpy.data.images.new(name, 8, 8)
@@ -154,6 +169,7 @@ def portal_over_the_scene(scene):
 
 CASES = {
     "lights_with_temperature": lights_with_temperature,
+    "lights_not_normalized": lights_not_normalized,
     "image_linear_box_projection": image_linear_box_projection,
     "image_cubic_flat": image_cubic_flat,
     "metallic_physical_conductor": metallic_physical_conductor,
@@ -177,4 +193,15 @@ def test_light_temperature_is_restored_after_export(empty_scene, tmp_path):
     before = {light.name: (tuple(light.color), light.use_temperature, light.temperature) for light in bpy.data.lights}
     scenes.render_rgb(scene, "CAUSTIC", 1, str(tmp_path / "caustic.exr"))
     after = {light.name: (tuple(light.color), light.use_temperature, light.temperature) for light in bpy.data.lights}
+    assert after == before
+
+
+def test_light_normalize_is_restored_after_export(empty_scene, tmp_path):
+    """The export folds a punctual light's Normalize off into its power only while the
+    exporter runs: the light keeps its own power and Normalize."""
+    scene = empty_scene
+    build(scene, lights_not_normalized)
+    before = {light.name: (light.energy, light.normalize) for light in bpy.data.lights}
+    scenes.render_rgb(scene, "CAUSTIC", 1, str(tmp_path / "caustic.exr"))
+    after = {light.name: (light.energy, light.normalize) for light in bpy.data.lights}
     assert after == before
