@@ -90,6 +90,9 @@ def _exporter_options(filepath, viewport=False, colour_attribute=None):
         export_animations=False,
         export_current_frame=True,  # else the exporter jumps to frame 0 and back
         export_skins=False,  # deformation comes baked in the evaluated mesh
+        # Bones as posed: an object parented to a bone follows the bone's node, which otherwise
+        # holds the rest pose (the pose then lives in the animation, which is not exported).
+        export_rest_position_armature=False,
         export_morph=False,
         export_gn_mesh=True,
         export_gpu_instances=False,

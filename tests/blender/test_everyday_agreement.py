@@ -13,6 +13,7 @@ import bmesh
 import bpy
 import numpy as np
 import pytest
+from mathutils import Matrix
 
 import scenes
 from test_cycles_agreement import MODEL_ALLOWANCE, assert_mean_matches_cycles, build
@@ -49,6 +50,30 @@ def lights_not_normalized(scene):
     ]:
         obj = scenes.light(scene, name, kind, location=location, rotation_deg=rotation, energy=energy, **props)
         obj.data.normalize = False
+
+
+def object_parented_to_posed_bone(scene):
+    """A red box parented to a bone (Parent Type Bone, no Armature modifier: a rigid character
+    part), the bone moved in pose mode so that the box comes from outside the view to beside
+    the grey box. Before: the exporter wrote the bone's node at its rest pose (the pose lives
+    in the animation, which the add-on does not export), so the red box stayed outside the
+    view (corpus RobotExpressive.blend: 13 of 48 blocks off; here R 0.983, G and B 1.030 of
+    Cycles, after 1.0000)."""
+    rig = bpy.data.objects.new("Rig", bpy.data.armatures.new("Rig"))
+    scene.collection.objects.link(rig)
+    bpy.context.view_layer.objects.active = rig
+    bpy.ops.object.mode_set(mode="EDIT")
+    bone = rig.data.edit_bones.new("Bone")
+    bone.head, bone.tail = (3.0, 0.6, 0.0), (3.0, 0.6, 0.4)
+    bpy.ops.object.mode_set(mode="OBJECT")
+    part = scenes.cube(scene, "Part", 0.5, (0.0, 0.0, 0.0), material=scenes.diffuse_material("Red", 0.0))
+    part.active_material.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (0.8, 0.1, 0.1, 1)
+    part.parent, part.parent_type, part.parent_bone = rig, "BONE", "Bone"
+    bpy.context.view_layer.update()
+    part.matrix_world = Matrix.Translation((3.0, 0.6, 0.25))  # at rest: outside the view
+    # Pose: the bone moves 3.7 along its local X (world X), taking the box to (-0.7, 0.6).
+    rig.pose.bones["Bone"].location = (-3.7, 0.0, 0.0)
+    scenes.light(scene, "Sun", "SUN", rotation_deg=(25.0, 10.0, 0.0), energy=2.0, angle=0.0)
 
 
 def checker_image(name):
@@ -170,6 +195,7 @@ def portal_over_the_scene(scene):
 CASES = {
     "lights_with_temperature": lights_with_temperature,
     "lights_not_normalized": lights_not_normalized,
+    "object_parented_to_posed_bone": object_parented_to_posed_bone,
     "image_linear_box_projection": image_linear_box_projection,
     "image_cubic_flat": image_cubic_flat,
     "metallic_physical_conductor": metallic_physical_conductor,
