@@ -98,6 +98,8 @@ def _exporter_options(filepath, viewport=False, colour_attribute=None):
         export_gpu_instances=False,
         export_draco_mesh_compression_enable=False,
         export_materials="EXPORT",
+        # Cycles' default surface of a mesh without a material reads no colour attribute (meshes.py).
+        export_active_vertex_color_when_no_material=False,
         will_save_settings=False,
     )
 

@@ -5,7 +5,10 @@ which glTF reads as a white metal of roughness 1; Cycles renders its default sur
 (`ShaderManager::add_default`: a Principled BSDF with the node's defaults, base colour 0.8,
 metallic 0, roughness 0.5, IOR 1.5, Specular IOR Level 0.5; checked on bpy 5.0.1, where a
 material-less sphere and one with a new material's default Principled BSDF render identically).
-Such primitives get one explicit glTF material of those values.
+Such primitives get one explicit glTF material of those values. The default surface reads no
+colour attribute: the exporter is asked not to write the active one as COLOR_0 for a mesh without
+a material (`export_active_vertex_color_when_no_material`), which glTF multiplies into the base
+colour.
 
 The exporter keeps the material's texture bindings but writes no TEXCOORD attribute, which the
 glTF validator calls an error. The missing TEXCOORD_n are added with every vertex at Blender's

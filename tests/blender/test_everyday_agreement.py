@@ -76,6 +76,27 @@ def object_parented_to_posed_bone(scene):
     scenes.light(scene, "Sun", "SUN", rotation_deg=(25.0, 10.0, 0.0), energy=2.0, angle=0.0)
 
 
+def colour_attribute_without_material(scene):
+    """The box without a material but with a red colour attribute "Col", the floor's material
+    reading its own "Col" (grey) through an Attribute node, so the exporter writes "Col" by name
+    as COLOR_0 of every mesh that has it. Cycles' default surface reads no colour attribute;
+    glTF multiplies the base colour by COLOR_0. Before: the box rendered red (here R
+    0.974 of Cycles; corpus 22_vertex_colors_and_attributes.blend, 7 of 48 blocks off; after
+    1.0001)."""
+    box = bpy.data.objects["Box"]
+    box.data.materials.clear()
+    floor = bpy.data.objects["Floor"]
+    for obj, colour in ((box, (0.9, 0.05, 0.05, 1.0)), (floor, (0.5, 0.5, 0.5, 1.0))):
+        attribute = obj.data.color_attributes.new("Col", "FLOAT_COLOR", "POINT")
+        for value in attribute.data:
+            value.color = colour
+    tree = floor.active_material.node_tree
+    node = tree.nodes.new("ShaderNodeAttribute")
+    node.attribute_name = "Col"
+    tree.links.new(node.outputs["Color"], tree.nodes["Principled BSDF"].inputs["Base Color"])
+    scenes.light(scene, "Sun", "SUN", rotation_deg=(25.0, 10.0, 0.0), energy=2.0, angle=0.0)
+
+
 def checker_image(name):
     """An 8x8 two-colour checker (8-bit, sRGB, as a painted or PNG texture is), packed."""
     image = bpy.data.images.new(name, 8, 8)
@@ -196,6 +217,7 @@ CASES = {
     "lights_with_temperature": lights_with_temperature,
     "lights_not_normalized": lights_not_normalized,
     "object_parented_to_posed_bone": object_parented_to_posed_bone,
+    "colour_attribute_without_material": colour_attribute_without_material,
     "image_linear_box_projection": image_linear_box_projection,
     "image_cubic_flat": image_cubic_flat,
     "metallic_physical_conductor": metallic_physical_conductor,
