@@ -108,7 +108,7 @@ class glTF2ExportUserExtension:
     def gather_mesh_hook(self, gltf2_mesh, blender_mesh, blender_object, vertex_groups, modifiers, materials,
                          export_settings):
         """Give primitives without a material Blender's default surface and the TEXCOORD_n their
-        material's textures read (meshes.py)."""
+        material's textures read, and drop the COLOR_0 their material does not read (meshes.py)."""
         state = current()
         if state is None or gltf2_mesh is None:
             return
@@ -116,6 +116,7 @@ class glTF2ExportUserExtension:
             meshes.apply_material_override(gltf2_mesh, state, export_settings)
             meshes.give_default_material(gltf2_mesh, state)
             meshes.add_missing_texcoords(gltf2_mesh, blender_mesh, state)
+            meshes.drop_unread_colour(gltf2_mesh)
         except Exception as err:
             state.errors.append(f"mesh '{getattr(blender_mesh, 'name', '?')}': {err!r}")
 

@@ -76,15 +76,14 @@ def object_parented_to_posed_bone(scene):
     scenes.light(scene, "Sun", "SUN", rotation_deg=(25.0, 10.0, 0.0), energy=2.0, angle=0.0)
 
 
-def colour_attribute_without_material(scene):
-    """The box without a material but with a red colour attribute "Col", the floor's material
+def colour_attribute_on_box(scene, material):
+    """The box's red colour attribute "Col" (with `material`, else none), the floor's material
     reading its own "Col" (grey) through an Attribute node, so the exporter writes "Col" by name
-    as COLOR_0 of every mesh that has it. Cycles' default surface reads no colour attribute;
-    glTF multiplies the base colour by COLOR_0. Before: the box rendered red (here R
-    0.974 of Cycles; corpus 22_vertex_colors_and_attributes.blend, 7 of 48 blocks off; after
-    1.0001)."""
+    as COLOR_0 of every mesh that has it; a sun."""
     box = bpy.data.objects["Box"]
     box.data.materials.clear()
+    if material is not None:
+        box.data.materials.append(material)
     floor = bpy.data.objects["Floor"]
     for obj, colour in ((box, (0.9, 0.05, 0.05, 1.0)), (floor, (0.5, 0.5, 0.5, 1.0))):
         attribute = obj.data.color_attributes.new("Col", "FLOAT_COLOR", "POINT")
@@ -95,6 +94,24 @@ def colour_attribute_without_material(scene):
     node.attribute_name = "Col"
     tree.links.new(node.outputs["Color"], tree.nodes["Principled BSDF"].inputs["Base Color"])
     scenes.light(scene, "Sun", "SUN", rotation_deg=(25.0, 10.0, 0.0), energy=2.0, angle=0.0)
+
+
+def colour_attribute_unread_by_material(scene):
+    """The box's material is a plain Principled BSDF (written as a glTF material), which reads
+    no colour attribute in Cycles; glTF multiplies its base colour by COLOR_0. Before: the box
+    rendered red (here R/G/B 0.972/0.734/0.734 of Cycles; corpus 24_material_partial_VC.blend,
+    7 of 48 blocks off; after 1.0000)."""
+    colour_attribute_on_box(scene, scenes.diffuse_material("Light", 0.8))
+
+
+def colour_attribute_without_material(scene):
+    """The box without a material but with a red colour attribute "Col", the floor's material
+    reading its own "Col" (grey) through an Attribute node, so the exporter writes "Col" by name
+    as COLOR_0 of every mesh that has it. Cycles' default surface reads no colour attribute;
+    glTF multiplies the base colour by COLOR_0. Before: the box rendered red (here R
+    0.974 of Cycles; corpus 22_vertex_colors_and_attributes.blend, 7 of 48 blocks off; after
+    1.0001)."""
+    colour_attribute_on_box(scene, None)
 
 
 def checker_image(name):
@@ -218,6 +235,7 @@ CASES = {
     "lights_not_normalized": lights_not_normalized,
     "object_parented_to_posed_bone": object_parented_to_posed_bone,
     "colour_attribute_without_material": colour_attribute_without_material,
+    "colour_attribute_unread_by_material": colour_attribute_unread_by_material,
     "image_linear_box_projection": image_linear_box_projection,
     "image_cubic_flat": image_cubic_flat,
     "metallic_physical_conductor": metallic_physical_conductor,
