@@ -31,6 +31,7 @@ from .nodes import procedural_source, surface_node, value as _value
 COAT_EXTENSION = "CAUSTIC_materials_coat"
 ANISOTROPY_EXTENSION = "CAUSTIC_materials_anisotropy"
 SHEEN_EXTENSION = "CAUSTIC_materials_sheen"
+SHADOW_EXTENSION = "CAUSTIC_materials_shadow"
 
 # Shaders the add-on translates; any other surface is a warning and a grey Lambertian.
 _BSDF_NODES = {"BSDF_DIFFUSE", "BSDF_GLOSSY", "BSDF_METALLIC", "BSDF_GLASS", "BSDF_REFRACTION"}
@@ -449,3 +450,12 @@ def _translate_shader_node(gltf2_material, blender_material, export_settings, ou
             "KHR_materials_transmission", {"transmissionFactor": params["transmission"]})
         extensions["KHR_materials_ior"] = optional_extension("KHR_materials_ior", {"ior": params["ior"]})
     gltf2_material.extensions = extensions or None
+
+
+def add_shadow_extension(gltf2_material, blender_material):
+    """`CAUSTIC_materials_shadow` with `"transparent": false` when the material's Transparent
+    Shadows setting is off: Cycles then stops shadow rays at its surface whatever its alpha
+    (`Shader::use_transparent_shadow`, from `Material.use_transparent_shadow`); files made
+    before Blender 4.2 often have it off."""
+    if not getattr(blender_material, "use_transparent_shadow", True):
+        _set_extension(gltf2_material, SHADOW_EXTENSION, {"transparent": False})
