@@ -140,8 +140,10 @@ def export_scene(depsgraph, folder, settings, motion=True, viewport=False, only=
                 temperatures_baked(state.warnings), normalize_baked(state.warnings), render_depsgraph(depsgraph):
             bpy.ops.export_scene.gltf(**_exporter_options(filepath, viewport, state.colour_attribute))
     except RuntimeError as err:
-        # The operator's error carries the exporter's whole traceback; its last line says why.
-        lines = [line.strip() for line in str(err).splitlines() if line.strip()]
+        # The operator's error carries the exporter's whole traceback; its last line says why
+        # (bpy 5.0 appends the operator's "Location: .../ops.py:109", which does not).
+        lines = [line.strip() for line in str(err).splitlines()
+                 if line.strip() and not line.strip().startswith("Location:")]
         raise CausticError(f"glTF export failed: {lines[-1] if lines else err}") from None
     if state.errors:
         raise CausticError("export failed: " + "; ".join(state.errors))
