@@ -20,7 +20,7 @@ from .gltf_objects import attach_extension
 from .lights import (AREA_LIGHT_EXTENSION, PUNCTUAL_EXTENSION, area_light_extension, carry_negative_intensity,
                      punctual_light_extension, scale_punctual_light, separate_spot_angles)
 from .state import current
-from .udim_split import restore_tile_uvs
+from .udim_split import dropped_triangles_warning, restore_tile_uvs
 from .light_linking import LIGHT_LINKING_EXTENSION, light_linking_extension
 from .pass_ids import (MATERIAL_PASS_EXTENSION, OBJECT_PASS_EXTENSION, material_pass_extension,
                        object_pass_extension)
@@ -120,6 +120,7 @@ class glTF2ExportUserExtension:
             meshes.add_missing_texcoords(gltf2_mesh, blender_mesh, state)
             meshes.drop_unread_colour(gltf2_mesh)
             restore_tile_uvs(gltf2_mesh, state)
+            dropped_triangles_warning(gltf2_mesh, blender_mesh, state)
         except Exception as err:
             state.errors.append(f"mesh '{getattr(blender_mesh, 'name', '?')}': {err!r}")
 

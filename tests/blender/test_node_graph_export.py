@@ -636,3 +636,18 @@ def test_principled_ior_below_one_is_named(addon, empty_scene, tmp_path):
     _, state, _ = export(addon, empty_scene, tmp_path)
     assert any("'Odd'" in w and "'Principled BSDF'" in w and "IOR 0 below 1" in w for w in state.warnings), \
         state.warnings
+
+
+def test_triangles_the_udim_split_leaves_out_are_named(addon, empty_scene, tmp_path):
+    """Blender's glTF exporter splits a mesh with UDIM textures by tile and leaves out a triangle
+    whose first corner's UV is in no tile (corpus 33_udim_merged.blend: 6 of 12 exported, the
+    faces whose UVs start at -0.02); Cycles renders them. The export names the mesh."""
+    import test_images_agreement as images
+    mat = images.principled_image(images.udim)(str(tmp_path), "Tiles")
+    images.udim_split_scene(empty_scene, mat)
+    mesh = empty_scene.objects["Plane"].data
+    for loop in mesh.polygons[0].loop_indices:  # the first face's UVs start just below tile 1001
+        mesh.uv_layers["UVMap"].data[loop].uv -= Vector((0.15, 0.0))
+    _, state, _ = export(addon, empty_scene, tmp_path)
+    assert any("'Plane'" in w and "left out" in w and "of its 4 triangles" in w for w in state.warnings), \
+        state.warnings
