@@ -56,6 +56,7 @@ from .state import ExportState, exporting
 from .motion import add_deformation, sample_motion
 from .node_graph import single_colour_attribute
 from .shape_keys import shape_keys_exported
+from .light_normalize import normalize_baked
 from .light_temperature import temperatures_baked
 from .unsupported import scene_warnings
 from .volumes import VOLUME_EXTENSION, attach_volumes  # noqa: F401
@@ -89,11 +90,16 @@ def _exporter_options(filepath, viewport=False, colour_attribute=None):
         export_animations=False,
         export_current_frame=True,  # else the exporter jumps to frame 0 and back
         export_skins=False,  # deformation comes baked in the evaluated mesh
+        # Bones as posed: an object parented to a bone follows the bone's node, which otherwise
+        # holds the rest pose (the pose then lives in the animation, which is not exported).
+        export_rest_position_armature=False,
         export_morph=False,
         export_gn_mesh=True,
         export_gpu_instances=False,
         export_draco_mesh_compression_enable=False,
         export_materials="EXPORT",
+        # Cycles' default surface of a mesh without a material reads no colour attribute (meshes.py).
+        export_active_vertex_color_when_no_material=False,
         will_save_settings=False,
     )
 
@@ -131,11 +137,13 @@ def export_scene(depsgraph, folder, settings, motion=True, viewport=False, only=
     try:
         with exporting(state), bpy.context.temp_override(scene=scene, view_layer=view_layer), \
                 hooks_enabled(), shape_keys_exported(depsgraph, state.warnings, viewport), \
-                temperatures_baked(state.warnings), render_depsgraph(depsgraph):
+                temperatures_baked(state.warnings), normalize_baked(state.warnings), render_depsgraph(depsgraph):
             bpy.ops.export_scene.gltf(**_exporter_options(filepath, viewport, state.colour_attribute))
     except RuntimeError as err:
-        # The operator's error carries the exporter's whole traceback; its last line says why.
-        lines = [line.strip() for line in str(err).splitlines() if line.strip()]
+        # The operator's error carries the exporter's whole traceback; its last line says why
+        # (bpy 5.0 appends the operator's "Location: .../ops.py:109", which does not).
+        lines = [line.strip() for line in str(err).splitlines()
+                 if line.strip() and not line.strip().startswith("Location:")]
         raise CausticError(f"glTF export failed: {lines[-1] if lines else err}") from None
     if state.errors:
         raise CausticError("export failed: " + "; ".join(state.errors))

@@ -20,6 +20,7 @@ from .gltf_objects import attach_extension
 from .lights import (AREA_LIGHT_EXTENSION, PUNCTUAL_EXTENSION, area_light_extension, carry_negative_intensity,
                      punctual_light_extension, scale_punctual_light, separate_spot_angles)
 from .state import current
+from .udim_split import dropped_triangles_warning, restore_tile_uvs
 from .light_linking import LIGHT_LINKING_EXTENSION, light_linking_extension
 from .pass_ids import (MATERIAL_PASS_EXTENSION, OBJECT_PASS_EXTENSION, material_pass_extension,
                        object_pass_extension)
@@ -108,7 +109,8 @@ class glTF2ExportUserExtension:
     def gather_mesh_hook(self, gltf2_mesh, blender_mesh, blender_object, vertex_groups, modifiers, materials,
                          export_settings):
         """Give primitives without a material Blender's default surface and the TEXCOORD_n their
-        material's textures read (meshes.py)."""
+        material's textures read, and drop the COLOR_0 their material does not read (meshes.py);
+        move UDIM tile primitives' UVs back to their tiles (udim_split.py)."""
         state = current()
         if state is None or gltf2_mesh is None:
             return
@@ -116,6 +118,9 @@ class glTF2ExportUserExtension:
             meshes.apply_material_override(gltf2_mesh, state, export_settings)
             meshes.give_default_material(gltf2_mesh, state)
             meshes.add_missing_texcoords(gltf2_mesh, blender_mesh, state)
+            meshes.drop_unread_colour(gltf2_mesh)
+            restore_tile_uvs(gltf2_mesh, state)
+            dropped_triangles_warning(gltf2_mesh, blender_mesh, state)
         except Exception as err:
             state.errors.append(f"mesh '{getattr(blender_mesh, 'name', '?')}': {err!r}")
 
@@ -137,6 +142,8 @@ class glTF2ExportUserExtension:
             return
         try:
             materials.complete_material(gltf2_material, blender_material, export_settings, state)
+            materials.add_shadow_extension(gltf2_material, blender_material)
+            state.warnings.extend(materials.ior_below_one_warnings(blender_material))
             if materials.uses_graph(blender_material, state):
                 attributes.note_requests(blender_material, state)
             ids = material_pass_extension(blender_material)

@@ -5,6 +5,8 @@ Imported lazily: the exporter add-on may be loaded after Caustic.
 
 import struct
 
+import numpy as np
+
 
 def optional_extension(name, value):
     """An exporter Extension object `name` with `value`, not required by readers."""
@@ -29,3 +31,17 @@ def constant_uv_accessor(count):
         buffer_view=BinaryData(data, bufferViewTarget=BufferViewTarget.ARRAY_BUFFER), byte_offset=None,
         component_type=ComponentType.Float, count=count, extensions=None, extras=None, max=None, min=None,
         name=None, normalized=None, sparse=None, type=DataType.Vec2)
+
+
+def accessor_array(accessor, dtype, width):
+    """An exporter accessor's data as a (count, width) array, or None when it is not plain
+    tightly packed data in memory (the exporter's own accessors always are)."""
+    data = getattr(accessor.buffer_view, "data", None)
+    if not isinstance(data, (bytes, bytearray)) or accessor.sparse is not None:
+        return None
+    offset = accessor.byte_offset or 0
+    size = np.dtype(dtype).itemsize * width * accessor.count
+    if offset + size > len(data):
+        return None
+    arr = np.frombuffer(bytes(data[offset:offset + size]), dtype=dtype)
+    return arr.reshape(accessor.count, width) if width > 1 else arr

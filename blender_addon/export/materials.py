@@ -31,6 +31,7 @@ from .nodes import procedural_source, surface_node, value as _value
 COAT_EXTENSION = "CAUSTIC_materials_coat"
 ANISOTROPY_EXTENSION = "CAUSTIC_materials_anisotropy"
 SHEEN_EXTENSION = "CAUSTIC_materials_sheen"
+SHADOW_EXTENSION = "CAUSTIC_materials_shadow"
 
 # Shaders the add-on translates; any other surface is a warning and a grey Lambertian.
 _BSDF_NODES = {"BSDF_DIFFUSE", "BSDF_GLOSSY", "BSDF_METALLIC", "BSDF_GLASS", "BSDF_REFRACTION"}
@@ -449,3 +450,31 @@ def _translate_shader_node(gltf2_material, blender_material, export_settings, ou
             "KHR_materials_transmission", {"transmissionFactor": params["transmission"]})
         extensions["KHR_materials_ior"] = optional_extension("KHR_materials_ior", {"ior": params["ior"]})
     gltf2_material.extensions = extensions or None
+
+
+def add_shadow_extension(gltf2_material, blender_material):
+    """`CAUSTIC_materials_shadow` with `"transparent": false` when the material's Transparent
+    Shadows setting is off: Cycles then stops shadow rays at its surface whatever its alpha
+    (`Shader::use_transparent_shadow`, from `Material.use_transparent_shadow`); files made
+    before Blender 4.2 often have it off."""
+    if not getattr(blender_material, "use_transparent_shadow", True):
+        _set_extension(gltf2_material, SHADOW_EXTENSION, {"transparent": False})
+
+
+def ior_below_one_warnings(blender_material):
+    """Warnings naming the material's Principled BSDF nodes whose unlinked IOR is below 1:
+    Cycles renders their specular layer with that η (down to 1e-5, a near mirror), Caustic's
+    Principled BSDF holds η >= 1 and renders them at 1, without the layer."""
+    tree = getattr(blender_material, "node_tree", None)
+    if tree is None:
+        return []
+    warnings = []
+    for node in tree.nodes:
+        if node.bl_idname != "ShaderNodeBsdfPrincipled" or node.mute:
+            continue
+        ior = node.inputs.get("IOR")
+        if ior is not None and not ior.is_linked and ior.default_value < 1.0:
+            warnings.append(f"material '{blender_material.name}': Principled BSDF '{node.name}' has IOR "
+                            f"{ior.default_value:g} below 1; Caustic renders it at 1, without the specular "
+                            "layer Cycles renders for it")
+    return warnings

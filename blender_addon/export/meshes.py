@@ -5,7 +5,11 @@ which glTF reads as a white metal of roughness 1; Cycles renders its default sur
 (`ShaderManager::add_default`: a Principled BSDF with the node's defaults, base colour 0.8,
 metallic 0, roughness 0.5, IOR 1.5, Specular IOR Level 0.5; checked on bpy 5.0.1, where a
 material-less sphere and one with a new material's default Principled BSDF render identically).
-Such primitives get one explicit glTF material of those values.
+Such primitives get one explicit glTF material of those values. The default surface reads no
+colour attribute: the exporter is asked not to write the active one as COLOR_0 for a mesh without
+a material (`export_active_vertex_color_when_no_material`), which glTF multiplies into the base
+colour. Neither does any material the exporter writes as glTF (not a node graph): their
+primitives' COLOR_0, written when the graphs read one colour attribute by name, is removed.
 
 The exporter keeps the material's texture bindings but writes no TEXCOORD attribute, which the
 glTF validator calls an error. The missing TEXCOORD_n are added with every vertex at Blender's
@@ -24,6 +28,7 @@ from .attributes import note_requests
 from .gltf_objects import constant_uv_accessor
 from .materials import complete_material, graph_of, uses_graph
 from .media import volume_uses_generated
+from .node_graph import GRAPH_EXTENSION
 
 TEXSPACE_EXTRA = "CAUSTIC_texspace"
 NORMALS_DOMAIN_EXTRA = "CAUSTIC_normals_domain"
@@ -57,6 +62,20 @@ def give_default_material(gltf2_mesh, state):
             if state.default_material is None:
                 state.default_material = _default_surface()
             prim.material = state.default_material
+
+
+def drop_unread_colour(gltf2_mesh):
+    """Remove COLOR_0 from the primitives whose material is not a node graph: glTF multiplies
+    the base colour by it, but such a material has no node that reads a colour attribute in
+    Cycles (a Color Attribute or Attribute node makes the material a graph, node_graph.needs_graph).
+    The exporter writes it when the graphs read one colour attribute by name
+    (`single_colour_attribute`): then for every mesh that has the attribute."""
+    for prim in gltf2_mesh.primitives or []:
+        if not prim.attributes or "COLOR_0" not in prim.attributes:
+            continue
+        extensions = getattr(prim.material, "extensions", None) or {}
+        if GRAPH_EXTENSION not in extensions:
+            del prim.attributes["COLOR_0"]
 
 
 def _default_surface():

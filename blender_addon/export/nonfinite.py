@@ -14,6 +14,8 @@ the warning says the triangles are kept.
 
 import numpy as np
 
+from .gltf_objects import accessor_array
+
 _INDEX_FORMATS = {5121: np.uint8, 5123: np.uint16, 5125: np.uint32}
 
 
@@ -75,11 +77,11 @@ def _collapse_at_origin(prim):
     position, indices = (prim.attributes or {}).get("POSITION"), prim.indices
     if position is None or indices is None or getattr(prim, "mode", None) not in (None, 4):
         return 0
-    pos = _accessor_array(position, np.float32, 3)
+    pos = accessor_array(position, np.float32, 3)
     idx_type = _INDEX_FORMATS.get(int(indices.component_type))
     if pos is None or idx_type is None:
         return 0
-    idx = _accessor_array(indices, idx_type, 1)
+    idx = accessor_array(indices, idx_type, 1)
     if idx is None:
         return 0
     tris = idx.reshape(-1, 3).copy()
@@ -93,18 +95,3 @@ def _collapse_at_origin(prim):
     indices.buffer_view = BinaryData(tris.astype(idx_type).tobytes(), bufferViewTarget=view.bufferViewTarget)
     indices.byte_offset = None
     return int(hit.sum())
-
-
-def _accessor_array(accessor, dtype, width):
-    """An exporter accessor's data as a (count, width) array, or None when it is not plain
-    tightly packed data in memory (the exporter's own accessors always are)."""
-    data = getattr(accessor.buffer_view, "data", None)
-    if not isinstance(data, (bytes, bytearray)) or accessor.sparse is not None:
-        return None
-    offset = accessor.byte_offset or 0
-    size = np.dtype(dtype).itemsize * width * accessor.count
-    if offset + size > len(data):
-        return None
-    arr = np.frombuffer(bytes(data[offset:offset + size]), dtype=dtype)
-    return arr.reshape(accessor.count, width) if width > 1 else arr
-

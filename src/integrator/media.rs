@@ -160,7 +160,7 @@ pub fn light_transmittance_as(
             // Not one of the light's blockers: passed, its medium ignored.
         } else if mat.null_surface {
             stack = ctx.medium_after(&s, dir, stack);
-        } else if mat.alpha_mode == AlphaMode::Blend {
+        } else if mat.alpha_mode == AlphaMode::Blend && mat.transparent_shadow {
             // Opaque past the crossings the path's transparent bounces leave (Cycles).
             if crossings == crossings_left {
                 return Rgb::ZERO;

@@ -626,7 +626,9 @@ impl<'a> SceneContext<'a> {
             if !self.sees(RayMask::SHADOW, tri) || light.is_some_and(|l| !self.blocks(l, tri)) {
                 return 1.0;
             }
-            let mode = self.scene.materials[self.scene.mesh.tri_material[tri as usize] as usize].alpha_mode;
+            let material = &self.scene.materials[self.scene.mesh.tri_material[tri as usize] as usize];
+            // Transparent Shadows off: Cycles' shadow rays stop at the surface whatever its alpha.
+            let mode = if material.transparent_shadow { material.alpha_mode } else { AlphaMode::Opaque };
             if mode != AlphaMode::Opaque {
                 crossings.set(crossings.get() + 1);
                 if crossings.get() > crossings_left {

@@ -120,6 +120,9 @@ pub struct Material {
     pub subsurface: Option<Subsurface>,
     /// Alpha mode.
     pub alpha_mode: AlphaMode,
+    /// Shadow rays pass the surface as its alpha says (Cycles' Transparent Shadows, on unless
+    /// `CAUSTIC_materials_shadow` says `"transparent": false`: then the surface stops them).
+    pub transparent_shadow: bool,
     /// Emits from both sides (glTF `doubleSided`). Shading is always two-sided, as in Cycles.
     pub double_sided: bool,
     /// Blender's shader graph (`CAUSTIC_materials_nodes`), compiled: when present it
@@ -199,6 +202,7 @@ impl Default for Material {
             dispersion: 0.0,
             iridescence: None,
             alpha_mode: AlphaMode::Opaque,
+            transparent_shadow: true,
             double_sided: false,
             nodes: None,
             hair: None,
@@ -291,6 +295,7 @@ macro_rules! texture_fields {
             volume_program: _,
             subsurface: _,
             alpha_mode: _,
+            transparent_shadow: _,
             double_sided: _,
             hair: _,
             // Not a texture: a shader graph replaces every parameter above.

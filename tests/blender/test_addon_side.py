@@ -177,15 +177,20 @@ def test_binary_search_order(addon, tmp_path, monkeypatch):
         prefs.binary_path = ""
 
 
-def test_exporter_failure_is_one_readable_line(scene):
-    """bpy 5.0.1's exporter fails on a point light with Normalize off (it calls
-    `area(world_matrix=...)`, the keyword is `matrix_world`): the report names the cause
-    without the exporter's traceback. (Once the exporter is fixed the render simply succeeds.)"""
-    scenes.light(scene, "Unnormalized", "POINT", energy=10.0, normalize=False)
-    try:
+def test_exporter_failure_is_one_readable_line(scene, monkeypatch):
+    """An exception inside Blender's glTF exporter fails the render with one line that names
+    its cause, without the exporter's traceback. bpy 5.0.1 ends the operator's message with a
+    "Location: .../ops.py:109" line, which the report showed instead of the cause (the
+    exporter's failure on a light with Normalize off read "glTF export failed: Location: ...")."""
+    from io_scene_gltf2.blender.exp import export as gltf_export
+
+    def broken(context, export_settings):
+        raise TypeError("the exporter's own reason")
+
+    monkeypatch.setattr(gltf_export, "save", broken)
+    with pytest.raises(RuntimeError) as err:
         bpy.ops.render.render(write_still=True)
-        return
-    except RuntimeError as err:
-        message = str(err)
+    message = str(err.value)
     assert message.startswith("Error: Caustic: glTF export failed: ")
     assert "Traceback" not in message and "\n" not in message.strip()
+    assert message.strip().endswith("TypeError: the exporter's own reason"), message

@@ -13,6 +13,7 @@ import bmesh
 import bpy
 import numpy as np
 import pytest
+from mathutils import Matrix
 
 import scenes
 from test_cycles_agreement import MODEL_ALLOWANCE, assert_mean_matches_cycles, build
@@ -34,6 +35,83 @@ def lights_with_temperature(scene):
                            color=(1.0, 0.9, 0.8), **props)
         obj.data.use_temperature = True
         obj.data.temperature = temperature
+
+
+def lights_not_normalized(scene):
+    """A point, a spot and a sun with Normalize off (Cycles: power x the light's area, 4pi r^2
+    or the sun's solid angle). Before: Blender's glTF exporter failed on them
+    ("PointLight.area(): was called with invalid keyword argument(s) (world_matrix)") and so
+    did the render."""
+    for name, kind, location, rotation, energy, props in [
+        ("Bulb", "POINT", (0.6, -0.4, 3.0), (0, 0, 0), 400.0, {"shadow_soft_size": 0.5}),
+        ("Cone", "SPOT", (-0.5, 0.3, 3.2), (5, -8, 0), 600.0,
+         {"spot_size": math.radians(70.0), "spot_blend": 0.2, "shadow_soft_size": 0.3}),
+        ("Sky", "SUN", (0, 0, 5), (30, 15, 0), 20.0, {"angle": 0.3}),
+    ]:
+        obj = scenes.light(scene, name, kind, location=location, rotation_deg=rotation, energy=energy, **props)
+        obj.data.normalize = False
+
+
+def object_parented_to_posed_bone(scene):
+    """A red box parented to a bone (Parent Type Bone, no Armature modifier: a rigid character
+    part), the bone moved in pose mode so that the box comes from outside the view to beside
+    the grey box. Before: the exporter wrote the bone's node at its rest pose (the pose lives
+    in the animation, which the add-on does not export), so the red box stayed outside the
+    view (corpus RobotExpressive.blend: 13 of 48 blocks off; here R 0.983, G and B 1.030 of
+    Cycles, after 1.0000)."""
+    rig = bpy.data.objects.new("Rig", bpy.data.armatures.new("Rig"))
+    scene.collection.objects.link(rig)
+    bpy.context.view_layer.objects.active = rig
+    bpy.ops.object.mode_set(mode="EDIT")
+    bone = rig.data.edit_bones.new("Bone")
+    bone.head, bone.tail = (3.0, 0.6, 0.0), (3.0, 0.6, 0.4)
+    bpy.ops.object.mode_set(mode="OBJECT")
+    part = scenes.cube(scene, "Part", 0.5, (0.0, 0.0, 0.0), material=scenes.diffuse_material("Red", 0.0))
+    part.active_material.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (0.8, 0.1, 0.1, 1)
+    part.parent, part.parent_type, part.parent_bone = rig, "BONE", "Bone"
+    bpy.context.view_layer.update()
+    part.matrix_world = Matrix.Translation((3.0, 0.6, 0.25))  # at rest: outside the view
+    # Pose: the bone moves 3.7 along its local X (world X), taking the box to (-0.7, 0.6).
+    rig.pose.bones["Bone"].location = (-3.7, 0.0, 0.0)
+    scenes.light(scene, "Sun", "SUN", rotation_deg=(25.0, 10.0, 0.0), energy=2.0, angle=0.0)
+
+
+def colour_attribute_on_box(scene, material):
+    """The box's red colour attribute "Col" (with `material`, else none), the floor's material
+    reading its own "Col" (grey) through an Attribute node, so the exporter writes "Col" by name
+    as COLOR_0 of every mesh that has it; a sun."""
+    box = bpy.data.objects["Box"]
+    box.data.materials.clear()
+    if material is not None:
+        box.data.materials.append(material)
+    floor = bpy.data.objects["Floor"]
+    for obj, colour in ((box, (0.9, 0.05, 0.05, 1.0)), (floor, (0.5, 0.5, 0.5, 1.0))):
+        attribute = obj.data.color_attributes.new("Col", "FLOAT_COLOR", "POINT")
+        for value in attribute.data:
+            value.color = colour
+    tree = floor.active_material.node_tree
+    node = tree.nodes.new("ShaderNodeAttribute")
+    node.attribute_name = "Col"
+    tree.links.new(node.outputs["Color"], tree.nodes["Principled BSDF"].inputs["Base Color"])
+    scenes.light(scene, "Sun", "SUN", rotation_deg=(25.0, 10.0, 0.0), energy=2.0, angle=0.0)
+
+
+def colour_attribute_unread_by_material(scene):
+    """The box's material is a plain Principled BSDF (written as a glTF material), which reads
+    no colour attribute in Cycles; glTF multiplies its base colour by COLOR_0. Before: the box
+    rendered red (here R/G/B 0.972/0.734/0.734 of Cycles; corpus 24_material_partial_VC.blend,
+    7 of 48 blocks off; after 1.0000)."""
+    colour_attribute_on_box(scene, scenes.diffuse_material("Light", 0.8))
+
+
+def colour_attribute_without_material(scene):
+    """The box without a material but with a red colour attribute "Col", the floor's material
+    reading its own "Col" (grey) through an Attribute node, so the exporter writes "Col" by name
+    as COLOR_0 of every mesh that has it. Cycles' default surface reads no colour attribute;
+    glTF multiplies the base colour by COLOR_0. Before: the box rendered red (here R
+    0.974 of Cycles; corpus 22_vertex_colors_and_attributes.blend, 7 of 48 blocks off; after
+    1.0001)."""
+    colour_attribute_on_box(scene, None)
 
 
 def checker_image(name):
@@ -154,6 +232,10 @@ def portal_over_the_scene(scene):
 
 CASES = {
     "lights_with_temperature": lights_with_temperature,
+    "lights_not_normalized": lights_not_normalized,
+    "object_parented_to_posed_bone": object_parented_to_posed_bone,
+    "colour_attribute_without_material": colour_attribute_without_material,
+    "colour_attribute_unread_by_material": colour_attribute_unread_by_material,
     "image_linear_box_projection": image_linear_box_projection,
     "image_cubic_flat": image_cubic_flat,
     "metallic_physical_conductor": metallic_physical_conductor,
@@ -177,4 +259,15 @@ def test_light_temperature_is_restored_after_export(empty_scene, tmp_path):
     before = {light.name: (tuple(light.color), light.use_temperature, light.temperature) for light in bpy.data.lights}
     scenes.render_rgb(scene, "CAUSTIC", 1, str(tmp_path / "caustic.exr"))
     after = {light.name: (tuple(light.color), light.use_temperature, light.temperature) for light in bpy.data.lights}
+    assert after == before
+
+
+def test_light_normalize_is_restored_after_export(empty_scene, tmp_path):
+    """The export folds a punctual light's Normalize off into its power only while the
+    exporter runs: the light keeps its own power and Normalize."""
+    scene = empty_scene
+    build(scene, lights_not_normalized)
+    before = {light.name: (light.energy, light.normalize) for light in bpy.data.lights}
+    scenes.render_rgb(scene, "CAUSTIC", 1, str(tmp_path / "caustic.exr"))
+    after = {light.name: (light.energy, light.normalize) for light in bpy.data.lights}
     assert after == before

@@ -33,6 +33,11 @@ pytest -s; after: 0.9984-1.0022, no block over its bound):
 * udim_tiles: a UDIM image of two tiles on UVs that span both: only the first tile was
   exported (with a warning) and repeated: 1.7459 1.7430 0.0258 (52 of 108 blocks over); now
   each tile is its own image, picked as Cycles' `kernel_image_udim_map`.
+* udim_tiles_principled: the same image into a Principled BSDF's Base Color, each face within
+  one tile: Blender's glTF exporter splits such a mesh into a primitive per tile with its UVs
+  moved into 0-1, and the node graph (which holds every tile) read tile 1001 everywhere:
+  R/G/B 1.5056/1.5105/0.1741 (51 of 108 blocks over; corpus 33_udim.blend 15 of 48), silently;
+  now the UVs are moved back to their tiles.
 * alpha_*: images with an alpha channel, which Cycles holds with associated alpha (colour
   times alpha, filtered so, divided back only where the node's Alpha is linked). Straight and
   Premultiplied 8-bit PNGs on Base Color alone: glTF's straight texture, 1.2387 1.8392 1.8608
@@ -225,6 +230,21 @@ def udim_scene(scene, material):
         mesh.uv_layers["UVMap"].data[i].uv = [(0, 0), (2, 0), (2, 1), (0, 1)][loop.vertex_index]
 
 
+def udim_split_scene(scene, material):
+    """Two quads side by side filling the flat scene's view, the left one's UVs in tile 1001,
+    the right one's in tile 1002 (each face within one tile, as an unwrap packed per tile)."""
+    verts = [(-1.0, -0.75, 0.0), (0.0, -0.75, 0.0), (0.0, 0.75, 0.0), (-1.0, 0.75, 0.0),
+             (0.0, -0.75, 0.0), (1.0, -0.75, 0.0), (1.0, 0.75, 0.0), (0.0, 0.75, 0.0)]
+    obj = scenes.mesh_object(scene, "Plane", verts, [(0, 1, 2, 3), (4, 5, 6, 7)], material=material)
+    layer = obj.data.uv_layers.new(name="UVMap")
+    corners = [(0.1, 0.1), (0.9, 0.1), (0.9, 0.9), (0.1, 0.9)]
+    for poly in obj.data.polygons:
+        for corner, loop in zip(corners, poly.loop_indices):
+            layer.data[loop].uv = (corner[0] + poly.index, corner[1])
+    scenes.camera(scene, (0.0, 0.0, 3.0), (0.0, 0.0, 0.0), lens=54.0)
+    scenes.light(scene, "Sun", "SUN", rotation_deg=(20.0, 10.0, 0.0), energy=3.0, angle=0.0)
+
+
 def with_alpha_mode(mode):
     def make(folder, name):
         img = image_file(os.path.join(folder, f"{name}.png"), alpha=True)
@@ -301,6 +321,7 @@ CASES = {
     "udim_tiles": (udim_scene, diffuse_image(udim)),
     "texture_limit_graph": (simplified(nodes.flat_scene), diffuse_image(fine_checker)),
     "texture_limit_gltf": (simplified(nodes.flat_scene), principled_image(fine_checker)),
+    "udim_tiles_principled": (udim_split_scene, principled_image(udim)),
 }
 
 

@@ -622,3 +622,32 @@ def test_value_and_rgb_nodes_carry_their_numbers(addon, empty_scene, tmp_path):
     nodes = by_name(graph_of(gltf, "Constants"))
     assert nodes["Value"][1]["props"]["value"] == pytest.approx(0.3)
     assert nodes["Color"][1]["props"]["color"][:3] == pytest.approx([0.2, 0.4, 0.6])
+
+
+def test_principled_ior_below_one_is_named(addon, empty_scene, tmp_path):
+    """A Principled BSDF with IOR below 1 (corpus collection_to_link.blend has 0): Cycles
+    renders a specular layer of that η, Caustic holds η >= 1 (0.80/0.88/0.70 of Cycles there);
+    the export names the node instead of rendering it differently in silence."""
+    mat = bpy.data.materials.new("Odd")
+    if mat.node_tree is None:
+        mat.use_nodes = True
+    mat.node_tree.nodes["Principled BSDF"].inputs["IOR"].default_value = 0.0
+    uv_plane(empty_scene, "Plane", mat)
+    _, state, _ = export(addon, empty_scene, tmp_path)
+    assert any("'Odd'" in w and "'Principled BSDF'" in w and "IOR 0 below 1" in w for w in state.warnings), \
+        state.warnings
+
+
+def test_triangles_the_udim_split_leaves_out_are_named(addon, empty_scene, tmp_path):
+    """Blender's glTF exporter splits a mesh with UDIM textures by tile and leaves out a triangle
+    whose first corner's UV is in no tile (corpus 33_udim_merged.blend: 6 of 12 exported, the
+    faces whose UVs start at -0.02); Cycles renders them. The export names the mesh."""
+    import test_images_agreement as images
+    mat = images.principled_image(images.udim)(str(tmp_path), "Tiles")
+    images.udim_split_scene(empty_scene, mat)
+    mesh = empty_scene.objects["Plane"].data
+    for loop in mesh.polygons[0].loop_indices:  # the first face's UVs start just below tile 1001
+        mesh.uv_layers["UVMap"].data[loop].uv -= Vector((0.15, 0.0))
+    _, state, _ = export(addon, empty_scene, tmp_path)
+    assert any("'Plane'" in w and "left out" in w and "of its 4 triangles" in w for w in state.warnings), \
+        state.warnings

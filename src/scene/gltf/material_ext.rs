@@ -1,5 +1,5 @@
 //! The material extensions: `KHR_materials_transmission`, `_ior`, `_volume`,
-//! `_clearcoat`, `_sheen`, `_dispersion`, `_specular`, and `CAUSTIC_materials_medium`,
+//! `_clearcoat`, `_sheen`, `_dispersion`, `_specular`, and `CAUSTIC_materials_medium`, `_shadow`,
 //! `_subsurface` and `_coat`. Every value is checked (a non-finite number is an error
 //! naming the material and key); values outside their range are clamped with a warning.
 
@@ -24,6 +24,7 @@ pub(super) const HANDLED_MATERIAL_EXTENSIONS: &[&str] = &[
     "CAUSTIC_materials_subsurface",
     "KHR_materials_sheen",
     "CAUSTIC_materials_sheen",
+    "CAUSTIC_materials_shadow",
     "KHR_materials_dispersion",
     "CAUSTIC_materials_coat",
     "CAUSTIC_materials_nodes",
@@ -317,6 +318,16 @@ impl Loader<'_> {
                 }
             };
         }
+        let mut transparent_shadow = true;
+        if let Some(sh) = m.extension_value("CAUSTIC_materials_shadow").cloned() {
+            features.push("CAUSTIC_materials_shadow".into());
+            transparent_shadow = match sh.get("transparent") {
+                None => true,
+                Some(v) => v.as_bool().ok_or_else(|| {
+                    self.err(format!("material '{name}': CAUSTIC_materials_shadow transparent must be true or false"))
+                })?,
+            };
+        }
         let mut dispersion = 0.0;
         if let Some(d) = m.extension_value("KHR_materials_dispersion").cloned() {
             features.push("KHR_materials_dispersion".into());
@@ -448,6 +459,7 @@ impl Loader<'_> {
         mat.sheen_roughness = sheen_roughness;
         mat.sheen_roughness_tex = sheen_roughness_tex;
         mat.sheen_microfiber = sheen_microfiber;
+        mat.transparent_shadow = transparent_shadow;
         mat.dispersion = dispersion;
         mat.iridescence = iridescence;
         mat.anisotropy_strength = anisotropy_strength;

@@ -280,6 +280,17 @@ mod tests {
     }
 
     #[test]
+    fn shadows_transparent_unless_the_file_says_not() {
+        let (m, _) = material(json!({"name": "leaf", "alphaMode": "BLEND"}), 0);
+        assert!(m.transparent_shadow);
+        let opaque = json!({"name": "b", "alphaMode": "BLEND",
+            "extensions": {"CAUSTIC_materials_shadow": {"transparent": false}}});
+        assert!(!material(opaque, 0).0.transparent_shadow);
+        let bad = json!({"name": "b", "extensions": {"CAUSTIC_materials_shadow": {"transparent": "no"}}});
+        assert!(error(bad, 0).contains("transparent must be true or false"));
+    }
+
+    #[test]
     fn diffuse_transmission_factor_colour_and_textures() {
         let (m, scene) = material(
             json!({"name": "leaf", "extensions": {"KHR_materials_diffuse_transmission": {

@@ -50,7 +50,8 @@ impl Loader<'_> {
 
 /// The material a compiled graph makes of `mat`: the graph replaces the glTF description
 /// (no glTF textures, emission or alpha); the name, the medium (when `keep_medium`: one of
-/// `CAUSTIC_materials_medium`, not glTF's volume), `null_surface` and subsurface stay. A
+/// `CAUSTIC_materials_medium`, not glTF's volume), `null_surface`, `transparent_shadow` and
+/// subsurface stay. A
 /// varying emission gets a placeholder until [`mean_node_emission`] estimates it. The loader
 /// and the server's graph edit (`server::graph_edit`) both build node materials here.
 pub(crate) fn graph_material(
@@ -63,6 +64,7 @@ pub(crate) fn graph_material(
         double_sided: true,
         medium: if keep_medium { mat.medium } else { None },
         null_surface: mat.null_surface,
+        transparent_shadow: mat.transparent_shadow,
         // The graph's own closures say what walk they need (a Principled BSDF behind a Mix
         // Shader, a Subsurface Scattering node), which `CAUSTIC_materials_subsurface` (written
         // for a Principled BSDF on the output alone) does not; the graph's wins, so a graph
