@@ -662,6 +662,8 @@ def needs_graph(material, graph):
         return False
     if graph.output["displacement"] is not None:
         return True
+    if graph.output["surface"] is None:
+        return True  # Cycles renders no surface (black); the exporter writes a node it finds unlinked
     if any(n["type"] == "ShaderNodeOutputAOV" for n in graph.nodes):
         return True  # the exporter has no shader AOVs
     if any(n["type"] not in _EXPRESSIBLE for n in graph.nodes):
