@@ -757,9 +757,12 @@ def _tinted_metal(entry):
 def _beyond_gltf_principled(entry):
     """Whether a Principled BSDF has a constant Diffuse Roughness or Anisotropic, which the
     graph renders as Cycles (Oren-Nayar; widths along Cycles' default radial tangent) and glTF
-    cannot say (a Lambertian base; the anisotropy along the UV tangents)."""
+    cannot say (a Lambertian base; the anisotropy along the UV tangents), or the "GGX"
+    distribution (single scattering; glTF's materials are compensated as Multiscatter GGX)."""
     if entry["type"] != "ShaderNodeBsdfPrincipled":
         return False
+    if entry["props"].get("distribution") == "GGX":
+        return True
     return any(entry["inputs"].get(name, {}).get("value", 0.0) != 0.0 for name in ("Diffuse Roughness", "Anisotropic"))
 
 
