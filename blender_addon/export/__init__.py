@@ -11,6 +11,7 @@ out of it or writes differently from what Cycles renders (docs/contract.md):
 |  | angles, light node trees' strength and colour |
 | `light_nodes.py` | a light node tree beyond an Emission's two numbers as its graph (`nodes`), IES files in `caustic_ies/` |
 | `light_temperature.py` | punctual lights' temperature folded into their colour while the exporter runs (it fails on it) |
+| `hollow_groups.py` | links from node groups without a Group Output taken out while the exporter runs (it fails on them) |
 | `world.py` | the world's Background and environment image: `CAUSTIC_world` |
 | `materials.py` | shader nodes the exporter cannot read, solid glass, coat, warnings |
 | `node_graph.py` | a material's whole shader graph for the renderer: `CAUSTIC_materials_nodes` |
@@ -57,6 +58,7 @@ from .motion import add_deformation, sample_motion
 from .node_graph import single_colour_attribute
 from .shape_keys import shape_keys_exported
 from .light_normalize import normalize_baked
+from .hollow_groups import hollow_group_links_removed
 from .light_temperature import temperatures_baked
 from .unsupported import scene_warnings
 from .volumes import VOLUME_EXTENSION, attach_volumes  # noqa: F401
@@ -137,7 +139,8 @@ def export_scene(depsgraph, folder, settings, motion=True, viewport=False, only=
     try:
         with exporting(state), bpy.context.temp_override(scene=scene, view_layer=view_layer), \
                 hooks_enabled(), shape_keys_exported(depsgraph, state.warnings, viewport), \
-                temperatures_baked(state.warnings), normalize_baked(state.warnings), render_depsgraph(depsgraph):
+                temperatures_baked(state.warnings), normalize_baked(state.warnings), \
+                hollow_group_links_removed(state.warnings), render_depsgraph(depsgraph):
             bpy.ops.export_scene.gltf(**_exporter_options(filepath, viewport, state.colour_attribute))
     except RuntimeError as err:
         # The operator's error carries the exporter's whole traceback; its last line says why

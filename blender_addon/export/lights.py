@@ -20,7 +20,8 @@
 * Cycles' Max Bounces of a light goes out as `max_bounces`, only when it limits anything
   (below Cycles' default 1024, `cycles_max_bounces`).
 * Light node trees: Cycles multiplies the light's power by the Strength and its colour by the
-  Color of the Emission node on the light's output (`light_node_factors`). The exporter instead
+  Color of the Emission node on the light's output (`light_node_factors`); with nothing on the
+  output's Surface the light emits nothing. The exporter instead
   replaces the colour by the node's and ignores the Strength (it uses it *instead of* the power
   for a sun); `scale_punctual_light` corrects what it wrote, `area_light_extension` applies the
   factors. Any other tree (a linked Strength or Color, another shader) goes as its graph
@@ -234,8 +235,9 @@ def light_node_factors(blender_object):
     name = blender_object.name
     node = _emission_node(light)
     if node is None:
-        return 1.0, [1.0, 1.0, 1.0], [f"light '{name}': its node tree has no shader on the Light Output's "
-                                       "Surface; Caustic uses the light's own power and colour"]
+        # Cycles renders such a light black (no emission closure), whatever its power.
+        return 0.0, [1.0, 1.0, 1.0], [f"light '{name}': its node tree has no shader on the Light Output's "
+                                       "Surface; it emits no light, as in Cycles"]
     if node.type != "EMISSION" or node.mute:
         return 1.0, [1.0, 1.0, 1.0], [f"light '{name}': the {node.bl_label} node '{node.name}' of its node tree "
                                        "is not read (only an Emission node is); Caustic uses the light's own "
@@ -270,7 +272,11 @@ def scale_punctual_light(gltf2_node, blender_object, state, graph=False):
     state.scaled_lights.add(id(value))
     state.warnings.extend(warnings)
     node = _emission_node(light)
-    if node is None or node.type != "EMISSION" or node.mute:
+    if node is None:
+        # The exporter wrote the light's own values; Cycles renders no light (`light_node_factors`).
+        value["intensity"] = 0.0
+        return
+    if node.type != "EMISSION" or node.mute:
         return  # the exporter found no Emission on the output either: it wrote the light's own values
     # The exporter wrote colour = the node's Color (the light's colour dropped) and intensity
     # from the light's power (a sun: from the node's Strength instead of the power).

@@ -662,6 +662,8 @@ def needs_graph(material, graph):
         return False
     if graph.output["displacement"] is not None:
         return True
+    if graph.output["surface"] is None:
+        return True  # Cycles renders no surface (black); the exporter writes a node it finds unlinked
     if any(n["type"] == "ShaderNodeOutputAOV" for n in graph.nodes):
         return True  # the exporter has no shader AOVs
     if any(n["type"] not in _EXPRESSIBLE for n in graph.nodes):
@@ -755,9 +757,12 @@ def _tinted_metal(entry):
 def _beyond_gltf_principled(entry):
     """Whether a Principled BSDF has a constant Diffuse Roughness or Anisotropic, which the
     graph renders as Cycles (Oren-Nayar; widths along Cycles' default radial tangent) and glTF
-    cannot say (a Lambertian base; the anisotropy along the UV tangents)."""
+    cannot say (a Lambertian base; the anisotropy along the UV tangents), or the "GGX"
+    distribution (single scattering; glTF's materials are compensated as Multiscatter GGX)."""
     if entry["type"] != "ShaderNodeBsdfPrincipled":
         return False
+    if entry["props"].get("distribution") == "GGX":
+        return True
     return any(entry["inputs"].get(name, {}).get("value", 0.0) != 0.0 for name in ("Diffuse Roughness", "Anisotropic"))
 
 

@@ -40,6 +40,9 @@
 //! sampling exact and, as in Cycles, makes those lobes non-reciprocal (light paths use
 //! the adjoint, `Bsdf::eval_adjoint`). The opaque dielectric's specular layer is compensated
 //! the same way with its own F_ms (`fresnel_layer.rs`); the coat stays single-scattering.
+//! Blender's Principled "GGX" (`PbrParams::single_scatter`) has none of these factors, and
+//! the diffuse base under its layer takes Cycles' estimate mix(F0, 1, s), the layer's albedo
+//! over the white lobe's E (Cycles' closure weight carries E only when compensated).
 //!
 //! `KHR_materials_anisotropy` (and Blender's Anisotropic): the metal's and the specular
 //! layer's GGX take widths (αx, αy) along the shading frame's X axis (the anisotropy
@@ -154,6 +157,8 @@ pub struct PbrBsdf {
     e_avg: f32,
     /// The glass part restores multiple scattering (its F_ms depends on the base colour).
     glass_ms: bool,
+    /// No multiple-scattering compensation (`PbrParams::single_scatter`).
+    single_scatter: bool,
 
     /// The coat is a perfect mirror.
     pub smooth_coat: bool,
@@ -321,7 +326,8 @@ impl PbrBsdf {
             metal_b: Rgb::ZERO,
             e_avg: 0.0,
             // Only materials that show the glass pay for its table.
-            glass_ms: p.transmission > 0.0 && p.metallic < 1.0,
+            glass_ms: p.transmission > 0.0 && p.metallic < 1.0 && !p.single_scatter,
+            single_scatter: p.single_scatter,
             coat_frame,
             diffuse_frame,
             aniso,
@@ -382,7 +388,7 @@ impl PbrBsdf {
             glass = glass.with_multiscatter();
         }
         let metal_b = if self.metal_tint == Vec3::ONE { Vec3::ZERO } else { f82_tint_b(base, self.metal_tint) };
-        let metal_fms = if self.metallic > 0.0 && !self.smooth {
+        let metal_fms = if self.metallic > 0.0 && !self.smooth && !self.single_scatter {
             let e_avg = self.e_avg;
             // Cycles' fresnel_f82_Fss: the cosine-weighted average of the F82-tint curve.
             let f_avg = (base + (Vec3::ONE - base) / 21.0 - metal_b / 126.0).clamp(Vec3::ZERO, Vec3::ONE);
@@ -510,6 +516,9 @@ impl PbrBsdf {
             return Rgb::ZERO;
         }
         let (a, b) = self.lobe_ab(w);
+        if self.single_scatter {
+            return self.layer_e(w, a + b) / (a + b).max(1e-4);
+        }
         self.layer_e(w, a + b) * self.layer_ms(a + b)
     }
 
@@ -835,8 +844,17 @@ impl PbrBsdf {
         let need_layer = opaque > 0.0 && self.layer;
         let need_metal = self.metal_fms != Rgb::ZERO;
         let (a, b) = if need_layer || need_metal { self.lobe_ab(wo) } else { (0.0, 0.0) };
-        let layer_ms = if need_layer { self.layer_ms(a + b) } else { Rgb::ONE };
-        let eo = if need_layer { self.layer_e(wo, a + b) * layer_ms } else { Rgb::ZERO };
+        // Single scattering ("GGX"): the lobe is not compensated, and the diffuse base below
+        // takes Cycles' albedo estimate for it, the Fresnel average mix(F0, 1, s) of its table,
+        // which is normalised by the lobe's white albedo E (Cycles' `bsdf_albedo` is the closure
+        // weight, which only Multiscatter GGX's compensation scales by E (1 + F_ms (1/E − 1)),
+        // times that estimate): the layer's albedo divided by E.
+        let layer_ms = if need_layer && !self.single_scatter { self.layer_ms(a + b) } else { Rgb::ONE };
+        let eo = match (need_layer, self.single_scatter) {
+            (false, _) => Rgb::ZERO,
+            (true, true) => self.layer_e(wo, a + b) / (a + b).max(1e-4),
+            (true, false) => self.layer_e(wo, a + b) * layer_ms,
+        };
         let fiber = self.fiber(wo);
         let es = match &fiber {
             Some(m) => self.sheen_max * m.albedo(),

@@ -372,6 +372,8 @@ impl Scene {
                 let g = i.thickness_tex.map_or(1.0, |t| lookup(&t).y);
                 (i.thickness_min + (i.thickness_max - i.thickness_min) * g, i.ior, factor)
             }),
+            // glTF's materials are compensated, as Cycles' default Multiscatter GGX.
+            single_scatter: false,
             diffuse_transmission,
             diffuse_transmission_color,
         };

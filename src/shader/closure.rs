@@ -73,6 +73,8 @@ pub struct PrincipledRegs {
     pub anisotropic_rotation: Reg,
     /// The Tangent input when linked (Blender axes); unlinked, Cycles' radial tangent.
     pub tangent: Option<Reg>,
+    /// Distribution "GGX": single scattering (`PbrParams::single_scatter`).
+    pub single_scatter: bool,
 }
 
 /// How a Principled Hair BSDF gets its absorption (its Parametrization).
@@ -357,6 +359,7 @@ fn zero_params() -> PbrParams {
         diffuse_roughness: 0.0,
         cycles_principled: true,
         thin_film: None,
+        single_scatter: false,
         diffuse_transmission: 0.0,
         diffuse_transmission_color: Rgb::ZERO,
     }
@@ -537,12 +540,17 @@ fn principled(p: &PrincipledRegs, r: &[f32], g: &Geom, normal: Option<Reg>, w: f
     // merged into it by weighted parameters (warned at load).
     let slot = (out.principled as usize).min(MAX_PBR - 1);
     out.principled = out.principled.saturating_add(1);
-    if out.pbr_w[slot] <= 0.0 {
+    let first = out.pbr_w[slot] <= 0.0;
+    if first {
         out.pbr_normals[slot] = normal.map(|n| v3(r, n));
         out.coat_normals[slot] = p.coat_normal.map(|n| v3(r, n));
     }
     let level = f(p.spec_level).max(0.0);
     let acc = &mut out.pbr[slot];
+    if first {
+        // The slot's first Principled BSDF's distribution (a flag does not average).
+        acc.single_scatter = p.single_scatter;
+    }
     // Above 1 too: the diffuse base takes it as given (the BSDF clamps it elsewhere).
     acc.base += v3(r, p.base).max(Vec3::ZERO) * w;
     acc.diffuse_roughness += f(p.diffuse_roughness).clamp(0.0, 1.0) * w;
@@ -633,6 +641,7 @@ impl Closures {
             // Cycles' Principled glass: √base at each crossing.
             cycles_principled: true,
             thin_film: p.thin_film,
+            single_scatter: p.single_scatter,
             // Blender's Principled BSDF has no diffuse transmission.
             diffuse_transmission: 0.0,
             diffuse_transmission_color: Rgb::ONE,

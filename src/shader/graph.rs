@@ -12,7 +12,9 @@ use std::collections::BTreeMap;
 pub struct NodesExt {
     /// Format version (1).
     pub version: u32,
-    /// Every node reachable from the outputs.
+    /// Every node reachable from the outputs (absent when there is none: a Material Output
+    /// with nothing linked, whose empty list the glTF exporter drops).
+    #[serde(default)]
     pub nodes: Vec<NodeDesc>,
     /// The Material Output's sockets (absent in a volume's graph, whose output is its shader
     /// node: the glTF exporter drops an empty object).
@@ -172,6 +174,14 @@ mod tests {
         let m = ext(json!({"version": 1, "nodes": [
             {"name": "a", "type": "ShaderNodeMath", "inputs": {"Value": {"link": [5, "Value"]}}}], "output": {}}));
         assert!(check_and_sort(&m).unwrap_err().contains("node 'a' input 'Value' links to node 5"));
+    }
+
+    #[test]
+    fn a_graph_without_nodes_is_one_with_nothing_on_its_outputs() {
+        // What the add-on's graph of a Material Output with an unlinked Surface becomes after
+        // the glTF exporter dropped its empty `nodes` and `output`.
+        let e = ext(json!({"version": 1}));
+        assert!(e.nodes.is_empty() && e.output.surface.is_none() && e.output.displacement.is_none());
     }
 
     #[test]

@@ -38,6 +38,18 @@ only an Emission node's unlinked values and named a linked socket in a warning):
   direction in the light's frame), now 0.9997.
 (`CAUSTIC_BINARY=... python -m pytest -q tests/blender/test_light_nodes.py -s`; the before
 figures from a copy of main's blender_addon/ and tests/blender/ with this file added.)
+
+Trees with nothing on their output (found on the glTF-Blender-IO test scenes, whose lights'
+node group is linked from a library file that is not there), each beside a plain Fill light:
+* point_unlinked_surface, area_unlinked_surface: a light whose Emission is not linked to the
+  Light Output: Cycles renders no light from it; before 3.151 and 8.993 (Caustic lit it with
+  its own power, warned), now 1.0000;
+* spot_hollow_group: the Light Output's Surface from a node group without a Group Output:
+  before, Blender's glTF exporter failed (IndexError) and nothing rendered; now 1.0000;
+* material_unlinked_surface: the box's Material Output with nothing on Surface (Cycles: black):
+  before 1.932 (the exporter wrote the unlinked Principled BSDF it found), now 1.0000;
+* material_hollow_group: the box's Surface from such a group: before the exporter failed,
+  now 1.0000.
 """
 
 import os
@@ -157,6 +169,63 @@ def spot_ies_external(scene):
     ies.inputs["Strength"].default_value = 1.3
 
 
+def _fill(scene):
+    """A plain point light, so that a scene whose other light is dark is lit."""
+    scenes.light(scene, "Fill", "POINT", location=(-0.5, 0.4, 3.0), energy=300.0)
+
+
+def point_unlinked_surface(scene):
+    _fill(scene)
+    obj = scenes.light(scene, "Unlinked", "POINT", location=(0.6, -0.4, 3.0), energy=600.0)
+    tree, emission = _tree(obj.data)
+    for link in list(emission.outputs["Emission"].links):
+        tree.links.remove(link)
+
+
+def area_unlinked_surface(scene):
+    _fill(scene)
+    obj = scenes.light(scene, "Unlinked", "AREA", location=(0.2, 0.3, 3.0), energy=600.0, size=0.8)
+    tree, emission = _tree(obj.data)
+    for link in list(emission.outputs["Emission"].links):
+        tree.links.remove(link)
+
+
+def _hollow_group():
+    """A shader node group with an Emission output and no Group Output node (what a group linked
+    from a missing library file reads as)."""
+    group = bpy.data.node_groups.new("Hollow", "ShaderNodeTree")
+    group.interface.new_socket("Emission", in_out="OUTPUT", socket_type="NodeSocketShader")
+    return group
+
+
+def spot_hollow_group(scene):
+    _fill(scene)
+    obj = scenes.light(scene, "Hollow", "SPOT", location=(0.5, -0.3, 3.0), rotation_deg=(6.0, 10.0, 0.0),
+                       energy=600.0, spot_size=1.0)
+    tree, emission = _tree(obj.data)
+    node = tree.nodes.new("ShaderNodeGroup")
+    node.node_tree = _hollow_group()
+    output = next(n for n in tree.nodes if n.type == "OUTPUT_LIGHT")
+    tree.links.new(node.outputs["Emission"], output.inputs["Surface"])
+
+
+def material_hollow_group(scene):
+    _fill(scene)
+    tree = bpy.data.materials["Light"].node_tree
+    node = tree.nodes.new("ShaderNodeGroup")
+    node.node_tree = _hollow_group()
+    output = next(n for n in tree.nodes if n.type == "OUTPUT_MATERIAL")
+    tree.links.new(node.outputs["Emission"], output.inputs["Surface"])
+
+
+def material_unlinked_surface(scene):
+    _fill(scene)
+    tree = bpy.data.materials["Light"].node_tree
+    output = next(n for n in tree.nodes if n.type == "OUTPUT_MATERIAL")
+    for link in list(output.inputs["Surface"].links):
+        tree.links.remove(link)
+
+
 CASES = {
     "point_blackbody": point_blackbody,
     "spot_math_strength": spot_math_strength,
@@ -165,6 +234,11 @@ CASES = {
     "point_ies_internal": point_ies_internal,
     "spot_ies_external": spot_ies_external,
     "sphere_ies": sphere_ies,
+    "point_unlinked_surface": point_unlinked_surface,
+    "area_unlinked_surface": area_unlinked_surface,
+    "spot_hollow_group": spot_hollow_group,
+    "material_hollow_group": material_hollow_group,
+    "material_unlinked_surface": material_unlinked_surface,
 }
 PARAMS = [pytest.param(name, add, id=name) for name, add in CASES.items()]
 

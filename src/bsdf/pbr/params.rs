@@ -68,6 +68,10 @@ pub struct PbrParams {
     /// A thin film on the dielectric layer: (thickness in nm, film IOR, weight) — Blender's
     /// Thin Film (weight 1), glTF's `KHR_materials_iridescence` (iridescenceFactor).
     pub thin_film: Option<(f32, f32, f32)>,
+    /// Blender's Principled BSDF with distribution "GGX": single scattering, without Cycles'
+    /// multiple-scattering compensation of the metal, the dielectric layer and the glass
+    /// (which "Multiscatter GGX", Blender's default, and glTF's materials have).
+    pub single_scatter: bool,
     /// `KHR_materials_diffuse_transmission` diffuseTransmissionFactor (0: none): the share of
     /// the diffuse base that transmits to the other side, Lambertian.
     pub diffuse_transmission: f32,
@@ -111,6 +115,7 @@ impl PbrParams {
             diffuse_roughness: 0.0,
             cycles_principled: false,
             thin_film: None,
+            single_scatter: false,
             diffuse_transmission: 0.0,
             diffuse_transmission_color: Rgb::ONE,
         }

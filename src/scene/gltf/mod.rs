@@ -105,8 +105,10 @@ pub const SUPPORTED_REQUIRED: &[&str] = &[
 
 /// Extensions accepted in `extensionsRequired` though Caustic cannot render them, because
 /// what they carry can be left out with a warning naming it: `KHR_texture_basisu` (a KTX2
-/// texture without a fallback is dropped from its material, `textures::basisu_only_textures`).
-pub const DEGRADED_REQUIRED: &[&str] = &["KHR_texture_basisu"];
+/// texture without a fallback is dropped from its material, `textures::basisu_only_textures`)
+/// and `KHR_materials_variants` (each primitive's own material, the file's default, is
+/// rendered, as when the extension is only used: Blender's exporter lists it as required).
+pub const DEGRADED_REQUIRED: &[&str] = &["KHR_texture_basisu", "KHR_materials_variants"];
 
 /// glTF's photometric units to Blender's radiometric ones: Blender's exporter writes
 /// W × 683 lm/W (its PBR_WATTS_TO_LUMENS), so dividing gives Blender's watts back.
@@ -200,6 +202,24 @@ struct Loader<'a> {
 /// An emitter's light linking rules: receivers, blockers (`CAUSTIC_light_linking`).
 type Links = (Option<ReceiverRule>, Option<ReceiverRule>);
 
+/// What the crate's JSON types require and glTF leaves optional, supplied for the crate: a
+/// scene's `nodes` (an empty scene) and an animation channel's `target.node` (absent when an
+/// extension such as `KHR_animation_pointer` names the target). Neither changes the render:
+/// such channels are dropped from the crate's copy (animations are not played, and named in a
+/// warning, `Loader::load`).
+fn relax_for_crate(root: &mut serde_json::Map<String, serde_json::Value>) {
+    for scene in root.get_mut("scenes").and_then(|s| s.as_array_mut()).into_iter().flatten() {
+        if let Some(scene) = scene.as_object_mut() {
+            scene.entry("nodes").or_insert_with(|| serde_json::Value::Array(Vec::new()));
+        }
+    }
+    for animation in root.get_mut("animations").and_then(|a| a.as_array_mut()).into_iter().flatten() {
+        if let Some(channels) = animation.get_mut("channels").and_then(|c| c.as_array_mut()) {
+            channels.retain(|c| c.pointer("/target/node").is_some());
+        }
+    }
+}
+
 impl<'a> Loader<'a> {
     fn new(file: &'a str, base_dir: &'a Path, budget: &'a MemoryBudget) -> Self {
         Loader {
@@ -241,6 +261,7 @@ impl<'a> Loader<'a> {
         let mut for_crate = value.clone();
         if let Some(root) = for_crate.as_object_mut() {
             root.remove("extensionsRequired");
+            relax_for_crate(root);
         }
         let root: json::Root = serde_json::from_value(for_crate).map_err(|e| self.err(format!("invalid glTF: {e}")))?;
         gltf::Document::from_json(root).map_err(|e| self.err(format!("invalid glTF: {}", describe_validation(&e))))

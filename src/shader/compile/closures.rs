@@ -154,6 +154,8 @@ impl Compiler<'_> {
                         Some(_) => Some(self.vec(i, "Tangent", Vec3::ZERO)?),
                         None => None,
                     },
+                    // Blender's "GGX"; "MULTI_GGX" (the default) is compensated.
+                    single_scatter: self.prop_str(i, "distribution", "MULTI_GGX") == "GGX",
                 };
                 let anisotropic = !self.is_const(p.anisotropic, 1) || self.init[p.anisotropic as usize] != 0.0;
                 if anisotropic && p.tangent.is_none() {
@@ -211,6 +213,7 @@ impl Compiler<'_> {
                     anisotropic: zero,
                     anisotropic_rotation: zero,
                     tangent: None,
+                    single_scatter: false,
                 };
                 self.subsurface(i, ["Radius", "Scale", "Anisotropy", "IOR"], method, true)?;
                 self.principled_closure(i, p, w)?;
