@@ -148,7 +148,9 @@ impl Scene {
         if let Some(prog) = &mat.nodes {
             return crate::shader::shade::shade_nodes(self, prog, s, wo, mat.double_sided, rays);
         }
-        let emitted = if mat.is_emissive() && (s.front || mat.double_sided) {
+        // An unlit surface shows its colour on both sides, as the Emission Blender's importer
+        // makes of it (Cycles culls no back face); it is no light, so its sides count nowhere else.
+        let emitted = if mat.is_emissive() && (s.front || mat.double_sided || mat.unlit) {
             mat.emission(&self.textures, s.uv, s.color)
         } else {
             Rgb::ZERO

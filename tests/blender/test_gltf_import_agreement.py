@@ -236,6 +236,11 @@ CASES = {
     # the same it was a light that shadowed the floor: R/G/B 1.050/0.999/0.902.
     "unlit": ({"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.4, 0.1, 1]},
                "extensions": {"KHR_materials_unlit": {}}}, {}),
+    # The same, half transparent (alpha BLEND 0.5), single-sided: Cycles shows the Emission on the
+    # sphere's far side through its near one (Blender's importer culls no back face for Cycles),
+    # where Caustic emitted on front faces alone: R/G/B 0.948/0.880/0.791.
+    "unlit_blend": ({"pbrMetallicRoughness": {"baseColorFactor": [0.1, 0.3, 0.9, 0.5]}, "alphaMode": "BLEND",
+                     "extensions": {"KHR_materials_unlit": {}}}, {}),
     "gpu_instancing": ({"pbrMetallicRoughness": {"baseColorFactor": [0.7, 0.5, 0.2, 1], "metallicFactor": 0.0,
                                                  "roughnessFactor": 0.5}}, {"instanced": True}),
     "morph": ({"pbrMetallicRoughness": {"baseColorFactor": [0.2, 0.6, 0.3, 1], "metallicFactor": 0.0,
