@@ -613,6 +613,13 @@ def cycles_output(material):
     return tree.get_output_node("CYCLES")
 
 
+def _volume_linked(material):
+    """Whether the Material Output Cycles renders has something on its Volume socket."""
+    output = cycles_output(material)
+    volume = output.inputs.get("Volume") if output is not None else None
+    return volume is not None and volume.is_linked
+
+
 def build_graph(material, context):
     """The material's graph (a `Graph`), or None when it has no Cycles Material Output."""
     output = cycles_output(material)
@@ -662,8 +669,11 @@ def needs_graph(material, graph):
         return False
     if graph.output["displacement"] is not None:
         return True
-    if graph.output["surface"] is None:
-        return True  # Cycles renders no surface (black); the exporter writes a node it finds unlinked
+    if graph.output["surface"] is None and not _volume_linked(material):
+        # Cycles renders no surface (black); the exporter writes a node it finds unlinked. With
+        # a Volume linked the unlinked Surface is no surface at all (the volume's boundary),
+        # which the volume export already writes.
+        return True
     if any(n["type"] == "ShaderNodeOutputAOV" for n in graph.nodes):
         return True  # the exporter has no shader AOVs
     if any(n["type"] not in _EXPRESSIBLE for n in graph.nodes):
