@@ -115,12 +115,7 @@ def fine_checker(folder, name, width=300, height=130):
     px[..., 1] = ((np.arange(width)[None, :] + np.arange(height)[:, None]) % 2) * 0.9 + 0.05
     px[..., 2] = ((np.arange(height) + 0.5) / height)[:, None]
     path = os.path.join(folder, f"{name}.png")
-    img = bpy.data.images.new(os.path.basename(path), width, height, alpha=True)
-    img.pixels.foreach_set(px.ravel())
-    img.filepath_raw = path
-    img.file_format = "PNG"
-    img.save()
-    bpy.data.images.remove(img)
+    _save_png(px, path)
     return bpy.data.images.load(path)
 
 
@@ -136,7 +131,7 @@ def simplified(build, limit="128"):
 def _save_png(px, path):
     """RGBA pixels `px` (rows bottom to top) written as an 8-bit PNG file at `path`, as Blender
     saves an image datablock (the frames of a sequence, the tiles of a UDIM set)."""
-    img = bpy.data.images.new(os.path.basename(path), SIZE, SIZE, alpha=True)
+    img = bpy.data.images.new(os.path.basename(path), px.shape[1], px.shape[0], alpha=True)
     img.pixels.foreach_set(px.ravel())
     img.filepath_raw = path
     img.file_format = "PNG"
