@@ -27,6 +27,9 @@ pub fn factor(width: u32, height: u32, limit: u32) -> Option<(u32, u32, u32)> {
 /// An 8-bit image shrunk to `limit` (None when it fits): averages of v / 255, rounded back
 /// as Cycles' `util_image_cast_from_float<uchar>`.
 pub fn shrink_u8(texels: &[[u8; 4]], width: u32, height: u32, limit: u32) -> Option<(u32, u32, Vec<[u8; 4]>)> {
+    if texels.len() != width as usize * height as usize {
+        return None; // not this image's storage (a float image holds no bytes)
+    }
     let (k, w, h) = factor(width, height, limit)?;
     let to_byte = |v: f32| {
         if v < 0.0 {
@@ -49,6 +52,9 @@ pub fn shrink_u8(texels: &[[u8; 4]], width: u32, height: u32, limit: u32) -> Opt
 
 /// A float image shrunk to `limit` (None when it fits).
 pub fn shrink_f32(hdr: &[Vec4], width: u32, height: u32, limit: u32) -> Option<(u32, u32, Vec<Vec4>)> {
+    if hdr.len() != width as usize * height as usize {
+        return None; // not this image's storage (an 8-bit image holds no floats)
+    }
     let (k, w, h) = factor(width, height, limit)?;
     Some((w, h, shrink(width, height, k, w, h, |i| hdr[i])))
 }
@@ -114,5 +120,7 @@ mod tests {
         let texels = [[10, 0, 200, 255], [12, 2, 102, 255]];
         let (_, _, b) = shrink_u8(&texels, 2, 1, 1).unwrap();
         assert_eq!(b, vec![[11, 1, 151, 255]]);
+        // The storage an image does not use is empty: asked of it, nothing (it once indexed it).
+        assert!(shrink_u8(&[], 300, 130, 128).is_none() && shrink_f32(&[], 300, 130, 128).is_none());
     }
 }

@@ -52,7 +52,9 @@ pytest -s; after: 0.9984-1.0022, no block over its bound):
   image, filtered between its dark and light texels before decoding, renders brighter. Caustic
   rendered the full size (warned): Diffuse (node graph) 1.0007 1.1147 1.0346 (12 of 108 blocks
   over), Principled Base Color (glTF texture) 1.0007 1.0862 1.0272 (7); now the binary shrinks
-  every image as Cycles does (`scene/texture_limit.rs`).
+  every image as Cycles does (`scene/texture_limit.rs`). texture_limit_float: the same checker as an
+  OpenEXR (held as floats): its first version asked the empty byte storage to shrink and panicked
+  on any float image over the limit; 0.9999.
 * alpha_png16_*: a 16-bit PNG with alpha on Base Color alone. Cycles reads the file itself and
   associates it in its sRGB encoding in either alpha mode; the add-on wrote Blender's pixels
   (linear, associated) re-encoded: Straight 1.2257 1.8271 1.8505 (97 of 108 blocks over),
@@ -105,6 +107,20 @@ def image_file(path, fmt="PNG", depth="8", colorspace=None, alpha=False, float_b
     if colorspace is not None:
         loaded.colorspace_settings.name = colorspace
     return loaded
+
+
+def fine_checker_exr(folder, name, width=300, height=130):
+    """`fine_checker` as an OpenEXR (a float image, held as floats by both renderers)."""
+    px = np.ones((height, width, 4), dtype=np.float32)
+    px[..., 1] = ((np.arange(width)[None, :] + np.arange(height)[:, None]) % 2) * 0.9 + 0.05
+    path = os.path.join(folder, f"{name}.exr")
+    img = bpy.data.images.new(os.path.basename(path), width, height, alpha=True, float_buffer=True)
+    img.pixels.foreach_set(px.ravel())
+    img.filepath_raw = path
+    img.file_format = "OPEN_EXR"
+    img.save()
+    bpy.data.images.remove(img)
+    return bpy.data.images.load(path)
 
 
 def fine_checker(folder, name, width=300, height=130):
@@ -316,6 +332,7 @@ CASES = {
     "udim_tiles": (udim_scene, diffuse_image(udim)),
     "texture_limit_graph": (simplified(nodes.flat_scene), diffuse_image(fine_checker)),
     "texture_limit_gltf": (simplified(nodes.flat_scene), principled_image(fine_checker)),
+    "texture_limit_float": (simplified(nodes.flat_scene), diffuse_image(fine_checker_exr)),
     "udim_tiles_principled": (udim_split_scene, principled_image(udim)),
 }
 

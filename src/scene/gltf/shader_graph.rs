@@ -176,9 +176,12 @@ impl Loader<'_> {
         let (mut w, mut h, mut texels, mut hdr) = (w, h, texels, hdr);
         if let Some(limit) = self.texture_limit {
             use crate::scene::texture_limit::{shrink_f32, shrink_u8};
-            if let Some((sw, sh, small)) = shrink_u8(&texels, w, h, limit).filter(|_| !texels.is_empty()) {
-                (w, h, texels) = (sw, sh, small);
-            } else if let Some((sw, sh, small)) = shrink_f32(&hdr, w, h, limit).filter(|_| !hdr.is_empty()) {
+            // An image is held in one of the two: bytes, or floats (`texels` then empty).
+            if hdr.is_empty() {
+                if let Some((sw, sh, small)) = shrink_u8(&texels, w, h, limit) {
+                    (w, h, texels) = (sw, sh, small);
+                }
+            } else if let Some((sw, sh, small)) = shrink_f32(&hdr, w, h, limit) {
                 (w, h, hdr) = (sw, sh, small);
             }
         }
