@@ -126,10 +126,11 @@ impl Loader<'_> {
                     )));
                 }
                 // Kept: linear RGB (12 B) and the importance distribution (≈ 8 B) per
-                // texel; transient: the decoder's image and its f32 RGB copy (16 + 12 B).
+                // texel; transient: the decoder's image, its f32 RGB copy and the RGBA values the
+                // Texture Limit reads (16 + 12 + 16 B).
                 let texels = width as u64 * height as u64;
                 self.budget.charge(format!("{label} ({width}×{height})"), texels * 20)?;
-                self.budget.check_peak(format!("decoding {label}"), texels * 28)?;
+                self.budget.check_peak(format!("decoding {label}"), texels * 44)?;
                 let decode_start = std::time::Instant::now();
                 let decoded = image::ImageReader::new(std::io::Cursor::new(&bytes))
                     .with_guessed_format()
