@@ -890,7 +890,8 @@ impl PbrBsdf {
         }
         if wi.z > 0.0 {
             let h = (wo + wi).normalize();
-            if !self.smooth {
+            // Lobes of no weight add nothing: the floor of Specular 0 skips GGX's density.
+            if !self.smooth && c.metal + c.spec > 0.0 {
                 let pdf_spec = self.ggx.pdf_visible_normal(wo, h) / (4.0 * wo.dot(h).max(1e-8));
                 pdf += (c.metal + c.spec) * pdf_spec;
             }

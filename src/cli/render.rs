@@ -342,6 +342,8 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
             Some(crate::denoise::Denoiser::open(args.oidn.as_deref())?)
         }
     };
+    // The film sums the first hit's normal and albedo only for a pass or the denoiser.
+    let guides = crate::film::needs_guides(res.passes) || denoiser.is_some();
     if stop.load(Ordering::Relaxed) {
         return Err(Error::InterruptedEmpty);
     }
@@ -408,6 +410,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
             light_groups: res.passes.light_groups() > 0,
             glass_threshold: res.transparent_glass,
             fast_gi: res.fast_gi,
+            guides,
             ..PathIntegrator::new(res.max_depth, res.transparent)
         }),
         IntegratorKind::Sppm => {
@@ -502,7 +505,7 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         adaptive: res.adaptive,
         passes: res.passes,
         data: res.data,
-        guides: crate::film::needs_guides(res.passes) || denoiser.is_some(),
+        guides,
     };
     // What every chunk of this frame must agree on (`--chunk`); the ranges are filled in per write.
     let chunk_info = match args.chunk {

@@ -340,6 +340,10 @@ impl PathState {
     /// the world's (None) and each sun's (its light index), not yet times the throughput.
     #[inline]
     pub fn escaped_radiance_each(&self, ctx: &SceneContext, mut each: impl FnMut(Option<usize>, Rgb)) -> Option<Rgb> {
+        // No world and no sun: nothing to find (half the glass bench scene's rays escape).
+        if ctx.scene.world.is_none() && ctx.suns.is_empty() {
+            return None;
+        }
         // The world's own Ray Visibility (Cycles' World > Ray Visibility).
         let le = if ctx.world_seen_by(self.depth == 0, &self.light_path) {
             ctx.world_radiance_for(self.dir, &self.light_path)

@@ -176,8 +176,14 @@ impl PbrAt<'_> {
         }
         let h = (wo + wi).normalize();
         let cos_h = wo.dot(h).max(0.0);
-        // Smooth reflection is a delta lobe: sampled only, never evaluated.
-        let spec = if b.smooth { 0.0 } else { b.ggx.d(h) * b.ggx.g2(wo, wi) / (4.0 * wo.z * wi.z) };
+        // Smooth reflection is a delta lobe: sampled only, never evaluated. Without a
+        // specular layer or metal nothing reads the microfacet term (a floor of Specular 0:
+        // GGX's D and G2 were 1 % of the glass bench scene's instructions).
+        let spec = if b.smooth || !(b.layer || b.metallic > 0.0) {
+            0.0
+        } else {
+            b.ggx.d(h) * b.ggx.g2(wo, wi) / (4.0 * wo.z * wi.z)
+        };
         let opaque = dielectric * (1.0 - b.transmission);
         if opaque > 0.0 {
             // Cycles' layer: its Fresnel and compensation, the base under 1 − max(albedo at wo).

@@ -208,6 +208,8 @@ impl BdptIntegrator {
             merged_delta_light: false,
             // Fast GI is the path tracer's own (warned for the others).
             fast_gi: None,
+            // Continued paths are past the first hit, where the albedo is taken.
+            guides: true,
         }
     }
 
