@@ -90,6 +90,12 @@ pub struct SceneContext<'a> {
     /// shadow rays skip it with the same numbers (vacuum's weights are exactly 1), and
     /// walkers skip drawing the media dimensions they keep in their layout (`has_media`).
     pub media_act: bool,
+    /// Shadow rays must cross media and volume boundaries (`media::light_transmittance`):
+    /// `media_act` but for subsurface scattering, whose surfaces block shadow rays as any
+    /// opaque surface does. A scene whose only "medium" is a subsurface material (the
+    /// subsurface bench scene) then traces its shadow rays as any-hit visibility instead of
+    /// closest hits surface by surface: the same 0 or 1 for the same segment.
+    pub shadow_media: bool,
     /// Some medium emits: photons start in media too (`light::media_emit`).
     pub media_emit: bool,
     /// The mesh media around the camera, which camera paths start in (`with_camera_at`).
@@ -163,6 +169,14 @@ impl<'a> SceneContext<'a> {
         }
         let mode = |t: usize| scene.materials[scene.mesh.tri_material[t] as usize].alpha_mode;
         let n = scene.mesh.triangles.len();
+        let shadow_media = scene.world_medium.is_some()
+            || scene.world_grid.is_some()
+            || scene.materials.iter().any(|m| {
+                m.medium.is_some_and(|h| h.attenuates() || h.emission != Rgb::ZERO)
+                    || m.grid.is_some()
+                    || m.volume_program.is_some()
+                    || m.null_surface
+            });
         SceneContext {
             scene,
             accel,
@@ -192,15 +206,8 @@ impl<'a> SceneContext<'a> {
                 || scene.world_grid.is_some()
                 || scene.materials.iter().any(|m| m.medium.is_some() || m.subsurface.is_some()),
             media_emit: crate::light::media_emit::any(scene),
-            media_act: scene.world_medium.is_some()
-                || scene.world_grid.is_some()
-                || scene.materials.iter().any(|m| {
-                    m.medium.is_some_and(|h| h.attenuates() || h.emission != Rgb::ZERO)
-                        || m.grid.is_some()
-                        || m.volume_program.is_some()
-                        || m.subsurface.is_some()
-                        || m.null_surface
-                }),
+            media_act: shadow_media || scene.materials.iter().any(|m| m.subsurface.is_some()),
+            shadow_media,
             constant_bsdfs: (0..scene.materials.len() as u32).map(|m| scene.constant_bsdf(m)).collect(),
             camera_media: MediumStack::default(),
             transparent_max: scene.settings.transparent_max_bounces.unwrap_or(DEFAULT_TRANSPARENT_MAX),

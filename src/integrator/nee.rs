@@ -108,7 +108,7 @@ pub const NO_LIGHT: usize = usize::MAX;
 
 /// Transmittance of a shadow ray from surface `s` to a sample of light `light`: through
 /// media and volume boundaries (and tinted Transparent BSDFs) when the scene has any that
-/// act (`SceneContext::media_act`), else plain visibility; with shadow linking only the light's blockers stop it.
+/// act on shadow rays (`SceneContext::shadow_media`), else plain visibility; with shadow linking only the light's blockers stop it.
 #[inline]
 pub fn shadow_transmittance(
     ctx: &SceneContext,
@@ -118,7 +118,7 @@ pub fn shadow_transmittance(
     light: usize,
 ) -> Rgb {
     let p = terminator_origin(ctx, s, ls.wi);
-    if ctx.media_act || ctx.tinted_shadows {
+    if ctx.shadow_media || ctx.tinted_shadows {
         media::light_transmittance_of(
             ctx,
             p,
@@ -238,7 +238,7 @@ pub fn exit_nee_light(
         if cos > 0.0 && ls.wi.dot(n_g) > 0.0 && ls.li != Rgb::ZERO {
             let tr = if !ctx.casts_shadow(index) {
                 Rgb::ONE
-            } else if ctx.media_act || ctx.tinted_shadows {
+            } else if ctx.shadow_media || ctx.tinted_shadows {
                 stats.shadow += 1;
                 media::light_transmittance_of(ctx, se.p, Some(n_g), &ls, media, Some(index), se.light_path.shadow())
             } else {
