@@ -23,7 +23,10 @@ impl Scene {
         let b0 = 1.0 - b1 - b2;
         let uv0 = m.uv0[i0] * b0 + m.uv0[i1] * b1 + m.uv0[i2] * b2;
         let uv1 = m.uv1[i0] * b0 + m.uv1[i1] * b1 + m.uv1[i2] * b2;
-        let c = m.colors[i0] * b0 + m.colors[i1] * b1 + m.colors[i2] * b2;
+        // Offsets from the first corner, so that equal corners (the default white of a mesh
+        // without COLOR_0) give that colour exactly: the three-term sum came to 0.99999994 at
+        // some points, which cut holes in a MASK material whose alpha equals its cutoff.
+        let c = m.colors[i0] + (m.colors[i1] - m.colors[i0]) * b1 + (m.colors[i2] - m.colors[i0]) * b2;
         ([uv0, uv1], c)
     }
 
