@@ -254,7 +254,7 @@ pub fn scene_light_bounds(scene: &Scene) -> Vec<Option<LightBounds>> {
             Light::Triangle { tri } => {
                 let m = &scene.mesh;
                 let p = m.triangles[*tri as usize].map(|i| m.positions[i as usize]);
-                let two_sided = scene.materials[m.tri_material[*tri as usize] as usize].double_sided;
+                // Both faces emit (`Material::emissive`).
                 let n = (p[1] - p[0]).cross(p[2] - p[0]);
                 Some(LightBounds::new(
                     p[0].min(p[1]).min(p[2]),
@@ -263,7 +263,7 @@ pub fn scene_light_bounds(scene: &Scene) -> Vec<Option<LightBounds>> {
                     phi,
                     0.0,
                     half_pi,
-                    two_sided,
+                    true,
                 ))
             }
             Light::Directional { .. } | Light::World => None,
