@@ -14,6 +14,13 @@ single_sided 0/0/0 (the image black: the back face emitted nothing) -> 1.0035/1.
 (sigma 0.05 %); double_sided 1.0035 before and after. The 0.35 % both cases share is not the
 back face's: the control has it too.
 
+Through the add-on (`culled_*`): the same quad made in Blender, a Principled BSDF emitting with
+Backface Culling on, which the exporter writes as `doubleSided: false`; with Emission Sampling
+Auto and Front, which in Cycles steers light sampling only (Front: the floor under the back face
+is found by BSDF sampling alone, so Cycles' image is noisier, never darker). Caustic/Cycles
+R/G/B before -> after (48x36, 64 spp): culled_auto 0/0/0 (black) -> 1.0007 each (sigma 0.2 %),
+culled_front 0/0/0 -> 1.0029 each (sigma 0.45 %: Cycles' noisier image).
+
 Tolerance: test_gltf_import_agreement's, the block-variance bound (5 sigma over two seeds each)
 plus its 1 % model allowance: the quad and the floor are Principled BSDFs both renderers model
 with the same closures.
@@ -24,8 +31,9 @@ import math
 import numpy as np
 import pytest
 
-from test_cycles_agreement import SIGMAS, mean_and_variance
-from test_gltf_import_agreement import ALLOWANCE, H, W, _Gltf, caustic_images, cycles_images
+import scenes
+from test_cycles_agreement import SIGMAS, assert_mean_matches_cycles, mean_and_variance
+from test_gltf_import_agreement import ALLOWANCE, BOUNCES, SAMPLES, H, W, _Gltf, caustic_images, cycles_images
 
 pytestmark = pytest.mark.needs_binary
 
@@ -82,3 +90,20 @@ def test_back_face_of_an_emitter_matches_cycles_on_its_import(addon, tmp_path, c
         if abs(m_ca - m_cy) > bound:
             failures.append(f"{plane}: Caustic/Cycles = {m_ca / m_cy:.4f} beyond {SIGMAS} sigma + {ALLOWANCE:.0%}")
     assert not failures, f"{case}: " + "; ".join(failures)
+
+
+@pytest.mark.parametrize("sampling", ["AUTO", "FRONT"])
+def test_addon_export_of_a_culled_emitter_matches_cycles(empty_scene, tmp_path, sampling):
+    scene = empty_scene
+    scenes.small_render_settings(scene, W, H, samples=SAMPLES)
+    scenes.plane(scene, "Floor", 10.0, material=scenes.diffuse_material("Grey", 0.5))
+    glow = scenes.emission_material("Glow", (1.0, 0.8, 0.5), 4.0)
+    glow.use_backface_culling = True
+    glow.cycles.emission_sampling = sampling
+    # Facing +Z, away from the floor and from the camera below its plane (Blender's Z up).
+    scenes.plane(scene, "Quad", 2 * HALF, z=HEIGHT, material=glow)
+    # At (0, -3, 0.7) looking along +Y, tilted down to (0, 0, 0.4) as the file's camera.
+    scenes.camera(scene, (0.0, -3.0, 0.7), (90.0 - math.degrees(math.atan2(0.3, 3.0)), 0.0, 0.0))
+    scene.caustic.threads = 0
+    scenes.match_cycles(scene, SAMPLES, BOUNCES)
+    assert_mean_matches_cycles(scene, tmp_path, f"culled_{sampling.lower()}", ALLOWANCE, per_channel=True)
