@@ -216,7 +216,10 @@ fn light_subpaths_and_photons_leave_the_back_face_of_a_single_sided_emitter() {
         ("photon", &["--integrator", "photon", "--spp", "16", "--photons", "100000", "--max-radius", "0.02"]),
         // A photon per pixel and iteration (the default) leaves SPPM's estimate of the wall,
         // lit by photons alone, 30-60 % noisy: 100000 photons an iteration bring its bound to 1-4 %.
-        ("sppm", &["--integrator", "sppm", "--sppm-iterations", "16", "--sppm-radius", "0.02", "--sppm-photons", "100000"]),
+        (
+            "sppm",
+            &["--integrator", "sppm", "--sppm-iterations", "16", "--sppm-radius", "0.02", "--sppm-photons", "100000"],
+        ),
     ];
     let failed = seeded.disagreeing_others(&path, &reference, &others, sidak(regs.len() * others.len()));
     assert!(failed.is_empty(), "disagree with the path tracer: {failed:?}");

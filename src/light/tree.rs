@@ -256,15 +256,7 @@ pub fn scene_light_bounds(scene: &Scene) -> Vec<Option<LightBounds>> {
                 let p = m.triangles[*tri as usize].map(|i| m.positions[i as usize]);
                 // Both faces emit (`Material::emissive`).
                 let n = (p[1] - p[0]).cross(p[2] - p[0]);
-                Some(LightBounds::new(
-                    p[0].min(p[1]).min(p[2]),
-                    p[0].max(p[1]).max(p[2]),
-                    n,
-                    phi,
-                    0.0,
-                    half_pi,
-                    true,
-                ))
+                Some(LightBounds::new(p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2]), n, phi, 0.0, half_pi, true))
             }
             Light::Directional { .. } | Light::World => None,
         })

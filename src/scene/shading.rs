@@ -150,11 +150,7 @@ impl Scene {
         }
         // Emission leaves both faces whatever glTF's `doubleSided` says, as Cycles renders the
         // Emission Blender's importer makes of it (it culls no back face); an unlit surface too.
-        let emitted = if mat.is_emissive() {
-            mat.emission(&self.textures, s.uv, s.color)
-        } else {
-            Rgb::ZERO
-        };
+        let emitted = if mat.is_emissive() { mat.emission(&self.textures, s.uv, s.color) } else { Rgb::ZERO };
         let side = s.front as usize;
         // The common case without building the parameters: a plain constant material
         // whose normal the viewer does not bend. `pbr_params` would then give the
