@@ -10,7 +10,9 @@ converted here to metres (x 0.001). glTF is Y up too, so no axis change is neede
 * Walls face the inside of the box, block faces face outwards; the winding of every triangle
   agrees with its normal (counter-clockwise seen from the side the normal points to).
 * The ceiling is whole (no hole); the light quad sits 0.1 mm below it (y = 548.7 mm), single
-  sided, facing down (-Y), as in the pbrt / Mitsuba versions of the scene.
+  sided (`doubleSided` false), facing down (-Y), as in the pbrt / Mitsuba versions of the scene.
+  Caustic, as Cycles on Blender's import, emits from its back face too: that half of its light
+  stays in the gap (it counts in the light's power for light selection and photons).
 * Materials: glTF metallic-roughness, metallic 0, roughness 1 (Lambertian), with the usual RGB
   approximations of the measured spectra (as in the Mitsuba / pbrt scenes). The light's
   radiance is (17, 12, 4): emissiveFactor (1, 12/17, 4/17) x KHR_materials_emissive_strength 17.

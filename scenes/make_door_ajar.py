@@ -155,7 +155,8 @@ def main():
         g.mesh(f"brass_{i}", *quad(corners, normal), brass)
     # The lamp: a 0.4 m square panel in the lamp room facing the door, so that part of its
     # light falls straight through the gap (Veach's arrangement) and the rest lights the
-    # camera's room after bouncing in the lamp room.
+    # camera's room after bouncing in the lamp room (its back face emits too, into the lamp
+    # room, as Cycles renders Blender's import of a single-sided emitter).
     h, z = 0.2, -1.5
     g.mesh("lamp", *quad([(-h, 1.0 - h, z), (h, 1.0 - h, z), (h, 1.0 + h, z), (-h, 1.0 + h, z)], (0, 0, 1)),
            lamp, translation=(0.4, 0.0, 0.0))

@@ -136,7 +136,8 @@ def main():
                            (0, 0, 1)), mirror)
     g.mesh("glass_sphere", *sphere(0.35), glass, translation=(-0.35, 0.35, 0.0))
     g.mesh("red_glass_sphere", *sphere(0.25), red_glass, translation=(0.5, 0.25, 0.25))
-    # A 0.2 m square light 2 m up, facing down (one-sided).
+    # A 0.2 m square light 2 m up, facing down (`doubleSided` false; its back face emits upwards
+    # too, as Cycles renders Blender's import).
     h, y = 0.1, 2.0
     g.mesh("light", *quad([(-h, y, -h), (h, y, -h), (h, y, h), (-h, y, h)], (0, -1, 0)), light,
            translation=(0.05, 0.0, 0.35))

@@ -9,7 +9,8 @@ The scene for light selection (issue 9): a 40 m street between two facades, lit 
   radius (8 outward-facing triangles) in one of 8 colours (the hues of bench/suite.py's
   many_lights), radiance 250 x colour;
 * 48 lit windows (0.8 m x 1.2 m quads on both facades, two floors), warm white, radiance 1.5,
-  facing the street (single sided).
+  facing the street (`doubleSided` false; their back faces, inside the facades, emit too, as
+  Cycles renders Blender's import: light selection and photons spend a share there).
 
 Most of each shading point's light comes from a handful of nearby bulbs, so choosing lights by
 power wastes most shadow rays, which is what the light tree is for. Four boxes stand in for

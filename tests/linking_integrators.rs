@@ -62,7 +62,7 @@ fn scene(dir: &Path, free: Option<usize>) -> PathBuf {
     if ruled(1) {
         g.node_ext(point, "CAUSTIC_light_linking", json!({"blockers": ["Blocker"], "blockers_include": false}));
     }
-    // Facing +X, one-sided.
+    // Facing +X; its back face emits too (emission leaves both faces).
     g.use_ext("KHR_materials_emissive_strength");
     let glow = g.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1]},
         "emissiveFactor": [1.0, 0.9, 0.8], "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 6.0}}}));

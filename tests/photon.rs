@@ -143,7 +143,7 @@ fn emitted_power_sums_to_light_power() {
             }),
         ),
         (
-            "emissive one-sided",
+            "emissive, doubleSided false (both faces emit)",
             Box::new(|g: &mut GltfBuilder| {
                 let m = g.material(json!({"emissiveFactor": [1.0, 0.2, 0.4]}));
                 g.mesh(&[[0.0, 1.0, 0.0], [0.3, 1.0, 0.0], [0.0, 1.0, 0.4]], &[0, 1, 2], m);

@@ -11,7 +11,7 @@
 //! | directional | uniform on a disk of the scene's bounding-sphere radius, outside it, facing the photon's direction | the light's (uniform in its cone for a sun with a size) | π R² E · 2/(1 + cos θ) / (p_l N) |
 //! | world | the same disk, facing the direction | from the world's importance map, density p(ω) | π R² L(ω) / (p(ω) p_l N) |
 //! | area (CAUSTIC) | uniform | cosine-weighted, one-sided | π A L / (p_l N) |
-//! | emissive triangle | uniform | cosine-weighted, both sides when double-sided | π A L(x) s / (p_l N), s = sides |
+//! | emissive triangle | uniform | cosine-weighted, either face (both emit) | 2π A L(x) / (p_l N) |
 //!
 //! with p_l the light's selection probability (luminance of its power over the total; a
 //! negative emitter is picked by |Φ|, as Cycles' light tree takes |emission|: a negative
@@ -139,8 +139,8 @@ impl Emitters {
                     let area = 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length();
                     let tex =
                         mat.emissive_tex.map(|t| scene.textures[t.texture as usize].mean_rgb()).unwrap_or(Vec3::ONE);
-                    let sides = if mat.double_sided { 2.0 } else { 1.0 };
-                    mat.emissive * tex * (PI * area * sides)
+                    // π A L from each face.
+                    mat.emissive * tex * (2.0 * PI * area)
                 }
             })
             .collect();
@@ -175,8 +175,8 @@ impl Emitters {
         self.dist.pmf(i)
     }
 
-    /// Emits one of `n` photons: `u_light` picks the light, `u_side` the side of a
-    /// double-sided emitter, `u_pos` the point and `u_dir` the direction.
+    /// Emits one of `n` photons: `u_light` picks the light, `u_side` the face of an
+    /// emissive triangle (both emit), `u_pos` the point and `u_dir` the direction.
     #[inline]
     pub fn emit(
         &self,
@@ -291,7 +291,7 @@ impl Emitters {
                 let mat = &scene.materials[m.tri_material[*tri as usize] as usize];
                 let et = crate::light::EmitterTriangle::of(scene, *tri);
                 let (q, mut n, b, _) = sample_triangle(&et, u_pos);
-                if et.two_sided && u_side >= 0.5 {
+                if u_side >= 0.5 {
                     n = -n;
                 }
                 // Local emission relative to the mean the power was computed with.

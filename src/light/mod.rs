@@ -377,13 +377,12 @@ pub struct LightSample {
     pub normal: Vec3,
 }
 
-/// Geometry of an emissive triangle with its emission, for light sampling.
+/// Geometry of an emissive triangle, for light sampling; it emits from both faces
+/// (`Material::emissive`).
 #[derive(Clone, Copy, Debug)]
 pub struct EmitterTriangle {
     /// Vertices.
     pub p: [Vec3; 3],
-    /// Emitting on both sides.
-    pub two_sided: bool,
 }
 
 /// The cone of Blender's spot with a radius, which Cycles renders as its sphere (or soft

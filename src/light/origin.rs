@@ -41,7 +41,7 @@ pub struct LightPoint {
     pub le: Rgb,
     /// Area density of `p` among the light's points (1 for a point).
     pub pdf_pos: f32,
-    /// Emits from both faces (double-sided emissive triangles).
+    /// Emits from both faces (emissive triangles).
     pub two_sided: bool,
 }
 
@@ -228,7 +228,7 @@ pub fn sample_point(scene: &Scene, index: usize, u: Vec2) -> Option<LightPoint> 
                 // camera side's strategies find signed too (its power is |emission|).
                 le: scene.emission_at(*tri, b.x, b.y) * coverage,
                 pdf_pos: 1.0 / area,
-                two_sided: et.two_sided,
+                two_sided: true,
             })
         }
         Light::Sphere { .. } | Light::Directional { .. } | Light::World => None,
@@ -252,13 +252,10 @@ pub fn pdf_point(scene: &Scene, index: usize) -> f32 {
     }
 }
 
-/// True for emissive triangles of double-sided materials.
+/// True for lights emitting from both faces: emissive triangles (`Material::emissive`).
 #[inline]
 pub fn two_sided(scene: &Scene, index: usize) -> bool {
-    match &scene.lights[index] {
-        Light::Triangle { tri } => scene.materials[scene.mesh.tri_material[*tri as usize] as usize].double_sided,
-        _ => false,
-    }
+    matches!(scene.lights[index], Light::Triangle { .. })
 }
 
 /// True for lights that no path can hit: at a single point (point and spot lights) or
@@ -314,7 +311,7 @@ pub fn pdf_direction(scene: &Scene, lp: &LightPoint, w: Vec3) -> f32 {
 }
 
 /// Samples the first direction of a light subpath: cosine-weighted for surfaces (either
-/// face of a double-sided one, chosen by `u_side`), uniform for points, uniform in the
+/// face of a two-sided one, chosen by `u_side`), uniform for points, uniform in the
 /// outer cone for spots.
 #[inline]
 pub fn sample_direction(scene: &Scene, lp: &LightPoint, u_side: f32, u: Vec2) -> Vec3 {

@@ -15,14 +15,11 @@ use glam::{Vec2, Vec3};
 // Here rather than beside the type in `light/mod.rs`: the light types sit below the
 // scene (which holds them), and only the sampling side may look into the scene.
 impl EmitterTriangle {
-    /// Emissive triangle `tri` of the scene: its corners, two-sided when its material is.
+    /// Emissive triangle `tri` of the scene: its corners.
     #[inline]
     pub fn of(scene: &Scene, tri: u32) -> Self {
         let m = &scene.mesh;
-        EmitterTriangle {
-            p: m.triangles[tri as usize].map(|i| m.positions[i as usize]),
-            two_sided: scene.materials[m.tri_material[tri as usize] as usize].double_sided,
-        }
+        EmitterTriangle { p: m.triangles[tri as usize].map(|i| m.positions[i as usize]) }
     }
 }
 
@@ -223,9 +220,9 @@ impl Light {
                     return None;
                 }
                 let wi = d / dist;
+                // Either face emits: the side `p` sees.
                 let cos_signed = (-wi).dot(n);
-                let cos_l = if et.two_sided { cos_signed.abs() } else { cos_signed };
-                let pdf = area_to_solid_angle(1.0 / area, dist, cos_l);
+                let pdf = area_to_solid_angle(1.0 / area, dist, cos_signed.abs());
                 if !(pdf > 0.0) {
                     return None;
                 }

@@ -254,17 +254,9 @@ pub fn scene_light_bounds(scene: &Scene) -> Vec<Option<LightBounds>> {
             Light::Triangle { tri } => {
                 let m = &scene.mesh;
                 let p = m.triangles[*tri as usize].map(|i| m.positions[i as usize]);
-                let two_sided = scene.materials[m.tri_material[*tri as usize] as usize].double_sided;
+                // Both faces emit (`Material::emissive`).
                 let n = (p[1] - p[0]).cross(p[2] - p[0]);
-                Some(LightBounds::new(
-                    p[0].min(p[1]).min(p[2]),
-                    p[0].max(p[1]).max(p[2]),
-                    n,
-                    phi,
-                    0.0,
-                    half_pi,
-                    two_sided,
-                ))
+                Some(LightBounds::new(p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2]), n, phi, 0.0, half_pi, true))
             }
             Light::Directional { .. } | Light::World => None,
         })

@@ -35,7 +35,9 @@ pub struct Material {
     pub normal_tex: Option<TexRef>,
     /// Normal map scale.
     pub normal_scale: f32,
-    /// Emitted radiance factor (emissiveFactor × emissive strength).
+    /// Emitted radiance factor (emissiveFactor × emissive strength), from both faces whatever
+    /// glTF's `doubleSided` says, as Cycles renders Blender's import of it (Cycles culls no
+    /// back face and its Emission leaves both sides). Shading is two-sided too.
     pub emissive: Rgb,
     /// Emissive texture (sRGB).
     pub emissive_tex: Option<TexRef>,
@@ -123,8 +125,6 @@ pub struct Material {
     /// Shadow rays pass the surface as its alpha says (Cycles' Transparent Shadows, on unless
     /// `CAUSTIC_materials_shadow` says `"transparent": false`: then the surface stops them).
     pub transparent_shadow: bool,
-    /// Emits from both sides (glTF `doubleSided`). Shading is always two-sided, as in Cycles.
-    pub double_sided: bool,
     /// Blender's shader graph (`CAUSTIC_materials_nodes`), compiled: when present it
     /// replaces the glTF parameters above in shading, alpha and emission.
     pub nodes: Option<std::sync::Arc<crate::shader::instructions::Program>>,
@@ -203,7 +203,6 @@ impl Default for Material {
             iridescence: None,
             alpha_mode: AlphaMode::Opaque,
             transparent_shadow: true,
-            double_sided: false,
             nodes: None,
             hair: None,
         }
@@ -296,7 +295,6 @@ macro_rules! texture_fields {
             subsurface: _,
             alpha_mode: _,
             transparent_shadow: _,
-            double_sided: _,
             hair: _,
             // Not a texture: a shader graph replaces every parameter above.
             nodes: _,
@@ -345,7 +343,7 @@ impl Material {
         fields.into_iter().chain(film).flatten()
     }
 
-    /// True when the material emits light.
+    /// True when the material emits light (from both faces: see `emissive`).
     pub fn is_emissive(&self) -> bool {
         self.emissive.max_element() > 0.0
     }

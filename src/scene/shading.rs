@@ -149,15 +149,11 @@ impl Scene {
             return self.shade_hair(hair, s, wo);
         }
         if let Some(prog) = &mat.nodes {
-            return crate::shader::shade::shade_nodes(self, prog, s, wo, mat.double_sided, rays);
+            return crate::shader::shade::shade_nodes(self, prog, s, wo, rays);
         }
-        // An unlit surface shows its colour on both sides, as the Emission Blender's importer
-        // makes of it (Cycles culls no back face); it is no light, so its sides count nowhere else.
-        let emitted = if mat.is_emissive() && (s.front || mat.double_sided || mat.unlit) {
-            mat.emission(&self.textures, s.uv, s.color)
-        } else {
-            Rgb::ZERO
-        };
+        // Emission leaves both faces whatever glTF's `doubleSided` says, as Cycles renders the
+        // Emission Blender's importer makes of it (it culls no back face); an unlit surface too.
+        let emitted = if mat.is_emissive() { mat.emission(&self.textures, s.uv, s.color) } else { Rgb::ZERO };
         let side = s.front as usize;
         // The common case without building the parameters: a plain constant material
         // whose normal the viewer does not bend. `pbr_params` would then give the
@@ -431,7 +427,7 @@ mod tests {
             },
             Material { metallic: 0.0, anisotropy_strength: 0.6, ..Default::default() },
             Material { unlit: true, ..Default::default() },
-            Material { emissive: Vec3::new(2.0, 1.0, 0.5), double_sided: true, ..Default::default() },
+            Material { emissive: Vec3::new(2.0, 1.0, 0.5), ..Default::default() },
         ];
         let scene = Scene { materials, ..Default::default() };
         let mut state = 0x9e37_79b9_7f4a_7c15u64;

@@ -132,7 +132,7 @@ impl GraphEdit {
                 && indices.contains(&mesh.tri_material[tri as usize])
             {
                 let m = &materials[mesh.tri_material[tri as usize] as usize];
-                *p = triangle_light_power(mesh, tri, luminance(m.emissive), m.double_sided);
+                *p = triangle_light_power(mesh, tri, luminance(m.emissive));
             }
         }
         // Photon maps and the integrator's per-material BSDFs were built from the old program.

@@ -103,7 +103,6 @@ pub fn shade_nodes(
     prog: &Program,
     s: &SurfaceHit,
     wo: Vec3,
-    double_sided: bool,
     rays: Option<&dyn SceneRays>,
 ) -> ShadingPoint {
     let c = evaluate(scene, prog, s, wo, rays);
@@ -174,7 +173,8 @@ pub fn shade_nodes(
         frame = Frame::from_normal(n);
         bsdf = Bsdf::Mix(mixture(&c, s, wo, &frame, keep));
     }
-    let emitted = if s.front || double_sided { c.emission * keep } else { Rgb::ZERO };
+    // Both faces emit, as Cycles' Emission closure (see `Material::emissive`).
+    let emitted = c.emission * keep;
     ShadingPoint { bsdf, frame, emitted, holdout: c.holdout * keep }
 }
 

@@ -554,7 +554,8 @@ def make_negative_scale():
     b.write_gltf("negative_scale.gltf")
     return ok("negative_scale.gltf",
               "a one-sided emissive quad (no normals) on x>0 and the same mesh mirrored by scale "
-              "(-1,1,1) onto x<0: the mirror flips the winding, so the loader must flip it back; "
+              "(-1,1,1) onto x<0: the mirror flips the winding, so the loader must flip it back "
+              "(checked by the loader's unit test: emission leaves both faces, as in Cycles); "
               "both halves of the image must be bright", 4, emissive=4,
               features=["negative scale", "one-sided emission"],
               bounds={"min": [-0.9, -0.9, 0.0], "max": [0.9, 0.9, 0.0]},

@@ -13,13 +13,12 @@ use glam::{Mat4, Vec3};
 use std::collections::HashMap;
 
 /// The selection power of emissive triangle `tri` of mean radiance luminance `radiance`:
-/// its flux π L A, from both sides when the material is double-sided (the loader and the
-/// server's graph edit share it).
-pub(crate) fn triangle_light_power(mesh: &Mesh, tri: u32, radiance: f32, double_sided: bool) -> f32 {
+/// its flux π L A from each of its two faces, which both emit (`Material::emissive`;
+/// the loader and the server's graph edit share it).
+pub(crate) fn triangle_light_power(mesh: &Mesh, tri: u32, radiance: f32) -> f32 {
     let p = mesh.triangles[tri as usize].map(|i| mesh.positions[i as usize]);
     let area = 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length();
-    let sides = if double_sided { 2.0 } else { 1.0 };
-    radiance * area * std::f32::consts::PI * sides
+    radiance * area * std::f32::consts::PI * 2.0
 }
 
 /// What a `CAUSTIC_lights_area` node becomes.
@@ -303,7 +302,7 @@ impl Loader<'_> {
                 }
             };
             let radiance = luminance(mat.emissive * mean_tex).max(luminance(mat.emissive * floor));
-            let power = triangle_light_power(mesh, ti as u32, radiance, mat.double_sided);
+            let power = triangle_light_power(mesh, ti as u32, radiance);
             if power <= 0.0 {
                 continue;
             }

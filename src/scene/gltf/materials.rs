@@ -122,7 +122,6 @@ impl Loader<'_> {
             emissive: emissive.max(Vec3::ZERO),
             emissive_tex,
             alpha_mode,
-            double_sided: m.double_sided(),
             ..Material::default()
         };
         self.material_extensions(doc, m, buffers, &mut mat, &mut features)?;
@@ -230,7 +229,7 @@ mod tests {
         assert_eq!(m.base_color, Vec4::ONE);
         assert_eq!((m.metallic, m.roughness, m.ior, m.specular, m.transmission), (1.0, 1.0, 1.5, 1.0, 0.0));
         assert_eq!(m.alpha_mode, AlphaMode::Opaque);
-        assert!(m.medium.is_none() && !m.double_sided && m.emissive == Vec3::ZERO);
+        assert!(m.medium.is_none() && m.emissive == Vec3::ZERO);
     }
 
     #[test]
@@ -334,7 +333,6 @@ mod tests {
         assert_eq!((m.metallic, m.roughness), (0.3, 0.6));
         assert_eq!(m.emissive, Vec3::new(1.0, 0.5, 0.0));
         assert_eq!(m.alpha_mode, AlphaMode::Mask(0.25));
-        assert!(m.double_sided);
         assert_eq!(texel_id(&scene, m.base_color_tex), 0);
         assert!(scene.textures[m.base_color_tex.unwrap().texture as usize].srgb, "base colour is sRGB");
         assert_eq!(texel_id(&scene, m.metallic_roughness_tex), 1);

@@ -420,6 +420,26 @@ mod tests {
         dp_du.normalize().extend(w)
     }
 
+    /// A node mirroring its mesh (scale (-1, 1, 1)) reverses the winding, which the loader
+    /// turns back: both copies of `tests/data/negative_scale.gltf`'s quad (no normals, so the
+    /// winding alone says which face is the front) face +Z, as the unmirrored one does. The
+    /// corpus's render of that file cannot show it since emission leaves both faces.
+    #[test]
+    fn a_mirroring_node_keeps_the_front_face_where_it_was() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/negative_scale.gltf");
+        let scene = crate::scene::gltf::load(&path).unwrap();
+        let m = &scene.mesh;
+        assert_eq!(m.triangles.len(), 4);
+        let mut mirrored = 0;
+        for t in &m.triangles {
+            let [a, b, c] = t.map(|i| m.positions[i as usize]);
+            let n = (b - a).cross(c - a);
+            assert!(n.z > 0.0 && n.x == 0.0 && n.y == 0.0, "a triangle faces {n}");
+            mirrored += (a.x + b.x + c.x < 0.0) as u32;
+        }
+        assert_eq!(mirrored, 2, "the mirrored copy is on x < 0");
+    }
+
     #[test]
     fn generated_tangents_are_the_ones_a_file_would_carry() {
         for mirror in [false, true] {

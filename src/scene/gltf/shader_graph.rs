@@ -61,7 +61,6 @@ pub(crate) fn graph_material(
 ) -> Material {
     let mut out = Material {
         name: mat.name.clone(),
-        double_sided: true,
         medium: if keep_medium { mat.medium } else { None },
         null_surface: mat.null_surface,
         transparent_shadow: mat.transparent_shadow,

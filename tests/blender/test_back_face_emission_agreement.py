@@ -1,0 +1,109 @@
+"""A single-sided emissive quad lights the floor from its back face in the `caustic` binary as
+Cycles renders Blender's import of the file (in the style of test_gltf_import_agreement.py).
+
+glTF's `doubleSided: false` allows back-face culling; Blender's importer turns it into the
+material's Backface Culling, a viewport setting that Cycles ignores: the back face is rendered,
+and the Principled BSDF's emission leaves both faces. The file: a square emissive quad (0.8 m,
+emissive (1, 0.8, 0.5) x strength 4, black base) 1.2 m over a grey floor, its front facing up,
+away from the floor and from the camera below its plane, which sees the floor it lights and the
+quad's back face. `single_sided` is the case; `double_sided` the same file with
+`doubleSided: true`, the control (both faces emitted before too).
+
+Measured (bpy 5.0.1, 48x36, 64 spp, two seeds), Caustic/Cycles R/G/B, before -> after:
+single_sided 0/0/0 (the image black: the back face emitted nothing) -> 1.0035/1.0035/1.0035
+(sigma 0.05 %); double_sided 1.0035 before and after. The 0.35 % both cases share is not the
+back face's: the control has it too.
+
+Through the add-on (`culled_*`): the same quad made in Blender, a Principled BSDF emitting with
+Backface Culling on, which the exporter writes as `doubleSided: false`; with Emission Sampling
+Auto and Front, which in Cycles steers light sampling only (Front: the floor under the back face
+is found by BSDF sampling alone, so Cycles' image is noisier, never darker). Caustic/Cycles
+R/G/B before -> after (48x36, 64 spp): culled_auto 0/0/0 (black) -> 1.0007 each (sigma 0.2 %),
+culled_front 0/0/0 -> 1.0029 each (sigma 0.45 %: Cycles' noisier image).
+
+Tolerance: test_gltf_import_agreement's, the block-variance bound (5 sigma over two seeds each)
+plus its 1 % model allowance: the quad and the floor are Principled BSDFs both renderers model
+with the same closures.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+import scenes
+from test_cycles_agreement import SIGMAS, assert_mean_matches_cycles, mean_and_variance
+from test_gltf_import_agreement import ALLOWANCE, BOUNCES, SAMPLES, H, W, _Gltf, caustic_images, cycles_images
+
+pytestmark = pytest.mark.needs_binary
+
+HALF = 0.4  # the quad's half side (m)
+HEIGHT = 1.2  # the quad's height over the floor (m)
+
+
+def build(path, double_sided):
+    """Floor, quad facing up (+Y, glTF's up), camera below the quad's plane; no other light."""
+    g = _Gltf()
+    glow = {"name": "Glow", "pbrMetallicRoughness": {"baseColorFactor": [0.0, 0.0, 0.0, 1.0],
+                                                     "metallicFactor": 0.0, "roughnessFactor": 0.5},
+            "emissiveFactor": [1.0, 0.8, 0.5],
+            "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 4.0}}}
+    if double_sided:
+        glow["doubleSided"] = True
+    g.doc["materials"] = [{"name": "Floor", "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1],
+                                                                      "metallicFactor": 0.0, "roughnessFactor": 0.8}},
+                          glow]
+    up = np.tile(np.array([[0, 1, 0]], np.float32), (4, 1))
+    for name, y, s, material in (("Floor", 0.0, 5.0, 0), ("Quad", HEIGHT, HALF, 1)):
+        # Counter-clockwise seen from +Y: both face up.
+        pos = np.array([[-s, y, -s], [-s, y, s], [s, y, s], [s, y, -s]], np.float32)
+        prim = {"attributes": {"POSITION": g.accessor(pos, "VEC3", minmax=True), "NORMAL": g.accessor(up, "VEC3")},
+                "indices": g.accessor(np.array([0, 1, 2, 0, 2, 3], np.uint32), "SCALAR", 5125),
+                "material": material}
+        g.doc["meshes"].append({"name": name, "primitives": [prim]})
+    roots = [g.node(name="Floor", mesh=0), g.node(name="Quad", mesh=1)]
+    # Camera at (0, 0.7, 3) looking at (0, 0.4, 0): the quad's underside near the frame's top.
+    tilt = -math.atan2(0.7 - 0.4, 3.0)
+    g.doc["cameras"] = [{"type": "perspective", "perspective": {"yfov": 0.6, "aspectRatio": W / H,
+                                                                  "znear": 0.1, "zfar": 100.0}}]
+    roots.append(g.node(name="Camera", camera=0, translation=[0.0, 0.7, 3.0],
+                        rotation=[math.sin(tilt / 2), 0.0, 0.0, math.cos(tilt / 2)]))
+    g.doc["scenes"][0]["nodes"] = roots
+    g.write(path, {"KHR_materials_emissive_strength"})
+
+
+@pytest.mark.parametrize("case", ["single_sided", "double_sided"])
+def test_back_face_of_an_emitter_matches_cycles_on_its_import(addon, tmp_path, case):
+    gltf_path = tmp_path / f"{case}.gltf"
+    build(gltf_path, case == "double_sided")
+    cycles = cycles_images(gltf_path, tmp_path)
+    caustic, log = caustic_images(gltf_path, tmp_path)
+    failures = []
+    for plane, channel in {"R": 0, "G": 1, "B": 2}.items():
+        (m_ca, v_ca), (m_cy, v_cy) = (mean_and_variance(a[..., channel], b[..., channel])
+                                      for a, b in (caustic, cycles))
+        sigma = math.sqrt(v_ca + v_cy)
+        bound = SIGMAS * sigma + ALLOWANCE * m_cy
+        print(f"\n[caustic/cycles] {case} {plane} ratio {m_ca / m_cy:.4f}  caustic {m_ca:.5f}  cycles {m_cy:.5f}  "
+              f"sigma {sigma:.2e}")
+        assert m_cy > 1e-3, f"{case}: Cycles' image is black: the scene is broken"
+        if abs(m_ca - m_cy) > bound:
+            failures.append(f"{plane}: Caustic/Cycles = {m_ca / m_cy:.4f} beyond {SIGMAS} sigma + {ALLOWANCE:.0%}")
+    assert not failures, f"{case}: " + "; ".join(failures)
+
+
+@pytest.mark.parametrize("sampling", ["AUTO", "FRONT"])
+def test_addon_export_of_a_culled_emitter_matches_cycles(empty_scene, tmp_path, sampling):
+    scene = empty_scene
+    scenes.small_render_settings(scene, W, H, samples=SAMPLES)
+    scenes.plane(scene, "Floor", 10.0, material=scenes.diffuse_material("Grey", 0.5))
+    glow = scenes.emission_material("Glow", (1.0, 0.8, 0.5), 4.0)
+    glow.use_backface_culling = True
+    glow.cycles.emission_sampling = sampling
+    # Facing +Z, away from the floor and from the camera below its plane (Blender's Z up).
+    scenes.plane(scene, "Quad", 2 * HALF, z=HEIGHT, material=glow)
+    # At (0, -3, 0.7) looking along +Y, tilted down to (0, 0, 0.4) as the file's camera.
+    scenes.camera(scene, (0.0, -3.0, 0.7), (90.0 - math.degrees(math.atan2(0.3, 3.0)), 0.0, 0.0))
+    scene.caustic.threads = 0
+    scenes.match_cycles(scene, SAMPLES, BOUNCES)
+    assert_mean_matches_cycles(scene, tmp_path, f"culled_{sampling.lower()}", ALLOWANCE, per_channel=True)
