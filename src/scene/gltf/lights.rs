@@ -429,7 +429,8 @@ mod tests {
                 let Light::Triangle { tri } = l else { panic!("only emissive triangles") };
                 let p = m.triangles[*tri as usize].map(|i| m.positions[i as usize]);
                 let area = 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length();
-                crate::math::luminance(mat.emissive * mean) * area * std::f32::consts::PI
+                // Both faces emit (`triangle_light_power`).
+                crate::math::luminance(mat.emissive * mean) * area * std::f32::consts::PI * 2.0
             })
             .collect()
     }
