@@ -63,8 +63,38 @@ enum View {
     Wall,
 }
 
+/// How the quad emits.
+#[derive(Clone, Copy, PartialEq)]
+enum Glow {
+    /// The glTF material of the module doc: L from either face.
+    Material,
+    /// A node graph whose Emission strength is L × Backfacing: L from the back face alone.
+    BackOnly,
+    /// A node graph whose Emission strength is L × (1 − Backfacing): the front face alone, as
+    /// Blender users make a one-sided emitter.
+    FrontOnly,
+}
+
+/// The Emission node graph of `glow` (not `Glow::Material`): strength L × Backfacing, or
+/// L − L × Backfacing.
+fn graph_glow(glow: Glow) -> serde_json::Value {
+    let (scale, offset) = if glow == Glow::BackOnly { (L, 0.0) } else { (-L, L) };
+    json!({"name": "Glow", "extensions": {"CAUSTIC_materials_nodes": {"version": 1, "nodes": [
+        {"name": "Geometry", "type": "ShaderNodeNewGeometry"},
+        {"name": "Side", "type": "ShaderNodeMath", "props": {"operation": "MULTIPLY_ADD"},
+         "inputs": {"Value": {"link": [0, "Backfacing"]}, "Value_001": {"value": scale}, "Value_002": {"value": offset}}},
+        {"name": "Emission", "type": "ShaderNodeEmission",
+         "inputs": {"Color": {"value": [1, 1, 1, 1]}, "Strength": {"link": [1, "Value"]}}}
+    ], "output": {"surface": [2, "Emission"]}}}})
+}
+
 /// The scene of the module doc seen from `view`.
 fn scene(dir: &Path, view: View) -> PathBuf {
+    scene_glowing(dir, view, Glow::Material)
+}
+
+/// The scene of the module doc seen from `view`, its quad emitting as `glow` says.
+fn scene_glowing(dir: &Path, view: View, glow_kind: Glow) -> PathBuf {
     let mut g = GltfBuilder::new();
     g.use_ext("KHR_materials_specular");
     g.use_ext("KHR_materials_emissive_strength");
@@ -77,6 +107,12 @@ fn scene(dir: &Path, view: View) -> PathBuf {
         "emissiveFactor": [1.0, 1.0, 1.0],
         "extensions": {"KHR_materials_specular": {"specularFactor": 0.0},
             "KHR_materials_emissive_strength": {"emissiveStrength": L}}}));
+    let glow = if glow_kind == Glow::Material {
+        glow
+    } else {
+        g.use_ext("CAUSTIC_materials_nodes");
+        g.material(graph_glow(glow_kind))
+    };
     // Both counter-clockwise seen from +Y: the floor faces up, the quad's front faces up too.
     g.mesh(&[[-4.0, 0.0, -4.0], [-4.0, 0.0, 4.0], [4.0, 0.0, 4.0], [4.0, 0.0, -4.0]], &[0, 1, 2, 0, 2, 3], white);
     let (a, h) = (A as f32, H as f32);
@@ -97,7 +133,14 @@ fn scene(dir: &Path, view: View) -> PathBuf {
             g.camera([-0.4, 0.8, 0.0], look_rotation([1.0, 0.0, 0.0]), 0.6);
         }
     }
-    g.write(dir, &format!("{}.gltf", ["floor", "back", "wall"][view as usize]))
+    g.write(
+        dir,
+        &format!(
+            "{}{}.gltf",
+            ["floor", "back", "wall"][view as usize],
+            ["", "_back_only", "_front_only"][glow_kind as usize]
+        ),
+    )
 }
 
 /// g(X, Y) of the module doc: 2π × the view factor to a rectangle with a corner overhead.
@@ -139,19 +182,58 @@ fn matches_closed_form(name: &str, a: &[f64], want: f64, alpha: f64) -> bool {
 /// agrees with the path tracer region by region.
 #[test]
 fn the_back_face_of_a_single_sided_emitter_lights_the_floor_in_every_integrator() {
+    floor_in_every_integrator(Glow::Material);
+}
+
+/// A node graph that emits from the back face alone (strength L × Backfacing) lights the floor
+/// under it as the closed form says in every integrator: light sampling, light subpaths and
+/// photons read the graph from the side they leave (before, from the front: 0, so the floor
+/// got its light from BSDF-sampled rays alone, MIS-weighted, and none in BDPT's and the photon
+/// integrators' light strategies).
+#[test]
+fn a_graph_emitting_by_backfacing_lights_the_side_it_emits_on() {
+    floor_in_every_integrator(Glow::BackOnly);
+}
+
+/// A node graph that emits from the front face alone (L × (1 − Backfacing), Blender users'
+/// one-sided emitter) leaves the floor under its back face black in every integrator: exactly
+/// 0 in every pixel (before, light sampling read the front's L from below, so the path tracer's
+/// floor was lit by its light samples' MIS-weighted share and the photons lit it fully).
+#[test]
+fn a_graph_emitting_from_its_front_alone_leaves_the_floor_behind_it_black() {
     let dir = temp_dir();
-    let path = scene(dir.path(), View::Floor);
-    let regs = regions(RES, RES);
-    let want = expected(&regs);
-    let r = format!("{RES}x{RES}");
-    let seeded = Seeded::six(dir.path(), &r, "4", &regs, LIMIT);
-    let runs: [(&str, &[&str]); 5] = [
+    let path = scene_glowing(dir.path(), View::Floor, Glow::FrontOnly);
+    for (name, flags) in integrator_runs() {
+        let out = dir.path().join(format!("{name}.exr"));
+        let mut args = vec!["--resolution", "16x16", "--seed", "1"];
+        args.extend_from_slice(flags);
+        let px = render_image(&path, &out, &args, LIMIT);
+        let lit = px.iter().filter(|p| p[..3].iter().any(|&c| c != 0.0)).count();
+        assert_eq!(lit, 0, "{name}: {lit} of {} floor pixels lit from behind a front-only emitter", px.len());
+    }
+}
+
+/// The five integrators' flags for the floor view, at the sample counts the bounds assume.
+fn integrator_runs() -> [(&'static str, &'static [&'static str]); 5] {
+    [
         ("path", &["--integrator", "path", "--spp", "32"]),
         ("bdpt", &["--integrator", "bdpt", "--spp", "16"]),
         ("vcm", &["--integrator", "vcm", "--spp", "16", "--vcm-radius", "0.02"]),
         ("photon", &["--integrator", "photon", "--spp", "16", "--photons", "100000", "--max-radius", "0.02"]),
         ("sppm", &["--integrator", "sppm", "--sppm-iterations", "16", "--sppm-radius", "0.02"]),
-    ];
+    ]
+}
+
+/// The floor under the quad emitting as `glow` (from its back face) against the closed form
+/// and the path tracer, in every integrator.
+fn floor_in_every_integrator(glow: Glow) {
+    let dir = temp_dir();
+    let path = scene_glowing(dir.path(), View::Floor, glow);
+    let regs = regions(RES, RES);
+    let want = expected(&regs);
+    let r = format!("{RES}x{RES}");
+    let seeded = Seeded::six(dir.path(), &r, "4", &regs, LIMIT);
+    let runs = integrator_runs();
     // Five against the closed form and four against the path tracer, each over every region.
     let alpha = sidak(regs.len() * 9);
     let mut failed = Vec::new();

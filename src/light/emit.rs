@@ -38,6 +38,7 @@ use crate::math::{Frame, Rgb};
 use crate::sampling::Distribution1D;
 use crate::sampling::warp::{concentric_disk, cosine_hemisphere, uniform_cone, uniform_cone_pdf, uniform_sphere};
 use crate::scene::Scene;
+use crate::scene::light_path::LightPath;
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
@@ -294,6 +295,7 @@ impl Emitters {
                 if u_side >= 0.5 {
                     n = -n;
                 }
+                let dir = Frame::from_normal(n).to_world(cosine_hemisphere(u_dir));
                 // Local emission relative to the mean the power was computed with.
                 let (uv, color) = scene.attributes(*tri, b.x, b.y);
                 let mut factor = Rgb::ONE;
@@ -302,11 +304,12 @@ impl Emitters {
                     let local = mat.emission(&scene.textures, uv, color) / mat.emissive;
                     factor = Rgb::new(ratio(local.x, mean.x), ratio(local.y, mean.y), ratio(local.z, mean.z));
                 } else if mat.nodes.is_some() {
-                    // A node graph's emission relative to the material's estimate the
+                    // A node graph's emission toward the photon's direction (a graph may
+                    // emit by Backfacing or Fresnel) relative to the material's estimate the
                     // power was computed with (exact when the emission is constant).
                     // Signed: a negative emitter's photons carry negative power (the power
                     // it was picked by is |emission|), so they subtract its light.
-                    let local = scene.emission_at(*tri, b.x, b.y);
+                    let local = scene.emission_for(*tri, b.x, b.y, LightPath::LIGHT_EMISSION, Some(dir));
                     let e = mat.emissive;
                     factor = Rgb::new(ratio(local.x, e.x), ratio(local.y, e.y), ratio(local.z, e.z));
                 } else if mat.unlit {
@@ -314,7 +317,6 @@ impl Emitters {
                     factor = color.truncate();
                 }
                 let coverage = scene.coverage(*tri, b.x, b.y);
-                let dir = Frame::from_normal(n).to_world(cosine_hemisphere(u_dir));
                 Some(EmittedPhoton {
                     light: index,
                     org: crate::math::offset_ray_origin(q, n),

@@ -25,6 +25,7 @@ use crate::math::{Frame, Rgb};
 use crate::sampling::Distribution1D;
 use crate::sampling::warp::{cosine_hemisphere, uniform_cone, uniform_cone_pdf, uniform_sphere};
 use crate::scene::Scene;
+use crate::scene::light_path::LightPath;
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
@@ -43,6 +44,9 @@ pub struct LightPoint {
     pub pdf_pos: f32,
     /// Emits from both faces (emissive triangles).
     pub two_sided: bool,
+    /// Barycentrics of `p` on an emissive triangle (its graph's emission is read toward each
+    /// direction, `emitted`); zero for other lights.
+    pub bary: Vec2,
 }
 
 /// The light-side view of the scene's lights for bidirectional path tracing.
@@ -186,12 +190,24 @@ impl BdptLights {
 pub fn sample_point(scene: &Scene, index: usize, u: Vec2) -> Option<LightPoint> {
     let light = index as u32;
     match &scene.lights[index] {
-        Light::Point { position, intensity } => {
-            Some(LightPoint { light, p: *position, n: Vec3::ZERO, le: *intensity, pdf_pos: 1.0, two_sided: false })
-        }
-        Light::Spot { position, intensity, .. } => {
-            Some(LightPoint { light, p: *position, n: Vec3::ZERO, le: *intensity, pdf_pos: 1.0, two_sided: false })
-        }
+        Light::Point { position, intensity } => Some(LightPoint {
+            light,
+            p: *position,
+            n: Vec3::ZERO,
+            le: *intensity,
+            pdf_pos: 1.0,
+            two_sided: false,
+            bary: Vec2::ZERO,
+        }),
+        Light::Spot { position, intensity, .. } => Some(LightPoint {
+            light,
+            p: *position,
+            n: Vec3::ZERO,
+            le: *intensity,
+            pdf_pos: 1.0,
+            two_sided: false,
+            bary: Vec2::ZERO,
+        }),
         Light::Area(a) => Some(LightPoint {
             light,
             p: a.sample_point(u),
@@ -199,6 +215,7 @@ pub fn sample_point(scene: &Scene, index: usize, u: Vec2) -> Option<LightPoint> 
             le: a.radiance,
             pdf_pos: 1.0 / a.area,
             two_sided: false,
+            bary: Vec2::ZERO,
         }),
         Light::Sphere { center, radius, radiance, soft: false, spot: None, .. } => {
             let n = uniform_sphere(u);
@@ -209,6 +226,7 @@ pub fn sample_point(scene: &Scene, index: usize, u: Vec2) -> Option<LightPoint> 
                 le: *radiance,
                 pdf_pos: 1.0 / (4.0 * PI * radius * radius),
                 two_sided: false,
+                bary: Vec2::ZERO,
             })
         }
         Light::Triangle { tri } => {
@@ -229,6 +247,7 @@ pub fn sample_point(scene: &Scene, index: usize, u: Vec2) -> Option<LightPoint> 
                 le: scene.emission_at(*tri, b.x, b.y) * coverage,
                 pdf_pos: 1.0 / area,
                 two_sided: true,
+                bary: b,
             })
         }
         Light::Sphere { .. } | Light::Directional { .. } | Light::World => None,
@@ -280,6 +299,15 @@ pub fn emitted(scene: &Scene, lp: &LightPoint, w: Vec3) -> Rgb {
         // Blender's Spread narrows an area light's emission (1 without spread, 0 behind);
         // light subpaths leave cosine-distributed, so the falloff weighs what they carry.
         Light::Area(a) => lp.le * a.spread_attenuation(w.dot(lp.n)),
+        // A node graph may emit by the side or the angle it is seen from (Backfacing,
+        // Fresnel, Layer Weight): read toward `w`, as light sampling and rays read it.
+        Light::Triangle { tri } if scene.emission_is_graph(*tri) => {
+            if w.dot(lp.n) == 0.0 {
+                return Rgb::ZERO;
+            }
+            let b = lp.bary;
+            scene.emission_for(*tri, b.x, b.y, LightPath::LIGHT_EMISSION, Some(w)) * scene.coverage(*tri, b.x, b.y)
+        }
         _ => {
             let c = w.dot(lp.n);
             if c > 0.0 || (lp.two_sided && c < 0.0) { lp.le } else { Rgb::ZERO }
@@ -369,7 +397,8 @@ mod tests {
             (1, n, true, "two-sided surface"),
         ];
         for (light, normal, two_sided, name) in cases {
-            let mut lp = LightPoint { light, p: Vec3::ZERO, n: normal, le: Rgb::ONE, pdf_pos: 1.0, two_sided };
+            let mut lp =
+                LightPoint { light, p: Vec3::ZERO, n: normal, le: Rgb::ONE, pdf_pos: 1.0, two_sided, bary: Vec2::ZERO };
             if normal != Vec3::ZERO {
                 // Surfaces: evaluate through the generic arm with a non-point light.
                 scene.lights[1] = Light::Area(

@@ -233,7 +233,7 @@ impl Light {
                 Some(LightSample {
                     wi,
                     dist,
-                    li: scene.emission_for(*tri, b.x, b.y, path.emission(dist)) * coverage,
+                    li: scene.emission_for(*tri, b.x, b.y, path.emission(dist), Some(-wi)) * coverage,
                     pdf,
                     delta: false,
                     point: q,

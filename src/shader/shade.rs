@@ -301,8 +301,12 @@ pub fn node_alpha(
     1.0 - pass_fraction(node_transparent(scene, prog, tri, b1, b2, path, org, dir))
 }
 
-/// The emission of a node material at barycentrics, seen along the normal, for the render
-/// camera `view` and a Light Path node reading `path`.
+/// The emission of a node material at barycentrics toward `wo` (unit, from the surface; None:
+/// along the normal, for estimates of its power), for the render camera `view` and a Light
+/// Path node reading `path`. Seen from behind, the program reads the back face as a ray that
+/// hits it does (Backfacing 1, normals flipped), so a graph that emits by Backfacing, Fresnel
+/// or Layer Weight gives light sampling, light subpaths and photons what rays find there,
+/// as Cycles' `shader_setup_from_sample` does.
 #[allow(clippy::too_many_arguments)]
 pub fn node_emission(
     mesh: &Mesh,
@@ -314,6 +318,7 @@ pub fn node_emission(
     b1: f32,
     b2: f32,
     path: LightPath,
+    wo: Option<Vec3>,
 ) -> Rgb {
     if let Some(e) = prog.constant_emission {
         return e;
@@ -321,6 +326,14 @@ pub fn node_emission(
     let mut g = geom_at(mesh, objects, textures, tri, b1, b2);
     g.view = view;
     g.path = path;
+    if let Some(w) = wo {
+        g.wo = w;
+        if g.ng.dot(w) < 0.0 {
+            g.backfacing = true;
+            g.ng = -g.ng;
+            g.n = -g.n;
+        }
+    }
     let mut out = Closures::default();
     with_registers(|regs| prog.run(&g, regs, &mut out));
     // Negative too, as Cycles evaluates it for light sampling: what a ray finds and what
@@ -379,19 +392,30 @@ impl Scene {
         }
     }
 
-    /// Emitted radiance of triangle `tri` at barycentrics (toward its front): the node
-    /// graph's emission, or the glTF material's. For the light routines.
+    /// Emitted radiance of triangle `tri` at barycentrics along its normal: the node graph's
+    /// emission, or the glTF material's. For estimates of an emitter's power.
     #[inline]
     pub fn emission_at(&self, tri: u32, b1: f32, b2: f32) -> Rgb {
-        self.emission_for(tri, b1, b2, LightPath::LIGHT_EMISSION)
+        self.emission_for(tri, b1, b2, LightPath::LIGHT_EMISSION, None)
     }
 
-    /// [`emission_at`](Self::emission_at) with the Light Path node reading `path`.
+    /// Whether triangle `tri`'s emission is a node graph's that is not constant (so it may
+    /// depend on the direction it is seen from).
     #[inline]
-    pub fn emission_for(&self, tri: u32, b1: f32, b2: f32, path: LightPath) -> Rgb {
+    pub fn emission_is_graph(&self, tri: u32) -> bool {
+        let mat = &self.materials[self.mesh.tri_material[tri as usize] as usize];
+        mat.nodes.as_ref().is_some_and(|p| p.constant_emission.is_none())
+    }
+
+    /// [`emission_at`](Self::emission_at) toward `wo` (unit, leaving the surface, on either
+    /// side; None: along the normal) with the Light Path node reading `path`.
+    #[inline]
+    pub fn emission_for(&self, tri: u32, b1: f32, b2: f32, path: LightPath, wo: Option<Vec3>) -> Rgb {
         let mat = &self.materials[self.mesh.tri_material[tri as usize] as usize];
         match &mat.nodes {
-            Some(prog) => node_emission(&self.mesh, &self.objects, &self.textures, &self.view, prog, tri, b1, b2, path),
+            Some(prog) => {
+                node_emission(&self.mesh, &self.objects, &self.textures, &self.view, prog, tri, b1, b2, path, wo)
+            }
             // Neither a texture nor the vertex colour (unlit) enters: the factor itself,
             // without interpolating the attributes (every light sample asks, callgrind).
             None if mat.emissive_tex.is_none() && !mat.unlit => mat.emissive,

@@ -21,6 +21,17 @@ is found by BSDF sampling alone, so Cycles' image is noisier, never darker). Cau
 R/G/B before -> after (48x36, 64 spp): culled_auto 0/0/0 (black) -> 1.0007 each (sigma 0.2 %),
 culled_front 0/0/0 -> 1.0029 each (sigma 0.45 %: Cycles' noisier image).
 
+A node graph's emission read from the side and angle light leaves by (`graph_*`): light sampling
+read an emitter's graph as seen along its front normal, so a graph emitting by Backfacing or by
+the angle it is seen at gave next-event estimation another value than the rays that hit it (and
+light subpaths and photons the front's). `graph_front_only`: Blender users' one-sided emitter, a
+Mix Shader of Emission and Transparent BSDF by Geometry > Backfacing, facing up, away from the
+floor, under a grey world: the floor is lit by the world alone in Cycles, and was also lit by the
+quad's front read from below. `graph_facing`: an Emission whose strength is 8 x Layer Weight's
+Facing (blend 0.5), facing down at the floor: the floor was lit by the light samples' share at
+Facing 0 (the view along the normal). Caustic/Cycles R/G/B before -> after (48x36, 64 spp):
+graph_front_only 1.107/1.085/1.053 -> 1.0002 each; graph_facing 0.877 each -> 1.0012 each.
+
 Tolerance: test_gltf_import_agreement's, the block-variance bound (5 sigma over two seeds each)
 plus its 1 % model allowance: the quad and the floor are Principled BSDFs both renderers model
 with the same closures.
@@ -97,3 +108,56 @@ def test_addon_export_of_a_culled_emitter_matches_cycles(empty_scene, tmp_path, 
     scene.caustic.threads = 0
     scenes.match_cycles(scene, SAMPLES, BOUNCES)
     assert_mean_matches_cycles(scene, tmp_path, f"culled_{sampling.lower()}", ALLOWANCE, per_channel=True)
+
+
+def _graph_glow(kind):
+    """The quad's node material: `front_only` emits by its front face alone (Mix Shader of
+    Emission and Transparent by Backfacing), `facing` emits 8 x Layer Weight's Facing."""
+    import bpy
+    mat = bpy.data.materials.new(f"Glow_{kind}")
+    nodes, links = mat.node_tree.nodes, mat.node_tree.links
+    nodes.clear()
+    out = nodes.new("ShaderNodeOutputMaterial")
+    emit = nodes.new("ShaderNodeEmission")
+    emit.inputs["Color"].default_value = (1.0, 0.8, 0.5, 1.0)
+    if kind == "front_only":
+        emit.inputs["Strength"].default_value = 4.0
+        geo = nodes.new("ShaderNodeNewGeometry")
+        clear = nodes.new("ShaderNodeBsdfTransparent")
+        mix = nodes.new("ShaderNodeMixShader")
+        links.new(geo.outputs["Backfacing"], mix.inputs["Fac"])
+        links.new(emit.outputs["Emission"], mix.inputs[1])
+        links.new(clear.outputs["BSDF"], mix.inputs[2])
+        links.new(mix.outputs["Shader"], out.inputs["Surface"])
+    else:
+        weight = nodes.new("ShaderNodeLayerWeight")
+        weight.inputs["Blend"].default_value = 0.5
+        scale = nodes.new("ShaderNodeMath")
+        scale.operation = "MULTIPLY"
+        scale.inputs[1].default_value = 8.0
+        links.new(weight.outputs["Facing"], scale.inputs[0])
+        links.new(scale.outputs["Value"], emit.inputs["Strength"])
+        links.new(emit.outputs["Emission"], out.inputs["Surface"])
+    return mat
+
+
+@pytest.mark.parametrize("kind", ["front_only", "facing"])
+def test_graph_emission_is_read_from_the_side_light_leaves(empty_scene, tmp_path, kind):
+    import bpy
+    scene = empty_scene
+    scenes.small_render_settings(scene, W, H, samples=SAMPLES)
+    scenes.plane(scene, "Floor", 10.0, material=scenes.diffuse_material("Grey", 0.5))
+    quad = scenes.plane(scene, "Quad", 2 * HALF, material=_graph_glow(kind))
+    quad.location.z = HEIGHT
+    if kind == "facing":
+        # Upside down: its front faces the floor.
+        quad.rotation_euler = (math.pi, 0.0, 0.0)
+    else:
+        world = bpy.data.worlds.new("Grey")
+        world.use_nodes = True
+        world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.3, 0.3, 0.3, 1.0)
+        scene.world = world
+    scenes.camera(scene, (0.0, -3.0, 0.7), (90.0 - math.degrees(math.atan2(0.3, 3.0)), 0.0, 0.0))
+    scene.caustic.threads = 0
+    scenes.match_cycles(scene, SAMPLES, BOUNCES)
+    assert_mean_matches_cycles(scene, tmp_path, f"graph_{kind}", ALLOWANCE, per_channel=True)

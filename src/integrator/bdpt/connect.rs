@@ -422,6 +422,7 @@ impl BdptIntegrator {
             le: ls.li,
             pdf_pos: self.lights.disk_pdf(),
             two_sided: false,
+            bary: Vec2::ZERO,
         });
         let (wo_l, wi_l) = (x.frame.to_local(x.wo), x.frame.to_local(ls.wi));
         let dens = &mut scratch.dens;

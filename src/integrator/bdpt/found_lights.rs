@@ -265,6 +265,7 @@ impl BdptIntegrator {
                 le,
                 pdf_pos: lights::pdf_point(ctx.scene, index),
                 two_sided: false,
+                bary: Vec2::ZERO,
             });
             let w = if gate == Gate::Mis {
                 cam.push(v);

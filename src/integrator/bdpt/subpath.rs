@@ -398,6 +398,7 @@ impl BdptIntegrator {
             le: Rgb::ONE,
             pdf_pos: lights::pdf_point(ctx.scene, index),
             two_sided: lights::two_sided(ctx.scene, index),
+            bary: Vec2::ZERO,
         };
         self.fill_path(ctx, cam, &[], 0, camera, dens);
         // Light-side densities of the light point and of the next vertex.
@@ -634,6 +635,7 @@ impl BdptIntegrator {
                 le: r.le,
                 pdf_pos: disk,
                 two_sided: false,
+                bary: Vec2::ZERO,
             });
             return Some((v0, r.org, r.dir, r.le * (1.0 / (pdf_origin * disk)), r.pdf_dir));
         }

@@ -271,20 +271,29 @@ pub(crate) fn mean_node_emission(
     let mut sum = glam::Vec3::ZERO;
     let mut n = 0;
     for &t in tris.iter().step_by(stride) {
-        sum += crate::shader::shade::node_emission(
-            mesh,
-            objects,
-            textures,
-            &crate::shader::geom::NO_VIEW,
-            prog,
-            t,
-            1.0 / 3.0,
-            1.0 / 3.0,
-            crate::scene::light_path::LightPath::LIGHT_EMISSION,
-        )
-        // A selection weight: negative emission (which subtracts light) counts by its size,
-        // as Cycles' light tree takes |emission|; every path carries the sign itself.
-        .abs();
+        // Both faces emit, and a graph may emit differently from each (by Backfacing, say):
+        // the mean of the two, seen along either normal.
+        let [a, b, c] = mesh.triangles[t as usize].map(|i| mesh.positions[i as usize]);
+        let ng = (b - a).cross(c - a).normalize_or_zero();
+        let mut both = glam::Vec3::ZERO;
+        for wo in [ng, -ng] {
+            both += crate::shader::shade::node_emission(
+                mesh,
+                objects,
+                textures,
+                &crate::shader::geom::NO_VIEW,
+                prog,
+                t,
+                1.0 / 3.0,
+                1.0 / 3.0,
+                crate::scene::light_path::LightPath::LIGHT_EMISSION,
+                (ng != glam::Vec3::ZERO).then_some(wo),
+            )
+            // A selection weight: negative emission (which subtracts light) counts by its
+            // size, as Cycles' light tree takes |emission|; every path carries the sign itself.
+            .abs();
+        }
+        sum += 0.5 * both;
         n += 1;
     }
     Some(((sum / n as f32).max(glam::Vec3::splat(1e-6)), n))
