@@ -856,7 +856,16 @@ impl PathIntegrator {
         if entry.dot(s.ng) >= 0.0 {
             return None;
         }
-        let walk = WalkMedium::new(albedo, mfp, ss.anisotropy);
+        // `mfp` is a function of the material and the albedo (Skin's), so the albedo keys it.
+        let memo = &ctx.scene.materials[s.material as usize].walk_memo;
+        let walk = match memo.get() {
+            Some((a, walk)) if *a == albedo => *walk,
+            _ => {
+                let walk = WalkMedium::new(albedo, mfp, ss.anisotropy);
+                let _ = memo.set((albedo, walk));
+                walk
+            }
+        };
         let mut rng = WalkRng::new(u[3], s.tri);
         let mut near = crate::accel::NO_TRIANGLE;
         // The channels that do not walk have no throughput in it (their free flights are
