@@ -324,12 +324,48 @@ mod tests {
         assert!((layer_albedo().s_avg(1.5) - s_avg).abs() < 2e-3);
     }
 
-    /// Specular IOR Level's η: k = 1 keeps the IOR; k scales F0.
+    /// Specular IOR Level's η: k = 1 keeps the IOR; k scales F0; an IOR below 1 keeps its
+    /// η below 1 (Cycles inverts the adjusted η back).
     #[test]
     fn level_rescales_f0() {
         assert_eq!(layer_eta(1.5, 1.0), 1.5);
         let eta = layer_eta(1.5, 0.5);
         assert!((f0_of(eta) - 0.02).abs() < 1e-6, "{eta}");
         assert!((layer_eta(1.5, 0.0) - 1.0).abs() < 1e-6);
+        let eta = layer_eta(0.7, 0.5);
+        assert!(eta < 1.0 && (f0_of(eta) - 0.5 * f0_of(0.7)).abs() < 1e-6, "{eta}");
+        assert_eq!(layer_eta(0.7, 1.0), 0.7);
+        assert_eq!(eta_z(0.5), eta_z(2.0));
+    }
+
+    /// The shape below 1: s(1) = 0, s = 1 beyond the critical angle (cos θ < √(1 − η²), total
+    /// internal reflection) and below 1 just inside it; s_avg(η) by quadrature agrees with the
+    /// identity 1 − F_avg(η) = η² (1 − F_avg(1/η)) between the hemispherical reflectances inside
+    /// and outside (its two midpoint quadratures differ in form: 1e-4 covers the kink's
+    /// O(h) error at 1024 steps), with Cycles' fit `fresnel_dielectric_Fss` for η < 1 (a fit:
+    /// 5e-3), and the shipped row between its nodes within the η > 1 row's 2e-3.
+    #[test]
+    fn fresnel_shape_below_one() {
+        for eta in [0.5f32, 0.7, 0.9, 1e-5] {
+            let f0 = f0_of(eta);
+            assert!(fresnel_s(1.0, eta, f0) < 1e-4, "η={eta}");
+            let critical = (1.0 - eta * eta).sqrt();
+            assert_eq!(fresnel_s(critical * 0.999, eta, f0), 1.0, "η={eta}");
+            if eta > 0.1 {
+                assert!(fresnel_s(critical * 1.01, eta, f0) < 1.0, "η={eta}");
+            }
+        }
+        for eta in [0.5f32, 0.66, 0.8, 0.93] {
+            let f0 = f0_of(eta);
+            let f_out = f0 + (1.0 - f0) * fresnel_s_avg(1.0 / eta);
+            let f_in = 1.0 - eta * eta * (1.0 - f_out);
+            let expect = (f_in - f0) / (1.0 - f0);
+            let s_avg = fresnel_s_avg(eta);
+            assert!((s_avg - expect).abs() < 1e-4, "η={eta}: {s_avg} vs {expect}");
+            let cycles_fss = 0.997118 + eta * (0.1014 - eta * (0.965241 + eta * 0.130607));
+            assert!((f0 + (1.0 - f0) * s_avg - cycles_fss).abs() < 5e-3, "η={eta}: F_ss vs Cycles' {cycles_fss}");
+            let table = layer_albedo().s_avg(eta);
+            assert!((table - s_avg).abs() < 2e-3, "η={eta}: table {table} vs {s_avg}");
+        }
     }
 }
