@@ -28,6 +28,15 @@
 //! on first use. Cycles' own table stores the visible normals' unweighted mean of s and
 //! multiplies E by it; the weighted split here is the lobe's exact albedo, so the white
 //! furnace holds (a white base reflects exactly what the layer leaves it).
+//!
+//! An IOR below 1 (Cycles keeps a Principled IOR down to 1e-5; 0 is a near mirror) gives the
+//! layer the Fresnel inside the denser medium: s = 1 beyond the critical angle (total internal
+//! reflection), and s_avg of η < 1 for the compensation (its own row of the table, Cycles'
+//! `fresnel_dielectric_Fss` fits the same mean). Cycles' albedo estimate, which weights the base,
+//! reads its η > 1 table at z = √(|η − 1|/(η + 1)), the same z as 1/η: the shape of 1/η, which
+//! reflects far less than η's at grazing angles. Caustic reads its table there too, as Cycles,
+//! so a white furnace gains energy below 1 as Cycles' does (the exact albedo of η would weight
+//! the base less than Cycles does; the agreement tests measure the base's brightness).
 
 use super::albedo::{SpecularAlbedo, TABLE_N, build_entries};
 use super::microfacet::{Ggx, fresnel_dielectric, reflect};

@@ -429,7 +429,8 @@ impl PbrBsdf {
     /// (A, B) of the dielectric layer's albedo ms (F0·A + B) seen from `w`, with `white` = A + B
     /// of the reflection lobes (the Schlick table's, or the anisotropic table's): an anisotropic
     /// layer splits its own white albedo by the isotropic split at roughness (αx αy)^¼, the
-    /// proxy Cycles' albedo estimate reads its table at.
+    /// proxy Cycles' albedo estimate reads its table at. A layer of η < 1 reads the entry of
+    /// 1/η (the same z), as Cycles' estimate does (`fresnel_layer.rs`).
     #[inline]
     fn layer_ab(&self, w: Vec3, white: f32) -> (f32, f32) {
         match self.aniso {
