@@ -41,6 +41,9 @@ CASES = {
     # Specular IOR Level 0.25 halves F0(0.7); Cycles inverts the adjusted η back below 1.
     # 0.978/0.935/0.911 -> 1.0000/1.0001/1.0002.
     "level": {**BASE, "Roughness": 0.3, "IOR": 0.7, "Specular IOR Level": 0.25},
+    # Subsurface under the layer of η < 1: weighted by what Cycles' estimate leaves it, entering
+    # at Cycles' clamp of η, 1.01. 0.971/0.853/0.796 -> 0.993/1.003/1.003.
+    "subsurface": {**BASE, "Roughness": 0.5, "IOR": 0.5, "Subsurface Weight": 1.0, "Subsurface Scale": 0.2},
     # The glass part with η < 1 (light bends away from the normal on entering).
     # 0.891/0.806/0.783 -> 1.005/1.004/1.003.
     "glass": {**BASE, "Roughness": 0.2, "IOR": 0.7, "Transmission Weight": 1.0},
