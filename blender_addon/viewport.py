@@ -134,7 +134,7 @@ def material_request(material, known=None):
         "base_color": [clamp(c) for c in color],
         "metallic": clamp(inp["Metallic"].default_value),
         "roughness": clamp(inp["Roughness"].default_value),
-        "ior": max(float(inp["IOR"].default_value), 1.0),
+        "ior": max(float(inp["IOR"].default_value), 0.0),
         "transmission": clamp(inp["Transmission Weight"].default_value),
     }
 

@@ -143,7 +143,6 @@ class glTF2ExportUserExtension:
         try:
             materials.complete_material(gltf2_material, blender_material, export_settings, state)
             materials.add_shadow_extension(gltf2_material, blender_material)
-            state.warnings.extend(materials.ior_below_one_warnings(blender_material))
             if materials.uses_graph(blender_material, state):
                 attributes.note_requests(blender_material, state)
             ids = material_pass_extension(blender_material)

@@ -459,22 +459,3 @@ def add_shadow_extension(gltf2_material, blender_material):
     before Blender 4.2 often have it off."""
     if not getattr(blender_material, "use_transparent_shadow", True):
         _set_extension(gltf2_material, SHADOW_EXTENSION, {"transparent": False})
-
-
-def ior_below_one_warnings(blender_material):
-    """Warnings naming the material's Principled BSDF nodes whose unlinked IOR is below 1:
-    Cycles renders their specular layer with that η (down to 1e-5, a near mirror), Caustic's
-    Principled BSDF holds η >= 1 and renders them at 1, without the layer."""
-    tree = getattr(blender_material, "node_tree", None)
-    if tree is None:
-        return []
-    warnings = []
-    for node in tree.nodes:
-        if node.bl_idname != "ShaderNodeBsdfPrincipled" or node.mute:
-            continue
-        ior = node.inputs.get("IOR")
-        if ior is not None and not ior.is_linked and ior.default_value < 1.0:
-            warnings.append(f"material '{blender_material.name}': Principled BSDF '{node.name}' has IOR "
-                            f"{ior.default_value:g} below 1; Caustic renders it at 1, without the specular "
-                            "layer Cycles renders for it")
-    return warnings

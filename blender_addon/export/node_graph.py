@@ -767,11 +767,16 @@ def _tinted_metal(entry):
 def _beyond_gltf_principled(entry):
     """Whether a Principled BSDF has a constant Diffuse Roughness or Anisotropic, which the
     graph renders as Cycles (Oren-Nayar; widths along Cycles' default radial tangent) and glTF
-    cannot say (a Lambertian base; the anisotropy along the UV tangents), or the "GGX"
-    distribution (single scattering; glTF's materials are compensated as Multiscatter GGX)."""
+    cannot say (a Lambertian base; the anisotropy along the UV tangents), the "GGX"
+    distribution (single scattering; glTF's materials are compensated as Multiscatter GGX), or
+    a constant IOR below 1 (Cycles' inverted layer, which the graph renders; Blender's exporter
+    drops an opaque material's KHR_materials_ior after the material hook, so glTF would render
+    it at 1.5)."""
     if entry["type"] != "ShaderNodeBsdfPrincipled":
         return False
     if entry["props"].get("distribution") == "GGX":
+        return True
+    if entry["inputs"].get("IOR", {}).get("value", 1.5) < 1.0:
         return True
     return any(entry["inputs"].get(name, {}).get("value", 0.0) != 0.0 for name in ("Diffuse Roughness", "Anisotropic"))
 

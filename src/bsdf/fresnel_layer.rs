@@ -28,6 +28,15 @@
 //! on first use. Cycles' own table stores the visible normals' unweighted mean of s and
 //! multiplies E by it; the weighted split here is the lobe's exact albedo, so the white
 //! furnace holds (a white base reflects exactly what the layer leaves it).
+//!
+//! An IOR below 1 (Cycles keeps a Principled IOR down to 1e-5; 0 is a near mirror) gives the
+//! layer the Fresnel inside the denser medium: s = 1 beyond the critical angle (total internal
+//! reflection), and s_avg of η < 1 for the compensation (its own row of the table, Cycles'
+//! `fresnel_dielectric_Fss` fits the same mean). Cycles' albedo estimate, which weights the base,
+//! reads its η > 1 table at z = √(|η − 1|/(η + 1)), the same z as 1/η: the shape of 1/η, which
+//! reflects far less than η's at grazing angles. Caustic reads its table there too, as Cycles,
+//! so a white furnace gains energy below 1 as Cycles' does (the exact albedo of η would weight
+//! the base less than Cycles does; the agreement tests measure the base's brightness).
 
 use super::albedo::{SpecularAlbedo, TABLE_N, build_entries};
 use super::microfacet::{Ggx, fresnel_dielectric, reflect};
@@ -50,19 +59,27 @@ pub fn ior_from_f0(f0: f32) -> f32 {
 
 /// The layer's η for a material of index `ior` whose F0 is scaled by `k` (Cycles' 2 × Specular
 /// IOR Level; glTF's specularFactor, which Blender imports as half the level): the IOR whose F0
-/// is k F0(ior). An unscaled layer keeps `ior` itself (Cycles adjusts only when L ≠ 0.5).
+/// is k F0(ior), below 1 when `ior` is (F0 is the same for η and 1/η; Cycles inverts it back).
+/// An unscaled layer keeps `ior` itself (Cycles adjusts only when L ≠ 0.5).
 #[inline]
 pub fn layer_eta(ior: f32, k: f32) -> f32 {
-    if k == 1.0 { ior } else { ior_from_f0(f0_of(ior) * k) }
+    if k == 1.0 {
+        return ior;
+    }
+    let eta = ior_from_f0(f0_of(ior) * k);
+    if ior < 1.0 { 1.0 / eta } else { eta }
 }
 
-/// z = F0_η^(1/4) = √((η − 1)/(η + 1)), the table's η axis.
+/// z = F0_η^(1/4) = √(|η − 1|/(η + 1)), the table's η axis: the same for η and 1/η, as
+/// Cycles' (which reads its η > 1 table there for a layer of η < 1 too).
 #[inline]
 pub fn eta_z(eta: f32) -> f32 {
-    ((eta - 1.0) / (eta + 1.0)).max(0.0).sqrt()
+    ((eta - 1.0).abs() / (eta + 1.0)).sqrt()
 }
 
-/// The exact Fresnel's shape s(cos, η) rescaled to [0, 1], for η ≥ 1 with F0_η = `f0_eta`.
+/// The exact Fresnel's shape s(cos, η) rescaled to [0, 1] with F0_η = `f0_eta`. For η < 1
+/// (Cycles keeps a Principled IOR below 1 down to 1e-5) the Fresnel is the one inside the
+/// denser medium: s = 1 beyond the critical angle (total internal reflection).
 #[inline]
 pub fn fresnel_s(cos: f32, eta: f32, f0_eta: f32) -> f32 {
     if f0_eta >= 1.0 {
@@ -78,8 +95,8 @@ const Z_N: usize = 24;
 const Z_MAX: f32 = 0.999;
 /// Stratified visible-normal samples per entry, per axis.
 const STRATA: usize = 24;
-/// Steps of the midpoint rule for s_avg over μ (its integrand is smooth; 1024 steps put its
-/// error far below f32's resolution).
+/// Steps of the midpoint rule for s_avg over μ (its integrand is smooth, but for η < 1 at the
+/// critical angle, where it is continuous: 1024 steps put its error far below 1e-5).
 const AVG_STEPS: usize = 1024;
 
 /// How far a table entry (A or B) may be from a fine quadrature, interpolation included
@@ -87,12 +104,16 @@ const AVG_STEPS: usize = 1024;
 /// tests allow for it.
 pub const LAYER_TABLE_ERROR: f64 = 4e-3;
 
-/// The layer's albedo split (A, B) over (roughness, μ, z), and s_avg over z.
+/// The layer's albedo split (A, B) over (roughness, μ, z), and s_avg over z for η > 1 and
+/// for η < 1 (1/η at the same z).
 pub struct LayerAlbedo {
     /// (A, B) per node, index ((z · TABLE_N) + roughness) · TABLE_N + μ.
     ab: Box<[[f32; 2]]>,
-    /// Cosine-weighted mean of s per z node.
+    /// Cosine-weighted mean of s per z node (η ≥ 1).
     s_avg: [f32; Z_N],
+    /// Cosine-weighted mean of s per z node for the inverse index 1/η (total internal
+    /// reflection included).
+    s_avg_inv: [f32; Z_N],
 }
 
 /// η at node `k` of the z axis.
@@ -110,11 +131,9 @@ impl LayerAlbedo {
     fn shipped() -> Self {
         let bits = &super::layer_table::LAYER_AB_BITS;
         let ab: Vec<[f32; 2]> = bits.chunks_exact(2).map(|e| [f32::from_bits(e[0]), f32::from_bits(e[1])]).collect();
-        let mut s_avg = [0.0f32; Z_N];
-        for (k, avg) in s_avg.iter_mut().enumerate() {
-            *avg = f32::from_bits(super::layer_table::LAYER_S_AVG_BITS[k]);
-        }
-        LayerAlbedo { ab: ab.into_boxed_slice(), s_avg }
+        let s_avg = super::layer_table::LAYER_S_AVG_BITS.map(f32::from_bits);
+        let s_avg_inv = super::layer_table::LAYER_S_AVG_INV_BITS.map(f32::from_bits);
+        LayerAlbedo { ab: ab.into_boxed_slice(), s_avg, s_avg_inv }
     }
 
     /// The table by quadrature (what `layer_table.rs` holds).
@@ -126,11 +145,9 @@ impl LayerAlbedo {
             let (a, b) = layer_split(SpecularAlbedo::mu(mi), ri as f32 / (TABLE_N - 1) as f32, node_eta(k), STRATA);
             [a, b]
         });
-        let mut s_avg = [0.0f32; Z_N];
-        for (k, avg) in s_avg.iter_mut().enumerate() {
-            *avg = fresnel_s_avg(node_eta(k));
-        }
-        LayerAlbedo { ab: entries.into_boxed_slice(), s_avg }
+        let s_avg = std::array::from_fn(|k| fresnel_s_avg(node_eta(k)));
+        let s_avg_inv = std::array::from_fn(|k| fresnel_s_avg(1.0 / node_eta(k)));
+        LayerAlbedo { ab: entries.into_boxed_slice(), s_avg, s_avg_inv }
     }
 
     /// (A, B) at (μ, roughness, z), trilinear (μ along √μ, as the nodes).
@@ -156,13 +173,15 @@ impl LayerAlbedo {
         (out[0], out[1])
     }
 
-    /// The cosine-weighted mean of s at z, linear between the nodes.
+    /// The cosine-weighted mean of s for the layer of index `eta` (either side of 1), linear
+    /// in z between the nodes.
     #[inline]
-    pub fn s_avg(&self, z: f32) -> f32 {
-        let w = z.clamp(0.0, Z_MAX) / Z_MAX * (Z_N - 1) as f32;
+    pub fn s_avg(&self, eta: f32) -> f32 {
+        let t = if eta < 1.0 { &self.s_avg_inv } else { &self.s_avg };
+        let w = eta_z(eta).clamp(0.0, Z_MAX) / Z_MAX * (Z_N - 1) as f32;
         let w0 = (w as usize).min(Z_N - 2);
         let f = w - w0 as f32;
-        self.s_avg[w0] * (1.0 - f) + self.s_avg[w0 + 1] * f
+        t[w0] * (1.0 - f) + t[w0 + 1] * f
     }
 }
 
@@ -240,9 +259,10 @@ mod tests {
         let computed = LayerAlbedo::compute();
         let ab: Vec<u32> = computed.ab.iter().flat_map(|e| [e[0].to_bits(), e[1].to_bits()]).collect();
         let avg: Vec<u32> = computed.s_avg.iter().map(|x| x.to_bits()).collect();
+        let avg_inv: Vec<u32> = computed.s_avg_inv.iter().map(|x| x.to_bits()).collect();
         if std::env::var_os("CAUSTIC_TABLES_BLESS").is_some() {
             let path = concat!(env!("CARGO_MANIFEST_DIR"), "/src/bsdf/layer_table.rs");
-            std::fs::write(path, layer_table_source(&ab, &avg)).expect("write layer_table.rs");
+            std::fs::write(path, layer_table_source(&ab, &avg, &avg_inv)).expect("write layer_table.rs");
         }
         let shipped = &super::super::layer_table::LAYER_AB_BITS;
         assert_eq!(ab.len(), shipped.len());
@@ -252,9 +272,10 @@ mod tests {
             "{differ} shipped entries differ from the quadrature: CAUSTIC_TABLES_BLESS=1 rewrites the file"
         );
         assert_eq!(avg.as_slice(), super::super::layer_table::LAYER_S_AVG_BITS.as_slice());
+        assert_eq!(avg_inv.as_slice(), super::super::layer_table::LAYER_S_AVG_INV_BITS.as_slice());
     }
 
-    fn layer_table_source(ab: &[u32], avg: &[u32]) -> String {
+    fn layer_table_source(ab: &[u32], avg: &[u32], avg_inv: &[u32]) -> String {
         let words = |bits: &[u32]| -> String {
             bits.chunks(8)
                 .map(|row| format!("    {}\n", row.iter().map(|b| format!("0x{b:08x},")).collect::<Vec<_>>().join(" ")))
@@ -263,16 +284,22 @@ mod tests {
         format!(
             "//! The dielectric layer's albedo split (`fresnel_layer.rs`, `LayerAlbedo`) as its quadrature\n\
              //! computes it: (A, B) bit patterns over (z, roughness, √μ), 24 × 32 × 32 entries, and the\n\
-             //! Fresnel shape's mean per z node. Generated by `CAUSTIC_TABLES_BLESS=1 cargo test --release\n\
-             //! --lib shipped_layer_table_is_the_computed_one`; do not edit by hand.\n\n\
+             //! Fresnel shape's mean per z node, for η and for 1/η. Generated by\n\
+             //! `CAUSTIC_TABLES_BLESS=1 cargo test --release --lib shipped_layer_table_is_the_computed_one`;\n\
+             //! do not edit by hand.\n\n\
              /// (A, B) of each entry as `f32` bits.\n#[rustfmt::skip]\n\
              pub(super) static LAYER_AB_BITS: [u32; {}] = [\n{}];\n\n\
              /// s_avg per z node as `f32` bits.\n#[rustfmt::skip]\n\
-             pub(super) static LAYER_S_AVG_BITS: [u32; {}] = [\n{}];\n",
+             pub(super) static LAYER_S_AVG_BITS: [u32; {}] = [\n{}];\n\n\
+             /// s_avg per z node for the index 1/η below 1 (total internal reflection included) as\n\
+             /// `f32` bits.\n#[rustfmt::skip]\n\
+             pub(super) static LAYER_S_AVG_INV_BITS: [u32; {}] = [\n{}];\n",
             ab.len(),
             words(ab),
             avg.len(),
-            words(avg)
+            words(avg),
+            avg_inv.len(),
+            words(avg_inv)
         )
     }
 
@@ -303,15 +330,51 @@ mod tests {
         let s_avg = fresnel_s_avg(1.5);
         let expect = (0.0918 - 0.04) / 0.96;
         assert!((s_avg - expect).abs() < 1e-3, "{s_avg} vs {expect}");
-        assert!((layer_albedo().s_avg(eta_z(1.5)) - s_avg).abs() < 2e-3);
+        assert!((layer_albedo().s_avg(1.5) - s_avg).abs() < 2e-3);
     }
 
-    /// Specular IOR Level's η: k = 1 keeps the IOR; k scales F0.
+    /// Specular IOR Level's η: k = 1 keeps the IOR; k scales F0; an IOR below 1 keeps its
+    /// η below 1 (Cycles inverts the adjusted η back).
     #[test]
     fn level_rescales_f0() {
         assert_eq!(layer_eta(1.5, 1.0), 1.5);
         let eta = layer_eta(1.5, 0.5);
         assert!((f0_of(eta) - 0.02).abs() < 1e-6, "{eta}");
         assert!((layer_eta(1.5, 0.0) - 1.0).abs() < 1e-6);
+        let eta = layer_eta(0.7, 0.5);
+        assert!(eta < 1.0 && (f0_of(eta) - 0.5 * f0_of(0.7)).abs() < 1e-6, "{eta}");
+        assert_eq!(layer_eta(0.7, 1.0), 0.7);
+        assert_eq!(eta_z(0.5), eta_z(2.0));
+    }
+
+    /// The shape below 1: s(1) = 0, s = 1 beyond the critical angle (cos θ < √(1 − η²), total
+    /// internal reflection) and below 1 just inside it; s_avg(η) by quadrature agrees with the
+    /// identity 1 − F_avg(η) = η² (1 − F_avg(1/η)) between the hemispherical reflectances inside
+    /// and outside (its two midpoint quadratures differ in form: 1e-4 covers the kink's
+    /// O(h) error at 1024 steps), with Cycles' fit `fresnel_dielectric_Fss` for η < 1 (a fit:
+    /// 5e-3), and the shipped row between its nodes within the η > 1 row's 2e-3.
+    #[test]
+    fn fresnel_shape_below_one() {
+        for eta in [0.5f32, 0.7, 0.9, 1e-5] {
+            let f0 = f0_of(eta);
+            assert!(fresnel_s(1.0, eta, f0) < 1e-4, "η={eta}");
+            let critical = (1.0 - eta * eta).sqrt();
+            assert_eq!(fresnel_s(critical * 0.999, eta, f0), 1.0, "η={eta}");
+            if eta > 0.1 {
+                assert!(fresnel_s(critical * 1.01, eta, f0) < 1.0, "η={eta}");
+            }
+        }
+        for eta in [0.5f32, 0.66, 0.8, 0.93] {
+            let f0 = f0_of(eta);
+            let f_out = f0 + (1.0 - f0) * fresnel_s_avg(1.0 / eta);
+            let f_in = 1.0 - eta * eta * (1.0 - f_out);
+            let expect = (f_in - f0) / (1.0 - f0);
+            let s_avg = fresnel_s_avg(eta);
+            assert!((s_avg - expect).abs() < 1e-4, "η={eta}: {s_avg} vs {expect}");
+            let cycles_fss = 0.997118 + eta * (0.1014 - eta * (0.965241 + eta * 0.130607));
+            assert!((f0 + (1.0 - f0) * s_avg - cycles_fss).abs() < 5e-3, "η={eta}: F_ss vs Cycles' {cycles_fss}");
+            let table = layer_albedo().s_avg(eta);
+            assert!((table - s_avg).abs() < 2e-3, "η={eta}: table {table} vs {s_avg}");
+        }
     }
 }

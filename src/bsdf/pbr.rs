@@ -87,6 +87,9 @@ use glam::{Vec2, Vec3};
 // The renderer warms the table up through this path before rendering.
 pub use super::albedo::specular_albedo;
 
+/// The smallest IOR a Principled BSDF keeps (Cycles' `fmaxf(ior, 1e-5f)`).
+pub const MIN_IOR: f32 = 1e-5;
+
 /// Normal-incidence reflectance of a dielectric of index `ior` in air.
 #[inline]
 pub fn f0_from_ior(ior: f32) -> f32 {
@@ -249,14 +252,16 @@ impl PbrBsdf {
     /// the base colour (times the vertex colour) is all that varies.
     pub fn without_base(p: &PbrParams) -> Self {
         let roughness = p.roughness.clamp(0.0, 1.0);
-        let ior = if p.ior.is_finite() && p.ior >= 1.0 { p.ior } else { 1.5 };
+        // Cycles keeps an IOR below 1 down to 1e-5 (IOR 0 is a near mirror): the layer's
+        // Fresnel is then the one inside the denser medium, total internal reflection included.
+        let ior = if p.ior.is_finite() { p.ior.max(MIN_IOR) } else { 1.5 };
         let f0 = f0_from_ior(ior).min(1.0);
         let specular = if p.specular.is_finite() { p.specular.max(0.0) } else { 1.0 };
         let layer_eta = if specular > 0.0 { layer_eta(ior, specular) } else { 1.0 };
         // Cycles' films of 0.1 nm or less are no film.
         let film = p.thin_film.filter(|&(d, n, w)| d > 0.1 && d.is_finite() && n > 0.0 && n.is_finite() && w > 0.0);
         // Cycles' condition for a specular layer: η ≠ 1 or a film (a free film of IOR 1).
-        let layer = layer_eta > 1.0 || film.is_some();
+        let layer = layer_eta != 1.0 || film.is_some();
         let spec_color = if p.specular_color.is_finite() { p.specular_color.max(Vec3::ZERO) } else { Vec3::ONE };
         let sheen_color =
             if p.sheen_color.is_finite() { p.sheen_color.clamp(Vec3::ZERO, Vec3::ONE) } else { Vec3::ZERO };
@@ -364,7 +369,7 @@ impl PbrBsdf {
         self.e_avg = a + b;
         if self.layer && !self.smooth {
             // Cycles' F_ss = mix(F0, 1, s_avg) and Kulla & Conty's F_ms from it.
-            let s_avg = layer_albedo().s_avg(self.layer_z);
+            let s_avg = layer_albedo().s_avg(self.layer_eta);
             let f_ss = self.f0_rgb + (Vec3::ONE - self.f0_rgb) * s_avg;
             self.layer_fms = f_ss * self.e_avg / (Vec3::ONE - f_ss * (1.0 - self.e_avg)).max(Vec3::splat(1e-6));
         }
@@ -424,7 +429,8 @@ impl PbrBsdf {
     /// (A, B) of the dielectric layer's albedo ms (F0·A + B) seen from `w`, with `white` = A + B
     /// of the reflection lobes (the Schlick table's, or the anisotropic table's): an anisotropic
     /// layer splits its own white albedo by the isotropic split at roughness (αx αy)^¼, the
-    /// proxy Cycles' albedo estimate reads its table at.
+    /// proxy Cycles' albedo estimate reads its table at. A layer of η < 1 reads the entry of
+    /// 1/η (the same z), as Cycles' estimate does (`fresnel_layer.rs`).
     #[inline]
     fn layer_ab(&self, w: Vec3, white: f32) -> (f32, f32) {
         match self.aniso {
@@ -580,7 +586,13 @@ impl PbrBsdf {
         let wo = at.wo;
         // `at` leaves the layer albedo at 0 when nothing is opaque: every term that reads it
         // is multiplied by `opaque` = 0 then.
-        let e = luminance(at.eo);
+        // A smooth layer of η < 1 reflects its Fresnel (total internal reflection beyond the
+        // critical angle), not the table's estimate at 1/η: sampled by what it reflects.
+        let e = if self.smooth && self.layer && self.layer_eta < 1.0 && at.eo != Rgb::ZERO {
+            luminance(self.layer_fresnel(wo.z))
+        } else {
+            luminance(at.eo)
+        };
         let (ec, es) = (at.ec, at.es);
         let under = (1.0 - ec) * luminance(at.coat_t);
         let below = under * (1.0 - es);

@@ -127,10 +127,11 @@ pub fn material(scene: &mut Scene, e: &MaterialEdit) -> Result<Invalidates, Stri
     {
         return Err(format!("base_color {c:?} must be in [0, 1]"));
     }
+    // Cycles keeps an IOR below 1 (down to 1e-5), as the loaders do.
     if let Some(ior) = e.ior
-        && !(ior >= 1.0 && ior.is_finite())
+        && !(ior >= 0.0 && ior.is_finite())
     {
-        return Err(format!("ior {ior} must be at least 1"));
+        return Err(format!("ior {ior} must be a finite number of at least 0"));
     }
     for m in &mut named {
         if let Some(c) = e.base_color {
@@ -143,7 +144,7 @@ pub fn material(scene: &mut Scene, e: &MaterialEdit) -> Result<Invalidates, Stri
             m.roughness = v;
         }
         if let Some(v) = e.ior {
-            m.ior = v;
+            m.ior = v.max(crate::bsdf::pbr::MIN_IOR);
         }
         if let Some(v) = e.transmission {
             m.transmission = v;

@@ -441,7 +441,8 @@ impl ClosureOp {
             }
             ClosureKind::Glass { .. } | ClosureKind::Refraction { .. } => {
                 let ior = r[self.ior as usize];
-                let ior = if ior.is_finite() && ior > 0.0 { ior } else { 1.5 };
+                // Cycles' `fmaxf(ior, 1e-5f)`: IOR 0 is a mirror from outside, not glass of 1.5.
+                let ior = if ior.is_finite() { ior.max(crate::bsdf::pbr::MIN_IOR) } else { 1.5 };
                 let eta = if g.backfacing { 1.0 / ior } else { ior };
                 let d = DielectricBsdf::new(eta, rough(), false, Rgb::ONE);
                 // Cycles' Refraction BSDF has no Fresnel and no multiple-scattering compensation;
@@ -556,7 +557,8 @@ fn principled(p: &PrincipledRegs, r: &[f32], g: &Geom, normal: Option<Reg>, w: f
     acc.diffuse_roughness += f(p.diffuse_roughness).clamp(0.0, 1.0) * w;
     acc.metallic += f(p.metallic).clamp(0.0, 1.0) * w;
     acc.roughness += f(p.roughness).clamp(0.0, 1.0) * w;
-    acc.ior += f(p.ior).max(1.0) * w;
+    // Cycles' `fmaxf(ior, 1e-5f)`: an IOR below 1 keeps its (inverted) layer.
+    acc.ior += f(p.ior).max(crate::bsdf::pbr::MIN_IOR) * w;
     acc.transmission += f(p.transmission).clamp(0.0, 1.0) * w;
     acc.specular += 2.0 * level * w;
     acc.specular_color += v3(r, p.spec_tint).max(Vec3::ZERO) * w;

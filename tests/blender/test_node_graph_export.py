@@ -624,18 +624,21 @@ def test_value_and_rgb_nodes_carry_their_numbers(addon, empty_scene, tmp_path):
     assert nodes["Color"][1]["props"]["color"][:3] == pytest.approx([0.2, 0.4, 0.6])
 
 
-def test_principled_ior_below_one_is_named(addon, empty_scene, tmp_path):
-    """A Principled BSDF with IOR below 1 (corpus collection_to_link.blend has 0): Cycles
-    renders a specular layer of that η, Caustic holds η >= 1 (0.80/0.88/0.70 of Cycles there);
-    the export names the node instead of rendering it differently in silence."""
+def test_principled_ior_below_one_exports_without_warning(addon, empty_scene, tmp_path):
+    """A Principled BSDF with IOR below 1 (corpus collection_to_link.blend has 0): Caustic renders
+    the specular layer of that η as Cycles does (test_principled_ior_below_one.py), so the export
+    warns no more (it named the node while Caustic clamped η to 1). The constant sends the
+    material to its node graph, which carries the IOR (Blender's exporter drops an opaque
+    material's KHR_materials_ior)."""
     mat = bpy.data.materials.new("Odd")
     if mat.node_tree is None:
         mat.use_nodes = True
     mat.node_tree.nodes["Principled BSDF"].inputs["IOR"].default_value = 0.0
     uv_plane(empty_scene, "Plane", mat)
-    _, state, _ = export(addon, empty_scene, tmp_path)
-    assert any("'Odd'" in w and "'Principled BSDF'" in w and "IOR 0 below 1" in w for w in state.warnings), \
-        state.warnings
+    gltf, state, _ = export(addon, empty_scene, tmp_path)
+    assert not any("IOR" in w for w in state.warnings), state.warnings
+    nodes = by_name(graph_of(gltf, "Odd"))
+    assert nodes["Principled BSDF"][1]["inputs"]["IOR"]["value"] == 0.0
 
 
 def test_triangles_the_udim_split_leaves_out_are_named(addon, empty_scene, tmp_path):

@@ -454,6 +454,86 @@ fn white_furnace_dielectric_layer() {
     }
 }
 
+/// White furnace of a layer of IOR 0.5 (Blender's Principled keeps an IOR below 1, as Cycles):
+/// the layer reflects its own albedo, E_η = ms (F0 A_η + B_η) with the Fresnel of η < 1 (total
+/// internal reflection included), ms Cycles' compensation 1 + F_ms (1/E − 1) with F_ss from
+/// s_avg(η); the white base under it reflects 1 − ms (F0 A_{1/η} + B_{1/η}), Cycles' estimate,
+/// which reads its η > 1 table at the same z, the entry of 1/η. So the albedo is not 1 (Cycles
+/// gains energy there), but their sum, each (A, B) by a 4× finer quadrature than the table's.
+/// Smooth, the layer is a mirror: F_η(μ) + 1 − F_{1/η}(μ). Bound: 5 standard errors of the
+/// sampled estimate, plus the layer table's error (the base weight) and the quadrature's (the
+/// expectation; the table test bounds both by LAYER_TABLE_ERROR), scaled by the compensation
+/// (at most 1.25, as in the η > 1 furnace), plus the Schlick table's error (its E).
+#[test]
+fn white_furnace_ior_below_one() {
+    use crate::bsdf::fresnel_layer::{LAYER_TABLE_ERROR, fresnel_s_avg, layer_split};
+    use crate::bsdf::microfacet::fresnel_dielectric;
+    let n = 200_000;
+    let eta = 0.5f32;
+    let f0 = f0_from_ior(eta);
+    for roughness in [0.0f32, 0.3, 0.7] {
+        let b = PbrBsdf::from_params(&PbrParams {
+            ior: eta,
+            cycles_principled: true,
+            ..PbrParams::opaque(Vec3::ONE, 0.0, roughness)
+        });
+        for theta in [0.0f32, 0.8, 1.3] {
+            let wo = Vec3::new(theta.sin(), 0.0, theta.cos());
+            let expect = if roughness < SMOOTH_ROUGHNESS {
+                (fresnel_dielectric(wo.z, eta) + 1.0 - fresnel_dielectric(wo.z, 1.0 / eta)) as f64
+            } else {
+                let e = specular_albedo().e_white(wo.z, roughness);
+                let (a_avg, b_avg) = specular_albedo().ab_avg(roughness);
+                let e_avg = a_avg + b_avg;
+                let f_ss = f0 + (1.0 - f0) * fresnel_s_avg(eta);
+                let f_ms = f_ss * e_avg / (1.0 - f_ss * (1.0 - e_avg));
+                let ms = 1.0 + f_ms * (1.0 / e - 1.0);
+                let (a, bb) = layer_split(wo.z, roughness, eta, 96);
+                let (ai, bi) = layer_split(wo.z, roughness, 1.0 / eta, 96);
+                (ms * (f0 * a + bb) + 1.0 - ms * (f0 * ai + bi)) as f64
+            };
+            let mut rng = Pcg32::new(5);
+            let (mut sum, mut sum2) = (0.0f64, 0.0f64);
+            for _ in 0..n {
+                let u = Vec2::new(rng.next_f32(), rng.next_f32());
+                let v = b.sample(wo, rng.next_f32(), u).map_or(0.0, |s| (s.f.x * s.wi.z.abs() / s.pdf) as f64);
+                sum += v;
+                sum2 += v * v;
+            }
+            let mean = sum / n as f64;
+            let se = ((sum2 / n as f64 - mean * mean).max(0.0) / n as f64).sqrt();
+            let bound = 5.0 * se + 1.25 * 2.0 * LAYER_TABLE_ERROR + TABLE_ERROR;
+            assert!(
+                (mean - expect).abs() <= bound,
+                "r={roughness} θ={theta}: albedo {mean} ± {se} vs {expect} (bound {bound})"
+            );
+            // Off normal incidence the layer of η < 1 reflects more than 1/η's estimate says.
+            assert!(theta == 0.0 || expect > 1.0, "r={roughness} θ={theta}: {expect}");
+        }
+    }
+}
+
+/// The rough layer of IOR below 1 samples by its density (chi-square), over a coloured base,
+/// with Specular IOR Level 0.25 too.
+#[test]
+fn chi2_ior_below_one() {
+    for (ior, specular) in [(0.5f32, 1.0f32), (0.7, 0.5), (1e-5, 1.0)] {
+        for roughness in [0.3f32, 0.8] {
+            let p = PbrParams { ior, specular, ..PbrParams::opaque(Vec3::new(0.8, 0.4, 0.1), 0.0, roughness) };
+            let b = PbrBsdf::from_params(&p);
+            assert!(b.layer_eta() < 1.0);
+            for theta in [0.1f32, 0.9, 1.45] {
+                let wo = Vec3::new(theta.sin(), 0.0, theta.cos());
+                let mut rng = Pcg32::new(9);
+                let t = ChiSquareTest::new(&format!("IOR {ior} level {specular} r={roughness} θ={theta}"));
+                assert_chi2(
+                    t.run_with_pdf(|u| b.sample(wo, rng.next_f32(), u).map(|s| (s.wi, s.pdf)), |wi| b.pdf(wo, wi)),
+                );
+            }
+        }
+    }
+}
+
 /// A thin film on the dielectric layer: a smooth black dielectric's mirror at normal
 /// incidence reflects the film's RGB reflectance on glass (no F0 rescaling at Specular IOR
 /// Level 0.5: F0 = F0_η), within the table's error of E(μ = 1) = 1; and the rough layer with a

@@ -93,7 +93,11 @@ impl PbrAt<'_> {
                 let under = self.under * this.sheen_scaling_from(self.sheen_o, mu);
                 let opaque = (1.0 - this.metallic) * (1.0 - this.transmission);
                 let metal = this.metal_fresnel(mu) * this.metallic;
-                let refl = (metal + self.eo * opaque) * under;
+                // The layer's albedo at roughness 0 is its Fresnel at μ, which the table holds for
+                // η > 1; below 1 the table holds 1/η's (Cycles' estimate, which weights the base
+                // only), and the mirror reflects the Fresnel of η, total internal reflection included.
+                let layer = if this.layer && this.layer_eta < 1.0 { this.layer_fresnel(mu) } else { self.eo };
+                let refl = (metal + layer * opaque) * under;
                 let wi = Vec3::new(-wo_up.x, -wo_up.y, wo_up.z);
                 return Some(BsdfSample {
                     wi: mirror(wi),

@@ -131,11 +131,9 @@ impl Loader<'_> {
         if let Some(i) = m.extension_value("KHR_materials_ior").cloned() {
             features.push("KHR_materials_ior".into());
             let v = num(&i, "ior", 1.5)?;
-            // glTF allows 0 to mean "no Fresnel"; Caustic needs a physical index.
-            if v < 1.0 {
-                self.warn(format!("material '{name}': ior {v} is below 1 and was set to 1"));
-            }
-            ior = v.clamp(1.0, 10.0);
+            // Below 1 too, as Blender imports it and Cycles renders it (down to 1e-5, where a
+            // Principled BSDF's layer is a near mirror): `PbrBsdf` takes the Fresnel of η < 1.
+            ior = v.clamp(crate::bsdf::pbr::MIN_IOR, 10.0);
         }
         let mut medium = None;
         if let Some(v) = m.extension_value("KHR_materials_volume").cloned() {

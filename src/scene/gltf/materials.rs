@@ -382,9 +382,12 @@ mod tests {
             0,
         )
         .unwrap();
-        assert_eq!((scene.materials[0].transmission, scene.materials[0].ior), (1.0, 1.0));
+        // An IOR below 1 is kept (Cycles renders it) and warns no more; 0 becomes Cycles' 1e-5.
+        assert_eq!((scene.materials[0].transmission, scene.materials[0].ior), (1.0, 0.5));
         assert!(scene.warnings.iter().any(|w| w.contains("'glassy'") && w.contains("transmissionFactor")));
-        assert!(scene.warnings.iter().any(|w| w.contains("'glassy'") && w.contains("ior 0.5")));
+        assert!(!scene.warnings.iter().any(|w| w.contains("ior")), "{:?}", scene.warnings);
+        let scene = load_with(json!({"name": "mirror", "extensions": {"KHR_materials_ior": {"ior": 0.0}}}), 0).unwrap();
+        assert_eq!(scene.materials[0].ior, crate::bsdf::pbr::MIN_IOR);
     }
 
     #[test]
