@@ -47,7 +47,7 @@ from .depsgraph import render_depsgraph
 from .gltf_hooks import glTF2ExportUserExtension, hooks_enabled  # noqa: F401
 from .lights import (AREA_LIGHT_EXTENSION, PUNCTUAL_EXTENSION, area_light_extension,  # noqa: F401
                      punctual_light_extension)
-from .materials import COAT_EXTENSION, principled_extras, shader_node_material  # noqa: F401
+from .materials import COAT_EXTENSION, principled_extras, restore_opaque_iors, shader_node_material  # noqa: F401
 from .media import MEDIUM_EXTENSION, SUBSURFACE_EXTENSION, medium_extension, subsurface_extension  # noqa: F401
 from .settings import film_exposure, layer_render_settings, render_settings  # noqa: F401
 from .light_groups import light_group_settings  # noqa: F401
@@ -152,6 +152,10 @@ def export_scene(depsgraph, folder, settings, motion=True, viewport=False, only=
         raise CausticError("export failed: " + "; ".join(state.errors))
     if not os.path.isfile(filepath):
         raise CausticError("glTF export wrote no file")
+    try:
+        restore_opaque_iors(filepath, state.opaque_iors)
+    except (OSError, ValueError) as err:
+        raise CausticError(f"writing the opaque materials' IOR failed: {err!r}") from None
     if only is not None:
         return filepath, state
     state.warnings.extend(scene_warnings(depsgraph))

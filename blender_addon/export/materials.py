@@ -20,6 +20,7 @@ Principled BSDF parameters it drops (contract, "Materials the exporter writes di
 * Principled inputs neither glTF nor Caustic render: warnings.
 """
 
+import json
 import math
 
 from .gltf_objects import optional_extension
@@ -272,7 +273,9 @@ def complete_material(gltf2_material, blender_material, export_settings, state, 
     if _present(gltf2_material, "KHR_materials_sheen"):
         state.warnings.extend(_sheen(gltf2_material, blender_material))
     state.warnings.extend(_thin_film(gltf2_material, blender_material, as_graph))
-    _opaque_ior(gltf2_material, blender_material)
+    ior = _opaque_ior(gltf2_material, blender_material)
+    if ior is not None:
+        state.opaque_iors[gltf2_material.name or blender_material.name] = ior
     if _present(gltf2_material, "KHR_materials_anisotropy"):
         # The exporter writes Blender's Anisotropic as glTF's strength; Cycles maps it to widths
         # differently (docs/contract.md).
@@ -315,14 +318,46 @@ def _sheen(gltf2_material, blender_material):
 def _opaque_ior(gltf2_material, blender_material):
     """The Principled BSDF's IOR, which the exporter writes only beside transmission, volume or
     specular extensions: an opaque material of another IOR than glTF's 1.5 would lose the shape
-    of its dielectric layer's Fresnel (and a free thin film, IOR 1, its substrate)."""
+    of its dielectric layer's Fresnel (and a free thin film, IOR 1, its substrate). Returns the
+    IOR when it is not 1.5: the exporter's final pass (`__check_ior`) deletes it again from a
+    material without those extensions, after every hook, so `restore_opaque_iors` writes it
+    back into the file."""
     node = _principled(blender_material)
     socket = node.inputs.get("IOR") if node is not None else None
-    if socket is None or socket.is_linked or _present(gltf2_material, "KHR_materials_ior"):
-        return
+    if socket is None or socket.is_linked:
+        return None
     ior = float(socket.default_value)
-    if abs(ior - 1.5) > 1e-6:
+    if abs(ior - 1.5) <= 1e-6:
+        return None
+    # The exporter writes it itself for an unlinked IOR, and deletes it at the end.
+    if not _present(gltf2_material, "KHR_materials_ior"):
         _set_extension(gltf2_material, "KHR_materials_ior", {"ior": ior})
+    return ior
+
+
+def restore_opaque_iors(gltf_path, iors):
+    """Write `iors` (glTF material name -> IOR, from `_opaque_ior`) back as KHR_materials_ior on
+    the materials of the written file that lost it: Blender 5.0's exporter keeps the extension
+    only beside transmission, volume or specular, so an opaque Principled of IOR 1.33 or 3 was
+    rendered at glTF's default 1.5. Returns how many materials it restored."""
+    if not iors:
+        return 0
+    with open(gltf_path, encoding="utf-8") as f:
+        doc = json.load(f)
+    restored = 0
+    for mat in doc.get("materials", []):
+        ior = iors.get(mat.get("name"))
+        if ior is None or "KHR_materials_ior" in mat.get("extensions", {}):
+            continue
+        mat.setdefault("extensions", {})["KHR_materials_ior"] = {"ior": ior}
+        restored += 1
+    if restored:
+        used = doc.setdefault("extensionsUsed", [])
+        if "KHR_materials_ior" not in used:
+            used.append("KHR_materials_ior")
+        with open(gltf_path, "w", encoding="utf-8") as f:
+            json.dump(doc, f)
+    return restored
 
 
 # Cycles' THINFILM_THICKNESS_CUTOFF: a thinner film is no film.

@@ -38,6 +38,7 @@ class ExportState:
         self.nonfinite = {}  # object name -> (NaN vertices, ambiguous), found before the export (nonfinite.py)
         self.nonfinite_meshes = set()  # ids of glTF meshes whose NaN-vertex triangles were dropped (nonfinite.py)
         self.tile_uv_accessors = set()  # ids of UV accessors moved back to their UDIM tile (udim_split.py)
+        self.opaque_iors = {}  # glTF material name -> the IOR the exporter strips (materials.restore_opaque_iors)
         # The exporter logs and swallows hook exceptions: the hooks record them here and
         # export_scene raises them afterwards.
         self.errors = []

@@ -788,3 +788,23 @@ def test_unrendered_features_are_named(addon, empty_scene, tmp_path):
     # A light's Shadow Catcher flag (on by default in Blender 5.0) is exported, not warned about.
     assert shy_light.is_shadow_catcher
     assert not any("ShyLight" in line and "Catcher" in line for line in warnings), text
+
+
+def test_opaque_principled_ior_is_written(empty_scene, captured):
+    """An opaque Principled BSDF's IOR (not glTF's 1.5) reaches the file as KHR_materials_ior:
+    Blender 5.0's exporter deletes the extension from a material without transmission, volume
+    or specular after the add-on's material hook (`__check_ior`), and Caustic rendered such a
+    material at 1.5 (`test_opaque_principled_ior_reaches_the_renderer`); the add-on writes it
+    back (materials.restore_opaque_iors). IOR 1.5 writes nothing, as glTF's default."""
+    scene = empty_scene
+    scenes.small_render_settings(scene, 16, 12, samples=2)
+    scenes.camera(scene, (0, -6, 3), (60, 0, 0))
+    for i, ior in enumerate((3.0, 1.33, 1.5)):
+        mat = scenes.shader_node_material(f"Ior{ior}", "ShaderNodeBsdfPrincipled", IOR=ior)
+        scenes.cube(scene, f"Cube{i}", 0.5, (i - 1.0, 0, 0), material=mat)
+    gltf = captured()[0]
+    mats = {m["name"]: m for m in gltf["materials"]}
+    assert mats["Ior3.0"]["extensions"]["KHR_materials_ior"]["ior"] == pytest.approx(3.0)
+    assert mats["Ior1.33"]["extensions"]["KHR_materials_ior"]["ior"] == pytest.approx(1.33)
+    assert "KHR_materials_ior" not in mats["Ior1.5"].get("extensions", {})
+    assert "KHR_materials_ior" in gltf["extensionsUsed"]
