@@ -14,8 +14,9 @@
 //!   becomes the shading frame's X axis; Base Color above 1 on the diffuse base; the glass
 //!   tinted by √Base Color at each crossing: `PbrParams::cycles_principled`). Two
 //!   Principled BSDFs in one mixture are each rendered in full, each with its own normal
-//!   and tangent; a third and those after it are merged into the second by their weights
-//!   (an approximation, warned at load). Every closure records its own Normal input (and an
+//!   and tangent; a third and those after it share the second slot, which holds one of them
+//!   whole, chosen by weight at each point, with the weight of them all (a pixel averages
+//!   their mixture as Cycles evaluates it). Every closure records its own Normal input (and an
 //!   anisotropic one its tangent), from which `shader::shade` builds its frame.
 //! * Diffuse → Lambert, or Cycles' Oren-Nayar for a roughness; Glossy → GGX with
 //!   a constant Fresnel, the colour, and Cycles' multiscatter compensation ("GGX": none;
@@ -256,6 +257,10 @@ pub struct Closures {
     pub pbr: [PbrParams; MAX_PBR],
     /// Per Principled slot, Σ w.
     pub pbr_w: [f32; MAX_PBR],
+    /// Per Principled slot, the Σ w its parameters were summed with: `pbr_w` but for the last
+    /// slot when more BSDFs than slots are mixed, which holds the parameters of one of them
+    /// (chosen by weight at each point) with the weight of them all.
+    pub pbr_param_w: [f32; MAX_PBR],
     /// Principled BSDFs met with a weight.
     pub principled: u8,
     /// Emitted radiance.
@@ -305,6 +310,7 @@ impl Default for Closures {
             mix: Lobes::EMPTY,
             pbr: [zero_params(); MAX_PBR],
             pbr_w: [0.0; MAX_PBR],
+            pbr_param_w: [0.0; MAX_PBR],
             principled: 0,
             emission: Rgb::ZERO,
             transparent: Rgb::ZERO,
@@ -537,11 +543,25 @@ fn principled(p: &PrincipledRegs, r: &[f32], g: &Geom, normal: Option<Reg>, w: f
     if w <= 0.0 {
         return;
     }
-    // Each Principled BSDF has a slot of its own, in full; those past the last slot are
-    // merged into it by weighted parameters (warned at load).
-    let slot = (out.principled as usize).min(MAX_PBR - 1);
+    // Each Principled BSDF has a slot of its own, in full. Past the last slot, the BSDFs that
+    // share it are chosen among by weight at each point (a weighted reservoir): the slot keeps
+    // one of them whole with the weight of them all, so the mixture Cycles evaluates is what
+    // the point renders on average over a pixel's points, where averaging their parameters
+    // (a red metal and a blue plastic made one purple semi-metal) was another material.
+    let index = out.principled as usize;
+    let slot = index.min(MAX_PBR - 1);
     out.principled = out.principled.saturating_add(1);
-    let first = out.pbr_w[slot] <= 0.0;
+    if index >= MAX_PBR {
+        let total = out.pbr_w[slot] + w;
+        out.pbr_w[slot] = total;
+        if reservoir_u(g, index) * total >= w {
+            return;
+        }
+        clear_slot(out, slot);
+    } else {
+        out.pbr_w[slot] += w;
+    }
+    let first = out.pbr_param_w[slot] <= 0.0;
     if first {
         out.pbr_normals[slot] = normal.map(|n| v3(r, n));
         out.coat_normals[slot] = p.coat_normal.map(|n| v3(r, n));
@@ -583,7 +603,27 @@ fn principled(p: &PrincipledRegs, r: &[f32], g: &Geom, normal: Option<Reg>, w: f
             out.tangents[slot] = closure_tangent(p.tangent, f(p.anisotropic_rotation), normal, r, g);
         }
     }
-    out.pbr_w[slot] += w;
+    out.pbr_param_w[slot] += w;
+}
+
+/// A uniform number in [0, 1) for the weighted choice among Principled BSDF `index` and those
+/// before it in the last slot: a hash of the shading point's position and triangle, so every
+/// evaluation of one point (its light samples, BSDF samples and connections) sees the same
+/// closure, and the points of a pixel see each with its probability.
+fn reservoir_u(g: &Geom, index: usize) -> f32 {
+    use crate::shader::texture::hash::hash_uint4;
+    let h = hash_uint4(g.p.x.to_bits(), g.p.y.to_bits(), g.p.z.to_bits() ^ g.tri, index as u32);
+    (h >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
+}
+
+/// Empties Principled slot `slot`'s parameters (its weight stays): another BSDF takes it.
+fn clear_slot(out: &mut Closures, slot: usize) {
+    out.pbr[slot] = zero_params();
+    out.pbr_param_w[slot] = 0.0;
+    out.pbr_normals[slot] = None;
+    out.coat_normals[slot] = None;
+    out.anisotropic[slot] = 0.0;
+    out.tangents[slot] = None;
 }
 
 impl Closures {
@@ -612,7 +652,7 @@ impl Closures {
     /// Principled slot `j`'s parameters (weights divided out), for a point on the side
     /// given by `backfacing`.
     pub fn principled_params(&self, j: usize, backfacing: bool) -> PbrParams {
-        let s = 1.0 / self.pbr_w[j];
+        let s = 1.0 / self.pbr_param_w[j];
         let p = &self.pbr[j];
         let ior = p.ior * s;
         PbrParams {

@@ -23,6 +23,11 @@ bound of 108 (pytest -s prints both):
 * add_principled_ior_coat: Add Shader of Principled BSDFs of IOR 1.3 and of IOR 2.2 with a coat:
   within its bound before (0.984/1.011/1.029) and after (1.009/1.011/1.011); kept as a guard on
   two Principled BSDFs whose layers differ.
+* mix_three_principled: a blue dielectric, a rough gold and a mirror (0.25, 0.25, 0.5): the
+  third and the second were averaged into one gold-tinted metal of roughness 0.33 (the mirror's
+  sharp reflection of the light 2.4x Cycles' in its block): 0.970/1.012/1.013, 12 blocks (worst
+  3.55x its bound) -> 0.9955/0.9953/0.9952, 0 (the second slot holds one of them whole, chosen
+  by weight at each point).
 Cases that matched before are left out: a Checker mask (each point is one Principled BSDF
 alone), and a bumped Principled with a Transparent BSDF (the Principled-only path).
 """
@@ -83,6 +88,21 @@ def diffuse_smooth(tree):
     return node.outputs["BSDF"]
 
 
+def mixed_socket(first, second, fac=0.5):
+    """A shader maker: `first(tree)` and `second(tree)` in a Mix Shader of factor `fac`."""
+    def make(tree):
+        node = tree.nodes.new("ShaderNodeMixShader")
+        shaders = [s for s in node.inputs if s.type == "SHADER"]
+        tree.links.new(first(tree), shaders[0])
+        tree.links.new(second(tree), shaders[1])
+        node.inputs["Fac"].default_value = fac
+        return node.outputs[0]
+    return make
+
+
+ROUGH_GOLD = {"Base Color": (0.9, 0.6, 0.2, 1.0), "Metallic": 1.0, "Roughness": 1.0}
+MIRROR = {"Base Color": (0.95, 0.95, 0.95, 1.0), "Metallic": 1.0, "Roughness": 0.0}
+
 LOW_IOR = {"Base Color": (0.4, 0.15, 0.1, 1.0), "Roughness": 0.3, "IOR": 1.3}
 HIGH_IOR_COAT = {"Base Color": (0.1, 0.2, 0.4, 1.0), "Roughness": 0.5, "IOR": 2.2,
                  "Coat Weight": 1.0, "Coat Roughness": 0.05, "Coat IOR": 1.6}
@@ -93,6 +113,11 @@ CASES = {
     "mix_glossy_bumped_diffuse": mixed(glossy_bumped, diffuse_smooth),
     "add_principled_ior_coat": mixed(principled_of(LOW_IOR), principled_of(HIGH_IOR_COAT),
                                      combine="ShaderNodeAddShader"),
+    # Three Principled BSDFs (a blue dielectric 0.25, a rough gold 0.25, a mirror 0.5): the
+    # third shares the second's slot, chosen by weight at each point, where their averaged
+    # parameters made a gold-tinted metal of roughness 0.33.
+    "mix_three_principled": mixed(mixed_socket(principled_of(DIELECTRIC), principled_of(ROUGH_GOLD)),
+                                  principled_of(MIRROR)),
 }
 
 # main's figures before each closure had its own frame (mean R/G/B, blocks over of 108).
@@ -101,6 +126,7 @@ BEFORE = {
     "mix_principled_bumped": "0.9026 0.9151 0.9276, 27/108 blocks over",
     "mix_glossy_bumped_diffuse": "0.8676 0.9022 0.9117, 1/108 blocks over",
     "add_principled_ior_coat": "0.9843 1.0107 1.0292, 0/108 blocks over",
+    "mix_three_principled": "0.9697 1.0121 1.0130, 12/108 blocks over",
 }
 
 
