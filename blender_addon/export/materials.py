@@ -327,7 +327,9 @@ def _opaque_ior(gltf2_material, blender_material):
     if socket is None or socket.is_linked:
         return None
     ior = float(socket.default_value)
-    if abs(ior - 1.5) <= 1e-6:
+    # Below 1 is outside glTF's range: such a material renders from its node graph
+    # (`needs_graph`), which carries the IOR.
+    if abs(ior - 1.5) <= 1e-6 or ior < 1.0:
         return None
     # The exporter writes it itself for an unlinked IOR, and deletes it at the end.
     if not _present(gltf2_material, "KHR_materials_ior"):

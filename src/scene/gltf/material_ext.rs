@@ -134,6 +134,14 @@ impl Loader<'_> {
             // Below 1 too, as Blender imports it and Cycles renders it (down to 1e-5, where a
             // Principled BSDF's layer is a near mirror): `PbrBsdf` takes the Fresnel of η < 1.
             ior = v.clamp(crate::bsdf::pbr::MIN_IOR, 10.0);
+            // glTF's IOR is at least 1: say what is made of one below (a node graph, which
+            // carries Blender's own IOR, renders in place of these factors and is not named).
+            if v < 1.0 && m.extension_value("CAUSTIC_materials_nodes").is_none() {
+                self.warn(format!(
+                    "material '{name}': ior {v} is below glTF's minimum of 1; rendered as Blender imports it and \
+                     Cycles renders it (η {ior}: total internal reflection inside the layer, 0 a near mirror)"
+                ));
+            }
         }
         let mut medium = None;
         if let Some(v) = m.extension_value("KHR_materials_volume").cloned() {
