@@ -190,16 +190,7 @@ impl BdptLights {
 pub fn sample_point(scene: &Scene, index: usize, u: Vec2) -> Option<LightPoint> {
     let light = index as u32;
     match &scene.lights[index] {
-        Light::Point { position, intensity } => Some(LightPoint {
-            light,
-            p: *position,
-            n: Vec3::ZERO,
-            le: *intensity,
-            pdf_pos: 1.0,
-            two_sided: false,
-            bary: Vec2::ZERO,
-        }),
-        Light::Spot { position, intensity, .. } => Some(LightPoint {
+        Light::Point { position, intensity } | Light::Spot { position, intensity, .. } => Some(LightPoint {
             light,
             p: *position,
             n: Vec3::ZERO,

@@ -37,8 +37,9 @@ Rough glass at roughness 1.0 (0.941 of Cycles under the area light, a strict xfa
 Cycles' light sampling, not the material: see CYCLES_GLASS_FURNACE_LOSS; against Cycles' BSDF-sampled
 estimate it is 1.020.
 
-Cases that cannot pass with today's renderer are strict xfails naming the renderer fix they wait
-for, so that the fix's merge turns them into failures (XPASS) until the mark is removed.
+Cases that cannot pass with today's renderer are marked strict xfails (`pytest.mark.xfail(strict=True,
+reason=...)` in their marks) naming the renderer fix they wait for, so that the fix's merge turns them
+into failures (XPASS) until the mark is removed; none is left.
 Ratios are printed with pytest -s.
 """
 
@@ -81,13 +82,6 @@ CYCLES_GLASS_FURNACE_LOSS = 0.015
 # image mean measures the material, not the floor around it; the sheet needs the floor under it.
 CLOSE_UP = 90.0
 WIDE = 30.0
-
-
-SOAP = ("renderer: a free thin film (IOR 1 under a 500 nm film of IOR 1.33, black base, roughness 0.05) "
-        "renders R 0.976 G 0.831 B 1.053 of Cycles, while a film on IOR 1.5 (thin_film_coating) agrees within "
-        "0.13 % per channel. Both films' Fresnel terms match the closed-form reflectance at normal incidence "
-        "(bsdf/thin_film.rs). Not diagnosed: compare the two renderers' film reflectance on this material "
-        "per angle next (the exporter's IOR 1 and Cycles' eta = 1 specular closure are suspects)")
 
 
 def floor_light_camera(scene, lens=CLOSE_UP):
@@ -166,10 +160,6 @@ def normal_map_material(name, tilt_v=True):
     return mat
 
 
-def xfail(reason):
-    return pytest.mark.xfail(strict=True, reason=reason)
-
-
 # name -> (subject builder, model allowance, per channel, marks)
 CASES = {
     "no_material": (add_no_material, ISSUE_DEFAULT, False, []),
@@ -198,13 +188,16 @@ CASES = {
     "sheen_node": (sphere_of(lambda: scenes.shader_node_material(
         "SheenNode", "ShaderNodeBsdfSheen", Color=(0.9, 0.7, 0.5, 1), Roughness=0.3)), MATCHED, False, []),
     # Thin film (KHR_materials_iridescence from the add-on): a coated dark plastic and a soap-bubble
-    # film (IOR 1 under the film: the free film's reflection), channel by channel.
+    # film (IOR 1 under the film: the free film's reflection), channel by channel. The soap film was
+    # R 0.976 G 0.831 B 1.053 of Cycles (a strict xfail) while Blender's exporter dropped the opaque
+    # material's IOR 1 and the film sat on IOR 1.5; with the IOR written back
+    # (materials.restore_opaque_iors) it is 1.0097/1.0094/1.0017.
     "thin_film_coating": (sphere_of(lambda: principled("Iridescent", **{
         "Base Color": (0.02, 0.02, 0.02, 1), "Roughness": 0.2, "Thin Film Thickness": 400.0,
         "Thin Film IOR": 1.33})), FILM, True, []),
     "thin_film_soap": (sphere_of(lambda: principled("Soap", **{
         "Base Color": (0.0, 0.0, 0.0, 1), "Roughness": 0.05, "IOR": 1.0, "Thin Film Thickness": 500.0,
-        "Thin Film IOR": 1.33})), FILM, True, [xfail(SOAP)]),
+        "Thin Film IOR": 1.33})), FILM, True, []),
 }
 
 
