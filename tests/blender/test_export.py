@@ -794,7 +794,7 @@ def test_opaque_principled_ior_is_written(empty_scene, captured):
     """An opaque Principled BSDF's IOR (not glTF's 1.5) reaches the file as KHR_materials_ior:
     Blender 5.0's exporter deletes the extension from a material without transmission, volume
     or specular after the add-on's material hook (`__check_ior`), and Caustic rendered such a
-    material at 1.5 (`test_opaque_principled_ior_reaches_the_renderer`); the add-on writes it
+    material at 1.5 (`test_principled_ior_matches_cycles` in test_principled_ior_below_one.py); the add-on writes it
     back (materials.restore_opaque_iors). IOR 1.5 writes nothing, as glTF's default."""
     scene = empty_scene
     scenes.small_render_settings(scene, 16, 12, samples=2)

@@ -50,6 +50,19 @@ CASES = {
 }
 
 
+# An opaque Principled BSDF's IOR above glTF's 1.5: Blender 5.0's exporter deletes
+# KHR_materials_ior from a material without transmission, volume or specular extensions after
+# every hook, so the add-on writes it back into the file (materials.restore_opaque_iors).
+# Caustic/Cycles R/G/B before (rendered at 1.5) -> after, in each comment.
+OPAQUE = {
+    # F0 0.25 instead of 0.04: 1.050/0.924/0.866 -> 0.9988/0.9999/1.0004.
+    "ior3": {**BASE, "Roughness": 0.3, "IOR": 3.0},
+    # Water's 1.33 (F0 0.020; before within its bound, the roughness-0.1 highlight is noisy):
+    # 0.9945/1.0102/1.0192 -> 1.0009/1.0017/1.0021.
+    "ior133": {**BASE, "Roughness": 0.1, "IOR": 1.33},
+}
+
+
 def grey_world(scene):
     """A grey world: the layer's reflection of it shows where the key light's does not."""
     world = bpy.data.worlds.new("Grey")
@@ -57,10 +70,10 @@ def grey_world(scene):
     scene.world = world
 
 
-@pytest.mark.parametrize("case", list(CASES))
-def test_principled_ior_below_one_matches_cycles(empty_scene, tmp_path, case):
-    """See CASES (Caustic/Cycles R/G/B before -> after)."""
-    mat = scenes.shader_node_material("IorBelowOne", "ShaderNodeBsdfPrincipled", **CASES[case])
+@pytest.mark.parametrize("case", list(CASES) + list(OPAQUE))
+def test_principled_ior_matches_cycles(empty_scene, tmp_path, case):
+    """See CASES and OPAQUE (Caustic/Cycles R/G/B before -> after)."""
+    mat = scenes.shader_node_material("PrincipledIor", "ShaderNodeBsdfPrincipled", **{**CASES, **OPAQUE}[case])
     lone_sphere(empty_scene, mat)
     grey_world(empty_scene)
     assert_mean_matches_cycles(empty_scene, tmp_path, case, MODEL_ALLOWANCE, per_channel=True)
@@ -97,25 +110,3 @@ def test_every_integrator_renders_ior_below_one(empty_scene, tmp_path, integrato
     empty_scene.caustic.integrator = integrator
     assert_mean_matches_cycles(empty_scene, tmp_path, f"{case} {integrator}",
                                MODEL_ALLOWANCE + INTEGRATOR_ALLOWANCE[integrator], per_channel=True)
-
-
-# An opaque Principled BSDF's IOR above glTF's 1.5: Blender 5.0's exporter deletes
-# KHR_materials_ior from a material without transmission, volume or specular extensions after
-# every hook, so the add-on writes it back into the file (materials.restore_opaque_iors).
-# Caustic/Cycles R/G/B before (rendered at 1.5) -> after, in each comment.
-OPAQUE = {
-    # F0 0.25 instead of 0.04: 1.050/0.924/0.866 -> 0.9988/0.9999/1.0004.
-    "ior3": {**BASE, "Roughness": 0.3, "IOR": 3.0},
-    # Water's 1.33 (F0 0.020; before within its bound, the roughness-0.1 highlight is noisy):
-    # 0.9945/1.0102/1.0192 -> 1.0009/1.0017/1.0021.
-    "ior133": {**BASE, "Roughness": 0.1, "IOR": 1.33},
-}
-
-
-@pytest.mark.parametrize("case", list(OPAQUE))
-def test_opaque_principled_ior_reaches_the_renderer(empty_scene, tmp_path, case):
-    """See OPAQUE (Caustic/Cycles R/G/B before -> after)."""
-    mat = scenes.shader_node_material("OpaqueIor", "ShaderNodeBsdfPrincipled", **OPAQUE[case])
-    lone_sphere(empty_scene, mat)
-    grey_world(empty_scene)
-    assert_mean_matches_cycles(empty_scene, tmp_path, case, MODEL_ALLOWANCE, per_channel=True)
