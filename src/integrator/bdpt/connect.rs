@@ -71,7 +71,9 @@ impl BdptIntegrator {
         stats: &mut RayStats,
     ) {
         let camera = film.camera;
-        let y = scratch.light[s - 1];
+        // Borrowed, not copied (see `connect_vertices`).
+        let BdptScratch { cam, light, dens, tally, .. } = scratch;
+        let y = &light[s - 1];
         // A light at infinity sends one direction through the camera's point: no pixel
         // sees it by this strategy (s = 0 alone makes such paths).
         if y.kind == Kind::Infinite {
@@ -80,7 +82,7 @@ impl BdptIntegrator {
         // Border pixels' filters reach outside the frame, where their camera samples go too.
         // The camera subpath's aperture point is a uniform lens sample independent of this
         // light subpath: connecting to it is the t = 1 strategy through a thin lens.
-        let cam_p = scratch.cam[0].p;
+        let cam_p = cam[0].p;
         // Through the camera where it is at the sample's time (under motion blur the light
         // subpath shares the camera sample's time, `crate::motion`).
         let t = crate::motion::ray_time();
@@ -122,7 +124,7 @@ impl BdptIntegrator {
                 lights::emitted(ctx.scene, &lp, w) * y.abs_cos_geo(w)
             }
             _ => {
-                let (Some(bsdf), Some(hit)) = (y.bsdf, y.hit) else { return };
+                let (Some(bsdf), Some(hit)) = (y.bsdf.as_ref(), y.hit.as_ref()) else { return };
                 // The camera sees this vertex directly (the segment is tested below): on a
                 // holdout it shows nothing, as camera rays that hit it do.
                 // Nor does it see a vertex on an object hidden from camera rays (the
@@ -136,9 +138,9 @@ impl BdptIntegrator {
                 }
                 if self.ledger.light_passes {
                     // Seen from the camera: leaving toward it, arriving from the light side.
-                    first = passes::shares_toward(&bsdf, wi_l, wo_l);
+                    first = passes::shares_toward(bsdf, wi_l, wo_l);
                 }
-                bsdf.eval_adjoint(wo_l, wi_l) * wi_l.z.abs() * shading_correction(&hit, &y.frame, y.wo, w)
+                bsdf.eval_adjoint(wo_l, wi_l) * wi_l.z.abs() * shading_correction(hit, &y.frame, y.wo, w)
             }
         };
         if f == Rgb::ZERO {
@@ -147,47 +149,43 @@ impl BdptIntegrator {
         let mut c = y.beta * f * (proj.importance / (dist * dist));
         if s == 2
             && y.contact
-            && let Some(end) = LightEnd::of(&scratch.light[0])
+            && let Some(end) = LightEnd::of(&light[0])
         {
             // The path tracer's share of the light at a contact (`contact`).
-            c *= contact::trap_weight(ctx, &y, w, end);
+            c *= contact::trap_weight(ctx, y, w, end);
         }
         if c == Rgb::ZERO {
             return;
         }
         stats.shadow += 1;
         // The segment ends where the camera ray would start: on the near clipping plane.
-        let mut cam_vertex = scratch.cam[0];
-        if near > 0.0 {
-            cam_vertex.p = cam_p - w * (near / proj.depth_per_dist);
-        }
+        let cam_end = if near > 0.0 { cam_p - w * (near / proj.depth_per_dist) } else { cam_p };
         // A segment that meets a restricted object: the camera side's path (`visibility`).
-        if self.restriction.between(y.p, cam_vertex.p) {
+        if self.restriction.between(y.p, cam_end) {
             return;
         }
         // In camera order the segment is a camera ray: objects hidden from the camera do not block it.
-        let tr = segment_transmittance_as(ctx, &y, &cam_vertex, media_leaving(ctx, &y, w), None, RayMask::CAMERA);
+        let tr = segment_transmittance_to(ctx, y, cam_end, cam[0].ng, media_leaving(ctx, y, w), None, RayMask::CAMERA);
         if tr == Rgb::ZERO {
             return;
         }
         c *= tr;
         // MIS: the path light[..s] + camera.
-        let dens = &mut scratch.dens;
-        self.fill_path(ctx, &scratch.cam[..1], &scratch.light, s, camera, dens);
+        self.fill_path(ctx, &cam[..1], light, s, camera, dens);
         let k = s; // index of the camera vertex
         dens.connectible[s - 1] = true;
         // b[s-1]: the camera generating y.
         dens.b[s - 1] = y.area_density(proj.pdf_dir, cam_p);
         if s >= 2
-            && let Some(bsdf) = y.bsdf
+            && let Some(bsdf) = &y.bsdf
         {
-            let prev = &scratch.light[s - 2];
+            let prev = &light[s - 2];
             let pdf = bsdf.pdf(y.frame.to_local(w), y.frame.to_local(prev.dir_from(y.p)));
             dens.b[s - 2] = prev.area_density(pdf, y.p);
         }
         dens.a[k] = 0.0; // unused (t = 0 is not a strategy)
         let wgt = self.mis(dens.weight(s));
-        scratch.tally.splat += crate::math::luminance(c * wgt) as f64;
+        tally.splat += crate::math::luminance(c * wgt) as f64;
         if !self.ledger.any() && ctx.catcher.is_none() {
             film.splats.add(film.filter, pos, c * wgt);
             // A panorama all the way round: the border pixels across the seam see it too.
@@ -202,11 +200,11 @@ impl BdptIntegrator {
         // The light passes' parts, then room for the matte's.
         let mut parts = [(0, Rgb::ZERO); 4];
         parts[..3].copy_from_slice(&light_parts);
-        let mut group = self.ledger.group_of_subpath(ctx, &scratch.light);
+        let mut group = self.ledger.group_of_subpath(ctx, light);
         if ctx.catcher.is_some() {
             // Shadow catcher (`catcher`): a path the camera sees on a catcher split there;
             // it is Combined's and files no light group, any other goes to the matte too.
-            if Self::seen_on_catcher(ctx, &y) {
+            if Self::seen_on_catcher(ctx, y) {
                 group = crate::scene::light_groups::NONE;
             } else {
                 parts[n] = (crate::passes::slot::CATCHER_MATTE, c * wgt);
@@ -251,8 +249,10 @@ impl BdptIntegrator {
         stats: &mut RayStats,
     ) -> (Rgb, First, usize) {
         let none = (Rgb::ZERO, First::default(), 0);
-        let x = scratch.cam[t - 1];
-        let (Some(bsdf), Some(hit)) = (x.bsdf, x.hit) else {
+        // Borrowed, not copied (see `connect_vertices`).
+        let BdptScratch { cam, dens, .. } = scratch;
+        let x = &cam[t - 1];
+        let (Some(bsdf), Some(hit)) = (x.bsdf.as_ref(), x.hit.as_ref()) else {
             return none;
         };
         if bsdf.is_delta() {
@@ -283,18 +283,18 @@ impl BdptIntegrator {
             };
             let wi_l = x.frame.to_local(ls.wi);
             let consistent = (wi_l.z > 0.0) == (ls.wi.dot(hit.ng) > 0.0);
-            let f = Self::eval_lit(ctx, &bsdf, index, wo_l, wi_l) * wi_l.z.abs();
+            let f = Self::eval_lit(ctx, bsdf, index, wo_l, wi_l) * wi_l.z.abs();
             if f == Rgb::ZERO || ls.li == Rgb::ZERO || !consistent {
                 return none;
             }
-            let tr = shadow_transmittance(ctx, &x, hit.ng, &ls, index, LightPath::SHADOW_RAY, stats);
+            let tr = shadow_transmittance(ctx, x, hit.ng, &ls, index, LightPath::SHADOW_RAY, stats);
             if tr == Rgb::ZERO {
                 return none;
             }
             let p_light = pmf * ls.pdf;
             let restricted =
                 x.restricted || self.restriction.light(index) || self.restriction.crosses(x.p, ls.wi, ls.dist);
-            let trap = contact::trap_weight(ctx, &x, x.wo, LightEnd::Direction { light: index, d: ls.wi });
+            let trap = contact::trap_weight(ctx, x, x.wo, LightEnd::Direction { light: index, d: ls.wi });
             let w = trap
                 * if gate != Gate::Mis {
                     1.0
@@ -302,14 +302,14 @@ impl BdptIntegrator {
                     // Made by s = 0 and s = 1 alone (`visibility`), as next-event estimation weighs it.
                     if ls.delta { 1.0 } else { power_heuristic(p_light, bsdf.pdf(wo_l, wi_l)) }
                 } else if self.lights.starts(index) {
-                    self.weight_s1_infinite(ctx, t, index, &ls, camera, scratch)
+                    self.weight_s1_infinite(ctx, t, index, &ls, camera, cam, dens)
                 } else if ls.delta {
                     1.0
                 } else {
                     power_heuristic(p_light, bsdf.pdf(wo_l, wi_l))
                 };
             let c = x.beta * f * tr * ls.li * (self.mis(gate.weight(w)) / p_light);
-            return (c, self.first_toward(&bsdf, wo_l, wi_l), index);
+            return (c, self.first_toward(bsdf, wo_l, wi_l), index);
         }
         let Some(lp) = lights::sample_point(ctx.scene, index, Vec2::new(u[1], u[2])) else {
             return none;
@@ -329,7 +329,7 @@ impl BdptIntegrator {
         if (wi_l.z > 0.0) != (wi.dot(hit.ng) > 0.0) {
             return none;
         }
-        let f = Self::eval_lit(ctx, &bsdf, index, wo_l, wi_l) * wi_l.z.abs();
+        let f = Self::eval_lit(ctx, bsdf, index, wo_l, wi_l) * wi_l.z.abs();
         if f == Rgb::ZERO {
             return none;
         }
@@ -343,13 +343,13 @@ impl BdptIntegrator {
             return none;
         }
         stats.shadow += 1;
-        let tr = segment_transmittance_of(ctx, &x, &y, media_leaving(ctx, &x, wi), Some(index));
+        let tr = segment_transmittance_of(ctx, x, &y, media_leaving(ctx, x, wi), Some(index));
         if tr == Rgb::ZERO {
             return none;
         }
-        let trap = contact::trap_weight(ctx, &x, x.wo, LightEnd::Point { light: index, q: lp.p, n: lp.n });
+        let trap = contact::trap_weight(ctx, x, x.wo, LightEnd::Point { light: index, q: lp.p, n: lp.n });
         if gate == Gate::Whole {
-            return (contribution * tr * (trap * self.mis(1.0)), self.first_toward(&bsdf, wo_l, wi_l), index);
+            return (contribution * tr * (trap * self.mis(1.0)), self.first_toward(bsdf, wo_l, wi_l), index);
         }
         if x.restricted || self.restriction.light(index) || self.restriction.between(x.p, lp.p) {
             // Made by s = 0 and s = 1 alone (`visibility`): BSDF sampling against this
@@ -359,12 +359,11 @@ impl BdptIntegrator {
             } else {
                 power_heuristic(pmf * lp.pdf_pos * dist2 / cos_y, bsdf.pdf(wo_l, wi_l))
             };
-            return (contribution * tr * self.mis(w), self.first_toward(&bsdf, wo_l, wi_l), index);
+            return (contribution * tr * self.mis(w), self.first_toward(bsdf, wo_l, wi_l), index);
         }
         // MIS with the light-origin density of light subpaths.
         y.pdf_fwd = self.lights.pmf_origin(index) * lp.pdf_pos;
-        let dens = &mut scratch.dens;
-        self.fill_path(ctx, &scratch.cam[..t], std::slice::from_ref(&y), 1, camera, dens);
+        self.fill_path(ctx, &cam[..t], std::slice::from_ref(&y), 1, camera, dens);
         dens.connectible[0] = true;
         dens.connectible[1] = true;
         // b[0]: the camera vertex's BSDF generating the light point.
@@ -372,7 +371,7 @@ impl BdptIntegrator {
         // a[1]: the light's emission generating x.
         dens.a[1] = x.area_density(lights::pdf_direction(ctx.scene, &lp, -wi), lp.p);
         if t >= 2 {
-            let prev = &scratch.cam[t - 2];
+            let prev = &cam[t - 2];
             let pdf = if prev.kind == Kind::Camera {
                 0.0 // a[k] is never used
             } else {
@@ -381,7 +380,7 @@ impl BdptIntegrator {
             dens.a[2] = prev.area_density(pdf, x.p);
         }
         let w = self.mis(dens.weight(1)) * trap;
-        (contribution * tr * w, self.first_toward(&bsdf, wo_l, wi_l), index)
+        (contribution * tr * w, self.first_toward(bsdf, wo_l, wi_l), index)
     }
 
     /// The BSDF at a camera vertex toward light `index`, without the closure classes the
@@ -409,10 +408,11 @@ impl BdptIntegrator {
         index: usize,
         ls: &LightSample,
         camera: &CameraRays,
-        scratch: &mut BdptScratch,
+        cam: &[Vertex],
+        dens: &mut PathDensities,
     ) -> f32 {
-        let x = &scratch.cam[t - 1];
-        let Some(bsdf) = x.bsdf else { return 0.0 };
+        let x = &cam[t - 1];
+        let Some(bsdf) = &x.bsdf else { return 0.0 };
         let mut y = Vertex::new(Kind::Infinite, ls.wi);
         y.pdf_fwd = self.lights.pmf_origin(index) * ls.pdf;
         y.light = Some(LightPoint {
@@ -425,15 +425,14 @@ impl BdptIntegrator {
             bary: Vec2::ZERO,
         });
         let (wo_l, wi_l) = (x.frame.to_local(x.wo), x.frame.to_local(ls.wi));
-        let dens = &mut scratch.dens;
-        self.fill_path(ctx, &scratch.cam[..t], std::slice::from_ref(&y), 1, camera, dens);
+        self.fill_path(ctx, &cam[..t], std::slice::from_ref(&y), 1, camera, dens);
         dens.connectible[0] = true;
         dens.connectible[1] = true;
         // b[0]: the camera vertex's BSDF generating the direction (a solid-angle density).
         dens.b[0] = if ls.delta { 0.0 } else { bsdf.pdf(wo_l, wi_l) };
         // a[1]: the light's disk generating x.
         dens.a[1] = x.density_from_infinity(ls.wi, self.lights.disk_pdf());
-        let prev = &scratch.cam[t - 2];
+        let prev = &cam[t - 2];
         dens.a[2] = if prev.kind == Kind::Camera {
             0.0 // a[k] is never used
         } else {
@@ -454,13 +453,17 @@ impl BdptIntegrator {
         out: &mut CameraSample,
         stats: &mut RayStats,
     ) -> Rgb {
-        let x = scratch.cam[t - 1];
-        let y = scratch.light[s - 1];
+        // Borrowed, not copied: a vertex holds a whole BSDF, and copying the two was 9 % of
+        // BDPT's instructions on the Cornell box (callgrind: `memcpy` from here).
+        let BdptScratch { cam, light, dens, first, .. } = scratch;
+        let (x, y) = (&cam[t - 1], &light[s - 1]);
         // A restricted path: the camera side's (`visibility`).
         if x.restricted {
             return Rgb::ZERO;
         }
-        let (Some(bx), Some(hx), Some(by), Some(hy)) = (x.bsdf, x.hit, y.bsdf, y.hit) else {
+        let (Some(bx), Some(hx), Some(by), Some(hy)) =
+            (x.bsdf.as_ref(), x.hit.as_ref(), y.bsdf.as_ref(), y.hit.as_ref())
+        else {
             return Rgb::ZERO;
         };
         // No connection leaves a camera vertex at a contact, nor joins a light vertex that
@@ -486,14 +489,14 @@ impl BdptIntegrator {
             return Rgb::ZERO;
         }
         let fx = bx.eval(wo_x, wi_x) * wi_x.z.abs();
-        let fy = by.eval_adjoint(wo_y, wi_y) * wi_y.z.abs() * shading_correction(&hy, &y.frame, y.wo, -w);
+        let fy = by.eval_adjoint(wo_y, wi_y) * wi_y.z.abs() * shading_correction(hy, &y.frame, y.wo, -w);
         let mut c = x.beta * fx * fy * y.beta / dist2;
         if s == 2
             && y.contact
-            && let Some(end) = LightEnd::of(&scratch.light[0])
+            && let Some(end) = LightEnd::of(&light[0])
         {
             // The path tracer's share of the light at a contact (`contact`).
-            c *= contact::trap_weight(ctx, &y, -w, end);
+            c *= contact::trap_weight(ctx, y, -w, end);
         }
         if c == Rgb::ZERO {
             return Rgb::ZERO;
@@ -502,21 +505,20 @@ impl BdptIntegrator {
             return Rgb::ZERO;
         }
         stats.shadow += 1;
-        let tr = segment_transmittance(ctx, &x, &y, media_leaving(ctx, &x, w));
+        let tr = segment_transmittance(ctx, x, y, media_leaving(ctx, x, w));
         if tr == Rgb::ZERO {
             return Rgb::ZERO;
         }
-        let dens = &mut scratch.dens;
-        self.fill_path(ctx, &scratch.cam[..t], &scratch.light, s, camera, dens);
+        self.fill_path(ctx, &cam[..t], light, s, camera, dens);
         dens.connectible[s - 1] = true;
         dens.connectible[s] = true;
         // b[s-1]: x generating y; a[s]: y generating x.
         dens.b[s - 1] = y.area_density(bx.pdf(wo_x, wi_x), x.p);
         dens.a[s] = x.area_density(by.pdf(wo_y, wi_y), y.p);
         // b[s-2]: y generating its predecessor given x; a[s+1]: x generating its predecessor given y.
-        let yp = &scratch.light[s - 2];
+        let yp = &light[s - 2];
         dens.b[s - 2] = yp.area_density(by.pdf(wi_y, y.frame.to_local(yp.dir_from(y.p))), y.p);
-        let xp = &scratch.cam[t - 2];
+        let xp = &cam[t - 2];
         dens.a[s + 1] = if xp.kind == Kind::Camera {
             0.0
         } else {
@@ -524,8 +526,8 @@ impl BdptIntegrator {
         };
         let wgt = self.mis(dens.weight(s));
         if self.ledger.any() {
-            let first = if t == 2 { self.first_toward(&bx, wo_x, wi_x) } else { scratch.first };
-            let group = self.ledger.group_of_subpath(ctx, &scratch.light);
+            let first = if t == 2 { self.first_toward(bx, wo_x, wi_x) } else { *first };
+            let group = self.ledger.group_of_subpath(ctx, light);
             self.ledger.file(out, (t - 1) + (s - 1), first, false, group, c * tr * wgt);
         }
         c * tr * wgt

@@ -188,21 +188,36 @@ pub(crate) fn segment_transmittance_as(
     light: Option<usize>,
     ray: RayMask,
 ) -> Rgb {
-    let d = b.p - a.p;
+    segment_transmittance_to(ctx, a, b.p, b.ng, stack, light, ray)
+}
+
+/// [`segment_transmittance_as`] toward the point `b` of geometric normal `b_ng` (zero for
+/// none): light tracing's segment ends on the near clipping plane, not at a vertex.
+#[inline]
+pub(crate) fn segment_transmittance_to(
+    ctx: &SceneContext,
+    a: &Vertex,
+    b: Vec3,
+    b_ng: Vec3,
+    stack: MediumStack,
+    light: Option<usize>,
+    ray: RayMask,
+) -> Rgb {
+    let d = b - a.p;
     let dist = d.length();
     if !(dist > 0.0) {
         return Rgb::ZERO;
     }
     let wi = d / dist;
     // The target's normal on the side facing `a` (the shadow ray stops just short of it).
-    let normal = if b.ng == Vec3::ZERO {
+    let normal = if b_ng == Vec3::ZERO {
         Vec3::ZERO
-    } else if b.ng.dot(wi) <= 0.0 {
-        b.ng
+    } else if b_ng.dot(wi) <= 0.0 {
+        b_ng
     } else {
-        -b.ng
+        -b_ng
     };
-    let target = LightSample { wi, dist, li: Rgb::ZERO, pdf: 0.0, delta: false, point: b.p, normal };
+    let target = LightSample { wi, dist, li: Rgb::ZERO, pdf: 0.0, delta: false, point: b, normal };
     let ng = (a.ng != Vec3::ZERO).then_some(a.ng);
     crate::integrator::media::light_transmittance_as(
         ctx,
