@@ -401,6 +401,7 @@ impl BdptIntegrator {
     /// at infinity (the world or a sun, sampled as `ls`), over every strategy: the light
     /// vertex's density from the light side is the light's choice times the direction's
     /// density (that of `ls`: light subpaths draw directions from the same distribution).
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn weight_s1_infinite(
         &self,
         ctx: &SceneContext,
