@@ -682,6 +682,8 @@ def needs_graph(material, graph):
         return True  # the exporter reads every image as UV-mapped
     if any("tiles" in n["props"] for n in graph.nodes):
         return True  # the exporter writes a UDIM image's first tile only
+    if _shows_sequence(material, graph):
+        return True  # the exporter copies the image's own file, not the frame the node shows
     if _raw_walk_has_group_or_mute(cycles_output(material)):
         return True
     if _ignored_link_into(material, graph):
@@ -701,6 +703,21 @@ def needs_graph(material, graph):
                 return True
             if item["link"][1] == "Alpha" and _alpha_ignored(graph, source):
                 return True  # the exporter reads the stored alpha; the graph's image writes 1
+    return False
+
+
+def _shows_sequence(material, graph):
+    """Whether an Image Texture node of `graph` shows an image sequence or a movie: Cycles reads
+    the frame its Image User picks at the scene's frame (the graph writes that frame's file,
+    image_frames.py, or warns), where the glTF exporter copies the file the image names."""
+    tree = getattr(material, "node_tree", None)
+    if tree is None:
+        return False
+    for entry in graph.nodes:
+        node = tree.nodes.get(entry["name"]) if entry["type"] == "ShaderNodeTexImage" else None
+        image = getattr(node, "image", None)
+        if image is not None and image.source in {"SEQUENCE", "MOVIE"}:
+            return True
     return False
 
 

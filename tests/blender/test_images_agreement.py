@@ -27,6 +27,10 @@ pytest -s; after: 0.9984-1.0022, no block over its bound):
 * sequence_offset: a two-frame image sequence shown with an Image User offset of 1: the add-on
   found no pixels and rendered the missing-image colour (7.5254 0.0000 3.3442, with
   warnings); now the frame Blender picks (Start, Offset, Frames, Cyclic) is written.
+* sequence_principled: the same sequence into a Principled BSDF's Base Color: the glTF exporter
+  did not carry the frame (Caustic rendered the missing-image colour): 5.2316 3.1519 2.8893 (108
+  of 108 blocks over; sweep 4's image_sequence_frame at frame 4: 1.4907 1.6010 1.5698, 16 of 48),
+  silently; now such a material goes as its node graph, which writes the frame Blender picks.
 * clip_edge: Extension Clip, the image shown at half size in the middle of the plane: Cycles'
   linear filter fades out over half a texel past the edge, where Caustic cut at the edge:
   0.9886 0.9884 0.9913 (13 of 108 blocks over), silently.
@@ -201,6 +205,14 @@ def sequence_material(folder, name):
     return mat
 
 
+def sequence_principled(folder, name):
+    """The sequence into a Principled BSDF's Base Color, the node showing its second frame."""
+    mat = principled_image(sequence)(folder, name)
+    user = next(n for n in mat.node_tree.nodes if n.type == "TEX_IMAGE").image_user
+    user.frame_duration, user.frame_offset = 2, 1
+    return mat
+
+
 def clipped(folder, name):
     """A Diffuse BSDF coloured by the image with Extension Clip, UVs scaled 2x about the centre
     (the image covers the middle half of the plane; black around it)."""
@@ -328,6 +340,7 @@ CASES = {
         lambda folder, name: image_file(os.path.join(folder, f"{name}.exr"), "OPEN_EXR", "32", alpha=True,
                                         float_buffer=True))),
     "sequence_offset": (nodes.flat_scene, sequence_material),
+    "sequence_principled": (nodes.flat_scene, sequence_principled),
     "clip_edge": (nodes.flat_scene, clipped),
     "udim_tiles": (udim_scene, diffuse_image(udim)),
     "texture_limit_graph": (simplified(nodes.flat_scene), diffuse_image(fine_checker)),
