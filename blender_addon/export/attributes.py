@@ -135,7 +135,8 @@ def add_mesh_attributes(blender_attributes, state):
     mesh.loops.foreach_get("vertex_index", corner_verts)
     added = []
     for kind, name in requests:
-        values = corner_values(mesh, kind, name, corner_verts, state.warnings, what)
+        values = corner_values(mesh, kind, name, corner_verts, state.warnings, what,
+                               getattr(creator, "blender_vertex_groups", None))
         if values is None:
             continue
         gltf_name = semantic(kind, name)
@@ -156,9 +157,11 @@ def _entry(creator, gltf_name, values):
             "len": width, "type": np.float32, "get": get}
 
 
-def corner_values(mesh, kind, name, corner_verts, warnings, what):
+def corner_values(mesh, kind, name, corner_verts, warnings, what, vertex_groups=None):
     """The request's values per corner of `mesh` as a float32 (corners, components) array, or
-    None where Cycles does not find it either (then 0)."""
+    None where Cycles does not find it either (then 0). A name that is no attribute but one of
+    `vertex_groups` (the object's) reads that group's weights, as Cycles, which is handed the
+    vertex groups among the mesh's attributes."""
     if kind == POINTINESS:
         return pointiness(mesh)[corner_verts][:, None]
     if kind == RANDOM_PER_ISLAND:
@@ -169,7 +172,10 @@ def corner_values(mesh, kind, name, corner_verts, warnings, what):
             return None
     attribute = mesh.attributes.get(name) if name else None
     if attribute is None:
-        return None  # the renderer names the material and node reading it
+        group = vertex_groups.get(name) if vertex_groups is not None and name else None
+        if group is None:
+            return None  # the renderer names the material and node reading it
+        return vertex_group_weights(mesh, group.index)[corner_verts][:, None]
     if attribute.data_type not in _TYPES:
         warnings.append(f"{what}: attribute '{name}' is of type {attribute.data_type}, which Cycles does not "
                         "read either: it reads 0")
@@ -200,6 +206,18 @@ def corner_values(mesh, kind, name, corner_verts, warnings, what):
                         "infinite values, written as 0")
         values = np.where(bad, np.float32(0.0), values)
     return np.ascontiguousarray(values, dtype=np.float32)
+
+
+def vertex_group_weights(mesh, group_index):
+    """Each vertex's weight in vertex group `group_index`, 0 where it is not in the group (a
+    point-domain float, as Blender's attribute API gives a vertex group to Cycles). Blender has
+    no bulk accessor for the weights: one Python pass over the vertices' memberships."""
+    weights = np.zeros(len(mesh.vertices), dtype=np.float32)
+    for vertex in mesh.vertices:
+        for element in vertex.groups:
+            if element.group == group_index:
+                weights[vertex.index] = element.weight
+    return weights
 
 
 def _corner_bytes_converted(linear):

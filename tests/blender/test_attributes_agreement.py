@@ -25,7 +25,9 @@ R, G, B's image mean within 5 sigma of the two engines' noise + 1 % of Cycles' m
 * `pointiness`: a jittered icosphere on a floor, Pointiness through a ColorRamp: Cycles'
   pointiness is per vertex, so only the mean is compared (R, G, B), as the brief asks;
 * `random_per_island`: twelve separate quads (twelve islands) of one mesh, Random Per Island
-  through a ColorRamp.
+  through a ColorRamp;
+* `vertex_group`: a vertex group's weights read by name (sweep 4: Caustic read 0, with the
+  renderer's missing-attribute warning).
 
 Measured Caustic/Cycles mean ratios R/G/B, before (main's binary and add-on: each read COLOR_0
 or 0, with a warning) and now; and the worst 4x4 block in units of its bound:
@@ -42,6 +44,7 @@ or 0, with a warning) and now; and the worst 4x4 block in units of its bound:
 | missing_attributes | 1.0000 4.9998 4.9998, 65.1x | 1.0000 1.0000 1.0000, 0.16x |
 | pointiness (means) | 0.5247 0.7173 1.5425 | 0.9968 0.9973 0.9984 |
 | random_per_island | 0.2091 0.2532 2.5314, 27.5x | 0.9990 0.9982 1.0010, 0.32x |
+| vertex_group | 0.1457 0.2372 2.0720, 35.1x | 0.9999 0.9998 0.9999, 0.13x |
 
 `test_no_attribute_warning_is_left`: main warned in every case (the export: "not exported by
 name"; the renderer: "read as the mesh's colour attribute (COLOR_0)", "the Pointiness output
@@ -377,6 +380,22 @@ def random_per_island(scene):
     flat_view(scene)
 
 
+def vertex_group(scene):
+    """A vertex group's weights (the wave, painted per vertex) read by name as a Geometry
+    attribute: Cycles is handed vertex groups among the mesh's attributes."""
+    mat = new_material("Weights")
+    tree = mat.node_tree
+    diffuse_from(mat, ramp(tree, attribute_node(tree, "painted").outputs["Fac"], STOPS))
+    obj = grid_mesh(scene, "Grid", mat, n=12)
+    group = obj.vertex_groups.new(name="painted")
+    for v in obj.data.vertices:
+        x, y = v.co.x, v.co.y
+        weight = 0.5 + 0.45 * math.sin(3.0 * x + 2.0 * y)
+        if weight > 0.2:  # vertices outside the group read 0
+            group.add([v.index], weight, "REPLACE")
+    flat_view(scene)
+
+
 CASES = {
     "float_point": float_point,
     "vector_point": vector_point,
@@ -388,6 +407,7 @@ CASES = {
     "missing_attributes": missing_attributes,
     "pointiness": pointiness,
     "random_per_island": random_per_island,
+    "vertex_group": vertex_group,
 }
 # Cases compared by their means only (Cycles' per-vertex pointiness: the brief's rule).
 MEANS_ONLY = {"pointiness"}
