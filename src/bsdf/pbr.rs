@@ -980,12 +980,12 @@ pub(super) fn bump_shadowing(ns: Vec3, n: Vec3, wi: Vec3, alpha2: f32) -> f32 {
 }
 
 /// The bump terminator's GGX α² for a diffuse lobe on unit normal `n` over the interpolated
-/// unit normal `ns`: the deviation θd read as a roughness, min(tan²θd / 8, 1); None where
-/// they agree (or are perpendicular).
+/// unit normal `ns`: the deviation θd read as a roughness, min(tan²θd / 8, 1) (1 where they
+/// are perpendicular, as Cycles' `saturatef` of the infinite tangent); None where they agree.
 #[inline]
 pub fn bump_alpha2(ns: Vec3, n: Vec3) -> Option<f32> {
     let cos_d = ns.dot(n).abs().min(1.0);
-    (cos_d < 1.0 && cos_d > 0.0).then(|| (0.125 * (1.0 / (cos_d * cos_d) - 1.0)).min(1.0))
+    (cos_d < 1.0).then(|| if cos_d > 0.0 { (0.125 * (1.0 / (cos_d * cos_d) - 1.0)).min(1.0) } else { 1.0 })
 }
 
 /// Mirrors both directions to the upper hemisphere when `wo` is below it, which makes

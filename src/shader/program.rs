@@ -315,6 +315,9 @@ impl Program {
                     }
                     _ => c,
                 };
+                // Cycles negates an object- or world-space normal on a back face (the tangent
+                // case is built on the front face and turned above).
+                let mapped = if space != 0 && g.backfacing { -mapped } else { mapped };
                 let mapped = ops::safe_normalize(mapped);
                 let s = r[strength as usize].max(0.0);
                 let y = ops::safe_normalize(n + (mapped - n) * s);

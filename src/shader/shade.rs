@@ -117,7 +117,7 @@ pub fn shade_nodes(
     // Shading normal: the closures' first linked normal, else the interpolated one, on the
     // viewer's side and bent toward the viewer as the glTF path does. In a mixture it is only
     // the frame the integrators see: each closure has its own normal within it.
-    let facing = |m: Vec3| if m.dot(s.ng) < 0.0 { -m } else { m };
+    let facing = |m: Vec3| viewer_side(s, m);
     let principled_only = c.pbr_w[0] > 0.0 && c.pbr_w[1] <= 0.0 && c.mix.n == 0;
     // A mixture's frame is the normal of closures without a Normal input (the interpolated
     // one, or the Material Output's bump): the integrators decide reflection against
@@ -178,6 +178,17 @@ pub fn shade_nodes(
     ShadingPoint { bsdf, frame, emitted, holdout: c.holdout * keep }
 }
 
+/// A closure's Normal input `m` as Cycles uses it at hit `s`: on a front face as it is, even
+/// below the surface (a normal map bent past the horizon: its diffuse closure then sees only
+/// the light the bump terminator term lets through, its glossy ones are bent back by
+/// `valid_reflection_normal`); on a back face turned to the viewer's side when it points away,
+/// as Cycles' Normal Map and Bump nodes negate what they give there. Turning it on front faces
+/// too lit a world-space normal map's below-horizon texels (a cube 1.04-1.08 of Cycles).
+#[inline]
+fn viewer_side(s: &SurfaceHit, m: Vec3) -> Vec3 {
+    if !s.front && m.dot(s.ng) < 0.0 { -m } else { m }
+}
+
 /// `inner` (world axes) within `outer`: None where they are the same frame.
 #[inline]
 fn within(outer: &Frame, inner: Frame) -> Option<Frame> {
@@ -195,7 +206,7 @@ fn within(outer: &Frame, inner: Frame) -> Option<Frame> {
 /// closures (Diffuse, Sheen, Toon Diffuse, each Principled BSDF's diffuse base) on the unbent
 /// normal, shadowed by the bump terminator term where it is not the interpolated normal.
 fn mixture(c: &Closures, s: &SurfaceHit, wo: Vec3, frame: &Frame, keep: f32) -> MixBsdf {
-    let facing = |m: Vec3| if m.dot(s.ng) < 0.0 { -m } else { m };
+    let facing = |m: Vec3| viewer_side(s, m);
     let default_n = c.default_normal_world().map_or(s.ns, facing);
     // The bump terminator's reference is Cycles' sd->N: the interpolated normal, or the
     // Material Output's bump, which Cycles writes into sd->N before the surface runs (a

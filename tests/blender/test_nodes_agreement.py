@@ -519,6 +519,33 @@ def normal_map(tree):
     return node.outputs["Normal"]
 
 
+def normal_map_below_horizon(space):
+    """A maker of normals: a `space` (World or Object) normal map of stripes, straight up and
+    tilted 100 degrees towards -X, past the flat plane's horizon. Cycles keeps such a normal
+    as it is (its diffuse closure sees no light there); Caustic turned it to the viewer's
+    side, where it was lit (sweep 4: a world-space normal map on a cube 1.04 of Cycles)."""
+    def make(tree):
+        size = 16
+        image = bpy.data.images.new(f"Past {space}", size, size)
+        image.colorspace_settings.name = "Non-Color"
+        s, c = math.sin(math.radians(100.0)), math.cos(math.radians(100.0))
+        pixels = []
+        for y in range(size):
+            for x in range(size):
+                n = (-s, 0.0, c) if (x // 4) % 2 else (0.0, 0.0, 1.0)
+                pixels += [0.5 * n[0] + 0.5, 0.5 * n[1] + 0.5, 0.5 * n[2] + 0.5, 1.0]
+        image.pixels.foreach_set(pixels)
+        image.pack()
+        tex = tree.nodes.new("ShaderNodeTexImage")
+        tex.image = image
+        tex.interpolation = "Closest"
+        node = tree.nodes.new("ShaderNodeNormalMap")
+        node.space = space
+        tree.links.new(tex.outputs["Color"], node.inputs["Color"])
+        return node.outputs["Normal"]
+    return make
+
+
 def float_image(name):
     """A maker: a 16x16 float image (Linear Rec.709) with red rising to 2.5 across U, green
     a fine gradient (0.5 + 1/4000 steps, finer than 8 bits) across V, blue 1.8, scaled by 0.4
@@ -717,6 +744,8 @@ CASES = {
     "image_float": (flat_scene, float_image, None),
     "bump": (flat_scene, grey_with_normal(bump), None),
     "normal_map": (flat_scene, grey_with_normal(normal_map), None),
+    "normal_map_world_below_horizon": (flat_scene, grey_with_normal(normal_map_below_horizon("WORLD")), None),
+    "normal_map_object_below_horizon": (flat_scene, grey_with_normal(normal_map_below_horizon("OBJECT")), None),
     "displacement_as_bump": (flat_scene, displaced, None),
     "blackbody": (flat_scene, blackbody_gradient, None),
     "negative_emission": (flat_scene, negative_emission, None),

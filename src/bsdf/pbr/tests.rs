@@ -416,6 +416,20 @@ fn bump_shadowing_of_the_diffuse_base() {
     assert!(n.dot(under) > 0.0 && bump_shadowing(ns, n, under, alpha2) == 0.0);
 }
 
+/// The terminator's roughness as Cycles' `bump_shadowing_term` reads the deviation: none
+/// where the normals agree, tan²θd / 8 up to 1, and 1 where they are perpendicular (Cycles'
+/// saturated infinite tangent; this returned None there, so a normal map's normal at right
+/// angles to the surface was neither shadowed nor smoothed).
+#[test]
+fn bump_alpha2_as_cycles() {
+    assert_eq!(bump_alpha2(Vec3::Z, Vec3::Z), None);
+    let t = 30f32.to_radians();
+    let a = bump_alpha2(Vec3::Z, Vec3::new(t.sin(), 0.0, t.cos())).unwrap();
+    assert!((a - t.tan().powi(2) / 8.0).abs() < 1e-6, "{a}");
+    assert_eq!(bump_alpha2(Vec3::Z, Vec3::X), Some(1.0));
+    assert_eq!(bump_alpha2(Vec3::Z, Vec3::new(0.0, 0.99, -0.141).normalize()), Some(1.0));
+}
+
 /// White furnace of the dielectric layer: a white base under the layer reflects exactly what
 /// the layer leaves it, so the albedo is 1 at every roughness, IOR and angle, within 5
 /// standard errors of the sampled estimate plus the layer table's error scaled by the
