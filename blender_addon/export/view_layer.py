@@ -2,8 +2,8 @@
 nothing of the view layer's excluded collections, which Cycles leaves out. An object is in
 the layer when one of its collections is (Blender's rule: the layer's collection tree,
 an excluded collection taking its children with it); the exporter's tree is filtered by
-that (`drop_objects_outside`, from the exporter's filter hook), except inside instances,
-whose source collection is often excluded on purpose.
+that (`drop_objects_outside`, from the exporter's filter hook); inside instances, whose source
+collection is often excluded on purpose, by the outermost instancer's.
 """
 
 
@@ -22,16 +22,21 @@ def included_collections(view_layer):
     return included
 
 
-def _inside_an_instance(vtree, uuid):
-    """Whether the node is part of an instanced collection or an instancer's children: its
-    visibility is its instancer's (the instanced collection is often excluded on purpose)."""
+def _outermost_instancer(vtree, uuid):
+    """The outermost instancer above the node (it is part of an instanced collection or an
+    instancer's children), or None: the node's visibility is that instancer's (the instanced
+    collection is often excluded on purpose). Not the nearest one: an instancer inside an
+    excluded collection that an instance shows is also walked from the tree's root, and what
+    it instances there goes with it (a nested collection instance's contents were rendered a
+    second time at the scene's origin)."""
+    found = None
     parent = vtree.nodes[uuid].parent_uuid
     while parent is not None:
         node = vtree.nodes[parent]
         if node.blender_type == node.INST_COLLECTION or node.is_instancer:
-            return True
+            found = node
         parent = node.parent_uuid
-    return False
+    return found
 
 
 def drop_objects_outside(vtree, depsgraph):
@@ -44,9 +49,13 @@ def drop_objects_outside(vtree, depsgraph):
         obj = node.blender_object
         if obj is None or not node.keep_tag or getattr(obj, "type", None) == "CAMERA":
             continue
-        if node.blender_bone is not None or _inside_an_instance(vtree, uuid):
+        if node.blender_bone is not None:
             continue
-        if not any(c.as_pointer() in included for c in obj.users_collection):
+        instancer = _outermost_instancer(vtree, uuid)
+        owner = obj if instancer is None else instancer.blender_object
+        if owner is None:
+            continue
+        if not any(c.as_pointer() in included for c in owner.users_collection):
             node.keep_tag = False
             dropped.append(obj.name)
     return dropped

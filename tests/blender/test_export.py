@@ -307,6 +307,42 @@ def test_excluded_collections_are_left_out_but_their_instances_render(empty_scen
     assert names.count("AssetLamp") == 1, names
 
 
+def test_nested_collection_instances_render_once(empty_scene, captured):
+    """An excluded collection "Outer" of two instancers of the excluded "Inner" (a cube),
+    itself instanced twice: Cycles renders the cube 4 times (2 x 2). The exporter also walks
+    Outer's instancers from the tree's root; the view layer filter dropped those but kept what
+    they instance, which the exporter then put at the root: 6 cubes (sweep 4's
+    nested_collection_instances: B 1.0175 of Cycles, 2 of 48 blocks off)."""
+    scene = empty_scene
+    scenes.small_render_settings(scene, 8, 6, samples=1)
+    scenes.camera(scene, (0, -4, 3), (60, 0, 0))
+    scenes.light(scene, "Sun", "SUN", energy=1.0)
+    layers = scene.view_layers[0].layer_collection.children
+    inner = bpy.data.collections.new("Inner")
+    scene.collection.children.link(inner)
+    cube = scenes.cube(scene, "Box", 0.3, (0, 0, 0))
+    scene.collection.objects.unlink(cube)
+    inner.objects.link(cube)
+    outer = bpy.data.collections.new("Outer")
+    scene.collection.children.link(outer)
+    for name, parent, collection, x in (("In0", outer, inner, -0.5), ("In1", outer, inner, 0.5),
+                                        ("Out0", scene.collection, outer, -2.0),
+                                        ("Out1", scene.collection, outer, 2.0)):
+        empty = bpy.data.objects.new(name, None)
+        empty.instance_type = "COLLECTION"
+        empty.instance_collection = collection
+        empty.location = (x, 0, 0)
+        parent.objects.link(empty)
+    layers["Inner"].exclude = True
+    layers["Outer"].exclude = True
+
+    (gltf,) = captured()
+    meshes = [n.get("name") for n in gltf["nodes"] if "mesh" in n]
+    assert meshes == ["Box"] * 4, [n.get("name") for n in gltf["nodes"]]
+    roots = [gltf["nodes"][i].get("name") for i in gltf["scenes"][0]["nodes"]]
+    assert "Box" not in roots and "In0" not in roots, roots
+
+
 def test_object_ray_visibility_is_exported(empty_scene, captured):
     """An object's Ray Visibility flags that are off, its Holdout (its own or its
     collection's in the view layer), an Indirect Only collection's (camera off) and its Shadow
