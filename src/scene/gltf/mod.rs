@@ -753,8 +753,9 @@ impl<'a> Loader<'a> {
             .collect();
         for name in ray_visibility.emitters_lighting_hidden_kinds(|t| emissive.contains(&t)) {
             let w = format!(
-                "object '{name}': emits light and is hidden from diffuse, glossy or transmitted rays; next-event \
-                 estimation still lights every surface from it, so only its BSDF-sampled light is missing"
+                "object '{name}': emits light and is hidden from diffuse, glossy, transmitted or volume-scattered \
+                 rays; next-event estimation still lights every surface and volume from it (Cycles leaves the hidden \
+                 kinds out), so only its BSDF-sampled light is missing"
             );
             self.warn(w);
         }
