@@ -141,6 +141,9 @@ pub struct HairLobes {
     pub n: u8,
     /// The strand's surface normal at the hit, in the fibre's frame (Cycles' `bsdf->N`).
     pub normal: Vec3,
+    /// On a triangle, the shading point's normal (Cycles' `sd->N`) where the lobes' normal is
+    /// bent away from it: the evaluation is cut as `hair::BumpCut` says; None on a strand.
+    pub smooth: Option<Vec3>,
 }
 
 impl HairLobes {
@@ -149,6 +152,7 @@ impl HairLobes {
         lobes: [HairLobe { weight: Rgb::ZERO, transmission: false, offset: 0.0, r1: 1.0, r2: 1.0 }; 2],
         n: 0,
         normal: Vec3::Z,
+        smooth: None,
     };
 
     /// The lobes at offset `h` across the fibre: the surface normal there.
@@ -175,6 +179,12 @@ impl HairLobes {
         &self.lobes[..self.n as usize]
     }
 
+    /// True when Cycles' evaluation gives nothing toward `wi` (`hair::BumpCut`).
+    #[inline]
+    fn cuts(&self, wi: Vec3) -> bool {
+        self.smooth.is_some_and(|ns| crate::bsdf::hair::BumpCut { ns, n: self.normal }.cuts(wi))
+    }
+
     /// Each lobe's share of the samples: its weight's mean, normalised.
     fn selection(&self) -> [f32; 2] {
         let grey = |l: &HairLobe| ((l.weight.x + l.weight.y + l.weight.z) / 3.0).max(0.0);
@@ -190,7 +200,7 @@ impl HairLobes {
     /// f(wo, wi): Cycles' value over |cos θ| to the frame's z.
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
         let c = wi.z.abs();
-        if c < 1e-7 {
+        if c < 1e-7 || self.cuts(wi) {
             return Rgb::ZERO;
         }
         self.used().iter().fold(Rgb::ZERO, |f, l| f + l.weight * l.pdf(wo, wi, self.normal)) / c
@@ -198,6 +208,9 @@ impl HairLobes {
 
     /// Density with which `sample` picks wi.
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        if self.cuts(wi) {
+            return 0.0;
+        }
         let s = self.selection();
         self.used().iter().zip(s).map(|(l, s)| if s > 0.0 { s * l.pdf(wo, wi, self.normal) } else { 0.0 }).sum()
     }

@@ -4,7 +4,8 @@
 //!
 //! Cycles' fibre (`bsdf_hair_chiang_setup`): X = dPdu, Y = X × wi, Z = X × Y and
 //! h = (Ng × X)·Z, Ng the geometric normal on the viewer's side; on a triangle dPdu = p1 − p0
-//! and dPdv = p2 − p0 in its corner order (`triangle_dPdudv`), which is the exporter's (the
+//! and dPdv = p2 − p0 in its corner order (`triangle_dPdudv`; both turned round on a back face,
+//! which the cuticle tilt reads), which is the exporter's (the
 //! mesh's loop triangles) but on a mirrored instance, where the loader turns corners 1 and 2
 //! (`gltf/mesh.rs`) and the two tangents trade places. The Hair BSDF (`svm_node_closure_bsdf`)
 //! takes T = dPdv on a triangle, no Offset, and cuts its lobes at the shading normal.
@@ -19,6 +20,7 @@
 //! and never meets it, as Cycles skips the primitive a ray leaves.
 
 use crate::bsdf::Bsdf;
+use crate::bsdf::hair::BumpCut;
 use crate::curves::shade::hair_frame;
 use crate::math::{Frame, Rgb};
 use crate::scene::Scene;
@@ -40,29 +42,44 @@ pub fn hair_on_triangle(
     holdout: f32,
 ) -> ShadingPoint {
     let ([p0, p1, p2], _) = scene.corners(s.tri);
+    // Cycles turns dPdu and dPdv round with the normals on a back face: the fibre's root-to-tip
+    // sense, which the Principled Hair BSDF's cuticle tilt (Offset) reads, follows the viewer's side.
+    let sense = if s.front { 1.0 } else { -1.0 };
     let (bsdf, frame) = match c.hair_params() {
         Some(params) => {
-            let frame = Frame::from_normal_tangent(s.ng, p1 - p0);
+            let frame = Frame::from_normal_tangent(s.ng, (p1 - p0) * sense);
             // Cycles' Z is the hair frame's −z (`hair_frame`): away from the viewer.
             let h = s.ng.cross(frame.s).dot(-hair_frame(frame.s, wo).n);
-            (Bsdf::Hair(params.at(h).weighted(Rgb::splat(c.hair_w * keep))), frame)
+            let mut bsdf = params.at(h).weighted(Rgb::splat(c.hair_w * keep));
+            // Cycles' closure normal is its Y = X × wi (`BumpCut`).
+            let y = frame.s.cross(wo).normalize_or(frame.t);
+            bsdf.cut = Some(BumpCut { ns: frame.to_local(shading_normal(c, s)), n: frame.to_local(y) });
+            (Bsdf::Hair(bsdf), frame)
         }
         None => {
-            let frame = Frame::from_normal_tangent(s.ng, p2 - p0);
+            let frame = Frame::from_normal_tangent(s.ng, (p2 - p0) * sense);
             let mut lobes = c.hair_lobes;
             for l in &mut lobes.lobes {
                 l.weight *= keep;
                 l.offset = 0.0;
             }
-            // Cycles' `bsdf->N`: the shading normal (the Material Output's bump), bent for a
-            // valid reflection.
-            let facing = |m: Vec3| if m.dot(s.ng) < 0.0 { -m } else { m };
-            let n = c.default_normal_world().map_or(s.ns, facing);
-            lobes.normal = frame.to_local(valid_reflection_normal(s.ng, wo, n));
+            // Cycles' `bsdf->N`: the shading normal, bent for a valid reflection; where it is
+            // bent, Cycles cuts the evaluation by it (`BumpCut`).
+            let n = shading_normal(c, s);
+            let bent = valid_reflection_normal(s.ng, wo, n);
+            lobes.normal = frame.to_local(bent);
+            lobes.smooth = (bent != n).then(|| frame.to_local(n));
             (Bsdf::HairLobes(lobes), frame)
         }
     };
     ShadingPoint { bsdf, frame, emitted, holdout }
+}
+
+/// Cycles' `sd->N` at triangle hit `s`: the interpolated normal, or the Material Output's
+/// bump, on the viewer's side.
+fn shading_normal(c: &Closures, s: &SurfaceHit) -> Vec3 {
+    let facing = |m: Vec3| if m.dot(s.ng) < 0.0 { -m } else { m };
+    c.default_normal_world().map_or(s.ns, facing)
 }
 
 /// The share of a point's samples the hair closures take where a mesh mixes them with other
