@@ -113,21 +113,3 @@ fn curves_info_reads_each_strand_in_every_integrator() {
         assert!((top * std::f64::consts::PI - 1.0).abs() < 0.05, "{integrator}: Length gives blue {top}");
     }
 }
-
-/// A mesh wearing a Principled Hair BSDF is named: hair closures render on strands only.
-#[test]
-fn hair_closures_on_a_mesh_are_named() {
-    let dir = temp_dir();
-    let d = dir.path();
-    let mut g = GltfBuilder::new();
-    let nodes =
-        json!([{"name": "Hair", "type": "ShaderNodeBsdfHairPrincipled", "props": {"parametrization": "COLOR"}}]);
-    let material = g.material(json!({"name": "Fur", "extensions": {"CAUSTIC_materials_nodes":
-        {"version": 1, "nodes": nodes, "output": {"surface": [0, "BSDF"]}}}}));
-    g.use_ext("CAUSTIC_materials_nodes");
-    g.mesh(&[[-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [1.0, 1.0, 0.0]], &[0, 1, 2], material);
-    g.orthographic([0.0, 0.0, 3.0], [0.0, 0.0, 0.0, 1.0], 1.0, 1.0);
-    let scene = g.write(d, "mesh.gltf");
-    let warnings = common::quick_render_warnings(&scene, &d.join("o.exr"), &[], LIMIT);
-    assert!(warnings.iter().any(|w| w.contains("'Fur'") && w.contains("strands only")), "{warnings:?}");
-}

@@ -81,6 +81,31 @@ pub struct HairBsdf {
     radial: f32,
     /// The closure's weight (a shader graph's mix weights; 1 from `CAUSTIC_materials_hair`).
     pub weight: Rgb,
+    /// On a triangle, Cycles' cut of evaluated light (`BumpCut`); None on a strand.
+    pub cut: Option<BumpCut>,
+}
+
+/// Cycles' `bump_shadowing_term` as it acts on a closure whose normal is not the shading
+/// point's (`sd->N`): on a triangle (not a strand) the evaluation, never the sampling, is 0 for
+/// a light direction on the other side of the closure's normal than of `sd->N` seen from it
+/// (cos(Ns, I) · cos(Ns, N) · cos(N, I) < 0). A hair closure's normal is its own (the Principled
+/// Hair BSDF's is Y = X × wi, across the fibre and the view), so light sampling (and every
+/// connection) gives no light from about half the directions, while a sampled bounce carries
+/// its full value; Cycles' path tracer weighs the two by MIS, and so does Caustic's.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BumpCut {
+    /// The shading point's normal (Cycles' `sd->N`), in the frame.
+    pub ns: Vec3,
+    /// The closure's normal (Cycles' `sc->N`), in the frame.
+    pub n: Vec3,
+}
+
+impl BumpCut {
+    /// True when Cycles' evaluation gives nothing toward `wi`.
+    #[inline]
+    pub fn cuts(&self, wi: Vec3) -> bool {
+        self.ns.dot(wi) * self.ns.dot(self.n) * self.n.dot(wi) < 0.0
+    }
 }
 
 /// Absorption of melanin concentrations (Cycles' `sigma_from_concentration`).
@@ -126,6 +151,7 @@ impl HairBsdf {
             h: h.clamp(-1.0, 1.0),
             radial,
             weight: Rgb::ONE,
+            cut: None,
         }
     }
 
@@ -192,14 +218,18 @@ impl HairBsdf {
     /// f(wo, wi): Cycles' value over |cos θ| to the frame's z, which the integrator multiplies back.
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
         let c = wi.z.abs();
-        if c < 1e-7 {
+        if c < 1e-7 || self.cut.is_some_and(|k| k.cuts(wi)) {
             return Rgb::ZERO;
         }
         self.value_and_pdf(&self.lobes(wo), wi).0 * self.weight / c
     }
 
-    /// Density with which `sample` picks wi.
+    /// Density with which `sample` picks wi (0 where the evaluation is cut, as Cycles' pdf
+    /// beside a cut evaluation).
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        if self.cut.is_some_and(|k| k.cuts(wi)) {
+            return 0.0;
+        }
         self.value_and_pdf(&self.lobes(wo), wi).1
     }
 
@@ -454,5 +484,35 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Cycles' cut (`BumpCut`) zeroes the evaluation and its density toward directions on the
+    /// other side of the closure's normal than of the shading normal, and only there, while
+    /// sampling keeps its value there (Cycles cuts no sampled bounce).
+    #[test]
+    fn the_cut_acts_on_evaluation_alone() {
+        let mut b = HairBsdf::new(Rgb::new(0.3, 0.6, 1.2), 0.3, 0.3, 0.0, 0.035, 1.55, 0.2);
+        let wo = Vec3::new(0.3, 0.1, 0.9).normalize();
+        let cut = BumpCut { ns: Vec3::new(0.2, 0.0, 1.0).normalize(), n: Vec3::new(0.0, 1.0, 0.1).normalize() };
+        let uncut = b;
+        b.cut = Some(cut);
+        let mut rng = Pcg32::new(4);
+        let (mut cut_samples, mut kept) = (0, 0);
+        for _ in 0..2000 {
+            let wi = Vec3::new(rng.next_f32() - 0.5, rng.next_f32() - 0.5, rng.next_f32() - 0.5).normalize();
+            if cut.cuts(wi) {
+                assert_eq!((b.eval(wo, wi), b.pdf(wo, wi)), (Rgb::ZERO, 0.0));
+            } else {
+                assert_eq!((b.eval(wo, wi), b.pdf(wo, wi)), (uncut.eval(wo, wi), uncut.pdf(wo, wi)));
+                kept += 1;
+            }
+            let u = Vec2::new(rng.next_f32(), rng.next_f32());
+            let uc = rng.next_f32();
+            let (s, t) = (b.sample(wo, uc, u), uncut.sample(wo, uc, u));
+            assert_eq!(s.map(|x| (x.0, x.1, x.2)), t.map(|x| (x.0, x.1, x.2)));
+            cut_samples += s.is_some_and(|x| cut.cuts(x.0)) as usize;
+        }
+        // Both kinds of direction were met (about half kept; 76 of the samples fell in the cut).
+        assert!(kept > 500 && cut_samples > 0, "{kept} kept, {cut_samples} samples in the cut");
     }
 }

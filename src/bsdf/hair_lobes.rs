@@ -5,10 +5,13 @@
 //! lobe's value (f·cos, Cycles' convention) is its weight times its sampling density, so
 //! that a sampled direction carries exactly the weight.
 //!
-//! Frame: as `hair.rs`, x along the fibre, z across it toward the viewer (Cycles' `locy`),
-//! y = z × x. Reflection is zero where the direction is behind the fibre (cos φ < 0) or below
-//! the strand's surface normal at the hit (Cycles' `bsdf->N`: the round normal, (0, h, √(1−h²))
-//! for the offset h across the fibre), Transmission where it is above that normal. Cycles' reflection samples azimuths up to π × RoughnessV but evaluates only
+//! Frame: x along the fibre (Cycles' `T`); the azimuths are measured from the viewer's
+//! direction across the fibre (Cycles' `locy`, wo without its x part), so that a strand's
+//! frame (z across the fibre toward the viewer, `hair_frame`) and a triangle's (z its normal,
+//! x its Cycles tangent `dPdv`: `shader::mesh_hair`) both serve. Reflection is zero where the
+//! direction is behind the fibre (cos φ < 0) or below the surface normal at the hit (Cycles'
+//! `bsdf->N`: a strand's round normal, (0, h, √(1−h²)) for the offset h across the fibre; a
+//! triangle's shading normal), Transmission where it is above that normal. Cycles' reflection samples azimuths up to π × RoughnessV but evaluates only
 //! those within π/2: above RoughnessV 0.5 its samples reach directions its evaluation (and so
 //! next-event estimation) gives zero; Caustic does the same (`sample` returns them with their
 //! sampled value), so both renderers compute the same estimate.
@@ -78,7 +81,8 @@ impl HairLobe {
         if FRAC_PI_2 - theta_i.abs() < 0.001 || !(across > 0.0) {
             return 0.0;
         }
-        let cos_phi = (wi.z / across).clamp(-1.0, 1.0);
+        let (ly, lz) = view_azimuth(wo);
+        let cos_phi = ((wi.y * ly + wi.z * lz) / across).clamp(-1.0, 1.0);
         let phi_pdf = if self.transmission {
             let p = PI - cos_phi.acos();
             self.r2 / (self.c_tt() * (p * p + self.r2 * self.r2))
@@ -110,11 +114,21 @@ impl HairLobe {
         if FRAC_PI_2 - theta_i.abs() < 0.001 {
             return None;
         }
+        // Cycles' cos φ cos θ locy − sin φ cos θ locx + sin θ T, with locx = locy × T.
         let (sin_p, cos_p) = phi.sin_cos();
-        let wi = Vec3::new(sin_t, -sin_p * cos_t, cos_p * cos_t);
+        let (ly, lz) = view_azimuth(wo);
+        let wi = Vec3::new(sin_t, cos_t * (cos_p * ly - sin_p * lz), cos_t * (cos_p * lz + sin_p * ly));
         let pdf = (phi_pdf * self.theta_pdf(theta_r, theta_i, cos_t)).abs();
         (pdf > 0.0 && pdf.is_finite()).then_some((wi, pdf))
     }
+}
+
+/// Cycles' `locy` in the frame (its y and z; x is 0): the unit direction across the fibre
+/// toward the viewer; z when the viewer looks along the fibre.
+#[inline]
+fn view_azimuth(wo: Vec3) -> (f32, f32) {
+    let l = (wo.y * wo.y + wo.z * wo.z).sqrt();
+    if l > 0.0 { (wo.y / l, wo.z / l) } else { (0.0, 1.0) }
 }
 
 /// The Hair BSDF's lobes at a strand point: up to a Reflection and a Transmission (several
@@ -127,6 +141,9 @@ pub struct HairLobes {
     pub n: u8,
     /// The strand's surface normal at the hit, in the fibre's frame (Cycles' `bsdf->N`).
     pub normal: Vec3,
+    /// On a triangle, the shading point's normal (Cycles' `sd->N`) where the lobes' normal is
+    /// bent away from it: the evaluation is cut as `hair::BumpCut` says; None on a strand.
+    pub smooth: Option<Vec3>,
 }
 
 impl HairLobes {
@@ -135,6 +152,7 @@ impl HairLobes {
         lobes: [HairLobe { weight: Rgb::ZERO, transmission: false, offset: 0.0, r1: 1.0, r2: 1.0 }; 2],
         n: 0,
         normal: Vec3::Z,
+        smooth: None,
     };
 
     /// The lobes at offset `h` across the fibre: the surface normal there.
@@ -161,6 +179,12 @@ impl HairLobes {
         &self.lobes[..self.n as usize]
     }
 
+    /// True when Cycles' evaluation gives nothing toward `wi` (`hair::BumpCut`).
+    #[inline]
+    fn cuts(&self, wi: Vec3) -> bool {
+        self.smooth.is_some_and(|ns| crate::bsdf::hair::BumpCut { ns, n: self.normal }.cuts(wi))
+    }
+
     /// Each lobe's share of the samples: its weight's mean, normalised.
     fn selection(&self) -> [f32; 2] {
         let grey = |l: &HairLobe| ((l.weight.x + l.weight.y + l.weight.z) / 3.0).max(0.0);
@@ -176,7 +200,7 @@ impl HairLobes {
     /// f(wo, wi): Cycles' value over |cos θ| to the frame's z.
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
         let c = wi.z.abs();
-        if c < 1e-7 {
+        if c < 1e-7 || self.cuts(wi) {
             return Rgb::ZERO;
         }
         self.used().iter().fold(Rgb::ZERO, |f, l| f + l.weight * l.pdf(wo, wi, self.normal)) / c
@@ -184,6 +208,9 @@ impl HairLobes {
 
     /// Density with which `sample` picks wi.
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        if self.cuts(wi) {
+            return 0.0;
+        }
         let s = self.selection();
         self.used().iter().zip(s).map(|(l, s)| if s > 0.0 { s * l.pdf(wo, wi, self.normal) } else { 0.0 }).sum()
     }
@@ -267,6 +294,41 @@ mod tests {
                     assert_eq!(wi.z < 0.0, transmission, "{wi:?}");
                     let w = f * (wi.z.abs() / pdf);
                     assert!((w - weight).abs().max_element() < 1e-4, "{w:?}");
+                }
+            }
+        }
+    }
+
+    /// A frame turned about the fibre (a triangle's, whose z is its normal, not the viewer's
+    /// direction across the fibre) gives the same lobes: densities, and samples that are the
+    /// turned frame's samples turned, since Cycles measures azimuths from the viewer's.
+    #[test]
+    fn any_frame_about_the_fibre() {
+        let mut rng = Pcg32::new(3);
+        for beta in [0.7f32, -2.1, 3.0] {
+            let turn = |v: Vec3| {
+                let (s, c) = beta.sin_cos();
+                Vec3::new(v.x, c * v.y - s * v.z, s * v.y + c * v.z)
+            };
+            let mut lobes = HairLobes::EMPTY;
+            lobes.push(HairLobe::new(Rgb::new(0.8, 0.5, 0.3), false, 0.0, 0.3, 0.4));
+            lobes.push(HairLobe::new(Rgb::splat(0.4), true, 0.0, 0.3, 0.4));
+            let lobes = lobes.at(0.3);
+            let turned = HairLobes { normal: turn(lobes.normal), ..lobes };
+            let wo = wo_at(0.4);
+            for _ in 0..500 {
+                let wi = Vec3::new(rng.next_f32() - 0.5, rng.next_f32() - 0.5, rng.next_f32() - 0.5).normalize();
+                let (a, b) = (lobes.pdf(wo, wi), turned.pdf(turn(wo), turn(wi)));
+                assert!((a - b).abs() <= 1e-4 * a.max(1.0), "{a} vs {b}");
+                let u = Vec2::new(rng.next_f32(), rng.next_f32());
+                let uc = rng.next_f32();
+                match (lobes.sample(wo, uc, u), turned.sample(turn(wo), uc, u)) {
+                    (Some((wa, _, pa, _)), Some((wb, _, pb, _))) => {
+                        assert!((turn(wa) - wb).length() < 1e-4, "{wa:?} {wb:?}");
+                        assert!((pa - pb).abs() <= 1e-3 * pa.max(1.0), "{pa} vs {pb}");
+                    }
+                    (None, None) => {}
+                    other => panic!("{other:?}"),
                 }
             }
         }

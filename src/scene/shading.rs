@@ -58,6 +58,23 @@ impl Scene {
         }
     }
 
+    /// Triangle `tri`'s corner positions and normals, a moving triangle's where it is at the
+    /// ray's time (motion blur).
+    #[inline]
+    pub fn corners(&self, tri: u32) -> ([Vec3; 3], [Vec3; 3]) {
+        let m = &self.mesh;
+        let [i0, i1, i2] = m.triangles[tri as usize].map(|i| i as usize);
+        let moved = self
+            .motion
+            .as_ref()
+            .filter(|mo| mo.blurs())
+            .and_then(|mo| mo.moving(tri).map(|k| mo.triangle_at(k, crate::motion::ray_time())));
+        moved.unwrap_or((
+            [m.positions[i0], m.positions[i1], m.positions[i2]],
+            [m.normals[i0], m.normals[i1], m.normals[i2]],
+        ))
+    }
+
     /// Geometry of a hit as seen from direction `wo` (pointing back along the ray).
     #[inline]
     pub fn surface(&self, hit: &Hit, org: Vec3, dir: Vec3) -> SurfaceHit {
@@ -76,16 +93,7 @@ impl Scene {
         let [i0, i1, i2] = m.triangles[hit.tri as usize].map(|i| i as usize);
         let (b1, b2) = (hit.b1, hit.b2);
         let b0 = 1.0 - b1 - b2;
-        // A moving triangle is where it is at the ray's time (motion blur).
-        let moved = self
-            .motion
-            .as_ref()
-            .filter(|mo| mo.blurs())
-            .and_then(|mo| mo.moving(hit.tri).map(|k| mo.triangle_at(k, crate::motion::ray_time())));
-        let ([p0, p1, p2], [n0, n1, n2]) = moved.unwrap_or((
-            [m.positions[i0], m.positions[i1], m.positions[i2]],
-            [m.normals[i0], m.normals[i1], m.normals[i2]],
-        ));
+        let ([p0, p1, p2], [n0, n1, n2]) = self.corners(hit.tri);
         let mut p = p0 * b0 + p1 * b1 + p2 * b2;
         if !p.is_finite() {
             p = org + dir * hit.t;

@@ -10,6 +10,7 @@ pub mod graph;
 pub mod ies;
 pub mod image_node;
 pub mod instructions;
+pub mod mesh_hair;
 pub mod ops;
 pub mod program;
 pub mod shade;

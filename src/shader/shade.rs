@@ -6,6 +6,7 @@
 use super::closure::{Closures, empty_mix};
 use super::geom::{Geom, NO_OBJECT, ObjectData, Rays, SceneRays, ViewData, geom_at};
 use super::instructions::Program;
+use super::mesh_hair;
 use super::program::with_registers;
 use crate::bsdf::mix::{Lobe, MAX_PBR, MixBsdf};
 use crate::bsdf::pbr::bump_alpha2;
@@ -109,10 +110,23 @@ pub fn shade_nodes(
     // The Transparent part is taken by coverage (Scene::alpha) before the surface is
     // shaded: what is shaded here is the rest, renormalised.
     let t = pass_fraction(c.transparent);
-    let keep = if t > 0.0 && t < 1.0 { 1.0 / (1.0 - t) } else { 1.0 };
-    if crate::curves::is_curve(s.tri) && c.has_hair() {
-        let emitted = c.emission * keep;
-        return crate::curves::shade::hair_closures(&c, s, wo, keep, emitted);
+    let mut keep = if t > 0.0 && t < 1.0 { 1.0 / (1.0 - t) } else { 1.0 };
+    // Both faces emit, as Cycles' Emission closure (see `Material::emissive`).
+    let emitted = c.emission * keep;
+    let holdout = c.holdout * keep;
+    if c.has_hair() {
+        if crate::curves::is_curve(s.tri) {
+            return crate::curves::shade::hair_closures(&c, s, wo, keep, emitted);
+        }
+        if !crate::points::is_point(s.tri) {
+            // A triangle shades its hair closures as Cycles does; mixed with others, either
+            // these or those at each point, by weight (`mesh_hair::hair_share`).
+            let share = mesh_hair::hair_share(&c);
+            if share >= 1.0 || mesh_hair::choice_u(s) < share {
+                return mesh_hair::hair_on_triangle(scene, &c, s, wo, keep / share, emitted, holdout);
+            }
+            keep /= 1.0 - share;
+        }
     }
     // Shading normal: the closures' first linked normal, else the interpolated one, on the
     // viewer's side and bent toward the viewer as the glTF path does. In a mixture it is only
@@ -173,9 +187,7 @@ pub fn shade_nodes(
         frame = Frame::from_normal(n);
         bsdf = Bsdf::Mix(mixture(&c, s, wo, &frame, keep));
     }
-    // Both faces emit, as Cycles' Emission closure (see `Material::emissive`).
-    let emitted = c.emission * keep;
-    ShadingPoint { bsdf, frame, emitted, holdout: c.holdout * keep }
+    ShadingPoint { bsdf, frame, emitted, holdout }
 }
 
 /// A closure's Normal input `m` as Cycles uses it at hit `s`: on a front face as it is, even

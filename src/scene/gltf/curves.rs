@@ -78,26 +78,6 @@ const BYTES_PER_POINT: u64 = 16 + 4 + 20;
 const BYTES_PER_STRAND: u64 = size_of::<Strand>() as u64;
 
 impl Loader<'_> {
-    /// Names each material whose node graph has hair closures (Principled Hair, Hair BSDF) and
-    /// that triangles wear: those closures render on strands only (Cycles shades a mesh with
-    /// them too), so they are black there.
-    pub(super) fn warn_hair_on_triangles(&mut self, mesh: &crate::scene::mesh::Mesh, materials: &[Material]) {
-        let mut worn = vec![false; materials.len()];
-        for &m in &mesh.tri_material {
-            if let Some(w) = worn.get_mut(m as usize) {
-                *w = true;
-            }
-        }
-        for (m, worn) in materials.iter().zip(worn) {
-            if worn && m.nodes.as_ref().is_some_and(|p| p.hair) {
-                self.warn(format!(
-                    "material '{}': its hair BSDFs render on strands only; on meshes they are black",
-                    m.name
-                ));
-            }
-        }
-    }
-
     /// Reads `CAUSTIC_curves`, if present, and builds the strands' BVH. A strand whose
     /// material has transparency, a volume or subsurface scattering gets an opaque copy of it
     /// (with a warning naming both): strands are opaque surfaces.

@@ -605,7 +605,6 @@ impl<'a> Loader<'a> {
         ray_visibility.finish(mesh.triangles.len());
         undisplaced.finish(&mut mesh);
         self.finish_attributes(&mut mesh, &materials);
-        self.warn_hair_on_triangles(&mesh, &materials);
         let curves = self.curves(&value, &doc, &buffers, &mut materials, default_material)?;
         let points =
             self.points(&value, &doc, &buffers, &mut materials, default_material, graphs.then_some(&mut objects))?;

@@ -230,7 +230,7 @@ impl Compiler<'_> {
                     other => return Err(self.err(i, format!("unknown hair component '{other}'"))),
                 };
                 if self.source(i, "Tangent")?.is_some() {
-                    self.warn(i, "the Hair BSDF's Tangent input is not read: strands take their own direction");
+                    self.warn(i, "the Hair BSDF's Tangent input is not read: strands take their own direction, meshes their dPdv");
                 }
                 let color = self.vec(i, "Color", Vec3::splat(0.8))?;
                 let offset = self.float(i, "Offset", 0.0)?;

@@ -176,9 +176,7 @@ fn compile_with(
     }
     if c.prog.hair && (c.small_lobes > 0 || c.principled > 0) {
         c.warnings.push(
-            "hair BSDFs are mixed with other BSDFs: strands render the hair BSDFs alone, other surfaces the other \
-             BSDFs alone"
-                .to_string(),
+            "hair BSDFs are mixed with other BSDFs: strands render the hair BSDFs alone (meshes mix them)".to_string(),
         );
     }
     let mut prog = c.prog;
