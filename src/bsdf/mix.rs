@@ -19,11 +19,11 @@
 //! each closure gets (bent or not) is the shader's choice (`shader::shade`).
 //!
 //! Capacity: [`MAX_LOBES`] small lobes plus [`MAX_PBR`] Principled BSDFs ([`PbrBsdf`], itself
-//! layered), each evaluated in full. The graph compiler warns at load when a graph can
-//! produce more; at a shading point the lobes past the capacity are dropped (their light is
-//! lost), and a third Principled BSDF is merged into the second by weighted parameters
-//! (`shader::closure`). The Principled parts are the bulk of the enum's size (`Bsdf` is
-//! copied into BDPT vertices and SPPM's visible points; see [`Bsdf`](super::Bsdf)).
+//! layered), each evaluated in full. Past them the last slot of each kind holds one of the
+//! closures offered to it, chosen by weight at each point, with the weight of them all
+//! (`shader::closure`: a weighted reservoir, so a pixel averages the whole mixture). The
+//! Principled parts are the bulk of the enum's size (`Bsdf` is copied into BDPT vertices and
+//! SPPM's visible points; see [`Bsdf`](super::Bsdf)).
 //!
 //! Lobes are two-sided like [`PbrBsdf`]: wo below the mixture's shading plane mirrors both
 //! directions. Translucent sends light to the side opposite wo.

@@ -28,6 +28,10 @@ bound of 108 (pytest -s prints both):
   sharp reflection of the light 2.4x Cycles' in its block): 0.970/1.012/1.013, 12 blocks (worst
   3.55x its bound) -> 0.9955/0.9953/0.9952, 0 (the second slot holds one of them whole, chosen
   by weight at each point).
+* six_small_lobes: Diffuse, Glossy, Sheen, Translucent, Toon and an Oren-Nayar Diffuse (weights
+  0.1-0.3) in a tree of Mix Shaders: the mixture holds four small lobes and dropped the rest,
+  0.7119/0.6937/0.7165, 24 blocks (worst 10.7x its bound) -> 1.0019/1.0021/1.0015, 0 (past the
+  fourth they share its slot, one of them whole at each point with the weight of them all).
 Cases that matched before are left out: a Checker mask (each point is one Principled BSDF
 alone), and a bumped Principled with a Transparent BSDF (the Principled-only path).
 """
@@ -100,6 +104,30 @@ def mixed_socket(first, second, fac=0.5):
     return make
 
 
+def bsdf_of(node_type, inputs):
+    """A shader maker: a `node_type` node with `inputs` (name: default value)."""
+    def make(tree):
+        node = tree.nodes.new(node_type)
+        for key, value in inputs.items():
+            node.inputs[key].default_value = value
+        return node.outputs[0]
+    return make
+
+
+# Six small closures of six kinds (no Principled BSDF), weights 0.3 to 0.1: the mixture holds
+# four lobes, so the fifth and sixth were dropped with their light; past the fourth they now
+# share its slot, chosen by weight at each point with the weight of them all.
+SIX_LOBES = mixed(
+    mixed_socket(
+        mixed_socket(bsdf_of("ShaderNodeBsdfDiffuse", {"Color": (0.8, 0.2, 0.1, 1.0)}),
+                     bsdf_of("ShaderNodeBsdfGlossy", {"Color": (0.9, 0.9, 0.9, 1.0), "Roughness": 0.2}), 0.4),
+        mixed_socket(bsdf_of("ShaderNodeBsdfSheen", {"Color": (0.2, 0.8, 0.3, 1.0), "Roughness": 0.5}),
+                     bsdf_of("ShaderNodeBsdfTranslucent", {"Color": (0.3, 0.6, 0.9, 1.0)}), 0.5),
+        0.5),
+    mixed_socket(bsdf_of("ShaderNodeBsdfToon", {"Color": (0.9, 0.8, 0.2, 1.0), "Size": 0.5, "Smooth": 0.1}),
+                 bsdf_of("ShaderNodeBsdfDiffuse", {"Color": (0.2, 0.3, 0.9, 1.0), "Roughness": 0.6}), 0.4),
+)
+
 ROUGH_GOLD = {"Base Color": (0.9, 0.6, 0.2, 1.0), "Metallic": 1.0, "Roughness": 1.0}
 MIRROR = {"Base Color": (0.95, 0.95, 0.95, 1.0), "Metallic": 1.0, "Roughness": 0.0}
 
@@ -118,6 +146,7 @@ CASES = {
     # parameters made a gold-tinted metal of roughness 0.33.
     "mix_three_principled": mixed(mixed_socket(principled_of(DIELECTRIC), principled_of(ROUGH_GOLD)),
                                   principled_of(MIRROR)),
+    "six_small_lobes": SIX_LOBES,
 }
 
 # main's figures before each closure had its own frame (mean R/G/B, blocks over of 108).
@@ -127,6 +156,7 @@ BEFORE = {
     "mix_glossy_bumped_diffuse": "0.8676 0.9022 0.9117, 1/108 blocks over",
     "add_principled_ior_coat": "0.9843 1.0107 1.0292, 0/108 blocks over",
     "mix_three_principled": "0.9697 1.0121 1.0130, 12/108 blocks over",
+    "six_small_lobes": "0.7119 0.6937 0.7165, 24/108 blocks over",
 }
 
 

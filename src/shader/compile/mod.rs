@@ -19,7 +19,7 @@ mod sources;
 pub mod volume;
 
 use crate::scene::working_space::WorkingSpace;
-use crate::shader::closure::{AnisoMapping, AnisoRegs, CAPACITY, ClosureKind, ClosureOp, Closures, PrincipledRegs};
+use crate::shader::closure::{AnisoMapping, AnisoRegs, ClosureKind, ClosureOp, Closures, PrincipledRegs};
 use crate::shader::geom::{Geom, ObjectData, Reg};
 use crate::shader::graph::{NodeDesc, NodesExt, check_and_sort};
 use crate::shader::image_node::{Extension, ImageOp, Interp, Projection};
@@ -155,13 +155,6 @@ fn compile_with(
     let surface_end = c.ops.len();
     for &i in order.iter().filter(|&&i| !surface[i]) {
         c.node(i)?;
-    }
-    if c.small_lobes > CAPACITY {
-        c.warnings.push(format!(
-            "the surface can mix {} BSDF lobes besides Principled BSDFs; Caustic holds {CAPACITY} per shading \
-             point: the lobes past that are dropped where all are present",
-            c.small_lobes
-        ));
     }
     if c.hair_principled > 1 {
         c.warnings.push(format!(
@@ -933,11 +926,12 @@ mod tests {
         assert!(err.contains("'Odd'") && err.contains("SIDEWAYS"), "{err}");
     }
 
-    /// More small lobes than a mixture holds is named at load; more Principled BSDFs than it
-    /// holds in full (three) are not: they are rendered by a choice by weight at each point
-    /// (`third_principled_is_chosen_by_weight`).
+    /// More small lobes (five) or Principled BSDFs (three) than a mixture holds in full are not
+    /// warned: past the capacity each kind's last slot holds one of them by weight at each point
+    /// (`closure::tests::lobes_past_the_capacity_share_the_last_slot`,
+    /// `third_principled_is_chosen_by_weight`); the lobes past four used to be dropped, warned.
     #[test]
-    fn capacity_is_warned_and_a_third_principled_is_not() {
+    fn no_capacity_warning() {
         let mut nodes = Vec::new();
         for k in 0..5 {
             nodes.push(json!({"name": format!("D{k}"), "type": "ShaderNodeBsdfDiffuse"}));
@@ -953,8 +947,7 @@ mod tests {
             last = (nodes.len() - 1, "Shader".into());
         }
         let c = compiled(Value::Array(nodes), json!([last.0, last.1]));
-        assert!(c.warnings.iter().any(|w| w.contains("5 BSDF lobes")), "{:?}", c.warnings);
-        assert!(!c.warnings.iter().any(|w| w.contains("Principled BSDFs are mixed")), "{:?}", c.warnings);
+        assert!(c.warnings.is_empty(), "{:?}", c.warnings);
     }
 
     /// Three Principled BSDFs mixed (weights 0.2, 0.3, 0.5 by two Mix Shaders): the first has
