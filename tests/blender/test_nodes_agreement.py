@@ -498,16 +498,16 @@ def ambient_occlusion_open(name):
     return mat
 
 
-def normal_map(tree):
-    """A tangent-space image of stripes tilted 35 degrees along +U and +V (as the fidelity test)."""
+def stripes_normal_map(tree, name, odd, even, space="TANGENT"):
+    """A Normal Map node in `space` reading a 16x16 Non-Color image of vertical stripes four
+    texels wide: normal `odd` where x // 4 is odd, `even` elsewhere (Closest interpolation)."""
     size = 16
-    image = bpy.data.images.new("Tilts", size, size)
+    image = bpy.data.images.new(name, size, size)
     image.colorspace_settings.name = "Non-Color"
-    s, c = math.sin(math.radians(35.0)), math.cos(math.radians(35.0))
     pixels = []
     for y in range(size):
         for x in range(size):
-            n = (s, 0.0, c) if (x // 4) % 2 else (0.0, s, c)
+            n = odd if (x // 4) % 2 else even
             pixels += [0.5 * n[0] + 0.5, 0.5 * n[1] + 0.5, 0.5 * n[2] + 0.5, 1.0]
     image.pixels.foreach_set(pixels)
     image.pack()
@@ -515,8 +515,15 @@ def normal_map(tree):
     tex.image = image
     tex.interpolation = "Closest"
     node = tree.nodes.new("ShaderNodeNormalMap")
+    node.space = space
     tree.links.new(tex.outputs["Color"], node.inputs["Color"])
     return node.outputs["Normal"]
+
+
+def normal_map(tree):
+    """A tangent-space image of stripes tilted 35 degrees along +U and +V (as the fidelity test)."""
+    s, c = math.sin(math.radians(35.0)), math.cos(math.radians(35.0))
+    return stripes_normal_map(tree, "Tilts", (s, 0.0, c), (0.0, s, c))
 
 
 def normal_map_below_horizon(space):
@@ -525,24 +532,8 @@ def normal_map_below_horizon(space):
     as it is (its diffuse closure sees no light there); Caustic turned it to the viewer's
     side, where it was lit (sweep 4: a world-space normal map on a cube 1.04 of Cycles)."""
     def make(tree):
-        size = 16
-        image = bpy.data.images.new(f"Past {space}", size, size)
-        image.colorspace_settings.name = "Non-Color"
         s, c = math.sin(math.radians(100.0)), math.cos(math.radians(100.0))
-        pixels = []
-        for y in range(size):
-            for x in range(size):
-                n = (-s, 0.0, c) if (x // 4) % 2 else (0.0, 0.0, 1.0)
-                pixels += [0.5 * n[0] + 0.5, 0.5 * n[1] + 0.5, 0.5 * n[2] + 0.5, 1.0]
-        image.pixels.foreach_set(pixels)
-        image.pack()
-        tex = tree.nodes.new("ShaderNodeTexImage")
-        tex.image = image
-        tex.interpolation = "Closest"
-        node = tree.nodes.new("ShaderNodeNormalMap")
-        node.space = space
-        tree.links.new(tex.outputs["Color"], node.inputs["Color"])
-        return node.outputs["Normal"]
+        return stripes_normal_map(tree, f"Past {space}", (-s, 0.0, c), (0.0, 0.0, 1.0), space)
     return make
 
 
