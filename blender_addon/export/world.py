@@ -14,6 +14,7 @@ from .lights import cycles_max_bounces
 from .media import TREE_NODES, tree_medium, varying_medium
 from .node_graph import GraphContext, build_world_graph, has_aov_outputs
 from .nodes import linked_node
+from .settings import REC709, working_space_name
 from .visibility import world_visibility
 
 WORLD_EXTENSION = "CAUSTIC_world"
@@ -252,6 +253,13 @@ def _world_surface(world, folder, warnings):
             warnings.append(f"world '{world.name}': the {mapping.bl_label} node before the "
                             "Environment Texture is not supported")
     image = source.image
+    if not _file_space_is_blenders(image):
+        # The renderer decodes the copied file itself (8-bit as sRGB, float as linear Rec.709):
+        # another colour space set in Blender would be ignored (an OpenEXR Blender saved from
+        # a float image is marked sRGB and held decoded: 1.84x too bright at 0.19 read as is).
+        warnings.append(f"world '{world.name}': image '{image.name}' is in colour space "
+                        f"'{image.colorspace_settings.name}', which the renderer does not read from its file; "
+                        f"read as {'linear' if image.is_float else 'sRGB'}")
     suffix = _IMAGE_EXTENSIONS.get(image.file_format, os.path.splitext(image.filepath)[1].lower() or ".png")
     target = os.path.join(folder, "world" + suffix)
     if image.packed_file is not None:
@@ -268,6 +276,16 @@ def _world_surface(world, folder, warnings):
             fout.write(fin.read())
     value["image"] = os.path.basename(target)
     return value, warnings
+
+
+def _file_space_is_blenders(image):
+    """Whether the renderer reads `image`'s file in the colour space Blender gives it: it reads
+    an 8-bit file as sRGB, a float one (OpenEXR, Radiance HDR, 16-bit PNG) as linear Rec.709
+    (converted to the working space)."""
+    settings = image.colorspace_settings
+    if not image.is_float:
+        return settings.name == "sRGB" and not settings.is_data
+    return settings.name == REC709 or (settings.is_data and working_space_name() == REC709)
 
 
 def _surface_tree_nodes(world):

@@ -316,7 +316,7 @@ impl Emitters {
                     // An unlit surface's vertex colour, which the power left out.
                     factor = color.truncate();
                 }
-                let coverage = scene.coverage(*tri, b.x, b.y);
+                let coverage = scene.emission_coverage(*tri, b.x, b.y);
                 Some(EmittedPhoton {
                     light: index,
                     org: crate::math::offset_ray_origin(q, n),

@@ -228,7 +228,7 @@ pub fn sample_point(scene: &Scene, index: usize, u: Vec2) -> Option<LightPoint> 
             }
             // A partly transparent emitter emits in proportion to its coverage, as the
             // path tracer's light sampling does.
-            let coverage = scene.coverage(*tri, b.x, b.y);
+            let coverage = scene.emission_coverage(*tri, b.x, b.y);
             Some(LightPoint {
                 light,
                 p: q,
@@ -297,7 +297,8 @@ pub fn emitted(scene: &Scene, lp: &LightPoint, w: Vec3) -> Rgb {
                 return Rgb::ZERO;
             }
             let b = lp.bary;
-            scene.emission_for(*tri, b.x, b.y, LightPath::LIGHT_EMISSION, Some(w)) * scene.coverage(*tri, b.x, b.y)
+            scene.emission_for(*tri, b.x, b.y, LightPath::LIGHT_EMISSION, Some(w))
+                * scene.emission_coverage(*tri, b.x, b.y)
         }
         _ => {
             let c = w.dot(lp.n);

@@ -229,7 +229,7 @@ impl Light {
                 let normal = if cos_signed >= 0.0 { n } else { -n };
                 // A partly transparent emitter emits in proportion to its coverage, as
                 // a path that hits it counts its emission only when it does not pass.
-                let coverage = scene.coverage(*tri, b.x, b.y);
+                let coverage = scene.emission_coverage(*tri, b.x, b.y);
                 Some(LightSample {
                     wi,
                     dist,

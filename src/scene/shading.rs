@@ -58,6 +58,21 @@ impl Scene {
         }
     }
 
+    /// The factor a light-sampling routine gives a triangle's `emission_for` so that it
+    /// emits what a path hitting it finds: its coverage, except on a BLEND node material,
+    /// whose emission already carries its Transparent share (Cycles' closure weights: a
+    /// Mix of Transparent and Emission at 0.5 emits 0.5 E), which a hit renormalises
+    /// (`shade_nodes`) and passes through with the rest. Multiplying again by the coverage
+    /// lit a floor by such a panel at 0.5 of Cycles.
+    #[inline]
+    pub fn emission_coverage(&self, tri: u32, b1: f32, b2: f32) -> f32 {
+        let mat = &self.materials[self.mesh.tri_material[tri as usize] as usize];
+        if mat.nodes.is_some() && mat.alpha_mode == AlphaMode::Blend {
+            return 1.0;
+        }
+        self.coverage(tri, b1, b2)
+    }
+
     /// Triangle `tri`'s corner positions and normals, a moving triangle's where it is at the
     /// ray's time (motion blur).
     #[inline]

@@ -294,6 +294,11 @@ impl Program {
             Op::NormalMap { space, strength, color, out } => {
                 let c = v3(r, color) * 2.0 - Vec3::ONE;
                 let n = to_blender(g.n);
+                let s = r[strength as usize];
+                // Cycles (since 4.1) applies a tangent-space map's Strength in tangent space:
+                // x and y scaled by it, z from 1 towards the map's by it clamped to [0, 1];
+                // other spaces (and a tangent map without tangents) blend with the normal.
+                let mut blend = true;
                 let mapped = match space {
                     0 => {
                         let t = g.tangent.truncate();
@@ -303,7 +308,9 @@ impl Program {
                             let nf = g.n * side;
                             let tf = (t - nf * nf.dot(t)).normalize_or_zero();
                             let bf = nf.cross(tf) * if g.tangent.w < 0.0 { -1.0 } else { 1.0 };
-                            to_blender((tf * c.x + bf * c.y + nf * c.z) * side)
+                            let z = 1.0 + (c.z - 1.0) * s.clamp(0.0, 1.0);
+                            blend = false;
+                            to_blender((tf * (c.x * s) + bf * (c.y * s) + nf * z) * side)
                         } else {
                             n
                         }
@@ -319,8 +326,7 @@ impl Program {
                 // case is built on the front face and turned above).
                 let mapped = if space != 0 && g.backfacing { -mapped } else { mapped };
                 let mapped = ops::safe_normalize(mapped);
-                let s = r[strength as usize].max(0.0);
-                let y = ops::safe_normalize(n + (mapped - n) * s);
+                let y = if blend { ops::safe_normalize(n + (mapped - n) * s.max(0.0)) } else { mapped };
                 set3(r, out, if y == Vec3::ZERO { n } else { y });
             }
             Op::MixWeight { w, fac, out1, out2 } => {

@@ -73,11 +73,13 @@ def ramp_image(tree):
     """An Image Texture (Non-Color, linear interpolation, UV) of a 16x16 float image whose value
     is a bump sin(pi u) sin(pi v) plus a ripple along u."""
     image = bpy.data.images.new("Heights", 16, 16, float_buffer=True)
+    # The colour space first: setting it regenerates a generated image (black), which left this
+    # test displacing by a height of 0.
+    image.colorspace_settings.name = "Non-Color"
     u, v = np.meshgrid((np.arange(16) + 0.5) / 16, (np.arange(16) + 0.5) / 16)
     value = np.sin(np.pi * u) * np.sin(np.pi * v) + 0.3 * np.sin(6 * np.pi * u)
     pixels = np.stack([value, value, value, np.ones_like(value)], axis=-1).astype(np.float32)
     image.pixels.foreach_set(pixels.ravel())
-    image.colorspace_settings.name = "Non-Color"
     node = tree.nodes.new("ShaderNodeTexImage")
     node.image = image
     node.interpolation = "Linear"

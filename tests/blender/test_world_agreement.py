@@ -5,7 +5,10 @@ and a cube seen from above), lit only by the world: a Background colour × stren
 equirectangular float image (an OpenEXR made here: a sky gradient with a bright sun patch) rotated about Z
 by a Mapping node. The HDRI case checks the image mapping, its rotation direction and the
 importance sampling of the world; a wrong axis or rotation sign moves the sun patch and
-changes the floor's shading by far more than the bound.
+changes the floor's shading by far more than the bound. The same file with its colour space
+set in Blender to sRGB (as Blender marks an OpenEXR it saved itself) is decoded by Cycles:
+the add-on must not hand the renderer the raw file then (Caustic/Cycles was 0.199 here);
+nor an 8-bit PNG set to Non-Color (`png_noncolor`, 0.655).
 """
 
 import math
@@ -30,7 +33,7 @@ def uniform_world(scene):
     scene.world = world
 
 
-def hdri_world(tmp_path, rotation_z):
+def hdri_world(tmp_path, rotation_z, colorspace=None):
     def setup(scene):
         w, h = 64, 32
         y = (np.arange(h) + 0.5) / h  # 0 at the image's top row
@@ -40,6 +43,8 @@ def hdri_world(tmp_path, rotation_z):
         sky[..., 2] = 1.0 - 0.5 * y[:, None]
         # A bright sun patch, high in the sky and away from the image centre.
         sky[5:8, 10:13, :] = 400.0
+        if colorspace == "sRGB":
+            sky[5:8, 10:13, :] = 12.0  # decoded: about 390
         # Written with the tests' own EXR writer: Blender 5.0's Image.save() of a generated
         # float image stores values clipped at 12.75, which would test nothing.
         path = str(tmp_path / "sky.exr")
@@ -49,6 +54,8 @@ def hdri_world(tmp_path, rotation_z):
         nodes, links = world.node_tree.nodes, world.node_tree.links
         env = nodes.new("ShaderNodeTexEnvironment")
         env.image = bpy.data.images.load(path, check_existing=False)
+        if colorspace is not None:
+            env.image.colorspace_settings.name = colorspace
         mapping = nodes.new("ShaderNodeMapping")
         mapping.inputs["Rotation"].default_value = (0.0, 0.0, rotation_z)
         coords = nodes.new("ShaderNodeTexCoord")
@@ -60,11 +67,39 @@ def hdri_world(tmp_path, rotation_z):
     return setup
 
 
-@pytest.mark.parametrize("world", ["uniform", "hdri", "hdri_rotated"])
+def png_world(tmp_path, colorspace):
+    """An 8-bit PNG panorama (a sky gradient, saved by Blender from a byte image: its bytes as
+    set) read in `colorspace`: Non-Color, which Cycles reads undecoded and the renderer's own
+    reading of an 8-bit file decodes as sRGB (0.6548 of Cycles here before)."""
+    def setup(scene):
+        w, h = 64, 32
+        y = (np.arange(h) + 0.5) / h  # 0 at the bottom row (Blender's pixel order)
+        px = np.ones((h, w, 4), dtype=np.float32)
+        px[..., 0] = (0.3 + 0.5 * y)[:, None]
+        px[..., 1] = (0.4 + 0.4 * y)[:, None]
+        px[..., 2] = (0.9 - 0.2 * y)[:, None]
+        made = bpy.data.images.new("Pano", w, h)
+        made.pixels.foreach_set(px.ravel())
+        path = str(tmp_path / "pano.png")
+        made.filepath_raw, made.file_format = path, "PNG"
+        made.save()
+        world = bpy.data.worlds.new("World")
+        world.use_nodes = True
+        nodes, links = world.node_tree.nodes, world.node_tree.links
+        env = nodes.new("ShaderNodeTexEnvironment")
+        env.image = bpy.data.images.load(path, check_existing=False)
+        env.image.colorspace_settings.name = colorspace
+        links.new(env.outputs["Color"], nodes["Background"].inputs["Color"])
+        scene.world = world
+    return setup
+
+
+@pytest.mark.parametrize("world", ["uniform", "hdri", "hdri_rotated", "hdri_srgb", "png_noncolor"])
 def test_world_lighting_matches_cycles(empty_scene, tmp_path, world):
     scene = empty_scene
     setup = {"uniform": uniform_world, "hdri": hdri_world(tmp_path, 0.0),
-             "hdri_rotated": hdri_world(tmp_path, math.radians(120.0))}[world]
+             "hdri_rotated": hdri_world(tmp_path, math.radians(120.0)),
+             "hdri_srgb": hdri_world(tmp_path, 0.0, "sRGB"), "png_noncolor": png_world(tmp_path, "Non-Color")}[world]
     build(scene, setup)
     images = {}
     for engine in ("CYCLES", "CAUSTIC"):
