@@ -63,27 +63,6 @@ fn cornell_vcm_matches_path_tracing() {
     );
 }
 
-/// The connections through the light vertex cache (`vcm::light_store::VertexCache`: each
-/// camera vertex joins one vertex picked from every light subpath's) on the Cornell box seen
-/// by an orthographic camera, which light tracing (t = 1) cannot reach, with a radius that
-/// leaves merging little weight: the connections then carry about 8 % of the image (a pick
-/// weighted 20 % too much moved the mean 1.6 %, where this comparison's bound is about 0.5 %).
-#[test]
-fn orthographic_cornell_vcm_matches_path_tracing() {
-    let dir = temp_dir();
-    let mut doc: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(root().join("scenes/cornell_box.gltf")).unwrap()).unwrap();
-    doc["cameras"] = serde_json::json!([{
-        "type": "orthographic",
-        "orthographic": {"xmag": 0.28, "ymag": 0.28, "znear": 0.01, "zfar": 100.0}
-    }]);
-    let bin = root().join("scenes/cornell_box.bin");
-    doc["buffers"][0]["uri"] = serde_json::Value::String(bin.to_str().unwrap().into());
-    let scene = dir.path().join("cornell_ortho.gltf");
-    std::fs::write(&scene, serde_json::to_vec(&doc).unwrap()).unwrap();
-    vcm_matches_path("cornell_ortho", &scene, (32, 32), (32, 64), 8, &["--vcm-radius", "0.0005"]);
-}
-
 /// The same on the glass caustic scene (delta BSDFs: the caustic on the floor is made by
 /// merging and light tracing, which the path tracer makes by hitting the light).
 #[test]

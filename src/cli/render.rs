@@ -921,9 +921,8 @@ fn charge_render(budget: &MemoryBudget, args: &RenderArgs, res: &Resolved, scene
         // stores about one per bounce from its second vertex on: 1.5 per pixel on the Cornell
         // box, 3.2 on door_ajar at 13 bounces; charged for four per pixel) in three copies
         // (the rows', gathered, in bucket order), their positions (12 bytes) and their grid
-        // (about 16 bytes a record), the light subpaths kept for the connections (the
-        // records' vertices, the light point and delta vertices: charged for five per pixel)
-        // and the light vertex cache's entries (about one per record: charged for four).
+        // (about 16 bytes a record), and the light subpaths kept for the connections (the
+        // records' vertices, the light point and delta vertices: charged for five per pixel).
         IntegratorKind::Vcm => budget.charge(
             format!(
                 "VCM's splat buffers ({} threads + 1), merge records and light subpaths for {pixels} pixels",
@@ -932,8 +931,7 @@ fn charge_render(budget: &MemoryBudget, args: &RenderArgs, res: &Resolved, scene
             pixels.saturating_mul(
                 splat_bytes * (res.threads as u64 + 1)
                     + 4 * (3 * std::mem::size_of::<crate::integrator::vcm::merge::MergeRecord>() as u64 + 12 + 16)
-                    + 5 * crate::integrator::vcm::light_store::VERTEX_BYTES
-                    + 4 * crate::integrator::vcm::light_store::CACHE_ENTRY_BYTES,
+                    + 5 * crate::integrator::vcm::light_store::VERTEX_BYTES,
             ),
         ),
         // The path tracer keeps nothing per pixel beyond the film.

@@ -10,15 +10,11 @@ use crate::scene::visibility::RayMask;
 
 impl BdptIntegrator {
     /// Every strategy with s ≥ 1; returns the camera-side sum, splats t = 1. `sampler` is
-    /// the pixel sample's `connection_sampler` (light samples at camera vertices); with
-    /// `cache`, each camera vertex joins one vertex picked from it (VCM's light vertex cache)
-    /// instead of every vertex of `scratch.light` (which t = 1 still splats).
-    #[allow(clippy::too_many_arguments)]
+    /// the pixel sample's `connection_sampler` (light samples at camera vertices).
     pub(crate) fn connect_all(
         &self,
         ctx: &SceneContext,
         sampler: &mut PixelSampler,
-        cache: Option<&dyn LightVertexCache>,
         film: &mut FilmTarget,
         scratch: &mut BdptScratch,
         out: &mut CameraSample,
@@ -35,8 +31,8 @@ impl BdptIntegrator {
             self.connect_to_camera(ctx, s, film, scratch, stats);
         }
         for t in 2..=n_cam {
-            // s = 1: a fresh light point sampled for this camera vertex (and the cache's pick).
-            let [u_pick, u_x, u_y, u_cache] = sampler.next_4d();
+            // s = 1: a fresh light point sampled for this camera vertex.
+            let [u_pick, u_x, u_y, _] = sampler.next_4d();
             // Past Light Paths' bounce limits (`bounces`): no path goes on from here.
             if scratch.cam[t - 1].spent {
                 break;
@@ -53,22 +49,11 @@ impl BdptIntegrator {
                     sum += self.connect_path_emitter(ctx, t, [u_pick, u_x, u_y], scratch, out, stats);
                 }
             }
-            if let Some(cache) = cache {
-                // s + t - 2 ≤ max depth, as below.
-                let max_s = (self.max_depth as usize + 2).saturating_sub(t);
-                let s = cache.pick(ctx, u_cache, max_s, &mut scratch.cached);
-                if s >= 2 && self.allowed(s, t) {
-                    let rays = stats.total();
-                    sum += self.connect_vertices(ctx, s, t, Some(cache.scale()), film.camera, scratch, out, stats);
-                    scratch.tally.cache_rays += stats.total() - rays;
-                }
-                continue;
-            }
             for s in 2..=n_light {
                 if s + t - 2 > self.max_depth as usize || !self.allowed(s, t) {
                     continue;
                 }
-                let c = self.connect_vertices(ctx, s, t, None, film.camera, scratch, out, stats);
+                let c = self.connect_vertices(ctx, s, t, film.camera, scratch, out, stats);
                 scratch.tally.light += c;
                 sum += c;
             }
@@ -457,16 +442,13 @@ impl BdptIntegrator {
         dens.weight(1)
     }
 
-    /// s, t ≥ 2: light vertex `light[s-1]` joined to camera vertex `cam[t-1]`, where `light`
-    /// is the pixel's light subpath or, with `cached` Some(factor), the cache's pick
-    /// (`scratch.cached`), its connection times the factor (`LightVertexCache::scale`).
+    /// s, t ≥ 2: light vertex `light[s-1]` joined to camera vertex `cam[t-1]`.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn connect_vertices(
         &self,
         ctx: &SceneContext,
         s: usize,
         t: usize,
-        cached: Option<f32>,
         camera: &CameraRays,
         scratch: &mut BdptScratch,
         out: &mut CameraSample,
@@ -474,11 +456,7 @@ impl BdptIntegrator {
     ) -> Rgb {
         // Borrowed, not copied: a vertex holds a whole BSDF, and copying the two was 9 % of
         // BDPT's instructions on the Cornell box (callgrind: `memcpy` from here).
-        let BdptScratch { cam, light, cached: picked, dens, first, .. } = scratch;
-        let (light, scale) = match cached {
-            Some(scale) => (&*picked, scale),
-            None => (&*light, 1.0),
-        };
+        let BdptScratch { cam, light, dens, first, .. } = scratch;
         let (x, y) = (&cam[t - 1], &light[s - 1]);
         // A restricted path: the camera side's (`visibility`).
         if x.restricted {
@@ -547,7 +525,7 @@ impl BdptIntegrator {
         } else {
             xp.area_density(bx.pdf(wi_x, x.frame.to_local((xp.p - x.p).normalize_or_zero())), x.p)
         };
-        let wgt = self.mis(dens.weight(s)) * scale;
+        let wgt = self.mis(dens.weight(s));
         if self.ledger.any() {
             let first = if t == 2 { self.first_toward(bx, wo_x, wi_x) } else { *first };
             let group = self.ledger.group_of_subpath(ctx, light);

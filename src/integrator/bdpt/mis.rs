@@ -29,11 +29,6 @@
 //! f samples per camera sample, so their densities count f times (Georgiev et al.'s sample
 //! counts n_s p_s in the power heuristic), and `weight` returns the weight over f, which is
 //! what a sample taken with probability f must carry to stay unbiased.
-//!
-//! VCM also joins each camera vertex to one vertex of a light vertex cache (`vcm::cache`)
-//! instead of to every vertex of its own light subpath: the connections s, t ≥ 2 then have
-//! `connect_share` samples per camera sample (1 / L̄, L̄ the cache's vertices per light
-//! subpath), and t = 1 keeps f.
 
 /// Most vertices a path may have (subpath lengths are bounded accordingly).
 pub const MAX_PATH_VERTICES: usize = 130;
@@ -68,12 +63,9 @@ pub struct PathDensities {
     /// camera ray from z₁ finds the light (j = 0), with c ≥ 2 only light sampling at z₁
     /// (j = 1) makes the path.
     pub contacts: usize,
-    /// Light subpaths per camera sample f (0 < f ≤ 1): the sample count of light tracing
-    /// (t = 1), and of the connections s, t ≥ 2 unless a cache joins them; 1 in BDPT.
+    /// Light subpaths per camera sample f (0 < f ≤ 1): the sample count of every strategy
+    /// that takes the pixel's light subpath (s ≥ 2, or t = 1); 1 in BDPT.
     pub light_share: f32,
-    /// The sample count of the connections s, t ≥ 2: f when they take the pixel's own light
-    /// subpath, 1 / L̄ when each camera vertex joins one vertex of VCM's light vertex cache.
-    pub connect_share: f32,
 }
 
 impl Default for PathDensities {
@@ -87,7 +79,6 @@ impl Default for PathDensities {
             eta_vm: 0.0,
             contacts: 0,
             light_share: 1.0,
-            connect_share: 1.0,
         }
     }
 }
@@ -127,18 +118,12 @@ impl PathDensities {
         self.eta_vm > 0.0 && m >= MIN_MERGE_VERTEX && m + 1 < self.n && self.connectible[m] && self.contacts < 2
     }
 
-    /// Samples per camera sample of connection strategy `j`: f for light tracing (j = k:
-    /// t = 1), `connect_share` for the other connections to the light subpath (j ≥ 2 light
-    /// vertices), else 1 (s = 0, and s = 1's light point of its own).
+    /// Samples per camera sample of connection strategy `j`: f when it takes the pixel's
+    /// light subpath (j ≥ 2 light vertices, or j = k: t = 1), else 1 (s = 0, and s = 1's
+    /// light point of its own).
     #[inline]
     fn count(&self, j: usize) -> f64 {
-        if j + 1 == self.n {
-            self.light_share as f64
-        } else if j >= 2 {
-            self.connect_share as f64
-        } else {
-            1.0
-        }
+        if j >= 2 || j + 1 == self.n { self.light_share as f64 } else { 1.0 }
     }
 
     /// (P_m / p_m)²: vertex merging at z_m against connection strategy m.
@@ -226,10 +211,7 @@ mod tests {
             let n = 2 + trial % 20;
             // Every third path with fewer light subpaths than camera samples.
             let light_share = if trial % 3 == 0 { 0.02 + 0.98 * rnd() } else { 1.0 };
-            // Every other path with a light vertex cache's count for the connections.
-            let connect_share = if trial % 2 == 0 { 0.05 + 2.0 * rnd() } else { light_share };
-            let mut d =
-                PathDensities { n, light_hittable: rnd() < 0.7, light_share, connect_share, ..Default::default() };
+            let mut d = PathDensities { n, light_hittable: rnd() < 0.7, light_share, ..Default::default() };
             for i in 0..n {
                 // Densities over many orders of magnitude, some delta (0).
                 let delta = i > 0 && i < n - 1 && rnd() < 0.2;

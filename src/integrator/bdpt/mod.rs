@@ -258,27 +258,11 @@ use passes::First;
 pub use passes::Ledger;
 use vertex::*;
 
-/// Light vertices gathered from an iteration's light subpaths (VCM's light vertex cache,
-/// `vcm::light_store::VertexCache`): a camera vertex joins one picked vertex instead of every
-/// vertex of its own light subpath.
-pub(crate) trait LightVertexCache: Sync {
-    /// Restores into `out` the light subpath prefix z₀ … z_{s-1} that ends at the vertex `u`
-    /// (in [0, 1)) picks, and returns s; 0 (nothing restored) when the cache is empty or
-    /// s > `max_s`.
-    fn pick(&self, ctx: &SceneContext, u: f32, max_s: usize, out: &mut Vec<Vertex>) -> usize;
-    /// The factor of a connection to a picked vertex: its inverse pick probability over the
-    /// light subpaths expected, times the connections' sample count (the weights are over it).
-    fn scale(&self) -> f32;
-}
-
 /// Per-worker scratch memory, reused for every sample (nothing is allocated per sample).
 #[derive(Debug, Default)]
 pub struct BdptScratch {
     pub(crate) cam: Vec<Vertex>,
     pub(crate) light: Vec<Vertex>,
-    /// The light subpath prefix of the vertex a camera vertex joins from a
-    /// `LightVertexCache`.
-    pub(crate) cached: Vec<Vertex>,
     pub(crate) dens: Box<PathDensities>,
     /// The class of the camera subpath's first scattering event (`passes`).
     pub(crate) first: First,
@@ -310,8 +294,6 @@ pub(crate) struct Tally {
     pub splat: f64,
     /// Rays cast by s = 1's light samples.
     pub s1_rays: u64,
-    /// Rays cast by the connections to a light vertex cache.
-    pub cache_rays: u64,
 }
 
 impl BdptScratch {
@@ -321,7 +303,6 @@ impl BdptScratch {
         BdptScratch {
             cam: Vec::with_capacity(n),
             light: Vec::with_capacity(n),
-            cached: Vec::with_capacity(n),
             dens: Box::default(),
             first: First::default(),
             split: Default::default(),
@@ -379,7 +360,7 @@ impl BdptIntegrator {
         let mut ls = light_sampler(seed, px, py, index);
         self.light_subpath(ctx, &mut ls, scratch, stats);
         let mut cs = connection_sampler(seed, px, py, index);
-        radiance += self.connect_all(ctx, &mut cs, None, film, scratch, &mut out, stats);
+        radiance += self.connect_all(ctx, &mut cs, film, scratch, &mut out, stats);
         out.radiance = radiance;
         self.file_catcher(ctx, sampler, scratch, &mut out, stats);
         if !self.transparent_background {
@@ -428,6 +409,6 @@ impl BdptIntegrator {
         self.camera_vertex_alone(ctx, ray, scratch);
         let mut cs = connection_sampler(seed, px, py, index);
         let mut out = CameraSample::blind();
-        self.connect_all(ctx, &mut cs, None, film, scratch, &mut out, stats);
+        self.connect_all(ctx, &mut cs, film, scratch, &mut out, stats);
     }
 }

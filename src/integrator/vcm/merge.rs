@@ -58,20 +58,17 @@ pub struct MergeMap {
     pub eta: f32,
     /// f: light subpaths per camera sample (`PathDensities::light_share`).
     pub light_share: f32,
-    /// The connections' sample count (`PathDensities::connect_share`).
-    pub connect_share: f32,
     /// 1 / (f N π r²): the kernel's normalisation.
     pub norm: f32,
 }
 
 impl MergeMap {
     /// Sets the radius of this iteration for `n` camera samples each with a light subpath
-    /// of probability `light_share` (the connections' sample count `connect_share`),
-    /// rebuilds the grid and puts the records in its bucket order.
-    pub fn build(&mut self, radius: f32, n: u64, (light_share, connect_share): (f32, f32)) {
+    /// of probability `light_share`, rebuilds the grid and puts the records in its bucket
+    /// order.
+    pub fn build(&mut self, radius: f32, n: u64, light_share: f32) {
         self.radius = radius;
         self.light_share = light_share;
-        self.connect_share = connect_share;
         let area = std::f32::consts::PI * radius * radius;
         self.eta = light_share * n as f32 * area;
         self.norm = 1.0 / self.eta;
@@ -85,20 +82,14 @@ impl MergeMap {
 }
 
 /// Appends to `out` the merge records of one light subpath (`light`, BDPT's vertices from
-/// the light point on), with η and the sample counts (`MergeMap`) of this iteration for the
-/// recursive weights.
-pub(crate) fn push_records(
-    scene: &Scene,
-    light: &[Vertex],
-    (eta, counts): (f32, (f32, f32)),
-    out: &mut Vec<MergeRecord>,
-) {
+/// the light point on), with η and f (`MergeMap`) of this iteration for the recursive weights.
+pub(crate) fn push_records(scene: &Scene, light: &[Vertex], (eta, share): (f32, f32), out: &mut Vec<MergeRecord>) {
     let Some(lp) = light.first().and_then(|v| v.light) else {
         return;
     };
     // A camera ray from z₁ at a contact cannot find the light (`bdpt::contact`): no s = 0.
     let hittable = !lights::is_delta(scene, lp.light as usize) && !light.get(1).is_some_and(|v| v.contact);
-    let mut rec = Recursion::start(eta, counts, light[0].pdf_fwd, !light[0].delta, Some(hittable));
+    let mut rec = Recursion::start(eta, share, light[0].pdf_fwd, !light[0].delta, Some(hittable));
     for i in 1..light.len() {
         let v = &light[i];
         if i >= MIN_MERGE_VERTEX && v.bsdf.is_some_and(|b| !b.is_delta()) {
@@ -135,7 +126,7 @@ pub(crate) fn merge_camera_path(
     mut passes: Option<(&SceneContext, Ledger, First, &mut CameraSample)>,
 ) -> Rgb {
     let mut total = Rgb::ZERO;
-    let mut rec = Recursion::start(map.eta, (map.light_share, map.connect_share), 0.0, camera_connectible, None);
+    let mut rec = Recursion::start(map.eta, map.light_share, 0.0, camera_connectible, None);
     for c in 1..cam.len() {
         if c >= 2 {
             let prev = &cam[c - 1];

@@ -16,9 +16,8 @@
 //!   b_c² + η² μ^c, and S_C η² = v / b_c² + a_{m+1}² D^{c-1} / b_c²,
 //!
 //! with v the flag "the connection strategy there can make the path" times its sample count
-//! squared (`PathDensities::count`: f² for light tracing, the camera side's first; the
-//! connections' count² for the strategies with j ≥ 2 light vertices otherwise; 1 for s = 1,
-//! the light side's first) and μ "merging
+//! squared (f², `PathDensities::light_share`, for the strategies that take the pixel's light
+//! subpath: every one on the camera side, light vertex counts j ≥ 2 on the light side) and μ "merging
 //! there can" (never at z₁, `bdpt::mis::MIN_MERGE_VERTEX`; on the camera side every vertex
 //! is beyond the merge, so μ^c depends on connectibility alone). `PathDensities::merge_weight` is the same weight in the ratio form; the
 //! test checks one against the other.
@@ -49,40 +48,43 @@ pub struct Recursion {
     sum: f64,
     /// The last vertex is connectible.
     conn: bool,
-    /// The squared sample count of the connection strategy that joins the last vertex to
-    /// the next one: at the start s = 1's (1: a light point of its own) on the light side
-    /// and t = 1's (f²) on the camera side, after it the connections' (j ≥ 2 light vertices).
-    next2: f64,
-    /// The connections' squared sample count (`PathDensities::connect_share`²).
-    conn2: f64,
+    /// f²: the squared sample count of the strategies that take the pixel's light subpath.
+    share2: f64,
+    /// Light side: the index of the last vertex (its strategies' counts depend on it);
+    /// None on the camera side, whose strategies all take the light subpath.
+    light_index: Option<usize>,
 }
 
 impl Recursion {
     /// Starts at a light point (`first_dens` a₀, `light_hittable` Some(a camera path can
     /// find it): the running sum is v₀ / a₀²) or at the camera (`light_hittable` None: the
     /// sum starts at 0); `first_conn`: the start is connectible (the camera: light
-    /// subpaths can reach it, i.e. not orthographic); `(light_share, connect_share)`: the
-    /// sample counts of light tracing and of the connections s, t ≥ 2
-    /// (`PathDensities::light_share`, `PathDensities::connect_share`).
-    pub fn start(
-        eta: f32,
-        (light_share, connect_share): (f32, f32),
-        first_dens: f32,
-        first_conn: bool,
-        light_hittable: Option<bool>,
-    ) -> Self {
+    /// subpaths can reach it, i.e. not orthographic); `light_share`: light subpaths per
+    /// camera sample (`PathDensities::light_share`).
+    pub fn start(eta: f32, light_share: f32, first_dens: f32, first_conn: bool, light_hittable: Option<bool>) -> Self {
         let d = remap0(first_dens);
         let sum = match light_hittable {
             Some(h) if h && first_conn => 1.0 / (d * d),
             _ => 0.0,
         };
-        let (f, c) = (light_share as f64, connect_share as f64);
+        let f = light_share as f64;
         Recursion {
             eta2: (eta as f64) * (eta as f64),
             sum,
             conn: first_conn,
-            next2: if light_hittable.is_some() { 1.0 } else { f * f },
-            conn2: c * c,
+            share2: f * f,
+            light_index: light_hittable.map(|_| 0),
+        }
+    }
+
+    /// The squared sample count of the connection strategy that joins the last vertex to
+    /// the next one: on the light side it has j = index + 1 light vertices (s = 1 has a
+    /// light point of its own, `PathDensities::count`).
+    #[inline]
+    fn next_count2(&self) -> f64 {
+        match self.light_index {
+            Some(i) if i + 1 < 2 => 1.0,
+            _ => self.share2,
         }
     }
 
@@ -91,7 +93,7 @@ impl Recursion {
     pub fn side(&self, dens: f32) -> Side {
         let d = remap0(dens);
         let inv2 = 1.0 / (d * d);
-        Side { e: if self.conn { (self.next2 * inv2) as f32 } else { 0.0 }, f: (self.sum * inv2) as f32 }
+        Side { e: if self.conn { (self.next_count2() * inv2) as f32 } else { 0.0 }, f: (self.sum * inv2) as f32 }
     }
 
     /// Moves on to the next vertex: its density `dens` from this side, its own
@@ -102,11 +104,11 @@ impl Recursion {
     pub fn push(&mut self, dens: f32, conn: bool, rev: f32, merge: bool) {
         let d = remap0(dens);
         let r = remap0(rev);
-        let v = if self.conn && conn { self.next2 } else { 0.0 };
+        let v = if self.conn && conn { self.next_count2() } else { 0.0 };
         let mu = if conn && merge { self.eta2 } else { 0.0 };
         self.sum = (v + r * r * self.sum) / (d * d) + mu;
         self.conn = conn;
-        self.next2 = self.conn2;
+        self.light_index = self.light_index.map(|i| i + 1);
     }
 }
 
@@ -143,16 +145,8 @@ mod tests {
             let eta = (rnd() * 8.0 - 4.0).exp();
             // Every third path with fewer light subpaths than camera samples.
             let f = if trial % 3 == 0 { 0.02 + 0.98 * rnd() } else { 1.0 };
-            // Every other path with a light vertex cache's count for the connections.
-            let cs = if trial % 2 == 0 { 0.05 + 2.0 * rnd() } else { f };
-            let mut d = PathDensities {
-                n,
-                light_hittable: rnd() < 0.7,
-                eta_vm: eta,
-                light_share: f,
-                connect_share: cs,
-                ..Default::default()
-            };
+            let mut d =
+                PathDensities { n, light_hittable: rnd() < 0.7, eta_vm: eta, light_share: f, ..Default::default() };
             for i in 0..n {
                 let delta = i > 0 && i < n - 1 && rnd() < 0.2;
                 d.a[i] = if delta { 0.0 } else { (rnd() * 12.0 - 6.0).exp() };
@@ -167,13 +161,7 @@ mod tests {
             let mut sum = 0.0f64;
             for j in 0..n {
                 if d.valid(j) {
-                    let count = if j + 1 == n {
-                        f as f64
-                    } else if j >= 2 {
-                        cs as f64
-                    } else {
-                        1.0
-                    };
+                    let count = if j >= 2 || j + 1 == n { f as f64 } else { 1.0 };
                     sum += d.weight(j) as f64 * count;
                 }
                 if d.mergeable(j) {
@@ -190,13 +178,13 @@ mod tests {
                 }
                 // Light side: z₀ … z_m.
                 let mut lr =
-                    Recursion::start(eta, (f, cs), d.a[0], d.connectible[0], Some(d.light_hittable && d.contacts == 0));
+                    Recursion::start(eta, f, d.a[0], d.connectible[0], Some(d.light_hittable && d.contacts == 0));
                 for i in 1..m {
                     lr.push(d.a[i], d.connectible[i], d.b[i - 1], i >= MIN_MERGE_VERTEX);
                 }
                 let l = lr.side(d.a[m]);
                 // Camera side: z_k (camera) … z_m, camera vertex c is z_{k-c}.
-                let mut cr = Recursion::start(eta, (f, cs), 0.0, d.connectible[k], None);
+                let mut cr = Recursion::start(eta, f, 0.0, d.connectible[k], None);
                 for c in 1..k - m {
                     let j = k - c;
                     // z_j is beyond the merge, so merging is a strategy there when connectible.

@@ -14,13 +14,11 @@
 //!    on (z_m, m ≥ 2: direct light is the connections', `bdpt::mis::MIN_MERGE_VERTEX`) are
 //!    stored with the light side of their recursive MIS quantities (`merge::MergeRecord`)
 //!    in a hash grid of cell 2r (`grid.rs`, records in its bucket order), and the whole
-//!    subpath is kept for the connections (`light_store.rs`: each light subpath is
+//!    subpath is kept for its pixel's connections (`light_store.rs`: each light subpath is
 //!    traced once).
 //! 2. **Camera pass**: per pixel, BDPT's camera sample (camera subpath, emission found by
-//!    it (s = 0), light sampling (s = 1), connections (s, t ≥ 2: each camera vertex joins
-//!    one vertex of the light vertex cache, `light_store::VertexCache`, or under motion
-//!    blur every vertex of the pixel's own light subpath) and light tracing (t = 1) of the
-//!    pixel's light subpath, splatted), all weighted over connections *and*
+//!    it (s = 0), light sampling (s = 1), connections to the pixel's own light subpath
+//!    (s, t ≥ 2) and light tracing (t = 1), splatted), all weighted over connections *and*
 //!    merges (`bdpt::mis` with η); then each non-delta camera vertex merges with the stored
 //!    vertices within r (`merge.rs`, weights in recursive form, `mis.rs`), the kernel
 //!    normalised by f N π r² (f N light subpaths expected per iteration, N the window's pixels).

@@ -4,13 +4,13 @@
 //! progressive driver; an iteration's light pass is not interrupted once its camera pass
 //! may need it, and the first iteration always completes so a time limit gives an image.
 
-use super::light_store::{RowSubpaths, VertexCache};
+use super::light_store::RowSubpaths;
 use super::merge::{MergeMap, MergeRecord, merge_camera_path, push_records};
 use super::share::PilotSums;
 use super::volume_merge::{self, VolumeMap, VolumeRecord};
 use super::{VCM_ALPHA, VCM_RADIUS_FOOTPRINTS, VcmIntegrator, VcmMode};
 use crate::film::{CameraSample, Film, SplatPool};
-use crate::integrator::bdpt::{BdptScratch, FilmTarget, LightVertexCache, connection_sampler, light_sampler};
+use crate::integrator::bdpt::{BdptScratch, FilmTarget, connection_sampler, light_sampler};
 use crate::integrator::{SceneContext, data_passes};
 use crate::math::{Rgb, hash_combine, luminance};
 use crate::render::job::TILE_SIZE;
@@ -33,9 +33,6 @@ pub struct VcmStats {
     pub radius_final: f32,
     /// Light subpaths per camera sample (`share`).
     pub light_share: f32,
-    /// The light vertex cache's vertices per light subpath L̄, measured by the pilot (0:
-    /// no cache, each camera vertex joins its own light subpath's vertices).
-    pub cached_per_subpath: f32,
     /// Light vertices stored for merging, over all iterations.
     pub merge_records: u64,
     /// Light points stored in media for volume merging, over all iterations.
@@ -116,10 +113,6 @@ struct Pass {
     share: f32,
     /// 1, or 2 for the pilot: every `step`-th pixel of every `step`-th row.
     step: u32,
-    /// With a light vertex cache: the connections' sample count
-    /// (`PathDensities::connect_share`) and the probability that a camera vertex picks a
-    /// cached vertex (`VertexCache`); None: each camera vertex joins its own light subpath.
-    cache: Option<(f32, f32)>,
 }
 
 /// What one iteration reports.
@@ -134,26 +127,22 @@ struct IterationOut {
     interrupted: bool,
     /// The pilot's sums.
     pilot: PilotSums,
-    /// Vertices in the light vertex cache.
-    cached: u64,
-    /// Light subpaths expected (f N).
-    light_paths: f32,
 }
 
-/// Per-row working memory of the light pass, kept across iterations (the row's light
-/// subpaths, for the connections in the camera pass, are kept beside it: `RowSubpaths`).
+/// Per-row working memory of the light pass, kept across iterations.
 struct LightRow {
     records: Vec<MergeRecord>,
     /// Its light points in media (`volume_merge`).
     volume: Vec<VolumeRecord>,
+    /// The row's light subpaths, for its pixels' connections in the camera pass.
+    subpaths: RowSubpaths,
     scratch: BdptScratch,
 }
 
 impl VcmIntegrator {
     /// BDPT's camera sample (`BdptIntegrator::li`) with the light subpath the light pass
     /// traced for this pixel (`light`: the row's subpaths and the pixel's index in it;
-    /// `pixel_sample`: (seed, x, y, index), which seeds the connections' light samples),
-    /// its connections s, t ≥ 2 to `cache` when there is one.
+    /// `pixel_sample`: (seed, x, y, index), which seeds the connections' light samples).
     #[allow(clippy::too_many_arguments)]
     fn sample_stored(
         &self,
@@ -162,7 +151,6 @@ impl VcmIntegrator {
         sampler: &mut PixelSampler,
         pixel_sample: (u32, u32, u32, u32),
         (row, i): (&RowSubpaths, usize),
-        cache: Option<&VertexCache>,
         film: &mut FilmTarget,
         scratch: &mut BdptScratch,
         stats: &mut RayStats,
@@ -176,16 +164,13 @@ impl VcmIntegrator {
         row.restore(ctx, i, &mut scratch.light);
         let (seed, px, py, index) = pixel_sample;
         let mut cs = connection_sampler(seed, px, py, index);
-        let (s1_rays, cache_rays, rays) = (scratch.tally.s1_rays, scratch.tally.cache_rays, stats.total());
+        let (s1_rays, rays) = (scratch.tally.s1_rays, stats.total());
         scratch.tally.light = Rgb::ZERO;
-        let cache = cache.map(|c| c as &dyn LightVertexCache);
-        radiance += self.bdpt.connect_all(ctx, &mut cs, cache, film, scratch, &mut out, stats);
-        // The cache's connections are every camera sample's, whether or not it traced a
-        // light subpath: the camera side's, for the share's rule.
-        let camera_side = (scratch.tally.s1_rays - s1_rays) + (scratch.tally.cache_rays - cache_rays);
+        radiance += self.bdpt.connect_all(ctx, &mut cs, film, scratch, &mut out, stats);
+        let s1_rays = scratch.tally.s1_rays - s1_rays;
         parts.light = scratch.tally.light;
-        parts.camera_rays = camera_rays + camera_side;
-        parts.light_rays = stats.total() - rays - camera_side;
+        parts.camera_rays = camera_rays + s1_rays;
+        parts.light_rays = stats.total() - rays - s1_rays;
         out.radiance = radiance;
         if !self.bdpt.transparent_background {
             out.make_opaque();
@@ -202,7 +187,7 @@ impl VcmIntegrator {
         &self,
         setup: &Setup,
         pass: Pass,
-        (rows, stores): (&mut [LightRow], &mut [RowSubpaths]),
+        rows: &mut [LightRow],
         (map, volume_map): (&mut MergeMap, &mut VolumeMap),
         film: Option<&mut Film>,
         splats: &SplatPool,
@@ -210,8 +195,7 @@ impl VcmIntegrator {
     ) -> IterationOut {
         let Setup { ctx, camera, job, shutter, camera_connectible } = *setup;
         let [x0, y0, x1, y1] = job.window;
-        let Pass { index, radius, share, step, cache } = pass;
-        let counts = (share, cache.map_or(share, |c| c.0));
+        let Pass { index, radius, share, step } = pass;
         let merging = self.mode == VcmMode::Full;
         let pilot = film.is_none();
         let on_lattice = |px: u32, py: u32| (px - x0).is_multiple_of(step) && (py - y0).is_multiple_of(step);
@@ -223,17 +207,16 @@ impl VcmIntegrator {
             let eta = share * (cameras as f32 * std::f32::consts::PI * radius * radius);
             let light_rays: Vec<RayStats> = rows
                 .par_iter_mut()
-                .zip(stores.par_iter_mut())
                 .enumerate()
-                .map(|(row, (lr, subpaths))| {
+                .map(|(row, lr)| {
                     let mut rs = RayStats::default();
                     lr.records.clear();
                     lr.volume.clear();
-                    subpaths.clear();
+                    lr.subpaths.clear();
                     let py = y0 + row as u32;
                     for px in x0..x1 {
                         if !on_lattice(px, py) || !has_light_subpath(job.seed, px, py, index, share) {
-                            subpaths.push(&[]);
+                            lr.subpaths.push(&[]);
                             continue;
                         }
                         // The camera sample's time, drawn as the camera pass draws it.
@@ -248,10 +231,10 @@ impl VcmIntegrator {
                         let _time = crate::motion::TimeScope::enter(time);
                         let mut ls = light_sampler(job.seed, px, py, index);
                         self.bdpt.light_subpath(ctx, &mut ls, &mut lr.scratch, &mut rs);
-                        push_records(ctx.scene, &lr.scratch.light, (eta, counts), &mut lr.records);
+                        push_records(ctx.scene, &lr.scratch.light, (eta, share), &mut lr.records);
                         let salt = volume_merge::salt(job.seed, px, py, index);
                         volume_merge::deposit(ctx, &lr.scratch.volume_segments, salt, &mut lr.volume);
-                        subpaths.push(&lr.scratch.light);
+                        lr.subpaths.push(&lr.scratch.light);
                     }
                     rs
                 })
@@ -264,7 +247,7 @@ impl VcmIntegrator {
             for lr in rows.iter() {
                 map.records.extend_from_slice(&lr.records);
             }
-            map.build(radius, cameras, counts);
+            map.build(radius, cameras, share);
             volume_map.records.clear();
             for lr in rows.iter() {
                 volume_map.records.extend_from_slice(&lr.volume);
@@ -277,15 +260,11 @@ impl VcmIntegrator {
         }
         // 2. Camera pass: BDPT's sample with merge-aware weights, then the merges.
         let eta = if merging { map.eta } else { 0.0 };
-        out.light_paths = share * cameras as f32;
-        let vertex_cache = cache.filter(|_| merging).map(|c| VertexCache::new(stores, out.light_paths, c));
-        out.cached = vertex_cache.as_ref().map_or(0, |c| c.len() as u64);
         let want_data = job.passes.any_data() && !pilot;
         let want_aovs = job.passes.shader_aov_channels() > 0 && !pilot;
         let max_depth = self.bdpt.max_depth;
         let cut = AtomicBool::new(false);
-        let (map_ref, rows_ref, cut_ref) = (&*map, &*stores, &cut);
-        let cache_ref = vertex_cache.as_ref();
+        let (map_ref, rows_ref, cut_ref) = (&*map, &*rows, &cut);
         let volume_ref = &*volume_map;
         // The pilot's tiles: a film's layout without its pixels.
         let mut pilot_tiles;
@@ -303,7 +282,6 @@ impl VcmIntegrator {
                 let mut scratch = BdptScratch::new(max_depth);
                 scratch.dens.eta_vm = eta;
                 scratch.dens.light_share = share;
-                scratch.dens.connect_share = counts.1;
                 let mut buf = splats.take();
                 'pixels: for ty in 0..tile.h {
                     for tx in 0..tile.w {
@@ -328,7 +306,7 @@ impl VcmIntegrator {
                         let mut s = if ray.is_blind() && merging {
                             // Black and opaque, but its light subpath still splats (t = 1).
                             if camera.light_tracing_reaches() {
-                                let row = &rows_ref[(py - y0) as usize];
+                                let row = &rows_ref[(py - y0) as usize].subpaths;
                                 row.restore(ctx, (px - x0) as usize, &mut scratch.light);
                                 self.bdpt.splat_blind(ctx, &ray, pixel_sample, &mut target, &mut scratch, &mut to.rays);
                             }
@@ -337,7 +315,7 @@ impl VcmIntegrator {
                             self.bdpt.li_blind(ctx, &ray, pixel_sample, &mut target, &mut scratch, &mut to.rays)
                         } else if merging {
                             // The pixel's light subpath from the light pass, not traced again.
-                            let row = &rows_ref[(py - y0) as usize];
+                            let row = &rows_ref[(py - y0) as usize].subpaths;
                             let light = (row, (px - x0) as usize);
                             let mut parts = Parts::default();
                             let mut s = self.sample_stored(
@@ -346,7 +324,6 @@ impl VcmIntegrator {
                                 &mut sampler,
                                 pixel_sample,
                                 light,
-                                cache_ref,
                                 &mut target,
                                 &mut scratch,
                                 &mut to.rays,
@@ -450,39 +427,26 @@ impl VcmIntegrator {
         let mut map = MergeMap::default();
         let mut volume_map = VolumeMap::default();
         let mut rows: Vec<LightRow> = (0..h)
-            .map(|_| LightRow { records: Vec::new(), volume: Vec::new(), scratch: BdptScratch::new(max_depth) })
+            .map(|_| LightRow {
+                records: Vec::new(),
+                volume: Vec::new(),
+                subpaths: RowSubpaths::default(),
+                scratch: BdptScratch::new(max_depth),
+            })
             .collect();
-        let mut stores: Vec<RowSubpaths> = (0..h).map(|_| RowSubpaths::default()).collect();
         let mut rays = RayStats::default();
         let mut nan = 0u64;
         let mut splat_count = 0u64;
         let mut st = VcmStats { radius_initial: r0, light_share: 1.0, ..Default::default() };
         let over = |it: u32| stop.load(Ordering::Relaxed) || (it > 0 && deadline.is_some_and(|d| Instant::now() >= d));
-        // The share of camera samples with a light subpath and the light vertex cache's
-        // vertices per subpath, from a pilot thrown away (the module `share`); single
-        // strategies unweighted (debugging) carry no sample counts, and under motion blur
-        // a camera vertex joins only its own light subpath (which shares its time).
-        let mut cache = None;
+        // The share of camera samples with a light subpath, from a pilot thrown away (the
+        // module `share`); single strategies unweighted (debugging) carry no sample counts.
         if merging && self.bdpt.strategy.is_none() {
-            let use_cache = setup.shutter.is_none();
-            let cache_all = (1.0, 1.0);
-            let pass =
-                Pass { index: PILOT_INDEX, radius: r0, share: 1.0, step: 2, cache: use_cache.then_some(cache_all) };
+            let pass = Pass { index: PILOT_INDEX, radius: r0, share: 1.0, step: 2 };
             let pool = SplatPool::with_passes(job.window, job.passes);
-            let stores = &mut stores[..];
-            let out =
-                self.iteration(&setup, pass, (&mut rows, stores), (&mut map, &mut volume_map), None, &pool, &|| false);
+            let out = self.iteration(&setup, pass, &mut rows, (&mut map, &mut volume_map), None, &pool, &|| false);
             rays.add(&out.rays);
             st.light_share = out.pilot.light_share(npix);
-            if use_cache {
-                // L̄: a camera vertex picks with probability k = min(1, L̄), and its
-                // connections count k / L̄ samples; any positive count keeps the weights a
-                // partition, so a pilot with an empty cache takes 1.
-                let per_subpath = out.cached as f32 / out.light_paths;
-                st.cached_per_subpath = if per_subpath > 0.0 && per_subpath.is_finite() { per_subpath } else { 1.0 };
-                let pick = st.cached_per_subpath.min(1.0);
-                cache = Some((pick / st.cached_per_subpath, pick));
-            }
         }
         for it in 0..target {
             if over(it) {
@@ -490,16 +454,11 @@ impl VcmIntegrator {
             }
             let index = job.sample_offset + it;
             let radius = r0 * ((index + 1) as f32).powf(0.5 * (VCM_ALPHA - 1.0));
-            let pass = Pass { index, radius, share: st.light_share, step: 1, cache };
-            let out = self.iteration(
-                &setup,
-                pass,
-                (&mut rows, &mut stores),
-                (&mut map, &mut volume_map),
-                Some(&mut film),
-                &splats,
-                &|| over(it),
-            );
+            let pass = Pass { index, radius, share: st.light_share, step: 1 };
+            let out =
+                self.iteration(&setup, pass, &mut rows, (&mut map, &mut volume_map), Some(&mut film), &splats, &|| {
+                    over(it)
+                });
             rays.add(&out.rays);
             nan += out.bad;
             if merging {
