@@ -29,6 +29,8 @@ pub(crate) struct StoredVertex {
     pdf_fwd: f32,
     pdf_rev: f32,
     delta: bool,
+    /// At a contact (`bdpt::contact`): the connections' trap weight and the MIS read it.
+    contact: bool,
     medium: MediumStack,
     light: Option<LightPoint>,
     /// The bounces its light subpath counted before it (`bdpt::bounces`).
@@ -68,6 +70,7 @@ impl RowSubpaths {
                 pdf_fwd: v.pdf_fwd,
                 pdf_rev: v.pdf_rev,
                 delta: v.delta,
+                contact: v.contact,
                 medium: v.medium,
                 light: v.light,
                 classes: v.classes,
@@ -94,6 +97,7 @@ impl RowSubpaths {
             v.pdf_fwd = s.pdf_fwd;
             v.pdf_rev = s.pdf_rev;
             v.delta = s.delta;
+            v.contact = s.contact;
             v.medium = s.medium;
             v.light = s.light;
             v.classes = s.classes;
