@@ -37,6 +37,22 @@ use crate::scene::visibility::RayMask;
 use crate::scene::{AlphaMode, Scene};
 use glam::{Vec2, Vec3};
 
+/// Per light, the kinds of ray whose next-event estimate takes it (`SceneContext::light_nee`):
+/// its own Ray Visibility, and an emissive triangle's object's; empty when no emissive
+/// triangle's object is hidden from some kind (then the lights' own visibility says it).
+fn nee_rays(scene: &Scene) -> Vec<RayMask> {
+    let objects = &scene.ray_visibility.per_triangle;
+    let object = |l: &Light| match l {
+        Light::Triangle { tri } => objects.get(*tri as usize).copied().unwrap_or(RayMask::ALL),
+        _ => RayMask::ALL,
+    };
+    if !scene.lights.iter().any(|l| object(l) != RayMask::ALL) {
+        return Vec::new();
+    }
+    let own = |i: usize| scene.light_rays.get(i).copied().unwrap_or(RayMask::ALL);
+    scene.lights.iter().enumerate().map(|(i, l)| RayMask(own(i).0 & object(l).0)).collect()
+}
+
 /// Everything an integrator may ask of the scene.
 pub struct SceneContext<'a> {
     /// The scene description.
@@ -60,6 +76,12 @@ pub struct SceneContext<'a> {
     /// Per light, the kinds of ray that see it (`Scene::light_rays`; empty: every ray sees
     /// every light, or the integrator does not honour it; see `with_ray_visibility`).
     light_rays: &'a [RayMask],
+    /// Per light, the kinds of ray whose next-event estimate takes it: its own Ray Visibility
+    /// and, for an emissive triangle, its object's (Cycles gives a mesh light its object's
+    /// `SHADER_EXCLUDE_*`: closures of a hidden kind and volume scattering take no estimate
+    /// from it, while rays that find it check only the object's visibility). Empty: as
+    /// `light_rays`.
+    light_nee: Vec<RayMask>,
     /// This context is a shadow catcher's pass (`catcher::pass_context`): rays see only
     /// catcher objects and only the lights that light catchers give light.
     catcher_only: bool,
@@ -194,6 +216,7 @@ impl<'a> SceneContext<'a> {
             point_rays: false,
             linking: false,
             light_rays: &[],
+            light_nee: Vec::new(),
             catcher_only: false,
             lights_catcher: Vec::new(),
             catcher: None,
@@ -280,6 +303,7 @@ impl<'a> SceneContext<'a> {
     pub fn with_ray_visibility(mut self) -> Self {
         // Lights' own ray visibility (`scene::light_visibility`) goes with the objects'.
         self.light_rays = &self.scene.light_rays;
+        self.light_nee = nee_rays(self.scene);
         self.with_object_visibility()
     }
 
@@ -357,7 +381,14 @@ impl<'a> SceneContext<'a> {
     /// Visibility, `scene::light_visibility`); none unless the context honours it.
     #[inline]
     pub fn light_excludes(&self, light: usize) -> Excluded {
-        self.light_rays.get(light).map_or(Excluded::default(), |m| Excluded::of(*m))
+        self.nee_rays(light).map_or(Excluded::default(), Excluded::of)
+    }
+
+    /// The kinds of ray whose next-event estimate takes light `light` (`light_nee`), None
+    /// for every kind.
+    #[inline]
+    fn nee_rays(&self, light: usize) -> Option<RayMask> {
+        if self.light_nee.is_empty() { self.light_rays.get(light).copied() } else { self.light_nee.get(light).copied() }
     }
 
     /// True when a path whose last event set `path`'s flags finds light `light` (its Ray
@@ -407,7 +438,7 @@ impl<'a> SceneContext<'a> {
     /// Scatter); always unless the context honours it.
     #[inline]
     pub fn light_seen_in_volume(&self, light: usize) -> bool {
-        self.light_rays.get(light).is_none_or(|m| m.meets(RayMask::VOLUME))
+        self.nee_rays(light).is_none_or(|m| m.meets(RayMask::VOLUME))
     }
 
     /// True when triangle `tri` belongs to a shadow catcher at which camera paths split

@@ -263,6 +263,10 @@ fn mixture(c: &Closures, s: &SurfaceHit, wo: Vec3, frame: &Frame, keep: f32) -> 
         if lobe.bump_shadowed() && m != reference {
             mix.bump[k] = bump_alpha2(reference, m).unwrap_or(0.0);
         }
+        // Cycles cuts every closure's evaluation by its normal against sd->N, not only the
+        // diffuse ones' (whose bump shadowing above holds the cut): a Glossy BSDF on a normal
+        // past the horizon was 1.0070 of Cycles.
+        mix.cut[k] = !lobe.is_diffuse_class() && nk != reference;
     }
     mix
 }

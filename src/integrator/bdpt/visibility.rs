@@ -26,7 +26,8 @@
 //!   A **restricted light** is one whose Ray Visibility hides it from a surface bounce
 //!   kind (the world included), one with a Max Bounces (`scene::light_bounces`: light
 //!   sampling past it gives nothing, BSDF-sampled hits keep their weight against it, as
-//!   Cycles), or an emissive triangle of a restricted object.
+//!   Cycles), or an emissive triangle of a restricted object or of one hidden from volume
+//!   rays (volume scattering takes no light from it, neither found nor estimated).
 //! - A path is **restricted** when a segment of it crosses or ends on a restricted
 //!   object (the test is geometric, on the triangles alone: alpha and pass-through are
 //!   ignored, so every strategy answers it alike for the same segment), or its light is
@@ -143,8 +144,11 @@ impl Restriction {
                 let own = scene.light_rays.get(i).is_some_and(|m| m.0 & LIGHT_BOUNCE_KINDS.0 != LIGHT_BOUNCE_KINDS.0);
                 // A Max Bounces: light sampling stops past it, BSDF-sampled hits do not.
                 let bounded = scene.light_max_bounces.get(i).is_some_and(|&m| m != NO_LIMIT);
-                let object =
-                    matches!(l, Light::Triangle { tri } if objects.get(*tri as usize).copied().unwrap_or(false));
+                // An emissive triangle of an object hidden from volume rays too: Cycles' volume
+                // scattering takes no light from it (`SceneContext::light_excludes`, found
+                // nor estimated), which only the camera side's strategies know.
+                let object = matches!(l, Light::Triangle { tri } if objects.get(*tri as usize).copied().unwrap_or(false)
+                    || vis.get(*tri as usize).is_some_and(|m| !m.meets(RayMask::VOLUME)));
                 own || bounded || object
             })
             .collect();

@@ -746,18 +746,6 @@ impl<'a> Loader<'a> {
                 }
             }
         }
-        let emissive: std::collections::HashSet<usize> = lights
-            .iter()
-            .filter_map(|l| if let Light::Triangle { tri } = l { Some(*tri as usize) } else { None })
-            .collect();
-        for name in ray_visibility.emitters_lighting_hidden_kinds(|t| emissive.contains(&t)) {
-            let w = format!(
-                "object '{name}': emits light and is hidden from diffuse, glossy, transmitted or volume-scattered \
-                 rays; next-event estimation still lights every surface and volume from it (Cycles leaves the hidden \
-                 kinds out), so only its BSDF-sampled light is missing"
-            );
-            self.warn(w);
-        }
         self.profile.emitter_power = phase.elapsed().as_secs_f64();
 
         let file_cameras = cameras.len();
