@@ -818,9 +818,15 @@ impl PbrBsdf {
         // estimation's density, then the sampled bounce), the profile of the glass bench
         // scene had it at 3.2 % of the render's instructions when computed per call.
         if at.wo.z > 0.0 {
-            at.c = self.lobes(&at);
+            at.v.c = self.lobes(&at);
         }
         at
+    }
+
+    /// [`at`](Self::at) from its terms kept by [`PbrAt::view`] (for the same BSDF).
+    #[inline]
+    pub fn bind(&self, v: &PbrView) -> PbrAt<'_> {
+        PbrAt { b: self, v: *v }
     }
 
     /// The view-side terms of [`at`](Self::at) without the lobe choice (which only the
@@ -832,18 +838,20 @@ impl PbrBsdf {
         if wo.z <= 0.0 {
             return PbrAt {
                 b: self,
-                wo,
-                flip,
-                under: Rgb::ZERO,
-                eo: Rgb::ZERO,
-                layer_ms: Rgb::ONE,
-                sheen_o: 0.0,
-                metal_ms: Rgb::ONE,
-                ec: 0.0,
-                coat_t: Rgb::ONE,
-                es: 0.0,
-                fiber: None,
-                c: LobeChoice::NONE,
+                v: PbrView {
+                    wo,
+                    flip,
+                    under: Rgb::ZERO,
+                    eo: Rgb::ZERO,
+                    layer_ms: Rgb::ONE,
+                    sheen_o: 0.0,
+                    metal_ms: Rgb::ONE,
+                    ec: 0.0,
+                    coat_t: Rgb::ONE,
+                    es: 0.0,
+                    fiber: None,
+                    c: LobeChoice::NONE,
+                },
             };
         }
         // The coat reflects E_c(μo) of the light and leaves the rest to the layers below
@@ -876,7 +884,9 @@ impl PbrBsdf {
         // The metal's multiple-scattering factor 1 + F_ms (1/E − 1) with E the white lobe's
         // albedo (above 0.3 everywhere; the floor only guards the division).
         let metal_ms = if need_metal { Rgb::ONE + self.metal_fms * (1.0 / (a + b).max(0.05) - 1.0) } else { Rgb::ONE };
-        PbrAt { b: self, wo, flip, under, eo, layer_ms, sheen_o, metal_ms, ec, coat_t, es, fiber, c: LobeChoice::NONE }
+        let v =
+            PbrView { wo, flip, under, eo, layer_ms, sheen_o, metal_ms, ec, coat_t, es, fiber, c: LobeChoice::NONE };
+        PbrAt { b: self, v }
     }
 
     /// Density of [`sample`](Self::sample) for the non-delta lobes.
@@ -1000,7 +1010,7 @@ mod params;
 mod passes;
 mod view;
 pub use params::PbrParams;
-pub use view::PbrAt;
+pub use view::{PbrAt, PbrView};
 
 #[cfg(test)]
 mod tests;

@@ -16,6 +16,14 @@ use glam::{Vec2, Vec3};
 #[derive(Clone, Copy, Debug)]
 pub struct PbrAt<'a> {
     pub(super) b: &'a PbrBsdf,
+    pub(super) v: PbrView,
+}
+
+/// The wo-only terms of a [`PbrAt`] without the BSDF they belong to: a bidirectional
+/// vertex keeps its own (`PbrBsdf::bind`), as it is joined to many vertices of the other
+/// subpath from the same outgoing direction.
+#[derive(Clone, Copy, Debug)]
+pub struct PbrView {
     /// wo, flipped into the upper hemisphere.
     pub(super) wo: Vec3,
     /// wo was below the surface: wi is flipped with it.
@@ -40,6 +48,30 @@ pub struct PbrAt<'a> {
     pub(super) fiber: Option<Microfiber>,
     /// How `sample` chooses among the lobes at wo (`PbrBsdf::lobes`), computed once.
     pub(super) c: LobeChoice,
+}
+
+impl PbrView {
+    /// The outgoing direction it was made for (unflipped).
+    #[inline]
+    pub fn outgoing(&self) -> Vec3 {
+        if self.flip { Vec3::new(self.wo.x, self.wo.y, -self.wo.z) } else { self.wo }
+    }
+}
+
+impl std::ops::Deref for PbrAt<'_> {
+    type Target = PbrView;
+    #[inline]
+    fn deref(&self) -> &PbrView {
+        &self.v
+    }
+}
+
+impl<'a> PbrAt<'a> {
+    /// Its wo-only terms, to be bound again to the same BSDF by [`PbrBsdf::bind`].
+    #[inline]
+    pub fn view(&self) -> PbrView {
+        self.v
+    }
 }
 
 impl PbrAt<'_> {

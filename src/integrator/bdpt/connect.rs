@@ -4,6 +4,7 @@
 use super::contact::{self, LightEnd};
 use super::vertex::*;
 use super::*;
+use crate::bsdf::BsdfAt;
 use crate::integrator::linking::{self, Gate};
 use crate::scene::light_path::LightPath;
 use crate::scene::visibility::RayMask;
@@ -102,6 +103,8 @@ impl BdptIntegrator {
             return;
         }
         let mut first = First::default();
+        // The light vertex's BSDF seen from the camera: its value and reverse density.
+        let mut back = None;
         // What the light vertex sends toward the camera (times the cosine at it).
         let f = match (y.kind, y.light) {
             (Kind::Light, Some(lp)) => {
@@ -136,11 +139,15 @@ impl BdptIntegrator {
                 if (wi_l.z > 0.0) != (w.dot(hit.ng) > 0.0) {
                     return;
                 }
+                let from_camera = back.insert(bsdf.at(wi_l));
                 if self.ledger.light_passes {
                     // Seen from the camera: leaving toward it, arriving from the light side.
-                    first = passes::shares_toward(bsdf, wi_l, wo_l);
+                    first = passes::shares_seen(from_camera, wo_l);
                 }
-                bsdf.eval_adjoint(wo_l, wi_l) * wi_l.z.abs() * shading_correction(hit, &y.frame, y.wo, w)
+                let own = bsdf.bind(&y.view);
+                bsdf.eval_adjoint_at(&own, from_camera, wo_l, wi_l)
+                    * wi_l.z.abs()
+                    * shading_correction(hit, &y.frame, y.wo, w)
             }
         };
         if f == Rgb::ZERO {
@@ -177,10 +184,10 @@ impl BdptIntegrator {
         // b[s-1]: the camera generating y.
         dens.b[s - 1] = y.area_density(proj.pdf_dir, cam_p);
         if s >= 2
-            && let Some(bsdf) = &y.bsdf
+            && let Some(from_camera) = &back
         {
             let prev = &light[s - 2];
-            let pdf = bsdf.pdf(y.frame.to_local(w), y.frame.to_local(prev.dir_from(y.p)));
+            let pdf = from_camera.pdf(y.frame.to_local(prev.dir_from(y.p)));
             dens.b[s - 2] = prev.area_density(pdf, y.p);
         }
         dens.a[k] = 0.0; // unused (t = 0 is not a strategy)
@@ -252,7 +259,7 @@ impl BdptIntegrator {
         // Borrowed, not copied (see `connect_vertices`).
         let BdptScratch { cam, dens, .. } = scratch;
         let x = &cam[t - 1];
-        let (Some(bsdf), Some(hit)) = (x.bsdf.as_ref(), x.hit.as_ref()) else {
+        let (Some((bsdf, own)), Some(hit)) = (x.seen(), x.hit.as_ref()) else {
             return none;
         };
         if bsdf.is_delta() {
@@ -272,7 +279,6 @@ impl BdptIntegrator {
         if gate == Gate::Drop || !ctx.nee_within_bounces(index, hit.light_path.depth) {
             return none;
         }
-        let wo_l = x.frame.to_local(x.wo);
         if !lights::is_finite(&ctx.scene.lights[index]) {
             // The world, a sun or a soft point light: light sampling as the path tracer
             // does; weighted over every strategy for lights that start light subpaths,
@@ -283,7 +289,7 @@ impl BdptIntegrator {
             };
             let wi_l = x.frame.to_local(ls.wi);
             let consistent = (wi_l.z > 0.0) == (ls.wi.dot(hit.ng) > 0.0);
-            let f = Self::eval_lit(ctx, bsdf, index, wo_l, wi_l) * wi_l.z.abs();
+            let f = Self::eval_lit(ctx, &own, index, wi_l) * wi_l.z.abs();
             if f == Rgb::ZERO || ls.li == Rgb::ZERO || !consistent {
                 return none;
             }
@@ -300,16 +306,16 @@ impl BdptIntegrator {
                     1.0
                 } else if restricted {
                     // Made by s = 0 and s = 1 alone (`visibility`), as next-event estimation weighs it.
-                    if ls.delta { 1.0 } else { power_heuristic(p_light, bsdf.pdf(wo_l, wi_l)) }
+                    if ls.delta { 1.0 } else { power_heuristic(p_light, own.pdf(wi_l)) }
                 } else if self.lights.starts(index) {
                     self.weight_s1_infinite(ctx, t, index, &ls, camera, cam, dens)
                 } else if ls.delta {
                     1.0
                 } else {
-                    power_heuristic(p_light, bsdf.pdf(wo_l, wi_l))
+                    power_heuristic(p_light, own.pdf(wi_l))
                 };
             let c = x.beta * f * tr * ls.li * (self.mis(gate.weight(w)) / p_light);
-            return (c, self.first_toward(bsdf, wo_l, wi_l), index);
+            return (c, self.first_seen(&own, wi_l), index);
         }
         let Some(lp) = lights::sample_point(ctx.scene, index, Vec2::new(u[1], u[2])) else {
             return none;
@@ -329,7 +335,7 @@ impl BdptIntegrator {
         if (wi_l.z > 0.0) != (wi.dot(hit.ng) > 0.0) {
             return none;
         }
-        let f = Self::eval_lit(ctx, bsdf, index, wo_l, wi_l) * wi_l.z.abs();
+        let f = Self::eval_lit(ctx, &own, index, wi_l) * wi_l.z.abs();
         if f == Rgb::ZERO {
             return none;
         }
@@ -349,7 +355,7 @@ impl BdptIntegrator {
         }
         let trap = contact::trap_weight(ctx, x, x.wo, LightEnd::Point { light: index, q: lp.p, n: lp.n });
         if gate == Gate::Whole {
-            return (contribution * tr * (trap * self.mis(1.0)), self.first_toward(bsdf, wo_l, wi_l), index);
+            return (contribution * tr * (trap * self.mis(1.0)), self.first_seen(&own, wi_l), index);
         }
         if x.restricted || self.restriction.light(index) || self.restriction.between(x.p, lp.p) {
             // Made by s = 0 and s = 1 alone (`visibility`): BSDF sampling against this
@@ -357,9 +363,9 @@ impl BdptIntegrator {
             let w = if lights::is_delta(ctx.scene, index) {
                 1.0
             } else {
-                power_heuristic(pmf * lp.pdf_pos * dist2 / cos_y, bsdf.pdf(wo_l, wi_l))
+                power_heuristic(pmf * lp.pdf_pos * dist2 / cos_y, own.pdf(wi_l))
             };
-            return (contribution * tr * self.mis(w), self.first_toward(bsdf, wo_l, wi_l), index);
+            return (contribution * tr * self.mis(w), self.first_seen(&own, wi_l), index);
         }
         // MIS with the light-origin density of light subpaths.
         y.pdf_fwd = self.lights.pmf_origin(index) * lp.pdf_pos;
@@ -367,7 +373,7 @@ impl BdptIntegrator {
         dens.connectible[0] = true;
         dens.connectible[1] = true;
         // b[0]: the camera vertex's BSDF generating the light point.
-        dens.b[0] = y.area_density(bsdf.pdf(wo_l, wi_l), x.p);
+        dens.b[0] = y.area_density(own.pdf(wi_l), x.p);
         // a[1]: the light's emission generating x.
         dens.a[1] = x.area_density(lights::pdf_direction(ctx.scene, &lp, -wi), lp.p);
         if t >= 2 {
@@ -380,21 +386,21 @@ impl BdptIntegrator {
             dens.a[2] = prev.area_density(pdf, x.p);
         }
         let w = self.mis(dens.weight(1)) * trap;
-        (contribution * tr * w, self.first_toward(bsdf, wo_l, wi_l), index)
+        (contribution * tr * w, self.first_seen(&own, wi_l), index)
     }
 
-    /// The BSDF at a camera vertex toward light `index`, without the closure classes the
+    /// The BSDF at a camera vertex (seen from its wo) toward light `index`, without the closure classes the
     /// light's Ray Visibility hides it from (as next-event estimation's, `nee`).
     #[inline]
-    fn eval_lit(ctx: &SceneContext, bsdf: &crate::bsdf::Bsdf, index: usize, wo: Vec3, wi: Vec3) -> Rgb {
+    fn eval_lit(ctx: &SceneContext, at: &BsdfAt, index: usize, wi: Vec3) -> Rgb {
         let ex = ctx.light_excludes(index);
-        if ex.none() { bsdf.eval(wo, wi) } else { bsdf.at(wo).eval_visible(wi, ex) }
+        if ex.none() { at.eval(wi) } else { at.eval_visible(wi, ex) }
     }
 
-    /// The class of the BSDF from local `wo` toward local `wi`, when light passes are kept.
+    /// The class of the BSDF seen from wo toward local `wi`, when light passes are kept.
     #[inline]
-    fn first_toward(&self, bsdf: &crate::bsdf::Bsdf, wo: Vec3, wi: Vec3) -> First {
-        if self.ledger.light_passes { passes::shares_toward(bsdf, wo, wi) } else { First::default() }
+    fn first_seen(&self, at: &BsdfAt, wi: Vec3) -> First {
+        if self.ledger.light_passes { passes::shares_seen(at, wi) } else { First::default() }
     }
 
     /// MIS weight of light sampling (s = 1) at camera vertex `cam[t-1]` toward light `index`
@@ -413,7 +419,7 @@ impl BdptIntegrator {
         dens: &mut PathDensities,
     ) -> f32 {
         let x = &cam[t - 1];
-        let Some(bsdf) = &x.bsdf else { return 0.0 };
+        let Some((bsdf, own)) = x.seen() else { return 0.0 };
         let mut y = Vertex::new(Kind::Infinite, ls.wi);
         y.pdf_fwd = self.lights.pmf_origin(index) * ls.pdf;
         y.light = Some(LightPoint {
@@ -425,12 +431,12 @@ impl BdptIntegrator {
             two_sided: false,
             bary: Vec2::ZERO,
         });
-        let (wo_l, wi_l) = (x.frame.to_local(x.wo), x.frame.to_local(ls.wi));
+        let wi_l = x.frame.to_local(ls.wi);
         self.fill_path(ctx, &cam[..t], std::slice::from_ref(&y), 1, camera, dens);
         dens.connectible[0] = true;
         dens.connectible[1] = true;
         // b[0]: the camera vertex's BSDF generating the direction (a solid-angle density).
-        dens.b[0] = if ls.delta { 0.0 } else { bsdf.pdf(wo_l, wi_l) };
+        dens.b[0] = if ls.delta { 0.0 } else { own.pdf(wi_l) };
         // a[1]: the light's disk generating x.
         dens.a[1] = x.density_from_infinity(ls.wi, self.lights.disk_pdf());
         let prev = &cam[t - 2];
@@ -462,8 +468,7 @@ impl BdptIntegrator {
         if x.restricted {
             return Rgb::ZERO;
         }
-        let (Some(bx), Some(hx), Some(by), Some(hy)) =
-            (x.bsdf.as_ref(), x.hit.as_ref(), y.bsdf.as_ref(), y.hit.as_ref())
+        let (Some((bx, ax)), Some(hx), Some((by, ay)), Some(hy)) = (x.seen(), x.hit.as_ref(), y.seen(), y.hit.as_ref())
         else {
             return Rgb::ZERO;
         };
@@ -484,13 +489,15 @@ impl BdptIntegrator {
         if !self.kept(x.classes_toward(w).plus(light_side)) {
             return Rgb::ZERO;
         }
-        let (wo_x, wi_x) = (x.frame.to_local(x.wo), x.frame.to_local(w));
+        let wi_x = x.frame.to_local(w);
         let (wo_y, wi_y) = (y.frame.to_local(y.wo), y.frame.to_local(-w));
         if (wi_x.z > 0.0) != (w.dot(hx.ng) > 0.0) || (wi_y.z > 0.0) != ((-w).dot(hy.ng) > 0.0) {
             return Rgb::ZERO;
         }
-        let fx = bx.eval(wo_x, wi_x) * wi_x.z.abs();
-        let fy = by.eval_adjoint(wo_y, wi_y) * wi_y.z.abs() * shading_correction(hy, &y.frame, y.wo, -w);
+        // Each side seen from its own wo (kept with the vertex) and from the other vertex.
+        let fx = ax.eval(wi_x) * wi_x.z.abs();
+        let ry = by.at(wi_y);
+        let fy = by.eval_adjoint_at(&ay, &ry, wo_y, wi_y) * wi_y.z.abs() * shading_correction(hy, &y.frame, y.wo, -w);
         let mut c = x.beta * fx * fy * y.beta / dist2;
         if s == 2
             && y.contact
@@ -514,11 +521,11 @@ impl BdptIntegrator {
         dens.connectible[s - 1] = true;
         dens.connectible[s] = true;
         // b[s-1]: x generating y; a[s]: y generating x.
-        dens.b[s - 1] = y.area_density(bx.pdf(wo_x, wi_x), x.p);
-        dens.a[s] = x.area_density(by.pdf(wo_y, wi_y), y.p);
+        dens.b[s - 1] = y.area_density(ax.pdf(wi_x), x.p);
+        dens.a[s] = x.area_density(ay.pdf(wi_y), y.p);
         // b[s-2]: y generating its predecessor given x; a[s+1]: x generating its predecessor given y.
         let yp = &light[s - 2];
-        dens.b[s - 2] = yp.area_density(by.pdf(wi_y, y.frame.to_local(yp.dir_from(y.p))), y.p);
+        dens.b[s - 2] = yp.area_density(ry.pdf(y.frame.to_local(yp.dir_from(y.p))), y.p);
         let xp = &cam[t - 2];
         dens.a[s + 1] = if xp.kind == Kind::Camera {
             0.0
@@ -527,7 +534,7 @@ impl BdptIntegrator {
         };
         let wgt = self.mis(dens.weight(s));
         if self.ledger.any() {
-            let first = if t == 2 { self.first_toward(bx, wo_x, wi_x) } else { *first };
+            let first = if t == 2 { self.first_seen(&ax, wi_x) } else { *first };
             let group = self.ledger.group_of_subpath(ctx, light);
             self.ledger.file(out, (t - 1) + (s - 1), first, false, group, c * tr * wgt);
         }

@@ -14,7 +14,6 @@
 //! sampled by s = 1, or the emitter the camera subpath found (s = 0).
 
 use super::*;
-use crate::bsdf::Bsdf;
 use crate::integrator::light_passes::shares_at;
 use crate::passes::slot;
 use crate::scene::light_groups::NONE;
@@ -60,10 +59,10 @@ pub struct Ledger {
 /// Up to three `(slot, value)` parts of one contribution.
 pub(crate) type Parts = ([(usize, Rgb); 3], usize);
 
-/// The diffuse and glossy shares of `bsdf` from local `wo` toward local `wi`.
+/// The diffuse and glossy shares of the BSDF seen from wo toward local `wi`.
 #[inline]
-pub(crate) fn shares_toward(bsdf: &Bsdf, wo: Vec3, wi: Vec3) -> First {
-    let (d, g) = shares_at(&bsdf.at(wo), wi);
+pub(crate) fn shares_seen(at: &crate::bsdf::BsdfAt, wi: Vec3) -> First {
+    let (d, g) = shares_at(at, wi);
     First::Surface(d, g)
 }
 

@@ -77,9 +77,10 @@ impl BdptIntegrator {
         let Some(ls) = ctx.sample_light_unguided(index, x.p, Vec2::new(u[1], u[2]), hit.light_path) else {
             return Rgb::ZERO;
         };
-        let (wo_l, wi_l) = (x.frame.to_local(x.wo), x.frame.to_local(ls.wi));
+        let wi_l = x.frame.to_local(ls.wi);
         let consistent = (wi_l.z > 0.0) == (ls.wi.dot(hit.ng) > 0.0);
-        let f = bsdf.eval(wo_l, wi_l) * wi_l.z.abs();
+        let own = bsdf.bind(&x.view);
+        let f = own.eval(wi_l) * wi_l.z.abs();
         if f == Rgb::ZERO || ls.li == Rgb::ZERO || !consistent {
             return Rgb::ZERO;
         }
@@ -88,11 +89,11 @@ impl BdptIntegrator {
             return Rgb::ZERO;
         }
         let p_light = pmf * ls.pdf;
-        let w = if gate != Gate::Mis || ls.delta { 1.0 } else { power_heuristic(p_light, bsdf.pdf(wo_l, wi_l)) };
+        let w = if gate != Gate::Mis || ls.delta { 1.0 } else { power_heuristic(p_light, own.pdf(wi_l)) };
         let c = x.beta * f * tr * ls.li * (self.mis(gate.weight(w)) / p_light);
         if c != Rgb::ZERO && self.ledger.any() {
             let first = match (t, self.ledger.light_passes) {
-                (2, true) => passes::shares_toward(&bsdf, wo_l, wi_l),
+                (2, true) => passes::shares_seen(&own, wi_l),
                 (2, false) => First::default(),
                 _ => scratch.first,
             };

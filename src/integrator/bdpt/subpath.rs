@@ -321,10 +321,11 @@ impl BdptIntegrator {
                 break;
             }
             let wo_local = sp.frame.to_local(wo);
+            let at = sp.bsdf.bind(&cam[t - 1].view);
             if t == 2 && self.ledger.light_passes {
-                crate::integrator::light_passes::Tally::colours(out, &sp.bsdf.at(wo_local), beta);
+                crate::integrator::light_passes::Tally::colours(out, &at, beta);
             }
-            let Some(bs) = sp.bsdf.sample(wo_local, u_lobe, Vec2::new(u_dx, u_dy)) else {
+            let Some(bs) = at.sample(u_lobe, Vec2::new(u_dx, u_dy)) else {
                 break;
             };
             let wi = sp.frame.to_world(bs.wi);
@@ -336,7 +337,7 @@ impl BdptIntegrator {
                 // The class of the first bounce, which every longer camera prefix shares.
                 scratch.first = match bs.delta {
                     true => passes::delta_bounce(transmitted),
-                    false => passes::shares_toward(&sp.bsdf, wo_local, bs.wi),
+                    false => passes::shares_seen(&at, bs.wi),
                 };
             }
             let last = cam.len() - 1;
@@ -553,7 +554,8 @@ impl BdptIntegrator {
                 break;
             }
             let wo_local = sp.frame.to_local(wo);
-            let Some(bs) = sp.bsdf.sample(wo_local, u_lobe, Vec2::new(u_x, u_y)) else {
+            let at = sp.bsdf.bind(&light[light.len() - 1].view);
+            let Some(bs) = at.sample(u_lobe, Vec2::new(u_x, u_y)) else {
                 break;
             };
             let wi = sp.frame.to_world(bs.wi);
@@ -571,13 +573,16 @@ impl BdptIntegrator {
                     path.beta *= super::contact::trap_weight(ctx, &light[light.len() - 1], wi, end);
                 }
             }
-            let f = if bs.delta {
-                if transmitted { bs.f * sp.bsdf.refraction_adjoint_scale() } else { bs.f }
+            // The BSDF seen from the sampled direction: the adjoint's value and the
+            // reverse density both read it.
+            let (f, pdf_rev_sa) = if bs.delta {
+                let f = if transmitted { bs.f * sp.bsdf.refraction_adjoint_scale() } else { bs.f };
+                (f, self.delta_solid_angle())
             } else {
-                sp.bsdf.eval_adjoint(wo_local, bs.wi)
+                let back = sp.bsdf.at(bs.wi);
+                (sp.bsdf.eval_adjoint_at(&at, &back, wo_local, bs.wi), back.pdf(wo_local))
             };
             let last = light.len() - 1;
-            let pdf_rev_sa = if bs.delta { self.delta_solid_angle() } else { sp.bsdf.pdf(bs.wi, wo_local) };
             let prev_p = light[last].p;
             light[last - 1].pdf_rev = light[last - 1].area_density(pdf_rev_sa, prev_p);
             light[last].delta = bs.delta;

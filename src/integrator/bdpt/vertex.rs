@@ -2,6 +2,7 @@
 //! Veach's shading-normal correction.
 
 use super::*;
+use crate::bsdf::{BsdfAt, BsdfView};
 use crate::scene::visibility::RayMask;
 
 /// What a vertex is.
@@ -28,6 +29,9 @@ pub(crate) struct Vertex {
     /// Shading frame and BSDF of surfaces.
     pub(crate) frame: Frame,
     pub(crate) bsdf: Option<Bsdf>,
+    /// Surfaces: the BSDF seen from `wo` (`Bsdf::bind`), which its sampled bounce and every
+    /// connection from it read.
+    pub(crate) view: BsdfView,
     pub(crate) hit: Option<SurfaceHit>,
     /// Unit direction toward the previous vertex of its own subpath.
     pub(crate) wo: Vec3,
@@ -67,6 +71,7 @@ impl Vertex {
             ng: Vec3::ZERO,
             frame: Frame::from_normal(Vec3::Z),
             bsdf: None,
+            view: BsdfView::Wo(Vec3::ZERO),
             hit: None,
             wo: Vec3::ZERO,
             beta: Rgb::ONE,
@@ -96,6 +101,7 @@ impl Vertex {
             ng: s.ng,
             frame: sp.frame,
             bsdf: Some(sp.bsdf),
+            view: sp.bsdf.at(sp.frame.to_local(wo)).view(),
             hit: Some(*s),
             wo,
             beta,
@@ -103,6 +109,12 @@ impl Vertex {
             reflection: super::bounces::Reflection::of(&sp.bsdf),
             ..Vertex::new(Kind::Surface, s.p)
         }
+    }
+
+    /// Its BSDF seen from `wo`, and the BSDF (surfaces).
+    #[inline]
+    pub(crate) fn seen(&self) -> Option<(&Bsdf, BsdfAt<'_>)> {
+        self.bsdf.as_ref().map(|b| (b, b.bind(&self.view)))
     }
 
     /// The class counts of a path through this surface vertex that goes on toward unit

@@ -154,10 +154,9 @@ pub(crate) fn merge_camera_path(
         // Area density factor of the camera-side predecessor seen from this vertex.
         let g_prev = cam[c - 1].area_density(1.0, x.p);
         let wo_l = x.frame.to_local(x.wo);
-        // The view-side terms (layer albedos, lobe weights) once per camera vertex, not
-        // per merge: f and the camera side's own density share them; computed at the
-        // first record found, as most queries find none.
-        let mut at_once = None;
+        // The view-side terms (layer albedos, lobe weights) the vertex keeps: f and the
+        // camera side's own density share them.
+        let at = bsdf.bind(&x.view);
         let m_max = max_depth + 1 - c as u32;
         let vertex = c;
         let mut sum = Rgb::ZERO;
@@ -188,7 +187,6 @@ pub(crate) fn merge_camera_path(
                 if (wi_l.z > 0.0) != (cos_g > 0.0) {
                     return;
                 }
-                let at = at_once.get_or_insert_with(|| bsdf.at(wo_l));
                 let f = at.eval(wi_l);
                 if f == Rgb::ZERO {
                     return;
@@ -205,7 +203,7 @@ pub(crate) fn merge_camera_path(
                     // Scattering events: this vertex and the c - 1 before it, m - 1 on the light side.
                     let first = match (vertex, ledger.light_passes) {
                         (1, true) => {
-                            let (d, g) = crate::integrator::light_passes::shares_at(at, wi_l);
+                            let (d, g) = crate::integrator::light_passes::shares_at(&at, wi_l);
                             First::Surface(d, g)
                         }
                         _ => *first,
