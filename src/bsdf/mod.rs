@@ -133,6 +133,17 @@ impl Bsdf {
         }
     }
 
+    /// The BSDF seen from `wo` for its value alone: [`at`](Self::at) without the lobe
+    /// choice, which only densities and sampling read ([`BsdfValue::lobed`] makes it). A
+    /// connection's value is zero before any density is asked for 40 % of the Cornell box's.
+    #[inline]
+    pub fn at_value(&self, wo: Vec3) -> BsdfValue<'_> {
+        BsdfValue(match self {
+            Bsdf::Pbr(b) => BsdfAt::Pbr(b.at_value(wo)),
+            _ => self.at(wo),
+        })
+    }
+
     /// [`at`](Self::at) again from the terms [`BsdfAt::view`] kept of it (for this BSDF).
     #[inline]
     pub fn bind(&self, v: &BsdfView) -> BsdfAt<'_> {
@@ -235,10 +246,10 @@ impl Bsdf {
     }
 
     /// [`eval_adjoint`](Self::eval_adjoint) from this BSDF seen from both directions,
-    /// `own` = `at(wo)` and `back` = `at(wi)`, which a bidirectional vertex has at hand for
+    /// `own` = `at(wo)` and `back` = `at_value(wi)`, which a bidirectional vertex has at hand for
     /// its densities as well (the same value bit for bit).
     #[inline]
-    pub fn eval_adjoint_at(&self, own: &BsdfAt, back: &BsdfAt, wo: Vec3, wi: Vec3) -> Rgb {
+    pub fn eval_adjoint_at(&self, own: &BsdfAt, back: &BsdfValue, wo: Vec3, wi: Vec3) -> Rgb {
         if wo.z * wi.z >= 0.0 {
             back.eval(wo)
         } else if let Bsdf::Pbr(b) = self
@@ -337,6 +348,27 @@ pub enum BsdfView {
     Pbr(PbrView),
     /// Any other BSDF's: wo alone (their views compute nothing ahead).
     Wo(Vec3),
+}
+
+/// A [`BsdfAt`] for its value alone ([`Bsdf::at_value`]).
+#[derive(Clone, Copy, Debug)]
+pub struct BsdfValue<'a>(BsdfAt<'a>);
+
+impl<'a> BsdfValue<'a> {
+    /// f(wo, wi), as [`BsdfAt::eval`].
+    #[inline]
+    pub fn eval(&self, wi: Vec3) -> Rgb {
+        self.0.eval(wi)
+    }
+
+    /// The whole view, with the lobe choice made: `Bsdf::at(wo)` bit for bit.
+    #[inline]
+    pub fn lobed(self) -> BsdfAt<'a> {
+        match self.0 {
+            BsdfAt::Pbr(b) => BsdfAt::Pbr(b.lobed()),
+            other => other,
+        }
+    }
 }
 
 impl BsdfView {

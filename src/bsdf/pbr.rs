@@ -813,14 +813,17 @@ impl PbrBsdf {
     /// render had `eval` and its albedo-table lookups at ~20 % of the time).
     #[inline]
     pub fn at(&self, wo: Vec3) -> PbrAt<'_> {
-        let mut at = self.view(wo);
         // The lobe choice depends on wo alone: the path tracer's vertex reads it twice (next-event
         // estimation's density, then the sampled bounce), the profile of the glass bench
         // scene had it at 3.2 % of the render's instructions when computed per call.
-        if at.wo.z > 0.0 {
-            at.v.c = self.lobes(&at);
-        }
-        at
+        self.view(wo).lobed()
+    }
+
+    /// [`at`](Self::at) without the lobe choice yet, for a value that may end a connection
+    /// before any density is asked (`PbrAt::lobed` adds it).
+    #[inline]
+    pub fn at_value(&self, wo: Vec3) -> PbrAt<'_> {
+        self.view(wo)
     }
 
     /// [`at`](Self::at) from its terms kept by [`PbrAt::view`] (for the same BSDF).

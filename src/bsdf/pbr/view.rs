@@ -67,6 +67,15 @@ impl std::ops::Deref for PbrAt<'_> {
 }
 
 impl<'a> PbrAt<'a> {
+    /// With the lobe choice at wo made (which the density and sampling read).
+    #[inline]
+    pub fn lobed(mut self) -> Self {
+        if self.v.wo.z > 0.0 {
+            self.v.c = self.b.lobes(&self);
+        }
+        self
+    }
+
     /// Its wo-only terms, to be bound again to the same BSDF by [`PbrBsdf::bind`].
     #[inline]
     pub fn view(&self) -> PbrView {

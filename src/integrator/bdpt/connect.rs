@@ -139,10 +139,10 @@ impl BdptIntegrator {
                 if (wi_l.z > 0.0) != (w.dot(hit.ng) > 0.0) {
                     return;
                 }
-                let from_camera = back.insert(bsdf.at(wi_l));
+                let from_camera = back.insert(bsdf.at_value(wi_l));
                 if self.ledger.light_passes {
                     // Seen from the camera: leaving toward it, arriving from the light side.
-                    first = passes::shares_seen(from_camera, wo_l);
+                    first = passes::shares_seen(&from_camera.lobed(), wo_l);
                 }
                 let own = bsdf.bind(&y.view);
                 bsdf.eval_adjoint_at(&own, from_camera, wo_l, wi_l)
@@ -187,7 +187,7 @@ impl BdptIntegrator {
             && let Some(from_camera) = &back
         {
             let prev = &light[s - 2];
-            let pdf = from_camera.pdf(y.frame.to_local(prev.dir_from(y.p)));
+            let pdf = from_camera.lobed().pdf(y.frame.to_local(prev.dir_from(y.p)));
             dens.b[s - 2] = prev.area_density(pdf, y.p);
         }
         dens.a[k] = 0.0; // unused (t = 0 is not a strategy)
@@ -496,7 +496,7 @@ impl BdptIntegrator {
         }
         // Each side seen from its own wo (kept with the vertex) and from the other vertex.
         let fx = ax.eval(wi_x) * wi_x.z.abs();
-        let ry = by.at(wi_y);
+        let ry = by.at_value(wi_y);
         let fy = by.eval_adjoint_at(&ay, &ry, wo_y, wi_y) * wi_y.z.abs() * shading_correction(hy, &y.frame, y.wo, -w);
         let mut c = x.beta * fx * fy * y.beta / dist2;
         if s == 2
@@ -525,7 +525,7 @@ impl BdptIntegrator {
         dens.a[s] = x.area_density(ay.pdf(wi_y), y.p);
         // b[s-2]: y generating its predecessor given x; a[s+1]: x generating its predecessor given y.
         let yp = &light[s - 2];
-        dens.b[s - 2] = yp.area_density(ry.pdf(y.frame.to_local(yp.dir_from(y.p))), y.p);
+        dens.b[s - 2] = yp.area_density(ry.lobed().pdf(y.frame.to_local(yp.dir_from(y.p))), y.p);
         let xp = &cam[t - 2];
         dens.a[s + 1] = if xp.kind == Kind::Camera {
             0.0

@@ -579,8 +579,8 @@ impl BdptIntegrator {
                 let f = if transmitted { bs.f * sp.bsdf.refraction_adjoint_scale() } else { bs.f };
                 (f, self.delta_solid_angle())
             } else {
-                let back = sp.bsdf.at(bs.wi);
-                (sp.bsdf.eval_adjoint_at(&at, &back, wo_local, bs.wi), back.pdf(wo_local))
+                let back = sp.bsdf.at_value(bs.wi);
+                (sp.bsdf.eval_adjoint_at(&at, &back, wo_local, bs.wi), back.lobed().pdf(wo_local))
             };
             let last = light.len() - 1;
             let prev_p = light[last].p;
