@@ -278,6 +278,10 @@ pub struct FilmImage {
 /// Number of the shadow catcher's sums per pixel.
 pub const CATCHER_SUMS: usize = slot::COUNT - slot::CATCHER_PASS;
 
+/// Columns whose filter factor a splat computes once ([`SplatBuffer::add_filed`]): the
+/// default 3-pixel Blackman-Harris spans 4; wider filters compute the rest per pixel.
+const SPLAT_SPAN: usize = 8;
+
 /// Depth written where no geometry was hit (Cycles' value).
 pub const DEPTH_BACKGROUND: f32 = 1e10;
 
@@ -354,9 +358,21 @@ impl SplatBuffer {
         let hi_x = ((pos.x + r - 0.5).ceil() as i64).min(self.x0 as i64 + self.w as i64 - 1);
         let lo_y = (pos.y - r - 0.5).floor().max(self.y0 as f32) as i64;
         let hi_y = ((pos.y + r - 0.5).ceil() as i64).min(self.y0 as i64 + self.h as i64 - 1);
+        // The filter is separable: each column's factor once, not once per pixel (the profile
+        // of VCM on the Cornell box had the splats at 6 % of its instructions).
+        let mut fx = [0.0f32; SPLAT_SPAN];
+        let columns = (hi_x - lo_x + 1).clamp(0, SPLAT_SPAN as i64) as usize;
+        for (k, f) in fx.iter_mut().enumerate().take(columns) {
+            *f = filter.axis(pos.x - ((lo_x + k as i64) as f32 + 0.5));
+        }
         for py in lo_y..=hi_y {
+            let fy = filter.axis(pos.y - (py as f32 + 0.5));
+            if fy == 0.0 {
+                continue;
+            }
             for px in lo_x..=hi_x {
-                let f = filter.eval(pos - Vec2::new(px as f32 + 0.5, py as f32 + 0.5));
+                let k = (px - lo_x) as usize;
+                let f = if k < SPLAT_SPAN { fx[k] } else { filter.axis(pos.x - (px as f32 + 0.5)) } * fy;
                 if f > 0.0 {
                     let v = (value * f).to_array();
                     if !in_range(v) {

@@ -107,19 +107,23 @@ impl Filter {
     /// support), used to spread light-tracing splats with the same filter.
     #[inline]
     pub fn eval(&self, off: Vec2) -> f32 {
-        let axis = |x: f32| -> f32 {
-            let v = x / self.width + 0.5;
-            if !(0.0..1.0).contains(&v) {
-                return 0.0;
+        self.axis(off.x) * self.axis(off.y)
+    }
+
+    /// The separable filter's factor along one axis at offset `x` ([`eval`](Self::eval)
+    /// is the product of two).
+    #[inline]
+    pub fn axis(&self, x: f32) -> f32 {
+        let v = x / self.width + 0.5;
+        if !(0.0..1.0).contains(&v) {
+            return 0.0;
+        }
+        match &self.table {
+            None => 1.0 / self.width,
+            Some(t) => {
+                t.pmf(((v * FILTER_TABLE as f32) as usize).min(FILTER_TABLE - 1)) * FILTER_TABLE as f32 / self.width
             }
-            match &self.table {
-                None => 1.0 / self.width,
-                Some(t) => {
-                    t.pmf(((v * FILTER_TABLE as f32) as usize).min(FILTER_TABLE - 1)) * FILTER_TABLE as f32 / self.width
-                }
-            }
-        };
-        axis(off.x) * axis(off.y)
+        }
     }
 
     /// Offset from the pixel centre for uniform numbers `u`.
