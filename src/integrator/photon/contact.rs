@@ -32,8 +32,10 @@ use crate::scene::visibility::RayMask;
 #[inline]
 pub fn at_contact(ctx: &SceneContext, s: &SurfaceHit, ray: RayMask) -> bool {
     let mesh = &ctx.scene.mesh;
-    // Strands (`CURVE_BIT` ids) and triangles with no opposite-facing one in reach.
-    if s.tri as usize >= mesh.triangles.len() || !ctx.accel.touches(s.tri) {
+    // Strands (`CURVE_BIT` ids), and points with no opposite-facing triangle's box within
+    // the look back's reach (which spans this ray): a floor under resting boxes casts it
+    // only around their feet (it was 2.3 % of VCM's instructions on the Cornell box).
+    if s.tri as usize >= mesh.triangles.len() || !ctx.accel.touches_at(s.tri, s.p) {
         return false;
     }
     let reach = (offset_ray_origin(s.p, s.ng) - s.p).length();
