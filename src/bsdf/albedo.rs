@@ -116,7 +116,8 @@ impl SpecularAlbedo {
     pub fn ab(&self, mu: f32, roughness: f32) -> (f32, f32) {
         let x = mu.clamp(0.0, 1.0).sqrt() * (TABLE_N - 1) as f32;
         let y = roughness.clamp(0.0, 1.0) * (TABLE_N - 1) as f32;
-        let (x0, y0) = ((x as usize).min(TABLE_N - 2), (y as usize).min(TABLE_N - 2));
+        // Through u32, as `LayerAlbedo::ab`: cheaper than a float to u64 conversion.
+        let (x0, y0) = ((x as u32 as usize).min(TABLE_N - 2), (y as u32 as usize).min(TABLE_N - 2));
         let (fx, fy) = (x - x0 as f32, y - y0 as f32);
         let (i00, i01) = (y0 * TABLE_N + x0, (y0 + 1) * TABLE_N + x0);
         let w = [(1.0 - fx) * (1.0 - fy), fx * (1.0 - fy), (1.0 - fx) * fy, fx * fy];
