@@ -261,7 +261,11 @@ impl Scene {
                 return None;
             }
             let v = lookup(t);
-            let local = Vec3::new((2.0 * v.x - 1.0) * scale, (2.0 * v.y - 1.0) * scale, 2.0 * v.z - 1.0);
+            let z = 2.0 * v.z - 1.0;
+            // glTF scales x and y alone; Blender's Strength (Cycles' svm_node_normal_map) also
+            // moves z from 1 towards the map's, so a weak map flattens rather than tilts.
+            let z = if mat.normal_strength_blender { 1.0 + (z - 1.0) * scale.clamp(0.0, 1.0) } else { z };
+            let local = Vec3::new((2.0 * v.x - 1.0) * scale, (2.0 * v.y - 1.0) * scale, z);
             // The tangent frame belongs to the front face: undo the side flip.
             let side = if s.front { 1.0 } else { -1.0 };
             let nf = s.ns * side;
