@@ -368,6 +368,11 @@ impl Scene {
             Some(t) if coat > 0.0 => {
                 map_normal(t, mat.coat_normal_scale).map(|(m, _)| frame.to_local(valid_reflection_normal(s.ng, wo, m)))
             }
+            // Without its own map the coat keeps the interpolated normal, not the base's map
+            // (KHR_materials_clearcoat; Cycles' unlinked Coat Normal is sd->N).
+            None if coat > 0.0 && mat.normal_tex.is_some() => {
+                Some(frame.to_local(valid_reflection_normal(s.ng, wo, s.ns)))
+            }
             _ => None,
         };
         let params = PbrParams {
