@@ -19,6 +19,22 @@ def lens_shift(cam, shift_x, resolution, pixel_aspect):
     return [float(shift_x) * yr / xr, float(cam.shift_y)]
 
 
+def fit_orthographic(gltf2_camera, cam, resolution, pixel_aspect=(1.0, 1.0)):
+    """Set an orthographic glTF camera's xmag and ymag from Blender's Orthographic Scale as
+    Cycles fits it to the frame: along the width for Sensor Fit Horizontal, the height for
+    Vertical, the longer side for Auto. Blender's exporter always takes the longer side, so a
+    Vertical fit on a landscape frame (or Horizontal on a portrait one) came out wider or
+    narrower than Cycles' view by the frame's aspect."""
+    ortho = getattr(gltf2_camera, "orthographic", None) if gltf2_camera is not None else None
+    if cam.type != "ORTHO" or ortho is None:
+        return
+    xr = float(resolution[0]) * float(pixel_aspect[0])
+    yr = float(resolution[1]) * float(pixel_aspect[1])
+    horizontal = xr > yr if cam.sensor_fit == "AUTO" else cam.sensor_fit == "HORIZONTAL"
+    half = float(cam.ortho_scale) / 2.0
+    ortho.xmag, ortho.ymag = (half, half * yr / xr) if horizontal else (half * xr / yr, half)
+
+
 def camera_extension(blender_object, resolution, pixel_aspect=(1.0, 1.0)):
     """Blender's lens shift and depth of field for a camera object (`CAUSTIC_camera`), and warnings.
 

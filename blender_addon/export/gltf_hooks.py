@@ -15,7 +15,7 @@ from contextlib import contextmanager
 import bpy
 
 from . import attributes, materials, meshes, nonfinite, object_filter, view_layer
-from .camera import CAMERA_EXTENSION, camera_extension
+from .camera import CAMERA_EXTENSION, camera_extension, fit_orthographic
 from .gltf_objects import attach_extension
 from .lights import (AREA_LIGHT_EXTENSION, PUNCTUAL_EXTENSION, area_light_extension, carry_negative_intensity,
                      punctual_light_extension, scale_punctual_light, separate_spot_angles)
@@ -70,6 +70,8 @@ class glTF2ExportUserExtension:
                 if ids:
                     attach_extension(gltf2_node, OBJECT_PASS_EXTENSION, ids)
             if blender_object.type == "CAMERA":
+                fit_orthographic(gltf2_node.camera, blender_object.data, state.settings["resolution"],
+                                 state.pixel_aspect)
                 value, warnings = camera_extension(blender_object, state.settings["resolution"],
                                                    state.pixel_aspect)
                 state.warnings.extend(warnings)

@@ -31,6 +31,7 @@ from .nodes import procedural_source, surface_node, value as _value
 
 COAT_EXTENSION = "CAUSTIC_materials_coat"
 ANISOTROPY_EXTENSION = "CAUSTIC_materials_anisotropy"
+NORMAL_MAP_EXTENSION = "CAUSTIC_materials_normal_map"
 SHEEN_EXTENSION = "CAUSTIC_materials_sheen"
 SHADOW_EXTENSION = "CAUSTIC_materials_shadow"
 
@@ -256,6 +257,15 @@ def _present(gltf2_material, name):
     return bool(value)
 
 
+def _has_normal_map(gltf2_material):
+    """Whether the exporter wrote a normal texture or a clear coat normal texture."""
+    if getattr(gltf2_material, "normal_texture", None) is not None:
+        return True
+    coat = (gltf2_material.extensions or {}).get("KHR_materials_clearcoat")
+    coat = getattr(coat, "extension", coat)
+    return isinstance(coat, dict) and coat.get("clearcoatNormalTexture") is not None
+
+
 def complete_material(gltf2_material, blender_material, export_settings, state, force_graph=False):
     """Everything Caustic adds to the exporter's glTF material (the material hook's work);
     `force_graph`: render it from its node graph even where glTF could say it (a material the
@@ -280,6 +290,10 @@ def complete_material(gltf2_material, blender_material, export_settings, state, 
         # The exporter writes Blender's Anisotropic as glTF's strength; Cycles maps it to widths
         # differently (docs/contract.md).
         _set_extension(gltf2_material, ANISOTROPY_EXTENSION, {"mapping": "blender"})
+    if _has_normal_map(gltf2_material):
+        # The exporter writes a Normal Map node's Strength as the texture's scale; Cycles
+        # applies a Strength below 1 differently from glTF's scale (docs/contract.md).
+        _set_extension(gltf2_material, NORMAL_MAP_EXTENSION, {"mapping": "blender"})
     approximation_warnings.extend(_principled_transmission_tint(gltf2_material, blender_material))
     if _present(gltf2_material, "KHR_materials_transmission") and not _present(gltf2_material, "KHR_materials_volume"):
         _set_extension(gltf2_material, "KHR_materials_volume", {"thicknessFactor": 1.0})

@@ -19,6 +19,7 @@ exporter reads); a material it can express keeps today's export unchanged.
 """
 
 import bpy
+import numpy as np
 
 from .attributes import view_layer_rgba
 from .image_frames import sequence_frame, udim_tiles
@@ -497,7 +498,8 @@ class _Builder:
         meshes = self.context.meshes
         if attribute and attribute == self.context.colour_attribute and meshes and \
                 all(mesh.color_attributes.get(attribute) is not None for mesh in meshes) and \
-                not _byte_colours_converted(meshes, attribute):
+                not _byte_colours_converted(meshes, attribute) and \
+                not _colours_outside_unit_range(meshes, attribute):
             props["color_0"] = True
 
     def _pointer_prop(self, node, name, key, value, props):
@@ -826,6 +828,22 @@ def _raw_walk_has_group_or_mute(output):
             if node.type == "GROUP" or node.mute:
                 return True
             todo.extend(s for s in node.inputs if s.is_linked)
+    return False
+
+
+def _colours_outside_unit_range(meshes, attribute):
+    """True when a float colour attribute holds a value below 0 or above 1, which the glTF
+    exporter's COLOR_0 clamps to [0, 1] (glTF's range for vertex colours) and Cycles reads as
+    it is: such an attribute goes under its own name (a Geometry Nodes colour from positions,
+    realized: R/G 0.975/0.991 of Cycles as COLOR_0)."""
+    for mesh in meshes:
+        layer = mesh.color_attributes.get(attribute)
+        if layer is None or layer.data_type != "FLOAT_COLOR" or len(layer.data) == 0:
+            continue
+        values = np.empty(len(layer.data) * 4, np.float32)
+        layer.data.foreach_get("color", values)
+        if values.min() < 0.0 or values.max() > 1.0:
+            return True
     return False
 
 

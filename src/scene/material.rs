@@ -35,6 +35,10 @@ pub struct Material {
     pub normal_tex: Option<TexRef>,
     /// Normal map scale.
     pub normal_scale: f32,
+    /// `CAUSTIC_materials_normal_map` mapping "blender": the normal and coat normal maps'
+    /// scale s is Blender's Normal Map Strength, which Cycles applies as (s·x, s·y,
+    /// mix(1, z, clamp(s, 0, 1))) in tangent space where glTF scales x and y alone.
+    pub normal_strength_blender: bool,
     /// Emitted radiance factor (emissiveFactor × emissive strength), from both faces whatever
     /// glTF's `doubleSided` says, as Cycles renders Blender's import of it (Cycles culls no
     /// back face and its Emission leaves both sides). Shading is two-sided too.
@@ -169,6 +173,7 @@ impl Default for Material {
             metallic_roughness_tex: None,
             normal_tex: None,
             normal_scale: 1.0,
+            normal_strength_blender: false,
             emissive: Rgb::ZERO,
             emissive_tex: None,
             unlit: false,
@@ -262,6 +267,7 @@ macro_rules! texture_fields {
             metallic_roughness_tex,
             normal_tex,
             normal_scale: _,
+            normal_strength_blender: _,
             emissive: _,
             emissive_tex,
             anisotropy_strength: _,

@@ -261,7 +261,11 @@ impl Scene {
                 return None;
             }
             let v = lookup(t);
-            let local = Vec3::new((2.0 * v.x - 1.0) * scale, (2.0 * v.y - 1.0) * scale, 2.0 * v.z - 1.0);
+            let z = 2.0 * v.z - 1.0;
+            // glTF scales x and y alone; Blender's Strength (Cycles' svm_node_normal_map) also
+            // moves z from 1 towards the map's, so a weak map flattens rather than tilts.
+            let z = if mat.normal_strength_blender { 1.0 + (z - 1.0) * scale.clamp(0.0, 1.0) } else { z };
+            let local = Vec3::new((2.0 * v.x - 1.0) * scale, (2.0 * v.y - 1.0) * scale, z);
             // The tangent frame belongs to the front face: undo the side flip.
             let side = if s.front { 1.0 } else { -1.0 };
             let nf = s.ns * side;
@@ -363,6 +367,11 @@ impl Scene {
         let coat_normal = match &mat.coat_normal_tex {
             Some(t) if coat > 0.0 => {
                 map_normal(t, mat.coat_normal_scale).map(|(m, _)| frame.to_local(valid_reflection_normal(s.ng, wo, m)))
+            }
+            // Without its own map the coat keeps the interpolated normal, not the base's map
+            // (KHR_materials_clearcoat; Cycles' unlinked Coat Normal is sd->N).
+            None if coat > 0.0 && mat.normal_tex.is_some() => {
+                Some(frame.to_local(valid_reflection_normal(s.ng, wo, s.ns)))
             }
             _ => None,
         };

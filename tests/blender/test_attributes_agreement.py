@@ -45,6 +45,7 @@ or 0, with a warning) and now; and the worst 4x4 block in units of its bound:
 | pointiness (means) | 0.5247 0.7173 1.5425 | 0.9968 0.9973 0.9984 |
 | random_per_island | 0.2091 0.2532 2.5314, 27.5x | 0.9990 0.9982 1.0010, 0.32x |
 | vertex_group | 0.1457 0.2372 2.0720, 35.1x | 0.9999 0.9998 0.9999, 0.13x |
+| colour_above_one (sweep 6; before: as COLOR_0, clamped) | 0.8880 0.9353 0.9999, 9.5x | 0.9999 0.9999 0.9999, 0.16x |
 
 `test_no_attribute_warning_is_left`: main warned in every case (the export: "not exported by
 name"; the renderer: "read as the mesh's colour attribute (COLOR_0)", "the Pointiness output
@@ -177,6 +178,28 @@ def vector_point(scene):
     mat = new_material("Where")
     diffuse_from(mat, attribute_node(mat.node_tree, "where").outputs["Vector"])
     store_named_attribute(grid_mesh(scene, "Grid", mat, n=12), "where", "FLOAT_VECTOR", remapped)
+    flat_view(scene)
+
+
+def bright(tree, position):
+    """The position mapped from [-1, 1] to [0.1, 1.5]: a colour above 1 over most of the grid."""
+    scale = tree.nodes.new("ShaderNodeVectorMath")
+    scale.operation = "MULTIPLY_ADD"
+    tree.links.new(position, scale.inputs[0])
+    scale.inputs[1].default_value = (0.7, 0.7, 0.7)
+    scale.inputs[2].default_value = (0.8, 0.8, 0.8)
+    return scale.outputs[0]
+
+
+def colour_above_one(scene):
+    """A float colour attribute above 1 (Geometry Nodes, from the position), the only colour
+    attribute the graphs read. Before: asked of the glTF exporter as COLOR_0, which clamps to
+    [0, 1]: R/G/B 0.8880/0.9353/0.9999 of Cycles, 59 of 108 blocks over their bound (sweep 6
+    found it on realized Geometry Nodes instances: 0.975/0.991); after: under its own name,
+    0.9999, no block over."""
+    mat = new_material("Glow")
+    diffuse_from(mat, attribute_node(mat.node_tree, "glow").outputs["Color"])
+    store_named_attribute(grid_mesh(scene, "Grid", mat, n=12), "glow", "FLOAT_COLOR", bright)
     flat_view(scene)
 
 
@@ -399,6 +422,7 @@ def vertex_group(scene):
 CASES = {
     "float_point": float_point,
     "vector_point": vector_point,
+    "colour_above_one": colour_above_one,
     "face_float": face_float,
     "corner_colours": corner_colours,
     "object_properties": object_properties,

@@ -90,6 +90,24 @@ def ortho_shift_dof(cam, scene):
     d.aperture_fstop = 2.0  # an orthographic aperture's radius is 1 / (2 f-stop) (Cycles)
 
 
+def ortho_vertical_fit(cam, scene):
+    """Sensor Fit Vertical: Cycles fits the Orthographic Scale to the frame's height, where
+    Blender's glTF exporter fits it to the longer side. Before: the view was narrower by 4/3
+    (the mid cube's mean 0.1874 against Cycles' 0.1054, centroids off by up to 4 px); after:
+    0.1055, every statistic within its bound."""
+    cam.data.type = "ORTHO"
+    cam.data.ortho_scale = 1.6
+    cam.data.sensor_fit = "VERTICAL"
+    shift(cam, scene)
+
+
+def ortho_horizontal_fit_portrait(cam, scene):
+    """Sensor Fit Horizontal on a portrait frame: the scale along the (shorter) width. Before:
+    mid cube 0.1875 against 0.1054; after 0.1054."""
+    ortho_vertical_fit(cam, scene)
+    cam.data.sensor_fit = "HORIZONTAL"
+
+
 def film_exposure(cam, scene):
     """The Film panel's Exposure, a factor on the image (Cycles' film_exposure). Before: not
     applied, Caustic/Cycles mean 0.589 (1 / 1.7) on every cube; after: 1.000-1.002."""
@@ -133,6 +151,8 @@ CASES = {
     "dof_round": (64, 48, dof_round),
     "dof_blades_focus_object": (64, 48, dof_blades_focus_object),
     "ortho_shift_dof": (64, 48, ortho_shift_dof),
+    "ortho_vertical_fit": (64, 48, ortho_vertical_fit),
+    "ortho_horizontal_fit_portrait": (48, 64, ortho_horizontal_fit_portrait),
     "film_exposure": (64, 48, film_exposure),
     "filter_box": (64, 48, filter_box),
     "filter_gaussian_wide": (64, 48, filter_gaussian_wide),

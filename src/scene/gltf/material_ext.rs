@@ -34,6 +34,7 @@ pub(super) const HANDLED_MATERIAL_EXTENSIONS: &[&str] = &[
     "KHR_materials_unlit",
     "KHR_materials_anisotropy",
     "CAUSTIC_materials_anisotropy",
+    "CAUSTIC_materials_normal_map",
     // Read in `spec_gloss.rs`:
     "KHR_materials_pbrSpecularGlossiness",
     // Read in `iridescence.rs`:
@@ -472,6 +473,18 @@ impl Loader<'_> {
         mat.anisotropy_rotation = anisotropy_rotation;
         mat.anisotropy_tex = anisotropy_tex;
         mat.anisotropy_blender = anisotropy_blender;
+        if let Some(n) = m.extension_value("CAUSTIC_materials_normal_map").cloned() {
+            features.push("CAUSTIC_materials_normal_map".into());
+            mat.normal_strength_blender = match n.get("mapping").and_then(|v| v.as_str()) {
+                Some("blender") => true,
+                None | Some("gltf") => false,
+                Some(other) => {
+                    return Err(self.err(format!(
+                        "material '{name}': CAUSTIC_materials_normal_map mapping '{other}' is not \"gltf\" or \"blender\""
+                    )));
+                }
+            };
+        }
         Ok(())
     }
 }

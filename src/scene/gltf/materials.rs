@@ -267,6 +267,18 @@ mod tests {
     }
 
     #[test]
+    fn normal_map_strength_mapping() {
+        let plain = json!({"name": "n", "normalTexture": {"index": 0, "scale": 0.5}});
+        let (m, _) = material(plain, 1);
+        assert_eq!((m.normal_scale, m.normal_strength_blender), (0.5, false), "glTF's mapping by default");
+        let blender = json!({"name": "n", "normalTexture": {"index": 0, "scale": 0.5},
+            "extensions": {"CAUSTIC_materials_normal_map": {"mapping": "blender"}}});
+        assert!(material(blender, 1).0.normal_strength_blender);
+        let bad = json!({"name": "b", "extensions": {"CAUSTIC_materials_normal_map": {"mapping": "cycles"}}});
+        assert!(error(bad, 0).contains("mapping 'cycles'"));
+    }
+
+    #[test]
     fn sheen_model_charlie_unless_the_file_says_microfiber() {
         let sheen = json!({"sheenColorFactor": [0.5, 0.4, 0.3], "sheenRoughnessFactor": 0.25});
         let (m, _) = material(json!({"name": "velvet", "extensions": {"KHR_materials_sheen": sheen}}), 0);

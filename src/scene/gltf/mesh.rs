@@ -197,10 +197,12 @@ impl Loader<'_> {
             let material = &materials[material_index as usize];
 
             // Tangents for normal maps and anisotropy: given, or generated with MikkTSpace
-            // (on the normal map's UVs, else the anisotropy texture's, else set 0).
-            // A shader graph's tangent-space Normal Map (or Tangent input) needs them too.
+            // (on the normal map's UVs, else the coat normal map's, else the anisotropy
+            // texture's, else set 0). A shader graph's tangent-space Normal Map (or Tangent
+            // input) needs them too.
             let tangent_uvs = material
                 .normal_tex
+                .or(material.coat_normal_tex)
                 .or(material.anisotropy_tex)
                 .map(|t| t.tex_coord)
                 .or((material.anisotropy_strength > 0.0).then_some(0))
