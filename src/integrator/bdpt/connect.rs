@@ -259,12 +259,13 @@ impl BdptIntegrator {
         // Borrowed, not copied (see `connect_vertices`).
         let BdptScratch { cam, dens, .. } = scratch;
         let x = &cam[t - 1];
-        let (Some((bsdf, own)), Some(hit)) = (x.seen(), x.hit.as_ref()) else {
+        let (Some(bsdf), Some(hit)) = (x.bsdf.as_ref(), x.hit.as_ref()) else {
             return none;
         };
-        if bsdf.is_delta() {
+        if x.specular {
             return none;
         }
+        let own = bsdf.bind(&x.view);
         let Some((index, pmf)) = self.lights.pick_any(u[0]) else {
             return none;
         };
@@ -468,13 +469,14 @@ impl BdptIntegrator {
         if x.restricted {
             return Rgb::ZERO;
         }
-        let (Some((bx, ax)), Some(hx), Some((by, ay)), Some(hy)) = (x.seen(), x.hit.as_ref(), y.seen(), y.hit.as_ref())
+        let (Some(bx), Some(hx), Some(by), Some(hy)) =
+            (x.bsdf.as_ref(), x.hit.as_ref(), y.bsdf.as_ref(), y.hit.as_ref())
         else {
             return Rgb::ZERO;
         };
         // No connection leaves a camera vertex at a contact, nor joins a light vertex that
         // reached one after a scattering (`contact`; light subpaths do not store those).
-        if bx.is_delta() || by.is_delta() || x.contact || (y.contact && s > 2) {
+        if x.specular || y.specular || x.contact || (y.contact && s > 2) {
             return Rgb::ZERO;
         }
         let d = y.p - x.p;
@@ -495,6 +497,7 @@ impl BdptIntegrator {
             return Rgb::ZERO;
         }
         // Each side seen from its own wo (kept with the vertex) and from the other vertex.
+        let (ax, ay) = (bx.bind(&x.view), by.bind(&y.view));
         let fx = ax.eval(wi_x) * wi_x.z.abs();
         let ry = by.at_value(wi_y);
         let fy = by.eval_adjoint_at(&ay, &ry, wo_y, wi_y) * wi_y.z.abs() * shading_correction(hy, &y.frame, y.wo, -w);

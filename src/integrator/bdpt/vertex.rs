@@ -32,6 +32,9 @@ pub(crate) struct Vertex {
     /// Surfaces: the BSDF seen from `wo` (`Bsdf::bind`), which its sampled bounce and every
     /// connection from it read.
     pub(crate) view: BsdfView,
+    /// Surfaces: every lobe of its BSDF is a delta lobe, so no connection leaves it (asked
+    /// once per connection, so kept).
+    pub(crate) specular: bool,
     pub(crate) hit: Option<SurfaceHit>,
     /// Unit direction toward the previous vertex of its own subpath.
     pub(crate) wo: Vec3,
@@ -72,6 +75,7 @@ impl Vertex {
             frame: Frame::from_normal(Vec3::Z),
             bsdf: None,
             view: BsdfView::Wo(Vec3::ZERO),
+            specular: false,
             hit: None,
             wo: Vec3::ZERO,
             beta: Rgb::ONE,
@@ -102,6 +106,7 @@ impl Vertex {
             frame: sp.frame,
             bsdf: Some(sp.bsdf),
             view: sp.bsdf.at(sp.frame.to_local(wo)).view(),
+            specular: sp.bsdf.is_delta(),
             hit: Some(*s),
             wo,
             beta,

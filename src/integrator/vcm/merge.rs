@@ -92,7 +92,7 @@ pub(crate) fn push_records(scene: &Scene, light: &[Vertex], (eta, share): (f32, 
     let mut rec = Recursion::start(eta, share, light[0].pdf_fwd, !light[0].delta, Some(hittable));
     for i in 1..light.len() {
         let v = &light[i];
-        if i >= MIN_MERGE_VERTEX && v.bsdf.is_some_and(|b| !b.is_delta()) {
+        if i >= MIN_MERGE_VERTEX && v.bsdf.is_some() && !v.specular {
             out.push(MergeRecord {
                 p: v.p,
                 wo: v.wo,
@@ -147,7 +147,7 @@ pub(crate) fn merge_camera_path(
         let (Some(bsdf), Some(hit)) = (&x.bsdf, &x.hit) else { continue };
         // Nothing merges at a contact: light arrives there only straight from its light
         // (`bdpt::contact`), which merging never carries.
-        if bsdf.is_delta() || x.contact {
+        if x.specular || x.contact {
             continue;
         }
         let cam_side = rec.side(x.pdf_fwd);
