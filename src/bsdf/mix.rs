@@ -538,10 +538,20 @@ impl Lobe {
         matches!(self, Lobe::Diffuse | Lobe::OrenNayar(_) | Lobe::Translucent | Lobe::Toon(Toon { glossy: false, .. }))
     }
 
-    /// Cycles shadows reflecting diffuse closures by the bump terminator term.
+    /// Cycles' `CLOSURE_IS_BSDF_DIFFUSE` (Diffuse, Oren-Nayar, Sheen, Toon Diffuse, Translucent;
+    /// not the Ashikhmin Velvet, which Cycles' closure order puts among the glossy ones), the
+    /// closures its `bump_shadowing_term` cuts in sampling too and softens by their normal's
+    /// tilt; it cuts every other closure's evaluation alone.
     #[inline]
     pub fn bump_shadowed(&self) -> bool {
-        self.is_diffuse_class() && !matches!(self, Lobe::Translucent)
+        matches!(
+            self,
+            Lobe::Diffuse
+                | Lobe::OrenNayar(_)
+                | Lobe::Translucent
+                | Lobe::Sheen { .. }
+                | Lobe::Toon(Toon { glossy: false, .. })
+        )
     }
 }
 
@@ -655,6 +665,12 @@ impl MixBsdf {
     /// Small lobe k's f(wo, wi) as [`lobe_f`](Self::lobe_f), without the cut (its own sample).
     #[inline]
     fn lobe_value(&self, k: usize, wo: Vec3, wi: Vec3) -> Rgb {
+        self.lobe_value_with(k, wo, wi, true)
+    }
+
+    /// [`lobe_value`](Self::lobe_value), with its bump shadowing when `bumped`.
+    #[inline]
+    fn lobe_value_with(&self, k: usize, wo: Vec3, wi: Vec3, bumped: bool) -> Rgb {
         let frame = &self.frames[k];
         let (wo_k, wi_k) = (into_frame(frame, wo), into_frame(frame, wi));
         let l = &self.lobes[k];
@@ -662,7 +678,7 @@ impl MixBsdf {
             return Rgb::ZERO;
         }
         let mut s = cos_ratio(frame, wi_k, wi);
-        if self.bump[k] > 0.0 {
+        if bumped && self.bump[k] > 0.0 {
             let n = frame.map_or(Vec3::Z, |f| f.n);
             s *= bump_shadowing(self.ns, n, wi, self.bump[k]);
         }
@@ -820,6 +836,11 @@ impl MixBsdf {
             if self.cuts(i, wi_u) {
                 f += self.lobe_value(i, wo_u, wi_u);
                 pdf += p[k] * self.lobes[i].pdf(into_frame(frame, wo_u), into_frame(frame, wi_u));
+            }
+            // Cycles' sampled transmission skips the bump terminator term (`bsdf_sample` applies
+            // it to reflections alone): a Translucent's own sample carries its whole value.
+            if matches!(self.lobes[i], Lobe::Translucent) && self.bump[i] > 0.0 {
+                f += self.lobe_value_with(i, wo_u, wi_u, false) - self.lobe_value(i, wo_u, wi_u);
             }
         }
         (pdf > 0.0).then_some(BsdfSample { wi, f, pdf, delta: false, kind: s.kind })
@@ -1207,6 +1228,36 @@ mod frame_tests {
             }
         }
         assert!(in_cut > 50 && lit > 50, "{in_cut} lit directions cut, {lit} kept");
+    }
+
+    /// A Translucent lobe on a normal tilted from the interpolated one (+Z) takes Cycles' bump
+    /// terminator term in its evaluation (light sampling: less than without it, 0 beyond its
+    /// cut), never in its own samples: Cycles' `bsdf_sample` applies the term to reflections
+    /// alone, so a sampled transmission carries the lobe's whole value.
+    #[test]
+    fn a_bumped_translucent_is_shadowed_in_evaluation_not_in_its_samples() {
+        let n = Vec3::new(0.5, 0.0, 0.866).normalize();
+        let mut plain = MixBsdf::new();
+        plain.push(Rgb::splat(0.8), Lobe::Translucent);
+        plain.frames[0] = Some(Frame::from_normal(n));
+        let mut bumped = plain;
+        bumped.bump[0] = crate::bsdf::pbr::bump_alpha2(Vec3::Z, n).unwrap();
+        let wo = Vec3::new(-0.3, 0.2, 0.93).normalize();
+        let mut rng = Pcg32::new(9);
+        let (mut samples, mut darker) = (0, 0);
+        for _ in 0..5000 {
+            let u = Vec2::new(rng.next_f32(), rng.next_f32());
+            let Some(s) = bumped.sample(wo, 0.5, u) else { continue };
+            samples += 1;
+            assert!(s.wi.z < 0.0);
+            // Equal up to the rounding of adding the unshadowed value back.
+            let f = plain.eval(wo, s.wi);
+            assert!((s.f - f).abs().max_element() <= 1e-6 * f.max_element() && s.pdf == plain.pdf(wo, s.wi));
+            let e = bumped.eval(wo, s.wi);
+            assert!(e.cmple(f).all());
+            darker += (e.x < s.f.x) as usize;
+        }
+        assert!(samples > 1000 && darker > samples / 2, "{darker} of {samples} evaluations shadowed");
     }
 
     /// A Diffuse lobe on a tilted normal reflects by its own cosine: the integrators' weight

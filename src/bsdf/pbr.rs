@@ -75,6 +75,7 @@ pub use super::albedo::F0_DIELECTRIC;
 use super::aniso_albedo::aniso_albedo;
 use super::dielectric::{DielectricBsdf, SMOOTH_ROUGHNESS};
 use super::fresnel_layer::{eta_z, f0_of, fresnel_s, layer_albedo, layer_eta};
+use super::hair::BumpCut;
 use super::microfacet::{Ggx, f82_tint, f82_tint_b, schlick_weight};
 use super::microfiber::Microfiber;
 use super::oren_nayar::OrenNayar;
@@ -174,6 +175,12 @@ pub struct PbrBsdf {
     /// The interpolated normal before normal mapping and the GGX α² of the bump shadowing
     /// (the diffuse base's), when a normal map moved the normal.
     bump: Option<(Vec3, f32)>,
+    /// Cycles' `sd->N` in the shading frame where the specular lobes' normal (the frame's) is
+    /// not it (`PbrParams::cut_normal`): Cycles' `bump_shadowing_term` gives a microfacet
+    /// closure nothing toward light on the other side of its normal than sd->N puts that light,
+    /// in its evaluation and density, never in its own sample (`Cuts`); the coat by its own
+    /// normal likewise.
+    cut_ref: Option<Vec3>,
     /// Normal-incidence reflectance of the coat (from its IOR).
     pub coat_f0: f32,
     /// Coat IOR (for the refracted path length through a tinted coat).
@@ -337,6 +344,7 @@ impl PbrBsdf {
             diffuse_frame,
             aniso,
             bump,
+            cut_ref: p.cut_normal.filter(|n| n.is_finite()).and_then(|n| n.try_normalize()),
             coat_f0: f0_from_ior(if p.coat_ior.is_finite() && p.coat_ior >= 1.0 { p.coat_ior } else { 1.5 }).min(1.0),
             coat_ior: if p.coat_ior.is_finite() && p.coat_ior >= 1.0 { p.coat_ior } else { 1.5 },
             coat_tint: if p.coat_tint.is_finite() { p.coat_tint.clamp(Vec3::ZERO, Vec3::ONE) } else { Vec3::ONE },
@@ -895,28 +903,42 @@ impl PbrBsdf {
     /// Density of [`sample`](Self::sample) for the non-delta lobes.
     #[inline]
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        let cuts = self.cuts(wi);
         let (wo, wi) = flip_to_upper(wo, wi);
         if wo.z <= 0.0 || wi.z == 0.0 {
             return 0.0;
         }
-        self.pdf_with(&self.at(wo).c, wo, wi)
+        self.pdf_with(&self.at(wo).c, wo, wi, cuts)
+    }
+
+    /// The lobes Cycles' `bump_shadowing_term` cuts toward `wi` (local, as given: not flipped
+    /// with wo): the specular lobes (metal, specular layer, glass) by the frame's normal, the
+    /// coat by its own, each against `cut_ref`, Cycles' sd->N. The diffuse base's cut is its
+    /// bump shadowing (`bump`).
+    #[inline]
+    pub(super) fn cuts(&self, wi: Vec3) -> Cuts {
+        let Some(ns) = self.cut_ref else {
+            return Cuts::default();
+        };
+        let coat_n = self.coat_frame.map_or(Vec3::Z, |f| f.n);
+        Cuts { spec: BumpCut { ns, n: Vec3::Z }.cuts(wi), coat: self.coat > 0.0 && BumpCut { ns, n: coat_n }.cuts(wi) }
     }
 
     /// [`pdf`](Self::pdf) with the lobe choice at `wo` (upper hemisphere) already made:
     /// `sample` chooses a lobe and then needs the whole density, from the same choice.
     #[inline]
-    fn pdf_with(&self, c: &LobeChoice, wo: Vec3, wi: Vec3) -> f32 {
+    fn pdf_with(&self, c: &LobeChoice, wo: Vec3, wi: Vec3, cuts: Cuts) -> f32 {
         if wo.z <= 0.0 || wi.z == 0.0 {
             return 0.0;
         }
         let mut pdf = 0.0;
-        if c.glass > 0.0 {
+        if c.glass > 0.0 && !cuts.spec {
             pdf += c.glass * self.glass.pdf(wo, wi);
         }
         if wi.z > 0.0 {
             let h = (wo + wi).normalize();
             // Lobes of no weight add nothing: the floor of Specular 0 skips GGX's density.
-            if !self.smooth && c.metal + c.spec > 0.0 {
+            if !self.smooth && c.metal + c.spec > 0.0 && !cuts.spec {
                 let pdf_spec = self.ggx.pdf_visible_normal(wo, h) / (4.0 * wo.dot(h).max(1e-8));
                 pdf += (c.metal + c.spec) * pdf_spec;
             }
@@ -925,7 +947,7 @@ impl PbrBsdf {
                 None => cosine_hemisphere_pdf(wi.z),
             };
             pdf += c.diffuse * self.diffuse_pdf(wi) + c.sheen * sheen_pdf;
-            if c.coat > 0.0 && !self.smooth_coat {
+            if c.coat > 0.0 && !self.smooth_coat && !cuts.coat {
                 pdf += c.coat * self.coat_pdf(wo, wi);
             }
         } else if c.dtrans > 0.0 {
@@ -972,6 +994,16 @@ impl PbrBsdf {
         below * self.coat_transmittance(Vec3::Z) * (1.0 - self.coat * self.coat_f0)
             + Vec3::splat(self.coat * self.coat_f0)
     }
+}
+
+/// The lobes of a [`PbrBsdf`] that Cycles' `bump_shadowing_term` cuts toward one direction
+/// (`PbrBsdf::cuts`).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(super) struct Cuts {
+    /// The specular lobes: metal, specular layer and glass (reflection and refraction).
+    pub spec: bool,
+    /// The coat.
+    pub coat: bool,
 }
 
 /// The bump terminator's shadowing of a diffuse lobe on normal `n` for light from `wi`, with

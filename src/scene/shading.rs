@@ -397,6 +397,7 @@ impl Scene {
             subsurface: mat.subsurface.map_or(0.0, |s| s.weight),
             diffuse_normal: (n != unbent).then(|| frame.to_local(unbent)),
             smooth_normal: (unbent != s.ns).then(|| frame.to_local(s.ns)),
+            cut_normal: (n != s.ns).then(|| frame.to_local(s.ns)),
             anisotropy,
             diffuse_roughness: 0.0,
             cycles_principled: false,

@@ -172,6 +172,7 @@ pub fn shade_nodes(
         // The terminator's reference as in `mixture`: Cycles' sd->N.
         let reference = c.default_normal_world().map_or(s.ns, facing);
         params.smooth_normal = (unbent != reference).then(|| frame.to_local(reference));
+        params.cut_normal = (n != reference).then(|| frame.to_local(reference));
         let pbr = PbrBsdf::from_params(&params);
         let w = c.pbr_w[0] * keep;
         bsdf = if (w - 1.0).abs() < 1e-6 {
@@ -214,9 +215,11 @@ fn within(outer: &Frame, inner: Frame) -> Option<Frame> {
 /// within `frame`, weights times `keep`, as Cycles sets each closure up: its Normal input
 /// (else the interpolated normal, or the Material Output's bump) on the viewer's side;
 /// microfacet closures (Glossy, Metallic, Glass, Refraction, each Principled BSDF's specular
-/// lobes) on that normal bent to keep the mirror reflection above the surface; diffuse-class
-/// closures (Diffuse, Sheen, Toon Diffuse, each Principled BSDF's diffuse base) on the unbent
-/// normal, shadowed by the bump terminator term where it is not the interpolated normal.
+/// lobes) and the Translucent BSDF on that normal bent to keep the mirror reflection above the
+/// surface; the other closures on the unbent normal. Cycles' diffuse class (Diffuse, Sheen,
+/// Toon Diffuse, Translucent, each Principled BSDF's diffuse base) is shadowed by the bump
+/// terminator term where its normal is not the interpolated one, every other closure cut by it
+/// (`MixBsdf::cut`, `PbrParams::cut_normal`).
 fn mixture(c: &Closures, s: &SurfaceHit, wo: Vec3, frame: &Frame, keep: f32) -> MixBsdf {
     let facing = |m: Vec3| viewer_side(s, m);
     let default_n = c.default_normal_world().map_or(s.ns, facing);
@@ -243,6 +246,7 @@ fn mixture(c: &Closures, s: &SurfaceHit, wo: Vec3, frame: &Frame, keep: f32) -> 
         params.coat_normal = c.coat_normal_world(j).map(|m| own.to_local(facing(m)));
         params.diffuse_normal = (bent != m).then(|| own.to_local(m));
         params.smooth_normal = (m != reference).then(|| own.to_local(reference));
+        params.cut_normal = (bent != reference).then(|| own.to_local(reference));
         mix.pbr[j] = PbrBsdf::from_params(&params);
         mix.pbr_weights[j] = c.pbr_w[j] * keep;
         mix.pbr_frames[j] = within(frame, own);
@@ -250,23 +254,25 @@ fn mixture(c: &Closures, s: &SurfaceHit, wo: Vec3, frame: &Frame, keep: f32) -> 
     for k in 0..mix.n as usize {
         let m = c.lobe_normal_world(k).map_or(default_n, facing);
         let lobe = &mix.lobes[k];
-        let nk = if matches!(lobe, Lobe::Glossy { .. } | Lobe::AshikhminShirley(_) | Lobe::Dielectric(_)) {
-            valid_reflection_normal(s.ng, wo, m)
-        } else {
-            m
-        };
+        // Cycles bends the microfacet closures' normals and the Translucent BSDF's
+        // (`maybe_ensure_valid_specular_reflection` in svm_node_closure_bsdf); a bumped
+        // Translucent lit from behind on its unbent normal was 0.898 of Cycles.
+        let bends =
+            matches!(lobe, Lobe::Glossy { .. } | Lobe::AshikhminShirley(_) | Lobe::Dielectric(_) | Lobe::Translucent);
+        let nk = if bends { valid_reflection_normal(s.ng, wo, m) } else { m };
         mix.frames[k] = match c.lobe_tangents[k] {
             Some(t) => within(frame, Frame::from_normal_tangent(nk, t)),
             None if nk != frame.n => within(frame, Frame::from_normal(nk)),
             None => None,
         };
-        if lobe.bump_shadowed() && m != reference {
-            mix.bump[k] = bump_alpha2(reference, m).unwrap_or(0.0);
+        // The term reads the closure's own normal (sc->N), bent where Cycles bends it.
+        if lobe.bump_shadowed() && nk != reference {
+            mix.bump[k] = bump_alpha2(reference, nk).unwrap_or(0.0);
         }
         // Cycles cuts every closure's evaluation by its normal against sd->N, not only the
         // diffuse ones' (whose bump shadowing above holds the cut): a Glossy BSDF on a normal
         // past the horizon was 1.0070 of Cycles.
-        mix.cut[k] = !lobe.is_diffuse_class() && nk != reference;
+        mix.cut[k] = !lobe.bump_shadowed() && nk != reference;
     }
     mix
 }

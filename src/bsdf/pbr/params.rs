@@ -53,6 +53,10 @@ pub struct PbrParams {
     /// The interpolated normal before normal mapping, in the shading frame, when a normal
     /// map changed it (the diffuse base's bump shadowing).
     pub smooth_normal: Option<Vec3>,
+    /// Cycles' `sd->N` (the interpolated normal, or the Material Output's bump) in the shading
+    /// frame, when the frame's normal (the specular lobes', bent or mapped) is not it: Cycles'
+    /// `bump_shadowing_term` cuts those lobes' evaluation there (`PbrBsdf::cut_ref`).
+    pub cut_normal: Option<Vec3>,
     /// Anisotropic widths (αx, αy) of the metal's and the specular layer's GGX along the
     /// shading frame's X and Y axes, replacing roughness² there.
     pub anisotropy: Option<(f32, f32)>,
@@ -111,6 +115,7 @@ impl PbrParams {
             subsurface: 0.0,
             diffuse_normal: None,
             smooth_normal: None,
+            cut_normal: None,
             anisotropy: None,
             diffuse_roughness: 0.0,
             cycles_principled: false,

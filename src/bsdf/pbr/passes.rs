@@ -45,8 +45,9 @@ impl PbrAt<'_> {
     #[inline]
     pub fn eval_glass(&self, wi: Vec3) -> Rgb {
         let b = self.b;
+        let cut = b.cuts(wi).spec;
         let wi = if self.flip { Vec3::new(wi.x, wi.y, -wi.z) } else { wi };
-        if b.transmission <= 0.0 || self.wo.z <= 0.0 || wi.z == 0.0 {
+        if b.transmission <= 0.0 || self.wo.z <= 0.0 || wi.z == 0.0 || cut {
             return Rgb::ZERO;
         }
         let scaling = b.sheen_scaling_from(self.sheen_o, wi.z.abs());

@@ -930,3 +930,54 @@ fn principled_diffuse_base_is_cycles_oren_nayar() {
     assert!((glass.glass.tint - Vec3::new(1.0, 0.8f32.sqrt(), 0.3f32.sqrt())).abs().max_element() < 1e-6);
     assert_eq!(glass.base, Vec3::new(1.0, 0.8, 0.3));
 }
+
+/// Cycles' `bump_shadowing_term` on the specular lobes (`PbrParams::cut_normal`): with sd->N
+/// tilted from the frame's normal (the bent, mapped normal), a rough metal gives nothing
+/// toward light above the frame's plane but below sd->N's (value and density 0 there, where
+/// the same metal without the cut reflects), and as without the cut elsewhere; its own samples
+/// are never cut, so every sample's value and density are the uncut metal's. A dielectric's
+/// diffuse base is not cut by it.
+#[test]
+fn specular_lobes_are_cut_where_cycles_cuts_them() {
+    let ns = Vec3::new(0.6, 0.0, 0.8);
+    for (metallic, specular) in [(1.0f32, 0.5f32), (0.0, 0.5)] {
+        let p = PbrParams { specular, ..PbrParams::opaque(Vec3::new(0.8, 0.5, 0.3), metallic, 0.3) };
+        let plain = PbrBsdf::from_params(&p);
+        let cut = PbrBsdf::from_params(&PbrParams { cut_normal: Some(ns), ..p });
+        let wo = Vec3::new(0.9, 0.05, 0.35).normalize();
+        let (mut in_cut, mut kept) = (0, 0);
+        for i in 0..48 {
+            for j in 0..48 {
+                let (c, phi) = ((i as f32 + 0.5) / 48.0, std::f32::consts::TAU * j as f32 / 48.0);
+                let s = (1.0 - c * c).sqrt();
+                let wi = Vec3::new(s * phi.cos(), s * phi.sin(), c);
+                if ns.dot(wi) < 0.0 {
+                    in_cut += (plain.eval(wo, wi) != Vec3::ZERO) as usize;
+                    if metallic == 1.0 {
+                        assert_eq!((cut.eval(wo, wi), cut.pdf(wo, wi)), (Vec3::ZERO, 0.0), "{wi}");
+                    } else {
+                        // The diffuse base stays, the specular layer goes.
+                        assert!(
+                            cut.eval(wo, wi).max_element() > 0.0 && cut.eval(wo, wi).cmple(plain.eval(wo, wi)).all()
+                        );
+                    }
+                } else {
+                    assert_eq!((cut.eval(wo, wi), cut.pdf(wo, wi)), (plain.eval(wo, wi), plain.pdf(wo, wi)));
+                    kept += 1;
+                }
+            }
+        }
+        assert!(in_cut > 50 && kept > 50, "{in_cut} lit directions in the cut, {kept} kept");
+        if metallic == 1.0 {
+            let mut rng = Pcg32::new(3);
+            let mut cut_samples = 0;
+            for _ in 0..20_000 {
+                let u = Vec2::new(rng.next_f32(), rng.next_f32());
+                let (Some(a), Some(b)) = (cut.sample(wo, 0.5, u), plain.sample(wo, 0.5, u)) else { continue };
+                assert_eq!((a.wi, a.f, a.pdf), (b.wi, b.f, b.pdf));
+                cut_samples += (ns.dot(a.wi) < 0.0) as usize;
+            }
+            assert!(cut_samples > 100, "{cut_samples} samples in the cut");
+        }
+    }
+}

@@ -2,7 +2,7 @@
 //! sheen albedo at wo, the metal's multiscatter factor) computed once per vertex, then the
 //! value, density and sampled bounce that next-event estimation and the path share.
 
-use super::{LobeChoice, PbrBsdf};
+use super::{Cuts, LobeChoice, PbrBsdf};
 use crate::bsdf::microfacet::reflect;
 use crate::bsdf::microfiber::Microfiber;
 use crate::bsdf::{BsdfSample, LobeKind};
@@ -87,11 +87,12 @@ impl PbrAt<'_> {
     /// Density of [`PbrBsdf::sample`] for wi, as [`PbrBsdf::pdf`].
     #[inline]
     pub fn pdf(&self, wi: Vec3) -> f32 {
+        let cuts = self.b.cuts(wi);
         let wi = if self.flip { Vec3::new(wi.x, wi.y, -wi.z) } else { wi };
         if self.wo.z <= 0.0 || wi.z == 0.0 {
             return 0.0;
         }
-        self.b.pdf_with(&self.c, self.wo, wi)
+        self.b.pdf_with(&self.c, self.wo, wi, cuts)
     }
 
     /// [`PbrBsdf::sample`] from the view-side terms computed once.
@@ -110,6 +111,10 @@ impl PbrAt<'_> {
         // The diffuse base's Lambertian transmission chose wi (below the surface).
         let dtrans =
             uc >= c.glass + c.metal + c.spec + c.diffuse && uc < c.glass + c.metal + c.spec + c.diffuse + c.dtrans;
+        // Which lobe group samples: Cycles does not cut a closure's own sample, only what the
+        // other closures evaluate toward it (`PbrBsdf::cuts`).
+        let (from_spec, from_coat) =
+            (uc < c.glass + c.metal + c.spec, uc >= c.glass + c.metal + c.spec + c.diffuse + c.dtrans + c.sheen);
         let wi_up = if uc < c.glass {
             let s = this.glass.sample(wo_up, uc / c.glass, u)?;
             if s.delta {
@@ -189,13 +194,16 @@ impl PbrAt<'_> {
         // The density and value from the lobe choice and wo-terms of this call (the same
         // numbers `pdf` and `eval` would recompute: the profile had the albedo-table
         // lookups at wo three times per sampled bounce).
-        let pdf = this.pdf_with(c, wo_up, wi_up);
+        let wi = mirror(wi_up);
+        let mut cuts = this.cuts(wi);
+        cuts.spec &= !from_spec;
+        cuts.coat &= !from_coat;
+        let pdf = this.pdf_with(c, wo_up, wi_up, cuts);
         if !(pdf > 0.0) {
             return None;
         }
-        let wi = mirror(wi_up);
         let kind = if diffuse { LobeKind::Diffuse } else { LobeKind::Glossy };
-        Some(BsdfSample { wi, f: self.eval(wi), pdf, delta: false, kind })
+        Some(BsdfSample { wi, f: self.eval_with(wi, cuts), pdf, delta: false, kind })
     }
 }
 
@@ -203,6 +211,12 @@ impl PbrAt<'_> {
     /// f(wo, wi), as [`PbrBsdf::eval`].
     #[inline]
     pub fn eval(&self, wi: Vec3) -> Rgb {
+        self.eval_with(wi, self.b.cuts(wi))
+    }
+
+    /// [`eval`](Self::eval) with the lobes `cuts` leaves out (Cycles' `bump_shadowing_term`).
+    #[inline]
+    fn eval_with(&self, wi: Vec3, cuts: Cuts) -> Rgb {
         let b = self.b;
         let wo = self.wo;
         let wi = if self.flip { Vec3::new(wi.x, wi.y, -wi.z) } else { wi };
@@ -213,7 +227,7 @@ impl PbrAt<'_> {
         let under = self.under;
         let scaling = b.sheen_scaling_from(self.sheen_o, wi.z.abs());
         let mut f = Rgb::ZERO;
-        if b.transmission > 0.0 {
+        if b.transmission > 0.0 && !cuts.spec {
             f += b.glass.eval(wo, wi) * (dielectric * b.transmission);
         }
         if wi.z < 0.0 {
@@ -224,7 +238,7 @@ impl PbrAt<'_> {
         // Smooth reflection is a delta lobe: sampled only, never evaluated. Without a
         // specular layer or metal nothing reads the microfacet term (a floor of Specular 0:
         // GGX's D and G2 were 1 % of the glass bench scene's instructions).
-        let spec = if b.smooth || !(b.layer || b.metallic > 0.0) {
+        let spec = if b.smooth || !(b.layer || b.metallic > 0.0) || cuts.spec {
             0.0
         } else {
             b.ggx.d(h) * b.ggx.g2(wo, wi) / (4.0 * wo.z * wi.z)
@@ -241,7 +255,7 @@ impl PbrAt<'_> {
             f += b.metal_fresnel(cos_h) * self.metal_ms * (spec * b.metallic);
         }
         f = (f * scaling + b.sheen_eval(&self.fiber, wo, wi)) * under;
-        if b.coat > 0.0 && !b.smooth_coat && !b.coat_dropped {
+        if b.coat > 0.0 && !b.smooth_coat && !b.coat_dropped && !cuts.coat {
             f += Rgb::splat(b.coat_eval(wo, wi));
         }
         f

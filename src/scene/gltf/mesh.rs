@@ -281,6 +281,7 @@ impl Loader<'_> {
                 out,
             )?;
             let first_tri = out.triangles.len();
+            let mut against = 0usize;
             for t in tris {
                 let p = t.map(|i| out.positions[(base + i) as usize]);
                 let area2 = (p[1] - p[0]).cross(p[2] - p[0]).length();
@@ -290,8 +291,24 @@ impl Loader<'_> {
                 }
                 let flip = vertex_flip.get(t[0] as usize).copied().unwrap_or(flip);
                 let t = if flip { [t[0], t[2], t[1]] } else { t };
-                out.triangles.push(t.map(|i| base + i));
+                let t = t.map(|i| base + i);
+                let ng = (out.positions[t[1] as usize] - out.positions[t[0] as usize])
+                    .cross(out.positions[t[2] as usize] - out.positions[t[0] as usize]);
+                against += t.iter().all(|&i| out.normals[i as usize].dot(ng) < 0.0) as usize;
+                out.triangles.push(t);
                 out.tri_material.push(material_index);
+            }
+            if against > 0 {
+                // Cycles shades with the normals as given (`triangle_smooth_normal`), so a face
+                // whose normals point against its winding reflects nothing toward lights on its
+                // front (measured: a Diffuse plane with its custom normals turned down renders
+                // 0 in bpy 5.0.1, 0.63 with them up); Caustic turns them to the winding's side
+                // (`Scene::surface`), as pbrt does, which a glTF file from another tool expects.
+                self.warn(format!(
+                    "{what}: {against} triangle(s) have vertex normals pointing against their winding; Caustic \
+                     shades them with the normals turned to the winding's side, Cycles with the normals as given \
+                     (such faces render black under light from their front there)"
+                ));
             }
             let material = &materials[material_index as usize];
             // A volume on an open primitive (Blender's exporter and the add-on put
@@ -420,6 +437,29 @@ mod tests {
         let up = -dp_dv;
         let w = if n.cross(dp_du).dot(up) > 0.0 { 1.0 } else { -1.0 };
         dp_du.normalize().extend(w)
+    }
+
+    /// Vertex normals against the winding are named (Cycles shades with them, Caustic turns
+    /// them round): the unit triangle (winding +Z) with normals −Z warns, with +Z does not.
+    #[test]
+    fn normals_against_the_winding_are_named() {
+        use serde_json::json;
+        for (z, warned) in [(-1.0f32, true), (1.0, false)] {
+            let normals: Vec<u8> = [0.0f32, 0.0, z].repeat(3).iter().flat_map(|f| f.to_le_bytes()).collect();
+            let scene = super::super::tests::load_triangle_after(
+                &normals,
+                json!({
+                    "bufferViews": [{"buffer": 0, "byteLength": 36}, {"buffer": 0, "byteOffset": 36, "byteLength": 36}],
+                    "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                            "min": [0, 0, 0], "max": [1, 1, 0]},
+                        {"bufferView": 1, "componentType": 5126, "count": 3, "type": "VEC3"}],
+                    "meshes": [{"name": "tri", "primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1}}]}]
+                }),
+            )
+            .unwrap();
+            let named = scene.warnings.iter().any(|w| w.contains("'tri'") && w.contains("against their winding"));
+            assert_eq!(named, warned, "{:?}", scene.warnings);
+        }
     }
 
     /// A node mirroring its mesh (scale (-1, 1, 1)) reverses the winding, which the loader

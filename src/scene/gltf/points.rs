@@ -205,6 +205,20 @@ impl Loader<'_> {
                     m.name
                 ));
             }
+            if m.nodes.as_ref().is_some_and(|p| p.hair) {
+                // Cycles gives a point no fibre (dPdu = dPdv = 0, `point_shader_setup`): the Hair
+                // BSDF's tangent is normalize(0) and the Huang model's frame is empty, so both
+                // shade a point black; the Chiang model evaluates one direction-independent value
+                // from its empty frame and samples a zero direction (measured: points of a
+                // Principled Hair BSDF flat and bright, of a Hair BSDF black). Caustic renders the
+                // hair closures black there.
+                warnings.push(format!(
+                    "{what}: material '{}' has hair BSDFs, which have no fibre direction on a point: they render \
+                     black there (as Cycles renders the Hair BSDF and the Principled Hair BSDF's Huang model; its \
+                     Chiang model shows a flat, direction-independent value in Cycles)",
+                    m.name
+                ));
+            }
             let world = match obj.matrix {
                 Some(m) => {
                     let m = Mat4::from_cols_array(&m);
@@ -286,6 +300,15 @@ mod tests {
     /// Three points after the unit triangle: centres (bytes 36..72), radii (72..84), indices
     /// (84..96); `object` is the extension's object, its accessors 1, 2 and 3.
     fn load(object: serde_json::Value, radii: [f32; 3]) -> crate::error::Result<crate::scene::Scene> {
+        load_with(object, radii, json!({}))
+    }
+
+    /// `load` with more root properties (materials) merged in.
+    fn load_with(
+        object: serde_json::Value,
+        radii: [f32; 3],
+        more: serde_json::Value,
+    ) -> crate::error::Result<crate::scene::Scene> {
         let mut extra: Vec<u8> = Vec::new();
         for c in [[0.0f32, 0.0, 2.0], [1.0, 0.0, 2.0], [2.0, 0.0, 2.0]] {
             extra.extend(c.iter().flat_map(|f| f.to_le_bytes()));
@@ -302,10 +325,35 @@ mod tests {
                     {"bufferView": 1, "componentType": 5126, "count": 3, "type": "VEC3"},
                     {"bufferView": 2, "componentType": 5126, "count": 3, "type": "SCALAR"},
                     {"bufferView": 3, "componentType": 5125, "count": 3, "type": "SCALAR"}],
-                "extensionsUsed": ["CAUSTIC_points"],
-                "extensions": {"CAUSTIC_points": {"objects": [object]}}
+                "extensionsUsed": ["CAUSTIC_points", "CAUSTIC_materials_nodes"],
+                "extensions": {"CAUSTIC_points": {"objects": [object]}},
+                "materials": more.get("materials").cloned().unwrap_or(json!([]))
             }),
         )
+    }
+
+    /// Hair BSDFs on points are named (object and material), since they render black there
+    /// (as the Hair BSDF and the Huang model do in Cycles: a point has no fibre direction); a
+    /// Diffuse material on the same points is not.
+    #[test]
+    fn hair_bsdfs_on_points_are_named() {
+        let graph = |name: &str, node: serde_json::Value| {
+            json!({"name": name, "extensions": {"CAUSTIC_materials_nodes":
+                {"version": 1, "nodes": [node], "output": {"surface": [0, "BSDF"]}}}})
+        };
+        let hair = json!({"name": "H", "type": "ShaderNodeBsdfHairPrincipled", "props": {"parametrization": "COLOR"},
+            "inputs": {"Color": {"value": [0.6, 0.3, 0.15, 1.0]}}});
+        let lobes = json!({"name": "H", "type": "ShaderNodeBsdfHair", "props": {"component": "Reflection"}});
+        let diffuse = json!({"name": "D", "type": "ShaderNodeBsdfDiffuse"});
+        let materials = json!({"materials": [graph("Fur", hair), graph("Lobes", lobes), graph("Matte", diffuse)]});
+        for (m, name, warned) in [(0, "Fur", true), (1, "Lobes", true), (2, "Matte", false)] {
+            let obj = json!({"name": "dots", "positions": 1, "radii": 2, "material": m});
+            let scene = load_with(obj, [0.1; 3], materials.clone()).unwrap();
+            let named = scene.warnings.iter().any(|w| {
+                w.contains("point cloud 'dots'") && w.contains(&format!("material '{name}'")) && w.contains("hair")
+            });
+            assert_eq!(named, warned, "{name}: {:?}", scene.warnings);
+        }
     }
 
     /// Point Info at each point: its centre, radius and Cycles' Random of its index in its
