@@ -278,6 +278,10 @@ def complete_material(gltf2_material, blender_material, export_settings, state, 
     _translate_shader_node(gltf2_material, blender_material, export_settings, approximation_warnings)
     coat, warnings = principled_extras(blender_material, graph=as_graph)
     state.warnings.extend(warnings)
+    if _present(gltf2_material, "KHR_materials_clearcoat"):
+        # Cycles' coat reflects with the exact dielectric Fresnel, glTF's with Schlick's
+        # (docs/contract.md).
+        coat = {**(coat or {}), "fresnel": "dielectric"}
     if coat is not None:
         _set_extension(gltf2_material, COAT_EXTENSION, coat)
     if _present(gltf2_material, "KHR_materials_sheen"):

@@ -25,7 +25,9 @@
 //! `KHR_materials_sheen` is a Charlie-distribution sheen
 //! (Estevez & Kulla 2017, Ashikhmin visibility) over everything below it with the
 //! reciprocal scaling min(1 - s·E(μo), 1 - s·E(μi)), s = max(sheen colour), and
-//! `KHR_materials_clearcoat` is a GGX layer of IOR 1.5 on top, with its own normal. Blender's
+//! `KHR_materials_clearcoat` is a GGX layer of IOR 1.5 on top, with its own normal (Schlick's
+//! Fresnel; Blender's coat takes Cycles' exact dielectric Fresnel of its Coat IOR,
+//! `PbrParams::coat_dielectric_fresnel`). Blender's
 //! sheen is Cycles' microfiber sheen instead (`microfiber.rs`, `CAUSTIC_materials_sheen`),
 //! which scales the layers below by the view's side alone, 1 - s·E(μo), as Cycles does (the
 //! sheen stays under the coat; Cycles puts it above).
@@ -76,7 +78,7 @@ use super::aniso_albedo::aniso_albedo;
 use super::dielectric::{DielectricBsdf, SMOOTH_ROUGHNESS};
 use super::fresnel_layer::{eta_z, f0_of, fresnel_s, layer_albedo, layer_eta};
 use super::hair::BumpCut;
-use super::microfacet::{Ggx, f82_tint, f82_tint_b, schlick_weight};
+use super::microfacet::{Ggx, f82_tint, f82_tint_b, fresnel_dielectric, schlick_weight};
 use super::microfiber::Microfiber;
 use super::oren_nayar::OrenNayar;
 use super::sheen::{charlie_brdf, sheen_albedo_table};
@@ -187,6 +189,11 @@ pub struct PbrBsdf {
     pub coat_ior: f32,
     /// Coat tint (white: none).
     pub coat_tint: Rgb,
+    /// The coat's Fresnel is the exact dielectric one of `coat_ior` (Cycles' coat closure),
+    /// its albedo the layer table's at `coat_z`; else Schlick's from `coat_f0` (glTF's).
+    coat_dielectric: bool,
+    /// `coat_ior` on the layer albedo table's axis.
+    coat_z: f32,
     /// Sheen colour (zero: no sheen).
     pub sheen_color: Rgb,
     /// Sheen roughness.
@@ -348,6 +355,8 @@ impl PbrBsdf {
             coat_f0: f0_from_ior(if p.coat_ior.is_finite() && p.coat_ior >= 1.0 { p.coat_ior } else { 1.5 }).min(1.0),
             coat_ior: if p.coat_ior.is_finite() && p.coat_ior >= 1.0 { p.coat_ior } else { 1.5 },
             coat_tint: if p.coat_tint.is_finite() { p.coat_tint.clamp(Vec3::ZERO, Vec3::ONE) } else { Vec3::ONE },
+            coat_dielectric: p.coat_dielectric_fresnel,
+            coat_z: eta_z(if p.coat_ior.is_finite() && p.coat_ior >= 1.0 { p.coat_ior } else { 1.5 }),
             sheen_color,
             sheen_roughness: p.sheen_roughness.clamp(0.0, 1.0),
             sheen_max: sheen_color.max_element(),
@@ -501,7 +510,13 @@ impl PbrBsdf {
             if mu <= 0.0 {
                 return 0.0;
             }
-            self.coat * specular_albedo().e(mu, self.coat_roughness, self.coat_f0)
+            if self.coat_dielectric {
+                // The exact Fresnel is F0 + (1 − F0) s of the coat's own η: the layer table's split.
+                let (a, b) = layer_albedo().ab(mu, self.coat_roughness, self.coat_z);
+                self.coat * (self.coat_f0 * a + b)
+            } else {
+                self.coat * specular_albedo().e(mu, self.coat_roughness, self.coat_f0)
+            }
         } else {
             0.0
         }
@@ -664,7 +679,12 @@ impl PbrBsdf {
             return 0.0;
         }
         let h = (wo + wi).normalize();
-        let f_coat = self.coat_f0 + (1.0 - self.coat_f0) * schlick_weight(wo.dot(h).max(0.0));
+        let cos_h = wo.dot(h).max(0.0);
+        let f_coat = if self.coat_dielectric {
+            fresnel_dielectric(cos_h, self.coat_ior)
+        } else {
+            self.coat_f0 + (1.0 - self.coat_f0) * schlick_weight(cos_h)
+        };
         let f = self.coat * f_coat * self.coat_ggx.d(h) * self.coat_ggx.g2(wo, wi) / (4.0 * wo.z * wi.z);
         if self.coat_frame.is_some() { f * wi.z / cos_base } else { f }
     }

@@ -92,6 +92,9 @@ pub struct Material {
     pub coat_ior: f32,
     /// Coat tint (`CAUSTIC_materials_coat`).
     pub coat_tint: Rgb,
+    /// The coat's Fresnel is the exact dielectric one (`CAUSTIC_materials_coat` fresnel
+    /// "dielectric", Cycles' coat) instead of glTF's Schlick approximation.
+    pub coat_dielectric_fresnel: bool,
     /// clearcoatNormalTexture: the coat's own normal map.
     pub coat_normal_tex: Option<TexRef>,
     /// Its scale.
@@ -204,6 +207,7 @@ impl Default for Material {
             coat_roughness_tex: None,
             coat_ior: 1.5,
             coat_tint: Rgb::ONE,
+            coat_dielectric_fresnel: false,
             coat_normal_tex: None,
             coat_normal_scale: 1.0,
             sheen_color: Rgb::ZERO,
@@ -292,6 +296,7 @@ macro_rules! texture_fields {
             coat_roughness_tex,
             coat_ior: _,
             coat_tint: _,
+            coat_dielectric_fresnel: _,
             coat_normal_tex,
             coat_normal_scale: _,
             sheen_color: _,

@@ -389,6 +389,7 @@ impl Scene {
             coat_normal,
             coat_ior: mat.coat_ior,
             coat_tint: mat.coat_tint,
+            coat_dielectric_fresnel: mat.coat_dielectric_fresnel,
             specular_color,
             sheen_color,
             sheen_roughness,

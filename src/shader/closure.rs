@@ -364,6 +364,7 @@ fn zero_params() -> PbrParams {
         cut_normal: None,
         coat_ior: 0.0,
         coat_tint: Rgb::ZERO,
+        coat_dielectric_fresnel: true,
         specular_color: Rgb::ZERO,
         sheen_color: Rgb::ZERO,
         sheen_roughness: 0.0,
@@ -723,6 +724,8 @@ impl Closures {
             cut_normal: None,
             coat_ior: p.coat_ior * s,
             coat_tint: p.coat_tint * s,
+            // Cycles' coat closure: the exact dielectric Fresnel of the Coat IOR.
+            coat_dielectric_fresnel: true,
             specular_color: p.specular_color * s,
             sheen_color: p.sheen_color * s,
             sheen_roughness: p.sheen_roughness * s,

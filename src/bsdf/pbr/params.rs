@@ -34,6 +34,9 @@ pub struct PbrParams {
     pub coat_ior: f32,
     /// Colour of the coat's absorption at normal incidence (Blender's Coat Tint).
     pub coat_tint: Rgb,
+    /// The coat reflects with the exact dielectric Fresnel of `coat_ior`, as Cycles' coat
+    /// closure does (Blender's materials), instead of glTF's Schlick approximation.
+    pub coat_dielectric_fresnel: bool,
     /// `KHR_materials_specular` specularColorFactor (tints the dielectric layer's F0).
     pub specular_color: Rgb,
     /// `KHR_materials_sheen` sheenColorFactor (black: no sheen).
@@ -107,6 +110,7 @@ impl PbrParams {
             coat_normal: None,
             coat_ior: 1.5,
             coat_tint: Rgb::ONE,
+            coat_dielectric_fresnel: false,
             specular_color: Rgb::ONE,
             sheen_color: Rgb::ZERO,
             sheen_roughness: 0.0,

@@ -92,6 +92,23 @@ fn materials_with(base: Vec3) -> Vec<(String, PbrBsdf)> {
         ..PbrParams::opaque(base, 0.0, 0.5)
     };
     v.push(("coat ior 1.8 tinted".into(), PbrBsdf::from_params(&p)));
+    // Cycles' coat Fresnel (Blender's materials): the exact dielectric one, flat and with its
+    // own normal.
+    for coat_normal in [Some(Vec3::new(0.3, -0.2, 0.93)), None] {
+        let p = PbrParams {
+            coat: 1.0,
+            coat_roughness: 0.3,
+            coat_ior: 1.8,
+            coat_normal,
+            coat_dielectric_fresnel: true,
+            ..PbrParams::opaque(base, 0.0, 0.5)
+        };
+        // Schlick's too: at IOR 1.8 its coat with its own normal, seen at 83°, sampled below the
+        // coat's horizon, which its density does not count (chi-square p = 2e-9 before).
+        let q = PbrParams { coat_dielectric_fresnel: false, ..p };
+        v.push((format!("coat schlick ior 1.8 n={coat_normal:?}"), PbrBsdf::from_params(&q)));
+        v.push((format!("coat dielectric fresnel n={coat_normal:?}"), PbrBsdf::from_params(&p)));
+    }
     // A coat with its own normal (clearcoatNormalTexture), rough and smooth.
     for coat_roughness in [0.3f32, 0.1] {
         let p = PbrParams {
@@ -462,6 +479,45 @@ fn white_furnace_dielectric_layer() {
                     "r={roughness} ior={ior} θ={theta}: albedo {} ± {}",
                     mean.x,
                     se.x
+                );
+            }
+        }
+    }
+}
+
+/// White furnace of Cycles' coat (exact dielectric Fresnel of the Coat IOR) over a white
+/// Lambertian base: the coat reflects its albedo E_c(μo) = F0 A + B (the layer table's split at
+/// the coat's η) and leaves 1 − E_c to the base, so the sum is 1 only if that albedo is what
+/// the coat's lobe reflects. Bound: 5 standard errors plus the layer table's error.
+#[test]
+fn white_furnace_coat_dielectric_fresnel() {
+    use crate::bsdf::fresnel_layer::LAYER_TABLE_ERROR;
+    let n = 100_000;
+    for coat_roughness in [0.1f32, 0.3, 0.7] {
+        for coat_ior in [1.5f32, 2.5] {
+            let b = PbrBsdf::from_params(&PbrParams {
+                specular: 0.0,
+                coat: 1.0,
+                coat_roughness,
+                coat_ior,
+                coat_dielectric_fresnel: true,
+                ..PbrParams::opaque(Vec3::ONE, 0.0, 0.5)
+            });
+            for theta in [0.0f32, 0.8, 1.3] {
+                let wo = Vec3::new(theta.sin(), 0.0, theta.cos());
+                let mut rng = Pcg32::new(3);
+                let (mut sum, mut sum2) = (0.0f64, 0.0f64);
+                for _ in 0..n {
+                    let u = Vec2::new(rng.next_f32(), rng.next_f32());
+                    let v = b.sample(wo, rng.next_f32(), u).map_or(0.0, |s| (s.f.x * s.wi.z.abs() / s.pdf) as f64);
+                    sum += v;
+                    sum2 += v * v;
+                }
+                let mean = sum / n as f64;
+                let se = ((sum2 / n as f64 - mean * mean).max(0.0) / n as f64).sqrt();
+                assert!(
+                    (mean - 1.0).abs() <= 5.0 * se + LAYER_TABLE_ERROR,
+                    "cr={coat_roughness} ior={coat_ior} θ={theta}: albedo {mean} ± {se}"
                 );
             }
         }

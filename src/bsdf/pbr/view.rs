@@ -186,7 +186,14 @@ impl PbrAt<'_> {
                     kind: LobeKind::Glossy,
                 });
             }
-            cf.to_world(reflect(wo_c, this.coat_ggx.sample_visible_normal(wo_c, u)))
+            // Below the coat's horizon the lobe has no value and `coat_pdf` no density: a sample
+            // there (above the shading frame's horizon, so not caught below) would be counted at
+            // the other lobes' density alone.
+            let wi_c = reflect(wo_c, this.coat_ggx.sample_visible_normal(wo_c, u));
+            if wi_c.z <= 0.0 {
+                return None;
+            }
+            cf.to_world(wi_c)
         };
         if wi_up.z == 0.0 || (uc >= c.glass && !dtrans && wi_up.z < 0.0) {
             return None;

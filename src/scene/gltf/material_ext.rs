@@ -276,7 +276,7 @@ impl Loader<'_> {
                     }),
             }
         };
-        let (mut coat_ior, mut coat_tint) = (1.5, Vec3::ONE);
+        let (mut coat_ior, mut coat_tint, mut coat_dielectric_fresnel) = (1.5, Vec3::ONE, false);
         if let Some(c) = m.extension_value("CAUSTIC_materials_coat").cloned() {
             features.push("CAUSTIC_materials_coat".into());
             let v = num(&c, "ior", 1.5)?;
@@ -285,6 +285,15 @@ impl Loader<'_> {
             }
             coat_ior = v.clamp(1.0, 10.0);
             coat_tint = color3(&c, "tint", Vec3::ONE)?;
+            coat_dielectric_fresnel = match c.get("fresnel").and_then(|v| v.as_str()) {
+                Some("dielectric") => true,
+                None | Some("schlick") => false,
+                Some(other) => {
+                    return Err(self.err(format!(
+                        "material '{name}': CAUSTIC_materials_coat fresnel '{other}' is not \"schlick\" or \"dielectric\""
+                    )));
+                }
+            };
             if coat_tint.max_element() > 1.0 {
                 self.warn(format!("material '{name}': coat tint {coat_tint} was clamped to [0, 1]"));
                 coat_tint = coat_tint.min(Vec3::ONE);
@@ -458,6 +467,7 @@ impl Loader<'_> {
         mat.coat_roughness = coat_roughness;
         mat.coat_roughness_tex = coat_roughness_tex;
         mat.coat_ior = coat_ior;
+        mat.coat_dielectric_fresnel = coat_dielectric_fresnel;
         mat.coat_tint = coat_tint;
         mat.coat_normal_tex = coat_normal_tex;
         mat.coat_normal_scale = coat_normal_scale;

@@ -279,6 +279,21 @@ mod tests {
     }
 
     #[test]
+    fn coat_fresnel_schlick_unless_the_file_says_dielectric() {
+        let coat = json!({"clearcoatFactor": 1.0});
+        let plain = json!({"name": "c", "extensions": {"KHR_materials_clearcoat": coat}});
+        assert!(!material(plain, 0).0.coat_dielectric_fresnel, "glTF's Schlick by default");
+        let blender = json!({"name": "c", "extensions": {"KHR_materials_clearcoat": coat,
+            "CAUSTIC_materials_coat": {"fresnel": "dielectric"}}});
+        let (m, _) = material(blender, 0);
+        assert!(m.coat_dielectric_fresnel);
+        assert_eq!(m.coat_ior, 1.5, "the IOR keeps its default");
+        let bad = json!({"name": "b", "extensions": {"KHR_materials_clearcoat": coat,
+            "CAUSTIC_materials_coat": {"fresnel": "exact"}}});
+        assert!(error(bad, 0).contains("fresnel 'exact'"));
+    }
+
+    #[test]
     fn sheen_model_charlie_unless_the_file_says_microfiber() {
         let sheen = json!({"sheenColorFactor": [0.5, 0.4, 0.3], "sheenRoughnessFactor": 0.25});
         let (m, _) = material(json!({"name": "velvet", "extensions": {"KHR_materials_sheen": sheen}}), 0);
