@@ -485,6 +485,21 @@ fn white_furnace_dielectric_layer() {
     }
 }
 
+/// The red channel's albedo seen from `wo` by `n` BSDF samples of seed `seed`: its mean and
+/// standard error.
+fn sampled_albedo(b: &PbrBsdf, wo: Vec3, n: usize, seed: u64) -> (f64, f64) {
+    let mut rng = Pcg32::new(seed);
+    let (mut sum, mut sum2) = (0.0f64, 0.0f64);
+    for _ in 0..n {
+        let u = Vec2::new(rng.next_f32(), rng.next_f32());
+        let v = b.sample(wo, rng.next_f32(), u).map_or(0.0, |s| (s.f.x * s.wi.z.abs() / s.pdf) as f64);
+        sum += v;
+        sum2 += v * v;
+    }
+    let mean = sum / n as f64;
+    (mean, ((sum2 / n as f64 - mean * mean).max(0.0) / n as f64).sqrt())
+}
+
 /// White furnace of Cycles' coat (exact dielectric Fresnel of the Coat IOR) over a white
 /// Lambertian base: the coat reflects its albedo E_c(μo) = F0 A + B (the layer table's split at
 /// the coat's η) and leaves 1 − E_c to the base, so the sum is 1 only if that albedo is what
@@ -505,16 +520,7 @@ fn white_furnace_coat_dielectric_fresnel() {
             });
             for theta in [0.0f32, 0.8, 1.3] {
                 let wo = Vec3::new(theta.sin(), 0.0, theta.cos());
-                let mut rng = Pcg32::new(3);
-                let (mut sum, mut sum2) = (0.0f64, 0.0f64);
-                for _ in 0..n {
-                    let u = Vec2::new(rng.next_f32(), rng.next_f32());
-                    let v = b.sample(wo, rng.next_f32(), u).map_or(0.0, |s| (s.f.x * s.wi.z.abs() / s.pdf) as f64);
-                    sum += v;
-                    sum2 += v * v;
-                }
-                let mean = sum / n as f64;
-                let se = ((sum2 / n as f64 - mean * mean).max(0.0) / n as f64).sqrt();
+                let (mean, se) = sampled_albedo(&b, wo, n, 3);
                 assert!(
                     (mean - 1.0).abs() <= 5.0 * se + LAYER_TABLE_ERROR,
                     "cr={coat_roughness} ior={coat_ior} θ={theta}: albedo {mean} ± {se}"
@@ -562,16 +568,7 @@ fn white_furnace_ior_below_one() {
                 let (ai, bi) = layer_split(wo.z, roughness, 1.0 / eta, 96);
                 (ms * (f0 * a + bb) + 1.0 - ms * (f0 * ai + bi)) as f64
             };
-            let mut rng = Pcg32::new(5);
-            let (mut sum, mut sum2) = (0.0f64, 0.0f64);
-            for _ in 0..n {
-                let u = Vec2::new(rng.next_f32(), rng.next_f32());
-                let v = b.sample(wo, rng.next_f32(), u).map_or(0.0, |s| (s.f.x * s.wi.z.abs() / s.pdf) as f64);
-                sum += v;
-                sum2 += v * v;
-            }
-            let mean = sum / n as f64;
-            let se = ((sum2 / n as f64 - mean * mean).max(0.0) / n as f64).sqrt();
+            let (mean, se) = sampled_albedo(&b, wo, n, 5);
             let bound = 5.0 * se + 1.25 * 2.0 * LAYER_TABLE_ERROR + TABLE_ERROR;
             assert!(
                 (mean - expect).abs() <= bound,
