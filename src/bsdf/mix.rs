@@ -520,15 +520,9 @@ impl Lobe {
     /// Cycles' diffuse-class closures (diffuse, Oren-Nayar, translucent, sheen, diffuse toon).
     #[inline]
     pub fn is_diffuse_class(&self) -> bool {
-        matches!(
-            self,
-            Lobe::Diffuse
-                | Lobe::OrenNayar(_)
-                | Lobe::Translucent
-                | Lobe::Sheen { .. }
-                | Lobe::Velvet(_)
-                | Lobe::Toon(Toon { glossy: false, .. })
-        )
+        // Cycles' diffuse closures, and the Ashikhmin Velvet, which its light passes file as
+        // glossy but Caustic's as diffuse (a known difference).
+        self.bump_shadowed() || matches!(self, Lobe::Velvet(_))
     }
 
     /// The lobe's value does not depend on wo (it may be evaluated with wo below its own

@@ -60,6 +60,20 @@ impl Loader<'_> {
 
     /// The homogeneous medium a `CAUSTIC_materials_medium` value describes (also the world's
     /// volume), checked: finite, non-negative density and colours, anisotropy in [-1, 1].
+    /// A two-valued string field `key` of extension `ext`: false for `values[0]` or absent,
+    /// true for `values[1]`, an error naming the material for anything else.
+    fn either(&self, value: &serde_json::Value, ext: &str, key: &str, values: [&str; 2], name: &str) -> Result<bool> {
+        match value.get(key).and_then(|v| v.as_str()) {
+            None => Ok(false),
+            Some(v) if v == values[0] => Ok(false),
+            Some(v) if v == values[1] => Ok(true),
+            Some(other) => Err(self.err(format!(
+                "material '{name}': {ext} {key} '{other}' is not \"{}\" or \"{}\"",
+                values[0], values[1]
+            ))),
+        }
+    }
+
     pub(super) fn homogeneous_medium(&self, what: &str, ext: &MediumExt) -> Result<HomogeneousMedium> {
         let colours = [ext.scatter_color, ext.absorption_color, ext.emission, ext.blackbody_tint];
         let finite = ext.density.is_finite()
@@ -285,15 +299,8 @@ impl Loader<'_> {
             }
             coat_ior = v.clamp(1.0, 10.0);
             coat_tint = color3(&c, "tint", Vec3::ONE)?;
-            coat_dielectric_fresnel = match c.get("fresnel").and_then(|v| v.as_str()) {
-                Some("dielectric") => true,
-                None | Some("schlick") => false,
-                Some(other) => {
-                    return Err(self.err(format!(
-                        "material '{name}': CAUSTIC_materials_coat fresnel '{other}' is not \"schlick\" or \"dielectric\""
-                    )));
-                }
-            };
+            coat_dielectric_fresnel =
+                self.either(&c, "CAUSTIC_materials_coat", "fresnel", ["schlick", "dielectric"], &name)?;
             if coat_tint.max_element() > 1.0 {
                 self.warn(format!("material '{name}': coat tint {coat_tint} was clamped to [0, 1]"));
                 coat_tint = coat_tint.min(Vec3::ONE);
@@ -324,15 +331,8 @@ impl Loader<'_> {
         let mut sheen_microfiber = false;
         if let Some(sh) = m.extension_value("CAUSTIC_materials_sheen").cloned() {
             features.push("CAUSTIC_materials_sheen".into());
-            sheen_microfiber = match sh.get("model").and_then(|v| v.as_str()) {
-                Some("microfiber") => true,
-                None | Some("charlie") => false,
-                Some(other) => {
-                    return Err(self.err(format!(
-                        "material '{name}': CAUSTIC_materials_sheen model '{other}' is not \"charlie\" or \"microfiber\""
-                    )));
-                }
-            };
+            sheen_microfiber =
+                self.either(&sh, "CAUSTIC_materials_sheen", "model", ["charlie", "microfiber"], &name)?;
         }
         let mut transparent_shadow = true;
         if let Some(sh) = m.extension_value("CAUSTIC_materials_shadow").cloned() {
@@ -380,15 +380,8 @@ impl Loader<'_> {
         let mut anisotropy_blender = false;
         if let Some(a) = m.extension_value("CAUSTIC_materials_anisotropy").cloned() {
             features.push("CAUSTIC_materials_anisotropy".into());
-            anisotropy_blender = match a.get("mapping").and_then(|v| v.as_str()) {
-                Some("blender") => true,
-                None | Some("gltf") => false,
-                Some(other) => {
-                    return Err(self.err(format!(
-                        "material '{name}': CAUSTIC_materials_anisotropy mapping '{other}' is not \"gltf\" or \"blender\""
-                    )));
-                }
-            };
+            anisotropy_blender =
+                self.either(&a, "CAUSTIC_materials_anisotropy", "mapping", ["gltf", "blender"], &name)?;
         }
         let mut specular = 1.0;
         let (mut specular_color, mut specular_tex, mut specular_color_tex) = (Vec3::ONE, None, None);
@@ -485,15 +478,8 @@ impl Loader<'_> {
         mat.anisotropy_blender = anisotropy_blender;
         if let Some(n) = m.extension_value("CAUSTIC_materials_normal_map").cloned() {
             features.push("CAUSTIC_materials_normal_map".into());
-            mat.normal_strength_blender = match n.get("mapping").and_then(|v| v.as_str()) {
-                Some("blender") => true,
-                None | Some("gltf") => false,
-                Some(other) => {
-                    return Err(self.err(format!(
-                        "material '{name}': CAUSTIC_materials_normal_map mapping '{other}' is not \"gltf\" or \"blender\""
-                    )));
-                }
-            };
+            mat.normal_strength_blender =
+                self.either(&n, "CAUSTIC_materials_normal_map", "mapping", ["gltf", "blender"], &name)?;
         }
         Ok(())
     }
