@@ -312,14 +312,15 @@ def needs_graph(material):
 
 
 def strand_material(doc, material, state, folder, what):
-    """The glTF index of the strands' `material` (None for Blender's default surface): the
+    """The glTF index of the strands' `material` (Blender's default surface for None): the
     exporter's material of that name, else its node graph where `needs_graph`, else one
     appended from its BSDF's constant inputs (with `CAUSTIC_materials_hair` for a Principled
     Hair BSDF: the compact form, no graph evaluated per hit)."""
+    from .meshes import default_surface_index
     from .nodes import surface_node
     from .points import _gltf_material as graph_material
     if material is None:
-        return None
+        return default_surface_index(doc)
     graph = needs_graph(material)
     index = graph_material(doc, material, state, folder, state.warnings, what, strands=True) if graph else \
         _gltf_material(doc, material, state.warnings, what)

@@ -14,7 +14,7 @@ from contextlib import contextmanager
 
 import bpy
 
-from . import attributes, materials, meshes, nonfinite, object_filter, view_layer
+from . import attributes, instancer_children, materials, meshes, nonfinite, object_filter, view_layer
 from .camera import CAMERA_EXTENSION, camera_extension, fit_orthographic
 from .gltf_objects import attach_extension
 from .lights import (AREA_LIGHT_EXTENSION, PUNCTUAL_EXTENSION, area_light_extension, carry_negative_intensity,
@@ -49,6 +49,7 @@ class glTF2ExportUserExtension:
         if state is None or blender_object is None:
             return
         try:
+            instancer_children.note_node(state, gltf2_node, blender_object)
             moves = state.motion.node_extension(blender_object.name) if state.motion is not None else None
             if moves is not None:
                 attach_extension(gltf2_node, MOTION_EXTENSION, moves)
@@ -174,6 +175,10 @@ class glTF2ExportUserExtension:
         state = current()
         if state is None:
             return
+        try:
+            instancer_children.place_instancer_children(gltf2_scene, state)
+        except Exception as err:
+            state.errors.append(f"objects parented to collection instancers: {err!r}")
         try:
             extras = gltf2_scene.extras if isinstance(gltf2_scene.extras, dict) else {}
             extras["caustic"] = dict(state.settings)

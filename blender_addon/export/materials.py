@@ -74,7 +74,10 @@ def principled_extras(blender_material, graph=False):
             warnings.append(f"material '{name}': {socket.name} comes from a {source.bl_label} node, which glTF "
                             "cannot carry (only image textures and constants are exported); Caustic renders "
                             "the exporter's fallback, not the pattern")
-    if value("Coat Weight", 0.0) > 0.0:
+    # A linked Coat Weight is the exporter's clearcoatTexture (an image, or the graph otherwise):
+    # the coat's IOR and tint are still owed (a textured coat of IOR 1.2: blocks 23 % bright).
+    weight = inputs.get("Coat Weight")
+    if weight is not None and (weight.is_linked or weight.default_value > 0.0):
         ior = float(value("Coat IOR", 1.5))
         tint = [float(c) for c in value("Coat Tint", (1, 1, 1, 1))[:3]]
         if abs(ior - 1.5) > 1e-6 or any(abs(c - 1.0) > 1e-6 for c in tint):

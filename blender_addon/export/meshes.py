@@ -92,6 +92,20 @@ def _default_surface():
         pbr_metallic_roughness=pbr)
 
 
+def default_surface_index(doc):
+    """The index in the glTF document `doc` of Blender's default surface (module doc), appended
+    when no mesh needed it: points and strands without a material take it too (a point cloud
+    left to glTF's white metal of roughness 1: 1.031 of Cycles)."""
+    materials = doc.setdefault("materials", [])
+    for i, m in enumerate(materials):
+        if m.get("name") == DEFAULT_SURFACE_NAME:
+            return i
+    materials.append({"name": DEFAULT_SURFACE_NAME, "doubleSided": True,
+                      "pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1.0], "metallicFactor": 0.0,
+                                               "roughnessFactor": 0.5}})
+    return len(materials) - 1
+
+
 def add_missing_texcoords(gltf2_mesh, blender_mesh, state):
     """Give the mesh's primitives the TEXCOORD_n their materials' textures read."""
     for prim in gltf2_mesh.primitives or []:

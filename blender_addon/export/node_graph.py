@@ -703,6 +703,8 @@ def needs_graph(material, graph):
             source = graph.nodes[item["link"][0]]
             if not _exporter_reads_link(entry, identifier, source, item["link"][1]):
                 return True
+            if _image_space_differs(graph, source, entry, identifier):
+                return True
             if item["link"][1] == "Alpha" and _alpha_ignored(graph, source):
                 return True  # the exporter reads the stored alpha; the graph's image writes 1
     return False
@@ -746,6 +748,33 @@ def _foreign_colour_space(graph, entry):
         return False
     settings = graph.images[index].colorspace_settings
     return not settings.is_data and settings.name not in {"sRGB", "Non-Color", "Linear Rec.709"}
+
+
+# Principled inputs the glTF exporter writes as sRGB-encoded colour textures.
+_COLOUR_SLOTS = {"Base Color", "Emission Color", "Specular Tint", "Sheen Color"}
+
+
+def _image_space_differs(graph, source, entry, identifier):
+    """Whether the image `source` feeds `entry`'s input `identifier` in a colour space the glTF
+    texture it becomes does not have. A colour slot (base, emission, specular and sheen colour)
+    is read as sRGB: a Non-Color or linear image there is decoded once too often (a Non-Color
+    base colour: 0.944 of Cycles, blocks 0.39x). A data slot (metallic, roughness, coat,
+    transmission, specular level, sheen roughness, a Normal Map's colour) is filtered as
+    stored, where Cycles keeps an 8-bit sRGB image encoded, filters the encoded values and
+    decodes after (`compress_as_srgb`): a magnified sRGB Metallic image of black and white texels
+    blends otherwise (blocks 3 % off)."""
+    index = source["props"].get("image") if source["type"] == "ShaderNodeTexImage" else None
+    if index is None:
+        return False
+    settings = graph.images[index].colorspace_settings
+    srgb = not settings.is_data and settings.name == "sRGB"
+    if entry["type"] == "ShaderNodeNormalMap":
+        return identifier == "Color" and srgb
+    if entry["type"] != "ShaderNodeBsdfPrincipled" or identifier not in _EXPORTER_LINKED_INPUTS:
+        return False
+    if identifier in _COLOUR_SLOTS:
+        return not srgb
+    return srgb and identifier not in {"Normal", "Coat Normal", "Alpha"}
 
 
 def _alpha_ignored(graph, entry):

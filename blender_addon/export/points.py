@@ -193,13 +193,14 @@ def _attribute_warnings(graph, what, strands=False):
 
 def _gltf_material(doc, material, state, folder, warnings, what, strands=False):
     """The glTF index of `material` for points (or strands): the exporter's material of that name
-    when it wrote one, else one appended as its node graph; None for Blender's default surface."""
+    when it wrote one, else one appended as its node graph; Blender's default surface for None."""
     from .curves import _gltf_material as constant_material
     from .materials import graph_of
+    from .meshes import default_surface_index
     from .node_graph import GRAPH_EXTENSION
     from .pass_ids import MATERIAL_PASS_EXTENSION, material_pass_extension
     if material is None:
-        return None
+        return default_surface_index(doc)
     materials = doc.setdefault("materials", [])
     index = next((i for i, m in enumerate(materials) if m.get("name") == material.name), None)
     graph = graph_of(material, state)

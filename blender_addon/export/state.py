@@ -37,6 +37,7 @@ class ExportState:
         self.instancer_names = set()  # Instancer attributes the graphs read (attributes.py)
         self.nonfinite = {}  # object name -> (NaN vertices, ambiguous), found before the export (nonfinite.py)
         self.nonfinite_meshes = set()  # ids of glTF meshes whose NaN-vertex triangles were dropped (nonfinite.py)
+        self.node_objects = {}  # id of an exporter node -> its Blender object's name (instancer_children.py)
         self.tile_uv_accessors = set()  # ids of UV accessors moved back to their UDIM tile (udim_split.py)
         self.opaque_iors = {}  # glTF material name -> the IOR the exporter strips (materials.restore_opaque_iors)
         # The exporter logs and swallows hook exceptions: the hooks record them here and

@@ -117,7 +117,10 @@ pub fn shadow_transmittance(
     media: MediumStack,
     light: usize,
 ) -> Rgb {
-    let p = terminator_origin(ctx, s, ls.wi);
+    let (p, own) = terminator_origin(ctx, s, ls.wi);
+    if own && crate::scene::terminator::meets_own_triangle(&ctx.scene.mesh, s.tri, p, ls.wi) {
+        return Rgb::ZERO;
+    }
     if ctx.shadow_media || ctx.tinted_shadows {
         media::light_transmittance_of(
             ctx,
@@ -135,12 +138,12 @@ pub fn shadow_transmittance(
 
 /// Where a shadow ray toward `wi` leaves surface `s`: moved onto the smooth patch of its
 /// triangle by its object's Shadow Terminator Geometry Offset, as Cycles' next-event
-/// estimation does (`scene::terminator`).
+/// estimation does (`scene::terminator`); and whether its own triangle may then block it.
 #[inline]
-fn terminator_origin(ctx: &SceneContext, s: &SurfaceHit, wi: Vec3) -> Vec3 {
+fn terminator_origin(ctx: &SceneContext, s: &SurfaceHit, wi: Vec3) -> (Vec3, bool) {
     let cutoff = terminator_cutoff(ctx, s);
     if !(cutoff > 0.0) {
-        return s.p;
+        return (s.p, false);
     }
     crate::scene::terminator::shadow_ray_origin(&ctx.scene.mesh, s.tri, s.bary, s.p, s.ns, s.ng, wi, cutoff)
 }

@@ -60,7 +60,11 @@ pub fn smooth_surface_offset(mesh: &Mesh, tri: u32, bary: Vec2, ng: Vec3) -> Vec
 /// Where a shadow ray toward direction `wi` leaves shading point `p` (shading normal `ns`,
 /// geometric `ng`) of triangle `tri` whose object's Geometry Offset is `cutoff`: moved onto
 /// the smooth patch by the share of it Cycles takes (all of it where the light grazes the
-/// shading normal, fading to none where both normals face it by more than `cutoff`).
+/// shading normal, fading to none where both normals face it by more than `cutoff`); and
+/// whether the ray may then meet its own triangle. Cycles' shadow ray skips its own triangle
+/// unless the origin was moved and the light is behind the triangle's plane (on the side away
+/// from the shading normal): then it is meant to hit it, so that light from beyond the
+/// geometric horizon reaches only where the lifted origin clears the triangle.
 #[allow(clippy::too_many_arguments)]
 pub fn shadow_ray_origin(
     mesh: &Mesh,
@@ -71,9 +75,9 @@ pub fn shadow_ray_origin(
     ng: Vec3,
     wi: Vec3,
     cutoff: f32,
-) -> Vec3 {
+) -> (Vec3, bool) {
     if !(cutoff > 0.0) {
-        return p;
+        return (p, false);
     }
     let nl = ns.dot(wi);
     let side = if nl < 0.0 { -ng } else { ng };
@@ -81,7 +85,23 @@ pub fn shadow_ray_origin(
     let ngl = side.dot(wi);
     let amount =
         if nl < cutoff { (2.0 - (ngl + nl) / cutoff).clamp(0.0, 1.0) } else { (1.0 - ngl / cutoff).clamp(0.0, 1.0) };
-    if amount > 0.0 { p + smooth_surface_offset(mesh, tri, bary, side) * amount } else { p }
+    if amount > 0.0 { (p + smooth_surface_offset(mesh, tri, bary, side) * amount, ngl <= 0.0) } else { (p, false) }
+}
+
+/// Whether the segment from `org` along `wi` meets triangle `tri` of `mesh` (from just behind
+/// `org`: an origin on the flat triangle itself, a patch of no height, meets it too).
+pub fn meets_own_triangle(mesh: &Mesh, tri: u32, org: Vec3, wi: Vec3) -> bool {
+    let Some(&[i0, i1, i2]) = mesh.triangles.get(tri as usize) else {
+        return false;
+    };
+    let (Some(&v0), Some(&v1), Some(&v2)) =
+        (mesh.positions.get(i0 as usize), mesh.positions.get(i1 as usize), mesh.positions.get(i2 as usize))
+    else {
+        return false;
+    };
+    // The origin's own rounding: the triangle through it may be found a hair behind it.
+    let eps = 1e-5 * (1.0 + org.abs().max_element());
+    crate::accel::RayTransform::new(org, wi).intersect(&[v0.into(), v1.into(), v2.into()], -eps, f32::INFINITY).is_some()
 }
 
 /// The factor Cycles' Shading Offset applies to a BSDF value for light at cosine `cos_in` to
@@ -140,12 +160,13 @@ mod tests {
         assert!(smooth_surface_offset(&mesh, 0, Vec2::splat(0.3), ng).length() < 1e-6);
         let smooth = sphere_facet();
         let p = Vec3::splat(1.0 / 3.0);
-        let o = shadow_ray_origin(&smooth, 0, Vec2::splat(1.0 / 3.0), p, ng, ng, ng, 0.1);
+        let (o, _) = shadow_ray_origin(&smooth, 0, Vec2::splat(1.0 / 3.0), p, ng, ng, ng, 0.1);
         assert_eq!(o, p, "a light along the normal");
         let grazing = (ng.cross(Vec3::Z).normalize() + ng * 0.02).normalize();
-        let o = shadow_ray_origin(&smooth, 0, Vec2::splat(1.0 / 3.0), p, ng, ng, grazing, 0.1);
+        let (o, own) = shadow_ray_origin(&smooth, 0, Vec2::splat(1.0 / 3.0), p, ng, ng, grazing, 0.1);
         assert!(o.length() > p.length() + 0.05, "a grazing light: the whole offset");
-        assert_eq!(shadow_ray_origin(&smooth, 0, Vec2::splat(1.0 / 3.0), p, ng, ng, grazing, 0.0), p, "offset 0");
+        assert!(!own, "a light above the triangle's plane skips the triangle");
+        assert_eq!(shadow_ray_origin(&smooth, 0, Vec2::splat(1.0 / 3.0), p, ng, ng, grazing, 0.0), (p, false), "offset 0");
     }
 
     #[test]

@@ -50,3 +50,31 @@ def test_coat_fresnel_matches_cycles(empty_scene, tmp_path, linked, base):
     scene.caustic.threads = 0
     scenes.match_cycles(scene, SAMPLES, BOUNCES)
     assert_mean_matches_cycles(scene, tmp_path, "coat_fresnel", MODEL_ALLOWANCE, per_channel=True)
+
+
+def test_textured_coat_weight_keeps_the_coat_ior(empty_scene, tmp_path):
+    """An image on Coat Weight (glTF's clearcoatTexture) with a Coat IOR of 1.2, on the black
+    floor of the test above: the add-on took the linked weight's unlinked default (0) as "no
+    coat", wrote no `CAUSTIC_materials_coat` and the coat rendered at glTF's IOR 1.5 (warning
+    "a linked Coat Weight is not supported" although it was rendered: glTF-Blender-IO's
+    08_combine_clearcoat.blend 1.0022 with blocks 23 % bright); now the IOR and the weight both
+    reach the renderer."""
+    scene = empty_scene
+    scenes.small_render_settings(scene, W, H, samples=SAMPLES)
+    mat = principled(False, {}, **{"Base Color": (0.0, 0.0, 0.0, 1), "Specular IOR Level": 0.0,
+                                   "Coat Roughness": 0.1, "Coat IOR": 1.2})
+    image = bpy.data.images.new("Coat weight", 4, 4, alpha=False)
+    image.colorspace_settings.name = "Non-Color"  # before the pixels: setting it regenerates them
+    image.pixels[:] = [0.9, 0.9, 0.9, 1.0] * 16
+    image.update()
+    tree = mat.node_tree
+    texture = tree.nodes.new("ShaderNodeTexImage")
+    texture.image = image
+    bsdf = next(n for n in tree.nodes if n.type == "BSDF_PRINCIPLED")
+    tree.links.new(texture.outputs["Color"], bsdf.inputs["Coat Weight"])
+    scenes.plane(scene, "Floor", 60.0, material=mat)
+    white_world(scene)
+    scenes.camera(scene, (0.0, -3.0, 3.0), (45.0, 0.0, 0.0), lens=50.0)
+    scene.caustic.threads = 0
+    scenes.match_cycles(scene, SAMPLES, BOUNCES)
+    assert_mean_matches_cycles(scene, tmp_path, "textured coat weight", MODEL_ALLOWANCE, per_channel=True)

@@ -881,6 +881,42 @@ CASES["light_node_strength_area"] = (light_node_scene("AREA", location=(0.2, 0.1
                                                       shape="DISK", size=0.5), lambda name: None, None)
 
 
+def principled_image(socket, colorspace, pattern):
+    """A maker: a Principled BSDF (roughness 0.6) whose `socket` reads a 16x16 image in
+    `colorspace` through the glTF exporter's own kind of link (Image Color straight into the
+    BSDF): "ramp" rises from 0.05 to 0.95 across U; "checks" is 2x2-texel black and white
+    checks, which the camera magnifies (Linear interpolation blends their edges)."""
+    def make(name):
+        size = 16
+        mat = scenes.shader_node_material(name, "ShaderNodeBsdfPrincipled", Roughness=0.6)
+        image = bpy.data.images.new(name + " image", size, size)
+        image.colorspace_settings.name = colorspace  # before the pixels: setting it regenerates them
+        pixels = []
+        for y in range(size):
+            for x in range(size):
+                v = 0.05 + 0.9 * x / (size - 1) if pattern == "ramp" else float((x // 2 + y // 2) % 2)
+                pixels += [v, v, v, 1.0]
+        image.pixels.foreach_set(pixels)
+        image.pack()
+        tree = mat.node_tree
+        tex = tree.nodes.new("ShaderNodeTexImage")
+        tex.image = image
+        bsdf = next(n for n in tree.nodes if n.type == "BSDF_PRINCIPLED")
+        tree.links.new(tex.outputs["Color"], bsdf.inputs[socket])
+        return mat
+    return make
+
+
+# An image whose colour space is not the one glTF gives its slot went through the glTF exporter:
+# a Non-Color image on Base Color was decoded as sRGB once more (0.6248 of Cycles, 108/108
+# blocks over); an sRGB image on a data slot is filtered by Cycles as stored and decoded after
+# (`compress_as_srgb`), where glTF filters decoded values (1.0582, 79/108 blocks over;
+# glTF-Blender-IO's 08_only_metal.blend: 38 of 3,072 blocks off). Both now render from the
+# node graph: 1.0001 and 0.9997, no block over.
+CASES["image_noncolor_base_color"] = (flat_scene, principled_image("Base Color", "Non-Color", "ramp"), None)
+CASES["image_srgb_checks_on_metallic"] = (flat_scene, principled_image("Metallic", "sRGB", "checks"), None)
+
+
 # --- comparison ---
 
 def luminance(rgb):
