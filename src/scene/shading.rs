@@ -119,10 +119,11 @@ impl Scene {
         let ng = ng_front * side;
         let n_interp = n0 * b0 + n1 * b1 + n2 * b2;
         // Vertex normals that point against the winding (an authoring slip some exporters
-        // make) would put the shading hemisphere below the surface and end most paths:
-        // they are turned to the geometric normal's side first, as pbrt does.
+        // make) are kept as given, as Cycles and the glTF spec shade them: the shading
+        // hemisphere then lies below the surface seen, where no path continues and no light
+        // is taken (a plane of downward custom normals under a light is black in Cycles with
+        // every BSDF; turned round, as pbrt does, it was 1.2-1.6 of Cycles' image).
         let ns = match n_interp.try_normalize() {
-            Some(n) if n.dot(ng_front) < 0.0 => -n * side,
             Some(n) => n * side,
             None => ng,
         };

@@ -101,7 +101,9 @@ pub fn meets_own_triangle(mesh: &Mesh, tri: u32, org: Vec3, wi: Vec3) -> bool {
     };
     // The origin's own rounding: the triangle through it may be found a hair behind it.
     let eps = 1e-5 * (1.0 + org.abs().max_element());
-    crate::accel::RayTransform::new(org, wi).intersect(&[v0.into(), v1.into(), v2.into()], -eps, f32::INFINITY).is_some()
+    crate::accel::RayTransform::new(org, wi)
+        .intersect(&[v0.into(), v1.into(), v2.into()], -eps, f32::INFINITY)
+        .is_some()
 }
 
 /// The factor Cycles' Shading Offset applies to a BSDF value for light at cosine `cos_in` to
@@ -166,7 +168,11 @@ mod tests {
         let (o, own) = shadow_ray_origin(&smooth, 0, Vec2::splat(1.0 / 3.0), p, ng, ng, grazing, 0.1);
         assert!(o.length() > p.length() + 0.05, "a grazing light: the whole offset");
         assert!(!own, "a light above the triangle's plane skips the triangle");
-        assert_eq!(shadow_ray_origin(&smooth, 0, Vec2::splat(1.0 / 3.0), p, ng, ng, grazing, 0.0), (p, false), "offset 0");
+        assert_eq!(
+            shadow_ray_origin(&smooth, 0, Vec2::splat(1.0 / 3.0), p, ng, ng, grazing, 0.0),
+            (p, false),
+            "offset 0"
+        );
     }
 
     #[test]

@@ -299,15 +299,15 @@ impl Loader<'_> {
                 out.tri_material.push(material_index);
             }
             if against > 0 {
-                // Cycles shades with the normals as given (`triangle_smooth_normal`), so a face
+                // Cycles shades with the normals as given (`triangle_smooth_normal`), and so
+                // does Caustic (`Scene::surface`), as the glTF specification reads them: a face
                 // whose normals point against its winding reflects nothing toward lights on its
-                // front (measured: a Diffuse plane with its custom normals turned down renders
-                // 0 in bpy 5.0.1, 0.63 with them up); Caustic turns them to the winding's side
-                // (`Scene::surface`), as pbrt does, which a glTF file from another tool expects.
+                // front (a Diffuse plane with its custom normals turned down renders 0 in bpy
+                // 5.0.1, 0.63 with them up). Named, since it is most likely an authoring slip.
                 self.warn(format!(
-                    "{what}: {against} triangle(s) have vertex normals pointing against their winding; Caustic \
-                     shades them with the normals turned to the winding's side, Cycles with the normals as given \
-                     (such faces render black under light from their front there)"
+                    "{what}: {against} triangle(s) have vertex normals pointing against their winding; they \
+                     are shaded with the normals as given, as Cycles does, and render black under light \
+                     from their front"
                 ));
             }
             let material = &materials[material_index as usize];
@@ -439,8 +439,8 @@ mod tests {
         dp_du.normalize().extend(w)
     }
 
-    /// Vertex normals against the winding are named (Cycles shades with them, Caustic turns
-    /// them round): the unit triangle (winding +Z) with normals −Z warns, with +Z does not.
+    /// Vertex normals against the winding are named (they render black, as in Cycles): the unit
+    /// triangle (winding +Z) with normals −Z warns, with +Z does not.
     #[test]
     fn normals_against_the_winding_are_named() {
         use serde_json::json;
