@@ -79,12 +79,46 @@ impl Loader<'_> {
                 return Err(self.err(format!("node {r} is listed twice as a root of the scene")));
             }
             seen_root[r] = true;
-            if let Some(p) = parent[r] {
-                return Err(self.err(format!("node {r} is a root of the scene and also a child of node {p}")));
+        }
+        // glTF asks a scene's nodes to be root nodes, but some exporters list a child (UniGLTF
+        // writes a "tmpParent" above the scene's one node, left out of the scene: Kenney's
+        // assets, Bevy's examples). Blender's importer renders such a node; so does Caustic:
+        // under its parents' transforms, or not again where an ancestor is in the scene too.
+        let local =
+            |i: usize| Mat4::from_cols_array_2d(&doc.nodes().nth(i).expect("validated index").transform().matrix());
+        let mut starts = Vec::with_capacity(roots.len());
+        for &r in &roots {
+            let Some(p) = parent[r] else {
+                starts.push((r, Mat4::IDENTITY));
+                continue;
+            };
+            let mut above = Mat4::IDENTITY;
+            let mut ancestor = Some(p);
+            let mut listed = None;
+            while let Some(a) = ancestor {
+                if seen_root[a] {
+                    listed = Some(a);
+                    break;
+                }
+                above = local(a) * above;
+                ancestor = parent[a];
+            }
+            match listed {
+                Some(a) => self.warn(format!(
+                    "node {r} is listed as a root of the scene but is a descendant of node {a}, also listed: \
+                     rendered once, under node {a}"
+                )),
+                None => {
+                    self.warn(format!(
+                        "node {r} is listed as a root of the scene but is a child of node {p}: rendered under its \
+                         parents' transforms (glTF asks a scene's nodes to be root nodes)"
+                    ));
+                    starts.push((r, above));
+                }
             }
         }
         let mut out = Vec::new();
-        let mut stack: Vec<(usize, Mat4, bool)> = roots.into_iter().rev().map(|r| (r, Mat4::IDENTITY, true)).collect();
+        let mut stack: Vec<(usize, Mat4, bool)> = starts.into_iter().rev().map(|(r, m)| (r, m, true)).collect();
         while let Some((node, parent, parent_visible)) = stack.pop() {
             let nd = doc.nodes().nth(node).expect("validated index");
             let local = Mat4::from_cols_array_2d(&nd.transform().matrix());

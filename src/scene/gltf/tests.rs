@@ -278,6 +278,34 @@ fn khr_node_visibility_hides_a_subtree_but_not_its_camera() {
 }
 
 #[test]
+fn a_child_listed_as_a_scene_root_renders_once_under_its_parents() {
+    // UniGLTF's files (Kenney's assets): the scene lists node 1, a child of a "tmpParent" left
+    // out of the scene. Blender's importer renders it; Caustic refused the file. Here the
+    // parent moves it by z = 3 (applied), and a grandchild listed beside its ancestor is drawn
+    // once, not twice.
+    let root = json!({
+        "nodes": [
+            {"name": "tmpParent", "translation": [0, 0, 3], "children": [1]},
+            {"name": "model", "mesh": 0, "children": [2]},
+            {"name": "part", "mesh": 0, "translation": [0, 0, 1]}
+        ],
+        "scenes": [{"nodes": [1, 2]}]
+    });
+    let scene = load_triangle(&[], root).expect("loads");
+    let mut zs: Vec<f32> = scene.mesh.positions.iter().map(|p| p.z).collect();
+    zs.sort_by(f32::total_cmp);
+    zs.dedup();
+    assert_eq!(scene.mesh.triangles.len(), 2, "model and part once each");
+    assert_eq!(zs, vec![3.0, 4.0], "under tmpParent's translation");
+    assert!(
+        scene.warnings.iter().any(|w| w.contains("node 1") && w.contains("child of node 0")),
+        "{:?}",
+        scene.warnings
+    );
+    assert!(scene.warnings.iter().any(|w| w.contains("node 2") && w.contains("rendered once")), "{:?}", scene.warnings);
+}
+
+#[test]
 fn mask_alpha_exactly_at_the_cutoff_is_opaque_everywhere() {
     // glTF: MASK renders opaque where alpha >= alphaCutoff. glTF-Blender-IO's
     // 11_factors_and_textures has base alpha 0.5 against cutoff 0.5; the triangle's (default
