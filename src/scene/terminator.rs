@@ -32,6 +32,14 @@ pub fn smooth_surface_offset(mesh: &Mesh, tri: u32, bary: Vec2, ng: Vec3) -> Vec
     else {
         return Vec3::ZERO;
     };
+    // One normal at every corner (a flat face, or custom normals set alike, as on foliage
+    // cards): no patch. Cycles builds its patch from the mesh's vertex normals, not the custom
+    // ones, and those of a planar face are the face's own, so its patch is the face itself
+    // (glTF-Blender-IO's 10_custom_normals_with_modifier.blend: a plane of one custom normal
+    // lying 87 degrees off its own, 1.0057 of Cycles with 24 of 192 blocks lit through it).
+    if n0 == n1 && n1 == n2 {
+        return Vec3::ZERO;
+    }
     let (u, v, w) = (1.0 - bary.x - bary.y, bary.x, bary.y);
     let p = v0 * u + v1 * v + v2 * w;
     // Not normalised, as Cycles: the patch's height is along the blended normal.
@@ -173,6 +181,23 @@ mod tests {
             (p, false),
             "offset 0"
         );
+    }
+
+    /// Corners that share one normal tilted off the face (custom normals set alike) lift
+    /// nothing, and a light behind the face then meets the face itself.
+    #[test]
+    fn one_tilted_normal_at_every_corner_is_a_flat_patch() {
+        let mut mesh = sphere_facet();
+        let tilted = Vec3::new(0.9, -0.2, 0.4).normalize();
+        mesh.normals = vec![tilted; 3];
+        let ng = Vec3::ONE.normalize();
+        assert_eq!(smooth_surface_offset(&mesh, 0, Vec2::splat(0.3), ng), Vec3::ZERO);
+        let p = Vec3::splat(1.0 / 3.0);
+        let behind = (-ng + tilted * 1.5).normalize();
+        assert!(tilted.dot(behind) > 0.0 && ng.dot(behind) < 0.0, "above the shading normal, behind the face");
+        let (o, own) = shadow_ray_origin(&mesh, 0, Vec2::splat(1.0 / 3.0), p, tilted, ng, behind, 0.1);
+        assert_eq!(o, p);
+        assert!(own && meets_own_triangle(&mesh, 0, o, behind), "the face blocks it");
     }
 
     #[test]
