@@ -11,8 +11,10 @@ such directions as a transmission that the geometry calls a reflection.
 Scene: test_normal_map_strength_agreement's floor of steep sine ridges (Strength 0.4, tilts up
 to ~70 degrees) under a low sun across them, the floor's Principled BSDF with Coat Weight 1 and
 Coat Roughness 0.2: on the ridges' far slopes the sun is below the mapped normal's horizon but
-above the coat's. Measured (bpy 5.0.1, 64x48, 128 spp, both seeds), Caustic/Cycles per channel:
-see the test's docstring.
+above the coat's. Measured (bpy 5.0.1, 64x48, 128 spp, both seeds), Caustic/Cycles, every
+channel alike: glTF path 0.9853 before (sigma 0.08 %), 0.9997 after; graph path 0.9967 before
+(within the bound: there the coat also lay on the mapped normal, which hid part of the loss),
+0.9993 after.
 
 Tolerance: test_cycles_agreement's (5 sigma of the two-seed block-variance estimate plus its 1 %
 model allowance, derived there), per channel.
@@ -46,9 +48,8 @@ def coated_ridges(graph):
 
 @pytest.mark.parametrize("graph", [False, True], ids=["gltf", "graph"])
 def test_coat_reflects_by_its_own_normal(empty_scene, tmp_path, graph):
-    """Coat over steep normal-mapped ridges, lit across them by a low sun. Before (the coat cut
-    at the mapped normal's horizon; the graph path also gave the unlinked Coat Normal the
-    Normal input's map): see the report. After: both paths within the bound."""
+    """Coat over steep normal-mapped ridges, lit across them by a low sun: glTF 0.9853 -> 0.9997,
+    graph 0.9967 -> 0.9993 of Cycles (module doc)."""
     scene = empty_scene
     build(scene, coated_ridges(graph))
     assert_mean_matches_cycles(scene, tmp_path, "coat_own_normal", MODEL_ALLOWANCE, per_channel=True)
