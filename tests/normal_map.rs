@@ -12,6 +12,7 @@
 mod common;
 
 use base64::Engine;
+use common::agreement::{Seeded, regions, sidak};
 use common::{run, temp_dir};
 use glam::{DVec3, Quat, Vec3};
 use serde_json::json;
@@ -263,4 +264,57 @@ fn an_anisotropic_white_metal_keeps_the_white_worlds_light() {
     let mean = v.iter().sum::<f64>() / v.len() as f64;
     let sd = (v.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / (v.len() - 1) as f64).sqrt();
     assert!((mean - world as f64).abs() <= 0.01 + 5.0 * sd / (v.len() as f64).sqrt(), "mean {mean}, sd {sd}");
+}
+
+/// A clear coat over a normal-mapped base reflects by its own normal, as Cycles' coat closure
+/// does (`PbrBsdf::coat_across`): the texel leans 60° towards +U (the frame's normal, bent for
+/// the view straight down, leans some 45°), the base is black with no specular layer, the coat
+/// (roughness 0.5, no normal map of its own: the interpolated normal +Z) is lit by a sun at
+/// (-0.85, 0, 0.53), above the plane and the coat's horizon but below the mapped normal's. The
+/// image is then the coat's reflection of the sun alone, the same as on the plane without the
+/// normal map. Before, the BSDF gave the coat nothing below the frame's horizon and every
+/// integrator dropped such a light as a transmission above the surface: black. Each integrator
+/// (path, BDPT, VCM, photon mapping, SPPM) on the mapped plane against the path tracer on the
+/// unmapped one, region by region over six seeds (`common::agreement`).
+#[test]
+fn a_coat_reflects_light_below_the_mapped_normals_horizon() {
+    const TO_SUN_LOW: [f32; 3] = [-0.85, 0.0, 0.53];
+    let texel = [238, 128, 191];
+    let dir = temp_dir();
+    let coat = json!({"KHR_materials_clearcoat": {"clearcoatFactor": 1.0, "clearcoatRoughnessFactor": 0.5},
+        "KHR_materials_specular": {"specularFactor": 0.0}});
+    let black = |mapped: bool| {
+        let mut m = json!({"name": "coated",
+            "pbrMetallicRoughness": {"baseColorFactor": [0.0, 0.0, 0.0, 1.0], "metallicFactor": 0.0},
+            "extensions": coat.clone()});
+        if mapped {
+            m["normalTexture"] = json!({"index": 0});
+        }
+        m
+    };
+    let write = |name: &str, mapped: bool| {
+        let path = plane_scene(&dir.path().join(name), true, texel, black(mapped), None);
+        // The sun of `plane_scene` turned to TO_SUN_LOW, and the clear coat declared.
+        let mut doc: serde_json::Value = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+        let to_sun = Vec3::from_array(TO_SUN_LOW).normalize();
+        doc["nodes"][2]["rotation"] = json!(Quat::from_rotation_arc(-Vec3::Z, -to_sun).to_array());
+        doc["extensionsUsed"] = json!(["KHR_lights_punctual", "KHR_materials_specular", "KHR_materials_clearcoat"]);
+        std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
+        path
+    };
+    let (mapped, plain) = (write("coat_mapped.gltf", true), write("coat_plain.gltf", false));
+    let regs = regions(8, 8);
+    let seeded = Seeded::six(dir.path(), "8x8", "3", &regs, Duration::from_secs(120));
+    let reference = seeded.means(&plain, &["--spp", "16"]);
+    assert!(reference[0].iter().all(|&m| m > 1e-3), "the coat reflects the sun on the plain plane: {reference:?}");
+    let path = ["--spp", "16"];
+    let bdpt = ["--integrator", "bdpt", "--spp", "16"];
+    let vcm = ["--integrator", "vcm", "--spp", "16", "--vcm-radius", "0.02"];
+    let photon = ["--integrator", "photon", "--spp", "16", "--photons", "100000", "--max-radius", "0.02"];
+    let sppm = ["--integrator", "sppm", "--sppm-iterations", "16", "--sppm-radius", "0.02"];
+    let others: [(&str, &[&str]); 5] =
+        [("path", &path), ("bdpt", &bdpt), ("vcm", &vcm), ("photon", &photon), ("sppm", &sppm)];
+    let alpha = sidak(others.len() * regs.len());
+    let failed = seeded.disagreeing_others(&mapped, &reference, &others, alpha);
+    assert!(failed.is_empty(), "the coat over the mapped base differs from the plain coat: {failed:?}");
 }

@@ -16,7 +16,7 @@ impl BsdfAt<'_> {
         let diffuse = self.eval_diffuse(wi);
         let glass = self.eval_glass(wi);
         let rest = f - diffuse - glass;
-        let reflected = wi.z * self.wo().z > 0.0;
+        let reflected = wi.z * self.wo().z > 0.0 || self.reflects_across(wi);
         let mut v = f;
         if ex.diffuse {
             v -= diffuse;

@@ -236,6 +236,11 @@ impl Bsdf {
         if wo.z * wi.z >= 0.0 {
             self.eval(wi, wo)
         } else if let Bsdf::Pbr(b) = self
+            && let Some(back) = b.across_pair(wo, wi)
+        {
+            // A reflection by the coat's own normal across the frame's horizon.
+            if back { self.eval(wi, wo) } else { self.eval(wo, wi) * b.across_adjoint_ratio(wo, wi) }
+        } else if let Bsdf::Pbr(b) = self
             && b.transmits_diffusely()
         {
             // Lambertian transmission crosses no interface of another η: its adjoint is f(wi, wo).
@@ -252,6 +257,10 @@ impl Bsdf {
     pub fn eval_adjoint_at(&self, own: &BsdfAt, back: &BsdfValue, wo: Vec3, wi: Vec3) -> Rgb {
         if wo.z * wi.z >= 0.0 {
             back.eval(wo)
+        } else if let Bsdf::Pbr(b) = self
+            && let Some(from_back) = b.across_pair(wo, wi)
+        {
+            if from_back { back.eval(wo) } else { own.eval(wi) * b.across_adjoint_ratio(wo, wi) }
         } else if let Bsdf::Pbr(b) = self
             && b.transmits_diffusely()
         {
@@ -300,6 +309,15 @@ impl Bsdf {
             Bsdf::Mix(m) => m.glass_alpha2(),
             Bsdf::Hair(_) | Bsdf::HairLobes(_) => f32::INFINITY,
         }
+    }
+
+    /// True when light from `wi` reaches `wo` (the shading frame) by a reflection: on wo's side
+    /// of the frame's horizon, or across it by a coat on its own normal
+    /// (`PbrBsdf::reflects_across`, Cycles' per-closure reflection). The integrators check it
+    /// against the sides the geometric normal gives.
+    #[inline]
+    pub fn reflects(&self, wo: Vec3, wi: Vec3) -> bool {
+        wi.z * wo.z > 0.0 || matches!(self, Bsdf::Pbr(b) if b.reflects_across(wo, wi))
     }
 
     /// True when some light may pass through to the other side.
@@ -423,6 +441,24 @@ impl BsdfAt<'_> {
             BsdfAt::Hair(h, wo) => hair_sample(h, *wo, uc, u),
             BsdfAt::HairLobes(h, wo) => lobes_sample(h, *wo, uc, u),
         }
+    }
+
+    /// True when light from `wi` (the shading frame), below its horizon, is reflected by a lobe
+    /// on its own normal: a Principled BSDF's coat (`PbrAt::reflects_across`).
+    #[inline]
+    pub fn reflects_across(&self, wi: Vec3) -> bool {
+        match self {
+            BsdfAt::Pbr(b) => b.reflects_across(wi),
+            _ => false,
+        }
+    }
+
+    /// The side of the surface the BSDF puts `wi` (the shading frame) on: above the frame's
+    /// horizon, or below it where a coat on its own normal reflects it (`reflects_across`).
+    /// The integrators check it against the side the geometric normal gives.
+    #[inline]
+    pub fn above(&self, wi: Vec3) -> bool {
+        wi.z > 0.0 || self.reflects_across(wi)
     }
 
     /// The part of [`eval`](Self::eval) from diffuse-class closures (Cycles' classes, for

@@ -668,9 +668,11 @@ impl PbrBsdf {
     /// the integrator's cosine to the shading normal gives the coat's own cosine, as Cycles
     /// takes each closure's cosine to its own normal: the coat then reflects exactly its
     /// albedo E_c(μo) around the coat normal.
+    /// Below the shading frame's horizon (`coat_across`) the cosine it is rescaled by is
+    /// |cos θi(shading)|, the one the integrators multiply by there.
     #[inline]
     fn coat_eval(&self, wo: Vec3, wi: Vec3) -> f32 {
-        let cos_base = wi.z;
+        let cos_base = wi.z.abs();
         let (wo, wi) = match &self.coat_frame {
             Some(f) => (f.to_local(wo), f.to_local(wi)),
             None => (wo, wi),
@@ -924,32 +926,91 @@ impl PbrBsdf {
     #[inline]
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         let cuts = self.cuts(wi);
+        let across = self.coat_across(wo, wi, cuts);
         let (wo, wi) = flip_to_upper(wo, wi);
         if wo.z <= 0.0 || wi.z == 0.0 {
             return 0.0;
         }
-        self.pdf_with(&self.at(wo).c, wo, wi, cuts)
+        self.pdf_with(&self.at(wo).c, wo, wi, cuts, across)
     }
 
     /// The lobes Cycles' `bump_shadowing_term` cuts toward `wi` (local, as given: not flipped
     /// with wo): the specular lobes (metal, specular layer, glass) by the frame's normal, the
     /// coat by its own, each against `cut_ref`, Cycles' sd->N. The diffuse base's cut is its
     /// bump shadowing (`bump`).
+    /// Without `cut_ref` the frame's normal is sd->N: the specular lobes are never cut, the coat
+    /// on its own normal is, toward light below the frame's horizon.
     #[inline]
     pub(super) fn cuts(&self, wi: Vec3) -> Cuts {
         let Some(ns) = self.cut_ref else {
-            return Cuts::default();
+            return match &self.coat_frame {
+                Some(f) if self.coat > 0.0 => Cuts { spec: false, coat: BumpCut { ns: Vec3::Z, n: f.n }.cuts(wi) },
+                _ => Cuts::default(),
+            };
         };
         let coat_n = self.coat_frame.map_or(Vec3::Z, |f| f.n);
         Cuts { spec: BumpCut { ns, n: Vec3::Z }.cuts(wi), coat: self.coat > 0.0 && BumpCut { ns, n: coat_n }.cuts(wi) }
     }
 
+    /// True when light from `wi`, below the shading frame's horizon, is reflected toward `wo`
+    /// (above it; both local, not flipped) by the coat alone: Cycles' coat closure reflects by
+    /// its own normal (`bsdf_microfacet_eval`: reflection where cos to its N is positive), so
+    /// where the coat's normal puts wi above, the coat reflects it (unless `cuts` cuts it), and
+    /// every other lobe gives nothing there (the specular lobes and the glass are cut by
+    /// `bump_shadowing_term`, as is a diffuse transmission: wi is on sd->N's side of the coat
+    /// normal). The integrators take such a direction as a reflection (`BsdfAt::above`).
+    #[inline]
+    pub(super) fn coat_across(&self, wo: Vec3, wi: Vec3, cuts: Cuts) -> bool {
+        wi.z < 0.0
+            && wo.z > 0.0
+            && self.coat > 0.0
+            && !self.coat_dropped
+            && !cuts.coat
+            && self.coat_frame.is_some_and(|f| wi.dot(f.n) > 0.0 && wo.dot(f.n) > 0.0)
+    }
+
+    /// [`coat_across`](Self::coat_across) with its cuts (wo, wi local; false when wo is below
+    /// the frame: the flipped BSDF reflects by the frame's side alone).
+    #[inline]
+    pub fn reflects_across(&self, wo: Vec3, wi: Vec3) -> bool {
+        wi.z < 0.0 && wo.z > 0.0 && self.coat_frame.is_some() && self.coat_across(wo, wi, self.cuts(wi))
+    }
+
+    /// For a pair (wo, wi) on the two sides of the frame's horizon that only the coat reflects
+    /// (`coat_across`), which direction sees it: Some(true) when wi is above (its view
+    /// evaluates f(wi, wo) as it is), Some(false) when wo is (f(wi, wo) is then f(wo, wi)
+    /// times [`across_adjoint_ratio`](Self::across_adjoint_ratio)); None for any other pair.
+    #[inline]
+    pub fn across_pair(&self, wo: Vec3, wi: Vec3) -> Option<bool> {
+        self.coat_frame?;
+        if self.coat_across(wi, wo, self.cuts(wo)) {
+            Some(true)
+        } else if self.coat_across(wo, wi, self.cuts(wi)) {
+            Some(false)
+        } else {
+            None
+        }
+    }
+
+    /// f(wi, wo) / f(wo, wi) for a pair the coat reflects across the horizon: its GGX lobe is
+    /// reciprocal in its own frame, only the cosine rescale (`coat_eval`) changes direction.
+    #[inline]
+    pub fn across_adjoint_ratio(&self, wo: Vec3, wi: Vec3) -> f32 {
+        let n = self.coat_frame.map_or(Vec3::Z, |f| f.n);
+        let den = wi.dot(n) * wo.z.abs();
+        if den > 0.0 { wo.dot(n) * wi.z.abs() / den } else { 0.0 }
+    }
+
     /// [`pdf`](Self::pdf) with the lobe choice at `wo` (upper hemisphere) already made:
     /// `sample` chooses a lobe and then needs the whole density, from the same choice.
+    /// `across`: wi is one only the coat reflects (`coat_across`), where only its density counts.
     #[inline]
-    fn pdf_with(&self, c: &LobeChoice, wo: Vec3, wi: Vec3, cuts: Cuts) -> f32 {
+    fn pdf_with(&self, c: &LobeChoice, wo: Vec3, wi: Vec3, cuts: Cuts, across: bool) -> f32 {
         if wo.z <= 0.0 || wi.z == 0.0 {
             return 0.0;
+        }
+        if across {
+            return if self.smooth_coat { 0.0 } else { c.coat * self.coat_pdf(wo, wi) };
         }
         let mut pdf = 0.0;
         if c.glass > 0.0 && !cuts.spec {

@@ -72,7 +72,7 @@ impl Tally {
     pub fn surface_bounce_sampled(&mut self, at: &BsdfAt, bs: &crate::bsdf::BsdfSample) {
         if self.first == First::None {
             let (d, g) =
-                if bs.delta { (Rgb::ZERO, Rgb::splat((bs.wi.z >= 0.0) as u8 as f32)) } else { shares_at(at, bs.wi) };
+                if bs.delta { (Rgb::ZERO, Rgb::splat(at.above(bs.wi) as u8 as f32)) } else { shares_at(at, bs.wi) };
             self.first = First::Surface(d, g);
         }
     }

@@ -83,8 +83,9 @@ pub fn surface_nee_at(
     // traces it from the smooth patch where the object has a Shadow Terminator offset (the
     // triangle itself may then block it), which lights a coarse smooth mesh up to its
     // shading terminator; without one such a light is behind the surface.
-    let consistent =
-        (wi_local.z > 0.0) == (ls.wi.dot(s.ng) > 0.0) || (wi_local.z > 0.0 && terminator_cutoff(ctx, s) > 0.0);
+    // A coat on its own normal reflects light from below the frame's horizon too (`BsdfAt::above`).
+    let above = at.above(wi_local);
+    let consistent = above == (ls.wi.dot(s.ng) > 0.0) || (above && terminator_cutoff(ctx, s) > 0.0);
     if f == Rgb::ZERO || ls.li == Rgb::ZERO || !consistent {
         return (Rgb::ZERO, wi_local, index);
     }

@@ -643,7 +643,8 @@ impl PathIntegrator {
                 break;
             };
             let wi = sp.frame.to_world(bs.wi);
-            let transmitted = bs.wi.z < 0.0;
+            // A coat on its own normal reflects below the frame's horizon too (`BsdfAt::above`).
+            let transmitted = !at.above(bs.wi);
             if transmitted != (wi.dot(s.ng) < 0.0) {
                 // The shading normal disagrees with the geometry about the side.
                 break;
@@ -657,7 +658,7 @@ impl PathIntegrator {
             st.beta *= bs.f * (bs.wi.z.abs() / pdf);
             // Shading Offset on a reflected sample, as Cycles' `bsdf_sample` (not on transmission).
             if !transmitted {
-                st.beta *= ctx.scene.ray_visibility.shading_offset_factor(s.tri, bs.wi.z);
+                st.beta *= ctx.scene.ray_visibility.shading_offset_factor(s.tri, bs.wi.z.abs());
             }
             if !st.beta.is_finite() || st.beta == Rgb::ZERO {
                 break;

@@ -25,6 +25,10 @@ impl PbrAt<'_> {
     /// unless `wi` lies on the other side of the surface from wo).
     #[inline]
     pub fn eval_diffuse_transmission(&self, wi: Vec3) -> Rgb {
+        // Where the coat alone reflects (`reflects_across`) Cycles cuts the Translucent closure.
+        if self.reflects_across(wi) {
+            return Rgb::ZERO;
+        }
         let wi = if self.flip { Vec3::new(wi.x, wi.y, -wi.z) } else { wi };
         self.diffuse_transmission_up(wi)
     }

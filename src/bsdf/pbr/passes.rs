@@ -18,6 +18,9 @@ impl PbrAt<'_> {
     pub fn eval_diffuse(&self, wi: Vec3) -> Rgb {
         let b = self.b;
         let wo = self.wo;
+        if self.reflects_across(wi) {
+            return Rgb::ZERO;
+        }
         let wi = if self.flip { Vec3::new(wi.x, wi.y, -wi.z) } else { wi };
         if wi.z < 0.0 {
             return self.diffuse_transmission_up(wi);

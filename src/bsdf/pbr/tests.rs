@@ -119,6 +119,33 @@ fn materials_with(base: Vec3) -> Vec<(String, PbrBsdf)> {
         };
         v.push((format!("coat normal cr={coat_roughness}"), PbrBsdf::from_params(&p)));
     }
+    // A coat on sd->N over a normal-mapped base (the frame is the mapped normal, sd->N tilted
+    // 30° from it): below the frame's horizon but above the coat's, only the coat reflects
+    // (`PbrBsdf::coat_across`), sampled and counted there; glass and diffuse transmission
+    // samples landing there are refused, and their density is not counted. No specular layer:
+    // its own samples are not cut where its density is (Cycles' rule), which this test would
+    // read as a mismatch.
+    let ns = Vec3::new(-0.5, 0.0, 0.866);
+    for (transmission, diffuse_transmission, coat_roughness) in [(0.0, 0.0, 0.3), (0.0, 0.6, 0.5)] {
+        let p = PbrParams {
+            specular: 0.0,
+            coat: 1.0,
+            coat_roughness,
+            coat_normal: Some(ns),
+            cut_normal: Some(ns),
+            smooth_normal: Some(ns),
+            coat_dielectric_fresnel: true,
+            transmission,
+            thin: false,
+            diffuse_transmission,
+            diffuse_transmission_color: Vec3::new(0.9, 0.8, 0.7),
+            ..PbrParams::opaque(base, 0.0, 0.4)
+        };
+        v.push((
+            format!("coat across the frame t={transmission} dt={diffuse_transmission} cr={coat_roughness}"),
+            PbrBsdf::from_params(&p),
+        ));
+    }
     // Anisotropic metal and plastic (glTF's mapping αx = mix(α, 1, s²), αy = α).
     for (metallic, roughness, strength) in [(1.0f32, 0.3f32, 0.8f32), (0.0, 0.5, 1.0), (0.5, 0.2, 0.5)] {
         let a = roughness * roughness;
@@ -526,6 +553,39 @@ fn white_furnace_coat_dielectric_fresnel() {
                     "cr={coat_roughness} ior={coat_ior} θ={theta}: albedo {mean} ± {se}"
                 );
             }
+        }
+    }
+}
+
+/// White furnace of a coat whose normal (Cycles' sd->N, `cut_normal`) leans 35° from the
+/// shading frame's (a normal-mapped base) over a white Lambertian base on the frame, seen from
+/// the side away from the lean, where much of the coat's lobe lies below the frame's horizon:
+/// the coat reflects its albedo E_c(μo) about its own normal there too (`coat_across`), the base
+/// takes 1 − E_c, so the sum is 1 (0.837 ± 0.001 at roughness 0.1, θ 0.6 while the coat stopped at
+/// the frame's horizon). A
+/// lobe beyond its albedo would make more than 1. Bound: 5 standard errors plus the table's error.
+#[test]
+fn white_furnace_coat_across_the_frame() {
+    use crate::bsdf::fresnel_layer::LAYER_TABLE_ERROR;
+    let n = 100_000;
+    let ns = Vec3::new(35f32.to_radians().sin(), 0.0, 35f32.to_radians().cos());
+    for coat_roughness in [0.1f32, 0.3, 0.6] {
+        let b = PbrBsdf::from_params(&PbrParams {
+            specular: 0.0,
+            coat: 1.0,
+            coat_roughness,
+            coat_normal: Some(ns),
+            cut_normal: Some(ns),
+            coat_dielectric_fresnel: true,
+            ..PbrParams::opaque(Vec3::ONE, 0.0, 0.5)
+        });
+        for theta in [0.3f32, 0.6, 0.8] {
+            let wo = Vec3::new(-theta.sin(), 0.0, theta.cos());
+            let (mean, se) = sampled_albedo(&b, wo, n, 5);
+            assert!(
+                (mean - 1.0).abs() <= 5.0 * se + LAYER_TABLE_ERROR,
+                "cr={coat_roughness} θ={theta}: albedo {mean} ± {se}"
+            );
         }
     }
 }

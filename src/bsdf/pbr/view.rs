@@ -88,11 +88,26 @@ impl PbrAt<'_> {
     #[inline]
     pub fn pdf(&self, wi: Vec3) -> f32 {
         let cuts = self.b.cuts(wi);
+        let across = self.across(wi, cuts);
         let wi = if self.flip { Vec3::new(wi.x, wi.y, -wi.z) } else { wi };
         if self.wo.z <= 0.0 || wi.z == 0.0 {
             return 0.0;
         }
-        self.b.pdf_with(&self.c, self.wo, wi, cuts)
+        self.b.pdf_with(&self.c, self.wo, wi, cuts, across)
+    }
+
+    /// True when light from `wi` (local, as given), below the shading frame's horizon, is
+    /// reflected by the coat's own normal (`PbrBsdf::coat_across`): the integrators take it as
+    /// a reflection. Never for a view from below the frame (the flipped BSDF).
+    #[inline]
+    pub fn reflects_across(&self, wi: Vec3) -> bool {
+        wi.z < 0.0 && self.b.coat_frame.is_some() && self.across(wi, self.b.cuts(wi))
+    }
+
+    /// [`reflects_across`](Self::reflects_across) with the cuts toward wi at hand.
+    #[inline]
+    fn across(&self, wi: Vec3, cuts: Cuts) -> bool {
+        !self.flip && self.b.coat_across(self.wo, wi, cuts)
     }
 
     /// [`PbrBsdf::sample`] from the view-side terms computed once.
@@ -175,12 +190,12 @@ impl PbrAt<'_> {
             }
             if this.smooth_coat {
                 let wi = cf.to_world(Vec3::new(-wo_c.x, -wo_c.y, wo_c.z));
-                if wi.z <= 0.0 {
+                if wi.z == 0.0 || (wi.z < 0.0 && !self.across(mirror(wi), this.cuts(mirror(wi)))) {
                     return None;
                 }
                 return Some(BsdfSample {
                     wi: mirror(wi),
-                    f: Rgb::splat(self.ec / wi.z),
+                    f: Rgb::splat(self.ec / wi.z.abs()),
                     pdf: c.coat,
                     delta: true,
                     kind: LobeKind::Glossy,
@@ -195,7 +210,7 @@ impl PbrAt<'_> {
             }
             cf.to_world(wi_c)
         };
-        if wi_up.z == 0.0 || (uc >= c.glass && !dtrans && wi_up.z < 0.0) {
+        if wi_up.z == 0.0 {
             return None;
         }
         // The density and value from the lobe choice and wo-terms of this call (the same
@@ -203,14 +218,25 @@ impl PbrAt<'_> {
         // lookups at wo three times per sampled bounce).
         let wi = mirror(wi_up);
         let mut cuts = this.cuts(wi);
+        // Below the frame's horizon only the coat reflects where its normal puts wi above
+        // (`coat_across`), and only the transmission lobes sample elsewhere: a glass or
+        // diffuse transmission sample there is one Cycles labels a transmission above the
+        // surface (and drops), a coat sample cut there one whose density `pdf` does not count.
+        if wi_up.z < 0.0 {
+            let across = self.across(wi, cuts);
+            if across != from_coat || (!from_coat && uc >= c.glass && !dtrans) {
+                return None;
+            }
+        }
+        let across = wi_up.z < 0.0 && from_coat;
         cuts.spec &= !from_spec;
         cuts.coat &= !from_coat;
-        let pdf = this.pdf_with(c, wo_up, wi_up, cuts);
+        let pdf = this.pdf_with(c, wo_up, wi_up, cuts, across);
         if !(pdf > 0.0) {
             return None;
         }
         let kind = if diffuse { LobeKind::Diffuse } else { LobeKind::Glossy };
-        Some(BsdfSample { wi, f: self.eval_with(wi, cuts), pdf, delta: false, kind })
+        Some(BsdfSample { wi, f: self.eval_with(wi, cuts, across), pdf, delta: false, kind })
     }
 }
 
@@ -218,17 +244,22 @@ impl PbrAt<'_> {
     /// f(wo, wi), as [`PbrBsdf::eval`].
     #[inline]
     pub fn eval(&self, wi: Vec3) -> Rgb {
-        self.eval_with(wi, self.b.cuts(wi))
+        let cuts = self.b.cuts(wi);
+        self.eval_with(wi, cuts, wi.z < 0.0 && self.across(wi, cuts))
     }
 
-    /// [`eval`](Self::eval) with the lobes `cuts` leaves out (Cycles' `bump_shadowing_term`).
+    /// [`eval`](Self::eval) with the lobes `cuts` leaves out (Cycles' `bump_shadowing_term`);
+    /// `across`: wi is one only the coat reflects (`PbrBsdf::coat_across`).
     #[inline]
-    fn eval_with(&self, wi: Vec3, cuts: Cuts) -> Rgb {
+    fn eval_with(&self, wi: Vec3, cuts: Cuts, across: bool) -> Rgb {
         let b = self.b;
         let wo = self.wo;
         let wi = if self.flip { Vec3::new(wi.x, wi.y, -wi.z) } else { wi };
         if wo.z <= 0.0 || wi.z == 0.0 {
             return Vec3::ZERO;
+        }
+        if across {
+            return if b.smooth_coat { Rgb::ZERO } else { Rgb::splat(b.coat_eval(wo, wi)) };
         }
         let dielectric = 1.0 - b.metallic;
         let under = self.under;

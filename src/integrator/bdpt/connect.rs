@@ -136,7 +136,8 @@ impl BdptIntegrator {
                     return;
                 }
                 let (wo_l, wi_l) = (y.frame.to_local(y.wo), y.frame.to_local(w));
-                if (wi_l.z > 0.0) != (w.dot(hit.ng) > 0.0) {
+                let own = bsdf.bind(&y.view);
+                if own.above(wi_l) != (w.dot(hit.ng) > 0.0) {
                     return;
                 }
                 let from_camera = back.insert(bsdf.at_value(wi_l));
@@ -144,7 +145,6 @@ impl BdptIntegrator {
                     // Seen from the camera: leaving toward it, arriving from the light side.
                     first = passes::shares_seen(&from_camera.lobed(), wo_l);
                 }
-                let own = bsdf.bind(&y.view);
                 bsdf.eval_adjoint_at(&own, from_camera, wo_l, wi_l)
                     * wi_l.z.abs()
                     * shading_correction(hit, &y.frame, y.wo, w)
@@ -289,7 +289,7 @@ impl BdptIntegrator {
                 return none;
             };
             let wi_l = x.frame.to_local(ls.wi);
-            let consistent = (wi_l.z > 0.0) == (ls.wi.dot(hit.ng) > 0.0);
+            let consistent = own.above(wi_l) == (ls.wi.dot(hit.ng) > 0.0);
             let f = Self::eval_lit(ctx, &own, index, wi_l) * wi_l.z.abs();
             if f == Rgb::ZERO || ls.li == Rgb::ZERO || !consistent {
                 return none;
@@ -333,7 +333,7 @@ impl BdptIntegrator {
             return none;
         }
         let wi_l = x.frame.to_local(wi);
-        if (wi_l.z > 0.0) != (wi.dot(hit.ng) > 0.0) {
+        if own.above(wi_l) != (wi.dot(hit.ng) > 0.0) {
             return none;
         }
         let f = Self::eval_lit(ctx, &own, index, wi_l) * wi_l.z.abs();
@@ -493,11 +493,11 @@ impl BdptIntegrator {
         }
         let wi_x = x.frame.to_local(w);
         let (wo_y, wi_y) = (y.frame.to_local(y.wo), y.frame.to_local(-w));
-        if (wi_x.z > 0.0) != (w.dot(hx.ng) > 0.0) || (wi_y.z > 0.0) != ((-w).dot(hy.ng) > 0.0) {
-            return Rgb::ZERO;
-        }
         // Each side seen from its own wo (kept with the vertex) and from the other vertex.
         let (ax, ay) = (bx.bind(&x.view), by.bind(&y.view));
+        if ax.above(wi_x) != (w.dot(hx.ng) > 0.0) || ay.above(wi_y) != ((-w).dot(hy.ng) > 0.0) {
+            return Rgb::ZERO;
+        }
         let fx = ax.eval(wi_x) * wi_x.z.abs();
         let ry = by.at_value(wi_y);
         let fy = by.eval_adjoint_at(&ay, &ry, wo_y, wi_y) * wi_y.z.abs() * shading_correction(hy, &y.frame, y.wo, -w);

@@ -78,8 +78,8 @@ impl BdptIntegrator {
             return Rgb::ZERO;
         };
         let wi_l = x.frame.to_local(ls.wi);
-        let consistent = (wi_l.z > 0.0) == (ls.wi.dot(hit.ng) > 0.0);
         let own = bsdf.bind(&x.view);
+        let consistent = own.above(wi_l) == (ls.wi.dot(hit.ng) > 0.0);
         let f = own.eval(wi_l) * wi_l.z.abs();
         if f == Rgb::ZERO || ls.li == Rgb::ZERO || !consistent {
             return Rgb::ZERO;

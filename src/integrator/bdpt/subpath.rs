@@ -329,7 +329,7 @@ impl BdptIntegrator {
                 break;
             };
             let wi = sp.frame.to_world(bs.wi);
-            let transmitted = bs.wi.z < 0.0;
+            let transmitted = !at.above(bs.wi);
             if transmitted != (wi.dot(s.ng) < 0.0) {
                 break;
             }
@@ -559,7 +559,7 @@ impl BdptIntegrator {
                 break;
             };
             let wi = sp.frame.to_world(bs.wi);
-            let transmitted = bs.wi.z < 0.0;
+            let transmitted = !at.above(bs.wi);
             if transmitted != (wi.dot(s.ng) < 0.0) {
                 break;
             }

@@ -605,7 +605,7 @@ impl JensenIntegrator {
             };
             let mut cos_over_pdf = bs.wi.z.abs() / bs.pdf;
             // Shading Offset on a reflected sample, as the path tracer (`path.rs`).
-            if bs.wi.z * wo_local.z > 0.0 {
+            if sp.bsdf.reflects(wo_local, bs.wi) {
                 cos_over_pdf *= ctx.scene.ray_visibility.shading_offset_factor(s.tri, bs.wi.z.abs());
             }
             let w_all = bs.f * cos_over_pdf;
@@ -644,7 +644,7 @@ impl JensenIntegrator {
                 break;
             }
             see_through &= glass_limit.is_some_and(|t| {
-                bs.wi.z * wo_local.z < 0.0
+                !sp.bsdf.reflects(wo_local, bs.wi)
                     && bs.kind == crate::bsdf::LobeKind::Glossy
                     && sp.bsdf.glass_alpha2() <= (t * t) * (t * t)
             });
@@ -760,7 +760,7 @@ impl Chain {
     ) -> bool {
         let wi = sp.frame.to_world(bs.wi);
         let (co, ci) = (sp.frame.to_world(wo_local).dot(s.ng), wi.dot(s.ng));
-        if (bs.wi.z * wo_local.z > 0.0) != (co * ci > 0.0) || ci == 0.0 {
+        if sp.bsdf.reflects(wo_local, bs.wi) != (co * ci > 0.0) || ci == 0.0 {
             return false;
         }
         let st = &mut self.st;

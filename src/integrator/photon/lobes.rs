@@ -118,7 +118,7 @@ impl Split {
 fn reflects(at: &BsdfAt, wi: Vec3) -> bool {
     match at {
         BsdfAt::Mix(_, wo) => wo.z * wi.z > 0.0,
-        BsdfAt::Pbr(b) => b.wo_local().z * wi.z > 0.0,
+        BsdfAt::Pbr(b) => b.wo_local().z * wi.z > 0.0 || b.reflects_across(wi),
         _ => true,
     }
 }

@@ -443,12 +443,13 @@ fn follow(
         let (cos_o_g, cos_i_g) = (wo.dot(sh.ng), wi.dot(sh.ng));
         // Reflection in the shading frame must be reflection geometrically (and the
         // same for transmission), or light leaks through the surface.
-        if (bs.wi.z * wo_local.z > 0.0) != (cos_i_g * cos_o_g > 0.0) || cos_i_g == 0.0 {
+        // (A coat on its own normal reflects across the frame's horizon: `Bsdf::reflects`.)
+        let reflected = sp.bsdf.reflects(wo_local, bs.wi);
+        if reflected != (cos_i_g * cos_o_g > 0.0) || cos_i_g == 0.0 {
             return;
         }
         let correction = (wo_local.z * cos_i_g / (cos_o_g * bs.wi.z)).abs();
         // Ray Visibility: only the classes whose camera rays may continue this photon.
-        let reflected = bs.wi.z * wo_local.z > 0.0;
         let excluded = if visibility::all_surface(kinds) {
             Default::default()
         } else if bs.delta {
@@ -473,7 +474,7 @@ fn follow(
             sp.bsdf.at(bs.wi).eval_visible(wo_local, excluded)
         } else if !bs.delta {
             sp.bsdf.eval_adjoint(wo_local, bs.wi)
-        } else if bs.wi.z * wo_local.z < 0.0 {
+        } else if !reflected {
             bs.f * sp.bsdf.refraction_adjoint_scale()
         } else {
             bs.f
@@ -488,7 +489,7 @@ fn follow(
                 Rgb::ZERO
             } else if split == Split::AllDiffuse {
                 f
-            } else if bs.wi.z * wo_local.z > 0.0 {
+            } else if reflected {
                 split.diffuse(&sp.bsdf.at(bs.wi), wo_local).min(f).max(Rgb::ZERO)
             } else {
                 split.diffuse_of_sample(&sp.bsdf.at(wo_local), bs.wi, bs.f, false)

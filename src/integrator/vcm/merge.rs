@@ -184,7 +184,7 @@ pub(crate) fn merge_camera_path(
                 let wi_l = x.frame.to_local(y.wo);
                 let cos_g = y.wo.dot(hit.ng);
                 // The light arrived on the side the BSDF says it did.
-                if (wi_l.z > 0.0) != (cos_g > 0.0) {
+                if at.above(wi_l) != (cos_g > 0.0) {
                     return;
                 }
                 let f = at.eval(wi_l);

@@ -309,12 +309,13 @@ pub(super) fn camera_path(
         };
         let wi = sp.frame.to_world(bs.wi);
         let (co, ci) = (wo.dot(s.ng), wi.dot(s.ng));
-        if (bs.wi.z * wo_local.z > 0.0) != (co * ci > 0.0) || ci == 0.0 {
+        let reflected = sp.bsdf.reflects(wo_local, bs.wi);
+        if reflected != (co * ci > 0.0) || ci == 0.0 {
             break;
         }
         let mut w = bs.f * (bs.wi.z.abs() / bs.pdf);
         // Shading Offset on a reflected sample, as the path tracer (`path.rs`).
-        if bs.wi.z * wo_local.z > 0.0 {
+        if reflected {
             w *= ctx.scene.ray_visibility.shading_offset_factor(s.tri, bs.wi.z.abs());
         }
         e = beta * w;
