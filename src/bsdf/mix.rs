@@ -565,12 +565,13 @@ fn cos_ratio(frame: &Option<Frame>, wi_k: Vec3, wi: Vec3) -> f32 {
 }
 
 impl Lobe {
-    /// Cycles' diffuse-class closures (diffuse, Oren-Nayar, translucent, sheen, diffuse toon).
+    /// Cycles' diffuse-class closures (diffuse, Oren-Nayar, translucent, sheen, diffuse toon),
+    /// `CLOSURE_IS_BSDF_DIFFUSE`: the light passes' and the light visibility's diffuse class.
+    /// Not the Ashikhmin Velvet, which Cycles' closure order puts among the glossy ones (its
+    /// light in the Glossy passes), though its sampled bounces are labelled diffuse.
     #[inline]
     pub fn is_diffuse_class(&self) -> bool {
-        // Cycles' diffuse closures, and the Ashikhmin Velvet, which its light passes file as
-        // glossy but Caustic's as diffuse (a known difference).
-        self.bump_shadowed() || matches!(self, Lobe::Velvet(_))
+        self.bump_shadowed()
     }
 
     /// The lobe's value does not depend on wo (it may be evaluated with wo below its own
