@@ -33,6 +33,7 @@ COAT_EXTENSION = "CAUSTIC_materials_coat"
 ANISOTROPY_EXTENSION = "CAUSTIC_materials_anisotropy"
 NORMAL_MAP_EXTENSION = "CAUSTIC_materials_normal_map"
 SHEEN_EXTENSION = "CAUSTIC_materials_sheen"
+IRIDESCENCE_EXTENSION = "CAUSTIC_materials_iridescence"
 SHADOW_EXTENSION = "CAUSTIC_materials_shadow"
 
 # Shaders the add-on translates; any other surface is a warning and a grey Lambertian.
@@ -389,9 +390,11 @@ _THIN_FILM_CUTOFF_NM = 0.1
 
 def _thin_film(gltf2_material, blender_material, graph):
     """The Principled BSDF's Thin Film as KHR_materials_iridescence (factor 1, the film's IOR,
-    minimum = maximum = the thickness in nm), which the exporter drops. The renderer puts the
-    film on the dielectric layer only: a metallic or transmissive part is named in a warning.
-    With `graph` the node graph carries a linked thickness. Returns warnings."""
+    minimum = maximum = the thickness in nm), which the exporter drops, marked
+    `CAUSTIC_materials_iridescence` {"metal": "conductor"}: the film covers the metal part too,
+    on Cycles' F82-tint conductor. The renderer does not put it on the glass part: a
+    transmissive part is named in a warning. With `graph` the node graph carries a linked
+    thickness. Returns warnings."""
     node = _principled(blender_material)
     socket = node.inputs.get("Thin Film Thickness") if node is not None else None
     if socket is None or (float(socket.default_value) <= _THIN_FILM_CUTOFF_NM and not socket.is_linked):
@@ -406,11 +409,11 @@ def _thin_film(gltf2_material, blender_material, graph):
         _set_extension(gltf2_material, "KHR_materials_iridescence", {
             "iridescenceFactor": 1.0, "iridescenceIor": ior,
             "iridescenceThicknessMinimum": thickness, "iridescenceThicknessMaximum": thickness})
-    for part in ("Metallic", "Transmission Weight"):
-        p = node.inputs.get(part)
-        if p is not None and (p.is_linked or float(p.default_value) > 0.0):
-            warnings.append(f"material '{name}': the thin film is rendered on the dielectric layer only, "
-                            f"not on the {'metal' if part == 'Metallic' else 'glass'} part ({part})")
+        _set_extension(gltf2_material, IRIDESCENCE_EXTENSION, {"metal": "conductor"})
+    p = node.inputs.get("Transmission Weight")
+    if p is not None and (p.is_linked or float(p.default_value) > 0.0):
+        warnings.append(f"material '{name}': the thin film is rendered on the dielectric layer and the metal, "
+                        "not on the glass part (Transmission Weight)")
     return warnings
 
 

@@ -35,6 +35,7 @@ use super::microfacet::{Ggx, conductor_fresnel, f82_b_through, f82_tint, f82_tin
 use super::microfiber::Microfiber;
 use super::oren_nayar::OrenNayar;
 use super::pbr::bump_shadowing;
+use super::thin_film::{conductor_film_reflectance, f82_conductor_index};
 use super::velvet::Velvet;
 use super::{BsdfSample, LobeKind, PbrBsdf, albedo::specular_albedo};
 use crate::math::{Frame, Rgb, luminance};
@@ -68,6 +69,24 @@ pub enum GlossyFresnel {
         /// Imaginary part (its Extinction).
         k: Rgb,
     },
+    /// A thin film (thickness nm, film IOR) on the F82-tint conductor (`thin_film.rs`).
+    F82Film {
+        /// Normal-incidence reflectance (the base colour).
+        f0: Rgb,
+        /// The F82-tint factor (zero: Schlick's).
+        b: Rgb,
+        /// (thickness nm, film IOR).
+        film: (f32, f32),
+    },
+    /// A thin film (thickness nm, film IOR) on the physical conductor n + ik.
+    ConductorFilm {
+        /// Real part of the index.
+        n: Rgb,
+        /// Imaginary part.
+        k: Rgb,
+        /// (thickness nm, film IOR).
+        film: (f32, f32),
+    },
 }
 
 impl GlossyFresnel {
@@ -80,10 +99,34 @@ impl GlossyFresnel {
         GlossyFresnel::F82Tint { f0, b: f82_tint_b(f0, tint) }
     }
 
+    /// This conductor's Fresnel under a film of `thickness` nm and index `ior`, as Cycles' Metallic
+    /// BSDF puts one above Cycles' cutoff of 0.1 nm (a constant Fresnel takes none).
+    pub fn with_film(self, thickness: f32, ior: f32) -> Self {
+        if !(thickness > 0.1) || !thickness.is_finite() || !ior.is_finite() {
+            return self;
+        }
+        let film = (thickness, ior.max(1e-5));
+        match self {
+            GlossyFresnel::Constant => self,
+            GlossyFresnel::Schlick(f0) => GlossyFresnel::F82Film { f0, b: Rgb::ZERO, film },
+            GlossyFresnel::F82Tint { f0, b } => GlossyFresnel::F82Film { f0, b, film },
+            GlossyFresnel::Conductor { n, k } => GlossyFresnel::ConductorFilm { n, k, film },
+            GlossyFresnel::F82Film { f0, b, .. } => GlossyFresnel::F82Film { f0, b, film },
+            GlossyFresnel::ConductorFilm { n, k, .. } => GlossyFresnel::ConductorFilm { n, k, film },
+        }
+    }
+
     /// The reflectance at cos θ to the microfacet normal.
     #[inline]
     fn at(&self, cos: f32) -> Rgb {
         match self {
+            GlossyFresnel::F82Film { f0, b, film: (d, ior) } => {
+                let (n, k, g) = f82_conductor_index(*f0, *b);
+                conductor_film_reflectance(cos, *ior, *d, n, k, Some(g))
+            }
+            GlossyFresnel::ConductorFilm { n, k, film: (d, ior) } => {
+                conductor_film_reflectance(cos, *ior, *d, *n, *k, None)
+            }
             GlossyFresnel::Constant => Rgb::ONE,
             GlossyFresnel::Schlick(f0) => *f0 + (Rgb::ONE - *f0) * schlick_weight(cos),
             GlossyFresnel::F82Tint { f0, b } => f82_tint(*f0, *b, cos),
@@ -236,10 +279,14 @@ impl Lobe {
             GlossyFresnel::Constant => Rgb::ONE,
             GlossyFresnel::Schlick(f0) => f0 + (Rgb::ONE - f0) / 21.0,
             // Cycles' fresnel_f82_Fss: the cosine-weighted average of the F82-tint curve.
-            GlossyFresnel::F82Tint { f0, b } => (f0 + (Rgb::ONE - f0) / 21.0 - b / 126.0).clamp(Rgb::ZERO, Rgb::ONE),
+            // A film leaves Cycles' average the bare metal's (`microfacet_ggx_preserve_energy`
+            // is given `fresnel_f82_Fss` / `fresnel_conductor_Fss` whatever the film).
+            GlossyFresnel::F82Tint { f0, b } | GlossyFresnel::F82Film { f0, b, .. } => {
+                (f0 + (Rgb::ONE - f0) / 21.0 - b / 126.0).clamp(Rgb::ZERO, Rgb::ONE)
+            }
             // Cycles' fresnel_conductor_Fss: the F82 curve through the exact values at 0 and
             // cos θ = 1/7, averaged as above.
-            GlossyFresnel::Conductor { n, k } => {
+            GlossyFresnel::Conductor { n, k } | GlossyFresnel::ConductorFilm { n, k, .. } => {
                 let f0 = conductor_fresnel(1.0, n, k);
                 let b = f82_b_through(f0, conductor_fresnel(1.0 / 7.0, n, k));
                 (f0 + (Rgb::ONE - f0) / 21.0 - b / 126.0).clamp(Rgb::ZERO, Rgb::ONE)
@@ -285,9 +332,10 @@ impl Lobe {
             Lobe::Glossy { fresnel, .. } => match fresnel {
                 GlossyFresnel::Constant => 1.0,
                 GlossyFresnel::Schlick(f0) => luminance(*f0 + (Rgb::ONE - *f0) * schlick_weight(wo.z)),
-                GlossyFresnel::F82Tint { .. } | GlossyFresnel::Conductor { .. } => {
-                    luminance(fresnel.at(wo.z)).max(1e-3)
-                }
+                GlossyFresnel::F82Tint { .. }
+                | GlossyFresnel::Conductor { .. }
+                | GlossyFresnel::F82Film { .. }
+                | GlossyFresnel::ConductorFilm { .. } => luminance(fresnel.at(wo.z)).max(1e-3),
             },
             Lobe::Dielectric(_) => 1.0,
             Lobe::Sheen { roughness } => Microfiber::at(wo, *roughness).albedo().max(1e-3),
@@ -517,12 +565,13 @@ fn cos_ratio(frame: &Option<Frame>, wi_k: Vec3, wi: Vec3) -> f32 {
 }
 
 impl Lobe {
-    /// Cycles' diffuse-class closures (diffuse, Oren-Nayar, translucent, sheen, diffuse toon).
+    /// Cycles' diffuse-class closures (diffuse, Oren-Nayar, translucent, sheen, diffuse toon),
+    /// `CLOSURE_IS_BSDF_DIFFUSE`: the light passes' and the light visibility's diffuse class.
+    /// Not the Ashikhmin Velvet, which Cycles' closure order puts among the glossy ones (its
+    /// light in the Glossy passes), though its sampled bounces are labelled diffuse.
     #[inline]
     pub fn is_diffuse_class(&self) -> bool {
-        // Cycles' diffuse closures, and the Ashikhmin Velvet, which its light passes file as
-        // glossy but Caustic's as diffuse (a known difference).
-        self.bump_shadowed() || matches!(self, Lobe::Velvet(_))
+        self.bump_shadowed()
     }
 
     /// The lobe's value does not depend on wo (it may be evaluated with wo below its own

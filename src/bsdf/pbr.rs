@@ -82,7 +82,7 @@ use super::microfacet::{Ggx, f82_tint, f82_tint_b, fresnel_dielectric, schlick_w
 use super::microfiber::Microfiber;
 use super::oren_nayar::OrenNayar;
 use super::sheen::{charlie_brdf, sheen_albedo_table};
-use super::thin_film::film_reflectance;
+use super::thin_film::{conductor_film_reflectance, f82_conductor_index, film_reflectance};
 use crate::math::{Frame, Rgb, luminance};
 use crate::sampling::warp::cosine_hemisphere_pdf;
 use glam::{Vec2, Vec3};
@@ -135,6 +135,8 @@ pub struct PbrBsdf {
     layer_z: f32,
     /// A thin film on the dielectric layer: (thickness nm, film IOR, weight).
     film: Option<(f32, f32, f32)>,
+    /// The film on the metal too (`PbrParams::thin_film_metal`).
+    metal_film: bool,
     /// The opaque dielectric has a specular layer (η > 1 or a film).
     layer: bool,
     /// Weight of the glass part within the dielectric part.
@@ -329,6 +331,7 @@ impl PbrBsdf {
             layer_f0_eta: f0_of(layer_eta),
             layer_z: eta_z(layer_eta),
             film,
+            metal_film: film.is_some() && p.thin_film_metal,
             layer,
             transmission: p.transmission.clamp(0.0, 1.0),
             glass,
@@ -422,15 +425,24 @@ impl PbrBsdf {
     }
 
     /// The metal's Fresnel at cos θ to the microfacet normal: Schlick's of the base colour, or
-    /// Cycles' F82 tint when it has one.
+    /// Cycles' F82 tint when it has one; under a film on the metal, the film's reflectance on
+    /// that F82 conductor (Cycles' `microfacet_fresnel` F82_TINT case), mixed in by its weight.
     #[inline]
     pub(super) fn metal_fresnel(&self, cos: f32) -> Rgb {
-        if self.metal_dropped {
-            Rgb::ZERO
+        let plain = if self.metal_dropped {
+            return Rgb::ZERO;
         } else if self.metal_b == Vec3::ZERO {
             self.base + (Vec3::ONE - self.base) * schlick_weight(cos)
         } else {
             f82_tint(self.base, self.metal_b, cos)
+        };
+        match self.film {
+            Some((d, n, w)) if self.metal_film => {
+                let (eta, k, g) = f82_conductor_index(self.base, self.metal_b);
+                let f = conductor_film_reflectance(cos, n, d, eta, k, Some(g));
+                plain + (f - plain) * w.min(1.0)
+            }
+            _ => plain,
         }
     }
 

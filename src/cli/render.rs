@@ -216,11 +216,6 @@ pub fn run_render(args: &RenderArgs, reporter: &Reporter, stop: &AtomicBool) -> 
         reporter.warning(&w);
         run_warnings.push(w);
     }
-    // Spots enclosing surfaces: lit from the whole sphere, where Cycles drops some of it.
-    if let Some(w) = crate::light::inside::spot_warning(&scene) {
-        reporter.warning(&w);
-        run_warnings.push(w);
-    }
     // They emit from sphere lights outward only; Cycles lights the surfaces inside them too.
     if let Some(w) = light_tracing.and_then(|name| crate::light::inside::warning(&scene, name)) {
         reporter.warning(&w);

@@ -4,7 +4,9 @@
 
 use super::{SceneContext, power_heuristic};
 use crate::light::light_graph::graph_factor;
-use crate::light::{area_to_solid_angle, intersect_sphere_light, sphere_light_pdf, sphere_mask};
+use crate::light::{
+    area_to_solid_angle, intersect_sphere_light, sphere_light_pdf, sphere_mask, spot_inside_pdf, spot_sphere_faces,
+};
 use crate::math::Rgb;
 use crate::sampling::warp::uniform_cone_pdf;
 use crate::scene::light_path::LightPath;
@@ -113,14 +115,23 @@ impl<'a> SceneContext<'a> {
                 sum += radiance * w;
                 each(index, radiance * w);
                 any = true;
+            } else if spot.is_some() && !spot_sphere_faces(org, dir, center) {
+                // Cycles' spot sphere is one-sided: from inside, rays leaving the centre's side
+                // find nothing (their MIS share is lost, as in Cycles).
+                continue;
             } else if let Some(t) = intersect_sphere_light(org, dir, center, radius, tmax) {
                 // From inside the ball the ray finds the far side, as Cycles' does.
                 let w = if prev_pdf == 0.0 {
                     1.0
                 } else {
-                    let light_pdf =
-                        self.lights.pmf(prev_p, prev_n, index) * sphere_light_pdf((center - prev_p).length(), radius);
-                    power_heuristic(prev_pdf, light_pdf)
+                    let dist = (center - prev_p).length();
+                    let pdf = if spot.is_some() && dist <= radius {
+                        // A spot's next-event estimation inside: Cycles' cosine hemisphere.
+                        spot_inside_pdf(prev_n, dir)
+                    } else {
+                        sphere_light_pdf(dist, radius)
+                    };
+                    power_heuristic(prev_pdf, self.lights.pmf(prev_p, prev_n, index) * pdf)
                 };
                 let q = org + dir * t;
                 let radiance = radiance * graph_factor(self.scene, index, q, (q - center) / radius, prev_p, *path);

@@ -774,6 +774,14 @@ impl<'a> SceneContext<'a> {
         self.with_light_graph(index, p, s, path.emission(0.0))
     }
 
+    /// [`sample_light_from`](Self::sample_light_from) at a receiver of normal `n`, the one
+    /// light selection was given (`Light::sample_li_at`).
+    #[inline]
+    pub fn sample_light_at(&self, index: usize, p: Vec3, n: Vec3, u: Vec2, path: LightPath) -> Option<LightSample> {
+        let s = self.scene.lights[index].sample_li_at(self.scene, p, n, u, path);
+        self.with_light_graph(index, p, s, path.emission(0.0))
+    }
+
     /// Solid-angle density with which `sample_light` (including the light choice, made
     /// with the receiver normal `n`) would pick the point `q` with normal `n_light` of
     /// light `index`, from `p`.

@@ -66,7 +66,7 @@ pub fn surface_nee_at(
     if !ctx.links(index, s.tri) || !ctx.nee_within_bounces(index, s.light_path.depth) {
         return (Rgb::ZERO, Vec3::ZERO, index);
     }
-    let Some(ls) = ctx.sample_light_from(index, s.p, u_light_pt, s.light_path) else {
+    let Some(ls) = ctx.sample_light_at(index, s.p, n_select, u_light_pt, s.light_path) else {
         return (Rgb::ZERO, Vec3::ZERO, index);
     };
     let wi_local = sp.frame.to_local(ls.wi);
@@ -236,7 +236,7 @@ pub fn exit_nee_light(
         && ctx.nee_within_bounces(index, se.light_path.depth)
         // The exit is a diffuse closure (Cycles' BSSRDF exit).
         && !ctx.light_excludes(index).diffuse
-        && let Some(ls) = ctx.sample_light_from(index, se.p, u_pt, se.light_path)
+        && let Some(ls) = ctx.sample_light_at(index, se.p, n_g, u_pt, se.light_path)
     {
         let cos = ls.wi.dot(n_s);
         if cos > 0.0 && ls.wi.dot(n_g) > 0.0 && ls.li != Rgb::ZERO {

@@ -1,6 +1,7 @@
 //! Sphere lights that enclose surfaces. Cycles lights a point inside a sphere light's ball
-//! from every direction (`light/point.h`: the sphere's far side is seen from inside), which
-//! the path tracer follows (`sample.rs`, `integrator::emission`). The integrators that start
+//! from every direction (`light/point.h`: the sphere's far side is seen from inside; a spot's
+//! sphere unmasked by its cone, found by ray hits only moving toward its centre's side,
+//! `light/spot.h`), which the path tracer follows (`sample.rs`, `integrator::emission`). The integrators that start
 //! paths on the lights emit from the sphere outward only, and BDPT's and VCM's camera-side
 //! strategies weigh such paths against those light subpaths: for them this light is named.
 
@@ -47,29 +48,6 @@ pub fn warning(scene: &Scene, integrator: &str) -> Option<String> {
              {integrator} emits from the sphere outward only, so the light inside differs from the path tracer's \
              (and Cycles'); render with the path tracer",
             lights.into_iter().map(name).collect::<Vec<_>>().join(", ")
-        )
-    })
-}
-
-/// The warning for every integrator when a spot with a radius (Soft Falloff off) encloses
-/// surfaces: Caustic lights them from every direction unmasked, by next-event estimation
-/// and BSDF-sampled rays alike, where Cycles' BSDF-sampled rays find a spot's sphere only
-/// moving toward its centre (`spot_light_intersect` is one-sided) while its next-event
-/// estimation samples all around: Cycles drops those rays' MIS share, so it renders the
-/// surfaces inside darker (by an amount that depends on its sampling densities).
-pub fn spot_warning(scene: &Scene) -> Option<String> {
-    let name = |i: usize| scene.report.lights.get(i).map_or_else(|| format!("light {i}"), |r| format!("'{}'", r.name));
-    let spots: Vec<String> = enclosing_spheres(scene)
-        .into_iter()
-        .filter(|&i| matches!(scene.lights[i], Light::Sphere { spot: Some(_), .. }))
-        .map(name)
-        .collect();
-    (!spots.is_empty()).then(|| {
-        format!(
-            "spot light(s) {} with a radius (Soft Falloff off) enclose surfaces: Caustic lights them from the whole \
-             sphere, Cycles drops the share of its BSDF-sampled rays that leave the spot's centre, so they render \
-             brighter than in Cycles (1.16x the image mean in tests/blender/test_sphere_light_inside.py)",
-            spots.join(", ")
         )
     })
 }

@@ -571,6 +571,25 @@ pub fn intersect_sphere_light(o: Vec3, d: Vec3, center: Vec3, radius: f32, tmax:
 /// light: uniform over the sphere of directions (1 / 4π).
 pub const INSIDE_SPHERE_PDF: f32 = crate::sampling::warp::UNIFORM_SPHERE_PDF;
 
+/// Next-event estimation's solid-angle density of direction `wi` from a point of normal `n`
+/// inside a spot's sphere, Cycles' `spot_light_pdf` there: a cosine hemisphere around `n`,
+/// uniform over the sphere of directions for a zero `n` (a transmitting BSDF, a medium).
+#[inline]
+pub fn spot_inside_pdf(n: Vec3, wi: Vec3) -> f32 {
+    match n.try_normalize() {
+        Some(n) => crate::sampling::warp::cosine_hemisphere_pdf(n.dot(wi).max(0.0)),
+        None => INSIDE_SPHERE_PDF,
+    }
+}
+
+/// Whether a ray from `o` along `d` can find a spot's sphere (`center`): Cycles'
+/// `spot_light_intersect` is one-sided, a ray moving away from the centre's side never does
+/// (from outside it cannot reach the sphere anyway; from inside it drops the near half).
+#[inline]
+pub fn spot_sphere_faces(o: Vec3, d: Vec3, center: Vec3) -> bool {
+    d.dot(o - center) < 0.0
+}
+
 /// Next-event estimation's solid-angle density of a sphere light's directions from a point
 /// `dist` from its centre: the cone of its cap from outside, uniform from inside.
 #[inline]

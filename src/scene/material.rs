@@ -146,7 +146,8 @@ pub struct Material {
     pub hair: Option<crate::bsdf::hair::HairParams>,
 }
 
-/// A thin film on the dielectric layer (`KHR_materials_iridescence`, Blender's Thin Film).
+/// A thin film on the dielectric layer (`KHR_materials_iridescence`, Blender's Thin Film), and
+/// on the metal for Blender's (`CAUSTIC_materials_iridescence`).
 #[derive(Clone, Copy, Debug)]
 pub struct Iridescence {
     /// iridescenceFactor: the weight of the film's Fresnel.
@@ -161,6 +162,9 @@ pub struct Iridescence {
     pub thickness_max: f32,
     /// iridescenceThicknessTexture (G mixes minimum to maximum).
     pub thickness_tex: Option<TexRef>,
+    /// `CAUSTIC_materials_iridescence` metal "conductor": the film covers the metal as Cycles'
+    /// Principled BSDF puts it there, on its F82-tint conductor; else the dielectric layer alone.
+    pub on_metal: bool,
 }
 
 impl Default for Material {

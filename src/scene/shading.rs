@@ -408,6 +408,7 @@ impl Scene {
                 let g = i.thickness_tex.map_or(1.0, |t| lookup(&t).y);
                 (i.thickness_min + (i.thickness_max - i.thickness_min) * g, i.ior, factor)
             }),
+            thin_film_metal: mat.iridescence.is_some_and(|i| i.on_metal),
             // glTF's materials are compensated, as Cycles' default Multiscatter GGX.
             single_scatter: false,
             diffuse_transmission,

@@ -6,7 +6,7 @@
 //!   Weight; Specular IOR Level L as the dielectric layer's F0 scale 2L with the tint, which
 //!   is Cycles' F0 = 2L F0(IOR) × tint with the shape of that F0's IOR; Coat Weight, Roughness,
 //!   IOR, Tint; Sheen Weight × Sheen Tint; Subsurface Weight; Emission Color × Strength; Thin
-//!   Film Thickness and IOR on the dielectric layer (`bsdf/thin_film.rs`);
+//!   Film Thickness and IOR on the dielectric layer and the metal (`bsdf/thin_film.rs`);
 //!   Alpha as a Transparent part of weight 1 − Alpha; Diffuse Roughness as Cycles' Oren-Nayar
 //!   diffuse base; Anisotropic as Cycles' widths r²/aspect, r² × aspect, aspect = √(1 − 0.9 a),
 //!   along the Tangent (unlinked: Cycles' radial tangent around the object's Z axis,
@@ -25,7 +25,8 @@
 //!   Glass "GGX" is single scattering), anisotropic along its Tangent by Cycles' Glossy widths
 //!   ([`AnisoMapping`]; Metallic by the Principled BSDF's); Metallic →
 //!   GGX with Cycles' F82-tint Fresnel of F0 = Base Color and its Edge Tint (the
-//!   physical-conductor mode with Cycles' exact conductor Fresnel); Glass → a dielectric interface whose
+//!   physical-conductor mode with Cycles' exact conductor Fresnel), either under its Thin Film
+//!   (`GlossyFresnel::with_film`); Glass → a dielectric interface whose
 //!   reflection and transmission the colour tints; Refraction → the interface's refraction
 //!   alone, without Fresnel weighting (Cycles' Refraction BSDF); Translucent → Lambertian transmission; Toon → Cycles' toon lobe (`Lobe::Toon`); Sheen →
 //!   Cycles' microfiber sheen (its Ashikhmin distribution: Cycles' velvet, `bsdf::velvet`), as is
@@ -134,6 +135,8 @@ pub enum ClosureKind {
         ashikhmin: bool,
         /// The Anisotropy, Rotation and Tangent inputs, when the lobe may be anisotropic.
         aniso: Option<AnisoRegs>,
+        /// The Metallic BSDF's Thin Film Thickness and IOR, when it may have a film.
+        film: Option<(Reg, Reg)>,
     },
     /// Glass BSDF.
     Glass {
@@ -375,6 +378,7 @@ fn zero_params() -> PbrParams {
         diffuse_roughness: 0.0,
         cycles_principled: true,
         thin_film: None,
+        thin_film_metal: true,
         single_scatter: false,
         diffuse_transmission: 0.0,
         diffuse_transmission_color: Rgb::ZERO,
@@ -413,7 +417,7 @@ impl ClosureOp {
             }
             ClosureKind::Sheen { velvet: false } => push(color() * w, Lobe::Sheen { roughness: rough() }, None),
             ClosureKind::Sheen { velvet: true } => push(color() * w, Lobe::Velvet(Velvet::new(rough())), None),
-            ClosureKind::Glossy { metallic, multiscatter, edge_tint, extinction, beckmann, ashikhmin, aniso } => {
+            ClosureKind::Glossy { metallic, multiscatter, edge_tint, extinction, beckmann, ashikhmin, aniso, film } => {
                 let (weight, fresnel) = if *metallic {
                     let f0 = color().min(Vec3::ONE);
                     let fresnel = match (extinction, edge_tint) {
@@ -422,6 +426,10 @@ impl ClosureOp {
                         }
                         (None, Some(t)) => GlossyFresnel::f82_tint(f0, v3(r, *t).clamp(Vec3::ZERO, Vec3::ONE)),
                         (None, None) => GlossyFresnel::Schlick(f0),
+                    };
+                    let fresnel = match film {
+                        Some((d, ior)) => fresnel.with_film(r[*d as usize], r[*ior as usize]),
+                        None => fresnel,
                     };
                     (Rgb::splat(w), fresnel)
                 } else {
@@ -738,6 +746,8 @@ impl Closures {
             // Cycles' Principled glass: √base at each crossing.
             cycles_principled: true,
             thin_film: p.thin_film,
+            // Cycles' Principled puts the film on its F82-tint metal too.
+            thin_film_metal: true,
             single_scatter: p.single_scatter,
             // Blender's Principled BSDF has no diffuse transmission.
             diffuse_transmission: 0.0,

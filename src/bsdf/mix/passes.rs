@@ -1,6 +1,6 @@
 //! A mixture split by Cycles' closure classes for the light passes: Diffuse,
-//! Translucent and Sheen closures are diffuse (Cycles' `CLOSURE_IS_BSDF_DIFFUSE`), Glossy
-//! and Metallic glossy, Glass reflection glossy and its refraction transmission; each
+//! Translucent and Microfiber Sheen closures are diffuse (Cycles' `CLOSURE_IS_BSDF_DIFFUSE`),
+//! Glossy, Metallic and the Ashikhmin Velvet glossy (`CLOSURE_IS_BSDF_GLOSSY`), Glass reflection glossy and its refraction transmission; each
 //! Principled part splits as [`PbrAt`](crate::bsdf::PbrAt) does. Every part is seen in its
 //! own frame, as in [`MixBsdf::eval`].
 
@@ -52,11 +52,12 @@ impl MixBsdf {
                 | Lobe::OrenNayar(_)
                 | Lobe::Translucent
                 | Lobe::Sheen { .. }
-                | Lobe::Velvet(_)
                 | Lobe::Toon(Toon { glossy: false, .. }) => c[0] += w * l.albedo(wo),
-                Lobe::Glossy { .. } | Lobe::AshikhminShirley(_) | Lobe::Toon(Toon { glossy: true, .. }) => {
-                    c[1] += w * l.albedo(wo)
-                }
+                // The Ashikhmin Velvet is in Cycles' glossy range (`CLOSURE_IS_BSDF_GLOSSY`).
+                Lobe::Glossy { .. }
+                | Lobe::AshikhminShirley(_)
+                | Lobe::Velvet(_)
+                | Lobe::Toon(Toon { glossy: true, .. }) => c[1] += w * l.albedo(wo),
                 Lobe::Dielectric(d) => {
                     let f = fresnel_dielectric(wo.z, d.eta);
                     if d.refracts_only() {

@@ -75,6 +75,9 @@ pub struct PbrParams {
     /// A thin film on the dielectric layer: (thickness in nm, film IOR, weight) — Blender's
     /// Thin Film (weight 1), glTF's `KHR_materials_iridescence` (iridescenceFactor).
     pub thin_film: Option<(f32, f32, f32)>,
+    /// The film covers the metal too, on Cycles' F82-tint conductor (Blender's Principled BSDF,
+    /// `thin_film::conductor_film_reflectance`); else the dielectric layer alone.
+    pub thin_film_metal: bool,
     /// Blender's Principled BSDF with distribution "GGX": single scattering, without Cycles'
     /// multiple-scattering compensation of the metal, the dielectric layer and the glass
     /// (which "Multiscatter GGX", Blender's default, and glTF's materials have).
@@ -124,6 +127,7 @@ impl PbrParams {
             diffuse_roughness: 0.0,
             cycles_principled: false,
             thin_film: None,
+            thin_film_metal: false,
             single_scatter: false,
             diffuse_transmission: 0.0,
             diffuse_transmission_color: Rgb::ONE,

@@ -691,6 +691,45 @@ fn thin_film_on_the_layer() {
     }
 }
 
+/// A film on the metal (`thin_film_metal`, Blender's Principled): the smooth metal's mirror
+/// reflects the film's reflectance on Cycles' F82 conductor of the base colour, at normal and
+/// grazing incidence; without the flag the metal stays bare (glTF's files); the rough metal
+/// with a film samples by its density (chi-square).
+#[test]
+fn thin_film_on_the_metal() {
+    use crate::bsdf::thin_film::{conductor_film_reflectance, f82_conductor_index};
+    let base = Vec3::new(0.9, 0.6, 0.3);
+    let film = Some((300.0f32, 1.8f32, 1.0f32));
+    let (n, k, g) = f82_conductor_index(base, Vec3::ZERO);
+    for cos in [1.0f32, 0.5, 0.15] {
+        let wo = Vec3::new((1.0 - cos * cos).sqrt(), 0.0, cos);
+        let on = PbrBsdf::from_params(&PbrParams {
+            thin_film: film,
+            thin_film_metal: true,
+            ..PbrParams::opaque(base, 1.0, 0.0)
+        });
+        let s = on.sample(wo, 0.0, Vec2::splat(0.5)).unwrap();
+        let want = conductor_film_reflectance(cos, 1.8, 300.0, n, k, Some(g));
+        assert!(
+            (s.f * s.wi.z / s.pdf - want).abs().max_element() < 1e-4,
+            "cos {cos}: {} vs {want}",
+            s.f * s.wi.z / s.pdf
+        );
+        let off = PbrBsdf::from_params(&PbrParams { thin_film: film, ..PbrParams::opaque(base, 1.0, 0.0) });
+        let s = off.sample(wo, 0.0, Vec2::splat(0.5)).unwrap();
+        let bare = base + (Vec3::ONE - base) * (1.0 - cos).powi(5);
+        assert!((s.f * s.wi.z / s.pdf - bare).abs().max_element() < 1e-4, "cos {cos}");
+    }
+    let p = PbrParams { thin_film: film, thin_film_metal: true, ..PbrParams::opaque(base, 1.0, 0.4) };
+    let b = PbrBsdf::from_params(&p);
+    for theta in [0.1f32, 1.2] {
+        let wo = Vec3::new(theta.sin(), 0.0, theta.cos());
+        let mut rng = Pcg32::new(9);
+        let t = ChiSquareTest::new(&format!("metal film θ={theta}"));
+        assert_chi2(t.run_with_pdf(|u| b.sample(wo, rng.next_f32(), u).map(|s| (s.wi, s.pdf)), |wi| b.pdf(wo, wi)));
+    }
+}
+
 /// A white Lambertian (metallic 0, rough) reflects 1 - F: its albedo is close to,
 /// and below, 1 at normal incidence; a black dielectric reflects only the specular.
 #[test]

@@ -2,7 +2,10 @@
 //! Blender's Principled Thin Film (`bsdf/thin_film.rs`): iridescenceFactor (× texture R) mixes
 //! the film's Fresnel in, iridescenceIor is the film's index, and the thickness is
 //! mix(thicknessMinimum, thicknessMaximum, texture G) nm (thicknessMaximum without a texture).
-//! The film on the metal part is not rendered (a warning names the material).
+//! `CAUSTIC_materials_iridescence` {"metal": "conductor"} (the add-on's, for Blender's
+//! Principled BSDF) puts the film on the metal part too, on Cycles' F82-tint conductor
+//! (`thin_film::conductor_film_reflectance`); without it the film on a metal part is not
+//! rendered (a warning names the material: glTF's own model there is another).
 
 use super::Loader;
 use crate::error::Result;
@@ -10,7 +13,7 @@ use crate::scene::material::Iridescence;
 
 impl Loader<'_> {
     /// The material's iridescence from the extension's JSON `ext`; `metallic` > 0 (or a
-    /// metallic texture) is warned about.
+    /// metallic texture) is warned about unless `on_metal` puts the film there too.
     pub(super) fn iridescence(
         &mut self,
         doc: &gltf::Document,
@@ -18,6 +21,7 @@ impl Loader<'_> {
         buffers: &[Vec<u8>],
         name: &str,
         metallic: bool,
+        on_metal: bool,
     ) -> Result<Option<Iridescence>> {
         let num = |key: &str, default: f32| -> Option<f32> {
             match ext.get(key) {
@@ -50,11 +54,19 @@ impl Loader<'_> {
         if factor == 0.0 {
             return Ok(None);
         }
-        if metallic {
+        if metallic && !on_metal {
             self.warn(format!(
                 "material '{name}': iridescence is rendered on the dielectric part only, not on the metal"
             ));
         }
-        Ok(Some(Iridescence { factor, factor_tex, ior, thickness_min: t_min, thickness_max: t_max, thickness_tex }))
+        Ok(Some(Iridescence {
+            factor,
+            factor_tex,
+            ior,
+            thickness_min: t_min,
+            thickness_max: t_max,
+            thickness_tex,
+            on_metal,
+        }))
     }
 }

@@ -39,6 +39,7 @@ pub(super) const HANDLED_MATERIAL_EXTENSIONS: &[&str] = &[
     "KHR_materials_pbrSpecularGlossiness",
     // Read in `iridescence.rs`:
     "KHR_materials_iridescence",
+    "CAUSTIC_materials_iridescence",
     // Read in `curves.rs` (strands with this material shade with it).
     "CAUSTIC_materials_hair",
 ];
@@ -362,7 +363,19 @@ impl Loader<'_> {
         if let Some(ext) = m.extension_value("KHR_materials_iridescence").cloned() {
             features.push("KHR_materials_iridescence".into());
             let metallic = mat.metallic > 0.0;
-            iridescence = self.iridescence(doc, &ext, buffers, &name, metallic)?;
+            let on_metal = match m.extension_value("CAUSTIC_materials_iridescence") {
+                Some(c) => {
+                    features.push("CAUSTIC_materials_iridescence".into());
+                    self.either(c, "CAUSTIC_materials_iridescence", "metal", ["none", "conductor"], &name)?
+                }
+                None => false,
+            };
+            iridescence = self.iridescence(doc, &ext, buffers, &name, metallic, on_metal)?;
+        } else if m.extension_value("CAUSTIC_materials_iridescence").is_some() {
+            features.push("CAUSTIC_materials_iridescence".into());
+            self.warn(format!(
+                "material '{name}': CAUSTIC_materials_iridescence without a film (KHR_materials_iridescence) does nothing"
+            ));
         }
         let (mut anisotropy_strength, mut anisotropy_rotation, mut anisotropy_tex) = (0.0, 0.0, None);
         if let Some(a) = m.extension_value("KHR_materials_anisotropy").cloned() {

@@ -305,6 +305,31 @@ mod tests {
         assert!(error(bad, 0).contains("model 'velvet'"));
     }
 
+    /// A film on a metal is left off it (warned) unless the add-on's marker puts it on Cycles'
+    /// conductor; the marker without a film, or with another value, is named.
+    #[test]
+    fn iridescence_on_the_metal_only_when_marked() {
+        let film = json!({"iridescenceFactor": 1.0, "iridescenceIor": 1.8, "iridescenceThicknessMaximum": 300.0});
+        let (m, scene) = material(json!({"name": "g", "extensions": {"KHR_materials_iridescence": film}}), 0);
+        assert!(!m.iridescence.expect("a film").on_metal);
+        assert!(
+            scene.warnings.iter().any(|w| w.contains("'g'") && w.contains("not on the metal")),
+            "{:?}",
+            scene.warnings
+        );
+        let marked = json!({"name": "b", "extensions": {"KHR_materials_iridescence": film,
+            "CAUSTIC_materials_iridescence": {"metal": "conductor"}}});
+        let (m, scene) = material(marked, 0);
+        assert!(m.iridescence.expect("a film").on_metal);
+        assert!(scene.warnings.iter().all(|w| !w.contains("not on the metal")), "{:?}", scene.warnings);
+        let alone = json!({"name": "a", "extensions": {"CAUSTIC_materials_iridescence": {"metal": "conductor"}}});
+        let (_, scene) = material(alone, 0);
+        assert!(scene.warnings.iter().any(|w| w.contains("'a'") && w.contains("does nothing")), "{:?}", scene.warnings);
+        let bad = json!({"name": "b", "extensions": {"KHR_materials_iridescence": film,
+            "CAUSTIC_materials_iridescence": {"metal": "gold"}}});
+        assert!(error(bad, 0).contains("metal 'gold'"));
+    }
+
     #[test]
     fn shadows_transparent_unless_the_file_says_not() {
         let (m, _) = material(json!({"name": "leaf", "alphaMode": "BLEND"}), 0);

@@ -97,6 +97,7 @@ pub const SUPPORTED_REQUIRED: &[&str] = &[
     "CAUSTIC_materials_coat",
     "CAUSTIC_materials_anisotropy",
     "CAUSTIC_materials_sheen",
+    "CAUSTIC_materials_iridescence",
     "CAUSTIC_materials_shadow",
     "CAUSTIC_default_material",
     "CAUSTIC_volume",

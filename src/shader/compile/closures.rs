@@ -380,6 +380,7 @@ impl Compiler<'_> {
                         beckmann,
                         ashikhmin,
                         aniso,
+                        film: None,
                     },
                     self.vec(i, "Color", Vec3::splat(0.8))?,
                 )
@@ -398,7 +399,14 @@ impl Compiler<'_> {
                     }
                     self.vec(i, "Base Color", Vec3::splat(0.8))?
                 };
-                self.warn_thin_film(i);
+                // Cycles' Metallic BSDF puts its film on either conductor.
+                let linked = self.desc(i).inputs.get("Thin Film Thickness").is_some_and(|d| d.link.is_some());
+                let thick = self.value(i, "Thin Film Thickness").and_then(Value::as_f64).is_some_and(|v| v > 0.1);
+                let film = if linked || thick {
+                    Some((self.float(i, "Thin Film Thickness", 0.0)?, self.float(i, "Thin Film IOR", 1.33)?))
+                } else {
+                    None
+                };
                 let dist = self.prop_str(i, "distribution", "MULTI_GGX");
                 let aniso = self.aniso(i, AnisoMapping::Aspect)?;
                 let (beckmann, multiscatter) = (dist == "BECKMANN", dist == "MULTI_GGX");
@@ -411,6 +419,7 @@ impl Compiler<'_> {
                         beckmann,
                         ashikhmin: false,
                         aniso,
+                        film,
                     },
                     colour,
                 )
