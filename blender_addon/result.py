@@ -75,6 +75,9 @@ SHADER_AOVS_TOKEN = "shader_aovs"
 # Passes of the view layer that Caustic does not render yet (named in a warning when on).
 UNSUPPORTED = (
     ("", "use_pass_shadow", "Shadow"),
+    # Cycles' Denoising Data has a third pass, the distance along the denoising features' path
+    # (film/denoising_passes.h); the binary writes the normal and albedo only.
+    ("cycles", "denoising_store_passes", "Denoising Depth"),
 )
 
 # The passes the Film panel's Exposure scales, as Cycles' (scene/pass.cpp: `use_exposure`): the

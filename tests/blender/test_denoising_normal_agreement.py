@@ -86,3 +86,18 @@ def test_denoising_normal_is_in_camera_space_as_cycles(both_renders, channel):
     print(f"Denoising Normal.{'XYZ'[channel]}: caustic {m_ca:.5f} cycles {m_cy:.5f} bound {bound:.5f}")
     assert magnitude > 0.05, "Cycles' channel is nearly empty: the scene does not exercise it"
     assert abs(m_ca - m_cy) <= bound, f"caustic {m_ca:.5f}, cycles {m_cy:.5f}, bound {bound:.5f}"
+
+
+def test_denoising_depth_is_named_as_missing(addon):
+    """Denoising Data is three passes in Cycles; the third, Denoising Depth, is not rendered, and
+    the request's warnings say so (it was missing from the result without a word)."""
+    import importlib
+    result = importlib.import_module(addon.__name__ + ".result")
+    bpy.ops.wm.read_homefile(use_empty=True, use_factory_startup=True)
+    layer = bpy.context.scene.view_layers[0]
+    layer.cycles.denoising_store_passes = True
+    passes, warnings = result.pass_request(layer, "path")
+    assert passes.split(",") == ["denoising_albedo", "denoising_normal"], passes
+    assert any("Denoising Depth" in w for w in warnings), warnings
+    layer.cycles.denoising_store_passes = False
+    assert not any("Denoising" in w for w in result.pass_request(layer, "path")[1])
