@@ -70,11 +70,12 @@ def _stats_text(message):
 class _Session:
     """One frame's render: the engine, its render result and what the binary reported."""
 
-    def __init__(self, engine, render_result, out_path, exposure=1.0):
+    def __init__(self, engine, render_result, out_path, exposure=1.0, to_camera=None):
         self.engine = engine
         self.render_result = render_result
         self.out_path = out_path
         self.exposure = exposure  # the Film panel's, applied to every image loaded
+        self.to_camera = to_camera  # the camera's rotation, for the Denoising Normal (result.load)
         self.progress_seen = False
         self.last_phase = None  # the binary's phase, for the stats line and tests
 
@@ -99,7 +100,7 @@ class _Session:
     def _show_interim(self, path):
         # The binary replaces the file atomically; a failed interim load only delays the picture.
         try:
-            result.load(self.render_result, path, self.exposure)
+            result.load(self.render_result, path, self.exposure, self.to_camera)
         except CausticError as err:
             print(f"Caustic: interim image not shown: {err}")
             return
@@ -180,7 +181,8 @@ def _render_view(engine, depsgraph, settings, window, binary, gltf_path, view, p
     render_result = engine.begin_result(0, 0, width, height, layer=depsgraph.view_layer.name, view=view)
     failed = True
     try:
-        session = _Session(engine, render_result, out_path, export.film_exposure(scene))
+        session = _Session(engine, render_result, out_path, export.film_exposure(scene),
+                           result.camera_rotation(engine.camera_override or scene.camera))
         engine._caustic_session = session  # lets tests see the progress state
         on_message = (lambda m: farm.on_frame_message(engine, m)) if on_farm else session.on_message
         folder = os.path.dirname(out_path)
@@ -191,7 +193,7 @@ def _render_view(engine, depsgraph, settings, window, binary, gltf_path, view, p
         if message:
             raise CausticError(message)
         if outcome.has_image:
-            result.load(render_result, out_path, session.exposure)
+            result.load(render_result, out_path, session.exposure, session.to_camera)
             result.store_metadata(engine, out_path, depsgraph.view_layer.name)
         if outcome.summary:
             _report_summary(engine, outcome.summary)

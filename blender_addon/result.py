@@ -75,6 +75,9 @@ SHADER_AOVS_TOKEN = "shader_aovs"
 # Passes of the view layer that Caustic does not render yet (named in a warning when on).
 UNSUPPORTED = (
     ("", "use_pass_shadow", "Shadow"),
+    # Cycles' Denoising Data has a third pass, the distance along the denoising features' path
+    # (film/denoising_passes.h); the binary writes the normal and albedo only.
+    ("cycles", "denoising_store_passes", "Denoising Depth"),
 )
 
 # The passes the Film panel's Exposure scales, as Cycles' (scene/pass.cpp: `use_exposure`): the
@@ -195,9 +198,22 @@ def exr_size(path):
     return x1 - x0 + 1, y1 - y0 + 1
 
 
-def load(result, path, exposure=1.0):
+def camera_rotation(camera):
+    """Cycles' world-to-camera rotation of `camera` (x right, y up, z forward; its scale
+    cleared, as Cycles' sync clears it), as a 3x3 array, or None without a camera."""
+    if camera is None:
+        return None
+    columns = np.array(camera.matrix_world.to_3x3().normalized(), dtype=np.float32)
+    rotation = columns.T.copy()  # rows: the camera's right, up and back axes in the world
+    rotation[2] *= -1.0  # Cycles' camera looks down +z (blender/camera.cpp scales z by -1)
+    return rotation
+
+
+def load(result, path, exposure=1.0, to_camera=None):
     """Load the EXR at `path` into the first layer of `result` (sizes must match), its light
-    passes times the Film panel's `exposure` (export.film_exposure)."""
+    passes times the Film panel's `exposure` (export.film_exposure), its Denoising Normal
+    turned into the camera space of `to_camera` (camera_rotation), as Cycles writes it
+    (film_write_denoising_features_surface: worldtocamera); the binary writes it in the world's."""
     layer = result.layers[0]
     combined = layer.passes.find_by_name("Combined", "")
     width, height = exr_size(path)
@@ -213,6 +229,8 @@ def load(result, path, exposure=1.0):
         render_pass = layer.passes.find_by_name(name, "")
         if render_pass is not None and render_pass.channels == 3:
             _gltf_to_blender_axes(render_pass)
+            if name == "Denoising Normal" and to_camera is not None:
+                _rotate(render_pass, to_camera)
     if exposure != 1.0:
         for render_pass in layer.passes:
             if render_pass.name in EXPOSED_PASSES or render_pass.name.startswith("Combined_"):
@@ -323,6 +341,12 @@ def _gltf_to_blender_axes(render_pass):
     converted[:, 1] = -xyz[:, 2]
     converted[:, 2] = xyz[:, 1]
     render_pass.rect.foreach_set(converted.ravel())
+
+
+def _rotate(render_pass, rotation):
+    pixels = np.empty(len(render_pass.rect) * 3, dtype=np.float32)
+    render_pass.rect.foreach_get(pixels)
+    render_pass.rect.foreach_set((pixels.reshape(-1, 3) @ rotation.T).astype(np.float32).ravel())
 
 
 def _scale_colour(render_pass, factor):

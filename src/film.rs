@@ -72,7 +72,7 @@ pub struct PixelAccum {
     pub rgb: [i128; 3],
     /// Σ alpha.
     pub alpha: i128,
-    /// Nearest depth seen.
+    /// Depth of the pixel's first sample (Cycles writes sample 0's, at the pixel centre).
     pub depth: f32,
     /// Σ normal.
     pub normal: [i128; 3],
@@ -107,7 +107,9 @@ impl PixelAccum {
         }
         add3(&mut self.rgb, rgb);
         self.alpha = self.alpha.wrapping_add(to_fixed(s.alpha));
-        self.depth = self.depth.min(s.depth);
+        if self.n == 0 {
+            self.depth = s.depth;
+        }
         if guides {
             add3(&mut self.normal, s.normal.to_array());
             add3(&mut self.albedo, s.albedo.to_array());
@@ -116,11 +118,14 @@ impl PixelAccum {
         true
     }
 
-    /// Adds another accumulator of the same pixel (a merged chunk): sums add, depth is the minimum.
-    pub fn merge(&mut self, o: &PixelAccum) {
+    /// Adds another accumulator of the same pixel (a merged chunk): sums add, depth is the
+    /// first sample's (`o`'s when `o_first`: its samples come before this one's).
+    pub fn merge(&mut self, o: &PixelAccum, o_first: bool) {
         sum3(&mut self.rgb, &o.rgb);
         self.alpha = self.alpha.wrapping_add(o.alpha);
-        self.depth = self.depth.min(o.depth);
+        if (o_first && o.n > 0) || self.n == 0 {
+            self.depth = o.depth;
+        }
         sum3(&mut self.normal, &o.normal);
         sum3(&mut self.albedo, &o.albedo);
         self.n += o.n;
@@ -568,10 +573,10 @@ impl Film {
     }
 
     /// Adds pixel (x, y) of `other`, a film of the same size and passes (a merged chunk):
-    /// sums add, depth is the minimum; the first-sample slots (Position, the indices) take
-    /// `other`'s values when `other_first` (its samples come before this film's).
+    /// sums add; depth and the first-sample slots (Position, the indices) take `other`'s
+    /// values when `other_first` (its samples come before this film's).
     pub fn merge_pixel(&mut self, x: u32, y: u32, other: &Film, other_first: bool) {
-        self.pixel_mut(x, y).merge(other.pixel(x, y));
+        self.pixel_mut(x, y).merge(other.pixel(x, y), other_first);
         let slots = self.passes.slots();
         let (a, ga) = self.pixel_extra_mut(x, y);
         let (b, gb) = other.pixel_extra(x, y);
@@ -811,6 +816,28 @@ mod tests {
         assert_eq!(a.albedo, [to_fixed(0.8), to_fixed(0.7), to_fixed(0.1)]);
         assert_eq!((b.normal, b.albedo), ([0; 3], [0; 3]));
         assert!(needs_guides(PassSet::legacy()) && !needs_guides(PassSet::default()));
+    }
+
+    /// Depth is the pixel's first sample's, as Cycles' sample 0, not the nearest: a nearer
+    /// later sample leaves it, and a merge takes the earlier chunk's whichever is nearer.
+    #[test]
+    fn depth_is_the_first_samples() {
+        let at = |depth| CameraSample { depth, ..Default::default() };
+        let mut film = Film::with_passes(1, 1, 1, PassSet::default());
+        assert!(film.tiles[0].add(0, &at(5.0)) && film.tiles[0].add(0, &at(2.0)));
+        assert_eq!(film.pixel(0, 0).depth, 5.0);
+        let mut missed = PixelAccum::default();
+        assert!(missed.add(&at(f32::INFINITY)) && missed.add(&at(1.0)));
+        assert_eq!(missed.depth, f32::INFINITY, "a first sample that hit nothing keeps the background");
+        let (mut later, earlier) = (*film.pixel(0, 0), missed);
+        later.merge(&earlier, true);
+        assert_eq!(later.depth, f32::INFINITY);
+        let mut first = *film.pixel(0, 0);
+        first.merge(&missed, false);
+        assert_eq!(first.depth, 5.0);
+        let filter = filter::Filter::blackman_harris(1.5);
+        assert_eq!(filter.camera_offset(0, Vec2::new(0.1, 0.9)), Vec2::ZERO);
+        assert_eq!(filter.camera_offset(1, Vec2::new(0.1, 0.9)), filter.sample(Vec2::new(0.1, 0.9)));
     }
 
     /// The sampled offsets follow the Blackman-Harris profile: the centre bin is about

@@ -126,6 +126,14 @@ impl Filter {
         }
     }
 
+    /// Offset from the pixel centre of a camera sample numbered `index` for uniform numbers
+    /// `u`: sample 0 takes the pixel's centre, as Cycles' (`integrate_camera_sample`), so the
+    /// passes read from the first sample alone (Depth, Position, the indices) are the centre's.
+    #[inline]
+    pub fn camera_offset(&self, index: u32, u: Vec2) -> Vec2 {
+        if index == 0 { Vec2::ZERO } else { self.sample(u) }
+    }
+
     /// Offset from the pixel centre for uniform numbers `u`.
     #[inline]
     pub fn sample(&self, u: Vec2) -> Vec2 {

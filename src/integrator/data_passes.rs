@@ -1,18 +1,29 @@
 //! The data passes of a camera sample (Mist, Position, UV, Ambient Occlusion, Object and
-//! Material Index, Cryptomatte's ids), from the
-//! camera ray's first opaque hit, the same for every integrator that renders camera
+//! Material Index, Cryptomatte's ids), the same for every integrator that renders camera
 //! samples (`crate::passes` says what each pass holds, after Cycles' `data_passes.h` and
-//! its AO pass). Costs one more closest-hit ray per sample (and one AO ray), only when a
-//! data pass is asked for. Transparent surfaces (BLEND alpha) are not looked through:
-//! the first surface hit gives the values.
+//! its AO pass). The camera ray is walked through BLEND surfaces as Cycles' path passes
+//! them (`shader_aovs` walks it alike): it ends at a surface with probability alpha, Mist
+//! sums (1 − mist) × alpha over the surfaces reached, Cryptomatte takes the surface where it
+//! ended, and the single-pass values come from the first surface whose alpha reaches the
+//! view layer's Alpha Threshold (Position and the indices from the last surface reached when
+//! none does and the ray ends on a surface, nothing when it leaves the scene). An alpha-cut leaf's see-through texels thus give the surface behind them.
+//! Objects hidden from camera rays are passed. Costs a closest-hit ray per surface walked
+//! (and one AO ray), only when a data pass is asked for.
 
 use super::SceneContext;
+use super::shader_aovs::pass_number;
+use super::walk::MAX_TRANSPARENT_HITS;
+use crate::accel::Hit;
 use crate::film::CameraSample;
 use crate::math::{Frame, offset_ray_origin};
 use crate::passes::{DataSettings, Pass, PassSet, slot};
 use crate::render::job::RayStats;
 use crate::sampling::warp::cosine_hemisphere;
 use crate::scene::camera::{CameraRay, CameraRays};
+use crate::scene::hit::SurfaceHit;
+use crate::scene::light_path::LightPath;
+use crate::scene::material::AlphaMode;
+use crate::scene::visibility::RayMask;
 use glam::Vec2;
 
 /// Two uniform numbers for the AO ray of pixel sample (seed, x, y, i), apart from the
@@ -45,32 +56,79 @@ pub fn fill(
     if ray.is_blind() {
         return; // outside a panoramic camera's lens: nothing seen
     }
-    let org = if ray.near > 0.0 { ray.org + ray.dir * ray.near } else { ray.org };
-    let Some(hit) = ctx.intersect(org, ray.dir, ray.far - ray.near) else {
-        return; // the defaults: mist 1, everything else 0
-    };
-    stats.camera += 1;
-    let s = ctx.scene.surface(&hit, org, ray.dir);
-    if passes.any_crypto() {
-        // Weight 1 per sample: an opaque first hit (Cycles' throughput × (1 − transparency)).
-        out.crypto = ctx.scene.pass_ids.crypto(s.tri, s.material);
+    let threshold = ctx.scene.shader_aovs.alpha_threshold;
+    let mut org = if ray.near > 0.0 { ray.org + ray.dir * ray.near } else { ray.org };
+    let mut tmax = ray.far - ray.near;
+    let mut path = LightPath::camera(ray.footprint.moved(ray.near.max(0.0)));
+    // Σ (1 − mist) × alpha over the surfaces the walk reaches (Cycles' mist_output).
+    let mut unmisted = 0.0;
+    // The surface that gives the single-pass values, and whether it reached the threshold.
+    let mut chosen: Option<(Hit, SurfaceHit, bool)> = None;
+    for k in 0..=MAX_TRANSPARENT_HITS {
+        let Some(hit) = ctx.intersect_as(org, ray.dir, tmax, RayMask::CAMERA) else {
+            // The background overwrites what the surfaces passed wrote (Cycles'
+            // film_write_data_passes_background), unless one reached the threshold.
+            if !matches!(chosen, Some((_, _, true))) {
+                chosen = None;
+            }
+            break;
+        };
+        stats.camera += 1;
+        let s = ctx.scene.surface(&hit, org, ray.dir);
+        let mat = &ctx.scene.materials[s.material as usize];
+        let alpha = if mat.null_surface {
+            0.0
+        } else {
+            match mat.alpha_mode {
+                AlphaMode::Blend => ctx.scene.pass_through(hit.tri, hit.b1, hit.b2, path.at(hit.t), ray.dir).0,
+                _ => 1.0,
+            }
+        };
+        if !mat.null_surface {
+            // Distance from the camera, not Z (Cycles' camera_distance).
+            unmisted += (1.0 - settings.mist((s.p - ray.org).length())) * alpha;
+            if !matches!(chosen, Some((_, _, true))) {
+                chosen = Some((hit, s, alpha >= threshold));
+            }
+            // The path ends here with probability alpha (it takes another closure).
+            if alpha >= 1.0 || pass_number(pixel_sample, k) < alpha {
+                if passes.any_crypto() {
+                    // Weight 1 per sample where the path stops: expected alpha × what
+                    // reaches the surface, Cycles' throughput × (1 − transparency).
+                    out.crypto = ctx.scene.pass_ids.crypto(s.tri, s.material);
+                }
+                break;
+            }
+        }
+        path = path.moved(hit.t).passed_transparent();
+        org = offset_ray_origin(s.p, -s.ng);
+        tmax -= hit.t;
     }
     let a = &mut out.aov.0;
     if passes.contains(Pass::Mist) {
-        // Distance from the camera, not Z (Cycles' camera_distance).
-        a[slot::MIST] = settings.mist((s.p - ray.org).length());
+        a[slot::MIST] = 1.0 - unmisted;
     }
+    // Cycles writes Depth, Position and the indices at every surface of sample 0's camera ray
+    // (and zeros at the background) until one reaches the view layer's Alpha Threshold
+    // (`PATH_RAY_SINGLE_PASS_DONE`), so the last one written stands; UV, Vector and AO only at
+    // that one.
+    let Some((hit, s, opaque)) = chosen else {
+        return; // the defaults: mist 1, everything else 0
+    };
     if passes.contains(Pass::Position) {
         a[slot::POS..slot::POS + 3].copy_from_slice(&s.p.to_array());
+    }
+    if passes.contains(Pass::ObjectIndex) || passes.contains(Pass::MaterialIndex) {
+        let [ob, ma] = ctx.scene.pass_ids.indices(s.tri, s.material);
+        (a[slot::OB], a[slot::MA]) = (ob, ma);
+    }
+    if !opaque {
+        return;
     }
     if passes.contains(Pass::Uv) {
         // glTF's v runs down the image, Blender's up.
         let uv = s.uv[0];
         a[slot::UV..slot::UV + 3].copy_from_slice(&[uv.x, 1.0 - uv.y, 1.0]);
-    }
-    if passes.contains(Pass::ObjectIndex) || passes.contains(Pass::MaterialIndex) {
-        let [ob, ma] = ctx.scene.pass_ids.indices(s.tri, s.material);
-        (a[slot::OB], a[slot::MA]) = (ob, ma);
     }
     if passes.contains(Pass::Vector) {
         let v = crate::motion::vector::motion_vector(ctx.scene.motion.as_ref(), camera, &hit, s.p);

@@ -26,7 +26,7 @@ use crate::scene::visibility::RayMask;
 /// A uniform number in [0, 1) for the `k`-th pass-through decision of pixel sample
 /// (seed, x, y, i), apart from the sampler's stream so that asking for AOVs changes no
 /// other pass (SplitMix64 of the tuple).
-fn pass_number(pixel_sample: (u32, u32, u32, u32), k: u32) -> f32 {
+pub(super) fn pass_number(pixel_sample: (u32, u32, u32, u32), k: u32) -> f32 {
     let (seed, x, y, i) = pixel_sample;
     let mut v = ((seed as u64) << 32 ^ (x as u64) << 48 ^ (y as u64) << 16 ^ i as u64 ^ (k as u64) << 56)
         .wrapping_add(0x5AE_A0F5_u64.wrapping_mul(0x9E37_79B9_7F4A_7C15));

@@ -172,7 +172,7 @@ fn progressive(
                             // single render would take at those numbers, camera and light streams alike.
                             for i in job.sample_offset + first..job.sample_offset + first + n {
                                 let mut sampler = PixelSampler::new(job.seed, px, py, i);
-                                let off = job.filter.sample(sampler.next_2d());
+                                let off = job.filter.camera_offset(i, sampler.next_2d());
                                 let u_lens = if camera.has_lens() { sampler.next_2d() } else { glam::Vec2::ZERO };
                                 let time = shutter.map(|s| s.time(sampler.next_2d().x, py, job.height));
                                 let (fx, fy) = (px as f32 + 0.5 + off.x, py as f32 + 0.5 + off.y);

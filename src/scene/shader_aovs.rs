@@ -83,7 +83,7 @@ pub struct AovTarget {
 }
 
 /// The shader AOVs of a loaded scene; empty when the view layer has none.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub struct ShaderAovs {
     /// The AOVs, in pass order.
     pub specs: Vec<AovSpec>,
@@ -189,6 +189,20 @@ impl ShaderAovs {
     #[inline]
     pub fn of_material(&self, m: u32) -> &[AovTarget] {
         self.by_material.get(m as usize).map_or(&[], Vec::as_slice)
+    }
+}
+
+impl Default for ShaderAovs {
+    /// No AOVs, and Blender's default Alpha Threshold, which the data passes read too.
+    fn default() -> Self {
+        ShaderAovs {
+            specs: Vec::new(),
+            channels: 0,
+            alpha_threshold: default_threshold(),
+            by_material: Vec::new(),
+            world: Vec::new(),
+            world_graph: None,
+        }
     }
 }
 

@@ -46,10 +46,14 @@ def test_passes_are_loaded_by_name_and_normals_are_blender_axes(scene, tmp_path)
     assert np.allclose(ch["ViewLayer.Depth.Z"], 3.0)
     assert np.allclose(ch["ViewLayer.Denoising Albedo.G"], 0.5)
     # glTF +Y (up) is Blender's +Z.
-    for prefix in ("ViewLayer.Normal.", "ViewLayer.Denoising Normal."):
-        assert np.allclose(ch[prefix + "X"], 0.0)
-        assert np.allclose(ch[prefix + "Y"], 0.0)
-        assert np.allclose(ch[prefix + "Z"], 1.0)
+    assert np.allclose(ch["ViewLayer.Normal.X"], 0.0)
+    assert np.allclose(ch["ViewLayer.Normal.Y"], 0.0)
+    assert np.allclose(ch["ViewLayer.Normal.Z"], 1.0)
+    # The Denoising Normal in Cycles' camera space (x right, y up, z forward): the camera is
+    # tilted 60 degrees from looking down, so the world's up is (0, sin 60, -cos 60) there.
+    assert np.allclose(ch["ViewLayer.Denoising Normal.X"], 0.0, atol=1e-6)
+    assert np.allclose(ch["ViewLayer.Denoising Normal.Y"], np.sin(np.radians(60)), atol=1e-6)
+    assert np.allclose(ch["ViewLayer.Denoising Normal.Z"], -0.5, atol=1e-6)
 
 
 @pytest.mark.parametrize("crop", [True, False])
@@ -88,7 +92,8 @@ def test_interim_images_are_loaded(scene, addon, monkeypatch):
     loads = []
     real_load = result_module.load
     monkeypatch.setattr(result_module, "load",
-                        lambda res, path, exposure=1.0: (loads.append(path), real_load(res, path, exposure)))
+                        lambda res, path, exposure=1.0, to_camera=None: (loads.append(path),
+                                                                         real_load(res, path, exposure, to_camera)))
     scene.caustic.samples = 40  # the stand-in takes 0.05 s per sample: two interim images
     bpy.ops.render.render(write_still=True)
     assert len(loads) >= 2  # interim(s) + final

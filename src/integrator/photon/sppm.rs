@@ -97,6 +97,7 @@ struct PixelState {
     /// Current radius (0: not yet set).
     r: f32,
     alpha: f64,
+    /// Camera depth of the first iteration's hit (0: no iteration yet; -1: it hit nothing).
     depth: f32,
     normal: Vec3,
     albedo: Vec3,
@@ -129,8 +130,10 @@ impl Pending {
             state.ld += self.ld.as_dvec3();
         }
         state.alpha += self.alpha as f64;
-        if self.depth > 0.0 && (state.depth == 0.0 || self.depth < state.depth) {
-            state.depth = self.depth;
+        // The first iteration's depth, as Cycles' sample 0 (at the pixel centre); -1 marks a
+        // first iteration that hit nothing, 0 a pixel no iteration has reached yet.
+        if state.depth == 0.0 {
+            state.depth = if self.depth > 0.0 { self.depth } else { -1.0 };
         }
         state.normal += self.normal;
         state.albedo += self.albedo;
@@ -318,7 +321,7 @@ fn render(
                 for (i, ((state, vp), pend)) in srow.iter().zip(vrow.iter_mut()).zip(prow.iter_mut()).enumerate() {
                     let px = x0 + i as u32;
                     let mut sampler = PixelSampler::new(job.seed, px, py, job.sample_offset + it);
-                    let off = job.filter.sample(sampler.next_2d());
+                    let off = job.filter.camera_offset(job.sample_offset + it, sampler.next_2d());
                     let (fx, fy) = (px as f32 + 0.5 + off.x, py as f32 + 0.5 + off.y);
                     let u_lens = if camera.has_lens() { sampler.next_2d() } else { Vec2::ZERO };
                     // Motion blur: the visible point at the sample's time, drawn as the path

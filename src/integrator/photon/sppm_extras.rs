@@ -52,7 +52,7 @@ pub fn fill(
                     for it in 0..iterations {
                         let i = job.sample_offset + it;
                         let mut sampler = PixelSampler::new(job.seed, px, py, i);
-                        let off = job.filter.sample(sampler.next_2d());
+                        let off = job.filter.camera_offset(i, sampler.next_2d());
                         let u_lens = if camera.has_lens() { sampler.next_2d() } else { Vec2::ZERO };
                         let ray = camera.sample_clipped(px as f32 + 0.5 + off.x, py as f32 + 0.5 + off.y, u_lens);
                         let mut s = CameraSample { depth: f32::INFINITY, ..Default::default() };

@@ -295,7 +295,7 @@ impl VcmIntegrator {
                             continue;
                         }
                         let mut sampler = PixelSampler::new(job.seed, px, py, index);
-                        let off = job.filter.sample(sampler.next_2d());
+                        let off = job.filter.camera_offset(index, sampler.next_2d());
                         let u_lens = if camera.has_lens() { sampler.next_2d() } else { Vec2::ZERO };
                         let time = shutter.map(|s| s.time(sampler.next_2d().x, py, job.height));
                         let (fx, fy) = (px as f32 + 0.5 + off.x, py as f32 + 0.5 + off.y);
