@@ -29,14 +29,24 @@ from test_normal_map_strength_agreement import normal_mapped_floor
 pytestmark = pytest.mark.needs_binary
 
 
-def coated_ridges(graph):
+def coated_ridges(graph, mix=False):
     """normal_mapped_floor with a coat on the floor; `graph` drives the Coat Weight from a Value
-    node, which sends the material through its node graph."""
+    node, which sends the material through its node graph; `mix` mixes the Principled BSDF (3/4)
+    with a Diffuse BSDF on the unmapped normal (1/4)."""
     def add(scene):
         normal_mapped_floor(scene)
         tree = bpy.data.objects["Floor"].active_material.node_tree
         bsdf = tree.nodes["Principled BSDF"]
         bsdf.inputs["Coat Roughness"].default_value = 0.2
+        if mix:
+            diffuse = tree.nodes.new("ShaderNodeBsdfDiffuse")
+            diffuse.inputs["Color"].default_value = bsdf.inputs["Base Color"].default_value
+            shader = tree.nodes.new("ShaderNodeMixShader")
+            shader.inputs["Fac"].default_value = 0.75
+            output = next(n for n in tree.nodes if n.type == "OUTPUT_MATERIAL")
+            tree.links.new(diffuse.outputs[0], shader.inputs[1])
+            tree.links.new(bsdf.outputs[0], shader.inputs[2])
+            tree.links.new(shader.outputs[0], output.inputs["Surface"])
         if graph:
             value = tree.nodes.new("ShaderNodeValue")
             value.outputs[0].default_value = 1.0
@@ -46,10 +56,10 @@ def coated_ridges(graph):
     return add
 
 
-@pytest.mark.parametrize("graph", [False, True], ids=["gltf", "graph"])
-def test_coat_reflects_by_its_own_normal(empty_scene, tmp_path, graph):
+@pytest.mark.parametrize("graph,mix", [(False, False), (True, False), (True, True)], ids=["gltf", "graph", "mix"])
+def test_coat_reflects_by_its_own_normal(empty_scene, tmp_path, graph, mix):
     """Coat over steep normal-mapped ridges, lit across them by a low sun: glTF 0.9853 -> 0.9997,
     graph 0.9967 -> 0.9993 of Cycles (module doc)."""
     scene = empty_scene
-    build(scene, coated_ridges(graph))
+    build(scene, coated_ridges(graph, mix))
     assert_mean_matches_cycles(scene, tmp_path, "coat_own_normal", MODEL_ALLOWANCE, per_channel=True)
