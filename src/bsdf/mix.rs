@@ -554,6 +554,13 @@ fn into_frame(frame: &Option<Frame>, v: Vec3) -> Vec3 {
     }
 }
 
+/// True when a Principled part reflects light from `wi` to `wo` (its frame): on wo's side of
+/// its horizon, or across it by its coat's own normal (`PbrBsdf::reflects_across`).
+#[inline]
+fn part_reflects(pbr: &PbrBsdf, wo: Vec3, wi: Vec3) -> bool {
+    wi.z * wo.z > 0.0 || pbr.reflects_across(wo, wi)
+}
+
 /// The closure's cosine over the mixture's: |wiₖ·z| / |wi·z| (1 in the mixture's frame).
 #[inline]
 fn cos_ratio(frame: &Option<Frame>, wi_k: Vec3, wi: Vec3) -> f32 {
@@ -784,7 +791,8 @@ impl MixBsdf {
         let mut pdf = 0.0;
         for (j, pbr, _, frame) in self.parts() {
             let (wo_j, wi_j) = (into_frame(frame, wo), into_frame(frame, wi));
-            if p[j] > 0.0 && (wi_j.z * wo_j.z > 0.0) == side {
+            // A part's side is its own reflection, its coat's across its frame's horizon too.
+            if p[j] > 0.0 && part_reflects(pbr, wo_j, wi_j) == side {
                 pdf += p[j] * pbr.pdf(wo_j, wi_j);
             }
         }
@@ -836,11 +844,14 @@ impl MixBsdf {
         // The part's own side of wo, which its sample's reflection keeps (a small lobe sees wo
         // in its upper hemisphere).
         let mut wo_side = 1.0;
+        let mut across = false;
         let (s, frame, w) = if k < MAX_PBR {
             let frame = &self.pbr_frames[k];
             let wo_j = into_frame(frame, wo);
             wo_side = wo_j.z;
-            (self.pbr[k].sample(wo_j, uc_in, u)?, frame, Rgb::splat(self.pbr_weights[k]))
+            let s = self.pbr[k].sample(wo_j, uc_in, u)?;
+            across = self.pbr[k].reflects_across(wo_j, s.wi);
+            (s, frame, Rgb::splat(self.pbr_weights[k]))
         } else {
             let i = k - MAX_PBR;
             let frame = &self.frames[i];
@@ -863,7 +874,7 @@ impl MixBsdf {
         // (the integrators take that side, checked against the geometry, as reflection or
         // transmission), or a transmission that stays on wo's side, is no sample: Cycles
         // rejects a sampled direction whose side of the surface disagrees with its label.
-        if (s.wi.z * wo_side > 0.0) != (wi.z * wo.z > 0.0) {
+        if (s.wi.z * wo_side > 0.0 || across) != (wi.z * wo.z > 0.0) {
             return None;
         }
         if s.delta {
@@ -1118,7 +1129,26 @@ mod tests {
         i.frames[1] = tilted(-0.2, 0.5);
         i.push(Rgb::splat(0.3), Lobe::Sheen { roughness: 0.5 });
         i.frames[2] = tilted(0.1, 0.1);
+        // A coated Principled part on a mapped normal leaning 40° from the mixture's (sd->N),
+        // its coat on sd->N: the coat reflects below the part's horizon (`part_reflects`).
+        let part = Frame::from_normal(Vec3::new(0.64, 0.0, 0.77).normalize());
+        let ns = part.to_local(Vec3::Z);
+        let mut j = MixBsdf::new();
+        j.pbr[0] = PbrBsdf::from_params(&crate::bsdf::pbr::PbrParams {
+            specular: 0.0,
+            coat: 1.0,
+            coat_roughness: 0.3,
+            coat_normal: Some(ns),
+            cut_normal: Some(ns),
+            smooth_normal: Some(ns),
+            coat_dielectric_fresnel: true,
+            ..crate::bsdf::pbr::PbrParams::opaque(Rgb::new(0.3, 0.5, 0.2), 0.0, 0.5)
+        });
+        j.pbr_weights[0] = 0.7;
+        j.pbr_frames[0] = Some(part);
+        j.push(Rgb::splat(0.3), Lobe::Diffuse);
         vec![
+            ("coated principled on a leaning normal, coat on the mixture's", j),
             ("two principled+bumped diffuse+anisotropic glossy, own frames", h),
             ("translucent+glass+sheen, own frames", i),
             ("diffuse+glossy+translucent+oren-nayar", a),
