@@ -129,9 +129,8 @@ def match_cycles(scene, samples, bounces):
     c.filter_width = 1.5
 
 
-def render_rgb(scene, engine, seed, path):
-    """Render `scene` with `engine` ("CYCLES" or "CAUSTIC") and seed `seed` to `path`; the
-    linear RGB image as a (height, width, 3) float64 array."""
+def render_seeded(scene, engine, seed, path):
+    """Render `scene` with `engine` ("CYCLES" or "CAUSTIC") and seed `seed`, written to `path`."""
     scene.render.engine = engine
     if engine == "CYCLES":
         scene.cycles.seed = seed
@@ -139,6 +138,12 @@ def render_rgb(scene, engine, seed, path):
         scene.caustic.seed = seed
     scene.render.filepath = path
     bpy.ops.render.render(write_still=True)
+
+
+def render_rgb(scene, engine, seed, path):
+    """Render `scene` with `engine` ("CYCLES" or "CAUSTIC") and seed `seed` to `path`; the
+    linear RGB image as a (height, width, 3) float64 array."""
+    render_seeded(scene, engine, seed, path)
     return load_pixels(path)[..., :3].astype(np.float64)
 
 

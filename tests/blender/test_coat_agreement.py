@@ -31,6 +31,16 @@ def white_world(scene):
     scene.world = world
 
 
+def floor_in_white_world(scene, mat):
+    """A wide floor of `mat` seen 30-60 degrees from its normal in a white world; Cycles'
+    settings matched."""
+    scenes.plane(scene, "Floor", 60.0, material=mat)
+    white_world(scene)
+    scenes.camera(scene, (0.0, -3.0, 3.0), (45.0, 0.0, 0.0), lens=50.0)
+    scene.caustic.threads = 0
+    scenes.match_cycles(scene, SAMPLES, BOUNCES)
+
+
 @pytest.mark.parametrize("base", [0.0, 0.5], ids=["black", "grey"])
 @pytest.mark.parametrize("linked", [False, True], ids=["gltf", "graph"])
 def test_coat_fresnel_matches_cycles(empty_scene, tmp_path, linked, base):
@@ -44,11 +54,7 @@ def test_coat_fresnel_matches_cycles(empty_scene, tmp_path, linked, base):
     scenes.small_render_settings(scene, W, H, samples=SAMPLES)
     mat = principled(linked, {"Coat Weight": 1.0},
                      **{"Base Color": (base, base, base, 1), "Specular IOR Level": 0.0, "Coat Roughness": 0.1})
-    scenes.plane(scene, "Floor", 60.0, material=mat)
-    white_world(scene)
-    scenes.camera(scene, (0.0, -3.0, 3.0), (45.0, 0.0, 0.0), lens=50.0)
-    scene.caustic.threads = 0
-    scenes.match_cycles(scene, SAMPLES, BOUNCES)
+    floor_in_white_world(scene, mat)
     assert_mean_matches_cycles(scene, tmp_path, "coat_fresnel", MODEL_ALLOWANCE, per_channel=True)
 
 
@@ -72,9 +78,5 @@ def test_textured_coat_weight_keeps_the_coat_ior(empty_scene, tmp_path):
     texture.image = image
     bsdf = next(n for n in tree.nodes if n.type == "BSDF_PRINCIPLED")
     tree.links.new(texture.outputs["Color"], bsdf.inputs["Coat Weight"])
-    scenes.plane(scene, "Floor", 60.0, material=mat)
-    white_world(scene)
-    scenes.camera(scene, (0.0, -3.0, 3.0), (45.0, 0.0, 0.0), lens=50.0)
-    scene.caustic.threads = 0
-    scenes.match_cycles(scene, SAMPLES, BOUNCES)
+    floor_in_white_world(scene, mat)
     assert_mean_matches_cycles(scene, tmp_path, "textured coat weight", MODEL_ALLOWANCE, per_channel=True)

@@ -56,13 +56,7 @@ def build(scene):
 
 
 def render_normal(scene, engine, seed, path):
-    scene.render.engine = engine
-    if engine == "CYCLES":
-        scene.cycles.seed = seed
-    else:
-        scene.caustic.seed = seed
-    scene.render.filepath = path
-    bpy.ops.render.render(write_still=True)
+    scenes.render_seeded(scene, engine, seed, path)
     channels = read_exr(path)
     return np.stack([channels[f"ViewLayer.Denoising Normal.{c}"].astype(np.float64) for c in "XYZ"], -1)
 

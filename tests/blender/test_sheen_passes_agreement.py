@@ -59,14 +59,8 @@ def build(scene, distribution):
 
 
 def render(scene, engine, seed, path):
-    scene.render.engine = engine
-    if engine == "CYCLES":
-        scene.cycles.seed = seed
-    else:
-        scene.caustic.seed = seed
-        scene.caustic.integrator = "path"
-    scene.render.filepath = path
-    bpy.ops.render.render(write_still=True)
+    scene.caustic.integrator = "path"
+    scenes.render_seeded(scene, engine, seed, path)
     out = {}
     for key, value in read_exr(path).items():
         _, name, c = key.split(".")
