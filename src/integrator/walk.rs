@@ -313,17 +313,32 @@ impl PathState {
         // cos = 1/20 the look back is capped at 20 spans (a grazing ray crossing the slab
         // further away would meet its own mesh's neighbours of the triangle left).
         let cos = (self.dir.dot(offset) / offset.length()).abs().max(1.0 / 20.0);
-        let hit = ctx.intersect_still_except(back, self.dir, span / cos, self.ray, self.prev_tri)?;
+        let mut hit = ctx.intersect_still_except(back, self.dir, span / cos, self.ray, self.prev_tri)?;
         // Two surfaces in contact face each other (the floor up, the glass's bottom down);
         // a triangle facing the same way as the one left is its own mesh's neighbour, which
-        // the look back crosses when it leaves near an edge: not a second surface.
+        // the look back crosses when it leaves near an edge: not a second surface, but one may
+        // lie behind it (a ray leaving exactly on the edge the two share, as a pixel's centre
+        // sample can: the glass-on-floor test's diagonal pixels leaked the world below).
         let mesh = &ctx.scene.mesh;
         let winding = |tri: u32| {
             let [a, b, c] = mesh.triangles[tri as usize].map(|i| mesh.positions[i as usize]);
             (b - a).cross(c - a)
         };
-        if winding(hit.tri).dot(winding(self.prev_tri)) >= 0.0 {
-            return None;
+        let left = winding(self.prev_tri);
+        if winding(hit.tri).dot(left) >= 0.0 {
+            let (prev_tri, accept) = (self.prev_tri, ctx.accepts(self.ray));
+            let mut facing: Option<Hit> = None;
+            ctx.accel.visit_hits(back, self.dir, span / cos, &mut |h| {
+                if h.tri != prev_tri
+                    && winding(h.tri).dot(left) < 0.0
+                    && accept(h.tri, h.b1, h.b2)
+                    && facing.is_none_or(|f| h.t < f.t)
+                {
+                    facing = Some(h);
+                }
+                true
+            });
+            hit = facing?;
         }
         self.org = back;
         Some(hit)
